@@ -1,0 +1,42 @@
+"""WGS-84 latitude/longitude/altitude <-> the local East-North-Up frame (via pymap3d).
+
+Latitudes and longitudes in degrees, altitudes and ENU coordinates in metres.  The origin
+is ``(lat, lon, alt)`` of the frame's (0, 0, 0).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+def _check_origin(origin) -> tuple[float, float, float]:
+    try:
+        lat, lon, alt = (float(v) for v in origin)
+    except (TypeError, ValueError):
+        raise ValueError("an ENU origin is (lat, lon, alt) in degrees, degrees, metres") from None
+    if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 360.0 and np.isfinite(alt)):
+        raise ValueError(f"ENU origin out of range: lat {lat}, lon {lon}, alt {alt}")
+    return lat, lon, alt
+
+
+def geodetic_to_enu(lat: ArrayLike, lon: ArrayLike, alt: ArrayLike, origin
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """WGS-84 geodetic coordinates to ENU (m) about ``origin``."""
+    import pymap3d
+
+    lat0, lon0, alt0 = _check_origin(origin)
+    e, n, u = pymap3d.geodetic2enu(np.asarray(lat, float), np.asarray(lon, float),
+                                   np.asarray(alt, float), lat0, lon0, alt0)
+    return np.asarray(e, float), np.asarray(n, float), np.asarray(u, float)
+
+
+def enu_to_geodetic(east: ArrayLike, north: ArrayLike, up: ArrayLike, origin
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """ENU (m) about ``origin`` to WGS-84 latitude, longitude (degrees) and altitude (m)."""
+    import pymap3d
+
+    lat0, lon0, alt0 = _check_origin(origin)
+    lat, lon, alt = pymap3d.enu2geodetic(np.asarray(east, float), np.asarray(north, float),
+                                         np.asarray(up, float), lat0, lon0, alt0)
+    return np.asarray(lat, float), np.asarray(lon, float), np.asarray(alt, float)

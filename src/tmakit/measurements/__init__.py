@@ -1,0 +1,48 @@
+"""Measurement kinds: one file per kind, each with ``predict`` and an analytic ``jacobian``."""
+
+from __future__ import annotations
+
+from .azimuth_rate import AzimuthRate
+from .base import Jacobian, MeasurementModel
+from .bearing import Bearing
+from .elevation import Elevation
+from .frequency import Frequency
+from .power import Power
+from .range import Range
+from .range_difference import RangeDifference, interval_count, range_difference_covariance
+from .range_rate import RangeRate
+
+KINDS: dict[str, type[MeasurementModel]] = {
+    cls.kind: cls
+    for cls in (Bearing, Elevation, AzimuthRate, Range, RangeRate, Frequency, Power,
+                RangeDifference)
+}
+"""Every measurement kind by its file name."""
+
+__all__ = [
+    "KINDS",
+    "AzimuthRate",
+    "Bearing",
+    "Elevation",
+    "Frequency",
+    "Jacobian",
+    "MeasurementModel",
+    "Power",
+    "Range",
+    "RangeDifference",
+    "RangeRate",
+    "interval_count",
+    "model_for",
+    "range_difference_covariance",
+]
+
+
+def model_for(kind: str, **options) -> MeasurementModel:
+    """The measurement model of a kind; ``options`` go to its constructor
+    (``Frequency(drift=...)``, ``Power(exponent=...)``)."""
+    try:
+        cls = KINDS[kind]
+    except KeyError:
+        raise ValueError(f"unknown measurement kind {kind!r}; expected one of "
+                         f"{', '.join(KINDS)}") from None
+    return cls(**options)

@@ -1,0 +1,32 @@
+"""Azimuth rate: time derivative of the bearing (002_e7269ad11b825346.txt eq. 6),
+``(dvx dy - dx dvy) / (dx^2 + dy^2)``.  rad/s inside, deg/s in files."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+
+
+class AzimuthRate(MeasurementModel):
+    kind = "azimuth_rate"
+    file_unit = "deg/s"
+    file_scale = np.pi / 180.0
+    uses_velocity = True
+
+    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        dx, dy, dvx, dvy = rel[..., 0], rel[..., 1], rel[..., 3], rel[..., 4]
+        return (dvx * dy - dx * dvy) / (dx * dx + dy * dy)
+
+    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        dx, dy, dvx, dvy = rel[..., 0], rel[..., 1], rel[..., 3], rel[..., 4]
+        rho2 = dx * dx + dy * dy
+        rate = (dvx * dy - dx * dvy) / rho2
+        d = np.zeros(rel.shape)
+        d[..., 0] = (-dvy - 2.0 * dx * rate) / rho2
+        d[..., 1] = (dvx - 2.0 * dy * rate) / rho2
+        d[..., 3] = dy / rho2
+        d[..., 4] = -dx / rho2
+        return Jacobian(d, None, zeros_nuisance(rel))

@@ -1,0 +1,123 @@
+"""The measurement-model interface.
+
+A measurement model maps relative states (target minus sensor, ``(..., n, 6)``, see
+:mod:`tmakit.frames`) and its nuisance parameters to predicted values in SI units, and gives
+the analytic Jacobian with respect to both.  It knows nothing about motion models or sensors.
+Leading axes of ``rel`` are independent problems (particles, Monte Carlo runs).
+
+``nuisance`` is an array broadcastable to ``(..., n, k)`` for ``k`` nuisance parameters: a
+plain ``(k,)`` vector for one problem, ``(B, 1, k)`` for a batch of ``B`` problems.
+
+Time enters only where the physics needs it: the carrier drift of :class:`Frequency`.  Range
+differences (:class:`RangeDifference`) also take the relative state at the earlier sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Jacobian:
+    """Derivatives of predicted values ``(..., n)``.
+
+    ``rel``: d value / d relative state, ``(..., n, 6)``.
+    ``rel_ref``: d value / d relative state at the reference (earlier) sample, or None.
+    ``nuisance``: d value / d nuisance parameters, ``(..., n, k)`` (k may be 0).
+    """
+
+    rel: Array
+    rel_ref: Array | None
+    nuisance: Array
+
+
+class MeasurementModel:
+    """One kind of measurement.  Subclasses set the class attributes and implement
+    :meth:`predict` and :meth:`jacobian`."""
+
+    #: Name used in files (the ``kind`` column).
+    kind: str = ""
+    #: Unit of ``value`` and ``sigma`` in files.
+    file_unit: str = ""
+    #: value_SI = value_file * file_scale + file_offset; sigma_SI = sigma_file * file_scale.
+    file_scale: float = 1.0
+    file_offset: float = 0.0
+    #: Residuals of angles are wrapped to (-pi, pi].
+    is_angle: bool = False
+    #: Needs the relative state at an earlier reference sample (``time_ref``).
+    uses_reference: bool = False
+    #: Needs the target velocity (it is not a function of position alone).
+    uses_velocity: bool = False
+
+    @property
+    def nuisance_names(self) -> tuple[str, ...]:
+        """Names of this model's nuisance parameters (shared by all its samples)."""
+        return ()
+
+    def default_nuisance(self) -> dict[str, float]:
+        """Nuisance values used when a caller gives none."""
+        return {}
+
+    def nuisance_vector(self, values: dict[str, float] | None) -> Array:
+        """The nuisance vector in :attr:`nuisance_names` order, defaults filled in."""
+        merged = {**self.default_nuisance(), **(values or {})}
+        missing = [n for n in self.nuisance_names if n not in merged]
+        if missing:
+            raise ValueError(f"{self.kind}: nuisance parameter(s) {', '.join(missing)} "
+                             "have no value")
+        return np.array([float(merged[n]) for n in self.nuisance_names])
+
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predicted values (SI), shape ``rel.shape[:-1]``."""
+        raise NotImplementedError
+
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Analytic derivatives of :meth:`predict`."""
+        raise NotImplementedError
+
+    # -- edges: file units <-> SI ------------------------------------------------------
+    def value_to_si(self, value: ArrayLike) -> Array:
+        return np.asarray(value, dtype=float) * self.file_scale + self.file_offset
+
+    def value_from_si(self, value: ArrayLike) -> Array:
+        return (np.asarray(value, dtype=float) - self.file_offset) / self.file_scale
+
+    def sigma_to_si(self, sigma: ArrayLike) -> Array:
+        return np.asarray(sigma, dtype=float) * self.file_scale
+
+    def sigma_from_si(self, sigma: ArrayLike) -> Array:
+        return np.asarray(sigma, dtype=float) / self.file_scale
+
+    def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
+        """measured - predicted, wrapped for angles (SI)."""
+        diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
+        if self.is_angle:
+            from ..frames import wrap_angle
+
+            return wrap_angle(diff)
+        return diff
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+def as_rel(rel: ArrayLike) -> Array:
+    """Check and return a relative-state array ``(..., 6)``."""
+    rel = np.asarray(rel, dtype=float)
+    if rel.ndim == 0 or rel.shape[-1] != 6:
+        raise ValueError(f"relative states must have 6 components (position, velocity); "
+                         f"got shape {rel.shape}")
+    return rel
+
+
+def zeros_nuisance(rel: Array) -> Array:
+    """An empty nuisance Jacobian for models without nuisance parameters."""
+    return np.zeros((*rel.shape[:-1], 0))

@@ -1,0 +1,78 @@
+"""Doppler-shifted frequency with an unknown carrier (000_bc54bd8c50e47249.txt eqs. 5-6,
+001_ba171c940b7f4701.txt).
+
+``f = f_c(t) (1 - rdot / c)`` with ``rdot`` the range rate of the target relative to the
+(moving) sensor, so the sensor's own velocity is included.  The carrier is a nuisance
+parameter, optionally drifting linearly: ``f_c(t) = carrier + carrier_drift * t`` (Hz, Hz/s; t in
+seconds on the measurement time axis).  000_bc54bd8c50e47249.txt §5 mentions a drift of about 2.5 Hz over
+two minutes.  Both nuisance parameters enter linearly, which the estimators exploit.
+
+Note: 001_ba171c940b7f4701.txt writes the shift with the opposite sign (f_o minus the velocity
+component *towards* the receiver); tmakit uses the physical sign: an approaching emitter is
+heard at a higher frequency.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..units import SPEED_OF_LIGHT
+from .base import Jacobian, MeasurementModel, as_rel
+from .range_rate import range_rate_and_gradient
+
+
+class Frequency(MeasurementModel):
+    """Received carrier frequency in Hz.
+
+    ``drift=True`` adds the nuisance parameter ``carrier_drift`` (Hz/s).
+    """
+
+    kind = "frequency"
+    file_unit = "Hz"
+    uses_velocity = True
+
+    def __init__(self, drift: bool = False, speed_of_light: float = SPEED_OF_LIGHT) -> None:
+        self.drift = bool(drift)
+        self.c = float(speed_of_light)
+
+    @property
+    def nuisance_names(self) -> tuple[str, ...]:
+        return ("carrier", "carrier_drift") if self.drift else ("carrier",)
+
+    def default_nuisance(self) -> dict[str, float]:
+        return {"carrier_drift": 0.0}
+
+    def _carrier(self, t, nuisance, shape):
+        nu = np.asarray(nuisance, dtype=float)
+        if nu.shape[-1] != len(self.nuisance_names):
+            raise ValueError(f"frequency: expected nuisance ({', '.join(self.nuisance_names)}),"
+                             f" got shape {nu.shape}")
+        carrier = nu[..., 0]
+        if self.drift:
+            if t is None:
+                raise ValueError("frequency with carrier drift needs the sample times")
+            carrier = carrier + nu[..., 1] * np.asarray(t, dtype=float)
+        return np.broadcast_to(carrier, shape)
+
+    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        if nuisance is None:
+            raise ValueError("frequency: the carrier (nuisance parameter) is needed")
+        rdot, _ = range_rate_and_gradient(rel)
+        return self._carrier(t, nuisance, rdot.shape) * (1.0 - rdot / self.c)
+
+    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        if nuisance is None:
+            raise ValueError("frequency: the carrier (nuisance parameter) is needed")
+        rdot, grad = range_rate_and_gradient(rel)
+        carrier = self._carrier(t, nuisance, rdot.shape)
+        d_rel = -(carrier / self.c)[..., None] * grad
+        scale = 1.0 - rdot / self.c
+        cols = [scale]
+        if self.drift:
+            cols.append(scale * np.asarray(t, dtype=float))
+        return Jacobian(d_rel, None, np.stack(cols, axis=-1))
+
+    def __repr__(self) -> str:
+        return f"Frequency(drift={self.drift})"

@@ -1,0 +1,71 @@
+"""Received power with an unknown constant: ``P = C / R^n`` (000_bc54bd8c50e47249.txt eq. 3).
+
+Inside, power is in dBW so that the nuisance constant enters linearly:
+``P_dBW = power_constant_db - 10 n log10 R`` with ``power_constant_db = 10 log10 C``
+(C in W m^n).  Files carry dBm.  The path-loss exponent ``n`` is 2 by default and known; with
+``exponent=None`` it becomes the nuisance parameter ``path_loss_exponent``.
+
+Noise: a file's ``sigma`` is the standard deviation of the power in dB.  000_bc54bd8c50e47249.txt's
+noise (var(eta/P) = 1/SNR_p) is simulated exactly by the scenario and written with the
+first-order sigma (10 / ln 10) / sqrt(SNR_p), see :func:`tmakit.units.snr_to_sigma_db`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..units import DBM_MINUS_DBW
+from .base import Jacobian, MeasurementModel, as_rel
+
+_TEN_OVER_LN10 = 10.0 / np.log(10.0)
+
+
+class Power(MeasurementModel):
+    """Received power; dBW inside, dBm in files, sigma in dB."""
+
+    kind = "power"
+    file_unit = "dBm"
+    file_offset = -DBM_MINUS_DBW
+
+    def __init__(self, exponent: float | None = 2.0) -> None:
+        self.exponent = None if exponent is None else float(exponent)
+
+    @property
+    def nuisance_names(self) -> tuple[str, ...]:
+        if self.exponent is None:
+            return ("power_constant_db", "path_loss_exponent")
+        return ("power_constant_db",)
+
+    def default_nuisance(self) -> dict[str, float]:
+        return {"path_loss_exponent": 2.0 if self.exponent is None else self.exponent}
+
+    def _split(self, nuisance):
+        if nuisance is None:
+            raise ValueError("power: the power constant (nuisance parameter) is needed")
+        nu = np.asarray(nuisance, dtype=float)
+        if nu.shape[-1] != len(self.nuisance_names):
+            raise ValueError(f"power: expected nuisance ({', '.join(self.nuisance_names)}), "
+                             f"got shape {nu.shape}")
+        n = nu[..., 1] if self.exponent is None else self.exponent
+        return nu[..., 0], n
+
+    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        const_db, n = self._split(nuisance)
+        r = np.linalg.norm(rel[..., :3], axis=-1)
+        return const_db - 10.0 * n * np.log10(r)
+
+    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        _, n = self._split(nuisance)
+        p = rel[..., :3]
+        r2 = np.einsum("...i,...i->...", p, p)
+        d = np.zeros(rel.shape)
+        d[..., :3] = -(_TEN_OVER_LN10 * n / r2)[..., None] * p
+        cols = [np.ones(r2.shape)]
+        if self.exponent is None:
+            cols.append(-5.0 * np.log10(r2))
+        return Jacobian(d, None, np.stack(cols, axis=-1))
+
+    def __repr__(self) -> str:
+        return f"Power(exponent={self.exponent})"

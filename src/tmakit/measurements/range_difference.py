@@ -1,0 +1,74 @@
+"""Range difference from the difference of pulse arrival times (003_e5155d4fe60daef8.txt eq. 1).
+
+With a known pulse repetition interval T, ``dr = c (dTOA - j T) = r(t) - r(t_ref)`` for a
+sample at ``t`` and an earlier one at ``t_ref = t - j T``.  The noise of each one-interval
+difference is independent with standard deviation ``sigma_interval``; over ``j`` intervals it
+accumulates one term per interval (003_e5155d4fe60daef8.txt, the text after eq. 1), so the variance is
+``j sigma_interval^2`` and differences that share intervals are correlated:
+:func:`range_difference_covariance` gives that covariance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+
+
+class RangeDifference(MeasurementModel):
+    kind = "range_difference"
+    file_unit = "m"
+    uses_reference = True
+
+    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        if rel_ref is None:
+            raise ValueError("range_difference needs the relative state at the earlier sample")
+        rel_ref = as_rel(rel_ref)
+        return (np.linalg.norm(rel[..., :3], axis=-1)
+                - np.linalg.norm(rel_ref[..., :3], axis=-1))
+
+    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+        rel = as_rel(rel)
+        if rel_ref is None:
+            raise ValueError("range_difference needs the relative state at the earlier sample")
+        rel_ref = as_rel(rel_ref)
+        d = np.zeros(rel.shape)
+        d_ref = np.zeros(rel_ref.shape)
+        d[..., :3] = rel[..., :3] / np.linalg.norm(rel[..., :3], axis=-1, keepdims=True)
+        d_ref[..., :3] = -rel_ref[..., :3] / np.linalg.norm(rel_ref[..., :3], axis=-1,
+                                                            keepdims=True)
+        return Jacobian(d, d_ref, zeros_nuisance(rel))
+
+
+def interval_count(t: ArrayLike, t_ref: ArrayLike, pri: float) -> NDArray[np.int64]:
+    """Number of pulse intervals between ``t_ref`` and ``t`` (rounded to whole intervals)."""
+    return np.rint((np.asarray(t, float) - np.asarray(t_ref, float)) / pri).astype(np.int64)
+
+
+def range_difference_covariance(t: ArrayLike, t_ref: ArrayLike, sigma: ArrayLike,
+                                sensor: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Covariance of range differences that share pulse intervals.
+
+    Each difference spans ``(t_ref, t]`` with variance ``sigma^2``, i.e. a noise density of
+    ``sigma^2 / (t - t_ref)`` per second of span.  Two differences of the same sensor are
+    correlated by the length of the overlap of their spans times that density (the interval
+    noises are independent and each is counted once per difference it lies in).
+    """
+    t = np.asarray(t, dtype=float)
+    t_ref = np.asarray(t_ref, dtype=float)
+    sigma = np.asarray(sigma, dtype=float)
+    span = t - t_ref
+    if np.any(span <= 0):
+        raise ValueError("every range difference needs time_ref < time")
+    density = sigma**2 / span
+    overlap = np.clip(np.minimum(t[:, None], t[None, :])
+                      - np.maximum(t_ref[:, None], t_ref[None, :]), 0.0, None)
+    # The per-interval noise is a property of the receiver; use the geometric mean density of
+    # the pair (they are equal when one sigma_interval holds for the sensor).
+    cov = overlap * np.sqrt(density[:, None] * density[None, :])
+    if sensor is not None:
+        sensor = np.asarray(sensor)
+        cov = np.where(sensor[:, None] == sensor[None, :], cov, 0.0)
+    return cov

@@ -1,0 +1,97 @@
+"""The motion-model interface: parameters theta -> target states at given times.
+
+A motion model knows nothing about sensors or measurements.  It names its parameters and
+maps a parameter vector ``theta`` (shape ``(..., p)``; leading axes are independent problems,
+e.g. Monte Carlo runs or particles) and sample times ``t`` (shape ``(n,)``, seconds) to target
+states of shape ``(..., n, 6)``: ENU position (m) and velocity (m/s), see :mod:`tmakit.frames`.
+:meth:`MotionModel.jacobian` gives ``d state / d theta`` of shape ``(..., n, 6, p)``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+class MotionModel(ABC):
+    """Target motion model: named parameters, states at times, and their derivatives."""
+
+    #: Parameter names in the order of ``theta``.
+    param_names: tuple[str, ...]
+    #: 2 for motion in the plane z = 0, 3 for motion in space.
+    dim: int
+    #: Short name used on the command line and in files (``cv2d``, ``static3d``, ...).
+    name: str
+
+    @property
+    def n_params(self) -> int:
+        return len(self.param_names)
+
+    @abstractmethod
+    def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Target states ``(..., n, 6)`` at times ``t`` for parameters ``theta`` ``(..., p)``."""
+
+    @abstractmethod
+    def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """``d state / d theta`` at times ``t``: shape ``(..., n, 6, p)``."""
+
+    def theta(self, values: Mapping[str, float]) -> NDArray[np.float64]:
+        """A parameter vector from a mapping of names to values; every name is required."""
+        missing = [name for name in self.param_names if name not in values]
+        unknown = [name for name in values if name not in self.param_names]
+        if missing or unknown:
+            parts = []
+            if missing:
+                parts.append(f"missing {', '.join(missing)}")
+            if unknown:
+                parts.append(f"unknown {', '.join(unknown)}")
+            raise ValueError(
+                f"parameters for motion model {self.name!r}: {'; '.join(parts)} "
+                f"(expected {', '.join(self.param_names)})"
+            )
+        return np.array([float(values[name]) for name in self.param_names])
+
+    def as_dict(self, theta: ArrayLike) -> dict[str, float]:
+        """Name every entry of a single parameter vector."""
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape != (self.n_params,):
+            raise ValueError(
+                f"expected {self.n_params} parameters ({', '.join(self.param_names)}), "
+                f"got shape {theta.shape}"
+            )
+        return {name: float(v) for name, v in zip(self.param_names, theta, strict=True)}
+
+    def _check_theta(self, theta: ArrayLike) -> NDArray[np.float64]:
+        theta = np.asarray(theta, dtype=float)
+        if theta.ndim == 0 or theta.shape[-1] != self.n_params:
+            raise ValueError(
+                f"motion model {self.name!r} takes {self.n_params} parameters "
+                f"({', '.join(self.param_names)}); got an array of shape {theta.shape}"
+            )
+        return theta
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(self.param_names)})"
+
+
+def numerical_jacobian(model: MotionModel, theta: ArrayLike, t: ArrayLike,
+                       rel_step: float = 1e-6) -> NDArray[np.float64]:
+    """Central-difference ``d state / d theta`` (used where a closed form would be long).
+
+    The step for parameter j is ``rel_step * max(1, |theta_j|)``.
+    """
+    theta = model._check_theta(theta)
+    t = np.asarray(t, dtype=float)
+    p = model.n_params
+    cols = []
+    for j in range(p):
+        h = rel_step * np.maximum(1.0, np.abs(theta[..., j]))
+        step = np.zeros(theta.shape)
+        step[..., j] = h
+        up = model.states(theta + step, t)
+        down = model.states(theta - step, t)
+        cols.append((up - down) / (2.0 * h[..., None, None]))
+    return np.stack(cols, axis=-1)

@@ -1,0 +1,232 @@
+"""Scenario: what happens — target motion and its true parameters, the sensors' tracks, and
+the measurement plan with its noise — and :meth:`Scenario.simulate` to observe it.
+
+Scenarios are built in code or loaded from TOML files (:mod:`tmakit.scenario_file`); the
+papers' scenarios ship with tmakit (``tma scenarios`` lists them).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .data import MeasurementSet
+from .measurements import KINDS, interval_count
+from .motion import MotionModel
+from .observation import ObservationModel
+from .sensors import SensorTrack
+from .units import snr_to_sigma_db
+
+RngLike = np.random.Generator | int | None
+
+
+def as_generator(rng: RngLike) -> np.random.Generator:
+    """A numpy Generator from a Generator, an integer seed, or None (fresh entropy)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    return np.random.default_rng(rng)
+
+
+@dataclass
+class MeasurementPlan:
+    """One stream of measurements: a kind from one sensor at given times, with its noise.
+
+    ``sigma`` is the noise standard deviation in SI (radians for angles, rad/s for azimuth
+    rate, dB for power, Hz, m, m/s).  Power may instead give ``snr_db``: the noise of
+    000_bc54bd8c50e47249.txt §2, ``P_measured = P (1 + e)`` with ``var(e) = 1/SNR_p``.  Range
+    differences take the pulse repetition interval ``pri`` (s) and ``lags`` (whole numbers of
+    intervals back); ``sigma`` is then the standard deviation of one interval's difference and
+    noise accumulates one term per interval (003_e5155d4fe60daef8.txt eq. 1).
+    """
+
+    kind: str
+    sensor: str
+    times: NDArray[np.float64]
+    sigma: float | None = None
+    snr_db: float | None = None
+    pri: float | None = None
+    lags: tuple[int, ...] = (1,)
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"unknown measurement kind {self.kind!r}; expected one of "
+                             f"{', '.join(KINDS)}")
+        self.times = np.atleast_1d(np.asarray(self.times, dtype=float))
+        if self.times.ndim != 1 or self.times.size == 0 or np.any(np.diff(self.times) <= 0):
+            raise ValueError(f"{self.kind} from {self.sensor}: sample times must be a "
+                             "non-empty increasing list")
+        if self.kind == "power" and self.snr_db is not None:
+            if self.sigma is not None:
+                raise ValueError("power: give either snr_db or sigma, not both")
+        elif self.sigma is None or not self.sigma > 0:
+            raise ValueError(f"{self.kind} from {self.sensor}: sigma must be positive")
+        if self.kind == "range_difference":
+            if self.pri is None or not self.pri > 0:
+                raise ValueError("range_difference: the pulse repetition interval pri (s) "
+                                 "must be positive")
+            if not self.lags or any(int(lag) < 1 for lag in self.lags):
+                raise ValueError("range_difference: lags must be whole numbers >= 1")
+            self.lags = tuple(int(lag) for lag in self.lags)
+
+
+@dataclass
+class Scenario:
+    """Motion model + true parameters + sensors + measurement plan (+ nuisance truth).
+
+    ``nuisance`` holds the emitter's true nuisance values by name: ``carrier`` (Hz),
+    ``carrier_drift`` (Hz/s), ``power_constant_db`` (10 log10 of C in W m^n),
+    ``path_loss_exponent``.  ``origin`` is the (lat, lon, alt) of the ENU frame, if known.
+    """
+
+    name: str
+    motion: MotionModel
+    truth: dict[str, float]
+    sensors: dict[str, SensorTrack]
+    plans: list[MeasurementPlan]
+    nuisance: dict[str, float] = field(default_factory=dict)
+    description: str = ""
+    origin: tuple[float, float, float] | None = None
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        self.theta = self.motion.theta(self.truth)
+        for plan in self.plans:
+            if plan.sensor not in self.sensors:
+                raise ValueError(f"{plan.kind} plan uses sensor {plan.sensor!r}, which the "
+                                 f"scenario does not define ({', '.join(self.sensors)})")
+        kinds = {p.kind for p in self.plans}
+        if "frequency" in kinds and "carrier" not in self.nuisance:
+            raise ValueError("frequency measurements need the emitter's carrier (Hz)")
+        if "power" in kinds and "power_constant_db" not in self.nuisance:
+            raise ValueError("power measurements need the emitter's power constant")
+
+    @property
+    def kinds(self) -> list[str]:
+        return [k for k in KINDS if k in {p.kind for p in self.plans}]
+
+    @property
+    def measurement_options(self) -> dict[str, dict[str, object]]:
+        """Model options that reproduce the truth: carrier drift on if the truth drifts,
+        the path-loss exponent fixed at its true value."""
+        opts: dict[str, dict[str, object]] = {}
+        if "frequency" in self.kinds:
+            opts["frequency"] = {"drift": self.nuisance.get("carrier_drift", 0.0) != 0.0}
+        if "power" in self.kinds:
+            opts["power"] = {"exponent": self.nuisance.get("path_loss_exponent", 2.0)}
+        return opts
+
+    def time_span(self) -> tuple[float, float]:
+        """First and last sample time of the plan (s)."""
+        return (min(float(p.times[0]) for p in self.plans),
+                max(float(p.times[-1]) for p in self.plans))
+
+    def target_states(self, t: ArrayLike) -> NDArray[np.float64]:
+        """True target ENU states ``(n, 6)`` at times ``t``."""
+        return self.motion.states(self.theta, np.atleast_1d(np.asarray(t, dtype=float)))
+
+    # -- simulation ------------------------------------------------------------------------
+    def _layout(self, plan: MeasurementPlan) -> MeasurementSet:
+        """The rows of one plan with noise-free placeholders for value and sigma."""
+        track = self.sensors[plan.sensor]
+        model = KINDS[plan.kind]
+        if plan.kind == "range_difference":
+            t_all, t_ref_all, lag_all = [], [], []
+            for lag in plan.lags:
+                t_ref = plan.times - lag * plan.pri
+                keep = t_ref >= plan.times[0] - 1e-9 * max(1.0, abs(plan.times[0]))
+                t_all.append(plan.times[keep])
+                t_ref_all.append(t_ref[keep])
+                lag_all.append(np.full(int(keep.sum()), lag))
+            order = np.lexsort((np.concatenate(lag_all), np.concatenate(t_all)))
+            times = np.concatenate(t_all)[order]
+            time_ref = np.concatenate(t_ref_all)[order]
+            sigma_si = plan.sigma * np.sqrt(np.concatenate(lag_all)[order])
+            ref_state = track.states(time_ref)
+        else:
+            times = plan.times
+            time_ref = None
+            ref_state = None
+            sigma_si = np.full(times.shape, plan.sigma if plan.sigma is not None
+                               else snr_to_sigma_db(plan.snr_db))
+        n = times.shape[0]
+        return MeasurementSet(times, np.full(n, plan.sensor), np.full(n, plan.kind),
+                              np.zeros(n), model().sigma_from_si(sigma_si),
+                              track.states(times), time_ref, ref_state)
+
+    def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
+        """Observe the scenario: a :class:`MeasurementSet`, noisy unless ``noise=False``.
+
+        ``rng`` is a ``numpy.random.Generator`` or a seed; the same seed gives the same
+        numbers.  Rows are grouped by sensor and in time order.
+        """
+        gen = as_generator(rng)
+        parts = []
+        for plan in self.plans:
+            rows = self._layout(plan)
+            obs = ObservationModel(rows, self.motion, self.measurement_options)
+            clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
+            value_si = self._noisy(plan, rows, clean, gen) if noise else clean
+            if plan.kind == "bearing":  # files carry bearings in [0, 360) degrees
+                value_si = np.mod(value_si, 2.0 * np.pi)
+            rows.value = obs.models[plan.kind].value_from_si(value_si)
+            parts.append(rows)
+        meta = {
+            "scenario": self.name,
+            "motion": self.motion.name,
+            "truth": json.dumps(self.truth, sort_keys=True),
+            "noise": "yes" if noise else "no",
+        }
+        if getattr(self.motion, "ref_time", None) is not None:
+            meta["ref_time"] = repr(float(self.motion.ref_time))
+        if self.nuisance:
+            meta["nuisance"] = json.dumps(self.nuisance, sort_keys=True)
+        if isinstance(rng, int):
+            meta["seed"] = str(rng)
+        if self.origin is not None:
+            meta["origin_lat"], meta["origin_lon"], meta["origin_alt"] = (
+                repr(float(v)) for v in self.origin)
+        return MeasurementSet.concatenate(parts, meta)
+
+    @staticmethod
+    def _noisy(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
+               gen: np.random.Generator) -> NDArray[np.float64]:
+        if plan.kind == "power" and plan.snr_db is not None:
+            # 000_bc54bd8c50e47249.txt §2: P_hat = P + eta with var(eta / P) = 1 / SNR_p.
+            rel_noise = gen.standard_normal(clean.shape) / np.sqrt(10.0 ** (plan.snr_db / 10))
+            if np.any(rel_noise <= -1.0):
+                raise ValueError(f"power: SNR_p = {plan.snr_db} dB is too low for the "
+                                 "multiplicative noise model (a power came out negative); "
+                                 "give sigma in dB instead")
+            return clean + 10.0 * np.log10(1.0 + rel_noise)
+        if plan.kind == "range_difference":
+            # One independent noise term per pulse interval, summed over each difference.
+            assert plan.pri is not None and plan.sigma is not None
+            t0 = float(rows.time_ref.min())
+            end = interval_count(rows.time, t0, plan.pri)
+            start = interval_count(rows.time_ref, t0, plan.pri)
+            steps = gen.standard_normal(int(end.max()) + 1) * plan.sigma
+            walk = np.concatenate([[0.0], np.cumsum(steps[1:])])
+            return clean + walk[end] - walk[start]
+        return clean + gen.standard_normal(clean.shape) * rows.sigma_si
+
+    def summary(self) -> str:
+        """A few lines saying what the scenario is."""
+        t0, t1 = self.time_span()
+        truth = ", ".join(f"{k}={v:g}" for k, v in self.truth.items())
+        lines = [f"{self.name}: {self.description}".rstrip(": "),
+                 f"  target: {self.motion.name}, {truth}",
+                 f"  sensors: {', '.join(self.sensors)}; samples {t0:g}..{t1:g} s"]
+        for p in self.plans:
+            noise = (f"SNR_p {p.snr_db:g} dB" if p.snr_db is not None else
+                     f"sigma {KINDS[p.kind]().sigma_from_si(p.sigma):g} {KINDS[p.kind].file_unit}")
+            lines.append(f"  {p.kind} from {p.sensor}: {p.times.size} samples, {noise}")
+        return "\n".join(lines)
+
+
+def simulate(scenario: Scenario, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
+    """Function form of :meth:`Scenario.simulate`."""
+    return scenario.simulate(rng, noise)
+

@@ -1,0 +1,230 @@
+"""Sensor tracks: where the listening platform is, and how fast it moves, at any time.
+
+Every track answers :meth:`SensorTrack.states` with ENU positions (m) and velocities (m/s),
+shape ``(n, 6)``.  Headings and turn rates use the bearing convention of :mod:`tmakit.frames`
+(clockwise from North; a positive turn rate turns clockwise).  Tracks given in WGS-84
+latitude/longitude/altitude are converted to the local ENU frame with :mod:`tmakit.geodesy`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .motion.curvilinear import propagate_curvilinear
+
+
+def _as_times(t: ArrayLike) -> NDArray[np.float64]:
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    if t.ndim != 1:
+        raise ValueError(f"times must be a 1-D array, got shape {t.shape}")
+    return t
+
+
+def _as_point(p: ArrayLike, what: str) -> NDArray[np.float64]:
+    p = np.asarray(p, dtype=float).ravel()
+    if p.shape[0] == 2:
+        p = np.append(p, 0.0)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"{what} must be 2 or 3 finite coordinates (m), got {p.tolist()}")
+    return p
+
+
+class SensorTrack(ABC):
+    """A sensor whose position and velocity are known at every time."""
+
+    @abstractmethod
+    def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        """ENU position and velocity ``(n, 6)`` at times ``t`` (s)."""
+
+    def positions(self, t: ArrayLike) -> NDArray[np.float64]:
+        return self.states(t)[:, :3]
+
+
+@dataclass(frozen=True)
+class FixedSensor(SensorTrack):
+    """A sensor that does not move (a ground station)."""
+
+    position: tuple[float, float, float]
+
+    def __init__(self, position: ArrayLike) -> None:
+        object.__setattr__(self, "position", tuple(_as_point(position, "sensor position")))
+
+    def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = _as_times(t)
+        out = np.zeros((t.shape[0], 6))
+        out[:, :3] = self.position
+        return out
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg of a :class:`LegsTrack`: ``duration`` seconds (``inf`` for the last) at a
+    constant ``turn_rate`` (rad/s, clockwise positive; 0 for a straight leg) and, optionally,
+    a new ``speed`` (m/s)."""
+
+    duration: float
+    turn_rate: float = 0.0
+    speed: float | None = None
+
+
+class LegsTrack(SensorTrack):
+    """Straight legs and constant-rate turns (arcs) flown at constant altitude.
+
+    Starts at ``start`` (ENU, m) at ``start_time`` with ``heading`` (rad, clockwise from
+    North) and ``speed`` (m/s).  Each :class:`Leg` keeps the speed (or sets a new one) and
+    turns at a constant rate.  Before ``start_time`` the first leg is extended backwards; after
+    the last leg ends the track continues on it (straight or turning).
+    """
+
+    def __init__(self, start: ArrayLike, heading: float, speed: float,
+                 legs: Sequence[Leg], start_time: float = 0.0) -> None:
+        self.start = _as_point(start, "track start")
+        self.heading = float(heading)
+        self.speed = float(speed)
+        self.start_time = float(start_time)
+        self.legs = tuple(legs)
+        if not self.legs:
+            raise ValueError("a legs track needs at least one leg")
+        if self.speed <= 0:
+            raise ValueError(f"sensor speed must be positive, got {self.speed} m/s")
+        for i, leg in enumerate(self.legs):
+            if not leg.duration > 0:
+                raise ValueError(f"leg {i + 1}: duration must be positive, got {leg.duration}")
+            if leg.speed is not None and leg.speed <= 0:
+                raise ValueError(f"leg {i + 1}: speed must be positive, got {leg.speed}")
+            if not np.isfinite(leg.duration) and i != len(self.legs) - 1:
+                raise ValueError(f"leg {i + 1}: only the last leg may last forever")
+        # Horizontal state (x, y, speed, course) at the start of every leg.
+        starts = []
+        x, y, v, c = self.start[0], self.start[1], self.speed, self.heading
+        t0 = self.start_time
+        for leg in self.legs:
+            v = leg.speed if leg.speed is not None else v
+            starts.append((t0, x, y, v, c))
+            if np.isfinite(leg.duration):
+                x, y, v, c, _, _ = (float(a) for a in propagate_curvilinear(
+                    x, y, v, c, 0.0, leg.turn_rate * v, leg.duration))
+                t0 += leg.duration
+        self._starts = np.array(starts)
+        self._rates = np.array([leg.turn_rate for leg in self.legs])
+
+    @property
+    def leg_start_times(self) -> NDArray[np.float64]:
+        return self._starts[:, 0].copy()
+
+    def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = _as_times(t)
+        idx = np.clip(np.searchsorted(self._starts[:, 0], t, side="right") - 1, 0, None)
+        t0, x0, y0, v, c = self._starts[idx].T
+        x, y, _, _, vx, vy = propagate_curvilinear(x0, y0, v, c, 0.0, self._rates[idx] * v,
+                                                   t - t0)
+        out = np.zeros((t.shape[0], 6))
+        out[:, 0], out[:, 1], out[:, 2] = x, y, self.start[2]
+        out[:, 3], out[:, 4] = vx, vy
+        return out
+
+
+class WaypointTrack(SensorTrack):
+    """Straight legs between waypoints, flown at constant speed or reached at given times.
+
+    Give either ``speed`` (m/s, with ``start_time``) or ``times`` (s, one per waypoint,
+    increasing).  Before the first and after the last waypoint the sensor holds position.
+    """
+
+    def __init__(self, waypoints: ArrayLike, speed: float | None = None,
+                 times: ArrayLike | None = None, start_time: float = 0.0) -> None:
+        pts = np.asarray(waypoints, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] not in (2, 3) or pts.shape[0] < 2:
+            raise ValueError("waypoints must be an (n >= 2, 2 or 3) array of ENU positions")
+        if pts.shape[1] == 2:
+            pts = np.column_stack([pts, np.zeros(pts.shape[0])])
+        if (speed is None) == (times is None):
+            raise ValueError("give a waypoint track either a speed or the waypoint times")
+        if times is None:
+            if not speed > 0:
+                raise ValueError(f"speed must be positive, got {speed}")
+            lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+            times = float(start_time) + np.concatenate([[0.0], np.cumsum(lengths)]) / speed
+        times = np.asarray(times, dtype=float)
+        if times.shape != (pts.shape[0],) or np.any(np.diff(times) <= 0):
+            raise ValueError("waypoint times must be increasing, one per waypoint")
+        self.waypoints = pts
+        self.times = times
+
+    def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = _as_times(t)
+        out = np.zeros((t.shape[0], 6))
+        for axis in range(3):
+            out[:, axis] = np.interp(t, self.times, self.waypoints[:, axis])
+        leg = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0,
+                      len(self.times) - 2)
+        vel = np.diff(self.waypoints, axis=0) / np.diff(self.times)[:, None]
+        inside = (t >= self.times[0]) & (t < self.times[-1])
+        out[:, 3:] = np.where(inside[:, None], vel[leg], 0.0)
+        return out
+
+
+class RecordedTrack(SensorTrack):
+    """Positions (and optionally velocities) recorded at given times, interpolated between.
+
+    With velocities the interpolation is cubic Hermite (position and velocity both match the
+    record); without, a cubic spline whose derivative gives the velocity (linear with only two
+    samples).  Asking for a time outside the record is an error: tmakit does not guess where
+    the sensor was.
+    """
+
+    def __init__(self, times: ArrayLike, positions: ArrayLike,
+                 velocities: ArrayLike | None = None) -> None:
+        from scipy.interpolate import CubicHermiteSpline, CubicSpline, make_interp_spline
+
+        t = np.asarray(times, dtype=float)
+        p = np.asarray(positions, dtype=float)
+        if p.ndim != 2 or p.shape[1] not in (2, 3) or p.shape[0] != t.shape[0]:
+            raise ValueError("recorded positions must be (n, 2 or 3) with one row per time")
+        if t.shape[0] < 2 or np.any(np.diff(t) <= 0):
+            raise ValueError("recorded times must be increasing, at least two of them")
+        if not np.all(np.isfinite(p)):
+            raise ValueError("recorded positions must be finite")
+        if p.shape[1] == 2:
+            p = np.column_stack([p, np.zeros(t.shape[0])])
+        self.times = t
+        if velocities is not None:
+            v = np.asarray(velocities, dtype=float)
+            if v.shape[1] == 2:
+                v = np.column_stack([v, np.zeros(t.shape[0])])
+            if v.shape != p.shape:
+                raise ValueError("recorded velocities must have the shape of the positions")
+            self._spline = CubicHermiteSpline(t, p, v, axis=0)
+        elif t.shape[0] == 2:
+            self._spline = make_interp_spline(t, p, k=1, axis=0)
+        else:
+            self._spline = CubicSpline(t, p, axis=0)
+        self._velocity = self._spline.derivative()
+
+    def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        t = _as_times(t)
+        tol = 1e-9 * max(1.0, float(np.abs(self.times).max()))
+        outside = (t < self.times[0] - tol) | (t > self.times[-1] + tol)
+        if np.any(outside):
+            bad = t[outside][0]
+            raise ValueError(f"time {bad:g} s is outside the recorded sensor track "
+                             f"[{self.times[0]:g}, {self.times[-1]:g}] s")
+        t = np.clip(t, self.times[0], self.times[-1])
+        return np.column_stack([self._spline(t), self._velocity(t)])
+
+    @classmethod
+    def from_geodetic(cls, times: ArrayLike, lat: ArrayLike, lon: ArrayLike, alt: ArrayLike,
+                      origin: tuple[float, float, float],
+                      velocities: ArrayLike | None = None) -> RecordedTrack:
+        """A track recorded as WGS-84 latitude, longitude (degrees) and altitude (m),
+        converted to the ENU frame at ``origin`` = (lat, lon, alt).  Velocities, if given,
+        are ENU (m/s)."""
+        from .geodesy import geodetic_to_enu
+
+        e, n, u = geodetic_to_enu(lat, lon, alt, origin)
+        return cls(times, np.column_stack([e, n, u]), velocities)
