@@ -90,13 +90,20 @@ class LegsTrack(SensorTrack):
         self.legs = tuple(legs)
         if not self.legs:
             raise ValueError("a legs track needs at least one leg")
-        if self.speed <= 0:
-            raise ValueError(f"sensor speed must be positive, got {self.speed} m/s")
+        if not (np.isfinite(self.speed) and self.speed > 0):
+            raise ValueError(f"sensor speed must be positive and finite, got {self.speed} m/s")
+        if not np.isfinite(self.heading):
+            raise ValueError(f"sensor heading must be finite, got {self.heading} rad")
+        if not np.isfinite(self.start_time):
+            raise ValueError(f"start time must be finite, got {self.start_time} s")
         for i, leg in enumerate(self.legs):
             if not leg.duration > 0:
                 raise ValueError(f"leg {i + 1}: duration must be positive, got {leg.duration}")
-            if leg.speed is not None and leg.speed <= 0:
-                raise ValueError(f"leg {i + 1}: speed must be positive, got {leg.speed}")
+            if leg.speed is not None and not (np.isfinite(leg.speed) and leg.speed > 0):
+                raise ValueError(f"leg {i + 1}: speed must be positive and finite, "
+                                 f"got {leg.speed}")
+            if not np.isfinite(leg.turn_rate):
+                raise ValueError(f"leg {i + 1}: turn rate must be finite, got {leg.turn_rate}")
             if not np.isfinite(leg.duration) and i != len(self.legs) - 1:
                 raise ValueError(f"leg {i + 1}: only the last leg may last forever")
         # Horizontal state (x, y, speed, course) at the start of every leg.
@@ -141,6 +148,10 @@ class WaypointTrack(SensorTrack):
         pts = np.asarray(waypoints, dtype=float)
         if pts.ndim != 2 or pts.shape[1] not in (2, 3) or pts.shape[0] < 2:
             raise ValueError("waypoints must be an (n >= 2, 2 or 3) array of ENU positions")
+        if not np.all(np.isfinite(pts)):
+            raise ValueError("waypoints must be finite")
+        if not np.isfinite(start_time):
+            raise ValueError(f"start time must be finite, got {start_time}")
         if pts.shape[1] == 2:
             pts = np.column_stack([pts, np.zeros(pts.shape[0])])
         if (speed is None) == (times is None):
@@ -195,10 +206,12 @@ class RecordedTrack(SensorTrack):
         self.times = t
         if velocities is not None:
             v = np.asarray(velocities, dtype=float)
+            if v.ndim != 2 or v.shape[0] != t.shape[0] or v.shape[1] not in (2, 3):
+                raise ValueError("recorded velocities must be (n, 2 or 3) with one row per time")
             if v.shape[1] == 2:
                 v = np.column_stack([v, np.zeros(t.shape[0])])
-            if v.shape != p.shape:
-                raise ValueError("recorded velocities must have the shape of the positions")
+            if not np.all(np.isfinite(v)):
+                raise ValueError("recorded velocities must be finite")
             self._spline = CubicHermiteSpline(t, p, v, axis=0)
         elif t.shape[0] == 2:
             self._spline = make_interp_spline(t, p, k=1, axis=0)

@@ -1,0 +1,322 @@
+"""Scenario files: TOML, validated with pydantic, turned into a :class:`~tmakit.scenario.Scenario`.
+
+Units in files: metres, seconds, degrees (``*_deg``), degrees per second (``*_deg_s``), hertz;
+measurement ``sigma`` in the file unit of its kind (see ``docs/scenarios.md``).  A file may
+declare ``angle_convention = "east_ccw"`` to give headings, courses and turn rates as its paper
+does (counter-clockwise from East); they are converted here, once, to tmakit's clockwise-from-
+North convention.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from .measurements import KINDS
+from .motion import MotionModel, motion_from_name
+from .scenario import MeasurementPlan, Scenario
+from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
+from .units import free_space_constant, linear_to_db
+
+
+class ScenarioFileError(ValueError):
+    """A scenario file that cannot be used; the message names the file and each field."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class TimeRange(_Strict):
+    """Sample times ``start, start + step, ...`` up to and including ``stop`` (s)."""
+
+    start: float
+    stop: float
+    step: float = Field(gt=0)
+
+    def values(self) -> np.ndarray:
+        n = int(math.floor((self.stop - self.start) / self.step + 1e-9)) + 1
+        if n < 1:
+            raise ValueError("stop is before start")
+        return self.start + self.step * np.arange(n)
+
+
+Times = TimeRange | list[float]
+Point = Annotated[list[float], Field(min_length=2, max_length=3)]
+GeoPoint = Annotated[list[float], Field(min_length=2, max_length=3)]
+
+
+class LegSpec(_Strict):
+    duration: float = Field(gt=0, description="seconds; inf for a last leg that never ends")
+    turn_rate_deg_s: float = 0.0
+    speed: float | None = Field(default=None, gt=0)
+
+
+class FixedSpec(_Strict):
+    type: Literal["fixed"]
+    id: str
+    position: Point | None = None
+    position_geodetic: GeoPoint | None = None
+
+
+class LegsSpec(_Strict):
+    type: Literal["legs"]
+    id: str
+    start: Point | None = None
+    start_geodetic: GeoPoint | None = None
+    start_time: float = 0.0
+    heading_deg: float
+    speed: float = Field(gt=0)
+    legs: list[LegSpec] = Field(min_length=1)
+
+
+class WaypointsSpec(_Strict):
+    type: Literal["waypoints"]
+    id: str
+    points: list[Point] | None = None
+    points_geodetic: list[GeoPoint] | None = None
+    speed: float | None = Field(default=None, gt=0)
+    times: list[float] | None = None
+    start_time: float = 0.0
+
+
+class RecordedSpec(_Strict):
+    type: Literal["recorded"]
+    id: str
+    times: list[float]
+    positions: list[Point] | None = None
+    positions_geodetic: list[GeoPoint] | None = None
+    velocities: list[Point] | None = None
+
+
+SensorSpec = Annotated[FixedSpec | LegsSpec | WaypointsSpec | RecordedSpec,
+                       Field(discriminator="type")]
+
+
+class TargetSpec(_Strict):
+    motion: str
+    ref_time: float = 0.0
+    truth: dict[str, float]
+
+    @field_validator("motion")
+    @classmethod
+    def _known_motion(cls, v: str) -> str:
+        motion_from_name(v)
+        return v
+
+
+class EmitterSpec(_Strict):
+    carrier_hz: float | None = Field(default=None, gt=0)
+    carrier_drift_hz_per_s: float = 0.0
+    power_constant: float | Literal["free_space"] | None = None
+    power_constant_db: float | None = None
+    path_loss_exponent: float = Field(default=2.0, gt=0)
+
+
+class MeasurementSpec(_Strict):
+    kind: str
+    sensor: str
+    times: Times
+    sigma: float | None = Field(default=None, gt=0, description="in the kind's file unit")
+    snr_db: float | None = None
+    pri: float | None = Field(default=None, gt=0)
+    lags: list[int] = [1]
+
+    @field_validator("kind")
+    @classmethod
+    def _known_kind(cls, v: str) -> str:
+        if v not in KINDS:
+            raise ValueError(f"unknown kind {v!r}; expected one of {', '.join(KINDS)}")
+        return v
+
+
+class ScenarioSpec(_Strict):
+    name: str
+    title: str = ""
+    description: str = ""
+    paper: str | None = None
+    angle_convention: Literal["north_cw", "east_ccw"] = "north_cw"
+    origin: Annotated[list[float], Field(min_length=3, max_length=3)] | None = None
+    target: TargetSpec
+    emitter: EmitterSpec = EmitterSpec()
+    sensors: list[SensorSpec] = Field(min_length=1)
+    measurements: list[MeasurementSpec] = Field(min_length=1)
+
+
+# -- turning a validated spec into objects ------------------------------------------------
+class _Builder:
+    def __init__(self, spec: ScenarioSpec) -> None:
+        self.spec = spec
+        self.ccw = spec.angle_convention == "east_ccw"
+
+    def heading(self, deg: float) -> float:
+        """A heading/course in the file's convention -> radians clockwise from North."""
+        return math.radians(90.0 - deg) if self.ccw else math.radians(deg)
+
+    def turn_rate(self, deg_s: float) -> float:
+        return math.radians(-deg_s if self.ccw else deg_s)
+
+    def enu(self, where: str, point: list[float] | None, geo: list[float] | None
+            ) -> np.ndarray:
+        if (point is None) == (geo is None):
+            raise ValueError(f"{where}: give exactly one of the ENU and the geodetic form")
+        if point is not None:
+            return np.asarray(point, dtype=float)
+        return self.enu_many(where, [geo])[0]
+
+    def enu_many(self, where: str, geo: list[list[float]]) -> np.ndarray:
+        if self.spec.origin is None:
+            raise ValueError(f"{where}: geodetic positions need the scenario's origin "
+                             "= [lat, lon, alt]")
+        from .geodesy import geodetic_to_enu
+
+        g = np.array([[*p, 0.0][:3] for p in geo], dtype=float)
+        e, n, u = geodetic_to_enu(g[:, 0], g[:, 1], g[:, 2], tuple(self.spec.origin))
+        return np.column_stack([e, n, u])
+
+    def sensor(self, s: Any) -> SensorTrack:
+        where = f"sensor {s.id!r}"
+        if isinstance(s, FixedSpec):
+            return FixedSensor(self.enu(where, s.position, s.position_geodetic))
+        if isinstance(s, LegsSpec):
+            legs = [Leg(leg.duration, self.turn_rate(leg.turn_rate_deg_s), leg.speed)
+                    for leg in s.legs]
+            return LegsTrack(self.enu(where, s.start, s.start_geodetic), self.heading(s.heading_deg),
+                             s.speed, legs, s.start_time)
+        if isinstance(s, WaypointsSpec):
+            if (s.points is None) == (s.points_geodetic is None):
+                raise ValueError(f"{where}: give exactly one of points and points_geodetic")
+            pts = (np.asarray(s.points, float) if s.points is not None
+                   else self.enu_many(where, s.points_geodetic or []))
+            return WaypointTrack(pts, s.speed, s.times, s.start_time)
+        if (s.positions is None) == (s.positions_geodetic is None):
+            raise ValueError(f"{where}: give exactly one of positions and positions_geodetic")
+        pos = (np.asarray(s.positions, float) if s.positions is not None
+               else self.enu_many(where, s.positions_geodetic or []))
+        return RecordedTrack(s.times, pos, s.velocities)
+
+    def motion_and_truth(self) -> tuple[MotionModel, dict[str, float]]:
+        t = self.spec.target
+        motion = motion_from_name(t.motion, t.ref_time)
+        truth = dict(t.truth)
+        if "course_deg" in truth:  # curvilinear models: course given in degrees
+            truth["course"] = self.heading(truth.pop("course_deg"))
+        if self.ccw:
+            for key in [k for k in truth if k.startswith("an_")]:
+                truth[key] = -truth[key]  # counter-clockwise positive -> clockwise positive
+        motion.theta(truth)  # names checked here, with a message listing the expected ones
+        return motion, truth
+
+    def nuisance(self) -> dict[str, float]:
+        e = self.spec.emitter
+        out: dict[str, float] = {}
+        if e.carrier_hz is not None:
+            out["carrier"] = e.carrier_hz
+            out["carrier_drift"] = e.carrier_drift_hz_per_s
+        if e.power_constant is not None and e.power_constant_db is not None:
+            raise ValueError("emitter: give power_constant or power_constant_db, not both")
+        if e.power_constant == "free_space":
+            if e.carrier_hz is None:
+                raise ValueError("emitter: power_constant = 'free_space' needs carrier_hz")
+            out["power_constant_db"] = float(linear_to_db(free_space_constant(e.carrier_hz)))
+        elif e.power_constant is not None:
+            if e.power_constant <= 0:
+                raise ValueError("emitter: power_constant must be positive")
+            out["power_constant_db"] = float(linear_to_db(e.power_constant))
+        elif e.power_constant_db is not None:
+            out["power_constant_db"] = e.power_constant_db
+        out["path_loss_exponent"] = e.path_loss_exponent
+        return out
+
+    def plan(self, m: MeasurementSpec) -> MeasurementPlan:
+        times = m.times.values() if isinstance(m.times, TimeRange) else np.asarray(m.times)
+        sigma = None if m.sigma is None else float(KINDS[m.kind]().sigma_to_si(m.sigma))
+        return MeasurementPlan(m.kind, m.sensor, times, sigma, m.snr_db, m.pri, tuple(m.lags))
+
+    def build(self, source: str) -> Scenario:
+        sensors: dict[str, SensorTrack] = {}
+        for s in self.spec.sensors:
+            if s.id in sensors:
+                raise ValueError(f"sensor id {s.id!r} is used twice")
+            sensors[s.id] = self.sensor(s)
+        motion, truth = self.motion_and_truth()
+        return Scenario(
+            name=self.spec.name, motion=motion, truth=truth, sensors=sensors,
+            plans=[self.plan(m) for m in self.spec.measurements], nuisance=self.nuisance(),
+            description=self.spec.title or self.spec.description,
+            origin=None if self.spec.origin is None else tuple(self.spec.origin),
+            source=source)
+
+
+def _format_pydantic(err: ValidationError) -> list[str]:
+    lines = []
+    for e in err.errors():
+        loc = ""
+        for part in e["loc"]:
+            loc += f"[{part}]" if isinstance(part, int) else (f".{part}" if loc else str(part))
+        lines.append(f"{loc or '(top level)'}: {e['msg']}")
+    return lines
+
+
+def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
+    """Validate a scenario given as a dict (a parsed TOML file) and build it."""
+    try:
+        spec = ScenarioSpec.model_validate(data)
+    except ValidationError as err:
+        problems = _format_pydantic(err)
+        raise ScenarioFileError(f"{source}: " + "; ".join(problems) if len(problems) == 1
+                                else f"{source}:\n  " + "\n  ".join(problems)) from None
+    try:
+        return _Builder(spec).build(source)
+    except ValueError as err:
+        raise ScenarioFileError(f"{source}: {err}") from None
+
+
+def read_scenario_file(path: str | Path) -> Scenario:
+    """Load and validate a TOML scenario file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioFileError(f"{path}: no such scenario file") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ScenarioFileError(f"{path}: not valid TOML: {err}") from None
+    return scenario_from_dict(data, str(path))
+
+
+def builtin_scenario_names() -> list[str]:
+    """Names of the scenarios that ship with tmakit."""
+    folder = resources.files("tmakit") / "scenarios"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def builtin_scenarios() -> list[tuple[str, str]]:
+    """``(name, one-line title)`` of every built-in scenario."""
+    out = []
+    for name in builtin_scenario_names():
+        text = (resources.files("tmakit") / "scenarios" / f"{name}.toml").read_text("utf-8")
+        out.append((name, str(tomllib.loads(text).get("title", ""))))
+    return out
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """A built-in scenario by name (``gu2007``, ``chen-sun-1``, ...) or a TOML file by path."""
+    text = str(name_or_path)
+    path = Path(text)
+    if path.suffix == ".toml" or path.exists():
+        return read_scenario_file(path)
+    names = builtin_scenario_names()
+    if text not in names:
+        raise ScenarioFileError(f"unknown scenario {text!r}: not a file, and not one of the "
+                                f"built-in scenarios ({', '.join(names)})")
+    res = resources.files("tmakit") / "scenarios" / f"{text}.toml"
+    with resources.as_file(res) as p:
+        return read_scenario_file(p)
