@@ -169,11 +169,11 @@ def test_scenario_file_on_disk_and_unknown_names(tmp_path):
                  'times = [0, 5, 10]\nsigma = 0.5\n')
     scn = tk.load_scenario(p)
     assert scn.name == "mine" and len(scn.simulate(1)) == 3
-    with pytest.raises(ScenarioFileError, match="unknown scenario 'nope'.*gu2007"):
+    with pytest.raises(ScenarioFileError, match=r"unknown scenario 'nope'.*gu2007"):
         tk.load_scenario("nope")
     bad = tmp_path / "broken.toml"
     bad.write_text("name = \n")
-    with pytest.raises(ScenarioFileError, match="broken.toml: not valid TOML"):
+    with pytest.raises(ScenarioFileError, match=r"broken\.toml: not valid TOML"):
         tk.load_scenario(bad)
 
 

@@ -4,8 +4,9 @@
 - Bearing (azimuth) is measured clockwise from North: ``atan2(d_east, d_north)``
   (002_e7269ad11b825346.txt eq. 6).  Elevation is measured up from the horizontal plane.
 - Headings/courses are bearings too (clockwise from North).  A paper that measures angles
-  counter-clockwise from East (000_bc54bd8c50e47249.txt's sensor path, 003_e5155d4fe60daef8.txt's bearings)
-  is converted with :func:`math_angle_to_bearing` in its scenario, never in the models.
+  counter-clockwise from East (000_bc54bd8c50e47249.txt's sensor path,
+  003_e5155d4fe60daef8.txt's bearings) is converted with :func:`math_angle_to_bearing` in its
+  scenario, never in the models.
 - Relative state = target minus sensor, ``[dx, dy, dz, dvx, dvy, dvz]``.
 - Angle residuals are wrapped to (-pi, pi].
 """

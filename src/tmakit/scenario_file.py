@@ -41,7 +41,7 @@ class TimeRange(_Strict):
     step: float = Field(gt=0)
 
     def values(self) -> np.ndarray:
-        n = int(math.floor((self.stop - self.start) / self.step + 1e-9)) + 1
+        n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
         if n < 1:
             raise ValueError("stop is before start")
         return self.start + self.step * np.arange(n)
@@ -187,8 +187,8 @@ class _Builder:
         if isinstance(s, LegsSpec):
             legs = [Leg(leg.duration, self.turn_rate(leg.turn_rate_deg_s), leg.speed)
                     for leg in s.legs]
-            return LegsTrack(self.enu(where, s.start, s.start_geodetic), self.heading(s.heading_deg),
-                             s.speed, legs, s.start_time)
+            start = self.enu(where, s.start, s.start_geodetic)
+            return LegsTrack(start, self.heading(s.heading_deg), s.speed, legs, s.start_time)
         if isinstance(s, WaypointsSpec):
             if (s.points is None) == (s.points_geodetic is None):
                 raise ValueError(f"{where}: give exactly one of points and points_geodetic")

@@ -4,8 +4,9 @@
 ``f = f_c(t) (1 - rdot / c)`` with ``rdot`` the range rate of the target relative to the
 (moving) sensor, so the sensor's own velocity is included.  The carrier is a nuisance
 parameter, optionally drifting linearly: ``f_c(t) = carrier + carrier_drift * t`` (Hz, Hz/s; t in
-seconds on the measurement time axis).  000_bc54bd8c50e47249.txt §5 mentions a drift of about 2.5 Hz over
-two minutes.  Both nuisance parameters enter linearly, which the estimators exploit.
+seconds on the measurement time axis).  000_bc54bd8c50e47249.txt §5 mentions a drift of
+about 2.5 Hz over two minutes.  Both nuisance parameters enter linearly, which the estimators
+exploit.
 
 Note: 001_ba171c940b7f4701.txt writes the shift with the opposite sign (f_o minus the velocity
 component *towards* the receiver); tmakit uses the physical sign: an approaching emitter is

@@ -2,7 +2,8 @@
 
 Constant velocity (000_bc54bd8c50e47249.txt eq. 1, 001_ba171c940b7f4701.txt's trajectory model):
 ``p(t) = p_ref + v (t - t_ref)``, parameterised by the position at any reference time
-``t_ref`` (the initial time as in 000_bc54bd8c50e47249.txt, the final sample time as in 001_ba171c940b7f4701.txt).
+``t_ref`` (the initial time as in 000_bc54bd8c50e47249.txt, the final sample time as in
+001_ba171c940b7f4701.txt).
 """
 
 from __future__ import annotations

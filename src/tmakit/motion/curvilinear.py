@@ -1,4 +1,5 @@
-"""Exact curvilinear motion: constant tangential and normal acceleration (002_e7269ad11b825346.txt §2.1).
+"""Exact curvilinear motion: constant tangential and normal acceleration
+(002_e7269ad11b825346.txt §2.1).
 
 State ``(x, y, v, phi)``: ENU position (m), speed (m/s) and course phi (radians, clockwise from
 North).  The tangential acceleration ``a_t`` changes the speed, the normal acceleration ``a_n``

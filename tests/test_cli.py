@@ -1,0 +1,117 @@
+"""The `tma` command: simulate, show, demo, scenarios; refusals and error messages."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import tmakit as tk
+from tmakit.cli import app
+
+runner = CliRunner()
+
+
+def run(*args: str):
+    return runner.invoke(app, list(args))
+
+
+def test_scenarios_lists_every_builtin_with_a_line_each():
+    result = run("scenarios")
+    assert result.exit_code == 0
+    for name in ("gu2007", "doppler-lecture", "hoerst2010", "chen-sun-1", "chen-sun-2",
+                 "chen-sun-3", "hurtado2008"):
+        assert name in result.output
+
+
+def test_simulate_writes_a_file_that_reads_back_and_matches_the_library(tmp_path):
+    out = tmp_path / "obs.csv"
+    result = run("simulate", "gu2007", "--seed", "5", "-o", str(out))
+    assert result.exit_code == 0, result.output
+    assert "wrote 240 measurements" in result.output
+    meas = tk.read_measurements(out)
+    direct = tk.load_scenario("gu2007").simulate(rng=5)
+    assert np.array_equal(meas.value, direct.value)
+    assert meas.metadata["seed"] == "5"
+
+
+def test_simulate_parquet_and_no_noise(tmp_path):
+    out = tmp_path / "clean.parquet"
+    assert run("simulate", "chen-sun-2", "--no-noise", "-o", str(out)).exit_code == 0
+    meas = tk.read_measurements(out)
+    clean = tk.load_scenario("chen-sun-2").simulate(noise=False)
+    assert np.array_equal(meas.value, clean.value)
+
+
+def test_simulate_refuses_to_overwrite_without_force(tmp_path):
+    out = tmp_path / "obs.csv"
+    out.write_text("precious data\n")
+    result = run("simulate", "gu2007", "-o", str(out))
+    assert result.exit_code == 2
+    assert "already exists" in result.output and "--force" in result.output
+    assert out.read_text() == "precious data\n"
+    assert run("simulate", "gu2007", "-o", str(out), "--force").exit_code == 0
+    assert len(tk.read_measurements(out)) == 240
+
+
+def test_simulate_unknown_scenario_is_a_clear_error(tmp_path):
+    out = tmp_path / "obs.csv"
+    result = run("simulate", "gu2008", "-o", str(out))
+    assert result.exit_code == 2
+    assert "unknown scenario 'gu2008'" in result.output
+    assert not out.exists()
+
+
+def test_show_prints_a_table_per_sensor_and_kind_and_draws(tmp_path):
+    obs = tmp_path / "obs.csv"
+    png = tmp_path / "obs.png"
+    run("simulate", "gu2007", "--seed", "1", "-o", str(obs))
+    result = run("show", str(obs), "--plot", str(png))
+    assert result.exit_code == 0, result.output
+    for text in ("uav", "power", "frequency", "120", "dBm", "Hz"):
+        assert text in result.output
+    assert png.exists() and png.stat().st_size > 10_000
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    again = run("show", str(obs), "--plot", str(png))
+    assert again.exit_code == 2 and "already exists" in again.output
+
+
+def test_show_refuses_a_bad_file_naming_row_and_column_and_writes_nothing(tmp_path):
+    obs = tmp_path / "obs.csv"
+    png = tmp_path / "obs.png"
+    run("simulate", "hoerst2010", "--seed", "1", "-o", str(obs))
+    lines = obs.read_text().splitlines()
+    header_at = next(i for i, line in enumerate(lines) if line.startswith("time,"))
+    cols = lines[header_at].split(",")
+    row = lines[header_at + 3].split(",")
+    row[cols.index("sigma")] = "-2.0"
+    lines[header_at + 3] = ",".join(row)
+    obs.write_text("\n".join(lines) + "\n")
+    result = run("show", str(obs), "--plot", str(png))
+    assert result.exit_code == 2
+    assert "row 3" in result.output and "sigma" in result.output
+    assert not png.exists()
+
+
+def test_show_missing_file(tmp_path):
+    result = run("show", str(tmp_path / "nothing.csv"))
+    assert result.exit_code == 2 and "no such file" in result.output
+
+
+def test_demo_writes_data_and_picture_then_refuses_to_repeat(tmp_path):
+    folder = tmp_path / "demo"
+    result = run("demo", "--out-dir", str(folder))
+    assert result.exit_code == 0, result.output
+    assert (folder / "gu2007.csv").exists() and (folder / "gu2007.png").exists()
+    assert "gu2007" in result.output
+    again = run("demo", "--out-dir", str(folder))
+    assert again.exit_code == 2 and "--force" in again.output
+    assert run("demo", "--out-dir", str(folder), "--force").exit_code == 0
+
+
+@pytest.mark.parametrize("origin", ["1,2", "a,b,c"])
+def test_bad_origin_is_refused(tmp_path, origin):
+    obs = tmp_path / "obs.csv"
+    run("simulate", "gu2007", "-o", str(obs))
+    result = run("show", str(obs), "--origin", origin)
+    assert result.exit_code == 2 and "LAT,LON,ALT" in result.output
