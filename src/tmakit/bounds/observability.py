@@ -1,0 +1,185 @@
+"""Observability: the rank of the Fisher information and, when it is deficient, the
+directions in parameter space that the data cannot see, named in words.
+
+The information is first normalised (``D F D`` with ``D = diag(F)^-1/2``) so that its rank does
+not depend on units.  Unobservable directions are recognised by testing candidate motions of
+the whole trajectory that leave measurements unchanged for some geometries: rotations about
+an axis through a fixed sensor or through two fixed sensors (range-only kinds: Doppler,
+power, range), translations (a frequency-only static problem), and scalings about a sensor
+(bearings from a non-manoeuvring observer).  A candidate is turned into a parameter change by
+least squares on the motion model's own Jacobian, so this works for every motion model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import MeasurementSet
+from ..motion import MotionModel
+
+RANK_TOL = 1e-10
+"""Eigenvalues of the normalised information below this fraction of the largest are zero."""
+
+_AXES = {"East": np.array([1.0, 0, 0]), "North": np.array([0, 1.0, 0]),
+         "Up": np.array([0, 0, 1.0])}
+
+
+@dataclass
+class Direction:
+    """One unobservable direction: a sentence and the parameter change (in each parameter's
+    own unit, scaled so the largest magnitude is 1) that leaves the data unchanged."""
+
+    sentence: str
+    weights: dict[str, float] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, object]:
+        return {"sentence": self.sentence, "weights": self.weights}
+
+
+@dataclass
+class Observability:
+    rank: int
+    size: int
+    condition: float
+    null_basis: NDArray[np.float64]  # (size, nullity), physical units, unit columns
+    directions: list[Direction]
+    observable: NDArray[np.bool_]    # per parameter
+
+    @property
+    def full_rank(self) -> bool:
+        return self.rank == self.size
+
+
+def normalise(info: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(D F D, D)`` with ``D = diag(F)^-1/2`` (parameters with no information get D = 1)."""
+    d = np.diag(info).copy()
+    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
+    return info * scale[:, None] * scale[None, :], scale
+
+
+def _fixed_sensors(meas: MeasurementSet) -> dict[str, NDArray[np.float64]]:
+    out = {}
+    for s in meas.sensors:
+        st = meas.sensor_state[meas.sensor == s]
+        if np.allclose(st, st[0], rtol=0, atol=1e-9) and np.allclose(st[0, 3:], 0.0):
+            out[s] = st[0, :3]
+    return out
+
+
+def _candidates(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.float64]
+                ) -> list[tuple[str, NDArray[np.float64] | None]]:
+    """(sentence, parameter change or None) for each candidate motion of the track."""
+    t = np.unique(np.concatenate([meas.time, meas.time_ref[np.isfinite(meas.time_ref)]]))
+    states = motion.states(theta, t)
+    p, v = states[:, :3], states[:, 3:]
+    cands: list[tuple[str, NDArray[np.float64], NDArray[np.float64]]] = []
+    fixed = _fixed_sensors(meas)
+
+    def rotation(axis, centre):
+        return np.column_stack([np.cross(axis, p - centre), np.cross(axis, v)])
+
+    for name, c in fixed.items():
+        for axis_name, axis in _AXES.items():
+            cands.append((f"rotation of the whole track about the {axis_name} axis through "
+                          f"sensor {name}", rotation(axis, c), t))
+    names = list(fixed)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            base = fixed[b] - fixed[a]
+            if np.linalg.norm(base) > 0:
+                cands.append((f"rotation of the whole track about the line through sensors "
+                              f"{a} and {b}", rotation(base / np.linalg.norm(base), fixed[a]),
+                              t))
+    for axis_name, axis in _AXES.items():
+        cands.append((f"translation of the whole track along {axis_name}",
+                       np.column_stack([np.broadcast_to(axis, p.shape), np.zeros(p.shape)]),
+                       t))
+    for name, c in fixed.items():
+        cands.append((f"scaling of the track about sensor {name} (range is not observable)",
+                      np.column_stack([p - c, v]), t))
+    return [(s, _to_theta(motion, theta, tt, d)) for s, d, tt in cands]
+
+
+def _to_theta(motion: MotionModel, theta: NDArray[np.float64], t: NDArray[np.float64],
+              dstate: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """The parameter change that moves the states by ``dstate``, or None if none does."""
+    jac = motion.jacobian(theta, t).reshape(-1, motion.n_params)
+    target = dstate.reshape(-1)
+    if not np.any(target):
+        return None
+    sol, *_ = np.linalg.lstsq(jac, target, rcond=None)
+    if np.linalg.norm(jac @ sol - target) > 1e-6 * np.linalg.norm(target):
+        return None
+    return sol
+
+
+def _weights(names: tuple[str, ...], vec: NDArray[np.float64]) -> dict[str, float]:
+    big = np.max(np.abs(vec))
+    w = vec / big if big > 0 else vec
+    return {n: round(float(x), 6) for n, x in zip(names, w, strict=True) if abs(x) > 1e-9}
+
+
+def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: MeasurementSet,
+            motion: MotionModel, theta: NDArray[np.float64]) -> Observability:
+    """Rank, conditioning and named unobservable directions of an information matrix over
+    ``names`` (the motion parameters first, then any unknown nuisance parameters)."""
+    size = info.shape[0]
+    norm, scale = normalise(info)
+    evals, evecs = np.linalg.eigh(norm)
+    top = max(float(evals[-1]), np.finfo(float).tiny)
+    null = evals <= RANK_TOL * top
+    rank = int(size - null.sum())
+    positive = evals[~null]
+    condition = float(top / positive.min()) if positive.size else np.inf
+    null_norm = evecs[:, null]  # normalised coordinates
+    null_phys = null_norm * scale[:, None]
+    if null_phys.size:
+        null_phys = null_phys / np.linalg.norm(null_phys, axis=0, keepdims=True)
+    observable = np.ones(size, dtype=bool)
+    if null_norm.size:
+        observable = np.linalg.norm(null_norm, axis=1) < 1e-6
+    directions: list[Direction] = []
+    if rank < size:
+        directions = _describe(null_norm, scale, names, norm, top, meas, motion, theta)
+    return Observability(rank, size, condition, null_phys, directions, observable)
+
+
+def _describe(null_norm, scale, names, norm, top, meas, motion, theta) -> list[Direction]:
+    nullity = null_norm.shape[1]
+    p = motion.n_params
+    chosen: list[NDArray[np.float64]] = []  # normalised coordinates, unit vectors
+    directions: list[Direction] = []
+    for sentence, dtheta in _candidates(meas, motion, np.asarray(theta, float)):
+        if dtheta is None:
+            continue
+        full = np.zeros(len(names))
+        full[:p] = dtheta
+        u = full / scale
+        u /= np.linalg.norm(u)
+        if float(u @ norm @ u) > 1e3 * RANK_TOL * top:
+            continue  # the data see this motion
+        if chosen:
+            basis = np.column_stack(chosen)
+            resid = u - basis @ np.linalg.lstsq(basis, u, rcond=None)[0]
+            if np.linalg.norm(resid) < 1e-6:
+                continue  # already explained by the directions found so far
+        chosen.append(u)
+        directions.append(Direction(sentence, _weights(names, full)))
+        if len(chosen) == nullity:
+            return directions
+    # Whatever the candidates do not explain is reported as a plain combination.
+    rest = null_norm
+    if chosen:
+        basis = np.column_stack(chosen)
+        rest = rest - basis @ np.linalg.lstsq(basis, rest, rcond=None)[0]
+    u_ = np.linalg.svd(rest, full_matrices=False)[0]
+    for k in range(nullity - len(chosen)):
+        vec = u_[:, k] * scale
+        w = _weights(names, vec)
+        terms = " ".join(f"{'+' if x >= 0 else '-'} {abs(x):.3g}·{n}" for n, x in w.items())
+        directions.append(Direction(
+            f"the combination {terms.lstrip('+ ')} cannot be determined from the data", w))
+    return directions
