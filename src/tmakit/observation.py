@@ -88,6 +88,21 @@ class ObservationModel:
                 None if rel_ref is None else rel_ref[..., idx, :])
         return out
 
+    def affine(self, theta: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(h0 (..., n), A (..., n, k))`` with predictions ``h0 + A @ nuisance``."""
+        theta = np.asarray(theta, dtype=float)
+        rel, rel_ref = self._relative(theta)
+        h0 = np.empty(rel.shape[:-1])
+        a = np.zeros((*rel.shape[:-1], self.n_nuisance))
+        t = self.meas.time
+        for k, m in self.models.items():
+            idx = self.rows[k]
+            base, design = m.affine(rel[..., idx, :], t[idx],
+                                    None if rel_ref is None else rel_ref[..., idx, :])
+            h0[..., idx] = base
+            a[..., idx, self.nuisance_slices[k]] = design
+        return h0, a
+
     def jacobian(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(d value / d theta (..., n, p), d value / d nuisance (..., n, k))``."""

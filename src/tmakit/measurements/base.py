@@ -83,6 +83,18 @@ class MeasurementModel:
         """Analytic derivatives of :meth:`predict`."""
         raise NotImplementedError
 
+    def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
+               rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
+        """``(h0, A)`` with ``predict = h0 + A @ nuisance`` (every nuisance parameter of
+        tmakit enters linearly): ``h0`` is ``(..., n)``, ``A`` is ``(..., n, k)``."""
+        rel = as_rel(rel)
+        k = len(self.nuisance_names)
+        if k == 0:
+            return self.predict(rel, t, None, rel_ref), np.zeros((*rel.shape[:-1], 0))
+        base = self.predict(rel, t, np.zeros(k), rel_ref)
+        cols = [self.predict(rel, t, np.eye(k)[j], rel_ref) - base for j in range(k)]
+        return base, np.stack(cols, axis=-1)
+
     # -- edges: file units <-> SI ------------------------------------------------------
     def value_to_si(self, value: ArrayLike) -> Array:
         return np.asarray(value, dtype=float) * self.file_scale + self.file_offset

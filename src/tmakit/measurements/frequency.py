@@ -62,6 +62,15 @@ class Frequency(MeasurementModel):
         rdot, _ = range_rate_and_gradient(rel)
         return self._carrier(t, nuisance, rdot.shape) * (1.0 - rdot / self.c)
 
+    def affine(self, rel, t=None, rel_ref=None):
+        rel = as_rel(rel)
+        p, v = rel[..., :3], rel[..., 3:]
+        scale = 1.0 - np.einsum("...i,...i->...", p, v) / (np.linalg.norm(p, axis=-1) * self.c)
+        cols = [scale]
+        if self.drift:
+            cols.append(scale * np.asarray(t, dtype=float))
+        return np.zeros(scale.shape), np.stack(cols, axis=-1)
+
     def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)
         if nuisance is None:

@@ -55,6 +55,15 @@ class Power(MeasurementModel):
         r = np.linalg.norm(rel[..., :3], axis=-1)
         return const_db - 10.0 * n * np.log10(r)
 
+    def affine(self, rel, t=None, rel_ref=None):
+        rel = as_rel(rel)
+        p = rel[..., :3]
+        minus_10_log_r = -5.0 * np.log10(np.einsum("...i,...i->...", p, p))
+        if self.exponent is None:
+            return (np.zeros(minus_10_log_r.shape),
+                    np.stack([np.ones(minus_10_log_r.shape), minus_10_log_r], axis=-1))
+        return self.exponent * minus_10_log_r, np.ones((*minus_10_log_r.shape, 1))
+
     def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)
         _, n = self._split(nuisance)

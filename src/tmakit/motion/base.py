@@ -38,6 +38,11 @@ class MotionModel(ABC):
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
         """``d state / d theta`` at times ``t``: shape ``(..., n, 6, p)``."""
 
+    def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
+        """Parameters of the simplest trajectory of this model through ENU states
+        ``(..., 6)`` at time ``t`` (used to turn grid points into starting values)."""
+        raise NotImplementedError(f"{self.name} cannot be started from a state")
+
     def theta(self, values: Mapping[str, float]) -> NDArray[np.float64]:
         """A parameter vector from a mapping of names to values; every name is required."""
         missing = [name for name in self.param_names if name not in values]

@@ -52,6 +52,13 @@ class ConstantVelocity(MotionModel):
             jac[:, 3 + i, d + i] = 1.0
         return np.broadcast_to(jac, (*theta.shape[:-1], *jac.shape)).copy()
 
+    def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
+        state = np.asarray(state, dtype=float)
+        d = self.dim
+        vel = state[..., 3:3 + d]
+        pos = state[..., :d] - vel * (float(t) - self.ref_time)
+        return np.concatenate([pos, vel], axis=-1)
+
     def at_reference_time(self, theta: ArrayLike, new_ref_time: float) -> NDArray[np.float64]:
         """The same trajectory's parameters referenced at ``new_ref_time``."""
         theta = self._check_theta(theta).copy()
@@ -87,6 +94,9 @@ class Stationary(MotionModel):
         for i in range(self.dim):
             jac[:, i, i] = 1.0
         return np.broadcast_to(jac, (*theta.shape[:-1], *jac.shape)).copy()
+
+    def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
+        return np.asarray(state, dtype=float)[..., : self.dim].copy()
 
     def __repr__(self) -> str:
         return f"Stationary(dim={self.dim})"
