@@ -128,8 +128,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
 
     Converged: a lightly damped step whose predicted decrease of the cost is below ``ftol``
     relative or that moves every parameter by less than ``xtol`` relative, or a gradient whose
-    cosine with every Jacobian column is below ``gtol``.  The final step is taken if it helps.  Runs that stall (damping above 1e12) without meeting a
-    test are reported as not converged.
+    cosine with every Jacobian column is below ``gtol``.  Runs that stall (damping above 1e12)
+    without meeting a test are reported as not converged.
     """
     theta = np.array(theta0, dtype=float, ndmin=2)
     y = np.broadcast_to(np.asarray(y, dtype=float), (theta.shape[0], len(problem.obs.meas)))
