@@ -4,6 +4,10 @@
     tma simulate SCENARIO [--seed N] [--no-noise] -o FILE [--force]
     tma show FILE [--plot out.png] [--origin LAT,LON,ALT] [--force]
     tma demo [--out-dir DIR] [--seed N] [--force]
+    tma crlb FILE --motion cv2d --truth x=..,y=.. [--known-nuisance] [--json]
+    tma crlb SCENARIO [--known-nuisance] [--at T] [--json]
+    tma estimate FILE [--motion cv2d] [--init x=..,y=..] [--method ml] [--json]
+    tma reproduce gu2007|doppler-lecture [--runs N] [--seed S]
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
@@ -166,6 +170,200 @@ def show(
 
         plot_measurements(meas, plot, title=title)
         out.print(f"wrote {plot}", highlight=False)
+
+
+def _parse_assignments(text: str | None, option: str) -> dict[str, float]:
+    """``"x=1,y=2"`` -> {"x": 1.0, "y": 2.0}, with a clear error for anything else."""
+    if text is None:
+        return {}
+    out: dict[str, float] = {}
+    for part in text.split(","):
+        name, eq, value = part.partition("=")
+        try:
+            if not eq or not name.strip():
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise _fail(f"{option} {text!r}: expected name=value pairs separated by commas, "
+                        f"e.g. x=3200,y=3200,vx=-21.65,vy=-12.5 (problem at {part!r})"
+                        ) from None
+    return out
+
+
+def _motion(name: str | None, ref_time: float | None, meas=None):
+    from .motion import motion_from_name
+
+    if name is None:
+        if meas is not None and "motion" in meas.metadata:
+            name = meas.metadata["motion"]
+            if ref_time is None and "ref_time" in meas.metadata:
+                ref_time = float(meas.metadata["ref_time"])
+        else:
+            raise _fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
+    try:
+        return motion_from_name(name, 0.0 if ref_time is None else ref_time)
+    except ValueError as e:
+        raise _fail(str(e)) from None
+
+
+def _model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, object]]:
+    return {"frequency": {"drift": drift}, "power": {"exponent": None if free_exponent else 2.0}}
+
+
+def _is_measurement_file(text: str) -> bool:
+    return Path(text).suffix.lower() in (".csv", ".parquet", ".pq")
+
+
+@app.command()
+def crlb(
+    source: Annotated[str, typer.Argument(help="measurement file, or a scenario name/TOML")],
+    motion: Annotated[str | None, typer.Option(help="cv2d, cv3d, static2d, static3d")] = None,
+    ref_time: Annotated[float | None, typer.Option(
+        help="reference time of the motion parameters (s)")] = None,
+    truth: Annotated[str | None, typer.Option(
+        help="where to evaluate the bound, e.g. x=3200,y=3200,vx=-21.65,vy=-12.5")] = None,
+    known_nuisance: Annotated[bool, typer.Option(
+        help="treat carrier, drift, power constant and exponent as known")] = False,
+    drift: Annotated[bool, typer.Option(help="model a linear carrier drift")] = False,
+    free_exponent: Annotated[bool, typer.Option(
+        help="the path-loss exponent is unknown too")] = False,
+    at: Annotated[float | None, typer.Option(
+        help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
+) -> None:
+    """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
+
+    For a file the bound is evaluated at --truth from the file's times, sensors, kinds and
+    sigmas (its measured values are not used).  Nuisance parameters are unknown unless
+    --known-nuisance is given.
+    """
+    import json
+
+    from .bounds import crlb as compute
+
+    if _is_measurement_file(source):
+        meas = _read(Path(source))
+        model = _motion(motion, ref_time, meas)
+        values = _parse_assignments(truth, "--truth")
+        if not values and "truth" in meas.metadata and motion is None:
+            values = json.loads(meas.metadata["truth"])
+        if not values:
+            raise _fail("--truth is needed to evaluate the bound of a measurement file")
+        try:
+            bound = compute(meas, model, values, known_nuisance=known_nuisance,
+                            options=_model_options(drift, free_exponent))
+        except ValueError as e:
+            raise _fail(str(e)) from None
+    else:
+        scn = _load_scenario(source)
+        opts = scn.measurement_options
+        if drift:
+            opts.setdefault("frequency", {})["drift"] = True
+        if free_exponent:
+            opts.setdefault("power", {})["exponent"] = None
+        bound = compute(scn, known_nuisance=known_nuisance, options=opts)
+    derived = None
+    if at is not None:
+        derived = {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
+            "inf") else None} for k, (v, sd) in bound.derived(at).items()},
+            "ellipse_90": bound.ellipse(at, 0.9)}
+    if as_json:
+        data = bound.as_dict()
+        if derived is not None:
+            data["at"] = derived
+        out.print_json(json.dumps(data, default=lambda x: None))
+        return
+    out.print(bound.summary(), highlight=False)
+    if derived is not None:
+        out.print(f"at t = {at:g} s:", highlight=False)
+        for k, v in derived.items():
+            if isinstance(v, dict) and "value" in v:
+                sd = v["std"]
+                out.print(f"  {k:<6} {v['value']:14.6g}  std "
+                          + (f"{sd:.4g}" if sd is not None else "unobservable"),
+                          highlight=False)
+        e = derived["ellipse_90"]
+        out.print(f"  90 % ellipse: semi-axes {e['major']:.4g} m x {e['minor']:.4g} m, "
+                  f"major axis bearing {e['bearing_deg']:.1f} deg", highlight=False)
+
+
+@app.command()
+def estimate(
+    file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
+    motion: Annotated[str | None, typer.Option(help="cv2d, cv3d, static2d, static3d")] = None,
+    ref_time: Annotated[float | None, typer.Option(
+        help="reference time of the motion parameters (s)")] = None,
+    init: Annotated[str | None, typer.Option(
+        help="optional starting point, e.g. x=3000,y=3000,vx=-20,vy=-10")] = None,
+    method: Annotated[str, typer.Option(
+        help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
+             "ratio-doppler, lecture-gn")] = "ml",
+    drift: Annotated[bool, typer.Option(help="model a linear carrier drift")] = False,
+    free_exponent: Annotated[bool, typer.Option(
+        help="the path-loss exponent is unknown too")] = False,
+    origin: Annotated[str | None, typer.Option(
+        help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
+) -> None:
+    """Estimate the emitter's trajectory from a measurement file (no initial guess needed)."""
+    meas = _read(file, _parse_origin(origin))
+    model = _motion(motion, ref_time, meas)
+    start = _parse_assignments(init, "--init") or None
+    options = _model_options(drift, free_exponent)
+    try:
+        if method == "ml":
+            from .batch import estimate as run
+
+            result = run(meas, model, init=start, options=options)
+        else:
+            from .batch.methods import estimate_with
+
+            result = estimate_with(method, meas, model, init=start, options=options)
+    except ValueError as e:
+        raise _fail(str(e)) from None
+    if as_json:
+        out.print_json(result.to_json())
+    else:
+        out.print(result.summary(), highlight=False)
+    if result.status != "converged":
+        raise typer.Exit(1)
+
+
+@app.command()
+def reproduce(
+    name: Annotated[str, typer.Argument(help="gu2007 or doppler-lecture")],
+    runs: Annotated[int, typer.Option(help="Monte Carlo runs where the paper has them "
+                                           "(0 to skip)")] = 200,
+    seed: Annotated[int, typer.Option(help="random seed")] = 1,
+    as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
+) -> None:
+    """Reproduce a paper's tables and figures next to the paper's own numbers."""
+    import importlib
+
+    from .reproduce import REPRODUCTIONS
+
+    if name not in REPRODUCTIONS:
+        raise _fail(f"no reproduction named {name!r}; available: {', '.join(REPRODUCTIONS)}")
+    if runs < 0:
+        raise _fail("--runs must be 0 or more")
+    module = importlib.import_module(REPRODUCTIONS[name])
+    rep = module.run(runs=runs, seed=seed, progress=not as_json)
+    if as_json:
+        import json
+
+        out.print_json(json.dumps(rep.as_dict(), default=float))
+        return
+    for section in rep.sections:
+        table = Table(title=section.title, title_justify="left")
+        for col in section.header:
+            table.add_column(col)
+        for row in section.rows:
+            table.add_row(*(f"{v:.6g}" if isinstance(v, float) else str(v) for v in row))
+        out.print(table)
+        if section.note:
+            out.print(section.note, highlight=False)
+    for key, value in rep.figures.items():
+        out.print(f"{key}: {value}", highlight=False)
 
 
 @app.command()

@@ -88,20 +88,30 @@ class ObservationModel:
                 None if rel_ref is None else rel_ref[..., idx, :])
         return out
 
-    def affine(self, theta: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``(h0 (..., n), A (..., n, k))`` with predictions ``h0 + A @ nuisance``."""
+    def affine_parts(self, theta: ArrayLike
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """``(h0, A_const, A_var)``: predictions are ``h0 + (A_const + A_var) @ nuisance``,
+        ``A_const`` independent of the geometry (see
+        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`)."""
         theta = np.asarray(theta, dtype=float)
         rel, rel_ref = self._relative(theta)
         h0 = np.empty(rel.shape[:-1])
-        a = np.zeros((*rel.shape[:-1], self.n_nuisance))
+        const = np.zeros((*rel.shape[:-1], self.n_nuisance))
+        var = np.zeros((*rel.shape[:-1], self.n_nuisance))
         t = self.meas.time
         for k, m in self.models.items():
             idx = self.rows[k]
-            base, design = m.affine(rel[..., idx, :], t[idx],
-                                    None if rel_ref is None else rel_ref[..., idx, :])
+            base, c, v = m.affine_parts(rel[..., idx, :], t[idx],
+                                        None if rel_ref is None else rel_ref[..., idx, :])
             h0[..., idx] = base
-            a[..., idx, self.nuisance_slices[k]] = design
-        return h0, a
+            const[..., idx, self.nuisance_slices[k]] = c
+            var[..., idx, self.nuisance_slices[k]] = v
+        return h0, const, var
+
+    def affine(self, theta: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(h0 (..., n), A (..., n, k))`` with predictions ``h0 + A @ nuisance``."""
+        h0, const, var = self.affine_parts(theta)
+        return h0, const + var
 
     def jacobian(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -95,7 +95,7 @@ class EstimateResult:
             lines.append(f"  {n:<{width}}  {v:16.8g}  "
                          + (f"{s:12.4g}" if np.isfinite(s) else f"{'unobservable':>12}"))
         for n, (v, s) in self.nuisance.items():
-            lines.append(f"  {n:<{width}}  {v:16.10g}  "
+            lines.append(f"  {n:<{width}}  {v:16.13g}  "
                          + (f"{s:12.4g}" if np.isfinite(s) else f"{'unobservable':>12}"))
         if self.bound is not None:
             for d in self.bound.observability.directions:
@@ -128,7 +128,7 @@ def _result(problem: VarProProblem, theta: NDArray, nu: NDArray, cost: float, it
     for i, name in enumerate(names_nu):
         s = np.nan if known_nuisance else bound.std[p + i]
         nuis[name] = (float(nu[i]), float(s) if not known_nuisance else 0.0)
-    dof = n - len(names)
+    dof = problem.noise.rank - len(names)
     status = CONVERGED if converged else NOT_CONVERGED
     message = ""
     if not bound.observability.full_rank:
@@ -172,7 +172,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel,
     # The best grid point first; the others only if its fit is implausible (chi2 far above
     # its degrees of freedom), so that a local minimum is not taken for the answer.
     sol = levenberg_marquardt(problem, y, theta0[:1], max_iter=max_iter)
-    dof = len(meas) - motion.n_params - (0 if fixed is not None else obs.n_nuisance)
+    dof = problem.noise.rank - motion.n_params - (0 if fixed is not None else obs.n_nuisance)
     used = 1
     if theta0.shape[0] > 1 and not (sol.converged[0] and plausible_chi2(2 * sol.cost[0], dof)):
         more = levenberg_marquardt(problem, y, theta0[1:], max_iter=max_iter)

@@ -56,27 +56,40 @@ class VarProProblem:
 
     # -- linear structure -----------------------------------------------------------------
     def _split(self, theta: Array, nu_lin: Array, with_jacobian: bool):
-        """``h0`` (B, n), ``A`` (B, n, k) with predictions = h0 + A nu, and d/d theta at
-        ``nu_lin`` (exact when ``nu_lin`` is the nuisance used, since h is affine in nu)."""
-        obs = self.obs
-        if not with_jacobian:
-            h0, a = obs.affine(theta)
-            return h0, a, None
-        j_theta, a = obs.jacobian(theta, nu_lin)
-        h0 = obs.predict(theta, nu_lin) - np.einsum("bnk,bk->bn", a, nu_lin)
-        return h0, a, j_theta
+        """``h0`` (B, n), ``A_const``, ``A_var`` (B, n, k) with predictions
+        ``h0 + (A_const + A_var) nu``, and d/d theta at ``nu_lin`` (exact when ``nu_lin`` is
+        the nuisance used, since the predictions are affine in nu)."""
+        h0, a_const, a_var = self.obs.affine_parts(theta)
+        j_theta = self.obs.jacobian(theta, nu_lin)[0] if with_jacobian else None
+        return h0, a_const, a_var, j_theta
 
     def evaluate(self, theta: Array, y: Array, nu_lin: Array,
-                 with_jacobian: bool = True) -> Evaluation:
+                 with_jacobian: bool = True, nu_star: Array | None = None) -> Evaluation:
         """Eliminate the nuisance at ``theta`` for data ``y`` (B, n) and return the reduced
-        residual, cost and (optionally) projected Jacobian."""
+        residual, cost and (optionally) projected Jacobian.
+
+        ``nu_lin`` is the current nuisance estimate (the residual is formed about it);
+        ``nu_star`` (default ``nu_lin``) a value held fixed for a whole solve, whose
+        geometry-free part of the predictions is subtracted from the data exactly once, so
+        that the cost is smooth to rounding even with GHz carriers.
+        """
         theta = np.asarray(theta, dtype=float)
-        h0, a, j_theta = self._split(theta, nu_lin, with_jacobian)
+        # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self._evaluate(theta, y, nu_lin, with_jacobian, nu_star)
+
+    def _evaluate(self, theta: Array, y: Array, nu_lin: Array, with_jacobian: bool,
+                  nu_star: Array | None) -> Evaluation:
+        h0, a_const, a_var, j_theta = self._split(theta, nu_lin, with_jacobian)
         nu_ref = (np.broadcast_to(self.fixed, nu_lin.shape) if self.fixed is not None
                   else nu_lin)
-        # Residual about the current nuisance values: a 1.9 GHz carrier would otherwise
-        # leave only ~1e-7 of relative precision in whitened residuals of order 1.
-        e = y - h0 - np.einsum("bnk,bk->bn", a, nu_ref)
+        star = nu_ref if nu_star is None else nu_star
+        a = a_const + a_var
+        # y - h0 - A nu_ref, arranged so that no two large numbers meet after the first
+        # subtraction (which is exact for data close to A_const nu_star).
+        shifted = y - np.einsum("bnk,bk->bn", a_const, star)
+        e = (shifted - h0 - np.einsum("bnk,bk->bn", a_var, nu_ref)
+             - np.einsum("bnk,bk->bn", a_const, nu_ref - star))
         e = np.where(self.angle, wrap_angle(e), e)
         ew = self.noise.whiten(e)
         if self.fixed is not None or self.k == 0:
@@ -123,19 +136,21 @@ class SolveResult:
 
 def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         max_iter: int = 100, ftol: float = 1e-10, xtol: float = 1e-12,
-                        gtol: float = 1e-10) -> SolveResult:
+                        gtol: float = 1e-10, dtol: float = 1e-7) -> SolveResult:
     """Batched Levenberg–Marquardt (Marquardt's diagonal scaling) on the reduced problem.
 
-    Converged: a lightly damped step whose predicted decrease of the cost is below ``ftol``
-    relative or that moves every parameter by less than ``xtol`` relative, or a gradient whose
-    cosine with every Jacobian column is below ``gtol``.  Runs that stall (damping above 1e12)
-    without meeting a test are reported as not converged.
+    Converged: a Gauss-Newton decrement (the decrease an undamped step predicts) below ``ftol``
+    relative to the cost plus ``dtol``, or an accepted lightly damped step that moves every
+    parameter by less than ``xtol`` relative, or a gradient whose cosine with every Jacobian
+    column is below ``gtol``.  Runs that stall (damping above 1e12) without meeting a test are
+    reported as not converged.
     """
     theta = np.array(theta0, dtype=float, ndmin=2)
     y = np.broadcast_to(np.asarray(y, dtype=float), (theta.shape[0], len(problem.obs.meas)))
     b, p = theta.shape
     nu = problem.initial_nuisance(theta, y)
-    cur = problem.evaluate(theta, y, nu)
+    nu_star = nu.copy()
+    cur = problem.evaluate(theta, y, nu, nu_star=nu_star)
     lam = np.full(b, 1e-3)
     active = np.isfinite(cur.cost)
     converged = np.zeros(b, dtype=bool)
@@ -161,7 +176,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
             step = np.stack([np.linalg.lstsq(m, g, rcond=None)[0] for m, g in zip(mat, grad,
                                                                                    strict=True)])
         trial_theta = cur.theta[idx] + step
-        trial = problem.evaluate(trial_theta, y[idx], cur.nuisance[idx])
+        trial = problem.evaluate(trial_theta, y[idx], cur.nuisance[idx],
+                                 nu_star=nu_star[idx])
         better = trial.cost < cur.cost[idx]
         iterations[idx] += 1
         old_cost = cur.cost[idx]
@@ -177,15 +193,19 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         # undamped step: the measured decrease is lost in rounding once it falls below
         # ~1e-8 of the cost (data such as 1.9 GHz frequencies carry ~16 digits in all).
         # A heavily damped step is small without being converged, hence the damping test.
-        predicted = np.einsum("bp,bp->b", grad, step) - 0.5 * np.einsum(
-            "bn,bn->b", *(2 * [np.einsum("bnp,bp->bn", jr, step)]))
+        # The Gauss-Newton decrement g' (J'J)^-1 g / 2 does not depend on the damping, so a
+        # run sitting at the minimum is recognised even after rounding made a step look worse.
+        gn = np.linalg.solve(jtj + floor[:, :, None] * np.eye(p), grad[..., None])[..., 0]
+        decrement = 0.5 * np.einsum("bp,bp->b", grad, gn)
         rel_step = np.max(np.abs(step) / (np.abs(cur.theta[idx]) + 1.0), axis=1)
         gauss_newton = lam[idx] <= 1e-2
-        done = small_grad | (gauss_newton & ((predicted <= ftol * old_cost)
-                                             | (rel_step <= xtol)))
+        # The decrement is half the squared distance to the minimum in standard deviations
+        # (the residuals are whitened): dtol = 1e-7 means within 4.5e-4 sigma of it.
+        done = small_grad | (decrement <= ftol * old_cost + dtol) | (
+            better & gauss_newton & (rel_step <= xtol))
         converged[idx] |= done
         stalled = lam[idx] > 1e12
         active[idx] = ~(done | stalled)
     # A final consistent evaluation (nuisance eliminated at the final theta).
-    final = problem.evaluate(cur.theta, y, cur.nuisance)
+    final = problem.evaluate(cur.theta, y, cur.nuisance, nu_star=nu_star)
     return SolveResult(final.theta, final.nuisance, final.cost, iterations, converged, final)

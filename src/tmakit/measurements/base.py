@@ -95,6 +95,14 @@ class MeasurementModel:
         cols = [self.predict(rel, t, np.eye(k)[j], rel_ref) - base for j in range(k)]
         return base, np.stack(cols, axis=-1)
 
+    def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
+                     rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
+        """``(h0, A_const, A_var)`` with ``A = A_const + A_var``: ``A_const`` does not depend
+        on the geometry.  Solvers subtract ``A_const @ nuisance`` from the data once, so that
+        large nuisance values (a GHz carrier) do not swamp the residuals in rounding."""
+        h0, a = self.affine(rel, t, rel_ref)
+        return h0, np.zeros(a.shape), a
+
     # -- edges: file units <-> SI ------------------------------------------------------
     def value_to_si(self, value: ArrayLike) -> Array:
         return np.asarray(value, dtype=float) * self.file_scale + self.file_offset

@@ -62,14 +62,23 @@ class Frequency(MeasurementModel):
         rdot, _ = range_rate_and_gradient(rel)
         return self._carrier(t, nuisance, rdot.shape) * (1.0 - rdot / self.c)
 
-    def affine(self, rel, t=None, rel_ref=None):
+    def affine_parts(self, rel, t=None, rel_ref=None):
+        # f = carrier (1 - rdot/c) [+ drift t (1 - rdot/c)]: the constant part of the design is
+        # (1, t), the geometry enters only through the small -rdot/c.
         rel = as_rel(rel)
         p, v = rel[..., :3], rel[..., 3:]
-        scale = 1.0 - np.einsum("...i,...i->...", p, v) / (np.linalg.norm(p, axis=-1) * self.c)
-        cols = [scale]
+        small = -np.einsum("...i,...i->...", p, v) / (np.linalg.norm(p, axis=-1) * self.c)
+        ones = np.ones(small.shape)
+        const, var = [ones], [small]
         if self.drift:
-            cols.append(scale * np.asarray(t, dtype=float))
-        return np.zeros(scale.shape), np.stack(cols, axis=-1)
+            tt = np.broadcast_to(np.asarray(t, dtype=float), small.shape)
+            const.append(tt)
+            var.append(small * tt)
+        return np.zeros(small.shape), np.stack(const, axis=-1), np.stack(var, axis=-1)
+
+    def affine(self, rel, t=None, rel_ref=None):
+        h0, const, var = self.affine_parts(rel, t, rel_ref)
+        return h0, const + var
 
     def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)
