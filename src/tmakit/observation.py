@@ -7,6 +7,10 @@ known, so ``d rel / d state`` is the identity), plus ``d value / d nuisance``.
 
 Nuisance parameters are shared by all rows of a kind; their vector is the concatenation of
 each kind's :attr:`~tmakit.measurements.MeasurementModel.nuisance_names` in kind order.
+
+Internally the rows are grouped by kind (:attr:`ObservationModel.order`) so that every kind is
+a contiguous slice; the ``*_grouped`` methods work in that order (solvers use them, since row
+order does not matter to a fit) and the public methods return the set's own row order.
 """
 
 from __future__ import annotations
@@ -21,12 +25,15 @@ from .frames import wrap_angle
 from .measurements import MeasurementModel, model_for
 from .motion import MotionModel
 
+Array = NDArray[np.float64]
+
 
 class ObservationModel:
     """Predict every row of ``meas`` from motion parameters ``theta`` and nuisance ``nu``.
 
     ``options`` maps a kind to its model's constructor options, e.g.
-    ``{"frequency": {"drift": True}, "power": {"exponent": None}}``.
+    ``{"frequency": {"drift": True}, "power": {"exponent": None}}``.  ``theta`` may carry
+    leading batch axes ``(..., p)``; ``nuisance`` then has the same leading axes ``(..., k)``.
     """
 
     def __init__(self, meas: MeasurementSet, motion: MotionModel,
@@ -45,103 +52,129 @@ class ObservationModel:
             names.extend(m.nuisance_names)
             self.nuisance_slices[k] = slice(start, len(names))
         self.nuisance_names = tuple(names)
-        self.has_reference = bool(np.any(meas.kind == "range_difference"))
-        self.ref_rows = np.flatnonzero(np.isfinite(meas.time_ref))
-        self.angle_mask = np.zeros(len(meas), dtype=bool)
+        # Rows grouped by kind: each kind a contiguous slice of the grouped order.
+        self.order = (np.concatenate([self.rows[k] for k in self.models])
+                      if self.models else np.zeros(0, dtype=int))
+        self.inverse = np.argsort(self.order)
+        self.grouped = meas.take(self.order)
+        self.slices: dict[str, slice] = {}
+        start = 0
+        for k in self.models:
+            self.slices[k] = slice(start, start + self.rows[k].size)
+            start += self.rows[k].size
+        g = self.grouped
+        self._time = g.time
+        self._sensor = g.sensor_state
+        self._ref = self.slices.get("range_difference")
+        self.has_reference = self._ref is not None
+        self.angle_mask_grouped = np.zeros(len(meas), dtype=bool)
         for k, m in self.models.items():
             if m.is_angle:
-                self.angle_mask[self.rows[k]] = True
+                self.angle_mask_grouped[self.slices[k]] = True
+        self.angle_mask = self.angle_mask_grouped[self.inverse]
         self.values = meas.value_si
         self.sigmas = meas.sigma_si
+        self.values_grouped = self.values[self.order]
+        self.sigmas_grouped = self.sigmas[self.order]
 
     @property
     def n_nuisance(self) -> int:
         return len(self.nuisance_names)
 
-    def nuisance_vector(self, values: Mapping[str, float] | None) -> NDArray[np.float64]:
+    def nuisance_vector(self, values: Mapping[str, float] | None) -> Array:
         """Nuisance vector from a mapping (defaults such as ``carrier_drift = 0`` filled in)."""
         parts = [m.nuisance_vector(dict(values or {})) for m in self.models.values()]
         return np.concatenate(parts) if parts else np.zeros(0)
 
-    def _relative(self, theta: NDArray[np.float64]) -> tuple[NDArray, NDArray | None]:
-        meas = self.meas
-        rel = self.motion.states(theta, meas.time) - meas.sensor_state
+    # -- grouped order (for solvers) ---------------------------------------------------------
+    def _relative(self, theta: Array) -> tuple[Array, Array | None]:
+        """Relative states (..., n, 6) in grouped order, and (..., n_rd, 6) at the reference
+        times of the range differences (None without range differences)."""
+        rel = self.motion.states(theta, self._time) - self._sensor
         rel_ref = None
-        if self.has_reference:
-            rel_ref = np.full(rel.shape, np.nan)
-            r = self.ref_rows
-            rel_ref[..., r, :] = (self.motion.states(theta, meas.time_ref[r])
-                                  - meas.ref_sensor_state[r])
+        if self._ref is not None:
+            g = self.grouped
+            sl = self._ref
+            rel_ref = (self.motion.states(theta, g.time_ref[sl]) - g.ref_sensor_state[sl])
         return rel, rel_ref
 
-    def predict(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Predicted values (SI) for every row, shape ``(..., n)``."""
+    def _ref_for(self, kind: str, rel_ref: Array | None) -> Array | None:
+        return rel_ref if kind == "range_difference" else None
+
+    def linearise_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None,
+                          jacobian: bool = True
+                          ) -> tuple[Array, Array, Array, Array | None]:
+        """In grouped order: ``(h0, A_const, A_var, d value / d theta)`` with predictions
+        ``h0 + (A_const + A_var) @ nuisance`` (see
+        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`); the Jacobian (None unless
+        asked for) is evaluated at ``nuisance``."""
+        theta = np.asarray(theta, dtype=float)
+        rel, rel_ref = self._relative(theta)
+        batch = rel.shape[:-1]
+        h0 = np.empty(batch)
+        a_const = np.zeros((*batch, self.n_nuisance))
+        a_var = np.zeros((*batch, self.n_nuisance))
+        j_theta = np.empty((*batch, self.motion.n_params)) if jacobian else None
+        nu = np.zeros(0) if nuisance is None else np.asarray(nuisance, dtype=float)
+        t = self._time
+        for k, m in self.models.items():
+            sl, ns = self.slices[k], self.nuisance_slices[k]
+            r_k, ref_k = rel[..., sl, :], self._ref_for(k, rel_ref)
+            base, c, v = m.affine_parts(r_k, t[sl], ref_k)
+            h0[..., sl] = base
+            a_const[..., sl, ns] = c
+            a_var[..., sl, ns] = v
+            if j_theta is not None:
+                jac = m.jacobian(r_k, t[sl], nu[..., ns][..., None, :], ref_k)
+                j = self.motion.chain(jac.rel, theta, t[sl])
+                if jac.rel_ref is not None:
+                    j = j + self.motion.chain(jac.rel_ref, theta, self.grouped.time_ref[sl])
+                j_theta[..., sl, :] = j
+        return h0, a_const, a_var, j_theta
+
+    def predict_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
         theta = np.asarray(theta, dtype=float)
         nu = np.zeros(0) if nuisance is None else np.asarray(nuisance, dtype=float)
         rel, rel_ref = self._relative(theta)
         out = np.empty(rel.shape[:-1])
-        t = self.meas.time
+        t = self._time
         for k, m in self.models.items():
-            idx = self.rows[k]
-            out[..., idx] = m.predict(
-                rel[..., idx, :], t[idx], nu[..., self.nuisance_slices[k]][..., None, :],
-                None if rel_ref is None else rel_ref[..., idx, :])
+            sl, ns = self.slices[k], self.nuisance_slices[k]
+            out[..., sl] = m.predict(rel[..., sl, :], t[sl], nu[..., ns][..., None, :],
+                                     self._ref_for(k, rel_ref))
         return out
 
-    def affine_parts(self, theta: ArrayLike
-                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None
+                         ) -> tuple[Array, Array]:
+        _, a_const, a_var, j_theta = self.linearise_grouped(theta, nuisance, jacobian=True)
+        assert j_theta is not None
+        return j_theta, a_const + a_var
+
+    # -- the set's own row order -------------------------------------------------------------
+    def predict(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
+        """Predicted values (SI) for every row, shape ``(..., n)``."""
+        return self.predict_grouped(theta, nuisance)[..., self.inverse]
+
+    def jacobian(self, theta: ArrayLike, nuisance: ArrayLike | None = None
+                 ) -> tuple[Array, Array]:
+        """``(d value / d theta (..., n, p), d value / d nuisance (..., n, k))``."""
+        j_theta, j_nu = self.jacobian_grouped(theta, nuisance)
+        return j_theta[..., self.inverse, :], j_nu[..., self.inverse, :]
+
+    def affine_parts(self, theta: ArrayLike) -> tuple[Array, Array, Array]:
         """``(h0, A_const, A_var)``: predictions are ``h0 + (A_const + A_var) @ nuisance``,
         ``A_const`` independent of the geometry (see
         :meth:`~tmakit.measurements.MeasurementModel.affine_parts`)."""
-        theta = np.asarray(theta, dtype=float)
-        rel, rel_ref = self._relative(theta)
-        h0 = np.empty(rel.shape[:-1])
-        const = np.zeros((*rel.shape[:-1], self.n_nuisance))
-        var = np.zeros((*rel.shape[:-1], self.n_nuisance))
-        t = self.meas.time
-        for k, m in self.models.items():
-            idx = self.rows[k]
-            base, c, v = m.affine_parts(rel[..., idx, :], t[idx],
-                                        None if rel_ref is None else rel_ref[..., idx, :])
-            h0[..., idx] = base
-            const[..., idx, self.nuisance_slices[k]] = c
-            var[..., idx, self.nuisance_slices[k]] = v
-        return h0, const, var
+        h0, c, v, _ = self.linearise_grouped(theta, jacobian=False)
+        inv = self.inverse
+        return h0[..., inv], c[..., inv, :], v[..., inv, :]
 
-    def affine(self, theta: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def affine(self, theta: ArrayLike) -> tuple[Array, Array]:
         """``(h0 (..., n), A (..., n, k))`` with predictions ``h0 + A @ nuisance``."""
         h0, const, var = self.affine_parts(theta)
         return h0, const + var
 
-    def jacobian(self, theta: ArrayLike, nuisance: ArrayLike | None = None
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``(d value / d theta (..., n, p), d value / d nuisance (..., n, k))``."""
-        theta = np.asarray(theta, dtype=float)
-        nu = np.zeros(0) if nuisance is None else np.asarray(nuisance, dtype=float)
-        meas = self.meas
-        rel, rel_ref = self._relative(theta)
-        dstate = self.motion.jacobian(theta, meas.time)  # (..., n, 6, p)
-        j_theta = np.zeros((*rel.shape[:-1], self.motion.n_params))
-        j_nu = np.zeros((*rel.shape[:-1], self.n_nuisance))
-        dstate_ref = None
-        if self.has_reference:
-            dstate_ref = np.zeros(dstate.shape)
-            r = self.ref_rows
-            dstate_ref[..., r, :, :] = self.motion.jacobian(theta, meas.time_ref[r])
-        for k, m in self.models.items():
-            idx = self.rows[k]
-            jac = m.jacobian(rel[..., idx, :], meas.time[idx],
-                             nu[..., self.nuisance_slices[k]][..., None, :],
-                             None if rel_ref is None else rel_ref[..., idx, :])
-            j = np.einsum("...i,...ip->...p", jac.rel, dstate[..., idx, :, :])
-            if jac.rel_ref is not None and dstate_ref is not None:
-                j = j + np.einsum("...i,...ip->...p", jac.rel_ref, dstate_ref[..., idx, :, :])
-            j_theta[..., idx, :] = j
-            j_nu[..., idx, self.nuisance_slices[k]] = jac.nuisance
-        return j_theta, j_nu
-
-    def residuals(self, theta: ArrayLike, nuisance: ArrayLike | None = None
-                  ) -> NDArray[np.float64]:
+    def residuals(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
         """measured - predicted (SI), angles wrapped to (-pi, pi]."""
         res = self.values - self.predict(theta, nuisance)
         return np.where(self.angle_mask, wrap_angle(res), res)

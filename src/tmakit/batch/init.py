@@ -99,7 +99,6 @@ def _subsample(problem: VarProProblem, max_rows: int
                ) -> tuple[VarProProblem, NDArray[np.int64]]:
     """A problem on an evenly spread subset of rows per kind (the grid needs no more) and
     the indices of the rows kept."""
-    from ..bounds.noise import NoiseModel
     from ..observation import ObservationModel
 
     meas = problem.obs.meas
@@ -115,7 +114,7 @@ def _subsample(problem: VarProProblem, max_rows: int
     sub = meas.take(idx)
     opts = {k: _options_of(m) for k, m in problem.obs.models.items()}
     obs = ObservationModel(sub, problem.obs.motion, opts)
-    return VarProProblem(obs, NoiseModel(sub), problem.fixed), idx
+    return VarProProblem(obs, None, problem.fixed), idx
 
 
 def _options_of(model) -> dict[str, object]:
@@ -133,7 +132,7 @@ def best_starts(problem: VarProProblem, y: NDArray[np.float64],
     g = settings or GridSettings()
     cand = grid_candidates(problem, g)
     small, rows = _subsample(problem, g.max_rows)
-    y_small = np.asarray(y, dtype=float)[..., rows]
+    y_small = small.group(np.asarray(y, dtype=float)[..., rows])
     nu0 = np.zeros((cand.shape[0], small.k))
     cost = small.evaluate(cand, np.broadcast_to(y_small, (cand.shape[0], rows.size)), nu0,
                           with_jacobian=False).cost

@@ -17,8 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..bounds.fim import Bound, bound_from_information, whitened_jacobian
-from ..bounds.noise import NoiseModel
+from ..bounds.fim import Bound, bound_from_information
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
@@ -115,7 +114,9 @@ def _result(problem: VarProProblem, theta: NDArray, nu: NDArray, cost: float, it
                               iterations, np.inf, n - motion.n_params, method, motion,
                               None, starts, "the solve left the region where the model is "
                               "defined (non-finite predictions)")
-    w = whitened_jacobian(obs, problem.noise, theta, nu, known_nuisance)
+    j_theta, j_nu = obs.jacobian_grouped(theta, nu)  # the problem's noise is grouped too
+    jac = j_theta if known_nuisance else np.concatenate([j_theta, j_nu], axis=-1)
+    w = problem.noise.whiten(jac, axis=-2)
     info = w.T @ w
     names = motion.param_names + (() if known_nuisance else names_nu)
     values = theta if known_nuisance else np.concatenate([theta, nu])
@@ -157,7 +158,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel,
     """
     obs = ObservationModel(meas, motion, options)
     fixed = None if known_nuisance is None else obs.nuisance_vector(known_nuisance)
-    problem = VarProProblem(obs, NoiseModel(meas), fixed)
+    problem = VarProProblem(obs, None, fixed)
     y = obs.values
     if init is not None:
         theta0 = (motion.theta(init) if isinstance(init, Mapping)

@@ -48,25 +48,22 @@ class VarProProblem:
     def __init__(self, obs: ObservationModel, noise: NoiseModel | None = None,
                  fixed_nuisance: Array | None = None) -> None:
         self.obs = obs
-        self.noise = noise or NoiseModel(obs.meas)
+        # Rows are handled grouped by kind (contiguous slices); see ObservationModel.
+        self.noise = noise or NoiseModel(obs.grouped)
         self.k = obs.n_nuisance
         self.p = obs.motion.n_params
         self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
-        self.angle = obs.angle_mask
+        self.angle = obs.angle_mask_grouped
 
-    # -- linear structure -----------------------------------------------------------------
-    def _split(self, theta: Array, nu_lin: Array, with_jacobian: bool):
-        """``h0`` (B, n), ``A_const``, ``A_var`` (B, n, k) with predictions
-        ``h0 + (A_const + A_var) nu``, and d/d theta at ``nu_lin`` (exact when ``nu_lin`` is
-        the nuisance used, since the predictions are affine in nu)."""
-        h0, a_const, a_var = self.obs.affine_parts(theta)
-        j_theta = self.obs.jacobian(theta, nu_lin)[0] if with_jacobian else None
-        return h0, a_const, a_var, j_theta
+    def group(self, y: Array) -> Array:
+        """Data in the set's row order -> the grouped order the solver works in."""
+        return np.asarray(y, dtype=float)[..., self.obs.order]
 
     def evaluate(self, theta: Array, y: Array, nu_lin: Array,
                  with_jacobian: bool = True, nu_star: Array | None = None) -> Evaluation:
-        """Eliminate the nuisance at ``theta`` for data ``y`` (B, n) and return the reduced
-        residual, cost and (optionally) projected Jacobian.
+        """Eliminate the nuisance at ``theta`` for data ``y`` (B, n, grouped order: see
+        :meth:`group`) and return the reduced residual, cost and (optionally) projected
+        Jacobian.
 
         ``nu_lin`` is the current nuisance estimate (the residual is formed about it);
         ``nu_star`` (default ``nu_lin``) a value held fixed for a whole solve, whose
@@ -80,7 +77,7 @@ class VarProProblem:
 
     def _evaluate(self, theta: Array, y: Array, nu_lin: Array, with_jacobian: bool,
                   nu_star: Array | None) -> Evaluation:
-        h0, a_const, a_var, j_theta = self._split(theta, nu_lin, with_jacobian)
+        h0, a_const, a_var, j_theta = self.obs.linearise_grouped(theta, nu_lin, with_jacobian)
         nu_ref = (np.broadcast_to(self.fixed, nu_lin.shape) if self.fixed is not None
                   else nu_lin)
         star = nu_ref if nu_star is None else nu_star
@@ -115,8 +112,8 @@ class VarProProblem:
         return Evaluation(theta, nu, r, cost, jr)
 
     def initial_nuisance(self, theta: Array, y: Array) -> Array:
-        """Nuisance values eliminated at ``theta`` (needs no prior value: exact for h
-        affine in nu)."""
+        """Nuisance values eliminated at ``theta`` for grouped data ``y`` (needs no prior
+        value: the predictions are affine in the nuisance)."""
         b = theta.shape[0]
         if self.fixed is not None:
             return np.broadcast_to(self.fixed, (b, self.k)).copy()
@@ -139,6 +136,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         gtol: float = 1e-10, dtol: float = 1e-7) -> SolveResult:
     """Batched Levenberg–Marquardt (Marquardt's diagonal scaling) on the reduced problem.
 
+    ``y`` is the data in the measurement set's own row order, ``(n,)`` or ``(B, n)``.
+
     Converged: a Gauss-Newton decrement (the decrease an undamped step predicts) below ``ftol``
     relative to the cost plus ``dtol``, or an accepted lightly damped step that moves every
     parameter by less than ``xtol`` relative, or a gradient whose cosine with every Jacobian
@@ -146,7 +145,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     reported as not converged.
     """
     theta = np.array(theta0, dtype=float, ndmin=2)
-    y = np.broadcast_to(np.asarray(y, dtype=float), (theta.shape[0], len(problem.obs.meas)))
+    y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
     b, p = theta.shape
     nu = problem.initial_nuisance(theta, y)
     nu_star = nu.copy()

@@ -38,6 +38,12 @@ class MotionModel(ABC):
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
         """``d state / d theta`` at times ``t``: shape ``(..., n, 6, p)``."""
 
+    def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
+              ) -> NDArray[np.float64]:
+        """``d value / d theta`` from ``d value / d state`` ``(..., n, 6)`` at times ``t``:
+        the chain rule through :meth:`jacobian` (models with a simple structure override it)."""
+        return np.einsum("...ni,...nip->...np", d_state, self.jacobian(theta, t))
+
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
         """Parameters of the simplest trajectory of this model through ENU states
         ``(..., 6)`` at time ``t`` (used to turn grid points into starting values)."""

@@ -52,6 +52,14 @@ class ConstantVelocity(MotionModel):
             jac[:, 3 + i, d + i] = 1.0
         return np.broadcast_to(jac, (*theta.shape[:-1], *jac.shape)).copy()
 
+    def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
+              ) -> NDArray[np.float64]:
+        # d state / d theta is [[I, dt I], [0, I]]: no tensor contraction needed.
+        d = self.dim
+        dt = np.asarray(t, dtype=float) - self.ref_time
+        d_pos = d_state[..., :d]
+        return np.concatenate([d_pos, d_pos * dt[:, None] + d_state[..., 3:3 + d]], axis=-1)
+
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
         state = np.asarray(state, dtype=float)
         d = self.dim
@@ -94,6 +102,10 @@ class Stationary(MotionModel):
         for i in range(self.dim):
             jac[:, i, i] = 1.0
         return np.broadcast_to(jac, (*theta.shape[:-1], *jac.shape)).copy()
+
+    def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
+              ) -> NDArray[np.float64]:
+        return d_state[..., : self.dim].copy()
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
         return np.asarray(state, dtype=float)[..., : self.dim].copy()
