@@ -8,6 +8,7 @@
     tma crlb SCENARIO [--known-nuisance] [--at T] [--json]
     tma estimate FILE [--motion cv2d] [--init x=..,y=..] [--method ml] [--json]
     tma reproduce gu2007|doppler-lecture [--runs N] [--seed S]
+    tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
@@ -364,6 +365,65 @@ def reproduce(
             out.print(section.note, highlight=False)
     for key, value in rep.figures.items():
         out.print(f"{key}: {value}", highlight=False)
+
+
+@app.command()
+def montecarlo(
+    scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
+    runs: Annotated[int, typer.Option(help="number of Monte Carlo runs")] = 100,
+    seed: Annotated[int, typer.Option(help="random seed (same seed, same table)")] = 0,
+    estimator: Annotated[str, typer.Option(
+        help="ml (default) or another method of tmakit.batch.methods")] = "ml",
+    known_nuisance: Annotated[bool, typer.Option(
+        "--known-nuisance", help="give the estimator (and the bound) the true carrier, "
+        "power constant, ...; default: unknown, estimated")] = False,
+    dask: Annotated[str | None, typer.Option(
+        help="Dask scheduler address (tcp://host:8786); default: run here")] = None,
+    chunk: Annotated[int | None, typer.Option(help="runs per task")] = None,
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="write the per-run table (.csv or .parquet)")] = None,
+    json_file: Annotated[Path | None, typer.Option(
+        "--json", help="write the summary as JSON")] = None,
+    no_progress: Annotated[bool, typer.Option("--no-progress",
+                                              help="no progress bar")] = False,
+    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+) -> None:
+    """Simulate and estimate a scenario many times; compare the RMSE with the CRLB."""
+    for path in (output, json_file):
+        if path is not None:
+            _refuse_existing(path, force)
+    if output is not None and output.suffix.lower() not in (".csv", ".parquet", ".pq"):
+        raise _fail(f"{output}: the per-run table is written as .csv or .parquet")
+    scn = _load_scenario(scenario)
+    from .montecarlo import monte_carlo
+
+    try:
+        res = monte_carlo(scn, estimator=estimator, runs=runs, seed=seed,
+                          known_nuisance=known_nuisance, progress=not no_progress,
+                          dask=dask, chunk=chunk)
+    except (ValueError, ImportError) as e:
+        raise _fail(str(e)) from None
+    except OSError as e:  # the Dask scheduler cannot be reached
+        raise _fail(f"Dask scheduler {dask}: {e}") from None
+    counts = ", ".join(f"{k} {v}" for k, v in res.status_counts.items())
+    table = Table(title=f"{res.estimator} on {res.scenario}: {res.runs} runs (seed {res.seed}), "
+                        f"nuisance {'known' if res.known_nuisance else 'unknown'}",
+                  title_justify="left")
+    for col in ("parameter", "truth", "bias", "RMSE", "CRLB", "RMSE/CRLB", "95 % interval"):
+        table.add_column(col, justify="left" if col == "parameter" else "right")
+    for r in res.summary_table():
+        table.add_row(r["parameter"], f"{r['truth']:.6g}", f"{r['bias']:.4g}",
+                      f"{r['rmse']:.4g}", f"{r['crlb']:.4g}", f"{r['ratio']:.3f}",
+                      f"{r['ratio_low']:.3f} .. {r['ratio_high']:.3f}")
+    out.print(table)
+    out.print(f"converged {res.convergence_rate:.1%} ({counts}); {res.wall_time:.1f} s, "
+              f"{res.runs_per_second:.1f} runs/s ({res.executor})", highlight=False)
+    if output is not None:
+        res.save(output, force=force)
+        out.print(f"wrote {output}", highlight=False)
+    if json_file is not None:
+        json_file.write_text(res.to_json() + "\n")
+        out.print(f"wrote {json_file}", highlight=False)
 
 
 @app.command()

@@ -1,0 +1,260 @@
+"""Monte Carlo runs: reproducibility, the batched ML path against estimate(), efficiency on
+gu2007, saving, Dask execution, the estimator registry and argument checks."""
+
+from __future__ import annotations
+
+import json
+import sys
+import types
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.stats import chi2
+
+import tmakit as tk
+from tmakit import montecarlo as mc
+from tmakit.batch.ml import estimate
+from tmakit.montecarlo import MonteCarloResult, monte_carlo, ratio_interval
+
+
+@pytest.fixture(scope="module")
+def gu2007() -> tk.Scenario:
+    return tk.load_scenario("gu2007")
+
+
+@pytest.fixture(scope="module")
+def gu2007_40(gu2007) -> MonteCarloResult:
+    return monte_carlo(gu2007, runs=40, seed=0, progress=False)
+
+
+def _estimates(res: MonteCarloResult) -> np.ndarray:
+    return res.table[[f"est_{n}" for n in res.parameters]].to_numpy(dtype=float)
+
+
+# -- reproducibility ---------------------------------------------------------------------------
+def test_same_seed_same_table_whatever_the_chunking(gu2007):
+    a = monte_carlo(gu2007, runs=7, seed=11, progress=False)
+    b = monte_carlo(gu2007, runs=7, seed=11, progress=False, chunk=3)
+    c = monte_carlo(gu2007, runs=7, seed=11, progress=False, chunk=1)
+    pd.testing.assert_frame_equal(a.table, b.table)
+    pd.testing.assert_frame_equal(a.table, c.table)
+    assert list(a.table.columns) == ["run", "status", "iterations", "chi2", "starts",
+                                     "est_x", "est_y", "est_vx", "est_vy"]
+    assert a.table["run"].tolist() == list(range(7))
+    assert (a.seed, b.chunk, c.chunk) == (11, 3, 1)
+
+
+def test_run_data_do_not_depend_on_the_number_of_runs_and_seeds_differ(gu2007):
+    few = monte_carlo(gu2007, runs=3, seed=4, progress=False)
+    more = monte_carlo(gu2007, runs=5, seed=4, progress=False, chunk=2)
+    pd.testing.assert_frame_equal(few.table, more.table.iloc[:3])
+    other = monte_carlo(gu2007, runs=3, seed=5, progress=False)
+    assert not np.allclose(_estimates(few), _estimates(other))
+
+
+def test_seed_none_records_entropy_that_reproduces_the_runs(gu2007):
+    fresh = monte_carlo(gu2007, runs=2, seed=None, progress=False)
+    again = monte_carlo(gu2007, runs=2, seed=fresh.seed, progress=False)
+    pd.testing.assert_frame_equal(fresh.table, again.table)
+
+
+# -- the batched ML path equals estimate() run by run ------------------------------------------
+def _assert_matches_estimate(res: MonteCarloResult, scn: tk.Scenario, seed: int,
+                             known: bool = False, init=None) -> None:
+    children = np.random.SeedSequence(seed).spawn(res.runs)
+    est = _estimates(res)
+    for r in range(res.runs):
+        meas = scn.simulate(np.random.default_rng(children[r]))
+        one = estimate(meas, scn.motion, init=init, options=scn.measurement_options,
+                       known_nuisance=dict(scn.nuisance) if known else None)
+        row = res.table.iloc[r]
+        assert row["status"] == one.status, r
+        assert row["iterations"] == one.iterations, r
+        assert row["starts"] == one.starts, r
+        np.testing.assert_allclose(row["chi2"], one.chi2, rtol=1e-6)
+        np.testing.assert_allclose(est[r], one.estimate, rtol=1e-6, atol=0)
+
+
+def test_batched_ml_equals_estimate_run_by_run(gu2007):
+    res = monte_carlo(gu2007, runs=8, seed=2, progress=False, chunk=4)
+    _assert_matches_estimate(res, gu2007, seed=2)
+
+
+def test_batched_ml_equals_estimate_with_known_nuisance_and_with_init(gu2007):
+    known = monte_carlo(gu2007, runs=3, seed=6, progress=False, known_nuisance=True)
+    assert known.known_nuisance
+    _assert_matches_estimate(known, gu2007, seed=6, known=True)
+    init = {"x": 3000.0, "y": 3500.0, "vx": -20.0, "vy": -10.0}
+    started = monte_carlo(gu2007, runs=3, seed=6, progress=False, init=init)
+    _assert_matches_estimate(started, gu2007, seed=6, init=init)
+    assert (started.table["starts"] == 1).all()
+    # The bound follows the nuisance convention: knowing C and f_s can only help.
+    unknown = monte_carlo(gu2007, runs=1, seed=6, progress=False)
+    assert np.all(known.crlb <= unknown.crlb * (1 + 1e-9))
+
+
+def test_batched_ml_equals_estimate_with_bearings_whose_grid_depends_on_the_data():
+    scn = tk.load_scenario("chen-sun-1")  # azimuth + range differences: grid along bearings
+    res = monte_carlo(scn, runs=4, seed=3, progress=False)
+    _assert_matches_estimate(res, scn, seed=3)
+
+
+def test_retries_from_other_starts_are_replicated(gu2007, monkeypatch):
+    # Make every first fit look implausible: each run is re-solved from its other starts,
+    # and the batched path must do what estimate() does under the same rule.
+    import tmakit.batch.ml as ml
+
+    monkeypatch.setattr(ml, "plausible_chi2", lambda chi2, dof: False)
+    monkeypatch.setattr(mc, "plausible_chi2", lambda chi2, dof: False)
+    res = monte_carlo(gu2007, runs=3, seed=8, progress=False)
+    assert (res.table["starts"] > 1).all()
+    _assert_matches_estimate(res, gu2007, seed=8)
+
+
+# -- statistics --------------------------------------------------------------------------------
+def test_ml_on_gu2007_is_efficient_and_always_converges(gu2007_40):
+    res = gu2007_40
+    assert res.convergence_rate == 1.0
+    assert res.status_counts == {"converged": 40}
+    rows = res.summary_table()
+    assert [r["parameter"] for r in rows] == ["x", "y", "vx", "vy"]
+    for r in rows:
+        assert r["n"] == 40
+        assert 0 < r["ratio"] < 1.6, r
+        assert r["ratio_low"] < r["ratio"] < r["ratio_high"]
+        assert abs(r["bias"]) < 3 * r["crlb"] / np.sqrt(40) + 0.5 * r["crlb"]
+    # CRLB with C and f_s unknown, at the scenario's options.
+    bound = tk.load_scenario("gu2007")
+    from tmakit.bounds.fim import crlb
+
+    b = crlb(bound, known_nuisance=False, options=bound.measurement_options)
+    np.testing.assert_allclose(res.crlb, [b.std_of(n) for n in res.parameters])
+    assert res.wall_time > 0 and res.runs_per_second > 0
+
+
+def test_ratio_interval_is_the_chi_square_interval_of_the_mean_square_error():
+    low, high = ratio_interval(1.1, 40)
+    assert low == pytest.approx(1.1 * np.sqrt(40 / chi2.ppf(0.975, 40)))
+    assert high == pytest.approx(1.1 * np.sqrt(40 / chi2.ppf(0.025, 40)))
+    assert low < 1.1 < high
+    wide = ratio_interval(1.0, 10)
+    narrow = ratio_interval(1.0, 1000)
+    assert wide[0] < narrow[0] < 1.0 < narrow[1] < wide[1]
+    assert all(np.isnan(v) for v in ratio_interval(1.0, 0))
+
+
+def test_summary_text_and_json(gu2007_40):
+    text = gu2007_40.summary()
+    for word in ("gu2007", "RMSE/CRLB", "converged 100.0%", "runs/s", " vy "):
+        assert word in text
+    data = json.loads(gu2007_40.to_json())
+    assert data["runs"] == 40 and data["convergence_rate"] == 1.0
+    assert data["nuisance"] == "unknown"
+    assert [r["parameter"] for r in data["summary"]] == ["x", "y", "vx", "vy"]
+    assert set(data["summary"][0]) >= {"bias", "rmse", "crlb", "ratio", "ratio_low",
+                                       "ratio_high"}
+    assert data["status_counts"] == {"converged": 40}
+    with_runs = gu2007_40.as_dict(runs=True)
+    assert len(with_runs["table"]) == 40
+    json.dumps(with_runs)
+
+
+# -- saving ------------------------------------------------------------------------------------
+def test_save_writes_csv_and_parquet_and_refuses_to_overwrite(gu2007_40, tmp_path):
+    csv = tmp_path / "runs.csv"
+    gu2007_40.save(csv)
+    back = pd.read_csv(csv)
+    assert list(back.columns) == list(gu2007_40.table.columns)
+    np.testing.assert_allclose(back["est_x"], gu2007_40.table["est_x"], rtol=1e-12)
+    with pytest.raises(FileExistsError, match="already exists"):
+        gu2007_40.save(csv)
+    gu2007_40.save(csv, force=True)
+
+    pq = tmp_path / "runs.parquet"
+    gu2007_40.save(pq)
+    pd.testing.assert_frame_equal(pd.read_parquet(pq), gu2007_40.table,
+                                  check_dtype=False)
+    with pytest.raises(FileExistsError):
+        gu2007_40.save(pq)
+    with pytest.raises(ValueError, match=r"\.csv or \.parquet"):
+        gu2007_40.save(tmp_path / "runs.xlsx")
+
+
+# -- Dask --------------------------------------------------------------------------------------
+def test_dask_local_cluster_gives_the_local_table(gu2007):
+    distributed = pytest.importorskip("distributed")
+    local = monte_carlo(gu2007, runs=10, seed=9, progress=False)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        remote = monte_carlo(gu2007, runs=10, seed=9, progress=False, dask=client, chunk=3)
+        by_address = monte_carlo(gu2007, runs=4, seed=9, progress=False,
+                                 dask=cluster.scheduler_address)
+    pd.testing.assert_frame_equal(local.table, remote.table)
+    pd.testing.assert_frame_equal(local.table.iloc[:4], by_address.table)
+    assert remote.executor.startswith("dask ")
+
+
+# -- the estimator registry --------------------------------------------------------------------
+def test_without_the_registry_only_ml_is_known(monkeypatch, gu2007):
+    monkeypatch.setattr(mc, "_methods", lambda: None)
+    assert mc.available_estimators() == ("ml",)
+    with pytest.raises(ValueError, match="unknown estimator 'ratio'; expected one of ml"):
+        monte_carlo(gu2007, estimator="ratio", runs=2, progress=False)
+
+
+def test_other_estimators_run_by_run_through_the_registry(monkeypatch, gu2007):
+    calls = []
+
+    def estimate_with(method, meas, motion, init=None, options=None):
+        calls.append((method, len(meas), options))
+        if len(calls) == 2:
+            raise ValueError("this run has no solution")
+        return estimate(meas, motion, init=gu2007.truth, options=options)
+
+    fake = types.ModuleType("tmakit.batch.methods")
+    fake.METHODS = {"ml": None, "fake": None}
+    fake.estimate_with = estimate_with
+    monkeypatch.setitem(sys.modules, "tmakit.batch.methods", fake)
+    assert mc.available_estimators() == ("ml", "fake")
+    res = monte_carlo(gu2007, estimator="fake", runs=3, seed=1, progress=False)
+    assert [c[0] for c in calls] == ["fake"] * 3
+    assert calls[0][2] == gu2007.measurement_options
+    assert res.table["status"].tolist() == ["converged", "failed", "converged"]
+    assert np.isnan(_estimates(res)[1]).all()
+    assert res.failures == {1: "ValueError: this run has no solution"}
+    assert res.convergence_rate == pytest.approx(2 / 3)
+    assert res.summary_table()[0]["n"] == 2
+    assert "1 runs failed" in res.summary()
+    with pytest.raises(ValueError, match="cannot be given known nuisance"):
+        monte_carlo(gu2007, estimator="fake", runs=1, known_nuisance=True, progress=False)
+
+
+# -- arguments ---------------------------------------------------------------------------------
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"runs": 0}, "runs must be a whole number >= 1, got 0"),
+    ({"runs": -3}, "runs must be a whole number >= 1"),
+    ({"runs": 2.5}, "runs must be a whole number >= 1"),
+    ({"runs": True}, "runs must be a whole number >= 1"),
+    ({"chunk": 0}, "chunk must be a whole number >= 1"),
+    ({"estimator": "magic"}, "unknown estimator 'magic'; expected one of .*ml"),
+    ({"seed": -1}, "seed must be a whole number >= 0 or None"),
+    ({"init": [1.0, 2.0]}, "init must give 4 values"),
+    ({"init": {"x": 1.0}}, "missing y, vx, vy"),
+    ({"dask": 42}, "dask must be a scheduler address"),
+])
+def test_bad_arguments_raise_value_error_with_a_clear_message(gu2007, kwargs, message):
+    if "dask" in kwargs:
+        pytest.importorskip("distributed")
+    with pytest.raises(ValueError, match=message):
+        monte_carlo(gu2007, **{"runs": 2, "progress": False, **kwargs})
+
+
+def test_scenario_by_name_and_progress_bar(capsys):
+    pytest.importorskip("tqdm")
+    res = monte_carlo("gu2007", runs=1, seed=0, progress=True)
+    assert res.scenario == "gu2007" and res.runs == 1
+    assert "1/1" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="unknown scenario"):
+        monte_carlo("no-such-scenario", runs=1, progress=False)
