@@ -49,6 +49,12 @@ class NoiseModel:
 
     def whiten(self, x: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
         """``W x`` along ``axis`` (the measurement axis) of ``x``."""
+        if not self.blocks:  # independent rows: a scaling (the common, hot case)
+            x = np.asarray(x, dtype=float)
+            if axis == -1:
+                return x * self.inv_sigma
+            if axis == -2:
+                return x * self.inv_sigma[:, None]
         x = np.moveaxis(np.asarray(x, dtype=float), axis, -1)
         out = x * self.inv_sigma
         for rows, whitener in self.blocks:

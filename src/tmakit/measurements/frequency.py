@@ -68,13 +68,11 @@ class Frequency(MeasurementModel):
         rel = as_rel(rel)
         p, v = rel[..., :3], rel[..., 3:]
         small = -np.einsum("...i,...i->...", p, v) / (np.linalg.norm(p, axis=-1) * self.c)
-        ones = np.ones(small.shape)
-        const, var = [ones], [small]
-        if self.drift:
-            tt = np.broadcast_to(np.asarray(t, dtype=float), small.shape)
-            const.append(tt)
-            var.append(small * tt)
-        return np.zeros(small.shape), np.stack(const, axis=-1), np.stack(var, axis=-1)
+        if not self.drift:
+            return np.zeros(small.shape), np.ones((*small.shape, 1)), small[..., None]
+        tt = np.broadcast_to(np.asarray(t, dtype=float), small.shape)
+        return (np.zeros(small.shape), np.stack([np.ones(small.shape), tt], axis=-1),
+                np.stack([small, small * tt], axis=-1))
 
     def affine(self, rel, t=None, rel_ref=None):
         h0, const, var = self.affine_parts(rel, t, rel_ref)
