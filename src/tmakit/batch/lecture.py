@@ -1,0 +1,167 @@
+"""Gauss–Newton on the 7-parameter vector of 001_ba171c940b7f4701.txt ("Doppler Tracking:
+Passive Tracking of an Airborne Radar").
+
+The notes estimate ``x = [X_N Y_N Z_N V_x V_y V_z f_o]`` — the emitter's position at the
+final sample time ``t_N``, its constant velocity, and the transmitted carrier — from received
+frequencies by linearising about the current estimate ("Linearize the Nonlinear Model") and
+iterating ("Iterating to the Solution")::
+
+    dx_n = (H^T R^-1 H)^-1 H^T R^-1 df(x_n),    x_{n+1} = x_n + dx_n
+
+with ``H`` the N x 7 Jacobian, ``df`` the measured minus predicted frequencies and ``R`` the
+measurement covariance, until the update is small.
+
+tmakit's conventions differ from the notes' printed formulas in two places, both sign
+conventions, neither affecting observability: the notes write the trajectory as
+``X(t) = V_x (t_N - t) + X_N`` (so their ``V`` is minus the velocity); tmakit's
+``ConstantVelocity(3, ref_time=t_N)`` uses ``p(t) = p_N + v (t - t_N)`` with the physical
+velocity.  The notes' Doppler formula has the opposite sign of the shift; tmakit's
+:class:`~tmakit.measurements.Frequency` uses the physical one (``f = f_o (1 - rdot/c)``).
+
+The notes admit the problem is "rigged": with one receiver ``H`` is "likely to be less than
+full rank".  tmakit measures it — ``H^T R^-1 H`` has rank 4 of 7 (any rotation of the track
+about an axis through the receiver leaves every range history unchanged).  The iteration does
+not crash on it: the update is the minimum-norm (pseudo-inverse) solution on the observable
+subspace (in coordinates normalised by ``diag(H^T R^-1 H)``, rank threshold
+:data:`tmakit.bounds.observability.RANK_TOL`), and the result reports ``unobservable`` with
+the rank and the named unobservable directions (:func:`tmakit.bounds.observability.analyse`).
+With full rank the update is exactly the notes' one.
+
+"Small" is measured in standard deviations: the iteration stops when
+``sqrt(dx^T H^T R^-1 H dx) < tol`` (the update is a negligible fraction of the estimate's own
+uncertainty), or when no parameter moves by more than 1e-12 relative.  Plain Gauss–Newton has
+no step control: when the ranges grow more than 1e4-fold from the start the result is
+``diverged``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..bounds.noise import NoiseModel
+from ..bounds.observability import RANK_TOL, normalise
+from ..data import MeasurementSet
+from ..motion import ConstantVelocity, MotionModel
+from ..observation import ObservationModel
+from .gu_direct import DIVERGENCE_FACTOR
+from .ml import UNOBSERVABLE, EstimateResult, _result
+from .solver import VarProProblem
+
+Array = NDArray[np.float64]
+
+
+def _check(meas: MeasurementSet, motion: MotionModel) -> float:
+    t_n = float(np.max(meas.time))
+    if not isinstance(motion, ConstantVelocity) or motion.dim != 3:
+        raise ValueError("lecture-gn: 001_ba171c940b7f4701.txt estimates [X_N Y_N Z_N Vx Vy "
+                         "Vz f_o]: the motion must be ConstantVelocity(3, ref_time=t_N) "
+                         f"(cv3d), got {motion!r}")
+    if abs(motion.ref_time - t_n) > 1e-9 * max(1.0, abs(t_n)):
+        raise ValueError(f"lecture-gn: the parameters are referenced at the final sample time "
+                         f"t_N = {t_n:g} s; use ConstantVelocity(3, ref_time={t_n:g}) "
+                         f"(got ref_time={motion.ref_time:g})")
+    other = sorted(set(meas.kinds) - {"frequency"})
+    if other:
+        raise ValueError("lecture-gn: uses received frequencies only; the data also hold "
+                         f"{', '.join(other)}")
+    return t_n
+
+
+def _max_range(obs: ObservationModel, theta: Array) -> float:
+    rel = obs.motion.states(theta, obs.meas.time) - obs.meas.sensor_state
+    return float(np.max(np.linalg.norm(rel[:, :3], axis=1)))
+
+
+def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
+    """``(H^T R^-1 H)^+ H^T R^-1 df`` via normalised coordinates, the rank, and the
+    information matrix."""
+    info = hw.T @ hw
+    norm, scale = normalise(info)
+    evals, evecs = np.linalg.eigh(norm)
+    keep = evals > RANK_TOL * max(float(evals[-1]), np.finfo(float).tiny)
+    g = scale * (hw.T @ rw)
+    v = evecs[:, keep]
+    step = scale * (v @ ((v.T @ g) / evals[keep]))
+    return step, int(keep.sum()), info
+
+
+def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel,
+                         init: Mapping[str, float] | ArrayLike | None, max_iter: int = 50,
+                         tol: float = 1e-4) -> EstimateResult:
+    """001_ba171c940b7f4701.txt: Gauss–Newton on ``[X_N Y_N Z_N V_x V_y V_z f_o]``.
+
+    ``motion`` must be ``ConstantVelocity(3, ref_time=t_N)`` with ``t_N`` the last sample
+    time.  ``init``: the six motion parameters by name or as a vector; a mapping may also give
+    ``carrier`` (f_o, Hz), otherwise f_o starts at its linear least-squares value given the
+    starting trajectory.  ``H`` is :meth:`tmakit.observation.ObservationModel.jacobian` with
+    the carrier as the nuisance column; ``R = diag(sigma^2)``.  The result's std and bound are
+    the inverse information at the estimate; a rank-deficient ``H^T R^-1 H`` gives status
+    ``unobservable`` with the rank in the message (see the module docstring).
+    """
+    _check(meas, motion)
+    if init is None:
+        raise ValueError("lecture-gn: a local method, it needs a starting point (init=...); "
+                         "tmakit.batch.methods.estimate_with supplies a grid start")
+    obs = ObservationModel(meas, motion, {"frequency": {"drift": False}})
+    noise = NoiseModel(meas)
+    problem = VarProProblem(obs, noise)
+    y = obs.values
+    if isinstance(init, Mapping):
+        theta = motion.theta({k: v for k, v in init.items() if k in motion.param_names})
+        carrier = init.get("carrier")
+    else:
+        theta = np.asarray(init, dtype=float).reshape(-1)
+        carrier = None
+        if theta.shape != (motion.n_params,):
+            raise ValueError(f"lecture-gn: init must give {motion.n_params} values "
+                             f"({', '.join(motion.param_names)})")
+    if carrier is None:
+        h0, a = obs.affine(theta)
+        w = noise.whiten(a[:, 0])
+        carrier = float(w @ noise.whiten(y - h0) / (w @ w))
+    x = np.concatenate([theta, [float(carrier)]])
+    p = motion.n_params
+    ranks: list[int] = []
+    norms: list[float] = []
+    converged = False
+    far = DIVERGENCE_FACTOR * max(_max_range(obs, theta), 1e3)
+    diverged = ""
+    iterations = 0
+    for it in range(1, max_iter + 1):
+        iterations = it
+        th, nu = x[:p], x[p:]
+        j_theta, j_nu = obs.jacobian(th, nu)
+        hw = noise.whiten(np.concatenate([j_theta, j_nu], axis=1), axis=0)
+        rw = noise.whiten(y - obs.predict(th, nu))
+        if not (np.all(np.isfinite(hw)) and np.all(np.isfinite(rw))):
+            x = np.full(x.shape, np.nan)
+            break
+        step, rank, info = _pinv_step(hw, rw)
+        ranks.append(rank)
+        x = x + step
+        size = float(np.sqrt(max(step @ info @ step, 0.0)))
+        norms.append(size)
+        if not np.all(np.isfinite(x)):
+            break
+        if _max_range(obs, x[:p]) > far:
+            diverged = (f"the ranges grew more than {DIVERGENCE_FACTOR:g}-fold from the start "
+                        "(plain Gauss–Newton has no step control)")
+            x = np.full(x.shape, np.nan)
+            break
+        if size < tol or np.all(np.abs(step) <= 1e-12 * (np.abs(x) + 1.0)):
+            converged = True
+            break
+    th, nu = x[:p], x[p:]
+    cost = (0.5 * float(np.sum(noise.whiten(y - obs.predict(th, nu)) ** 2))
+            if np.all(np.isfinite(x)) else np.inf)
+    res = _result(problem, th, nu, cost, iterations, converged, "lecture-gn", 1, False)
+    res.extra.update({"ranks": ranks, "update_norms_sigma": norms})
+    if diverged:
+        res.message = diverged
+    if res.status == UNOBSERVABLE and res.bound is not None:
+        res.message = (f"H^T R^-1 H has rank {res.bound.rank} of {len(res.bound.parameters)} "
+                       "(the lecture's admitted rank deficiency); " + res.message)
+    return res

@@ -1,0 +1,418 @@
+"""The ratio method of 000_bc54bd8c50e47249.txt §4: ratios of neighbouring measurements remove
+the nuisance parameters C (power) and f_s (Doppler).
+
+Power (eqs. 19-25).  ``mu_k = P_k / P_{k-1}`` (linear watts; tmakit stores dBW, so
+``mu_k = 10**((P_dBW,k - P_dBW,k-1)/10)``).  With ``e_k = eta_k / P_k`` (variance 1/SNR_p),
+eq. 21 holds exactly::
+
+    g_k(theta) = R_{k-1}^2 - mu_k R_k^2 = mu_k R_k^2 e_{k-1} - R_{k-1}^2 e_k.
+
+It is linearised about the current estimate (eqs. 22-24) and packed as
+``L_p(theta_i) theta ~ psi_p(theta_i)`` (eq. 25): rows ``2 (dL_k - dQ_k theta_i)^T`` and
+``d rho_k - theta_i^T dQ_k theta_i`` with ``dQ_k = Q_{k-1} - mu_k Q_k`` etc. (eq. 23).
+
+Doppler (eqs. 26-32).  ``nu_k = f_k / f_{k-1}`` and, with ``d_k = zeta_k / f_k``, eq. 27::
+
+    h_k(theta) = nu_k (1 - v_{k-1}/c) - (1 - v_k/c) = (1 - v_k/c) d_k - nu_k (1 - v_{k-1}/c) d_{k-1}
+
+whose scaled Jacobian is eq. 28, ``c dh_k/dtheta = dv_k/dtheta - nu_k dv_{k-1}/dtheta``
+(``dv/dtheta`` of eq. 16), and ``c h_k = v_k - nu_k v_{k-1} - (1 - nu_k) c``.  Eq. 31 prints
+this with the opposite overall sign, ``(1 - nu_k) c + nu_k v_{k-1} - v_k``, which contradicts
+eqs. 27-28; the sign of a whole equation does not change a least-squares solution, and eqs.
+27-28 are used.  ``L_f theta ~ psi_f = L_f theta_i - c h(theta_i)`` (eq. 32).
+
+Both (eqs. 33-34): the two blocks stacked, ``Sigma = diag(Sigma_p, Sigma_f)``; the iteration
+is ``theta_{i+1} = D_i^-1 N_i`` with ``D_i = L^T Sigma^-1 L`` and ``N_i = L^T Sigma^-1 psi``.
+
+**The tri-diagonal covariances.**  What the paper prints, and what a first-order derivation
+from eqs. 21 and 27 gives (``s_k = 1/SNR_p`` of sample k; sigma_k the frequency noise):
+
+* power, diagonal: ``(mu_k^2 R_k^4 + R_{k-1}^4) s`` — the paper's, correct (§4 omits the
+  factor ``1/SNR_p`` that §3's Sigma_p has; it must be there for eq. 34 to weigh power against
+  Doppler, and both versions here include it);
+* power, off-diagonal (k, k+1): the two terms share ``e_k`` with coefficients ``-R_{k-1}^2``
+  (in g_k) and ``mu_{k+1} R_{k+1}^2`` (in g_{k+1}), so the covariance is
+  ``-mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``.  **The paper prints it without the minus sign** — a
+  misprint that changes the correlation of neighbouring terms from -1/2 (a differencing
+  pattern, since ``mu_{k+1} R_{k+1}^2 ~ R_k^2``) to +1/2.  The index pattern is right.
+  ``-R_{k-1}^2 R_k^2`` is an equivalent first-order form; ``-mu_{k+1} R_k^4`` is not exact
+  (it differs by the factor ``R_k^4 / (R_{k-1}^2 R_{k+1}^2)``, within 0.3 % on gu2007).
+* Doppler: ``(1 - v_k/c) d_k = zeta_k / f_s`` exactly, so the noise of ``c h_k`` is
+  ``(c/f_s)(zeta_k - nu_k zeta_{k-1})``: diagonal ``(c/f_s)^2 (sigma_k^2 + nu_k^2
+  sigma_{k-1}^2)`` and off-diagonal ``-(c/f_s)^2 nu_{k+1} sigma_k^2``.  The paper's diagonal
+  ``(1 - v_k/c)^2 + nu_k^2 (1 - v_{k-1}/c)^2`` comes from approximating var(d_k) by
+  sigma^2/f_s^2 (its factors are 1 within ~1e-6); its off-diagonal
+  ``-nu_{k+1} (1 - v_{k+1}/c)^2`` should read ``(1 - v_k/c)^2`` under that approximation (an
+  index misprint, numerically immaterial).  The sign is right here.
+
+``covariance="derived"`` (default) uses the derived matrices, ``"paper"`` the printed ones
+(with the 1/SNR_p factor).  With ``"derived"`` the estimate's covariance is the final
+``D^-1`` (Sigma carries the noise scale, so std is in metres and m/s); with ``"paper"``,
+whose Sigma is not the noise covariance, it is the sandwich
+``D^-1 L^T Sigma^-1 Sigma_derived Sigma^-1 L D^-1``.  The derived weighting makes the method
+efficient to first order: the ratios keep all the information except C and f_s, so the bound
+to compare with is the CRLB with C and f_s unknown (:func:`tmakit.bounds.crlb`, the default).
+
+Pairs are formed from consecutive samples of one kind from one sensor, in time order; the
+terms of different sensors or kinds are independent.
+
+Measured on gu2007 (SNR_p 40 dB, sigma_f 1.9 Hz; CRLB with C and f_s unknown 6.04 m, 7.77 m,
+0.109 m/s, 0.134 m/s):
+
+* both kinds, derived covariance, 200 runs from (4900, 1200, 0, 0): all converge; RMSE
+  (6.04, 8.88, 0.129, 0.133), i.e. 1.00, 1.14, 1.18, 0.99 x the CRLB (the paper: 6.30, 7.69,
+  0.119, 0.130); mean reported std within 1 % of the CRLB.  The mean error (-1.8 m, +4.5 m,
+  +0.074 m/s, 0) is the same as that of the direct method of §3 — it comes from the power
+  ratios with the noisy mu_k inside L_p, not from the ratios as such;
+* both kinds, the paper's printed covariance: from the paper's start 21 of 30 runs diverge and
+  7 do not converge in 50 iterations; even from the truth the errors are ~1 km.  The paper's
+  own results (close to the CRLB) cannot have used the printed sign;
+* Doppler only from (2200, 2700, -16, -8), 100 runs: all converge, RMSE (35.2, 16.2, 0.408,
+  0.591) = 0.98-1.01 x the CRLB (the paper: 36.2, 16.1, 0.417, 0.594);
+* power only: at 40 dB the iteration settles ~1.1 km (x_0) and ~0.75 km (y_0) from the truth,
+  near the same point for every noise draw (CRLB with C unknown: 140 m, 21 m); without noise it
+  recovers the truth from nearby but can stop at a spurious fixed point from the paper's start.
+  See :mod:`tmakit.batch.gu_direct` for the same behaviour of §3.
+
+The nuisance values reported (``power_constant_db``, ``carrier``) are estimated afterwards by
+weighted linear least squares given theta (both enter tmakit's models linearly); their std
+adds the propagated uncertainty of theta: ``(A^T W A)^-1 + G cov(theta) G^T`` with ``G`` the
+derivative of that solution with respect to theta (exact to first order for an efficient
+theta, whose error is uncorrelated with the fit of the nuisance).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import cho_solve_banded, cholesky_banded, solve_banded
+
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from ..observation import ObservationModel
+from ..units import SPEED_OF_LIGHT
+from .gu_direct import (
+    DIVERGENCE_FACTOR,
+    PlanarGeometry,
+    carrier_guess,
+    check_planar_cv,
+    initial_theta,
+    select_kinds,
+    snr_from_sigma_db,
+)
+from .ml import CONVERGED, DIVERGED, NOT_CONVERGED, EstimateResult
+
+Array = NDArray[np.float64]
+
+COVARIANCES = ("derived", "paper")
+
+
+@dataclass(frozen=True)
+class RatioPairs:
+    """Consecutive pairs (``prev``, ``cur``: row indices) of one kind, and ``linked[j]`` True
+    when pair ``j`` and pair ``j + 1`` share a sample (same sensor), i.e. are correlated."""
+
+    prev: NDArray[np.int64]
+    cur: NDArray[np.int64]
+    linked: NDArray[np.bool_]
+
+
+def ratio_pairs(meas: MeasurementSet, kind: str) -> RatioPairs:
+    """Pairs of consecutive samples of ``kind`` per sensor, in time order."""
+    prev, cur, linked = [], [], []
+    for s in meas.sensors:
+        rows = np.flatnonzero((meas.kind == kind) & (meas.sensor == s))
+        if rows.size < 2:
+            continue
+        rows = rows[np.argsort(meas.time[rows], kind="stable")]
+        if np.any(np.diff(meas.time[rows]) <= 0):
+            raise ValueError(f"ratio method: {kind} samples of sensor {s!r} must have "
+                             "distinct times (pairs are formed from consecutive samples)")
+        prev.append(rows[:-1])
+        cur.append(rows[1:])
+        link = np.ones(rows.size - 1, dtype=bool)
+        link[-1] = False
+        linked.append(link)
+    if not prev:
+        empty = np.zeros(0, dtype=np.int64)
+        return RatioPairs(empty, empty, np.zeros(0, dtype=bool))
+    return RatioPairs(np.concatenate(prev), np.concatenate(cur), np.concatenate(linked))
+
+
+def _tridiagonal(diag: Array, off: Array) -> Array:
+    """The dense symmetric tri-diagonal matrix with ``off[j]`` at (j, j+1) and (j+1, j)."""
+    out = np.diag(diag)
+    idx = np.arange(diag.size - 1)
+    out[idx, idx + 1] = off[:-1]
+    out[idx + 1, idx] = off[:-1]
+    return out
+
+
+def _power_bands(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array, s_cur: Array,
+                 linked: NDArray[np.bool_], covariance: str) -> tuple[Array, Array]:
+    diag = mu ** 2 * r2_cur ** 2 * s_prev + r2_prev ** 2 * s_cur
+    off = np.zeros(mu.size)
+    if mu.size > 1:
+        # (k, k+1): mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k, negative when derived.
+        off[:-1] = mu[1:] * r2_prev[:-1] * r2_cur[1:] * s_cur[:-1]
+    sign = -1.0 if covariance == "derived" else 1.0
+    return diag, np.where(linked, sign * off, 0.0)
+
+
+def _doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArray[np.bool_],
+                   carrier: float, v_prev: Array | None, v_cur: Array | None,
+                   covariance: str) -> tuple[Array, Array]:
+    c = SPEED_OF_LIGHT
+    scale = (c / carrier) ** 2
+    off = np.zeros(nu.size)
+    if covariance == "derived":
+        diag = sigma_cur ** 2 + nu ** 2 * sigma_prev ** 2
+        if nu.size > 1:
+            off[:-1] = -nu[1:] * sigma_cur[:-1] ** 2
+    else:
+        if v_prev is None or v_cur is None:
+            raise ValueError("the paper's Doppler covariance needs the radial velocities")
+        a_cur, a_prev = (1.0 - v_cur / c) ** 2, (1.0 - v_prev / c) ** 2
+        diag = a_cur * sigma_cur ** 2 + nu ** 2 * a_prev * sigma_prev ** 2
+        if nu.size > 1:
+            off[:-1] = -nu[1:] * a_cur[1:] * sigma_cur[:-1] ** 2  # (1 - v_{k+1}/c)^2
+    return scale * diag, np.where(linked, scale * off, 0.0)
+
+
+def power_ratio_covariance(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array,
+                           s_cur: Array, linked: NDArray[np.bool_] | None = None,
+                           covariance: str = "derived") -> Array:
+    """Covariance (dense) of the noise terms of eq. 21 for consecutive pairs.
+
+    ``mu`` the measured ratios, ``r2_*`` the squared ranges ``R^2`` of each pair's earlier and
+    later sample, ``s_*`` their relative noise variances ``1/SNR_p``.  Pair j+1's earlier
+    sample is pair j's later sample where ``linked[j]`` (default: one chain).  Diagonal
+    ``mu_k^2 R_k^4 s_{k-1} + R_{k-1}^4 s_k``; off-diagonal ``-mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``
+    (``covariance="derived"``) or the paper's ``+mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``.
+    """
+    linked = _chain(mu.size) if linked is None else linked
+    return _tridiagonal(*_power_bands(mu, r2_prev, r2_cur, s_prev, s_cur, linked, covariance))
+
+
+def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
+                             linked: NDArray[np.bool_] | None = None,
+                             carrier: float = 1.0, v_prev: Array | None = None,
+                             v_cur: Array | None = None, covariance: str = "derived") -> Array:
+    """Covariance (dense) of the noise terms of ``c h_k`` (eq. 27 times c).
+
+    Derived: ``(c/f_s)^2`` times diagonal ``sigma_k^2 + nu_k^2 sigma_{k-1}^2``, off-diagonal
+    ``-nu_{k+1} sigma_k^2``.  Paper (needs the radial velocities ``v``): diagonal
+    ``(1 - v_k/c)^2 sigma_k^2 + nu_k^2 (1 - v_{k-1}/c)^2 sigma_{k-1}^2``, off-diagonal
+    ``-nu_{k+1} (1 - v_{k+1}/c)^2 sigma_k^2`` as printed.
+    """
+    linked = _chain(nu.size) if linked is None else linked
+    return _tridiagonal(*_doppler_bands(nu, sigma_prev, sigma_cur, linked, carrier, v_prev,
+                                        v_cur, covariance))
+
+
+def _chain(n: int) -> NDArray[np.bool_]:
+    linked = np.ones(n, dtype=bool)
+    if n:
+        linked[-1] = False
+    return linked
+
+
+class _Banded:
+    """Whitening by a symmetric positive-definite tri-diagonal matrix (banded Cholesky)."""
+
+    def __init__(self, diag: Array, off: Array) -> None:
+        ab = np.zeros((2, diag.size))
+        ab[0] = diag
+        ab[1, :-1] = off[:-1]
+        self.diag, self.off = diag, off
+        self.factor = cholesky_banded(ab, lower=True)   # raises LinAlgError if not PD
+
+    def whiten(self, x: Array) -> Array:
+        """``C^-1 x`` with ``Sigma = C C^T``."""
+        return solve_banded((1, 0), self.factor, x)
+
+    def solve(self, x: Array) -> Array:
+        """``Sigma^-1 x``."""
+        return cho_solve_banded((self.factor, True), x)
+
+    def dense(self) -> Array:
+        return _tridiagonal(self.diag, self.off)
+
+
+class _RatioSystem:
+    """Everything of eqs. 19-34 that does not depend on theta, and the linear system at a
+    given theta."""
+
+    def __init__(self, sub: MeasurementSet, motion, kinds: tuple[str, ...],
+                 covariance: str) -> None:
+        self.sub = sub
+        self.kinds = kinds
+        self.covariance = covariance
+        self.geo = PlanarGeometry.from_rows(sub, motion)
+        value = sub.value_si
+        self.power = ratio_pairs(sub, "power") if "power" in kinds else None
+        self.freq = ratio_pairs(sub, "frequency") if "frequency" in kinds else None
+        if self.power is not None:
+            pp = self.power
+            self.mu = 10.0 ** ((value[pp.cur] - value[pp.prev]) / 10.0)       # eq. 19
+            s = 1.0 / snr_from_sigma_db(sub.sigma_si)
+            self.s_prev, self.s_cur = s[pp.prev], s[pp.cur]
+            self.gp_prev, self.gp_cur = self.geo.take(pp.prev), self.geo.take(pp.cur)
+        if self.freq is not None:
+            fp = self.freq
+            self.nu = value[fp.cur] / value[fp.prev]                          # eq. 26
+            self.one_minus_nu = (value[fp.prev] - value[fp.cur]) / value[fp.prev]
+            self.sig_prev, self.sig_cur = sub.sigma_si[fp.prev], sub.sigma_si[fp.cur]
+            self.gf_prev, self.gf_cur = self.geo.take(fp.prev), self.geo.take(fp.cur)
+            # Only the noise scale c/f_s needs the carrier: the median received frequency
+            # gives it to ~1e-7.
+            self.carrier = carrier_guess(sub)
+        self.n = ((0 if self.power is None else self.power.cur.size)
+                  + (0 if self.freq is None else self.freq.cur.size))
+
+    def build(self, theta: Array, covariance: str | None = None
+              ) -> tuple[Array, Array, Array, Array]:
+        """``L (n, 4)``, ``psi (n,)`` and the diagonal and off-diagonal of the tri-diagonal
+        ``Sigma`` at ``theta`` (eqs. 25, 32, 33)."""
+        cov_kind = covariance or self.covariance
+        blocks_l, blocks_psi, blocks_d, blocks_o = [], [], [], []
+        if self.power is not None:
+            g0, g1, mu = self.gp_prev, self.gp_cur, self.mu
+            dq = g0.Q - mu[:, None, None] * g1.Q                                # eq. 23
+            dl = g0.L - mu[:, None] * g1.L
+            drho = g0.rho2 - mu * g1.rho2
+            blocks_l.append(2.0 * (dl - np.einsum("nij,j->ni", dq, theta)))   # L_p
+            blocks_psi.append(drho - np.einsum("i,nij,j->n", theta, dq, theta))  # psi_p
+            d, o = _power_bands(mu, g0.range2(theta), g1.range2(theta), self.s_prev,
+                                self.s_cur, self.power.linked, cov_kind)
+            blocks_d.append(d)
+            blocks_o.append(o)
+        if self.freq is not None:
+            g0, g1, nu = self.gf_prev, self.gf_cur, self.nu
+            c = SPEED_OF_LIGHT
+            v0, v1 = g0.radial_velocity(theta), g1.radial_velocity(theta)
+            lf = g1.grad_radial_velocity(theta) - nu[:, None] * g0.grad_radial_velocity(theta)
+            ch = v1 - nu * v0 - self.one_minus_nu * c                           # eq. 27 x c
+            blocks_l.append(lf)                                                 # eq. 28-29
+            blocks_psi.append(lf @ theta - ch)                                  # eq. 32
+            d, o = _doppler_bands(nu, self.sig_prev, self.sig_cur, self.freq.linked,
+                                  self.carrier, v0, v1, cov_kind)
+            blocks_d.append(d)
+            blocks_o.append(o)
+        return (np.concatenate(blocks_l), np.concatenate(blocks_psi), np.concatenate(blocks_d),
+                np.concatenate(blocks_o))
+
+
+def ratio_method(meas: MeasurementSet, motion: MotionModel,
+                 init: Mapping[str, float] | ArrayLike | None,
+                 kinds: str | Sequence[str] = ("power", "frequency"), max_iter: int = 50,
+                 covariance: str = "derived", tol: float = 1e-9) -> EstimateResult:
+    """000_bc54bd8c50e47249.txt §4: iterative LS on ratios of neighbouring measurements.
+
+    ``kinds``: ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34).
+    ``init`` is the starting ``theta = [x_0, y_0, v_x, v_y]`` (by name or vector); the method
+    is local.  ``covariance``: ``"derived"`` (default) or ``"paper"``, see the module
+    docstring.  Iterates ``theta_{i+1} = D_i^-1 N_i`` (solved as the equivalent whitened least
+    squares with equilibrated columns) until the update is below ``tol`` relative
+    (``converged``); ``diverged`` when theta becomes non-finite, a range non-positive, or the
+    ranges grow more than 1e4-fold.
+    """
+    if covariance not in COVARIANCES:
+        raise ValueError(f"covariance must be one of {', '.join(COVARIANCES)}, got "
+                         f"{covariance!r}")
+    check_planar_cv(motion, "ratio method")
+    kinds_used, sub = select_kinds(meas, kinds, "ratio method")
+    theta = initial_theta(motion, init, "ratio method")
+    system = _RatioSystem(sub, motion, kinds_used, covariance)
+    method = {("power",): "ratio-power", ("frequency",): "ratio-doppler"}.get(kinds_used,
+                                                                               "ratio")
+    if system.n < motion.n_params:
+        raise ValueError(f"ratio method: {system.n} ratios cannot determine "
+                         f"{motion.n_params} parameters")
+    status, message = NOT_CONVERGED, ""
+    far = DIVERGENCE_FACTOR * max(float(np.sqrt(np.max(system.geo.range2(theta)))), 1e3)
+    steps: list[float] = []
+    iterations = 0
+    for it in range(1, max_iter + 1):
+        iterations = it
+        lmat, psi, diag, off = system.build(theta)
+        if not (np.all(np.isfinite(lmat)) and np.all(np.isfinite(psi))
+                and np.all(np.isfinite(diag)) and np.all(np.isfinite(off))):
+            status, message = DIVERGED, "the iterate left the region where the model is defined"
+            break
+        try:
+            band = _Banded(diag, off)
+        except np.linalg.LinAlgError:
+            status, message = DIVERGED, "the covariance Sigma is not positive definite"
+            break
+        lw, pw = band.whiten(lmat), band.whiten(psi)
+        scale = np.linalg.norm(lw, axis=0)
+        scale = np.where(scale > 0, scale, 1.0)
+        new = np.linalg.lstsq(lw / scale, pw, rcond=None)[0] / scale           # D^-1 N
+        if not np.all(np.isfinite(new)):
+            status, message = DIVERGED, "the iterate became non-finite"
+            break
+        step = new - theta
+        theta = new
+        steps.append(float(np.linalg.norm(step)))
+        r2 = system.geo.range2(theta)
+        if np.any(r2 <= 0):
+            status, message = DIVERGED, "a range became non-positive"
+            break
+        if np.max(r2) > far ** 2:
+            status, message = DIVERGED, (f"the ranges grew more than {DIVERGENCE_FACTOR:g}-fold "
+                                         "from the start")
+            break
+        if np.linalg.norm(step) <= tol * (1.0 + np.linalg.norm(theta)):
+            status = CONVERGED
+            break
+    extra: dict[str, object] = {"covariance": covariance, "kinds": list(kinds_used),
+                                "n_ratios": int(system.n), "update_norms": steps}
+    p = motion.n_params
+    names_nu = [{"power": "power_constant_db", "frequency": "carrier"}[k] for k in kinds_used]
+    if status == DIVERGED:
+        nan = np.full(p, np.nan)
+        return EstimateResult(motion.param_names, nan, nan, np.full((p, p), np.nan),
+                              {n: (np.nan, np.nan) for n in names_nu}, DIVERGED, iterations,
+                              np.inf, system.n - p, method, motion, None, 1, message, extra)
+    lmat, psi, diag, off = system.build(theta)
+    band = _Banded(diag, off)
+    lw, pw = band.whiten(lmat), band.whiten(psi)
+    d_inv = np.linalg.inv(lw.T @ lw)
+    if covariance == "derived":
+        cov = d_inv
+    else:
+        sigma_true = _tridiagonal(*system.build(theta, "derived")[2:])
+        sl = band.solve(lmat)                                                  # Sigma^-1 L
+        cov = d_inv @ (sl.T @ sigma_true @ sl) @ d_inv
+        extra["covariance_d_inverse"] = d_inv.tolist()
+    cov = 0.5 * (cov + cov.T)
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    resid = pw - lw @ theta
+    chi2 = float(resid @ resid)
+    nuis = nuisance_given_theta(sub, motion, theta, cov)
+    if status == NOT_CONVERGED:
+        message = "the iteration limit was reached before the update became small"
+    return EstimateResult(motion.param_names, theta.copy(), std, cov, nuis, status,
+                          iterations, chi2, system.n - p, method, motion, None, 1, message,
+                          extra)
+
+
+def nuisance_given_theta(meas: MeasurementSet, motion: MotionModel, theta: Array,
+                         cov_theta: Array) -> dict[str, tuple[float, float]]:
+    """Power constant (dB) and carrier (Hz) by weighted linear least squares given ``theta``,
+    with std from ``(A^T W A)^-1 + G cov_theta G^T`` (see the module docstring)."""
+    options = {"power": {"exponent": 2.0}, "frequency": {"drift": False}}
+    obs = ObservationModel(meas, motion, {k: v for k, v in options.items() if k in meas.kinds})
+    h0, a = obs.affine(theta)
+    w = 1.0 / obs.sigmas ** 2
+    ata = a.T @ (a * w[:, None])
+    nu = np.linalg.solve(ata, a.T @ (w * (obs.values - h0)))
+    j_theta, _ = obs.jacobian(theta, nu)
+    g = -np.linalg.solve(ata, a.T @ (j_theta * w[:, None]))
+    var = np.linalg.inv(ata) + g @ cov_theta @ g.T
+    std = np.sqrt(np.clip(np.diag(var), 0.0, None))
+    return {name: (float(nu[i]), float(std[i])) for i, name in enumerate(obs.nuisance_names)}
