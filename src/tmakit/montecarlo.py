@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from .batch.init import best_starts
+from .batch.init import best_starts, best_starts_many
 from .batch.ml import CONVERGED, _result, estimate, plausible_chi2
 from .batch.solver import SolveResult, VarProProblem, levenberg_marquardt
 from .bounds.fim import Bound, crlb
@@ -236,9 +236,19 @@ def _ml_batched(task: _Task, meas: Sequence[MeasurementSet]) -> _ChunkOutput:
     ys = np.stack([x.value_si for x in meas])
 
     starts: list[NDArray[np.float64]] = []
+    if task.init_vector is None:
+        try:  # one grid prediction for the whole chunk (see GridScorer)
+            starts = best_starts_many(problem, ys)
+        except RUN_ERRORS:
+            starts = []  # find the run at fault one by one below
     for i, x in enumerate(meas):
         if task.init_vector is not None:
             starts.append(task.init_vector.reshape(1, p))
+            continue
+        if len(starts) == m:
+            if starts[i].shape[0] == 0:
+                out.failures[task.first_run + i] = ("ValueError: no starting point gives "
+                                                    "finite predictions; check the data")
             continue
         # The grid of bearing data depends on the measured bearings: each run its own model.
         own = VarProProblem(ObservationModel(x, motion, task.options), noise, fixed)
