@@ -115,3 +115,73 @@ def test_bad_origin_is_refused(tmp_path, origin):
     run("simulate", "gu2007", "-o", str(obs))
     result = run("show", str(obs), "--origin", origin)
     assert result.exit_code == 2 and "LAT,LON,ALT" in result.output
+
+
+def test_crlb_of_a_scenario_says_which_nuisance_convention(tmp_path):
+    unknown = run("crlb", "gu2007")
+    assert unknown.exit_code == 0
+    assert "unknown" in unknown.output and "6.04" in unknown.output
+    known = run("crlb", "gu2007", "--known-nuisance")
+    assert known.exit_code == 0 and "known" in known.output and "3.923" in known.output
+
+
+def test_crlb_of_a_file_json_keys_and_unobservable_nulls(tmp_path):
+    import json
+
+    obs = tmp_path / "obs.csv"
+    run("simulate", "doppler-lecture", "-o", str(obs))
+    result = run("crlb", str(obs), "--motion", "cv3d", "--ref-time", "120",
+                 "--truth", "x=-6400,y=21000,z=8000,vx=-180,vy=-126,vz=0", "--json")
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    assert {"parameters", "std", "covariance", "rank", "unobservable"} <= set(data)
+    assert data["rank"] == 4 and data["std"][:6] == [None] * 6
+    assert len(data["unobservable"]) == 3
+
+
+def test_crlb_refuses_a_bad_truth(tmp_path):
+    obs = tmp_path / "obs.csv"
+    run("simulate", "gu2007", "-o", str(obs))
+    result = run("crlb", str(obs), "--motion", "cv2d", "--truth", "x=1,y")
+    assert result.exit_code == 2 and "name=value" in result.output
+    result = run("crlb", str(obs), "--motion", "cv2d", "--truth", "x=1,y=2")
+    assert result.exit_code == 2 and "missing vx, vy" in result.output
+
+
+def test_estimate_without_a_guess_text_and_json(tmp_path):
+    import json
+
+    obs = tmp_path / "obs.csv"
+    run("simulate", "gu2007", "--seed", "2", "-o", str(obs))
+    text = run("estimate", str(obs), "--motion", "cv2d")
+    assert text.exit_code == 0, text.output
+    assert "converged" in text.output and "carrier" in text.output
+    result = run("estimate", str(obs), "--json")  # motion taken from the file's metadata
+    data = json.loads(result.output)
+    assert {"parameters", "estimate", "std", "nuisance", "status", "iterations", "chi2",
+            "dof"} <= set(data)
+    assert data["status"] == "converged"
+    assert abs(data["estimate"][0] - 3200) < 5 * data["std"][0]
+    ratio = run("estimate", str(obs), "--motion", "cv2d", "--method", "ratio",
+                "--init", "x=4900,y=1200,vx=0,vy=0")
+    assert ratio.exit_code == 0 and "ratio" in ratio.output
+
+
+def test_estimate_reports_unobservable_with_exit_status_1(tmp_path):
+    obs = tmp_path / "obs.csv"
+    run("simulate", "doppler-lecture", "-o", str(obs))
+    result = run("estimate", str(obs), "--motion", "cv3d", "--ref-time", "120")
+    assert result.exit_code == 1
+    assert "unobservable" in result.output and "rotation" in result.output
+
+
+def test_montecarlo_and_reproduce_commands(tmp_path):
+    table = tmp_path / "runs.csv"
+    result = run("montecarlo", "gu2007", "--runs", "6", "--no-progress", "-o", str(table))
+    assert result.exit_code == 0, result.output
+    assert "RMSE/CRLB" in result.output and table.exists()
+    again = run("montecarlo", "gu2007", "--runs", "6", "--no-progress", "-o", str(table))
+    assert again.exit_code == 2 and "already exists" in again.output
+    rep = run("reproduce", "gu2007", "--runs", "0")
+    assert rep.exit_code == 0 and "Table 3" in rep.output and "157.8205" in rep.output
+    assert run("reproduce", "nothing").exit_code == 2

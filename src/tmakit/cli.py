@@ -359,7 +359,7 @@ def reproduce(
         for col in section.header:
             table.add_column(col)
         for row in section.rows:
-            table.add_row(*(f"{v:.6g}" if isinstance(v, float) else str(v) for v in row))
+            table.add_row(*(f"{v:.10g}" if isinstance(v, float) else str(v) for v in row))
         out.print(table)
         if section.note:
             out.print(section.note, highlight=False)
