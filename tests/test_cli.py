@@ -185,3 +185,21 @@ def test_montecarlo_and_reproduce_commands(tmp_path):
     rep = run("reproduce", "gu2007", "--runs", "0")
     assert rep.exit_code == 0 and "Table 3" in rep.output and "157.8205" in rep.output
     assert run("reproduce", "nothing").exit_code == 2
+
+
+def test_estimate_reports_wgs84_when_the_file_has_an_origin(tmp_path):
+    import json
+
+    from tmakit.geodesy import enu_to_geodetic
+
+    scn = tk.load_scenario("hurtado2008")
+    scn.origin = (52.0, 4.0, 0.0)
+    path = tmp_path / "obs.csv"
+    tk.write_measurements(scn.simulate(rng=1), path)
+    result = run("estimate", str(path), "--json")
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    lat, lon, _ = enu_to_geodetic(*data["estimate"][:2], 0.0, scn.origin)
+    assert data["geodetic"]["lat"] == pytest.approx(float(lat))
+    assert data["geodetic"]["lon"] == pytest.approx(float(lon))
+    assert abs(data["geodetic"]["lat"] - 52.0) < 0.2

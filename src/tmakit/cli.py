@@ -322,12 +322,42 @@ def estimate(
             result = estimate_with(method, meas, model, init=start, options=options)
     except ValueError as e:
         raise _fail(str(e)) from None
+    geo = _geodetic_position(meas, result)
     if as_json:
-        out.print_json(result.to_json())
+        import json
+
+        data = result.as_dict()
+        if geo is not None:
+            data["geodetic"] = geo
+        out.print_json(json.dumps(data))
     else:
         out.print(result.summary(), highlight=False)
+        if geo is not None:
+            out.print(f"position at t = {geo['time']:g} s: lat {geo['lat']:.7f} deg, "
+                      f"lon {geo['lon']:.7f} deg, alt {geo['alt']:.1f} m (WGS-84)",
+                      highlight=False)
     if result.status != "converged":
         raise typer.Exit(1)
+
+
+def _geodetic_position(meas, result) -> dict[str, float] | None:
+    """The estimated position at the motion model's reference time in WGS-84, when the file
+    gives the ENU origin (``origin_lat``, ``origin_lon``, ``origin_alt``)."""
+    meta = meas.metadata
+    if not {"origin_lat", "origin_lon"} <= set(meta) or not result.estimate.size:
+        return None
+    import numpy as np
+
+    from .geodesy import enu_to_geodetic
+
+    t = float(getattr(result.motion, "ref_time", meas.time.min()))
+    state = result.motion.states(result.estimate, np.array([t]))[0]
+    if not np.all(np.isfinite(state[:3])):
+        return None
+    origin = (float(meta["origin_lat"]), float(meta["origin_lon"]),
+              float(meta.get("origin_alt", 0.0)))
+    lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2], origin)
+    return {"time": t, "lat": float(lat), "lon": float(lon), "alt": float(alt)}
 
 
 @app.command()
