@@ -70,7 +70,9 @@ def _assert_matches_estimate(res: MonteCarloResult, scn: tk.Scenario, seed: int,
                        known_nuisance=dict(scn.nuisance) if known else None)
         row = res.table.iloc[r]
         assert row["status"] == one.status, r
-        assert row["iterations"] == one.iterations, r
+        # Batched linear algebra can round a convergence test the other way on the last
+        # step: the count may differ by one; the answer may not.
+        assert abs(row["iterations"] - one.iterations) <= 1, r
         assert row["starts"] == one.starts, r
         np.testing.assert_allclose(row["chi2"], one.chi2, rtol=1e-6)
         np.testing.assert_allclose(est[r], one.estimate, rtol=1e-6, atol=0)

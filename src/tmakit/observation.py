@@ -101,36 +101,45 @@ class ObservationModel:
     def _ref_for(self, kind: str, rel_ref: Array | None) -> Array | None:
         return rel_ref if kind == "range_difference" else None
 
-    def linearise_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None,
-                          jacobian: bool = True
-                          ) -> tuple[Array, Array, Array, Array | None]:
-        """In grouped order: ``(h0, A_const, A_var, d value / d theta)`` with predictions
-        ``h0 + (A_const + A_var) @ nuisance`` (see
-        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`); the Jacobian (None unless
-        asked for) is evaluated at ``nuisance``."""
+    def linearise_grouped(self, theta: ArrayLike, derivatives: bool = True
+                          ) -> tuple[Array, Array, Array, Array | None, Array | None]:
+        """In grouped order, one pass: ``(h0, A_const, A_var, dh0, dA)`` with predictions
+        ``h0 + (A_const + A_var) @ nu`` (see
+        :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`) and, if asked,
+        ``dh0`` ``(..., n, p)`` and ``dA`` ``(..., n, k, p)`` their derivatives with respect to
+        ``theta``: ``d predictions / d theta = dh0 + dA @ nu`` for any ``nu``."""
         theta = np.asarray(theta, dtype=float)
         rel, rel_ref = self._relative(theta)
         batch = rel.shape[:-1]
+        k, p = self.n_nuisance, self.motion.n_params
         h0 = np.empty(batch)
-        a_const = np.zeros((*batch, self.n_nuisance))
-        a_var = np.zeros((*batch, self.n_nuisance))
-        j_theta = np.empty((*batch, self.motion.n_params)) if jacobian else None
-        nu = np.zeros(0) if nuisance is None else np.asarray(nuisance, dtype=float)
+        a_const = np.zeros((*batch, k))
+        a_var = np.zeros((*batch, k))
+        dh0 = np.empty((*batch, p)) if derivatives else None
+        d_a = np.zeros((*batch, k, p)) if derivatives else None
         t = self._time
-        for k, m in self.models.items():
-            sl, ns = self.slices[k], self.nuisance_slices[k]
-            r_k, ref_k = rel[..., sl, :], self._ref_for(k, rel_ref)
-            base, c, v = m.affine_parts(r_k, t[sl], ref_k)
-            h0[..., sl] = base
-            a_const[..., sl, ns] = c
-            a_var[..., sl, ns] = v
-            if j_theta is not None:
-                jac = m.jacobian(r_k, t[sl], nu[..., ns][..., None, :], ref_k)
-                j = self.motion.chain(jac.rel, theta, t[sl])
-                if jac.rel_ref is not None:
-                    j = j + self.motion.chain(jac.rel_ref, theta, self.grouped.time_ref[sl])
-                j_theta[..., sl, :] = j
-        return h0, a_const, a_var, j_theta
+        motion = self.motion
+        for kind, m in self.models.items():
+            sl, ns = self.slices[kind], self.nuisance_slices[kind]
+            r_k, ref_k = rel[..., sl, :], self._ref_for(kind, rel_ref)
+            if not derivatives:
+                base, c, v = m.affine_parts(r_k, t[sl], ref_k)
+                h0[..., sl], a_const[..., sl, ns], a_var[..., sl, ns] = base, c, v
+                continue
+            base, c, v, d0, d0_ref, da, da_ref = m.affine_derivatives(r_k, t[sl], ref_k)
+            h0[..., sl], a_const[..., sl, ns], a_var[..., sl, ns] = base, c, v
+            j0 = motion.chain(d0, theta, t[sl])
+            if d0_ref is not None:
+                j0 = j0 + motion.chain(d0_ref, theta, self.grouped.time_ref[sl])
+            dh0[..., sl, :] = j0
+            if c.shape[-1]:
+                # chain() works on (..., m, 6): put the nuisance axis in front of the rows.
+                ja = np.swapaxes(motion.chain(np.swapaxes(da, -2, -3), theta, t[sl]), -2, -3)
+                if da_ref is not None:
+                    ja = ja + np.swapaxes(motion.chain(np.swapaxes(da_ref, -2, -3), theta,
+                                                       self.grouped.time_ref[sl]), -2, -3)
+                d_a[..., sl, ns, :] = ja
+        return h0, a_const, a_var, dh0, d_a
 
     def predict_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
         theta = np.asarray(theta, dtype=float)
@@ -146,9 +155,10 @@ class ObservationModel:
 
     def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                          ) -> tuple[Array, Array]:
-        _, a_const, a_var, j_theta = self.linearise_grouped(theta, nuisance, jacobian=True)
-        assert j_theta is not None
-        return j_theta, a_const + a_var
+        _, a_const, a_var, dh0, d_a = self.linearise_grouped(theta, derivatives=True)
+        assert dh0 is not None and d_a is not None
+        nu = np.zeros(self.n_nuisance) if nuisance is None else np.asarray(nuisance, float)
+        return dh0 + np.einsum("...nkp,...k->...np", d_a, nu), a_const + a_var
 
     # -- the set's own row order -------------------------------------------------------------
     def predict(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
@@ -165,7 +175,7 @@ class ObservationModel:
         """``(h0, A_const, A_var)``: predictions are ``h0 + (A_const + A_var) @ nuisance``,
         ``A_const`` independent of the geometry (see
         :meth:`~tmakit.measurements.MeasurementModel.affine_parts`)."""
-        h0, c, v, _ = self.linearise_grouped(theta, jacobian=False)
+        h0, c, v, _, _ = self.linearise_grouped(theta, derivatives=False)
         inv = self.inverse
         return h0[..., inv], c[..., inv, :], v[..., inv, :]
 

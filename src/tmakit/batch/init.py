@@ -142,7 +142,7 @@ class GridScorer:
         self.candidates = candidates
         obs = problem.obs
         with np.errstate(invalid="ignore", divide="ignore"):
-            h0, a_const, a_var, _ = obs.linearise_grouped(candidates, jacobian=False)
+            h0, a_const, a_var, _, _ = obs.linearise_grouped(candidates, derivatives=False)
         self.bad = ~np.all(np.isfinite(h0), axis=1) | ~np.all(np.isfinite(a_var), axis=(1, 2))
         h0 = np.where(np.isfinite(h0), h0, 0.0)
         a_var = np.where(np.isfinite(a_var), a_var, 0.0)

@@ -55,48 +55,66 @@ class VarProProblem:
         self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
         self.angle = obs.angle_mask_grouped
         self.has_angle = bool(self.angle.any())
+        self._const_design: Array | None = None
 
     def group(self, y: Array) -> Array:
         """Data in the set's row order -> the grouped order the solver works in."""
         return np.asarray(y, dtype=float)[..., self.obs.order]
 
-    def evaluate(self, theta: Array, y: Array, nu_lin: Array,
-                 with_jacobian: bool = True, nu_star: Array | None = None) -> Evaluation:
-        """Eliminate the nuisance at ``theta`` for data ``y`` (B, n, grouped order: see
-        :meth:`group`) and return the reduced residual, cost and (optionally) projected
-        Jacobian.
+    def reference_nuisance(self, y: Array) -> Array:
+        """A nuisance value close to the data's, per data row ``(B, k)``: least squares of the
+        geometry-free part of the design on grouped data ``y`` (a carrier near the mean
+        received frequency), or the fixed values.  Residuals are formed about it, so that a GHz
+        carrier never meets the data in rounding."""
+        y = np.atleast_2d(y)
+        b = y.shape[0]
+        if self.fixed is not None:
+            return np.broadcast_to(self.fixed, (b, self.k)).copy()
+        if self.k == 0:
+            return np.zeros((b, 0))
+        if self._const_design is None:  # geometry-free: any theta gives it
+            with np.errstate(invalid="ignore", divide="ignore"):
+                _, a_const, _, _, _ = self.obs.linearise_grouped(
+                    np.ones((1, self.p)), derivatives=False)
+            self._const_design = a_const[0]
+        design = self._const_design
+        rows = ~self.angle & np.any(design != 0, axis=1)
+        out = np.zeros((b, self.k))
+        cols = np.any(design[rows] != 0, axis=0)
+        if np.any(rows) and np.any(cols):
+            sol, *_ = np.linalg.lstsq(design[np.ix_(rows, cols)], y[:, rows].T, rcond=None)
+            out[:, cols] = sol.T
+        return out
 
-        ``nu_lin`` is the current nuisance estimate (the residual is formed about it);
-        ``nu_star`` (default ``nu_lin``) a value held fixed for a whole solve, whose
-        geometry-free part of the predictions is subtracted from the data exactly once, so
-        that the cost is smooth to rounding even with GHz carriers.
-        """
+    def evaluate(self, theta: Array, y: Array, nu_star: Array,
+                 with_jacobian: bool = True) -> Evaluation:
+        """Eliminate the nuisance at ``theta`` for grouped data ``y`` (B, n) and return the
+        reduced residual, cost and (optionally) the projected Jacobian, exact at the
+        eliminated nuisance.  Residuals are formed about ``nu_star`` (see
+        :meth:`reference_nuisance`)."""
         theta = np.asarray(theta, dtype=float)
         # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
         with np.errstate(invalid="ignore", divide="ignore"):
-            return self._evaluate(theta, y, nu_lin, with_jacobian, nu_star)
+            return self._evaluate(theta, y, nu_star, with_jacobian)
 
-    def _evaluate(self, theta: Array, y: Array, nu_lin: Array, with_jacobian: bool,
-                  nu_star: Array | None) -> Evaluation:
-        h0, a_const, a_var, j_theta = self.obs.linearise_grouped(theta, nu_lin, with_jacobian)
-        nu_ref = (np.broadcast_to(self.fixed, nu_lin.shape) if self.fixed is not None
-                  else nu_lin)
-        star = nu_ref if nu_star is None else nu_star
-        a = a_const + a_var
-        # y - h0 - A nu_ref, arranged so that no two large numbers meet after the first
-        # subtraction (which is exact for data close to A_const nu_star).
-        shifted = y - np.einsum("bnk,bk->bn", a_const, star)
-        e = (shifted - h0 - np.einsum("bnk,bk->bn", a_var, nu_ref)
-             - np.einsum("bnk,bk->bn", a_const, nu_ref - star))
+    def _evaluate(self, theta: Array, y: Array, nu_star: Array, with_jacobian: bool
+                  ) -> Evaluation:
+        h0, a_const, a_var, dh0, d_a = self.obs.linearise_grouped(theta, with_jacobian)
+        # y - h0 - A nu_star, arranged so that no two large numbers meet after the first
+        # subtraction (exact for data close to A_const nu_star).
+        e = ((y - np.einsum("bnk,bk->bn", a_const, nu_star)) - h0
+             - np.einsum("bnk,bk->bn", a_var, nu_star))
         if self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         ew = self.noise.whiten(e)
         if self.fixed is not None or self.k == 0:
-            nu = np.array(nu_ref, dtype=float)
+            nu = np.array(nu_star, dtype=float)
             r = ew
-            jr = None if j_theta is None else self.noise.whiten(j_theta, axis=-2)
+            jr = None
+            if with_jacobian:
+                jr = self.noise.whiten(dh0 + np.einsum("bnkp,bk->bnp", d_a, nu), axis=-2)
         else:
-            aw = self.noise.whiten(a, axis=-2)
+            aw = self.noise.whiten(a_const + a_var, axis=-2)
             scale = np.sqrt(np.einsum("bnk,bnk->bk", aw, aw))   # (B, k) column norms
             scale = np.where(scale > 0, scale, 1.0)
             q = aw / scale[:, None, :]
@@ -104,11 +122,12 @@ class VarProProblem:
             # explicit (k x k) inverse is accurate.
             ginv = np.linalg.inv(np.einsum("bnk,bnl->bkl", q, q))
             coef = np.einsum("bkl,bl->bk", ginv, np.einsum("bnk,bn->bk", q, ew))
-            nu = nu_ref + coef / scale
+            nu = nu_star + coef / scale
             r = ew - np.einsum("bnk,bk->bn", q, coef)
             jr = None
-            if j_theta is not None:
-                jw = self.noise.whiten(j_theta, axis=-2)
+            if with_jacobian:
+                # Kaufman's projected Jacobian, at the eliminated nuisance.
+                jw = self.noise.whiten(dh0 + np.einsum("bnkp,bk->bnp", d_a, nu), axis=-2)
                 proj = np.einsum("bkl,blp->bkp", ginv, np.einsum("bnk,bnp->bkp", q, jw))
                 jr = jw - np.einsum("bnk,bkp->bnp", q, proj)
         cost = 0.5 * np.einsum("bn,bn->b", r, r)
@@ -116,14 +135,9 @@ class VarProProblem:
         return Evaluation(theta, nu, r, cost, jr)
 
     def initial_nuisance(self, theta: Array, y: Array) -> Array:
-        """Nuisance values eliminated at ``theta`` for grouped data ``y`` (needs no prior
-        value: the predictions are affine in the nuisance)."""
-        b = theta.shape[0]
-        if self.fixed is not None:
-            return np.broadcast_to(self.fixed, (b, self.k)).copy()
-        # Formed about zero, this loses ~1e-16 of the nuisance's magnitude (0.2 uHz of a GHz
-        # carrier): ample for a reference about which later residuals are formed.
-        return self.evaluate(theta, y, np.zeros((b, self.k)), with_jacobian=False).nuisance
+        """Nuisance values eliminated at ``theta`` for grouped data ``y``."""
+        y = np.broadcast_to(y, (theta.shape[0], y.shape[-1]))
+        return self.evaluate(theta, y, self.reference_nuisance(y), with_jacobian=False).nuisance
 
 
 @dataclass
@@ -151,10 +165,9 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     """
     theta = np.array(theta0, dtype=float, ndmin=2)
     y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
-    b, p = theta.shape
-    nu = problem.initial_nuisance(theta, y)
-    nu_star = nu.copy()
-    cur = problem.evaluate(theta, y, nu, nu_star=nu_star)
+    b = theta.shape[0]
+    nu_star = problem.reference_nuisance(y)
+    cur = problem.evaluate(theta, y, nu_star)
     lam = np.full(b, 1e-3)
     active = np.isfinite(cur.cost)
     converged = np.zeros(b, dtype=bool)
@@ -162,53 +175,45 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     for _ in range(max_iter):
         if not np.any(active):
             break
-        idx = np.flatnonzero(active)
-        jr = cur.jacobian[idx]
-        r = cur.residual[idx]
-        jtj = np.einsum("bnp,bnq->bpq", jr, jr)
-        grad = np.einsum("bnp,bn->bp", jr, r)
-        diag = np.einsum("bpp->bp", jtj)
-        col = np.sqrt(np.maximum(diag, 1e-300))
-        rnorm = np.sqrt(2.0 * cur.cost[idx])[:, None]
-        small_grad = np.all(np.abs(grad) <= gtol * col * np.maximum(rnorm, 1e-300), axis=1)
-        floor = 1e-12 * np.max(diag, axis=1, keepdims=True)
-        damp = np.maximum(diag, floor) * lam[idx, None]
-        mat = jtj + damp[:, :, None] * np.eye(p)
-        try:
-            step = np.linalg.solve(mat, grad[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            step = np.stack([np.linalg.lstsq(m, g, rcond=None)[0] for m, g in zip(mat, grad,
-                                                                                   strict=True)])
-        trial_theta = cur.theta[idx] + step
-        trial = problem.evaluate(trial_theta, y[idx], cur.nuisance[idx],
-                                 nu_star=nu_star[idx])
-        better = trial.cost < cur.cost[idx]
-        iterations[idx] += 1
+        # Slices (views) when every run is still going: the common case.
+        idx = slice(None) if active.all() else np.flatnonzero(active)
+        jr, r = cur.jacobian[idx], cur.residual[idx]
+        jrt = np.swapaxes(jr, 1, 2)
+        jtj = jrt @ jr
+        grad = (jrt @ r[..., None])[..., 0]
+        # Marquardt's scaling: in variables scaled by sqrt(diag J'J) the damping is lam * I,
+        # so one eigen-decomposition gives the damped step and the Gauss-Newton decrement.
+        scale = np.sqrt(np.maximum(np.diagonal(jtj, axis1=1, axis2=2), 1e-300))
+        w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
+        w = np.maximum(w, 1e-12 * w[:, -1:])
+        vg = (np.swapaxes(v, 1, 2) @ (grad / scale)[..., None])[..., 0]
+        lam_i = lam[idx]
+        step = (v @ (vg / (w + lam_i[:, None]))[..., None])[..., 0] / scale
+        decrement = 0.5 * np.sum(vg * vg / w, axis=1)
         old_cost = cur.cost[idx]
-        acc = idx[better]
-        if acc.size:
-            cur.theta[acc] = trial.theta[better]
-            cur.nuisance[acc] = trial.nuisance[better]
-            cur.residual[acc] = trial.residual[better]
-            cur.cost[acc] = trial.cost[better]
-            cur.jacobian[acc] = trial.jacobian[better]
-        lam[idx] = np.where(better, np.maximum(lam[idx] / 3.0, 1e-12), lam[idx] * 4.0)
-        # Convergence is judged on the decrease the linearised model predicts for a (nearly)
-        # undamped step: the measured decrease is lost in rounding once it falls below
-        # ~1e-8 of the cost (data such as 1.9 GHz frequencies carry ~16 digits in all).
-        # A heavily damped step is small without being converged, hence the damping test.
-        # The Gauss-Newton decrement g' (J'J)^-1 g / 2 does not depend on the damping, so a
-        # run sitting at the minimum is recognised even after rounding made a step look worse.
-        gn = np.linalg.solve(jtj + floor[:, :, None] * np.eye(p), grad[..., None])[..., 0]
-        decrement = 0.5 * np.einsum("bp,bp->b", grad, gn)
+        rnorm = np.sqrt(2.0 * old_cost)[:, None]
+        small_grad = np.all(np.abs(grad) <= gtol * scale * rnorm, axis=1)
+        trial = problem.evaluate(cur.theta[idx] + step, y[idx], nu_star[idx])
+        better = trial.cost < old_cost
+        iterations[idx] += 1
+        if np.any(better):
+            where = (np.flatnonzero(better) if isinstance(idx, slice)
+                     else idx[better])
+            cur.theta[where] = trial.theta[better]
+            cur.nuisance[where] = trial.nuisance[better]
+            cur.residual[where] = trial.residual[better]
+            cur.cost[where] = trial.cost[better]
+            cur.jacobian[where] = trial.jacobian[better]
+        lam[idx] = np.where(better, np.maximum(lam_i / 3.0, 1e-12), lam_i * 4.0)
+        # The Gauss-Newton decrement is half the squared distance to the minimum in standard
+        # deviations (whitened residuals) and does not depend on the damping, so a run sitting
+        # at the minimum is recognised even after rounding made a step look worse; dtol = 1e-7
+        # means within 4.5e-4 sigma.  A heavily damped step is small without being converged,
+        # hence the damping condition on the step test.
         rel_step = np.max(np.abs(step) / (np.abs(cur.theta[idx]) + 1.0), axis=1)
-        gauss_newton = lam[idx] <= 1e-2
-        # The decrement is half the squared distance to the minimum in standard deviations
-        # (the residuals are whitened): dtol = 1e-7 means within 4.5e-4 sigma of it.
         done = small_grad | (decrement <= ftol * old_cost + dtol) | (
-            better & gauss_newton & (rel_step <= xtol))
+            better & (lam_i <= 1e-2) & (rel_step <= xtol))
         converged[idx] |= done
-        stalled = lam[idx] > 1e12
-        active[idx] = ~(done | stalled)
+        active[idx] = ~(done | (lam[idx] > 1e12))
     # Every accepted point carries the nuisance eliminated at its own theta: no re-evaluation.
     return SolveResult(cur.theta, cur.nuisance, cur.cost, iterations, converged, cur)

@@ -103,6 +103,30 @@ class MeasurementModel:
         h0, a = self.affine(rel, t, rel_ref)
         return h0, np.zeros(a.shape), a
 
+    def affine_derivatives(self, rel: ArrayLike, t: ArrayLike | None = None,
+                           rel_ref: ArrayLike | None = None):
+        """The affine parts and their derivatives in one pass:
+        ``(h0, A_const, A_var, dh0, dh0_ref, dA, dA_ref)`` with ``dh0`` ``(..., n, 6)`` the
+        derivative of ``h0`` and ``dA`` ``(..., n, k, 6)`` that of ``A_var`` with respect to the
+        relative state (``*_ref``: at the reference sample, or None).  Since the predictions
+        are affine in the nuisance, ``d predict / d rel = dh0 + sum_j nu_j dA[..., j, :]``."""
+        rel = as_rel(rel)
+        h0, a_const, a_var = self.affine_parts(rel, t, rel_ref)
+        k = a_var.shape[-1]
+        base = self.jacobian(rel, t, np.zeros(k), rel_ref)
+        d_a, d_a_ref = [], []
+        for j in range(k):  # exact: the Jacobian is affine in the nuisance too
+            unit = self.jacobian(rel, t, np.eye(k)[j], rel_ref)
+            d_a.append(unit.rel - base.rel)
+            if base.rel_ref is not None:
+                d_a_ref.append(unit.rel_ref - base.rel_ref)
+        shape = (*rel.shape[:-1], k, 6)
+        dA = np.stack(d_a, axis=-2) if k else np.zeros(shape)
+        dA_ref = None
+        if base.rel_ref is not None:
+            dA_ref = np.stack(d_a_ref, axis=-2) if k else np.zeros(shape)
+        return h0, a_const, a_var, base.rel, base.rel_ref, dA, dA_ref
+
     # -- edges: file units <-> SI ------------------------------------------------------
     def value_to_si(self, value: ArrayLike) -> Array:
         return np.asarray(value, dtype=float) * self.file_scale + self.file_offset

@@ -78,6 +78,20 @@ class Frequency(MeasurementModel):
         h0, const, var = self.affine_parts(rel, t, rel_ref)
         return h0, const + var
 
+    def affine_derivatives(self, rel, t=None, rel_ref=None):
+        rel = as_rel(rel)
+        rdot, grad = range_rate_and_gradient(rel)
+        small = -rdot / self.c
+        d_small = -grad / self.c
+        zeros = np.zeros(small.shape)
+        if not self.drift:
+            return (zeros, np.ones((*small.shape, 1)), small[..., None], np.zeros(rel.shape),
+                    None, d_small[..., None, :], None)
+        tt = np.broadcast_to(np.asarray(t, dtype=float), small.shape)
+        return (zeros, np.stack([np.ones(small.shape), tt], axis=-1),
+                np.stack([small, small * tt], axis=-1), np.zeros(rel.shape), None,
+                np.stack([d_small, d_small * tt[..., None]], axis=-2), None)
+
     def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)
         if nuisance is None:

@@ -64,6 +64,23 @@ class Power(MeasurementModel):
                     np.stack([np.ones(minus_10_log_r.shape), minus_10_log_r], axis=-1))
         return self.exponent * minus_10_log_r, np.ones((*minus_10_log_r.shape, 1))
 
+    def affine_derivatives(self, rel, t=None, rel_ref=None):
+        rel = as_rel(rel)
+        p = rel[..., :3]
+        r2 = np.einsum("...i,...i->...", p, p)
+        minus_10_log_r = -5.0 * np.log10(r2)
+        d_minus_10_log_r = np.zeros(rel.shape)
+        d_minus_10_log_r[..., :3] = -(_TEN_OVER_LN10 / r2)[..., None] * p
+        if self.exponent is None:
+            ones = np.ones(r2.shape)
+            d_a = np.stack([np.zeros(rel.shape), d_minus_10_log_r], axis=-2)
+            return (np.zeros(r2.shape), np.zeros((*r2.shape, 2)),
+                    np.stack([ones, minus_10_log_r], axis=-1), np.zeros(rel.shape), None,
+                    d_a, None)
+        return (self.exponent * minus_10_log_r, np.zeros((*r2.shape, 1)),
+                np.ones((*r2.shape, 1)), self.exponent * d_minus_10_log_r, None,
+                np.zeros((*rel.shape[:-1], 1, 6)), None)
+
     def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)
         _, n = self._split(nuisance)

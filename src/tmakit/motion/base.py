@@ -41,8 +41,14 @@ class MotionModel(ABC):
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
         """``d value / d theta`` from ``d value / d state`` ``(..., n, 6)`` at times ``t``:
-        the chain rule through :meth:`jacobian` (models with a simple structure override it)."""
-        return np.einsum("...ni,...nip->...np", d_state, self.jacobian(theta, t))
+        the chain rule through :meth:`jacobian` (models with a simple structure override it).
+        ``d_state`` may carry extra axes between the batch axes of ``theta`` and the rows."""
+        jac = self.jacobian(theta, t)  # (*batch, n, 6, p)
+        extra = d_state.ndim - (jac.ndim - 1)
+        if extra > 0:
+            lead = jac.ndim - 3
+            jac = jac.reshape(jac.shape[:lead] + (1,) * extra + jac.shape[lead:])
+        return np.einsum("...ni,...nip->...np", d_state, jac)
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
         """Parameters of the simplest trajectory of this model through ENU states

@@ -1,0 +1,209 @@
+"""Random scenarios for statistical studies of the estimators.
+
+:func:`random_geometry` draws one two-dimensional constant-velocity target heard by one
+manoeuvring sensor with a random mix of bearing, frequency and power measurements;
+:func:`observable_geometry` redraws until the Cramér–Rao bound says the geometry can be
+localised.  Everything comes from the ``numpy.random.Generator`` passed in, so a seed
+reproduces the scenario (and, given the same generator afterwards, its simulated data).
+
+The distribution (all draws independent and uniform unless stated):
+
+- **target**: :class:`~tmakit.motion.ConstantVelocity` ``(2, ref_time=0)``; position at
+  time 0 uniform over the annulus 500 m ≤ distance ≤ 20 km around the sensor's start
+  (uniform in area, not in range); speed in [0, 40] m/s; course in [0, 360)°.
+- **sensor** ``"sensor"``: a :class:`~tmakit.sensors.LegsTrack` from the origin at time 0,
+  speed in [30, 80] m/s, heading in [0, 360)°.  The observation lasts ``T`` in
+  [120, 300] s, split into 3–5 legs (the number drawn among those for which legs of
+  20–60 s can fill ``T``) with durations in [20, 60] s summing to ``T`` (uniform on that
+  set), alternating straight legs and turns (which comes first is drawn); each turn has a
+  rate of ±(1–4) °/s with a random sign.  Every track has at least one turn of at least
+  20°, so the heading always changes by more than 20°.
+- **sampling**: every kind is sampled at the same times ``0, dt, 2 dt, ... ≤ T`` with
+  ``dt`` 1 s or 2 s (equally likely).
+- **kinds**: unless ``kinds`` is given, a non-empty subset of {bearing, frequency, power},
+  each of the seven subsets equally likely.  Bearing: σ in [0.5, 2]°.  Frequency: carrier
+  in [0.5, 10] GHz (no drift), σ in [0.5, 3] Hz.  Power: ``SNR_p`` in [25, 45] dB (the
+  multiplicative noise of :class:`~tmakit.scenario.MeasurementPlan` ``snr_db``), the
+  free-space constant at the carrier (:func:`~tmakit.units.free_space_constant`, unit
+  transmit power and gains) and a known path-loss exponent 2.  A carrier is drawn for
+  every geometry (the power constant needs it even without frequency measurements).
+
+Nothing stops the sensor from passing close to the target later on: only the *start* is
+at least 500 m away.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .bounds import crlb
+from .motion import ConstantVelocity
+from .scenario import MeasurementPlan, Scenario
+from .sensors import Leg, LegsTrack
+from .units import free_space_constant, linear_to_db
+
+STUDY_KINDS: tuple[str, ...] = ("bearing", "frequency", "power")
+"""The measurement kinds a random geometry mixes."""
+
+MAX_DISTANCE = 20_000.0
+"""Largest distance (m) of the target from the sensor's start at time 0."""
+MIN_DISTANCE = 500.0
+"""Smallest distance (m) of the target from the sensor's start at time 0."""
+MAX_TARGET_SPEED = 40.0
+"""Largest target speed (m/s)."""
+SENSOR_SPEED = (30.0, 80.0)
+"""Range of the sensor's speed (m/s)."""
+TURN_RATE_DEG_S = (1.0, 4.0)
+"""Range of the magnitude of the sensor's turn rates (°/s)."""
+LEG_DURATION = (20.0, 60.0)
+"""Range of the duration of one leg (s)."""
+LEG_COUNTS = (3, 4, 5)
+"""Possible numbers of legs."""
+OBSERVATION_TIME = (120.0, 300.0)
+"""Range of the total observation time (s)."""
+SAMPLE_INTERVALS = (1.0, 2.0)
+"""Possible sample intervals (s)."""
+BEARING_SIGMA_DEG = (0.5, 2.0)
+"""Range of the bearing noise standard deviation (°)."""
+CARRIER_HZ = (0.5e9, 10e9)
+"""Range of the carrier frequency (Hz)."""
+FREQUENCY_SIGMA_HZ = (0.5, 3.0)
+"""Range of the frequency noise standard deviation (Hz)."""
+SNR_DB = (25.0, 45.0)
+"""Range of the power measurements' SNR_p (dB)."""
+
+
+def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
+    return float(rng.uniform(bounds[0], bounds[1]))
+
+
+def _leg_durations(rng: np.random.Generator, total: float, n: int) -> NDArray[np.float64]:
+    """``n`` durations in ``LEG_DURATION`` summing to ``total`` (uniform on that set)."""
+    lo, hi = LEG_DURATION
+    s = (total - n * lo) / (hi - lo)  # sum of n fractions in [0, 1]
+    flip = s > n / 2.0                # sample the complement: keeps acceptance high
+    target = n - s if flip else s
+    for _ in range(10_000):
+        u = rng.dirichlet(np.ones(n)) * target
+        if np.all(u <= 1.0):
+            break
+    else:  # pragma: no cover - acceptance is above a few per cent for n <= 5
+        u = np.full(n, target / n)
+    if flip:
+        u = 1.0 - u
+    return lo + (hi - lo) * u
+
+
+def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
+    """A manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin and the observation
+    time ``T`` (s) its legs fill; see the module docstring for the distribution."""
+    total = _uniform(rng, OBSERVATION_TIME)
+    lo, hi = LEG_DURATION
+    counts = [n for n in LEG_COUNTS if n * lo <= total <= n * hi]
+    n = int(rng.choice(counts))
+    durations = _leg_durations(rng, total, n)
+    first_turns = bool(rng.integers(2))
+    legs = []
+    for i, d in enumerate(durations):
+        turning = (i % 2 == 0) == first_turns
+        rate = 0.0
+        if turning:
+            rate = float(np.radians(_uniform(rng, TURN_RATE_DEG_S)) * rng.choice((-1.0, 1.0)))
+        legs.append(Leg(float(d), rate))
+    speed = _uniform(rng, SENSOR_SPEED)
+    heading = float(rng.uniform(0.0, 2.0 * np.pi))
+    return LegsTrack((0.0, 0.0), heading, speed, legs), float(durations.sum())
+
+
+def random_geometry(rng: np.random.Generator, kinds: Sequence[str] | None = None
+                    ) -> Scenario:
+    """A random 2-D constant-velocity target heard by one manoeuvring sensor.
+
+    ``kinds`` (a non-empty subset of ``("bearing", "frequency", "power")``) fixes the
+    measurement mix; by default it is drawn too.  The distribution is described in the
+    module docstring; the same generator state gives the same scenario.
+    """
+    if kinds is not None:
+        kinds = tuple(kinds)
+        unknown = [k for k in kinds if k not in STUDY_KINDS]
+        if not kinds or unknown:
+            raise ValueError(f"kinds must be a non-empty subset of {', '.join(STUDY_KINDS)}; "
+                             f"got {', '.join(kinds) or 'none'}")
+    # Target at time 0: uniform in area over the annulus around the sensor's start.
+    r = float(np.sqrt(rng.uniform(MIN_DISTANCE**2, MAX_DISTANCE**2)))
+    b = float(rng.uniform(0.0, 2.0 * np.pi))
+    speed = float(rng.uniform(0.0, MAX_TARGET_SPEED))
+    course = float(rng.uniform(0.0, 2.0 * np.pi))
+    truth = {"x": r * np.sin(b), "y": r * np.cos(b),
+             "vx": speed * np.sin(course), "vy": speed * np.cos(course)}
+    track, total = random_sensor(rng)
+    dt = float(rng.choice(SAMPLE_INTERVALS))
+    times = np.arange(0.0, total + 1e-9, dt)
+    if kinds is None:
+        subset = int(rng.integers(1, 2 ** len(STUDY_KINDS)))  # bit mask, never empty
+        kinds = tuple(k for i, k in enumerate(STUDY_KINDS) if subset >> i & 1)
+    carrier = _uniform(rng, CARRIER_HZ)
+    plans = []
+    noise = []
+    for k in STUDY_KINDS:
+        if k not in kinds:
+            continue
+        if k == "bearing":
+            sigma_deg = _uniform(rng, BEARING_SIGMA_DEG)
+            plans.append(MeasurementPlan(k, "sensor", times, sigma=float(np.radians(sigma_deg))))
+            noise.append(f"bearing {sigma_deg:.2f} deg")
+        elif k == "frequency":
+            sigma_hz = _uniform(rng, FREQUENCY_SIGMA_HZ)
+            plans.append(MeasurementPlan(k, "sensor", times, sigma=sigma_hz))
+            noise.append(f"frequency {sigma_hz:.2f} Hz")
+        else:
+            snr = _uniform(rng, SNR_DB)
+            plans.append(MeasurementPlan(k, "sensor", times, snr_db=snr))
+            noise.append(f"power SNR_p {snr:.1f} dB")
+    nuisance = {"carrier": carrier,
+                "power_constant_db": float(linear_to_db(free_space_constant(carrier))),
+                "path_loss_exponent": 2.0}
+    description = (f"random geometry: target {r / 1000:.2f} km, {speed:.1f} m/s; sensor "
+                   f"{track.speed:.0f} m/s, {len(track.legs)} legs, {total:.0f} s every "
+                   f"{dt:g} s; carrier {carrier / 1e9:.3f} GHz; " + ", ".join(noise))
+    return Scenario("random-geometry", ConstantVelocity(2, ref_time=0.0), truth,
+                    {"sensor": track}, plans, nuisance, description)
+
+
+def position_std(scenario: Scenario, t: float | None = None) -> float:
+    """Cramér–Rao bound (nuisance parameters unknown) on the horizontal position error
+    ``sqrt(var x + var y)`` in metres at time ``t`` (default: the middle of the
+    observation); ``inf`` when the bound is rank deficient."""
+    bound = crlb(scenario)
+    if not bound.observability.full_rank:
+        return float("inf")
+    if t is None:
+        t = 0.5 * sum(scenario.time_span())
+    _, cov = bound.state_covariance(t)
+    var = cov[0, 0] + cov[1, 1]
+    return float(np.sqrt(var)) if np.isfinite(var) and var >= 0 else float("inf")
+
+
+def observable_geometry(rng: np.random.Generator, max_position_std: float = 2000.0,
+                        max_tries: int = 100, kinds: Sequence[str] | None = None
+                        ) -> Scenario:
+    """A :func:`random_geometry` that is *observable*, redrawn until it is.
+
+    "Observable" means exactly: the Cramér–Rao bound with the nuisance parameters unknown
+    (:func:`tmakit.bounds.crlb` of the scenario at its truth) has full rank, **and** its
+    horizontal position standard deviation ``sqrt(var x + var y)`` at the middle of the
+    observation is below ``max_position_std`` metres (see :func:`position_std`).  Raises
+    ``RuntimeError`` after ``max_tries`` draws.
+    """
+    best = float("inf")
+    for _ in range(max_tries):
+        scenario = random_geometry(rng, kinds)
+        std = position_std(scenario)
+        if std < max_position_std:
+            return scenario
+        best = min(best, std)
+    raise RuntimeError(f"no observable geometry in {max_tries} draws (best position "
+                       f"standard deviation {best:.4g} m, limit {max_position_std:g} m)")
