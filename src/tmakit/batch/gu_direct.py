@@ -62,6 +62,22 @@ PAPER_KINDS = ("power", "frequency")
 
 _TEN_OVER_LN10 = 10.0 / np.log(10.0)
 DIVERGENCE_FACTOR = 1e4
+
+
+def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
+                   range2: NDArray[np.float64], far: float, tol: float
+                   ) -> tuple[str, str] | None:
+    """How an iteration of the papers' fixed-point methods ends after an update ``step`` to
+    ``theta``: diverged (a range non-positive, or grown beyond ``far``), converged (the
+    update below ``tol`` relative), or ``None`` to go on.  Shared by 000 §3 and §4."""
+    if np.any(range2 <= 0):
+        return DIVERGED, "a range became non-positive"
+    if np.max(range2) > far ** 2:
+        return DIVERGED, (f"the ranges grew more than {DIVERGENCE_FACTOR:g}-fold from the "
+                          "start")
+    if np.linalg.norm(step) <= tol * (1.0 + np.linalg.norm(theta)):
+        return CONVERGED, ""
+    return None
 """An iterate whose largest range exceeds this multiple of the largest range at the start (or
 of 1 km) is declared diverged."""
 DEFAULT_CARRIER = 1.9e9
@@ -354,16 +370,9 @@ def gu_direct(meas: MeasurementSet, motion: MotionModel,
         history["update_norms"].append(float(np.linalg.norm(step)))
         if j_f is not None and x[j_f] > 0:
             fs = c / x[j_f]
-        r2 = geo.range2(theta)
-        if np.any(r2 <= 0):
-            status, message = DIVERGED, "a range became non-positive"
-            break
-        if np.max(r2) > far ** 2:
-            status, message = DIVERGED, (f"the ranges grew more than {DIVERGENCE_FACTOR:g}-fold "
-                                         "from the start")
-            break
-        if np.linalg.norm(step) <= tol * (1.0 + np.linalg.norm(theta)):
-            status = CONVERGED
+        stop = iteration_stop(theta, step, geo.range2(theta), far, tol)
+        if stop is not None:
+            status, message = stop
             break
     return _direct_result(theta, x, status, message, iterations, history, system, fs, sub,
                           motion, kinds_used, j_c, j_f, c0, cols)

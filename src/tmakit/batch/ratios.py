@@ -100,10 +100,11 @@ from .gu_direct import (
     carrier_guess,
     check_planar_cv,
     initial_theta,
+    iteration_stop,
     select_kinds,
     snr_from_sigma_db,
 )
-from .ml import CONVERGED, DIVERGED, NOT_CONVERGED, EstimateResult
+from .ml import DIVERGED, NOT_CONVERGED, EstimateResult
 
 Array = NDArray[np.float64]
 
@@ -358,16 +359,9 @@ def ratio_method(meas: MeasurementSet, motion: MotionModel,
         step = new - theta
         theta = new
         steps.append(float(np.linalg.norm(step)))
-        r2 = system.geo.range2(theta)
-        if np.any(r2 <= 0):
-            status, message = DIVERGED, "a range became non-positive"
-            break
-        if np.max(r2) > far ** 2:
-            status, message = DIVERGED, (f"the ranges grew more than {DIVERGENCE_FACTOR:g}-fold "
-                                         "from the start")
-            break
-        if np.linalg.norm(step) <= tol * (1.0 + np.linalg.norm(theta)):
-            status = CONVERGED
+        stop = iteration_stop(theta, step, system.geo.range2(theta), far, tol)
+        if stop is not None:
+            status, message = stop
             break
     extra: dict[str, object] = {"covariance": covariance, "kinds": list(kinds_used),
                                 "n_ratios": int(system.n), "update_norms": steps}
