@@ -92,6 +92,14 @@ def test_three_receivers_estimate_converges_to_within_the_bound():
     res = estimate(scn.simulate(rng=2), scn.motion, options=scn.measurement_options)
     assert res.status == "converged"
     assert np.all(np.abs(res.estimate - scn.theta) < 4 * bound.std[:6])
+    # All receivers at 10 m, no elevation: the mirror image through z = 10 m fits exactly as
+    # well.  The solution above is reported, and the ambiguity is said.
+    assert "mirror image" in res.message and res.estimate[2] > 10.0
+    mirrored = scn.theta.copy()
+    mirrored[2], mirrored[5] = 20.0 - mirrored[2], -mirrored[5]
+    below = estimate(scn.simulate(rng=2), scn.motion, options=scn.measurement_options,
+                     init=dict(zip(scn.motion.param_names, mirrored, strict=True)))
+    assert below.chi2 == pytest.approx(res.chi2, rel=1e-9)
 
 
 @pytest.mark.parametrize("name", ["hurtado2008", "chen-sun-3"])

