@@ -211,6 +211,14 @@ def _model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, obje
     return {"frequency": {"drift": drift}, "power": {"exponent": None if free_exponent else 2.0}}
 
 
+# Options shared by the commands that fit or bound a motion model.
+MotionOption = Annotated[str | None, typer.Option(help="cv2d, cv3d, static2d, static3d")]
+RefTimeOption = Annotated[float | None, typer.Option(
+    help="reference time of the motion parameters (s)")]
+DriftOption = Annotated[bool, typer.Option(help="model a linear carrier drift")]
+FreeExponentOption = Annotated[bool, typer.Option(help="the path-loss exponent is unknown too")]
+
+
 def _is_measurement_file(text: str) -> bool:
     return Path(text).suffix.lower() in (".csv", ".parquet", ".pq")
 
@@ -218,16 +226,14 @@ def _is_measurement_file(text: str) -> bool:
 @app.command()
 def crlb(
     source: Annotated[str, typer.Argument(help="measurement file, or a scenario name/TOML")],
-    motion: Annotated[str | None, typer.Option(help="cv2d, cv3d, static2d, static3d")] = None,
-    ref_time: Annotated[float | None, typer.Option(
-        help="reference time of the motion parameters (s)")] = None,
+    motion: MotionOption = None,
+    ref_time: RefTimeOption = None,
     truth: Annotated[str | None, typer.Option(
         help="where to evaluate the bound, e.g. x=3200,y=3200,vx=-21.65,vy=-12.5")] = None,
     known_nuisance: Annotated[bool, typer.Option(
         help="treat carrier, drift, power constant and exponent as known")] = False,
-    drift: Annotated[bool, typer.Option(help="model a linear carrier drift")] = False,
-    free_exponent: Annotated[bool, typer.Option(
-        help="the path-loss exponent is unknown too")] = False,
+    drift: DriftOption = False,
+    free_exponent: FreeExponentOption = False,
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
@@ -291,17 +297,15 @@ def crlb(
 @app.command()
 def estimate(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
-    motion: Annotated[str | None, typer.Option(help="cv2d, cv3d, static2d, static3d")] = None,
-    ref_time: Annotated[float | None, typer.Option(
-        help="reference time of the motion parameters (s)")] = None,
+    motion: MotionOption = None,
+    ref_time: RefTimeOption = None,
     init: Annotated[str | None, typer.Option(
         help="optional starting point, e.g. x=3000,y=3000,vx=-20,vy=-10")] = None,
     method: Annotated[str, typer.Option(
         help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
              "ratio-doppler, lecture-gn")] = "ml",
-    drift: Annotated[bool, typer.Option(help="model a linear carrier drift")] = False,
-    free_exponent: Annotated[bool, typer.Option(
-        help="the path-loss exponent is unknown too")] = False,
+    drift: DriftOption = False,
+    free_exponent: FreeExponentOption = False,
     origin: Annotated[str | None, typer.Option(
         help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
