@@ -38,7 +38,8 @@ class ObservationModel:
 
     def __init__(self, meas: MeasurementSet, motion: MotionModel,
                  options: Mapping[str, Mapping[str, object]] | None = None) -> None:
-        options = dict(options or {})
+        options = {k: dict(v) for k, v in dict(options or {}).items()}
+        self.options = options  #: the per-kind model options, as given
         self.meas = meas
         self.motion = motion
         self.models: dict[str, MeasurementModel] = {

@@ -112,18 +112,8 @@ def _subsample(problem: VarProProblem, max_rows: int
         keep.append(rows[np.unique(np.linspace(0, rows.size - 1, take).round().astype(int))])
     idx = np.sort(np.concatenate(keep))
     sub = meas.take(idx)
-    opts = {k: _options_of(m) for k, m in problem.obs.models.items()}
-    obs = ObservationModel(sub, problem.obs.motion, opts)
+    obs = ObservationModel(sub, problem.obs.motion, problem.obs.options)
     return VarProProblem(obs, None, problem.fixed), idx
-
-
-def _options_of(model) -> dict[str, object]:
-    opts: dict[str, object] = {}
-    if hasattr(model, "drift"):
-        opts["drift"] = model.drift
-    if hasattr(model, "exponent"):
-        opts["exponent"] = model.exponent
-    return opts
 
 
 class GridScorer:
@@ -255,6 +245,5 @@ def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarP
         values[sel] = model.value_from_si(si[sel])
     copy = meas.take(np.arange(len(meas)))
     copy.value = values
-    opts = {k: _options_of(m) for k, m in problem.obs.models.items()}
-    return VarProProblem(ObservationModel(copy, problem.obs.motion, opts), problem.noise,
-                         problem.fixed)
+    obs = ObservationModel(copy, problem.obs.motion, problem.obs.options)
+    return VarProProblem(obs, problem.noise, problem.fixed)
