@@ -1,0 +1,249 @@
+"""The one interface of tmakit's recursive filters, and the track they produce.
+
+A filter holds the target state ``[x, y, (z), vx, vy, (vz)]`` (ENU m, m/s; see
+:mod:`.dynamics`) and its covariance at a time.  :meth:`TrackingFilter.predict` moves it to a
+later time under nearly-constant-velocity dynamics (003_e5155d4fe60daef8.txt §2.1);
+:meth:`TrackingFilter.update` takes a group of measurement rows of any kinds and sensors
+(:class:`.measurement_group.MeasurementGroup`); :meth:`TrackingFilter.run` does both over a
+whole :class:`~tmakit.data.MeasurementSet`, one update per distinct measurement time, and
+returns a :class:`Track`.
+
+Subclasses implement :meth:`TrackingFilter._predict` and :meth:`TrackingFilter._update`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..data import MeasurementSet
+from .dynamics import NearlyConstantVelocity, state_names
+from .linalg import symmetrise
+from .measurement_group import MeasurementGroup
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..batch.ml import EstimateResult
+
+Array = NDArray[np.float64]
+
+#: Rows whose times differ by less than this (s) are one update.
+TIME_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class UpdateInfo:
+    """What one update saw: the normalised innovation squared (NIS) and its degrees of
+    freedom, and the log-likelihood of the group given the past (nats)."""
+
+    nis: float
+    dof: int
+    log_likelihood: float
+
+
+@dataclass
+class Track:
+    """A filter's output: one row per update.
+
+    ``times`` (K,) s; ``states`` (K, n) and ``covariances`` (K, n, n) after each update (SI);
+    ``nis``/``dof`` per update; ``log_likelihood`` cumulative (nats).
+    """
+
+    filter_name: str
+    state_names: tuple[str, ...]
+    times: Array
+    states: Array
+    covariances: Array
+    nis: Array
+    dof: NDArray[np.int64]
+    log_likelihood: Array
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.times.shape[0])
+
+    @property
+    def std(self) -> Array:
+        """Standard deviations (K, n)."""
+        return np.sqrt(np.clip(np.einsum("kii->ki", self.covariances), 0.0, None))
+
+    def errors(self, truth: ArrayLike) -> Array:
+        """Estimate minus truth (K, n) for true states ``truth`` (K, n) at :attr:`times`."""
+        return self.states - np.asarray(truth, dtype=float)
+
+    def nees(self, truth: ArrayLike) -> Array:
+        """Normalised estimation error squared per update (K,) for true states (K, n)."""
+        err = self.errors(truth)
+        return np.einsum("ki,ki->k", err, np.linalg.solve(self.covariances, err[..., None])[
+            ..., 0])
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "filter": self.filter_name,
+            "state": list(self.state_names),
+            "time": self.times.tolist(),
+            "estimate": self.states.tolist(),
+            "std": self.std.tolist(),
+            "covariance": self.covariances.tolist(),
+            "nis": self.nis.tolist(),
+            "dof": self.dof.tolist(),
+            "log_likelihood": self.log_likelihood.tolist(),
+        }
+
+    def table_columns(self) -> dict[str, Array]:
+        """Columns for a CSV/Parquet table: time, each state, its std, and the upper
+        triangle of the covariance (``cov_x_y``...)."""
+        cols: dict[str, Array] = {"time": self.times}
+        n = len(self.state_names)
+        for i, name in enumerate(self.state_names):
+            cols[name] = self.states[:, i]
+        for i, name in enumerate(self.state_names):
+            cols[f"std_{name}"] = self.std[:, i]
+        for i in range(n):
+            for j in range(i, n):
+                cols[f"cov_{self.state_names[i]}_{self.state_names[j]}"] = \
+                    self.covariances[:, i, j]
+        cols["nis"] = self.nis
+        cols["dof"] = self.dof.astype(float)
+        cols["log_likelihood"] = self.log_likelihood
+        return cols
+
+
+def group_times(meas: MeasurementSet) -> list[NDArray[np.int64]]:
+    """Row indices of ``meas`` grouped by measurement time (ascending)."""
+    order = np.argsort(meas.time, kind="stable")
+    t = meas.time[order]
+    breaks = np.flatnonzero(np.diff(t) > TIME_TOLERANCE) + 1
+    return np.split(order, breaks)
+
+
+class TrackingFilter(ABC):
+    """A recursive filter for a nearly-constant-velocity emitter.
+
+    ``mean`` (n,) and ``covariance`` (n, n): the prior at ``time`` (s), n = 4 (2-D) or 6
+    (3-D).  ``q``: process-noise acceleration standard deviation per axis (m/s^2), or give
+    ``dynamics``.  ``options``: per-kind measurement-model options; ``nuisance``: known values
+    of nuisance parameters (carrier Hz, power constant dBW, ...).
+    """
+
+    name = ""
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 q: float | tuple[float, ...] = 0.0,
+                 dynamics: NearlyConstantVelocity | None = None,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        mean = np.array(mean, dtype=float)
+        cov = np.array(covariance, dtype=float)
+        if mean.ndim != 1 or mean.shape[0] not in (4, 6):
+            raise ValueError("the prior mean must be [x, y, vx, vy] or [x, y, z, vx, vy, vz]; "
+                             f"got shape {mean.shape}")
+        n = mean.shape[0]
+        if cov.shape != (n, n):
+            raise ValueError(f"the prior covariance must be {n}x{n}; got shape {cov.shape}")
+        if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+            raise ValueError("the prior mean and covariance must be finite")
+        cov = symmetrise(cov)
+        if np.min(np.linalg.eigvalsh(cov)) <= 0:
+            raise ValueError("the prior covariance must be positive definite")
+        self.dim = n // 2
+        self.dynamics = dynamics if dynamics is not None else NearlyConstantVelocity(
+            self.dim, q)
+        if self.dynamics.dim != self.dim:
+            raise ValueError(f"dynamics are {self.dynamics.dim}-D but the prior is "
+                             f"{self.dim}-D")
+        self.options = {k: dict(v) for k, v in dict(options or {}).items()}
+        self.nuisance = dict(nuisance or {})
+        self.time = float(time)
+        self.log_likelihood = 0.0
+        self._init_state(mean, cov)
+
+    # -- what subclasses provide -------------------------------------------------------------
+    @abstractmethod
+    def _init_state(self, mean: Array, covariance: Array) -> None:
+        """Set the internal representation from a Gaussian prior."""
+
+    @property
+    @abstractmethod
+    def state(self) -> Array:
+        """The state estimate (n,) at :attr:`time`."""
+
+    @property
+    @abstractmethod
+    def covariance(self) -> Array:
+        """Its covariance (n, n), symmetric."""
+
+    @abstractmethod
+    def _predict(self, dt: float) -> None:
+        """Move the estimate ``dt > 0`` seconds forward."""
+
+    @abstractmethod
+    def _update(self, group: MeasurementGroup) -> UpdateInfo:
+        """Condition on one group of measurements at :attr:`time`."""
+
+    # -- the interface -----------------------------------------------------------------------
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return state_names(self.dim)
+
+    @classmethod
+    def from_estimate(cls, result: EstimateResult, time: float, *, inflate: float = 1.0,
+                      **kwargs: Any) -> TrackingFilter:
+        """Start from a batch estimate: its state at ``time`` and the covariance mapped
+        through the motion model (times ``inflate``); its nuisance values are used unless
+        ``nuisance=`` is given."""
+        motion = result.motion
+        theta = np.asarray(result.estimate, dtype=float)
+        dim = 3 if getattr(motion, "dim", 2) == 3 else 2
+        keep = [0, 1, 2, 3, 4, 5] if dim == 3 else [0, 1, 3, 4]
+        state6 = motion.states(theta, np.array([float(time)]))[0]
+        jac = motion.jacobian(theta, np.array([float(time)]))[0][keep]
+        cov = inflate * jac @ result.covariance @ jac.T
+        if not np.all(np.isfinite(cov)):
+            raise ValueError("the batch estimate has no finite covariance (status "
+                             f"{result.status!r}); start the filter from a prior instead")
+        kwargs.setdefault("nuisance", {k: v for k, (v, _) in result.nuisance.items()})
+        return cls(state6[keep], cov, float(time), **kwargs)
+
+    def group(self, rows: MeasurementSet) -> MeasurementGroup:
+        """The rows as a :class:`MeasurementGroup` at the filter's time."""
+        return MeasurementGroup(rows, self.time, self.dim, self.options, self.nuisance)
+
+    def predict(self, time: float) -> None:
+        """Move the estimate to ``time`` (s, not earlier than the current time)."""
+        dt = float(time) - self.time
+        if dt < -TIME_TOLERANCE:
+            raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
+                             f"to t={time} s")
+        if dt > TIME_TOLERANCE:
+            self._predict(dt)
+        self.time = max(self.time, float(time))
+
+    def update(self, rows: MeasurementSet) -> UpdateInfo:
+        """Condition on measurement rows (any kinds and sensors) at the current time."""
+        info = self._update(self.group(rows))
+        self.log_likelihood += info.log_likelihood
+        return info
+
+    def run(self, meas: MeasurementSet) -> Track:
+        """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
+        Rows earlier than the filter's time are refused."""
+        if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
+            raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
+                             f"filter's prior time t={self.time} s")
+        groups = group_times(meas)
+        k = len(groups)
+        n = 2 * self.dim
+        times, states = np.empty(k), np.empty((k, n))
+        covs, nis = np.empty((k, n, n)), np.empty(k)
+        dof, loglik = np.empty(k, dtype=np.int64), np.empty(k)
+        for i, idx in enumerate(groups):
+            self.predict(float(meas.time[idx[-1]]))
+            info = self.update(meas.take(idx))
+            times[i], states[i], covs[i] = self.time, self.state, self.covariance
+            nis[i], dof[i], loglik[i] = info.nis, info.dof, self.log_likelihood
+        return Track(self.name, self.state_names, times, states, covs, nis, dof, loglik)

@@ -1,0 +1,75 @@
+"""Nearly-constant-velocity target dynamics for the recursive filters.
+
+State order: ``[x, y, vx, vy]`` in 2-D and ``[x, y, z, vx, vy, vz]`` in 3-D (ENU metres and
+metres per second), as in 003_e5155d4fe60daef8.txt §2.1.  Over a step ``T`` the state moves by
+``Phi(T)`` and gains the noise of a white acceleration held constant over the step, with
+per-axis standard deviation ``q`` (m/s^2): ``Q_k`` of 003_e5155d4fe60daef8.txt §2.1,
+``Q = G G^T q^2`` with ``G = [T^2/2, T]`` per axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+Array = NDArray[np.float64]
+
+
+def state_names(dim: int) -> tuple[str, ...]:
+    """Names of the filter state components for ``dim`` = 2 or 3."""
+    if dim == 2:
+        return ("x", "y", "vx", "vy")
+    if dim == 3:
+        return ("x", "y", "z", "vx", "vy", "vz")
+    raise ValueError(f"the filter state is 2-D or 3-D; got dim={dim}")
+
+
+def transition_matrix(dt: float, dim: int) -> Array:
+    """``Phi(dt)`` of 003_e5155d4fe60daef8.txt §2.1 (any sign of ``dt``: back-propagation
+    too)."""
+    phi = np.eye(2 * dim)
+    phi[:dim, dim:] = dt * np.eye(dim)
+    return phi
+
+
+def process_noise(dt: float, q: ArrayLike, dim: int) -> Array:
+    """``Q_k`` of 003_e5155d4fe60daef8.txt §2.1 for a step ``dt`` (s) and per-axis
+    acceleration standard deviations ``q`` (m/s^2; a scalar applies to every axis)."""
+    q = np.broadcast_to(np.asarray(q, dtype=float), (dim,))
+    if np.any(q < 0) or not np.all(np.isfinite(q)):
+        raise ValueError(f"process noise q must be finite and >= 0 m/s^2; got {q.tolist()}")
+    dt = abs(float(dt))
+    out = np.zeros((2 * dim, 2 * dim))
+    q2 = q**2
+    idx = np.arange(dim)
+    out[idx, idx] = dt**4 / 4 * q2
+    out[idx, idx + dim] = out[idx + dim, idx] = dt**3 / 2 * q2
+    out[idx + dim, idx + dim] = dt**2 * q2
+    return out
+
+
+@dataclass(frozen=True)
+class NearlyConstantVelocity:
+    """Linear-Gaussian dynamics ``x_{k+1} = Phi x_k + w_k``, ``w_k ~ N(0, Q_k)``.
+
+    ``q``: per-axis acceleration noise (m/s^2), a scalar or one value per axis.
+    """
+
+    dim: int = 2
+    q: float | tuple[float, ...] = 0.0
+
+    def __post_init__(self) -> None:
+        state_names(self.dim)
+        process_noise(1.0, self.q, self.dim)  # validates q
+
+    @property
+    def n_state(self) -> int:
+        return 2 * self.dim
+
+    def transition(self, dt: float) -> Array:
+        return transition_matrix(dt, self.dim)
+
+    def noise(self, dt: float) -> Array:
+        return process_noise(dt, self.q, self.dim)

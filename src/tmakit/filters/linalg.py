@@ -1,0 +1,49 @@
+"""Numerically safe covariance algebra for the filters: no ``LinAlgError`` and no
+non-symmetric covariance reaches a user."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+
+def symmetrise(p: Array) -> Array:
+    """``(P + P^T) / 2``."""
+    return 0.5 * (p + np.swapaxes(p, -1, -2))
+
+
+def nearest_psd(p: Array, floor: float = 0.0) -> Array:
+    """The symmetric matrix nearest to ``p`` with eigenvalues ``>= floor`` (clips negative
+    eigenvalues that rounding produced)."""
+    evals, evecs = np.linalg.eigh(symmetrise(p))
+    evals = np.maximum(evals, floor)
+    return symmetrise((evecs * evals) @ evecs.T)
+
+
+def safe_cholesky(p: Array) -> Array:
+    """Lower Cholesky factor of a covariance, repairing it (symmetrising, then clipping
+    eigenvalues to a tiny multiple of the largest) if rounding made it indefinite."""
+    p = symmetrise(p)
+    try:
+        return np.linalg.cholesky(p)
+    except np.linalg.LinAlgError:
+        scale = max(float(np.max(np.abs(np.diag(p)))), 1e-300)
+        return np.linalg.cholesky(nearest_psd(p, floor=1e-12 * scale))
+
+
+def solve_spd(s: Array, b: Array) -> tuple[Array, float]:
+    """``S^-1 b`` and ``log det S`` for a symmetric positive-definite innovation covariance
+    ``S``, by Cholesky (repaired if needed)."""
+    chol = safe_cholesky(s)
+    y = np.linalg.solve(chol, b)
+    x = np.linalg.solve(chol.T, y)
+    return x, float(2.0 * np.sum(np.log(np.diag(chol))))
+
+
+def joseph_update(p: Array, gain: Array, h: Array, r: Array) -> Array:
+    """Joseph form ``(I - K H) P (I - K H)^T + K R K^T``: symmetric and positive
+    semi-definite for any gain, unlike ``(I - K H) P``."""
+    i_kh = np.eye(p.shape[0]) - gain @ h
+    return symmetrise(i_kh @ p @ i_kh.T + gain @ r @ gain.T)
