@@ -14,7 +14,7 @@ Subclasses implement :meth:`TrackingFilter._predict` and :meth:`TrackingFilter._
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -235,15 +235,30 @@ class TrackingFilter(ABC):
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
             raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
                              f"filter's prior time t={self.time} s")
-        groups = group_times(meas)
-        k = len(groups)
+        return self.run_groups((float(meas.time[idx[-1]]), meas.take(idx))
+                               for idx in group_times(meas))
+
+    def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
+        """Predict to each ``time`` and update with its rows, in the order given (times must
+        not decrease).  Rows may be taken at other times than ``time`` (multi-lag vectors,
+        003_e5155d4fe60daef8.txt §2.2): they are predicted from the state moved there."""
         n = 2 * self.dim
-        times, states = np.empty(k), np.empty((k, n))
-        covs, nis = np.empty((k, n, n)), np.empty(k)
-        dof, loglik = np.empty(k, dtype=np.int64), np.empty(k)
-        for i, idx in enumerate(groups):
-            self.predict(float(meas.time[idx[-1]]))
-            info = self.update(meas.take(idx))
-            times[i], states[i], covs[i] = self.time, self.state, self.covariance
-            nis[i], dof[i], loglik[i] = info.nis, info.dof, self.log_likelihood
-        return Track(self.name, self.state_names, times, states, covs, nis, dof, loglik)
+        times: list[float] = []
+        states: list[Array] = []
+        covs: list[Array] = []
+        nis: list[float] = []
+        dof: list[int] = []
+        loglik: list[float] = []
+        for time, rows in groups:
+            self.predict(time)
+            info = self.update(rows)
+            times.append(self.time)
+            states.append(self.state)
+            covs.append(self.covariance)
+            nis.append(info.nis)
+            dof.append(info.dof)
+            loglik.append(self.log_likelihood)
+        return Track(self.name, self.state_names, np.array(times, dtype=float),
+                     np.array(states, dtype=float).reshape(-1, n),
+                     np.array(covs, dtype=float).reshape(-1, n, n), np.array(nis, dtype=float),
+                     np.array(dof, dtype=np.int64), np.array(loglik, dtype=float))
