@@ -12,8 +12,11 @@ from tmakit.observation import ObservationModel
 from tmakit.scenario_file import ScenarioFileError, builtin_scenario_names, scenario_from_dict
 from tmakit.units import free_space_constant, snr_to_sigma_db
 
-EXPECTED = {"gu2007", "doppler-lecture", "hoerst2010", "chen-sun-1", "chen-sun-2",
-            "chen-sun-3", "hurtado2008"}
+PAPERS = {"gu2007", "doppler-lecture", "hoerst2010", "chen-sun-1", "chen-sun-2",
+          "chen-sun-3", "hurtado2008"}
+#: tmakit's own test beds (no paper gives them).
+OWN = {"bearings-only-2d"}
+EXPECTED = PAPERS | OWN
 
 
 def test_every_paper_has_its_builtin_scenario():
