@@ -3,9 +3,11 @@
 from .base import MotionModel, numerical_jacobian
 from .constant_velocity import ConstantVelocity, Stationary
 from .curvilinear import PiecewiseCurvilinear, propagate_curvilinear
+from .fixed import FixedParameters
 
 __all__ = [
     "ConstantVelocity",
+    "FixedParameters",
     "MotionModel",
     "PiecewiseCurvilinear",
     "Stationary",

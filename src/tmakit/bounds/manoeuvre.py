@@ -1,0 +1,272 @@
+"""Cramér–Rao bounds for a piecewise curvilinearly moving target at a sequence of reference
+times (002_e7269ad11b825346.txt §3, eqs. 7-9, and the Cramér–Rao analysis of §4 / Fig. 2).
+
+At each reference time ``t_ref`` the unknowns are the target state at ``t_ref`` — position,
+speed and course, ``x_r`` of the paper — together with the accelerations of every segment and
+the change-over times of the manoeuvres that have started, and the data are all measurements
+taken up to and including ``t_ref``.  This is the bound of the paper's Fig. 2: the "current"
+state estimated from everything heard so far (§2.1: "the reference state is commonly the
+current state"; eq. 3 covers the interval ``[t_0, t_r]``).
+
+Conventions (stated in :func:`curvilinear_crb_sequence` as well):
+
+* a manoeuvre's parameters (``at_m, an_m, t_m``) join the unknowns only once it has started:
+  manoeuvre ``m`` is a parameter at ``t_ref`` if and only if ``t_m < t_ref``; a manoeuvre
+  starting exactly at ``t_ref`` or later is not;
+* a sample exactly at a change-over time belongs to the earlier segment, and so does a
+  reference time exactly at one;
+* accelerations are indexed as in the paper's simulation section: ``at_m, an_m`` act from
+  ``t_m`` on (``at_0, an_0`` from the start);
+* ``known_manoeuvres=True`` holds all accelerations and change-over times at their true values
+  (the assumption of [RA03, RAG04] the paper contrasts itself with): only the state at
+  ``t_ref`` is unknown.
+
+The position bound at ``t_ref`` is reported as the 2x2 covariance of ``(x, y)``, the standard
+deviations, the RMS ``sqrt(var x + var y)`` and the confidence ellipse.  Where the data cannot
+determine the unknowns the standard deviations are infinite (never a number from a blind
+inverse), and :attr:`CrbPoint.bound` names the unobservable directions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..data import MeasurementSet
+from ..motion import FixedParameters, MotionModel, PiecewiseCurvilinear
+from .fim import Bound, crlb
+
+_ALIASES = {"azimuth": "bearing", "azimuth_rate": "azimuth_rate", "bearing": "bearing"}
+
+
+@dataclass
+class CrbPoint:
+    """The bound at one reference time ``ref_time`` (s).
+
+    ``position`` (m, ENU) is the true position at ``ref_time``; ``covariance`` the bound on
+    its 2x2 covariance (m^2); ``std`` the bounds on the standard deviations of x and y (m);
+    ``rms`` = ``sqrt(var x + var y)`` (m); ``ellipse`` the confidence ellipse of
+    :meth:`tmakit.bounds.Bound.ellipse` (centre, semi-axes in m, bearing of the major axis in
+    degrees).  ``manoeuvres`` is the number of manoeuvres that have started (whose
+    parameters are unknowns unless ``known_manoeuvres``), ``bound`` the full bound over
+    ``bound.parameters``.
+    """
+
+    ref_time: float
+    manoeuvres: int
+    n_measurements: int
+    position: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    std: NDArray[np.float64]
+    rms: float
+    ellipse: dict[str, float]
+    bound: Bound
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return self.bound.parameters
+
+    @property
+    def observable(self) -> bool:
+        """True when the position at ``ref_time`` has a finite bound."""
+        return bool(np.isfinite(self.rms))
+
+    @property
+    def extent(self) -> float:
+        """Largest diameter of the confidence ellipse (m): twice the major semi-axis."""
+        return 2.0 * float(self.ellipse["major"])
+
+
+@dataclass
+class CrbSequence:
+    """Bounds at a sequence of reference times (one :class:`CrbPoint` each)."""
+
+    kinds: tuple[str, ...]
+    known_manoeuvres: bool
+    level: float
+    points: list[CrbPoint]
+
+    @property
+    def ref_times(self) -> NDArray[np.float64]:
+        return np.array([p.ref_time for p in self.points])
+
+    @property
+    def rms(self) -> NDArray[np.float64]:
+        """Position RMS bound ``sqrt(var x + var y)`` (m) at each reference time."""
+        return np.array([p.rms for p in self.points])
+
+    @property
+    def std(self) -> NDArray[np.float64]:
+        return np.array([p.std for p in self.points])
+
+    @property
+    def positions(self) -> NDArray[np.float64]:
+        return np.array([p.position for p in self.points])
+
+    def at(self, ref_time: float) -> CrbPoint:
+        """The point at ``ref_time`` (s); it must be one of :attr:`ref_times`."""
+        hits = np.flatnonzero(self.ref_times == float(ref_time))
+        if hits.size == 0:
+            raise KeyError(f"no bound at reference time {ref_time:g} s; reference times are "
+                           f"{self.ref_times[0]:g} .. {self.ref_times[-1]:g} s "
+                           f"({len(self.points)} of them)")
+        return self.points[int(hits[0])]
+
+    def label(self) -> str:
+        kinds = " + ".join("azimuth" if k == "bearing" else k.replace("_", " ")
+                           for k in self.kinds)
+        return kinds + (", manoeuvres known" if self.known_manoeuvres else "")
+
+    def summary(self) -> str:
+        """One line per reference time."""
+        lines = [f"Cramér–Rao bound, {self.label()}: position at t_ref from the data up to "
+                 f"t_ref ({self.level:.0%} ellipses)",
+                 f"  {'t_ref (s)':>9} {'manoeuvres':>10} {'unknowns':>8} {'samples':>7} "
+                 f"{'std x (m)':>11} {'std y (m)':>11} {'RMS (m)':>11} {'major (m)':>11} "
+                 f"{'minor (m)':>11}"]
+
+        def fmt(v: float) -> str:
+            return f"{v:11.4g}" if np.isfinite(v) else f"{'unobs.':>11}"
+
+        for p in self.points:
+            lines.append(f"  {p.ref_time:9.6g} {p.manoeuvres:10d} {len(p.parameters):8d} "
+                         f"{p.n_measurements:7d} {fmt(p.std[0])} {fmt(p.std[1])} "
+                         f"{fmt(p.rms)} {fmt(p.ellipse['major'])} {fmt(p.ellipse['minor'])}")
+        return "\n".join(lines)
+
+    def as_dict(self) -> dict[str, object]:
+        def clean(v: float) -> float | None:
+            return float(v) if np.isfinite(v) else None
+
+        return {
+            "kinds": list(self.kinds), "known_manoeuvres": self.known_manoeuvres,
+            "level": self.level,
+            "points": [{"ref_time": p.ref_time, "manoeuvres": p.manoeuvres,
+                        "parameters": list(p.parameters), "n_measurements": p.n_measurements,
+                        "position": [float(v) for v in p.position],
+                        "std": [clean(v) for v in p.std], "rms": clean(p.rms),
+                        "ellipse": {k: (clean(v) if isinstance(v, float) else v)
+                                    for k, v in p.ellipse.items()}}
+                       for p in self.points],
+        }
+
+
+def _check_change_over_times(motion: PiecewiseCurvilinear, theta: NDArray[np.float64]
+                             ) -> NDArray[np.float64]:
+    cot = theta[6 + 2 * motion.manoeuvres:]
+    if not np.all(np.isfinite(theta)):
+        bad = [n for n, v in zip(motion.param_names, theta, strict=True) if not np.isfinite(v)]
+        raise ValueError(f"truth: {', '.join(bad)} must be finite numbers")
+    if np.any(np.diff(cot) <= 0):
+        listing = ", ".join(f"t_{m + 1} = {v:g} s" for m, v in enumerate(cot))
+        raise ValueError(f"truth: change-over times must be strictly increasing "
+                         f"(t_1 < t_2 < ...); got {listing}")
+    return cot
+
+
+def curvilinear_crb_sequence(
+    source,
+    ref_times: ArrayLike,
+    kinds: Sequence[str] | None = None,
+    known_manoeuvres: bool = False,
+    *,
+    motion: MotionModel | None = None,
+    truth: Mapping[str, float] | ArrayLike | None = None,
+    level: float = 0.9,
+    nuisance: Mapping[str, float] | None = None,
+    known_nuisance: bool = False,
+    options: Mapping[str, Mapping[str, object]] | None = None,
+) -> CrbSequence:
+    """The Cramér–Rao bound on the target position at each reference time in ``ref_times``
+    (s), using the measurements up to and including that time (002_e7269ad11b825346.txt
+    eqs. 7-9).
+
+    ``source`` is a :class:`~tmakit.scenario.Scenario` with a piecewise curvilinear target
+    (its noise-free simulation supplies times, sensor states and sigmas) or a
+    :class:`~tmakit.data.MeasurementSet` together with ``motion`` (a
+    :class:`~tmakit.motion.PiecewiseCurvilinear`) and ``truth`` (its parameters, by name or as
+    a vector).  ``kinds`` selects measurement kinds (``"azimuth"`` is accepted for
+    ``"bearing"``); default all kinds of the data.
+
+    Conventions: manoeuvre ``m`` (``at_m, an_m, t_m``) is an unknown at ``t_ref`` only if it
+    has started, ``t_m < t_ref``; a sample (or reference time) exactly at a change-over time
+    belongs to the earlier segment; ``at_m, an_m`` act from ``t_m`` on, as in the paper's §4.
+    With ``known_manoeuvres`` every acceleration and change-over time is known and only the
+    state at ``t_ref`` (x, y, speed, course) is unknown.  ``level`` is the ellipses'
+    probability.
+
+    Raises ``ValueError`` for change-over times out of order, a reference time outside the
+    span of the data, or a kind the data do not have.
+    """
+    from ..scenario import Scenario
+
+    if isinstance(source, Scenario):
+        meas = source.simulate(noise=False)
+        motion = motion or source.motion
+        truth = source.truth if truth is None else truth
+        nuisance = {**source.nuisance, **dict(nuisance or {})}
+        options = source.measurement_options if options is None else options
+    elif isinstance(source, MeasurementSet):
+        meas = source
+        if motion is None or truth is None:
+            raise ValueError("the bound of a measurement set needs the motion model and the "
+                             "truth at which to evaluate it")
+    else:
+        raise TypeError("curvilinear_crb_sequence() takes a Scenario or a MeasurementSet; "
+                        f"got {type(source).__name__}")
+    if not isinstance(motion, PiecewiseCurvilinear):
+        raise ValueError("curvilinear_crb_sequence() needs a piecewise curvilinear target "
+                         f"(motion curvilinear:M); got {getattr(motion, 'name', motion)!r}")
+    theta = (motion.theta(truth) if isinstance(truth, Mapping)
+             else np.asarray(truth, dtype=float))
+    if theta.shape != (motion.n_params,):
+        raise ValueError(f"truth must give {motion.n_params} values "
+                         f"({', '.join(motion.param_names)}); got shape {theta.shape}")
+    cot = _check_change_over_times(motion, theta)
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must be a probability between 0 and 1; got {level}")
+
+    if kinds is None:
+        chosen = tuple(meas.kinds)
+    else:
+        chosen = tuple(dict.fromkeys(_ALIASES.get(k, k) for k in kinds))
+        missing = [k for k in chosen if k not in meas.kinds]
+        if missing or not chosen:
+            raise ValueError(f"kinds: {', '.join(missing) or 'none given'} not in the data "
+                             f"(it has {', '.join(meas.kinds)})")
+    meas = meas.take(np.isin(meas.kind, chosen))
+
+    refs = np.atleast_1d(np.asarray(ref_times, dtype=float))
+    if refs.ndim != 1 or refs.size == 0 or not np.all(np.isfinite(refs)):
+        raise ValueError("ref_times must be a non-empty list of finite times (s)")
+    first, last = float(meas.time.min()), float(meas.time.max())
+    outside = refs[(refs < first) | (refs > last)]
+    if outside.size:
+        raise ValueError(f"reference time {outside[0]:g} s is outside the data (samples from "
+                         f"{first:g} to {last:g} s); the bound at t_ref uses the data up to "
+                         "t_ref and the state at t_ref")
+
+    points = []
+    for t_ref in refs:
+        started = int(np.sum(cot < t_ref))
+        model, theta_ref = motion.rereferenced(theta, float(t_ref), started)
+        used: MotionModel = model
+        values = theta_ref
+        if known_manoeuvres:
+            known = {n: float(v) for n, v in zip(model.param_names[4:], theta_ref[4:],
+                                                 strict=True)}
+            used = FixedParameters(model, known)
+            values = theta_ref[:4]
+        rows = meas.take(meas.time <= t_ref)
+        bound = crlb(rows, used, values, nuisance=nuisance, known_nuisance=known_nuisance,
+                     options=options)
+        state, cov = bound.state_covariance(float(t_ref))
+        c2 = cov[:2, :2]
+        std = np.sqrt(np.diag(c2))
+        rms = float(np.sqrt(c2[0, 0] + c2[1, 1]))
+        points.append(CrbPoint(float(t_ref), started, len(rows), state[:2].copy(), c2, std,
+                               rms, bound.ellipse(float(t_ref), level), bound))
+    return CrbSequence(chosen, bool(known_manoeuvres), float(level), points)
