@@ -1,8 +1,12 @@
-"""Bounds: Cramér–Rao lower bounds, observability, confidence ellipses."""
+"""Bounds: Cramér–Rao lower bounds, observability, confidence ellipses; the posterior CRB of
+recursive trackers."""
 
 from .fim import Bound, crlb, fisher_information
+from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
 from .noise import NoiseModel
 from .observability import Direction, Observability, analyse
+from .pcrb import PosteriorBound, deterministic_pcrb, final_position_rms, posterior_crb
 
-__all__ = ["Bound", "Direction", "NoiseModel", "Observability", "analyse", "crlb",
-           "fisher_information"]
+__all__ = ["Bound", "CrbPoint", "CrbSequence", "Direction", "NoiseModel", "Observability",
+           "PosteriorBound", "analyse", "crlb", "curvilinear_crb_sequence", "deterministic_pcrb",
+           "final_position_rms", "fisher_information", "posterior_crb"]

@@ -9,20 +9,31 @@ from .base import Track, TrackingFilter, UpdateInfo, group_times
 from .dynamics import NearlyConstantVelocity, process_noise, state_names, transition_matrix
 from .ekf import ExtendedKalmanFilter
 from .measurement_group import MeasurementGroup
+from .mgekf import ModifiedGainEKF
+from .multilag import multilag_groups
+from .particle import ParticleFilter
+from .ukf import UnscentedKalmanFilter
 
 FILTERS: dict[str, type[TrackingFilter]] = {
     ExtendedKalmanFilter.name: ExtendedKalmanFilter,
+    UnscentedKalmanFilter.name: UnscentedKalmanFilter,
+    ParticleFilter.name: ParticleFilter,
+    ModifiedGainEKF.name: ModifiedGainEKF,
 }
 
 __all__ = [
     "FILTERS",
     "ExtendedKalmanFilter",
     "MeasurementGroup",
+    "ModifiedGainEKF",
     "NearlyConstantVelocity",
+    "ParticleFilter",
     "Track",
     "TrackingFilter",
+    "UnscentedKalmanFilter",
     "UpdateInfo",
     "group_times",
+    "multilag_groups",
     "process_noise",
     "state_names",
     "transition_matrix",

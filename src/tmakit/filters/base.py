@@ -22,7 +22,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
+from .compiled import CompiledMeasurements
 from .dynamics import NearlyConstantVelocity, state_names
+from .kernels import KernelRun
 from .linalg import symmetrise
 from .measurement_group import MeasurementGroup
 
@@ -76,10 +78,20 @@ class Track:
         return self.states - np.asarray(truth, dtype=float)
 
     def nees(self, truth: ArrayLike) -> Array:
-        """Normalised estimation error squared per update (K,) for true states (K, n)."""
+        """Normalised estimation error squared per update (K,) for true states (K, n).  A
+        singular covariance (a collapsed particle cloud) gives ``inf`` when the error has a
+        component it says is impossible."""
         err = self.errors(truth)
-        return np.einsum("ki,ki->k", err, np.linalg.solve(self.covariances, err[..., None])[
-            ..., 0])
+        try:
+            return np.einsum("ki,ki->k", err,
+                             np.linalg.solve(self.covariances, err[..., None])[..., 0])
+        except np.linalg.LinAlgError:
+            evals, evecs = np.linalg.eigh(symmetrise(self.covariances))
+            proj = np.einsum("kji,kj->ki", evecs, err)  # error in the eigenbasis
+            tiny = evals <= 1e-12 * np.max(np.abs(evals), axis=-1, keepdims=True)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                terms = np.where(tiny, np.where(proj == 0, 0.0, np.inf), proj**2 / evals)
+            return np.sum(terms, axis=-1)
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -160,6 +172,10 @@ class TrackingFilter(ABC):
         self.nuisance = dict(nuisance or {})
         self.time = float(time)
         self.log_likelihood = 0.0
+        #: Updates done by a closed-form kernel (:mod:`.kernels`), and updates skipped
+        #: because the prediction was not finite (the target at a sensor).
+        self.kernel_updates = 0
+        self.skipped_updates = 0
         self._init_state(mean, cov)
 
     # -- what subclasses provide -------------------------------------------------------------
@@ -231,34 +247,103 @@ class TrackingFilter(ABC):
 
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
-        Rows earlier than the filter's time are refused."""
+        Rows earlier than the filter's time are refused.
+
+        The set is compiled once (:class:`~.compiled.CompiledMeasurements`); filters with a
+        closed-form kernel for the case at hand (one bearing per update in 2-D, see
+        :mod:`.kernels`) use it, the others build each update's group from views of the
+        compiled columns."""
+        if not isinstance(meas, MeasurementSet):
+            raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
             raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
                              f"filter's prior time t={self.time} s")
-        return self.run_groups((float(meas.time[idx[-1]]), meas.take(idx))
-                               for idx in group_times(meas))
+        return self.run_compiled(CompiledMeasurements(meas, self.dim, self.options,
+                                                      self.nuisance))
+
+    def _plain_interface(self) -> bool:
+        """True unless a subclass customises :meth:`predict`, :meth:`update` or
+        :meth:`group` (then :meth:`run` goes through them, row sets and all)."""
+        cls = type(self)
+        return (cls.predict is TrackingFilter.predict and cls.update is TrackingFilter.update
+                and cls.group is TrackingFilter.group)
+
+    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
+        """Run a closed-form kernel from update ``start`` if this filter has one for
+        ``compiled``; None otherwise.  Subclasses that have one override this."""
+        return None
+
+    def run_compiled(self, compiled: CompiledMeasurements) -> Track:
+        """:meth:`run` on a set compiled for this filter (``dim``, options, nuisance)."""
+        if compiled.dim != self.dim:
+            raise ValueError(f"the measurements were compiled for a {compiled.dim}-D filter; "
+                             f"this one is {self.dim}-D")
+        if not self._plain_interface():
+            return self.run_groups((float(compiled.times[k]), compiled.rows(k))
+                                   for k in range(len(compiled)))
+        rec = _Recorder(2 * self.dim)
+        k, total = 0, len(compiled)
+        while k < total:
+            block = self._run_kernel(compiled, k)
+            if block is not None:
+                rec.add_block(block)
+                self.kernel_updates += block.stop - k
+                k = block.stop
+                if k >= total:
+                    break
+            self.predict(float(compiled.times[k]))
+            info = self._update(compiled.group(k, self.time))
+            self.log_likelihood += info.log_likelihood
+            rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
+            k += 1
+        return rec.track(self)
 
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
         """Predict to each ``time`` and update with its rows, in the order given (times must
         not decrease).  Rows may be taken at other times than ``time`` (multi-lag vectors,
         003_e5155d4fe60daef8.txt §2.2): they are predicted from the state moved there."""
-        n = 2 * self.dim
-        times: list[float] = []
-        states: list[Array] = []
-        covs: list[Array] = []
-        nis: list[float] = []
-        dof: list[int] = []
-        loglik: list[float] = []
+        rec = _Recorder(2 * self.dim)
         for time, rows in groups:
             self.predict(time)
             info = self.update(rows)
-            times.append(self.time)
-            states.append(self.state)
-            covs.append(self.covariance)
-            nis.append(info.nis)
-            dof.append(info.dof)
-            loglik.append(self.log_likelihood)
-        return Track(self.name, self.state_names, np.array(times, dtype=float),
-                     np.array(states, dtype=float).reshape(-1, n),
-                     np.array(covs, dtype=float).reshape(-1, n, n), np.array(nis, dtype=float),
-                     np.array(dof, dtype=np.int64), np.array(loglik, dtype=float))
+            rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
+        return rec.track(self)
+
+
+class _Recorder:
+    """Collects a filter's per-update outputs (single updates and kernel blocks)."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.blocks: list[tuple[Array, ...]] = []
+        self.rows: list[tuple[float, Array, Array, float, int, float]] = []
+
+    def add(self, time: float, state: Array, cov: Array, info: UpdateInfo,
+            loglik: float) -> None:
+        self.rows.append((time, state, cov, info.nis, info.dof, loglik))
+
+    def _flush(self) -> None:
+        if self.rows:
+            t, x, p, nis, dof, ll = zip(*self.rows, strict=True)
+            self.blocks.append((np.array(t, dtype=float), np.array(x, dtype=float),
+                                np.array(p, dtype=float), np.array(nis, dtype=float),
+                                np.array(dof, dtype=np.int64), np.array(ll, dtype=float)))
+            self.rows = []
+
+    def add_block(self, block: KernelRun) -> None:
+        self._flush()
+        k = block.states.shape[0]
+        self.blocks.append((block.times, block.states, block.covariances, block.nis,
+                            np.ones(k, dtype=np.int64), block.log_likelihoods))
+
+    def track(self, filt: TrackingFilter) -> Track:
+        self._flush()
+        n = self.n
+        if not self.blocks:
+            parts: list[Array] = [np.zeros(0), np.zeros((0, n)), np.zeros((0, n, n)),
+                                  np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0)]
+        else:
+            parts = [np.concatenate([b[i] for b in self.blocks]) for i in range(6)]
+        return Track(filt.name, filt.state_names, parts[0], parts[1].reshape(-1, n),
+                     parts[2].reshape(-1, n, n), parts[3], parts[4].astype(np.int64),
+                     parts[5], extra={"skipped_updates": int(filt.skipped_updates)})

@@ -2,34 +2,74 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .base import Array, TrackingFilter, UpdateInfo
-from .linalg import joseph_update, solve_spd, symmetrise
+from .compiled import CompiledMeasurements
+from .dynamics import NearlyConstantVelocity
+from .kernels import KernelRun, ekf_bearing_2d
+from .linalg import joseph_update, repair_psd, solve_spd, symmetrise
 from .measurement_group import MeasurementGroup
 
 LOG_2PI = float(np.log(2.0 * np.pi))
+#: The iterated EKF stops when an iteration moves the position by less than this fraction of
+#: the smallest distance to a sensor of the group.
+IEKF_TOL = 1e-10
+
+
+def _range_scale(group: MeasurementGroup, x: Array, dim: int) -> float:
+    """The smallest distance (m) from the position ``x[:dim]`` to the group's sensors."""
+    pos = group._sensor_state[:, :dim]
+    return float(np.min(np.linalg.norm(pos - x[:dim], axis=1)))
 
 
 def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
                     ) -> tuple[Array, Array, UpdateInfo]:
     """Kalman update with innovation ``residual``, measurement matrix ``h`` and noise ``r``
-    (Joseph form).  Returns the new mean, covariance and the update's NIS/log-likelihood."""
-    s = symmetrise(h @ cov @ h.T + r)
-    s_inv_ht, log_det = solve_spd(s, h @ cov)
-    gain = s_inv_ht.T
-    s_inv_nu, _ = solve_spd(s, residual)
-    nis = float(residual @ s_inv_nu)
+    (Joseph form, then :func:`~.linalg.repair_psd`).  Returns the new mean, covariance and
+    the update's NIS/log-likelihood."""
+    hp = h @ cov
+    s = symmetrise(hp @ h.T + r)
+    sol, log_det = solve_spd(s, np.concatenate([hp, residual[:, None]], axis=1))
+    gain = sol[:, :-1].T
+    nis = float(residual @ sol[:, -1])
     m = residual.shape[0]
     loglik = -0.5 * (nis + log_det + m * LOG_2PI)
-    return mean + gain @ residual, joseph_update(cov, gain, h, r), UpdateInfo(nis, m, loglik)
+    return (mean + gain @ residual, repair_psd(joseph_update(cov, gain, h, r)),
+            UpdateInfo(nis, m, loglik))
+
+
+def skipped() -> UpdateInfo:
+    """What an update that could not be made reports (NIS NaN, no degrees of freedom)."""
+    return UpdateInfo(float("nan"), 0, 0.0)
 
 
 class ExtendedKalmanFilter(TrackingFilter):
     """EKF with nearly-constant-velocity dynamics (003_e5155d4fe60daef8.txt §2.1, §2.5 with
-    the plain Jacobian in place of the modified gain)."""
+    the plain Jacobian in place of the modified gain).
+
+    ``iterations`` > 1 makes it the iterated EKF (Bell & Cathey 1993, "The iterated Kalman
+    filter update as a Gauss-Newton method", IEEE Trans. Autom. Control 38(2)): the update is
+    relinearised at the updated state, ``x_{i+1} = x^- + K_i (z - h(x_i) - H_i (x^- - x_i))``
+    with ``K_i`` from ``H_i = dh/dx(x_i)``, until the change is below :data:`IEKF_TOL` of the
+    range to the sensor or ``iterations`` linearisations were used; the covariance takes the
+    last ``H_i``.  NIS and log-likelihood are those of the first linearisation (the predicted
+    state).
+
+    An update whose prediction or Jacobian is not finite (the estimate on top of a sensor) is
+    skipped and counted in :attr:`skipped_updates`.  One bearing per update in 2-D runs on
+    the closed-form kernel :func:`~.kernels.ekf_bearing_2d`."""
 
     name = "ekf"
+
+    def __init__(self, *args: Any, iterations: int = 1, **kwargs: Any) -> None:
+        if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) \
+                or iterations < 1:
+            raise ValueError(f"iterations must be a whole number >= 1; got {iterations!r}")
+        self.iterations = int(iterations)
+        super().__init__(*args, **kwargs)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         self._mean = mean
@@ -49,8 +89,49 @@ class ExtendedKalmanFilter(TrackingFilter):
         self._cov = symmetrise(phi @ self._cov @ phi.T + self.dynamics.noise(dt))
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        residual = group.residual(group.predict(self._mean))
-        h = group.jacobian(self._mean)
-        self._mean, self._cov, info = gaussian_update(self._mean, self._cov, residual, h,
-                                                      group.covariance)
+        prior = self._mean
+        residual = group.residual(group.predict(prior))
+        h = group.jacobian(prior)
+        if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(h))):
+            self.skipped_updates += 1
+            return skipped()
+        r = group.covariance
+        mean, cov, info = gaussian_update(prior, self._cov, residual, h, r)
+        for _ in range(self.iterations - 1):
+            res_i = group.residual(group.predict(mean))
+            h_i = group.jacobian(mean)
+            if not (np.all(np.isfinite(res_i)) and np.all(np.isfinite(h_i))):
+                break
+            new, cov_i, _ = gaussian_update(prior, self._cov, res_i - h_i @ (prior - mean),
+                                            h_i, r)
+            step = float(np.linalg.norm((new - mean)[:self.dim]))
+            mean, cov = new, cov_i
+            if step <= IEKF_TOL * _range_scale(group, mean, self.dim):
+                break
+        self._mean, self._cov = mean, cov
         return info
+
+    # -- the closed-form path ----------------------------------------------------------------
+    def _kernel_ok(self, compiled: CompiledMeasurements, cls: type) -> bool:
+        """The kernel of ``cls`` applies: one bearing per update, 2-D, plain NCV dynamics,
+        and this class does not change the predict/update of ``cls``."""
+        me = type(self)
+        return (compiled.single_bearing and self.dim == 2
+                and type(self.dynamics) is NearlyConstantVelocity
+                and me._update is cls._update and me._predict is cls._predict)
+
+    def _q2(self) -> tuple[float, float]:
+        q = np.broadcast_to(np.asarray(self.dynamics.q, dtype=float), (2,))
+        return float(q[0] ** 2), float(q[1] ** 2)
+
+    def _adopt(self, block: KernelRun) -> KernelRun:
+        self._mean, self._cov = block.mean, block.covariance
+        self.time, self.log_likelihood = block.time, block.log_likelihood
+        return block
+
+    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
+        if not self._kernel_ok(compiled, ExtendedKalmanFilter):
+            return None
+        return self._adopt(ekf_bearing_2d(self._mean, self._cov, self.time,
+                                          self.log_likelihood, start, compiled.bearing_lists(),
+                                          self._q2(), self.iterations))

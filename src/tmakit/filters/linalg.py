@@ -47,3 +47,20 @@ def joseph_update(p: Array, gain: Array, h: Array, r: Array) -> Array:
     semi-definite for any gain, unlike ``(I - K H) P``."""
     i_kh = np.eye(p.shape[0]) - gain @ h
     return symmetrise(i_kh @ p @ i_kh.T + gain @ r @ gain.T)
+
+
+def repair_psd(p: Array) -> Array:
+    """``p`` symmetrised and, if it is not numerically positive definite (its Cholesky
+    factorisation fails, e.g. after an update with a huge prior and a tiny noise), replaced by
+    the nearest symmetric matrix with eigenvalues at least ``n eps`` times the largest: what a
+    filter hands to the next step and to the user is always a valid covariance."""
+    p = symmetrise(p)
+    try:
+        np.linalg.cholesky(p)
+        return p
+    except np.linalg.LinAlgError:
+        if not np.all(np.isfinite(p)):
+            return p  # the filters refuse non-finite updates before they get here
+        evals = np.linalg.eigvalsh(p)
+        scale = max(float(np.max(np.abs(evals))), 1e-300)
+        return nearest_psd(p, floor=p.shape[0] * np.finfo(float).eps * scale)

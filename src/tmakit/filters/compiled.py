@@ -1,0 +1,130 @@
+"""A measurement set prepared once for a filter run.
+
+:meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct
+measurement time.  Cutting the :class:`~tmakit.data.MeasurementSet` into one small set per
+update (``take``) and building a :class:`~.measurement_group.MeasurementGroup` from it costs
+more than the arithmetic of a filter step, so the set is compiled once, vectorised: rows sorted
+by time, the update boundaries, SI values and sigmas, the measurement models of the kinds
+present and their (known) nuisance vectors.  A step then takes slices (views) of these arrays
+(:meth:`CompiledMeasurements.group`).
+
+When every update is a single bearing at its own time, the filters use closed-form step
+kernels (:mod:`.kernels`) on the plain arrays :attr:`CompiledMeasurements.bearing_columns`:
+the specialised path, tested equal to the general one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import MeasurementSet
+from .measurement_group import MeasurementGroup, MeasurementModel, resolve_models
+
+Array = NDArray[np.float64]
+
+#: Rows whose times differ by less than this (s) are one update (as in :mod:`.base`).
+TIME_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class BearingColumns:
+    """The columns a bearing-only step kernel needs, one entry per update: ``time`` (s),
+    ``value`` (rad, clockwise from North), ``variance`` (rad^2), sensor position ``sx``,
+    ``sy`` (m, ENU)."""
+
+    time: Array
+    value: Array
+    variance: Array
+    sx: Array
+    sy: Array
+
+
+class CompiledMeasurements:
+    """``meas`` prepared for a filter of dimension ``dim`` (2 or 3) with per-kind ``options``
+    and known ``nuisance`` values.  Raises the same clear errors as
+    :class:`~.measurement_group.MeasurementGroup` (e.g. a missing nuisance value) once, up
+    front."""
+
+    def __init__(self, meas: MeasurementSet, dim: int,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self.meas = meas
+        self.dim = int(dim)
+        n = len(meas)
+        order = np.argsort(meas.time, kind="stable")
+        t = meas.time[order]
+        breaks = np.flatnonzero(np.diff(t) > TIME_TOLERANCE) + 1
+        self.order = order
+        self.bounds = np.concatenate([[0], breaks, [n]]).astype(np.int64)
+        #: Update times (s): the last (latest) row time of each update, as ``run`` uses.
+        self.times = t[self.bounds[1:] - 1] if n else np.zeros(0)
+        self.models: dict[str, MeasurementModel]
+        self.nuisance: dict[str, Array]
+        self.models, self.nuisance = resolve_models(meas.kinds, options, nuisance)
+        self.kind = meas.kind[order]
+        self.values = meas.value_si[order]
+        self.sigmas = meas.sigma_si[order]
+        self.time = t
+        self.time_ref = meas.time_ref[order]
+        self.sensor_state = meas.sensor_state[order]
+        self.ref_sensor_state = meas.ref_sensor_state[order]
+        self.sensor = meas.sensor[order]
+        self._kind_codes = {k: i for i, k in enumerate(self.models)}
+        self._codes = np.array([self._kind_codes[k] for k in self.kind], dtype=np.int64) \
+            if n else np.zeros(0, dtype=np.int64)
+        self._lists: tuple[list[float], ...] | None = None
+        sizes = np.diff(self.bounds)
+        #: Every update is one bearing row (the closed-form kernels apply).
+        self.single_bearing = bool(n > 0 and np.all(sizes == 1)
+                                   and set(self.models) == {"bearing"})
+
+    def __len__(self) -> int:
+        """Number of updates."""
+        return int(self.times.shape[0])
+
+    @property
+    def bearing_columns(self) -> BearingColumns:
+        """Per-update columns for the bearing kernels (only when :attr:`single_bearing`)."""
+        if not self.single_bearing:
+            raise ValueError("bearing_columns: the updates are not all single bearings")
+        return BearingColumns(self.time, self.values, self.sigmas**2,
+                              self.sensor_state[:, 0], self.sensor_state[:, 1])
+
+    def bearing_lists(self) -> tuple[list[float], ...]:
+        """:attr:`bearing_columns` as Python lists (time, value, variance, sx, sy), made once:
+        the plain-float kernels index them faster than arrays."""
+        if self._lists is None:
+            c = self.bearing_columns
+            self._lists = (c.time.tolist(), c.value.tolist(), c.variance.tolist(),
+                           c.sx.tolist(), c.sy.tolist())
+        return self._lists
+
+    def rows(self, k: int) -> MeasurementSet:
+        """The rows of update ``k`` as a MeasurementSet (the slow, general path)."""
+        return self.meas.take(self.order[self.bounds[k]:self.bounds[k + 1]])
+
+    def group(self, k: int, t: float) -> MeasurementGroup:
+        """Update ``k`` as a :class:`MeasurementGroup` at filter time ``t`` (s), built from
+        views of the compiled columns."""
+        a, b = int(self.bounds[k]), int(self.bounds[k + 1])
+        codes = self._codes[a:b]
+        if b - a == 1:
+            kind = self.kind[a]
+            models = {kind: self.models[kind]}
+            index = {kind: np.zeros(1, dtype=np.int64)}
+        else:
+            models, index = {}, {}
+            for kind, code in self._kind_codes.items():
+                idx = np.flatnonzero(codes == code)
+                if idx.size:
+                    models[kind] = self.models[kind]
+                    index[kind] = idx
+        nus = {kind: self.nuisance[kind] for kind in models}
+        return MeasurementGroup.from_arrays(
+            t, self.dim, models, nus, index, self.values[a:b], self.sigmas[a:b],
+            self.time[a:b], self.time_ref[a:b], self.sensor_state[a:b],
+            self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k))

@@ -1,0 +1,267 @@
+"""The modified-gain extended Kalman filter of Chen & Sun (003_e5155d4fe60daef8.txt §2.3-2.5).
+
+Bearing rows: the pseudo-linear modified gain (Song & Speyer's MGEKF, the "WMEKF" of 003).
+In tmakit's convention the bearing of the (back-propagated) line of sight is clockwise from
+North, ``b = atan2(dx, dy)`` (003 measures it from the x-axis, ``atan(dy / dx)``), so the
+noise-free bearing satisfies ``dx cos b - dy sin b = 0``: for a row taken ``dt`` seconds after
+the filter time (``dt = -N T`` for the sample ``k - N`` of a multi-lag vector, §2.3 eq. 2)
+
+    H_i(Z) X' = 0,   H_i(Z) = [cos b, -sin b, 0, dt cos b, -dt sin b, 0]          (tmakit)
+
+on the state relative to the sensor at the row's time ``X' = [x - x_s, y - y_s, z - z_s, vx,
+vy, vz]`` (003 prints ``[sin b, -cos b, 0, -NT sin b, NT cos b, 0]`` for its x-axis angle; the
+two are the same line of sight).  With the measured bearing ``b_m`` in place of the true one,
+``H_i(Z^m) X' = T_i`` where ``T_i = -rho_i sin(eta_i)`` (``rho_i`` the true horizontal range,
+``eta_i`` the bearing noise).  The modified gain row of 003 §2.3 is
+
+    g_i = -(b_m - h_i(X^)) / (H_i(Z^m) X^') H_i(Z^m)
+
+and it satisfies ``g_i (X - X^) = (b_m - h_i(X^)) (1 - mu_i)`` exactly, with
+``mu_i = T_i / (H_i(Z^m) X^')``.  Since ``H_i(Z^m) X^' = -rho^_i sin(r_i)`` (``r_i`` the
+wrapped residual, ``rho^_i`` the predicted horizontal range), the row is computed in the
+equivalent, numerically stable form ``g_i = r_i / (rho^_i sin r_i) H_i(Z^m)``, which tends to
+the EKF Jacobian row ``[cos b^, -sin b^, ...] / rho^`` as the residual vanishes.
+
+What ``mu`` is in practice: ``T_i`` needs the true range and the noise itself, so ``mu_i`` is
+not computable.  Substituting the estimate for the truth gives ``T_i = H_i(Z^m) X^'``, i.e.
+``mu_i = 1`` identically (a singular ``U``); the noise is zero-mean and independent of the
+past, so the expected ``T_i`` given the past is 0.  The filter therefore uses ``mu_i = 0``:
+``U = I``, ``g' = g`` and ``R' = R``: the modified gain of Song & Speyer with the measured
+bearing in ``H_i``.  :func:`modified_gain_rows` implements the general
+``g' = U g``, ``R' = U R U^T`` (003 §2.3) for a given ``mu``; note that for independent rows
+that scaling leaves the covariance update unchanged and multiplies row ``i``'s share of the
+state correction by ``1 - mu_i``.
+
+Range-difference rows (and every other kind) use the plain EKF Jacobian rows (003 §2.4 eqs.
+3-4; :class:`~tmakit.filters.MeasurementGroup` gives them for back-propagated states).
+
+The gain: 003 §2.5 uses the modified rows in the gain as well as in the covariance update,
+``K = P g'^T [g' P g'^T + R']^-1`` (``gain="paper"``).  Song & Speyer's original MGEKF takes
+the gain from the EKF rows and uses the modified rows only in the covariance update
+(``gain="song-speyer"``, the default: the paper's form is biased, as follows, and
+``tma reproduce chen-sun`` runs it as printed to show it).  The paper's form puts the
+measured, noisy line of sight into the gain: at every bearing it moves the estimate by about
+``P_par r^2 / (rho^ S)`` towards the sensor (``P_par`` the variance along the line of sight,
+``S`` the innovation variance), the range bias of pseudo-linear estimators, which is large
+when the range is uncertain (see docs/tracking.md for measurements).
+
+Numerical safety: a bearing row falls back to its EKF row when ``|1 - mu|`` is below
+:data:`MU_FLOOR`, when the predicted horizontal range is zero (so the denominator
+``H_i(Z^m) X^'`` vanishes for a reason other than a zero residual), or when the measured and
+predicted lines of sight are 90 degrees or more apart (``cos r <= 0``: the pseudo-linear relation
+no longer describes the same half-line).  Fallbacks are counted in :attr:`fallbacks`.
+
+Mirror ambiguity: sensors all at one height, none climbing, no elevation measured — every
+prediction is the same for a target at height ``z`` and at its mirror image.  With
+``reflect=True``, as long as every update so far was mirror-symmetric about one horizontal
+plane, an estimate that ends an update below that plane is replaced by its mirror image
+(``z -> 2 z_s - z``, ``vz -> -vz``, covariance ``M P M``), which fits the data exactly as well
+and lies on the side where the user says the emitter is (above the sensors).
+:class:`ReflectingEKF` is the plain EKF with the same rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..data import MeasurementSet
+from .base import Array, UpdateInfo
+from .ekf import LOG_2PI, ExtendedKalmanFilter, gaussian_update
+from .linalg import joseph_update, repair_psd, solve_spd, symmetrise
+from .measurement_group import MeasurementGroup, embedding
+
+#: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
+MU_FLOOR = 1e-3
+
+#: Kinds whose predictions do not change when the target is mirrored through the horizontal
+#: plane of the sensors (elevation does).
+MIRROR_SYMMETRIC_KINDS = frozenset({"bearing", "azimuth_rate", "range", "range_rate",
+                                    "range_difference", "frequency", "power"})
+
+
+@dataclass(frozen=True)
+class ModifiedRows:
+    """Bearing rows of 003 §2.3: ``g`` (m, n) the modified-gain rows ``g' = U g`` (EKF rows
+    where ``ok`` is False are not filled: callers keep their own), ``u`` (m,) the diagonal of
+    ``U`` (1 where not ok), ``denominator`` (m,) ``H_i(Z^m) X^'`` (m), ``ok`` (m,) bool."""
+
+    g: Array
+    u: Array
+    denominator: Array
+    ok: NDArray[np.bool_]
+
+
+def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
+    """``H_i(Z^m)`` with respect to the filter state ``[x, y, (z), vx, vy, (vz)]`` (m, 2 dim):
+    ``[cos b, -sin b, (0), dt cos b, -dt sin b, (0)]`` for measured bearings ``b`` (rad,
+    clockwise from North) at rows ``dt`` seconds after the filter time."""
+    b = np.asarray(measured, dtype=float)
+    dt = np.asarray(dt, dtype=float)
+    out = np.zeros((b.shape[0], 2 * dim))
+    c, s = np.cos(b), np.sin(b)
+    out[:, 0], out[:, 1] = c, -s
+    out[:, dim], out[:, dim + 1] = dt * c, -dt * s
+    return out
+
+
+def modified_gain_rows(measured: ArrayLike, rel: ArrayLike, dt: ArrayLike, dim: int,
+                       residual: ArrayLike, mu: ArrayLike | None = None) -> ModifiedRows:
+    """The WMEKF bearing rows of 003 §2.3 in tmakit's bearing convention.
+
+    ``measured``: measured bearings ``b_m`` (rad); ``rel``: predicted target-minus-sensor
+    states at the rows' times (m, 6) (m, m/s); ``dt``: row time minus filter time (s);
+    ``residual``: ``b_m - h_i(X^)`` wrapped to (-pi, pi] (rad); ``mu``: the ``mu_i`` of 003
+    §2.3 (default 0, see the module docstring).  Returns ``g' = U g`` with
+    ``g = -(r / H_i(Z^m) X^') H_i(Z^m)`` and ``U = diag(1 / (1 - mu))``.
+    """
+    b = np.asarray(measured, dtype=float)
+    rel = np.asarray(rel, dtype=float).reshape(b.shape[0], 6)
+    r = np.asarray(residual, dtype=float)
+    mu_v = np.zeros(b.shape) if mu is None else np.broadcast_to(
+        np.asarray(mu, dtype=float), b.shape)
+    h = pseudo_linear_rows(b, dt, dim)
+    denom = np.cos(b) * rel[:, 0] - np.sin(b) * rel[:, 1]
+    rho = np.hypot(rel[:, 0], rel[:, 1])
+    one_minus = 1.0 - mu_v
+    ok = ((rho > 1e-9 * max(1.0, float(np.max(np.abs(rel[:, :3]), initial=0.0))))
+          & (np.cos(r) > 0.0) & (np.abs(one_minus) >= MU_FLOOR)
+          & np.isfinite(r) & np.isfinite(one_minus))
+    # -r / (H X^') = r / (rho sin r): the stable form, 1 / rho at r = 0.
+    coef = np.where(ok, 1.0 / (np.where(ok, rho, 1.0) * np.sinc(r / np.pi)), 0.0)
+    u = np.where(ok, 1.0 / np.where(ok, one_minus, 1.0), 1.0)
+    g = (u * coef)[:, None] * h
+    return ModifiedRows(g, u, denom, ok)
+
+
+def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov: Array,
+                 r: Array) -> tuple[Array, Array, UpdateInfo]:
+    """Song & Speyer's MGEKF update: gain ``K = P H^T (H P H^T + R)^-1`` from the EKF rows
+    ``h_gain``, covariance ``(I - K G) P (I - K G)^T + K R K^T`` with the modified rows
+    ``h_cov``; NIS and log-likelihood from ``H P H^T + R``."""
+    s = symmetrise(h_gain @ cov @ h_gain.T + r)
+    s_inv_hp, log_det = solve_spd(s, h_gain @ cov)
+    gain = s_inv_hp.T
+    s_inv_nu, _ = solve_spd(s, residual)
+    nis = float(residual @ s_inv_nu)
+    m = residual.shape[0]
+    loglik = -0.5 * (nis + log_det + m * LOG_2PI)
+    return (mean + gain @ residual, repair_psd(joseph_update(cov, gain, h_cov, r)),
+            UpdateInfo(nis, m, loglik))
+
+
+def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
+    """Height (m) of the horizontal plane through every sensor of ``rows`` when their
+    predictions are exactly symmetric about it (all sensors, and reference sensors of range
+    differences, at that height with zero vertical velocity; only
+    :data:`MIRROR_SYMMETRIC_KINDS`); ``None`` otherwise."""
+    if len(rows) == 0 or not set(rows.kind) <= MIRROR_SYMMETRIC_KINDS:
+        return None
+    states = [rows.sensor_state]
+    rd = rows.kind == "range_difference"
+    if np.any(rd):
+        states.append(rows.ref_sensor_state[rd])
+    st = np.concatenate(states)
+    z = st[:, 2]
+    if not (np.all(np.isfinite(st[:, [2, 5]])) and np.ptp(z) <= tol
+            and np.all(np.abs(st[:, 5]) <= tol)):
+        return None
+    return float(np.mean(z))
+
+
+class MirrorReflectMixin:
+    """Keeps a 3-D Gaussian estimate (``_mean``, ``_cov``) above the sensors' plane while the
+    data are mirror-symmetric about it (see the :mod:`.mgekf` docstring).  ``reflect``:
+    on (``True``) or off; :attr:`reflections` counts the reflections made."""
+
+    reflect_default = False
+
+    def __init__(self, *args: Any, reflect: bool | None = None, **kwargs: Any) -> None:
+        self.reflect = self.reflect_default if reflect is None else bool(reflect)
+        self.reflections = 0
+        self._plane: float | None = None
+        self._symmetric = True
+        super().__init__(*args, **kwargs)
+
+    def update(self, rows: MeasurementSet) -> UpdateInfo:
+        info = super().update(rows)  # type: ignore[misc]
+        if not (self.reflect and self._symmetric):
+            return info
+        plane = mirror_plane(rows)
+        if plane is None or (self._plane is not None and abs(plane - self._plane) > 1e-6):
+            self._symmetric = False
+        elif self._plane is None:
+            self._plane = plane
+        if (self.reflect and self._symmetric and self._plane is not None
+                and self.dim == 3 and self._mean[2] < self._plane):  # type: ignore[attr-defined]
+            m = np.array([1.0, 1.0, -1.0, 1.0, 1.0, -1.0])
+            mean = self._mean * m  # type: ignore[attr-defined]
+            mean[2] += 2.0 * self._plane
+            self._mean = mean
+            self._cov = self._cov * m[:, None] * m[None, :]  # type: ignore[attr-defined]
+            self.reflections += 1
+        return info
+
+
+class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
+    """The modified-gain EKF (WMEKF) of 003_e5155d4fe60daef8.txt §2.3-2.5: modified-gain rows
+    for bearings (with ``mu = 0``, see the module docstring), EKF rows for range differences
+    and every other kind, Joseph-form covariance update with the modified rows.
+
+    Same arguments as :class:`~tmakit.filters.TrackingFilter`, plus ``reflect`` (default
+    off): mirror an estimate that falls below the sensors' plane while the data cannot tell
+    the two sides apart; and ``gain``: ``"paper"`` (003 §2.5: the modified rows in the gain and in
+    the covariance update) or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF:
+    the gain from the EKF rows, the covariance update with the modified rows, which keeps the
+    noise-dependent rows out of the state correction and so avoids the bias of pseudo-linear
+    gains). :attr:`fallbacks` counts bearing rows that used the EKF row, :attr:`bearing_rows`
+    all bearing rows seen.
+    """
+
+    name = "mgekf"
+
+    def __init__(self, *args: Any, gain: str = "song-speyer", **kwargs: Any) -> None:
+        if gain not in ("paper", "song-speyer"):
+            raise ValueError(f"gain must be 'paper' (003 §2.5: modified rows in the gain and "
+                             f"the covariance) or 'song-speyer' (EKF rows in the gain); "
+                             f"got {gain!r}")
+        self.gain = gain
+        self.fallbacks = 0
+        self.bearing_rows = 0
+        super().__init__(*args, **kwargs)
+
+    def _update(self, group: MeasurementGroup) -> UpdateInfo:
+        x = self._mean
+        residual = group.residual(group.predict(x))
+        h_ekf = group.jacobian(x)
+        h = h_ekf.copy()
+        if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(h))):
+            # the estimate on top of a sensor: no update (as the EKF does)
+            self.skipped_updates = getattr(self, "skipped_updates", 0) + 1
+            return UpdateInfo(float("nan"), 0, 0.0)
+        r = group.covariance
+        idx = group.index.get("bearing")
+        if idx is not None:
+            emb = embedding(group.dt[idx], self.dim)
+            rel = np.einsum("mij,j->mi", emb, x) - group.rows.sensor_state[idx]
+            mod = modified_gain_rows(group.values[idx], rel, group.dt[idx], self.dim,
+                                     residual[idx])
+            h[idx[mod.ok]] = mod.g[mod.ok]  # mu = 0: U = I, g' = g and R' = R
+            self.fallbacks += int(np.count_nonzero(~mod.ok))
+            self.bearing_rows += int(idx.size)
+        if self.gain == "paper" or idx is None:
+            self._mean, self._cov, info = gaussian_update(x, self._cov, residual, h, r)
+            return info
+        self._mean, self._cov, info = split_update(x, self._cov, residual, h_ekf, h, r)
+        return info
+
+
+class ReflectingEKF(MirrorReflectMixin, ExtendedKalmanFilter):
+    """The plain EKF with the mirror rule of :class:`ModifiedGainEKF` switched on by default
+    (for like-for-like comparisons on mirror-ambiguous data)."""
+
+    name = "ekf"
+    reflect_default = True

@@ -1,0 +1,220 @@
+"""Multi-lag measurement vectors (003_e5155d4fe60daef8.txt §2.2).
+
+Chen & Sun do not update their filter with the measurements of one pulse only.  Update ``k``
+uses the bearings at samples ``k, k - N1, k - N2, k - N3`` and the range differences between
+consecutive ones,
+
+    Z_k = [b_k, b_{k-N1}, b_{k-N2}, b_{k-N3}, dr_{k,k-N1}, dr_{k-N1,k-N2}, dr_{k-N2,k-N3}],
+
+    R_k = diag[s_b^2 x 4, N s_dr^2, I s_dr^2, J s_dr^2],   N1 = N, N2 = N + I, N3 = N + I + J,
+
+with ``s_dr`` the noise of one pulse interval.  From a :class:`~tmakit.data.MeasurementSet` that
+holds per-pulse bearings and lag-1 range differences (``time_ref`` one sample back) this module
+forms those vectors: a range difference over several intervals is the sum of the lag-1
+differences it spans, so its noise is the sum of theirs (variance ``N s_dr^2`` for ``N`` equal
+intervals, exactly the paper's ``R_k``), and differences over disjoint spans stay independent.
+The paper's simulation uses "eight" measurement functions, read here as eight sample times:
+``lags`` may be any increasing list (default :data:`DEFAULT_LAGS`, seven lags, eight bearings
+and seven range differences per update).
+
+Early updates (``k`` smaller than some lags): samples ``k - N_j`` before the first are clipped
+to the first sample (and duplicates dropped), so update ``k`` uses the samples ``k - N_j`` that
+exist and, if some do not, the first sample ("use what is available").
+
+Consecutive vectors share data: a bearing is used in up to ``len(lags) + 1`` updates and a
+lag-1 range difference in every update whose window covers it.  A filter that treats the
+vectors as independent (as the paper does) counts that information several times, so its
+covariance is optimistic; ``reuse_inflation=True`` divides each row's weight by the number of
+vectors that use its data (an approximate correction, not part of the paper).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from itertools import pairwise
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import MeasurementSet
+
+#: Default lags (samples) of the multi-lag vectors: eight sample times 0, 8, ..., 56 samples
+#: back, equally spaced (N = I = J = ... = 8 in the paper's notation).  The paper gives no
+#: lags; see docs/tracking.md for the choice.
+DEFAULT_LAGS: tuple[int, ...] = (8, 16, 24, 32, 40, 48, 56)
+
+#: Times closer than this (s) are the same sample.
+TIME_TOL = 1e-6
+
+
+def _check_lags(lags: Sequence[int]) -> tuple[int, ...]:
+    try:
+        out = tuple(int(v) for v in lags)
+    except (TypeError, ValueError):
+        raise ValueError(f"lags must be whole numbers of samples; got {lags!r}") from None
+    if not out or any(v < 1 for v in out) or any(b <= a for a, b in pairwise(out)):
+        raise ValueError(f"lags must be increasing whole numbers >= 1 (N1 < N2 < ...); "
+                         f"got {list(lags)!r}")
+    if any(v != float(w) for v, w in zip(out, lags, strict=True)):
+        raise ValueError(f"lags must be whole numbers of samples; got {list(lags)!r}")
+    return out
+
+
+def _index_of(times: NDArray[np.float64], t: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Index in the sorted sample grid ``times`` of each of ``t`` (-1 if not on the grid)."""
+    pos = np.clip(np.searchsorted(times, t - TIME_TOL), 0, times.size - 1)
+    ok = np.abs(times[pos] - t) <= TIME_TOL
+    return np.where(ok, pos, -1)
+
+
+class _SensorData:
+    """The bearings and lag-1 range differences of one sensor on its sample grid."""
+
+    def __init__(self, meas: MeasurementSet, sensor: str) -> None:
+        sel = meas.sensor == sensor
+        bear = np.flatnonzero(sel & (meas.kind == "bearing"))
+        rd = np.flatnonzero(sel & (meas.kind == "range_difference"))
+        parts = [meas.time[bear], meas.time[rd], meas.time_ref[rd]]
+        t = np.sort(np.concatenate(parts))
+        keep = np.concatenate([[True], np.diff(t) > TIME_TOL]) if t.size else t.astype(bool)
+        self.times = t[keep]
+        m = self.times.size
+        self.bearing = np.full(m, -1, dtype=np.int64)
+        if bear.size:
+            dup = np.bincount(_index_of(self.times, meas.time[bear]), minlength=m)
+            if np.any(dup > 1):
+                t_dup = self.times[np.flatnonzero(dup > 1)[0]]
+                raise ValueError(f"sensor {sensor!r} has two bearings at t={t_dup:g} s; "
+                                 "multi-lag vectors need one per sample")
+            self.bearing[_index_of(self.times, meas.time[bear])] = bear
+        # link[j]: the row of the range difference from sample j-1 to sample j, or -1.
+        self.link = np.full(m, -1, dtype=np.int64)
+        if rd.size:
+            end = _index_of(self.times, meas.time[rd])
+            start = _index_of(self.times, meas.time_ref[rd])
+            one = (end >= 1) & (start == end - 1)
+            if not np.any(one):
+                raise ValueError(f"sensor {sensor!r}: multi-lag vectors are built from lag-1 "
+                                 "range differences (time_ref one sample before time); "
+                                 "none found")
+            self.link[end[one]] = rd[one]
+        self.sensor = sensor
+
+
+def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
+                    reuse_inflation: bool = False,
+                    start: int = 0) -> list[tuple[float, MeasurementSet]]:
+    """The multi-lag measurement vectors of ``meas`` (003_e5155d4fe60daef8.txt §2.2), ready
+    for :meth:`~tmakit.filters.TrackingFilter.run_groups`.
+
+    ``meas``: per-pulse bearings and lag-1 range differences (``range_difference`` rows with
+    ``time_ref`` the previous sample), one or more sensors; rows of other kinds are passed on
+    unchanged at their own time.  ``lags``: ``N1 < N2 < ...`` in samples.  One update per
+    sample time ``t_k`` (from sample ``start`` on) with, for every sensor, the bearings at
+    ``k`` and ``k - N_j`` and the range differences ``dr_{k - N_{j-1}, k - N_j}`` (sum of the
+    lag-1 differences between, ``sigma = sqrt(sum sigma_i^2)`` = ``sqrt(N) sigma``).  A
+    range difference is left out if a lag-1 link inside it is missing; a bearing, if none
+    was measured at that sample.
+
+    ``reuse_inflation``: multiply each row's variance by the number of updates that use its
+    data (bearings: how many vectors contain that sample; range differences: the mean, over
+    the intervals it spans, of how many vectors contain each interval) so that, summed over
+    the updates, each datum carries roughly its own weight once.  Not in the paper.
+
+    Returns a list of ``(t_k, rows)``; rows carry ``time``, ``time_ref`` and the sensor
+    states at both, so the filter predicts them from its state moved back (§2.3-2.4).
+    """
+    lags = _check_lags(lags)
+    if len(meas) == 0:
+        raise ValueError("no measurements to build multi-lag vectors from")
+    if start < 0:
+        raise ValueError(f"start must be >= 0; got {start}")
+    sensors = [s for s in meas.sensors
+               if np.any((meas.sensor == s) & np.isin(meas.kind, ("bearing",
+                                                                  "range_difference")))]
+    data = {s: _SensorData(meas, s) for s in sensors}
+    other = np.flatnonzero(~np.isin(meas.kind, ("bearing", "range_difference")))
+    offsets = np.array((0, *lags))
+
+    # Per sensor: the sample sets of every update, then how often each datum is used.
+    plans: dict[str, list[tuple[int, NDArray[np.int64]]]] = {}
+    use_b: dict[str, NDArray[np.float64]] = {}
+    use_i: dict[str, NDArray[np.float64]] = {}
+    for s, d in data.items():
+        m = d.times.size
+        plan = []
+        nb = np.zeros(m)
+        ni = np.zeros(m)  # ni[j]: updates whose range differences cover interval (j-1, j]
+        for k in range(min(start, m), m):
+            pts = np.unique(np.clip(k - offsets, 0, None))[::-1]  # k first, descending
+            plan.append((k, pts))
+            nb[pts[d.bearing[pts] >= 0]] += 1
+            if pts.size > 1:
+                ni[pts[-1] + 1:k + 1] += 1
+        plans[s], use_b[s], use_i[s] = plan, nb, ni
+
+    # Assemble the updates in time order (all sensors' vectors at one time go together).
+    by_time: dict[float, list[tuple[str, int, NDArray[np.int64]]]] = {}
+    for s, plan in plans.items():
+        for k, pts in plan:
+            by_time.setdefault(round(float(data[s].times[k]), 9), []).append((s, k, pts))
+    other_times = np.round(meas.time[other], 9)
+    for t in other_times:
+        by_time.setdefault(float(t), [])
+
+    value_si = meas.value_si
+    sigma_si = meas.sigma_si
+    nan6 = np.full(6, np.nan)
+    groups: list[tuple[float, MeasurementSet]] = []
+    for t in sorted(by_time):
+        # (time, sensor, kind, value, sigma, sensor state, time_ref, reference state)
+        rows: list[tuple] = []
+        for s, _k, pts in by_time[t]:
+            d = data[s]
+            for p in pts:
+                row = d.bearing[p]
+                if row >= 0:
+                    infl = use_b[s][p] if reuse_inflation else 1.0
+                    rows.append((meas.time[row], s, "bearing", meas.value[row],
+                                 meas.sigma[row] * np.sqrt(infl), meas.sensor_state[row],
+                                 np.nan, nan6))
+            for a, b in pairwise(pts):  # sample a later than sample b
+                links = d.link[b + 1:a + 1]
+                if np.any(links < 0):
+                    continue
+                var = float(np.sum(sigma_si[links] ** 2))
+                infl = float(np.mean(use_i[s][b + 1:a + 1])) if reuse_inflation else 1.0
+                last, first = links[-1], links[0]
+                rows.append((meas.time[last], s, "range_difference",
+                             float(np.sum(value_si[links])), float(np.sqrt(var * infl)),
+                             meas.sensor_state[last], meas.time_ref[first],
+                             meas.ref_sensor_state[first]))
+        parts = []
+        if rows:
+            cols = list(zip(*rows, strict=True))
+            n = len(rows)
+            parts.append(MeasurementSet(
+                np.array(cols[0], dtype=float), np.array(cols[1]), np.array(cols[2]),
+                np.array(cols[3], dtype=float), np.array(cols[4], dtype=float),
+                np.array(cols[5], dtype=float).reshape(n, 6), np.array(cols[6], dtype=float),
+                np.array(cols[7], dtype=float).reshape(n, 6), dict(meas.metadata)))
+        extra = other[np.abs(other_times - t) <= TIME_TOL] if other.size else other
+        if extra.size:
+            parts.append(meas.take(extra))
+        if not parts:
+            continue
+        group = parts[0] if len(parts) == 1 else MeasurementSet.concatenate(parts,
+                                                                             meas.metadata)
+        groups.append((max(t, float(np.max(group.time))), group))
+    return groups
+
+
+def multilag_layout(lags: Sequence[int], k: int) -> list[tuple[str, int, int]]:
+    """The layout of update ``k``'s vector for lags ``lags``: ``("bearing", i, i)`` for the
+    bearing at sample ``i`` and ``("range_difference", a, b)`` for ``dr_{a,b}`` (samples,
+    ``a > b``), in the order :func:`multilag_groups` emits them for one sensor."""
+    lags = _check_lags(lags)
+    pts = np.unique(np.clip(k - np.array((0, *lags)), 0, None))[::-1]
+    out = [("bearing", int(p), int(p)) for p in pts]
+    out += [("range_difference", int(a), int(b)) for a, b in pairwise(pts)]
+    return out

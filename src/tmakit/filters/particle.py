@@ -1,0 +1,348 @@
+"""A regularised SIR particle filter, vectorised over particles.
+
+Sampling importance resampling with the **transitional prior** as importance density, as in
+004_590a452506c86051.txt §3.1: the particles are moved by the dynamics and their weights
+multiplied by the likelihood of the new measurements (eq. 8 with ``q = p(x_k | x_{k-1})``),
+
+    w_k^i ∝ w_{k-1}^i p(y_k | x_k^i),   x_k^i ~ p(x_k | x_{k-1}^i),
+
+and the posterior is ``sum_i w_k^i delta(x - x_k^i)`` (eq. 7).
+
+* **Predict**: one transition of all particles (``Phi X``; for the nearly-constant-velocity
+  dynamics of 003_e5155d4fe60daef8.txt §2.1 done in place as ``p += dt v``) plus the process
+  noise ``G w`` with ``w ~ N(0, q^2 I)`` per axis (``G = [T^2/2, T]``, so ``Q = G G^T q^2``).
+* **Likelihood**: :meth:`MeasurementGroup.predict <tmakit.filters.MeasurementGroup.predict>`
+  on the ``(N, n)`` particles, wrapped residuals, whitened by the Cholesky factor of the
+  group's ``R`` (correlated range differences included); log-weights, normalised with
+  log-sum-exp.  Bearings at the update time take a closed form: the residual
+  ``z - b_i = atan2(sin z dy - cos z dx, cos z dy + sin z dx)`` is wrapped by construction
+  (tested equal to the general path).
+* **Log-likelihood** of the update: ``log sum_i w_{k-1}^i p(y_k | x_k^i)`` (log-sum-exp).
+* **Resampling**: systematic (one uniform offset, ``N`` evenly spaced points on the weight
+  CDF), when the effective sample size ``1 / sum w^2`` falls below ``resample_threshold N``.
+* **Regularisation** after each resampling (a regularised particle filter, Musso, Oudjane &
+  Le Gland 2001, "Improving regularised particle filters", in Doucet, de Freitas & Gordon
+  (eds.), *Sequential Monte Carlo Methods in Practice*, Springer, ch. 12): every particle is
+  moved by a Gaussian kernel shaped like the weighted particle covariance ``C = L L^T``, with
+  the kernel shrinkage of Liu & West (2001, same book, ch. 10) so that the mean and
+  covariance of the cloud are kept:
+
+      x_i <- a x_i + (1 - a) m + h L e_i,   e_i ~ N(0, I),   a = sqrt(1 - h^2),
+
+  ``h = bandwidth * h_opt`` with ``h_opt = (4 / (N (n + 2)))^(1 / (n + 4))`` (the optimal
+  Gaussian-kernel bandwidth of Musso et al.).  Without it a filter with little or no process
+  noise collapses onto a few distinct particles (impoverishment).
+* **Estimate**: the weighted mean and covariance (symmetric) of the particles after each
+  update, before resampling.  The NIS of an update is computed from the particles' predicted
+  measurement mean and covariance before the update (a Gaussian approximation).
+
+The filter starts by sampling the Gaussian prior.  Every random draw comes from ``rng`` (a
+``numpy.random.Generator`` or a seed): the same seed gives the same track.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .base import Array, TrackingFilter, UpdateInfo
+from .dynamics import NearlyConstantVelocity
+from .ekf import LOG_2PI, skipped
+from .linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
+from .measurement_group import MeasurementGroup
+
+#: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
+LOG_NEGLIGIBLE = -575.0
+
+
+def optimal_bandwidth(n_particles: int, n_state: int) -> float:
+    """``h_opt = (4 / (N (n + 2)))^(1 / (n + 4))`` for a Gaussian kernel (Musso et al. 2001)."""
+    return float((4.0 / (n_particles * (n_state + 2))) ** (1.0 / (n_state + 4)))
+
+
+def systematic_resample(weights: Array, u: float) -> NDArray[np.int64]:
+    """Indices of a systematic resample of normalised ``weights`` (N,) with offset ``u`` in
+    [0, 1): particle ``i`` is drawn once for every point ``(u + j) / N`` (j = 0..N-1) in
+    ``(C_{i-1}, C_i]``, ``C`` the cumulative weights — counted without a search."""
+    n = weights.shape[0]
+    cdf = np.cumsum(weights)
+    cdf *= n / cdf[-1]
+    cdf -= u
+    np.floor(cdf, out=cdf)
+    upto = np.clip(cdf.astype(np.int64) + 1, 0, n)
+    upto[-1] = n
+    counts = np.diff(upto, prepend=0)
+    return np.repeat(np.arange(n), counts)
+
+
+class ParticleFilter(TrackingFilter):
+    """Regularised SIR particle filter (see the module docstring).
+
+    Same arguments as :class:`~tmakit.filters.TrackingFilter`, plus ``particles`` (N >= 2),
+    ``rng`` (Generator or seed), ``resample_threshold`` (resample when the effective sample
+    size is below this fraction of N; in (0, 1]), ``regularise`` (default True) and
+    ``bandwidth`` (multiple of the optimal kernel bandwidth, > 0, ``h`` must stay below 1).
+    :attr:`resamples` counts the resampling steps.
+    """
+
+    name = "pf"
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 particles: int = 1000, rng: np.random.Generator | int | None = None,
+                 resample_threshold: float = 0.5, regularise: bool = True,
+                 bandwidth: float = 1.0, **kwargs: Any) -> None:
+        if isinstance(particles, bool) or not isinstance(particles, (int, np.integer)) \
+                or particles < 2:
+            raise ValueError(f"particles must be a whole number >= 2; got {particles!r}")
+        if not (0.0 < float(resample_threshold) <= 1.0):
+            raise ValueError("resample_threshold must be in (0, 1] (a fraction of the "
+                             f"particle count); got {resample_threshold}")
+        if not (math.isfinite(bandwidth) and bandwidth > 0):
+            raise ValueError(f"bandwidth must be > 0; got {bandwidth}")
+        self.n_particles = int(particles)
+        self.rng = np.random.default_rng(rng)
+        self.resample_threshold = float(resample_threshold)
+        self.regularise = bool(regularise)
+        self.bandwidth = float(bandwidth)
+        self.resamples = 0
+        super().__init__(mean, covariance, time, **kwargs)
+        self.h = self.bandwidth * optimal_bandwidth(self.n_particles, 2 * self.dim)
+        if self.regularise and self.h >= 1.0:
+            raise ValueError(f"bandwidth {bandwidth} gives a kernel bandwidth h = {self.h:.3g}"
+                             " >= 1 (the shrinkage needs h < 1); use a smaller bandwidth or "
+                             "more particles")
+        q = np.broadcast_to(np.asarray(self.dynamics.q, dtype=float), (self.dim,))
+        self._q = q.copy()
+        self._any_q = bool(np.any(q > 0))
+        self._equal_q = bool(np.all(q == q[0]))
+        self._ncv = type(self.dynamics) is NearlyConstantVelocity
+
+    # -- state --------------------------------------------------------------------------------
+    def _init_state(self, mean: Array, covariance: Array) -> None:
+        n = mean.shape[0]
+        chol = safe_cholesky(covariance)
+        x = chol @ self.rng.standard_normal((n, self.n_particles))
+        x += mean[:, None]
+        self._x = np.ascontiguousarray(x)  # (n, N): one row per state component
+        self._w = np.full(self.n_particles, 1.0 / self.n_particles)
+        self._logw = np.full(self.n_particles, -math.log(self.n_particles))
+        self._uniform = True
+        self._moments: tuple[Array, Array] | None = None
+        # Work arrays, reused at every step: fresh ones for every operation cost more in
+        # memory traffic than the arithmetic on 10^4 particles.
+        n_p = self.n_particles
+        self._work = np.empty((3, n_p))
+        self._w_spare = np.empty(n_p)
+        self._logw_spare = np.empty(n_p)
+        self._dev = np.empty((n, n_p))
+        self._devw = np.empty((n, n_p))
+        self._noise = np.empty((self.dim, n_p))
+
+    @property
+    def particles(self) -> Array:
+        """A copy of the particles ``(N, n)``."""
+        return self._x.T.copy()
+
+    @property
+    def weights(self) -> Array:
+        """Normalised weights ``(N,)``."""
+        return self._w.copy()
+
+    @property
+    def effective_sample_size(self) -> float:
+        """``1 / sum w^2``."""
+        return float(1.0 / np.dot(self._w, self._w))
+
+    def _compute_moments(self) -> tuple[Array, Array]:
+        if self._moments is None:
+            w = self._w
+            mean = self._x @ w
+            dev = np.subtract(self._x, mean[:, None], out=self._dev)
+            devw = np.multiply(dev, w, out=self._devw)
+            cov = symmetrise(devw @ dev.T)
+            self._moments = (mean, cov)
+        return self._moments
+
+    @property
+    def state(self) -> Array:
+        return self._compute_moments()[0].copy()
+
+    @property
+    def covariance(self) -> Array:
+        return self._compute_moments()[1].copy()
+
+    # -- predict ------------------------------------------------------------------------------
+    def _predict(self, dt: float) -> None:
+        x = self._x
+        d = self.dim
+        if self._ncv:
+            if self._any_q:
+                # p += dt v + dt^2/2 w, v += dt w (003 §2.1), with v moved in two halves so
+                # that p sees v + dt w / 2: five passes over the particles.
+                half = self.rng.standard_normal(out=self._noise)
+                if self._equal_q:
+                    half *= 0.5 * dt * float(self._q[0])
+                else:
+                    half *= (0.5 * dt * self._q)[:, None]
+                x[d:] += half
+                x[:d] += np.multiply(x[d:], dt, out=self._dev[:d])
+                x[d:] += half
+            else:
+                x[:d] += np.multiply(x[d:], dt, out=self._dev[:d])
+        else:
+            x = self.dynamics.transition(dt) @ x
+            q = self.dynamics.noise(dt)
+            if np.any(q != 0):
+                evals, evecs = np.linalg.eigh(symmetrise(q))
+                root = evecs * np.sqrt(np.clip(evals, 0.0, None))
+                x += root @ self.rng.standard_normal((x.shape[0], self.n_particles))
+            self._x = np.ascontiguousarray(x)
+        self._moments = None
+
+    # -- update -------------------------------------------------------------------------------
+    def _update(self, group: MeasurementGroup) -> UpdateInfo:
+        if len(group) == 1 and group.dt[0] == 0.0 and "bearing" in group.models:
+            info = self._update_bearing(group)
+            if info is not None:
+                return info
+        loglik, nu = self._general_loglik(group)
+        return self._weigh(loglik, nu, group.covariance)
+
+    def _update_bearing(self, group: MeasurementGroup) -> UpdateInfo | None:
+        """One bearing at the update time in closed form (None if some particle sits on
+        the sensor: the general path handles that).  The residual of particle ``i`` is
+        ``atan2(s, c)`` with ``(s, c)`` its offset from the sensor rotated by the measured
+        bearing ``z`` (``s = sin z dy - cos z dx``, ``c = cos z dy + sin z dx``), wrapped
+        to (-pi, pi] by construction; computed as ``atan(s / c)`` plus ``±pi`` where
+        ``c < 0``."""
+        z = float(group.values[0])
+        sigma = float(group.sigmas[0])
+        sz, cz = math.sin(z), math.cos(z)
+        sx, sy = (float(v) for v in group._sensor_state[0, :2])
+        x, y = self._x[0], self._x[1]
+        s, c, r = self._work
+        np.multiply(y, sz, out=s)  # s = sin z (y - sy) - cos z (x - sx)
+        s -= np.multiply(x, cz, out=r)
+        s += cz * sx - sz * sy
+        np.multiply(y, cz, out=c)  # c = cos z (y - sy) + sin z (x - sx)
+        c += np.multiply(x, sz, out=r)
+        c -= cz * sy + sz * sx
+        with np.errstate(divide="ignore", invalid="ignore"):
+            np.divide(s, c, out=r)
+        np.arctan(r, out=r)
+        neg = c < 0.0
+        if neg.any():
+            r[neg] += np.where(s[neg] >= 0.0, np.pi, -np.pi)
+        uniform = self._uniform
+        w_prior = self._w
+        nu_bar = float(np.sum(r)) / self.n_particles if uniform else float(r @ w_prior)
+        if not math.isfinite(nu_bar):
+            return None
+        r *= r
+        second = float(np.sum(r)) / self.n_particles if uniform else float(r @ w_prior)
+        var = max(second - nu_bar * nu_bar, 0.0) + sigma * sigma
+        r *= -0.5 / (sigma * sigma)
+        const = -math.log(sigma) - 0.5 * LOG_2PI
+        return self._normalise(r, const, nu_bar * nu_bar / var, 1)
+
+    def _normalise(self, total: Array, const: float, nis: float, dof: int) -> UpdateInfo:
+        """Multiply the weights by the likelihoods ``exp(total + const)`` (``total`` (N,) is
+        overwritten), normalise, record the moments and resample if needed."""
+        uniform = self._uniform
+        if not uniform:
+            total += self._logw
+        top = float(np.max(total))
+        if not math.isfinite(top):
+            self.skipped_updates += 1
+            return skipped()
+        total -= top
+        w = np.exp(total, out=self._w_spare)
+        # Weights below e^-575 (1e-250) of the largest are set to zero: they carry no mass,
+        # and subnormal numbers would slow every later pass over the particles ~100-fold.
+        dead = total < LOG_NEGLIGIBLE
+        if dead.any():
+            w[dead] = 0.0
+            total[dead] = -np.inf
+        s = float(np.sum(w))
+        log_s = math.log(s)
+        increment = top + log_s + const - (math.log(self.n_particles) if uniform else 0.0)
+        logw = np.subtract(total, log_s, out=self._logw_spare)
+        w /= s
+        self._w_spare, self._w = self._w, w
+        self._logw_spare, self._logw = self._logw, logw
+        self._uniform = False
+        self._moments = None
+        self._compute_moments()
+        if 1.0 / float(np.dot(w, w)) < self.resample_threshold * self.n_particles:
+            self._resample()
+        return UpdateInfo(nis, dof, increment)
+
+    def _general_loglik(self, group: MeasurementGroup) -> tuple[Array, Array]:
+        """Any kinds: per-particle log-likelihoods (N,) and residuals (N, m)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            nu = group.residual(group.predict(self._x.T))  # (N, m)
+        r = group.covariance
+        m = r.shape[0]
+        if np.count_nonzero(r - np.diag(np.diagonal(r))) == 0:
+            sig = np.sqrt(np.diagonal(r))
+            white = nu / sig
+            log_det_half = float(np.sum(np.log(sig)))
+        else:
+            chol = safe_cholesky(r)
+            white = np.linalg.solve(chol, nu.T).T
+            log_det_half = float(np.sum(np.log(np.diagonal(chol))))
+        loglik = -0.5 * np.einsum("ij,ij->i", white, white) - log_det_half - 0.5 * m * LOG_2PI
+        return loglik, nu
+
+    def _weigh(self, loglik: Array, nu: Array, r: Array) -> UpdateInfo:
+        """The general update from per-particle log-likelihoods (N,) and residuals (N, m)."""
+        bad = ~np.isfinite(loglik)
+        finite = ~bad
+        if bad.any():
+            loglik = np.where(bad, -np.inf, loglik)
+        # NIS from the predicted measurement moments (weights before the update).
+        wp = self._w
+        if bad.any():
+            wp = np.where(finite, wp, 0.0)
+            wp = wp / max(float(np.sum(wp)), 1e-300)
+            nu = np.where(finite[:, None], nu, 0.0)
+        nu_bar = nu.T @ wp
+        dev = nu - nu_bar
+        s_pred = symmetrise((dev.T * wp) @ dev + r)
+        sol, _ = solve_spd(s_pred, nu_bar)
+        return self._normalise(np.array(loglik, dtype=float), 0.0, float(nu_bar @ sol),
+                               int(nu.shape[1]))
+
+    # -- resampling and regularisation -------------------------------------------------------
+    def _resample(self) -> None:
+        mean, cov = self._compute_moments()
+        idx = systematic_resample(self._w, float(self.rng.random()))
+        x = np.take(self._x, idx, axis=1)
+        if self.regularise:
+            h = self.h
+            a = math.sqrt(1.0 - h * h)
+            chol = _kernel_factor(cov)
+            x *= a
+            x += ((1.0 - a) * mean)[:, None]
+            x += (h * chol) @ self.rng.standard_normal(x.shape)
+        self._x = x
+        n = self.n_particles
+        self._w = np.full(n, 1.0 / n)
+        self._logw = np.full(n, -math.log(n))
+        self._uniform = True
+        self.resamples += 1
+        # The estimate at this time stays the pre-resampling weighted moments.
+        self._moments = (mean, cov)
+
+
+def _kernel_factor(cov: Array) -> Array:
+    """A square-root factor of the particle covariance for the regularisation kernel; a
+    singular one (all particles on a line) gets a PSD eigen-factor instead of failing."""
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        evals, evecs = np.linalg.eigh(nearest_psd(cov))
+        return evecs * np.sqrt(np.clip(evals, 0.0, None))

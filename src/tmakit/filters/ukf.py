@@ -1,0 +1,130 @@
+"""The unscented Kalman filter, wrap-aware.
+
+Sigma points: the scaled unscented transform (Julier 2002; the weights as in Wan & van der
+Merwe 2000, "The unscented Kalman filter for nonlinear estimation", IEEE AS-SPCC):
+``lambda = alpha^2 (n + kappa) - n``, points ``x`` and ``x ± gamma L_j`` with
+``gamma = sqrt(n + lambda)`` and ``L`` the lower Cholesky factor of ``P``
+(:func:`~.linalg.safe_cholesky`); mean weights ``Wm_0 = lambda / (n + lambda)``, covariance
+weight ``Wc_0 = Wm_0 + 1 - alpha^2 + beta``, all others ``1 / (2 (n + lambda))``.
+
+Defaults ``alpha = 1, beta = 2, kappa = 0``: ``lambda = 0``, points at ``± sqrt(n)`` standard
+deviations, and every weight is non-negative, so ``P_zz`` and the updated covariance are
+positive semi-definite by construction (a negative ``Wc_0``, as with ``alpha = 1e-3``, can
+break that).
+
+Angles (bearing, elevation, ...): the predicted mean of an angle row is the weighted
+**circular** mean ``atan2(sum W sin z_i, sum W cos z_i)``, and every deviation ``z_i - z``
+and the innovation are wrapped to (-pi, pi], so a target near bearing ±180° is handled like
+any other.
+
+Predict: the dynamics are linear (003_e5155d4fe60daef8.txt §2.1), for which the unscented
+transform is exact, so the predict is the Kalman predict ``Phi x``, ``Phi P Phi^T + Q``.
+
+Update: ``K = P_xz P_zz^-1``, ``x += K nu``, ``P -= K P_zz K^T`` (symmetrised, repaired by
+:func:`~.linalg.repair_psd` if rounding made it indefinite); the log-likelihood increment is
+that of ``nu ~ N(0, P_zz)``.  One bearing per update in 2-D runs on the closed-form kernel
+:func:`~.kernels.ukf_bearing_2d`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .base import Array, UpdateInfo
+from .compiled import CompiledMeasurements
+from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
+from .kernels import KernelRun, ukf_bearing_2d
+from .linalg import repair_psd, safe_cholesky, solve_spd, symmetrise
+from .measurement_group import MeasurementGroup
+
+
+def unscented_weights(n: int, alpha: float, beta: float, kappa: float
+                      ) -> tuple[float, Array, Array]:
+    """``gamma``, mean weights ``Wm`` (2n+1,) and covariance weights ``Wc`` (2n+1,) of the
+    scaled unscented transform for an ``n``-state."""
+    for name, value in (("alpha", alpha), ("beta", beta), ("kappa", kappa)):
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be finite; got {value}")
+    if alpha <= 0:
+        raise ValueError(f"alpha must be > 0; got {alpha}")
+    lam = alpha**2 * (n + kappa) - n
+    if n + lam <= 0:
+        raise ValueError(f"n + lambda = alpha^2 (n + kappa) must be > 0; got {n + lam} "
+                         f"(n={n}, alpha={alpha}, kappa={kappa})")
+    wm = np.full(2 * n + 1, 0.5 / (n + lam))
+    wc = wm.copy()
+    wm[0] = lam / (n + lam)
+    wc[0] = wm[0] + 1.0 - alpha**2 + beta
+    return math.sqrt(n + lam), wm, wc
+
+
+class UnscentedKalmanFilter(ExtendedKalmanFilter):
+    """UKF with wrap-aware means and residuals (see the module docstring).
+
+    Same arguments as :class:`~tmakit.filters.TrackingFilter`, plus the sigma-point
+    parameters ``alpha`` (> 0), ``beta`` and ``kappa``.
+    """
+
+    name = "ukf"
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0,
+                 **kwargs: Any) -> None:
+        n = np.asarray(mean).shape[-1] if np.ndim(mean) else 0
+        self.alpha, self.beta, self.kappa = float(alpha), float(beta), float(kappa)
+        self._gamma, self._wm, self._wc = unscented_weights(max(n, 1), self.alpha, self.beta,
+                                                            self.kappa)
+        super().__init__(mean, covariance, time, **kwargs)
+
+    def sigma_points(self) -> Array:
+        """The ``2n + 1`` sigma points ``(2n+1, n)`` of the current estimate."""
+        chol = safe_cholesky(self._cov)
+        dev = self._gamma * chol.T  # rows: gamma L_j
+        return np.concatenate([self._mean[None, :], self._mean + dev, self._mean - dev])
+
+    def _update(self, group: MeasurementGroup) -> UpdateInfo:
+        pts = self.sigma_points()
+        z = group.predict(pts)  # (2n+1, m)
+        if not np.all(np.isfinite(z)):
+            self.skipped_updates += 1
+            return skipped()
+        zbar = weighted_mean(z, self._wm, group.angle)
+        dz = group.residual(zbar, z)  # z_i - zbar, wrapped
+        dx = pts - self._mean
+        wc = self._wc
+        pzz = symmetrise((dz * wc[:, None]).T @ dz + group.covariance)
+        pxz = (dx * wc[:, None]).T @ dz
+        nu = group.residual(zbar)
+        sol, log_det = solve_spd(pzz, np.concatenate([pxz.T, nu[:, None]], axis=1))
+        gain = sol[:, :-1].T
+        nis = float(nu @ sol[:, -1])
+        self._mean = self._mean + gain @ nu
+        self._cov = repair_psd(self._cov - gain @ pzz @ gain.T)
+        m = nu.shape[0]
+        return UpdateInfo(nis, m, -0.5 * (nis + log_det + m * LOG_2PI))
+
+    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
+        if not self._kernel_ok(compiled, UnscentedKalmanFilter):
+            return None
+        weights = (self._gamma, float(self._wm[0]), float(self._wc[0]), float(self._wm[1]))
+        return self._adopt(ukf_bearing_2d(self._mean, self._cov, self.time,
+                                          self.log_likelihood, start, compiled.bearing_lists(),
+                                          self._q2(), weights))
+
+
+def weighted_mean(z: Array, weights: Array, angle: ArrayLike | None = None) -> Array:
+    """Weighted mean over the first axis of ``z`` (k, m); columns flagged in ``angle`` (m,)
+    get the circular mean ``atan2(sum w sin z, sum w cos z)`` (wrap-aware)."""
+    mean = weights @ z
+    if angle is None:
+        return mean
+    angle = np.asarray(angle, dtype=bool)
+    if np.any(angle):
+        za = z[:, angle]
+        mean[angle] = np.arctan2(weights @ np.sin(za), weights @ np.cos(za))
+    return mean
+
