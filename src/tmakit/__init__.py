@@ -40,6 +40,8 @@ _LAZY = {
     "MeasurementFileError": "files",
     "geodetic_to_enu": "geodesy",
     "enu_to_geodetic": "geodesy",
+    "track": "tracking",
+    "write_track": "tracking",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -52,6 +54,7 @@ if TYPE_CHECKING:  # pragma: no cover
         read_scenario_file,
         scenario_from_dict,
     )
+    from .tracking import track, write_track
 
 
 def __getattr__(name: str) -> Any:
@@ -91,5 +94,7 @@ __all__ = [
     "read_scenario_file",
     "scenario_from_dict",
     "simulate",
+    "track",
     "write_measurements",
+    "write_track",
 ]

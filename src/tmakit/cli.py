@@ -7,8 +7,9 @@
     tma crlb FILE --motion cv2d --truth x=..,y=.. [--known-nuisance] [--json]
     tma crlb SCENARIO [--known-nuisance] [--at T] [--json]
     tma estimate FILE [--motion cv2d] [--init x=..,y=..] [--method ml] [--json]
-    tma reproduce gu2007|doppler-lecture [--runs N] [--seed S]
+    tma reproduce gu2007|doppler-lecture|hoerst2010|chen-sun [--runs N] [--seed S] [--plot FILE]
     tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
+    tma track FILE [--filter ekf|ukf|mgekf|pf] [--q Q] [--json] [-o track.csv] [--plot out.png]
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
@@ -366,11 +367,17 @@ def _geodetic_position(meas, result) -> dict[str, float] | None:
 
 @app.command()
 def reproduce(
-    name: Annotated[str, typer.Argument(help="gu2007 or doppler-lecture")],
-    runs: Annotated[int, typer.Option(help="Monte Carlo runs where the paper has them "
-                                           "(0 to skip)")] = 200,
+    name: Annotated[str, typer.Argument(
+        help="gu2007, doppler-lecture, hoerst2010 or chen-sun")],
+    runs: Annotated[int | None, typer.Option(
+        help="Monte Carlo runs where the paper has them (0 to skip; default: the paper's "
+             "number, gu2007 200, chen-sun 30)")] = None,
     seed: Annotated[int, typer.Option(help="random seed")] = 1,
     as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
+    plot: Annotated[Path | None, typer.Option(
+        help="draw the paper's figure (PNG, PDF, SVG; hoerst2010, chen-sun: Fig. 2)")
+    ] = None,
+    force: Annotated[bool, typer.Option(help="overwrite an existing --plot file")] = False,
 ) -> None:
     """Reproduce a paper's tables and figures next to the paper's own numbers."""
     import importlib
@@ -379,10 +386,20 @@ def reproduce(
 
     if name not in REPRODUCTIONS:
         raise _fail(f"no reproduction named {name!r}; available: {', '.join(REPRODUCTIONS)}")
-    if runs < 0:
+    if runs is not None and runs < 0:
         raise _fail("--runs must be 0 or more")
     module = importlib.import_module(REPRODUCTIONS[name])
-    rep = module.run(runs=runs, seed=seed, progress=not as_json)
+    if plot is not None:
+        if not hasattr(module, "plot"):
+            drawn = [n for n, m in REPRODUCTIONS.items()
+                     if hasattr(importlib.import_module(m), "plot")]
+            raise _fail(f"--plot: reproduction {name!r} draws no figure (figures: "
+                        f"{', '.join(drawn)})")
+        _refuse_existing(plot, force)
+    rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
+                     progress=not as_json)
+    if plot is not None:
+        module.plot(rep, plot)
     if as_json:
         import json
 
@@ -399,6 +416,8 @@ def reproduce(
             out.print(section.note, highlight=False)
     for key, value in rep.figures.items():
         out.print(f"{key}: {value}", highlight=False)
+    if plot is not None:
+        out.print(f"wrote {plot}", highlight=False)
 
 
 @app.command()
@@ -458,6 +477,196 @@ def montecarlo(
     if json_file is not None:
         json_file.write_text(res.to_json() + "\n")
         out.print(f"wrote {json_file}", highlight=False)
+
+
+@app.command()
+def track(
+    file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
+    filter_name: Annotated[str, typer.Option(
+        "--filter", help="ekf, ukf, mgekf or pf (the filters of tmakit.filters.FILTERS)")
+    ] = "ekf",
+    q: Annotated[str, typer.Option(
+        "--q", help="process noise: acceleration std (m/s^2), one value or per axis "
+                    "qx,qy[,qz]; 0 = constant velocity")] = "0",
+    particles: Annotated[int | None, typer.Option(
+        help="number of particles (particle filter only)")] = None,
+    seed: Annotated[int | None, typer.Option(
+        help="random seed (particle filter only; same seed, same track)")] = None,
+    prior: Annotated[str | None, typer.Option(
+        help="start from this state instead of a batch estimate, e.g. "
+             "x=4000,y=9000,vx=-6,vy=-3 (m, m/s); needs --prior-std")] = None,
+    prior_std: Annotated[str | None, typer.Option(
+        help="the prior's standard deviations, e.g. x=3000,y=3000,vx=10,vy=10")] = None,
+    prior_time: Annotated[float | None, typer.Option(
+        help="time of the prior (s); default: the first measurement time")] = None,
+    nuisance: Annotated[str | None, typer.Option(
+        help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")] = None,
+    init_window: Annotated[int | None, typer.Option(
+        help="start from a batch estimate over this many first measurement times "
+             "(default: the shortest window good enough, see --start-std)")] = None,
+    start_std: Annotated[float, typer.Option(
+        help="start quality: the batch start's position std must be below this fraction "
+             "of the range")] = 0.25,
+    dim: Annotated[int | None, typer.Option(
+        help="2 or 3 (default: 3 when the data or the file's motion need it)")] = None,
+    drift: DriftOption = False,
+    free_exponent: FreeExponentOption = False,
+    origin: Annotated[str | None, typer.Option(
+        help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
+    plot: Annotated[Path | None, typer.Option(
+        help="draw the track (PNG, PDF, SVG); with the truth in the file, its error "
+             "against the posterior CRB")] = None,
+    ellipses: Annotated[int, typer.Option(
+        help="number of 90 %/95 % position ellipses drawn along the track")] = 8,
+    rows: Annotated[int, typer.Option(help="rows of the summary table")] = 12,
+    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+) -> None:
+    """Track the emitter with a recursive filter: state and covariance after every update.
+
+    No initial guess is needed: the filter starts from a batch estimate over the shortest
+    initial window of the data that determines the position well enough (or from --prior).
+    """
+    import json
+
+    from . import tracking
+    from .filters import FILTERS
+
+    for path in (output, plot):
+        if path is not None:
+            _refuse_existing(path, force)
+    if output is not None and output.suffix.lower() not in tracking.TABLE_SUFFIXES:
+        raise _fail(f"{output}: the track table is written as .csv or .parquet")
+    if filter_name not in FILTERS:
+        raise _fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
+    random_filters = tracking.random_filters()
+    for option, value in (("--particles", particles), ("--seed", seed)):
+        if value is not None and filter_name not in random_filters:
+            raise _fail(f"{option} applies only to the particle filter"
+                        f"{'s' if len(random_filters) > 1 else ''} "
+                        f"({', '.join(random_filters) or 'none registered'}), not to "
+                        f"{filter_name}")
+    if ellipses < 0 or rows < 1:
+        raise _fail("--ellipses must be 0 or more and --rows 1 or more")
+    meas = _read(file, _parse_origin(origin))
+    try:
+        d = tracking.filter_dim(meas, dim)
+        q_axes = tracking.parse_q(q, d)
+    except ValueError as e:
+        raise _fail(f"--{e}") from None
+    prior_mean = _parse_assignments(prior, "--prior") or None
+    prior_sd = _parse_assignments(prior_std, "--prior-std") or None
+    known = _parse_assignments(nuisance, "--nuisance") or None
+    if (prior_mean is None) != (prior_sd is None):
+        raise _fail("--prior and --prior-std go together (the state and its standard "
+                    "deviations, by name)")
+    if known is not None and prior_mean is None:
+        raise _fail("--nuisance goes with --prior; a batch start estimates the nuisance "
+                    "values itself")
+    if prior_mean is not None and init_window is not None:
+        raise _fail("--init-window chooses the batch start; it cannot be used with --prior")
+    try:
+        tr = tracking.track(meas, filter_name, q=q_axes, particles=particles,
+                            prior=prior_mean, prior_std=prior_sd, prior_time=prior_time,
+                            init_window=init_window, max_relative_std=start_std, rng=seed,
+                            dim=d, options=_model_options(drift, free_exponent),
+                            nuisance=known)
+    except ValueError as e:
+        raise _fail(str(e)) from None
+    truth = tracking.truth_states(meas, tr.times, d)
+    say = err if as_json else out
+    if as_json:  # one line: the track is long, and rich's JSON printer slow on it
+        typer.echo(json.dumps(tracking.track_dict(tr)))
+    else:
+        _print_track(tr, truth, rows)
+    if output is not None:
+        try:
+            tracking.write_track(tr, output, force=force)
+        except FileExistsError:
+            raise _fail(f"{output} already exists; use --force to overwrite it") from None
+        say.print(f"wrote {output}", highlight=False)
+    if plot is not None:
+        from .plot import plot_track
+
+        bound, note = (tracking.track_pcrb(meas, tr, truth) if truth is not None
+                       else (None, ""))
+        title = f"{file}: {tr.filter_name} track"
+        if "scenario" in meas.metadata:
+            title += f" of scenario {meas.metadata['scenario']}"
+        plot_track(tr, meas, plot, truth=truth, pcrb=bound, pcrb_note=note,
+                   ellipses=ellipses, title=title)
+        say.print(f"wrote {plot}", highlight=False)
+
+
+def _start_sentence(tr) -> str:
+    s = tr.extra["start"]
+    if s["method"] == "prior":
+        return f"start: the given prior at t = {s['time']:g} s"
+    text = (f"start: batch ML estimate over the first {s['window']} measurement times "
+            f"({s['rows']} rows, t <= {s['time']:g} s), {s['status']}, position std "
+            f"{s['relative_position_std']:.1%} of the range")
+    if s.get("max_relative_std") is not None:
+        text += f" (needed < {s['max_relative_std']:.0%})"
+    if s.get("nuisance"):
+        text += ("; nuisance held at " + ", ".join(
+            f"{k} = {v['value']:.10g} (std {v['std']:.3g})" for k, v in s["nuisance"].items())
+            + " (the filter does not carry their uncertainty)")
+    check = s.get("confirmation")
+    if check and check["dof"]:
+        text += (f"; confirmed by the next {check['updates']} updates (NIS {check['nis']:.1f} "
+                 f"on {check['dof']} dof, p = {check['p_value']:.2g})")
+    for r in s.get("rejected", []):
+        text += (f"; rejected first: the window of {r['window']} times (t <= {r['time']:g} s), "
+                 f"NIS {r['nis']:.1f} on {r['dof']} dof over the next {r['updates']} updates "
+                 f"(p = {r['p_value']:.2g})")
+    return text
+
+
+def _print_track(tr, truth, n_rows: int) -> None:
+    import numpy as np
+
+    dim = len(tr.state_names) // 2
+    k_sel = np.unique(np.linspace(0, len(tr) - 1, min(n_rows, len(tr))).round().astype(int))
+    q = ", ".join(f"{v:g}" for v in tr.extra["q"])
+    table = Table(title=f"{tr.filter_name} track: {len(tr)} rows, t = {tr.times[0]:g} .. "
+                        f"{tr.times[-1]:g} s, q = {q} m/s^2 ({len(k_sel)} rows shown)",
+                  title_justify="left")
+    cols = ["t\n(s)", *(f"{n}\n(m)" for n in tr.state_names[:dim]), "std\n(m)",
+            "speed\n(m/s)", "course\n(deg)", "NIS/\ndof"]
+    if truth is not None:
+        cols.append("error\n(m)")
+    for c in cols:
+        table.add_column(c, justify="right", no_wrap=True)
+    pos_sd = np.sqrt(np.einsum("kii->k", tr.covariances[:, :dim, :dim]))
+    for k in k_sel:
+        v = tr.states[k, dim:]
+        speed = float(np.linalg.norm(v))
+        course = float(np.degrees(np.arctan2(v[0], v[1])) % 360.0)
+        nis = (f"{tr.nis[k]:.2f}/{tr.dof[k]}" if tr.dof[k] > 0 else "start")
+        row = [f"{tr.times[k]:g}", *(f"{x:.1f}" for x in tr.states[k, :dim]),
+               f"{pos_sd[k]:.1f}", f"{speed:.2f}", f"{course:.1f}", nis]
+        if truth is not None:
+            row.append(f"{np.linalg.norm(tr.states[k, :dim] - truth[k, :dim]):.1f}")
+        table.add_row(*row)
+    out.print(table)
+    out.print("std: position RMS std sqrt(trace P); NIS: normalised innovation squared",
+              highlight=False)
+    out.print(_start_sentence(tr), highlight=False)
+    used = tr.dof > 0
+    if np.any(used):
+        mean_nis = float(np.sum(tr.nis[used]) / np.sum(tr.dof[used]))
+        out.print(f"{int(np.sum(used))} updates, mean NIS per degree of freedom "
+                  f"{mean_nis:.3f} (1 when consistent), log-likelihood "
+                  f"{tr.log_likelihood[-1]:.2f}", highlight=False)
+    if truth is not None:
+        e = tr.states[-1, :dim] - truth[-1, :dim]
+        cov = tr.covariances[-1, :dim, :dim]
+        m = float(np.sqrt(e @ np.linalg.solve(cov, e)))
+        out.print(f"truth known (file metadata): final position error "
+                  f"{np.linalg.norm(e):.1f} m, {m:.2f} sigma (Mahalanobis, {dim}-D)",
+                  highlight=False)
 
 
 @app.command()

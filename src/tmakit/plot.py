@@ -94,3 +94,122 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, probability: float, n: int = 90
+                ) -> np.ndarray:
+    """Points (n, 2) of the ``probability`` confidence ellipse of a 2-D Gaussian: the
+    Mahalanobis radius is ``sqrt(-2 ln(1 - p))`` (chi-square, 2 degrees of freedom)."""
+    evals, evecs = np.linalg.eigh(0.5 * (cov + cov.T))
+    radius = np.sqrt(-2.0 * np.log1p(-probability))
+    angle = np.linspace(0.0, 2.0 * np.pi, n)
+    circle = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    return mean + radius * (circle * np.sqrt(np.clip(evals, 0.0, None))) @ evecs.T
+
+
+def plot_track(tr, meas: MeasurementSet, path: str | Path, *, truth: np.ndarray | None = None,
+               pcrb=None, pcrb_note: str = "", ellipses: int = 8,
+               probabilities: tuple[float, ...] = (0.90, 0.95), title: str | None = None
+               ) -> Path:
+    """Write a picture of a :class:`~tmakit.filters.Track`: the map (sensor paths, the
+    track, its 90 % and 95 % position ellipses at ``ellipses`` times spread over the track,
+    the true path when known) and, when ``truth`` (K, n) states at the track's times are
+    given, the position error against time beside the filter's own standard deviations and
+    the posterior CRB ``pcrb`` (a :class:`~tmakit.bounds.pcrb.PosteriorBound`; when ``None``
+    the legend says ``pcrb_note``).  Returns the path written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dim = len(tr.state_names) // 2
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    if truth is not None:
+        fig = plt.figure(figsize=(14, 7), layout="constrained")
+        grid = fig.add_gridspec(2, 2, width_ratios=[1.1, 1.3])
+        ax_map = fig.add_subplot(grid[:, 0])
+        ax_axes = fig.add_subplot(grid[0, 1])
+        ax_norm = fig.add_subplot(grid[1, 1], sharex=ax_axes)
+    else:
+        fig = plt.figure(figsize=(8, 7), layout="constrained")
+        ax_map = fig.add_subplot(1, 1, 1)
+
+    for i, s in enumerate(meas.sensors):
+        sel = meas.sensor == s
+        order = np.argsort(meas.time[sel], kind="stable")
+        xy = meas.sensor_state[sel][order, :2] / 1e3
+        c = colours[(i + 2) % len(colours)]
+        ax_map.plot(xy[:, 0], xy[:, 1], "-", color=c, lw=1.2, label=f"sensor {s}")
+        ax_map.plot(xy[0, 0], xy[0, 1], "s", color=c, ms=6)
+    if truth is not None:
+        path_true = truth_track(meas)
+        path_true = truth if path_true is None else path_true
+        ax_map.plot(path_true[:, 0] / 1e3, path_true[:, 1] / 1e3, "k--", lw=1.2,
+                    label="target (truth)")
+    pos = tr.states[:, :2] / 1e3
+    ax_map.plot(pos[:, 0], pos[:, 1], "-", color=colours[0], lw=1.5,
+                label=f"track ({tr.filter_name})")
+    ax_map.plot(pos[0, 0], pos[0, 1], "o", color=colours[0], ms=6, label="track start")
+    k_sel = np.unique(np.linspace(0, len(tr) - 1, max(1, ellipses)).round().astype(int)) \
+        if ellipses > 0 and len(tr) else np.array([], dtype=int)
+    styles = ("-", "--", ":", "-.")
+    for j, p in enumerate(probabilities):
+        for n_k, k in enumerate(k_sel):
+            pts = _ellipse_xy(tr.states[k, :2], tr.covariances[k, :2, :2], p) / 1e3
+            ax_map.plot(pts[:, 0], pts[:, 1], styles[j % len(styles)], color=colours[1],
+                        lw=0.9, label=f"{p:.0%} ellipse" if n_k == 0 else None)
+    ax_map.set_xlabel("East (km)")
+    ax_map.set_ylabel("North (km)")
+    ax_map.set_aspect("equal", adjustable="datalim")
+    ax_map.grid(True, alpha=0.3)
+    ax_map.legend(loc="best", fontsize=8)
+    ax_map.set_title(f"track and position ellipses at {len(k_sel)} times", fontsize=10)
+
+    if truth is not None:
+        t = tr.times
+        err = tr.states[:, :dim] - truth[:, :dim]
+        std = tr.std[:, :dim]
+        for a, name in enumerate(tr.state_names[:dim]):
+            c = colours[a % len(colours)]
+            ax_axes.plot(t, err[:, a], "-", color=c, lw=1.0, label=f"error {name}")
+            ax_axes.fill_between(t, -std[:, a], std[:, a], color=c, alpha=0.15,
+                                 label=f"±1 filter std {name}")
+            if pcrb is not None:
+                ax_axes.plot(pcrb.times, pcrb.std[:, a], ":", color=c, lw=1.0,
+                             label=f"±PCRB std {name}")
+                ax_axes.plot(pcrb.times, -pcrb.std[:, a], ":", color=c, lw=1.0)
+        ax_axes.set_ylabel("position error (m)")
+        ax_axes.set_title("estimate minus truth per axis", fontsize=10)
+        ax_axes.grid(True, alpha=0.3)
+        ax_axes.legend(loc="upper right", fontsize=7, ncol=2)
+        if len(t):  # the start's wide std would flatten the rest; outliers may leave the panel
+            lim = max(4.0 * float(np.nanmedian(np.linalg.norm(std, axis=1))),
+                      1.2 * float(np.nanpercentile(np.abs(err), 95)))
+            if np.isfinite(lim) and lim > 0:
+                ax_axes.set_ylim(-lim, lim)
+
+        norm = np.linalg.norm(err, axis=1)
+        sd = np.sqrt(np.einsum("kii->k", tr.covariances[:, :dim, :dim]))
+        ax_norm.semilogy(t, np.maximum(norm, 1e-3), "-", color=colours[0], lw=1.0,
+                         label="|position error|")
+        ax_norm.semilogy(t, sd, "-", color=colours[1], lw=1.2,
+                         label="filter position RMS std sqrt(tr P)")
+        if pcrb is not None:
+            how = ("along the true path" if pcrb.mode == "deterministic"
+                   else f"{pcrb.trajectories} trajectories")
+            ax_norm.semilogy(pcrb.times, pcrb.position_rms, "k--", lw=1.2,
+                             label=f"PCRB position RMS ({how})")
+        else:
+            ax_norm.plot([], [], " ", label=pcrb_note or "PCRB not available")
+        ax_norm.set_xlabel("time (s)")
+        ax_norm.set_ylabel("m")
+        ax_norm.set_title("position error against the filter's std and the posterior CRB",
+                          fontsize=10)
+        ax_norm.grid(True, which="both", alpha=0.3)
+        ax_norm.legend(loc="upper right", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -5,5 +5,8 @@ from __future__ import annotations
 REPRODUCTIONS = {
     "gu2007": "tmakit.reproduce.gu2007",
     "doppler-lecture": "tmakit.reproduce.doppler_lecture",
+    "hoerst2010": "tmakit.reproduce.hoerst2010",
+    "chen-sun": "tmakit.reproduce.chen_sun",
 }
-"""Name -> module with a ``run(runs, seed, progress) -> Reproduction`` function."""
+"""Name -> module with a ``run(runs, seed, progress) -> Reproduction`` function (and, if it
+draws the paper's figure, ``plot(reproduction, path)``)."""
