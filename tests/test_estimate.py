@@ -99,7 +99,8 @@ def test_three_receivers_estimate_converges_to_within_the_bound():
     mirrored[2], mirrored[5] = 20.0 - mirrored[2], -mirrored[5]
     below = estimate(scn.simulate(rng=2), scn.motion, options=scn.measurement_options,
                      init=dict(zip(scn.motion.param_names, mirrored, strict=True)))
-    assert below.chi2 == pytest.approx(res.chi2, rel=1e-9)
+    # Both fits stop within a Gauss-Newton decrement of 1e-5 of the minimum (chi2 2e-5).
+    assert below.chi2 == pytest.approx(res.chi2, abs=4e-5)
 
 
 @pytest.mark.parametrize("name", ["hurtado2008", "chen-sun-3"])

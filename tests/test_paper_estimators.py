@@ -247,7 +247,8 @@ def test_lecture_gauss_newton_with_three_receivers_reaches_the_bound():
         res = lecture_gauss_newton(meas, scn.motion, start)
         ml = tk.batch.estimate(meas, scn.motion, init=start)
         assert res.status == "converged"
-        assert res.estimate == pytest.approx(ml.estimate, abs=0.05)
+        # the same optimum, to within the solvers' stopping tolerances (~0.005 std)
+        assert np.all(np.abs(res.estimate - ml.estimate) < 0.01 * ml.std)
         assert np.all(np.abs(res.estimate - scn.theta) < 4 * bound.std[:6])
         assert res.std == pytest.approx(bound.std[:6], rel=0.35)
         assert res.std == pytest.approx(ml.std, rel=1e-3)

@@ -11,12 +11,14 @@ one table whatever the chunking and wherever the chunks run (in this process or 
 cluster): run ``r``'s data do not depend on the number of runs either.
 
 The maximum-likelihood estimator without an initial guess is vectorised across runs: the runs
-of a chunk share times, sensors and noise, so after the grid initialisation of each run
-(:func:`~tmakit.batch.init.best_starts`) one batched Levenberg–Marquardt call solves all of
-them from their best starting point, and a second batched call re-solves, from their other
-starting points, only the runs whose first fit did not converge or has an implausible chi2 —
-exactly what :func:`~tmakit.batch.ml.estimate` does run by run.  Other estimators (the
-registry :mod:`tmakit.batch.methods`, when present) are called run by run.
+of a chunk share times, sensors and noise (their noise-free rows are simulated once,
+:meth:`~tmakit.scenario.Scenario.simulate_many`), so the grid's predictions are computed once
+for all of them (:func:`~tmakit.batch.init.best_starts_many`), one batched
+Levenberg–Marquardt call solves every run from its first starting points, and further batched
+calls re-solve only the runs whose best fit did not converge or has an implausible chi2 —
+exactly what :func:`~tmakit.batch.ml.estimate` does run by run
+(:func:`~tmakit.batch.ml.solve_without_guess` serves both).  Other estimators (the registry
+:mod:`tmakit.batch.methods`, when present) are called run by run.
 
 The summary compares the root-mean-square error over the converged runs with the CRLB of the
 same nuisance convention (nuisance parameters unknown unless ``known_nuisance``).  The 95 %
@@ -162,7 +164,7 @@ def _record(out: _ChunkOutput, i: int, res: Any) -> None:
 def _run_chunk(task: _Task) -> _ChunkOutput:
     """Simulate and estimate the runs of one chunk."""
     scn = task.scenario
-    meas = [scn.simulate(np.random.default_rng(s)) for s in task.seeds]
+    meas = scn.simulate_many([np.random.default_rng(s) for s in task.seeds])
     if task.estimator == "ml" and _shared_layout(meas):
         return _ml_batched(task, meas)
     return _per_run(task, meas)

@@ -20,6 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._blas import matmul
 from .data import MeasurementSet
 from .frames import wrap_angle
 from .measurements import MeasurementModel, model_for
@@ -57,7 +58,8 @@ class ObservationModel:
         self.order = (np.concatenate([self.rows[k] for k in self.models])
                       if self.models else np.zeros(0, dtype=int))
         self.inverse = np.argsort(self.order)
-        self.grouped = meas.take(self.order)
+        grouped_already = np.array_equal(self.order, np.arange(self.order.size))
+        self.grouped = meas if grouped_already else meas.take(self.order)
         self.slices: dict[str, slice] = {}
         start = 0
         for k in self.models:
@@ -77,6 +79,14 @@ class ObservationModel:
         self.sigmas = meas.sigma_si
         self.values_grouped = self.values[self.order]
         self.sigmas_grouped = self.sigmas[self.order]
+        # Affine motion models: relative states by one matrix product (see _states_minus).
+        self._rel_map = self._relative_map(self._time, self._sensor)
+        self._rel_map_ref = (None if self._ref is None else self._relative_map(
+            g.time_ref[self._ref], g.ref_sensor_state[self._ref]))
+        self._const_design: Array | None = None
+        # Per kind, what a linearisation needs: (kind, model, rows, nuisance columns, times).
+        self._parts = [(k, m, self.slices[k], self.nuisance_slices[k], g.time[self.slices[k]])
+                       for k, m in self.models.items()]
 
     @property
     def n_nuisance(self) -> int:
@@ -88,19 +98,106 @@ class ObservationModel:
         return np.concatenate(parts) if parts else np.zeros(0)
 
     # -- grouped order (for solvers) ---------------------------------------------------------
-    def _relative(self, theta: Array) -> tuple[Array, Array | None]:
+    def _relative_map(self, times: Array, sensor: Array) -> tuple[Array, Array] | None:
+        """For an affine motion model, ``(matrix (p, 6 m), offset (6 m,))`` with the relative
+        states at ``m`` rows, component by component, ``theta @ matrix + offset``."""
+        amap = self.motion.affine_map(times)
+        if amap is None:
+            return None
+        offset, matrix = amap
+        m, p = times.shape[0], self.motion.n_params
+        return (np.ascontiguousarray(matrix.transpose(2, 1, 0).reshape(p, 6 * m)),
+                (offset - sensor).T.reshape(6 * m))
+
+    def _states_minus(self, theta: Array, times: Array, sensor: Array,
+                      rel_map: tuple[Array, Array] | None, batch_inner: bool = False
+                      ) -> Array:
+        """Relative states ``(..., m, 6)`` of the target at ``times`` seen from ``sensor``.
+
+        With an affine motion model one matrix product gives them, component-major in memory
+        (``rel[..., i]`` is contiguous), which the measurement models' formulas prefer; with
+        ``batch_inner`` (a 2-D ``theta`` of many rows, such as a grid of candidates) the batch
+        axis is the fastest in memory, so that the formulas run over long contiguous rows
+        even when ``m`` is small."""
+        if rel_map is None:
+            return self.motion.states(theta, times) - sensor
+        m = times.shape[0]
+        if batch_inner and theta.ndim == 2:
+            flat = matmul(np.ascontiguousarray(rel_map[0].T), theta.T)
+            flat += rel_map[1][:, None]
+            return flat.reshape(6, m, theta.shape[0]).transpose(2, 1, 0)
+        flat = matmul(theta, rel_map[0])
+        flat += rel_map[1]
+        return flat.reshape(*theta.shape[:-1], 6, m).swapaxes(-1, -2)
+
+    def _relative(self, theta: Array, batch_inner: bool = False
+                  ) -> tuple[Array, Array | None]:
         """Relative states (..., n, 6) in grouped order, and (..., n_rd, 6) at the reference
         times of the range differences (None without range differences)."""
-        rel = self.motion.states(theta, self._time) - self._sensor
+        theta = self.motion._check_theta(theta)
+        rel = self._states_minus(theta, self._time, self._sensor, self._rel_map, batch_inner)
         rel_ref = None
         if self._ref is not None:
-            g = self.grouped
-            sl = self._ref
-            rel_ref = (self.motion.states(theta, g.time_ref[sl]) - g.ref_sensor_state[sl])
+            g, sl = self.grouped, self._ref
+            rel_ref = self._states_minus(theta, g.time_ref[sl], g.ref_sensor_state[sl],
+                                         self._rel_map_ref, batch_inner)
         return rel, rel_ref
 
     def _ref_for(self, kind: str, rel_ref: Array | None) -> Array | None:
         return rel_ref if kind == "range_difference" else None
+
+    @property
+    def const_design(self) -> Array:
+        """``A_const`` ``(n, k)`` in grouped order: the part of the nuisance design that does
+        not depend on the geometry (carrier columns ``1``, ``t``), computed once."""
+        if self._const_design is None:
+            n, k = len(self.meas), self.n_nuisance
+            out = np.zeros((n, k))
+            rel = np.ones((n, 6))  # any finite geometry: A_const does not depend on it
+            for kind, m in self.models.items():
+                sl, ns = self.slices[kind], self.nuisance_slices[kind]
+                if ns.stop > ns.start:
+                    ref = rel[sl] if kind == "range_difference" else None
+                    out[sl, ns] = m.affine_parts(rel[sl], self._time[sl], ref)[1]
+            self._const_design = out
+        return self._const_design
+
+    def linearisation(self, theta: ArrayLike, derivatives: bool = True) -> Linearisation:
+        """Predictions ``h0 + (A_const + A_var) @ nu`` at ``theta`` ``(..., p)`` in grouped
+        order (``A_const`` is :attr:`const_design`) and, if asked, their derivatives with
+        respect to the relative states, from which :meth:`Linearisation.jacobian` forms
+        ``d predictions / d theta`` at any nuisance value."""
+        theta = np.asarray(theta, dtype=float)
+        n, k = len(self.meas), self.n_nuisance
+        # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
+        inner = not derivatives and theta.ndim == 2 and theta.shape[0] > n
+        rel, rel_ref = self._relative(theta, inner)
+        batch = rel.shape[:-2]
+        if inner:
+            h0 = np.empty((n, batch[0])).T
+            a_var = np.zeros((k, n, batch[0])).transpose(2, 1, 0)
+        else:  # the design column-major: solvers use its transpose (..., k, n)
+            h0 = np.empty((*batch, n))
+            a_var = np.zeros((*batch, k, n)).swapaxes(-1, -2)
+        lin = Linearisation(self, theta, h0, a_var)
+        if derivatives:  # component-major, like rel: the formulas run along the rows
+            lin.d_h0 = np.zeros((*batch, 6, n)).swapaxes(-1, -2)
+            if rel_ref is not None:
+                lin.d_h0_ref = np.zeros_like(rel_ref)
+        for kind, m, sl, ns, t in self._parts:
+            r_k, ref_k = rel[..., sl, :], self._ref_for(kind, rel_ref)
+            if not derivatives:
+                h0[..., sl], _, a_var[..., sl, ns] = m.affine_parts(r_k, t, ref_k)
+                continue
+            base, _, v, d0, d0_ref, da, da_ref = m.affine_derivatives(r_k, t, ref_k)
+            h0[..., sl], a_var[..., sl, ns] = base, v
+            if d0 is not None:
+                lin.d_h0[..., sl, :] = d0
+            if d0_ref is not None:
+                lin.d_h0_ref[...] = d0_ref
+            if ns.stop > ns.start and (da is not None or da_ref is not None):
+                lin.d_a.append((kind, da, da_ref))
+        return lin
 
     def linearise_grouped(self, theta: ArrayLike, derivatives: bool = True
                           ) -> tuple[Array, Array, Array, Array | None, Array | None]:
@@ -108,39 +205,18 @@ class ObservationModel:
         ``h0 + (A_const + A_var) @ nu`` (see
         :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`) and, if asked,
         ``dh0`` ``(..., n, p)`` and ``dA`` ``(..., n, k, p)`` their derivatives with respect to
-        ``theta``: ``d predictions / d theta = dh0 + dA @ nu`` for any ``nu``."""
-        theta = np.asarray(theta, dtype=float)
-        rel, rel_ref = self._relative(theta)
-        batch = rel.shape[:-1]
+        ``theta``: ``d predictions / d theta = dh0 + dA @ nu`` for any ``nu``.  Solvers use the
+        cheaper :meth:`linearisation`."""
+        lin = self.linearisation(theta, derivatives)
+        a_const = np.broadcast_to(self.const_design, lin.a_var.shape).copy()
+        if not derivatives:
+            return lin.h0, a_const, lin.a_var, None, None
         k, p = self.n_nuisance, self.motion.n_params
-        h0 = np.empty(batch)
-        a_const = np.zeros((*batch, k))
-        a_var = np.zeros((*batch, k))
-        dh0 = np.empty((*batch, p)) if derivatives else None
-        d_a = np.zeros((*batch, k, p)) if derivatives else None
-        t = self._time
-        motion = self.motion
-        for kind, m in self.models.items():
-            sl, ns = self.slices[kind], self.nuisance_slices[kind]
-            r_k, ref_k = rel[..., sl, :], self._ref_for(kind, rel_ref)
-            if not derivatives:
-                base, c, v = m.affine_parts(r_k, t[sl], ref_k)
-                h0[..., sl], a_const[..., sl, ns], a_var[..., sl, ns] = base, c, v
-                continue
-            base, c, v, d0, d0_ref, da, da_ref = m.affine_derivatives(r_k, t[sl], ref_k)
-            h0[..., sl], a_const[..., sl, ns], a_var[..., sl, ns] = base, c, v
-            j0 = motion.chain(d0, theta, t[sl])
-            if d0_ref is not None:
-                j0 = j0 + motion.chain(d0_ref, theta, self.grouped.time_ref[sl])
-            dh0[..., sl, :] = j0
-            if c.shape[-1]:
-                # chain() works on (..., m, 6): put the nuisance axis in front of the rows.
-                ja = np.swapaxes(motion.chain(np.swapaxes(da, -2, -3), theta, t[sl]), -2, -3)
-                if da_ref is not None:
-                    ja = ja + np.swapaxes(motion.chain(np.swapaxes(da_ref, -2, -3), theta,
-                                                       self.grouped.time_ref[sl]), -2, -3)
-                d_a[..., sl, ns, :] = ja
-        return h0, a_const, a_var, dh0, d_a
+        dh0 = lin.jacobian(np.zeros(k))
+        d_a = np.zeros((*lin.a_var.shape, p))
+        for j in range(k):
+            d_a[..., j, :] = lin.jacobian(np.eye(k)[j], with_h0=False)
+        return lin.h0, a_const, lin.a_var, dh0, d_a
 
     def predict_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
         theta = np.asarray(theta, dtype=float)
@@ -156,10 +232,9 @@ class ObservationModel:
 
     def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                          ) -> tuple[Array, Array]:
-        _, a_const, a_var, dh0, d_a = self.linearise_grouped(theta, derivatives=True)
-        assert dh0 is not None and d_a is not None
+        lin = self.linearisation(theta, derivatives=True)
         nu = np.zeros(self.n_nuisance) if nuisance is None else np.asarray(nuisance, float)
-        return dh0 + np.einsum("...nkp,...k->...np", d_a, nu), a_const + a_var
+        return lin.jacobian(nu), self.const_design + lin.a_var
 
     # -- the set's own row order -------------------------------------------------------------
     def predict(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
@@ -176,9 +251,10 @@ class ObservationModel:
         """``(h0, A_const, A_var)``: predictions are ``h0 + (A_const + A_var) @ nuisance``,
         ``A_const`` independent of the geometry (see
         :meth:`~tmakit.measurements.MeasurementModel.affine_parts`)."""
-        h0, c, v, _, _ = self.linearise_grouped(theta, derivatives=False)
+        lin = self.linearisation(theta, derivatives=False)
         inv = self.inverse
-        return h0[..., inv], c[..., inv, :], v[..., inv, :]
+        c = np.broadcast_to(self.const_design, lin.a_var.shape)
+        return lin.h0[..., inv], c[..., inv, :], lin.a_var[..., inv, :]
 
     def affine(self, theta: ArrayLike) -> tuple[Array, Array]:
         """``(h0 (..., n), A (..., n, k))`` with predictions ``h0 + A @ nuisance``."""
@@ -189,3 +265,48 @@ class ObservationModel:
         """measured - predicted (SI), angles wrapped to (-pi, pi]."""
         res = self.values - self.predict(theta, nuisance)
         return np.where(self.angle_mask, wrap_angle(res), res)
+
+
+class Linearisation:
+    """The predictions of an :class:`ObservationModel` at a batch of ``theta`` in grouped
+    order, ``h0 + (A_const + A_var) @ nu``, and their derivatives with respect to the relative
+    states: ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at the range differences' reference
+    samples) and, per kind whose design depends on the geometry, ``(kind, dA, dA_ref)`` with
+    ``dA`` ``(..., n_kind, k_kind, 6)``."""
+
+    def __init__(self, obs: ObservationModel, theta: Array, h0: Array, a_var: Array) -> None:
+        self.obs = obs
+        self.theta = theta
+        self.h0 = h0
+        self.a_var = a_var
+        self.d_h0: Array | None = None
+        self.d_h0_ref: Array | None = None
+        self.d_a: list[tuple[str, Array, Array | None]] = []
+
+    def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
+        """``d predictions / d theta`` ``(..., n, p)`` at nuisance values ``(..., k)`` (for
+        every row of the batch, or one vector for all); ``with_h0=False`` leaves out the
+        derivative of ``h0`` (the nuisance part alone)."""
+        if self.d_h0 is None:
+            raise ValueError("this linearisation was made without derivatives")
+        obs = self.obs
+        nu = np.asarray(nuisance, dtype=float)
+        d = self.d_h0.copy(order="K") if with_h0 else np.zeros_like(self.d_h0)
+        d_ref = None
+        if self.d_h0_ref is not None:
+            d_ref = (self.d_h0_ref.copy(order="K") if with_h0
+                     else np.zeros_like(self.d_h0_ref))
+        for kind, da, da_ref in self.d_a:
+            sl, ns = obs.slices[kind], obs.nuisance_slices[kind]
+            for j in range(ns.stop - ns.start):
+                w = nu[..., ns.start + j, None, None]
+                if da is not None:
+                    d[..., sl, :] += da[..., j, :] * w
+                if da_ref is not None and d_ref is not None:
+                    d_ref += da_ref[..., j, :] * w
+        motion = obs.motion
+        jac = motion.chain(d, self.theta, obs._time)
+        if d_ref is not None:
+            sl = obs._ref
+            jac[..., sl, :] += motion.chain(d_ref, self.theta, obs.grouped.time_ref[sl])
+        return jac

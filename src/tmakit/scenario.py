@@ -8,6 +8,7 @@ papers' scenarios ship with tmakit (``tma scenarios`` lists them).
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -162,17 +163,18 @@ class Scenario:
         ``rng`` is a ``numpy.random.Generator`` or a seed; the same seed gives the same
         numbers.  Rows are grouped by sensor and in time order.
         """
-        gen = as_generator(rng)
-        parts = []
+        return self.simulate_many([rng], noise)[0]
+
+    def simulate_many(self, rngs: Sequence[RngLike], noise: bool = True
+                      ) -> list[MeasurementSet]:
+        """``[simulate(rng) for rng in rngs]``, the noise-free rows computed once (Monte
+        Carlo runs): each set is exactly what :meth:`simulate` gives for its ``rng``."""
+        plans = []  # (plan, rows, noise-free values SI, model), in plan order
         for plan in self.plans:
             rows = self._layout(plan)
             obs = ObservationModel(rows, self.motion, self.measurement_options)
             clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
-            value_si = self._noisy(plan, rows, clean, gen) if noise else clean
-            if plan.kind == "bearing":  # files carry bearings in [0, 360) degrees
-                value_si = np.mod(value_si, 2.0 * np.pi)
-            rows.value = obs.models[plan.kind].value_from_si(value_si)
-            parts.append(rows)
+            plans.append((plan, rows, clean, obs.models[plan.kind]))
         meta = {
             "scenario": self.name,
             "motion": self.motion.name,
@@ -183,12 +185,31 @@ class Scenario:
             meta["ref_time"] = repr(float(self.motion.ref_time))
         if self.nuisance:
             meta["nuisance"] = json.dumps(self.nuisance, sort_keys=True)
-        if isinstance(rng, int):
-            meta["seed"] = str(rng)
         if self.origin is not None:
             meta["origin_lat"], meta["origin_lon"], meta["origin_alt"] = (
                 repr(float(v)) for v in self.origin)
-        return MeasurementSet.concatenate(parts, meta)
+        # The rows of every plan, grouped by sensor and in time order: ``order`` maps them to
+        # the plans' rows one after the other.
+        n = [rows.time.shape[0] for _, rows, _, _ in plans]
+        for (_, rows, _, _), start in zip(plans, np.cumsum([0, *n[:-1]]), strict=True):
+            rows.value = start + np.arange(rows.time.shape[0], dtype=float)
+        template = MeasurementSet.concatenate([rows for _, rows, _, _ in plans], meta)
+        order = template.value.astype(int)
+        out = []
+        for rng in rngs:
+            gen = as_generator(rng)
+            values = []
+            for plan, rows, clean, model in plans:
+                value_si = self._noisy(plan, rows, clean, gen) if noise else clean
+                if plan.kind == "bearing":  # files carry bearings in [0, 360) degrees
+                    value_si = np.mod(value_si, 2.0 * np.pi)
+                values.append(model.value_from_si(value_si))
+            meas = template.take(np.arange(len(template)))
+            meas.value = np.concatenate(values)[order]
+            if isinstance(rng, int):
+                meas.metadata["seed"] = str(rng)
+            out.append(meas)
+        return out
 
     @staticmethod
     def _noisy(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],

@@ -108,11 +108,18 @@ class MeasurementModel:
         """The affine parts and their derivatives in one pass:
         ``(h0, A_const, A_var, dh0, dh0_ref, dA, dA_ref)`` with ``dh0`` ``(..., n, 6)`` the
         derivative of ``h0`` and ``dA`` ``(..., n, k, 6)`` that of ``A_var`` with respect to the
-        relative state (``*_ref``: at the reference sample, or None).  Since the predictions
-        are affine in the nuisance, ``d predict / d rel = dh0 + sum_j nu_j dA[..., j, :]``."""
+        relative state (``*_ref``: at the reference sample).  Since the predictions are affine
+        in the nuisance, ``d predict / d rel = dh0 + sum_j nu_j dA[..., j, :]``.  A derivative
+        that vanishes identically may be None (``dh0`` of a frequency, ``dA`` of a design that
+        does not depend on the geometry, every ``*_ref`` of a kind without reference)."""
         rel = as_rel(rel)
+        k = len(self.nuisance_names)
+        if k == 0:  # no nuisance: the prediction and its Jacobian
+            jac = self.jacobian(rel, t, None, rel_ref)
+            empty = np.zeros((*rel.shape[:-1], 0))
+            return (self.predict(rel, t, None, rel_ref), empty, empty, jac.rel, jac.rel_ref,
+                    None, None)
         h0, a_const, a_var = self.affine_parts(rel, t, rel_ref)
-        k = a_var.shape[-1]
         base = self.jacobian(rel, t, np.zeros(k), rel_ref)
         d_a, d_a_ref = [], []
         for j in range(k):  # exact: the Jacobian is affine in the nuisance too
@@ -120,12 +127,8 @@ class MeasurementModel:
             d_a.append(unit.rel - base.rel)
             if base.rel_ref is not None:
                 d_a_ref.append(unit.rel_ref - base.rel_ref)
-        shape = (*rel.shape[:-1], k, 6)
-        dA = np.stack(d_a, axis=-2) if k else np.zeros(shape)
-        dA_ref = None
-        if base.rel_ref is not None:
-            dA_ref = np.stack(d_a_ref, axis=-2) if k else np.zeros(shape)
-        return h0, a_const, a_var, base.rel, base.rel_ref, dA, dA_ref
+        dA_ref = np.stack(d_a_ref, axis=-2) if base.rel_ref is not None else None
+        return h0, a_const, a_var, base.rel, base.rel_ref, np.stack(d_a, axis=-2), dA_ref
 
     # -- edges: file units <-> SI ------------------------------------------------------
     def value_to_si(self, value: ArrayLike) -> Array:
@@ -160,6 +163,18 @@ def as_rel(rel: ArrayLike) -> Array:
         raise ValueError(f"relative states must have 6 components (position, velocity); "
                          f"got shape {rel.shape}")
     return rel
+
+
+def dot3(a: Array, b: Array) -> Array:
+    """Row-wise dot product of two ``(..., 3)`` arrays (fast for any memory layout)."""
+    return np.einsum("...i,...i->...", a, b)
+
+
+def inverse_range_and_unit(rel: Array) -> tuple[Array, Array]:
+    """``(1 / r, p / r)`` for the relative position ``p = rel[..., :3]``, ``r = |p|``."""
+    p = rel[..., :3]
+    inv_r = 1.0 / np.sqrt(dot3(p, p))
+    return inv_r, p * inv_r[..., None]
 
 
 def zeros_nuisance(rel: Array) -> Array:

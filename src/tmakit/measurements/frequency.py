@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..units import SPEED_OF_LIGHT
-from .base import Jacobian, MeasurementModel, as_rel
+from .base import Jacobian, MeasurementModel, as_rel, dot3
 from .range_rate import range_rate_and_gradient
 
 
@@ -62,35 +62,36 @@ class Frequency(MeasurementModel):
         rdot, _ = range_rate_and_gradient(rel)
         return self._carrier(t, nuisance, rdot.shape) * (1.0 - rdot / self.c)
 
-    def affine_parts(self, rel, t=None, rel_ref=None):
-        # f = carrier (1 - rdot/c) [+ drift t (1 - rdot/c)]: the constant part of the design is
-        # (1, t), the geometry enters only through the small -rdot/c.
-        rel = as_rel(rel)
-        p, v = rel[..., :3], rel[..., 3:]
-        small = -np.einsum("...i,...i->...", p, v) / (np.linalg.norm(p, axis=-1) * self.c)
+    def _design(self, small, t):
+        """``(h0, A_const, A_var)`` from ``small = -rdot / c``: the constant part of the design
+        is ``(1, t)``, the geometry enters only through the small ``-rdot / c``."""
+        ones = np.ones((*small.shape, 1))
         if not self.drift:
-            return np.zeros(small.shape), np.ones((*small.shape, 1)), small[..., None]
+            return np.zeros(small.shape), ones, small[..., None]
         tt = np.broadcast_to(np.asarray(t, dtype=float), small.shape)
-        return (np.zeros(small.shape), np.stack([np.ones(small.shape), tt], axis=-1),
+        return (np.zeros(small.shape), np.stack([ones[..., 0], tt], axis=-1),
                 np.stack([small, small * tt], axis=-1))
+
+    def affine_parts(self, rel, t=None, rel_ref=None):
+        # f = carrier (1 - rdot/c) [+ drift t (1 - rdot/c)]
+        rel = as_rel(rel)
+        p = rel[..., :3]
+        small = dot3(p, rel[..., 3:]) / np.sqrt(dot3(p, p)) * (-1.0 / self.c)
+        return self._design(small, t)
 
     def affine(self, rel, t=None, rel_ref=None):
         h0, const, var = self.affine_parts(rel, t, rel_ref)
         return h0, const + var
 
     def affine_derivatives(self, rel, t=None, rel_ref=None):
+        # h0 = 0 (no derivative); A_var = (small, small t) with small = -rdot / c.
         rel = as_rel(rel)
-        rdot, grad = range_rate_and_gradient(rel)
-        small = -rdot / self.c
-        d_small = -grad / self.c
-        zeros = np.zeros(small.shape)
+        small, d_small = range_rate_and_gradient(rel, -1.0 / self.c)
+        h0, const, var = self._design(small, t)
         if not self.drift:
-            return (zeros, np.ones((*small.shape, 1)), small[..., None], np.zeros(rel.shape),
-                    None, d_small[..., None, :], None)
-        tt = np.broadcast_to(np.asarray(t, dtype=float), small.shape)
-        return (zeros, np.stack([np.ones(small.shape), tt], axis=-1),
-                np.stack([small, small * tt], axis=-1), np.zeros(rel.shape), None,
-                np.stack([d_small, d_small * tt[..., None]], axis=-2), None)
+            return h0, const, var, None, None, d_small[..., None, :], None
+        tt = np.asarray(t, dtype=float)[:, None]
+        return h0, const, var, None, None, np.stack([d_small, d_small * tt], axis=-2), None
 
     def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..units import DBM_MINUS_DBW
-from .base import Jacobian, MeasurementModel, as_rel
+from .base import Jacobian, MeasurementModel, as_rel, dot3
 
 _TEN_OVER_LN10 = 10.0 / np.log(10.0)
 
@@ -56,30 +56,40 @@ class Power(MeasurementModel):
         return const_db - 10.0 * n * np.log10(r)
 
     def affine(self, rel, t=None, rel_ref=None):
-        rel = as_rel(rel)
-        p = rel[..., :3]
-        minus_10_log_r = -5.0 * np.log10(np.einsum("...i,...i->...", p, p))
+        h0, const, var = self.affine_parts(rel, t, rel_ref)
+        return h0, const + var
+
+    def _design(self, r2):
+        """``(h0, A_const, A_var)`` from the squared range ``r2``: the constant's column is 1,
+        the exponent's (when unknown) ``-10 log10 R``; with a known exponent
+        ``-10 n log10 R`` is ``h0``."""
+        minus_10_log_r = np.log(r2) * (-0.5 * _TEN_OVER_LN10)
+        ones = np.ones((*r2.shape, 1))
         if self.exponent is None:
-            return (np.zeros(minus_10_log_r.shape),
-                    np.stack([np.ones(minus_10_log_r.shape), minus_10_log_r], axis=-1))
-        return self.exponent * minus_10_log_r, np.ones((*minus_10_log_r.shape, 1))
+            return (np.zeros(r2.shape), np.zeros((*r2.shape, 2)),
+                    np.concatenate([ones, minus_10_log_r[..., None]], axis=-1))
+        minus_10_log_r *= self.exponent
+        return minus_10_log_r, np.zeros(ones.shape), ones
+
+    def affine_parts(self, rel, t=None, rel_ref=None):
+        # P_dB = C_dB + n (-10 log10 R)
+        p = as_rel(rel)[..., :3]
+        return self._design(dot3(p, p))
 
     def affine_derivatives(self, rel, t=None, rel_ref=None):
         rel = as_rel(rel)
         p = rel[..., :3]
-        r2 = np.einsum("...i,...i->...", p, p)
-        minus_10_log_r = -5.0 * np.log10(r2)
-        d_minus_10_log_r = np.zeros(rel.shape)
-        d_minus_10_log_r[..., :3] = -(_TEN_OVER_LN10 / r2)[..., None] * p
+        r2 = dot3(p, p)
+        h0, const, var = self._design(r2)
+        # d(-10 n log10 R) / d rel = -(10 n / ln 10) p / R^2 (position part only)
+        n = 1.0 if self.exponent is None else self.exponent
+        d = np.zeros_like(rel)
+        d[..., :3] = p * (-_TEN_OVER_LN10 * n / r2)[..., None]
         if self.exponent is None:
-            ones = np.ones(r2.shape)
-            d_a = np.stack([np.zeros(rel.shape), d_minus_10_log_r], axis=-2)
-            return (np.zeros(r2.shape), np.zeros((*r2.shape, 2)),
-                    np.stack([ones, minus_10_log_r], axis=-1), np.zeros(rel.shape), None,
-                    d_a, None)
-        return (self.exponent * minus_10_log_r, np.zeros((*r2.shape, 1)),
-                np.ones((*r2.shape, 1)), self.exponent * d_minus_10_log_r, None,
-                np.zeros((*rel.shape[:-1], 1, 6)), None)
+            d_a = np.zeros((*rel.shape[:-1], 2, 6))
+            d_a[..., 1, :] = d
+            return h0, const, var, None, None, d_a, None
+        return h0, const, var, d, None, None, None
 
     def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)

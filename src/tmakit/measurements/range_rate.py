@@ -7,17 +7,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, as_rel, dot3, inverse_range_and_unit, zeros_nuisance
 
 
-def range_rate_and_gradient(rel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Range rate ``(..., n)`` and its gradient with respect to the relative state."""
-    p, v = rel[..., :3], rel[..., 3:]
-    r = np.linalg.norm(p, axis=-1)
-    rdot = np.einsum("...i,...i->...", p, v) / r
-    grad = np.empty(rel.shape)
-    grad[..., :3] = (v - rdot[..., None] * p / r[..., None]) / r[..., None]
-    grad[..., 3:] = p / r[..., None]
+def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """Range rate ``(..., n)`` and its gradient with respect to the relative state
+    ``(..., n, 6)`` (in ``rel``'s memory layout), both multiplied by ``scale``."""
+    v = rel[..., 3:]
+    inv_r, unit = inverse_range_and_unit(rel)
+    rdot = dot3(unit, v)
+    grad = np.empty_like(rel)
+    np.multiply(unit, scale, out=grad[..., 3:])
+    grad[..., :3] = (v - rdot[..., None] * unit) * (scale * inv_r)[..., None]
+    if scale != 1.0:
+        rdot *= scale
     return rdot, grad
 
 

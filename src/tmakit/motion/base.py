@@ -38,6 +38,20 @@ class MotionModel(ABC):
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
         """``d state / d theta`` at times ``t``: shape ``(..., n, 6, p)``."""
 
+    #: Whether the states are affine in ``theta`` (then :meth:`affine_map` is exact).
+    affine: bool = False
+
+    def affine_map(self, t: ArrayLike
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """``(offset (n, 6), matrix (n, 6, p))`` with ``states(theta, t) = offset + matrix @
+        theta`` for every ``theta`` when the model is :attr:`affine` (constant velocity,
+        stationary), else None.  Solvers precompute it once for their sample times."""
+        if not self.affine:
+            return None
+        t = np.asarray(t, dtype=float)
+        zero = np.zeros(self.n_params)
+        return self.states(zero, t), self.jacobian(zero, t)
+
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
         """``d value / d theta`` from ``d value / d state`` ``(..., n, 6)`` at times ``t``:

@@ -21,6 +21,8 @@ class ConstantVelocity(MotionModel):
     ``ref_time`` (s) and the velocity (m/s).
     """
 
+    affine = True
+
     def __init__(self, dim: int = 2, ref_time: float = 0.0) -> None:
         if dim not in (2, 3):
             raise ValueError(f"dim must be 2 or 3, got {dim}")
@@ -54,11 +56,17 @@ class ConstantVelocity(MotionModel):
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
-        # d state / d theta is [[I, dt I], [0, I]]: no tensor contraction needed.
+        # d state / d theta is [[I, dt I], [0, I]]: no tensor contraction needed.  Worked
+        # parameter by parameter along the rows; the result is a (..., n, p) view whose rows
+        # are contiguous for each parameter.
         d = self.dim
         dt = np.asarray(t, dtype=float) - self.ref_time
-        d_pos = d_state[..., :d]
-        return np.concatenate([d_pos, d_pos * dt[:, None] + d_state[..., 3:3 + d]], axis=-1)
+        rows = d_state.swapaxes(-1, -2)  # (..., 6, n)
+        out = np.empty((*rows.shape[:-2], 2 * d, rows.shape[-1]))
+        out[..., :d, :] = rows[..., :d, :]
+        np.multiply(rows[..., :d, :], dt, out=out[..., d:, :])
+        out[..., d:, :] += rows[..., 3:3 + d, :]
+        return out.swapaxes(-1, -2)
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
         state = np.asarray(state, dtype=float)
@@ -80,6 +88,8 @@ class ConstantVelocity(MotionModel):
 
 class Stationary(MotionModel):
     """A fixed emitter: parameters are its ENU position ``(x, y)`` or ``(x, y, z)`` in metres."""
+
+    affine = True
 
     def __init__(self, dim: int = 2) -> None:
         if dim not in (2, 3):

@@ -1,0 +1,204 @@
+"""The fast paths of the batch solver give what the plain definitions give.
+
+- the observation model's linearisation (predictions affine in the nuisance, derivatives with
+  respect to the relative state, chained to theta) against ``predict`` and finite differences,
+  for every kind, affine and non-affine motion, small and large batches (memory layouts);
+- the constant-velocity model's affine map against its states;
+- the multi-start Levenberg-Marquardt with early stops of dominated starts against each start
+  solved alone;
+- the grid: shared nuisance projection against the exact reduced cost, lazy selection of
+  distinct starts;
+- ``Scenario.simulate_many`` against ``simulate``; the blocked matrix product against ``@``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit._blas import matmul
+from tmakit.batch import VarProProblem, levenberg_marquardt
+from tmakit.batch.init import GridScorer, Starts, best_starts_many, grid_candidates
+from tmakit.data import MeasurementSet
+from tmakit.motion import PiecewiseCurvilinear, Stationary
+
+
+def _with_elevation(meas: MeasurementSet) -> MeasurementSet:
+    """``meas`` plus elevation rows at the times of its bearings (values do not matter)."""
+    rows = meas.take(meas.kind == "bearing")
+    rows.kind = np.full(len(rows), "elevation")
+    return MeasurementSet.concatenate([meas, rows])
+
+
+def _cases():
+    gu = tk.load_scenario("gu2007")
+    cases = [("gu2007", gu.simulate(1), gu.motion, gu.measurement_options, gu.theta),
+             ("gu2007 drift, free exponent", gu.simulate(1), gu.motion,
+              {"frequency": {"drift": True}, "power": {"exponent": None}}, gu.theta)]
+    for name in ("chen-sun-1", "hoerst2010", "hurtado2008"):
+        scn = tk.load_scenario(name)
+        cases.append((name, scn.simulate(1), scn.motion, scn.measurement_options, scn.theta))
+    hur = tk.load_scenario("hurtado2008")
+    meas3 = _with_elevation(hur.simulate(1))
+    cv3 = tk.ConstantVelocity(3, hur.motion.ref_time)
+    theta3 = np.insert(hur.theta, [2, 4], [150.0, 1.5])
+    cases.append(("cv3d with elevation", meas3, cv3, hur.measurement_options, theta3))
+    cases.append(("stationary", gu.simulate(1), Stationary(2), gu.measurement_options,
+                  gu.theta[:2]))
+    curv = PiecewiseCurvilinear(0, gu.motion.ref_time)
+    speed = float(np.hypot(gu.theta[2], gu.theta[3]))
+    course = float(np.arctan2(gu.theta[2], gu.theta[3]))
+    cases.append(("curvilinear (not affine)", gu.simulate(1), curv, gu.measurement_options,
+                  np.array([gu.theta[0], gu.theta[1], speed, course, 0.3, -0.2])))
+    return cases
+
+
+CASES = _cases()
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_linearisation_matches_predictions_and_finite_differences(case):
+    _, meas, motion, options, theta = case
+    obs = tk.ObservationModel(meas, motion, options)
+    rng = np.random.default_rng(0)
+    nu = obs.nuisance_vector({"carrier": 1.9e9, "carrier_drift": 0.3,
+                              "power_constant_db": -40.0, "path_loss_exponent": 2.2})
+    thetas = theta + rng.normal(size=(5, theta.size)) * np.maximum(np.abs(theta), 1.0) * 0.05
+    lin = obs.linearisation(thetas)
+    pred = lin.h0 + np.einsum("bnk,k->bn", obs.const_design + lin.a_var, nu)
+    np.testing.assert_allclose(pred, obs.predict_grouped(thetas, nu), rtol=1e-12, atol=1e-9)
+    jac = lin.jacobian(nu)
+    reference = _chained_model_jacobians(obs, thetas, nu)
+    np.testing.assert_allclose(jac, reference, rtol=1e-10,
+                               atol=1e-12 * np.abs(reference).max())
+    # and, away from the GHz carrier's rounding, finite differences of the predictions
+    fd_rows = ~np.isin(obs.grouped.kind, ["frequency"])
+    for j in range(theta.size):
+        h = 1e-6 * max(1.0, abs(theta[j]))
+        up, down = thetas.copy(), thetas.copy()
+        up[:, j] += h
+        down[:, j] -= h
+        fd = (obs.predict_grouped(up, nu) - obs.predict_grouped(down, nu)) / (2 * h)
+        scale = np.abs(fd).max() + 1e-300
+        assert np.abs(jac[..., fd_rows, j] - fd[..., fd_rows]).max() <= 1e-4 * scale
+    # one vector, a small batch and a batch larger than the rows (values only): same numbers
+    one = obs.linearisation(thetas[0])
+    np.testing.assert_allclose(one.h0, lin.h0[0], rtol=1e-14, atol=1e-9)
+    np.testing.assert_allclose(one.jacobian(nu), jac[0], rtol=1e-12, atol=1e-12)
+    many = np.repeat(thetas, len(meas) // 5 + 2, axis=0)
+    big = obs.linearisation(many, derivatives=False)
+    np.testing.assert_allclose(big.h0[::len(meas) // 5 + 2], lin.h0, rtol=1e-14, atol=1e-9)
+    np.testing.assert_allclose(big.a_var[::len(meas) // 5 + 2], lin.a_var, rtol=1e-14,
+                               atol=1e-18)
+
+
+def _chained_model_jacobians(obs, thetas, nu):
+    """``d predictions / d theta`` the plain way: each model's own ``jacobian`` at the states
+    of ``motion.states``, chained with ``motion.jacobian`` (grouped order)."""
+    g, motion = obs.grouped, obs.motion
+    out = np.zeros((thetas.shape[0], len(g), motion.n_params))
+    for kind, model in obs.models.items():
+        sl, ns = obs.slices[kind], obs.nuisance_slices[kind]
+        t = g.time[sl]
+        rel = motion.states(thetas, t) - g.sensor_state[sl]
+        ref = None
+        if kind == "range_difference":
+            ref = motion.states(thetas, g.time_ref[sl]) - g.ref_sensor_state[sl]
+        d = model.jacobian(rel, t, nu[ns], ref)
+        out[:, sl] = np.einsum("bni,bnip->bnp", d.rel, motion.jacobian(thetas, t))
+        if d.rel_ref is not None:
+            out[:, sl] += np.einsum("bni,bnip->bnp", d.rel_ref,
+                                    motion.jacobian(thetas, g.time_ref[sl]))
+    return out
+
+
+def test_constant_velocity_affine_map_gives_the_states():
+    cv = tk.ConstantVelocity(3, ref_time=10.0)
+    t = np.linspace(0.0, 100.0, 7)
+    offset, matrix = cv.affine_map(t)
+    theta = np.array([100.0, -2000.0, 300.0, 12.0, -7.0, 0.5])
+    np.testing.assert_allclose(offset + matrix @ theta, cv.states(theta, t), rtol=1e-14)
+    assert PiecewiseCurvilinear(0).affine_map(t) is None
+
+
+@pytest.fixture(scope="module")
+def gu_problem():
+    gu = tk.load_scenario("gu2007")
+    meas = gu.simulate(7)
+    obs = tk.ObservationModel(meas, gu.motion, gu.measurement_options)
+    return VarProProblem(obs), obs.values
+
+
+def test_dominated_starts_stop_early_without_changing_the_best_fit(gu_problem):
+    problem, y = gu_problem
+    starts = best_starts_many(problem, y[None])[0].first(8)
+    alone = levenberg_marquardt(problem, y, starts)
+    together = levenberg_marquardt(problem, y, starts, groups=np.zeros(len(starts), int))
+    assert together.cost.min() == pytest.approx(alone.cost.min(), rel=1e-9)
+    best = int(np.argmin(together.cost))
+    assert together.converged[best]
+    np.testing.assert_allclose(together.theta[best], alone.theta[np.argmin(alone.cost)],
+                               rtol=1e-6)
+    # the stopped starts really were bound for worse minima, and cost fewer iterations
+    stopped = together.dominated
+    assert stopped.any()
+    assert np.all(alone.cost[stopped] > together.cost.min() + 1.0)
+    assert together.iterations.sum() < alone.iterations.sum()
+    assert not np.any(together.converged & together.dominated)
+
+
+def test_grid_cost_with_a_shared_projection_is_the_reduced_cost(gu_problem):
+    problem, y = gu_problem
+    truth = tk.load_scenario("gu2007").theta
+    near_truth = truth + np.random.default_rng(2).normal(size=(10, 4)) * [30, 30, 0.5, 0.5]
+    cand = np.vstack([grid_candidates(problem)[::37], near_truth])
+    scorer = GridScorer(problem, cand)
+    assert scorer.shared is not None  # the carrier's design is the same for every candidate
+    grid = scorer.score(problem.group(y)[None])[0]
+    yb = np.broadcast_to(problem.group(y), (cand.shape[0], y.size))
+    exact = problem.evaluate(cand, yb, problem.reference_nuisance(yb), False).cost
+    ok = np.isfinite(exact)
+    # The shared projection takes the Doppler factor 1 - rdot/c of the carrier's column as 1:
+    # off by ~1e-6 relative for candidates millions of chi2 units away, and by less than 0.01
+    # of a chi2 unit near the data: far below the grid's spacing.
+    assert np.all(np.abs(grid[ok] - exact[ok]) <= 1e-5 * exact[ok])
+    near = ok & (exact < 1e4)
+    assert near.sum() >= 10
+    assert np.all(np.abs(grid[near] - exact[near]) < 1e-2)
+
+
+def test_starts_are_distinct_best_first_and_extend_lazily(gu_problem):
+    problem, y = gu_problem
+    cand = grid_candidates(problem)
+    cost = GridScorer(problem, cand).score(problem.group(y)[None])[0]
+    lazy = Starts(cand, cost)
+    first = lazy.first(3)
+    more = lazy.first(10)
+    np.testing.assert_array_equal(more[:3], first)
+    np.testing.assert_array_equal(Starts(cand, cost).first(10), more)
+    spread = np.maximum(np.abs(cand).max(axis=0), 1.0)
+    for i in range(10):
+        for j in range(i):
+            assert np.max(np.abs(more[i] - more[j]) / spread) > 0.05
+    assert np.array_equal(more[0], cand[np.argmin(cost)])
+
+
+@pytest.mark.parametrize("name", ["gu2007", "chen-sun-1"])
+def test_simulate_many_is_simulate_run_by_run(name):
+    scn = tk.load_scenario(name)
+    many = scn.simulate_many([np.random.default_rng(s) for s in (3, 4)])
+    for s, meas in zip((3, 4), many, strict=True):
+        one = scn.simulate(np.random.default_rng(s))
+        np.testing.assert_array_equal(meas.value, one.value)
+        np.testing.assert_array_equal(meas.time, one.time)
+        np.testing.assert_array_equal(meas.kind, one.kind)
+        assert meas.metadata == one.metadata
+
+
+def test_blocked_matmul_is_the_matrix_product():
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(size=(3000, 40)), rng.normal(size=(40, 70))
+    np.testing.assert_allclose(matmul(a, b), a @ b, rtol=1e-12, atol=1e-12)
+    a3 = rng.normal(size=(2, 5, 40))
+    np.testing.assert_allclose(matmul(a3, b), a3 @ b, rtol=1e-12, atol=1e-12)
