@@ -26,7 +26,7 @@ import io
 import math
 import os
 import secrets
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -818,26 +818,38 @@ def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],
         raise ValueError(
             f"{path}: cannot write measurements to a '{path.suffix}' file; the name must end "
             f"in {', '.join(CSV_SUFFIXES + PARQUET_SUFFIXES)} (CSV or Parquet)") from None
+    with _written_in_place(path, force) as tmp:
+        if fmt == "csv":
+            with open(tmp, "w", encoding="utf-8", newline="") as f:
+                _write_csv(ms, path, f)
+        else:
+            _write_parquet(ms, tmp)
+    return path
+
+
+def _exists_error(path: Path) -> FileExistsError:
+    return FileExistsError(f"{path} already exists; use --force (force=True) to overwrite it")
+
+
+@contextlib.contextmanager
+def _written_in_place(path: Path, force: bool) -> Iterator[Path]:
+    """Write ``path`` safely: refuse an existing file (``FileExistsError``) unless ``force``
+    and a folder (``IsADirectoryError``); yield a new empty temporary file in the same folder
+    for the caller to write, then move it into place (:func:`_move_into_place`).  On any
+    failure the temporary file is removed and ``path`` is left as it was."""
     if path.exists() and not force:
-        raise FileExistsError(f"{path} already exists; use --force (force=True) to "
-                              "overwrite it")
+        raise _exists_error(path)
     if path.is_dir():
         raise IsADirectoryError(f"{path} is a folder, not a file")
     tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
     try:
-        if fmt == "csv":
-            with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-                _write_csv(ms, path, f)
-        else:
-            os.close(fd)
-            _write_parquet(ms, tmp)
+        yield tmp
         _move_into_place(tmp, path, force)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
         raise
-    return path
 
 
 def _move_into_place(tmp: Path, path: Path, force: bool) -> None:
@@ -847,12 +859,10 @@ def _move_into_place(tmp: Path, path: Path, force: bool) -> None:
     try:  # atomic "create only if absent": a hard link fails if the name exists
         os.link(tmp, path)
     except FileExistsError:
-        raise FileExistsError(f"{path} already exists; use --force (force=True) to "
-                              "overwrite it") from None
+        raise _exists_error(path) from None
     except OSError:  # no hard links on this file system
         if path.exists():
-            raise FileExistsError(f"{path} already exists; use --force (force=True) to "
-                                  "overwrite it") from None
+            raise _exists_error(path) from None
         os.replace(tmp, path)
         return
     tmp.unlink()

@@ -6,7 +6,6 @@ matplotlib's non-interactive Agg backend.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -16,20 +15,13 @@ from .measurements import KINDS
 
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
-    """The true target positions over the set's time span, if its metadata carries the truth
-    (as simulated sets do); ``None`` otherwise."""
-    meta = meas.metadata
-    if "motion" not in meta or "truth" not in meta:
-        return None
-    from .motion import motion_from_name
+    """The true target states ``(n, 6)`` (m, m/s) at ``n`` times over the set's time span,
+    if its metadata carries the truth (as simulated sets do); ``None`` otherwise."""
+    from .tracking import truth_states
 
-    try:
-        motion = motion_from_name(meta["motion"], float(meta.get("ref_time", 0.0)))
-        theta = motion.theta(json.loads(meta["truth"]))
-    except (ValueError, json.JSONDecodeError):
+    if len(meas) == 0:
         return None
-    t = np.linspace(meas.time.min(), meas.time.max(), n)
-    return motion.states(theta, t)
+    return truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), n), 3)
 
 
 def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None = None
@@ -88,6 +80,13 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
         ax.grid(True, alpha=0.3)
         if i == len(kinds) - 1:
             ax.set_xlabel("time (s)")
+    return _save(fig, path, title)
+
+
+def _save(fig, path: str | Path, title: str | None) -> Path:
+    """Title (if any), write and close a figure; return the path written."""
+    import matplotlib.pyplot as plt
+
     if title:
         fig.suptitle(title)
     path = Path(path)
@@ -207,9 +206,4 @@ def plot_track(tr, meas: MeasurementSet, path: str | Path, *, truth: np.ndarray 
                           fontsize=10)
         ax_norm.grid(True, which="both", alpha=0.3)
         ax_norm.legend(loc="upper right", fontsize=8)
-    if title:
-        fig.suptitle(title)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title)

@@ -23,11 +23,9 @@ estimate, or are given (``nuisance=``) with a prior.  Everything is SI (m, m/s, 
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import json
 import os
-import secrets
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -530,21 +528,15 @@ def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) ->
     """
     import pandas as pd
 
-    from .files import _move_into_place
+    from .files import _written_in_place
 
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in TABLE_SUFFIXES:
         raise ValueError(f"{path}: a track is written as .csv or .parquet, not "
                          f"{path.suffix or 'a file without suffix'}")
-    if path.exists() and not force:
-        raise FileExistsError(f"{path} already exists; use --force (force=True) to "
-                              "overwrite it")
-    if path.is_dir():
-        raise IsADirectoryError(f"{path} is a folder, not a file")
-    frame = pd.DataFrame(tr.table_columns())
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
-    try:
+    with _written_in_place(path, force) as tmp:
+        frame = pd.DataFrame(tr.table_columns())
         if suffix == ".csv":
             frame.to_csv(tmp, index=False)
         else:
@@ -558,9 +550,4 @@ def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) ->
                                ("q", json.dumps(tr.extra.get("q")))):
                 meta[f"tmakit:{key}".encode()] = str(value).encode()
             pq.write_table(table.replace_schema_metadata(meta), tmp)
-        _move_into_place(tmp, path, force)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-        raise
     return path

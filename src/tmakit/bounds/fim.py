@@ -242,16 +242,15 @@ def _nuisance_values(meas: MeasurementSet, given: Mapping[str, float] | None
     return values
 
 
-def crlb(source, motion: MotionModel | None = None,
-         truth: Mapping[str, float] | ArrayLike | None = None,
-         nuisance: Mapping[str, float] | None = None, known_nuisance: bool = False,
-         options: Mapping[str, Mapping[str, object]] | None = None) -> Bound:
-    """The Cramér–Rao bound of a scenario (at its truth) or of a measurement set (at the
-    given ``truth``; the measured values are not used, only times, sensors, kinds and sigmas).
-
-    ``known_nuisance=False`` (default) treats carrier, drift, power constant and path-loss
-    exponent as unknown; ``options`` selects them per kind (``{"frequency": {"drift": True}}``).
-    """
+def bound_source(source, motion: MotionModel | None,
+                 truth: Mapping[str, float] | ArrayLike | None,
+                 nuisance: Mapping[str, float] | None,
+                 options: Mapping[str, Mapping[str, object]] | None, caller: str):
+    """What a bound is evaluated on, ``(meas, motion, truth, nuisance, options)``, from its
+    ``source``: a :class:`~tmakit.scenario.Scenario` (its noise-free simulation; its motion,
+    truth and measurement options unless given; its nuisance values updated by ``nuisance``)
+    or a :class:`~tmakit.data.MeasurementSet` (then ``motion`` and ``truth`` are required).
+    ``caller`` names the function in the error for any other type."""
     from ..scenario import Scenario
 
     if isinstance(source, Scenario):
@@ -266,12 +265,36 @@ def crlb(source, motion: MotionModel | None = None,
             raise ValueError("the bound of a measurement set needs the motion model and the "
                              "truth at which to evaluate it")
     else:
-        raise TypeError("crlb() takes a Scenario or a MeasurementSet")
+        raise TypeError(f"{caller} takes a Scenario or a MeasurementSet; "
+                        f"got {type(source).__name__}")
+    return meas, motion, truth, nuisance, options
+
+
+def truth_vector(motion: MotionModel, truth: Mapping[str, float] | ArrayLike
+                 ) -> NDArray[np.float64]:
+    """``truth`` (a mapping by parameter name, or a vector) as the parameter vector of
+    ``motion``; ``ValueError`` naming the expected parameters when its length is wrong."""
     theta = (motion.theta(truth) if isinstance(truth, Mapping)
              else np.asarray(truth, dtype=float))
     if theta.shape != (motion.n_params,):
         raise ValueError(f"truth must give {motion.n_params} values "
-                         f"({', '.join(motion.param_names)})")
+                         f"({', '.join(motion.param_names)}); got shape {theta.shape}")
+    return theta
+
+
+def crlb(source, motion: MotionModel | None = None,
+         truth: Mapping[str, float] | ArrayLike | None = None,
+         nuisance: Mapping[str, float] | None = None, known_nuisance: bool = False,
+         options: Mapping[str, Mapping[str, object]] | None = None) -> Bound:
+    """The Cramér–Rao bound of a scenario (at its truth) or of a measurement set (at the
+    given ``truth``; the measured values are not used, only times, sensors, kinds and sigmas).
+
+    ``known_nuisance=False`` (default) treats carrier, drift, power constant and path-loss
+    exponent as unknown; ``options`` selects them per kind (``{"frequency": {"drift": True}}``).
+    """
+    meas, motion, truth, nuisance, options = bound_source(source, motion, truth, nuisance,
+                                                          options, "crlb()")
+    theta = truth_vector(motion, truth)
     obs = ObservationModel(meas, motion, options)
     values = _nuisance_values(meas, nuisance)
     nu = obs.nuisance_vector(values)

@@ -35,9 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..data import MeasurementSet
 from ..motion import FixedParameters, MotionModel, PiecewiseCurvilinear
-from .fim import Bound, crlb
+from .fim import Bound, bound_source, crlb, truth_vector
 
 _ALIASES = {"azimuth": "bearing", "azimuth_rate": "azimuth_rate", "bearing": "bearing"}
 
@@ -201,30 +200,12 @@ def curvilinear_crb_sequence(
     Raises ``ValueError`` for change-over times out of order, a reference time outside the
     span of the data, or a kind the data do not have.
     """
-    from ..scenario import Scenario
-
-    if isinstance(source, Scenario):
-        meas = source.simulate(noise=False)
-        motion = motion or source.motion
-        truth = source.truth if truth is None else truth
-        nuisance = {**source.nuisance, **dict(nuisance or {})}
-        options = source.measurement_options if options is None else options
-    elif isinstance(source, MeasurementSet):
-        meas = source
-        if motion is None or truth is None:
-            raise ValueError("the bound of a measurement set needs the motion model and the "
-                             "truth at which to evaluate it")
-    else:
-        raise TypeError("curvilinear_crb_sequence() takes a Scenario or a MeasurementSet; "
-                        f"got {type(source).__name__}")
+    meas, motion, truth, nuisance, options = bound_source(
+        source, motion, truth, nuisance, options, "curvilinear_crb_sequence()")
     if not isinstance(motion, PiecewiseCurvilinear):
         raise ValueError("curvilinear_crb_sequence() needs a piecewise curvilinear target "
                          f"(motion curvilinear:M); got {getattr(motion, 'name', motion)!r}")
-    theta = (motion.theta(truth) if isinstance(truth, Mapping)
-             else np.asarray(truth, dtype=float))
-    if theta.shape != (motion.n_params,):
-        raise ValueError(f"truth must give {motion.n_params} values "
-                         f"({', '.join(motion.param_names)}); got shape {theta.shape}")
+    theta = truth_vector(motion, truth)
     cot = _check_change_over_times(motion, theta)
     if not 0.0 < level < 1.0:
         raise ValueError(f"level must be a probability between 0 and 1; got {level}")

@@ -55,6 +55,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..filters import MeasurementGroup, NearlyConstantVelocity, group_times
+from ..filters.linalg import check_prior, symmetrise
 from ..filters.measurement_group import embedding
 from .noise import NoiseModel
 
@@ -181,13 +182,9 @@ def _nan_to_none(values: Array | None) -> list[float | None] | None:
 
 
 # -- numerics -------------------------------------------------------------------------------
-def _symmetrise(a: Array) -> Array:
-    return 0.5 * (a + np.swapaxes(a, -1, -2))
-
-
 def _noise_factor(q_mat: Array) -> Array:
     """``G`` (n, r) with ``G G^T = Q`` (eigen-decomposition; rounding negatives dropped)."""
-    evals, evecs = np.linalg.eigh(_symmetrise(q_mat))
+    evals, evecs = np.linalg.eigh(symmetrise(q_mat))
     top = float(evals.max()) if evals.size else 0.0
     if top <= 0.0:
         return np.zeros((q_mat.shape[0], 0))
@@ -200,14 +197,14 @@ def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
     in the Woodbury form that never inverts ``J`` or ``Q`` (see the module docstring).
 
     ``info``: (..., n, n); ``f_inv``: ``F^{-1}`` (n, n); ``g``: (n, r), r may be 0."""
-    a = _symmetrise(f_inv.T @ info @ f_inv)
+    a = symmetrise(f_inv.T @ info @ f_inv)
     if g.shape[1] == 0:
         return a
     ag = a @ g
     s = np.eye(g.shape[1]) + g.T @ ag  # >= I: Cholesky always succeeds
-    chol = np.linalg.cholesky(_symmetrise(s))
+    chol = np.linalg.cholesky(symmetrise(s))
     half = np.linalg.solve(chol, np.swapaxes(ag, -1, -2))  # L^{-1} G^T A
-    return _symmetrise(a - np.swapaxes(half, -1, -2) @ half)
+    return symmetrise(a - np.swapaxes(half, -1, -2) @ half)
 
 
 def information_inverse(info: Array) -> Array:
@@ -216,11 +213,11 @@ def information_inverse(info: Array) -> Array:
     pushed to or below zero are floored at ``n * eps`` of the largest."""
     d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
     norm = info / (d[..., :, None] * d[..., None, :])
-    evals, evecs = np.linalg.eigh(_symmetrise(norm))
+    evals, evecs = np.linalg.eigh(symmetrise(norm))
     floor = info.shape[-1] * np.finfo(float).eps * np.max(evals, axis=-1, keepdims=True)
     evals = np.maximum(evals, floor)
     inv = (evecs / evals[..., None, :]) @ np.swapaxes(evecs, -1, -2)
-    return _symmetrise(inv / (d[..., :, None] * d[..., None, :]))
+    return symmetrise(inv / (d[..., :, None] * d[..., None, :]))
 
 
 def _target6(x: Array, dt: Array, dim: int) -> Array:
@@ -311,27 +308,6 @@ def _resolve_source(source, prior_mean, options, nuisance
                     f"MeasurementSet; got {type(source).__name__}")
 
 
-def _check_prior(prior_mean: ArrayLike, prior_cov: ArrayLike) -> tuple[Array, Array]:
-    mean = np.array(prior_mean, dtype=float)
-    cov = np.array(prior_cov, dtype=float)
-    if mean.ndim != 1 or mean.shape[0] not in (4, 6):
-        raise ValueError("prior_mean must be [x, y, vx, vy] or [x, y, z, vx, vy, vz] (m, m/s); "
-                         f"got shape {mean.shape}")
-    n = mean.shape[0]
-    if cov.shape != (n, n):
-        raise ValueError(f"prior_cov must be {n}x{n} to match prior_mean; got shape "
-                         f"{cov.shape}")
-    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
-        raise ValueError("prior_mean and prior_cov must be finite")
-    if not np.allclose(cov, cov.T, rtol=1e-9, atol=0.0):
-        raise ValueError("prior_cov must be symmetric")
-    cov = _symmetrise(cov)
-    if np.min(np.linalg.eigvalsh(cov)) <= 0:
-        raise ValueError("prior_cov must be positive definite (every state component needs "
-                         "a finite, non-zero prior variance; use a large one for 'unknown')")
-    return mean, cov
-
-
 def _posterior(source, prior_mean, prior_cov, time0, q, trajectories: int, sample: bool,
                rng, options, nuisance) -> PosteriorBound:
     meas, prior_mean, opts, nu, scn = _resolve_source(source, prior_mean, options, nuisance)
@@ -349,7 +325,8 @@ def _posterior(source, prior_mean, prior_cov, time0, q, trajectories: int, sampl
         dim0 = 3 if getattr(scn.motion, "dim", meas.dim) == 3 else 2
         keep = [0, 1, 2, 3, 4, 5] if dim0 == 3 else [0, 1, 3, 4]
         prior_mean = scn.target_states([t0])[0][keep]
-    mean, cov = _check_prior(prior_mean, prior_cov)
+    mean, cov = check_prior(prior_mean, prior_cov, "prior_mean", "prior_cov",
+                            require_symmetric=True)
     n = mean.shape[0]
     dim = n // 2
     if np.ndim(q) and np.size(q) != dim:
@@ -408,7 +385,7 @@ def _posterior(source, prior_mean, prior_cov, time0, q, trajectories: int, sampl
             gain = np.einsum("tii->t", xi / np.diag(stack[0]))
             total = float(gain.sum())
             share[k] = float(gain.max()) / total if total > 0 else 0.0
-        stack = _symmetrise(stack + gamma)
+        stack = symmetrise(stack + gamma)
         infos[k] = stack
     covs_all = information_inverse(infos)
     infos, covs = infos[:, 0].copy(), covs_all[:, 0].copy()

@@ -25,7 +25,7 @@ from ..data import MeasurementSet
 from .compiled import CompiledMeasurements
 from .dynamics import NearlyConstantVelocity, state_names
 from .kernels import KernelRun
-from .linalg import symmetrise
+from .linalg import check_prior, symmetrise
 from .measurement_group import MeasurementGroup
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -149,20 +149,8 @@ class TrackingFilter(ABC):
                  dynamics: NearlyConstantVelocity | None = None,
                  options: Mapping[str, Mapping[str, object]] | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        mean = np.array(mean, dtype=float)
-        cov = np.array(covariance, dtype=float)
-        if mean.ndim != 1 or mean.shape[0] not in (4, 6):
-            raise ValueError("the prior mean must be [x, y, vx, vy] or [x, y, z, vx, vy, vz]; "
-                             f"got shape {mean.shape}")
-        n = mean.shape[0]
-        if cov.shape != (n, n):
-            raise ValueError(f"the prior covariance must be {n}x{n}; got shape {cov.shape}")
-        if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
-            raise ValueError("the prior mean and covariance must be finite")
-        cov = symmetrise(cov)
-        if np.min(np.linalg.eigvalsh(cov)) <= 0:
-            raise ValueError("the prior covariance must be positive definite")
-        self.dim = n // 2
+        mean, cov = check_prior(mean, covariance, "the prior mean", "the prior covariance")
+        self.dim = mean.shape[0] // 2
         self.dynamics = dynamics if dynamics is not None else NearlyConstantVelocity(
             self.dim, q)
         if self.dynamics.dim != self.dim:

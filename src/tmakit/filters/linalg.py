@@ -4,7 +4,7 @@ non-symmetric covariance reaches a user."""
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
 
@@ -12,6 +12,35 @@ Array = NDArray[np.float64]
 def symmetrise(p: Array) -> Array:
     """``(P + P^T) / 2``."""
     return 0.5 * (p + np.swapaxes(p, -1, -2))
+
+
+def check_prior(mean: ArrayLike, cov: ArrayLike, mean_name: str, cov_name: str, *,
+                require_symmetric: bool = False) -> tuple[Array, Array]:
+    """A Gaussian prior on the state ``[x, y, vx, vy]`` or ``[x, y, z, vx, vy, vz]`` (m, m/s)
+    as float arrays (copies), the covariance symmetrised.
+
+    Raises ``ValueError``, naming the field as ``mean_name`` / ``cov_name``, unless the mean
+    has 4 or 6 entries, the covariance is square of the same size, both are finite, the
+    covariance is positive definite and, with ``require_symmetric``, symmetric to 1e-9
+    relative (otherwise it is symmetrised silently)."""
+    mean = np.array(mean, dtype=float)
+    cov = np.array(cov, dtype=float)
+    if mean.ndim != 1 or mean.shape[0] not in (4, 6):
+        raise ValueError(f"{mean_name} must be [x, y, vx, vy] or [x, y, z, vx, vy, vz] "
+                         f"(m, m/s); got shape {mean.shape}")
+    n = mean.shape[0]
+    if cov.shape != (n, n):
+        raise ValueError(f"{cov_name} must be {n}x{n} to match {mean_name}; got shape "
+                         f"{cov.shape}")
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+        raise ValueError(f"{mean_name} and {cov_name} must be finite")
+    if require_symmetric and not np.allclose(cov, cov.T, rtol=1e-9, atol=0.0):
+        raise ValueError(f"{cov_name} must be symmetric")
+    cov = symmetrise(cov)
+    if np.min(np.linalg.eigvalsh(cov)) <= 0:
+        raise ValueError(f"{cov_name} must be positive definite (every state component needs "
+                         "a finite, non-zero prior variance; use a large one for 'unknown')")
+    return mean, cov
 
 
 def nearest_psd(p: Array, floor: float = 0.0) -> Array:
