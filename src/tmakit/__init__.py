@@ -42,9 +42,11 @@ _LAZY = {
     "enu_to_geodetic": "geodesy",
     "track": "tracking",
     "write_track": "tracking",
+    "estimate": "batch",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .batch import estimate
     from .files import MeasurementFileError, read_measurements, write_measurements
     from .geodesy import enu_to_geodetic, geodetic_to_enu
     from .scenario_file import (
@@ -86,6 +88,7 @@ __all__ = [
     "WaypointTrack",
     "builtin_scenarios",
     "enu_to_geodetic",
+    "estimate",
     "geodetic_to_enu",
     "load_scenario",
     "model_for",

@@ -213,7 +213,8 @@ def _model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, obje
 
 
 # Options shared by the commands that fit or bound a motion model.
-MotionOption = Annotated[str | None, typer.Option(help="cv2d, cv3d, static2d, static3d")]
+MotionOption = Annotated[str | None, typer.Option(
+    help="cv2d, cv3d, static2d, static3d, curvilinear[:M]")]
 RefTimeOption = Annotated[float | None, typer.Option(
     help="reference time of the motion parameters (s)")]
 DriftOption = Annotated[bool, typer.Option(help="model a linear carrier drift")]
@@ -309,13 +310,45 @@ def estimate(
     free_exponent: FreeExponentOption = False,
     origin: Annotated[str | None, typer.Option(
         help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")] = None,
+    exact: Annotated[bool, typer.Option(
+        "--exact", help="curvilinear:M: fit exactly M manoeuvres (default: 0 to M)")] = False,
+    criterion: Annotated[str | None, typer.Option(
+        help="curvilinear: how the number of manoeuvres is chosen, bic (default) or lrt")
+    ] = None,
+    alpha: Annotated[float | None, typer.Option(
+        help="curvilinear, --criterion lrt: level of the likelihood-ratio tests "
+             "(default 0.01)")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
 ) -> None:
-    """Estimate the emitter's trajectory from a measurement file (no initial guess needed)."""
+    """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
+
+    --motion curvilinear[:M] searches 0 to M manoeuvres (default M = 2) and chooses their
+    number by BIC or likelihood-ratio tests (tmakit.batch.curvilinear)."""
     meas = _read(file, _parse_origin(origin))
-    model = _motion(motion, ref_time, meas)
     start = _parse_assignments(init, "--init") or None
     options = _model_options(drift, free_exponent)
+    # -- manoeuvring targets: tmakit.batch.curvilinear --------------------------------------
+    name = motion if motion is not None else meas.metadata.get("motion")
+    if name is not None and name.strip().lower().startswith("curvilinear"):
+        if method != "ml":
+            raise _fail(f"--method {method}: manoeuvring targets (--motion {name}) are "
+                        "estimated by ml only")
+        if ref_time is None and motion is None and "ref_time" in meas.metadata:
+            ref_time = float(meas.metadata["ref_time"])
+        from .batch.curvilinear import estimate_for
+
+        try:
+            result = estimate_for(meas, name, init=start, options=options, ref_time=ref_time,
+                                  exact=exact, criterion=criterion or "bic",
+                                  alpha=0.01 if alpha is None else alpha)
+        except ValueError as e:
+            raise _fail(str(e)) from None
+        _print_estimate(meas, result, as_json)
+        return
+    if exact or criterion is not None or alpha is not None:
+        raise _fail("--exact, --criterion and --alpha apply to --motion curvilinear[:M] only")
+    # -------------------------------------------------------------------------------------
+    model = _motion(motion, ref_time, meas)
     try:
         if method == "ml":
             from .batch import estimate as run
@@ -327,6 +360,11 @@ def estimate(
             result = estimate_with(method, meas, model, init=start, options=options)
     except ValueError as e:
         raise _fail(str(e)) from None
+    _print_estimate(meas, result, as_json)
+
+
+def _print_estimate(meas, result, as_json: bool) -> None:
+    """Print an estimate (text or JSON); exit status 1 unless it converged."""
     geo = _geodetic_position(meas, result)
     if as_json:
         import json

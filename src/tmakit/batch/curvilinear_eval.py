@@ -1,0 +1,395 @@
+"""Piecewise curvilinear trajectories evaluated for many parameter vectors at once, with
+analytic derivatives — the work-horse of the manoeuvre estimator
+(:mod:`tmakit.batch.curvilinear`).
+
+The motion is that of :class:`tmakit.motion.PiecewiseCurvilinear`
+(002_e7269ad11b825346.txt eqs. 1-4), in the same parameters ``x, y, speed, course, at_0, an_0,
+..., at_M, an_M, t_1, ..., t_M`` (m, m, m/s, rad clockwise from North, m/s², s), restricted to
+a reference time **before every change-over time** (``ref_time < t_1 < ... < t_M``; other
+parameter vectors give NaN states, which a least-squares solver treats as an infinite cost, a
+barrier).  The estimator references its internal fits at the first measurement time, so the
+restriction costs nothing; results are reported in the user's own parameterisation.
+
+Everything is vectorised over a leading batch axis (grid points of a profile likelihood, or
+starting points), which the general model's per-vector evaluation is not.
+
+One segment, closed form.  With the complex position ``Z = y + i x`` and velocity
+``V = v e^{i phi}`` (real part North), ``g = (a_t + i a_n) s / v0``, ``r = a_t s / v0`` and
+``L(r) = log1p(r) / r``::
+
+    V(s) = V0 E,  E = exp(g L(r));   Z(s) = Z0 + V0 s F(g, r),  F = ((1 + r) E - 1) / (g + r)
+    speed(s) = v0 (1 + r);           course(s) = phi0 + a_n s L(r) / v0
+
+(the exact solution of 002 eq. 1, as in :mod:`tmakit.motion.curvilinear`).  Its derivatives
+with respect to ``(x0, y0, v0, phi0, a_t, a_n, s)`` follow from ``dE/dg = L E``,
+``dE/dr = g L'(r) E``, ``dF/dg = ((1 + r) L E - F) / (g + r)`` and
+``dF/dr = (E + (1 + r) g L'(r) E - F) / (g + r)``, with ``L + r L' = 1 / (1 + r)``; near zero
+acceleration ``F`` and its derivatives come from the series
+``F = sum_n prod_{j<n} (g - j r) / (n + 1)!`` differentiated term by term.  Segments are
+chained from the reference state through the change-over states (002 eq. 4) by the chain rule.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._blas import SINGLE_THREAD_WORK
+from ..motion import MotionModel
+
+Array = NDArray[np.float64]
+
+_SERIES_BELOW = 1e-3     # |g| + |r| below which F and its derivatives come from the series
+_SERIES_TERMS = 6     # term n is below size^n / (n+1)!: < 1e-20 at the switch
+_L_SERIES_BELOW = 1e-3   # |r| below which L(r) and L'(r) come from their power series
+_L_TERMS = 6
+
+
+def batched_matmul(a: Array, b: Array) -> Array:
+    """``a @ b`` for ``a`` ``(B, n, k)`` and ``b`` ``(B, k, p)``, in row blocks of ``a`` so
+    that every product stays below OpenBLAS's multithreading threshold (its threads spin
+    against other work on a busy machine; see :mod:`tmakit._blas`).  Splitting rows does not
+    change any sum."""
+    n, k = a.shape[-2:]
+    p = b.shape[-1]
+    block = max(1, SINGLE_THREAD_WORK // max(1, k * p))
+    if n <= block:
+        return a @ b
+    out = np.empty((*a.shape[:-1], p))
+    for lo in range(0, n, block):
+        np.matmul(a[..., lo:lo + block, :], b, out=out[..., lo:lo + block, :])
+    return out
+
+
+def gram(j: Array) -> Array:
+    """``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``, summed over row blocks below OpenBLAS's
+    multithreading threshold when one product would pass it."""
+    n, p = j.shape[-2:]
+    jt = np.swapaxes(j, -1, -2)
+    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
+    if n <= block:
+        return jt @ j
+    out = np.zeros((*j.shape[:-2], p, p))
+    for lo in range(0, n, block):
+        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
+    return out
+
+
+def _log1p_over(r: Array) -> tuple[Array, Array]:
+    """``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1`` (the closed form of
+    ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series)."""
+    small = np.abs(r) < _L_SERIES_BELOW
+    safe = np.where(small, 0.5, r)
+    lg = np.log1p(safe)
+    value = lg / safe
+    deriv = (safe / (1.0 + safe) - lg) / (safe * safe)
+    if np.any(small):
+        rs = r[small]
+        # log1p(r)/r = sum_k (-r)^k / (k + 1);  derivative sum_{k>=1} k (-1)^k r^(k-1) / (k+1)
+        ser = np.zeros_like(rs)
+        ser_d = np.zeros_like(rs)
+        power = np.ones_like(rs)  # r^k
+        for k in range(_L_TERMS):
+            sign = -1.0 if k % 2 else 1.0
+            ser += sign * power / (k + 1)
+            ser_d -= sign * (k + 1) * power / (k + 2)
+            power = power * rs
+        value[small], deriv[small] = ser, ser_d
+    return value, deriv
+
+
+def _f_series(g: NDArray[np.complex128], r: Array
+              ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
+    """``F``, ``dF/dg``, ``dF/dr`` from ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``."""
+    F = np.zeros_like(g)
+    Fg = np.zeros_like(g)
+    Fr = np.zeros_like(g)
+    T = np.ones_like(g)
+    Tg = np.zeros_like(g)
+    Tr = np.zeros_like(g)
+    for n in range(_SERIES_TERMS):
+        f = 1.0 / math.factorial(n + 1)
+        F, Fg, Fr = F + T * f, Fg + Tg * f, Fr + Tr * f
+        factor = g - n * r
+        T, Tg, Tr = T * factor, Tg * factor + T, Tr * factor - n * T
+    return F, Fg, Fr
+
+
+def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
+                            a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
+                            partials: bool = True) -> tuple[Array, Array | None]:
+    """One curvilinear segment: the state after ``dt`` seconds (any sign) and its derivatives.
+
+    Inputs broadcast.  Returns ``values (..., 6)`` = ``(x, y, speed, course, vx, vy)`` (m, m,
+    m/s, rad unwrapped, m/s, m/s) and, if asked, ``partials (..., 6, 7)`` with respect to
+    ``(x, y, speed, course, a_t, a_n, dt)``.  Where the speed would reach zero before ``dt``
+    everything is NaN.
+    """
+    x, y, v0, phi0, a_t, a_n, s = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (x, y, speed, course, a_t, a_n, dt)))
+    shape = s.shape
+    x, y, v0, phi0, a_t, a_n, s = (a.reshape(-1) for a in (x, y, v0, phi0, a_t, a_n, s))
+    valid = (v0 > 0) & (v0 + a_t * s > 0)
+    v0 = np.where(valid, v0, 1.0)
+    a_t = np.where(valid, a_t, 0.0)
+    a_n = np.where(valid, a_n, 0.0)
+    s = np.where(valid, s, 0.0)
+    sv = s / v0
+    r = a_t * sv
+    c = a_t + 1j * a_n
+    g = c * sv
+    L, dL = _log1p_over(r)
+    E = np.exp(g * L)
+    use_series = (np.abs(g) + np.abs(r)) < _SERIES_BELOW
+    denom = np.where(use_series, 1.0, g + r)
+    F = ((1.0 + r) * E - 1.0) / denom
+    if partials:
+        Fg = ((1.0 + r) * L * E - F) / denom
+        Fr = (E + (1.0 + r) * g * dL * E - F) / denom
+    if np.any(use_series):
+        F_s, Fg_s, Fr_s = _f_series(g[use_series], r[use_series])
+        F[use_series] = F_s
+        if partials:
+            Fg[use_series], Fr[use_series] = Fg_s, Fr_s
+    V0 = v0 * np.exp(1j * phi0)
+    disp = V0 * s * F
+    V = V0 * E
+    nan = np.where(valid, 0.0, np.nan)
+    values = np.stack([x + disp.imag, y + disp.real, v0 + a_t * s,
+                       phi0 + a_n * sv * L, V.imag, V.real], axis=-1) + nan[..., None]
+    values = values.reshape(*shape, 6)
+    if not partials:
+        return values, None
+    inv1r = 1.0 / (1.0 + r)  # = L + r L'
+    q = V0 * sv
+    # d(Z, V) with respect to (v0, phi0, a_t, a_n, s), complex; speed and course real.
+    dZ = np.stack([q * (F - g * Fg - r * Fr), 1j * disp, q * s * (Fg + Fr), 1j * q * s * Fg,
+                   V], axis=-1)
+    Vsv = V * sv
+    dV = np.stack([V / v0 * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
+                   V * c / v0 * inv1r], axis=-1)
+    zero = np.zeros_like(s)
+    one = np.ones_like(s)
+    out = np.empty((s.size, 6, 7))
+    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = one, zero, zero, one
+    out[:, 4:, :2] = 0.0
+    out[:, 0, 2:], out[:, 1, 2:] = dZ.imag, dZ.real
+    out[:, 4, 2:], out[:, 5, 2:] = dV.imag, dV.real
+    out[:, 2] = np.stack([zero, zero, one, zero, s, zero, a_t], axis=-1)
+    an_v = a_n / v0 * inv1r
+    out[:, 3] = np.stack([zero, zero, -an_v * sv, one, a_n * sv * sv * dL, sv * L, an_v],
+                         axis=-1)
+    if not np.all(valid):
+        out[~valid] = np.nan
+    return values, out.reshape(*shape, 6, 7)
+
+
+class ForwardPiecewise(MotionModel):
+    """:class:`~tmakit.motion.PiecewiseCurvilinear` with every change-over time after the
+    reference time, evaluated in batches with analytic derivatives.
+
+    Same parameter names and meaning.  Segment ``m`` covers ``(t_m, t_{m+1}]`` (a sample at a
+    change-over time belongs to the earlier segment), segment 0 also everything before the
+    reference time.  Parameter vectors with ``t_1 <= ref_time`` or change-over times out of
+    order give NaN states, and so do change-over times at or after ``end_time`` if given (the
+    estimator keeps them inside the data span this way).
+
+    The derivatives of the last parameters and times asked for are cached (an observation
+    model asks for states, then derivatives, at the same point): one instance should not be
+    shared between threads.
+    """
+
+    dim = 2
+
+    def __init__(self, manoeuvres: int, ref_time: float, end_time: float = np.inf) -> None:
+        if manoeuvres < 0:
+            raise ValueError("the number of manoeuvres must be >= 0")
+        self.manoeuvres = int(manoeuvres)
+        self.ref_time = float(ref_time)
+        self.end_time = float(end_time)
+        accel: list[str] = []
+        for m in range(self.manoeuvres + 1):
+            accel += [f"at_{m}", f"an_{m}"]
+        times = [f"t_{m}" for m in range(1, self.manoeuvres + 1)]
+        self.param_names = ("x", "y", "speed", "course", *accel, *times)
+        self.name = f"curvilinear:{self.manoeuvres}"
+        self._times = np.zeros(0)  # the unique times of the last states() call
+        self._cache: tuple | None = None
+
+    # -- the chain of change-over states -----------------------------------------------------
+    def _anchors(self, theta: Array, partials: bool
+                 ) -> tuple[Array, Array | None, Array, Array]:
+        """States ``(x, y, speed, course)`` at the start of every segment ``(B, M+1, 4)``, their
+        derivatives ``(B, M+1, 4, p)``, the segments' start times ``(B, M+1)`` and a validity
+        mask ``(B,)``."""
+        M, p = self.manoeuvres, self.n_params
+        b = theta.shape[0]
+        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
+        cot = theta[:, 6 + 2 * M:]
+        starts = np.concatenate([np.full((b, 1), self.ref_time), cot], axis=1)
+        valid = np.all(np.diff(starts, axis=1) > 0, axis=1) & (starts[:, -1] < self.end_time
+                                                              if M else True)
+        anchors = np.empty((b, M + 1, 4))
+        anchors[:, 0] = theta[:, :4]
+        d_anchor = None
+        if partials:
+            d_anchor = np.zeros((b, M + 1, 4, p))
+            d_anchor[:, 0, :, :4] = np.eye(4)
+        for m in range(1, M + 1):
+            val, par = propagate_with_partials(*anchors[:, m - 1].T, acc[:, m - 1, 0],
+                                               acc[:, m - 1, 1],
+                                               starts[:, m] - starts[:, m - 1], partials)
+            anchors[:, m] = val[:, :4]
+            if partials:
+                assert par is not None and d_anchor is not None
+                par = par[:, :4]
+                d = np.einsum("bij,bjp->bip", par[:, :, :4], d_anchor[:, m - 1])
+                d[:, :, 4 + 2 * (m - 1)] += par[:, :, 4]
+                d[:, :, 5 + 2 * (m - 1)] += par[:, :, 5]
+                d[:, :, 6 + 2 * M + m - 1] += par[:, :, 6]
+                if m >= 2:
+                    d[:, :, 6 + 2 * M + m - 2] -= par[:, :, 6]
+                d_anchor[:, m] = d
+        anchors[~valid] = np.nan
+        return anchors, d_anchor, starts, valid
+
+    def _segments(self, theta: Array, t: Array, partials: bool):
+        """Per sample: its segment ``(B, n)``, propagated values ``(B, n, 6)`` and partials
+        ``(B, n, 6, 7)`` with respect to the segment's start state, accelerations and the time
+        since its start; plus the anchors' derivatives."""
+        M = self.manoeuvres
+        b = theta.shape[0]
+        anchors, d_anchor, starts, _ = self._anchors(theta, partials)
+        cot = theta[:, 6 + 2 * M:]
+        seg = np.sum(t[None, :, None] > cot[:, None, :], axis=-1)  # (B, n)
+        rows = np.arange(b)[:, None]
+        a0 = anchors[rows, seg]                          # (B, n, 4)
+        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)[rows, seg]  # (B, n, 2)
+        dt = t[None, :] - starts[rows, seg]
+        val, par = propagate_with_partials(a0[..., 0], a0[..., 1], a0[..., 2], a0[..., 3],
+                                           acc[..., 0], acc[..., 1], dt, partials)
+        return seg, val, par, d_anchor
+
+    def _flat(self, theta: ArrayLike) -> tuple[Array, tuple[int, ...]]:
+        theta = self._check_theta(theta)
+        return theta.reshape(-1, self.n_params), theta.shape[:-1]
+
+    # -- the MotionModel interface -----------------------------------------------------------
+    def states(self, theta: ArrayLike, t: ArrayLike) -> Array:
+        flat, lead = self._flat(theta)
+        t = np.asarray(t, dtype=float)
+        tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
+        self._times = tu
+        _, val, _, _ = self._segments(flat, tu, partials=False)
+        out = np.zeros((flat.shape[0], tu.size, 6))
+        out[..., 0], out[..., 1] = val[..., 0], val[..., 1]
+        out[..., 3], out[..., 4] = val[..., 4], val[..., 5]
+        out[..., 2] = out[..., 5] = np.where(np.isnan(val[..., 0]), np.nan, 0.0)
+        return out[:, inv.reshape(-1)].reshape(*lead, t.shape[0], 6)
+
+    def _theta_partials(self, flat: Array, t: Array
+                        ) -> tuple[Array, Array, Array, NDArray[np.int64] | None]:
+        """At the unique times ``tu`` of ``t``: the segment of every sample ``(B, nu)``,
+        ``d (x, y, vx, vy) / d inputs`` ``(B, nu, 4, 7)`` — the inputs being a segment's
+        start state, its accelerations and the time since its start — and the segment start
+        states' derivatives ``(B, M+1, 4, p)``; plus the index of every ``t`` into ``tu``
+        (None when ``t`` is ``tu``).
+
+        The last result is kept: an observation model asks for the states at all its rows and
+        then for the derivatives at the same parameters and times."""
+        key = (flat.tobytes(), flat.shape)
+        cache = self._cache
+        if cache is None or cache[0] != key or not np.all(np.isin(t, cache[1])):
+            tu = np.unique(t)
+            if self._times.size and np.all(np.isin(t, self._times)):
+                tu = self._times
+            seg_u, _, par, d_anchor = self._segments(flat, tu, partials=True)
+            assert par is not None and d_anchor is not None
+            par_u = np.ascontiguousarray(par[:, :, [0, 1, 4, 5], :])
+            self._cache = cache = (key, tu, seg_u, par_u, d_anchor)
+        tu, seg_u, par_u, d_anchor = cache[1:]
+        idx = None
+        if t.shape != tu.shape or not np.array_equal(t, tu):
+            idx = np.searchsorted(tu, t)
+        return seg_u, par_u, d_anchor, idx
+
+    def jacobian(self, theta: ArrayLike, t: ArrayLike) -> Array:
+        flat, lead = self._flat(theta)
+        t = np.asarray(t, dtype=float)
+        jac = np.zeros((flat.shape[0], t.shape[0], 6, self.n_params))
+        for c in (0, 1, 3, 4):
+            d = np.zeros((flat.shape[0], t.shape[0], 6))
+            d[..., c] = 1.0
+            jac[:, :, c] = self._chain_flat(d, flat, t)
+        return jac.reshape(*lead, t.shape[0], 6, self.n_params)
+
+    def _chain_flat(self, ds: Array, flat: Array, t: Array) -> Array:
+        """``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds`` ``(B, n, 6)``:
+        per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
+        then one product with the inputs' derivatives of every segment, ``w`` masked by
+        segment."""
+        M, p = self.manoeuvres, self.n_params
+        b, n = flat.shape[0], t.shape[0]
+        seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
+        d4 = ds[..., [0, 1, 3, 4]][..., None, :]        # (B, n, 1, 4)
+        # Rows that follow the unique times in order (one block per kind, usually) are
+        # contracted on views; anything else is gathered.
+        if idx is None:
+            blocks = [(0, n, 0)]
+        else:
+            cuts = np.flatnonzero(np.diff(idx) != 1) + 1
+            starts = np.concatenate([[0], cuts])
+            ends = np.concatenate([cuts, [n]])
+            blocks = ([(int(a), int(e), int(idx[a])) for a, e in zip(starts, ends, strict=True)]
+                      if starts.size <= 16 else [])
+        w = np.empty((b, n, 7))
+        seg = np.empty((b, n), dtype=seg_u.dtype)
+        if blocks:
+            for a, e, u in blocks:
+                w[:, a:e] = (d4[:, a:e] @ par_u[:, u:u + e - a])[..., 0, :]
+                seg[:, a:e] = seg_u[:, u:u + e - a]
+        else:
+            assert idx is not None
+            w = (d4 @ par_u[:, idx])[..., 0, :]
+            seg = seg_u[:, idx]
+        if M == 0:
+            out = np.empty((b, n, p))
+            out[..., :4] = w[..., :4]
+            out[..., 4:6] = w[..., 4:6]
+            return out
+        wide = np.zeros((b, n, M + 1, 7))
+        for m in range(M + 1):
+            np.copyto(wide[:, :, m], w, where=(seg == m)[..., None])
+        d_inputs = np.zeros((b, M + 1, 7, p))
+        d_inputs[:, :, :4] = d_anchor
+        for m in range(M + 1):
+            d_inputs[:, m, 4, 4 + 2 * m] = 1.0
+            d_inputs[:, m, 5, 5 + 2 * m] = 1.0
+            if m >= 1:
+                d_inputs[:, m, 6, 5 + 2 * M + m] = -1.0
+        return batched_matmul(wide.reshape(b, n, 7 * (M + 1)),
+                              d_inputs.reshape(b, 7 * (M + 1), p))
+
+    def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
+        """``d value / d theta`` from ``d value / d state`` ``(..., n, 6)``, contracting the
+        state axis before the parameter axis (no ``(B, n, 6, p)`` array is formed)."""
+        flat, lead = self._flat(theta)
+        t = np.asarray(t, dtype=float)
+        if d_state.ndim != len(lead) + 2:
+            return super().chain(d_state, theta, t)
+        out = self._chain_flat(d_state.reshape(flat.shape[0], t.shape[0], 6), flat, t)
+        return out.reshape(*lead, t.shape[0], self.n_params)
+
+    def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
+        """``(x, y, speed, course)`` at times ``t`` ``(..., n, 4)``, the course unwrapped
+        (continuous from the reference course): the parameters of the same trajectory
+        referenced at another time."""
+        flat, lead = self._flat(theta)
+        t = np.asarray(t, dtype=float)
+        _, val, _, _ = self._segments(flat, t, partials=False)
+        return val[..., :4].reshape(*lead, t.shape[0], 4)
+
+    def __repr__(self) -> str:
+        return f"ForwardPiecewise(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"

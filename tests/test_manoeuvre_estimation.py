@@ -1,0 +1,215 @@
+"""Maximum likelihood for manoeuvring targets (tmakit.batch.curvilinear): the batched
+piecewise-curvilinear evaluator against the general model, the number of manoeuvres found,
+estimates within their reported uncertainty, the stated order criteria, refusals, the CLI."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import tmakit as tk
+from tmakit.batch.curvilinear import (
+    ManoeuvreSettings,
+    OrderFit,
+    estimate_manoeuvres,
+    select_order,
+)
+from tmakit.batch.curvilinear_eval import ForwardPiecewise, propagate_with_partials
+from tmakit.bounds import crlb
+from tmakit.cli import app
+from tmakit.motion import PiecewiseCurvilinear, numerical_jacobian, propagate_curvilinear
+
+
+@pytest.fixture(scope="module")
+def scn():
+    return tk.load_scenario("hoerst2010")
+
+
+@pytest.fixture(scope="module")
+def fits(scn):
+    """Blind estimates of two seeded simulations (computed once for several tests)."""
+    out = {}
+    for seed in (11, 12):
+        meas = scn.simulate(rng=seed)
+        out[seed] = meas, tk.estimate(meas, "curvilinear:2")
+    return out
+
+
+@pytest.fixture(scope="module")
+def straight(scn):
+    """The 002 geometry with a target that does not manoeuvre."""
+    truth = {k: scn.truth[k] for k in ("x", "y", "speed", "course", "at_0", "an_0")}
+    return dataclasses.replace(scn, motion=PiecewiseCurvilinear(0, 0.0), truth=truth)
+
+
+# -- the batched evaluator --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("args", [
+    (-9000.0, 12000.0, 50.0, np.pi / 2, 0.0, 0.5, 200.0),     # turn (closed form)
+    (500.0, 700.0, 40.0, 1.0, 0.3, 0.2, -100.0),              # accelerating, backwards
+    (0.0, 0.0, 50.0, 1.0, 0.02, 0.03, 0.8e-3 * 50 / 0.056),   # series side of the switch
+    (0.0, 0.0, 50.0, 1.0, 0.02, 0.03, 1.2e-3 * 50 / 0.056),   # closed-form side
+    (0.0, 0.0, 50.0, 1.0, 0.0, 0.0, 900.0),                   # straight line
+])
+def test_segment_partials_match_central_differences(args):
+    value, partials = propagate_with_partials(*args)
+    ref = np.array(propagate_curvilinear(*args))
+    np.testing.assert_allclose(value, ref, rtol=0, atol=1e-8)
+    a = np.array(args, dtype=float)
+    numeric = np.zeros((6, 7))
+    for j in range(7):
+        h = 1e-5 * max(1.0, abs(a[j]))
+        up, down = a.copy(), a.copy()
+        up[j] += h
+        down[j] -= h
+        numeric[:, j] = (propagate_with_partials(*up, partials=False)[0]
+                         - propagate_with_partials(*down, partials=False)[0]) / (2 * h)
+    scale = np.abs(numeric).max(axis=0) + 1e-9
+    assert np.max(np.abs(partials - numeric) / scale) < 1e-6
+
+
+def test_batched_model_equals_the_general_model_with_exact_derivatives(scn):
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 901.0, 3.0) + 0.5  # no sample on a change-over time
+    theta = np.tile(scn.theta, (4, 1))
+    theta[:, 4:10] += 0.02 * rng.normal(size=(4, 6))
+    theta[:, 10:] += rng.normal(size=(4, 2)) * 30.0
+    fast, general = ForwardPiecewise(2, 0.0), PiecewiseCurvilinear(2, 0.0)
+    np.testing.assert_allclose(fast.states(theta, t), general.states(theta, t), rtol=0,
+                               atol=1e-6)
+    jac = fast.jacobian(theta, t)
+    np.testing.assert_allclose(jac, numerical_jacobian(fast, theta, t), rtol=1e-6, atol=1e-4)
+    d = rng.normal(size=(4, t.size, 6))
+    np.testing.assert_allclose(fast.chain(d, theta, t), np.einsum("bni,bnip->bnp", d, jac),
+                               rtol=1e-10, atol=1e-8)
+    # change-over times out of order, or before the reference time: no trajectory
+    bad = scn.theta.copy()
+    bad[10], bad[11] = 600.0, 400.0
+    assert np.all(np.isnan(fast.states(bad, t)))
+    bad[10], bad[11] = -5.0, 400.0
+    assert np.all(np.isnan(fast.states(bad, t)))
+
+
+# -- the estimator ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+def test_two_manoeuvres_found_and_estimates_within_their_reported_std(scn, fits, seed):
+    _, res = fits[seed]
+    assert res.status == "converged", res.message
+    assert res.manoeuvres == 2 and res.selection.chosen == 2
+    bound = crlb(scn)
+    # reported std = inverse information at the estimate: close to the CRB at the truth for
+    # the state; the change-over times' information depends on where they are estimated
+    np.testing.assert_allclose(res.std[:4], bound.std[:4], rtol=0.25)
+    assert np.all((res.std[10:] > 0.5 * bound.std[10:12]) & (res.std[10:] < 2 * bound.std[10:12]))
+    z = (res.estimate - scn.theta) / res.std
+    assert np.all(np.abs(z) < 4.0), dict(zip(res.parameters, np.round(z, 2), strict=True))
+    state, _ = bound.state_covariance(900.0)
+    for i, k in enumerate(("x", "y")):
+        value, std = res.final[k]
+        assert abs(value - state[i]) < 4.0 * std
+    assert res.final_time == 900.0
+    # chi2 never grows with the order, and the tests are reported for each
+    chi2 = [o["chi2"] for o in res.selection.orders]
+    assert chi2[0] > chi2[1] > chi2[2] - 1e-6
+    assert res.selection.orders[2]["lr_statistic"] > 30.0
+
+
+def test_no_manoeuvre_gives_zero_manoeuvres(straight):
+    res = tk.estimate(straight.simulate(rng=1), PiecewiseCurvilinear(2, 0.0))
+    assert res.manoeuvres == 0 and res.parameters == straight.motion.param_names
+    assert res.status == "converged"
+    z = (res.estimate - straight.theta) / res.std
+    assert np.all(np.abs(z) < 4.0)
+    orders = res.selection.orders
+    assert [o["manoeuvres"] for o in orders] == [0, 1, 2]
+    assert orders[1]["chi2"] <= orders[0]["chi2"] and orders[2]["chi2"] <= orders[1]["chi2"]
+
+
+def test_a_given_start_fits_exactly_that_order_and_reference_time_is_respected(fits):
+    meas, blind = fits[11]
+    # the blind fit, referenced at the last measurement time, as a start: the same fit back
+    ref, start = blind.motion.rereferenced(blind.estimate, 900.0)
+    again = tk.estimate(meas, ref, init=start)
+    assert again.selection is None and again.motion.ref_time == 900.0
+    assert again.status == "converged"
+    assert abs(again.chi2 - blind.chi2) < 1e-3
+    t = np.arange(0.0, 901.0, 10.0)
+    gap = again.motion.states(again.estimate, t) - blind.motion.states(blind.estimate, t)
+    assert np.max(np.abs(gap[..., :2])) < 1.0  # m
+    # referenced at 900 s, the position parameters are the final position, same std
+    x, sx = blind.final["x"]
+    assert again.estimate[0] == pytest.approx(x, abs=1.0)
+    assert again.std[0] == pytest.approx(sx, rel=1e-3)
+
+
+def test_order_criteria_as_stated():
+    def fit(m, chi2):
+        return OrderFit(m, np.zeros(6 + 3 * m), np.zeros(0), chi2, 6 + 3 * m, True, 1, 1)
+
+    fits = [fit(0, 3400.0), fit(1, 1870.0), fit(2, 1780.0), fit(3, 1765.0)]
+    n = 1802
+    bic = select_order(fits, n, "bic")
+    assert bic.chosen == 2  # 15 < 3 ln 1802 = 22.5
+    assert bic.orders[3]["bic"] == pytest.approx(1765.0 + 15 * np.log(n))
+    lrt = select_order(fits, n, "lrt", alpha=0.01)
+    assert lrt.chosen == 3  # 15 > chi-square(3) 99 % quantile 11.34
+    assert lrt.orders[3]["p_value"] == pytest.approx(0.0018166, rel=1e-3)
+    assert select_order(fits, n, "lrt", alpha=0.001).chosen == 2
+    # the sequence stops at the first manoeuvre that is not significant
+    gap = [fit(0, 1800.0), fit(1, 1798.0), fit(2, 1700.0)]
+    assert select_order(gap, n, "lrt").chosen == 0
+    assert select_order(gap, n, "bic").chosen == 2
+
+
+def test_bad_requests_are_refused_clearly(scn):
+    meas = scn.simulate(rng=1)
+    with pytest.raises(ValueError, match="curvilinear:M"):
+        tk.estimate(meas, "curvilinear:two")
+    with pytest.raises(ValueError, match="criterion must be one of bic, lrt"):
+        estimate_manoeuvres(meas, 1, criterion="aic")
+    with pytest.raises(ValueError, match="alpha"):
+        estimate_manoeuvres(meas, 1, criterion="lrt", alpha=1.5)
+    with pytest.raises(ValueError, match="max_manoeuvres"):
+        ManoeuvreSettings(max_manoeuvres=-1)
+    with pytest.raises(ValueError, match="inside the data span"):
+        tk.estimate(meas, PiecewiseCurvilinear(1, 0.0),
+                    init={"x": -9e3, "y": 12e3, "speed": 50.0, "course": 1.5, "at_0": 0.0,
+                          "an_0": 0.0, "at_1": 0.0, "an_1": 0.5, "t_1": 950.0})
+    with pytest.raises(ValueError, match="holds at most"):
+        estimate_manoeuvres(meas.take(meas.time <= 60.0), 2, exact=True)
+    with pytest.raises(TypeError, match="manoeuvring targets"):
+        tk.estimate(meas, tk.ConstantVelocity(2), criterion="bic")
+
+
+def test_cli_estimate_curvilinear_json_and_refusals(tmp_path, fits):
+    runner = CliRunner()
+    obs = tmp_path / "obs.csv"
+    assert runner.invoke(app, ["simulate", "hoerst2010", "--seed", "12", "-o",
+                               str(obs)]).exit_code == 0
+    result = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear:2", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    assert {"parameters", "estimate", "std", "nuisance", "status", "iterations", "chi2", "dof",
+            "model_order", "change_over_times", "final_state"} <= set(data)
+    assert data["status"] == "converged" and data["manoeuvres"] == 2
+    assert data["model_order"]["chosen"] == 2 and data["model_order"]["criterion"] == "bic"
+    _, library = fits[12]  # the same data through tk.estimate: the same fit
+    assert data["chi2"] == pytest.approx(library.chi2, abs=1e-3)
+    assert [o["manoeuvres"] for o in data["model_order"]["orders"]] == [0, 1, 2]
+    for (value, std), truth in zip(((c["value"], c["std"]) for c in data["change_over_times"]),
+                                   (400.0, 600.0), strict=True):
+        assert abs(value - truth) < 4.0 * std
+    bad = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear:x"])
+    assert bad.exit_code == 2 and "curvilinear:M" in bad.output
+    wrong = runner.invoke(app, ["estimate", str(obs), "--motion", "cv2d", "--exact"])
+    assert wrong.exit_code == 2 and "curvilinear" in wrong.output
+    paper = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear",
+                                "--method", "ratio"])
+    assert paper.exit_code == 2 and "ml only" in paper.output
