@@ -22,6 +22,7 @@ from tmakit.batch.curvilinear_eval import ForwardPiecewise, propagate_with_parti
 from tmakit.bounds import crlb
 from tmakit.cli import app
 from tmakit.motion import PiecewiseCurvilinear, numerical_jacobian, propagate_curvilinear
+from tmakit.motion.fixed import FixedParameters
 
 
 @pytest.fixture(scope="module")
@@ -98,38 +99,83 @@ def test_batched_model_equals_the_general_model_with_exact_derivatives(scn):
 # -- the estimator ----------------------------------------------------------------------------
 
 
+ZERO_IN_TRUTH = ["an_0", "an_2", "at_0", "at_1", "at_2"]  # hoerst2010: straight, turn, straight
+
+
+def structure_crb(scn, held):
+    """The CRB with the accelerations ``held`` known (zero): the bound of the selected model."""
+    model = FixedParameters(scn.motion, dict.fromkeys(held, 0.0))
+    return crlb(scn.simulate(noise=False), model,
+                truth={k: v for k, v in scn.truth.items() if k not in held})
+
+
 @pytest.mark.parametrize("seed", [11, 12])
 def test_two_manoeuvres_found_and_estimates_within_their_reported_std(scn, fits, seed):
     _, res = fits[seed]
     assert res.status == "converged", res.message
     assert res.manoeuvres == 2 and res.selection.chosen == 2
-    bound = crlb(scn)
+    # the accelerations the data do not need are the ones that are zero in the truth
+    assert sorted(res.held) == ZERO_IN_TRUTH and "held at zero" in res.message
+    free = np.array([n not in res.held for n in res.parameters])
+    assert np.all(res.estimate[~free] == 0.0) and np.all(res.std[~free] == 0.0)
+    bound = structure_crb(scn, res.held)
     # reported std = inverse information at the estimate: close to the CRB at the truth for
     # the state; the change-over times' information depends on where they are estimated
     np.testing.assert_allclose(res.std[:4], bound.std[:4], rtol=0.25)
-    assert np.all((res.std[10:] > 0.5 * bound.std[10:12]) & (res.std[10:] < 2 * bound.std[10:12]))
-    z = (res.estimate - scn.theta) / res.std
-    assert np.all(np.abs(z) < 4.0), dict(zip(res.parameters, np.round(z, 2), strict=True))
+    times = [bound.std_of("t_1"), bound.std_of("t_2")]
+    assert np.all((res.std[10:] > 0.5 * np.array(times)) & (res.std[10:] < 2 * np.array(times)))
+    z = (res.estimate[free] - scn.theta[free]) / res.std[free]
+    assert np.all(np.abs(z) < 4.0), dict(zip(np.array(res.parameters)[free], np.round(z, 2),
+                                             strict=True))
     state, _ = bound.state_covariance(900.0)
     for i, k in enumerate(("x", "y")):
         value, std = res.final[k]
         assert abs(value - state[i]) < 4.0 * std
     assert res.final_time == 900.0
-    # chi2 never grows with the order, and the tests are reported for each
+    chi2 = [o["chi2"] for o in res.selection.orders]
+    assert chi2[0] > chi2[1] > chi2[2]
+    assert [o["unknowns"] for o in res.selection.orders] == [6, 9, 7]
+    assert res.selection.orders[2]["lr_statistic"] > 30.0
+
+
+def test_every_acceleration_fitted_on_request(scn, fits):
+    """accelerations="all": the model of 002 as written; chi2 never grows with the order and
+    the reported std is close to the CRB with every acceleration unknown."""
+    meas, selected = fits[11]
+    res = tk.estimate(meas, "curvilinear:2", accelerations="all")
+    assert res.held == [] and res.status == "converged" and res.manoeuvres == 2
+    bound = crlb(scn)
+    np.testing.assert_allclose(res.std[:4], bound.std[:4], rtol=0.25)
+    z = (res.estimate - scn.theta) / res.std
+    assert np.all(np.abs(z) < 4.0)
     chi2 = [o["chi2"] for o in res.selection.orders]
     assert chi2[0] > chi2[1] > chi2[2] - 1e-6
-    assert res.selection.orders[2]["lr_statistic"] > 30.0
+    assert [o["unknowns"] for o in res.selection.orders] == [6, 9, 12]
+    # five fewer unknowns cost less than 5 ln N in chi2 (BIC chose them)
+    assert 0.0 <= selected.chi2 - res.chi2 < 5 * np.log(len(meas))
+
+
+def test_an_acceleration_the_data_need_is_kept(scn):
+    """A last leg that speeds up (a_t = 0.08 m/s^2, ~5.6 of its CRB std): a_t,2 is fitted, and
+    estimated within 4 std."""
+    truth = dict(scn.truth, at_2=0.08)
+    faster = dataclasses.replace(scn, truth=truth)
+    res = tk.estimate(faster.simulate(rng=3), "curvilinear:2")
+    assert res.manoeuvres == 2 and "at_2" not in res.held
+    i = res.parameters.index("at_2")
+    assert abs(res.estimate[i] - 0.08) < 4.0 * res.std[i]
 
 
 def test_no_manoeuvre_gives_zero_manoeuvres(straight):
     res = tk.estimate(straight.simulate(rng=1), PiecewiseCurvilinear(2, 0.0))
     assert res.manoeuvres == 0 and res.parameters == straight.motion.param_names
     assert res.status == "converged"
-    z = (res.estimate - straight.theta) / res.std
+    free = res.std > 0
+    assert set(res.held) == {n for n, f in zip(res.parameters, free, strict=True) if not f}
+    z = (res.estimate[free] - straight.theta[free]) / res.std[free]
     assert np.all(np.abs(z) < 4.0)
     orders = res.selection.orders
     assert [o["manoeuvres"] for o in orders] == [0, 1, 2]
-    assert orders[1]["chi2"] <= orders[0]["chi2"] and orders[2]["chi2"] <= orders[1]["chi2"]
 
 
 def test_a_given_start_fits_exactly_that_order_and_reference_time_is_respected(fits):
@@ -210,6 +256,13 @@ def test_cli_estimate_curvilinear_json_and_refusals(tmp_path, fits):
     assert bad.exit_code == 2 and "curvilinear:M" in bad.output
     wrong = runner.invoke(app, ["estimate", str(obs), "--motion", "cv2d", "--exact"])
     assert wrong.exit_code == 2 and "curvilinear" in wrong.output
+    wrong = runner.invoke(app, ["estimate", str(obs), "--motion", "cv2d", "--accelerations",
+                                "all"])
+    assert wrong.exit_code == 2 and "--accelerations" in wrong.output
+    bad = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear",
+                              "--accelerations", "some"])
+    assert bad.exit_code == 2 and "accelerations must be one of select, all" in bad.output
+    assert sorted(data["held_at_zero"]) == ZERO_IN_TRUTH
     paper = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear",
                                 "--method", "ratio"])
     assert paper.exit_code == 2 and "ml only" in paper.output

@@ -318,12 +318,16 @@ def estimate(
     alpha: Annotated[float | None, typer.Option(
         help="curvilinear, --criterion lrt: level of the likelihood-ratio tests "
              "(default 0.01)")] = None,
+    accelerations: Annotated[str | None, typer.Option(
+        help="curvilinear: select (default: hold at zero the accelerations the data do not "
+             "need, by the same criterion) or all")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
 
     --motion curvilinear[:M] searches 0 to M manoeuvres (default M = 2) and chooses their
-    number by BIC or likelihood-ratio tests (tmakit.batch.curvilinear)."""
+    number by BIC or likelihood-ratio tests, and holds at zero the accelerations the data do
+    not need (tmakit.batch.curvilinear)."""
     meas = _read(file, _parse_origin(origin))
     start = _parse_assignments(init, "--init") or None
     options = _model_options(drift, free_exponent)
@@ -340,13 +344,15 @@ def estimate(
         try:
             result = estimate_for(meas, name, init=start, options=options, ref_time=ref_time,
                                   exact=exact, criterion=criterion or "bic",
-                                  alpha=0.01 if alpha is None else alpha)
+                                  alpha=0.01 if alpha is None else alpha,
+                                  accelerations=accelerations)
         except ValueError as e:
             raise _fail(str(e)) from None
         _print_estimate(meas, result, as_json)
         return
-    if exact or criterion is not None or alpha is not None:
-        raise _fail("--exact, --criterion and --alpha apply to --motion curvilinear[:M] only")
+    if exact or criterion is not None or alpha is not None or accelerations is not None:
+        raise _fail("--exact, --criterion, --alpha and --accelerations apply to --motion "
+                    "curvilinear[:M] only")
     # -------------------------------------------------------------------------------------
     model = _motion(motion, ref_time, meas)
     try:

@@ -71,6 +71,7 @@ from scipy.stats import chi2 as chi2_dist
 from ..bounds.fim import bound_from_information
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, PiecewiseCurvilinear
+from ..motion.fixed import FixedParameters
 from ..observation import ObservationModel
 from .curvilinear_eval import ForwardPiecewise, gram
 from .ml import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, EstimateResult
@@ -79,6 +80,7 @@ from .solver import VarProProblem, levenberg_marquardt
 Array = NDArray[np.float64]
 
 CRITERIA = ("bic", "lrt")
+ACCELERATIONS = ("select", "all")  # see ManoeuvreSettings
 _CHUNK = 256  # held fits per batch on the profile grid
 _PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)  # s, see _Search._settle
 
@@ -98,7 +100,9 @@ class ManoeuvreSettings:
     held fits on the grid stop once they cannot come within this much (half chi2) of the
     best grid point (see :func:`_lm`).  ``polish_step``, ``polish_rounds``: the finer
     profile of each change-over time after the refinement (:meth:`_Search._polish`; 0 rounds:
-    none).
+    none).  ``accelerations``: ``"select"`` (default) holds at zero every acceleration
+    component the data do not need, by the order criterion (:meth:`_Search.sparsify`);
+    ``"all"`` fits every component of every segment.
     """
 
     max_manoeuvres: int = 2
@@ -114,6 +118,7 @@ class ManoeuvreSettings:
     polish_step: float = 4.0
     polish_rounds: int = 2
     max_iter: int = 100
+    accelerations: str = "select"
 
     def __post_init__(self) -> None:
         if self.max_manoeuvres < 0 or int(self.max_manoeuvres) != self.max_manoeuvres:
@@ -132,6 +137,9 @@ class ManoeuvreSettings:
             raise ValueError("polish_rounds must be >= 0 and polish_step positive (seconds)")
         if self.max_tuples < 1:
             raise ValueError("max_tuples must be at least 1")
+        if self.accelerations not in ACCELERATIONS:
+            raise ValueError(f"accelerations must be one of {', '.join(ACCELERATIONS)}, got "
+                             f"{self.accelerations!r}")
 
 
 @dataclass
@@ -150,6 +158,11 @@ class OrderFit:
     note: str = ""
     profile_times: Array = field(default_factory=lambda: np.zeros((0, 0)))
     profile_chi2: Array = field(default_factory=lambda: np.zeros(0))
+    free: NDArray[np.bool_] | None = None  # internal parameters fitted; None: all
+
+    def free_mask(self) -> NDArray[np.bool_]:
+        """Which internal parameters are fitted (the others are accelerations held at 0)."""
+        return np.ones(self.theta.shape[0], dtype=bool) if self.free is None else self.free
 
 
 @dataclass
@@ -195,6 +208,7 @@ class ManoeuvreEstimate(EstimateResult):
 
     selection: OrderSelection | None = None
     fits: list[OrderFit] = field(default_factory=list)
+    held: list[str] = field(default_factory=list)
     final_time: float = float("nan")
     final: dict[str, tuple[float, float]] = field(default_factory=dict)
 
@@ -214,6 +228,7 @@ class ManoeuvreEstimate(EstimateResult):
             return float(x) if np.isfinite(x) else None
 
         data["manoeuvres"] = self.manoeuvres
+        data["held_at_zero"] = list(self.held)
         data["model_order"] = self.selection.as_dict() if self.selection else None
         data["change_over_times"] = [{"value": num(v), "std": num(s)}
                                      for v, s in self.change_over_times()]
@@ -322,7 +337,8 @@ def _lm(problem: VarProProblem, y: Array, theta0: Array, free: Array, max_iter: 
         active[idx] = (rejected[idx] < max_reject) & (lam[idx] <= 1e12)
         history.append(cur.cost.copy())
         if stall > 0 and len(history) > 6:
-            active &= ~(history[-7] - history[-1] < stall)
+            with np.errstate(invalid="ignore"):  # inf - inf: a start that never had a cost
+                active &= ~(history[-7] - history[-1] < stall)
     return _Fits(cur.theta, cur.nuisance, cur.cost, converged, iterations)
 
 
@@ -373,6 +389,17 @@ def _local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
 # ------------------------------------------------------------------------------------------
 
 
+def _may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:
+    """Whether acceleration ``i`` (internal index, ``4 + 2 * segment + {0: a_t, 1: a_n}``) may
+    be held at zero: not if a neighbouring segment would then also have both held — a
+    change-over between two straight legs is no manoeuvre."""
+    mask = free.copy()
+    mask[i] = False
+    seg = (i - 4) // 2
+    both_held = [not mask[4 + 2 * s] and not mask[5 + 2 * s] for s in range(m + 1)]
+    return not any(both_held[s] and both_held[seg] for s in (seg - 1, seg + 1) if 0 <= s <= m)
+
+
 class _Search:
     """The fits of every order for one data set (shared grid, warm starts between orders)."""
 
@@ -410,9 +437,12 @@ class _Search:
             m += 1
         return m
 
-    def unknowns(self, m: int) -> int:
+    def unknowns(self, m: int, free: NDArray[np.bool_] | None = None) -> int:
+        """Unknowns of the order ``m`` model: the fitted motion parameters (all, or those in
+        ``free``) and the nuisance parameters unless they are known."""
         pr = self.problem(m)
-        return pr.p + (0 if pr.fixed is not None else pr.k)
+        p = pr.p if free is None else int(np.count_nonzero(free))
+        return p + (0 if pr.fixed is not None else pr.k)
 
     def fit_zero(self, init: Array | None = None) -> OrderFit:
         pr = self.problem(0)
@@ -496,7 +526,7 @@ class _Search:
         fit.profile_times, fit.profile_chi2 = self.grid[tuples], 2.0 * cost
         return fit
 
-    def _polish(self, fit: OrderFit) -> OrderFit:
+    def _polish(self, fit: OrderFit, reach: float | None = None) -> OrderFit:
         """Finer profiles of each change-over time around the refined fit.
 
         The likelihood has a corner at every measurement time (see :meth:`_settle`), so
@@ -505,14 +535,16 @@ class _Search:
         ``polish_step`` spacing within ``grid_step`` of its estimate (every other parameter,
         the other change-over times included, free: its profile likelihood); if a grid point
         beats the fit, everything is refined again from it.  At most ``polish_rounds``
-        rounds."""
+        rounds.  ``reach`` (s) widens the held grid (default ``grid_step``); parameters the
+        fit holds stay held."""
         m = fit.manoeuvres
         if m == 0 or not np.isfinite(fit.chi2):
             return fit
         pr = self.problem(m)
         y = pr.group(pr.obs.values)
         k0 = 6 + 2 * m
-        offsets = np.arange(-self.s.grid_step, self.s.grid_step + 1e-9, self.s.polish_step)
+        reach = self.s.grid_step if reach is None else reach
+        offsets = np.arange(-reach, reach + 1e-9, self.s.polish_step)
         offsets = offsets[offsets != 0.0]
         for _ in range(self.s.polish_rounds):
             starts, held = [], []
@@ -536,7 +568,7 @@ class _Search:
                 rows = np.flatnonzero(held_k == k)
                 if rows.size == 0:
                     continue
-                free = np.ones(pr.p, dtype=bool)
+                free = fit.free_mask().copy()
                 free[k0 + k] = False
                 sol = _lm(pr, y, start[rows], free, self.s.profile_iter, prune=self.s.prune)
                 i = int(np.argmin(sol.cost))
@@ -544,24 +576,109 @@ class _Search:
                     best_theta, best_cost = sol.theta[i], float(sol.cost[i])
             if best_theta is None:
                 break
-            new = self.fit_from(m, best_theta[None])
+            new = self.fit_from(m, best_theta[None], fit.free)
             if not new.chi2 < fit.chi2:
                 break
             new.iterations += fit.iterations
             fit = new
         return fit
 
-    def fit_from(self, m: int, theta0: Array) -> OrderFit:
-        """Every parameter free from the starts ``theta0`` ``(B, p)``; the lowest cost wins,
-        settled at a corner of the likelihood if it ends on one (:meth:`_settle`)."""
+    def sparsify(self, fit: OrderFit) -> OrderFit:
+        """The accelerations the data need (the ``accelerations="select"`` setting).
+
+        Backward elimination: each step holds at zero, in turn, every acceleration component
+        still fitted (every other parameter refitted, change-over times included, from the
+        fit and from starts with the change-over times bounding its segment moved by one
+        ``grid_step`` either way), and keeps the hold that raises chi2 least if the rise is
+        below the criterion's price of one unknown: ``ln N`` for BIC, the chi-square(1) quantile
+        ``1 - alpha`` for the likelihood-ratio test.  Two neighbouring segments are never
+        both held at zero (their change-over time would not exist).  After any hold, each
+        change-over time is profiled again within two grid steps (:meth:`_polish`): with
+        fewer accelerations the likelihood in ``t_m`` has fewer competing basins, and its
+        best one can move.
+
+        Why: a turn that ends at ``t_m`` and one that ends earlier and continues as a gentle
+        turn fit nearly as well when the last leg's accelerations are free, and in the 002
+        scenario the ML change-over time picks the wrong one in ~1 run in 5 (see
+        ``docs/manoeuvres.md``)."""
+        m = fit.manoeuvres
+        if not np.isfinite(fit.chi2):
+            return fit
         pr = self.problem(m)
-        sol = _lm(pr, pr.group(pr.obs.values), np.atleast_2d(theta0),
-                  np.ones(pr.p, dtype=bool), self.s.max_iter, rtol=1e-10, atol=1e-7,
-                  prune=self.s.prune, max_reject=8, stall=1e-3)
+        y = pr.group(pr.obs.values)
+        n = pr.noise.rank
+        price = (math.log(n) if self.s.criterion == "bic"
+                 else float(chi2_dist.ppf(1.0 - self.s.alpha, 1)))
+        k0 = 6 + 2 * m
+        free = fit.free_mask().copy()
+        current, held = fit, False
+        while True:
+            best: tuple[float, int, Array, Array] | None = None
+            for i in range(4, k0):
+                if not free[i] or not _may_hold(free, i, m):
+                    continue
+                mask = free.copy()
+                mask[i] = False
+                starts = self._hold_starts(current.theta, i, m)
+                # ranking holds needs chi2 to ~0.04; a start that cannot come within the
+                # price of the current fit is dropped early
+                sol = _lm(pr, y, starts, mask, 30, rtol=0.0, atol=0.02, max_reject=8,
+                          stall=1e-2, prune=price / 2.0, best=current.chi2 / 2.0)
+                j = int(np.argmin(np.where(np.isfinite(sol.cost), sol.cost, np.inf)))
+                if best is None or 2.0 * sol.cost[j] < best[0]:
+                    best = (float(2.0 * sol.cost[j]), i, sol.theta[j], sol.nuisance[j])
+            if best is None or not best[0] - current.chi2 < price:
+                break
+            free[best[1]] = False
+            current = OrderFit(m, best[2], best[3], best[0], self.unknowns(m, free), False,
+                               current.iterations, current.starts, free=free.copy())
+            held = True
+        if not held:
+            return fit
+        out = self.fit_from(m, current.theta[None], free)
+        out.iterations += fit.iterations
+        if self.s.polish_rounds and m:
+            out = self._polish(out, reach=2.0 * self.s.grid_step)
+        out.profile_times, out.profile_chi2 = fit.profile_times, fit.profile_chi2
+        return out
+
+    def _hold_starts(self, theta: Array, i: int, m: int) -> Array:
+        """Starts for a fit with acceleration ``i`` held at zero: ``theta`` with it zeroed,
+        and with each change-over time bounding its segment moved by one grid step either
+        way (kept in order and inside the data span)."""
+        base = theta.copy()
+        base[i] = 0.0
+        out = [base]
+        seg = (i - 4) // 2
+        k0 = 6 + 2 * m
+        for k in (seg - 1, seg):  # change-over times t_seg (index seg - 1) and t_{seg+1}
+            if not 0 <= k < m:
+                continue
+            lo = theta[k0 + k - 1] if k else self.t0
+            hi = theta[k0 + k + 1] if k + 1 < m else self.t_end
+            for d in (-1.0, 1.0):
+                t = theta[k0 + k] + d * self.s.grid_step
+                if lo + self.s.min_segment / 2 < t < hi - self.s.min_segment / 2:
+                    q = base.copy()
+                    q[k0 + k] = t
+                    out.append(q)
+        return np.array(out)
+
+    def fit_from(self, m: int, theta0: Array, free: NDArray[np.bool_] | None = None
+                 ) -> OrderFit:
+        """Every parameter (or those in ``free``, the others held) fitted from the starts
+        ``theta0`` ``(B, p)``; the lowest cost wins, settled at a corner of the likelihood if
+        it ends on one (:meth:`_settle`)."""
+        pr = self.problem(m)
+        mask = np.ones(pr.p, dtype=bool) if free is None else free
+        sol = _lm(pr, pr.group(pr.obs.values), np.atleast_2d(theta0), mask,
+                  self.s.max_iter, rtol=1e-10, atol=1e-7, prune=self.s.prune, max_reject=8,
+                  stall=1e-3)
         c = np.where(np.isfinite(sol.cost), sol.cost, np.inf)
         i = int(np.argmin(c))
-        fit = OrderFit(m, sol.theta[i], sol.nuisance[i], float(2 * c[i]), self.unknowns(m),
-                       bool(sol.converged[i]), int(sol.iterations[i]), int(sol.theta.shape[0]))
+        fit = OrderFit(m, sol.theta[i], sol.nuisance[i], float(2 * c[i]),
+                       self.unknowns(m, free), bool(sol.converged[i]), int(sol.iterations[i]),
+                       int(sol.theta.shape[0]), free=None if free is None else free.copy())
         if not fit.converged and m and np.isfinite(fit.chi2):
             self._settle(fit)
         return fit
@@ -583,7 +700,7 @@ class _Search:
         pr = self.problem(m)
         k0 = 6 + 2 * m
         y = pr.group(pr.obs.values)
-        held_free = np.ones(pr.p, dtype=bool)
+        held_free = fit.free_mask().copy()
         held_free[k0:] = False
         samples = np.unique(self.meas.time)
         for _ in range(rounds):
@@ -612,7 +729,7 @@ class _Search:
                             f"lowers it by less than {tol:g}")
                 return
             i = int(np.argmin(ps.cost))
-            sol = _lm(pr, y, ps.theta[i][None], np.ones(pr.p, dtype=bool), self.s.max_iter,
+            sol = _lm(pr, y, ps.theta[i][None], fit.free_mask(), self.s.max_iter,
                       rtol=1e-10, atol=1e-7, max_reject=8, stall=1e-3)
             better = sol.cost[0] <= ps.cost[i]
             fit.theta = sol.theta[0] if better else ps.theta[i]
@@ -640,7 +757,9 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
         if i > 0 and fits[i - 1].manoeuvres == f.manoeuvres - 1:
             lr = max(fits[i - 1].chi2 - f.chi2, 0.0)
             dof = f.unknowns - fits[i - 1].unknowns
-            pv = float(chi2_dist.sf(lr, dof))
+            # with accelerations selected, a manoeuvre can come with fewer unknowns than the
+            # order below holds: any chi2 drop then favours it outright
+            pv = float(chi2_dist.sf(lr, dof)) if dof > 0 else (0.0 if lr > 0 else 1.0)
         orders.append({"manoeuvres": f.manoeuvres, "chi2": f.chi2, "unknowns": f.unknowns,
                        "bic": f.chi2 + f.unknowns * math.log(n), "lr_statistic": lr,
                        "p_value": pv, "converged": f.converged})
@@ -697,16 +816,26 @@ def _report(search: _Search, fit: OrderFit, ref_time: float, selection: OrderSel
                                          "defined (non-finite predictions)", **common)
     obs = ObservationModel(search.meas, motion, search.options)
     j_theta, j_nu = obs.jacobian_grouped(theta, fit.nuisance)
+    free = fit.free_mask()
+    held = [n for n, f in zip(motion.param_names, free, strict=True) if not f]
+    # the information of the fitted parameters only: a held acceleration is no unknown
+    fitted = FixedParameters(motion, dict.fromkeys(held, 0.0)) if held else motion
+    j_theta = j_theta[:, free]
     jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
     w = pr.noise.whiten(jac, axis=-2)
     info = w.T @ w
-    names = motion.param_names + (() if known else names_nu)
-    values = theta if known else np.concatenate([theta, fit.nuisance])
-    bound = bound_from_information(info, names, values, search.meas, motion, known,
+    names = fitted.param_names + (() if known else names_nu)
+    values = theta[free] if known else np.concatenate([theta[free], fit.nuisance])
+    bound = bound_from_information(info, names, values, search.meas, fitted, known,
                                    dict(zip(names_nu, fit.nuisance, strict=True)))
-    p = motion.n_params
-    nuis = {k: (float(fit.nuisance[i]), 0.0 if known else float(bound.std[p + i]))
+    q = fitted.n_params
+    nuis = {k: (float(fit.nuisance[i]), 0.0 if known else float(bound.std[q + i]))
             for i, k in enumerate(names_nu)}
+    p = motion.n_params
+    std = np.zeros(p)
+    std[free] = bound.std[:q]
+    cov = np.zeros((p, p))
+    cov[np.ix_(free, free)] = bound.covariance[:q, :q]
     status = CONVERGED if fit.converged else NOT_CONVERGED
     message = ""
     if not bound.observability.full_rank:
@@ -717,16 +846,26 @@ def _report(search: _Search, fit: OrderFit, ref_time: float, selection: OrderSel
         message = "the iteration limit was reached before the convergence tests were met"
     if fit.note:
         message = f"{message}; {fit.note}" if message else fit.note
+    if held:
+        note = (f"held at zero as the data do not need them ({fit_criterion(search.s)}): "
+                f"{', '.join(held)}")
+        message = f"{message}; {note}" if message else note
     final = bound.derived(search.t_end)
-    return ManoeuvreEstimate(motion.param_names, theta, bound.std[:p],
-                             bound.covariance[:p, :p], nuis, status, chi2=fit.chi2,
-                             dof=n - len(names), bound=bound, message=message, final=final,
-                             **common)
+    return ManoeuvreEstimate(motion.param_names, theta, std, cov, nuis, status,
+                             chi2=fit.chi2, dof=n - len(names), bound=bound, message=message,
+                             final=final, held=held, **common)
+
+
+def fit_criterion(s: ManoeuvreSettings) -> str:
+    """The rule that holds an acceleration at zero, in words."""
+    return ("BIC: holding one raised chi2 by less than ln N" if s.criterion == "bic" else
+            f"holding one raised chi2 by less than the chi-square(1) quantile "
+            f"{1 - s.alpha:g}")
 
 
 def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
                         exact: bool = False, criterion: str = "bic", alpha: float = 0.01,
-                        ref_time: float | None = None,
+                        accelerations: str | None = None, ref_time: float | None = None,
                         init: Mapping[str, float] | ArrayLike | None = None,
                         options: Mapping[str, Mapping[str, object]] | None = None,
                         known_nuisance: Mapping[str, float] | None = None,
@@ -735,6 +874,9 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
     manoeuvres (or exactly ``max_manoeuvres`` with ``exact=True``), no initial guess needed.
 
     ``criterion`` (``"bic"`` or ``"lrt"``) and ``alpha`` choose the order (module docstring).
+    ``accelerations``: ``"select"`` holds at zero the acceleration components the data do
+    not need, by the same criterion, ``"all"`` fits them all (default: ``settings``', which
+    is ``"select"``); held ones are listed in the result's ``held``.
     ``ref_time`` (s) references the reported position, speed and course (default: the first
     measurement time).  ``init`` (by name or as a vector of ``curvilinear:max_manoeuvres``
     parameters referenced at ``ref_time``) fits exactly that order from that start, no search;
@@ -746,7 +888,7 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
 
     base = settings or ManoeuvreSettings()
     s = replace(base, max_manoeuvres=max_manoeuvres, exact=exact, criterion=criterion,
-                alpha=alpha)
+                alpha=alpha, accelerations=accelerations or base.accelerations)
     if len(meas) == 0:
         raise ValueError("the measurement set is empty")
     search = _Search(meas, options, known_nuisance, s)
@@ -769,6 +911,8 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
         internal[:4] = (state[0], state[1], math.hypot(state[3], state[4]),
                         math.atan2(state[3], state[4]))
         fit = search.fit_from(m, internal)
+        if s.accelerations == "select":
+            fit = search.sparsify(fit)
         return _report(search, fit, ref, None, [fit])
     top = search.max_order()
     note = ""
@@ -777,9 +921,13 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
                 f"manoeuvres {s.min_segment:g} s apart on a {s.grid_step:g} s grid")
         if s.exact:
             raise ValueError(note)
-    fits = [search.fit_zero()]
+    full = [search.fit_zero()]  # every acceleration fitted: the warm starts of the search
     for m in range(1, top + 1):
-        fits.append(search.fit(m, fits[-1]))
+        full.append(search.fit(m, full[-1]))
+    fits = list(full)
+    if s.accelerations == "select":
+        for i in (range(len(full)) if not s.exact else [len(full) - 1]):
+            fits[i] = search.sparsify(full[i])
     if s.exact:
         chosen = fits[-1]
         selection = None
@@ -844,5 +992,5 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
                                known_nuisance=known_nuisance, settings=settings, **kw)
 
 
-__all__ = ["CRITERIA", "ManoeuvreEstimate", "ManoeuvreSettings", "OrderFit", "OrderSelection",
-           "estimate_for", "estimate_manoeuvres", "parse_motion", "select_order"]
+__all__ = ["ACCELERATIONS", "CRITERIA", "ManoeuvreEstimate", "ManoeuvreSettings", "OrderFit",
+           "OrderSelection", "estimate_for", "estimate_manoeuvres", "parse_motion", "select_order"]
