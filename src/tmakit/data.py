@@ -61,7 +61,7 @@ class MeasurementSet:
             if getattr(self, name).shape != (n,):
                 raise ValueError(f"column {name!r} has {getattr(self, name).shape[0]} rows, "
                                  f"time has {n}")
-        unknown = sorted(set(self.kind) - set(KINDS))
+        unknown = sorted(set(self.kind.tolist()) - set(KINDS))
         if unknown:
             raise ValueError(f"unknown measurement kind(s) {', '.join(unknown)}; expected "
                              f"{', '.join(KINDS)}")
@@ -74,7 +74,7 @@ class MeasurementSet:
     @property
     def kinds(self) -> list[str]:
         """Kinds present, in the order of :data:`tmakit.measurements.KINDS`."""
-        present = set(self.kind)
+        present = set(self.kind.tolist())  # Python strings: far faster than numpy's
         return [k for k in KINDS if k in present]
 
     @property
@@ -94,10 +94,17 @@ class MeasurementSet:
     def take(self, index: ArrayLike) -> MeasurementSet:
         """The rows at ``index`` (integer indices or a boolean mask), metadata kept."""
         idx = np.asarray(index)
-        return MeasurementSet(self.time[idx], self.sensor[idx], self.kind[idx],
-                              self.value[idx], self.sigma[idx], self.sensor_state[idx],
-                              self.time_ref[idx], self.ref_sensor_state[idx],
-                              dict(self.metadata))
+        if idx.ndim != 1:
+            raise ValueError(f"index must be 1-D (row indices or a boolean mask); got shape "
+                             f"{idx.shape}")
+        # Rows of a checked set need no conversion or check: built without __post_init__
+        # (solvers take subsets on every call).
+        out = object.__new__(MeasurementSet)
+        out.time, out.sensor, out.kind = self.time[idx], self.sensor[idx], self.kind[idx]
+        out.value, out.sigma = self.value[idx], self.sigma[idx]
+        out.sensor_state, out.time_ref = self.sensor_state[idx], self.time_ref[idx]
+        out.ref_sensor_state, out.metadata = self.ref_sensor_state[idx], dict(self.metadata)
+        return out
 
     def select(self, kind: str | None = None, sensor: str | None = None) -> MeasurementSet:
         """Rows of one kind and/or one sensor."""
@@ -135,25 +142,34 @@ class MeasurementSet:
         return self.take(np.lexsort((self.time, rank)))
 
     # -- SI views ------------------------------------------------------------------------
-    def _per_kind(self, attr: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def _per_kind(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Per row, the scale and offset from the file unit of its kind to SI."""
         scale = np.ones(len(self))
         offset = np.zeros(len(self))
         for k in self.kinds:
+            model = KINDS[k]
+            if model.file_scale == 1.0 and model.file_offset == 0.0:
+                continue  # already SI (the arrays' initial values)
             sel = self.kind == k
-            scale[sel] = KINDS[k].file_scale
-            offset[sel] = KINDS[k].file_offset
+            scale[sel] = model.file_scale
+            offset[sel] = model.file_offset
         return scale, offset
+
+    def si(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(value_si, sigma_si)`` in one pass over the kinds."""
+        scale, offset = self._per_kind()
+        return self.value * scale + offset, self.sigma * scale
 
     @property
     def value_si(self) -> NDArray[np.float64]:
         """Values in SI (radians, rad/s, m, m/s, Hz, dBW)."""
-        scale, offset = self._per_kind("value")
+        scale, offset = self._per_kind()
         return self.value * scale + offset
 
     @property
     def sigma_si(self) -> NDArray[np.float64]:
         """Noise standard deviations in SI (dB for power)."""
-        scale, _ = self._per_kind("sigma")
+        scale, _ = self._per_kind()
         return self.sigma * scale
 
     def equals(self, other: MeasurementSet) -> bool:

@@ -75,8 +75,7 @@ class ObservationModel:
             if m.is_angle:
                 self.angle_mask_grouped[self.slices[k]] = True
         self.angle_mask = self.angle_mask_grouped[self.inverse]
-        self.values = meas.value_si
-        self.sigmas = meas.sigma_si
+        self.values, self.sigmas = meas.si()
         self.values_grouped = self.values[self.order]
         self.sigmas_grouped = self.sigmas[self.order]
         # Affine motion models: relative states by one matrix product (see _states_minus).
@@ -87,6 +86,49 @@ class ObservationModel:
         # Per kind, what a linearisation needs: (kind, model, rows, nuisance columns, times).
         self._parts = [(k, m, self.slices[k], self.nuisance_slices[k], g.time[self.slices[k]])
                        for k, m in self.models.items()]
+
+    def take(self, index: ArrayLike) -> ObservationModel:
+        """The model of the rows ``index`` of the set (integer indices or a boolean mask, as
+        :meth:`MeasurementSet.take`): equal to ``ObservationModel(meas.take(index), motion,
+        options)``, but its per-row arrays are this model's rows instead of being computed
+        again (the grid initialisation subsamples the set on every solve)."""
+        idx = np.asarray(index)
+        idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
+        meas = self.meas.take(idx)
+        code = np.empty(len(self.meas), dtype=np.intp)  # each row's kind, in model order
+        for i, rows in enumerate(self.rows.values()):
+            code[rows] = i
+        counts = np.bincount(code[idx], minlength=len(self.models))
+        if not counts.all():  # a kind is left out, and its nuisance parameters with it
+            return ObservationModel(meas, self.motion, self.options)
+        order = np.argsort(code[idx], kind="stable")  # grouped by kind, set order within
+        pick = self.inverse[idx[order]]  # this model's grouped rows, in the new grouped order
+        sub = object.__new__(ObservationModel)
+        sub.options = {k: dict(v) for k, v in self.options.items()}
+        sub.meas, sub.motion, sub.models = meas, self.motion, self.models
+        ends = np.cumsum(counts)
+        sub.slices = {k: slice(int(e - c), int(e))
+                      for k, c, e in zip(self.models, counts, ends, strict=True)}
+        sub.rows = {k: order[sl] for k, sl in sub.slices.items()}
+        sub.nuisance_slices = dict(self.nuisance_slices)
+        sub.nuisance_names = self.nuisance_names
+        sub.order, sub.inverse = order, np.argsort(order)
+        grouped_already = np.array_equal(order, np.arange(order.size))
+        sub.grouped = meas if grouped_already else meas.take(order)
+        sub._time, sub._sensor = sub.grouped.time, sub.grouped.sensor_state
+        sub._ref = sub.slices.get("range_difference")
+        sub.has_reference = sub._ref is not None
+        sub.angle_mask_grouped = self.angle_mask_grouped[pick]
+        sub.angle_mask = sub.angle_mask_grouped[sub.inverse]
+        sub.values, sub.sigmas = self.values[idx], self.sigmas[idx]
+        sub.values_grouped, sub.sigmas_grouped = sub.values[order], sub.sigmas[order]
+        sub._rel_map = _take_map(self._rel_map, pick)
+        sub._rel_map_ref = (None if sub._ref is None
+                            else _take_map(self._rel_map_ref, pick[sub._ref] - self._ref.start))
+        sub._const_design = None if self._const_design is None else self._const_design[pick]
+        sub._parts = [(k, m, sub.slices[k], sub.nuisance_slices[k], sub._time[sub.slices[k]])
+                      for k, m in sub.models.items()]
+        return sub
 
     @property
     def n_nuisance(self) -> int:
@@ -265,6 +307,17 @@ class ObservationModel:
         """measured - predicted (SI), angles wrapped to (-pi, pi]."""
         res = self.values - self.predict(theta, nuisance)
         return np.where(self.angle_mask, wrap_angle(res), res)
+
+
+def _take_map(rel_map: tuple[Array, Array] | None, rows: NDArray[np.intp]
+              ) -> tuple[Array, Array] | None:
+    """The relative-state map (see :meth:`ObservationModel._relative_map`) of ``rows``."""
+    if rel_map is None:
+        return None
+    matrix, offset = rel_map
+    p, m = matrix.shape[0], offset.size // 6
+    return (matrix.reshape(p, 6, m)[:, :, rows].reshape(p, 6 * rows.size),
+            offset.reshape(6, m)[:, rows].reshape(6 * rows.size))
 
 
 class Linearisation:

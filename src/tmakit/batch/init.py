@@ -13,6 +13,7 @@ no elevation data, z and its mirror fit equally).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,7 +54,7 @@ def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
     """Candidate positions ``(m, 3)``: rays (from each bearing sensor along its bearing
     nearest ``t_mid``, or a fan around the sensors) x elevations x ranges, in that order."""
     meas = problem.obs.meas
-    ranges = np.geomspace(g.min_range, g.max_range, g.n_ranges)
+    ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
     bearing_rows = np.flatnonzero(meas.kind == "bearing")
     if bearing_rows.size:
         ends = []
@@ -61,14 +62,10 @@ def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
             rows = bearing_rows[meas.sensor[bearing_rows] == s]
             ends.append(rows[np.argmin(np.abs(meas.time[rows] - t_mid))])
         origins = meas.sensor_state[ends, :3]
-        bearings = meas.value_si[ends]
+        dirs = _directions(meas.value_si[ends], _elevations(dim, tuple(g.elevations_deg)))
     else:
-        bearings = np.linspace(0.0, 2 * np.pi, g.n_bearings, endpoint=False)
-        origins = np.broadcast_to(_reference_point(problem, t_mid), (bearings.size, 3))
-    elev = np.radians(g.elevations_deg) if dim == 3 else np.zeros(1)
-    b, e = bearings[:, None], elev[None, :]
-    dirs = np.stack(np.broadcast_arrays(np.cos(e) * np.sin(b), np.cos(e) * np.cos(b),
-                                        np.sin(e)), axis=-1)  # (rays, elevations, 3)
+        dirs = _fan(g.n_bearings, dim, tuple(g.elevations_deg))
+        origins = np.broadcast_to(_reference_point(problem, t_mid), (dirs.shape[0], 3))
     pts = (origins[:, None, None, :]
            + ranges[None, None, :, None] * dirs[:, :, None, :]).reshape(-1, 3)
     if dim == 2:
@@ -76,13 +73,48 @@ def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
     return pts
 
 
-def _velocities(dim: int, g: GridSettings) -> NDArray[np.float64]:
-    """Candidate velocities ``(m, 3)``: at rest, then each positive speed in every course."""
-    speeds = np.array([v for v in g.speeds if v > 0], dtype=float)
-    courses = np.linspace(0.0, 2 * np.pi, g.n_courses, endpoint=False)
+def _elevations(dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
+    """Candidate elevation angles (rad): the given ones in 3-D, 0 in 2-D."""
+    return np.radians(elevations_deg) if dim == 3 else np.zeros(1)
+
+
+def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
+                ) -> NDArray[np.float64]:
+    """Unit vectors ``(rays, elevations, 3)`` at each bearing and elevation (rad)."""
+    b, e = bearings[:, None], elev[None, :]
+    return np.stack(np.broadcast_arrays(np.cos(e) * np.sin(b), np.cos(e) * np.cos(b),
+                                        np.sin(e)), axis=-1)
+
+
+@lru_cache(maxsize=16)
+def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
+    """:func:`_directions` of ``n_bearings`` evenly spaced bearings (read-only, made once per
+    settings)."""
+    dirs = _directions(np.linspace(0.0, 2 * np.pi, n_bearings, endpoint=False),
+                       _elevations(dim, elevations_deg))
+    dirs.flags.writeable = False
+    return dirs
+
+
+@lru_cache(maxsize=16)
+def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.float64]:
+    """Candidate ranges (m), geometrically spaced; read-only, made once per settings."""
+    ranges = np.geomspace(min_range, max_range, n_ranges)
+    ranges.flags.writeable = False
+    return ranges
+
+
+@lru_cache(maxsize=16)
+def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
+    """Candidate velocities ``(m, 3)`` (m/s): at rest, then each positive speed in every
+    course (read-only, made once per settings)."""
+    speeds = np.array([v for v in speeds if v > 0], dtype=float)
+    courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
     moving = np.stack(np.broadcast_arrays(speeds[:, None] * np.sin(courses),
                                           speeds[:, None] * np.cos(courses), 0.0), axis=-1)
-    return np.concatenate([np.zeros((1, 3)), moving.reshape(-1, 3)])
+    vel = np.concatenate([np.zeros((1, 3)), moving.reshape(-1, 3)])
+    vel.flags.writeable = False
+    return vel
 
 
 def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
@@ -94,19 +126,19 @@ def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
     t_mid = float(np.median(meas.time))
     pos = _positions(problem, t_mid, motion.dim, g)
     moving = "vx" in motion.param_names or "speed" in motion.param_names
-    vel = _velocities(motion.dim, g) if moving else np.zeros((1, 3))
-    states = np.zeros((pos.shape[0], vel.shape[0], 6))
-    states[..., :3] = pos[:, None, :]
-    states[..., 3:] = vel[None, :, :]
-    return motion.from_state(states.reshape(-1, 6), t_mid)
+    vel = _velocities(tuple(g.speeds), g.n_courses) if moving else np.zeros((1, 3))
+    # Component-major (each component of every state contiguous): the conversion then runs
+    # along long rows instead of across rows of 6.
+    states = np.empty((6, pos.shape[0], vel.shape[0]))
+    states[:3] = pos.T[:, :, None]
+    states[3:] = vel.T[:, None, :]
+    return motion.from_state(states.reshape(6, -1).T, t_mid)
 
 
 def _subsample(problem: VarProProblem, max_rows: int
                ) -> tuple[VarProProblem, NDArray[np.int64]]:
     """A problem on an evenly spread subset of rows per kind (the grid needs no more) and
     the indices of the rows kept."""
-    from ..observation import ObservationModel
-
     meas = problem.obs.meas
     every = np.arange(len(meas))
     if len(meas) <= max_rows or problem.noise.correlated:
@@ -114,125 +146,177 @@ def _subsample(problem: VarProProblem, max_rows: int
     keep = []
     for rows in problem.obs.rows.values():
         take = max(2, round(max_rows * rows.size / len(meas)))
-        keep.append(rows[np.unique(np.linspace(0, rows.size - 1, take).round().astype(int))])
+        keep.append(rows[_evenly_spread(rows.size, take)])
     idx = np.sort(np.concatenate(keep))
-    sub = meas.take(idx)
-    obs = ObservationModel(sub, problem.obs.motion, problem.obs.options)
-    return VarProProblem(obs, None, problem.fixed), idx
+    return problem.take(idx), idx
+
+
+@lru_cache(maxsize=64)
+def _evenly_spread(size: int, take: int) -> NDArray[np.int64]:
+    """About ``take`` evenly spread indices into ``size`` rows, first and last included
+    (read-only, made once per pair)."""
+    idx = np.unique(np.linspace(0, size - 1, take).round().astype(int))
+    idx.flags.writeable = False
+    return idx
 
 
 GEOMETRY_FREE = 1e-4
-"""A nuisance column whose geometry-dependent part varies over the candidates by less than this
-fraction of its size is taken as the same for every candidate (the carrier's, whose Doppler
-factor ``1 - rdot/c`` differs from 1 by about 1e-6): the projection is then shared."""
+"""A nuisance column whose geometry-dependent part varies over the candidates (of a block of
+:class:`GridScorer`) by less than this fraction of its size is taken as the same for every
+candidate (the carrier's, whose Doppler factor ``1 - rdot/c`` differs from 1 by about 1e-6):
+the projection is then shared."""
 
 
 class GridScorer:
     """Reduced cost of a fixed set of candidate trajectories for many data sets at once.
 
-    The predictions of the candidates do not depend on the data, so they are computed once;
-    each data set then costs a few matrix products.  With ``u`` the whitened data and ``g``
-    the whitened predictions about a reference nuisance ``nu*`` and ``Q`` an orthonormal basis
-    of the whitened nuisance design of a candidate, the projected cost is
-    ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2``; when the design is the same for every
-    candidate (see :data:`GEOMETRY_FREE`) ``u`` and ``g`` are projected once and the last term
-    drops.  Angle rows (which carry no nuisance) use the chord form
-    ``w^2 (1 - cos(y - h))``: equal to the squared residual for small residuals, free of
-    wrapping, and bilinear in (cos y, sin y).
+    With ``u`` the whitened data and ``g`` the whitened predictions about a reference nuisance
+    ``nu*`` and ``Q`` an orthonormal basis of the whitened nuisance design of a candidate, the
+    projected cost is ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2``; where the design is the
+    same for every candidate of a block (see :data:`GEOMETRY_FREE`) ``u`` and ``g`` are
+    projected on one shared basis (:attr:`shared`) and the last term drops.  Angle rows (which
+    carry no nuisance) use the chord form ``w^2 (1 - cos(y - h))``: equal to the squared
+    residual for small residuals, free of wrapping, and bilinear in (cos y, sin y).
+
+    The candidates are predicted and scored block by block (:data:`CANDIDATE_ROWS`), every
+    data set at once: no array ever holds the predictions of every candidate.
     """
 
     def __init__(self, problem: VarProProblem, candidates: NDArray[np.float64]) -> None:
         self.problem = problem
         self.candidates = candidates
-        obs = problem.obs
-        h0, a_var = _predictions(obs, candidates)
-        self.bad = ~(np.isfinite(h0).all(axis=1) & np.isfinite(a_var).all(axis=(1, 2)))
-        if self.bad.any():  # no prediction: infinite cost; any finite values do meanwhile
-            h0[self.bad] = 0.0
-            a_var[self.bad] = a_var[np.argmin(self.bad)] if not self.bad.all() else 0.0
         self.angle = problem.angle
         self.a_const = problem.const_design  # geometry-free: one copy
-        self.h0, self.a_var = h0, a_var
         self.weight2 = problem.noise.inv_sigma[self.angle] ** 2
-        self.shared = None  # (n, k) basis shared by every candidate
-        self.basis = None   # (C, n, k) basis per candidate
+        step = _block_size(len(problem.obs.meas))
+        self.blocks = [slice(lo, lo + step) for lo in range(0, candidates.shape[0], step)]
+        self._made: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        self.ref = self._reference_design()
+        # A block's design is the reference's when within this of it (see _same_design).
+        self.tolerance = GEOMETRY_FREE * np.max(np.abs(self.a_const + self.ref), axis=0)
+        self.shared = None  # (n, k) basis shared by the candidates of same-design blocks
         if problem.eliminates:
-            ref = a_var[0]
-            aw = problem.const_design_w + problem.noise.whiten(
-                ref if _same_design(a_var, ref, self.a_const) else a_var, axis=-2)
-            aw[..., self.angle, :] = 0.0
-            if aw.ndim == 2:
-                self.shared = orthonormal_columns(aw[None])[0]
-            else:
-                self.basis = orthonormal_columns(aw)
+            aw = problem.const_design_w + problem.noise.whiten(self.ref, axis=-2)
+            aw[self.angle, :] = 0.0
+            self.shared = orthonormal_columns(aw[None])[0]
+
+    def _predict(self, i: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``h0`` ``(c, n)`` and ``A_var`` ``(c, n, k)`` of the candidates of block ``i``
+        (those made by :meth:`_reference_design` are handed over once)."""
+        if i in self._made:
+            return self._made.pop(i)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            lin = self.problem.obs.linearisation(self.candidates[self.blocks[i]],
+                                                 derivatives=False)
+        return lin.h0, lin.a_var
+
+    def _reference_design(self) -> NDArray[np.float64]:
+        """``A_var`` ``(n, k)`` of the first candidate with finite predictions (zero if none):
+        the design the shared basis is made from."""
+        for i in range(len(self.blocks)):
+            h0, a_var = self._made[i] = self._predict(i)
+            good = np.flatnonzero(~_bad(h0, a_var))
+            if good.size:
+                return a_var[good[0]].copy()
+        return np.zeros((len(self.problem.obs.meas), self.problem.k))
 
     def _reference(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
         """A nuisance value near the data's (least squares on the geometry-free design of the
         median data set), about which residuals are formed without cancellation."""
-        return self.problem.reference_nuisance(np.median(y, axis=0))[0]
+        # (the median of one data set is that data set)
+        return self.problem.reference_nuisance(y[0] if y.shape[0] == 1
+                                               else np.median(y, axis=0))[0]
 
     def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Costs ``(B, C)`` for grouped data ``y`` ``(B, n)``."""
         y = np.atleast_2d(np.asarray(y, dtype=float))
-        noise, angle = self.problem.noise, self.angle
         star = self._reference(y)
-        u = noise.whiten(y - self.a_const @ star)
-        g = self.h0.copy(order="K")
-        for j in np.flatnonzero(star):  # the design one column at a time (k is small)
-            g += self.a_var[..., j] * star[j]
-        g = noise.whiten(g)
-        u[:, angle] = 0.0
-        g[:, angle] = 0.0
+        u = self.problem.noise.whiten(y - self.a_const @ star)
+        u[:, self.angle] = 0.0
+        data = {False: (u, 0.5 * np.einsum("bn,bn->b", u, u)[:, None])}
         if self.shared is not None:
-            u -= (u @ self.shared) @ self.shared.T
+            up = u - (u @ self.shared) @ self.shared.T
+            data[True] = (up, 0.5 * np.einsum("bn,bn->b", up, up)[:, None])
+        cost = np.empty((y.shape[0], self.candidates.shape[0]))
+        for i, block in enumerate(self.blocks):
+            cost[:, block] = self._score_block(i, y, star, data)
+        return np.where(np.isfinite(cost), cost, np.inf)
+
+    def _score_block(self, i: int, y: NDArray[np.float64], star: NDArray[np.float64],
+                     data: dict[bool, tuple[NDArray[np.float64], NDArray[np.float64]]]
+                     ) -> NDArray[np.float64]:
+        """Costs ``(B, c)`` of the candidates of block ``i``; ``data`` holds the whitened data
+        (and half its squared norm), unprojected (False) and projected on :attr:`shared`
+        (True)."""
+        noise, angle = self.problem.noise, self.angle
+        h0, a_var = self._predict(i)
+        bad = _bad(h0, a_var)
+        if bad.any():  # no prediction: infinite cost; any finite values do meanwhile
+            h0[bad] = 0.0
+            a_var[bad] = self.ref
+        g = h0.copy(order="K")
+        for j in np.flatnonzero(star):  # the design one column at a time (k is small)
+            g += a_var[..., j] * star[j]
+        g = noise.whiten(g)
+        g[:, angle] = 0.0
+        shared = self.shared is not None and _same_design(a_var, self.ref, self.tolerance)
+        if shared:
             g -= matmul(matmul(g, self.shared), self.shared.T)
+        u, half_uu = data[shared]
         cost = matmul(g, -u.T).T
         cost += 0.5 * np.einsum("cn,cn->c", g, g)[None, :]
-        cost += 0.5 * np.einsum("bn,bn->b", u, u)[:, None]
-        if self.basis is not None:
-            c, n, k = self.basis.shape
-            qu = matmul(self.basis.transpose(0, 2, 1).reshape(c * k, n),
+        cost += half_uu
+        if self.problem.eliminates and not shared:  # a basis per candidate
+            aw = self.problem.const_design_w + noise.whiten(a_var, axis=-2)
+            aw[..., angle, :] = 0.0
+            basis = orthonormal_columns(aw)
+            c, n, k = basis.shape
+            qu = matmul(basis.transpose(0, 2, 1).reshape(c * k, n),
                         u.T).reshape(c, k, -1).transpose(2, 0, 1)
-            qg = (g[:, None, :] @ self.basis)[:, 0, :]
+            qg = (g[:, None, :] @ basis)[:, 0, :]
             sv = qu - qg
             cost -= 0.5 * np.einsum("bck,bck->bc", sv, sv)
         if np.any(angle):
-            ya, ha = y[:, angle], self.h0[:, angle]
+            ya, ha = y[:, angle], h0[:, angle]
             w2 = self.weight2
             cost += (w2.sum() - matmul(np.cos(ha), (np.cos(ya) * w2).T).T
                      - matmul(np.sin(ha), (np.sin(ya) * w2).T).T)
-        cost[:, self.bad] = np.inf
-        return np.where(np.isfinite(cost), cost, np.inf)
+        cost[:, bad] = np.inf
+        return cost
 
 
-CANDIDATE_BLOCK = 1024
-"""Candidates predicted at a time.  Small blocks keep every temporary array small: memory the
-allocator reuses instead of fresh pages from the system, whose first touch (a page fault
-each) cost more than the arithmetic on some machines."""
+CANDIDATE_ROWS = 8000
+"""Candidates times rows predicted and scored at a time.  Small blocks keep every temporary
+array small (below ~0.5 MB): memory the allocator reuses instead of fresh pages from the
+system, whose first touch (a page fault each) cost more than the arithmetic: with twice this
+the allocator returned ~1.5 MB to the system after every gu2007 solve and faulted it back in
+the next (~300 page faults, ~1 ms)."""
 
 
-def _predictions(obs, candidates: NDArray[np.float64]
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``h0`` ``(C, n)`` and ``A_var`` ``(C, n, k)`` of every candidate, block by block."""
-    c, n, k = candidates.shape[0], len(obs.meas), obs.n_nuisance
-    h0 = np.empty((n, c)).T  # batch axis innermost, as the linearisation makes them
-    a_var = np.empty((k, n, c)).transpose(2, 1, 0)
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        for lo in range(0, c, CANDIDATE_BLOCK):
-            block = slice(lo, lo + CANDIDATE_BLOCK)
-            lin = obs.linearisation(candidates[block], derivatives=False)
-            h0[block], a_var[block] = lin.h0, lin.a_var
-    return h0, a_var
+def _block_size(n_rows: int) -> int:
+    """Candidates per block for ``n_rows`` rows: about :data:`CANDIDATE_ROWS` / ``n_rows`` but
+    at least 128 (each block costs some fixed work), kept off multiples of 512.  The
+    candidates are the innermost axis, so the rows of a block's arrays would otherwise be a
+    multiple of 4 KiB apart and share cache sets: a (48 x 4) @ (4 x 1024) product took three
+    times as long as a (48 x 4) @ (4 x 1016) one."""
+    step = max(128, CANDIDATE_ROWS // max(1, n_rows))
+    if step >= 512 and abs(step - 512 * round(step / 512)) <= 8:
+        step -= 16
+    return step
+
+
+def _bad(h0: NDArray[np.float64], a_var: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """The candidates ``(c,)`` without finite predictions or design."""
+    return ~(np.isfinite(h0).all(axis=1) & np.isfinite(a_var).all(axis=(1, 2)))
 
 
 def _same_design(a_var: NDArray[np.float64], ref: NDArray[np.float64],
-                 a_const: NDArray[np.float64]) -> bool:
-    """Whether every candidate's design ``a_const + a_var`` ``(C, n, k)`` is ``a_const + ref``
-    to :data:`GEOMETRY_FREE` of each column's size."""
-    size = np.max(np.abs(a_const + ref), axis=0)
+                 tolerance: NDArray[np.float64]) -> bool:
+    """Whether every candidate's design ``A_const + a_var`` ``(C, n, k)`` is ``A_const + ref``
+    to ``tolerance`` per column (:data:`GEOMETRY_FREE` of the column's size)."""
     # reductions over the leading axis first: elementwise and fast
     spread = np.maximum(a_var.max(axis=0) - ref, ref - a_var.min(axis=0)).max(axis=0)
-    return bool(np.all(spread <= GEOMETRY_FREE * size))
+    return bool(np.all(spread <= tolerance))
 
 
 def orthonormal_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -64,8 +64,12 @@ class VarProProblem:
     def __init__(self, obs: ObservationModel, noise: NoiseModel | None = None,
                  fixed_nuisance: Array | None = None) -> None:
         self.obs = obs
-        # Rows are handled grouped by kind (contiguous slices); see ObservationModel.
-        self.noise = noise or NoiseModel(obs.grouped)
+        # Rows are handled grouped by kind (contiguous slices); see ObservationModel.  Only
+        # range differences can be correlated: without them the rows' sigmas are the model.
+        if noise is None:
+            noise = (NoiseModel(obs.grouped) if "range_difference" in obs.models
+                     else NoiseModel.independent(obs.sigmas_grouped))
+        self.noise = noise
         self.k = obs.n_nuisance
         self.p = obs.motion.n_params
         self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
@@ -80,6 +84,14 @@ class VarProProblem:
         # One nuisance column per kind at most: the columns touch disjoint rows (whitening
         # mixes rows of one kind only), so they are orthogonal and need no Gram inverse.
         self._orthogonal = all(ns.stop - ns.start <= 1 for ns in obs.nuisance_slices.values())
+
+    def take(self, index: NDArray[np.int64] | NDArray[np.bool_]) -> VarProProblem:
+        """The same problem on the rows ``index`` of the set (see
+        :meth:`ObservationModel.take`), its noise model made for those rows."""
+        obs = self.obs.take(index)
+        # Rows of independent rows are independent: no need to look for correlated blocks.
+        noise = None if self.noise.correlated else NoiseModel.independent(obs.sigmas_grouped)
+        return VarProProblem(obs, noise, self.fixed)
 
     def group(self, y: Array) -> Array:
         """Data in the set's row order -> the grouped order the solver works in."""
@@ -98,16 +110,16 @@ class VarProProblem:
             return np.zeros((b, 0))
         if self._reference_fit is None:  # least squares on the rows the design touches
             design = self.const_design
-            rows = ~self.angle & np.any(design != 0, axis=1)
-            cols = np.any(design[rows] != 0, axis=0)
-            d = design[np.ix_(rows, cols)]
+            rows = ~self.angle & (design != 0).any(axis=1)
+            cols = (design[rows] != 0).any(axis=0)
+            d = design[rows][:, cols]
             size = np.abs(d).max(axis=0) if d.size else np.ones(d.shape[1])
             d = d / size  # columns of unit size: the normal equations are well conditioned
             fit = (np.linalg.solve(d.T @ d, d.T).T if d.size else d) / size
             self._reference_fit = (rows, cols, fit)
         rows, cols, fit = self._reference_fit
         out = np.zeros((b, self.k))
-        if np.any(rows) and np.any(cols):
+        if rows.any() and cols.any():
             out[:, cols] = y[:, rows] @ fit
         return out
 

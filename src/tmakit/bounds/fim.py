@@ -41,9 +41,13 @@ def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike
 
 def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
     """Inverse of the information on its observable subspace (Moore–Penrose, computed in
-    normalised coordinates)."""
-    norm, scale = normalise(info)
-    evals, evecs = np.linalg.eigh(norm)
+    normalised coordinates).  ``obsv`` is the :func:`~tmakit.bounds.observability.analyse`
+    of ``info``, whose eigen-decomposition is reused."""
+    if obsv.decomposition is None:
+        norm, scale = normalise(info)
+        evals, evecs = np.linalg.eigh(norm)
+    else:
+        evals, evecs, scale = obsv.decomposition
     keep = np.argsort(evals)[::-1][: obsv.rank]
     inv = (evecs[:, keep] / evals[keep]) @ evecs[:, keep].T
     return inv * scale[:, None] * scale[None, :]
@@ -220,7 +224,7 @@ def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
     theta = values[: motion.n_params]
     obsv = analyse(info, names, meas, motion, theta)
     cov = pseudo_covariance(info, obsv)
-    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    std = np.sqrt(np.maximum(np.diag(cov), 0.0))
     std = np.where(obsv.observable, std, np.inf)
     return Bound(names, values, info, cov, std, obsv, known_nuisance,
                  dict(nuisance_values), motion, len(meas))

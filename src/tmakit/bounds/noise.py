@@ -31,7 +31,7 @@ class NoiseModel:
         self.rank = self.n
         self.log_det = float(2.0 * np.sum(np.log(sigma)))
         rd = meas.kind == "range_difference"
-        for s in np.unique(meas.sensor[rd]):
+        for s in np.unique(meas.sensor[rd]) if rd.any() else ():
             rows = np.flatnonzero(rd & (meas.sensor == s))
             cov = range_difference_covariance(meas.time[rows], meas.time_ref[rows],
                                               sigma[rows])
@@ -46,6 +46,20 @@ class NoiseModel:
             self.log_det += float(np.sum(np.log(evals[keep])) - 2.0 * np.sum(np.log(
                 sigma[rows])))
         self.correlated = bool(self.blocks)
+
+    @classmethod
+    def independent(cls, sigma: NDArray[np.float64]) -> NoiseModel:
+        """The model of independent rows with standard deviations ``sigma`` (SI): what the
+        constructor makes for a set without correlated range differences, without the set."""
+        out = object.__new__(cls)
+        sigma = np.asarray(sigma, dtype=float)
+        out.n = sigma.shape[0]
+        out.inv_sigma = 1.0 / sigma
+        out.blocks = []
+        out.rank = out.n
+        out.log_det = float(2.0 * np.sum(np.log(sigma)))
+        out.correlated = False
+        return out
 
     def whiten(self, x: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
         """``W x`` along ``axis`` (the measurement axis) of ``x``."""

@@ -47,6 +47,10 @@ class Observability:
     null_basis: NDArray[np.float64]  # (size, nullity), physical units, unit columns
     directions: list[Direction]
     observable: NDArray[np.bool_]    # per parameter
+    # The eigen-decomposition of the normalised information (ascending eigenvalues, their
+    # vectors, the normalisation D) that the rank came from, for the pseudo-inverse.
+    decomposition: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = (
+        field(default=None, repr=False, compare=False))
 
     @property
     def full_rank(self) -> bool:
@@ -144,7 +148,8 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     directions: list[Direction] = []
     if rank < size:
         directions = _describe(null_norm, scale, names, norm, top, meas, motion, theta)
-    return Observability(rank, size, condition, null_phys, directions, observable)
+    return Observability(rank, size, condition, null_phys, directions, observable,
+                         (evals, evecs, scale))
 
 
 def _describe(null_norm, scale, names, norm, top, meas, motion, theta) -> list[Direction]:
