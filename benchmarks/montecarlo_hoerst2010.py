@@ -43,6 +43,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse
 import dataclasses
+import json
 import time
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
@@ -114,6 +115,7 @@ def main() -> None:
     ap.add_argument("--criterion", choices=("bic", "lrt"), default="bic")
     ap.add_argument("--alpha", type=float, default=0.01)
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    ap.add_argument("--save", help="write every run's figures to this JSON file")
     ap.add_argument("--accelerations", choices=("select", "all"), default="select",
                     help="hold at zero the accelerations the data do not need (select, the "
                          "estimator's default) or fit them all")
@@ -154,6 +156,9 @@ def main() -> None:
                 print(f"  {i + 1}/{args.runs} runs, {time.perf_counter() - wall:.0f} s",
                       flush=True)
     wall = time.perf_counter() - wall
+    if args.save:
+        with open(args.save, "w") as f:
+            json.dump(runs, f, default=float)
 
     n = len(runs)
     counts = Counter(r["manoeuvres"] for r in runs)
