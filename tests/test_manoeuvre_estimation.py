@@ -15,6 +15,7 @@ import tmakit as tk
 from tmakit.batch.curvilinear import (
     ManoeuvreSettings,
     OrderFit,
+    _may_hold,
     estimate_manoeuvres,
     select_order,
 )
@@ -212,6 +213,32 @@ def test_order_criteria_as_stated():
     gap = [fit(0, 1800.0), fit(1, 1798.0), fit(2, 1700.0)]
     assert select_order(gap, n, "lrt").chosen == 0
     assert select_order(gap, n, "bic").chosen == 2
+
+
+def test_two_neighbouring_legs_are_never_both_held_straight():
+    # internal order: x, y, speed, course, at_0, an_0, at_1, an_1, at_2, an_2, t_1, t_2
+    free = np.ones(12, dtype=bool)
+    free[[4, 5]] = False  # leg 0 straight
+    leg1_at_held = free.copy()
+    leg1_at_held[6] = False
+    assert not _may_hold(leg1_at_held, 7, 2)  # leg 1 would be straight next to leg 0
+    assert _may_hold(leg1_at_held, 8, 2) and _may_hold(leg1_at_held, 9, 2)  # leg 2 alone
+    leg2_at_held = leg1_at_held.copy()
+    leg2_at_held[8] = False
+    assert _may_hold(leg2_at_held, 9, 2)  # legs 0 and 2 straight, the turn between them
+    assert _may_hold(np.ones(6, dtype=bool), 4, 0) and _may_hold(np.array([1, 1, 1, 1, 0, 1],
+                                                                          dtype=bool), 5, 0)
+
+
+def test_a_manoeuvre_with_fewer_unknowns_than_the_order_below_is_favoured():
+    def fit(m, chi2, unknowns):
+        return OrderFit(m, np.zeros(6 + 3 * m), np.zeros(0), chi2, unknowns, True, 1, 1)
+
+    # M = 2 with five accelerations held: 7 unknowns against 9 for M = 1
+    fits = [fit(0, 3500.0, 6), fit(1, 1816.0, 9), fit(2, 1714.0, 7)]
+    sel = select_order(fits, 1802, "lrt")
+    assert sel.orders[2]["p_value"] == 0.0 and sel.chosen == 2
+    assert select_order(fits, 1802, "bic").chosen == 2
 
 
 def test_bad_requests_are_refused_clearly(scn):
