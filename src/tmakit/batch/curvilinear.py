@@ -614,7 +614,7 @@ class _Search:
         Why: a turn that ends at ``t_m`` and one that ends earlier and continues as a gentle
         turn fit nearly as well when the last leg's accelerations are free, and in the 002
         scenario the ML change-over time picks the wrong one in ~1 run in 5 (see
-        ``docs/manoeuvres.md``)."""
+        ``docs/estimation.md``)."""
         m = fit.manoeuvres
         if not np.isfinite(fit.chi2):
             return fit
