@@ -1,5 +1,5 @@
-"""Measurement files (tmakit.files): exact round trips, refusals that name row, line and
-column, lat/lon positions, range-difference reference states, and safe writing."""
+"""Measurement files (tmakit.io.measurement_files): exact round trips, refusals that name row,
+line and column, lat/lon positions, range-difference reference states, and safe writing."""
 
 from __future__ import annotations
 
@@ -15,14 +15,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tmakit.data import MeasurementSet
-from tmakit.files import (
+from tmakit.geodesy import geodetic_to_enu
+from tmakit.io.measurement_files import (
     COLUMN_ORDER,
     FORMAT_LINE,
     MeasurementFileError,
     read_measurements,
     write_measurements,
 )
-from tmakit.geodesy import geodetic_to_enu
 from tmakit.measurements import KINDS
 from tmakit.sensors import RecordedTrack
 

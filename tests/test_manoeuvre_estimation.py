@@ -19,10 +19,10 @@ from tmakit.batch.curvilinear import (
     estimate_manoeuvres,
     select_order,
 )
-from tmakit.batch.curvilinear_eval import ForwardPiecewise, propagate_with_partials
 from tmakit.bounds import crlb
 from tmakit.cli import app
 from tmakit.motion import PiecewiseCurvilinear, numerical_jacobian, propagate_curvilinear
+from tmakit.motion.curvilinear_batch import ForwardPiecewise, propagate_with_partials
 from tmakit.motion.fixed import FixedParameters
 
 

@@ -8,8 +8,8 @@ import pytest
 
 import tmakit as tk
 from tmakit.batch.solver import VarProProblem
-from tmakit.bounds.noise import NoiseModel
 from tmakit.observation import ObservationModel
+from tmakit.observation.noise import NoiseModel
 
 
 def _same(a: object, b: object) -> bool:

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit._blas import matmul
 from tmakit.batch import VarProProblem, levenberg_marquardt
 from tmakit.batch.init import GridScorer, Starts, best_starts_many, grid_candidates
+from tmakit.blas import matmul
 from tmakit.data import MeasurementSet
 from tmakit.motion import PiecewiseCurvilinear, Stationary
 

@@ -61,7 +61,7 @@ def _load_scenario(name: str):
 
 
 def _read(path: Path, origin: tuple[float, float, float] | None = None):
-    from .files import MeasurementFileError, read_measurements
+    from .io.measurement_files import MeasurementFileError, read_measurements
 
     if not path.exists():
         raise _fail(f"{path}: no such file")
@@ -72,7 +72,7 @@ def _read(path: Path, origin: tuple[float, float, float] | None = None):
 
 
 def _write(meas, path: Path, force: bool) -> None:
-    from .files import write_measurements
+    from .io.measurement_files import write_measurements
 
     try:
         write_measurements(meas, path, force=force)

@@ -50,11 +50,13 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from .batch.ml import CONVERGED, Best, _result, estimate, solve_without_guess
+from .batch.ml import Best, estimate, solve_without_guess
 from .batch.solver import VarProProblem, levenberg_marquardt
-from .bounds.fim import Bound, crlb
+from .bounds.fim import crlb
 from .data import MeasurementSet
 from .observation import ObservationModel
+from .results.bound import Bound
+from .results.estimate import CONVERGED, assemble_result
 from .scenario import Scenario
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -257,8 +259,9 @@ def _ml_batched(task: _Task, meas: Sequence[MeasurementSet]) -> _ChunkOutput:
                                     "finite predictions; check the data")
             continue
         try:
-            res = _result(problem, best.theta, best.nuisance, best.cost, best.iterations,
-                          best.converged, "ml", best.starts, fixed is not None, best.note)
+            res = assemble_result(problem.obs, problem.noise, best.theta, best.nuisance,
+                                  best.cost, best.iterations, best.converged, "ml",
+                                  best.starts, fixed is not None, best.note)
         except RUN_ERRORS as e:  # pragma: no cover - the bound of a finite fit
             out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
             continue

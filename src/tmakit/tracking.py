@@ -37,7 +37,7 @@ from .data import MeasurementSet
 from .filters import FILTERS, Track, TrackingFilter, group_times, state_names
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .batch.ml import EstimateResult
+    from .results.estimate import EstimateResult
 
 __all__ = [
     "DEFAULT_MAX_RELATIVE_STD",
@@ -528,7 +528,7 @@ def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) ->
     """
     import pandas as pd
 
-    from .files import _written_in_place
+    from .io.measurement_files import _written_in_place
 
     path = Path(path)
     suffix = path.suffix.lower()

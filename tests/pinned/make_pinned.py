@@ -6,8 +6,8 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from commands import PINNED  # noqa: E402
-from runner import run_pinned  # noqa: E402
+from commands import PINNED
+from runner import run_pinned
 
 
 def main() -> None:

@@ -9,9 +9,9 @@ from pathlib import Path
 
 def tma(folder: Path, args: list[str]) -> str:
     """Run ``tma ARGS`` in ``folder`` and return its standard output (exit 0 or 1 accepted)."""
-    from tmakit.cli import main
-
     import sys
+
+    from tmakit.cli import main
 
     out, err = io.StringIO(), io.StringIO()
     old_cwd, old_argv = Path.cwd(), sys.argv

@@ -82,13 +82,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2 as chi2_dist
 
-from ..bounds.fim import bound_from_information
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, PiecewiseCurvilinear
+from ..motion.curvilinear_batch import ForwardPiecewise, gram
 from ..motion.fixed import FixedParameters
 from ..observation import ObservationModel
-from .curvilinear_eval import ForwardPiecewise, gram
-from .ml import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, EstimateResult
+from ..results.bound import bound_from_information
+from ..results.estimate import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, EstimateResult
 from .solver import VarProProblem, levenberg_marquardt
 
 Array = NDArray[np.float64]

@@ -52,8 +52,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
+from ..results.estimate import CONVERGED, DIVERGED, NOT_CONVERGED, EstimateResult
 from ..units import SPEED_OF_LIGHT, free_space_constant
-from .ml import CONVERGED, DIVERGED, NOT_CONVERGED, EstimateResult
 
 Array = NDArray[np.float64]
 

@@ -18,7 +18,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from .._blas import matmul
+from ..blas import matmul
 from .solver import VarProProblem
 
 

@@ -41,13 +41,13 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..bounds.noise import NoiseModel
-from ..bounds.observability import RANK_TOL, normalise
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
+from ..observation.noise import NoiseModel
+from ..results.estimate import UNOBSERVABLE, EstimateResult, assemble_result
+from ..results.observability import RANK_TOL, normalise
 from .gu_direct import DIVERGENCE_FACTOR
-from .ml import UNOBSERVABLE, EstimateResult, _result
 from .solver import VarProProblem
 
 Array = NDArray[np.float64]
@@ -157,7 +157,8 @@ def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel,
     th, nu = x[:p], x[p:]
     cost = (0.5 * float(np.sum(noise.whiten(y - obs.predict(th, nu)) ** 2))
             if np.all(np.isfinite(x)) else np.inf)
-    res = _result(problem, th, nu, cost, iterations, converged, "lecture-gn", 1, False)
+    res = assemble_result(problem.obs, problem.noise, th, nu, cost, iterations, converged,
+                          "lecture-gn", 1, False)
     res.extra.update({"ranks": ranks, "update_norms_sigma": norms})
     if diverged:
         res.message = diverged

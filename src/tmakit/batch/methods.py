@@ -23,14 +23,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..bounds.noise import NoiseModel
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..observation.noise import NoiseModel
+from ..results.estimate import EstimateResult
 from .gu_direct import gu_direct
 from .init import best_starts
 from .lecture import lecture_gauss_newton
-from .ml import EstimateResult, estimate
+from .ml import estimate
 from .ratios import ratio_method
 from .solver import VarProProblem
 

@@ -10,140 +10,18 @@ never hidden: ``converged``, ``did not converge``, ``unobservable`` or ``diverge
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..bounds.fim import Bound, bound_from_information
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..results.estimate import EstimateResult, assemble_result
 from .init import GridSettings, best_starts_many
 from .solver import VarProProblem, levenberg_marquardt
-
-CONVERGED = "converged"
-NOT_CONVERGED = "did not converge"
-UNOBSERVABLE = "unobservable"
-DIVERGED = "diverged"
-
-
-@dataclass
-class EstimateResult:
-    """A batch estimate: named parameters, their standard deviations, nuisance values, and
-    how the solve went."""
-
-    parameters: tuple[str, ...]
-    estimate: NDArray[np.float64]
-    std: NDArray[np.float64]
-    covariance: NDArray[np.float64]
-    nuisance: dict[str, tuple[float, float]]
-    status: str
-    iterations: int
-    chi2: float
-    dof: int
-    method: str
-    motion: MotionModel
-    bound: Bound | None = None
-    starts: int = 1
-    message: str = ""
-    extra: dict[str, object] = field(default_factory=dict)
-
-    @property
-    def converged(self) -> bool:
-        return self.status == CONVERGED
-
-    def as_dict(self) -> dict[str, object]:
-        def num(x: float) -> float | None:
-            return float(x) if np.isfinite(x) else None
-
-        return {
-            "parameters": list(self.parameters),
-            "estimate": [num(v) for v in self.estimate],
-            "std": [num(s) for s in self.std],
-            "nuisance": {k: {"value": num(v), "std": num(s)}
-                         for k, (v, s) in self.nuisance.items()},
-            "status": self.status,
-            "iterations": self.iterations,
-            "chi2": num(self.chi2),
-            "dof": self.dof,
-            "method": self.method,
-            "motion": self.motion.name,
-            "starts": self.starts,
-            "message": self.message,
-            "unobservable": ([d.as_dict() for d in self.bound.observability.directions]
-                             if self.bound is not None else []),
-        }
-
-    def to_json(self, indent: int | None = 2) -> str:
-        return json.dumps(self.as_dict(), indent=indent)
-
-    def summary(self) -> str:
-        lines = [f"{self.method} estimate, motion {self.motion.name}: {self.status}"
-                 f" after {self.iterations} iterations"
-                 + (f" from {self.starts} starting points" if self.starts > 1 else ""),
-                 f"chi2 = {self.chi2:.2f} on {self.dof} degrees of freedom"
-                 + (f" (chi2/dof = {self.chi2 / self.dof:.3f})" if self.dof > 0 else "")]
-        if self.message:
-            lines.append(self.message)
-        width = max(len(n) for n in (*self.parameters, *self.nuisance))
-        lines.append(f"  {'parameter':<{width}}  {'estimate':>16}  {'std':>12}")
-        for n, v, s in zip(self.parameters, self.estimate, self.std, strict=True):
-            lines.append(f"  {n:<{width}}  {v:16.8g}  "
-                         + (f"{s:12.4g}" if np.isfinite(s) else f"{'unobservable':>12}"))
-        for n, (v, s) in self.nuisance.items():
-            lines.append(f"  {n:<{width}}  {v:16.13g}  "
-                         + (f"{s:12.4g}" if np.isfinite(s) else f"{'unobservable':>12}"))
-        if self.bound is not None:
-            for d in self.bound.observability.directions:
-                lines.append(f"  unobservable: {d.sentence}")
-        return "\n".join(lines)
-
-
-def _result(problem: VarProProblem, theta: NDArray, nu: NDArray, cost: float, iterations: int,
-            converged: bool, method: str, starts: int, known_nuisance: bool,
-            note: str = "") -> EstimateResult:
-    obs, motion = problem.obs, problem.obs.motion
-    n = len(obs.meas)
-    names_nu = obs.nuisance_names
-    if not np.all(np.isfinite(theta)) or not np.isfinite(cost):
-        nan = np.full(motion.n_params, np.nan)
-        return EstimateResult(motion.param_names, nan, nan, np.full((motion.n_params,) * 2,
-                              np.nan), {k: (np.nan, np.nan) for k in names_nu}, DIVERGED,
-                              iterations, np.inf, n - motion.n_params, method, motion,
-                              None, starts, "the solve left the region where the model is "
-                              "defined (non-finite predictions)")
-    j_theta, j_nu = obs.jacobian_grouped(theta, nu)  # the problem's noise is grouped too
-    jac = j_theta if known_nuisance else np.concatenate([j_theta, j_nu], axis=-1)
-    w = problem.noise.whiten(jac, axis=-2)
-    info = w.T @ w
-    names = motion.param_names + (() if known_nuisance else names_nu)
-    values = theta if known_nuisance else np.concatenate([theta, nu])
-    bound = bound_from_information(info, names, values, obs.meas, motion, known_nuisance,
-                                   dict(zip(names_nu, nu, strict=True)))
-    p = motion.n_params
-    std = bound.std[:p]
-    cov = bound.covariance[:p, :p]
-    nuis = {}
-    for i, name in enumerate(names_nu):
-        s = np.nan if known_nuisance else bound.std[p + i]
-        nuis[name] = (float(nu[i]), float(s) if not known_nuisance else 0.0)
-    dof = problem.noise.rank - len(names)
-    status = CONVERGED if converged else NOT_CONVERGED
-    message = ""
-    if not bound.observability.full_rank:
-        status = UNOBSERVABLE
-        message = (f"the data determine only {bound.rank} of the {len(names)} unknowns; "
-                   "parameters marked unobservable are not estimates")
-    elif not converged:
-        message = "the iteration limit was reached before the convergence tests were met"
-    if note:
-        message = f"{message}; {note}" if message else note
-    return EstimateResult(motion.param_names, theta.copy(), std, cov, nuis, status,
-                          int(iterations), float(2.0 * cost), dof, method, motion, bound,
-                          starts, message)
 
 
 def estimate(meas: MeasurementSet, motion: MotionModel | str,
@@ -194,8 +72,9 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str,
         (best,) = solve_without_guess(problem, y[None, :], grid, max_iter)
         if best is None:
             raise ValueError("no starting point gives finite predictions; check the data")
-    return _result(problem, best.theta, best.nuisance, best.cost, best.iterations,
-                   best.converged, "ml", best.starts, known_nuisance is not None, best.note)
+    return assemble_result(problem.obs, problem.noise, best.theta, best.nuisance, best.cost,
+                           best.iterations, best.converged, "ml", best.starts,
+                           known_nuisance is not None, best.note)
 
 
 DENSE_GRID = GridSettings(n_ranges=20, n_bearings=24,

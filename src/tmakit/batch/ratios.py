@@ -93,6 +93,7 @@ from scipy.linalg import cho_solve_banded, cholesky_banded, solve_banded
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..results.estimate import DIVERGED, NOT_CONVERGED, EstimateResult
 from ..units import SPEED_OF_LIGHT
 from .gu_direct import (
     DIVERGENCE_FACTOR,
@@ -104,7 +105,6 @@ from .gu_direct import (
     select_kinds,
     snr_from_sigma_db,
 )
-from .ml import DIVERGED, NOT_CONVERGED, EstimateResult
 
 Array = NDArray[np.float64]
 

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..bounds.noise import NoiseModel
 from ..frames import wrap_angle
 from ..observation import Linearisation, ObservationModel
+from ..observation.noise import NoiseModel
 
 Array = NDArray[np.float64]
 

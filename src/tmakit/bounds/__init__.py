@@ -1,10 +1,10 @@
 """Bounds: Cramér–Rao lower bounds, observability, confidence ellipses; the posterior CRB of
 recursive trackers."""
 
+from ..observation.noise import NoiseModel
+from ..results.observability import Direction, Observability, analyse
 from .fim import Bound, crlb, fisher_information
 from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
-from .noise import NoiseModel
-from .observability import Direction, Observability, analyse
 from .pcrb import PosteriorBound, deterministic_pcrb, final_position_rms, posterior_crb
 
 __all__ = ["Bound", "CrbPoint", "CrbSequence", "Direction", "NoiseModel", "Observability",

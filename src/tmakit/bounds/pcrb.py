@@ -54,10 +54,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
-from ..filters import MeasurementGroup, NearlyConstantVelocity, group_times
-from ..filters.linalg import check_prior, symmetrise
-from ..filters.measurement_group import embedding
-from .noise import NoiseModel
+from ..linalg import check_prior, symmetrise
+from ..motion.dynamics import NearlyConstantVelocity, state_names
+from ..observation.groups import MeasurementGroup, embedding, group_times
+from ..observation.noise import NoiseModel
 
 Array = NDArray[np.float64]
 
@@ -406,8 +406,6 @@ def _posterior(source, prior_mean, prior_cov, time0, q, trajectories: int, sampl
                 "use more trajectories, or deterministic_pcrb for a fixed trajectory")
     elif sample:
         notes.append("one trajectory: no Monte Carlo error estimate")
-    from ..filters import state_names
-
     q_axes = tuple(float(v) for v in np.broadcast_to(np.asarray(q, dtype=float), (dim,)))
     return PosteriorBound(state_names(dim), times, infos, covs, std, pos, t0, q_axes,
                           trajectories if sample else 1,

@@ -5,10 +5,10 @@
 
 from __future__ import annotations
 
-from .base import Track, TrackingFilter, UpdateInfo, group_times
-from .dynamics import NearlyConstantVelocity, process_noise, state_names, transition_matrix
+from ..motion.dynamics import NearlyConstantVelocity, process_noise, state_names, transition_matrix
+from ..observation.groups import MeasurementGroup, group_times
+from .base import Track, TrackingFilter, UpdateInfo
 from .ekf import ExtendedKalmanFilter
-from .measurement_group import MeasurementGroup
 from .mgekf import ModifiedGainEKF
 from .multilag import multilag_groups
 from .particle import ParticleFilter

@@ -22,19 +22,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
+from ..linalg import check_prior, symmetrise
+from ..motion.dynamics import NearlyConstantVelocity, state_names
+from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .compiled import CompiledMeasurements
-from .dynamics import NearlyConstantVelocity, state_names
 from .kernels import KernelRun
-from .linalg import check_prior, symmetrise
-from .measurement_group import MeasurementGroup
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..batch.ml import EstimateResult
+    from ..results.estimate import EstimateResult
 
 Array = NDArray[np.float64]
 
 #: Rows whose times differ by less than this (s) are one update.
-TIME_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -123,14 +122,6 @@ class Track:
         cols["dof"] = self.dof.astype(float)
         cols["log_likelihood"] = self.log_likelihood
         return cols
-
-
-def group_times(meas: MeasurementSet) -> list[NDArray[np.int64]]:
-    """Row indices of ``meas`` grouped by measurement time (ascending)."""
-    order = np.argsort(meas.time, kind="stable")
-    t = meas.time[order]
-    breaks = np.flatnonzero(np.diff(t) > TIME_TOLERANCE) + 1
-    return np.split(order, breaks)
 
 
 class TrackingFilter(ABC):

@@ -22,12 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..data import MeasurementSet
-from .measurement_group import MeasurementGroup, MeasurementModel, resolve_models
+from ..observation.groups import TIME_TOLERANCE, MeasurementGroup, MeasurementModel, resolve_models
 
 Array = NDArray[np.float64]
 
 #: Rows whose times differ by less than this (s) are one update (as in :mod:`.base`).
-TIME_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)

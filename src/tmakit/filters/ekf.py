@@ -6,12 +6,12 @@ from typing import Any
 
 import numpy as np
 
+from ..linalg import joseph_update, repair_psd, solve_spd, symmetrise
+from ..motion.dynamics import NearlyConstantVelocity
+from ..observation.groups import MeasurementGroup
 from .base import Array, TrackingFilter, UpdateInfo
 from .compiled import CompiledMeasurements
-from .dynamics import NearlyConstantVelocity
 from .kernels import KernelRun, ekf_bearing_2d
-from .linalg import joseph_update, repair_psd, solve_spd, symmetrise
-from .measurement_group import MeasurementGroup
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of

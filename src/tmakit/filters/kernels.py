@@ -39,6 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..observation.groups import TIME_TOLERANCE
+
 Array = NDArray[np.float64]
 
 TWO_PI = 2.0 * math.pi
@@ -48,8 +50,6 @@ LOG_2PI = math.log(TWO_PI)
 PIVOT_FLOOR = 1e-13
 #: Iterated-EKF stopping rule (as :data:`tmakit.filters.ekf.IEKF_TOL`).
 IEKF_TOL = 1e-10
-#: Time steps shorter than this (s) are not predicted (as :meth:`TrackingFilter.predict`).
-TIME_TOLERANCE = 1e-9
 
 # Upper-triangle order of the ten covariance entries of a 4-state filter.
 _IU = np.triu_indices(4)

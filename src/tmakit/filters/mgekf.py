@@ -69,10 +69,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
+from ..linalg import joseph_update, repair_psd, solve_spd, symmetrise
+from ..observation.groups import MeasurementGroup, embedding
 from .base import Array, UpdateInfo
 from .ekf import LOG_2PI, ExtendedKalmanFilter, gaussian_update
-from .linalg import joseph_update, repair_psd, solve_spd, symmetrise
-from .measurement_group import MeasurementGroup, embedding
 
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
 MU_FLOOR = 1e-3

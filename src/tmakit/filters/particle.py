@@ -48,11 +48,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
+from ..motion.dynamics import NearlyConstantVelocity
+from ..observation.groups import MeasurementGroup
 from .base import Array, TrackingFilter, UpdateInfo
-from .dynamics import NearlyConstantVelocity
 from .ekf import LOG_2PI, skipped
-from .linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
-from .measurement_group import MeasurementGroup
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
 LOG_NEGLIGIBLE = -575.0

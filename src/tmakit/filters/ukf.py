@@ -34,12 +34,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..linalg import repair_psd, safe_cholesky, solve_spd, symmetrise
+from ..observation.groups import MeasurementGroup
 from .base import Array, UpdateInfo
 from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
 from .kernels import KernelRun, ukf_bearing_2d
-from .linalg import repair_psd, safe_cholesky, solve_spd, symmetrise
-from .measurement_group import MeasurementGroup
 
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float

@@ -36,8 +36,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._blas import SINGLE_THREAD_WORK
-from ..motion import MotionModel
+from ..blas import SINGLE_THREAD_WORK
+from . import MotionModel
 
 Array = NDArray[np.float64]
 

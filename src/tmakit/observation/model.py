@@ -20,11 +20,11 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._blas import matmul
-from .data import MeasurementSet
-from .frames import wrap_angle
-from .measurements import MeasurementModel, model_for
-from .motion import MotionModel
+from ..blas import matmul
+from ..data import MeasurementSet
+from ..frames import wrap_angle
+from ..measurements import MeasurementModel, model_for
+from ..motion import MotionModel
 
 Array = NDArray[np.float64]
 

@@ -34,8 +34,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS, MeasurementSet
-from .measurements import KINDS
+from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS, MeasurementSet
+from ..measurements import KINDS
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -648,7 +648,7 @@ class _Checker:
             if "sensor_lat" in num and "sensor_lon" in num:
                 origin = self._origin()
                 if origin is not None:
-                    from .geodesy import geodetic_to_enu
+                    from ..geodesy import geodetic_to_enu
 
                     lat, lon = num["sensor_lat"].copy(), num["sensor_lon"].copy()
                     alt = num.get("sensor_alt", zeros).copy()
@@ -671,7 +671,7 @@ class _Checker:
                    time_ref: NDArray[np.float64]) -> NDArray[np.float64]:
         """Sensor state at time_ref: from the ref_sensor_* columns, else from the sensor's row
         at that time, else interpolated along the sensor's rows (:class:`RecordedTrack`)."""
-        from .sensors import RecordedTrack
+        from ..sensors import RecordedTrack
 
         n = self.n
         ref = np.full((n, 6), np.nan)

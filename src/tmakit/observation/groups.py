@@ -21,9 +21,13 @@ from numpy.typing import ArrayLike, NDArray
 from ..data import MeasurementSet
 from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for, range_difference_covariance
-from .dynamics import state_names
+from ..motion.dynamics import state_names
 
 Array = NDArray[np.float64]
+
+
+#: Rows whose times differ by less than this (s) are taken at one time.
+TIME_TOLERANCE = 1e-9
 
 
 def embedding(dt: Array, dim: int) -> Array:
@@ -227,3 +231,11 @@ class MeasurementGroup:
         z = self.values if measured is None else np.asarray(measured, dtype=float)
         diff = z - np.asarray(predicted, dtype=float)
         return np.where(self.angle, wrap_angle(diff), diff)
+
+
+def group_times(meas: MeasurementSet) -> list[NDArray[np.int64]]:
+    """Row indices of ``meas`` grouped by measurement time (ascending)."""
+    order = np.argsort(meas.time, kind="stable")
+    t = meas.time[order]
+    breaks = np.flatnonzero(np.diff(t) > TIME_TOLERANCE) + 1
+    return np.split(order, breaks)

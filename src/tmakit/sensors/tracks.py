@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .motion.curvilinear import propagate_curvilinear
+from ..motion.curvilinear import propagate_curvilinear
 
 
 def _as_times(t: ArrayLike) -> NDArray[np.float64]:
@@ -237,7 +237,7 @@ class RecordedTrack(SensorTrack):
         """A track recorded as WGS-84 latitude, longitude (degrees) and altitude (m),
         converted to the ENU frame at ``origin`` = (lat, lon, alt).  Velocities, if given,
         are ENU (m/s)."""
-        from .geodesy import geodetic_to_enu
+        from ..geodesy import geodetic_to_enu
 
         e, n, u = geodetic_to_enu(lat, lon, alt, origin)
         return cls(times, np.column_stack([e, n, u]), velocities)

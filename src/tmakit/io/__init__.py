@@ -1,0 +1,1 @@
+"""Input and output: measurement files by format, atomic writes."""

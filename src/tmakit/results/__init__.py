@@ -1,0 +1,17 @@
+"""Results: what an estimator or a bound returns (estimates, bounds, observability), in one
+place below every estimator so that each can build and read them."""
+
+from .bound import Bound, bound_from_information
+from .estimate import (
+    CONVERGED,
+    DIVERGED,
+    NOT_CONVERGED,
+    UNOBSERVABLE,
+    EstimateResult,
+    assemble_result,
+)
+from .observability import Direction, Observability, analyse
+
+__all__ = ["CONVERGED", "DIVERGED", "NOT_CONVERGED", "UNOBSERVABLE", "Bound", "Direction",
+           "EstimateResult", "Observability", "analyse", "assemble_result",
+           "bound_from_information"]

@@ -1,0 +1,202 @@
+"""A Cramér–Rao bound as a result: the information matrix, its pseudo-inverse, standard
+deviations, observability, confidence ellipses and derived quantities.
+
+Built by :func:`bound_from_information` from any information matrix, so batch estimators
+(their covariance at the estimate) and :mod:`tmakit.bounds` (the bound at the truth) report the
+same object.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.stats import chi2
+
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from .observability import Observability, analyse, normalise
+
+
+def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
+    """Inverse of the information on its observable subspace (Moore–Penrose, computed in
+    normalised coordinates).  ``obsv`` is the :func:`~tmakit.bounds.observability.analyse`
+    of ``info``, whose eigen-decomposition is reused."""
+    if obsv.decomposition is None:
+        norm, scale = normalise(info)
+        evals, evecs = np.linalg.eigh(norm)
+    else:
+        evals, evecs, scale = obsv.decomposition
+    keep = np.argsort(evals)[::-1][: obsv.rank]
+    inv = (evecs[:, keep] / evals[keep]) @ evecs[:, keep].T
+    return inv * scale[:, None] * scale[None, :]
+
+
+@dataclass
+class Bound:
+    """A Cramér–Rao bound evaluated at ``values`` (the truth).
+
+    ``parameters`` are the unknowns (motion parameters first).  ``std`` is infinite for any
+    parameter that cannot be observed; ``covariance`` is the inverse information restricted to
+    the observable subspace (its rows for unobservable parameters are meaningless: use
+    ``std``).
+    """
+
+    parameters: tuple[str, ...]
+    values: NDArray[np.float64]
+    information: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    std: NDArray[np.float64]
+    observability: Observability
+    known_nuisance: bool
+    nuisance_values: dict[str, float]
+    motion: MotionModel
+    n_measurements: int
+
+    @property
+    def rank(self) -> int:
+        return self.observability.rank
+
+    @property
+    def motion_parameters(self) -> tuple[str, ...]:
+        return self.motion.param_names
+
+    def std_of(self, name: str) -> float:
+        return float(self.std[self.parameters.index(name)])
+
+    def _gradient_variance(self, grad: NDArray[np.float64]) -> float:
+        """Delta-method variance of a scalar with gradient ``grad``; inf if not estimable."""
+        full = np.zeros(len(self.parameters))
+        full[: grad.size] = grad
+        null = self.observability.null_basis
+        if null.size:
+            # A function is estimable only if its gradient is orthogonal to the null space.
+            if np.max(np.abs(full @ null)) > 1e-6 * max(np.linalg.norm(full), 1e-300) * 1e3:
+                return float("inf")
+        return float(full @ self.covariance @ full)
+
+    def state_covariance(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Target state at time ``t`` and its covariance ``(6,), (6, 6)`` (delta method);
+        entries that cannot be observed are infinite."""
+        theta = self.values[: self.motion.n_params]
+        state = self.motion.states(theta, np.array([float(t)]))[0]
+        jac = self.motion.jacobian(theta, np.array([float(t)]))[0]  # (6, p)
+        cov = np.zeros((6, 6))
+        full = np.zeros((6, len(self.parameters)))
+        full[:, : jac.shape[1]] = jac
+        cov = full @ self.covariance @ full.T
+        for i in range(6):
+            if np.any(jac[i]) and not np.isfinite(self._gradient_variance(jac[i])):
+                cov[i, :] = cov[:, i] = np.inf
+        return state, cov
+
+    def ellipse(self, t: float, level: float = 0.9) -> dict[str, float]:
+        """Horizontal position confidence ellipse at time ``t`` for probability ``level``:
+        centre (m), semi-axes (m) and the bearing of the major axis (degrees clockwise from
+        North).  Infinite axes when the position cannot be observed."""
+        state, cov = self.state_covariance(t)
+        c2 = cov[:2, :2]
+        k = float(np.sqrt(chi2.ppf(level, 2)))
+        if not np.all(np.isfinite(c2)):
+            return {"east": float(state[0]), "north": float(state[1]), "major": np.inf,
+                    "minor": np.inf, "bearing_deg": float("nan"), "level": level}
+        evals, evecs = np.linalg.eigh(c2)
+        major = evecs[:, 1]
+        return {"east": float(state[0]), "north": float(state[1]),
+                "major": k * float(np.sqrt(max(evals[1], 0.0))),
+                "minor": k * float(np.sqrt(max(evals[0], 0.0))),
+                "bearing_deg": float(np.degrees(np.arctan2(major[0], major[1])) % 180.0),
+                "level": level}
+
+    def derived(self, t: float, sensor_position: ArrayLike | None = None
+                ) -> dict[str, tuple[float, float]]:
+        """``{name: (value, std)}`` for position and velocity components, speed (m/s), course
+        (rad, clockwise from North) and, given a sensor position, range (m), at time ``t``."""
+        state, cov = self.state_covariance(t)
+        out: dict[str, tuple[float, float]] = {}
+        axes = ("x", "y", "z")[: self.motion.dim]
+        for i, a in enumerate(axes):
+            out[a] = (float(state[i]), float(np.sqrt(cov[i, i])))
+            out[f"v{a}"] = (float(state[3 + i]), float(np.sqrt(cov[3 + i, 3 + i])))
+        v = state[3:6]
+        speed = float(np.linalg.norm(v))
+
+        def std_of(grad6):
+            return float(np.sqrt(grad6 @ cov @ grad6)) if np.all(
+                np.isfinite(cov[np.ix_(grad6 != 0, grad6 != 0)])) else float("inf")
+
+        if speed > 0:
+            g = np.zeros(6)
+            g[3:6] = v / speed
+            out["speed"] = (speed, std_of(g))
+            h2 = v[0] ** 2 + v[1] ** 2
+            g = np.zeros(6)
+            g[3], g[4] = v[1] / h2, -v[0] / h2
+            out["course"] = (float(np.arctan2(v[0], v[1])), std_of(g))
+        if sensor_position is not None:
+            d = state[:3] - np.asarray(sensor_position, dtype=float)
+            r = float(np.linalg.norm(d))
+            g = np.zeros(6)
+            g[:3] = d / r
+            out["range"] = (r, std_of(g))
+        return out
+
+    def as_dict(self) -> dict[str, object]:
+        """The JSON form: parameters, std, covariance, rank, unobservable, and context."""
+        def clean(x):
+            return None if not np.isfinite(x) else float(x)
+
+        cov = self.covariance.copy()
+        bad = ~np.isfinite(self.std)
+        cov[bad, :] = np.nan
+        cov[:, bad] = np.nan
+        return {
+            "parameters": list(self.parameters),
+            "values": [float(v) for v in self.values],
+            "std": [clean(s) for s in self.std],
+            "covariance": [[clean(c) for c in row] for row in cov],
+            "rank": self.rank,
+            "size": len(self.parameters),
+            "unobservable": [d.as_dict() for d in self.observability.directions],
+            "nuisance": "known" if self.known_nuisance else "unknown",
+            "nuisance_values": self.nuisance_values,
+            "motion": self.motion.name,
+            "n_measurements": self.n_measurements,
+        }
+
+    def to_json(self, indent: int | None = 2) -> str:
+        return json.dumps(self.as_dict(), indent=indent)
+
+    def summary(self) -> str:
+        """A readable table of the bound and, when rank deficient, what cannot be seen."""
+        lines = [f"Cramér–Rao bound, motion {self.motion.name}, {self.n_measurements} "
+                 f"measurements, nuisance parameters "
+                 f"{'known' if self.known_nuisance else 'unknown (estimated jointly)'}",
+                 f"rank {self.rank} of {len(self.parameters)}"
+                 + ("" if self.observability.full_rank else " — NOT fully observable")]
+        width = max(len(p) for p in self.parameters)
+        lines.append(f"  {'parameter':<{width}}  {'value':>16}  {'std (CRLB)':>14}")
+        for name, val, sd in zip(self.parameters, self.values, self.std, strict=True):
+            sd_text = f"{sd:14.6g}" if np.isfinite(sd) else f"{'unobservable':>14}"
+            lines.append(f"  {name:<{width}}  {val:16.8g}  {sd_text}")
+        for d in self.observability.directions:
+            lines.append(f"  unobservable: {d.sentence}")
+            lines.append("      parameter change: " + ", ".join(
+                f"{k} {v:+.4g}" for k, v in d.weights.items()))
+        return "\n".join(lines)
+
+
+def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
+                           values: NDArray[np.float64], meas: MeasurementSet,
+                           motion: MotionModel, known_nuisance: bool,
+                           nuisance_values: Mapping[str, float]) -> Bound:
+    theta = values[: motion.n_params]
+    obsv = analyse(info, names, meas, motion, theta)
+    cov = pseudo_covariance(info, obsv)
+    std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    std = np.where(obsv.observable, std, np.inf)
+    return Bound(names, values, info, cov, std, obsv, known_nuisance,
+                 dict(nuisance_values), motion, len(meas))
