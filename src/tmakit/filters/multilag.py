@@ -141,17 +141,7 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
     use_b: dict[str, NDArray[np.float64]] = {}
     use_i: dict[str, NDArray[np.float64]] = {}
     for s, d in data.items():
-        m = d.times.size
-        plan = []
-        nb = np.zeros(m)
-        ni = np.zeros(m)  # ni[j]: updates whose range differences cover interval (j-1, j]
-        for k in range(min(start, m), m):
-            pts = np.unique(np.clip(k - offsets, 0, None))[::-1]  # k first, descending
-            plan.append((k, pts))
-            nb[pts[d.bearing[pts] >= 0]] += 1
-            if pts.size > 1:
-                ni[pts[-1] + 1:k + 1] += 1
-        plans[s], use_b[s], use_i[s] = plan, nb, ni
+        plans[s], use_b[s], use_i[s] = _sensor_plan(d, offsets, start)
 
     # Assemble the updates in time order (all sensors' vectors at one time go together).
     by_time: dict[float, list[tuple[str, int, NDArray[np.int64]]]] = {}
@@ -164,40 +154,14 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
 
     value_si = meas.value_si
     sigma_si = meas.sigma_si
-    nan6 = np.full(6, np.nan)
     groups: list[tuple[float, MeasurementSet]] = []
     for t in sorted(by_time):
         # (time, sensor, kind, value, sigma, sensor state, time_ref, reference state)
         rows: list[tuple] = []
         for s, _k, pts in by_time[t]:
-            d = data[s]
-            for p in pts:
-                row = d.bearing[p]
-                if row >= 0:
-                    infl = use_b[s][p] if reuse_inflation else 1.0
-                    rows.append((meas.time[row], s, "bearing", meas.value[row],
-                                 meas.sigma[row] * np.sqrt(infl), meas.sensor_state[row],
-                                 np.nan, nan6))
-            for a, b in pairwise(pts):  # sample a later than sample b
-                links = d.link[b + 1:a + 1]
-                if np.any(links < 0):
-                    continue
-                var = float(np.sum(sigma_si[links] ** 2))
-                infl = float(np.mean(use_i[s][b + 1:a + 1])) if reuse_inflation else 1.0
-                last, first = links[-1], links[0]
-                rows.append((meas.time[last], s, "range_difference",
-                             float(np.sum(value_si[links])), float(np.sqrt(var * infl)),
-                             meas.sensor_state[last], meas.time_ref[first],
-                             meas.ref_sensor_state[first]))
-        parts = []
-        if rows:
-            cols = list(zip(*rows, strict=True))
-            n = len(rows)
-            parts.append(MeasurementSet(
-                np.array(cols[0], dtype=float), np.array(cols[1]), np.array(cols[2]),
-                np.array(cols[3], dtype=float), np.array(cols[4], dtype=float),
-                np.array(cols[5], dtype=float).reshape(n, 6), np.array(cols[6], dtype=float),
-                np.array(cols[7], dtype=float).reshape(n, 6), dict(meas.metadata)))
+            inflation = (use_b[s], use_i[s]) if reuse_inflation else None
+            rows += _vector_rows(meas, s, data[s], pts, inflation, value_si, sigma_si)
+        parts = [_rows_to_set(rows, meas.metadata)] if rows else []
         extra = other[np.abs(other_times - t) <= TIME_TOL] if other.size else other
         if extra.size:
             parts.append(meas.take(extra))
@@ -207,6 +171,65 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
                                                                              meas.metadata)
         groups.append((max(t, float(np.max(group.time))), group))
     return groups
+
+
+def _sensor_plan(d: _SensorData, offsets: NDArray[np.int64], start: int
+                 ) -> tuple[list[tuple[int, NDArray[np.int64]]], NDArray[np.float64],
+                            NDArray[np.float64]]:
+    """One sensor's updates ``(k, samples)`` from sample ``start`` on, and how many updates
+    use each bearing sample and each lag-1 interval (``[j]``: the interval ``(j-1, j]``)."""
+    m = d.times.size
+    plan = []
+    nb = np.zeros(m)
+    ni = np.zeros(m)
+    for k in range(min(start, m), m):
+        pts = np.unique(np.clip(k - offsets, 0, None))[::-1]  # k first, descending
+        plan.append((k, pts))
+        nb[pts[d.bearing[pts] >= 0]] += 1
+        if pts.size > 1:
+            ni[pts[-1] + 1:k + 1] += 1
+    return plan, nb, ni
+
+
+def _vector_rows(meas: MeasurementSet, s: str, d: _SensorData, pts: NDArray[np.int64],
+                 inflation: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+                 value_si: NDArray[np.float64], sigma_si: NDArray[np.float64]) -> list[tuple]:
+    """The rows of one sensor's multi-lag vector over samples ``pts`` (descending): its
+    bearings, then the range differences between consecutive samples; ``inflation`` is the
+    use counts of :func:`_sensor_plan` when reused data are to be down-weighted."""
+    nan6 = np.full(6, np.nan)
+    rows: list[tuple] = []
+    for p in pts:
+        row = d.bearing[p]
+        if row >= 0:
+            infl = inflation[0][p] if inflation is not None else 1.0
+            rows.append((meas.time[row], s, "bearing", meas.value[row],
+                         meas.sigma[row] * np.sqrt(infl), meas.sensor_state[row],
+                         np.nan, nan6))
+    for a, b in pairwise(pts):  # sample a later than sample b
+        links = d.link[b + 1:a + 1]
+        if np.any(links < 0):
+            continue
+        var = float(np.sum(sigma_si[links] ** 2))
+        infl = float(np.mean(inflation[1][b + 1:a + 1])) if inflation is not None else 1.0
+        last, first = links[-1], links[0]
+        rows.append((meas.time[last], s, "range_difference",
+                     float(np.sum(value_si[links])), float(np.sqrt(var * infl)),
+                     meas.sensor_state[last], meas.time_ref[first],
+                     meas.ref_sensor_state[first]))
+    return rows
+
+
+def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
+    """A measurement set from rows ``(time, sensor, kind, value, sigma, sensor state,
+    time_ref, reference state)`` in file units."""
+    cols = list(zip(*rows, strict=True))
+    n = len(rows)
+    return MeasurementSet(
+        np.array(cols[0], dtype=float), np.array(cols[1]), np.array(cols[2]),
+        np.array(cols[3], dtype=float), np.array(cols[4], dtype=float),
+        np.array(cols[5], dtype=float).reshape(n, 6), np.array(cols[6], dtype=float),
+        np.array(cols[7], dtype=float).reshape(n, 6), dict(metadata))
 
 
 def multilag_layout(lags: Sequence[int], k: int) -> list[tuple[str, int, int]]:

@@ -86,7 +86,14 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
     rep = Hoerst2010Reproduction("hoerst2010", scenario=scn, sequences=seqs)
     cot = [scn.truth[f"t_{m}"] for m in range(1, scn.motion.manoeuvres + 1)]
 
-    # -- the table of position RMS bounds ---------------------------------------------------
+    _table_section(rep, seqs)
+    _claims_section(rep, seqs, cot, step)
+    _figure_section(rep, seqs, step)
+    return rep
+
+
+def _table_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence]) -> None:
+    """The table of position RMS bounds at the paper's reference times."""
     rows = []
     times = [t for t in TABLE_TIMES if t in set(seqs["azimuth"].ref_times)]
     for t in times:
@@ -103,7 +110,10 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
     rep.figures["rms_m"] = {k: [_num(s.at(t).rms) for t in times] for k, s in seqs.items()}
     rep.figures["rms_times_s"] = times
 
-    # -- the paper's statements about Fig. 2 ------------------------------------------------
+
+def _claims_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence],
+                    cot: list[float], step: float) -> None:
+    """The paper's statements about Fig. 2 (§4), each checked against the bounds."""
     az, azr = seqs["azimuth"], seqs["azimuth+rate"]
     refs = az.ref_times
     either = np.isfinite(az.rms) | np.isfinite(azr.rms)
@@ -158,7 +168,10 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
     rep.sections.append(Section("Fig. 2: the paper's statements (§4) checked",
                                 ["statement", "tmakit", "holds"], checks))
 
-    # -- what the figure shows -------------------------------------------------------------
+
+def _figure_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence],
+                    step: float) -> None:
+    """What the figure shows: ellipses drawn and left out per panel."""
     rows = []
     for key in ("azimuth", "azimuth+rate"):
         s = seqs[key]
@@ -170,7 +183,6 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
         ["panel", "reference times", "drawn", f"left out: extent > {OMIT_EXTENT / 1e3:g} km",
          "left out: unobservable"], rows,
         "tma reproduce hoerst2010 --plot FILE.png draws the two panels."))
-    return rep
 
 
 def _ellipse_counts(s: CrbSequence) -> tuple[int, int, int]:
