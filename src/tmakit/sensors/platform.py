@@ -174,7 +174,7 @@ class Step:
             self.acceleration[..., None], s)
 
     def __getitem__(self, index: Index) -> Step:
-        """The candidates ``index`` (numpy indexing); ``step[k]`` is one flown step."""
+        """Select the candidates ``index`` (numpy indexing); ``step[k]`` is one flown step."""
         return Step(self.start[index], self.end[index], self.turn_rate[index],
                     self.acceleration[index], self.climb_rate[index], self.interval,
                     self.speed_limited[index], self.turn_limited[index],
@@ -224,6 +224,7 @@ class PlatformKinematics:
     on_limit: Literal["clip", "raise"] = "clip"
 
     def __post_init__(self) -> None:
+        """Check the limits (see Raises)."""
         if not 0.0 <= self.min_speed <= self.max_speed:
             raise ValueError(f"speed range must satisfy 0 <= min_speed <= max_speed, got "
                              f"[{self.min_speed:g}, {self.max_speed:g}] m/s")
@@ -455,7 +456,7 @@ PLATFORM_CONFIGURATIONS: dict[str, PlatformConfiguration] = {
 
 
 def platform_configuration(name: str) -> PlatformConfiguration:
-    """A named platform configuration (see :data:`PLATFORM_CONFIGURATIONS`).
+    """Look up a named platform configuration (see :data:`PLATFORM_CONFIGURATIONS`).
 
     Parameters
     ----------

@@ -158,7 +158,7 @@ class PlatformState:
     @classmethod
     def from_velocity(cls, position: ArrayLike, velocity: ArrayLike,
                       time: float = 0.0) -> PlatformState:
-        """The state of a platform at ``position`` moving with ENU ``velocity``.
+        """Make the state of a platform at ``position`` moving with ENU ``velocity``.
 
         Parameters
         ----------
@@ -195,7 +195,7 @@ class PlatformState:
         return np.concatenate([self.position, self.velocity], axis=-1)
 
     def __getitem__(self, index: Index) -> PlatformState:
-        """The platforms ``index`` of the batch (numpy indexing)."""
+        """Select the platforms ``index`` of the batch (numpy indexing)."""
         return PlatformState(self.position[index], self.heading[index], self.speed[index],
                              self.climb_rate[index], self.time)
 
@@ -276,11 +276,11 @@ class Actions:
         return self.heading_change.shape
 
     def __len__(self) -> int:
-        """Number of candidates along the first axis."""
+        """Return the number of candidates along the first axis."""
         return self.shape[0] if self.shape else 1
 
     def __getitem__(self, index: Index) -> Actions:
-        """The candidates ``index`` (numpy indexing)."""
+        """Select the candidates ``index`` (numpy indexing)."""
         return Actions(self.heading_change[index], self.speed_factor[index],
                        self.speed_change[index],
                        None if self.climb_rate is None else self.climb_rate[index])
