@@ -187,6 +187,18 @@ def test_invalid_limits_and_inputs_are_refused():
         HN.kinematics.step(PlatformState((0.0, 0.0), 0.0, 60.0), HN.actions, 0.0)
     with pytest.raises(ValueError, match="unknown platform configuration"):
         platform_configuration("nope")
+    with pytest.raises(ValueError, match="1-D sequence"):
+        HN.kinematics.fly(PlatformState((0.0, 0.0), 0.0, 60.0), HN.actions[3], HN.interval)
+    with pytest.raises(TypeError):
+        len(HN.actions[3])
+
+
+def test_two_dimensional_positions_mean_altitude_zero():
+    two = propagate_constant_turn([1.0, 2.0], 0.4, 80.0, 0.0, 0.1, 1.0, 3.0)
+    three = propagate_constant_turn([1.0, 2.0, 0.0], 0.4, 80.0, 0.0, 0.1, 1.0, 3.0)
+    np.testing.assert_array_equal(two, three)
+    step = HN.kinematics.step(PlatformState((1.0, 2.0), 0.4, 80.0), HN.actions, HN.interval)
+    assert np.all(step.end.position[:, 2] == 0.0) and np.all(step.end.velocity[:, 2] == 0.0)
 
 
 def test_state_from_velocity_round_trip():

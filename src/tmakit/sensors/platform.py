@@ -320,7 +320,14 @@ class PlatformKinematics:
         -------
         PlatformTrack
             The flown path, from ``start.time`` to ``start.time + K * interval``.
+
+        Raises
+        ------
+        ValueError
+            If ``start`` is not one state or ``actions`` is not 1-D and non-empty.
         """
+        if start.shape != () or len(actions.shape) != 1 or not actions.shape[0]:
+            raise ValueError("fly() takes one start state and a 1-D sequence of actions")
         steps = []
         state = start
         for k in range(len(actions)):

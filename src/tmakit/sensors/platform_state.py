@@ -56,8 +56,8 @@ def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: Arra
 
     Parameters
     ----------
-    position : array_like, shape (..., 3)
-        ENU start position (m).
+    position : array_like, shape (..., 2) or (..., 3)
+        ENU start position (m); two coordinates mean altitude 0.
     heading : array_like
         Start heading (rad, clockwise from North).
     speed : array_like
@@ -77,6 +77,10 @@ def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: Arra
         ``[x, y, z, vx, vy, vz]`` (m, m/s) at ``dt``.
     """
     pos = _arr(position)
+    if pos.ndim == 0 or pos.shape[-1] not in (2, 3):
+        raise ValueError(f"position must end in 2 or 3 ENU coordinates (m), got {pos.shape}")
+    if pos.shape[-1] == 2:
+        pos = np.concatenate([pos, np.zeros((*pos.shape[:-1], 1))], axis=-1)
     psi0, v0, c, w, a, s = np.broadcast_arrays(*(_arr(q) for q in (
         heading, speed, climb_rate, turn_rate, acceleration, dt)))
     e1, e2 = _turn_factors(1j * w * s)
@@ -277,7 +281,9 @@ class Actions:
 
     def __len__(self) -> int:
         """Return the number of candidates along the first axis."""
-        return self.shape[0] if self.shape else 1
+        if not self.shape:
+            raise TypeError("len() of a single action (shape ())")
+        return self.shape[0]
 
     def __getitem__(self, index: Index) -> Actions:
         """Select the candidates ``index`` (numpy indexing)."""
