@@ -8,7 +8,8 @@ one at constant altitude (``z = 0``, climb rate 0).
 An action (:class:`Actions`, vectorised: ``C`` candidates at once) asks for a heading change
 and a new speed by the end of a decision interval ``T``.  :class:`PlatformKinematics` flies
 it as a **constant turn rate** ``w = dpsi / T`` and a **constant tangential acceleration**
-``a = (v1 - v0) / T`` over the step, with a constant climb rate for 3-D platforms.  With the
+``a = (v1 - v0) / T`` over the step, with a constant climb rate for 3-D platforms (set at
+the start of the step, so only the vertical velocity may jump between steps).  With the
 horizontal velocity written as ``V = v e^{i psi}`` (real part North, imaginary part East),
 ``V(s) = (v0 + a s) e^{i (psi0 + w s)}`` and the displacement after ``s`` seconds is exact::
 
@@ -22,21 +23,25 @@ this is the circular arc of :func:`tmakit.motion.propagate_curvilinear` (which k
 
 Limits (speed range, turn-rate, acceleration and climb-rate limits, altitude band) are applied
 by **clipping**, and every clip is reported: :class:`Step` carries one boolean mask per limit
-(``speed_limited``, ``turn_limited``, ``acceleration_limited``, ``altitude_limited``) and
-their union ``clipped``; ``on_limit="raise"`` refuses instead.  Clipping keeps the candidate
-array shape fixed (a planner scores all ``C`` candidates; it may drop the clipped ones), which
-is why it is the default.
+(``speed_limited``, ``turn_limited``, ``acceleration_limited``, and ``climb_limited`` for the
+climb-rate limit or the altitude band) and their union ``clipped``; ``on_limit="raise"``
+refuses instead.  Clipping keeps the candidate array shape fixed (a planner scores all ``C``
+candidates; it may drop the clipped ones), which is why it is the default.
 
 Everything is vectorised: one state (or ``C`` states) and ``C`` actions give ``(C, ...)``
 results by numpy broadcasting, and :meth:`Step.sensor_states` gives the sensor states
 ``[x, y, z, vx, vy, vz]`` of every candidate at any times inside the step, shape
 ``(C, n, 6)``.  Steps chosen one after another make a :class:`PlatformTrack`, a
 :class:`~tmakit.sensors.SensorTrack` that is exact at every time, so the rest of tmakit
-(scenarios, simulation, bounds) uses a flown path like any recorded or scripted track.
+(scenarios, simulation, bounds) uses a flown path like any recorded or scripted track.  (A
+:class:`~tmakit.sensors.RecordedTrack` through the step ends would be exact only at the step
+ends: its cubic Hermite pieces are not arcs.)
 
 :data:`HURTADO_NEHORAI_2008` is the 15-action set of Hurtado & Nehorai (2008), section 5,
 example 1: speed x0.9, x1 or x1.1 and heading -10, -5, 0, +5 or +10 degrees per step, the
-speed kept between 50 and 200 m/s, one step per pulse repetition interval of 0.5 s.
+speed kept between 50 and 200 m/s, one step per pulse repetition interval of 0.5 s.  The
+paper lets the radar select its velocity vector at each step; flying the change as a constant
+turn and acceleration over the step is tmakit's choice.
 
 Examples
 --------
