@@ -1,0 +1,495 @@
+"""Steerable sensor platforms: a platform state, actions, and exact turn-and-accelerate steps.
+
+A :class:`PlatformState` is where a steerable sensor is and how it moves: ENU position (m),
+heading (rad, clockwise from North, as every bearing in tmakit: ``atan2(v_east, v_north)``),
+horizontal speed (m/s), climb rate (m/s, up positive) and time (s).  A 2-D platform is a 3-D
+one at constant altitude (``z = 0``, climb rate 0).
+
+An action (:class:`Actions`, vectorised: ``C`` candidates at once) asks for a heading change
+and a new speed by the end of a decision interval ``T``.  :class:`PlatformKinematics` flies
+it as a **constant turn rate** ``w = dpsi / T`` and a **constant tangential acceleration**
+``a = (v1 - v0) / T`` over the step, with a constant climb rate for 3-D platforms (set at
+the start of the step, so only the vertical velocity may jump between steps).  With the
+horizontal velocity written as ``V = v e^{i psi}`` (real part North, imaginary part East),
+``V(s) = (v0 + a s) e^{i (psi0 + w s)}`` and the displacement after ``s`` seconds is exact::
+
+    P(s) - P0 = e^{i psi0} s (v0 E1(i w s) + a s E2(i w s)),
+    E1(z) = (e^z - 1) / z,    E2(z) = (e^z (z - 1) + 1) / z^2,
+
+with the power series ``E1 = sum z^n / (n + 1)!`` and ``E2 = sum z^n / (n! (n + 2))`` near
+``z = 0`` (a straight step), so there is no Euler step and no cancellation.  For ``a = 0``
+this is the circular arc of :func:`tmakit.motion.propagate_curvilinear` (which keeps the
+*normal acceleration*, not the turn rate, constant when the speed changes).
+
+Limits (speed range, turn-rate, acceleration and climb-rate limits, altitude band) are applied
+by **clipping**, and every clip is reported: :class:`Step` carries one boolean mask per limit
+(``speed_limited``, ``turn_limited``, ``acceleration_limited``, and ``climb_limited`` for the
+climb-rate limit or the altitude band) and their union ``clipped``; ``on_limit="raise"``
+refuses instead.  Clipping keeps the candidate array shape fixed (a planner scores all ``C``
+candidates; it may drop the clipped ones), which is why it is the default.
+
+Everything is vectorised: one state (or ``C`` states) and ``C`` actions give ``(C, ...)``
+results by numpy broadcasting, and :meth:`Step.sensor_states` gives the sensor states
+``[x, y, z, vx, vy, vz]`` of every candidate at any times inside the step, shape
+``(C, n, 6)``.  Steps chosen one after another make a :class:`PlatformTrack`, a
+:class:`~tmakit.sensors.SensorTrack` that is exact at every time, so the rest of tmakit
+(scenarios, simulation, bounds) uses a flown path like any recorded or scripted track.  (A
+:class:`~tmakit.sensors.RecordedTrack` through the step ends would be exact only at the step
+ends: its cubic Hermite pieces are not arcs.)
+
+:data:`HURTADO_NEHORAI_2008` is the 15-action set of Hurtado & Nehorai (2008), section 5,
+example 1: speed x0.9, x1 or x1.1 and heading -10, -5, 0, +5 or +10 degrees per step, the
+speed kept between 50 and 200 m/s, one step per pulse repetition interval of 0.5 s.  The
+paper lets the radar select its velocity vector at each step; flying the change as a constant
+turn and acceleration over the step is tmakit's choice.
+
+Examples
+--------
+>>> import numpy as np
+>>> from tmakit.sensors import PlatformState, platform_configuration
+>>> config = platform_configuration("hurtado_nehorai_2008")
+>>> start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=50.0)   # North, 50 m/s
+>>> step = config.kinematics.step(start, config.actions, config.interval)
+>>> step.shape, len(config.actions)
+((15,), 15)
+>>> np.round(step.end.speed[:5], 1)                    # x0.9 clipped to the 50 m/s floor
+array([50., 50., 50., 50., 50.])
+>>> bool(step.clipped[0]), bool(step.clipped[5])
+(True, False)
+>>> step.sensor_states([0.25, 0.5]).shape              # candidates x times x state
+(15, 2, 6)
+>>> path = config.kinematics.fly(start, config.actions[[13, 7, 7]], config.interval)
+>>> path.start_time, path.end_time                     # x1.1 and +5 deg, then x1 twice
+(0.0, 1.5)
+>>> np.allclose(path.states([0.5])[0], step[13].end.sensor_state)
+True
+>>> round(float(path.end.speed), 6)
+55.0
+
+References
+----------
+Hurtado, M. and Nehorai, A. (2008), "Adaptive path design of a moving radar", section 5.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .platform_state import Actions, Array, Index, PlatformState, propagate_constant_turn
+from .tracks import SensorTrack
+
+_LIMIT_TOL = 1e-9     # relative: a clip smaller than this is rounding, not a limit
+_TIME_TOL = 1e-9      # relative tolerance on times at the ends of a step or track
+
+
+def _arr(a: ArrayLike) -> Array:
+    return np.asarray(a, dtype=float)
+
+
+def _differs(applied: Array, commanded: Array) -> NDArray[np.bool_]:
+    """Where a limit changed a commanded value by more than rounding."""
+    return np.abs(applied - commanded) > _LIMIT_TOL * np.maximum(1.0, np.abs(commanded))
+
+
+@dataclass(frozen=True, eq=False)
+class Step:
+    """Candidate steps of one decision interval: what was flown and which limits acted.
+
+    Made by :meth:`PlatformKinematics.step`; every field has the batch shape :attr:`shape`.
+
+    Attributes
+    ----------
+    start, end : PlatformState
+        States at the start and at the end of the step.
+    turn_rate : ndarray
+        Applied constant turn rate (rad/s, positive clockwise).
+    acceleration : ndarray
+        Applied constant tangential acceleration (m/s^2).
+    climb_rate : ndarray
+        Applied constant climb rate (m/s).
+    interval : float
+        Length of the step (s).
+    speed_limited, turn_limited, acceleration_limited, climb_limited : ndarray of bool
+        Where the speed range, the turn-rate limit, the acceleration limit, or the
+        climb-rate limit / altitude band clipped the commanded action.
+    """
+
+    start: PlatformState
+    end: PlatformState
+    turn_rate: Array
+    acceleration: Array
+    climb_rate: Array
+    interval: float
+    speed_limited: NDArray[np.bool_]
+    turn_limited: NDArray[np.bool_]
+    acceleration_limited: NDArray[np.bool_]
+    climb_limited: NDArray[np.bool_]
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Batch shape of the candidates."""
+        return self.turn_rate.shape
+
+    @property
+    def clipped(self) -> NDArray[np.bool_]:
+        """Where any limit clipped the commanded action."""
+        return (self.speed_limited | self.turn_limited | self.acceleration_limited
+                | self.climb_limited)
+
+    @property
+    def end_time(self) -> float:
+        """Time at the end of the step (s)."""
+        return self.start.time + self.interval
+
+    def sensor_states(self, times: ArrayLike) -> Array:
+        """Sensor states of every candidate at times inside the step.
+
+        Parameters
+        ----------
+        times : array_like, shape (n,)
+            Times (s, the clock of :attr:`PlatformState.time`) in ``[start, end]``.
+
+        Returns
+        -------
+        ndarray, shape (*shape, n, 6)
+            ``[x, y, z, vx, vy, vz]`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If a time lies outside the step.
+        """
+        t0 = self.start.time
+        s = np.atleast_1d(_arr(times)) - t0
+        tol = _TIME_TOL * max(1.0, abs(t0), self.interval)
+        if s.ndim != 1 or np.any((s < -tol) | (s > self.interval + tol)):
+            raise ValueError(f"times must be a 1-D array inside the step [{t0:g}, "
+                             f"{self.end_time:g}] s")
+        s = np.clip(s, 0.0, self.interval)
+        st = self.start
+        return propagate_constant_turn(
+            st.position[..., None, :], st.heading[..., None], st.speed[..., None],
+            self.climb_rate[..., None], self.turn_rate[..., None],
+            self.acceleration[..., None], s)
+
+    def __getitem__(self, index: Index) -> Step:
+        """Select the candidates ``index`` (numpy indexing); ``step[k]`` is one flown step."""
+        return Step(self.start[index], self.end[index], self.turn_rate[index],
+                    self.acceleration[index], self.climb_rate[index], self.interval,
+                    self.speed_limited[index], self.turn_limited[index],
+                    self.acceleration_limited[index], self.climb_limited[index])
+
+
+@dataclass(frozen=True)
+class PlatformKinematics:
+    """Constant-turn, constant-acceleration kinematics of a steerable platform, with limits.
+
+    Parameters
+    ----------
+    min_speed, max_speed : float, optional
+        Horizontal speed range (m/s) at the end of every step.
+    max_turn_rate : float, optional
+        Largest turn rate (rad/s).
+    max_acceleration : float, optional
+        Largest tangential acceleration or deceleration (m/s^2).
+    max_climb_rate : float, optional
+        Largest climb or descent rate (m/s).
+    min_altitude, max_altitude : float, optional
+        Altitude band (m, ENU up) the platform may not leave at the end of a step.
+    on_limit : {"clip", "raise"}, optional
+        ``"clip"``: clip to the limits and report it in the :class:`Step` masks;
+        ``"raise"``: raise ``ValueError`` when an action would need clipping.
+
+    Raises
+    ------
+    ValueError
+        If the limits are inconsistent (negative, or a minimum above its maximum).
+
+    Notes
+    -----
+    Order of the limits: the commanded end speed is clipped to the speed range, then the
+    acceleration it needs to the acceleration limit; the heading change divided by the
+    interval to the turn-rate limit; the climb rate to the altitude band, then to the
+    climb-rate limit (so a platform outside the band returns at most at that rate).
+    """
+
+    min_speed: float = 0.0
+    max_speed: float = math.inf
+    max_turn_rate: float = math.inf
+    max_acceleration: float = math.inf
+    max_climb_rate: float = math.inf
+    min_altitude: float = -math.inf
+    max_altitude: float = math.inf
+    on_limit: Literal["clip", "raise"] = "clip"
+
+    def __post_init__(self) -> None:
+        """Check the limits (see Raises)."""
+        if not 0.0 <= self.min_speed <= self.max_speed:
+            raise ValueError(f"speed range must satisfy 0 <= min_speed <= max_speed, got "
+                             f"[{self.min_speed:g}, {self.max_speed:g}] m/s")
+        for name in ("max_turn_rate", "max_acceleration", "max_climb_rate"):
+            if not getattr(self, name) >= 0.0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not self.min_altitude <= self.max_altitude:
+            raise ValueError(f"altitude band [{self.min_altitude:g}, {self.max_altitude:g}] "
+                             "m is empty")
+        if self.on_limit not in ("clip", "raise"):
+            raise ValueError(f"on_limit must be 'clip' or 'raise', got {self.on_limit!r}")
+
+    def step(self, state: PlatformState, actions: Actions, interval: float) -> Step:
+        """Fly every action from every state for one decision interval (vectorised).
+
+        Parameters
+        ----------
+        state : PlatformState
+            Start state(s); its batch shape broadcasts with that of ``actions``.
+        actions : Actions
+            Candidate actions.
+        interval : float
+            Decision interval (s), > 0.
+
+        Returns
+        -------
+        Step
+            Batch shape ``broadcast(state.shape, actions.shape)``.
+
+        Raises
+        ------
+        ValueError
+            If ``interval`` is not positive, or with ``on_limit="raise"`` when a limit acts.
+        """
+        T = float(interval)
+        if not (math.isfinite(T) and T > 0):
+            raise ValueError(f"decision interval must be positive, got {interval} s")
+        shape = np.broadcast_shapes(state.shape, actions.shape)
+        v0 = np.broadcast_to(state.speed, shape)
+        z0 = np.broadcast_to(state.position[..., 2], shape)
+        target = v0 * actions.speed_factor + actions.speed_change
+        v1 = np.clip(target, self.min_speed, self.max_speed)
+        acc_cmd = (v1 - v0) / T
+        acc = np.clip(acc_cmd, -self.max_acceleration, self.max_acceleration)
+        w_cmd = np.broadcast_to(actions.heading_change / T, shape)
+        w = np.clip(w_cmd, -self.max_turn_rate, self.max_turn_rate)
+        c_cmd = np.broadcast_to(state.climb_rate if actions.climb_rate is None
+                                else actions.climb_rate, shape)
+        c = np.clip(c_cmd, (self.min_altitude - z0) / T, (self.max_altitude - z0) / T)
+        c = np.clip(c, -self.max_climb_rate, self.max_climb_rate)
+        flags = {"speed range": _differs(v1, target),
+                 "acceleration limit": _differs(acc, acc_cmd),
+                 "turn-rate limit": _differs(w, w_cmd),
+                 "climb-rate limit or altitude band": _differs(c, c_cmd)}
+        if self.on_limit == "raise":
+            for name, flag in flags.items():
+                if np.any(flag):
+                    first = tuple(int(i) for i in np.argwhere(flag)[0])
+                    raise ValueError(f"action {first} of the step from t = {state.time:g} s "
+                                     f"exceeds the platform's {name}")
+        v_end = np.where(flags["acceleration limit"], np.maximum(v0 + acc * T, 0.0), v1)
+        pos = np.broadcast_to(state.position, (*shape, 3))
+        psi0 = np.broadcast_to(state.heading, shape)
+        end = propagate_constant_turn(pos, psi0, v0, c, w, acc, T)
+        start = PlatformState(pos, psi0, v0, np.broadcast_to(state.climb_rate, shape),
+                              state.time)
+        return Step(start, PlatformState(end[..., :3], psi0 + w * T, v_end, c, state.time + T),
+                    w, acc, c, T, flags["speed range"], flags["turn-rate limit"],
+                    flags["acceleration limit"], flags["climb-rate limit or altitude band"])
+
+    def sensor_states(self, state: PlatformState, actions: Actions, interval: float,
+                      times: ArrayLike) -> Array:
+        """Sensor states ``(*shape, n, 6)`` along every candidate step at ``times`` (s).
+
+        Shorthand for ``self.step(state, actions, interval).sensor_states(times)``; see
+        :meth:`step` and :meth:`Step.sensor_states`.
+        """
+        return self.step(state, actions, interval).sensor_states(times)
+
+    def fly(self, start: PlatformState, actions: Actions, interval: float) -> PlatformTrack:
+        """Fly ``K`` actions one after another from one start state.
+
+        Parameters
+        ----------
+        start : PlatformState
+            One state (batch shape ``()``).
+        actions : Actions, shape (K,)
+            The actions, in order.
+        interval : float
+            Decision interval (s).
+
+        Returns
+        -------
+        PlatformTrack
+            The flown path, from ``start.time`` to ``start.time + K * interval``.
+
+        Raises
+        ------
+        ValueError
+            If ``start`` is not one state or ``actions`` is not 1-D and non-empty.
+        """
+        if start.shape != () or len(actions.shape) != 1 or not actions.shape[0]:
+            raise ValueError("fly() takes one start state and a 1-D sequence of actions")
+        steps = []
+        state = start
+        for k in range(len(actions)):
+            steps.append(self.step(state, actions[k], interval))
+            state = steps[-1].end
+        return PlatformTrack(steps)
+
+
+class PlatformTrack(SensorTrack):
+    """A flown path: consecutive one-candidate :class:`Step` s, exact at every time.
+
+    Parameters
+    ----------
+    steps : sequence of Step
+        Steps of batch shape ``()``, each starting where and when the previous one ended.
+
+    Raises
+    ------
+    ValueError
+        If there is no step, a step holds several candidates, or the steps do not join.
+
+    Notes
+    -----
+    :meth:`states` refuses times outside the flown path (as
+    :class:`~tmakit.sensors.RecordedTrack` does).  At a step boundary the later step is
+    used; horizontal velocity is continuous there, the climb rate may change.
+    """
+
+    def __init__(self, steps: Sequence[Step]) -> None:
+        self.steps = tuple(steps)
+        if not self.steps:
+            raise ValueError("a platform track needs at least one step")
+        for k, step in enumerate(self.steps):
+            if step.shape != ():
+                raise ValueError(f"step {k}: holds candidates of shape {step.shape}; select "
+                                 "one with step[index]")
+            if k:
+                prev = self.steps[k - 1]
+                scale = max(1.0, abs(prev.end_time))
+                gap = float(np.max(np.abs(step.start.position - prev.end.position)))
+                if (abs(step.start.time - prev.end_time) > _TIME_TOL * scale
+                        or gap > 1e-6 * max(1.0, float(np.max(np.abs(prev.end.position))))):
+                    raise ValueError(f"step {k} does not start where and when step {k - 1} "
+                                     "ended")
+        s = self.steps
+        self._t0 = np.array([st.start.time for st in s])
+        self._pos = np.array([st.start.position for st in s])
+        self._rates = np.array([[st.start.heading, st.start.speed, st.climb_rate, st.turn_rate,
+                                 st.acceleration, st.interval] for st in s])
+
+    @property
+    def start_time(self) -> float:
+        """First time of the path (s)."""
+        return float(self._t0[0])
+
+    @property
+    def end_time(self) -> float:
+        """Last time of the path (s)."""
+        return self.steps[-1].end_time
+
+    @property
+    def end(self) -> PlatformState:
+        """State at the end of the path."""
+        return self.steps[-1].end
+
+    def states(self, t: ArrayLike) -> Array:
+        """ENU position and velocity ``(n, 6)`` (m, m/s) at times ``t`` (s).
+
+        Raises
+        ------
+        ValueError
+            If a time lies outside ``[start_time, end_time]``.
+        """
+        t = np.atleast_1d(_arr(t))
+        tol = _TIME_TOL * max(1.0, abs(self.start_time), abs(self.end_time))
+        if t.ndim != 1 or np.any((t < self.start_time - tol) | (t > self.end_time + tol)):
+            raise ValueError(f"times must be a 1-D array inside the flown path "
+                             f"[{self.start_time:g}, {self.end_time:g}] s")
+        k = np.clip(np.searchsorted(self._t0, t, side="right") - 1, 0, len(self.steps) - 1)
+        psi, v, c, w, a, T = self._rates[k].T
+        s = np.clip(t - self._t0[k], 0.0, T)
+        return propagate_constant_turn(self._pos[k], psi, v, c, w, a, s)
+
+
+@dataclass(frozen=True, eq=False)
+class PlatformConfiguration:
+    """A named platform: its kinematics, its action set and its decision interval.
+
+    Attributes
+    ----------
+    name : str
+        Name for :func:`platform_configuration`.
+    kinematics : PlatformKinematics
+        Limits of the platform.
+    actions : Actions
+        Candidate actions of every decision.
+    interval : float
+        Decision interval (s).
+    source : str
+        Where it comes from (author-year, section).
+    """
+
+    name: str
+    kinematics: PlatformKinematics
+    actions: Actions
+    interval: float
+    source: str
+
+
+HURTADO_NEHORAI_2008 = PlatformConfiguration(
+    name="hurtado_nehorai_2008",
+    kinematics=PlatformKinematics(min_speed=50.0, max_speed=200.0,
+                                  max_turn_rate=math.radians(10.0) / 0.5),
+    actions=Actions.grid(np.radians([-10.0, -5.0, 0.0, 5.0, 10.0]),
+                         speed_factors=[0.9, 1.0, 1.1]),
+    interval=0.5,
+    source="Hurtado & Nehorai (2008), section 5, example 1: speed x0.9 / x1 / x1.1 kept in "
+           "[50, 200] m/s, heading -10..+10 degrees in 5-degree steps, one step per 0.5 s "
+           "pulse repetition interval",
+)
+"""The 15 actions of Hurtado & Nehorai (2008), section 5, example 1.
+
+Index ``5 * f + h``: speed factor ``(0.9, 1.0, 1.1)[f]``, heading change
+``(-10, -5, 0, +5, +10)[h]`` degrees.  The paper gives the limits per step; here the speed
+range is [50, 200] m/s (a factor that would leave it is clipped to it and reported), the
+turn-rate limit 10 degrees per 0.5 s step (20 deg/s, reached by the +-10 degree actions), no
+acceleration limit (the paper states none).  The paper does not say how a heading change is
+flown inside the step; here it is a constant turn rate and constant acceleration."""
+
+PLATFORM_CONFIGURATIONS: dict[str, PlatformConfiguration] = {
+    HURTADO_NEHORAI_2008.name: HURTADO_NEHORAI_2008,
+}
+
+
+def platform_configuration(name: str) -> PlatformConfiguration:
+    """Look up a named platform configuration (see :data:`PLATFORM_CONFIGURATIONS`).
+
+    Parameters
+    ----------
+    name : str
+        ``"hurtado_nehorai_2008"``.
+
+    Returns
+    -------
+    PlatformConfiguration
+
+    Raises
+    ------
+    ValueError
+        If the name is unknown.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), section 5.
+    """
+    key = name.strip().lower()
+    if key not in PLATFORM_CONFIGURATIONS:
+        raise ValueError(f"unknown platform configuration {name!r}; expected one of "
+                         f"{', '.join(PLATFORM_CONFIGURATIONS)}")
+    return PLATFORM_CONFIGURATIONS[key]
