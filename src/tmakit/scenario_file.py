@@ -21,6 +21,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from .measurements import KINDS
 from .motion import MotionModel, motion_from_name
 from .scenario import MeasurementPlan, Scenario
+from .scenario_catalog import builtin_scenario_names
+from .scenario_catalog import builtin_scenarios as builtin_scenarios  # re-exported
 from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
 from .units import free_space_constant, linear_to_db
 
@@ -290,21 +292,6 @@ def read_scenario_file(path: str | Path) -> Scenario:
     except tomllib.TOMLDecodeError as err:
         raise ScenarioFileError(f"{path}: not valid TOML: {err}") from None
     return scenario_from_dict(data, str(path))
-
-
-def builtin_scenario_names() -> list[str]:
-    """Names of the scenarios that ship with tmakit."""
-    folder = resources.files("tmakit") / "scenarios"
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
-
-
-def builtin_scenarios() -> list[tuple[str, str]]:
-    """``(name, one-line title)`` of every built-in scenario."""
-    out = []
-    for name in builtin_scenario_names():
-        text = (resources.files("tmakit") / "scenarios" / f"{name}.toml").read_text("utf-8")
-        out.append((name, str(tomllib.loads(text).get("title", ""))))
-    return out
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:

@@ -1,0 +1,43 @@
+"""The ``tma`` command.
+
+    tma scenarios                                  list the built-in scenarios
+    tma simulate SCENARIO [--seed N] [--no-noise] -o FILE [--force]
+    tma show FILE [--plot out.png] [--origin LAT,LON,ALT] [--force]
+    tma demo [--out-dir DIR] [--seed N] [--force]
+    tma crlb FILE --motion cv2d --truth x=..,y=.. [--known-nuisance] [--json]
+    tma crlb SCENARIO [--known-nuisance] [--at T] [--json]
+    tma estimate FILE [--motion cv2d] [--init x=..,y=..] [--method ml] [--json]
+    tma reproduce gu2007|doppler-lecture|hoerst2010|chen-sun [--runs N] [--seed S] [--plot FILE]
+    tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
+    tma track FILE [--filter ekf|ukf|mgekf|pf] [--q Q] [--json] [-o track.csv] [--plot out.png]
+
+Every command refuses to overwrite an existing output unless ``--force`` is given, and
+reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
+"""
+
+from __future__ import annotations
+
+import typer
+
+from .crlb import crlb
+from .estimate import estimate
+from .montecarlo import montecarlo
+from .reproduce import reproduce
+from .scenarios import demo, scenarios, show, simulate
+from .track import track
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="tmakit: passive emitter localisation and target motion analysis.")
+
+# Registered in this order: ``tma --help`` lists the commands in it.
+for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
+                 demo):
+    app.command()(_command)
+
+
+def main() -> None:
+    """Entry point of the ``tma`` console script."""
+    app()
+
+
+__all__ = ["app", "main"]

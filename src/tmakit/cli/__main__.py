@@ -1,0 +1,5 @@
+"""``python -m tmakit.cli``: the ``tma`` command."""
+
+from tmakit.cli import main
+
+main()

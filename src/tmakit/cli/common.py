@@ -1,0 +1,286 @@
+"""What every ``tma`` command shares: the consoles, the error exit, the refusal to overwrite,
+parsing of ``--origin`` and ``name=value`` options, reading and writing measurement files,
+and the typer option aliases of the commands that fit or bound a motion model.
+
+Nothing numerical is imported here at module level: ``tma --help`` and ``tma scenarios``
+must start without numpy's heavy users (scipy, the estimators) or pydantic.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+
+out = Console()
+err = Console(stderr=True)
+
+
+def fail(message: str) -> typer.Exit:
+    """Print ``error: message`` on standard error and return the exit (status 2) to raise.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, naming the file, row and field where there is one.
+
+    Returns
+    -------
+    typer.Exit
+        The exception to raise (``raise fail(...)``), exit status 2.
+    """
+    err.print(f"[bold red]error:[/] {message}", highlight=False, markup=True, soft_wrap=True)
+    return typer.Exit(2)
+
+
+def refuse_existing(path: Path, force: bool) -> None:
+    """Refuse to overwrite an existing output file unless ``--force`` was given.
+
+    Parameters
+    ----------
+    path : Path
+        The output file.
+    force : bool
+        Overwrite it anyway.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when ``path`` exists and ``force`` is false.
+    """
+    if path.exists() and not force:
+        raise fail(f"{path} already exists; use --force to overwrite it")
+
+
+def parse_origin(text: str | None) -> tuple[float, float, float] | None:
+    """``--origin LAT,LON,ALT`` as ``(lat_deg, lon_deg, alt_m)``, or None when not given.
+
+    Parameters
+    ----------
+    text : str or None
+        The option's text: latitude (deg), longitude (deg), altitude (m), comma-separated.
+
+    Returns
+    -------
+    tuple of float or None
+        ``(lat, lon, alt)`` in degrees, degrees, metres.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the text is not three numbers.
+    """
+    if text is None:
+        return None
+    try:
+        lat, lon, alt = (float(v) for v in text.split(","))
+    except ValueError:
+        raise fail(f"--origin {text!r}: expected LAT,LON,ALT in degrees, degrees, "
+                   "metres") from None
+    return lat, lon, alt
+
+
+def parse_assignments(text: str | None, option: str) -> dict[str, float]:
+    """``"x=1,y=2"`` -> ``{"x": 1.0, "y": 2.0}``, with a clear error for anything else.
+
+    Parameters
+    ----------
+    text : str or None
+        The option's text; None gives an empty dict.
+    option : str
+        The option's name (``--truth``, ``--init``, ...) for the error message.
+
+    Returns
+    -------
+    dict of str to float
+        The values by name, in the units of the named parameters (m, m/s, Hz, dBW, ...).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when a part is not ``name=number``.
+    """
+    if text is None:
+        return {}
+    values: dict[str, float] = {}
+    for part in text.split(","):
+        name, eq, value = part.partition("=")
+        try:
+            if not eq or not name.strip():
+                raise ValueError
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise fail(f"{option} {text!r}: expected name=value pairs separated by commas, "
+                       f"e.g. x=3200,y=3200,vx=-21.65,vy=-12.5 (problem at {part!r})"
+                       ) from None
+    return values
+
+
+def load_scenario_or_fail(name: str) -> Any:
+    """A built-in scenario by name or a TOML scenario file, errors as ``error: ...``.
+
+    Parameters
+    ----------
+    name : str
+        Built-in scenario name or path of a TOML file.
+
+    Returns
+    -------
+    tmakit.scenario.Scenario
+        The scenario.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the scenario is unknown or its file invalid.
+    """
+    from ..scenario_file import ScenarioFileError, load_scenario
+
+    try:
+        return load_scenario(name)
+    except ScenarioFileError as e:
+        raise fail(str(e)) from None
+
+
+def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None) -> Any:
+    """Read a measurement file, errors (missing file, bad row or field) as ``error: ...``.
+
+    Parameters
+    ----------
+    path : Path
+        The ``.csv`` or ``.parquet`` file.
+    origin : tuple of float, optional
+        ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
+
+    Returns
+    -------
+    tmakit.data.MeasurementSet
+        The measurements.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the file is missing or invalid.
+    """
+    from ..io.measurement_files import MeasurementFileError, read_measurements
+
+    if not path.exists():
+        raise fail(f"{path}: no such file")
+    try:
+        return read_measurements(path, origin=origin)
+    except (MeasurementFileError, ValueError) as e:
+        raise fail(str(e)) from None
+
+
+def write_or_fail(meas: Any, path: Path, force: bool) -> None:
+    """Write a measurement file, errors as ``error: ...``.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    path : Path
+        The ``.csv`` or ``.parquet`` file to write.
+    force : bool
+        Overwrite an existing file.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the file exists (without ``force``) or cannot be written.
+    """
+    from ..io.measurement_files import write_measurements
+
+    try:
+        write_measurements(meas, path, force=force)
+    except FileExistsError:
+        raise fail(f"{path} already exists; use --force to overwrite it") from None
+    except ValueError as e:
+        raise fail(str(e)) from None
+
+
+def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -> Any:
+    """The motion model named by ``--motion`` (or by the file's metadata), errors as
+    ``error: ...``.
+
+    Parameters
+    ----------
+    name : str or None
+        ``cv2d``, ``cv3d``, ``static2d``, ``static3d``, ...; None takes the file's.
+    ref_time : float or None
+        Reference time of the motion parameters (s); None takes the file's, else 0.
+    meas : tmakit.data.MeasurementSet, optional
+        The measurements whose metadata may name the motion.
+
+    Returns
+    -------
+    tmakit.motion.MotionModel
+        The motion model.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when no motion is named or the name is unknown.
+    """
+    from ..motion import motion_from_name
+
+    if name is None:
+        if meas is not None and "motion" in meas.metadata:
+            name = meas.metadata["motion"]
+            if ref_time is None and "ref_time" in meas.metadata:
+                ref_time = float(meas.metadata["ref_time"])
+        else:
+            raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
+    try:
+        return motion_from_name(name, 0.0 if ref_time is None else ref_time)
+    except ValueError as e:
+        raise fail(str(e)) from None
+
+
+def model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, object]]:
+    """The measurement-model options of ``--drift`` and ``--free-exponent``.
+
+    Parameters
+    ----------
+    drift : bool
+        Model a linear carrier drift (Hz/s).
+    free_exponent : bool
+        The path-loss exponent is unknown too (else fixed at 2, free space).
+
+    Returns
+    -------
+    dict
+        ``{"frequency": {"drift": ...}, "power": {"exponent": ...}}``.
+    """
+    return {"frequency": {"drift": drift}, "power": {"exponent": None if free_exponent else 2.0}}
+
+
+def is_measurement_file(text: str) -> bool:
+    """Whether a command argument names a measurement file (``.csv``, ``.parquet``, ``.pq``).
+
+    Parameters
+    ----------
+    text : str
+        The argument.
+
+    Returns
+    -------
+    bool
+        True for a measurement file, False for a scenario name or TOML file.
+    """
+    return Path(text).suffix.lower() in (".csv", ".parquet", ".pq")
+
+
+# Options shared by the commands that fit or bound a motion model.
+MotionOption = Annotated[str | None, typer.Option(
+    help="cv2d, cv3d, static2d, static3d, curvilinear[:M]")]
+RefTimeOption = Annotated[float | None, typer.Option(
+    help="reference time of the motion parameters (s)")]
+DriftOption = Annotated[bool, typer.Option(help="model a linear carrier drift")]
+FreeExponentOption = Annotated[bool, typer.Option(help="the path-loss exponent is unknown too")]
+OriginOption = Annotated[str | None, typer.Option(
+    help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")]
+ForceOption = Annotated[bool, typer.Option(help="overwrite existing output files")]
+JsonOption = Annotated[bool, typer.Option("--json", help="print JSON")]

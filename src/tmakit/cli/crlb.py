@@ -1,0 +1,177 @@
+"""``tma crlb``: the Cramér-Rao lower bound of a measurement file or a scenario."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from .common import (
+    DriftOption,
+    FreeExponentOption,
+    JsonOption,
+    MotionOption,
+    RefTimeOption,
+    fail,
+    is_measurement_file,
+    load_scenario_or_fail,
+    model_options,
+    motion_or_fail,
+    out,
+    parse_assignments,
+    read_or_fail,
+)
+
+
+def crlb(
+    source: Annotated[str, typer.Argument(help="measurement file, or a scenario name/TOML")],
+    motion: MotionOption = None,
+    ref_time: RefTimeOption = None,
+    truth: Annotated[str | None, typer.Option(
+        help="where to evaluate the bound, e.g. x=3200,y=3200,vx=-21.65,vy=-12.5")] = None,
+    known_nuisance: Annotated[bool, typer.Option(
+        help="treat carrier, drift, power constant and exponent as known")] = False,
+    drift: DriftOption = False,
+    free_exponent: FreeExponentOption = False,
+    at: Annotated[float | None, typer.Option(
+        help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
+
+    For a file the bound is evaluated at --truth from the file's times, sensors, kinds and
+    sigmas (its measured values are not used).  Nuisance parameters are unknown unless
+    --known-nuisance is given.
+    """
+    if is_measurement_file(source):
+        bound = bound_of_file(Path(source), motion, ref_time, truth, known_nuisance, drift,
+                              free_exponent)
+    else:
+        bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
+    derived = None if at is None else derived_at(bound, at)
+    print_bound(bound, derived, as_json)
+
+
+def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth: str | None,
+                  known_nuisance: bool, drift: bool, free_exponent: bool) -> Any:
+    """The bound of a measurement file's times, sensors, kinds and sigmas at ``--truth``
+    (or at the file's own truth when neither ``--truth`` nor ``--motion`` is given).
+
+    Parameters
+    ----------
+    file : Path
+        The measurement file.
+    motion, ref_time, truth : str, float (s), str or None
+        ``--motion``, ``--ref-time``, ``--truth``.
+    known_nuisance, drift, free_exponent : bool
+        ``--known-nuisance``, ``--drift``, ``--free-exponent``.
+
+    Returns
+    -------
+    tmakit.results.Bound
+        The bound.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 on bad input or when no truth is known.
+    """
+    import json
+
+    from ..bounds import crlb as compute
+
+    meas = read_or_fail(file)
+    model = motion_or_fail(motion, ref_time, meas)
+    values = parse_assignments(truth, "--truth")
+    if not values and "truth" in meas.metadata and motion is None:
+        values = json.loads(meas.metadata["truth"])
+    if not values:
+        raise fail("--truth is needed to evaluate the bound of a measurement file")
+    try:
+        return compute(meas, model, values, known_nuisance=known_nuisance,
+                       options=model_options(drift, free_exponent))
+    except ValueError as e:
+        raise fail(str(e)) from None
+
+
+def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
+                      free_exponent: bool) -> Any:
+    """The bound of a scenario at its truth.
+
+    Parameters
+    ----------
+    source : str
+        Built-in scenario name or TOML file.
+    known_nuisance, drift, free_exponent : bool
+        ``--known-nuisance``, ``--drift``, ``--free-exponent``.
+
+    Returns
+    -------
+    tmakit.results.Bound
+        The bound.
+    """
+    from ..bounds import crlb as compute
+
+    scn = load_scenario_or_fail(source)
+    opts = scn.measurement_options
+    if drift:
+        opts.setdefault("frequency", {})["drift"] = True
+    if free_exponent:
+        opts.setdefault("power", {})["exponent"] = None
+    return compute(scn, known_nuisance=known_nuisance, options=opts)
+
+
+def derived_at(bound: Any, at: float) -> dict[str, Any]:
+    """Position, speed, course with their standard deviations, and the 90 % ellipse, at a time.
+
+    Parameters
+    ----------
+    bound : tmakit.results.Bound
+        The bound.
+    at : float
+        The time (s).
+
+    Returns
+    -------
+    dict
+        ``{"time": at, name: {"value", "std"}, ..., "ellipse_90": {...}}``; a std is None
+        where the quantity is unobservable.
+    """
+    return {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
+        "inf") else None} for k, (v, sd) in bound.derived(at).items()},
+        "ellipse_90": bound.ellipse(at, 0.9)}
+
+
+def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> None:
+    """Print the bound, and what :func:`derived_at` gave, as text or JSON.
+
+    Parameters
+    ----------
+    bound : tmakit.results.Bound
+        The bound.
+    derived : dict or None
+        The output of :func:`derived_at`, or None without ``--at``.
+    as_json : bool
+        Print JSON.
+    """
+    import json
+
+    if as_json:
+        data = bound.as_dict()
+        if derived is not None:
+            data["at"] = derived
+        out.print_json(json.dumps(data, default=lambda x: None))
+        return
+    out.print(bound.summary(), highlight=False)
+    if derived is not None:
+        out.print(f"at t = {derived['time']:g} s:", highlight=False)
+        for k, v in derived.items():
+            if isinstance(v, dict) and "value" in v:
+                sd = v["std"]
+                out.print(f"  {k:<6} {v['value']:14.6g}  std "
+                          + (f"{sd:.4g}" if sd is not None else "unobservable"),
+                          highlight=False)
+        e = derived["ellipse_90"]
+        out.print(f"  90 % ellipse: semi-axes {e['major']:.4g} m x {e['minor']:.4g} m, "
+                  f"major axis bearing {e['bearing_deg']:.1f} deg", highlight=False)

@@ -1,0 +1,81 @@
+"""``tma montecarlo``: simulate and estimate a scenario many times; RMSE against the CRLB."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from .common import fail, load_scenario_or_fail, out, refuse_existing
+
+
+def montecarlo(
+    scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
+    runs: Annotated[int, typer.Option(help="number of Monte Carlo runs")] = 100,
+    seed: Annotated[int, typer.Option(help="random seed (same seed, same table)")] = 0,
+    estimator: Annotated[str, typer.Option(
+        help="ml (default) or another method of tmakit.batch.methods")] = "ml",
+    known_nuisance: Annotated[bool, typer.Option(
+        "--known-nuisance", help="give the estimator (and the bound) the true carrier, "
+        "power constant, ...; default: unknown, estimated")] = False,
+    dask: Annotated[str | None, typer.Option(
+        help="Dask scheduler address (tcp://host:8786); default: run here")] = None,
+    chunk: Annotated[int | None, typer.Option(help="runs per task")] = None,
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="write the per-run table (.csv or .parquet)")] = None,
+    json_file: Annotated[Path | None, typer.Option(
+        "--json", help="write the summary as JSON")] = None,
+    no_progress: Annotated[bool, typer.Option("--no-progress",
+                                              help="no progress bar")] = False,
+    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+) -> None:
+    """Simulate and estimate a scenario many times; compare the RMSE with the CRLB."""
+    for path in (output, json_file):
+        if path is not None:
+            refuse_existing(path, force)
+    if output is not None and output.suffix.lower() not in (".csv", ".parquet", ".pq"):
+        raise fail(f"{output}: the per-run table is written as .csv or .parquet")
+    scn = load_scenario_or_fail(scenario)
+    from ..montecarlo import monte_carlo
+
+    try:
+        res = monte_carlo(scn, estimator=estimator, runs=runs, seed=seed,
+                          known_nuisance=known_nuisance, progress=not no_progress,
+                          dask=dask, chunk=chunk)
+    except (ValueError, ImportError) as e:
+        raise fail(str(e)) from None
+    except OSError as e:  # the Dask scheduler cannot be reached
+        raise fail(f"Dask scheduler {dask}: {e}") from None
+    print_summary(res)
+    if output is not None:
+        res.save(output, force=force)
+        out.print(f"wrote {output}", highlight=False)
+    if json_file is not None:
+        json_file.write_text(res.to_json() + "\n")
+        out.print(f"wrote {json_file}", highlight=False)
+
+
+def print_summary(res: Any) -> None:
+    """Print the Monte Carlo summary table (bias, RMSE, CRLB, their ratio with its 95 %
+    interval, per parameter) and the convergence and speed line.
+
+    Parameters
+    ----------
+    res : tmakit.montecarlo.MonteCarloResult
+        The Monte Carlo result.
+    """
+    counts = ", ".join(f"{k} {v}" for k, v in res.status_counts.items())
+    table = Table(title=f"{res.estimator} on {res.scenario}: {res.runs} runs (seed {res.seed}), "
+                        f"nuisance {'known' if res.known_nuisance else 'unknown'}",
+                  title_justify="left")
+    for col in ("parameter", "truth", "bias", "RMSE", "CRLB", "RMSE/CRLB", "95 % interval"):
+        table.add_column(col, justify="left" if col == "parameter" else "right")
+    for r in res.summary_table():
+        table.add_row(r["parameter"], f"{r['truth']:.6g}", f"{r['bias']:.4g}",
+                      f"{r['rmse']:.4g}", f"{r['crlb']:.4g}", f"{r['ratio']:.3f}",
+                      f"{r['ratio_low']:.3f} .. {r['ratio_high']:.3f}")
+    out.print(table)
+    out.print(f"converged {res.convergence_rate:.1%} ({counts}); {res.wall_time:.1f} s, "
+              f"{res.runs_per_second:.1f} runs/s ({res.executor})", highlight=False)

@@ -1,0 +1,339 @@
+"""``tma track``: a recursive filter's state and covariance after every update, its table,
+JSON, file and picture."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from .common import (
+    DriftOption,
+    FreeExponentOption,
+    OriginOption,
+    err,
+    fail,
+    model_options,
+    out,
+    parse_assignments,
+    parse_origin,
+    read_or_fail,
+    refuse_existing,
+)
+
+
+def track(
+    file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
+    filter_name: Annotated[str, typer.Option(
+        "--filter", help="ekf, ukf, mgekf or pf (the filters of tmakit.filters.FILTERS)")
+    ] = "ekf",
+    q: Annotated[str, typer.Option(
+        "--q", help="process noise: acceleration std (m/s^2), one value or per axis "
+                    "qx,qy[,qz]; 0 = constant velocity")] = "0",
+    particles: Annotated[int | None, typer.Option(
+        help="number of particles (particle filter only)")] = None,
+    seed: Annotated[int | None, typer.Option(
+        help="random seed (particle filter only; same seed, same track)")] = None,
+    prior: Annotated[str | None, typer.Option(
+        help="start from this state instead of a batch estimate, e.g. "
+             "x=4000,y=9000,vx=-6,vy=-3 (m, m/s); needs --prior-std")] = None,
+    prior_std: Annotated[str | None, typer.Option(
+        help="the prior's standard deviations, e.g. x=3000,y=3000,vx=10,vy=10")] = None,
+    prior_time: Annotated[float | None, typer.Option(
+        help="time of the prior (s); default: the first measurement time")] = None,
+    nuisance: Annotated[str | None, typer.Option(
+        help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")] = None,
+    init_window: Annotated[int | None, typer.Option(
+        help="start from a batch estimate over this many first measurement times "
+             "(default: the shortest window good enough, see --start-std)")] = None,
+    start_std: Annotated[float, typer.Option(
+        help="start quality: the batch start's position std must be below this fraction "
+             "of the range")] = 0.25,
+    dim: Annotated[int | None, typer.Option(
+        help="2 or 3 (default: 3 when the data or the file's motion need it)")] = None,
+    drift: DriftOption = False,
+    free_exponent: FreeExponentOption = False,
+    origin: OriginOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
+    plot: Annotated[Path | None, typer.Option(
+        help="draw the track (PNG, PDF, SVG); with the truth in the file, its error "
+             "against the posterior CRB")] = None,
+    ellipses: Annotated[int, typer.Option(
+        help="number of 90 %/95 % position ellipses drawn along the track")] = 8,
+    rows: Annotated[int, typer.Option(help="rows of the summary table")] = 12,
+    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+) -> None:
+    """Track the emitter with a recursive filter: state and covariance after every update.
+
+    No initial guess is needed: the filter starts from a batch estimate over the shortest
+    initial window of the data that determines the position well enough (or from --prior).
+    """
+    import json
+
+    from .. import tracking
+
+    check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
+    meas = read_or_fail(file, parse_origin(origin))
+    try:
+        d = tracking.filter_dim(meas, dim)
+        q_axes = tracking.parse_q(q, d)
+    except ValueError as e:
+        raise fail(f"--{e}") from None
+    prior_mean, prior_sd, known = parse_prior(prior, prior_std, nuisance, init_window)
+    try:
+        tr = tracking.track(meas, filter_name, q=q_axes, particles=particles,
+                            prior=prior_mean, prior_std=prior_sd, prior_time=prior_time,
+                            init_window=init_window, max_relative_std=start_std, rng=seed,
+                            dim=d, options=model_options(drift, free_exponent),
+                            nuisance=known)
+    except ValueError as e:
+        raise fail(str(e)) from None
+    truth = tracking.truth_states(meas, tr.times, d)
+    if as_json:  # one line: the track is long, and rich's JSON printer slow on it
+        typer.echo(json.dumps(tracking.track_dict(tr)))
+    else:
+        print_track(tr, truth, rows)
+    write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
+                        err if as_json else out)
+
+
+def check_track_options(output: Path | None, plot: Path | None, force: bool,
+                        filter_name: str, particles: int | None, seed: int | None,
+                        ellipses: int, rows: int) -> None:
+    """Refuse bad ``tma track`` options before reading the file.
+
+    Parameters
+    ----------
+    output, plot : Path or None
+        ``-o`` and ``--plot``: not overwritten without ``force``; ``-o`` .csv or .parquet.
+    force : bool
+        ``--force``.
+    filter_name : str
+        ``--filter``: a name of :data:`tmakit.filters.FILTERS`.
+    particles, seed : int or None
+        ``--particles`` and ``--seed``: for the random (particle) filters only.
+    ellipses, rows : int
+        ``--ellipses`` (0 or more) and ``--rows`` (1 or more).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for the first bad option.
+    """
+    from .. import tracking
+    from ..filters import FILTERS
+
+    for path in (output, plot):
+        if path is not None:
+            refuse_existing(path, force)
+    if output is not None and output.suffix.lower() not in tracking.TABLE_SUFFIXES:
+        raise fail(f"{output}: the track table is written as .csv or .parquet")
+    if filter_name not in FILTERS:
+        raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
+    random_filters = tracking.random_filters()
+    for option, value in (("--particles", particles), ("--seed", seed)):
+        if value is not None and filter_name not in random_filters:
+            raise fail(f"{option} applies only to the particle filter"
+                       f"{'s' if len(random_filters) > 1 else ''} "
+                       f"({', '.join(random_filters) or 'none registered'}), not to "
+                       f"{filter_name}")
+    if ellipses < 0 or rows < 1:
+        raise fail("--ellipses must be 0 or more and --rows 1 or more")
+
+
+def parse_prior(prior: str | None, prior_std: str | None, nuisance: str | None,
+                init_window: int | None) -> tuple[dict[str, float] | None, ...]:
+    """``--prior``, ``--prior-std`` and ``--nuisance`` by name, checked to go together.
+
+    Parameters
+    ----------
+    prior, prior_std, nuisance : str or None
+        The options' ``name=value`` texts (m, m/s; Hz, dBW).
+    init_window : int or None
+        ``--init-window``, which cannot be combined with ``--prior``.
+
+    Returns
+    -------
+    tuple of (dict or None)
+        ``(prior_mean, prior_std, known_nuisance)``.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the options do not go together.
+    """
+    prior_mean = parse_assignments(prior, "--prior") or None
+    prior_sd = parse_assignments(prior_std, "--prior-std") or None
+    known = parse_assignments(nuisance, "--nuisance") or None
+    if (prior_mean is None) != (prior_sd is None):
+        raise fail("--prior and --prior-std go together (the state and its standard "
+                   "deviations, by name)")
+    if known is not None and prior_mean is None:
+        raise fail("--nuisance goes with --prior; a batch start estimates the nuisance "
+                   "values itself")
+    if prior_mean is not None and init_window is not None:
+        raise fail("--init-window chooses the batch start; it cannot be used with --prior")
+    return prior_mean, prior_sd, known
+
+
+def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path | None,
+                        plot: Path | None, ellipses: int, force: bool, say: Any) -> None:
+    """Write the track table (``-o``) and picture (``--plot``), and say so.
+
+    Parameters
+    ----------
+    file : Path
+        The measurement file (for the picture's title).
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    tr : tmakit.filters.base.Track
+        The track.
+    truth : numpy.ndarray or None
+        True states at the track's times (m, m/s), from the file's metadata.
+    output, plot : Path or None
+        Where to write the table and the picture.
+    ellipses : int
+        Number of position ellipses drawn.
+    force : bool
+        Overwrite existing files.
+    say : rich.console.Console
+        Where to report (standard error when the track went to standard output as JSON).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the table exists (without ``force``).
+    """
+    from .. import tracking
+
+    if output is not None:
+        try:
+            tracking.write_track(tr, output, force=force)
+        except FileExistsError:
+            raise fail(f"{output} already exists; use --force to overwrite it") from None
+        say.print(f"wrote {output}", highlight=False)
+    if plot is not None:
+        from ..plot import plot_track
+
+        bound, note = (tracking.track_pcrb(meas, tr, truth) if truth is not None
+                       else (None, ""))
+        title = f"{file}: {tr.filter_name} track"
+        if "scenario" in meas.metadata:
+            title += f" of scenario {meas.metadata['scenario']}"
+        plot_track(tr, meas, plot, truth=truth, pcrb=bound, pcrb_note=note,
+                   ellipses=ellipses, title=title)
+        say.print(f"wrote {plot}", highlight=False)
+
+
+def start_sentence(tr: Any) -> str:
+    """How the filter started: the prior, or the batch window, its quality and its checks.
+
+    Parameters
+    ----------
+    tr : tmakit.filters.base.Track
+        The track (``tr.extra["start"]`` describes the start).
+
+    Returns
+    -------
+    str
+        One sentence.
+    """
+    s = tr.extra["start"]
+    if s["method"] == "prior":
+        return f"start: the given prior at t = {s['time']:g} s"
+    text = (f"start: batch ML estimate over the first {s['window']} measurement times "
+            f"({s['rows']} rows, t <= {s['time']:g} s), {s['status']}, position std "
+            f"{s['relative_position_std']:.1%} of the range")
+    if s.get("max_relative_std") is not None:
+        text += f" (needed < {s['max_relative_std']:.0%})"
+    if s.get("nuisance"):
+        text += ("; nuisance held at " + ", ".join(
+            f"{k} = {v['value']:.10g} (std {v['std']:.3g})" for k, v in s["nuisance"].items())
+            + " (the filter does not carry their uncertainty)")
+    check = s.get("confirmation")
+    if check and check["dof"]:
+        text += (f"; confirmed by the next {check['updates']} updates (NIS {check['nis']:.1f} "
+                 f"on {check['dof']} dof, p = {check['p_value']:.2g})")
+    for r in s.get("rejected", []):
+        text += (f"; rejected first: the window of {r['window']} times (t <= {r['time']:g} s), "
+                 f"NIS {r['nis']:.1f} on {r['dof']} dof over the next {r['updates']} updates "
+                 f"(p = {r['p_value']:.2g})")
+    return text
+
+
+def print_track(tr: Any, truth: Any, n_rows: int) -> None:
+    """Print the track's summary table (``n_rows`` rows spread over it) and its checks.
+
+    Parameters
+    ----------
+    tr : tmakit.filters.base.Track
+        The track.
+    truth : numpy.ndarray or None
+        True states at the track's times (m, m/s); adds an error column and the final
+        Mahalanobis distance.
+    n_rows : int
+        Rows of the table.
+    """
+    import numpy as np
+
+    dim = len(tr.state_names) // 2
+    k_sel = np.unique(np.linspace(0, len(tr) - 1, min(n_rows, len(tr))).round().astype(int))
+    q = ", ".join(f"{v:g}" for v in tr.extra["q"])
+    table = Table(title=f"{tr.filter_name} track: {len(tr)} rows, t = {tr.times[0]:g} .. "
+                        f"{tr.times[-1]:g} s, q = {q} m/s^2 ({len(k_sel)} rows shown)",
+                  title_justify="left")
+    cols = ["t\n(s)", *(f"{n}\n(m)" for n in tr.state_names[:dim]), "std\n(m)",
+            "speed\n(m/s)", "course\n(deg)", "NIS/\ndof"]
+    if truth is not None:
+        cols.append("error\n(m)")
+    for c in cols:
+        table.add_column(c, justify="right", no_wrap=True)
+    pos_sd = np.sqrt(np.einsum("kii->k", tr.covariances[:, :dim, :dim]))
+    for k in k_sel:
+        v = tr.states[k, dim:]
+        speed = float(np.linalg.norm(v))
+        course = float(np.degrees(np.arctan2(v[0], v[1])) % 360.0)
+        nis = (f"{tr.nis[k]:.2f}/{tr.dof[k]}" if tr.dof[k] > 0 else "start")
+        row = [f"{tr.times[k]:g}", *(f"{x:.1f}" for x in tr.states[k, :dim]),
+               f"{pos_sd[k]:.1f}", f"{speed:.2f}", f"{course:.1f}", nis]
+        if truth is not None:
+            row.append(f"{np.linalg.norm(tr.states[k, :dim] - truth[k, :dim]):.1f}")
+        table.add_row(*row)
+    out.print(table)
+    out.print("std: position RMS std sqrt(trace P); NIS: normalised innovation squared",
+              highlight=False)
+    out.print(start_sentence(tr), highlight=False)
+    print_track_checks(tr, truth, dim)
+
+
+def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
+    """Print the mean NIS per degree of freedom and, with the truth, the final error.
+
+    Parameters
+    ----------
+    tr : tmakit.filters.base.Track
+        The track.
+    truth : numpy.ndarray or None
+        True states at the track's times (m, m/s).
+    dim : int
+        2 or 3, the position's dimension.
+    """
+    import numpy as np
+
+    used = tr.dof > 0
+    if np.any(used):
+        mean_nis = float(np.sum(tr.nis[used]) / np.sum(tr.dof[used]))
+        out.print(f"{int(np.sum(used))} updates, mean NIS per degree of freedom "
+                  f"{mean_nis:.3f} (1 when consistent), log-likelihood "
+                  f"{tr.log_likelihood[-1]:.2f}", highlight=False)
+    if truth is not None:
+        e = tr.states[-1, :dim] - truth[-1, :dim]
+        cov = tr.covariances[-1, :dim, :dim]
+        m = float(np.sqrt(e @ np.linalg.solve(cov, e)))
+        out.print(f"truth known (file metadata): final position error "
+                  f"{np.linalg.norm(e):.1f} m, {m:.2f} sigma (Mahalanobis, {dim}-D)",
+                  highlight=False)

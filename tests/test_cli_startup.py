@@ -1,0 +1,70 @@
+"""`tma --help` and `tma scenarios` start without the numerical core or pydantic.
+
+Each command runs in a fresh interpreter (`python -c`), which then reports the modules it
+imported; nothing here is timed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import tmakit
+
+# Imported only inside the commands that need them.
+HEAVY = ("scipy", "pandas", "pyarrow", "pandera", "matplotlib", "dask",
+         "tmakit.batch", "tmakit.bounds", "tmakit.filters", "tmakit.tracking",
+         "tmakit.montecarlo", "tmakit.reproduce", "tmakit.studies", "tmakit.plot",
+         "tmakit.io", "tmakit.results", "tmakit.scenario_file")
+
+SCRIPT = """
+import json, sys
+sys.argv = ["tma", *{args!r}]
+from tmakit.cli import main
+try:
+    main()
+except SystemExit as e:
+    code = e.code
+print(json.dumps({{"code": code, "modules": sorted(sys.modules)}}))
+"""
+
+
+def imported_by(*args: str) -> list[str]:
+    src = str(Path(tmakit.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        p for p in (src, os.environ.get("PYTHONPATH")) if p)}
+    proc = subprocess.run([sys.executable, "-c", SCRIPT.format(args=list(args))],
+                          capture_output=True, text=True, env=env, check=True)
+    report = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert report["code"] in (0, None), proc.stderr
+    return report["modules"]
+
+
+def heavy(modules: list[str]) -> list[str]:
+    return [m for m in modules if any(m == h or m.startswith(h + ".") for h in HEAVY)]
+
+
+def test_help_imports_neither_the_numerical_core_nor_pydantic():
+    modules = imported_by("--help")
+    assert heavy(modules) == []
+    assert not [m for m in modules if m == "pydantic" or m.startswith("pydantic.")]
+
+
+# Below, pydantic itself may be imported by typer (>= 0.2x coerces a command's parameters
+# with it, even those of --help); tmakit's own heavy modules must still stay out.
+@pytest.mark.parametrize("args", [("estimate", "--help"), ("track", "--help"),
+                                  ("montecarlo", "--help")])
+def test_a_command_help_imports_no_numerical_core(args):
+    assert heavy(imported_by(*args)) == []
+
+
+def test_listing_the_scenarios_needs_no_scenario_parser():
+    # The titles are read with tomllib, without tmakit.scenario_file's pydantic models.
+    modules = imported_by("scenarios")
+    assert heavy(modules) == []
+    assert "tmakit.scenario_catalog" in modules
