@@ -26,7 +26,10 @@ from .units import free_space_constant, linear_to_db
 
 
 class ScenarioFileError(ValueError):
-    """A scenario file that cannot be used; the message names the file and each field."""
+    """A scenario file that cannot be used; the message names the file and each field.
+
+    A subclass of ``ValueError``, so callers that catch ``ValueError`` catch it too.
+    """
 
 
 class _Strict(BaseModel):
@@ -34,13 +37,34 @@ class _Strict(BaseModel):
 
 
 class TimeRange(_Strict):
-    """Sample times ``start, start + step, ...`` up to and including ``stop`` (s)."""
+    """Sample times ``start, start + step, ...`` up to and including ``stop`` (s).
+
+    Attributes
+    ----------
+    start, stop : float
+        First and last time (s); ``stop`` is included when it falls on the grid (to 1e-9
+        of a step).
+    step : float
+        Spacing (s, > 0).
+    """
 
     start: float
     stop: float
     step: float = Field(gt=0)
 
     def values(self) -> np.ndarray:
+        """Give the sample times.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``start + step * [0, 1, ..., n - 1]`` (s).
+
+        Raises
+        ------
+        ValueError
+            If ``stop`` is before ``start``.
+        """
         n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
         if n < 1:
             raise ValueError("stop is before start")
@@ -53,12 +77,36 @@ GeoPoint = Annotated[list[float], Field(min_length=2, max_length=3)]
 
 
 class LegSpec(_Strict):
+    """One leg of a ``legs`` sensor (a :class:`~tmakit.sensors.Leg` in file units).
+
+    Attributes
+    ----------
+    duration : float
+        Leg duration (s, > 0); ``inf`` for a last leg that never ends.
+    turn_rate_deg_s : float
+        Turn rate (deg/s, in the file's angle convention; 0 for a straight leg).
+    speed : float or None
+        New speed from this leg on (m/s, > 0); None keeps the previous one.
+    """
+
     duration: float = Field(gt=0, description="seconds; inf for a last leg that never ends")
     turn_rate_deg_s: float = 0.0
     speed: float | None = Field(default=None, gt=0)
 
 
 class FixedSpec(_Strict):
+    """A sensor that does not move (``type = "fixed"``).
+
+    Attributes
+    ----------
+    id : str
+        Sensor id, used by the measurement plans.
+    position : list of float or None
+        ENU position ``[x, y]`` or ``[x, y, z]`` (m).
+    position_geodetic : list of float or None
+        Instead: ``[lat, lon]`` or ``[lat, lon, alt]`` (deg, deg, m); needs the origin.
+    """
+
     type: Literal["fixed"]
     id: str
     position: Point | None = None
@@ -66,6 +114,24 @@ class FixedSpec(_Strict):
 
 
 class LegsSpec(_Strict):
+    """A sensor flying straight legs and constant-rate turns (``type = "legs"``).
+
+    Attributes
+    ----------
+    id : str
+        Sensor id.
+    start, start_geodetic : list of float or None
+        Start position, ENU (m) or geodetic (deg, deg, m): exactly one of the two.
+    start_time : float
+        Time at ``start`` (s).
+    heading_deg : float
+        Initial heading (deg, in the file's angle convention).
+    speed : float
+        Initial speed (m/s, > 0).
+    legs : list of LegSpec
+        The legs, at least one.
+    """
+
     type: Literal["legs"]
     id: str
     start: Point | None = None
@@ -77,6 +143,22 @@ class LegsSpec(_Strict):
 
 
 class WaypointsSpec(_Strict):
+    """A sensor flying straight between waypoints (``type = "waypoints"``).
+
+    Attributes
+    ----------
+    id : str
+        Sensor id.
+    points, points_geodetic : list of list of float or None
+        Waypoints, ENU (m) or geodetic (deg, deg, m): exactly one of the two.
+    speed : float or None
+        Constant speed (m/s, > 0), from ``start_time``; or give ``times``.
+    times : list of float or None
+        Time at each waypoint (s, increasing).
+    start_time : float
+        Time at the first waypoint when ``speed`` is given (s).
+    """
+
     type: Literal["waypoints"]
     id: str
     points: list[Point] | None = None
@@ -87,6 +169,20 @@ class WaypointsSpec(_Strict):
 
 
 class RecordedSpec(_Strict):
+    """A sensor track recorded at given times (``type = "recorded"``).
+
+    Attributes
+    ----------
+    id : str
+        Sensor id.
+    times : list of float
+        Record times (s, increasing, at least two).
+    positions, positions_geodetic : list of list of float or None
+        Recorded positions, ENU (m) or geodetic (deg, deg, m): exactly one of the two.
+    velocities : list of list of float or None
+        Recorded ENU velocities (m/s), optional.
+    """
+
     type: Literal["recorded"]
     id: str
     times: list[float]
@@ -100,6 +196,18 @@ SensorSpec = Annotated[FixedSpec | LegsSpec | WaypointsSpec | RecordedSpec,
 
 
 class TargetSpec(_Strict):
+    """The target: motion model name, reference time and true parameters.
+
+    Attributes
+    ----------
+    motion : str
+        Motion model name (checked by :func:`tmakit.motion.motion_from_name`).
+    ref_time : float
+        Reference time of the parameters (s).
+    truth : dict of str to float
+        True parameters by name, SI except ``course_deg`` (deg, converted to ``course``).
+    """
+
     motion: str
     ref_time: float = 0.0
     truth: dict[str, float]
@@ -112,6 +220,23 @@ class TargetSpec(_Strict):
 
 
 class EmitterSpec(_Strict):
+    """The emitter's nuisance truth.
+
+    Attributes
+    ----------
+    carrier_hz : float or None
+        Carrier frequency (Hz, > 0).
+    carrier_drift_hz_per_s : float
+        Carrier drift (Hz/s).
+    power_constant : float, "free_space" or None
+        Power constant C (W m^n, > 0), or ``"free_space"`` for (lambda / 4 pi)^2 (Gu et al.
+        (2007), §5; needs ``carrier_hz``).
+    power_constant_db : float or None
+        Instead: 10 log10 C (dB).
+    path_loss_exponent : float
+        Path-loss exponent n (> 0; 2 in free space).
+    """
+
     carrier_hz: float | None = Field(default=None, gt=0)
     carrier_drift_hz_per_s: float = 0.0
     power_constant: float | Literal["free_space"] | None = None
@@ -120,6 +245,26 @@ class EmitterSpec(_Strict):
 
 
 class MeasurementSpec(_Strict):
+    """One measurement plan in file units (a :class:`~tmakit.scenario.MeasurementPlan`).
+
+    Attributes
+    ----------
+    kind : str
+        Measurement kind (a key of :data:`tmakit.measurements.KINDS`).
+    sensor : str
+        Sensor id.
+    times : TimeRange or list of float
+        Sample times (s).
+    sigma : float or None
+        Noise standard deviation in the kind's file unit (deg, deg/s, dB, Hz, m, m/s).
+    snr_db : float or None
+        Power only, instead of ``sigma``: SNR_p (dB).
+    pri : float or None
+        Range differences: pulse repetition interval (s, > 0).
+    lags : list of int
+        Range differences: lags in pulse intervals.
+    """
+
     kind: str
     sensor: str
     times: Times
@@ -137,6 +282,31 @@ class MeasurementSpec(_Strict):
 
 
 class ScenarioSpec(_Strict):
+    """A whole scenario file, validated (see ``docs/scenarios.md``).
+
+    Attributes
+    ----------
+    name : str
+        Scenario name.
+    title, description : str
+        One-line title and longer description.
+    paper : str or None
+        The paper the scenario comes from, if any.
+    angle_convention : {"north_cw", "east_ccw"}
+        How headings, courses and turn rates are given: clockwise from North (default) or
+        counter-clockwise from East.
+    origin : list of float or None
+        ``[lat, lon, alt]`` (deg, deg, m) of the ENU origin; needed by geodetic positions.
+    target : TargetSpec
+        The target.
+    emitter : EmitterSpec
+        The emitter's nuisance truth.
+    sensors : list of FixedSpec, LegsSpec, WaypointsSpec or RecordedSpec
+        The sensors, at least one.
+    measurements : list of MeasurementSpec
+        The measurement plans, at least one.
+    """
+
     name: str
     title: str = ""
     description: str = ""
@@ -156,7 +326,7 @@ class _Builder:
         self.ccw = spec.angle_convention == "east_ccw"
 
     def heading(self, deg: float) -> float:
-        """A heading/course in the file's convention -> radians clockwise from North."""
+        """Convert a heading/course in the file's convention (deg) to rad clockwise from North."""
         return math.radians(90.0 - deg) if self.ccw else math.radians(deg)
 
     def turn_rate(self, deg_s: float) -> float:
@@ -265,7 +435,26 @@ def _format_pydantic(err: ValidationError) -> list[str]:
 
 
 def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
-    """Validate a scenario given as a dict (a parsed TOML file) and build it."""
+    """Validate a scenario given as a dict (a parsed TOML file) and build it.
+
+    Parameters
+    ----------
+    data : dict
+        The scenario in file form and file units (see ``docs/scenarios.md``).
+    source : str, optional
+        Where it came from, for messages.
+
+    Returns
+    -------
+    Scenario
+        The scenario, in SI.
+
+    Raises
+    ------
+    ScenarioFileError
+        If validation fails (every problem listed with its field) or the scenario cannot be
+        built (unknown sensor, missing nuisance truth, inconsistent positions, ...).
+    """
     try:
         spec = ScenarioSpec.model_validate(data)
     except ValidationError as err:
@@ -279,7 +468,23 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
 
 
 def read_scenario_file(path: str | Path) -> Scenario:
-    """Load and validate a TOML scenario file."""
+    """Load and validate a TOML scenario file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    Scenario
+        The scenario, in SI.
+
+    Raises
+    ------
+    ScenarioFileError
+        If the file does not exist, is not valid TOML, or is not a valid scenario.
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -293,13 +498,25 @@ def read_scenario_file(path: str | Path) -> Scenario:
 
 
 def builtin_scenario_names() -> list[str]:
-    """Names of the scenarios that ship with tmakit."""
+    """List the names of the scenarios that ship with tmakit.
+
+    Returns
+    -------
+    list of str
+        Sorted names (``chen-sun-1``, ``gu2007``, ...).
+    """
     folder = resources.files("tmakit") / "scenarios"
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
 def builtin_scenarios() -> list[tuple[str, str]]:
-    """``(name, one-line title)`` of every built-in scenario."""
+    """List every built-in scenario with its title.
+
+    Returns
+    -------
+    list of tuple of str
+        ``(name, one-line title)``, sorted by name.
+    """
     out = []
     for name in builtin_scenario_names():
         text = (resources.files("tmakit") / "scenarios" / f"{name}.toml").read_text("utf-8")
@@ -308,7 +525,24 @@ def builtin_scenarios() -> list[tuple[str, str]]:
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
-    """A built-in scenario by name (``gu2007``, ``chen-sun-1``, ...) or a TOML file by path."""
+    """Load a built-in scenario by name or a TOML scenario file by path.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A built-in name (``gu2007``, ``chen-sun-1``, ...), or a path (a ``.toml`` suffix or
+        an existing file).
+
+    Returns
+    -------
+    Scenario
+        The scenario, in SI.
+
+    Raises
+    ------
+    ScenarioFileError
+        If the name is neither a file nor a built-in scenario, or the file is not valid.
+    """
     text = str(name_or_path)
     path = Path(text)
     if path.suffix == ".toml" or path.exists():
