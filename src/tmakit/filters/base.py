@@ -1,10 +1,10 @@
 """The one interface of tmakit's recursive filters, and the track they produce.
 
 A filter holds the target state ``[x, y, (z), vx, vy, (vz)]`` (ENU m, m/s; see
-:mod:`.dynamics`) and its covariance at a time.  :meth:`TrackingFilter.predict` moves it to a
-later time under nearly-constant-velocity dynamics (003_e5155d4fe60daef8.txt §2.1);
+:mod:`tmakit.motion.dynamics`) and its covariance at a time.  :meth:`TrackingFilter.predict`
+moves it to a later time under nearly-constant-velocity dynamics (Chen & Sun, §2.1);
 :meth:`TrackingFilter.update` takes a group of measurement rows of any kinds and sensors
-(:class:`.measurement_group.MeasurementGroup`); :meth:`TrackingFilter.run` does both over a
+(:class:`tmakit.observation.groups.MeasurementGroup`); :meth:`TrackingFilter.run` does both over a
 whole :class:`~tmakit.data.MeasurementSet`, one update per distinct measurement time, and
 returns a :class:`Track`.
 
@@ -38,8 +38,17 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class UpdateInfo:
-    """What one update saw: the normalised innovation squared (NIS) and its degrees of
-    freedom, and the log-likelihood of the group given the past (nats)."""
+    """What one update saw.
+
+    Parameters
+    ----------
+    nis : float
+        Normalised innovation squared (dimensionless); NaN for a skipped update.
+    dof : int
+        Its degrees of freedom (the number of measurement rows; 0 when skipped).
+    log_likelihood : float
+        Log-likelihood of the group given the past (nats).
+    """
 
     nis: float
     dof: int
@@ -50,8 +59,26 @@ class UpdateInfo:
 class Track:
     """A filter's output: one row per update.
 
-    ``times`` (K,) s; ``states`` (K, n) and ``covariances`` (K, n, n) after each update (SI);
-    ``nis``/``dof`` per update; ``log_likelihood`` cumulative (nats).
+    Parameters
+    ----------
+    filter_name : str
+        Name of the filter (``"ekf"``, ``"ukf"``, ``"pf"``, ``"mgekf"``).
+    state_names : tuple of str
+        Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``).
+    times : numpy.ndarray
+        Update times ``(K,)`` (s).
+    states : numpy.ndarray
+        State after each update ``(K, n)`` (m, m/s).
+    covariances : numpy.ndarray
+        Covariance after each update ``(K, n, n)`` (m^2, m^2/s, m^2/s^2).
+    nis : numpy.ndarray
+        NIS per update ``(K,)`` (dimensionless).
+    dof : numpy.ndarray
+        Degrees of freedom of each NIS ``(K,)``.
+    log_likelihood : numpy.ndarray
+        Cumulative log-likelihood after each update ``(K,)`` (nats).
+    extra : dict, optional
+        Filter-specific extras (``skipped_updates``, ...).
     """
 
     filter_name: str
@@ -65,21 +92,45 @@ class Track:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def __len__(self) -> int:
+        """Give the number of updates K."""
         return int(self.times.shape[0])
 
     @property
     def std(self) -> Array:
-        """Standard deviations (K, n)."""
+        """Standard deviations ``(K, n)`` of the state components (m, m/s)."""
         return np.sqrt(np.clip(np.einsum("kii->ki", self.covariances), 0.0, None))
 
     def errors(self, truth: ArrayLike) -> Array:
-        """Estimate minus truth (K, n) for true states ``truth`` (K, n) at :attr:`times`."""
+        """Give the estimate minus the truth.
+
+        Parameters
+        ----------
+        truth : array_like
+            True states ``(K, n)`` at :attr:`times` (m, m/s).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``states - truth`` ``(K, n)`` (m, m/s).
+        """
         return self.states - np.asarray(truth, dtype=float)
 
     def nees(self, truth: ArrayLike) -> Array:
-        """Normalised estimation error squared per update (K,) for true states (K, n).  A
-        singular covariance (a collapsed particle cloud) gives ``inf`` when the error has a
-        component it says is impossible."""
+        """Give the normalised estimation error squared (NEES) of every update.
+
+        A singular covariance (a collapsed particle cloud) gives ``inf`` when the error has a
+        component it says is impossible.
+
+        Parameters
+        ----------
+        truth : array_like
+            True states ``(K, n)`` at :attr:`times` (m, m/s).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``e^T P^-1 e`` per update ``(K,)`` (dimensionless).
+        """
         err = self.errors(truth)
         try:
             return np.einsum("ki,ki->k", err,
@@ -93,6 +144,14 @@ class Track:
             return np.sum(terms, axis=-1)
 
     def as_dict(self) -> dict[str, object]:
+        """Give the track as JSON-ready lists (the keys of ``tma track`` JSON output).
+
+        Returns
+        -------
+        dict
+            ``filter``, ``state``, ``time`` (s), ``estimate`` and ``std`` (m, m/s),
+            ``covariance``, ``nis``, ``dof``, ``log_likelihood`` (nats).
+        """
         return {
             "filter": self.filter_name,
             "state": list(self.state_names),
@@ -106,8 +165,14 @@ class Track:
         }
 
     def table_columns(self) -> dict[str, Array]:
-        """Columns for a CSV/Parquet table: time, each state, its std, and the upper
-        triangle of the covariance (``cov_x_y``...)."""
+        """Give the columns of a CSV/Parquet track table.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``time`` (s), each state (m, m/s), its ``std_*``, the upper triangle of the
+            covariance (``cov_x_y``, ...), ``nis``, ``dof`` and ``log_likelihood`` (nats).
+        """
         cols: dict[str, Array] = {"time": self.times}
         n = len(self.state_names)
         for i, name in enumerate(self.state_names):
@@ -125,12 +190,48 @@ class Track:
 
 
 class TrackingFilter(ABC):
-    """A recursive filter for a nearly-constant-velocity emitter.
+    """A recursive filter for a nearly-constant-velocity emitter (abstract).
 
-    ``mean`` (n,) and ``covariance`` (n, n): the prior at ``time`` (s), n = 4 (2-D) or 6
-    (3-D).  ``q``: process-noise acceleration standard deviation per axis (m/s^2), or give
-    ``dynamics``.  ``options``: per-kind measurement-model options; ``nuisance``: known values
-    of nuisance parameters (carrier Hz, power constant dBW, ...).
+    Subclasses implement :meth:`_init_state`, :attr:`state`, :attr:`covariance`,
+    :meth:`_predict` and :meth:`_update`.
+
+    Parameters
+    ----------
+    mean : array_like
+        Prior mean ``(n,)`` at ``time``, n = 4 (2-D, ``[x, y, vx, vy]``) or 6 (3-D) (m, m/s).
+    covariance : array_like
+        Prior covariance ``(n, n)`` (m^2, m^2/s, m^2/s^2), positive definite.
+    time : float, optional
+        Time of the prior (s).
+    q : float or tuple of float, optional
+        Process-noise acceleration standard deviation, one for all axes or one per axis
+        (m/s^2); or give ``dynamics``.
+    dynamics : NearlyConstantVelocity, optional
+        The dynamics, instead of ``q``.
+    options : mapping, optional
+        Per-kind measurement-model options (``{"frequency": {"drift": True}}``, ...).
+    nuisance : mapping of str to float, optional
+        Known values of nuisance parameters (carrier Hz, power constant dBW, ...).
+
+    Attributes
+    ----------
+    time : float
+        Time of the current estimate (s).
+    log_likelihood : float
+        Log-likelihood of all updates so far (nats).
+    kernel_updates, skipped_updates : int
+        Updates done by a closed-form kernel, and updates skipped because the prediction
+        was not finite.
+
+    Raises
+    ------
+    ValueError
+        If the prior is not a valid 4- or 6-state Gaussian (:func:`tmakit.linalg.check_prior`)
+        or the dynamics' dimension differs from the prior's.
+
+    References
+    ----------
+    Chen & Sun, §2.1 (the nearly-constant-velocity dynamics).
     """
 
     name = ""
@@ -183,14 +284,39 @@ class TrackingFilter(ABC):
     # -- the interface -----------------------------------------------------------------------
     @property
     def state_names(self) -> tuple[str, ...]:
+        """Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``)."""
         return state_names(self.dim)
 
     @classmethod
     def from_estimate(cls, result: EstimateResult, time: float, *, inflate: float = 1.0,
                       **kwargs: Any) -> TrackingFilter:
-        """Start from a batch estimate: its state at ``time`` and the covariance mapped
-        through the motion model (times ``inflate``); its nuisance values are used unless
-        ``nuisance=`` is given."""
+        """Start a filter from a batch estimate.
+
+        The prior is the estimate's state at ``time`` and its covariance mapped through the
+        motion model's Jacobian (times ``inflate``); the estimate's nuisance values are used
+        unless ``nuisance=`` is given.
+
+        Parameters
+        ----------
+        result : EstimateResult
+            A batch estimate with a finite covariance.
+        time : float
+            Time of the filter's prior (s).
+        inflate : float, optional
+            Factor on the mapped covariance (dimensionless).
+        **kwargs
+            Further arguments of the filter class.
+
+        Returns
+        -------
+        TrackingFilter
+            A filter of this class.
+
+        Raises
+        ------
+        ValueError
+            If the estimate's covariance is not finite.
+        """
         motion = result.motion
         theta = np.asarray(result.estimate, dtype=float)
         dim = 3 if getattr(motion, "dim", 2) == 3 else 2
@@ -205,11 +331,33 @@ class TrackingFilter(ABC):
         return cls(state6[keep], cov, float(time), **kwargs)
 
     def group(self, rows: MeasurementSet) -> MeasurementGroup:
-        """The rows as a :class:`MeasurementGroup` at the filter's time."""
+        """Wrap measurement rows as a :class:`MeasurementGroup` at the filter's time.
+
+        Parameters
+        ----------
+        rows : MeasurementSet
+            The rows (any kinds and sensors).
+
+        Returns
+        -------
+        MeasurementGroup
+            Predictions, Jacobians and noise of the rows for this filter's state.
+        """
         return MeasurementGroup(rows, self.time, self.dim, self.options, self.nuisance)
 
     def predict(self, time: float) -> None:
-        """Move the estimate to ``time`` (s, not earlier than the current time)."""
+        """Move the estimate forward to ``time``.
+
+        Parameters
+        ----------
+        time : float
+            Target time (s), not earlier than :attr:`time` (to :data:`TIME_TOLERANCE`).
+
+        Raises
+        ------
+        ValueError
+            If ``time`` is earlier than the filter's time.
+        """
         dt = float(time) - self.time
         if dt < -TIME_TOLERANCE:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
@@ -219,19 +367,47 @@ class TrackingFilter(ABC):
         self.time = max(self.time, float(time))
 
     def update(self, rows: MeasurementSet) -> UpdateInfo:
-        """Condition on measurement rows (any kinds and sensors) at the current time."""
+        """Condition on measurement rows (any kinds and sensors) at the current time.
+
+        Parameters
+        ----------
+        rows : MeasurementSet
+            The rows; rows at other times are predicted from the state moved there.
+
+        Returns
+        -------
+        UpdateInfo
+            NIS, degrees of freedom and log-likelihood of the update.
+        """
         info = self._update(self.group(rows))
         self.log_likelihood += info.log_likelihood
         return info
 
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
-        Rows earlier than the filter's time are refused.
 
         The set is compiled once (:class:`~.compiled.CompiledMeasurements`); filters with a
         closed-form kernel for the case at hand (one bearing per update in 2-D, see
         :mod:`.kernels`) use it, the others build each update's group from views of the
-        compiled columns."""
+        compiled columns.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements, none earlier than the filter's time.
+
+        Returns
+        -------
+        Track
+            One row per distinct measurement time.
+
+        Raises
+        ------
+        TypeError
+            If ``meas`` is not a :class:`MeasurementSet`.
+        ValueError
+            If a row is earlier than the filter's time.
+        """
         if not isinstance(meas, MeasurementSet):
             raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
@@ -241,19 +417,41 @@ class TrackingFilter(ABC):
                                                       self.nuisance))
 
     def _plain_interface(self) -> bool:
-        """True unless a subclass customises :meth:`predict`, :meth:`update` or
-        :meth:`group` (then :meth:`run` goes through them, row sets and all)."""
+        """Tell whether :meth:`predict`, :meth:`update` and :meth:`group` are the base ones.
+
+        False when a subclass customises one of them (then :meth:`run` goes through them,
+        row sets and all).
+        """
         cls = type(self)
         return (cls.predict is TrackingFilter.predict and cls.update is TrackingFilter.update
                 and cls.group is TrackingFilter.group)
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        """Run a closed-form kernel from update ``start`` if this filter has one for
-        ``compiled``; None otherwise.  Subclasses that have one override this."""
+        """Run a closed-form kernel from update ``start`` if this filter has one.
+
+        Returns None when it has none for ``compiled``.  Subclasses that have one override
+        this.
+        """
         return None
 
     def run_compiled(self, compiled: CompiledMeasurements) -> Track:
-        """:meth:`run` on a set compiled for this filter (``dim``, options, nuisance)."""
+        """Run the filter (as :meth:`run`) on a set already compiled for it.
+
+        Parameters
+        ----------
+        compiled : CompiledMeasurements
+            Measurements compiled for this filter's ``dim``, options and nuisance values.
+
+        Returns
+        -------
+        Track
+            One row per update.
+
+        Raises
+        ------
+        ValueError
+            If ``compiled`` was made for another dimension.
+        """
         if compiled.dim != self.dim:
             raise ValueError(f"the measurements were compiled for a {compiled.dim}-D filter; "
                              f"this one is {self.dim}-D")
@@ -278,9 +476,30 @@ class TrackingFilter(ABC):
         return rec.track(self)
 
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
-        """Predict to each ``time`` and update with its rows, in the order given (times must
-        not decrease).  Rows may be taken at other times than ``time`` (multi-lag vectors,
-        003_e5155d4fe60daef8.txt §2.2): they are predicted from the state moved there."""
+        """Predict to each ``time`` and update with its rows, in the order given.
+
+        Rows may be taken at other times than ``time`` (multi-lag vectors, Chen & Sun, §2.2):
+        they are predicted from the state moved there.
+
+        Parameters
+        ----------
+        groups : iterable of (float, MeasurementSet)
+            ``(time, rows)`` pairs; the times (s) must not decrease.
+
+        Returns
+        -------
+        Track
+            One row per group.
+
+        Raises
+        ------
+        ValueError
+            If a time is earlier than the filter's time.
+
+        References
+        ----------
+        Chen & Sun, §2.2 (multi-lag measurement vectors).
+        """
         rec = _Recorder(2 * self.dim)
         for time, rows in groups:
             self.predict(time)
