@@ -407,8 +407,14 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 class ReflectingEKF(MirrorReflectMixin, ExtendedKalmanFilter):
     """The plain EKF with the mirror rule of :class:`ModifiedGainEKF` on by default.
 
-    For like-for-like comparisons on mirror-ambiguous data; arguments as
-    :class:`ExtendedKalmanFilter` plus ``reflect`` (default on).
+    For like-for-like comparisons on mirror-ambiguous data.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        As for :class:`ExtendedKalmanFilter`.
+    reflect : bool or None, optional
+        The mirror rule (default on).
     """
 
     name = "ekf"

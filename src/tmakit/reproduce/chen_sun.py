@@ -1,5 +1,7 @@
-"""Reproduce 003_e5155d4fe60daef8.txt (Chen & Sun): 3-D tracking of a moving emitter from
-azimuth and range differences measured by one fixed receiver without elevation (§3, Fig. 2).
+"""Reproduce Chen & Sun: 3-D tracking of a moving emitter (§3, Fig. 2).
+
+The emitter is tracked from azimuth and range differences measured by one fixed receiver
+without elevation.
 
 Setup as §3.1 gives it: receiver at (30, 0, 0) km, emitter from (50, 60, 10) km at constant
 velocity, path 1 (-300, -300, 0) m/s, path 2 (-450, 0, 0) m/s, path 3 (0, -450, 0) m/s
@@ -61,7 +63,7 @@ VELOCITY_VAR = 100.0**2                     # §2.5: (100 m/s)^2
 RUNS = 30                                   # §3.1: thirty Monte Carlo runs
 REPORT_TIMES = (0.0, 10.0, 25.0, 50.0, 75.0, 100.0)
 COORDS = ("x", "y", "z", "R", "rho")        # R: slant range, rho: horizontal range
-#: The paper's filter as printed: the modified rows in the gain too (003 §2.5).
+#: The paper's filter as printed: the modified rows in the gain too (Chen & Sun, §2.5).
 PaperMGEKF = partial(ModifiedGainEKF, gain="paper")
 #: Filters compared: key -> (label, constructor, reuse_inflation).
 FILTER_SETS: dict[str, tuple[str, Callable[..., TrackingFilter], bool]] = {
@@ -78,14 +80,32 @@ POOR_HORIZONTAL_FRACTION = 0.05
 
 @dataclass
 class ChenSunReproduction(Reproduction):
-    """The report plus the time series that :func:`plot` draws: ``series[key][path]`` is
-    ``{"time": (K,), "rms": (K, 5) for x, y, z, R, rho (m), "nees": (K,)}``."""
+    """The report plus the time series that :func:`plot` draws.
+
+    Parameters
+    ----------
+    name, sections, figures
+        As for :class:`~tmakit.reproduce.common.Reproduction`.
+    series : dict, optional
+        ``series[key][path]`` is ``{"time": (K,) s, "rms": (K, 5) for x, y, z, R, rho (m),
+        "nees": (K,)}`` per filter key of :data:`FILTER_SETS` and path.
+    lags : tuple of int, optional
+        The multi-lag vectors' lags (samples).
+    """
 
     series: dict[str, dict[int, dict[str, NDArray[np.float64]]]] = field(
         default_factory=dict, repr=False)
     lags: tuple[int, ...] = DEFAULT_LAGS
 
     def as_dict(self) -> dict[str, object]:
+        """Give the reproduction as JSON-ready data, the time series included.
+
+        Returns
+        -------
+        dict
+            That of :meth:`Reproduction.as_dict <tmakit.reproduce.common.Reproduction.as_dict>`
+            plus ``series`` (lists, path numbers as strings).
+        """
         out = super().as_dict()
         out["series"] = {key: {str(p): {k: v.tolist() for k, v in s.items()}
                                for p, s in by_path.items()}
@@ -97,10 +117,42 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
                   height_guess: float = HEIGHT_GUESS, velocity: Sequence[float] | None = None,
                   position_var: float = POSITION_VAR, velocity_var: float = VELOCITY_VAR
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """The initial state of 003 §2.5 (its evident intent, see the module docstring): the
-    emitter at slant range ``range_guess`` (m) along the first measured bearing, at height
-    ``height_guess`` (m) above the receiver, with ``velocity`` (m/s; default ``0.5 v_max``).
-    Returns ``(mean (6,), covariance (6, 6), time of the first bearing)``."""
+    """Give the initial state of Chen & Sun, §2.5 (its evident intent, see the module docstring).
+
+    The emitter at slant range ``range_guess`` along the first measured bearing, at height
+    ``height_guess`` above the receiver.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements; the first bearing is used.
+    range_guess : float, optional
+        Assumed slant range ``R_o`` (m), larger than ``|height_guess|``.
+    height_guess : float, optional
+        Assumed height above the receiver (m).
+    velocity : sequence of float or None, optional
+        Initial velocity (m/s; default ``0.5 v_max``).
+    position_var, velocity_var : float, optional
+        Prior variances per axis (m^2; m^2/s^2).
+
+    Returns
+    -------
+    mean : numpy.ndarray
+        ``[x, y, z, vx, vy, vz]`` (6,) (m, m/s).
+    cov : numpy.ndarray
+        Diagonal covariance (6, 6).
+    time : float
+        Time of the first bearing (s).
+
+    Raises
+    ------
+    ValueError
+        If ``range_guess <= |height_guess|`` or ``meas`` has no bearing.
+
+    References
+    ----------
+    Chen & Sun, §2.5 (initial guess) and §3.1 (``R_o``, ``z``, ``v_max``).
+    """
     if not range_guess > abs(height_guess):
         raise ValueError(f"range_guess ({range_guess} m) must exceed |height_guess| "
                          f"({height_guess} m)")
@@ -119,10 +171,22 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
 
 
 def observability(path: int) -> dict[str, float | bool]:
-    """The batch CRLB of path ``path`` (its data only, no prior, motion cv3d at the truth):
-    standard deviations (m) of the height, the horizontal position and the slant range at the
-    first and last sample, the condition number of the normalised information, and whether
-    the path is poorly observable (see :data:`POOR_HORIZONTAL_FRACTION`)."""
+    """Compute the batch CRLB of one path (its data only, no prior, motion cv3d at the truth).
+
+    Parameters
+    ----------
+    path : int
+        Path number, 1-3 (scenario ``chen-sun-<path>``).
+
+    Returns
+    -------
+    dict
+        Standard deviations (m) of the height (``z_std_*``), the horizontal position
+        (``horizontal_std_*``) and the slant range (``range_std_*``) at the first and last
+        sample (``*_start``, ``*_end``), the true ranges and heights (m), the condition
+        number of the normalised information, the rank, and ``poorly_observable`` (see
+        :data:`POOR_HORIZONTAL_FRACTION`).
+    """
     scn = load_scenario(f"chen-sun-{path}")
     bound = crlb(scn)
     t0, t1 = scn.time_span()
@@ -155,11 +219,43 @@ def _errors(states: NDArray[np.float64], truth: NDArray[np.float64]) -> NDArray[
 def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
                      lags: Sequence[int] = DEFAULT_LAGS,
                      filters: Sequence[str] = tuple(FILTER_SETS),
-                     progress=None) -> dict[str, dict[str, NDArray[np.float64]]]:
-    """``runs`` seeded runs of path ``path``: per filter key of :data:`FILTER_SETS`,
-    ``errors`` (runs, K, 5) (x, y, z, R, rho; m), ``nees`` (runs, K), ``time`` (K,),
-    ``reflections`` (runs,) and ``fallbacks`` (runs,) (MGEKF bearing rows that used the EKF
-    row).  Run ``i`` uses ``numpy.random.default_rng([seed, path, i])``."""
+                     progress: Callable[[], object] | None = None
+                     ) -> dict[str, dict[str, NDArray[np.float64]]]:
+    """Track one path in ``runs`` seeded Monte Carlo runs with the chosen filters.
+
+    Run ``i`` uses ``numpy.random.default_rng([seed, path, i])``.
+
+    Parameters
+    ----------
+    path : int
+        Path number, 1-3.
+    runs : int, optional
+        Number of runs.
+    seed : int, optional
+        Base seed.
+    lags : sequence of int, optional
+        Lags of the multi-lag vectors (samples).
+    filters : sequence of str, optional
+        Keys of :data:`FILTER_SETS`.
+    progress : callable or None, optional
+        Called with no argument after each run.
+
+    Returns
+    -------
+    dict
+        Per filter key: ``errors`` (runs, K, 5) (x, y, z, R, rho; m), ``nees`` (runs, K),
+        ``time`` (K,) (s), ``reflections`` (runs,) and ``fallbacks`` (runs,) (MGEKF bearing
+        rows that used the EKF row).
+
+    Raises
+    ------
+    ValueError
+        If a filter key is unknown.
+
+    References
+    ----------
+    Chen & Sun, §2.2-2.5 and §3.1 (the filters, the vectors and the setup).
+    """
     unknown = [f for f in filters if f not in FILTER_SETS]
     if unknown:
         raise ValueError(f"unknown filter set(s) {unknown}; expected {list(FILTER_SETS)}")
@@ -190,7 +286,23 @@ def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
 
 
 def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, float]:
-    """Two-sided ``level`` band of the mean NEES over ``runs`` consistent runs."""
+    """Give the two-sided ``level`` band of the mean NEES over ``runs`` consistent runs.
+
+    Parameters
+    ----------
+    runs : int
+        Number of runs averaged.
+    dof : int, optional
+        Degrees of freedom of one NEES (the state dimension).
+    level : float, optional
+        Probability inside the band.
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)`` of the mean NEES (chi-square with ``dof * runs`` degrees of freedom,
+        divided by ``runs``).
+    """
     from scipy.stats import chi2
 
     lo, hi = chi2.ppf([(1 - level) / 2, (1 + level) / 2], dof * runs)
@@ -199,8 +311,30 @@ def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, floa
 
 def run(runs: int = RUNS, seed: int = 1, progress: bool = True,
         lags: Sequence[int] = DEFAULT_LAGS) -> ChenSunReproduction:
-    """The observability of the three paths and, with ``runs > 0``, the Monte Carlo errors
-    of Fig. 2 with the paper's claims checked against them."""
+    """Reproduce §3: the paths' observability and, with ``runs > 0``, Fig. 2's errors.
+
+    Parameters
+    ----------
+    runs : int, optional
+        Monte Carlo runs per path (0: the setup and observability only).
+    seed : int, optional
+        Base seed of the runs.
+    progress : bool, optional
+        Show a progress bar during the runs.
+    lags : sequence of int, optional
+        Lags of the multi-lag vectors (samples).
+
+    Returns
+    -------
+    ChenSunReproduction
+        The setup, the CRLB observability of each path, and with runs the RMS errors (m)
+        and NEES of Fig. 2 per filter, with the paper's statements (§3.2) checked against
+        them.
+
+    References
+    ----------
+    Chen & Sun, §3.1-3.2 and Fig. 2.
+    """
     lags = tuple(int(v) for v in lags)
     rep = ChenSunReproduction("chen-sun", lags=lags)
     rho = np.sqrt(RANGE_GUESS**2 - HEIGHT_GUESS**2)
@@ -268,7 +402,7 @@ def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
             if bar is not None:
                 task = bar.add_task(f"chen-sun path {p}", total=runs)
 
-                def tick(task=task):
+                def tick(task: int = task) -> None:
                     bar.advance(task)
             results[p] = monte_carlo_path(p, runs, seed, lags, progress=tick)
     finally:
@@ -312,8 +446,10 @@ def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
     _compare(rep, results, lo, hi)
 
 
-def _compare(rep: ChenSunReproduction, results, lo: float, hi: float) -> None:
-    """The paper's statements (§3.2) next to what tmakit measured."""
+def _compare(rep: ChenSunReproduction,
+             results: dict[int, dict[str, dict[str, NDArray[np.float64]]]], lo: float,
+             hi: float) -> None:
+    """Add the paper's statements (§3.2) next to what tmakit measured."""
     def fin(key: str, p: int) -> NDArray[np.float64]:
         return np.sqrt(np.mean(results[p][key]["errors"][:, -1] ** 2, axis=0))
 
@@ -359,9 +495,33 @@ def _compare(rep: ChenSunReproduction, results, lo: float, hi: float) -> None:
 
 
 def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
-    """Draw Fig. 2: RMS error over time (km, log scale) in x, y, z and slant range for the
-    three paths, EKF dashed and MGEKF solid; top row the paper's filters (vectors treated as
-    independent), bottom row with reuse-inflated R.  Returns the path written."""
+    """Draw Fig. 2.
+
+    RMS error over time (km, log scale) in x, y, z and slant range for the three paths, EKF
+    dashed and MGEKF solid; top row the paper's filters (vectors treated as independent),
+    bottom row with reuse-inflated R.
+
+    Parameters
+    ----------
+    rep : ChenSunReproduction
+        The result of :func:`run` with ``runs > 0``.
+    path : str or pathlib.Path
+        Image file to write (format from the suffix).
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        If ``rep`` has no time series (``runs = 0``).
+
+    References
+    ----------
+    Chen & Sun, Fig. 2.
+    """
     if not rep.series:
         raise ValueError("plot() needs chen_sun.run() with runs > 0")
     import matplotlib

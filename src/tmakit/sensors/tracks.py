@@ -97,7 +97,23 @@ class FixedSensor(SensorTrack):
         object.__setattr__(self, "position", tuple(_as_point(position, "sensor position")))
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the fixed position and zero velocity ``(n, 6)`` (m, m/s) at times ``t`` (s)."""
+        """Give the fixed position and zero velocity at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D.
+        """
         t = _as_times(t)
         out = np.zeros((t.shape[0], 6))
         out[:, :3] = self.position
@@ -197,7 +213,23 @@ class LegsTrack(SensorTrack):
         return self._starts[:, 0].copy()
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the ENU states ``(n, 6)`` (m, m/s) at times ``t`` (s); see :class:`SensorTrack`."""
+        """Give the ENU states on the legs at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D.
+        """
         t = _as_times(t)
         idx = np.clip(np.searchsorted(self._starts[:, 0], t, side="right") - 1, 0, None)
         t0, x0, y0, v, c = self._starts[idx].T
@@ -259,7 +291,23 @@ class WaypointTrack(SensorTrack):
         self.times = times
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the ENU states ``(n, 6)`` (m, m/s) at times ``t`` (s); see :class:`SensorTrack`."""
+        """Give the ENU states between the waypoints at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D.
+        """
         t = _as_times(t)
         out = np.zeros((t.shape[0], 6))
         for axis in range(3):
@@ -326,12 +374,23 @@ class RecordedTrack(SensorTrack):
         self._velocity = self._spline.derivative()
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the interpolated ENU states ``(n, 6)`` (m, m/s) at times ``t`` (s).
+        """Give the interpolated ENU states at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
 
         Raises
         ------
         ValueError
-            If a time is outside the record (beyond a 1e-9 relative tolerance).
+            If ``t`` is not 1-D or a time is outside the record (beyond a 1e-9 relative
+            tolerance).
         """
         t = _as_times(t)
         tol = 1e-9 * max(1.0, float(np.abs(self.times).max()))
