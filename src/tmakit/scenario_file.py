@@ -26,10 +26,7 @@ from .units import free_space_constant, linear_to_db
 
 
 class ScenarioFileError(ValueError):
-    """A scenario file that cannot be used; the message names the file and each field.
-
-    A subclass of ``ValueError``, so callers that catch ``ValueError`` catch it too.
-    """
+    """A scenario file that cannot be used (a ``ValueError``); the message names file and field."""
 
 
 class _Strict(BaseModel):
@@ -39,13 +36,7 @@ class _Strict(BaseModel):
 class TimeRange(_Strict):
     """Sample times ``start, start + step, ...`` up to and including ``stop`` (s).
 
-    Attributes
-    ----------
-    start, stop : float
-        First and last time (s); ``stop`` is included when it falls on the grid (to 1e-9
-        of a step).
-    step : float
-        Spacing (s, > 0).
+    ``start``, ``stop`` (s; ``stop`` included to 1e-9 of a step), ``step`` (s, > 0).
     """
 
     start: float
@@ -53,7 +44,7 @@ class TimeRange(_Strict):
     step: float = Field(gt=0)
 
     def values(self) -> np.ndarray:
-        """Give the sample times.
+        """Give the sample times (s).
 
         Returns
         -------
@@ -77,16 +68,10 @@ GeoPoint = Annotated[list[float], Field(min_length=2, max_length=3)]
 
 
 class LegSpec(_Strict):
-    """One leg of a ``legs`` sensor (a :class:`~tmakit.sensors.Leg` in file units).
+    """One leg of a ``legs`` sensor, in file units (a :class:`~tmakit.sensors.Leg`).
 
-    Attributes
-    ----------
-    duration : float
-        Leg duration (s, > 0); ``inf`` for a last leg that never ends.
-    turn_rate_deg_s : float
-        Turn rate (deg/s, in the file's angle convention; 0 for a straight leg).
-    speed : float or None
-        New speed from this leg on (m/s, > 0); None keeps the previous one.
+    ``duration`` (s, > 0; ``inf`` for a last leg that never ends), ``turn_rate_deg_s`` (deg/s,
+    file's angle convention), ``speed`` (m/s, > 0; None keeps the previous one).
     """
 
     duration: float = Field(gt=0, description="seconds; inf for a last leg that never ends")
@@ -97,14 +82,8 @@ class LegSpec(_Strict):
 class FixedSpec(_Strict):
     """A sensor that does not move (``type = "fixed"``).
 
-    Attributes
-    ----------
-    id : str
-        Sensor id, used by the measurement plans.
-    position : list of float or None
-        ENU position ``[x, y]`` or ``[x, y, z]`` (m).
-    position_geodetic : list of float or None
-        Instead: ``[lat, lon]`` or ``[lat, lon, alt]`` (deg, deg, m); needs the origin.
+    ``id``; exactly one of ``position`` (ENU ``[x, y(, z)]``, m) and ``position_geodetic``
+    (``[lat, lon(, alt)]``, deg, deg, m).
     """
 
     type: Literal["fixed"]
@@ -116,20 +95,8 @@ class FixedSpec(_Strict):
 class LegsSpec(_Strict):
     """A sensor flying straight legs and constant-rate turns (``type = "legs"``).
 
-    Attributes
-    ----------
-    id : str
-        Sensor id.
-    start, start_geodetic : list of float or None
-        Start position, ENU (m) or geodetic (deg, deg, m): exactly one of the two.
-    start_time : float
-        Time at ``start`` (s).
-    heading_deg : float
-        Initial heading (deg, in the file's angle convention).
-    speed : float
-        Initial speed (m/s, > 0).
-    legs : list of LegSpec
-        The legs, at least one.
+    ``id``; exactly one of ``start`` (ENU, m) and ``start_geodetic`` (deg, deg, m);
+    ``start_time`` (s), ``heading_deg`` (deg, file's convention), ``speed`` (m/s, > 0), ``legs``.
     """
 
     type: Literal["legs"]
@@ -145,18 +112,8 @@ class LegsSpec(_Strict):
 class WaypointsSpec(_Strict):
     """A sensor flying straight between waypoints (``type = "waypoints"``).
 
-    Attributes
-    ----------
-    id : str
-        Sensor id.
-    points, points_geodetic : list of list of float or None
-        Waypoints, ENU (m) or geodetic (deg, deg, m): exactly one of the two.
-    speed : float or None
-        Constant speed (m/s, > 0), from ``start_time``; or give ``times``.
-    times : list of float or None
-        Time at each waypoint (s, increasing).
-    start_time : float
-        Time at the first waypoint when ``speed`` is given (s).
+    ``id``; exactly one of ``points`` (ENU, m) and ``points_geodetic`` (deg, deg, m); ``speed``
+    (m/s) from ``start_time`` (s), or ``times`` (s, one per waypoint).
     """
 
     type: Literal["waypoints"]
@@ -171,16 +128,8 @@ class WaypointsSpec(_Strict):
 class RecordedSpec(_Strict):
     """A sensor track recorded at given times (``type = "recorded"``).
 
-    Attributes
-    ----------
-    id : str
-        Sensor id.
-    times : list of float
-        Record times (s, increasing, at least two).
-    positions, positions_geodetic : list of list of float or None
-        Recorded positions, ENU (m) or geodetic (deg, deg, m): exactly one of the two.
-    velocities : list of list of float or None
-        Recorded ENU velocities (m/s), optional.
+    ``id``, ``times`` (s, increasing, at least two); exactly one of ``positions`` (ENU, m) and
+    ``positions_geodetic`` (deg, deg, m); optional ENU ``velocities`` (m/s).
     """
 
     type: Literal["recorded"]
@@ -196,16 +145,9 @@ SensorSpec = Annotated[FixedSpec | LegsSpec | WaypointsSpec | RecordedSpec,
 
 
 class TargetSpec(_Strict):
-    """The target: motion model name, reference time and true parameters.
+    """The target: ``motion`` (a model name), ``ref_time`` (s) and ``truth``.
 
-    Attributes
-    ----------
-    motion : str
-        Motion model name (checked by :func:`tmakit.motion.motion_from_name`).
-    ref_time : float
-        Reference time of the parameters (s).
-    truth : dict of str to float
-        True parameters by name, SI except ``course_deg`` (deg, converted to ``course``).
+    ``truth`` is SI by name except ``course_deg`` (deg, converted to ``course``).
     """
 
     motion: str
@@ -222,19 +164,9 @@ class TargetSpec(_Strict):
 class EmitterSpec(_Strict):
     """The emitter's nuisance truth.
 
-    Attributes
-    ----------
-    carrier_hz : float or None
-        Carrier frequency (Hz, > 0).
-    carrier_drift_hz_per_s : float
-        Carrier drift (Hz/s).
-    power_constant : float, "free_space" or None
-        Power constant C (W m^n, > 0), or ``"free_space"`` for (lambda / 4 pi)^2 (Gu et al.
-        (2007), §5; needs ``carrier_hz``).
-    power_constant_db : float or None
-        Instead: 10 log10 C (dB).
-    path_loss_exponent : float
-        Path-loss exponent n (> 0; 2 in free space).
+    ``carrier_hz`` (Hz), ``carrier_drift_hz_per_s`` (Hz/s), at most one of ``power_constant``
+    (C in W m^n, or ``"free_space"``: (lambda / 4 pi)^2 of Gu et al. (2007), §5, which needs the
+    carrier) and ``power_constant_db`` (dB), ``path_loss_exponent`` (> 0; 2 in free space).
     """
 
     carrier_hz: float | None = Field(default=None, gt=0)
@@ -247,22 +179,8 @@ class EmitterSpec(_Strict):
 class MeasurementSpec(_Strict):
     """One measurement plan in file units (a :class:`~tmakit.scenario.MeasurementPlan`).
 
-    Attributes
-    ----------
-    kind : str
-        Measurement kind (a key of :data:`tmakit.measurements.KINDS`).
-    sensor : str
-        Sensor id.
-    times : TimeRange or list of float
-        Sample times (s).
-    sigma : float or None
-        Noise standard deviation in the kind's file unit (deg, deg/s, dB, Hz, m, m/s).
-    snr_db : float or None
-        Power only, instead of ``sigma``: SNR_p (dB).
-    pri : float or None
-        Range differences: pulse repetition interval (s, > 0).
-    lags : list of int
-        Range differences: lags in pulse intervals.
+    ``kind``, ``sensor``, ``times`` (s); ``sigma`` in the kind's file unit (deg, deg/s, dB, Hz,
+    m, m/s) or, for power, ``snr_db`` (dB); range differences: ``pri`` (s) and ``lags``.
     """
 
     kind: str
@@ -282,29 +200,10 @@ class MeasurementSpec(_Strict):
 
 
 class ScenarioSpec(_Strict):
-    """A whole scenario file, validated (see ``docs/scenarios.md``).
+    """A whole scenario file, validated (see ``docs/scenarios.md`` for every field).
 
-    Attributes
-    ----------
-    name : str
-        Scenario name.
-    title, description : str
-        One-line title and longer description.
-    paper : str or None
-        The paper the scenario comes from, if any.
-    angle_convention : {"north_cw", "east_ccw"}
-        How headings, courses and turn rates are given: clockwise from North (default) or
-        counter-clockwise from East.
-    origin : list of float or None
-        ``[lat, lon, alt]`` (deg, deg, m) of the ENU origin; needed by geodetic positions.
-    target : TargetSpec
-        The target.
-    emitter : EmitterSpec
-        The emitter's nuisance truth.
-    sensors : list of FixedSpec, LegsSpec, WaypointsSpec or RecordedSpec
-        The sensors, at least one.
-    measurements : list of MeasurementSpec
-        The measurement plans, at least one.
+    ``angle_convention``: headings, courses and turn rates ``"north_cw"`` (default) or
+    ``"east_ccw"``; ``origin``: ``[lat, lon, alt]`` (deg, deg, m), needed by geodetic positions.
     """
 
     name: str
@@ -440,7 +339,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     Parameters
     ----------
     data : dict
-        The scenario in file form and file units (see ``docs/scenarios.md``).
+        The scenario in file form and file units (``docs/scenarios.md``).
     source : str, optional
         Where it came from, for messages.
 
@@ -452,8 +351,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     Raises
     ------
     ScenarioFileError
-        If validation fails (every problem listed with its field) or the scenario cannot be
-        built (unknown sensor, missing nuisance truth, inconsistent positions, ...).
+        If it is not valid or cannot be built; the message lists every problem by field.
     """
     try:
         spec = ScenarioSpec.model_validate(data)
@@ -483,7 +381,7 @@ def read_scenario_file(path: str | Path) -> Scenario:
     Raises
     ------
     ScenarioFileError
-        If the file does not exist, is not valid TOML, or is not a valid scenario.
+        If the file does not exist, is not TOML, or is not a valid scenario.
     """
     path = Path(path)
     try:
@@ -530,8 +428,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     Parameters
     ----------
     name_or_path : str or pathlib.Path
-        A built-in name (``gu2007``, ``chen-sun-1``, ...), or a path (a ``.toml`` suffix or
-        an existing file).
+        A built-in name (``gu2007``, ``chen-sun-1``, ...) or a path (``.toml`` or existing).
 
     Returns
     -------
@@ -541,7 +438,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     Raises
     ------
     ScenarioFileError
-        If the name is neither a file nor a built-in scenario, or the file is not valid.
+        If it is neither a file nor a built-in name, or the file is not valid.
     """
     text = str(name_or_path)
     path = Path(text)

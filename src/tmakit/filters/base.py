@@ -1,14 +1,8 @@
 """The one interface of tmakit's recursive filters, and the track they produce.
 
-A filter holds the target state ``[x, y, (z), vx, vy, (vz)]`` (ENU m, m/s; see
-:mod:`tmakit.motion.dynamics`) and its covariance at a time.  :meth:`TrackingFilter.predict`
-moves it to a later time under nearly-constant-velocity dynamics (Chen & Sun, §2.1);
-:meth:`TrackingFilter.update` takes a group of measurement rows of any kinds and sensors
-(:class:`tmakit.observation.groups.MeasurementGroup`); :meth:`TrackingFilter.run` does both over a
-whole :class:`~tmakit.data.MeasurementSet`, one update per distinct measurement time, and
-returns a :class:`Track`.
-
-Subclasses implement :meth:`TrackingFilter._predict` and :meth:`TrackingFilter._update`.
+A filter holds the state ``[x, y, (z), vx, vy, (vz)]`` (ENU m, m/s) and its covariance; it
+predicts under nearly-constant-velocity dynamics (Chen & Sun, §2.1), updates with rows of any
+kinds and sensors, and runs over a :class:`~tmakit.data.MeasurementSet` to a :class:`Track`.
 """
 
 from __future__ import annotations
@@ -33,8 +27,6 @@ if TYPE_CHECKING:  # pragma: no cover
 
 Array = NDArray[np.float64]
 
-#: Rows whose times differ by less than this (s) are one update.
-
 
 @dataclass(frozen=True)
 class UpdateInfo:
@@ -43,9 +35,9 @@ class UpdateInfo:
     Parameters
     ----------
     nis : float
-        Normalised innovation squared (dimensionless); NaN for a skipped update.
+        Normalised innovation squared (NaN for a skipped update).
     dof : int
-        Its degrees of freedom (the number of measurement rows; 0 when skipped).
+        Its degrees of freedom (measurement rows; 0 when skipped).
     log_likelihood : float
         Log-likelihood of the group given the past (nats).
     """
@@ -65,18 +57,11 @@ class Track:
         Name of the filter (``"ekf"``, ``"ukf"``, ``"pf"``, ``"mgekf"``).
     state_names : tuple of str
         Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``).
-    times : numpy.ndarray
-        Update times ``(K,)`` (s).
-    states : numpy.ndarray
-        State after each update ``(K, n)`` (m, m/s).
-    covariances : numpy.ndarray
-        Covariance after each update ``(K, n, n)`` (m^2, m^2/s, m^2/s^2).
-    nis : numpy.ndarray
-        NIS per update ``(K,)`` (dimensionless).
-    dof : numpy.ndarray
-        Degrees of freedom of each NIS ``(K,)``.
-    log_likelihood : numpy.ndarray
-        Cumulative log-likelihood after each update ``(K,)`` (nats).
+    times, nis, dof, log_likelihood : numpy.ndarray
+        Per update ``(K,)``: time (s), NIS, its degrees of freedom, cumulative log-likelihood
+        (nats).
+    states, covariances : numpy.ndarray
+        State ``(K, n)`` and covariance ``(K, n, n)`` after each update (m, m/s).
     extra : dict, optional
         Filter-specific extras (``skipped_updates``, ...).
     """
@@ -101,7 +86,7 @@ class Track:
         return np.sqrt(np.clip(np.einsum("kii->ki", self.covariances), 0.0, None))
 
     def errors(self, truth: ArrayLike) -> Array:
-        """Give the estimate minus the truth.
+        """Give the estimate minus the truth ``(K, n)`` (m, m/s).
 
         Parameters
         ----------
@@ -111,15 +96,12 @@ class Track:
         Returns
         -------
         numpy.ndarray
-            ``states - truth`` ``(K, n)`` (m, m/s).
+            ``states - truth``.
         """
         return self.states - np.asarray(truth, dtype=float)
 
     def nees(self, truth: ArrayLike) -> Array:
-        """Give the normalised estimation error squared (NEES) of every update.
-
-        A singular covariance (a collapsed particle cloud) gives ``inf`` when the error has a
-        component it says is impossible.
+        """Give the normalised estimation error squared ``e^T P^-1 e`` per update ``(K,)``.
 
         Parameters
         ----------
@@ -129,7 +111,8 @@ class Track:
         Returns
         -------
         numpy.ndarray
-            ``e^T P^-1 e`` per update ``(K,)`` (dimensionless).
+            NEES per update; ``inf`` where a singular covariance (a collapsed particle cloud) says
+            the error is impossible.
         """
         err = self.errors(truth)
         try:
@@ -144,13 +127,13 @@ class Track:
             return np.sum(terms, axis=-1)
 
     def as_dict(self) -> dict[str, object]:
-        """Give the track as JSON-ready lists (the keys of ``tma track`` JSON output).
+        """Give the track as JSON-ready lists (the keys of ``tma track``'s JSON output).
 
         Returns
         -------
         dict
-            ``filter``, ``state``, ``time`` (s), ``estimate`` and ``std`` (m, m/s),
-            ``covariance``, ``nis``, ``dof``, ``log_likelihood`` (nats).
+            ``filter``, ``state``, ``time`` (s), ``estimate`` and ``std`` (m, m/s), ``covariance``,
+            ``nis``, ``dof``, ``log_likelihood`` (nats).
         """
         return {
             "filter": self.filter_name,
@@ -170,8 +153,8 @@ class Track:
         Returns
         -------
         dict of str to numpy.ndarray
-            ``time`` (s), each state (m, m/s), its ``std_*``, the upper triangle of the
-            covariance (``cov_x_y``, ...), ``nis``, ``dof`` and ``log_likelihood`` (nats).
+            ``time`` (s), each state (m, m/s) and its ``std_*``, the covariance's upper triangle
+            (``cov_x_y``, ...), ``nis``, ``dof`` and ``log_likelihood`` (nats).
         """
         cols: dict[str, Array] = {"time": self.times}
         n = len(self.state_names)
@@ -190,48 +173,30 @@ class Track:
 
 
 class TrackingFilter(ABC):
-    """A recursive filter for a nearly-constant-velocity emitter (abstract).
+    """A recursive filter for a nearly-constant-velocity emitter (Chen & Sun, §2.1); abstract.
 
-    Subclasses implement :meth:`_init_state`, :attr:`state`, :attr:`covariance`,
-    :meth:`_predict` and :meth:`_update`.
+    Subclasses implement ``_init_state``, ``state``, ``covariance``, ``_predict``, ``_update``.
 
     Parameters
     ----------
-    mean : array_like
-        Prior mean ``(n,)`` at ``time``, n = 4 (2-D, ``[x, y, vx, vy]``) or 6 (3-D) (m, m/s).
-    covariance : array_like
-        Prior covariance ``(n, n)`` (m^2, m^2/s, m^2/s^2), positive definite.
+    mean, covariance : array_like
+        Gaussian prior at ``time``: ``(n,)`` and ``(n, n)``, n = 4 (``[x, y, vx, vy]``) or 6
+        (m, m/s), the covariance positive definite.
     time : float, optional
         Time of the prior (s).
     q : float or tuple of float, optional
-        Process-noise acceleration standard deviation, one for all axes or one per axis
-        (m/s^2); or give ``dynamics``.
+        Process-noise acceleration standard deviation, for all axes or per axis (m/s^2).
     dynamics : NearlyConstantVelocity, optional
         The dynamics, instead of ``q``.
     options : mapping, optional
         Per-kind measurement-model options (``{"frequency": {"drift": True}}``, ...).
     nuisance : mapping of str to float, optional
-        Known values of nuisance parameters (carrier Hz, power constant dBW, ...).
-
-    Attributes
-    ----------
-    time : float
-        Time of the current estimate (s).
-    log_likelihood : float
-        Log-likelihood of all updates so far (nats).
-    kernel_updates, skipped_updates : int
-        Updates done by a closed-form kernel, and updates skipped because the prediction
-        was not finite.
+        Known nuisance values (carrier Hz, power constant dBW, ...).
 
     Raises
     ------
     ValueError
-        If the prior is not a valid 4- or 6-state Gaussian (:func:`tmakit.linalg.check_prior`)
-        or the dynamics' dimension differs from the prior's.
-
-    References
-    ----------
-    Chen & Sun, §2.1 (the nearly-constant-velocity dynamics).
+        If the prior is not a valid 4- or 6-state Gaussian or the dynamics' dimension differs.
     """
 
     name = ""
@@ -292,9 +257,8 @@ class TrackingFilter(ABC):
                       **kwargs: Any) -> TrackingFilter:
         """Start a filter from a batch estimate.
 
-        The prior is the estimate's state at ``time`` and its covariance mapped through the
-        motion model's Jacobian (times ``inflate``); the estimate's nuisance values are used
-        unless ``nuisance=`` is given.
+        The prior: the estimate's state at ``time``, its covariance mapped through the motion
+        model's Jacobian (times ``inflate``); its nuisance values unless ``nuisance=`` is given.
 
         Parameters
         ----------
@@ -303,7 +267,7 @@ class TrackingFilter(ABC):
         time : float
             Time of the filter's prior (s).
         inflate : float, optional
-            Factor on the mapped covariance (dimensionless).
+            Factor on the mapped covariance.
         **kwargs
             Further arguments of the filter class.
 
@@ -331,22 +295,22 @@ class TrackingFilter(ABC):
         return cls(state6[keep], cov, float(time), **kwargs)
 
     def group(self, rows: MeasurementSet) -> MeasurementGroup:
-        """Wrap measurement rows as a :class:`MeasurementGroup` at the filter's time.
+        """Wrap measurement rows (any kinds and sensors) as a group at the filter's time.
 
         Parameters
         ----------
         rows : MeasurementSet
-            The rows (any kinds and sensors).
+            The rows.
 
         Returns
         -------
         MeasurementGroup
-            Predictions, Jacobians and noise of the rows for this filter's state.
+            Their predictions, Jacobians and noise for this filter's state.
         """
         return MeasurementGroup(rows, self.time, self.dim, self.options, self.nuisance)
 
     def predict(self, time: float) -> None:
-        """Move the estimate forward to ``time``.
+        """Move the estimate forward to ``time`` (s).
 
         Parameters
         ----------
@@ -386,10 +350,8 @@ class TrackingFilter(ABC):
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
-        The set is compiled once (:class:`~.compiled.CompiledMeasurements`); filters with a
-        closed-form kernel for the case at hand (one bearing per update in 2-D, see
-        :mod:`.kernels`) use it, the others build each update's group from views of the
-        compiled columns.
+        The set is compiled once (:class:`~.compiled.CompiledMeasurements`); a filter with a
+        closed-form kernel for the case (:mod:`.kernels`) uses it.
 
         Parameters
         ----------
@@ -417,25 +379,17 @@ class TrackingFilter(ABC):
                                                       self.nuisance))
 
     def _plain_interface(self) -> bool:
-        """Tell whether :meth:`predict`, :meth:`update` and :meth:`group` are the base ones.
-
-        False when a subclass customises one of them (then :meth:`run` goes through them,
-        row sets and all).
-        """
+        """Tell whether predict, update and group are the base class's (else run uses them)."""
         cls = type(self)
         return (cls.predict is TrackingFilter.predict and cls.update is TrackingFilter.update
                 and cls.group is TrackingFilter.group)
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        """Run a closed-form kernel from update ``start`` if this filter has one.
-
-        Returns None when it has none for ``compiled``.  Subclasses that have one override
-        this.
-        """
+        """Run a closed-form kernel from update ``start`` (None: none for ``compiled``)."""
         return None
 
     def run_compiled(self, compiled: CompiledMeasurements) -> Track:
-        """Run the filter (as :meth:`run`) on a set already compiled for it.
+        """Run the filter (as :meth:`run`) on a set compiled for it.
 
         Parameters
         ----------
@@ -478,8 +432,7 @@ class TrackingFilter(ABC):
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
         """Predict to each ``time`` and update with its rows, in the order given.
 
-        Rows may be taken at other times than ``time`` (multi-lag vectors, Chen & Sun, §2.2):
-        they are predicted from the state moved there.
+        Rows at other times (multi-lag vectors, Chen & Sun, §2.2) are predicted from the state.
 
         Parameters
         ----------
@@ -495,10 +448,6 @@ class TrackingFilter(ABC):
         ------
         ValueError
             If a time is earlier than the filter's time.
-
-        References
-        ----------
-        Chen & Sun, §2.2 (multi-lag measurement vectors).
         """
         rec = _Recorder(2 * self.dim)
         for time, rows in groups:

@@ -106,46 +106,32 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
                     start: int = 0) -> list[tuple[float, MeasurementSet]]:
     """Form the multi-lag measurement vectors of ``meas`` (Chen & Sun, §2.2).
 
-    The result is ready for :meth:`~tmakit.filters.TrackingFilter.run_groups`.  One update
-    per sample time ``t_k`` (from sample ``start`` on) with, for every sensor, the bearings at
-    ``k`` and ``k - N_j`` and the range differences ``dr_{k - N_{j-1}, k - N_j}`` (sum of the
-    lag-1 differences between, ``sigma = sqrt(sum sigma_i^2)`` = ``sqrt(N) sigma``).  A
-    range difference is left out if a lag-1 link inside it is missing; a bearing, if none
-    was measured at that sample.
+    One update per sample time ``t_k`` with, per sensor, the bearings at ``k`` and ``k - N_j``
+    and the range differences ``dr_{k - N_{j-1}, k - N_j}`` (sums of the lag-1 ones between,
+    ``sigma = sqrt(N) sigma_1``); one with a missing lag-1 link is left out.
 
     Parameters
     ----------
     meas : MeasurementSet
-        Per-pulse bearings and lag-1 range differences (``range_difference`` rows with
-        ``time_ref`` the previous sample), one or more sensors; rows of other kinds are
-        passed on unchanged at their own time.
+        Per-pulse bearings and lag-1 range differences; other kinds pass on at their time.
     lags : sequence of int, optional
-        ``N1 < N2 < ...`` (samples, whole numbers >= 1).
+        ``N1 < N2 < ...`` (samples, >= 1).
     reuse_inflation : bool, optional
-        Multiply each row's variance by the number of updates that use its data (bearings:
-        how many vectors contain that sample; range differences: the mean, over the
-        intervals it spans, of how many vectors contain each interval) so that, summed over
-        the updates, each datum carries roughly its own weight once.  Not in the paper.
+        Multiply each row's variance by how many updates use its data (bearings: vectors
+        with the sample; range differences: mean over the spanned intervals); not in the paper.
     start : int, optional
-        First sample (index, >= 0) that gets an update.
+        First sample index (>= 0) that gets an update.
 
     Returns
     -------
     list of (float, MeasurementSet)
-        ``(t_k, rows)`` (s) in time order; rows carry ``time``, ``time_ref`` and the sensor
-        states at both, so the filter predicts them from its state moved back (Chen & Sun,
-        §2.3-2.4).
+        ``(t_k (s), rows)`` for :meth:`~tmakit.filters.TrackingFilter.run_groups` (rows at
+        ``time`` and ``time_ref``, predicted back: Chen & Sun, §2.3-2.4).
 
     Raises
     ------
     ValueError
-        If the lags are not increasing whole numbers >= 1, ``meas`` is empty, ``start`` is
-        negative, a sensor has two bearings at one sample, or a sensor's range differences
-        include no lag-1 one.
-
-    References
-    ----------
-    Chen & Sun, §2.2 (the vectors ``Z_k`` and their covariance ``R_k``).
+        On bad lags or start, no rows, two bearings at a sample, or no lag-1 differences.
     """
     lags = _check_lags(lags)
     if len(meas) == 0:

@@ -1,17 +1,14 @@
-"""Reproduce Chen & Sun: 3-D tracking of a moving emitter (§3, Fig. 2).
+"""Reproduce Chen & Sun (§3, Fig. 2): 3-D emitter tracking from azimuth and range differences.
 
-The emitter is tracked from azimuth and range differences measured by one fixed receiver
-without elevation.
-
-Setup as §3.1 gives it: receiver at (30, 0, 0) km, emitter from (50, 60, 10) km at constant
-velocity, path 1 (-300, -300, 0) m/s, path 2 (-450, 0, 0) m/s, path 3 (0, -450, 0) m/s
-(scenarios ``chen-sun-1/2/3``, 1-s pulses over 100 s: the paper does not give the duration);
-azimuth sigma 2 mrad, range difference sigma 5 m per pulse interval; process noise
-q_x = q_y = 20 m/s^2, q_z = 10 m/s^2 (§2.1's Q_k); 30 Monte Carlo runs; the EKF and the
-modified-gain EKF (:class:`~tmakit.filters.mgekf.ModifiedGainEKF`) updated with the multi-lag
-vectors of §2.2 (:func:`~tmakit.filters.multilag.multilag_groups`, lags
-:data:`~tmakit.filters.multilag.DEFAULT_LAGS`: the paper uses "eight" measurement functions
-and gives no lags).
+Setup as §3.1 gives it: one fixed receiver without elevation at (30, 0, 0) km, emitter from
+(50, 60, 10) km at constant velocity, path 1 (-300, -300, 0) m/s, path 2 (-450, 0, 0) m/s,
+path 3 (0, -450, 0) m/s (scenarios ``chen-sun-1/2/3``, 1-s pulses over 100 s: the paper does
+not give the duration); azimuth sigma 2 mrad, range difference sigma 5 m per pulse interval;
+process noise q_x = q_y = 20 m/s^2, q_z = 10 m/s^2 (§2.1's Q_k); 30 Monte Carlo runs; the EKF
+and the modified-gain EKF (:class:`~tmakit.filters.mgekf.ModifiedGainEKF`) updated with the
+multi-lag vectors of §2.2 (:func:`~tmakit.filters.multilag.multilag_groups`, lags
+:data:`~tmakit.filters.multilag.DEFAULT_LAGS`: the paper uses "eight" measurement functions and
+gives no lags).
 
 Initial guess (§2.5): the printed formula ``x_o = sqrt(R_o^2 - z^2 cos^2 b_o) + x_r`` is not a
 polar conversion (it ignores the sign of the bearing and gives x and y both larger than the
@@ -82,15 +79,7 @@ POOR_HORIZONTAL_FRACTION = 0.05
 class ChenSunReproduction(Reproduction):
     """The report plus the time series that :func:`plot` draws.
 
-    Parameters
-    ----------
-    name, sections, figures
-        As for :class:`~tmakit.reproduce.common.Reproduction`.
-    series : dict, optional
-        ``series[key][path]`` is ``{"time": (K,) s, "rms": (K, 5) for x, y, z, R, rho (m),
-        "nees": (K,)}`` per filter key of :data:`FILTER_SETS` and path.
-    lags : tuple of int, optional
-        The multi-lag vectors' lags (samples).
+    ``series[key][path]``: ``time`` (K,) s, ``rms`` (K, 5) x, y, z, R, rho (m), ``nees`` (K,).
     """
 
     series: dict[str, dict[int, dict[str, NDArray[np.float64]]]] = field(
@@ -98,13 +87,12 @@ class ChenSunReproduction(Reproduction):
     lags: tuple[int, ...] = DEFAULT_LAGS
 
     def as_dict(self) -> dict[str, object]:
-        """Give the reproduction as JSON-ready data, the time series included.
+        """Give the reproduction as JSON-ready data.
 
         Returns
         -------
         dict
-            That of :meth:`Reproduction.as_dict <tmakit.reproduce.common.Reproduction.as_dict>`
-            plus ``series`` (lists, path numbers as strings).
+            That of the base class plus ``series`` (as lists).
         """
         out = super().as_dict()
         out["series"] = {key: {str(p): {k: v.tolist() for k, v in s.items()}
@@ -119,39 +107,26 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Give the initial state of Chen & Sun, §2.5 (its evident intent, see the module docstring).
 
-    The emitter at slant range ``range_guess`` along the first measured bearing, at height
-    ``height_guess`` above the receiver.
-
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements; the first bearing is used.
-    range_guess : float, optional
-        Assumed slant range ``R_o`` (m), larger than ``|height_guess|``.
-    height_guess : float, optional
-        Assumed height above the receiver (m).
+        The measurements; the emitter is put along the first bearing.
+    range_guess, height_guess : float, optional
+        Assumed slant range ``R_o`` (m, > ``|height_guess|``) and height above the receiver (m).
     velocity : sequence of float or None, optional
-        Initial velocity (m/s; default ``0.5 v_max``).
+        Initial velocity (m/s; default ``0.5 v_max`` of §3.1).
     position_var, velocity_var : float, optional
         Prior variances per axis (m^2; m^2/s^2).
 
     Returns
     -------
-    mean : numpy.ndarray
-        ``[x, y, z, vx, vy, vz]`` (6,) (m, m/s).
-    cov : numpy.ndarray
-        Diagonal covariance (6, 6).
-    time : float
-        Time of the first bearing (s).
+    tuple
+        ``(mean (6,) (m, m/s), covariance (6, 6), time of the first bearing (s))``.
 
     Raises
     ------
     ValueError
-        If ``range_guess <= |height_guess|`` or ``meas`` has no bearing.
-
-    References
-    ----------
-    Chen & Sun, §2.5 (initial guess) and §3.1 (``R_o``, ``z``, ``v_max``).
+        If ``range_guess <= |height_guess|`` or there is no bearing.
     """
     if not range_guess > abs(height_guess):
         raise ValueError(f"range_guess ({range_guess} m) must exceed |height_guess| "
@@ -181,11 +156,8 @@ def observability(path: int) -> dict[str, float | bool]:
     Returns
     -------
     dict
-        Standard deviations (m) of the height (``z_std_*``), the horizontal position
-        (``horizontal_std_*``) and the slant range (``range_std_*``) at the first and last
-        sample (``*_start``, ``*_end``), the true ranges and heights (m), the condition
-        number of the normalised information, the rank, and ``poorly_observable`` (see
-        :data:`POOR_HORIZONTAL_FRACTION`).
+        Std (m) of height, horizontal position and slant range at the first and last sample
+        (``z_std_start``, ...), true ranges and heights (m), condition, rank, ``poorly_observable``.
     """
     scn = load_scenario(f"chen-sun-{path}")
     bound = crlb(scn)
@@ -221,22 +193,14 @@ def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
                      filters: Sequence[str] = tuple(FILTER_SETS),
                      progress: Callable[[], object] | None = None
                      ) -> dict[str, dict[str, NDArray[np.float64]]]:
-    """Track one path in ``runs`` seeded Monte Carlo runs with the chosen filters.
-
-    Run ``i`` uses ``numpy.random.default_rng([seed, path, i])``.
+    """Track one path in ``runs`` seeded runs; run ``i`` uses ``default_rng([seed, path, i])``.
 
     Parameters
     ----------
-    path : int
-        Path number, 1-3.
-    runs : int, optional
-        Number of runs.
-    seed : int, optional
-        Base seed.
-    lags : sequence of int, optional
-        Lags of the multi-lag vectors (samples).
-    filters : sequence of str, optional
-        Keys of :data:`FILTER_SETS`.
+    path, runs, seed : int
+        Path number (1-3), number of runs, base seed.
+    lags, filters : sequence, optional
+        Lags of the multi-lag vectors (samples); keys of :data:`FILTER_SETS`.
     progress : callable or None, optional
         Called with no argument after each run.
 
@@ -244,17 +208,12 @@ def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
     -------
     dict
         Per filter key: ``errors`` (runs, K, 5) (x, y, z, R, rho; m), ``nees`` (runs, K),
-        ``time`` (K,) (s), ``reflections`` (runs,) and ``fallbacks`` (runs,) (MGEKF bearing
-        rows that used the EKF row).
+        ``time`` (K,) (s), ``reflections`` and ``fallbacks`` (runs,).
 
     Raises
     ------
     ValueError
         If a filter key is unknown.
-
-    References
-    ----------
-    Chen & Sun, §2.2-2.5 and §3.1 (the filters, the vectors and the setup).
     """
     unknown = [f for f in filters if f not in FILTER_SETS]
     if unknown:
@@ -290,18 +249,15 @@ def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, floa
 
     Parameters
     ----------
-    runs : int
-        Number of runs averaged.
-    dof : int, optional
-        Degrees of freedom of one NEES (the state dimension).
+    runs, dof : int
+        Runs averaged; degrees of freedom of one NEES (default 6).
     level : float, optional
         Probability inside the band.
 
     Returns
     -------
     tuple of float
-        ``(low, high)`` of the mean NEES (chi-square with ``dof * runs`` degrees of freedom,
-        divided by ``runs``).
+        ``(low, high)``, chi-square quantiles (``dof * runs`` dof) over ``runs``.
     """
     from scipy.stats import chi2
 
@@ -315,10 +271,8 @@ def run(runs: int = RUNS, seed: int = 1, progress: bool = True,
 
     Parameters
     ----------
-    runs : int, optional
-        Monte Carlo runs per path (0: the setup and observability only).
-    seed : int, optional
-        Base seed of the runs.
+    runs, seed : int, optional
+        Monte Carlo runs per path (0: setup and observability only) and base seed.
     progress : bool, optional
         Show a progress bar during the runs.
     lags : sequence of int, optional
@@ -327,13 +281,7 @@ def run(runs: int = RUNS, seed: int = 1, progress: bool = True,
     Returns
     -------
     ChenSunReproduction
-        The setup, the CRLB observability of each path, and with runs the RMS errors (m)
-        and NEES of Fig. 2 per filter, with the paper's statements (§3.2) checked against
-        them.
-
-    References
-    ----------
-    Chen & Sun, §3.1-3.2 and Fig. 2.
+        Setup, observability and, with runs, Fig. 2's RMS errors (m), NEES and §3.2's claims.
     """
     lags = tuple(int(v) for v in lags)
     rep = ChenSunReproduction("chen-sun", lags=lags)
@@ -447,8 +395,7 @@ def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
 
 
 def _compare(rep: ChenSunReproduction,
-             results: dict[int, dict[str, dict[str, NDArray[np.float64]]]], lo: float,
-             hi: float) -> None:
+             results: dict[int, dict[str, dict[str, np.ndarray]]], lo: float, hi: float) -> None:
     """Add the paper's statements (§3.2) next to what tmakit measured."""
     def fin(key: str, p: int) -> NDArray[np.float64]:
         return np.sqrt(np.mean(results[p][key]["errors"][:, -1] ** 2, axis=0))
@@ -495,11 +442,10 @@ def _compare(rep: ChenSunReproduction,
 
 
 def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
-    """Draw Fig. 2.
+    """Draw Fig. 2 of Chen & Sun: RMS error over time for the three paths.
 
-    RMS error over time (km, log scale) in x, y, z and slant range for the three paths, EKF
-    dashed and MGEKF solid; top row the paper's filters (vectors treated as independent),
-    bottom row with reuse-inflated R.
+    x, y, z and slant range (km, log), EKF dashed, MGEKF solid; top row as in the paper, bottom
+    row with reuse-inflated R.
 
     Parameters
     ----------
@@ -517,10 +463,6 @@ def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
     ------
     ValueError
         If ``rep`` has no time series (``runs = 0``).
-
-    References
-    ----------
-    Chen & Sun, Fig. 2.
     """
     if not rep.series:
         raise ValueError("plot() needs chen_sun.run() with runs > 0")

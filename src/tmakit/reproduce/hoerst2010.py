@@ -252,7 +252,7 @@ def _ellipse_counts(s: CrbSequence) -> tuple[int, int, int]:
 
 
 def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
-    """Draw Fig. 2.
+    """Draw Fig. 2 of Hörst & Oispuu (2010).
 
     Observer path (green, start square), target path (blue, start square, change-over points
     circles) and the 90 % position ellipses (red) every 10 s, left azimuth only, right
@@ -274,10 +274,6 @@ def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
     ------
     ValueError
         If ``rep`` lacks the scenario or the bound sequences.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), Fig. 2.
     """
     import matplotlib
 
