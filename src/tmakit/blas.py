@@ -18,8 +18,21 @@ SINGLE_THREAD_WORK = 200_000
 
 
 def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``a @ b`` for ``a`` ``(..., m, k)`` and a 2-D ``b`` ``(k, n)``, in row blocks of ``a``
-    small enough for a single-threaded product."""
+    """Multiply ``a @ b`` in row blocks of ``a`` small enough for a single-threaded product.
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Left factor ``(..., m, k)`` (any units).
+    b : numpy.ndarray
+        Right factor, 2-D ``(k, n)`` (any units).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``a @ b``, shape ``(..., m, n)``; equal to numpy's product (the blocks only split
+        the rows).
+    """
     k, n = b.shape
     rows = a.reshape(-1, k)
     block = max(1, SINGLE_THREAD_WORK // max(1, k * n))

@@ -2,11 +2,10 @@
 
 - Local East-North-Up (ENU) Cartesian frame, metres.  A 2-D problem lives in the plane z = 0.
 - Bearing (azimuth) is measured clockwise from North: ``atan2(d_east, d_north)``
-  (002_e7269ad11b825346.txt eq. 6).  Elevation is measured up from the horizontal plane.
+  (Hörst & Oispuu (2010), eq. 6).  Elevation is measured up from the horizontal plane.
 - Headings/courses are bearings too (clockwise from North).  A paper that measures angles
-  counter-clockwise from East (000_bc54bd8c50e47249.txt's sensor path,
-  003_e5155d4fe60daef8.txt's bearings) is converted with :func:`math_angle_to_bearing` in its
-  scenario, never in the models.
+  counter-clockwise from East (the sensor path of Gu et al. (2007), the bearings of Chen &
+  Sun) is converted with :func:`math_angle_to_bearing` in its scenario, never in the models.
 - Relative state = target minus sensor, ``[dx, dy, dz, dvx, dvy, dvz]``.
 - Angle residuals are wrapped to (-pi, pi].
 """
@@ -23,7 +22,18 @@ STATE_SIZE = 6
 
 
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles (radians) to the interval (-pi, pi]."""
+    """Wrap angles to the interval (-pi, pi].
+
+    Parameters
+    ----------
+    angle : array_like
+        Angles (rad).
+
+    Returns
+    -------
+    numpy.ndarray
+        The angles wrapped to (-pi, pi] (rad); ``+pi`` stays ``+pi``.
+    """
     a = np.asarray(angle, dtype=float)
     wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     # mod maps +pi to -pi; the convention keeps +pi.
@@ -31,19 +41,55 @@ def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
 
 
 def wrap_to_2pi(angle: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles (radians) to [0, 2 pi)."""
+    """Wrap angles to the interval [0, 2 pi).
+
+    Parameters
+    ----------
+    angle : array_like
+        Angles (rad).
+
+    Returns
+    -------
+    numpy.ndarray
+        The angles wrapped to [0, 2 pi) (rad).
+    """
     return np.mod(np.asarray(angle, dtype=float), 2.0 * np.pi)
 
 
 def bearing(d_east: ArrayLike, d_north: ArrayLike) -> NDArray[np.float64]:
-    """Bearing (radians, clockwise from North, in (-pi, pi]) of the vector (d_east, d_north)."""
+    """Give the bearing of the horizontal vector ``(d_east, d_north)``.
+
+    Parameters
+    ----------
+    d_east, d_north : array_like
+        East and North components (m, or any common unit), broadcast together.
+
+    Returns
+    -------
+    numpy.ndarray
+        Bearing ``atan2(d_east, d_north)`` (rad, clockwise from North, in (-pi, pi]).
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 6 (the azimuth measured from North).
+    """
     return np.arctan2(d_east, d_north)
 
 
 def math_angle_to_bearing(angle: ArrayLike) -> NDArray[np.float64]:
     """Convert an angle counter-clockwise from East (x-axis) to a bearing clockwise from North.
 
-    Works for angles in radians; the map is its own inverse.
+    The map is its own inverse (:data:`bearing_to_math_angle` is the same function).
+
+    Parameters
+    ----------
+    angle : array_like
+        Angles counter-clockwise from East (rad).
+
+    Returns
+    -------
+    numpy.ndarray
+        Bearings ``pi/2 - angle`` wrapped to (-pi, pi] (rad, clockwise from North).
     """
     return wrap_angle(np.pi / 2.0 - np.asarray(angle, dtype=float))
 
@@ -52,6 +98,17 @@ bearing_to_math_angle = math_angle_to_bearing
 
 
 def unit_vector_from_bearing(bearing_rad: ArrayLike) -> NDArray[np.float64]:
-    """Horizontal unit vector(s) ``[east, north]`` pointing along a bearing; shape (..., 2)."""
+    """Give the horizontal unit vector(s) pointing along a bearing.
+
+    Parameters
+    ----------
+    bearing_rad : array_like
+        Bearings (rad, clockwise from North).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[east, north] = [sin b, cos b]``, shape ``(..., 2)`` (dimensionless).
+    """
     b = np.asarray(bearing_rad, dtype=float)
     return np.stack([np.sin(b), np.cos(b)], axis=-1)

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 
-def _check_origin(origin) -> tuple[float, float, float]:
+def _check_origin(origin: ArrayLike) -> tuple[float, float, float]:
     try:
         lat, lon, alt = (float(v) for v in origin)
     except (TypeError, ValueError):
@@ -20,9 +20,30 @@ def _check_origin(origin) -> tuple[float, float, float]:
     return lat, lon, alt
 
 
-def geodetic_to_enu(lat: ArrayLike, lon: ArrayLike, alt: ArrayLike, origin
+def geodetic_to_enu(lat: ArrayLike, lon: ArrayLike, alt: ArrayLike, origin: ArrayLike
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """WGS-84 geodetic coordinates to ENU (m) about ``origin``."""
+    """Convert WGS-84 geodetic coordinates to the local East-North-Up frame about ``origin``.
+
+    Parameters
+    ----------
+    lat, lon : array_like
+        Geodetic latitude and longitude (deg).
+    alt : array_like
+        Altitude above the WGS-84 ellipsoid (m).
+    origin : array_like
+        ``(lat, lon, alt)`` of the frame's (0, 0, 0) (deg, deg, m).
+
+    Returns
+    -------
+    east, north, up : numpy.ndarray
+        ENU coordinates (m).
+
+    Raises
+    ------
+    ValueError
+        If ``origin`` is not three numbers, or its latitude is outside [-90, 90], its
+        longitude outside [-180, 360] or its altitude not finite.
+    """
     import pymap3d
 
     lat0, lon0, alt0 = _check_origin(origin)
@@ -31,9 +52,29 @@ def geodetic_to_enu(lat: ArrayLike, lon: ArrayLike, alt: ArrayLike, origin
     return np.asarray(e, float), np.asarray(n, float), np.asarray(u, float)
 
 
-def enu_to_geodetic(east: ArrayLike, north: ArrayLike, up: ArrayLike, origin
+def enu_to_geodetic(east: ArrayLike, north: ArrayLike, up: ArrayLike, origin: ArrayLike
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """ENU (m) about ``origin`` to WGS-84 latitude, longitude (degrees) and altitude (m)."""
+    """Convert local East-North-Up coordinates about ``origin`` to WGS-84 geodetic ones.
+
+    Parameters
+    ----------
+    east, north, up : array_like
+        ENU coordinates (m).
+    origin : array_like
+        ``(lat, lon, alt)`` of the frame's (0, 0, 0) (deg, deg, m).
+
+    Returns
+    -------
+    lat, lon : numpy.ndarray
+        Geodetic latitude and longitude (deg).
+    alt : numpy.ndarray
+        Altitude above the WGS-84 ellipsoid (m).
+
+    Raises
+    ------
+    ValueError
+        If ``origin`` is not three numbers or is out of range (see :func:`geodetic_to_enu`).
+    """
     import pymap3d
 
     lat0, lon0, alt0 = _check_origin(origin)

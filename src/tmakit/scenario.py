@@ -1,5 +1,7 @@
-"""Scenario: what happens — target motion and its true parameters, the sensors' tracks, and
-the measurement plan with its noise — and :meth:`Scenario.simulate` to observe it.
+"""Scenario: what happens, and :meth:`Scenario.simulate` to observe it.
+
+A scenario is the target motion and its true parameters, the sensors' tracks, and the
+measurement plan with its noise.
 
 Scenarios are built in code or loaded from TOML files (:mod:`tmakit.scenario_file`); the
 papers' scenarios ship with tmakit (``tma scenarios`` lists them).
@@ -25,7 +27,18 @@ RngLike = np.random.Generator | int | None
 
 
 def as_generator(rng: RngLike) -> np.random.Generator:
-    """A numpy Generator from a Generator, an integer seed, or None (fresh entropy)."""
+    """Give a numpy random Generator for a Generator, an integer seed or None.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator, int or None
+        A Generator (returned as is), a seed, or None for fresh entropy.
+
+    Returns
+    -------
+    numpy.random.Generator
+        The generator; the same seed gives the same numbers.
+    """
     if isinstance(rng, np.random.Generator):
         return rng
     return np.random.default_rng(rng)
@@ -35,12 +48,37 @@ def as_generator(rng: RngLike) -> np.random.Generator:
 class MeasurementPlan:
     """One stream of measurements: a kind from one sensor at given times, with its noise.
 
-    ``sigma`` is the noise standard deviation in SI (radians for angles, rad/s for azimuth
-    rate, dB for power, Hz, m, m/s).  Power may instead give ``snr_db``: the noise of
-    000_bc54bd8c50e47249.txt §2, ``P_measured = P (1 + e)`` with ``var(e) = 1/SNR_p``.  Range
-    differences take the pulse repetition interval ``pri`` (s) and ``lags`` (whole numbers of
-    intervals back); ``sigma`` is then the standard deviation of one interval's difference and
-    noise accumulates one term per interval (003_e5155d4fe60daef8.txt eq. 1).
+    Parameters
+    ----------
+    kind : str
+        Measurement kind, a key of :data:`tmakit.measurements.KINDS` (``"bearing"``,
+        ``"frequency"``, ``"power"``, ``"range_difference"``, ...).
+    sensor : str
+        Id of the sensor (a key of :attr:`Scenario.sensors`).
+    times : array_like
+        Sample times (s), non-empty and increasing.
+    sigma : float, optional
+        Noise standard deviation in SI (rad for angles, rad/s for azimuth rate, dB for
+        power, Hz, m, m/s).  For range differences: that of one pulse interval's difference.
+    snr_db : float, optional
+        Power only, instead of ``sigma``: SNR_p (dB) of the multiplicative noise
+        ``P_measured = P (1 + e)``, ``var(e) = 1/SNR_p`` (Gu et al. (2007), §2).
+    pri : float, optional
+        Range differences only: the pulse repetition interval (s, > 0).
+    lags : tuple of int, optional
+        Range differences only: how many intervals back each difference reaches (>= 1);
+        the noise accumulates one term per interval (Chen & Sun, eq. 1).
+
+    Raises
+    ------
+    ValueError
+        If the kind is unknown, the times are empty or not increasing, ``sigma`` is missing
+        or not positive (power: both ``sigma`` and ``snr_db`` given), or a range-difference
+        plan has no positive ``pri`` or a lag below 1.
+
+    References
+    ----------
+    Gu et al. (2007), §2 (power noise); Chen & Sun, eq. 1 (range differences from ΔTOA).
     """
 
     kind: str
@@ -52,6 +90,7 @@ class MeasurementPlan:
     lags: tuple[int, ...] = (1,)
 
     def __post_init__(self) -> None:
+        """Check the plan and normalise ``times`` (float array) and ``lags`` (ints)."""
         if self.kind not in KINDS:
             raise ValueError(f"unknown measurement kind {self.kind!r}; expected one of "
                              f"{', '.join(KINDS)}")
@@ -77,9 +116,39 @@ class MeasurementPlan:
 class Scenario:
     """Motion model + true parameters + sensors + measurement plan (+ nuisance truth).
 
-    ``nuisance`` holds the emitter's true nuisance values by name: ``carrier`` (Hz),
-    ``carrier_drift`` (Hz/s), ``power_constant_db`` (10 log10 of C in W m^n),
-    ``path_loss_exponent``.  ``origin`` is the (lat, lon, alt) of the ENU frame, if known.
+    Parameters
+    ----------
+    name : str
+        Scenario name (``gu2007``, ``chen-sun-1``, ...).
+    motion : MotionModel
+        The target's motion model.
+    truth : dict of str to float
+        True motion parameters by name, SI (m, m/s, rad, s, m/s^2).
+    sensors : dict of str to SensorTrack
+        The sensors' tracks by id.
+    plans : list of MeasurementPlan
+        What is measured; every plan's sensor must be in ``sensors``.
+    nuisance : dict of str to float, optional
+        The emitter's true nuisance values by name: ``carrier`` (Hz), ``carrier_drift``
+        (Hz/s), ``power_constant_db`` (10 log10 of C in W m^n), ``path_loss_exponent``.
+    description : str, optional
+        One-line title.
+    origin : tuple of float, optional
+        ``(lat, lon, alt)`` (deg, deg, m) of the ENU frame's origin, if known.
+    source : str, optional
+        Where the scenario came from (a file path), for messages.
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        The true parameter vector of ``motion`` (SI), from ``truth``.
+
+    Raises
+    ------
+    ValueError
+        If a plan names an unknown sensor, frequency plans lack the ``carrier`` or power
+        plans the ``power_constant_db`` in ``nuisance``, or ``truth`` does not name the
+        motion model's parameters.
     """
 
     name: str
@@ -93,6 +162,7 @@ class Scenario:
     source: str = ""
 
     def __post_init__(self) -> None:
+        """Set :attr:`theta` and check the plans against the sensors and the nuisance truth."""
         self.theta = self.motion.theta(self.truth)
         for plan in self.plans:
             if plan.sensor not in self.sensors:
@@ -106,12 +176,15 @@ class Scenario:
 
     @property
     def kinds(self) -> list[str]:
+        """Measurement kinds of the plans, in the order of :data:`~tmakit.measurements.KINDS`."""
         return [k for k in KINDS if k in {p.kind for p in self.plans}]
 
     @property
     def measurement_options(self) -> dict[str, dict[str, object]]:
-        """Model options that reproduce the truth: carrier drift on if the truth drifts,
-        the path-loss exponent fixed at its true value."""
+        """Model options that reproduce the truth, by kind.
+
+        Carrier drift on if the truth drifts; the path-loss exponent fixed at its true value.
+        """
         opts: dict[str, dict[str, object]] = {}
         if "frequency" in self.kinds:
             opts["frequency"] = {"drift": self.nuisance.get("carrier_drift", 0.0) != 0.0}
@@ -120,17 +193,34 @@ class Scenario:
         return opts
 
     def time_span(self) -> tuple[float, float]:
-        """First and last sample time of the plan (s)."""
+        """Give the first and last sample time of the plans.
+
+        Returns
+        -------
+        tuple of float
+            ``(t_first, t_last)`` (s).
+        """
         return (min(float(p.times[0]) for p in self.plans),
                 max(float(p.times[-1]) for p in self.plans))
 
     def target_states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """True target ENU states ``(n, 6)`` at times ``t``."""
+        """Give the true target states at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), shape ``(n,)`` or scalar.
+
+        Returns
+        -------
+        numpy.ndarray
+            ENU states ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+        """
         return self.motion.states(self.theta, np.atleast_1d(np.asarray(t, dtype=float)))
 
     # -- simulation ------------------------------------------------------------------------
     def _layout(self, plan: MeasurementPlan) -> MeasurementSet:
-        """The rows of one plan with noise-free placeholders for value and sigma."""
+        """Lay out the rows of one plan with noise-free placeholders for value and sigma."""
         track = self.sensors[plan.sensor]
         model = KINDS[plan.kind]
         if plan.kind == "range_difference":
@@ -158,17 +248,53 @@ class Scenario:
                               track.states(times), time_ref, ref_state)
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
-        """Observe the scenario: a :class:`MeasurementSet`, noisy unless ``noise=False``.
+        """Observe the scenario.
 
-        ``rng`` is a ``numpy.random.Generator`` or a seed; the same seed gives the same
-        numbers.  Rows are grouped by sensor and in time order.
+        Parameters
+        ----------
+        rng : numpy.random.Generator, int or None, optional
+            Random source or seed; the same seed gives the same numbers.
+        noise : bool, optional
+            Add the plans' measurement noise (``False``: the exact predictions).
+
+        Returns
+        -------
+        MeasurementSet
+            The measurements in file units, rows grouped by sensor and in time order, with
+            metadata (scenario, motion, truth, noise, seed if ``rng`` is an int, ...).
+
+        Raises
+        ------
+        ValueError
+            If a power plan's SNR_p is so low that the multiplicative noise makes a power
+            negative.
         """
         return self.simulate_many([rng], noise)[0]
 
     def simulate_many(self, rngs: Sequence[RngLike], noise: bool = True
                       ) -> list[MeasurementSet]:
-        """``[simulate(rng) for rng in rngs]``, the noise-free rows computed once (Monte
-        Carlo runs): each set is exactly what :meth:`simulate` gives for its ``rng``."""
+        """Observe the scenario once per random source, the noise-free rows computed once.
+
+        Equal to ``[simulate(rng, noise) for rng in rngs]`` (Monte Carlo runs): each set is
+        exactly what :meth:`simulate` gives for its ``rng``.
+
+        Parameters
+        ----------
+        rngs : sequence of numpy.random.Generator, int or None
+            One random source or seed per set.
+        noise : bool, optional
+            Add the plans' measurement noise.
+
+        Returns
+        -------
+        list of MeasurementSet
+            One set per entry of ``rngs`` (see :meth:`simulate`).
+
+        Raises
+        ------
+        ValueError
+            As :meth:`simulate`.
+        """
         plans = []  # (plan, rows, noise-free values SI, model), in plan order
         for plan in self.plans:
             rows = self._layout(plan)
@@ -215,7 +341,7 @@ class Scenario:
     def _noisy(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
                gen: np.random.Generator) -> NDArray[np.float64]:
         if plan.kind == "power" and plan.snr_db is not None:
-            # 000_bc54bd8c50e47249.txt §2: P_hat = P + eta with var(eta / P) = 1 / SNR_p.
+            # Gu et al. (2007), §2: P_hat = P + eta with var(eta / P) = 1 / SNR_p.
             rel_noise = gen.standard_normal(clean.shape) / np.sqrt(10.0 ** (plan.snr_db / 10))
             if np.any(rel_noise <= -1.0):
                 raise ValueError(f"power: SNR_p = {plan.snr_db} dB is too low for the "
@@ -234,7 +360,14 @@ class Scenario:
         return clean + gen.standard_normal(clean.shape) * rows.sigma_si
 
     def summary(self) -> str:
-        """A few lines saying what the scenario is."""
+        """Describe the scenario in a few lines.
+
+        Returns
+        -------
+        str
+            Name and title, target motion and truth, sensors and time span, and one line per
+            plan with its sample count and noise (in the kind's file unit).
+        """
         t0, t1 = self.time_span()
         truth = ", ".join(f"{k}={v:g}" for k, v in self.truth.items())
         lines = [f"{self.name}: {self.description}".rstrip(": "),
@@ -248,6 +381,26 @@ class Scenario:
 
 
 def simulate(scenario: Scenario, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
-    """Function form of :meth:`Scenario.simulate`."""
+    """Observe ``scenario``: the function form of :meth:`Scenario.simulate`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        What to observe.
+    rng : numpy.random.Generator, int or None, optional
+        Random source or seed.
+    noise : bool, optional
+        Add the measurement noise.
+
+    Returns
+    -------
+    MeasurementSet
+        As :meth:`Scenario.simulate`.
+
+    Raises
+    ------
+    ValueError
+        As :meth:`Scenario.simulate`.
+    """
     return scenario.simulate(rng, noise)
 

@@ -28,7 +28,7 @@ from .units import free_space_constant, linear_to_db
 
 
 class ScenarioFileError(ValueError):
-    """A scenario file that cannot be used; the message names the file and each field."""
+    """A scenario file that cannot be used (a ``ValueError``); the message names file and field."""
 
 
 class _Strict(BaseModel):
@@ -36,13 +36,28 @@ class _Strict(BaseModel):
 
 
 class TimeRange(_Strict):
-    """Sample times ``start, start + step, ...`` up to and including ``stop`` (s)."""
+    """Sample times ``start, start + step, ...`` up to and including ``stop`` (s).
+
+    ``start``, ``stop`` (s; ``stop`` included to 1e-9 of a step), ``step`` (s, > 0).
+    """
 
     start: float
     stop: float
     step: float = Field(gt=0)
 
     def values(self) -> np.ndarray:
+        """Give the sample times (s).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``start + step * [0, 1, ..., n - 1]`` (s).
+
+        Raises
+        ------
+        ValueError
+            If ``stop`` is before ``start``.
+        """
         n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
         if n < 1:
             raise ValueError("stop is before start")
@@ -55,12 +70,24 @@ GeoPoint = Annotated[list[float], Field(min_length=2, max_length=3)]
 
 
 class LegSpec(_Strict):
+    """One leg of a ``legs`` sensor, in file units (a :class:`~tmakit.sensors.Leg`).
+
+    ``duration`` (s, > 0; ``inf`` for a last leg that never ends), ``turn_rate_deg_s`` (deg/s,
+    file's angle convention), ``speed`` (m/s, > 0; None keeps the previous one).
+    """
+
     duration: float = Field(gt=0, description="seconds; inf for a last leg that never ends")
     turn_rate_deg_s: float = 0.0
     speed: float | None = Field(default=None, gt=0)
 
 
 class FixedSpec(_Strict):
+    """A sensor that does not move (``type = "fixed"``).
+
+    ``id``; exactly one of ``position`` (ENU ``[x, y(, z)]``, m) and ``position_geodetic``
+    (``[lat, lon(, alt)]``, deg, deg, m).
+    """
+
     type: Literal["fixed"]
     id: str
     position: Point | None = None
@@ -68,6 +95,12 @@ class FixedSpec(_Strict):
 
 
 class LegsSpec(_Strict):
+    """A sensor flying straight legs and constant-rate turns (``type = "legs"``).
+
+    ``id``; exactly one of ``start`` (ENU, m) and ``start_geodetic`` (deg, deg, m);
+    ``start_time`` (s), ``heading_deg`` (deg, file's convention), ``speed`` (m/s, > 0), ``legs``.
+    """
+
     type: Literal["legs"]
     id: str
     start: Point | None = None
@@ -79,6 +112,12 @@ class LegsSpec(_Strict):
 
 
 class WaypointsSpec(_Strict):
+    """A sensor flying straight between waypoints (``type = "waypoints"``).
+
+    ``id``; exactly one of ``points`` (ENU, m) and ``points_geodetic`` (deg, deg, m); ``speed``
+    (m/s) from ``start_time`` (s), or ``times`` (s, one per waypoint).
+    """
+
     type: Literal["waypoints"]
     id: str
     points: list[Point] | None = None
@@ -89,6 +128,12 @@ class WaypointsSpec(_Strict):
 
 
 class RecordedSpec(_Strict):
+    """A sensor track recorded at given times (``type = "recorded"``).
+
+    ``id``, ``times`` (s, increasing, at least two); exactly one of ``positions`` (ENU, m) and
+    ``positions_geodetic`` (deg, deg, m); optional ENU ``velocities`` (m/s).
+    """
+
     type: Literal["recorded"]
     id: str
     times: list[float]
@@ -102,6 +147,11 @@ SensorSpec = Annotated[FixedSpec | LegsSpec | WaypointsSpec | RecordedSpec,
 
 
 class TargetSpec(_Strict):
+    """The target: ``motion`` (a model name), ``ref_time`` (s) and ``truth``.
+
+    ``truth`` is SI by name except ``course_deg`` (deg, converted to ``course``).
+    """
+
     motion: str
     ref_time: float = 0.0
     truth: dict[str, float]
@@ -114,6 +164,13 @@ class TargetSpec(_Strict):
 
 
 class EmitterSpec(_Strict):
+    """The emitter's nuisance truth.
+
+    ``carrier_hz`` (Hz), ``carrier_drift_hz_per_s`` (Hz/s), at most one of ``power_constant``
+    (C in W m^n, or ``"free_space"``: (lambda / 4 pi)^2 of Gu et al. (2007), §5, which needs the
+    carrier) and ``power_constant_db`` (dB), ``path_loss_exponent`` (> 0; 2 in free space).
+    """
+
     carrier_hz: float | None = Field(default=None, gt=0)
     carrier_drift_hz_per_s: float = 0.0
     power_constant: float | Literal["free_space"] | None = None
@@ -122,6 +179,12 @@ class EmitterSpec(_Strict):
 
 
 class MeasurementSpec(_Strict):
+    """One measurement plan in file units (a :class:`~tmakit.scenario.MeasurementPlan`).
+
+    ``kind``, ``sensor``, ``times`` (s); ``sigma`` in the kind's file unit (deg, deg/s, dB, Hz,
+    m, m/s) or, for power, ``snr_db`` (dB); range differences: ``pri`` (s) and ``lags``.
+    """
+
     kind: str
     sensor: str
     times: Times
@@ -139,6 +202,12 @@ class MeasurementSpec(_Strict):
 
 
 class ScenarioSpec(_Strict):
+    """A whole scenario file, validated (see ``docs/scenarios.md`` for every field).
+
+    ``angle_convention``: headings, courses and turn rates ``"north_cw"`` (default) or
+    ``"east_ccw"``; ``origin``: ``[lat, lon, alt]`` (deg, deg, m), needed by geodetic positions.
+    """
+
     name: str
     title: str = ""
     description: str = ""
@@ -158,7 +227,7 @@ class _Builder:
         self.ccw = spec.angle_convention == "east_ccw"
 
     def heading(self, deg: float) -> float:
-        """A heading/course in the file's convention -> radians clockwise from North."""
+        """Convert a heading/course in the file's convention (deg) to rad clockwise from North."""
         return math.radians(90.0 - deg) if self.ccw else math.radians(deg)
 
     def turn_rate(self, deg_s: float) -> float:
@@ -267,7 +336,25 @@ def _format_pydantic(err: ValidationError) -> list[str]:
 
 
 def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
-    """Validate a scenario given as a dict (a parsed TOML file) and build it."""
+    """Validate a scenario given as a dict (a parsed TOML file) and build it.
+
+    Parameters
+    ----------
+    data : dict
+        The scenario in file form and file units (``docs/scenarios.md``).
+    source : str, optional
+        Where it came from, for messages.
+
+    Returns
+    -------
+    Scenario
+        The scenario, in SI.
+
+    Raises
+    ------
+    ScenarioFileError
+        If it is not valid or cannot be built; the message lists every problem by field.
+    """
     try:
         spec = ScenarioSpec.model_validate(data)
     except ValidationError as err:
@@ -281,7 +368,23 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
 
 
 def read_scenario_file(path: str | Path) -> Scenario:
-    """Load and validate a TOML scenario file."""
+    """Load and validate a TOML scenario file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    Scenario
+        The scenario, in SI.
+
+    Raises
+    ------
+    ScenarioFileError
+        If the file does not exist, is not TOML, or is not a valid scenario.
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -295,7 +398,23 @@ def read_scenario_file(path: str | Path) -> Scenario:
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
-    """A built-in scenario by name (``gu2007``, ``chen-sun-1``, ...) or a TOML file by path."""
+    """Load a built-in scenario by name or a TOML scenario file by path.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A built-in name (``gu2007``, ``chen-sun-1``, ...) or a path (``.toml`` or existing).
+
+    Returns
+    -------
+    Scenario
+        The scenario, in SI.
+
+    Raises
+    ------
+    ScenarioFileError
+        If it is neither a file nor a built-in name, or the file is not valid.
+    """
     text = str(name_or_path)
     path = Path(text)
     if path.suffix == ".toml" or path.exists():

@@ -1,14 +1,8 @@
 """The one interface of tmakit's recursive filters, and the track they produce.
 
-A filter holds the target state ``[x, y, (z), vx, vy, (vz)]`` (ENU m, m/s; see
-:mod:`.dynamics`) and its covariance at a time.  :meth:`TrackingFilter.predict` moves it to a
-later time under nearly-constant-velocity dynamics (003_e5155d4fe60daef8.txt §2.1);
-:meth:`TrackingFilter.update` takes a group of measurement rows of any kinds and sensors
-(:class:`.measurement_group.MeasurementGroup`); :meth:`TrackingFilter.run` does both over a
-whole :class:`~tmakit.data.MeasurementSet`, one update per distinct measurement time, and
-returns a :class:`Track`.
-
-Subclasses implement :meth:`TrackingFilter._predict` and :meth:`TrackingFilter._update`.
+A filter holds the state ``[x, y, (z), vx, vy, (vz)]`` (ENU m, m/s) and its covariance; it
+predicts under nearly-constant-velocity dynamics (Chen & Sun, §2.1), updates with rows of any
+kinds and sensors, and runs over a :class:`~tmakit.data.MeasurementSet` to a :class:`Track`.
 """
 
 from __future__ import annotations
@@ -33,13 +27,20 @@ if TYPE_CHECKING:  # pragma: no cover
 
 Array = NDArray[np.float64]
 
-#: Rows whose times differ by less than this (s) are one update.
-
 
 @dataclass(frozen=True)
 class UpdateInfo:
-    """What one update saw: the normalised innovation squared (NIS) and its degrees of
-    freedom, and the log-likelihood of the group given the past (nats)."""
+    """What one update saw.
+
+    Parameters
+    ----------
+    nis : float
+        Normalised innovation squared (NaN for a skipped update).
+    dof : int
+        Its degrees of freedom (measurement rows; 0 when skipped).
+    log_likelihood : float
+        Log-likelihood of the group given the past (nats).
+    """
 
     nis: float
     dof: int
@@ -50,8 +51,19 @@ class UpdateInfo:
 class Track:
     """A filter's output: one row per update.
 
-    ``times`` (K,) s; ``states`` (K, n) and ``covariances`` (K, n, n) after each update (SI);
-    ``nis``/``dof`` per update; ``log_likelihood`` cumulative (nats).
+    Parameters
+    ----------
+    filter_name : str
+        Name of the filter (``"ekf"``, ``"ukf"``, ``"pf"``, ``"mgekf"``).
+    state_names : tuple of str
+        Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``).
+    times, nis, dof, log_likelihood : numpy.ndarray
+        Per update ``(K,)``: time (s), NIS, its degrees of freedom, cumulative log-likelihood
+        (nats).
+    states, covariances : numpy.ndarray
+        State ``(K, n)`` and covariance ``(K, n, n)`` after each update (m, m/s).
+    extra : dict, optional
+        Filter-specific extras (``skipped_updates``, ...).
     """
 
     filter_name: str
@@ -65,21 +77,43 @@ class Track:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def __len__(self) -> int:
+        """Give the number of updates K."""
         return int(self.times.shape[0])
 
     @property
     def std(self) -> Array:
-        """Standard deviations (K, n)."""
+        """Standard deviations ``(K, n)`` of the state components (m, m/s)."""
         return np.sqrt(np.clip(np.einsum("kii->ki", self.covariances), 0.0, None))
 
     def errors(self, truth: ArrayLike) -> Array:
-        """Estimate minus truth (K, n) for true states ``truth`` (K, n) at :attr:`times`."""
+        """Give the estimate minus the truth ``(K, n)`` (m, m/s).
+
+        Parameters
+        ----------
+        truth : array_like
+            True states ``(K, n)`` at :attr:`times` (m, m/s).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``states - truth``.
+        """
         return self.states - np.asarray(truth, dtype=float)
 
     def nees(self, truth: ArrayLike) -> Array:
-        """Normalised estimation error squared per update (K,) for true states (K, n).  A
-        singular covariance (a collapsed particle cloud) gives ``inf`` when the error has a
-        component it says is impossible."""
+        """Give the normalised estimation error squared ``e^T P^-1 e`` per update ``(K,)``.
+
+        Parameters
+        ----------
+        truth : array_like
+            True states ``(K, n)`` at :attr:`times` (m, m/s).
+
+        Returns
+        -------
+        numpy.ndarray
+            NEES per update; ``inf`` where a singular covariance (a collapsed particle cloud) says
+            the error is impossible.
+        """
         err = self.errors(truth)
         try:
             return np.einsum("ki,ki->k", err,
@@ -93,6 +127,14 @@ class Track:
             return np.sum(terms, axis=-1)
 
     def as_dict(self) -> dict[str, object]:
+        """Give the track as JSON-ready lists (the keys of ``tma track``'s JSON output).
+
+        Returns
+        -------
+        dict
+            ``filter``, ``state``, ``time`` (s), ``estimate`` and ``std`` (m, m/s), ``covariance``,
+            ``nis``, ``dof``, ``log_likelihood`` (nats).
+        """
         return {
             "filter": self.filter_name,
             "state": list(self.state_names),
@@ -106,8 +148,14 @@ class Track:
         }
 
     def table_columns(self) -> dict[str, Array]:
-        """Columns for a CSV/Parquet table: time, each state, its std, and the upper
-        triangle of the covariance (``cov_x_y``...)."""
+        """Give the columns of a CSV/Parquet track table.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``time`` (s), each state (m, m/s) and its ``std_*``, the covariance's upper triangle
+            (``cov_x_y``, ...), ``nis``, ``dof`` and ``log_likelihood`` (nats).
+        """
         cols: dict[str, Array] = {"time": self.times}
         n = len(self.state_names)
         for i, name in enumerate(self.state_names):
@@ -125,12 +173,30 @@ class Track:
 
 
 class TrackingFilter(ABC):
-    """A recursive filter for a nearly-constant-velocity emitter.
+    """A recursive filter for a nearly-constant-velocity emitter (Chen & Sun, §2.1); abstract.
 
-    ``mean`` (n,) and ``covariance`` (n, n): the prior at ``time`` (s), n = 4 (2-D) or 6
-    (3-D).  ``q``: process-noise acceleration standard deviation per axis (m/s^2), or give
-    ``dynamics``.  ``options``: per-kind measurement-model options; ``nuisance``: known values
-    of nuisance parameters (carrier Hz, power constant dBW, ...).
+    Subclasses implement ``_init_state``, ``state``, ``covariance``, ``_predict``, ``_update``.
+
+    Parameters
+    ----------
+    mean, covariance : array_like
+        Gaussian prior at ``time``: ``(n,)`` and ``(n, n)``, n = 4 (``[x, y, vx, vy]``) or 6
+        (m, m/s), the covariance positive definite.
+    time : float, optional
+        Time of the prior (s).
+    q : float or tuple of float, optional
+        Process-noise acceleration standard deviation, for all axes or per axis (m/s^2).
+    dynamics : NearlyConstantVelocity, optional
+        The dynamics, instead of ``q``.
+    options : mapping, optional
+        Per-kind measurement-model options (``{"frequency": {"drift": True}}``, ...).
+    nuisance : mapping of str to float, optional
+        Known nuisance values (carrier Hz, power constant dBW, ...).
+
+    Raises
+    ------
+    ValueError
+        If the prior is not a valid 4- or 6-state Gaussian or the dynamics' dimension differs.
     """
 
     name = ""
@@ -183,14 +249,38 @@ class TrackingFilter(ABC):
     # -- the interface -----------------------------------------------------------------------
     @property
     def state_names(self) -> tuple[str, ...]:
+        """Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``)."""
         return state_names(self.dim)
 
     @classmethod
     def from_estimate(cls, result: EstimateResult, time: float, *, inflate: float = 1.0,
                       **kwargs: Any) -> TrackingFilter:
-        """Start from a batch estimate: its state at ``time`` and the covariance mapped
-        through the motion model (times ``inflate``); its nuisance values are used unless
-        ``nuisance=`` is given."""
+        """Start a filter from a batch estimate.
+
+        The prior: the estimate's state at ``time``, its covariance mapped through the motion
+        model's Jacobian (times ``inflate``); its nuisance values unless ``nuisance=`` is given.
+
+        Parameters
+        ----------
+        result : EstimateResult
+            A batch estimate with a finite covariance.
+        time : float
+            Time of the filter's prior (s).
+        inflate : float, optional
+            Factor on the mapped covariance.
+        **kwargs
+            Further arguments of the filter class.
+
+        Returns
+        -------
+        TrackingFilter
+            A filter of this class.
+
+        Raises
+        ------
+        ValueError
+            If the estimate's covariance is not finite.
+        """
         motion = result.motion
         theta = np.asarray(result.estimate, dtype=float)
         dim = 3 if getattr(motion, "dim", 2) == 3 else 2
@@ -205,11 +295,33 @@ class TrackingFilter(ABC):
         return cls(state6[keep], cov, float(time), **kwargs)
 
     def group(self, rows: MeasurementSet) -> MeasurementGroup:
-        """The rows as a :class:`MeasurementGroup` at the filter's time."""
+        """Wrap measurement rows (any kinds and sensors) as a group at the filter's time.
+
+        Parameters
+        ----------
+        rows : MeasurementSet
+            The rows.
+
+        Returns
+        -------
+        MeasurementGroup
+            Their predictions, Jacobians and noise for this filter's state.
+        """
         return MeasurementGroup(rows, self.time, self.dim, self.options, self.nuisance)
 
     def predict(self, time: float) -> None:
-        """Move the estimate to ``time`` (s, not earlier than the current time)."""
+        """Move the estimate forward to ``time`` (s).
+
+        Parameters
+        ----------
+        time : float
+            Target time (s), not earlier than :attr:`time` (to :data:`TIME_TOLERANCE`).
+
+        Raises
+        ------
+        ValueError
+            If ``time`` is earlier than the filter's time.
+        """
         dt = float(time) - self.time
         if dt < -TIME_TOLERANCE:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
@@ -219,19 +331,45 @@ class TrackingFilter(ABC):
         self.time = max(self.time, float(time))
 
     def update(self, rows: MeasurementSet) -> UpdateInfo:
-        """Condition on measurement rows (any kinds and sensors) at the current time."""
+        """Condition on measurement rows (any kinds and sensors) at the current time.
+
+        Parameters
+        ----------
+        rows : MeasurementSet
+            The rows; rows at other times are predicted from the state moved there.
+
+        Returns
+        -------
+        UpdateInfo
+            NIS, degrees of freedom and log-likelihood of the update.
+        """
         info = self._update(self.group(rows))
         self.log_likelihood += info.log_likelihood
         return info
 
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
-        Rows earlier than the filter's time are refused.
 
-        The set is compiled once (:class:`~.compiled.CompiledMeasurements`); filters with a
-        closed-form kernel for the case at hand (one bearing per update in 2-D, see
-        :mod:`.kernels`) use it, the others build each update's group from views of the
-        compiled columns."""
+        The set is compiled once (:class:`~.compiled.CompiledMeasurements`); a filter with a
+        closed-form kernel for the case (:mod:`.kernels`) uses it.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements, none earlier than the filter's time.
+
+        Returns
+        -------
+        Track
+            One row per distinct measurement time.
+
+        Raises
+        ------
+        TypeError
+            If ``meas`` is not a :class:`MeasurementSet`.
+        ValueError
+            If a row is earlier than the filter's time.
+        """
         if not isinstance(meas, MeasurementSet):
             raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
@@ -241,19 +379,33 @@ class TrackingFilter(ABC):
                                                       self.nuisance))
 
     def _plain_interface(self) -> bool:
-        """True unless a subclass customises :meth:`predict`, :meth:`update` or
-        :meth:`group` (then :meth:`run` goes through them, row sets and all)."""
+        """Tell whether predict, update and group are the base class's (else run uses them)."""
         cls = type(self)
         return (cls.predict is TrackingFilter.predict and cls.update is TrackingFilter.update
                 and cls.group is TrackingFilter.group)
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        """Run a closed-form kernel from update ``start`` if this filter has one for
-        ``compiled``; None otherwise.  Subclasses that have one override this."""
+        """Run a closed-form kernel from update ``start`` (None: none for ``compiled``)."""
         return None
 
     def run_compiled(self, compiled: CompiledMeasurements) -> Track:
-        """:meth:`run` on a set compiled for this filter (``dim``, options, nuisance)."""
+        """Run the filter (as :meth:`run`) on a set compiled for it.
+
+        Parameters
+        ----------
+        compiled : CompiledMeasurements
+            Measurements compiled for this filter's ``dim``, options and nuisance values.
+
+        Returns
+        -------
+        Track
+            One row per update.
+
+        Raises
+        ------
+        ValueError
+            If ``compiled`` was made for another dimension.
+        """
         if compiled.dim != self.dim:
             raise ValueError(f"the measurements were compiled for a {compiled.dim}-D filter; "
                              f"this one is {self.dim}-D")
@@ -278,9 +430,25 @@ class TrackingFilter(ABC):
         return rec.track(self)
 
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
-        """Predict to each ``time`` and update with its rows, in the order given (times must
-        not decrease).  Rows may be taken at other times than ``time`` (multi-lag vectors,
-        003_e5155d4fe60daef8.txt §2.2): they are predicted from the state moved there."""
+        """Predict to each ``time`` and update with its rows, in the order given.
+
+        Rows at other times (multi-lag vectors, Chen & Sun, §2.2) are predicted from the state.
+
+        Parameters
+        ----------
+        groups : iterable of (float, MeasurementSet)
+            ``(time, rows)`` pairs; the times (s) must not decrease.
+
+        Returns
+        -------
+        Track
+            One row per group.
+
+        Raises
+        ------
+        ValueError
+            If a time is earlier than the filter's time.
+        """
         rec = _Recorder(2 * self.dim)
         for time, rows in groups:
             self.predict(time)

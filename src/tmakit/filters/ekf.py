@@ -20,16 +20,37 @@ IEKF_TOL = 1e-10
 
 
 def _range_scale(group: MeasurementGroup, x: Array, dim: int) -> float:
-    """The smallest distance (m) from the position ``x[:dim]`` to the group's sensors."""
+    """Give the smallest distance (m) from the position ``x[:dim]`` to the group's sensors."""
     pos = group._sensor_state[:, :dim]
     return float(np.min(np.linalg.norm(pos - x[:dim], axis=1)))
 
 
 def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
                     ) -> tuple[Array, Array, UpdateInfo]:
-    """Kalman update with innovation ``residual``, measurement matrix ``h`` and noise ``r``
-    (Joseph form, then :func:`~.linalg.repair_psd`).  Returns the new mean, covariance and
-    the update's NIS/log-likelihood."""
+    """Make a Kalman update (Joseph form, then :func:`tmakit.linalg.repair_psd`).
+
+    Parameters
+    ----------
+    mean : numpy.ndarray
+        Prior mean ``(n,)`` (m, m/s).
+    cov : numpy.ndarray
+        Prior covariance ``(n, n)``.
+    residual : numpy.ndarray
+        Innovation ``z - h(x)`` ``(m,)``, angles wrapped (measurement units, SI).
+    h : numpy.ndarray
+        Measurement matrix ``(m, n)``.
+    r : numpy.ndarray
+        Measurement noise covariance ``(m, m)``.
+
+    Returns
+    -------
+    mean : numpy.ndarray
+        Updated mean ``(n,)``.
+    cov : numpy.ndarray
+        Updated covariance ``(n, n)``, symmetric positive definite.
+    info : UpdateInfo
+        NIS, degrees of freedom (m) and log-likelihood (nats) of the update.
+    """
     hp = h @ cov
     s = symmetrise(hp @ h.T + r)
     sol, log_det = solve_spd(s, np.concatenate([hp, residual[:, None]], axis=1))
@@ -42,13 +63,21 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
 
 
 def skipped() -> UpdateInfo:
-    """What an update that could not be made reports (NIS NaN, no degrees of freedom)."""
+    """Report an update that could not be made.
+
+    Returns
+    -------
+    UpdateInfo
+        NIS NaN, no degrees of freedom, log-likelihood 0.
+    """
     return UpdateInfo(float("nan"), 0, 0.0)
 
 
 class ExtendedKalmanFilter(TrackingFilter):
-    """EKF with nearly-constant-velocity dynamics (003_e5155d4fe60daef8.txt §2.1, §2.5 with
-    the plain Jacobian in place of the modified gain).
+    """EKF with nearly-constant-velocity dynamics.
+
+    Chen & Sun, §2.1 (dynamics) and §2.5 with the plain Jacobian in place of the modified
+    gain.
 
     ``iterations`` > 1 makes it the iterated EKF (Bell & Cathey 1993, "The iterated Kalman
     filter update as a Gauss-Newton method", IEEE Trans. Autom. Control 38(2)): the update is
@@ -60,7 +89,27 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     An update whose prediction or Jacobian is not finite (the estimate on top of a sensor) is
     skipped and counted in :attr:`skipped_updates`.  One bearing per update in 2-D runs on
-    the closed-form kernel :func:`~.kernels.ekf_bearing_2d`."""
+    the closed-form kernel :func:`~.kernels.ekf_bearing_2d`.
+
+    Parameters
+    ----------
+    *args
+        ``mean``, ``covariance``, ``time`` as for :class:`~tmakit.filters.TrackingFilter`.
+    iterations : int, optional
+        Linearisations per update (>= 1; 1 is the plain EKF).
+    **kwargs
+        ``q``, ``dynamics``, ``options``, ``nuisance`` as for
+        :class:`~tmakit.filters.TrackingFilter`.
+
+    Raises
+    ------
+    ValueError
+        If ``iterations`` is not a whole number >= 1, or the prior is not valid.
+
+    References
+    ----------
+    Chen & Sun, §2.1 and §2.5; Bell & Cathey (1993) for the iterated update.
+    """
 
     name = "ekf"
 
@@ -77,10 +126,12 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     @property
     def state(self) -> Array:
+        """The state estimate ``(n,)`` at :attr:`time` (m, m/s), a copy."""
         return self._mean.copy()
 
     @property
     def covariance(self) -> Array:
+        """Its covariance ``(n, n)`` (m^2, m^2/s, m^2/s^2), a copy."""
         return self._cov.copy()
 
     def _predict(self, dt: float) -> None:
@@ -113,8 +164,11 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     # -- the closed-form path ----------------------------------------------------------------
     def _kernel_ok(self, compiled: CompiledMeasurements, cls: type) -> bool:
-        """The kernel of ``cls`` applies: one bearing per update, 2-D, plain NCV dynamics,
-        and this class does not change the predict/update of ``cls``."""
+        """Tell whether the kernel of ``cls`` applies.
+
+        It does for one bearing per update, 2-D, plain NCV dynamics, when this class does not
+        change the predict/update of ``cls``.
+        """
         me = type(self)
         return (compiled.single_bearing and self.dim == 2
                 and type(self.dynamics) is NearlyConstantVelocity

@@ -1,14 +1,15 @@
-"""Closed-form step kernels for the commonest tracking problem: one bearing per update, 2-D
-nearly-constant-velocity state ``[x, y, vx, vy]``.
+"""Closed-form step kernels for the commonest tracking problem.
 
-The general filters (:mod:`.ekf`, :mod:`.ukf`) work with any group of measurements through
-:class:`~.measurement_group.MeasurementGroup`; each step then costs a few dozen small numpy
+That problem is one bearing per update and a 2-D nearly-constant-velocity state
+``[x, y, vx, vy]``.  The general filters (:mod:`.ekf`, :mod:`.ukf`) work with any group of
+measurements through :class:`tmakit.observation.groups.MeasurementGroup`; each step then costs a
+few dozen small numpy
 operations (microseconds each).  For a single bearing the algebra is a handful of scalars, so
 these kernels run whole sequences of steps in plain Python floats: the same equations, the
 same results to rounding (``tests/test_filters.py`` checks that against the general path).
 
 Predict (both filters): ``x <- Phi x``, ``P <- Phi P Phi^T + Q`` with ``Phi`` and ``Q`` of
-003_e5155d4fe60daef8.txt §2.1 written out entry by entry (``q`` per axis).
+Chen & Sun, §2.1, written out entry by entry (``q`` per axis).
 
 Update, bearing ``b = atan2(x - x_s, y - y_s)`` (clockwise from North), residual wrapped to
 (-pi, pi]:
@@ -27,7 +28,7 @@ variance that is not positive, an updated covariance whose LDL^T pivots are not 
 :data:`PIVOT_FLOOR` times its diagonal (numerically indefinite or singular), a predicted
 covariance without a Cholesky factor (UKF), a degenerate circular mean — is not taken here:
 the kernel stops with the state predicted to that step and the filter does it on the general
-path, whose covariance repair (:func:`~.linalg.repair_psd`) always returns a symmetric
+path, whose covariance repair (:func:`tmakit.linalg.repair_psd`) always returns a symmetric
 positive semi-definite matrix.
 """
 
@@ -57,10 +58,27 @@ _IU = np.triu_indices(4)
 
 @dataclass
 class KernelRun:
-    """What a kernel did: ``stop`` the index of the first update it did not do (``len`` when
-    it finished), ``predicted`` True when it stopped after predicting to that update (the
-    caller then updates on the general path); the final state/covariance/time/log-likelihood
-    and the per-update outputs of the updates it did."""
+    """What a kernel did.
+
+    Parameters
+    ----------
+    stop : int
+        Index of the first update it did not do (the number of updates when it finished).
+    predicted : bool
+        True when it stopped after predicting to update ``stop`` (the caller then updates on
+        the general path).
+    mean : numpy.ndarray
+        Final state ``(4,)`` (m, m/s).
+    covariance : numpy.ndarray
+        Final covariance ``(4, 4)``.
+    time : float
+        Final time (s).
+    log_likelihood : float
+        Final cumulative log-likelihood (nats).
+    times, states, covariances, nis, log_likelihoods : numpy.ndarray
+        Per-update outputs of the updates it did: times ``(k,)`` (s), states ``(k, 4)``,
+        covariances ``(k, 4, 4)``, NIS ``(k,)`` and cumulative log-likelihoods ``(k,)``.
+    """
 
     stop: int
     predicted: bool
@@ -76,15 +94,28 @@ class KernelRun:
 
 
 def wrap(a: float) -> float:
-    """An angle (rad) wrapped to (-pi, pi] (the convention of :func:`tmakit.frames.wrap_angle`)."""
+    """Wrap an angle to (-pi, pi] (the convention of :func:`tmakit.frames.wrap_angle`).
+
+    Parameters
+    ----------
+    a : float
+        Angle (rad).
+
+    Returns
+    -------
+    float
+        The wrapped angle (rad); ``+pi`` stays ``+pi``.
+    """
     r = math.remainder(a, TWO_PI)
     return math.pi if r == -math.pi else r
 
 
 def _pd4(m00: float, m01: float, m02: float, m03: float, m11: float, m12: float, m13: float,
          m22: float, m23: float, m33: float) -> bool:
-    """True if the symmetric 4x4 matrix is positive definite with every LDL^T pivot above
-    :data:`PIVOT_FLOOR` times its diagonal entry."""
+    """Tell whether a symmetric 4x4 matrix is clearly positive definite.
+
+    True when every LDL^T pivot is above :data:`PIVOT_FLOOR` times its diagonal entry.
+    """
     f = PIVOT_FLOOR
     if not m00 > f * abs(m00) or not math.isfinite(m00):
         return False
@@ -130,32 +161,82 @@ def _finish(stop: int, predicted: bool, x: list[float], p: list[float], t: float
 def ekf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
                    columns: tuple[list[float], ...], q2: tuple[float, float],
                    iterations: int = 1) -> KernelRun:
-    """EKF steps from update ``start`` on: ``columns`` = (times, bearings, variances, sensor
-    x, sensor y) as lists, ``q2`` the per-axis acceleration variances (m^2/s^4),
-    ``iterations`` the linearisations of the iterated EKF (1: the plain EKF; the stopping
-    rule is that of :class:`~.ekf.ExtendedKalmanFilter`)."""
+    """Run EKF steps from update ``start`` on, one bearing per update, 2-D.
+
+    Parameters
+    ----------
+    mean : numpy.ndarray
+        State ``[x, y, vx, vy]`` at ``time`` (m, m/s).
+    cov : numpy.ndarray
+        Its covariance ``(4, 4)``.
+    time : float
+        Time of the state (s).
+    ll : float
+        Cumulative log-likelihood so far (nats).
+    start : int
+        Index of the first update to do.
+    columns : tuple of list of float
+        ``(times (s), bearings (rad), variances (rad^2), sensor x (m), sensor y (m))``, one
+        entry per update.
+    q2 : tuple of float
+        Per-axis acceleration variances (m^2/s^4).
+    iterations : int, optional
+        Linearisations of the iterated EKF (1: the plain EKF; the stopping rule is that of
+        :class:`~.ekf.ExtendedKalmanFilter`).
+
+    Returns
+    -------
+    KernelRun
+        What the kernel did (it stops at the first step it cannot take safely).
+
+    References
+    ----------
+    Chen & Sun, §2.1 (the dynamics).
+    """
     return _bearing_2d(mean, cov, time, ll, start, columns, q2, iterations, None)
 
 
 def ukf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
                    columns: tuple[list[float], ...], q2: tuple[float, float],
                    weights: tuple[float, float, float, float]) -> KernelRun:
-    """UKF steps from update ``start`` on (see :func:`ekf_bearing_2d` for the arguments);
-    ``weights`` = (gamma, Wm0, Wc0, Wi) of the scaled unscented transform (:mod:`.ukf`)."""
+    """Run UKF steps from update ``start`` on, one bearing per update, 2-D.
+
+    Parameters
+    ----------
+    mean, cov, time, ll, start, columns, q2
+        As for :func:`ekf_bearing_2d`.
+    weights : tuple of float
+        ``(gamma, Wm0, Wc0, Wi)`` of the scaled unscented transform (:mod:`.ukf`).
+
+    Returns
+    -------
+    KernelRun
+        What the kernel did (it stops at the first step it cannot take safely).
+
+    References
+    ----------
+    Chen & Sun, §2.1 (the dynamics); Wan & van der Merwe (2000) (the weights).
+    """
     return _bearing_2d(mean, cov, time, ll, start, columns, q2, 1, weights)
 
 
-def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
+# Complexity 23 > 15 on purpose: one loop with branches, not per-step helper calls (see the
+# docstring); listed in tests/test_architecture.py's LONG_FUNCTION_EXCEPTIONS.  RUF100 stays in
+# the noqa until the project's ruff config selects C90.
+def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # noqa: C901, RUF100
                 columns: tuple[list[float], ...], q2: tuple[float, float], iterations: int,
                 weights: tuple[float, float, float, float] | None) -> KernelRun:
-    """The loop of both kernels: the predict, then the EKF update (``weights`` None) or the
-    UKF one, each giving the updated state ``y``, the column ``c`` (EKF ``P h``, UKF
-    ``P_xz``) with ``inv`` = 1 / innovation variance, the NIS and the log-likelihood term;
-    then the shared covariance downdate ``P - c c^T inv`` and its definiteness check.
+    """Run the loop of both kernels.
+
+    Each step: the predict, then the EKF update (``weights`` None) or the UKF one, each giving
+    the updated state ``y``, the column ``c`` (EKF ``P h``, UKF ``P_xz``) with ``inv`` =
+    1 / innovation variance, the NIS and the log-likelihood term; then the shared covariance
+    downdate ``P - c c^T inv`` and its definiteness check.
 
     The two filters share one loop with a branch, not helper functions called per step: a
     step is ~4 us of plain float arithmetic, and each Python call in it would add 0.1-0.3 us
-    (3-7 %, measured)."""
+    (3-7 %, measured).
+    """
     times, zs, vs, sxs, sys_ = columns
     qx2, qy2 = q2
     ukf = weights is not None

@@ -1,18 +1,19 @@
-"""The modified-gain extended Kalman filter of Chen & Sun (003_e5155d4fe60daef8.txt §2.3-2.5).
+"""The modified-gain extended Kalman filter of Chen & Sun, §2.3-2.5.
 
-Bearing rows: the pseudo-linear modified gain (Song & Speyer's MGEKF, the "WMEKF" of 003).
-In tmakit's convention the bearing of the (back-propagated) line of sight is clockwise from
-North, ``b = atan2(dx, dy)`` (003 measures it from the x-axis, ``atan(dy / dx)``), so the
-noise-free bearing satisfies ``dx cos b - dy sin b = 0``: for a row taken ``dt`` seconds after
-the filter time (``dt = -N T`` for the sample ``k - N`` of a multi-lag vector, §2.3 eq. 2)
+Bearing rows: the pseudo-linear modified gain (Song & Speyer's MGEKF, the "WMEKF" of Chen &
+Sun).  In tmakit's convention the bearing of the (back-propagated) line of sight is clockwise
+from North, ``b = atan2(dx, dy)`` (Chen & Sun measure it from the x-axis, ``atan(dy / dx)``),
+so the noise-free bearing satisfies ``dx cos b - dy sin b = 0``: for a row taken ``dt``
+seconds after the filter time (``dt = -N T`` for the sample ``k - N`` of a multi-lag vector,
+§2.3 eq. 2)
 
     H_i(Z) X' = 0,   H_i(Z) = [cos b, -sin b, 0, dt cos b, -dt sin b, 0]          (tmakit)
 
 on the state relative to the sensor at the row's time ``X' = [x - x_s, y - y_s, z - z_s, vx,
-vy, vz]`` (003 prints ``[sin b, -cos b, 0, -NT sin b, NT cos b, 0]`` for its x-axis angle; the
-two are the same line of sight).  With the measured bearing ``b_m`` in place of the true one,
-``H_i(Z^m) X' = T_i`` where ``T_i = -rho_i sin(eta_i)`` (``rho_i`` the true horizontal range,
-``eta_i`` the bearing noise).  The modified gain row of 003 §2.3 is
+vy, vz]`` (Chen & Sun print ``[sin b, -cos b, 0, -NT sin b, NT cos b, 0]`` for their x-axis
+angle; the two are the same line of sight).  With the measured bearing ``b_m`` in place of
+the true one, ``H_i(Z^m) X' = T_i`` where ``T_i = -rho_i sin(eta_i)`` (``rho_i`` the true
+horizontal range, ``eta_i`` the bearing noise).  The modified gain row of Chen & Sun, §2.3, is
 
     g_i = -(b_m - h_i(X^)) / (H_i(Z^m) X^') H_i(Z^m)
 
@@ -27,16 +28,17 @@ not computable.  Substituting the estimate for the truth gives ``T_i = H_i(Z^m) 
 ``mu_i = 1`` identically (a singular ``U``); the noise is zero-mean and independent of the
 past, so the expected ``T_i`` given the past is 0.  The filter therefore uses ``mu_i = 0``:
 ``U = I``, ``g' = g`` and ``R' = R``: the modified gain of Song & Speyer with the measured
-bearing in ``H_i``.  :func:`modified_gain_rows` implements the general
-``g' = U g``, ``R' = U R U^T`` (003 §2.3) for a given ``mu``; note that for independent rows
-that scaling leaves the covariance update unchanged and multiplies row ``i``'s share of the
+bearing in ``H_i``.  :func:`modified_gain_rows` implements the general ``g' = U g``,
+``R' = U R U^T`` (Chen & Sun, §2.3) for a given ``mu``; note that for independent rows that
+scaling leaves the covariance update unchanged and multiplies row ``i``'s share of the
 state correction by ``1 - mu_i``.
 
-Range-difference rows (and every other kind) use the plain EKF Jacobian rows (003 §2.4 eqs.
-3-4; :class:`~tmakit.filters.MeasurementGroup` gives them for back-propagated states).
+Range-difference rows (and every other kind) use the plain EKF Jacobian rows (Chen & Sun,
+§2.4, eqs. 3-4; :class:`~tmakit.filters.MeasurementGroup` gives them for back-propagated
+states).
 
-The gain: 003 §2.5 uses the modified rows in the gain as well as in the covariance update,
-``K = P g'^T [g' P g'^T + R']^-1`` (``gain="paper"``).  Song & Speyer's original MGEKF takes
+The gain: Chen & Sun, §2.5, use the modified rows in the gain as well as in the covariance
+update, ``K = P g'^T [g' P g'^T + R']^-1`` (``gain="paper"``).  Song & Speyer's original MGEKF takes
 the gain from the EKF rows and uses the modified rows only in the covariance update
 (``gain="song-speyer"``, the default: the paper's form is biased, as follows, and
 ``tma reproduce chen-sun`` runs it as printed to show it).  The paper's form puts the
@@ -85,9 +87,24 @@ MIRROR_SYMMETRIC_KINDS = frozenset({"bearing", "azimuth_rate", "range", "range_r
 
 @dataclass(frozen=True)
 class ModifiedRows:
-    """Bearing rows of 003 §2.3: ``g`` (m, n) the modified-gain rows ``g' = U g`` (EKF rows
-    where ``ok`` is False are not filled: callers keep their own), ``u`` (m,) the diagonal of
-    ``U`` (1 where not ok), ``denominator`` (m,) ``H_i(Z^m) X^'`` (m), ``ok`` (m,) bool."""
+    """Modified-gain bearing rows of Chen & Sun, §2.3.
+
+    Parameters
+    ----------
+    g : numpy.ndarray
+        ``(m, n)`` the modified-gain rows ``g' = U g`` (rad per state unit); rows where
+        ``ok`` is False are not filled (callers keep their EKF rows).
+    u : numpy.ndarray
+        ``(m,)`` the diagonal of ``U`` (1 where not ok).
+    denominator : numpy.ndarray
+        ``(m,)`` ``H_i(Z^m) X^'`` (m).
+    ok : numpy.ndarray
+        ``(m,)`` bool: the row is a modified one.
+
+    References
+    ----------
+    Chen & Sun, §2.3.
+    """
 
     g: Array
     u: Array
@@ -96,9 +113,27 @@ class ModifiedRows:
 
 
 def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
-    """``H_i(Z^m)`` with respect to the filter state ``[x, y, (z), vx, vy, (vz)]`` (m, 2 dim):
-    ``[cos b, -sin b, (0), dt cos b, -dt sin b, (0)]`` for measured bearings ``b`` (rad,
-    clockwise from North) at rows ``dt`` seconds after the filter time."""
+    """Give the pseudo-linear rows ``H_i(Z^m)`` for measured bearings.
+
+    Parameters
+    ----------
+    measured : array_like
+        Measured bearings ``b`` ``(m,)`` (rad, clockwise from North).
+    dt : array_like
+        Row time minus filter time ``(m,)`` (s).
+    dim : int
+        Spatial dimension of the filter state (2 or 3).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[cos b, -sin b, (0), dt cos b, -dt sin b, (0)]`` ``(m, 2 dim)`` with respect to the
+        state ``[x, y, (z), vx, vy, (vz)]`` (dimensionless; s in the velocity columns).
+
+    References
+    ----------
+    Chen & Sun, §2.3, eq. 2 (in tmakit's bearing convention, see the module docstring).
+    """
     b = np.asarray(measured, dtype=float)
     dt = np.asarray(dt, dtype=float)
     out = np.zeros((b.shape[0], 2 * dim))
@@ -110,13 +145,32 @@ def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
 
 def modified_gain_rows(measured: ArrayLike, rel: ArrayLike, dt: ArrayLike, dim: int,
                        residual: ArrayLike, mu: ArrayLike | None = None) -> ModifiedRows:
-    """The WMEKF bearing rows of 003 §2.3 in tmakit's bearing convention.
+    """Compute the WMEKF bearing rows of Chen & Sun, §2.3, in tmakit's bearing convention.
 
-    ``measured``: measured bearings ``b_m`` (rad); ``rel``: predicted target-minus-sensor
-    states at the rows' times (m, 6) (m, m/s); ``dt``: row time minus filter time (s);
-    ``residual``: ``b_m - h_i(X^)`` wrapped to (-pi, pi] (rad); ``mu``: the ``mu_i`` of 003
-    §2.3 (default 0, see the module docstring).  Returns ``g' = U g`` with
-    ``g = -(r / H_i(Z^m) X^') H_i(Z^m)`` and ``U = diag(1 / (1 - mu))``.
+    Parameters
+    ----------
+    measured : array_like
+        Measured bearings ``b_m`` ``(m,)`` (rad).
+    rel : array_like
+        Predicted target-minus-sensor states at the rows' times ``(m, 6)`` (m, m/s).
+    dt : array_like
+        Row time minus filter time ``(m,)`` (s).
+    dim : int
+        Spatial dimension of the filter state (2 or 3).
+    residual : array_like
+        ``b_m - h_i(X^)`` wrapped to (-pi, pi] ``(m,)`` (rad).
+    mu : array_like, optional
+        The ``mu_i`` of Chen & Sun, §2.3 (default 0, see the module docstring).
+
+    Returns
+    -------
+    ModifiedRows
+        ``g' = U g`` with ``g = -(r / H_i(Z^m) X^') H_i(Z^m)`` and ``U = diag(1 / (1 - mu))``,
+        rows that fall back to the EKF flagged in ``ok``.
+
+    References
+    ----------
+    Chen & Sun, §2.3.
     """
     b = np.asarray(measured, dtype=float)
     rel = np.asarray(rel, dtype=float).reshape(b.shape[0], 6)
@@ -139,9 +193,36 @@ def modified_gain_rows(measured: ArrayLike, rel: ArrayLike, dt: ArrayLike, dim: 
 
 def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov: Array,
                  r: Array) -> tuple[Array, Array, UpdateInfo]:
-    """Song & Speyer's MGEKF update: gain ``K = P H^T (H P H^T + R)^-1`` from the EKF rows
-    ``h_gain``, covariance ``(I - K G) P (I - K G)^T + K R K^T`` with the modified rows
-    ``h_cov``; NIS and log-likelihood from ``H P H^T + R``."""
+    """Make Song & Speyer's MGEKF update.
+
+    The gain ``K = P H^T (H P H^T + R)^-1`` comes from the EKF rows ``h_gain``, the
+    covariance ``(I - K G) P (I - K G)^T + K R K^T`` from the modified rows ``h_cov``; NIS and
+    log-likelihood from ``H P H^T + R``.
+
+    Parameters
+    ----------
+    mean : numpy.ndarray
+        Prior mean ``(n,)`` (m, m/s).
+    cov : numpy.ndarray
+        Prior covariance ``(n, n)``.
+    residual : numpy.ndarray
+        Innovation ``(m,)`` (SI, angles wrapped).
+    h_gain : numpy.ndarray
+        EKF Jacobian rows ``H`` ``(m, n)``.
+    h_cov : numpy.ndarray
+        Modified rows ``G`` ``(m, n)``.
+    r : numpy.ndarray
+        Measurement noise covariance ``(m, m)``.
+
+    Returns
+    -------
+    mean : numpy.ndarray
+        Updated mean ``(n,)``.
+    cov : numpy.ndarray
+        Updated covariance ``(n, n)``, repaired to be positive definite.
+    info : UpdateInfo
+        NIS, degrees of freedom and log-likelihood (nats).
+    """
     s = symmetrise(h_gain @ cov @ h_gain.T + r)
     s_inv_hp, log_det = solve_spd(s, h_gain @ cov)
     gain = s_inv_hp.T
@@ -154,10 +235,23 @@ def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov:
 
 
 def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
-    """Height (m) of the horizontal plane through every sensor of ``rows`` when their
-    predictions are exactly symmetric about it (all sensors, and reference sensors of range
-    differences, at that height with zero vertical velocity; only
-    :data:`MIRROR_SYMMETRIC_KINDS`); ``None`` otherwise."""
+    """Find the horizontal plane the predictions of ``rows`` are mirror-symmetric about.
+
+    They are when all sensors, and reference sensors of range differences, are at one
+    height with zero vertical velocity and every kind is in :data:`MIRROR_SYMMETRIC_KINDS`.
+
+    Parameters
+    ----------
+    rows : MeasurementSet
+        The rows of one update.
+    tol : float, optional
+        Tolerance on the heights' spread (m) and the vertical velocities (m/s).
+
+    Returns
+    -------
+    float or None
+        Height of the plane (m), or None if the rows are not symmetric.
+    """
     if len(rows) == 0 or not set(rows.kind) <= MIRROR_SYMMETRIC_KINDS:
         return None
     states = [rows.sensor_state]
@@ -173,9 +267,22 @@ def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
 
 
 class MirrorReflectMixin:
-    """Keeps a 3-D Gaussian estimate (``_mean``, ``_cov``) above the sensors' plane while the
-    data are mirror-symmetric about it (see the :mod:`.mgekf` docstring).  ``reflect``:
-    on (``True``) or off; :attr:`reflections` counts the reflections made."""
+    """Keep a 3-D Gaussian estimate above the sensors' plane while the data cannot tell.
+
+    Mixed into a Gaussian filter (``_mean``, ``_cov``); see the :mod:`.mgekf` docstring.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        Arguments of the filter it is mixed into.
+    reflect : bool or None, optional
+        Reflection on or off; None takes :attr:`reflect_default`.
+
+    Attributes
+    ----------
+    reflections : int
+        Reflections made.
+    """
 
     reflect_default = False
 
@@ -187,6 +294,18 @@ class MirrorReflectMixin:
         super().__init__(*args, **kwargs)
 
     def update(self, rows: MeasurementSet) -> UpdateInfo:
+        """Update as the filter does, then reflect the estimate if the mirror rule says so.
+
+        Parameters
+        ----------
+        rows : MeasurementSet
+            The rows of the update.
+
+        Returns
+        -------
+        UpdateInfo
+            That of the filter's update.
+        """
         info = super().update(rows)  # type: ignore[misc]
         if not (self.reflect and self._symmetric):
             return info
@@ -207,18 +326,44 @@ class MirrorReflectMixin:
 
 
 class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
-    """The modified-gain EKF (WMEKF) of 003_e5155d4fe60daef8.txt §2.3-2.5: modified-gain rows
-    for bearings (with ``mu = 0``, see the module docstring), EKF rows for range differences
-    and every other kind, Joseph-form covariance update with the modified rows.
+    """The modified-gain EKF (WMEKF) of Chen & Sun, §2.3-2.5.
 
-    Same arguments as :class:`~tmakit.filters.TrackingFilter`, plus ``reflect`` (default
-    off): mirror an estimate that falls below the sensors' plane while the data cannot tell
-    the two sides apart; and ``gain``: ``"paper"`` (003 §2.5: the modified rows in the gain and in
-    the covariance update) or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF:
-    the gain from the EKF rows, the covariance update with the modified rows, which keeps the
-    noise-dependent rows out of the state correction and so avoids the bias of pseudo-linear
-    gains). :attr:`fallbacks` counts bearing rows that used the EKF row, :attr:`bearing_rows`
-    all bearing rows seen.
+    Modified-gain rows for bearings (with ``mu = 0``, see the module docstring), EKF rows for
+    range differences and every other kind, Joseph-form covariance update with the modified
+    rows.
+
+    Parameters
+    ----------
+    *args
+        ``mean``, ``covariance``, ``time`` as for :class:`~tmakit.filters.TrackingFilter`.
+    gain : {"song-speyer", "paper"}, optional
+        ``"paper"`` (Chen & Sun, §2.5: the modified rows in the gain and in the covariance
+        update) or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF: the gain
+        from the EKF rows, the covariance update with the modified rows, which keeps the
+        noise-dependent rows out of the state correction and so avoids the bias of
+        pseudo-linear gains).
+    reflect : bool, optional
+        Mirror an estimate that falls below the sensors' plane while the data cannot tell
+        the two sides apart (default off).
+    **kwargs
+        ``q``, ``dynamics``, ``options``, ``nuisance``, ``iterations`` as for
+        :class:`ExtendedKalmanFilter`.
+
+    Attributes
+    ----------
+    fallbacks : int
+        Bearing rows that used the EKF row.
+    bearing_rows : int
+        All bearing rows seen.
+
+    Raises
+    ------
+    ValueError
+        If ``gain`` is neither ``"paper"`` nor ``"song-speyer"``, or the prior is not valid.
+
+    References
+    ----------
+    Chen & Sun, §2.3-2.5.
     """
 
     name = "mgekf"
@@ -260,8 +405,17 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
 
 class ReflectingEKF(MirrorReflectMixin, ExtendedKalmanFilter):
-    """The plain EKF with the mirror rule of :class:`ModifiedGainEKF` switched on by default
-    (for like-for-like comparisons on mirror-ambiguous data)."""
+    """The plain EKF with the mirror rule of :class:`ModifiedGainEKF` on by default.
+
+    For like-for-like comparisons on mirror-ambiguous data.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        As for :class:`ExtendedKalmanFilter`.
+    reflect : bool or None, optional
+        The mirror rule (default on).
+    """
 
     name = "ekf"
     reflect_default = True

@@ -1,4 +1,4 @@
-"""Multi-lag measurement vectors (003_e5155d4fe60daef8.txt §2.2).
+"""Multi-lag measurement vectors (Chen & Sun, §2.2).
 
 Chen & Sun do not update their filter with the measurements of one pulse only.  Update ``k``
 uses the bearings at samples ``k, k - N1, k - N2, k - N3`` and the range differences between
@@ -104,25 +104,34 @@ class _SensorData:
 def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
                     reuse_inflation: bool = False,
                     start: int = 0) -> list[tuple[float, MeasurementSet]]:
-    """The multi-lag measurement vectors of ``meas`` (003_e5155d4fe60daef8.txt §2.2), ready
-    for :meth:`~tmakit.filters.TrackingFilter.run_groups`.
+    """Form the multi-lag measurement vectors of ``meas`` (Chen & Sun, §2.2).
 
-    ``meas``: per-pulse bearings and lag-1 range differences (``range_difference`` rows with
-    ``time_ref`` the previous sample), one or more sensors; rows of other kinds are passed on
-    unchanged at their own time.  ``lags``: ``N1 < N2 < ...`` in samples.  One update per
-    sample time ``t_k`` (from sample ``start`` on) with, for every sensor, the bearings at
-    ``k`` and ``k - N_j`` and the range differences ``dr_{k - N_{j-1}, k - N_j}`` (sum of the
-    lag-1 differences between, ``sigma = sqrt(sum sigma_i^2)`` = ``sqrt(N) sigma``).  A
-    range difference is left out if a lag-1 link inside it is missing; a bearing, if none
-    was measured at that sample.
+    One update per sample time ``t_k`` with, per sensor, the bearings at ``k`` and ``k - N_j``
+    and the range differences ``dr_{k - N_{j-1}, k - N_j}`` (sums of the lag-1 ones between,
+    ``sigma = sqrt(N) sigma_1``); one with a missing lag-1 link is left out.
 
-    ``reuse_inflation``: multiply each row's variance by the number of updates that use its
-    data (bearings: how many vectors contain that sample; range differences: the mean, over
-    the intervals it spans, of how many vectors contain each interval) so that, summed over
-    the updates, each datum carries roughly its own weight once.  Not in the paper.
+    Parameters
+    ----------
+    meas : MeasurementSet
+        Per-pulse bearings and lag-1 range differences; other kinds pass on at their time.
+    lags : sequence of int, optional
+        ``N1 < N2 < ...`` (samples, >= 1).
+    reuse_inflation : bool, optional
+        Multiply each row's variance by how many updates use its data (bearings: vectors
+        with the sample; range differences: mean over the spanned intervals); not in the paper.
+    start : int, optional
+        First sample index (>= 0) that gets an update.
 
-    Returns a list of ``(t_k, rows)``; rows carry ``time``, ``time_ref`` and the sensor
-    states at both, so the filter predicts them from its state moved back (§2.3-2.4).
+    Returns
+    -------
+    list of (float, MeasurementSet)
+        ``(t_k (s), rows)`` for :meth:`~tmakit.filters.TrackingFilter.run_groups` (rows at
+        ``time`` and ``time_ref``, predicted back: Chen & Sun, §2.3-2.4).
+
+    Raises
+    ------
+    ValueError
+        On bad lags or start, no rows, two bearings at a sample, or no lag-1 differences.
     """
     lags = _check_lags(lags)
     if len(meas) == 0:
@@ -176,8 +185,11 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
 def _sensor_plan(d: _SensorData, offsets: NDArray[np.int64], start: int
                  ) -> tuple[list[tuple[int, NDArray[np.int64]]], NDArray[np.float64],
                             NDArray[np.float64]]:
-    """One sensor's updates ``(k, samples)`` from sample ``start`` on, and how many updates
-    use each bearing sample and each lag-1 interval (``[j]``: the interval ``(j-1, j]``)."""
+    """Plan one sensor's updates ``(k, samples)`` from sample ``start`` on.
+
+    Also counts how many updates use each bearing sample and each lag-1 interval (``[j]``:
+    the interval ``(j-1, j]``).
+    """
     m = d.times.size
     plan = []
     nb = np.zeros(m)
@@ -194,9 +206,11 @@ def _sensor_plan(d: _SensorData, offsets: NDArray[np.int64], start: int
 def _vector_rows(meas: MeasurementSet, s: str, d: _SensorData, pts: NDArray[np.int64],
                  inflation: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
                  value_si: NDArray[np.float64], sigma_si: NDArray[np.float64]) -> list[tuple]:
-    """The rows of one sensor's multi-lag vector over samples ``pts`` (descending): its
-    bearings, then the range differences between consecutive samples; ``inflation`` is the
-    use counts of :func:`_sensor_plan` when reused data are to be down-weighted."""
+    """Build the rows of one sensor's multi-lag vector over samples ``pts`` (descending).
+
+    Its bearings, then the range differences between consecutive samples; ``inflation`` is
+    the use counts of :func:`_sensor_plan` when reused data are to be down-weighted.
+    """
     nan6 = np.full(6, np.nan)
     rows: list[tuple] = []
     for p in pts:
@@ -221,8 +235,11 @@ def _vector_rows(meas: MeasurementSet, s: str, d: _SensorData, pts: NDArray[np.i
 
 
 def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
-    """A measurement set from rows ``(time, sensor, kind, value, sigma, sensor state,
-    time_ref, reference state)`` in file units."""
+    """Build a measurement set from rows in file units.
+
+    Each row is ``(time, sensor, kind, value, sigma, sensor state, time_ref, reference
+    state)``.
+    """
     cols = list(zip(*rows, strict=True))
     n = len(rows)
     return MeasurementSet(
@@ -233,9 +250,31 @@ def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
 
 
 def multilag_layout(lags: Sequence[int], k: int) -> list[tuple[str, int, int]]:
-    """The layout of update ``k``'s vector for lags ``lags``: ``("bearing", i, i)`` for the
-    bearing at sample ``i`` and ``("range_difference", a, b)`` for ``dr_{a,b}`` (samples,
-    ``a > b``), in the order :func:`multilag_groups` emits them for one sensor."""
+    """Give the layout of update ``k``'s multi-lag vector.
+
+    Parameters
+    ----------
+    lags : sequence of int
+        ``N1 < N2 < ...`` (samples).
+    k : int
+        Index of the update's sample.
+
+    Returns
+    -------
+    list of tuple of (str, int, int)
+        ``("bearing", i, i)`` for the bearing at sample ``i`` and
+        ``("range_difference", a, b)`` for ``dr_{a,b}`` (sample indices, ``a > b``), in the
+        order :func:`multilag_groups` emits them for one sensor.
+
+    Raises
+    ------
+    ValueError
+        If the lags are not increasing whole numbers >= 1.
+
+    References
+    ----------
+    Chen & Sun, §2.2.
+    """
     lags = _check_lags(lags)
     pts = np.unique(np.clip(k - np.array((0, *lags)), 0, None))[::-1]
     out = [("bearing", int(p), int(p)) for p in pts]

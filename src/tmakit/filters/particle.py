@@ -1,7 +1,7 @@
 """A regularised SIR particle filter, vectorised over particles.
 
 Sampling importance resampling with the **transitional prior** as importance density, as in
-004_590a452506c86051.txt §3.1: the particles are moved by the dynamics and their weights
+Hurtado & Nehorai (2008), §3.1: the particles are moved by the dynamics and their weights
 multiplied by the likelihood of the new measurements (eq. 8 with ``q = p(x_k | x_{k-1})``),
 
     w_k^i ∝ w_{k-1}^i p(y_k | x_k^i),   x_k^i ~ p(x_k | x_{k-1}^i),
@@ -9,7 +9,7 @@ multiplied by the likelihood of the new measurements (eq. 8 with ``q = p(x_k | x
 and the posterior is ``sum_i w_k^i delta(x - x_k^i)`` (eq. 7).
 
 * **Predict**: one transition of all particles (``Phi X``; for the nearly-constant-velocity
-  dynamics of 003_e5155d4fe60daef8.txt §2.1 done in place as ``p += dt v``) plus the process
+  dynamics of Chen & Sun, §2.1, done in place as ``p += dt v``) plus the process
   noise ``G w`` with ``w ~ N(0, q^2 I)`` per axis (``G = [T^2/2, T]``, so ``Q = G G^T q^2``).
 * **Likelihood**: :meth:`MeasurementGroup.predict <tmakit.filters.MeasurementGroup.predict>`
   on the ``(N, n)`` particles, wrapped residuals, whitened by the Cholesky factor of the
@@ -59,14 +59,45 @@ LOG_NEGLIGIBLE = -575.0
 
 
 def optimal_bandwidth(n_particles: int, n_state: int) -> float:
-    """``h_opt = (4 / (N (n + 2)))^(1 / (n + 4))`` for a Gaussian kernel (Musso et al. 2001)."""
+    """Give the optimal Gaussian-kernel bandwidth ``h_opt = (4 / (N (n + 2)))^(1 / (n + 4))``.
+
+    Parameters
+    ----------
+    n_particles : int
+        Number of particles N.
+    n_state : int
+        State dimension n.
+
+    Returns
+    -------
+    float
+        ``h_opt`` (dimensionless, a fraction of the particle spread).
+
+    References
+    ----------
+    Musso, Oudjane & Le Gland (2001) (see the module docstring).
+    """
     return float((4.0 / (n_particles * (n_state + 2))) ** (1.0 / (n_state + 4)))
 
 
 def systematic_resample(weights: Array, u: float) -> NDArray[np.int64]:
-    """Indices of a systematic resample of normalised ``weights`` (N,) with offset ``u`` in
-    [0, 1): particle ``i`` is drawn once for every point ``(u + j) / N`` (j = 0..N-1) in
-    ``(C_{i-1}, C_i]``, ``C`` the cumulative weights — counted without a search."""
+    """Draw a systematic resample of normalised weights.
+
+    Particle ``i`` is drawn once for every point ``(u + j) / N`` (j = 0..N-1) in
+    ``(C_{i-1}, C_i]``, ``C`` the cumulative weights; counted without a search.
+
+    Parameters
+    ----------
+    weights : numpy.ndarray
+        Normalised weights ``(N,)``.
+    u : float
+        The one uniform offset, in [0, 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        Indices of the drawn particles ``(N,)``, in increasing order.
+    """
     n = weights.shape[0]
     cdf = np.cumsum(weights)
     cdf *= n / cdf[-1]
@@ -81,11 +112,43 @@ def systematic_resample(weights: Array, u: float) -> NDArray[np.int64]:
 class ParticleFilter(TrackingFilter):
     """Regularised SIR particle filter (see the module docstring).
 
-    Same arguments as :class:`~tmakit.filters.TrackingFilter`, plus ``particles`` (N >= 2),
-    ``rng`` (Generator or seed), ``resample_threshold`` (resample when the effective sample
-    size is below this fraction of N; in (0, 1]), ``regularise`` (default True) and
-    ``bandwidth`` (multiple of the optimal kernel bandwidth, > 0, ``h`` must stay below 1).
-    :attr:`resamples` counts the resampling steps.
+    Parameters
+    ----------
+    mean, covariance, time
+        The Gaussian prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s); the
+        filter starts by sampling it.
+    particles : int, optional
+        Number of particles N (>= 2).
+    rng : numpy.random.Generator, int or None, optional
+        Random source or seed; the same seed gives the same track.
+    resample_threshold : float, optional
+        Resample when the effective sample size is below this fraction of N, in (0, 1].
+    regularise : bool, optional
+        Move the particles by the regularisation kernel after each resampling.
+    bandwidth : float, optional
+        Multiple of the optimal kernel bandwidth (> 0; ``h`` must stay below 1).
+    **kwargs
+        ``q``, ``dynamics``, ``options``, ``nuisance`` as for
+        :class:`~tmakit.filters.TrackingFilter`.
+
+    Attributes
+    ----------
+    resamples : int
+        Resampling steps made.
+    h : float
+        Kernel bandwidth (dimensionless).
+
+    Raises
+    ------
+    ValueError
+        If ``particles`` is not a whole number >= 2, ``resample_threshold`` is outside
+        (0, 1], ``bandwidth`` is not positive and finite, the regularised kernel bandwidth
+        ``h`` is >= 1, or the prior is not valid.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), §3.1, eqs. 7-8 (SIR with the transitional prior); Musso,
+    Oudjane & Le Gland (2001) and Liu & West (2001) (regularisation).
     """
 
     name = "pf"
@@ -168,10 +231,12 @@ class ParticleFilter(TrackingFilter):
 
     @property
     def state(self) -> Array:
+        """The weighted particle mean ``(n,)`` (m, m/s)."""
         return self._compute_moments()[0].copy()
 
     @property
     def covariance(self) -> Array:
+        """The weighted particle covariance ``(n, n)`` (m^2, m^2/s, m^2/s^2), symmetric."""
         return self._compute_moments()[1].copy()
 
     # -- predict ------------------------------------------------------------------------------
@@ -180,7 +245,7 @@ class ParticleFilter(TrackingFilter):
         d = self.dim
         if self._ncv:
             if self._any_q:
-                # p += dt v + dt^2/2 w, v += dt w (003 §2.1), with v moved in two halves so
+                # p += dt v + dt^2/2 w, v += dt w (Chen & Sun §2.1), with v moved in halves so
                 # that p sees v + dt w / 2: five passes over the particles.
                 half = self.rng.standard_normal(out=self._noise)
                 if self._equal_q:
@@ -212,12 +277,14 @@ class ParticleFilter(TrackingFilter):
         return self._weigh(loglik, nu, group.covariance)
 
     def _update_bearing(self, group: MeasurementGroup) -> UpdateInfo | None:
-        """One bearing at the update time in closed form (None if some particle sits on
-        the sensor: the general path handles that).  The residual of particle ``i`` is
-        ``atan2(s, c)`` with ``(s, c)`` its offset from the sensor rotated by the measured
-        bearing ``z`` (``s = sin z dy - cos z dx``, ``c = cos z dy + sin z dx``), wrapped
-        to (-pi, pi] by construction; computed as ``atan(s / c)`` plus ``±pi`` where
-        ``c < 0``."""
+        """Update with one bearing at the update time in closed form.
+
+        Returns None if some particle sits on the sensor (the general path handles that).
+        The residual of particle ``i`` is ``atan2(s, c)`` with ``(s, c)`` its offset from the
+        sensor rotated by the measured bearing ``z`` (``s = sin z dy - cos z dx``,
+        ``c = cos z dy + sin z dx``), wrapped to (-pi, pi] by construction; computed as
+        ``atan(s / c)`` plus ``±pi`` where ``c < 0``.
+        """
         z = float(group.values[0])
         sigma = float(group.sigmas[0])
         sz, cz = math.sin(z), math.cos(z)
@@ -249,8 +316,11 @@ class ParticleFilter(TrackingFilter):
         return self._normalise(r, const, nu_bar * nu_bar / var, 1)
 
     def _normalise(self, total: Array, const: float, nis: float, dof: int) -> UpdateInfo:
-        """Multiply the weights by the likelihoods ``exp(total + const)`` (``total`` (N,) is
-        overwritten), normalise, record the moments and resample if needed."""
+        """Multiply the weights by the likelihoods ``exp(total + const)`` and normalise.
+
+        ``total`` (N,) is overwritten; the moments are recorded and the particles resampled
+        if needed.
+        """
         uniform = self._uniform
         if not uniform:
             total += self._logw
@@ -298,7 +368,7 @@ class ParticleFilter(TrackingFilter):
         return loglik, nu
 
     def _weigh(self, loglik: Array, nu: Array, r: Array) -> UpdateInfo:
-        """The general update from per-particle log-likelihoods (N,) and residuals (N, m)."""
+        """Make the general update from per-particle log-likelihoods (N,) and residuals (N, m)."""
         bad = ~np.isfinite(loglik)
         finite = ~bad
         if bad.any():
@@ -339,8 +409,10 @@ class ParticleFilter(TrackingFilter):
 
 
 def _kernel_factor(cov: Array) -> Array:
-    """A square-root factor of the particle covariance for the regularisation kernel; a
-    singular one (all particles on a line) gets a PSD eigen-factor instead of failing."""
+    """Give a square-root factor of the particle covariance for the regularisation kernel.
+
+    A singular covariance (all particles on a line) gets a PSD eigen-factor instead of failing.
+    """
     try:
         return np.linalg.cholesky(cov)
     except np.linalg.LinAlgError:

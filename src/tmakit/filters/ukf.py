@@ -17,7 +17,7 @@ Angles (bearing, elevation, ...): the predicted mean of an angle row is the weig
 and the innovation are wrapped to (-pi, pi], so a target near bearing ±180° is handled like
 any other.
 
-Predict: the dynamics are linear (003_e5155d4fe60daef8.txt §2.1), for which the unscented
+Predict: the dynamics are linear (Chen & Sun, §2.1), for which the unscented
 transform is exact, so the predict is the Kalman predict ``Phi x``, ``Phi P Phi^T + Q``.
 
 Update: ``K = P_xz P_zz^-1``, ``x += K nu``, ``P -= K P_zz K^T`` (symmetrised, repaired by
@@ -44,8 +44,37 @@ from .kernels import KernelRun, ukf_bearing_2d
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float
                       ) -> tuple[float, Array, Array]:
-    """``gamma``, mean weights ``Wm`` (2n+1,) and covariance weights ``Wc`` (2n+1,) of the
-    scaled unscented transform for an ``n``-state."""
+    """Give the scaled unscented transform's spread and weights for an ``n``-state.
+
+    Parameters
+    ----------
+    n : int
+        State dimension.
+    alpha : float
+        Spread of the sigma points (> 0, finite).
+    beta : float
+        Prior-distribution parameter (2 for a Gaussian), finite.
+    kappa : float
+        Secondary scaling parameter, finite.
+
+    Returns
+    -------
+    gamma : float
+        ``sqrt(n + lambda)``, ``lambda = alpha^2 (n + kappa) - n``.
+    wm : numpy.ndarray
+        Mean weights ``(2n+1,)``.
+    wc : numpy.ndarray
+        Covariance weights ``(2n+1,)``.
+
+    Raises
+    ------
+    ValueError
+        If a parameter is not finite, ``alpha <= 0`` or ``n + lambda <= 0``.
+
+    References
+    ----------
+    Wan & van der Merwe (2000), the weights of the scaled unscented transform (Julier 2002).
+    """
     for name, value in (("alpha", alpha), ("beta", beta), ("kappa", kappa)):
         if not math.isfinite(value):
             raise ValueError(f"{name} must be finite; got {value}")
@@ -65,8 +94,29 @@ def unscented_weights(n: int, alpha: float, beta: float, kappa: float
 class UnscentedKalmanFilter(ExtendedKalmanFilter):
     """UKF with wrap-aware means and residuals (see the module docstring).
 
-    Same arguments as :class:`~tmakit.filters.TrackingFilter`, plus the sigma-point
-    parameters ``alpha`` (> 0), ``beta`` and ``kappa``.
+    Parameters
+    ----------
+    mean, covariance, time
+        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
+    alpha : float, optional
+        Sigma-point spread (> 0).
+    beta : float, optional
+        Prior-distribution parameter (2 for a Gaussian).
+    kappa : float, optional
+        Secondary scaling parameter.
+    **kwargs
+        ``q``, ``dynamics``, ``options``, ``nuisance`` as for
+        :class:`~tmakit.filters.TrackingFilter`.
+
+    Raises
+    ------
+    ValueError
+        If the sigma-point parameters are not valid (:func:`unscented_weights`) or the prior
+        is not.
+
+    References
+    ----------
+    Wan & van der Merwe (2000); Julier (2002) (see the module docstring).
     """
 
     name = "ukf"
@@ -81,7 +131,13 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         super().__init__(mean, covariance, time, **kwargs)
 
     def sigma_points(self) -> Array:
-        """The ``2n + 1`` sigma points ``(2n+1, n)`` of the current estimate."""
+        """Give the ``2n + 1`` sigma points of the current estimate.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, x + gamma L_j, x - gamma L_j]`` ``(2n+1, n)`` (m, m/s).
+        """
         chol = safe_cholesky(self._cov)
         dev = self._gamma * chol.T  # rows: gamma L_j
         return np.concatenate([self._mean[None, :], self._mean + dev, self._mean - dev])
@@ -117,8 +173,23 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
 
 
 def weighted_mean(z: Array, weights: Array, angle: ArrayLike | None = None) -> Array:
-    """Weighted mean over the first axis of ``z`` (k, m); columns flagged in ``angle`` (m,)
-    get the circular mean ``atan2(sum w sin z, sum w cos z)`` (wrap-aware)."""
+    """Give the weighted mean over the first axis, circular for angle columns.
+
+    Parameters
+    ----------
+    z : numpy.ndarray
+        Values ``(k, m)`` (measurement units; angles in rad).
+    weights : numpy.ndarray
+        Weights ``(k,)``.
+    angle : array_like of bool, optional
+        ``(m,)``: columns that are angles; they get the circular mean
+        ``atan2(sum w sin z, sum w cos z)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Weighted means ``(m,)`` (units of ``z``; angle columns in (-pi, pi]).
+    """
     mean = weights @ z
     if angle is None:
         return mean

@@ -1,15 +1,14 @@
-"""Reproduce 003_e5155d4fe60daef8.txt (Chen & Sun): 3-D tracking of a moving emitter from
-azimuth and range differences measured by one fixed receiver without elevation (§3, Fig. 2).
+"""Reproduce Chen & Sun (§3, Fig. 2): 3-D emitter tracking from azimuth and range differences.
 
-Setup as §3.1 gives it: receiver at (30, 0, 0) km, emitter from (50, 60, 10) km at constant
-velocity, path 1 (-300, -300, 0) m/s, path 2 (-450, 0, 0) m/s, path 3 (0, -450, 0) m/s
-(scenarios ``chen-sun-1/2/3``, 1-s pulses over 100 s: the paper does not give the duration);
-azimuth sigma 2 mrad, range difference sigma 5 m per pulse interval; process noise
-q_x = q_y = 20 m/s^2, q_z = 10 m/s^2 (§2.1's Q_k); 30 Monte Carlo runs; the EKF and the
-modified-gain EKF (:class:`~tmakit.filters.mgekf.ModifiedGainEKF`) updated with the multi-lag
-vectors of §2.2 (:func:`~tmakit.filters.multilag.multilag_groups`, lags
-:data:`~tmakit.filters.multilag.DEFAULT_LAGS`: the paper uses "eight" measurement functions
-and gives no lags).
+Setup as §3.1 gives it: one fixed receiver without elevation at (30, 0, 0) km, emitter from
+(50, 60, 10) km at constant velocity, path 1 (-300, -300, 0) m/s, path 2 (-450, 0, 0) m/s,
+path 3 (0, -450, 0) m/s (scenarios ``chen-sun-1/2/3``, 1-s pulses over 100 s: the paper does
+not give the duration); azimuth sigma 2 mrad, range difference sigma 5 m per pulse interval;
+process noise q_x = q_y = 20 m/s^2, q_z = 10 m/s^2 (§2.1's Q_k); 30 Monte Carlo runs; the EKF
+and the modified-gain EKF (:class:`~tmakit.filters.mgekf.ModifiedGainEKF`) updated with the
+multi-lag vectors of §2.2 (:func:`~tmakit.filters.multilag.multilag_groups`, lags
+:data:`~tmakit.filters.multilag.DEFAULT_LAGS`: the paper uses "eight" measurement functions and
+gives no lags).
 
 Initial guess (§2.5): the printed formula ``x_o = sqrt(R_o^2 - z^2 cos^2 b_o) + x_r`` is not a
 polar conversion (it ignores the sign of the bearing and gives x and y both larger than the
@@ -61,7 +60,7 @@ VELOCITY_VAR = 100.0**2                     # §2.5: (100 m/s)^2
 RUNS = 30                                   # §3.1: thirty Monte Carlo runs
 REPORT_TIMES = (0.0, 10.0, 25.0, 50.0, 75.0, 100.0)
 COORDS = ("x", "y", "z", "R", "rho")        # R: slant range, rho: horizontal range
-#: The paper's filter as printed: the modified rows in the gain too (003 §2.5).
+#: The paper's filter as printed: the modified rows in the gain too (Chen & Sun, §2.5).
 PaperMGEKF = partial(ModifiedGainEKF, gain="paper")
 #: Filters compared: key -> (label, constructor, reuse_inflation).
 FILTER_SETS: dict[str, tuple[str, Callable[..., TrackingFilter], bool]] = {
@@ -78,14 +77,23 @@ POOR_HORIZONTAL_FRACTION = 0.05
 
 @dataclass
 class ChenSunReproduction(Reproduction):
-    """The report plus the time series that :func:`plot` draws: ``series[key][path]`` is
-    ``{"time": (K,), "rms": (K, 5) for x, y, z, R, rho (m), "nees": (K,)}``."""
+    """The report plus the time series that :func:`plot` draws.
+
+    ``series[key][path]``: ``time`` (K,) s, ``rms`` (K, 5) x, y, z, R, rho (m), ``nees`` (K,).
+    """
 
     series: dict[str, dict[int, dict[str, NDArray[np.float64]]]] = field(
         default_factory=dict, repr=False)
     lags: tuple[int, ...] = DEFAULT_LAGS
 
     def as_dict(self) -> dict[str, object]:
+        """Give the reproduction as JSON-ready data.
+
+        Returns
+        -------
+        dict
+            That of the base class plus ``series`` (as lists).
+        """
         out = super().as_dict()
         out["series"] = {key: {str(p): {k: v.tolist() for k, v in s.items()}
                                for p, s in by_path.items()}
@@ -97,10 +105,29 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
                   height_guess: float = HEIGHT_GUESS, velocity: Sequence[float] | None = None,
                   position_var: float = POSITION_VAR, velocity_var: float = VELOCITY_VAR
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """The initial state of 003 §2.5 (its evident intent, see the module docstring): the
-    emitter at slant range ``range_guess`` (m) along the first measured bearing, at height
-    ``height_guess`` (m) above the receiver, with ``velocity`` (m/s; default ``0.5 v_max``).
-    Returns ``(mean (6,), covariance (6, 6), time of the first bearing)``."""
+    """Give the initial state of Chen & Sun, §2.5 (its evident intent, see the module docstring).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements; the emitter is put along the first bearing.
+    range_guess, height_guess : float, optional
+        Assumed slant range ``R_o`` (m, > ``|height_guess|``) and height above the receiver (m).
+    velocity : sequence of float or None, optional
+        Initial velocity (m/s; default ``0.5 v_max`` of §3.1).
+    position_var, velocity_var : float, optional
+        Prior variances per axis (m^2; m^2/s^2).
+
+    Returns
+    -------
+    tuple
+        ``(mean (6,) (m, m/s), covariance (6, 6), time of the first bearing (s))``.
+
+    Raises
+    ------
+    ValueError
+        If ``range_guess <= |height_guess|`` or there is no bearing.
+    """
     if not range_guess > abs(height_guess):
         raise ValueError(f"range_guess ({range_guess} m) must exceed |height_guess| "
                          f"({height_guess} m)")
@@ -119,10 +146,19 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
 
 
 def observability(path: int) -> dict[str, float | bool]:
-    """The batch CRLB of path ``path`` (its data only, no prior, motion cv3d at the truth):
-    standard deviations (m) of the height, the horizontal position and the slant range at the
-    first and last sample, the condition number of the normalised information, and whether
-    the path is poorly observable (see :data:`POOR_HORIZONTAL_FRACTION`)."""
+    """Compute the batch CRLB of one path (its data only, no prior, motion cv3d at the truth).
+
+    Parameters
+    ----------
+    path : int
+        Path number, 1-3 (scenario ``chen-sun-<path>``).
+
+    Returns
+    -------
+    dict
+        Std (m) of height, horizontal position and slant range at the first and last sample
+        (``z_std_start``, ...), true ranges and heights (m), condition, rank, ``poorly_observable``.
+    """
     scn = load_scenario(f"chen-sun-{path}")
     bound = crlb(scn)
     t0, t1 = scn.time_span()
@@ -155,11 +191,30 @@ def _errors(states: NDArray[np.float64], truth: NDArray[np.float64]) -> NDArray[
 def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
                      lags: Sequence[int] = DEFAULT_LAGS,
                      filters: Sequence[str] = tuple(FILTER_SETS),
-                     progress=None) -> dict[str, dict[str, NDArray[np.float64]]]:
-    """``runs`` seeded runs of path ``path``: per filter key of :data:`FILTER_SETS`,
-    ``errors`` (runs, K, 5) (x, y, z, R, rho; m), ``nees`` (runs, K), ``time`` (K,),
-    ``reflections`` (runs,) and ``fallbacks`` (runs,) (MGEKF bearing rows that used the EKF
-    row).  Run ``i`` uses ``numpy.random.default_rng([seed, path, i])``."""
+                     progress: Callable[[], object] | None = None
+                     ) -> dict[str, dict[str, NDArray[np.float64]]]:
+    """Track one path in ``runs`` seeded runs; run ``i`` uses ``default_rng([seed, path, i])``.
+
+    Parameters
+    ----------
+    path, runs, seed : int
+        Path number (1-3), number of runs, base seed.
+    lags, filters : sequence, optional
+        Lags of the multi-lag vectors (samples); keys of :data:`FILTER_SETS`.
+    progress : callable or None, optional
+        Called with no argument after each run.
+
+    Returns
+    -------
+    dict
+        Per filter key: ``errors`` (runs, K, 5) (x, y, z, R, rho; m), ``nees`` (runs, K),
+        ``time`` (K,) (s), ``reflections`` and ``fallbacks`` (runs,).
+
+    Raises
+    ------
+    ValueError
+        If a filter key is unknown.
+    """
     unknown = [f for f in filters if f not in FILTER_SETS]
     if unknown:
         raise ValueError(f"unknown filter set(s) {unknown}; expected {list(FILTER_SETS)}")
@@ -190,7 +245,20 @@ def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
 
 
 def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, float]:
-    """Two-sided ``level`` band of the mean NEES over ``runs`` consistent runs."""
+    """Give the two-sided ``level`` band of the mean NEES over ``runs`` consistent runs.
+
+    Parameters
+    ----------
+    runs, dof : int
+        Runs averaged; degrees of freedom of one NEES (default 6).
+    level : float, optional
+        Probability inside the band.
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)``, chi-square quantiles (``dof * runs`` dof) over ``runs``.
+    """
     from scipy.stats import chi2
 
     lo, hi = chi2.ppf([(1 - level) / 2, (1 + level) / 2], dof * runs)
@@ -199,8 +267,22 @@ def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, floa
 
 def run(runs: int = RUNS, seed: int = 1, progress: bool = True,
         lags: Sequence[int] = DEFAULT_LAGS) -> ChenSunReproduction:
-    """The observability of the three paths and, with ``runs > 0``, the Monte Carlo errors
-    of Fig. 2 with the paper's claims checked against them."""
+    """Reproduce §3: the paths' observability and, with ``runs > 0``, Fig. 2's errors.
+
+    Parameters
+    ----------
+    runs, seed : int, optional
+        Monte Carlo runs per path (0: setup and observability only) and base seed.
+    progress : bool, optional
+        Show a progress bar during the runs.
+    lags : sequence of int, optional
+        Lags of the multi-lag vectors (samples).
+
+    Returns
+    -------
+    ChenSunReproduction
+        Setup, observability and, with runs, Fig. 2's RMS errors (m), NEES and §3.2's claims.
+    """
     lags = tuple(int(v) for v in lags)
     rep = ChenSunReproduction("chen-sun", lags=lags)
     rho = np.sqrt(RANGE_GUESS**2 - HEIGHT_GUESS**2)
@@ -268,7 +350,7 @@ def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
             if bar is not None:
                 task = bar.add_task(f"chen-sun path {p}", total=runs)
 
-                def tick(task=task):
+                def tick(task: int = task) -> None:
                     bar.advance(task)
             results[p] = monte_carlo_path(p, runs, seed, lags, progress=tick)
     finally:
@@ -312,8 +394,9 @@ def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
     _compare(rep, results, lo, hi)
 
 
-def _compare(rep: ChenSunReproduction, results, lo: float, hi: float) -> None:
-    """The paper's statements (§3.2) next to what tmakit measured."""
+def _compare(rep: ChenSunReproduction,
+             results: dict[int, dict[str, dict[str, np.ndarray]]], lo: float, hi: float) -> None:
+    """Add the paper's statements (§3.2) next to what tmakit measured."""
     def fin(key: str, p: int) -> NDArray[np.float64]:
         return np.sqrt(np.mean(results[p][key]["errors"][:, -1] ** 2, axis=0))
 
@@ -359,9 +442,28 @@ def _compare(rep: ChenSunReproduction, results, lo: float, hi: float) -> None:
 
 
 def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
-    """Draw Fig. 2: RMS error over time (km, log scale) in x, y, z and slant range for the
-    three paths, EKF dashed and MGEKF solid; top row the paper's filters (vectors treated as
-    independent), bottom row with reuse-inflated R.  Returns the path written."""
+    """Draw Fig. 2 of Chen & Sun: RMS error over time for the three paths.
+
+    x, y, z and slant range (km, log), EKF dashed, MGEKF solid; top row as in the paper, bottom
+    row with reuse-inflated R.
+
+    Parameters
+    ----------
+    rep : ChenSunReproduction
+        The result of :func:`run` with ``runs > 0``.
+    path : str or pathlib.Path
+        Image file to write (format from the suffix).
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        If ``rep`` has no time series (``runs = 0``).
+    """
     if not rep.series:
         raise ValueError("plot() needs chen_sun.run() with runs > 0")
     import matplotlib

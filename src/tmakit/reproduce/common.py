@@ -10,6 +10,20 @@ from ..scenario import Scenario
 
 @dataclass
 class Section:
+    """One titled table of a reproduction's report.
+
+    Parameters
+    ----------
+    title : str
+        Section title.
+    header : list of str
+        Column headings (with units where they have them).
+    rows : list of list
+        The table's rows, one value per column.
+    note : str, optional
+        A paragraph printed under the table.
+    """
+
     title: str
     header: list[str]
     rows: list[list[object]]
@@ -18,21 +32,54 @@ class Section:
 
 @dataclass
 class Reproduction:
-    """What a reproduction computed, as titled tables, plus its key numbers for tests."""
+    """What a reproduction computed, as titled tables, plus its key numbers for tests.
+
+    Parameters
+    ----------
+    name : str
+        Reproduction name (``gu2007``, ``hoerst2010``, ...).
+    sections : list of Section, optional
+        The report's tables, in order.
+    figures : dict, optional
+        Key numbers by name (units in the names, e.g. ``rms_m``), JSON-ready.
+    """
 
     name: str
     sections: list[Section] = field(default_factory=list)
     figures: dict[str, object] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, object]:
+        """Give the reproduction as JSON-ready data.
+
+        Returns
+        -------
+        dict
+            ``name``, ``figures`` and ``sections`` (each with ``title``, ``header``, ``rows``
+            and ``note``).
+        """
         return {"name": self.name, "figures": self.figures,
                 "sections": [{"title": s.title, "header": s.header, "rows": s.rows,
                               "note": s.note} for s in self.sections]}
 
 
 def with_noise(scn: Scenario, **by_kind: dict[str, float]) -> Scenario:
-    """A copy of ``scn`` whose measurement plans of the named kinds get new noise values,
-    e.g. ``with_noise(scn, power={"snr_db": 20.0}, frequency={"sigma": 19.0})``."""
+    """Copy a scenario, giving the measurement plans of the named kinds new noise values.
+
+    E.g. ``with_noise(scn, power={"snr_db": 20.0}, frequency={"sigma": 19.0})``.
+
+    Parameters
+    ----------
+    scn : Scenario
+        The scenario (not changed).
+    **by_kind : dict of str to float
+        Per kind, the :class:`~tmakit.scenario.MeasurementPlan` attributes to set (SI:
+        ``sigma`` in rad, Hz, ...; ``snr_db`` in dB).
+
+    Returns
+    -------
+    Scenario
+        A deep copy with the new values.
+    """
     new = copy.deepcopy(scn)
     for plan in new.plans:
         for key, value in by_kind.get(plan.kind, {}).items():
@@ -41,11 +88,36 @@ def with_noise(scn: Scenario, **by_kind: dict[str, float]) -> Scenario:
 
 
 def only_kinds(scn: Scenario, kinds: tuple[str, ...]) -> Scenario:
-    """A copy of ``scn`` keeping only the plans of the given kinds."""
+    """Copy a scenario, keeping only the measurement plans of the given kinds.
+
+    Parameters
+    ----------
+    scn : Scenario
+        The scenario (not changed).
+    kinds : tuple of str
+        Measurement kinds to keep.
+
+    Returns
+    -------
+    Scenario
+        A deep copy with only those plans.
+    """
     new = copy.deepcopy(scn)
     new.plans = [p for p in new.plans if p.kind in kinds]
     return new
 
 
 def rel_diff(ours: float, paper: float) -> float:
+    """Give the relative difference ``|ours - paper| / |paper|``.
+
+    Parameters
+    ----------
+    ours, paper : float
+        tmakit's and the paper's value (same units).
+
+    Returns
+    -------
+    float
+        The relative difference (dimensionless).
+    """
     return abs(ours - paper) / abs(paper)

@@ -1,4 +1,4 @@
-"""Reproduce 001_ba171c940b7f4701.txt: frequency-only tracking of an airborne radar.
+"""Reproduce the Doppler-tracking lecture notes: frequency-only tracking of an airborne radar.
 
 The notes admit that one stationary receiver leaves the 7-parameter problem
 [X_N Y_N Z_N Vx Vy Vz f_o] rank deficient.  tmakit shows how much: rank 4 of 7 (rotations of
@@ -24,7 +24,19 @@ EXTRA_RECEIVERS = {"rx2": (15_000.0, -5_000.0, 10.0), "rx3": (-12_000.0, 9_000.0
 
 
 def with_receivers(n: int) -> Scenario:
-    """The doppler-lecture scenario heard by ``n`` (1-3) fixed receivers."""
+    """Build the doppler-lecture scenario heard by ``n`` fixed receivers.
+
+    Parameters
+    ----------
+    n : int
+        Number of receivers, 1-3 (the lecture's receiver plus those of
+        :data:`EXTRA_RECEIVERS`, positions in m).
+
+    Returns
+    -------
+    Scenario
+        The scenario with one frequency plan per receiver (the first plan's times and sigma).
+    """
     scn = copy.deepcopy(load_scenario("doppler-lecture"))
     base = scn.plans[0]
     for name, pos in list(EXTRA_RECEIVERS.items())[: n - 1]:
@@ -34,6 +46,28 @@ def with_receivers(n: int) -> Scenario:
 
 
 def run(runs: int = 0, seed: int = 1, progress: bool = True) -> Reproduction:
+    """Reproduce the lecture's problem: observability by receiver count, then one estimate.
+
+    Parameters
+    ----------
+    runs : int, optional
+        Accepted for the common ``tma reproduce`` interface; not used.
+    seed : int, optional
+        Seed of the one simulated data set of the three-receiver estimate.
+    progress : bool, optional
+        Accepted for the common interface; not used.
+
+    Returns
+    -------
+    Reproduction
+        Sections: rank and unobservable directions for 1-3 receivers; the three-receiver
+        ML estimate of ``[X_N Y_N Z_N Vx Vy Vz f_o]`` (m, m/s, Hz) against the truth and the
+        CRLB.
+
+    References
+    ----------
+    Doppler-tracking lecture notes (the 7-parameter model and its rank deficiency).
+    """
     rep = Reproduction("doppler-lecture")
     rows = []
     for n in (1, 2, 3):

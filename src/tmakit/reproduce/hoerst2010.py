@@ -1,4 +1,4 @@
-"""Reproduce 002_e7269ad11b825346.txt (Hörst & Oispuu): the Cramér–Rao analysis of §4, Fig. 2.
+"""Reproduce Hörst & Oispuu (2010): the Cramér–Rao analysis of §4, Fig. 2.
 
 The scenario is ``hoerst2010`` (§4: target from (-9 km, 12 km) at 50 m/s heading East, a turn
 with a_n = 0.5 m/s^2 from 400 s to 600 s; observer circling counter-clockwise at 50 m/s; one
@@ -44,21 +44,61 @@ CASES: dict[str, tuple[str, tuple[str, ...], bool]] = {
 
 @dataclass
 class Hoerst2010Reproduction(Reproduction):
-    """The report plus what :func:`plot` needs: the scenario and one bound sequence per
-    case of :data:`CASES`."""
+    """The report plus what :func:`plot` needs.
+
+    Parameters
+    ----------
+    name, sections, figures
+        As for :class:`~tmakit.reproduce.common.Reproduction`.
+    scenario : Scenario or None, optional
+        The ``hoerst2010`` scenario.
+    sequences : dict of str to CrbSequence, optional
+        One bound sequence per case of :data:`CASES`.
+    """
 
     scenario: Scenario | None = field(default=None, repr=False)
     sequences: dict[str, CrbSequence] = field(default_factory=dict, repr=False)
 
 
 def reference_times(scn: Scenario, step: float = STEP) -> np.ndarray:
-    """``t0 + step, t0 + 2 step, ...`` up to the last sample (s)."""
+    """Give the reference times ``t0 + step, t0 + 2 step, ...`` up to the last sample.
+
+    Parameters
+    ----------
+    scn : Scenario
+        The scenario; ``t0`` is its first sample time.
+    step : float, optional
+        Spacing (s).
+
+    Returns
+    -------
+    numpy.ndarray
+        The reference times (s).
+    """
     t0, t1 = scn.time_span()
     return t0 + step * np.arange(1, int(np.floor((t1 - t0) / step + 1e-9)) + 1)
 
 
 def sequences(step: float = STEP, scn: Scenario | None = None) -> dict[str, CrbSequence]:
-    """The bound sequence of every case of :data:`CASES`, every ``step`` seconds."""
+    """Compute the bound sequence of every case of :data:`CASES`, every ``step`` seconds.
+
+    Parameters
+    ----------
+    step : float, optional
+        Spacing of the reference times (s).
+    scn : Scenario or None, optional
+        The scenario (default: the built-in ``hoerst2010``).
+
+    Returns
+    -------
+    dict of str to CrbSequence
+        Per case, the position CRB at each reference time from the data so far, with
+        :data:`LEVEL` confidence ellipses.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), §4 (the CRB at a reference time, 90 % ellipses).
+    """
     scn = scn or load_scenario("hoerst2010")
     refs = reference_times(scn, step)
     return {key: curvilinear_crb_sequence(scn, refs, kinds, known, level=LEVEL)
@@ -79,8 +119,28 @@ def _num(v: float) -> float | None:
 
 def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
         ) -> Hoerst2010Reproduction:
-    """Compute the bounds and the checks.  ``runs`` and ``seed`` are accepted for the common
-    ``tma reproduce`` interface and not used: the paper has no Monte Carlo study."""
+    """Compute the bounds and check the paper's statements about Fig. 2.
+
+    Parameters
+    ----------
+    runs, seed : int, optional
+        Accepted for the common ``tma reproduce`` interface and not used: the paper has no
+        Monte Carlo study.
+    progress : bool, optional
+        Accepted for the common interface; not used.
+    step : float, optional
+        Spacing of the reference times (s).
+
+    Returns
+    -------
+    Hoerst2010Reproduction
+        Sections: position RMS bounds (m) at the table times, the paper's statements
+        checked, the ellipse counts; the scenario and the bound sequences for :func:`plot`.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), §4 and Fig. 2.
+    """
     scn = load_scenario("hoerst2010")
     seqs = sequences(step, scn)
     rep = Hoerst2010Reproduction("hoerst2010", scenario=scn, sequences=seqs)
@@ -93,7 +153,7 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
 
 
 def _table_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence]) -> None:
-    """The table of position RMS bounds at the paper's reference times."""
+    """Add the table of position RMS bounds at the paper's reference times."""
     rows = []
     times = [t for t in TABLE_TIMES if t in set(seqs["azimuth"].ref_times)]
     for t in times:
@@ -113,7 +173,7 @@ def _table_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence]) ->
 
 def _claims_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence],
                     cot: list[float], step: float) -> None:
-    """The paper's statements about Fig. 2 (§4), each checked against the bounds."""
+    """Add the paper's statements about Fig. 2 (§4), each checked against the bounds."""
     az, azr = seqs["azimuth"], seqs["azimuth+rate"]
     refs = az.ref_times
     either = np.isfinite(az.rms) | np.isfinite(azr.rms)
@@ -171,7 +231,7 @@ def _claims_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence],
 
 def _figure_section(rep: Hoerst2010Reproduction, seqs: dict[str, CrbSequence],
                     step: float) -> None:
-    """What the figure shows: ellipses drawn and left out per panel."""
+    """Add what the figure shows: ellipses drawn and left out per panel."""
     rows = []
     for key in ("azimuth", "azimuth+rate"):
         s = seqs[key]
@@ -192,10 +252,29 @@ def _ellipse_counts(s: CrbSequence) -> tuple[int, int, int]:
 
 
 def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
-    """Draw Fig. 2: observer path (green, start square), target path (blue, start square,
-    change-over points circles) and the 90 % position ellipses (red) every 10 s, left
-    azimuth only, right azimuth + azimuth rate; ellipses over 30 km or unobservable left
-    out.  Axes in km.  Returns the path written."""
+    """Draw Fig. 2 of Hörst & Oispuu (2010).
+
+    Observer path (green, start square), target path (blue, start square, change-over points
+    circles) and the 90 % position ellipses (red) every 10 s, left azimuth only, right
+    azimuth + azimuth rate; ellipses over 30 km or unobservable left out.  Axes in km.
+
+    Parameters
+    ----------
+    rep : Hoerst2010Reproduction
+        The result of :func:`run`.
+    path : str or pathlib.Path
+        Image file to write (format from the suffix).
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        If ``rep`` lacks the scenario or the bound sequences.
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -35,19 +35,61 @@ def _as_point(p: ArrayLike, what: str) -> NDArray[np.float64]:
 
 
 class SensorTrack(ABC):
-    """A sensor whose position and velocity are known at every time."""
+    """A sensor whose position and velocity are known at every time (abstract).
+
+    Subclasses implement :meth:`states`.
+    """
 
     @abstractmethod
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """ENU position and velocity ``(n, 6)`` at times ``t`` (s)."""
+        """Give the sensor's ENU position and velocity at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D (or, for a recorded track, outside the record).
+        """
 
     def positions(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Give the sensor's ENU positions at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z]`` ``(n, 3)`` (m).
+        """
         return self.states(t)[:, :3]
 
 
 @dataclass(frozen=True)
 class FixedSensor(SensorTrack):
-    """A sensor that does not move (a ground station)."""
+    """A sensor that does not move (a ground station).
+
+    Parameters
+    ----------
+    position : array_like
+        ENU position, 2 or 3 finite coordinates (m); a 2-D one gets z = 0.
+
+    Raises
+    ------
+    ValueError
+        If the position is not 2 or 3 finite numbers.
+    """
 
     position: tuple[float, float, float]
 
@@ -55,6 +97,23 @@ class FixedSensor(SensorTrack):
         object.__setattr__(self, "position", tuple(_as_point(position, "sensor position")))
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Give the fixed position and zero velocity at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D.
+        """
         t = _as_times(t)
         out = np.zeros((t.shape[0], 6))
         out[:, :3] = self.position
@@ -63,9 +122,17 @@ class FixedSensor(SensorTrack):
 
 @dataclass(frozen=True)
 class Leg:
-    """One leg of a :class:`LegsTrack`: ``duration`` seconds (``inf`` for the last) at a
-    constant ``turn_rate`` (rad/s, clockwise positive; 0 for a straight leg) and, optionally,
-    a new ``speed`` (m/s)."""
+    """One leg of a :class:`LegsTrack`.
+
+    Parameters
+    ----------
+    duration : float
+        Leg duration (s, > 0); ``inf`` only for the last leg.
+    turn_rate : float, optional
+        Constant turn rate (rad/s, clockwise positive; 0 for a straight leg).
+    speed : float or None, optional
+        New speed from the start of this leg (m/s); None keeps the previous speed.
+    """
 
     duration: float
     turn_rate: float = 0.0
@@ -79,6 +146,26 @@ class LegsTrack(SensorTrack):
     North) and ``speed`` (m/s).  Each :class:`Leg` keeps the speed (or sets a new one) and
     turns at a constant rate.  Before ``start_time`` the first leg is extended backwards; after
     the last leg ends the track continues on it (straight or turning).
+
+    Parameters
+    ----------
+    start : array_like
+        Start position, ENU (m), 2 or 3 coordinates; the altitude stays constant.
+    heading : float
+        Initial heading (rad, clockwise from North).
+    speed : float
+        Initial speed (m/s, > 0).
+    legs : sequence of Leg
+        The legs, at least one.
+    start_time : float, optional
+        Time at ``start`` (s).
+
+    Raises
+    ------
+    ValueError
+        If there is no leg, the speed, heading, start time or a leg's turn rate is not
+        finite, a speed or duration is not positive, or a leg other than the last lasts
+        forever.
     """
 
     def __init__(self, start: ArrayLike, heading: float, speed: float,
@@ -122,9 +209,27 @@ class LegsTrack(SensorTrack):
 
     @property
     def leg_start_times(self) -> NDArray[np.float64]:
+        """Start time of every leg (s)."""
         return self._starts[:, 0].copy()
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Give the ENU states on the legs at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D.
+        """
         t = _as_times(t)
         idx = np.clip(np.searchsorted(self._starts[:, 0], t, side="right") - 1, 0, None)
         t0, x0, y0, v, c = self._starts[idx].T
@@ -141,6 +246,24 @@ class WaypointTrack(SensorTrack):
 
     Give either ``speed`` (m/s, with ``start_time``) or ``times`` (s, one per waypoint,
     increasing).  Before the first and after the last waypoint the sensor holds position.
+
+    Parameters
+    ----------
+    waypoints : array_like
+        ENU waypoints ``(n >= 2, 2 or 3)`` (m); 2-D ones get z = 0.
+    speed : float or None, optional
+        Constant speed (m/s, > 0).
+    times : array_like or None, optional
+        Time at each waypoint (s, increasing).
+    start_time : float, optional
+        Time at the first waypoint when ``speed`` is given (s).
+
+    Raises
+    ------
+    ValueError
+        If the waypoints are not a finite ``(n >= 2, 2 or 3)`` array, not exactly one of
+        ``speed`` and ``times`` is given, the speed is not positive, the times are not one
+        increasing value per waypoint, or ``start_time`` is not finite.
     """
 
     def __init__(self, waypoints: ArrayLike, speed: float | None = None,
@@ -168,6 +291,23 @@ class WaypointTrack(SensorTrack):
         self.times = times
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Give the ENU states between the waypoints at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D.
+        """
         t = _as_times(t)
         out = np.zeros((t.shape[0], 6))
         for axis in range(3):
@@ -187,6 +327,20 @@ class RecordedTrack(SensorTrack):
     record); without, a cubic spline whose derivative gives the velocity (linear with only two
     samples).  Asking for a time outside the record is an error: tmakit does not guess where
     the sensor was.
+
+    Parameters
+    ----------
+    times : array_like
+        Record times (s), increasing, at least two.
+    positions : array_like
+        ENU positions ``(n, 2 or 3)`` (m), one row per time; 2-D ones get z = 0.
+    velocities : array_like or None, optional
+        ENU velocities ``(n, 2 or 3)`` (m/s), one row per time.
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not match, the times are not increasing, or a value is not finite.
     """
 
     def __init__(self, times: ArrayLike, positions: ArrayLike,
@@ -220,6 +374,24 @@ class RecordedTrack(SensorTrack):
         self._velocity = self._spline.derivative()
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Give the interpolated ENU states at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), scalar or 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not 1-D or a time is outside the record (beyond a 1e-9 relative
+            tolerance).
+        """
         t = _as_times(t)
         tol = 1e-9 * max(1.0, float(np.abs(self.times).max()))
         outside = (t < self.times[0] - tol) | (t > self.times[-1] + tol)
@@ -234,9 +406,31 @@ class RecordedTrack(SensorTrack):
     def from_geodetic(cls, times: ArrayLike, lat: ArrayLike, lon: ArrayLike, alt: ArrayLike,
                       origin: tuple[float, float, float],
                       velocities: ArrayLike | None = None) -> RecordedTrack:
-        """A track recorded as WGS-84 latitude, longitude (degrees) and altitude (m),
-        converted to the ENU frame at ``origin`` = (lat, lon, alt).  Velocities, if given,
-        are ENU (m/s)."""
+        """Build a track recorded as WGS-84 latitude, longitude and altitude.
+
+        Parameters
+        ----------
+        times : array_like
+            Record times (s), increasing.
+        lat, lon : array_like
+            Latitude and longitude (deg).
+        alt : array_like
+            Altitude (m).
+        origin : tuple of float
+            ``(lat, lon, alt)`` of the ENU frame's origin (deg, deg, m).
+        velocities : array_like or None, optional
+            ENU velocities (m/s).
+
+        Returns
+        -------
+        RecordedTrack
+            The track in the ENU frame at ``origin``.
+
+        Raises
+        ------
+        ValueError
+            If the origin is out of range or the record is not valid (see the class).
+        """
         from ..geodesy import geodetic_to_enu
 
         e, n, u = geodetic_to_enu(lat, lon, alt, origin)
