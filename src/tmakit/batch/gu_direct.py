@@ -1,4 +1,4 @@
-"""The direct iterative least squares of 000_bc54bd8c50e47249.txt §3 (Gu, Pachter, Chandler,
+"""The direct iterative least squares of Gu et al. (2007) §3 (Gu, Pachter, Chandler,
 Schumacher), with the nuisance parameters C/C_0 and c/f_s in the parameter vector.
 
 The paper linearises the power equation (eqs. 9-11) and the Doppler equation (eqs. 14-16) about

@@ -19,7 +19,7 @@ from ..results.estimate import CONVERGED, DIVERGED
 Array = NDArray[np.float64]
 
 PAPER_KINDS = ("power", "frequency")
-"""The measurement kinds of 000_bc54bd8c50e47249.txt, in the column order of theta_pf."""
+"""The measurement kinds of Gu et al. (2007), in the column order of theta_pf."""
 
 TEN_OVER_LN10 = 10.0 / np.log(10.0)
 """``10 / ln 10``: dB per unit of relative power change."""
@@ -33,7 +33,7 @@ def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
                    ) -> tuple[str, str] | None:
     """How an iteration of the papers' fixed-point methods ends after an update ``step`` to
     ``theta``: diverged (a range non-positive, or grown beyond ``far``), converged (the
-    update below ``tol`` relative), or ``None`` to go on.  Shared by 000 §3 and §4."""
+    update below ``tol`` relative), or ``None`` to go on.  Shared by Gu et al. (2007) §3 and §4."""
     if np.any(range2 <= 0):
         return DIVERGED, "a range became non-positive"
     if np.max(range2) > far ** 2:
@@ -45,14 +45,14 @@ def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
 
 
 DEFAULT_CARRIER = 1.9e9
-"""Carrier (Hz) assumed for C_0 when the data hold no frequency (000 §5)."""
+"""Carrier (Hz) assumed for C_0 when the data hold no frequency (Gu et al. (2007) §5)."""
 
 
 def check_planar_cv(motion: MotionModel, method: str) -> None:
-    """The papers' methods are written for 2-D constant velocity (000 eq. 1)."""
+    """The papers' methods are written for 2-D constant velocity (Gu et al. (2007), eq. 1)."""
     if not isinstance(motion, ConstantVelocity) or motion.dim != 2:
-        raise ValueError(f"{method}: written for 2-D constant velocity (000_bc54bd8c50e47249.txt"
-                         f" eq. 1, motion cv2d, ConstantVelocity(2)); got {motion!r}")
+        raise ValueError(f"{method}: written for 2-D constant velocity (Gu et al. "
+                         f"(2007), eq. 1; motion cv2d, ConstantVelocity(2)); got {motion!r}")
 
 
 def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method: str
@@ -110,7 +110,7 @@ def power_watts(meas: MeasurementSet) -> Array:
 
 @dataclass(frozen=True)
 class PlanarGeometry:
-    """The sensor side of 000_bc54bd8c50e47249.txt eqs. 7, 8, 12 and 16 for a set of samples.
+    """The sensor side of Gu et al. (2007), eqs. 7, 8, 12 and 16 for a set of samples.
 
     ``t`` are the sample times relative to the motion's reference time (the paper's t_0 = 0),
     ``u``/``udot`` the sensor's horizontal position and velocity.  A sensor off the plane z = 0

@@ -1,4 +1,4 @@
-"""Gauss–Newton on the 7-parameter vector of 001_ba171c940b7f4701.txt ("Doppler Tracking:
+"""Gauss–Newton on the 7-parameter vector of the Doppler-tracking lecture notes ("Doppler Tracking:
 Passive Tracking of an Airborne Radar").
 
 The notes estimate ``x = [X_N Y_N Z_N V_x V_y V_z f_o]`` — the emitter's position at the
@@ -23,8 +23,8 @@ full rank".  tmakit measures it — ``H^T R^-1 H`` has rank 4 of 7 (any rotation
 about an axis through the receiver leaves every range history unchanged).  The iteration does
 not crash on it: the update is the minimum-norm (pseudo-inverse) solution on the observable
 subspace (in coordinates normalised by ``diag(H^T R^-1 H)``, rank threshold
-:data:`tmakit.bounds.observability.RANK_TOL`), and the result reports ``unobservable`` with
-the rank and the named unobservable directions (:func:`tmakit.bounds.observability.analyse`).
+:data:`tmakit.results.observability.RANK_TOL`), and the result reports ``unobservable`` with
+the rank and the named unobservable directions (:func:`tmakit.results.observability.analyse`).
 With full rank the update is exactly the notes' one.
 
 "Small" is measured in standard deviations: the iteration stops when
@@ -59,9 +59,9 @@ Array = NDArray[np.float64]
 def _check(meas: MeasurementSet, motion: MotionModel) -> float:
     t_n = float(np.max(meas.time))
     if not isinstance(motion, ConstantVelocity) or motion.dim != 3:
-        raise ValueError("lecture-gn: 001_ba171c940b7f4701.txt estimates [X_N Y_N Z_N Vx Vy "
-                         "Vz f_o]: the motion must be ConstantVelocity(3, ref_time=t_N) "
-                         f"(cv3d), got {motion!r}")
+        raise ValueError("lecture-gn: the Doppler-tracking lecture notes estimate "
+                         "[X_N Y_N Z_N Vx Vy Vz f_o]: the motion must be "
+                         f"ConstantVelocity(3, ref_time=t_N) (cv3d), got {motion!r}")
     if abs(motion.ref_time - t_n) > 1e-9 * max(1.0, abs(t_n)):
         raise ValueError(f"lecture-gn: the parameters are referenced at the final sample time "
                          f"t_N = {t_n:g} s; use ConstantVelocity(3, ref_time={t_n:g}) "

@@ -1,4 +1,4 @@
-"""The ratio method of 000_bc54bd8c50e47249.txt §4: ratios of neighbouring measurements remove
+"""The ratio method of Gu et al. (2007) §4: ratios of neighbouring measurements remove
 the nuisance parameters C (power) and f_s (Doppler).
 
 Power (eqs. 19-25).  ``mu_k = P_k / P_{k-1}`` (linear watts; tmakit stores dBW, so

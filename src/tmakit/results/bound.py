@@ -24,7 +24,7 @@ from .observability import Observability, analyse, normalise
 
 def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
     """Inverse of the information on its observable subspace (Moore–Penrose, computed in
-    normalised coordinates).  ``obsv`` is the :func:`~tmakit.bounds.observability.analyse`
+    normalised coordinates).  ``obsv`` is the :func:`~tmakit.results.observability.analyse`
     of ``info``, whose eigen-decomposition is reused."""
     if obsv.decomposition is None:
         norm, scale = normalise(info)
