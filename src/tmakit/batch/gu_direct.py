@@ -64,6 +64,7 @@ from ..units import SPEED_OF_LIGHT, free_space_constant
 from .estimator import Init, PaperMethod, kinds_tuple
 from .gu_geometry import (
     DIVERGENCE_FACTOR,
+    NUISANCE_NAMES,
     PAPER_KINDS,
     TEN_OVER_LN10,
     PlanarGeometry,
@@ -79,10 +80,6 @@ from .gu_geometry import (
 Array = NDArray[np.float64]
 
 __all__ = ["GuDirect", "PlanarGeometry", "gu_direct"]
-
-NUISANCE_NAMES = {"power": "power_constant_db", "frequency": "carrier"}
-"""The name tmakit reports for the nuisance parameter each kind's column stands for."""
-
 
 def _condition(a: Array) -> float:
     if a.size == 0:

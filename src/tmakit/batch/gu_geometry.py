@@ -21,6 +21,8 @@ Array = NDArray[np.float64]
 PAPER_KINDS = ("power", "frequency")
 """The measurement kinds of Gu et al. (2007), in the column order of theta_pf."""
 
+NUISANCE_NAMES = {"power": "power_constant_db", "frequency": "carrier"}
+"""The name tmakit reports for the nuisance parameter each kind's column stands for."""
 TEN_OVER_LN10 = 10.0 / np.log(10.0)
 """``10 / ln 10``: dB per unit of relative power change."""
 DIVERGENCE_FACTOR = 1e4

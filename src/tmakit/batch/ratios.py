@@ -89,7 +89,6 @@ from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import cho_solve_banded, cholesky_banded, solve_banded
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
@@ -103,9 +102,9 @@ from ..results.estimate import (
 )
 from ..units import SPEED_OF_LIGHT
 from .estimator import Init, PaperMethod, kinds_tuple
-from .gu_direct import NUISANCE_NAMES
 from .gu_geometry import (
     DIVERGENCE_FACTOR,
+    NUISANCE_NAMES,
     PAPER_KINDS,
     PlanarGeometry,
     carrier_guess,
@@ -115,143 +114,21 @@ from .gu_geometry import (
     select_kinds,
     snr_from_sigma_db,
 )
+from .ratio_noise import (
+    COVARIANCES,
+    Banded,
+    doppler_bands,
+    doppler_ratio_covariance,
+    power_bands,
+    power_ratio_covariance,
+    ratio_pairs,
+    tridiagonal,
+)
 
 Array = NDArray[np.float64]
 
-COVARIANCES = ("derived", "paper")
-
-
-@dataclass(frozen=True)
-class RatioPairs:
-    """Consecutive pairs (``prev``, ``cur``: row indices) of one kind, and ``linked[j]`` True
-    when pair ``j`` and pair ``j + 1`` share a sample (same sensor), i.e. are correlated."""
-
-    prev: NDArray[np.int64]
-    cur: NDArray[np.int64]
-    linked: NDArray[np.bool_]
-
-
-def ratio_pairs(meas: MeasurementSet, kind: str) -> RatioPairs:
-    """Pairs of consecutive samples of ``kind`` per sensor, in time order."""
-    prev, cur, linked = [], [], []
-    for s in meas.sensors:
-        rows = np.flatnonzero((meas.kind == kind) & (meas.sensor == s))
-        if rows.size < 2:
-            continue
-        rows = rows[np.argsort(meas.time[rows], kind="stable")]
-        if np.any(np.diff(meas.time[rows]) <= 0):
-            raise ValueError(f"ratio method: {kind} samples of sensor {s!r} must have "
-                             "distinct times (pairs are formed from consecutive samples)")
-        prev.append(rows[:-1])
-        cur.append(rows[1:])
-        link = np.ones(rows.size - 1, dtype=bool)
-        link[-1] = False
-        linked.append(link)
-    if not prev:
-        empty = np.zeros(0, dtype=np.int64)
-        return RatioPairs(empty, empty, np.zeros(0, dtype=bool))
-    return RatioPairs(np.concatenate(prev), np.concatenate(cur), np.concatenate(linked))
-
-
-def _tridiagonal(diag: Array, off: Array) -> Array:
-    """The dense symmetric tri-diagonal matrix with ``off[j]`` at (j, j+1) and (j+1, j)."""
-    out = np.diag(diag)
-    idx = np.arange(diag.size - 1)
-    out[idx, idx + 1] = off[:-1]
-    out[idx + 1, idx] = off[:-1]
-    return out
-
-
-def _power_bands(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array, s_cur: Array,
-                 linked: NDArray[np.bool_], covariance: str) -> tuple[Array, Array]:
-    diag = mu ** 2 * r2_cur ** 2 * s_prev + r2_prev ** 2 * s_cur
-    off = np.zeros(mu.size)
-    if mu.size > 1:
-        # (k, k+1): mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k, negative when derived.
-        off[:-1] = mu[1:] * r2_prev[:-1] * r2_cur[1:] * s_cur[:-1]
-    sign = -1.0 if covariance == "derived" else 1.0
-    return diag, np.where(linked, sign * off, 0.0)
-
-
-def _doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArray[np.bool_],
-                   carrier: float, v_prev: Array | None, v_cur: Array | None,
-                   covariance: str) -> tuple[Array, Array]:
-    c = SPEED_OF_LIGHT
-    scale = (c / carrier) ** 2
-    off = np.zeros(nu.size)
-    if covariance == "derived":
-        diag = sigma_cur ** 2 + nu ** 2 * sigma_prev ** 2
-        if nu.size > 1:
-            off[:-1] = -nu[1:] * sigma_cur[:-1] ** 2
-    else:
-        if v_prev is None or v_cur is None:
-            raise ValueError("the paper's Doppler covariance needs the radial velocities")
-        a_cur, a_prev = (1.0 - v_cur / c) ** 2, (1.0 - v_prev / c) ** 2
-        diag = a_cur * sigma_cur ** 2 + nu ** 2 * a_prev * sigma_prev ** 2
-        if nu.size > 1:
-            off[:-1] = -nu[1:] * a_cur[1:] * sigma_cur[:-1] ** 2  # (1 - v_{k+1}/c)^2
-    return scale * diag, np.where(linked, scale * off, 0.0)
-
-
-def power_ratio_covariance(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array,
-                           s_cur: Array, linked: NDArray[np.bool_] | None = None,
-                           covariance: str = "derived") -> Array:
-    """Covariance (dense) of the noise terms of eq. 21 for consecutive pairs.
-
-    ``mu`` the measured ratios, ``r2_*`` the squared ranges ``R^2`` of each pair's earlier and
-    later sample, ``s_*`` their relative noise variances ``1/SNR_p``.  Pair j+1's earlier
-    sample is pair j's later sample where ``linked[j]`` (default: one chain).  Diagonal
-    ``mu_k^2 R_k^4 s_{k-1} + R_{k-1}^4 s_k``; off-diagonal ``-mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``
-    (``covariance="derived"``) or the paper's ``+mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``.
-    """
-    linked = _chain(mu.size) if linked is None else linked
-    return _tridiagonal(*_power_bands(mu, r2_prev, r2_cur, s_prev, s_cur, linked, covariance))
-
-
-def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
-                             linked: NDArray[np.bool_] | None = None,
-                             carrier: float = 1.0, v_prev: Array | None = None,
-                             v_cur: Array | None = None, covariance: str = "derived") -> Array:
-    """Covariance (dense) of the noise terms of ``c h_k`` (eq. 27 times c).
-
-    Derived: ``(c/f_s)^2`` times diagonal ``sigma_k^2 + nu_k^2 sigma_{k-1}^2``, off-diagonal
-    ``-nu_{k+1} sigma_k^2``.  Paper (needs the radial velocities ``v``): diagonal
-    ``(1 - v_k/c)^2 sigma_k^2 + nu_k^2 (1 - v_{k-1}/c)^2 sigma_{k-1}^2``, off-diagonal
-    ``-nu_{k+1} (1 - v_{k+1}/c)^2 sigma_k^2`` as printed.
-    """
-    linked = _chain(nu.size) if linked is None else linked
-    return _tridiagonal(*_doppler_bands(nu, sigma_prev, sigma_cur, linked, carrier, v_prev,
-                                        v_cur, covariance))
-
-
-def _chain(n: int) -> NDArray[np.bool_]:
-    linked = np.ones(n, dtype=bool)
-    if n:
-        linked[-1] = False
-    return linked
-
-
-class _Banded:
-    """Whitening by a symmetric positive-definite tri-diagonal matrix (banded Cholesky)."""
-
-    def __init__(self, diag: Array, off: Array) -> None:
-        ab = np.zeros((2, diag.size))
-        ab[0] = diag
-        ab[1, :-1] = off[:-1]
-        self.diag, self.off = diag, off
-        self.factor = cholesky_banded(ab, lower=True)   # raises LinAlgError if not PD
-
-    def whiten(self, x: Array) -> Array:
-        """``C^-1 x`` with ``Sigma = C C^T``."""
-        return solve_banded((1, 0), self.factor, x)
-
-    def solve(self, x: Array) -> Array:
-        """``Sigma^-1 x``."""
-        return cho_solve_banded((self.factor, True), x)
-
-    def dense(self) -> Array:
-        return _tridiagonal(self.diag, self.off)
-
+__all__ = ["RatioMethod", "doppler_ratio_covariance", "nuisance_given_theta",
+           "power_ratio_covariance", "ratio_method"]
 
 class _RatioSystem:
     """Everything of eqs. 19-34 that does not depend on theta, and the linear system at a
@@ -297,7 +174,7 @@ class _RatioSystem:
             drho = g0.rho2 - mu * g1.rho2
             blocks_l.append(2.0 * (dl - np.einsum("nij,j->ni", dq, theta)))   # L_p
             blocks_psi.append(drho - np.einsum("i,nij,j->n", theta, dq, theta))  # psi_p
-            d, o = _power_bands(mu, g0.range2(theta), g1.range2(theta), self.s_prev,
+            d, o = power_bands(mu, g0.range2(theta), g1.range2(theta), self.s_prev,
                                 self.s_cur, self.power.linked, cov_kind)
             blocks_d.append(d)
             blocks_o.append(o)
@@ -309,7 +186,7 @@ class _RatioSystem:
             ch = v1 - nu * v0 - self.one_minus_nu * c                           # eq. 27 x c
             blocks_l.append(lf)                                                 # eq. 28-29
             blocks_psi.append(lf @ theta - ch)                                  # eq. 32
-            d, o = _doppler_bands(nu, self.sig_prev, self.sig_cur, self.freq.linked,
+            d, o = doppler_bands(nu, self.sig_prev, self.sig_cur, self.freq.linked,
                                   self.carrier, v0, v1, cov_kind)
             blocks_d.append(d)
             blocks_o.append(o)
@@ -429,7 +306,7 @@ class RatioMethod(PaperMethod):
                                              "defined")
                 break
             try:
-                band = _Banded(diag, off)
+                band = Banded(diag, off)
             except np.linalg.LinAlgError:
                 status, message = DIVERGED, "the covariance Sigma is not positive definite"
                 break
@@ -463,13 +340,13 @@ def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, statu
         return diverged_result(motion, names_nu, iterations, system.n - p, method, message,
                                extra=extra)
     lmat, psi, diag, off = system.build(theta)
-    band = _Banded(diag, off)
+    band = Banded(diag, off)
     lw, pw = band.whiten(lmat), band.whiten(psi)
     d_inv = np.linalg.inv(lw.T @ lw)
     if system.covariance == "derived":
         cov = d_inv
     else:
-        sigma_true = _tridiagonal(*system.build(theta, "derived")[2:])
+        sigma_true = tridiagonal(*system.build(theta, "derived")[2:])
         sl = band.solve(lmat)                                                  # Sigma^-1 L
         cov = d_inv @ (sl.T @ sigma_true @ sl) @ d_inv
         extra["covariance_d_inverse"] = d_inv.tolist()
