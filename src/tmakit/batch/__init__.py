@@ -1,6 +1,8 @@
-"""Batch estimators: maximum likelihood with nuisance parameters eliminated (no initial guess
-needed) and the papers' own methods (ratio method, direct iterative LS, the lecture's
-Gauss-Newton), each an object with its settings in the constructor and a
+"""Batch estimators, each an object with its settings in the constructor.
+
+Maximum likelihood with nuisance parameters eliminated (no initial guess needed) and the
+papers' own methods (ratio method, direct iterative LS, the lecture's Gauss-Newton), each an
+object with its settings in the constructor and a
 ``fit(measurements, motion)`` that returns an :class:`EstimateResult`::
 
     from tmakit.batch import METHODS, MaximumLikelihood, RatioMethod

@@ -68,6 +68,7 @@ class MLByMotion(BatchEstimator):
         self.manoeuvre_options = dict(manoeuvre_options)
 
     def __repr__(self) -> str:
+        """The constructor call that makes this estimator."""
         extra = "".join(f", {k}={v!r}" for k, v in self.manoeuvre_options.items())
         return (f"MLByMotion(init={self.init!r}, options={self.options!r}, "
                 f"known_nuisance={self.known_nuisance!r}, grid={self.grid!r}, "

@@ -124,6 +124,7 @@ class PaperMethod(BatchEstimator):
     """The kinds the method can use: the rows its grid start is scored on."""
 
     def __post_init__(self) -> None:
+        """Refuse a nuisance model the papers do not have."""
         check_paper_options(self.name, self.options)
 
     @property

@@ -128,11 +128,13 @@ class PlanarGeometry:
 
     @classmethod
     def from_rows(cls, meas: MeasurementSet, motion: ConstantVelocity) -> PlanarGeometry:
+        """The geometry of the rows of ``meas``, times relative to ``motion.ref_time``."""
         s = meas.sensor_state
         return cls(meas.time - motion.ref_time, s[:, 0:2].copy(), s[:, 3:5].copy(),
                    s[:, 2].copy(), s[:, 5].copy())
 
     def take(self, idx: ArrayLike) -> PlanarGeometry:
+        """The geometry of the samples ``idx``."""
         i = np.asarray(idx)
         return PlanarGeometry(self.t[i], self.u[i], self.udot[i], self.uz[i], self.uzdot[i])
 

@@ -404,7 +404,8 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
     return [Starts(cand, cost[b], scaled) for b in range(ys.shape[0])]
 
 
-def _scores(stages, cand: NDArray[np.float64], refine: int, run: int | None = None
+def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
+            cand: NDArray[np.float64], refine: int, run: int | None = None
             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages: every candidate on a few
     rows (``stages[0]``: problem and grouped data), then the ``refine`` best of each data set
@@ -440,7 +441,7 @@ def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarP
 def grid_start(meas: MeasurementSet, motion: MotionModel,
                options: Mapping[str, Mapping[str, object]] | None = None
                ) -> NDArray[np.float64]:
-    """tmakit's no-guess starting point: the best point of the likelihood grid.
+    """The no-guess starting point of tmakit: the best point of the likelihood grid.
 
     The starting point the papers' local methods get when none is given (the same grid the
     maximum likelihood starts from).

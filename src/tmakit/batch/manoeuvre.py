@@ -77,6 +77,7 @@ class ManoeuvreEstimator(BatchEstimator):
     takes_known_nuisance: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
+        """``known_nuisance`` as a :class:`KnownNuisance` or None."""
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def manoeuvre_options(self) -> dict[str, object]:

@@ -70,6 +70,7 @@ class MaximumLikelihood(BatchEstimator):
     takes_known_nuisance: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
+        """``known_nuisance`` as a :class:`KnownNuisance` or None."""
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:

@@ -244,6 +244,7 @@ class RatioMethod(PaperMethod):
     start_kinds: ClassVar[tuple[str, ...]] = PAPER_KINDS
 
     def __post_init__(self) -> None:
+        """Refuse an unknown ``covariance`` and a nuisance model the paper does not have."""
         if self.covariance not in COVARIANCES:
             raise ValueError(f"covariance must be one of {', '.join(COVARIANCES)}, got "
                              f"{self.covariance!r}")

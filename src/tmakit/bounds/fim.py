@@ -114,10 +114,13 @@ def _nuisance_values(meas: MeasurementSet, given: Mapping[str, float] | None
     return values
 
 
-def bound_source(source, motion: MotionModel | None,
+def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
                  truth: Mapping[str, float] | ArrayLike | None,
                  nuisance: Mapping[str, float] | None,
-                 options: Mapping[str, Mapping[str, object]] | None, caller: str):
+                 options: Mapping[str, Mapping[str, object]] | None, caller: str
+                 ) -> tuple[MeasurementSet, MotionModel, Mapping[str, float] | ArrayLike,
+                            Mapping[str, float] | None,
+                            Mapping[str, Mapping[str, object]] | None]:
     """What a bound is evaluated on, ``(meas, motion, truth, nuisance, options)``, from its
     ``source``: a :class:`~tmakit.scenario.Scenario` (its noise-free simulation; its motion,
     truth and measurement options unless given; its nuisance values updated by ``nuisance``)

@@ -130,7 +130,7 @@ class Bound:
         v = state[3:6]
         speed = float(np.linalg.norm(v))
 
-        def std_of(grad6):
+        def std_of(grad6: NDArray[np.float64]) -> float:
             return float(np.sqrt(grad6 @ cov @ grad6)) if np.all(
                 np.isfinite(cov[np.ix_(grad6 != 0, grad6 != 0)])) else float("inf")
 
@@ -152,7 +152,7 @@ class Bound:
 
     def as_dict(self) -> dict[str, object]:
         """The JSON form: parameters, std, covariance, rank, unobservable, and context."""
-        def clean(x):
+        def clean(x: float) -> float | None:
             return None if not np.isfinite(x) else float(x)
 
         cov = self.covariance.copy()
@@ -174,6 +174,7 @@ class Bound:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
+        """:meth:`as_dict` as JSON text, indented by ``indent`` spaces."""
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self) -> str:

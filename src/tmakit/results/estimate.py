@@ -1,6 +1,8 @@
-"""A batch estimate as a result: named parameters with standard deviations and covariance,
-nuisance values, chi2, and a status that is never hidden (``converged``, ``did not converge``,
-``unobservable``, ``diverged``).  Every batch estimator returns an :class:`EstimateResult`,
+"""A batch estimate as a result.
+
+Named parameters with standard deviations and covariance, nuisance values, chi2, and a status
+that is never hidden (``converged``, ``did not converge``, ``unobservable``, ``diverged``).
+Every batch estimator returns an :class:`EstimateResult`,
 built by one of three functions:
 
 * :func:`assemble_result` — a weighted least-squares fit of the observation model: covariance

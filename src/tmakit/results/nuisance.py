@@ -46,10 +46,12 @@ class KnownNuisance:
     values: Mapping[str, float] = field(default_factory=dict, hash=False)
 
     def __post_init__(self) -> None:
+        """The values as a plain ``dict`` of floats (a copy)."""
         object.__setattr__(self, "values",
                            {str(k): float(v) for k, v in dict(self.values).items()})
 
     def __bool__(self) -> bool:
+        """Always true: the nuisance parameters are known."""
         return True
 
     def over(self, context: Mapping[str, float]) -> dict[str, float]:
