@@ -55,7 +55,7 @@ class Method:
     """
 
     cls: type[BatchEstimator]
-    fixed: Mapping[str, object] = field(default_factory=dict)
+    fixed: Mapping[str, object] = field(default_factory=dict, hash=False)
     summary: str = ""
 
     @property
