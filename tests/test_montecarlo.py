@@ -4,8 +4,6 @@ gu2007, saving, Dask execution, the estimator registry and argument checks."""
 from __future__ import annotations
 
 import json
-import sys
-import types
 
 import numpy as np
 import pandas as pd
@@ -14,6 +12,7 @@ from scipy.stats import chi2
 
 import tmakit as tk
 from tmakit import montecarlo as mc
+from tmakit.batch import METHODS, BatchEstimator, Method
 from tmakit.batch.ml import estimate
 from tmakit.montecarlo import MonteCarloResult, monte_carlo, ratio_interval
 
@@ -208,27 +207,34 @@ def test_dask_local_cluster_gives_the_local_table(gu2007):
 
 
 # -- the estimator registry --------------------------------------------------------------------
-def test_without_the_registry_only_ml_is_known(monkeypatch, gu2007):
-    monkeypatch.setattr(mc, "_methods", lambda: None)
-    assert mc.available_estimators() == ("ml",)
-    with pytest.raises(ValueError, match="unknown estimator 'ratio'; expected one of ml"):
-        monte_carlo(gu2007, estimator="ratio", runs=2, progress=False)
+def test_the_registry_names_the_estimators_and_what_they_accept(gu2007):
+    assert mc.available_estimators() == tuple(METHODS)
+    assert mc.available_estimators()[0] == "ml"
+    with pytest.raises(ValueError, match="unknown estimator 'kalman'; expected one of ml, "
+                                         "gu-direct, ratio-power"):
+        monte_carlo(gu2007, estimator="kalman", runs=2, progress=False)
+    # Declared by the estimator's class, not found by inspecting a signature.
+    with pytest.raises(ValueError, match="'ratio' cannot be given known nuisance"):
+        monte_carlo(gu2007, estimator="ratio", runs=1, known_nuisance=True, progress=False)
 
 
 def test_other_estimators_run_by_run_through_the_registry(monkeypatch, gu2007):
     calls = []
 
-    def estimate_with(method, meas, motion, init=None, options=None):
-        calls.append((method, len(meas), options))
-        if len(calls) == 2:
-            raise ValueError("this run has no solution")
-        return estimate(meas, motion, init=gu2007.truth, options=options)
+    class Fake(BatchEstimator):
+        name = "fake"
 
-    fake = types.ModuleType("tmakit.batch.methods")
-    fake.METHODS = {"ml": None, "fake": None}
-    fake.estimate_with = estimate_with
-    monkeypatch.setitem(sys.modules, "tmakit.batch.methods", fake)
-    assert mc.available_estimators() == ("ml", "fake")
+        def __init__(self, init=None, options=None):
+            self.init, self.options = init, options
+
+        def fit(self, meas, motion):
+            calls.append(("fake", len(meas), self.options))
+            if len(calls) == 2:
+                raise ValueError("this run has no solution")
+            return estimate(meas, motion, init=gu2007.truth, options=self.options)
+
+    monkeypatch.setitem(METHODS, "fake", Method(Fake))
+    assert mc.available_estimators()[-1] == "fake"
     res = monte_carlo(gu2007, estimator="fake", runs=3, seed=1, progress=False)
     assert [c[0] for c in calls] == ["fake"] * 3
     assert calls[0][2] == gu2007.measurement_options

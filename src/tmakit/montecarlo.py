@@ -18,7 +18,7 @@ Levenberg–Marquardt call solves every run from its first starting points, and 
 calls re-solve only the runs whose best fit did not converge or has an implausible chi2 —
 exactly what :func:`~tmakit.batch.ml.estimate` does run by run
 (:func:`~tmakit.batch.ml.solve_without_guess` serves both).  Other estimators (the registry
-:mod:`tmakit.batch.methods`, when present) are called run by run.
+:data:`tmakit.batch.methods.METHODS`) are called run by run.
 
 The summary compares the root-mean-square error over the converged runs with the CRLB of the
 same nuisance convention (nuisance parameters unknown unless ``known_nuisance``).  The 95 %
@@ -34,23 +34,21 @@ Dask, distributed and tqdm are imported only when used.
 
 from __future__ import annotations
 
-import inspect
 import json
 import math
 import time
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from importlib import import_module
 from pathlib import Path
-from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from .batch.ml import Best, estimate, solve_without_guess
+from .batch.methods import METHODS, estimate_with
+from .batch.ml import Best, solve_without_guess
 from .batch.solver import VarProProblem, levenberg_marquardt
 from .bounds.fim import crlb
 from .data import MeasurementSet
@@ -73,50 +71,23 @@ LOCAL_CHUNK = 50
 LOOP_CHUNK = 10
 #: Errors an estimator may raise on one unlucky data set; they mark the run as failed.
 RUN_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
-_METHODS_MODULE = "tmakit.batch.methods"
 
 Options = Mapping[str, Mapping[str, object]]
 
 
 # -- estimators ------------------------------------------------------------------------------
-def _methods() -> ModuleType | None:
-    """The estimator registry :mod:`tmakit.batch.methods`, or None where it does not exist."""
-    try:
-        return import_module(_METHODS_MODULE)
-    except ModuleNotFoundError as e:
-        if e.name != _METHODS_MODULE:
-            raise
-        return None
-
-
 def available_estimators() -> tuple[str, ...]:
-    """Names accepted as ``estimator``: the keys of ``tmakit.batch.methods.METHODS``, or only
-    ``"ml"`` where that registry is not installed."""
-    reg = _methods()
-    if reg is None or not hasattr(reg, "METHODS"):
-        return ("ml",)
-    names = tuple(str(k) for k in reg.METHODS)
-    return names if "ml" in names else ("ml", *names)
-
-
-def _takes_known_nuisance(func: Any) -> bool:
-    try:
-        params = inspect.signature(func).parameters
-    except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
-        return False
-    return "known_nuisance" in params or any(
-        p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    """Names accepted as ``estimator``: the keys of :data:`tmakit.batch.methods.METHODS`."""
+    return tuple(METHODS)
 
 
 def _check_estimator(estimator: str, known_nuisance: bool) -> None:
     names = available_estimators()
     if not isinstance(estimator, str) or estimator not in names:
         raise ValueError(f"unknown estimator {estimator!r}; expected one of {', '.join(names)}")
-    if known_nuisance and estimator != "ml":
-        reg = _methods()
-        if reg is None or not _takes_known_nuisance(reg.estimate_with):
-            raise ValueError(f"estimator {estimator!r} cannot be given known nuisance "
-                             "parameters; use known_nuisance=False or estimator 'ml'")
+    if known_nuisance and not METHODS[estimator].takes_known_nuisance:
+        raise ValueError(f"estimator {estimator!r} cannot be given known nuisance "
+                         "parameters; use known_nuisance=False or estimator 'ml'")
 
 
 # -- one chunk of runs (runs in this process or on a Dask worker) ----------------------------
@@ -191,25 +162,11 @@ def _per_run(task: _Task, meas: Sequence[MeasurementSet]) -> _ChunkOutput:
     """Each run through the estimator's public function."""
     scn = task.scenario
     out = _empty_output(task.first_run, len(meas), scn.motion.n_params)
-    known = dict(scn.nuisance) if task.known_nuisance else None
-    estimate_with = None
-    if task.estimator != "ml":
-        reg = _methods()
-        if reg is None:
-            raise ValueError(f"unknown estimator {task.estimator!r}: the estimator registry "
-                             f"{_METHODS_MODULE} is not installed")
-        estimate_with = reg.estimate_with
+    known = {"known_nuisance": dict(scn.nuisance)} if task.known_nuisance else {}
     for i, m in enumerate(meas):
         try:
-            if estimate_with is None:
-                res = estimate(m, scn.motion, init=task.init, options=task.options,
-                               known_nuisance=known)
-            elif known is not None:
-                res = estimate_with(task.estimator, m, scn.motion, init=task.init,
-                                    options=task.options, known_nuisance=known)
-            else:
-                res = estimate_with(task.estimator, m, scn.motion, init=task.init,
-                                    options=task.options)
+            res = estimate_with(task.estimator, m, scn.motion, init=task.init,
+                                options=task.options, **known)
         except RUN_ERRORS as e:
             out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
             continue

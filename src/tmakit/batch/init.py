@@ -12,6 +12,7 @@ no elevation data, z and its mirror fit equally).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -19,6 +20,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..blas import matmul
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from ..observation import ObservationModel
+from ..observation.noise import NoiseModel
 from .solver import VarProProblem
 
 
@@ -399,7 +404,8 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
     return [Starts(cand, cost[b], scaled) for b in range(ys.shape[0])]
 
 
-def _scores(stages, cand: NDArray[np.float64], refine: int, run: int | None = None
+def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
+            cand: NDArray[np.float64], refine: int, run: int | None = None
             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages: every candidate on a few
     rows (``stages[0]``: problem and grouped data), then the ``refine`` best of each data set
@@ -430,3 +436,38 @@ def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarP
     copy.value = values
     obs = ObservationModel(copy, problem.obs.motion, problem.obs.options)
     return VarProProblem(obs, problem.noise, problem.fixed)
+
+
+def grid_start(meas: MeasurementSet, motion: MotionModel,
+               options: Mapping[str, Mapping[str, object]] | None = None
+               ) -> NDArray[np.float64]:
+    """The no-guess starting point of tmakit: the best point of the likelihood grid.
+
+    The starting point the papers' local methods get when none is given (the same grid the
+    maximum likelihood starts from).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The rows to score the grid on.
+    motion : MotionModel
+        The motion model of the point.
+    options : Mapping, optional
+        The nuisance model per kind (default: each kind's default model).
+
+    Returns
+    -------
+    ndarray, shape (p,)
+        The motion parameters of the best grid point (SI).
+
+    Raises
+    ------
+    ValueError
+        When no grid point gives finite predictions.
+    """
+    obs = ObservationModel(meas, motion, options)
+    problem = VarProProblem(obs, NoiseModel(meas))
+    starts = best_starts(problem, obs.values)
+    if starts.shape[0] == 0:
+        raise ValueError("no starting point gives finite predictions; check the data")
+    return starts[0]

@@ -1,4 +1,4 @@
-"""Gauss–Newton on the 7-parameter vector of 001_ba171c940b7f4701.txt ("Doppler Tracking:
+"""Gauss–Newton on the 7-parameter vector of the Doppler-tracking lecture notes ("Doppler Tracking:
 Passive Tracking of an Airborne Radar").
 
 The notes estimate ``x = [X_N Y_N Z_N V_x V_y V_z f_o]`` — the emitter's position at the
@@ -23,8 +23,8 @@ full rank".  tmakit measures it — ``H^T R^-1 H`` has rank 4 of 7 (any rotation
 about an axis through the receiver leaves every range history unchanged).  The iteration does
 not crash on it: the update is the minimum-norm (pseudo-inverse) solution on the observable
 subspace (in coordinates normalised by ``diag(H^T R^-1 H)``, rank threshold
-:data:`tmakit.bounds.observability.RANK_TOL`), and the result reports ``unobservable`` with
-the rank and the named unobservable directions (:func:`tmakit.bounds.observability.analyse`).
+:data:`tmakit.results.observability.RANK_TOL`), and the result reports ``unobservable`` with
+the rank and the named unobservable directions (:func:`tmakit.results.observability.analyse`).
 With full rank the update is exactly the notes' one.
 
 "Small" is measured in standard deviations: the iteration stops when
@@ -37,9 +37,11 @@ no step control: when the ranges grow more than 1e4-fold from the start the resu
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
@@ -47,7 +49,8 @@ from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
 from ..results.estimate import UNOBSERVABLE, EstimateResult, assemble_result
 from ..results.observability import RANK_TOL, normalise
-from .gu_direct import DIVERGENCE_FACTOR
+from .estimator import Init, PaperMethod
+from .gu_geometry import DIVERGENCE_FACTOR
 from .solver import VarProProblem
 
 Array = NDArray[np.float64]
@@ -56,9 +59,9 @@ Array = NDArray[np.float64]
 def _check(meas: MeasurementSet, motion: MotionModel) -> float:
     t_n = float(np.max(meas.time))
     if not isinstance(motion, ConstantVelocity) or motion.dim != 3:
-        raise ValueError("lecture-gn: 001_ba171c940b7f4701.txt estimates [X_N Y_N Z_N Vx Vy "
-                         "Vz f_o]: the motion must be ConstantVelocity(3, ref_time=t_N) "
-                         f"(cv3d), got {motion!r}")
+        raise ValueError("lecture-gn: the Doppler-tracking lecture notes estimate "
+                         "[X_N Y_N Z_N Vx Vy Vz f_o]: the motion must be "
+                         f"ConstantVelocity(3, ref_time=t_N) (cv3d), got {motion!r}")
     if abs(motion.ref_time - t_n) > 1e-9 * max(1.0, abs(t_n)):
         raise ValueError(f"lecture-gn: the parameters are referenced at the final sample time "
                          f"t_N = {t_n:g} s; use ConstantVelocity(3, ref_time={t_n:g}) "
@@ -88,27 +91,13 @@ def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
     return step, int(keep.sum()), info
 
 
-def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel,
-                         init: Mapping[str, float] | ArrayLike | None, max_iter: int = 50,
-                         tol: float = 1e-4) -> EstimateResult:
-    """001_ba171c940b7f4701.txt: Gauss–Newton on ``[X_N Y_N Z_N V_x V_y V_z f_o]``.
-
-    ``motion`` must be ``ConstantVelocity(3, ref_time=t_N)`` with ``t_N`` the last sample
-    time.  ``init``: the six motion parameters by name or as a vector; a mapping may also give
-    ``carrier`` (f_o, Hz), otherwise f_o starts at its linear least-squares value given the
-    starting trajectory.  ``H`` is :meth:`tmakit.observation.ObservationModel.jacobian` with
-    the carrier as the nuisance column; ``R = diag(sigma^2)``.  The result's std and bound are
-    the inverse information at the estimate; a rank-deficient ``H^T R^-1 H`` gives status
-    ``unobservable`` with the rank in the message (see the module docstring).
-    """
-    _check(meas, motion)
+def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
+    """The starting ``x = [theta, f_o]``: theta from ``init``, f_o from ``init["carrier"]``
+    or its linear least-squares value given the starting trajectory."""
+    motion = obs.motion
     if init is None:
         raise ValueError("lecture-gn: a local method, it needs a starting point (init=...); "
-                         "tmakit.batch.methods.estimate_with supplies a grid start")
-    obs = ObservationModel(meas, motion, {"frequency": {"drift": False}})
-    noise = NoiseModel(meas)
-    problem = VarProProblem(obs, noise)
-    y = obs.values
+                         "LectureGaussNewton() without init starts from tmakit's grid point")
     if isinstance(init, Mapping):
         theta = motion.theta({k: v for k, v in init.items() if k in motion.param_names})
         carrier = init.get("carrier")
@@ -121,48 +110,158 @@ def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel,
     if carrier is None:
         h0, a = obs.affine(theta)
         w = noise.whiten(a[:, 0])
-        carrier = float(w @ noise.whiten(y - h0) / (w @ w))
-    x = np.concatenate([theta, [float(carrier)]])
-    p = motion.n_params
-    ranks: list[int] = []
-    norms: list[float] = []
-    converged = False
-    far = DIVERGENCE_FACTOR * max(_max_range(obs, theta), 1e3)
-    diverged = ""
-    iterations = 0
-    for it in range(1, max_iter + 1):
-        iterations = it
+        carrier = float(w @ noise.whiten(obs.values - h0) / (w @ w))
+    return np.concatenate([theta, [float(carrier)]])
+
+
+@dataclass(frozen=True, eq=False)
+class LectureGaussNewton(PaperMethod):
+    """The Doppler-tracking lecture notes: Gauss–Newton on ``[X_N Y_N Z_N V_x V_y V_z f_o]``.
+
+    Parameters
+    ----------
+    init : Mapping[str, float] or array_like, optional
+        The six motion parameters (m, m/s) by name or as a vector; a mapping may also give
+        ``carrier`` (f_o, Hz), otherwise f_o starts at its linear least-squares value given
+        the starting trajectory.  Default: tmakit's grid point on the frequency rows
+        (:class:`~tmakit.batch.estimator.PaperMethod`).
+    options : Mapping, optional
+        Only the notes' model (no drift) is accepted.
+    max_iter : int, optional
+        Iterations at most (default 50).
+    tol : float, optional
+        Converged when the update is below ``tol`` standard deviations,
+        ``sqrt(dx^T H^T R^-1 H dx) < tol`` (default 1e-4).
+
+    Notes
+    -----
+    ``motion`` must be ``ConstantVelocity(3, ref_time=t_N)`` with ``t_N`` the last sample
+    time.  ``H`` is :meth:`tmakit.observation.ObservationModel.jacobian` with the carrier as
+    the nuisance column; ``R = diag(sigma^2)``.  The result's std and bound are the inverse
+    information at the estimate; a rank-deficient ``H^T R^-1 H`` gives status
+    ``unobservable`` with the rank in the message (see the module docstring).
+
+    References
+    ----------
+    The Doppler-tracking lecture notes, "Linearize the Nonlinear Model" and "Iterating to the
+    Solution".
+    """
+
+    max_iter: int = 50
+    tol: float = 1e-4
+
+    name: ClassVar[str] = "lecture-gn"
+    start_kinds: ClassVar[tuple[str, ...]] = ("frequency",)
+
+    def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
+                ) -> EstimateResult:
+        """The notes' Gauss–Newton iteration from ``init``.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            Received frequencies only.
+        motion : MotionModel
+            ``ConstantVelocity(3, ref_time=t_N)``.
+        init : Mapping[str, float] or array_like
+            The starting point (m, m/s; ``carrier`` in Hz).
+
+        Returns
+        -------
+        EstimateResult
+            Assembled by :func:`tmakit.results.assemble_result`, with the ranks and update
+            sizes per iteration in ``extra``.
+
+        Raises
+        ------
+        ValueError
+            Without ``init``, for another motion model or other kinds.
+        """
+        _check(meas, motion)
+        obs = ObservationModel(meas, motion, {"frequency": {"drift": False}})
+        noise = NoiseModel(meas)
+        problem = VarProProblem(obs, noise)
+        x = _start(obs, noise, init)
+        x, iterations, converged, diverged, ranks, norms = self._gauss_newton(obs, noise, x)
+        p = motion.n_params
         th, nu = x[:p], x[p:]
-        j_theta, j_nu = obs.jacobian(th, nu)
-        hw = noise.whiten(np.concatenate([j_theta, j_nu], axis=1), axis=0)
-        rw = noise.whiten(y - obs.predict(th, nu))
-        if not (np.all(np.isfinite(hw)) and np.all(np.isfinite(rw))):
-            x = np.full(x.shape, np.nan)
-            break
-        step, rank, info = _pinv_step(hw, rw)
-        ranks.append(rank)
-        x = x + step
-        size = float(np.sqrt(max(step @ info @ step, 0.0)))
-        norms.append(size)
-        if not np.all(np.isfinite(x)):
-            break
-        if _max_range(obs, x[:p]) > far:
-            diverged = (f"the ranges grew more than {DIVERGENCE_FACTOR:g}-fold from the start "
-                        "(plain Gauss–Newton has no step control)")
-            x = np.full(x.shape, np.nan)
-            break
-        if size < tol or np.all(np.abs(step) <= 1e-12 * (np.abs(x) + 1.0)):
-            converged = True
-            break
-    th, nu = x[:p], x[p:]
-    cost = (0.5 * float(np.sum(noise.whiten(y - obs.predict(th, nu)) ** 2))
-            if np.all(np.isfinite(x)) else np.inf)
-    res = assemble_result(problem.obs, problem.noise, th, nu, cost, iterations, converged,
-                          "lecture-gn", 1, False)
-    res.extra.update({"ranks": ranks, "update_norms_sigma": norms})
-    if diverged:
-        res.message = diverged
-    if res.status == UNOBSERVABLE and res.bound is not None:
-        res.message = (f"H^T R^-1 H has rank {res.bound.rank} of {len(res.bound.parameters)} "
-                       "(the lecture's admitted rank deficiency); " + res.message)
-    return res
+        cost = (0.5 * float(np.sum(noise.whiten(obs.values - obs.predict(th, nu)) ** 2))
+                if np.all(np.isfinite(x)) else np.inf)
+        res = assemble_result(problem.obs, problem.noise, th, nu, cost, iterations, converged,
+                              self.name, 1, None)
+        res.extra.update({"ranks": ranks, "update_norms_sigma": norms})
+        if diverged:
+            res.message = diverged
+        if res.status == UNOBSERVABLE and res.bound is not None:
+            res.message = (f"H^T R^-1 H has rank {res.bound.rank} of "
+                           f"{len(res.bound.parameters)} (the lecture's admitted rank "
+                           "deficiency); " + res.message)
+        return res
+
+    def _gauss_newton(self, obs: ObservationModel, noise: NoiseModel, x: Array
+                      ) -> tuple[Array, int, bool, str, list[int], list[float]]:
+        """The iteration: the last ``x``, iterations, converged, why diverged, the ranks and
+        the update sizes (in standard deviations)."""
+        p = obs.motion.n_params
+        y = obs.values
+        ranks: list[int] = []
+        norms: list[float] = []
+        converged = False
+        far = DIVERGENCE_FACTOR * max(_max_range(obs, x[:p]), 1e3)
+        diverged = ""
+        iterations = 0
+        for it in range(1, self.max_iter + 1):
+            iterations = it
+            th, nu = x[:p], x[p:]
+            j_theta, j_nu = obs.jacobian(th, nu)
+            hw = noise.whiten(np.concatenate([j_theta, j_nu], axis=1), axis=0)
+            rw = noise.whiten(y - obs.predict(th, nu))
+            if not (np.all(np.isfinite(hw)) and np.all(np.isfinite(rw))):
+                x = np.full(x.shape, np.nan)
+                break
+            step, rank, info = _pinv_step(hw, rw)
+            ranks.append(rank)
+            x = x + step
+            size = float(np.sqrt(max(step @ info @ step, 0.0)))
+            norms.append(size)
+            if not np.all(np.isfinite(x)):
+                break
+            if _max_range(obs, x[:p]) > far:
+                diverged = (f"the ranges grew more than {DIVERGENCE_FACTOR:g}-fold from the "
+                            "start (plain Gauss–Newton has no step control)")
+                x = np.full(x.shape, np.nan)
+                break
+            if size < self.tol or np.all(np.abs(step) <= 1e-12 * (np.abs(x) + 1.0)):
+                converged = True
+                break
+        return x, iterations, converged, diverged, ranks, norms
+
+
+def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel, init: Init,
+                         max_iter: int = 50, tol: float = 1e-4) -> EstimateResult:
+    """The lecture's Gauss–Newton from ``init``: the short form of
+    :class:`LectureGaussNewton`.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        Received frequencies only.
+    motion : MotionModel
+        ``ConstantVelocity(3, ref_time=t_N)``.
+    init : Mapping[str, float] or array_like
+        The starting point; required (``LectureGaussNewton()`` without it starts from
+        tmakit's grid point).
+    max_iter, tol
+        As for :class:`LectureGaussNewton`.
+
+    Returns
+    -------
+    EstimateResult
+        As :meth:`LectureGaussNewton.iterate`.
+
+    Raises
+    ------
+    ValueError
+        Without ``init``, for another motion model or other kinds.
+    """
+    return LectureGaussNewton(max_iter=max_iter, tol=tol).iterate(meas, motion, init)

@@ -1,126 +1,173 @@
-"""Every batch estimator by name, and one function to call them: :func:`estimate_with`.
+"""Every batch estimator by name (:data:`METHODS`), and the short forms that build and fit
+one: :func:`estimator` and :func:`estimate_with`.
 
-* ``ml`` — tmakit's maximum likelihood (:func:`tmakit.batch.ml.estimate`): nuisance parameters
-  eliminated exactly, no initial guess needed.
-* ``gu-direct`` — 000_bc54bd8c50e47249.txt §3, iterative LS with C/C_0 and c/f_s in the
-  parameter vector (:func:`tmakit.batch.gu_direct.gu_direct`).
-* ``ratio-power``, ``ratio-doppler``, ``ratio`` — 000 §4, ratios of neighbouring power and/or
-  Doppler measurements (:func:`tmakit.batch.ratios.ratio_method`).
-* ``lecture-gn`` — 001_ba171c940b7f4701.txt, Gauss–Newton on [X_N Y_N Z_N Vx Vy Vz f_o]
-  (:func:`tmakit.batch.lecture.lecture_gauss_newton`).
+* ``ml`` — tmakit's maximum likelihood (:class:`~tmakit.batch.dispatch.MLByMotion`:
+  :class:`~tmakit.batch.ml.MaximumLikelihood`, or
+  :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator` for a manoeuvring target): nuisance
+  parameters eliminated exactly, no initial guess needed.
+* ``gu-direct`` — Gu et al. (2007) §3, iterative LS with C/C_0 and c/f_s in the parameter
+  vector (:class:`~tmakit.batch.gu_direct.GuDirect`).
+* ``ratio-power``, ``ratio-doppler``, ``ratio`` — Gu et al. (2007) §4, ratios of neighbouring
+  power and/or Doppler measurements (:class:`~tmakit.batch.ratios.RatioMethod` with
+  ``kinds`` power, frequency, or both).
+* ``lecture-gn`` — the Doppler-tracking lecture notes, Gauss–Newton on
+  [X_N Y_N Z_N Vx Vy Vz f_o] (:class:`~tmakit.batch.lecture.LectureGaussNewton`).
 
-The papers' methods are local iterations and need a starting point.  When none is given,
-:func:`estimate_with` gives them tmakit's own no-guess start: the best point of the likelihood
-grid of :func:`tmakit.batch.init.best_starts` (the same grid ``ml`` starts from).  That start is
+The papers' methods are local iterations and need a starting point.  When none is given they
+start from tmakit's own no-guess start: the best point of the likelihood grid
+(:func:`tmakit.batch.init.grid_start`, the same grid ``ml`` starts from).  That start is
 tmakit's, not the papers'; the result says so in its message and in ``extra["start"]``.
+
+What an estimator accepts is declared, not inspected: its settings are its class's
+constructor parameters, and ``takes_known_nuisance`` says whether it can hold the nuisance
+parameters at known values.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from typing import Any
-
-import numpy as np
-from numpy.typing import ArrayLike
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from ..observation import ObservationModel
-from ..observation.noise import NoiseModel
 from ..results.estimate import EstimateResult
-from .gu_direct import gu_direct
-from .init import best_starts
-from .lecture import lecture_gauss_newton
-from .ml import estimate
-from .ratios import ratio_method
-from .solver import VarProProblem
+from .dispatch import MLByMotion
+from .estimator import BatchEstimator, Init, Options
+from .gu_direct import GuDirect
+from .lecture import LectureGaussNewton
+from .ratios import RatioMethod
+
+__all__ = ["METHODS", "Method", "estimate_with", "estimator"]
 
 
-def ratio_power(meas: MeasurementSet, motion: MotionModel,
-                init: Mapping[str, float] | ArrayLike | None, **kw: Any) -> EstimateResult:
-    """The ratio method on power ratios only (000_bc54bd8c50e47249.txt eqs. 19-25)."""
-    return ratio_method(meas, motion, init, kinds=("power",), **kw)
+@dataclass(frozen=True)
+class Method:
+    """A batch estimator by name: its class and the settings the name fixes.
+
+    Parameters
+    ----------
+    cls : type
+        A :class:`~tmakit.batch.estimator.BatchEstimator` subclass.
+    fixed : Mapping[str, object], optional
+        Settings the name fixes (``ratio-power`` fixes ``kinds=("power",)``).
+    summary : str, optional
+        What the method is, in one line.
+    """
+
+    cls: type[BatchEstimator]
+    fixed: Mapping[str, object] = field(default_factory=dict, hash=False)
+    summary: str = ""
+
+    @property
+    def takes_known_nuisance(self) -> bool:
+        """Whether the method can hold the nuisance parameters at known values."""
+        return self.cls.takes_known_nuisance
+
+    def __call__(self, **settings: object) -> BatchEstimator:
+        """The estimator with these settings (and the ones the name fixes).
+
+        Parameters
+        ----------
+        **settings
+            Constructor parameters of :attr:`cls`.
+
+        Returns
+        -------
+        BatchEstimator
+            Ready to :meth:`~tmakit.batch.estimator.BatchEstimator.fit`.
+
+        Raises
+        ------
+        TypeError
+            For a setting the class does not take or the name already fixes.
+        ValueError
+            For a setting the class refuses.
+        """
+        clash = sorted(set(settings) & set(self.fixed))
+        if clash:
+            raise TypeError(f"{self.cls.__name__}: {', '.join(clash)} fixed by the method's "
+                            "name")
+        return self.cls(**{**self.fixed, **settings})
 
 
-def ratio_doppler(meas: MeasurementSet, motion: MotionModel,
-                  init: Mapping[str, float] | ArrayLike | None, **kw: Any) -> EstimateResult:
-    """The ratio method on Doppler ratios only (000_bc54bd8c50e47249.txt eqs. 26-32)."""
-    return ratio_method(meas, motion, init, kinds=("frequency",), **kw)
-
-
-def ratio_both(meas: MeasurementSet, motion: MotionModel,
-               init: Mapping[str, float] | ArrayLike | None, **kw: Any) -> EstimateResult:
-    """The ratio method on power and Doppler ratios (000_bc54bd8c50e47249.txt eqs. 33-34)."""
-    return ratio_method(meas, motion, init, kinds=("power", "frequency"), **kw)
-
-
-METHODS: dict[str, Callable[..., EstimateResult]] = {
-    "ml": estimate,
-    "gu-direct": gu_direct,
-    "ratio-power": ratio_power,
-    "ratio-doppler": ratio_doppler,
-    "ratio": ratio_both,
-    "lecture-gn": lecture_gauss_newton,
+METHODS: dict[str, Method] = {
+    "ml": Method(MLByMotion, summary="tmakit's maximum likelihood, no initial guess"),
+    "gu-direct": Method(GuDirect, summary="Gu et al. (2007) §3, direct iterative LS"),
+    "ratio-power": Method(RatioMethod, {"kinds": ("power",)},
+                          "Gu et al. (2007) §4, power ratios"),
+    "ratio-doppler": Method(RatioMethod, {"kinds": ("frequency",)},
+                            "Gu et al. (2007) §4, Doppler ratios"),
+    "ratio": Method(RatioMethod, {"kinds": ("power", "frequency")},
+                    "Gu et al. (2007) §4, power and Doppler ratios"),
+    "lecture-gn": Method(LectureGaussNewton,
+                         summary="the Doppler-tracking lecture's Gauss–Newton"),
 }
-"""Batch estimators by name; all return :class:`tmakit.batch.ml.EstimateResult`."""
-
-_KINDS_USED = {"ratio-power": ("power",), "ratio-doppler": ("frequency",),
-               "ratio": ("power", "frequency"), "gu-direct": ("power", "frequency"),
-               "lecture-gn": ("frequency",)}
+"""Batch estimators by name; each builds a :class:`~tmakit.batch.estimator.BatchEstimator`
+whose ``fit`` returns an :class:`~tmakit.results.EstimateResult`."""
 
 
-def _check_options(method: str, options: Mapping[str, Mapping[str, object]] | None) -> None:
-    """The papers' models: known path-loss exponent 2, no carrier drift."""
-    opts = dict(options or {})
-    if opts.get("frequency", {}).get("drift", False):
-        raise ValueError(f"{method}: the paper's model has no carrier drift; use method 'ml' "
-                         "for drift")
-    exponent = opts.get("power", {}).get("exponent", 2.0)
-    if exponent is None or float(exponent) != 2.0:  # type: ignore[arg-type]
-        raise ValueError(f"{method}: the paper's model has the path-loss exponent 2; use "
-                         "method 'ml' for another or an unknown exponent")
+def estimator(method: str, **settings: object) -> BatchEstimator:
+    """The batch estimator ``method`` (a key of :data:`METHODS`) with ``settings``.
 
+    Parameters
+    ----------
+    method : str
+        A key of :data:`METHODS`.
+    **settings
+        Its class's constructor parameters (``init``, ``options``, ``max_iter``, ...).
 
-def grid_start(meas: MeasurementSet, motion: MotionModel,
-               options: Mapping[str, Mapping[str, object]] | None = None) -> np.ndarray:
-    """tmakit's no-guess starting point: the best point of the likelihood grid."""
-    obs = ObservationModel(meas, motion, options)
-    problem = VarProProblem(obs, NoiseModel(meas))
-    starts = best_starts(problem, obs.values)
-    if starts.shape[0] == 0:
-        raise ValueError("no starting point gives finite predictions; check the data")
-    return starts[0]
+    Returns
+    -------
+    BatchEstimator
+        Ready to fit.
 
-
-def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
-                  init: Mapping[str, float] | ArrayLike | None = None,
-                  options: Mapping[str, Mapping[str, object]] | None = None,
-                  **kw: Any) -> EstimateResult:
-    """Run the batch estimator ``method`` (a key of :data:`METHODS`).
-
-    ``init`` is the starting point (by name or as a vector); ``None`` gives ``ml`` its own grid
-    search and the papers' local methods the best grid point (tmakit's start, not the papers').
-    ``options`` selects nuisance models for ``ml``; the papers' methods accept only their own
-    model (no drift, path-loss exponent 2).  Other keywords go to the method.
+    Raises
+    ------
+    ValueError
+        For an unknown method, or settings it refuses (the papers' methods accept only their
+        own nuisance model: no drift, path-loss exponent 2).
+    TypeError
+        For a setting it does not take.
     """
     if method not in METHODS:
         raise ValueError(f"unknown estimation method {method!r}; expected one of "
                          f"{', '.join(METHODS)}")
-    if method == "ml":
-        return estimate(meas, motion, init=init, options=options, **kw)
-    _check_options(method, options)
-    start_note = ""
-    if init is None:
-        kinds = [k for k in _KINDS_USED[method] if k in meas.kinds]
-        if "kinds" in kw and kw["kinds"] is not None:
-            wanted = (kw["kinds"],) if isinstance(kw["kinds"], str) else tuple(kw["kinds"])
-            kinds = [k for k in kinds if k in wanted]
-        rows = meas.take(np.isin(meas.kind, kinds)) if kinds else meas
-        init = grid_start(rows, motion)
-        start_note = "started from tmakit's likelihood-grid point (the papers' methods are local)"
-    result = METHODS[method](meas, motion, init, **kw)
-    if start_note:
-        result.extra["start"] = "grid"
-        result.extra["start_point"] = [float(v) for v in np.asarray(init, dtype=float)]
-        result.message = f"{start_note}; {result.message}" if result.message else start_note
-    return result
+    return METHODS[method](**settings)
+
+
+def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
+                  init: Init = None, options: Options = None,
+                  **settings: object) -> EstimateResult:
+    """Run the batch estimator ``method``: ``estimator(method, init=init, options=options,
+    **settings).fit(meas, motion)``.
+
+    Parameters
+    ----------
+    method : str
+        A key of :data:`METHODS`.
+    meas : MeasurementSet
+        The measurements.
+    motion : MotionModel
+        The motion model (for ``ml`` also a motion name).
+    init : Mapping[str, float] or array_like, optional
+        The starting point (SI); ``None`` gives ``ml`` its own grid search and the papers'
+        local methods the best grid point (tmakit's start, not the papers').
+    options : Mapping, optional
+        The nuisance model per kind for ``ml``; the papers' methods accept only their own
+        model (no drift, path-loss exponent 2).
+    **settings
+        Other settings of the method's class.
+
+    Returns
+    -------
+    EstimateResult
+        The method's result.
+
+    Raises
+    ------
+    ValueError
+        For an unknown method, refused settings, or data the method cannot use.
+    TypeError
+        For a setting the method does not take.
+    """
+    return estimator(method, init=init, options=options, **settings).fit(meas, motion)

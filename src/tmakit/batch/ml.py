@@ -6,75 +6,161 @@ Gaussian noise makes the ML estimate the weighted least-squares fit.  The nuisan
 (:mod:`tmakit.batch.init`) unless ``init`` is given.  The covariance is the inverse Fisher
 information at the estimate, over the motion and nuisance parameters together.  The status is
 never hidden: ``converged``, ``did not converge``, ``unobservable`` or ``diverged``.
+
+:class:`MaximumLikelihood` fits one motion model; a manoeuvring target has its own estimator
+(:mod:`tmakit.batch.manoeuvre`), and :func:`tmakit.batch.estimate` chooses by the motion.  This
+module imports neither.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..results.estimate import EstimateResult, assemble_result
+from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
+from .estimator import BatchEstimator, Init, Options
 from .init import GridSettings, best_starts_many
 from .solver import VarProProblem, levenberg_marquardt
 
 
-def estimate(meas: MeasurementSet, motion: MotionModel | str,
-             init: Mapping[str, float] | ArrayLike | None = None,
-             options: Mapping[str, Mapping[str, object]] | None = None,
-             known_nuisance: Mapping[str, float] | None = None,
+@dataclass(frozen=True, eq=False)
+class MaximumLikelihood(BatchEstimator):
+    """tmakit's maximum likelihood for one motion model, no initial guess needed.
+
+    Parameters
+    ----------
+    init : Mapping[str, float] or array_like, optional
+        A starting point (SI) by name or as a vector; default: the starting points of the
+        likelihood grid (:mod:`tmakit.batch.init`, then :func:`solve_without_guess`).
+    options : Mapping, optional
+        The nuisance model per kind, e.g. ``{"frequency": {"drift": True},
+        "power": {"exponent": None}}``.
+    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
+        Hold the nuisance parameters at known values instead of estimating them (see
+        :mod:`tmakit.results.nuisance`; names left out take the model defaults).  Default:
+        estimated.
+    grid : GridSettings, optional
+        The grid of starting points (default :class:`GridSettings()`).
+    max_iter : int, optional
+        Levenberg–Marquardt iterations per start at most (default 100).
+
+    Notes
+    -----
+    The motion model is a fixed one (constant velocity, stationary, ...).  A manoeuvring
+    target (a :class:`~tmakit.motion.PiecewiseCurvilinear`, a motion name) has its own
+    estimator, :class:`tmakit.batch.manoeuvre.ManoeuvreEstimator`; :func:`tmakit.batch.estimate`
+    chooses between the two.
+    """
+
+    init: Init = None
+    options: Options = None
+    known_nuisance: KnownNuisanceLike = None
+    grid: GridSettings | None = None
+    max_iter: int = 100
+
+    name: ClassVar[str] = "ml"
+    takes_known_nuisance: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        """``known_nuisance`` as a :class:`KnownNuisance` or None."""
+        object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
+
+    def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
+        """Maximum-likelihood estimate of the motion parameters from a measurement set.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (any mix of kinds and sensors).
+        motion : MotionModel
+            A motion model without manoeuvres.
+
+        Returns
+        -------
+        EstimateResult
+            Covariance the inverse Fisher information at the estimate, over the motion and
+            (unless known) nuisance parameters; status never hidden.
+
+        Raises
+        ------
+        TypeError
+            For a manoeuvring motion model or a motion name (see the class notes).
+        ValueError
+            When ``init`` has the wrong length or no grid point gives finite predictions.
+        """
+        if isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None:
+            raise TypeError(f"MaximumLikelihood fits one motion model; the motion {motion!r} "
+                            "is a manoeuvring target's: use ManoeuvreEstimator "
+                            "(tmakit.batch.manoeuvre) or tmakit.batch.estimate")
+        known = self.known_nuisance
+        obs = ObservationModel(meas, motion, self.options)
+        fixed = None if known is None else obs.nuisance_vector(known.values)
+        problem = VarProProblem(obs, None, fixed)
+        y = obs.values
+        if self.init is not None:
+            init = self.init
+            theta0 = (motion.theta(init) if isinstance(init, Mapping)
+                      else np.asarray(init, dtype=float)).reshape(1, -1)
+            if theta0.shape[1] != motion.n_params:
+                raise ValueError(f"init must give {motion.n_params} values "
+                                 f"({', '.join(motion.param_names)})")
+            sol = levenberg_marquardt(problem, y, theta0, max_iter=self.max_iter)
+            best = Best(sol.theta[0], sol.nuisance[0], float(sol.cost[0]),
+                        int(sol.iterations[0]), bool(sol.converged[0]), 1)
+        else:
+            (found,) = solve_without_guess(problem, y[None, :], self.grid, self.max_iter)
+            if found is None:
+                raise ValueError("no starting point gives finite predictions; check the data")
+            best = found
+        return assemble_result(problem.obs, problem.noise, best.theta, best.nuisance,
+                               best.cost, best.iterations, best.converged, self.name,
+                               best.starts, known, best.note)
+
+
+def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
+             options: Options = None, known_nuisance: KnownNuisanceLike = None,
              grid: GridSettings | None = None, max_iter: int = 100,
              **manoeuvre_options: object) -> EstimateResult:
-    """Maximum-likelihood estimate of the motion parameters from a measurement set.
+    """The short form of :class:`MaximumLikelihood`: ``MaximumLikelihood(...).fit(meas,
+    motion)``.
 
-    ``init`` (optional) is a starting point by name or as a vector; without it the grid of
-    :mod:`tmakit.batch.init` finds the starting points.  ``options`` selects the nuisance
-    model per kind (``{"frequency": {"drift": True}, "power": {"exponent": None}}``).
-    ``known_nuisance`` fixes the nuisance parameters at the given values instead of
-    estimating them.
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    motion : MotionModel
+        A motion model without manoeuvres.
+    init, options, known_nuisance, grid, max_iter
+        As for :class:`MaximumLikelihood`.
+    **manoeuvre_options
+        Refused (they belong to manoeuvring targets; :func:`tmakit.batch.estimate` takes
+        them).
 
-    A manoeuvring target — ``motion`` a :class:`~tmakit.motion.PiecewiseCurvilinear` with
-    ``M`` manoeuvres, or the name ``"curvilinear:M"`` — goes to
-    :func:`tmakit.batch.curvilinear.estimate_for`: ``0..M`` manoeuvres, the number chosen by
-    a stated criterion (``manoeuvre_options``: ``exact``, ``criterion``, ``alpha``,
-    ``ref_time``, ``settings``).
+    Returns
+    -------
+    EstimateResult
+        As :meth:`MaximumLikelihood.fit`.
+
+    Raises
+    ------
+    TypeError
+        For options of manoeuvring targets, a manoeuvring motion model or a motion name.
+    ValueError
+        As :meth:`MaximumLikelihood.fit`.
     """
-    # -- manoeuvring targets: their own estimator (tmakit.batch.curvilinear) ----------------
-    if isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None:
-        from .curvilinear import estimate_for
-
-        return estimate_for(meas, motion, init=init, options=options,
-                            known_nuisance=known_nuisance, max_iter=max_iter,
-                            **manoeuvre_options)
     if manoeuvre_options:
         raise TypeError(f"estimate() got options for manoeuvring targets "
-                        f"({', '.join(manoeuvre_options)}) with motion {motion.name!r}")
-    # -------------------------------------------------------------------------------------
-    obs = ObservationModel(meas, motion, options)
-    fixed = None if known_nuisance is None else obs.nuisance_vector(known_nuisance)
-    problem = VarProProblem(obs, None, fixed)
-    y = obs.values
-    if init is not None:
-        theta0 = (motion.theta(init) if isinstance(init, Mapping)
-                  else np.asarray(init, dtype=float)).reshape(1, -1)
-        if theta0.shape[1] != motion.n_params:
-            raise ValueError(f"init must give {motion.n_params} values "
-                             f"({', '.join(motion.param_names)})")
-        sol = levenberg_marquardt(problem, y, theta0, max_iter=max_iter)
-        best = Best(sol.theta[0], sol.nuisance[0], float(sol.cost[0]),
-                    int(sol.iterations[0]), bool(sol.converged[0]), 1)
-    else:
-        (best,) = solve_without_guess(problem, y[None, :], grid, max_iter)
-        if best is None:
-            raise ValueError("no starting point gives finite predictions; check the data")
-    return assemble_result(problem.obs, problem.noise, best.theta, best.nuisance, best.cost,
-                           best.iterations, best.converged, "ml", best.starts,
-                           known_nuisance is not None, best.note)
+                        f"({', '.join(manoeuvre_options)}) with motion "
+                        f"{getattr(motion, 'name', motion)!r}")
+    return MaximumLikelihood(init, options, known_nuisance, grid, max_iter).fit(meas, motion)
 
 
 DENSE_GRID = GridSettings(n_ranges=20, n_bearings=24,

@@ -1,4 +1,4 @@
-"""The ratio method of 000_bc54bd8c50e47249.txt §4: ratios of neighbouring measurements remove
+"""The ratio method of Gu et al. (2007) §4: ratios of neighbouring measurements remove
 the nuisance parameters C (power) and f_s (Doppler).
 
 Power (eqs. 19-25).  ``mu_k = P_k / P_{k-1}`` (linear watts; tmakit stores dBW, so
@@ -83,20 +83,29 @@ theta, whose error is uncorrelated with the fit of the nuisance).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import cho_solve_banded, cholesky_banded, solve_banded
+from numpy.typing import NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
-from ..results.estimate import DIVERGED, NOT_CONVERGED, EstimateResult
+from ..results.estimate import (
+    DIVERGED,
+    NOT_CONVERGED,
+    EstimateResult,
+    diverged_result,
+    result_from_covariance,
+)
 from ..units import SPEED_OF_LIGHT
-from .gu_direct import (
+from .estimator import Init, PaperMethod, kinds_tuple
+from .gu_geometry import (
     DIVERGENCE_FACTOR,
+    NUISANCE_NAMES,
+    PAPER_KINDS,
     PlanarGeometry,
     carrier_guess,
     check_planar_cv,
@@ -105,149 +114,27 @@ from .gu_direct import (
     select_kinds,
     snr_from_sigma_db,
 )
+from .ratio_noise import (
+    COVARIANCES,
+    Banded,
+    doppler_bands,
+    doppler_ratio_covariance,
+    power_bands,
+    power_ratio_covariance,
+    ratio_pairs,
+    tridiagonal,
+)
 
 Array = NDArray[np.float64]
 
-COVARIANCES = ("derived", "paper")
-
-
-@dataclass(frozen=True)
-class RatioPairs:
-    """Consecutive pairs (``prev``, ``cur``: row indices) of one kind, and ``linked[j]`` True
-    when pair ``j`` and pair ``j + 1`` share a sample (same sensor), i.e. are correlated."""
-
-    prev: NDArray[np.int64]
-    cur: NDArray[np.int64]
-    linked: NDArray[np.bool_]
-
-
-def ratio_pairs(meas: MeasurementSet, kind: str) -> RatioPairs:
-    """Pairs of consecutive samples of ``kind`` per sensor, in time order."""
-    prev, cur, linked = [], [], []
-    for s in meas.sensors:
-        rows = np.flatnonzero((meas.kind == kind) & (meas.sensor == s))
-        if rows.size < 2:
-            continue
-        rows = rows[np.argsort(meas.time[rows], kind="stable")]
-        if np.any(np.diff(meas.time[rows]) <= 0):
-            raise ValueError(f"ratio method: {kind} samples of sensor {s!r} must have "
-                             "distinct times (pairs are formed from consecutive samples)")
-        prev.append(rows[:-1])
-        cur.append(rows[1:])
-        link = np.ones(rows.size - 1, dtype=bool)
-        link[-1] = False
-        linked.append(link)
-    if not prev:
-        empty = np.zeros(0, dtype=np.int64)
-        return RatioPairs(empty, empty, np.zeros(0, dtype=bool))
-    return RatioPairs(np.concatenate(prev), np.concatenate(cur), np.concatenate(linked))
-
-
-def _tridiagonal(diag: Array, off: Array) -> Array:
-    """The dense symmetric tri-diagonal matrix with ``off[j]`` at (j, j+1) and (j+1, j)."""
-    out = np.diag(diag)
-    idx = np.arange(diag.size - 1)
-    out[idx, idx + 1] = off[:-1]
-    out[idx + 1, idx] = off[:-1]
-    return out
-
-
-def _power_bands(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array, s_cur: Array,
-                 linked: NDArray[np.bool_], covariance: str) -> tuple[Array, Array]:
-    diag = mu ** 2 * r2_cur ** 2 * s_prev + r2_prev ** 2 * s_cur
-    off = np.zeros(mu.size)
-    if mu.size > 1:
-        # (k, k+1): mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k, negative when derived.
-        off[:-1] = mu[1:] * r2_prev[:-1] * r2_cur[1:] * s_cur[:-1]
-    sign = -1.0 if covariance == "derived" else 1.0
-    return diag, np.where(linked, sign * off, 0.0)
-
-
-def _doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArray[np.bool_],
-                   carrier: float, v_prev: Array | None, v_cur: Array | None,
-                   covariance: str) -> tuple[Array, Array]:
-    c = SPEED_OF_LIGHT
-    scale = (c / carrier) ** 2
-    off = np.zeros(nu.size)
-    if covariance == "derived":
-        diag = sigma_cur ** 2 + nu ** 2 * sigma_prev ** 2
-        if nu.size > 1:
-            off[:-1] = -nu[1:] * sigma_cur[:-1] ** 2
-    else:
-        if v_prev is None or v_cur is None:
-            raise ValueError("the paper's Doppler covariance needs the radial velocities")
-        a_cur, a_prev = (1.0 - v_cur / c) ** 2, (1.0 - v_prev / c) ** 2
-        diag = a_cur * sigma_cur ** 2 + nu ** 2 * a_prev * sigma_prev ** 2
-        if nu.size > 1:
-            off[:-1] = -nu[1:] * a_cur[1:] * sigma_cur[:-1] ** 2  # (1 - v_{k+1}/c)^2
-    return scale * diag, np.where(linked, scale * off, 0.0)
-
-
-def power_ratio_covariance(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array,
-                           s_cur: Array, linked: NDArray[np.bool_] | None = None,
-                           covariance: str = "derived") -> Array:
-    """Covariance (dense) of the noise terms of eq. 21 for consecutive pairs.
-
-    ``mu`` the measured ratios, ``r2_*`` the squared ranges ``R^2`` of each pair's earlier and
-    later sample, ``s_*`` their relative noise variances ``1/SNR_p``.  Pair j+1's earlier
-    sample is pair j's later sample where ``linked[j]`` (default: one chain).  Diagonal
-    ``mu_k^2 R_k^4 s_{k-1} + R_{k-1}^4 s_k``; off-diagonal ``-mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``
-    (``covariance="derived"``) or the paper's ``+mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``.
-    """
-    linked = _chain(mu.size) if linked is None else linked
-    return _tridiagonal(*_power_bands(mu, r2_prev, r2_cur, s_prev, s_cur, linked, covariance))
-
-
-def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
-                             linked: NDArray[np.bool_] | None = None,
-                             carrier: float = 1.0, v_prev: Array | None = None,
-                             v_cur: Array | None = None, covariance: str = "derived") -> Array:
-    """Covariance (dense) of the noise terms of ``c h_k`` (eq. 27 times c).
-
-    Derived: ``(c/f_s)^2`` times diagonal ``sigma_k^2 + nu_k^2 sigma_{k-1}^2``, off-diagonal
-    ``-nu_{k+1} sigma_k^2``.  Paper (needs the radial velocities ``v``): diagonal
-    ``(1 - v_k/c)^2 sigma_k^2 + nu_k^2 (1 - v_{k-1}/c)^2 sigma_{k-1}^2``, off-diagonal
-    ``-nu_{k+1} (1 - v_{k+1}/c)^2 sigma_k^2`` as printed.
-    """
-    linked = _chain(nu.size) if linked is None else linked
-    return _tridiagonal(*_doppler_bands(nu, sigma_prev, sigma_cur, linked, carrier, v_prev,
-                                        v_cur, covariance))
-
-
-def _chain(n: int) -> NDArray[np.bool_]:
-    linked = np.ones(n, dtype=bool)
-    if n:
-        linked[-1] = False
-    return linked
-
-
-class _Banded:
-    """Whitening by a symmetric positive-definite tri-diagonal matrix (banded Cholesky)."""
-
-    def __init__(self, diag: Array, off: Array) -> None:
-        ab = np.zeros((2, diag.size))
-        ab[0] = diag
-        ab[1, :-1] = off[:-1]
-        self.diag, self.off = diag, off
-        self.factor = cholesky_banded(ab, lower=True)   # raises LinAlgError if not PD
-
-    def whiten(self, x: Array) -> Array:
-        """``C^-1 x`` with ``Sigma = C C^T``."""
-        return solve_banded((1, 0), self.factor, x)
-
-    def solve(self, x: Array) -> Array:
-        """``Sigma^-1 x``."""
-        return cho_solve_banded((self.factor, True), x)
-
-    def dense(self) -> Array:
-        return _tridiagonal(self.diag, self.off)
-
+__all__ = ["RatioMethod", "doppler_ratio_covariance", "nuisance_given_theta",
+           "power_ratio_covariance", "ratio_method"]
 
 class _RatioSystem:
     """Everything of eqs. 19-34 that does not depend on theta, and the linear system at a
     given theta."""
 
-    def __init__(self, sub: MeasurementSet, motion, kinds: tuple[str, ...],
+    def __init__(self, sub: MeasurementSet, motion: MotionModel, kinds: tuple[str, ...],
                  covariance: str) -> None:
         self.sub = sub
         self.kinds = kinds
@@ -287,7 +174,7 @@ class _RatioSystem:
             drho = g0.rho2 - mu * g1.rho2
             blocks_l.append(2.0 * (dl - np.einsum("nij,j->ni", dq, theta)))   # L_p
             blocks_psi.append(drho - np.einsum("i,nij,j->n", theta, dq, theta))  # psi_p
-            d, o = _power_bands(mu, g0.range2(theta), g1.range2(theta), self.s_prev,
+            d, o = power_bands(mu, g0.range2(theta), g1.range2(theta), self.s_prev,
                                 self.s_cur, self.power.linked, cov_kind)
             blocks_d.append(d)
             blocks_o.append(o)
@@ -299,7 +186,7 @@ class _RatioSystem:
             ch = v1 - nu * v0 - self.one_minus_nu * c                           # eq. 27 x c
             blocks_l.append(lf)                                                 # eq. 28-29
             blocks_psi.append(lf @ theta - ch)                                  # eq. 32
-            d, o = _doppler_bands(nu, self.sig_prev, self.sig_cur, self.freq.linked,
+            d, o = doppler_bands(nu, self.sig_prev, self.sig_cur, self.freq.linked,
                                   self.carrier, v0, v1, cov_kind)
             blocks_d.append(d)
             blocks_o.append(o)
@@ -307,92 +194,207 @@ class _RatioSystem:
                 np.concatenate(blocks_o))
 
 
-def ratio_method(meas: MeasurementSet, motion: MotionModel,
-                 init: Mapping[str, float] | ArrayLike | None,
-                 kinds: str | Sequence[str] = ("power", "frequency"), max_iter: int = 50,
-                 covariance: str = "derived", tol: float = 1e-9) -> EstimateResult:
-    """000_bc54bd8c50e47249.txt §4: iterative LS on ratios of neighbouring measurements.
+RATIO_NAMES = {("power",): "ratio-power", ("frequency",): "ratio-doppler"}
+"""The method's name by the kinds used (both: ``"ratio"``)."""
 
-    ``kinds``: ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34).
-    ``init`` is the starting ``theta = [x_0, y_0, v_x, v_y]`` (by name or vector); the method
-    is local.  ``covariance``: ``"derived"`` (default) or ``"paper"``, see the module
-    docstring.  Iterates ``theta_{i+1} = D_i^-1 N_i`` (solved as the equivalent whitened least
-    squares with equilibrated columns) until the update is below ``tol`` relative
-    (``converged``); ``diverged`` when theta becomes non-finite, a range non-positive, or the
-    ranges grow more than 1e4-fold.
+
+@dataclass(frozen=True, eq=False)
+class RatioMethod(PaperMethod):
+    """Gu et al. (2007) §4: iterative LS on ratios of neighbouring measurements.
+
+    Parameters
+    ----------
+    init : Mapping[str, float] or array_like, optional
+        The starting ``theta = [x_0, y_0, v_x, v_y]`` (m, m/s), by name or as a vector; the
+        method is local.  Default: tmakit's grid point
+        (:class:`~tmakit.batch.estimator.PaperMethod`).
+    options : Mapping, optional
+        Only the paper's model (no drift, path-loss exponent 2) is accepted.
+    kinds : str or sequence of str, optional
+        ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34, the
+        default).
+    max_iter : int, optional
+        Iterations at most (default 50).
+    covariance : str, optional
+        ``"derived"`` (default) or ``"paper"``, see the module docstring.
+    tol : float, optional
+        Converged when the update is below ``tol * (1 + |theta|)`` (default 1e-9).
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``covariance`` or a nuisance model other than the paper's.
+
+    Notes
+    -----
+    Iterates ``theta_{i+1} = D_i^-1 N_i`` (solved as the equivalent whitened least squares
+    with equilibrated columns) until the update is small (``converged``); ``diverged`` when
+    theta becomes non-finite, a range non-positive, or the ranges grow more than 1e4-fold.
+
+    References
+    ----------
+    Gu et al. (2007), §4, eqs. 19-34.
     """
-    if covariance not in COVARIANCES:
-        raise ValueError(f"covariance must be one of {', '.join(COVARIANCES)}, got "
-                         f"{covariance!r}")
-    check_planar_cv(motion, "ratio method")
-    kinds_used, sub = select_kinds(meas, kinds, "ratio method")
-    theta = initial_theta(motion, init, "ratio method")
-    system = _RatioSystem(sub, motion, kinds_used, covariance)
-    method = {("power",): "ratio-power", ("frequency",): "ratio-doppler"}.get(kinds_used,
-                                                                               "ratio")
-    if system.n < motion.n_params:
-        raise ValueError(f"ratio method: {system.n} ratios cannot determine "
-                         f"{motion.n_params} parameters")
-    status, message = NOT_CONVERGED, ""
-    far = DIVERGENCE_FACTOR * max(float(np.sqrt(np.max(system.geo.range2(theta)))), 1e3)
-    steps: list[float] = []
-    iterations = 0
-    for it in range(1, max_iter + 1):
-        iterations = it
-        lmat, psi, diag, off = system.build(theta)
-        if not (np.all(np.isfinite(lmat)) and np.all(np.isfinite(psi))
-                and np.all(np.isfinite(diag)) and np.all(np.isfinite(off))):
-            status, message = DIVERGED, "the iterate left the region where the model is defined"
-            break
-        try:
-            band = _Banded(diag, off)
-        except np.linalg.LinAlgError:
-            status, message = DIVERGED, "the covariance Sigma is not positive definite"
-            break
-        lw, pw = band.whiten(lmat), band.whiten(psi)
-        scale = np.linalg.norm(lw, axis=0)
-        scale = np.where(scale > 0, scale, 1.0)
-        new = np.linalg.lstsq(lw / scale, pw, rcond=None)[0] / scale           # D^-1 N
-        if not np.all(np.isfinite(new)):
-            status, message = DIVERGED, "the iterate became non-finite"
-            break
-        step = new - theta
-        theta = new
-        steps.append(float(np.linalg.norm(step)))
-        stop = iteration_stop(theta, step, system.geo.range2(theta), far, tol)
-        if stop is not None:
-            status, message = stop
-            break
-    extra: dict[str, object] = {"covariance": covariance, "kinds": list(kinds_used),
-                                "n_ratios": int(system.n), "update_norms": steps}
+
+    kinds: str | Sequence[str] | None = ("power", "frequency")
+    max_iter: int = 50
+    covariance: str = "derived"
+    tol: float = 1e-9
+
+    start_kinds: ClassVar[tuple[str, ...]] = PAPER_KINDS
+
+    def __post_init__(self) -> None:
+        """Refuse an unknown ``covariance`` and a nuisance model the paper does not have."""
+        if self.covariance not in COVARIANCES:
+            raise ValueError(f"covariance must be one of {', '.join(COVARIANCES)}, got "
+                             f"{self.covariance!r}")
+        super().__post_init__()
+
+    @property
+    def name(self) -> str:  # type: ignore[override]
+        """``ratio-power``, ``ratio-doppler`` or ``ratio``, by the kinds asked for."""
+        wanted = self.kinds_wanted
+        if wanted is None:
+            return "ratio"
+        return RATIO_NAMES.get(tuple(k for k in PAPER_KINDS if k in wanted), "ratio")
+
+    @property
+    def kinds_wanted(self) -> tuple[str, ...] | None:
+        """The kinds asked for (None: both, as the data hold them)."""
+        return kinds_tuple(self.kinds)
+
+    def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
+                ) -> EstimateResult:
+        """The iteration of Gu et al. (2007) §4 from ``init``.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            Power and/or frequency measurements.
+        motion : MotionModel
+            ``ConstantVelocity(2)``.
+        init : Mapping[str, float] or array_like
+            The starting theta (m, m/s).
+
+        Returns
+        -------
+        EstimateResult
+            With the derived (or sandwich) covariance and ``extra`` diagnostics.
+
+        Raises
+        ------
+        ValueError
+            Without ``init``, for another motion model, data of other kinds, or fewer
+            ratios than parameters.
+        """
+        check_planar_cv(motion, "ratio method")
+        kinds_used, sub = select_kinds(meas, self.kinds, "ratio method")
+        theta = initial_theta(motion, init, "ratio method")
+        system = _RatioSystem(sub, motion, kinds_used, self.covariance)
+        if system.n < motion.n_params:
+            raise ValueError(f"ratio method: {system.n} ratios cannot determine "
+                             f"{motion.n_params} parameters")
+        status, message = NOT_CONVERGED, ""
+        far = DIVERGENCE_FACTOR * max(float(np.sqrt(np.max(system.geo.range2(theta)))), 1e3)
+        steps: list[float] = []
+        iterations = 0
+        for it in range(1, self.max_iter + 1):
+            iterations = it
+            lmat, psi, diag, off = system.build(theta)
+            if not (np.all(np.isfinite(lmat)) and np.all(np.isfinite(psi))
+                    and np.all(np.isfinite(diag)) and np.all(np.isfinite(off))):
+                status, message = DIVERGED, ("the iterate left the region where the model is "
+                                             "defined")
+                break
+            try:
+                band = Banded(diag, off)
+            except np.linalg.LinAlgError:
+                status, message = DIVERGED, "the covariance Sigma is not positive definite"
+                break
+            lw, pw = band.whiten(lmat), band.whiten(psi)
+            scale = np.linalg.norm(lw, axis=0)
+            scale = np.where(scale > 0, scale, 1.0)
+            new = np.linalg.lstsq(lw / scale, pw, rcond=None)[0] / scale           # D^-1 N
+            if not np.all(np.isfinite(new)):
+                status, message = DIVERGED, "the iterate became non-finite"
+                break
+            step = new - theta
+            theta = new
+            steps.append(float(np.linalg.norm(step)))
+            stop = iteration_stop(theta, step, system.geo.range2(theta), far, self.tol)
+            if stop is not None:
+                status, message = stop
+                break
+        extra: dict[str, object] = {"covariance": self.covariance, "kinds": list(kinds_used),
+                                    "n_ratios": int(system.n), "update_norms": steps}
+        return _ratio_result(system, motion, theta, status, message, iterations, extra)
+
+
+def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, status: str,
+                  message: str, iterations: int, extra: dict[str, object]) -> EstimateResult:
+    """The result at the last iterate: the covariance ``D^-1`` (derived) or the sandwich
+    (paper), chi2 of the whitened ratios, the nuisance values given theta."""
+    method = RATIO_NAMES.get(system.kinds, "ratio")
     p = motion.n_params
-    names_nu = [{"power": "power_constant_db", "frequency": "carrier"}[k] for k in kinds_used]
     if status == DIVERGED:
-        nan = np.full(p, np.nan)
-        return EstimateResult(motion.param_names, nan, nan, np.full((p, p), np.nan),
-                              {n: (np.nan, np.nan) for n in names_nu}, DIVERGED, iterations,
-                              np.inf, system.n - p, method, motion, None, 1, message, extra)
+        names_nu = [NUISANCE_NAMES[k] for k in system.kinds]
+        return diverged_result(motion, names_nu, iterations, system.n - p, method, message,
+                               extra=extra)
     lmat, psi, diag, off = system.build(theta)
-    band = _Banded(diag, off)
+    band = Banded(diag, off)
     lw, pw = band.whiten(lmat), band.whiten(psi)
     d_inv = np.linalg.inv(lw.T @ lw)
-    if covariance == "derived":
+    if system.covariance == "derived":
         cov = d_inv
     else:
-        sigma_true = _tridiagonal(*system.build(theta, "derived")[2:])
+        sigma_true = tridiagonal(*system.build(theta, "derived")[2:])
         sl = band.solve(lmat)                                                  # Sigma^-1 L
         cov = d_inv @ (sl.T @ sigma_true @ sl) @ d_inv
         extra["covariance_d_inverse"] = d_inv.tolist()
     cov = 0.5 * (cov + cov.T)
-    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     resid = pw - lw @ theta
     chi2 = float(resid @ resid)
-    nuis = nuisance_given_theta(sub, motion, theta, cov)
+    nuis = nuisance_given_theta(system.sub, motion, theta, cov)
     if status == NOT_CONVERGED:
         message = "the iteration limit was reached before the update became small"
-    return EstimateResult(motion.param_names, theta.copy(), std, cov, nuis, status,
-                          iterations, chi2, system.n - p, method, motion, None, 1, message,
-                          extra)
+    return result_from_covariance(motion, theta, cov, nuis, status, iterations, chi2,
+                                  system.n - p, method, message, extra)
+
+
+def ratio_method(meas: MeasurementSet, motion: MotionModel, init: Init,
+                 kinds: str | Sequence[str] = ("power", "frequency"), max_iter: int = 50,
+                 covariance: str = "derived", tol: float = 1e-9) -> EstimateResult:
+    """Gu et al. (2007) §4 from ``init``: the short form of :class:`RatioMethod`.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        Power and/or frequency measurements.
+    motion : MotionModel
+        ``ConstantVelocity(2)``.
+    init : Mapping[str, float] or array_like
+        The starting theta (m, m/s); required (``RatioMethod()`` without it starts from
+        tmakit's grid point).
+    kinds, max_iter, covariance, tol
+        As for :class:`RatioMethod`.
+
+    Returns
+    -------
+    EstimateResult
+        As :meth:`RatioMethod.iterate`.
+
+    Raises
+    ------
+    ValueError
+        Without ``init``, for an unknown ``covariance``, another motion model, or data of
+        other kinds.
+
+    References
+    ----------
+    Gu et al. (2007), §4, eqs. 19-34.
+    """
+    return RatioMethod(kinds=kinds, max_iter=max_iter, covariance=covariance,
+                       tol=tol).iterate(meas, motion, init)
 
 
 def nuisance_given_theta(meas: MeasurementSet, motion: MotionModel, theta: Array,

@@ -2,15 +2,16 @@
 sensors and motion models.
 
 For Gaussian noise with covariance R the information about the unknowns ``u`` is
-``F = J^T R^-1 J`` with ``J = d predictions / d u`` (000_bc54bd8c50e47249.txt eqs. 17-18
-are the special cases for power and Doppler; 002_e7269ad11b825346.txt eq. 9 for azimuth and
-azimuth rate).  The unknowns are the motion parameters and, unless they are declared known,
-the nuisance parameters (carrier and drift, power constant, path-loss exponent).
+``F = J^T R^-1 J`` with ``J = d predictions / d u`` (Gu et al. (2007), eqs. 17-18 are the
+special cases for power and Doppler; Hörst & Oispuu (2010), eq. 9 for azimuth and azimuth
+rate).  The unknowns are the motion parameters and, unless they are declared known, the
+nuisance parameters (carrier and drift, power constant, path-loss exponent).
 **Default: nuisance parameters unknown** — the bound that matches an estimator that does not
-know them.
+know them.  Which are known is said with :class:`~tmakit.results.nuisance.KnownNuisance`
+(``True`` and a mapping of values are accepted and converted once).
 
 Where the information is singular nothing is inverted blindly: the unobservable directions are
-named (:mod:`tmakit.bounds.observability`) and every parameter or derived quantity that depends
+named (:mod:`tmakit.results.observability`) and every parameter or derived quantity that depends
 on them has an infinite standard deviation.
 """
 
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,21 +29,70 @@ from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
 from ..results.bound import Bound, bound_from_information
+from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..scenario import Scenario
 
 
 def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike,
-                      nuisance: ArrayLike, known_nuisance: bool) -> NDArray[np.float64]:
-    """``R^{-1/2} J`` with respect to the unknowns (motion parameters, then nuisance)."""
+                      nuisance: ArrayLike, known_nuisance: KnownNuisanceLike = None
+                      ) -> NDArray[np.float64]:
+    """``R^{-1/2} J`` with respect to the unknowns (motion parameters, then nuisance).
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The measurements' observation model.
+    noise : NoiseModel
+        Their noise model (``R``), in the row order of ``obs.meas``.
+    theta : array_like, shape (p,)
+        Motion parameters (SI units of each).
+    nuisance : array_like, shape (k,)
+        Nuisance parameters.
+    known_nuisance : KnownNuisance, Mapping, bool or None, optional
+        Known nuisance parameters are no unknowns: their columns are left out.  Default:
+        unknown.
+
+    Returns
+    -------
+    ndarray, shape (n, p) or (n, p + k)
+        The whitened Jacobian.
+    """
     j_theta, j_nu = obs.jacobian(theta, nuisance)
-    jac = j_theta if known_nuisance else np.concatenate([j_theta, j_nu], axis=-1)
+    known = as_known_nuisance(known_nuisance) is not None
+    jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
     return noise.whiten(jac, axis=-2)
 
 
 def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayLike,
-                       known_nuisance: bool = False, noise: NoiseModel | None = None
-                       ) -> NDArray[np.float64]:
+                       known_nuisance: KnownNuisanceLike = None,
+                       noise: NoiseModel | None = None) -> NDArray[np.float64]:
     """The Fisher information about the motion parameters (and the nuisance parameters
-    unless known) at ``theta``, ``nuisance``."""
+    unless known) at ``theta``, ``nuisance``.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The measurements' observation model.
+    theta : array_like, shape (p,)
+        Motion parameters (SI units of each).
+    nuisance : array_like, shape (k,)
+        Nuisance parameters.
+    known_nuisance : KnownNuisance, Mapping, bool or None, optional
+        Whether the nuisance parameters are known (then no unknowns).  Default: unknown.
+    noise : NoiseModel, optional
+        The noise model; default ``NoiseModel(obs.meas)``.
+
+    Returns
+    -------
+    ndarray, shape (q, q)
+        ``J^T R^-1 J`` over the unknowns, in the units of the parameters (inverse squared).
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 17-18; Hörst & Oispuu (2010), eq. 9.
+    """
     noise = noise or NoiseModel(obs.meas)
     w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
     return w.T @ w
@@ -63,10 +114,13 @@ def _nuisance_values(meas: MeasurementSet, given: Mapping[str, float] | None
     return values
 
 
-def bound_source(source, motion: MotionModel | None,
+def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
                  truth: Mapping[str, float] | ArrayLike | None,
                  nuisance: Mapping[str, float] | None,
-                 options: Mapping[str, Mapping[str, object]] | None, caller: str):
+                 options: Mapping[str, Mapping[str, object]] | None, caller: str
+                 ) -> tuple[MeasurementSet, MotionModel, Mapping[str, float] | ArrayLike,
+                            Mapping[str, float] | None,
+                            Mapping[str, Mapping[str, object]] | None]:
     """What a bound is evaluated on, ``(meas, motion, truth, nuisance, options)``, from its
     ``source``: a :class:`~tmakit.scenario.Scenario` (its noise-free simulation; its motion,
     truth and measurement options unless given; its nuisance values updated by ``nuisance``)
@@ -103,24 +157,62 @@ def truth_vector(motion: MotionModel, truth: Mapping[str, float] | ArrayLike
     return theta
 
 
-def crlb(source, motion: MotionModel | None = None,
+def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
          truth: Mapping[str, float] | ArrayLike | None = None,
-         nuisance: Mapping[str, float] | None = None, known_nuisance: bool = False,
+         nuisance: Mapping[str, float] | None = None,
+         known_nuisance: KnownNuisanceLike = None,
          options: Mapping[str, Mapping[str, object]] | None = None) -> Bound:
     """The Cramér–Rao bound of a scenario (at its truth) or of a measurement set (at the
     given ``truth``; the measured values are not used, only times, sensors, kinds and sigmas).
 
-    ``known_nuisance=False`` (default) treats carrier, drift, power constant and path-loss
-    exponent as unknown; ``options`` selects them per kind (``{"frequency": {"drift": True}}``).
+    Parameters
+    ----------
+    source : Scenario or MeasurementSet
+        What the bound is of (a scenario's noise-free simulation).
+    motion : MotionModel, optional
+        The motion model; default the scenario's (required for a measurement set).
+    truth : Mapping[str, float] or array_like, optional
+        Where the bound is evaluated (SI); default the scenario's truth (required for a
+        measurement set).
+    nuisance : Mapping[str, float], optional
+        Nuisance values at the evaluation point (update the scenario's, or the data's
+        metadata; defaults fill the rest).
+    known_nuisance : KnownNuisance, Mapping, bool or None, optional
+        ``None``/``False`` (default): carrier, drift, power constant and path-loss exponent
+        are unknowns.  ``True`` or a :class:`~tmakit.results.nuisance.KnownNuisance`: they
+        are known, at the values it names, the evaluation point's for the others.
+    options : Mapping, optional
+        The nuisance model per kind (``{"frequency": {"drift": True}}``); default the
+        scenario's.
+
+    Returns
+    -------
+    Bound
+        The bound, its observability and the values it was evaluated at.
+
+    Raises
+    ------
+    TypeError
+        When ``source`` is neither a scenario nor a measurement set.
+    ValueError
+        When a measurement set comes without ``motion`` or ``truth``, or ``truth`` has the
+        wrong length.
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 17-18; Hörst & Oispuu (2010), eq. 9.
     """
     meas, motion, truth, nuisance, options = bound_source(source, motion, truth, nuisance,
                                                           options, "crlb()")
+    known = as_known_nuisance(known_nuisance)
     theta = truth_vector(motion, truth)
     obs = ObservationModel(meas, motion, options)
     values = _nuisance_values(meas, nuisance)
+    if known is not None:
+        values = known.over(values)
     nu = obs.nuisance_vector(values)
-    info = fisher_information(obs, theta, nu, known_nuisance)
-    names = motion.param_names + (() if known_nuisance else obs.nuisance_names)
-    vals = theta if known_nuisance else np.concatenate([theta, nu])
+    info = fisher_information(obs, theta, nu, known)
+    names = motion.param_names + (() if known else obs.nuisance_names)
+    vals = theta if known else np.concatenate([theta, nu])
     used = {n: float(v) for n, v in zip(obs.nuisance_names, nu, strict=True)}
-    return bound_from_information(info, names, vals, meas, motion, known_nuisance, used)
+    return bound_from_information(info, names, vals, meas, motion, known, used)

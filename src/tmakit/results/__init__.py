@@ -9,9 +9,14 @@ from .estimate import (
     UNOBSERVABLE,
     EstimateResult,
     assemble_result,
+    diverged_result,
+    fit_status,
+    result_from_covariance,
 )
+from .nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from .observability import Direction, Observability, analyse
 
 __all__ = ["CONVERGED", "DIVERGED", "NOT_CONVERGED", "UNOBSERVABLE", "Bound", "Direction",
-           "EstimateResult", "Observability", "analyse", "assemble_result",
-           "bound_from_information"]
+           "EstimateResult", "KnownNuisance", "KnownNuisanceLike", "Observability", "analyse",
+           "as_known_nuisance", "assemble_result", "bound_from_information", "diverged_result",
+           "fit_status", "result_from_covariance"]

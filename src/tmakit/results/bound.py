@@ -18,12 +18,13 @@ from scipy.stats import chi2
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
+from .nuisance import KnownNuisance, as_known_nuisance
 from .observability import Observability, analyse, normalise
 
 
 def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
     """Inverse of the information on its observable subspace (Moore–Penrose, computed in
-    normalised coordinates).  ``obsv`` is the :func:`~tmakit.bounds.observability.analyse`
+    normalised coordinates).  ``obsv`` is the :func:`~tmakit.results.observability.analyse`
     of ``info``, whose eigen-decomposition is reused."""
     if obsv.decomposition is None:
         norm, scale = normalise(info)
@@ -42,7 +43,9 @@ class Bound:
     ``parameters`` are the unknowns (motion parameters first).  ``std`` is infinite for any
     parameter that cannot be observed; ``covariance`` is the inverse information restricted to
     the observable subspace (its rows for unobservable parameters are meaningless: use
-    ``std``).
+    ``std``).  ``known_nuisance`` is ``None`` when the nuisance parameters are unknowns (they
+    are then among ``parameters``), else the :class:`~tmakit.results.nuisance.KnownNuisance`
+    holding the values they were known at (``nuisance_values``).
     """
 
     parameters: tuple[str, ...]
@@ -51,20 +54,23 @@ class Bound:
     covariance: NDArray[np.float64]
     std: NDArray[np.float64]
     observability: Observability
-    known_nuisance: bool
+    known_nuisance: KnownNuisance | None
     nuisance_values: dict[str, float]
     motion: MotionModel
     n_measurements: int
 
     @property
     def rank(self) -> int:
+        """The rank of the information (the number of observable directions)."""
         return self.observability.rank
 
     @property
     def motion_parameters(self) -> tuple[str, ...]:
+        """The names of the motion parameters (the first of :attr:`parameters`)."""
         return self.motion.param_names
 
     def std_of(self, name: str) -> float:
+        """The standard deviation of the parameter ``name`` (its unit; inf if unobservable)."""
         return float(self.std[self.parameters.index(name)])
 
     def _gradient_variance(self, grad: NDArray[np.float64]) -> float:
@@ -124,7 +130,7 @@ class Bound:
         v = state[3:6]
         speed = float(np.linalg.norm(v))
 
-        def std_of(grad6):
+        def std_of(grad6: NDArray[np.float64]) -> float:
             return float(np.sqrt(grad6 @ cov @ grad6)) if np.all(
                 np.isfinite(cov[np.ix_(grad6 != 0, grad6 != 0)])) else float("inf")
 
@@ -146,7 +152,7 @@ class Bound:
 
     def as_dict(self) -> dict[str, object]:
         """The JSON form: parameters, std, covariance, rank, unobservable, and context."""
-        def clean(x):
+        def clean(x: float) -> float | None:
             return None if not np.isfinite(x) else float(x)
 
         cov = self.covariance.copy()
@@ -168,6 +174,7 @@ class Bound:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
+        """:meth:`as_dict` as JSON text, indented by ``indent`` spaces."""
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self) -> str:
@@ -191,12 +198,41 @@ class Bound:
 
 def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
                            values: NDArray[np.float64], meas: MeasurementSet,
-                           motion: MotionModel, known_nuisance: bool,
+                           motion: MotionModel, known_nuisance: KnownNuisance | None,
                            nuisance_values: Mapping[str, float]) -> Bound:
+    """The bound (or an estimate's covariance) from an information matrix.
+
+    Parameters
+    ----------
+    info : ndarray, shape (q, q)
+        Fisher information about the unknowns ``names`` (SI units of each parameter).
+    names : tuple of str
+        The unknowns: the motion parameters first, then the nuisance parameters unless known.
+    values : ndarray, shape (q,)
+        Where the information was evaluated (the truth for a bound, the fit for an estimate).
+    meas : MeasurementSet
+        The measurements (for the observability analysis and the count).
+    motion : MotionModel
+        The motion model of the first ``motion.n_params`` unknowns.
+    known_nuisance : KnownNuisance or None
+        ``None`` when the nuisance parameters are among the unknowns; otherwise they are
+        known, at ``nuisance_values`` (recorded in the bound's ``known_nuisance``).
+    nuisance_values : Mapping[str, float]
+        The nuisance values at the evaluation point.
+
+    Returns
+    -------
+    Bound
+        Covariance as the pseudo-inverse on the observable subspace, infinite std for what
+        cannot be observed.
+    """
+    known = as_known_nuisance(known_nuisance)
+    if known is not None:
+        known = KnownNuisance(nuisance_values)
     theta = values[: motion.n_params]
     obsv = analyse(info, names, meas, motion, theta)
     cov = pseudo_covariance(info, obsv)
     std = np.sqrt(np.maximum(np.diag(cov), 0.0))
     std = np.where(obsv.observable, std, np.inf)
-    return Bound(names, values, info, cov, std, obsv, known_nuisance,
+    return Bound(names, values, info, cov, std, obsv, known,
                  dict(nuisance_values), motion, len(meas))

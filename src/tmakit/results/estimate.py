@@ -1,12 +1,22 @@
-"""A batch estimate as a result: named parameters with standard deviations and covariance,
-nuisance values, chi2, and a status that is never hidden (``converged``, ``did not converge``,
-``unobservable``, ``diverged``).  Every batch estimator returns an :class:`EstimateResult`;
-:func:`assemble_result` builds one from a weighted least-squares fit.
+"""A batch estimate as a result.
+
+Named parameters with standard deviations and covariance, nuisance values, chi2, and a status
+that is never hidden (``converged``, ``did not converge``, ``unobservable``, ``diverged``).
+Every batch estimator returns an :class:`EstimateResult`,
+built by one of three functions:
+
+* :func:`assemble_result` — a weighted least-squares fit of the observation model: covariance
+  and bound from the Fisher information at the fit (tmakit's maximum likelihood, the
+  lecture's Gauss–Newton);
+* :func:`result_from_covariance` — a fit whose method computes its own covariance (the
+  papers' linearised systems: Gu et al. (2007) §3 and §4);
+* :func:`diverged_result` — a solve that left the region where the model is defined.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,6 +26,7 @@ from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
 from .bound import Bound, bound_from_information
+from .nuisance import KnownNuisance, as_known_nuisance
 
 CONVERGED = "converged"
 NOT_CONVERGED = "did not converge"
@@ -26,7 +37,41 @@ DIVERGED = "diverged"
 @dataclass
 class EstimateResult:
     """A batch estimate: named parameters, their standard deviations, nuisance values, and
-    how the solve went."""
+    how the solve went.
+
+    Parameters
+    ----------
+    parameters : tuple of str
+        The motion parameters' names (``motion.param_names``).
+    estimate : ndarray, shape (p,)
+        Their estimated values, SI (m, m/s, rad, s).
+    std : ndarray, shape (p,)
+        Their standard deviations (infinite where unobservable, 0 where held fixed).
+    covariance : ndarray, shape (p, p)
+        Their covariance.
+    nuisance : dict
+        ``{name: (value, std)}`` of the nuisance parameters (std 0 when known).
+    status : str
+        :data:`CONVERGED`, :data:`NOT_CONVERGED`, :data:`UNOBSERVABLE` or :data:`DIVERGED`.
+    iterations : int
+        Iterations of the solve that gave the estimate.
+    chi2 : float
+        The weighted sum of squares at the estimate.
+    dof : int
+        Its degrees of freedom.
+    method : str
+        The estimator's name (a key of :data:`tmakit.batch.METHODS`).
+    motion : MotionModel
+        The motion model of the parameters.
+    bound : Bound, optional
+        The information at the estimate (None for the papers' own covariances).
+    starts : int, optional
+        Starting points solved (default 1).
+    message : str, optional
+        What the user should know: why not converged, what is unobservable, how it started.
+    extra : dict, optional
+        Method-specific diagnostics (condition numbers, update norms, ...).
+    """
 
     parameters: tuple[str, ...]
     estimate: NDArray[np.float64]
@@ -46,9 +91,11 @@ class EstimateResult:
 
     @property
     def converged(self) -> bool:
+        """Whether the status is ``converged``."""
         return self.status == CONVERGED
 
     def as_dict(self) -> dict[str, object]:
+        """The JSON form (non-finite numbers as ``None``)."""
         def num(x: float) -> float | None:
             return float(x) if np.isfinite(x) else None
 
@@ -71,9 +118,12 @@ class EstimateResult:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
+        """:meth:`as_dict` as JSON text, indented by ``indent`` spaces."""
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self) -> str:
+        """A readable table: status, chi2, every parameter with its std, what is
+        unobservable."""
         lines = [f"{self.method} estimate, motion {self.motion.name}: {self.status}"
                  f" after {self.iterations} iterations"
                  + (f" from {self.starts} starting points" if self.starts > 1 else ""),
@@ -95,49 +145,182 @@ class EstimateResult:
         return "\n".join(lines)
 
 
+def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iterations: int,
+                    dof: int, method: str, message: str, starts: int = 1,
+                    extra: dict[str, object] | None = None) -> EstimateResult:
+    """The result of a solve that diverged: every value and std NaN, chi2 infinite.
+
+    Parameters
+    ----------
+    motion : MotionModel
+        The motion model whose parameters were sought.
+    nuisance_names : sequence of str
+        The nuisance parameters reported (each ``(nan, nan)``).
+    iterations : int
+        Iterations run before the divergence.
+    dof : int
+        Degrees of freedom the fit would have had.
+    method : str
+        The estimator's name.
+    message : str
+        Why the solve is declared diverged.
+    starts : int, optional
+        Starting points solved (default 1).
+    extra : dict, optional
+        Method-specific diagnostics.
+
+    Returns
+    -------
+    EstimateResult
+        Status ``diverged``, no bound.
+    """
+    p = motion.n_params
+    nan = np.full(p, np.nan)
+    return EstimateResult(motion.param_names, nan, nan, np.full((p, p), np.nan),
+                          {k: (np.nan, np.nan) for k in nuisance_names}, DIVERGED, iterations,
+                          np.inf, dof, method, motion, None, starts, message,
+                          {} if extra is None else extra)
+
+
+def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDArray,
+                           nuisance: dict[str, tuple[float, float]], status: str,
+                           iterations: int, chi2: float, dof: int, method: str,
+                           message: str = "", extra: dict[str, object] | None = None
+                           ) -> EstimateResult:
+    """The result of a fit whose method computed its own covariance (no bound).
+
+    Parameters
+    ----------
+    motion : MotionModel
+        The motion model of ``theta``.
+    theta : ndarray, shape (p,)
+        The estimate (SI units of each parameter).
+    covariance : ndarray, shape (q, q), q >= p
+        The method's covariance of its unknowns, the motion parameters first; the std are
+        the square roots of its diagonal (negative rounding clipped to 0).
+    nuisance : dict
+        ``{name: (value, std)}`` of the nuisance parameters.
+    status : str
+        ``converged``, ``did not converge`` or ``unobservable``.
+    iterations : int
+        Iterations run.
+    chi2 : float
+        The weighted sum of squares of the method's residuals.
+    dof : int
+        Its degrees of freedom.
+    method : str
+        The estimator's name.
+    message : str, optional
+        What the user should know about the fit.
+    extra : dict, optional
+        Method-specific diagnostics.
+
+    Returns
+    -------
+    EstimateResult
+        With ``bound`` None and one starting point.
+    """
+    p = motion.n_params
+    std = np.sqrt(np.clip(np.diag(covariance), 0.0, None))[:p]
+    return EstimateResult(motion.param_names, theta.copy(), std, covariance[:p, :p], nuisance,
+                          status, iterations, chi2, dof, method, motion, None, 1, message,
+                          {} if extra is None else extra)
+
+
 def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu: NDArray,
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
-                    known_nuisance: bool, note: str = "") -> EstimateResult:
-    """The result of a weighted least-squares fit at ``theta`` (motion parameters) and ``nu``
-    (nuisance): covariance from the Fisher information at the fit, chi2 from ``cost`` (half
-    the weighted sum of squares), and the status ``converged``, ``did not converge``,
-    ``unobservable`` or ``diverged``."""
+                    known_nuisance: KnownNuisance | None, note: str = "") -> EstimateResult:
+    """The result of a weighted least-squares fit of an observation model.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The model fitted (its motion model names the parameters).
+    noise : NoiseModel
+        The noise model of the measurements, in the grouped row order of ``obs``.
+    theta : ndarray, shape (p,)
+        Motion parameters at the fit (SI units of each parameter).
+    nu : ndarray, shape (k,)
+        Nuisance parameters at the fit (or the known values).
+    cost : float
+        Half the weighted sum of squares at the fit.
+    iterations : int
+        Iterations run.
+    converged : bool
+        Whether the solver's convergence tests were met.
+    method : str
+        The estimator's name.
+    starts : int
+        Starting points solved.
+    known_nuisance : KnownNuisance or None
+        ``None`` when the nuisance parameters were estimated; a :class:`KnownNuisance` when
+        they were held at ``nu`` (their std are then 0).
+    note : str, optional
+        A sentence appended to the message.
+
+    Returns
+    -------
+    EstimateResult
+        Covariance from the Fisher information at the fit, chi2 ``2 cost``, and the status
+        ``converged``, ``did not converge``, ``unobservable`` or ``diverged``.
+    """
+    known = as_known_nuisance(known_nuisance) is not None
     motion = obs.motion
     n = len(obs.meas)
     names_nu = obs.nuisance_names
     if not np.all(np.isfinite(theta)) or not np.isfinite(cost):
-        nan = np.full(motion.n_params, np.nan)
-        return EstimateResult(motion.param_names, nan, nan, np.full((motion.n_params,) * 2,
-                              np.nan), {k: (np.nan, np.nan) for k in names_nu}, DIVERGED,
-                              iterations, np.inf, n - motion.n_params, method, motion,
-                              None, starts, "the solve left the region where the model is "
-                              "defined (non-finite predictions)")
+        return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
+                               "the solve left the region where the model is defined "
+                               "(non-finite predictions)", starts)
     j_theta, j_nu = obs.jacobian_grouped(theta, nu)  # the noise model is grouped too
-    jac = j_theta if known_nuisance else np.concatenate([j_theta, j_nu], axis=-1)
+    jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
     w = noise.whiten(jac, axis=-2)
     info = w.T @ w
-    names = motion.param_names + (() if known_nuisance else names_nu)
-    values = theta if known_nuisance else np.concatenate([theta, nu])
-    bound = bound_from_information(info, names, values, obs.meas, motion, known_nuisance,
-                                   dict(zip(names_nu, nu, strict=True)))
+    names = motion.param_names + (() if known else names_nu)
+    values = theta if known else np.concatenate([theta, nu])
+    nu_values = dict(zip(names_nu, nu, strict=True))
+    bound = bound_from_information(info, names, values, obs.meas, motion,
+                                   KnownNuisance(nu_values) if known else None, nu_values)
     p = motion.n_params
     std = bound.std[:p]
     cov = bound.covariance[:p, :p]
     nuis = {}
     for i, name in enumerate(names_nu):
-        s = np.nan if known_nuisance else bound.std[p + i]
-        nuis[name] = (float(nu[i]), float(s) if not known_nuisance else 0.0)
+        s = np.nan if known else bound.std[p + i]
+        nuis[name] = (float(nu[i]), float(s) if not known else 0.0)
     dof = noise.rank - len(names)
-    status = CONVERGED if converged else NOT_CONVERGED
-    message = ""
-    if not bound.observability.full_rank:
-        status = UNOBSERVABLE
-        message = (f"the data determine only {bound.rank} of the {len(names)} unknowns; "
-                   "parameters marked unobservable are not estimates")
-    elif not converged:
-        message = "the iteration limit was reached before the convergence tests were met"
+    status, message = fit_status(converged, bound, len(names))
     if note:
         message = f"{message}; {note}" if message else note
     return EstimateResult(motion.param_names, theta.copy(), std, cov, nuis, status,
                           int(iterations), float(2.0 * cost), dof, method, motion, bound,
                           starts, message)
+
+
+def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[str, str]:
+    """The status of a fit and the sentence that explains it.
+
+    Parameters
+    ----------
+    converged : bool
+        Whether the solver's convergence tests were met.
+    bound : Bound
+        The information at the fit (its observability decides ``unobservable``).
+    unknowns : int
+        The number of unknowns fitted.
+
+    Returns
+    -------
+    status : str
+        ``unobservable`` when the information is rank deficient, else ``converged`` or
+        ``did not converge``.
+    message : str
+        Empty for a converged, observable fit.
+    """
+    if not bound.observability.full_rank:
+        return UNOBSERVABLE, (f"the data determine only {bound.rank} of the {unknowns} "
+                              "unknowns; parameters marked unobservable are not estimates")
+    if not converged:
+        return NOT_CONVERGED, ("the iteration limit was reached before the convergence tests "
+                               "were met")
+    return CONVERGED, ""

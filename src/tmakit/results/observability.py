@@ -1,5 +1,7 @@
-"""Observability: the rank of the Fisher information and, when it is deficient, the
-directions in parameter space that the data cannot see, named in words.
+"""Observability: the rank of the Fisher information and what the data cannot see.
+
+When the rank is deficient, the directions in parameter space that the data cannot see are
+named in words.
 
 The information is first normalised (``D F D`` with ``D = diag(F)^-1/2``) so that its rank does
 not depend on units.  Unobservable directions are recognised by testing candidate motions of
@@ -15,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
@@ -36,11 +38,16 @@ class Direction:
     weights: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, object]:
+        """The JSON form: the sentence and the weights by parameter."""
         return {"sentence": self.sentence, "weights": self.weights}
 
 
 @dataclass
 class Observability:
+    """What an information matrix can see: its rank among ``size`` unknowns, its condition
+    number, a basis of what it cannot see (``null_basis``, physical units), that null space in
+    words (``directions``) and, per parameter, whether it is ``observable``."""
+
     rank: int
     size: int
     condition: float
@@ -54,6 +61,7 @@ class Observability:
 
     @property
     def full_rank(self) -> bool:
+        """Whether every unknown is observable (rank equals size)."""
         return self.rank == self.size
 
 
@@ -82,7 +90,8 @@ def _candidates(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.flo
     cands: list[tuple[str, NDArray[np.float64], NDArray[np.float64]]] = []
     fixed = _fixed_sensors(meas)
 
-    def rotation(axis, centre):
+    def rotation(axis: NDArray[np.float64], centre: NDArray[np.float64]
+                 ) -> NDArray[np.float64]:
         return np.column_stack([np.cross(axis, p - centre), np.cross(axis, v)])
 
     for name, c in fixed.items():
@@ -152,7 +161,10 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
                          (evals, evecs, scale))
 
 
-def _describe(null_norm, scale, names, norm, top, meas, motion, theta) -> list[Direction]:
+def _describe(null_norm: NDArray[np.float64], scale: NDArray[np.float64],
+              names: tuple[str, ...], norm: NDArray[np.float64], top: float,
+              meas: MeasurementSet, motion: MotionModel, theta: ArrayLike
+              ) -> list[Direction]:
     nullity = null_norm.shape[1]
     p = motion.n_params
     chosen: list[NDArray[np.float64]] = []  # normalised coordinates, unit vectors

@@ -1,0 +1,158 @@
+"""tmakit's maximum likelihood for any motion: ``tk.estimate(meas, motion)``.
+
+The motion decides the estimator: a manoeuvring target (a
+:class:`~tmakit.motion.PiecewiseCurvilinear`, or a motion given by name) goes to
+:class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, any other motion model to
+:class:`~tmakit.batch.ml.MaximumLikelihood`.  This module sits above both, so neither imports
+the other (:mod:`tmakit.batch.curvilinear` uses :mod:`tmakit.batch.ml` for its constant-velocity
+start; :mod:`tmakit.batch.ml` imports no manoeuvre code).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from ..results.estimate import EstimateResult
+from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
+from .estimator import BatchEstimator, Init, Options
+from .init import GridSettings
+from .manoeuvre import ManoeuvreEstimator
+from .ml import estimate as estimate_ml
+
+__all__ = ["MLByMotion", "estimate"]
+
+
+def is_manoeuvring(motion: MotionModel | str) -> bool:
+    """Whether ``motion`` is a manoeuvring target's: a motion name (parsed by the manoeuvre
+    estimator, which hands the other names back to maximum likelihood) or a model with a
+    number of manoeuvres."""
+    return isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None
+
+
+class MLByMotion(BatchEstimator):
+    """tmakit's maximum likelihood, the estimator chosen by the motion at :meth:`fit`
+    (the ``"ml"`` entry of :data:`tmakit.batch.METHODS`).
+
+    Parameters
+    ----------
+    init : Mapping[str, float] or array_like, optional
+        A starting point (SI); default: none needed.
+    options : Mapping, optional
+        The nuisance model per kind.
+    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
+        Hold the nuisance parameters at known values (:mod:`tmakit.results.nuisance`).
+    grid : GridSettings, optional
+        The grid of starting points of :class:`~tmakit.batch.ml.MaximumLikelihood` (not used
+        for a manoeuvring target, whose search has its own grid).
+    max_iter : int, optional
+        Iterations per start at most (default 100).
+    **manoeuvre_options
+        Settings of :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator` (``exact``,
+        ``criterion``, ``alpha``, ``accelerations``, ``ref_time``, ``settings``); refused
+        with a motion model that has no manoeuvres.
+    """
+
+    name: ClassVar[str] = "ml"
+    takes_known_nuisance: ClassVar[bool] = True
+
+    def __init__(self, init: Init = None, options: Options = None,
+                 known_nuisance: KnownNuisanceLike = None, grid: GridSettings | None = None,
+                 max_iter: int = 100, **manoeuvre_options: object) -> None:
+        self.init = init
+        self.options = options
+        self.known_nuisance = as_known_nuisance(known_nuisance)
+        self.grid = grid
+        self.max_iter = max_iter
+        self.manoeuvre_options = dict(manoeuvre_options)
+
+    def __repr__(self) -> str:
+        """The constructor call that makes this estimator."""
+        extra = "".join(f", {k}={v!r}" for k, v in self.manoeuvre_options.items())
+        return (f"MLByMotion(init={self.init!r}, options={self.options!r}, "
+                f"known_nuisance={self.known_nuisance!r}, grid={self.grid!r}, "
+                f"max_iter={self.max_iter!r}{extra})")
+
+    def fit(self, meas: MeasurementSet, motion: MotionModel | str  # type: ignore[override]
+            ) -> EstimateResult:
+        """The maximum-likelihood estimate for ``motion``.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements.
+        motion : MotionModel or str
+            A motion model, or a motion name (``"cv2d"``, ``"curvilinear:2"``, ...).
+
+        Returns
+        -------
+        EstimateResult
+            A :class:`~tmakit.batch.curvilinear.ManoeuvreEstimate` for a manoeuvring target.
+
+        Raises
+        ------
+        TypeError
+            For manoeuvre settings with a motion model without manoeuvres.
+        ValueError
+            As the chosen estimator.
+        """
+        if is_manoeuvring(motion):
+            return ManoeuvreEstimator(self.init, self.options, self.known_nuisance,
+                                      self.max_iter, **self.manoeuvre_options  # type: ignore
+                                      ).fit(meas, motion)
+        return estimate_ml(meas, motion, init=self.init, options=self.options,  # type: ignore
+                           known_nuisance=self.known_nuisance, grid=self.grid,
+                           max_iter=self.max_iter, **self.manoeuvre_options)
+
+
+def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
+             options: Options = None, known_nuisance: KnownNuisanceLike = None,
+             grid: GridSettings | None = None, max_iter: int = 100,
+             **manoeuvre_options: object) -> EstimateResult:
+    """Maximum-likelihood estimate of the motion parameters, no initial guess needed: the
+    short form of :class:`MLByMotion` (``tk.estimate``).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    motion : MotionModel or str
+        The motion model, or its name.  A :class:`~tmakit.motion.PiecewiseCurvilinear` with
+        ``M`` manoeuvres, or ``"curvilinear:M"``, searches ``0..M`` manoeuvres, the number
+        chosen by a stated criterion.
+    init : Mapping[str, float] or array_like, optional
+        A starting point by name or as a vector (SI); without it the grid of
+        :mod:`tmakit.batch.init` finds the starting points.
+    options : Mapping, optional
+        The nuisance model per kind (``{"frequency": {"drift": True}, "power": {"exponent":
+        None}}``).
+    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
+        Fix the nuisance parameters at the given values instead of estimating them.
+    grid : GridSettings, optional
+        The grid of starting points (motion models without manoeuvres).
+    max_iter : int, optional
+        Iterations per start at most (default 100).
+    **manoeuvre_options
+        For manoeuvring targets: ``exact``, ``criterion``, ``alpha``, ``accelerations``,
+        ``ref_time``, ``settings`` (:class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`).
+
+    Returns
+    -------
+    EstimateResult
+        The estimate, its covariance (inverse Fisher information at the estimate) and a
+        status that is never hidden.
+
+    Raises
+    ------
+    TypeError
+        For manoeuvre options with a motion model without manoeuvres.
+    ValueError
+        For a bad ``init``, a bad motion name, or data no grid point fits.
+
+    References
+    ----------
+    Hörst & Oispuu (2010) for the manoeuvring target.
+    """
+    return MLByMotion(init, options, known_nuisance, grid, max_iter,
+                      **manoeuvre_options).fit(meas, motion)

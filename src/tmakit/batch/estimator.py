@@ -1,0 +1,192 @@
+"""What every batch estimator is: an object whose settings are given once, in its constructor,
+and whose :meth:`~BatchEstimator.fit` turns a measurement set and a motion model into an
+:class:`~tmakit.results.EstimateResult`.
+
+:class:`PaperMethod` is the common part of the papers' local iterations (Gu et al. (2007) §3
+and §4, the Doppler-tracking lecture's Gauss–Newton): their own nuisance model only (no carrier
+drift, path-loss exponent 2), and, without a starting point, tmakit's no-guess start — the
+best point of the likelihood grid (:func:`tmakit.batch.init.grid_start`).  That start is
+tmakit's, not the papers'; the result says so in its message and in ``extra["start"]``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from ..results.estimate import EstimateResult
+from .init import grid_start
+
+Init = Mapping[str, float] | ArrayLike | None
+"""A starting point: motion parameters by name, a vector in ``param_names`` order, or None."""
+Options = Mapping[str, Mapping[str, object]] | None
+"""The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``."""
+
+GRID_START_NOTE = "started from tmakit's likelihood-grid point (the papers' methods are local)"
+
+
+class BatchEstimator(ABC):
+    """A batch estimator: settings in the constructor, :meth:`fit` on the data.
+
+    Attributes
+    ----------
+    name : str
+        The name its results carry (``result.method``) and its key in
+        :data:`tmakit.batch.METHODS`.
+    takes_known_nuisance : bool
+        Whether it can hold the nuisance parameters at known values (a ``known_nuisance``
+        setting).  Declared by each class, so that no caller has to inspect a signature.
+    """
+
+    name: ClassVar[str] = ""
+    takes_known_nuisance: ClassVar[bool] = False
+
+    @abstractmethod
+    def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
+        """Estimate the motion parameters from the measurements.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (SI inside).
+        motion : MotionModel
+            The motion model whose parameters are estimated.
+
+        Returns
+        -------
+        EstimateResult
+            The estimate, its covariance and status.
+        """
+
+
+def check_paper_options(method: str, options: Options) -> None:
+    """Refuse nuisance models the papers do not have: carrier drift, a path-loss exponent
+    other than 2.
+
+    Parameters
+    ----------
+    method : str
+        The method's name (for the message).
+    options : Mapping or None
+        The nuisance model per kind asked for.
+
+    Raises
+    ------
+    ValueError
+        When ``options`` asks for drift or for another or an unknown exponent.
+    """
+    opts = dict(options or {})
+    if opts.get("frequency", {}).get("drift", False):
+        raise ValueError(f"{method}: the paper's model has no carrier drift; use method 'ml' "
+                         "for drift")
+    exponent = opts.get("power", {}).get("exponent", 2.0)
+    if exponent is None or float(exponent) != 2.0:  # type: ignore[arg-type]
+        raise ValueError(f"{method}: the paper's model has the path-loss exponent 2; use "
+                         "method 'ml' for another or an unknown exponent")
+
+
+def kinds_tuple(kinds: str | Sequence[str] | None) -> tuple[str, ...] | None:
+    """``kinds`` as a tuple (a single name as a 1-tuple), or None."""
+    if kinds is None:
+        return None
+    return (kinds,) if isinstance(kinds, str) else tuple(kinds)
+
+
+@dataclass(frozen=True, eq=False)
+class PaperMethod(BatchEstimator):
+    """A local method of the papers, started from ``init`` or from tmakit's grid point.
+
+    Parameters
+    ----------
+    init : Mapping[str, float] or array_like, optional
+        The starting motion parameters (SI).  Default: the best point of the likelihood grid
+        on the rows of the kinds the method uses (:func:`tmakit.batch.init.grid_start`).
+    options : Mapping, optional
+        Accepted only when it asks for the papers' own model (no drift, exponent 2).
+
+    Raises
+    ------
+    ValueError
+        When ``options`` asks for another nuisance model.
+    """
+
+    init: Init = None
+    options: Options = None
+
+    start_kinds: ClassVar[tuple[str, ...]] = ()
+    """The kinds the method can use: the rows its grid start is scored on."""
+
+    def __post_init__(self) -> None:
+        """Refuse a nuisance model the papers do not have."""
+        check_paper_options(self.name, self.options)
+
+    @property
+    def kinds_wanted(self) -> tuple[str, ...] | None:
+        """The kinds asked for (None: every kind the method can use)."""
+        return None
+
+    @abstractmethod
+    def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
+                ) -> EstimateResult:
+        """The paper's iteration from ``init``.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements.
+        motion : MotionModel
+            The motion model (the papers': 2-D or 3-D constant velocity).
+        init : Mapping[str, float] or array_like
+            The starting point; None raises ``ValueError`` (a local method needs one).
+
+        Returns
+        -------
+        EstimateResult
+            The estimate with the method's own covariance and diagnostics.
+        """
+
+    def start_rows(self, meas: MeasurementSet) -> MeasurementSet:
+        """The rows the grid start is scored on: those of the kinds the method uses."""
+        kinds = [k for k in self.start_kinds if k in meas.kinds]
+        wanted = self.kinds_wanted
+        if wanted is not None:
+            kinds = [k for k in kinds if k in wanted]
+        return meas.take(np.isin(meas.kind, kinds)) if kinds else meas
+
+    def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
+        """The paper's iteration from ``init``, or from tmakit's grid point without one.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements.
+        motion : MotionModel
+            The motion model.
+
+        Returns
+        -------
+        EstimateResult
+            With ``extra["start"] = "grid"`` and ``extra["start_point"]`` (SI) and a
+            sentence in the message when the grid gave the start.
+
+        Raises
+        ------
+        ValueError
+            When the data or the motion model do not suit the method.
+        """
+        if self.init is not None:
+            return self.iterate(meas, motion, self.init)
+        start = grid_start(self.start_rows(meas), motion)
+        result = self.iterate(meas, motion, start)
+        result.extra["start"] = "grid"
+        result.extra["start_point"] = [float(v) for v in np.asarray(start, dtype=float)]
+        result.message = (f"{GRID_START_NOTE}; {result.message}" if result.message
+                          else GRID_START_NOTE)
+        return result

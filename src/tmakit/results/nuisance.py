@@ -1,0 +1,105 @@
+"""Which nuisance parameters are known: one type, :class:`KnownNuisance`, for every estimator
+and bound.
+
+The nuisance parameters (carrier and carrier drift, power constant, path-loss exponent) are
+either all unknown — estimated jointly with the motion, the default everywhere — or all known,
+held fixed at given values.  ``None`` says "unknown"; a :class:`KnownNuisance` says "known"
+and carries the values it knows.  Values it does not name come from the context: the model
+defaults (``carrier_drift = 0``, ``path_loss_exponent = 2``) for an estimator, the evaluation
+point (the ``nuisance`` argument, the data's metadata, the defaults) for a bound.
+
+Public functions also accept the two older spellings and convert them once, on entry, with
+:func:`as_known_nuisance`: ``True``/``False`` (known at the context's values / unknown) and a
+mapping ``{name: value}`` (known at these values; an empty mapping is "known", not
+"unknown").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["KnownNuisance", "KnownNuisanceLike", "as_known_nuisance"]
+
+
+@dataclass(frozen=True)
+class KnownNuisance:
+    """The nuisance parameters are known (held fixed, not estimated), at ``values``.
+
+    Parameters
+    ----------
+    values : Mapping[str, float], optional
+        ``{name: value}`` of the known nuisance parameters, each in its own unit: ``carrier``
+        (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db`` (dB), ``path_loss_exponent``
+        (dimensionless).  Names left out take their value from the context (see the module
+        docstring).  Default: none named.
+
+    Notes
+    -----
+    An instance is always true in a boolean test (``bool(KnownNuisance())`` is ``True``, even
+    with no values), so ``if known:`` reads "if the nuisance parameters are known" for a
+    ``KnownNuisance | None``.
+    """
+
+    values: Mapping[str, float] = field(default_factory=dict, hash=False)
+
+    def __post_init__(self) -> None:
+        """The values as a plain ``dict`` of floats (a copy)."""
+        object.__setattr__(self, "values",
+                           {str(k): float(v) for k, v in dict(self.values).items()})
+
+    def __bool__(self) -> bool:
+        """Always true: the nuisance parameters are known."""
+        return True
+
+    def over(self, context: Mapping[str, float]) -> dict[str, float]:
+        """The known values with the context's filling the names left out.
+
+        Parameters
+        ----------
+        context : Mapping[str, float]
+            Values from the context (a bound's evaluation point, a file's metadata).
+
+        Returns
+        -------
+        dict[str, float]
+            ``{**context, **self.values}``.
+        """
+        return {**dict(context), **self.values}
+
+
+KnownNuisanceLike = KnownNuisance | Mapping[str, float] | bool | None
+"""What public functions accept as ``known_nuisance``; :func:`as_known_nuisance` converts it."""
+
+
+def as_known_nuisance(value: KnownNuisanceLike) -> KnownNuisance | None:
+    """``known_nuisance`` as the one type: a :class:`KnownNuisance` (known) or ``None``.
+
+    Parameters
+    ----------
+    value : KnownNuisance, Mapping[str, float], bool or None
+        ``None`` or ``False``: unknown.  ``True``: known at the context's values.  A mapping:
+        known at these values (an empty mapping too).  A :class:`KnownNuisance`: itself.
+
+    Returns
+    -------
+    KnownNuisance or None
+        ``None`` when the nuisance parameters are unknown.
+
+    Raises
+    ------
+    TypeError
+        For any other type.
+    """
+    if value is None:
+        return None
+    if isinstance(value, bool | np.bool_):
+        return KnownNuisance() if value else None
+    if isinstance(value, KnownNuisance):
+        return value
+    if isinstance(value, Mapping):
+        return KnownNuisance(value)
+    raise TypeError("known_nuisance must be a KnownNuisance, a mapping of nuisance values, "
+                    f"True, False or None; got {type(value).__name__}")

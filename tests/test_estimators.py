@@ -1,0 +1,204 @@
+"""Batch estimators as objects (settings in the constructor, ``fit(meas, motion)``), their
+registry, the one type for known nuisance parameters, and the one result assembly."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit.batch import (
+    METHODS,
+    BatchEstimator,
+    GuDirect,
+    LectureGaussNewton,
+    ManoeuvreEstimator,
+    MaximumLikelihood,
+    MLByMotion,
+    RatioMethod,
+    estimate_with,
+    estimator,
+)
+from tmakit.batch.gu_direct import gu_direct
+from tmakit.batch.lecture import lecture_gauss_newton
+from tmakit.batch.ml import estimate as estimate_ml
+from tmakit.batch.ratios import ratio_method
+from tmakit.bounds import crlb
+from tmakit.reproduce.doppler_lecture import with_receivers
+from tmakit.results import (
+    DIVERGED,
+    KnownNuisance,
+    as_known_nuisance,
+    diverged_result,
+    result_from_covariance,
+)
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "tmakit"
+PAPER_START = (4900.0, 1200.0, 0.0, 0.0)
+
+
+@pytest.fixture(scope="module")
+def gu():
+    return tk.load_scenario("gu2007")
+
+
+@pytest.fixture(scope="module")
+def meas(gu):
+    return gu.simulate(rng=5)
+
+
+def same(a, b) -> None:
+    """Two results equal bit for bit."""
+    assert a.as_dict() == b.as_dict()
+    np.testing.assert_array_equal(a.covariance, b.covariance)
+    assert a.extra.keys() == b.extra.keys()
+
+
+# -- objects and their short forms -------------------------------------------------------------
+def test_every_object_equals_its_short_form(gu, meas):
+    opts = gu.measurement_options
+    same(MaximumLikelihood(options=opts).fit(meas, gu.motion),
+         estimate_ml(meas, gu.motion, options=opts))
+    same(MaximumLikelihood(options=opts).fit(meas, gu.motion),
+         tk.estimate(meas, gu.motion, options=opts))
+    same(GuDirect(init=PAPER_START, kinds="frequency").fit(meas, gu.motion),
+         gu_direct(meas, gu.motion, PAPER_START, kinds="frequency"))
+    same(RatioMethod(init=PAPER_START, covariance="paper", max_iter=5).fit(meas, gu.motion),
+         ratio_method(meas, gu.motion, PAPER_START, covariance="paper", max_iter=5))
+    scn = with_receivers(3)
+    m3 = scn.simulate(rng=1)
+    start = scn.theta + np.array([300.0, -200.0, 100.0, 5.0, -5.0, 1.0])
+    same(LectureGaussNewton(init=start).fit(m3, scn.motion),
+         lecture_gauss_newton(m3, scn.motion, start))
+
+
+def test_the_registry_builds_objects_that_carry_their_names(gu, meas):
+    assert list(METHODS) == ["ml", "gu-direct", "ratio-power", "ratio-doppler", "ratio",
+                             "lecture-gn"]
+    for name, method in METHODS.items():
+        est = method()
+        assert isinstance(est, BatchEstimator)
+        assert est.name == name
+        assert method.takes_known_nuisance == (name == "ml")
+    assert isinstance(estimator("ratio-doppler"), RatioMethod)
+    assert estimator("ratio-doppler").kinds == ("frequency",)
+    same(estimate_with("ratio-power", meas, gu.motion, init=PAPER_START),
+         RatioMethod(init=PAPER_START, kinds="power").fit(meas, gu.motion))
+    with pytest.raises(TypeError, match="kinds fixed by the method's name"):
+        estimator("ratio-power", kinds="frequency")
+    with pytest.raises(TypeError):
+        estimator("gu-direct", known_nuisance={"carrier": 1.9e9})
+
+
+def test_papers_methods_without_init_start_from_the_grid_and_say_so(gu, meas):
+    blind = RatioMethod(kinds="frequency").fit(meas, gu.motion)
+    assert blind.extra["start"] == "grid"
+    assert blind.message.startswith("started from tmakit's likelihood-grid point")
+    started = ratio_method(meas, gu.motion, blind.extra["start_point"], kinds="frequency")
+    np.testing.assert_array_equal(blind.estimate, started.estimate)
+    assert "start" not in started.extra
+    with pytest.raises(ValueError, match="starting point"):
+        gu_direct(meas, gu.motion, None)
+
+
+def test_settings_are_checked_when_the_object_is_made():
+    with pytest.raises(ValueError, match="no carrier drift"):
+        GuDirect(options={"frequency": {"drift": True}})
+    with pytest.raises(ValueError, match="path-loss exponent 2"):
+        RatioMethod(options={"power": {"exponent": None}})
+    with pytest.raises(ValueError, match="covariance must be one of"):
+        RatioMethod(covariance="other")
+
+
+def test_ml_by_motion_chooses_the_estimator_by_the_motion(gu, meas):
+    opts = gu.measurement_options
+    same(MLByMotion(options=opts).fit(meas, "cv2d"),
+         MaximumLikelihood(options=opts).fit(meas, tk.ConstantVelocity(2, 0.0)))
+    with pytest.raises(TypeError, match="manoeuvring target"):
+        MaximumLikelihood().fit(meas, tk.PiecewiseCurvilinear(1, 0.0))
+    with pytest.raises(TypeError, match="options for manoeuvring targets"):
+        MLByMotion(criterion="bic").fit(meas, gu.motion)
+
+
+def test_manoeuvre_estimator_equals_tk_estimate():
+    ho = tk.load_scenario("hoerst2010")
+    meas = ho.simulate(rng=2)
+    motion = tk.PiecewiseCurvilinear(0, 0.0)
+    same(ManoeuvreEstimator(exact=True).fit(meas, motion),
+         tk.estimate(meas, motion, exact=True))
+
+
+# -- which nuisance parameters are known: one type ---------------------------------------------
+def test_known_nuisance_spellings_convert_to_one_type():
+    assert as_known_nuisance(None) is None
+    assert as_known_nuisance(False) is None
+    assert as_known_nuisance(np.False_) is None
+    assert as_known_nuisance(True) == KnownNuisance()
+    assert as_known_nuisance({}) == KnownNuisance()  # an empty mapping is "known"
+    assert bool(KnownNuisance())
+    known = KnownNuisance({"carrier": 1.9e9})
+    assert as_known_nuisance(known) is known
+    assert as_known_nuisance({"carrier": 1.9e9}) == known
+    assert known.over({"carrier": 1.0, "power_constant_db": -30.0}) == {
+        "carrier": 1.9e9, "power_constant_db": -30.0}
+    with pytest.raises(TypeError, match="known_nuisance must be"):
+        as_known_nuisance("yes")
+
+
+def test_known_nuisance_in_bounds_and_estimates(gu, meas):
+    flag, typed = crlb(gu, known_nuisance=True), crlb(gu, known_nuisance=KnownNuisance())
+    np.testing.assert_array_equal(flag.std, typed.std)
+    assert crlb(gu).known_nuisance is None
+    assert flag.known_nuisance == KnownNuisance(flag.nuisance_values)
+    assert flag.as_dict()["nuisance"] == "known"
+    # Values the KnownNuisance names are those the bound is evaluated at.
+    other = crlb(gu, known_nuisance={"carrier": 2.0e9})
+    assert other.nuisance_values["carrier"] == 2.0e9
+    values = dict(gu.nuisance)
+    a = tk.estimate(meas, gu.motion, options=gu.measurement_options, known_nuisance=values)
+    b = MaximumLikelihood(options=gu.measurement_options,
+                          known_nuisance=KnownNuisance(values)).fit(meas, gu.motion)
+    same(a, b)
+    assert b.bound is not None and b.bound.known_nuisance is not None
+    assert all(std == 0.0 for _, std in b.nuisance.values())
+
+
+# -- one result assembly -----------------------------------------------------------------------
+def test_diverged_and_own_covariance_results(gu):
+    res = diverged_result(gu.motion, ["carrier"], 7, 10, "x", "why", extra={"k": 1})
+    assert res.status == DIVERGED and np.isnan(res.estimate).all()
+    assert res.chi2 == np.inf and np.isnan(res.nuisance["carrier"]).all()
+    assert res.extra == {"k": 1} and res.message == "why" and res.dof == 10
+    cov = np.diag([4.0, 9.0, -1e-30, 1.0, 25.0])
+    res = result_from_covariance(gu.motion, np.arange(4.0), cov, {}, "converged", 3, 1.5, 8,
+                                 "x")
+    np.testing.assert_array_equal(res.std, [2.0, 3.0, 0.0, 1.0])
+    assert res.covariance.shape == (4, 4) and res.bound is None
+
+
+# -- what the estimators' modules import -------------------------------------------------------
+def _imports(path: Path) -> set[str]:
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            names.add("." * node.level + (node.module or ""))
+        elif isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+    return names
+
+
+def test_ml_imports_no_manoeuvre_code():
+    imported = _imports(SRC / "batch" / "ml.py")
+    assert not {n for n in imported
+                if any(w in n for w in ("curvilinear", "manoeuvre", "dispatch"))}, imported
+
+
+def test_no_estimator_is_inspected_to_find_out_what_it_accepts():
+    for path in [*sorted((SRC / "batch").glob("*.py")), *sorted((SRC / "results").glob("*.py")),
+                 SRC / "montecarlo.py", SRC / "bounds" / "fim.py"]:
+        text = path.read_text()
+        assert "inspect.signature" not in text, path
+        assert "import_module" not in text, path
