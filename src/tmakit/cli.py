@@ -577,11 +577,12 @@ def track(
 
     from . import tracking
     from .filters import FILTERS
+    from .io.track_files import TRACK_SUFFIXES, write_track
 
     for path in (output, plot):
         if path is not None:
             _refuse_existing(path, force)
-    if output is not None and output.suffix.lower() not in tracking.TABLE_SUFFIXES:
+    if output is not None and output.suffix.lower() not in TRACK_SUFFIXES:
         raise _fail(f"{output}: the track table is written as .csv or .parquet")
     if filter_name not in FILTERS:
         raise _fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
@@ -597,9 +598,9 @@ def track(
     meas = _read(file, _parse_origin(origin))
     try:
         d = tracking.filter_dim(meas, dim)
-        q_axes = tracking.parse_q(q, d)
-    except ValueError as e:
-        raise _fail(f"--{e}") from None
+        q_axes = tracking.process_noise(_parse_q(q, d), d)
+    except tracking.TrackingError as e:
+        raise _tracking_failure(e) from None
     prior_mean = _parse_assignments(prior, "--prior") or None
     prior_sd = _parse_assignments(prior_std, "--prior-std") or None
     known = _parse_assignments(nuisance, "--nuisance") or None
@@ -617,6 +618,8 @@ def track(
                             init_window=init_window, max_relative_std=start_std, rng=seed,
                             dim=d, options=_model_options(drift, free_exponent),
                             nuisance=known)
+    except tracking.TrackingError as e:
+        raise _tracking_failure(e) from None
     except ValueError as e:
         raise _fail(str(e)) from None
     truth = tracking.truth_states(meas, tr.times, d)
@@ -627,7 +630,7 @@ def track(
         _print_track(tr, truth, rows)
     if output is not None:
         try:
-            tracking.write_track(tr, output, force=force)
+            write_track(tr, output, force=force)
         except FileExistsError:
             raise _fail(f"{output} already exists; use --force to overwrite it") from None
         say.print(f"wrote {output}", highlight=False)
@@ -642,6 +645,32 @@ def track(
         plot_track(tr, meas, plot, truth=truth, pcrb=bound, pcrb_note=note,
                    ellipses=ellipses, title=title)
         say.print(f"wrote {plot}", highlight=False)
+
+
+def _parse_q(text: str, dim: int) -> list[float]:
+    """``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2), as floats."""
+    try:
+        return [float(p.strip()) for p in text.split(",")]
+    except ValueError:
+        raise _fail(f"--q {text!r}: expected one number or {dim} numbers separated by commas "
+                    "(m/s^2 per axis, e.g. 0.01 or "
+                    f"{','.join(['0.01'] * dim)})") from None
+
+
+#: The flags of `tma track` for the library parameters its errors name.
+_TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
+                "max_relative_std": "--start-std"}
+
+
+def _tracking_failure(e) -> typer.Exit:
+    """A :class:`tmakit.tracking.TrackingError` as `tma track` says it: with its flags."""
+    from .tracking import MissingNuisanceError
+
+    names = dict(_TRACK_FLAGS)
+    if isinstance(e, MissingNuisanceError):
+        names["nuisance"] = ("nuisance={...}; --nuisance "
+                             + ",".join(f"{n}=..." for n in e.names))
+    return _fail(e.render(names))
 
 
 def _start_sentence(tr) -> str:

@@ -12,13 +12,12 @@ import numpy as np
 
 from .data import MeasurementSet
 from .measurements import KINDS
+from .truth import truth_states
 
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
     """The true target states ``(n, 6)`` (m, m/s) at ``n`` times over the set's time span,
     if its metadata carries the truth (as simulated sets do); ``None`` otherwise."""
-    from .tracking import truth_states
-
     if len(meas) == 0:
         return None
     return truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), n), 3)
