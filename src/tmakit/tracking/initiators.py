@@ -127,7 +127,7 @@ class PriorInitiator(Initiator):
         t0 = float(np.min(meas.time)) if self.time is None else self.time
         cov = np.diag(std**2)
         filt = setup.from_prior(mean, cov, t0, self.nuisance)
-        start = PriorStart(t0, mean, std, np.diag(std**2), dict(self.nuisance), names)
+        start = PriorStart(t0, mean, std, cov, dict(self.nuisance), names)
         return Initiation(start, filt.run(meas))
 
 
@@ -167,7 +167,8 @@ class BatchInitiator(Initiator):
     Raises
     ------
     TrackingError
-        ``max_relative_std`` <= 0 (without ``init_window``).
+        ``max_relative_std`` <= 0 (without ``init_window``), ``confirm_p_value`` outside
+        0 .. 1.
     """
 
     def __init__(self, init_window: int | None = None,
@@ -177,6 +178,9 @@ class BatchInitiator(Initiator):
         if init_window is None and not max_relative_std > 0:
             raise TrackingError(f"max_relative_std must be > 0, got {max_relative_std}",
                                 "max_relative_std")
+        if not 0.0 <= confirm_p_value <= 1.0:
+            raise TrackingError(f"confirm_p_value must be a probability from 0 to 1, got "
+                                f"{confirm_p_value}", "confirm_p_value")
         self.init_window = init_window
         self.max_relative_std = float(max_relative_std)
         self.confirm = bool(confirm) and init_window is None
