@@ -209,7 +209,7 @@ def test_dask_local_cluster_gives_the_local_table(gu2007):
 
 # -- the estimator registry --------------------------------------------------------------------
 def test_without_the_registry_only_ml_is_known(monkeypatch, gu2007):
-    monkeypatch.setattr(mc, "_methods", lambda: None)
+    monkeypatch.setattr(mc.estimators, "estimator_registry", lambda: None)
     assert mc.available_estimators() == ("ml",)
     with pytest.raises(ValueError, match="unknown estimator 'ratio'; expected one of ml"):
         monte_carlo(gu2007, estimator="ratio", runs=2, progress=False)

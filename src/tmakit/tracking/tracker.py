@@ -28,11 +28,20 @@ __all__ = ["start_record", "track"]
 START_RECORD = "start_record"
 
 
-def _initiator(prior: Mapping[str, float] | ArrayLike | None,
+def _initiator(initiator: Initiator | None,
+               prior: Mapping[str, float] | ArrayLike | None,
                prior_std: Mapping[str, float] | ArrayLike | None, prior_time: float | None,
                nuisance: Mapping[str, float] | None, init_window: int | None,
                max_relative_std: float, confirm: bool) -> Initiator:
-    """The initiator the start keywords of :func:`track` describe."""
+    """The initiator given, or the one the start keywords of :func:`track` describe."""
+    if initiator is not None:
+        if any(v is not None for v in (prior, prior_std, prior_time, nuisance, init_window)) \
+                or max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm:
+            raise TrackingError("initiator: give the start as an initiator or by the start "
+                                "keywords (prior, prior_std, prior_time, nuisance, "
+                                "init_window, max_relative_std, confirm), not both",
+                                "initiator")
+        return initiator
     if prior is not None or prior_std is not None:
         if prior is None or prior_std is None:
             raise TrackingError("a prior needs both its mean (prior) and its standard "
@@ -115,15 +124,8 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     setup = FilterSetup.create(filter, d, q, particles, rng, options)
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
-    if initiator is None:
-        initiator = _initiator(prior, prior_std, prior_time, nuisance, init_window,
-                               max_relative_std, confirm)
-    elif any(v is not None for v in (prior, prior_std, prior_time, nuisance, init_window)) or (
-            max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm):
-        raise TrackingError("initiator: give the start as an initiator or by the start "
-                            "keywords (prior, prior_std, prior_time, nuisance, init_window, "
-                            "max_relative_std, confirm), not both", "initiator")
-    started = initiator.initiate(meas, setup)
+    started = _initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
+                         max_relative_std, confirm).initiate(meas, setup)
     result = started.track
     result.extra["start"] = started.start.as_dict()
     result.extra[START_RECORD] = started.start
