@@ -38,6 +38,12 @@ def _whole(value: object, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
+def _check_seed(seed: object) -> None:
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
+                             or seed < 0):
+        raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
+
+
 def _init_vector(scenario: Scenario, init: Mapping[str, float] | ArrayLike
                  ) -> NDArray[np.float64]:
     motion = scenario.motion
@@ -48,6 +54,18 @@ def _init_vector(scenario: Scenario, init: Mapping[str, float] | ArrayLike
         raise ValueError(f"init must give {motion.n_params} values "
                          f"({', '.join(motion.param_names)})")
     return vec
+
+
+def _scenario(scenario: Scenario | str | Path) -> Scenario:
+    """The scenario itself, or loaded by built-in name or TOML path."""
+    if isinstance(scenario, str | Path):
+        from ..scenario_file import load_scenario
+
+        scenario = load_scenario(scenario)
+    if not isinstance(scenario, Scenario):
+        raise ValueError(f"scenario must be a Scenario or a scenario name, not "
+                         f"{type(scenario).__name__}")
+    return scenario
 
 
 def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
@@ -102,22 +120,19 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs : int
         Number of runs (>= 1).
     seed : int or None
-        Fixes every run's data (run ``r`` uses child ``r`` of
-        ``np.random.SeedSequence(seed)``); ``None`` draws fresh entropy, recorded in the
-        result.
+        Fixes every run's data (see the module docstring); ``None`` draws fresh entropy,
+        recorded in the result.
     options : mapping, optional
         The nuisance model per kind; default the scenario's
         (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
     known_nuisance : bool
-        Give the estimator the scenario's true nuisance values (and compare with the CRLB
-        for known nuisance); by default they are unknown to both.
+        Give the estimator (and the CRLB) the scenario's true nuisance values.
     init : mapping or array_like, optional
         A starting point given to every run (default: the estimator's own initialisation).
     progress : bool
         Show a tqdm progress bar.
     dask : str or distributed.Client, optional
-        Send the chunks to a Dask cluster (a scheduler address or a client); its workers must
-        be able to import tmakit.
+        Send the chunks to a Dask cluster (its workers must import tmakit).
     chunk : int, optional
         Runs per task (default :func:`~.execution.default_chunk`).  The table is the same,
         run for run, for any ``chunk`` and ``dask``.
@@ -134,19 +149,10 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
-    if isinstance(scenario, str | Path):
-        from ..scenario_file import load_scenario
-
-        scenario = load_scenario(scenario)
-    if not isinstance(scenario, Scenario):
-        raise ValueError(f"scenario must be a Scenario or a scenario name, not "
-                         f"{type(scenario).__name__}")
+    scenario = _scenario(scenario)
     runs = _whole(runs, "runs")
-    if chunk is not None:
-        chunk = _whole(chunk, "chunk")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
-                             or seed < 0):
-        raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
+    chunk = None if chunk is None else _whole(chunk, "chunk")
+    _check_seed(seed)
     known_nuisance = bool(known_nuisance)
     check_estimator(estimator, known_nuisance)
     init_vector = None if init is None else _init_vector(scenario, init)
