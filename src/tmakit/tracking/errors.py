@@ -10,7 +10,7 @@ about is :attr:`TrackingError.parameter`.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 __all__ = ["MissingNuisanceError", "StartError", "TrackingError"]
 
@@ -27,9 +27,9 @@ class TrackingError(ValueError):
         Other text (braces included) is kept as it is.
     parameter : str or None
         The library parameter the error is about (its value is wrong, or it is the way out).
-    spellings : mapping of str to str, optional
-        For each placeholder of ``template``, how the library names it (default: the
-        placeholder's own name, for every placeholder found in ``template``).
+    spellings : mapping of str to str, or sequence of str
+        The placeholders of ``template`` and how the library spells each (a sequence: each
+        by its own name).  Default: none, the message is plain text.
 
     Attributes
     ----------
@@ -40,12 +40,11 @@ class TrackingError(ValueError):
     """
 
     def __init__(self, template: str, parameter: str | None = None,
-                 spellings: Mapping[str, str] | None = None) -> None:
+                 spellings: Mapping[str, str] | Sequence[str] = ()) -> None:
         self.template = template
         self.parameter = parameter
-        if spellings is None:
-            spellings = {name: name for name in _PLACEHOLDER.findall(template)}
-        self.spellings = dict(spellings)
+        self.spellings = (dict(spellings) if isinstance(spellings, Mapping)
+                          else {name: name for name in spellings})
         self.parameters = tuple(self.spellings)
         super().__init__(self.render())
 

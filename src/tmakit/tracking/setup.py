@@ -55,7 +55,7 @@ def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
     """
     if dim is not None:
         if dim not in (2, 3):
-            raise TrackingError(f"{{dim}} must be 2 or 3, got {dim}", "dim")
+            raise TrackingError(f"{{dim}} must be 2 or 3, got {dim}", "dim", ["dim"])
         return int(dim)
     if meas.dim == 3:
         return 3
@@ -85,21 +85,21 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
     """
     if isinstance(q, str | bytes):
         raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
-                            f"not the text {q!r}", "q")
+                            f"not the text {q!r}", "q", ["q"])
     try:
         values = np.atleast_1d(np.asarray(q, dtype=float)).reshape(-1).tolist()
     except (TypeError, ValueError):
         raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
-                            f"got {q!r}", "q") from None
+                            f"got {q!r}", "q", ["q"]) from None
     if len(values) == 1:
         values = values * dim
     if len(values) != dim:
         axes = "qx,qy" if dim == 2 else "qx,qy,qz"
         raise TrackingError(f"{{q}}: expected one value or {dim} per-axis values ({axes}) for "
-                            f"a {dim}-D track, got {len(values)}", "q")
+                            f"a {dim}-D track, got {len(values)}", "q", ["q"])
     if not all(np.isfinite(v) and v >= 0 for v in values):
         raise TrackingError(f"{{q}}: process noise must be finite and >= 0 m/s^2, got "
-                            f"{values}", "q")
+                            f"{values}", "q", ["q"])
     return tuple(float(v) for v in values)
 
 

@@ -141,7 +141,7 @@ class _Windows:
             f"cannot start the filter from the data: {detail}, and the start needs less "
             f"than {max_relative_std:.0%} ({len(self.tried)} windows of up to {len(self)} "
             "measurement times tried); give a prior ({prior}/{prior_std}) or relax the start "
-            "quality ({max_relative_std})", "prior")
+            "quality ({max_relative_std})", "prior", ["prior", "prior_std", "max_relative_std"])
 
 
 def search_window(meas: MeasurementSet, dim: int,
@@ -192,7 +192,7 @@ def search_window(meas: MeasurementSet, dim: int,
             verb = "" if w.problem.startswith("failed") else "is "
             raise StartError(f"the batch estimate over the first {k} measurement times "
                              f"(t <= {w.time:g} s) {verb}{w.problem}; use a longer window or "
-                             "give a prior", "init_window", {})
+                             "give a prior", "init_window")
         return windows.choice(k)
     if not max_relative_std > 0:
         raise TrackingError(f"max_relative_std must be > 0, got {max_relative_std}",
