@@ -28,10 +28,27 @@ __all__ = ["MonteCarloResult", "ratio_interval"]
 
 
 def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, float]:
-    """Confidence interval of the true RMS error over the CRLB from the measured ratio of
-    ``n`` runs: ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``.
+    """Confidence interval of the true RMS error over the CRLB from the measured ratio.
 
-    Assumes independent, unbiased, Gaussian errors (then ``n RMSE²/σ²`` is ``χ²_n``)."""
+    Parameters
+    ----------
+    ratio : float
+        Measured RMSE/CRLB over ``n`` runs.
+    n : int
+        Runs.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    tuple of float
+        ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``; NaN for
+        ``n < 1`` or a non-finite ratio.
+
+    Notes
+    -----
+    Assumes independent, unbiased, Gaussian errors (then ``n RMSE²/σ²`` is ``χ²_n``).
+    """
     if n < 1 or not np.isfinite(ratio):
         return float("nan"), float("nan")
     from scipy.stats import chi2
@@ -47,13 +64,37 @@ def _num(x: float) -> float | None:
 
 @dataclass
 class MonteCarloResult:
-    """The runs of :func:`monte_carlo` and their comparison with the CRLB.
+    """The runs of :func:`~tmakit.montecarlo.monte_carlo` and their comparison with the
+    CRLB.
 
-    ``table`` has one row per run: ``run``, ``status`` (``converged``, ``did not converge``,
-    ``unobservable``, ``diverged`` or ``failed``), ``iterations``, ``chi2``, ``starts`` (starting
-    points solved from) and ``est_<param>`` per motion parameter.  ``crlb`` is the bound's
-    standard deviation per parameter (same order as ``parameters`` and ``truth``); ``seed``
-    the entropy that reproduces the runs; ``failures`` the error message of each failed run.
+    Parameters
+    ----------
+    scenario, estimator : str
+        Names of the scenario and the estimator.
+    parameters : tuple of str
+        The motion parameters, in the order of ``truth`` and ``crlb``.
+    truth : ndarray, shape (p,)
+        True parameter values (SI).
+    crlb : ndarray, shape (p,)
+        The bound's standard deviation per parameter (SI).
+    table : pandas.DataFrame
+        One row per run: ``run``, ``status`` (``converged``, ``did not converge``,
+        ``unobservable``, ``diverged`` or ``failed``), ``iterations``, ``chi2``, ``starts``
+        (starting points solved from) and ``est_<param>`` per motion parameter.
+    wall_time : float
+        Seconds the runs took.
+    seed : int
+        The entropy that reproduces the runs.
+    known_nuisance : bool
+        Whether the estimator (and the bound) knew the nuisance values.
+    executor : str
+        ``local`` or ``dask <address>``.
+    chunk : int
+        Runs per task.
+    failures : dict of int to str
+        The error message of each failed run.
+    bound : Bound, optional
+        The CRLB itself.
     """
 
     scenario: str
@@ -73,10 +114,12 @@ class MonteCarloResult:
     # -- counts ----------------------------------------------------------------------------
     @property
     def runs(self) -> int:
+        """Number of runs."""
         return len(self.table)
 
     @property
     def runs_per_second(self) -> float:
+        """Runs per second of wall time."""
         return self.runs / self.wall_time if self.wall_time > 0 else float("inf")
 
     @property
@@ -91,6 +134,7 @@ class MonteCarloResult:
 
     @property
     def status_counts(self) -> dict[str, int]:
+        """Number of runs per status, commonest first."""
         return {str(k): int(v) for k, v in self.table["status"].value_counts().items()}
 
     def estimates(self, converged_only: bool = True) -> NDArray[np.float64]:
@@ -175,6 +219,7 @@ class MonteCarloResult:
         return out
 
     def to_json(self, indent: int | None = 2, runs: bool = False) -> str:
+        """:meth:`as_dict` as JSON text (``indent`` as for :func:`json.dumps`)."""
         return json.dumps(self.as_dict(runs=runs), indent=indent)
 
     def save(self, path: str | Path, force: bool = False) -> Path:
