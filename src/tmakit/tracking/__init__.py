@@ -10,7 +10,8 @@ One job per module:
 * :mod:`.initiators` — the start policy as objects: :class:`BatchInitiator` (a batch
   estimate over the shortest good initial window, :mod:`.window`, confirmed by the
   innovations) and :class:`PriorInitiator`; each returns a typed record (:mod:`.records`).
-* :mod:`.setup` — the filter's class, dimension, process noise and settings, from typed values.
+* :mod:`.filter_setup` — the filter's class, dimension, process noise and settings, from
+  typed values.
 * :mod:`.tracker` — :func:`track`, the short form.
 * :mod:`.output` — the JSON form and the table of a track (written by
   :func:`tmakit.io.track_files.write_track`).
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 from ..truth import truth_states
 from .errors import MissingNuisanceError, StartError, TrackingError
+from .filter_setup import FilterSetup, filter_class, filter_dim, process_noise, random_filters
 from .initiators import (
     CONFIRM_P_VALUE,
     DEFAULT_MAX_RELATIVE_STD,
@@ -35,7 +37,6 @@ from .initiators import (
 from .output import TrackTable, track_dict, track_table
 from .pcrb import track_pcrb
 from .records import BatchStart, Confirmation, PriorStart, Rejection, StartRecord
-from .setup import FilterSetup, filter_class, filter_dim, process_noise, random_filters
 from .tracker import start_record, track
 from .window import MIN_WINDOW, WindowChoice, WindowEstimate, search_window
 

@@ -1,8 +1,9 @@
 """How a track starts: initiators, objects with their settings in ``__init__``.
 
-An initiator's :meth:`~Initiator.initiate` starts the filter of a :class:`~.setup.FilterSetup`
-on a measurement set and returns an :class:`Initiation`: the typed record of the start
-(:class:`~.records.PriorStart` or :class:`~.records.BatchStart`) and the track.
+An initiator's :meth:`~Initiator.initiate` starts the filter of a
+:class:`~.filter_setup.FilterSetup` on a measurement set and returns an
+:class:`Initiation`: the typed record of the start (:class:`~.records.PriorStart` or
+:class:`~.records.BatchStart`) and the track.
 
 * :class:`PriorInitiator` starts from a given Gaussian prior (mean and standard deviations by
   state name) at the first measurement time or a given time, with known nuisance values when
@@ -29,8 +30,8 @@ from ..data import MeasurementSet
 from ..filters import Track
 from ..measurements import model_for
 from .errors import MissingNuisanceError, StartError, TrackingError
+from .filter_setup import FilterSetup, state_vector
 from .records import BatchStart, Confirmation, PriorStart, Rejection, StartRecord
-from .setup import FilterSetup, state_vector
 from .window import MIN_WINDOW, search_window
 
 __all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "BatchInitiator", "Initiation",

@@ -18,9 +18,9 @@ from numpy.typing import ArrayLike
 from ..data import MeasurementSet
 from ..filters import Track
 from .errors import TrackingError
+from .filter_setup import FilterSetup, filter_class, filter_dim
 from .initiators import DEFAULT_MAX_RELATIVE_STD, BatchInitiator, Initiator, PriorInitiator
 from .records import BatchStart, PriorStart, StartRecord
-from .setup import FilterSetup, filter_class, filter_dim
 
 __all__ = ["start_record", "track"]
 
@@ -77,7 +77,7 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
         A name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``mgekf``, ``pf``).
     q : float or array_like
         Nearly-constant-velocity process noise: one acceleration standard deviation
-        (m/s^2) for every axis, or one per axis (:func:`~.setup.process_noise`).
+        (m/s^2) for every axis, or one per axis (:func:`~.filter_setup.process_noise`).
     particles : int, optional
         Particle count, for particle filters only (an error for the others).
     prior, prior_std : mapping or array_like, optional
@@ -92,7 +92,7 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     rng : numpy.random.Generator or int, optional
         Generator or seed, for the filters that draw random numbers.
     dim : int, optional
-        2 or 3 (default :func:`~.setup.filter_dim`).
+        2 or 3 (default :func:`~.filter_setup.filter_dim`).
     options : mapping, optional
         Per-kind measurement-model options, as for :func:`tmakit.batch.estimate`.
     nuisance : mapping of str to float, optional
