@@ -226,3 +226,110 @@ def test_a_start_that_the_innovations_reject_is_replaced_by_a_longer_window():
     truth, truth_blind = (tracking.truth_states(meas, t.times, 2) for t in (tr, blind))
     error = np.hypot(*tr.errors(truth)[-1, :2])
     assert error < 300.0 and error < 0.1 * np.hypot(*blind.errors(truth_blind)[-1, :2])
+
+
+# -- the library's seams: initiators, typed start records, errors without flags --------------
+def test_initiator_objects_give_the_tracks_of_the_short_form(obs):
+    meas = tk.read_measurements(obs)
+    default = tk.track(meas)
+    batch = tk.track(meas, initiator=tracking.BatchInitiator())
+    assert np.array_equal(batch.states, default.states)
+    assert batch.extra["start"] == default.extra["start"]
+    record = tracking.start_record(batch)
+    assert isinstance(record, tracking.BatchStart)
+    assert record.as_dict() == batch.extra["start"]
+    assert record.window == batch.extra["start"]["window"] and record.time == batch.times[0]
+    assert np.array_equal(record.mean, batch.states[0])
+    assert isinstance(record.confirmation, tracking.Confirmation)
+    mean = {"x": 4000.0, "y": 9000.0, "vx": -6.0, "vy": -3.0}
+    std = {"x": 3000.0, "y": 3000.0, "vx": 10.0, "vy": 10.0}
+    short = tk.track(meas, "ukf", prior=mean, prior_std=std)
+    prior = tk.track(meas, "ukf", initiator=tracking.PriorInitiator(mean, std))
+    assert np.array_equal(prior.covariances, short.covariances)
+    started = tracking.start_record(prior)
+    assert isinstance(started, tracking.PriorStart) and started.time == 1.0
+    assert np.array_equal(started.covariance, np.diag([3000.0**2] * 2 + [100.0] * 2))
+    assert prior.extra["start"] == {"method": "prior", "time": 1.0, "mean": mean, "std": std}
+    with pytest.raises(tracking.TrackingError, match="not both") as both:
+        tk.track(meas, prior=mean, prior_std=std, initiator=tracking.BatchInitiator())
+    assert both.value.parameter == "initiator"
+
+
+def test_library_errors_name_parameters_and_the_command_its_flags(tmp_path):
+    meas = tk.load_scenario("bearings-only-2d").simulate(rng=1)
+    leg = meas.take(meas.time <= 100.0)
+    with pytest.raises(tracking.StartError) as refused:
+        tk.track(leg)
+    e = refused.value
+    assert isinstance(e, ValueError) and e.parameter == "prior"
+    assert e.parameters == ("prior", "prior_std", "max_relative_std")
+    assert "--" not in str(e) and "(prior/prior_std)" in str(e)
+    flags = e.render({"prior": "--prior", "prior_std": "--prior-std",
+                      "max_relative_std": "--start-std"})
+    assert flags.endswith("give a prior (--prior/--prior-std) or relax the start quality "
+                          "(--start-std)")
+    path = tmp_path / "leg1.csv"
+    tk.write_measurements(leg, path)
+    assert " ".join(run("track", path).output.split()) == "error: " + " ".join(flags.split())
+    longer = e.extended("; earlier starts were rejected: {x}")
+    assert type(longer) is tracking.StartError and longer.parameter == "prior"
+    assert str(longer) == str(e) + "; earlier starts were rejected: {x}"
+    # Text is the command line's to parse; the library takes numbers.
+    with pytest.raises(tracking.TrackingError, match="not the text") as text:
+        tk.track(meas, q="0.01")
+    assert text.value.parameter == "q" and str(text.value).startswith("q:")
+    with pytest.raises(tracking.TrackingError, match=r"^dim must be 2 or 3") as dim:
+        tk.track(meas, dim=4)
+    assert dim.value.parameter == "dim"
+
+
+def test_a_prior_without_the_nuisance_values_names_them(tmp_path):
+    meas = tk.load_scenario("gu2007").simulate(rng=2)
+    prior = {"x": 1.0, "y": 2.0, "vx": 0.0, "vy": 0.0}
+    std = dict.fromkeys(prior, 1.0)
+    with pytest.raises(tracking.MissingNuisanceError) as missing:
+        tk.track(meas, prior=prior, prior_std=std)
+    e = missing.value
+    assert e.parameter == "nuisance" and "--nuisance" not in str(e)
+    assert e.missing == {"frequency": ("carrier",), "power": ("power_constant_db",)}
+    assert "(nuisance={...}); a batch start" in str(e)
+    path = tmp_path / "gu.csv"
+    tk.write_measurements(meas, path)
+    result = run("track", path, "--prior", "x=1,y=2,vx=0,vy=0", "--prior-std",
+                 "x=1,y=1,vx=1,vy=1")
+    assert result.exit_code == 2
+    assert ("(nuisance={...}; --nuisance carrier=...,power_constant_db=...); a batch start "
+            "estimates them itself") in " ".join(result.output.split())
+
+
+def test_write_track_is_io_and_parquet_carries_the_start(obs, tmp_path):
+    import pyarrow.parquet as pq
+
+    from tmakit.io.track_files import write_track
+
+    assert tk.write_track is write_track
+    tr = tk.track(tk.read_measurements(obs))
+    table = tracking.track_table(tr)
+    assert list(table.columns) == list(tr.table_columns())
+    path = write_track(tr, tmp_path / "t.parquet")
+    meta = pq.read_schema(path).metadata
+    assert meta[b"tmakit:filter"] == b"ekf"
+    assert json.loads(meta[b"tmakit:start"]) == tracking.track_dict(tr)["start"]
+    assert json.loads(meta[b"tmakit:q"]) == [0.0, 0.0]
+    with pytest.raises(FileExistsError):
+        write_track(tr, path)
+    with pytest.raises(ValueError, match=r"\.csv or \.parquet"):
+        write_track(tr, tmp_path / "t.txt")
+
+
+def test_truth_comes_from_the_metadata_in_the_scenario_layer():
+    from tmakit.truth import truth_states
+
+    assert tracking.truth_states is truth_states
+    scn = tk.load_scenario("bearings-only-2d")
+    meas = scn.simulate(rng=1)
+    np.testing.assert_allclose(truth_states(meas, [0.0, 600.0], 2),
+                               scn.target_states([0.0, 600.0])[:, [0, 1, 3, 4]])
+    assert truth_states(meas, [0.0], 3).shape == (1, 6)
+    meas.metadata.pop("truth")
+    assert truth_states(meas, [0.0], 2) is None

@@ -41,7 +41,7 @@ _LAZY = {
     "geodetic_to_enu": "geodesy",
     "enu_to_geodetic": "geodesy",
     "track": "tracking",
-    "write_track": "tracking",
+    "write_track": "io.track_files",
     "estimate": "batch",
 }
 
@@ -49,6 +49,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .batch import estimate
     from .geodesy import enu_to_geodetic, geodetic_to_enu
     from .io.measurement_files import MeasurementFileError, read_measurements, write_measurements
+    from .io.track_files import write_track
     from .scenario_file import (
         ScenarioFileError,
         builtin_scenarios,
@@ -56,7 +57,7 @@ if TYPE_CHECKING:  # pragma: no cover
         read_scenario_file,
         scenario_from_dict,
     )
-    from .tracking import track, write_track
+    from .tracking import track
 
 
 def __getattr__(name: str) -> Any:

@@ -12,13 +12,25 @@ import numpy as np
 
 from .data import MeasurementSet
 from .measurements import KINDS
+from .truth import truth_states
 
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
-    """The true target states ``(n, 6)`` (m, m/s) at ``n`` times over the set's time span,
-    if its metadata carries the truth (as simulated sets do); ``None`` otherwise."""
-    from .tracking import truth_states
+    """The true target path over the set's time span, from its metadata.
 
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (simulated sets carry the truth in their metadata).
+    n : int
+        Number of times, evenly spread from the first to the last measurement time.
+
+    Returns
+    -------
+    ndarray, shape (n, 6), or None
+        True states ``[x, y, z, vx, vy, vz]`` (m, m/s) (:func:`tmakit.truth.truth_states`);
+        ``None`` for an empty set or one without the truth.
+    """
     if len(meas) == 0:
         return None
     return truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), n), 3)
@@ -27,7 +39,22 @@ def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
 def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None = None
                       ) -> Path:
     """Write a picture of the sensor tracks (and the true target track when known) beside
-    one time-series panel per measurement kind.  Returns the path written."""
+    one time-series panel per measurement kind.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (values drawn in file units: degrees, dBm, Hz, ...).
+    path : str or Path
+        The picture (PNG, PDF, SVG by suffix).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -110,18 +137,39 @@ def plot_track(tr, meas: MeasurementSet, path: str | Path, *, truth: np.ndarray 
                pcrb=None, pcrb_note: str = "", ellipses: int = 8,
                probabilities: tuple[float, ...] = (0.90, 0.95), title: str | None = None
                ) -> Path:
-    """Write a picture of a :class:`~tmakit.filters.Track`: the map (sensor paths, the
-    track, its 90 % and 95 % position ellipses at ``ellipses`` times spread over the track,
-    the true path when known) and, when ``truth`` (K, n) states at the track's times are
-    given, the position error against time beside the filter's own standard deviations and
-    the posterior CRB ``pcrb`` (a :class:`~tmakit.bounds.pcrb.PosteriorBound`; when ``None``
-    the legend says ``pcrb_note``).  Returns the path written."""
+    """Write a picture of a :class:`~tmakit.filters.Track`.
+
+    Parameters
+    ----------
+    tr : Track
+        The track (SI).
+    meas : MeasurementSet
+        Its measurements (for the sensor paths and the true path from the metadata).
+    path : str or Path
+        The picture (PNG, PDF, SVG by suffix).
+    truth : ndarray, shape (K, n), optional
+        True states at the track's times (m, m/s); with it, the error panels are drawn.
+    pcrb : PosteriorBound, optional
+        The posterior CRB (:func:`tmakit.tracking.track_pcrb`) drawn beside the errors.
+    pcrb_note : str
+        What the legend says when ``pcrb`` is ``None``.
+    ellipses : int
+        Number of times spread over the track with position ellipses.
+    probabilities : tuple of float
+        The ellipses' probabilities (90 % and 95 %).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    dim = len(tr.state_names) // 2
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     if truth is not None:
         fig = plt.figure(figsize=(14, 7), layout="constrained")
@@ -132,7 +180,16 @@ def plot_track(tr, meas: MeasurementSet, path: str | Path, *, truth: np.ndarray 
     else:
         fig = plt.figure(figsize=(8, 7), layout="constrained")
         ax_map = fig.add_subplot(1, 1, 1)
+    _track_map(ax_map, tr, meas, truth, ellipses, probabilities, colours)
+    if truth is not None:
+        _axis_errors(ax_axes, tr, truth, pcrb, colours)
+        _norm_errors(ax_norm, tr, truth, pcrb, pcrb_note, colours)
+    return _save(fig, path, title)
 
+
+def _track_map(ax_map, tr, meas: MeasurementSet, truth: np.ndarray | None, ellipses: int,
+               probabilities: tuple[float, ...], colours: list[str]) -> None:
+    """The map: sensor paths, the true path, the track and its position ellipses."""
     for i, s in enumerate(meas.sensors):
         sel = meas.sensor == s
         order = np.argsort(meas.time[sel], kind="stable")
@@ -164,46 +221,55 @@ def plot_track(tr, meas: MeasurementSet, path: str | Path, *, truth: np.ndarray 
     ax_map.legend(loc="best", fontsize=8)
     ax_map.set_title(f"track and position ellipses at {len(k_sel)} times", fontsize=10)
 
-    if truth is not None:
-        t = tr.times
-        err = tr.states[:, :dim] - truth[:, :dim]
-        std = tr.std[:, :dim]
-        for a, name in enumerate(tr.state_names[:dim]):
-            c = colours[a % len(colours)]
-            ax_axes.plot(t, err[:, a], "-", color=c, lw=1.0, label=f"error {name}")
-            ax_axes.fill_between(t, -std[:, a], std[:, a], color=c, alpha=0.15,
-                                 label=f"±1 filter std {name}")
-            if pcrb is not None:
-                ax_axes.plot(pcrb.times, pcrb.std[:, a], ":", color=c, lw=1.0,
-                             label=f"±PCRB std {name}")
-                ax_axes.plot(pcrb.times, -pcrb.std[:, a], ":", color=c, lw=1.0)
-        ax_axes.set_ylabel("position error (m)")
-        ax_axes.set_title("estimate minus truth per axis", fontsize=10)
-        ax_axes.grid(True, alpha=0.3)
-        ax_axes.legend(loc="upper right", fontsize=7, ncol=2)
-        if len(t):  # the start's wide std would flatten the rest; outliers may leave the panel
-            lim = max(4.0 * float(np.nanmedian(np.linalg.norm(std, axis=1))),
-                      1.2 * float(np.nanpercentile(np.abs(err), 95)))
-            if np.isfinite(lim) and lim > 0:
-                ax_axes.set_ylim(-lim, lim)
 
-        norm = np.linalg.norm(err, axis=1)
-        sd = np.sqrt(np.einsum("kii->k", tr.covariances[:, :dim, :dim]))
-        ax_norm.semilogy(t, np.maximum(norm, 1e-3), "-", color=colours[0], lw=1.0,
-                         label="|position error|")
-        ax_norm.semilogy(t, sd, "-", color=colours[1], lw=1.2,
-                         label="filter position RMS std sqrt(tr P)")
+def _axis_errors(ax_axes, tr, truth: np.ndarray, pcrb, colours: list[str]) -> None:
+    """Estimate minus truth per axis, within the filter's ±1 std and the PCRB's."""
+    dim = len(tr.state_names) // 2
+    t = tr.times
+    err = tr.states[:, :dim] - truth[:, :dim]
+    std = tr.std[:, :dim]
+    for a, name in enumerate(tr.state_names[:dim]):
+        c = colours[a % len(colours)]
+        ax_axes.plot(t, err[:, a], "-", color=c, lw=1.0, label=f"error {name}")
+        ax_axes.fill_between(t, -std[:, a], std[:, a], color=c, alpha=0.15,
+                             label=f"±1 filter std {name}")
         if pcrb is not None:
-            how = ("along the true path" if pcrb.mode == "deterministic"
-                   else f"{pcrb.trajectories} trajectories")
-            ax_norm.semilogy(pcrb.times, pcrb.position_rms, "k--", lw=1.2,
-                             label=f"PCRB position RMS ({how})")
-        else:
-            ax_norm.plot([], [], " ", label=pcrb_note or "PCRB not available")
-        ax_norm.set_xlabel("time (s)")
-        ax_norm.set_ylabel("m")
-        ax_norm.set_title("position error against the filter's std and the posterior CRB",
-                          fontsize=10)
-        ax_norm.grid(True, which="both", alpha=0.3)
-        ax_norm.legend(loc="upper right", fontsize=8)
-    return _save(fig, path, title)
+            ax_axes.plot(pcrb.times, pcrb.std[:, a], ":", color=c, lw=1.0,
+                         label=f"±PCRB std {name}")
+            ax_axes.plot(pcrb.times, -pcrb.std[:, a], ":", color=c, lw=1.0)
+    ax_axes.set_ylabel("position error (m)")
+    ax_axes.set_title("estimate minus truth per axis", fontsize=10)
+    ax_axes.grid(True, alpha=0.3)
+    ax_axes.legend(loc="upper right", fontsize=7, ncol=2)
+    if len(t):  # the start's wide std would flatten the rest; outliers may leave the panel
+        lim = max(4.0 * float(np.nanmedian(np.linalg.norm(std, axis=1))),
+                  1.2 * float(np.nanpercentile(np.abs(err), 95)))
+        if np.isfinite(lim) and lim > 0:
+            ax_axes.set_ylim(-lim, lim)
+
+
+def _norm_errors(ax_norm, tr, truth: np.ndarray, pcrb, pcrb_note: str, colours: list[str]
+                 ) -> None:
+    """|position error| against the filter's sqrt(tr P) and the PCRB position RMS."""
+    dim = len(tr.state_names) // 2
+    t = tr.times
+    err = tr.states[:, :dim] - truth[:, :dim]
+    norm = np.linalg.norm(err, axis=1)
+    sd = np.sqrt(np.einsum("kii->k", tr.covariances[:, :dim, :dim]))
+    ax_norm.semilogy(t, np.maximum(norm, 1e-3), "-", color=colours[0], lw=1.0,
+                     label="|position error|")
+    ax_norm.semilogy(t, sd, "-", color=colours[1], lw=1.2,
+                     label="filter position RMS std sqrt(tr P)")
+    if pcrb is not None:
+        how = ("along the true path" if pcrb.mode == "deterministic"
+               else f"{pcrb.trajectories} trajectories")
+        ax_norm.semilogy(pcrb.times, pcrb.position_rms, "k--", lw=1.2,
+                         label=f"PCRB position RMS ({how})")
+    else:
+        ax_norm.plot([], [], " ", label=pcrb_note or "PCRB not available")
+    ax_norm.set_xlabel("time (s)")
+    ax_norm.set_ylabel("m")
+    ax_norm.set_title("position error against the filter's std and the posterior CRB",
+                      fontsize=10)
+    ax_norm.grid(True, which="both", alpha=0.3)
+    ax_norm.legend(loc="upper right", fontsize=8)

@@ -80,9 +80,9 @@ def track(
     meas = read_or_fail(file, parse_origin(origin))
     try:
         d = tracking.filter_dim(meas, dim)
-        q_axes = tracking.parse_q(q, d)
-    except ValueError as e:
-        raise fail(f"--{e}") from None
+        q_axes = tracking.process_noise(parse_q(q, d), d)
+    except tracking.TrackingError as e:
+        raise tracking_failure(e) from None
     prior_mean, prior_sd, known = parse_prior(prior, prior_std, nuisance, init_window)
     try:
         tr = tracking.track(meas, filter_name, q=q_axes, particles=particles,
@@ -90,6 +90,8 @@ def track(
                             init_window=init_window, max_relative_std=start_std, rng=seed,
                             dim=d, options=model_options(drift, free_exponent),
                             nuisance=known)
+    except tracking.TrackingError as e:
+        raise tracking_failure(e) from None
     except ValueError as e:
         raise fail(str(e)) from None
     truth = tracking.truth_states(meas, tr.times, d)
@@ -99,6 +101,32 @@ def track(
         print_track(tr, truth, rows)
     write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
                         err if as_json else out)
+
+
+def parse_q(text: str, dim: int) -> list[float]:
+    """``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2), as floats."""
+    try:
+        return [float(p.strip()) for p in text.split(",")]
+    except ValueError:
+        raise fail(f"--q {text!r}: expected one number or {dim} numbers separated by commas "
+                   "(m/s^2 per axis, e.g. 0.01 or "
+                   f"{','.join(['0.01'] * dim)})") from None
+
+
+#: The flags of `tma track` for the library parameters its errors name.
+TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
+               "max_relative_std": "--start-std"}
+
+
+def tracking_failure(e: Any) -> typer.Exit:
+    """A :class:`tmakit.tracking.TrackingError` as `tma track` says it: with its flags."""
+    from ..tracking import MissingNuisanceError
+
+    names = dict(TRACK_FLAGS)
+    if isinstance(e, MissingNuisanceError):
+        names["nuisance"] = ("nuisance={...}; --nuisance "
+                             + ",".join(f"{n}=..." for n in e.names))
+    return fail(e.render(names))
 
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
@@ -126,11 +154,12 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
     """
     from .. import tracking
     from ..filters import FILTERS
+    from ..io.track_files import TRACK_SUFFIXES
 
     for path in (output, plot):
         if path is not None:
             refuse_existing(path, force)
-    if output is not None and output.suffix.lower() not in tracking.TABLE_SUFFIXES:
+    if output is not None and output.suffix.lower() not in TRACK_SUFFIXES:
         raise fail(f"{output}: the track table is written as .csv or .parquet")
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
@@ -209,10 +238,11 @@ def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path
         Status 2 when the table exists (without ``force``).
     """
     from .. import tracking
+    from ..io.track_files import write_track
 
     if output is not None:
         try:
-            tracking.write_track(tr, output, force=force)
+            write_track(tr, output, force=force)
         except FileExistsError:
             raise fail(f"{output} already exists; use --force to overwrite it") from None
         say.print(f"wrote {output}", highlight=False)

@@ -866,3 +866,7 @@ def _move_into_place(tmp: Path, path: Path, force: bool) -> None:
         os.replace(tmp, path)
         return
     tmp.unlink()
+
+
+#: The atomic-write helper under a public name, for the other writers of :mod:`tmakit.io`.
+written_in_place = _written_in_place

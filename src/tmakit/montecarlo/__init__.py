@@ -1,0 +1,32 @@
+"""Monte Carlo evaluation of an estimator on a scenario, against the Cramér–Rao bound.
+
+>>> from tmakit.montecarlo import monte_carlo
+>>> res = monte_carlo(tk.load_scenario("gu2007"), "ml", runs=200, seed=1)
+>>> print(res.summary())            # bias, RMSE, CRLB, RMSE/CRLB with 95 % interval
+>>> res.save("gu2007-mc.parquet")   # the per-run table
+
+One job per module:
+
+* :mod:`.study` — :func:`monte_carlo`: arguments, seeds (run ``r`` uses child ``r`` of
+  ``np.random.SeedSequence(seed)``, whatever the chunking), chunks, the CRLB.
+* :mod:`.runs` — one chunk of runs: simulate, estimate (the ``ml`` solves batched across
+  runs, equal to :func:`tmakit.batch.estimate` run by run), record.
+* :mod:`.execution` — where the chunks run: this process or a Dask cluster; progress bar.
+* :mod:`.estimators` — the estimator names a study accepts (the registry
+  :mod:`tmakit.batch.methods`).
+* :mod:`.result` — :class:`MonteCarloResult`: the per-run table, summary against the CRLB
+  (:func:`ratio_interval`), JSON and saving.
+
+Dask, distributed and tqdm are imported only when used.
+"""
+
+from __future__ import annotations
+
+from .estimators import available_estimators
+from .execution import LOCAL_CHUNK, LOOP_CHUNK
+from .result import MonteCarloResult, ratio_interval
+from .runs import FAILED, RUN_ERRORS
+from .study import monte_carlo
+
+__all__ = ["FAILED", "LOCAL_CHUNK", "LOOP_CHUNK", "RUN_ERRORS", "MonteCarloResult",
+           "available_estimators", "monte_carlo", "ratio_interval"]

@@ -1,0 +1,180 @@
+"""Where the chunks of a Monte Carlo study run: in this process or on a Dask cluster, with a
+progress bar.  Dask, distributed and tqdm are imported only when used."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from .runs import ChunkOutput, ChunkTask, run_chunk
+
+if TYPE_CHECKING:  # pragma: no cover
+    from distributed import Client
+
+__all__ = [
+    "LOCAL_CHUNK",
+    "LOOP_CHUNK",
+    "dask_client",
+    "default_chunk",
+    "progress_bar",
+    "run_dask",
+    "run_local",
+]
+
+#: Runs per chunk when running in this process.
+LOCAL_CHUNK = 50
+#: Runs per chunk for estimators solved run by run (the progress bar moves per chunk).
+LOOP_CHUNK = 10
+
+
+class _NoBar:
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def progress_bar(total: int, enabled: bool, desc: str) -> Any:
+    """A tqdm progress bar over ``total`` runs, or a silent stand-in.
+
+    Parameters
+    ----------
+    total : int
+        Runs.
+    enabled : bool
+        Show a bar (warns and goes without when tqdm is not installed).
+    desc : str
+        The bar's label.
+
+    Returns
+    -------
+    object
+        Something with ``update(n)`` and ``close()``.
+    """
+    if not enabled:
+        return _NoBar()
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        warnings.warn("progress bar needs tqdm (pip install tqdm); running without one",
+                      stacklevel=3)
+        return _NoBar()
+    return tqdm(total=total, desc=desc, unit="run", smoothing=0.1)
+
+
+def run_local(tasks: Sequence[ChunkTask], bar: Any) -> list[ChunkOutput]:
+    """Run the chunks one after the other in this process.
+
+    Parameters
+    ----------
+    tasks : sequence of ChunkTask
+        The chunks.
+    bar : object
+        Progress bar (:func:`progress_bar`).
+
+    Returns
+    -------
+    list of ChunkOutput
+        In the order of ``tasks``.
+    """
+    outputs = []
+    for task in tasks:
+        res = run_chunk(task)
+        outputs.append(res)
+        bar.update(len(res))
+    return outputs
+
+
+def dask_client(dask: Any) -> tuple[Client, bool]:
+    """A Dask client for ``dask`` and whether it was opened here (then close it).
+
+    Parameters
+    ----------
+    dask : str or distributed.Client
+        A scheduler address (``"tcp://host:8786"``) or a client.
+
+    Returns
+    -------
+    tuple
+        ``(client, opened)``.
+
+    Raises
+    ------
+    ImportError
+        Dask's distributed scheduler is not installed.
+    ValueError
+        ``dask`` is neither an address nor a client.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ImportError("dask= needs Dask's distributed scheduler: "
+                          "pip install 'dask[distributed]'") from None
+    if isinstance(dask, Client):
+        return dask, False
+    if isinstance(dask, str):
+        return Client(dask), True
+    raise ValueError(f"dask must be a scheduler address (such as 'tcp://host:8786') or a "
+                     f"distributed.Client, not {type(dask).__name__}")
+
+
+def run_dask(tasks: Sequence[ChunkTask], client: Client, bar: Any) -> list[ChunkOutput]:
+    """Run the chunks on a Dask cluster (workers must be able to import tmakit).
+
+    Parameters
+    ----------
+    tasks : sequence of ChunkTask
+        The chunks.
+    client : distributed.Client
+        The cluster's client.
+    bar : object
+        Progress bar (:func:`progress_bar`).
+
+    Returns
+    -------
+    list of ChunkOutput
+        In the order they finished.  An error or an interrupt cancels the rest.
+    """
+    from distributed import as_completed
+
+    futures = client.map(run_chunk, list(tasks), pure=False)
+    outputs = []
+    try:
+        for fut in as_completed(futures):
+            res = fut.result()
+            outputs.append(res)
+            bar.update(len(res))
+            fut.release()
+    except BaseException:
+        client.cancel(futures)  # an error or an interrupt: leave nothing running
+        raise
+    return outputs
+
+
+def default_chunk(runs: int, estimator: str, client: Client | None) -> int:
+    """Runs per chunk when none is asked for.
+
+    Parameters
+    ----------
+    runs : int
+        Runs of the study.
+    estimator : str
+        ``"ml"`` (batched: larger chunks) or another.
+    client : distributed.Client or None
+        The Dask client, or ``None`` in this process.
+
+    Returns
+    -------
+    int
+        :data:`LOCAL_CHUNK` or :data:`LOOP_CHUNK` in this process; on Dask about four chunks
+        per worker thread (to balance the load), at most :data:`LOCAL_CHUNK`.
+    """
+    if client is None:
+        return LOCAL_CHUNK if estimator == "ml" else LOOP_CHUNK
+    threads = sum(client.nthreads().values()) or 1
+    # About four chunks per worker thread balance the load; large enough chunks keep the
+    # batched solves efficient.
+    return int(min(LOCAL_CHUNK, max(1, math.ceil(runs / (4 * threads)))))

@@ -1,0 +1,241 @@
+"""The result of a Monte Carlo study: the per-run table and its comparison with the CRLB.
+
+The summary compares the root-mean-square error over the converged runs with the CRLB of the
+same nuisance convention.  The 95 % interval of RMSE/CRLB assumes independent, unbiased,
+Gaussian errors of one parameter over ``n`` runs: then ``n RMSE² / σ²`` is chi-square with
+``n`` degrees of freedom, ``σ`` the true RMS error, so ``σ / CRLB`` lies in
+``ratio·sqrt(n/χ²_{n,0.975}) .. ratio·sqrt(n/χ²_{n,0.025})`` with 95 % probability.  An
+interval above 1 says the estimator is not efficient there (or is biased, or its errors are
+heavy-tailed); an interval that contains 1 says the runs cannot tell it from an efficient one.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from ..results.bound import Bound
+from ..results.estimate import CONVERGED
+from .execution import LOCAL_CHUNK
+
+__all__ = ["MonteCarloResult", "ratio_interval"]
+
+
+def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, float]:
+    """Confidence interval of the true RMS error over the CRLB from the measured ratio.
+
+    Parameters
+    ----------
+    ratio : float
+        Measured RMSE/CRLB over ``n`` runs.
+    n : int
+        Runs.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    tuple of float
+        ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``; NaN for
+        ``n < 1`` or a non-finite ratio.
+
+    Notes
+    -----
+    Assumes independent, unbiased, Gaussian errors (then ``n RMSE²/σ²`` is ``χ²_n``).
+    """
+    if n < 1 or not np.isfinite(ratio):
+        return float("nan"), float("nan")
+    from scipy.stats import chi2
+
+    hi_q = chi2.ppf(0.5 + level / 2.0, n)
+    lo_q = chi2.ppf(0.5 - level / 2.0, n)
+    return float(ratio * np.sqrt(n / hi_q)), float(ratio * np.sqrt(n / lo_q))
+
+
+def _num(x: float) -> float | None:
+    return float(x) if x is not None and np.isfinite(x) else None
+
+
+@dataclass
+class MonteCarloResult:
+    """The runs of :func:`~tmakit.montecarlo.monte_carlo` and their comparison with the
+    CRLB.
+
+    Parameters
+    ----------
+    scenario, estimator : str
+        Names of the scenario and the estimator.
+    parameters : tuple of str
+        The motion parameters, in the order of ``truth`` and ``crlb``.
+    truth : ndarray, shape (p,)
+        True parameter values (SI).
+    crlb : ndarray, shape (p,)
+        The bound's standard deviation per parameter (SI).
+    table : pandas.DataFrame
+        One row per run: ``run``, ``status`` (``converged``, ``did not converge``,
+        ``unobservable``, ``diverged`` or ``failed``), ``iterations``, ``chi2``, ``starts``
+        (starting points solved from) and ``est_<param>`` per motion parameter.
+    wall_time : float
+        Seconds the runs took.
+    seed : int
+        The entropy that reproduces the runs.
+    known_nuisance : bool
+        Whether the estimator (and the bound) knew the nuisance values.
+    executor : str
+        ``local`` or ``dask <address>``.
+    chunk : int
+        Runs per task.
+    failures : dict of int to str
+        The error message of each failed run.
+    bound : Bound, optional
+        The CRLB itself.
+    """
+
+    scenario: str
+    estimator: str
+    parameters: tuple[str, ...]
+    truth: NDArray[np.float64]
+    crlb: NDArray[np.float64]
+    table: pd.DataFrame
+    wall_time: float
+    seed: int
+    known_nuisance: bool
+    executor: str = "local"
+    chunk: int = LOCAL_CHUNK
+    failures: dict[int, str] = field(default_factory=dict)
+    bound: Bound | None = None
+
+    # -- counts ----------------------------------------------------------------------------
+    @property
+    def runs(self) -> int:
+        """Number of runs."""
+        return len(self.table)
+
+    @property
+    def runs_per_second(self) -> float:
+        """Runs per second of wall time."""
+        return self.runs / self.wall_time if self.wall_time > 0 else float("inf")
+
+    @property
+    def converged(self) -> NDArray[np.bool_]:
+        """Mask of the converged runs."""
+        return (self.table["status"] == CONVERGED).to_numpy()
+
+    @property
+    def convergence_rate(self) -> float:
+        """Fraction of the runs whose status is ``converged``."""
+        return float(np.mean(self.converged)) if self.runs else float("nan")
+
+    @property
+    def status_counts(self) -> dict[str, int]:
+        """Number of runs per status, commonest first."""
+        return {str(k): int(v) for k, v in self.table["status"].value_counts().items()}
+
+    def estimates(self, converged_only: bool = True) -> NDArray[np.float64]:
+        """Estimates ``(runs, p)``, by default of the converged runs only."""
+        est = self.table[[f"est_{n}" for n in self.parameters]].to_numpy(dtype=float)
+        return est[self.converged] if converged_only else est
+
+    def errors(self, converged_only: bool = True) -> NDArray[np.float64]:
+        """Estimate minus truth ``(runs, p)``, by default of the converged runs only."""
+        return self.estimates(converged_only) - self.truth
+
+    # -- summaries -------------------------------------------------------------------------
+    def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
+        """One row per parameter: ``parameter``, ``truth``, ``n`` (converged runs),
+        ``bias``, ``rmse``, ``crlb``, ``ratio`` (RMSE/CRLB) and its interval
+        ``ratio_low``, ``ratio_high`` at ``level`` (see :func:`ratio_interval`)."""
+        err = self.errors()
+        n = err.shape[0]
+        rows = []
+        for k, name in enumerate(self.parameters):
+            bias = float(np.mean(err[:, k])) if n else float("nan")
+            rmse = float(np.sqrt(np.mean(err[:, k] ** 2))) if n else float("nan")
+            bound = float(self.crlb[k])
+            ratio = rmse / bound if bound > 0 and np.isfinite(bound) else float("nan")
+            low, high = ratio_interval(ratio, n, level)
+            rows.append({"parameter": name, "truth": float(self.truth[k]), "n": n,
+                         "bias": bias, "rmse": rmse, "crlb": bound, "ratio": ratio,
+                         "ratio_low": low, "ratio_high": high})
+        return rows
+
+    def summary(self) -> str:
+        """A readable report: per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 %
+        interval; convergence, status counts and speed."""
+        counts = ", ".join(f"{k} {v}" for k, v in self.status_counts.items())
+        lines = [f"Monte Carlo: {self.estimator} on {self.scenario}, {self.runs} runs "
+                 f"(seed {self.seed}), nuisance {'known' if self.known_nuisance else 'unknown'}",
+                 f"converged {self.convergence_rate:.1%} ({counts}); {self.wall_time:.2f} s, "
+                 f"{self.runs_per_second:.1f} runs/s ({self.executor}, chunks of {self.chunk})"]
+        rows = self.summary_table()
+        width = max(9, *(len(r["parameter"]) for r in rows))
+        lines.append(f"  {'parameter':<{width}}  {'truth':>12}  {'bias':>11}  {'RMSE':>11}  "
+                     f"{'CRLB':>11}  {'RMSE/CRLB':>9}  {'95 % interval':>15}")
+        for r in rows:
+            lines.append(f"  {r['parameter']:<{width}}  {r['truth']:12.6g}  {r['bias']:11.4g}  "
+                         f"{r['rmse']:11.4g}  {r['crlb']:11.4g}  {r['ratio']:9.3f}  "
+                         f"{r['ratio_low']:7.3f}..{r['ratio_high']:<6.3f}")
+        lines.append(f"  (RMSE over the {rows[0]['n'] if rows else 0} converged runs; the "
+                     "interval assumes unbiased Gaussian errors)")
+        if self.failures:
+            first = min(self.failures)
+            lines.append(f"  {len(self.failures)} runs failed; run {first}: "
+                         f"{self.failures[first]}")
+        return "\n".join(lines)
+
+    def as_dict(self, runs: bool = False) -> dict[str, Any]:
+        """The JSON form: context, per-parameter summary, convergence and speed; with
+        ``runs=True`` also the per-run table as a list of records."""
+        summary = [{k: (_num(v) if isinstance(v, float) else v) for k, v in row.items()}
+                   for row in self.summary_table()]
+        out: dict[str, Any] = {
+            "scenario": self.scenario,
+            "estimator": self.estimator,
+            "runs": self.runs,
+            "seed": self.seed,
+            "nuisance": "known" if self.known_nuisance else "unknown",
+            "parameters": list(self.parameters),
+            "truth": [float(v) for v in self.truth],
+            "crlb": [_num(v) for v in self.crlb],
+            "summary": summary,
+            "convergence_rate": _num(self.convergence_rate),
+            "status_counts": self.status_counts,
+            "wall_time_s": float(self.wall_time),
+            "runs_per_second": _num(self.runs_per_second),
+            "executor": self.executor,
+            "chunk": self.chunk,
+            "failures": {str(k): v for k, v in sorted(self.failures.items())},
+        }
+        if runs:
+            out["table"] = [{k: (_num(v) if isinstance(v, float) else v)
+                             for k, v in rec.items()}
+                            for rec in json.loads(self.table.to_json(orient="records"))]
+        return out
+
+    def to_json(self, indent: int | None = 2, runs: bool = False) -> str:
+        """:meth:`as_dict` as JSON text (``indent`` as for :func:`json.dumps`)."""
+        return json.dumps(self.as_dict(runs=runs), indent=indent)
+
+    def save(self, path: str | Path, force: bool = False) -> Path:
+        """Write the per-run table: CSV (``.csv``) or Parquet (``.parquet``, ``.pq``).
+
+        Refuses (``FileExistsError``) to overwrite an existing file unless ``force``."""
+        path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix not in (".csv", ".parquet", ".pq"):
+            raise ValueError(f"{path}: the per-run table is written as .csv or .parquet, "
+                             f"not {path.suffix or 'a file without suffix'}")
+        if path.exists() and not force:
+            raise FileExistsError(f"{path} already exists; pass force=True to overwrite it")
+        if suffix == ".csv":
+            self.table.to_csv(path, index=False)
+        else:
+            self.table.to_parquet(path, index=False)
+        return path
+

@@ -1,0 +1,184 @@
+"""The entry point of a Monte Carlo study: :func:`monte_carlo`.
+
+Run ``r`` simulates the scenario with its own generator,
+``np.random.default_rng(np.random.SeedSequence(seed).spawn(runs)[r])``, so that one seed gives
+one table whatever the chunking and wherever the chunks run (in this process or on a Dask
+cluster): run ``r``'s data do not depend on the number of runs either.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from ..bounds.fim import crlb
+from ..scenario import Scenario
+from .estimators import check_estimator
+from .execution import dask_client, default_chunk, progress_bar, run_dask, run_local
+from .result import MonteCarloResult
+from .runs import ChunkOutput, ChunkTask
+
+if TYPE_CHECKING:  # pragma: no cover
+    from distributed import Client
+
+__all__ = ["monte_carlo"]
+
+Options = Mapping[str, Mapping[str, object]]
+
+
+def _whole(value: object, name: str, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_seed(seed: object) -> None:
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
+                             or seed < 0):
+        raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
+
+
+def _init_vector(scenario: Scenario, init: Mapping[str, float] | ArrayLike
+                 ) -> NDArray[np.float64]:
+    motion = scenario.motion
+    if isinstance(init, Mapping):
+        return motion.theta(init)
+    vec = np.asarray(init, dtype=float).reshape(-1)
+    if vec.shape[0] != motion.n_params:
+        raise ValueError(f"init must give {motion.n_params} values "
+                         f"({', '.join(motion.param_names)})")
+    return vec
+
+
+def _scenario(scenario: Scenario | str | Path) -> Scenario:
+    """The scenario itself, or loaded by built-in name or TOML path."""
+    if isinstance(scenario, str | Path):
+        from ..scenario_file import load_scenario
+
+        scenario = load_scenario(scenario)
+    if not isinstance(scenario, Scenario):
+        raise ValueError(f"scenario must be a Scenario or a scenario name, not "
+                         f"{type(scenario).__name__}")
+    return scenario
+
+
+def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
+             progress: bool) -> tuple[list[ChunkOutput], float]:
+    """Run the chunks here or on Dask; their outputs in run order and the wall time (s)."""
+    bar = progress_bar(runs, progress, bar_label)
+    start = time.perf_counter()
+    try:
+        outputs = run_local(tasks, bar) if client is None else run_dask(tasks, client, bar)
+    finally:
+        bar.close()
+    wall = time.perf_counter() - start
+    outputs.sort(key=lambda o: o.first_run)
+    return outputs, wall
+
+
+def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
+           ) -> tuple[pd.DataFrame, dict[int, str]]:
+    """The per-run table (``run``, ``status``, ``iterations``, ``chi2``, ``starts``,
+    ``est_<param>``) and the failures, from the chunks' outputs in run order."""
+    table = pd.DataFrame({
+        "run": np.arange(runs, dtype=np.int64),
+        "status": np.concatenate([np.asarray(o.status, dtype=object) for o in outputs]),
+        "iterations": np.concatenate([o.iterations for o in outputs]),
+        "chi2": np.concatenate([o.chi2 for o in outputs]),
+        "starts": np.concatenate([o.starts for o in outputs]),
+    })
+    est = np.concatenate([o.estimates for o in outputs])
+    for k, name in enumerate(names):
+        table[f"est_{name}"] = est[:, k]
+    failures: dict[int, str] = {}
+    for o in outputs:
+        failures.update(o.failures)
+    return table, failures
+
+
+def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: int = 100,
+                seed: int | None = 0, options: Options | None = None,
+                known_nuisance: bool = False,
+                init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
+                dask: str | Client | None = None, chunk: int | None = None
+                ) -> MonteCarloResult:
+    """Simulate ``scenario`` ``runs`` times, estimate each run, and compare with the CRLB.
+
+    Parameters
+    ----------
+    scenario : Scenario or str or path
+        A :class:`~tmakit.scenario.Scenario`, or a built-in name / TOML path.
+    estimator : str
+        ``"ml"`` or a key of ``tmakit.batch.methods.METHODS``
+        (:func:`~.estimators.available_estimators`).
+    runs : int
+        Number of runs (>= 1).
+    seed : int or None
+        Fixes every run's data (see the module docstring); ``None`` draws fresh entropy,
+        recorded in the result.
+    options : mapping, optional
+        The nuisance model per kind; default the scenario's
+        (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
+    known_nuisance : bool
+        Give the estimator (and the CRLB) the scenario's true nuisance values.
+    init : mapping or array_like, optional
+        A starting point given to every run (default: the estimator's own initialisation).
+    progress : bool
+        Show a tqdm progress bar.
+    dask : str or distributed.Client, optional
+        Send the chunks to a Dask cluster (its workers must import tmakit).
+    chunk : int, optional
+        Runs per task (default :func:`~.execution.default_chunk`).  The table is the same,
+        run for run, for any ``chunk`` and ``dask``.
+
+    Returns
+    -------
+    MonteCarloResult
+        The per-run table, the CRLB and the summary.
+
+    Raises
+    ------
+    ValueError
+        A bad argument (the message names it), an unknown estimator or scenario.
+    ImportError
+        ``dask`` without Dask's distributed scheduler installed.
+    """
+    scenario = _scenario(scenario)
+    runs = _whole(runs, "runs")
+    chunk = None if chunk is None else _whole(chunk, "chunk")
+    _check_seed(seed)
+    known_nuisance = bool(known_nuisance)
+    check_estimator(estimator, known_nuisance)
+    init_vector = None if init is None else _init_vector(scenario, init)
+    opts = {str(k): dict(v) for k, v in (
+        scenario.measurement_options if options is None else options).items()}
+
+    seq = np.random.SeedSequence(seed)
+    entropy = int(seq.entropy)  # type: ignore[arg-type]
+    children = seq.spawn(runs)
+    client, own_client = (None, False) if dask is None else dask_client(dask)
+    try:
+        size = chunk or default_chunk(runs, estimator, client)
+        batched_init = init_vector if estimator == "ml" else None
+        tasks = [ChunkTask(scenario, estimator, opts, known_nuisance, init, batched_init, lo,
+                           tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
+        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs,
+                                 progress)
+        executor = "local" if client is None else f"dask {client.scheduler.address}"
+    finally:
+        if own_client and client is not None:
+            client.close()
+
+    names = scenario.motion.param_names
+    table, failures = _table(outputs, runs, names)
+    bound = crlb(scenario, known_nuisance=known_nuisance, options=opts)
+    std = np.array([bound.std_of(n) for n in names])
+    return MonteCarloResult(scenario.name, estimator, names, scenario.theta.copy(), std,
+                            table, wall, entropy, known_nuisance, executor, size, failures,
+                            bound)

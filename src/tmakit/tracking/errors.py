@@ -1,0 +1,122 @@
+"""The errors of tracking: they name the library's parameters, never a command-line flag.
+
+A :class:`TrackingError` message may name parameters through placeholders (``{prior}``,
+``{max_relative_std}``, ...): ``str(error)`` spells them as the library does, and a caller
+with other names for them (the ``tma track`` command and its flags) renders the same message
+with its own spellings through :meth:`TrackingError.render`.  The parameter the error is
+about is :attr:`TrackingError.parameter`.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+
+__all__ = ["MissingNuisanceError", "StartError", "TrackingError"]
+
+_PLACEHOLDER = re.compile(r"\{(\w+)\}")
+
+
+class TrackingError(ValueError):
+    """A tracking argument or data set refused, with the library parameter it is about.
+
+    Parameters
+    ----------
+    template : str
+        The message; ``{name}`` marks where parameter ``name`` of ``spellings`` is named.
+        Other text (braces included) is kept as it is.
+    parameter : str or None
+        The library parameter the error is about (its value is wrong, or it is the way out).
+    spellings : mapping of str to str, or sequence of str
+        The placeholders of ``template`` and how the library spells each (a sequence: each
+        by its own name).  Default: none, the message is plain text.
+
+    Attributes
+    ----------
+    parameter : str or None
+        As given.
+    parameters : tuple of str
+        The placeholders of the message, in the order of ``spellings``.
+    """
+
+    def __init__(self, template: str, parameter: str | None = None,
+                 spellings: Mapping[str, str] | Sequence[str] = ()) -> None:
+        self.template = template
+        self.parameter = parameter
+        self.spellings = (dict(spellings) if isinstance(spellings, Mapping)
+                          else {name: name for name in spellings})
+        self.parameters = tuple(self.spellings)
+        super().__init__(self.render())
+
+    def render(self, names: Mapping[str, str] | None = None) -> str:
+        """The message with the parameters spelt as ``names`` says (the library's spelling
+        for those it does not give).
+
+        Parameters
+        ----------
+        names : mapping of str to str, optional
+            Parameter name to the text to write in its place (a command-line flag, ...).
+
+        Returns
+        -------
+        str
+            The message.
+        """
+        words = {**self.spellings, **dict(names or {})}
+
+        def spell(match: re.Match[str]) -> str:
+            return words[match[1]] if match[1] in self.spellings else match[0]
+
+        return _PLACEHOLDER.sub(spell, self.template)
+
+    def extended(self, text: str) -> TrackingError:
+        """The same error with ``text`` appended to its message.
+
+        Parameters
+        ----------
+        text : str
+            Literal text (its braces are kept as they are unless they name a parameter of
+            this error).
+
+        Returns
+        -------
+        TrackingError
+            A copy of this error, of the same class, with the longer message.
+        """
+        out = type(self).__new__(type(self))
+        out.__dict__.update(self.__dict__)
+        out.template = self.template + text
+        out.args = (out.render(),)
+        return out
+
+
+class StartError(TrackingError):
+    """The data cannot start the filter (no initial window gives a good enough batch
+    estimate, or the chosen window does not); the message says which parameters offer a way
+    out (a prior, a looser start quality, a longer window)."""
+
+
+class MissingNuisanceError(TrackingError):
+    """A prior start without the nuisance values the measurement kinds need.
+
+    Parameters
+    ----------
+    missing : mapping of str to sequence of str
+        Measurement kind to the names of its nuisance parameters that were not given.
+
+    Attributes
+    ----------
+    missing : dict of str to tuple of str
+        As given.
+    names : tuple of str
+        Every missing nuisance name, in the order of ``missing``.
+    """
+
+    def __init__(self, missing: Mapping[str, tuple[str, ...] | list[str]]) -> None:
+        self.missing = {k: tuple(v) for k, v in missing.items()}
+        self.names = tuple(n for names in self.missing.values() for n in names)
+        needs = "; ".join(f"the {k} measurements need {', '.join(v)}"
+                          for k, v in self.missing.items())
+        super().__init__(f"with a prior the nuisance values must be given: {needs} "
+                         "({nuisance}); a batch start estimates them itself", "nuisance",
+                         {"nuisance": "nuisance={...}"})

@@ -1,0 +1,315 @@
+"""What the filter of a track is made of: its class, dimension, process noise and settings.
+
+Every value here is typed (numbers, sequences, mappings by state name): text from a command
+line is parsed by the command line.  Errors are :class:`~.errors.TrackingError` and name the
+library parameter (``q``, ``dim``, ``prior``, ``particles``, ...).
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..data import MeasurementSet
+from ..filters import FILTERS, TrackingFilter, state_names
+from .errors import TrackingError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..results.estimate import EstimateResult
+
+__all__ = ["FilterSetup", "filter_class", "filter_dim", "process_noise", "random_filters",
+           "state_vector"]
+
+Array = NDArray[np.float64]
+Options = Mapping[str, Mapping[str, object]]
+
+_THREE_D_MOTIONS = ("cv3d", "static3d")
+
+
+def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
+    """The filter's spatial dimension.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements to track.
+    dim : int, optional
+        2 or 3 to choose it.
+
+    Returns
+    -------
+    int
+        ``dim`` if given, else 3 when the data need it (:attr:`MeasurementSet.dim`:
+        elevation, or a sensor off the plane z = 0) or the set's metadata names a 3-D motion
+        model (``cv3d``, ``static3d``), else 2.
+
+    Raises
+    ------
+    TrackingError
+        ``dim`` is neither 2 nor 3 (parameter ``dim``).
+    """
+    if dim is not None:
+        if dim not in (2, 3):
+            raise TrackingError(f"{{dim}} must be 2 or 3, got {dim}", "dim", ["dim"])
+        return int(dim)
+    if meas.dim == 3:
+        return 3
+    return 3 if meas.metadata.get("motion", "").strip().lower() in _THREE_D_MOTIONS else 2
+
+
+def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
+    """Process noise as ``dim`` per-axis acceleration standard deviations.
+
+    Parameters
+    ----------
+    q : float or array_like
+        One acceleration standard deviation (m/s^2) for every axis, or ``dim`` of them
+        (x, y[, z]).  Text is refused: the command line parses ``"qx,qy"`` itself.
+    dim : int
+        The track's spatial dimension, 2 or 3.
+
+    Returns
+    -------
+    tuple of float
+        ``dim`` values (m/s^2), finite and >= 0.
+
+    Raises
+    ------
+    TrackingError
+        Text, the wrong number of values, or a negative or non-finite one (parameter ``q``).
+    """
+    if isinstance(q, str | bytes):
+        raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
+                            f"not the text {q!r}", "q", ["q"])
+    try:
+        values = np.atleast_1d(np.asarray(q, dtype=float)).reshape(-1).tolist()
+    except (TypeError, ValueError):
+        raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
+                            f"got {q!r}", "q", ["q"]) from None
+    if len(values) == 1:
+        values = values * dim
+    if len(values) != dim:
+        axes = "qx,qy" if dim == 2 else "qx,qy,qz"
+        raise TrackingError(f"{{q}}: expected one value or {dim} per-axis values ({axes}) for "
+                            f"a {dim}-D track, got {len(values)}", "q", ["q"])
+    if not all(np.isfinite(v) and v >= 0 for v in values):
+        raise TrackingError(f"{{q}}: process noise must be finite and >= 0 m/s^2, got "
+                            f"{values}", "q", ["q"])
+    return tuple(float(v) for v in values)
+
+
+def state_vector(values: Mapping[str, float] | ArrayLike, names: tuple[str, ...],
+                 what: str) -> Array:
+    """A state-sized vector given by state name or in state order.
+
+    Parameters
+    ----------
+    values : mapping of str to float, or array_like
+        By name (every one of ``names``, no other) or as ``len(names)`` values in order.
+    names : tuple of str
+        The state components, e.g. ``("x", "y", "vx", "vy")``.
+    what : str
+        The library parameter the values belong to (``prior``, ``prior_std``), for errors.
+
+    Returns
+    -------
+    ndarray, shape (len(names),)
+        The finite values, in the order of ``names``.
+
+    Raises
+    ------
+    TrackingError
+        Missing, unknown or non-finite components, or the wrong number (parameter ``what``).
+    """
+    if isinstance(values, Mapping):
+        unknown = sorted(set(values) - set(names))
+        missing = [n for n in names if n not in values]
+        if unknown or missing:
+            raise TrackingError(
+                f"{what}: expected the state components {', '.join(names)}"
+                + (f"; missing {', '.join(missing)}" if missing else "")
+                + (f"; unknown {', '.join(unknown)}" if unknown else ""), what)
+        out = np.array([float(values[n]) for n in names])
+    else:
+        out = np.asarray(values, dtype=float).reshape(-1)
+        if out.shape != (len(names),):
+            raise TrackingError(f"{what}: expected {len(names)} values ({', '.join(names)}), "
+                                f"got {out.size}", what)
+    if not np.all(np.isfinite(out)):
+        raise TrackingError(f"{what}: values must be finite, got {out.tolist()}", what)
+    return out
+
+
+def filter_class(name: str) -> type[TrackingFilter]:
+    """The filter class registered as ``name`` in :data:`tmakit.filters.FILTERS`.
+
+    Parameters
+    ----------
+    name : str
+        ``ekf``, ``ukf``, ``mgekf``, ``pf``, ...
+
+    Returns
+    -------
+    type
+        The :class:`~tmakit.filters.TrackingFilter` subclass.
+
+    Raises
+    ------
+    TrackingError
+        No filter has that name (parameter ``filter``).
+    """
+    cls = FILTERS.get(name)
+    if cls is None:
+        raise TrackingError(f"filter {name!r}: expected one of {', '.join(sorted(FILTERS))}",
+                            "filter")
+    return cls
+
+
+def _init_parameters(cls: type[TrackingFilter]) -> set[str]:
+    return set(inspect.signature(cls.__init__).parameters)
+
+
+def random_filters() -> list[str]:
+    """Names of the registered filters that draw random numbers.
+
+    Returns
+    -------
+    list of str
+        The names (sorted) of the filters whose constructor takes ``rng`` or ``seed``.
+    """
+    return [n for n, c in sorted(FILTERS.items()) if {"rng", "seed"} & _init_parameters(c)]
+
+
+def _filter_kwargs(cls: type[TrackingFilter], particles: int | None,
+                   rng: np.random.Generator | int | None) -> dict[str, Any]:
+    """The particle count and random generator, for the filters that take them."""
+    params = _init_parameters(cls)
+    kwargs: dict[str, Any] = {}
+    if particles is not None:
+        key = next((k for k in ("particles", "n_particles") if k in params), None)
+        if key is None:
+            raise TrackingError(f"particles: the {cls.name} filter has no particles; the "
+                                "number of particles applies only to particle filters "
+                                f"({', '.join(random_filters()) or 'none registered'})",
+                                "particles")
+        if isinstance(particles, bool) or int(particles) != particles:
+            raise TrackingError(f"particles: expected a whole number, got {particles!r}",
+                                "particles")
+        kwargs[key] = int(particles)
+    key = next((k for k in ("rng", "seed") if k in params), None)
+    if key is not None:
+        kwargs[key] = np.random.default_rng(rng)
+    return kwargs
+
+
+@dataclass(frozen=True)
+class FilterSetup:
+    """How to build the filter a start hands over to: every setting but the start.
+
+    Parameters
+    ----------
+    cls : type
+        The :class:`~tmakit.filters.TrackingFilter` subclass.
+    dim : int
+        Spatial dimension, 2 or 3.
+    q : tuple of float
+        Per-axis acceleration standard deviations (m/s^2).
+    options : dict
+        Per-kind measurement-model options (as for :func:`tmakit.batch.estimate`).
+    kwargs : dict
+        Further constructor arguments (particle count, the one random generator that every
+        filter built from this setup shares).
+    """
+
+    cls: type[TrackingFilter]
+    dim: int
+    q: tuple[float, ...]
+    options: dict[str, dict[str, object]] = field(default_factory=dict)
+    kwargs: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def create(cls, filter: str, dim: int, q: float | ArrayLike = 0.0,
+               particles: int | None = None, rng: np.random.Generator | int | None = None,
+               options: Options | None = None) -> FilterSetup:
+        """Check and collect the settings of a filter by name.
+
+        Parameters
+        ----------
+        filter : str
+            A name of :data:`tmakit.filters.FILTERS`.
+        dim : int
+            2 or 3.
+        q : float or array_like
+            Process noise, see :func:`process_noise` (m/s^2).
+        particles : int, optional
+            Particle count, for particle filters only.
+        rng : numpy.random.Generator or int, optional
+            Generator or seed, for the filters that draw random numbers.
+        options : mapping, optional
+            Per-kind measurement-model options.
+
+        Returns
+        -------
+        FilterSetup
+
+        Raises
+        ------
+        TrackingError
+            An unknown filter, bad ``q``, or ``particles`` for a filter without them.
+        """
+        klass = filter_class(filter)
+        q_axes = process_noise(q, dim)
+        kwargs = _filter_kwargs(klass, particles, rng)
+        opts = {str(k): dict(v) for k, v in dict(options or {}).items()}
+        return cls(klass, dim, q_axes, opts, kwargs)
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """The state components, ``x, y, (z), vx, vy, (vz)``."""
+        return state_names(self.dim)
+
+    def _extra(self) -> dict[str, Any]:
+        return {**self.kwargs, "options": self.options} if self.options else dict(self.kwargs)
+
+    def from_prior(self, mean: Array, covariance: Array, time: float,
+                   nuisance: Mapping[str, float] | None) -> TrackingFilter:
+        """A filter started from a Gaussian prior.
+
+        Parameters
+        ----------
+        mean : ndarray, shape (2 dim,)
+            Prior mean (m, m/s).
+        covariance : ndarray, shape (2 dim, 2 dim)
+            Prior covariance (SI).
+        time : float
+            Prior time (s).
+        nuisance : mapping of str to float, optional
+            Known nuisance values (Hz, dBW, ...).
+
+        Returns
+        -------
+        TrackingFilter
+        """
+        return self.cls(mean, covariance, time, q=self.q, nuisance=nuisance, **self._extra())
+
+    def from_estimate(self, estimate: EstimateResult, time: float) -> TrackingFilter:
+        """A filter started from a batch estimate at ``time`` (s), with its nuisance values
+        (:meth:`~tmakit.filters.TrackingFilter.from_estimate`).
+
+        Parameters
+        ----------
+        estimate : EstimateResult
+            The batch estimate.
+        time : float
+            The time the filter starts at (s).
+
+        Returns
+        -------
+        TrackingFilter
+        """
+        return self.cls.from_estimate(estimate, time, q=self.q, **self._extra())

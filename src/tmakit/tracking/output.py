@@ -1,0 +1,84 @@
+"""A track as data for output: the JSON form and the table of a track file.
+
+The formats (CSV, Parquet) and the writing are :mod:`tmakit.io`'s (``write_track``); this
+module says what a track's JSON and table contain.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..filters import Track
+
+__all__ = ["TrackTable", "track_dict", "track_table"]
+
+
+def _clean(v: object) -> object:
+    """JSON-ready: non-finite floats as ``None``, through lists and dicts."""
+    if isinstance(v, float):
+        return v if np.isfinite(v) else None
+    if isinstance(v, list):
+        return [_clean(x) for x in v]
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
+    return v
+
+
+def track_dict(tr: Track) -> dict[str, object]:
+    """The track as JSON-ready data.
+
+    Parameters
+    ----------
+    tr : Track
+        A track (from :func:`tmakit.track` or a filter's ``run``).
+
+    Returns
+    -------
+    dict
+        :meth:`Track.as_dict` with ``start`` and ``q`` from ``tr.extra``; NaN and infinities
+        as ``None``.
+    """
+    data = tr.as_dict()
+    data["start"] = tr.extra.get("start")
+    data["q"] = tr.extra.get("q")
+    return _clean(data)  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class TrackTable:
+    """The content of a track file.
+
+    Parameters
+    ----------
+    columns : dict of str to ndarray
+        :meth:`Track.table_columns`: ``time``, each state component, its ``std_``, the upper
+        triangle of the covariance (``cov_x_y``, ...), ``nis``, ``dof``, ``log_likelihood``
+        (SI), one row per update.
+    metadata : dict of str to str
+        ``filter``, ``start`` (JSON) and ``q`` (JSON), for formats that carry metadata.
+    """
+
+    columns: dict[str, NDArray[np.float64]]
+    metadata: dict[str, str]
+
+
+def track_table(tr: Track) -> TrackTable:
+    """The table and metadata a track file holds.
+
+    Parameters
+    ----------
+    tr : Track
+        The track.
+
+    Returns
+    -------
+    TrackTable
+    """
+    meta = {"filter": str(tr.filter_name),
+            "start": json.dumps(track_dict(tr)["start"]),
+            "q": json.dumps(tr.extra.get("q"))}
+    return TrackTable(tr.table_columns(), meta)

@@ -1,0 +1,152 @@
+"""Tracking a measurement set with a recursive filter, in one call: :func:`track`.
+
+:func:`track` needs no initial guess: by default a :class:`~.initiators.BatchInitiator`
+starts the filter from a batch estimate over the shortest initial window of the data that
+is good enough to linearise around; a :class:`~.initiators.PriorInitiator` (or ``prior`` and
+``prior_std``) starts it from a given Gaussian.  The nuisance parameters (carrier, power
+constant, ...) a filter must know come from the batch estimate, or are given with the prior.
+Everything is SI (m, m/s, s).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..data import MeasurementSet
+from ..filters import Track
+from .errors import TrackingError
+from .filter_setup import FilterSetup, filter_class, filter_dim
+from .initiators import DEFAULT_MAX_RELATIVE_STD, BatchInitiator, Initiator, PriorInitiator
+from .records import BatchStart, PriorStart, StartRecord
+
+__all__ = ["start_record", "track"]
+
+#: Key of :attr:`Track.extra` holding the typed start record.
+START_RECORD = "start_record"
+
+
+def _initiator(initiator: Initiator | None,
+               prior: Mapping[str, float] | ArrayLike | None,
+               prior_std: Mapping[str, float] | ArrayLike | None, prior_time: float | None,
+               nuisance: Mapping[str, float] | None, init_window: int | None,
+               max_relative_std: float, confirm: bool) -> Initiator:
+    """The initiator given, or the one the start keywords of :func:`track` describe."""
+    if initiator is not None:
+        if any(v is not None for v in (prior, prior_std, prior_time, nuisance, init_window)) \
+                or max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm:
+            raise TrackingError("initiator: give the start as an initiator or by the start "
+                                "keywords (prior, prior_std, prior_time, nuisance, "
+                                "init_window, max_relative_std, confirm), not both",
+                                "initiator")
+        return initiator
+    if prior is not None or prior_std is not None:
+        if prior is None or prior_std is None:
+            raise TrackingError("a prior needs both its mean (prior) and its standard "
+                                "deviations (prior_std)", "prior_std" if prior_std is None
+                                else "prior")
+        return PriorInitiator(prior, prior_std, prior_time, nuisance)
+    if nuisance:
+        raise TrackingError("nuisance values are taken from the batch estimate; give them "
+                            "only with a prior", "nuisance")
+    return BatchInitiator(init_window, max_relative_std, confirm)
+
+
+def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
+          particles: int | None = None,
+          prior: Mapping[str, float] | ArrayLike | None = None,
+          prior_std: Mapping[str, float] | ArrayLike | None = None,
+          prior_time: float | None = None,
+          init_window: int | None = None,
+          max_relative_std: float = DEFAULT_MAX_RELATIVE_STD,
+          confirm: bool = True,
+          rng: np.random.Generator | int | None = None,
+          dim: int | None = None,
+          options: Mapping[str, Mapping[str, object]] | None = None,
+          nuisance: Mapping[str, float] | None = None, *,
+          initiator: Initiator | None = None) -> Track:
+    """Track the emitter through ``meas`` with a recursive filter.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    filter : str
+        A name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``mgekf``, ``pf``).
+    q : float or array_like
+        Nearly-constant-velocity process noise: one acceleration standard deviation
+        (m/s^2) for every axis, or one per axis (:func:`~.filter_setup.process_noise`).
+    particles : int, optional
+        Particle count, for particle filters only (an error for the others).
+    prior, prior_std : mapping or array_like, optional
+        Short form of ``initiator=PriorInitiator(prior, prior_std, prior_time, nuisance)``:
+        the prior mean and standard deviations by state name ``x, y, (z), vx, vy, (vz)``
+        (m, m/s) or as vectors.
+    prior_time : float, optional
+        The prior's time (s); default the first measurement time.
+    init_window, max_relative_std, confirm
+        Short form of ``initiator=BatchInitiator(init_window, max_relative_std, confirm)``
+        when no prior is given (the default start).
+    rng : numpy.random.Generator or int, optional
+        Generator or seed, for the filters that draw random numbers.
+    dim : int, optional
+        2 or 3 (default :func:`~.filter_setup.filter_dim`).
+    options : mapping, optional
+        Per-kind measurement-model options, as for :func:`tmakit.batch.estimate`.
+    nuisance : mapping of str to float, optional
+        Known nuisance values, with a prior only.
+    initiator : Initiator, optional
+        The start policy; then none of the start keywords above may be given.
+
+    Returns
+    -------
+    Track
+        One row per update (SI).  ``extra["start"]`` says which start was used (JSON-ready),
+        ``extra["start_record"]`` is its typed record (:func:`start_record`), ``extra["q"]``
+        the per-axis q, ``extra["dim"]`` and ``extra["options"]`` the settings.  After a
+        batch start the first row is the batch estimate at the window's last time (NIS NaN,
+        no degrees of freedom) and the log-likelihood counts the rows after it.
+
+    Raises
+    ------
+    TypeError
+        ``meas`` is not a MeasurementSet.
+    TrackingError
+        A refused argument or data that cannot start the filter; the error names the
+        library parameter (:attr:`TrackingError.parameter`).
+    """
+    if not isinstance(meas, MeasurementSet):
+        raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
+    filter_class(filter)
+    d = filter_dim(meas, dim)
+    setup = FilterSetup.create(filter, d, q, particles, rng, options)
+    if len(meas) == 0:
+        raise TrackingError("the measurement set is empty: nothing to track")
+    started = _initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
+                         max_relative_std, confirm).initiate(meas, setup)
+    result = started.track
+    result.extra["start"] = started.start.as_dict()
+    result.extra[START_RECORD] = started.start
+    result.extra["q"] = list(setup.q)
+    result.extra["dim"] = d
+    result.extra["options"] = dict(setup.options)
+    return result
+
+
+def start_record(tr: Track) -> StartRecord | None:
+    """How a track from :func:`track` started.
+
+    Parameters
+    ----------
+    tr : Track
+        A track from :func:`track`.
+
+    Returns
+    -------
+    PriorStart or BatchStart or None
+        The typed start record; ``None`` for a track that does not say (made otherwise).
+    """
+    record = tr.extra.get(START_RECORD)
+    return record if isinstance(record, PriorStart | BatchStart) else None

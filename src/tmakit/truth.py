@@ -1,0 +1,55 @@
+"""The true target states a simulated measurement set carries in its metadata.
+
+A set simulated by tmakit (and its CSV/Parquet file) names the motion model (``motion``), its
+true parameters (``truth``, JSON by parameter name) and the reference time (``ref_time``, s).
+:func:`truth_states` turns them into true states at any times; sets without them (real logs)
+have no truth.  Tracking, plots and the command line use it to compare with the truth.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .data import MeasurementSet
+from .motion import motion_from_name
+
+__all__ = ["truth_states"]
+
+#: The components of the full 3-D state ``[x, y, z, vx, vy, vz]`` kept for a 2-D state.
+_PLANE = [0, 1, 3, 4]
+
+
+def truth_states(meas: MeasurementSet, times: ArrayLike, dim: int
+                 ) -> NDArray[np.float64] | None:
+    """True target states at ``times`` from the set's metadata, or ``None`` if unknown.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements; their ``metadata`` must carry ``motion`` and ``truth`` (and
+        optionally ``ref_time``, s), as simulated sets and files do.
+    times : array_like, shape (K,)
+        Times (s) at which the states are wanted.
+    dim : int
+        3 for states ``[x, y, z, vx, vy, vz]``; otherwise 2, ``[x, y, vx, vy]``.
+
+    Returns
+    -------
+    ndarray, shape (K, 2 dim), or None
+        The true states (ENU m, m/s); ``None`` when the metadata carry no usable truth
+        (missing, unknown motion name, malformed JSON or parameters).
+    """
+    meta = meas.metadata
+    if "motion" not in meta or "truth" not in meta:
+        return None
+    try:
+        motion = motion_from_name(meta["motion"], float(meta.get("ref_time", 0.0)))
+        theta = motion.theta(json.loads(meta["truth"]))
+        s6 = motion.states(theta, np.asarray(times, dtype=float))
+    except (ValueError, KeyError, TypeError, json.JSONDecodeError):
+        return None
+    keep = [0, 1, 2, 3, 4, 5] if dim == 3 else _PLANE
+    return np.asarray(s6, dtype=float)[:, keep]
