@@ -166,3 +166,21 @@ def test_long_function_exceptions_are_still_needed():
     present = {name for path in python_files() for name, _ in long_functions(path)}
     stale = sorted(set(LONG_FUNCTION_EXCEPTIONS) - present)
     assert stale == [], f"no longer long, remove from the list: {stale}"
+
+
+def test_public_face_is_complete_and_lazy():
+    """Every public name resolves; ``__all__`` and the lazy map agree; importing the package
+    loads none of the numerical core (checked in a fresh interpreter)."""
+    import subprocess
+
+    import tmakit
+
+    assert sorted(tmakit.__all__) == sorted(tmakit._LAZY)
+    for name in tmakit.__all__:
+        assert getattr(tmakit, name) is not None
+    assert (SRC / "py.typed").exists()
+    code = ("import sys, tmakit; heavy = [m for m in ('numpy', 'scipy', 'pandas', 'pydantic') "
+            "if m in sys.modules]; print(','.join(heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env={"PYTHONPATH": str(SRC.parent), "PATH": ""})
+    assert out.stdout.strip() == ""

@@ -3,10 +3,12 @@
 >>> import tmakit as tk
 >>> scn = tk.load_scenario("gu2007")
 >>> meas = scn.simulate(rng=1)          # a MeasurementSet
->>> tk.write_measurements(meas, "obs.csv")
+>>> res = tk.estimate(meas, scn.motion)  # no initial guess
+>>> bound = tk.crlb(scn)                 # the Cramér–Rao bound at the truth
 
-The core (models, scenarios, measurement sets) needs only numpy and scipy.  File I/O
-(pandas, pyarrow, pandera) and scenario files (pydantic) are imported when first used.
+Every name below is imported when first used, so ``import tmakit`` (and the ``tma`` command's
+``--help``) loads none of the numerical core; the core itself needs only numpy and scipy.
+The layers behind these names are described in ``docs/architecture.md``.
 """
 
 from __future__ import annotations
@@ -14,42 +16,83 @@ from __future__ import annotations
 from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
-from .data import MeasurementSet
-from .measurements import KINDS, model_for
-from .motion import (
-    ConstantVelocity,
-    MotionModel,
-    PiecewiseCurvilinear,
-    Stationary,
-    motion_from_name,
-)
-from .observation import ObservationModel
-from .scenario import MeasurementPlan, Scenario, simulate
-from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
-
 __version__ = "0.1.0"
 
+#: Public name -> the module (relative to ``tmakit``) that defines it.
 _LAZY = {
+    # the measurement set and the models behind it
+    "MeasurementSet": "data",
+    "KINDS": "measurements",
+    "model_for": "measurements",
+    "ConstantVelocity": "motion",
+    "MotionModel": "motion",
+    "PiecewiseCurvilinear": "motion",
+    "Stationary": "motion",
+    "motion_from_name": "motion",
+    "ObservationModel": "observation",
+    # sensors
+    "FixedSensor": "sensors",
+    "Leg": "sensors",
+    "LegsTrack": "sensors",
+    "RecordedTrack": "sensors",
+    "SensorTrack": "sensors",
+    "WaypointTrack": "sensors",
+    "PlatformState": "sensors",
+    "PlatformKinematics": "sensors",
+    "PlatformTrack": "sensors",
+    # scenarios
+    "MeasurementPlan": "scenario",
+    "Scenario": "scenario",
+    "simulate": "scenario",
     "load_scenario": "scenario_file",
     "read_scenario_file": "scenario_file",
     "scenario_from_dict": "scenario_file",
     "builtin_scenarios": "scenario_file",
     "ScenarioFileError": "scenario_file",
+    # results
+    "EstimateResult": "results",
+    "Bound": "results",
+    "Observability": "results",
+    "KnownNuisance": "results.nuisance",
+    "Track": "filters",
+    "PosteriorBound": "bounds",
+    "MonteCarloResult": "montecarlo",
+    # estimators, bounds, applications
+    "estimate": "batch",
+    "crlb": "bounds",
+    "posterior_crb": "bounds",
+    "track": "tracking",
+    "monte_carlo": "montecarlo",
+    # files and geodesy
     "read_measurements": "io.measurement_files",
     "write_measurements": "io.measurement_files",
     "MeasurementFileError": "io.measurement_files",
+    "write_track": "io.track_files",
     "geodetic_to_enu": "geodesy",
     "enu_to_geodetic": "geodesy",
-    "track": "tracking",
-    "write_track": "io.track_files",
-    "estimate": "batch",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
     from .batch import estimate
+    from .bounds import PosteriorBound, crlb, posterior_crb
+    from .data import MeasurementSet
+    from .filters import Track
     from .geodesy import enu_to_geodetic, geodetic_to_enu
     from .io.measurement_files import MeasurementFileError, read_measurements, write_measurements
     from .io.track_files import write_track
+    from .measurements import KINDS, model_for
+    from .montecarlo import MonteCarloResult, monte_carlo
+    from .motion import (
+        ConstantVelocity,
+        MotionModel,
+        PiecewiseCurvilinear,
+        Stationary,
+        motion_from_name,
+    )
+    from .observation import ObservationModel
+    from .results import Bound, EstimateResult, Observability
+    from .results.nuisance import KnownNuisance
+    from .scenario import MeasurementPlan, Scenario, simulate
     from .scenario_file import (
         ScenarioFileError,
         builtin_scenarios,
@@ -57,10 +100,22 @@ if TYPE_CHECKING:  # pragma: no cover
         read_scenario_file,
         scenario_from_dict,
     )
+    from .sensors import (
+        FixedSensor,
+        Leg,
+        LegsTrack,
+        PlatformKinematics,
+        PlatformState,
+        PlatformTrack,
+        RecordedTrack,
+        SensorTrack,
+        WaypointTrack,
+    )
     from .tracking import track
 
 
 def __getattr__(name: str) -> Any:
+    """Import a public name on first use (PEP 562)."""
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'tmakit' has no attribute {name!r}")
@@ -69,31 +124,49 @@ def __getattr__(name: str) -> Any:
     return value
 
 
+def __dir__() -> list[str]:
+    """The public names, for completion."""
+    return sorted([*globals(), *_LAZY])
+
+
 __all__ = [
     "KINDS",
+    "Bound",
     "ConstantVelocity",
+    "EstimateResult",
     "FixedSensor",
+    "KnownNuisance",
     "Leg",
     "LegsTrack",
     "MeasurementFileError",
     "MeasurementPlan",
     "MeasurementSet",
+    "MonteCarloResult",
     "MotionModel",
+    "Observability",
     "ObservationModel",
     "PiecewiseCurvilinear",
+    "PlatformKinematics",
+    "PlatformState",
+    "PlatformTrack",
+    "PosteriorBound",
     "RecordedTrack",
     "Scenario",
     "ScenarioFileError",
     "SensorTrack",
     "Stationary",
+    "Track",
     "WaypointTrack",
     "builtin_scenarios",
+    "crlb",
     "enu_to_geodetic",
     "estimate",
     "geodetic_to_enu",
     "load_scenario",
     "model_for",
+    "monte_carlo",
     "motion_from_name",
+    "posterior_crb",
     "read_measurements",
     "read_scenario_file",
     "scenario_from_dict",

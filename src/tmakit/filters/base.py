@@ -200,6 +200,10 @@ class TrackingFilter(ABC):
     """
 
     name = ""
+    #: Whether the constructor takes ``particles`` (a particle count) and ``rng`` (a
+    #: ``numpy.random.Generator`` or seed): declared, so that no caller inspects a signature.
+    takes_particles = False
+    takes_rng = False
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  q: float | tuple[float, ...] = 0.0,

@@ -152,6 +152,8 @@ class ParticleFilter(TrackingFilter):
     """
 
     name = "pf"
+    takes_particles = True
+    takes_rng = True
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  particles: int = 1000, rng: np.random.Generator | int | None = None,

@@ -7,7 +7,6 @@ library parameter (``q``, ``dim``, ``prior``, ``particles``, ...).
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -170,10 +169,6 @@ def filter_class(name: str) -> type[TrackingFilter]:
     return cls
 
 
-def _init_parameters(cls: type[TrackingFilter]) -> set[str]:
-    return set(inspect.signature(cls.__init__).parameters)
-
-
 def random_filters() -> list[str]:
     """Names of the registered filters that draw random numbers.
 
@@ -182,17 +177,15 @@ def random_filters() -> list[str]:
     list of str
         The names (sorted) of the filters whose constructor takes ``rng`` or ``seed``.
     """
-    return [n for n, c in sorted(FILTERS.items()) if {"rng", "seed"} & _init_parameters(c)]
+    return [n for n, c in sorted(FILTERS.items()) if c.takes_rng]
 
 
 def _filter_kwargs(cls: type[TrackingFilter], particles: int | None,
                    rng: np.random.Generator | int | None) -> dict[str, Any]:
     """The particle count and random generator, for the filters that take them."""
-    params = _init_parameters(cls)
     kwargs: dict[str, Any] = {}
     if particles is not None:
-        key = next((k for k in ("particles", "n_particles") if k in params), None)
-        if key is None:
+        if not cls.takes_particles:
             raise TrackingError(f"particles: the {cls.name} filter has no particles; the "
                                 "number of particles applies only to particle filters "
                                 f"({', '.join(random_filters()) or 'none registered'})",
@@ -200,10 +193,9 @@ def _filter_kwargs(cls: type[TrackingFilter], particles: int | None,
         if isinstance(particles, bool) or int(particles) != particles:
             raise TrackingError(f"particles: expected a whole number, got {particles!r}",
                                 "particles")
-        kwargs[key] = int(particles)
-    key = next((k for k in ("rng", "seed") if k in params), None)
-    if key is not None:
-        kwargs[key] = np.random.default_rng(rng)
+        kwargs["particles"] = int(particles)
+    if cls.takes_rng:
+        kwargs["rng"] = np.random.default_rng(rng)
     return kwargs
 
 
