@@ -35,9 +35,9 @@ _LAZY = {
     "scenario_from_dict": "scenario_file",
     "builtin_scenarios": "scenario_file",
     "ScenarioFileError": "scenario_file",
-    "read_measurements": "io.measurement_files",
-    "write_measurements": "io.measurement_files",
-    "MeasurementFileError": "io.measurement_files",
+    "read_measurements": "io",
+    "write_measurements": "io",
+    "MeasurementFileError": "io",
     "geodetic_to_enu": "geodesy",
     "enu_to_geodetic": "geodesy",
     "track": "tracking",
@@ -48,7 +48,7 @@ _LAZY = {
 if TYPE_CHECKING:  # pragma: no cover
     from .batch import estimate
     from .geodesy import enu_to_geodetic, geodetic_to_enu
-    from .io.measurement_files import MeasurementFileError, read_measurements, write_measurements
+    from .io import MeasurementFileError, read_measurements, write_measurements
     from .scenario_file import (
         ScenarioFileError,
         builtin_scenarios,
