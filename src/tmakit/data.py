@@ -1,5 +1,4 @@
-"""MeasurementSet: the columnar table of observations that flows from simulation or files
-into estimators and filters.
+"""MeasurementSet: the columnar table of observations, from simulation or files to estimators.
 
 One row per observed value.  Columns follow the measurement-file contract (README,
 ``docs/file-format.md``): ``time`` (s), ``sensor`` (id), ``kind``, ``value`` and ``sigma`` in the
@@ -142,15 +141,9 @@ class MeasurementSet:
                           ("sigma", sigma_file), ("time_ref", self.time_ref)):
             if col.shape != (n,):
                 raise ValueError(f"column {name!r} has {col.shape[0]} rows, time has {n}")
-        self.kind_code = _kind_codes(kind_text)
-        names, self.sensor_code = _first_appearance(sensor_text)
-        self.sensor_code = self.sensor_code.astype(np.int32)
-        self.sensor_names: tuple[str, ...] = tuple(names.tolist())
         self.metadata = {str(k): str(v) for k, v in dict(metadata or {}).items()}
-        self._kind: NDArray[np.str_] | None = None
-        self._sensor: NDArray[np.str_] | None = None
-        self._kinds: tuple[str, ...] | None = None
-        self._sensors: tuple[str, ...] | None = self.sensor_names
+        self._set_kinds(kind_text)
+        self._set_sensors(sensor_text)
         self._set_file_values(value_file, sigma_file)
 
     # -- values: file units as given, SI computed once -------------------------------------
@@ -165,8 +158,23 @@ class MeasurementSet:
             self._sigma = _frozen(sigma)
             self._sigma_si = _frozen(sigma * scale)
 
-    def _new_column(self, name: str, values: ArrayLike) -> NDArray[np.float64]:
-        out = np.array(values, dtype=float)
+    def _set_kinds(self, text: NDArray[np.str_]) -> None:
+        """Store the kind codes of a text column (the SI values are the caller's job)."""
+        self.kind_code = _kind_codes(text)
+        self._kind: NDArray[np.str_] | None = None
+        self._kinds: tuple[str, ...] | None = None
+
+    def _set_sensors(self, text: NDArray[np.str_]) -> None:
+        """Store the sensor codes and names of a text column."""
+        names, codes = _first_appearance(text)
+        self.sensor_code = codes.astype(np.int32)
+        self.sensor_names: tuple[str, ...] = tuple(names.tolist())
+        self._sensor: NDArray[np.str_] | None = None
+        self._sensors: tuple[str, ...] | None = self.sensor_names
+
+    def _new_column(self, name: str, values: ArrayLike, dtype: type = float) -> NDArray[Any]:
+        """A column of this set's length (a copy), or ``ValueError``."""
+        out = np.array(values, dtype=dtype)
         if out.shape != (len(self),):
             raise ValueError(f"column {name!r} has {out.shape[0] if out.ndim else 0} rows, "
                              f"time has {len(self)}")
@@ -174,8 +182,10 @@ class MeasurementSet:
 
     @property
     def value(self) -> NDArray[np.float64]:
-        """Measured values in the file unit of each row's kind (deg, deg/s, m, m/s, Hz, dBm);
-        read-only."""
+        """Measured values in the file unit of each row's kind (deg, deg/s, m, m/s, Hz, dBm).
+
+        Read-only; assigning a new array recomputes :attr:`value_si`.
+        """
         return self._value
 
     @value.setter
@@ -215,11 +225,7 @@ class MeasurementSet:
 
     @kind.setter
     def kind(self, kinds: ArrayLike) -> None:
-        text = np.asarray(kinds, dtype=str)
-        if text.shape != (len(self),):
-            raise ValueError(f"column 'kind' has {text.shape[0] if text.ndim else 0} rows, "
-                             f"time has {len(self)}")
-        self.kind_code, self._kind, self._kinds = _kind_codes(text), None, None
+        self._set_kinds(self._new_column("kind", kinds, str))
         self._set_file_values(np.array(self._value), np.array(self._sigma))
 
     @property
@@ -231,13 +237,7 @@ class MeasurementSet:
 
     @sensor.setter
     def sensor(self, sensors: ArrayLike) -> None:
-        text = np.asarray(sensors, dtype=str)
-        if text.shape != (len(self),):
-            raise ValueError(f"column 'sensor' has {text.shape[0] if text.ndim else 0} rows, "
-                             f"time has {len(self)}")
-        names, codes = _first_appearance(text)
-        self.sensor_code, self.sensor_names = codes.astype(np.int32), tuple(names.tolist())
-        self._sensor, self._sensors = None, self.sensor_names
+        self._set_sensors(self._new_column("sensor", sensors, str))
 
     def kind_mask(self, kind: str) -> NDArray[np.bool_]:
         """Rows of ``kind`` (an integer comparison; all False for a kind not in the set)."""
@@ -256,6 +256,7 @@ class MeasurementSet:
 
     # -- size and parts ------------------------------------------------------------------
     def __len__(self) -> int:
+        """Number of rows."""
         return int(self.time.shape[0])
 
     @property
@@ -344,8 +345,10 @@ class MeasurementSet:
         return cat.sorted()
 
     def sorted(self) -> MeasurementSet:
-        """Rows grouped by sensor (in order of first appearance), in time order within each
-        sensor, keeping the existing order of simultaneous rows."""
+        """Rows grouped by sensor, in time order within each sensor.
+
+        Sensors come in order of first appearance; simultaneous rows keep their order.
+        """
         rank_of_code = np.zeros(len(self.sensor_names), dtype=np.intp)
         for rank, name in enumerate(self.sensors):
             rank_of_code[self.sensor_names.index(name)] = rank
@@ -391,6 +394,7 @@ class MeasurementSet:
             state[name].flags.writeable = False
 
     def __repr__(self) -> str:
+        """``MeasurementSet(n rows: count kind from sensor, ...)``."""
         parts = ", ".join(f"{r['count']} {r['kind']} from {r['sensor']}"
                           for r in self.summary_rows())
         return f"MeasurementSet({len(self)} rows: {parts})"

@@ -16,7 +16,13 @@ from __future__ import annotations
 
 from .atomic import atomic_write, exists_error
 from .errors import MeasurementFileError
-from .formats import Format, find_format, formats, register_format
+from .formats import (
+    Format,
+    find_format,
+    register_format,
+    registered_formats,
+    unregister_format,
+)
 from .measurement_files import read_measurements, write_measurements
 from .tables import TABLE_SUFFIXES, table_format, write_table
 
@@ -27,10 +33,11 @@ __all__ = [
     "atomic_write",
     "exists_error",
     "find_format",
-    "formats",
     "read_measurements",
     "register_format",
+    "registered_formats",
     "table_format",
+    "unregister_format",
     "write_measurements",
     "write_table",
 ]

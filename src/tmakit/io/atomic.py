@@ -1,5 +1,7 @@
-"""One way to write a file safely: to a temporary file in the same folder, then moved into
-place, so that a failure never leaves a partial file nor damages an existing one."""
+"""One way to write a file safely: a temporary file in the same folder, moved into place.
+
+A failure never leaves a partial file nor damages an existing one.
+"""
 
 from __future__ import annotations
 
@@ -30,8 +32,7 @@ def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
 
 @contextlib.contextmanager
 def atomic_write(path: str | os.PathLike[str], force: bool = False) -> Iterator[Path]:
-    """Write ``path`` atomically: yield a new empty temporary file to write, then move it
-    into place.
+    """Write ``path`` atomically: yield a new empty temporary file, then move it into place.
 
     Use as ``with atomic_write(path, force) as tmp: write(tmp)``.  The temporary file lies in
     the folder of ``path`` (so the final move is one :func:`os.replace`, or a hard link when

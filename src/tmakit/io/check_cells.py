@@ -232,7 +232,7 @@ def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_
 
 
 def _record_failures(fc: pd.DataFrame, checks: _Checks, problems: Problems) -> None:
-    """pandera's failure cases as one problem per cell (file-wide ones without a row)."""
+    """Turn pandera's failure cases as one problem per cell (file-wide ones without a row)."""
     for column, name, index, case in zip(fc["column"], fc["check"], fc["index"],
                                          fc["failure_case"], strict=True):
         column = str(column)

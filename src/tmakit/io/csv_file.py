@@ -26,8 +26,10 @@ __all__ = ["CSV", "csv_metadata_line", "load_csv", "read_csv", "write_csv"]
 
 
 def _split_metadata(text: str) -> tuple[dict[str, str], int, int]:
-    """Leading '# key: value' comment lines (and blank lines) before the header: the
-    metadata, the characters and the lines they take."""
+    """Split off the leading '# key: value' comment lines (and blank lines) of a CSV text.
+
+    Returns the metadata, and the characters and the lines the comment lines take.
+    """
     metadata: dict[str, str] = {}
     consumed = pre_lines = 0
     for line in io.StringIO(text, newline=""):
@@ -44,8 +46,11 @@ def _split_metadata(text: str) -> tuple[dict[str, str], int, int]:
 
 
 def _record_lines(path: Path, body: str, pre_lines: int) -> tuple[list[str], list[int]]:
-    """Header names and the line of each data record (csv module: knows quoted fields that
-    span lines); refuses a missing or bad header, unreadable or ragged records."""
+    """Read the header names and the line of each data record.
+
+    The csv module knows quoted fields that span lines.  A missing or bad header and
+    unreadable or ragged records are refused (:class:`MeasurementFileError`).
+    """
     reader = csv.reader(io.StringIO(body, newline=""))
     header = next(reader, None)
     if header is None:

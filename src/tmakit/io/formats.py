@@ -15,8 +15,8 @@ from pathlib import Path
 
 from ..data import MeasurementSet
 
-__all__ = ["Format", "Reader", "Writer", "find_format", "formats", "register_format",
-           "suffix_text"]
+__all__ = ["Format", "Reader", "Writer", "find_format", "register_format", "registered_formats",
+           "suffix_text", "unregister_format"]
 
 #: ``read(path, *, origin=None, **options) -> MeasurementSet``; raises
 #: :class:`~tmakit.io.MeasurementFileError` for a file that breaks the format.
@@ -85,7 +85,28 @@ def register_format(fmt: Format, replace: bool = False) -> Format:
     return fmt
 
 
-def formats(reading: bool | None = None) -> tuple[Format, ...]:
+def unregister_format(name: str) -> Format:
+    """Remove a format from the registry.
+
+    Parameters
+    ----------
+    name : str
+        The format's name.
+
+    Returns
+    -------
+    Format
+        The removed format.
+
+    Raises
+    ------
+    KeyError
+        If no format has that name.
+    """
+    return _FORMATS.pop(name)
+
+
+def registered_formats(reading: bool | None = None) -> tuple[Format, ...]:
     """The registered formats, in registration order.
 
     Parameters
@@ -115,7 +136,7 @@ def find_format(path: str | os.PathLike[str], name: str | None = None,
     name : str, optional
         A format name; wins over the suffix.
     reading : bool, optional
-        As in :func:`formats`.
+        As in :func:`registered_formats`.
 
     Returns
     -------
@@ -127,7 +148,7 @@ def find_format(path: str | os.PathLike[str], name: str | None = None,
     ValueError
         If ``name`` is given but names no registered format.
     """
-    candidates = formats(reading)
+    candidates = registered_formats(reading)
     if name is not None:
         if name not in _FORMATS:
             raise ValueError(f"unknown measurement file format {name!r}; expected one of "
@@ -138,8 +159,9 @@ def find_format(path: str | os.PathLike[str], name: str | None = None,
 
 
 def suffix_text(candidates: tuple[Format, ...]) -> str:
-    """The suffixes and labels of formats for messages: ``.csv, .parquet, .pq (CSV or
-    Parquet)``.
+    """Name the suffixes and labels of formats for messages.
+
+    For CSV and Parquet: ``.csv, .parquet, .pq (CSV or Parquet)``.
 
     Parameters
     ----------

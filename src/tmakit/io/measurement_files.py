@@ -1,5 +1,6 @@
-"""Measurement files: a :class:`~tmakit.data.MeasurementSet` read from or written to a file,
-in any registered format (CSV and Parquet today; :mod:`tmakit.io.formats`).
+"""Measurement files: a :class:`~tmakit.data.MeasurementSet` read from or written to a file.
+
+Any registered format is used (CSV and Parquet today; :mod:`tmakit.io.formats`).
 
 The contract (columns, units, rules) is in ``docs/file-format.md``.  Reading checks every
 cell and reports *all* problems at once in a :class:`MeasurementFileError` whose lines name
@@ -31,7 +32,7 @@ from . import csv_file, parquet_file  # noqa: F401  (register the built-in forma
 from .atomic import atomic_write
 from .contract import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError
-from .formats import find_format, formats, suffix_text
+from .formats import find_format, registered_formats, suffix_text
 
 __all__ = [
     "COLUMN_ORDER",
@@ -87,7 +88,7 @@ def read_measurements(path: str | os.PathLike[str],
         shown = f"'{path.suffix}'" if path.suffix else "no suffix"
         raise MeasurementFileError(path, [
             f"unsupported file type ({shown}): measurement files end in "
-            f"{suffix_text(formats(reading=True))}"])
+            f"{suffix_text(registered_formats(reading=True))}"])
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
     return fmt.read(path, origin=origin, **options)
@@ -130,7 +131,7 @@ def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],
     if fmt is None or fmt.write is None:
         raise ValueError(
             f"{path}: cannot write measurements to a '{path.suffix}' file; the name must end "
-            f"in {suffix_text(formats(reading=False))}")
+            f"in {suffix_text(registered_formats(reading=False))}")
     fmt.write(ms, path, force)
     return path
 

@@ -1,5 +1,7 @@
-"""The Parquet measurement file: the columns of the contract, metadata under ``tmakit:`` keys
-of the Arrow schema."""
+"""The Parquet measurement file.
+
+The columns of the contract, and metadata under ``tmakit:`` keys of the Arrow schema.
+"""
 
 from __future__ import annotations
 

@@ -1,5 +1,8 @@
-"""Sensor states from a measurement file: ENU columns, or latitude/longitude with an ENU
-origin, and the sensor state at ``time_ref`` of range differences."""
+"""Sensor states from a measurement file.
+
+ENU columns, or latitude/longitude with an ENU origin; and the sensor state at ``time_ref``
+of range differences.
+"""
 
 from __future__ import annotations
 
@@ -135,9 +138,10 @@ def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
 def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[np.object_],
                      is_rd: NDArray[np.bool_], ref_given: NDArray[np.bool_], layout: Layout,
                      problems: Problems) -> NDArray[np.float64]:
-    """Sensor state at time_ref ``(n, 6)``: from the ref_sensor_* columns, else from the
-    sensor's row at that time, else interpolated along the sensor's rows
-    (:class:`tmakit.sensors.RecordedTrack`); NaN on other rows.
+    """Sensor state at time_ref ``(n, 6)`` of the range-difference rows (NaN on others).
+
+    From the ref_sensor_* columns, else from the sensor's row at that time, else
+    interpolated along the sensor's rows (:class:`tmakit.sensors.RecordedTrack`).
 
     Parameters
     ----------

@@ -2,7 +2,7 @@
 
 Measurement files (:mod:`tmakit.io.csv_file`, :mod:`tmakit.io.parquet_file`), track tables and
 Monte Carlo run tables all go through :func:`write_table`, so that every table tmakit writes
-has the same CSV dialect (no index, ``\\n`` line ends, empty cells for NaN, pandas' shortest
+has the same CSV dialect (no index, newline line ends, empty cells for NaN, pandas' shortest
 round-trip floats), the same Parquet layout and the same refusal to overwrite.
 """
 
