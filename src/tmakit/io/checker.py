@@ -10,6 +10,7 @@ and the ENU origin (:mod:`.positions`).
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +27,7 @@ from .errors import MeasurementFileError
 from .positions import ref_sensor_state, sensor_state
 from .problems import Problems, RawTable
 
-__all__ = ["check_table"]
+__all__ = ["check_table", "table_reader"]
 
 
 def check_table(path: str | os.PathLike[str], raw: RawTable,
@@ -78,3 +79,32 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     return MeasurementSet(num["time"], np.asarray(sensor.tolist(), dtype=str),
                           np.asarray(kind.tolist(), dtype=str), num["value"],
                           num["sigma"], state, time_ref, ref_state, meta)
+
+
+def table_reader(load: Callable[[Path], RawTable], label: str
+                 ) -> Callable[..., MeasurementSet]:
+    """A format's reader: load the raw table with ``load``, then :func:`check_table` it.
+
+    Parameters
+    ----------
+    load : callable
+        ``load(path) -> RawTable`` (raises :class:`MeasurementFileError` for an unreadable
+        file).
+    label : str
+        The format's name for messages ("CSV").
+
+    Returns
+    -------
+    callable
+        ``read(path, *, origin=None) -> MeasurementSet``; other keyword options are refused
+        with a ``TypeError`` naming them.
+    """
+
+    def read(path: Path, *, origin: tuple[float, float, float] | None = None,
+             **options: Any) -> MeasurementSet:
+        if options:
+            raise TypeError(f"{label} files take no options {', '.join(sorted(options))}")
+        return check_table(path, load(path), origin)
+
+    read.__doc__ = f"Read and check a {label} measurement file (see :func:`check_table`)."
+    return read

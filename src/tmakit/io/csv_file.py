@@ -9,12 +9,11 @@ from __future__ import annotations
 import csv
 import io
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ..data import MeasurementSet
-from .checker import check_table
+from .checker import table_reader
 from .columns import file_columns
 from .contract import COLUMN_ORDER, FORMAT_LINE
 from .errors import MeasurementFileError
@@ -124,34 +123,6 @@ def load_csv(path: Path) -> RawTable:
     return RawTable(frame, metadata, line_numbers)
 
 
-def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
-             **options: Any) -> MeasurementSet:
-    """Read and check a CSV measurement file (the :data:`CSV` format's reader).
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The file.
-    origin : (lat, lon, alt), optional
-        ENU origin (degrees, degrees, metres) for latitude/longitude files.
-    **options
-        None are accepted (a ``TypeError`` names any).
-
-    Returns
-    -------
-    MeasurementSet
-        The checked rows.
-
-    Raises
-    ------
-    MeasurementFileError
-        With every problem found.
-    """
-    if options:
-        raise TypeError(f"CSV files take no options {', '.join(sorted(options))}")
-    return check_table(path, load_csv(path), origin)
-
-
 def csv_metadata_line(path: Path, key: str, value: str) -> str:
     """One metadata line ``# key: value`` (without its line end).
 
@@ -208,5 +179,7 @@ def write_csv(ms: MeasurementSet, path: Path, force: bool) -> None:
     write_table(path, file_columns(ms), format="csv", force=force, csv_preamble=preamble)
 
 
+#: Read and check a CSV measurement file (the :data:`CSV` format's reader).
+read_csv = table_reader(load_csv, "CSV")
 #: The CSV format: ``.csv``.
 CSV = register_format(Format("csv", "CSV", (".csv",), read_csv, write_csv))

@@ -6,10 +6,9 @@ The columns of the contract, and metadata under ``tmakit:`` keys of the Arrow sc
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from ..data import MeasurementSet
-from .checker import check_table
+from .checker import table_reader
 from .columns import file_columns
 from .contract import PARQUET_METADATA_PREFIX
 from .errors import MeasurementFileError
@@ -60,34 +59,6 @@ def load_parquet(path: Path) -> RawTable:
     return RawTable(frame, metadata, None)
 
 
-def read_parquet(path: Path, *, origin: tuple[float, float, float] | None = None,
-                 **options: Any) -> MeasurementSet:
-    """Read and check a Parquet measurement file (the :data:`PARQUET` format's reader).
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The file.
-    origin : (lat, lon, alt), optional
-        ENU origin (degrees, degrees, metres) for latitude/longitude files.
-    **options
-        None are accepted (a ``TypeError`` names any).
-
-    Returns
-    -------
-    MeasurementSet
-        The checked rows.
-
-    Raises
-    ------
-    MeasurementFileError
-        With every problem found.
-    """
-    if options:
-        raise TypeError(f"Parquet files take no options {', '.join(sorted(options))}")
-    return check_table(path, load_parquet(path), origin)
-
-
 def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
     """Write a set as a Parquet measurement file, atomically (the :data:`PARQUET` writer).
 
@@ -119,6 +90,8 @@ def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
                 parquet_schema=pa.schema(fields))
 
 
+#: Read and check a Parquet measurement file (the :data:`PARQUET` format's reader).
+read_parquet = table_reader(load_parquet, "Parquet")
 #: The Parquet format: ``.parquet`` and ``.pq``.
 PARQUET = register_format(Format("parquet", "Parquet", (".parquet", ".pq"), read_parquet,
                                  write_parquet))
