@@ -22,6 +22,7 @@ How the set holds its columns (SI inside, converted once at the edge):
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from typing import Any
 
@@ -40,10 +41,15 @@ KIND_NAMES: tuple[str, ...] = tuple(KINDS)
 #: The code of each kind (the inverse of :data:`KIND_NAMES`).
 KIND_CODES: dict[str, int] = {k: i for i, k in enumerate(KIND_NAMES)}
 
-_KIND_TABLE = np.array(KIND_NAMES, dtype=str)
 # value_SI = value_file * scale + offset; sigma_SI = sigma_file * scale (per kind code).
 _SCALE = np.array([float(KINDS[k].file_scale) for k in KIND_NAMES])
 _OFFSET = np.array([float(KINDS[k].file_offset) for k in KIND_NAMES])
+
+
+@functools.cache
+def _kind_table(width: int) -> NDArray[np.str_]:
+    """:data:`KIND_NAMES` as a numpy string array of ``width`` characters."""
+    return np.array(KIND_NAMES, dtype=f"<U{width}")
 
 
 def _frozen(values: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -220,7 +226,10 @@ class MeasurementSet:
     def kind(self) -> NDArray[np.str_]:
         """Each row's kind as text (built from :attr:`kind_code` on first use, then kept)."""
         if self._kind is None:
-            self._kind = _KIND_TABLE[self.kind_code]
+            # As narrow as the longest kind present (string comparisons cost by width);
+            # the names of absent kinds, cut short, are never indexed.
+            width = max((len(k) for k in self.kinds), default=1)
+            self._kind = _kind_table(width)[self.kind_code]
         return self._kind
 
     @kind.setter
