@@ -343,8 +343,9 @@ def test_ragged_row_is_refused(tmp_path):
 
 def test_parquet_problems_name_row_and_column(tmp_path):
     ms = realistic_set().take(np.arange(8))
-    ms.sigma[2] = -1.0
-    ms.value[0] = 720.0
+    sigma, value = ms.sigma.copy(), ms.value.copy()  # the set's arrays are read-only
+    sigma[2], value[0] = -1.0, 720.0
+    ms.sigma, ms.value = sigma, value
     path = write_measurements(ms, tmp_path / "bad.parquet")
     message = refused(path)
     assert "row 1, column 'value': expected a bearing within [-360, 360] deg, found 720" \

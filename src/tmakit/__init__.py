@@ -64,9 +64,9 @@ _LAZY = {
     "track": "tracking",
     "monte_carlo": "montecarlo",
     # files and geodesy
-    "read_measurements": "io.measurement_files",
-    "write_measurements": "io.measurement_files",
-    "MeasurementFileError": "io.measurement_files",
+    "read_measurements": "io",
+    "write_measurements": "io",
+    "MeasurementFileError": "io",
     "write_track": "io.track_files",
     "geodetic_to_enu": "geodesy",
     "enu_to_geodetic": "geodesy",

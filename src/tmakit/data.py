@@ -1,19 +1,30 @@
-"""MeasurementSet: the columnar table of observations that flows from simulation or files
-into estimators and filters.
+"""MeasurementSet: the columnar table of observations, from simulation or files to estimators.
 
 One row per observed value.  Columns follow the measurement-file contract (README,
 ``docs/file-format.md``): ``time`` (s), ``sensor`` (id), ``kind``, ``value`` and ``sigma`` in the
 file unit of the kind (degrees, deg/s, m, m/s, Hz, dBm), the sensor's ENU state at ``time``,
 and, for range differences, ``time_ref`` and the sensor state at ``time_ref``.
 
-Values are stored in file units so that files round-trip exactly; :attr:`value_si` and
-:attr:`sigma_si` give SI (radians, dBW, ...) for computation.
+How the set holds its columns (SI inside, converted once at the edge):
+
+- ``value`` and ``sigma`` keep the numbers exactly as the file (or the simulation) gave them in
+  file units, so that files round-trip exactly; :attr:`~MeasurementSet.value_si` and
+  :attr:`~MeasurementSet.sigma_si` (radians, rad/s, m, m/s, Hz, dBW) are computed from them
+  once, when the set is built (or when ``value``/``sigma`` is assigned), never on access.  The
+  four arrays are read-only, so they cannot drift apart.
+- ``kind`` and ``sensor`` are categorical: integer codes (:attr:`~MeasurementSet.kind_code`
+  into :data:`KIND_NAMES`, :attr:`~MeasurementSet.sensor_code` into
+  :attr:`~MeasurementSet.sensor_names`).  The string arrays ``kind`` and ``sensor`` are built
+  from the codes on first use and kept; :attr:`~MeasurementSet.kinds` and
+  :attr:`~MeasurementSet.sensors` are computed once per set from the codes and are O(1)
+  afterwards.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,95 +35,303 @@ SENSOR_STATE_COLUMNS = ("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor
                         "sensor_vz")
 REF_STATE_COLUMNS = tuple(f"ref_{c}" for c in SENSOR_STATE_COLUMNS)
 
+#: The kind of each code: ``kind_code == i`` means the kind ``KIND_NAMES[i]`` (the order of
+#: :data:`tmakit.measurements.KINDS`).
+KIND_NAMES: tuple[str, ...] = tuple(KINDS)
+#: The code of each kind (the inverse of :data:`KIND_NAMES`).
+KIND_CODES: dict[str, int] = {k: i for i, k in enumerate(KIND_NAMES)}
 
-@dataclass(eq=False)
+# value_SI = value_file * scale + offset; sigma_SI = sigma_file * scale (per kind code).
+_SCALE = np.array([float(KINDS[k].file_scale) for k in KIND_NAMES])
+_OFFSET = np.array([float(KINDS[k].file_offset) for k in KIND_NAMES])
+
+
+@functools.cache
+def _kind_table(width: int) -> NDArray[np.str_]:
+    """:data:`KIND_NAMES` as a numpy string array of ``width`` characters."""
+    return np.array(KIND_NAMES, dtype=f"<U{width}")
+
+
+def _frozen(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    values.flags.writeable = False
+    return values
+
+
+def _kind_codes(kind: NDArray[np.str_]) -> NDArray[np.int8]:
+    """Kind codes (:data:`KIND_CODES`) of a string column; ``ValueError`` for unknown kinds."""
+    codes = np.full(kind.shape[0], -1, dtype=np.int8)
+    for code, name in enumerate(KIND_NAMES):
+        codes[kind == name] = code
+    if np.any(codes < 0):
+        unknown = sorted(set(kind[codes < 0].tolist()))
+        raise ValueError(f"unknown measurement kind(s) {', '.join(unknown)}; expected "
+                         f"{', '.join(KINDS)}")
+    return codes
+
+
+def _run_starts(column: NDArray[Any]) -> NDArray[np.intp]:
+    """Indices where a new run of equal values starts (rows of one sensor come in runs)."""
+    if column.shape[0] == 0:
+        return np.zeros(0, dtype=np.intp)
+    return np.flatnonzero(np.concatenate(([True], column[1:] != column[:-1])))
+
+
+def _first_appearance(values: NDArray[Any]) -> tuple[NDArray[Any], NDArray[np.intp]]:
+    """Distinct ``values`` in order of first appearance, and each value's rank in that order.
+
+    Vectorised: only the starts of runs of equal values are sorted, so a column whose rows come
+    grouped (as sensors do) costs one comparison pass.
+    """
+    starts = _run_starts(values)
+    distinct, first, inverse = np.unique(values[starts], return_index=True,
+                                         return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty(order.shape[0], dtype=np.intp)
+    rank[order] = np.arange(order.shape[0])
+    lengths = np.diff(np.append(starts, values.shape[0]))
+    return distinct[order], np.repeat(rank[inverse.reshape(-1)], lengths)
+
+
 class MeasurementSet:
     """Observations in time order per sensor, with everything needed to predict them.
 
-    Attributes are 1-D arrays of equal length ``n`` (``sensor_state`` and ``ref_sensor_state``
-    are ``(n, 6)``).  ``metadata`` holds free text: scenario name, seed, ENU origin, truth.
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Time of each measurement (s).
+    sensor : array_like of str, shape (n,)
+        Id of the sensor that made it.
+    kind : array_like of str, shape (n,)
+        Measurement kind, a key of :data:`tmakit.measurements.KINDS`.
+    value, sigma : array_like, shape (n,)
+        Measured value and noise standard deviation in the file unit of the kind (deg, deg/s,
+        m, m/s, Hz, dBm; ``sigma`` in dB for power).
+    sensor_state : array_like, shape (n, 6)
+        Sensor ENU position (m) and velocity (m/s) at ``time``.
+    time_ref : array_like, shape (n,), optional
+        Time of the earlier sample of a range difference (s); NaN elsewhere (the default).
+    ref_sensor_state : array_like, shape (n, 6), optional
+        Sensor state at ``time_ref`` (NaN where unused, the default).
+    metadata : mapping of str to str, optional
+        Free text: scenario name, seed, ENU origin, truth.
+
+    Raises
+    ------
+    ValueError
+        If a column's length differs from that of ``time``, or a kind is unknown.
+
+    Notes
+    -----
+    ``value``, ``sigma``, :attr:`value_si` and :attr:`sigma_si` are read-only arrays; assign a
+    whole new ``value`` or ``sigma`` array to change them (the SI twin is recomputed).  The
+    SI values are ``value * file_scale + file_offset`` and ``sigma * file_scale`` of the kind
+    (:class:`tmakit.measurements.MeasurementModel`), computed once.
     """
 
-    time: NDArray[np.float64]
-    sensor: NDArray[np.str_]
-    kind: NDArray[np.str_]
-    value: NDArray[np.float64]
-    sigma: NDArray[np.float64]
-    sensor_state: NDArray[np.float64]
-    time_ref: NDArray[np.float64] = field(default=None)  # type: ignore[assignment]
-    ref_sensor_state: NDArray[np.float64] = field(default=None)  # type: ignore[assignment]
-    metadata: dict[str, str] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        self.time = np.asarray(self.time, dtype=float)
+    def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value: ArrayLike,
+                 sigma: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
+                 ref_sensor_state: ArrayLike | None = None,
+                 metadata: Mapping[str, str] | None = None) -> None:
+        self.time = np.asarray(time, dtype=float)
         n = self.time.shape[0]
-        self.sensor = np.asarray(self.sensor, dtype=str)
-        self.kind = np.asarray(self.kind, dtype=str)
-        self.value = np.asarray(self.value, dtype=float)
-        self.sigma = np.asarray(self.sigma, dtype=float)
-        self.sensor_state = np.asarray(self.sensor_state, dtype=float).reshape(n, 6)
-        if self.time_ref is None:
-            self.time_ref = np.full(n, np.nan)
-        self.time_ref = np.asarray(self.time_ref, dtype=float)
-        if self.ref_sensor_state is None:
-            self.ref_sensor_state = np.full((n, 6), np.nan)
-        self.ref_sensor_state = np.asarray(self.ref_sensor_state, dtype=float).reshape(n, 6)
-        for name in ("sensor", "kind", "value", "sigma", "time_ref"):
-            if getattr(self, name).shape != (n,):
-                raise ValueError(f"column {name!r} has {getattr(self, name).shape[0]} rows, "
-                                 f"time has {n}")
-        unknown = sorted(set(self.kind.tolist()) - set(KINDS))
-        if unknown:
-            raise ValueError(f"unknown measurement kind(s) {', '.join(unknown)}; expected "
-                             f"{', '.join(KINDS)}")
-        self.metadata = {str(k): str(v) for k, v in dict(self.metadata).items()}
+        sensor_text = np.asarray(sensor, dtype=str)
+        kind_text = np.asarray(kind, dtype=str)
+        value_file = np.array(value, dtype=float)
+        sigma_file = np.array(sigma, dtype=float)
+        self.sensor_state = np.asarray(sensor_state, dtype=float).reshape(n, 6)
+        self.time_ref = (np.full(n, np.nan) if time_ref is None
+                         else np.asarray(time_ref, dtype=float))
+        self.ref_sensor_state = (np.full((n, 6), np.nan) if ref_sensor_state is None
+                                 else np.asarray(ref_sensor_state, dtype=float).reshape(n, 6))
+        for name, col in (("sensor", sensor_text), ("kind", kind_text), ("value", value_file),
+                          ("sigma", sigma_file), ("time_ref", self.time_ref)):
+            if col.shape != (n,):
+                raise ValueError(f"column {name!r} has {col.shape[0]} rows, time has {n}")
+        self.metadata = {str(k): str(v) for k, v in dict(metadata or {}).items()}
+        self._set_kinds(kind_text)
+        self._set_sensors(sensor_text)
+        self._set_file_values(value_file, sigma_file)
+
+    # -- values: file units as given, SI computed once -------------------------------------
+    def _set_file_values(self, value: NDArray[np.float64] | None,
+                         sigma: NDArray[np.float64] | None) -> None:
+        """Store new file-unit values and/or sigmas (owned arrays) and their SI twins."""
+        scale = _SCALE[self.kind_code]
+        if value is not None:
+            self._value = _frozen(value)
+            self._value_si = _frozen(value * scale + _OFFSET[self.kind_code])
+        if sigma is not None:
+            self._sigma = _frozen(sigma)
+            self._sigma_si = _frozen(sigma * scale)
+
+    def _set_kinds(self, text: NDArray[np.str_]) -> None:
+        """Store the kind codes of a text column (the SI values are the caller's job)."""
+        self.kind_code = _kind_codes(text)
+        self._kind: NDArray[np.str_] | None = None
+        self._kinds: tuple[str, ...] | None = None
+
+    def _set_sensors(self, text: NDArray[np.str_]) -> None:
+        """Store the sensor codes and names of a text column."""
+        names, codes = _first_appearance(text)
+        self.sensor_code = codes.astype(np.int32)
+        self.sensor_names: tuple[str, ...] = tuple(names.tolist())
+        self._sensor: NDArray[np.str_] | None = None
+        self._sensors: tuple[str, ...] | None = self.sensor_names
+
+    def _new_column(self, name: str, values: ArrayLike, dtype: type = float) -> NDArray[Any]:
+        """A column of this set's length (a copy), or ``ValueError``."""
+        out = np.array(values, dtype=dtype)
+        if out.shape != (len(self),):
+            raise ValueError(f"column {name!r} has {out.shape[0] if out.ndim else 0} rows, "
+                             f"time has {len(self)}")
+        return out
+
+    @property
+    def value(self) -> NDArray[np.float64]:
+        """Measured values in the file unit of each row's kind (deg, deg/s, m, m/s, Hz, dBm).
+
+        Read-only; assigning a new array recomputes :attr:`value_si`.
+        """
+        return self._value
+
+    @value.setter
+    def value(self, values: ArrayLike) -> None:
+        self._set_file_values(self._new_column("value", values), None)
+
+    @property
+    def sigma(self) -> NDArray[np.float64]:
+        """Noise standard deviations in the file unit of ``value`` (dB for power); read-only."""
+        return self._sigma
+
+    @sigma.setter
+    def sigma(self, values: ArrayLike) -> None:
+        self._set_file_values(None, self._new_column("sigma", values))
+
+    @property
+    def value_si(self) -> NDArray[np.float64]:
+        """Values in SI (radians, rad/s, m, m/s, Hz, dBW); read-only, computed once."""
+        return self._value_si
+
+    @property
+    def sigma_si(self) -> NDArray[np.float64]:
+        """Noise standard deviations in SI (dB for power); read-only, computed once."""
+        return self._sigma_si
+
+    def si(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(value_si, sigma_si)``: the SI values and noise standard deviations (read-only)."""
+        return self._value_si, self._sigma_si
+
+    # -- categorical columns ---------------------------------------------------------------
+    @property
+    def kind(self) -> NDArray[np.str_]:
+        """Each row's kind as text (built from :attr:`kind_code` on first use, then kept)."""
+        if self._kind is None:
+            # As narrow as the longest kind present (string comparisons cost by width);
+            # the names of absent kinds, cut short, are never indexed.
+            width = max((len(k) for k in self.kinds), default=1)
+            self._kind = _kind_table(width)[self.kind_code]
+        return self._kind
+
+    @kind.setter
+    def kind(self, kinds: ArrayLike) -> None:
+        self._set_kinds(self._new_column("kind", kinds, str))
+        self._set_file_values(np.array(self._value), np.array(self._sigma))
+
+    @property
+    def sensor(self) -> NDArray[np.str_]:
+        """Each row's sensor id as text (built from :attr:`sensor_code` on first use)."""
+        if self._sensor is None:
+            self._sensor = np.array(self.sensor_names, dtype=str)[self.sensor_code]
+        return self._sensor
+
+    @sensor.setter
+    def sensor(self, sensors: ArrayLike) -> None:
+        self._set_sensors(self._new_column("sensor", sensors, str))
+
+    def kind_mask(self, kind: str) -> NDArray[np.bool_]:
+        """Rows of ``kind`` (an integer comparison; all False for a kind not in the set)."""
+        code = KIND_CODES.get(kind)
+        if code is None:
+            return np.zeros(len(self), dtype=bool)
+        return self.kind_code == code
+
+    def sensor_mask(self, sensor: str) -> NDArray[np.bool_]:
+        """Rows of the sensor ``sensor`` (an integer comparison)."""
+        try:
+            code = self.sensor_names.index(sensor)
+        except ValueError:
+            return np.zeros(len(self), dtype=bool)
+        return self.sensor_code == code
 
     # -- size and parts ------------------------------------------------------------------
     def __len__(self) -> int:
+        """Number of rows."""
         return int(self.time.shape[0])
 
     @property
     def kinds(self) -> list[str]:
-        """Kinds present, in the order of :data:`tmakit.measurements.KINDS`."""
-        present = set(self.kind.tolist())  # Python strings: far faster than numpy's
-        return [k for k in KINDS if k in present]
+        """Kinds present, in the order of :data:`tmakit.measurements.KINDS` (computed once)."""
+        if self._kinds is None:
+            present = np.bincount(self.kind_code, minlength=len(KIND_NAMES)) > 0
+            self._kinds = tuple(k for k, p in zip(KIND_NAMES, present, strict=True) if p)
+        return list(self._kinds)
 
     @property
     def sensors(self) -> list[str]:
-        """Sensor ids in order of first appearance."""
-        _, first = np.unique(self.sensor, return_index=True)
-        return [str(s) for s in self.sensor[np.sort(first)]]
+        """Sensor ids in order of first appearance (computed once)."""
+        if self._sensors is None:
+            codes, _ = _first_appearance(self.sensor_code)
+            self._sensors = tuple(self.sensor_names[c] for c in codes.tolist())
+        return list(self._sensors)
 
     @property
     def dim(self) -> int:
         """3 if any sensor leaves the plane z = 0 or measures elevation, else 2."""
-        if "elevation" in set(self.kind):
+        if "elevation" in self.kinds:
             return 3
         return 3 if np.any(self.sensor_state[:, 2] != 0) or np.any(
             self.sensor_state[:, 5] != 0) else 2
 
     def take(self, index: ArrayLike) -> MeasurementSet:
-        """The rows at ``index`` (integer indices or a boolean mask), metadata kept."""
+        """The rows at ``index`` (integer indices or a boolean mask), metadata kept.
+
+        Parameters
+        ----------
+        index : array_like
+            1-D integer row indices or a boolean mask of length ``n``.
+
+        Returns
+        -------
+        MeasurementSet
+            The rows, with the codes, file-unit and SI values indexed (nothing converted or
+            checked again: solvers take subsets on every call).
+
+        Raises
+        ------
+        ValueError
+            If ``index`` is not 1-D.
+        """
         idx = np.asarray(index)
         if idx.ndim != 1:
             raise ValueError(f"index must be 1-D (row indices or a boolean mask); got shape "
                              f"{idx.shape}")
-        # Rows of a checked set need no conversion or check: built without __post_init__
-        # (solvers take subsets on every call).
         out = object.__new__(MeasurementSet)
-        out.time, out.sensor, out.kind = self.time[idx], self.sensor[idx], self.kind[idx]
-        out.value, out.sigma = self.value[idx], self.sigma[idx]
+        out.time, out.kind_code = self.time[idx], self.kind_code[idx]
+        out.sensor_code, out.sensor_names = self.sensor_code[idx], self.sensor_names
+        out._value, out._sigma = _frozen(self._value[idx]), _frozen(self._sigma[idx])
+        out._value_si, out._sigma_si = _frozen(self._value_si[idx]), _frozen(self._sigma_si[idx])
         out.sensor_state, out.time_ref = self.sensor_state[idx], self.time_ref[idx]
         out.ref_sensor_state, out.metadata = self.ref_sensor_state[idx], dict(self.metadata)
+        out._kind = out._sensor = out._kinds = out._sensors = None
         return out
 
     def select(self, kind: str | None = None, sensor: str | None = None) -> MeasurementSet:
         """Rows of one kind and/or one sensor."""
         mask = np.ones(len(self), dtype=bool)
         if kind is not None:
-            mask &= self.kind == kind
+            mask &= self.kind_mask(kind)
         if sensor is not None:
-            mask &= self.sensor == sensor
+            mask &= self.sensor_mask(sensor)
         return self.take(mask)
 
     @staticmethod
@@ -135,49 +354,21 @@ class MeasurementSet:
         return cat.sorted()
 
     def sorted(self) -> MeasurementSet:
-        """Rows grouped by sensor (in order of first appearance), in time order within each
-        sensor, keeping the existing order of simultaneous rows."""
-        order_of = {s: i for i, s in enumerate(self.sensors)}
-        rank = np.array([order_of[s] for s in self.sensor], dtype=int)
-        return self.take(np.lexsort((self.time, rank)))
+        """Rows grouped by sensor, in time order within each sensor.
 
-    # -- SI views ------------------------------------------------------------------------
-    def _per_kind(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Per row, the scale and offset from the file unit of its kind to SI."""
-        scale = np.ones(len(self))
-        offset = np.zeros(len(self))
-        for k in self.kinds:
-            model = KINDS[k]
-            if model.file_scale == 1.0 and model.file_offset == 0.0:
-                continue  # already SI (the arrays' initial values)
-            sel = self.kind == k
-            scale[sel] = model.file_scale
-            offset[sel] = model.file_offset
-        return scale, offset
-
-    def si(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``(value_si, sigma_si)`` in one pass over the kinds."""
-        scale, offset = self._per_kind()
-        return self.value * scale + offset, self.sigma * scale
-
-    @property
-    def value_si(self) -> NDArray[np.float64]:
-        """Values in SI (radians, rad/s, m, m/s, Hz, dBW)."""
-        scale, offset = self._per_kind()
-        return self.value * scale + offset
-
-    @property
-    def sigma_si(self) -> NDArray[np.float64]:
-        """Noise standard deviations in SI (dB for power)."""
-        scale, _ = self._per_kind()
-        return self.sigma * scale
+        Sensors come in order of first appearance; simultaneous rows keep their order.
+        """
+        rank_of_code = np.zeros(len(self.sensor_names), dtype=np.intp)
+        for rank, name in enumerate(self.sensors):
+            rank_of_code[self.sensor_names.index(name)] = rank
+        return self.take(np.lexsort((self.time, rank_of_code[self.sensor_code])))
 
     def equals(self, other: MeasurementSet) -> bool:
         """Exact equality of every column and the metadata (NaN equals NaN)."""
         if len(self) != len(other):
             return False
-        same = (np.array_equal(self.sensor, other.sensor)
-                and np.array_equal(self.kind, other.kind)
+        same = (np.array_equal(self.kind_code, other.kind_code)
+                and np.array_equal(self.sensor, other.sensor)
                 and self.metadata == other.metadata)
         for name in ("time", "value", "sigma", "sensor_state", "time_ref",
                      "ref_sensor_state"):
@@ -189,8 +380,9 @@ class MeasurementSet:
         """One row per (sensor, kind): count, time span, value range and median sigma."""
         rows = []
         for s in self.sensors:
+            of_sensor = self.sensor_mask(s)
             for k in self.kinds:
-                sel = (self.sensor == s) & (self.kind == k)
+                sel = of_sensor & self.kind_mask(k)
                 if not np.any(sel):
                     continue
                 rows.append({
@@ -204,7 +396,14 @@ class MeasurementSet:
                 })
         return rows
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickle, keeping the value arrays read-only."""
+        self.__dict__.update(state)
+        for name in ("_value", "_sigma", "_value_si", "_sigma_si"):
+            state[name].flags.writeable = False
+
     def __repr__(self) -> str:
+        """``MeasurementSet(n rows: count kind from sensor, ...)``."""
         parts = ", ".join(f"{r['count']} {r['kind']} from {r['sensor']}"
                           for r in self.summary_rows())
         return f"MeasurementSet({len(self)} rows: {parts})"

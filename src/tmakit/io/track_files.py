@@ -1,7 +1,7 @@
 """Track files: the table of a :class:`~tmakit.filters.Track` as CSV or Parquet.
 
 What the table holds is the tracking layer's (:func:`tmakit.tracking.track_table`); this
-module writes it, atomically (:func:`~.measurement_files.written_in_place`).
+module writes it with the one table writer (:func:`~.tables.write_table`), atomically.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..filters import Track
 from ..tracking import track_table
-from .measurement_files import written_in_place
+from .tables import write_table
 
 __all__ = ["TRACK_SUFFIXES", "write_track"]
 
@@ -49,25 +49,11 @@ def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) ->
     file in the same folder and moved into place, so a failure leaves nothing half-written.
     Parquet files carry the filter, start and q as schema metadata (``tmakit:filter``, ...).
     """
-    import pandas as pd
-
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in TRACK_SUFFIXES:
         raise ValueError(f"{path}: a track is written as .csv or .parquet, not "
                          f"{path.suffix or 'a file without suffix'}")
     table = track_table(tr)
-    with written_in_place(path, force) as tmp:
-        frame = pd.DataFrame(table.columns)
-        if suffix == ".csv":
-            frame.to_csv(tmp, index=False)
-        else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-
-            arrow = pa.Table.from_pandas(frame, preserve_index=False)
-            meta = dict(arrow.schema.metadata or {})
-            for key, value in table.metadata.items():
-                meta[f"tmakit:{key}".encode()] = value.encode()
-            pq.write_table(arrow.replace_schema_metadata(meta), tmp)
-    return path
+    return write_table(path, table.columns, force=force, what="a track",
+                       parquet_metadata={f"tmakit:{k}": v for k, v in table.metadata.items()})

@@ -1,0 +1,132 @@
+"""Cells of a raw table: empty or not, as text, and as shown in problem messages."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+__all__ = ["blank_mask", "is_blank", "number_text", "show", "text_column"]
+
+
+def number_text(x: float) -> str:
+    """A number for messages: shortest exact representation, no trailing '.0'.
+
+    Parameters
+    ----------
+    x : float
+        The number.
+
+    Returns
+    -------
+    str
+        ``repr(float(x))`` without a trailing ``.0``.
+    """
+    text = repr(float(x))
+    return text[:-2] if text.endswith(".0") else text
+
+
+def is_blank(v: Any) -> bool:
+    """Whether a cell is empty: ``None``, NaN or NA, or text that is only spaces.
+
+    Parameters
+    ----------
+    v : object
+        The cell.
+
+    Returns
+    -------
+    bool
+        True for an empty cell.
+    """
+    if v is None:
+        return True
+    if isinstance(v, str):
+        return v.strip() == ""
+    try:
+        return bool(v != v)  # NaN and pandas NA-likes
+    except (TypeError, ValueError):
+        return False
+
+
+def show(v: Any) -> str:
+    """A cell value for "found ..." in messages.
+
+    Parameters
+    ----------
+    v : object
+        The cell as read (text for CSV, typed for Parquet).
+
+    Returns
+    -------
+    str
+        ``an empty cell``, a number in its shortest form, or the quoted text.
+    """
+    if v is None or (isinstance(v, str) and v.strip() == ""):
+        return "an empty cell"
+    if isinstance(v, str):
+        try:
+            float(v)
+        except ValueError:
+            return repr(v)
+        return v.strip()
+    if isinstance(v, (bool, np.bool_)):
+        return repr(bool(v))
+    if isinstance(v, (float, int, np.floating, np.integer)):
+        if isinstance(v, (float, np.floating)) and math.isnan(v):
+            return "an empty cell (NaN)"
+        return number_text(float(v))
+    try:
+        if v != v:
+            return "an empty cell"
+    except (TypeError, ValueError):
+        pass
+    return repr(v)
+
+
+def blank_mask(series: pd.Series) -> NDArray[np.bool_]:
+    """Empty cells of a column: NaN/None/NA, or text that is only spaces.
+
+    Parameters
+    ----------
+    series : pandas.Series
+        The column.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True where the cell is empty.
+    """
+    import pandas as pd
+
+    if isinstance(series.dtype, pd.StringDtype):
+        return (series.str.strip() == "").fillna(True).to_numpy(dtype=bool)
+    return series.map(is_blank).to_numpy(dtype=bool)
+
+
+def text_column(series: pd.Series) -> NDArray[np.object_]:
+    """Cells of a text column as Python str ('' for empty), ids like 1 kept as '1'.
+
+    Parameters
+    ----------
+    series : pandas.Series
+        The column.
+
+    Returns
+    -------
+    numpy.ndarray of object
+        One str per cell.
+    """
+    import pandas as pd
+
+    if isinstance(series.dtype, pd.StringDtype):
+        return series.fillna("").to_numpy(dtype=object)
+    out = np.empty(len(series), dtype=object)
+    for i, v in enumerate(series.tolist()):
+        out[i] = "" if is_blank(v) else str(v)
+    return out

@@ -1,0 +1,248 @@
+"""The per-cell rules of a measurement file, as a pandera schema validated lazily.
+
+Numbers are coerced by pandera (:func:`read_numbers`); the rules (finite, value ranges per
+kind, positive sigma, latitude/longitude ranges, ``time_ref`` and reference states only on
+range-difference rows) are pandera checks whose failure cases become one problem per cell
+(:func:`check_cells`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
+from ..measurements import KINDS
+from .cells import blank_mask, is_blank, number_text, show, text_column
+from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
+from .problems import Problems
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+    import pandera.pandas as pa
+
+__all__ = ["check_cells", "read_numbers"]
+
+Numbers = dict[str, NDArray[np.float64]]
+RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
+
+#: Value ranges checked per kind: (kind, accepts the file value, what is expected).
+VALUE_RANGES: tuple[tuple[str, Callable[[NDArray[np.float64]], NDArray[np.bool_]], str], ...] = (
+    ("bearing", lambda v: (v >= -360) & (v <= 360), "a bearing within [-360, 360] deg"),
+    ("elevation", lambda v: (v >= -90) & (v <= 90), "an elevation within [-90, 90] deg"),
+    ("frequency", lambda v: v > 0, "a frequency > 0 Hz"),
+    ("range", lambda v: v >= 0, "a range >= 0 m"),
+)
+
+
+def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
+    """Numeric columns as float64 (NaN for empty cells), via pandera's coercion.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The raw cells.
+    problems : Problems
+        Cells that are not numbers are recorded here (and read as NaN).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The numeric columns present in the file.
+    """
+    import pandas as pd
+    import pandera.pandas as pa
+
+    present = [c for c in NUMERIC_COLUMNS if c in frame.columns]
+    cols = {}
+    for c in present:
+        s = frame[c]
+        if not (pd.api.types.is_numeric_dtype(s) or pd.api.types.is_bool_dtype(s)):
+            blank = blank_mask(s)
+            s = s.astype(object)
+            s[blank] = np.nan
+        cols[c] = s
+    table = pd.DataFrame(cols, index=pd.RangeIndex(len(frame)))
+    schema = pa.DataFrameSchema(
+        {c: pa.Column("float64", coerce=True, nullable=True) for c in present})
+    try:
+        table = schema.validate(table, lazy=True)
+    except pa.errors.SchemaErrors as err:
+        fc = err.failure_cases
+        for column, index in zip(fc["column"], fc["index"], strict=True):
+            if column in cols and index is not None and not is_blank(index):
+                row = int(index)
+                problems.cell(row, str(column), "a number")
+                table.loc[row, column] = np.nan  # type: ignore[index]
+        table = schema.validate(table, lazy=True)
+    return {c: table[c].to_numpy(dtype=np.float64, copy=True) for c in present}
+
+
+class _Checks:
+    """pandera checks that remember, per (column, check name), what a failing cell expected."""
+
+    def __init__(self) -> None:
+        self.expected: dict[tuple[str, str], Callable[[int], str]] = {}
+
+    def check(self, column: str, name: str, ok: RowCheck, what: str | Callable[[int], str],
+              ignore_na: bool = True) -> pa.Check:
+        import pandas as pd
+        import pandera.pandas as pa
+
+        self.expected[(column, name)] = what if callable(what) else (lambda _row: what)
+
+        def fn(s: pd.Series) -> pd.Series:
+            rows = s.index.to_numpy(dtype=np.intp)
+            return pd.Series(np.asarray(ok(s.to_numpy(), rows), dtype=bool), index=s.index)
+
+        return pa.Check(fn, name=name, ignore_na=ignore_na)
+
+    def finite(self, column: str) -> pa.Check:
+        return self.check(column, "finite", lambda v, r: np.isfinite(v), "a finite number")
+
+
+def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
+                is_rd: NDArray[np.bool_], problems: Problems) -> NDArray[np.bool_]:
+    """Check every cell against the per-cell rules; record one problem per failing cell.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The raw cells.
+    num : dict of str to numpy.ndarray
+        The numeric columns (:func:`read_numbers`).
+    kind : numpy.ndarray of object
+        Each row's kind as text (stripped).
+    is_rd : numpy.ndarray of bool
+        Rows that are range differences.
+    problems : Problems
+        Where the problems go.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        Range-difference rows that give their reference state in ``ref_sensor_*`` columns.
+    """
+    import pandas as pd
+    import pandera.pandas as pa
+
+    checks = _Checks()
+    columns = _basic_columns(frame, num, kind, checks)
+    if "time_ref" in num and "kind" in frame.columns:
+        columns["time_ref"] = _time_ref_column(num, kind, is_rd, checks)
+    ref_given = np.zeros(len(frame), dtype=bool)
+    for c in REF_STATE_COLUMNS:
+        if c in num:
+            ref_given |= ~np.isnan(num[c])
+    ref_given &= is_rd
+    for c in REF_STATE_COLUMNS:
+        if c in num and "kind" in frame.columns:
+            columns[c] = _ref_state_column(c, kind, is_rd, ref_given, checks)
+    table = pd.DataFrame({c: (num[c] if c in num else text_column(frame[c]))
+                          for c in columns}, index=pd.RangeIndex(len(frame)))
+    try:
+        pa.DataFrameSchema(columns).validate(table, lazy=True)
+    except pa.errors.SchemaErrors as err:
+        _record_failures(err.failure_cases, checks, problems)
+    return ref_given
+
+
+def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
+                   checks: _Checks) -> dict[str, pa.Column]:
+    """Sensor id, kind, finite numbers, value ranges per kind, sigma > 0, lat/lon ranges."""
+    import pandera.pandas as pa
+
+    columns: dict[str, pa.Column] = {}
+    if "sensor" in frame.columns:
+        columns["sensor"] = pa.Column(None, checks=checks.check(
+            "sensor", "sensor_id",
+            lambda v, r: np.array([s.strip() != "" for s in v], dtype=bool),
+            "a sensor id (text)"))
+    if "kind" in frame.columns:
+        columns["kind"] = pa.Column(None, checks=checks.check(
+            "kind", "known_kind", lambda v, r: np.isin(v.astype(str), list(KINDS)),
+            f"one of the kinds {', '.join(KINDS)}"))
+    for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
+        if c in num:
+            columns[c] = pa.Column("float64", nullable=False, checks=[checks.finite(c)])
+    if "value" in columns:
+        columns["value"].checks += [
+            checks.check("value", f"{k}_value", _for_kind(kind, k, ok), what)
+            for k, ok, what in VALUE_RANGES]
+    if "sigma" in columns:
+        columns["sigma"].checks.append(checks.check(
+            "sigma", "positive", lambda v, r: v > 0,
+            "a noise standard deviation > 0 (in the unit of value)"))
+    if "sensor_lat" in columns:
+        columns["sensor_lat"].checks.append(checks.check(
+            "sensor_lat", "latitude", lambda v, r: (v >= -90) & (v <= 90),
+            "a latitude within [-90, 90] deg"))
+    if "sensor_lon" in columns:
+        columns["sensor_lon"].checks.append(checks.check(
+            "sensor_lon", "longitude", lambda v, r: (v >= -180) & (v <= 360),
+            "a longitude within [-180, 360] deg"))
+    return columns
+
+
+def _for_kind(kind: NDArray[np.object_], k: str,
+              ok: Callable[[NDArray[np.float64]], NDArray[np.bool_]]) -> RowCheck:
+    """A value check that holds on the rows of kind ``k`` only."""
+    return lambda v, r: ok(v) | (kind[r] != k)
+
+
+def _time_ref_column(num: Numbers, kind: NDArray[np.object_], is_rd: NDArray[np.bool_],
+                     checks: _Checks) -> pa.Column:
+    """time_ref: present exactly on range-difference rows, finite, before time."""
+    import pandera.pandas as pa
+
+    t = num.get("time", np.full(is_rd.shape[0], np.nan))
+    return pa.Column("float64", nullable=True, checks=[
+        checks.check("time_ref", "required", lambda v, r: ~np.isnan(v) | ~is_rd[r],
+                     "a time_ref (s) before time: range_difference rows need one",
+                     ignore_na=False),
+        checks.check("time_ref", "unused", lambda v, r: np.isnan(v) | is_rd[r],
+                     lambda row: f"an empty cell: only range_difference rows have a time_ref "
+                                 f"(this row is {kind[row] or 'of no kind'})",
+                     ignore_na=False),
+        checks.finite("time_ref"),
+        checks.check("time_ref", "before_time",
+                     lambda v, r: ~(v >= t[r]) | ~is_rd[r],
+                     lambda row: f"a time_ref before time ({number_text(t[row])} s)"),
+    ])
+
+
+def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_],
+                      ref_given: NDArray[np.bool_], checks: _Checks) -> pa.Column:
+    """A ref_sensor_* column: only on range-difference rows, all or none of a row, finite."""
+    import pandera.pandas as pa
+
+    return pa.Column("float64", nullable=True, checks=[
+        checks.check(c, "unused", lambda v, r: np.isnan(v) | is_rd[r],
+                     lambda row: f"an empty cell: only range_difference rows have a "
+                                 f"sensor state at time_ref (this row is "
+                                 f"{kind[row] or 'of no kind'})", ignore_na=False),
+        checks.check(c, "complete", lambda v, r: ~np.isnan(v) | ~ref_given[r] | ~is_rd[r],
+                     "a number (the other ref_sensor_* cells of this row are given; "
+                     "give all or none)", ignore_na=False),
+        checks.finite(c),
+    ])
+
+
+def _record_failures(fc: pd.DataFrame, checks: _Checks, problems: Problems) -> None:
+    """Turn pandera's failure cases as one problem per cell (file-wide ones without a row)."""
+    for column, name, index, case in zip(fc["column"], fc["check"], fc["index"],
+                                         fc["failure_case"], strict=True):
+        column = str(column)
+        if index is None or is_blank(index):
+            problems.file.append(f"column '{column}': {name}: {case}")
+            continue
+        row = int(index)
+        if name == "not_nullable":
+            problems.cell(row, column, "a number")
+        elif (column, name) in checks.expected:
+            problems.cell(row, column, checks.expected[(column, name)](row))
+        else:  # pragma: no cover - a pandera check we did not define
+            problems.cell(row, column, str(name), show(case))

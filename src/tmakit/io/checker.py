@@ -1,0 +1,110 @@
+"""From a raw table to a checked :class:`~tmakit.data.MeasurementSet`.
+
+Every rule of the contract is checked and all problems are reported together.
+
+The steps, each in its own module: columns present (:mod:`.check_columns`), numbers and the
+per-cell rules (:mod:`.check_cells`), rules across rows (:mod:`.check_rows`), sensor states
+and the ENU origin (:mod:`.positions`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..data import MeasurementSet
+from ..measurements import KINDS
+from .cells import text_column
+from .check_cells import check_cells, read_numbers
+from .check_columns import check_columns
+from .check_rows import check_order
+from .contract import RANGE_DIFFERENCE
+from .errors import MeasurementFileError
+from .positions import ref_sensor_state, sensor_state
+from .problems import Problems, RawTable
+
+__all__ = ["check_table", "table_reader"]
+
+
+def check_table(path: str | os.PathLike[str], raw: RawTable,
+                origin: tuple[float, float, float] | None = None) -> MeasurementSet:
+    """Check a raw table against the contract of ``docs/file-format.md`` and build the set.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file the table was read from (named in the error).
+    raw : RawTable
+        The table as read (text cells for CSV, typed cells for Parquet).
+    origin : (lat, lon, alt), optional
+        ENU origin (degrees, degrees, metres) for files that give ``sensor_lat`` and
+        ``sensor_lon``; wins over ``origin_*`` metadata and is recorded in the set's metadata.
+
+    Returns
+    -------
+    MeasurementSet
+        The rows in file order, values in file units (SI computed once by the set).
+
+    Raises
+    ------
+    MeasurementFileError
+        With every problem found (row, line and column of each).
+    """
+    frame, n = raw.frame, len(raw.frame)
+    problems = Problems(raw)
+    has = set(frame.columns).__contains__
+    sensor = (text_column(frame["sensor"]) if has("sensor")
+              else np.full(n, "", dtype=object))
+    kind = (np.array([k.strip() for k in text_column(frame["kind"])], dtype=object)
+            if has("kind") else np.full(n, "", dtype=object))
+    is_rd = kind == RANGE_DIFFERENCE
+
+    layout = check_columns(frame.columns, [k for k in KINDS if np.any(kind == k)], problems)
+    num = read_numbers(frame, problems)
+    ref_given = check_cells(frame, num, kind, is_rd, problems)
+    check_order(num, sensor, kind, problems)
+    state, origin_metadata = sensor_state(num, layout, origin, problems)
+    time_ref = num["time_ref"] if "time_ref" in num else np.full(n, np.nan)
+    ref_state = ref_sensor_state(num, state, sensor, is_rd, ref_given, layout, problems)
+
+    found = problems.sorted()
+    if found:
+        raise MeasurementFileError(Path(path), found)
+    meta: dict[str, Any] = dict(raw.metadata)
+    meta.update(origin_metadata)
+    return MeasurementSet(num["time"], np.asarray(sensor.tolist(), dtype=str),
+                          np.asarray(kind.tolist(), dtype=str), num["value"],
+                          num["sigma"], state, time_ref, ref_state, meta)
+
+
+def table_reader(load: Callable[[Path], RawTable], label: str
+                 ) -> Callable[..., MeasurementSet]:
+    """A format's reader: load the raw table with ``load``, then :func:`check_table` it.
+
+    Parameters
+    ----------
+    load : callable
+        ``load(path) -> RawTable`` (raises :class:`MeasurementFileError` for an unreadable
+        file).
+    label : str
+        The format's name for messages ("CSV").
+
+    Returns
+    -------
+    callable
+        ``read(path, *, origin=None) -> MeasurementSet``; other keyword options are refused
+        with a ``TypeError`` naming them.
+    """
+
+    def read(path: Path, *, origin: tuple[float, float, float] | None = None,
+             **options: Any) -> MeasurementSet:
+        if options:
+            raise TypeError(f"{label} files take no options {', '.join(sorted(options))}")
+        return check_table(path, load(path), origin)
+
+    read.__doc__ = f"Read and check a {label} measurement file (see :func:`check_table`)."
+    return read

@@ -1,0 +1,39 @@
+"""The columns of a measurement file as written, from a set."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS, MeasurementSet
+
+__all__ = ["file_columns"]
+
+
+def file_columns(ms: MeasurementSet) -> dict[str, NDArray[Any]]:
+    """The columns to write, in :data:`~tmakit.io.contract.COLUMN_ORDER` (values in file units).
+
+    The ``ref_sensor_*`` columns follow when the set has range differences.
+
+    Parameters
+    ----------
+    ms : MeasurementSet
+        The set.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Column name to values.
+    """
+    cols: dict[str, NDArray[Any]] = {
+        "time": ms.time, "sensor": ms.sensor, "kind": ms.kind, "value": ms.value,
+        "sigma": ms.sigma}
+    for i, c in enumerate(SENSOR_STATE_COLUMNS):
+        cols[c] = ms.sensor_state[:, i]
+    cols["time_ref"] = ms.time_ref
+    if np.any(ms.kind_mask("range_difference")):
+        for i, c in enumerate(REF_STATE_COLUMNS):
+            cols[c] = ms.ref_sensor_state[:, i]
+    return cols

@@ -1,0 +1,54 @@
+"""The measurement-file contract as data: column names and order, what each column is for.
+
+The contract itself (columns, units, rules) is written in ``docs/file-format.md``.
+"""
+
+from __future__ import annotations
+
+from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
+from ..measurements import KINDS
+
+__all__ = [
+    "COLUMN_ORDER",
+    "COLUMN_PURPOSE",
+    "FORMAT_LINE",
+    "GEO_COLUMNS",
+    "NUMERIC_COLUMNS",
+    "PARQUET_METADATA_PREFIX",
+    "RANGE_DIFFERENCE",
+]
+
+#: First line of every CSV file tmakit writes.
+FORMAT_LINE = "# tmakit measurements v1"
+#: Prefix of tmakit's keys in the Arrow schema metadata of Parquet files.
+PARQUET_METADATA_PREFIX = "tmakit:"
+#: Column order of written files (the ``ref_sensor_*`` columns follow when the set has
+#: range differences).
+COLUMN_ORDER = ("time", "sensor", "kind", "value", "sigma", *SENSOR_STATE_COLUMNS,
+                "time_ref")
+#: Sensor position as latitude (deg), longitude (deg) and altitude (m, WGS-84).
+GEO_COLUMNS = ("sensor_lat", "sensor_lon", "sensor_alt")
+#: Columns read as numbers (float64, NaN for an empty cell).
+NUMERIC_COLUMNS = ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS,
+                   "time_ref", *REF_STATE_COLUMNS)
+#: The kind whose rows carry ``time_ref`` and a reference sensor state.
+RANGE_DIFFERENCE = "range_difference"
+
+_AXES = {"x": "east (m, ENU)", "y": "north (m, ENU)", "z": "up (m, ENU)",
+         "vx": "velocity east (m/s, ENU)", "vy": "velocity north (m/s, ENU)",
+         "vz": "velocity up (m/s, ENU)"}
+#: What each column of the contract is for (used in "column 'C' is missing: ..." problems).
+COLUMN_PURPOSE: dict[str, str] = {
+    "time": "time of the measurement (s)",
+    "sensor": "id of the sensor that made the measurement (text)",
+    "kind": f"measurement kind, one of {', '.join(KINDS)}",
+    "value": "measured value in the unit of its kind (deg, deg/s, m, m/s, Hz or dBm)",
+    "sigma": "noise standard deviation, in the unit of value",
+    **{c: f"sensor {_AXES[c.removeprefix('sensor_')]} at time" for c in SENSOR_STATE_COLUMNS},
+    "sensor_lat": "sensor latitude (degrees, WGS-84)",
+    "sensor_lon": "sensor longitude (degrees, WGS-84)",
+    "sensor_alt": "sensor altitude (m, WGS-84)",
+    "time_ref": "time of the earlier sample of a range difference (s)",
+    **{c: f"sensor {_AXES[c.removeprefix('ref_sensor_')]} at time_ref"
+       for c in REF_STATE_COLUMNS},
+}

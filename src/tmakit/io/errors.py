@@ -1,0 +1,49 @@
+"""The error a measurement file raises when it breaks the file contract."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+__all__ = ["MAX_LISTED_PROBLEMS", "MeasurementFileError"]
+
+#: At most this many problems are listed in a :class:`MeasurementFileError` message.
+MAX_LISTED_PROBLEMS = 25
+
+
+class MeasurementFileError(ValueError):
+    """A measurement file that breaks the contract of ``docs/file-format.md``.
+
+    ``path`` is the file, ``problems`` one line per problem (``row R (line L), column 'C':
+    expected ..., found ...``).  The message starts with the path and lists the problems
+    (at most :data:`MAX_LISTED_PROBLEMS` of them).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    problems : iterable of str
+        One line per problem, in the order to show them.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], problems: Iterable[str]) -> None:
+        self.path = Path(path)
+        self.problems = [str(p) for p in problems]
+        super().__init__(self._message())
+
+    def _message(self) -> str:
+        n = len(self.problems)
+        if n == 0:
+            return f"{self.path}: not a valid measurement file"
+        head = f"{self.path}: {n} problem{'s' if n != 1 else ''} in the measurement file:"
+        lines = [head, *(f"  - {p}" for p in self.problems[:MAX_LISTED_PROBLEMS])]
+        if n > MAX_LISTED_PROBLEMS:
+            rest = n - MAX_LISTED_PROBLEMS
+            lines.append(f"  ... and {rest} more problem{'s' if rest != 1 else ''}")
+        return "\n".join(lines)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle by path and problems (the message is rebuilt from them)."""
+        return (type(self), (self.path, self.problems))

@@ -1,0 +1,97 @@
+"""The Parquet measurement file.
+
+The columns of the contract, and metadata under ``tmakit:`` keys of the Arrow schema.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..data import MeasurementSet
+from .checker import table_reader
+from .columns import file_columns
+from .contract import PARQUET_METADATA_PREFIX
+from .errors import MeasurementFileError
+from .formats import Format, register_format
+from .problems import RawTable
+from .tables import write_table
+
+__all__ = ["PARQUET", "load_parquet", "read_parquet", "write_parquet"]
+
+
+def load_parquet(path: Path) -> RawTable:
+    """A Parquet measurement file as a raw table of typed cells (no line numbers).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+
+    Returns
+    -------
+    RawTable
+        The cells and the metadata of the ``tmakit:`` schema keys.
+
+    Raises
+    ------
+    MeasurementFileError
+        If the file cannot be read as Parquet or a column appears twice.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowException, OSError) as e:
+        raise MeasurementFileError(path, [f"cannot be read as Parquet ({e})"]) from None
+    metadata: dict[str, str] = {}
+    for key, value in (table.schema.metadata or {}).items():
+        k = key.decode("utf-8", "replace")
+        if k.startswith(PARQUET_METADATA_PREFIX):
+            metadata[k[len(PARQUET_METADATA_PREFIX):]] = value.decode("utf-8", "replace")
+    names = [str(n).strip() for n in table.column_names]
+    problems = [f"column {name!r} appears more than once"
+                for i, name in enumerate(names) if name in names[:i]]
+    if problems:
+        raise MeasurementFileError(path, problems)
+    frame = table.to_pandas().reset_index(drop=True)
+    frame.columns = names
+    return RawTable(frame, metadata, None)
+
+
+def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
+    """Write a set as a Parquet measurement file, atomically (the :data:`PARQUET` writer).
+
+    Text columns are non-null strings, the others float64; the schema metadata holds
+    ``tmakit: measurements v1`` and the set's metadata under ``tmakit:`` keys.
+
+    Parameters
+    ----------
+    ms : MeasurementSet
+        The set (values in file units).
+    path : pathlib.Path
+        The file.
+    force : bool
+        Overwrite an existing file.
+
+    Raises
+    ------
+    FileExistsError
+        If ``path`` exists and not ``force``.
+    """
+    import pyarrow as pa
+
+    columns = file_columns(ms)
+    fields = [pa.field(name, pa.string(), nullable=False) if name in ("sensor", "kind")
+              else pa.field(name, pa.float64()) for name in columns]
+    metadata = {"tmakit": "measurements v1"}
+    metadata.update({PARQUET_METADATA_PREFIX + k: v for k, v in ms.metadata.items()})
+    write_table(path, columns, format="parquet", force=force, parquet_metadata=metadata,
+                parquet_schema=pa.schema(fields))
+
+
+#: Read and check a Parquet measurement file (the :data:`PARQUET` format's reader).
+read_parquet = table_reader(load_parquet, "Parquet")
+#: The Parquet format: ``.parquet`` and ``.pq``.
+PARQUET = register_format(Format("parquet", "Parquet", (".parquet", ".pq"), read_parquet,
+                                 write_parquet))

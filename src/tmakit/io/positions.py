@@ -1,0 +1,219 @@
+"""Sensor states from a measurement file.
+
+ENU columns, or latitude/longitude with an ENU origin; and the sensor state at ``time_ref``
+of range differences.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
+from .cells import number_text
+from .check_columns import Layout
+from .contract import GEO_COLUMNS
+from .problems import Problems
+
+__all__ = ["ORIGIN_KEYS", "ref_sensor_state", "resolve_origin", "sensor_state"]
+
+Numbers = dict[str, NDArray[np.float64]]
+#: Metadata keys of the ENU origin (degrees, degrees, metres).
+ORIGIN_KEYS = ("origin_lat", "origin_lon", "origin_alt")
+
+
+def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
+                   ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
+    """The ENU origin (lat, lon in degrees, alt in m): the argument, else the file's metadata.
+
+    Parameters
+    ----------
+    origin : (lat, lon, alt) or None
+        The origin passed to the reader; it wins over the file's metadata.
+    metadata : mapping of str to str
+        The file's metadata (``origin_lat``, ``origin_lon``, ``origin_alt``).
+    problems : Problems
+        Where a missing or unreadable origin is recorded.
+
+    Returns
+    -------
+    origin : tuple of float or None
+        The origin, None if it is missing or unreadable.
+    metadata : dict of str to str
+        The origin as metadata for the returned set (empty unless the argument gave it).
+    """
+    if origin is not None:
+        try:
+            lat, lon, alt = (float(v) for v in origin)
+        except (TypeError, ValueError):
+            problems.file.append(f"origin {origin!r}: expected (lat, lon, alt) in degrees, "
+                                 "degrees, metres")
+            return None, {}
+        return (lat, lon, alt), {k: repr(v) for k, v in
+                                 zip(ORIGIN_KEYS, (lat, lon, alt), strict=True)}
+    if "origin_lat" not in metadata and "origin_lon" not in metadata:
+        problems.file.append(
+            "sensor positions are given as sensor_lat/sensor_lon but no ENU origin is "
+            "known: pass an origin (read_measurements(path, origin=(lat, lon, alt)), or "
+            "--origin LAT,LON,ALT on the command line) or add metadata lines "
+            "'# origin_lat: ...', '# origin_lon: ...', '# origin_alt: ...'")
+        return None, {}
+    values = []
+    for key in ORIGIN_KEYS:
+        text = metadata.get(key, "0" if key == "origin_alt" else "")
+        try:
+            values.append(float(text))
+        except ValueError:
+            if text:
+                unit = "metres" if key == "origin_alt" else "degrees"
+                problems.file.append(
+                    f"metadata '{key}': expected a number ({unit}), found {text!r}")
+            else:
+                problems.file.append(
+                    f"metadata '{key}' is missing: the ENU origin needs origin_lat and "
+                    "origin_lon (and origin_alt)")
+            return None, {}
+    return (values[0], values[1], values[2]), {}
+
+
+def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
+                 ) -> tuple[NDArray[np.float64], dict[str, str]]:
+    """Each row's sensor ENU state ``(n, 6)`` (m, m/s), NaN where unknown.
+
+    Parameters
+    ----------
+    num : dict of str to numpy.ndarray
+        The numeric columns.
+    layout : Layout
+        How the file gives positions.
+    origin : (lat, lon, alt) or None
+        The ENU origin argument (for latitude/longitude files).
+    problems : Problems
+        Where problems go.
+
+    Returns
+    -------
+    state : numpy.ndarray, shape (n, 6)
+        Position (m) and velocity (m/s); missing velocities are 0.
+    metadata : dict of str to str
+        The origin as metadata, when the argument gave it.
+    """
+    n = len(problems.raw.frame)
+    zeros = np.zeros(n)
+    state = np.full((n, 6), np.nan)
+    origin_metadata: dict[str, str] = {}
+    if layout.geodetic:
+        if "sensor_lat" in num and "sensor_lon" in num:
+            enu_origin, origin_metadata = resolve_origin(origin, problems.raw.metadata,
+                                                         problems)
+            if enu_origin is not None:
+                _geodetic_positions(num, enu_origin, state, problems)
+    else:
+        for i, c in enumerate(("sensor_x", "sensor_y", "sensor_z")):
+            state[:, i] = num.get(c, zeros if c == "sensor_z" else np.full(n, np.nan))
+    for i, c in enumerate(("sensor_vx", "sensor_vy", "sensor_vz"), start=3):
+        state[:, i] = num.get(c, zeros)
+    return state, origin_metadata
+
+
+def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
+                        state: NDArray[np.float64], problems: Problems) -> None:
+    from ..geodesy import geodetic_to_enu
+
+    lat, lon = num["sensor_lat"].copy(), num["sensor_lon"].copy()
+    alt = num.get("sensor_alt", np.zeros(lat.shape[0])).copy()
+    bad = problems.bad_rows(*GEO_COLUMNS)
+    lat[bad] = lon[bad] = alt[bad] = np.nan  # pymap3d refuses |lat| > 90
+    try:
+        with np.errstate(invalid="ignore"):
+            e, nn, u = geodetic_to_enu(lat, lon, alt, origin)
+        state[:, 0], state[:, 1], state[:, 2] = e, nn, u
+    except ValueError as err:
+        problems.file.append(f"origin {origin}: {err}")
+
+
+def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[np.object_],
+                     is_rd: NDArray[np.bool_], ref_given: NDArray[np.bool_], layout: Layout,
+                     problems: Problems) -> NDArray[np.float64]:
+    """Sensor state at time_ref ``(n, 6)`` of the range-difference rows (NaN on others).
+
+    From the ref_sensor_* columns, else from the sensor's row at that time, else
+    interpolated along the sensor's rows (:class:`tmakit.sensors.RecordedTrack`).
+
+    Parameters
+    ----------
+    num : dict of str to numpy.ndarray
+        The numeric columns.
+    state : numpy.ndarray, shape (n, 6)
+        Each row's sensor state (:func:`sensor_state`).
+    sensor : numpy.ndarray of object
+        Each row's sensor id.
+    is_rd, ref_given : numpy.ndarray of bool
+        Range-difference rows, and those that give ref_sensor_* cells.
+    layout : Layout
+        How the file gives the sensor state.
+    problems : Problems
+        Where a time_ref without a known sensor position is recorded.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 6)
+        Position (m) and velocity (m/s) at time_ref.
+    """
+    n = state.shape[0]
+    ref = np.full((n, 6), np.nan)
+    for i, c in enumerate(REF_STATE_COLUMNS):
+        col = num.get(c, np.zeros(n) if i >= 2 else np.full(n, np.nan))
+        ref[ref_given, i] = col[ref_given]
+    if "time" not in num or "time_ref" not in num:
+        return ref
+    time_ref = num["time_ref"]
+    need = (is_rd & ~ref_given & np.isfinite(time_ref)
+            & ~problems.bad_rows("time", "sensor", "time_ref"))
+    if not np.any(need):
+        return ref
+    state_cols = [c for c in (*SENSOR_STATE_COLUMNS, *GEO_COLUMNS) if c in num]
+    usable = (~problems.bad_rows("time", "sensor", *state_cols)
+              & np.all(np.isfinite(state), axis=1))
+    for s in dict.fromkeys(sensor[need]):
+        _ref_of_sensor(s, np.flatnonzero(need & (sensor == s)),
+                       np.flatnonzero(usable & (sensor == s)), num["time"], time_ref, state,
+                       ref, layout.has_velocity, problems)
+    return ref
+
+
+def _ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp],
+                   t: NDArray[np.float64], time_ref: NDArray[np.float64],
+                   state: NDArray[np.float64], ref: NDArray[np.float64], has_velocity: bool,
+                   problems: Problems) -> None:
+    """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else linear)."""
+    from ..sensors import RecordedTrack
+
+    tr = time_ref[rows]
+    # one row per time (the first), in time order
+    times, first = np.unique(t[mine], return_index=True)
+    first = mine[first]
+    found = np.zeros(rows.shape[0], dtype=bool)
+    if times.shape[0] > 0:
+        at = np.clip(np.searchsorted(times, tr), 0, times.shape[0] - 1)
+        found = times[at] == tr
+        ref[rows[found]] = state[first[at[found]]]
+    inside = ~found & (tr >= times[0]) & (tr <= times[-1]) if times.shape[0] > 1 \
+        else np.zeros(rows.shape[0], dtype=bool)
+    if np.any(inside):
+        velocities = state[first, 3:] if has_velocity else None
+        track = RecordedTrack(times, state[first, :3], velocities)
+        ref[rows[inside]] = track.states(tr[inside])
+        if not has_velocity:  # like the sensor velocities, absent from the file
+            ref[rows[inside], 3:] = 0.0
+    known = (f"its rows span {number_text(times[0])} to {number_text(times[-1])} s"
+             if times.shape[0] > 0 else "it has no other usable rows")
+    for row in rows[~found & ~inside]:
+        problems.cell(int(row), "time_ref",
+                      f"a time at which sensor '{sensor}' has a known position ({known}; "
+                      "or give the ref_sensor_* columns)",
+                      f"{number_text(time_ref[row])} (no sensor position known at time_ref "
+                      f"{number_text(time_ref[row])} s)")

@@ -1,0 +1,92 @@
+"""A raw table as read from a file, and the problems found in it while checking."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .cells import show
+from .contract import COLUMN_PURPOSE
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+__all__ = ["Problems", "RawTable"]
+
+
+@dataclass
+class RawTable:
+    """A file's table as read, before checking: text cells for CSV, typed for Parquet.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The cells, one column per header name.
+    metadata : dict of str to str
+        The file's metadata (``# key: value`` lines of a CSV file, ``tmakit:`` keys of the
+        Parquet schema).
+    lines : numpy.ndarray of int or None
+        Line of each data row in the CSV file (1-based), or None (Parquet).
+    """
+
+    frame: pd.DataFrame
+    metadata: dict[str, str]
+    lines: NDArray[np.int64] | None
+
+
+@dataclass
+class Problems:
+    """The problems found in one raw table: file-wide ones, and one per cell at most.
+
+    Parameters
+    ----------
+    raw : RawTable
+        The table the problems are about (for row numbers, lines and cell values).
+    """
+
+    raw: RawTable
+    file: list[str] = field(default_factory=list)
+    cells: dict[tuple[int, str], str] = field(default_factory=dict)
+
+    def where(self, row: int) -> str:
+        """``row R (line L)`` of a 0-based row (``row R`` without line numbers)."""
+        lines = self.raw.lines
+        if lines is None:
+            return f"row {row + 1}"
+        return f"row {row + 1} (line {lines[row]})"
+
+    def cell(self, row: int, column: str, expected: str, found: str | None = None) -> None:
+        """Record a problem at one cell (the first problem of a cell wins).
+
+        ``found`` defaults to the cell as read (:func:`tmakit.io.cells.show`).
+        """
+        if (row, column) in self.cells:
+            return
+        frame = self.raw.frame
+        if found is None:
+            found = show(frame[column].iat[row]) if column in frame else "nothing"
+        self.cells[(row, column)] = (
+            f"{self.where(row)}, column '{column}': expected {expected}, found {found}")
+
+    def missing(self, column: str, extra: str = "") -> None:
+        """Record that a column of the contract is missing (``extra`` says why it is needed)."""
+        self.file.append(f"column '{column}' is missing: {COLUMN_PURPOSE[column]}{extra}")
+
+    def bad_rows(self, *columns: str) -> NDArray[np.bool_]:
+        """Rows with a problem in one of ``columns``."""
+        mask = np.zeros(len(self.raw.frame), dtype=bool)
+        wanted = set(columns)
+        for row, column in self.cells:
+            if column in wanted:
+                mask[row] = True
+        return mask
+
+    def sorted(self) -> list[str]:
+        """File-wide problems first, then cell problems by row and column order."""
+        order = {c: i for i, c in enumerate(self.raw.frame.columns)}
+        cells = sorted(self.cells.items(),
+                       key=lambda item: (item[0][0], order.get(item[0][1], len(order))))
+        return self.file + [p for _, p in cells]
