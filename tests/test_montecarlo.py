@@ -172,23 +172,28 @@ def test_summary_text_and_json(gu2007_40):
 
 # -- saving ------------------------------------------------------------------------------------
 def test_save_writes_csv_and_parquet_and_refuses_to_overwrite(gu2007_40, tmp_path):
+    from tmakit.io.study_files import write_study_table
+
+    def save(path, force=False):
+        return write_study_table(gu2007_40, path, force=force)
+
     csv = tmp_path / "runs.csv"
-    gu2007_40.save(csv)
+    save(csv)
     back = pd.read_csv(csv)
     assert list(back.columns) == list(gu2007_40.table.columns)
     np.testing.assert_allclose(back["est_x"], gu2007_40.table["est_x"], rtol=1e-12)
     with pytest.raises(FileExistsError, match="already exists"):
-        gu2007_40.save(csv)
-    gu2007_40.save(csv, force=True)
+        save(csv)
+    save(csv, force=True)
 
     pq = tmp_path / "runs.parquet"
-    gu2007_40.save(pq)
+    save(pq)
     pd.testing.assert_frame_equal(pd.read_parquet(pq), gu2007_40.table,
                                   check_dtype=False)
     with pytest.raises(FileExistsError):
-        gu2007_40.save(pq)
+        save(pq)
     with pytest.raises(ValueError, match=r"\.csv or \.parquet"):
-        gu2007_40.save(tmp_path / "runs.xlsx")
+        save(tmp_path / "runs.xlsx")
 
 
 # -- Dask --------------------------------------------------------------------------------------

@@ -50,7 +50,9 @@ def montecarlo(
         raise fail(f"Dask scheduler {dask}: {e}") from None
     print_summary(res)
     if output is not None:
-        res.save(output, force=force)
+        from ..io.study_files import write_study_table
+
+        write_study_table(res, output, force=force)
         out.print(f"wrote {output}", highlight=False)
     if json_file is not None:
         json_file.write_text(res.to_json() + "\n")

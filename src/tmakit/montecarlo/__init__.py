@@ -3,7 +3,8 @@
 >>> from tmakit.montecarlo import monte_carlo
 >>> res = monte_carlo(tk.load_scenario("gu2007"), "ml", runs=200, seed=1)
 >>> print(res.summary())            # bias, RMSE, CRLB, RMSE/CRLB with 95 % interval
->>> res.save("gu2007-mc.parquet")   # the per-run table
+>>> from tmakit.io.study_files import write_study_table
+>>> write_study_table(res, "gu2007-mc.parquet")   # the per-run table
 
 One job per module:
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -221,21 +220,4 @@ class MonteCarloResult:
     def to_json(self, indent: int | None = 2, runs: bool = False) -> str:
         """:meth:`as_dict` as JSON text (``indent`` as for :func:`json.dumps`)."""
         return json.dumps(self.as_dict(runs=runs), indent=indent)
-
-    def save(self, path: str | Path, force: bool = False) -> Path:
-        """Write the per-run table: CSV (``.csv``) or Parquet (``.parquet``, ``.pq``).
-
-        Refuses (``FileExistsError``) to overwrite an existing file unless ``force``."""
-        path = Path(path)
-        suffix = path.suffix.lower()
-        if suffix not in (".csv", ".parquet", ".pq"):
-            raise ValueError(f"{path}: the per-run table is written as .csv or .parquet, "
-                             f"not {path.suffix or 'a file without suffix'}")
-        if path.exists() and not force:
-            raise FileExistsError(f"{path} already exists; pass force=True to overwrite it")
-        if suffix == ".csv":
-            self.table.to_csv(path, index=False)
-        else:
-            self.table.to_parquet(path, index=False)
-        return path
 

@@ -1,0 +1,50 @@
+"""Monte Carlo study files: the per-run table of a study as CSV or Parquet.
+
+What the table holds is the study's (:attr:`tmakit.montecarlo.MonteCarloResult.table`); this
+module writes it with the one table writer (:func:`~.tables.write_table`), atomically.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..montecarlo import MonteCarloResult
+from .tables import write_table
+
+__all__ = ["STUDY_SUFFIXES", "write_study_table"]
+
+#: File suffixes :func:`write_study_table` writes (CSV, Parquet).
+STUDY_SUFFIXES = (".csv", ".parquet", ".pq")
+
+
+def write_study_table(res: MonteCarloResult, path: str | os.PathLike[str],
+                      force: bool = False) -> Path:
+    """Write the per-run table of a Monte Carlo study.
+
+    Parameters
+    ----------
+    res : MonteCarloResult
+        The study (from :func:`tmakit.monte_carlo`).
+    path : str or path-like
+        ``.csv``, ``.parquet`` or ``.pq``.
+    force : bool
+        Overwrite an existing file.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        Another suffix.
+    FileExistsError
+        ``path`` exists and not ``force``.
+    """
+    path = Path(path)
+    if path.suffix.lower() not in STUDY_SUFFIXES:
+        raise ValueError(f"{path}: the per-run table is written as .csv or .parquet, "
+                         f"not {path.suffix or 'a file without suffix'}")
+    return write_table(path, res.table, force=force, what="the per-run table")
