@@ -1,4 +1,4 @@
-"""The Cramér–Rao analysis of 002_e7269ad11b825346.txt §4 (Fig. 2) on the hoerst2010 scenario:
+"""The Cramér–Rao analysis of Hörst & Oispuu (2010), §4 (Fig. 2) on the hoerst2010 scenario:
 the bound on the current target position from the data so far, every STEP seconds, for
 azimuth only and azimuth + azimuth rate, with the manoeuvres (accelerations, change-over
 times) unknown and known.

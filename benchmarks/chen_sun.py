@@ -1,4 +1,4 @@
-"""Chen & Sun (003_e5155d4fe60daef8.txt) §3, Fig. 2: EKF and modified-gain EKF with multi-lag
+"""Chen & Sun §3, Fig. 2: EKF and modified-gain EKF with multi-lag
 vectors on the three paths, RMS errors in x, y, z and range over time, NEES, and the
 observability of each path (batch CRLB).  Same numbers as ``tma reproduce chen-sun``.
 
@@ -9,10 +9,10 @@ observability of each path (batch CRLB).  Same numbers as ``tma reproduce chen-s
     python benchmarks/chen_sun.py --bearings-only 20    # + the gain forms on bearings-only-2d
 
 ``--gains N`` compares, on the three paths (N runs, multi-lag vectors as in the paper), the
-MGEKF as 003 §2.5 prints it (modified rows in the gain) with Song & Speyer's form (EKF rows in
-the gain, modified rows in the covariance).  ``--bearings-only N`` does the same on the 2-D
-bearings-only scenario (one bearing per update, prior N(truth + error, diag(3 km, 3 km,
-10 m/s, 10 m/s)^2), q = 0).
+MGEKF as Chen & Sun (§2.5) print it (modified rows in the gain) with Song & Speyer's form
+(EKF rows in the gain, modified rows in the covariance).  ``--bearings-only N`` does the
+same on the 2-D bearings-only scenario (one bearing per update, prior N(truth + error,
+diag(3 km, 3 km, 10 m/s, 10 m/s)^2), q = 0).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Carrier drift on gu2007: the carrier drifts linearly by 2.5 Hz over the two minutes
-(000_bc54bd8c50e47249.txt §5).  ML with the drift modelled is compared with the drift-aware CRLB
+(Gu et al. (2007), §5).  ML with the drift modelled is compared with the drift-aware CRLB
 (carrier, drift and power constant unknown); ML that ignores the drift and the paper's ratio
 method are run on the same data sets, and what they lose is printed.
 

@@ -39,7 +39,7 @@ on the final position error:
 
 * prior start: the posterior CRB of the same data and prior along the true trajectory
   (:func:`tmakit.bounds.deterministic_pcrb`, the Tichavský recursion of
-  004_590a452506c86051.txt eqs. 10-11; with q = 0 it equals the batch CRLB of the bearings
+  Hurtado & Nehorai (2008), eqs. 10-11; with q = 0 it equals the batch CRLB of the bearings
   plus the prior's information — the bound for a fixed truth and a prior mean drawn around it);
 * batch start: the batch CRLB of all of the run's bearings with no prior
   (:func:`tmakit.bounds.crlb` of the scenario at its truth, position covariance at 600 s).  The

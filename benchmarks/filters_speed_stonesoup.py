@@ -7,7 +7,7 @@ realisation (``--seed``), one prior (mean drawn from N(truth, P0), P0 = diag(500
 Stone Soup (``pip install stonesoup``, the ``bench`` extra) is given the same problem:
 
 * state ``[x, vx, y, vy]`` (its order), the nearly-constant-velocity model with tmakit's
-  ``Q_k`` (003_e5155d4fe60daef8.txt §2.1, piecewise-constant white acceleration; Stone Soup's
+  ``Q_k`` (Chen & Sun, §2.1, piecewise-constant white acceleration; Stone Soup's
   own ``ConstantVelocity`` integrates continuous white noise, a different ``Q``) as a small
   ``LinearGaussianTransitionModel`` subclass;
 * one ``Cartesian2DToBearing`` model per detection with the observer's position as
@@ -59,7 +59,7 @@ def stonesoup_problem(meas, mean0, p0, q):
     from stonesoup.types.detection import Detection
 
     class NearlyConstantVelocity2D(LinearGaussianTransitionModel, TimeVariantModel):
-        """tmakit's Q_k (003 §2.1) in Stone Soup's state order."""
+        """tmakit's Q_k (Chen & Sun, §2.1) in Stone Soup's state order."""
 
         q: float = Property(doc="acceleration standard deviation per axis (m/s^2)")
 

@@ -1,5 +1,5 @@
-"""Monte Carlo benchmark: maximum likelihood for the manoeuvring target of 002
-(Hörst & Oispuu, §4; the ``hoerst2010`` scenario: turn from 400 s to 600 s, circling observer,
+"""Monte Carlo benchmark: maximum likelihood for the manoeuvring target of Hörst & Oispuu
+(2010), §4 (the ``hoerst2010`` scenario: turn from 400 s to 600 s, circling observer,
 azimuth σ 2° and azimuth rate σ 1 mrad/s at 1 Hz to 900 s).
 
 Every run simulates the scenario (its own seed from ``--seed``), estimates with no initial
@@ -20,8 +20,8 @@ prints:
   itself, whose likelihood has distant competing minima in some runs.
 
 The CRB is :func:`tmakit.bounds.crlb` at the truth with the ``curvilinear:2`` model, every
-parameter unknown (accelerations and change-over times included), 002 eq. 9.  RMSE/CRB
-intervals assume Gaussian errors (:func:`tmakit.montecarlo.ratio_interval`).
+parameter unknown (accelerations and change-over times included), Hörst & Oispuu (2010),
+eq. 9.  RMSE/CRB intervals assume Gaussian errors (:func:`tmakit.montecarlo.ratio_interval`).
 
 With ``--straight`` the target does not manoeuvre (the same start, course and speed, no
 turn): the script then counts how often each criterion finds spurious manoeuvres.  For every

@@ -8,7 +8,7 @@ axis) and ``--vel-std`` (m/s, per axis).  Three bounds are printed per q:
 * deterministic — Gamma_k at the true (prior-mean) trajectory (:func:`deterministic_pcrb`):
   the bound for a fixed true trajectory, the one to compare filters run on that truth with;
 * Monte Carlo   — Gamma_k averaged over ``--trajectories`` trajectories drawn from the prior
-  and the process noise (:func:`posterior_crb`, 004_590a452506c86051.txt eqs. 10-11): the
+  and the process noise (:func:`posterior_crb`, Hurtado & Nehorai (2008), eqs. 10-11): the
   Bayesian bound averaged over the prior.  With a wide prior it is much lower, because
   trajectories that pass close to the observer carry far more bearing information
   (E[information] is not the information at E[x]);

@@ -1,4 +1,4 @@
-"""Tables 1-3 of 000_bc54bd8c50e47249.txt: the CRLB RMS values (C and f_s known) for power only,
+"""Tables 1-3 of Gu et al. (2007): the CRLB RMS values (C and f_s known) for power only,
 Doppler only and both, at (SNR_p, sigma_f) = (40 dB, 1.9 Hz), (20 dB, 1.9 Hz), (40 dB, 19 Hz),
 computed by tmakit on the gu2007 scenario next to the paper's printed numbers.
 

@@ -1,4 +1,4 @@
-"""Manoeuvring targets (002_e7269ad11b825346.txt): analytic derivatives of exact and piecewise
+"""Manoeuvring targets (Hörst & Oispuu (2010)): analytic derivatives of exact and piecewise
 curvilinear motion, the Cramér–Rao bound at a sequence of reference times, and the
 reproduction of Fig. 2."""
 

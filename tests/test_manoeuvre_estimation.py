@@ -43,7 +43,7 @@ def fits(scn):
 
 @pytest.fixture(scope="module")
 def straight(scn):
-    """The 002 geometry with a target that does not manoeuvre."""
+    """The Hörst & Oispuu (2010) geometry with a target that does not manoeuvre."""
     truth = {k: scn.truth[k] for k in ("x", "y", "speed", "course", "at_0", "an_0")}
     return dataclasses.replace(scn, motion=PiecewiseCurvilinear(0, 0.0), truth=truth)
 
@@ -140,7 +140,8 @@ def test_two_manoeuvres_found_and_estimates_within_their_reported_std(scn, fits,
 
 
 def test_every_acceleration_fitted_on_request(scn, fits):
-    """accelerations="all": the model of 002 as written; chi2 never grows with the order and
+    """accelerations="all": the model of Hörst & Oispuu (2010) as written; chi2 never grows
+    with the order and
     the reported std is close to the CRB with every acceleration unknown."""
     meas, selected = fits[11]
     res = tk.estimate(meas, "curvilinear:2", accelerations="all")

@@ -1,4 +1,4 @@
-"""The modified-gain EKF and the multi-lag vectors of 003_e5155d4fe60daef8.txt (Chen & Sun),
+"""The modified-gain EKF and the multi-lag vectors of Chen & Sun,
 and the chen-sun reproduction."""
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def test_gain_rows_are_the_papers_formula_in_tmakits_bearing_convention():
     b_hat = np.arctan2(rel[0], rel[1])               # clockwise from North
     b_m = b_hat + 0.01                                # measured bearing
     r = b_m - b_hat
-    # 003 §2.3 in tmakit's convention: H = [cos b, -sin b, 0, dt cos b, -dt sin b, 0],
+    # Chen & Sun, §2.3 in tmakit's convention: H = [cos b, -sin b, 0, dt cos b, -dt sin b, 0],
     # g = -(b_m - h(X^)) / (H X^') H, U = 1 / (1 - mu).
     c, s = np.cos(b_m), np.sin(b_m)
     h_row = np.array([c, -s, 0.0, dt * c, -dt * s, 0.0])
@@ -164,7 +164,7 @@ def test_mirror_reflection_only_while_the_data_cannot_tell_the_sides_apart():
 
 def test_mgekf_tracks_chen_sun_path_1_from_the_papers_start():
     # Seeded: 4 runs of the modified-gain EKF (multi-lag vectors, reuse-inflated R) from the
-    # initial guess of 003 §2.5 (about 5 km off along the line of sight and in height).
+    # initial guess of Chen & Sun, §2.5 (about 5 km off along the line of sight and in height).
     # Each ends within 1 km horizontally (the 30-run RMS is ~0.3 km, the start 5.1 km).
     res = chen_sun.monte_carlo_path(1, runs=4, seed=3, filters=("mgekf-inflated",))
     err = res["mgekf-inflated"]["errors"]

@@ -274,7 +274,7 @@ def test_propagate_curvilinear_nan_when_speed_not_positive(speed, a_t, dt):
 
 
 # --------------------------------------------------------------------------------------------
-# (c) piecewise curvilinear motion: the scenario of 002_e7269ad11b825346.txt
+# (c) piecewise curvilinear motion: the scenario of Hörst & Oispuu (2010)
 # --------------------------------------------------------------------------------------------
 
 T1, T2 = 400.0, 600.0

@@ -1,5 +1,5 @@
-"""The papers' own estimators: 000_bc54bd8c50e47249.txt §3 (direct iterative LS) and §4 (ratio
-method), 001_ba171c940b7f4701.txt (Gauss–Newton on 7 parameters), and the registry."""
+"""The papers' own estimators: Gu et al. (2007), §3 (direct iterative LS) and §4 (ratio
+method), the Doppler-tracking lecture notes (Gauss–Newton on 7 parameters), and the registry."""
 
 from __future__ import annotations
 
@@ -22,8 +22,8 @@ from tmakit.measurements.range_rate import range_rate_and_gradient
 from tmakit.scenario import MeasurementPlan
 from tmakit.units import SPEED_OF_LIGHT
 
-PAPER_START = (4900.0, 1200.0, 0.0, 0.0)           # 000 §5, both measurements
-PAPER_DOPPLER_START = (2200.0, 2700.0, -16.0, -8.0)  # 000 §5, Doppler only
+PAPER_START = (4900.0, 1200.0, 0.0, 0.0)           # Gu et al. (2007), §5, both measurements
+PAPER_DOPPLER_START = (2200.0, 2700.0, -16.0, -8.0)  # Gu et al. (2007), §5, Doppler only
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +57,7 @@ def three_receivers() -> tk.Scenario:
     return scn
 
 
-# -- the paper's algebra ---------------------------------------------------------------------
+# -- the paper's algebra ---------------------------------------------------------------------------
 def test_paper_matrices_reproduce_range_and_radial_velocity(gu):
     meas = gu.simulate(noise=False)
     geo = PlanarGeometry.from_rows(meas, gu.motion)
@@ -119,7 +119,7 @@ def test_derived_tridiagonal_covariances_match_monte_carlo(gu):
     assert paper == pytest.approx(derived, rel=1e-5)
 
 
-# -- the ratio method (000 §4) ---------------------------------------------------------------
+# -- the ratio method (Gu et al. (2007), §4) -------------------------------------------------------
 def test_ratio_method_from_the_papers_start_is_efficient(gu, gu_bound):
     """30 seeded runs from (4900, 1200, 0, 0): all converge, RMSE within 1.5x the CRLB with C
     and f_s unknown (measured 1.00, 1.14, 1.19, 1.03), reported std within 10 % of it."""
@@ -182,7 +182,7 @@ def test_ratio_method_checks_its_input(gu):
         ratio_method(meas, gu.motion, None)
 
 
-# -- the direct method (000 §3) --------------------------------------------------------------
+# -- the direct method (Gu et al. (2007), §3) ------------------------------------------------------
 def test_gu_direct_shows_the_conditioning_problem(gu, gu_bound):
     res = gu_direct(gu.simulate(rng=3), gu.motion, PAPER_START)
     conds = res.extra["condition_numbers"]
@@ -218,7 +218,7 @@ def test_gu_direct_variants(gu):
         gu_direct(meas.select(kind="frequency"), gu.motion, PAPER_START, kinds="power")
 
 
-# -- the lecture's Gauss–Newton (001) --------------------------------------------------------
+# -- the lecture's Gauss–Newton (the Doppler-tracking lecture notes) -------------------------------
 def test_lecture_gauss_newton_with_one_receiver_is_unobservable():
     scn = tk.load_scenario("doppler-lecture")
     start = scn.theta + np.array([500.0, -500.0, 300.0, 10.0, -10.0, 5.0])
@@ -263,7 +263,7 @@ def test_lecture_gauss_newton_checks_the_motion_model():
         lecture_gauss_newton(meas, tk.ConstantVelocity(2, ref_time=120.0), scn.theta[:4])
 
 
-# -- the registry ------------------------------------------------------------------------------
+# -- the registry ----------------------------------------------------------------------------------
 def test_estimate_with_dispatches_by_name(gu):
     assert set(METHODS) == {"ml", "gu-direct", "ratio-power", "ratio-doppler", "ratio",
                             "lecture-gn"}

@@ -1,4 +1,4 @@
-"""The posterior Cramér–Rao bound (Tichavský recursion, 004_590a452506c86051.txt eqs. 10-11)."""
+"""The posterior Cramér–Rao bound (Tichavský recursion, Hurtado & Nehorai (2008), eqs. 10-11)."""
 
 from __future__ import annotations
 

@@ -79,7 +79,7 @@ def test_gu2007_values_and_noise_model():
 
 
 def test_gu2007_crlb_table1_is_reproduced_by_the_path():
-    """The issue's sensor path reproduces Table 1 of 000 (C and f_s known) to 1e-3."""
+    """The issue's sensor path reproduces Table 1 of Gu et al. (2007) (C and f_s known) to 1e-3."""
     paper = {("power",): [15.7821, 15.6618, 0.1252, 0.4294],
              ("frequency",): [15.3020, 15.7205, 0.3150, 0.2005],
              ("power", "frequency"): [3.9263, 3.8172, 0.0361, 0.1025]}

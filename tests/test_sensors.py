@@ -244,7 +244,7 @@ def test_legs_invalid_raise(kwargs, match):
 
 
 def test_paper_000_sensor_path_distances():
-    """The sensor path of 000_bc54bd8c50e47249.txt against its straight-line target."""
+    """The sensor path of Gu et al. (2007) against its straight-line target."""
     heading = float(math_angle_to_bearing(math.radians(-1.21008)))
     assert math.degrees(heading) == pytest.approx(90.0 + 1.21008, abs=1e-12)
     track = LegsTrack((801.385, 5002.294), heading, 50.0, [
