@@ -2,7 +2,7 @@
 
 :meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct
 measurement time.  Cutting the :class:`~tmakit.data.MeasurementSet` into one small set per
-update (``take``) and building a :class:`~.measurement_group.MeasurementGroup` from it costs
+update (``take``) and building a :class:`~tmakit.observation.MeasurementGroup` from it costs
 more than the arithmetic of a filter step, so the set is compiled once, vectorised: rows sorted
 by time, the update boundaries, SI values and sigmas, the measurement models of the kinds
 present and their (known) nuisance vectors.  A step then takes slices (views) of these arrays
@@ -22,11 +22,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..data import MeasurementSet
-from ..observation.groups import TIME_TOLERANCE, MeasurementGroup, MeasurementModel, resolve_models
+from ..measurements import MeasurementModel
+from ..observation import MeasurementGroup, resolve_models, time_blocks
 
 Array = NDArray[np.float64]
-
-#: Rows whose times differ by less than this (s) are one update (as in :mod:`.base`).
 
 
 @dataclass(frozen=True)
@@ -45,7 +44,7 @@ class BearingColumns:
 class CompiledMeasurements:
     """``meas`` prepared for a filter of dimension ``dim`` (2 or 3) with per-kind ``options``
     and known ``nuisance`` values.  Raises the same clear errors as
-    :class:`~.measurement_group.MeasurementGroup` (e.g. a missing nuisance value) once, up
+    :class:`~tmakit.observation.MeasurementGroup` (e.g. a missing nuisance value) once, up
     front."""
 
     def __init__(self, meas: MeasurementSet, dim: int,
@@ -54,11 +53,10 @@ class CompiledMeasurements:
         self.meas = meas
         self.dim = int(dim)
         n = len(meas)
-        order = np.argsort(meas.time, kind="stable")
+        # The same grouping as tmakit.observation.group_times: one update per time.
+        order, self.bounds = time_blocks(meas.time)
         t = meas.time[order]
-        breaks = np.flatnonzero(np.diff(t) > TIME_TOLERANCE) + 1
         self.order = order
-        self.bounds = np.concatenate([[0], breaks, [n]]).astype(np.int64)
         #: Update times (s): the last (latest) row time of each update, as ``run`` uses.
         self.times = t[self.bounds[1:] - 1] if n else np.zeros(0)
         self.models: dict[str, MeasurementModel]

@@ -1,0 +1,337 @@
+"""Rows of several kinds, each predicted by its measurement model: the core of the
+observation layer.
+
+A :class:`RowModel` holds the per-row columns of a block of measurement rows (times,
+reference times, sigmas, sensor ids and states, all SI) and, per kind present, its
+:class:`~tmakit.measurements.MeasurementModel` and the rows of that kind.  From relative
+states (target minus sensor) it gives
+
+* predictions and their Jacobians with respect to the relative states (and the nuisance
+  parameters), vectorised over rows and over any leading batch axes of the relative states
+  (particles, sigma points, grid candidates, candidate sensor poses);
+* the noise covariance, with the correlated blocks that a kind declares through its
+  :meth:`~tmakit.measurements.MeasurementModel.noise_covariance` hook (range differences that
+  share pulse intervals, Chen & Sun 1993, eq. 1);
+* the nuisance structure: each kind's nuisance parameters and their columns in the
+  concatenated nuisance vector.
+
+Nothing here names a kind: every special case is a hook on the kind (``uses_reference``,
+``is_angle``, ``correlated_noise``), so a new kind needs no change in this layer.
+:class:`~tmakit.observation.MeasurementGroup` (filters, PCRB) and
+:class:`~tmakit.observation.ObservationModel` (batch estimators, CRLB) build on it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..frames import wrap_angle
+from ..measurements import MeasurementModel, model_for
+
+Array = NDArray[np.float64]
+#: The rows of one kind: integer indices or a slice.
+Index = NDArray[np.intp] | slice
+
+
+def resolve_models(kinds: Iterable[str],
+                   options: Mapping[str, Mapping[str, object]] | None = None,
+                   nuisance: Mapping[str, float] | None = None
+                   ) -> tuple[dict[str, MeasurementModel], dict[str, Array]]:
+    """The measurement model of each kind and its nuisance vector (known values).
+
+    Parameters
+    ----------
+    kinds : iterable of str
+        The kinds present.
+    options : mapping, optional
+        Per-kind model options (``{"frequency": {"drift": True}}``).
+    nuisance : mapping, optional
+        Known nuisance values by name (Hz, dB, ...).
+
+    Returns
+    -------
+    models, values : dict, dict
+        The model and the nuisance vector (in its ``nuisance_names`` order) of each kind.
+
+    Raises
+    ------
+    ValueError
+        When a kind needs a nuisance value that was not given.
+    """
+    options = dict(options or {})
+    models: dict[str, MeasurementModel] = {}
+    values: dict[str, Array] = {}
+    for kind in kinds:
+        model = model_for(kind, **dict(options.get(kind, {})))
+        try:
+            nu = model.nuisance_vector(dict(nuisance or {}))
+        except ValueError as err:
+            raise ValueError(
+                f"{err}: a filter needs the {kind} nuisance parameter(s) "
+                f"({', '.join(model.nuisance_names)}) as known values, e.g. from a batch "
+                "estimate (nuisance={...})") from None
+        models[kind] = model
+        values[kind] = nu
+    return models, values
+
+
+def nuisance_layout(models: Mapping[str, MeasurementModel]
+                    ) -> tuple[tuple[str, ...], dict[str, slice]]:
+    """The nuisance structure of several kinds: the names of the concatenated nuisance
+    vector (each kind's ``nuisance_names`` in kind order) and each kind's slice of it."""
+    names: list[str] = []
+    slices: dict[str, slice] = {}
+    for kind, model in models.items():
+        start = len(names)
+        names.extend(model.nuisance_names)
+        slices[kind] = slice(start, len(names))
+    return tuple(names), slices
+
+
+def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, slice]
+                   ) -> slice | None:
+    """For rows grouped by kind (each kind a slice), the slice covering every kind that uses
+    an earlier reference sample (None when no kind does)."""
+    spans = [slices[k] for k, m in models.items() if m.uses_reference]
+    if not spans:
+        return None
+    return slice(min(s.start for s in spans), max(s.stop for s in spans))
+
+
+class RowModel:
+    """Rows of several kinds predicted by their measurement models.
+
+    Parameters
+    ----------
+    models : mapping
+        The measurement model of each kind present.
+    index : mapping
+        The rows of each kind (integer indices, ascending, or a slice); together they cover
+        the ``m`` rows once.
+    time, time_ref : array_like
+        Row times and reference times (m,), s (``time_ref`` used by kinds with
+        ``uses_reference``).
+    sigma : array_like
+        Noise standard deviations (m,), SI.
+    sensor : array_like
+        Sensor ids (m,).
+    sensor_state, ref_sensor_state : array_like
+        Sensor states ``[x, y, z, vx, vy, vz]`` (m, 6), m and m/s, at the rows' times and at
+        their reference times.
+
+    Attributes
+    ----------
+    angle : ndarray of bool
+        Rows whose residuals wrap to (-pi, pi].
+    reference : ndarray of int or None
+        The rows of kinds with ``uses_reference``, in kind order (None without such rows);
+        arrays "at the reference samples" have one entry per element of it.
+    nuisance_names, nuisance_slices
+        The nuisance structure (:func:`nuisance_layout`).
+    """
+
+    def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                 time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike, sensor: ArrayLike,
+                 sensor_state: ArrayLike, ref_sensor_state: ArrayLike) -> None:
+        self.models = dict(models)
+        self.index = dict(index)
+        self.time = np.asarray(time, dtype=float)
+        self.time_ref = np.asarray(time_ref, dtype=float)
+        self.sigma = np.asarray(sigma, dtype=float)
+        self.sensor = np.asarray(sensor)
+        self.sensor_state = np.asarray(sensor_state, dtype=float)
+        self.ref_sensor_state = np.asarray(ref_sensor_state, dtype=float)
+        m = self.time.shape[0]
+        # Where a kind's rows sit: all rows (one kind), or its index.
+        self._take: dict[str, Index] = ({k: slice(None) for k in self.models}
+                                        if len(self.models) == 1 else dict(self.index))
+        self.angle = np.zeros(m, dtype=bool)
+        refs: list[NDArray[np.intp]] = []
+        self._ref_take: dict[str, slice] = {}
+        for kind, model in self.models.items():
+            if model.is_angle:
+                self.angle[self.index[kind]] = True
+            if model.uses_reference:
+                rows = np.arange(m)[self.index[kind]]
+                start = sum(r.size for r in refs)
+                self._ref_take[kind] = slice(start, start + rows.size)
+                refs.append(rows)
+        self.reference: NDArray[np.intp] | None = np.concatenate(refs) if refs else None
+        self._names: tuple[tuple[str, ...], dict[str, slice]] | None = None
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+    # -- nuisance structure ------------------------------------------------------------------
+    @property
+    def nuisance_names(self) -> tuple[str, ...]:
+        """Names of the concatenated nuisance vector."""
+        if self._names is None:
+            self._names = nuisance_layout(self.models)
+        return self._names[0]
+
+    @property
+    def nuisance_slices(self) -> dict[str, slice]:
+        """Each kind's slice of the concatenated nuisance vector."""
+        if self._names is None:
+            self._names = nuisance_layout(self.models)
+        return self._names[1]
+
+    def _nuisance(self, kind: str, nuisance: Mapping[str, Array] | Array | None
+                  ) -> Array | None:
+        if nuisance is None:
+            return None
+        if isinstance(nuisance, Mapping):
+            return nuisance[kind]
+        return nuisance[..., self.nuisance_slices[kind]][..., None, :]
+
+    # -- relative states ---------------------------------------------------------------------
+    def relative(self, target: Array, target_ref: Array | None = None,
+                 sensor_state: ArrayLike | None = None) -> tuple[Array, Array | None]:
+        """Relative states from target states.
+
+        Parameters
+        ----------
+        target : ndarray
+            Target states (..., m, 6) at the rows' times, m and m/s.
+        target_ref : ndarray, optional
+            Target states (..., len(reference), 6) at the reference times of the
+            :attr:`reference` rows.
+        sensor_state : array_like, optional
+            Sensor states broadcastable to (..., m, 6) in place of the recorded ones (e.g.
+            candidate sensor poses on a leading axis); the reference samples keep their
+            recorded sensor states.
+
+        Returns
+        -------
+        rel, rel_ref : ndarray, ndarray or None
+            Target minus sensor at the rows and at the reference samples.
+        """
+        sensor = self.sensor_state if sensor_state is None else np.asarray(sensor_state, float)
+        rel = target - sensor
+        rel_ref = None
+        if self.reference is not None and target_ref is not None:
+            rel_ref = target_ref - self.ref_sensor_state[self.reference]
+        return rel, rel_ref
+
+    # -- predictions and Jacobians -----------------------------------------------------------
+    def predict(self, rel: Array, rel_ref: Array | None = None,
+                nuisance: Mapping[str, Array] | Array | None = None) -> Array:
+        """Predicted values (SI), (..., m).
+
+        Parameters
+        ----------
+        rel : ndarray
+            Relative states (..., m, 6), m and m/s.
+        rel_ref : ndarray, optional
+            Relative states at the reference samples (..., len(reference), 6).
+        nuisance : mapping or ndarray, optional
+            Nuisance values: a vector per kind, or the concatenated vector (..., k).
+
+        Returns
+        -------
+        ndarray
+            (..., m) predictions in SI units (rad, m, m/s, Hz, dBW).
+        """
+        out = np.empty(rel.shape[:-1])
+        for kind, model in self.models.items():
+            rows = self._take[kind]
+            ref = rel_ref[..., self._ref_take[kind], :] if kind in self._ref_take else None
+            out[..., rows] = model.predict(rel[..., rows, :], self.time[rows],
+                                           self._nuisance(kind, nuisance), ref)
+        return out
+
+    def jacobian(self, rel: Array, rel_ref: Array | None = None,
+                 nuisance: Mapping[str, Array] | Array | None = None,
+                 with_nuisance: bool = False) -> tuple[Array, Array | None, Array | None]:
+        """Analytic derivatives of :meth:`predict`.
+
+        Parameters
+        ----------
+        rel, rel_ref, nuisance
+            As for :meth:`predict`.
+        with_nuisance : bool
+            Also return the derivatives with respect to the concatenated nuisance vector.
+
+        Returns
+        -------
+        d_rel : ndarray
+            (..., m, 6): d value / d relative state.
+        d_ref : ndarray or None
+            (..., len(reference), 6): d value / d relative state at the reference samples.
+        d_nuisance : ndarray or None
+            (..., m, k) when ``with_nuisance``.
+        """
+        d = np.empty(rel.shape)
+        d_ref = None if rel_ref is None else np.empty(rel_ref.shape)
+        d_nu = None
+        if with_nuisance:
+            d_nu = np.zeros((*rel.shape[:-1], len(self.nuisance_names)))
+        for kind, model in self.models.items():
+            rows = self._take[kind]
+            ref_rows = self._ref_take.get(kind)
+            ref = None if ref_rows is None else rel_ref[..., ref_rows, :]
+            jac = model.jacobian(rel[..., rows, :], self.time[rows],
+                                 self._nuisance(kind, nuisance), ref)
+            d[..., rows, :] = jac.rel
+            if ref_rows is not None and d_ref is not None:
+                d_ref[..., ref_rows, :] = jac.rel_ref
+            if d_nu is not None:
+                d_nu[..., rows, self.nuisance_slices[kind]] = jac.nuisance
+        return d, d_ref, d_nu
+
+    def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
+        """``measured - predicted`` (SI), angle rows wrapped to (-pi, pi]; broadcasts over
+        leading axes."""
+        diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
+        return np.where(self.angle, wrap_angle(diff), diff)
+
+    # -- noise -------------------------------------------------------------------------------
+    def correlated_blocks(self) -> list[tuple[NDArray[np.intp], Array]]:
+        """The noise blocks that are not diagonal (:func:`correlated_blocks`)."""
+        return correlated_blocks(self.models, self.index, self.time, self.time_ref,
+                                 self.sigma, self.sensor)
+
+    def covariance(self) -> Array:
+        """The noise covariance ``R`` (m, m), SI units squared: ``diag(sigma^2)`` with the
+        blocks of kinds whose rows are correlated (their ``noise_covariance`` hook)."""
+        r = np.diag(self.sigma**2)
+        for kind, model in self.models.items():
+            if model.correlated_noise:
+                rows = np.arange(len(self))[self.index[kind]]
+                r[np.ix_(rows, rows)] = model.noise_covariance(
+                    self.time[rows], self.time_ref[rows], self.sigma[rows], self.sensor[rows])
+        return r
+
+
+def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                      time: Array, time_ref: Array, sigma: Array, sensor: NDArray[np.str_]
+                      ) -> list[tuple[NDArray[np.intp], Array]]:
+    """The correlated noise blocks of a set of rows.
+
+    Parameters
+    ----------
+    models, index
+        Each kind's model and rows (ascending indices or a slice).
+    time, time_ref, sigma, sensor
+        The rows' columns (m,): s, s, SI, ids.
+
+    Returns
+    -------
+    list of (rows, covariance)
+        One block per kind with ``correlated_noise`` and per sensor: its rows (ascending)
+        and their covariance from the kind's ``noise_covariance`` hook (SI units squared).
+    """
+    blocks: list[tuple[NDArray[np.intp], Array]] = []
+    m = time.shape[0]
+    for kind, model in models.items():
+        if not model.correlated_noise:
+            continue
+        rows = np.arange(m)[index[kind]]
+        for s in np.unique(sensor[rows]):
+            own = rows[sensor[rows] == s]
+            blocks.append((own, model.noise_covariance(time[own], time_ref[own], sigma[own])))
+    return blocks
