@@ -149,36 +149,37 @@ class RowModel:
         self._take: dict[str, Index] = ({k: slice(None) for k in self.models}
                                         if len(self.models) == 1 else dict(self.index))
         self.angle = np.zeros(m, dtype=bool)
-        refs: list[NDArray[np.intp]] = []
-        self._ref_take: dict[str, slice] = {}
         for kind, model in self.models.items():
             if model.is_angle:
                 self.angle[self.index[kind]] = True
-            if model.uses_reference:
-                rows = np.arange(m)[self.index[kind]]
-                start = sum(r.size for r in refs)
-                self._ref_take[kind] = slice(start, start + rows.size)
-                refs.append(rows)
-        self.reference: NDArray[np.intp] | None = np.concatenate(refs) if refs else None
-        self._names: tuple[tuple[str, ...], dict[str, slice]] | None = None
+        self._ref_take: dict[str, slice] = {}
+        #: Rows grouped by kind (every index a slice): the span of the reference kinds.
+        self.reference_slice: slice | None = None
+        self.reference: NDArray[np.intp] | None = None
+        if all(isinstance(i, slice) for i in self.index.values()):
+            span = reference_span(self.models, self.index)  # type: ignore[arg-type]
+            if span is not None:
+                self.reference_slice = span
+                self.reference = np.arange(span.start, span.stop)
+                for kind, model in self.models.items():
+                    sl = self.index[kind]
+                    if model.uses_reference:
+                        assert isinstance(sl, slice)
+                        self._ref_take[kind] = slice(sl.start - span.start,
+                                                     sl.stop - span.start)
+        else:
+            refs: list[NDArray[np.intp]] = []
+            for kind, model in self.models.items():
+                if model.uses_reference:
+                    rows = np.arange(m)[self.index[kind]]
+                    start = sum(r.size for r in refs)
+                    self._ref_take[kind] = slice(start, start + rows.size)
+                    refs.append(rows)
+            self.reference = np.concatenate(refs) if refs else None
+        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
-
-    # -- nuisance structure ------------------------------------------------------------------
-    @property
-    def nuisance_names(self) -> tuple[str, ...]:
-        """Names of the concatenated nuisance vector."""
-        if self._names is None:
-            self._names = nuisance_layout(self.models)
-        return self._names[0]
-
-    @property
-    def nuisance_slices(self) -> dict[str, slice]:
-        """Each kind's slice of the concatenated nuisance vector."""
-        if self._names is None:
-            self._names = nuisance_layout(self.models)
-        return self._names[1]
 
     def _nuisance(self, kind: str, nuisance: Mapping[str, Array] | Array | None
                   ) -> Array | None:
@@ -282,6 +283,61 @@ class RowModel:
             if d_nu is not None:
                 d_nu[..., rows, self.nuisance_slices[kind]] = jac.nuisance
         return d, d_ref, d_nu
+
+    def reference_rows(self, kind: str) -> slice | None:
+        """Where ``kind``'s rows sit in arrays at the reference samples (None for a kind
+        without reference)."""
+        return self._ref_take.get(kind)
+
+    # -- nuisance structure: predictions affine in the nuisance ------------------------------
+    def const_design(self) -> Array:
+        """``A_const`` (m, k): the part of the nuisance design that does not depend on the
+        geometry (a carrier's columns ``1``, ``t``), see
+        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`."""
+        m, k = len(self), len(self.nuisance_names)
+        out = np.zeros((m, k))
+        rel = np.ones((m, 6))  # any finite geometry: A_const does not depend on it
+        for kind, model in self.models.items():
+            rows, ns = self._take[kind], self.nuisance_slices[kind]
+            if ns.stop > ns.start:
+                ref = rel[rows] if model.uses_reference else None
+                out[rows, ns] = model.affine_parts(rel[rows], self.time[rows], ref)[1]
+        return out
+
+    def linearise_into(self, rel: Array, rel_ref: Array | None, h0: Array, a_var: Array,
+                       d_h0: Array | None = None, d_h0_ref: Array | None = None
+                       ) -> list[tuple[str, Array | None, Array | None]]:
+        """The affine parts of the predictions, ``h0 + (A_const + A_var) @ nu``, written into
+        ``h0`` (..., m) and ``a_var`` (..., m, k) and, when ``d_h0`` (..., m, 6) is given,
+        their derivatives with respect to the relative states (``d_h0_ref`` at the reference
+        samples), in the callers' memory layouts.
+
+        Returns
+        -------
+        list of (kind, dA, dA_ref)
+            Per kind with nuisance parameters whose design depends on the geometry:
+            ``dA`` (..., m_kind, k_kind, 6) and ``dA_ref`` (or None), see
+            :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`.
+        """
+        d_a: list[tuple[str, Array | None, Array | None]] = []
+        for kind, model in self.models.items():
+            rows, ns = self._take[kind], self.nuisance_slices[kind]
+            ref_rows = self._ref_take.get(kind)
+            r_k = rel[..., rows, :]
+            ref_k = None if ref_rows is None or rel_ref is None else rel_ref[..., ref_rows, :]
+            t = self.time[rows]
+            if d_h0 is None:
+                h0[..., rows], _, a_var[..., rows, ns] = model.affine_parts(r_k, t, ref_k)
+                continue
+            base, _, v, d0, d0_ref, da, da_ref = model.affine_derivatives(r_k, t, ref_k)
+            h0[..., rows], a_var[..., rows, ns] = base, v
+            if d0 is not None:
+                d_h0[..., rows, :] = d0
+            if d0_ref is not None and d_h0_ref is not None and ref_rows is not None:
+                d_h0_ref[..., ref_rows, :] = d0_ref
+            if ns.stop > ns.start and (da is not None or da_ref is not None):
+                d_a.append((kind, da, da_ref))
+        return d_a
 
     def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
         """``measured - predicted`` (SI), angle rows wrapped to (-pi, pi]; broadcasts over
