@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from ..data import MeasurementSet
 from ..measurements import MeasurementModel
-from ..observation import MeasurementGroup, resolve_models, time_blocks
+from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
 
 Array = NDArray[np.float64]
 
@@ -74,6 +74,9 @@ class CompiledMeasurements:
         self._codes = np.array([self._kind_codes[k] for k in self.kind], dtype=np.int64) \
             if n else np.zeros(0, dtype=np.int64)
         self._lists: tuple[list[float], ...] | None = None
+        #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
+        #: row layout, made once and shared by the updates with that pattern.
+        self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
         sizes = np.diff(self.bounds)
         #: Every update is one bearing row (the closed-form kernels apply).
         self.single_bearing = bool(n > 0 and np.all(sizes == 1)
@@ -109,19 +112,20 @@ class CompiledMeasurements:
         views of the compiled columns."""
         a, b = int(self.bounds[k]), int(self.bounds[k + 1])
         codes = self._codes[a:b]
-        if b - a == 1:
-            kind = self.kind[a]
-            models = {kind: self.models[kind]}
-            index = {kind: np.zeros(1, dtype=np.int64)}
-        else:
+        key = codes.tobytes()
+        parts = self._layouts.get(key)
+        if parts is None:  # the first update with this pattern of kinds
             models, index = {}, {}
             for kind, code in self._kind_codes.items():
                 idx = np.flatnonzero(codes == code)
                 if idx.size:
                     models[kind] = self.models[kind]
                     index[kind] = idx
-        nus = {kind: self.nuisance[kind] for kind in models}
+            nus = {kind: self.nuisance[kind] for kind in models}
+            parts = (models, index, nus, RowLayout(models, index, b - a))
+            self._layouts[key] = parts
+        models, index, nus, layout = parts
         return MeasurementGroup.from_arrays(
             t, self.dim, models, nus, index, self.values[a:b], self.sigmas[a:b],
             self.time[a:b], self.time_ref[a:b], self.sensor_state[a:b],
-            self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k))
+            self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k), layout)

@@ -14,7 +14,7 @@ covariance and nuisance structure, for batch estimators, filters and bounds alik
 from .groups import MeasurementGroup, group_times, time_blocks
 from .model import Linearisation, ObservationModel
 from .noise import NoiseModel
-from .rows import RowModel, nuisance_layout, resolve_models
+from .rows import RowLayout, RowModel, nuisance_layout, resolve_models
 
-__all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel", "RowModel",
-           "group_times", "nuisance_layout", "resolve_models", "time_blocks"]
+__all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout",
+           "RowModel", "group_times", "nuisance_layout", "resolve_models", "time_blocks"]

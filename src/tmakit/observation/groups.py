@@ -25,7 +25,7 @@ from ..data import MeasurementSet
 from ..measurements import MeasurementModel
 from ..motion.dynamics import state_names
 from .noise import NoiseModel
-from .rows import RowModel, resolve_models
+from .rows import RowLayout, RowModel, resolve_models
 
 Array = NDArray[np.float64]
 
@@ -147,7 +147,8 @@ class MeasurementGroup:
                     nuisance: Mapping[str, Array], index: Mapping[str, NDArray[np.int64]],
                     values: Array, sigmas: Array, time: Array, time_ref: Array,
                     sensor_state: Array, ref_sensor_state: Array, sensor: NDArray[np.str_],
-                    rows: Callable[[], MeasurementSet]) -> MeasurementGroup:
+                    rows: Callable[[], MeasurementSet], layout: RowLayout | None = None
+                    ) -> MeasurementGroup:
         """A group from columns already in SI.
 
         Parameters
@@ -162,6 +163,9 @@ class MeasurementGroup:
             The rows' columns (SI, s, m, m/s).
         rows : callable
             Makes the MeasurementSet when someone asks for it.
+        layout : RowLayout, optional
+            The layout of ``models`` and ``index`` if already made (a filter run reuses one
+            per pattern of kinds).
 
         Returns
         -------
@@ -170,8 +174,8 @@ class MeasurementGroup:
         if len(values) == 0:
             raise ValueError("a measurement group needs at least one row")
         self = cls.__new__(cls)
-        self._setup(t, dim, dict(models), dict(nuisance), dict(index), values, sigmas, time,
-                    time_ref, sensor_state, ref_sensor_state, sensor)
+        self._setup(t, dim, models, nuisance, index, values, sigmas, time,
+                    time_ref, sensor_state, ref_sensor_state, sensor, layout)
         self._rows = None
         self._rows_factory = rows
         return self
@@ -219,19 +223,20 @@ class MeasurementGroup:
                                np.full(m, float(t)), t_ref, np.zeros((m, 6)),
                                np.zeros((m, 6)), sensor, no_rows)
 
-    def _setup(self, t: float, dim: int, models: dict[str, MeasurementModel],
-               nuisance: dict[str, Array], index: dict[str, NDArray[np.int64]], values: Array,
-               sigmas: Array, time: Array, time_ref: Array, sensor_state: Array,
-               ref_sensor_state: Array, sensor: NDArray[np.str_]) -> None:
+    def _setup(self, t: float, dim: int, models: Mapping[str, MeasurementModel],
+               nuisance: Mapping[str, Array], index: Mapping[str, NDArray[np.int64]],
+               values: Array, sigmas: Array, time: Array, time_ref: Array,
+               sensor_state: Array, ref_sensor_state: Array, sensor: NDArray[np.str_],
+               layout: RowLayout | None = None) -> None:
         self.time = float(t)
         self.dim = int(dim)
         self.values = values
         self.sigmas = sigmas
-        self.models = models
-        self.index = index
         self.nuisance = nuisance
         self.row_model = RowModel(models, index, time, time_ref, sigmas, sensor,
-                                  sensor_state, ref_sensor_state)
+                                  sensor_state, ref_sensor_state, layout)
+        self.models = self.row_model.models
+        self.index = self.row_model.index
         self.sensor_state = self.row_model.sensor_state
         self.angle = self.row_model.angle
         self.dt = time - self.time

@@ -91,6 +91,17 @@ def nuisance_layout(models: Mapping[str, MeasurementModel]
     return tuple(names), slices
 
 
+def as_slice(index: Index) -> Index:
+    """Ascending integer ``index`` that is a run of consecutive rows as the equal slice
+    (indexing by it gives a view); anything else unchanged."""
+    if isinstance(index, slice):
+        return index
+    idx = np.asarray(index)
+    if idx.ndim == 1 and idx.size and int(idx[-1]) - int(idx[0]) + 1 == idx.size:
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return index
+
+
 def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, slice]
                    ) -> slice | None:
     """For rows grouped by kind (each kind a slice), the slice covering every kind that uses
@@ -99,6 +110,62 @@ def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, 
     if not spans:
         return None
     return slice(min(s.start for s in spans), max(s.stop for s in spans))
+
+
+class RowLayout:
+    """Where each kind's rows sit in a block of ``m`` rows, and what follows from the kinds
+    alone: the rows whose residuals wrap, the reference rows and the nuisance structure.
+
+    It depends only on the kinds and their rows, not on the values, so blocks with the same
+    pattern (the updates of a filter run) share one (treat its arrays as read-only).
+
+    Parameters
+    ----------
+    models : mapping
+        The measurement model of each kind present.
+    index : mapping
+        The rows of each kind (ascending integer indices, or slices).
+    m : int
+        The number of rows.
+    """
+
+    def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                 m: int) -> None:
+        self.models = dict(models)
+        self.index = dict(index)
+        # Where a kind's rows sit: all rows (one kind), or its index; contiguous rows as a
+        # slice (a view instead of a copy of the relative states).
+        self.take: dict[str, Index] = ({k: slice(None) for k in self.models}
+                                       if len(self.models) == 1 else
+                                       {k: as_slice(i) for k, i in self.index.items()})
+        self.angle = np.zeros(m, dtype=bool)
+        for kind, model in self.models.items():
+            if model.is_angle:
+                self.angle[self.index[kind]] = True
+        self.ref_take: dict[str, slice] = {}
+        #: Rows grouped by kind (every index a slice): the span of the reference kinds.
+        self.reference_slice: slice | None = None
+        self.reference: NDArray[np.intp] | None = None
+        if all(isinstance(i, slice) for i in self.index.values()):
+            span = reference_span(self.models, self.index)  # type: ignore[arg-type]
+            if span is not None:
+                self.reference_slice = span
+                self.reference = np.arange(span.start, span.stop)
+                for kind, model in self.models.items():
+                    sl = self.index[kind]
+                    if model.uses_reference and isinstance(sl, slice):
+                        self.ref_take[kind] = slice(sl.start - span.start,
+                                                    sl.stop - span.start)
+        else:
+            refs: list[NDArray[np.intp]] = []
+            for kind, model in self.models.items():
+                if model.uses_reference:
+                    rows = np.arange(m)[self.index[kind]]
+                    start = sum(r.size for r in refs)
+                    self.ref_take[kind] = slice(start, start + rows.size)
+                    refs.append(rows)
+            self.reference = np.concatenate(refs) if refs else None
+        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
 
 
 class RowModel:
@@ -121,6 +188,9 @@ class RowModel:
     sensor_state, ref_sensor_state : array_like
         Sensor states ``[x, y, z, vx, vy, vz]`` (m, 6), m and m/s, at the rows' times and at
         their reference times.
+    layout : RowLayout, optional
+        The layout of ``models`` and ``index`` if already made (shared by blocks with the
+        same pattern; ``models`` and ``index`` are then not used).
 
     Attributes
     ----------
@@ -135,48 +205,22 @@ class RowModel:
 
     def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
                  time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike, sensor: ArrayLike,
-                 sensor_state: ArrayLike, ref_sensor_state: ArrayLike) -> None:
-        self.models = dict(models)
-        self.index = dict(index)
+                 sensor_state: ArrayLike, ref_sensor_state: ArrayLike,
+                 layout: RowLayout | None = None) -> None:
         self.time = np.asarray(time, dtype=float)
         self.time_ref = np.asarray(time_ref, dtype=float)
         self.sigma = np.asarray(sigma, dtype=float)
         self.sensor = np.asarray(sensor)
         self.sensor_state = np.asarray(sensor_state, dtype=float)
         self.ref_sensor_state = np.asarray(ref_sensor_state, dtype=float)
-        m = self.time.shape[0]
-        # Where a kind's rows sit: all rows (one kind), or its index.
-        self._take: dict[str, Index] = ({k: slice(None) for k in self.models}
-                                        if len(self.models) == 1 else dict(self.index))
-        self.angle = np.zeros(m, dtype=bool)
-        for kind, model in self.models.items():
-            if model.is_angle:
-                self.angle[self.index[kind]] = True
-        self._ref_take: dict[str, slice] = {}
-        #: Rows grouped by kind (every index a slice): the span of the reference kinds.
-        self.reference_slice: slice | None = None
-        self.reference: NDArray[np.intp] | None = None
-        if all(isinstance(i, slice) for i in self.index.values()):
-            span = reference_span(self.models, self.index)  # type: ignore[arg-type]
-            if span is not None:
-                self.reference_slice = span
-                self.reference = np.arange(span.start, span.stop)
-                for kind, model in self.models.items():
-                    sl = self.index[kind]
-                    if model.uses_reference:
-                        assert isinstance(sl, slice)
-                        self._ref_take[kind] = slice(sl.start - span.start,
-                                                     sl.stop - span.start)
-        else:
-            refs: list[NDArray[np.intp]] = []
-            for kind, model in self.models.items():
-                if model.uses_reference:
-                    rows = np.arange(m)[self.index[kind]]
-                    start = sum(r.size for r in refs)
-                    self._ref_take[kind] = slice(start, start + rows.size)
-                    refs.append(rows)
-            self.reference = np.concatenate(refs) if refs else None
-        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
+        if layout is None:
+            layout = RowLayout(models, index, self.time.shape[0])
+        self.layout = layout
+        self.models, self.index = layout.models, layout.index
+        self._take, self._ref_take = layout.take, layout.ref_take
+        self.angle, self.reference = layout.angle, layout.reference
+        self.reference_slice = layout.reference_slice
+        self.nuisance_names, self.nuisance_slices = layout.nuisance_names, layout.nuisance_slices
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
