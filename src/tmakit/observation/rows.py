@@ -399,11 +399,8 @@ class RowModel:
         """The noise covariance ``R`` (m, m), SI units squared: ``diag(sigma^2)`` with the
         blocks of kinds whose rows are correlated (their ``noise_covariance`` hook)."""
         r = np.diag(self.sigma**2)
-        for kind, model in self.models.items():
-            if model.correlated_noise:
-                rows = np.arange(len(self))[self.index[kind]]
-                r[np.ix_(rows, rows)] = model.noise_covariance(
-                    self.time[rows], self.time_ref[rows], self.sigma[rows], self.sensor[rows])
+        for rows, cov in self.correlated_blocks():
+            r[np.ix_(rows, rows)] = cov
         return r
 
 
