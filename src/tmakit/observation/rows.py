@@ -229,7 +229,7 @@ class RowModel:
                   ) -> Array | None:
         if nuisance is None:
             return None
-        if isinstance(nuisance, Mapping):
+        if isinstance(nuisance, dict):  # (dict, not Mapping: this runs once per kind and step)
             return nuisance[kind]
         return nuisance[..., self.nuisance_slices[kind]][..., None, :]
 
@@ -273,14 +273,24 @@ class RowModel:
             Relative states (..., m, 6), m and m/s.
         rel_ref : ndarray, optional
             Relative states at the reference samples (..., len(reference), 6).
-        nuisance : mapping or ndarray, optional
-            Nuisance values: a vector per kind, or the concatenated vector (..., k).
+        nuisance : dict or ndarray, optional
+            Nuisance values: a vector per kind (a dict), or the concatenated vector (..., k).
 
         Returns
         -------
         ndarray
             (..., m) predictions in SI units (rad, m, m/s, Hz, dBW).
         """
+        if len(self.models) == 1:  # one kind: its (new, writeable) predictions are the block's
+            ((kind, model),) = self.models.items()
+            ref = rel_ref if kind in self._ref_take else None
+            pred = model.predict(rel, self.time, self._nuisance(kind, nuisance), ref)
+            if (pred.shape == rel.shape[:-1] and pred.dtype == np.float64
+                    and pred.flags.writeable and pred.base is None):
+                return pred
+            out = np.empty(rel.shape[:-1])
+            out[...] = pred
+            return out
         out = np.empty(rel.shape[:-1])
         for kind, model in self.models.items():
             rows = self._take[kind]
