@@ -29,37 +29,11 @@ from .rows import RowLayout, RowModel, resolve_models
 
 Array = NDArray[np.float64]
 
-__all__ = ["TIME_TOLERANCE", "MeasurementGroup", "MeasurementModel", "embedding",
-           "group_times", "resolve_models", "target_states", "time_blocks"]
+__all__ = ["TIME_TOLERANCE", "MeasurementGroup", "chain_state", "group_times",
+           "resolve_models", "target_states", "time_blocks"]
 
 #: Rows whose times differ by less than this (s) are taken at one time.
 TIME_TOLERANCE = 1e-9
-
-
-def embedding(dt: ArrayLike, dim: int) -> Array:
-    """``d target6 / d x`` for rows ``dt`` seconds after the filter time: ``(m, 6, 2 dim)``.
-
-    The 6-vector is the (3-D) target state at the row's time; a 2-D state has z = vz = 0.
-
-    Parameters
-    ----------
-    dt : array_like
-        Row time minus filter time (m,), s.
-    dim : int
-        2 or 3.
-
-    Returns
-    -------
-    ndarray
-        (m, 6, 2 dim), dimensionless and s.
-    """
-    dt = np.asarray(dt, dtype=float)
-    out = np.zeros((dt.shape[0], 6, 2 * dim))
-    idx = np.arange(dim)
-    out[:, idx, idx] = 1.0
-    out[:, idx, idx + dim] = dt[:, None]
-    out[:, idx + 3, idx + dim] = 1.0
-    return out
 
 
 def target_states(x: Array, dt: Array, dim: int) -> Array:
@@ -74,8 +48,9 @@ def target_states(x: Array, dt: Array, dim: int) -> Array:
 
 def chain_state(d: Array, dt: Array, dim: int) -> Array:
     """``d value / d x`` ``(..., m, 2 dim)`` from ``d value / d target6`` ``(..., m, 6)``
-    at rows ``dt`` (m,) s after the filter time: the product with :func:`embedding`, written
-    out (position columns as they are, velocity columns ``dt d_pos + d_vel``)."""
+    at rows ``dt`` (m,) s after the filter time: the chain rule through
+    ``target6 = [pos + dt vel, vel]`` (position columns as they are, velocity columns
+    ``dt d_pos + d_vel``; a 2-D state has no z columns)."""
     out = np.empty((*d.shape[:-1], 2 * dim))
     out[..., :dim] = d[..., :dim]
     out[..., dim:] = d[..., :dim] * dt[:, None] + d[..., 3:3 + dim]
