@@ -8,19 +8,23 @@ import pytest
 
 import tmakit as tk
 from tmakit.batch.solver import VarProProblem
-from tmakit.observation import ObservationModel
+from tmakit.observation import ObservationModel, RowLayout, RowModel
 from tmakit.observation.noise import NoiseModel
 
 
 def _same(a: object, b: object) -> bool:
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+        a, b = np.asarray(a), np.asarray(b)
+        numeric = a.dtype.kind in "fc" and b.dtype.kind in "fc"
+        return np.array_equal(a, b, equal_nan=numeric)
     if isinstance(a, dict):
         return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
     if isinstance(a, list | tuple):
         return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
     if isinstance(a, tk.MeasurementSet):
         return a.equals(b)
+    if isinstance(a, RowModel | RowLayout):  # the observation core: same rows and layout
+        return type(b) is type(a) and _same(vars(a), vars(b))
     if hasattr(a, "nuisance_names"):  # measurement models: same kind and options
         return type(a) is type(b) and vars(a) == vars(b)
     return a == b

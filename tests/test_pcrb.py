@@ -10,14 +10,17 @@ import pytest
 
 import tmakit as tk
 from tmakit.bounds import (
+    PosteriorInformation,
     crlb,
     deterministic_pcrb,
-    final_position_rms,
     fisher_information,
     posterior_crb,
+    predict_information,
 )
-from tmakit.bounds.pcrb import group_jacobians, predict_information
 from tmakit.filters import MeasurementGroup, process_noise, transition_matrix
+from tmakit.motion.dynamics import NearlyConstantVelocity
+from tmakit.observation import group_times
+from tmakit.studies import final_position_rms
 
 P0_2D = np.diag([3000.0**2, 3000.0**2, 10.0**2, 10.0**2])
 P0_3D = np.diag([2000.0**2] * 3 + [50.0**2] * 3)
@@ -175,9 +178,63 @@ def test_batched_jacobians_equal_the_group_jacobian_at_each_state():
     rng = np.random.default_rng(2)
     states = true_state(scn, 41.5, 3) + rng.standard_normal((5, 6)) * np.array(
         [500.0, 500.0, 500.0, 20.0, 20.0, 20.0])
-    batched = group_jacobians(group, states)
+    batched = group.jacobian(states)
+    assert batched.shape == (5, len(group), 6)
+    info = group.information(states)
     for i in range(5):
         assert np.allclose(batched[i], group.jacobian(states[i]), rtol=1e-12, atol=0.0)
+        w = group.noise.whiten(group.jacobian(states[i]), axis=-2)
+        assert np.allclose(info[i], w.T @ w, rtol=1e-12, atol=0.0)
+
+
+def test_running_the_recursion_by_hand_equals_deterministic_pcrb():
+    scn = tk.load_scenario("chen-sun-1")  # bearings and correlated range differences
+    meas = scn.simulate(noise=False)
+    mean = true_state(scn, 0.0, 3)
+    q = 0.05
+    bound = deterministic_pcrb(meas, mean, P0_3D, 0.0, q=q)
+    post = PosteriorInformation.from_prior(P0_3D, NearlyConstantVelocity(3, q), 0.0, mean)
+    for k, idx in enumerate(group_times(meas)):
+        t = float(meas.time[idx[-1]])
+        post = post.predict(t - post.time)
+        group = MeasurementGroup(meas.take(idx), t, 3)
+        post = post.update(post.expected_information(group.sensor_state[None], group))
+        if k in (0, 7, len(bound) - 1):
+            assert post.time == pytest.approx(bound.times[k], abs=1e-9)
+            assert np.allclose(post.information, bound.information[k], rtol=1e-10,
+                               atol=1e-12 * np.abs(bound.information[k]).max())
+    assert post.position_rms == pytest.approx(bound.position_rms[-1], rel=1e-9)
+
+
+def test_expected_information_over_candidates_equals_a_loop_of_single_evaluations():
+    scn = tk.load_scenario("bearings-only-2d")
+    rng = np.random.default_rng(4)
+    mean = true_state(scn, 0.0, 2)
+    states = mean + rng.standard_normal((30, 4)) * np.array([800.0, 800.0, 3.0, 3.0])
+    post = PosteriorInformation.from_prior(P0_2D, NearlyConstantVelocity(2, 0.01), 0.0,
+                                           states).predict(20.0)
+    group = MeasurementGroup.planned(["bearing", "range"], [np.radians(1.0), 50.0],
+                                     post.time, 2)
+    candidates = np.zeros((7, 6))
+    candidates[:, :2] = rng.uniform(-5000.0, 5000.0, (7, 2))
+    candidates[:, 3:5] = rng.uniform(-10.0, 10.0, (7, 2))
+    gamma = post.expected_information(candidates, group)
+    assert gamma.shape == (7, 4, 4)
+    for c in range(7):
+        sensor = np.broadcast_to(candidates[c], (len(group), 6))
+        one = np.mean([group.information(x, sensor) for x in post.states], axis=0)
+        assert np.allclose(gamma[c], one, rtol=1e-12, atol=0.0)
+        h = group.jacobian(post.states, sensor)
+        direct = np.einsum("nmi,m,nmj->ij", h, 1.0 / np.diag(group.covariance), h) / 30
+        assert np.allclose(gamma[c], direct, rtol=1e-10, atol=0.0)
+    # The planner's question: the bound after the update from each candidate.
+    after = post.update(gamma)
+    assert after.position_rms.shape == (7,)
+    assert np.all(after.position_rms < post.position_rms)
+    with pytest.raises(ValueError, match="candidate_sensor_states"):
+        post.expected_information(np.zeros((7, 5)), group)
+    with pytest.raises(ValueError, match="predict to the group's time"):
+        post.predict(1.0).expected_information(candidates, group)
 
 
 def test_same_seed_same_bound_and_different_seed_different_bound():
@@ -228,6 +285,8 @@ def test_bad_input_is_refused_with_a_clear_message():
         deterministic_pcrb(meas, mean, P0_2D, q=(0.1, 0.1, 0.1))
     with pytest.raises(ValueError, match="prior_mean is required"):
         deterministic_pcrb(meas, None, P0_2D)
+    with pytest.raises(TypeError, match="load a built-in scenario first"):
+        deterministic_pcrb("bearings-only-2d", None, P0_2D)
     with pytest.raises(TypeError, match="Scenario"):
         deterministic_pcrb([1, 2, 3], mean, P0_2D)
     gu = tk.load_scenario("gu2007").simulate(noise=False)

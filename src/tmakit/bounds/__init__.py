@@ -5,8 +5,10 @@ from ..observation.noise import NoiseModel
 from ..results.observability import Direction, Observability, analyse
 from .fim import Bound, crlb, fisher_information
 from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
-from .pcrb import PosteriorBound, deterministic_pcrb, final_position_rms, posterior_crb
+from .pcrb import PosteriorBound, deterministic_pcrb, posterior_crb
+from .pcrb_recursion import PosteriorInformation, information_inverse, predict_information
 
 __all__ = ["Bound", "CrbPoint", "CrbSequence", "Direction", "NoiseModel", "Observability",
-           "PosteriorBound", "analyse", "crlb", "curvilinear_crb_sequence", "deterministic_pcrb",
-           "final_position_rms", "fisher_information", "posterior_crb"]
+           "PosteriorBound", "PosteriorInformation", "analyse", "crlb",
+           "curvilinear_crb_sequence", "deterministic_pcrb", "fisher_information",
+           "information_inverse", "posterior_crb", "predict_information"]

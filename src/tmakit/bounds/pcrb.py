@@ -1,25 +1,23 @@
 """The posterior (Bayesian) Cramér–Rao bound of a recursive tracker.
 
 For nearly-constant-velocity dynamics ``x_{k+1} = F x_k + w_k``, ``w_k ~ N(0, Q_k)``
-(003_e5155d4fe60daef8.txt §2.1) and measurements ``z_k = h_k(x_k) + v_k``,
+(Chen & Sun 1993, §2.1) and measurements ``z_k = h_k(x_k) + v_k``,
 ``v_k ~ N(0, R_k)``, the Bayesian information about the state ``x_k`` obeys the Tichavský
-recursion (004_590a452506c86051.txt eqs. 10-11):
+recursion (Tichavský, Muravchik & Nehorai 1998, eqs. 10-11; Hurtado & Nehorai 2008):
 
     J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1},
     Gamma_{k+1} = E_x[ H_{k+1}(x)^T R_{k+1}^{-1} H_{k+1}(x) ],
 
 starting from the inverse of the prior covariance, ``J_0 = P_0^{-1}``.  ``H`` is the Jacobian
 of the group's predicted values with respect to the state (Gaussian noise: eq. 13's Fisher
-information ``Xi`` in closed form).  ``J_k^{-1}`` bounds the mean-square error matrix of any
+information ``Xi`` in closed form).  The recursion itself is the object
+:class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`; this module runs it over a
+measurement set and reports the result.  ``J_k^{-1}`` bounds the mean-square error matrix of any
 estimator of ``x_k`` from the measurements up to ``k``, averaged over the prior and the process
 noise.
 
-**Numerics.**  The prediction is computed in information form: with ``A = F^{-T} J F^{-1}``
-(``F^{-1}`` is the transition backwards in time, exact) and ``Q = G G^T``,
-``(Q + A^{-1})^{-1} = A - A G (I + G^T A G)^{-1} G^T A`` (Woodbury).  ``I + G^T A G >= I`` is
-always invertible, so there is no inverse of ``J`` or of ``Q`` (singular for NCV) and the
-step reduces exactly to ``F^{-T} J F^{-1}`` when ``Q = 0``; nothing can raise a
-``LinAlgError``.
+**Numerics.**  The prediction is in information form (Woodbury, no inverse of ``J`` or of
+``Q``): see :mod:`tmakit.bounds.pcrb_recursion`.
 
 **Expectation.**  ``Gamma`` is averaged over trajectories drawn from the model (Monte Carlo:
 ``x_0 ~ N(m_0, P_0)``, then the dynamics with process noise), vectorised over trajectories.
@@ -35,7 +33,7 @@ one trajectory in ``Gamma_k``, and says so in its notes when one trajectory domi
 
 **Measurements.**  Rows are grouped by time (one update per distinct time, as
 :meth:`tmakit.filters.TrackingFilter.run` does) and predicted by
-:class:`tmakit.filters.MeasurementGroup`: any kinds, any sensors (moving sensors need nothing
+:class:`tmakit.observation.MeasurementGroup`: any kinds, any sensors (moving sensors need nothing
 special: each row carries its sensor's state), range differences with the group's correlated
 ``R`` and their earlier sample back-propagated at constant velocity.  Nuisance parameters are
 known values (as for the filters).  The recursion assumes the measurement noise of different
@@ -54,10 +52,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
-from ..linalg import check_prior, symmetrise
+from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
-from ..observation.groups import MeasurementGroup, embedding, group_times
-from ..observation.noise import NoiseModel
+from ..observation import MeasurementGroup, group_times
+from .pcrb_recursion import (
+    PosteriorInformation,
+    information_inverse,
+    noise_factor,
+    predict_information,
+)
+
+__all__ = ["PosteriorBound", "PosteriorInformation", "deterministic_pcrb",
+           "information_inverse", "noise_factor", "posterior_crb", "predict_information"]
 
 Array = NDArray[np.float64]
 
@@ -181,77 +187,7 @@ def _nan_to_none(values: Array | None) -> list[float | None] | None:
     return [float(v) if np.isfinite(v) else None for v in values]
 
 
-# -- numerics -------------------------------------------------------------------------------
-def _noise_factor(q_mat: Array) -> Array:
-    """``G`` (n, r) with ``G G^T = Q`` (eigen-decomposition; rounding negatives dropped)."""
-    evals, evecs = np.linalg.eigh(symmetrise(q_mat))
-    top = float(evals.max()) if evals.size else 0.0
-    if top <= 0.0:
-        return np.zeros((q_mat.shape[0], 0))
-    keep = evals > 1e-14 * top
-    return evecs[:, keep] * np.sqrt(evals[keep])
-
-
-def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
-    """Information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}`` with ``Q = G G^T``,
-    in the Woodbury form that never inverts ``J`` or ``Q`` (see the module docstring).
-
-    ``info``: (..., n, n); ``f_inv``: ``F^{-1}`` (n, n); ``g``: (n, r), r may be 0."""
-    a = symmetrise(f_inv.T @ info @ f_inv)
-    if g.shape[1] == 0:
-        return a
-    ag = a @ g
-    s = np.eye(g.shape[1]) + g.T @ ag  # >= I: Cholesky always succeeds
-    chol = np.linalg.cholesky(symmetrise(s))
-    half = np.linalg.solve(chol, np.swapaxes(ag, -1, -2))  # L^{-1} G^T A
-    return symmetrise(a - np.swapaxes(half, -1, -2) @ half)
-
-
-def information_inverse(info: Array) -> Array:
-    """Inverse of symmetric positive-definite information matrices ``(..., n, n)``, computed
-    in coordinates normalised by the diagonal (units do not matter); eigenvalues that rounding
-    pushed to or below zero are floored at ``n * eps`` of the largest."""
-    d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
-    norm = info / (d[..., :, None] * d[..., None, :])
-    evals, evecs = np.linalg.eigh(symmetrise(norm))
-    floor = info.shape[-1] * np.finfo(float).eps * np.max(evals, axis=-1, keepdims=True)
-    evals = np.maximum(evals, floor)
-    inv = (evecs / evals[..., None, :]) @ np.swapaxes(evecs, -1, -2)
-    return symmetrise(inv / (d[..., :, None] * d[..., None, :]))
-
-
-def _target6(x: Array, dt: Array, dim: int) -> Array:
-    """Target 6-vectors ``(N, m, 6)`` at ``dt`` (m,) after states ``x`` (N, 2 dim)."""
-    out = np.zeros((x.shape[0], dt.shape[0], 6))
-    out[..., :dim] = x[:, None, :dim] + dt[:, None] * x[:, None, dim:]
-    out[..., 3:3 + dim] = x[:, None, dim:]
-    return out
-
-
-def group_jacobians(group: MeasurementGroup, x: ArrayLike) -> Array:
-    """``d predict / d x`` ``(N, m, 2 dim)`` of a measurement group at ``N`` states ``x``
-    ``(N, 2 dim)``: :meth:`MeasurementGroup.jacobian` vectorised over states, built from the
-    measurement models' analytic Jacobians (rows at other times than the group's and the
-    earlier samples of range differences are reached at constant velocity)."""
-    x = np.atleast_2d(np.asarray(x, dtype=float))
-    dim = group.dim
-    rows = group.rows
-    out = np.empty((x.shape[0], len(group), 2 * dim))
-    for kind, model in group.models.items():
-        idx = group.index[kind]
-        rel = _target6(x, group.dt[idx], dim) - rows.sensor_state[idx]
-        rel_ref = None
-        if model.uses_reference:
-            rel_ref = _target6(x, group.dt_ref[idx], dim) - rows.ref_sensor_state[idx]
-        jac = model.jacobian(rel, rows.time[idx], group.nuisance[kind], rel_ref)
-        h = np.einsum("...mi,mij->...mj", jac.rel, embedding(group.dt[idx], dim))
-        if jac.rel_ref is not None:
-            h = h + np.einsum("...mi,mij->...mj", jac.rel_ref,
-                              embedding(group.dt_ref[idx], dim))
-        out[:, idx] = h
-    return out
-
-
+# -- inputs ---------------------------------------------------------------------------------
 def _cross_group_correlation(meas: MeasurementSet, groups: list[NDArray[np.int64]]) -> bool:
     """True if two range differences of one sensor in different groups share a pulse
     interval (overlapping ``(time_ref, time]`` spans): noise correlated across updates."""
@@ -281,15 +217,12 @@ def _cross_group_correlation(meas: MeasurementSet, groups: list[NDArray[np.int64
     return False
 
 
-# -- inputs ---------------------------------------------------------------------------------
-def _resolve_source(source, prior_mean, options, nuisance
-                    ) -> tuple[MeasurementSet, Array | None, dict, dict, object]:
+def _resolve_source(source: object, prior_mean: ArrayLike | None,
+                    options: Mapping[str, Mapping[str, object]] | None,
+                    nuisance: Mapping[str, float] | None
+                    ) -> tuple[MeasurementSet, ArrayLike | None, dict, dict, object]:
     from ..scenario import Scenario
 
-    if isinstance(source, str):
-        from ..scenario_file import load_scenario
-
-        source = load_scenario(source)
     if isinstance(source, Scenario):
         meas = source.simulate(rng=0, noise=False)  # the layout: times, sensors, sigmas
         opts = source.measurement_options if options is None else dict(options)
@@ -304,12 +237,45 @@ def _resolve_source(source, prior_mean, options, nuisance
             raise ValueError("prior_mean is required for a measurement set (only a scenario "
                              "can default it to its true state)")
         return source, prior_mean, dict(options or {}), nu, None
-    raise TypeError("posterior_crb() takes a Scenario, a built-in scenario name or a "
-                    f"MeasurementSet; got {type(source).__name__}")
+    if isinstance(source, str):
+        raise TypeError("posterior_crb() takes a Scenario or a MeasurementSet; load a built-in "
+                        f"scenario first (tmakit.load_scenario({source!r}))")
+    raise TypeError("posterior_crb() takes a Scenario or a MeasurementSet; "
+                    f"got {type(source).__name__}")
 
 
-def _posterior(source, prior_mean, prior_cov, time0, q, trajectories: int, sample: bool,
-               rng, options, nuisance) -> PosteriorBound:
+@dataclass
+class _Setup:
+    """What the recursion runs on: the measurements grouped by time, the prior and the
+    dynamics."""
+
+    meas: MeasurementSet
+    groups: list[NDArray[np.int64]]
+    times: Array
+    t0: float
+    mean: Array
+    cov: Array
+    dynamics: NearlyConstantVelocity
+    q_axes: tuple[float, ...]
+    options: dict
+    nuisance: dict
+
+
+def _dynamics(q: float | ArrayLike, dim: int) -> tuple[NearlyConstantVelocity,
+                                                        tuple[float, ...]]:
+    if np.ndim(q) and np.size(q) != dim:
+        raise ValueError(f"q must be one value or {dim} values (one per axis) in m/s^2; "
+                         f"got {np.size(q)}")
+    dynamics = NearlyConstantVelocity(dim, float(q) if np.ndim(q) == 0 else tuple(
+        float(v) for v in np.ravel(q)))
+    q_axes = tuple(float(v) for v in np.broadcast_to(np.asarray(q, dtype=float), (dim,)))
+    return dynamics, q_axes
+
+
+def _setup(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
+           time0: float | None, q: float | ArrayLike,
+           options: Mapping[str, Mapping[str, object]] | None,
+           nuisance: Mapping[str, float] | None) -> _Setup:
     meas, prior_mean, opts, nu, scn = _resolve_source(source, prior_mean, options, nuisance)
     if len(meas) == 0:
         raise ValueError("the measurement set is empty: nothing to bound")
@@ -327,71 +293,75 @@ def _posterior(source, prior_mean, prior_cov, time0, q, trajectories: int, sampl
         prior_mean = scn.target_states([t0])[0][keep]
     mean, cov = check_prior(prior_mean, prior_cov, "prior_mean", "prior_cov",
                             require_symmetric=True)
-    n = mean.shape[0]
-    dim = n // 2
-    if np.ndim(q) and np.size(q) != dim:
-        raise ValueError(f"q must be one value or {dim} values (one per axis) in m/s^2; "
-                         f"got {np.size(q)}")
-    dynamics = NearlyConstantVelocity(dim, float(q) if np.ndim(q) == 0 else tuple(
-        float(v) for v in np.ravel(q)))
-    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    dynamics, q_axes = _dynamics(q, mean.shape[0] // 2)
+    return _Setup(meas, groups, times, t0, mean, cov, dynamics, q_axes, opts, nu)
 
-    notes: list[str] = []
-    if _cross_group_correlation(meas, groups):
-        msg = ("range differences of one sensor share pulse intervals across updates: their "
-               "noise is correlated between groups, which the recursion ignores (the bound is "
-               "approximate; use lag-1 differences only for an exact bound)")
-        notes.append(msg)
-        warnings.warn(msg, stacklevel=3)
 
-    info = information_inverse(cov)  # J_0 = P_0^{-1}
+def _correlation_notes(setup: _Setup) -> list[str]:
+    if not _cross_group_correlation(setup.meas, setup.groups):
+        return []
+    msg = ("range differences of one sensor share pulse intervals across updates: their "
+           "noise is correlated between groups, which the recursion ignores (the bound is "
+           "approximate; use lag-1 differences only for an exact bound)")
+    warnings.warn(msg, stacklevel=4)
+    return [msg]
+
+
+def _batch_starts(trajectories: int, sample: bool) -> tuple[NDArray[np.intp], Array]:
+    """Monte Carlo error: the same recursion run on BATCHES disjoint sets of trajectories,
+    stacked after the main one (row 0) so that one call predicts all.  Returns the first
+    trajectory of each set and the sets' sizes."""
+    batches = min(BATCHES, trajectories) if sample else 0
+    starts = (np.arange(batches) * trajectories) // batches if batches else np.zeros(0, int)
+    return starts, np.diff(np.append(starts, trajectories))
+
+
+def _recursion(setup: _Setup, trajectories: int, sample: bool, gen: np.random.Generator
+               ) -> tuple[Array, Array]:
+    """The recursion over the groups: information after each update (K, 1 + batches, n, n)
+    and the largest share of one trajectory in each ``Gamma_k`` (K,) (NaN when not
+    sampling)."""
+    mean, cov, n = setup.mean, setup.cov, setup.mean.shape[0]
     if sample:
         x = mean + gen.standard_normal((trajectories, n)) @ np.linalg.cholesky(cov).T
     else:
         x = mean[None, :].copy()
-    # Monte Carlo error: the same recursion run on BATCHES disjoint sets of trajectories,
-    # stacked after the main one (row 0) so that one call predicts all.
-    batches = min(BATCHES, trajectories) if sample else 0
-    starts = (np.arange(batches) * trajectories) // batches if batches else np.zeros(0, int)
-    sizes = np.diff(np.append(starts, trajectories))
-    stack = np.broadcast_to(info, (1 + batches, n, n)).copy()
-    steps: dict[float, tuple[Array, Array, Array]] = {}  # dt -> F, F^-1, G
-    t_prev = t0
-    infos = np.empty((len(groups), 1 + batches, n, n))
-    share = np.full(len(groups), np.nan)
-    for k, idx in enumerate(groups):
-        dt = times[k] - t_prev
-        if dt > 1e-12:
-            key = round(dt, 9)
-            if key not in steps:
-                steps[key] = (dynamics.transition(dt), dynamics.transition(-dt),
-                              _noise_factor(dynamics.noise(dt)))
-            f, f_inv, g = steps[key]
-            stack = predict_information(stack, f_inv, g)
-            x = x @ f.T
-            if sample and g.shape[1]:
-                x = x + gen.standard_normal((x.shape[0], g.shape[1])) @ g.T
-            t_prev = times[k]
-        rows = meas.take(idx)
-        group = MeasurementGroup(rows, times[k], dim, opts, nu)
-        w = NoiseModel(rows).whiten(group_jacobians(group, x), axis=-2)  # R^{-1/2} H
-        xi = np.einsum("tmi,tmj->tij", w, w)  # each trajectory's Fisher information (eq. 13)
-        gamma = np.empty((1 + batches, n, n))
+    starts, sizes = _batch_starts(trajectories, sample)
+    info0 = information_inverse(cov)  # J_0 = P_0^{-1}
+    post = PosteriorInformation(np.broadcast_to(info0, (1 + starts.size, n, n)).copy(),
+                                setup.dynamics, setup.t0, x, gen if sample else None)
+    infos = np.empty((len(setup.groups), 1 + starts.size, n, n))
+    share = np.full(len(setup.groups), np.nan)
+    for k, idx in enumerate(setup.groups):
+        post = post.predict_to(setup.times[k])
+        group = MeasurementGroup(setup.meas.take(idx), setup.times[k], post.dim,
+                                 setup.options, setup.nuisance)
+        xi = post.state_information(group, post.states)  # each trajectory's (eq. 13)
+        gamma = np.empty((1 + starts.size, n, n))
         gamma[0] = xi.mean(axis=0)
         if sample:
             gamma[1:] = np.add.reduceat(xi, starts, axis=0) / sizes[:, None, None]
             # Share of the largest single trajectory in Gamma, each component weighted by
             # the predicted information (dimensionless).
-            gain = np.einsum("tii->t", xi / np.diag(stack[0]))
+            gain = np.einsum("tii->t", xi / np.diag(post.information[0]))
             total = float(gain.sum())
             share[k] = float(gain.max()) / total if total > 0 else 0.0
-        stack = symmetrise(stack + gamma)
-        infos[k] = stack
+        post = post.update(gamma)
+        infos[k] = post.information
+    return infos, share
+
+
+def _bound(setup: _Setup, infos: Array, share: Array, trajectories: int, sample: bool,
+           notes: list[str]) -> PosteriorBound:
+    """The result: covariances, standard deviations, position RMS and its Monte Carlo error
+    from the stacked information (K, 1 + batches, n, n)."""
+    dim, times = setup.mean.shape[0] // 2, setup.times
     covs_all = information_inverse(infos)
     infos, covs = infos[:, 0].copy(), covs_all[:, 0].copy()
     std = np.sqrt(np.clip(np.einsum("kii->ki", covs), 0.0, None))
     pos = np.sqrt(np.clip(np.einsum("kii->k", covs[:, :dim, :dim]), 0.0, None))
-    pos_se = np.full(len(groups), np.nan)
+    pos_se = np.full(len(times), np.nan)
+    batches = covs_all.shape[1] - 1
     if batches >= 2:
         pos_b = np.sqrt(np.clip(np.einsum("kbii->kb", covs_all[:, 1:, :dim, :dim]), 0.0,
                                 None))
@@ -406,32 +376,73 @@ def _posterior(source, prior_mean, prior_cov, time0, q, trajectories: int, sampl
                 "use more trajectories, or deterministic_pcrb for a fixed trajectory")
     elif sample:
         notes.append("one trajectory: no Monte Carlo error estimate")
-    q_axes = tuple(float(v) for v in np.broadcast_to(np.asarray(q, dtype=float), (dim,)))
-    return PosteriorBound(state_names(dim), times, infos, covs, std, pos, t0, q_axes,
-                          trajectories if sample else 1,
-                          "monte-carlo" if sample else "deterministic", len(meas), notes,
-                          pos_se if sample else None, share if sample else None)
+    return PosteriorBound(state_names(dim), times, infos, covs, std, pos, setup.t0,
+                          setup.q_axes, trajectories if sample else 1,
+                          "monte-carlo" if sample else "deterministic", len(setup.meas),
+                          notes, pos_se if sample else None, share if sample else None)
+
+
+def _posterior(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
+               time0: float | None, q: float | ArrayLike, trajectories: int, sample: bool,
+               rng: np.random.Generator | int | None,
+               options: Mapping[str, Mapping[str, object]] | None,
+               nuisance: Mapping[str, float] | None) -> PosteriorBound:
+    setup = _setup(source, prior_mean, prior_cov, time0, q, options, nuisance)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    notes = _correlation_notes(setup)
+    infos, share = _recursion(setup, trajectories, sample, gen)
+    return _bound(setup, infos, share, trajectories, sample, notes)
 
 
 # -- public API -----------------------------------------------------------------------------
-def posterior_crb(source, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
-                  time0: float | None = None, *, q: float | ArrayLike = 0.0,
-                  trajectories: int = 200,
+def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
+                  prior_cov: ArrayLike, time0: float | None = None, *,
+                  q: float | ArrayLike = 0.0, trajectories: int = 200,
                   rng: np.random.Generator | int | None = None,
                   options: Mapping[str, Mapping[str, object]] | None = None,
                   nuisance: Mapping[str, float] | None = None) -> PosteriorBound:
-    """The posterior CRB (004_590a452506c86051.txt eqs. 10-11) of a tracker that starts from
-    the Gaussian prior ``N(prior_mean, prior_cov)`` at ``time0`` (s; default: the first
-    measurement time) and updates once per distinct measurement time.
+    """The posterior CRB of a tracker that starts from the Gaussian prior
+    ``N(prior_mean, prior_cov)`` at ``time0`` and updates once per distinct measurement time,
+    ``Gamma_k`` averaged over sampled trajectories.
 
-    ``source``: a :class:`~tmakit.data.MeasurementSet` (only times, sensors, kinds and sigmas
-    are used), a :class:`~tmakit.scenario.Scenario` or a built-in scenario name (its layout;
-    ``prior_mean=None`` then means its true state at ``time0``).  ``prior_mean`` (n,) m, m/s
-    and ``prior_cov`` (n, n) in state order ``[x, y, (z), vx, vy, (vz)]``.  ``q``: process
-    noise, acceleration standard deviation per axis (m/s^2; 003_e5155d4fe60daef8.txt §2.1).
-    ``trajectories``: number of trajectories, drawn from the prior and the process noise with
-    ``rng`` (a Generator or a seed), over which ``Gamma_k`` is averaged.  ``options`` and
-    ``nuisance``: per-kind model options and known nuisance values, as for the filters.
+    A thin user of :class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`.
+
+    Parameters
+    ----------
+    source : MeasurementSet or Scenario
+        A measurement set (only times, sensors, kinds and sigmas are used) or a scenario
+        (its layout; ``prior_mean=None`` then means its true state at ``time0``).  Load a
+        built-in scenario by name with :func:`tmakit.load_scenario` first.
+    prior_mean : array_like or None
+        (n,) m, m/s in state order ``[x, y, (z), vx, vy, (vz)]``.
+    prior_cov : array_like
+        (n, n), SI.
+    time0 : float, optional
+        The prior's time, s (default: the first measurement time).
+    q : float or array_like
+        Process noise, acceleration standard deviation per axis, m/s^2 (Chen & Sun 1993,
+        §2.1).
+    trajectories : int
+        Number of trajectories drawn from the prior and the process noise.
+    rng : Generator or int, optional
+        Their random source (a Generator or a seed).
+    options, nuisance : mapping, optional
+        Per-kind model options and known nuisance values, as for the filters.
+
+    Returns
+    -------
+    PosteriorBound
+
+    Raises
+    ------
+    ValueError
+        On a bad prior, q, time0 or trajectory count, or a missing nuisance value.
+    TypeError
+        On another kind of ``source``.
+
+    References
+    ----------
+    Tichavský, Muravchik & Nehorai (1998), eqs. 10-11 and 13; Hurtado & Nehorai (2008).
     """
     if isinstance(trajectories, bool) or not isinstance(trajectories, (int, np.integer)) \
             or trajectories < 1:
@@ -440,35 +451,36 @@ def posterior_crb(source, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
                       options, nuisance)
 
 
-def deterministic_pcrb(source, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
-                       time0: float | None = None, *, q: float | ArrayLike = 0.0,
+def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
+                       prior_cov: ArrayLike, time0: float | None = None, *,
+                       q: float | ArrayLike = 0.0,
                        options: Mapping[str, Mapping[str, object]] | None = None,
                        nuisance: Mapping[str, float] | None = None) -> PosteriorBound:
     """The deterministic-trajectory bound: the recursion of :func:`posterior_crb` with
     ``Gamma_k`` evaluated along the prior-mean trajectory only (no sampling; ``q`` still
-    enters the prediction).  With ``q = 0`` it equals the batch CRLB of the same data at that
-    trajectory plus the prior's information mapped to each time.  For a fixed true trajectory
-    (filters started at the truth with a random error) pass the true state as ``prior_mean``.
+    enters the prediction).
+
+    With ``q = 0`` it equals the batch CRLB of the same data at that trajectory plus the
+    prior's information mapped to each time.  For a fixed true trajectory (filters started at
+    the truth with a random error) pass the true state as ``prior_mean``.
+
+    Parameters
+    ----------
+    source, prior_mean, prior_cov, time0, q, options, nuisance
+        As for :func:`posterior_crb`.
+
+    Returns
+    -------
+    PosteriorBound
+
+    Raises
+    ------
+    ValueError, TypeError
+        As for :func:`posterior_crb`.
+
+    References
+    ----------
+    Tichavský, Muravchik & Nehorai (1998), eqs. 10-11.
     """
     return _posterior(source, prior_mean, prior_cov, time0, q, 1, False, None, options,
                       nuisance)
-
-
-def final_position_rms(source="bearings-only-2d", prior_mean: ArrayLike | None = None,
-                       prior_cov: ArrayLike | None = None, time0: float | None = None, *,
-                       q: float | ArrayLike = 0.0, trajectories: int | None = 200,
-                       rng: np.random.Generator | int | None = None) -> float:
-    """The bound on the RMS position error (m) after the last update, for benchmarks: by
-    default on ``bearings-only-2d`` with the prior centred on the truth at ``time0``.
-
-    ``prior_cov`` is required.  ``trajectories=None`` gives the deterministic-trajectory
-    bound (:func:`deterministic_pcrb`), otherwise the Monte Carlo expectation of
-    :func:`posterior_crb`."""
-    if prior_cov is None:
-        raise ValueError("prior_cov is required (n x n, SI)")
-    if trajectories is None:
-        bound = deterministic_pcrb(source, prior_mean, prior_cov, time0, q=q)
-    else:
-        bound = posterior_crb(source, prior_mean, prior_cov, time0, q=q,
-                              trajectories=trajectories, rng=rng)
-    return float(bound.position_rms[-1])

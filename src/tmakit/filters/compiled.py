@@ -2,7 +2,7 @@
 
 :meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct
 measurement time.  Cutting the :class:`~tmakit.data.MeasurementSet` into one small set per
-update (``take``) and building a :class:`~.measurement_group.MeasurementGroup` from it costs
+update (``take``) and building a :class:`~tmakit.observation.MeasurementGroup` from it costs
 more than the arithmetic of a filter step, so the set is compiled once, vectorised: rows sorted
 by time, the update boundaries, SI values and sigmas, the measurement models of the kinds
 present and their (known) nuisance vectors.  A step then takes slices (views) of these arrays
@@ -22,11 +22,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..data import MeasurementSet
-from ..observation.groups import TIME_TOLERANCE, MeasurementGroup, MeasurementModel, resolve_models
+from ..measurements import MeasurementModel
+from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
 
 Array = NDArray[np.float64]
-
-#: Rows whose times differ by less than this (s) are one update (as in :mod:`.base`).
 
 
 @dataclass(frozen=True)
@@ -45,7 +44,7 @@ class BearingColumns:
 class CompiledMeasurements:
     """``meas`` prepared for a filter of dimension ``dim`` (2 or 3) with per-kind ``options``
     and known ``nuisance`` values.  Raises the same clear errors as
-    :class:`~.measurement_group.MeasurementGroup` (e.g. a missing nuisance value) once, up
+    :class:`~tmakit.observation.MeasurementGroup` (e.g. a missing nuisance value) once, up
     front."""
 
     def __init__(self, meas: MeasurementSet, dim: int,
@@ -54,11 +53,10 @@ class CompiledMeasurements:
         self.meas = meas
         self.dim = int(dim)
         n = len(meas)
-        order = np.argsort(meas.time, kind="stable")
+        # The same grouping as tmakit.observation.group_times: one update per time.
+        order, self.bounds = time_blocks(meas.time)
         t = meas.time[order]
-        breaks = np.flatnonzero(np.diff(t) > TIME_TOLERANCE) + 1
         self.order = order
-        self.bounds = np.concatenate([[0], breaks, [n]]).astype(np.int64)
         #: Update times (s): the last (latest) row time of each update, as ``run`` uses.
         self.times = t[self.bounds[1:] - 1] if n else np.zeros(0)
         self.models: dict[str, MeasurementModel]
@@ -76,6 +74,9 @@ class CompiledMeasurements:
         self._codes = np.array([self._kind_codes[k] for k in self.kind], dtype=np.int64) \
             if n else np.zeros(0, dtype=np.int64)
         self._lists: tuple[list[float], ...] | None = None
+        #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
+        #: row layout, made once and shared by the updates with that pattern.
+        self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
         sizes = np.diff(self.bounds)
         #: Every update is one bearing row (the closed-form kernels apply).
         self.single_bearing = bool(n > 0 and np.all(sizes == 1)
@@ -111,19 +112,20 @@ class CompiledMeasurements:
         views of the compiled columns."""
         a, b = int(self.bounds[k]), int(self.bounds[k + 1])
         codes = self._codes[a:b]
-        if b - a == 1:
-            kind = self.kind[a]
-            models = {kind: self.models[kind]}
-            index = {kind: np.zeros(1, dtype=np.int64)}
-        else:
+        key = codes.tobytes()
+        parts = self._layouts.get(key)
+        if parts is None:  # the first update with this pattern of kinds
             models, index = {}, {}
             for kind, code in self._kind_codes.items():
                 idx = np.flatnonzero(codes == code)
                 if idx.size:
                     models[kind] = self.models[kind]
                     index[kind] = idx
-        nus = {kind: self.nuisance[kind] for kind in models}
+            nus = {kind: self.nuisance[kind] for kind in models}
+            parts = (models, index, nus, RowLayout(models, index, b - a))
+            self._layouts[key] = parts
+        models, index, nus, layout = parts
         return MeasurementGroup.from_arrays(
             t, self.dim, models, nus, index, self.values[a:b], self.sigmas[a:b],
             self.time[a:b], self.time_ref[a:b], self.sensor_state[a:b],
-            self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k))
+            self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k), layout)

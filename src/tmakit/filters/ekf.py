@@ -21,7 +21,7 @@ IEKF_TOL = 1e-10
 
 def _range_scale(group: MeasurementGroup, x: Array, dim: int) -> float:
     """Give the smallest distance (m) from the position ``x[:dim]`` to the group's sensors."""
-    pos = group._sensor_state[:, :dim]
+    pos = group.sensor_state[:, :dim]
     return float(np.min(np.linalg.norm(pos - x[:dim], axis=1)))
 
 

@@ -72,7 +72,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..linalg import joseph_update, repair_psd, solve_spd, symmetrise
-from ..observation.groups import MeasurementGroup, embedding
+from ..observation import MeasurementGroup
 from .base import Array, UpdateInfo
 from .ekf import LOG_2PI, ExtendedKalmanFilter, gaussian_update
 
@@ -390,8 +390,7 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
         r = group.covariance
         idx = group.index.get("bearing")
         if idx is not None:
-            emb = embedding(group.dt[idx], self.dim)
-            rel = np.einsum("mij,j->mi", emb, x) - group.rows.sensor_state[idx]
+            rel = group.relative(x)[0][idx]
             mod = modified_gain_rows(group.values[idx], rel, group.dt[idx], self.dim,
                                      residual[idx])
             h[idx[mod.ok]] = mod.g[mod.ok]  # mu = 0: U = I, g' = g and R' = R

@@ -290,7 +290,7 @@ class ParticleFilter(TrackingFilter):
         z = float(group.values[0])
         sigma = float(group.sigmas[0])
         sz, cz = math.sin(z), math.cos(z)
-        sx, sy = (float(v) for v in group._sensor_state[0, :2])
+        sx, sy = (float(v) for v in group.sensor_state[0, :2])
         x, y = self._x[0], self._x[1]
         s, c, r = self._work
         np.multiply(y, sz, out=s)  # s = sin z (y - sy) - cos z (x - sx)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .azimuth_rate import AzimuthRate
-from .base import Jacobian, MeasurementModel
+from .base import Jacobian, MeasurementModel, ValueRange
 from .bearing import Bearing
 from .elevation import Elevation
 from .frequency import Frequency
@@ -17,7 +17,8 @@ KINDS: dict[str, type[MeasurementModel]] = {
     for cls in (Bearing, Elevation, AzimuthRate, Range, RangeRate, Frequency, Power,
                 RangeDifference)
 }
-"""Every measurement kind by its file name."""
+"""Every measurement kind by its file name: a new kind is one file (a
+:class:`MeasurementModel` subclass with its hooks) plus its entry here."""
 
 __all__ = [
     "KINDS",
@@ -31,6 +32,7 @@ __all__ = [
     "Range",
     "RangeDifference",
     "RangeRate",
+    "ValueRange",
     "interval_count",
     "model_for",
     "range_difference_covariance",

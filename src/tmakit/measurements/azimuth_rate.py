@@ -1,4 +1,4 @@
-"""Azimuth rate: time derivative of the bearing (002_e7269ad11b825346.txt eq. 6),
+"""Azimuth rate: time derivative of the bearing (Hörst & Oispuu (2010), eq. 6),
 ``(dvx dy - dx dvy) / (dx^2 + dy^2)``.  rad/s inside, deg/s in files."""
 
 from __future__ import annotations

@@ -36,9 +36,60 @@ class Jacobian:
     nuisance: Array
 
 
+@dataclass(frozen=True)
+class ValueRange:
+    """The values a file may hold for a kind, in the file unit (deg, Hz, m, ...).
+
+    Parameters
+    ----------
+    noun : str
+        The kind's value with its article, as the file checker names it ("a bearing").
+    low, high : float or None
+        The limits (None: unbounded on that side).
+    low_inclusive, high_inclusive : bool
+        Whether a value equal to the limit is valid.
+    """
+
+    noun: str
+    low: float | None = None
+    high: float | None = None
+    low_inclusive: bool = True
+    high_inclusive: bool = True
+
+    def contains(self, values: ArrayLike) -> NDArray[np.bool_]:
+        """True where ``values`` (file units) lie in the range."""
+        v = np.asarray(values, dtype=float)
+        ok = np.ones(v.shape, dtype=bool)
+        if self.low is not None:
+            ok &= (v >= self.low) if self.low_inclusive else (v > self.low)
+        if self.high is not None:
+            ok &= (v <= self.high) if self.high_inclusive else (v < self.high)
+        return ok
+
+    def describe(self, unit: str) -> str:
+        """What the file checker says a valid value is, e.g. "a bearing within [-360, 360]
+        deg", "a frequency > 0 Hz" (``unit``: the kind's file unit)."""
+        if self.low is not None and self.high is not None:
+            left = "[" if self.low_inclusive else "("
+            right = "]" if self.high_inclusive else ")"
+            return f"{self.noun} within {left}{self.low:g}, {self.high:g}{right} {unit}"
+        if self.low is not None:
+            return f"{self.noun} {'>=' if self.low_inclusive else '>'} {self.low:g} {unit}"
+        if self.high is not None:
+            return f"{self.noun} {'<=' if self.high_inclusive else '<'} {self.high:g} {unit}"
+        return f"{self.noun} (any value) in {unit}"
+
+
 class MeasurementModel:
     """One kind of measurement.  Subclasses set the class attributes and implement
-    :meth:`predict` and :meth:`jacobian`."""
+    :meth:`predict` and :meth:`jacobian`.
+
+    Per-kind special cases are hooks here, so that a new kind is one file plus its
+    registration in :data:`tmakit.measurements.KINDS`: :attr:`value_range` (checked by the
+    file reader, :meth:`check_values`), :attr:`uses_reference` (an earlier sample),
+    :attr:`correlated_noise` and :meth:`noise_covariance` (the noise of rows of one sensor),
+    :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure).
+    """
 
     #: Name used in files (the ``kind`` column).
     kind: str = ""
@@ -53,6 +104,54 @@ class MeasurementModel:
     uses_reference: bool = False
     #: Needs the target velocity (it is not a function of position alone).
     uses_velocity: bool = False
+    #: The values a file may hold (file units); None: any finite value.
+    value_range: ValueRange | None = None
+    #: Rows of one sensor have correlated noise (:meth:`noise_covariance` is not diagonal).
+    correlated_noise: bool = False
+
+    @classmethod
+    def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:
+        """True where file values (file units, e.g. degrees) are valid for this kind.
+
+        Parameters
+        ----------
+        values : array_like
+            Values in :attr:`file_unit`.
+
+        Returns
+        -------
+        ndarray of bool
+            Same shape as ``values``; all True when the kind has no :attr:`value_range`.
+        """
+        if cls.value_range is None:
+            return np.ones(np.shape(values), dtype=bool)
+        return cls.value_range.contains(values)
+
+    @classmethod
+    def describe_values(cls) -> str | None:
+        """What a valid file value of this kind is, for error messages (None: any value)."""
+        return None if cls.value_range is None else cls.value_range.describe(cls.file_unit)
+
+    def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
+                         sensor: ArrayLike | None = None) -> Array:
+        """The noise covariance of rows of this kind (SI units squared).
+
+        Parameters
+        ----------
+        time, time_ref : array_like
+            Row times and reference times, (m,) s (``time_ref`` is used only by kinds with
+            :attr:`uses_reference`).
+        sigma : array_like
+            Standard deviations (m,), SI.
+        sensor : array_like, optional
+            Sensor ids (m,): rows of different sensors are independent.
+
+        Returns
+        -------
+        ndarray
+            (m, m); ``diag(sigma^2)`` unless the kind has :attr:`correlated_noise`.
+        """
+        return np.diag(np.asarray(sigma, dtype=float) ** 2)
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:

@@ -1,11 +1,11 @@
 """Bearing (azimuth): angle clockwise from North of the horizontal line of sight,
-``atan2(dx, dy)`` (002_e7269ad11b825346.txt eq. 6).  Radians inside, degrees in files."""
+``atan2(dx, dy)`` (Hörst & Oispuu (2010), eq. 6).  Radians inside, degrees in files."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Bearing(MeasurementModel):
@@ -13,6 +13,7 @@ class Bearing(MeasurementModel):
     file_unit = "deg"
     file_scale = np.pi / 180.0
     is_angle = True
+    value_range = ValueRange("a bearing", -360.0, 360.0)
 
     def predict(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Elevation(MeasurementModel):
@@ -13,6 +13,7 @@ class Elevation(MeasurementModel):
     file_unit = "deg"
     file_scale = np.pi / 180.0
     is_angle = True
+    value_range = ValueRange("an elevation", -90.0, 90.0)
 
     def predict(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)

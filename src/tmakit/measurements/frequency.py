@@ -1,15 +1,15 @@
-"""Doppler-shifted frequency with an unknown carrier (000_bc54bd8c50e47249.txt eqs. 5-6,
-001_ba171c940b7f4701.txt).
+"""Doppler-shifted frequency with an unknown carrier (Gu et al. (2007), eqs. 5-6;
+the Doppler-tracking lecture notes).
 
 ``f = f_c(t) (1 - rdot / c)`` with ``rdot`` the range rate of the target relative to the
 (moving) sensor, so the sensor's own velocity is included.  The carrier is a nuisance
 parameter, optionally drifting linearly: ``f_c(t) = carrier + carrier_drift * t`` (Hz, Hz/s; t in
-seconds on the measurement time axis).  000_bc54bd8c50e47249.txt §5 mentions a drift of
+seconds on the measurement time axis).  Gu et al. (2007), §5, mentions a drift of
 about 2.5 Hz over two minutes.  Both nuisance parameters enter linearly, which the estimators
 exploit.
 
-Note: 001_ba171c940b7f4701.txt writes the shift with the opposite sign (f_o minus the velocity
-component *towards* the receiver); tmakit uses the physical sign: an approaching emitter is
+Note: the Doppler-tracking lecture notes write the shift with the opposite sign (f_o minus the
+velocity component *towards* the receiver); tmakit uses the physical sign: an approaching emitter is
 heard at a higher frequency.
 """
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..units import SPEED_OF_LIGHT
-from .base import Jacobian, MeasurementModel, as_rel, dot3
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 from .range_rate import range_rate_and_gradient
 
 
@@ -31,6 +31,7 @@ class Frequency(MeasurementModel):
     kind = "frequency"
     file_unit = "Hz"
     uses_velocity = True
+    value_range = ValueRange("a frequency", 0.0, low_inclusive=False)
 
     def __init__(self, drift: bool = False, speed_of_light: float = SPEED_OF_LIGHT) -> None:
         self.drift = bool(drift)

@@ -1,11 +1,11 @@
-"""Received power with an unknown constant: ``P = C / R^n`` (000_bc54bd8c50e47249.txt eq. 3).
+"""Received power with an unknown constant: ``P = C / R^n`` (Gu et al. (2007), eq. 3).
 
 Inside, power is in dBW so that the nuisance constant enters linearly:
 ``P_dBW = power_constant_db - 10 n log10 R`` with ``power_constant_db = 10 log10 C``
 (C in W m^n).  Files carry dBm.  The path-loss exponent ``n`` is 2 by default and known; with
 ``exponent=None`` it becomes the nuisance parameter ``path_loss_exponent``.
 
-Noise: a file's ``sigma`` is the standard deviation of the power in dB.  000_bc54bd8c50e47249.txt's
+Noise: a file's ``sigma`` is the standard deviation of the power in dB.  Gu et al. (2007)'s
 noise (var(eta/P) = 1/SNR_p) is simulated exactly by the scenario and written with the
 first-order sigma (10 / ln 10) / sqrt(SNR_p), see :func:`tmakit.units.snr_to_sigma_db`.
 """

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Range(MeasurementModel):
     kind = "range"
     file_unit = "m"
+    value_range = ValueRange("a range", 0.0)
 
     def predict(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)

@@ -1,9 +1,9 @@
-"""Range difference from the difference of pulse arrival times (003_e5155d4fe60daef8.txt eq. 1).
+"""Range difference from the difference of pulse arrival times (Chen & Sun 1993, eq. 1).
 
 With a known pulse repetition interval T, ``dr = c (dTOA - j T) = r(t) - r(t_ref)`` for a
 sample at ``t`` and an earlier one at ``t_ref = t - j T``.  The noise of each one-interval
 difference is independent with standard deviation ``sigma_interval``; over ``j`` intervals it
-accumulates one term per interval (003_e5155d4fe60daef8.txt, the text after eq. 1), so the
+accumulates one term per interval (Chen & Sun 1993, the text after eq. 1), so the
 variance is ``j sigma_interval^2`` and differences that share intervals are correlated:
 :func:`range_difference_covariance` gives that covariance.
 """
@@ -20,6 +20,28 @@ class RangeDifference(MeasurementModel):
     kind = "range_difference"
     file_unit = "m"
     uses_reference = True
+    correlated_noise = True
+
+    def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
+                         sensor: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Differences of one sensor that share pulse intervals are correlated: see
+        :func:`range_difference_covariance` (Chen & Sun 1993, eq. 1 and the text after it).
+
+        Parameters
+        ----------
+        time, time_ref : array_like
+            Times of the later and earlier samples (m,), s.
+        sigma : array_like
+            Standard deviations (m,), m.
+        sensor : array_like, optional
+            Sensor ids (m,); differences of different sensors are independent.
+
+        Returns
+        -------
+        ndarray
+            (m, m) covariance, m^2.
+        """
+        return range_difference_covariance(time, time_ref, sigma, sensor)
 
     def predict(self, rel, t=None, nuisance=None, rel_ref=None):
         rel = as_rel(rel)

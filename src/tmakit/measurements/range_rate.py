@@ -1,6 +1,6 @@
 """Range rate: d|p|/dt = p.v / |p| for the relative position p and velocity v, m/s.
 
-This is the combined radial velocity v_k of 000_bc54bd8c50e47249.txt eq. 6 (positive when the
+This is the combined radial velocity v_k of Gu et al. (2007), eq. 6 (positive when the
 target recedes); the sensor's own velocity enters through the relative velocity."""
 
 from __future__ import annotations

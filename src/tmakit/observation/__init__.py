@@ -1,8 +1,20 @@
 """The observation layer: the one way measurement rows become predictions, Jacobians, noise
-covariance and nuisance structure, for batch estimators, filters and bounds alike."""
+covariance and nuisance structure, for batch estimators, filters and bounds alike.
 
-from .groups import MeasurementGroup
+* :class:`RowModel` (``rows.py``): the core — rows of several kinds predicted from relative
+  states by their measurement models, vectorised over rows, states and sensor poses; noise
+  covariance and nuisance structure from the kinds' hooks.
+* :class:`MeasurementGroup` (``groups.py``): rows predicted from a filter state
+  ``[position, velocity]`` (filters, the posterior CRB, planners).
+* :class:`ObservationModel` (``model.py``): rows predicted from motion parameters (batch
+  estimators, the CRLB).
+* :class:`NoiseModel` (``noise.py``): whitening by the noise covariance.
+"""
+
+from .groups import MeasurementGroup, group_times, time_blocks
 from .model import Linearisation, ObservationModel
 from .noise import NoiseModel
+from .rows import RowLayout, RowModel, nuisance_layout, resolve_models
 
-__all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel"]
+__all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout",
+           "RowModel", "group_times", "nuisance_layout", "resolve_models", "time_blocks"]

@@ -1,11 +1,14 @@
 """A group of measurement rows predicted from a filter state.
 
-The filters hold the target state ``[position, velocity]`` (see :mod:`.dynamics`) at one time
-``t``.  A row taken at another time ``t_i`` (a group may mix times, sensors and kinds) is
-predicted from the state moved there at constant velocity, ``x(t_i) = Phi(t_i - t) x(t)``; a
-range difference also needs the state at its earlier sample, moved back the same way (the
-back-propagated trajectory of 003_e5155d4fe60daef8.txt §2.3-2.4).  The measurement models of
-:mod:`tmakit.measurements` do the rest, with their analytic Jacobians.
+The filters hold the target state ``[position, velocity]`` (see :mod:`tmakit.motion.dynamics`)
+at one time ``t``.  A row taken at another time ``t_i`` (a group may mix times, sensors and
+kinds) is predicted from the state moved there at constant velocity,
+``x(t_i) = Phi(t_i - t) x(t)``; a kind with an earlier reference sample (a range difference)
+also needs the state at that sample, moved back the same way (the back-propagated trajectory of
+Chen & Sun 1993, §2.3-2.4).  The rows' own models do the rest, through the observation core
+:class:`~tmakit.observation.rows.RowModel`: predictions, analytic Jacobians and the noise
+covariance, vectorised over any leading axes of the states (particles, sigma points, sampled
+trajectories) and of the sensor states (candidate sensor poses).
 
 Nuisance parameters (carrier, power constant, ...) must be known to a filter: pass their values
 (``{"carrier": 9.4e9}``); a batch estimate gives them.
@@ -13,72 +16,93 @@ Nuisance parameters (carrier, power constant, ...) must be known to a filter: pa
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
-from ..frames import wrap_angle
-from ..measurements import MeasurementModel, model_for, range_difference_covariance
+from ..measurements import MeasurementModel
 from ..motion.dynamics import state_names
+from .noise import NoiseModel
+from .rows import RowLayout, RowModel, resolve_models
 
 Array = NDArray[np.float64]
 
+__all__ = ["TIME_TOLERANCE", "MeasurementGroup", "chain_state", "group_times",
+           "resolve_models", "target_states", "time_blocks"]
 
 #: Rows whose times differ by less than this (s) are taken at one time.
 TIME_TOLERANCE = 1e-9
 
 
-def embedding(dt: Array, dim: int) -> Array:
-    """``d rel6 / d x`` for rows ``dt`` seconds after the filter time: ``(m, 6, 2 dim)``.
-
-    The 6-vector is the (3-D) target state at the row's time; a 2-D state has z = vz = 0."""
-    dt = np.asarray(dt, dtype=float)
-    out = np.zeros((dt.shape[0], 6, 2 * dim))
-    idx = np.arange(dim)
-    out[:, idx, idx] = 1.0
-    out[:, idx, idx + dim] = dt[:, None]
-    out[:, idx + 3, idx + dim] = 1.0
+def target_states(x: Array, dt: Array, dim: int) -> Array:
+    """Target 6-vectors ``(..., m, 6)`` at ``dt`` (m,) s after filter states ``x``
+    ``(..., 2 dim)``, moved at constant velocity (m, m/s; a 2-D state has z = vz = 0)."""
+    pos, vel = x[..., None, :dim], x[..., None, dim:]
+    out = np.zeros((*x.shape[:-1], dt.shape[0], 6))
+    out[..., :dim] = pos + dt[:, None] * vel
+    out[..., 3:3 + dim] = vel
     return out
 
 
-def resolve_models(kinds: Iterable[str],
-                   options: Mapping[str, Mapping[str, object]] | None = None,
-                   nuisance: Mapping[str, float] | None = None
-                   ) -> tuple[dict[str, MeasurementModel], dict[str, Array]]:
-    """The measurement model of each kind and its nuisance vector (known values): raises a
-    clear error when a kind needs a nuisance value that was not given."""
-    options = dict(options or {})
-    models: dict[str, MeasurementModel] = {}
-    values: dict[str, Array] = {}
-    for kind in kinds:
-        model = model_for(kind, **dict(options.get(kind, {})))
-        try:
-            nu = model.nuisance_vector(dict(nuisance or {}))
-        except ValueError as err:
-            raise ValueError(
-                f"{err}: a filter needs the {kind} nuisance parameter(s) "
-                f"({', '.join(model.nuisance_names)}) as known values, e.g. from a batch "
-                "estimate (nuisance={...})") from None
-        models[kind] = model
-        values[kind] = nu
-    return models, values
+def chain_state(d: Array, dt: Array, dim: int) -> Array:
+    """``d value / d x`` ``(..., m, 2 dim)`` from ``d value / d target6`` ``(..., m, 6)``
+    at rows ``dt`` (m,) s after the filter time: the chain rule through
+    ``target6 = [pos + dt vel, vel]`` (position columns as they are, velocity columns
+    ``dt d_pos + d_vel``; a 2-D state has no z columns)."""
+    out = np.empty((*d.shape[:-1], 2 * dim))
+    out[..., :dim] = d[..., :dim]
+    out[..., dim:] = d[..., :dim] * dt[:, None] + d[..., 3:3 + dim]
+    return out
 
 
 class MeasurementGroup:
     """Rows of a :class:`~tmakit.data.MeasurementSet` to be used in one filter update at
     time ``t`` (s).
 
-    ``dim``: 2 or 3 (filter state ``2 dim`` long); ``options``: per-kind model options as for
-    :class:`~tmakit.observation.ObservationModel`; ``nuisance``: known values of the nuisance
-    parameters of the kinds present.
+    Parameters
+    ----------
+    rows : MeasurementSet
+        The rows (at least one).
+    t : float
+        The filter time, s.
+    dim : int
+        2 or 3 (filter state ``[x, y, (z), vx, vy, (vz)]``, ``2 dim`` long).
+    options : mapping, optional
+        Per-kind model options as for :class:`~tmakit.observation.ObservationModel`.
+    nuisance : mapping, optional
+        Known values of the nuisance parameters of the kinds present.
 
-    Attributes: ``rows`` (the MeasurementSet), ``time``, ``dim``, ``values`` and ``sigmas``
-    (SI), ``models``/``index``/``nuisance`` per kind, ``angle`` (rows whose residuals wrap),
-    ``dt``/``dt_ref`` (row times and reference times minus ``t``), ``covariance`` (R, SI).
+    Attributes
+    ----------
+    rows, time, dim
+        The MeasurementSet, the filter time and the dimension.
+    values, sigmas : ndarray
+        Measured values and standard deviations (m,), SI.
+    models, index, nuisance : dict
+        Per kind: the model, its rows (ascending indices), its nuisance vector.
+    angle : ndarray of bool
+        Rows whose residuals wrap.
+    dt, dt_ref : ndarray
+        Row times and reference times minus ``t`` (m,), s.
+    sensor_state : ndarray
+        The rows' sensor states (m, 6), m and m/s.
+    row_model : RowModel
+        The observation core that predicts the rows.
+    covariance : ndarray
+        R (m, m), SI.
+
+    Raises
+    ------
+    ValueError
+        Without rows, or when a nuisance value is missing.
+
+    Notes
+    -----
     :meth:`from_arrays` builds one from precomputed columns without a MeasurementSet (the
-    filters' fast path, :mod:`.compiled`); ``rows`` is then made on first use.
+    filters' fast path, :mod:`tmakit.filters.compiled`); ``rows`` is then made on first use.
+    :meth:`planned` builds one for measurements not yet made (a planner's candidates).
     """
 
     def __init__(self, rows: MeasurementSet, t: float, dim: int,
@@ -98,44 +122,104 @@ class MeasurementGroup:
                     nuisance: Mapping[str, Array], index: Mapping[str, NDArray[np.int64]],
                     values: Array, sigmas: Array, time: Array, time_ref: Array,
                     sensor_state: Array, ref_sensor_state: Array, sensor: NDArray[np.str_],
-                    rows: Callable[[], MeasurementSet]) -> MeasurementGroup:
-        """A group from columns already in SI (``models``/``nuisance`` from
-        :func:`resolve_models`, ``index`` the rows of each kind); ``rows`` makes the
-        MeasurementSet when someone asks for it."""
+                    rows: Callable[[], MeasurementSet], layout: RowLayout | None = None
+                    ) -> MeasurementGroup:
+        """A group from columns already in SI.
+
+        Parameters
+        ----------
+        t, dim
+            As for the constructor.
+        models, nuisance : mapping
+            From :func:`resolve_models`.
+        index : mapping
+            The rows of each kind (ascending indices).
+        values, sigmas, time, time_ref, sensor_state, ref_sensor_state, sensor
+            The rows' columns (SI, s, m, m/s).
+        rows : callable
+            Makes the MeasurementSet when someone asks for it.
+        layout : RowLayout, optional
+            The layout of ``models`` and ``index`` if already made (a filter run reuses one
+            per pattern of kinds).
+
+        Returns
+        -------
+        MeasurementGroup
+        """
         if len(values) == 0:
             raise ValueError("a measurement group needs at least one row")
         self = cls.__new__(cls)
-        self._setup(t, dim, dict(models), dict(nuisance), dict(index), values, sigmas, time,
-                    time_ref, sensor_state, ref_sensor_state, sensor)
+        self._setup(t, dim, models, nuisance, index, values, sigmas, time,
+                    time_ref, sensor_state, ref_sensor_state, sensor, layout)
         self._rows = None
         self._rows_factory = rows
         return self
 
-    def _setup(self, t: float, dim: int, models: dict[str, MeasurementModel],
-               nuisance: dict[str, Array], index: dict[str, NDArray[np.int64]], values: Array,
-               sigmas: Array, time: Array, time_ref: Array, sensor_state: Array,
-               ref_sensor_state: Array, sensor: NDArray[np.str_]) -> None:
+    @classmethod
+    def planned(cls, kinds: str | Sequence[str], sigmas: ArrayLike, t: float, dim: int,
+                options: Mapping[str, Mapping[str, object]] | None = None,
+                nuisance: Mapping[str, float] | None = None,
+                time_ref: ArrayLike | None = None) -> MeasurementGroup:
+        """Measurements not yet made, at the filter time ``t`` (s): one row per kind.
+
+        Their sensor states are zero placeholders, to be given to :meth:`predict`,
+        :meth:`jacobian` or :meth:`information` (``sensor_state``, e.g. candidate poses);
+        their values are NaN.
+
+        Parameters
+        ----------
+        kinds : str or sequence of str
+            The kind of each row.
+        sigmas : array_like
+            Noise standard deviations (SI: rad, m, m/s, Hz, dB), one per row.
+        t, dim, options, nuisance
+            As for the constructor.
+        time_ref : array_like, optional
+            Reference times (s) of rows whose kind uses an earlier sample.
+
+        Returns
+        -------
+        MeasurementGroup
+        """
+        names = [kinds] if isinstance(kinds, str) else list(kinds)
+        m = len(names)
+        sig = np.broadcast_to(np.asarray(sigmas, dtype=float), (m,)).copy()
+        t_ref = (np.full(m, np.nan) if time_ref is None
+                 else np.broadcast_to(np.asarray(time_ref, dtype=float), (m,)).copy())
+        models, nus = resolve_models(dict.fromkeys(names), options, nuisance)
+        kind = np.asarray(names)
+        index = {k: np.flatnonzero(kind == k) for k in models}
+        sensor = np.full(m, "planned")
+
+        def no_rows() -> MeasurementSet:
+            raise ValueError("a planned group has no measurement rows")
+
+        return cls.from_arrays(t, dim, models, nus, index, np.full(m, np.nan), sig,
+                               np.full(m, float(t)), t_ref, np.zeros((m, 6)),
+                               np.zeros((m, 6)), sensor, no_rows)
+
+    def _setup(self, t: float, dim: int, models: Mapping[str, MeasurementModel],
+               nuisance: Mapping[str, Array], index: Mapping[str, NDArray[np.int64]],
+               values: Array, sigmas: Array, time: Array, time_ref: Array,
+               sensor_state: Array, ref_sensor_state: Array, sensor: NDArray[np.str_],
+               layout: RowLayout | None = None) -> None:
         self.time = float(t)
         self.dim = int(dim)
         self.values = values
         self.sigmas = sigmas
-        self.models = models
-        self.index = index
         self.nuisance = nuisance
-        self._time = time
-        self._time_ref = time_ref
-        self._sensor_state = sensor_state
-        self._ref_sensor_state = ref_sensor_state
-        self._sensor = sensor
-        self.angle = np.zeros(len(values), dtype=bool)
-        for kind, model in models.items():
-            if model.is_angle:
-                self.angle[index[kind]] = True
+        self.row_model = RowModel(models, index, time, time_ref, sigmas, sensor,
+                                  sensor_state, ref_sensor_state, layout)
+        self.models = self.row_model.models
+        self.index = self.row_model.index
+        self.sensor_state = self.row_model.sensor_state
+        self.angle = self.row_model.angle
         self.dt = time - self.time
         self.dt_ref = time_ref - self.time
+        ref = self.row_model.reference
+        self._dt_ref_rows = None if ref is None else self.dt_ref[ref]
         self._cov: Array | None = None
-        self._emb: Array | None = None
-        self._emb_ref: Array | None = None
+        self._noise: NoiseModel | None = None
 
     @property
     def rows(self) -> MeasurementSet:
@@ -150,92 +234,82 @@ class MeasurementGroup:
 
     @property
     def covariance(self) -> Array:
-        """Noise covariance ``R`` (SI): independent rows, except range differences of one
-        sensor that share pulse intervals (003_e5155d4fe60daef8.txt eq. 1)."""
+        """Noise covariance ``R`` (m, m), SI: independent rows, except those of kinds with
+        correlated noise (range differences of one sensor that share pulse intervals,
+        Chen & Sun 1993, eq. 1)."""
         if self._cov is None:
-            r = np.diag(self.sigmas**2)
-            rd = self.index.get("range_difference")
-            if rd is not None:
-                r[np.ix_(rd, rd)] = range_difference_covariance(
-                    self._time[rd], self._time_ref[rd], self.sigmas[rd], self._sensor[rd])
-            self._cov = r
+            self._cov = self.row_model.covariance()
         return self._cov
 
     @property
-    def _embed(self) -> Array:
-        if self._emb is None:
-            self._emb = embedding(self.dt, self.dim)
-        return self._emb
+    def noise(self) -> NoiseModel:
+        """Whitening by the group's noise covariance (:class:`NoiseModel`)."""
+        if self._noise is None:
+            self._noise = NoiseModel.from_rows(self.row_model)
+        return self._noise
 
-    @property
-    def _embed_ref(self) -> Array | None:
-        rd = self.index.get("range_difference")
-        if rd is None:
-            return None
-        if self._emb_ref is None:
-            self._emb_ref = embedding(self.dt_ref[rd], self.dim)
-        return self._emb_ref
-
-    def _target6(self, x: Array, dt: Array) -> Array:
-        """Target 6-vectors ``(..., m, 6)`` at times ``t + dt`` from states ``(..., 2 dim)``."""
-        d = self.dim
-        pos, vel = x[..., None, :d], x[..., None, d:]
-        out = np.zeros((*x.shape[:-1], dt.shape[0], 6))
-        out[..., :d] = pos + dt[:, None] * vel
-        out[..., 3:3 + d] = vel
-        return out
-
-    def _relative(self, x: Array, kind: str) -> tuple[Array, Array | None]:
-        idx = self.index[kind]
-        rel = self._target6(x, self.dt[idx]) - self._sensor_state[idx]
-        rel_ref = None
-        if kind == "range_difference":
-            rel_ref = self._target6(x, self.dt_ref[idx]) - self._ref_sensor_state[idx]
-        return rel, rel_ref
-
-    def _check_state(self, x: Array) -> None:
+    def _check_state(self, x: ArrayLike) -> Array:
+        x = np.asarray(x, dtype=float)
         if x.ndim == 0 or x.shape[-1] != 2 * self.dim:
             raise ValueError(f"states must have {2 * self.dim} components "
                              f"({', '.join(state_names(self.dim))}); got shape {x.shape}")
+        return x
 
-    def predict(self, x: ArrayLike) -> Array:
+    def relative(self, x: ArrayLike, sensor_state: ArrayLike | None = None
+                 ) -> tuple[Array, Array | None]:
+        """Relative states (target minus sensor) at the rows, ``(..., m, 6)``, and at the
+        reference samples of :attr:`RowModel.reference` rows (or None), from filter states
+        ``x`` ``(..., 2 dim)`` (m, m/s); ``sensor_state`` (broadcastable to ``(..., m, 6)``)
+        replaces the rows' sensor states."""
+        x = self._check_state(x)
+        target_ref = (None if self._dt_ref_rows is None
+                      else target_states(x, self._dt_ref_rows, self.dim))
+        return self.row_model.relative(target_states(x, self.dt, self.dim), target_ref,
+                                       sensor_state)
+
+    def predict(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
         """Predicted values (SI) ``(..., m)`` for states ``(..., 2 dim)`` (particles,
-        sigma points)."""
-        x = np.asarray(x, dtype=float)
-        self._check_state(x)
-        out = np.empty((*x.shape[:-1], len(self)))
-        for kind, model in self.models.items():
-            idx = self.index[kind]
-            rel, rel_ref = self._relative(x, kind)
-            out[..., idx] = model.predict(rel, self._time[idx], self.nuisance[kind], rel_ref)
-        return out
+        sigma points); ``sensor_state`` as for :meth:`relative`."""
+        rel, rel_ref = self.relative(x, sensor_state)
+        return self.row_model.predict(rel, rel_ref, self.nuisance)
 
-    def jacobian(self, x: ArrayLike) -> Array:
-        """``d predict / d x`` ``(m, 2 dim)`` at one state ``x``."""
-        x = np.asarray(x, dtype=float)
-        self._check_state(x)
-        out = np.empty((len(self), 2 * self.dim))
-        for kind, model in self.models.items():
-            idx = self.index[kind]
-            rel, rel_ref = self._relative(x, kind)
-            jac = model.jacobian(rel, self._time[idx], self.nuisance[kind], rel_ref)
-            h = np.einsum("mi,mij->mj", jac.rel, self._embed[idx])
-            if jac.rel_ref is not None:
-                h += np.einsum("mi,mij->mj", jac.rel_ref, self._embed_ref)
-            out[idx] = h
-        return out
+    def jacobian(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
+        """``d predict / d x`` ``(..., m, 2 dim)`` at states ``x`` ``(..., 2 dim)``;
+        ``sensor_state`` as for :meth:`relative`."""
+        rel, rel_ref = self.relative(x, sensor_state)
+        d, d_ref, _ = self.row_model.jacobian(rel, rel_ref, self.nuisance)
+        h = chain_state(d, self.dt, self.dim)
+        if d_ref is not None and self._dt_ref_rows is not None:
+            ref = self.row_model.reference
+            h[..., ref, :] += chain_state(d_ref, self._dt_ref_rows, self.dim)
+        return h
+
+    def information(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
+        """The Fisher information ``H^T R^{-1} H`` ``(..., 2 dim, 2 dim)`` of the group about
+        the state, at states ``x`` ``(..., 2 dim)`` (SI: 1/m^2, s^2/m^2); ``sensor_state`` as
+        for :meth:`relative`.  Gaussian noise: Tichavský, Muravchik & Nehorai (1998),
+        eq. 13 in closed form."""
+        w = self.noise.whiten(self.jacobian(x, sensor_state), axis=-2)
+        return np.einsum("...mi,...mj->...ij", w, w)
 
     def residual(self, predicted: ArrayLike, measured: ArrayLike | None = None) -> Array:
         """``measured - predicted`` (SI), angles wrapped to (-pi, pi]; ``measured`` defaults
         to the group's values.  Broadcasts over leading axes of ``predicted``."""
-        z = self.values if measured is None else np.asarray(measured, dtype=float)
-        diff = z - np.asarray(predicted, dtype=float)
-        return np.where(self.angle, wrap_angle(diff), diff)
+        z = self.values if measured is None else measured
+        return self.row_model.residual(z, predicted)
+
+
+def time_blocks(time: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
+    """Rows grouped by time: ``(order, bounds)`` with ``order`` the rows sorted by time
+    (stable) and update ``k`` the rows ``order[bounds[k]:bounds[k + 1]]`` (times within
+    :data:`TIME_TOLERANCE` s of the previous row are one time)."""
+    t = np.asarray(time, dtype=float)
+    order = np.argsort(t, kind="stable")
+    breaks = np.flatnonzero(np.diff(t[order]) > TIME_TOLERANCE) + 1
+    return order, np.concatenate([[0], breaks, [t.shape[0]]]).astype(np.int64)
 
 
 def group_times(meas: MeasurementSet) -> list[NDArray[np.int64]]:
     """Row indices of ``meas`` grouped by measurement time (ascending)."""
-    order = np.argsort(meas.time, kind="stable")
-    t = meas.time[order]
-    breaks = np.flatnonzero(np.diff(t) > TIME_TOLERANCE) + 1
-    return np.split(order, breaks)
+    order, bounds = time_blocks(meas.time)
+    return np.split(order, bounds[1:-1])

@@ -25,6 +25,7 @@ from ..data import MeasurementSet
 from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
+from .rows import RowModel, nuisance_layout
 
 Array = NDArray[np.float64]
 
@@ -47,13 +48,7 @@ class ObservationModel:
             k: model_for(k, **dict(options.get(k, {}))) for k in meas.kinds
         }
         self.rows = {k: np.flatnonzero(meas.kind == k) for k in self.models}
-        names: list[str] = []
-        self.nuisance_slices: dict[str, slice] = {}
-        for k, m in self.models.items():
-            start = len(names)
-            names.extend(m.nuisance_names)
-            self.nuisance_slices[k] = slice(start, len(names))
-        self.nuisance_names = tuple(names)
+        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
         # Rows grouped by kind: each kind a contiguous slice of the grouped order.
         self.order = (np.concatenate([self.rows[k] for k in self.models])
                       if self.models else np.zeros(0, dtype=int))
@@ -68,24 +63,28 @@ class ObservationModel:
         g = self.grouped
         self._time = g.time
         self._sensor = g.sensor_state
-        self._ref = self.slices.get("range_difference")
-        self.has_reference = self._ref is not None
-        self.angle_mask_grouped = np.zeros(len(meas), dtype=bool)
-        for k, m in self.models.items():
-            if m.is_angle:
-                self.angle_mask_grouped[self.slices[k]] = True
-        self.angle_mask = self.angle_mask_grouped[self.inverse]
         self.values, self.sigmas = meas.si()
         self.values_grouped = self.values[self.order]
         self.sigmas_grouped = self.sigmas[self.order]
+        self._set_row_model()
+        self.angle_mask = self.angle_mask_grouped[self.inverse]
         # Affine motion models: relative states by one matrix product (see _states_minus).
         self._rel_map = self._relative_map(self._time, self._sensor)
         self._rel_map_ref = (None if self._ref is None else self._relative_map(
             g.time_ref[self._ref], g.ref_sensor_state[self._ref]))
         self._const_design: Array | None = None
-        # Per kind, what a linearisation needs: (kind, model, rows, nuisance columns, times).
-        self._parts = [(k, m, self.slices[k], self.nuisance_slices[k], g.time[self.slices[k]])
-                       for k, m in self.models.items()]
+
+    def _set_row_model(self) -> None:
+        """The observation core of the grouped rows (each kind a slice): predictions,
+        designs and their derivatives per kind, through the kinds' hooks."""
+        g = self.grouped
+        self.row_model = RowModel(self.models, self.slices, self._time, g.time_ref,
+                                  self.sigmas_grouped, g.sensor, self._sensor,
+                                  g.ref_sensor_state)
+        #: The rows of kinds with an earlier reference sample (a slice of the grouped order).
+        self._ref = self.row_model.reference_slice
+        self.has_reference = self._ref is not None
+        self.angle_mask_grouped = self.row_model.angle
 
     def take(self, index: ArrayLike) -> ObservationModel:
         """The model of the rows ``index`` of the set (integer indices or a boolean mask, as
@@ -116,18 +115,14 @@ class ObservationModel:
         grouped_already = np.array_equal(order, np.arange(order.size))
         sub.grouped = meas if grouped_already else meas.take(order)
         sub._time, sub._sensor = sub.grouped.time, sub.grouped.sensor_state
-        sub._ref = sub.slices.get("range_difference")
-        sub.has_reference = sub._ref is not None
-        sub.angle_mask_grouped = self.angle_mask_grouped[pick]
-        sub.angle_mask = sub.angle_mask_grouped[sub.inverse]
         sub.values, sub.sigmas = self.values[idx], self.sigmas[idx]
         sub.values_grouped, sub.sigmas_grouped = sub.values[order], sub.sigmas[order]
+        sub._set_row_model()
+        sub.angle_mask = sub.angle_mask_grouped[sub.inverse]
         sub._rel_map = _take_map(self._rel_map, pick)
         sub._rel_map_ref = (None if sub._ref is None
                             else _take_map(self._rel_map_ref, pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
-        sub._parts = [(k, m, sub.slices[k], sub.nuisance_slices[k], sub._time[sub.slices[k]])
-                      for k, m in sub.models.items()]
         return sub
 
     @property
@@ -185,23 +180,12 @@ class ObservationModel:
                                          self._rel_map_ref, batch_inner)
         return rel, rel_ref
 
-    def _ref_for(self, kind: str, rel_ref: Array | None) -> Array | None:
-        return rel_ref if kind == "range_difference" else None
-
     @property
     def const_design(self) -> Array:
         """``A_const`` ``(n, k)`` in grouped order: the part of the nuisance design that does
         not depend on the geometry (carrier columns ``1``, ``t``), computed once."""
         if self._const_design is None:
-            n, k = len(self.meas), self.n_nuisance
-            out = np.zeros((n, k))
-            rel = np.ones((n, 6))  # any finite geometry: A_const does not depend on it
-            for kind, m in self.models.items():
-                sl, ns = self.slices[kind], self.nuisance_slices[kind]
-                if ns.stop > ns.start:
-                    ref = rel[sl] if kind == "range_difference" else None
-                    out[sl, ns] = m.affine_parts(rel[sl], self._time[sl], ref)[1]
-            self._const_design = out
+            self._const_design = self.row_model.const_design()
         return self._const_design
 
     def linearisation(self, theta: ArrayLike, derivatives: bool = True) -> Linearisation:
@@ -226,19 +210,8 @@ class ObservationModel:
             lin.d_h0 = np.zeros((*batch, 6, n)).swapaxes(-1, -2)
             if rel_ref is not None:
                 lin.d_h0_ref = np.zeros_like(rel_ref)
-        for kind, m, sl, ns, t in self._parts:
-            r_k, ref_k = rel[..., sl, :], self._ref_for(kind, rel_ref)
-            if not derivatives:
-                h0[..., sl], _, a_var[..., sl, ns] = m.affine_parts(r_k, t, ref_k)
-                continue
-            base, _, v, d0, d0_ref, da, da_ref = m.affine_derivatives(r_k, t, ref_k)
-            h0[..., sl], a_var[..., sl, ns] = base, v
-            if d0 is not None:
-                lin.d_h0[..., sl, :] = d0
-            if d0_ref is not None:
-                lin.d_h0_ref[...] = d0_ref
-            if ns.stop > ns.start and (da is not None or da_ref is not None):
-                lin.d_a.append((kind, da, da_ref))
+        lin.d_a = self.row_model.linearise_into(rel, rel_ref, h0, a_var, lin.d_h0,
+                                                lin.d_h0_ref)
         return lin
 
     def linearise_grouped(self, theta: ArrayLike, derivatives: bool = True
@@ -264,13 +237,7 @@ class ObservationModel:
         theta = np.asarray(theta, dtype=float)
         nu = np.zeros(0) if nuisance is None else np.asarray(nuisance, dtype=float)
         rel, rel_ref = self._relative(theta)
-        out = np.empty(rel.shape[:-1])
-        t = self._time
-        for k, m in self.models.items():
-            sl, ns = self.slices[k], self.nuisance_slices[k]
-            out[..., sl] = m.predict(rel[..., sl, :], t[sl], nu[..., ns][..., None, :],
-                                     self._ref_for(k, rel_ref))
-        return out
+        return self.row_model.predict(rel, rel_ref, nu)
 
     def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                          ) -> tuple[Array, Array]:
@@ -356,7 +323,7 @@ class Linearisation:
                 if da is not None:
                     d[..., sl, :] += da[..., j, :] * w
                 if da_ref is not None and d_ref is not None:
-                    d_ref += da_ref[..., j, :] * w
+                    d_ref[..., obs.row_model.reference_rows(kind), :] += da_ref[..., j, :] * w
         motion = obs.motion
         jac = motion.chain(d, self.theta, obs._time)
         if d_ref is not None:

@@ -1,40 +1,69 @@
 """The measurement noise covariance of a measurement set, and whitening by it.
 
-Most rows are independent with their own sigma.  Range differences of one sensor that share
-pulse intervals are correlated (003_e5155d4fe60daef8.txt eq. 1: one noise term per interval); their
-block is dense and whitened with its eigen-decomposition.
+Most rows are independent with their own sigma.  Kinds with correlated noise declare it
+through their hooks (:attr:`~tmakit.measurements.MeasurementModel.correlated_noise`,
+:meth:`~tmakit.measurements.MeasurementModel.noise_covariance`): range differences of one
+sensor that share pulse intervals (Chen & Sun 1993, eq. 1: one noise term per interval).  Their
+blocks are dense and whitened with their eigen-decomposition.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..data import MeasurementSet
-from ..measurements import range_difference_covariance
+from ..measurements import KINDS, MeasurementModel, model_for
+from .rows import RowModel, correlated_blocks
 
 
 class NoiseModel:
     """Whitening ``x -> W x`` with ``W^T W = R^+`` for the noise covariance ``R`` (SI units).
 
-    Range differences that share pulse intervals have a dense covariance block, whitened with
-    its eigen-decomposition.  Sets that repeat information (a lag-2 difference next to the two
-    lag-1 differences it is the sum of) have a singular block: the repeated combinations get
-    zero weight and :attr:`rank` counts the independent rows (use it for degrees of freedom).
+    Correlated rows (range differences that share pulse intervals) have a dense covariance
+    block, whitened with its eigen-decomposition.  Sets that repeat information (a lag-2
+    difference next to the two lag-1 differences it is the sum of) have a singular block: the
+    repeated combinations get zero weight and :attr:`rank` counts the independent rows (use it
+    for degrees of freedom).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The rows (their sigmas, kinds, sensors, times and reference times are used).
+    models : mapping, optional
+        The kinds' models (default: each correlated kind's model with default options).
     """
 
-    def __init__(self, meas: MeasurementSet) -> None:
-        sigma = meas.sigma_si
-        self.n = len(meas)
+    def __init__(self, meas: MeasurementSet,
+                 models: Mapping[str, MeasurementModel] | None = None) -> None:
+        chosen: dict[str, MeasurementModel] = {}
+        index: dict[str, NDArray[np.intp]] = {}
+        for kind, cls in KINDS.items():
+            rows = np.flatnonzero(meas.kind == kind) if cls.correlated_noise else ()
+            if len(rows):
+                chosen[kind] = (models[kind] if models is not None and kind in models
+                                else model_for(kind))
+                index[kind] = rows
+        self._setup(meas.sigma_si, correlated_blocks(chosen, index, meas.time, meas.time_ref,
+                                                     meas.sigma_si, meas.sensor))
+
+    @classmethod
+    def from_rows(cls, rows: RowModel) -> NoiseModel:
+        """The noise model of a :class:`~tmakit.observation.rows.RowModel`'s rows."""
+        out = object.__new__(cls)
+        out._setup(rows.sigma, rows.correlated_blocks())
+        return out
+
+    def _setup(self, sigma: NDArray[np.float64],
+               blocks: list[tuple[NDArray[np.intp], NDArray[np.float64]]]) -> None:
+        self.n = sigma.shape[0]
         self.inv_sigma = 1.0 / sigma
-        self.blocks: list[tuple[NDArray[np.int64], NDArray[np.float64]]] = []
+        self.blocks: list[tuple[NDArray[np.intp], NDArray[np.float64]]] = []
         self.rank = self.n
         self.log_det = float(2.0 * np.sum(np.log(sigma)))
-        rd = meas.kind == "range_difference"
-        for s in np.unique(meas.sensor[rd]) if rd.any() else ():
-            rows = np.flatnonzero(rd & (meas.sensor == s))
-            cov = range_difference_covariance(meas.time[rows], meas.time_ref[rows],
-                                              sigma[rows])
+        for rows, cov in blocks:
             if np.count_nonzero(cov - np.diag(np.diag(cov))) == 0:
                 continue  # no shared intervals: the diagonal is exact
             evals, evecs = np.linalg.eigh(cov)
@@ -52,13 +81,7 @@ class NoiseModel:
         """The model of independent rows with standard deviations ``sigma`` (SI): what the
         constructor makes for a set without correlated range differences, without the set."""
         out = object.__new__(cls)
-        sigma = np.asarray(sigma, dtype=float)
-        out.n = sigma.shape[0]
-        out.inv_sigma = 1.0 / sigma
-        out.blocks = []
-        out.rank = out.n
-        out.log_det = float(2.0 * np.sum(np.log(sigma)))
-        out.correlated = False
+        out._setup(np.asarray(sigma, dtype=float), [])
         return out
 
     def whiten(self, x: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:

@@ -1,0 +1,330 @@
+"""The posterior CRB as a recursion object: Bayesian information that is predicted through the
+dynamics and updated with measurement information, one step at a time.
+
+For nearly-constant-velocity dynamics ``x_{k+1} = F x_k + w_k``, ``w_k ~ N(0, Q_k)`` and
+measurements ``z_k = h_k(x_k) + v_k``, ``v_k ~ N(0, R_k)``, the Bayesian information about
+the state obeys the recursion of Tichavský, Muravchik & Nehorai (1998), eqs. 10-11 (in the form
+of Hurtado & Nehorai 2008 for additive Gaussian noise):
+
+    J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1},
+    Gamma_{k+1} = E_x[ H_{k+1}(x)^T R_{k+1}^{-1} H_{k+1}(x) ].
+
+:class:`PosteriorInformation` holds ``J`` (any leading axes: the Monte Carlo batches of
+:func:`~tmakit.bounds.posterior_crb`) and the target-state sample (or the mean) over which
+``Gamma`` is averaged; :meth:`~PosteriorInformation.predict` is the first term,
+:meth:`~PosteriorInformation.update` adds the second, and
+:meth:`~PosteriorInformation.expected_information` gives ``Gamma`` for many candidate sensor
+states at once, so that a planner can ask "what would the bound be if the sensor were here
+next" without a loop over candidates.
+
+**Numerics.**  The prediction is computed in information form: with ``A = F^{-T} J F^{-1}``
+(``F^{-1}`` is the transition backwards in time, exact) and ``Q = G G^T``,
+``(Q + A^{-1})^{-1} = A - A G (I + G^T A G)^{-1} G^T A`` (Woodbury).  ``I + G^T A G >= I`` is
+always invertible, so there is no inverse of ``J`` or of ``Q`` (singular for NCV) and the step
+reduces exactly to ``F^{-T} J F^{-1}`` when ``Q = 0``; nothing can raise a ``LinAlgError``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..linalg import symmetrise
+from ..motion.dynamics import NearlyConstantVelocity
+from ..observation import MeasurementGroup
+
+Array = NDArray[np.float64]
+
+#: A prediction over less than this (s) is no step (the state stays where it is).
+MIN_STEP = 1e-12
+#: The states of :meth:`PosteriorInformation.expected_information` must be at the group's
+#: time within this (s).
+TIME_MATCH = 1e-6
+
+
+def noise_factor(q_mat: Array) -> Array:
+    """``G`` (n, r) with ``G G^T = Q`` (eigen-decomposition; rounding negatives dropped).
+
+    Parameters
+    ----------
+    q_mat : ndarray
+        A process-noise covariance (n, n), SI.
+
+    Returns
+    -------
+    ndarray
+        (n, r), ``r`` the number of eigenvalues above ``1e-14`` of the largest (may be 0).
+    """
+    evals, evecs = np.linalg.eigh(symmetrise(q_mat))
+    top = float(evals.max()) if evals.size else 0.0
+    if top <= 0.0:
+        return np.zeros((q_mat.shape[0], 0))
+    keep = evals > 1e-14 * top
+    return evecs[:, keep] * np.sqrt(evals[keep])
+
+
+def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
+    """Information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}`` with ``Q = G G^T``,
+    in the Woodbury form that never inverts ``J`` or ``Q`` (see the module docstring).
+
+    Parameters
+    ----------
+    info : ndarray
+        ``J`` (..., n, n), SI.
+    f_inv : ndarray
+        ``F^{-1}`` (n, n).
+    g : ndarray
+        ``G`` (n, r) with ``G G^T = Q``; ``r`` may be 0.
+
+    Returns
+    -------
+    ndarray
+        The predicted information (..., n, n).
+    """
+    a = symmetrise(f_inv.T @ info @ f_inv)
+    if g.shape[1] == 0:
+        return a
+    ag = a @ g
+    s = np.eye(g.shape[1]) + g.T @ ag  # >= I: Cholesky always succeeds
+    chol = np.linalg.cholesky(symmetrise(s))
+    half = np.linalg.solve(chol, np.swapaxes(ag, -1, -2))  # L^{-1} G^T A
+    return symmetrise(a - np.swapaxes(half, -1, -2) @ half)
+
+
+def information_inverse(info: Array) -> Array:
+    """Inverse of symmetric positive-definite information matrices ``(..., n, n)``.
+
+    Computed in coordinates normalised by the diagonal (units do not matter); eigenvalues
+    that rounding pushed to or below zero are floored at ``n * eps`` of the largest.
+
+    Parameters
+    ----------
+    info : ndarray
+        (..., n, n), SI.
+
+    Returns
+    -------
+    ndarray
+        (..., n, n) covariances, SI.
+    """
+    d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
+    norm = info / (d[..., :, None] * d[..., None, :])
+    evals, evecs = np.linalg.eigh(symmetrise(norm))
+    floor = info.shape[-1] * np.finfo(float).eps * np.max(evals, axis=-1, keepdims=True)
+    evals = np.maximum(evals, floor)
+    inv = (evecs / evals[..., None, :]) @ np.swapaxes(evecs, -1, -2)
+    return symmetrise(inv / (d[..., :, None] * d[..., None, :]))
+
+
+class PosteriorInformation:
+    """One state of the Tichavský recursion: the Bayesian information ``J`` about the target
+    state ``[x, y, (z), vx, vy, (vz)]`` at :attr:`time`, and the target states over which
+    the measurement information is averaged.
+
+    Objects are immutable: :meth:`predict` and :meth:`update` return new ones (a planner can
+    branch from one state).
+
+    Parameters
+    ----------
+    information : array_like
+        ``J`` (..., n, n), SI (1/m^2, s^2/m^2); leading axes are independent recursions over
+        the same states (the Monte Carlo batches of :func:`~tmakit.bounds.posterior_crb`).
+    dynamics : NearlyConstantVelocity
+        The target dynamics (``dim`` and ``q``).
+    time : float
+        The time of ``information`` and ``states``, s.
+    states : array_like, optional
+        Target states (N, n) at ``time`` (a sample drawn from the prior, or the mean as
+        (1, n)); moved by :meth:`predict`.  Needed by :meth:`state_information` and
+        :meth:`expected_information` unless given there.
+    rng : numpy.random.Generator, optional
+        When given, :meth:`predict` adds process noise drawn from it to ``states`` (sampled
+        trajectories); otherwise the states move deterministically.
+
+    References
+    ----------
+    Tichavský, Muravchik & Nehorai (1998), eqs. 10-11 and 13.
+    """
+
+    def __init__(self, information: ArrayLike, dynamics: NearlyConstantVelocity,
+                 time: float = 0.0, states: ArrayLike | None = None,
+                 rng: np.random.Generator | None = None,
+                 _steps: dict[float, tuple[Array, Array, Array]] | None = None) -> None:
+        self.information = np.asarray(information, dtype=float)
+        n = 2 * dynamics.dim
+        if self.information.shape[-2:] != (n, n):
+            raise ValueError(f"information must be ({n}, {n}) for a {dynamics.dim}-D state; "
+                             f"got shape {self.information.shape}")
+        self.dynamics = dynamics
+        self.time = float(time)
+        self.states = None if states is None else np.atleast_2d(np.asarray(states, float))
+        self.rng = rng
+        self._steps = {} if _steps is None else _steps  # dt (rounded) -> F, F^-1, G
+
+    @classmethod
+    def from_prior(cls, prior_cov: ArrayLike, dynamics: NearlyConstantVelocity,
+                   time: float = 0.0, states: ArrayLike | None = None,
+                   rng: np.random.Generator | None = None) -> PosteriorInformation:
+        """The recursion's start, ``J_0 = P_0^{-1}``.
+
+        Parameters
+        ----------
+        prior_cov : array_like
+            ``P_0`` (n, n), SI, symmetric positive definite.
+        dynamics, time, states, rng
+            As for the constructor.
+
+        Returns
+        -------
+        PosteriorInformation
+        """
+        return cls(information_inverse(np.asarray(prior_cov, dtype=float)), dynamics, time,
+                   states, rng)
+
+    @property
+    def dim(self) -> int:
+        """2 or 3."""
+        return int(self.dynamics.dim)
+
+    def _replace(self, information: Array, time: float, states: Array | None
+                 ) -> PosteriorInformation:
+        return PosteriorInformation(information, self.dynamics, time, states, self.rng,
+                                    self._steps)
+
+    def _step(self, dt: float) -> tuple[Array, Array, Array]:
+        key = round(dt, 9)
+        if key not in self._steps:
+            self._steps[key] = (self.dynamics.transition(dt), self.dynamics.transition(-dt),
+                                noise_factor(self.dynamics.noise(dt)))
+        return self._steps[key]
+
+    def predict(self, dt: float) -> PosteriorInformation:
+        """The information ``dt`` seconds later, ``(Q + F J^{-1} F^T)^{-1}``; the states
+        move with the dynamics (plus process noise when sampling).  A step below
+        :data:`MIN_STEP` s changes nothing.
+
+        Parameters
+        ----------
+        dt : float
+            Time step, s (> 0).
+
+        Returns
+        -------
+        PosteriorInformation
+        """
+        return self.predict_to(self.time + float(dt))
+
+    def predict_to(self, time: float) -> PosteriorInformation:
+        """:meth:`predict` to the absolute ``time`` (s)."""
+        dt = float(time) - self.time
+        if dt < -MIN_STEP:
+            raise ValueError(f"cannot predict backwards (from t={self.time} s to t={time} s)")
+        if dt <= MIN_STEP:
+            return self
+        f, f_inv, g = self._step(dt)
+        states = None
+        if self.states is not None:
+            states = self.states @ f.T
+            if self.rng is not None and g.shape[1]:
+                states = states + self.rng.standard_normal((states.shape[0], g.shape[1])) @ g.T
+        return self._replace(predict_information(self.information, f_inv, g), float(time),
+                             states)
+
+    def update(self, information: ArrayLike) -> PosteriorInformation:
+        """``J + Gamma``: the information after a measurement update.
+
+        Parameters
+        ----------
+        information : array_like
+            ``Gamma`` (..., n, n), broadcastable to :attr:`information` (e.g. from
+            :meth:`expected_information`; a (C, n, n) stack gives C candidate updates).
+
+        Returns
+        -------
+        PosteriorInformation
+        """
+        return self._replace(symmetrise(self.information + np.asarray(information, float)),
+                             self.time, self.states)
+
+    @property
+    def covariance(self) -> Array:
+        """``J^{-1}`` (..., n, n), SI: the bound on the state's mean-square error matrix."""
+        return information_inverse(self.information)
+
+    @property
+    def position_rms(self) -> Array:
+        """The bound on the RMS position error (...,), m: root of the trace of the position
+        block of :attr:`covariance`."""
+        cov = self.covariance[..., :self.dim, :self.dim]
+        return np.sqrt(np.clip(np.einsum("...ii->...", cov), 0.0, None))
+
+    def _states_for(self, group: MeasurementGroup, states: ArrayLike | None) -> Array:
+        if group.dim != self.dim:
+            raise ValueError(f"the group is for a {group.dim}-D state, the recursion for "
+                             f"{self.dim}-D")
+        x = self.states if states is None else np.atleast_2d(np.asarray(states, float))
+        if x is None:
+            raise ValueError("no target states: give states here or to the constructor")
+        if states is None and abs(group.time - self.time) > TIME_MATCH:
+            raise ValueError(f"the group is at t={group.time} s, the states at "
+                             f"t={self.time} s: predict to the group's time first")
+        return x
+
+    def state_information(self, group: MeasurementGroup, states: ArrayLike | None = None
+                          ) -> Array:
+        """The Fisher information of ``group`` at each target state (N, n, n), SI
+        (Tichavský et al. 1998, eq. 13, Gaussian noise).
+
+        Parameters
+        ----------
+        group : MeasurementGroup
+            The measurements of the next update, at :attr:`time`.
+        states : array_like, optional
+            Target states (N, n) (default: :attr:`states`).
+
+        Returns
+        -------
+        ndarray
+            (N, n, n); their mean is ``Gamma``.
+        """
+        return group.information(self._states_for(group, states))
+
+    def expected_information(self, candidate_sensor_states: ArrayLike,
+                             group: MeasurementGroup, states: ArrayLike | None = None
+                             ) -> Array:
+        """``Gamma`` for each candidate sensor state: the expected measurement information
+        the group's measurements would bring if they were made from there.
+
+        Vectorised over candidates and states (no Python loop over either).
+
+        Parameters
+        ----------
+        candidate_sensor_states : array_like
+            (C, 6) sensor states ``[x, y, z, vx, vy, vz]`` (m, m/s, ENU) at the group's
+            time, one per candidate, used for every row of the group; or (C, m, 6), one per
+            row.  Reference samples (range differences) keep their recorded sensor states.
+        group : MeasurementGroup
+            The measurements to plan (e.g. :meth:`MeasurementGroup.planned`), at
+            :attr:`time`.
+        states : array_like, optional
+            Target states (N, n) or (n,) to average over (default: :attr:`states`).
+
+        Returns
+        -------
+        ndarray
+            (C, n, n), SI.
+
+        Raises
+        ------
+        ValueError
+            On shapes that do not fit, or states at another time than the group's.
+        """
+        x = self._states_for(group, states)
+        cand = np.asarray(candidate_sensor_states, dtype=float)
+        if cand.ndim == 2 and cand.shape[-1] == 6:
+            cand = cand[:, None, :]
+        if cand.ndim != 3 or cand.shape[-1] != 6 or cand.shape[1] not in (1, len(group)):
+            raise ValueError(f"candidate_sensor_states must be (C, 6) or (C, {len(group)}, 6);"
+                             f" got shape {np.shape(candidate_sensor_states)}")
+        xi = group.information(x, cand[:, None, :, :])  # (C, N, n, n)
+        return xi.mean(axis=1)

@@ -1,0 +1,444 @@
+"""Rows of several kinds, each predicted by its measurement model: the core of the
+observation layer.
+
+A :class:`RowModel` holds the per-row columns of a block of measurement rows (times,
+reference times, sigmas, sensor ids and states, all SI) and, per kind present, its
+:class:`~tmakit.measurements.MeasurementModel` and the rows of that kind.  From relative
+states (target minus sensor) it gives
+
+* predictions and their Jacobians with respect to the relative states (and the nuisance
+  parameters), vectorised over rows and over any leading batch axes of the relative states
+  (particles, sigma points, grid candidates, candidate sensor poses);
+* the noise covariance, with the correlated blocks that a kind declares through its
+  :meth:`~tmakit.measurements.MeasurementModel.noise_covariance` hook (range differences that
+  share pulse intervals, Chen & Sun 1993, eq. 1);
+* the nuisance structure: each kind's nuisance parameters and their columns in the
+  concatenated nuisance vector.
+
+Nothing here names a kind: every special case is a hook on the kind (``uses_reference``,
+``is_angle``, ``correlated_noise``), so a new kind needs no change in this layer.
+:class:`~tmakit.observation.MeasurementGroup` (filters, PCRB) and
+:class:`~tmakit.observation.ObservationModel` (batch estimators, CRLB) build on it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..frames import wrap_angle
+from ..measurements import MeasurementModel, model_for
+
+Array = NDArray[np.float64]
+#: The rows of one kind: integer indices or a slice.
+Index = NDArray[np.intp] | slice
+
+
+def resolve_models(kinds: Iterable[str],
+                   options: Mapping[str, Mapping[str, object]] | None = None,
+                   nuisance: Mapping[str, float] | None = None
+                   ) -> tuple[dict[str, MeasurementModel], dict[str, Array]]:
+    """The measurement model of each kind and its nuisance vector (known values).
+
+    Parameters
+    ----------
+    kinds : iterable of str
+        The kinds present.
+    options : mapping, optional
+        Per-kind model options (``{"frequency": {"drift": True}}``).
+    nuisance : mapping, optional
+        Known nuisance values by name (Hz, dB, ...).
+
+    Returns
+    -------
+    models, values : dict, dict
+        The model and the nuisance vector (in its ``nuisance_names`` order) of each kind.
+
+    Raises
+    ------
+    ValueError
+        When a kind needs a nuisance value that was not given.
+    """
+    options = dict(options or {})
+    models: dict[str, MeasurementModel] = {}
+    values: dict[str, Array] = {}
+    for kind in kinds:
+        model = model_for(kind, **dict(options.get(kind, {})))
+        try:
+            nu = model.nuisance_vector(dict(nuisance or {}))
+        except ValueError as err:
+            raise ValueError(
+                f"{err}: a filter needs the {kind} nuisance parameter(s) "
+                f"({', '.join(model.nuisance_names)}) as known values, e.g. from a batch "
+                "estimate (nuisance={...})") from None
+        models[kind] = model
+        values[kind] = nu
+    return models, values
+
+
+def nuisance_layout(models: Mapping[str, MeasurementModel]
+                    ) -> tuple[tuple[str, ...], dict[str, slice]]:
+    """The nuisance structure of several kinds: the names of the concatenated nuisance
+    vector (each kind's ``nuisance_names`` in kind order) and each kind's slice of it."""
+    names: list[str] = []
+    slices: dict[str, slice] = {}
+    for kind, model in models.items():
+        start = len(names)
+        names.extend(model.nuisance_names)
+        slices[kind] = slice(start, len(names))
+    return tuple(names), slices
+
+
+def as_slice(index: Index) -> Index:
+    """Ascending integer ``index`` that is a run of consecutive rows as the equal slice
+    (indexing by it gives a view); anything else unchanged."""
+    if isinstance(index, slice):
+        return index
+    idx = np.asarray(index)
+    if idx.ndim == 1 and idx.size and int(idx[-1]) - int(idx[0]) + 1 == idx.size:
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return index
+
+
+def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, slice]
+                   ) -> slice | None:
+    """For rows grouped by kind (each kind a slice), the slice covering every kind that uses
+    an earlier reference sample (None when no kind does)."""
+    spans = [slices[k] for k, m in models.items() if m.uses_reference]
+    if not spans:
+        return None
+    return slice(min(s.start for s in spans), max(s.stop for s in spans))
+
+
+class RowLayout:
+    """Where each kind's rows sit in a block of ``m`` rows, and what follows from the kinds
+    alone: the rows whose residuals wrap, the reference rows and the nuisance structure.
+
+    It depends only on the kinds and their rows, not on the values, so blocks with the same
+    pattern (the updates of a filter run) share one (treat its arrays as read-only).
+
+    Parameters
+    ----------
+    models : mapping
+        The measurement model of each kind present.
+    index : mapping
+        The rows of each kind (ascending integer indices, or slices).
+    m : int
+        The number of rows.
+    """
+
+    def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                 m: int) -> None:
+        self.models = dict(models)
+        self.index = dict(index)
+        # Where a kind's rows sit: all rows (one kind), or its index; contiguous rows as a
+        # slice (a view instead of a copy of the relative states).
+        self.take: dict[str, Index] = ({k: slice(None) for k in self.models}
+                                       if len(self.models) == 1 else
+                                       {k: as_slice(i) for k, i in self.index.items()})
+        self.angle = np.zeros(m, dtype=bool)
+        for kind, model in self.models.items():
+            if model.is_angle:
+                self.angle[self.index[kind]] = True
+        self.ref_take: dict[str, slice] = {}
+        #: Rows grouped by kind (every index a slice): the span of the reference kinds.
+        self.reference_slice: slice | None = None
+        self.reference: NDArray[np.intp] | None = None
+        if all(isinstance(i, slice) for i in self.index.values()):
+            span = reference_span(self.models, self.index)  # type: ignore[arg-type]
+            if span is not None:
+                self.reference_slice = span
+                self.reference = np.arange(span.start, span.stop)
+                for kind, model in self.models.items():
+                    sl = self.index[kind]
+                    if model.uses_reference and isinstance(sl, slice):
+                        self.ref_take[kind] = slice(sl.start - span.start,
+                                                    sl.stop - span.start)
+        else:
+            refs: list[NDArray[np.intp]] = []
+            for kind, model in self.models.items():
+                if model.uses_reference:
+                    rows = np.arange(m)[self.index[kind]]
+                    start = sum(r.size for r in refs)
+                    self.ref_take[kind] = slice(start, start + rows.size)
+                    refs.append(rows)
+            self.reference = np.concatenate(refs) if refs else None
+        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
+
+
+class RowModel:
+    """Rows of several kinds predicted by their measurement models.
+
+    Parameters
+    ----------
+    models : mapping
+        The measurement model of each kind present.
+    index : mapping
+        The rows of each kind (integer indices, ascending, or a slice); together they cover
+        the ``m`` rows once.
+    time, time_ref : array_like
+        Row times and reference times (m,), s (``time_ref`` used by kinds with
+        ``uses_reference``).
+    sigma : array_like
+        Noise standard deviations (m,), SI.
+    sensor : array_like
+        Sensor ids (m,).
+    sensor_state, ref_sensor_state : array_like
+        Sensor states ``[x, y, z, vx, vy, vz]`` (m, 6), m and m/s, at the rows' times and at
+        their reference times.
+    layout : RowLayout, optional
+        The layout of ``models`` and ``index`` if already made (shared by blocks with the
+        same pattern; ``models`` and ``index`` are then not used).
+
+    Attributes
+    ----------
+    angle : ndarray of bool
+        Rows whose residuals wrap to (-pi, pi].
+    reference : ndarray of int or None
+        The rows of kinds with ``uses_reference``, in kind order (None without such rows);
+        arrays "at the reference samples" have one entry per element of it.
+    nuisance_names, nuisance_slices
+        The nuisance structure (:func:`nuisance_layout`).
+    """
+
+    def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                 time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike, sensor: ArrayLike,
+                 sensor_state: ArrayLike, ref_sensor_state: ArrayLike,
+                 layout: RowLayout | None = None) -> None:
+        self.time = np.asarray(time, dtype=float)
+        self.time_ref = np.asarray(time_ref, dtype=float)
+        self.sigma = np.asarray(sigma, dtype=float)
+        self.sensor = np.asarray(sensor)
+        self.sensor_state = np.asarray(sensor_state, dtype=float)
+        self.ref_sensor_state = np.asarray(ref_sensor_state, dtype=float)
+        if layout is None:
+            layout = RowLayout(models, index, self.time.shape[0])
+        self.layout = layout
+        self.models, self.index = layout.models, layout.index
+        self._take, self._ref_take = layout.take, layout.ref_take
+        self.angle, self.reference = layout.angle, layout.reference
+        self.reference_slice = layout.reference_slice
+        self.nuisance_names, self.nuisance_slices = layout.nuisance_names, layout.nuisance_slices
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+    def _nuisance(self, kind: str, nuisance: Mapping[str, Array] | Array | None
+                  ) -> Array | None:
+        if nuisance is None:
+            return None
+        if isinstance(nuisance, dict):  # (dict, not Mapping: this runs once per kind and step)
+            return nuisance[kind]
+        return nuisance[..., self.nuisance_slices[kind]][..., None, :]
+
+    # -- relative states ---------------------------------------------------------------------
+    def relative(self, target: Array, target_ref: Array | None = None,
+                 sensor_state: ArrayLike | None = None) -> tuple[Array, Array | None]:
+        """Relative states from target states.
+
+        Parameters
+        ----------
+        target : ndarray
+            Target states (..., m, 6) at the rows' times, m and m/s.
+        target_ref : ndarray, optional
+            Target states (..., len(reference), 6) at the reference times of the
+            :attr:`reference` rows.
+        sensor_state : array_like, optional
+            Sensor states broadcastable to (..., m, 6) in place of the recorded ones (e.g.
+            candidate sensor poses on a leading axis); the reference samples keep their
+            recorded sensor states.
+
+        Returns
+        -------
+        rel, rel_ref : ndarray, ndarray or None
+            Target minus sensor at the rows and at the reference samples.
+        """
+        sensor = self.sensor_state if sensor_state is None else np.asarray(sensor_state, float)
+        rel = target - sensor
+        rel_ref = None
+        if self.reference is not None and target_ref is not None:
+            rel_ref = target_ref - self.ref_sensor_state[self.reference]
+        return rel, rel_ref
+
+    # -- predictions and Jacobians -----------------------------------------------------------
+    def predict(self, rel: Array, rel_ref: Array | None = None,
+                nuisance: Mapping[str, Array] | Array | None = None) -> Array:
+        """Predicted values (SI), (..., m).
+
+        Parameters
+        ----------
+        rel : ndarray
+            Relative states (..., m, 6), m and m/s.
+        rel_ref : ndarray, optional
+            Relative states at the reference samples (..., len(reference), 6).
+        nuisance : dict or ndarray, optional
+            Nuisance values: a vector per kind (a dict), or the concatenated vector (..., k).
+
+        Returns
+        -------
+        ndarray
+            (..., m) predictions in SI units (rad, m, m/s, Hz, dBW).
+        """
+        if len(self.models) == 1:  # one kind: its (new, writeable) predictions are the block's
+            ((kind, model),) = self.models.items()
+            ref = rel_ref if kind in self._ref_take else None
+            pred = model.predict(rel, self.time, self._nuisance(kind, nuisance), ref)
+            if (pred.shape == rel.shape[:-1] and pred.dtype == np.float64
+                    and pred.flags.writeable and pred.base is None):
+                return pred
+            out = np.empty(rel.shape[:-1])
+            out[...] = pred
+            return out
+        out = np.empty(rel.shape[:-1])
+        for kind, model in self.models.items():
+            rows = self._take[kind]
+            ref = rel_ref[..., self._ref_take[kind], :] if kind in self._ref_take else None
+            out[..., rows] = model.predict(rel[..., rows, :], self.time[rows],
+                                           self._nuisance(kind, nuisance), ref)
+        return out
+
+    def jacobian(self, rel: Array, rel_ref: Array | None = None,
+                 nuisance: Mapping[str, Array] | Array | None = None,
+                 with_nuisance: bool = False) -> tuple[Array, Array | None, Array | None]:
+        """Analytic derivatives of :meth:`predict`.
+
+        Parameters
+        ----------
+        rel, rel_ref, nuisance
+            As for :meth:`predict`.
+        with_nuisance : bool
+            Also return the derivatives with respect to the concatenated nuisance vector.
+
+        Returns
+        -------
+        d_rel : ndarray
+            (..., m, 6): d value / d relative state.
+        d_ref : ndarray or None
+            (..., len(reference), 6): d value / d relative state at the reference samples.
+        d_nuisance : ndarray or None
+            (..., m, k) when ``with_nuisance``.
+        """
+        d = np.empty(rel.shape)
+        d_ref = None if rel_ref is None else np.empty(rel_ref.shape)
+        d_nu = None
+        if with_nuisance:
+            d_nu = np.zeros((*rel.shape[:-1], len(self.nuisance_names)))
+        for kind, model in self.models.items():
+            rows = self._take[kind]
+            ref_rows = self._ref_take.get(kind)
+            ref = None if ref_rows is None else rel_ref[..., ref_rows, :]
+            jac = model.jacobian(rel[..., rows, :], self.time[rows],
+                                 self._nuisance(kind, nuisance), ref)
+            d[..., rows, :] = jac.rel
+            if ref_rows is not None and d_ref is not None:
+                d_ref[..., ref_rows, :] = jac.rel_ref
+            if d_nu is not None:
+                d_nu[..., rows, self.nuisance_slices[kind]] = jac.nuisance
+        return d, d_ref, d_nu
+
+    def reference_rows(self, kind: str) -> slice | None:
+        """Where ``kind``'s rows sit in arrays at the reference samples (None for a kind
+        without reference)."""
+        return self._ref_take.get(kind)
+
+    # -- nuisance structure: predictions affine in the nuisance ------------------------------
+    def const_design(self) -> Array:
+        """``A_const`` (m, k): the part of the nuisance design that does not depend on the
+        geometry (a carrier's columns ``1``, ``t``), see
+        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`."""
+        m, k = len(self), len(self.nuisance_names)
+        out = np.zeros((m, k))
+        rel = np.ones((m, 6))  # any finite geometry: A_const does not depend on it
+        for kind, model in self.models.items():
+            rows, ns = self._take[kind], self.nuisance_slices[kind]
+            if ns.stop > ns.start:
+                ref = rel[rows] if model.uses_reference else None
+                out[rows, ns] = model.affine_parts(rel[rows], self.time[rows], ref)[1]
+        return out
+
+    def linearise_into(self, rel: Array, rel_ref: Array | None, h0: Array, a_var: Array,
+                       d_h0: Array | None = None, d_h0_ref: Array | None = None
+                       ) -> list[tuple[str, Array | None, Array | None]]:
+        """The affine parts of the predictions, ``h0 + (A_const + A_var) @ nu``, written into
+        ``h0`` (..., m) and ``a_var`` (..., m, k) and, when ``d_h0`` (..., m, 6) is given,
+        their derivatives with respect to the relative states (``d_h0_ref`` at the reference
+        samples), in the callers' memory layouts.
+
+        Returns
+        -------
+        list of (kind, dA, dA_ref)
+            Per kind with nuisance parameters whose design depends on the geometry:
+            ``dA`` (..., m_kind, k_kind, 6) and ``dA_ref`` (or None), see
+            :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`.
+        """
+        d_a: list[tuple[str, Array | None, Array | None]] = []
+        for kind, model in self.models.items():
+            rows, ns = self._take[kind], self.nuisance_slices[kind]
+            ref_rows = self._ref_take.get(kind)
+            r_k = rel[..., rows, :]
+            ref_k = None if ref_rows is None or rel_ref is None else rel_ref[..., ref_rows, :]
+            t = self.time[rows]
+            if d_h0 is None:
+                h0[..., rows], _, a_var[..., rows, ns] = model.affine_parts(r_k, t, ref_k)
+                continue
+            base, _, v, d0, d0_ref, da, da_ref = model.affine_derivatives(r_k, t, ref_k)
+            h0[..., rows], a_var[..., rows, ns] = base, v
+            if d0 is not None:
+                d_h0[..., rows, :] = d0
+            if d0_ref is not None and d_h0_ref is not None and ref_rows is not None:
+                d_h0_ref[..., ref_rows, :] = d0_ref
+            if ns.stop > ns.start and (da is not None or da_ref is not None):
+                d_a.append((kind, da, da_ref))
+        return d_a
+
+    def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
+        """``measured - predicted`` (SI), angle rows wrapped to (-pi, pi]; broadcasts over
+        leading axes."""
+        diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
+        return np.where(self.angle, wrap_angle(diff), diff)
+
+    # -- noise -------------------------------------------------------------------------------
+    def correlated_blocks(self) -> list[tuple[NDArray[np.intp], Array]]:
+        """The noise blocks that are not diagonal (:func:`correlated_blocks`)."""
+        return correlated_blocks(self.models, self.index, self.time, self.time_ref,
+                                 self.sigma, self.sensor)
+
+    def covariance(self) -> Array:
+        """The noise covariance ``R`` (m, m), SI units squared: ``diag(sigma^2)`` with the
+        blocks of kinds whose rows are correlated (their ``noise_covariance`` hook)."""
+        r = np.diag(self.sigma**2)
+        for rows, cov in self.correlated_blocks():
+            r[np.ix_(rows, rows)] = cov
+        return r
+
+
+def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                      time: Array, time_ref: Array, sigma: Array, sensor: NDArray[np.str_]
+                      ) -> list[tuple[NDArray[np.intp], Array]]:
+    """The correlated noise blocks of a set of rows.
+
+    Parameters
+    ----------
+    models, index
+        Each kind's model and rows (ascending indices or a slice).
+    time, time_ref, sigma, sensor
+        The rows' columns (m,): s, s, SI, ids.
+
+    Returns
+    -------
+    list of (rows, covariance)
+        One block per kind with ``correlated_noise`` and per sensor: its rows (ascending)
+        and their covariance from the kind's ``noise_covariance`` hook (SI units squared).
+    """
+    blocks: list[tuple[NDArray[np.intp], Array]] = []
+    m = time.shape[0]
+    for kind, model in models.items():
+        if not model.correlated_noise:
+            continue
+        rows = np.arange(m)[index[kind]]
+        for s in np.unique(sensor[rows]):
+            own = rows[sensor[rows] == s]
+            blocks.append((own, model.noise_covariance(time[own], time_ref[own], sigma[own])))
+    return blocks
