@@ -29,14 +29,19 @@ __all__ = ["check_cells", "read_numbers"]
 Numbers = dict[str, NDArray[np.float64]]
 RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
 
-#: Value ranges checked per kind: (kind, accepts the file value, what is expected).
-VALUE_RANGES: tuple[tuple[str, Callable[[NDArray[np.float64]], NDArray[np.bool_]], str], ...] = (
-    ("bearing", lambda v: (v >= -360) & (v <= 360), "a bearing within [-360, 360] deg"),
-    ("elevation", lambda v: (v >= -90) & (v <= 90), "an elevation within [-90, 90] deg"),
-    ("frequency", lambda v: v > 0, "a frequency > 0 Hz"),
-    ("range", lambda v: v >= 0, "a range >= 0 m"),
-)
+def value_ranges() -> list[tuple[str, Callable[[NDArray[np.float64]], NDArray[np.bool_]], str]]:
+    """The value ranges checked per kind, from each kind's hook (``value_range``).
 
+    Returns
+    -------
+    list of tuple
+        ``(kind, accepts the file value, what is expected)`` for every registered kind that
+        limits its values (:meth:`tmakit.measurements.MeasurementModel.check_values`).
+    """
+    from ..measurements import KINDS
+
+    return [(k, cls.check_values, cls.describe_values()) for k, cls in KINDS.items()
+            if cls.value_range is not None]
 
 def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     """Numeric columns as float64 (NaN for empty cells), via pandera's coercion.
@@ -171,7 +176,7 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
     if "value" in columns:
         columns["value"].checks += [
             checks.check("value", f"{k}_value", _for_kind(kind, k, ok), what)
-            for k, ok, what in VALUE_RANGES]
+            for k, ok, what in value_ranges()]
     if "sigma" in columns:
         columns["sigma"].checks.append(checks.check(
             "sigma", "positive", lambda v, r: v > 0,
