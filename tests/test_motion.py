@@ -451,7 +451,8 @@ def test_curvilinear_without_manoeuvres_is_one_propagation():
     ("static", Stationary, 2, 2),
     ("static2d", Stationary, 2, 2),
     ("static3d", Stationary, 3, 3),
-    ("curvilinear", PiecewiseCurvilinear, 2, 6),
+    ("curvilinear", PiecewiseCurvilinear, 2, 12),  # = curvilinear:2 (tmakit.motion.names)
+    ("curvilinear:0", PiecewiseCurvilinear, 2, 6),
     ("curvilinear:2", PiecewiseCurvilinear, 2, 12),
     (" CV3D ", ConstantVelocity, 3, 6),
 ])
