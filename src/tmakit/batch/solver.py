@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..blas import SINGLE_THREAD_WORK
 from .varpro import Evaluation, VarProProblem
 
 Array = NDArray[np.float64]
@@ -40,6 +41,20 @@ DOMINANCE_MARGIN = 1.0
 """Cost margin (half a chi2 unit per unit) of the dominance test."""
 
 _STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
+
+
+def _gram(j: Array) -> Array:
+    """``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``, summed over row blocks below OpenBLAS's
+    multithreading threshold when one product would pass it (:mod:`tmakit.blas`)."""
+    n, p = j.shape[-2:]
+    jt = np.swapaxes(j, -1, -2)
+    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
+    if n <= block:
+        return jt @ j
+    out = np.zeros((*j.shape[:-2], p, p))
+    for lo in range(0, n, block):
+        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
+    return out
 
 
 @dataclass
@@ -95,7 +110,7 @@ class _Model:
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> _Model:
         jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
         jrt = jac.swapaxes(1, 2)
-        jtj = jrt @ jac
+        jtj = _gram(jac)
         grad = (jrt @ ev.residual[:, :, None])[..., 0]
         scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
         w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))

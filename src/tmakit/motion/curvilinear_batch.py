@@ -52,20 +52,6 @@ def batched_matmul(a: Array, b: Array) -> Array:
     return out
 
 
-def gram(j: Array) -> Array:
-    """``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``, summed over row blocks below OpenBLAS's
-    multithreading threshold when one product would pass it."""
-    n, p = j.shape[-2:]
-    jt = np.swapaxes(j, -1, -2)
-    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
-    if n <= block:
-        return jt @ j
-    out = np.zeros((*j.shape[:-2], p, p))
-    for lo in range(0, n, block):
-        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
-    return out
-
-
 class ForwardPiecewise(MotionModel):
     """:class:`~tmakit.motion.PiecewiseCurvilinear` with every change-over time after the
     reference time, evaluated in batches with analytic derivatives.
