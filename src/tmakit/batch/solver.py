@@ -269,6 +269,21 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     """
     if damping not in DAMPING:
         raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
+    rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
+                   damping, max_reject, stall, dominance)
+    runs = _start(problem, y, theta0, groups, ceiling, stall > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        runs = _iterate(problem, runs, max_iter, rules)
+    runs.finish()
+    out = runs.out
+    # Every accepted point carries the nuisance eliminated at its own theta: no re-evaluation.
+    return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
+                       out, runs.dominated)
+
+
+def _start(problem: VarProProblem, y: Array, theta0: Array,
+           groups: NDArray[np.int64] | None, ceiling: Array | None, stall: bool) -> _Runs:
+    """The runs of :func:`levenberg_marquardt` at their starting points."""
     theta = np.array(theta0, dtype=float, ndmin=2)
     y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
     b = theta.shape[0]
@@ -280,17 +295,9 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         reached = np.full(int(groups.max()) + 1, np.inf)  # lowest cost of a stopped run
         if ceiling is not None:
             np.minimum.at(reached, groups, np.broadcast_to(ceiling, (b,)))
-    rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
-                   damping, max_reject, stall, dominance)
+    # Trial points may sit on a sensor (zero range): infinite cost, not an error.
     start = problem.evaluate_part(theta, u, nu_star, True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        runs = _iterate(problem, _Runs(start, u, nu_star, groups, reached, stall > 0),
-                        max_iter, rules)
-    runs.finish()
-    out = runs.out
-    # Every accepted point carries the nuisance eliminated at its own theta: no re-evaluation.
-    return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
-                       out, runs.dominated)
+    return _Runs(start, u, nu_star, groups, reached, stall)
 
 
 def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:

@@ -121,7 +121,8 @@ class ForwardPiecewise(MotionModel):
         anchors[~valid] = np.nan
         return anchors, d_anchor, starts, valid
 
-    def _segments(self, theta: Array, t: Array, partials: bool):
+    def _segments(self, theta: Array, t: Array, partials: bool
+                  ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
         """Per sample: its segment ``(B, n)``, propagated values ``(B, n, 6)`` and partials
         ``(B, n, 6, 7)`` with respect to the segment's start state, accelerations and the time
         since its start; plus the anchors' derivatives."""
@@ -144,6 +145,8 @@ class ForwardPiecewise(MotionModel):
 
     # -- the MotionModel interface -----------------------------------------------------------
     def states(self, theta: ArrayLike, t: ArrayLike) -> Array:
+        """ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s); NaN for parameters outside
+        the model's domain (see the class docstring)."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
@@ -182,6 +185,7 @@ class ForwardPiecewise(MotionModel):
         return seg_u, par_u, d_anchor, idx
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> Array:
+        """Analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s)."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         jac = np.zeros((flat.shape[0], t.shape[0], 6, self.n_params))
