@@ -2,7 +2,7 @@
 
 One solver for every batch estimator of tmakit: the no-guess ML fit and its multi-start
 (:mod:`tmakit.batch.ml`), the Monte Carlo runs (:mod:`tmakit.montecarlo`) and the manoeuvre
-search (:mod:`tmakit.batch.curvilinear`), which holds some parameters fixed (``free``), damps
+search (:mod:`tmakit.batch.manoeuvre`), which holds some parameters fixed (``free``), damps
 by fixed factors (``damping="factors"``) and stops early on rejected or stalled steps
 (``max_reject``, ``stall``).  Everything is vectorised over a leading batch axis ``B``: several
 starting points of one problem, or many data sets that share times, sensors and noise.

@@ -1,6 +1,6 @@
 """Piecewise curvilinear trajectories evaluated for many parameter vectors at once, with
 analytic derivatives — the work-horse of the manoeuvre estimator
-(:mod:`tmakit.batch.curvilinear`).
+(:mod:`tmakit.batch.manoeuvre`).
 
 The motion is that of :class:`tmakit.motion.PiecewiseCurvilinear`
 (Hörst & Oispuu (2010), eqs. 1-4), in the same parameters ``x, y, speed, course, at_0, an_0,
