@@ -72,7 +72,7 @@ def motion_from_name(name: str, ref_time: float = 0.0) -> MotionModel:
     if key in _FIXED:
         cls, dim = _FIXED[key]
         return Stationary(dim) if cls is Stationary else ConstantVelocity(dim, ref_time)
-    base, colon, count = key.partition(":")
+    base, colon, count = (part.strip() for part in key.partition(":"))
     if base == "curvilinear":
         if not colon:
             return PiecewiseCurvilinear(DEFAULT_MANOEUVRES, ref_time)
