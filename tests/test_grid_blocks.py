@@ -34,7 +34,10 @@ def test_costs_do_not_depend_on_the_blocks(options, monkeypatch):
     monkeypatch.setattr(init, "CANDIDATE_ROWS", 10**9)
     whole = GridScorer(problem, cand)
     assert len(whole.blocks) == 1
-    np.testing.assert_allclose(blocked.score(y), whole.score(y), rtol=1e-12)
+    # The blocks sum the same terms in another order: rounding only.  With the free exponent
+    # it reached 9.6e-13 relative on one of 3960 candidates, and 2.5e-12 once the sensor's
+    # circling track moved by its own rounding (issue 10, one curvilinear closed form).
+    np.testing.assert_allclose(blocked.score(y), whole.score(y), rtol=1e-11)
 
 
 def test_a_design_that_depends_on_the_geometry_is_projected_exactly():

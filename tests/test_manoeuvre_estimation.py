@@ -15,8 +15,8 @@ import tmakit as tk
 from tmakit.batch.curvilinear import (
     ManoeuvreSettings,
     OrderFit,
-    _may_hold,
     estimate_manoeuvres,
+    may_hold,
     select_order,
 )
 from tmakit.bounds import crlb
@@ -222,12 +222,12 @@ def test_two_neighbouring_legs_are_never_both_held_straight():
     free[[4, 5]] = False  # leg 0 straight
     leg1_at_held = free.copy()
     leg1_at_held[6] = False
-    assert not _may_hold(leg1_at_held, 7, 2)  # leg 1 would be straight next to leg 0
-    assert _may_hold(leg1_at_held, 8, 2) and _may_hold(leg1_at_held, 9, 2)  # leg 2 alone
+    assert not may_hold(leg1_at_held, 7, 2)  # leg 1 would be straight next to leg 0
+    assert may_hold(leg1_at_held, 8, 2) and may_hold(leg1_at_held, 9, 2)  # leg 2 alone
     leg2_at_held = leg1_at_held.copy()
     leg2_at_held[8] = False
-    assert _may_hold(leg2_at_held, 9, 2)  # legs 0 and 2 straight, the turn between them
-    assert _may_hold(np.ones(6, dtype=bool), 4, 0) and _may_hold(np.array([1, 1, 1, 1, 0, 1],
+    assert may_hold(leg2_at_held, 9, 2)  # legs 0 and 2 straight, the turn between them
+    assert may_hold(np.ones(6, dtype=bool), 4, 0) and may_hold(np.array([1, 1, 1, 1, 0, 1],
                                                                           dtype=bool), 5, 0)
 
 

@@ -11,6 +11,7 @@ from scipy.integrate import solve_ivp
 
 from tmakit.frames import wrap_angle
 from tmakit.motion import (
+    DEFAULT_MANOEUVRES,
     ConstantVelocity,
     PiecewiseCurvilinear,
     Stationary,
@@ -451,7 +452,8 @@ def test_curvilinear_without_manoeuvres_is_one_propagation():
     ("static", Stationary, 2, 2),
     ("static2d", Stationary, 2, 2),
     ("static3d", Stationary, 3, 3),
-    ("curvilinear", PiecewiseCurvilinear, 2, 6),
+    ("curvilinear", PiecewiseCurvilinear, 2, 12),  # = curvilinear:2 (tmakit.motion.names)
+    ("curvilinear:0", PiecewiseCurvilinear, 2, 6),
     ("curvilinear:2", PiecewiseCurvilinear, 2, 12),
     (" CV3D ", ConstantVelocity, 3, 6),
 ])
@@ -482,3 +484,111 @@ def test_motion_from_name_rejects_unknown(bad):
 def test_motion_from_name_rejects_bad_manoeuvre_count():
     with pytest.raises(ValueError, match="curvilinear:M"):
         motion_from_name("curvilinear:two")
+
+
+# -- one meaning per name, whoever reads it (issue 10: the parser is tmakit.motion.names) --------
+
+AGREEMENT_NAMES = ["cv2d", "cv", " CV2D ", "cv3d", "static", "static2d", "static3d",
+                   "curvilinear", "Curvilinear", "curvilinear:0", "curvilinear:1",
+                   "curvilinear:3"]
+
+
+def test_curvilinear_means_two_manoeuvres():
+    model = motion_from_name("curvilinear", ref_time=5.0)
+    assert model.manoeuvres == DEFAULT_MANOEUVRES == 2 and model.name == "curvilinear:2"
+    assert model.param_names == motion_from_name("curvilinear:2").param_names
+    for bad in ("curvilinear:", "curvilinear:-1", "curvilinear:2.5", "curvilinearx", "cv2"):
+        with pytest.raises(ValueError):
+            motion_from_name(bad)
+
+
+class _Routed(Exception):
+    """Raised by the stand-ins below: which estimator a motion name reached, with what."""
+
+
+@pytest.fixture(scope="module")
+def hoerst_file(tmp_path_factory):
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    path = tmp_path_factory.mktemp("names") / "obs.csv"
+    assert CliRunner().invoke(app, ["simulate", "hoerst2010", "--seed", "1", "-o",
+                                    str(path)]).exit_code == 0
+    return path
+
+
+def _stand_ins(monkeypatch):
+    """Replace the work of both estimators by stand-ins that report what they were asked to
+    fit: the manoeuvre search, and the no-guess fit of a fixed model."""
+    import tmakit.batch.manoeuvre.estimator as manoeuvre
+    import tmakit.batch.ml as ml
+
+    def manoeuvres(meas, max_manoeuvres=2, **kw):
+        raise _Routed(("manoeuvres", max_manoeuvres))
+
+    def fixed(problem, ys, *args, **kw):
+        raise _Routed(("model", problem.obs.motion.name))
+
+    monkeypatch.setattr(manoeuvre, "estimate_manoeuvres", manoeuvres)
+    monkeypatch.setattr(ml, "solve_without_guess", fixed)
+
+
+def _meaning(name):
+    """What a name must mean to every caller: the model, and for a piecewise curvilinear one
+    the largest number of manoeuvres the estimator searches."""
+    model = motion_from_name(name)
+    if isinstance(model, PiecewiseCurvilinear):
+        return ("manoeuvres", model.manoeuvres)
+    return ("model", model.name)
+
+
+@pytest.mark.parametrize("name", AGREEMENT_NAMES)
+def test_every_caller_reads_a_motion_name_alike(name, hoerst_file, monkeypatch, tmp_path):
+    """motion_from_name, the estimator's hook (what ``tk.estimate`` calls with a name), the
+    CLI's ``tma estimate --motion`` and scenario files give a name the same meaning."""
+    from typer.testing import CliRunner
+
+    import tmakit as tk
+    from tmakit.batch.curvilinear import estimate_for
+    from tmakit.cli import app
+
+    want = _meaning(name)
+    meas = tk.read_measurements(hoerst_file)
+    _stand_ins(monkeypatch)
+    with pytest.raises(_Routed) as hook:
+        estimate_for(meas, name)
+    assert hook.value.args[0] == want
+    with pytest.raises(_Routed) as short:
+        tk.estimate(meas, name)
+    assert short.value.args[0] == want
+    cli = CliRunner().invoke(app, ["estimate", str(hoerst_file), "--motion", name])
+    assert isinstance(cli.exception, _Routed), cli.output
+    assert cli.exception.args[0] == want
+    # a scenario file naming its target's motion so: the built-in file, its motion renamed
+    from importlib import resources
+
+    toml = (resources.files("tmakit") / "scenarios" / "hoerst2010.toml").read_text()
+    if want == ("manoeuvres", 2):
+        path = tmp_path / "renamed.toml"
+        path.write_text(toml.replace('motion = "curvilinear:2"', f'motion = "{name}"'))
+        scn = tk.load_scenario(path)
+        assert scn.motion.name == "curvilinear:2" and scn.motion.n_params == 12
+
+
+def test_an_unknown_name_is_refused_alike(hoerst_file):
+    from typer.testing import CliRunner
+
+    import tmakit as tk
+    from tmakit.batch.curvilinear import estimate_for
+    from tmakit.cli import app
+
+    meas = tk.read_measurements(hoerst_file)
+    for bad in ("curvilinear:x", "cv4d"):
+        with pytest.raises(ValueError) as lib:
+            motion_from_name(bad)
+        with pytest.raises(ValueError) as hook:
+            estimate_for(meas, bad)
+        assert str(hook.value) == str(lib.value)
+        cli = CliRunner().invoke(app, ["estimate", str(hoerst_file), "--motion", bad])
+        assert cli.exit_code == 2 and repr(bad) in cli.output

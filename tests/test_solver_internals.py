@@ -8,7 +8,10 @@
   solved alone;
 - the grid: shared nuisance projection against the exact reduced cost, lazy selection of
   distinct starts;
-- ``Scenario.simulate_many`` against ``simulate``; the blocked matrix product against ``@``.
+- ``Scenario.simulate_many`` against ``simulate``; the blocked matrix product against ``@``;
+- held parameters (``free``) against the model without them, and the manoeuvre search's
+  schedule (``damping="factors"``, ``max_reject``, ``stall``, pruning by ``dominance``)
+  against the search's former private solver, kept here as the reference.
 """
 
 from __future__ import annotations
@@ -202,3 +205,161 @@ def test_blocked_matmul_is_the_matrix_product():
     np.testing.assert_allclose(matmul(a, b), a @ b, rtol=1e-12, atol=1e-12)
     a3 = rng.normal(size=(2, 5, 40))
     np.testing.assert_allclose(matmul(a3, b), a3 @ b, rtol=1e-12, atol=1e-12)
+
+
+# -- held parameters and the manoeuvre search's schedule --------------------------------------
+
+
+def _former_search_lm(problem, y, theta0, free, max_iter, rtol=1e-3, atol=0.02, prune=None,
+                      best=np.inf, max_reject=40, stall=0.0):
+    """The manoeuvre search's own Levenberg–Marquardt before issue 10 (then the private
+    ``tmakit.batch.curvilinear._lm``), verbatim but for its Gram helper: the reference that
+    ``levenberg_marquardt(..., free=, damping="factors", max_reject=, stall=, dominance=)``
+    must reproduce."""
+    from tmakit.blas import SINGLE_THREAD_WORK
+
+    def gram(j):
+        n, p = j.shape[-2:]
+        jt = np.swapaxes(j, -1, -2)
+        block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
+        if n <= block:
+            return jt @ j
+        out = np.zeros((*j.shape[:-2], p, p))
+        for lo in range(0, n, block):
+            out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
+        return out
+
+    theta = np.array(theta0, dtype=float)
+    b = theta.shape[0]
+    yb = np.broadcast_to(y, (b, y.shape[-1]))
+    nu_star = problem.reference_nuisance(yb)
+    cur = problem.evaluate(theta, yb, nu_star)
+    lam = np.full(b, 1e-3)
+    active = np.isfinite(cur.cost)
+    converged = np.zeros(b, dtype=bool)
+    iterations = np.zeros(b, dtype=np.int64)
+    rejected = np.zeros(b, dtype=np.int64)
+    history = [cur.cost.copy()]
+    for _ in range(max_iter):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        jr = cur.jacobian[idx][:, :, free]
+        r = cur.residual[idx]
+        jtj = gram(jr)
+        grad = (np.swapaxes(jr, 1, 2) @ r[..., None])[..., 0]
+        scale = np.sqrt(np.maximum(np.diagonal(jtj, axis1=1, axis2=2), 1e-300))
+        w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
+        w = np.maximum(w, 1e-12 * w[:, -1:])
+        vg = np.einsum("bpq,bp->bq", v, grad / scale)
+        lam_i = lam[idx]
+        step = np.einsum("bpq,bq->bp", v, vg / (w + lam_i[:, None])) / scale
+        decrement = 0.5 * np.sum(vg * vg / w, axis=1)
+        done = decrement <= rtol * cur.cost[idx] + atol
+        converged[idx[done]] = True
+        active[idx[done]] = False
+        keep = ~done
+        if prune is not None:
+            top = min(best, float(np.min(cur.cost)))
+            hopeless = cur.cost[idx] - 2.0 * decrement > top + prune
+            active[idx[hopeless & keep]] = False
+            keep &= ~hopeless
+        idx, step, lam_i = idx[keep], step[keep], lam_i[keep]
+        if idx.size == 0:
+            break
+        full = np.zeros((idx.size, theta.shape[1]))
+        full[:, free] = step
+        trial = problem.evaluate(cur.theta[idx] + full, yb[idx], nu_star[idx])
+        better = trial.cost < cur.cost[idx]
+        where = idx[better]
+        cur.theta[where] = trial.theta[better]
+        cur.nuisance[where] = trial.nuisance[better]
+        cur.residual[where] = trial.residual[better]
+        cur.cost[where] = trial.cost[better]
+        cur.jacobian[where] = trial.jacobian[better]
+        iterations[idx] += 1
+        lam[idx] = np.where(better, np.maximum(lam_i / 3.0, 1e-12), lam_i * 4.0)
+        rejected[idx] = np.where(better, 0, rejected[idx] + 1)
+        active[idx] = (rejected[idx] < max_reject) & (lam[idx] <= 1e12)
+        history.append(cur.cost.copy())
+        if stall > 0 and len(history) > 6:
+            with np.errstate(invalid="ignore"):
+                active &= ~(history[-7] - history[-1] < stall)
+    return cur.theta, cur.cost, converged, iterations
+
+
+@pytest.fixture(scope="module")
+def manoeuvre_problem():
+    """One manoeuvre on the first 700 s of the Hörst & Oispuu (2010) data, and starts with the
+    change-over time spread around the truth's (internal parameters of the search)."""
+    from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
+
+    scn = tk.load_scenario("hoerst2010")
+    meas = scn.simulate(rng=5)
+    meas = meas.take(meas.time <= 700.0)
+    problem = ManoeuvreSearch(meas, None, None, ManoeuvreSettings(max_manoeuvres=1)).problem(1)
+    base = np.array([-9000.0, 12000.0, 50.0, np.pi / 2, 0.0, 0.0, 0.0, 0.4, 400.0])
+    starts = np.tile(base, (7, 1))
+    starts[:, -1] += [-120.0, -60.0, -20.0, 0.0, 25.0, 70.0, 130.0]
+    starts[:, 0] += np.linspace(-300.0, 300.0, 7)
+    return problem, starts
+
+
+@pytest.mark.parametrize("settings", [
+    dict(max_iter=12, held_time=True, prune=25.0),                              # profile
+    dict(max_iter=100, rtol=1e-10, atol=1e-7, prune=25.0, max_reject=8, stall=1e-3),  # refine
+    dict(max_iter=30, rtol=0.0, atol=0.02, max_reject=8, stall=1e-2, prune=3.7,
+         best=2000.0, held_accel=True),                                         # selection
+    dict(max_iter=50, rtol=1e-10, atol=1e-7, held_time=True),                   # corner test
+    dict(max_iter=40, prune=1.0, max_reject=2, stall=5.0, bad_turns=True),      # early stops
+    dict(max_iter=60, rtol=1e-12, atol=1e-9, stall=5.0, bad_turns=True),        # stalls
+], ids=["profile", "refine", "selection", "corner", "pruned-rejected", "stalled"])
+def test_the_shared_solver_reproduces_the_former_search_solver(manoeuvre_problem, settings):
+    from tmakit.batch.manoeuvre.search import lm_fit
+
+    problem, starts = manoeuvre_problem
+    kw = dict(settings)
+    free = np.ones(problem.p, dtype=bool)
+    if kw.pop("held_time", False):
+        free[-1] = False
+    if kw.pop("held_accel", False):
+        free[4] = False
+        starts = starts.copy()
+        starts[:, 4] = 0.0
+    if kw.pop("bad_turns", False):  # starts far off: runs stop on every early rule
+        starts = starts.copy()
+        starts[:, 7] = [0.1, 0.8, -0.3, 0.4, 1.5, 0.2, 0.05]
+    max_iter = kw.pop("max_iter")
+    theta, cost, converged, iterations = _former_search_lm(
+        problem, problem.group(problem.obs.values), starts, free, max_iter, **kw)
+    sol = lm_fit(problem, starts, free, max_iter, **kw)
+    np.testing.assert_array_equal(sol.iterations, iterations)
+    np.testing.assert_array_equal(sol.converged, converged)
+    np.testing.assert_allclose(sol.cost, cost, rtol=1e-9)
+    np.testing.assert_allclose(sol.theta, theta, rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(sol.theta[:, ~free], starts[:, ~free])  # held: untouched
+
+
+def test_held_parameters_fit_as_the_reduced_model(gu_problem):
+    """Holding parameters by ``free`` is fitting the model without them; all free is no
+    mask at all, to the last bit."""
+    from tmakit.motion import FixedParameters
+
+    problem, y = gu_problem
+    gu = tk.load_scenario("gu2007")
+    start = gu.theta + np.array([400.0, -300.0, 2.0, -1.5])
+    every = levenberg_marquardt(problem, y, start[None])
+    masked = levenberg_marquardt(problem, y, start[None], free=np.ones(4, dtype=bool))
+    np.testing.assert_array_equal(masked.theta, every.theta)
+    np.testing.assert_array_equal(masked.iterations, every.iterations)
+    free = np.array([True, True, False, True])  # vx held at its start value
+    held = levenberg_marquardt(problem, y, start[None], free=free)
+    assert held.converged[0] and held.theta[0, 2] == start[2]
+    reduced_model = FixedParameters(gu.motion, {"vx": float(start[2])})
+    reduced = VarProProblem(tk.ObservationModel(problem.obs.meas, reduced_model,
+                                                gu.measurement_options))
+    alone = levenberg_marquardt(reduced, y, start[free][None])
+    assert held.cost[0] == pytest.approx(alone.cost[0], rel=1e-9)
+    np.testing.assert_allclose(held.theta[0, free], alone.theta[0], rtol=1e-7)
+    with pytest.raises(ValueError, match="damping"):
+        levenberg_marquardt(problem, y, start[None], damping="fast")

@@ -1,16 +1,17 @@
-"""Batched weighted least squares with the linear nuisance parameters projected out.
+"""Batched Levenberg–Marquardt on the reduced problems of :mod:`tmakit.batch.varpro`.
 
-Every nuisance parameter of tmakit enters the predictions linearly — carrier and drift
-(``f = (f_s + d t)(1 - rdot/c)``), power constant and path-loss exponent
-(``P_dB = C_dB - 10 n log10 R``) — so for fixed motion parameters ``theta`` they have a closed-form
-weighted least-squares value.  Eliminating them exactly (variable projection, Golub & Pereyra;
-the Kaufman approximation of the projected Jacobian) leaves a small, well-conditioned problem
-in ``theta`` alone, solved by Levenberg–Marquardt.  This sidesteps the conditioning problem that
-000_bc54bd8c50e47249.txt §3 shows for C/C_0 and c/f_s in the parameter vector.
+One solver for every batch estimator of tmakit: the no-guess ML fit and its multi-start
+(:mod:`tmakit.batch.ml`), the Monte Carlo runs (:mod:`tmakit.montecarlo`) and the manoeuvre
+search (:mod:`tmakit.batch.manoeuvre`), which holds some parameters fixed (``free``), damps
+by fixed factors (``damping="factors"``) and stops early on rejected or stalled steps
+(``max_reject``, ``stall``).  Everything is vectorised over a leading batch axis ``B``: several
+starting points of one problem, or many data sets that share times, sensors and noise.
 
-Everything is vectorised over a leading batch axis ``B``: several starting points of one
-problem, or many Monte Carlo runs that share times, sensors and noise (each with its own data
-``y``).
+References
+----------
+Marquardt, D. W. (1963). An algorithm for least-squares estimation of nonlinear parameters
+(the diagonal scaling).  Nielsen, H. B. (1999). Damping parameter in Marquardt's method,
+IMM-REP-1999-05 (the damping update).
 """
 
 from __future__ import annotations
@@ -20,199 +21,52 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..frames import wrap_angle
-from ..observation import Linearisation, ObservationModel
-from ..observation.noise import NoiseModel
+from ..blas import SINGLE_THREAD_WORK
+from .varpro import Evaluation, VarProProblem
 
 Array = NDArray[np.float64]
 
+__all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "Evaluation", "SolveResult",
+           "VarProProblem", "levenberg_marquardt"]
 
-@dataclass
-class Evaluation:
-    """Reduced residuals and what a step needs, for a batch of parameter vectors."""
+DAMPING = ("nielsen", "factors")
+"""How the damping follows a step: ``"nielsen"`` (the default) from how well the Gauss–Newton
+model predicted the decrease (Nielsen's update); ``"factors"`` divided by 3 after an accepted
+step and multiplied by 4 after a rejected one (the manoeuvre search's schedule)."""
 
-    theta: Array      # (B, p)
-    nuisance: Array   # (B, k) eliminated (or fixed) nuisance values
-    residual: Array   # (B, n) whitened, nuisance projected out
-    cost: Array       # (B,)  half the squared whitened residual
-    jacobian: Array | None = None  # (B, n, p) whitened, projected
+DOMINANCE_FACTOR = 10.0
+"""A run stops as dominated when its cost exceeds the lowest cost reached in its group by more
+than this many times its Gauss-Newton decrement (plus :data:`DOMINANCE_MARGIN`)."""
+DOMINANCE_MARGIN = 1.0
+"""Cost margin (half a chi2 unit per unit) of the dominance test."""
 
-    def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
-        """The evaluations of ``rows`` (a copy)."""
-        return Evaluation(self.theta[rows], self.nuisance[rows], self.residual[rows],
-                          self.cost[rows], None if self.jacobian is None
-                          else self.jacobian[rows])
-
-    def put(self, rows: NDArray[np.bool_] | NDArray[np.int64], other: Evaluation,
-            which: NDArray[np.bool_] | NDArray[np.int64] | slice = slice(None)) -> None:
-        """Overwrite ``rows`` with ``other``'s evaluations ``which``."""
-        self.theta[rows] = other.theta[which]
-        self.nuisance[rows] = other.nuisance[which]
-        self.residual[rows] = other.residual[which]
-        self.cost[rows] = other.cost[which]
-        if self.jacobian is not None and other.jacobian is not None:
-            self.jacobian[rows] = other.jacobian[which]
+_STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
 
 
-class VarProProblem:
-    """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
-
-    ``fixed_nuisance`` (a vector in ``obs.nuisance_names`` order) makes the nuisance known
-    instead of estimated.
-    """
-
-    def __init__(self, obs: ObservationModel, noise: NoiseModel | None = None,
-                 fixed_nuisance: Array | None = None) -> None:
-        self.obs = obs
-        # Rows are handled grouped by kind (contiguous slices); see ObservationModel.  Only
-        # range differences can be correlated: without them the rows' sigmas are the model.
-        if noise is None:
-            noise = (NoiseModel(obs.grouped) if "range_difference" in obs.models
-                     else NoiseModel.independent(obs.sigmas_grouped))
-        self.noise = noise
-        self.k = obs.n_nuisance
-        self.p = obs.motion.n_params
-        self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
-        self.angle = obs.angle_mask_grouped
-        self.has_angle = bool(self.angle.any())
-        self.eliminates = self.fixed is None and self.k > 0
-        # The geometry-free part of the design, whitened once (see ObservationModel).
-        self.const_design = obs.const_design
-        self.const_design_w = self.noise.whiten(self.const_design, axis=-2)
-        self._const_w_t = np.ascontiguousarray(self.const_design_w.T)  # (k, n)
-        self._reference_fit: tuple[NDArray[np.bool_], NDArray[np.bool_], Array] | None = None
-        # One nuisance column per kind at most: the columns touch disjoint rows (whitening
-        # mixes rows of one kind only), so they are orthogonal and need no Gram inverse.
-        self._orthogonal = all(ns.stop - ns.start <= 1 for ns in obs.nuisance_slices.values())
-
-    def take(self, index: NDArray[np.int64] | NDArray[np.bool_]) -> VarProProblem:
-        """The same problem on the rows ``index`` of the set (see
-        :meth:`ObservationModel.take`), its noise model made for those rows."""
-        obs = self.obs.take(index)
-        # Rows of independent rows are independent: no need to look for correlated blocks.
-        noise = None if self.noise.correlated else NoiseModel.independent(obs.sigmas_grouped)
-        return VarProProblem(obs, noise, self.fixed)
-
-    def group(self, y: Array) -> Array:
-        """Data in the set's row order -> the grouped order the solver works in."""
-        return np.asarray(y, dtype=float)[..., self.obs.order]
-
-    def reference_nuisance(self, y: Array) -> Array:
-        """A nuisance value close to the data's, per data row ``(B, k)``: least squares of the
-        geometry-free part of the design on grouped data ``y`` (a carrier near the mean
-        received frequency), or the fixed values.  Residuals are formed about it, so that a GHz
-        carrier never meets the data in rounding."""
-        y = np.atleast_2d(y)
-        b = y.shape[0]
-        if self.fixed is not None:
-            return np.broadcast_to(self.fixed, (b, self.k)).copy()
-        if self.k == 0:
-            return np.zeros((b, 0))
-        if self._reference_fit is None:  # least squares on the rows the design touches
-            design = self.const_design
-            rows = ~self.angle & (design != 0).any(axis=1)
-            cols = (design[rows] != 0).any(axis=0)
-            d = design[rows][:, cols]
-            size = np.abs(d).max(axis=0) if d.size else np.ones(d.shape[1])
-            d = d / size  # columns of unit size: the normal equations are well conditioned
-            fit = (np.linalg.solve(d.T @ d, d.T).T if d.size else d) / size
-            self._reference_fit = (rows, cols, fit)
-        rows, cols, fit = self._reference_fit
-        out = np.zeros((b, self.k))
-        if rows.any() and cols.any():
-            out[:, cols] = y[:, rows] @ fit
-        return out
-
-    def data_part(self, y: Array, nu_star: Array) -> Array:
-        """``y - A_const nu*`` ``(B, n)`` for grouped data ``y``: the part of the residual that
-        does not depend on ``theta``, formed once per solve (the first, exact subtraction of
-        two large numbers when the carrier is in GHz)."""
-        if self.k == 0:
-            return np.array(y, dtype=float)
-        return y - nu_star @ self.const_design.T
-
-    def evaluate(self, theta: Array, y: Array, nu_star: Array,
-                 with_jacobian: bool = True) -> Evaluation:
-        """Eliminate the nuisance at ``theta`` for grouped data ``y`` (B, n) and return the
-        reduced residual, cost and (optionally) the projected Jacobian, exact at the
-        eliminated nuisance.  Residuals are formed about ``nu_star`` (see
-        :meth:`reference_nuisance`)."""
-        return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
-
-    def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
-                      with_jacobian: bool = True) -> Evaluation:
-        """:meth:`evaluate` from the data part ``u`` of :meth:`data_part`."""
-        theta = np.asarray(theta, dtype=float)
-        # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return self._evaluate(theta, u, nu_star, with_jacobian)
-
-    def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
-                  ) -> Evaluation:
-        # Worked with the design and the Jacobian transposed, (B, k, n) and (B, p, n): every
-        # operation then runs along the rows.
-        lin = self.obs.linearisation(theta, with_jacobian)
-        at = lin.a_var.swapaxes(-1, -2)
-        # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
-        e = u - lin.h0
-        if self.k:
-            e -= (nu_star[:, None, :] @ at)[:, 0, :]
-        if self.has_angle:
-            e = np.where(self.angle, wrap_angle(e), e)
-        r = self.noise.whiten(e)
-        nu = nu_star
-        jt = None
-        if self.eliminates:
-            nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
-        elif with_jacobian:
-            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2))
-        cost = 0.5 * np.einsum("bn,bn->b", r, r)
-        cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
-        return Evaluation(theta, np.array(nu, dtype=float), r, cost,
-                          None if jt is None else jt.swapaxes(1, 2))
-
-    def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
-                 with_jacobian: bool) -> tuple[Array, Array, Array | None]:
-        """Eliminate the nuisance: ``(nu, projected residual, projected Jacobian (B, p, n))``
-        for the whitened residual ``r`` about ``nu_star`` and the design ``at`` (B, k, n).
-
-        The design's columns are scaled to unit norm, so the Gram matrix is well conditioned
-        and its explicit (k x k) inverse accurate (it is the identity when the columns are
-        orthogonal).  A column without weight (all zero) gets coefficient 0."""
-        q = self._const_w_t + self.noise.whiten(at)
-        norm = np.sqrt(np.einsum("bkn,bkn->bk", q, q))
-        empty = norm == 0
-        norm[empty] = 1.0
-        q /= norm[:, :, None]
-        qt = q.swapaxes(1, 2)
-        ginv = None
-        if not self._orthogonal:
-            gram = q @ qt
-            gram += np.eye(self.k) * empty[:, None, :]
-            ginv = np.linalg.inv(gram)
-        coef = q @ r[:, :, None]
-        if ginv is not None:
-            coef = ginv @ coef
-        nu = nu_star + coef[..., 0] / norm
-        r = r - (qt @ coef)[..., 0]
-        jt = None
-        if with_jacobian:
-            # Kaufman's projected Jacobian, at the eliminated nuisance.
-            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2))
-            proj = jt @ qt
-            if ginv is not None:
-                proj = proj @ ginv
-            jt = jt - proj @ q
-        return nu, r, jt
-
-    def initial_nuisance(self, theta: Array, y: Array) -> Array:
-        """Nuisance values eliminated at ``theta`` for grouped data ``y``."""
-        y = np.broadcast_to(y, (theta.shape[0], y.shape[-1]))
-        return self.evaluate(theta, y, self.reference_nuisance(y), with_jacobian=False).nuisance
+def _gram(j: Array) -> Array:
+    """``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``, summed over row blocks below OpenBLAS's
+    multithreading threshold when one product would pass it (:mod:`tmakit.blas`)."""
+    n, p = j.shape[-2:]
+    jt = np.swapaxes(j, -1, -2)
+    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
+    if n <= block:
+        return jt @ j
+    out = np.zeros((*j.shape[:-2], p, p))
+    for lo in range(0, n, block):
+        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
+    return out
 
 
 @dataclass
 class SolveResult:
+    """The final state of every run of :func:`levenberg_marquardt`.
+
+    Attributes: ``theta`` ``(B, p)`` (held parameters at their starting values), ``nuisance``
+    ``(B, k)`` (eliminated at ``theta``), ``cost`` ``(B,)`` (half the whitened chi2),
+    ``iterations`` (steps tried), ``converged``, the final ``evaluation`` and ``dominated``
+    (stopped as bound for a worse minimum; None without groups).
+    """
+
     theta: Array        # (B, p)
     nuisance: Array     # (B, k)
     cost: Array         # (B,)
@@ -222,13 +76,28 @@ class SolveResult:
     dominated: NDArray[np.bool_] | None = None  # stopped: bound for a worse minimum
 
 
+@dataclass(frozen=True)
+class _Rules:
+    """The tests and schedule of one :func:`levenberg_marquardt` call (see there)."""
+
+    ftol: float
+    xtol: float
+    gtol: float
+    dtol: float
+    free: NDArray[np.bool_] | None
+    damping: str
+    max_reject: int | None
+    stall: float
+    dominance: tuple[float, float]
+
+
 @dataclass
 class _Model:
     """The Gauss-Newton model of a batch at its current points, for
-    :func:`levenberg_marquardt`: ``J'J`` in variables scaled by the square roots of its
-    diagonal (``scale``) as ``v diag(w) v'``, the scaled gradient ``vg`` in that basis, the
-    Gauss-Newton decrement (the decrease an undamped step predicts) and whether the gradient is
-    orthogonal to every Jacobian column (``gtol``)."""
+    :func:`levenberg_marquardt`: ``J'J`` (over the ``free`` columns) in variables scaled by the
+    square roots of its diagonal (``scale``) as ``v diag(w) v'``, the scaled gradient ``vg`` in
+    that basis, the Gauss-Newton decrement (the decrease an undamped step predicts) and whether
+    the gradient is orthogonal to every Jacobian column (``gtol``)."""
 
     w: Array
     v: Array
@@ -238,9 +107,10 @@ class _Model:
     small_grad: NDArray[np.bool_]
 
     @classmethod
-    def at(cls, ev: Evaluation, gtol: float) -> _Model:
-        jrt = ev.jacobian.swapaxes(1, 2)
-        jtj = jrt @ ev.jacobian
+    def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> _Model:
+        jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
+        jrt = jac.swapaxes(1, 2)
+        jtj = _gram(jac)
         grad = (jrt @ ev.residual[:, :, None])[..., 0]
         scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
         w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
@@ -264,19 +134,13 @@ class _Model:
         return step, 0.5 * (vg2 * (self.w + 2.0 * lam[:, None]) / (lw * lw)).sum(axis=1)
 
 
-DOMINANCE_FACTOR = 10.0
-"""A run stops as dominated when its cost exceeds the lowest cost reached in its group by more
-than this many times its Gauss-Newton decrement (plus :data:`DOMINANCE_MARGIN`)."""
-DOMINANCE_MARGIN = 1.0
-"""Cost margin (half a chi2 unit per unit) of the dominance test."""
-
-
 class _Runs:
     """The runs of :func:`levenberg_marquardt` still iterating, compacted (``ids`` their rows
     in the batch), and the final state of every run in ``out``."""
 
     def __init__(self, out: Evaluation, u: Array, nu_star: Array,
-                 groups: NDArray[np.int64] | None, reached: Array | None) -> None:
+                 groups: NDArray[np.int64] | None, reached: Array | None,
+                 stall: bool) -> None:
         b = out.cost.shape[0]
         self.out = out
         self.converged = np.zeros(b, dtype=bool)
@@ -287,6 +151,9 @@ class _Runs:
         self.reached = reached  # per group, the lowest cost of a stopped run
         self.lam = np.full(b, 1e-3)
         self.grow = np.full(b, 2.0)  # Nielsen's factor for the damping after a failure
+        self.rejected = np.zeros(b, dtype=np.int64)  # rejected steps in a row
+        # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
+        self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
         self.model: _Model | None = None
         self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
 
@@ -309,10 +176,23 @@ class _Runs:
         self.cur = self.cur.take(keep)
         self.u, self.nu_star = self.u[keep], self.nu_star[keep]
         self.lam, self.grow = self.lam[keep], self.grow[keep]
+        self.rejected = self.rejected[keep]
         if self.groups is not None:
             self.groups = self.groups[keep]
         if self.model is not None:
             self.model = self.model.take(keep)
+
+    def stalled(self, iteration: int, stall: float) -> NDArray[np.bool_]:
+        """Record the live runs' costs after ``iteration`` (1, 2, ...) steps; which of them
+        lowered their cost by less than ``stall`` over the last :data:`_STALL_WINDOW`."""
+        if self.history is None:
+            return np.zeros(self.ids.size, dtype=bool)
+        slots = _STALL_WINDOW + 1
+        self.history[iteration % slots, self.ids] = self.cur.cost
+        if iteration < _STALL_WINDOW:
+            return np.zeros(self.ids.size, dtype=bool)
+        then = self.history[(iteration - _STALL_WINDOW) % slots, self.ids]
+        return then - self.cur.cost < stall
 
     def finish(self) -> None:
         """Write the state of the runs still live (the iteration limit) into ``out``."""
@@ -324,43 +204,76 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         max_iter: int = 100, ftol: float = 1e-10, xtol: float = 1e-12,
                         gtol: float = 1e-10, dtol: float = 1e-5,
                         groups: NDArray[np.int64] | None = None,
-                        ceiling: Array | None = None) -> SolveResult:
-    """Batched Levenberg–Marquardt (Marquardt's diagonal scaling, Nielsen's damping update) on
-    the reduced problem.
+                        ceiling: Array | None = None, *,
+                        free: NDArray[np.bool_] | None = None, damping: str = "nielsen",
+                        max_reject: int | None = None, stall: float = 0.0,
+                        dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN)
+                        ) -> SolveResult:
+    """Batched Levenberg–Marquardt (Marquardt's diagonal scaling) on the reduced problem.
 
-    ``y`` is the data in the measurement set's own row order, ``(n,)`` or ``(B, n)``.
+    Parameters
+    ----------
+    problem : VarProProblem
+        The weighted least-squares problem, nuisance parameters eliminated.
+    y : ndarray
+        Data in the measurement set's own row order, ``(n,)`` or ``(B, n)`` (SI units).
+    theta0 : ndarray
+        Starting points ``(B, p)`` (or ``(p,)``).
+    max_iter : int
+        Most steps tried per run.
+    ftol, dtol : float
+        Converged when the Gauss–Newton decrement (the decrease of half chi2 an undamped step
+        predicts) is below ``ftol * cost + dtol``.
+    xtol : float
+        Converged after an accepted lightly damped step (damping at most 1e-2) that moves
+        every fitted parameter by less than ``xtol`` relative (0: no such test).
+    gtol : float
+        Converged when the gradient's cosine with every Jacobian column is below ``gtol``
+        (0: only an exactly zero gradient).
+    groups : ndarray of int, optional
+        ``(B,)`` labels of the runs that fit the same data (the starting points of one data
+        set), for the dominance test.
+    ceiling : ndarray, optional
+        ``(B,)`` a cost reached by an earlier solve, for the dominance test.
+    free : ndarray of bool, optional
+        ``(p,)`` the parameters fitted; the others are held at their starting values (default:
+        all fitted).
+    damping : {"nielsen", "factors"}
+        The damping schedule (:data:`DAMPING`); it starts at 1e-3, floored at 1e-12.
+    max_reject : int, optional
+        A run stops, not converged, after this many rejected steps in a row.
+    stall : float
+        With ``stall > 0`` a run stops, not converged, once six steps in a row lowered its
+        cost by less than ``stall`` in all.
+    dominance : (float, float)
+        ``(factor, margin)`` of the dominance test (default :data:`DOMINANCE_FACTOR`,
+        :data:`DOMINANCE_MARGIN`).
 
-    Converged: a Gauss-Newton decrement (the decrease an undamped step predicts) below ``ftol``
-    relative to the cost plus ``dtol``, or a gradient whose cosine with every Jacobian column is
-    below ``gtol`` — both tested before a step is tried, so a converged run costs no further
-    evaluation — or an accepted lightly damped step that moves every parameter by less than
-    ``xtol`` relative.  Runs that stall (damping above 1e12) without meeting a test are
-    reported as not converged.  ``iterations`` counts the steps tried.
+    Returns
+    -------
+    SolveResult
+        The final state of every run; ``iterations`` counts the steps tried.
 
-    Multi-start: ``groups`` ``(B,)`` labels the runs that fit the same data (the starting
-    points of one data set).  A run whose cost exceeds the lowest cost reached in its group
-    (or its ``ceiling`` ``(B,)``, a cost reached by an earlier solve) by more than
-    :data:`DOMINANCE_FACTOR` times its Gauss-Newton decrement plus :data:`DOMINANCE_MARGIN`
-    is heading for a worse minimum than a point already found: it stops, not converged, and is
-    marked ``dominated``.
+    Notes
+    -----
+    The convergence tests are made before a step is tried, so a converged run costs no
+    further evaluation.  Runs whose damping passes 1e12 without meeting a test stop, not
+    converged.  With ``groups`` or ``ceiling``, a run whose cost exceeds the lowest cost
+    reached in its group (or its ceiling) by more than ``factor`` times its Gauss–Newton
+    decrement plus ``margin`` is heading for a worse minimum than a point already found: it
+    stops, not converged, and is marked ``dominated``.
+
+    References
+    ----------
+    Marquardt (1963) for the scaling; Nielsen (1999) for the ``"nielsen"`` damping update.
     """
-    theta = np.array(theta0, dtype=float, ndmin=2)
-    y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
-    b = theta.shape[0]
-    nu_star = problem.reference_nuisance(y)
-    u = problem.data_part(y, nu_star)
-    grouped = groups is not None or ceiling is not None
-    reached = None
-    if grouped:
-        groups = np.zeros(b, dtype=np.int64) if groups is None else np.asarray(groups)
-        reached = np.full(int(groups.max()) + 1, np.inf)  # lowest cost of a stopped run
-        if ceiling is not None:
-            np.minimum.at(reached, groups, np.broadcast_to(ceiling, (b,)))
-    # Trial points may sit on a sensor (zero range): infinite cost, not an error.
+    if damping not in DAMPING:
+        raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
+    rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
+                   damping, max_reject, stall, dominance)
+    runs = _start(problem, y, theta0, groups, ceiling, stall > 0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        runs = _iterate(problem, _Runs(problem._evaluate(theta, u, nu_star, True), u,
-                                       nu_star, groups, reached), max_iter, ftol, xtol,
-                        gtol, dtol)
+        runs = _iterate(problem, runs, max_iter, rules)
     runs.finish()
     out = runs.out
     # Every accepted point carries the nuisance eliminated at its own theta: no re-evaluation.
@@ -368,43 +281,81 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                        out, runs.dominated)
 
 
-def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, ftol: float, xtol: float,
-             gtol: float, dtol: float) -> _Runs:
+def _start(problem: VarProProblem, y: Array, theta0: Array,
+           groups: NDArray[np.int64] | None, ceiling: Array | None, stall: bool) -> _Runs:
+    """The runs of :func:`levenberg_marquardt` at their starting points."""
+    theta = np.array(theta0, dtype=float, ndmin=2)
+    y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
+    b = theta.shape[0]
+    nu_star = problem.reference_nuisance(y)
+    u = problem.data_part(y, nu_star)
+    reached = None
+    if groups is not None or ceiling is not None:
+        groups = np.zeros(b, dtype=np.int64) if groups is None else np.asarray(groups)
+        reached = np.full(int(groups.max()) + 1, np.inf)  # lowest cost of a stopped run
+        if ceiling is not None:
+            np.minimum.at(reached, groups, np.broadcast_to(ceiling, (b,)))
+    # Trial points may sit on a sensor (zero range): infinite cost, not an error.
+    start = problem.evaluate_part(theta, u, nu_star, True)
+    return _Runs(start, u, nu_star, groups, reached, stall)
+
+
+def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:
+    """The tests made before a step: convergence, and dominance within a group."""
+    cur, model = runs.cur, runs.model
+    assert model is not None
+    # The Gauss-Newton decrement is half the squared distance to the minimum in standard
+    # deviations (whitened residuals) and does not depend on the damping, so a run sitting
+    # at the minimum is recognised even where rounding makes every step look worse;
+    # dtol = 1e-5 means within 4.5e-3 sigma, far inside the statistical error.
+    done = model.small_grad | (model.decrement <= rules.ftol * cur.cost + rules.dtol)
+    beaten = None
+    if runs.reached is not None:
+        best = runs.reached.copy()  # the lowest cost reached in each group
+        np.minimum.at(best, runs.groups, cur.cost)
+        factor, margin = rules.dominance
+        beaten = ~done & (cur.cost - factor * model.decrement > best[runs.groups] + margin)
+    runs.stop(done if beaten is None else done | beaten, done, beaten)
+
+
+def _damp(runs: _Runs, better: NDArray[np.bool_], gain: Array, rules: _Rules) -> None:
+    """The damping after a step (accepted where ``better``)."""
+    lam = runs.lam
+    if rules.damping == "factors":
+        runs.lam = np.where(better, np.maximum(lam / 3.0, 1e-12), lam * 4.0)
+        return
+    # Nielsen's update: the damping follows how well the model predicted the decrease.
+    shrink = np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
+    runs.lam = np.where(better, np.maximum(lam * shrink, 1e-12), lam * runs.grow)
+    runs.grow = np.where(better, 2.0, 2.0 * runs.grow)
+
+
+def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """The iterations of :func:`levenberg_marquardt` (see there for the tests)."""
-    for _ in range(max_iter):
+    free = rules.free
+    for iteration in range(1, max_iter + 1):
         if runs.ids.size == 0:
             break
         if runs.model is None:  # a new point for some run: its Gauss-Newton model
-            runs.model = _Model.at(runs.cur, gtol)
-        cur, model = runs.cur, runs.model
-        # The Gauss-Newton decrement is half the squared distance to the minimum in standard
-        # deviations (whitened residuals) and does not depend on the damping, so a run sitting
-        # at the minimum is recognised even where rounding makes every step look worse;
-        # dtol = 1e-5 means within 4.5e-3 sigma, far inside the statistical error.
-        done = model.small_grad | (model.decrement <= ftol * cur.cost + dtol)
-        beaten = None
-        if runs.reached is not None:
-            best = runs.reached.copy()  # the lowest cost reached in each group
-            np.minimum.at(best, runs.groups, cur.cost)
-            beaten = ~done & (cur.cost - DOMINANCE_FACTOR * model.decrement
-                              > best[runs.groups] + DOMINANCE_MARGIN)
-        runs.stop(done if beaten is None else done | beaten, done, beaten)
+            runs.model = _Model.at(runs.cur, rules.gtol, free)
+        _stop_converged_or_dominated(runs, rules)
         if runs.ids.size == 0:
             break
         cur, model, lam = runs.cur, runs.model, runs.lam
         step, predicted = model.step(lam)
-        trial = problem._evaluate(cur.theta + step, runs.u, runs.nu_star, True)
+        if free is not None:
+            full = np.zeros_like(cur.theta)
+            full[:, free] = step
+            step = full
+        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True)
         runs.iterations[runs.ids] += 1
         better = trial.cost < cur.cost
-        # Nielsen's update: the damping follows how well the model predicted the decrease.
-        gain = np.minimum((cur.cost - trial.cost) / np.maximum(predicted, 1e-300), 1.0)
-        shrink = np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
-        runs.lam = np.where(better, np.maximum(lam * shrink, 1e-12), lam * runs.grow)
-        runs.grow = np.where(better, 2.0, 2.0 * runs.grow)
+        _damp(runs, better, np.minimum((cur.cost - trial.cost) / np.maximum(predicted, 1e-300),
+                                       1.0), rules)
         # A heavily damped step is small without being converged, hence the damping
         # condition on the step test.
         tiny = better & (lam <= 1e-2) & (
-            np.abs(step) <= xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
+            np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
         if better.all():
             runs.cur, runs.model = trial, None
         elif better.any():
@@ -412,5 +363,9 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, ftol: float, xt
                 runs.cur = cur.take(slice(None))
             runs.cur.put(better, trial, better)
             runs.model = None
-        runs.stop(tiny | (runs.lam > 1e12), tiny)
+        runs.rejected = np.where(better, 0, runs.rejected + 1)
+        give_up = runs.lam > 1e12
+        if rules.max_reject is not None:
+            give_up |= runs.rejected >= rules.max_reject
+        runs.stop(tiny | give_up | runs.stalled(iteration, rules.stall), tiny)
     return runs

@@ -1,5 +1,5 @@
 """Cramér–Rao bounds for a piecewise curvilinearly moving target at a sequence of reference
-times (002_e7269ad11b825346.txt §3, eqs. 7-9, and the Cramér–Rao analysis of §4 / Fig. 2).
+times (Hörst & Oispuu (2010), §3, eqs. 7-9, and the Cramér–Rao analysis of §4 / Fig. 2).
 
 At each reference time ``t_ref`` the unknowns are the target state at ``t_ref`` — position,
 speed and course, ``x_r`` of the paper — together with the accelerations of every segment and
@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..data import MeasurementSet
 from ..motion import FixedParameters, MotionModel, PiecewiseCurvilinear
 from .fim import Bound, bound_source, crlb, truth_vector
 
@@ -179,26 +180,53 @@ def curvilinear_crb_sequence(
     known_nuisance: bool = False,
     options: Mapping[str, Mapping[str, object]] | None = None,
 ) -> CrbSequence:
-    """The Cramér–Rao bound on the target position at each reference time in ``ref_times``
-    (s), using the measurements up to and including that time (002_e7269ad11b825346.txt
-    eqs. 7-9).
+    """The Cramér–Rao bound on the target position at each reference time, from the
+    measurements up to and including that time.
 
-    ``source`` is a :class:`~tmakit.scenario.Scenario` with a piecewise curvilinear target
-    (its noise-free simulation supplies times, sensor states and sigmas) or a
-    :class:`~tmakit.data.MeasurementSet` together with ``motion`` (a
-    :class:`~tmakit.motion.PiecewiseCurvilinear`) and ``truth`` (its parameters, by name or as
-    a vector).  ``kinds`` selects measurement kinds (``"azimuth"`` is accepted for
-    ``"bearing"``); default all kinds of the data.
+    Parameters
+    ----------
+    source : Scenario or MeasurementSet
+        A :class:`~tmakit.scenario.Scenario` with a piecewise curvilinear target (its
+        noise-free simulation supplies times, sensor states and sigmas), or a
+        :class:`~tmakit.data.MeasurementSet` together with ``motion`` and ``truth``.
+    ref_times : array_like
+        The reference times (s), inside the span of the data.
+    kinds : sequence of str, optional
+        Measurement kinds used (``"azimuth"`` is accepted for ``"bearing"``); default all
+        kinds of the data.
+    known_manoeuvres : bool
+        Every acceleration and change-over time known: only the state at ``t_ref``
+        (x, y, speed, course) is unknown.
+    motion : MotionModel, optional
+        A :class:`~tmakit.motion.PiecewiseCurvilinear`, with a measurement set.
+    truth : mapping or array_like, optional
+        Its parameters (SI), by name or as a vector, with a measurement set.
+    level : float
+        The confidence ellipses' probability.
+    nuisance, known_nuisance, options
+        As for :func:`tmakit.bounds.crlb`.
 
-    Conventions: manoeuvre ``m`` (``at_m, an_m, t_m``) is an unknown at ``t_ref`` only if it
-    has started, ``t_m < t_ref``; a sample (or reference time) exactly at a change-over time
-    belongs to the earlier segment; ``at_m, an_m`` act from ``t_m`` on, as in the paper's §4.
-    With ``known_manoeuvres`` every acceleration and change-over time is known and only the
-    state at ``t_ref`` (x, y, speed, course) is unknown.  ``level`` is the ellipses'
-    probability.
+    Returns
+    -------
+    CrbSequence
+        One :class:`CrbPoint` per reference time (m, m^2).
 
-    Raises ``ValueError`` for change-over times out of order, a reference time outside the
-    span of the data, or a kind the data do not have.
+    Raises
+    ------
+    ValueError
+        For a target that is not piecewise curvilinear, change-over times out of order, a
+        reference time outside the span of the data, a kind the data do not have, or a
+        ``level`` outside (0, 1).
+
+    Notes
+    -----
+    Manoeuvre ``m`` (``at_m, an_m, t_m``) is an unknown at ``t_ref`` only if it has started,
+    ``t_m < t_ref``; a sample (or reference time) exactly at a change-over time belongs to the
+    earlier segment; ``at_m, an_m`` act from ``t_m`` on, as in the paper's §4.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eqs. 7-9 and Fig. 2.
     """
     meas, motion, truth, nuisance, options = bound_source(
         source, motion, truth, nuisance, options, "curvilinear_crb_sequence()")
@@ -209,17 +237,31 @@ def curvilinear_crb_sequence(
     cot = _check_change_over_times(motion, theta)
     if not 0.0 < level < 1.0:
         raise ValueError(f"level must be a probability between 0 and 1; got {level}")
-
-    if kinds is None:
-        chosen = tuple(meas.kinds)
-    else:
-        chosen = tuple(dict.fromkeys(_ALIASES.get(k, k) for k in kinds))
-        missing = [k for k in chosen if k not in meas.kinds]
-        if missing or not chosen:
-            raise ValueError(f"kinds: {', '.join(missing) or 'none given'} not in the data "
-                             f"(it has {', '.join(meas.kinds)})")
+    chosen = _chosen_kinds(meas, kinds)
     meas = meas.take(np.isin(meas.kind, chosen))
+    refs = _checked_ref_times(meas, ref_times)
+    points = [_point(meas, motion, theta, float(t_ref), int(np.sum(cot < t_ref)),
+                     known_manoeuvres, level, dict(nuisance=nuisance,
+                                                   known_nuisance=known_nuisance,
+                                                   options=options))
+              for t_ref in refs]
+    return CrbSequence(chosen, bool(known_manoeuvres), float(level), points)
 
+
+def _chosen_kinds(meas: MeasurementSet, kinds: Sequence[str] | None) -> tuple[str, ...]:
+    """The kinds asked for (aliases resolved), all of them in the data."""
+    if kinds is None:
+        return tuple(meas.kinds)
+    chosen = tuple(dict.fromkeys(_ALIASES.get(k, k) for k in kinds))
+    missing = [k for k in chosen if k not in meas.kinds]
+    if missing or not chosen:
+        raise ValueError(f"kinds: {', '.join(missing) or 'none given'} not in the data "
+                         f"(it has {', '.join(meas.kinds)})")
+    return chosen
+
+
+def _checked_ref_times(meas: MeasurementSet, ref_times: ArrayLike) -> NDArray[np.float64]:
+    """The reference times as a vector, each inside the span of the data."""
     refs = np.atleast_1d(np.asarray(ref_times, dtype=float))
     if refs.ndim != 1 or refs.size == 0 or not np.all(np.isfinite(refs)):
         raise ValueError("ref_times must be a non-empty list of finite times (s)")
@@ -229,25 +271,26 @@ def curvilinear_crb_sequence(
         raise ValueError(f"reference time {outside[0]:g} s is outside the data (samples from "
                          f"{first:g} to {last:g} s); the bound at t_ref uses the data up to "
                          "t_ref and the state at t_ref")
+    return refs
 
-    points = []
-    for t_ref in refs:
-        started = int(np.sum(cot < t_ref))
-        model, theta_ref = motion.rereferenced(theta, float(t_ref), started)
-        used: MotionModel = model
-        values = theta_ref
-        if known_manoeuvres:
-            known = {n: float(v) for n, v in zip(model.param_names[4:], theta_ref[4:],
-                                                 strict=True)}
-            used = FixedParameters(model, known)
-            values = theta_ref[:4]
-        rows = meas.take(meas.time <= t_ref)
-        bound = crlb(rows, used, values, nuisance=nuisance, known_nuisance=known_nuisance,
-                     options=options)
-        state, cov = bound.state_covariance(float(t_ref))
-        c2 = cov[:2, :2]
-        std = np.sqrt(np.diag(c2))
-        rms = float(np.sqrt(c2[0, 0] + c2[1, 1]))
-        points.append(CrbPoint(float(t_ref), started, len(rows), state[:2].copy(), c2, std,
-                               rms, bound.ellipse(float(t_ref), level), bound))
-    return CrbSequence(chosen, bool(known_manoeuvres), float(level), points)
+
+def _point(meas: MeasurementSet, motion: PiecewiseCurvilinear, theta: NDArray[np.float64],
+           t_ref: float, started: int, known_manoeuvres: bool, level: float,
+           crlb_options: dict[str, object]) -> CrbPoint:
+    """The bound at ``t_ref`` (s) from the data up to it, the ``started`` manoeuvres'
+    parameters unknown (or, ``known_manoeuvres``, known)."""
+    model, theta_ref = motion.rereferenced(theta, t_ref, started)
+    used: MotionModel = model
+    values = theta_ref
+    if known_manoeuvres:
+        known = {n: float(v) for n, v in zip(model.param_names[4:], theta_ref[4:], strict=True)}
+        used = FixedParameters(model, known)
+        values = theta_ref[:4]
+    rows = meas.take(meas.time <= t_ref)
+    bound = crlb(rows, used, values, **crlb_options)  # type: ignore[arg-type]
+    state, cov = bound.state_covariance(t_ref)
+    c2 = cov[:2, :2]
+    std = np.sqrt(np.diag(c2))
+    rms = float(np.sqrt(c2[0, 0] + c2[1, 1]))
+    return CrbPoint(t_ref, started, len(rows), state[:2].copy(), c2, std, rms,
+                    bound.ellipse(t_ref, level), bound)

@@ -1,27 +1,35 @@
-"""Exact curvilinear motion: constant tangential and normal acceleration
-(002_e7269ad11b825346.txt §2.1, eq. 1), and piecewise curvilinear manoeuvres (eqs. 2-4).
+"""Exact curvilinear motion: constant tangential and normal acceleration (Hörst & Oispuu
+(2010), §2.1, eq. 1), and piecewise curvilinear manoeuvres (eqs. 2-4).
 
 State ``(x, y, v, phi)``: ENU position (m), speed (m/s) and course phi (radians, clockwise from
 North).  The tangential acceleration ``a_t`` changes the speed, the normal acceleration ``a_n``
 turns the course at rate ``a_n / v`` (positive ``a_n`` turns clockwise, to starboard).
 
-Closed form.  Write the horizontal velocity as the complex number ``V = v e^{i phi}`` (real part
-North, imaginary part East).  Then ``dV/ds = (a_t + i a_n) V / v`` with ``v(s) = v0 + a_t s``, so
-with ``g = (a_t + i a_n) s / v0`` and ``r = a_t s / v0``::
+Closed form (the one copy in tmakit: :func:`propagate_with_partials`; the batched model of
+:mod:`tmakit.motion.curvilinear_batch` calls it too).  Write the complex position
+``Z = y + i x`` and velocity ``V = v e^{i phi}`` (real part North, imaginary part East).  Then
+``dV/ds = (a_t + i a_n) V / v`` with ``v(s) = v0 + a_t s``, so with ``g = (a_t + i a_n) s / v0``,
+``r = a_t s / v0`` and ``L(r) = log1p(r) / r``::
 
-    V(s) = V0 exp(g * log1p(r) / r)                      (-> V0 exp(g) as r -> 0)
-    P(s) - P0 = V0 s F(g, r),  F = ((1 + r) V(s)/V0 - 1) / (g + r)
+    V(s) = V0 E,  E = exp(g L(r));   Z(s) = Z0 + V0 s F(g, r),  F = ((1 + r) E - 1) / (g + r)
+    speed(s) = v0 (1 + r);           course(s) = phi0 + a_n s L(r) / v0
 
 and near zero acceleration ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``, which avoids the
 cancellation in the closed form.  Both a_t = 0 (circular arc) and a_t != 0 are covered, and
 propagation works backwards in time (s < 0) as well.  No ODE solver is involved.
 
-Derivatives.  The same formulas are differentiated in closed form (forward mode: every
-intermediate carries its derivatives with respect to ``v0, a_t, a_n, s``; position and course
-at the start enter as a translation and a rotation).  :class:`PiecewiseCurvilinear` chains these
-one-segment derivatives from the reference state through the change-over times, so its
-Jacobian is analytic for every parameter, the change-over times included, and never
-differences across a change-over time.
+Derivatives with respect to ``(x0, y0, v0, phi0, a_t, a_n, s)`` follow from ``dE/dg = L E``,
+``dE/dr = g L'(r) E``, ``dF/dg = ((1 + r) L E - F) / (g + r)`` and
+``dF/dr = (E + (1 + r) g L'(r) E - F) / (g + r)``, with ``L + r L' = 1 / (1 + r)``; near zero
+acceleration ``F`` and its derivatives come from the series differentiated term by term.
+:class:`PiecewiseCurvilinear` chains these one-segment derivatives from the reference state
+through the change-over times, so its Jacobian is analytic for every parameter, the change-over
+times included, and never differences across a change-over time.
+
+References
+----------
+Hörst, J. & Oispuu, M. (2010). Localization of piecewise curvilinearly moving targets using
+azimuth and azimuth rates, §2, eqs. 1-4.
 """
 
 from __future__ import annotations
@@ -35,108 +43,164 @@ from .base import MotionModel
 
 Array = NDArray[np.float64]
 
-# |g| + |r| below this: F from its power series.  Its n-th term is at most
-# (|g| + |r|)^n / (n + 1), so 15 terms leave < 1e-20; above the threshold the closed form
-# loses at most eps / threshold to cancellation (eps / threshold^2 in its derivatives).
-_SERIES_BELOW = 0.05
-_SERIES_TERMS = 15
-_LOG_SERIES_BELOW = 1e-2  # |r| below this: log1p(r) / r from its power series
-_LOG_SERIES_TERMS = 12    # 1e-2 ** 12: far below rounding
-_LOG_COEFF = [(-1.0) ** n / (n + 1) for n in range(_LOG_SERIES_TERMS)]
+_SERIES_BELOW = 1e-3     # |g| + |r| below which F and its derivatives come from the series
+_SERIES_TERMS = 6        # term n is below size^n / (n+1)!: < 1e-20 at the switch
+_L_SERIES_BELOW = 1e-3   # |r| below which L(r) and L'(r) come from their power series
+_L_TERMS = 6
 
 
 def _log1p_over(r: Array) -> tuple[Array, Array]:
-    """``log1p(r) / r`` and its derivative with respect to ``r``, continuous at r = 0."""
-    small = np.abs(r) < _LOG_SERIES_BELOW
-    safe = np.where(small, 1.0, r)
-    closed = np.log1p(safe) / safe
-    d_closed = (1.0 / (1.0 + safe) - closed) / safe
-    rs = np.where(small, r, 0.0)
-    series = np.full_like(rs, _LOG_COEFF[-1])
-    d_series = np.zeros_like(rs)
-    for c in reversed(_LOG_COEFF[:-1]):  # Horner for the polynomial and its derivative
-        d_series = d_series * rs + series
-        series = series * rs + c
-    return np.where(small, series, closed), np.where(small, d_series, d_closed)
+    """``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1`` (the closed form of
+    ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series)."""
+    small = np.abs(r) < _L_SERIES_BELOW
+    safe = np.where(small, 0.5, r)
+    lg = np.log1p(safe)
+    value = lg / safe
+    deriv = (safe / (1.0 + safe) - lg) / (safe * safe)
+    if np.any(small):
+        rs = r[small]
+        # log1p(r)/r = sum_k (-r)^k / (k + 1);  derivative sum_{k>=1} k (-1)^k r^(k-1) / (k+1)
+        ser = np.zeros_like(rs)
+        ser_d = np.zeros_like(rs)
+        power = np.ones_like(rs)  # r^k
+        for k in range(_L_TERMS):
+            sign = -1.0 if k % 2 else 1.0
+            ser += sign * power / (k + 1)
+            ser_d -= sign * (k + 1) * power / (k + 2)
+            power = power * rs
+        value[small], deriv[small] = ser, ser_d
+    return value, deriv
+
+
+def _f_series(g: NDArray[np.complex128], r: Array
+              ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
+    """``F``, ``dF/dg``, ``dF/dr`` from ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``."""
+    F = np.zeros_like(g)
+    Fg = np.zeros_like(g)
+    Fr = np.zeros_like(g)
+    T = np.ones_like(g)
+    Tg = np.zeros_like(g)
+    Tr = np.zeros_like(g)
+    for n in range(_SERIES_TERMS):
+        f = 1.0 / math.factorial(n + 1)
+        F, Fg, Fr = F + T * f, Fg + Tg * f, Fr + Tr * f
+        factor = g - n * r
+        T, Tg, Tr = T * factor, Tg * factor + T, Tr * factor - n * T
+    return F, Fg, Fr
+
+
+def _partials(v0: Array, a_t: Array, a_n: Array, s: Array, parts: dict[str, Array]
+              ) -> Array:
+    """``d (x, y, speed, course, vx, vy) / d (x0, y0, v0, phi0, a_t, a_n, s)`` ``(n, 6, 7)``
+    of one segment, from the intermediate values ``parts`` of :func:`propagate_with_partials`
+    (flat inputs, valid rows)."""
+    sv, r, c, g, L, dL, F, Fg, Fr, V0, disp, V = (
+        parts[k] for k in ("sv", "r", "c", "g", "L", "dL", "F", "Fg", "Fr", "V0", "disp", "V"))
+    inv1r = 1.0 / (1.0 + r)  # = L + r L'
+    q = V0 * sv
+    # d(Z, V) with respect to (v0, phi0, a_t, a_n, s), complex; speed and course real.
+    dZ = np.stack([q * (F - g * Fg - r * Fr), 1j * disp, q * s * (Fg + Fr), 1j * q * s * Fg,
+                   V], axis=-1)
+    Vsv = V * sv
+    dV = np.stack([V / v0 * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
+                   V * c / v0 * inv1r], axis=-1)
+    zero = np.zeros_like(s)
+    one = np.ones_like(s)
+    out = np.empty((s.size, 6, 7))
+    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = one, zero, zero, one
+    out[:, 4:, :2] = 0.0
+    out[:, 0, 2:], out[:, 1, 2:] = dZ.imag, dZ.real
+    out[:, 4, 2:], out[:, 5, 2:] = dV.imag, dV.real
+    out[:, 2] = np.stack([zero, zero, one, zero, s, zero, a_t], axis=-1)
+    an_v = a_n / v0 * inv1r
+    out[:, 3] = np.stack([zero, zero, -an_v * sv, one, a_n * sv * sv * dL, sv * L, an_v],
+                         axis=-1)
+    return out
+
+
+def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
+                            a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
+                            partials: bool = True) -> tuple[Array, Array | None]:
+    """One curvilinear segment: the state after ``dt`` seconds (any sign) and its derivatives.
+
+    Parameters
+    ----------
+    x, y : array_like
+        Start position (m, East and North); all inputs broadcast.
+    speed : array_like
+        Start speed (m/s).
+    course : array_like
+        Start course (rad, clockwise from North).
+    a_t, a_n : array_like
+        Tangential and normal acceleration (m/s^2; positive ``a_n`` turns to starboard).
+    dt : array_like
+        Propagation time (s, any sign).
+    partials : bool
+        Whether to compute the derivatives.
+
+    Returns
+    -------
+    values : ndarray
+        ``(..., 6)``: ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad unwrapped, m/s, m/s).
+    partials : ndarray or None
+        ``(..., 6, 7)``: derivatives of ``values`` with respect to
+        ``(x, y, speed, course, a_t, a_n, dt)``; None unless asked for.  Where the speed
+        would reach zero before ``dt`` values and derivatives are NaN.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 1 (the closed form: see the module docstring).
+    """
+    x, y, v0, phi0, a_t, a_n, s = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (x, y, speed, course, a_t, a_n, dt)))
+    shape = s.shape
+    x, y, v0, phi0, a_t, a_n, s = (a.reshape(-1) for a in (x, y, v0, phi0, a_t, a_n, s))
+    with np.errstate(invalid="ignore"):
+        valid = (v0 > 0) & (v0 + a_t * s > 0)
+    v0 = np.where(valid, v0, 1.0)
+    a_t = np.where(valid, a_t, 0.0)
+    a_n = np.where(valid, a_n, 0.0)
+    s = np.where(valid, s, 0.0)
+    sv = s / v0
+    r = a_t * sv
+    c = a_t + 1j * a_n
+    g = c * sv
+    L, dL = _log1p_over(r)
+    E = np.exp(g * L)
+    use_series = (np.abs(g) + np.abs(r)) < _SERIES_BELOW
+    denom = np.where(use_series, 1.0, g + r)
+    F = ((1.0 + r) * E - 1.0) / denom
+    if partials:
+        Fg = ((1.0 + r) * L * E - F) / denom
+        Fr = (E + (1.0 + r) * g * dL * E - F) / denom
+    if np.any(use_series):
+        F_s, Fg_s, Fr_s = _f_series(g[use_series], r[use_series])
+        F[use_series] = F_s
+        if partials:
+            Fg[use_series], Fr[use_series] = Fg_s, Fr_s
+    V0 = v0 * np.exp(1j * phi0)
+    disp = V0 * s * F
+    V = V0 * E
+    nan = np.where(valid, 0.0, np.nan)
+    values = np.stack([x + disp.imag, y + disp.real, v0 + a_t * s,
+                       phi0 + a_n * sv * L, V.imag, V.real], axis=-1) + nan[..., None]
+    values = values.reshape(*shape, 6)
+    if not partials:
+        return values, None
+    out = _partials(v0, a_t, a_n, s, dict(sv=sv, r=r, c=c, g=g, L=L, dL=dL, F=F, Fg=Fg, Fr=Fr,
+                                          V0=V0, disp=disp, V=V))
+    if not np.all(valid):
+        out[~valid] = np.nan
+    return values, out.reshape(*shape, 6, 7)
 
 
 def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike, derivatives: bool = False
                ) -> tuple[tuple[Array, ...], Array | None]:
-    """The closed form of the module docstring; optionally with its derivatives.
-
-    Returns ``((x, y, speed, course, vx, vy), D)`` where ``D`` (shape ``(..., 4, 7)``, or
-    None) holds ``d (x, y, speed, course) / d (x0, y0, v0, phi0, a_t, a_n, dt)``.
-    """
-    x, y, v0, phi0, a_t, a_n, dt = np.broadcast_arrays(
-        *(np.asarray(a, dtype=float) for a in (x, y, speed, course, a_t, a_n, dt))
-    )
-    with np.errstate(invalid="ignore"):
-        valid = (v0 > 0) & (v0 + a_t * dt > 0)
-    v0s = np.where(valid, v0, 1.0)
-    ats = np.where(valid, a_t, 0.0)
-    acc = ats + 1j * np.where(valid, a_n, 0.0)      # complex acceleration
-    dts = np.where(valid, dt, 0.0)
-    r = ats * dts / v0s
-    g = acc * dts / v0s
-    log_over, d_log_over = _log1p_over(r)
-    expo = g * log_over                             # log(V(s) / V0)
-    growth = np.exp(expo)
-    # F(g, r): power series near zero acceleration, closed form elsewhere.
-    use_series = (np.abs(g) + np.abs(r)) < _SERIES_BELOW
-    den = np.where(use_series, 1.0, g + r)
-    closed = ((1.0 + r) * growth - 1.0) / den
-    series = np.zeros_like(g)
-    term = np.ones_like(g)
-    if derivatives:
-        zero = np.zeros_like(r)
-        one = np.ones_like(r)
-        inv = 1.0 / v0s
-        # d/d(v0, a_t, a_n, dt) on the last axis
-        d_r = np.stack([-r * inv, dts * inv, zero, ats * inv], axis=-1)
-        d_g = np.stack([-g * inv, dts * inv + 0j, 1j * dts * inv, acc * inv], axis=-1)
-        d_expo = log_over[..., None] * d_g + (g * d_log_over)[..., None] * d_r
-        d_growth = growth[..., None] * d_expo
-        d_series = np.zeros_like(d_g)
-        d_term = np.zeros_like(d_g)
-    for n in range(_SERIES_TERMS):
-        series = series + term / math.factorial(n + 1)
-        step = g - n * r
-        if derivatives:
-            d_series = d_series + d_term / math.factorial(n + 1)
-            d_term = d_term * step[..., None] + term[..., None] * (d_g - n * d_r)
-        term = term * step
-    factor = np.where(use_series, series, closed)
-    e0 = np.exp(1j * phi0)
-    V0 = v0s * e0
-    disp = V0 * dts * factor
-    vel = V0 * growth
-    nan = np.where(valid, 0.0, np.nan)
-    speed_out = v0s * (1.0 + r) + nan
-    course_out = phi0 + np.imag(expo) + nan
-    values = (x + disp.imag + nan, y + disp.real + nan, speed_out, course_out,
-              vel.imag + nan, vel.real + nan)
-    if not derivatives:
-        return values, None
-    d_closed = (d_r * growth[..., None] + (1.0 + r)[..., None] * d_growth
-                - closed[..., None] * (d_g + d_r)) / den[..., None]
-    d_factor = np.where(use_series[..., None], d_series, d_closed)
-    d_dts = np.stack([zero, zero, zero, one], axis=-1)
-    d_v0 = np.stack([e0, 0j * e0, 0j * e0, 0j * e0], axis=-1)
-    d_disp = (V0[..., None] * (d_dts * factor[..., None] + dts[..., None] * d_factor)
-              + d_v0 * (dts * factor)[..., None])              # (..., 4): v0, a_t, a_n, dt
-    rot = 1j * disp                                            # d disp / d phi0
-    D = np.zeros((*x.shape, 4, 7))
-    D[..., 0, 0] = 1.0
-    D[..., 1, 1] = 1.0
-    D[..., 0, 3], D[..., 1, 3] = rot.imag, rot.real
-    D[..., 0, [2, 4, 5, 6]] = d_disp.imag
-    D[..., 1, [2, 4, 5, 6]] = d_disp.real
-    D[..., 2, 2], D[..., 2, 4], D[..., 2, 6] = 1.0, dts, ats
-    D[..., 3, 3] = 1.0
-    D[..., 3, [2, 4, 5, 6]] = d_expo.imag
-    D = D + nan[..., None, None]
-    return values, D
+    """:func:`propagate_with_partials` as ``((x, y, speed, course, vx, vy), D)``, ``D``
+    (``(..., 4, 7)`` or None) the derivatives of ``(x, y, speed, course)``."""
+    values, par = propagate_with_partials(x, y, speed, course, a_t, a_n, dt, derivatives)
+    return tuple(np.moveaxis(values, -1, 0)), None if par is None else par[..., :4, :]
 
 
 def propagate_curvilinear(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
@@ -169,7 +233,7 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
 
 
 class PiecewiseCurvilinear(MotionModel):
-    """Piecewise curvilinear motion with ``M`` manoeuvres (002_e7269ad11b825346.txt eqs. 1-4).
+    """Piecewise curvilinear motion with ``M`` manoeuvres (Hörst & Oispuu (2010), eqs. 1-4).
 
     Parameters: ``x, y, speed, course`` (m, m, m/s, rad clockwise from North) at ``ref_time``
     (s); the accelerations ``at_0, an_0, ..., at_M, an_M`` (m/s^2) of the ``M + 1``

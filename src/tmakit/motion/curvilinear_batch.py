@@ -1,9 +1,9 @@
 """Piecewise curvilinear trajectories evaluated for many parameter vectors at once, with
 analytic derivatives — the work-horse of the manoeuvre estimator
-(:mod:`tmakit.batch.curvilinear`).
+(:mod:`tmakit.batch.manoeuvre`).
 
 The motion is that of :class:`tmakit.motion.PiecewiseCurvilinear`
-(002_e7269ad11b825346.txt eqs. 1-4), in the same parameters ``x, y, speed, course, at_0, an_0,
+(Hörst & Oispuu (2010), eqs. 1-4), in the same parameters ``x, y, speed, course, at_0, an_0,
 ..., at_M, an_M, t_1, ..., t_M`` (m, m, m/s, rad clockwise from North, m/s², s), restricted to
 a reference time **before every change-over time** (``ref_time < t_1 < ... < t_M``; other
 parameter vectors give NaN states, which a least-squares solver treats as an infinite cost, a
@@ -13,38 +13,27 @@ restriction costs nothing; results are reported in the user's own parameterisati
 Everything is vectorised over a leading batch axis (grid points of a profile likelihood, or
 starting points), which the general model's per-vector evaluation is not.
 
-One segment, closed form.  With the complex position ``Z = y + i x`` and velocity
-``V = v e^{i phi}`` (real part North), ``g = (a_t + i a_n) s / v0``, ``r = a_t s / v0`` and
-``L(r) = log1p(r) / r``::
+The one-segment closed form and its derivatives are those of :mod:`tmakit.motion.curvilinear`
+(:func:`~tmakit.motion.curvilinear.propagate_with_partials`, the one copy in tmakit); this module
+chains segments forwards from the reference state through the change-over states (Hörst &
+Oispuu (2010), eq. 4) by the chain rule, for a batch of parameter vectors at once.
 
-    V(s) = V0 E,  E = exp(g L(r));   Z(s) = Z0 + V0 s F(g, r),  F = ((1 + r) E - 1) / (g + r)
-    speed(s) = v0 (1 + r);           course(s) = phi0 + a_n s L(r) / v0
-
-(the exact solution of 002 eq. 1, as in :mod:`tmakit.motion.curvilinear`).  Its derivatives
-with respect to ``(x0, y0, v0, phi0, a_t, a_n, s)`` follow from ``dE/dg = L E``,
-``dE/dr = g L'(r) E``, ``dF/dg = ((1 + r) L E - F) / (g + r)`` and
-``dF/dr = (E + (1 + r) g L'(r) E - F) / (g + r)``, with ``L + r L' = 1 / (1 + r)``; near zero
-acceleration ``F`` and its derivatives come from the series
-``F = sum_n prod_{j<n} (g - j r) / (n + 1)!`` differentiated term by term.  Segments are
-chained from the reference state through the change-over states (002 eq. 4) by the chain rule.
+References
+----------
+Hörst, J. & Oispuu, M. (2010). Localization of piecewise curvilinearly moving targets using
+azimuth and azimuth rates, §2, eqs. 1-4.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..blas import SINGLE_THREAD_WORK
-from . import MotionModel
+from .base import MotionModel
+from .curvilinear import propagate_with_partials
 
 Array = NDArray[np.float64]
-
-_SERIES_BELOW = 1e-3     # |g| + |r| below which F and its derivatives come from the series
-_SERIES_TERMS = 6     # term n is below size^n / (n+1)!: < 1e-20 at the switch
-_L_SERIES_BELOW = 1e-3   # |r| below which L(r) and L'(r) come from their power series
-_L_TERMS = 6
 
 
 def batched_matmul(a: Array, b: Array) -> Array:
@@ -61,129 +50,6 @@ def batched_matmul(a: Array, b: Array) -> Array:
     for lo in range(0, n, block):
         np.matmul(a[..., lo:lo + block, :], b, out=out[..., lo:lo + block, :])
     return out
-
-
-def gram(j: Array) -> Array:
-    """``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``, summed over row blocks below OpenBLAS's
-    multithreading threshold when one product would pass it."""
-    n, p = j.shape[-2:]
-    jt = np.swapaxes(j, -1, -2)
-    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
-    if n <= block:
-        return jt @ j
-    out = np.zeros((*j.shape[:-2], p, p))
-    for lo in range(0, n, block):
-        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
-    return out
-
-
-def _log1p_over(r: Array) -> tuple[Array, Array]:
-    """``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1`` (the closed form of
-    ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series)."""
-    small = np.abs(r) < _L_SERIES_BELOW
-    safe = np.where(small, 0.5, r)
-    lg = np.log1p(safe)
-    value = lg / safe
-    deriv = (safe / (1.0 + safe) - lg) / (safe * safe)
-    if np.any(small):
-        rs = r[small]
-        # log1p(r)/r = sum_k (-r)^k / (k + 1);  derivative sum_{k>=1} k (-1)^k r^(k-1) / (k+1)
-        ser = np.zeros_like(rs)
-        ser_d = np.zeros_like(rs)
-        power = np.ones_like(rs)  # r^k
-        for k in range(_L_TERMS):
-            sign = -1.0 if k % 2 else 1.0
-            ser += sign * power / (k + 1)
-            ser_d -= sign * (k + 1) * power / (k + 2)
-            power = power * rs
-        value[small], deriv[small] = ser, ser_d
-    return value, deriv
-
-
-def _f_series(g: NDArray[np.complex128], r: Array
-              ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
-    """``F``, ``dF/dg``, ``dF/dr`` from ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``."""
-    F = np.zeros_like(g)
-    Fg = np.zeros_like(g)
-    Fr = np.zeros_like(g)
-    T = np.ones_like(g)
-    Tg = np.zeros_like(g)
-    Tr = np.zeros_like(g)
-    for n in range(_SERIES_TERMS):
-        f = 1.0 / math.factorial(n + 1)
-        F, Fg, Fr = F + T * f, Fg + Tg * f, Fr + Tr * f
-        factor = g - n * r
-        T, Tg, Tr = T * factor, Tg * factor + T, Tr * factor - n * T
-    return F, Fg, Fr
-
-
-def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
-                            a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
-                            partials: bool = True) -> tuple[Array, Array | None]:
-    """One curvilinear segment: the state after ``dt`` seconds (any sign) and its derivatives.
-
-    Inputs broadcast.  Returns ``values (..., 6)`` = ``(x, y, speed, course, vx, vy)`` (m, m,
-    m/s, rad unwrapped, m/s, m/s) and, if asked, ``partials (..., 6, 7)`` with respect to
-    ``(x, y, speed, course, a_t, a_n, dt)``.  Where the speed would reach zero before ``dt``
-    everything is NaN.
-    """
-    x, y, v0, phi0, a_t, a_n, s = np.broadcast_arrays(
-        *(np.asarray(a, dtype=float) for a in (x, y, speed, course, a_t, a_n, dt)))
-    shape = s.shape
-    x, y, v0, phi0, a_t, a_n, s = (a.reshape(-1) for a in (x, y, v0, phi0, a_t, a_n, s))
-    valid = (v0 > 0) & (v0 + a_t * s > 0)
-    v0 = np.where(valid, v0, 1.0)
-    a_t = np.where(valid, a_t, 0.0)
-    a_n = np.where(valid, a_n, 0.0)
-    s = np.where(valid, s, 0.0)
-    sv = s / v0
-    r = a_t * sv
-    c = a_t + 1j * a_n
-    g = c * sv
-    L, dL = _log1p_over(r)
-    E = np.exp(g * L)
-    use_series = (np.abs(g) + np.abs(r)) < _SERIES_BELOW
-    denom = np.where(use_series, 1.0, g + r)
-    F = ((1.0 + r) * E - 1.0) / denom
-    if partials:
-        Fg = ((1.0 + r) * L * E - F) / denom
-        Fr = (E + (1.0 + r) * g * dL * E - F) / denom
-    if np.any(use_series):
-        F_s, Fg_s, Fr_s = _f_series(g[use_series], r[use_series])
-        F[use_series] = F_s
-        if partials:
-            Fg[use_series], Fr[use_series] = Fg_s, Fr_s
-    V0 = v0 * np.exp(1j * phi0)
-    disp = V0 * s * F
-    V = V0 * E
-    nan = np.where(valid, 0.0, np.nan)
-    values = np.stack([x + disp.imag, y + disp.real, v0 + a_t * s,
-                       phi0 + a_n * sv * L, V.imag, V.real], axis=-1) + nan[..., None]
-    values = values.reshape(*shape, 6)
-    if not partials:
-        return values, None
-    inv1r = 1.0 / (1.0 + r)  # = L + r L'
-    q = V0 * sv
-    # d(Z, V) with respect to (v0, phi0, a_t, a_n, s), complex; speed and course real.
-    dZ = np.stack([q * (F - g * Fg - r * Fr), 1j * disp, q * s * (Fg + Fr), 1j * q * s * Fg,
-                   V], axis=-1)
-    Vsv = V * sv
-    dV = np.stack([V / v0 * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
-                   V * c / v0 * inv1r], axis=-1)
-    zero = np.zeros_like(s)
-    one = np.ones_like(s)
-    out = np.empty((s.size, 6, 7))
-    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = one, zero, zero, one
-    out[:, 4:, :2] = 0.0
-    out[:, 0, 2:], out[:, 1, 2:] = dZ.imag, dZ.real
-    out[:, 4, 2:], out[:, 5, 2:] = dV.imag, dV.real
-    out[:, 2] = np.stack([zero, zero, one, zero, s, zero, a_t], axis=-1)
-    an_v = a_n / v0 * inv1r
-    out[:, 3] = np.stack([zero, zero, -an_v * sv, one, a_n * sv * sv * dL, sv * L, an_v],
-                         axis=-1)
-    if not np.all(valid):
-        out[~valid] = np.nan
-    return values, out.reshape(*shape, 6, 7)
 
 
 class ForwardPiecewise(MotionModel):
@@ -255,7 +121,8 @@ class ForwardPiecewise(MotionModel):
         anchors[~valid] = np.nan
         return anchors, d_anchor, starts, valid
 
-    def _segments(self, theta: Array, t: Array, partials: bool):
+    def _segments(self, theta: Array, t: Array, partials: bool
+                  ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
         """Per sample: its segment ``(B, n)``, propagated values ``(B, n, 6)`` and partials
         ``(B, n, 6, 7)`` with respect to the segment's start state, accelerations and the time
         since its start; plus the anchors' derivatives."""
@@ -278,6 +145,8 @@ class ForwardPiecewise(MotionModel):
 
     # -- the MotionModel interface -----------------------------------------------------------
     def states(self, theta: ArrayLike, t: ArrayLike) -> Array:
+        """ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s); NaN for parameters outside
+        the model's domain (see the class docstring)."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
@@ -316,6 +185,7 @@ class ForwardPiecewise(MotionModel):
         return seg_u, par_u, d_anchor, idx
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> Array:
+        """Analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s)."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         jac = np.zeros((flat.shape[0], t.shape[0], 6, self.n_params))

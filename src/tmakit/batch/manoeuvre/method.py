@@ -11,12 +11,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from ..data import MeasurementSet
-from ..motion import PiecewiseCurvilinear
-from ..results.estimate import EstimateResult
-from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
-from .curvilinear import ManoeuvreSettings, estimate_for
-from .estimator import BatchEstimator, Init, Options
+from ...data import MeasurementSet
+from ...motion import PiecewiseCurvilinear
+from ...results.estimate import EstimateResult
+from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
+from ..estimator import BatchEstimator, Init, Options
+from .estimator import estimate_for
+from .settings import ManoeuvreSettings
 
 __all__ = ["ManoeuvreEstimator"]
 

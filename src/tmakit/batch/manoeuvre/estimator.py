@@ -1,0 +1,198 @@
+"""The entry points of the manoeuvre estimator: :func:`estimate_manoeuvres` and the hook
+:func:`estimate_for` of ``tk.estimate`` (see :mod:`tmakit.batch.manoeuvre` for the method)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ...data import MeasurementSet
+from ...motion import PiecewiseCurvilinear, motion_from_name
+from ...results.estimate import EstimateResult
+from .report import ManoeuvreEstimate, report
+from .search import ManoeuvreSearch
+from .selection import select_order, sparsify
+from .settings import ManoeuvreSettings
+
+
+def _fit_from_start(search: ManoeuvreSearch, ref: float,
+                    init: Mapping[str, float] | ArrayLike) -> ManoeuvreEstimate:
+    """Exactly ``max_manoeuvres`` fitted from ``init`` (user parameters at ``ref``), no
+    search."""
+    s = search.s
+    m = s.max_manoeuvres
+    user = PiecewiseCurvilinear(m, ref)
+    theta0 = (user.theta(init) if isinstance(init, Mapping)
+              else np.asarray(init, dtype=float).reshape(-1))
+    if theta0.shape != (user.n_params,):
+        raise ValueError(f"init must give {user.n_params} values "
+                         f"({', '.join(user.param_names)})")
+    if m and (np.any(np.diff(theta0[6 + 2 * m:]) <= 0)
+              or theta0[6 + 2 * m] <= search.t0 or theta0[-1] >= search.t_end):
+        raise ValueError("init: the change-over times must increase and lie inside the "
+                         f"data span ({search.t0:g} s, {search.t_end:g} s)")
+    state = user.states(theta0, np.array([search.t0]))[0]
+    internal = np.array(theta0, dtype=float)
+    internal[:4] = (state[0], state[1], math.hypot(state[3], state[4]),
+                    math.atan2(state[3], state[4]))
+    fit = search.fit_from(m, internal)
+    if s.accelerations == "select":
+        fit = sparsify(search, fit)
+    return report(search, fit, ref, None, [fit])
+
+
+def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
+    """Every order ``0 .. max_manoeuvres`` the data span holds (or only the last, ``exact``),
+    the accelerations selected, and the order chosen."""
+    s = search.s
+    n = search.problem(0).noise.rank
+    top = search.max_order()
+    note = ""
+    if top < s.max_manoeuvres:
+        note = (f"the data span {search.t_end - search.t0:g} s holds at most {top} "
+                f"manoeuvres {s.min_segment:g} s apart on a {s.grid_step:g} s grid")
+        if s.exact:
+            raise ValueError(note)
+    full = [search.fit_zero()]  # every acceleration fitted: the warm starts of the search
+    for m in range(1, top + 1):
+        full.append(search.fit(m, full[-1]))
+    fits = list(full)
+    if s.accelerations == "select":
+        for i in (range(len(full)) if not s.exact else [len(full) - 1]):
+            fits[i] = sparsify(search, full[i])
+    if s.exact:
+        chosen = fits[-1]
+        selection = None
+    else:
+        selection = select_order(fits, n, s.criterion, s.alpha)
+        chosen = fits[selection.chosen]
+    res = report(search, chosen, ref, selection, fits)
+    if selection is not None and top and selection.chosen == top == s.max_manoeuvres:
+        more = (f"the largest number of manoeuvres tried ({top}) was chosen: more may fit "
+                f"better (try curvilinear:{top + 1})")
+        note = f"{note}; {more}" if note else more
+    if note:
+        res.message = f"{res.message}; {note}" if res.message else note
+    return res
+
+
+def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
+                        exact: bool = False, criterion: str = "bic", alpha: float = 0.01,
+                        accelerations: str | None = None, ref_time: float | None = None,
+                        init: Mapping[str, float] | ArrayLike | None = None,
+                        options: Mapping[str, Mapping[str, object]] | None = None,
+                        known_nuisance: Mapping[str, float] | None = None,
+                        settings: ManoeuvreSettings | None = None) -> ManoeuvreEstimate:
+    """Maximum-likelihood piecewise curvilinear motion with ``0 .. max_manoeuvres``
+    manoeuvres (or exactly ``max_manoeuvres``), no initial guess needed.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The data.
+    max_manoeuvres : int
+        The largest number of manoeuvres tried.
+    exact : bool
+        Fit exactly ``max_manoeuvres``.
+    criterion : {"bic", "lrt"}
+        How the order is chosen (see :mod:`tmakit.batch.manoeuvre`).
+    alpha : float
+        Level of the likelihood-ratio tests.
+    accelerations : {"select", "all"}, optional
+        ``"select"`` holds at zero the acceleration components the data do not need, by the
+        same criterion, ``"all"`` fits them all (default: ``settings``', which is
+        ``"select"``); held ones are listed in the result's ``held``.
+    ref_time : float, optional
+        Reference time of the reported position, speed and course (s; default: the first
+        measurement time).
+    init : mapping or array_like, optional
+        ``curvilinear:max_manoeuvres`` parameters referenced at ``ref_time`` (by name or as a
+        vector, SI): exactly that order is fitted from that start, no search; its change-over
+        times must lie inside the data span.
+    options, known_nuisance : mapping, optional
+        As for :func:`tmakit.batch.ml.estimate`.
+    settings : ManoeuvreSettings, optional
+        Overrides the search (grid spacing, shortest segment, ...); its order and criterion
+        fields are replaced by the arguments.
+
+    Returns
+    -------
+    ManoeuvreEstimate
+        The chosen fit, the order selection and every order's fit.
+
+    Raises
+    ------
+    ValueError
+        For an empty set, bad settings, a bad ``init``, or ``exact`` with more manoeuvres
+        than the data span holds.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
+    """
+    base = settings or ManoeuvreSettings()
+    s = replace(base, max_manoeuvres=max_manoeuvres, exact=exact, criterion=criterion,
+                alpha=alpha, accelerations=accelerations or base.accelerations)
+    if len(meas) == 0:
+        raise ValueError("the measurement set is empty")
+    search = ManoeuvreSearch(meas, options, known_nuisance, s)
+    ref = search.t0 if ref_time is None else float(ref_time)
+    if init is not None:
+        return _fit_from_start(search, ref, init)
+    return _search_orders(search, ref)
+
+
+def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
+                 init: Mapping[str, float] | ArrayLike | None = None,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 known_nuisance: Mapping[str, float] | None = None,
+                 max_iter: int = 100, **kw: Any) -> EstimateResult:
+    """The hook of :func:`tmakit.batch.ml.estimate` for motion given by name or as a
+    :class:`~tmakit.motion.PiecewiseCurvilinear`.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The data.
+    motion : PiecewiseCurvilinear or str
+        A model with ``M`` manoeuvres searches ``0..M`` (parameters referenced at its
+        reference time).  A name is read by :func:`tmakit.motion.motion_from_name`:
+        ``"curvilinear:M"`` likewise searches ``0..M`` (at ``ref_time`` if given, else the
+        first measurement time) and ``"curvilinear"``, which is ``"curvilinear:2"``, searches
+        ``0..2``; any other name (``"cv2d"``, ...) is estimated by
+        :func:`tmakit.batch.ml.estimate`.
+    init, options, known_nuisance, max_iter
+        As for :func:`tmakit.batch.ml.estimate`; with ``init`` exactly ``M`` is fitted from it.
+    **kw
+        ``exact=True`` fits exactly ``M``; ``ref_time``, ``settings`` and the other keywords of
+        :func:`estimate_manoeuvres`.
+
+    Returns
+    -------
+    EstimateResult
+        A :class:`ManoeuvreEstimate` for a manoeuvring target.
+
+    Raises
+    ------
+    ValueError
+        For an unknown motion name, and as :func:`estimate_manoeuvres`.
+    """
+    if isinstance(motion, str):
+        ref = kw.pop("ref_time", None)
+        model = motion_from_name(motion, 0.0 if ref is None else float(ref))
+        if not isinstance(model, PiecewiseCurvilinear):
+            from ..ml import estimate
+
+            return estimate(meas, model, init=init, options=options,
+                            known_nuisance=known_nuisance, max_iter=max_iter, **kw)
+        m = model.manoeuvres
+    else:
+        m, ref = motion.manoeuvres, kw.pop("ref_time", motion.ref_time)
+    settings = replace(kw.pop("settings", None) or ManoeuvreSettings(), max_iter=max_iter)
+    return estimate_manoeuvres(meas, m, ref_time=ref, init=init, options=options,
+                               known_nuisance=known_nuisance, settings=settings, **kw)

@@ -1,0 +1,97 @@
+"""The profile grid of the change-over times: tuples of grid times, their local minima, and
+the warm start that splits a segment in two."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+
+def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:
+    """Index tuples ``i_1 < ... < i_m`` into ``grid`` whose times are ``min_gap`` apart.
+
+    Parameters
+    ----------
+    grid : ndarray
+        Grid times (s), increasing.
+    m : int
+        Tuple length (the number of manoeuvres).
+    min_gap : float
+        Least spacing of neighbouring times in a tuple (s).
+
+    Returns
+    -------
+    ndarray of int
+        ``(T, m)`` index tuples; one empty tuple for ``m = 0``.
+    """
+    if m == 0:
+        return np.zeros((1, 0), dtype=np.int64)
+    out = [c for c in itertools.combinations(range(grid.size), m)
+           if m == 1 or np.all(np.diff(grid[list(c)]) >= min_gap - 1e-9)]
+    return np.array(out, dtype=np.int64).reshape(-1, m)
+
+
+def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
+    """Insert change-over time ``t_new`` as the ``j``-th (0-based) into fits with ``m_prev``
+    manoeuvres, splitting segment ``j`` into two with its accelerations.
+
+    Parameters
+    ----------
+    theta : ndarray
+        ``(B, p)`` internal parameters with ``m_prev`` manoeuvres.
+    m_prev : int
+        Their number of manoeuvres.
+    j : int
+        Index (0-based) of the segment split, and of the new change-over time.
+    t_new : ndarray
+        ``(B,)`` the new change-over times (s), inside segment ``j``.
+
+    Returns
+    -------
+    ndarray
+        ``(B, p + 3)`` parameters with ``m_prev + 1`` manoeuvres: the same trajectory.
+    """
+    b = theta.shape[0]
+    acc = theta[:, 4:6 + 2 * m_prev].reshape(b, m_prev + 1, 2)
+    acc = np.concatenate([acc[:, :j + 1], acc[:, j:j + 1], acc[:, j + 1:]], axis=1)
+    times = np.insert(theta[:, 6 + 2 * m_prev:], j, t_new, axis=1)
+    return np.concatenate([theta[:, :4], acc.reshape(b, -1), times], axis=1)
+
+
+def local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
+    """Rows of ``tuples`` whose cost is at most that of every grid neighbour (one index
+    moved by one), best first.
+
+    Parameters
+    ----------
+    tuples : ndarray of int
+        ``(T, m)`` grid index tuples.
+    cost : ndarray
+        ``(T,)`` their costs; non-finite ones are never minima.
+
+    Returns
+    -------
+    ndarray of int
+        Row indices into ``tuples``, lowest cost first.
+    """
+    where = {tuple(t): i for i, t in enumerate(tuples)}
+    keep = []
+    for i, t in enumerate(tuples):
+        if not np.isfinite(cost[i]):
+            continue
+        ok = True
+        for k in range(tuples.shape[1]):
+            for d in (-1, 1):
+                nb = list(t)
+                nb[k] += d
+                other = where.get(tuple(nb))
+                if other is not None and cost[other] < cost[i]:
+                    ok = False
+        if ok:
+            keep.append(i)
+    keep_arr = np.array(keep, dtype=np.int64)
+    return keep_arr[np.argsort(cost[keep_arr])] if keep_arr.size else keep_arr

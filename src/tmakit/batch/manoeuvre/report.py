@@ -1,0 +1,177 @@
+"""The manoeuvre estimator's result: the chosen fit in the user's parameterisation, its
+covariance (the inverse Fisher information of the fitted parameters, Hörst & Oispuu (2010),
+eq. 9), the order selection and the state at the last measurement time."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...motion import PiecewiseCurvilinear
+from ...motion.curvilinear_batch import ForwardPiecewise
+from ...motion.fixed import FixedParameters
+from ...observation import ObservationModel
+from ...results.estimate import (
+    CONVERGED,
+    DIVERGED,
+    NOT_CONVERGED,
+    EstimateResult,
+    assemble_result,
+)
+from .search import ManoeuvreSearch
+from .selection import OrderSelection, fit_criterion
+from .settings import OrderFit
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class ManoeuvreEstimate(EstimateResult):
+    """An :class:`~tmakit.results.estimate.EstimateResult` for the chosen number of
+    manoeuvres.
+
+    Parameters
+    ----------
+    selection : OrderSelection, optional
+        The model-order selection (None when one order was fitted).
+    fits : list of OrderFit
+        Every order's fit.
+    held : list of str
+        The accelerations held at zero (value and std 0).
+    final_time : float
+        The last measurement time (s).
+    final : dict
+        The state at ``final_time``: ``{name: (value, std)}`` (SI).
+    """
+
+    selection: OrderSelection | None = None
+    fits: list[OrderFit] = field(default_factory=list)
+    held: list[str] = field(default_factory=list)
+    final_time: float = float("nan")
+    final: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def manoeuvres(self) -> int:
+        """The number of manoeuvres of the chosen model."""
+        return int(getattr(self.motion, "manoeuvres", 0))
+
+    def change_over_times(self) -> list[tuple[float, float]]:
+        """``(value, std)`` of every change-over time (s)."""
+        return [(float(self.estimate[i]), float(self.std[i]))
+                for i, n in enumerate(self.parameters) if n.startswith("t_")]
+
+    def as_dict(self) -> dict[str, object]:
+        """The result as JSON-ready data: the keys of :class:`EstimateResult` and
+        ``manoeuvres``, ``held_at_zero``, ``model_order``, ``change_over_times``,
+        ``final_state``."""
+        data = super().as_dict()
+
+        def num(x: float) -> float | None:
+            return float(x) if np.isfinite(x) else None
+
+        data["manoeuvres"] = self.manoeuvres
+        data["held_at_zero"] = list(self.held)
+        data["model_order"] = self.selection.as_dict() if self.selection else None
+        data["change_over_times"] = [{"value": num(v), "std": num(s)}
+                                     for v, s in self.change_over_times()]
+        data["final_state"] = {"time": num(self.final_time),
+                               **{k: {"value": num(v), "std": num(s)}
+                                  for k, (v, s) in self.final.items()}}
+        return data
+
+    def summary(self) -> str:
+        """The estimate, the order selection and the final position, as text."""
+        parts = [super().summary()]
+        if self.selection is not None:
+            parts.append(self.selection.summary())
+        if self.final:
+            x, sx = self.final["x"]
+            y, sy = self.final["y"]
+            parts.append(f"position at t = {self.final_time:g} s: x = {x:.1f} m (std "
+                         f"{sx:.3g}), y = {y:.1f} m (std {sy:.3g})")
+        return "\n".join(parts)
+
+
+def reference(model: ForwardPiecewise, theta: Array, ref_time: float) -> Array:
+    """The same trajectory in :class:`PiecewiseCurvilinear` parameters referenced at
+    ``ref_time`` (s), the course wrapped to (-pi, pi].
+
+    Returns
+    -------
+    ndarray
+        ``(p,)`` parameters (SI).
+    """
+    state = model.segment_states(theta, np.array([ref_time]))[0]
+    out = np.array(theta, dtype=float)
+    out[:4] = state
+    out[3] = (state[3] + math.pi) % (2 * math.pi) - math.pi
+    if out[3] == -math.pi:
+        out[3] = math.pi
+    return out
+
+
+def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
+           selection: OrderSelection | None, fits: list[OrderFit]) -> ManoeuvreEstimate:
+    """The chosen fit in the user's parameterisation, with its covariance.
+
+    Parameters
+    ----------
+    search : ManoeuvreSearch
+        The search that made the fits.
+    fit : OrderFit
+        The chosen fit.
+    ref_time : float
+        Reference time of the reported position, speed and course (s).
+    selection : OrderSelection, optional
+        The order selection.
+    fits : list of OrderFit
+        Every order's fit.
+
+    Returns
+    -------
+    ManoeuvreEstimate
+        Held accelerations have value and std 0 and are no unknowns; the covariance is the
+        inverse Fisher information of the fitted parameters at the estimate (nuisance
+        parameters included when unknown, :func:`~tmakit.results.estimate.assemble_result`).
+    """
+    m = fit.manoeuvres
+    motion = PiecewiseCurvilinear(m, ref_time)
+    pr = search.problem(m)
+    theta = reference(pr.obs.motion, fit.theta, ref_time)
+    common = dict(method="ml", motion=motion, selection=selection, fits=fits,
+                  final_time=search.t_end, iterations=fit.iterations, starts=fit.starts)
+    if not np.all(np.isfinite(theta)) or not np.isfinite(fit.chi2):
+        nan = np.full(motion.n_params, np.nan)
+        return ManoeuvreEstimate(motion.param_names, nan, nan,
+                                 np.full((motion.n_params,) * 2, np.nan),
+                                 {k: (np.nan, np.nan) for k in pr.obs.nuisance_names},
+                                 DIVERGED, chi2=np.inf, dof=pr.noise.rank - fit.unknowns,
+                                 message="the solve left the region where the model is "
+                                         "defined (non-finite predictions)", **common)
+    free = fit.free_mask()
+    held = [n for n, f in zip(motion.param_names, free, strict=True) if not f]
+    # the information of the fitted parameters only: a held acceleration is no unknown
+    fitted = FixedParameters(motion, dict.fromkeys(held, 0.0)) if held else motion
+    # a fit settled on a corner of the likelihood says so in its note, not as "iteration limit"
+    res = assemble_result(ObservationModel(search.meas, fitted, search.options), pr.noise,
+                          theta[free], fit.nuisance, fit.chi2 / 2.0, fit.iterations,
+                          fit.converged or bool(fit.note), "ml", fit.starts,
+                          pr.fixed is not None, fit.note)
+    status = res.status if fit.converged or res.status != CONVERGED else NOT_CONVERGED
+    p = motion.n_params
+    std = np.zeros(p)
+    std[free] = res.std
+    cov = np.zeros((p, p))
+    cov[np.ix_(free, free)] = res.covariance
+    message = res.message
+    if held:
+        note = (f"held at zero as the data do not need them ({fit_criterion(search.s)}): "
+                f"{', '.join(held)}")
+        message = f"{message}; {note}" if message else note
+    assert res.bound is not None
+    return ManoeuvreEstimate(motion.param_names, theta, std, cov, res.nuisance, status,
+                             chi2=fit.chi2, dof=res.dof, bound=res.bound, message=message,
+                             final=res.bound.derived(search.t_end), held=held, **common)

@@ -1,0 +1,424 @@
+"""The change-over-time search of the manoeuvre estimator: profile likelihood on a grid,
+refinement with every parameter free, a finer profile around the result, and the corner test
+(see :mod:`tmakit.batch.manoeuvre` for the method).
+
+Every fit is a run of the shared solver, :func:`tmakit.batch.solver.levenberg_marquardt`, with
+the search's settings (:func:`lm_fit`): parameters held by a mask, the damping divided by 3
+after an accepted step and multiplied by 4 after a rejected one, and early stops for rejected,
+stalled or hopeless fits.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...data import MeasurementSet
+from ...motion import ConstantVelocity
+from ...motion.curvilinear_batch import ForwardPiecewise
+from ...observation import ObservationModel
+from ..solver import SolveResult, VarProProblem, levenberg_marquardt
+from .grid import grid_tuples, local_minima, split_segment
+from .settings import ManoeuvreSettings, OrderFit
+
+Array = NDArray[np.float64]
+
+_CHUNK = 256  # held fits per batch on the profile grid
+PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
+"""Moves (s) of a change-over time in the corner test (:meth:`ManoeuvreSearch.settle`)."""
+
+
+def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
+           rtol: float = 1e-3, atol: float = 0.02, prune: float | None = None,
+           best: float = np.inf, max_reject: int = 40, stall: float = 0.0) -> SolveResult:
+    """Levenberg–Marquardt over the columns ``free`` only, the others held, from the starts
+    ``theta0`` ``(B, p)``, with the search's damping and stopping rules.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The order's least-squares problem (:meth:`ManoeuvreSearch.problem`).
+    theta0 : ndarray
+        ``(B, p)`` starting points (internal parameters, SI).
+    free : ndarray of bool
+        ``(p,)`` the parameters fitted.
+    max_iter : int
+        Most steps per fit.
+    rtol, atol : float
+        Converged: the Gauss–Newton decrement (the cost decrease an undamped step predicts)
+        below ``rtol * cost + atol``.  The default (within ~0.05 of the held minimum in chi2)
+        suffices to rank grid points; refinements ask for ``rtol=1e-10, atol=1e-7`` as the
+        solver's defaults.
+    prune : float, optional
+        A cost (half chi2): a fit stops early once even twice its Gauss–Newton decrement could
+        not bring it within ``prune`` of the best current cost of the batch (or ``best``, a
+        cost reached elsewhere) — it cannot be a profile minimum that matters, and its current
+        cost (an upper bound) is kept.
+    best : float
+        A cost reached elsewhere, for ``prune``.
+    max_reject : int
+        A fit stops unconverged after this many rejected steps in a row: on a corner of the
+        likelihood (:meth:`ManoeuvreSearch.settle`) no damping helps, and waiting for the
+        damping to grow by 1e15 costs ~25 evaluations.
+    stall : float
+        With ``stall > 0`` a fit also stops once six iterations in a row lowered its cost by
+        less than ``stall`` in all (a fit creeping along corners, or along the flat valley of
+        a change-over time the data hardly see).
+
+    Returns
+    -------
+    SolveResult
+        Every fit's final point, cost (half chi2), convergence and iterations.
+    """
+    return levenberg_marquardt(
+        problem, problem.obs.values, theta0, max_iter, ftol=rtol, xtol=0.0, gtol=0.0,
+        dtol=atol, ceiling=None if prune is None else np.asarray(best), free=free,
+        damping="factors", max_reject=max_reject, stall=stall,
+        dominance=(2.0, 0.0 if prune is None else prune))
+
+
+class ManoeuvreSearch:
+    """The fits of every order for one data set (shared grid, warm starts between orders).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The data.
+    options : mapping, optional
+        Nuisance model per kind, as for :func:`tmakit.batch.ml.estimate`.
+    fixed_nuisance : mapping, optional
+        Known nuisance values by name (None: estimated).
+    settings : ManoeuvreSettings
+        How to search.
+
+    Notes
+    -----
+    Internal parameters are those of :class:`~tmakit.motion.curvilinear_batch.
+    ForwardPiecewise` referenced at the first measurement time ``t0`` (s); the grid of
+    change-over times (``grid``, s) is centred in the data span ``(t0, t_end)``.
+    """
+
+    def __init__(self, meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
+                 fixed_nuisance: Mapping[str, float] | None,
+                 settings: ManoeuvreSettings) -> None:
+        self.meas = meas
+        self.options = options
+        self.fixed = fixed_nuisance
+        self.s = settings
+        self.t0 = float(meas.time.min())
+        self.t_end = float(meas.time.max())
+        lo, hi = self.t0 + settings.min_segment, self.t_end - settings.min_segment
+        n = math.floor((hi - lo) / settings.grid_step + 1e-9) + 1 if hi >= lo else 0
+        # the grid centred in the span
+        pad = (hi - lo - (n - 1) * settings.grid_step) / 2.0 if n else 0.0
+        self.grid = lo + pad + settings.grid_step * np.arange(max(n, 0))
+        self.min_gap = max(settings.min_segment, settings.grid_step)
+        self._problems: dict[int, VarProProblem] = {}
+        self.profiles: dict[int, tuple[NDArray[np.int64], Array, Array]] = {}
+
+    def problem(self, m: int) -> VarProProblem:
+        """The least-squares problem with ``m`` manoeuvres (internal parameters)."""
+        if m not in self._problems:
+            model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
+            obs = ObservationModel(self.meas, model, self.options)
+            fixed = None if self.fixed is None else obs.nuisance_vector(self.fixed)
+            self._problems[m] = VarProProblem(obs, None, fixed)
+        return self._problems[m]
+
+    def max_order(self) -> int:
+        """The most manoeuvres the grid can hold (at most ``max_manoeuvres``)."""
+        m = 0
+        while m < self.s.max_manoeuvres and grid_tuples(self.grid, m + 1,
+                                                        self.min_gap).shape[0] > 0:
+            m += 1
+        return m
+
+    def unknowns(self, m: int, free: NDArray[np.bool_] | None = None) -> int:
+        """Unknowns of the order ``m`` model: the fitted motion parameters (all, or those in
+        ``free``) and the nuisance parameters unless they are known."""
+        pr = self.problem(m)
+        p = pr.p if free is None else int(np.count_nonzero(free))
+        return p + (0 if pr.fixed is not None else pr.k)
+
+    def fit_zero(self, init: Array | None = None) -> OrderFit:
+        """The order-0 fit (one curvilinear segment), from ``init`` or from the no-guess
+        constant-velocity fit at ``t0`` with zero accelerations.
+
+        Raises
+        ------
+        ValueError
+            When the start gives no finite fit.
+        """
+        pr = self.problem(0)
+        if init is None:
+            from ..ml import estimate as estimate_cv
+
+            cv = estimate_cv(self.meas, ConstantVelocity(2, self.t0), options=self.options,
+                             known_nuisance=self.fixed)
+            x, y, vx, vy = cv.estimate
+            init = np.array([x, y, math.hypot(vx, vy), math.atan2(vx, vy), 0.0, 0.0])
+        sol = levenberg_marquardt(pr, pr.obs.values, np.atleast_2d(init),
+                                  max_iter=self.s.max_iter)
+        ok = np.isfinite(sol.cost)
+        if not ok[0]:
+            raise ValueError("the constant-velocity start gives no finite curvilinear fit")
+        grid_idx = np.zeros((1, 0), dtype=np.int64)
+        self.profiles[0] = (grid_idx, sol.theta.copy(), sol.cost.copy())
+        return OrderFit(0, sol.theta[0], sol.nuisance[0], float(2 * sol.cost[0]),
+                        self.unknowns(0), bool(sol.converged[0]), int(sol.iterations[0]), 1)
+
+    def _profile_starts(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
+        """The grid tuples of order ``m`` to profile and their warm starts: the order ``m - 1``
+        profile fit at the tuple with one time removed (the best of the ``m`` such tuples),
+        the removed segment split in two; with the cost of that fit (inf: no start)."""
+        tuples = grid_tuples(self.grid, m, self.min_gap)
+        prev_idx, prev_theta, prev_cost = self.profiles[m - 1]
+        if tuples.shape[0] > self.s.max_tuples:
+            seeds = prev_idx[local_minima(prev_idx, prev_cost)[: self.s.refine]]
+            keep = np.zeros(tuples.shape[0], dtype=bool)
+            for sd in seeds:
+                for j in range(m):
+                    keep |= np.all(np.delete(tuples, j, axis=1) == sd, axis=1)
+            tuples = tuples[keep]
+        where = {tuple(t): i for i, t in enumerate(prev_idx)}
+        best_cost = np.full(tuples.shape[0], np.inf)
+        start = np.full((tuples.shape[0], self.problem(m).p), np.nan)
+        for j in range(m):  # drop the j-th time: a tuple of order m - 1
+            sub = np.delete(tuples, j, axis=1)
+            rows = np.array([where.get(tuple(t), -1) for t in sub])
+            have = rows >= 0
+            cost = np.where(have, prev_cost[rows], np.inf)
+            better = cost < best_cost
+            if np.any(better):
+                cand = split_segment(prev_theta[rows[better]], m - 1, j,
+                                     self.grid[tuples[better, j]])
+                start[better] = cand
+                best_cost[better] = cost[better]
+        return tuples, start, best_cost
+
+    def profile(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
+        """Held fits on the grid tuples of order ``m`` (needs the order ``m - 1`` profile).
+
+        All tuples, or, beyond ``max_tuples``, those extending the best ``refine`` minima of
+        order ``m - 1`` by one grid time; each warm-started from the order ``m - 1`` profile
+        (the start reproduces that fit, so the held fit can only improve on it).
+
+        Returns
+        -------
+        tuples : ndarray of int
+            ``(T, m)`` grid index tuples.
+        theta : ndarray
+            ``(T, p)`` the held fits (NaN: no start).
+        cost : ndarray
+            ``(T,)`` their costs (half chi2; inf: no start).
+        """
+        tuples, start, best_cost = self._profile_starts(m)
+        ok = np.flatnonzero(np.isfinite(best_cost))
+        pr = self.problem(m)
+        free = np.ones(pr.p, dtype=bool)
+        free[6 + 2 * m:] = False
+        theta = np.full_like(start, np.nan)
+        cost = np.full(tuples.shape[0], np.inf)
+        best = np.inf
+        for a in range(0, ok.size, _CHUNK):  # chunks bound the memory: (chunk, n, p) arrays
+            rows = ok[a:a + _CHUNK]
+            sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=self.s.prune,
+                         best=best)
+            theta[rows], cost[rows] = sol.theta, sol.cost
+            best = min(best, float(np.min(sol.cost)))
+        self.profiles[m] = (tuples, theta, cost)
+        return tuples, theta, cost
+
+    def fit(self, m: int, below: OrderFit | None = None) -> OrderFit:
+        """The order ``m`` fit: profile, refinement of its best minima and, given the order
+        ``m - 1`` fit ``below``, of that fit with its longest segment split in two (equal
+        accelerations: the same trajectory), so that chi2 never grows with the order.
+
+        Raises
+        ------
+        ValueError
+            When no grid point gives a finite fit.
+        """
+        tuples, theta, cost = self.profile(m)
+        minima = local_minima(tuples, cost)[: self.s.refine]
+        if minima.size == 0:
+            raise ValueError(f"no finite profile fit with {m} manoeuvres")
+        starts = theta[minima]
+        if below is not None and np.all(np.isfinite(below.theta)):
+            edges = np.concatenate([[self.t0], below.theta[6 + 2 * (m - 1):], [self.t_end]])
+            j = int(np.argmax(np.diff(edges)))
+            nested = split_segment(below.theta[None], m - 1, j,
+                                   np.array([edges[j:j + 2].mean()]))
+            starts = np.concatenate([starts, nested])
+        fit = self.fit_from(m, starts)
+        if self.s.polish_rounds:
+            fit = self.polish(fit)
+        fit.profile_times, fit.profile_chi2 = self.grid[tuples], 2.0 * cost
+        return fit
+
+    def _polish_starts(self, fit: OrderFit, offsets: Array) -> tuple[Array, NDArray[np.int64]]:
+        """Starts of the finer profiles: each change-over time moved by ``offsets`` (s), kept
+        between its neighbours; and which time each start moves."""
+        m, k0 = fit.manoeuvres, 6 + 2 * fit.manoeuvres
+        starts, held = [], []
+        times = fit.theta[k0:]
+        for k in range(m):
+            lo = times[k - 1] if k else self.t0
+            hi = times[k + 1] if k + 1 < m else self.t_end
+            cand = times[k] + offsets
+            cand = cand[(cand > lo) & (cand < hi)]
+            for c in cand:
+                th = fit.theta.copy()
+                th[k0 + k] = c
+                starts.append(th)
+                held.append(k)
+        return np.array(starts), np.array(held, dtype=np.int64)
+
+    def polish(self, fit: OrderFit, reach: float | None = None) -> OrderFit:
+        """Finer profiles of each change-over time around the refined fit.
+
+        The likelihood has a corner at every measurement time (see :meth:`settle`), so near
+        its minimum it is bumpy on the scale of the sampling interval and the refinement can
+        stop in a dip next to the deepest one.  Each ``t_m`` in turn is held on a grid of
+        ``polish_step`` spacing within ``grid_step`` of its estimate (every other parameter,
+        the other change-over times included, free: its profile likelihood); if a grid point
+        beats the fit, everything is refined again from it.  At most ``polish_rounds`` rounds.
+
+        Parameters
+        ----------
+        fit : OrderFit
+            The refined fit.
+        reach : float, optional
+            Half-width of the held grid (s; default ``grid_step``).  Parameters the fit holds
+            stay held.
+
+        Returns
+        -------
+        OrderFit
+            The polished fit (``fit`` itself when nothing beats it).
+        """
+        m = fit.manoeuvres
+        if m == 0 or not np.isfinite(fit.chi2):
+            return fit
+        pr = self.problem(m)
+        k0 = 6 + 2 * m
+        reach = self.s.grid_step if reach is None else reach
+        offsets = np.arange(-reach, reach + 1e-9, self.s.polish_step)
+        offsets = offsets[offsets != 0.0]
+        for _ in range(self.s.polish_rounds):
+            start, held_k = self._polish_starts(fit, offsets)
+            if start.size == 0:
+                break
+            best_theta, best_cost = None, fit.chi2 / 2.0
+            for k in range(m):  # one batch per held time (the free columns differ)
+                rows = np.flatnonzero(held_k == k)
+                if rows.size == 0:
+                    continue
+                free = fit.free_mask().copy()
+                free[k0 + k] = False
+                sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=self.s.prune)
+                i = int(np.argmin(sol.cost))
+                if sol.cost[i] < best_cost - 1e-9:
+                    best_theta, best_cost = sol.theta[i], float(sol.cost[i])
+            if best_theta is None:
+                break
+            new = self.fit_from(m, best_theta[None], fit.free)
+            if not new.chi2 < fit.chi2:
+                break
+            new.iterations += fit.iterations
+            fit = new
+        return fit
+
+    def fit_from(self, m: int, theta0: Array, free: NDArray[np.bool_] | None = None
+                 ) -> OrderFit:
+        """Every parameter (or those in ``free``, the others held) fitted from the starts
+        ``theta0`` ``(B, p)``; the lowest cost wins, settled at a corner of the likelihood if
+        it ends on one (:meth:`settle`).
+
+        Returns
+        -------
+        OrderFit
+            The best of the fits.
+        """
+        pr = self.problem(m)
+        mask = np.ones(pr.p, dtype=bool) if free is None else free
+        sol = lm_fit(pr, np.atleast_2d(theta0), mask, self.s.max_iter, rtol=1e-10, atol=1e-7,
+                     prune=self.s.prune, max_reject=8, stall=1e-3)
+        c = np.where(np.isfinite(sol.cost), sol.cost, np.inf)
+        i = int(np.argmin(c))
+        fit = OrderFit(m, sol.theta[i], sol.nuisance[i], float(2 * c[i]),
+                       self.unknowns(m, free), bool(sol.converged[i]), int(sol.iterations[i]),
+                       int(sol.theta.shape[0]), free=None if free is None else free.copy())
+        if not fit.converged and m and np.isfinite(fit.chi2):
+            self.settle(fit)
+        return fit
+
+    def _probes(self, theta: Array, m: int) -> Array:
+        """Held starts of the corner test: each change-over time of ``theta`` moved by
+        :data:`PROBES` and onto the measurement time either side."""
+        k0 = 6 + 2 * m
+        samples = np.unique(self.meas.time)
+        probes = []
+        for k in range(m):
+            t_k = theta[k0 + k]
+            # the corners either side, and steps of 0.05 to 3 s
+            below = samples[samples < t_k - 1e-6][-1:]
+            above = samples[samples > t_k + 1e-6][:1]
+            for target in (*(t_k + d for d in PROBES), *below, *above):
+                q = theta.copy()
+                q[k0 + k] = target
+                probes.append(q)
+        return np.array(probes)
+
+    def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
+        """Settle, in place, a refinement that stopped without meeting the smooth convergence
+        tests.
+
+        The likelihood has a corner at every measurement time: a sample's predicted velocity
+        (hence its azimuth rate) follows the old or the new acceleration depending on which
+        side of ``t_m`` it lies, so the derivative with respect to ``t_m`` jumps there, and
+        near its minimum Levenberg–Marquardt stops on or next to a corner, where its tests
+        cannot be met.  The fit is accepted as converged when, the change-over times held, the
+        other parameters converge and no held fit with one change-over time moved by
+        :data:`PROBES` (0.05 to 3 s either way) or onto the measurement time either side
+        lowers chi2 by more than ``tol`` — far below anything that matters statistically.
+        Otherwise everything is refined again from the best such fit, at most ``rounds``
+        times.
+        """
+        m = fit.manoeuvres
+        pr = self.problem(m)
+        held_free = fit.free_mask().copy()
+        held_free[6 + 2 * m:] = False
+        for _ in range(rounds):
+            held = lm_fit(pr, fit.theta[None], held_free, 50, rtol=1e-10, atol=1e-7)
+            if not held.converged[0]:
+                break
+            ps = lm_fit(pr, self._probes(held.theta[0], m), held_free, 50, rtol=1e-10,
+                        atol=1e-7)
+            c0 = float(held.cost[0])
+            fit.iterations += int(held.iterations[0])
+            if np.all(ps.cost >= c0 - tol / 2.0):
+                fit.theta, fit.nuisance, fit.chi2 = held.theta[0], held.nuisance[0], 2.0 * c0
+                fit.converged = True
+                fit.note = ("converged to a corner of the likelihood (it has one at every "
+                            "measurement time): moving any change-over time by 0.05 to 3 s, "
+                            "or onto the measurement time either side, raises chi2 or "
+                            f"lowers it by less than {tol:g}")
+                return
+            i = int(np.argmin(ps.cost))
+            sol = lm_fit(pr, ps.theta[i][None], fit.free_mask(), self.s.max_iter,
+                         rtol=1e-10, atol=1e-7, max_reject=8, stall=1e-3)
+            better = sol.cost[0] <= ps.cost[i]
+            fit.theta = sol.theta[0] if better else ps.theta[i]
+            fit.nuisance = sol.nuisance[0] if better else ps.nuisance[i]
+            fit.chi2 = float(2.0 * min(sol.cost[0], ps.cost[i]))
+            fit.iterations += int(sol.iterations[0])
+            if sol.converged[0]:
+                fit.converged = True
+                return
+        fit.note = ("the refinement stopped improving before its convergence tests were met, "
+                    "and the change-over times could not be settled on a corner of the "
+                    "likelihood")

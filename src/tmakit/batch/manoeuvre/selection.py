@@ -1,0 +1,270 @@
+"""Model selection of the manoeuvre estimator: the number of manoeuvres (BIC or sequential
+likelihood-ratio tests, :func:`select_order`) and the accelerations the data need (backward
+elimination, :func:`sparsify`).  See :mod:`tmakit.batch.manoeuvre` for the criteria and why.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import chi2 as chi2_dist
+
+from .search import ManoeuvreSearch, lm_fit
+from .settings import CRITERIA, ManoeuvreSettings, OrderFit
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class OrderSelection:
+    """Chi2 and the criteria of every order tried, and the order chosen.
+
+    Parameters
+    ----------
+    criterion : {"bic", "lrt"}
+        The criterion used.
+    alpha : float
+        Level of the likelihood-ratio tests (reported for ``"lrt"`` only).
+    n_measurements : int
+        ``N``, the number of independent measurements (the noise covariance's rank).
+    orders : list of dict
+        Per order: ``manoeuvres``, ``chi2``, ``unknowns``, ``bic``, ``lr_statistic`` and
+        ``p_value`` (against the order below; None for the first), ``converged``.
+    chosen : int
+        The number of manoeuvres chosen.
+    """
+
+    criterion: str
+    alpha: float
+    n_measurements: int
+    orders: list[dict[str, float | int | None]]
+    chosen: int
+
+    def as_dict(self) -> dict[str, object]:
+        """The selection as JSON-ready data (non-finite numbers as None)."""
+        def clean(v: object) -> object:
+            return None if isinstance(v, float) and not math.isfinite(v) else v
+
+        return {"criterion": self.criterion, "alpha": self.alpha if self.criterion == "lrt"
+                else None, "n_measurements": self.n_measurements, "chosen": self.chosen,
+                "orders": [{k: clean(v) for k, v in o.items()} for o in self.orders]}
+
+    def summary(self) -> str:
+        """A table of the orders tried, the chosen one marked."""
+        lines = [f"number of manoeuvres: {self.chosen} (criterion "
+                 + ("BIC" if self.criterion == "bic" else
+                    f"likelihood-ratio tests at alpha = {self.alpha:g}") + ")",
+                 f"  {'M':>2}  {'chi2':>12}  {'unknowns':>8}  {'BIC':>12}  {'LR vs M-1':>10}"
+                 f"  {'p-value':>9}"]
+        for o in self.orders:
+            lr = o["lr_statistic"]
+            pv = o["p_value"]
+            lines.append(f"  {o['manoeuvres']:>2}  {o['chi2']:12.3f}  {o['unknowns']:>8}  "
+                         f"{o['bic']:12.3f}  "
+                         + (f"{lr:10.3f}  {pv:9.3g}" if lr is not None else f"{'':>10}  "
+                            f"{'':>9}")
+                         + ("  <- chosen" if o["manoeuvres"] == self.chosen else ""))
+        return "\n".join(lines)
+
+
+def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: float = 0.01
+                 ) -> OrderSelection:
+    """Choose the number of manoeuvres from fits of consecutive orders.
+
+    Parameters
+    ----------
+    fits : list of OrderFit
+        Fits of orders ``0, 1, ...`` (consecutive).
+    n : int
+        ``N``, the number of independent measurements.
+    criterion : {"bic", "lrt"}
+        ``"bic"`` minimises ``chi2 + k ln N``; ``"lrt"`` adds a manoeuvre while the
+        likelihood-ratio statistic exceeds the chi-square quantile ``1 - alpha`` (degrees of
+        freedom: the unknowns added).
+    alpha : float
+        Level of the likelihood-ratio tests.
+
+    Returns
+    -------
+    OrderSelection
+        Every order's criteria and the order chosen.
+
+    Raises
+    ------
+    ValueError
+        For an unknown criterion.
+
+    References
+    ----------
+    Schwarz, G. (1978). Estimating the dimension of a model (BIC).
+    """
+    if criterion not in CRITERIA:
+        raise ValueError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
+    orders: list[dict[str, float | int | None]] = []
+    for i, f in enumerate(fits):
+        lr = pv = None
+        if i > 0 and fits[i - 1].manoeuvres == f.manoeuvres - 1:
+            lr = max(fits[i - 1].chi2 - f.chi2, 0.0)
+            dof = f.unknowns - fits[i - 1].unknowns
+            # with accelerations selected, a manoeuvre can come with fewer unknowns than the
+            # order below holds: any chi2 drop then favours it outright
+            pv = float(chi2_dist.sf(lr, dof)) if dof > 0 else (0.0 if lr > 0 else 1.0)
+        orders.append({"manoeuvres": f.manoeuvres, "chi2": f.chi2, "unknowns": f.unknowns,
+                       "bic": f.chi2 + f.unknowns * math.log(n), "lr_statistic": lr,
+                       "p_value": pv, "converged": f.converged})
+    if criterion == "bic":
+        bic = [o["bic"] if np.isfinite(o["chi2"]) else np.inf for o in orders]  # type: ignore
+        chosen = fits[int(np.argmin(bic))].manoeuvres
+    else:
+        chosen = fits[0].manoeuvres
+        for i in range(1, len(fits)):
+            pv = orders[i]["p_value"]
+            if pv is None or pv >= alpha:
+                break
+            chosen = fits[i].manoeuvres
+    return OrderSelection(criterion, alpha, n, orders, chosen)
+
+
+def fit_criterion(s: ManoeuvreSettings) -> str:
+    """The rule that holds an acceleration at zero, in words (for result messages)."""
+    return ("BIC: holding one raised chi2 by less than ln N" if s.criterion == "bic" else
+            f"holding one raised chi2 by less than the chi-square(1) quantile "
+            f"{1 - s.alpha:g}")
+
+
+def may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:
+    """Whether acceleration ``i`` may be held at zero.
+
+    Parameters
+    ----------
+    free : ndarray of bool
+        The internal parameters fitted now.
+    i : int
+        Internal index of the acceleration: ``4 + 2 * segment + {0: a_t, 1: a_n}``.
+    m : int
+        The number of manoeuvres.
+
+    Returns
+    -------
+    bool
+        False if a neighbouring segment would then also have both components held — a
+        change-over between two straight legs is no manoeuvre.
+    """
+    mask = free.copy()
+    mask[i] = False
+    seg = (i - 4) // 2
+    both_held = [not mask[4 + 2 * s] and not mask[5 + 2 * s] for s in range(m + 1)]
+    return not any(both_held[s] and both_held[seg] for s in (seg - 1, seg + 1) if 0 <= s <= m)
+
+
+def hold_starts(search: ManoeuvreSearch, theta: Array, i: int, m: int) -> Array:
+    """Starts for a fit with acceleration ``i`` held at zero: ``theta`` with it zeroed, and
+    with each change-over time bounding its segment moved by one grid step either way (kept in
+    order and inside the data span).
+
+    Returns
+    -------
+    ndarray
+        ``(S, p)`` starting points (internal parameters).
+    """
+    s = search.s
+    base = theta.copy()
+    base[i] = 0.0
+    out = [base]
+    seg = (i - 4) // 2
+    k0 = 6 + 2 * m
+    for k in (seg - 1, seg):  # change-over times t_seg (index seg - 1) and t_{seg+1}
+        if not 0 <= k < m:
+            continue
+        lo = theta[k0 + k - 1] if k else search.t0
+        hi = theta[k0 + k + 1] if k + 1 < m else search.t_end
+        for d in (-1.0, 1.0):
+            t = theta[k0 + k] + d * s.grid_step
+            if lo + s.min_segment / 2 < t < hi - s.min_segment / 2:
+                q = base.copy()
+                q[k0 + k] = t
+                out.append(q)
+    return np.array(out)
+
+
+def _best_hold(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool_],
+               price: float) -> tuple[float, int, Array, Array] | None:
+    """The acceleration whose hold raises chi2 least: ``(chi2, index, theta, nuisance)``, or
+    None when none may be held."""
+    m = current.manoeuvres
+    pr = search.problem(m)
+    best: tuple[float, int, Array, Array] | None = None
+    for i in range(4, 6 + 2 * m):
+        if not free[i] or not may_hold(free, i, m):
+            continue
+        mask = free.copy()
+        mask[i] = False
+        starts = hold_starts(search, current.theta, i, m)
+        # ranking holds needs chi2 to ~0.04; a start that cannot come within the price of the
+        # current fit is dropped early
+        sol = lm_fit(pr, starts, mask, 30, rtol=0.0, atol=0.02, max_reject=8, stall=1e-2,
+                     prune=price / 2.0, best=current.chi2 / 2.0)
+        j = int(np.argmin(np.where(np.isfinite(sol.cost), sol.cost, np.inf)))
+        if best is None or 2.0 * sol.cost[j] < best[0]:
+            best = (float(2.0 * sol.cost[j]), i, sol.theta[j], sol.nuisance[j])
+    return best
+
+
+def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
+    """The accelerations the data need (the ``accelerations="select"`` setting).
+
+    Backward elimination: each step holds at zero, in turn, every acceleration component still
+    fitted (every other parameter refitted, change-over times included, from the fit and from
+    starts with the change-over times bounding its segment moved by one ``grid_step`` either
+    way), and keeps the hold that raises chi2 least if the rise is below the criterion's price
+    of one unknown: ``ln N`` for BIC, the chi-square(1) quantile ``1 - alpha`` for the
+    likelihood-ratio test.  Two neighbouring segments are never both held at zero (their
+    change-over time would not exist).  After any hold, each change-over time is profiled
+    again within two grid steps (:meth:`ManoeuvreSearch.polish`): with fewer accelerations the
+    likelihood in ``t_m`` has fewer competing basins, and its best one can move.
+
+    Why: a turn that ends at ``t_m`` and one that ends earlier and continues as a gentle turn
+    fit nearly as well when the last leg's accelerations are free, and in the Hörst & Oispuu
+    (2010) scenario the ML change-over time picks the wrong one in ~1 run in 5 (see
+    ``docs/estimation.md``).
+
+    Parameters
+    ----------
+    search : ManoeuvreSearch
+        The search that made ``fit``.
+    fit : OrderFit
+        A fit of one order.
+
+    Returns
+    -------
+    OrderFit
+        The fit with the accelerations the data do not need held at zero (``free``), or
+        ``fit`` itself when none may go.
+    """
+    m = fit.manoeuvres
+    if not np.isfinite(fit.chi2):
+        return fit
+    s = search.s
+    n = search.problem(m).noise.rank
+    price = (math.log(n) if s.criterion == "bic" else float(chi2_dist.ppf(1.0 - s.alpha, 1)))
+    free = fit.free_mask().copy()
+    current, held = fit, False
+    while True:
+        best = _best_hold(search, current, free, price)
+        if best is None or not best[0] - current.chi2 < price:
+            break
+        free[best[1]] = False
+        current = OrderFit(m, best[2], best[3], best[0], search.unknowns(m, free), False,
+                           current.iterations, current.starts, free=free.copy())
+        held = True
+    if not held:
+        return fit
+    out = search.fit_from(m, current.theta[None], free)
+    out.iterations += fit.iterations
+    if s.polish_rounds and m:
+        out = search.polish(out, reach=2.0 * s.grid_step)
+    out.profile_times, out.profile_chi2 = fit.profile_times, fit.profile_chi2
+    return out

@@ -1,0 +1,212 @@
+"""Batched weighted least squares with the linear nuisance parameters projected out.
+
+Every nuisance parameter of tmakit enters the predictions linearly — carrier and drift
+(``f = (f_s + d t)(1 - rdot/c)``), power constant and path-loss exponent
+(``P_dB = C_dB - 10 n log10 R``) — so for fixed motion parameters ``theta`` they have a closed-form
+weighted least-squares value.  Eliminating them exactly (variable projection, Golub & Pereyra;
+the Kaufman approximation of the projected Jacobian) leaves a small, well-conditioned problem
+in ``theta`` alone, solved by Levenberg–Marquardt (:mod:`tmakit.batch.solver`).  This sidesteps
+the conditioning problem that Gu et al. (2007), §3, show for C/C_0 and c/f_s in the parameter
+vector.
+
+Everything is vectorised over a leading batch axis ``B``: several starting points of one
+problem, or many Monte Carlo runs that share times, sensors and noise (each with its own data
+``y``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..frames import wrap_angle
+from ..observation import Linearisation, ObservationModel
+from ..observation.noise import NoiseModel
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class Evaluation:
+    """Reduced residuals and what a step needs, for a batch of parameter vectors."""
+
+    theta: Array      # (B, p)
+    nuisance: Array   # (B, k) eliminated (or fixed) nuisance values
+    residual: Array   # (B, n) whitened, nuisance projected out
+    cost: Array       # (B,)  half the squared whitened residual
+    jacobian: Array | None = None  # (B, n, p) whitened, projected
+
+    def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
+        """The evaluations of ``rows`` (a copy)."""
+        return Evaluation(self.theta[rows], self.nuisance[rows], self.residual[rows],
+                          self.cost[rows], None if self.jacobian is None
+                          else self.jacobian[rows])
+
+    def put(self, rows: NDArray[np.bool_] | NDArray[np.int64], other: Evaluation,
+            which: NDArray[np.bool_] | NDArray[np.int64] | slice = slice(None)) -> None:
+        """Overwrite ``rows`` with ``other``'s evaluations ``which``."""
+        self.theta[rows] = other.theta[which]
+        self.nuisance[rows] = other.nuisance[which]
+        self.residual[rows] = other.residual[which]
+        self.cost[rows] = other.cost[which]
+        if self.jacobian is not None and other.jacobian is not None:
+            self.jacobian[rows] = other.jacobian[which]
+
+
+class VarProProblem:
+    """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
+
+    ``fixed_nuisance`` (a vector in ``obs.nuisance_names`` order) makes the nuisance known
+    instead of estimated.
+    """
+
+    def __init__(self, obs: ObservationModel, noise: NoiseModel | None = None,
+                 fixed_nuisance: Array | None = None) -> None:
+        self.obs = obs
+        # Rows are handled grouped by kind (contiguous slices); see ObservationModel.  Only
+        # range differences can be correlated: without them the rows' sigmas are the model.
+        if noise is None:
+            noise = (NoiseModel(obs.grouped) if "range_difference" in obs.models
+                     else NoiseModel.independent(obs.sigmas_grouped))
+        self.noise = noise
+        self.k = obs.n_nuisance
+        self.p = obs.motion.n_params
+        self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
+        self.angle = obs.angle_mask_grouped
+        self.has_angle = bool(self.angle.any())
+        self.eliminates = self.fixed is None and self.k > 0
+        # The geometry-free part of the design, whitened once (see ObservationModel).
+        self.const_design = obs.const_design
+        self.const_design_w = self.noise.whiten(self.const_design, axis=-2)
+        self._const_w_t = np.ascontiguousarray(self.const_design_w.T)  # (k, n)
+        self._reference_fit: tuple[NDArray[np.bool_], NDArray[np.bool_], Array] | None = None
+        # One nuisance column per kind at most: the columns touch disjoint rows (whitening
+        # mixes rows of one kind only), so they are orthogonal and need no Gram inverse.
+        self._orthogonal = all(ns.stop - ns.start <= 1 for ns in obs.nuisance_slices.values())
+
+    def take(self, index: NDArray[np.int64] | NDArray[np.bool_]) -> VarProProblem:
+        """The same problem on the rows ``index`` of the set (see
+        :meth:`ObservationModel.take`), its noise model made for those rows."""
+        obs = self.obs.take(index)
+        # Rows of independent rows are independent: no need to look for correlated blocks.
+        noise = None if self.noise.correlated else NoiseModel.independent(obs.sigmas_grouped)
+        return VarProProblem(obs, noise, self.fixed)
+
+    def group(self, y: Array) -> Array:
+        """Data in the set's row order -> the grouped order the solver works in."""
+        return np.asarray(y, dtype=float)[..., self.obs.order]
+
+    def reference_nuisance(self, y: Array) -> Array:
+        """A nuisance value close to the data's, per data row ``(B, k)``: least squares of the
+        geometry-free part of the design on grouped data ``y`` (a carrier near the mean
+        received frequency), or the fixed values.  Residuals are formed about it, so that a GHz
+        carrier never meets the data in rounding."""
+        y = np.atleast_2d(y)
+        b = y.shape[0]
+        if self.fixed is not None:
+            return np.broadcast_to(self.fixed, (b, self.k)).copy()
+        if self.k == 0:
+            return np.zeros((b, 0))
+        if self._reference_fit is None:  # least squares on the rows the design touches
+            design = self.const_design
+            rows = ~self.angle & (design != 0).any(axis=1)
+            cols = (design[rows] != 0).any(axis=0)
+            d = design[rows][:, cols]
+            size = np.abs(d).max(axis=0) if d.size else np.ones(d.shape[1])
+            d = d / size  # columns of unit size: the normal equations are well conditioned
+            fit = (np.linalg.solve(d.T @ d, d.T).T if d.size else d) / size
+            self._reference_fit = (rows, cols, fit)
+        rows, cols, fit = self._reference_fit
+        out = np.zeros((b, self.k))
+        if rows.any() and cols.any():
+            out[:, cols] = y[:, rows] @ fit
+        return out
+
+    def data_part(self, y: Array, nu_star: Array) -> Array:
+        """``y - A_const nu*`` ``(B, n)`` for grouped data ``y``: the part of the residual that
+        does not depend on ``theta``, formed once per solve (the first, exact subtraction of
+        two large numbers when the carrier is in GHz)."""
+        if self.k == 0:
+            return np.array(y, dtype=float)
+        return y - nu_star @ self.const_design.T
+
+    def evaluate(self, theta: Array, y: Array, nu_star: Array,
+                 with_jacobian: bool = True) -> Evaluation:
+        """Eliminate the nuisance at ``theta`` for grouped data ``y`` (B, n) and return the
+        reduced residual, cost and (optionally) the projected Jacobian, exact at the
+        eliminated nuisance.  Residuals are formed about ``nu_star`` (see
+        :meth:`reference_nuisance`)."""
+        return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
+
+    def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
+                      with_jacobian: bool = True) -> Evaluation:
+        """:meth:`evaluate` from the data part ``u`` of :meth:`data_part`."""
+        theta = np.asarray(theta, dtype=float)
+        # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self._evaluate(theta, u, nu_star, with_jacobian)
+
+    def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
+                  ) -> Evaluation:
+        # Worked with the design and the Jacobian transposed, (B, k, n) and (B, p, n): every
+        # operation then runs along the rows.
+        lin = self.obs.linearisation(theta, with_jacobian)
+        at = lin.a_var.swapaxes(-1, -2)
+        # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
+        e = u - lin.h0
+        if self.k:
+            e -= (nu_star[:, None, :] @ at)[:, 0, :]
+        if self.has_angle:
+            e = np.where(self.angle, wrap_angle(e), e)
+        r = self.noise.whiten(e)
+        nu = nu_star
+        jt = None
+        if self.eliminates:
+            nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
+        elif with_jacobian:
+            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2))
+        cost = 0.5 * np.einsum("bn,bn->b", r, r)
+        cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
+        return Evaluation(theta, np.array(nu, dtype=float), r, cost,
+                          None if jt is None else jt.swapaxes(1, 2))
+
+    def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
+                 with_jacobian: bool) -> tuple[Array, Array, Array | None]:
+        """Eliminate the nuisance: ``(nu, projected residual, projected Jacobian (B, p, n))``
+        for the whitened residual ``r`` about ``nu_star`` and the design ``at`` (B, k, n).
+
+        The design's columns are scaled to unit norm, so the Gram matrix is well conditioned
+        and its explicit (k x k) inverse accurate (it is the identity when the columns are
+        orthogonal).  A column without weight (all zero) gets coefficient 0."""
+        q = self._const_w_t + self.noise.whiten(at)
+        norm = np.sqrt(np.einsum("bkn,bkn->bk", q, q))
+        empty = norm == 0
+        norm[empty] = 1.0
+        q /= norm[:, :, None]
+        qt = q.swapaxes(1, 2)
+        ginv = None
+        if not self._orthogonal:
+            gram = q @ qt
+            gram += np.eye(self.k) * empty[:, None, :]
+            ginv = np.linalg.inv(gram)
+        coef = q @ r[:, :, None]
+        if ginv is not None:
+            coef = ginv @ coef
+        nu = nu_star + coef[..., 0] / norm
+        r = r - (qt @ coef)[..., 0]
+        jt = None
+        if with_jacobian:
+            # Kaufman's projected Jacobian, at the eliminated nuisance.
+            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2))
+            proj = jt @ qt
+            if ginv is not None:
+                proj = proj @ ginv
+            jt = jt - proj @ q
+        return nu, r, jt
+
+    def initial_nuisance(self, theta: Array, y: Array) -> Array:
+        """Nuisance values eliminated at ``theta`` for grouped data ``y``."""
+        y = np.broadcast_to(y, (theta.shape[0], y.shape[-1]))
+        return self.evaluate(theta, y, self.reference_nuisance(y), with_jacobian=False).nuisance

@@ -1,0 +1,85 @@
+"""Motion models by name: the one parser of the names the CLI, scenario files, measurement-file
+metadata and ``tk.estimate`` accept.
+
+==================  =======================================================================
+name                model
+==================  =======================================================================
+``cv2d`` (``cv``)   :class:`~tmakit.motion.ConstantVelocity` in the plane: x, y, vx, vy
+``cv3d``            :class:`~tmakit.motion.ConstantVelocity` in space: x, y, z, vx, vy, vz
+``static2d``        :class:`~tmakit.motion.Stationary` in the plane (``static`` too): x, y
+``static3d``        :class:`~tmakit.motion.Stationary` in space: x, y, z
+``curvilinear:M``   :class:`~tmakit.motion.PiecewiseCurvilinear` with ``M`` manoeuvres
+``curvilinear``     the same as ``curvilinear:2`` (:data:`DEFAULT_MANOEUVRES`)
+==================  =======================================================================
+
+One meaning per name.  ``curvilinear`` is short for ``curvilinear:2`` everywhere: the model
+with two manoeuvres (the Hörst & Oispuu (2010) scenario's), so a bound or a simulation of
+``curvilinear`` has twelve parameters, and the manoeuvre estimator, which searches ``0..M``
+manoeuvres for a model with ``M`` (unless told ``exact``), searches 0, 1 or 2 — what
+``tma estimate --motion curvilinear`` has always done.  A single curvilinear segment is
+``curvilinear:0``.  Names are case-insensitive and may carry surrounding blanks.
+"""
+
+from __future__ import annotations
+
+from .base import MotionModel
+from .constant_velocity import ConstantVelocity, Stationary
+from .curvilinear import PiecewiseCurvilinear
+
+__all__ = ["DEFAULT_MANOEUVRES", "MOTION_NAMES", "motion_from_name"]
+
+DEFAULT_MANOEUVRES = 2
+"""Manoeuvres of the bare name ``curvilinear`` (it means ``curvilinear:2``)."""
+
+MOTION_NAMES = ("cv2d", "cv3d", "static2d", "static3d", "curvilinear[:M]")
+"""The names accepted, as the CLI lists them."""
+
+_FIXED = {
+    "cv": (ConstantVelocity, 2), "cv2d": (ConstantVelocity, 2), "cv3d": (ConstantVelocity, 3),
+    "static": (Stationary, 2), "static2d": (Stationary, 2), "static3d": (Stationary, 3),
+}
+
+
+def motion_from_name(name: str, ref_time: float = 0.0) -> MotionModel:
+    """The motion model a name stands for (see the module docstring for the names).
+
+    Parameters
+    ----------
+    name : str
+        ``cv2d``, ``cv3d``, ``static2d``, ``static3d`` (``cv``, ``static``: the 2-D ones),
+        ``curvilinear:M`` (``M`` a whole number of manoeuvres) or ``curvilinear``
+        (= ``curvilinear:2``); case-insensitive.
+    ref_time : float
+        Reference time of the model's parameters (s); unused by stationary models.
+
+    Returns
+    -------
+    MotionModel
+        A new model; ``model.name`` is the canonical name (``curvilinear:2`` for
+        ``curvilinear``).
+
+    Raises
+    ------
+    ValueError
+        For an unknown name, or a manoeuvre count that is not a whole number; the message
+        names the accepted forms.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eqs. 1-4, for the piecewise curvilinear model.
+    """
+    key = name.strip().lower()
+    if key in _FIXED:
+        cls, dim = _FIXED[key]
+        return Stationary(dim) if cls is Stationary else ConstantVelocity(dim, ref_time)
+    base, colon, count = (part.strip() for part in key.partition(":"))
+    if base == "curvilinear":
+        if not colon:
+            return PiecewiseCurvilinear(DEFAULT_MANOEUVRES, ref_time)
+        if count.isascii() and count.isdigit():
+            return PiecewiseCurvilinear(int(count), ref_time)
+        raise ValueError(f"motion {name!r}: expected curvilinear (= curvilinear:"
+                         f"{DEFAULT_MANOEUVRES}) or curvilinear:M with M a whole number of "
+                         "manoeuvres")
+    raise ValueError(f"unknown motion model {name!r}; expected one of "
+                     f"{', '.join(MOTION_NAMES)}")
