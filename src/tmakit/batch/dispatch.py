@@ -27,7 +27,8 @@ __all__ = ["MLByMotion", "estimate"]
 def is_manoeuvring(motion: MotionModel | str) -> bool:
     """Whether ``motion`` is a manoeuvring target's: a motion name (parsed by the manoeuvre
     estimator, which hands the other names back to maximum likelihood) or a model with a
-    number of manoeuvres."""
+    number of manoeuvres.
+    """
     return isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None
 
 

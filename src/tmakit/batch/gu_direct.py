@@ -96,7 +96,8 @@ def _equilibrate(a: Array) -> tuple[Array, Array]:
 
 class _DirectSystem:
     """Everything of Gu et al. (2007) §3 that does not depend on theta, and the weighted
-    linear system ``A``, ``B`` at a given theta (eqs. 11 and 14-16)."""
+    linear system ``A``, ``B`` at a given theta (eqs. 11 and 14-16).
+    """
 
     def __init__(self, sub: MeasurementSet, motion: MotionModel, kinds: tuple[str, ...],
                  c0: float | None) -> None:
@@ -323,7 +324,8 @@ def _direct_result(system: _DirectSystem, motion: MotionModel, theta: Array, x: 
                    fs: float, status: str, message: str, iterations: int,
                    history: dict[str, list[float]]) -> EstimateResult:
     """The result of the iteration: covariance ``D^-1`` at the last iterate, the nuisance
-    values with delta-method std, the condition numbers."""
+    values with delta-method std, the condition numbers.
+    """
     c = SPEED_OF_LIGHT
     j_c, j_f, c0 = system.j_c, system.j_f, system.c0
     names_nu = [NUISANCE_NAMES[k] for k in system.kinds]

@@ -35,7 +35,8 @@ def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
                    ) -> tuple[str, str] | None:
     """How an iteration of the papers' fixed-point methods ends after an update ``step`` to
     ``theta``: diverged (a range non-positive, or grown beyond ``far``), converged (the
-    update below ``tol`` relative), or ``None`` to go on.  Shared by Gu et al. (2007) §3 and §4."""
+    update below ``tol`` relative), or ``None`` to go on.  Shared by Gu et al. (2007) §3 and §4.
+    """
     if np.any(range2 <= 0):
         return DIVERGED, "a range became non-positive"
     if np.max(range2) > far ** 2:
@@ -101,7 +102,8 @@ def initial_theta(motion: MotionModel, init: Mapping[str, float] | ArrayLike | N
 
 def snr_from_sigma_db(sigma_db: ArrayLike) -> Array:
     """SNR_p (linear) of a power whose standard deviation in dB is ``sigma_db``: the first-order
-    inverse of :func:`tmakit.units.snr_to_sigma_db`, ``(10 / ln 10 / sigma)^2``."""
+    inverse of :func:`tmakit.units.snr_to_sigma_db`, ``(10 / ln 10 / sigma)^2``.
+    """
     return (TEN_OVER_LN10 / np.asarray(sigma_db, dtype=float)) ** 2
 
 
@@ -196,7 +198,8 @@ class PlanarGeometry:
 
     def radial_velocity(self, theta: Array) -> Array:
         """``v_k`` of eq. 12 (= eq. 6, positive when the target recedes; tmakit's range
-        rate)."""
+        rate).
+        """
         qf = self.Qf
         phi = self.phi
         num = (np.einsum("i,nij,j->n", theta, qf, theta)

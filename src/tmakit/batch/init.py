@@ -32,7 +32,8 @@ class GridSettings:
     """Extent and density of the initial search (SI units).
 
     Every grid point is scored on ``coarse_rows`` evenly spread rows, the ``refine`` best on
-    ``max_rows``; ``starts`` distinct points start the solve."""
+    ``max_rows``; ``starts`` distinct points start the solve.
+    """
 
     min_range: float = 100.0
     max_range: float = 50_000.0
@@ -57,7 +58,8 @@ def _reference_point(problem: VarProProblem, t_mid: float) -> NDArray[np.float64
 def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
                ) -> NDArray[np.float64]:
     """Candidate positions ``(m, 3)``: rays (from each bearing sensor along its bearing
-    nearest ``t_mid``, or a fan around the sensors) x elevations x ranges, in that order."""
+    nearest ``t_mid``, or a fan around the sensors) x elevations x ranges, in that order.
+    """
     meas = problem.obs.meas
     ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
     bearing_rows = np.flatnonzero(meas.kind == "bearing")
@@ -94,7 +96,8 @@ def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
 @lru_cache(maxsize=16)
 def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
     """:func:`_directions` of ``n_bearings`` evenly spaced bearings (read-only, made once per
-    settings)."""
+    settings).
+    """
     dirs = _directions(np.linspace(0.0, 2 * np.pi, n_bearings, endpoint=False),
                        _elevations(dim, elevations_deg))
     dirs.flags.writeable = False
@@ -112,7 +115,8 @@ def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.flo
 @lru_cache(maxsize=16)
 def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
     """Candidate velocities ``(m, 3)`` (m/s): at rest, then each positive speed in every
-    course (read-only, made once per settings)."""
+    course (read-only, made once per settings).
+    """
     speeds = np.array([v for v in speeds if v > 0], dtype=float)
     courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
     moving = np.stack(np.broadcast_arrays(speeds[:, None] * np.sin(courses),
@@ -143,7 +147,8 @@ def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
 def _subsample(problem: VarProProblem, max_rows: int
                ) -> tuple[VarProProblem, NDArray[np.int64]]:
     """A problem on an evenly spread subset of rows per kind (the grid needs no more) and
-    the indices of the rows kept."""
+    the indices of the rows kept.
+    """
     meas = problem.obs.meas
     every = np.arange(len(meas))
     if len(meas) <= max_rows or problem.noise.correlated:
@@ -159,7 +164,8 @@ def _subsample(problem: VarProProblem, max_rows: int
 @lru_cache(maxsize=64)
 def _evenly_spread(size: int, take: int) -> NDArray[np.int64]:
     """About ``take`` evenly spread indices into ``size`` rows, first and last included
-    (read-only, made once per pair)."""
+    (read-only, made once per pair).
+    """
     idx = np.unique(np.linspace(0, size - 1, take).round().astype(int))
     idx.flags.writeable = False
     return idx
@@ -207,7 +213,8 @@ class GridScorer:
 
     def _predict(self, i: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``h0`` ``(c, n)`` and ``A_var`` ``(c, n, k)`` of the candidates of block ``i``
-        (those made by :meth:`_reference_design` are handed over once)."""
+        (those made by :meth:`_reference_design` are handed over once).
+        """
         if i in self._made:
             return self._made.pop(i)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -217,7 +224,8 @@ class GridScorer:
 
     def _reference_design(self) -> NDArray[np.float64]:
         """``A_var`` ``(n, k)`` of the first candidate with finite predictions (zero if none):
-        the design the shared basis is made from."""
+        the design the shared basis is made from.
+        """
         for i in range(len(self.blocks)):
             h0, a_var = self._made[i] = self._predict(i)
             good = np.flatnonzero(~_bad(h0, a_var))
@@ -227,7 +235,8 @@ class GridScorer:
 
     def _reference(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
         """A nuisance value near the data's (least squares on the geometry-free design of the
-        median data set), about which residuals are formed without cancellation."""
+        median data set), about which residuals are formed without cancellation.
+        """
         # (the median of one data set is that data set)
         return self.problem.reference_nuisance(y[0] if y.shape[0] == 1
                                                else np.median(y, axis=0))[0]
@@ -252,7 +261,8 @@ class GridScorer:
                      ) -> NDArray[np.float64]:
         """Costs ``(B, c)`` of the candidates of block ``i``; ``data`` holds the whitened data
         (and half its squared norm), unprojected (False) and projected on :attr:`shared`
-        (True)."""
+        (True).
+        """
         noise, angle = self.problem.noise, self.angle
         h0, a_var = self._predict(i)
         bad = _bad(h0, a_var)
@@ -303,7 +313,8 @@ def _block_size(n_rows: int) -> int:
     at least 128 (each block costs some fixed work), kept off multiples of 512.  The
     candidates are the innermost axis, so the rows of a block's arrays would otherwise be a
     multiple of 4 KiB apart and share cache sets: a (48 x 4) @ (4 x 1024) product took three
-    times as long as a (48 x 4) @ (4 x 1016) one."""
+    times as long as a (48 x 4) @ (4 x 1016) one.
+    """
     step = max(128, CANDIDATE_ROWS // max(1, n_rows))
     if step >= 512 and abs(step - 512 * round(step / 512)) <= 8:
         step -= 16
@@ -318,7 +329,8 @@ def _bad(h0: NDArray[np.float64], a_var: NDArray[np.float64]) -> NDArray[np.bool
 def _same_design(a_var: NDArray[np.float64], ref: NDArray[np.float64],
                  tolerance: NDArray[np.float64]) -> bool:
     """Whether every candidate's design ``A_const + a_var`` ``(C, n, k)`` is ``A_const + ref``
-    to ``tolerance`` per column (:data:`GEOMETRY_FREE` of the column's size)."""
+    to ``tolerance`` per column (:data:`GEOMETRY_FREE` of the column's size).
+    """
     # reductions over the leading axis first: elementwise and fast
     spread = np.maximum(a_var.max(axis=0) - ref, ref - a_var.min(axis=0)).max(axis=0)
     return bool(np.all(spread <= tolerance))
@@ -326,7 +338,8 @@ def _same_design(a_var: NDArray[np.float64], ref: NDArray[np.float64],
 
 def orthonormal_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
     """An orthonormal basis ``(C, n, k)`` of the columns of each ``a`` ``(C, n, k)`` (modified
-    Gram-Schmidt; a column that depends on the previous ones, or is zero, adds nothing)."""
+    Gram-Schmidt; a column that depends on the previous ones, or is zero, adds nothing).
+    """
     q = np.zeros(a.shape)
     for j in range(a.shape[-1]):
         v = a[..., j].copy()
@@ -343,7 +356,8 @@ class Starts:
     """The mutually distinct candidates of one data set, best first, chosen as they are asked
     for: greedily in order of cost, each candidate not within 5 % of each parameter's spread
     of one already chosen.  ``scaled`` (the candidates divided by that spread, transposed) may
-    be shared by data sets with the same candidates."""
+    be shared by data sets with the same candidates.
+    """
 
     def __init__(self, candidates: NDArray[np.float64], cost: NDArray[np.float64],
                  scaled: NDArray[np.float64] | None = None) -> None:
@@ -386,7 +400,8 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
                      settings: GridSettings | None = None) -> list[Starts]:
     """The grid's distinct candidates, best first, for several data sets ``(B, n)`` that share
     times, sensors and noise (Monte Carlo runs): ``starts[b].first(m)``.  When the candidates
-    do not depend on the data they are predicted once for all."""
+    do not depend on the data they are predicted once for all.
+    """
     g = settings or GridSettings()
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
     small, rows = _subsample(problem, g.max_rows)
@@ -409,7 +424,8 @@ def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages: every candidate on a few
     rows (``stages[0]``: problem and grouped data), then the ``refine`` best of each data set
-    (their union) on more rows (``stages[1]``).  ``run`` scores that data set only."""
+    (their union) on more rows (``stages[1]``).  ``run`` scores that data set only.
+    """
     (coarse, y_coarse), (small, y_small) = stages
     if run is not None:
         y_coarse, y_small = y_coarse[run:run + 1], y_small[run:run + 1]
@@ -423,7 +439,8 @@ def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
 
 def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarProProblem:
     """The same problem whose measurement set carries the values ``y`` (grouped order), so that
-    the grid can follow this data set's measured bearings."""
+    the grid can follow this data set's measured bearings.
+    """
     from ..observation import ObservationModel
 
     meas = problem.obs.meas

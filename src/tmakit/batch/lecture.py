@@ -80,7 +80,8 @@ def _max_range(obs: ObservationModel, theta: Array) -> float:
 
 def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
     """``(H^T R^-1 H)^+ H^T R^-1 df`` via normalised coordinates, the rank, and the
-    information matrix."""
+    information matrix.
+    """
     info = hw.T @ hw
     norm, scale = normalise(info)
     evals, evecs = np.linalg.eigh(norm)
@@ -93,7 +94,8 @@ def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
 
 def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
     """The starting ``x = [theta, f_o]``: theta from ``init``, f_o from ``init["carrier"]``
-    or its linear least-squares value given the starting trajectory."""
+    or its linear least-squares value given the starting trajectory.
+    """
     motion = obs.motion
     if init is None:
         raise ValueError("lecture-gn: a local method, it needs a starting point (init=...); "
@@ -201,7 +203,8 @@ class LectureGaussNewton(PaperMethod):
     def _gauss_newton(self, obs: ObservationModel, noise: NoiseModel, x: Array
                       ) -> tuple[Array, int, bool, str, list[int], list[float]]:
         """The iteration: the last ``x``, iterations, converged, why diverged, the ranks and
-        the update sizes (in standard deviations)."""
+        the update sizes (in standard deviations).
+        """
         p = obs.motion.n_params
         y = obs.values
         ranks: list[int] = []

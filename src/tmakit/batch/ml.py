@@ -250,7 +250,8 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
 def mirror_plane(problem: VarProProblem) -> float | None:
     """The height of the horizontal plane through every sensor when reflecting the track
     through it leaves every measurement unchanged (all sensors at one height, none moving
-    vertically, no elevation measured, a 3-D motion model), else None."""
+    vertically, no elevation measured, a 3-D motion model), else None.
+    """
     meas, motion = problem.obs.meas, problem.obs.motion
     if motion.dim != 3 or "z" not in motion.param_names or np.any(meas.kind == "elevation"):
         return None
@@ -265,7 +266,8 @@ def mirror_plane(problem: VarProProblem) -> float | None:
 def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
                  ) -> tuple[NDArray[np.float64], str]:
     """Of a track and its exact mirror image through the sensors' plane, the one above it,
-    with a sentence saying so."""
+    with a sentence saying so.
+    """
     names = motion.param_names
     theta = np.array(theta, dtype=float)
     iz = names.index("z")
@@ -280,6 +282,7 @@ def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
 
 def plausible_chi2(chi2: float, dof: int) -> bool:
     """Whether a weighted sum of squares is consistent with its degrees of freedom (within
-    about five standard deviations of the chi-square distribution)."""
+    about five standard deviations of the chi-square distribution).
+    """
     dof = max(dof, 1)
     return bool(np.isfinite(chi2) and chi2 <= dof + 5.0 * np.sqrt(2.0 * dof) + 5.0)

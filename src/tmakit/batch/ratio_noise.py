@@ -27,7 +27,8 @@ COVARIANCES = ("derived", "paper")
 @dataclass(frozen=True)
 class RatioPairs:
     """Consecutive pairs (``prev``, ``cur``: row indices) of one kind, and ``linked[j]`` True
-    when pair ``j`` and pair ``j + 1`` share a sample (same sensor), i.e. are correlated."""
+    when pair ``j`` and pair ``j + 1`` share a sample (same sensor), i.e. are correlated.
+    """
 
     prev: NDArray[np.int64]
     cur: NDArray[np.int64]
@@ -68,7 +69,8 @@ def tridiagonal(diag: Array, off: Array) -> Array:
 def power_bands(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array, s_cur: Array,
                 linked: NDArray[np.bool_], covariance: str) -> tuple[Array, Array]:
     """Diagonal and off-diagonal of the power-ratio covariance (see
-    :func:`power_ratio_covariance`)."""
+    :func:`power_ratio_covariance`).
+    """
     diag = mu ** 2 * r2_cur ** 2 * s_prev + r2_prev ** 2 * s_cur
     off = np.zeros(mu.size)
     if mu.size > 1:
@@ -82,7 +84,8 @@ def doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArra
                   carrier: float, v_prev: Array | None, v_cur: Array | None,
                   covariance: str) -> tuple[Array, Array]:
     """Diagonal and off-diagonal of the Doppler-ratio covariance (see
-    :func:`doppler_ratio_covariance`)."""
+    :func:`doppler_ratio_covariance`).
+    """
     c = SPEED_OF_LIGHT
     scale = (c / carrier) ** 2
     off = np.zeros(nu.size)

@@ -132,7 +132,8 @@ __all__ = ["RatioMethod", "doppler_ratio_covariance", "nuisance_given_theta",
 
 class _RatioSystem:
     """Everything of eqs. 19-34 that does not depend on theta, and the linear system at a
-    given theta."""
+    given theta.
+    """
 
     def __init__(self, sub: MeasurementSet, motion: MotionModel, kinds: tuple[str, ...],
                  covariance: str) -> None:
@@ -164,7 +165,8 @@ class _RatioSystem:
     def build(self, theta: Array, covariance: str | None = None
               ) -> tuple[Array, Array, Array, Array]:
         """``L (n, 4)``, ``psi (n,)`` and the diagonal and off-diagonal of the tri-diagonal
-        ``Sigma`` at ``theta`` (eqs. 25, 32, 33)."""
+        ``Sigma`` at ``theta`` (eqs. 25, 32, 33).
+        """
         cov_kind = covariance or self.covariance
         blocks_l, blocks_psi, blocks_d, blocks_o = [], [], [], []
         if self.power is not None:
@@ -333,7 +335,8 @@ class RatioMethod(PaperMethod):
 def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, status: str,
                   message: str, iterations: int, extra: dict[str, object]) -> EstimateResult:
     """The result at the last iterate: the covariance ``D^-1`` (derived) or the sandwich
-    (paper), chi2 of the whitened ratios, the nuisance values given theta."""
+    (paper), chi2 of the whitened ratios, the nuisance values given theta.
+    """
     method = RATIO_NAMES.get(system.kinds, "ratio")
     p = motion.n_params
     if status == DIVERGED:
@@ -400,7 +403,8 @@ def ratio_method(meas: MeasurementSet, motion: MotionModel, init: Init,
 def nuisance_given_theta(meas: MeasurementSet, motion: MotionModel, theta: Array,
                          cov_theta: Array) -> dict[str, tuple[float, float]]:
     """Power constant (dB) and carrier (Hz) by weighted linear least squares given ``theta``,
-    with std from ``(A^T W A)^-1 + G cov_theta G^T`` (see the module docstring)."""
+    with std from ``(A^T W A)^-1 + G cov_theta G^T`` (see the module docstring).
+    """
     options = {"power": {"exponent": 2.0}, "frequency": {"drift": False}}
     obs = ObservationModel(meas, motion, {k: v for k, v in options.items() if k in meas.kinds})
     h0, a = obs.affine(theta)

@@ -1,5 +1,6 @@
 """Bounds: Cramér–Rao lower bounds, observability, confidence ellipses; the posterior CRB of
-recursive trackers."""
+recursive trackers.
+"""
 
 from ..observation.noise import NoiseModel
 from ..results.observability import Direction, Observability, analyse

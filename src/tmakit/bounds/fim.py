@@ -125,7 +125,8 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
     ``source``: a :class:`~tmakit.scenario.Scenario` (its noise-free simulation; its motion,
     truth and measurement options unless given; its nuisance values updated by ``nuisance``)
     or a :class:`~tmakit.data.MeasurementSet` (then ``motion`` and ``truth`` are required).
-    ``caller`` names the function in the error for any other type."""
+    ``caller`` names the function in the error for any other type.
+    """
     from ..scenario import Scenario
 
     if isinstance(source, Scenario):
@@ -148,7 +149,8 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
 def truth_vector(motion: MotionModel, truth: Mapping[str, float] | ArrayLike
                  ) -> NDArray[np.float64]:
     """``truth`` (a mapping by parameter name, or a vector) as the parameter vector of
-    ``motion``; ``ValueError`` naming the expected parameters when its length is wrong."""
+    ``motion``; ``ValueError`` naming the expected parameters when its length is wrong.
+    """
     theta = (motion.theta(truth) if isinstance(truth, Mapping)
              else np.asarray(truth, dtype=float))
     if theta.shape != (motion.n_params,):
