@@ -3,9 +3,8 @@
 A coarse grid of trajectories is scored by the reduced (nuisance-eliminated) likelihood in two
 vectorised stages (every point on a few rows, the best of them on more), and the best few,
 mutually distinct, become the starting points of the batched Levenberg–Marquardt solve.
-Positions are placed at the median measurement time: along the measured bearings when there
-are bearings (rays from each bearing sensor), otherwise on a polar grid around the sensors, at
-geometrically spaced ranges; velocities on a grid of speeds and courses.  3-D models add a few
+The grid itself is :mod:`tmakit.batch.grid`: positions along the measured bearings or on a
+polar grid around the sensors, velocities on a grid of speeds and courses; 3-D models add a few
 elevation angles above the sensors' plane (emitters below the sensors are not searched: with
 no elevation data, z and its mirror fit equally).
 """
@@ -13,7 +12,6 @@ no elevation data, z and its mirror fit equally).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -24,124 +22,11 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
+from .grid import GridSettings, grid_candidates
 from .solver import VarProProblem
 
-
-@dataclass(frozen=True)
-class GridSettings:
-    """Extent and density of the initial search (SI units).
-
-    Every grid point is scored on ``coarse_rows`` evenly spread rows, the ``refine`` best on
-    ``max_rows``; ``starts`` distinct points start the solve.
-    """
-
-    min_range: float = 100.0
-    max_range: float = 50_000.0
-    n_ranges: int = 10
-    n_bearings: int = 12
-    speeds: tuple[float, ...] = (0.0, 10.0, 40.0, 150.0, 450.0)
-    n_courses: int = 8
-    elevations_deg: tuple[float, ...] = (0.0, 3.0, 10.0, 25.0, 50.0)
-    max_rows: int = 30
-    starts: int = 6
-    coarse_rows: int = 8
-    refine: int = 256
-
-
-def _reference_point(problem: VarProProblem, t_mid: float) -> NDArray[np.float64]:
-    meas = problem.obs.meas
-    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * (meas.sensor != s))
-            for s in meas.sensors]
-    return meas.sensor_state[near, :3].mean(axis=0)
-
-
-def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
-               ) -> NDArray[np.float64]:
-    """Candidate positions ``(m, 3)``: rays (from each bearing sensor along its bearing
-    nearest ``t_mid``, or a fan around the sensors) x elevations x ranges, in that order.
-    """
-    meas = problem.obs.meas
-    ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
-    bearing_rows = np.flatnonzero(meas.kind == "bearing")
-    if bearing_rows.size:
-        ends = []
-        for s in np.unique(meas.sensor[bearing_rows]):
-            rows = bearing_rows[meas.sensor[bearing_rows] == s]
-            ends.append(rows[np.argmin(np.abs(meas.time[rows] - t_mid))])
-        origins = meas.sensor_state[ends, :3]
-        dirs = _directions(meas.value_si[ends], _elevations(dim, tuple(g.elevations_deg)))
-    else:
-        dirs = _fan(g.n_bearings, dim, tuple(g.elevations_deg))
-        origins = np.broadcast_to(_reference_point(problem, t_mid), (dirs.shape[0], 3))
-    pts = (origins[:, None, None, :]
-           + ranges[None, None, :, None] * dirs[:, :, None, :]).reshape(-1, 3)
-    if dim == 2:
-        pts[:, 2] = 0.0
-    return pts
-
-
-def _elevations(dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
-    """Candidate elevation angles (rad): the given ones in 3-D, 0 in 2-D."""
-    return np.radians(elevations_deg) if dim == 3 else np.zeros(1)
-
-
-def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
-                ) -> NDArray[np.float64]:
-    """Unit vectors ``(rays, elevations, 3)`` at each bearing and elevation (rad)."""
-    b, e = bearings[:, None], elev[None, :]
-    return np.stack(np.broadcast_arrays(np.cos(e) * np.sin(b), np.cos(e) * np.cos(b),
-                                        np.sin(e)), axis=-1)
-
-
-@lru_cache(maxsize=16)
-def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
-    """:func:`_directions` of ``n_bearings`` evenly spaced bearings (read-only, made once per
-    settings).
-    """
-    dirs = _directions(np.linspace(0.0, 2 * np.pi, n_bearings, endpoint=False),
-                       _elevations(dim, elevations_deg))
-    dirs.flags.writeable = False
-    return dirs
-
-
-@lru_cache(maxsize=16)
-def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.float64]:
-    """Candidate ranges (m), geometrically spaced; read-only, made once per settings."""
-    ranges = np.geomspace(min_range, max_range, n_ranges)
-    ranges.flags.writeable = False
-    return ranges
-
-
-@lru_cache(maxsize=16)
-def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
-    """Candidate velocities ``(m, 3)`` (m/s): at rest, then each positive speed in every
-    course (read-only, made once per settings).
-    """
-    speeds = np.array([v for v in speeds if v > 0], dtype=float)
-    courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
-    moving = np.stack(np.broadcast_arrays(speeds[:, None] * np.sin(courses),
-                                          speeds[:, None] * np.cos(courses), 0.0), axis=-1)
-    vel = np.concatenate([np.zeros((1, 3)), moving.reshape(-1, 3)])
-    vel.flags.writeable = False
-    return vel
-
-
-def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
-                    ) -> NDArray[np.float64]:
-    """Candidate parameter vectors ``(m, p)`` for the problem's motion model."""
-    g = settings or GridSettings()
-    motion = problem.obs.motion
-    meas = problem.obs.meas
-    t_mid = float(np.median(meas.time))
-    pos = _positions(problem, t_mid, motion.dim, g)
-    moving = "vx" in motion.param_names or "speed" in motion.param_names
-    vel = _velocities(tuple(g.speeds), g.n_courses) if moving else np.zeros((1, 3))
-    # Component-major (each component of every state contiguous): the conversion then runs
-    # along long rows instead of across rows of 6.
-    states = np.empty((6, pos.shape[0], vel.shape[0]))
-    states[:3] = pos.T[:, :, None]
-    states[3:] = vel.T[:, None, :]
-    return motion.from_state(states.reshape(6, -1).T, t_mid)
+__all__ = ["GridScorer", "GridSettings", "Starts", "best_starts", "best_starts_many",
+           "grid_candidates", "grid_start", "orthonormal_columns"]
 
 
 def _subsample(problem: VarProProblem, max_rows: int
