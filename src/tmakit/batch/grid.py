@@ -24,6 +24,27 @@ class GridSettings:
 
     Every grid point is scored on ``coarse_rows`` evenly spread rows, the ``refine`` best on
     ``max_rows``; ``starts`` distinct points start the solve.
+
+    Parameters
+    ----------
+    min_range, max_range : float
+        Extent of the geometrically spaced ranges (m).
+    n_ranges : int
+        Ranges per ray.
+    n_bearings : int
+        Bearings of the fan around the sensors when no bearing is measured.
+    speeds : tuple of float
+        Speeds of the velocity grid (m/s); 0 is the target at rest.
+    n_courses : int
+        Courses per positive speed.
+    elevations_deg : tuple of float
+        Elevations above the sensors' plane for 3-D models (degrees).
+    max_rows, coarse_rows : int
+        Rows the ``refine`` best points and every point are scored on.
+    starts : int
+        Distinct points that start the solve.
+    refine : int
+        Points of the coarse stage scored again on ``max_rows``.
     """
 
     min_range: float = 100.0
@@ -48,8 +69,10 @@ def _reference_point(problem: VarProProblem, t_mid: float) -> NDArray[np.float64
 
 def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
                ) -> NDArray[np.float64]:
-    """Candidate positions ``(m, 3)``: rays (from each bearing sensor along its bearing
-    nearest ``t_mid``, or a fan around the sensors) x elevations x ranges, in that order.
+    """Return candidate positions ``(m, 3)``: rays x elevations x ranges, in that order.
+
+    The rays go from each bearing sensor along its bearing nearest ``t_mid``, or fan out
+    around the sensors.
     """
     meas = problem.obs.meas
     ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
@@ -72,13 +95,13 @@ def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
 
 
 def _elevations(dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
-    """Candidate elevation angles (rad): the given ones in 3-D, 0 in 2-D."""
+    """Return candidate elevation angles (rad): the given ones in 3-D, 0 in 2-D."""
     return np.radians(elevations_deg) if dim == 3 else np.zeros(1)
 
 
 def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
                 ) -> NDArray[np.float64]:
-    """Unit vectors ``(rays, elevations, 3)`` at each bearing and elevation (rad)."""
+    """Return unit vectors ``(rays, elevations, 3)`` at each bearing and elevation (rad)."""
     b, e = bearings[:, None], elev[None, :]
     return np.stack(np.broadcast_arrays(np.cos(e) * np.sin(b), np.cos(e) * np.cos(b),
                                         np.sin(e)), axis=-1)
@@ -86,9 +109,7 @@ def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
 
 @lru_cache(maxsize=16)
 def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
-    """:func:`_directions` of ``n_bearings`` evenly spaced bearings (read-only, made once per
-    settings).
-    """
+    """Return :func:`_directions` of ``n_bearings`` even bearings (read-only, cached)."""
     dirs = _directions(np.linspace(0.0, 2 * np.pi, n_bearings, endpoint=False),
                        _elevations(dim, elevations_deg))
     dirs.flags.writeable = False
@@ -97,7 +118,7 @@ def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArra
 
 @lru_cache(maxsize=16)
 def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.float64]:
-    """Candidate ranges (m), geometrically spaced; read-only, made once per settings."""
+    """Return candidate ranges (m), geometrically spaced; read-only, made once per settings."""
     ranges = np.geomspace(min_range, max_range, n_ranges)
     ranges.flags.writeable = False
     return ranges
@@ -105,8 +126,9 @@ def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.flo
 
 @lru_cache(maxsize=16)
 def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
-    """Candidate velocities ``(m, 3)`` (m/s): at rest, then each positive speed in every
-    course (read-only, made once per settings).
+    """Return candidate velocities ``(m, 3)`` (m/s): at rest, then each speed and course.
+
+    Read-only, made once per settings.
     """
     speeds = np.array([v for v in speeds if v > 0], dtype=float)
     courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
@@ -119,7 +141,20 @@ def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64
 
 def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
                     ) -> NDArray[np.float64]:
-    """Candidate parameter vectors ``(m, p)`` for the problem's motion model."""
+    """Return the candidate parameter vectors for the problem's motion model.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem (its measurements place the grid; its motion model converts it).
+    settings : GridSettings, optional
+        Extent and density (default :class:`GridSettings()`).
+
+    Returns
+    -------
+    ndarray, shape (m, p)
+        Motion parameters (SI) of the grid's states at the median measurement time.
+    """
     g = settings or GridSettings()
     motion = problem.obs.motion
     meas = problem.obs.meas

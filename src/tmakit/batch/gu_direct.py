@@ -1,8 +1,9 @@
 """The direct iterative least squares of Gu et al. (2007) §3.
 
-The nuisance parameters C/C_0 and c/f_s are in the parameter vector.  The paper linearises the power equation (eqs. 9-11) and the Doppler equation (eqs. 14-16) about
-the current estimate and iterates ``theta_pf^(i+1) = D_i^-1 N_i`` with
-``D_i = A^T Sigma^-1 A`` and ``N_i = A^T Sigma^-1 B`` where
+The nuisance parameters C/C_0 and c/f_s are in the parameter vector.  The paper linearises
+the power equation (eqs. 9-11) and the Doppler equation (eqs. 14-16) about the current
+estimate and iterates ``theta_pf^(i+1) = D_i^-1 N_i`` with ``D_i = A^T Sigma^-1 A`` and
+``N_i = A^T Sigma^-1 B`` where
 
 * power rows (eq. 11): ``[2 (L_k - Q_k theta)^T, C_0 / P_k]``, right-hand side
   ``rho_k^2 - theta^T Q_k theta``, variance ``R_k^4 / SNR_p``;
