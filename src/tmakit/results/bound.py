@@ -55,12 +55,34 @@ def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray
 class Bound:
     """A Cramér–Rao bound evaluated at ``values`` (the truth).
 
-    ``parameters`` are the unknowns (motion parameters first).  ``std`` is infinite for any
-    parameter that cannot be observed; ``covariance`` is the inverse information restricted to
-    the observable subspace (its rows for unobservable parameters are meaningless: use
-    ``std``).  ``known_nuisance`` is ``None`` when the nuisance parameters are unknowns (they
-    are then among ``parameters``), else the :class:`~tmakit.results.nuisance.KnownNuisance`
-    holding the values they were known at (``nuisance_values``).
+    Parameters
+    ----------
+    parameters : tuple of str
+        The unknowns, motion parameters first.
+    values : ndarray, shape (q,)
+        Where the bound is evaluated (SI units of each parameter).
+    information : ndarray, shape (q, q)
+        Fisher information (SI units of the parameters, inverse squared).
+    covariance : ndarray, shape (q, q)
+        Inverse information restricted to the observable subspace (its rows for unobservable
+        parameters are meaningless: use ``std``).
+    std : ndarray, shape (q,)
+        Standard deviations (SI); infinite for any parameter that cannot be observed.
+    observability : Observability
+        Rank and unobservable directions of ``information``.
+    known_nuisance : KnownNuisance or None
+        ``None`` when the nuisance parameters are unknowns (then among ``parameters``), else
+        the values they were known at.
+    nuisance_values : dict of str to float
+        Nuisance values at the evaluation point (Hz, Hz/s, dB, dimensionless).
+    motion : MotionModel
+        The motion model of the first parameters.
+    n_measurements : int
+        Number of measurements.
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 17-18; Hörst & Oispuu (2010), eq. 9.
     """
 
     parameters: tuple[str, ...]
