@@ -4,7 +4,7 @@ Its settings are given once, in the constructor, and its :meth:`~BatchEstimator.
 measurement set and a motion model into an :class:`~tmakit.results.EstimateResult`.
 
 :class:`PaperMethod` is the common part of the papers' local iterations (Gu et al. (2007) §3
-and §4, the Doppler-tracking lecture's Gauss–Newton): their own nuisance model only (no carrier
+and §4, the Doppler-tracking lecture notes' Gauss–Newton): their own nuisance model only (no carrier
 drift, path-loss exponent 2), and, without a starting point, tmakit's no-guess start — the
 best point of the likelihood grid (:func:`tmakit.batch.init.grid_start`).  That start is
 tmakit's, not the papers'; the result says so in its message and in ``extra["start"]``.

@@ -244,7 +244,7 @@ class LectureGaussNewton(PaperMethod):
 
 def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel, init: Init,
                          max_iter: int = 50, tol: float = 1e-4) -> EstimateResult:
-    """Run the lecture's Gauss–Newton from ``init``: short form of :class:`LectureGaussNewton`.
+    """Run the notes' Gauss–Newton from ``init``: the short form of :class:`LectureGaussNewton`.
 
     Parameters
     ----------

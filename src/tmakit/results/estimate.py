@@ -7,7 +7,7 @@ built by one of three functions:
 
 * :func:`assemble_result` — a weighted least-squares fit of the observation model: covariance
   and bound from the Fisher information at the fit (tmakit's maximum likelihood, the
-  lecture's Gauss–Newton);
+  Gauss–Newton of the Doppler-tracking lecture notes);
 * :func:`result_from_covariance` — a fit whose method computes its own covariance (the
   papers' linearised systems: Gu et al. (2007) §3 and §4);
 * :func:`diverged_result` — a solve that left the region where the model is defined.
