@@ -1,9 +1,9 @@
 """Batch estimators, each an object with its settings in the constructor.
 
 Maximum likelihood with nuisance parameters eliminated (no initial guess needed) and the
-papers' own methods (ratio method, direct iterative LS, the lecture's Gauss-Newton), each an
-object with its settings in the constructor and a
-``fit(measurements, motion)`` that returns an :class:`EstimateResult`::
+papers' own methods (Gu et al. (2007) §3-4: ratio method, direct iterative LS; the
+Gauss-Newton of the Doppler-tracking lecture notes), each an object with its settings in the
+constructor and a ``fit(measurements, motion)`` that returns an :class:`EstimateResult`::
 
     from tmakit.batch import METHODS, MaximumLikelihood, RatioMethod
     res = MaximumLikelihood(options={"frequency": {"drift": True}}).fit(meas, motion)

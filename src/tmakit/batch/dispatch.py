@@ -25,15 +25,26 @@ __all__ = ["MLByMotion", "estimate"]
 
 
 def is_manoeuvring(motion: MotionModel | str) -> bool:
-    """Whether ``motion`` is a manoeuvring target's: a motion name (parsed by the manoeuvre
-    estimator, which hands the other names back to maximum likelihood) or a model with a
-    number of manoeuvres."""
+    """Tell whether ``motion`` is a manoeuvring target's.
+
+    Parameters
+    ----------
+    motion : MotionModel or str
+        A motion name (parsed by the manoeuvre estimator, which hands the other names back
+        to maximum likelihood) or a motion model.
+
+    Returns
+    -------
+    bool
+        True for a name or a model with a number of manoeuvres.
+    """
     return isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None
 
 
 class MLByMotion(BatchEstimator):
-    """tmakit's maximum likelihood, the estimator chosen by the motion at :meth:`fit`
-    (the ``"ml"`` entry of :data:`tmakit.batch.METHODS`).
+    """Maximum likelihood of tmakit, the estimator chosen by the motion at :meth:`fit`.
+
+    This is the ``"ml"`` entry of :data:`tmakit.batch.METHODS`.
 
     Parameters
     ----------
@@ -68,7 +79,7 @@ class MLByMotion(BatchEstimator):
         self.manoeuvre_options = dict(manoeuvre_options)
 
     def __repr__(self) -> str:
-        """The constructor call that makes this estimator."""
+        """Return the constructor call that makes this estimator."""
         extra = "".join(f", {k}={v!r}" for k, v in self.manoeuvre_options.items())
         return (f"MLByMotion(init={self.init!r}, options={self.options!r}, "
                 f"known_nuisance={self.known_nuisance!r}, grid={self.grid!r}, "
@@ -76,7 +87,7 @@ class MLByMotion(BatchEstimator):
 
     def fit(self, meas: MeasurementSet, motion: MotionModel | str  # type: ignore[override]
             ) -> EstimateResult:
-        """The maximum-likelihood estimate for ``motion``.
+        """Return the maximum-likelihood estimate for ``motion``.
 
         Parameters
         ----------
@@ -110,8 +121,9 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
              options: Options = None, known_nuisance: KnownNuisanceLike = None,
              grid: GridSettings | None = None, max_iter: int = 100,
              **manoeuvre_options: object) -> EstimateResult:
-    """Maximum-likelihood estimate of the motion parameters, no initial guess needed: the
-    short form of :class:`MLByMotion` (``tk.estimate``).
+    """Estimate the motion parameters by maximum likelihood, no initial guess needed.
+
+    The short form of :class:`MLByMotion` (``tk.estimate``).
 
     Parameters
     ----------
@@ -152,7 +164,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
 
     References
     ----------
-    Hörst & Oispuu (2010) for the manoeuvring target.
+    Hörst & Oispuu (2010), eqs. 1-4 (motion) and 8 (likelihood), for the manoeuvring target.
     """
     return MLByMotion(init, options, known_nuisance, grid, max_iter,
                       **manoeuvre_options).fit(meas, motion)

@@ -1,9 +1,10 @@
-"""What every batch estimator is: an object whose settings are given once, in its constructor,
-and whose :meth:`~BatchEstimator.fit` turns a measurement set and a motion model into an
-:class:`~tmakit.results.EstimateResult`.
+"""What every batch estimator is: settings in its constructor, :meth:`~BatchEstimator.fit`.
+
+Its settings are given once, in the constructor, and its :meth:`~BatchEstimator.fit` turns a
+measurement set and a motion model into an :class:`~tmakit.results.EstimateResult`.
 
 :class:`PaperMethod` is the common part of the papers' local iterations (Gu et al. (2007) §3
-and §4, the Doppler-tracking lecture's Gauss–Newton): their own nuisance model only (no carrier
+and §4, the Doppler-tracking lecture notes' Gauss–Newton): their own nuisance model only (no carrier
 drift, path-loss exponent 2), and, without a starting point, tmakit's no-guess start — the
 best point of the likelihood grid (:func:`tmakit.batch.init.grid_start`).  That start is
 tmakit's, not the papers'; the result says so in its message and in ``extra["start"]``.
@@ -67,8 +68,7 @@ class BatchEstimator(ABC):
 
 
 def check_paper_options(method: str, options: Options) -> None:
-    """Refuse nuisance models the papers do not have: carrier drift, a path-loss exponent
-    other than 2.
+    """Refuse nuisance models the papers do not have: carrier drift, path-loss exponent ≠ 2.
 
     Parameters
     ----------
@@ -93,7 +93,18 @@ def check_paper_options(method: str, options: Options) -> None:
 
 
 def kinds_tuple(kinds: str | Sequence[str] | None) -> tuple[str, ...] | None:
-    """``kinds`` as a tuple (a single name as a 1-tuple), or None."""
+    """Convert ``kinds`` to a tuple (a single name as a 1-tuple), or None.
+
+    Parameters
+    ----------
+    kinds : str, sequence of str or None
+        Measurement kind names.
+
+    Returns
+    -------
+    tuple of str or None
+        The kinds, or None when none were given.
+    """
     if kinds is None:
         return None
     return (kinds,) if isinstance(kinds, str) else tuple(kinds)
@@ -135,7 +146,7 @@ class PaperMethod(BatchEstimator):
     @abstractmethod
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
-        """The paper's iteration from ``init``.
+        """Run the paper's iteration from ``init``.
 
         Parameters
         ----------
@@ -153,7 +164,18 @@ class PaperMethod(BatchEstimator):
         """
 
     def start_rows(self, meas: MeasurementSet) -> MeasurementSet:
-        """The rows the grid start is scored on: those of the kinds the method uses."""
+        """Return the rows the grid start is scored on: those of the kinds the method uses.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements.
+
+        Returns
+        -------
+        MeasurementSet
+            The rows of the usable kinds (all rows when there are none).
+        """
         kinds = [k for k in self.start_kinds if k in meas.kinds]
         wanted = self.kinds_wanted
         if wanted is not None:
@@ -161,7 +183,7 @@ class PaperMethod(BatchEstimator):
         return meas.take(np.isin(meas.kind, kinds)) if kinds else meas
 
     def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
-        """The paper's iteration from ``init``, or from tmakit's grid point without one.
+        """Run the paper's iteration from ``init``, or from tmakit's grid point without one.
 
         Parameters
         ----------

@@ -1,9 +1,9 @@
-"""The direct iterative least squares of Gu et al. (2007) §3 (Gu, Pachter, Chandler,
-Schumacher), with the nuisance parameters C/C_0 and c/f_s in the parameter vector.
+"""The direct iterative least squares of Gu et al. (2007) §3.
 
-The paper linearises the power equation (eqs. 9-11) and the Doppler equation (eqs. 14-16) about
-the current estimate and iterates ``theta_pf^(i+1) = D_i^-1 N_i`` with
-``D_i = A^T Sigma^-1 A`` and ``N_i = A^T Sigma^-1 B`` where
+The nuisance parameters C/C_0 and c/f_s are in the parameter vector.  The paper linearises
+the power equation (eqs. 9-11) and the Doppler equation (eqs. 14-16) about the current
+estimate and iterates ``theta_pf^(i+1) = D_i^-1 N_i`` with ``D_i = A^T Sigma^-1 A`` and
+``N_i = A^T Sigma^-1 B`` where
 
 * power rows (eq. 11): ``[2 (L_k - Q_k theta)^T, C_0 / P_k]``, right-hand side
   ``rho_k^2 - theta^T Q_k theta``, variance ``R_k^4 / SNR_p``;
@@ -95,8 +95,10 @@ def _equilibrate(a: Array) -> tuple[Array, Array]:
 
 
 class _DirectSystem:
-    """Everything of Gu et al. (2007) §3 that does not depend on theta, and the weighted
-    linear system ``A``, ``B`` at a given theta (eqs. 11 and 14-16)."""
+    """Everything of Gu et al. (2007) §3 that does not depend on theta.
+
+    Also builds the weighted linear system ``A``, ``B`` at a given theta (eqs. 11 and 14-16).
+    """
 
     def __init__(self, sub: MeasurementSet, motion: MotionModel, kinds: tuple[str, ...],
                  c0: float | None) -> None:
@@ -141,7 +143,7 @@ class _DirectSystem:
         return a * w[:, None], b * w
 
     def record(self, history: dict[str, list[float]], aw: Array) -> None:
-        """The condition numbers of the weighted A, of its parts and equilibrated."""
+        """Record the condition numbers of the weighted A, of its parts and equilibrated."""
         history["condition_numbers"].append(_condition(aw))
         if self.j_c is not None:
             history["condition_numbers_power"].append(
@@ -213,7 +215,7 @@ class GuDirect(PaperMethod):
 
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
-        """The iteration of Gu et al. (2007) §3 from ``init``.
+        """Run the iteration of Gu et al. (2007) §3 from ``init``.
 
         Parameters
         ----------
@@ -287,7 +289,7 @@ class GuDirect(PaperMethod):
 def gu_direct(meas: MeasurementSet, motion: MotionModel, init: Init, max_iter: int = 50,
               kinds: str | Sequence[str] | None = None, c0: float | None = None,
               tol: float = 1e-8, normal_equations: bool = False) -> EstimateResult:
-    """Gu et al. (2007) §3 from ``init``: the short form of :class:`GuDirect`.
+    """Run Gu et al. (2007) §3 from ``init``: the short form of :class:`GuDirect`.
 
     Parameters
     ----------
@@ -322,8 +324,10 @@ def gu_direct(meas: MeasurementSet, motion: MotionModel, init: Init, max_iter: i
 def _direct_result(system: _DirectSystem, motion: MotionModel, theta: Array, x: Array,
                    fs: float, status: str, message: str, iterations: int,
                    history: dict[str, list[float]]) -> EstimateResult:
-    """The result of the iteration: covariance ``D^-1`` at the last iterate, the nuisance
-    values with delta-method std, the condition numbers."""
+    """Build the result: covariance ``D^-1`` at the last iterate, nuisance values, conditions.
+
+    The nuisance values come with delta-method std.
+    """
     c = SPEED_OF_LIGHT
     j_c, j_f, c0 = system.j_c, system.j_f, system.c0
     names_nu = [NUISANCE_NAMES[k] for k in system.kinds]
@@ -367,7 +371,7 @@ def _direct_result(system: _DirectSystem, motion: MotionModel, theta: Array, x: 
 
 
 def _conditioning_text(history: dict[str, list[float]]) -> str:
-    """The condition numbers at the last iteration, in words."""
+    """Describe the condition numbers at the last iteration in words."""
     conds = history["condition_numbers"]
     text = (f"condition number of the weighted A at the last iteration: {conds[-1]:.3g}"
             if conds else "")

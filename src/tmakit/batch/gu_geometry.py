@@ -1,7 +1,9 @@
-"""The pieces shared by the papers' local methods (Gu et al. (2007) §3 and §4, and the
-lecture's Gauss–Newton): the sensor-side geometry of Gu et al. (2007), eqs. 7, 8, 12 and 16
-(:class:`PlanarGeometry`), the choice of rows and of the start, SNR from a power sigma, and the
-test that ends an iteration.
+"""The pieces shared by the papers' local methods.
+
+These are Gu et al. (2007) §3 and §4 and the Doppler-tracking lecture notes' Gauss–Newton:
+the sensor-side geometry of Gu et al. (2007), eqs. 7, 8, 12 and 16 (:class:`PlanarGeometry`),
+the choice of rows and of the start, SNR from a power sigma, and the test that ends an
+iteration.
 """
 
 from __future__ import annotations
@@ -33,9 +35,31 @@ of 1 km) is declared diverged."""
 def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
                    range2: NDArray[np.float64], far: float, tol: float
                    ) -> tuple[str, str] | None:
-    """How an iteration of the papers' fixed-point methods ends after an update ``step`` to
-    ``theta``: diverged (a range non-positive, or grown beyond ``far``), converged (the
-    update below ``tol`` relative), or ``None`` to go on.  Shared by Gu et al. (2007) §3 and §4."""
+    """Decide how an iteration of the papers' fixed-point methods ends after an update.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (4,)
+        The updated iterate (m, m/s).
+    step : ndarray, shape (4,)
+        The update (m, m/s).
+    range2 : ndarray, shape (n,)
+        Squared ranges at the iterate (m²).
+    far : float
+        The largest range allowed (m).
+    tol : float
+        Relative size of the update below which it has converged.
+
+    Returns
+    -------
+    tuple of (str, str) or None
+        ``(DIVERGED, why)`` when a range is non-positive or beyond ``far``, ``(CONVERGED,
+        "")`` when the update is small, ``None`` to go on.
+
+    References
+    ----------
+    Gu et al. (2007), §3 and §4.
+    """
     if np.any(range2 <= 0):
         return DIVERGED, "a range became non-positive"
     if np.max(range2) > far ** 2:
@@ -51,7 +75,24 @@ DEFAULT_CARRIER = 1.9e9
 
 
 def check_planar_cv(motion: MotionModel, method: str) -> None:
-    """The papers' methods are written for 2-D constant velocity (Gu et al. (2007), eq. 1)."""
+    """Refuse a motion model other than 2-D constant velocity.
+
+    Parameters
+    ----------
+    motion : MotionModel
+        The motion model asked for.
+    method : str
+        The method's name (for the message).
+
+    Raises
+    ------
+    ValueError
+        When ``motion`` is not a 2-D :class:`~tmakit.motion.ConstantVelocity`.
+
+    References
+    ----------
+    Gu et al. (2007), eq. 1.
+    """
     if not isinstance(motion, ConstantVelocity) or motion.dim != 2:
         raise ValueError(f"{method}: written for 2-D constant velocity (Gu et al. "
                          f"(2007), eq. 1; motion cv2d, ConstantVelocity(2)); got {motion!r}")
@@ -59,9 +100,29 @@ def check_planar_cv(motion: MotionModel, method: str) -> None:
 
 def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method: str
                  ) -> tuple[tuple[str, ...], MeasurementSet]:
-    """The kinds to use (in :data:`PAPER_KINDS` order) and the rows of those kinds.
+    """Choose the kinds to use (in :data:`PAPER_KINDS` order) and the rows of those kinds.
 
-    ``kinds=None`` takes every power and frequency row and refuses data of other kinds.
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    kinds : str, sequence of str or None
+        ``"power"`` and/or ``"frequency"``; None takes every power and frequency row and
+        refuses data of other kinds.
+    method : str
+        The method's name (for the message).
+
+    Returns
+    -------
+    kinds : tuple of str
+        The kinds chosen.
+    rows : MeasurementSet
+        The rows of those kinds.
+
+    Raises
+    ------
+    ValueError
+        For an unusable or absent kind, or other kinds with ``kinds=None``.
     """
     if kinds is None:
         other = sorted(set(meas.kinds) - set(PAPER_KINDS))
@@ -85,7 +146,27 @@ def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method
 
 def initial_theta(motion: MotionModel, init: Mapping[str, float] | ArrayLike | None,
                   method: str) -> Array:
-    """A starting parameter vector from a mapping by name or a vector."""
+    """Return a starting parameter vector from a mapping by name or a vector.
+
+    Parameters
+    ----------
+    motion : MotionModel
+        The motion model.
+    init : Mapping[str, float], array_like or None
+        The start (m, m/s).
+    method : str
+        The method's name (for the message).
+
+    Returns
+    -------
+    ndarray, shape (p,)
+        The starting parameters (m, m/s).
+
+    Raises
+    ------
+    ValueError
+        Without a start, or for a vector of the wrong length.
+    """
     if init is None:
         raise ValueError(f"{method}: a local method, it needs a starting point (init=...); "
                          "its estimator object without init (tmakit.batch.METHODS) starts "
@@ -100,13 +181,36 @@ def initial_theta(motion: MotionModel, init: Mapping[str, float] | ArrayLike | N
 
 
 def snr_from_sigma_db(sigma_db: ArrayLike) -> Array:
-    """SNR_p (linear) of a power whose standard deviation in dB is ``sigma_db``: the first-order
-    inverse of :func:`tmakit.units.snr_to_sigma_db`, ``(10 / ln 10 / sigma)^2``."""
+    """Return SNR_p (linear) of a power whose standard deviation is ``sigma_db`` (dB).
+
+    The first-order inverse of :func:`tmakit.units.snr_to_sigma_db`.
+
+    Parameters
+    ----------
+    sigma_db : array_like
+        Standard deviation of the power (dB).
+
+    Returns
+    -------
+    ndarray
+        ``(10 / ln 10 / sigma)^2`` (dimensionless).
+    """
     return (TEN_OVER_LN10 / np.asarray(sigma_db, dtype=float)) ** 2
 
 
 def power_watts(meas: MeasurementSet) -> Array:
-    """Linear received power ``P = 10**(P_dBW / 10)`` (W) of the power rows, in row order."""
+    """Return the linear received power of the power rows, in row order.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+
+    Returns
+    -------
+    ndarray
+        ``P = 10**(P_dBW / 10)`` (W).
+    """
     return 10.0 ** (meas.value_si[meas.kind == "power"] / 10.0)
 
 
@@ -114,10 +218,22 @@ def power_watts(meas: MeasurementSet) -> Array:
 class PlanarGeometry:
     """The sensor side of Gu et al. (2007), eqs. 7, 8, 12 and 16 for a set of samples.
 
-    ``t`` are the sample times relative to the motion's reference time (the paper's t_0 = 0),
-    ``u``/``udot`` the sensor's horizontal position and velocity.  A sensor off the plane z = 0
-    (or moving vertically) is handled exactly by adding ``U_z^2`` to ``rho_k^2`` and
-    ``U_z dU_z/dt`` to the numerator of eq. 12; the target stays at z = 0.
+    A sensor off the plane z = 0 (or moving vertically) is handled exactly by adding
+    ``U_z^2`` to ``rho_k^2`` and ``U_z dU_z/dt`` to the numerator of eq. 12; the target stays
+    at z = 0.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Sample times relative to the motion's reference time (s; the paper's t_0 = 0).
+    u, udot : ndarray, shape (n, 2)
+        The sensor's horizontal position (m) and velocity (m/s).
+    uz, uzdot : ndarray, shape (n,)
+        The sensor's height (m) and vertical velocity (m/s).
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 7, 8, 12 and 16.
     """
 
     t: Array      # (n,)
@@ -128,13 +244,37 @@ class PlanarGeometry:
 
     @classmethod
     def from_rows(cls, meas: MeasurementSet, motion: ConstantVelocity) -> PlanarGeometry:
-        """The geometry of the rows of ``meas``, times relative to ``motion.ref_time``."""
+        """Build the geometry of the rows of ``meas``, times relative to ``motion.ref_time``.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (their sensor states, m and m/s).
+        motion : ConstantVelocity
+            The motion model (its reference time, s).
+
+        Returns
+        -------
+        PlanarGeometry
+            One sample per row.
+        """
         s = meas.sensor_state
         return cls(meas.time - motion.ref_time, s[:, 0:2].copy(), s[:, 3:5].copy(),
                    s[:, 2].copy(), s[:, 5].copy())
 
     def take(self, idx: ArrayLike) -> PlanarGeometry:
-        """The geometry of the samples ``idx``."""
+        """Return the geometry of the samples ``idx``.
+
+        Parameters
+        ----------
+        idx : array_like of int or bool
+            Which samples.
+
+        Returns
+        -------
+        PlanarGeometry
+            Those samples.
+        """
         i = np.asarray(idx)
         return PlanarGeometry(self.t[i], self.u[i], self.udot[i], self.uz[i], self.uzdot[i])
 
@@ -170,7 +310,13 @@ class PlanarGeometry:
 
     @staticmethod
     def S_f() -> Array:
-        """``S_f`` of eq. 12."""
+        """Return ``S_f`` (4, 4) of eq. 12 (dimensionless).
+
+        Returns
+        -------
+        ndarray, shape (4, 4)
+            ``S_f``.
+        """
         s = np.zeros((4, 4))
         s[0, 2] = s[2, 0] = s[1, 3] = s[3, 1] = 0.5
         return s
@@ -186,17 +332,49 @@ class PlanarGeometry:
         return 0.5 * np.einsum("nij,nj->ni", self.Qf + self.S_f(), self.phi)
 
     def range2(self, theta: Array) -> Array:
-        """``R_k^2 = theta^T Q_k theta - 2 L_k^T theta + rho_k^2`` (eq. 8)."""
+        """Return ``R_k^2 = theta^T Q_k theta - 2 L_k^T theta + rho_k^2`` (eq. 8).
+
+        Parameters
+        ----------
+        theta : ndarray, shape (4,)
+            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Squared ranges (m²).
+        """
         return (np.einsum("i,nij,j->n", theta, self.Q, theta) - 2.0 * self.L @ theta
                 + self.rho2)
 
     def q_minus_l(self, theta: Array) -> Array:
-        """``Q_k theta - L_k`` (n, 4) = half the gradient of ``R_k^2``."""
+        """Return ``Q_k theta - L_k``, half the gradient of ``R_k^2``.
+
+        Parameters
+        ----------
+        theta : ndarray, shape (4,)
+            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
+
+        Returns
+        -------
+        ndarray, shape (n, 4)
+            ``Q_k theta - L_k`` (m, m s).
+        """
         return np.einsum("nij,j->ni", self.Q, theta) - self.L
 
     def radial_velocity(self, theta: Array) -> Array:
-        """``v_k`` of eq. 12 (= eq. 6, positive when the target recedes; tmakit's range
-        rate)."""
+        """Return ``v_k`` of eq. 12 (= eq. 6), positive when the target recedes.
+
+        Parameters
+        ----------
+        theta : ndarray, shape (4,)
+            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The range rate (m/s), tmakit's convention.
+        """
         qf = self.Qf
         phi = self.phi
         num = (np.einsum("i,nij,j->n", theta, qf, theta)
@@ -205,7 +383,18 @@ class PlanarGeometry:
         return num / np.sqrt(self.range2(theta))
 
     def grad_radial_velocity(self, theta: Array) -> Array:
-        """``dh_k/dtheta = dv_k/dtheta`` (n, 4), eq. 16."""
+        """Return ``dh_k/dtheta = dv_k/dtheta`` of eq. 16.
+
+        Parameters
+        ----------
+        theta : ndarray, shape (4,)
+            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
+
+        Returns
+        -------
+        ndarray, shape (n, 4)
+            The gradient (1/s for position, dimensionless for velocity).
+        """
         r2 = self.range2(theta)
         r = np.sqrt(r2)
         v = self.radial_velocity(theta)
@@ -215,6 +404,17 @@ class PlanarGeometry:
 
 
 def carrier_guess(meas: MeasurementSet) -> float:
-    """The carrier implied by the data: median received frequency, or 1.9 GHz without any."""
+    """Return the carrier implied by the data.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+
+    Returns
+    -------
+    float
+        Median received frequency (Hz), or 1.9 GHz without any (Gu et al. (2007), §5).
+    """
     f = meas.value_si[meas.kind == "frequency"]
     return float(np.median(f)) if f.size else DEFAULT_CARRIER

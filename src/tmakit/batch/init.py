@@ -3,9 +3,8 @@
 A coarse grid of trajectories is scored by the reduced (nuisance-eliminated) likelihood in two
 vectorised stages (every point on a few rows, the best of them on more), and the best few,
 mutually distinct, become the starting points of the batched Levenberg–Marquardt solve.
-Positions are placed at the median measurement time: along the measured bearings when there
-are bearings (rays from each bearing sensor), otherwise on a polar grid around the sensors, at
-geometrically spaced ranges; velocities on a grid of speeds and courses.  3-D models add a few
+The grid itself is :mod:`tmakit.batch.grid`: positions along the measured bearings or on a
+polar grid around the sensors, velocities on a grid of speeds and courses; 3-D models add a few
 elevation angles above the sensors' plane (emitters below the sensors are not searched: with
 no elevation data, z and its mirror fit equally).
 """
@@ -13,7 +12,6 @@ no elevation data, z and its mirror fit equally).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -24,126 +22,19 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
+from .grid import GridSettings, grid_candidates
 from .solver import VarProProblem
 
-
-@dataclass(frozen=True)
-class GridSettings:
-    """Extent and density of the initial search (SI units).
-
-    Every grid point is scored on ``coarse_rows`` evenly spread rows, the ``refine`` best on
-    ``max_rows``; ``starts`` distinct points start the solve."""
-
-    min_range: float = 100.0
-    max_range: float = 50_000.0
-    n_ranges: int = 10
-    n_bearings: int = 12
-    speeds: tuple[float, ...] = (0.0, 10.0, 40.0, 150.0, 450.0)
-    n_courses: int = 8
-    elevations_deg: tuple[float, ...] = (0.0, 3.0, 10.0, 25.0, 50.0)
-    max_rows: int = 30
-    starts: int = 6
-    coarse_rows: int = 8
-    refine: int = 256
-
-
-def _reference_point(problem: VarProProblem, t_mid: float) -> NDArray[np.float64]:
-    meas = problem.obs.meas
-    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * (meas.sensor != s))
-            for s in meas.sensors]
-    return meas.sensor_state[near, :3].mean(axis=0)
-
-
-def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
-               ) -> NDArray[np.float64]:
-    """Candidate positions ``(m, 3)``: rays (from each bearing sensor along its bearing
-    nearest ``t_mid``, or a fan around the sensors) x elevations x ranges, in that order."""
-    meas = problem.obs.meas
-    ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
-    bearing_rows = np.flatnonzero(meas.kind == "bearing")
-    if bearing_rows.size:
-        ends = []
-        for s in np.unique(meas.sensor[bearing_rows]):
-            rows = bearing_rows[meas.sensor[bearing_rows] == s]
-            ends.append(rows[np.argmin(np.abs(meas.time[rows] - t_mid))])
-        origins = meas.sensor_state[ends, :3]
-        dirs = _directions(meas.value_si[ends], _elevations(dim, tuple(g.elevations_deg)))
-    else:
-        dirs = _fan(g.n_bearings, dim, tuple(g.elevations_deg))
-        origins = np.broadcast_to(_reference_point(problem, t_mid), (dirs.shape[0], 3))
-    pts = (origins[:, None, None, :]
-           + ranges[None, None, :, None] * dirs[:, :, None, :]).reshape(-1, 3)
-    if dim == 2:
-        pts[:, 2] = 0.0
-    return pts
-
-
-def _elevations(dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
-    """Candidate elevation angles (rad): the given ones in 3-D, 0 in 2-D."""
-    return np.radians(elevations_deg) if dim == 3 else np.zeros(1)
-
-
-def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
-                ) -> NDArray[np.float64]:
-    """Unit vectors ``(rays, elevations, 3)`` at each bearing and elevation (rad)."""
-    b, e = bearings[:, None], elev[None, :]
-    return np.stack(np.broadcast_arrays(np.cos(e) * np.sin(b), np.cos(e) * np.cos(b),
-                                        np.sin(e)), axis=-1)
-
-
-@lru_cache(maxsize=16)
-def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
-    """:func:`_directions` of ``n_bearings`` evenly spaced bearings (read-only, made once per
-    settings)."""
-    dirs = _directions(np.linspace(0.0, 2 * np.pi, n_bearings, endpoint=False),
-                       _elevations(dim, elevations_deg))
-    dirs.flags.writeable = False
-    return dirs
-
-
-@lru_cache(maxsize=16)
-def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.float64]:
-    """Candidate ranges (m), geometrically spaced; read-only, made once per settings."""
-    ranges = np.geomspace(min_range, max_range, n_ranges)
-    ranges.flags.writeable = False
-    return ranges
-
-
-@lru_cache(maxsize=16)
-def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
-    """Candidate velocities ``(m, 3)`` (m/s): at rest, then each positive speed in every
-    course (read-only, made once per settings)."""
-    speeds = np.array([v for v in speeds if v > 0], dtype=float)
-    courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
-    moving = np.stack(np.broadcast_arrays(speeds[:, None] * np.sin(courses),
-                                          speeds[:, None] * np.cos(courses), 0.0), axis=-1)
-    vel = np.concatenate([np.zeros((1, 3)), moving.reshape(-1, 3)])
-    vel.flags.writeable = False
-    return vel
-
-
-def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
-                    ) -> NDArray[np.float64]:
-    """Candidate parameter vectors ``(m, p)`` for the problem's motion model."""
-    g = settings or GridSettings()
-    motion = problem.obs.motion
-    meas = problem.obs.meas
-    t_mid = float(np.median(meas.time))
-    pos = _positions(problem, t_mid, motion.dim, g)
-    moving = "vx" in motion.param_names or "speed" in motion.param_names
-    vel = _velocities(tuple(g.speeds), g.n_courses) if moving else np.zeros((1, 3))
-    # Component-major (each component of every state contiguous): the conversion then runs
-    # along long rows instead of across rows of 6.
-    states = np.empty((6, pos.shape[0], vel.shape[0]))
-    states[:3] = pos.T[:, :, None]
-    states[3:] = vel.T[:, None, :]
-    return motion.from_state(states.reshape(6, -1).T, t_mid)
+__all__ = ["GridScorer", "GridSettings", "Starts", "best_starts", "best_starts_many",
+           "grid_candidates", "grid_start", "orthonormal_columns"]
 
 
 def _subsample(problem: VarProProblem, max_rows: int
                ) -> tuple[VarProProblem, NDArray[np.int64]]:
-    """A problem on an evenly spread subset of rows per kind (the grid needs no more) and
-    the indices of the rows kept."""
+    """Return the problem on an evenly spread subset of rows per kind, and the rows kept.
+
+    The grid needs no more rows.
+    """
     meas = problem.obs.meas
     every = np.arange(len(meas))
     if len(meas) <= max_rows or problem.noise.correlated:
@@ -158,8 +49,10 @@ def _subsample(problem: VarProProblem, max_rows: int
 
 @lru_cache(maxsize=64)
 def _evenly_spread(size: int, take: int) -> NDArray[np.int64]:
-    """About ``take`` evenly spread indices into ``size`` rows, first and last included
-    (read-only, made once per pair)."""
+    """Return about ``take`` evenly spread indices into ``size`` rows, first and last included.
+
+    Read-only, made once per pair.
+    """
     idx = np.unique(np.linspace(0, size - 1, take).round().astype(int))
     idx.flags.writeable = False
     return idx
@@ -175,6 +68,15 @@ the projection is then shared."""
 class GridScorer:
     """Reduced cost of a fixed set of candidate trajectories for many data sets at once.
 
+    Parameters
+    ----------
+    problem : VarProProblem
+        The observation and noise model (nuisance eliminated or fixed).
+    candidates : ndarray, shape (C, p)
+        Motion parameters of the candidates (SI).
+
+    Notes
+    -----
     With ``u`` the whitened data and ``g`` the whitened predictions about a reference nuisance
     ``nu*`` and ``Q`` an orthonormal basis of the whitened nuisance design of a candidate, the
     projected cost is ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2``; where the design is the
@@ -206,8 +108,10 @@ class GridScorer:
             self.shared = orthonormal_columns(aw[None])[0]
 
     def _predict(self, i: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``h0`` ``(c, n)`` and ``A_var`` ``(c, n, k)`` of the candidates of block ``i``
-        (those made by :meth:`_reference_design` are handed over once)."""
+        """Return ``h0`` ``(c, n)`` and ``A_var`` ``(c, n, k)`` of the candidates of block ``i``.
+
+        Those made by :meth:`_reference_design` are handed over once.
+        """
         if i in self._made:
             return self._made.pop(i)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -216,8 +120,10 @@ class GridScorer:
         return lin.h0, lin.a_var
 
     def _reference_design(self) -> NDArray[np.float64]:
-        """``A_var`` ``(n, k)`` of the first candidate with finite predictions (zero if none):
-        the design the shared basis is made from."""
+        """Return ``A_var`` ``(n, k)`` of the first candidate with finite predictions.
+
+        It is the design the shared basis is made from (zero if none).
+        """
         for i in range(len(self.blocks)):
             h0, a_var = self._made[i] = self._predict(i)
             good = np.flatnonzero(~_bad(h0, a_var))
@@ -226,14 +132,27 @@ class GridScorer:
         return np.zeros((len(self.problem.obs.meas), self.problem.k))
 
     def _reference(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """A nuisance value near the data's (least squares on the geometry-free design of the
-        median data set), about which residuals are formed without cancellation."""
+        """Return a nuisance value near the data's, about which residuals do not cancel.
+
+        Least squares on the geometry-free design of the median data set.
+        """
         # (the median of one data set is that data set)
         return self.problem.reference_nuisance(y[0] if y.shape[0] == 1
                                                else np.median(y, axis=0))[0]
 
     def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Costs ``(B, C)`` for grouped data ``y`` ``(B, n)``."""
+        """Return the reduced costs of every candidate for each data set.
+
+        Parameters
+        ----------
+        y : ndarray, shape (B, n) or (n,)
+            Data sets in grouped row order (SI).
+
+        Returns
+        -------
+        ndarray, shape (B, C)
+            Half the weighted sum of squares (dimensionless); inf without predictions.
+        """
         y = np.atleast_2d(np.asarray(y, dtype=float))
         star = self._reference(y)
         u = self.problem.noise.whiten(y - self.a_const @ star)
@@ -250,9 +169,11 @@ class GridScorer:
     def _score_block(self, i: int, y: NDArray[np.float64], star: NDArray[np.float64],
                      data: dict[bool, tuple[NDArray[np.float64], NDArray[np.float64]]]
                      ) -> NDArray[np.float64]:
-        """Costs ``(B, c)`` of the candidates of block ``i``; ``data`` holds the whitened data
-        (and half its squared norm), unprojected (False) and projected on :attr:`shared`
-        (True)."""
+        """Return costs ``(B, c)`` of the candidates of block ``i``.
+
+        ``data`` holds the whitened data (and half its squared norm), unprojected (False) and
+        projected on :attr:`shared` (True).
+        """
         noise, angle = self.problem.noise, self.angle
         h0, a_var = self._predict(i)
         bad = _bad(h0, a_var)
@@ -299,11 +220,13 @@ the next (~300 page faults, ~1 ms)."""
 
 
 def _block_size(n_rows: int) -> int:
-    """Candidates per block for ``n_rows`` rows: about :data:`CANDIDATE_ROWS` / ``n_rows`` but
-    at least 128 (each block costs some fixed work), kept off multiples of 512.  The
-    candidates are the innermost axis, so the rows of a block's arrays would otherwise be a
-    multiple of 4 KiB apart and share cache sets: a (48 x 4) @ (4 x 1024) product took three
-    times as long as a (48 x 4) @ (4 x 1016) one."""
+    """Return candidates per block for ``n_rows`` rows.
+
+    About :data:`CANDIDATE_ROWS` / ``n_rows`` but at least 128 (each block costs some fixed
+    work), kept off multiples of 512.  The candidates are the innermost axis, so the rows of
+    a block's arrays would otherwise be a multiple of 4 KiB apart and share cache sets: a
+    (48 x 4) @ (4 x 1024) product took three times as long as a (48 x 4) @ (4 x 1016) one.
+    """
     step = max(128, CANDIDATE_ROWS // max(1, n_rows))
     if step >= 512 and abs(step - 512 * round(step / 512)) <= 8:
         step -= 16
@@ -311,22 +234,35 @@ def _block_size(n_rows: int) -> int:
 
 
 def _bad(h0: NDArray[np.float64], a_var: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """The candidates ``(c,)`` without finite predictions or design."""
+    """Flag the candidates ``(c,)`` without finite predictions or design."""
     return ~(np.isfinite(h0).all(axis=1) & np.isfinite(a_var).all(axis=(1, 2)))
 
 
 def _same_design(a_var: NDArray[np.float64], ref: NDArray[np.float64],
                  tolerance: NDArray[np.float64]) -> bool:
-    """Whether every candidate's design ``A_const + a_var`` ``(C, n, k)`` is ``A_const + ref``
-    to ``tolerance`` per column (:data:`GEOMETRY_FREE` of the column's size)."""
+    """Tell whether every candidate's design ``A_const + a_var`` is ``A_const + ref``.
+
+    To ``tolerance`` per column (:data:`GEOMETRY_FREE` of the column's size).
+    """
     # reductions over the leading axis first: elementwise and fast
     spread = np.maximum(a_var.max(axis=0) - ref, ref - a_var.min(axis=0)).max(axis=0)
     return bool(np.all(spread <= tolerance))
 
 
 def orthonormal_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """An orthonormal basis ``(C, n, k)`` of the columns of each ``a`` ``(C, n, k)`` (modified
-    Gram-Schmidt; a column that depends on the previous ones, or is zero, adds nothing)."""
+    """Return an orthonormal basis of the columns of each matrix (modified Gram-Schmidt).
+
+    Parameters
+    ----------
+    a : ndarray, shape (C, n, k)
+        The matrices (any unit).
+
+    Returns
+    -------
+    ndarray, shape (C, n, k)
+        Orthonormal columns (dimensionless); a column that depends on the previous ones, or
+        is zero, is zero.
+    """
     q = np.zeros(a.shape)
     for j in range(a.shape[-1]):
         v = a[..., j].copy()
@@ -340,10 +276,21 @@ def orthonormal_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 class Starts:
-    """The mutually distinct candidates of one data set, best first, chosen as they are asked
-    for: greedily in order of cost, each candidate not within 5 % of each parameter's spread
-    of one already chosen.  ``scaled`` (the candidates divided by that spread, transposed) may
-    be shared by data sets with the same candidates."""
+    """The mutually distinct candidates of one data set, best first, chosen when asked for.
+
+    Greedily in order of cost, each candidate not within 5 % of each parameter's spread of one
+    already chosen.
+
+    Parameters
+    ----------
+    candidates : ndarray, shape (C, p)
+        Motion parameters (SI).
+    cost : ndarray, shape (C,)
+        Their grid costs (non-finite: never chosen).
+    scaled : ndarray, shape (p, C), optional
+        The candidates over that spread, transposed; may be shared by data sets with the
+        same candidates.
+    """
 
     def __init__(self, candidates: NDArray[np.float64], cost: NDArray[np.float64],
                  scaled: NDArray[np.float64] | None = None) -> None:
@@ -353,7 +300,18 @@ class Starts:
         self.chosen: list[int] = []
 
     def first(self, m: int) -> NDArray[np.float64]:
-        """The ``m`` best distinct candidates ``(<= m, p)`` (fewer when no more are finite)."""
+        """Return the ``m`` best distinct candidates.
+
+        Parameters
+        ----------
+        m : int
+            How many.
+
+        Returns
+        -------
+        ndarray, shape (<= m, p)
+            Motion parameters (SI), best first; fewer when no more are finite.
+        """
         while len(self.chosen) < m:
             i = int(np.argmin(self.left))
             if not np.isfinite(self.left[i]):
@@ -372,21 +330,51 @@ def _scaled(candidates: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def best_starts(problem: VarProProblem, y: NDArray[np.float64],
                 settings: GridSettings | None = None) -> NDArray[np.float64]:
-    """The best few distinct grid candidates for data ``y`` (n,), best first: ``(s, p)``."""
+    """Return the best few distinct grid candidates for one data set, best first.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The observation and noise model.
+    y : ndarray, shape (n,)
+        The data in grouped row order (SI).
+    settings : GridSettings, optional
+        The grid (default :class:`GridSettings()`).
+
+    Returns
+    -------
+    ndarray, shape (s, p)
+        Up to ``settings.starts`` motion parameter vectors (SI).
+    """
     g = settings or GridSettings()
     return best_starts_many(problem, np.asarray(y, dtype=float)[None, :], g)[0].first(g.starts)
 
 
 def _data_dependent(problem: VarProProblem) -> bool:
-    """Whether the candidate set depends on the data (rays along measured bearings)."""
+    """Tell whether the candidate set depends on the data (rays along measured bearings)."""
     return bool(np.any(problem.obs.meas.kind == "bearing"))
 
 
 def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
                      settings: GridSettings | None = None) -> list[Starts]:
-    """The grid's distinct candidates, best first, for several data sets ``(B, n)`` that share
-    times, sensors and noise (Monte Carlo runs): ``starts[b].first(m)``.  When the candidates
-    do not depend on the data they are predicted once for all."""
+    """Rank the grid's candidates for several data sets sharing times, sensors and noise.
+
+    When the candidates do not depend on the data they are predicted once for all.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The observation and noise model.
+    ys : ndarray, shape (B, n)
+        The data sets in grouped row order (SI), e.g. Monte Carlo runs.
+    settings : GridSettings, optional
+        The grid (default :class:`GridSettings()`).
+
+    Returns
+    -------
+    list of Starts
+        One per data set: ``starts[b].first(m)``.
+    """
     g = settings or GridSettings()
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
     small, rows = _subsample(problem, g.max_rows)
@@ -407,9 +395,12 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
 def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
             cand: NDArray[np.float64], refine: int, run: int | None = None
             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages: every candidate on a few
-    rows (``stages[0]``: problem and grouped data), then the ``refine`` best of each data set
-    (their union) on more rows (``stages[1]``).  ``run`` scores that data set only."""
+    """Return grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages.
+
+    Every candidate on a few rows (``stages[0]``: problem and grouped data), then the
+    ``refine`` best of each data set (their union) on more rows (``stages[1]``).  ``run``
+    scores that data set only.
+    """
     (coarse, y_coarse), (small, y_small) = stages
     if run is not None:
         y_coarse, y_small = y_coarse[run:run + 1], y_small[run:run + 1]
@@ -422,8 +413,10 @@ def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
 
 
 def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarProProblem:
-    """The same problem whose measurement set carries the values ``y`` (grouped order), so that
-    the grid can follow this data set's measured bearings."""
+    """Return the problem whose measurement set carries the values ``y`` (grouped order).
+
+    The grid can then follow this data set's measured bearings.
+    """
     from ..observation import ObservationModel
 
     meas = problem.obs.meas
@@ -441,7 +434,7 @@ def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarP
 def grid_start(meas: MeasurementSet, motion: MotionModel,
                options: Mapping[str, Mapping[str, object]] | None = None
                ) -> NDArray[np.float64]:
-    """The no-guess starting point of tmakit: the best point of the likelihood grid.
+    """Return the no-guess starting point of tmakit: the best point of the likelihood grid.
 
     The starting point the papers' local methods get when none is given (the same grid the
     maximum likelihood starts from).

@@ -1,5 +1,6 @@
-"""Gauss–Newton on the 7-parameter vector of the Doppler-tracking lecture notes ("Doppler Tracking:
-Passive Tracking of an Airborne Radar").
+"""Gauss–Newton on the 7-parameter vector of the Doppler-tracking lecture notes.
+
+The notes are "Doppler Tracking: Passive Tracking of an Airborne Radar".
 
 The notes estimate ``x = [X_N Y_N Z_N V_x V_y V_z f_o]`` — the emitter's position at the
 final sample time ``t_N``, its constant velocity, and the transmitted carrier — from received
@@ -79,8 +80,7 @@ def _max_range(obs: ObservationModel, theta: Array) -> float:
 
 
 def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
-    """``(H^T R^-1 H)^+ H^T R^-1 df`` via normalised coordinates, the rank, and the
-    information matrix."""
+    """Return ``(H^T R^-1 H)^+ H^T R^-1 df`` (normalised coordinates), rank and information."""
     info = hw.T @ hw
     norm, scale = normalise(info)
     evals, evecs = np.linalg.eigh(norm)
@@ -92,8 +92,11 @@ def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
 
 
 def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
-    """The starting ``x = [theta, f_o]``: theta from ``init``, f_o from ``init["carrier"]``
-    or its linear least-squares value given the starting trajectory."""
+    """Return the starting ``x = [theta, f_o]``.
+
+    Theta comes from ``init``, f_o from ``init["carrier"]`` or its linear least-squares value
+    given the starting trajectory.
+    """
     motion = obs.motion
     if init is None:
         raise ValueError("lecture-gn: a local method, it needs a starting point (init=...); "
@@ -155,7 +158,7 @@ class LectureGaussNewton(PaperMethod):
 
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
-        """The notes' Gauss–Newton iteration from ``init``.
+        """Run the notes' Gauss–Newton iteration from ``init``.
 
         Parameters
         ----------
@@ -200,8 +203,10 @@ class LectureGaussNewton(PaperMethod):
 
     def _gauss_newton(self, obs: ObservationModel, noise: NoiseModel, x: Array
                       ) -> tuple[Array, int, bool, str, list[int], list[float]]:
-        """The iteration: the last ``x``, iterations, converged, why diverged, the ranks and
-        the update sizes (in standard deviations)."""
+        """Iterate; return the last ``x``, iterations, converged, why diverged, ranks, sizes.
+
+        The update sizes are in standard deviations.
+        """
         p = obs.motion.n_params
         y = obs.values
         ranks: list[int] = []
@@ -239,8 +244,7 @@ class LectureGaussNewton(PaperMethod):
 
 def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel, init: Init,
                          max_iter: int = 50, tol: float = 1e-4) -> EstimateResult:
-    """The lecture's Gauss–Newton from ``init``: the short form of
-    :class:`LectureGaussNewton`.
+    """Run the notes' Gauss–Newton from ``init``: the short form of :class:`LectureGaussNewton`.
 
     Parameters
     ----------
@@ -263,5 +267,9 @@ def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel, init: Init,
     ------
     ValueError
         Without ``init``, for another motion model or other kinds.
+
+    References
+    ----------
+    The Doppler-tracking lecture notes, "Iterating to the Solution".
     """
     return LectureGaussNewton(max_iter=max_iter, tol=tol).iterate(meas, motion, init)

@@ -1,5 +1,6 @@
-"""Every batch estimator by name (:data:`METHODS`), and the short forms that build and fit
-one: :func:`estimator` and :func:`estimate_with`.
+"""Every batch estimator by name (:data:`METHODS`), and the short forms that build and fit.
+
+The short forms are :func:`estimator` and :func:`estimate_with`.
 
 * ``ml`` — tmakit's maximum likelihood (:class:`~tmakit.batch.dispatch.MLByMotion`:
   :class:`~tmakit.batch.ml.MaximumLikelihood`, or
@@ -64,7 +65,7 @@ class Method:
         return self.cls.takes_known_nuisance
 
     def __call__(self, **settings: object) -> BatchEstimator:
-        """The estimator with these settings (and the ones the name fixes).
+        """Build the estimator with these settings (and the ones the name fixes).
 
         Parameters
         ----------
@@ -107,7 +108,7 @@ whose ``fit`` returns an :class:`~tmakit.results.EstimateResult`."""
 
 
 def estimator(method: str, **settings: object) -> BatchEstimator:
-    """The batch estimator ``method`` (a key of :data:`METHODS`) with ``settings``.
+    """Build the batch estimator ``method`` (a key of :data:`METHODS`) with ``settings``.
 
     Parameters
     ----------
@@ -138,8 +139,9 @@ def estimator(method: str, **settings: object) -> BatchEstimator:
 def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
                   init: Init = None, options: Options = None,
                   **settings: object) -> EstimateResult:
-    """Run the batch estimator ``method``: ``estimator(method, init=init, options=options,
-    **settings).fit(meas, motion)``.
+    """Run the batch estimator ``method`` on the data.
+
+    ``estimator(method, init=init, options=options, **settings).fit(meas, motion)``.
 
     Parameters
     ----------

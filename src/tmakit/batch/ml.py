@@ -33,7 +33,7 @@ from .solver import VarProProblem, levenberg_marquardt
 
 @dataclass(frozen=True, eq=False)
 class MaximumLikelihood(BatchEstimator):
-    """tmakit's maximum likelihood for one motion model, no initial guess needed.
+    """Maximum likelihood of tmakit for one motion model, no initial guess needed.
 
     Parameters
     ----------
@@ -70,11 +70,11 @@ class MaximumLikelihood(BatchEstimator):
     takes_known_nuisance: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        """``known_nuisance`` as a :class:`KnownNuisance` or None."""
+        """Convert ``known_nuisance`` to a :class:`KnownNuisance` or None."""
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
-        """Maximum-likelihood estimate of the motion parameters from a measurement set.
+        """Estimate the motion parameters from a measurement set by maximum likelihood.
 
         Parameters
         ----------
@@ -129,8 +129,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
              options: Options = None, known_nuisance: KnownNuisanceLike = None,
              grid: GridSettings | None = None, max_iter: int = 100,
              **manoeuvre_options: object) -> EstimateResult:
-    """The short form of :class:`MaximumLikelihood`: ``MaximumLikelihood(...).fit(meas,
-    motion)``.
+    """Fit by maximum likelihood: ``MaximumLikelihood(...).fit(meas, motion)``, short form.
 
     Parameters
     ----------
@@ -171,7 +170,25 @@ DENSE_GRID = GridSettings(n_ranges=20, n_bearings=24,
 
 @dataclass
 class Best:
-    """The best fit found for one data set, and how many starting points were solved."""
+    """The best fit found for one data set, and how many starting points were solved.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (p,)
+        Motion parameters (SI).
+    nuisance : ndarray, shape (k,)
+        Nuisance parameters (Hz, Hz/s, dB, dimensionless).
+    cost : float
+        Half the weighted sum of squares.
+    iterations : int
+        Iterations of the solve that found it.
+    converged : bool
+        Whether that solve converged.
+    starts : int
+        Starting points solved for the data set.
+    note : str, optional
+        A sentence for the result's message.
+    """
 
     theta: NDArray[np.float64]
     nuisance: NDArray[np.float64]
@@ -185,19 +202,33 @@ class Best:
 def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
                         grid: GridSettings | None = None, max_iter: int = 100
                         ) -> list[Best | None]:
-    """The global fit of each data set ``(B, n)`` (same times, sensors, noise), no guess.
+    """Fit each data set globally, no guess (same times, sensors, noise for all).
 
-    1. The best grid starts are solved in one batch: only the best one when there are
-       bearings (the grid then lies along the measured bearings), the best ``grid.starts``
-       (6) otherwise — Doppler and power alone have local minima whose chi2 is plausible, so
-       no test on the fit can tell them from the optimum.
+    1. The best grid starts are solved in one batch: only the best one with bearings (the
+       grid lies along them), else the best ``grid.starts`` — Doppler and power alone have
+       local minima whose chi2 is plausible.
     2. A data set whose best fit is not converged with a plausible chi2 is solved from its
        next distinct grid points (up to 24 in all),
     3. then from the best points of a denser grid (:data:`DENSE_GRID`).
-    The starts of a data set run together and a start bound for a worse minimum than one
-    already reached stops early (see :func:`~tmakit.batch.solver.levenberg_marquardt`).
-    The lowest cost wins.  On 2000 random observable geometries (seeds 0 and 1) every fit
-    reached the fit started at the truth (``benchmarks/blind_start.py``).
+    A start bound for a worse minimum than one already reached stops early; the lowest cost
+    wins.  On 2000 random observable geometries every fit reached the fit started at the
+    truth (``benchmarks/blind_start.py``).
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The observation and noise model, nuisance fixed or eliminated.
+    ys : ndarray, shape (B, n)
+        The data sets (SI, grouped row order).
+    grid : GridSettings, optional
+        The grid of starting points (default :class:`GridSettings()`).
+    max_iter : int, optional
+        Levenberg–Marquardt iterations per start at most.
+
+    Returns
+    -------
+    list of Best or None
+        The best fit per data set; None where no start gave finite predictions.
     """
     g = grid or GridSettings()
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
@@ -248,9 +279,21 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
 
 
 def mirror_plane(problem: VarProProblem) -> float | None:
-    """The height of the horizontal plane through every sensor when reflecting the track
-    through it leaves every measurement unchanged (all sensors at one height, none moving
-    vertically, no elevation measured, a 3-D motion model), else None."""
+    """Return the height of a plane through every sensor that mirrors the track unseen.
+
+    Reflecting the track through it leaves every measurement unchanged when all sensors are at
+    one height, none moves vertically, no elevation is measured and the motion is 3-D.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem (its measurements and motion model).
+
+    Returns
+    -------
+    float or None
+        The plane's height (m), or None when there is no such plane.
+    """
     meas, motion = problem.obs.meas, problem.obs.motion
     if motion.dim != 3 or "z" not in motion.param_names or np.any(meas.kind == "elevation"):
         return None
@@ -264,8 +307,24 @@ def mirror_plane(problem: VarProProblem) -> float | None:
 
 def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
                  ) -> tuple[NDArray[np.float64], str]:
-    """Of a track and its exact mirror image through the sensors' plane, the one above it,
-    with a sentence saying so."""
+    """Choose, of a track and its mirror image through the sensors' plane, the one above.
+
+    Parameters
+    ----------
+    motion : MotionModel
+        The motion model (with parameters ``z`` and maybe ``vz``).
+    theta : ndarray, shape (p,)
+        The fitted motion parameters (SI).
+    plane : float
+        Height of the sensors' plane (m).
+
+    Returns
+    -------
+    theta : ndarray, shape (p,)
+        The track above the plane.
+    note : str
+        A sentence saying so.
+    """
     names = motion.param_names
     theta = np.array(theta, dtype=float)
     iz = names.index("z")
@@ -279,7 +338,19 @@ def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
 
 
 def plausible_chi2(chi2: float, dof: int) -> bool:
-    """Whether a weighted sum of squares is consistent with its degrees of freedom (within
-    about five standard deviations of the chi-square distribution)."""
+    """Tell whether a weighted sum of squares is consistent with its degrees of freedom.
+
+    Parameters
+    ----------
+    chi2 : float
+        The weighted sum of squares.
+    dof : int
+        Its degrees of freedom (at least 1 is used).
+
+    Returns
+    -------
+    bool
+        True within about five standard deviations of the chi-square distribution.
+    """
     dof = max(dof, 1)
     return bool(np.isfinite(chi2) and chi2 <= dof + 5.0 * np.sqrt(2.0 * dof) + 5.0)

@@ -1,5 +1,6 @@
-"""The ratio method of Gu et al. (2007) §4: ratios of neighbouring measurements remove
-the nuisance parameters C (power) and f_s (Doppler).
+"""The ratio method of Gu et al. (2007) §4: ratios of neighbouring measurements.
+
+The ratios remove the nuisance parameters C (power) and f_s (Doppler).
 
 Power (eqs. 19-25).  ``mu_k = P_k / P_{k-1}`` (linear watts; tmakit stores dBW, so
 ``mu_k = 10**((P_dBW,k - P_dBW,k-1)/10)``).  With ``e_k = eta_k / P_k`` (variance 1/SNR_p),
@@ -131,8 +132,10 @@ __all__ = ["RatioMethod", "doppler_ratio_covariance", "nuisance_given_theta",
            "power_ratio_covariance", "ratio_method"]
 
 class _RatioSystem:
-    """Everything of eqs. 19-34 that does not depend on theta, and the linear system at a
-    given theta."""
+    """Everything of Gu et al. (2007), eqs. 19-34, that does not depend on theta.
+
+    Also builds the linear system at a given theta.
+    """
 
     def __init__(self, sub: MeasurementSet, motion: MotionModel, kinds: tuple[str, ...],
                  covariance: str) -> None:
@@ -163,8 +166,10 @@ class _RatioSystem:
 
     def build(self, theta: Array, covariance: str | None = None
               ) -> tuple[Array, Array, Array, Array]:
-        """``L (n, 4)``, ``psi (n,)`` and the diagonal and off-diagonal of the tri-diagonal
-        ``Sigma`` at ``theta`` (eqs. 25, 32, 33)."""
+        """Return ``L (n, 4)``, ``psi (n,)`` and the bands of ``Sigma`` at ``theta``.
+
+        ``Sigma`` is tri-diagonal: its diagonal and off-diagonal (eqs. 25, 32, 33).
+        """
         cov_kind = covariance or self.covariance
         blocks_l, blocks_psi, blocks_d, blocks_o = [], [], [], []
         if self.power is not None:
@@ -265,7 +270,7 @@ class RatioMethod(PaperMethod):
 
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
-        """The iteration of Gu et al. (2007) §4 from ``init``.
+        """Run the iteration of Gu et al. (2007) §4 from ``init``.
 
         Parameters
         ----------
@@ -332,8 +337,11 @@ class RatioMethod(PaperMethod):
 
 def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, status: str,
                   message: str, iterations: int, extra: dict[str, object]) -> EstimateResult:
-    """The result at the last iterate: the covariance ``D^-1`` (derived) or the sandwich
-    (paper), chi2 of the whitened ratios, the nuisance values given theta."""
+    """Build the result at the last iterate.
+
+    The covariance is ``D^-1`` (derived) or the sandwich (paper); chi2 is that of the whitened
+    ratios; the nuisance values are given theta.
+    """
     method = RATIO_NAMES.get(system.kinds, "ratio")
     p = motion.n_params
     if status == DIVERGED:
@@ -364,7 +372,7 @@ def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, statu
 def ratio_method(meas: MeasurementSet, motion: MotionModel, init: Init,
                  kinds: str | Sequence[str] = ("power", "frequency"), max_iter: int = 50,
                  covariance: str = "derived", tol: float = 1e-9) -> EstimateResult:
-    """Gu et al. (2007) §4 from ``init``: the short form of :class:`RatioMethod`.
+    """Run Gu et al. (2007) §4 from ``init``: the short form of :class:`RatioMethod`.
 
     Parameters
     ----------
@@ -399,8 +407,25 @@ def ratio_method(meas: MeasurementSet, motion: MotionModel, init: Init,
 
 def nuisance_given_theta(meas: MeasurementSet, motion: MotionModel, theta: Array,
                          cov_theta: Array) -> dict[str, tuple[float, float]]:
-    """Power constant (dB) and carrier (Hz) by weighted linear least squares given ``theta``,
-    with std from ``(A^T W A)^-1 + G cov_theta G^T`` (see the module docstring)."""
+    """Estimate power constant and carrier by weighted linear least squares given ``theta``.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        Power and/or frequency measurements.
+    motion : MotionModel
+        The motion model of ``theta``.
+    theta : ndarray, shape (p,)
+        Motion parameters (m, m/s).
+    cov_theta : ndarray, shape (p, p)
+        Their covariance (m², m²/s, m²/s²).
+
+    Returns
+    -------
+    dict of str to (float, float)
+        ``{name: (value, std)}``: ``power_constant_db`` (dB), ``carrier`` (Hz); std from
+        ``(A^T W A)^-1 + G cov_theta G^T`` (see the module docstring).
+    """
     options = {"power": {"exponent": 2.0}, "frequency": {"drift": False}}
     obs = ObservationModel(meas, motion, {k: v for k, v in options.items() if k in meas.kinds})
     h0, a = obs.affine(theta)

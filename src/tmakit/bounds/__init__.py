@@ -1,5 +1,7 @@
-"""Bounds: Cramér–Rao lower bounds, observability, confidence ellipses; the posterior CRB of
-recursive trackers."""
+"""Bounds: Cramér–Rao lower bounds, observability, confidence ellipses; posterior CRB.
+
+The posterior CRB is that of recursive trackers (Tichavský, Muravchik & Nehorai (1998)).
+"""
 
 from ..observation.noise import NoiseModel
 from ..results.observability import Direction, Observability, analyse

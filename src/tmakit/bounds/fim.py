@@ -1,5 +1,6 @@
-"""Fisher information and the Cramér–Rao lower bound for any mix of measurement kinds,
-sensors and motion models.
+"""Fisher information and the Cramér–Rao lower bound for any measurements and motion.
+
+Any mix of measurement kinds, sensors and motion models is allowed.
 
 For Gaussian noise with covariance R the information about the unknowns ``u`` is
 ``F = J^T R^-1 J`` with ``J = d predictions / d u`` (Gu et al. (2007), eqs. 17-18 are the
@@ -38,7 +39,7 @@ if TYPE_CHECKING:  # pragma: no cover
 def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike,
                       nuisance: ArrayLike, known_nuisance: KnownNuisanceLike = None
                       ) -> NDArray[np.float64]:
-    """``R^{-1/2} J`` with respect to the unknowns (motion parameters, then nuisance).
+    """Return ``R^{-1/2} J`` with respect to the unknowns (motion, then nuisance).
 
     Parameters
     ----------
@@ -68,8 +69,9 @@ def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike
 def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayLike,
                        known_nuisance: KnownNuisanceLike = None,
                        noise: NoiseModel | None = None) -> NDArray[np.float64]:
-    """The Fisher information about the motion parameters (and the nuisance parameters
-    unless known) at ``theta``, ``nuisance``.
+    """Return the Fisher information about the motion (and unknown nuisance) parameters.
+
+    It is evaluated at ``theta``, ``nuisance``.
 
     Parameters
     ----------
@@ -121,11 +123,36 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
                  ) -> tuple[MeasurementSet, MotionModel, Mapping[str, float] | ArrayLike,
                             Mapping[str, float] | None,
                             Mapping[str, Mapping[str, object]] | None]:
-    """What a bound is evaluated on, ``(meas, motion, truth, nuisance, options)``, from its
-    ``source``: a :class:`~tmakit.scenario.Scenario` (its noise-free simulation; its motion,
-    truth and measurement options unless given; its nuisance values updated by ``nuisance``)
-    or a :class:`~tmakit.data.MeasurementSet` (then ``motion`` and ``truth`` are required).
-    ``caller`` names the function in the error for any other type."""
+    """Return what a bound is evaluated on, from its ``source``.
+
+    Parameters
+    ----------
+    source : Scenario or MeasurementSet
+        A scenario (its noise-free simulation; its motion, truth and options unless given;
+        its nuisance values updated by ``nuisance``) or a measurement set.
+    motion : MotionModel or None
+        The motion model (required for a measurement set).
+    truth : Mapping[str, float], array_like or None
+        The evaluation point (SI; required for a measurement set).
+    nuisance : Mapping[str, float] or None
+        Nuisance values (Hz, Hz/s, dB, dimensionless).
+    options : Mapping or None
+        The nuisance model per kind.
+    caller : str
+        The function named in the error for any other type.
+
+    Returns
+    -------
+    tuple
+        ``(meas, motion, truth, nuisance, options)``.
+
+    Raises
+    ------
+    TypeError
+        When ``source`` is neither a scenario nor a measurement set.
+    ValueError
+        When a measurement set comes without ``motion`` or ``truth``.
+    """
     from ..scenario import Scenario
 
     if isinstance(source, Scenario):
@@ -147,8 +174,25 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
 
 def truth_vector(motion: MotionModel, truth: Mapping[str, float] | ArrayLike
                  ) -> NDArray[np.float64]:
-    """``truth`` (a mapping by parameter name, or a vector) as the parameter vector of
-    ``motion``; ``ValueError`` naming the expected parameters when its length is wrong."""
+    """Convert ``truth`` to the parameter vector of ``motion``.
+
+    Parameters
+    ----------
+    motion : MotionModel
+        The motion model.
+    truth : Mapping[str, float] or array_like
+        A mapping by parameter name, or a vector (SI units of each parameter).
+
+    Returns
+    -------
+    ndarray, shape (p,)
+        The parameter vector.
+
+    Raises
+    ------
+    ValueError
+        Naming the expected parameters when its length is wrong.
+    """
     theta = (motion.theta(truth) if isinstance(truth, Mapping)
              else np.asarray(truth, dtype=float))
     if theta.shape != (motion.n_params,):
@@ -162,8 +206,10 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
          nuisance: Mapping[str, float] | None = None,
          known_nuisance: KnownNuisanceLike = None,
          options: Mapping[str, Mapping[str, object]] | None = None) -> Bound:
-    """The Cramér–Rao bound of a scenario (at its truth) or of a measurement set (at the
-    given ``truth``; the measured values are not used, only times, sensors, kinds and sigmas).
+    """Return the Cramér–Rao bound of a scenario or of a measurement set.
+
+    A scenario's is at its truth, a measurement set's at the given ``truth`` (its measured
+    values are not used, only times, sensors, kinds and sigmas).
 
     Parameters
     ----------

@@ -1,5 +1,7 @@
-"""Results: what an estimator or a bound returns (estimates, bounds, observability), in one
-place below every estimator so that each can build and read them."""
+"""Results: what an estimator or a bound returns (estimates, bounds, observability).
+
+They are in one place below every estimator so that each can build and read them.
+"""
 
 from .bound import Bound, bound_from_information
 from .estimate import (

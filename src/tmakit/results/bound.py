@@ -1,5 +1,7 @@
-"""A Cramér–Rao bound as a result: the information matrix, its pseudo-inverse, standard
-deviations, observability, confidence ellipses and derived quantities.
+"""A Cramér–Rao bound as a result: information, pseudo-inverse, std and ellipses.
+
+The result holds the information matrix, its pseudo-inverse, standard deviations,
+observability, confidence ellipses and derived quantities.
 
 Built by :func:`bound_from_information` from any information matrix, so batch estimators
 (their covariance at the estimate) and :mod:`tmakit.bounds` (the bound at the truth) report the
@@ -23,9 +25,22 @@ from .observability import Observability, analyse, normalise
 
 
 def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
-    """Inverse of the information on its observable subspace (Moore–Penrose, computed in
-    normalised coordinates).  ``obsv`` is the :func:`~tmakit.results.observability.analyse`
-    of ``info``, whose eigen-decomposition is reused."""
+    """Invert the information on its observable subspace (Moore–Penrose).
+
+    Computed in normalised coordinates, reusing the eigen-decomposition in ``obsv``.
+
+    Parameters
+    ----------
+    info : ndarray, shape (q, q)
+        Fisher information (SI units of the parameters, inverse squared).
+    obsv : Observability
+        :func:`~tmakit.results.observability.analyse` of ``info``.
+
+    Returns
+    -------
+    ndarray, shape (q, q)
+        The pseudo-inverse (SI units of the parameters, squared).
+    """
     if obsv.decomposition is None:
         norm, scale = normalise(info)
         evals, evecs = np.linalg.eigh(norm)
@@ -40,12 +55,34 @@ def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray
 class Bound:
     """A Cramér–Rao bound evaluated at ``values`` (the truth).
 
-    ``parameters`` are the unknowns (motion parameters first).  ``std`` is infinite for any
-    parameter that cannot be observed; ``covariance`` is the inverse information restricted to
-    the observable subspace (its rows for unobservable parameters are meaningless: use
-    ``std``).  ``known_nuisance`` is ``None`` when the nuisance parameters are unknowns (they
-    are then among ``parameters``), else the :class:`~tmakit.results.nuisance.KnownNuisance`
-    holding the values they were known at (``nuisance_values``).
+    Parameters
+    ----------
+    parameters : tuple of str
+        The unknowns, motion parameters first.
+    values : ndarray, shape (q,)
+        Where the bound is evaluated (SI units of each parameter).
+    information : ndarray, shape (q, q)
+        Fisher information (SI units of the parameters, inverse squared).
+    covariance : ndarray, shape (q, q)
+        Inverse information restricted to the observable subspace (its rows for unobservable
+        parameters are meaningless: use ``std``).
+    std : ndarray, shape (q,)
+        Standard deviations (SI); infinite for any parameter that cannot be observed.
+    observability : Observability
+        Rank and unobservable directions of ``information``.
+    known_nuisance : KnownNuisance or None
+        ``None`` when the nuisance parameters are unknowns (then among ``parameters``), else
+        the values they were known at.
+    nuisance_values : dict of str to float
+        Nuisance values at the evaluation point (Hz, Hz/s, dB, dimensionless).
+    motion : MotionModel
+        The motion model of the first parameters.
+    n_measurements : int
+        Number of measurements.
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 17-18; Hörst & Oispuu (2010), eq. 9.
     """
 
     parameters: tuple[str, ...]
@@ -70,7 +107,23 @@ class Bound:
         return self.motion.param_names
 
     def std_of(self, name: str) -> float:
-        """The standard deviation of the parameter ``name`` (its unit; inf if unobservable)."""
+        """Return the standard deviation of the parameter ``name``.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`parameters`.
+
+        Returns
+        -------
+        float
+            The std in the parameter's SI unit; inf if it cannot be observed.
+
+        Raises
+        ------
+        ValueError
+            If ``name`` is not a parameter.
+        """
         return float(self.std[self.parameters.index(name)])
 
     def _gradient_variance(self, grad: NDArray[np.float64]) -> float:
@@ -85,8 +138,20 @@ class Bound:
         return float(full @ self.covariance @ full)
 
     def state_covariance(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Target state at time ``t`` and its covariance ``(6,), (6, 6)`` (delta method);
-        entries that cannot be observed are infinite."""
+        """Return the target state at time ``t`` and its covariance (delta method).
+
+        Parameters
+        ----------
+        t : float
+            Time (s).
+
+        Returns
+        -------
+        state : ndarray, shape (6,)
+            Position (m) and velocity (m/s), East-North-Up.
+        cov : ndarray, shape (6, 6)
+            Its covariance (m², m²/s, m²/s²); infinite where it cannot be observed.
+        """
         theta = self.values[: self.motion.n_params]
         state = self.motion.states(theta, np.array([float(t)]))[0]
         jac = self.motion.jacobian(theta, np.array([float(t)]))[0]  # (6, p)
@@ -100,9 +165,22 @@ class Bound:
         return state, cov
 
     def ellipse(self, t: float, level: float = 0.9) -> dict[str, float]:
-        """Horizontal position confidence ellipse at time ``t`` for probability ``level``:
-        centre (m), semi-axes (m) and the bearing of the major axis (degrees clockwise from
-        North).  Infinite axes when the position cannot be observed."""
+        """Return the horizontal position confidence ellipse at time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time (s).
+        level : float
+            Probability inside the ellipse (0 to 1).
+
+        Returns
+        -------
+        dict of str to float
+            ``east``, ``north`` (centre, m), ``major``, ``minor`` (semi-axes, m; infinite when
+            the position cannot be observed), ``bearing_deg`` (major axis, degrees clockwise
+            from North) and ``level``.
+        """
         state, cov = self.state_covariance(t)
         c2 = cov[:2, :2]
         k = float(np.sqrt(chi2.ppf(level, 2)))
@@ -119,8 +197,21 @@ class Bound:
 
     def derived(self, t: float, sensor_position: ArrayLike | None = None
                 ) -> dict[str, tuple[float, float]]:
-        """``{name: (value, std)}`` for position and velocity components, speed (m/s), course
-        (rad, clockwise from North) and, given a sensor position, range (m), at time ``t``."""
+        """Return derived quantities at time ``t`` with their std.
+
+        Parameters
+        ----------
+        t : float
+            Time (s).
+        sensor_position : array_like, shape (3,), optional
+            Sensor position (m, East-North-Up); adds ``range``.
+
+        Returns
+        -------
+        dict of str to (float, float)
+            ``{name: (value, std)}`` for the position (m) and velocity (m/s) components,
+            ``speed`` (m/s), ``course`` (rad, clockwise from North) and ``range`` (m).
+        """
         state, cov = self.state_covariance(t)
         out: dict[str, tuple[float, float]] = {}
         axes = ("x", "y", "z")[: self.motion.dim]
@@ -151,7 +242,13 @@ class Bound:
         return out
 
     def as_dict(self) -> dict[str, object]:
-        """The JSON form: parameters, std, covariance, rank, unobservable, and context."""
+        """Return the JSON form: parameters, std, covariance, rank, unobservable, context.
+
+        Returns
+        -------
+        dict of str to object
+            JSON-ready values (SI units); non-finite numbers as ``None``.
+        """
         def clean(x: float) -> float | None:
             return None if not np.isfinite(x) else float(x)
 
@@ -174,11 +271,28 @@ class Bound:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
-        """:meth:`as_dict` as JSON text, indented by ``indent`` spaces."""
+        """Return :meth:`as_dict` as JSON text.
+
+        Parameters
+        ----------
+        indent : int or None
+            Spaces of indentation (``None``: one line).
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self) -> str:
-        """A readable table of the bound and, when rank deficient, what cannot be seen."""
+        """Return a readable table of the bound and, when rank deficient, what is unseen.
+
+        Returns
+        -------
+        str
+            The table, one line per parameter (SI units).
+        """
         lines = [f"Cramér–Rao bound, motion {self.motion.name}, {self.n_measurements} "
                  f"measurements, nuisance parameters "
                  f"{'known' if self.known_nuisance else 'unknown (estimated jointly)'}",
@@ -200,7 +314,7 @@ def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
                            values: NDArray[np.float64], meas: MeasurementSet,
                            motion: MotionModel, known_nuisance: KnownNuisance | None,
                            nuisance_values: Mapping[str, float]) -> Bound:
-    """The bound (or an estimate's covariance) from an information matrix.
+    """Build the bound (or an estimate's covariance) from an information matrix.
 
     Parameters
     ----------

@@ -7,7 +7,7 @@ built by one of three functions:
 
 * :func:`assemble_result` — a weighted least-squares fit of the observation model: covariance
   and bound from the Fisher information at the fit (tmakit's maximum likelihood, the
-  lecture's Gauss–Newton);
+  Gauss–Newton of the Doppler-tracking lecture notes);
 * :func:`result_from_covariance` — a fit whose method computes its own covariance (the
   papers' linearised systems: Gu et al. (2007) §3 and §4);
 * :func:`diverged_result` — a solve that left the region where the model is defined.
@@ -36,8 +36,7 @@ DIVERGED = "diverged"
 
 @dataclass
 class EstimateResult:
-    """A batch estimate: named parameters, their standard deviations, nuisance values, and
-    how the solve went.
+    """A batch estimate: named parameters, std, nuisance values, and how the solve went.
 
     Parameters
     ----------
@@ -95,7 +94,13 @@ class EstimateResult:
         return self.status == CONVERGED
 
     def as_dict(self) -> dict[str, object]:
-        """The JSON form (non-finite numbers as ``None``)."""
+        """Return the JSON form.
+
+        Returns
+        -------
+        dict of str to object
+            JSON-ready values (SI units); non-finite numbers as ``None``.
+        """
         def num(x: float) -> float | None:
             return float(x) if np.isfinite(x) else None
 
@@ -118,12 +123,28 @@ class EstimateResult:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
-        """:meth:`as_dict` as JSON text, indented by ``indent`` spaces."""
+        """Return :meth:`as_dict` as JSON text.
+
+        Parameters
+        ----------
+        indent : int or None
+            Spaces of indentation (``None``: one line).
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self) -> str:
-        """A readable table: status, chi2, every parameter with its std, what is
-        unobservable."""
+        """Return a readable table: status, chi2, each parameter with its std, what is unseen.
+
+        Returns
+        -------
+        str
+            The table (SI units).
+        """
         lines = [f"{self.method} estimate, motion {self.motion.name}: {self.status}"
                  f" after {self.iterations} iterations"
                  + (f" from {self.starts} starting points" if self.starts > 1 else ""),
@@ -148,7 +169,7 @@ class EstimateResult:
 def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iterations: int,
                     dof: int, method: str, message: str, starts: int = 1,
                     extra: dict[str, object] | None = None) -> EstimateResult:
-    """The result of a solve that diverged: every value and std NaN, chi2 infinite.
+    """Return the result of a solve that diverged: every value and std NaN, chi2 infinite.
 
     Parameters
     ----------
@@ -187,7 +208,7 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
                            iterations: int, chi2: float, dof: int, method: str,
                            message: str = "", extra: dict[str, object] | None = None
                            ) -> EstimateResult:
-    """The result of a fit whose method computed its own covariance (no bound).
+    """Return the result of a fit whose method computed its own covariance (no bound).
 
     Parameters
     ----------
@@ -230,7 +251,7 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
 def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu: NDArray,
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
                     known_nuisance: KnownNuisance | None, note: str = "") -> EstimateResult:
-    """The result of a weighted least-squares fit of an observation model.
+    """Return the result of a weighted least-squares fit of an observation model.
 
     Parameters
     ----------
@@ -298,7 +319,7 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
 
 
 def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[str, str]:
-    """The status of a fit and the sentence that explains it.
+    """Return the status of a fit and the sentence that explains it.
 
     Parameters
     ----------

@@ -1,5 +1,6 @@
-"""Which nuisance parameters are known: one type, :class:`KnownNuisance`, for every estimator
-and bound.
+"""Which nuisance parameters are known: one type, :class:`KnownNuisance`, for all.
+
+Every estimator and bound uses it.
 
 The nuisance parameters (carrier and carrier drift, power constant, path-loss exponent) are
 either all unknown — estimated jointly with the motion, the default everywhere — or all known,
@@ -46,16 +47,22 @@ class KnownNuisance:
     values: Mapping[str, float] = field(default_factory=dict, hash=False)
 
     def __post_init__(self) -> None:
-        """The values as a plain ``dict`` of floats (a copy)."""
+        """Store the values as a plain ``dict`` of floats (a copy)."""
         object.__setattr__(self, "values",
                            {str(k): float(v) for k, v in dict(self.values).items()})
 
     def __bool__(self) -> bool:
-        """Always true: the nuisance parameters are known."""
+        """Return True: the nuisance parameters are known.
+
+        Returns
+        -------
+        bool
+            Always ``True``.
+        """
         return True
 
     def over(self, context: Mapping[str, float]) -> dict[str, float]:
-        """The known values with the context's filling the names left out.
+        """Return the known values with the context's filling the names left out.
 
         Parameters
         ----------
@@ -75,7 +82,7 @@ KnownNuisanceLike = KnownNuisance | Mapping[str, float] | bool | None
 
 
 def as_known_nuisance(value: KnownNuisanceLike) -> KnownNuisance | None:
-    """``known_nuisance`` as the one type: a :class:`KnownNuisance` (known) or ``None``.
+    """Convert ``known_nuisance`` to the one type: a :class:`KnownNuisance` or ``None``.
 
     Parameters
     ----------

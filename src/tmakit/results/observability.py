@@ -31,22 +31,52 @@ _AXES = {"East": np.array([1.0, 0, 0]), "North": np.array([0, 1.0, 0]),
 
 @dataclass
 class Direction:
-    """One unobservable direction: a sentence and the parameter change (in each parameter's
-    own unit, scaled so the largest magnitude is 1) that leaves the data unchanged."""
+    """One unobservable direction: a sentence and a parameter change the data cannot see.
+
+    Parameters
+    ----------
+    sentence : str
+        The direction in words.
+    weights : dict of str to float
+        The parameter change that leaves the data unchanged, in each parameter's own unit,
+        scaled so the largest magnitude is 1.
+    """
 
     sentence: str
     weights: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, object]:
-        """The JSON form: the sentence and the weights by parameter."""
+        """Return the JSON form: the sentence and the weights by parameter.
+
+        Returns
+        -------
+        dict of str to object
+            ``{"sentence": ..., "weights": ...}``.
+        """
         return {"sentence": self.sentence, "weights": self.weights}
 
 
 @dataclass
 class Observability:
-    """What an information matrix can see: its rank among ``size`` unknowns, its condition
-    number, a basis of what it cannot see (``null_basis``, physical units), that null space in
-    words (``directions``) and, per parameter, whether it is ``observable``."""
+    """What an information matrix can see.
+
+    Parameters
+    ----------
+    rank : int
+        Rank of the information among ``size`` unknowns.
+    size : int
+        Number of unknowns.
+    condition : float
+        Condition number of the normalised information (dimensionless).
+    null_basis : ndarray, shape (size, size - rank)
+        Unit basis of what it cannot see, in physical units.
+    directions : list of Direction
+        That null space in words.
+    observable : ndarray of bool, shape (size,)
+        Whether each parameter is observable.
+    decomposition : tuple of ndarray, optional
+        Eigenvalues, eigenvectors and normalisation ``D`` the rank came from.
+    """
 
     rank: int
     size: int
@@ -66,7 +96,20 @@ class Observability:
 
 
 def normalise(info: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(D F D, D)`` with ``D = diag(F)^-1/2`` (parameters with no information get D = 1)."""
+    """Normalise an information matrix to unit diagonal.
+
+    Parameters
+    ----------
+    info : ndarray, shape (q, q)
+        Fisher information ``F`` (SI units of the parameters, inverse squared).
+
+    Returns
+    -------
+    norm : ndarray, shape (q, q)
+        ``D F D`` (dimensionless).
+    scale : ndarray, shape (q,)
+        ``D = diag(F)^-1/2`` (parameters with no information get 1).
+    """
     d = np.diag(info).copy()
     scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
     return info * scale[:, None] * scale[None, :], scale
@@ -118,7 +161,7 @@ def _candidates(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.flo
 
 def _to_theta(motion: MotionModel, theta: NDArray[np.float64], t: NDArray[np.float64],
               dstate: NDArray[np.float64]) -> NDArray[np.float64] | None:
-    """The parameter change that moves the states by ``dstate``, or None if none does."""
+    """Return the parameter change that moves the states by ``dstate``, or None."""
     jac = motion.jacobian(theta, t).reshape(-1, motion.n_params)
     target = dstate.reshape(-1)
     if not np.any(target):
@@ -137,8 +180,26 @@ def _weights(names: tuple[str, ...], vec: NDArray[np.float64]) -> dict[str, floa
 
 def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: MeasurementSet,
             motion: MotionModel, theta: NDArray[np.float64]) -> Observability:
-    """Rank, conditioning and named unobservable directions of an information matrix over
-    ``names`` (the motion parameters first, then any unknown nuisance parameters)."""
+    """Find the rank, conditioning and named unobservable directions of an information.
+
+    Parameters
+    ----------
+    info : ndarray, shape (q, q)
+        Fisher information (SI units of the parameters, inverse squared).
+    names : tuple of str
+        The unknowns: the motion parameters first, then any unknown nuisance parameters.
+    meas : MeasurementSet
+        The measurements (their sensors suggest the candidate directions).
+    motion : MotionModel
+        The motion model of the first ``motion.n_params`` unknowns.
+    theta : ndarray, shape (p,)
+        Motion parameters where ``info`` was evaluated (SI).
+
+    Returns
+    -------
+    Observability
+        Rank, condition number, null space and its directions in words.
+    """
     size = info.shape[0]
     norm, scale = normalise(info)
     evals, evecs = np.linalg.eigh(norm)

@@ -1,0 +1,170 @@
+"""The grid of candidate trajectories that the automatic initialisation scores.
+
+Positions are placed at the median measurement time: along the measured bearings when there
+are bearings (rays from each bearing sensor), otherwise on a polar grid around the sensors, at
+geometrically spaced ranges; velocities on a grid of speeds and courses.  3-D models add a few
+elevation angles above the sensors' plane.  :mod:`tmakit.batch.init` scores them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .solver import VarProProblem
+
+__all__ = ["GridSettings", "grid_candidates"]
+
+@dataclass(frozen=True)
+class GridSettings:
+    """Extent and density of the initial search (SI units).
+
+    Every grid point is scored on ``coarse_rows`` evenly spread rows, the ``refine`` best on
+    ``max_rows``; ``starts`` distinct points start the solve.
+
+    Parameters
+    ----------
+    min_range, max_range : float
+        Extent of the geometrically spaced ranges (m).
+    n_ranges : int
+        Ranges per ray.
+    n_bearings : int
+        Bearings of the fan around the sensors when no bearing is measured.
+    speeds : tuple of float
+        Speeds of the velocity grid (m/s); 0 is the target at rest.
+    n_courses : int
+        Courses per positive speed.
+    elevations_deg : tuple of float
+        Elevations above the sensors' plane for 3-D models (degrees).
+    max_rows, coarse_rows : int
+        Rows the ``refine`` best points and every point are scored on.
+    starts : int
+        Distinct points that start the solve.
+    refine : int
+        Points of the coarse stage scored again on ``max_rows``.
+    """
+
+    min_range: float = 100.0
+    max_range: float = 50_000.0
+    n_ranges: int = 10
+    n_bearings: int = 12
+    speeds: tuple[float, ...] = (0.0, 10.0, 40.0, 150.0, 450.0)
+    n_courses: int = 8
+    elevations_deg: tuple[float, ...] = (0.0, 3.0, 10.0, 25.0, 50.0)
+    max_rows: int = 30
+    starts: int = 6
+    coarse_rows: int = 8
+    refine: int = 256
+
+
+def _reference_point(problem: VarProProblem, t_mid: float) -> NDArray[np.float64]:
+    meas = problem.obs.meas
+    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * (meas.sensor != s))
+            for s in meas.sensors]
+    return meas.sensor_state[near, :3].mean(axis=0)
+
+
+def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
+               ) -> NDArray[np.float64]:
+    """Return candidate positions ``(m, 3)``: rays x elevations x ranges, in that order.
+
+    The rays go from each bearing sensor along its bearing nearest ``t_mid``, or fan out
+    around the sensors.
+    """
+    meas = problem.obs.meas
+    ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
+    bearing_rows = np.flatnonzero(meas.kind == "bearing")
+    if bearing_rows.size:
+        ends = []
+        for s in np.unique(meas.sensor[bearing_rows]):
+            rows = bearing_rows[meas.sensor[bearing_rows] == s]
+            ends.append(rows[np.argmin(np.abs(meas.time[rows] - t_mid))])
+        origins = meas.sensor_state[ends, :3]
+        dirs = _directions(meas.value_si[ends], _elevations(dim, tuple(g.elevations_deg)))
+    else:
+        dirs = _fan(g.n_bearings, dim, tuple(g.elevations_deg))
+        origins = np.broadcast_to(_reference_point(problem, t_mid), (dirs.shape[0], 3))
+    pts = (origins[:, None, None, :]
+           + ranges[None, None, :, None] * dirs[:, :, None, :]).reshape(-1, 3)
+    if dim == 2:
+        pts[:, 2] = 0.0
+    return pts
+
+
+def _elevations(dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
+    """Return candidate elevation angles (rad): the given ones in 3-D, 0 in 2-D."""
+    return np.radians(elevations_deg) if dim == 3 else np.zeros(1)
+
+
+def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
+                ) -> NDArray[np.float64]:
+    """Return unit vectors ``(rays, elevations, 3)`` at each bearing and elevation (rad)."""
+    b, e = bearings[:, None], elev[None, :]
+    return np.stack(np.broadcast_arrays(np.cos(e) * np.sin(b), np.cos(e) * np.cos(b),
+                                        np.sin(e)), axis=-1)
+
+
+@lru_cache(maxsize=16)
+def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
+    """Return :func:`_directions` of ``n_bearings`` even bearings (read-only, cached)."""
+    dirs = _directions(np.linspace(0.0, 2 * np.pi, n_bearings, endpoint=False),
+                       _elevations(dim, elevations_deg))
+    dirs.flags.writeable = False
+    return dirs
+
+
+@lru_cache(maxsize=16)
+def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.float64]:
+    """Return candidate ranges (m), geometrically spaced; read-only, made once per settings."""
+    ranges = np.geomspace(min_range, max_range, n_ranges)
+    ranges.flags.writeable = False
+    return ranges
+
+
+@lru_cache(maxsize=16)
+def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
+    """Return candidate velocities ``(m, 3)`` (m/s): at rest, then each speed and course.
+
+    Read-only, made once per settings.
+    """
+    speeds = np.array([v for v in speeds if v > 0], dtype=float)
+    courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
+    moving = np.stack(np.broadcast_arrays(speeds[:, None] * np.sin(courses),
+                                          speeds[:, None] * np.cos(courses), 0.0), axis=-1)
+    vel = np.concatenate([np.zeros((1, 3)), moving.reshape(-1, 3)])
+    vel.flags.writeable = False
+    return vel
+
+
+def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
+                    ) -> NDArray[np.float64]:
+    """Return the candidate parameter vectors for the problem's motion model.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem (its measurements place the grid; its motion model converts it).
+    settings : GridSettings, optional
+        Extent and density (default :class:`GridSettings()`).
+
+    Returns
+    -------
+    ndarray, shape (m, p)
+        Motion parameters (SI) of the grid's states at the median measurement time.
+    """
+    g = settings or GridSettings()
+    motion = problem.obs.motion
+    meas = problem.obs.meas
+    t_mid = float(np.median(meas.time))
+    pos = _positions(problem, t_mid, motion.dim, g)
+    moving = "vx" in motion.param_names or "speed" in motion.param_names
+    vel = _velocities(tuple(g.speeds), g.n_courses) if moving else np.zeros((1, 3))
+    # Component-major (each component of every state contiguous): the conversion then runs
+    # along long rows instead of across rows of 6.
+    states = np.empty((6, pos.shape[0], vel.shape[0]))
+    states[:3] = pos.T[:, :, None]
+    states[3:] = vel.T[:, None, :]
+    return motion.from_state(states.reshape(6, -1).T, t_mid)
