@@ -70,7 +70,7 @@ def _kind_codes(kind: NDArray[np.str_]) -> NDArray[np.int8]:
 
 
 def _run_starts(column: NDArray[Any]) -> NDArray[np.intp]:
-    """Indices where a new run of equal values starts (rows of one sensor come in runs)."""
+    """Return the indices where a new run of equal values starts (a sensor's rows come in runs)."""
     if column.shape[0] == 0:
         return np.zeros(0, dtype=np.intp)
     return np.flatnonzero(np.concatenate(([True], column[1:] != column[:-1])))
@@ -179,7 +179,7 @@ class MeasurementSet:
         self._sensors: tuple[str, ...] | None = self.sensor_names
 
     def _new_column(self, name: str, values: ArrayLike, dtype: type = float) -> NDArray[Any]:
-        """A column of this set's length (a copy), or ``ValueError``."""
+        """Return a column of this set's length (a copy), or raise ``ValueError``."""
         out = np.array(values, dtype=dtype)
         if out.shape != (len(self),):
             raise ValueError(f"column {name!r} has {out.shape[0] if out.ndim else 0} rows, "
@@ -265,7 +265,7 @@ class MeasurementSet:
 
     # -- size and parts ------------------------------------------------------------------
     def __len__(self) -> int:
-        """Number of rows."""
+        """Return the number of rows."""
         return int(self.time.shape[0])
 
     @property
@@ -293,7 +293,7 @@ class MeasurementSet:
             self.sensor_state[:, 5] != 0) else 2
 
     def take(self, index: ArrayLike) -> MeasurementSet:
-        """The rows at ``index`` (integer indices or a boolean mask), metadata kept.
+        """Return the rows at ``index`` (integer indices or a boolean mask), metadata kept.
 
         Parameters
         ----------

@@ -98,8 +98,10 @@ def _leg_durations(rng: np.random.Generator, total: float, n: int) -> NDArray[np
 
 
 def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
-    """A manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin and the observation
-    time ``T`` (s) its legs fill; see the module docstring for the distribution."""
+    """Draw a manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin.
+
+    Also the observation time ``T`` (s) its legs fill; see the module docstring for the distribution.
+    """
     total = _uniform(rng, OBSERVATION_TIME)
     lo, hi = LEG_DURATION
     counts = [n for n in LEG_COUNTS if n * lo <= total <= n * hi]
@@ -120,7 +122,7 @@ def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
 
 def random_geometry(rng: np.random.Generator, kinds: Sequence[str] | None = None
                     ) -> Scenario:
-    """A random 2-D constant-velocity target heard by one manoeuvring sensor.
+    """Draw a random 2-D constant-velocity target heard by one manoeuvring sensor.
 
     ``kinds`` (a non-empty subset of ``("bearing", "frequency", "power")``) fixes the
     measurement mix; by default it is drawn too.  The distribution is described in the
@@ -174,9 +176,11 @@ def random_geometry(rng: np.random.Generator, kinds: Sequence[str] | None = None
 
 
 def position_std(scenario: Scenario, t: float | None = None) -> float:
-    """Cramér–Rao bound (nuisance parameters unknown) on the horizontal position error
-    ``sqrt(var x + var y)`` in metres at time ``t`` (default: the middle of the
-    observation); ``inf`` when the bound is rank deficient."""
+    """Return the CRB on the horizontal position error (nuisance parameters unknown).
+
+    The error is ``sqrt(var x + var y)`` in metres at time ``t`` (default: the middle of the
+    observation); ``inf`` when the bound is rank deficient.
+    """
     bound = crlb(scenario)
     if not bound.observability.full_rank:
         return float("inf")
@@ -190,7 +194,7 @@ def position_std(scenario: Scenario, t: float | None = None) -> float:
 def observable_geometry(rng: np.random.Generator, max_position_std: float = 2000.0,
                         max_tries: int = 100, kinds: Sequence[str] | None = None
                         ) -> Scenario:
-    """A :func:`random_geometry` that is *observable*, redrawn until it is.
+    """Draw a :func:`random_geometry` that is *observable*, redrawn until it is.
 
     "Observable" means exactly: the Cramér–Rao bound with the nuisance parameters unknown
     (:func:`tmakit.bounds.crlb` of the scenario at its truth) has full rank, **and** its

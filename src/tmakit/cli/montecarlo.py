@@ -60,8 +60,9 @@ def montecarlo(
 
 
 def print_summary(res: Any) -> None:
-    """Print the Monte Carlo summary table (bias, RMSE, CRLB, their ratio with its 95 %
-    interval, per parameter) and the convergence and speed line.
+    """Print the Monte Carlo summary table and the convergence and speed line.
+
+    Per parameter: bias, RMSE, CRLB, their ratio with its 95 % interval.
 
     Parameters
     ----------

@@ -1,5 +1,7 @@
-"""``tma scenarios``, ``tma simulate``, ``tma show`` and ``tma demo``: the built-in scenarios,
-their simulated measurement files, and a file's summary and picture."""
+"""``tma scenarios``, ``tma simulate``, ``tma show`` and ``tma demo``.
+
+The built-in scenarios, their simulated measurement files, and a file's summary and picture.
+"""
 
 from __future__ import annotations
 

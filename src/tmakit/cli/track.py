@@ -1,5 +1,7 @@
-"""``tma track``: a recursive filter's state and covariance after every update, its table,
-JSON, file and picture."""
+"""``tma track``: a recursive filter's state and covariance after every update.
+
+Its table, JSON, file and picture.
+"""
 
 from __future__ import annotations
 
@@ -119,7 +121,7 @@ TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--p
 
 
 def tracking_failure(e: Any) -> typer.Exit:
-    """A :class:`tmakit.tracking.TrackingError` as `tma track` says it: with its flags."""
+    """Translate a :class:`tmakit.tracking.TrackingError` into `tma track`'s words (its flags)."""
     from ..tracking import MissingNuisanceError
 
     names = dict(TRACK_FLAGS)

@@ -63,8 +63,7 @@ def _num(x: float) -> float | None:
 
 @dataclass
 class MonteCarloResult:
-    """The runs of :func:`~tmakit.montecarlo.monte_carlo` and their comparison with the
-    CRLB.
+    """The runs of :func:`~tmakit.montecarlo.monte_carlo` and their comparison with the CRLB.
 
     Parameters
     ----------
@@ -147,9 +146,11 @@ class MonteCarloResult:
 
     # -- summaries -------------------------------------------------------------------------
     def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
-        """One row per parameter: ``parameter``, ``truth``, ``n`` (converged runs),
-        ``bias``, ``rmse``, ``crlb``, ``ratio`` (RMSE/CRLB) and its interval
-        ``ratio_low``, ``ratio_high`` at ``level`` (see :func:`ratio_interval`)."""
+        """Tabulate the summary, one row per parameter.
+
+        Columns ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb``, ``ratio`` (RMSE/CRLB) and its interval
+        ``ratio_low``, ``ratio_high`` at ``level`` (see :func:`ratio_interval`).
+        """
         err = self.errors()
         n = err.shape[0]
         rows = []
@@ -165,8 +166,10 @@ class MonteCarloResult:
         return rows
 
     def summary(self) -> str:
-        """A readable report: per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 %
-        interval; convergence, status counts and speed."""
+        """Return a readable report.
+
+        Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence, status counts and speed.
+        """
         counts = ", ".join(f"{k} {v}" for k, v in self.status_counts.items())
         lines = [f"Monte Carlo: {self.estimator} on {self.scenario}, {self.runs} runs "
                  f"(seed {self.seed}), nuisance {'known' if self.known_nuisance else 'unknown'}",
@@ -189,8 +192,10 @@ class MonteCarloResult:
         return "\n".join(lines)
 
     def as_dict(self, runs: bool = False) -> dict[str, Any]:
-        """The JSON form: context, per-parameter summary, convergence and speed; with
-        ``runs=True`` also the per-run table as a list of records."""
+        """Return the JSON form.
+
+        Context, per-parameter summary, convergence and speed; with ``runs=True`` also the per-run table as a list of records.
+        """
         summary = [{k: (_num(v) if isinstance(v, float) else v) for k, v in row.items()}
                    for row in self.summary_table()]
         out: dict[str, Any] = {

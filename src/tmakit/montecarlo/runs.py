@@ -1,5 +1,6 @@
-"""One chunk of Monte Carlo runs: simulate, estimate, record (in this process or on a Dask
-worker).
+"""One chunk of Monte Carlo runs: simulate, estimate, record.
+
+In this process or on a Dask worker.
 
 The maximum-likelihood estimator without an initial guess is vectorised across the runs of a
 chunk when they share times, sensors and noise (their noise-free rows are simulated once,
@@ -99,6 +100,7 @@ class ChunkOutput:
     failures: dict[int, str] = field(default_factory=dict)
 
     def __len__(self) -> int:
+        """Return the number of runs in the chunk."""
         return len(self.status)
 
     @classmethod
@@ -135,8 +137,10 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
         return _ml_batched(task, meas)
     return _per_run(task, meas)
 def _shared_layout(meas: Sequence[MeasurementSet]) -> bool:
-    """Whether every set has the rows of the first (times, sensors, kinds, sigmas, sensor
-    states): then they differ only in their values and one problem serves them all."""
+    """Tell whether every set has the rows of the first.
+
+    Rows means times, sensors, kinds, sigmas, sensor states; then they differ only in their values and one problem serves them all.
+    """
     a = meas[0]
     for b in meas[1:]:
         if len(b) != len(a) or not (

@@ -228,8 +228,10 @@ class BatchInitiator(Initiator):
 
 
 def _confirmation(after: Track, window: int) -> Confirmation:
-    """The innovation test of a start: the NIS summed over the next ``max(window,
-    MIN_WINDOW)`` updates against chi-square with their degrees of freedom."""
+    """Run the innovation test of a start.
+
+    The NIS summed over the next ``max(window, MIN_WINDOW)`` updates against chi-square with their degrees of freedom.
+    """
     from scipy.stats import chi2
 
     m = min(len(after), max(window, MIN_WINDOW))
@@ -242,7 +244,7 @@ def _confirmation(after: Track, window: int) -> Confirmation:
 
 def _prepend(tr: Track, time: float, state: Array, cov: Array, names: tuple[str, ...]
              ) -> Track:
-    """The track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
+    """Return the track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
     return Track(tr.filter_name or "", names,
                  np.concatenate([[time], tr.times]),
                  np.concatenate([state[None], tr.states]),

@@ -24,8 +24,9 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Confirmation:
-    """The innovation test of a batch start: the normalised innovation squared (NIS) summed
-    over the first ``updates`` updates after it, against chi-square with ``dof`` degrees of
+    """The innovation test of a batch start.
+
+    The normalised innovation squared (NIS) summed over the first ``updates`` updates after it, against chi-square with ``dof`` degrees of
     freedom.
 
     Parameters
@@ -46,7 +47,7 @@ class Confirmation:
     p_value: float
 
     def as_dict(self) -> dict[str, float | int]:
-        """The JSON form: ``updates``, ``nis``, ``dof``, ``p_value``."""
+        """Return the JSON form: ``updates``, ``nis``, ``dof``, ``p_value``."""
         return {"updates": self.updates, "nis": self.nis, "dof": self.dof,
                 "p_value": self.p_value}
 
@@ -70,7 +71,7 @@ class Rejection:
     confirmation: Confirmation
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form: ``window``, ``time`` and the test's keys."""
+        """Return the JSON form: ``window``, ``time`` and the test's keys."""
         return {"window": self.window, "time": self.time, **self.confirmation.as_dict()}
 
     def describe(self) -> str:
@@ -111,7 +112,7 @@ class PriorStart:
     state_names: tuple[str, ...]
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form: ``method`` (``"prior"``), ``time``, ``mean`` and ``std`` by name."""
+        """Return the JSON form: ``method`` (``"prior"``), ``time``, ``mean``, ``std`` by name."""
         return {"method": self.method, "time": self.time,
                 "mean": dict(zip(self.state_names, self.mean.tolist(), strict=True)),
                 "std": dict(zip(self.state_names, self.std.tolist(), strict=True))}
@@ -171,10 +172,12 @@ class BatchStart:
     rejected: tuple[Rejection, ...] = field(default_factory=tuple)
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form: ``method`` (``"batch"``), ``window``, ``rows``, ``time``,
-        ``status``, ``chi2``, ``dof``, ``relative_position_std``, ``max_relative_std``,
+        """Return the JSON form.
+
+        Keys ``method`` (``"batch"``), ``window``, ``rows``, ``time``, ``status``, ``chi2``, ``dof``, ``relative_position_std``, ``max_relative_std``,
         ``windows_tried``, ``nuisance`` (value and std by name), ``confirmation`` and
-        ``rejected``."""
+        ``rejected``.
+        """
         est = self.estimate
         out: dict[str, Any] = {
             "method": self.method,

@@ -33,7 +33,7 @@ def _initiator(initiator: Initiator | None,
                prior_std: Mapping[str, float] | ArrayLike | None, prior_time: float | None,
                nuisance: Mapping[str, float] | None, init_window: int | None,
                max_relative_std: float, confirm: bool) -> Initiator:
-    """The initiator given, or the one the start keywords of :func:`track` describe."""
+    """Return the initiator given, or the one the start keywords of :func:`track` describe."""
     if initiator is not None:
         if any(v is not None for v in (prior, prior_std, prior_time, nuisance, init_window)) \
                 or max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm:
