@@ -142,7 +142,8 @@ def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, probability: float, n: int = 
 
 
 def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
-               truth: np.ndarray | None = None, pcrb: PosteriorBound | None = None, pcrb_note: str = "", ellipses: int = 8,
+               truth: np.ndarray | None = None, pcrb: PosteriorBound | None = None,
+               pcrb_note: str = "", ellipses: int = 8,
                probabilities: tuple[float, ...] = (0.90, 0.95), title: str | None = None
                ) -> Path:
     """Write a picture of a :class:`~tmakit.filters.Track`.
@@ -195,8 +196,8 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
     return _save(fig, path, title)
 
 
-def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray | None, ellipses: int,
-               probabilities: tuple[float, ...], colours: list[str]) -> None:
+def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray | None,
+               ellipses: int, probabilities: tuple[float, ...], colours: list[str]) -> None:
     """Draw the map: sensor paths, the true path, the track and its position ellipses."""
     for i, s in enumerate(meas.sensors):
         sel = meas.sensor == s
