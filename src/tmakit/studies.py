@@ -100,7 +100,8 @@ def _leg_durations(rng: np.random.Generator, total: float, n: int) -> NDArray[np
 def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
     """Draw a manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin.
 
-    Also the observation time ``T`` (s) its legs fill; see the module docstring for the distribution.
+    Also the observation time ``T`` (s) its legs fill; see the module docstring for the
+    distribution.
     """
     total = _uniform(rng, OBSERVATION_TIME)
     lo, hi = LEG_DURATION

@@ -57,7 +57,8 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
                   known_nuisance: bool, drift: bool, free_exponent: bool) -> Any:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
 
-    It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor ``--motion`` is given).
+    It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor
+    ``--motion`` is given).
 
     Parameters
     ----------

@@ -1,6 +1,7 @@
 """Where the chunks of a Monte Carlo study run.
 
-In this process or on a Dask cluster, with a progress bar.  Dask, distributed and tqdm are imported only when used.
+In this process or on a Dask cluster, with a progress bar.  Dask, distributed and tqdm are imported
+only when used.
 """
 
 from __future__ import annotations

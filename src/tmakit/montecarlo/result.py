@@ -148,8 +148,9 @@ class MonteCarloResult:
     def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
         """Tabulate the summary, one row per parameter.
 
-        Columns ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb``, ``ratio`` (RMSE/CRLB) and its interval
-        ``ratio_low``, ``ratio_high`` at ``level`` (see :func:`ratio_interval`).
+        Columns ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb``,
+        ``ratio`` (RMSE/CRLB) and its interval ``ratio_low``, ``ratio_high`` at ``level`` (see
+        :func:`ratio_interval`).
         """
         err = self.errors()
         n = err.shape[0]
@@ -168,7 +169,8 @@ class MonteCarloResult:
     def summary(self) -> str:
         """Return a readable report.
 
-        Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence, status counts and speed.
+        Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence, status
+        counts and speed.
         """
         counts = ", ".join(f"{k} {v}" for k, v in self.status_counts.items())
         lines = [f"Monte Carlo: {self.estimator} on {self.scenario}, {self.runs} runs "
@@ -194,7 +196,8 @@ class MonteCarloResult:
     def as_dict(self, runs: bool = False) -> dict[str, Any]:
         """Return the JSON form.
 
-        Context, per-parameter summary, convergence and speed; with ``runs=True`` also the per-run table as a list of records.
+        Context, per-parameter summary, convergence and speed; with ``runs=True`` also the per-run
+        table as a list of records.
         """
         summary = [{k: (_num(v) if isinstance(v, float) else v) for k, v in row.items()}
                    for row in self.summary_table()]

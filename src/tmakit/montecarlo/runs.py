@@ -139,7 +139,8 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
 def _shared_layout(meas: Sequence[MeasurementSet]) -> bool:
     """Tell whether every set has the rows of the first.
 
-    Rows means times, sensors, kinds, sigmas, sensor states; then they differ only in their values and one problem serves them all.
+    Rows means times, sensors, kinds, sigmas, sensor states; then they differ only in their values
+    and one problem serves them all.
     """
     a = meas[0]
     for b in meas[1:]:

@@ -94,8 +94,9 @@ class TrackingError(ValueError):
 class StartError(TrackingError):
     """The data cannot start the filter.
 
-    No initial window gives a good enough batch estimate, or the chosen window does not; the message says which parameters offer a way
-    out (a prior, a looser start quality, a longer window).
+    No initial window gives a good enough batch estimate, or the chosen window does not;
+    the message says which parameters offer a way out (a prior, a looser start quality, a
+    longer window).
     """
 
 

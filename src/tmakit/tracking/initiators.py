@@ -230,7 +230,8 @@ class BatchInitiator(Initiator):
 def _confirmation(after: Track, window: int) -> Confirmation:
     """Run the innovation test of a start.
 
-    The NIS summed over the next ``max(window, MIN_WINDOW)`` updates against chi-square with their degrees of freedom.
+    The NIS summed over the next ``max(window, MIN_WINDOW)`` updates against chi-square with their
+    degrees of freedom.
     """
     from scipy.stats import chi2
 

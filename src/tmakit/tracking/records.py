@@ -26,8 +26,8 @@ Array = NDArray[np.float64]
 class Confirmation:
     """The innovation test of a batch start.
 
-    The normalised innovation squared (NIS) summed over the first ``updates`` updates after it, against chi-square with ``dof`` degrees of
-    freedom.
+    The normalised innovation squared (NIS) summed over the first ``updates`` updates after it,
+    against chi-square with ``dof`` degrees of freedom.
 
     Parameters
     ----------
@@ -174,9 +174,9 @@ class BatchStart:
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
 
-        Keys ``method`` (``"batch"``), ``window``, ``rows``, ``time``, ``status``, ``chi2``, ``dof``, ``relative_position_std``, ``max_relative_std``,
-        ``windows_tried``, ``nuisance`` (value and std by name), ``confirmation`` and
-        ``rejected``.
+        Keys ``method`` (``"batch"``), ``window``, ``rows``, ``time``, ``status``, ``chi2``,
+        ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``, ``nuisance``
+        (value and std by name), ``confirmation`` and ``rejected``.
         """
         est = self.estimate
         out: dict[str, Any] = {
