@@ -105,12 +105,33 @@ class ChunkOutput:
 
     @classmethod
     def empty(cls, first_run: int, m: int, p: int) -> ChunkOutput:
-        """``m`` failed runs of ``p`` parameters, to be filled in."""
+        """Make ``m`` failed runs of ``p`` parameters, to be filled in.
+
+        Parameters
+        ----------
+        first_run : int
+            Index of the chunk's first run in the study.
+        m, p : int
+            Number of runs and of motion parameters.
+
+        Returns
+        -------
+        ChunkOutput
+            Every run :data:`FAILED`, estimates NaN.
+        """
         return cls(first_run, [FAILED] * m, np.zeros(m, dtype=np.int64), np.full(m, np.nan),
                    np.zeros(m, dtype=np.int64), np.full((m, p), np.nan))
 
     def record(self, i: int, res: Any) -> None:
-        """Store estimate result ``res`` as run ``i`` of the chunk."""
+        """Store estimate result ``res`` as run ``i`` of the chunk.
+
+        Parameters
+        ----------
+        i : int
+            The run's index in the chunk.
+        res : tmakit.results.EstimateResult
+            Its estimate (SI).
+        """
         self.status[i] = str(res.status)
         self.iterations[i] = int(res.iterations)
         self.chi2[i] = float(res.chi2)
@@ -136,6 +157,8 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     if task.estimator == "ml" and _shared_layout(meas):
         return _ml_batched(task, meas)
     return _per_run(task, meas)
+
+
 def _shared_layout(meas: Sequence[MeasurementSet]) -> bool:
     """Tell whether every set has the rows of the first.
 

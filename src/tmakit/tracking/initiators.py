@@ -117,7 +117,27 @@ class PriorInitiator(Initiator):
         self.nuisance = dict(nuisance or {})
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
-        """Start at the prior and update with every row (see :meth:`Initiator.initiate`)."""
+        """Start at the prior and update with every row (see :meth:`Initiator.initiate`).
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (not empty; SI).
+        setup : FilterSetup
+            The filter and its settings.
+
+        Returns
+        -------
+        Initiation
+            The start record and the track (s, m, m/s).
+
+        Raises
+        ------
+        TrackingError
+            A prior component missing, unknown or not finite, or a std <= 0.
+        MissingNuisanceError
+            Nuisance values the measurement kinds need are not given.
+        """
         names = setup.state_names
         mean = state_vector(self.mean, names, "prior")
         std = state_vector(self.std, names, "prior_std")
@@ -190,6 +210,18 @@ class BatchInitiator(Initiator):
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Search the window, start, test, and run (see :meth:`Initiator.initiate`).
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (not empty; SI).
+        setup : FilterSetup
+            The filter and its settings.
+
+        Returns
+        -------
+        Initiation
+            The start record and the track (s, m, m/s).
 
         Raises
         ------
