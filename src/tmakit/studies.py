@@ -221,6 +221,11 @@ def position_std(scenario: Scenario, t: float | None = None) -> float:
     -------
     float
         The standard deviation (m); ``inf`` when the bound is rank deficient.
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 17–18: the Fisher information of power and Doppler rows, of which
+    the bound's ``Jᵀ R⁻¹ J`` is the general form.
     """
     bound = crlb(scenario)
     if not bound.observability.full_rank:

@@ -93,6 +93,10 @@ class MonteCarloResult:
         The error message of each failed run.
     bound : Bound, optional
         The CRLB itself.
+
+    References
+    ----------
+    Gu et al. (2007), §5: Monte Carlo RMS errors set beside the CRLB of eqs. 17–18.
     """
 
     scenario: str

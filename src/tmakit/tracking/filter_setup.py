@@ -81,6 +81,10 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
     ------
     TrackingError
         Text, the wrong number of values, or a negative or non-finite one (parameter ``q``).
+
+    References
+    ----------
+    Chen & Sun (1993), §2.1: ``Q_k`` of the nearly-constant-velocity model these scale.
     """
     if isinstance(q, str | bytes):
         raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
