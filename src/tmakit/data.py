@@ -111,7 +111,7 @@ class MeasurementSet:
     time_ref : array_like, shape (n,), optional
         Time of the earlier sample of a range difference (s); NaN elsewhere (the default).
     ref_sensor_state : array_like, shape (n, 6), optional
-        Sensor state at ``time_ref`` (NaN where unused, the default).
+        Sensor state at ``time_ref`` (ENU m, m/s; NaN where unused, the default).
     metadata : mapping of str to str, optional
         Free text: scenario name, seed, ENU origin, truth.
 

@@ -24,6 +24,7 @@ from .common import (
 )
 
 
+# `tma crlb`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def crlb(
     source: Annotated[str, typer.Argument(help="measurement file, or a scenario name/TOML")],
     motion: MotionOption = None,

@@ -27,6 +27,7 @@ from .common import (
 )
 
 
+# `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def estimate(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
     motion: MotionOption = None,

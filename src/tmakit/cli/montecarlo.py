@@ -11,6 +11,7 @@ from rich.table import Table
 from .common import fail, load_scenario_or_fail, out, refuse_existing
 
 
+# `tma montecarlo`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def montecarlo(
     scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
     runs: Annotated[int, typer.Option(help="number of Monte Carlo runs")] = 100,

@@ -26,6 +26,7 @@ from .common import (
 )
 
 
+# `tma track`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def track(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
     filter_name: Annotated[str, typer.Option(

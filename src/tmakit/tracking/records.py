@@ -113,9 +113,9 @@ class PriorStart:
     std : ndarray, shape (n,)
         Its standard deviations as given (m, m/s).
     covariance : ndarray, shape (n, n)
-        ``diag(std**2)``.
+        ``diag(std**2)`` (m^2, m^2/s^2).
     nuisance : dict of str to float
-        The known nuisance values given with it.
+        The known nuisance values given with it (Hz, dBW, ...).
     state_names : tuple of str
         The state components.
     """
@@ -158,7 +158,7 @@ class BatchStart:
     covariance : ndarray, shape (n, n)
         Its covariance (SI).
     nuisance : dict of str to float
-        The nuisance values the filter holds (from the estimate).
+        The nuisance values the filter holds, from the estimate (Hz, dBW, ...).
     state_names : tuple of str
         The state components.
     estimate : EstimateResult

@@ -96,7 +96,7 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     options : mapping, optional
         Per-kind measurement-model options, as for :func:`tmakit.batch.estimate`.
     nuisance : mapping of str to float, optional
-        Known nuisance values, with a prior only.
+        Known nuisance values (Hz, dBW, ...), with a prior only.
     initiator : Initiator, optional
         The start policy; then none of the start keywords above may be given.
 
