@@ -51,7 +51,7 @@ class TrackingError(ValueError):
     def render(self, names: Mapping[str, str] | None = None) -> str:
         """Return the message with the parameters spelt as ``names`` says.
 
-        Parameters ``names`` does not give keep the library's spelling.
+        Parameters that ``names`` leaves out keep the library's spelling.
 
         Parameters
         ----------

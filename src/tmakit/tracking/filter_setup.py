@@ -296,7 +296,7 @@ class FilterSetup:
     def from_estimate(self, estimate: EstimateResult, time: float) -> TrackingFilter:
         """Start a filter from a batch estimate at ``time`` (s), with its nuisance values.
 
-        See (:meth:`~tmakit.filters.TrackingFilter.from_estimate`).
+        See :meth:`~tmakit.filters.TrackingFilter.from_estimate`.
 
         Parameters
         ----------
