@@ -70,7 +70,7 @@ def _kind_codes(kind: NDArray[np.str_]) -> NDArray[np.int8]:
 
 
 def _run_starts(column: NDArray[Any]) -> NDArray[np.intp]:
-    """Indices where a new run of equal values starts (rows of one sensor come in runs)."""
+    """Return the indices where a new run of equal values starts (a sensor's rows come in runs)."""
     if column.shape[0] == 0:
         return np.zeros(0, dtype=np.intp)
     return np.flatnonzero(np.concatenate(([True], column[1:] != column[:-1])))
@@ -111,7 +111,7 @@ class MeasurementSet:
     time_ref : array_like, shape (n,), optional
         Time of the earlier sample of a range difference (s); NaN elsewhere (the default).
     ref_sensor_state : array_like, shape (n, 6), optional
-        Sensor state at ``time_ref`` (NaN where unused, the default).
+        Sensor state at ``time_ref`` (ENU m, m/s; NaN where unused, the default).
     metadata : mapping of str to str, optional
         Free text: scenario name, seed, ENU origin, truth.
 
@@ -179,7 +179,7 @@ class MeasurementSet:
         self._sensors: tuple[str, ...] | None = self.sensor_names
 
     def _new_column(self, name: str, values: ArrayLike, dtype: type = float) -> NDArray[Any]:
-        """A column of this set's length (a copy), or ``ValueError``."""
+        """Return a column of this set's length (a copy), or raise ``ValueError``."""
         out = np.array(values, dtype=dtype)
         if out.shape != (len(self),):
             raise ValueError(f"column {name!r} has {out.shape[0] if out.ndim else 0} rows, "
@@ -218,7 +218,13 @@ class MeasurementSet:
         return self._sigma_si
 
     def si(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``(value_si, sigma_si)``: the SI values and noise standard deviations (read-only)."""
+        """Return the SI values and noise standard deviations (read-only).
+
+        Returns
+        -------
+        value_si, sigma_si : ndarray, shape (n,)
+            As :attr:`value_si` and :attr:`sigma_si` (rad, rad/s, m, m/s, Hz, dBW; dB).
+        """
         return self._value_si, self._sigma_si
 
     # -- categorical columns ---------------------------------------------------------------
@@ -249,14 +255,36 @@ class MeasurementSet:
         self._set_sensors(self._new_column("sensor", sensors, str))
 
     def kind_mask(self, kind: str) -> NDArray[np.bool_]:
-        """Rows of ``kind`` (an integer comparison; all False for a kind not in the set)."""
+        """Mark the rows of ``kind`` (an integer comparison).
+
+        Parameters
+        ----------
+        kind : str
+            A measurement kind name.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True on its rows; all False for a kind not in the set.
+        """
         code = KIND_CODES.get(kind)
         if code is None:
             return np.zeros(len(self), dtype=bool)
         return self.kind_code == code
 
     def sensor_mask(self, sensor: str) -> NDArray[np.bool_]:
-        """Rows of the sensor ``sensor`` (an integer comparison)."""
+        """Mark the rows of the sensor ``sensor`` (an integer comparison).
+
+        Parameters
+        ----------
+        sensor : str
+            A sensor id.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True on its rows; all False for a sensor not in the set.
+        """
         try:
             code = self.sensor_names.index(sensor)
         except ValueError:
@@ -265,7 +293,7 @@ class MeasurementSet:
 
     # -- size and parts ------------------------------------------------------------------
     def __len__(self) -> int:
-        """Number of rows."""
+        """Return the number of rows."""
         return int(self.time.shape[0])
 
     @property
@@ -293,7 +321,7 @@ class MeasurementSet:
             self.sensor_state[:, 5] != 0) else 2
 
     def take(self, index: ArrayLike) -> MeasurementSet:
-        """The rows at ``index`` (integer indices or a boolean mask), metadata kept.
+        """Return the rows at ``index`` (integer indices or a boolean mask), metadata kept.
 
         Parameters
         ----------
@@ -326,7 +354,18 @@ class MeasurementSet:
         return out
 
     def select(self, kind: str | None = None, sensor: str | None = None) -> MeasurementSet:
-        """Rows of one kind and/or one sensor."""
+        """Return the rows of one kind and/or one sensor.
+
+        Parameters
+        ----------
+        kind, sensor : str, optional
+            The kind and the sensor id; None keeps all.
+
+        Returns
+        -------
+        MeasurementSet
+            The rows, metadata kept.
+        """
         mask = np.ones(len(self), dtype=bool)
         if kind is not None:
             mask &= self.kind_mask(kind)
@@ -337,7 +376,25 @@ class MeasurementSet:
     @staticmethod
     def concatenate(parts: list[MeasurementSet],
                     metadata: Mapping[str, str] | None = None) -> MeasurementSet:
-        """Rows of several sets, sorted by sensor (first appearance) then time (stable)."""
+        """Join the rows of several sets, sorted by sensor (first appearance) then time.
+
+        Parameters
+        ----------
+        parts : list of MeasurementSet
+            The sets (not empty).
+        metadata : mapping of str to str, optional
+            The result's metadata; default that of ``parts[0]``.
+
+        Returns
+        -------
+        MeasurementSet
+            The rows (:meth:`sorted`).
+
+        Raises
+        ------
+        ValueError
+            If ``parts`` is empty.
+        """
         if not parts:
             raise ValueError("nothing to concatenate")
         cat = MeasurementSet(
@@ -357,6 +414,11 @@ class MeasurementSet:
         """Rows grouped by sensor, in time order within each sensor.
 
         Sensors come in order of first appearance; simultaneous rows keep their order.
+
+        Returns
+        -------
+        MeasurementSet
+            The rows, reordered.
         """
         rank_of_code = np.zeros(len(self.sensor_names), dtype=np.intp)
         for rank, name in enumerate(self.sensors):
@@ -364,7 +426,18 @@ class MeasurementSet:
         return self.take(np.lexsort((self.time, rank_of_code[self.sensor_code])))
 
     def equals(self, other: MeasurementSet) -> bool:
-        """Exact equality of every column and the metadata (NaN equals NaN)."""
+        """Test exact equality of every column and the metadata (NaN equals NaN).
+
+        Parameters
+        ----------
+        other : MeasurementSet
+            The set compared.
+
+        Returns
+        -------
+        bool
+            True when equal.
+        """
         if len(self) != len(other):
             return False
         same = (np.array_equal(self.kind_code, other.kind_code)
@@ -377,7 +450,14 @@ class MeasurementSet:
         return bool(same)
 
     def summary_rows(self) -> list[dict[str, object]]:
-        """One row per (sensor, kind): count, time span, value range and median sigma."""
+        """Summarise the set: one row per (sensor, kind).
+
+        Returns
+        -------
+        list of dict
+            ``sensor``, ``kind``, ``unit``, ``count``, ``t_first``, ``t_last`` (s),
+            ``value_min``, ``value_max``, ``sigma_median`` (in ``unit``, the file unit).
+        """
         rows = []
         for s in self.sensors:
             of_sensor = self.sensor_mask(s)
@@ -403,7 +483,7 @@ class MeasurementSet:
             state[name].flags.writeable = False
 
     def __repr__(self) -> str:
-        """``MeasurementSet(n rows: count kind from sensor, ...)``."""
+        """Return ``MeasurementSet(n rows: count kind from sensor, ...)``."""
         parts = ", ".join(f"{r['count']} {r['kind']} from {r['sensor']}"
                           for r in self.summary_rows())
         return f"MeasurementSet({len(self)} rows: {parts})"

@@ -7,6 +7,7 @@ matplotlib's non-interactive Agg backend.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,9 +15,13 @@ from .data import MeasurementSet
 from .measurements import KINDS
 from .truth import truth_states
 
+if TYPE_CHECKING:  # annotations only: plot is imported without the filters and bounds
+    from .bounds import PosteriorBound
+    from .filters import Track
+
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
-    """The true target path over the set's time span, from its metadata.
+    """Return the true target path over the set's time span, from its metadata.
 
     Parameters
     ----------
@@ -38,8 +43,9 @@ def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
 
 def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None = None
                       ) -> Path:
-    """Write a picture of the sensor tracks (and the true target track when known) beside
-    one time-series panel per measurement kind.
+    """Write a picture of the sensor tracks beside one time-series panel per measurement kind.
+
+    The true target track is drawn too when known.
 
     Parameters
     ----------
@@ -110,7 +116,7 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
     return _save(fig, path, title)
 
 
-def _save(fig, path: str | Path, title: str | None) -> Path:
+def _save(fig: Any, path: str | Path, title: str | None) -> Path:
     """Title (if any), write and close a figure; return the path written."""
     import matplotlib.pyplot as plt
 
@@ -124,8 +130,10 @@ def _save(fig, path: str | Path, title: str | None) -> Path:
 
 def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, probability: float, n: int = 90
                 ) -> np.ndarray:
-    """Points (n, 2) of the ``probability`` confidence ellipse of a 2-D Gaussian: the
-    Mahalanobis radius is ``sqrt(-2 ln(1 - p))`` (chi-square, 2 degrees of freedom)."""
+    """Return points (n, 2) of the ``probability`` confidence ellipse of a 2-D Gaussian.
+
+    The Mahalanobis radius is ``sqrt(-2 ln(1 - p))`` (chi-square, 2 degrees of freedom).
+    """
     evals, evecs = np.linalg.eigh(0.5 * (cov + cov.T))
     radius = np.sqrt(-2.0 * np.log1p(-probability))
     angle = np.linspace(0.0, 2.0 * np.pi, n)
@@ -133,8 +141,9 @@ def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, probability: float, n: int = 
     return mean + radius * (circle * np.sqrt(np.clip(evals, 0.0, None))) @ evecs.T
 
 
-def plot_track(tr, meas: MeasurementSet, path: str | Path, *, truth: np.ndarray | None = None,
-               pcrb=None, pcrb_note: str = "", ellipses: int = 8,
+def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
+               truth: np.ndarray | None = None, pcrb: PosteriorBound | None = None,
+               pcrb_note: str = "", ellipses: int = 8,
                probabilities: tuple[float, ...] = (0.90, 0.95), title: str | None = None
                ) -> Path:
     """Write a picture of a :class:`~tmakit.filters.Track`.
@@ -187,9 +196,9 @@ def plot_track(tr, meas: MeasurementSet, path: str | Path, *, truth: np.ndarray 
     return _save(fig, path, title)
 
 
-def _track_map(ax_map, tr, meas: MeasurementSet, truth: np.ndarray | None, ellipses: int,
-               probabilities: tuple[float, ...], colours: list[str]) -> None:
-    """The map: sensor paths, the true path, the track and its position ellipses."""
+def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray | None,
+               ellipses: int, probabilities: tuple[float, ...], colours: list[str]) -> None:
+    """Draw the map: sensor paths, the true path, the track and its position ellipses."""
     for i, s in enumerate(meas.sensors):
         sel = meas.sensor == s
         order = np.argsort(meas.time[sel], kind="stable")
@@ -222,7 +231,8 @@ def _track_map(ax_map, tr, meas: MeasurementSet, truth: np.ndarray | None, ellip
     ax_map.set_title(f"track and position ellipses at {len(k_sel)} times", fontsize=10)
 
 
-def _axis_errors(ax_axes, tr, truth: np.ndarray, pcrb, colours: list[str]) -> None:
+def _axis_errors(ax_axes: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBound | None,
+                 colours: list[str]) -> None:
     """Estimate minus truth per axis, within the filter's ±1 std and the PCRB's."""
     dim = len(tr.state_names) // 2
     t = tr.times
@@ -248,8 +258,8 @@ def _axis_errors(ax_axes, tr, truth: np.ndarray, pcrb, colours: list[str]) -> No
             ax_axes.set_ylim(-lim, lim)
 
 
-def _norm_errors(ax_norm, tr, truth: np.ndarray, pcrb, pcrb_note: str, colours: list[str]
-                 ) -> None:
+def _norm_errors(ax_norm: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBound | None,
+                 pcrb_note: str, colours: list[str]) -> None:
     """|position error| against the filter's sqrt(tr P) and the PCRB position RMS."""
     dim = len(tr.state_names) // 2
     t = tr.times

@@ -101,8 +101,22 @@ def _leg_durations(rng: np.random.Generator, total: float, n: int) -> NDArray[np
 
 
 def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
-    """A manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin and the observation
-    time ``T`` (s) its legs fill; see the module docstring for the distribution."""
+    """Draw a manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin.
+
+    See the module docstring for the distribution.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The random generator.
+
+    Returns
+    -------
+    track : LegsTrack
+        The sensor's legs (m, m/s, rad/s).
+    duration : float
+        The observation time ``T`` its legs fill (s).
+    """
     total = _uniform(rng, OBSERVATION_TIME)
     lo, hi = LEG_DURATION
     counts = [n for n in LEG_COUNTS if n * lo <= total <= n * hi]
@@ -123,11 +137,28 @@ def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
 
 def random_geometry(rng: np.random.Generator, kinds: Sequence[str] | None = None
                     ) -> Scenario:
-    """A random 2-D constant-velocity target heard by one manoeuvring sensor.
+    """Draw a random 2-D constant-velocity target heard by one manoeuvring sensor.
 
-    ``kinds`` (a non-empty subset of ``("bearing", "frequency", "power")``) fixes the
-    measurement mix; by default it is drawn too.  The distribution is described in the
-    module docstring; the same generator state gives the same scenario.
+    The distribution is described in the module docstring; the same generator state gives
+    the same scenario.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The random generator.
+    kinds : sequence of str, optional
+        A non-empty subset of ``("bearing", "frequency", "power")`` fixing the measurement
+        mix; by default it is drawn too.
+
+    Returns
+    -------
+    Scenario
+        The scenario: ``cv2d`` truth (m, m/s), one sensor, nuisance values (Hz, dBW).
+
+    Raises
+    ------
+    ValueError
+        If ``kinds`` is empty or holds another kind.
     """
     if kinds is not None:
         kinds = tuple(kinds)
@@ -177,9 +208,28 @@ def random_geometry(rng: np.random.Generator, kinds: Sequence[str] | None = None
 
 
 def position_std(scenario: Scenario, t: float | None = None) -> float:
-    """Cramér–Rao bound (nuisance parameters unknown) on the horizontal position error
-    ``sqrt(var x + var y)`` in metres at time ``t`` (default: the middle of the
-    observation); ``inf`` when the bound is rank deficient."""
+    """Return the CRB on the horizontal position error (nuisance parameters unknown).
+
+    The error is ``sqrt(var x + var y)`` in metres at time ``t`` (default: the middle of the
+    observation).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario, bounded at its truth (:func:`tmakit.bounds.crlb`).
+    t : float, optional
+        The time (s).
+
+    Returns
+    -------
+    float
+        The standard deviation (m); ``inf`` when the bound is rank deficient.
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 17–18: the Fisher information of power and Doppler rows, of which
+    the bound's ``Jᵀ R⁻¹ J`` is the general form.
+    """
     bound = crlb(scenario)
     if not bound.observability.full_rank:
         return float("inf")
@@ -193,13 +243,33 @@ def position_std(scenario: Scenario, t: float | None = None) -> float:
 def observable_geometry(rng: np.random.Generator, max_position_std: float = 2000.0,
                         max_tries: int = 100, kinds: Sequence[str] | None = None
                         ) -> Scenario:
-    """A :func:`random_geometry` that is *observable*, redrawn until it is.
+    """Draw a :func:`random_geometry` that is *observable*, redrawn until it is.
 
     "Observable" means exactly: the Cramér–Rao bound with the nuisance parameters unknown
     (:func:`tmakit.bounds.crlb` of the scenario at its truth) has full rank, **and** its
     horizontal position standard deviation ``sqrt(var x + var y)`` at the middle of the
-    observation is below ``max_position_std`` metres (see :func:`position_std`).  Raises
-    ``RuntimeError`` after ``max_tries`` draws.
+    observation is below ``max_position_std`` metres (see :func:`position_std`).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The random generator.
+    max_position_std : float
+        The position standard deviation to beat (m).
+    max_tries : int
+        Draws before giving up.
+    kinds : sequence of str, optional
+        As for :func:`random_geometry`.
+
+    Returns
+    -------
+    Scenario
+        The first observable draw.
+
+    Raises
+    ------
+    RuntimeError
+        After ``max_tries`` draws without an observable one.
     """
     best = float("inf")
     for _ in range(max_tries):

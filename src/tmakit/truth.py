@@ -24,7 +24,7 @@ _PLANE = [0, 1, 3, 4]
 
 def truth_states(meas: MeasurementSet, times: ArrayLike, dim: int
                  ) -> NDArray[np.float64] | None:
-    """True target states at ``times`` from the set's metadata, or ``None`` if unknown.
+    """Return true target states at ``times`` from the set's metadata, or ``None`` if unknown.
 
     Parameters
     ----------

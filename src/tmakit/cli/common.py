@@ -1,6 +1,8 @@
-"""What every ``tma`` command shares: the consoles, the error exit, the refusal to overwrite,
-parsing of ``--origin`` and ``name=value`` options, reading and writing measurement files,
-and the typer option aliases of the commands that fit or bound a motion model.
+"""What every ``tma`` command shares.
+
+The consoles, the error exit, the refusal to overwrite, parsing of ``--origin`` and ``name=value``
+options, reading and writing measurement files, and the typer option aliases of the commands that
+fit or bound a motion model.
 
 Nothing numerical is imported here at module level: ``tma --help`` and ``tma scenarios``
 must start without numpy's heavy users (scipy, the estimators) or pydantic.
@@ -119,7 +121,7 @@ def parse_assignments(text: str | None, option: str) -> dict[str, float]:
 
 
 def load_scenario_or_fail(name: str) -> Any:
-    """A built-in scenario by name or a TOML scenario file, errors as ``error: ...``.
+    """Load a built-in scenario by name or a TOML scenario file, errors as ``error: ...``.
 
     Parameters
     ----------
@@ -202,8 +204,9 @@ def write_or_fail(meas: Any, path: Path, force: bool) -> None:
 
 
 def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -> Any:
-    """The motion model named by ``--motion`` (or by the file's metadata), errors as
-    ``error: ...``.
+    """Return the motion model named by ``--motion``, errors as ``error: ...``.
+
+    Without ``--motion`` the file's metadata may name it.
 
     Parameters
     ----------
@@ -240,7 +243,7 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
 
 
 def model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, object]]:
-    """The measurement-model options of ``--drift`` and ``--free-exponent``.
+    """Return the measurement-model options of ``--drift`` and ``--free-exponent``.
 
     Parameters
     ----------

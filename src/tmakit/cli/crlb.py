@@ -24,6 +24,7 @@ from .common import (
 )
 
 
+# `tma crlb`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def crlb(
     source: Annotated[str, typer.Argument(help="measurement file, or a scenario name/TOML")],
     motion: MotionOption = None,
@@ -55,8 +56,10 @@ def crlb(
 
 def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth: str | None,
                   known_nuisance: bool, drift: bool, free_exponent: bool) -> Any:
-    """The bound of a measurement file's times, sensors, kinds and sigmas at ``--truth``
-    (or at the file's own truth when neither ``--truth`` nor ``--motion`` is given).
+    """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
+
+    It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor
+    ``--motion`` is given).
 
     Parameters
     ----------
@@ -97,7 +100,7 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
 
 def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
                       free_exponent: bool) -> Any:
-    """The bound of a scenario at its truth.
+    """Compute the bound of a scenario at its truth.
 
     Parameters
     ----------

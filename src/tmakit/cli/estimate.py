@@ -1,5 +1,7 @@
-"""``tma estimate``: the emitter's trajectory from a measurement file, by maximum likelihood
-(``ml``, also for manoeuvring targets) or by one of the papers' methods."""
+"""``tma estimate``: the emitter's trajectory from a measurement file.
+
+By maximum likelihood (``ml``, also for manoeuvring targets) or by one of the papers' methods.
+"""
 
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ from .common import (
 )
 
 
+# `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def estimate(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
     motion: MotionOption = None,
@@ -54,7 +57,8 @@ def estimate(
 
     --motion curvilinear[:M] searches 0 to M manoeuvres (default M = 2) and chooses their
     number by BIC or likelihood-ratio tests, and holds at zero the accelerations the data do
-    not need (tmakit.batch.curvilinear)."""
+    not need (tmakit.batch.curvilinear).
+    """
     meas = read_or_fail(file, parse_origin(origin))
     start = parse_assignments(init, "--init") or None
     options = model_options(drift, free_exponent)
@@ -93,7 +97,7 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
                          options: dict[str, Any], ref_time: float | None, exact: bool,
                          criterion: str | None, alpha: float | None,
                          accelerations: str | None) -> Any:
-    """The ML estimate of a manoeuvring target (``--motion curvilinear[:M]``).
+    """Compute the ML estimate of a manoeuvring target (``--motion curvilinear[:M]``).
 
     Parameters
     ----------
@@ -168,8 +172,9 @@ def print_estimate(meas: Any, result: Any, as_json: bool) -> None:
 
 
 def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
-    """The estimated position at the motion model's reference time in WGS-84, when the file
-    gives the ENU origin (``origin_lat``, ``origin_lon``, ``origin_alt``).
+    """Return the estimated position at the motion model's reference time in WGS-84.
+
+    Only when the file gives the ENU origin (``origin_lat``, ``origin_lon``, ``origin_alt``).
 
     Parameters
     ----------

@@ -11,6 +11,7 @@ from rich.table import Table
 from .common import fail, load_scenario_or_fail, out, refuse_existing
 
 
+# `tma montecarlo`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def montecarlo(
     scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
     runs: Annotated[int, typer.Option(help="number of Monte Carlo runs")] = 100,
@@ -60,8 +61,9 @@ def montecarlo(
 
 
 def print_summary(res: Any) -> None:
-    """Print the Monte Carlo summary table (bias, RMSE, CRLB, their ratio with its 95 %
-    interval, per parameter) and the convergence and speed line.
+    """Print the Monte Carlo summary table and the convergence and speed line.
+
+    Per parameter: bias, RMSE, CRLB, their ratio with its 95 % interval.
 
     Parameters
     ----------

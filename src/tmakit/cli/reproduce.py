@@ -11,6 +11,7 @@ from rich.table import Table
 from .common import JsonOption, fail, out, refuse_existing
 
 
+# `tma reproduce`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def reproduce(
     name: Annotated[str, typer.Argument(
         help="gu2007, doppler-lecture, hoerst2010 or chen-sun")],

@@ -1,5 +1,7 @@
-"""``tma scenarios``, ``tma simulate``, ``tma show`` and ``tma demo``: the built-in scenarios,
-their simulated measurement files, and a file's summary and picture."""
+"""``tma scenarios``, ``tma simulate``, ``tma show`` and ``tma demo``.
+
+The built-in scenarios, their simulated measurement files, and a file's summary and picture.
+"""
 
 from __future__ import annotations
 
@@ -77,6 +79,7 @@ def describe_sensors(meas: Any) -> Table:
     return table
 
 
+# `tma scenarios`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def scenarios() -> None:
     """List the built-in scenarios, one line each."""
     from ..scenario_catalog import builtin_scenarios
@@ -89,6 +92,7 @@ def scenarios() -> None:
     out.print(table)
 
 
+# `tma simulate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def simulate(
     scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
     output: Annotated[Path, typer.Option("-o", "--output",
@@ -107,6 +111,7 @@ def simulate(
               + (" without noise" if no_noise else ""), highlight=False)
 
 
+# `tma show`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def show(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
     plot: Annotated[Path | None, typer.Option(help="write a picture (PNG, PDF, SVG)")] = None,
@@ -134,6 +139,7 @@ def show(
         out.print(f"wrote {plot}", highlight=False)
 
 
+# `tma demo`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def demo(
     out_dir: Annotated[Path, typer.Option(help="folder for the demo's files")] = Path(
         "tma-demo"),

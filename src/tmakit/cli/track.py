@@ -1,5 +1,7 @@
-"""``tma track``: a recursive filter's state and covariance after every update, its table,
-JSON, file and picture."""
+"""``tma track``: a recursive filter's state and covariance after every update.
+
+Its table, JSON, file and picture.
+"""
 
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ from .common import (
 )
 
 
+# `tma track`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def track(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
     filter_name: Annotated[str, typer.Option(
@@ -104,7 +107,25 @@ def track(
 
 
 def parse_q(text: str, dim: int) -> list[float]:
-    """``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2), as floats."""
+    """Parse ``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2).
+
+    Parameters
+    ----------
+    text : str
+        The option's text.
+    dim : int
+        Spatial dimension (for the error message).
+
+    Returns
+    -------
+    list of float
+        The acceleration standard deviations (m/s^2).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when a part is not a number.
+    """
     try:
         return [float(p.strip()) for p in text.split(",")]
     except ValueError:
@@ -119,7 +140,18 @@ TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--p
 
 
 def tracking_failure(e: Any) -> typer.Exit:
-    """A :class:`tmakit.tracking.TrackingError` as `tma track` says it: with its flags."""
+    """Translate a :class:`tmakit.tracking.TrackingError` into `tma track`'s words (its flags).
+
+    Parameters
+    ----------
+    e : tmakit.tracking.TrackingError
+        The library's error.
+
+    Returns
+    -------
+    typer.Exit
+        The exit (status 2) after printing the message with the flags named.
+    """
     from ..tracking import MissingNuisanceError
 
     names = dict(TRACK_FLAGS)

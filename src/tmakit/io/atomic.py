@@ -15,7 +15,7 @@ __all__ = ["atomic_write", "exists_error", "fsync_file"]
 
 
 def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
-    """The error for refusing to overwrite ``path`` (it names ``--force`` and ``force=True``).
+    """Build the error for refusing to overwrite ``path`` (naming ``--force``, ``force=True``).
 
     Parameters
     ----------

@@ -15,7 +15,7 @@ __all__ = ["blank_mask", "is_blank", "number_text", "show", "text_column"]
 
 
 def number_text(x: float) -> str:
-    """A number for messages: shortest exact representation, no trailing '.0'.
+    """Format a number for messages: shortest exact representation, no trailing '.0'.
 
     Parameters
     ----------
@@ -55,7 +55,7 @@ def is_blank(v: Any) -> bool:
 
 
 def show(v: Any) -> str:
-    """A cell value for "found ..." in messages.
+    """Format a cell value for "found ..." in messages.
 
     Parameters
     ----------

@@ -194,7 +194,7 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
 
 def _for_kind(kind: NDArray[np.object_], k: str,
               ok: Callable[[NDArray[np.float64]], NDArray[np.bool_]]) -> RowCheck:
-    """A value check that holds on the rows of kind ``k`` only."""
+    """Make a value check that holds on the rows of kind ``k`` only."""
     return lambda v, r: ok(v) | (kind[r] != k)
 
 
@@ -221,7 +221,7 @@ def _time_ref_column(num: Numbers, kind: NDArray[np.object_], is_rd: NDArray[np.
 
 def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_],
                       ref_given: NDArray[np.bool_], checks: _Checks) -> pa.Column:
-    """A ref_sensor_* column: only on range-difference rows, all or none of a row, finite."""
+    """Check a ref_sensor_* column: only on range-difference rows, all or none of a row, finite."""
     import pandera.pandas as pa
 
     return pa.Column("float64", nullable=True, checks=[

@@ -83,7 +83,7 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
 
 def table_reader(load: Callable[[Path], RawTable], label: str
                  ) -> Callable[..., MeasurementSet]:
-    """A format's reader: load the raw table with ``load``, then :func:`check_table` it.
+    """Make a format's reader: load the raw table with ``load``, then :func:`check_table` it.
 
     Parameters
     ----------

@@ -13,7 +13,7 @@ __all__ = ["file_columns"]
 
 
 def file_columns(ms: MeasurementSet) -> dict[str, NDArray[Any]]:
-    """The columns to write, in :data:`~tmakit.io.contract.COLUMN_ORDER` (values in file units).
+    """Return the columns to write, in :data:`~tmakit.io.contract.COLUMN_ORDER` (file units).
 
     The ``ref_sensor_*`` columns follow when the set has range differences.
 

@@ -85,7 +85,7 @@ def _record_lines(path: Path, body: str, pre_lines: int) -> tuple[list[str], lis
 
 
 def load_csv(path: Path) -> RawTable:
-    """A CSV measurement file as a raw table of text cells, with the line of each row.
+    """Read a CSV measurement file as a raw table of text cells, with the line of each row.
 
     Parameters
     ----------

@@ -107,7 +107,7 @@ def unregister_format(name: str) -> Format:
 
 
 def registered_formats(reading: bool | None = None) -> tuple[Format, ...]:
-    """The registered formats, in registration order.
+    """Return the registered formats, in registration order.
 
     Parameters
     ----------
@@ -127,7 +127,7 @@ def registered_formats(reading: bool | None = None) -> tuple[Format, ...]:
 
 def find_format(path: str | os.PathLike[str], name: str | None = None,
                 reading: bool | None = None) -> Format | None:
-    """The format called ``name``, else the one whose suffixes hold the suffix of ``path``.
+    """Find the format called ``name``, else the one whose suffixes hold ``path``'s suffix.
 
     Parameters
     ----------

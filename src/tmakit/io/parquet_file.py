@@ -20,7 +20,7 @@ __all__ = ["PARQUET", "load_parquet", "read_parquet", "write_parquet"]
 
 
 def load_parquet(path: Path) -> RawTable:
-    """A Parquet measurement file as a raw table of typed cells (no line numbers).
+    """Read a Parquet measurement file as a raw table of typed cells (no line numbers).
 
     Parameters
     ----------

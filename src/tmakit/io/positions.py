@@ -27,7 +27,7 @@ ORIGIN_KEYS = ("origin_lat", "origin_lon", "origin_alt")
 
 def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
                    ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
-    """The ENU origin (lat, lon in degrees, alt in m): the argument, else the file's metadata.
+    """Return the ENU origin (lat, lon in deg, alt in m): the argument, else the file's.
 
     Parameters
     ----------

@@ -45,6 +45,13 @@ class Problems:
     ----------
     raw : RawTable
         The table the problems are about (for row numbers, lines and cell values).
+
+    Attributes
+    ----------
+    file : list of str
+        The file-wide problems.
+    cells : dict of (int, str) to str
+        The problem of each (0-based row, column) cell.
     """
 
     raw: RawTable
@@ -52,7 +59,18 @@ class Problems:
     cells: dict[tuple[int, str], str] = field(default_factory=dict)
 
     def where(self, row: int) -> str:
-        """``row R (line L)`` of a 0-based row (``row R`` without line numbers)."""
+        """Say where a row is: ``row R (line L)`` (``row R`` without line numbers).
+
+        Parameters
+        ----------
+        row : int
+            The 0-based row.
+
+        Returns
+        -------
+        str
+            The 1-based row and, for CSV, its line.
+        """
         lines = self.raw.lines
         if lines is None:
             return f"row {row + 1}"
@@ -61,7 +79,16 @@ class Problems:
     def cell(self, row: int, column: str, expected: str, found: str | None = None) -> None:
         """Record a problem at one cell (the first problem of a cell wins).
 
-        ``found`` defaults to the cell as read (:func:`tmakit.io.cells.show`).
+        Parameters
+        ----------
+        row : int
+            The 0-based row.
+        column : str
+            The cell's column.
+        expected : str
+            What the cell should hold (for the message).
+        found : str, optional
+            What it holds; default the cell as read (:func:`tmakit.io.cells.show`).
         """
         if (row, column) in self.cells:
             return
@@ -72,11 +99,30 @@ class Problems:
             f"{self.where(row)}, column '{column}': expected {expected}, found {found}")
 
     def missing(self, column: str, extra: str = "") -> None:
-        """Record that a column of the contract is missing (``extra`` says why it is needed)."""
+        """Record that a column of the contract is missing.
+
+        Parameters
+        ----------
+        column : str
+            The missing column.
+        extra : str
+            Appended to the message: why this file needs it.
+        """
         self.file.append(f"column '{column}' is missing: {COLUMN_PURPOSE[column]}{extra}")
 
     def bad_rows(self, *columns: str) -> NDArray[np.bool_]:
-        """Rows with a problem in one of ``columns``."""
+        """Mark the rows with a problem in one of ``columns``.
+
+        Parameters
+        ----------
+        *columns : str
+            The columns.
+
+        Returns
+        -------
+        numpy.ndarray of bool, shape (rows,)
+            True where a row has a problem in one of them.
+        """
         mask = np.zeros(len(self.raw.frame), dtype=bool)
         wanted = set(columns)
         for row, column in self.cells:
@@ -85,7 +131,13 @@ class Problems:
         return mask
 
     def sorted(self) -> list[str]:
-        """File-wide problems first, then cell problems by row and column order."""
+        """List the problems: file-wide first, then cells by row and column order.
+
+        Returns
+        -------
+        list of str
+            The messages.
+        """
         order = {c: i for i, c in enumerate(self.raw.frame.columns)}
         cells = sorted(self.cells.items(),
                        key=lambda item: (item[0][0], order.get(item[0][1], len(order))))

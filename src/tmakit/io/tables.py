@@ -28,7 +28,7 @@ TABLE_SUFFIXES: dict[str, str] = {".csv": "csv", ".parquet": "parquet", ".pq": "
 
 
 def table_format(path: str | os.PathLike[str]) -> str | None:
-    """The table format of ``path`` by its suffix: ``"csv"``, ``"parquet"`` or ``None``.
+    """Return the table format of ``path`` by its suffix: ``"csv"``, ``"parquet"`` or ``None``.
 
     Parameters
     ----------

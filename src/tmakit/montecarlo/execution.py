@@ -1,5 +1,8 @@
-"""Where the chunks of a Monte Carlo study run: in this process or on a Dask cluster, with a
-progress bar.  Dask, distributed and tqdm are imported only when used."""
+"""Where the chunks of a Monte Carlo study run.
+
+In this process or on a Dask cluster, with a progress bar.  Dask, distributed and tqdm are imported
+only when used.
+"""
 
 from __future__ import annotations
 
@@ -38,7 +41,7 @@ class _NoBar:
 
 
 def progress_bar(total: int, enabled: bool, desc: str) -> Any:
-    """A tqdm progress bar over ``total`` runs, or a silent stand-in.
+    """Open a tqdm progress bar over ``total`` runs, or a silent stand-in.
 
     Parameters
     ----------
@@ -89,7 +92,7 @@ def run_local(tasks: Sequence[ChunkTask], bar: Any) -> list[ChunkOutput]:
 
 
 def dask_client(dask: Any) -> tuple[Client, bool]:
-    """A Dask client for ``dask`` and whether it was opened here (then close it).
+    """Return a Dask client for ``dask`` and whether it was opened here (then close it).
 
     Parameters
     ----------
@@ -155,7 +158,7 @@ def run_dask(tasks: Sequence[ChunkTask], client: Client, bar: Any) -> list[Chunk
 
 
 def default_chunk(runs: int, estimator: str, client: Client | None) -> int:
-    """Runs per chunk when none is asked for.
+    """Return the runs per chunk when none is asked for.
 
     Parameters
     ----------

@@ -63,8 +63,7 @@ def _num(x: float) -> float | None:
 
 @dataclass
 class MonteCarloResult:
-    """The runs of :func:`~tmakit.montecarlo.monte_carlo` and their comparison with the
-    CRLB.
+    """The runs of :func:`~tmakit.montecarlo.monte_carlo` and their comparison with the CRLB.
 
     Parameters
     ----------
@@ -94,6 +93,10 @@ class MonteCarloResult:
         The error message of each failed run.
     bound : Bound, optional
         The CRLB itself.
+
+    References
+    ----------
+    Gu et al. (2007), §5: Monte Carlo RMS errors set beside the CRLB of eqs. 17–18.
     """
 
     scenario: str
@@ -137,19 +140,55 @@ class MonteCarloResult:
         return {str(k): int(v) for k, v in self.table["status"].value_counts().items()}
 
     def estimates(self, converged_only: bool = True) -> NDArray[np.float64]:
-        """Estimates ``(runs, p)``, by default of the converged runs only."""
+        """Return the estimates, by default of the converged runs only.
+
+        Parameters
+        ----------
+        converged_only : bool
+            Keep the converged runs only.
+
+        Returns
+        -------
+        ndarray, shape (runs, p)
+            One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
+        """
         est = self.table[[f"est_{n}" for n in self.parameters]].to_numpy(dtype=float)
         return est[self.converged] if converged_only else est
 
     def errors(self, converged_only: bool = True) -> NDArray[np.float64]:
-        """Estimate minus truth ``(runs, p)``, by default of the converged runs only."""
+        """Return estimate minus truth, by default of the converged runs only.
+
+        Parameters
+        ----------
+        converged_only : bool
+            Keep the converged runs only.
+
+        Returns
+        -------
+        ndarray, shape (runs, p)
+            One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
+        """
         return self.estimates(converged_only) - self.truth
 
     # -- summaries -------------------------------------------------------------------------
     def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
-        """One row per parameter: ``parameter``, ``truth``, ``n`` (converged runs),
-        ``bias``, ``rmse``, ``crlb``, ``ratio`` (RMSE/CRLB) and its interval
-        ``ratio_low``, ``ratio_high`` at ``level`` (see :func:`ratio_interval`)."""
+        """Tabulate the summary, one row per parameter.
+
+        Columns ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb``,
+        ``ratio`` (RMSE/CRLB) and its interval ``ratio_low``, ``ratio_high`` at ``level`` (see
+        :func:`ratio_interval`).
+
+        Parameters
+        ----------
+        level : float
+            Confidence level of the ratio's interval (0 .. 1).
+
+        Returns
+        -------
+        list of dict
+            One dict per parameter; ``truth``, ``bias``, ``rmse``, ``crlb`` in the
+            parameter's SI unit, ``ratio`` and its interval dimensionless.
+        """
         err = self.errors()
         n = err.shape[0]
         rows = []
@@ -165,8 +204,16 @@ class MonteCarloResult:
         return rows
 
     def summary(self) -> str:
-        """A readable report: per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 %
-        interval; convergence, status counts and speed."""
+        """Return a readable report.
+
+        Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence, status
+        counts and speed.
+
+        Returns
+        -------
+        str
+            The report, several lines (wall time in s, speed in runs/s).
+        """
         counts = ", ".join(f"{k} {v}" for k, v in self.status_counts.items())
         lines = [f"Monte Carlo: {self.estimator} on {self.scenario}, {self.runs} runs "
                  f"(seed {self.seed}), nuisance {'known' if self.known_nuisance else 'unknown'}",
@@ -189,8 +236,21 @@ class MonteCarloResult:
         return "\n".join(lines)
 
     def as_dict(self, runs: bool = False) -> dict[str, Any]:
-        """The JSON form: context, per-parameter summary, convergence and speed; with
-        ``runs=True`` also the per-run table as a list of records."""
+        """Return the JSON form.
+
+        Context, per-parameter summary, convergence and speed; with ``runs=True`` also the per-run
+        table as a list of records.
+
+        Parameters
+        ----------
+        runs : bool
+            Add the per-run table under ``table``.
+
+        Returns
+        -------
+        dict
+            JSON-ready; SI values, ``wall_time_s`` in s, non-finite numbers as None.
+        """
         summary = [{k: (_num(v) if isinstance(v, float) else v) for k, v in row.items()}
                    for row in self.summary_table()]
         out: dict[str, Any] = {
@@ -218,6 +278,19 @@ class MonteCarloResult:
         return out
 
     def to_json(self, indent: int | None = 2, runs: bool = False) -> str:
-        """:meth:`as_dict` as JSON text (``indent`` as for :func:`json.dumps`)."""
+        """Return :meth:`as_dict` as JSON text.
+
+        Parameters
+        ----------
+        indent : int or None
+            As for :func:`json.dumps`.
+        runs : bool
+            Add the per-run table.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.as_dict(runs=runs), indent=indent)
 

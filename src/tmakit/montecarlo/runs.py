@@ -1,5 +1,6 @@
-"""One chunk of Monte Carlo runs: simulate, estimate, record (in this process or on a Dask
-worker).
+"""One chunk of Monte Carlo runs: simulate, estimate, record.
+
+In this process or on a Dask worker.
 
 The maximum-likelihood estimator without an initial guess is vectorised across the runs of a
 chunk when they share times, sensors and noise (their noise-free rows are simulated once,
@@ -99,16 +100,38 @@ class ChunkOutput:
     failures: dict[int, str] = field(default_factory=dict)
 
     def __len__(self) -> int:
+        """Return the number of runs in the chunk."""
         return len(self.status)
 
     @classmethod
     def empty(cls, first_run: int, m: int, p: int) -> ChunkOutput:
-        """``m`` failed runs of ``p`` parameters, to be filled in."""
+        """Make ``m`` failed runs of ``p`` parameters, to be filled in.
+
+        Parameters
+        ----------
+        first_run : int
+            Index of the chunk's first run in the study.
+        m, p : int
+            Number of runs and of motion parameters.
+
+        Returns
+        -------
+        ChunkOutput
+            Every run :data:`FAILED`, estimates NaN.
+        """
         return cls(first_run, [FAILED] * m, np.zeros(m, dtype=np.int64), np.full(m, np.nan),
                    np.zeros(m, dtype=np.int64), np.full((m, p), np.nan))
 
     def record(self, i: int, res: Any) -> None:
-        """Store estimate result ``res`` as run ``i`` of the chunk."""
+        """Store estimate result ``res`` as run ``i`` of the chunk.
+
+        Parameters
+        ----------
+        i : int
+            The run's index in the chunk.
+        res : tmakit.results.EstimateResult
+            Its estimate (SI).
+        """
         self.status[i] = str(res.status)
         self.iterations[i] = int(res.iterations)
         self.chi2[i] = float(res.chi2)
@@ -134,9 +157,14 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     if task.estimator == "ml" and _shared_layout(meas):
         return _ml_batched(task, meas)
     return _per_run(task, meas)
+
+
 def _shared_layout(meas: Sequence[MeasurementSet]) -> bool:
-    """Whether every set has the rows of the first (times, sensors, kinds, sigmas, sensor
-    states): then they differ only in their values and one problem serves them all."""
+    """Tell whether every set has the rows of the first.
+
+    Rows means times, sensors, kinds, sigmas, sensor states; then they differ only in their values
+    and one problem serves them all.
+    """
     a = meas[0]
     for b in meas[1:]:
         if len(b) != len(a) or not (

@@ -57,7 +57,7 @@ def _init_vector(scenario: Scenario, init: Mapping[str, float] | ArrayLike
 
 
 def _scenario(scenario: Scenario | str | Path) -> Scenario:
-    """The scenario itself, or loaded by built-in name or TOML path."""
+    """Return the scenario itself, or load it by built-in name or TOML path."""
     if isinstance(scenario, str | Path):
         from ..scenario_file import load_scenario
 
@@ -84,8 +84,11 @@ def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, 
 
 def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
            ) -> tuple[pd.DataFrame, dict[int, str]]:
-    """The per-run table (``run``, ``status``, ``iterations``, ``chi2``, ``starts``,
-    ``est_<param>``) and the failures, from the chunks' outputs in run order."""
+    """Build the per-run table and the failures.
+
+    The table has ``run``, ``status``, ``iterations``, ``chi2``, ``starts``,
+    ``est_<param>``; both, from the chunks' outputs in run order.
+    """
     table = pd.DataFrame({
         "run": np.arange(runs, dtype=np.int64),
         "status": np.concatenate([np.asarray(o.status, dtype=object) for o in outputs]),

@@ -1,9 +1,8 @@
 """Steerable sensor platforms: a platform state, actions, and exact turn-and-accelerate steps.
 
-A :class:`PlatformState` is where a steerable sensor is and how it moves: ENU position (m),
-heading (rad, clockwise from North, as every bearing in tmakit: ``atan2(v_east, v_north)``),
-horizontal speed (m/s), climb rate (m/s, up positive) and time (s).  A 2-D platform is a 3-D
-one at constant altitude (``z = 0``, climb rate 0).
+A :class:`PlatformState` holds ENU position (m), heading (rad, clockwise from North as every
+bearing in tmakit: ``atan2(v_east, v_north)``), horizontal speed (m/s), climb rate (m/s, up)
+and time (s); a 2-D platform is a 3-D one at constant altitude (``z = 0``, climb rate 0).
 
 An action (:class:`Actions`, vectorised: ``C`` candidates at once) asks for a heading change
 and a new speed by the end of a decision interval ``T``.  :class:`PlatformKinematics` flies
@@ -22,26 +21,21 @@ this is the circular arc of :func:`tmakit.motion.propagate_curvilinear` (which k
 *normal acceleration*, not the turn rate, constant when the speed changes).
 
 Limits (speed range, turn-rate, acceleration and climb-rate limits, altitude band) are applied
-by **clipping**, and every clip is reported: :class:`Step` carries one boolean mask per limit
-(``speed_limited``, ``turn_limited``, ``acceleration_limited``, and ``climb_limited`` for the
-climb-rate limit or the altitude band) and their union ``clipped``; ``on_limit="raise"``
-refuses instead.  Clipping keeps the candidate array shape fixed (a planner scores all ``C``
-candidates; it may drop the clipped ones), which is why it is the default.
+by **clipping**, each clip reported: :class:`Step` has one boolean mask per limit
+(``speed_limited``, ``turn_limited``, ``acceleration_limited``, ``climb_limited`` for the
+climb-rate limit or altitude band) and their union ``clipped``; ``on_limit="raise"`` refuses
+instead.  Clipping, the default, keeps the candidate array shape fixed (a planner scores all
+``C`` candidates; it may drop the clipped ones).
 
 Everything is vectorised: one state (or ``C`` states) and ``C`` actions give ``(C, ...)``
-results by numpy broadcasting, and :meth:`Step.sensor_states` gives the sensor states
-``[x, y, z, vx, vy, vz]`` of every candidate at any times inside the step, shape
-``(C, n, 6)``.  Steps chosen one after another make a :class:`PlatformTrack`, a
-:class:`~tmakit.sensors.SensorTrack` that is exact at every time, so the rest of tmakit
-(scenarios, simulation, bounds) uses a flown path like any recorded or scripted track.  (A
-:class:`~tmakit.sensors.RecordedTrack` through the step ends would be exact only at the step
-ends: its cubic Hermite pieces are not arcs.)
+results by broadcasting; :meth:`Step.sensor_states` gives every candidate's sensor states
+``[x, y, z, vx, vy, vz]`` at times inside the step, shape ``(C, n, 6)``.  Steps chosen one
+after another make a :class:`PlatformTrack`, a :class:`~tmakit.sensors.SensorTrack` exact at
+every time, used by scenarios, simulation and bounds like any recorded or scripted track (a
+:class:`~tmakit.sensors.RecordedTrack`'s cubic Hermite pieces are not arcs).
 
 :data:`HURTADO_NEHORAI_2008` is the 15-action set of Hurtado & Nehorai (2008), section 5,
-example 1: speed x0.9, x1 or x1.1 and heading -10, -5, 0, +5 or +10 degrees per step, the
-speed kept between 50 and 200 m/s, one step per pulse repetition interval of 0.5 s.  The
-paper lets the radar select its velocity vector at each step; flying the change as a constant
-turn and acceleration over the step is tmakit's choice.
+example 1 (the paper selects a velocity vector per step; the turn inside it is tmakit's).
 
 Examples
 --------
@@ -52,10 +46,8 @@ Examples
 >>> step = config.kinematics.step(start, config.actions, config.interval)
 >>> step.shape, len(config.actions)
 ((15,), 15)
->>> np.round(step.end.speed[:5], 1)                    # x0.9 clipped to the 50 m/s floor
-array([50., 50., 50., 50., 50.])
->>> bool(step.clipped[0]), bool(step.clipped[5])
-(True, False)
+>>> float(step.end.speed[0]), bool(step.clipped[0]), bool(step.clipped[5])  # x0.9: floor
+(50.0, True, False)
 >>> step.sensor_states([0.25, 0.5]).shape              # candidates x times x state
 (15, 2, 6)
 >>> path = config.kinematics.fly(start, config.actions[[13, 7, 7]], config.interval)
@@ -107,12 +99,9 @@ class Step:
     ----------
     start, end : PlatformState
         States at the start and at the end of the step.
-    turn_rate : ndarray
-        Applied constant turn rate (rad/s, positive clockwise).
-    acceleration : ndarray
-        Applied constant tangential acceleration (m/s^2).
-    climb_rate : ndarray
-        Applied constant climb rate (m/s).
+    turn_rate, acceleration, climb_rate : ndarray
+        Applied constant turn rate (rad/s, positive clockwise), tangential acceleration
+        (m/s^2) and climb rate (m/s).
     interval : float
         Length of the step (s).
     speed_limited, turn_limited, acceleration_limited, climb_limited : ndarray of bool
@@ -194,12 +183,9 @@ class PlatformKinematics:
     ----------
     min_speed, max_speed : float, optional
         Horizontal speed range (m/s) at the end of every step.
-    max_turn_rate : float, optional
-        Largest turn rate (rad/s).
-    max_acceleration : float, optional
-        Largest tangential acceleration or deceleration (m/s^2).
-    max_climb_rate : float, optional
-        Largest climb or descent rate (m/s).
+    max_turn_rate, max_acceleration, max_climb_rate : float, optional
+        Largest turn rate (rad/s), tangential acceleration or deceleration (m/s^2), and
+        climb or descent rate (m/s).
     min_altitude, max_altitude : float, optional
         Altitude band (m, ENU up) the platform may not leave at the end of a step.
     on_limit : {"clip", "raise"}, optional
@@ -302,10 +288,19 @@ class PlatformKinematics:
 
     def sensor_states(self, state: PlatformState, actions: Actions, interval: float,
                       times: ArrayLike) -> Array:
-        """Sensor states ``(*shape, n, 6)`` along every candidate step at ``times`` (s).
+        """Return the sensor states along every candidate step at ``times``.
 
-        Shorthand for ``self.step(state, actions, interval).sensor_states(times)``; see
-        :meth:`step` and :meth:`Step.sensor_states`.
+        Parameters
+        ----------
+        state, actions, interval
+            As for :meth:`step` (``interval`` in s).
+        times : array_like, shape (n,)
+            Times (s) inside the step.
+
+        Returns
+        -------
+        ndarray, shape (*shape, n, 6)
+            ``self.step(state, actions, interval).sensor_states(times)`` (m, m/s).
         """
         return self.step(state, actions, interval).sensor_states(times)
 
@@ -356,9 +351,8 @@ class PlatformTrack(SensorTrack):
 
     Notes
     -----
-    :meth:`states` refuses times outside the flown path (as
-    :class:`~tmakit.sensors.RecordedTrack` does).  At a step boundary the later step is
-    used; horizontal velocity is continuous there, the climb rate may change.
+    At a step boundary the later step is used: horizontal velocity is continuous there, the
+    climb rate may change.  Times outside the path are refused, as by ``RecordedTrack``.
     """
 
     def __init__(self, steps: Sequence[Step]) -> None:
@@ -399,7 +393,17 @@ class PlatformTrack(SensorTrack):
         return self.steps[-1].end
 
     def states(self, t: ArrayLike) -> Array:
-        """ENU position and velocity ``(n, 6)`` (m, m/s) at times ``t`` (s).
+        """Return the ENU position and velocity at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like, shape (n,)
+            Times (s) inside the path.
+
+        Returns
+        -------
+        ndarray, shape (n, 6)
+            ``[x, y, z, vx, vy, vz]`` (m, m/s).
 
         Raises
         ------
@@ -459,8 +463,8 @@ Index ``5 * f + h``: speed factor ``(0.9, 1.0, 1.1)[f]``, heading change
 ``(-10, -5, 0, +5, +10)[h]`` degrees.  The paper gives the limits per step; here the speed
 range is [50, 200] m/s (a factor that would leave it is clipped to it and reported), the
 turn-rate limit 10 degrees per 0.5 s step (20 deg/s, reached by the +-10 degree actions), no
-acceleration limit (the paper states none).  The paper does not say how a heading change is
-flown inside the step; here it is a constant turn rate and constant acceleration."""
+acceleration limit (the paper states none); a heading change is flown as a constant turn
+rate and constant acceleration (the paper does not say how)."""
 
 PLATFORM_CONFIGURATIONS: dict[str, PlatformConfiguration] = {
     HURTADO_NEHORAI_2008.name: HURTADO_NEHORAI_2008,
@@ -478,6 +482,7 @@ def platform_configuration(name: str) -> PlatformConfiguration:
     Returns
     -------
     PlatformConfiguration
+        The configuration (interval in s, limits in m/s, rad/s, m/s^2).
 
     Raises
     ------

@@ -49,8 +49,9 @@ class TrackingError(ValueError):
         super().__init__(self.render())
 
     def render(self, names: Mapping[str, str] | None = None) -> str:
-        """The message with the parameters spelt as ``names`` says (the library's spelling
-        for those it does not give).
+        """Return the message with the parameters spelt as ``names`` says.
+
+        Parameters that ``names`` leaves out keep the library's spelling.
 
         Parameters
         ----------
@@ -70,7 +71,7 @@ class TrackingError(ValueError):
         return _PLACEHOLDER.sub(spell, self.template)
 
     def extended(self, text: str) -> TrackingError:
-        """The same error with ``text`` appended to its message.
+        """Return the same error with ``text`` appended to its message.
 
         Parameters
         ----------
@@ -91,9 +92,12 @@ class TrackingError(ValueError):
 
 
 class StartError(TrackingError):
-    """The data cannot start the filter (no initial window gives a good enough batch
-    estimate, or the chosen window does not); the message says which parameters offer a way
-    out (a prior, a looser start quality, a longer window)."""
+    """The data cannot start the filter.
+
+    No initial window gives a good enough batch estimate, or the chosen window does not;
+    the message says which parameters offer a way out (a prior, a looser start quality, a
+    longer window).
+    """
 
 
 class MissingNuisanceError(TrackingError):

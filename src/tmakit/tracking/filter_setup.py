@@ -31,7 +31,7 @@ _THREE_D_MOTIONS = ("cv3d", "static3d")
 
 
 def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
-    """The filter's spatial dimension.
+    """Return the filter's spatial dimension.
 
     Parameters
     ----------
@@ -81,6 +81,10 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
     ------
     TrackingError
         Text, the wrong number of values, or a negative or non-finite one (parameter ``q``).
+
+    References
+    ----------
+    Chen & Sun (1993), §2.1: ``Q_k`` of the nearly-constant-velocity model these scale.
     """
     if isinstance(q, str | bytes):
         raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
@@ -104,7 +108,7 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
 
 def state_vector(values: Mapping[str, float] | ArrayLike, names: tuple[str, ...],
                  what: str) -> Array:
-    """A state-sized vector given by state name or in state order.
+    """Read a state-sized vector given by state name or in state order.
 
     Parameters
     ----------
@@ -145,7 +149,7 @@ def state_vector(values: Mapping[str, float] | ArrayLike, names: tuple[str, ...]
 
 
 def filter_class(name: str) -> type[TrackingFilter]:
-    """The filter class registered as ``name`` in :data:`tmakit.filters.FILTERS`.
+    """Return the filter class registered as ``name`` in :data:`tmakit.filters.FILTERS`.
 
     Parameters
     ----------
@@ -182,7 +186,7 @@ def random_filters() -> list[str]:
 
 def _filter_kwargs(cls: type[TrackingFilter], particles: int | None,
                    rng: np.random.Generator | int | None) -> dict[str, Any]:
-    """The particle count and random generator, for the filters that take them."""
+    """Return the particle count and random generator, for the filters that take them."""
     kwargs: dict[str, Any] = {}
     if particles is not None:
         if not cls.takes_particles:
@@ -270,7 +274,7 @@ class FilterSetup:
 
     def from_prior(self, mean: Array, covariance: Array, time: float,
                    nuisance: Mapping[str, float] | None) -> TrackingFilter:
-        """A filter started from a Gaussian prior.
+        """Start a filter from a Gaussian prior.
 
         Parameters
         ----------
@@ -290,8 +294,9 @@ class FilterSetup:
         return self.cls(mean, covariance, time, q=self.q, nuisance=nuisance, **self._extra())
 
     def from_estimate(self, estimate: EstimateResult, time: float) -> TrackingFilter:
-        """A filter started from a batch estimate at ``time`` (s), with its nuisance values
-        (:meth:`~tmakit.filters.TrackingFilter.from_estimate`).
+        """Start a filter from a batch estimate at ``time`` (s), with its nuisance values.
+
+        See :meth:`~tmakit.filters.TrackingFilter.from_estimate`.
 
         Parameters
         ----------

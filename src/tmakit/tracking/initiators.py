@@ -117,7 +117,27 @@ class PriorInitiator(Initiator):
         self.nuisance = dict(nuisance or {})
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
-        """Start at the prior and update with every row (see :meth:`Initiator.initiate`)."""
+        """Start at the prior and update with every row (see :meth:`Initiator.initiate`).
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (not empty; SI).
+        setup : FilterSetup
+            The filter and its settings.
+
+        Returns
+        -------
+        Initiation
+            The start record and the track (s, m, m/s).
+
+        Raises
+        ------
+        TrackingError
+            A prior component missing, unknown or not finite, or a std <= 0.
+        MissingNuisanceError
+            Nuisance values the measurement kinds need are not given.
+        """
         names = setup.state_names
         mean = state_vector(self.mean, names, "prior")
         std = state_vector(self.std, names, "prior_std")
@@ -191,6 +211,18 @@ class BatchInitiator(Initiator):
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Search the window, start, test, and run (see :meth:`Initiator.initiate`).
 
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (not empty; SI).
+        setup : FilterSetup
+            The filter and its settings.
+
+        Returns
+        -------
+        Initiation
+            The start record and the track (s, m, m/s).
+
         Raises
         ------
         StartError
@@ -228,8 +260,11 @@ class BatchInitiator(Initiator):
 
 
 def _confirmation(after: Track, window: int) -> Confirmation:
-    """The innovation test of a start: the NIS summed over the next ``max(window,
-    MIN_WINDOW)`` updates against chi-square with their degrees of freedom."""
+    """Run the innovation test of a start.
+
+    The NIS summed over the next ``max(window, MIN_WINDOW)`` updates against chi-square with their
+    degrees of freedom.
+    """
     from scipy.stats import chi2
 
     m = min(len(after), max(window, MIN_WINDOW))
@@ -242,7 +277,7 @@ def _confirmation(after: Track, window: int) -> Confirmation:
 
 def _prepend(tr: Track, time: float, state: Array, cov: Array, names: tuple[str, ...]
              ) -> Track:
-    """The track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
+    """Return the track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
     return Track(tr.filter_name or "", names,
                  np.concatenate([[time], tr.times]),
                  np.concatenate([state[None], tr.states]),

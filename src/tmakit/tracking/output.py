@@ -29,7 +29,7 @@ def _clean(v: object) -> object:
 
 
 def track_dict(tr: Track) -> dict[str, object]:
-    """The track as JSON-ready data.
+    """Return the track as JSON-ready data.
 
     Parameters
     ----------
@@ -67,7 +67,7 @@ class TrackTable:
 
 
 def track_table(tr: Track) -> TrackTable:
-    """The table and metadata a track file holds.
+    """Return the table and metadata a track file holds.
 
     Parameters
     ----------

@@ -19,7 +19,7 @@ __all__ = ["track_pcrb"]
 def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, *,
                trajectories: int = 200, rng: np.random.Generator | int | None = 0
                ) -> tuple[Any | None, str]:
-    """The posterior CRB of a tracker that starts where ``tr`` started.
+    """Compute the posterior CRB of a tracker that starts where ``tr`` started.
 
     The bound (:mod:`tmakit.bounds.pcrb`; Hurtado & Nehorai (2008), eqs. 10-11, after
     Tichavský et al. (1998)) has the same prior covariance, q, options and nuisance values as

@@ -24,9 +24,10 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Confirmation:
-    """The innovation test of a batch start: the normalised innovation squared (NIS) summed
-    over the first ``updates`` updates after it, against chi-square with ``dof`` degrees of
-    freedom.
+    """The innovation test of a batch start.
+
+    The normalised innovation squared (NIS) summed over the first ``updates`` updates after it,
+    against chi-square with ``dof`` degrees of freedom.
 
     Parameters
     ----------
@@ -46,7 +47,13 @@ class Confirmation:
     p_value: float
 
     def as_dict(self) -> dict[str, float | int]:
-        """The JSON form: ``updates``, ``nis``, ``dof``, ``p_value``."""
+        """Return the JSON form: ``updates``, ``nis``, ``dof``, ``p_value``.
+
+        Returns
+        -------
+        dict
+            The test's figures by key (NIS and p-value dimensionless).
+        """
         return {"updates": self.updates, "nis": self.nis, "dof": self.dof,
                 "p_value": self.p_value}
 
@@ -70,11 +77,23 @@ class Rejection:
     confirmation: Confirmation
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form: ``window``, ``time`` and the test's keys."""
+        """Return the JSON form: ``window``, ``time`` and the test's keys.
+
+        Returns
+        -------
+        dict
+            The window (distinct times), its last time (s) and the test's figures.
+        """
         return {"window": self.window, "time": self.time, **self.confirmation.as_dict()}
 
     def describe(self) -> str:
-        """One sentence: the window and its test."""
+        """Describe the rejection in one sentence: the window and its test.
+
+        Returns
+        -------
+        str
+            The sentence (time in s).
+        """
         c = self.confirmation
         return (f"window of {self.window} times (t <= {float(self.time):g} s): NIS "
                 f"{float(c.nis):.4g} on {c.dof} degrees of freedom over the next "
@@ -94,9 +113,9 @@ class PriorStart:
     std : ndarray, shape (n,)
         Its standard deviations as given (m, m/s).
     covariance : ndarray, shape (n, n)
-        ``diag(std**2)``.
+        ``diag(std**2)`` (m^2, m^2/s^2).
     nuisance : dict of str to float
-        The known nuisance values given with it.
+        The known nuisance values given with it (Hz, dBW, ...).
     state_names : tuple of str
         The state components.
     """
@@ -111,7 +130,13 @@ class PriorStart:
     state_names: tuple[str, ...]
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form: ``method`` (``"prior"``), ``time``, ``mean`` and ``std`` by name."""
+        """Return the JSON form: ``method`` (``"prior"``), ``time``, ``mean``, ``std`` by name.
+
+        Returns
+        -------
+        dict
+            The start; time in s, mean and std in SI state units (m, m/s).
+        """
         return {"method": self.method, "time": self.time,
                 "mean": dict(zip(self.state_names, self.mean.tolist(), strict=True)),
                 "std": dict(zip(self.state_names, self.std.tolist(), strict=True))}
@@ -133,7 +158,7 @@ class BatchStart:
     covariance : ndarray, shape (n, n)
         Its covariance (SI).
     nuisance : dict of str to float
-        The nuisance values the filter holds (from the estimate).
+        The nuisance values the filter holds, from the estimate (Hz, dBW, ...).
     state_names : tuple of str
         The state components.
     estimate : EstimateResult
@@ -171,10 +196,17 @@ class BatchStart:
     rejected: tuple[Rejection, ...] = field(default_factory=tuple)
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form: ``method`` (``"batch"``), ``window``, ``rows``, ``time``,
-        ``status``, ``chi2``, ``dof``, ``relative_position_std``, ``max_relative_std``,
-        ``windows_tried``, ``nuisance`` (value and std by name), ``confirmation`` and
-        ``rejected``."""
+        """Return the JSON form.
+
+        Keys ``method`` (``"batch"``), ``window``, ``rows``, ``time``, ``status``, ``chi2``,
+        ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``, ``nuisance``
+        (value and std by name), ``confirmation`` and ``rejected``.
+
+        Returns
+        -------
+        dict
+            The start; times in s, nuisance values in their SI units (Hz, dBW, ...).
+        """
         est = self.estimate
         out: dict[str, Any] = {
             "method": self.method,

@@ -33,7 +33,7 @@ def _initiator(initiator: Initiator | None,
                prior_std: Mapping[str, float] | ArrayLike | None, prior_time: float | None,
                nuisance: Mapping[str, float] | None, init_window: int | None,
                max_relative_std: float, confirm: bool) -> Initiator:
-    """The initiator given, or the one the start keywords of :func:`track` describe."""
+    """Return the initiator given, or the one the start keywords of :func:`track` describe."""
     if initiator is not None:
         if any(v is not None for v in (prior, prior_std, prior_time, nuisance, init_window)) \
                 or max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm:
@@ -96,7 +96,7 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     options : mapping, optional
         Per-kind measurement-model options, as for :func:`tmakit.batch.estimate`.
     nuisance : mapping of str to float, optional
-        Known nuisance values, with a prior only.
+        Known nuisance values (Hz, dBW, ...), with a prior only.
     initiator : Initiator, optional
         The start policy; then none of the start keywords above may be given.
 

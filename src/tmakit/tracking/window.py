@@ -78,9 +78,12 @@ class WindowChoice:
 
 def _relative_std(result: EstimateResult, rows: MeasurementSet, time: float, dim: int
                   ) -> float | None:
-    """The position's largest 1-sigma semi-axis at ``time`` over the range to the nearest
-    sensor at the window's last time (``inf`` at zero range); ``None`` when the position
-    covariance is not finite (then the estimate is no start)."""
+    """Return the position's largest 1-sigma semi-axis over the range to the nearest sensor.
+
+    The semi-axis is at ``time``, the range to the nearest sensor at the window's last time
+    (``inf`` at zero range); ``None`` when the position covariance is not finite (then the estimate
+    is no start).
+    """
     theta = result.estimate
     motion = result.motion
     state = motion.states(theta, np.array([time]))[0]
@@ -128,7 +131,7 @@ class _Windows:
         return WindowChoice(self(k), len(self.tried))
 
     def no_start(self, max_relative_std: float) -> StartError:
-        """The error when no window qualifies: the best one, and the ways out."""
+        """Build the error when no window qualifies: the best one, and the ways out."""
         usable = [(w.relative_position_std, k) for k, w in self.tried.items()
                   if np.isfinite(w.relative_position_std)]
         if usable:
@@ -148,7 +151,7 @@ def search_window(meas: MeasurementSet, dim: int,
                   options: Mapping[str, Mapping[str, object]] | None = None,
                   init_window: int | None = None, max_relative_std: float = 0.25, *,
                   min_window: int = MIN_WINDOW) -> WindowChoice:
-    """The initial window a batch start uses.
+    """Return the initial window a batch start uses.
 
     Parameters
     ----------
