@@ -7,9 +7,9 @@ are covariances in SI units (m^2, m^2/s, m^2/s^2); the functions do not care whi
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-Array = NDArray[np.float64]
+from .arrays import Array
 
 
 def symmetrise(p: Array) -> Array:

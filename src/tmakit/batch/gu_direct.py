@@ -49,8 +49,8 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..results.estimate import (
@@ -76,8 +76,6 @@ from .gu_geometry import (
     select_kinds,
     snr_from_sigma_db,
 )
-
-Array = NDArray[np.float64]
 
 __all__ = ["GuDirect", "PlanarGeometry", "gu_direct"]
 

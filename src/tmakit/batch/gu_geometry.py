@@ -14,11 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
 from ..results.estimate import CONVERGED, DIVERGED
-
-Array = NDArray[np.float64]
 
 PAPER_KINDS = ("power", "frequency")
 """The measurement kinds of Gu et al. (2007), in the column order of theta_pf."""

@@ -42,8 +42,8 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
@@ -53,8 +53,6 @@ from ..results.observability import RANK_TOL, normalise
 from .estimator import Init, PaperMethod
 from .gu_geometry import DIVERGENCE_FACTOR
 from .solver import VarProProblem
-
-Array = NDArray[np.float64]
 
 
 def _check(meas: MeasurementSet, motion: MotionModel) -> float:

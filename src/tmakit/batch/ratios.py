@@ -89,8 +89,8 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
@@ -125,8 +125,6 @@ from .ratio_noise import (
     ratio_pairs,
     tridiagonal,
 )
-
-Array = NDArray[np.float64]
 
 __all__ = ["RatioMethod", "doppler_ratio_covariance", "nuisance_given_theta",
            "power_ratio_covariance", "ratio_method"]

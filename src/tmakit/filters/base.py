@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..linalg import check_prior, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity, state_names
@@ -25,7 +26,6 @@ from .kernels import KernelRun
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
 
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

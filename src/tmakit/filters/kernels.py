@@ -38,11 +38,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..observation.groups import TIME_TOLERANCE
-
-Array = NDArray[np.float64]
 
 TWO_PI = 2.0 * math.pi
 LOG_2PI = math.log(TWO_PI)

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..frames import wrap_angle
 
-Array = NDArray[np.float64]
 Index = int | slice | Sequence[int] | NDArray[np.integer] | NDArray[np.bool_]
 
 _SERIES_BELOW = 0.25  # |w s| below this: E1, E2 from their power series (closed form above

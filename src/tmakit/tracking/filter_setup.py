@@ -12,8 +12,9 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..filters import FILTERS, TrackingFilter, state_names
 from .errors import TrackingError
@@ -24,7 +25,6 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["FilterSetup", "filter_class", "filter_dim", "process_noise", "random_filters",
            "state_vector"]
 
-Array = NDArray[np.float64]
 Options = Mapping[str, Mapping[str, object]]
 
 _THREE_D_MOTIONS = ("cv3d", "static3d")

@@ -24,8 +24,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..filters import Track
 from ..measurements import model_for
@@ -37,7 +38,6 @@ from .window import MIN_WINDOW, search_window
 __all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "BatchInitiator", "Initiation",
            "Initiator", "PriorInitiator"]
 
-Array = NDArray[np.float64]
 
 #: Default start quality: the position's largest 1-sigma semi-axis over the range.
 DEFAULT_MAX_RELATIVE_STD = 0.25

@@ -11,15 +11,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
-import numpy as np
-from numpy.typing import NDArray
+from ..arrays import Array
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
 
 __all__ = ["BatchStart", "Confirmation", "PriorStart", "Rejection", "StartRecord"]
 
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
