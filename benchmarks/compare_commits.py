@@ -1,0 +1,130 @@
+"""Speed of this tree beside an earlier commit, workload by workload (a refactor's check).
+
+    python benchmarks/compare_commits.py --base 77818d8 [--repeat 7]
+
+The base commit's ``src`` is exported to a temporary folder; every workload then runs in a
+fresh subprocess for each tree, alternating base and head ``--repeat`` times, and reports the
+median CPU time of the workload itself (``time.process_time`` around it, so imports and other
+processes on the machine do not count; BLAS held to one thread) with its interquartile range,
+and head / base.
+The workloads use only APIs both trees have (``tmakit.estimate``, ``tmakit.track``,
+``tmakit.bounds.crlb``, ``tmakit.montecarlo.monte_carlo``, ``tmakit.read_measurements``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tarfile
+import tempfile
+from io import BytesIO
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+WORKLOADS = {
+    "ml no-guess, gu2007 x20": """
+scn = tk.load_scenario("gu2007"); data = [scn.simulate(rng=s) for s in range(20)]
+t = time.process_time()
+for m in data: tk.estimate(m, scn.motion)
+""",
+    "crlb gu2007 x20": """
+from tmakit.bounds import crlb
+scn = tk.load_scenario("gu2007"); crlb(scn)
+t = time.process_time()
+for _ in range(20): crlb(scn)
+""",
+    "track ekf bearings-only-2d": """
+m = tk.load_scenario("bearings-only-2d").simulate(rng=3); tk.track(m, "ekf")
+t = time.process_time()
+for _ in range(3): tk.track(m, "ekf")
+""",
+    "track ukf gu2007": """
+m = tk.load_scenario("gu2007").simulate(rng=3); tk.track(m, "ukf")
+t = time.process_time()
+for _ in range(3): tk.track(m, "ukf")
+""",
+    "track pf 2000 bearings-only-2d": """
+m = tk.load_scenario("bearings-only-2d").simulate(rng=3)
+t = time.process_time()
+tk.track(m, "pf", particles=2000, rng=1)
+""",
+    "monte carlo gu2007 300 runs": """
+from tmakit.montecarlo import monte_carlo
+scn = tk.load_scenario("gu2007")
+t = time.process_time()
+monte_carlo(scn, runs=300, seed=1, progress=False)
+""",
+    "read 100k-row csv": """
+import numpy as np
+scn = tk.load_scenario("bearings-only-2d")
+big = tk.MeasurementSet.concatenate([scn.simulate(rng=s) for s in range(167)])
+import tempfile, os
+d = tempfile.mkdtemp(); p = os.path.join(d, "big.csv"); tk.write_measurements(big, p)
+t = time.process_time()
+tk.read_measurements(p)
+""",
+    "manoeuvres hoerst2010 curvilinear:2": """
+m = tk.load_scenario("hoerst2010").simulate(rng=2)
+t = time.process_time()
+tk.estimate(m, "curvilinear:2")
+""",
+}
+
+
+def export(rev: str, into: Path) -> Path:
+    """The ``src`` folder of commit ``rev``, unpacked below ``into``."""
+    data = subprocess.run(["git", "archive", rev, "src"], cwd=ROOT, check=True,
+                          capture_output=True).stdout
+    with tarfile.open(fileobj=BytesIO(data)) as tar:
+        tar.extractall(into, filter="data")
+    return into / "src"
+
+
+def run(src: Path, body: str) -> float:
+    """CPU seconds of one workload in a fresh interpreter on the package in ``src``."""
+    code = ("import time, json\nimport tmakit as tk\n" + body.strip()
+            + "\nprint(json.dumps(time.process_time() - t))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={"PYTHONPATH": str(src), "PATH": "/usr/bin:/bin",
+                              "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"},
+                         check=False)
+    if out.returncode != 0:
+        raise RuntimeError(out.stderr[-2000:])
+    return float(json.loads(out.stdout.strip().splitlines()[-1]))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--base", required=True, help="the commit to compare with")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--only", default=None, help="run the workloads whose name has this text")
+    args = ap.parse_args()
+    head = ROOT / "src"
+    with tempfile.TemporaryDirectory() as tmp:
+        base = export(args.base, Path(tmp))
+        print(f"{'workload':38s} {'base (s)':>16s} {'head (s)':>16s} {'head/base':>9s}")
+        for name, body in WORKLOADS.items():
+            if args.only and args.only not in name:
+                continue
+            times = {"base": [], "head": []}
+            for _ in range(args.repeat):
+                times["base"].append(run(base, body))
+                times["head"].append(run(head, body))
+            stats = {}
+            for k, v in times.items():
+                q1, med, q3 = np.percentile(v, [25, 50, 75])
+                stats[k] = (med, q3 - q1)
+            ratio = stats["head"][0] / stats["base"][0]
+            print(f"{name:38s} {stats['base'][0]:9.4f} ±{stats['base'][1]:5.3f} "
+                  f"{stats['head'][0]:9.4f} ±{stats['head'][1]:5.3f} {ratio:9.3f}", flush=True)
+        print("medians of CPU time in fresh processes, base and head alternating; "
+              "± is the interquartile range")
+
+
+if __name__ == "__main__":
+    main()
