@@ -56,6 +56,9 @@ _LAZY = {
     "KnownNuisance": "results.nuisance",
     "Track": "filters",
     "PosteriorBound": "bounds",
+    "PosteriorInformation": "bounds",
+    "CrbSequence": "bounds",
+    "ManoeuvreEstimate": "batch.manoeuvre",
     "MonteCarloResult": "montecarlo",
     # estimators, bounds, applications
     "estimate": "batch",
@@ -74,7 +77,8 @@ _LAZY = {
 
 if TYPE_CHECKING:  # pragma: no cover
     from .batch import estimate
-    from .bounds import PosteriorBound, crlb, posterior_crb
+    from .batch.manoeuvre import ManoeuvreEstimate
+    from .bounds import CrbSequence, PosteriorBound, PosteriorInformation, crlb, posterior_crb
     from .data import MeasurementSet
     from .filters import Track
     from .geodesy import enu_to_geodetic, geodetic_to_enu
@@ -133,11 +137,13 @@ __all__ = [
     "KINDS",
     "Bound",
     "ConstantVelocity",
+    "CrbSequence",
     "EstimateResult",
     "FixedSensor",
     "KnownNuisance",
     "Leg",
     "LegsTrack",
+    "ManoeuvreEstimate",
     "MeasurementFileError",
     "MeasurementPlan",
     "MeasurementSet",
@@ -150,6 +156,7 @@ __all__ = [
     "PlatformState",
     "PlatformTrack",
     "PosteriorBound",
+    "PosteriorInformation",
     "RecordedTrack",
     "Scenario",
     "ScenarioFileError",

@@ -56,7 +56,10 @@ def montecarlo(
         write_study_table(res, output, force=force)
         out.print(f"wrote {output}", highlight=False)
     if json_file is not None:
-        json_file.write_text(res.to_json() + "\n")
+        from ..io import atomic_write
+
+        with atomic_write(json_file, force=force) as tmp:
+            tmp.write_text(res.to_json() + "\n")
         out.print(f"wrote {json_file}", highlight=False)
 
 

@@ -370,8 +370,8 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     def __init__(self, *args: Any, gain: str = "song-speyer", **kwargs: Any) -> None:
         if gain not in ("paper", "song-speyer"):
-            raise ValueError(f"gain must be 'paper' (003 §2.5: modified rows in the gain and "
-                             f"the covariance) or 'song-speyer' (EKF rows in the gain); "
+            raise ValueError(f"gain must be 'paper' (Chen & Sun, §2.5: modified rows in the gain "
+                             f"and the covariance) or 'song-speyer' (EKF rows in the gain); "
                              f"got {gain!r}")
         self.gain = gain
         self.fallbacks = 0

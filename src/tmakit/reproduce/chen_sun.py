@@ -133,7 +133,7 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
                          f"({height_guess} m)")
     b = meas.select(kind="bearing")
     if len(b) == 0:
-        raise ValueError("the initial guess of 003 §2.5 needs a bearing")
+        raise ValueError("the initial guess of Chen & Sun (§2.5) needs a bearing")
     i = int(np.argmin(b.time))
     beta = float(b.value_si[i])
     s = b.sensor_state[i]
@@ -287,7 +287,7 @@ def run(runs: int = RUNS, seed: int = 1, progress: bool = True,
     rep = ChenSunReproduction("chen-sun", lags=lags)
     rho = np.sqrt(RANGE_GUESS**2 - HEIGHT_GUESS**2)
     rep.sections.append(Section(
-        "Setup (003 §2.5, §3.1)", ["item", "value"], [
+        "Setup (Chen & Sun, §2.5, §3.1)", ["item", "value"], [
             ["receiver", "(30, 0, 0) km, azimuth (2 mrad) + lag-1 range differences (5 m), "
              "T = 1 s, 0..100 s (duration not in the paper)"],
             ["paths", "from (50, 60, 10) km at (-300, -300, 0), (-450, 0, 0), (0, -450, 0) m/s"],

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from ..arrays import Array
 from ..data import MeasurementSet
 from ..filters import FILTERS, TrackingFilter, state_names
+from ..motion import motion_from_name
 from .errors import TrackingError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -27,7 +28,6 @@ __all__ = ["FilterSetup", "filter_class", "filter_dim", "process_noise", "random
 
 Options = Mapping[str, Mapping[str, object]]
 
-_THREE_D_MOTIONS = ("cv3d", "static3d")
 
 
 def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
@@ -58,7 +58,13 @@ def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
         return int(dim)
     if meas.dim == 3:
         return 3
-    return 3 if meas.metadata.get("motion", "").strip().lower() in _THREE_D_MOTIONS else 2
+    name = meas.metadata.get("motion")
+    if not name:
+        return 2
+    try:  # the file's motion name, read by the one parser
+        return 3 if motion_from_name(name).dim == 3 else 2
+    except ValueError:
+        return 2
 
 
 def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
