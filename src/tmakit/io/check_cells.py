@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
 from ..measurements import KINDS
 from .cells import blank_mask, is_blank, number_text, show, text_column
-from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
+from .contract import GEO_COLUMNS, NUMERIC_COLUMNS, reference_kinds_text
 from .problems import Problems
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -206,11 +206,11 @@ def _time_ref_column(num: Numbers, kind: NDArray[np.object_], is_rd: NDArray[np.
     t = num.get("time", np.full(is_rd.shape[0], np.nan))
     return pa.Column("float64", nullable=True, checks=[
         checks.check("time_ref", "required", lambda v, r: ~np.isnan(v) | ~is_rd[r],
-                     "a time_ref (s) before time: range_difference rows need one",
+                     f"a time_ref (s) before time: {reference_kinds_text()} rows need one",
                      ignore_na=False),
         checks.check("time_ref", "unused", lambda v, r: np.isnan(v) | is_rd[r],
-                     lambda row: f"an empty cell: only range_difference rows have a time_ref "
-                                 f"(this row is {kind[row] or 'of no kind'})",
+                     lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
+                                 f"time_ref (this row is {kind[row] or 'of no kind'})",
                      ignore_na=False),
         checks.finite("time_ref"),
         checks.check("time_ref", "before_time",
@@ -226,7 +226,7 @@ def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_
 
     return pa.Column("float64", nullable=True, checks=[
         checks.check(c, "unused", lambda v, r: np.isnan(v) | is_rd[r],
-                     lambda row: f"an empty cell: only range_difference rows have a "
+                     lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
                                  f"sensor state at time_ref (this row is "
                                  f"{kind[row] or 'of no kind'})", ignore_na=False),
         checks.check(c, "complete", lambda v, r: ~np.isnan(v) | ~ref_given[r] | ~is_rd[r],

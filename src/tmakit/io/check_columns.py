@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from ..data import REF_STATE_COLUMNS
 from ..measurements import KINDS
-from .contract import GEO_COLUMNS, RANGE_DIFFERENCE
+from .contract import GEO_COLUMNS, reference_kinds, reference_kinds_text
 from .problems import Problems
 
 __all__ = ["Layout", "check_columns"]
@@ -55,8 +55,8 @@ def check_columns(columns: Collection[str], kinds: list[str], problems: Problems
             problems.missing(c)
     geodetic = _check_position(has, problems)
     has_velocity = _check_velocity(has, kinds, problems)
-    if RANGE_DIFFERENCE in kinds and not has("time_ref"):
-        problems.missing("time_ref", "; needed by the range_difference rows")
+    if any(k in kinds for k in reference_kinds()) and not has("time_ref"):
+        problems.missing("time_ref", f"; needed by the {reference_kinds_text()} rows")
     ref = [c for c in REF_STATE_COLUMNS if has(c)]
     if ref:
         for c in ("ref_sensor_x", "ref_sensor_y"):

@@ -22,7 +22,7 @@ from .cells import text_column
 from .check_cells import check_cells, read_numbers
 from .check_columns import check_columns
 from .check_rows import check_order
-from .contract import RANGE_DIFFERENCE
+from .contract import reference_kinds
 from .errors import MeasurementFileError
 from .positions import ref_sensor_state, sensor_state
 from .problems import Problems, RawTable
@@ -61,7 +61,7 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
               else np.full(n, "", dtype=object))
     kind = (np.array([k.strip() for k in text_column(frame["kind"])], dtype=object)
             if has("kind") else np.full(n, "", dtype=object))
-    is_rd = kind == RANGE_DIFFERENCE
+    is_rd = np.isin(kind, reference_kinds())
 
     layout = check_columns(frame.columns, [k for k in KINDS if np.any(kind == k)], problems)
     num = read_numbers(frame, problems)

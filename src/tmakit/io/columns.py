@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS, MeasurementSet
+from .contract import reference_kinds
 
 __all__ = ["file_columns"]
 
@@ -33,7 +34,7 @@ def file_columns(ms: MeasurementSet) -> dict[str, NDArray[Any]]:
     for i, c in enumerate(SENSOR_STATE_COLUMNS):
         cols[c] = ms.sensor_state[:, i]
     cols["time_ref"] = ms.time_ref
-    if np.any(ms.kind_mask("range_difference")):
+    if any(np.any(ms.kind_mask(k)) for k in reference_kinds()):
         for i, c in enumerate(REF_STATE_COLUMNS):
             cols[c] = ms.ref_sensor_state[:, i]
     return cols

@@ -15,7 +15,8 @@ __all__ = [
     "GEO_COLUMNS",
     "NUMERIC_COLUMNS",
     "PARQUET_METADATA_PREFIX",
-    "RANGE_DIFFERENCE",
+    "reference_kinds",
+    "reference_kinds_text",
 ]
 
 #: First line of every CSV file tmakit writes.
@@ -31,8 +32,24 @@ GEO_COLUMNS = ("sensor_lat", "sensor_lon", "sensor_alt")
 #: Columns read as numbers (float64, NaN for an empty cell).
 NUMERIC_COLUMNS = ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS,
                    "time_ref", *REF_STATE_COLUMNS)
-#: The kind whose rows carry ``time_ref`` and a reference sensor state.
-RANGE_DIFFERENCE = "range_difference"
+
+
+def reference_kinds() -> tuple[str, ...]:
+    """Name the kinds whose rows carry ``time_ref`` and a reference sensor state.
+
+    Returns
+    -------
+    tuple of str
+        The registered kinds with the ``uses_reference`` hook (today ``range_difference``).
+    """
+    from ..measurements import KINDS
+
+    return tuple(k for k, cls in KINDS.items() if cls.uses_reference)
+
+
+def reference_kinds_text() -> str:
+    """Name the reference kinds for messages (``range_difference``, or ``a / b``)."""
+    return " / ".join(reference_kinds())
 
 _AXES = {"x": "east (m, ENU)", "y": "north (m, ENU)", "z": "up (m, ENU)",
          "vx": "velocity east (m/s, ENU)", "vy": "velocity north (m/s, ENU)",
