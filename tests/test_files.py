@@ -391,7 +391,18 @@ def test_lat_lon_origin_argument_wins_and_is_recorded(tmp_path):
 
 def test_lat_lon_without_origin_is_refused(tmp_path):
     message = refused(write_csv(tmp_path, GEO_ROWS, GEO_HEADER))
-    assert "no ENU origin" in message and "--origin LAT,LON,ALT" in message
+    assert "no ENU origin" in message and "origin=(lat, lon, alt)" in message
+    assert "--" not in message  # the library names its parameter; the CLI names its flag
+
+
+def test_the_command_line_names_its_origin_flag(tmp_path):
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    result = CliRunner().invoke(app, ["show", str(write_csv(tmp_path, GEO_ROWS, GEO_HEADER))])
+    assert result.exit_code == 2
+    assert "--origin LAT,LON,ALT" in result.output and "read_measurements" not in result.output
 
 
 def test_lat_lon_out_of_range(tmp_path):
@@ -446,7 +457,7 @@ def test_no_overwrite_without_force(tmp_path, suffix):
     ms = realistic_set()
     with pytest.raises(FileExistsError) as info:
         write_measurements(ms, path)
-    assert str(path) in str(info.value) and "--force" in str(info.value)
+    assert str(path) in str(info.value) and "force=True" in str(info.value)
     assert path.read_bytes() == b"precious\x00bytes"
     assert sorted(os.listdir(tmp_path)) == [path.name]
     write_measurements(ms, path, force=True)

@@ -74,7 +74,7 @@ def test_atomic_write_replaces_or_refuses_and_cleans_up(tmp_path):
     with atomic_write(path) as tmp:
         tmp.write_text("one")
     assert path.read_text() == "one"
-    with pytest.raises(FileExistsError, match="--force"):
+    with pytest.raises(FileExistsError, match="force=True"):
         with atomic_write(path):
             pass
     with pytest.raises(RuntimeError):

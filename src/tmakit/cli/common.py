@@ -173,7 +173,9 @@ def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None) -
     try:
         return read_measurements(path, origin=origin)
     except (MeasurementFileError, ValueError) as e:
-        raise fail(str(e)) from None
+        from ..io.positions import ORIGIN_HINT
+
+        raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
 
 
 def write_or_fail(meas: Any, path: Path, force: bool) -> None:

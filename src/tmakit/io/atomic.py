@@ -15,7 +15,8 @@ __all__ = ["atomic_write", "exists_error", "fsync_file"]
 
 
 def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
-    """Build the error for refusing to overwrite ``path`` (naming ``--force``, ``force=True``).
+    """Build the error for refusing to overwrite ``path`` (naming ``force=True``; the command
+    line says ``--force`` in its own message).
 
     Parameters
     ----------
@@ -27,7 +28,7 @@ def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
     FileExistsError
         Not raised: the caller raises it.
     """
-    return FileExistsError(f"{path} already exists; use --force (force=True) to overwrite it")
+    return FileExistsError(f"{path} already exists; pass force=True to overwrite it")
 
 
 @contextlib.contextmanager

@@ -18,6 +18,9 @@ from .check_columns import Layout
 from .contract import GEO_COLUMNS
 from .problems import Problems
 
+#: How a caller of the library gives the ENU origin (the command line replaces it with its flag).
+ORIGIN_HINT = "origin=(lat, lon, alt) to read_measurements"
+
 __all__ = ["ORIGIN_KEYS", "ref_sensor_state", "resolve_origin", "sensor_state"]
 
 Numbers = dict[str, NDArray[np.float64]]
@@ -57,8 +60,7 @@ def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
     if "origin_lat" not in metadata and "origin_lon" not in metadata:
         problems.file.append(
             "sensor positions are given as sensor_lat/sensor_lon but no ENU origin is "
-            "known: pass an origin (read_measurements(path, origin=(lat, lon, alt)), or "
-            "--origin LAT,LON,ALT on the command line) or add metadata lines "
+            f"known: pass {ORIGIN_HINT} or add metadata lines "
             "'# origin_lat: ...', '# origin_lon: ...', '# origin_alt: ...'")
         return None, {}
     values = []
