@@ -275,7 +275,9 @@ def is_measurement_file(text: str) -> bool:
     bool
         True for a measurement file, False for a scenario name or TOML file.
     """
-    return Path(text).suffix.lower() in (".csv", ".parquet", ".pq")
+    from ..io import find_format  # the registry, so that a new format is recognised here too
+
+    return find_format(text, reading=True) is not None
 
 
 # Options shared by the commands that fit or bound a motion model.
