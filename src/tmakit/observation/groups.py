@@ -376,7 +376,7 @@ class MeasurementGroup:
 
         References
         ----------
-        Tichavský, Muravchik & Nehorai (1998), eq. 13 (Gaussian noise, closed form).
+        Hurtado & Nehorai (2008), eq. 13 (``Xi``, closed form for Gaussian noise).
         """
         w = self.noise.whiten(self.jacobian(x, sensor_state), axis=-2)
         return np.einsum("...mi,...mj->...ij", w, w)
