@@ -1,44 +1,30 @@
 """The posterior (Bayesian) Cramér–Rao bound of a recursive tracker.
 
 For nearly-constant-velocity dynamics ``x_{k+1} = F x_k + w_k``, ``w_k ~ N(0, Q_k)``
-(Chen & Sun 1993, §2.1) and measurements ``z_k = h_k(x_k) + v_k``,
-``v_k ~ N(0, R_k)``, the Bayesian information about the state ``x_k`` obeys the Tichavský
-recursion (Tichavský, Muravchik & Nehorai 1998, eqs. 10-11; Hurtado & Nehorai 2008):
+(Chen & Sun, §2.1) and measurements ``z_k = h_k(x_k) + v_k``, ``v_k ~ N(0, R_k)``, the
+information about ``x_k`` obeys the recursion of Tichavský, Muravchik & Nehorai (1998), as
+Hurtado & Nehorai (2008), eqs. 10-11 write it:
 
     J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1},
     Gamma_{k+1} = E_x[ H_{k+1}(x)^T R_{k+1}^{-1} H_{k+1}(x) ],
 
-starting from the inverse of the prior covariance, ``J_0 = P_0^{-1}``.  ``H`` is the Jacobian
-of the group's predicted values with respect to the state (Gaussian noise: eq. 13's Fisher
-information ``Xi`` in closed form).  The recursion itself is the object
-:class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`; this module runs it over a
-measurement set and reports the result.  ``J_k^{-1}`` bounds the mean-square error matrix of any
-estimator of ``x_k`` from the measurements up to ``k``, averaged over the prior and the process
-noise.
+from ``J_0 = P_0^{-1}``, ``H`` the Jacobian of the predictions (Gaussian noise: ``Xi`` of
+eq. 13 in closed form).  :class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation` runs it;
+this module applies it to a measurement set.  ``J_k^{-1}`` bounds the MSE matrix of any
+estimator of ``x_k`` from the measurements up to ``k``, averaged over prior and noise.
 
-**Numerics.**  The prediction is in information form (Woodbury, no inverse of ``J`` or of
-``Q``): see :mod:`tmakit.bounds.pcrb_recursion`.
+**Expectation.**  ``Gamma`` is averaged over trajectories sampled from the prior and the
+dynamics.  :func:`deterministic_pcrb` evaluates ``H`` along the prior-mean trajectory instead
+(for ``q = 0`` the batch CRLB plus the prior's information); with a wide prior the two differ a
+lot.  The expectation can be heavy-tailed (a bearing's information grows as ``1/r^2``), so each
+Monte Carlo bound carries a standard error (batch means over 10 sets of trajectories) and the
+largest share of one trajectory in ``Gamma_k``, with a note when one dominates.
 
-**Expectation.**  ``Gamma`` is averaged over trajectories drawn from the model (Monte Carlo:
-``x_0 ~ N(m_0, P_0)``, then the dynamics with process noise), vectorised over trajectories.
-:func:`deterministic_pcrb` instead evaluates ``H`` along the prior-mean trajectory (no
-sampling): the *deterministic-trajectory bound*, which for ``q = 0`` equals the batch CRLB of
-the same data with the prior's information added.  The two differ, often a lot, when the prior
-is wide: the information at the mean is not the mean information.  The expectation can be
-heavy-tailed — a bearing's information grows as ``1/r^2``, so the few trajectories that pass
-close to a sensor dominate it (in 2-D with a prior density at the sensor, ``E[1/r^2]`` even
-diverges and the bound's regularity conditions fail).  Each Monte Carlo bound therefore carries
-a standard error (batch means over 10 disjoint sets of trajectories) and the largest share of
-one trajectory in ``Gamma_k``, and says so in its notes when one trajectory dominates.
-
-**Measurements.**  Rows are grouped by time (one update per distinct time, as
-:meth:`tmakit.filters.TrackingFilter.run` does) and predicted by
-:class:`tmakit.observation.MeasurementGroup`: any kinds, any sensors (moving sensors need nothing
-special: each row carries its sensor's state), range differences with the group's correlated
-``R`` and their earlier sample back-propagated at constant velocity.  Nuisance parameters are
-known values (as for the filters).  The recursion assumes the measurement noise of different
-groups to be independent; range differences whose pulse intervals overlap across groups
-violate that, which is reported in :attr:`PosteriorBound.notes` and by a warning.
+**Measurements.**  One update per distinct time (as :meth:`tmakit.filters.TrackingFilter.run`),
+predicted by :class:`tmakit.observation.MeasurementGroup` (any kinds and sensors; range
+differences with their correlated ``R``); nuisance parameters are known values.  Range
+differences whose pulse intervals overlap across groups break the assumed independence: a note
+in :attr:`PosteriorBound.notes` and a warning say so.
 """
 
 from __future__ import annotations
@@ -110,14 +96,22 @@ class PosteriorBound:
     max_share: Array | None = None
 
     def __len__(self) -> int:
+        """Return the number of updates ``K``."""
         return int(self.times.shape[0])
 
     @property
     def dim(self) -> int:
+        """The state's dimension, 2 or 3."""
         return len(self.state_names) // 2
 
     def index_at(self, time: float) -> int:
-        """Index of the last update at or before ``time`` (s)."""
+        """Return the index of the last update at or before ``time`` (s).
+
+        Raises
+        ------
+        ValueError
+            When ``time`` is before the first update.
+        """
         k = int(np.searchsorted(self.times, float(time) + 1e-9, side="right")) - 1
         if k < 0:
             raise ValueError(f"no update at or before t={time} s (the first is at "
@@ -125,8 +119,19 @@ class PosteriorBound:
         return k
 
     def at(self, time: float) -> dict[str, object]:
-        """The bound after the last update at or before ``time`` (s): time, std per state
-        component and the position RMS bound (m)."""
+        """Return the bound after the last update at or before ``time`` (s).
+
+        Returns
+        -------
+        dict
+            ``time`` (s), ``std`` per state component (m, m/s), ``position_rms`` (m) and,
+            for Monte Carlo, ``position_rms_se`` (m).
+
+        Raises
+        ------
+        ValueError
+            When ``time`` is before the first update.
+        """
         k = self.index_at(time)
         out: dict[str, object] = {
             "time": float(self.times[k]),
@@ -137,7 +142,7 @@ class PosteriorBound:
         return out
 
     def as_dict(self) -> dict[str, object]:
-        """The JSON form (SI units)."""
+        """Return the JSON form (SI units)."""
         return {
             "bound": "posterior CRB (Tichavsky recursion)",
             "mode": self.mode,
@@ -157,11 +162,23 @@ class PosteriorBound:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
+        """Return :meth:`as_dict` as JSON text, indented by ``indent`` (None: one line)."""
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self, times: ArrayLike | None = None) -> str:
-        """A table of the bound's standard deviations and position RMS at ``times`` (default:
-        five times spread over the track)."""
+        """Return a table of the bound's standard deviations and position RMS.
+
+        Parameters
+        ----------
+        times : array_like, optional
+            Times, s (default: five spread over the track); each shows the last update at
+            or before it.
+
+        Returns
+        -------
+        str
+            The table (m, m/s), one line per time, and the notes.
+        """
         if times is None:
             idx = np.unique(np.linspace(0, len(self) - 1, min(5, len(self))).round().astype(int))
         else:
@@ -189,8 +206,7 @@ def _nan_to_none(values: Array | None) -> list[float | None] | None:
 
 # -- inputs ---------------------------------------------------------------------------------
 def _cross_group_correlation(meas: MeasurementSet, groups: list[NDArray[np.int64]]) -> bool:
-    """True if two range differences of one sensor in different groups share a pulse
-    interval (overlapping ``(time_ref, time]`` spans): noise correlated across updates."""
+    """Tell whether range differences of one sensor in two groups share a pulse interval."""
     label = np.empty(len(meas), dtype=np.int64)
     for g, idx in enumerate(groups):
         label[idx] = g
@@ -246,8 +262,7 @@ def _resolve_source(source: object, prior_mean: ArrayLike | None,
 
 @dataclass
 class _Setup:
-    """What the recursion runs on: the measurements grouped by time, the prior and the
-    dynamics."""
+    """What the recursion runs on: measurements grouped by time, prior and dynamics."""
 
     meas: MeasurementSet
     groups: list[NDArray[np.int64]]
@@ -308,9 +323,7 @@ def _correlation_notes(setup: _Setup) -> list[str]:
 
 
 def _batch_starts(trajectories: int, sample: bool) -> tuple[NDArray[np.intp], Array]:
-    """Monte Carlo error: the same recursion run on BATCHES disjoint sets of trajectories,
-    stacked after the main one (row 0) so that one call predicts all.  Returns the first
-    trajectory of each set and the sets' sizes."""
+    """Return the first trajectory and the size of each Monte Carlo batch (stacked after row 0)."""
     batches = min(BATCHES, trajectories) if sample else 0
     starts = (np.arange(batches) * trajectories) // batches if batches else np.zeros(0, int)
     return starts, np.diff(np.append(starts, trajectories))
@@ -318,9 +331,7 @@ def _batch_starts(trajectories: int, sample: bool) -> tuple[NDArray[np.intp], Ar
 
 def _recursion(setup: _Setup, trajectories: int, sample: bool, gen: np.random.Generator
                ) -> tuple[Array, Array]:
-    """The recursion over the groups: information after each update (K, 1 + batches, n, n)
-    and the largest share of one trajectory in each ``Gamma_k`` (K,) (NaN when not
-    sampling)."""
+    """Run the recursion: information (K, 1 + batches, n, n), top trajectory share (K,)."""
     mean, cov, n = setup.mean, setup.cov, setup.mean.shape[0]
     if sample:
         x = mean + gen.standard_normal((trajectories, n)) @ np.linalg.cholesky(cov).T
@@ -353,8 +364,7 @@ def _recursion(setup: _Setup, trajectories: int, sample: bool, gen: np.random.Ge
 
 def _bound(setup: _Setup, infos: Array, share: Array, trajectories: int, sample: bool,
            notes: list[str]) -> PosteriorBound:
-    """The result: covariances, standard deviations, position RMS and its Monte Carlo error
-    from the stacked information (K, 1 + batches, n, n)."""
+    """Make the result (covariances, std, RMS and its error) from the stacked information."""
     dim, times = setup.mean.shape[0] // 2, setup.times
     covs_all = information_inverse(infos)
     infos, covs = infos[:, 0].copy(), covs_all[:, 0].copy()
@@ -401,11 +411,11 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
                   rng: np.random.Generator | int | None = None,
                   options: Mapping[str, Mapping[str, object]] | None = None,
                   nuisance: Mapping[str, float] | None = None) -> PosteriorBound:
-    """The posterior CRB of a tracker that starts from the Gaussian prior
-    ``N(prior_mean, prior_cov)`` at ``time0`` and updates once per distinct measurement time,
-    ``Gamma_k`` averaged over sampled trajectories.
+    """Compute the posterior CRB of a tracker, ``Gamma_k`` averaged over sampled trajectories.
 
-    A thin user of :class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`.
+    The tracker starts from the Gaussian prior ``N(prior_mean, prior_cov)`` at ``time0`` and
+    updates once per distinct measurement time.  A thin user of
+    :class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`.
 
     Parameters
     ----------
@@ -420,8 +430,7 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
     time0 : float, optional
         The prior's time, s (default: the first measurement time).
     q : float or array_like
-        Process noise, acceleration standard deviation per axis, m/s^2 (Chen & Sun 1993,
-        §2.1).
+        Process noise, acceleration standard deviation per axis, m/s^2 (Chen & Sun, §2.1).
     trajectories : int
         Number of trajectories drawn from the prior and the process noise.
     rng : Generator or int, optional
@@ -432,6 +441,7 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
     Returns
     -------
     PosteriorBound
+        The bound after each update (SI: m, m/s).
 
     Raises
     ------
@@ -442,7 +452,7 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
 
     References
     ----------
-    Tichavský, Muravchik & Nehorai (1998), eqs. 10-11 and 13; Hurtado & Nehorai (2008).
+    Tichavský, Muravchik & Nehorai (1998); Hurtado & Nehorai (2008), eqs. 10-11 and 13.
     """
     if isinstance(trajectories, bool) or not isinstance(trajectories, (int, np.integer)) \
             or trajectories < 1:
@@ -456,9 +466,10 @@ def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | 
                        q: float | ArrayLike = 0.0,
                        options: Mapping[str, Mapping[str, object]] | None = None,
                        nuisance: Mapping[str, float] | None = None) -> PosteriorBound:
-    """The deterministic-trajectory bound: the recursion of :func:`posterior_crb` with
-    ``Gamma_k`` evaluated along the prior-mean trajectory only (no sampling; ``q`` still
-    enters the prediction).
+    """Compute the deterministic-trajectory bound, ``Gamma_k`` at the prior-mean trajectory.
+
+    The recursion of :func:`posterior_crb` without sampling (``q`` still enters the
+    prediction).
 
     With ``q = 0`` it equals the batch CRLB of the same data at that trajectory plus the
     prior's information mapped to each time.  For a fixed true trajectory (filters started at
@@ -472,6 +483,7 @@ def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | 
     Returns
     -------
     PosteriorBound
+        The bound after each update (SI: m, m/s).
 
     Raises
     ------
@@ -480,7 +492,7 @@ def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | 
 
     References
     ----------
-    Tichavský, Muravchik & Nehorai (1998), eqs. 10-11.
+    Hurtado & Nehorai (2008), eq. 10 and, for ``Xi`` at the predicted state, section 4.2.
     """
     return _posterior(source, prior_mean, prior_cov, time0, q, 1, False, None, options,
                       nuisance)

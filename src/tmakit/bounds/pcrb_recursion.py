@@ -1,10 +1,12 @@
-"""The posterior CRB as a recursion object: Bayesian information that is predicted through the
-dynamics and updated with measurement information, one step at a time.
+"""The posterior CRB as a recursion object, one step at a time.
+
+Bayesian information is predicted through the dynamics and updated with measurement
+information.
 
 For nearly-constant-velocity dynamics ``x_{k+1} = F x_k + w_k``, ``w_k ~ N(0, Q_k)`` and
 measurements ``z_k = h_k(x_k) + v_k``, ``v_k ~ N(0, R_k)``, the Bayesian information about
-the state obeys the recursion of Tichavský, Muravchik & Nehorai (1998), eqs. 10-11 (in the form
-of Hurtado & Nehorai 2008 for additive Gaussian noise):
+the state obeys the recursion of Tichavský, Muravchik & Nehorai (1998), in the form of
+Hurtado & Nehorai (2008), eqs. 10-11 (linear dynamics, additive Gaussian noise):
 
     J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1},
     Gamma_{k+1} = E_x[ H_{k+1}(x)^T R_{k+1}^{-1} H_{k+1}(x) ].
@@ -43,7 +45,7 @@ TIME_MATCH = 1e-6
 
 
 def noise_factor(q_mat: Array) -> Array:
-    """``G`` (n, r) with ``G G^T = Q`` (eigen-decomposition; rounding negatives dropped).
+    """Return ``G`` (n, r) with ``G G^T = Q`` (eigen-decomposition; rounding negatives dropped).
 
     Parameters
     ----------
@@ -64,8 +66,10 @@ def noise_factor(q_mat: Array) -> Array:
 
 
 def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
-    """Information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}`` with ``Q = G G^T``,
-    in the Woodbury form that never inverts ``J`` or ``Q`` (see the module docstring).
+    """Return the information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}``.
+
+    With ``Q = G G^T``, in the Woodbury form that never inverts ``J`` or ``Q`` (see the
+    module docstring).
 
     Parameters
     ----------
@@ -79,7 +83,11 @@ def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
     Returns
     -------
     ndarray
-        The predicted information (..., n, n).
+        The predicted information (..., n, n), SI.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eq. 10 (first term); Tichavský, Muravchik & Nehorai (1998).
     """
     a = symmetrise(f_inv.T @ info @ f_inv)
     if g.shape[1] == 0:
@@ -92,7 +100,7 @@ def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
 
 
 def information_inverse(info: Array) -> Array:
-    """Inverse of symmetric positive-definite information matrices ``(..., n, n)``.
+    """Invert symmetric positive-definite information matrices ``(..., n, n)``.
 
     Computed in coordinates normalised by the diagonal (units do not matter); eigenvalues
     that rounding pushed to or below zero are floored at ``n * eps`` of the largest.
@@ -117,9 +125,11 @@ def information_inverse(info: Array) -> Array:
 
 
 class PosteriorInformation:
-    """One state of the Tichavský recursion: the Bayesian information ``J`` about the target
-    state ``[x, y, (z), vx, vy, (vz)]`` at :attr:`time`, and the target states over which
-    the measurement information is averaged.
+    """One state of the Tichavský recursion: Bayesian information and target states.
+
+    The information ``J`` is about the target state ``[x, y, (z), vx, vy, (vz)]`` at
+    :attr:`time`; the target states are those over which the measurement information is
+    averaged.
 
     Objects are immutable: :meth:`predict` and :meth:`update` return new ones (a planner can
     branch from one state).
@@ -141,9 +151,14 @@ class PosteriorInformation:
         When given, :meth:`predict` adds process noise drawn from it to ``states`` (sampled
         trajectories); otherwise the states move deterministically.
 
+    Raises
+    ------
+    ValueError
+        When ``information`` is not ``(..., n, n)`` with ``n = 2 dim``.
+
     References
     ----------
-    Tichavský, Muravchik & Nehorai (1998), eqs. 10-11 and 13.
+    Tichavský, Muravchik & Nehorai (1998); Hurtado & Nehorai (2008), eqs. 10-11 and 13.
     """
 
     def __init__(self, information: ArrayLike, dynamics: NearlyConstantVelocity,
@@ -165,7 +180,7 @@ class PosteriorInformation:
     def from_prior(cls, prior_cov: ArrayLike, dynamics: NearlyConstantVelocity,
                    time: float = 0.0, states: ArrayLike | None = None,
                    rng: np.random.Generator | None = None) -> PosteriorInformation:
-        """The recursion's start, ``J_0 = P_0^{-1}``.
+        """Start the recursion, ``J_0 = P_0^{-1}``.
 
         Parameters
         ----------
@@ -183,7 +198,7 @@ class PosteriorInformation:
 
     @property
     def dim(self) -> int:
-        """2 or 3."""
+        """The state's dimension, 2 or 3."""
         return int(self.dynamics.dim)
 
     def _replace(self, information: Array, time: float, states: Array | None
@@ -199,8 +214,9 @@ class PosteriorInformation:
         return self._steps[key]
 
     def predict(self, dt: float) -> PosteriorInformation:
-        """The information ``dt`` seconds later, ``(Q + F J^{-1} F^T)^{-1}``; the states
-        move with the dynamics (plus process noise when sampling).  A step below
+        """Predict the information ``dt`` seconds later, ``(Q + F J^{-1} F^T)^{-1}``.
+
+        The states move with the dynamics (plus process noise when sampling).  A step below
         :data:`MIN_STEP` s changes nothing.
 
         Parameters
@@ -211,11 +227,31 @@ class PosteriorInformation:
         Returns
         -------
         PosteriorInformation
+
+        Raises
+        ------
+        ValueError
+            When ``dt`` is negative.
         """
         return self.predict_to(self.time + float(dt))
 
     def predict_to(self, time: float) -> PosteriorInformation:
-        """:meth:`predict` to the absolute ``time`` (s)."""
+        """Predict to the absolute ``time`` (s), as :meth:`predict`.
+
+        Parameters
+        ----------
+        time : float
+            Target time, s (not before :attr:`time`).
+
+        Returns
+        -------
+        PosteriorInformation
+
+        Raises
+        ------
+        ValueError
+            When ``time`` is before :attr:`time`.
+        """
         dt = float(time) - self.time
         if dt < -MIN_STEP:
             raise ValueError(f"cannot predict backwards (from t={self.time} s to t={time} s)")
@@ -231,7 +267,7 @@ class PosteriorInformation:
                              states)
 
     def update(self, information: ArrayLike) -> PosteriorInformation:
-        """``J + Gamma``: the information after a measurement update.
+        """Return ``J + Gamma``, the information after a measurement update.
 
         Parameters
         ----------
@@ -242,6 +278,10 @@ class PosteriorInformation:
         Returns
         -------
         PosteriorInformation
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), eq. 10 (second term) and eq. 11.
         """
         return self._replace(symmetrise(self.information + np.asarray(information, float)),
                              self.time, self.states)
@@ -253,8 +293,10 @@ class PosteriorInformation:
 
     @property
     def position_rms(self) -> Array:
-        """The bound on the RMS position error (...,), m: root of the trace of the position
-        block of :attr:`covariance`."""
+        """The bound on the RMS position error (...,), m.
+
+        The root of the trace of the position block of :attr:`covariance`.
+        """
         cov = self.covariance[..., :self.dim, :self.dim]
         return np.sqrt(np.clip(np.einsum("...ii->...", cov), 0.0, None))
 
@@ -272,8 +314,7 @@ class PosteriorInformation:
 
     def state_information(self, group: MeasurementGroup, states: ArrayLike | None = None
                           ) -> Array:
-        """The Fisher information of ``group`` at each target state (N, n, n), SI
-        (Tichavský et al. 1998, eq. 13, Gaussian noise).
+        """Return the Fisher information of ``group`` at each target state (N, n, n), SI.
 
         Parameters
         ----------
@@ -286,14 +327,25 @@ class PosteriorInformation:
         -------
         ndarray
             (N, n, n); their mean is ``Gamma``.
+
+        Raises
+        ------
+        ValueError
+            On a group of another dimension, no states, or states at another time.
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), eq. 13 (``Xi``, closed form for Gaussian noise).
         """
         return group.information(self._states_for(group, states))
 
     def expected_information(self, candidate_sensor_states: ArrayLike,
                              group: MeasurementGroup, states: ArrayLike | None = None
                              ) -> Array:
-        """``Gamma`` for each candidate sensor state: the expected measurement information
-        the group's measurements would bring if they were made from there.
+        """Return ``Gamma`` for each candidate sensor state.
+
+        That is the expected measurement information the group's measurements would bring
+        if they were made from there.
 
         Vectorised over candidates and states (no Python loop over either).
 
@@ -318,6 +370,10 @@ class PosteriorInformation:
         ------
         ValueError
             On shapes that do not fit, or states at another time than the group's.
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), eqs. 12-13 (the predicted PCRB of a candidate manoeuvre).
         """
         x = self._states_for(group, states)
         cand = np.asarray(candidate_sensor_states, dtype=float)

@@ -30,9 +30,19 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class BearingColumns:
-    """The columns a bearing-only step kernel needs, one entry per update: ``time`` (s),
-    ``value`` (rad, clockwise from North), ``variance`` (rad^2), sensor position ``sx``,
-    ``sy`` (m, ENU)."""
+    """The columns a bearing-only step kernel needs, one entry per update.
+
+    Attributes
+    ----------
+    time : ndarray
+        Update times (K,), s.
+    value : ndarray
+        Bearings (K,), rad, clockwise from North.
+    variance : ndarray
+        Bearing variances (K,), rad^2.
+    sx, sy : ndarray
+        Sensor position (K,), m, ENU.
+    """
 
     time: Array
     value: Array
@@ -42,10 +52,25 @@ class BearingColumns:
 
 
 class CompiledMeasurements:
-    """``meas`` prepared for a filter of dimension ``dim`` (2 or 3) with per-kind ``options``
-    and known ``nuisance`` values.  Raises the same clear errors as
-    :class:`~tmakit.observation.MeasurementGroup` (e.g. a missing nuisance value) once, up
-    front."""
+    """A measurement set prepared once for a filter run.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (SI columns are taken from it).
+    dim : int
+        Filter dimension, 2 or 3.
+    options : mapping, optional
+        Per-kind model options (``{"frequency": {"drift": True}}``).
+    nuisance : mapping, optional
+        Known nuisance values by name (Hz, dB, ...).
+
+    Raises
+    ------
+    ValueError
+        The same clear errors as :class:`~tmakit.observation.MeasurementGroup` (e.g. a
+        missing nuisance value), once, up front.
+    """
 
     def __init__(self, meas: MeasurementSet, dim: int,
                  options: Mapping[str, Mapping[str, object]] | None = None,
@@ -83,20 +108,33 @@ class CompiledMeasurements:
                                    and set(self.models) == {"bearing"})
 
     def __len__(self) -> int:
-        """Number of updates."""
+        """Return the number of updates."""
         return int(self.times.shape[0])
 
     @property
     def bearing_columns(self) -> BearingColumns:
-        """Per-update columns for the bearing kernels (only when :attr:`single_bearing`)."""
+        """Per-update columns for the bearing kernels (only when :attr:`single_bearing`).
+
+        Raises
+        ------
+        ValueError
+            When the updates are not all single bearings.
+        """
         if not self.single_bearing:
             raise ValueError("bearing_columns: the updates are not all single bearings")
         return BearingColumns(self.time, self.values, self.sigmas**2,
                               self.sensor_state[:, 0], self.sensor_state[:, 1])
 
     def bearing_lists(self) -> tuple[list[float], ...]:
-        """:attr:`bearing_columns` as Python lists (time, value, variance, sx, sy), made once:
-        the plain-float kernels index them faster than arrays."""
+        """Return :attr:`bearing_columns` as Python lists, made once.
+
+        The plain-float kernels index them faster than arrays.
+
+        Returns
+        -------
+        tuple of list of float
+            ``(time s, value rad, variance rad^2, sx m, sy m)``.
+        """
         if self._lists is None:
             c = self.bearing_columns
             self._lists = (c.time.tolist(), c.value.tolist(), c.variance.tolist(),
@@ -104,12 +142,33 @@ class CompiledMeasurements:
         return self._lists
 
     def rows(self, k: int) -> MeasurementSet:
-        """The rows of update ``k`` as a MeasurementSet (the slow, general path)."""
+        """Return the rows of update ``k`` as a MeasurementSet (the slow, general path).
+
+        Parameters
+        ----------
+        k : int
+            Update index.
+
+        Returns
+        -------
+        MeasurementSet
+        """
         return self.meas.take(self.order[self.bounds[k]:self.bounds[k + 1]])
 
     def group(self, k: int, t: float) -> MeasurementGroup:
-        """Update ``k`` as a :class:`MeasurementGroup` at filter time ``t`` (s), built from
-        views of the compiled columns."""
+        """Return update ``k`` as a :class:`MeasurementGroup`, from views of the columns.
+
+        Parameters
+        ----------
+        k : int
+            Update index.
+        t : float
+            Filter time, s.
+
+        Returns
+        -------
+        MeasurementGroup
+        """
         a, b = int(self.bounds[k]), int(self.bounds[k + 1])
         codes = self._codes[a:b]
         key = codes.tobytes()

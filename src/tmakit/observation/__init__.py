@@ -1,5 +1,7 @@
-"""The observation layer: the one way measurement rows become predictions, Jacobians, noise
-covariance and nuisance structure, for batch estimators, filters and bounds alike.
+"""The observation layer: measurement rows to predictions, Jacobians, noise and nuisance.
+
+It is the one way rows become predictions, Jacobians, noise covariance and nuisance
+structure, for batch estimators, filters and bounds alike.
 
 * :class:`RowModel` (``rows.py``): the core — rows of several kinds predicted from relative
   states by their measurement models, vectorised over rows, states and sensor poses; noise

@@ -5,7 +5,7 @@ at one time ``t``.  A row taken at another time ``t_i`` (a group may mix times, 
 kinds) is predicted from the state moved there at constant velocity,
 ``x(t_i) = Phi(t_i - t) x(t)``; a kind with an earlier reference sample (a range difference)
 also needs the state at that sample, moved back the same way (the back-propagated trajectory of
-Chen & Sun 1993, §2.3-2.4).  The rows' own models do the rest, through the observation core
+Chen & Sun, §2.3-2.4).  The rows' own models do the rest, through the observation core
 :class:`~tmakit.observation.rows.RowModel`: predictions, analytic Jacobians and the noise
 covariance, vectorised over any leading axes of the states (particles, sigma points, sampled
 trajectories) and of the sensor states (candidate sensor poses).
@@ -37,8 +37,22 @@ TIME_TOLERANCE = 1e-9
 
 
 def target_states(x: Array, dt: Array, dim: int) -> Array:
-    """Target 6-vectors ``(..., m, 6)`` at ``dt`` (m,) s after filter states ``x``
-    ``(..., 2 dim)``, moved at constant velocity (m, m/s; a 2-D state has z = vz = 0)."""
+    """Move filter states at constant velocity to target 6-vectors at the rows.
+
+    Parameters
+    ----------
+    x : ndarray
+        Filter states ``(..., 2 dim)``, m and m/s.
+    dt : ndarray
+        Row times minus the filter time (m,), s.
+    dim : int
+        2 or 3 (a 2-D state has z = vz = 0).
+
+    Returns
+    -------
+    ndarray
+        Target states ``[x, y, z, vx, vy, vz]`` ``(..., m, 6)``, m and m/s.
+    """
     pos, vel = x[..., None, :dim], x[..., None, dim:]
     out = np.zeros((*x.shape[:-1], dt.shape[0], 6))
     out[..., :dim] = pos + dt[:, None] * vel
@@ -47,10 +61,25 @@ def target_states(x: Array, dt: Array, dim: int) -> Array:
 
 
 def chain_state(d: Array, dt: Array, dim: int) -> Array:
-    """``d value / d x`` ``(..., m, 2 dim)`` from ``d value / d target6`` ``(..., m, 6)``
-    at rows ``dt`` (m,) s after the filter time: the chain rule through
-    ``target6 = [pos + dt vel, vel]`` (position columns as they are, velocity columns
-    ``dt d_pos + d_vel``; a 2-D state has no z columns)."""
+    """Chain ``d value / d target6`` through ``target6 = [pos + dt vel, vel]``.
+
+    Position columns stay as they are, velocity columns become ``dt d_pos + d_vel``; a 2-D
+    state has no z columns.
+
+    Parameters
+    ----------
+    d : ndarray
+        ``d value / d target6`` ``(..., m, 6)``, SI.
+    dt : ndarray
+        Row times minus the filter time (m,), s.
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    ndarray
+        ``d value / d x`` ``(..., m, 2 dim)``, SI.
+    """
     out = np.empty((*d.shape[:-1], 2 * dim))
     out[..., :dim] = d[..., :dim]
     out[..., dim:] = d[..., :dim] * dt[:, None] + d[..., 3:3 + dim]
@@ -58,8 +87,7 @@ def chain_state(d: Array, dt: Array, dim: int) -> Array:
 
 
 class MeasurementGroup:
-    """Rows of a :class:`~tmakit.data.MeasurementSet` to be used in one filter update at
-    time ``t`` (s).
+    """Rows of a :class:`~tmakit.data.MeasurementSet` for one filter update at time ``t``.
 
     Parameters
     ----------
@@ -124,7 +152,7 @@ class MeasurementGroup:
                     sensor_state: Array, ref_sensor_state: Array, sensor: NDArray[np.str_],
                     rows: Callable[[], MeasurementSet], layout: RowLayout | None = None
                     ) -> MeasurementGroup:
-        """A group from columns already in SI.
+        """Build a group from columns already in SI.
 
         Parameters
         ----------
@@ -145,6 +173,11 @@ class MeasurementGroup:
         Returns
         -------
         MeasurementGroup
+
+        Raises
+        ------
+        ValueError
+            Without rows.
         """
         if len(values) == 0:
             raise ValueError("a measurement group needs at least one row")
@@ -160,7 +193,7 @@ class MeasurementGroup:
                 options: Mapping[str, Mapping[str, object]] | None = None,
                 nuisance: Mapping[str, float] | None = None,
                 time_ref: ArrayLike | None = None) -> MeasurementGroup:
-        """Measurements not yet made, at the filter time ``t`` (s): one row per kind.
+        """Build measurements not yet made, at the filter time ``t`` (s): a row per kind.
 
         Their sensor states are zero placeholders, to be given to :meth:`predict`,
         :meth:`jacobian` or :meth:`information` (``sensor_state``, e.g. candidate poses);
@@ -180,6 +213,11 @@ class MeasurementGroup:
         Returns
         -------
         MeasurementGroup
+
+        Raises
+        ------
+        ValueError
+            When a nuisance value is missing.
         """
         names = [kinds] if isinstance(kinds, str) else list(kinds)
         m = len(names)
@@ -230,13 +268,16 @@ class MeasurementGroup:
         return self._rows
 
     def __len__(self) -> int:
+        """Return the number of rows ``m``."""
         return int(self.values.shape[0])
 
     @property
     def covariance(self) -> Array:
-        """Noise covariance ``R`` (m, m), SI: independent rows, except those of kinds with
-        correlated noise (range differences of one sensor that share pulse intervals,
-        Chen & Sun 1993, eq. 1)."""
+        """Noise covariance ``R`` (m, m), SI units squared.
+
+        Independent rows, except those of kinds with correlated noise (range differences of
+        one sensor that share pulse intervals, Chen & Sun, eq. 1).
+        """
         if self._cov is None:
             self._cov = self.row_model.covariance()
         return self._cov
@@ -257,10 +298,26 @@ class MeasurementGroup:
 
     def relative(self, x: ArrayLike, sensor_state: ArrayLike | None = None
                  ) -> tuple[Array, Array | None]:
-        """Relative states (target minus sensor) at the rows, ``(..., m, 6)``, and at the
-        reference samples of :attr:`RowModel.reference` rows (or None), from filter states
-        ``x`` ``(..., 2 dim)`` (m, m/s); ``sensor_state`` (broadcastable to ``(..., m, 6)``)
-        replaces the rows' sensor states."""
+        """Return relative states (target minus sensor) from filter states.
+
+        Parameters
+        ----------
+        x : array_like
+            Filter states ``(..., 2 dim)``, m and m/s.
+        sensor_state : array_like, optional
+            Replaces the rows' sensor states; broadcastable to ``(..., m, 6)``, m and m/s.
+
+        Returns
+        -------
+        rel, rel_ref : ndarray, ndarray or None
+            At the rows ``(..., m, 6)`` and at the reference samples of the
+            :attr:`RowModel.reference` rows (None without them), m and m/s.
+
+        Raises
+        ------
+        ValueError
+            When the states do not have ``2 dim`` components.
+        """
         x = self._check_state(x)
         target_ref = (None if self._dt_ref_rows is None
                       else target_states(x, self._dt_ref_rows, self.dim))
@@ -268,14 +325,34 @@ class MeasurementGroup:
                                        sensor_state)
 
     def predict(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
-        """Predicted values (SI) ``(..., m)`` for states ``(..., 2 dim)`` (particles,
-        sigma points); ``sensor_state`` as for :meth:`relative`."""
+        """Return predicted values for states (particles, sigma points).
+
+        Parameters
+        ----------
+        x, sensor_state
+            As for :meth:`relative`.
+
+        Returns
+        -------
+        ndarray
+            ``(..., m)``, SI (rad, m, m/s, Hz, dBW).
+        """
         rel, rel_ref = self.relative(x, sensor_state)
         return self.row_model.predict(rel, rel_ref, self.nuisance)
 
     def jacobian(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
-        """``d predict / d x`` ``(..., m, 2 dim)`` at states ``x`` ``(..., 2 dim)``;
-        ``sensor_state`` as for :meth:`relative`."""
+        """Return ``d predict / d x`` at states ``x``.
+
+        Parameters
+        ----------
+        x, sensor_state
+            As for :meth:`relative`.
+
+        Returns
+        -------
+        ndarray
+            ``(..., m, 2 dim)``, SI per m and per m/s.
+        """
         rel, rel_ref = self.relative(x, sensor_state)
         d, d_ref, _ = self.row_model.jacobian(rel, rel_ref, self.nuisance)
         h = chain_state(d, self.dt, self.dim)
@@ -285,24 +362,61 @@ class MeasurementGroup:
         return h
 
     def information(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
-        """The Fisher information ``H^T R^{-1} H`` ``(..., 2 dim, 2 dim)`` of the group about
-        the state, at states ``x`` ``(..., 2 dim)`` (SI: 1/m^2, s^2/m^2); ``sensor_state`` as
-        for :meth:`relative`.  Gaussian noise: Tichavský, Muravchik & Nehorai (1998),
-        eq. 13 in closed form."""
+        """Return the Fisher information ``H^T R^{-1} H`` of the group about the state.
+
+        Parameters
+        ----------
+        x, sensor_state
+            As for :meth:`relative`.
+
+        Returns
+        -------
+        ndarray
+            ``(..., 2 dim, 2 dim)``, SI (1/m^2, s^2/m^2).
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), eq. 13 (``Xi``, closed form for Gaussian noise).
+        """
         w = self.noise.whiten(self.jacobian(x, sensor_state), axis=-2)
         return np.einsum("...mi,...mj->...ij", w, w)
 
     def residual(self, predicted: ArrayLike, measured: ArrayLike | None = None) -> Array:
-        """``measured - predicted`` (SI), angles wrapped to (-pi, pi]; ``measured`` defaults
-        to the group's values.  Broadcasts over leading axes of ``predicted``."""
+        """Return ``measured - predicted``, angles wrapped to (-pi, pi].
+
+        Parameters
+        ----------
+        predicted : array_like
+            Predictions ``(..., m)``, SI; leading axes broadcast.
+        measured : array_like, optional
+            Measured values (m,), SI (default: the group's values).
+
+        Returns
+        -------
+        ndarray
+            ``(..., m)``, SI.
+        """
         z = self.values if measured is None else measured
         return self.row_model.residual(z, predicted)
 
 
 def time_blocks(time: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
-    """Rows grouped by time: ``(order, bounds)`` with ``order`` the rows sorted by time
-    (stable) and update ``k`` the rows ``order[bounds[k]:bounds[k + 1]]`` (times within
-    :data:`TIME_TOLERANCE` s of the previous row are one time)."""
+    """Group rows by time.
+
+    Times within :data:`TIME_TOLERANCE` s of the previous row are one time.
+
+    Parameters
+    ----------
+    time : array_like
+        Row times (m,), s.
+
+    Returns
+    -------
+    order : ndarray
+        The rows sorted by time (stable).
+    bounds : ndarray
+        Update ``k`` is the rows ``order[bounds[k]:bounds[k + 1]]``.
+    """
     t = np.asarray(time, dtype=float)
     order = np.argsort(t, kind="stable")
     breaks = np.flatnonzero(np.diff(t[order]) > TIME_TOLERANCE) + 1
@@ -310,6 +424,17 @@ def time_blocks(time: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
 
 
 def group_times(meas: MeasurementSet) -> list[NDArray[np.int64]]:
-    """Row indices of ``meas`` grouped by measurement time (ascending)."""
+    """Return the row indices of ``meas`` grouped by measurement time (ascending).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+
+    Returns
+    -------
+    list of ndarray
+        One array of row indices per distinct time (see :func:`time_blocks`).
+    """
     order, bounds = time_blocks(meas.time)
     return np.split(order, bounds[1:-1])

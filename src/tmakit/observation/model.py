@@ -36,6 +36,15 @@ class ObservationModel:
     ``options`` maps a kind to its model's constructor options, e.g.
     ``{"frequency": {"drift": True}, "power": {"exponent": None}}``.  ``theta`` may carry
     leading batch axes ``(..., p)``; ``nuisance`` then has the same leading axes ``(..., k)``.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (SI values, sigmas, times and sensor states are used).
+    motion : MotionModel
+        The target motion model, ``p`` parameters ``theta`` (SI).
+    options : mapping, optional
+        Per-kind model options.
     """
 
     def __init__(self, meas: MeasurementSet, motion: MotionModel,
@@ -75,8 +84,11 @@ class ObservationModel:
         self._const_design: Array | None = None
 
     def _set_row_model(self) -> None:
-        """The observation core of the grouped rows (each kind a slice): predictions,
-        designs and their derivatives per kind, through the kinds' hooks."""
+        """Build the observation core of the grouped rows (each kind a slice).
+
+        It gives predictions, designs and their derivatives per kind, through the kinds'
+        hooks.
+        """
         g = self.grouped
         self.row_model = RowModel(self.models, self.slices, self._time, g.time_ref,
                                   self.sigmas_grouped, g.sensor, self._sensor,
@@ -87,10 +99,21 @@ class ObservationModel:
         self.angle_mask_grouped = self.row_model.angle
 
     def take(self, index: ArrayLike) -> ObservationModel:
-        """The model of the rows ``index`` of the set (integer indices or a boolean mask, as
-        :meth:`MeasurementSet.take`): equal to ``ObservationModel(meas.take(index), motion,
-        options)``, but its per-row arrays are this model's rows instead of being computed
-        again (the grid initialisation subsamples the set on every solve)."""
+        """Return the model of the rows ``index`` of the set.
+
+        Equal to ``ObservationModel(meas.take(index), motion, options)``, but its per-row
+        arrays are this model's rows instead of being computed again (the grid
+        initialisation subsamples the set on every solve).
+
+        Parameters
+        ----------
+        index : array_like
+            Integer indices or a boolean mask, as for :meth:`MeasurementSet.take`.
+
+        Returns
+        -------
+        ObservationModel
+        """
         idx = np.asarray(index)
         idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
         meas = self.meas.take(idx)
@@ -127,17 +150,38 @@ class ObservationModel:
 
     @property
     def n_nuisance(self) -> int:
+        """Number ``k`` of nuisance parameters."""
         return len(self.nuisance_names)
 
     def nuisance_vector(self, values: Mapping[str, float] | None) -> Array:
-        """Nuisance vector from a mapping (defaults such as ``carrier_drift = 0`` filled in)."""
+        """Return the nuisance vector from a mapping.
+
+        Parameters
+        ----------
+        values : mapping or None
+            Nuisance values by name (Hz, dB, ...); defaults such as ``carrier_drift = 0``
+            are filled in.
+
+        Returns
+        -------
+        ndarray
+            (k,), in :attr:`nuisance_names` order.
+
+        Raises
+        ------
+        ValueError
+            When a value without default is missing.
+        """
         parts = [m.nuisance_vector(dict(values or {})) for m in self.models.values()]
         return np.concatenate(parts) if parts else np.zeros(0)
 
     # -- grouped order (for solvers) ---------------------------------------------------------
     def _relative_map(self, times: Array, sensor: Array) -> tuple[Array, Array] | None:
-        """For an affine motion model, ``(matrix (p, 6 m), offset (6 m,))`` with the relative
-        states at ``m`` rows, component by component, ``theta @ matrix + offset``."""
+        """Return the map of an affine motion model from ``theta`` to relative states.
+
+        ``(matrix (p, 6 m), offset (6 m,))`` with the relative states at ``m`` rows,
+        component by component, ``theta @ matrix + offset`` (None if not affine).
+        """
         amap = self.motion.affine_map(times)
         if amap is None:
             return None
@@ -155,7 +199,8 @@ class ObservationModel:
         (``rel[..., i]`` is contiguous), which the measurement models' formulas prefer; with
         ``batch_inner`` (a 2-D ``theta`` of many rows, such as a grid of candidates) the batch
         axis is the fastest in memory, so that the formulas run over long contiguous rows
-        even when ``m`` is small."""
+        even when ``m`` is small.
+        """
         if rel_map is None:
             return self.motion.states(theta, times) - sensor
         m = times.shape[0]
@@ -169,8 +214,11 @@ class ObservationModel:
 
     def _relative(self, theta: Array, batch_inner: bool = False
                   ) -> tuple[Array, Array | None]:
-        """Relative states (..., n, 6) in grouped order, and (..., n_rd, 6) at the reference
-        times of the range differences (None without range differences)."""
+        """Return relative states (..., n, 6) in grouped order.
+
+        Also (..., n_rd, 6) at the reference times of the range differences (None without
+        range differences).
+        """
         theta = self.motion._check_theta(theta)
         rel = self._states_minus(theta, self._time, self._sensor, self._rel_map, batch_inner)
         rel_ref = None
@@ -182,17 +230,33 @@ class ObservationModel:
 
     @property
     def const_design(self) -> Array:
-        """``A_const`` ``(n, k)`` in grouped order: the part of the nuisance design that does
-        not depend on the geometry (carrier columns ``1``, ``t``), computed once."""
+        """``A_const`` ``(n, k)`` in grouped order, computed once.
+
+        The part of the nuisance design that does not depend on the geometry (carrier
+        columns ``1``, ``t``).
+        """
         if self._const_design is None:
             self._const_design = self.row_model.const_design()
         return self._const_design
 
     def linearisation(self, theta: ArrayLike, derivatives: bool = True) -> Linearisation:
-        """Predictions ``h0 + (A_const + A_var) @ nu`` at ``theta`` ``(..., p)`` in grouped
-        order (``A_const`` is :attr:`const_design`) and, if asked, their derivatives with
-        respect to the relative states, from which :meth:`Linearisation.jacobian` forms
-        ``d predictions / d theta`` at any nuisance value."""
+        """Linearise the predictions ``h0 + (A_const + A_var) @ nu`` in grouped order.
+
+        ``A_const`` is :attr:`const_design`; the derivatives with respect to the relative
+        states let :meth:`Linearisation.jacobian` form ``d predictions / d theta`` at any
+        nuisance value.
+
+        Parameters
+        ----------
+        theta : array_like
+            Motion parameters ``(..., p)``, SI.
+        derivatives : bool
+            Also compute the derivatives.
+
+        Returns
+        -------
+        Linearisation
+        """
         theta = np.asarray(theta, dtype=float)
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
@@ -216,12 +280,26 @@ class ObservationModel:
 
     def linearise_grouped(self, theta: ArrayLike, derivatives: bool = True
                           ) -> tuple[Array, Array, Array, Array | None, Array | None]:
-        """In grouped order, one pass: ``(h0, A_const, A_var, dh0, dA)`` with predictions
-        ``h0 + (A_const + A_var) @ nu`` (see
-        :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`) and, if asked,
-        ``dh0`` ``(..., n, p)`` and ``dA`` ``(..., n, k, p)`` their derivatives with respect to
-        ``theta``: ``d predictions / d theta = dh0 + dA @ nu`` for any ``nu``.  Solvers use the
-        cheaper :meth:`linearisation`."""
+        """Return the affine parts and their ``theta`` derivatives in grouped order, one pass.
+
+        Predictions are ``h0 + (A_const + A_var) @ nu`` (see
+        :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`) and
+        ``d predictions / d theta = dh0 + dA @ nu`` for any ``nu``.  Solvers use the cheaper
+        :meth:`linearisation`.
+
+        Parameters
+        ----------
+        theta : array_like
+            Motion parameters ``(..., p)``, SI.
+        derivatives : bool
+            Also return ``dh0`` and ``dA`` (else None).
+
+        Returns
+        -------
+        tuple of ndarray
+            ``(h0 (..., n), A_const (..., n, k), A_var (..., n, k), dh0 (..., n, p),
+            dA (..., n, k, p))``, SI.
+        """
         lin = self.linearisation(theta, derivatives)
         a_const = np.broadcast_to(self.const_design, lin.a_var.shape).copy()
         if not derivatives:
@@ -234,6 +312,7 @@ class ObservationModel:
         return lin.h0, a_const, lin.a_var, dh0, d_a
 
     def predict_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
+        """Return :meth:`predict` in grouped order, ``(..., n)``, SI."""
         theta = np.asarray(theta, dtype=float)
         nu = np.zeros(0) if nuisance is None else np.asarray(nuisance, dtype=float)
         rel, rel_ref = self._relative(theta)
@@ -241,44 +320,103 @@ class ObservationModel:
 
     def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                          ) -> tuple[Array, Array]:
+        """Return :meth:`jacobian` in grouped order."""
         lin = self.linearisation(theta, derivatives=True)
         nu = np.zeros(self.n_nuisance) if nuisance is None else np.asarray(nuisance, float)
         return lin.jacobian(nu), self.const_design + lin.a_var
 
     # -- the set's own row order -------------------------------------------------------------
     def predict(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
-        """Predicted values (SI) for every row, shape ``(..., n)``."""
+        """Return predicted values for every row.
+
+        Parameters
+        ----------
+        theta : array_like
+            Motion parameters ``(..., p)``, SI.
+        nuisance : array_like, optional
+            Nuisance vector ``(..., k)`` (default: empty, for sets without nuisance).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n)``, SI (rad, m, m/s, Hz, dBW).
+        """
         return self.predict_grouped(theta, nuisance)[..., self.inverse]
 
     def jacobian(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                  ) -> tuple[Array, Array]:
-        """``(d value / d theta (..., n, p), d value / d nuisance (..., n, k))``."""
+        """Return the Jacobians with respect to ``theta`` and the nuisance.
+
+        Parameters
+        ----------
+        theta, nuisance
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        j_theta, j_nuisance : ndarray
+            ``d value / d theta`` (..., n, p) and ``d value / d nuisance`` (..., n, k), SI.
+        """
         j_theta, j_nu = self.jacobian_grouped(theta, nuisance)
         return j_theta[..., self.inverse, :], j_nu[..., self.inverse, :]
 
     def affine_parts(self, theta: ArrayLike) -> tuple[Array, Array, Array]:
-        """``(h0, A_const, A_var)``: predictions are ``h0 + (A_const + A_var) @ nuisance``,
-        ``A_const`` independent of the geometry (see
-        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`)."""
+        """Return ``(h0, A_const, A_var)`` with predictions ``h0 + (A_const + A_var) @ nu``.
+
+        ``A_const`` is independent of the geometry (see
+        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`).
+
+        Parameters
+        ----------
+        theta : array_like
+            Motion parameters ``(..., p)``, SI.
+
+        Returns
+        -------
+        h0, a_const, a_var : ndarray
+            (..., n), (..., n, k), (..., n, k), SI.
+        """
         lin = self.linearisation(theta, derivatives=False)
         inv = self.inverse
         c = np.broadcast_to(self.const_design, lin.a_var.shape)
         return lin.h0[..., inv], c[..., inv, :], lin.a_var[..., inv, :]
 
     def affine(self, theta: ArrayLike) -> tuple[Array, Array]:
-        """``(h0 (..., n), A (..., n, k))`` with predictions ``h0 + A @ nuisance``."""
+        """Return ``(h0, A)`` with predictions ``h0 + A @ nuisance``.
+
+        Parameters
+        ----------
+        theta : array_like
+            Motion parameters ``(..., p)``, SI.
+
+        Returns
+        -------
+        h0, a : ndarray
+            (..., n) and (..., n, k), SI.
+        """
         h0, const, var = self.affine_parts(theta)
         return h0, const + var
 
     def residuals(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
-        """measured - predicted (SI), angles wrapped to (-pi, pi]."""
+        """Return measured minus predicted, angles wrapped to (-pi, pi].
+
+        Parameters
+        ----------
+        theta, nuisance
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        ndarray
+            ``(..., n)``, SI.
+        """
         res = self.values - self.predict(theta, nuisance)
         return np.where(self.angle_mask, wrap_angle(res), res)
 
 
 def _take_map(rel_map: tuple[Array, Array] | None, rows: NDArray[np.intp]
               ) -> tuple[Array, Array] | None:
-    """The relative-state map (see :meth:`ObservationModel._relative_map`) of ``rows``."""
+    """Return the relative-state map (see :meth:`ObservationModel._relative_map`) of ``rows``."""
     if rel_map is None:
         return None
     matrix, offset = rel_map
@@ -288,11 +426,22 @@ def _take_map(rel_map: tuple[Array, Array] | None, rows: NDArray[np.intp]
 
 
 class Linearisation:
-    """The predictions of an :class:`ObservationModel` at a batch of ``theta`` in grouped
-    order, ``h0 + (A_const + A_var) @ nu``, and their derivatives with respect to the relative
-    states: ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at the range differences' reference
-    samples) and, per kind whose design depends on the geometry, ``(kind, dA, dA_ref)`` with
-    ``dA`` ``(..., n_kind, k_kind, 6)``."""
+    """The predictions of an :class:`ObservationModel` at a batch of ``theta``, linearised.
+
+    In grouped order, ``h0 + (A_const + A_var) @ nu``, and their derivatives with respect to
+    the relative states: ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at the range differences'
+    reference samples) and, per kind whose design depends on the geometry,
+    ``(kind, dA, dA_ref)`` with ``dA`` ``(..., n_kind, k_kind, 6)``.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The model linearised.
+    theta : ndarray
+        Motion parameters ``(..., p)``, SI.
+    h0, a_var : ndarray
+        ``(..., n)`` and ``(..., n, k)``, SI.
+    """
 
     def __init__(self, obs: ObservationModel, theta: Array, h0: Array, a_var: Array) -> None:
         self.obs = obs
@@ -304,9 +453,25 @@ class Linearisation:
         self.d_a: list[tuple[str, Array, Array | None]] = []
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
-        """``d predictions / d theta`` ``(..., n, p)`` at nuisance values ``(..., k)`` (for
-        every row of the batch, or one vector for all); ``with_h0=False`` leaves out the
-        derivative of ``h0`` (the nuisance part alone)."""
+        """Return ``d predictions / d theta`` at nuisance values.
+
+        Parameters
+        ----------
+        nuisance : ndarray
+            ``(..., k)``: one vector per row of the batch, or one for all.
+        with_h0 : bool
+            False leaves out the derivative of ``h0`` (the nuisance part alone).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, p)``, SI.
+
+        Raises
+        ------
+        ValueError
+            When the linearisation was made without derivatives.
+        """
         if self.d_h0 is None:
             raise ValueError("this linearisation was made without derivatives")
         obs = self.obs

@@ -3,7 +3,7 @@
 Most rows are independent with their own sigma.  Kinds with correlated noise declare it
 through their hooks (:attr:`~tmakit.measurements.MeasurementModel.correlated_noise`,
 :meth:`~tmakit.measurements.MeasurementModel.noise_covariance`): range differences of one
-sensor that share pulse intervals (Chen & Sun 1993, eq. 1: one noise term per interval).  Their
+sensor that share pulse intervals (Chen & Sun, eq. 1: one noise term per interval).  Their
 blocks are dense and whitened with their eigen-decomposition.
 """
 
@@ -34,6 +34,19 @@ class NoiseModel:
         The rows (their sigmas, kinds, sensors, times and reference times are used).
     models : mapping, optional
         The kinds' models (default: each correlated kind's model with default options).
+
+    Attributes
+    ----------
+    n, rank : int
+        Number of rows, and of independent rows (degrees of freedom).
+    log_det : float
+        ``log det R`` over the kept eigenvalues (SI units squared).
+    correlated : bool
+        True when some block is dense.
+
+    References
+    ----------
+    Chen & Sun, eq. 1 (shared pulse intervals).
     """
 
     def __init__(self, meas: MeasurementSet,
@@ -51,7 +64,17 @@ class NoiseModel:
 
     @classmethod
     def from_rows(cls, rows: RowModel) -> NoiseModel:
-        """The noise model of a :class:`~tmakit.observation.rows.RowModel`'s rows."""
+        """Build the noise model of a :class:`~tmakit.observation.rows.RowModel`'s rows.
+
+        Parameters
+        ----------
+        rows : RowModel
+            The rows (their sigmas, SI, and correlated blocks are used).
+
+        Returns
+        -------
+        NoiseModel
+        """
         out = object.__new__(cls)
         out._setup(rows.sigma, rows.correlated_blocks())
         return out
@@ -78,14 +101,39 @@ class NoiseModel:
 
     @classmethod
     def independent(cls, sigma: NDArray[np.float64]) -> NoiseModel:
-        """The model of independent rows with standard deviations ``sigma`` (SI): what the
-        constructor makes for a set without correlated range differences, without the set."""
+        """Build the model of independent rows with standard deviations ``sigma``.
+
+        What the constructor makes for a set without correlated range differences, without
+        the set.
+
+        Parameters
+        ----------
+        sigma : ndarray
+            Standard deviations (m,), SI.
+
+        Returns
+        -------
+        NoiseModel
+        """
         out = object.__new__(cls)
         out._setup(np.asarray(sigma, dtype=float), [])
         return out
 
     def whiten(self, x: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
-        """``W x`` along ``axis`` (the measurement axis) of ``x``."""
+        """Return ``W x`` along ``axis`` (the measurement axis) of ``x``.
+
+        Parameters
+        ----------
+        x : ndarray
+            Values in SI units, ``m`` long along ``axis``.
+        axis : int
+            The measurement axis.
+
+        Returns
+        -------
+        ndarray
+            Whitened values (dimensionless), the shape of ``x``.
+        """
         if not self.blocks:  # independent rows: a scaling (the common, hot case)
             x = np.asarray(x, dtype=float)
             if axis == -1:
@@ -99,6 +147,14 @@ class NoiseModel:
         return np.moveaxis(out, -1, axis)
 
     def covariance(self) -> NDArray[np.float64]:
-        """The dense covariance matrix (for small sets and tests; pseudo-inverse of W^T W)."""
+        """Return the dense covariance matrix, the pseudo-inverse of ``W^T W``.
+
+        For small sets and tests.
+
+        Returns
+        -------
+        ndarray
+            ``R`` (m, m), SI units squared.
+        """
         w = self.whiten(np.eye(self.n), axis=0)
         return np.linalg.pinv(w.T @ w, rcond=1e-10, hermitian=True)

@@ -1,24 +1,13 @@
-"""Rows of several kinds, each predicted by its measurement model: the core of the
-observation layer.
+"""Rows of several kinds, each predicted by its measurement model (the observation core).
 
-A :class:`RowModel` holds the per-row columns of a block of measurement rows (times,
-reference times, sigmas, sensor ids and states, all SI) and, per kind present, its
-:class:`~tmakit.measurements.MeasurementModel` and the rows of that kind.  From relative
-states (target minus sensor) it gives
-
-* predictions and their Jacobians with respect to the relative states (and the nuisance
-  parameters), vectorised over rows and over any leading batch axes of the relative states
-  (particles, sigma points, grid candidates, candidate sensor poses);
-* the noise covariance, with the correlated blocks that a kind declares through its
-  :meth:`~tmakit.measurements.MeasurementModel.noise_covariance` hook (range differences that
-  share pulse intervals, Chen & Sun 1993, eq. 1);
-* the nuisance structure: each kind's nuisance parameters and their columns in the
-  concatenated nuisance vector.
-
-Nothing here names a kind: every special case is a hook on the kind (``uses_reference``,
-``is_angle``, ``correlated_noise``), so a new kind needs no change in this layer.
-:class:`~tmakit.observation.MeasurementGroup` (filters, PCRB) and
-:class:`~tmakit.observation.ObservationModel` (batch estimators, CRLB) build on it.
+A :class:`RowModel` holds the SI columns of a block of rows and each kind's
+:class:`~tmakit.measurements.MeasurementModel`.  From relative states (target minus sensor) it
+gives predictions and Jacobians (vectorised over rows and any leading batch axes), the noise
+covariance with the correlated blocks a kind declares through its ``noise_covariance`` hook
+(range differences that share pulse intervals, Chen & Sun, eq. 1), and the nuisance structure.
+Nothing here names a kind (hooks ``uses_reference``, ``is_angle``, ``correlated_noise``), so a
+new kind needs no change in this layer.  :class:`~tmakit.observation.MeasurementGroup` and
+:class:`~tmakit.observation.ObservationModel` build on it.
 """
 
 from __future__ import annotations
@@ -40,16 +29,15 @@ def resolve_models(kinds: Iterable[str],
                    options: Mapping[str, Mapping[str, object]] | None = None,
                    nuisance: Mapping[str, float] | None = None
                    ) -> tuple[dict[str, MeasurementModel], dict[str, Array]]:
-    """The measurement model of each kind and its nuisance vector (known values).
+    """Make the measurement model of each kind and its nuisance vector (known values).
 
     Parameters
     ----------
     kinds : iterable of str
         The kinds present.
-    options : mapping, optional
-        Per-kind model options (``{"frequency": {"drift": True}}``).
-    nuisance : mapping, optional
-        Known nuisance values by name (Hz, dB, ...).
+    options, nuisance : mapping, optional
+        Per-kind model options (``{"frequency": {"drift": True}}``); known nuisance values
+        by name (Hz, dB, ...).
 
     Returns
     -------
@@ -80,8 +68,20 @@ def resolve_models(kinds: Iterable[str],
 
 def nuisance_layout(models: Mapping[str, MeasurementModel]
                     ) -> tuple[tuple[str, ...], dict[str, slice]]:
-    """The nuisance structure of several kinds: the names of the concatenated nuisance
-    vector (each kind's ``nuisance_names`` in kind order) and each kind's slice of it."""
+    """Return the nuisance structure of several kinds.
+
+    Parameters
+    ----------
+    models : mapping
+        The measurement model of each kind, in kind order.
+
+    Returns
+    -------
+    names : tuple of str
+        The names of the concatenated nuisance vector (each kind's ``nuisance_names``).
+    slices : dict
+        Each kind's slice of it.
+    """
     names: list[str] = []
     slices: dict[str, slice] = {}
     for kind, model in models.items():
@@ -92,8 +92,18 @@ def nuisance_layout(models: Mapping[str, MeasurementModel]
 
 
 def as_slice(index: Index) -> Index:
-    """Ascending integer ``index`` that is a run of consecutive rows as the equal slice
-    (indexing by it gives a view); anything else unchanged."""
+    """Return an index that is a run of consecutive rows as the equal slice (a view).
+
+    Parameters
+    ----------
+    index : ndarray or slice
+        Ascending integer row indices, or a slice.
+
+    Returns
+    -------
+    ndarray or slice
+        The equal slice for a run of consecutive rows; anything else unchanged.
+    """
     if isinstance(index, slice):
         return index
     idx = np.asarray(index)
@@ -104,8 +114,18 @@ def as_slice(index: Index) -> Index:
 
 def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, slice]
                    ) -> slice | None:
-    """For rows grouped by kind (each kind a slice), the slice covering every kind that uses
-    an earlier reference sample (None when no kind does)."""
+    """Return the slice covering every kind that uses an earlier reference sample.
+
+    Parameters
+    ----------
+    models, slices : mapping
+        Each kind's measurement model and rows (grouped by kind, each a slice).
+
+    Returns
+    -------
+    slice or None
+        None when no kind uses a reference sample.
+    """
     spans = [slices[k] for k, m in models.items() if m.uses_reference]
     if not spans:
         return None
@@ -113,10 +133,10 @@ def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, 
 
 
 class RowLayout:
-    """Where each kind's rows sit in a block of ``m`` rows, and what follows from the kinds
-    alone: the rows whose residuals wrap, the reference rows and the nuisance structure.
+    """Where each kind's rows sit in a block of ``m`` rows, and what follows from the kinds.
 
-    It depends only on the kinds and their rows, not on the values, so blocks with the same
+    That is the rows whose residuals wrap, the reference rows and the nuisance structure.  It
+    depends only on the kinds and their rows, not on the values, so blocks with the same
     pattern (the updates of a filter run) share one (treat its arrays as read-only).
 
     Parameters
@@ -179,12 +199,9 @@ class RowModel:
         The rows of each kind (integer indices, ascending, or a slice); together they cover
         the ``m`` rows once.
     time, time_ref : array_like
-        Row times and reference times (m,), s (``time_ref`` used by kinds with
-        ``uses_reference``).
-    sigma : array_like
-        Noise standard deviations (m,), SI.
-    sensor : array_like
-        Sensor ids (m,).
+        Row times and reference times (m,), s (the latter for kinds ``uses_reference``).
+    sigma, sensor : array_like
+        Noise standard deviations (m,), SI, and sensor ids (m,).
     sensor_state, ref_sensor_state : array_like
         Sensor states ``[x, y, z, vx, vy, vz]`` (m, 6), m and m/s, at the rows' times and at
         their reference times.
@@ -223,6 +240,7 @@ class RowModel:
         self.nuisance_names, self.nuisance_slices = layout.nuisance_names, layout.nuisance_slices
 
     def __len__(self) -> int:
+        """Return the number of rows ``m``."""
         return int(self.time.shape[0])
 
     def _nuisance(self, kind: str, nuisance: Mapping[str, Array] | Array | None
@@ -236,19 +254,17 @@ class RowModel:
     # -- relative states ---------------------------------------------------------------------
     def relative(self, target: Array, target_ref: Array | None = None,
                  sensor_state: ArrayLike | None = None) -> tuple[Array, Array | None]:
-        """Relative states from target states.
+        """Return relative states from target states.
 
         Parameters
         ----------
         target : ndarray
             Target states (..., m, 6) at the rows' times, m and m/s.
         target_ref : ndarray, optional
-            Target states (..., len(reference), 6) at the reference times of the
-            :attr:`reference` rows.
+            Target states (..., len(reference), 6) at the :attr:`reference` rows' samples.
         sensor_state : array_like, optional
-            Sensor states broadcastable to (..., m, 6) in place of the recorded ones (e.g.
-            candidate sensor poses on a leading axis); the reference samples keep their
-            recorded sensor states.
+            Sensor states (m, m/s) broadcastable to (..., m, 6) in place of the recorded
+            ones (e.g. candidate poses); reference samples keep their recorded ones.
 
         Returns
         -------
@@ -265,7 +281,7 @@ class RowModel:
     # -- predictions and Jacobians -----------------------------------------------------------
     def predict(self, rel: Array, rel_ref: Array | None = None,
                 nuisance: Mapping[str, Array] | Array | None = None) -> Array:
-        """Predicted values (SI), (..., m).
+        """Return predicted values (SI), (..., m).
 
         Parameters
         ----------
@@ -302,7 +318,7 @@ class RowModel:
     def jacobian(self, rel: Array, rel_ref: Array | None = None,
                  nuisance: Mapping[str, Array] | Array | None = None,
                  with_nuisance: bool = False) -> tuple[Array, Array | None, Array | None]:
-        """Analytic derivatives of :meth:`predict`.
+        """Return the analytic derivatives of :meth:`predict`.
 
         Parameters
         ----------
@@ -339,15 +355,25 @@ class RowModel:
         return d, d_ref, d_nu
 
     def reference_rows(self, kind: str) -> slice | None:
-        """Where ``kind``'s rows sit in arrays at the reference samples (None for a kind
-        without reference)."""
+        """Return where ``kind`` (str)'s rows sit in arrays at the reference samples.
+
+        Returns
+        -------
+        slice or None
+            None for a kind without reference.
+        """
         return self._ref_take.get(kind)
 
     # -- nuisance structure: predictions affine in the nuisance ------------------------------
     def const_design(self) -> Array:
-        """``A_const`` (m, k): the part of the nuisance design that does not depend on the
-        geometry (a carrier's columns ``1``, ``t``), see
-        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`."""
+        """Return ``A_const``, the part of the nuisance design that ignores the geometry.
+
+        Returns
+        -------
+        ndarray
+            (m, k), e.g. a carrier's columns ``1``, ``t`` (see
+            :meth:`~tmakit.measurements.MeasurementModel.affine_parts`).
+        """
         m, k = len(self), len(self.nuisance_names)
         out = np.zeros((m, k))
         rel = np.ones((m, 6))  # any finite geometry: A_const does not depend on it
@@ -361,10 +387,17 @@ class RowModel:
     def linearise_into(self, rel: Array, rel_ref: Array | None, h0: Array, a_var: Array,
                        d_h0: Array | None = None, d_h0_ref: Array | None = None
                        ) -> list[tuple[str, Array | None, Array | None]]:
-        """The affine parts of the predictions, ``h0 + (A_const + A_var) @ nu``, written into
-        ``h0`` (..., m) and ``a_var`` (..., m, k) and, when ``d_h0`` (..., m, 6) is given,
-        their derivatives with respect to the relative states (``d_h0_ref`` at the reference
-        samples), in the callers' memory layouts.
+        """Write the affine parts of the predictions, ``h0 + (A_const + A_var) @ nu``, in place.
+
+        Parameters
+        ----------
+        rel, rel_ref
+            Relative states, as for :meth:`predict`.
+        h0, a_var : ndarray
+            Outputs (..., m), SI, and (..., m, k), the geometry-dependent design.
+        d_h0, d_h0_ref : ndarray, optional
+            Outputs (..., m, 6) and (..., len(reference), 6): derivatives of ``h0`` with
+            respect to the relative states (at the rows, at the reference samples).
 
         Returns
         -------
@@ -394,20 +427,42 @@ class RowModel:
         return d_a
 
     def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
-        """``measured - predicted`` (SI), angle rows wrapped to (-pi, pi]; broadcasts over
-        leading axes."""
+        """Return ``measured - predicted``, angle rows wrapped to (-pi, pi].
+
+        Parameters
+        ----------
+        measured, predicted : array_like
+            (..., m), SI; leading axes broadcast.
+
+        Returns
+        -------
+        ndarray
+            (..., m), SI.
+        """
         diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
         return np.where(self.angle, wrap_angle(diff), diff)
 
     # -- noise -------------------------------------------------------------------------------
     def correlated_blocks(self) -> list[tuple[NDArray[np.intp], Array]]:
-        """The noise blocks that are not diagonal (:func:`correlated_blocks`)."""
+        """Return the noise blocks that are not diagonal (see :func:`correlated_blocks`).
+
+        Returns
+        -------
+        list of (rows, covariance)
+            Row indices and their covariance (SI units squared).
+        """
         return correlated_blocks(self.models, self.index, self.time, self.time_ref,
                                  self.sigma, self.sensor)
 
     def covariance(self) -> Array:
-        """The noise covariance ``R`` (m, m), SI units squared: ``diag(sigma^2)`` with the
-        blocks of kinds whose rows are correlated (their ``noise_covariance`` hook)."""
+        """Return the noise covariance ``R``.
+
+        Returns
+        -------
+        ndarray
+            (m, m), SI units squared: ``diag(sigma^2)`` with the blocks of the kinds whose
+            rows are correlated (their ``noise_covariance`` hook).
+        """
         r = np.diag(self.sigma**2)
         for rows, cov in self.correlated_blocks():
             r[np.ix_(rows, rows)] = cov
@@ -417,7 +472,7 @@ class RowModel:
 def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
                       time: Array, time_ref: Array, sigma: Array, sensor: NDArray[np.str_]
                       ) -> list[tuple[NDArray[np.intp], Array]]:
-    """The correlated noise blocks of a set of rows.
+    """Return the correlated noise blocks of a set of rows.
 
     Parameters
     ----------
