@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..data import MeasurementSet
+from ..data import KIND_CODES, MeasurementSet
 from ..measurements import MeasurementModel
 from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
 
@@ -96,8 +96,12 @@ class CompiledMeasurements:
         self.ref_sensor_state = meas.ref_sensor_state[order]
         self.sensor = meas.sensor[order]
         self._kind_codes = {k: i for i, k in enumerate(self.models)}
-        self._codes = np.array([self._kind_codes[k] for k in self.kind], dtype=np.int64) \
-            if n else np.zeros(0, dtype=np.int64)
+        # The set's kind codes (data.KIND_CODES) mapped to this file's model order: no per-row
+        # Python.
+        lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
+        for k, i in self._kind_codes.items():
+            lookup[KIND_CODES[k]] = i
+        self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
         self._lists: tuple[list[float], ...] | None = None
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
         #: row layout, made once and shared by the updates with that pattern.
