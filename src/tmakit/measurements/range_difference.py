@@ -4,7 +4,8 @@ Chen & Sun (1993), eq. 1: with a known pulse repetition interval T,
 ``dr = c (dTOA - j T) = r(t) - r(t_ref)`` for a sample at ``t`` and an earlier one at
 ``t_ref = t - j T``.  The noise of each one-interval difference is independent with
 standard deviation ``sigma_interval``; over ``j`` intervals it accumulates one term per
-interval (Chen & Sun (1993), the text after eq. 1), so the variance is ``j sigma_interval^2`` and differences that share intervals are correlated:
+interval (Chen & Sun (1993), the text after eq. 1), so the variance is
+``j sigma_interval^2`` and differences that share intervals are correlated:
 :func:`range_difference_covariance` gives that covariance.
 """
 
