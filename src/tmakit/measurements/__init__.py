@@ -39,9 +39,26 @@ __all__ = [
 ]
 
 
-def model_for(kind: str, **options) -> MeasurementModel:
-    """The measurement model of a kind; ``options`` go to its constructor
-    (``Frequency(drift=...)``, ``Power(exponent=...)``)."""
+def model_for(kind: str, **options: object) -> MeasurementModel:
+    """Build the measurement model of a kind.
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`KINDS` ("bearing", "frequency", ...).
+    **options
+        Passed to the kind's constructor (``Frequency(drift=...)``, ``Power(exponent=...)``).
+
+    Returns
+    -------
+    MeasurementModel
+        The model, working in SI units.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is not a known measurement kind.
+    """
     try:
         cls = KINDS[kind]
     except KeyError:

@@ -1,25 +1,64 @@
-"""Azimuth rate: time derivative of the bearing (Hörst & Oispuu (2010), eq. 6),
-``(dvx dy - dx dvy) / (dx^2 + dy^2)``.  rad/s inside, deg/s in files."""
+"""Azimuth rate: time derivative of the bearing (Hörst & Oispuu (2010), eq. 6).
+
+``(dvx dy - dx dvy) / (dx^2 + dy^2)``.  rad/s inside, deg/s in files.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from .base import Array, Jacobian, MeasurementModel, as_rel, zeros_nuisance
 
 
 class AzimuthRate(MeasurementModel):
+    """Azimuth rate ``(dvx dy - dx dvy) / rho^2``, rad/s; deg/s in files.
+
+    No nuisance parameters; needs the relative velocity.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 6 (the azimuth rate).
+    """
+
     kind = "azimuth_rate"
     file_unit = "deg/s"
     file_scale = np.pi / 180.0
     uses_velocity = True
 
-    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict azimuth rates, rad/s; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        ndarray
+            Azimuth rates, rad/s, shape ``rel.shape[:-1]``.
+        """
         rel = as_rel(rel)
         dx, dy, dvx, dvy = rel[..., 0], rel[..., 1], rel[..., 3], rel[..., 4]
         return (dvx * dy - dx * dvy) / (dx * dx + dy * dy)
 
-    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: rad/(s m) for positions, rad/m for velocities; no reference, no nuisance.
+        """
         rel = as_rel(rel)
         dx, dy, dvx, dvy = rel[..., 0], rel[..., 1], rel[..., 3], rel[..., 4]
         rho2 = dx * dx + dy * dy

@@ -24,11 +24,16 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Jacobian:
-    """Derivatives of predicted values ``(..., n)``.
+    """Derivatives of predicted values ``(..., n)``, SI value units per m, m/s or nuisance unit.
 
-    ``rel``: d value / d relative state, ``(..., n, 6)``.
-    ``rel_ref``: d value / d relative state at the reference (earlier) sample, or None.
-    ``nuisance``: d value / d nuisance parameters, ``(..., n, k)`` (k may be 0).
+    Parameters
+    ----------
+    rel : ndarray
+        d value / d relative state, ``(..., n, 6)``.
+    rel_ref : ndarray or None
+        d value / d relative state at the reference (earlier) sample, or None.
+    nuisance : ndarray
+        d value / d nuisance parameters, ``(..., n, k)`` (k may be 0).
     """
 
     rel: Array
@@ -57,7 +62,18 @@ class ValueRange:
     high_inclusive: bool = True
 
     def contains(self, values: ArrayLike) -> NDArray[np.bool_]:
-        """True where ``values`` (file units) lie in the range."""
+        """Tell where values lie in the range.
+
+        Parameters
+        ----------
+        values : array_like
+            Values in the kind's file unit.
+
+        Returns
+        -------
+        ndarray of bool
+            Same shape as ``values``; True where the value lies in the range.
+        """
         v = np.asarray(values, dtype=float)
         ok = np.ones(v.shape, dtype=bool)
         if self.low is not None:
@@ -67,8 +83,18 @@ class ValueRange:
         return ok
 
     def describe(self, unit: str) -> str:
-        """What the file checker says a valid value is, e.g. "a bearing within [-360, 360]
-        deg", "a frequency > 0 Hz" (``unit``: the kind's file unit)."""
+        """Say what a valid value is, as the file checker words it.
+
+        Parameters
+        ----------
+        unit : str
+            The kind's file unit ("deg", "Hz").
+
+        Returns
+        -------
+        str
+            E.g. "a bearing within [-360, 360] deg", "a frequency > 0 Hz".
+        """
         if self.low is not None and self.high is not None:
             left = "[" if self.low_inclusive else "("
             right = "]" if self.high_inclusive else ")"
@@ -81,8 +107,9 @@ class ValueRange:
 
 
 class MeasurementModel:
-    """One kind of measurement.  Subclasses set the class attributes and implement
-    :meth:`predict` and :meth:`jacobian`.
+    """One kind of measurement.
+
+    Subclasses set the class attributes and implement :meth:`predict` and :meth:`jacobian`.
 
     Per-kind special cases are hooks here, so that a new kind is one file plus its
     registration in :data:`tmakit.measurements.KINDS`: :attr:`value_range` (checked by the
@@ -111,7 +138,7 @@ class MeasurementModel:
 
     @classmethod
     def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:
-        """True where file values (file units, e.g. degrees) are valid for this kind.
+        """Tell where file values (file units, e.g. degrees) are valid for this kind.
 
         Parameters
         ----------
@@ -129,18 +156,23 @@ class MeasurementModel:
 
     @classmethod
     def describe_values(cls) -> str | None:
-        """What a valid file value of this kind is, for error messages (None: any value)."""
+        """Say what a valid file value of this kind is, for error messages.
+
+        Returns
+        -------
+        str or None
+            E.g. "a frequency > 0 Hz"; None when any finite value is valid.
+        """
         return None if cls.value_range is None else cls.value_range.describe(cls.file_unit)
 
     def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
                          sensor: ArrayLike | None = None) -> Array:
-        """The noise covariance of rows of this kind (SI units squared).
+        """Give the noise covariance of rows of this kind (SI units squared).
 
         Parameters
         ----------
         time, time_ref : array_like
-            Row times and reference times, (m,) s (``time_ref`` is used only by kinds with
-            :attr:`uses_reference`).
+            Row times and reference times (m,), s (``time_ref``: if :attr:`uses_reference`).
         sigma : array_like
             Standard deviations (m,), SI.
         sensor : array_like, optional
@@ -155,15 +187,43 @@ class MeasurementModel:
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:
-        """Names of this model's nuisance parameters (shared by all its samples)."""
+        """Names of this model's nuisance parameters (shared by all its samples).
+
+        Returns
+        -------
+        tuple of str
+            Empty for kinds without nuisance parameters.
+        """
         return ()
 
     def default_nuisance(self) -> dict[str, float]:
-        """Nuisance values used when a caller gives none."""
+        """Give the nuisance values used when a caller gives none.
+
+        Returns
+        -------
+        dict of str to float
+            Default values by nuisance name, in the nuisance parameters' SI units.
+        """
         return {}
 
     def nuisance_vector(self, values: dict[str, float] | None) -> Array:
-        """The nuisance vector in :attr:`nuisance_names` order, defaults filled in."""
+        """Give the nuisance vector in :attr:`nuisance_names` order, defaults filled in.
+
+        Parameters
+        ----------
+        values : dict of str to float or None
+            Nuisance values by name, SI; missing ones come from :meth:`default_nuisance`.
+
+        Returns
+        -------
+        ndarray
+            ``(k,)`` nuisance vector, SI units.
+
+        Raises
+        ------
+        ValueError
+            If a nuisance parameter has neither a value nor a default.
+        """
         merged = {**self.default_nuisance(), **(values or {})}
         missing = [n for n in self.nuisance_names if n not in merged]
         if missing:
@@ -173,19 +233,69 @@ class MeasurementModel:
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predicted values (SI), shape ``rel.shape[:-1]``."""
+        """Predict the measured values.
+
+        Parameters
+        ----------
+        rel : array_like
+            Relative states (target minus sensor) ``(..., n, 6)``: position m, velocity m/s.
+        t : array_like, optional
+            Sample times ``(n,)``, s (only kinds whose values depend on time use them).
+        nuisance : array_like, optional
+            Nuisance parameters broadcastable to ``(..., n, k)``, SI (if the kind has any).
+        rel_ref : array_like, optional
+            Relative states at the earlier samples, like ``rel`` (if :attr:`uses_reference`).
+
+        Returns
+        -------
+        ndarray
+            Predicted values ``rel.shape[:-1]``, SI units (rad, m, m/s, Hz, dBW).
+
+        Raises
+        ------
+        NotImplementedError
+            Always, in the base class; kinds raise ValueError for bad or missing inputs.
+        """
         raise NotImplementedError
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Analytic derivatives of :meth:`predict`."""
+        """Give the analytic derivatives of :meth:`predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        Jacobian
+            Derivatives with respect to ``rel``, ``rel_ref`` and the nuisance parameters.
+
+        Raises
+        ------
+        NotImplementedError
+            As for :meth:`predict`.
+        """
         raise NotImplementedError
 
     def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
                rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
-        """``(h0, A)`` with ``predict = h0 + A @ nuisance`` (every nuisance parameter of
-        tmakit enters linearly): ``h0`` is ``(..., n)``, ``A`` is ``(..., n, k)``."""
+        """Split the prediction as ``h0 + A @ nuisance`` (every nuisance enters linearly).
+
+        Parameters
+        ----------
+        rel, t, rel_ref
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        h0 : ndarray
+            ``(..., n)``, SI units of the value.
+        A : ndarray
+            ``(..., n, k)``, value units per nuisance unit.
+        """
         rel = as_rel(rel)
         k = len(self.nuisance_names)
         if k == 0:
@@ -196,21 +306,51 @@ class MeasurementModel:
 
     def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
                      rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
-        """``(h0, A_const, A_var)`` with ``A = A_const + A_var``: ``A_const`` does not depend
-        on the geometry.  Solvers subtract ``A_const @ nuisance`` from the data once, so that
-        large nuisance values (a GHz carrier) do not swamp the residuals in rounding."""
+        """Split :meth:`affine`'s design into a part fixed by the geometry and the rest.
+
+        ``A = A_const + A_var``.  Solvers subtract ``A_const @ nuisance`` from the data once,
+        so that large nuisance values (a GHz carrier) do not swamp the residuals in rounding.
+
+        Parameters
+        ----------
+        rel, t, rel_ref
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        h0 : ndarray
+            ``(..., n)``, SI units of the value.
+        A_const, A_var : ndarray
+            ``(..., n, k)`` each, value units per nuisance unit.
+        """
         h0, a = self.affine(rel, t, rel_ref)
         return h0, np.zeros(a.shape), a
 
     def affine_derivatives(self, rel: ArrayLike, t: ArrayLike | None = None,
-                           rel_ref: ArrayLike | None = None):
-        """The affine parts and their derivatives in one pass:
-        ``(h0, A_const, A_var, dh0, dh0_ref, dA, dA_ref)`` with ``dh0`` ``(..., n, 6)`` the
-        derivative of ``h0`` and ``dA`` ``(..., n, k, 6)`` that of ``A_var`` with respect to the
-        relative state (``*_ref``: at the reference sample).  Since the predictions are affine
-        in the nuisance, ``d predict / d rel = dh0 + sum_j nu_j dA[..., j, :]``.  A derivative
-        that vanishes identically may be None (``dh0`` of a frequency, ``dA`` of a design that
-        does not depend on the geometry, every ``*_ref`` of a kind without reference)."""
+                           rel_ref: ArrayLike | None = None
+                           ) -> tuple[Array, Array, Array, Array | None, Array | None,
+                                      Array | None, Array | None]:
+        """Give the affine parts and their derivatives in one pass.
+
+        Since the predictions are affine in the nuisance,
+        ``d predict / d rel = dh0 + sum_j nu_j dA[..., j, :]``.
+
+        Parameters
+        ----------
+        rel, t, rel_ref
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        h0, A_const, A_var : ndarray
+            As for :meth:`affine_parts`.
+        dh0, dh0_ref : ndarray or None
+            ``(..., n, 6)``: d ``h0`` / d relative state (at the reference sample), per m, m/s.
+        dA, dA_ref : ndarray or None
+            ``(..., n, k, 6)``: d ``A_var`` likewise.  None where it vanishes identically
+            (``dh0`` of a frequency, ``dA`` of a design that does not depend on the geometry,
+            every ``*_ref`` of a kind without reference).
+        """
         rel = as_rel(rel)
         k = len(self.nuisance_names)
         if k == 0:  # no nuisance: the prediction and its Jacobian
@@ -231,19 +371,56 @@ class MeasurementModel:
 
     # -- edges: file units <-> SI ------------------------------------------------------
     def value_to_si(self, value: ArrayLike) -> Array:
+        """Convert file values to SI: ``value * file_scale + file_offset``.
+
+        Parameters
+        ----------
+        value : array_like
+            Values in :attr:`file_unit`.
+
+        Returns
+        -------
+        ndarray
+            Values in SI units (rad, m, m/s, Hz, dBW).
+        """
         return np.asarray(value, dtype=float) * self.file_scale + self.file_offset
 
     def value_from_si(self, value: ArrayLike) -> Array:
+        """Convert SI values (array_like) to :attr:`file_unit`, inverting :meth:`value_to_si`."""
         return (np.asarray(value, dtype=float) - self.file_offset) / self.file_scale
 
     def sigma_to_si(self, sigma: ArrayLike) -> Array:
+        """Convert file standard deviations to SI: ``sigma * file_scale``.
+
+        Parameters
+        ----------
+        sigma : array_like
+            Standard deviations in :attr:`file_unit`.
+
+        Returns
+        -------
+        ndarray
+            Standard deviations in SI units.
+        """
         return np.asarray(sigma, dtype=float) * self.file_scale
 
     def sigma_from_si(self, sigma: ArrayLike) -> Array:
+        """Convert SI standard deviations to :attr:`file_unit`, inverting :meth:`sigma_to_si`."""
         return np.asarray(sigma, dtype=float) / self.file_scale
 
     def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
-        """measured - predicted, wrapped for angles (SI)."""
+        """Give ``measured - predicted``, wrapped to (-pi, pi] for angles.
+
+        Parameters
+        ----------
+        measured, predicted : array_like
+            Values in SI units, broadcastable.
+
+        Returns
+        -------
+        ndarray
+            Residuals, SI units (rad for angles).
+        """
         diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
         if self.is_angle:
             from ..frames import wrap_angle
@@ -252,11 +429,28 @@ class MeasurementModel:
         return diff
 
     def __repr__(self) -> str:
+        """Name the kind with its options, e.g. ``Bearing()``."""
         return f"{type(self).__name__}()"
 
 
 def as_rel(rel: ArrayLike) -> Array:
-    """Check and return a relative-state array ``(..., 6)``."""
+    """Check and return a relative-state array.
+
+    Parameters
+    ----------
+    rel : array_like
+        Relative states ``(..., 6)``: position in m, velocity in m/s.
+
+    Returns
+    -------
+    ndarray
+        ``rel`` as a float array.
+
+    Raises
+    ------
+    ValueError
+        If the last axis does not have 6 components.
+    """
     rel = np.asarray(rel, dtype=float)
     if rel.ndim == 0 or rel.shape[-1] != 6:
         raise ValueError(f"relative states must have 6 components (position, velocity); "
@@ -265,17 +459,41 @@ def as_rel(rel: ArrayLike) -> Array:
 
 
 def dot3(a: Array, b: Array) -> Array:
-    """Row-wise dot product of two ``(..., 3)`` arrays (fast for any memory layout)."""
+    """Give the row-wise dot product of two arrays (fast for any memory layout).
+
+    Parameters
+    ----------
+    a, b : ndarray
+        ``(..., 3)`` arrays, any units.
+
+    Returns
+    -------
+    ndarray
+        ``(...)``, in the units of ``a`` times those of ``b``.
+    """
     return np.einsum("...i,...i->...", a, b)
 
 
 def inverse_range_and_unit(rel: Array) -> tuple[Array, Array]:
-    """``(1 / r, p / r)`` for the relative position ``p = rel[..., :3]``, ``r = |p|``."""
+    """Give ``(1 / r, p / r)`` for the relative position ``p = rel[..., :3]``, ``r = |p|``.
+
+    Parameters
+    ----------
+    rel : ndarray
+        Relative states ``(..., 6)``, position in m.
+
+    Returns
+    -------
+    inv_r : ndarray
+        ``(...)``, 1/m.
+    unit : ndarray
+        ``(..., 3)``, the unit line-of-sight vector (dimensionless).
+    """
     p = rel[..., :3]
     inv_r = 1.0 / np.sqrt(dot3(p, p))
     return inv_r, p * inv_r[..., None]
 
 
 def zeros_nuisance(rel: Array) -> Array:
-    """An empty nuisance Jacobian for models without nuisance parameters."""
+    """Give zeros ``(..., n, 0)`` for ``rel`` ``(..., n, 6)``: a nuisance Jacobian of none."""
     return np.zeros((*rel.shape[:-1], 0))

@@ -1,25 +1,64 @@
-"""Bearing (azimuth): angle clockwise from North of the horizontal line of sight,
-``atan2(dx, dy)`` (Hörst & Oispuu (2010), eq. 6).  Radians inside, degrees in files."""
+"""Bearing (azimuth): angle clockwise from North of the horizontal line of sight.
+
+``atan2(dx, dy)`` (Hörst & Oispuu (2010), eq. 6).  Radians inside, degrees in files.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Bearing(MeasurementModel):
+    """Bearing ``atan2(dx, dy)``, rad (clockwise from North); deg in files.
+
+    No nuisance parameters; residuals are wrapped to (-pi, pi].
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 6 (the azimuth).
+    """
+
     kind = "bearing"
     file_unit = "deg"
     file_scale = np.pi / 180.0
     is_angle = True
     value_range = ValueRange("a bearing", -360.0, 360.0)
 
-    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict bearings, rad; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        ndarray
+            ``atan2(dx, dy)``, rad in (-pi, pi], shape ``rel.shape[:-1]``.
+        """
         rel = as_rel(rel)
         return np.arctan2(rel[..., 0], rel[..., 1])
 
-    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: ``(dy, -dx, 0, 0, 0, 0) / rho^2``, rad/m; no reference, no nuisance.
+        """
         rel = as_rel(rel)
         dx, dy = rel[..., 0], rel[..., 1]
         rho2 = dx * dx + dy * dy

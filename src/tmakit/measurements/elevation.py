@@ -1,25 +1,60 @@
-"""Elevation: angle of the line of sight above the horizontal plane, ``atan2(dz, rho)`` with
-``rho`` the horizontal range.  Radians inside, degrees in files."""
+"""Elevation: angle of the line of sight above the horizontal plane.
+
+``atan2(dz, rho)`` with ``rho`` the horizontal range.  Radians inside, degrees in files.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Elevation(MeasurementModel):
+    """Elevation ``atan2(dz, hypot(dx, dy))``, rad; deg in files.
+
+    No nuisance parameters; residuals are wrapped to (-pi, pi].
+    """
+
     kind = "elevation"
     file_unit = "deg"
     file_scale = np.pi / 180.0
     is_angle = True
     value_range = ValueRange("an elevation", -90.0, 90.0)
 
-    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict elevations, rad; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        ndarray
+            ``atan2(dz, rho)``, rad in [-pi/2, pi/2], shape ``rel.shape[:-1]``.
+        """
         rel = as_rel(rel)
         return np.arctan2(rel[..., 2], np.hypot(rel[..., 0], rel[..., 1]))
 
-    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: position part only, rad/m; no reference, no nuisance.
+        """
         rel = as_rel(rel)
         dx, dy, dz = rel[..., 0], rel[..., 1], rel[..., 2]
         rho = np.hypot(dx, dy)

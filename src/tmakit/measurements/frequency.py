@@ -1,5 +1,6 @@
-"""Doppler-shifted frequency with an unknown carrier (Gu et al. (2007), eqs. 5-6;
-the Doppler-tracking lecture notes).
+"""Doppler-shifted frequency with an unknown carrier.
+
+Gu et al. (2007), eqs. 5-6; the Doppler-tracking lecture notes.
 
 ``f = f_c(t) (1 - rdot / c)`` with ``rdot`` the range rate of the target relative to the
 (moving) sensor, so the sensor's own velocity is included.  The carrier is a nuisance
@@ -16,16 +17,29 @@ heard at a higher frequency.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..units import SPEED_OF_LIGHT
-from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3
+from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 from .range_rate import range_rate_and_gradient
 
 
 class Frequency(MeasurementModel):
-    """Received carrier frequency in Hz.
+    """Received carrier frequency ``f_c(t) (1 - rdot / c)``, Hz (also in files).
 
-    ``drift=True`` adds the nuisance parameter ``carrier_drift`` (Hz/s).
+    Nuisance parameters: ``carrier`` (Hz) and, with ``drift``, ``carrier_drift`` (Hz/s).
+
+    Parameters
+    ----------
+    drift : bool, optional
+        Add the nuisance parameter ``carrier_drift``: ``f_c(t) = carrier + carrier_drift t``.
+    speed_of_light : float, optional
+        Propagation speed ``c``, m/s.
+
+    References
+    ----------
+    Gu et al. (2007), eqs. 5-6 (the Doppler-shifted frequency) and §5 (the carrier drift);
+    the Doppler-tracking lecture notes (the frequency-only model, opposite sign convention).
     """
 
     kind = "frequency"
@@ -39,12 +53,21 @@ class Frequency(MeasurementModel):
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:
+        """``("carrier",)``, or ``("carrier", "carrier_drift")`` with drift (Hz, Hz/s)."""
         return ("carrier", "carrier_drift") if self.drift else ("carrier",)
 
     def default_nuisance(self) -> dict[str, float]:
+        """Give the default nuisance: a drift of 0 Hz/s; the carrier has none.
+
+        Returns
+        -------
+        dict of str to float
+            ``{"carrier_drift": 0.0}``.
+        """
         return {"carrier_drift": 0.0}
 
-    def _carrier(self, t, nuisance, shape):
+    def _carrier(self, t: ArrayLike | None, nuisance: ArrayLike,
+                 shape: tuple[int, ...]) -> Array:
         nu = np.asarray(nuisance, dtype=float)
         if nu.shape[-1] != len(self.nuisance_names):
             raise ValueError(f"frequency: expected nuisance ({', '.join(self.nuisance_names)}),"
@@ -56,16 +79,38 @@ class Frequency(MeasurementModel):
             carrier = carrier + nu[..., 1] * np.asarray(t, dtype=float)
         return np.broadcast_to(carrier, shape)
 
-    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict received frequencies, Hz; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; ``nuisance`` (Hz, Hz/s) is required,
+            ``t`` (s) too with drift; ``rel_ref`` is not used.
+
+        Returns
+        -------
+        ndarray
+            ``f_c(t) (1 - rdot / c)``, Hz, shape ``rel.shape[:-1]``.
+
+        Raises
+        ------
+        ValueError
+            If ``nuisance`` is missing or of the wrong length, or ``t`` is missing with drift.
+        """
         rel = as_rel(rel)
         if nuisance is None:
             raise ValueError("frequency: the carrier (nuisance parameter) is needed")
         rdot, _ = range_rate_and_gradient(rel)
         return self._carrier(t, nuisance, rdot.shape) * (1.0 - rdot / self.c)
 
-    def _design(self, small, t):
-        """``(h0, A_const, A_var)`` from ``small = -rdot / c``: the constant part of the design
-        is ``(1, t)``, the geometry enters only through the small ``-rdot / c``."""
+    def _design(self, small: Array, t: ArrayLike | None) -> tuple[Array, Array, Array]:
+        """Give ``(h0, A_const, A_var)`` from ``small = -rdot / c``.
+
+        The constant part of the design is ``(1, t)``, the geometry enters only through the
+        small ``-rdot / c``.
+        """
         ones = np.ones((*small.shape, 1))
         if not self.drift:
             return np.zeros(small.shape), ones, small[..., None]
@@ -73,18 +118,64 @@ class Frequency(MeasurementModel):
         return (np.zeros(small.shape), np.stack([ones[..., 0], tt], axis=-1),
                 np.stack([small, small * tt], axis=-1))
 
-    def affine_parts(self, rel, t=None, rel_ref=None):
+    def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
+                     rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
+        """Split the design; see :meth:`MeasurementModel.affine_parts`.
+
+        Parameters
+        ----------
+        rel, t, rel_ref
+            As for :meth:`MeasurementModel.predict`; ``t`` (s) is required with drift.
+
+        Returns
+        -------
+        h0 : ndarray
+            Zeros ``(..., n)``, Hz.
+        A_const, A_var : ndarray
+            ``(..., n, k)``: ``(1, t)`` (dimensionless, s) and ``-rdot / c`` times the same.
+        """
         # f = carrier (1 - rdot/c) [+ drift t (1 - rdot/c)]
         rel = as_rel(rel)
         p = rel[..., :3]
         small = dot3(p, rel[..., 3:]) / np.sqrt(dot3(p, p)) * (-1.0 / self.c)
         return self._design(small, t)
 
-    def affine(self, rel, t=None, rel_ref=None):
+    def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
+               rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
+        """Give ``(h0, A_const + A_var)``; see :meth:`MeasurementModel.affine`.
+
+        Parameters
+        ----------
+        rel, t, rel_ref
+            As for :meth:`affine_parts`.
+
+        Returns
+        -------
+        h0, A : ndarray
+            ``(..., n)`` zeros, Hz, and ``(..., n, k)`` with columns ``1 - rdot / c`` (and
+            ``t (1 - rdot / c)``, s).
+        """
         h0, const, var = self.affine_parts(rel, t, rel_ref)
         return h0, const + var
 
-    def affine_derivatives(self, rel, t=None, rel_ref=None):
+    def affine_derivatives(self, rel: ArrayLike, t: ArrayLike | None = None,
+                           rel_ref: ArrayLike | None = None
+                           ) -> tuple[Array, Array, Array, Array | None, Array | None,
+                                      Array | None, Array | None]:
+        """Give the affine parts and derivatives; see :meth:`MeasurementModel.affine_derivatives`.
+
+        Parameters
+        ----------
+        rel, t, rel_ref
+            As for :meth:`affine_parts`.
+
+        Returns
+        -------
+        tuple
+            ``(h0, A_const, A_var, None, None, dA, None)``: ``h0`` is zero, so ``dh0`` is
+            None; ``dA`` ``(..., n, k, 6)`` is ``d(-rdot / c) / d rel`` (1/m for positions,
+            s/m for velocities) times ``(1, t)``.
+        """
         # h0 = 0 (no derivative); A_var = (small, small t) with small = -rdot / c.
         rel = as_rel(rel)
         small, d_small = range_rate_and_gradient(rel, -1.0 / self.c)
@@ -94,7 +185,27 @@ class Frequency(MeasurementModel):
         tt = np.asarray(t, dtype=float)[:, None]
         return h0, const, var, None, None, np.stack([d_small, d_small * tt], axis=-2), None
 
-    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: Hz/m and Hz/(m/s); ``nuisance``: ``1 - rdot / c`` (Hz/Hz) and, with
+            drift, ``t (1 - rdot / c)`` (Hz per Hz/s); no reference.
+
+        Raises
+        ------
+        ValueError
+            As for :meth:`predict`.
+        """
         rel = as_rel(rel)
         if nuisance is None:
             raise ValueError("frequency: the carrier (nuisance parameter) is needed")
@@ -108,4 +219,5 @@ class Frequency(MeasurementModel):
         return Jacobian(d_rel, None, np.stack(cols, axis=-1))
 
     def __repr__(self) -> str:
+        """Name the kind with its drift option, e.g. ``Frequency(drift=False)``."""
         return f"Frequency(drift={self.drift})"

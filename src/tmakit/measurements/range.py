@@ -3,20 +3,51 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Range(MeasurementModel):
+    """Range ``|p|`` from sensor to target, m (also in files); no nuisance parameters."""
+
     kind = "range"
     file_unit = "m"
     value_range = ValueRange("a range", 0.0)
 
-    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict ranges, m; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        ndarray
+            ``|rel[..., :3]|``, m, shape ``rel.shape[:-1]``.
+        """
         rel = as_rel(rel)
         return np.linalg.norm(rel[..., :3], axis=-1)
 
-    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: the unit line of sight ``p / |p|`` (m/m) and zeros; no reference, no
+            nuisance.
+        """
         rel = as_rel(rel)
         r = np.linalg.norm(rel[..., :3], axis=-1, keepdims=True)
         d = np.zeros(rel.shape)

@@ -1,10 +1,11 @@
-"""Range difference from the difference of pulse arrival times (Chen & Sun 1993, eq. 1).
+"""Range difference from the difference of pulse arrival times.
 
-With a known pulse repetition interval T, ``dr = c (dTOA - j T) = r(t) - r(t_ref)`` for a
-sample at ``t`` and an earlier one at ``t_ref = t - j T``.  The noise of each one-interval
-difference is independent with standard deviation ``sigma_interval``; over ``j`` intervals it
-accumulates one term per interval (Chen & Sun 1993, the text after eq. 1), so the
-variance is ``j sigma_interval^2`` and differences that share intervals are correlated:
+Chen & Sun (1993), eq. 1: with a known pulse repetition interval T,
+``dr = c (dTOA - j T) = r(t) - r(t_ref)`` for a sample at ``t`` and an earlier one at
+``t_ref = t - j T``.  The noise of each one-interval difference is independent with
+standard deviation ``sigma_interval``; over ``j`` intervals it accumulates one term per
+interval (Chen & Sun (1993), the text after eq. 1), so the variance is
+``j sigma_interval^2`` and differences that share intervals are correlated:
 :func:`range_difference_covariance` gives that covariance.
 """
 
@@ -13,10 +14,20 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from .base import Array, Jacobian, MeasurementModel, as_rel, zeros_nuisance
 
 
 class RangeDifference(MeasurementModel):
+    """Range difference ``r(t) - r(t_ref)``, m (also in files), against an earlier sample.
+
+    No nuisance parameters.  Rows of one sensor that share pulse intervals have correlated
+    noise (:meth:`noise_covariance`).
+
+    References
+    ----------
+    Chen & Sun (1993), eq. 1 (``c (dTOA - j T)``) and the text after it (the noise).
+    """
+
     kind = "range_difference"
     file_unit = "m"
     uses_reference = True
@@ -24,8 +35,10 @@ class RangeDifference(MeasurementModel):
 
     def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
                          sensor: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Differences of one sensor that share pulse intervals are correlated: see
-        :func:`range_difference_covariance` (Chen & Sun 1993, eq. 1 and the text after it).
+        """Give the noise covariance of range differences, m^2.
+
+        Differences of one sensor that share pulse intervals are correlated: see
+        :func:`range_difference_covariance`.
 
         Parameters
         ----------
@@ -40,10 +53,38 @@ class RangeDifference(MeasurementModel):
         -------
         ndarray
             (m, m) covariance, m^2.
+
+        Raises
+        ------
+        ValueError
+            If a row has ``time_ref >= time``.
+
+        References
+        ----------
+        Chen & Sun (1993), eq. 1 and the text after it.
         """
         return range_difference_covariance(time, time_ref, sigma, sensor)
 
-    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict range differences, m; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; ``rel_ref`` (the relative states at
+            ``t_ref``) is required; ``t`` and ``nuisance`` are not used.
+
+        Returns
+        -------
+        ndarray
+            ``|p| - |p_ref|``, m, shape ``rel.shape[:-1]``.
+
+        Raises
+        ------
+        ValueError
+            If ``rel_ref`` is missing.
+        """
         rel = as_rel(rel)
         if rel_ref is None:
             raise ValueError("range_difference needs the relative state at the earlier sample")
@@ -51,7 +92,27 @@ class RangeDifference(MeasurementModel):
         return (np.linalg.norm(rel[..., :3], axis=-1)
                 - np.linalg.norm(rel_ref[..., :3], axis=-1))
 
-    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: ``p / |p|``; ``rel_ref``: ``-p_ref / |p_ref|`` (m/m, position part only);
+            no nuisance.
+
+        Raises
+        ------
+        ValueError
+            If ``rel_ref`` is missing.
+        """
         rel = as_rel(rel)
         if rel_ref is None:
             raise ValueError("range_difference needs the relative state at the earlier sample")
@@ -65,7 +126,24 @@ class RangeDifference(MeasurementModel):
 
 
 def interval_count(t: ArrayLike, t_ref: ArrayLike, pri: float) -> NDArray[np.int64]:
-    """Number of pulse intervals between ``t_ref`` and ``t`` (rounded to whole intervals)."""
+    """Count the pulse intervals between ``t_ref`` and ``t`` (rounded to whole intervals).
+
+    Parameters
+    ----------
+    t, t_ref : array_like
+        Times of the later and earlier samples, s.
+    pri : float
+        Pulse repetition interval ``T``, s.
+
+    Returns
+    -------
+    ndarray of int64
+        ``j = rint((t - t_ref) / T)``, broadcast shape of ``t`` and ``t_ref``.
+
+    References
+    ----------
+    Chen & Sun (1993), eq. 1 (``t_ref = t - j T``).
+    """
     return np.rint((np.asarray(t, float) - np.asarray(t_ref, float)) / pri).astype(np.int64)
 
 
@@ -77,6 +155,29 @@ def range_difference_covariance(t: ArrayLike, t_ref: ArrayLike, sigma: ArrayLike
     ``sigma^2 / (t - t_ref)`` per second of span.  Two differences of the same sensor are
     correlated by the length of the overlap of their spans times that density (the interval
     noises are independent and each is counted once per difference it lies in).
+
+    Parameters
+    ----------
+    t, t_ref : array_like
+        Times of the later and earlier samples (m,), s.
+    sigma : array_like
+        Standard deviations of the differences (m,), m.
+    sensor : array_like, optional
+        Sensor ids (m,); differences of different sensors are independent.
+
+    Returns
+    -------
+    ndarray
+        (m, m) covariance, m^2.
+
+    Raises
+    ------
+    ValueError
+        If a row has ``time_ref >= time``.
+
+    References
+    ----------
+    Chen & Sun (1993), eq. 1 and the text after it (one noise term per interval).
     """
     t = np.asarray(t, dtype=float)
     t_ref = np.asarray(t_ref, dtype=float)

@@ -1,19 +1,48 @@
 """Range rate: d|p|/dt = p.v / |p| for the relative position p and velocity v, m/s.
 
 This is the combined radial velocity v_k of Gu et al. (2007), eq. 6 (positive when the
-target recedes); the sensor's own velocity enters through the relative velocity."""
+target recedes); the sensor's own velocity enters through the relative velocity.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .base import Jacobian, MeasurementModel, as_rel, dot3, inverse_range_and_unit, zeros_nuisance
+from .base import (
+    Array,
+    Jacobian,
+    MeasurementModel,
+    as_rel,
+    dot3,
+    inverse_range_and_unit,
+    zeros_nuisance,
+)
 
 
 def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
                             ) -> tuple[np.ndarray, np.ndarray]:
-    """Range rate ``(..., n)`` and its gradient with respect to the relative state
-    ``(..., n, 6)`` (in ``rel``'s memory layout), both multiplied by ``scale``."""
+    """Give the range rate and its gradient with respect to the relative state.
+
+    Parameters
+    ----------
+    rel : ndarray
+        Relative states ``(..., n, 6)``: position m, velocity m/s.
+    scale : float, optional
+        Factor applied to both outputs (e.g. ``-1 / c`` for a Doppler shift), default 1.
+
+    Returns
+    -------
+    rdot : ndarray
+        ``scale * p.v / |p|``, ``(..., n)``, m/s times the units of ``scale``.
+    grad : ndarray
+        ``(..., n, 6)`` in ``rel``'s memory layout: 1/s (position part) and dimensionless
+        (velocity part), times the units of ``scale``.
+
+    References
+    ----------
+    Gu et al. (2007), eq. 6 (the combined radial velocity ``v_k``).
+    """
     v = rel[..., 3:]
     inv_r, unit = inverse_range_and_unit(rel)
     rdot = dot3(unit, v)
@@ -26,13 +55,49 @@ def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
 
 
 class RangeRate(MeasurementModel):
+    """Range rate ``p.v / |p|``, m/s (also in files), positive when the target recedes.
+
+    No nuisance parameters; needs the relative velocity.
+
+    References
+    ----------
+    Gu et al. (2007), eq. 6 (the combined radial velocity ``v_k``).
+    """
+
     kind = "range_rate"
     file_unit = "m/s"
     uses_velocity = True
 
-    def predict(self, rel, t=None, nuisance=None, rel_ref=None):
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict range rates, m/s; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        ndarray
+            Range rates, m/s, shape ``rel.shape[:-1]``.
+        """
         return range_rate_and_gradient(as_rel(rel))[0]
 
-    def jacobian(self, rel, t=None, nuisance=None, rel_ref=None):
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: see :func:`range_rate_and_gradient`; no reference, no nuisance.
+        """
         rel = as_rel(rel)
         return Jacobian(range_rate_and_gradient(rel)[1], None, zeros_nuisance(rel))
