@@ -1,10 +1,10 @@
 """Range difference from the difference of pulse arrival times.
 
-Chen & Sun (1993), eq. 1: with a known pulse repetition interval T,
+Chen & Sun, eq. 1: with a known pulse repetition interval T,
 ``dr = c (dTOA - j T) = r(t) - r(t_ref)`` for a sample at ``t`` and an earlier one at
 ``t_ref = t - j T``.  The noise of each one-interval difference is independent with
 standard deviation ``sigma_interval``; over ``j`` intervals it accumulates one term per
-interval (Chen & Sun (1993), the text after eq. 1), so the variance is
+interval (Chen & Sun, the text after eq. 1), so the variance is
 ``j sigma_interval^2`` and differences that share intervals are correlated:
 :func:`range_difference_covariance` gives that covariance.
 """
@@ -25,7 +25,7 @@ class RangeDifference(MeasurementModel):
 
     References
     ----------
-    Chen & Sun (1993), eq. 1 (``c (dTOA - j T)``) and the text after it (the noise).
+    Chen & Sun, eq. 1 (``c (dTOA - j T)``) and the text after it (the noise).
     """
 
     kind = "range_difference"
@@ -61,7 +61,7 @@ class RangeDifference(MeasurementModel):
 
         References
         ----------
-        Chen & Sun (1993), eq. 1 and the text after it.
+        Chen & Sun, eq. 1 and the text after it.
         """
         return range_difference_covariance(time, time_ref, sigma, sensor)
 
@@ -142,7 +142,7 @@ def interval_count(t: ArrayLike, t_ref: ArrayLike, pri: float) -> NDArray[np.int
 
     References
     ----------
-    Chen & Sun (1993), eq. 1 (``t_ref = t - j T``).
+    Chen & Sun, eq. 1 (``t_ref = t - j T``).
     """
     return np.rint((np.asarray(t, float) - np.asarray(t_ref, float)) / pri).astype(np.int64)
 
@@ -177,7 +177,7 @@ def range_difference_covariance(t: ArrayLike, t_ref: ArrayLike, sigma: ArrayLike
 
     References
     ----------
-    Chen & Sun (1993), eq. 1 and the text after it (one noise term per interval).
+    Chen & Sun, eq. 1 and the text after it (one noise term per interval).
     """
     t = np.asarray(t, dtype=float)
     t_ref = np.asarray(t_ref, dtype=float)

@@ -90,7 +90,7 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
 
     References
     ----------
-    Chen & Sun (1993), §2.1: ``Q_k`` of the nearly-constant-velocity model these scale.
+    Chen & Sun, §2.1: ``Q_k`` of the nearly-constant-velocity model these scale.
     """
     if isinstance(q, str | bytes):
         raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
