@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
@@ -51,7 +52,6 @@ from .pcrb_recursion import (
 __all__ = ["PosteriorBound", "PosteriorInformation", "deterministic_pcrb",
            "information_inverse", "noise_factor", "posterior_crb", "predict_information"]
 
-Array = NDArray[np.float64]
 
 #: Number of disjoint sets of trajectories whose separate recursions give the Monte Carlo
 #: standard error of the bound (batch means).

@@ -29,13 +29,12 @@ reduces exactly to ``F^{-T} J F^{-1}`` when ``Q = 0``; nothing can raise a ``Lin
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from ..arrays import Array
 from ..linalg import symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
-
-Array = NDArray[np.float64]
 
 #: A prediction over less than this (s) is no step (the state stays where it is).
 MIN_STEP = 1e-12

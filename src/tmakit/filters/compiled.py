@@ -19,13 +19,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import MeasurementModel
 from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

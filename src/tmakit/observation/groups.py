@@ -21,13 +21,12 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..measurements import MeasurementModel
 from ..motion.dynamics import state_names
 from .noise import NoiseModel
 from .rows import RowLayout, RowModel, resolve_models
-
-Array = NDArray[np.float64]
 
 __all__ = ["TIME_TOLERANCE", "MeasurementGroup", "chain_state", "group_times",
            "resolve_models", "target_states", "time_blocks"]

@@ -20,14 +20,13 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..blas import matmul
 from ..data import MeasurementSet
 from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .rows import RowModel, nuisance_layout
-
-Array = NDArray[np.float64]
 
 
 class ObservationModel:

@@ -17,10 +17,10 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 
-Array = NDArray[np.float64]
 #: The rows of one kind: integer indices or a slice.
 Index = NDArray[np.intp] | slice
 
