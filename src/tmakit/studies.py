@@ -287,9 +287,10 @@ def final_position_rms(source: str | Scenario = "bearings-only-2d",
                        prior_cov: ArrayLike | None = None, time0: float | None = None, *,
                        q: float | ArrayLike = 0.0, trajectories: int | None = 200,
                        rng: np.random.Generator | int | None = None) -> float:
-    """The posterior-CRB bound on the RMS position error (m) after the last update, for
-    benchmarks: by default on ``bearings-only-2d`` with the prior centred on the truth at
-    ``time0``.
+    """Return the posterior-CRB bound on the RMS position error (m) after the last update.
+
+    A one-number figure for benchmarks: by default on ``bearings-only-2d`` with the prior
+    centred on the truth at ``time0``.
 
     Parameters
     ----------

@@ -15,8 +15,10 @@ __all__ = ["atomic_write", "exists_error", "fsync_file"]
 
 
 def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
-    """Build the error for refusing to overwrite ``path`` (naming ``force=True``; the command
-    line says ``--force`` in its own message).
+    """Build the error for refusing to overwrite ``path``.
+
+    It names the parameter ``force=True``; the command line says ``--force`` in its own
+    message.
 
     Parameters
     ----------

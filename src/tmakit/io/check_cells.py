@@ -30,7 +30,7 @@ Numbers = dict[str, NDArray[np.float64]]
 RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
 
 def value_ranges() -> list[tuple[str, Callable[[NDArray[np.float64]], NDArray[np.bool_]], str]]:
-    """The value ranges checked per kind, from each kind's hook (``value_range``).
+    """Return the value ranges checked per kind, from each kind's hook (``value_range``).
 
     Returns
     -------
