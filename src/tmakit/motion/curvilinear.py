@@ -1,9 +1,7 @@
-"""Exact curvilinear motion, constant tangential and normal acceleration, and its pieces.
+"""Exact curvilinear motion (Hörst & Oispuu (2010), §2.1, eq. 1) and its pieces (eqs. 2-4).
 
-Hörst & Oispuu (2010), §2.1, eq. 1 (one segment) and eqs. 2-4 (piecewise curvilinear
-manoeuvres).  State ``(x, y, v, phi)``: ENU position (m), speed (m/s) and course phi (radians, clockwise from
-North).  The tangential acceleration ``a_t`` changes the speed, the normal acceleration ``a_n``
-turns the course at rate ``a_n / v`` (positive ``a_n`` turns clockwise, to starboard).
+State ``(x, y, v, phi)``: ENU position (m), speed (m/s), course phi (rad, clockwise from North).
+``a_t`` changes the speed, ``a_n`` turns the course at rate ``a_n / v`` (positive: starboard).
 
 Closed form (the one copy in tmakit: :func:`propagate_with_partials`; the batched model of
 :mod:`tmakit.motion.curvilinear_batch` calls it too).  Write the complex position
@@ -24,12 +22,8 @@ Derivatives with respect to ``(x0, y0, v0, phi0, a_t, a_n, s)`` follow from ``dE
 acceleration ``F`` and its derivatives come from the series differentiated term by term.
 :class:`PiecewiseCurvilinear` chains these one-segment derivatives from the reference state
 through the change-over times, so its Jacobian is analytic for every parameter, the change-over
-times included, and never differences across a change-over time.
-
-References
-----------
-Hörst, J. & Oispuu, M. (2010). Localization of piecewise curvilinearly moving targets using
-azimuth and azimuth rates, §2, eqs. 1-4.
+times included, and never differences across a change-over time.  Reference: Hörst & Oispuu
+(2010), §2, eqs. 1-4.
 """
 
 from __future__ import annotations
@@ -216,16 +210,8 @@ def propagate_curvilinear(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: 
 
     Parameters
     ----------
-    x, y : array_like
-        Start position (m, East and North).
-    speed : array_like
-        Start speed (m/s).
-    course : array_like
-        Start course (rad, clockwise from North).
-    a_t, a_n : array_like
-        Tangential and normal acceleration (m/s^2; positive ``a_n`` turns to starboard).
-    dt : array_like
-        Propagation time (s, any sign).
+    x, y, speed, course, a_t, a_n, dt : array_like
+        As for :func:`propagate_with_partials` (m, m, m/s, rad, m/s^2, m/s^2, s).
 
     Returns
     -------
@@ -261,10 +247,6 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
         ``(..., 4, 7)`` with ``D[..., i, j] = d out_i / d in_j`` for outputs
         ``(x, y, speed, course)`` and inputs ``(x, y, speed, course, a_t, a_n, dt)`` (SI
         units); NaN where the propagation is undefined.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 1.
     """
     values, D = _propagate(x, y, speed, course, a_t, a_n, dt, derivatives=True)
     assert D is not None
@@ -274,8 +256,8 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
 class PiecewiseCurvilinear(MotionModel):
     """Piecewise curvilinear motion with ``M`` manoeuvres (Hörst & Oispuu (2010), eqs. 1-4).
 
-    Parameters: ``x, y, speed, course`` (m, m, m/s, rad clockwise from North) at ``ref_time``
-    (s); the accelerations ``at_0, an_0, ..., at_M, an_M`` (m/s^2) of the ``M + 1``
+    Its parameters: ``x, y, speed, course`` (m, m, m/s, rad clockwise from North) at
+    ``ref_time`` (s); the accelerations ``at_0, an_0, ..., at_M, an_M`` (m/s^2) of the ``M + 1``
     segments; the change-over times ``t_1 < ... < t_M`` (s).  Indexing follows the paper's
     simulation section (§4): ``at_m, an_m`` act from ``t_m`` on, so segment ``m`` covers
     ``(t_m, t_{m+1}]``; segment 0 extends to -infinity and segment M to +infinity.
@@ -289,8 +271,7 @@ class PiecewiseCurvilinear(MotionModel):
     :meth:`jacobian` is analytic (see the module docstring).  At a sample exactly at a
     change-over time ``t_m`` the velocity is not differentiable in ``t_m``; the Jacobian gives
     the derivative for ``t_m`` increasing, the side on which the sample stays in the earlier
-    segment (position is differentiable there).  ``states`` and ``jacobian`` take ``theta``
-    of shape ``(..., p)`` and are vectorised over the leading axes.
+    segment (position is differentiable there).  Vectorised over leading axes of ``theta``.
 
     Parameters
     ----------
@@ -335,7 +316,7 @@ class PiecewiseCurvilinear(MotionModel):
         Returns
         -------
         tuple of int
-            ``(index of at_segment, index of an_segment)``.
+            The two indices.
         """
         return 4 + 2 * segment, 5 + 2 * segment
 
@@ -443,12 +424,8 @@ class PiecewiseCurvilinear(MotionModel):
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
         """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
 
-        Parameters and returns as :meth:`MotionModel.states`.
-
-        Raises
-        ------
-        ValueError
-            For a ``theta`` of the wrong length or times that are not one-dimensional.
+        Parameters and returns as :meth:`MotionModel.states`; times must be one-dimensional
+        (else ValueError).
         """
         flat, t, lead = self._flat(theta, t)
         cart = self._evaluate(flat, t, derivatives=False)[0]
@@ -457,12 +434,7 @@ class PiecewiseCurvilinear(MotionModel):
     def intrinsic_states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
         """Give the intrinsic states ``(x, y, speed, course)`` at times ``t``.
 
-        Parameters
-        ----------
-        theta : array_like
-            ``(..., p)`` parameters (SI units).
-        t : array_like
-            ``(n,)`` sample times (s).
+        Parameters as :meth:`states`.
 
         Returns
         -------
@@ -488,8 +460,7 @@ class PiecewiseCurvilinear(MotionModel):
                      ) -> tuple[PiecewiseCurvilinear, NDArray[np.float64]]:
         """Give the same trajectory as a model referenced at another time.
 
-        With fewer manoeuvres the trajectory agrees with the original only up to the first
-        dropped change-over time; use it for data before that time.
+        With fewer manoeuvres it agrees only up to the first dropped change-over time.
 
         Parameters
         ----------
