@@ -3,11 +3,11 @@
 Every nuisance parameter of tmakit enters the predictions linearly — carrier and drift
 (``f = (f_s + d t)(1 - rdot/c)``), power constant and path-loss exponent
 (``P_dB = C_dB - 10 n log10 R``) — so for fixed motion parameters ``theta`` they have a closed-form
-weighted least-squares value.  Eliminating them exactly (variable projection, Golub & Pereyra;
-the Kaufman approximation of the projected Jacobian) leaves a small, well-conditioned problem
-in ``theta`` alone, solved by Levenberg–Marquardt (:mod:`tmakit.batch.solver`).  This sidesteps
-the conditioning problem that Gu et al. (2007), §3, show for C/C_0 and c/f_s in the parameter
-vector.
+weighted least-squares value.  Eliminating them exactly (variable projection, Golub & Pereyra
+(1973); the Kaufman (1975) approximation of the projected Jacobian) leaves a small,
+well-conditioned problem in ``theta`` alone, solved by Levenberg–Marquardt
+(:mod:`tmakit.batch.solver`).  This sidesteps the conditioning problem that Gu et al. (2007),
+§3, show for C/C_0 and c/f_s in the parameter vector.
 
 Everything is vectorised over a leading batch axis ``B``: several starting points of one
 problem, or many Monte Carlo runs that share times, sensors and noise (each with its own data
@@ -93,8 +93,8 @@ class Evaluation:
 class VarProProblem:
     """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
 
-    The nuisance is eliminated by variable projection (Golub & Pereyra) with Kaufman's
-    approximation of the projected Jacobian.
+    The nuisance is eliminated by variable projection (Golub & Pereyra (1973)) with the
+    projected-Jacobian approximation of Kaufman (1975).
 
     Parameters
     ----------
@@ -249,7 +249,7 @@ class VarProProblem:
 
         References
         ----------
-        Golub & Pereyra (variable projection); Kaufman (the projected Jacobian).
+        Golub & Pereyra (1973) (variable projection); Kaufman (1975) (the projected Jacobian).
         """
         return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
 
