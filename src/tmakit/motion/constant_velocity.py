@@ -1,7 +1,7 @@
 """Constant-velocity and stationary target motion.
 
-Constant velocity (Gu et al. (2007), eq. 1; the trajectory model of the Doppler-tracking
-lecture notes): ``p(t) = p_ref + v (t - t_ref)``, parameterised by the position at any
+Constant velocity (Gu et al. (2007), eq. 1; the Doppler-tracking lecture notes' trajectory
+model): ``p(t) = p_ref + v (t - t_ref)``, parameterised by the position at any
 reference time ``t_ref`` (the initial time as in Gu et al. (2007), the final sample time as in
 the Doppler-tracking lecture notes).
 """
