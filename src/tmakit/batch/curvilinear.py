@@ -1,5 +1,7 @@
-"""Maximum likelihood for a manoeuvring target (piecewise curvilinear motion, Hörst & Oispuu
-(2010)): the estimator's public path, kept stable for ``tk.estimate`` and for users.
+"""Maximum likelihood for a manoeuvring target: the estimator's stable public path.
+
+Piecewise curvilinear motion, Hörst & Oispuu (2010); the path is kept for ``tk.estimate`` and
+for users.
 
 The estimator itself is the package :mod:`tmakit.batch.manoeuvre` (the method is described
 there): its search (:mod:`~tmakit.batch.manoeuvre.search`), order and acceleration selection

@@ -30,13 +30,19 @@ __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "Evaluation", "Sol
            "VarProProblem", "levenberg_marquardt"]
 
 DAMPING = ("nielsen", "factors")
-"""How the damping follows a step: ``"nielsen"`` (the default) from how well the Gauss–Newton
-model predicted the decrease (Nielsen's update); ``"factors"`` divided by 3 after an accepted
-step and multiplied by 4 after a rejected one (the manoeuvre search's schedule)."""
+"""How the damping follows a step.
+
+``"nielsen"`` (the default) from how well the Gauss–Newton model predicted the decrease
+(Nielsen's update); ``"factors"`` divided by 3 after an accepted step and multiplied by 4
+after a rejected one (the manoeuvre search's schedule).
+"""
 
 DOMINANCE_FACTOR = 10.0
-"""A run stops as dominated when its cost exceeds the lowest cost reached in its group by more
-than this many times its Gauss-Newton decrement (plus :data:`DOMINANCE_MARGIN`)."""
+"""Decrements of excess cost at which a run stops as dominated.
+
+A run stops when its cost exceeds the lowest cost reached in its group by more than this many
+times its Gauss-Newton decrement (plus :data:`DOMINANCE_MARGIN`).
+"""
 DOMINANCE_MARGIN = 1.0
 """Cost margin (half a chi2 unit per unit) of the dominance test."""
 
@@ -44,8 +50,11 @@ _STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
 
 
 def _gram(j: Array) -> Array:
-    """``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``, summed over row blocks below OpenBLAS's
-    multithreading threshold when one product would pass it (:mod:`tmakit.blas`)."""
+    """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``.
+
+    Summed over row blocks below OpenBLAS's multithreading threshold when one product would
+    pass it (:mod:`tmakit.blas`).
+    """
     n, p = j.shape[-2:]
     jt = np.swapaxes(j, -1, -2)
     block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
@@ -61,10 +70,22 @@ def _gram(j: Array) -> Array:
 class SolveResult:
     """The final state of every run of :func:`levenberg_marquardt`.
 
-    Attributes: ``theta`` ``(B, p)`` (held parameters at their starting values), ``nuisance``
-    ``(B, k)`` (eliminated at ``theta``), ``cost`` ``(B,)`` (half the whitened chi2),
-    ``iterations`` (steps tried), ``converged``, the final ``evaluation`` and ``dominated``
-    (stopped as bound for a worse minimum; None without groups).
+    Parameters
+    ----------
+    theta : ndarray
+        ``(B, p)`` final parameters (SI units; held ones at their starting values).
+    nuisance : ndarray
+        ``(B, k)`` nuisance parameters eliminated at ``theta`` (SI units).
+    cost : ndarray
+        ``(B,)`` half the whitened chi2 (dimensionless).
+    iterations : ndarray of int
+        ``(B,)`` steps tried.
+    converged : ndarray of bool
+        ``(B,)`` whether a convergence test was met.
+    evaluation : Evaluation
+        The final evaluation of every run.
+    dominated : ndarray of bool, optional
+        ``(B,)`` stopped as bound for a worse minimum; None without groups.
     """
 
     theta: Array        # (B, p)
@@ -93,11 +114,13 @@ class _Rules:
 
 @dataclass
 class _Model:
-    """The Gauss-Newton model of a batch at its current points, for
-    :func:`levenberg_marquardt`: ``J'J`` (over the ``free`` columns) in variables scaled by the
+    """The Gauss-Newton model of a batch at its current points.
+
+    For :func:`levenberg_marquardt`: ``J'J`` (over the ``free`` columns) in variables scaled by the
     square roots of its diagonal (``scale``) as ``v diag(w) v'``, the scaled gradient ``vg`` in
     that basis, the Gauss-Newton decrement (the decrease an undamped step predicts) and whether
-    the gradient is orthogonal to every Jacobian column (``gtol``)."""
+    the gradient is orthogonal to every Jacobian column (``gtol``).
+    """
 
     w: Array
     v: Array
@@ -108,6 +131,7 @@ class _Model:
 
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> _Model:
+        """Build the model at the evaluated points ``ev`` (over the ``free`` columns)."""
         jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
         jrt = jac.swapaxes(1, 2)
         jtj = _gram(jac)
@@ -122,12 +146,15 @@ class _Model:
                    (np.abs(grad) <= gtol * scale * rnorm).all(axis=1))
 
     def take(self, rows: NDArray[np.bool_]) -> _Model:
+        """Keep the runs ``rows``."""
         return _Model(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
                       self.decrement[rows], self.small_grad[rows])
 
     def step(self, lam: Array) -> tuple[Array, Array]:
-        """The step at damping ``lam`` (``lam * I`` in the scaled variables) and the decrease
-        the model predicts for it."""
+        """Give the step at damping ``lam`` and the decrease the model predicts for it.
+
+        The damping is ``lam * I`` in the scaled variables.
+        """
         lw = self.w + lam[:, None]
         step = (self.v @ (self.vg / lw)[:, :, None])[..., 0] / self.scale
         vg2 = self.vg * self.vg
@@ -135,8 +162,10 @@ class _Model:
 
 
 class _Runs:
-    """The runs of :func:`levenberg_marquardt` still iterating, compacted (``ids`` their rows
-    in the batch), and the final state of every run in ``out``."""
+    """The runs of :func:`levenberg_marquardt` still iterating, compacted.
+
+    ``ids`` are their rows in the batch; ``out`` holds the final state of every run.
+    """
 
     def __init__(self, out: Evaluation, u: Array, nu_star: Array,
                  groups: NDArray[np.int64] | None, reached: Array | None,
@@ -159,8 +188,10 @@ class _Runs:
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
              dominated: NDArray[np.bool_] | None = None) -> None:
-        """Record the runs ``mask`` as stopped (``converged``, ``dominated`` where set) and
-        drop them from the live arrays."""
+        """Record the runs ``mask`` as stopped and drop them from the live arrays.
+
+        ``converged`` and ``dominated`` are set where given.
+        """
         if not mask.any():
             return
         ids = self.ids[mask]
@@ -183,8 +214,11 @@ class _Runs:
             self.model = self.model.take(keep)
 
     def stalled(self, iteration: int, stall: float) -> NDArray[np.bool_]:
-        """Record the live runs' costs after ``iteration`` (1, 2, ...) steps; which of them
-        lowered their cost by less than ``stall`` over the last :data:`_STALL_WINDOW`."""
+        """Record the live runs' costs after ``iteration`` (1, 2, ...) steps; flag the stalled.
+
+        A run stalls when it lowered its cost by less than ``stall`` over the last
+        :data:`_STALL_WINDOW` iterations.
+        """
         if self.history is None:
             return np.zeros(self.ids.size, dtype=bool)
         slots = _STALL_WINDOW + 1
@@ -209,7 +243,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         max_reject: int | None = None, stall: float = 0.0,
                         dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN)
                         ) -> SolveResult:
-    """Batched Levenberg–Marquardt (Marquardt's diagonal scaling) on the reduced problem.
+    """Fit a batch by Levenberg–Marquardt (Marquardt's diagonal scaling), nuisance reduced.
 
     Parameters
     ----------
@@ -231,13 +265,11 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         Converged when the gradient's cosine with every Jacobian column is below ``gtol``
         (0: only an exactly zero gradient).
     groups : ndarray of int, optional
-        ``(B,)`` labels of the runs that fit the same data (the starting points of one data
-        set), for the dominance test.
+        ``(B,)`` labels of the runs that fit the same data, for the dominance test.
     ceiling : ndarray, optional
         ``(B,)`` a cost reached by an earlier solve, for the dominance test.
     free : ndarray of bool, optional
-        ``(p,)`` the parameters fitted; the others are held at their starting values (default:
-        all fitted).
+        ``(p,)`` the parameters fitted, the others held at their start (default: all).
     damping : {"nielsen", "factors"}
         The damping schedule (:data:`DAMPING`); it starts at 1e-3, floored at 1e-12.
     max_reject : int, optional
@@ -246,22 +278,25 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         With ``stall > 0`` a run stops, not converged, once six steps in a row lowered its
         cost by less than ``stall`` in all.
     dominance : (float, float)
-        ``(factor, margin)`` of the dominance test (default :data:`DOMINANCE_FACTOR`,
-        :data:`DOMINANCE_MARGIN`).
+        ``(factor, margin)`` of the dominance test (half chi2; default the module constants).
 
     Returns
     -------
     SolveResult
         The final state of every run; ``iterations`` counts the steps tried.
 
+    Raises
+    ------
+    ValueError
+        For an unknown ``damping``.
+
     Notes
     -----
-    The convergence tests are made before a step is tried, so a converged run costs no
-    further evaluation.  Runs whose damping passes 1e12 without meeting a test stop, not
-    converged.  With ``groups`` or ``ceiling``, a run whose cost exceeds the lowest cost
-    reached in its group (or its ceiling) by more than ``factor`` times its Gauss–Newton
-    decrement plus ``margin`` is heading for a worse minimum than a point already found: it
-    stops, not converged, and is marked ``dominated``.
+    The convergence tests precede each step, so a converged run costs no further evaluation.
+    Runs whose damping passes 1e12 without meeting a test stop, not converged.  With
+    ``groups`` or ``ceiling``, a run whose cost exceeds the lowest cost reached in its group
+    (or its ceiling) by more than ``factor`` times its Gauss–Newton decrement plus ``margin``
+    heads for a worse minimum than one already found: it stops, marked ``dominated``.
 
     References
     ----------
@@ -283,7 +318,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
            groups: NDArray[np.int64] | None, ceiling: Array | None, stall: bool) -> _Runs:
-    """The runs of :func:`levenberg_marquardt` at their starting points."""
+    """Set up the runs of :func:`levenberg_marquardt` at their starting points."""
     theta = np.array(theta0, dtype=float, ndmin=2)
     y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
     b = theta.shape[0]
@@ -301,7 +336,7 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
 
 
 def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:
-    """The tests made before a step: convergence, and dominance within a group."""
+    """Make the tests before a step: convergence, and dominance within a group."""
     cur, model = runs.cur, runs.model
     assert model is not None
     # The Gauss-Newton decrement is half the squared distance to the minimum in standard
@@ -319,7 +354,7 @@ def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:
 
 
 def _damp(runs: _Runs, better: NDArray[np.bool_], gain: Array, rules: _Rules) -> None:
-    """The damping after a step (accepted where ``better``)."""
+    """Update the damping after a step (accepted where ``better``)."""
     lam = runs.lam
     if rules.damping == "factors":
         runs.lam = np.where(better, np.maximum(lam / 3.0, 1e-12), lam * 4.0)
@@ -331,7 +366,7 @@ def _damp(runs: _Runs, better: NDArray[np.bool_], gain: Array, rules: _Rules) ->
 
 
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
-    """The iterations of :func:`levenberg_marquardt` (see there for the tests)."""
+    """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
     free = rules.free
     for iteration in range(1, max_iter + 1):
         if runs.ids.size == 0:

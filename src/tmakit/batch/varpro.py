@@ -3,11 +3,11 @@
 Every nuisance parameter of tmakit enters the predictions linearly — carrier and drift
 (``f = (f_s + d t)(1 - rdot/c)``), power constant and path-loss exponent
 (``P_dB = C_dB - 10 n log10 R``) — so for fixed motion parameters ``theta`` they have a closed-form
-weighted least-squares value.  Eliminating them exactly (variable projection, Golub & Pereyra;
-the Kaufman approximation of the projected Jacobian) leaves a small, well-conditioned problem
-in ``theta`` alone, solved by Levenberg–Marquardt (:mod:`tmakit.batch.solver`).  This sidesteps
-the conditioning problem that Gu et al. (2007), §3, show for C/C_0 and c/f_s in the parameter
-vector.
+weighted least-squares value.  Eliminating them exactly (variable projection, Golub & Pereyra
+(1973); the Kaufman (1975) approximation of the projected Jacobian) leaves a small,
+well-conditioned problem in ``theta`` alone, solved by Levenberg–Marquardt
+(:mod:`tmakit.batch.solver`).  This sidesteps the conditioning problem that Gu et al. (2007),
+§3, show for C/C_0 and c/f_s in the parameter vector.
 
 Everything is vectorised over a leading batch axis ``B``: several starting points of one
 problem, or many Monte Carlo runs that share times, sensors and noise (each with its own data
@@ -30,7 +30,21 @@ Array = NDArray[np.float64]
 
 @dataclass
 class Evaluation:
-    """Reduced residuals and what a step needs, for a batch of parameter vectors."""
+    """Reduced residuals and what a step needs, for a batch of parameter vectors.
+
+    Parameters
+    ----------
+    theta : ndarray
+        ``(B, p)`` motion parameters (SI units).
+    nuisance : ndarray
+        ``(B, k)`` eliminated (or fixed) nuisance values (SI units).
+    residual : ndarray
+        ``(B, n)`` whitened residuals, nuisance projected out (dimensionless).
+    cost : ndarray
+        ``(B,)`` half the squared whitened residual (inf where there is no prediction).
+    jacobian : ndarray, optional
+        ``(B, n, p)`` whitened, projected Jacobian (per parameter unit).
+    """
 
     theta: Array      # (B, p)
     nuisance: Array   # (B, k) eliminated (or fixed) nuisance values
@@ -39,14 +53,35 @@ class Evaluation:
     jacobian: Array | None = None  # (B, n, p) whitened, projected
 
     def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
-        """The evaluations of ``rows`` (a copy)."""
+        """Copy the evaluations of ``rows``.
+
+        Parameters
+        ----------
+        rows : ndarray of bool or int
+            The rows kept.
+
+        Returns
+        -------
+        Evaluation
+            A copy of those rows.
+        """
         return Evaluation(self.theta[rows], self.nuisance[rows], self.residual[rows],
                           self.cost[rows], None if self.jacobian is None
                           else self.jacobian[rows])
 
     def put(self, rows: NDArray[np.bool_] | NDArray[np.int64], other: Evaluation,
             which: NDArray[np.bool_] | NDArray[np.int64] | slice = slice(None)) -> None:
-        """Overwrite ``rows`` with ``other``'s evaluations ``which``."""
+        """Overwrite ``rows`` with ``other``'s evaluations ``which``, in place.
+
+        Parameters
+        ----------
+        rows : ndarray of bool or int
+            The rows written.
+        other : Evaluation
+            The source.
+        which : ndarray of bool or int, or slice
+            Its rows read (default: all).
+        """
         self.theta[rows] = other.theta[which]
         self.nuisance[rows] = other.nuisance[which]
         self.residual[rows] = other.residual[which]
@@ -58,8 +93,19 @@ class Evaluation:
 class VarProProblem:
     """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
 
-    ``fixed_nuisance`` (a vector in ``obs.nuisance_names`` order) makes the nuisance known
-    instead of estimated.
+    The nuisance is eliminated by variable projection (Golub & Pereyra (1973)) with the
+    projected-Jacobian approximation of Kaufman (1975).
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The measurements and the motion model.
+    noise : NoiseModel, optional
+        The noise covariance (default: from the observation model's sigmas, correlated
+        within range differences).
+    fixed_nuisance : ndarray, optional
+        ``(k,)`` known nuisance values in ``obs.nuisance_names`` order (SI units): known
+        instead of estimated.
     """
 
     def __init__(self, obs: ObservationModel, noise: NoiseModel | None = None,
@@ -87,22 +133,55 @@ class VarProProblem:
         self._orthogonal = all(ns.stop - ns.start <= 1 for ns in obs.nuisance_slices.values())
 
     def take(self, index: NDArray[np.int64] | NDArray[np.bool_]) -> VarProProblem:
-        """The same problem on the rows ``index`` of the set (see
-        :meth:`ObservationModel.take`), its noise model made for those rows."""
+        """Restrict the problem to the rows ``index`` of the set.
+
+        Parameters
+        ----------
+        index : ndarray of int or bool
+            Rows of the measurement set (see :meth:`ObservationModel.take`).
+
+        Returns
+        -------
+        VarProProblem
+            The same problem on those rows, its noise model made for them.
+        """
         obs = self.obs.take(index)
         # Rows of independent rows are independent: no need to look for correlated blocks.
         noise = None if self.noise.correlated else NoiseModel.independent(obs.sigmas_grouped)
         return VarProProblem(obs, noise, self.fixed)
 
     def group(self, y: Array) -> Array:
-        """Data in the set's row order -> the grouped order the solver works in."""
+        """Reorder data from the set's row order to the grouped order the solver works in.
+
+        Parameters
+        ----------
+        y : ndarray
+            ``(..., n)`` data in the measurement set's row order (SI units).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n)`` the same data, grouped by kind.
+        """
         return np.asarray(y, dtype=float)[..., self.obs.order]
 
     def reference_nuisance(self, y: Array) -> Array:
-        """A nuisance value close to the data's, per data row ``(B, k)``: least squares of the
-        geometry-free part of the design on grouped data ``y`` (a carrier near the mean
-        received frequency), or the fixed values.  Residuals are formed about it, so that a GHz
-        carrier never meets the data in rounding."""
+        """Give a nuisance value close to the data's, per data row.
+
+        Least squares of the geometry-free part of the design on the data (a carrier near the
+        mean received frequency), or the fixed values.  Residuals are formed about it, so that
+        a GHz carrier never meets the data in rounding.
+
+        Parameters
+        ----------
+        y : ndarray
+            ``(B, n)`` or ``(n,)`` grouped data (SI units).
+
+        Returns
+        -------
+        ndarray
+            ``(B, k)`` nuisance values (SI units).
+        """
         y = np.atleast_2d(y)
         b = y.shape[0]
         if self.fixed is not None:
@@ -125,24 +204,75 @@ class VarProProblem:
         return out
 
     def data_part(self, y: Array, nu_star: Array) -> Array:
-        """``y - A_const nu*`` ``(B, n)`` for grouped data ``y``: the part of the residual that
-        does not depend on ``theta``, formed once per solve (the first, exact subtraction of
-        two large numbers when the carrier is in GHz)."""
+        """Form ``y - A_const nu*``, the part of the residual that does not depend on ``theta``.
+
+        Formed once per solve: the first, exact subtraction of two large numbers when the
+        carrier is in GHz.
+
+        Parameters
+        ----------
+        y : ndarray
+            ``(B, n)`` grouped data (SI units).
+        nu_star : ndarray
+            ``(B, k)`` reference nuisance (:meth:`reference_nuisance`).
+
+        Returns
+        -------
+        ndarray
+            ``(B, n)`` (SI units).
+        """
         if self.k == 0:
             return np.array(y, dtype=float)
         return y - nu_star @ self.const_design.T
 
     def evaluate(self, theta: Array, y: Array, nu_star: Array,
                  with_jacobian: bool = True) -> Evaluation:
-        """Eliminate the nuisance at ``theta`` for grouped data ``y`` (B, n) and return the
-        reduced residual, cost and (optionally) the projected Jacobian, exact at the
-        eliminated nuisance.  Residuals are formed about ``nu_star`` (see
-        :meth:`reference_nuisance`)."""
+        """Eliminate the nuisance at ``theta``; give the reduced residual, cost and Jacobian.
+
+        The projected Jacobian is exact at the eliminated nuisance.
+
+        Parameters
+        ----------
+        theta : ndarray
+            ``(B, p)`` motion parameters (SI units).
+        y : ndarray
+            ``(B, n)`` grouped data (SI units).
+        nu_star : ndarray
+            ``(B, k)`` nuisance the residuals are formed about (:meth:`reference_nuisance`).
+        with_jacobian : bool
+            Whether to compute the projected Jacobian.
+
+        Returns
+        -------
+        Evaluation
+            Residuals, cost (half chi2; inf where a point has no prediction) and Jacobian.
+
+        References
+        ----------
+        Golub & Pereyra (1973) (variable projection); Kaufman (1975) (the projected Jacobian).
+        """
         return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
 
     def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
                       with_jacobian: bool = True) -> Evaluation:
-        """:meth:`evaluate` from the data part ``u`` of :meth:`data_part`."""
+        """Evaluate as :meth:`evaluate`, from the data part ``u`` of :meth:`data_part`.
+
+        Parameters
+        ----------
+        theta : ndarray
+            ``(B, p)`` motion parameters (SI units).
+        u : ndarray
+            ``(B, n)`` the data part (SI units).
+        nu_star : ndarray
+            ``(B, k)`` the reference nuisance.
+        with_jacobian : bool
+            Whether to compute the projected Jacobian.
+
+        Returns
+        -------
+        Evaluation
+            As :meth:`evaluate`.
+        """
         theta = np.asarray(theta, dtype=float)
         # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -174,12 +304,15 @@ class VarProProblem:
 
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
                  with_jacobian: bool) -> tuple[Array, Array, Array | None]:
-        """Eliminate the nuisance: ``(nu, projected residual, projected Jacobian (B, p, n))``
-        for the whitened residual ``r`` about ``nu_star`` and the design ``at`` (B, k, n).
+        """Eliminate the nuisance: give ``nu``, the projected residual and Jacobian.
+
+        The Jacobian is ``(B, p, n)``, for the whitened residual ``r`` about ``nu_star`` and
+        the design ``at`` (B, k, n).
 
         The design's columns are scaled to unit norm, so the Gram matrix is well conditioned
         and its explicit (k x k) inverse accurate (it is the identity when the columns are
-        orthogonal).  A column without weight (all zero) gets coefficient 0."""
+        orthogonal).  A column without weight (all zero) gets coefficient 0.
+        """
         q = self._const_w_t + self.noise.whiten(at)
         norm = np.sqrt(np.einsum("bkn,bkn->bk", q, q))
         empty = norm == 0
@@ -207,6 +340,19 @@ class VarProProblem:
         return nu, r, jt
 
     def initial_nuisance(self, theta: Array, y: Array) -> Array:
-        """Nuisance values eliminated at ``theta`` for grouped data ``y``."""
+        """Give the nuisance values eliminated at ``theta``.
+
+        Parameters
+        ----------
+        theta : ndarray
+            ``(B, p)`` motion parameters (SI units).
+        y : ndarray
+            ``(n,)`` or ``(B, n)`` grouped data (SI units).
+
+        Returns
+        -------
+        ndarray
+            ``(B, k)`` nuisance values (SI units).
+        """
         y = np.broadcast_to(y, (theta.shape[0], y.shape[-1]))
         return self.evaluate(theta, y, self.reference_nuisance(y), with_jacobian=False).nuisance

@@ -1,5 +1,6 @@
-"""Cramér–Rao bounds for a piecewise curvilinearly moving target at a sequence of reference
-times (Hörst & Oispuu (2010), §3, eqs. 7-9, and the Cramér–Rao analysis of §4 / Fig. 2).
+"""Cramér–Rao bounds for a piecewise curvilinearly moving target at a sequence of times.
+
+Hörst & Oispuu (2010), §3, eqs. 7-9, and the Cramér–Rao analysis of §4 / Fig. 2.
 
 At each reference time ``t_ref`` the unknowns are the target state at ``t_ref`` — position,
 speed and course, ``x_r`` of the paper — together with the accelerations of every segment and
@@ -18,8 +19,8 @@ Conventions (stated in :func:`curvilinear_crb_sequence` as well):
 * accelerations are indexed as in the paper's simulation section: ``at_m, an_m`` act from
   ``t_m`` on (``at_0, an_0`` from the start);
 * ``known_manoeuvres=True`` holds all accelerations and change-over times at their true values
-  (the assumption of [RA03, RAG04] the paper contrasts itself with): only the state at
-  ``t_ref`` is unknown.
+  (the assumption of Ristic & Arulampalam (2003) and Ristic, Arulampalam & Gordon (2004), which
+  Hörst & Oispuu (2010), §1, contrast themselves with): only the state at ``t_ref`` is unknown.
 
 The position bound at ``t_ref`` is reported as the 2x2 covariance of ``(x, y)``, the standard
 deviations, the RMS ``sqrt(var x + var y)`` and the confidence ellipse.  Where the data cannot
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,20 +41,42 @@ from ..data import MeasurementSet
 from ..motion import FixedParameters, MotionModel, PiecewiseCurvilinear
 from .fim import Bound, bound_source, crlb, truth_vector
 
+if TYPE_CHECKING:  # pragma: no cover
+    from ..scenario import Scenario
+
 _ALIASES = {"azimuth": "bearing", "azimuth_rate": "azimuth_rate", "bearing": "bearing"}
 
 
 @dataclass
 class CrbPoint:
-    """The bound at one reference time ``ref_time`` (s).
+    """The bound at one reference time.
 
-    ``position`` (m, ENU) is the true position at ``ref_time``; ``covariance`` the bound on
-    its 2x2 covariance (m^2); ``std`` the bounds on the standard deviations of x and y (m);
-    ``rms`` = ``sqrt(var x + var y)`` (m); ``ellipse`` the confidence ellipse of
-    :meth:`tmakit.bounds.Bound.ellipse` (centre, semi-axes in m, bearing of the major axis in
-    degrees).  ``manoeuvres`` is the number of manoeuvres that have started (whose
-    parameters are unknowns unless ``known_manoeuvres``), ``bound`` the full bound over
-    ``bound.parameters``.
+    Parameters
+    ----------
+    ref_time : float
+        The reference time (s).
+    manoeuvres : int
+        Manoeuvres started by ``ref_time`` (their parameters unknown unless
+        ``known_manoeuvres``).
+    n_measurements : int
+        Measurements up to ``ref_time``.
+    position : ndarray
+        ``(2,)`` the true ENU position at ``ref_time`` (m).
+    covariance : ndarray
+        ``(2, 2)`` the bound on its covariance (m^2).
+    std : ndarray
+        ``(2,)`` the bounds on the standard deviations of x and y (m).
+    rms : float
+        ``sqrt(var x + var y)`` (m).
+    ellipse : dict of str to float
+        The confidence ellipse of :meth:`tmakit.bounds.Bound.ellipse` (centre and semi-axes
+        in m, bearing of the major axis in degrees).
+    bound : Bound
+        The full bound over ``bound.parameters``.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eqs. 7-9.
     """
 
     ref_time: float
@@ -67,6 +91,7 @@ class CrbPoint:
 
     @property
     def parameters(self) -> tuple[str, ...]:
+        """The unknowns of the bound, by name."""
         return self.bound.parameters
 
     @property
@@ -82,7 +107,19 @@ class CrbPoint:
 
 @dataclass
 class CrbSequence:
-    """Bounds at a sequence of reference times (one :class:`CrbPoint` each)."""
+    """Bounds at a sequence of reference times (one :class:`CrbPoint` each).
+
+    Parameters
+    ----------
+    kinds : tuple of str
+        The measurement kinds used.
+    known_manoeuvres : bool
+        Whether the accelerations and change-over times were known.
+    level : float
+        The confidence ellipses' probability.
+    points : list of CrbPoint
+        One per reference time.
+    """
 
     kinds: tuple[str, ...]
     known_manoeuvres: bool
@@ -91,6 +128,7 @@ class CrbSequence:
 
     @property
     def ref_times(self) -> NDArray[np.float64]:
+        """The reference times (s)."""
         return np.array([p.ref_time for p in self.points])
 
     @property
@@ -100,14 +138,32 @@ class CrbSequence:
 
     @property
     def std(self) -> NDArray[np.float64]:
+        """Bounds on the standard deviations of x and y ``(T, 2)`` (m)."""
         return np.array([p.std for p in self.points])
 
     @property
     def positions(self) -> NDArray[np.float64]:
+        """True positions ``(T, 2)`` at the reference times (m, ENU)."""
         return np.array([p.position for p in self.points])
 
     def at(self, ref_time: float) -> CrbPoint:
-        """The point at ``ref_time`` (s); it must be one of :attr:`ref_times`."""
+        """Give the point at a reference time.
+
+        Parameters
+        ----------
+        ref_time : float
+            One of :attr:`ref_times` (s).
+
+        Returns
+        -------
+        CrbPoint
+            The bound at that time.
+
+        Raises
+        ------
+        KeyError
+            For a time that is not one of :attr:`ref_times`.
+        """
         hits = np.flatnonzero(self.ref_times == float(ref_time))
         if hits.size == 0:
             raise KeyError(f"no bound at reference time {ref_time:g} s; reference times are "
@@ -116,12 +172,19 @@ class CrbSequence:
         return self.points[int(hits[0])]
 
     def label(self) -> str:
+        """Name the kinds used (and known manoeuvres), for titles and legends."""
         kinds = " + ".join("azimuth" if k == "bearing" else k.replace("_", " ")
                            for k in self.kinds)
         return kinds + (", manoeuvres known" if self.known_manoeuvres else "")
 
     def summary(self) -> str:
-        """One line per reference time."""
+        """Tabulate the bounds, one line per reference time (m).
+
+        Returns
+        -------
+        str
+            The table.
+        """
         lines = [f"Cramér–Rao bound, {self.label()}: position at t_ref from the data up to "
                  f"t_ref ({self.level:.0%} ellipses)",
                  f"  {'t_ref (s)':>9} {'manoeuvres':>10} {'unknowns':>8} {'samples':>7} "
@@ -138,6 +201,14 @@ class CrbSequence:
         return "\n".join(lines)
 
     def as_dict(self) -> dict[str, object]:
+        """Give the bounds as JSON-ready data (SI units; non-finite numbers as None).
+
+        Returns
+        -------
+        dict of str to object
+            ``kinds``, ``known_manoeuvres``, ``level`` and ``points``.
+        """
+
         def clean(v: float) -> float | None:
             return float(v) if np.isfinite(v) else None
 
@@ -156,6 +227,7 @@ class CrbSequence:
 
 def _check_change_over_times(motion: PiecewiseCurvilinear, theta: NDArray[np.float64]
                              ) -> NDArray[np.float64]:
+    """Check the truth is finite with increasing change-over times; give those times (s)."""
     cot = theta[6 + 2 * motion.manoeuvres:]
     if not np.all(np.isfinite(theta)):
         bad = [n for n, v in zip(motion.param_names, theta, strict=True) if not np.isfinite(v)]
@@ -168,7 +240,7 @@ def _check_change_over_times(motion: PiecewiseCurvilinear, theta: NDArray[np.flo
 
 
 def curvilinear_crb_sequence(
-    source,
+    source: Scenario | MeasurementSet,
     ref_times: ArrayLike,
     kinds: Sequence[str] | None = None,
     known_manoeuvres: bool = False,
@@ -180,8 +252,7 @@ def curvilinear_crb_sequence(
     known_nuisance: bool = False,
     options: Mapping[str, Mapping[str, object]] | None = None,
 ) -> CrbSequence:
-    """The Cramér–Rao bound on the target position at each reference time, from the
-    measurements up to and including that time.
+    """Bound the target position at each reference time, from the data up to that time.
 
     Parameters
     ----------
@@ -249,7 +320,7 @@ def curvilinear_crb_sequence(
 
 
 def _chosen_kinds(meas: MeasurementSet, kinds: Sequence[str] | None) -> tuple[str, ...]:
-    """The kinds asked for (aliases resolved), all of them in the data."""
+    """Resolve the kinds asked for (aliases too), all of them in the data."""
     if kinds is None:
         return tuple(meas.kinds)
     chosen = tuple(dict.fromkeys(_ALIASES.get(k, k) for k in kinds))
@@ -261,7 +332,7 @@ def _chosen_kinds(meas: MeasurementSet, kinds: Sequence[str] | None) -> tuple[st
 
 
 def _checked_ref_times(meas: MeasurementSet, ref_times: ArrayLike) -> NDArray[np.float64]:
-    """The reference times as a vector, each inside the span of the data."""
+    """Check the reference times (s): a vector, each inside the span of the data."""
     refs = np.atleast_1d(np.asarray(ref_times, dtype=float))
     if refs.ndim != 1 or refs.size == 0 or not np.all(np.isfinite(refs)):
         raise ValueError("ref_times must be a non-empty list of finite times (s)")
@@ -277,8 +348,10 @@ def _checked_ref_times(meas: MeasurementSet, ref_times: ArrayLike) -> NDArray[np
 def _point(meas: MeasurementSet, motion: PiecewiseCurvilinear, theta: NDArray[np.float64],
            t_ref: float, started: int, known_manoeuvres: bool, level: float,
            crlb_options: dict[str, object]) -> CrbPoint:
-    """The bound at ``t_ref`` (s) from the data up to it, the ``started`` manoeuvres'
-    parameters unknown (or, ``known_manoeuvres``, known)."""
+    """Compute the bound at ``t_ref`` (s) from the data up to it.
+
+    The ``started`` manoeuvres' parameters are unknown (or, ``known_manoeuvres``, known).
+    """
     model, theta_ref = motion.rereferenced(theta, t_ref, started)
     used: MotionModel = model
     values = theta_ref

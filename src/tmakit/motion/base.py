@@ -28,24 +28,63 @@ class MotionModel(ABC):
 
     @property
     def n_params(self) -> int:
+        """Number of parameters ``p`` (the length of ``theta``)."""
         return len(self.param_names)
 
     @abstractmethod
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Target states ``(..., n, 6)`` at times ``t`` for parameters ``theta`` ``(..., p)``."""
+        """Compute the target states at times ``t``.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(..., p)`` parameters (SI units, in :attr:`param_names` order).
+        t : array_like
+            ``(n,)`` sample times (s).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, 6)`` ENU position (m) and velocity (m/s).
+        """
 
     @abstractmethod
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """``d state / d theta`` at times ``t``: shape ``(..., n, 6, p)``."""
+        """Compute ``d state / d theta`` at times ``t``.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(..., p)`` parameters (SI units).
+        t : array_like
+            ``(n,)`` sample times (s).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, 6, p)``, in state units (m, m/s) per parameter unit.
+        """
 
     #: Whether the states are affine in ``theta`` (then :meth:`affine_map` is exact).
     affine: bool = False
 
     def affine_map(self, t: ArrayLike
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        """``(offset (n, 6), matrix (n, 6, p))`` with ``states(theta, t) = offset + matrix @
-        theta`` for every ``theta`` when the model is :attr:`affine` (constant velocity,
-        stationary), else None.  Solvers precompute it once for their sample times."""
+        """Give the affine map ``states(theta, t) = offset + matrix @ theta``, if exact.
+
+        Solvers precompute it once for their sample times.
+
+        Parameters
+        ----------
+        t : array_like
+            ``(n,)`` sample times (s).
+
+        Returns
+        -------
+        tuple of ndarray or None
+            ``(offset (n, 6), matrix (n, 6, p))`` (m, m/s) when the model is :attr:`affine`
+            (constant velocity, stationary), else None.
+        """
         if not self.affine:
             return None
         t = np.asarray(t, dtype=float)
@@ -54,9 +93,25 @@ class MotionModel(ABC):
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
-        """``d value / d theta`` from ``d value / d state`` ``(..., n, 6)`` at times ``t``:
-        the chain rule through :meth:`jacobian` (models with a simple structure override it).
-        ``d_state`` may carry extra axes between the batch axes of ``theta`` and the rows."""
+        """Apply the chain rule: ``d value / d theta`` from ``d value / d state``.
+
+        Models with a simple structure override it.
+
+        Parameters
+        ----------
+        d_state : ndarray
+            ``(..., n, 6)`` derivatives with respect to the state (per m, per m/s); it may
+            carry extra axes between the batch axes of ``theta`` and the rows.
+        theta : array_like
+            ``(..., p)`` parameters (SI units).
+        t : array_like
+            ``(n,)`` sample times (s).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, p)`` derivatives with respect to the parameters.
+        """
         jac = self.jacobian(theta, t)  # (*batch, n, 6, p)
         extra = d_state.ndim - (jac.ndim - 1)
         if extra > 0:
@@ -65,12 +120,47 @@ class MotionModel(ABC):
         return np.einsum("...ni,...nip->...np", d_state, jac)
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
-        """Parameters of the simplest trajectory of this model through ENU states
-        ``(..., 6)`` at time ``t`` (used to turn grid points into starting values)."""
+        """Give the parameters of the simplest trajectory through given states.
+
+        Used to turn grid points into starting values.
+
+        Parameters
+        ----------
+        state : array_like
+            ``(..., 6)`` ENU position (m) and velocity (m/s).
+        t : float
+            Time of ``state`` (s).
+
+        Returns
+        -------
+        ndarray
+            ``(..., p)`` parameters (SI units).
+
+        Raises
+        ------
+        NotImplementedError
+            For a model that cannot be started from a state.
+        """
         raise NotImplementedError(f"{self.name} cannot be started from a state")
 
     def theta(self, values: Mapping[str, float]) -> NDArray[np.float64]:
-        """A parameter vector from a mapping of names to values; every name is required."""
+        """Build a parameter vector from a mapping of names to values.
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Every parameter by name (SI units).
+
+        Returns
+        -------
+        ndarray
+            ``(p,)`` in :attr:`param_names` order.
+
+        Raises
+        ------
+        ValueError
+            For a missing or an unknown name.
+        """
         missing = [name for name in self.param_names if name not in values]
         unknown = [name for name in values if name not in self.param_names]
         if missing or unknown:
@@ -86,7 +176,23 @@ class MotionModel(ABC):
         return np.array([float(values[name]) for name in self.param_names])
 
     def as_dict(self, theta: ArrayLike) -> dict[str, float]:
-        """Name every entry of a single parameter vector."""
+        """Name every entry of a single parameter vector.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(p,)`` parameters (SI units).
+
+        Returns
+        -------
+        dict of str to float
+            ``{name: value}`` in :attr:`param_names` order.
+
+        Raises
+        ------
+        ValueError
+            For a vector of the wrong shape.
+        """
         theta = np.asarray(theta, dtype=float)
         if theta.shape != (self.n_params,):
             raise ValueError(
@@ -105,14 +211,32 @@ class MotionModel(ABC):
         return theta
 
     def __repr__(self) -> str:
+        """Name the class and its parameters."""
         return f"{type(self).__name__}({', '.join(self.param_names)})"
 
 
 def numerical_jacobian(model: MotionModel, theta: ArrayLike, t: ArrayLike,
                        rel_step: float = 1e-6) -> NDArray[np.float64]:
-    """Central-difference ``d state / d theta`` (used where a closed form would be long).
+    """Compute ``d state / d theta`` by central differences.
 
-    The step for parameter j is ``rel_step * max(1, |theta_j|)``.
+    Used where a closed form would be long.  The step for parameter j is
+    ``rel_step * max(1, |theta_j|)``.
+
+    Parameters
+    ----------
+    model : MotionModel
+        The model differentiated.
+    theta : array_like
+        ``(..., p)`` parameters (SI units).
+    t : array_like
+        ``(n,)`` sample times (s).
+    rel_step : float
+        Relative step (dimensionless).
+
+    Returns
+    -------
+    ndarray
+        ``(..., n, 6, p)`` as :meth:`MotionModel.jacobian`.
     """
     theta = model._check_theta(theta)
     t = np.asarray(t, dtype=float)

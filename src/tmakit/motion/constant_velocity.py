@@ -1,9 +1,9 @@
 """Constant-velocity and stationary target motion.
 
-Constant velocity (000_bc54bd8c50e47249.txt eq. 1, 001_ba171c940b7f4701.txt's trajectory model):
-``p(t) = p_ref + v (t - t_ref)``, parameterised by the position at any reference time
-``t_ref`` (the initial time as in 000_bc54bd8c50e47249.txt, the final sample time as in
-001_ba171c940b7f4701.txt).
+Constant velocity (Gu et al. (2007), eq. 1; the Doppler-tracking lecture notes' trajectory
+model): ``p(t) = p_ref + v (t - t_ref)``, parameterised by the position at any
+reference time ``t_ref`` (the initial time as in Gu et al. (2007), the final sample time as in
+the Doppler-tracking lecture notes).
 """
 
 from __future__ import annotations
@@ -17,8 +17,24 @@ from .base import MotionModel
 class ConstantVelocity(MotionModel):
     """Straight-line motion at constant velocity in 2-D (z = 0) or 3-D.
 
-    Parameters are ``(x, y, vx, vy)`` or ``(x, y, z, vx, vy, vz)``: the ENU position (m) at
-    ``ref_time`` (s) and the velocity (m/s).
+    The model's parameters are ``(x, y, vx, vy)`` or ``(x, y, z, vx, vy, vz)``: the ENU
+    position (m) at ``ref_time`` (s) and the velocity (m/s).
+
+    Parameters
+    ----------
+    dim : int
+        2 (motion in the plane z = 0) or 3.
+    ref_time : float
+        Reference time of the position (s).
+
+    Raises
+    ------
+    ValueError
+        For ``dim`` other than 2 or 3.
+
+    References
+    ----------
+    Gu et al. (2007), eq. 1; Doppler-tracking lecture notes (the trajectory model).
     """
 
     affine = True
@@ -33,6 +49,10 @@ class ConstantVelocity(MotionModel):
         self.name = f"cv{dim}d"
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
+
+        Parameters and returns as :meth:`MotionModel.states`.
+        """
         theta = self._check_theta(theta)
         dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
@@ -44,6 +64,10 @@ class ConstantVelocity(MotionModel):
         return out
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Give ``d state / d theta`` ``(..., n, 6, p)``: ``[[I, dt I], [0, I]]``.
+
+        Parameters and returns as :meth:`MotionModel.jacobian`.
+        """
         theta = self._check_theta(theta)
         dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
@@ -56,6 +80,10 @@ class ConstantVelocity(MotionModel):
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
+        """Apply the chain rule through ``[[I, dt I], [0, I]]`` without a tensor product.
+
+        Parameters and returns as :meth:`MotionModel.chain`.
+        """
         # d state / d theta is [[I, dt I], [0, I]]: no tensor contraction needed.  Worked
         # parameter by parameter along the rows; the result is a (..., n, p) view whose rows
         # are contiguous for each parameter.
@@ -69,6 +97,10 @@ class ConstantVelocity(MotionModel):
         return out.swapaxes(-1, -2)
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
+        """Give the parameters ``(..., p)`` of the straight line through ``state`` at ``t``.
+
+        Parameters and returns as :meth:`MotionModel.from_state`.
+        """
         state = np.asarray(state, dtype=float)
         d = self.dim
         vel = state[..., 3:3 + d]
@@ -76,18 +108,43 @@ class ConstantVelocity(MotionModel):
         return np.concatenate([pos, vel], axis=-1)
 
     def at_reference_time(self, theta: ArrayLike, new_ref_time: float) -> NDArray[np.float64]:
-        """The same trajectory's parameters referenced at ``new_ref_time``."""
+        """Give the same trajectory's parameters referenced at another time.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(..., p)`` parameters referenced at :attr:`ref_time` (m, m/s).
+        new_ref_time : float
+            The new reference time (s).
+
+        Returns
+        -------
+        ndarray
+            ``(..., p)`` parameters referenced at ``new_ref_time`` (m, m/s).
+        """
         theta = self._check_theta(theta).copy()
         d = self.dim
         theta[..., :d] += theta[..., d:] * (new_ref_time - self.ref_time)
         return theta
 
     def __repr__(self) -> str:
+        """Name the class, dimension and reference time."""
         return f"ConstantVelocity(dim={self.dim}, ref_time={self.ref_time})"
 
 
 class Stationary(MotionModel):
-    """A fixed emitter: parameters are its ENU position ``(x, y)`` or ``(x, y, z)`` in metres."""
+    """A fixed emitter: the parameters are its ENU position ``(x, y)`` or ``(x, y, z)`` (m).
+
+    Parameters
+    ----------
+    dim : int
+        2 (in the plane z = 0) or 3.
+
+    Raises
+    ------
+    ValueError
+        For ``dim`` other than 2 or 3.
+    """
 
     affine = True
 
@@ -99,6 +156,10 @@ class Stationary(MotionModel):
         self.name = f"static{dim}d"
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Give ENU states ``(..., n, 6)`` (m; velocity 0) at times ``t`` (s).
+
+        Parameters and returns as :meth:`MotionModel.states`.
+        """
         theta = self._check_theta(theta)
         n = np.asarray(t, dtype=float).shape[0]
         out = np.zeros((*theta.shape[:-1], n, 6))
@@ -106,6 +167,10 @@ class Stationary(MotionModel):
         return out
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Give ``d state / d theta`` ``(..., n, 6, p)``: the identity on the position.
+
+        Parameters and returns as :meth:`MotionModel.jacobian`.
+        """
         theta = self._check_theta(theta)
         n = np.asarray(t, dtype=float).shape[0]
         jac = np.zeros((n, 6, self.dim))
@@ -115,10 +180,19 @@ class Stationary(MotionModel):
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
+        """Apply the chain rule: the position columns of ``d_state``.
+
+        Parameters and returns as :meth:`MotionModel.chain`.
+        """
         return d_state[..., : self.dim].copy()
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
+        """Give the position ``(..., dim)`` (m) of ``state``.
+
+        Parameters and returns as :meth:`MotionModel.from_state`.
+        """
         return np.asarray(state, dtype=float)[..., : self.dim].copy()
 
     def __repr__(self) -> str:
+        """Name the class and dimension."""
         return f"Stationary(dim={self.dim})"

@@ -1,9 +1,7 @@
-"""Exact curvilinear motion: constant tangential and normal acceleration (Hörst & Oispuu
-(2010), §2.1, eq. 1), and piecewise curvilinear manoeuvres (eqs. 2-4).
+"""Exact curvilinear motion (Hörst & Oispuu (2010), §2.1, eq. 1) and its pieces (eqs. 2-4).
 
-State ``(x, y, v, phi)``: ENU position (m), speed (m/s) and course phi (radians, clockwise from
-North).  The tangential acceleration ``a_t`` changes the speed, the normal acceleration ``a_n``
-turns the course at rate ``a_n / v`` (positive ``a_n`` turns clockwise, to starboard).
+State ``(x, y, v, phi)``: ENU position (m), speed (m/s), course phi (rad, clockwise from North).
+``a_t`` changes the speed, ``a_n`` turns the course at rate ``a_n / v`` (positive: starboard).
 
 Closed form (the one copy in tmakit: :func:`propagate_with_partials`; the batched model of
 :mod:`tmakit.motion.curvilinear_batch` calls it too).  Write the complex position
@@ -24,12 +22,8 @@ Derivatives with respect to ``(x0, y0, v0, phi0, a_t, a_n, s)`` follow from ``dE
 acceleration ``F`` and its derivatives come from the series differentiated term by term.
 :class:`PiecewiseCurvilinear` chains these one-segment derivatives from the reference state
 through the change-over times, so its Jacobian is analytic for every parameter, the change-over
-times included, and never differences across a change-over time.
-
-References
-----------
-Hörst, J. & Oispuu, M. (2010). Localization of piecewise curvilinearly moving targets using
-azimuth and azimuth rates, §2, eqs. 1-4.
+times included, and never differences across a change-over time.  Reference: Hörst & Oispuu
+(2010), §2, eqs. 1-4.
 """
 
 from __future__ import annotations
@@ -50,8 +44,10 @@ _L_TERMS = 6
 
 
 def _log1p_over(r: Array) -> tuple[Array, Array]:
-    """``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1`` (the closed form of
-    ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series)."""
+    """Compute ``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1``.
+
+    The closed form of ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series.
+    """
     small = np.abs(r) < _L_SERIES_BELOW
     safe = np.where(small, 0.5, r)
     lg = np.log1p(safe)
@@ -74,7 +70,7 @@ def _log1p_over(r: Array) -> tuple[Array, Array]:
 
 def _f_series(g: NDArray[np.complex128], r: Array
               ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
-    """``F``, ``dF/dg``, ``dF/dr`` from ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``."""
+    """Sum ``F``, ``dF/dg``, ``dF/dr`` from ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``."""
     F = np.zeros_like(g)
     Fg = np.zeros_like(g)
     Fr = np.zeros_like(g)
@@ -91,9 +87,11 @@ def _f_series(g: NDArray[np.complex128], r: Array
 
 def _partials(v0: Array, a_t: Array, a_n: Array, s: Array, parts: dict[str, Array]
               ) -> Array:
-    """``d (x, y, speed, course, vx, vy) / d (x0, y0, v0, phi0, a_t, a_n, s)`` ``(n, 6, 7)``
-    of one segment, from the intermediate values ``parts`` of :func:`propagate_with_partials`
-    (flat inputs, valid rows)."""
+    """Assemble the ``(n, 6, 7)`` derivatives of one segment.
+
+    ``d (x, y, speed, course, vx, vy) / d (x0, y0, v0, phi0, a_t, a_n, s)``, from the
+    intermediate values ``parts`` of :func:`propagate_with_partials` (flat inputs, valid rows).
+    """
     sv, r, c, g, L, dL, F, Fg, Fr, V0, disp, V = (
         parts[k] for k in ("sv", "r", "c", "g", "L", "dL", "F", "Fg", "Fr", "V0", "disp", "V"))
     inv1r = 1.0 / (1.0 + r)  # = L + r L'
@@ -121,7 +119,7 @@ def _partials(v0: Array, a_t: Array, a_n: Array, s: Array, parts: dict[str, Arra
 def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                             a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
                             partials: bool = True) -> tuple[Array, Array | None]:
-    """One curvilinear segment: the state after ``dt`` seconds (any sign) and its derivatives.
+    """Propagate one curvilinear segment by ``dt`` seconds (any sign), with derivatives.
 
     Parameters
     ----------
@@ -197,8 +195,10 @@ def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course
 def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike, derivatives: bool = False
                ) -> tuple[tuple[Array, ...], Array | None]:
-    """:func:`propagate_with_partials` as ``((x, y, speed, course, vx, vy), D)``, ``D``
-    (``(..., 4, 7)`` or None) the derivatives of ``(x, y, speed, course)``."""
+    """Call :func:`propagate_with_partials`; give ``((x, y, speed, course, vx, vy), D)``.
+
+    ``D`` (``(..., 4, 7)`` or None) holds the derivatives of ``(x, y, speed, course)``.
+    """
     values, par = propagate_with_partials(x, y, speed, course, a_t, a_n, dt, derivatives)
     return tuple(np.moveaxis(values, -1, 0)), None if par is None else par[..., :4, :]
 
@@ -208,9 +208,21 @@ def propagate_curvilinear(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: 
                           ) -> tuple[NDArray[np.float64], ...]:
     """Propagate curvilinear states by ``dt`` seconds (any sign); all inputs broadcast.
 
-    Returns ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad clockwise from North, m/s,
-    m/s).  Where the speed would reach zero or below before ``dt`` the result is NaN (the model
-    does not describe a target that stops).
+    Parameters
+    ----------
+    x, y, speed, course, a_t, a_n, dt : array_like
+        As for :func:`propagate_with_partials` (m, m, m/s, rad, m/s^2, m/s^2, s).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad clockwise from North, m/s, m/s).
+        Where the speed would reach zero or below before ``dt`` the result is NaN (the model
+        does not describe a target that stops).
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 1.
     """
     return _propagate(x, y, speed, course, a_t, a_n, dt)[0]
 
@@ -220,12 +232,21 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
                                       dt: ArrayLike
                                       ) -> tuple[tuple[NDArray[np.float64], ...],
                                                  NDArray[np.float64]]:
-    """:func:`propagate_curvilinear` and its analytic derivatives.
+    """Propagate as :func:`propagate_curvilinear`, with analytic derivatives.
 
-    Returns ``(states, D)``: ``states`` as :func:`propagate_curvilinear`, ``D`` of shape
-    ``(..., 4, 7)`` with ``D[..., i, j] = d out_i / d in_j`` for outputs
-    ``(x, y, speed, course)`` and inputs ``(x, y, speed, course, a_t, a_n, dt)``.  NaN where
-    the propagation is undefined.
+    Parameters
+    ----------
+    x, y, speed, course, a_t, a_n, dt : array_like
+        As for :func:`propagate_curvilinear` (m, m, m/s, rad, m/s^2, m/s^2, s).
+
+    Returns
+    -------
+    states : tuple of ndarray
+        As :func:`propagate_curvilinear`.
+    D : ndarray
+        ``(..., 4, 7)`` with ``D[..., i, j] = d out_i / d in_j`` for outputs
+        ``(x, y, speed, course)`` and inputs ``(x, y, speed, course, a_t, a_n, dt)`` (SI
+        units); NaN where the propagation is undefined.
     """
     values, D = _propagate(x, y, speed, course, a_t, a_n, dt, derivatives=True)
     assert D is not None
@@ -235,8 +256,8 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
 class PiecewiseCurvilinear(MotionModel):
     """Piecewise curvilinear motion with ``M`` manoeuvres (Hörst & Oispuu (2010), eqs. 1-4).
 
-    Parameters: ``x, y, speed, course`` (m, m, m/s, rad clockwise from North) at ``ref_time``
-    (s); the accelerations ``at_0, an_0, ..., at_M, an_M`` (m/s^2) of the ``M + 1``
+    Its parameters: ``x, y, speed, course`` (m, m, m/s, rad clockwise from North) at
+    ``ref_time`` (s); the accelerations ``at_0, an_0, ..., at_M, an_M`` (m/s^2) of the ``M + 1``
     segments; the change-over times ``t_1 < ... < t_M`` (s).  Indexing follows the paper's
     simulation section (§4): ``at_m, an_m`` act from ``t_m`` on, so segment ``m`` covers
     ``(t_m, t_{m+1}]``; segment 0 extends to -infinity and segment M to +infinity.
@@ -250,8 +271,23 @@ class PiecewiseCurvilinear(MotionModel):
     :meth:`jacobian` is analytic (see the module docstring).  At a sample exactly at a
     change-over time ``t_m`` the velocity is not differentiable in ``t_m``; the Jacobian gives
     the derivative for ``t_m`` increasing, the side on which the sample stays in the earlier
-    segment (position is differentiable there).  ``states`` and ``jacobian`` take ``theta``
-    of shape ``(..., p)`` and are vectorised over the leading axes.
+    segment (position is differentiable there).  Vectorised over leading axes of ``theta``.
+
+    Parameters
+    ----------
+    manoeuvres : int
+        The number of manoeuvres ``M`` (>= 0).
+    ref_time : float
+        Reference time of the state parameters (s).
+
+    Raises
+    ------
+    ValueError
+        For a negative number of manoeuvres.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), §2, eqs. 1-4; §4 for the indexing.
     """
 
     dim = 2
@@ -270,19 +306,43 @@ class PiecewiseCurvilinear(MotionModel):
 
     # -- parameter layout ----------------------------------------------------------------
     def accel_index(self, segment: int) -> tuple[int, int]:
-        """Indices of ``at_segment`` and ``an_segment`` in ``theta``."""
+        """Give the indices of ``at_segment`` and ``an_segment`` in ``theta``.
+
+        Parameters
+        ----------
+        segment : int
+            Segment number (0..M).
+
+        Returns
+        -------
+        tuple of int
+            The two indices.
+        """
         return 4 + 2 * segment, 5 + 2 * segment
 
     def time_index(self, m: int) -> int:
-        """Index of the change-over time ``t_m`` (m = 1..M) in ``theta``."""
+        """Give the index of the change-over time ``t_m`` in ``theta``.
+
+        Parameters
+        ----------
+        m : int
+            Manoeuvre number (1..M).
+
+        Returns
+        -------
+        int
+            The index into ``theta``.
+        """
         return 5 + 2 * self.manoeuvres + m
 
     # -- evaluation ------------------------------------------------------------------------
     def _evaluate(self, theta: Array, t: Array, derivatives: bool
                   ) -> tuple[Array, Array, Array | None]:
-        """For ``theta`` ``(B, p)``: Cartesian states ``(B, n, 6)``, intrinsic states
-        ``(B, n, 4)`` (x, y, speed, course) and, if asked, ``d state / d theta``
-        ``(B, n, 6, p)``."""
+        """Evaluate ``theta`` ``(B, p)`` at times ``t``, with derivatives if asked.
+
+        Give Cartesian states ``(B, n, 6)``, intrinsic states ``(B, n, 4)`` (x, y, speed,
+        course) and ``d state / d theta`` ``(B, n, 6, p)`` or None.
+        """
         M, p = self.manoeuvres, self.n_params
         B, n = theta.shape[0], t.shape[0]
         acc = theta[:, 4:6 + 2 * M].reshape(B, M + 1, 2)
@@ -305,8 +365,7 @@ class PiecewiseCurvilinear(MotionModel):
             anc_J[rows, seg_ref, :, :4] = np.eye(4)
 
         def link(frm: int, to: int, seg_acc: int, m: int, mask: Array) -> None:
-            """Anchor ``to`` = state at change-over time ``t_m`` propagated from anchor
-            ``frm`` with the accelerations of segment ``seg_acc``."""
+            """Set anchor ``to``: anchor ``frm`` moved to ``t_m`` by segment ``seg_acc``."""
             if not np.any(mask):
                 return
             a = acc[:, seg_acc]
@@ -363,20 +422,35 @@ class PiecewiseCurvilinear(MotionModel):
         return theta.reshape(-1, self.n_params), t, theta.shape[:-1]
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s)."""
+        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
+
+        Parameters and returns as :meth:`MotionModel.states`; times must be one-dimensional
+        (else ValueError).
+        """
         flat, t, lead = self._flat(theta, t)
         cart = self._evaluate(flat, t, derivatives=False)[0]
         return cart.reshape(*lead, t.shape[0], 6)
 
     def intrinsic_states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """``(x, y, speed, course)`` ``(..., n, 4)`` at times ``t`` (m, m, m/s, rad clockwise
-        from North; the course is continuous along the track, not wrapped)."""
+        """Give the intrinsic states ``(x, y, speed, course)`` at times ``t``.
+
+        Parameters as :meth:`states`.
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, 4)`` (m, m, m/s, rad clockwise from North; the course is continuous
+            along the track, not wrapped).
+        """
         flat, t, lead = self._flat(theta, t)
         intrinsic = self._evaluate(flat, t, derivatives=False)[1]
         return intrinsic.reshape(*lead, t.shape[0], 4)
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t``."""
+        """Give the analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s).
+
+        Parameters and returns as :meth:`MotionModel.jacobian`.
+        """
         flat, t, lead = self._flat(theta, t)
         jac = self._evaluate(flat, t, derivatives=True)[2]
         assert jac is not None
@@ -384,11 +458,30 @@ class PiecewiseCurvilinear(MotionModel):
 
     def rereferenced(self, theta: ArrayLike, ref_time: float, manoeuvres: int | None = None
                      ) -> tuple[PiecewiseCurvilinear, NDArray[np.float64]]:
-        """The same trajectory as a model referenced at ``ref_time`` (s), keeping only the
-        first ``manoeuvres`` change-over times (default: all): ``(model, theta)``.
+        """Give the same trajectory as a model referenced at another time.
 
-        With fewer manoeuvres the trajectory agrees with the original only up to the first
-        dropped change-over time; use it for data before that time.
+        With fewer manoeuvres it agrees only up to the first dropped change-over time.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(p,)`` parameters of this model (SI units).
+        ref_time : float
+            The new reference time (s).
+        manoeuvres : int, optional
+            Change-over times kept, the first ones (default: all).
+
+        Returns
+        -------
+        model : PiecewiseCurvilinear
+            The model referenced at ``ref_time``.
+        theta : ndarray
+            Its parameters (SI units).
+
+        Raises
+        ------
+        ValueError
+            For a ``theta`` of the wrong shape or ``manoeuvres`` out of range.
         """
         theta = np.asarray(theta, dtype=float)
         if theta.shape != (self.n_params,):
@@ -403,4 +496,5 @@ class PiecewiseCurvilinear(MotionModel):
         return PiecewiseCurvilinear(keep, ref_time), np.concatenate([state, acc, cot])
 
     def __repr__(self) -> str:
+        """Name the class, the number of manoeuvres and the reference time."""
         return f"PiecewiseCurvilinear(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"

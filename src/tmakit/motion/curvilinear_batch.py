@@ -1,6 +1,6 @@
-"""Piecewise curvilinear trajectories evaluated for many parameter vectors at once, with
-analytic derivatives — the work-horse of the manoeuvre estimator
-(:mod:`tmakit.batch.manoeuvre`).
+"""Piecewise curvilinear trajectories for many parameter vectors at once, with derivatives.
+
+The work-horse of the manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`).
 
 The motion is that of :class:`tmakit.motion.PiecewiseCurvilinear`
 (Hörst & Oispuu (2010), eqs. 1-4), in the same parameters ``x, y, speed, course, at_0, an_0,
@@ -20,8 +20,7 @@ Oispuu (2010), eq. 4) by the chain rule, for a batch of parameter vectors at onc
 
 References
 ----------
-Hörst, J. & Oispuu, M. (2010). Localization of piecewise curvilinearly moving targets using
-azimuth and azimuth rates, §2, eqs. 1-4.
+Hörst & Oispuu (2010), §2, eqs. 1-4.
 """
 
 from __future__ import annotations
@@ -37,10 +36,23 @@ Array = NDArray[np.float64]
 
 
 def batched_matmul(a: Array, b: Array) -> Array:
-    """``a @ b`` for ``a`` ``(B, n, k)`` and ``b`` ``(B, k, p)``, in row blocks of ``a`` so
-    that every product stays below OpenBLAS's multithreading threshold (its threads spin
-    against other work on a busy machine; see :mod:`tmakit._blas`).  Splitting rows does not
-    change any sum."""
+    """Multiply ``a @ b`` in row blocks of ``a``, each below OpenBLAS's threading threshold.
+
+    OpenBLAS's threads spin against other work on a busy machine (see :mod:`tmakit.blas`).
+    Splitting rows does not change any sum.
+
+    Parameters
+    ----------
+    a : ndarray
+        ``(B, n, k)``.
+    b : ndarray
+        ``(B, k, p)``.
+
+    Returns
+    -------
+    ndarray
+        ``(B, n, p)``, equal to ``a @ b``.
+    """
     n, k = a.shape[-2:]
     p = b.shape[-1]
     block = max(1, SINGLE_THREAD_WORK // max(1, k * p))
@@ -53,8 +65,10 @@ def batched_matmul(a: Array, b: Array) -> Array:
 
 
 class ForwardPiecewise(MotionModel):
-    """:class:`~tmakit.motion.PiecewiseCurvilinear` with every change-over time after the
-    reference time, evaluated in batches with analytic derivatives.
+    """Piecewise curvilinear motion, change-over times after the reference time, in batches.
+
+    :class:`~tmakit.motion.PiecewiseCurvilinear`, evaluated in batches with analytic
+    derivatives.
 
     Same parameter names and meaning.  Segment ``m`` covers ``(t_m, t_{m+1}]`` (a sample at a
     change-over time belongs to the earlier segment), segment 0 also everything before the
@@ -65,6 +79,24 @@ class ForwardPiecewise(MotionModel):
     The derivatives of the last parameters and times asked for are cached (an observation
     model asks for states, then derivatives, at the same point): one instance should not be
     shared between threads.
+
+    Parameters
+    ----------
+    manoeuvres : int
+        The number of manoeuvres ``M`` (>= 0).
+    ref_time : float
+        Reference time of the state parameters (s), before every change-over time.
+    end_time : float
+        Change-over times at or after it give NaN states (s; default: none).
+
+    Raises
+    ------
+    ValueError
+        For a negative number of manoeuvres.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eqs. 1-4.
     """
 
     dim = 2
@@ -87,9 +119,11 @@ class ForwardPiecewise(MotionModel):
     # -- the chain of change-over states -----------------------------------------------------
     def _anchors(self, theta: Array, partials: bool
                  ) -> tuple[Array, Array | None, Array, Array]:
-        """States ``(x, y, speed, course)`` at the start of every segment ``(B, M+1, 4)``, their
-        derivatives ``(B, M+1, 4, p)``, the segments' start times ``(B, M+1)`` and a validity
-        mask ``(B,)``."""
+        """Chain the states ``(x, y, speed, course)`` at the start of every segment.
+
+        Give them ``(B, M+1, 4)``, their derivatives ``(B, M+1, 4, p)`` (or None), the
+        segments' start times ``(B, M+1)`` and a validity mask ``(B,)``.
+        """
         M, p = self.manoeuvres, self.n_params
         b = theta.shape[0]
         acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
@@ -123,9 +157,12 @@ class ForwardPiecewise(MotionModel):
 
     def _segments(self, theta: Array, t: Array, partials: bool
                   ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
-        """Per sample: its segment ``(B, n)``, propagated values ``(B, n, 6)`` and partials
+        """Propagate every sample from the start of its segment.
+
+        Give per sample its segment ``(B, n)``, propagated values ``(B, n, 6)`` and partials
         ``(B, n, 6, 7)`` with respect to the segment's start state, accelerations and the time
-        since its start; plus the anchors' derivatives."""
+        since its start; plus the anchors' derivatives.
+        """
         M = self.manoeuvres
         b = theta.shape[0]
         anchors, d_anchor, starts, _ = self._anchors(theta, partials)
@@ -145,8 +182,11 @@ class ForwardPiecewise(MotionModel):
 
     # -- the MotionModel interface -----------------------------------------------------------
     def states(self, theta: ArrayLike, t: ArrayLike) -> Array:
-        """ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s); NaN for parameters outside
-        the model's domain (see the class docstring)."""
+        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
+
+        Parameters and returns as :meth:`MotionModel.states`; NaN for parameters outside the
+        model's domain (see the class docstring).
+        """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
@@ -160,14 +200,16 @@ class ForwardPiecewise(MotionModel):
 
     def _theta_partials(self, flat: Array, t: Array
                         ) -> tuple[Array, Array, Array, NDArray[np.int64] | None]:
-        """At the unique times ``tu`` of ``t``: the segment of every sample ``(B, nu)``,
-        ``d (x, y, vx, vy) / d inputs`` ``(B, nu, 4, 7)`` — the inputs being a segment's
-        start state, its accelerations and the time since its start — and the segment start
-        states' derivatives ``(B, M+1, 4, p)``; plus the index of every ``t`` into ``tu``
-        (None when ``t`` is ``tu``).
+        """Give the per-segment partials at the unique times ``tu`` of ``t``, cached.
+
+        The segment of every sample ``(B, nu)``, ``d (x, y, vx, vy) / d inputs``
+        ``(B, nu, 4, 7)`` — the inputs being a segment's start state, its accelerations and the
+        time since its start — and the segment start states' derivatives ``(B, M+1, 4, p)``;
+        plus the index of every ``t`` into ``tu`` (None when ``t`` is ``tu``).
 
         The last result is kept: an observation model asks for the states at all its rows and
-        then for the derivatives at the same parameters and times."""
+        then for the derivatives at the same parameters and times.
+        """
         key = (flat.tobytes(), flat.shape)
         cache = self._cache
         if cache is None or cache[0] != key or not np.all(np.isin(t, cache[1])):
@@ -185,7 +227,10 @@ class ForwardPiecewise(MotionModel):
         return seg_u, par_u, d_anchor, idx
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> Array:
-        """Analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s)."""
+        """Give the analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s).
+
+        Parameters and returns as :meth:`MotionModel.jacobian`.
+        """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         jac = np.zeros((flat.shape[0], t.shape[0], 6, self.n_params))
@@ -196,10 +241,12 @@ class ForwardPiecewise(MotionModel):
         return jac.reshape(*lead, t.shape[0], 6, self.n_params)
 
     def _chain_flat(self, ds: Array, flat: Array, t: Array) -> Array:
-        """``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds`` ``(B, n, 6)``:
-        per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
+        """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``.
+
+        Per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
         then one product with the inputs' derivatives of every segment, ``w`` masked by
-        segment."""
+        segment.
+        """
         M, p = self.manoeuvres, self.n_params
         b, n = flat.shape[0], t.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
@@ -243,8 +290,11 @@ class ForwardPiecewise(MotionModel):
                               d_inputs.reshape(b, 7 * (M + 1), p))
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
-        """``d value / d theta`` from ``d value / d state`` ``(..., n, 6)``, contracting the
-        state axis before the parameter axis (no ``(B, n, 6, p)`` array is formed)."""
+        """Apply the chain rule, contracting the state axis before the parameter axis.
+
+        No ``(B, n, 6, p)`` array is formed.  Parameters and returns as
+        :meth:`MotionModel.chain`.
+        """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         if d_state.ndim != len(lead) + 2:
@@ -253,13 +303,28 @@ class ForwardPiecewise(MotionModel):
         return out.reshape(*lead, t.shape[0], self.n_params)
 
     def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
-        """``(x, y, speed, course)`` at times ``t`` ``(..., n, 4)``, the course unwrapped
-        (continuous from the reference course): the parameters of the same trajectory
-        referenced at another time."""
+        """Give ``(x, y, speed, course)`` at times ``t``, the course unwrapped.
+
+        These are the parameters of the same trajectory referenced at another time.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(..., p)`` parameters (SI units).
+        t : array_like
+            ``(n,)`` times (s).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, 4)`` (m, m, m/s, rad clockwise from North, continuous from the
+            reference course).
+        """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         _, val, _, _ = self._segments(flat, t, partials=False)
         return val[..., :4].reshape(*lead, t.shape[0], 4)
 
     def __repr__(self) -> str:
+        """Name the class, the number of manoeuvres and the reference time."""
         return f"ForwardPiecewise(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"

@@ -1,9 +1,9 @@
 """Nearly-constant-velocity target dynamics for the recursive filters.
 
 State order: ``[x, y, vx, vy]`` in 2-D and ``[x, y, z, vx, vy, vz]`` in 3-D (ENU metres and
-metres per second), as in 003_e5155d4fe60daef8.txt §2.1.  Over a step ``T`` the state moves by
-``Phi(T)`` and gains the noise of a white acceleration held constant over the step, with
-per-axis standard deviation ``q`` (m/s^2): ``Q_k`` of 003_e5155d4fe60daef8.txt §2.1,
+metres per second), as in Chen & Sun, §2.1.  Over a step ``T`` the state moves by ``Phi(T)``
+and gains the noise of a white acceleration held constant over the step, with per-axis
+standard deviation ``q`` (m/s^2): ``Q_k`` of Chen & Sun, §2.1,
 ``Q = G G^T q^2`` with ``G = [T^2/2, T]`` per axis.
 """
 
@@ -18,7 +18,23 @@ Array = NDArray[np.float64]
 
 
 def state_names(dim: int) -> tuple[str, ...]:
-    """Names of the filter state components for ``dim`` = 2 or 3."""
+    """Name the filter state components.
+
+    Parameters
+    ----------
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    tuple of str
+        ``("x", "y", "vx", "vy")`` or ``("x", "y", "z", "vx", "vy", "vz")``.
+
+    Raises
+    ------
+    ValueError
+        For ``dim`` other than 2 or 3.
+    """
     if dim == 2:
         return ("x", "y", "vx", "vy")
     if dim == 3:
@@ -27,16 +43,55 @@ def state_names(dim: int) -> tuple[str, ...]:
 
 
 def transition_matrix(dt: float, dim: int) -> Array:
-    """``Phi(dt)`` of 003_e5155d4fe60daef8.txt §2.1 (any sign of ``dt``: back-propagation
-    too)."""
+    """Give the transition matrix ``Phi(dt)``.
+
+    Parameters
+    ----------
+    dt : float
+        Step (s); any sign (back-propagation too).
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    ndarray
+        ``(2 dim, 2 dim)``: ``[[I, dt I], [0, I]]``.
+
+    References
+    ----------
+    Chen & Sun, §2.1.
+    """
     phi = np.eye(2 * dim)
     phi[:dim, dim:] = dt * np.eye(dim)
     return phi
 
 
 def process_noise(dt: float, q: ArrayLike, dim: int) -> Array:
-    """``Q_k`` of 003_e5155d4fe60daef8.txt §2.1 for a step ``dt`` (s) and per-axis
-    acceleration standard deviations ``q`` (m/s^2; a scalar applies to every axis)."""
+    """Give the process noise covariance ``Q_k`` of one step.
+
+    Parameters
+    ----------
+    dt : float
+        Step (s); its sign does not matter.
+    q : array_like
+        Per-axis acceleration standard deviations (m/s^2); a scalar applies to every axis.
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    ndarray
+        ``(2 dim, 2 dim)`` covariance (m^2, m^2/s, m^2/s^2).
+
+    Raises
+    ------
+    ValueError
+        For a negative or non-finite ``q``.
+
+    References
+    ----------
+    Chen & Sun, §2.1.
+    """
     q = np.broadcast_to(np.asarray(q, dtype=float), (dim,))
     if np.any(q < 0) or not np.all(np.isfinite(q)):
         raise ValueError(f"process noise q must be finite and >= 0 m/s^2; got {q.tolist()}")
@@ -54,22 +109,40 @@ def process_noise(dt: float, q: ArrayLike, dim: int) -> Array:
 class NearlyConstantVelocity:
     """Linear-Gaussian dynamics ``x_{k+1} = Phi x_k + w_k``, ``w_k ~ N(0, Q_k)``.
 
-    ``q``: per-axis acceleration noise (m/s^2), a scalar or one value per axis.
+    Parameters
+    ----------
+    dim : int
+        2 or 3.
+    q : float or tuple of float
+        Per-axis acceleration noise (m/s^2), a scalar or one value per axis.
+
+    Raises
+    ------
+    ValueError
+        For a bad ``dim`` or ``q``.
+
+    References
+    ----------
+    Chen & Sun, §2.1.
     """
 
     dim: int = 2
     q: float | tuple[float, ...] = 0.0
 
     def __post_init__(self) -> None:
+        """Refuse a bad ``dim`` or ``q``."""
         state_names(self.dim)
         process_noise(1.0, self.q, self.dim)  # validates q
 
     @property
     def n_state(self) -> int:
+        """State dimension ``2 dim``."""
         return 2 * self.dim
 
     def transition(self, dt: float) -> Array:
+        """Give ``Phi(dt)`` for a step ``dt`` (s); see :func:`transition_matrix`."""
         return transition_matrix(dt, self.dim)
 
     def noise(self, dt: float) -> Array:
+        """Give ``Q_k`` for a step ``dt`` (s); see :func:`process_noise`."""
         return process_noise(dt, self.q, self.dim)

@@ -20,6 +20,18 @@ class FixedParameters(MotionModel):
     ``param_names`` are the remaining parameters, in ``model``'s order; :meth:`states` and
     :meth:`jacobian` take those only.  :meth:`full` gives the wrapped model's parameter
     vector.
+
+    Parameters
+    ----------
+    model : MotionModel
+        The wrapped model.
+    known : Mapping[str, float]
+        The known parameters by name (SI units).
+
+    Raises
+    ------
+    ValueError
+        For a name that is not a parameter of ``model``, or when none would remain unknown.
     """
 
     def __init__(self, model: MotionModel, known: Mapping[str, float]) -> None:
@@ -42,7 +54,18 @@ class FixedParameters(MotionModel):
         self._fixed_values = np.array(list(self.known.values()))
 
     def full(self, theta: ArrayLike) -> NDArray[np.float64]:
-        """The wrapped model's parameters ``(..., P)`` from the unknowns ``(..., p)``."""
+        """Give the wrapped model's parameters from the unknowns.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(..., p)`` the unknowns (SI units).
+
+        Returns
+        -------
+        ndarray
+            ``(..., P)`` the wrapped model's parameters, the known ones filled in.
+        """
         theta = self._check_theta(theta)
         out = np.empty((*theta.shape[:-1], self.model.n_params))
         out[..., self.free] = theta
@@ -50,11 +73,20 @@ class FixedParameters(MotionModel):
         return out
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Give the wrapped model's states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
+
+        Parameters and returns as :meth:`MotionModel.states`; ``theta`` holds the unknowns.
+        """
         return self.model.states(self.full(theta), t)
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Give ``d state / d theta`` ``(..., n, 6, p)`` over the unknowns only.
+
+        Parameters and returns as :meth:`MotionModel.jacobian`.
+        """
         return self.model.jacobian(self.full(theta), t)[..., self.free]
 
     def __repr__(self) -> str:
+        """Name the wrapped model and the known values."""
         known = ", ".join(f"{k}={v:g}" for k, v in self.known.items())
         return f"FixedParameters({self.model!r}, known: {known})"

@@ -1,5 +1,6 @@
-"""Motion models by name: the one parser of the names the CLI, scenario files, measurement-file
-metadata and ``tk.estimate`` accept.
+"""Motion models by name: the one parser of the motion names tmakit accepts.
+
+The CLI, scenario files, measurement-file metadata and ``tk.estimate`` all read them here.
 
 ==================  =======================================================================
 name                model
@@ -41,7 +42,7 @@ _FIXED = {
 
 
 def motion_from_name(name: str, ref_time: float = 0.0) -> MotionModel:
-    """The motion model a name stands for (see the module docstring for the names).
+    """Make the motion model a name stands for (see the module docstring for the names).
 
     Parameters
     ----------

@@ -1,5 +1,6 @@
-"""Maximum likelihood for a manoeuvring target: piecewise curvilinear motion with an unknown
-number of manoeuvres at unknown times (Hörst & Oispuu (2010), §2, eqs. 1-5, 8).
+"""Maximum likelihood for a manoeuvring target, manoeuvres unknown in number and times.
+
+Piecewise curvilinear motion (Hörst & Oispuu (2010), §2, eqs. 1-5, 8).
 
 :func:`~.estimator.estimate_manoeuvres` (``meas, max_manoeuvres=2``) fits the models with
 ``M = 0, 1, ..., max_manoeuvres`` manoeuvres, no initial guess needed, and chooses ``M`` by a
@@ -80,9 +81,8 @@ estimator as an object, :class:`ManoeuvreEstimator`).
 
 References
 ----------
-Hörst, J. & Oispuu, M. (2010). Localization of piecewise curvilinearly moving targets using
-azimuth and azimuth rates, §2, eqs. 1-5, 8-9.  Schwarz, G. (1978). Estimating the dimension of
-a model (BIC).
+Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.  Schwarz, G. (1978). Estimating the dimension of a
+model (BIC).
 """
 
 from .estimator import estimate_for, estimate_manoeuvres

@@ -1,5 +1,8 @@
-"""The entry points of the manoeuvre estimator: :func:`estimate_manoeuvres` and the hook
-:func:`estimate_for` of ``tk.estimate`` (see :mod:`tmakit.batch.manoeuvre` for the method)."""
+"""The entry points of the manoeuvre estimator.
+
+:func:`estimate_manoeuvres` and the hook :func:`estimate_for` of ``tk.estimate`` (see
+:mod:`tmakit.batch.manoeuvre` for the method).
+"""
 
 from __future__ import annotations
 
@@ -22,8 +25,7 @@ from .settings import ManoeuvreSettings
 
 def _fit_from_start(search: ManoeuvreSearch, ref: float,
                     init: Mapping[str, float] | ArrayLike) -> ManoeuvreEstimate:
-    """Exactly ``max_manoeuvres`` fitted from ``init`` (user parameters at ``ref``), no
-    search."""
+    """Fit exactly ``max_manoeuvres`` from ``init`` (user parameters at ``ref``), no search."""
     s = search.s
     m = s.max_manoeuvres
     user = PiecewiseCurvilinear(m, ref)
@@ -47,8 +49,10 @@ def _fit_from_start(search: ManoeuvreSearch, ref: float,
 
 
 def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
-    """Every order ``0 .. max_manoeuvres`` the data span holds (or only the last, ``exact``),
-    the accelerations selected, and the order chosen."""
+    """Fit every order the data span holds, select the accelerations, choose the order.
+
+    The orders are ``0 .. max_manoeuvres`` (only the last with ``exact``).
+    """
     s = search.s
     n = search.problem(0).noise.rank
     top = search.max_order()
@@ -88,8 +92,9 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
                         options: Mapping[str, Mapping[str, object]] | None = None,
                         known_nuisance: Mapping[str, float] | None = None,
                         settings: ManoeuvreSettings | None = None) -> ManoeuvreEstimate:
-    """Maximum-likelihood piecewise curvilinear motion with ``0 .. max_manoeuvres``
-    manoeuvres (or exactly ``max_manoeuvres``), no initial guess needed.
+    """Estimate piecewise curvilinear motion by maximum likelihood, no initial guess needed.
+
+    Orders ``0 .. max_manoeuvres`` are fitted (or exactly ``max_manoeuvres``).
 
     Parameters
     ----------
@@ -152,7 +157,9 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
                  options: Mapping[str, Mapping[str, object]] | None = None,
                  known_nuisance: Mapping[str, float] | None = None,
                  max_iter: int = 100, **kw: Any) -> EstimateResult:
-    """The hook of :func:`tmakit.batch.ml.estimate` for motion given by name or as a
+    """Estimate motion given by name or as a piecewise curvilinear model.
+
+    The hook of :func:`tmakit.batch.ml.estimate` for a name or a
     :class:`~tmakit.motion.PiecewiseCurvilinear`.
 
     Parameters
@@ -166,8 +173,9 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
         first measurement time) and ``"curvilinear"``, which is ``"curvilinear:2"``, searches
         ``0..2``; any other name (``"cv2d"``, ...) is estimated by
         :func:`tmakit.batch.ml.estimate`.
-    init, options, known_nuisance, max_iter
-        As for :func:`tmakit.batch.ml.estimate`; with ``init`` exactly ``M`` is fitted from it.
+    init, options, known_nuisance, max_iter : optional
+        As for :func:`tmakit.batch.ml.estimate` (SI units); with ``init`` exactly ``M`` is
+        fitted from it.
     **kw
         ``exact=True`` fits exactly ``M``; ``ref_time``, ``settings`` and the other keywords of
         :func:`estimate_manoeuvres`.
@@ -181,6 +189,10 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
     ------
     ValueError
         For an unknown motion name, and as :func:`estimate_manoeuvres`.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
     """
     if isinstance(motion, str):
         ref = kw.pop("ref_time", None)

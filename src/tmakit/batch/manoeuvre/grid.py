@@ -1,5 +1,7 @@
-"""The profile grid of the change-over times: tuples of grid times, their local minima, and
-the warm start that splits a segment in two."""
+"""The profile grid of the change-over times.
+
+Tuples of grid times, their local minima, and the warm start that splits a segment in two.
+"""
 
 from __future__ import annotations
 
@@ -36,8 +38,10 @@ def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:
 
 
 def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
-    """Insert change-over time ``t_new`` as the ``j``-th (0-based) into fits with ``m_prev``
-    manoeuvres, splitting segment ``j`` into two with its accelerations.
+    """Insert a change-over time into fits, splitting a segment in two.
+
+    ``t_new`` becomes the ``j``-th (0-based) change-over time of fits with ``m_prev``
+    manoeuvres; both halves of segment ``j`` keep its accelerations.
 
     Parameters
     ----------
@@ -63,8 +67,9 @@ def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
 
 
 def local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
-    """Rows of ``tuples`` whose cost is at most that of every grid neighbour (one index
-    moved by one), best first.
+    """Find the rows of ``tuples`` that are local minima of the cost, best first.
+
+    A local minimum costs at most as much as every grid neighbour (one index moved by one).
 
     Parameters
     ----------

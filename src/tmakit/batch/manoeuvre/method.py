@@ -1,5 +1,7 @@
-"""The manoeuvre estimator as an object: maximum likelihood for a piecewise curvilinear
-target with the number of manoeuvres chosen by a stated criterion (Hörst & Oispuu (2010)).
+"""The manoeuvre estimator as an object.
+
+Maximum likelihood for a piecewise curvilinear target with the number of manoeuvres chosen by
+a stated criterion (Hörst & Oispuu (2010)).
 
 The search, the order selection and the reporting are in :mod:`tmakit.batch.curvilinear`;
 :class:`ManoeuvreEstimator` holds their settings and calls
@@ -60,7 +62,8 @@ class ManoeuvreEstimator(BatchEstimator):
 
     References
     ----------
-    Hörst & Oispuu (2010): piecewise curvilinear motion, azimuth and azimuth rate.
+    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9: piecewise curvilinear motion, azimuth and
+    azimuth rate.
     """
 
     init: Init = None
@@ -82,7 +85,14 @@ class ManoeuvreEstimator(BatchEstimator):
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def manoeuvre_options(self) -> dict[str, object]:
-        """The manoeuvre settings that were given (None ones left out)."""
+        """Collect the manoeuvre settings that were given.
+
+        Returns
+        -------
+        dict of str to object
+            The settings not left at None, by keyword of
+            :func:`~tmakit.batch.curvilinear.estimate_for`.
+        """
         given = {"exact": self.exact, "criterion": self.criterion, "alpha": self.alpha,
                  "accelerations": self.accelerations, "ref_time": self.ref_time,
                  "settings": self.settings}

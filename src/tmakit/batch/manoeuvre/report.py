@@ -1,6 +1,9 @@
-"""The manoeuvre estimator's result: the chosen fit in the user's parameterisation, its
-covariance (the inverse Fisher information of the fitted parameters, Hörst & Oispuu (2010),
-eq. 9), the order selection and the state at the last measurement time."""
+"""The manoeuvre estimator's result.
+
+The chosen fit in the user's parameterisation, its covariance (the inverse Fisher information
+of the fitted parameters, Hörst & Oispuu (2010), eq. 9), the order selection and the state at
+the last measurement time.
+"""
 
 from __future__ import annotations
 
@@ -30,8 +33,7 @@ Array = NDArray[np.float64]
 
 @dataclass
 class ManoeuvreEstimate(EstimateResult):
-    """An :class:`~tmakit.results.estimate.EstimateResult` for the chosen number of
-    manoeuvres.
+    """An :class:`~tmakit.results.estimate.EstimateResult` for the chosen manoeuvres.
 
     Parameters
     ----------
@@ -45,6 +47,10 @@ class ManoeuvreEstimate(EstimateResult):
         The last measurement time (s).
     final : dict
         The state at ``final_time``: ``{name: (value, std)}`` (SI).
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 9 (the covariance).
     """
 
     selection: OrderSelection | None = None
@@ -59,14 +65,25 @@ class ManoeuvreEstimate(EstimateResult):
         return int(getattr(self.motion, "manoeuvres", 0))
 
     def change_over_times(self) -> list[tuple[float, float]]:
-        """``(value, std)`` of every change-over time (s)."""
+        """List the change-over times.
+
+        Returns
+        -------
+        list of tuple of float
+            ``(value, std)`` of every change-over time (s).
+        """
         return [(float(self.estimate[i]), float(self.std[i]))
                 for i, n in enumerate(self.parameters) if n.startswith("t_")]
 
     def as_dict(self) -> dict[str, object]:
-        """The result as JSON-ready data: the keys of :class:`EstimateResult` and
-        ``manoeuvres``, ``held_at_zero``, ``model_order``, ``change_over_times``,
-        ``final_state``."""
+        """Give the result as JSON-ready data.
+
+        Returns
+        -------
+        dict of str to object
+            The keys of :class:`EstimateResult` and ``manoeuvres``, ``held_at_zero``,
+            ``model_order``, ``change_over_times``, ``final_state`` (SI; non-finite as None).
+        """
         data = super().as_dict()
 
         def num(x: float) -> float | None:
@@ -83,7 +100,13 @@ class ManoeuvreEstimate(EstimateResult):
         return data
 
     def summary(self) -> str:
-        """The estimate, the order selection and the final position, as text."""
+        """Describe the estimate, the order selection and the final position (m), as text.
+
+        Returns
+        -------
+        str
+            Several lines.
+        """
         parts = [super().summary()]
         if self.selection is not None:
             parts.append(self.selection.summary())
@@ -96,8 +119,18 @@ class ManoeuvreEstimate(EstimateResult):
 
 
 def reference(model: ForwardPiecewise, theta: Array, ref_time: float) -> Array:
-    """The same trajectory in :class:`PiecewiseCurvilinear` parameters referenced at
-    ``ref_time`` (s), the course wrapped to (-pi, pi].
+    """Give the same trajectory in :class:`PiecewiseCurvilinear` parameters at ``ref_time``.
+
+    The course is wrapped to (-pi, pi].
+
+    Parameters
+    ----------
+    model : ForwardPiecewise
+        The internal model of the fit.
+    theta : ndarray
+        ``(p,)`` its parameters (SI units).
+    ref_time : float
+        The reference time of the result (s).
 
     Returns
     -------
@@ -115,7 +148,7 @@ def reference(model: ForwardPiecewise, theta: Array, ref_time: float) -> Array:
 
 def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
            selection: OrderSelection | None, fits: list[OrderFit]) -> ManoeuvreEstimate:
-    """The chosen fit in the user's parameterisation, with its covariance.
+    """Report the chosen fit in the user's parameterisation, with its covariance.
 
     Parameters
     ----------
@@ -136,6 +169,10 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
         Held accelerations have value and std 0 and are no unknowns; the covariance is the
         inverse Fisher information of the fitted parameters at the estimate (nuisance
         parameters included when unknown, :func:`~tmakit.results.estimate.assemble_result`).
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 9.
     """
     m = fit.manoeuvres
     motion = PiecewiseCurvilinear(m, ref_time)

@@ -1,11 +1,10 @@
-"""The change-over-time search of the manoeuvre estimator: profile likelihood on a grid,
-refinement with every parameter free, a finer profile around the result, and the corner test
-(see :mod:`tmakit.batch.manoeuvre` for the method).
+"""The change-over-time search of the manoeuvre estimator.
+
+Profile likelihood on a grid, refinement with every parameter free, a finer profile around
+the result, and the corner test (see :mod:`tmakit.batch.manoeuvre` for the method).
 
 Every fit is a run of the shared solver, :func:`tmakit.batch.solver.levenberg_marquardt`, with
-the search's settings (:func:`lm_fit`): parameters held by a mask, the damping divided by 3
-after an accepted step and multiplied by 4 after a rejected one, and early stops for rejected,
-stalled or hopeless fits.
+the search's settings (:func:`lm_fit`).
 """
 
 from __future__ import annotations
@@ -34,8 +33,10 @@ PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
            rtol: float = 1e-3, atol: float = 0.02, prune: float | None = None,
            best: float = np.inf, max_reject: int = 40, stall: float = 0.0) -> SolveResult:
-    """Levenberg–Marquardt over the columns ``free`` only, the others held, from the starts
-    ``theta0`` ``(B, p)``, with the search's damping and stopping rules.
+    """Fit by Levenberg–Marquardt with the search's damping and stopping rules.
+
+    Only the columns ``free`` are fitted, from the starts ``theta0``; the damping is divided
+    by 3 after an accepted step and multiplied by 4 after a rejected one.
 
     Parameters
     ----------
@@ -48,25 +49,21 @@ def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_i
     max_iter : int
         Most steps per fit.
     rtol, atol : float
-        Converged: the Gauss–Newton decrement (the cost decrease an undamped step predicts)
-        below ``rtol * cost + atol``.  The default (within ~0.05 of the held minimum in chi2)
-        suffices to rank grid points; refinements ask for ``rtol=1e-10, atol=1e-7`` as the
-        solver's defaults.
+        Converged: the Gauss–Newton decrement below ``rtol * cost + atol`` (half chi2).  The
+        default (within ~0.05 of the held minimum in chi2) suffices to rank grid points;
+        refinements ask for ``rtol=1e-10, atol=1e-7``.
     prune : float, optional
         A cost (half chi2): a fit stops early once even twice its Gauss–Newton decrement could
-        not bring it within ``prune`` of the best current cost of the batch (or ``best``, a
-        cost reached elsewhere) — it cannot be a profile minimum that matters, and its current
+        not bring it within ``prune`` of the best cost of the batch (or ``best``); its current
         cost (an upper bound) is kept.
     best : float
         A cost reached elsewhere, for ``prune``.
     max_reject : int
-        A fit stops unconverged after this many rejected steps in a row: on a corner of the
-        likelihood (:meth:`ManoeuvreSearch.settle`) no damping helps, and waiting for the
-        damping to grow by 1e15 costs ~25 evaluations.
+        A fit stops unconverged after this many rejected steps in a row (on a corner of the
+        likelihood, :meth:`ManoeuvreSearch.settle`, no damping helps).
     stall : float
         With ``stall > 0`` a fit also stops once six iterations in a row lowered its cost by
-        less than ``stall`` in all (a fit creeping along corners, or along the flat valley of
-        a change-over time the data hardly see).
+        less than ``stall`` in all (creeping along corners or a flat valley).
 
     Returns
     -------
@@ -99,6 +96,10 @@ class ManoeuvreSearch:
     Internal parameters are those of :class:`~tmakit.motion.curvilinear_batch.
     ForwardPiecewise` referenced at the first measurement time ``t0`` (s); the grid of
     change-over times (``grid``, s) is centred in the data span ``(t0, t_end)``.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 8 (the weighted least-squares fit of each order).
     """
 
     def __init__(self, meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
@@ -120,7 +121,18 @@ class ManoeuvreSearch:
         self.profiles: dict[int, tuple[NDArray[np.int64], Array, Array]] = {}
 
     def problem(self, m: int) -> VarProProblem:
-        """The least-squares problem with ``m`` manoeuvres (internal parameters)."""
+        """Give the least-squares problem with ``m`` manoeuvres (internal parameters), cached.
+
+        Parameters
+        ----------
+        m : int
+            The number of manoeuvres.
+
+        Returns
+        -------
+        VarProProblem
+            The problem (nuisance eliminated, or fixed when known).
+        """
         if m not in self._problems:
             model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
             obs = ObservationModel(self.meas, model, self.options)
@@ -129,7 +141,13 @@ class ManoeuvreSearch:
         return self._problems[m]
 
     def max_order(self) -> int:
-        """The most manoeuvres the grid can hold (at most ``max_manoeuvres``)."""
+        """Count the most manoeuvres the grid can hold (at most ``max_manoeuvres``).
+
+        Returns
+        -------
+        int
+            The largest order with at least one grid tuple.
+        """
         m = 0
         while m < self.s.max_manoeuvres and grid_tuples(self.grid, m + 1,
                                                         self.min_gap).shape[0] > 0:
@@ -137,15 +155,36 @@ class ManoeuvreSearch:
         return m
 
     def unknowns(self, m: int, free: NDArray[np.bool_] | None = None) -> int:
-        """Unknowns of the order ``m`` model: the fitted motion parameters (all, or those in
-        ``free``) and the nuisance parameters unless they are known."""
+        """Count the unknowns of the order ``m`` model.
+
+        Parameters
+        ----------
+        m : int
+            The number of manoeuvres.
+        free : ndarray of bool, optional
+            The motion parameters fitted (default: all).
+
+        Returns
+        -------
+        int
+            The fitted motion parameters plus the nuisance parameters unless known.
+        """
         pr = self.problem(m)
         p = pr.p if free is None else int(np.count_nonzero(free))
         return p + (0 if pr.fixed is not None else pr.k)
 
     def fit_zero(self, init: Array | None = None) -> OrderFit:
-        """The order-0 fit (one curvilinear segment), from ``init`` or from the no-guess
-        constant-velocity fit at ``t0`` with zero accelerations.
+        """Fit order 0 (one curvilinear segment).
+
+        Parameters
+        ----------
+        init : ndarray, optional
+            ``(6,)`` start (SI; default: the no-guess constant-velocity fit at ``t0``).
+
+        Returns
+        -------
+        OrderFit
+            The fit; its profile is recorded for the order above.
 
         Raises
         ------
@@ -171,9 +210,12 @@ class ManoeuvreSearch:
                         self.unknowns(0), bool(sol.converged[0]), int(sol.iterations[0]), 1)
 
     def _profile_starts(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
-        """The grid tuples of order ``m`` to profile and their warm starts: the order ``m - 1``
-        profile fit at the tuple with one time removed (the best of the ``m`` such tuples),
-        the removed segment split in two; with the cost of that fit (inf: no start)."""
+        """Choose the grid tuples of order ``m`` to profile and their warm starts.
+
+        A start is the order ``m - 1`` profile fit at the tuple with one time removed (the
+        best of the ``m`` such tuples), the removed segment split in two; given with the cost
+        of that fit (inf: no start).
+        """
         tuples = grid_tuples(self.grid, m, self.min_gap)
         prev_idx, prev_theta, prev_cost = self.profiles[m - 1]
         if tuples.shape[0] > self.s.max_tuples:
@@ -200,7 +242,9 @@ class ManoeuvreSearch:
         return tuples, start, best_cost
 
     def profile(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
-        """Held fits on the grid tuples of order ``m`` (needs the order ``m - 1`` profile).
+        """Fit with the change-over times held on the grid tuples of order ``m``.
+
+        Needs the order ``m - 1`` profile.
 
         All tuples, or, beyond ``max_tuples``, those extending the best ``refine`` minima of
         order ``m - 1`` by one grid time; each warm-started from the order ``m - 1`` profile
@@ -233,9 +277,22 @@ class ManoeuvreSearch:
         return tuples, theta, cost
 
     def fit(self, m: int, below: OrderFit | None = None) -> OrderFit:
-        """The order ``m`` fit: profile, refinement of its best minima and, given the order
-        ``m - 1`` fit ``below``, of that fit with its longest segment split in two (equal
-        accelerations: the same trajectory), so that chi2 never grows with the order.
+        """Fit order ``m``: profile, then refine its best minima.
+
+        The order ``m - 1`` fit ``below``, its longest segment split in two (the same
+        trajectory), is refined too, so that chi2 never grows with the order.
+
+        Parameters
+        ----------
+        m : int
+            The number of manoeuvres (>= 1).
+        below : OrderFit, optional
+            The order ``m - 1`` fit.
+
+        Returns
+        -------
+        OrderFit
+            The best fit, with its profile (``profile_times`` in s, ``profile_chi2``).
 
         Raises
         ------
@@ -260,8 +317,10 @@ class ManoeuvreSearch:
         return fit
 
     def _polish_starts(self, fit: OrderFit, offsets: Array) -> tuple[Array, NDArray[np.int64]]:
-        """Starts of the finer profiles: each change-over time moved by ``offsets`` (s), kept
-        between its neighbours; and which time each start moves."""
+        """Make the starts of the finer profiles, and say which time each start moves.
+
+        Each change-over time is moved by ``offsets`` (s), kept between its neighbours.
+        """
         m, k0 = fit.manoeuvres, 6 + 2 * fit.manoeuvres
         starts, held = [], []
         times = fit.theta[k0:]
@@ -278,14 +337,13 @@ class ManoeuvreSearch:
         return np.array(starts), np.array(held, dtype=np.int64)
 
     def polish(self, fit: OrderFit, reach: float | None = None) -> OrderFit:
-        """Finer profiles of each change-over time around the refined fit.
+        """Profile each change-over time finely around the refined fit.
 
-        The likelihood has a corner at every measurement time (see :meth:`settle`), so near
-        its minimum it is bumpy on the scale of the sampling interval and the refinement can
-        stop in a dip next to the deepest one.  Each ``t_m`` in turn is held on a grid of
-        ``polish_step`` spacing within ``grid_step`` of its estimate (every other parameter,
-        the other change-over times included, free: its profile likelihood); if a grid point
-        beats the fit, everything is refined again from it.  At most ``polish_rounds`` rounds.
+        The likelihood has a corner at every measurement time (:meth:`settle`), so near its
+        minimum it is bumpy and the refinement can stop in a dip next to the deepest one.
+        Each ``t_m`` in turn is held on a ``polish_step`` grid within ``reach`` of its
+        estimate, every other parameter free (its profile likelihood); if a grid point beats
+        the fit, everything is refined again from it.  At most ``polish_rounds`` rounds.
 
         Parameters
         ----------
@@ -334,9 +392,18 @@ class ManoeuvreSearch:
 
     def fit_from(self, m: int, theta0: Array, free: NDArray[np.bool_] | None = None
                  ) -> OrderFit:
-        """Every parameter (or those in ``free``, the others held) fitted from the starts
-        ``theta0`` ``(B, p)``; the lowest cost wins, settled at a corner of the likelihood if
-        it ends on one (:meth:`settle`).
+        """Fit from the starts ``theta0``; the lowest cost wins, settled on a corner if at one.
+
+        See :meth:`settle` for the corners of the likelihood.
+
+        Parameters
+        ----------
+        m : int
+            The number of manoeuvres.
+        theta0 : ndarray
+            ``(B, p)`` or ``(p,)`` starts (internal parameters, SI units).
+        free : ndarray of bool, optional
+            ``(p,)`` the parameters fitted (default: all).
 
         Returns
         -------
@@ -357,8 +424,11 @@ class ManoeuvreSearch:
         return fit
 
     def _probes(self, theta: Array, m: int) -> Array:
-        """Held starts of the corner test: each change-over time of ``theta`` moved by
-        :data:`PROBES` and onto the measurement time either side."""
+        """Make the held starts of the corner test.
+
+        Each change-over time of ``theta`` is moved by :data:`PROBES` and onto the
+        measurement time either side.
+        """
         k0 = 6 + 2 * m
         samples = np.unique(self.meas.time)
         probes = []
@@ -374,19 +444,25 @@ class ManoeuvreSearch:
         return np.array(probes)
 
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
-        """Settle, in place, a refinement that stopped without meeting the smooth convergence
-        tests.
+        """Settle, in place, a refinement that stopped short of the smooth convergence tests.
 
         The likelihood has a corner at every measurement time: a sample's predicted velocity
-        (hence its azimuth rate) follows the old or the new acceleration depending on which
-        side of ``t_m`` it lies, so the derivative with respect to ``t_m`` jumps there, and
-        near its minimum Levenberg–Marquardt stops on or next to a corner, where its tests
-        cannot be met.  The fit is accepted as converged when, the change-over times held, the
-        other parameters converge and no held fit with one change-over time moved by
-        :data:`PROBES` (0.05 to 3 s either way) or onto the measurement time either side
-        lowers chi2 by more than ``tol`` — far below anything that matters statistically.
-        Otherwise everything is refined again from the best such fit, at most ``rounds``
-        times.
+        (hence azimuth rate) follows the old or the new acceleration by the side of ``t_m`` it
+        lies on, so the derivative in ``t_m`` jumps there and Levenberg–Marquardt stops on or
+        next to a corner, its tests unmet.  The fit is accepted as converged when, the
+        change-over times held, the other parameters converge and no held fit with one
+        change-over time moved by :data:`PROBES` or onto the measurement time either side
+        lowers chi2 by more than ``tol``.  Otherwise everything is refined again from the best
+        such fit, at most ``rounds`` times.
+
+        Parameters
+        ----------
+        fit : OrderFit
+            The refined fit, updated in place.
+        rounds : int
+            Most rounds of probing and refitting.
+        tol : float
+            Decrease of chi2 below which a probe does not count (dimensionless).
         """
         m = fit.manoeuvres
         pr = self.problem(m)

@@ -1,6 +1,8 @@
-"""Model selection of the manoeuvre estimator: the number of manoeuvres (BIC or sequential
-likelihood-ratio tests, :func:`select_order`) and the accelerations the data need (backward
-elimination, :func:`sparsify`).  See :mod:`tmakit.batch.manoeuvre` for the criteria and why.
+"""Model selection of the manoeuvre estimator.
+
+The number of manoeuvres (BIC or sequential likelihood-ratio tests, :func:`select_order`) and
+the accelerations the data need (backward elimination, :func:`sparsify`).  See
+:mod:`tmakit.batch.manoeuvre` for the criteria and why.
 """
 
 from __future__ import annotations
@@ -35,6 +37,10 @@ class OrderSelection:
         ``p_value`` (against the order below; None for the first), ``converged``.
     chosen : int
         The number of manoeuvres chosen.
+
+    References
+    ----------
+    Schwarz (1978) (BIC).
     """
 
     criterion: str
@@ -44,7 +50,13 @@ class OrderSelection:
     chosen: int
 
     def as_dict(self) -> dict[str, object]:
-        """The selection as JSON-ready data (non-finite numbers as None)."""
+        """Give the selection as JSON-ready data.
+
+        Returns
+        -------
+        dict of str to object
+            The fields, non-finite numbers as None.
+        """
         def clean(v: object) -> object:
             return None if isinstance(v, float) and not math.isfinite(v) else v
 
@@ -53,7 +65,13 @@ class OrderSelection:
                 "orders": [{k: clean(v) for k, v in o.items()} for o in self.orders]}
 
     def summary(self) -> str:
-        """A table of the orders tried, the chosen one marked."""
+        """Tabulate the orders tried, the chosen one marked.
+
+        Returns
+        -------
+        str
+            The table, one line per order.
+        """
         lines = [f"number of manoeuvres: {self.chosen} (criterion "
                  + ("BIC" if self.criterion == "bic" else
                     f"likelihood-ratio tests at alpha = {self.alpha:g}") + ")",
@@ -99,7 +117,7 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
 
     References
     ----------
-    Schwarz, G. (1978). Estimating the dimension of a model (BIC).
+    Schwarz (1978) (BIC).
     """
     if criterion not in CRITERIA:
         raise ValueError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
@@ -129,7 +147,18 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
 
 
 def fit_criterion(s: ManoeuvreSettings) -> str:
-    """The rule that holds an acceleration at zero, in words (for result messages)."""
+    """Say in words the rule that holds an acceleration at zero (for result messages).
+
+    Parameters
+    ----------
+    s : ManoeuvreSettings
+        The settings (their criterion and level).
+
+    Returns
+    -------
+    str
+        The rule.
+    """
     return ("BIC: holding one raised chi2 by less than ln N" if s.criterion == "bic" else
             f"holding one raised chi2 by less than the chi-square(1) quantile "
             f"{1 - s.alpha:g}")
@@ -161,9 +190,21 @@ def may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:
 
 
 def hold_starts(search: ManoeuvreSearch, theta: Array, i: int, m: int) -> Array:
-    """Starts for a fit with acceleration ``i`` held at zero: ``theta`` with it zeroed, and
-    with each change-over time bounding its segment moved by one grid step either way (kept in
-    order and inside the data span).
+    """Make starts for a fit with acceleration ``i`` held at zero.
+
+    ``theta`` with it zeroed, and with each change-over time bounding its segment moved by one
+    grid step either way (kept in order and inside the data span).
+
+    Parameters
+    ----------
+    search : ManoeuvreSearch
+        The search (its grid and data span).
+    theta : ndarray
+        ``(p,)`` internal parameters of the current fit (SI units).
+    i : int
+        Internal index of the acceleration.
+    m : int
+        The number of manoeuvres.
 
     Returns
     -------
@@ -192,8 +233,10 @@ def hold_starts(search: ManoeuvreSearch, theta: Array, i: int, m: int) -> Array:
 
 def _best_hold(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool_],
                price: float) -> tuple[float, int, Array, Array] | None:
-    """The acceleration whose hold raises chi2 least: ``(chi2, index, theta, nuisance)``, or
-    None when none may be held."""
+    """Find the acceleration whose hold raises chi2 least.
+
+    Give ``(chi2, index, theta, nuisance)``, or None when none may be held.
+    """
     m = current.manoeuvres
     pr = search.problem(m)
     best: tuple[float, int, Array, Array] | None = None
@@ -214,7 +257,7 @@ def _best_hold(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool
 
 
 def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
-    """The accelerations the data need (the ``accelerations="select"`` setting).
+    """Hold at zero the accelerations the data do not need (``accelerations="select"``).
 
     Backward elimination: each step holds at zero, in turn, every acceleration component still
     fitted (every other parameter refitted, change-over times included, from the fit and from
@@ -243,6 +286,10 @@ def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
     OrderFit
         The fit with the accelerations the data do not need held at zero (``free``), or
         ``fit`` itself when none may go.
+
+    References
+    ----------
+    Schwarz (1978) (BIC).
     """
     m = fit.manoeuvres
     if not np.isfinite(fit.chi2):

@@ -1,5 +1,8 @@
-"""What the manoeuvre estimator is told (:class:`ManoeuvreSettings`) and what it keeps of every
-order it fits (:class:`OrderFit`)."""
+"""The manoeuvre estimator's settings and what it keeps of every order it fits.
+
+What the estimator is told is :class:`ManoeuvreSettings`; each order's fit is an
+:class:`OrderFit`.
+"""
 
 from __future__ import annotations
 
