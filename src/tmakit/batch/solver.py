@@ -21,10 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..blas import SINGLE_THREAD_WORK
 from .varpro import Evaluation, VarProProblem
-
-Array = NDArray[np.float64]
 
 __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "Evaluation", "SolveResult",
            "VarProProblem", "levenberg_marquardt"]

@@ -21,11 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..frames import wrap_angle
 from ..observation import Linearisation, ObservationModel
 from ..observation.noise import NoiseModel
-
-Array = NDArray[np.float64]
 
 
 @dataclass

@@ -219,9 +219,8 @@ def ukf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
 
 
 # Complexity 23 > 15 on purpose: one loop with branches, not per-step helper calls (see the
-# docstring); listed in tests/test_architecture.py's LONG_FUNCTION_EXCEPTIONS.  RUF100 stays in
-# the noqa until the project's ruff config selects C90.
-def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # noqa: C901, RUF100
+# docstring); listed in tests/test_architecture.py's LONG_FUNCTION_EXCEPTIONS.
+def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # noqa: C901
                 columns: tuple[list[float], ...], q2: tuple[float, float], iterations: int,
                 weights: tuple[float, float, float, float] | None) -> KernelRun:
     """Run the loop of both kernels.

@@ -201,7 +201,24 @@ class MotionModel(ABC):
             )
         return {name: float(v) for name, v in zip(self.param_names, theta, strict=True)}
 
-    def _check_theta(self, theta: ArrayLike) -> NDArray[np.float64]:
+    def check_theta(self, theta: ArrayLike) -> NDArray[np.float64]:
+        """Return ``theta`` as a float array, refusing one with the wrong number of parameters.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(..., n_params)`` motion parameters (SI, in :attr:`param_names` order).
+
+        Returns
+        -------
+        numpy.ndarray
+            The parameters as float64.
+
+        Raises
+        ------
+        ValueError
+            If the last axis does not have :attr:`n_params` entries.
+        """
         theta = np.asarray(theta, dtype=float)
         if theta.ndim == 0 or theta.shape[-1] != self.n_params:
             raise ValueError(
@@ -238,7 +255,7 @@ def numerical_jacobian(model: MotionModel, theta: ArrayLike, t: ArrayLike,
     ndarray
         ``(..., n, 6, p)`` as :meth:`MotionModel.jacobian`.
     """
-    theta = model._check_theta(theta)
+    theta = model.check_theta(theta)
     t = np.asarray(t, dtype=float)
     p = model.n_params
     cols = []

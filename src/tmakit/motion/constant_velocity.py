@@ -53,7 +53,7 @@ class ConstantVelocity(MotionModel):
 
         Parameters and returns as :meth:`MotionModel.states`.
         """
-        theta = self._check_theta(theta)
+        theta = self.check_theta(theta)
         dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
         out = np.zeros((*theta.shape[:-1], dt.shape[0], 6))
@@ -68,7 +68,7 @@ class ConstantVelocity(MotionModel):
 
         Parameters and returns as :meth:`MotionModel.jacobian`.
         """
-        theta = self._check_theta(theta)
+        theta = self.check_theta(theta)
         dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
         jac = np.zeros((dt.shape[0], 6, 2 * d))
@@ -122,7 +122,7 @@ class ConstantVelocity(MotionModel):
         ndarray
             ``(..., p)`` parameters referenced at ``new_ref_time`` (m, m/s).
         """
-        theta = self._check_theta(theta).copy()
+        theta = self.check_theta(theta).copy()
         d = self.dim
         theta[..., :d] += theta[..., d:] * (new_ref_time - self.ref_time)
         return theta
@@ -160,7 +160,7 @@ class Stationary(MotionModel):
 
         Parameters and returns as :meth:`MotionModel.states`.
         """
-        theta = self._check_theta(theta)
+        theta = self.check_theta(theta)
         n = np.asarray(t, dtype=float).shape[0]
         out = np.zeros((*theta.shape[:-1], n, 6))
         out[..., : self.dim] = theta[..., None, :]
@@ -171,7 +171,7 @@ class Stationary(MotionModel):
 
         Parameters and returns as :meth:`MotionModel.jacobian`.
         """
-        theta = self._check_theta(theta)
+        theta = self.check_theta(theta)
         n = np.asarray(t, dtype=float).shape[0]
         jac = np.zeros((n, 6, self.dim))
         for i in range(self.dim):

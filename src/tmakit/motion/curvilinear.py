@@ -33,9 +33,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from .base import MotionModel
-
-Array = NDArray[np.float64]
 
 _SERIES_BELOW = 1e-3     # |g| + |r| below which F and its derivatives come from the series
 _SERIES_TERMS = 6        # term n is below size^n / (n+1)!: < 1e-20 at the switch
@@ -415,7 +414,7 @@ class PiecewiseCurvilinear(MotionModel):
         return cart, intrinsic, jac
 
     def _flat(self, theta: ArrayLike, t: ArrayLike) -> tuple[Array, Array, tuple[int, ...]]:
-        theta = self._check_theta(theta)
+        theta = self.check_theta(theta)
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if t.ndim != 1:
             raise ValueError(f"sample times must be one-dimensional; got shape {t.shape}")

@@ -28,11 +28,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..arrays import Array
 from ..blas import SINGLE_THREAD_WORK
 from .base import MotionModel
 from .curvilinear import propagate_with_partials
-
-Array = NDArray[np.float64]
 
 
 def batched_matmul(a: Array, b: Array) -> Array:
@@ -177,7 +176,7 @@ class ForwardPiecewise(MotionModel):
         return seg, val, par, d_anchor
 
     def _flat(self, theta: ArrayLike) -> tuple[Array, tuple[int, ...]]:
-        theta = self._check_theta(theta)
+        theta = self.check_theta(theta)
         return theta.reshape(-1, self.n_params), theta.shape[:-1]
 
     # -- the MotionModel interface -----------------------------------------------------------

@@ -66,7 +66,7 @@ class FixedParameters(MotionModel):
         ndarray
             ``(..., P)`` the wrapped model's parameters, the known ones filled in.
         """
-        theta = self._check_theta(theta)
+        theta = self.check_theta(theta)
         out = np.empty((*theta.shape[:-1], self.model.n_params))
         out[..., self.free] = theta
         out[..., self._fixed_index] = self._fixed_values

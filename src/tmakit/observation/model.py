@@ -218,7 +218,7 @@ class ObservationModel:
         Also (..., n_rd, 6) at the reference times of the range differences (None without
         range differences).
         """
-        theta = self.motion._check_theta(theta)
+        theta = self.motion.check_theta(theta)
         rel = self._states_minus(theta, self._time, self._sensor, self._rel_map, batch_inner)
         rel_ref = None
         if self._ref is not None:

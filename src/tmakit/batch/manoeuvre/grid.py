@@ -10,7 +10,7 @@ import itertools
 import numpy as np
 from numpy.typing import NDArray
 
-Array = NDArray[np.float64]
+from ...arrays import Array
 
 
 def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:

@@ -11,8 +11,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ...arrays import Array
 from ...motion import PiecewiseCurvilinear
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...motion.fixed import FixedParameters
@@ -27,8 +27,6 @@ from ...results.estimate import (
 from .search import ManoeuvreSearch
 from .selection import OrderSelection, fit_criterion
 from .settings import OrderFit
-
-Array = NDArray[np.float64]
 
 
 @dataclass

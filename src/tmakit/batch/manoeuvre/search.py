@@ -15,6 +15,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from ...arrays import Array
 from ...data import MeasurementSet
 from ...motion import ConstantVelocity
 from ...motion.curvilinear_batch import ForwardPiecewise
@@ -22,8 +23,6 @@ from ...observation import ObservationModel
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
 from .grid import grid_tuples, local_minima, split_segment
 from .settings import ManoeuvreSettings, OrderFit
-
-Array = NDArray[np.float64]
 
 _CHUNK = 256  # held fits per batch on the profile grid
 PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)

@@ -14,10 +14,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2 as chi2_dist
 
+from ...arrays import Array
 from .search import ManoeuvreSearch, lm_fit
 from .settings import CRITERIA, ManoeuvreSettings, OrderFit
-
-Array = NDArray[np.float64]
 
 
 @dataclass
