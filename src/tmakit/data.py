@@ -83,6 +83,8 @@ def _first_appearance(values: NDArray[Any]) -> tuple[NDArray[Any], NDArray[np.in
     grouped (as sensors do) costs one comparison pass.
     """
     starts = _run_starts(values)
+    if starts.shape[0] == 1:  # one run (one sensor): nothing to sort
+        return values[:1], np.zeros(values.shape[0], dtype=np.intp)
     distinct, first, inverse = np.unique(values[starts], return_index=True,
                                          return_inverse=True)
     order = np.argsort(first, kind="stable")
