@@ -111,9 +111,10 @@ class VarProProblem:
                  fixed_nuisance: Array | None = None) -> None:
         self.obs = obs
         # Rows are handled grouped by kind (contiguous slices); see ObservationModel.  Only
-        # range differences can be correlated: without them the rows' sigmas are the model.
+        # kinds with correlated noise (the hook; range differences) need the full model:
+        # without them the rows' sigmas are the model.
         if noise is None:
-            noise = (NoiseModel(obs.grouped) if "range_difference" in obs.models
+            noise = (NoiseModel(obs.grouped) if any(m.correlated_noise for m in obs.models.values())
                      else NoiseModel.independent(obs.sigmas_grouped))
         self.noise = noise
         self.k = obs.n_nuisance
