@@ -36,7 +36,9 @@ def montecarlo(
     for path in (output, json_file):
         if path is not None:
             refuse_existing(path, force)
-    if output is not None and output.suffix.lower() not in (".csv", ".parquet", ".pq"):
+    from ..io.study_files import STUDY_SUFFIXES
+
+    if output is not None and output.suffix.lower() not in STUDY_SUFFIXES:
         raise fail(f"{output}: the per-run table is written as .csv or .parquet")
     scn = load_scenario_or_fail(scenario)
     from ..montecarlo import monte_carlo

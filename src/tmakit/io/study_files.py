@@ -10,12 +10,12 @@ import os
 from pathlib import Path
 
 from ..montecarlo import MonteCarloResult
-from .tables import write_table
+from .tables import TABLE_SUFFIXES, write_table
 
 __all__ = ["STUDY_SUFFIXES", "write_study_table"]
 
 #: File suffixes :func:`write_study_table` writes (CSV, Parquet).
-STUDY_SUFFIXES = (".csv", ".parquet", ".pq")
+STUDY_SUFFIXES = tuple(TABLE_SUFFIXES)
 
 
 def write_study_table(res: MonteCarloResult, path: str | os.PathLike[str],
@@ -43,8 +43,5 @@ def write_study_table(res: MonteCarloResult, path: str | os.PathLike[str],
     FileExistsError
         ``path`` exists and not ``force``.
     """
-    path = Path(path)
-    if path.suffix.lower() not in STUDY_SUFFIXES:
-        raise ValueError(f"{path}: the per-run table is written as .csv or .parquet, "
-                         f"not {path.suffix or 'a file without suffix'}")
+    # write_table refuses another suffix, naming "the per-run table".
     return write_table(path, res.table, force=force, what="the per-run table")

@@ -11,12 +11,12 @@ from pathlib import Path
 
 from ..filters import Track
 from ..tracking import track_table
-from .tables import write_table
+from .tables import TABLE_SUFFIXES, write_table
 
 __all__ = ["TRACK_SUFFIXES", "write_track"]
 
 #: File suffixes :func:`write_track` writes (CSV, Parquet).
-TRACK_SUFFIXES = (".csv", ".parquet", ".pq")
+TRACK_SUFFIXES = tuple(TABLE_SUFFIXES)
 
 
 def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) -> Path:
@@ -49,11 +49,6 @@ def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) ->
     file in the same folder and moved into place, so a failure leaves nothing half-written.
     Parquet files carry the filter, start and q as schema metadata (``tmakit:filter``, ...).
     """
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in TRACK_SUFFIXES:
-        raise ValueError(f"{path}: a track is written as .csv or .parquet, not "
-                         f"{path.suffix or 'a file without suffix'}")
-    table = track_table(tr)
+    table = track_table(tr)  # write_table refuses another suffix, naming "a track"
     return write_table(path, table.columns, force=force, what="a track",
                        parquet_metadata={f"tmakit:{k}": v for k, v in table.metadata.items()})
