@@ -212,6 +212,24 @@ class PosteriorInformation:
                                 noise_factor(self.dynamics.noise(dt)))
         return self._steps[key]
 
+    def step_factors(self, dt: float) -> tuple[Array, Array]:
+        """Return ``(F^{-1}, G)`` of a ``dt``-second step (cached), ``G G^T = Q``.
+
+        For :func:`predict_information` on stacks of candidate informations.
+
+        Parameters
+        ----------
+        dt : float
+            Time step, s.
+
+        Returns
+        -------
+        tuple of ndarray
+            ``F^{-1}`` (n, n) and ``G`` (n, r).
+        """
+        _, f_inv, g = self._step(float(dt))
+        return f_inv, g
+
     def predict(self, dt: float) -> PosteriorInformation:
         """Predict the information ``dt`` seconds later, ``(Q + F J^{-1} F^T)^{-1}``.
 

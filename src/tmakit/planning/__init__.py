@@ -1,0 +1,40 @@
+"""Adaptive sensor path planning by the predicted posterior CRB.
+
+Hurtado & Nehorai (2008): at each decision, choose the action of a steerable platform that
+minimises a criterion of the predicted Bayesian information (eqs. 10-13), under the platform's
+kinematic limits and tactical constraints.  See ``docs/planning.md``.
+
+* :class:`Planner`, :class:`Recommendation` — one decision (any horizon).
+* :class:`Belief` — the bound so far and the tracker's target cloud.
+* :class:`SensorPlan` — what the sensor measures in each step.
+* Criteria: :class:`WeightedTrace` (eq. 12), :class:`LogDet`, :class:`CustomCriterion`.
+* Constraints: :class:`MinimumRange`, :class:`MaximumRange`, :class:`KeepOutZones`,
+  :class:`OperatingArea`.
+"""
+
+from .belief import Belief, cubature_points
+from .candidates import expected_information, step_information
+from .constraints import KeepOutZones, MaximumRange, MinimumRange, OperatingArea, Violation
+from .criteria import CustomCriterion, LogDet, WeightedTrace, criterion_from_name
+from .measurement_plan import SensorPlan
+from .planner import Planner, Recommendation, position_bound
+
+__all__ = [
+    "Belief",
+    "CustomCriterion",
+    "KeepOutZones",
+    "LogDet",
+    "MaximumRange",
+    "MinimumRange",
+    "OperatingArea",
+    "Planner",
+    "Recommendation",
+    "SensorPlan",
+    "Violation",
+    "WeightedTrace",
+    "criterion_from_name",
+    "cubature_points",
+    "expected_information",
+    "position_bound",
+    "step_information",
+]

@@ -1,0 +1,136 @@
+"""The predicted information of every candidate step at once (the heart of the planner).
+
+For one decision interval ``T`` from time ``t_k``, with measurements at the plan's times
+``t_k + s_1 < ... <= t_k + T``, each candidate's Bayesian information is carried forward by
+the recursion of Hurtado & Nehorai (2008), eq. 10,
+
+    J <- (Q + F J^{-1} F^T)^{-1}   (to each measurement time),
+    J <- J + Gamma(s_j),           Gamma = E_x[ Xi(x, sensor state of the candidate) ],
+
+and, if the last measurement is before ``t_k + T``, predicted to the end of the step, so every
+candidate is scored at the same time ``t_{k+1}`` (eq. 12).  ``Gamma`` is formed one of two
+ways (eq. 13 and section 4.2):
+
+* ``"mean"`` — the paper's suboptimal choice: ``Xi`` at the weighted mean of the predicted
+  cloud, ``x_hat_{k+1} = sum_i w_i F x_i``;
+* ``"cloud"`` — the expectation the paper calls too expensive: the weighted mean of ``Xi``
+  over every particle (or cubature point) of the predicted cloud.
+
+The cloud moves with the deterministic part of the dynamics (``F x``): its process-noise
+spread over one decision interval is the ``Q`` that the first line already accounts for.
+Everything is vectorised over candidates (any batch shape ``B``) and cloud members; there is no
+Python loop over either (``tests/test_planning.py`` checks it equals a plain loop).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from ..arrays import Array
+from ..bounds.pcrb_recursion import PosteriorInformation, predict_information
+from ..linalg import symmetrise
+from .belief import Belief
+from .measurement_plan import SensorPlan
+
+GammaForm = Literal["mean", "cloud"]
+GAMMA_FORMS: tuple[str, ...] = ("mean", "cloud")
+
+
+def check_gamma(gamma: str) -> GammaForm:
+    """Return ``gamma`` if it names a form of ``Gamma``, else raise ``ValueError``."""
+    if gamma not in GAMMA_FORMS:
+        raise ValueError(f"gamma must be 'mean' (Xi at the predicted mean, Hurtado & Nehorai "
+                         f"(2008), section 4.2) or 'cloud' (the expectation over the cloud); "
+                         f"got {gamma!r}")
+    return gamma  # type: ignore[return-value]
+
+
+def expected_information(plan: SensorPlan, states: Array, weights: Array,
+                         sensor_states: Array, gamma: GammaForm) -> Array:
+    """Return ``Gamma`` for each candidate sensor state at one measurement time.
+
+    Parameters
+    ----------
+    plan : SensorPlan
+        What is measured.
+    states : ndarray, shape (N, n)
+        The predicted target cloud at the measurement time.
+    weights : ndarray, shape (N,)
+        Its normalised weights.
+    sensor_states : ndarray, shape (*B, 6)
+        Candidate sensor states at that time.
+    gamma : {"mean", "cloud"}
+        How ``Gamma`` is formed (module docstring).
+
+    Returns
+    -------
+    ndarray, shape (*B, n, n)
+        SI.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 11 and 13, section 4.2.
+    """
+    if gamma == "mean" or states.shape[0] == 1:
+        xi = plan.information((weights @ states)[None, :], sensor_states)
+        return xi[..., 0, :, :]
+    xi = plan.information(states, sensor_states)  # (*B, N, n, n)
+    return np.einsum("...kij,k->...ij", xi, weights)
+
+
+def step_information(belief: Belief, information: Array, plan: SensorPlan,
+                     sensor_states: Array, interval: float, gamma: GammaForm,
+                     cloud: tuple[Array, Array] | None = None) -> Array:
+    """Carry ``J`` through one decision step for every candidate at once.
+
+    Parameters
+    ----------
+    belief : Belief
+        Supplies the dynamics (``belief.posterior``), the decision time and — unless
+        ``cloud`` is given — the target cloud at that time.
+    information : ndarray, shape (*B, n, n) or (n, n)
+        ``J`` at the start of the step (one per candidate, or one for all).
+    plan : SensorPlan
+        What is measured, and when in the step.
+    sensor_states : ndarray, shape (*B, k, 6)
+        Candidate sensor states at the plan's ``k`` measurement times.
+    interval : float
+        The decision interval ``T``, s.
+    gamma : {"mean", "cloud"}
+        How ``Gamma`` is formed.
+    cloud : tuple of ndarray, optional
+        ``(states (N, n), weights (N,))`` at the start of the step, when not the belief's.
+
+    Returns
+    -------
+    ndarray, shape (*B, n, n)
+        ``J_{k+1}`` at the end of the step, SI.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 10-13.
+    """
+    posterior = belief.posterior
+    states, weights = (belief.states, belief.weights) if cloud is None else cloud
+    times = plan.measurement_times(interval)
+    if sensor_states.shape[-2] != times.size:
+        raise ValueError(f"sensor states have {sensor_states.shape[-2]} times; the plan "
+                         f"measures at {times.size}")
+    info = np.asarray(information, dtype=float)
+    done = 0.0
+    for j, s in enumerate(times):   # a few measurement times per step, not candidates
+        info = _predict(posterior, info, s - done)
+        f = posterior.dynamics.transition(s)
+        info = info + expected_information(plan, states @ f.T, weights,
+                                           sensor_states[..., j, :], gamma)
+        done = s
+    return symmetrise(_predict(posterior, info, interval - done))
+
+
+def _predict(posterior: PosteriorInformation, info: Array, dt: float) -> Array:
+    if dt <= 1e-12:
+        return info
+    f_inv, g = posterior.step_factors(dt)
+    return predict_information(info, f_inv, g)

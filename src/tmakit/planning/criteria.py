@@ -1,0 +1,195 @@
+"""Planning criteria: scalar costs of a predicted Bayesian information matrix.
+
+A criterion maps Bayesian information ``J`` (..., n, n) (the inverse of the posterior CRB) to a
+cost (...,) that the planner minimises.  All are vectorised over leading axes, so a stack of
+``C`` candidate informations is scored in one call.
+
+* :class:`WeightedTrace` — ``Tr{Pi J^{-1}}``, the criterion of Hurtado & Nehorai (2008),
+  eq. 12 (A-optimal); by default ``Pi`` selects the position block, so the cost is the bound
+  on the mean-square position error (m^2).
+* :class:`LogDet` — ``log det`` of a block of ``J^{-1}`` (D-optimal: the log-volume of the
+  error ellipsoid).
+* :class:`CustomCriterion` — any user function of ``J``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..arrays import Array
+from ..bounds.pcrb_recursion import information_inverse
+
+Block = Literal["position", "velocity", "state"]
+
+
+class Criterion(Protocol):
+    """A scalar cost of Bayesian information, smaller is better (vectorised)."""
+
+    name: str
+
+    def __call__(self, information: Array) -> Array:
+        """Return the cost (...,) of ``information`` (..., n, n), SI."""
+        ...
+
+
+def block_indices(block: Block, n: int) -> Array:
+    """Return the state indices of ``block`` for an ``n``-component state.
+
+    Parameters
+    ----------
+    block : {"position", "velocity", "state"}
+        Which part of ``[x, y, (z), vx, vy, (vz)]``.
+    n : int
+        State size (4 or 6).
+
+    Returns
+    -------
+    ndarray of int
+    """
+    dim = n // 2
+    if block == "position":
+        return np.arange(dim)
+    if block == "velocity":
+        return np.arange(dim, n)
+    if block == "state":
+        return np.arange(n)
+    raise ValueError(f"block must be 'position', 'velocity' or 'state', got {block!r}")
+
+
+@dataclass(frozen=True)
+class WeightedTrace:
+    """``Tr{Pi J^{-1}}``: the weighted trace of the posterior CRB (A-optimal).
+
+    Parameters
+    ----------
+    weights : array_like, optional
+        ``Pi`` (n, n), symmetric positive semi-definite, in units that make the terms
+        comparable (e.g. ``diag(1, 1, tau^2, tau^2)`` weighs velocity errors as the position
+        error they cause after ``tau`` seconds).  Default: the position block (ones on the
+        position diagonal, zeros elsewhere), so the cost is the bound on the mean-square
+        position error, m^2.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eq. 12.
+    """
+
+    weights: ArrayLike | None = None
+    name: str = field(default="weighted trace", init=False)
+
+    def matrix(self, n: int) -> Array:
+        """Return ``Pi`` (n, n) for an ``n``-component state."""
+        if self.weights is None:
+            pi = np.zeros((n, n))
+            idx = block_indices("position", n)
+            pi[idx, idx] = 1.0
+            return pi
+        pi = np.asarray(self.weights, dtype=float)
+        if pi.shape != (n, n) or not np.all(np.isfinite(pi)):
+            raise ValueError(f"the weighting matrix Pi must be a finite ({n}, {n}) matrix; "
+                             f"got shape {pi.shape}")
+        if not np.allclose(pi, pi.T) or np.linalg.eigvalsh(pi).min() < -1e-12 * max(
+                1.0, np.abs(pi).max()):
+            raise ValueError("the weighting matrix Pi must be symmetric positive semi-definite")
+        return pi
+
+    def __call__(self, information: Array) -> Array:
+        """Return ``Tr{Pi J^{-1}}`` (...,) (m^2 with the default weights)."""
+        info = np.asarray(information, dtype=float)
+        pi = self.matrix(info.shape[-1])
+        return np.einsum("ij,...ji->...", pi, information_inverse(info))
+
+
+@dataclass(frozen=True)
+class LogDet:
+    """``log det`` of a block of the posterior CRB ``J^{-1}`` (D-optimal).
+
+    Parameters
+    ----------
+    block : {"position", "velocity", "state"}, optional
+        Which block of ``J^{-1}`` (default the position block: ``log det`` of the position
+        error covariance bound, log m^(2 dim)).
+
+    Notes
+    -----
+    The log-volume of the error ellipsoid; unlike the trace it is indifferent to how the
+    error is shared between axes (a long thin ellipse can score as well as a round one).
+    """
+
+    block: Block = "position"
+    name: str = field(default="log det", init=False)
+
+    def __call__(self, information: Array) -> Array:
+        """Return ``log det`` of the chosen block of ``J^{-1}`` (...,)."""
+        info = np.asarray(information, dtype=float)
+        idx = block_indices(self.block, info.shape[-1])
+        cov = information_inverse(info)[..., idx[:, None], idx[None, :]]
+        sign, logdet = np.linalg.slogdet(cov)
+        return np.where(sign > 0, logdet, np.inf)
+
+
+@dataclass(frozen=True)
+class CustomCriterion:
+    """A user-supplied function of the Bayesian information.
+
+    Parameters
+    ----------
+    function : callable
+        ``function(J)`` with ``J`` (..., n, n) (SI) returning a cost (...,), smaller better.
+        It must be vectorised over the leading axes.
+    name : str, optional
+        A label for reports.
+
+    Raises
+    ------
+    ValueError
+        When the function returns an array of the wrong shape (on call).
+    """
+
+    function: Callable[[Array], ArrayLike]
+    name: str = "custom"
+
+    def __call__(self, information: Array) -> Array:
+        """Return ``function(information)``, checked to have the leading shape."""
+        info = np.asarray(information, dtype=float)
+        cost = np.asarray(self.function(info), dtype=float)
+        if cost.shape != info.shape[:-2]:
+            raise ValueError(f"the criterion {self.name!r} returned shape {cost.shape} for "
+                             f"information of shape {info.shape}; expected "
+                             f"{info.shape[:-2]} (one cost per matrix)")
+        return cost
+
+
+CRITERIA: dict[str, Callable[[], Criterion]] = {
+    "trace": WeightedTrace,
+    "logdet": LogDet,
+}
+
+
+def criterion_from_name(name: str) -> Criterion:
+    """Return the criterion named ``"trace"`` (position) or ``"logdet"`` (position).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`CRITERIA`.
+
+    Returns
+    -------
+    Criterion
+
+    Raises
+    ------
+    ValueError
+        For an unknown name.
+    """
+    key = name.strip().lower()
+    if key not in CRITERIA:
+        raise ValueError(f"unknown planning criterion {name!r}; expected one of "
+                         f"{', '.join(CRITERIA)}")
+    return CRITERIA[key]()

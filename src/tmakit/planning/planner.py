@@ -1,0 +1,295 @@
+"""Choose the sensor's next action by the predicted posterior CRB (Hurtado & Nehorai 2008).
+
+At each decision the :class:`Planner` flies every candidate action of the platform for one
+decision interval (:meth:`~tmakit.sensors.PlatformKinematics.step`, all at once), carries the
+Bayesian information along each candidate (:func:`~tmakit.planning.candidates.step_information`,
+eqs. 10-13), scores ``J_{k+1}`` with the criterion (eq. 12: ``Tr{Pi J^{-1}}`` by default),
+checks the tactical constraints along each candidate step against the estimated target, and
+returns a :class:`Recommendation`: the chosen action with the cost, the predicted position
+bound, the feasibility and the violations of every candidate.
+
+With ``horizon = H > 1`` the candidates are sequences of ``H`` actions (receding horizon: only
+the first is flown, then the planner decides again).  The search here is exhaustive over the
+``A^H`` sequences, vectorised level by level; the sequence is scored by the criterion at the end
+of the horizon, its penalties multiplied along the way, and it is feasible only if every step
+is.  Beyond the first step ``Gamma`` is formed at the predicted mean (the cloud expectation
+over ``A^H`` sequences would multiply the work by the cloud size for a second-order change).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..arrays import Array
+from ..bounds.pcrb_recursion import information_inverse
+from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
+from .belief import Belief
+from .candidates import GammaForm, check_gamma, step_information
+from .constraints import Constraint, Violation
+from .criteria import Criterion, WeightedTrace
+from .measurement_plan import SensorPlan
+
+#: Times per step at which the constraints are checked (equally spaced, end included).
+CHECK_POINTS = 4
+
+
+@dataclass(frozen=True, eq=False)
+class Recommendation:
+    """The planner's answer at one decision.
+
+    Attributes
+    ----------
+    index : int
+        The chosen candidate (index into the planner's actions).
+    actions : Actions, shape (C,)
+        The candidates.
+    steps : Step, shape (C,)
+        Every candidate flown for one decision interval.
+    information : ndarray, shape (C, n, n)
+        Predicted Bayesian information ``J_{k+1}`` of each candidate after one step, SI.
+    cost : ndarray, shape (C,)
+        The criterion (with penalties) of each candidate; with a horizon, the best over the
+        sequences that start with it.
+    bound : ndarray, shape (C,)
+        Predicted position RMS bound after one step, m: ``sqrt(trace)`` of the position
+        block of ``J_{k+1}^{-1}``.
+    feasible : ndarray of bool, shape (C,)
+        Whether the candidate (or, with a horizon, some sequence starting with it) keeps
+        every hard constraint.
+    violations : dict of str to ndarray (C,)
+        Largest violation (m) of each constraint over the candidate's first step.
+    all_infeasible : bool
+        True when no candidate kept the hard constraints (the least violating was chosen).
+    """
+
+    index: int
+    actions: Actions
+    steps: Step
+    information: Array
+    cost: Array
+    bound: Array
+    feasible: Array
+    violations: dict[str, Array]
+    all_infeasible: bool
+
+    @property
+    def step(self) -> Step:
+        """The chosen candidate's step (batch shape ``()``)."""
+        return self.steps[self.index]
+
+    @property
+    def action(self) -> Actions:
+        """The chosen action (batch shape ``()``)."""
+        return self.actions[self.index]
+
+
+def position_bound(information: Array) -> Array:
+    """Return ``sqrt(trace)`` of the position block of ``J^{-1}`` (...,), m."""
+    dim = information.shape[-1] // 2
+    cov = information_inverse(information)
+    return np.sqrt(np.clip(np.einsum("...ii->...", cov[..., :dim, :dim]), 0.0, None))
+
+
+@dataclass(frozen=True, eq=False)
+class Planner:
+    """Adaptive sensor path planning by the predicted posterior CRB.
+
+    Parameters
+    ----------
+    kinematics : PlatformKinematics
+        The platform's limits.
+    actions : Actions, shape (A,)
+        The candidate actions of one decision.
+    interval : float
+        Decision interval, s.
+    plan : SensorPlan
+        What the sensor measures in each step.
+    criterion : Criterion, optional
+        Cost of ``J`` (default :class:`WeightedTrace`, position only: eq. 12).
+    constraints : sequence, optional
+        Tactical constraints (:mod:`tmakit.planning.constraints`).
+    gamma : {"mean", "cloud"}, optional
+        How ``Gamma`` is formed in the first step (module docstring of
+        :mod:`tmakit.planning.candidates`).
+    horizon : int, optional
+        Decision steps looked ahead (1 = Hurtado & Nehorai (2008)).
+
+    Raises
+    ------
+    ValueError
+        On an empty action set, a non-positive interval or horizon, or an unknown gamma.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), sections 4.1-4.2, eqs. 10-13.
+    """
+
+    kinematics: PlatformKinematics
+    actions: Actions
+    interval: float
+    plan: SensorPlan
+    criterion: Criterion = field(default_factory=WeightedTrace)
+    constraints: Sequence[Constraint] = ()
+    gamma: GammaForm = "mean"
+    horizon: int = 1
+
+    def __post_init__(self) -> None:
+        """Check the settings."""
+        if len(self.actions.shape) != 1 or self.actions.shape[0] < 1:
+            raise ValueError("the planner needs a 1-D set of at least one candidate action")
+        if not (np.isfinite(self.interval) and self.interval > 0):
+            raise ValueError(f"the decision interval must be > 0 s; got {self.interval}")
+        if isinstance(self.horizon, bool) or int(self.horizon) != self.horizon \
+                or self.horizon < 1:
+            raise ValueError(f"the horizon must be a whole number of steps >= 1; got "
+                             f"{self.horizon!r}")
+        check_gamma(self.gamma)
+        object.__setattr__(self, "constraints", tuple(self.constraints))
+
+    def expand(self, platform: PlatformState, information: Array, belief: Belief,
+               depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
+        """Fly every action from each of a batch of states for one step, ``depth`` steps ahead.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            States of batch shape ``B`` at ``belief.time + depth * interval``.
+        information : ndarray, shape (*B, n, n)
+            ``J`` at that time, per state.
+        belief : Belief
+            The decision's belief (its cloud is predicted ``depth`` steps ahead).
+        depth : int
+            Steps after the decision time (0 for the first).
+        gamma : {"mean", "cloud"}
+            How ``Gamma`` is formed.
+
+        Returns
+        -------
+        steps : Step, shape (*B, A)
+        information : ndarray, shape (*B, A, n, n)
+            ``J`` after the step.
+        violations : list of Violation
+            One per constraint, amounts of shape ``(*B * A,)`` flattened.
+        """
+        start = PlatformState(platform.position[..., None, :], platform.heading[..., None],
+                              platform.speed[..., None], platform.climb_rate[..., None],
+                              platform.time)
+        steps = self.kinematics.step(start, self.actions, self.interval)
+        t0 = platform.time
+        times = t0 + self.plan.measurement_times(self.interval)
+        sensor = steps.sensor_states(times)                       # (*B, A, k, 6)
+        f = belief.posterior.dynamics.transition(t0 - belief.time)
+        cloud = (belief.states @ f.T, belief.weights)
+        info = step_information(belief, information[..., None, :, :], self.plan, sensor,
+                                self.interval, gamma, cloud)
+        return steps, info, self._violations(steps, belief)
+
+    def _violations(self, steps: Step, belief: Belief) -> list[Violation]:
+        if not self.constraints:
+            return []
+        times = steps.start.time + self.interval * np.arange(1, CHECK_POINTS + 1) / CHECK_POINTS
+        pos = steps.sensor_states(times)[..., :3].reshape(-1, CHECK_POINTS, 3)
+        dyn = belief.posterior.dynamics
+        dim = belief.posterior.dim
+        target = np.zeros((CHECK_POINTS, 3))
+        for j, t in enumerate(times):   # CHECK_POINTS times, not candidates
+            target[j, :dim] = (dyn.transition(t - belief.time) @ belief.mean)[:dim]
+        return [c.check(pos, target) for c in self.constraints]
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> Recommendation:
+        """Choose the next action.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            The platform now (batch shape ``()``), at ``belief.time``.
+        belief : Belief
+            ``J_k`` along the path so far and the target cloud, at the same time.
+
+        Returns
+        -------
+        Recommendation
+
+        Raises
+        ------
+        ValueError
+            If the platform is not one state or is not at the belief's time.
+        """
+        if platform.shape != ():
+            raise ValueError("recommend() takes one platform state")
+        if abs(platform.time - belief.time) > 1e-6:
+            raise ValueError(f"the platform is at t = {platform.time:g} s and the belief at "
+                             f"t = {belief.time:g} s")
+        steps, info, viol = self.expand(platform, belief.posterior.information, belief, 0,
+                                        self.gamma)
+        factor, bad = _penalties(viol, len(self.actions))
+        cost = self.criterion(info) * factor
+        if self.horizon > 1:
+            cost, bad = self._look_ahead(steps.end, info, belief, cost, factor, bad)
+        return _choose(self.actions, steps, info, cost, bad, viol)
+
+    def _look_ahead(self, ends: PlatformState, info: Array, belief: Belief, cost: Array,
+                    factor: Array, bad: Array) -> tuple[Array, Array]:
+        """Exhaustive search of the ``A^H`` sequences; best cost per first action."""
+        a = len(self.actions)
+        for depth in range(1, self.horizon):
+            steps, info, viol = self.expand(ends, info, belief, depth, "mean")
+            f_new, bad_new = _penalties(viol, steps.turn_rate.size)
+            factor = factor[..., None] * f_new.reshape(steps.shape)
+            bad = bad[..., None] + bad_new.reshape(steps.shape)
+            ends = steps.end
+        leaf_cost = (self.criterion(info) * factor).reshape(a, -1)
+        leaf_bad = bad.reshape(a, -1)
+        best = np.lexsort((leaf_cost, leaf_bad), axis=-1)[:, 0]
+        rows = np.arange(a)
+        return leaf_cost[rows, best], leaf_bad[rows, best]
+
+    def advance(self, belief: Belief, recommendation: Recommendation, states: Array,
+                weights: Array | None = None) -> Belief:
+        """Return the next decision's belief after flying the chosen step.
+
+        ``J_{k+1}`` is the chosen candidate's predicted information (the bound along the
+        flown path, conditioned on it); the cloud is the tracker's after its update.
+
+        Parameters
+        ----------
+        belief : Belief
+            The belief the recommendation was made from.
+        recommendation : Recommendation
+            Its answer.
+        states, weights
+            The tracker's cloud at the end of the step.
+
+        Returns
+        -------
+        Belief
+        """
+        post = belief.posterior
+        nxt = type(post)(recommendation.information[recommendation.index], post.dynamics,
+                         belief.time + self.interval)
+        return Belief(nxt, states, weights)
+
+
+def _penalties(violations: list[Violation], size: int) -> tuple[Array, Array]:
+    """Cost factor and total hard violation (m) per candidate."""
+    factor = np.ones(size)
+    bad = np.zeros(size)
+    for v in violations:
+        if v.hard:
+            bad = bad + v.amount * v.violated
+        else:
+            factor = factor * v.penalty_factor()
+    return factor, bad
+
+
+def _choose(actions: Actions, steps: Step, info: Array, cost: Array, bad: Array,
+            violations: list[Violation]) -> Recommendation:
+    feasible = bad <= 0.0
+    all_bad = not bool(feasible.any())
+    # feasible first by cost; if none, least total violation, then cost
+    index = int(np.lexsort((cost, np.where(feasible, 0.0, bad)))[0])
+    return Recommendation(index, actions, steps, info, cost, position_bound(info), feasible,
+                          {v.name: v.amount for v in violations}, all_bad)
