@@ -181,3 +181,33 @@ def test_bad_planner_settings_are_refused():
         SensorPlan("bearing", -1.0)
     with pytest.raises(ValueError, match="one platform state"):
         planner().recommend(PlatformState(np.zeros((2, 2)), 0.0, 50.0), belief())
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_fused_cloud_information_equals_the_general_path(dim):
+    from tmakit.planning.fast_information import cloud_information, supports
+
+    kinds = ["bearing", "range", "range_rate"] + (["elevation"] if dim == 3 else [])
+    sig = [0.02, 30.0, 0.5, 0.03][:len(kinds)]
+    plan = SensorPlan(kinds, sig, dim=dim)
+    assert supports(plan)
+    rng = np.random.default_rng(3)
+    n = 2 * dim
+    states = rng.normal(size=(300, n)) * 500.0 + np.r_[[-2000.0, 15000.0, 900.0][:dim],
+                                                       [25.0, 0.0, 1.0][:dim]]
+    w = rng.random(300)
+    w /= w.sum()
+    sensors = rng.normal(size=(5, 6)) * [30, 30, 30, 10, 10, 1] + [0, 0, 100, 0, 50, 0]
+    general = np.einsum("ckij,k->cij", plan.information(states, sensors), w)
+    np.testing.assert_allclose(cloud_information(plan, states, w, sensors), general,
+                               rtol=1e-9, atol=1e-12 * np.abs(general).max())
+    # a full noise covariance: the whitening mixes the rows
+    a = rng.normal(size=(len(kinds), len(kinds))) * 0.1 + np.eye(len(kinds))
+    cov = np.diag(sig) @ (a @ a.T) @ np.diag(sig)
+    full = SensorPlan(kinds, sig, dim=dim)
+    object.__setattr__(full, "covariance", cov)
+    h = plan.group.jacobian(states, sensors[:, None, None, :])        # (C, N, m, n)
+    rinv = np.linalg.inv(cov)
+    expect = np.einsum("cnmi,mk,cnkj,n->cij", h, rinv, h, w)
+    np.testing.assert_allclose(cloud_information(full, states, w, sensors), expect,
+                               rtol=1e-9, atol=1e-12 * np.abs(expect).max())

@@ -32,6 +32,7 @@ from ..arrays import Array
 from ..bounds.pcrb_recursion import PosteriorInformation, predict_information
 from ..linalg import symmetrise
 from .belief import Belief
+from .fast_information import cloud_information, supports
 from .measurement_plan import SensorPlan
 
 GammaForm = Literal["mean", "cloud"]
@@ -74,8 +75,9 @@ def expected_information(plan: SensorPlan, states: Array, weights: Array,
     Hurtado & Nehorai (2008), eqs. 11 and 13, section 4.2.
     """
     if gamma == "mean" or states.shape[0] == 1:
-        xi = plan.information((weights @ states)[None, :], sensor_states)
-        return xi[..., 0, :, :]
+        states, weights = (weights @ states)[None, :], np.ones(1)
+    if supports(plan):
+        return cloud_information(plan, states, weights, sensor_states)
     xi = plan.information(states, sensor_states)  # (*B, N, n, n)
     return np.einsum("...kij,k->...ij", xi, weights)
 
