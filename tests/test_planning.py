@@ -211,3 +211,28 @@ def test_fused_cloud_information_equals_the_general_path(dim):
     expect = np.einsum("cnmi,mk,cnkj,n->cij", h, rinv, h, w)
     np.testing.assert_allclose(cloud_information(full, states, w, sensors), expect,
                                rtol=1e-9, atol=1e-12 * np.abs(expect).max())
+
+
+@pytest.mark.parametrize("kinds", [["bearing"], ["bearing", "range", "range_rate"],
+                                   ["range_rate", "range"], ["bearing", "range_rate"]])
+def test_planar_closed_form_equals_the_general_path(kinds):
+    from tmakit.planning.planar_information import planar_information, supports_planar
+
+    rng = np.random.default_rng(5)
+    sig = rng.uniform(0.01, 2.0, len(kinds))
+    a = rng.normal(size=(len(kinds), len(kinds))) * 0.2 + np.eye(len(kinds))
+    for cov in (None, np.diag(sig) @ (a @ a.T) @ np.diag(sig)):
+        plan = SensorPlan(kinds, sig)
+        group = plan.group   # built with the independent sigmas, for the reference
+        rinv = np.linalg.inv(group.covariance if cov is None else cov)
+        object.__setattr__(plan, "covariance", cov)
+        states = rng.normal(size=(200, 4)) * [800, 800, 5, 5] + [-2000, 15000, 25, 0]
+        w = rng.random(200)
+        w /= w.sum()
+        sensors = np.zeros((7, 6))
+        sensors[:, [0, 1, 3, 4]] = rng.normal(size=(7, 4)) * [50, 50, 30, 30]
+        assert supports_planar(plan, sensors)
+        h = plan.group.jacobian(states, sensors[:, None, None, :])
+        expect = np.einsum("cnmi,mk,cnkj,n->cij", h, rinv, h, w)
+        np.testing.assert_allclose(planar_information(plan, states, w, sensors), expect,
+                                   rtol=1e-9, atol=1e-12 * np.abs(expect).max())

@@ -34,6 +34,7 @@ from ..linalg import symmetrise
 from .belief import Belief
 from .fast_information import cloud_information, supports
 from .measurement_plan import SensorPlan
+from .planar_information import planar_information, supports_planar
 
 GammaForm = Literal["mean", "cloud"]
 GAMMA_FORMS: tuple[str, ...] = ("mean", "cloud")
@@ -76,6 +77,8 @@ def expected_information(plan: SensorPlan, states: Array, weights: Array,
     """
     if gamma == "mean" or states.shape[0] == 1:
         states, weights = (weights @ states)[None, :], np.ones(1)
+    if supports_planar(plan, sensor_states):
+        return planar_information(plan, states, weights, sensor_states)
     if supports(plan):
         return cloud_information(plan, states, weights, sensor_states)
     xi = plan.information(states, sensor_states)  # (*B, N, n, n)
