@@ -110,16 +110,17 @@ class _Workspace(threading.local):
     """
 
     def __init__(self) -> None:
-        self.shape: tuple[int, int] | None = None
-        self.arrays: dict[str, Array] = {}
+        self.sets: dict[tuple[int, int], dict[str, Array]] = {}
 
     def get(self, c: int, b: int) -> dict[str, Array]:
-        if self.shape != (c, b):
+        if (c, b) not in self.sets:
+            if len(self.sets) >= 4:   # a few shapes (mean and cloud, last block) at most
+                self.sets.pop(next(iter(self.sets)))
             names = ("dx", "dy", "dxdy", "dx2", "ir2", "ir", "q", "ux", "uy", "tmp")
-            self.arrays = {n: np.empty((c, b)) for n in names}
-            self.arrays["f"] = np.empty((11, c, b))
-            self.shape = (c, b)
-        return self.arrays
+            arrays = {n: np.empty((c, b)) for n in names}
+            arrays["f"] = np.empty((11, c, b))
+            self.sets[(c, b)] = arrays
+        return self.sets[(c, b)]
 
 
 _WORK = _Workspace()

@@ -179,8 +179,11 @@ class Planner:
                               platform.time)
         steps = self.kinematics.step(start, self.actions, self.interval)
         t0 = platform.time
-        times = t0 + self.plan.measurement_times(self.interval)
-        sensor = steps.sensor_states(times)                       # (*B, A, k, 6)
+        offsets = self.plan.measurement_times(self.interval)
+        if offsets.size == 1 and offsets[0] == self.interval:   # one pulse, at the end
+            sensor = steps.end.sensor_state[..., None, :]
+        else:
+            sensor = steps.sensor_states(t0 + offsets)          # (*B, A, k, 6)
         f = belief.posterior.dynamics.transition(t0 - belief.time)
         cloud = (belief.states @ f.T, belief.weights)
         info = step_information(belief, information[..., None, :, :], self.plan, sensor,
