@@ -1,4 +1,8 @@
-"""Sensors: recorded and scripted sensor tracks (where a sensor was), and steerable platforms."""
+"""Sensors: sensor tracks, steerable platforms, and the radar of Hurtado & Nehorai (2008).
+
+Recorded and scripted tracks say where a sensor was; :mod:`tmakit.sensors.radar` models what
+the paper's radar measures.
+"""
 
 from .platform import (
     HURTADO_NEHORAI_2008,
@@ -10,10 +14,12 @@ from .platform import (
     platform_configuration,
 )
 from .platform_state import Actions, PlatformState, propagate_constant_turn
+from .radar import HURTADO_NEHORAI_2008_RADAR, RadarModel
 from .tracks import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
 
 __all__ = [
     "HURTADO_NEHORAI_2008",
+    "HURTADO_NEHORAI_2008_RADAR",
     "PLATFORM_CONFIGURATIONS",
     "Actions",
     "FixedSensor",
@@ -23,6 +29,7 @@ __all__ = [
     "PlatformKinematics",
     "PlatformState",
     "PlatformTrack",
+    "RadarModel",
     "RecordedTrack",
     "SensorTrack",
     "Step",
