@@ -27,7 +27,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
 
 
-
 @dataclass(frozen=True)
 class UpdateInfo:
     """What one update saw.
@@ -298,20 +297,21 @@ class TrackingFilter(ABC):
         kwargs.setdefault("nuisance", {k: v for k, (v, _) in result.nuisance.items()})
         return cls(state6[keep], cov, float(time), **kwargs)
 
-    def group(self, rows: MeasurementSet) -> MeasurementGroup:
+    def group(self, rows: MeasurementSet | MeasurementGroup) -> MeasurementGroup:
         """Wrap measurement rows (any kinds and sensors) as a group at the filter's time.
 
         Parameters
         ----------
-        rows : MeasurementSet
-            The rows.
+        rows : MeasurementSet or MeasurementGroup
+            The rows, or a group at the filter's time (e.g. with a full noise covariance).
 
         Returns
         -------
         MeasurementGroup
             Their predictions, Jacobians and noise for this filter's state.
         """
-        return MeasurementGroup(rows, self.time, self.dim, self.options, self.nuisance)
+        return (rows.at(self.time, self.dim) if isinstance(rows, MeasurementGroup)
+                else MeasurementGroup(rows, self.time, self.dim, self.options, self.nuisance))
 
     def predict(self, time: float) -> None:
         """Move the estimate forward to ``time`` (s).
@@ -334,13 +334,13 @@ class TrackingFilter(ABC):
             self._predict(dt)
         self.time = max(self.time, float(time))
 
-    def update(self, rows: MeasurementSet) -> UpdateInfo:
+    def update(self, rows: MeasurementSet | MeasurementGroup) -> UpdateInfo:
         """Condition on measurement rows (any kinds and sensors) at the current time.
 
         Parameters
         ----------
-        rows : MeasurementSet
-            The rows; rows at other times are predicted from the state moved there.
+        rows : MeasurementSet or MeasurementGroup
+            The rows (other times: predicted from the state moved there), or a group.
 
         Returns
         -------

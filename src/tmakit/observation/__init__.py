@@ -11,12 +11,15 @@ structure, for batch estimators, filters and bounds alike.
 * :class:`ObservationModel` (``model.py``): rows predicted from motion parameters (batch
   estimators, the CRLB).
 * :class:`NoiseModel` (``noise.py``): whitening by the noise covariance.
+* :func:`radar_group` (``radar.py``): the radar's rows with its full covariance.
 """
 
 from .groups import MeasurementGroup, group_times, time_blocks
 from .model import Linearisation, ObservationModel
 from .noise import NoiseModel
+from .radar import radar_group, radar_rows
 from .rows import RowLayout, RowModel, nuisance_layout, resolve_models
 
 __all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout",
-           "RowModel", "group_times", "nuisance_layout", "resolve_models", "time_blocks"]
+           "RowModel", "group_times", "nuisance_layout", "radar_group", "radar_rows",
+           "resolve_models", "time_blocks"]

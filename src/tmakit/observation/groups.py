@@ -25,7 +25,7 @@ from ..arrays import Array
 from ..data import MeasurementSet
 from ..measurements import MeasurementModel
 from ..motion.dynamics import state_names
-from .noise import NoiseModel
+from .noise import NoiseModel, checked_covariance
 from .rows import RowLayout, RowModel, resolve_models
 
 __all__ = ["TIME_TOLERANCE", "MeasurementGroup", "chain_state", "group_times",
@@ -100,6 +100,11 @@ class MeasurementGroup:
         Per-kind model options as for :class:`~tmakit.observation.ObservationModel`.
     nuisance : mapping, optional
         Known values of the nuisance parameters of the kinds present.
+    covariance : array_like, optional
+        A full noise covariance ``R`` (m, m), SI units squared, in place of the rows' own
+        (independent sigmas and the kinds' correlated blocks): correlated rows of different
+        kinds, a radar's range and range rate (:class:`~tmakit.sensors.RadarModel`).  The
+        sigmas become ``sqrt(diag R)``.
 
     Attributes
     ----------
@@ -119,11 +124,14 @@ class MeasurementGroup:
         The observation core that predicts the rows.
     covariance : ndarray
         R (m, m), SI.
+    full_covariance : ndarray or None
+        The full covariance the group was given (None: the rows' own).
 
     Raises
     ------
     ValueError
-        Without rows, or when a nuisance value is missing.
+        Without rows, when a nuisance value is missing, or on a covariance that is not a
+        symmetric positive definite (m, m) matrix.
 
     Notes
     -----
@@ -134,13 +142,15 @@ class MeasurementGroup:
 
     def __init__(self, rows: MeasurementSet, t: float, dim: int,
                  options: Mapping[str, Mapping[str, object]] | None = None,
-                 nuisance: Mapping[str, float] | None = None) -> None:
+                 nuisance: Mapping[str, float] | None = None,
+                 covariance: ArrayLike | None = None) -> None:
         if len(rows) == 0:
             raise ValueError("a measurement group needs at least one row")
         models, nus = resolve_models(rows.kinds, options, nuisance)
         index = {kind: np.flatnonzero(rows.kind == kind) for kind in models}
         self._setup(t, dim, models, nus, index, rows.value_si, rows.sigma_si, rows.time,
-                    rows.time_ref, rows.sensor_state, rows.ref_sensor_state, rows.sensor)
+                    rows.time_ref, rows.sensor_state, rows.ref_sensor_state, rows.sensor,
+                    covariance=covariance)
         self._rows: MeasurementSet | None = rows
         self._rows_factory: Callable[[], MeasurementSet] | None = None
 
@@ -149,8 +159,8 @@ class MeasurementGroup:
                     nuisance: Mapping[str, Array], index: Mapping[str, NDArray[np.int64]],
                     values: Array, sigmas: Array, time: Array, time_ref: Array,
                     sensor_state: Array, ref_sensor_state: Array, sensor: NDArray[np.str_],
-                    rows: Callable[[], MeasurementSet], layout: RowLayout | None = None
-                    ) -> MeasurementGroup:
+                    rows: Callable[[], MeasurementSet], layout: RowLayout | None = None,
+                    covariance: ArrayLike | None = None) -> MeasurementGroup:
         """Build a group from columns already in SI.
 
         Parameters
@@ -168,6 +178,8 @@ class MeasurementGroup:
         layout : RowLayout, optional
             The layout of ``models`` and ``index`` if already made (a filter run reuses one
             per pattern of kinds).
+        covariance : array_like, optional
+            A full noise covariance (m, m), as for the constructor.
 
         Returns
         -------
@@ -182,16 +194,17 @@ class MeasurementGroup:
             raise ValueError("a measurement group needs at least one row")
         self = cls.__new__(cls)
         self._setup(t, dim, models, nuisance, index, values, sigmas, time,
-                    time_ref, sensor_state, ref_sensor_state, sensor, layout)
+                    time_ref, sensor_state, ref_sensor_state, sensor, layout, covariance)
         self._rows = None
         self._rows_factory = rows
         return self
 
     @classmethod
-    def planned(cls, kinds: str | Sequence[str], sigmas: ArrayLike, t: float, dim: int,
+    def planned(cls, kinds: str | Sequence[str], sigmas: ArrayLike | None, t: float, dim: int,
                 options: Mapping[str, Mapping[str, object]] | None = None,
                 nuisance: Mapping[str, float] | None = None,
-                time_ref: ArrayLike | None = None) -> MeasurementGroup:
+                time_ref: ArrayLike | None = None,
+                covariance: ArrayLike | None = None) -> MeasurementGroup:
         """Build measurements not yet made, at the filter time ``t`` (s): a row per kind.
 
         Their sensor states are zero placeholders, to be given to :meth:`predict`,
@@ -202,12 +215,16 @@ class MeasurementGroup:
         ----------
         kinds : str or sequence of str
             The kind of each row.
-        sigmas : array_like
-            Noise standard deviations (SI: rad, m, m/s, Hz, dB), one per row.
+        sigmas : array_like or None
+            Noise standard deviations (SI: rad, m, m/s, Hz, dB), one per row; None with
+            ``covariance``.
         t, dim, options, nuisance
             As for the constructor.
         time_ref : array_like, optional
             Reference times (s) of rows whose kind uses an earlier sample.
+        covariance : array_like, optional
+            A full noise covariance ``R`` (m, m), SI units squared, overriding ``sigmas`` (the
+            radar's correlated range and range rate).
 
         Returns
         -------
@@ -216,11 +233,15 @@ class MeasurementGroup:
         Raises
         ------
         ValueError
-            When a nuisance value is missing.
+            When a nuisance value is missing, without ``sigmas`` or ``covariance``, or on a
+            covariance that is not a symmetric positive definite (m, m) matrix.
         """
         names = [kinds] if isinstance(kinds, str) else list(kinds)
         m = len(names)
-        sig = np.broadcast_to(np.asarray(sigmas, dtype=float), (m,)).copy()
+        if sigmas is None and covariance is None:
+            raise ValueError("a planned group needs sigmas or a covariance")
+        sig = (np.ones(m) if sigmas is None
+               else np.broadcast_to(np.asarray(sigmas, dtype=float), (m,)).copy())
         t_ref = (np.full(m, np.nan) if time_ref is None
                  else np.broadcast_to(np.asarray(time_ref, dtype=float), (m,)).copy())
         models, nus = resolve_models(dict.fromkeys(names), options, nuisance)
@@ -233,13 +254,16 @@ class MeasurementGroup:
 
         return cls.from_arrays(t, dim, models, nus, index, np.full(m, np.nan), sig,
                                np.full(m, float(t)), t_ref, np.zeros((m, 6)),
-                               np.zeros((m, 6)), sensor, no_rows)
+                               np.zeros((m, 6)), sensor, no_rows, covariance=covariance)
 
     def _setup(self, t: float, dim: int, models: Mapping[str, MeasurementModel],
                nuisance: Mapping[str, Array], index: Mapping[str, NDArray[np.int64]],
                values: Array, sigmas: Array, time: Array, time_ref: Array,
                sensor_state: Array, ref_sensor_state: Array, sensor: NDArray[np.str_],
-               layout: RowLayout | None = None) -> None:
+               layout: RowLayout | None = None, covariance: ArrayLike | None = None) -> None:
+        full = None if covariance is None else checked_covariance(covariance, len(values))
+        if full is not None:
+            sigmas = np.sqrt(np.diagonal(full)).copy()
         self.time = float(t)
         self.dim = int(dim)
         self.values = values
@@ -255,8 +279,23 @@ class MeasurementGroup:
         self.dt_ref = time_ref - self.time
         ref = self.row_model.reference
         self._dt_ref_rows = None if ref is None else self.dt_ref[ref]
-        self._cov: Array | None = None
-        self._noise: NoiseModel | None = None
+        self.full_covariance = full
+        self._cov: Array | None = full
+        self._noise: NoiseModel | None = (None if full is None
+                                          else NoiseModel.from_covariance(full))
+
+    def at(self, t: float, dim: int) -> MeasurementGroup:
+        """Return this group, checked to be at filter time ``t`` (s) in ``dim`` dimensions.
+
+        Raises
+        ------
+        ValueError
+            If it is at another time (beyond :data:`TIME_TOLERANCE`) or dimension.
+        """
+        if abs(self.time - float(t)) > TIME_TOLERANCE or self.dim != int(dim):
+            raise ValueError(f"the group is at t={self.time} s in {self.dim}-D, the filter at "
+                             f"t={float(t)} s in {int(dim)}-D (predict the filter first)")
+        return self
 
     @property
     def rows(self) -> MeasurementSet:
@@ -275,7 +314,8 @@ class MeasurementGroup:
         """Noise covariance ``R`` (m, m), SI units squared.
 
         Independent rows, except those of kinds with correlated noise (range differences of
-        one sensor that share pulse intervals, Chen & Sun, eq. 1).
+        one sensor that share pulse intervals, Chen & Sun, eq. 1), or the full covariance the
+        group was given.
         """
         if self._cov is None:
             self._cov = self.row_model.covariance()

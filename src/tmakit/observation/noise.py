@@ -100,6 +100,29 @@ class NoiseModel:
         self.correlated = bool(self.blocks)
 
     @classmethod
+    def from_covariance(cls, covariance: NDArray[np.float64]) -> NoiseModel:
+        """Build the model of rows with a full noise covariance (a radar's range and range rate).
+
+        Parameters
+        ----------
+        covariance : ndarray
+            ``R`` (m, m), SI units squared: symmetric positive definite.
+
+        Returns
+        -------
+        NoiseModel
+
+        Raises
+        ------
+        ValueError
+            If ``R`` is not a finite, symmetric, positive definite square matrix.
+        """
+        r = checked_covariance(covariance)
+        out = object.__new__(cls)
+        out._setup(np.sqrt(np.diagonal(r)).copy(), [(np.arange(r.shape[0]), r)])
+        return out
+
+    @classmethod
     def independent(cls, sigma: NDArray[np.float64]) -> NoiseModel:
         """Build the model of independent rows with standard deviations ``sigma``.
 
@@ -158,3 +181,40 @@ class NoiseModel:
         """
         w = self.whiten(np.eye(self.n), axis=0)
         return np.linalg.pinv(w.T @ w, rcond=1e-10, hermitian=True)
+
+
+def checked_covariance(covariance: object, m: int | None = None) -> NDArray[np.float64]:
+    """Return a noise covariance as a float array, checked.
+
+    Parameters
+    ----------
+    covariance : array_like
+        ``R`` (m, m), SI units squared.
+    m : int, optional
+        The number of rows it must have.
+
+    Returns
+    -------
+    ndarray
+        ``R``, symmetrised (mean of ``R`` and its transpose).
+
+    Raises
+    ------
+    ValueError
+        If ``R`` is not a finite, symmetric (to 1e-9 relative), positive definite (m, m)
+        matrix.
+    """
+    r = np.array(covariance, dtype=float)
+    size = r.shape[0] if r.ndim == 2 else -1
+    if r.ndim != 2 or r.shape[1] != size or (m is not None and size != m):
+        want = "a square matrix" if m is None else f"shape ({m}, {m}), one row per measurement"
+        raise ValueError(f"covariance must be {want}; got shape {r.shape}")
+    if not np.all(np.isfinite(r)):
+        raise ValueError("covariance must be finite")
+    scale = float(np.max(np.abs(np.diagonal(r)))) if size else 0.0
+    if np.max(np.abs(r - r.T), initial=0.0) > 1e-9 * scale:
+        raise ValueError("covariance must be symmetric")
+    r = 0.5 * (r + r.T)
+    if size == 0 or np.min(np.linalg.eigvalsh(r)) <= 0.0:
+        raise ValueError("covariance must be positive definite")
+    return r
