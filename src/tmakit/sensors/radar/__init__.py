@@ -63,7 +63,9 @@ migration would floor the range error near a fraction of a resolution cell, for 
 (benchmarks/radar_model.py prints them).
 
 The paper's eq. 4 and every quantity here are per pulse: one measurement of
-``[bearing, (elevation,) range, range_rate]`` each PRI.
+``[bearing, (elevation,) range, range_rate]`` each PRI.  The radar's measurement group with
+the full covariance, for filters, bounds and planners, is
+:func:`tmakit.observation.radar_group` (the observation layer sits above this one).
 
 References
 ----------
