@@ -279,3 +279,16 @@ def test_particle_filter_updates_with_the_full_covariance():
     assert info.log_likelihood == pytest.approx(top + math.log(np.mean(np.exp(loglik - top))),
                                                 rel=1e-9)
     assert np.all(np.isfinite(pf.state))
+
+
+@pytest.mark.parametrize("variant", ["derived", "resolution"])
+def test_planner_sensor_plan_with_the_radar_covariance(variant):
+    """The planner's SensorPlan carrying the radar's covariance gives the radar's Xi."""
+    from tmakit.planning.measurement_plan import SensorPlan
+
+    radar = dataclasses.replace(RADAR, range_accuracy=variant)
+    targets, sensors = states_2d()
+    plan = SensorPlan(radar.kinds(2), radar.measurement_sigmas(), 2,
+                      covariance=radar.measurement_covariance())
+    np.testing.assert_allclose(plan.information(targets, sensors),
+                               radar.state_information(targets, sensors), rtol=1e-9)
