@@ -9,11 +9,14 @@ returns a :class:`Recommendation`: the chosen action with the cost, the predicte
 bound, the feasibility and the violations of every candidate.
 
 With ``horizon = H > 1`` the candidates are sequences of ``H`` actions (receding horizon: only
-the first is flown, then the planner decides again).  The search here is exhaustive over the
-``A^H`` sequences, vectorised level by level; the sequence is scored by the criterion at the end
-of the horizon, its penalties multiplied along the way, and it is feasible only if every step
-is.  Beyond the first step ``Gamma`` is formed at the predicted mean (the cloud expectation
-over ``A^H`` sequences would multiply the work by the cloud size for a second-order change).
+the first is flown, then the planner decides again), searched by
+:func:`tmakit.planning.horizon.search`: depth by depth, vectorised level by level, exhaustive
+over the ``A^H`` sequences unless ``beam`` keeps only the best nodes of each depth; a
+sequence is scored by the criterion at the end of the horizon (or, with a ``continuation``,
+at the mission end after a default path), its penalties multiplied along the way, and it is
+feasible only if every step is.  Beyond the first step ``Gamma`` is formed at the predicted
+mean (the cloud expectation over ``A^H`` sequences would multiply the work by the cloud size
+for a second-order change).
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace
+from .horizon import Continuation, penalties, search
 from .measurement_plan import SensorPlan
 
 #: Times per step at which the constraints are checked (equally spaced, end included).
@@ -116,6 +120,12 @@ class Planner:
         :mod:`tmakit.planning.candidates`).
     horizon : int, optional
         Decision steps looked ahead (1 = Hurtado & Nehorai (2008)).
+    beam : int, optional
+        Nodes kept per depth of the horizon's tree search (None: exhaustive);
+        :mod:`tmakit.planning.horizon`.
+    continuation : Continuation, optional
+        Score sequences at the mission end after a default path beyond the horizon
+        (None: at the end of the horizon).
 
     Raises
     ------
@@ -135,6 +145,8 @@ class Planner:
     constraints: Sequence[Constraint] = ()
     gamma: GammaForm = "mean"
     horizon: int = 1
+    beam: int | None = None
+    continuation: Continuation | None = None
 
     def __post_init__(self) -> None:
         """Check the settings."""
@@ -147,6 +159,9 @@ class Planner:
             raise ValueError(f"the horizon must be a whole number of steps >= 1; got "
                              f"{self.horizon!r}")
         check_gamma(self.gamma)
+        if self.beam is not None and (isinstance(self.beam, bool) or int(self.beam) != self.beam
+                                      or self.beam < 1):
+            raise ValueError(f"beam must be a whole number >= 1 or None; got {self.beam!r}")
         object.__setattr__(self, "constraints", tuple(self.constraints))
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
@@ -228,27 +243,13 @@ class Planner:
                              f"t = {belief.time:g} s")
         steps, info, viol = self.expand(platform, belief.posterior.information, belief, 0,
                                         self.gamma)
-        factor, bad = _penalties(viol, len(self.actions))
+        factor, bad = penalties(viol, len(self.actions))
         cost = self.criterion(info) * factor
-        if self.horizon > 1:
-            cost, bad = self._look_ahead(steps.end, info, belief, cost, factor, bad)
+        if self.horizon > 1 or self.continuation is not None:
+            found = search(self, steps.end, steps.turn_rate, info, belief, factor, bad,
+                           self.beam, self.continuation)
+            cost, bad = found.cost, found.bad
         return _choose(self.actions, steps, info, cost, bad, viol)
-
-    def _look_ahead(self, ends: PlatformState, info: Array, belief: Belief, cost: Array,
-                    factor: Array, bad: Array) -> tuple[Array, Array]:
-        """Exhaustive search of the ``A^H`` sequences; best cost per first action."""
-        a = len(self.actions)
-        for depth in range(1, self.horizon):
-            steps, info, viol = self.expand(ends, info, belief, depth, "mean")
-            f_new, bad_new = _penalties(viol, steps.turn_rate.size)
-            factor = factor[..., None] * f_new.reshape(steps.shape)
-            bad = bad[..., None] + bad_new.reshape(steps.shape)
-            ends = steps.end
-        leaf_cost = (self.criterion(info) * factor).reshape(a, -1)
-        leaf_bad = bad.reshape(a, -1)
-        best = np.lexsort((leaf_cost, leaf_bad), axis=-1)[:, 0]
-        rows = np.arange(a)
-        return leaf_cost[rows, best], leaf_bad[rows, best]
 
     def advance(self, belief: Belief, recommendation: Recommendation, states: Array,
                 weights: Array | None = None) -> Belief:
@@ -274,18 +275,6 @@ class Planner:
         nxt = type(post)(recommendation.information[recommendation.index], post.dynamics,
                          belief.time + self.interval)
         return Belief(nxt, states, weights)
-
-
-def _penalties(violations: list[Violation], size: int) -> tuple[Array, Array]:
-    """Cost factor and total hard violation (m) per candidate."""
-    factor = np.ones(size)
-    bad = np.zeros(size)
-    for v in violations:
-        if v.hard:
-            bad = bad + v.amount * v.violated
-        else:
-            factor = factor * v.penalty_factor()
-    return factor, bad
 
 
 def _choose(actions: Actions, steps: Step, info: Array, cost: Array, bad: Array,
