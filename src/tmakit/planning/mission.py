@@ -1,0 +1,436 @@
+"""Mission-level planning: the sensor's remaining path as legs, optimised for the final bound.
+
+A passive sensor's (bearings-only) information comes from the geometry of the whole path, so
+a planner that looks a few steps ahead gives away what a later turn would bring
+(``benchmarks/planning_horizon_warning.py``).  :class:`MissionPlanner` instead plans the whole
+rest of the mission: from the decision time to :attr:`~MissionPlanner.end_time`, ``L`` legs of
+:attr:`~MissionPlanner.leg_duration` seconds, each a commanded heading (and optionally a
+speed) that the platform turns to within its limits and then holds.  Legs are flown in
+sub-steps of :attr:`~MissionPlanner.step` seconds by
+:meth:`~tmakit.sensors.PlatformKinematics.step` (each sub-step commands the remaining heading
+change, clipped to the turn-rate limit: the path never turns faster than the platform may),
+and the Bayesian information is carried along every candidate path at once by the recursion
+of Hurtado & Nehorai (2008), eq. 10 (:func:`~tmakit.planning.candidates.step_information`).
+A path is scored by the criterion of ``J`` at the mission end (by default the weighted trace of
+eq. 12, the final mean-square position bound).
+
+**Search: coordinate descent over leg headings, vectorised over a heading grid and over
+several starts.**  For one leg at a time every heading of a grid (``headings`` values around
+the compass in the first sweeps; then finer offsets around the current one) is tried for
+every start path at once (``starts x grid`` candidate paths flown from the start of that
+leg, the earlier legs shared), and the best is kept: the cost never increases.  The starts are
+the straight path, the operator's pattern if given, and the previous plan (re-planned each leg
+from the current belief: receding over legs).  Why: the cost is smooth in each heading but has
+many local minima over the path (which way to turn first, and when); a coarse grid per leg
+finds the basin that a gradient method (scipy, finite differences) would miss from a poor
+start, and every candidate of a sweep is one vectorised rollout.  The evaluations are counted
+(:attr:`MissionPlan.evaluations`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..arrays import Array
+from ..frames import wrap_angle
+from ..sensors.platform import Actions, PlatformKinematics, PlatformState
+from .belief import Belief
+from .candidates import GammaForm, check_gamma, step_information
+from .criteria import Criterion, WeightedTrace
+from .measurement_plan import SensorPlan
+from .planner import position_bound
+
+_TOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class MissionPlan:
+    """A planned remaining path.
+
+    Attributes
+    ----------
+    headings : ndarray, shape (L,)
+        Commanded heading of each leg, rad (clockwise from North).
+    speeds : ndarray, shape (L,)
+        Commanded speed of each leg, m/s.
+    leg_starts : ndarray, shape (L,)
+        Start time of each leg, s.
+    cost : float
+        The criterion of the predicted final information.
+    bound : float
+        Predicted final position RMS bound, m.
+    information : ndarray, shape (n, n)
+        Predicted Bayesian information at the mission end, SI.
+    actions : Actions, shape (K,)
+        The sub-step actions that fly the path (``kinematics.fly(platform, actions, step)``).
+    evaluations : int
+        Candidate paths (each from some leg to the end) scored by the search.
+    """
+
+    headings: Array
+    speeds: Array
+    leg_starts: Array
+    cost: float
+    bound: float
+    information: Array
+    actions: Actions
+    evaluations: int
+
+
+@dataclass(frozen=True, eq=False)
+class _Rollout:
+    """Candidate paths flown from one leg to the mission end."""
+
+    information: Array          # (C, n, n) at the end
+    leg_states: list[PlatformState]  # (C,) at the start of each leg flown
+    leg_info: list[Array]       # (C, n, n) at the start of each leg flown
+    actions: list[Actions]      # (C,) per sub-step
+    end: PlatformState          # (C,) at the end
+
+
+@dataclass(frozen=True, eq=False)
+class MissionPlanner:
+    """Plan the remaining path as legs to minimise a criterion of the final information.
+
+    Parameters
+    ----------
+    kinematics : PlatformKinematics
+        The platform's limits (turn rate, speed range, acceleration).
+    plan : SensorPlan
+        What the sensor measures in each sub-step of ``step`` seconds.
+    step : float
+        Sub-step, s: legs are flown and measured in sub-steps of this length.
+    leg_duration : float
+        Length of a leg, s (a whole number of sub-steps).
+    end_time : float
+        The mission end, s.
+    criterion : Criterion, optional
+        Cost of the final ``J`` (default :class:`WeightedTrace`: the final mean-square
+        position bound, m^2).
+    headings : int, optional
+        Size of the heading grid of the first sweeps (module docstring).
+    speeds : sequence of float, optional
+        Allowed leg speeds, m/s (default: hold the current speed).
+    sweeps : int, optional
+        Most sweeps over the legs per grid.
+    refine : int, optional
+        Rounds of finer offsets after the coarse grid (each halves the spacing).
+    gamma : {"mean", "cloud"}, optional
+        How ``Gamma`` is formed (:mod:`tmakit.planning.candidates`).
+
+    Raises
+    ------
+    ValueError
+        On a non-positive step, a leg that is not a whole number of steps, a grid below 4
+        headings, or bad speeds.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 10-13 (the recursion and the criterion; the paper plans
+    one step, this plans the rest of the mission).
+    """
+
+    kinematics: PlatformKinematics
+    plan: SensorPlan
+    step: float
+    leg_duration: float
+    end_time: float
+    criterion: Criterion = field(default_factory=WeightedTrace)
+    headings: int = 24
+    speeds: Sequence[float] | None = None
+    sweeps: int = 3
+    refine: int = 2
+    gamma: GammaForm = "mean"
+
+    def __post_init__(self) -> None:
+        """Check the settings."""
+        if not (np.isfinite(self.step) and self.step > 0):
+            raise ValueError(f"step must be > 0 s; got {self.step}")
+        ratio = self.leg_duration / self.step
+        if not (np.isfinite(ratio) and ratio >= 1 - _TOL and abs(ratio - round(ratio)) < 1e-6):
+            raise ValueError(f"leg_duration must be a whole number (>= 1) of steps of "
+                             f"{self.step:g} s; got {self.leg_duration}")
+        if int(self.headings) != self.headings or self.headings < 4:
+            raise ValueError(f"headings (grid size) must be a whole number >= 4; got "
+                             f"{self.headings!r}")
+        if self.speeds is not None:
+            v = np.asarray(self.speeds, dtype=float)
+            if v.ndim != 1 or not v.size or np.any(~np.isfinite(v) | (v < 0)):
+                raise ValueError("speeds must be a non-empty list of speeds >= 0 m/s")
+            object.__setattr__(self, "speeds", tuple(float(s) for s in v))
+        check_gamma(self.gamma)
+
+    def legs(self, time: float) -> tuple[Array, Array]:
+        """Return the leg start times and the sub-steps per leg from ``time`` to the end.
+
+        Parameters
+        ----------
+        time : float
+            The decision time, s.
+
+        Returns
+        -------
+        starts : ndarray, shape (L,)
+            s.
+        counts : ndarray of int, shape (L,)
+            Sub-steps of each leg (the last may be shorter).
+        """
+        total = int(np.floor((self.end_time - time) / self.step + 1e-6))
+        per_leg = round(self.leg_duration / self.step)
+        counts = np.full(total // per_leg, per_leg)
+        if total % per_leg:
+            counts = np.append(counts, total % per_leg)
+        starts = time + self.step * np.concatenate([[0], np.cumsum(counts)[:-1]])
+        return starts.astype(float), counts.astype(int)
+
+    def _rollout(self, belief: Belief, state: PlatformState, info: Array, headings: Array,
+                 speeds: Array, counts: Array, first_leg: int) -> _Rollout:
+        """Fly candidate paths (C,) from the start of ``first_leg`` to the end."""
+        leg_states, leg_info, actions = [], [], []
+        dyn = belief.posterior.dynamics
+        times = self.plan.measurement_times(self.step)
+        for leg in range(first_leg, counts.size):
+            leg_states.append(state)
+            leg_info.append(info)
+            for _ in range(int(counts[leg])):   # sub-steps in time, every candidate at once
+                t = state.time
+                act = Actions(wrap_angle(headings[:, leg] - state.heading), 0.0,
+                              speeds[:, leg])
+                flown = self.kinematics.step(state, act, self.step)
+                cloud = (belief.states @ dyn.transition(t - belief.time).T, belief.weights)
+                info = step_information(belief, info, self.plan,
+                                        flown.sensor_states(t + times), self.step,
+                                        self.gamma, cloud)
+                actions.append(act)
+                state = flown.end
+        return _Rollout(info, leg_states, leg_info, actions, state)
+
+    def evaluate(self, platform: PlatformState, belief: Belief, headings: ArrayLike,
+                 speeds: ArrayLike | None = None) -> Array:
+        """Return the predicted final information of candidate paths (C, n, n).
+
+        Parameters
+        ----------
+        platform : PlatformState
+            The platform now (batch shape ``()``), at ``belief.time``.
+        belief : Belief
+            ``J`` and the target cloud now.
+        headings : array_like, shape (C, L)
+            Commanded heading per leg (rad) of each candidate.
+        speeds : array_like, shape (C, L), optional
+            Commanded speed per leg (m/s); default the platform's speed.
+
+        Returns
+        -------
+        ndarray, shape (C, n, n)
+            SI.
+
+        Raises
+        ------
+        ValueError
+            If the shapes do not match the number of legs left.
+        """
+        _, counts = self.legs(belief.time)
+        h = np.atleast_2d(np.asarray(headings, dtype=float))
+        if h.shape[1] != counts.size:
+            raise ValueError(f"headings must be (C, {counts.size}) for the {counts.size} legs "
+                             f"left; got {h.shape}")
+        v = (np.broadcast_to(platform.speed, h.shape) if speeds is None
+             else np.broadcast_to(np.asarray(speeds, dtype=float), h.shape))
+        c = h.shape[0]
+        state = _repeat(platform, c)
+        info = np.broadcast_to(belief.posterior.information, (c, *belief.posterior
+                                                              .information.shape[-2:]))
+        return self._rollout(belief, state, info, h, np.array(v), counts, 0).information
+
+    def _grid(self, round_: int, current: Array, speed: Array) -> tuple[Array, Array]:
+        """Heading and speed candidates (M, G) for one leg of M start paths."""
+        if round_ == 0:
+            offsets = 2 * np.pi * np.arange(self.headings) / self.headings
+            heads = np.concatenate([current[:, None], offsets[None, :].repeat(current.size,
+                                                                              0)], axis=1)
+        else:
+            spacing = 2 * np.pi / self.headings / 2.0**round_
+            heads = current[:, None] + spacing * np.arange(-2, 3)[None, :]
+        if self.speeds is None:
+            return heads, np.broadcast_to(speed[:, None], heads.shape)
+        vs = np.asarray(self.speeds)
+        m, g = heads.shape
+        heads_all = np.repeat(heads, vs.size, axis=1)
+        speed_all = np.concatenate([np.tile(vs, (m, g)), speed[:, None]], axis=1)
+        heads_all = np.concatenate([heads_all, current[:, None]], axis=1)
+        return heads_all, speed_all
+
+    def _sweep_leg(self, belief: Belief, base: _Rollout, headings: Array, speeds: Array,
+                   counts: Array, leg: int, round_: int) -> tuple[Array, Array, _Rollout]:
+        """Try the grid on one leg of every start path; keep the best of each.
+
+        ``base`` holds the start paths' states and information at the start of every leg;
+        the returned one those of the kept paths (the legs before ``leg`` unchanged).
+        """
+        m = headings.shape[0]
+        heads, vs = self._grid(round_, headings[:, leg], speeds[:, leg])
+        g = heads.shape[1]
+        cand_h = np.repeat(headings, g, axis=0)
+        cand_v = np.repeat(speeds, g, axis=0)
+        cand_h[:, leg], cand_v[:, leg] = heads.ravel(), vs.ravel()
+        state = _repeat_batch(base.leg_states[leg], g)
+        info = np.repeat(base.leg_info[leg], g, axis=0)
+        out = self._rollout(belief, state, info, cand_h, cand_v, counts, leg)
+        cost = self.criterion(out.information).reshape(m, g)
+        rows = np.arange(m) * g + np.argmin(cost, axis=1)
+        kept = _Rollout(out.information[rows],
+                        base.leg_states[:leg] + [s[rows] for s in out.leg_states],
+                        base.leg_info[:leg] + [i[rows] for i in out.leg_info], [],
+                        out.end[rows])
+        return cand_h[rows], cand_v[rows], kept
+
+    def optimise(self, platform: PlatformState, belief: Belief,
+                 initial: ArrayLike | None = None) -> MissionPlan:
+        """Find the remaining path that minimises the criterion of the final information.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            The platform now (batch shape ``()``), at ``belief.time``.
+        belief : Belief
+            ``J`` along the path so far and the target cloud, now.
+        initial : array_like, shape (M, L) or (L,), optional
+            Start paths (leg headings, rad) besides the straight one: the operator's
+            pattern, the previous plan.
+
+        Returns
+        -------
+        MissionPlan
+
+        Raises
+        ------
+        ValueError
+            If the platform is not one state at the belief's time, no leg is left, or
+            ``initial`` does not have one heading per leg.
+        """
+        if platform.shape != () or abs(platform.time - belief.time) > 1e-6:
+            raise ValueError("optimise() takes one platform state at the belief's time")
+        starts, counts = self.legs(belief.time)
+        if not counts.size:
+            raise ValueError(f"no leg left before the mission end ({self.end_time:g} s)")
+        heads = np.full((1, counts.size), float(platform.heading))
+        if initial is not None:
+            extra = np.atleast_2d(np.asarray(initial, dtype=float))
+            if extra.shape[1] != counts.size:
+                raise ValueError(f"initial paths must have {counts.size} leg headings; got "
+                                 f"shape {extra.shape}")
+            heads = np.concatenate([heads, extra])
+        speeds = np.full(heads.shape, float(platform.speed))
+        evaluations = 0
+        m = heads.shape[0]
+        info0 = np.broadcast_to(belief.posterior.information,
+                                (m, *belief.posterior.information.shape[-2:]))
+        base = self._rollout(belief, _repeat(platform, m), info0, heads, speeds, counts, 0)
+        for round_ in range(self.refine + 1):
+            for _ in range(self.sweeps if round_ == 0 else 1):
+                before = heads.copy()
+                for leg in range(counts.size):
+                    heads, speeds, base = self._sweep_leg(belief, base, heads, speeds, counts,
+                                                          leg, round_)
+                    evaluations += heads.shape[0] * self._grid(round_, heads[:, 0],
+                                                               speeds[:, 0])[0].shape[1]
+                if np.allclose(wrap_angle(heads - before), 0.0):
+                    break
+        return self._result(platform, belief, heads, speeds, starts, counts, evaluations)
+
+    def _result(self, platform: PlatformState, belief: Belief, heads: Array, speeds: Array,
+                starts: Array, counts: Array, evaluations: int) -> MissionPlan:
+        m = heads.shape[0]
+        info0 = np.broadcast_to(belief.posterior.information,
+                                (m, *belief.posterior.information.shape[-2:]))
+        final = self._rollout(belief, _repeat(platform, m), info0, heads, speeds, counts, 0)
+        cost = self.criterion(final.information)
+        k = int(np.argmin(cost))
+        acts = final.actions
+        actions = Actions(np.array([a.heading_change[k] for a in acts]), 0.0,
+                          np.array([a.speed_change[k] for a in acts]))
+        info = final.information[k]
+        return MissionPlan(wrap_angle(heads[k]), speeds[k].copy(), starts, float(cost[k]),
+                           float(position_bound(info)), info, actions, evaluations + m)
+
+    def recommend(self, platform: PlatformState, belief: Belief,
+                  previous: MissionPlan | None = None, pattern: ArrayLike | None = None
+                  ) -> MissionPlan:
+        """Re-plan the remaining legs from the current belief (receding over legs).
+
+        Parameters
+        ----------
+        platform, belief
+            As for :meth:`optimise`.
+        previous : MissionPlan, optional
+            The last plan; its legs still ahead start the search.
+        pattern : array_like, optional
+            An operator's pattern for the legs left (rad), also a start.
+
+        Returns
+        -------
+        MissionPlan
+            Fly its first leg (``actions[:counts[0]]``), then call again.
+        """
+        _, counts = self.legs(belief.time)
+        initial = []
+        if previous is not None:
+            ahead = previous.headings[previous.leg_starts >= belief.time - 1e-6]
+            if ahead.size == counts.size:
+                initial.append(ahead)
+        if pattern is not None:
+            initial.append(np.asarray(pattern, dtype=float))
+        return self.optimise(platform, belief, np.array(initial) if initial else None)
+
+    def first_leg(self, platform: PlatformState, plan: MissionPlan) -> Actions:
+        """Return the sub-step actions of the plan's first leg (fly them, then re-plan)."""
+        _, counts = self.legs(platform.time)
+        return plan.actions[np.arange(int(counts[0]))]
+
+    def advance(self, platform: PlatformState, belief: Belief, plan: MissionPlan,
+                states: ArrayLike, weights: ArrayLike | None = None
+                ) -> tuple[PlatformState, Belief]:
+        """Fly the plan's first leg; return the platform and the belief at its end.
+
+        ``J`` is carried along the flown leg (the bound conditioned on the path); the cloud
+        is the tracker's after the leg (or the truth, to evaluate at the truth).
+
+        Parameters
+        ----------
+        platform, belief
+            As for :meth:`optimise`.
+        plan : MissionPlan
+            The plan made from them.
+        states, weights
+            The target cloud at the end of the leg.
+
+        Returns
+        -------
+        platform : PlatformState
+        belief : Belief
+        """
+        _, counts = self.legs(belief.time)
+        info = belief.posterior.information[None]
+        out = self._rollout(belief, _repeat(platform, 1), info, plan.headings[None, :1],
+                            plan.speeds[None, :1], counts[:1], 0)
+        end = out.end[0]
+        post = type(belief.posterior)(out.information[0], belief.posterior.dynamics, end.time)
+        return end, Belief(post, states, weights)
+
+
+def _repeat(platform: PlatformState, c: int) -> PlatformState:
+    """``c`` copies of one platform state, batch shape (c,)."""
+    return PlatformState(np.repeat(platform.position[None, :], c, 0),
+                         np.full(c, float(platform.heading)), np.full(c, float(platform.speed)),
+                         np.full(c, float(platform.climb_rate)), platform.time)
+
+
+def _repeat_batch(state: PlatformState, g: int) -> PlatformState:
+    """Each of a batch (M,) of states repeated ``g`` times, (M g,)."""
+    return PlatformState(np.repeat(state.position, g, 0), np.repeat(state.heading, g),
+                         np.repeat(state.speed, g), np.repeat(state.climb_rate, g), state.time)
