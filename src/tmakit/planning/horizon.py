@@ -33,20 +33,35 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Literal, Protocol
 
 import numpy as np
 
 from ..arrays import Array
 from ..bounds.pcrb_recursion import predict_information
-from ..sensors.platform import Actions, PlatformState
+from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from .belief import Belief
 from .candidates import step_information
 from .constraints import Violation
+from .criteria import Criterion
 from .measurement_plan import SensorPlan
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .planner import Planner
+
+class Planner(Protocol):
+    """What the search needs of a planner (:class:`tmakit.planning.Planner` is one)."""
+
+    kinematics: PlatformKinematics
+    actions: Actions
+    interval: float
+    plan: SensorPlan
+    criterion: Criterion
+    horizon: int
+
+    def expand(self, platform: PlatformState, information: Array, belief: Belief,
+               depth: int, gamma: str) -> tuple[Step, Array, list[Violation]]:
+        """Fly every action from each of a batch of states for one step."""
+        ...
+
 
 ContinuationMode = Literal["straight", "hold", "coast"]
 CONTINUATION_MODES: tuple[str, ...] = ("straight", "hold", "coast")
