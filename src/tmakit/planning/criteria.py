@@ -27,6 +27,36 @@ from ..bounds.pcrb_recursion import information_inverse
 Block = Literal["position", "velocity", "state"]
 
 
+def bound_covariance(information: Array) -> Array:
+    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices, fast.
+
+    In coordinates normalised by the diagonal, by a Cholesky factor (one small LAPACK call
+    per stack); a stack with a matrix that is not numerically positive definite goes
+    through :func:`~tmakit.bounds.pcrb_recursion.information_inverse` (eigenvalues floored).
+
+    Parameters
+    ----------
+    information : ndarray
+        ``J`` (..., n, n), SI.
+
+    Returns
+    -------
+    ndarray
+        (..., n, n), SI.
+    """
+    info = np.asarray(information, dtype=float)
+    d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
+    scale = d[..., :, None] * d[..., None, :]
+    try:
+        low_inv = np.linalg.inv(np.linalg.cholesky(info / scale))
+    except np.linalg.LinAlgError:
+        return information_inverse(info)
+    inv = np.swapaxes(low_inv, -1, -2) @ low_inv
+    if not np.all(np.isfinite(inv)):
+        return information_inverse(info)
+    return inv / scale
+
+
 class Criterion(Protocol):
     """A scalar cost of Bayesian information, smaller is better (vectorised)."""
 
@@ -102,7 +132,7 @@ class WeightedTrace:
         """Return ``Tr{Pi J^{-1}}`` (...,) (m^2 with the default weights)."""
         info = np.asarray(information, dtype=float)
         pi = self.matrix(info.shape[-1])
-        return np.einsum("ij,...ji->...", pi, information_inverse(info))
+        return np.einsum("ij,...ji->...", pi, bound_covariance(info))
 
 
 @dataclass(frozen=True)
@@ -128,7 +158,7 @@ class LogDet:
         """Return ``log det`` of the chosen block of ``J^{-1}`` (...,)."""
         info = np.asarray(information, dtype=float)
         idx = block_indices(self.block, info.shape[-1])
-        cov = information_inverse(info)[..., idx[:, None], idx[None, :]]
+        cov = bound_covariance(info)[..., idx[:, None], idx[None, :]]
         sign, logdet = np.linalg.slogdet(cov)
         return np.where(sign > 0, logdet, np.inf)
 

@@ -27,12 +27,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..arrays import Array
-from ..bounds.pcrb_recursion import information_inverse
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
-from .criteria import Criterion, WeightedTrace
+from .criteria import Criterion, WeightedTrace, bound_covariance
 from .horizon import Continuation, penalties, search
 from .measurement_plan import SensorPlan
 
@@ -93,7 +92,7 @@ class Recommendation:
 def position_bound(information: Array) -> Array:
     """Return ``sqrt(trace)`` of the position block of ``J^{-1}`` (...,), m."""
     dim = information.shape[-1] // 2
-    cov = information_inverse(information)
+    cov = bound_covariance(information)
     return np.sqrt(np.clip(np.einsum("...ii->...", cov[..., :dim, :dim]), 0.0, None))
 
 
