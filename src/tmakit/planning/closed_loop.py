@@ -46,46 +46,32 @@ from numpy.typing import ArrayLike
 from ..arrays import Array
 from ..bounds.pcrb_recursion import PosteriorInformation, noise_factor
 from ..data import MeasurementSet
-from ..filters import FILTERS, ParticleFilter, TrackingFilter
+from ..filters import FILTERS, TrackingFilter
 from ..frames import wrap_angle
 from ..measurements import KINDS
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
 from ..sensors.platform import PlatformKinematics, Step
 from ..sensors.platform_state import Actions, PlatformState
+from .belief import Belief
+from .candidates import GammaForm, check_gamma, step_information
+from .measurement_plan import SensorPlan
+from .planner import position_bound
 
-__all__ = ["FixedPolicy", "GroupPlan", "LoopRecord", "LoopSetup", "Policy", "TRACKERS",
-           "run_closed_loop", "simulate_group"]
+__all__ = [
+    "TRACKERS",
+    "FixedChoice",
+    "FixedPolicy",
+    "LoopRecord",
+    "LoopSetup",
+    "Policy",
+    "run_closed_loop",
+    "simulate_group",
+]
 
 #: Trackers the loop can run (names of :data:`tmakit.filters.FILTERS`).
 TRACKERS = ("pf", "ekf", "ukf")
 _STREAMS = 4  # truth, prior, measurements, tracker
-
-
-@dataclass(frozen=True)
-class Belief:
-    """What the policy knows at a decision (stand-in until the planning core's ``Belief``).
-
-    Parameters
-    ----------
-    posterior : PosteriorInformation
-        ``J_k`` along the flown path.
-    states : ndarray, shape (N, n)
-        The tracker's cloud (particles) or its mean (1, n) (m, m/s).
-    weights : ndarray, shape (N,), or None
-        The particles' weights (None: equal).
-    """
-
-    posterior: PosteriorInformation
-    states: Array
-    weights: Array | None = None
-
-
-class GroupPlan(Protocol):
-    """What the sensor measures at each decision: ``group(t, dim) -> MeasurementGroup``."""
-
-    def group(self, t: float, dim: int) -> MeasurementGroup:
-        """Return the planned measurements at time ``t`` (s) for a ``dim``-D state."""
 
 
 class Choice(Protocol):
@@ -134,7 +120,7 @@ class FixedPolicy:
     ----------
     kinematics : PlatformKinematics
         The platform's limits.
-    plan : GroupPlan
+    plan : SensorPlan
         The measurements, for the predicted bound of the step.
     interval : float, optional
         Decision interval (s).
@@ -143,7 +129,7 @@ class FixedPolicy:
     """
 
     kinematics: PlatformKinematics
-    plan: GroupPlan
+    plan: SensorPlan
     interval: float = 0.5
     action: Actions = field(default_factory=lambda: Actions([0.0]))
 
@@ -162,17 +148,10 @@ class FixedPolicy:
         FixedChoice
         """
         step = self.kinematics.step(platform, self.action[:1], self.interval)[0]
-        post = belief.posterior.predict_to(step.end_time)
-        mean = np.average(belief.posterior.states if belief.states is None
-                          else belief.states, axis=0, weights=belief.weights)
-        mean = mean @ self._transition(post, step.end_time - belief.posterior.time).T
-        group = self.plan.group(step.end_time, post.dim)
-        gamma = post.expected_information(step.end.sensor_state[None], group, mean)
-        return FixedChoice(0, step, post.update(gamma).position_rms)
-
-    @staticmethod
-    def _transition(post: PosteriorInformation, dt: float) -> Array:
-        return post.dynamics.transition(dt)
+        times = platform.time + self.plan.measurement_times(self.interval)
+        info = step_information(belief, belief.posterior.information, self.plan,
+                                step.sensor_states(times)[None], self.interval, "mean")
+        return FixedChoice(0, step, position_bound(info))
 
 
 @dataclass(frozen=True)
@@ -329,19 +308,23 @@ class LoopRecord:
 
 
 def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: ArrayLike,
-                   rng: np.random.Generator, sensor: str = "radar") -> MeasurementSet:
+                   rng: np.random.Generator, time: float | None = None,
+                   sensor: str = "radar") -> MeasurementSet:
     """Draw the group's measurements of a target: ``h(x) + L n``, ``L L^T = R`` (full ``R``).
 
     Parameters
     ----------
     group : MeasurementGroup
-        Planned measurements at one time (e.g. :meth:`MeasurementGroup.planned`).
+        Planned measurements at one time (e.g. :attr:`SensorPlan.group`); its rows are
+        predicted from the target state as given (at the rows' time).
     target : array_like, shape (2 dim,)
-        True target state at the group's time (m, m/s).
+        True target state at the measurement time (m, m/s).
     sensor_state : array_like, shape (6,)
-        Sensor state ``[x, y, z, vx, vy, vz]`` (m, m/s).
+        Sensor state ``[x, y, z, vx, vy, vz]`` (m, m/s) at that time.
     rng : numpy.random.Generator
         Noise source.
+    time : float, optional
+        Time of the rows (s; default the group's).
     sensor : str, optional
         Sensor id of the rows.
 
@@ -349,7 +332,7 @@ def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: Arr
     -------
     MeasurementSet
         The rows (values with noise; sigmas the square roots of ``R``'s diagonal), angles
-        wrapped.
+        wrapped to (-pi, pi].
     """
     s = np.asarray(sensor_state, dtype=float).reshape(1, 6)
     value = group.predict(np.asarray(target, dtype=float), s)
@@ -362,14 +345,15 @@ def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: Arr
         kinds[idx] = kind
     scale = np.array([float(KINDS[k].file_scale) for k in kinds])
     offset = np.array([float(KINDS[k].file_offset) for k in kinds])
-    return MeasurementSet(np.full(m, group.time), np.full(m, sensor), kinds.astype(str),
+    t = group.time if time is None else float(time)
+    return MeasurementSet(np.full(m, t), np.full(m, sensor), kinds.astype(str),
                           (value - offset) / scale, np.sqrt(np.diagonal(r)) / scale,
                           np.repeat(s, m, axis=0))
 
 
 def _truth_path(setup: LoopSetup, dynamics: NearlyConstantVelocity,
                 rng: np.random.Generator) -> Array:
-    """True states at ``t_0 .. t_D`` (D + 1, n) by eq. 2 with process noise."""
+    """Draw the true states at ``t_0 .. t_D`` (D + 1, n) by eq. 2 with process noise."""
     f = dynamics.transition(setup.interval)
     g = noise_factor(dynamics.noise(setup.interval))
     noise = rng.standard_normal((setup.steps, g.shape[1])) @ g.T
@@ -390,20 +374,26 @@ def _tracker(setup: LoopSetup, mean: Array, rng: np.random.Generator) -> Trackin
     return cls(mean, setup.prior_covariance, setup.platform.time, **kwargs)
 
 
-def _cloud(tracker: TrackingFilter) -> tuple[Array, Array | None]:
-    """The tracker's particles and weights, or its mean (1, n) and None."""
-    if isinstance(tracker, ParticleFilter):
-        return tracker.particles, tracker.weights
-    return tracker.state[None, :], None
-
-
 def _six(x: Array, dim: int) -> Array:
     out = np.zeros(6)
     out[:dim], out[3:3 + dim] = x[:dim], x[dim:]
     return out
 
 
-def run_closed_loop(policy: Policy, plan: GroupPlan, setup: LoopSetup,
+def _check_plan(plan: SensorPlan, setup: LoopSetup) -> None:
+    if plan.dim != setup.dim:
+        raise ValueError(f"the sensor plan is {plan.dim}-D, the target {setup.dim}-D")
+    times = plan.measurement_times(setup.interval)
+    if times.size != 1 or abs(times[0] - setup.interval) > 1e-9 * setup.interval:
+        raise ValueError("the closed loop measures once per decision, at the end of the step "
+                         "(a sensor plan without times)")
+
+
+def _column_name(name: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in name.strip().lower())
+
+
+def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
                     seed: int | np.random.SeedSequence | None = None) -> LoopRecord:
     """Run the closed loop of the module docstring for ``setup.steps`` decisions.
 
@@ -411,8 +401,9 @@ def run_closed_loop(policy: Policy, plan: GroupPlan, setup: LoopSetup,
     ----------
     policy : Policy
         A :class:`~tmakit.planning.Planner` or a :class:`FixedPolicy`.
-    plan : GroupPlan
-        What the sensor measures at each decision (the same as the planner's).
+    plan : SensorPlan
+        What the sensor measures at each decision (the planner's own), once per decision at
+        the end of the step.
     setup : LoopSetup
         Truth, sensor start, tracker.
     seed : int or numpy.random.SeedSequence, optional
@@ -423,60 +414,56 @@ def run_closed_loop(policy: Policy, plan: GroupPlan, setup: LoopSetup,
     LoopRecord
         Per decision: sensor, truth, estimate, bound, error, range, action, time, violations.
 
+    Raises
+    ------
+    ValueError
+        If the plan's dimension differs from the target's, or it measures other than once
+        at the end of each step.
+
     References
     ----------
-    Hurtado & Nehorai (2008), §3-5 and eqs. 10-13.
+    Hurtado & Nehorai (2008), sections 3-5 and eqs. 10-13.
     """
+    _check_plan(plan, setup)
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     r_truth, r_prior, r_meas, r_track = (np.random.default_rng(s) for s in ss.spawn(_STREAMS))
-    dim, d_steps = setup.dim, int(setup.steps)
+    dim, d_steps, n = setup.dim, int(setup.steps), 2 * setup.dim
     dyn = NearlyConstantVelocity(dim, setup.q)
     truth = _truth_path(setup, dyn, r_truth)
     p0 = setup.prior_covariance
-    mean0 = truth[0] + np.linalg.cholesky(p0) @ r_prior.standard_normal(p0.shape[0])
-    tracker = _tracker(setup, mean0, r_track)
-    t0 = setup.platform.time
-    states, weights = _cloud(tracker)
-    post = PosteriorInformation.from_prior(p0, dyn, t0, states)
+    tracker = _tracker(setup, truth[0] + np.linalg.cholesky(p0) @ r_prior.standard_normal(n),
+                       r_track)
+    belief = Belief.from_filter(tracker, PosteriorInformation.from_prior(
+        p0, dyn, setup.platform.time))
     platform = setup.platform
-    n = 2 * dim
     rec = {k: np.empty((d_steps, *s)) for k, s in (
         ("times", ()), ("sensor", (6,)), ("estimate", (n,)), ("covariance", (n, n)),
         ("action", ()), ("decision_ms", ()), ("bound_m", ()), ("predicted_bound_m", ()))}
     violations: dict[str, Array] = {}
+    gamma: GammaForm = check_gamma(setup.bound_gamma)
     for k in range(d_steps):
-        belief = Belief(post, states, weights)
         start = time.perf_counter()
         choice = policy.recommend(platform, belief)
         rec["decision_ms"][k] = 1e3 * (time.perf_counter() - start)
-        idx = int(choice.index)
-        step = choice.step
-        platform = step.end
-        t1 = step.end_time
+        idx, step = int(choice.index), choice.step
+        platform, t1 = step.end, step.end_time
         sensor = platform.sensor_state
-        group = plan.group(t1, dim)
-        rows = simulate_group(group, truth[k + 1], sensor, r_meas)
+        rows = simulate_group(plan.group, truth[k + 1], sensor, r_meas, t1)
         tracker.predict(t1)
         tracker.update(rows)
-        moved = post.predict_to(t1)
-        if setup.bound_gamma == "mean" or weights is None:
-            at = np.average(moved.states, axis=0, weights=weights)[None]
-            gamma = moved.expected_information(sensor[None], group, at)[0]
-        else:  # the cloud at t_k moved to t_{k+1}, its weights kept
-            xi = group.information(moved.states, sensor[None])
-            gamma = np.einsum("i,ijk->jk", weights, xi)
-        states, weights = _cloud(tracker)
-        post = PosteriorInformation(moved.update(gamma).information, dyn, t1, states)
+        info = step_information(belief, belief.posterior.information, plan,
+                                sensor[None, None], setup.interval, gamma)[0]
+        belief = Belief.from_filter(tracker, PosteriorInformation(info, dyn, t1))
         for name, amount in choice.violations.items():
-            violations.setdefault(name, np.zeros(d_steps))[k] = float(np.asarray(amount)[idx])
+            col = violations.setdefault(_column_name(name), np.zeros(d_steps))
+            col[k] = float(np.asarray(amount)[idx])
         rec["times"][k], rec["sensor"][k], rec["action"][k] = t1, sensor, idx
         rec["estimate"][k], rec["covariance"][k] = tracker.state, tracker.covariance
-        rec["bound_m"][k] = float(post.position_rms)
+        rec["bound_m"][k] = float(belief.posterior.position_rms)
         rec["predicted_bound_m"][k] = float(np.asarray(choice.bound)[idx])
     est, tru = rec["estimate"], truth[1:]
-    sensor_pos = rec["sensor"][:, :dim]
     return LoopRecord(
         rec["times"], rec["sensor"], tru, est, rec["covariance"],
         rec["action"].astype(np.int64), rec["decision_ms"], rec["bound_m"],
         rec["predicted_bound_m"], np.linalg.norm(est[:, :dim] - tru[:, :dim], axis=1),
-        np.linalg.norm(tru[:, :dim] - sensor_pos, axis=1), violations)
+        np.linalg.norm(tru[:, :dim] - rec["sensor"][:, :dim], axis=1), violations)
