@@ -380,6 +380,17 @@ def _six(x: Array, dim: int) -> Array:
     return out
 
 
+def _streams(seed: int | np.random.SeedSequence | None) -> list[np.random.SeedSequence]:
+    """Return the run's four child seeds, as ``seed.spawn(4)`` of a fresh sequence.
+
+    Made from the entropy and spawn key, so a sequence used before (by another case of a
+    study, or pickled to a Dask worker) gives the same children.
+    """
+    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    return [np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, i),
+                                   pool_size=ss.pool_size) for i in range(_STREAMS)]
+
+
 def _check_plan(plan: SensorPlan, setup: LoopSetup) -> None:
     if plan.dim != setup.dim:
         raise ValueError(f"the sensor plan is {plan.dim}-D, the target {setup.dim}-D")
@@ -425,8 +436,7 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
     Hurtado & Nehorai (2008), sections 3-5 and eqs. 10-13.
     """
     _check_plan(plan, setup)
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    r_truth, r_prior, r_meas, r_track = (np.random.default_rng(s) for s in ss.spawn(_STREAMS))
+    r_truth, r_prior, r_meas, r_track = (np.random.default_rng(s) for s in _streams(seed))
     dim, d_steps, n = setup.dim, int(setup.steps), 2 * setup.dim
     dyn = NearlyConstantVelocity(dim, setup.q)
     truth = _truth_path(setup, dyn, r_truth)

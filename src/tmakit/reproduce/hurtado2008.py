@@ -27,9 +27,14 @@ and is tracked by a particle filter with the transitional prior (section 3.1).  
   5 km itself, as the paper.
 * Particles: 2,000 by default (``particles=``); the bound along the flown path averages
   ``Gamma`` over them (the conditional PCRB).
-* The radar: ``radar="resolution"`` (sigma_r = c / 2B = 150 m) or ``"derived"`` (the Fisher
-  information of the paper's array model), from :mod:`tmakit.sensors.radar`; ``"scenario"``
-  takes the independent sigmas of the ``hurtado2008`` scenario file (1 deg, 30 m, 0.5 m/s).
+* The radar: ``radar="derived"`` (the Cramér-Rao bound of the paper's array signal model,
+  :class:`tmakit.sensors.radar.RadarModel`: azimuth 2.35 deg, range 116 m, range rate
+  1162 m/s per pulse) or ``"resolution"`` (the same with sigma_r = c / 2B = 150 m);
+  ``"scenario"`` takes the sigmas of the ``hurtado2008`` scenario file (1 deg, 30 m,
+  0.5 m/s).  The rows are independent with the model's marginal sigmas: the derived model's
+  range / range-rate correlation (-0.999, from the chirp) is not used, because neither a
+  :class:`~tmakit.data.MeasurementSet` (what the trackers update with) nor
+  :attr:`SensorPlan.group` carries correlations between kinds.
 """
 
 from __future__ import annotations
@@ -45,16 +50,20 @@ import numpy as np
 from ..montecarlo.closed_loop import ClosedLoopStudy, LoopCase, LoopChunk, closed_loop_study
 from ..planning import MinimumRange, Planner, SensorPlan
 from ..planning.closed_loop import TRACKERS, FixedPolicy, LoopSetup
+
+__all__ = ["CASES", "OPTIONS", "RADARS", "SETUP", "TRACKERS", "Hurtado2008Reproduction",
+           "Hurtado2008Setup", "cases", "claims", "plot", "radar_plan", "run"]
 from ..sensors.platform import HURTADO_NEHORAI_2008
 from ..sensors.platform_state import PlatformState
 from .common import Reproduction, Section
 
 #: The radar variants (see the module docstring).
-RADARS = ("resolution", "derived", "scenario")
+RADARS = ("derived", "resolution", "scenario")
 #: The cases, in order.
 CASES = ("fixed", "adaptive", "min-range hard", "min-range penalty")
-#: Speed of light (m/s), for the resolution-limited range accuracy.
-LIGHT = 299_792_458.0
+#: Options of :func:`run` beyond ``runs``, ``seed`` and ``progress`` (``tma reproduce``
+#: passes them when given).
+OPTIONS = ("particles", "steps", "radar", "tracker", "chunk", "dask", "on_chunk")
 
 
 @dataclass(frozen=True)
@@ -75,8 +84,6 @@ class Hurtado2008Setup:
         Target process noise (m/s^2).
     prior_std : tuple of float
         Prior standard deviations (m, m/s).
-    bandwidth : float
-        Pulse bandwidth (Hz), for ``sigma_r = c / 2B``.
     """
 
     radar_start: tuple[float, float] = (0.0, 0.0)
@@ -88,12 +95,11 @@ class Hurtado2008Setup:
     min_range: float = 5000.0
     q: float = 0.1
     prior_std: tuple[float, float] = (100.0, 5.0)
-    bandwidth: float = 1e6
 
     @property
     def steps(self) -> int:
         """Decisions over the duration (600)."""
-        return int(round(self.duration / self.interval))
+        return round(self.duration / self.interval)
 
     @property
     def turn_margin(self) -> float:
@@ -105,12 +111,12 @@ class Hurtado2008Setup:
 SETUP = Hurtado2008Setup()
 
 
-def radar_plan(radar: str = "resolution") -> SensorPlan:
+def radar_plan(radar: str = "derived") -> SensorPlan:
     """Return what the radar measures at each pulse: azimuth, range, range rate.
 
     Parameters
     ----------
-    radar : {"resolution", "derived", "scenario"}
+    radar : {"derived", "resolution", "scenario"}
         The noise model (module docstring).
 
     Returns
@@ -128,12 +134,16 @@ def radar_plan(radar: str = "resolution") -> SensorPlan:
     kinds = ("bearing", "range", "range_rate")
     if radar == "scenario":
         return SensorPlan(kinds, [math.radians(1.0), 30.0, 0.5])
-    from ..sensors.radar import radar_sensor_plan
+    try:
+        from ..sensors.radar import RadarModel
+    except ImportError:
+        raise ValueError(f"radar {radar!r} needs the radar model (tmakit.sensors.radar), "
+                         "which this build lacks; use radar 'scenario'") from None
+    model = RadarModel(range_accuracy=radar)
+    return SensorPlan(kinds, model.measurement_sigmas(kinds))
 
-    return radar_sensor_plan(radar)
 
-
-def cases(radar: str = "resolution", particles: int = 2000, steps: int | None = None,
+def cases(radar: str = "derived", particles: int = 2000, steps: int | None = None,
           tracker: str = "pf", setup: Hurtado2008Setup = SETUP) -> list[LoopCase]:
     """Build the four cases of the reproduction.
 
@@ -248,7 +258,7 @@ def claims(study: ClosedLoopStudy, setup: Hurtado2008Setup = SETUP) -> list[list
 
 
 def run(runs: int = 100, seed: int = 1, progress: bool = True, *, particles: int = 2000,
-        steps: int | None = None, radar: str = "resolution", tracker: str = "pf",
+        steps: int | None = None, radar: str = "derived", tracker: str = "pf",
         chunk: int | None = None, dask: Any = None,
         on_chunk: Callable[[LoopChunk], None] | None = None) -> Hurtado2008Reproduction:
     """Run the four cases and check the paper's claims.
@@ -265,8 +275,8 @@ def run(runs: int = 100, seed: int = 1, progress: bool = True, *, particles: int
         Particles of the particle filter (>= 2).
     steps : int, optional
         Decisions per run (default 600: 300 s at 0.5 s).
-    radar : {"resolution", "derived", "scenario"}, optional
-        The radar noise model.
+    radar : {"derived", "resolution", "scenario"}, optional
+        The radar noise model (:func:`radar_plan`).
     tracker : {"pf", "ekf", "ukf"}, optional
         The tracker.
     chunk, dask
