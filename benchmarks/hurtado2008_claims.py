@@ -12,7 +12,7 @@ For each radar variant ("derived": the Cramér-Rao bound of the paper's array mo
 Usage::
 
     python benchmarks/hurtado2008_claims.py [--runs 100] [--particles 2000] [--steps 600]
-        [--json out.json]
+        [--json out.json] [--table steps-RADAR.parquet]
 """
 
 from __future__ import annotations
@@ -21,13 +21,18 @@ import argparse
 import json
 import time
 
+from tmakit.io.loop_files import LoopCheckpoint
 from tmakit.reproduce import hurtado2008 as h
 
 
-def _figures(radar: str, runs: int, particles: int, steps: int | None, seed: int) -> dict:
+def _figures(radar: str, runs: int, particles: int, steps: int | None, seed: int,
+             table: str | None) -> dict:
     start = time.perf_counter()
+    ckpt = None if table is None else LoopCheckpoint(table.replace("RADAR", radar))
     rep = h.run(runs=runs, seed=seed, progress=False, particles=particles, steps=steps,
-                radar=radar)
+                radar=radar, on_chunk=ckpt)
+    if ckpt is not None:
+        ckpt.finish(rep.study)
     wall = time.perf_counter() - start
     cases = rep.figures["cases"]
     rmse = {c: s["final_rmse_m"] for c, s in cases.items()}
@@ -80,10 +85,12 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--radar", choices=("derived", "resolution"), action="append")
     ap.add_argument("--json", default=None, help="also write the figures as JSON")
+    ap.add_argument("--table", default=None, help="write the per-step table (.parquet), "
+                    "RADAR in the name replaced by the variant; chunks saved as they end")
     a = ap.parse_args()
     out = []
     for radar in a.radar or ("derived", "resolution"):
-        f = _figures(radar, a.runs, a.particles, a.steps, a.seed)
+        f = _figures(radar, a.runs, a.particles, a.steps, a.seed, a.table)
         _print(f)
         out.append(f)
     if a.json:

@@ -284,8 +284,9 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
                              or seed < 0):
         raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
     seeds = np.random.SeedSequence(seed).spawn(runs)
+    # chunk by chunk, every case for each (finished chunks then cover every case evenly)
     tasks = [LoopTask(c, lo, tuple(seeds[lo:lo + size]))
-             for c in cases for lo in range(0, runs, size)]
+             for lo in range(0, runs, size) for c in cases]
     client, opened = (None, False) if dask is None else dask_client(dask)
     bar: Any = progress_bar(runs * len(cases), progress, "closed loop")
     start = time.perf_counter()

@@ -369,10 +369,12 @@ def plot(rep: Hurtado2008Reproduction, path: str | Path) -> Path:
                        strict=False))
     truth = study.stack("fixed", "truth")[0]
     ax_map.plot(truth[:, 0] / 1e3, truth[:, 1] / 1e3, "k-", lw=2, label="target (run 0)")
+    styles = dict(zip(study.cases, ("-", "-", "--", ":"), strict=False))
     for case in study.cases:
         s = study.stack(case, "sensor")[0]
         c = colours[case]
-        ax_map.plot(s[:, 0] / 1e3, s[:, 1] / 1e3, color=c, lw=1, label=case)
+        ax_map.plot(s[:, 0] / 1e3, s[:, 1] / 1e3, color=c, lw=1.2, ls=styles[case],
+                    label=case)
         t = study.times(case)
         ax_err.semilogy(t, study.rmse(case), color=c, lw=1, label=f"{case} RMSE")
         ax_err.semilogy(t, study.bound(case), color=c, lw=1, ls="--", label=f"{case} bound")
