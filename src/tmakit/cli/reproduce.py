@@ -14,16 +14,32 @@ from .common import JsonOption, fail, out, refuse_existing
 # `tma reproduce`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def reproduce(
     name: Annotated[str, typer.Argument(
-        help="gu2007, doppler-lecture, hoerst2010 or chen-sun")],
+        help="gu2007, doppler-lecture, hoerst2010, chen-sun or hurtado2008")],
     runs: Annotated[int | None, typer.Option(
         help="Monte Carlo runs where the paper has them (0 to skip; default: the paper's "
-             "number, gu2007 200, chen-sun 30)")] = None,
+             "number, gu2007 200, chen-sun 30, hurtado2008 100)")] = None,
     seed: Annotated[int, typer.Option(help="random seed")] = 1,
     as_json: JsonOption = False,
     plot: Annotated[Path | None, typer.Option(
-        help="draw the paper's figure (PNG, PDF, SVG; hoerst2010, chen-sun: Fig. 2)")
+        help="draw the paper's figure (PNG, PDF, SVG; hoerst2010, chen-sun: Fig. 2; "
+             "hurtado2008: Figs. 1-3)")] = None,
+    force: Annotated[bool, typer.Option(help="overwrite existing --plot / --output files")
+                     ] = False,
+    particles: Annotated[int | None, typer.Option(
+        help="hurtado2008: particles of the particle filter (default 2000)")] = None,
+    steps: Annotated[int | None, typer.Option(
+        help="hurtado2008: decisions per run (default 600, 300 s at 0.5 s)")] = None,
+    radar: Annotated[str | None, typer.Option(
+        help="hurtado2008: radar noise, derived (default), resolution or scenario")] = None,
+    tracker: Annotated[str | None, typer.Option(
+        help="hurtado2008: tracker, pf (default), ekf or ukf")] = None,
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="hurtado2008: write the per-step table of every run "
+        "(.parquet or .csv; finished chunks saved as they end)")] = None,
+    dask: Annotated[str | None, typer.Option(
+        help="hurtado2008: Dask scheduler address (tcp://host:8786); default: run here")
     ] = None,
-    force: Annotated[bool, typer.Option(help="overwrite an existing --plot file")] = False,
+    chunk: Annotated[int | None, typer.Option(help="hurtado2008: runs per task")] = None,
 ) -> None:
     """Reproduce a paper's tables and figures next to the paper's own numbers."""
     import importlib
@@ -35,6 +51,8 @@ def reproduce(
     if runs is not None and runs < 0:
         raise fail("--runs must be 0 or more")
     module = importlib.import_module(REPRODUCTIONS[name])
+    extra = _extra_options(name, module, particles=particles, steps=steps, radar=radar,
+                           tracker=tracker, dask=dask, chunk=chunk, output=output)
     if plot is not None:
         if not hasattr(module, "plot"):
             drawn = [n for n, m in REPRODUCTIONS.items()
@@ -42,8 +60,17 @@ def reproduce(
             raise fail(f"--plot: reproduction {name!r} draws no figure (figures: "
                        f"{', '.join(drawn)})")
         refuse_existing(plot, force)
-    rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
-                     progress=not as_json)
+    checkpoint = None
+    if output is not None:
+        checkpoint = _checkpoint(output, force)
+        extra["on_chunk"] = checkpoint
+    try:
+        rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
+                         progress=not as_json, **extra)
+    except (ValueError, ImportError) as e:
+        raise fail(str(e)) from None
+    if checkpoint is not None:
+        checkpoint.finish(rep.study)
     if plot is not None:
         module.plot(rep, plot)
     if as_json:
@@ -52,8 +79,42 @@ def reproduce(
         out.print_json(json.dumps(rep.as_dict(), default=float))
         return
     print_report(rep)
-    if plot is not None:
-        out.print(f"wrote {plot}", highlight=False)
+    for path in (plot, output):
+        if path is not None:
+            out.print(f"wrote {path}", highlight=False)
+
+
+def _extra_options(name: str, module: Any, **given: Any) -> dict[str, Any]:
+    """Return the options given that the reproduction takes; refuse others and bad values."""
+    takes = getattr(module, "OPTIONS", ())
+    extra: dict[str, Any] = {}
+    for key, value in given.items():
+        if value is None:
+            continue
+        if key not in takes and not (key == "output" and "on_chunk" in takes):
+            raise fail(f"--{key}: reproduction {name!r} takes no such option")
+        if key != "output":
+            extra[key] = value
+    for key, low in (("particles", 2), ("steps", 3), ("chunk", 1)):
+        if key in extra and extra[key] < low:
+            raise fail(f"--{key} must be {low} or more, got {extra[key]}")
+    for key, names in (("radar", getattr(module, "RADARS", ())),
+                       ("tracker", getattr(module, "TRACKERS", ()))):
+        if key in extra and extra[key] not in names:
+            raise fail(f"--{key} must be one of {', '.join(names)}, got {extra[key]!r}")
+    return extra
+
+
+def _checkpoint(output: Path, force: bool) -> Any:
+    """Return the per-step table writer, which saves each chunk as it is finished."""
+    from ..io.loop_files import LoopCheckpoint
+
+    try:
+        return LoopCheckpoint(output, force)
+    except ValueError as e:
+        raise fail(f"--output: {e}") from None
+    except FileExistsError as e:
+        raise fail(f"{e.args[0].split(';')[0]}; use --force to overwrite it") from None
 
 
 def print_report(rep: Any) -> None:

@@ -15,6 +15,8 @@ One job per module:
 * :mod:`.execution` — where the chunks run: this process or a Dask cluster; progress bar.
 * :mod:`.estimators` — the estimator names a study accepts (the registry
   :mod:`tmakit.batch.methods`).
+* :mod:`.closed_loop` — :func:`closed_loop_study`: closed-loop runs of sensor planners
+  (:mod:`tmakit.planning`), per-step table of choices, bounds and errors.
 * :mod:`.result` — :class:`MonteCarloResult`: the per-run table, summary against the CRLB
   (:func:`ratio_interval`), JSON and saving.
 
@@ -23,11 +25,13 @@ Dask, distributed and tqdm are imported only when used.
 
 from __future__ import annotations
 
+from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
 from .estimators import available_estimators
 from .execution import LOCAL_CHUNK, LOOP_CHUNK
 from .result import MonteCarloResult, ratio_interval
 from .runs import FAILED, RUN_ERRORS
 from .study import monte_carlo
 
-__all__ = ["FAILED", "LOCAL_CHUNK", "LOOP_CHUNK", "RUN_ERRORS", "MonteCarloResult",
-           "available_estimators", "monte_carlo", "ratio_interval"]
+__all__ = ["FAILED", "LOCAL_CHUNK", "LOOP_CHUNK", "RUN_ERRORS", "ClosedLoopStudy", "LoopCase",
+           "MonteCarloResult", "available_estimators", "closed_loop_study", "monte_carlo",
+           "ratio_interval"]

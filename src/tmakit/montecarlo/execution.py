@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from .runs import ChunkOutput, ChunkTask, run_chunk
+from .runs import run_chunk
 
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
@@ -68,25 +68,33 @@ def progress_bar(total: int, enabled: bool, desc: str) -> Any:
     return tqdm(total=total, desc=desc, unit="run", smoothing=0.1)
 
 
-def run_local(tasks: Sequence[ChunkTask], bar: Any) -> list[ChunkOutput]:
+def run_local(tasks: Sequence[Any], bar: Any, fn: Callable[[Any], Any] = run_chunk,
+              on_done: Callable[[Any], None] | None = None) -> list[Any]:
     """Run the chunks one after the other in this process.
 
     Parameters
     ----------
     tasks : sequence of ChunkTask
-        The chunks.
+        The chunks (or the tasks ``fn`` takes).
     bar : object
         Progress bar (:func:`progress_bar`).
+    fn : callable, optional
+        What computes one chunk (default :func:`~.runs.run_chunk`); its output has ``len()``,
+        the number of runs done.
+    on_done : callable, optional
+        Called with each chunk's output as soon as it is finished (to save it).
 
     Returns
     -------
     list of ChunkOutput
-        In the order of ``tasks``.
+        In the order of ``tasks`` (outputs of ``fn``).
     """
     outputs = []
     for task in tasks:
-        res = run_chunk(task)
+        res = fn(task)
         outputs.append(res)
+        if on_done is not None:
+            on_done(res)
         bar.update(len(res))
     return outputs
 
@@ -124,31 +132,41 @@ def dask_client(dask: Any) -> tuple[Client, bool]:
                      f"distributed.Client, not {type(dask).__name__}")
 
 
-def run_dask(tasks: Sequence[ChunkTask], client: Client, bar: Any) -> list[ChunkOutput]:
+def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
+             fn: Callable[[Any], Any] = run_chunk,
+             on_done: Callable[[Any], None] | None = None) -> list[Any]:
     """Run the chunks on a Dask cluster (workers must be able to import tmakit).
 
     Parameters
     ----------
     tasks : sequence of ChunkTask
-        The chunks.
+        The chunks (or the tasks ``fn`` takes).
     client : distributed.Client
         The cluster's client.
     bar : object
         Progress bar (:func:`progress_bar`).
+    fn : callable, optional
+        What computes one chunk (default :func:`~.runs.run_chunk`), importable by the
+        workers; its output has ``len()``.
+    on_done : callable, optional
+        Called here with each chunk's output as soon as it arrives (to save it).
 
     Returns
     -------
     list of ChunkOutput
-        In the order they finished.  An error or an interrupt cancels the rest.
+        In the order they finished (outputs of ``fn``).  An error or an interrupt cancels
+        the rest.
     """
     from distributed import as_completed
 
-    futures = client.map(run_chunk, list(tasks), pure=False)
+    futures = client.map(fn, list(tasks), pure=False)
     outputs = []
     try:
         for fut in as_completed(futures):
             res = fut.result()
             outputs.append(res)
+            if on_done is not None:
+                on_done(res)
             bar.update(len(res))
             fut.release()
     except BaseException:

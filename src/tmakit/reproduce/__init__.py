@@ -7,6 +7,7 @@ REPRODUCTIONS = {
     "doppler-lecture": "tmakit.reproduce.doppler_lecture",
     "hoerst2010": "tmakit.reproduce.hoerst2010",
     "chen-sun": "tmakit.reproduce.chen_sun",
+    "hurtado2008": "tmakit.reproduce.hurtado2008",
 }
 """Name -> module with a ``run(runs, seed, progress) -> Reproduction`` function (and, if it
 draws the paper's figure, ``plot(reproduction, path)``)."""

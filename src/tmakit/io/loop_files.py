@@ -1,0 +1,125 @@
+"""Closed-loop study files: the per-step table of a closed-loop Monte Carlo study.
+
+The table (:meth:`tmakit.montecarlo.closed_loop.ClosedLoopStudy.table`) is written with the
+one table writer (:func:`~.tables.write_table`), atomically, never over an existing file
+without ``force``.  :class:`LoopCheckpoint` saves each chunk of runs as soon as it is finished
+(``<file>.parts/<case>-<first run>.parquet``), so an interrupted study loses no finished
+chunk; :meth:`LoopCheckpoint.finish` writes the whole table and removes the parts.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from .atomic import exists_error
+from .tables import TABLE_SUFFIXES, table_format, write_table
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..montecarlo.closed_loop import ClosedLoopStudy, LoopChunk
+
+__all__ = ["LOOP_SUFFIXES", "LoopCheckpoint", "write_loop_table"]
+
+#: File suffixes :func:`write_loop_table` writes (CSV, Parquet).
+LOOP_SUFFIXES = tuple(TABLE_SUFFIXES)
+
+
+def write_loop_table(study: ClosedLoopStudy, path: str | os.PathLike[str],
+                     force: bool = False) -> Path:
+    """Write the per-step table of a closed-loop study.
+
+    Parameters
+    ----------
+    study : ClosedLoopStudy
+        The study.
+    path : str or path-like
+        ``.parquet``, ``.pq`` or ``.csv``.
+    force : bool, optional
+        Overwrite an existing file.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        Another suffix.
+    FileExistsError
+        ``path`` exists and not ``force``.
+    """
+    return write_table(path, study.table(), force=force, what="the per-step table")
+
+
+def _slug(text: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in text)
+
+
+class LoopCheckpoint:
+    """Save each finished chunk of a closed-loop study at once; the whole table at the end.
+
+    Pass the object as ``on_chunk`` of :func:`~tmakit.montecarlo.closed_loop.closed_loop_study`
+    and call :meth:`finish` with the study.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The final table (``.parquet``, ``.pq`` or ``.csv``); the chunks go to the folder
+        ``<path>.parts`` (Parquet).
+    force : bool, optional
+        Overwrite an existing table or parts folder.
+
+    Raises
+    ------
+    ValueError
+        If the suffix names no table format.
+    FileExistsError
+        If the table or the parts folder (the finished chunks of an interrupted study) exists
+        and not ``force``.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], force: bool = False) -> None:
+        self.path = Path(path)
+        self.force = bool(force)
+        if table_format(self.path) is None:
+            raise ValueError(f"{self.path}: the per-step table is written as .csv or "
+                             ".parquet, not {self.path.suffix or 'a file without suffix'}")
+        self.parts = self.path.with_name(self.path.name + ".parts")
+        for p in (self.path, self.parts):
+            if p.exists() and not force:
+                raise exists_error(p)
+        self.saved: list[Path] = []
+
+    def __call__(self, chunk: LoopChunk) -> None:
+        """Save one finished chunk (atomically) in the parts folder.
+
+        Parameters
+        ----------
+        chunk : LoopChunk
+            The chunk's runs.
+        """
+        self.parts.mkdir(parents=True, exist_ok=True)
+        name = f"{_slug(chunk.case)}-{chunk.first_run:06d}.parquet"
+        self.saved.append(write_table(self.parts / name, chunk.table(), force=True,
+                                      what="a chunk of the per-step table"))
+
+    def finish(self, study: ClosedLoopStudy) -> Path:
+        """Write the whole table, then remove the parts folder.
+
+        Parameters
+        ----------
+        study : ClosedLoopStudy
+            The finished study.
+
+        Returns
+        -------
+        pathlib.Path
+            The table written.
+        """
+        out = write_loop_table(study, self.path, force=self.force)
+        if self.parts.is_dir():
+            shutil.rmtree(self.parts)
+        return out

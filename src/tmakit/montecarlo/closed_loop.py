@@ -1,0 +1,303 @@
+"""Monte Carlo over closed-loop runs: planner choices, bound along the path and errors per step.
+
+Each *case* is a policy (a :class:`~tmakit.planning.Planner` or a fixed path), a sensor plan
+and a :class:`~tmakit.planning.closed_loop.LoopSetup`.  Run ``r`` of every case uses child
+``r`` of ``np.random.SeedSequence(seed)`` (spawned for ``runs`` runs), so that
+
+* the table is the same, run for run, whatever the chunking and wherever the chunks run (this
+  process or a Dask cluster: :mod:`.execution`), and run ``r`` does not depend on ``runs``;
+* the cases meet the same truth, prior and measurement noise draws run for run (common random
+  numbers: their differences are the policies', not the draws').
+
+The per-step table (:meth:`ClosedLoopStudy.table`) has one row per case, run and decision:
+``case``, ``run``, ``step``, ``time`` (s), ``sensor_x``, ``sensor_y`` (m), ``action``,
+``bound_m``, ``predicted_bound_m``, ``error_m``, ``range_m`` (m), ``decision_ms`` (ms),
+``violation_m`` and one ``violation_<constraint>_m`` per constraint of the case (m).
+A caller that must not lose finished work passes ``on_chunk`` (each chunk's
+:class:`LoopChunk` as soon as it is done; :mod:`tmakit.io.study_files` saves them).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from ..arrays import Array
+from ..planning.closed_loop import LoopRecord, LoopSetup, Policy, run_closed_loop
+from ..planning.measurement_plan import SensorPlan
+from .execution import dask_client, progress_bar, run_dask, run_local
+
+if TYPE_CHECKING:  # pragma: no cover
+    from distributed import Client
+
+__all__ = ["ClosedLoopStudy", "LoopCase", "LoopChunk", "LoopTask", "closed_loop_study",
+           "run_loop_chunk"]
+
+#: Runs per chunk in this process (a chunk's records are kept until the study ends).
+LOOP_RUNS_PER_CHUNK = 5
+
+
+@dataclass(frozen=True, eq=False)
+class LoopCase:
+    """One case of a closed-loop study.
+
+    Parameters
+    ----------
+    name : str
+        The case's name (a column of the table).
+    policy : Policy
+        What chooses the steps.
+    plan : SensorPlan
+        What the sensor measures.
+    setup : LoopSetup
+        Truth, sensor start, tracker, decisions.
+    """
+
+    name: str
+    policy: Policy
+    plan: SensorPlan
+    setup: LoopSetup
+
+
+@dataclass(frozen=True, eq=False)
+class LoopTask:
+    """Runs ``first_run .. first_run + len(seeds) - 1`` of one case.
+
+    Parameters
+    ----------
+    case : LoopCase
+        The case.
+    first_run : int
+        Index of the first run.
+    seeds : tuple of numpy.random.SeedSequence
+        One per run.
+    """
+
+    case: LoopCase
+    first_run: int
+    seeds: tuple[np.random.SeedSequence, ...]
+
+
+@dataclass
+class LoopChunk:
+    """The records of one task's runs, in run order.
+
+    Parameters
+    ----------
+    case : str
+        The case's name.
+    first_run : int
+        Index of the first run.
+    records : list of LoopRecord
+        One per run.
+    """
+
+    case: str
+    first_run: int
+    records: list[LoopRecord] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        """Return the number of runs."""
+        return len(self.records)
+
+    def table(self) -> pd.DataFrame:
+        """Return the chunk's rows of the per-step table (module docstring).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        frames = []
+        for i, rec in enumerate(self.records):
+            cols = rec.columns()
+            d = len(rec)
+            frames.append(pd.DataFrame({"case": np.full(d, self.case, dtype=object),
+                                        "run": np.full(d, self.first_run + i, dtype=np.int64),
+                                        **cols}))
+        return pd.concat(frames, ignore_index=True)
+
+
+def run_loop_chunk(task: LoopTask) -> LoopChunk:
+    """Run a task's closed loops (in this process or on a Dask worker).
+
+    Parameters
+    ----------
+    task : LoopTask
+        The task.
+
+    Returns
+    -------
+    LoopChunk
+    """
+    c = task.case
+    return LoopChunk(c.name, task.first_run,
+                     [run_closed_loop(c.policy, c.plan, c.setup, s) for s in task.seeds])
+
+
+@dataclass
+class ClosedLoopStudy:
+    """The runs of every case of a closed-loop study.
+
+    Attributes
+    ----------
+    records : dict of str to list of LoopRecord
+        Per case, the runs in order.
+    seed : int or None
+        The study's seed.
+    wall_s : float
+        Wall time of the study (s).
+    """
+
+    records: dict[str, list[LoopRecord]]
+    seed: int | None
+    wall_s: float = 0.0
+
+    @property
+    def cases(self) -> list[str]:
+        """The case names, in order."""
+        return list(self.records)
+
+    def runs(self, case: str) -> int:
+        """Return the number of runs of ``case``."""
+        return len(self._of(case))
+
+    def _of(self, case: str) -> list[LoopRecord]:
+        if case not in self.records:
+            raise ValueError(f"no case {case!r}; the study has {', '.join(self.records)}")
+        return self.records[case]
+
+    def times(self, case: str) -> Array:
+        """Return the decision times of ``case`` (D,), s."""
+        return self._of(case)[0].times
+
+    def stack(self, case: str, name: str) -> Array:
+        """Return one per-step field of every run of ``case`` stacked, (runs, D, ...).
+
+        Parameters
+        ----------
+        case : str
+            The case.
+        name : str
+            A :class:`~tmakit.planning.closed_loop.LoopRecord` field (``error_m``,
+            ``bound_m``, ``range_m``, ``sensor``, ...).
+
+        Returns
+        -------
+        ndarray
+        """
+        return np.stack([getattr(r, name) for r in self._of(case)])
+
+    def rmse(self, case: str) -> Array:
+        """Return the position RMSE over runs at each step (D,), m."""
+        return np.sqrt(np.mean(self.stack(case, "error_m") ** 2, axis=0))
+
+    def bound(self, case: str) -> Array:
+        """Return the RMS over runs of the bound along the flown path at each step (D,), m.
+
+        The root of the mean of the runs' conditional mean-square-error bounds.
+        """
+        return np.sqrt(np.mean(self.stack(case, "bound_m") ** 2, axis=0))
+
+    def summary(self, case: str) -> dict[str, float | int]:
+        """Return the case's key figures.
+
+        Returns
+        -------
+        dict
+            ``final_rmse_m`` and ``final_bound_m`` (last step, m), ``min_range_m`` (true
+            range over every run and step, m), ``mean_decision_ms`` (ms), ``runs``.
+        """
+        return {"final_rmse_m": float(self.rmse(case)[-1]),
+                "final_bound_m": float(self.bound(case)[-1]),
+                "min_range_m": float(self.stack(case, "range_m").min()),
+                "mean_decision_ms": float(self.stack(case, "decision_ms").mean()),
+                "runs": self.runs(case)}
+
+    def table(self) -> pd.DataFrame:
+        """Return the per-step table of every case and run (module docstring).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Violation columns a case lacks are 0 (no such constraint, nothing violated).
+        """
+        frames = [LoopChunk(case, 0, recs).table() for case, recs in self.records.items()]
+        out = pd.concat(frames, ignore_index=True)
+        viol = [c for c in out.columns if c.startswith("violation_")]
+        out[viol] = out[viol].fillna(0.0)
+        return out
+
+
+def _whole(value: object, name: str, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | None = 0,
+                      chunk: int | None = None, dask: str | Client | None = None,
+                      progress: bool = True,
+                      on_chunk: Callable[[LoopChunk], None] | None = None
+                      ) -> ClosedLoopStudy:
+    """Run every case ``runs`` times (module docstring for the seeds).
+
+    Parameters
+    ----------
+    cases : sequence of LoopCase
+        The cases (distinct names).
+    runs : int, optional
+        Runs per case (>= 1).
+    seed : int or None, optional
+        The study's seed (>= 0).
+    chunk : int, optional
+        Runs per task (default :data:`LOOP_RUNS_PER_CHUNK`); the results do not depend on it.
+    dask : str or distributed.Client, optional
+        Run the tasks on a Dask cluster (its workers must import tmakit).
+    progress : bool, optional
+        Show a progress bar over all runs of all cases.
+    on_chunk : callable, optional
+        Called with each :class:`LoopChunk` as soon as it is finished (to save it).
+
+    Returns
+    -------
+    ClosedLoopStudy
+
+    Raises
+    ------
+    ValueError
+        On no cases, repeated names, or ``runs``, ``chunk`` or ``seed`` out of range.
+    """
+    cases = list(cases)
+    if not cases:
+        raise ValueError("a closed-loop study needs at least one case")
+    names = [c.name for c in cases]
+    if len(set(names)) != len(names):
+        raise ValueError(f"case names must differ, got {names}")
+    runs = _whole(runs, "runs")
+    size = LOOP_RUNS_PER_CHUNK if chunk is None else _whole(chunk, "chunk")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
+                             or seed < 0):
+        raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
+    seeds = np.random.SeedSequence(seed).spawn(runs)
+    # chunk by chunk, every case for each (finished chunks then cover every case evenly)
+    tasks = [LoopTask(c, lo, tuple(seeds[lo:lo + size]))
+             for lo in range(0, runs, size) for c in cases]
+    client, opened = (None, False) if dask is None else dask_client(dask)
+    bar: Any = progress_bar(runs * len(cases), progress, "closed loop")
+    start = time.perf_counter()
+    try:
+        outputs = (run_local(tasks, bar, run_loop_chunk, on_chunk) if client is None
+                   else run_dask(tasks, client, bar, run_loop_chunk, on_chunk))
+    finally:
+        bar.close()
+        if opened and client is not None:
+            client.close()
+    records: dict[str, list[LoopRecord]] = {n: [] for n in names}
+    for out in sorted(outputs, key=lambda o: (names.index(o.case), o.first_run)):
+        records[out.case].extend(out.records)
+    return ClosedLoopStudy(records, seed, time.perf_counter() - start)

@@ -1,0 +1,479 @@
+"""The closed loop: target truth, the planner's move, a measurement, the tracker, replan.
+
+One run of Hurtado & Nehorai (2008), §4-5, for ``D`` decisions of one interval ``T`` each
+(the radar's pulse repetition interval, 0.5 s).  At decision ``k`` (time ``t_k``):
+
+1. the policy (a :class:`~tmakit.planning.Planner`, or :class:`FixedPolicy` for a fixed
+   path) is given the platform state and the :class:`Belief` — ``J_k`` and the tracker's cloud
+   (particles and weights of the particle filter, the mean of an EKF or UKF) — and chooses
+   an action; the time it takes is recorded (ms, a measurement, never tested);
+2. the platform flies the chosen :class:`~tmakit.sensors.Step`; the target moves by the
+   nearly-constant-velocity dynamics of eq. 2 (process noise drawn from the run's stream);
+3. at ``t_{k+1}`` the sensor measures what its measurement plan (``plan.group(t, dim)``, a
+   :class:`~tmakit.observation.MeasurementGroup` with its full covariance ``R``) says,
+   simulated as ``h(x) + L n``, ``L L^T = R``;
+4. the tracker predicts to ``t_{k+1}`` and updates with those rows;
+5. the bound along the flown path is carried forward: ``J_{k+1} = (Q + F J_k^{-1} F^T)^{-1}
+   + Gamma_{k+1}`` (eq. 10) with ``Gamma_{k+1}`` averaged over the tracker's cloud at ``t_k``
+   moved to ``t_{k+1}`` (``bound_gamma="cloud"``), or taken at its mean (``"mean"``, the
+   paper's suboptimal form, eq. 13) — the *conditional* PCRB of the path actually flown.
+
+**Random streams.**  A run's seed spawns four independent streams: the target's process
+noise, the prior's offset from the truth, the measurement noise, the tracker (particle
+filter).  None depends on the policy, so two policies that choose the same steps give
+identical runs, estimate for estimate (a one-candidate planner and the fixed path).
+
+**The prior.**  The tracker and ``J_0`` start from ``N(m_0, P_0)`` with ``P_0`` diagonal
+(``prior_std`` in position and velocity) and ``m_0`` the truth plus a draw from ``P_0``, so
+the truth is a draw from the prior the bound assumes.
+
+A measurement plan whose ``R`` has correlated rows gives the tracker the rows' standard
+deviations only (a :class:`~tmakit.data.MeasurementSet` holds no correlations); the
+simulation and the bound use the full ``R``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..arrays import Array
+from ..bounds.pcrb_recursion import PosteriorInformation, noise_factor
+from ..data import MeasurementSet
+from ..filters import FILTERS, TrackingFilter
+from ..frames import wrap_angle
+from ..measurements import KINDS
+from ..motion.dynamics import NearlyConstantVelocity
+from ..observation import MeasurementGroup
+from ..sensors.platform import PlatformKinematics, Step
+from ..sensors.platform_state import Actions, PlatformState
+from .belief import Belief
+from .candidates import GammaForm, check_gamma, step_information
+from .measurement_plan import SensorPlan
+from .planner import position_bound
+
+__all__ = [
+    "TRACKERS",
+    "FixedChoice",
+    "FixedPolicy",
+    "LoopRecord",
+    "LoopSetup",
+    "Policy",
+    "run_closed_loop",
+    "simulate_group",
+]
+
+#: Trackers the loop can run (names of :data:`tmakit.filters.FILTERS`).
+TRACKERS = ("pf", "ekf", "ukf")
+_STREAMS = 4  # truth, prior, measurements, tracker
+
+
+class Choice(Protocol):
+    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one)."""
+
+    index: int
+    step: Step
+    bound: Array
+    violations: Mapping[str, Array]
+
+
+class Policy(Protocol):
+    """What chooses the next step: :class:`~tmakit.planning.Planner` or :class:`FixedPolicy`."""
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> Choice:
+        """Choose the next action from ``platform`` given ``belief``."""
+
+
+@dataclass(frozen=True)
+class FixedChoice:
+    """The choice of a :class:`FixedPolicy` (fields as a planner's recommendation).
+
+    Parameters
+    ----------
+    index : int
+        Always 0.
+    step : Step
+        The flown step.
+    bound : ndarray, shape (1,)
+        The predicted position RMS bound after the step (m).
+    violations : dict
+        Empty: a fixed path has no constraints.
+    """
+
+    index: int
+    step: Step
+    bound: Array
+    violations: Mapping[str, Array] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class FixedPolicy:
+    """Fly one action at every decision (the straight fixed path: heading change 0).
+
+    Parameters
+    ----------
+    kinematics : PlatformKinematics
+        The platform's limits.
+    plan : SensorPlan
+        The measurements, for the predicted bound of the step.
+    interval : float, optional
+        Decision interval (s).
+    action : Actions, optional
+        One action (default: straight on, speed unchanged).
+    """
+
+    kinematics: PlatformKinematics
+    plan: SensorPlan
+    interval: float = 0.5
+    action: Actions = field(default_factory=lambda: Actions([0.0]))
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
+        """Fly :attr:`action`; the bound is the mean-state prediction of eq. 10.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            Where the platform is (one state).
+        belief : Belief
+            ``J_k`` and the tracker's cloud.
+
+        Returns
+        -------
+        FixedChoice
+        """
+        step = self.kinematics.step(platform, self.action[:1], self.interval)[0]
+        times = platform.time + self.plan.measurement_times(self.interval)
+        info = step_information(belief, belief.posterior.information, self.plan,
+                                step.sensor_states(times)[None], self.interval, "mean")
+        return FixedChoice(0, step, position_bound(info))
+
+
+@dataclass(frozen=True)
+class LoopSetup:
+    """One closed-loop run's fixed inputs (the truth's start, the sensor's, the tracker).
+
+    Parameters
+    ----------
+    target : array_like, shape (2 dim,)
+        True target state at ``time`` (m, m/s), ``[x, y, vx, vy]`` in 2-D.
+    platform : PlatformState
+        The sensor's start (one state, its time the start time).
+    steps : int
+        Decisions ``D`` (>= 1).
+    interval : float, optional
+        Decision interval ``T`` (s), one measurement group per decision.
+    q : float, optional
+        Process-noise acceleration standard deviation (m/s^2) of the target's nearly
+        constant velocity motion, of the truth and of the tracker.
+    prior_std : tuple of float, optional
+        Prior standard deviations of position (m) and velocity (m/s) per axis.
+    tracker : {"pf", "ekf", "ukf"}, optional
+        The tracker: the particle filter with the transitional prior (Hurtado & Nehorai
+        (2008), §3.1), an EKF or a UKF.
+    particles : int, optional
+        Particles of the particle filter.
+    bound_gamma : {"cloud", "mean"}, optional
+        How ``Gamma`` of the recorded bound is formed (module docstring).
+
+    Raises
+    ------
+    ValueError
+        Naming the option that is out of range.
+    """
+
+    target: Array
+    platform: PlatformState
+    steps: int
+    interval: float = 0.5
+    q: float = 0.1
+    prior_std: tuple[float, float] = (100.0, 5.0)
+    tracker: str = "pf"
+    particles: int = 2000
+    bound_gamma: str = "cloud"
+
+    def __post_init__(self) -> None:
+        """Check the options (see Raises)."""
+        x = np.asarray(self.target, dtype=float).reshape(-1)
+        object.__setattr__(self, "target", x)
+        if x.shape[0] not in (4, 6) or not np.all(np.isfinite(x)):
+            raise ValueError(f"target must be a finite [x, y, vx, vy] (or 3-D) state, got "
+                             f"{x.shape[0]} values")
+        if self.platform.shape != ():
+            raise ValueError("platform must be one PlatformState (batch shape ())")
+        if isinstance(self.steps, bool) or not isinstance(self.steps, int | np.integer) \
+                or self.steps < 1:
+            raise ValueError(f"steps must be a whole number >= 1, got {self.steps!r}")
+        if not (math.isfinite(self.interval) and self.interval > 0):
+            raise ValueError(f"interval must be > 0 s, got {self.interval}")
+        if not (math.isfinite(self.q) and self.q >= 0):
+            raise ValueError(f"q must be >= 0 m/s^2, got {self.q}")
+        if len(self.prior_std) != 2 or not all(math.isfinite(s) and s > 0
+                                               for s in self.prior_std):
+            raise ValueError(f"prior_std must be two positive values (m, m/s), got "
+                             f"{self.prior_std}")
+        if self.tracker not in TRACKERS:
+            raise ValueError(f"tracker must be one of {', '.join(TRACKERS)}, got "
+                             f"{self.tracker!r}")
+        if isinstance(self.particles, bool) or not isinstance(self.particles, int | np.integer) \
+                or self.particles < 2:
+            raise ValueError(f"particles must be a whole number >= 2, got {self.particles!r}")
+        if self.bound_gamma not in ("cloud", "mean"):
+            raise ValueError(f"bound_gamma must be 'cloud' or 'mean', got {self.bound_gamma!r}")
+
+    @property
+    def dim(self) -> int:
+        """Spatial dimension, 2 or 3."""
+        return int(self.target.shape[0] // 2)
+
+    @property
+    def prior_covariance(self) -> Array:
+        """``P_0`` (n, n), m^2 and m^2/s^2."""
+        d = self.dim
+        return np.diag([self.prior_std[0] ** 2] * d + [self.prior_std[1] ** 2] * d)
+
+
+@dataclass
+class LoopRecord:
+    """One closed-loop run, one entry per decision (at the time after it, ``t_{k+1}``).
+
+    Attributes
+    ----------
+    times : ndarray, shape (D,)
+        Measurement times (s).
+    sensor : ndarray, shape (D, 6)
+        Sensor state ``[x, y, z, vx, vy, vz]`` (m, m/s).
+    truth, estimate : ndarray, shape (D, n)
+        True and estimated target state (m, m/s).
+    covariance : ndarray, shape (D, n, n)
+        The tracker's covariance (SI).
+    action : ndarray of int, shape (D,)
+        Chosen action index.
+    decision_ms : ndarray, shape (D,)
+        Wall time of each decision (ms; a measurement of this machine).
+    bound_m : ndarray, shape (D,)
+        Position RMS bound along the flown path, the conditional PCRB (m).
+    predicted_bound_m : ndarray, shape (D,)
+        The policy's predicted bound of the chosen action (m).
+    error_m, range_m : ndarray, shape (D,)
+        Position error of the estimate and true sensor-target range (m).
+    violations : dict of str to ndarray
+        Per constraint, the violation amount of the chosen step (m, >= 0).
+    """
+
+    times: Array
+    sensor: Array
+    truth: Array
+    estimate: Array
+    covariance: Array
+    action: Array
+    decision_ms: Array
+    bound_m: Array
+    predicted_bound_m: Array
+    error_m: Array
+    range_m: Array
+    violations: dict[str, Array]
+
+    def __len__(self) -> int:
+        """Return the number of decisions ``D``."""
+        return int(self.times.shape[0])
+
+    def columns(self) -> dict[str, Array]:
+        """Return the per-step columns of the run table (without ``run`` and ``case``).
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``step``, ``time`` (s), ``sensor_x``, ``sensor_y`` (m), ``action``, ``bound_m``,
+            ``predicted_bound_m``, ``error_m``, ``range_m`` (m), ``decision_ms`` (ms),
+            ``violation_m`` (largest over constraints, m) and ``violation_<name>_m``.
+        """
+        d = len(self)
+        cols: dict[str, Array] = {
+            "step": np.arange(1, d + 1, dtype=np.int64), "time": self.times,
+            "sensor_x": self.sensor[:, 0], "sensor_y": self.sensor[:, 1],
+            "action": self.action.astype(np.int64), "bound_m": self.bound_m,
+            "predicted_bound_m": self.predicted_bound_m, "error_m": self.error_m,
+            "range_m": self.range_m, "decision_ms": self.decision_ms}
+        amounts = list(self.violations.values())
+        cols["violation_m"] = np.max(amounts, axis=0) if amounts else np.zeros(d)
+        for name, a in self.violations.items():
+            cols[f"violation_{name}_m"] = a
+        return cols
+
+
+def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: ArrayLike,
+                   rng: np.random.Generator, time: float | None = None,
+                   sensor: str = "radar") -> MeasurementSet:
+    """Draw the group's measurements of a target: ``h(x) + L n``, ``L L^T = R`` (full ``R``).
+
+    Parameters
+    ----------
+    group : MeasurementGroup
+        Planned measurements at one time (e.g. :attr:`SensorPlan.group`); its rows are
+        predicted from the target state as given (at the rows' time).
+    target : array_like, shape (2 dim,)
+        True target state at the measurement time (m, m/s).
+    sensor_state : array_like, shape (6,)
+        Sensor state ``[x, y, z, vx, vy, vz]`` (m, m/s) at that time.
+    rng : numpy.random.Generator
+        Noise source.
+    time : float, optional
+        Time of the rows (s; default the group's).
+    sensor : str, optional
+        Sensor id of the rows.
+
+    Returns
+    -------
+    MeasurementSet
+        The rows (values with noise; sigmas the square roots of ``R``'s diagonal), angles
+        wrapped to (-pi, pi].
+    """
+    s = np.asarray(sensor_state, dtype=float).reshape(1, 6)
+    value = group.predict(np.asarray(target, dtype=float), s)
+    r = group.covariance
+    m = r.shape[0]
+    value = value + np.linalg.cholesky(r) @ rng.standard_normal(m)
+    value = np.where(group.angle, wrap_angle(value), value)
+    kinds = np.empty(m, dtype=object)
+    for kind, idx in group.index.items():
+        kinds[idx] = kind
+    scale = np.array([float(KINDS[k].file_scale) for k in kinds])
+    offset = np.array([float(KINDS[k].file_offset) for k in kinds])
+    t = group.time if time is None else float(time)
+    return MeasurementSet(np.full(m, t), np.full(m, sensor), kinds.astype(str),
+                          (value - offset) / scale, np.sqrt(np.diagonal(r)) / scale,
+                          np.repeat(s, m, axis=0))
+
+
+def _truth_path(setup: LoopSetup, dynamics: NearlyConstantVelocity,
+                rng: np.random.Generator) -> Array:
+    """Draw the true states at ``t_0 .. t_D`` (D + 1, n) by eq. 2 with process noise."""
+    f = dynamics.transition(setup.interval)
+    g = noise_factor(dynamics.noise(setup.interval))
+    noise = rng.standard_normal((setup.steps, g.shape[1])) @ g.T
+    x = np.empty((setup.steps + 1, setup.target.shape[0]))
+    x[0] = setup.target
+    for k in range(setup.steps):
+        x[k + 1] = f @ x[k] + noise[k]
+    return x
+
+
+def _tracker(setup: LoopSetup, mean: Array, rng: np.random.Generator) -> TrackingFilter:
+    cls = FILTERS[setup.tracker]
+    kwargs: dict[str, Any] = {"q": setup.q}
+    if cls.takes_particles:
+        kwargs["particles"] = int(setup.particles)
+    if cls.takes_rng:
+        kwargs["rng"] = rng
+    return cls(mean, setup.prior_covariance, setup.platform.time, **kwargs)
+
+
+def _six(x: Array, dim: int) -> Array:
+    out = np.zeros(6)
+    out[:dim], out[3:3 + dim] = x[:dim], x[dim:]
+    return out
+
+
+def _streams(seed: int | np.random.SeedSequence | None) -> list[np.random.SeedSequence]:
+    """Return the run's four child seeds, as ``seed.spawn(4)`` of a fresh sequence.
+
+    Made from the entropy and spawn key, so a sequence used before (by another case of a
+    study, or pickled to a Dask worker) gives the same children.
+    """
+    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    return [np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, i),
+                                   pool_size=ss.pool_size) for i in range(_STREAMS)]
+
+
+def _check_plan(plan: SensorPlan, setup: LoopSetup) -> None:
+    if plan.dim != setup.dim:
+        raise ValueError(f"the sensor plan is {plan.dim}-D, the target {setup.dim}-D")
+    times = plan.measurement_times(setup.interval)
+    if times.size != 1 or abs(times[0] - setup.interval) > 1e-9 * setup.interval:
+        raise ValueError("the closed loop measures once per decision, at the end of the step "
+                         "(a sensor plan without times)")
+
+
+def _column_name(name: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in name.strip().lower())
+
+
+def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
+                    seed: int | np.random.SeedSequence | None = None) -> LoopRecord:
+    """Run the closed loop of the module docstring for ``setup.steps`` decisions.
+
+    Parameters
+    ----------
+    policy : Policy
+        A :class:`~tmakit.planning.Planner` or a :class:`FixedPolicy`.
+    plan : SensorPlan
+        What the sensor measures at each decision (the planner's own), once per decision at
+        the end of the step.
+    setup : LoopSetup
+        Truth, sensor start, tracker.
+    seed : int or numpy.random.SeedSequence, optional
+        The run's seed (its four streams are spawned from it).
+
+    Returns
+    -------
+    LoopRecord
+        Per decision: sensor, truth, estimate, bound, error, range, action, time, violations.
+
+    Raises
+    ------
+    ValueError
+        If the plan's dimension differs from the target's, or it measures other than once
+        at the end of each step.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), sections 3-5 and eqs. 10-13.
+    """
+    _check_plan(plan, setup)
+    r_truth, r_prior, r_meas, r_track = (np.random.default_rng(s) for s in _streams(seed))
+    dim, d_steps, n = setup.dim, int(setup.steps), 2 * setup.dim
+    dyn = NearlyConstantVelocity(dim, setup.q)
+    truth = _truth_path(setup, dyn, r_truth)
+    p0 = setup.prior_covariance
+    tracker = _tracker(setup, truth[0] + np.linalg.cholesky(p0) @ r_prior.standard_normal(n),
+                       r_track)
+    belief = Belief.from_filter(tracker, PosteriorInformation.from_prior(
+        p0, dyn, setup.platform.time))
+    platform = setup.platform
+    rec = {k: np.empty((d_steps, *s)) for k, s in (
+        ("times", ()), ("sensor", (6,)), ("estimate", (n,)), ("covariance", (n, n)),
+        ("action", ()), ("decision_ms", ()), ("bound_m", ()), ("predicted_bound_m", ()))}
+    violations: dict[str, Array] = {}
+    gamma: GammaForm = check_gamma(setup.bound_gamma)
+    for k in range(d_steps):
+        start = time.perf_counter()
+        choice = policy.recommend(platform, belief)
+        rec["decision_ms"][k] = 1e3 * (time.perf_counter() - start)
+        idx, step = int(choice.index), choice.step
+        platform, t1 = step.end, step.end_time
+        sensor = platform.sensor_state
+        rows = simulate_group(plan.group, truth[k + 1], sensor, r_meas, t1)
+        tracker.predict(t1)
+        tracker.update(rows)
+        info = step_information(belief, belief.posterior.information, plan,
+                                sensor[None, None], setup.interval, gamma)[0]
+        belief = Belief.from_filter(tracker, PosteriorInformation(info, dyn, t1))
+        for name, amount in choice.violations.items():
+            col = violations.setdefault(_column_name(name), np.zeros(d_steps))
+            col[k] = float(np.asarray(amount)[idx])
+        rec["times"][k], rec["sensor"][k], rec["action"][k] = t1, sensor, idx
+        rec["estimate"][k], rec["covariance"][k] = tracker.state, tracker.covariance
+        rec["bound_m"][k] = float(belief.posterior.position_rms)
+        rec["predicted_bound_m"][k] = float(np.asarray(choice.bound)[idx])
+    est, tru = rec["estimate"], truth[1:]
+    return LoopRecord(
+        rec["times"], rec["sensor"], tru, est, rec["covariance"],
+        rec["action"].astype(np.int64), rec["decision_ms"], rec["bound_m"],
+        rec["predicted_bound_m"], np.linalg.norm(est[:, :dim] - tru[:, :dim], axis=1),
+        np.linalg.norm(tru[:, :dim] - rec["sensor"][:, :dim], axis=1), violations)
