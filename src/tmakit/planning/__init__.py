@@ -5,6 +5,7 @@ minimises a criterion of the predicted Bayesian information (eqs. 10-13), under 
 kinematic limits and tactical constraints.  See ``docs/planning.md``.
 
 * :class:`Planner`, :class:`Recommendation` — one decision (any horizon).
+* :func:`recommend` — one decision from a user's own tracker and platform.
 * :class:`Belief` — the bound so far and the tracker's target cloud.
 * :class:`SensorPlan` — what the sensor measures in each step.
 * Criteria: :class:`WeightedTrace` (eq. 12), :class:`LogDet`, :class:`CustomCriterion`.
@@ -18,6 +19,7 @@ from .constraints import KeepOutZones, MaximumRange, MinimumRange, OperatingArea
 from .criteria import CustomCriterion, LogDet, WeightedTrace, criterion_from_name
 from .measurement_plan import SensorPlan
 from .planner import Planner, Recommendation, position_bound
+from .recommend import recommend
 
 __all__ = [
     "Belief",
@@ -36,5 +38,6 @@ __all__ = [
     "cubature_points",
     "expected_information",
     "position_bound",
+    "recommend",
     "step_information",
 ]
