@@ -122,8 +122,8 @@ class PlanRun:
             ``mean_decision_ms`` (ms), ``runs``, ``steps``.
         """
         out: dict[str, float | int] = dict(self.study.summary(CASE))
-        amounts = [a for r in self.records for a in r.violations.values()]
-        worst = np.max(amounts, axis=0) if amounts else np.zeros(1)
+        worst = np.concatenate([np.max(list(r.violations.values()), axis=0)
+                                if r.violations else np.zeros(len(r)) for r in self.records])
         out["violations"] = int(np.sum(worst > 1e-3))
         out["max_violation_m"] = float(worst.max())
         out["steps"] = int(self.setup.steps)
