@@ -201,3 +201,10 @@ def test_plan_counts_every_violated_step_of_every_run():
     assert summary["violations"] == 4 and summary["runs"] == 2 and summary["steps"] == 2
     assert summary["max_violation_m"] > 1000.0
     assert np.all(run.table()["violation_minimum_range_m"] > 0.0)
+
+
+def test_tma_plan_names_the_missing_table_and_the_bad_duration():
+    result = runner.invoke(app, ["plan", "bearings-only-2d"])
+    assert result.exit_code == 2 and "no [planning] table" in result.output
+    result = runner.invoke(app, ["plan", "plan-bearings-only", "--duration", "15"])
+    assert result.exit_code == 2 and "--duration" in result.output

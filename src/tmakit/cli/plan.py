@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from .common import ForceOption, err, fail, out, refuse_existing
@@ -88,9 +89,13 @@ def plan(
                           particles=particles, tracker=tracker,
                           progress=not (as_json or no_progress))
     except ScenarioFileError as e:
-        raise fail(str(e)) from None
+        raise fail(escape(str(e))) from None
     except ValueError as e:
-        raise fail(f"{scenario}: {e}") from None
+        message = str(e)
+        for name in ("duration", "runs", "particles"):
+            if message.startswith(f"{name} "):
+                message = f"--{message}"
+        raise fail(escape(f"{scenario}: {message}")) from None
     summary = result.summary()
     if as_json:
         import json
