@@ -80,11 +80,12 @@ def plan(
 
     if tracker is not None and tracker not in PLANNING_TRACKERS:
         raise fail(f"--tracker {tracker!r}: expected one of {', '.join(PLANNING_TRACKERS)}")
-    from ..montecarlo.planned import plan as run_plan
     from ..scenario_file import ScenarioFileError, load_planning
 
     try:
         setup = load_planning(scenario)
+        from ..montecarlo.planned import plan as run_plan
+
         result = run_plan(setup, runs=runs, seed=seed, duration=duration,
                           particles=particles, tracker=tracker,
                           progress=not (as_json or no_progress))
