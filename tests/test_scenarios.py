@@ -15,7 +15,7 @@ from tmakit.units import free_space_constant, snr_to_sigma_db
 PAPERS = {"gu2007", "doppler-lecture", "hoerst2010", "chen-sun-1", "chen-sun-2",
           "chen-sun-3", "hurtado2008"}
 #: tmakit's own test beds (no paper gives them).
-OWN = {"bearings-only-2d"}
+OWN = {"bearings-only-2d", "plan-bearings-only"}
 EXPECTED = PAPERS | OWN
 
 

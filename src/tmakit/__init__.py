@@ -49,6 +49,7 @@ _LAZY = {
     "scenario_from_dict": "scenario_file",
     "builtin_scenarios": "scenario_file",
     "ScenarioFileError": "scenario_file",
+    "load_planning": "scenario_file",
     # results
     "EstimateResult": "results",
     "Bound": "results",
@@ -66,6 +67,9 @@ _LAZY = {
     "posterior_crb": "bounds",
     "track": "tracking",
     "monte_carlo": "montecarlo",
+    # sensor path planning
+    "plan": "montecarlo.planned",
+    "recommend": "planning",
     # files and geodesy
     "read_measurements": "io",
     "write_measurements": "io",
@@ -86,6 +90,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .io.track_files import write_track
     from .measurements import KINDS, model_for
     from .montecarlo import MonteCarloResult, monte_carlo
+    from .montecarlo.planned import plan
     from .motion import (
         ConstantVelocity,
         MotionModel,
@@ -94,12 +99,14 @@ if TYPE_CHECKING:  # pragma: no cover
         motion_from_name,
     )
     from .observation import ObservationModel
+    from .planning import recommend
     from .results import Bound, EstimateResult, Observability
     from .results.nuisance import KnownNuisance
     from .scenario import MeasurementPlan, Scenario, simulate
     from .scenario_file import (
         ScenarioFileError,
         builtin_scenarios,
+        load_planning,
         load_scenario,
         read_scenario_file,
         scenario_from_dict,
@@ -169,13 +176,16 @@ __all__ = [
     "enu_to_geodetic",
     "estimate",
     "geodetic_to_enu",
+    "load_planning",
     "load_scenario",
     "model_for",
     "monte_carlo",
     "motion_from_name",
+    "plan",
     "posterior_crb",
     "read_measurements",
     "read_scenario_file",
+    "recommend",
     "scenario_from_dict",
     "simulate",
     "track",

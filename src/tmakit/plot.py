@@ -1,4 +1,4 @@
-"""Pictures: sensor tracks and measurement time series.
+"""Pictures: sensor tracks, measurement time series, tracks and planned paths.
 
 Degrees, km and dBm on the axes (the edges of tmakit); the figures are written with
 matplotlib's non-interactive Agg backend.
@@ -18,6 +18,7 @@ from .truth import truth_states
 if TYPE_CHECKING:  # annotations only: plot is imported without the filters and bounds
     from .bounds import PosteriorBound
     from .filters import Track
+    from .montecarlo.planned import PlanRun
 
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
@@ -283,3 +284,64 @@ def _norm_errors(ax_norm: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBoun
                       fontsize=10)
     ax_norm.grid(True, which="both", alpha=0.3)
     ax_norm.legend(loc="upper right", fontsize=8)
+
+
+def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | None = None
+              ) -> Path:
+    """Write a picture of planned closed-loop runs (:func:`tmakit.plan`).
+
+    Left, the paths of the first ``paths`` runs (km): the flown sensor path from its start,
+    the target's truth and the tracker's estimate; right, the true range to the target over
+    time (km, every run) and the position RMSE over the runs against the RMS bound along the
+    flown path (m, log scale).
+
+    Parameters
+    ----------
+    run : tmakit.montecarlo.planned.PlanRun
+        The runs.
+    path : str or Path
+        The picture (PNG, PDF, SVG by suffix).
+    paths : int, optional
+        How many runs' paths are drawn on the map.
+    title : str, optional
+        The figure's title (default: the scenario's name and the number of runs).
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig = plt.figure(figsize=(14, 7), layout="constrained")
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.1, 1.3])
+    ax_map, ax_range = fig.add_subplot(grid[:, 0]), fig.add_subplot(grid[0, 1])
+    ax_err = fig.add_subplot(grid[1, 1], sharex=ax_range)
+    start = run.setup.start
+    for i, rec in enumerate(run.records[:max(paths, 1)]):
+        sensor = np.vstack([start.position[None, :2], rec.sensor[:, :2]]) / 1e3
+        first = i == 0
+        ax_map.plot(sensor[:, 0], sensor[:, 1], color=colours[0], lw=1.2,
+                    label="sensor (flown)" if first else None)
+        ax_map.plot(rec.truth[:, 0] / 1e3, rec.truth[:, 1] / 1e3, color=colours[1],
+                    label="target (truth)" if first else None)
+        ax_map.plot(rec.estimate[:, 0] / 1e3, rec.estimate[:, 1] / 1e3, color=colours[2],
+                    ls="--", lw=1.0, label="target (estimate)" if first else None)
+    ax_map.plot(*(start.position[:2] / 1e3), "o", color=colours[0], label="sensor start")
+    ax_map.set(xlabel="east (km)", ylabel="north (km)", aspect="equal")
+    ax_map.legend(loc="best", fontsize="small")
+    t = run.times
+    for rec in run.records:
+        ax_range.plot(t, rec.range_m / 1e3, color=colours[0], lw=0.8, alpha=0.6)
+    ax_range.set(ylabel="range to target (km)")
+    ax_err.semilogy(t, run.rmse(), color=colours[3], label="position RMSE")
+    ax_err.semilogy(t, run.bound(), color="k", ls="--",
+                    label="bound along the flown path")
+    ax_err.set(xlabel="time (s)", ylabel="position error (m)")
+    ax_err.legend(loc="best", fontsize="small")
+    default = f"{run.setup.scenario.name}: planned path, {len(run.records)} run(s)"
+    return _save(fig, path, title or default)

@@ -23,6 +23,7 @@ from .motion import MotionModel, motion_from_name
 from .scenario import MeasurementPlan, Scenario
 from .scenario_catalog import builtin_scenario_names
 from .scenario_catalog import builtin_scenarios as builtin_scenarios  # re-exported
+from .scenario_planning import PlanningSetup, PlanningSpec, build_planning
 from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
 from .units import free_space_constant, linear_to_db
 
@@ -205,7 +206,8 @@ class ScenarioSpec(_Strict):
     """A whole scenario file, validated (see ``docs/scenarios.md`` for every field).
 
     ``angle_convention``: headings, courses and turn rates ``"north_cw"`` (default) or
-    ``"east_ccw"``; ``origin``: ``[lat, lon, alt]`` (deg, deg, m), needed by geodetic positions.
+    ``"east_ccw"``; ``origin``: ``[lat, lon, alt]`` (deg, deg, m), needed by geodetic positions;
+    ``planning``: a steered sensor (:mod:`tmakit.scenario_planning`, ``docs/planning.md``).
     """
 
     name: str
@@ -218,6 +220,7 @@ class ScenarioSpec(_Strict):
     emitter: EmitterSpec = EmitterSpec()
     sensors: list[SensorSpec] = Field(min_length=1)
     measurements: list[MeasurementSpec] = Field(min_length=1)
+    planning: PlanningSpec | None = None
 
 
 # -- turning a validated spec into objects ------------------------------------------------
@@ -335,6 +338,15 @@ def _format_pydantic(err: ValidationError) -> list[str]:
     return lines
 
 
+def _validate(data: dict[str, Any], source: str) -> ScenarioSpec:
+    try:
+        return ScenarioSpec.model_validate(data)
+    except ValidationError as err:
+        problems = _format_pydantic(err)
+        raise ScenarioFileError(f"{source}: " + "; ".join(problems) if len(problems) == 1
+                                else f"{source}:\n  " + "\n  ".join(problems)) from None
+
+
 def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
     """Validate a scenario given as a dict (a parsed TOML file) and build it.
 
@@ -355,16 +367,59 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     ScenarioFileError
         If it is not valid or cannot be built; the message lists every problem by field.
     """
-    try:
-        spec = ScenarioSpec.model_validate(data)
-    except ValidationError as err:
-        problems = _format_pydantic(err)
-        raise ScenarioFileError(f"{source}: " + "; ".join(problems) if len(problems) == 1
-                                else f"{source}:\n  " + "\n  ".join(problems)) from None
+    spec = _validate(data, source)
     try:
         return _Builder(spec).build(source)
     except ValueError as err:
         raise ScenarioFileError(f"{source}: {err}") from None
+
+
+def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> PlanningSetup:
+    """Validate a scenario with a ``[planning]`` table and build its planning setup.
+
+    Parameters
+    ----------
+    data : dict
+        The scenario in file form and file units (``docs/planning.md``).
+    source : str, optional
+        Where it came from, for messages.
+
+    Returns
+    -------
+    PlanningSetup
+        The planner, the steered sensor's start, the target truth, tracker, prior, runs (SI).
+
+    Raises
+    ------
+    ScenarioFileError
+        If the scenario is not valid, has no ``[planning]`` table, or the table cannot be
+        built; the message names the file and the field.
+    """
+    spec = _validate(data, source)
+    if spec.planning is None:
+        raise ScenarioFileError(f"{source}: no [planning] table: the file declares no "
+                                "steered sensor (see docs/planning.md)")
+    try:
+        scenario = _Builder(spec).build(source)
+        sensor = next((s for s in spec.sensors if s.id == spec.planning.sensor), None)
+        if sensor is None:
+            raise ValueError(f"planning.sensor: no sensor {spec.planning.sensor!r} "
+                             f"(sensors: {', '.join(s.id for s in spec.sensors)})")
+        return build_planning(spec.planning, scenario, sensor,
+                              spec.angle_convention == "east_ccw", source)
+    except ValueError as err:
+        raise ScenarioFileError(f"{source}: {err}") from None
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioFileError(f"{path}: no such scenario file") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ScenarioFileError(f"{path}: not valid TOML: {err}") from None
 
 
 def read_scenario_file(path: str | Path) -> Scenario:
@@ -386,15 +441,21 @@ def read_scenario_file(path: str | Path) -> Scenario:
         If the file does not exist, is not TOML, or is not a valid scenario.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScenarioFileError(f"{path}: no such scenario file") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise ScenarioFileError(f"{path}: not valid TOML: {err}") from None
-    return scenario_from_dict(data, str(path))
+    return scenario_from_dict(_read_toml(path), str(path))
+
+
+def _scenario_data(name_or_path: str | Path) -> tuple[dict[str, Any], str]:
+    """Return the parsed TOML of a built-in scenario name or a file, and its source."""
+    text = str(name_or_path)
+    path = Path(text)
+    if path.suffix == ".toml" or path.exists():
+        return _read_toml(path), str(path)
+    names = builtin_scenario_names()
+    if text not in names:
+        raise ScenarioFileError(f"unknown scenario {text!r}: not a file, and not one of the "
+                                f"built-in scenarios ({', '.join(names)})")
+    with resources.as_file(resources.files("tmakit") / "scenarios" / f"{text}.toml") as p:
+        return _read_toml(Path(p)), str(p)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
@@ -415,14 +476,25 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     ScenarioFileError
         If it is neither a file nor a built-in name, or the file is not valid.
     """
-    text = str(name_or_path)
-    path = Path(text)
-    if path.suffix == ".toml" or path.exists():
-        return read_scenario_file(path)
-    names = builtin_scenario_names()
-    if text not in names:
-        raise ScenarioFileError(f"unknown scenario {text!r}: not a file, and not one of the "
-                                f"built-in scenarios ({', '.join(names)})")
-    res = resources.files("tmakit") / "scenarios" / f"{text}.toml"
-    with resources.as_file(res) as p:
-        return read_scenario_file(p)
+    return scenario_from_dict(*_scenario_data(name_or_path))
+
+
+def load_planning(name_or_path: str | Path) -> PlanningSetup:
+    """Load the planning setup of a scenario (built-in name or TOML file) with ``[planning]``.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A built-in name (``plan-bearings-only``) or a path.
+
+    Returns
+    -------
+    PlanningSetup
+        See :func:`planning_from_dict`.
+
+    Raises
+    ------
+    ScenarioFileError
+        If the scenario is unknown, invalid, or has no valid ``[planning]`` table.
+    """
+    return planning_from_dict(*_scenario_data(name_or_path))

@@ -10,6 +10,7 @@
     tma reproduce gu2007|doppler-lecture|hoerst2010|chen-sun [--runs N] [--seed S] [--plot FILE]
     tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
     tma track FILE [--filter ekf|ukf|mgekf|pf] [--q Q] [--json] [-o track.csv] [--plot out.png]
+    tma plan SCENARIO.toml [-o path.csv] [--plot figs.png] [--runs N] [--seed S] [--json]
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
@@ -22,6 +23,7 @@ import typer
 from .crlb import crlb
 from .estimate import estimate
 from .montecarlo import montecarlo
+from .plan import plan
 from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
 from .track import track
@@ -31,7 +33,7 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
 
 # Registered in this order: ``tma --help`` lists the commands in it.
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
-                 demo):
+                 plan, demo):
     app.command()(_command)
 
 

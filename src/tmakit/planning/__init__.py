@@ -9,6 +9,7 @@ kinematic limits and tactical constraints.  See ``docs/planning.md``.
   mission end; ``Planner(horizon=H, beam=B)`` searches the tree with a beam.
 * :class:`MissionPlanner`, :class:`MissionPlan` (:mod:`~tmakit.planning.mission`) — the rest
   of the mission as legs, optimised for the final bound, re-planned each leg.
+* :func:`recommend` — one decision from a user's own tracker and platform.
 * :class:`Belief` — the bound so far and the tracker's target cloud.
 * :class:`SensorPlan` — what the sensor measures in each step.
 * Criteria: :class:`WeightedTrace` (eq. 12), :class:`LogDet`, :class:`CustomCriterion`.
@@ -24,6 +25,7 @@ from .horizon import Continuation, SearchResult
 from .measurement_plan import SensorPlan
 from .mission import MissionPlan, MissionPlanner
 from .planner import Planner, Recommendation, position_bound
+from .recommend import recommend
 
 __all__ = [
     "Belief",
@@ -46,5 +48,6 @@ __all__ = [
     "cubature_points",
     "expected_information",
     "position_bound",
+    "recommend",
     "step_information",
 ]

@@ -1,0 +1,170 @@
+"""``tma plan``: steer a scenario's sensor by the predicted PCRB in the closed loop, many times.
+
+The scenario's ``[planning]`` table (``docs/planning.md``) names the steered sensor, its limits,
+actions, criterion, constraints and tracker; the command writes the per-step table (flown path,
+truth, estimates, bound) and prints the summary.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from .common import ForceOption, err, fail, out, refuse_existing
+
+
+def check_outputs(paths: list[tuple[str, Path | None]], force: bool) -> None:
+    """Refuse bad output paths before running: existing (without --force), no folder, suffix.
+
+    Parameters
+    ----------
+    paths : list of (str, Path or None)
+        ``("-o", path)`` and ``("--plot", path)``.
+    force : bool
+        ``--force``.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for the first bad path.
+    """
+    from ..io.tables import table_format
+
+    for option, path in paths:
+        if path is None:
+            continue
+        refuse_existing(path, force)
+        if not path.parent.is_dir():
+            raise fail(f"{option} {path}: the folder {path.parent} does not exist")
+        if option == "-o" and table_format(path) is None:
+            raise fail(f"-o {path}: the per-step table is written as .csv or .parquet")
+        if option == "--plot" and path.suffix.lower() not in (".png", ".pdf", ".svg"):
+            raise fail(f"--plot {path}: the picture is written as .png, .pdf or .svg")
+
+
+# `tma plan`: the docstring is its --help text, so no numpydoc sections (help= has them).
+def plan(
+    scenario: Annotated[str, typer.Argument(
+        help="TOML scenario file with a [planning] table, or a built-in name "
+             "(plan-bearings-only)")],
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="write the per-step table (.csv or .parquet)")] = None,
+    plot: Annotated[Path | None, typer.Option(
+        help="draw the paths, the range to the target and the error against the bound "
+             "(PNG, PDF, SVG)")] = None,
+    runs: Annotated[int | None, typer.Option(
+        help="Monte Carlo runs (default: the table's runs)")] = None,
+    seed: Annotated[int, typer.Option(help="random seed (same seed, same table)")] = 0,
+    duration: Annotated[float | None, typer.Option(
+        help="planned time (s), a whole number of decision intervals (default: the "
+             "table's)")] = None,
+    particles: Annotated[int | None, typer.Option(
+        help="particles of the particle filter (default: the table's)")] = None,
+    tracker: Annotated[str | None, typer.Option(
+        help="pf, ekf or ukf (default: the table's)")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
+    no_progress: Annotated[bool, typer.Option("--no-progress", help="no progress bar")] = False,
+    force: ForceOption = False,
+) -> None:
+    """Steer the scenario's sensor by the predicted posterior CRB, in the closed loop."""
+    check_outputs([("-o", output), ("--plot", plot)], force)
+    if runs is not None and runs < 1:
+        raise fail("--runs must be 1 or more")
+    if particles is not None and particles < 2:
+        raise fail("--particles must be 2 or more")
+    from ..scenario_planning import PLANNING_TRACKERS
+
+    if tracker is not None and tracker not in PLANNING_TRACKERS:
+        raise fail(f"--tracker {tracker!r}: expected one of {', '.join(PLANNING_TRACKERS)}")
+    from ..scenario_file import ScenarioFileError, load_planning
+
+    try:
+        setup = load_planning(scenario)
+        from ..montecarlo.planned import plan as run_plan
+
+        result = run_plan(setup, runs=runs, seed=seed, duration=duration,
+                          particles=particles, tracker=tracker,
+                          progress=not (as_json or no_progress))
+    except ScenarioFileError as e:
+        raise fail(escape(str(e))) from None
+    except ValueError as e:
+        message = str(e)
+        for name in ("duration", "runs", "particles"):
+            if message.startswith(f"{name} "):
+                message = f"--{message}"
+        raise fail(escape(f"{scenario}: {message}")) from None
+    summary = result.summary()
+    if as_json:
+        import json
+
+        typer.echo(json.dumps({"scenario": setup.scenario.name, "seed": seed, **summary}))
+    else:
+        print_summary(result, summary, seed)
+    write_outputs(result, output, plot, force, err if as_json else out)
+
+
+def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bool,
+                  console: Any) -> None:
+    """Write the per-step table and the picture, saying so on ``console``.
+
+    Parameters
+    ----------
+    result : tmakit.montecarlo.planned.PlanRun
+        The runs.
+    output, plot : Path or None
+        ``-o`` and ``--plot``.
+    force : bool
+        Overwrite existing files.
+    console : rich.console.Console
+        Where the "wrote" lines go (standard error with --json).
+    """
+    if output is not None:
+        from ..io.tables import write_table
+
+        write_table(output, result.table(), force=force, what="the per-step table")
+        console.print(f"wrote {output}", highlight=False)
+    if plot is not None:
+        from ..plot import plot_plan
+
+        plot_plan(result, plot)
+        console.print(f"wrote {plot}", highlight=False)
+
+
+def print_summary(result: Any, summary: dict[str, Any], seed: int) -> None:
+    """Print the summary table of the planned runs.
+
+    Parameters
+    ----------
+    result : tmakit.montecarlo.planned.PlanRun
+        The runs.
+    summary : dict
+        ``result.summary()``.
+    seed : int
+        The seed, for the title.
+    """
+    s = result.setup
+    p = s.planner
+    table = Table(title=f"{s.scenario.name}: sensor {s.sensor!r} planned over "
+                        f"{s.steps} decisions of {s.interval:g} s, {summary['runs']} run(s) "
+                        f"(seed {seed}), tracker {s.tracker}",
+                  title_justify="left")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    rows = [("final position RMSE (m)", f"{summary['final_rmse_m']:.4g}"),
+            ("final bound along the flown path (m)", f"{summary['final_bound_m']:.4g}"),
+            ("RMSE / bound", f"{summary['final_rmse_m'] / summary['final_bound_m']:.3f}"),
+            ("minimum range (m)", f"{summary['min_range_m']:.6g}"),
+            ("steps with a constraint violated", str(summary["violations"])),
+            ("largest violation (m)", f"{summary['max_violation_m']:.4g}"),
+            ("mean decision time (ms)", f"{summary['mean_decision_ms']:.3g}")]
+    for row in rows:
+        table.add_row(*row)
+    out.print(table)
+    constraints = ", ".join(c.name + (" (hard)" if c.hard else " (penalty)")
+                            for c in p.constraints) or "none"
+    out.print(f"criterion {p.criterion.name}, gamma {p.gamma}, horizon {p.horizon}, "
+              f"{len(p.actions)} actions; constraints: {constraints}", highlight=False)

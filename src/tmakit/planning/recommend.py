@@ -1,0 +1,121 @@
+"""One planning step from the user's own loop: their tracker and platform in, the next action out.
+
+:func:`recommend` is for a user who runs their own tracker and steers their own platform: give
+it the tracker (a :class:`~tmakit.filters.TrackingFilter`, or a mean and covariance), the
+platform's :class:`~tmakit.sensors.PlatformState` and a :class:`~tmakit.planning.Planner`, and
+it returns the :class:`~tmakit.planning.Recommendation`: the action to fly next, the predicted
+position bound of every candidate, their feasibility and their constraint violations.
+
+Without ``posterior`` the Bayesian information ``J_k`` is the inverse of the tracker's
+covariance (the tracker's own view of what it knows).  A caller who carries the bound along the
+flown path (Hurtado & Nehorai (2008), eq. 10; :meth:`Planner.advance`) passes it instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..bounds.pcrb_recursion import PosteriorInformation
+from ..filters.base import TrackingFilter
+from ..linalg import symmetrise
+from ..motion.dynamics import NearlyConstantVelocity
+from ..sensors.platform_state import PlatformState
+from .belief import Belief, cubature_points
+from .planner import Planner, Recommendation
+
+Estimate = TrackingFilter | tuple[ArrayLike, ArrayLike] | Sequence[ArrayLike]
+
+
+def _gaussian(track: Estimate) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        mean, cov = track  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise ValueError("recommend() takes a TrackingFilter or a (mean, covariance) "
+                         "pair") from None
+    m = np.asarray(mean, dtype=float).reshape(-1)
+    p = np.asarray(cov, dtype=float)
+    n = m.shape[0]
+    if n not in (4, 6) or p.shape != (n, n) or not (np.all(np.isfinite(m))
+                                                     and np.all(np.isfinite(p))):
+        raise ValueError(f"the estimate must be a finite mean [x, y, (z,) vx, vy, (vz)] (4 or "
+                         f"6 values) and its (n, n) covariance; got {m.shape} and {p.shape}")
+    return m, symmetrise(p)
+
+
+def recommend(track: Estimate, platform: PlatformState, planner: Planner,
+              posterior: PosteriorInformation | None = None, *, q: float = 0.0,
+              cloud: str = "auto") -> Recommendation:
+    """Return the planner's next action for a user's tracker and platform (one decision).
+
+    Parameters
+    ----------
+    track : TrackingFilter or (mean, covariance)
+        The tracker after its last update, at the platform's time; or its estimate
+        ``[x, y, (z,) vx, vy, (vz)]`` (m, m/s) and covariance (SI).
+    platform : PlatformState
+        The platform now (one state; its ``time`` is the decision time, s).
+    planner : Planner
+        Kinematics, actions, interval, sensor plan, criterion, constraints.
+    posterior : PosteriorInformation, optional
+        ``J_k`` at the platform's time (default: the inverse of the tracker's covariance,
+        with the tracker's dynamics, or ``NearlyConstantVelocity(dim, q)`` for a pair).
+    q : float, optional
+        Process-noise acceleration std (m/s^2) of the target, for a (mean, covariance) pair
+        without ``posterior``.
+    cloud : {"auto", "particles", "sigma", "mean"}, optional
+        The target cloud ``Gamma`` is averaged over with ``planner.gamma = "cloud"``
+        (:meth:`Belief.from_filter`); a pair gives its cubature points (``"auto"``,
+        ``"sigma"``) or its mean.
+
+    Returns
+    -------
+    Recommendation
+        ``index`` and ``action`` (what to fly), ``bound`` (m, predicted position RMS bound of
+        every candidate after one step), ``feasible``, ``violations`` (m), ``cost``.
+
+    Raises
+    ------
+    ValueError
+        On an estimate of the wrong shape, a tracker or ``posterior`` not at the platform's
+        time, or an unknown ``cloud``.
+
+    Examples
+    --------
+    >>> import math
+    >>> import numpy as np
+    >>> from tmakit.planning import Planner, SensorPlan, recommend
+    >>> from tmakit.sensors import PlatformState, platform_configuration
+    >>> cfg = platform_configuration("hurtado_nehorai_2008")
+    >>> radar = SensorPlan(["bearing", "range"], [math.radians(1.0), 30.0])
+    >>> planner = Planner(cfg.kinematics, cfg.actions, cfg.interval, radar)
+    >>> estimate = (np.array([0.0, 15000.0, 25.0, 0.0]), np.diag([500.0**2] * 2 + [10.0**2] * 2))
+    >>> rec = recommend(estimate, PlatformState((0.0, 0.0), 0.0, 50.0), planner)
+    >>> rec.bound.shape, bool(rec.bound[rec.index] == rec.bound[rec.feasible].min())
+    ((15,), True)
+    """
+    if isinstance(track, TrackingFilter):
+        if abs(track.time - platform.time) > 1e-6:
+            raise ValueError(f"the tracker is at t = {track.time:g} s and the platform at "
+                             f"t = {platform.time:g} s; predict the tracker to the decision "
+                             "time first")
+        if posterior is None:
+            posterior = PosteriorInformation(np.linalg.inv(symmetrise(track.covariance)),
+                                             track.dynamics, platform.time)
+        return planner.recommend(platform, Belief.from_filter(track, posterior, cloud))
+    mean, cov = _gaussian(track)
+    if posterior is None:
+        posterior = PosteriorInformation(np.linalg.inv(cov),
+                                         NearlyConstantVelocity(mean.shape[0] // 2, q),
+                                         platform.time)
+    if cloud not in ("auto", "particles", "sigma", "mean"):
+        raise ValueError(f"cloud must be 'auto', 'sigma' or 'mean'; got {cloud!r}")
+    if cloud == "mean":
+        belief = Belief(posterior, mean)
+    elif cloud == "particles":
+        raise ValueError("a (mean, covariance) estimate has no particles")
+    else:
+        belief = Belief(posterior, *cubature_points(mean, cov))
+    return planner.recommend(platform, belief)

@@ -1,0 +1,432 @@
+"""The ``[planning]`` table of a scenario file: a steerable sensor, its limits and its planner.
+
+A scenario file may declare that one of its ``[[sensors]]`` is steered by the planner of
+:mod:`tmakit.planning` (Hurtado & Nehorai (2008)): that sensor's entry gives the start (position,
+heading, speed, time), the ``[planning]`` table gives the platform's limits, the candidate
+actions, the decision interval, what is measured in each step, the criterion, the constraints,
+the tracker, the prior and how long and how often to run (``docs/planning.md`` lists every
+field).  Validation is pydantic's, inside :class:`~tmakit.scenario_file.ScenarioSpec`, so an
+error names the file and the field (``planning.actions.heading_changes_deg: ...``);
+:func:`build_planning` turns the validated table into a :class:`PlanningSetup`.
+
+Units as in the rest of the file: metres, seconds, degrees in keys ending ``_deg``, degrees per
+second in ``_deg_s``, measurement ``sigma`` in the kind's file unit; heading changes follow the
+file's ``angle_convention``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from .arrays import Array
+from .measurements import KINDS
+from .planning import (
+    KeepOutZones,
+    LogDet,
+    MaximumRange,
+    MinimumRange,
+    OperatingArea,
+    Planner,
+    SensorPlan,
+    WeightedTrace,
+)
+from .planning.constraints import DEFAULT_PENALTY, Constraint
+from .planning.criteria import Criterion
+from .scenario import Scenario
+from .sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
+
+#: Trackers a ``[planning]`` table may name (keys of :data:`tmakit.filters.FILTERS`).
+PLANNING_TRACKERS = ("pf", "ekf", "ukf")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class LimitsSpec(_Strict):
+    """``[planning.limits]``: the platform's limits (each optional; default: none).
+
+    ``min_speed``, ``max_speed`` (m/s), ``max_turn_rate_deg_s`` (deg/s), ``max_acceleration``
+    (m/s^2), ``max_climb_rate`` (m/s), ``min_altitude``, ``max_altitude`` (m, ENU up).
+    """
+
+    min_speed: float | None = Field(default=None, ge=0)
+    max_speed: float | None = Field(default=None, gt=0)
+    max_turn_rate_deg_s: float | None = Field(default=None, ge=0)
+    max_acceleration: float | None = Field(default=None, ge=0)
+    max_climb_rate: float | None = Field(default=None, ge=0)
+    min_altitude: float | None = None
+    max_altitude: float | None = None
+
+
+class ActionsSpec(_Strict):
+    """``[planning.actions]``: the candidate actions of every decision (all combinations).
+
+    ``heading_changes_deg`` (deg per step, file's angle convention), ``speed_factors`` (on the
+    current speed, default ``[1.0]``), ``climb_rates`` (m/s, optional: 3-D platforms).
+    """
+
+    heading_changes_deg: list[float] = Field(min_length=1)
+    speed_factors: list[Annotated[float, Field(gt=0)]] = Field(default=[1.0], min_length=1)
+    climb_rates: list[float] | None = Field(default=None, min_length=1)
+
+
+class PlannedMeasurementSpec(_Strict):
+    """``[[planning.measurements]]``: one row measured at the end of every step.
+
+    ``kind`` (a measurement kind), ``sigma`` (> 0, in the kind's file unit: deg, m, m/s, Hz...).
+    """
+
+    kind: str
+    sigma: float = Field(gt=0, description="in the kind's file unit")
+
+
+class PriorSpec(_Strict):
+    """``[planning.prior]``: the tracker's and the bound's Gaussian prior about the truth.
+
+    ``position_std`` (m, per axis), ``velocity_std`` (m/s, per axis).
+    """
+
+    position_std: float = Field(gt=0)
+    velocity_std: float = Field(gt=0)
+
+
+Vertex = Annotated[list[float], Field(min_length=2, max_length=2)]
+Polygon = Annotated[list[Vertex], Field(min_length=3)]
+
+
+class RangeConstraintSpec(_Strict):
+    """A ``min_range`` or ``max_range`` constraint to the estimated target.
+
+    ``distance`` (m, horizontal), ``hard`` (default true), ``weight`` (penalty, when not hard).
+    """
+
+    type: Literal["min_range", "max_range"]
+    distance: float = Field(gt=0)
+    hard: bool = True
+    weight: float = Field(default=DEFAULT_PENALTY, ge=0)
+
+
+class KeepOutSpec(_Strict):
+    """Keep-out zones: ``polygons`` ([east, north] m) or ``polygons_geodetic`` ([lat, lon] deg)."""
+
+    type: Literal["keep_out"]
+    polygons: list[Polygon] | None = Field(default=None, min_length=1)
+    polygons_geodetic: list[Polygon] | None = Field(default=None, min_length=1)
+    hard: bool = True
+    weight: float = Field(default=DEFAULT_PENALTY, ge=0)
+
+
+class AreaSpec(_Strict):
+    """The operating area: ``polygon`` ([east, north] m) or ``polygon_geodetic`` ([lat, lon])."""
+
+    type: Literal["operating_area"]
+    polygon: Polygon | None = None
+    polygon_geodetic: Polygon | None = None
+    hard: bool = True
+    weight: float = Field(default=DEFAULT_PENALTY, ge=0)
+
+
+ConstraintSpec = Annotated[RangeConstraintSpec | KeepOutSpec | AreaSpec,
+                           Field(discriminator="type")]
+
+
+class PlanningSpec(_Strict):
+    """The ``[planning]`` table, validated (``docs/planning.md`` for every field).
+
+    ``sensor`` (the steered ``[[sensors]]`` id), ``platform`` (a named configuration),
+    ``limits``, ``actions``, ``interval`` (s), ``measurements``, ``criterion``, ``weights``,
+    ``gamma``, ``horizon``, ``constraints``, ``tracker``, ``particles``, ``q`` (m/s^2),
+    ``prior``, ``duration`` (s), ``runs``, ``start_time`` (s).
+    """
+
+    sensor: str
+    platform: str | None = None
+    limits: LimitsSpec = LimitsSpec()
+    actions: ActionsSpec | None = None
+    interval: float | None = Field(default=None, gt=0)
+    measurements: list[PlannedMeasurementSpec] | None = Field(default=None, min_length=1)
+    criterion: Literal["trace", "logdet"] = "trace"
+    weights: list[float] | list[list[float]] | None = None
+    gamma: Literal["mean", "cloud"] = "mean"
+    horizon: int = Field(default=1, ge=1, le=4)
+    constraints: list[ConstraintSpec] = []
+    tracker: Literal["pf", "ekf", "ukf"] = "pf"
+    particles: int = Field(default=2000, ge=2)
+    q: float = Field(default=0.0, ge=0, description="m/s^2")
+    prior: PriorSpec
+    duration: float = Field(gt=0)
+    runs: int = Field(default=10, ge=1)
+    start_time: float | None = None
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PlanningSetup:
+    """Everything a closed-loop run of a planned scenario needs, in SI.
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The scenario (its target truth; its other sensors are not used by the loop).
+    sensor : str
+        Id of the steered sensor.
+    planner : Planner
+        Kinematics, actions, interval, sensor plan, criterion, constraints, gamma, horizon.
+    start : PlatformState
+        The steered sensor at the start (position m, heading rad clockwise from North,
+        speed m/s, climb rate m/s, time s).
+    target : ndarray, shape (2 dim,)
+        True target state at the start time ``[x, y, (z,) vx, vy, (vz)]`` (m, m/s).
+    steps : int
+        Decisions: ``duration / interval``.
+    tracker : {"pf", "ekf", "ukf"}
+        The tracker.
+    particles : int
+        Particles of the particle filter.
+    q : float
+        Process-noise acceleration std of the target (truth and tracker), m/s^2.
+    prior_std : tuple of float
+        Prior standard deviations of position (m) and velocity (m/s) per axis.
+    runs : int
+        Monte Carlo runs.
+    source : str
+        The file, for messages.
+    """
+
+    scenario: Scenario
+    sensor: str
+    planner: Planner
+    start: PlatformState
+    target: Array
+    steps: int
+    tracker: str
+    particles: int
+    q: float
+    prior_std: tuple[float, float]
+    runs: int
+    source: str = ""
+
+    @property
+    def interval(self) -> float:
+        """The decision interval, s."""
+        return self.planner.interval
+
+    @property
+    def duration(self) -> float:
+        """The planned time, s: ``steps * interval``."""
+        return self.steps * self.planner.interval
+
+    def replace(self, **changes: Any) -> PlanningSetup:
+        """Return a copy with fields changed (e.g. ``steps``, ``particles``, ``runs``)."""
+        return dataclasses.replace(self, **changes)
+
+
+class _Build:
+    """Turns a validated :class:`PlanningSpec` into objects (errors name the field)."""
+
+    def __init__(self, spec: PlanningSpec, scenario: Scenario, ccw: bool) -> None:
+        self.spec, self.scenario, self.ccw = spec, scenario, ccw
+        self.config = None
+        if spec.platform is not None:
+            try:
+                self.config = platform_configuration(spec.platform)
+            except ValueError as e:
+                raise ValueError(f"planning.platform: {e}") from None
+
+    def kinematics(self) -> PlatformKinematics:
+        base = self.config.kinematics if self.config is not None else PlatformKinematics()
+        lim = self.spec.limits
+        changes: dict[str, float] = {}
+        for name in ("min_speed", "max_speed", "max_acceleration", "max_climb_rate",
+                     "min_altitude", "max_altitude"):
+            if getattr(lim, name) is not None:
+                changes[name] = float(getattr(lim, name))
+        if lim.max_turn_rate_deg_s is not None:
+            changes["max_turn_rate"] = math.radians(lim.max_turn_rate_deg_s)
+        try:
+            return dataclasses.replace(base, **changes)
+        except ValueError as e:
+            raise ValueError(f"planning.limits: {e}") from None
+
+    def actions(self) -> Actions:
+        a = self.spec.actions
+        if a is None:
+            if self.config is None:
+                raise ValueError("planning.actions: give the candidate actions "
+                                 "(heading_changes_deg, speed_factors) or a platform")
+            return self.config.actions
+        sign = -1.0 if self.ccw else 1.0
+        return Actions.grid(sign * np.radians(a.heading_changes_deg), a.speed_factors,
+                            a.climb_rates)
+
+    def interval(self) -> float:
+        if self.spec.interval is not None:
+            return float(self.spec.interval)
+        if self.config is None:
+            raise ValueError("planning.interval: give the decision interval (s) or a platform")
+        return float(self.config.interval)
+
+    def sensor_plan(self, dim: int) -> SensorPlan:
+        rows = self.spec.measurements
+        if rows is None:  # the steered sensor's own [[measurements]]
+            plans = [p for p in self.scenario.plans if p.sensor == self.spec.sensor]
+            if not plans or any(p.sigma is None for p in plans):
+                raise ValueError("planning.measurements: give the kinds and sigmas measured "
+                                 "in each step (the sensor's [[measurements]] do not all "
+                                 "have a sigma)")
+            kinds, sigmas = [p.kind for p in plans], [float(p.sigma) for p in plans]
+        else:
+            kinds, sigmas = [], []
+            for i, m in enumerate(rows):
+                if m.kind not in KINDS:
+                    raise ValueError(f"planning.measurements[{i}].kind: unknown kind "
+                                     f"{m.kind!r}; expected one of {', '.join(KINDS)}")
+                kinds.append(m.kind)
+                sigmas.append(float(KINDS[m.kind]().sigma_to_si(m.sigma)))
+        return SensorPlan(kinds, sigmas, dim=dim, nuisance=self.scenario.nuisance or None,
+                          options=self.scenario.measurement_options or None)
+
+    def criterion(self, n: int) -> Criterion:
+        s = self.spec
+        if s.criterion == "logdet":
+            if s.weights is not None:
+                raise ValueError("planning.weights: weights apply to criterion = 'trace' only")
+            return LogDet()
+        if s.weights is None:
+            return WeightedTrace()
+        w = np.asarray(s.weights, dtype=float)
+        if w.ndim == 1:
+            if w.shape != (n,):
+                raise ValueError(f"planning.weights: give {n} diagonal weights or a {n} x {n} "
+                                 f"matrix for the state [position, velocity]; got {w.size}")
+            w = np.diag(w)
+        crit = WeightedTrace(w)
+        try:
+            crit.matrix(n)
+        except ValueError as e:
+            raise ValueError(f"planning.weights: {e}") from None
+        return crit
+
+    def polygon(self, where: str, enu: list[list[float]] | None,
+                geo: list[list[float]] | None) -> Array:
+        if (enu is None) == (geo is None):
+            raise ValueError(f"{where}: give exactly one of the [east, north] and the "
+                             "geodetic [lat, lon] form")
+        if enu is not None:
+            return np.asarray(enu, dtype=float)
+        if self.scenario.origin is None:
+            raise ValueError(f"{where}: geodetic vertices need the scenario's origin "
+                             "= [lat, lon, alt]")
+        from .geodesy import geodetic_to_enu
+
+        g = np.asarray(geo, dtype=float)
+        e, n, _ = geodetic_to_enu(g[:, 0], g[:, 1], np.full(len(g), self.scenario.origin[2]),
+                                  self.scenario.origin)
+        return np.column_stack([e, n])
+
+    def constraints(self) -> list[Constraint]:
+        out: list[Constraint] = []
+        for i, c in enumerate(self.spec.constraints):
+            where = f"planning.constraints[{i}]"
+            try:
+                if isinstance(c, RangeConstraintSpec):
+                    cls = MinimumRange if c.type == "min_range" else MaximumRange
+                    out.append(cls(c.distance, c.hard, c.weight))
+                elif isinstance(c, KeepOutSpec):
+                    n = len(c.polygons or c.polygons_geodetic or [])
+                    zones = [self.polygon(
+                        f"{where} polygon {j}", None if c.polygons is None else c.polygons[j],
+                        None if c.polygons_geodetic is None else c.polygons_geodetic[j])
+                        for j in range(n)] if n else [self.polygon(where, None, None)]
+                    out.append(KeepOutZones(zones, c.hard, c.weight))
+                else:
+                    area = self.polygon(where, c.polygon, c.polygon_geodetic)
+                    out.append(OperatingArea(area, c.hard, c.weight))
+            except ValueError as e:
+                msg = str(e)
+                raise ValueError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+        return out
+
+    def start(self, sensor_spec: Any) -> PlatformState:
+        sid = self.spec.sensor
+        t0 = self.spec.start_time
+        if t0 is None:
+            if getattr(sensor_spec, "type", "") == "fixed":
+                raise ValueError(f"planning.sensor: sensor {sid!r} is fixed; a steered sensor "
+                                 "starts moving (type legs, waypoints or recorded)")
+            t0 = (sensor_spec.times[0] if sensor_spec.type == "recorded"
+                  else sensor_spec.start_time)
+        try:
+            s = self.scenario.sensors[sid].states(np.array([float(t0)]))[0]
+        except ValueError as e:
+            raise ValueError(f"planning.start_time: {e}") from None
+        speed = float(np.hypot(s[3], s[4]))
+        if speed <= 0.0:
+            raise ValueError(f"planning.sensor: sensor {sid!r} is not moving at t = {t0:g} s; "
+                             "a steered sensor needs a heading and a speed > 0")
+        return PlatformState(s[:3], math.atan2(s[3], s[4]), speed, float(s[5]), float(t0))
+
+    def target(self, t0: float) -> Array:
+        motion = self.scenario.motion
+        if not motion.name.startswith("cv"):
+            raise ValueError(f"planning: the target moves by nearly constant velocity in the "
+                             f"closed loop; target.motion must be cv2d or cv3d, not "
+                             f"{motion.name!r}")
+        x = self.scenario.target_states([t0])[0]
+        d = motion.dim
+        return np.concatenate([x[:d], x[3:3 + d]])
+
+    def steps(self, interval: float) -> int:
+        ratio = self.spec.duration / interval
+        steps = round(ratio)
+        if steps < 1 or abs(ratio - steps) > 1e-6 * max(1.0, ratio):
+            raise ValueError(f"planning.duration: {self.spec.duration:g} s is not a whole "
+                             f"number (>= 1) of decision intervals of {interval:g} s")
+        return int(steps)
+
+
+def build_planning(spec: PlanningSpec, scenario: Scenario, sensor_spec: Any,
+                   ccw: bool = False, source: str = "") -> PlanningSetup:
+    """Build the :class:`PlanningSetup` of a validated ``[planning]`` table.
+
+    Parameters
+    ----------
+    spec : PlanningSpec
+        The validated table.
+    scenario : Scenario
+        The scenario built from the same file (SI).
+    sensor_spec : object
+        The steered sensor's validated ``[[sensors]]`` entry (its type and start time).
+    ccw : bool, optional
+        The file gives angles counter-clockwise from East (``angle_convention``).
+    source : str, optional
+        The file, for messages.
+
+    Returns
+    -------
+    PlanningSetup
+
+    Raises
+    ------
+    ValueError
+        Naming the ``planning.`` field at fault.
+    """
+    b = _Build(spec, scenario, ccw)
+    interval = b.interval()
+    start = b.start(sensor_spec)
+    target = b.target(start.time)
+    dim = target.shape[0] // 2
+    try:
+        planner = Planner(b.kinematics(), b.actions(), interval, b.sensor_plan(dim),
+                          b.criterion(2 * dim), b.constraints(), spec.gamma, spec.horizon)
+    except ValueError as e:
+        msg = str(e)
+        raise ValueError(msg if msg.startswith("planning") else f"planning: {msg}") from None
+    return PlanningSetup(scenario, spec.sensor, planner, start, target, b.steps(interval),
+                         spec.tracker, spec.particles, spec.q,
+                         (spec.prior.position_std, spec.prior.velocity_std), spec.runs, source)
