@@ -52,6 +52,12 @@ def _kind_table(width: int) -> NDArray[np.str_]:
     return np.array(KIND_NAMES, dtype=f"<U{width}")
 
 
+@functools.cache
+def _kind_flags(hook: str) -> NDArray[np.bool_]:
+    """Give the boolean hook ``hook`` of every kind, by kind code."""
+    return np.array([bool(getattr(KINDS[k], hook)) for k in KIND_NAMES], dtype=bool)
+
+
 def _frozen(values: NDArray[np.float64]) -> NDArray[np.float64]:
     values.flags.writeable = False
     return values
@@ -314,10 +320,26 @@ class MeasurementSet:
             self._sensors = tuple(self.sensor_names[c] for c in codes.tolist())
         return list(self._sensors)
 
+    def kind_flag(self, hook: str) -> NDArray[np.bool_]:
+        """Mark the rows whose kind sets the boolean hook ``hook`` (an integer lookup).
+
+        Parameters
+        ----------
+        hook : str
+            A boolean class attribute of :class:`tmakit.measurements.MeasurementModel`
+            (``"mirror_symmetric"``, ``"gives_height"``, ``"uses_reference"``, ...).
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True on the rows of kinds that set it.
+        """
+        return _kind_flags(hook)[self.kind_code]
+
     @property
     def dim(self) -> int:
-        """3 if any sensor leaves the plane z = 0 or measures elevation, else 2."""
-        if "elevation" in self.kinds:
+        """3 if any sensor leaves the plane z = 0 or a kind gives height (elevation), else 2."""
+        if any(KINDS[k].gives_height for k in self.kinds):
             return 3
         return 3 if np.any(self.sensor_state[:, 2] != 0) or np.any(
             self.sensor_state[:, 5] != 0) else 2

@@ -103,12 +103,12 @@ class MeasurementPlan:
                 raise ValueError("power: give either snr_db or sigma, not both")
         elif self.sigma is None or not self.sigma > 0:
             raise ValueError(f"{self.kind} from {self.sensor}: sigma must be positive")
-        if self.kind == "range_difference":
+        if KINDS[self.kind].uses_reference:  # range differences: pulse interval and lags
             if self.pri is None or not self.pri > 0:
-                raise ValueError("range_difference: the pulse repetition interval pri (s) "
+                raise ValueError(f"{self.kind}: the pulse repetition interval pri (s) "
                                  "must be positive")
             if not self.lags or any(int(lag) < 1 for lag in self.lags):
-                raise ValueError("range_difference: lags must be whole numbers >= 1")
+                raise ValueError(f"{self.kind}: lags must be whole numbers >= 1")
             self.lags = tuple(int(lag) for lag in self.lags)
 
 
@@ -223,7 +223,7 @@ class Scenario:
         """Lay out the rows of one plan with noise-free placeholders for value and sigma."""
         track = self.sensors[plan.sensor]
         model = KINDS[plan.kind]
-        if plan.kind == "range_difference":
+        if model.uses_reference:  # differences with earlier samples, lags back
             t_all, t_ref_all, lag_all = [], [], []
             for lag in plan.lags:
                 t_ref = plan.times - lag * plan.pri
@@ -327,8 +327,8 @@ class Scenario:
             values = []
             for plan, rows, clean, model in plans:
                 value_si = self._noisy(plan, rows, clean, gen) if noise else clean
-                if plan.kind == "bearing":  # files carry bearings in [0, 360) degrees
-                    value_si = np.mod(value_si, 2.0 * np.pi)
+                if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
+                    value_si = np.mod(value_si, model.wrap_period)
                 values.append(model.value_from_si(value_si))
             meas = template.take(np.arange(len(template)))
             meas.value = np.concatenate(values)[order]
@@ -348,7 +348,7 @@ class Scenario:
                                  "multiplicative noise model (a power came out negative); "
                                  "give sigma in dB instead")
             return clean + 10.0 * np.log10(1.0 + rel_noise)
-        if plan.kind == "range_difference":
+        if KINDS[plan.kind].uses_reference:
             # One independent noise term per pulse interval, summed over each difference.
             assert plan.pri is not None and plan.sigma is not None
             t0 = float(rows.time_ref.min())

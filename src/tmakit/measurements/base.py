@@ -34,7 +34,9 @@ class MeasurementModel:
     registration in :data:`tmakit.measurements.KINDS`: :attr:`value_range` (checked by the
     file reader, :meth:`check_values`), :attr:`uses_reference` (an earlier sample),
     :attr:`correlated_noise` and :meth:`noise_covariance` (the noise of rows of one sensor),
-    :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure).
+    :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure),
+    :attr:`mirror_symmetric` and :attr:`gives_height` (the sensor-plane ambiguity),
+    :attr:`wrap_period` (how simulated values are written).
     """
 
     #: Name used in files (the ``kind`` column).
@@ -54,6 +56,14 @@ class MeasurementModel:
     value_range: ValueRange | None = None
     #: Rows of one sensor have correlated noise (:meth:`noise_covariance` is not diagonal).
     correlated_noise: bool = False
+    #: Predictions do not change when the target is mirrored through a horizontal plane of
+    #: the sensors (the sensor-plane ambiguity of 3-D tracking; elevation breaks it).
+    mirror_symmetric: bool = False
+    #: The kind measures height above the sensor, so a set holding it is 3-D.
+    gives_height: bool = False
+    #: Simulated values are written wrapped into ``[0, wrap_period)`` (SI; None: not wrapped),
+    #: as files carry bearings in [0, 360) degrees.
+    wrap_period: float | None = None
 
     @classmethod
     def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:
