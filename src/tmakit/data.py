@@ -7,11 +7,13 @@ and, for range differences, ``time_ref`` and the sensor state at ``time_ref``.
 
 How the set holds its columns (SI inside, converted once at the edge):
 
-- ``value`` and ``sigma`` keep the numbers exactly as the file (or the simulation) gave them in
-  file units, so that files round-trip exactly; :attr:`~MeasurementSet.value_si` and
-  :attr:`~MeasurementSet.sigma_si` (radians, rad/s, m, m/s, Hz, dBW) are computed from them
-  once, when the set is built (or when ``value``/``sigma`` is assigned), never on access.  The
-  four arrays are read-only, so they cannot drift apart.
+- SI is the stored form: :attr:`~MeasurementSet.value_si` and
+  :attr:`~MeasurementSet.sigma_si` (radians, rad/s, m, m/s, Hz, dBW).  Library code builds
+  sets in SI (:meth:`MeasurementSet.from_si`: simulation, filters); the constructor takes
+  file units and is the reader's edge (:mod:`tmakit.io`), converting once.  The file-unit
+  ``value`` and ``sigma`` are the file's numbers exactly for a set read from a file (so files
+  round-trip exactly) and are derived from SI on first use otherwise, for writers and
+  printing.  The arrays are read-only, so they cannot drift apart.
 - ``kind`` and ``sensor`` are categorical: integer codes (:attr:`~MeasurementSet.kind_code`
   into :data:`KIND_NAMES`, :attr:`~MeasurementSet.sensor_code` into
   :attr:`~MeasurementSet.sensor_names`).  The string arrays ``kind`` and ``sensor`` are built
@@ -160,6 +162,40 @@ class MeasurementSet:
         self._set_sensors(sensor_text)
         self._set_file_values(value_file, sigma_file)
 
+    @classmethod
+    def from_si(cls, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value_si: ArrayLike,
+                sigma_si: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
+                ref_sensor_state: ArrayLike | None = None,
+                metadata: Mapping[str, str] | None = None) -> MeasurementSet:
+        """Build a set from SI values: how library code (simulation, filters) builds sets.
+
+        The file-unit ``value`` and ``sigma`` are derived from the SI ones on first use
+        (``(value_si - file_offset) / file_scale``), for writing files and printing.
+
+        Parameters
+        ----------
+        time, sensor, kind, sensor_state, time_ref, ref_sensor_state, metadata
+            As for :class:`MeasurementSet`.
+        value_si, sigma_si : array_like, shape (n,)
+            Values and noise standard deviations in SI (rad, rad/s, m, m/s, Hz, dBW; dB).
+
+        Returns
+        -------
+        MeasurementSet
+            The set, holding exactly ``value_si`` and ``sigma_si``.
+
+        Raises
+        ------
+        ValueError
+            As :class:`MeasurementSet`.
+        """
+        n = np.shape(time)[0] if np.ndim(time) else 0
+        out = cls(time, sensor, kind, np.zeros(n), np.zeros(n), sensor_state, time_ref,
+                  ref_sensor_state, metadata)
+        out._set_si_values(out._new_column("value", value_si),
+                           out._new_column("sigma", sigma_si))
+        return out
+
     # -- values: file units as given, SI computed once -------------------------------------
     def _set_file_values(self, value: NDArray[np.float64] | None,
                          sigma: NDArray[np.float64] | None) -> None:
@@ -171,6 +207,14 @@ class MeasurementSet:
         if sigma is not None:
             self._sigma = _frozen(sigma)
             self._sigma_si = _frozen(sigma * scale)
+
+    def _set_si_values(self, value_si: NDArray[np.float64] | None,
+                       sigma_si: NDArray[np.float64] | None) -> None:
+        """Store new SI values and/or sigmas (owned arrays); file units follow on first use."""
+        if value_si is not None:
+            self._value_si, self._value = _frozen(value_si), None
+        if sigma_si is not None:
+            self._sigma_si, self._sigma = _frozen(sigma_si), None
 
     def _set_kinds(self, text: NDArray[np.str_]) -> None:
         """Store the kind codes of a text column (the SI values are the caller's job)."""
@@ -198,8 +242,13 @@ class MeasurementSet:
     def value(self) -> NDArray[np.float64]:
         """Measured values in the file unit of each row's kind (deg, deg/s, m, m/s, Hz, dBm).
 
-        Read-only; assigning a new array recomputes :attr:`value_si`.
+        Read-only; assigning a new array recomputes :attr:`value_si`.  Exactly the file's
+        numbers for a set read from a file; derived from :attr:`value_si` on first use for a
+        set built in SI (:meth:`from_si`).
         """
+        if self._value is None:
+            self._value = _frozen((self._value_si - _OFFSET[self.kind_code])
+                                  / _SCALE[self.kind_code])
         return self._value
 
     @value.setter
@@ -209,6 +258,8 @@ class MeasurementSet:
     @property
     def sigma(self) -> NDArray[np.float64]:
         """Noise standard deviations in the file unit of ``value`` (dB for power); read-only."""
+        if self._sigma is None:
+            self._sigma = _frozen(self._sigma_si / _SCALE[self.kind_code])
         return self._sigma
 
     @sigma.setter
@@ -217,8 +268,15 @@ class MeasurementSet:
 
     @property
     def value_si(self) -> NDArray[np.float64]:
-        """Values in SI (radians, rad/s, m, m/s, Hz, dBW); read-only, computed once."""
+        """Values in SI (radians, rad/s, m, m/s, Hz, dBW); read-only, the stored form.
+
+        Assigning a new array replaces them (the file-unit twin follows on first use).
+        """
         return self._value_si
+
+    @value_si.setter
+    def value_si(self, values: ArrayLike) -> None:
+        self._set_si_values(self._new_column("value_si", values), None)
 
     @property
     def sigma_si(self) -> NDArray[np.float64]:
@@ -248,8 +306,9 @@ class MeasurementSet:
 
     @kind.setter
     def kind(self, kinds: ArrayLike) -> None:
+        value, sigma = np.array(self.value), np.array(self.sigma)
         self._set_kinds(self._new_column("kind", kinds, str))
-        self._set_file_values(np.array(self._value), np.array(self._sigma))
+        self._set_file_values(value, sigma)
 
     @property
     def sensor(self) -> NDArray[np.str_]:
@@ -370,7 +429,8 @@ class MeasurementSet:
         out = object.__new__(MeasurementSet)
         out.time, out.kind_code = self.time[idx], self.kind_code[idx]
         out.sensor_code, out.sensor_names = self.sensor_code[idx], self.sensor_names
-        out._value, out._sigma = _frozen(self._value[idx]), _frozen(self._sigma[idx])
+        out._value = None if self._value is None else _frozen(self._value[idx])
+        out._sigma = None if self._sigma is None else _frozen(self._sigma[idx])
         out._value_si, out._sigma_si = _frozen(self._value_si[idx]), _frozen(self._sigma_si[idx])
         out.sensor_state, out.time_ref = self.sensor_state[idx], self.time_ref[idx]
         out.ref_sensor_state, out.metadata = self.ref_sensor_state[idx], dict(self.metadata)
@@ -421,17 +481,21 @@ class MeasurementSet:
         """
         if not parts:
             raise ValueError("nothing to concatenate")
-        cat = MeasurementSet(
+        cat = MeasurementSet.from_si(
             np.concatenate([p.time for p in parts]),
             np.concatenate([p.sensor for p in parts]),
             np.concatenate([p.kind for p in parts]),
-            np.concatenate([p.value for p in parts]),
-            np.concatenate([p.sigma for p in parts]),
+            np.concatenate([p.value_si for p in parts]),
+            np.concatenate([p.sigma_si for p in parts]),
             np.concatenate([p.sensor_state for p in parts]),
             np.concatenate([p.time_ref for p in parts]),
             np.concatenate([p.ref_sensor_state for p in parts]),
             dict(metadata if metadata is not None else parts[0].metadata),
         )
+        if all(p._value is not None for p in parts):  # keep a file's numbers exactly
+            cat._value = _frozen(np.concatenate([p.value for p in parts]))
+        if all(p._sigma is not None for p in parts):
+            cat._sigma = _frozen(np.concatenate([p.sigma for p in parts]))
         return cat.sorted()
 
     def sorted(self) -> MeasurementSet:
@@ -504,7 +568,8 @@ class MeasurementSet:
         """Unpickle, keeping the value arrays read-only."""
         self.__dict__.update(state)
         for name in ("_value", "_sigma", "_value_si", "_sigma_si"):
-            state[name].flags.writeable = False
+            if state[name] is not None:
+                state[name].flags.writeable = False
 
     def __repr__(self) -> str:
         """Return ``MeasurementSet(n rows: count kind from sensor, ...)``."""

@@ -243,9 +243,9 @@ class Scenario:
             sigma_si = np.full(times.shape, plan.sigma if plan.sigma is not None
                                else snr_to_sigma_db(plan.snr_db))
         n = times.shape[0]
-        return MeasurementSet(times, np.full(n, plan.sensor), np.full(n, plan.kind),
-                              np.zeros(n), model().sigma_from_si(sigma_si),
-                              track.states(times), time_ref, ref_state)
+        return MeasurementSet.from_si(times, np.full(n, plan.sensor), np.full(n, plan.kind),
+                                      np.zeros(n), sigma_si, track.states(times), time_ref,
+                                      ref_state)
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
         """Observe the scenario.
@@ -260,7 +260,7 @@ class Scenario:
         Returns
         -------
         MeasurementSet
-            The measurements in file units, rows grouped by sensor and in time order, with
+            The measurements (SI), rows grouped by sensor and in time order, with
             metadata (scenario, motion, truth, noise, seed if ``rng`` is an int, ...).
 
         Raises
@@ -318,9 +318,9 @@ class Scenario:
         # the plans' rows one after the other.
         n = [rows.time.shape[0] for _, rows, _, _ in plans]
         for (_, rows, _, _), start in zip(plans, np.cumsum([0, *n[:-1]]), strict=True):
-            rows.value = start + np.arange(rows.time.shape[0], dtype=float)
+            rows.value_si = start + np.arange(rows.time.shape[0], dtype=float)
         template = MeasurementSet.concatenate([rows for _, rows, _, _ in plans], meta)
-        order = template.value.astype(int)
+        order = template.value_si.astype(int)
         out = []
         for rng in rngs:
             gen = as_generator(rng)
@@ -329,9 +329,9 @@ class Scenario:
                 value_si = self._noisy(plan, rows, clean, gen) if noise else clean
                 if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
                     value_si = np.mod(value_si, model.wrap_period)
-                values.append(model.value_from_si(value_si))
+                values.append(value_si)
             meas = template.take(np.arange(len(template)))
-            meas.value = np.concatenate(values)[order]
+            meas.value_si = np.concatenate(values)[order]
             if isinstance(rng, int):
                 meas.metadata["seed"] = str(rng)
             out.append(meas)
