@@ -25,7 +25,6 @@ def test_si_is_file_value_times_scale_plus_offset():
         model = KINDS[str(k)]
         assert ms.value_si[i] == ms.value[i] * model.file_scale + model.file_offset
         assert ms.sigma_si[i] == ms.sigma[i] * model.file_scale
-    assert ms.si()[0] is ms.value_si and ms.si()[1] is ms.sigma_si
 
 
 def test_codes_and_their_text_views():

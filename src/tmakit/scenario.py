@@ -219,8 +219,13 @@ class Scenario:
         return self.motion.states(self.theta, np.atleast_1d(np.asarray(t, dtype=float)))
 
     # -- simulation ------------------------------------------------------------------------
-    def _layout(self, plan: MeasurementPlan) -> MeasurementSet:
-        """Lay out the rows of one plan with noise-free placeholders for value and sigma."""
+    def _layout(self, plan: MeasurementPlan,
+                states: dict[tuple[str, bytes], NDArray[np.float64]]) -> MeasurementSet:
+        """Lay out the rows of one plan with noise-free placeholders for value and sigma.
+
+        ``states`` keeps the sensor states by (sensor, sample times) between the plans of one
+        simulation: plans of one sensor at the same times (power and frequency) share them.
+        """
         track = self.sensors[plan.sensor]
         model = KINDS[plan.kind]
         if model.uses_reference:  # differences with earlier samples, lags back
@@ -243,8 +248,11 @@ class Scenario:
             sigma_si = np.full(times.shape, plan.sigma if plan.sigma is not None
                                else snr_to_sigma_db(plan.snr_db))
         n = times.shape[0]
+        key = (plan.sensor, times.tobytes())
+        if key not in states:
+            states[key] = track.states(times)
         return MeasurementSet.from_si(times, np.full(n, plan.sensor), np.full(n, plan.kind),
-                                      np.zeros(n), sigma_si, track.states(times), time_ref,
+                                      np.zeros(n), sigma_si, states[key], time_ref,
                                       ref_state)
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
@@ -296,8 +304,9 @@ class Scenario:
             As :meth:`simulate`.
         """
         plans = []  # (plan, rows, noise-free values SI, model), in plan order
+        states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
         for plan in self.plans:
-            rows = self._layout(plan)
+            rows = self._layout(plan, states)
             obs = ObservationModel(rows, self.motion, self.measurement_options)
             clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
             plans.append((plan, rows, clean, obs.models[plan.kind]))
