@@ -25,7 +25,6 @@ def test_si_is_file_value_times_scale_plus_offset():
         model = KINDS[str(k)]
         assert ms.value_si[i] == ms.value[i] * model.file_scale + model.file_offset
         assert ms.sigma_si[i] == ms.sigma[i] * model.file_scale
-    assert ms.si()[0] is ms.value_si and ms.si()[1] is ms.sigma_si
 
 
 def test_codes_and_their_text_views():
@@ -68,3 +67,18 @@ def test_unknown_kind_and_pickling():
 def test_empty_set():
     ms = MeasurementSet([], [], [], [], [], np.zeros((0, 6)))
     assert ms.kinds == [] and ms.sensors == [] and len(ms.sorted()) == 0
+
+
+def test_from_si_holds_si_exactly_and_derives_file_units():
+    value_si = np.array([0.1, 1234.5, -7.0])
+    sigma_si = np.array([0.01, 2.0, 0.5])
+    ms = MeasurementSet.from_si([0, 1, 2], ["a", "a", "a"], ["bearing", "range", "power"],
+                                value_si, sigma_si, np.zeros((3, 6)))
+    assert np.array_equal(ms.value_si, value_si) and np.array_equal(ms.sigma_si, sigma_si)
+    assert np.allclose(ms.value, [np.degrees(0.1), 1234.5, -7.0 + 30.0], rtol=1e-14)
+    assert np.allclose(ms.sigma, [np.degrees(0.01), 2.0, 0.5], rtol=1e-14)
+    assert np.array_equal(ms.take([2, 0]).value_si, value_si[[2, 0]])
+    joined = MeasurementSet.concatenate([ms, ms.take([1])])
+    assert np.array_equal(joined.value_si, value_si[[0, 1, 1, 2]])
+    with pytest.raises(ValueError, match="value"):
+        MeasurementSet.from_si([0], ["a"], ["range"], [1.0, 2.0], [1.0], np.zeros((1, 6)))

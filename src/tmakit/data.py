@@ -7,22 +7,19 @@ and, for range differences, ``time_ref`` and the sensor state at ``time_ref``.
 
 How the set holds its columns (SI inside, converted once at the edge):
 
-- ``value`` and ``sigma`` keep the numbers exactly as the file (or the simulation) gave them in
-  file units, so that files round-trip exactly; :attr:`~MeasurementSet.value_si` and
-  :attr:`~MeasurementSet.sigma_si` (radians, rad/s, m, m/s, Hz, dBW) are computed from them
-  once, when the set is built (or when ``value``/``sigma`` is assigned), never on access.  The
-  four arrays are read-only, so they cannot drift apart.
+- SI is the stored form (:attr:`~MeasurementSet.value_si`, :attr:`~MeasurementSet.sigma_si`:
+  rad, rad/s, m, m/s, Hz, dBW).  Library code builds sets with :meth:`MeasurementSet.from_si`;
+  the constructor takes file units and is the reader's edge (:mod:`tmakit.io`).  ``value`` and
+  ``sigma`` (file units) are the file's numbers exactly for a set read from a file, derived
+  from SI on first use otherwise (writers, printing).  All four arrays are read-only.
 - ``kind`` and ``sensor`` are categorical: integer codes (:attr:`~MeasurementSet.kind_code`
   into :data:`KIND_NAMES`, :attr:`~MeasurementSet.sensor_code` into
-  :attr:`~MeasurementSet.sensor_names`).  The string arrays ``kind`` and ``sensor`` are built
-  from the codes on first use and kept; :attr:`~MeasurementSet.kinds` and
-  :attr:`~MeasurementSet.sensors` are computed once per set from the codes and are O(1)
-  afterwards.
+  :attr:`~MeasurementSet.sensor_names`); the text arrays, :attr:`~MeasurementSet.kinds` and
+  :attr:`~MeasurementSet.sensors` are built once from the codes, O(1) afterwards.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,68 +27,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .measurements import KINDS
+from .measurements import codes as categorical
+from .measurements.codes import KIND_CODES, KIND_NAMES
+
+__all__ = ["KIND_CODES", "KIND_NAMES", "MeasurementSet"]
 
 SENSOR_STATE_COLUMNS = ("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor_vy",
                         "sensor_vz")
 REF_STATE_COLUMNS = tuple(f"ref_{c}" for c in SENSOR_STATE_COLUMNS)
 
-#: The kind of each code: ``kind_code == i`` means the kind ``KIND_NAMES[i]`` (the order of
-#: :data:`tmakit.measurements.KINDS`).
-KIND_NAMES: tuple[str, ...] = tuple(KINDS)
-#: The code of each kind (the inverse of :data:`KIND_NAMES`).
-KIND_CODES: dict[str, int] = {k: i for i, k in enumerate(KIND_NAMES)}
-
-# value_SI = value_file * scale + offset; sigma_SI = sigma_file * scale (per kind code).
-_SCALE = np.array([float(KINDS[k].file_scale) for k in KIND_NAMES])
-_OFFSET = np.array([float(KINDS[k].file_offset) for k in KIND_NAMES])
-
-
-@functools.cache
-def _kind_table(width: int) -> NDArray[np.str_]:
-    """:data:`KIND_NAMES` as a numpy string array of ``width`` characters."""
-    return np.array(KIND_NAMES, dtype=f"<U{width}")
-
-
 def _frozen(values: NDArray[np.float64]) -> NDArray[np.float64]:
     values.flags.writeable = False
     return values
-
-
-def _kind_codes(kind: NDArray[np.str_]) -> NDArray[np.int8]:
-    """Kind codes (:data:`KIND_CODES`) of a string column; ``ValueError`` for unknown kinds."""
-    codes = np.full(kind.shape[0], -1, dtype=np.int8)
-    for code, name in enumerate(KIND_NAMES):
-        codes[kind == name] = code
-    if np.any(codes < 0):
-        unknown = sorted(set(kind[codes < 0].tolist()))
-        raise ValueError(f"unknown measurement kind(s) {', '.join(unknown)}; expected "
-                         f"{', '.join(KINDS)}")
-    return codes
-
-
-def _run_starts(column: NDArray[Any]) -> NDArray[np.intp]:
-    """Return the indices where a new run of equal values starts (a sensor's rows come in runs)."""
-    if column.shape[0] == 0:
-        return np.zeros(0, dtype=np.intp)
-    return np.flatnonzero(np.concatenate(([True], column[1:] != column[:-1])))
-
-
-def _first_appearance(values: NDArray[Any]) -> tuple[NDArray[Any], NDArray[np.intp]]:
-    """Distinct ``values`` in order of first appearance, and each value's rank in that order.
-
-    Vectorised: only the starts of runs of equal values are sorted, so a column whose rows come
-    grouped (as sensors do) costs one comparison pass.
-    """
-    starts = _run_starts(values)
-    if starts.shape[0] == 1:  # one run (one sensor): nothing to sort
-        return values[:1], np.zeros(values.shape[0], dtype=np.intp)
-    distinct, first, inverse = np.unique(values[starts], return_index=True,
-                                         return_inverse=True)
-    order = np.argsort(first, kind="stable")
-    rank = np.empty(order.shape[0], dtype=np.intp)
-    rank[order] = np.arange(order.shape[0])
-    lengths = np.diff(np.append(starts, values.shape[0]))
-    return distinct[order], np.repeat(rank[inverse.reshape(-1)], lengths)
 
 
 class MeasurementSet:
@@ -124,10 +71,8 @@ class MeasurementSet:
 
     Notes
     -----
-    ``value``, ``sigma``, :attr:`value_si` and :attr:`sigma_si` are read-only arrays; assign a
-    whole new ``value`` or ``sigma`` array to change them (the SI twin is recomputed).  The
-    SI values are ``value * file_scale + file_offset`` and ``sigma * file_scale`` of the kind
-    (:class:`tmakit.measurements.MeasurementModel`), computed once.
+    The constructor takes file units (the reader's edge); SI (``value * file_scale +
+    file_offset``) is stored.  Library code uses :meth:`from_si`.  Arrays are read-only.
     """
 
     def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value: ArrayLike,
@@ -154,27 +99,65 @@ class MeasurementSet:
         self._set_sensors(sensor_text)
         self._set_file_values(value_file, sigma_file)
 
-    # -- values: file units as given, SI computed once -------------------------------------
+    @classmethod
+    def from_si(cls, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value_si: ArrayLike,
+                sigma_si: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
+                ref_sensor_state: ArrayLike | None = None,
+                metadata: Mapping[str, str] | None = None) -> MeasurementSet:
+        """Build a set from SI values (how library code builds sets; file units on first use).
+
+        Parameters
+        ----------
+        time, sensor, kind, sensor_state, time_ref, ref_sensor_state, metadata
+            As for :class:`MeasurementSet`.
+        value_si, sigma_si : array_like, shape (n,)
+            Values and noise standard deviations in SI (rad, rad/s, m, m/s, Hz, dBW; dB).
+
+        Returns
+        -------
+        MeasurementSet
+            The set, holding exactly ``value_si`` and ``sigma_si``.
+
+        Raises
+        ------
+        ValueError
+            As :class:`MeasurementSet`.
+        """
+        n = np.shape(time)[0] if np.ndim(time) else 0
+        out = cls(time, sensor, kind, np.zeros(n), np.zeros(n), sensor_state, time_ref,
+                  ref_sensor_state, metadata)
+        out._set_si_values(out._new_column("value", value_si),
+                           out._new_column("sigma", sigma_si))
+        return out
+
     def _set_file_values(self, value: NDArray[np.float64] | None,
                          sigma: NDArray[np.float64] | None) -> None:
         """Store new file-unit values and/or sigmas (owned arrays) and their SI twins."""
-        scale = _SCALE[self.kind_code]
+        scale = categorical.FILE_SCALE[self.kind_code]
         if value is not None:
             self._value = _frozen(value)
-            self._value_si = _frozen(value * scale + _OFFSET[self.kind_code])
+            self._value_si = _frozen(value * scale + categorical.FILE_OFFSET[self.kind_code])
         if sigma is not None:
             self._sigma = _frozen(sigma)
             self._sigma_si = _frozen(sigma * scale)
 
+    def _set_si_values(self, value_si: NDArray[np.float64] | None,
+                       sigma_si: NDArray[np.float64] | None) -> None:
+        """Store new SI values and/or sigmas (owned arrays); file units follow on first use."""
+        if value_si is not None:
+            self._value_si, self._value = _frozen(value_si), None
+        if sigma_si is not None:
+            self._sigma_si, self._sigma = _frozen(sigma_si), None
+
     def _set_kinds(self, text: NDArray[np.str_]) -> None:
         """Store the kind codes of a text column (the SI values are the caller's job)."""
-        self.kind_code = _kind_codes(text)
+        self.kind_code = categorical.kind_codes(text)
         self._kind: NDArray[np.str_] | None = None
         self._kinds: tuple[str, ...] | None = None
 
     def _set_sensors(self, text: NDArray[np.str_]) -> None:
         """Store the sensor codes and names of a text column."""
-        names, codes = _first_appearance(text)
+        names, codes = categorical.first_appearance(text)
         self.sensor_code = codes.astype(np.int32)
         self.sensor_names: tuple[str, ...] = tuple(names.tolist())
         self._sensor: NDArray[np.str_] | None = None
@@ -192,8 +175,13 @@ class MeasurementSet:
     def value(self) -> NDArray[np.float64]:
         """Measured values in the file unit of each row's kind (deg, deg/s, m, m/s, Hz, dBm).
 
-        Read-only; assigning a new array recomputes :attr:`value_si`.
+        Read-only; assigning a new array recomputes :attr:`value_si`.  Exactly the file's
+        numbers for a set read from a file; derived from :attr:`value_si` on first use for a
+        set built in SI (:meth:`from_si`).
         """
+        if self._value is None:
+            self._value = _frozen((self._value_si - categorical.FILE_OFFSET[self.kind_code])
+                                  / categorical.FILE_SCALE[self.kind_code])
         return self._value
 
     @value.setter
@@ -203,6 +191,8 @@ class MeasurementSet:
     @property
     def sigma(self) -> NDArray[np.float64]:
         """Noise standard deviations in the file unit of ``value`` (dB for power); read-only."""
+        if self._sigma is None:
+            self._sigma = _frozen(self._sigma_si / categorical.FILE_SCALE[self.kind_code])
         return self._sigma
 
     @sigma.setter
@@ -211,25 +201,21 @@ class MeasurementSet:
 
     @property
     def value_si(self) -> NDArray[np.float64]:
-        """Values in SI (radians, rad/s, m, m/s, Hz, dBW); read-only, computed once."""
+        """Values in SI (radians, rad/s, m, m/s, Hz, dBW); read-only, the stored form.
+
+        Assigning a new array replaces them (the file-unit twin follows on first use).
+        """
         return self._value_si
+
+    @value_si.setter
+    def value_si(self, values: ArrayLike) -> None:
+        self._set_si_values(self._new_column("value_si", values), None)
 
     @property
     def sigma_si(self) -> NDArray[np.float64]:
         """Noise standard deviations in SI (dB for power); read-only, computed once."""
         return self._sigma_si
 
-    def si(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Return the SI values and noise standard deviations (read-only).
-
-        Returns
-        -------
-        value_si, sigma_si : ndarray, shape (n,)
-            As :attr:`value_si` and :attr:`sigma_si` (rad, rad/s, m, m/s, Hz, dBW; dB).
-        """
-        return self._value_si, self._sigma_si
-
-    # -- categorical columns ---------------------------------------------------------------
     @property
     def kind(self) -> NDArray[np.str_]:
         """Each row's kind as text (built from :attr:`kind_code` on first use, then kept)."""
@@ -237,13 +223,14 @@ class MeasurementSet:
             # As narrow as the longest kind present (string comparisons cost by width);
             # the names of absent kinds, cut short, are never indexed.
             width = max((len(k) for k in self.kinds), default=1)
-            self._kind = _kind_table(width)[self.kind_code]
+            self._kind = categorical.kind_table(width)[self.kind_code]
         return self._kind
 
     @kind.setter
     def kind(self, kinds: ArrayLike) -> None:
+        value, sigma = np.array(self.value), np.array(self.sigma)
         self._set_kinds(self._new_column("kind", kinds, str))
-        self._set_file_values(np.array(self._value), np.array(self._sigma))
+        self._set_file_values(value, sigma)
 
     @property
     def sensor(self) -> NDArray[np.str_]:
@@ -293,7 +280,6 @@ class MeasurementSet:
             return np.zeros(len(self), dtype=bool)
         return self.sensor_code == code
 
-    # -- size and parts ------------------------------------------------------------------
     def __len__(self) -> int:
         """Return the number of rows."""
         return int(self.time.shape[0])
@@ -310,14 +296,30 @@ class MeasurementSet:
     def sensors(self) -> list[str]:
         """Sensor ids in order of first appearance (computed once)."""
         if self._sensors is None:
-            codes, _ = _first_appearance(self.sensor_code)
+            codes, _ = categorical.first_appearance(self.sensor_code)
             self._sensors = tuple(self.sensor_names[c] for c in codes.tolist())
         return list(self._sensors)
 
+    def kind_flag(self, hook: str) -> NDArray[np.bool_]:
+        """Mark the rows whose kind sets the boolean hook ``hook`` (an integer lookup).
+
+        Parameters
+        ----------
+        hook : str
+            A boolean class attribute of :class:`tmakit.measurements.MeasurementModel`
+            (``"mirror_symmetric"``, ``"gives_height"``, ``"uses_reference"``, ...).
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True on the rows of kinds that set it.
+        """
+        return categorical.kind_flags(hook)[self.kind_code]
+
     @property
     def dim(self) -> int:
-        """3 if any sensor leaves the plane z = 0 or measures elevation, else 2."""
-        if "elevation" in self.kinds:
+        """3 if any sensor leaves the plane z = 0 or a kind gives height (elevation), else 2."""
+        if any(KINDS[k].gives_height for k in self.kinds):
             return 3
         return 3 if np.any(self.sensor_state[:, 2] != 0) or np.any(
             self.sensor_state[:, 5] != 0) else 2
@@ -348,7 +350,8 @@ class MeasurementSet:
         out = object.__new__(MeasurementSet)
         out.time, out.kind_code = self.time[idx], self.kind_code[idx]
         out.sensor_code, out.sensor_names = self.sensor_code[idx], self.sensor_names
-        out._value, out._sigma = _frozen(self._value[idx]), _frozen(self._sigma[idx])
+        out._value = None if self._value is None else _frozen(self._value[idx])
+        out._sigma = None if self._sigma is None else _frozen(self._sigma[idx])
         out._value_si, out._sigma_si = _frozen(self._value_si[idx]), _frozen(self._sigma_si[idx])
         out.sensor_state, out.time_ref = self.sensor_state[idx], self.time_ref[idx]
         out.ref_sensor_state, out.metadata = self.ref_sensor_state[idx], dict(self.metadata)
@@ -399,17 +402,21 @@ class MeasurementSet:
         """
         if not parts:
             raise ValueError("nothing to concatenate")
-        cat = MeasurementSet(
+        cat = MeasurementSet.from_si(
             np.concatenate([p.time for p in parts]),
             np.concatenate([p.sensor for p in parts]),
             np.concatenate([p.kind for p in parts]),
-            np.concatenate([p.value for p in parts]),
-            np.concatenate([p.sigma for p in parts]),
+            np.concatenate([p.value_si for p in parts]),
+            np.concatenate([p.sigma_si for p in parts]),
             np.concatenate([p.sensor_state for p in parts]),
             np.concatenate([p.time_ref for p in parts]),
             np.concatenate([p.ref_sensor_state for p in parts]),
             dict(metadata if metadata is not None else parts[0].metadata),
         )
+        if all(p._value is not None for p in parts):  # keep a file's numbers exactly
+            cat._value = _frozen(np.concatenate([p.value for p in parts]))
+        if all(p._sigma is not None for p in parts):
+            cat._sigma = _frozen(np.concatenate([p.sigma for p in parts]))
         return cat.sorted()
 
     def sorted(self) -> MeasurementSet:
@@ -482,7 +489,8 @@ class MeasurementSet:
         """Unpickle, keeping the value arrays read-only."""
         self.__dict__.update(state)
         for name in ("_value", "_sigma", "_value_si", "_sigma_si"):
-            state[name].flags.writeable = False
+            if state[name] is not None:
+                state[name].flags.writeable = False
 
     def __repr__(self) -> str:
         """Return ``MeasurementSet(n rows: count kind from sensor, ...)``."""

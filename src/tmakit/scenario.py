@@ -103,12 +103,12 @@ class MeasurementPlan:
                 raise ValueError("power: give either snr_db or sigma, not both")
         elif self.sigma is None or not self.sigma > 0:
             raise ValueError(f"{self.kind} from {self.sensor}: sigma must be positive")
-        if self.kind == "range_difference":
+        if KINDS[self.kind].uses_reference:  # range differences: pulse interval and lags
             if self.pri is None or not self.pri > 0:
-                raise ValueError("range_difference: the pulse repetition interval pri (s) "
+                raise ValueError(f"{self.kind}: the pulse repetition interval pri (s) "
                                  "must be positive")
             if not self.lags or any(int(lag) < 1 for lag in self.lags):
-                raise ValueError("range_difference: lags must be whole numbers >= 1")
+                raise ValueError(f"{self.kind}: lags must be whole numbers >= 1")
             self.lags = tuple(int(lag) for lag in self.lags)
 
 
@@ -219,11 +219,16 @@ class Scenario:
         return self.motion.states(self.theta, np.atleast_1d(np.asarray(t, dtype=float)))
 
     # -- simulation ------------------------------------------------------------------------
-    def _layout(self, plan: MeasurementPlan) -> MeasurementSet:
-        """Lay out the rows of one plan with noise-free placeholders for value and sigma."""
+    def _layout(self, plan: MeasurementPlan,
+                states: dict[tuple[str, bytes], NDArray[np.float64]]) -> MeasurementSet:
+        """Lay out the rows of one plan with noise-free placeholders for value and sigma.
+
+        ``states`` keeps the sensor states by (sensor, sample times) between the plans of one
+        simulation: plans of one sensor at the same times (power and frequency) share them.
+        """
         track = self.sensors[plan.sensor]
         model = KINDS[plan.kind]
-        if plan.kind == "range_difference":
+        if model.uses_reference:  # differences with earlier samples, lags back
             t_all, t_ref_all, lag_all = [], [], []
             for lag in plan.lags:
                 t_ref = plan.times - lag * plan.pri
@@ -243,9 +248,12 @@ class Scenario:
             sigma_si = np.full(times.shape, plan.sigma if plan.sigma is not None
                                else snr_to_sigma_db(plan.snr_db))
         n = times.shape[0]
-        return MeasurementSet(times, np.full(n, plan.sensor), np.full(n, plan.kind),
-                              np.zeros(n), model().sigma_from_si(sigma_si),
-                              track.states(times), time_ref, ref_state)
+        key = (plan.sensor, times.tobytes())
+        if key not in states:
+            states[key] = track.states(times)
+        return MeasurementSet.from_si(times, np.full(n, plan.sensor), np.full(n, plan.kind),
+                                      np.zeros(n), sigma_si, states[key], time_ref,
+                                      ref_state)
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
         """Observe the scenario.
@@ -260,7 +268,7 @@ class Scenario:
         Returns
         -------
         MeasurementSet
-            The measurements in file units, rows grouped by sensor and in time order, with
+            The measurements (SI), rows grouped by sensor and in time order, with
             metadata (scenario, motion, truth, noise, seed if ``rng`` is an int, ...).
 
         Raises
@@ -296,8 +304,9 @@ class Scenario:
             As :meth:`simulate`.
         """
         plans = []  # (plan, rows, noise-free values SI, model), in plan order
+        states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
         for plan in self.plans:
-            rows = self._layout(plan)
+            rows = self._layout(plan, states)
             obs = ObservationModel(rows, self.motion, self.measurement_options)
             clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
             plans.append((plan, rows, clean, obs.models[plan.kind]))
@@ -318,20 +327,20 @@ class Scenario:
         # the plans' rows one after the other.
         n = [rows.time.shape[0] for _, rows, _, _ in plans]
         for (_, rows, _, _), start in zip(plans, np.cumsum([0, *n[:-1]]), strict=True):
-            rows.value = start + np.arange(rows.time.shape[0], dtype=float)
+            rows.value_si = start + np.arange(rows.time.shape[0], dtype=float)
         template = MeasurementSet.concatenate([rows for _, rows, _, _ in plans], meta)
-        order = template.value.astype(int)
+        order = template.value_si.astype(int)
         out = []
         for rng in rngs:
             gen = as_generator(rng)
             values = []
             for plan, rows, clean, model in plans:
                 value_si = self._noisy(plan, rows, clean, gen) if noise else clean
-                if plan.kind == "bearing":  # files carry bearings in [0, 360) degrees
-                    value_si = np.mod(value_si, 2.0 * np.pi)
-                values.append(model.value_from_si(value_si))
+                if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
+                    value_si = np.mod(value_si, model.wrap_period)
+                values.append(value_si)
             meas = template.take(np.arange(len(template)))
-            meas.value = np.concatenate(values)[order]
+            meas.value_si = np.concatenate(values)[order]
             if isinstance(rng, int):
                 meas.metadata["seed"] = str(rng)
             out.append(meas)
@@ -348,7 +357,7 @@ class Scenario:
                                  "multiplicative noise model (a power came out negative); "
                                  "give sigma in dB instead")
             return clean + 10.0 * np.log10(1.0 + rel_noise)
-        if plan.kind == "range_difference":
+        if KINDS[plan.kind].uses_reference:
             # One independent noise term per pulse interval, summed over each difference.
             assert plan.pri is not None and plan.sigma is not None
             t0 = float(rows.time_ref.min())

@@ -420,13 +420,8 @@ def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarP
     from ..observation import ObservationModel
 
     meas = problem.obs.meas
-    values = np.array(meas.value, dtype=float)
-    si = y_grouped[problem.obs.inverse]
-    for kind, model in problem.obs.models.items():
-        sel = meas.kind == kind
-        values[sel] = model.value_from_si(si[sel])
     copy = meas.take(np.arange(len(meas)))
-    copy.value = values
+    copy.value_si = y_grouped[problem.obs.inverse]
     obs = ObservationModel(copy, problem.obs.motion, problem.obs.options)
     return VarProProblem(obs, problem.noise, problem.fixed)
 

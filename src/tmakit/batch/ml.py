@@ -282,7 +282,8 @@ def mirror_plane(problem: VarProProblem) -> float | None:
     """Return the height of a plane through every sensor that mirrors the track unseen.
 
     Reflecting the track through it leaves every measurement unchanged when all sensors are at
-    one height, none moves vertically, no elevation is measured and the motion is 3-D.
+    one height, none moves vertically, every kind is ``mirror_symmetric`` (elevation is not)
+    and the motion is 3-D.
 
     Parameters
     ----------
@@ -295,7 +296,8 @@ def mirror_plane(problem: VarProProblem) -> float | None:
         The plane's height (m), or None when there is no such plane.
     """
     meas, motion = problem.obs.meas, problem.obs.motion
-    if motion.dim != 3 or "z" not in motion.param_names or np.any(meas.kind == "elevation"):
+    if (motion.dim != 3 or "z" not in motion.param_names
+            or not np.all(meas.kind_flag("mirror_symmetric"))):
         return None
     z = np.concatenate([meas.sensor_state[:, 2], meas.ref_sensor_state[:, 2]])
     z = z[np.isfinite(z)]

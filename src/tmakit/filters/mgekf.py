@@ -79,12 +79,6 @@ from .ekf import LOG_2PI, ExtendedKalmanFilter, gaussian_update
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
 MU_FLOOR = 1e-3
 
-#: Kinds whose predictions do not change when the target is mirrored through the horizontal
-#: plane of the sensors (elevation does).
-MIRROR_SYMMETRIC_KINDS = frozenset({"bearing", "azimuth_rate", "range", "range_rate",
-                                    "range_difference", "frequency", "power"})
-
-
 @dataclass(frozen=True)
 class ModifiedRows:
     """Modified-gain bearing rows of Chen & Sun, §2.3.
@@ -238,7 +232,7 @@ def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
     """Find the horizontal plane the predictions of ``rows`` are mirror-symmetric about.
 
     They are when all sensors, and reference sensors of range differences, are at one
-    height with zero vertical velocity and every kind is in :data:`MIRROR_SYMMETRIC_KINDS`.
+    height with zero vertical velocity and every kind is ``mirror_symmetric`` (a hook of the kind).
 
     Parameters
     ----------
@@ -252,10 +246,10 @@ def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
     float or None
         Height of the plane (m), or None if the rows are not symmetric.
     """
-    if len(rows) == 0 or not set(rows.kind) <= MIRROR_SYMMETRIC_KINDS:
+    if len(rows) == 0 or not np.all(rows.kind_flag("mirror_symmetric")):
         return None
     states = [rows.sensor_state]
-    rd = rows.kind == "range_difference"
+    rd = rows.kind_flag("uses_reference")
     if np.any(rd):
         states.append(rows.ref_sensor_state[rd])
     st = np.concatenate(states)

@@ -217,8 +217,8 @@ def _vector_rows(meas: MeasurementSet, s: str, d: _SensorData, pts: NDArray[np.i
         row = d.bearing[p]
         if row >= 0:
             infl = inflation[0][p] if inflation is not None else 1.0
-            rows.append((meas.time[row], s, "bearing", meas.value[row],
-                         meas.sigma[row] * np.sqrt(infl), meas.sensor_state[row],
+            rows.append((meas.time[row], s, "bearing", value_si[row],
+                         sigma_si[row] * np.sqrt(infl), meas.sensor_state[row],
                          np.nan, nan6))
     for a, b in pairwise(pts):  # sample a later than sample b
         links = d.link[b + 1:a + 1]
@@ -235,14 +235,14 @@ def _vector_rows(meas: MeasurementSet, s: str, d: _SensorData, pts: NDArray[np.i
 
 
 def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
-    """Build a measurement set from rows in file units.
+    """Build a measurement set from rows in SI.
 
     Each row is ``(time, sensor, kind, value, sigma, sensor state, time_ref, reference
     state)``.
     """
     cols = list(zip(*rows, strict=True))
     n = len(rows)
-    return MeasurementSet(
+    return MeasurementSet.from_si(
         np.array(cols[0], dtype=float), np.array(cols[1]), np.array(cols[2]),
         np.array(cols[3], dtype=float), np.array(cols[4], dtype=float),
         np.array(cols[5], dtype=float).reshape(n, 6), np.array(cols[6], dtype=float),

@@ -23,6 +23,7 @@ class AzimuthRate(MeasurementModel):
 
     kind = "azimuth_rate"
     file_unit = "deg/s"
+    mirror_symmetric = True
     file_scale = np.pi / 180.0
     uses_velocity = True
 

@@ -14,96 +14,15 @@ differences (:class:`RangeDifference`) also take the relative state at the earli
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
+from .geometry import as_rel, dot3, inverse_range_and_unit, zeros_nuisance
+from .values import Jacobian, ValueRange
 
-
-@dataclass(frozen=True)
-class Jacobian:
-    """Derivatives of predicted values ``(..., n)``, SI value units per m, m/s or nuisance unit.
-
-    Parameters
-    ----------
-    rel : ndarray
-        d value / d relative state, ``(..., n, 6)``.
-    rel_ref : ndarray or None
-        d value / d relative state at the reference (earlier) sample, or None.
-    nuisance : ndarray
-        d value / d nuisance parameters, ``(..., n, k)`` (k may be 0).
-    """
-
-    rel: Array
-    rel_ref: Array | None
-    nuisance: Array
-
-
-@dataclass(frozen=True)
-class ValueRange:
-    """The values a file may hold for a kind, in the file unit (deg, Hz, m, ...).
-
-    Parameters
-    ----------
-    noun : str
-        The kind's value with its article, as the file checker names it ("a bearing").
-    low, high : float or None
-        The limits (None: unbounded on that side).
-    low_inclusive, high_inclusive : bool
-        Whether a value equal to the limit is valid.
-    """
-
-    noun: str
-    low: float | None = None
-    high: float | None = None
-    low_inclusive: bool = True
-    high_inclusive: bool = True
-
-    def contains(self, values: ArrayLike) -> NDArray[np.bool_]:
-        """Tell where values lie in the range.
-
-        Parameters
-        ----------
-        values : array_like
-            Values in the kind's file unit.
-
-        Returns
-        -------
-        ndarray of bool
-            Same shape as ``values``; True where the value lies in the range.
-        """
-        v = np.asarray(values, dtype=float)
-        ok = np.ones(v.shape, dtype=bool)
-        if self.low is not None:
-            ok &= (v >= self.low) if self.low_inclusive else (v > self.low)
-        if self.high is not None:
-            ok &= (v <= self.high) if self.high_inclusive else (v < self.high)
-        return ok
-
-    def describe(self, unit: str) -> str:
-        """Say what a valid value is, as the file checker words it.
-
-        Parameters
-        ----------
-        unit : str
-            The kind's file unit ("deg", "Hz").
-
-        Returns
-        -------
-        str
-            E.g. "a bearing within [-360, 360] deg", "a frequency > 0 Hz".
-        """
-        if self.low is not None and self.high is not None:
-            left = "[" if self.low_inclusive else "("
-            right = "]" if self.high_inclusive else ")"
-            return f"{self.noun} within {left}{self.low:g}, {self.high:g}{right} {unit}"
-        if self.low is not None:
-            return f"{self.noun} {'>=' if self.low_inclusive else '>'} {self.low:g} {unit}"
-        if self.high is not None:
-            return f"{self.noun} {'<=' if self.high_inclusive else '<'} {self.high:g} {unit}"
-        return f"{self.noun} (any value) in {unit}"
+__all__ = ["Jacobian", "MeasurementModel", "ValueRange", "as_rel", "dot3",
+           "inverse_range_and_unit", "zeros_nuisance"]
 
 
 class MeasurementModel:
@@ -115,7 +34,9 @@ class MeasurementModel:
     registration in :data:`tmakit.measurements.KINDS`: :attr:`value_range` (checked by the
     file reader, :meth:`check_values`), :attr:`uses_reference` (an earlier sample),
     :attr:`correlated_noise` and :meth:`noise_covariance` (the noise of rows of one sensor),
-    :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure).
+    :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure),
+    :attr:`mirror_symmetric` and :attr:`gives_height` (the sensor-plane ambiguity),
+    :attr:`wrap_period` (how simulated values are written).
     """
 
     #: Name used in files (the ``kind`` column).
@@ -135,6 +56,14 @@ class MeasurementModel:
     value_range: ValueRange | None = None
     #: Rows of one sensor have correlated noise (:meth:`noise_covariance` is not diagonal).
     correlated_noise: bool = False
+    #: Predictions do not change when the target is mirrored through a horizontal plane of
+    #: the sensors (the sensor-plane ambiguity of 3-D tracking; elevation breaks it).
+    mirror_symmetric: bool = False
+    #: The kind measures height above the sensor, so a set holding it is 3-D.
+    gives_height: bool = False
+    #: Simulated values are written wrapped into ``[0, wrap_period)`` (SI; None: not wrapped),
+    #: as files carry bearings in [0, 360) degrees.
+    wrap_period: float | None = None
 
     @classmethod
     def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:
@@ -431,69 +360,3 @@ class MeasurementModel:
     def __repr__(self) -> str:
         """Name the kind with its options, e.g. ``Bearing()``."""
         return f"{type(self).__name__}()"
-
-
-def as_rel(rel: ArrayLike) -> Array:
-    """Check and return a relative-state array.
-
-    Parameters
-    ----------
-    rel : array_like
-        Relative states ``(..., 6)``: position in m, velocity in m/s.
-
-    Returns
-    -------
-    ndarray
-        ``rel`` as a float array.
-
-    Raises
-    ------
-    ValueError
-        If the last axis does not have 6 components.
-    """
-    rel = np.asarray(rel, dtype=float)
-    if rel.ndim == 0 or rel.shape[-1] != 6:
-        raise ValueError(f"relative states must have 6 components (position, velocity); "
-                         f"got shape {rel.shape}")
-    return rel
-
-
-def dot3(a: Array, b: Array) -> Array:
-    """Give the row-wise dot product of two arrays (fast for any memory layout).
-
-    Parameters
-    ----------
-    a, b : ndarray
-        ``(..., 3)`` arrays, any units.
-
-    Returns
-    -------
-    ndarray
-        ``(...)``, in the units of ``a`` times those of ``b``.
-    """
-    return np.einsum("...i,...i->...", a, b)
-
-
-def inverse_range_and_unit(rel: Array) -> tuple[Array, Array]:
-    """Give ``(1 / r, p / r)`` for the relative position ``p = rel[..., :3]``, ``r = |p|``.
-
-    Parameters
-    ----------
-    rel : ndarray
-        Relative states ``(..., 6)``, position in m.
-
-    Returns
-    -------
-    inv_r : ndarray
-        ``(...)``, 1/m.
-    unit : ndarray
-        ``(..., 3)``, the unit line-of-sight vector (dimensionless).
-    """
-    p = rel[..., :3]
-    inv_r = 1.0 / np.sqrt(dot3(p, p))
-    return inv_r, p * inv_r[..., None]
-
-
-def zeros_nuisance(rel: Array) -> Array:
-    """Give zeros ``(..., n, 0)`` for ``rel`` ``(..., n, 6)``: a nuisance Jacobian of none."""
-    return np.zeros((*rel.shape[:-1], 0))

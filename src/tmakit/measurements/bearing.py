@@ -23,6 +23,8 @@ class Bearing(MeasurementModel):
 
     kind = "bearing"
     file_unit = "deg"
+    mirror_symmetric = True
+    wrap_period = 2.0 * np.pi
     file_scale = np.pi / 180.0
     is_angle = True
     value_range = ValueRange("a bearing", -360.0, 360.0)

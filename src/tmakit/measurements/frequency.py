@@ -44,6 +44,7 @@ class Frequency(MeasurementModel):
 
     kind = "frequency"
     file_unit = "Hz"
+    mirror_symmetric = True
     uses_velocity = True
     value_range = ValueRange("a frequency", 0.0, low_inclusive=False)
 

@@ -40,6 +40,7 @@ class Power(MeasurementModel):
 
     kind = "power"
     file_unit = "dBm"
+    mirror_symmetric = True
     file_offset = -DBM_MINUS_DBW
 
     def __init__(self, exponent: float | None = 2.0) -> None:

@@ -13,6 +13,7 @@ class Range(MeasurementModel):
 
     kind = "range"
     file_unit = "m"
+    mirror_symmetric = True
     value_range = ValueRange("a range", 0.0)
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,

@@ -30,6 +30,7 @@ class RangeDifference(MeasurementModel):
 
     kind = "range_difference"
     file_unit = "m"
+    mirror_symmetric = True
     uses_reference = True
     correlated_noise = True
 

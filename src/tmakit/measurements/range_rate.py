@@ -66,6 +66,7 @@ class RangeRate(MeasurementModel):
 
     kind = "range_rate"
     file_unit = "m/s"
+    mirror_symmetric = True
     uses_velocity = True
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,

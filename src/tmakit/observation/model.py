@@ -71,7 +71,7 @@ class ObservationModel:
         g = self.grouped
         self._time = g.time
         self._sensor = g.sensor_state
-        self.values, self.sigmas = meas.si()
+        self.values, self.sigmas = meas.value_si, meas.sigma_si
         self.values_grouped = self.values[self.order]
         self.sigmas_grouped = self.sigmas[self.order]
         self._set_row_model()
