@@ -188,9 +188,9 @@ class Planner:
         violations : list of Violation
             One per constraint, amounts of shape ``(*B * A,)`` flattened.
         """
-        start = PlatformState(platform.position[..., None, :], platform.heading[..., None],
-                              platform.speed[..., None], platform.climb_rate[..., None],
-                              platform.time)
+        start = PlatformState.trusted(platform.position[..., None, :],
+                                      platform.heading[..., None], platform.speed[..., None],
+                                      platform.climb_rate[..., None], platform.time)
         steps = self.kinematics.step(start, self.actions, self.interval)
         t0 = platform.time
         offsets = self.plan.measurement_times(self.interval)

@@ -280,10 +280,10 @@ class PlatformKinematics:
         pos = np.broadcast_to(state.position, (*shape, 3))
         psi0 = np.broadcast_to(state.heading, shape)
         end = propagate_constant_turn(pos, psi0, v0, c, w, acc, T)
-        start = PlatformState(pos, psi0, v0, np.broadcast_to(state.climb_rate, shape),
-                              state.time)
-        return Step(start, PlatformState(end[..., :3], psi0 + w * T, v_end, c, state.time + T),
-                    w, acc, c, T, flags["speed range"], flags["turn-rate limit"],
+        trusted = PlatformState.trusted     # every field derived from checked ones
+        end = trusted(end[..., :3], psi0 + w * T, v_end, c, state.time + T)
+        return Step(trusted(pos, psi0, v0, np.broadcast_to(state.climb_rate, shape), state.time),
+                    end, w, acc, c, T, flags["speed range"], flags["turn-rate limit"],
                     flags["acceleration limit"], flags["climb-rate limit or altitude band"])
 
     def sensor_states(self, state: PlatformState, actions: Actions, interval: float,

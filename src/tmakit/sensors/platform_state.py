@@ -169,6 +169,37 @@ class PlatformState:
         object.__setattr__(self, "time", float(time))
 
     @classmethod
+    def trusted(cls, position: Array, heading: Array, speed: Array, climb_rate: Array,
+                time: float) -> PlatformState:
+        """Make a state from fields already checked, without checking them again (fast path).
+
+        For code that derives a state from checked states (a kinematic step): no broadcasting,
+        no finiteness or sign checks; the heading is wrapped to ``(-pi, pi]`` as by the
+        constructor and every field is copied as a float array.
+
+        Parameters
+        ----------
+        position : ndarray, shape (*shape, 3)
+            ENU position (m).
+        heading, speed, climb_rate : ndarray, shape shape
+            Heading (rad clockwise from North), speed (m/s, >= 0), climb rate (m/s), all of
+            the batch shape ``shape`` of ``position[..., 0]``.
+        time : float
+            Time (s).
+
+        Returns
+        -------
+        PlatformState
+        """
+        state = object.__new__(cls)
+        object.__setattr__(state, "position", np.array(position, dtype=float))
+        object.__setattr__(state, "heading", wrap_angle(np.array(heading, dtype=float)))
+        object.__setattr__(state, "speed", np.array(speed, dtype=float))
+        object.__setattr__(state, "climb_rate", np.array(climb_rate, dtype=float))
+        object.__setattr__(state, "time", float(time))
+        return state
+
+    @classmethod
     def from_velocity(cls, position: ArrayLike, velocity: ArrayLike,
                       time: float = 0.0) -> PlatformState:
         """Make the state of a platform at ``position`` moving with ENU ``velocity``.
