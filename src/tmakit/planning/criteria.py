@@ -58,13 +58,41 @@ def bound_covariance(information: Array) -> Array:
 
 
 class Criterion(Protocol):
-    """A scalar cost of Bayesian information, smaller is better (vectorised)."""
+    """A scalar cost of Bayesian information, smaller is better (vectorised).
+
+    A criterion that is a function of ``J^{-1}`` may also define ``of_covariance(cov)``, the
+    same cost from :func:`bound_covariance` of ``J`` (already computed by the caller);
+    :func:`evaluate` uses it when present.
+    """
 
     name: str
 
     def __call__(self, information: Array) -> Array:
         """Return the cost (...,) of ``information`` (..., n, n), SI."""
         ...
+
+
+def evaluate(criterion: Criterion, information: Array, covariance: Array | None = None) -> Array:
+    """Return ``criterion(information)``, from ``covariance`` when the criterion can.
+
+    Parameters
+    ----------
+    criterion : Criterion
+        The cost.
+    information : ndarray, shape (..., n, n)
+        ``J``, SI.
+    covariance : ndarray, shape (..., n, n), optional
+        ``bound_covariance(information)`` if the caller has it (SI): criteria with an
+        ``of_covariance`` method are evaluated on it (the same numbers, one inversion fewer).
+
+    Returns
+    -------
+    ndarray, shape (...,)
+    """
+    of_covariance = getattr(criterion, "of_covariance", None)
+    if covariance is None or of_covariance is None:
+        return criterion(information)
+    return np.asarray(of_covariance(covariance), dtype=float)
 
 
 def block_indices(block: Block, n: int) -> Array:
@@ -130,9 +158,12 @@ class WeightedTrace:
 
     def __call__(self, information: Array) -> Array:
         """Return ``Tr{Pi J^{-1}}`` (...,) (m^2 with the default weights)."""
-        info = np.asarray(information, dtype=float)
-        pi = self.matrix(info.shape[-1])
-        return np.einsum("ij,...ji->...", pi, bound_covariance(info))
+        return self.of_covariance(bound_covariance(np.asarray(information, dtype=float)))
+
+    def of_covariance(self, covariance: Array) -> Array:
+        """Return ``Tr{Pi C}`` (...,) of ``C = J^{-1}`` (..., n, n), SI."""
+        pi = self.matrix(covariance.shape[-1])
+        return np.einsum("ij,...ji->...", pi, covariance)
 
 
 @dataclass(frozen=True)
@@ -156,10 +187,12 @@ class LogDet:
 
     def __call__(self, information: Array) -> Array:
         """Return ``log det`` of the chosen block of ``J^{-1}`` (...,)."""
-        info = np.asarray(information, dtype=float)
-        idx = block_indices(self.block, info.shape[-1])
-        cov = bound_covariance(info)[..., idx[:, None], idx[None, :]]
-        sign, logdet = np.linalg.slogdet(cov)
+        return self.of_covariance(bound_covariance(np.asarray(information, dtype=float)))
+
+    def of_covariance(self, covariance: Array) -> Array:
+        """Return ``log det`` of the chosen block of ``C = J^{-1}`` (..., n, n)."""
+        idx = block_indices(self.block, covariance.shape[-1])
+        sign, logdet = np.linalg.slogdet(covariance[..., idx[:, None], idx[None, :]])
         return np.where(sign > 0, logdet, np.inf)
 
 

@@ -31,7 +31,7 @@ from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
-from .criteria import Criterion, WeightedTrace, bound_covariance
+from .criteria import Criterion, WeightedTrace, bound_covariance, evaluate
 from .horizon import Continuation, penalties, search
 from .measurement_plan import SensorPlan
 
@@ -89,10 +89,13 @@ class Recommendation:
         return self.actions[self.index]
 
 
-def position_bound(information: Array) -> Array:
-    """Return ``sqrt(trace)`` of the position block of ``J^{-1}`` (...,), m."""
+def position_bound(information: Array, covariance: Array | None = None) -> Array:
+    """Return ``sqrt(trace)`` of the position block of ``J^{-1}`` (...,), m.
+
+    ``covariance``, if given, is ``bound_covariance(information)`` already computed.
+    """
     dim = information.shape[-1] // 2
-    cov = bound_covariance(information)
+    cov = bound_covariance(information) if covariance is None else covariance
     return np.sqrt(np.clip(np.einsum("...ii->...", cov[..., :dim, :dim]), 0.0, None))
 
 
@@ -243,12 +246,13 @@ class Planner:
         steps, info, viol = self.expand(platform, belief.posterior.information, belief, 0,
                                         self.gamma)
         factor, bad = penalties(viol, len(self.actions))
-        cost = self.criterion(info) * factor
+        cov = bound_covariance(info)      # once, for the criterion and the bound
+        cost = evaluate(self.criterion, info, cov) * factor
         if self.horizon > 1 or self.continuation is not None:
             found = search(self, steps.end, steps.turn_rate, info, belief, factor, bad,
                            self.beam, self.continuation)
             cost, bad = found.cost, found.bad
-        return _choose(self.actions, steps, info, cost, bad, viol)
+        return _choose(self.actions, steps, info, cost, bad, viol, position_bound(info, cov))
 
     def advance(self, belief: Belief, recommendation: Recommendation, states: Array,
                 weights: Array | None = None) -> Belief:
@@ -277,10 +281,10 @@ class Planner:
 
 
 def _choose(actions: Actions, steps: Step, info: Array, cost: Array, bad: Array,
-            violations: list[Violation]) -> Recommendation:
+            violations: list[Violation], bound: Array) -> Recommendation:
     feasible = bad <= 0.0
     all_bad = not bool(feasible.any())
     # feasible first by cost; if none, least total violation, then cost
     index = int(np.lexsort((cost, np.where(feasible, 0.0, bad)))[0])
-    return Recommendation(index, actions, steps, info, cost, position_bound(info), feasible,
+    return Recommendation(index, actions, steps, info, cost, bound, feasible,
                           {v.name: v.amount for v in violations}, all_bad)
