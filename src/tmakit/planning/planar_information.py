@@ -87,19 +87,55 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
     ndarray, shape (*B, 4, 4)
         SI.
 
+    Notes
+    -----
+    The fields ``A``, ``B``, ``E`` are linear in the products ``1/r^2``, ``q/r``, ``q^2``,
+    ``1/r`` and ``q``: only the products the plan needs are formed per cloud member (times
+    ``1``, ``c2`` and ``cs``), summed by one matrix-vector product per block, and combined
+    with the constant coefficients afterwards (on ``C`` numbers, not ``C N``).
+
     References
     ----------
     Hurtado & Nehorai (2008), eqs. 11 and 13.
     """
     k = _coefficients(plan)
+    basis = _basis(k)
     batch = sensor_states.shape[:-1]
     s = sensor_states.reshape(-1, 6)
     block = max(1, BLOCK_ELEMENTS // s.shape[0])
-    sums = np.zeros((11, s.shape[0]))
+    sums = np.zeros((2 + 3 * len(basis), s.shape[0]))
     cols = np.ascontiguousarray(states.T)
     for lo in range(0, states.shape[0], block):   # blocks of the cloud, not members
-        sums += _block_sums(k, cols[:, lo:lo + block], weights[lo:lo + block], s)
-    return _assemble(k, sums).reshape(*batch, 4, 4)
+        sums += _block_sums(basis, cols[:, lo:lo + block], weights[lo:lo + block], s)
+    return _assemble(k, _field_sums(basis, sums)).reshape(*batch, 4, 4)
+
+
+#: The products of ``1/r`` and ``q`` the fields are made of, and their coefficients in
+#: ``(A, B, E)`` (names of :func:`_coefficients`, None for none).
+_PRODUCTS = (("ir2", ("A_rr", None, None)), ("irq", ("A_rq", None, None)),
+             ("qq", ("A_qq", None, None)), ("ir", (None, "B_r", "E_r")),
+             ("q", (None, "B_q", "E_q")))
+
+
+def _basis(k: dict[str, float]) -> list[tuple[str, tuple[float, float, float]]]:
+    """Return the products needed (non-zero coefficient) with their coefficients in A, B, E."""
+    out = []
+    for name, keys in _PRODUCTS:
+        coef = tuple(k[n] if n is not None else 0.0 for n in keys)
+        if any(coef):
+            out.append((name, coef))
+    return out   # type: ignore[return-value]
+
+
+def _field_sums(basis: list[tuple[str, tuple[float, float, float]]], sums: Array) -> Array:
+    """Return the eleven weighted sums (11, C) of the fields from the sums of the products."""
+    out = np.zeros((11, sums.shape[1]))
+    out[9:] = sums[:2]
+    for j, (_, coef) in enumerate(basis):
+        for f, c in enumerate(coef):
+            if c:
+                out[3 * f:3 * f + 3] += c * sums[2 + 3 * j:5 + 3 * j]
+    return out
 
 
 class _Workspace(threading.local):
@@ -110,76 +146,64 @@ class _Workspace(threading.local):
     """
 
     def __init__(self) -> None:
-        self.sets: dict[tuple[int, int], dict[str, Array]] = {}
+        self.sets: dict[tuple[int, int, int], dict[str, Array]] = {}
 
-    def get(self, c: int, b: int) -> dict[str, Array]:
-        if (c, b) not in self.sets:
+    def get(self, c: int, b: int, rows: int) -> dict[str, Array]:
+        if (c, b, rows) not in self.sets:
             if len(self.sets) >= 4:   # a few shapes (mean and cloud, last block) at most
                 self.sets.pop(next(iter(self.sets)))
-            names = ("dx", "dy", "dxdy", "dx2", "ir2", "ir", "q", "ux", "uy", "tmp")
+            names = ("dx", "dy", "dx2", "ir2", "ir", "q", "ux", "uy", "tmp")
             arrays = {n: np.empty((c, b)) for n in names}
-            arrays["f"] = np.empty((11, c, b))
-            self.sets[(c, b)] = arrays
-        return self.sets[(c, b)]
+            arrays["f"] = np.empty((rows, c, b))
+            self.sets[(c, b, rows)] = arrays
+        return self.sets[(c, b, rows)]
 
 
 _WORK = _Workspace()
 
 
-def _block_sums(k: dict[str, float], cols: Array, weights: Array, s: Array) -> Array:
-    """Return the eleven weighted sums (11, C) over one block of the cloud."""
+def _block_sums(basis: list[tuple[str, tuple[float, float, float]]], cols: Array,
+                weights: Array, s: Array) -> Array:
+    """Return the weighted sums (2 + 3 P, C) over one block of the cloud.
+
+    Rows: ``E[c2]``, ``E[cs]``, then per product ``g`` of ``basis``: ``E[g]``, ``E[g c2]``,
+    ``E[g cs]``.
+    """
     c, b = s.shape[0], cols.shape[1]
-    w = _WORK.get(c, b)
+    names = [name for name, _ in basis]
+    w = _WORK.get(c, b, 2 + 3 * len(names))
     f = w["f"]
-    f[:9] = 0.0                      # the fields; unused ones stay zero
-    dx, dy, dxdy, dx2, ir2, tmp = w["dx"], w["dy"], w["dxdy"], w["dx2"], w["ir2"], w["tmp"]
+    slot = {name: f[2 + 3 * j] for j, name in enumerate(names)}
+    dx, dy, dx2, tmp = w["dx"], w["dy"], w["dx2"], w["tmp"]
+    ir2 = slot.get("ir2", w["ir2"])
     np.subtract(cols[0][None, :], s[:, 0, None], out=dx)
     np.subtract(cols[1][None, :], s[:, 1, None], out=dy)
-    np.multiply(dx, dy, out=dxdy)
     np.multiply(dx, dx, out=dx2)
     np.multiply(dy, dy, out=ir2)
     ir2 += dx2
     np.reciprocal(ir2, out=ir2)
-    c2, cs = f[9], f[10]
+    c2, cs = f[0], f[1]
     np.multiply(dx2, ir2, out=c2)
-    np.multiply(dxdy, ir2, out=cs)
-    need_q = any(k[n] for n in ("A_rq", "A_qq", "B_q", "E_q"))
-    need_r = any(k[n] for n in ("A_rq", "B_r", "E_r"))
-    ir = np.sqrt(ir2, out=w["ir"]) if need_r else None
-    q = None
-    if need_q:
-        ux, uy, q = w["ux"], w["uy"], w["q"]
+    np.multiply(dx, dy, out=cs)
+    cs *= ir2
+    ir = q = None
+    if {"irq", "ir"} & set(names):
+        ir = np.sqrt(ir2, out=slot.get("ir", w["ir"]))
+    if {"irq", "qq", "q"} & set(names):
+        ux, uy, q = w["ux"], w["uy"], slot.get("q", w["q"])
         np.subtract(cols[2][None, :], s[:, 3, None], out=ux)
         np.subtract(cols[3][None, :], s[:, 4, None], out=uy)
         np.multiply(ux, dy, out=q)
         q -= np.multiply(uy, dx, out=tmp)
         q *= ir2
-    _field(f[0], tmp, ((k["A_rr"], ir2, None), (k["A_rq"], ir, q), (k["A_qq"], q, q)))
-    _field(f[3], tmp, ((k["B_r"], ir, None), (k["B_q"], q, None)))
-    _field(f[6], tmp, ((k["E_r"], ir, None), (k["E_q"], q, None)))
-    used = [i for i, names in ((0, ("A_rr", "A_rq", "A_qq")), (3, ("B_r", "B_q")),
-                               (6, ("E_r", "E_q"))) if any(k[n] for n in names)]
-    for i in used:
-        np.multiply(f[i], c2, out=f[i + 1])
-        np.multiply(f[i], cs, out=f[i + 2])
-    rows = [9, 10] + [i + j for i in used for j in range(3)]
-    sums = np.zeros((11, c))
-    sums[rows] = f[rows] @ weights
-    return sums
-
-
-def _field(out: Array, tmp: Array,
-           terms: tuple[tuple[float, Array | None, Array | None], ...]) -> None:
-    """``out += coefficient * a * b`` (``b`` may be None) over the non-zero terms."""
-    for coef, a, b in terms:
-        if not coef or a is None:
-            continue
-        if b is None:
-            np.multiply(a, coef, out=tmp)
-        else:
-            np.multiply(a, b, out=tmp)
-            tmp *= coef
-        out += tmp
+    if "irq" in slot:
+        np.multiply(ir, q, out=slot["irq"])
+    if "qq" in slot:
+        np.multiply(q, q, out=slot["qq"])
+    for j in range(len(names)):
+        np.multiply(f[2 + 3 * j], c2, out=f[3 + 3 * j])
+        np.multiply(f[2 + 3 * j], cs, out=f[4 + 3 * j])
+    return (f.reshape(-1, b) @ weights).reshape(-1, c)
 
 
 def _assemble(k: dict[str, float], sums: Array) -> Array:
