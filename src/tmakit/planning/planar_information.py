@@ -45,15 +45,32 @@ def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
 
 
 def _coefficients(plan: SensorPlan) -> dict[str, float]:
-    """Return the constant coefficients of the scalar fields, from ``W = R^{-1}``."""
-    m = len(plan.kinds)
-    w = (np.diag(1.0 / plan.sigmas**2) if plan.covariance is None
-         else np.linalg.inv(plan.covariance))
+    """Return the constant coefficients of the scalar fields, from ``W = R^{-1}``.
+
+    Kept per content of the plan (kinds, sigmas, covariance), not per object.
+    """
+    sigmas = np.asarray(plan.sigmas, dtype=float)
+    cov = None if plan.covariance is None else np.asarray(plan.covariance, dtype=float)
+    key = (tuple(plan.kinds), sigmas.tobytes(), None if cov is None else cov.tobytes())
+    if key not in _COEFFICIENTS:
+        if len(_COEFFICIENTS) >= 64:
+            _COEFFICIENTS.clear()
+        _COEFFICIENTS[key] = _compute_coefficients(plan.kinds, sigmas, cov)
+    return _COEFFICIENTS[key]
+
+
+_COEFFICIENTS: dict[tuple[object, ...], dict[str, float]] = {}
+
+
+def _compute_coefficients(kinds: tuple[str, ...], sigmas: Array,
+                          covariance: Array | None) -> dict[str, float]:
+    m = len(kinds)
+    w = np.diag(1.0 / sigmas**2) if covariance is None else np.linalg.inv(covariance)
     alpha = np.zeros(m)   # a_j = alpha_j / r + beta_j q
     beta = np.zeros(m)
     gamma = np.zeros(m)   # b_j
     delta = np.zeros(m)   # c_j
-    for j, kind in enumerate(plan.kinds):
+    for j, kind in enumerate(kinds):
         if kind == "bearing":
             alpha[j] = 1.0
         elif kind == "range":
