@@ -52,7 +52,7 @@ def bound_covariance(information: Array) -> Array:
     except np.linalg.LinAlgError:
         return information_inverse(info)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        low_inv = (_lower_inverse(low) if low.ndim > 2 and low[..., 0, 0].size >= BATCHED_BELOW
+        low_inv = (_lower_inverse(low) if low.ndim > 2 and low[..., 0, 0].size >= BATCHED_FROM
                    else np.linalg.inv(low))
     inv = np.swapaxes(low_inv, -1, -2) @ low_inv
     if not np.all(np.isfinite(inv)):
@@ -63,7 +63,7 @@ def bound_covariance(information: Array) -> Array:
 #: Stacks of at least this many matrices are inverted by :func:`_lower_inverse` (forward
 #: substitution vectorised over the stack: one array operation per entry, far fewer calls
 #: than one small LAPACK inversion per matrix); smaller ones by ``numpy.linalg.inv``.
-BATCHED_BELOW = 64
+BATCHED_FROM = 64
 
 
 def _lower_inverse(low: Array) -> Array:
