@@ -27,8 +27,8 @@ import time
 import numpy as np
 
 from tmakit.bounds.manoeuvre import CrbPoint, curvilinear_crb_sequence
+from tmakit.linalg import normalise
 from tmakit.reproduce import hoerst2010
-from tmakit.results.observability import normalise
 from tmakit.scenario_file import load_scenario
 
 

@@ -20,12 +20,16 @@ SINGLE_THREAD_WORK = 200_000
 def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Multiply ``a @ b`` in row blocks of ``a`` small enough for a single-threaded product.
 
+    Splitting rows does not change any sum.
+
     Parameters
     ----------
     a : numpy.ndarray
         Left factor ``(..., m, k)`` (any units).
     b : numpy.ndarray
-        Right factor, 2-D ``(k, n)`` (any units).
+        Right factor: 2-D ``(k, n)`` (the rows of every leading index of ``a`` are then split
+        together), or a batch ``(..., k, n)`` matching ``a``'s leading axes (the ``m`` rows
+        of each are split) (any units).
 
     Returns
     -------
@@ -33,12 +37,13 @@ def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64
         ``a @ b``, shape ``(..., m, n)``; equal to numpy's product (the blocks only split
         the rows).
     """
-    k, n = b.shape
-    rows = a.reshape(-1, k)
+    k, n = b.shape[-2:]
+    rows = a.reshape(-1, k) if b.ndim == 2 else a
+    count = rows.shape[-2]
     block = max(1, SINGLE_THREAD_WORK // max(1, k * n))
-    if rows.shape[0] <= block:
+    if count <= block:
         return a @ b
-    out = np.empty((rows.shape[0], n))
-    for lo in range(0, rows.shape[0], block):
-        np.matmul(rows[lo:lo + block], b, out=out[lo:lo + block])
+    out = np.empty((*rows.shape[:-1], n))
+    for lo in range(0, count, block):
+        np.matmul(rows[..., lo:lo + block, :], b, out=out[..., lo:lo + block, :])
     return out.reshape(*a.shape[:-1], n)

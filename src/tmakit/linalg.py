@@ -203,3 +203,45 @@ def repair_psd(p: Array) -> Array:
         evals = np.linalg.eigvalsh(p)
         scale = max(float(np.max(np.abs(evals))), 1e-300)
         return nearest_psd(p, floor=p.shape[0] * np.finfo(float).eps * scale)
+
+
+def normalise(info: Array) -> tuple[Array, Array]:
+    """Normalise an information matrix to unit diagonal.
+
+    Parameters
+    ----------
+    info : ndarray, shape (q, q)
+        Fisher information ``F`` (SI units of the parameters, inverse squared).
+
+    Returns
+    -------
+    norm : ndarray, shape (q, q)
+        ``D F D`` (dimensionless).
+    scale : ndarray, shape (q,)
+        ``D = diag(F)^-1/2`` (parameters with no information get 1).
+    """
+    d = np.diag(info).copy()
+    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
+    return info * scale[:, None] * scale[None, :], scale
+
+
+def normalised_eigh(info: Array) -> tuple[Array, Array, Array]:
+    """Eigen-decompose an information matrix in the coordinates of :func:`normalise`.
+
+    Parameters
+    ----------
+    info : ndarray, shape (q, q)
+        Fisher information (SI units of the parameters, inverse squared).
+
+    Returns
+    -------
+    evals : ndarray, shape (q,)
+        Eigenvalues of ``D F D``, ascending (dimensionless).
+    evecs : ndarray, shape (q, q)
+        Its eigenvectors, in columns.
+    scale : ndarray, shape (q,)
+        ``D`` (SI units of the parameters).
+    """
+    norm, scale = normalise(info)
+    evals, evecs = np.linalg.eigh(norm)
+    return evals, evecs, scale

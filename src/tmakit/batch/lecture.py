@@ -45,11 +45,12 @@ import numpy as np
 
 from ..arrays import Array
 from ..data import MeasurementSet
+from ..linalg import normalised_eigh
 from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
 from ..results.estimate import UNOBSERVABLE, EstimateResult, assemble_result
-from ..results.observability import RANK_TOL, normalise
+from ..results.observability import RANK_TOL
 from .estimator import Init, PaperMethod
 from .gu_geometry import DIVERGENCE_FACTOR
 from .solver import VarProProblem
@@ -80,9 +81,10 @@ def _max_range(obs: ObservationModel, theta: Array) -> float:
 def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
     """Return ``(H^T R^-1 H)^+ H^T R^-1 df`` (normalised coordinates), rank and information."""
     info = hw.T @ hw
-    norm, scale = normalise(info)
-    evals, evecs = np.linalg.eigh(norm)
+    evals, evecs, scale = normalised_eigh(info)
     keep = evals > RANK_TOL * max(float(evals[-1]), np.finfo(float).tiny)
+    # The pseudo-inverse of results.bound.pseudo_covariance applied to one vector, without
+    # forming the matrix (rank by RANK_TOL, as results.observability.analyse counts it).
     g = scale * (hw.T @ rw)
     v = evecs[:, keep]
     step = scale * (v @ ((v.T @ g) / evals[keep]))

@@ -114,6 +114,10 @@ def information_inverse(info: Array) -> Array:
     ndarray
         (..., n, n) covariances, SI.
     """
+    # Not tmakit.linalg.normalised_eigh + a pseudo-inverse (results.bound.pseudo_covariance):
+    # the Bayesian information has full rank by its prior, so this is a floored *full*
+    # inverse, batched over leading axes, divided (not multiplied) by sqrt(diag); the PCRB
+    # figures of tests/test_pcrb.py and the planners' choices depend on these numerics.
     d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
     norm = info / (d[..., :, None] * d[..., None, :])
     evals, evecs = np.linalg.eigh(symmetrise(norm))

@@ -297,14 +297,14 @@ def start_sentence(tr: Any) -> str:
     Parameters
     ----------
     tr : tmakit.filters.base.Track
-        The track (``tr.extra["start"]`` describes the start).
+        The track (``tr.extra.start`` describes the start).
 
     Returns
     -------
     str
         One sentence.
     """
-    s = tr.extra["start"]
+    s = tr.extra.start
     if s["method"] == "prior":
         return f"start: the given prior at t = {s['time']:g} s"
     text = (f"start: batch ML estimate over the first {s['window']} measurement times "
@@ -344,7 +344,7 @@ def print_track(tr: Any, truth: Any, n_rows: int) -> None:
 
     dim = len(tr.state_names) // 2
     k_sel = np.unique(np.linspace(0, len(tr) - 1, min(n_rows, len(tr))).round().astype(int))
-    q = ", ".join(f"{v:g}" for v in tr.extra["q"])
+    q = ", ".join(f"{v:g}" for v in tr.extra.q)
     table = Table(title=f"{tr.filter_name} track: {len(tr)} rows, t = {tr.times[0]:g} .. "
                         f"{tr.times[-1]:g} s, q = {q} m/s^2 ({len(k_sel)} rows shown)",
                   title_justify="left")

@@ -9,6 +9,7 @@ from ..motion.dynamics import NearlyConstantVelocity, process_noise, state_names
 from ..observation.groups import MeasurementGroup, group_times
 from .base import Track, TrackingFilter, UpdateInfo
 from .ekf import ExtendedKalmanFilter
+from .extras import TrackExtras
 from .mgekf import ModifiedGainEKF
 from .multilag import multilag_groups
 from .particle import ParticleFilter
@@ -29,6 +30,7 @@ __all__ = [
     "NearlyConstantVelocity",
     "ParticleFilter",
     "Track",
+    "TrackExtras",
     "TrackingFilter",
     "UnscentedKalmanFilter",
     "UpdateInfo",

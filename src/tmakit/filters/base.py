@@ -21,6 +21,7 @@ from ..linalg import check_prior, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .compiled import CompiledMeasurements
+from .extras import TrackExtras
 from .kernels import KernelRun
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -57,12 +58,11 @@ class Track:
     state_names : tuple of str
         Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``).
     times, nis, dof, log_likelihood : numpy.ndarray
-        Per update ``(K,)``: time (s), NIS, its degrees of freedom, cumulative log-likelihood
-        (nats).
+        Per update ``(K,)``: time (s), NIS, degrees of freedom, cumulative log-likelihood (nats).
     states, covariances : numpy.ndarray
         State ``(K, n)`` and covariance ``(K, n, n)`` after each update (m, m/s).
-    extra : dict, optional
-        Filter-specific extras (``skipped_updates``, ...).
+    extra : TrackExtras, optional
+        What the track records beside its rows (skipped updates, how it started, ...).
     """
 
     filter_name: str
@@ -73,7 +73,7 @@ class Track:
     nis: Array
     dof: NDArray[np.int64]
     log_likelihood: Array
-    extra: dict[str, Any] = field(default_factory=dict)
+    extra: TrackExtras = field(default_factory=TrackExtras)
 
     def __len__(self) -> int:
         """Give the number of updates K."""
@@ -497,4 +497,4 @@ class _Recorder:
             parts = [np.concatenate([b[i] for b in self.blocks]) for i in range(6)]
         return Track(filt.name, filt.state_names, parts[0], parts[1].reshape(-1, n),
                      parts[2].reshape(-1, n, n), parts[3], parts[4].astype(np.int64),
-                     parts[5], extra={"skipped_updates": int(filt.skipped_updates)})
+                     parts[5], extra=TrackExtras(skipped_updates=int(filt.skipped_updates)))

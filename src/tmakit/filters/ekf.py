@@ -25,9 +25,13 @@ def _range_scale(group: MeasurementGroup, x: Array, dim: int) -> float:
     return float(np.min(np.linalg.norm(pos - x[:dim], axis=1)))
 
 
-def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
-                    ) -> tuple[Array, Array, UpdateInfo]:
+def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array,
+                    h_cov: Array | None = None) -> tuple[Array, Array, UpdateInfo]:
     """Make a Kalman update (Joseph form, then :func:`tmakit.linalg.repair_psd`).
+
+    The gain ``K = P H^T (H P H^T + R)^-1``, NIS and log-likelihood come from ``h``; the
+    covariance ``(I - K G) P (I - K G)^T + K R K^T`` from ``G = h_cov`` (``h`` when not given;
+    Song & Speyer's MGEKF passes its modified rows, :func:`tmakit.filters.mgekf.split_update`).
 
     Parameters
     ----------
@@ -41,6 +45,8 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
         Measurement matrix ``(m, n)``.
     r : numpy.ndarray
         Measurement noise covariance ``(m, m)``.
+    h_cov : numpy.ndarray, optional
+        Rows ``G`` ``(m, n)`` of the covariance update; ``h`` when ``None``.
 
     Returns
     -------
@@ -58,7 +64,8 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
     nis = float(residual @ sol[:, -1])
     m = residual.shape[0]
     loglik = -0.5 * (nis + log_det + m * LOG_2PI)
-    return (mean + gain @ residual, repair_psd(joseph_update(cov, gain, h, r)),
+    g = h if h_cov is None else h_cov
+    return (mean + gain @ residual, repair_psd(joseph_update(cov, gain, g, r)),
             UpdateInfo(nis, m, loglik))
 
 

@@ -6,7 +6,9 @@ measurements through :class:`tmakit.observation.groups.MeasurementGroup`; each s
 few dozen small numpy
 operations (microseconds each).  For a single bearing the algebra is a handful of scalars, so
 these kernels run whole sequences of steps in plain Python floats: the same equations, the
-same results to rounding (``tests/test_filters.py`` checks that against the general path).
+same results to rounding (``tests/test_filters.py::test_bearing_kernels_equal_the_general_path``
+pins every kernel, the iterated EKF included, to the general path:
+:func:`tmakit.filters.ekf.gaussian_update` and the UKF's update in :mod:`.ukf`).
 
 Predict (both filters): ``x <- Phi x``, ``P <- Phi P Phi^T + Q`` with ``Phi`` and ``Q`` of
 Chen & Sun, §2.1, written out entry by entry (``q`` per axis).
@@ -358,6 +360,8 @@ def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # 
             # the last linearisation; NIS and log-likelihood stay those of the first).  The
             # linearisation repeats the EKF's above, at y instead of x, on purpose: a helper
             # shared by both costs the plain EKF ~3 % per step (measured), it is the hot path.
+            # Both mirror ExtendedKalmanFilter's iterated update (filters/ekf.py); pinned equal
+            # by tests/test_filters.py::test_bearing_kernels_equal_the_general_path.
             ok = True
             for _ in range(iterations - 1):
                 ex = y0 - sxs[k]

@@ -71,10 +71,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
-from ..linalg import joseph_update, repair_psd, solve_spd, symmetrise
 from ..observation import MeasurementGroup
 from .base import Array, UpdateInfo
-from .ekf import LOG_2PI, ExtendedKalmanFilter, gaussian_update
+from .ekf import ExtendedKalmanFilter, gaussian_update
 
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
 MU_FLOOR = 1e-3
@@ -217,15 +216,7 @@ def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov:
     info : UpdateInfo
         NIS, degrees of freedom and log-likelihood (nats).
     """
-    s = symmetrise(h_gain @ cov @ h_gain.T + r)
-    s_inv_hp, log_det = solve_spd(s, h_gain @ cov)
-    gain = s_inv_hp.T
-    s_inv_nu, _ = solve_spd(s, residual)
-    nis = float(residual @ s_inv_nu)
-    m = residual.shape[0]
-    loglik = -0.5 * (nis + log_det + m * LOG_2PI)
-    return (mean + gain @ residual, repair_psd(joseph_update(cov, gain, h_cov, r)),
-            UpdateInfo(nis, m, loglik))
+    return gaussian_update(mean, cov, residual, h_gain, r, h_cov=h_cov)
 
 
 def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:

@@ -29,38 +29,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
-from ..blas import SINGLE_THREAD_WORK
+from ..blas import matmul
 from .base import MotionModel
 from .curvilinear import propagate_with_partials
-
-
-def batched_matmul(a: Array, b: Array) -> Array:
-    """Multiply ``a @ b`` in row blocks of ``a``, each below OpenBLAS's threading threshold.
-
-    OpenBLAS's threads spin against other work on a busy machine (see :mod:`tmakit.blas`).
-    Splitting rows does not change any sum.
-
-    Parameters
-    ----------
-    a : ndarray
-        ``(B, n, k)``.
-    b : ndarray
-        ``(B, k, p)``.
-
-    Returns
-    -------
-    ndarray
-        ``(B, n, p)``, equal to ``a @ b``.
-    """
-    n, k = a.shape[-2:]
-    p = b.shape[-1]
-    block = max(1, SINGLE_THREAD_WORK // max(1, k * p))
-    if n <= block:
-        return a @ b
-    out = np.empty((*a.shape[:-1], p))
-    for lo in range(0, n, block):
-        np.matmul(a[..., lo:lo + block, :], b, out=out[..., lo:lo + block, :])
-    return out
 
 
 class ForwardPiecewise(MotionModel):
@@ -285,8 +256,7 @@ class ForwardPiecewise(MotionModel):
             d_inputs[:, m, 5, 5 + 2 * m] = 1.0
             if m >= 1:
                 d_inputs[:, m, 6, 5 + 2 * M + m] = -1.0
-        return batched_matmul(wide.reshape(b, n, 7 * (M + 1)),
-                              d_inputs.reshape(b, 7 * (M + 1), p))
+        return matmul(wide.reshape(b, n, 7 * (M + 1)), d_inputs.reshape(b, 7 * (M + 1), p))
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
         """Apply the chain rule, contracting the state axis before the parameter axis.

@@ -19,9 +19,10 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
 from ..data import MeasurementSet
+from ..linalg import normalised_eigh
 from ..motion import MotionModel
 from .nuisance import KnownNuisance, as_known_nuisance
-from .observability import Observability, analyse, normalise
+from .observability import Observability, analyse
 
 
 def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
@@ -42,8 +43,7 @@ def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray
         The pseudo-inverse (SI units of the parameters, squared).
     """
     if obsv.decomposition is None:
-        norm, scale = normalise(info)
-        evals, evecs = np.linalg.eigh(norm)
+        evals, evecs, scale = normalised_eigh(info)
     else:
         evals, evecs, scale = obsv.decomposition
     keep = np.argsort(evals)[::-1][: obsv.rank]

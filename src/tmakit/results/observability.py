@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
+from ..linalg import normalise
 from ..motion import MotionModel
 
 RANK_TOL = 1e-10
@@ -93,26 +94,6 @@ class Observability:
     def full_rank(self) -> bool:
         """Whether every unknown is observable (rank equals size)."""
         return self.rank == self.size
-
-
-def normalise(info: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Normalise an information matrix to unit diagonal.
-
-    Parameters
-    ----------
-    info : ndarray, shape (q, q)
-        Fisher information ``F`` (SI units of the parameters, inverse squared).
-
-    Returns
-    -------
-    norm : ndarray, shape (q, q)
-        ``D F D`` (dimensionless).
-    scale : ndarray, shape (q,)
-        ``D = diag(F)^-1/2`` (parameters with no information get 1).
-    """
-    d = np.diag(info).copy()
-    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
-    return info * scale[:, None] * scale[None, :], scale
 
 
 def _fixed_sensors(meas: MeasurementSet) -> dict[str, NDArray[np.float64]]:

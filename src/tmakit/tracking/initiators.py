@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -284,4 +284,4 @@ def _prepend(tr: Track, time: float, state: Array, cov: Array, names: tuple[str,
                  np.concatenate([cov[None], tr.covariances]),
                  np.concatenate([[np.nan], tr.nis]),
                  np.concatenate([np.zeros(1, dtype=np.int64), tr.dof]),
-                 np.concatenate([[0.0], tr.log_likelihood]), dict(tr.extra))
+                 np.concatenate([[0.0], tr.log_likelihood]), replace(tr.extra))

@@ -43,8 +43,8 @@ def track_dict(tr: Track) -> dict[str, object]:
         as ``None``.
     """
     data = tr.as_dict()
-    data["start"] = tr.extra.get("start")
-    data["q"] = tr.extra.get("q")
+    data["start"] = tr.extra.start
+    data["q"] = tr.extra.q
     return _clean(data)  # type: ignore[return-value]
 
 
@@ -80,5 +80,5 @@ def track_table(tr: Track) -> TrackTable:
     """
     meta = {"filter": str(tr.filter_name),
             "start": json.dumps(track_dict(tr)["start"]),
-            "q": json.dumps(tr.extra.get("q"))}
+            "q": json.dumps(tr.extra.q)}
     return TrackTable(tr.table_columns(), meta)

@@ -62,8 +62,8 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
     rows = meas.take(meas.time > t0 + 1e-9) if isinstance(start, BatchStart) else meas
     if len(rows) == 0:
         return None, "PCRB not available (no measurements after the start)"
-    q = tr.extra.get("q", 0.0)
-    options = tr.extra.get("options") or None
+    q = tr.extra.q if tr.extra.q is not None else 0.0
+    options = tr.extra.options or None
     try:
         if truth is not None:
             truth = np.asarray(truth, dtype=float)

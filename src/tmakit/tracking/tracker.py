@@ -11,6 +11,7 @@ Everything is SI (m, m/s, s).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -24,7 +25,7 @@ from .records import BatchStart, PriorStart, StartRecord
 
 __all__ = ["start_record", "track"]
 
-#: Key of :attr:`Track.extra` holding the typed start record.
+#: Field of :class:`~tmakit.filters.base.TrackExtras` holding the typed start record.
 START_RECORD = "start_record"
 
 
@@ -103,9 +104,9 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     Returns
     -------
     Track
-        One row per update (SI).  ``extra["start"]`` says which start was used (JSON-ready),
-        ``extra["start_record"]`` is its typed record (:func:`start_record`), ``extra["q"]``
-        the per-axis q, ``extra["dim"]`` and ``extra["options"]`` the settings.  After a
+        One row per update (SI).  ``extra.start`` says which start was used (JSON-ready),
+        ``extra.start_record`` is its typed record (:func:`start_record`), ``extra.q``
+        the per-axis q, ``extra.dim`` and ``extra.options`` the settings.  After a
         batch start the first row is the batch estimate at the window's last time (NIS NaN,
         no degrees of freedom) and the log-likelihood counts the rows after it.
 
@@ -127,11 +128,9 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     started = _initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
                          max_relative_std, confirm).initiate(meas, setup)
     result = started.track
-    result.extra["start"] = started.start.as_dict()
-    result.extra[START_RECORD] = started.start
-    result.extra["q"] = list(setup.q)
-    result.extra["dim"] = d
-    result.extra["options"] = dict(setup.options)
+    result.extra = replace(result.extra, start=started.start.as_dict(),
+                           start_record=started.start, q=list(setup.q), dim=d,
+                           options=dict(setup.options))
     return result
 
 
@@ -148,5 +147,5 @@ def start_record(tr: Track) -> StartRecord | None:
     PriorStart or BatchStart or None
         The typed start record; ``None`` for a track that does not say (made otherwise).
     """
-    record = tr.extra.get(START_RECORD)
+    record = tr.extra.start_record
     return record if isinstance(record, PriorStart | BatchStart) else None
