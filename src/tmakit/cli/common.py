@@ -56,6 +56,31 @@ def refuse_existing(path: Path, force: bool) -> None:
         raise fail(f"{path} already exists; use --force to overwrite it")
 
 
+PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_plot_path(path: Path, force: bool) -> None:
+    """Check a picture path before any work: a known suffix, an existing folder, no overwrite.
+
+    Parameters
+    ----------
+    path : Path
+        The picture to write.
+    force : bool
+        Overwrite an existing picture.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the path cannot or may not be written.
+    """
+    if path.suffix.lower() not in PICTURE_SUFFIXES:
+        raise fail(f"--plot {path}: the picture is written as {', '.join(PICTURE_SUFFIXES)}")
+    if not path.parent.is_dir():
+        raise fail(f"--plot {path}: the folder {path.parent} does not exist")
+    refuse_existing(path, force)
+
+
 def parse_origin(text: str | None) -> tuple[float, float, float] | None:
     """``--origin LAT,LON,ALT`` as ``(lat_deg, lon_deg, alt_m)``, or None when not given.
 
