@@ -11,6 +11,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
+from .answers_out import SensorOption, UnitsOption, check_units, print_answers, print_warnings
 from .common import (
     DriftOption,
     FreeExponentOption,
@@ -68,6 +69,8 @@ def track(
     ellipses: Annotated[int, typer.Option(
         help="number of 90 %/95 % position ellipses drawn along the track")] = 8,
     rows: Annotated[int, typer.Option(help="rows of the summary table")] = 12,
+    sensor: SensorOption = None,
+    units: UnitsOption = "si",
     force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
@@ -80,6 +83,7 @@ def track(
     from .. import tracking
 
     check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
+    check_units(units)
     meas = read_or_fail(file, parse_origin(origin))
     try:
         d = tracking.filter_dim(meas, dim)
@@ -98,12 +102,63 @@ def track(
     except ValueError as e:
         raise fail(str(e)) from None
     truth = tracking.truth_states(meas, tr.times, d)
+    answer = final_answer(tr, meas, sensor)
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
-        typer.echo(json.dumps(tracking.track_dict(tr)))
+        typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
     else:
         print_track(tr, truth, rows)
+        print_answers(answer, units)
+    print_warnings(measurement_warnings(meas))
     write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
                         err if as_json else out)
+
+
+def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
+    """Return the track's last state in the user's terms (``--sensor`` for range and bearing).
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The track.
+    meas : tmakit.data.MeasurementSet
+        The measurements tracked.
+    sensor : str or None
+        ``--sensor``; None for the sensor of the last measurement.
+
+    Returns
+    -------
+    tmakit.results.answers.Answer
+        The answers after the last update.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for an unknown sensor.
+    """
+    from ..results import track_answer
+
+    if sensor is not None and sensor not in meas.sensors:
+        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
+                   f"{', '.join(meas.sensors)})")
+    return track_answer(tr, meas, sensor=sensor)
+
+
+def measurement_warnings(meas: Any) -> list[Any]:
+    """Return the sanity warnings about the measurements (radians, far sensors).
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+
+    Returns
+    -------
+    list of tmakit.results.checks.SanityWarning
+        The warnings.
+    """
+    from ..results import measurement_warnings as check
+
+    return check(meas)
 
 
 def parse_q(text: str, dim: int) -> list[float]:

@@ -406,7 +406,7 @@ _PARAM_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m
 def parameter_display(name: str, value: float, std: float) -> tuple[float, float, str]:
     """Return a parameter's value and std in the unit shown to the user, and that unit.
 
-    Angles (rad inside) are shown in degrees; accelerations ``at_*``/``an_*`` in m/s²,
+    Angles (rad inside) are shown in degrees (a course from 0 to 360); accelerations ``at_*``/``an_*`` in m/s²,
     change-over times ``t_*`` in s; everything else in its SI unit.
 
     Parameters
@@ -425,6 +425,8 @@ def parameter_display(name: str, value: float, std: float) -> tuple[float, float
     if unit is None:
         unit = ("m/s^2" if name.startswith(("at_", "an_"))
                 else "s" if name.startswith("t_") else "")
-    if unit == "deg":
-        return float(np.degrees(value)), float(np.degrees(std)), unit
+    if unit == "deg":  # a course is shown in degrees true, 0 to 360
+        shown = float(np.degrees(value))
+        return (shown % 360.0 if name == "course" and np.isfinite(shown) else shown,
+                float(np.degrees(std)), unit)
     return float(value), float(std), unit
