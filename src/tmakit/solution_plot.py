@@ -283,4 +283,5 @@ def _answer_line(a: Any, result: EstimateResult) -> str:
                      f"{a.ellipse.semi_minor:.3g} m")
     if result.dof > 0:
         parts.append(f"χ²/dof {result.chi2 / result.dof:.2f}")
-    return parts[0] + ": " + ", ".join(parts[1:])
+    half = (len(parts) + 1) // 2
+    return (parts[0] + ": " + ", ".join(parts[1:half]) + "\n" + ", ".join(parts[half:]))

@@ -11,7 +11,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from .common import err, fail, out
+from .common import err, fail, out, print_wide
 
 UnitsOption = Annotated[str, typer.Option(
     "--units", help="si (speed m/s, range m) or nautical (speed kn, range nmi)")]
@@ -151,14 +151,14 @@ def answers_table(a: Any, units: str, title: str) -> Table:
         table.add_column(col, justify=justify)  # type: ignore[arg-type]
 
     def row(name: str, v: float | None, s: float | None, fmt: str, unit: str,
-            scale: float = 1.0) -> None:
-        table.add_row(name, _num(v, fmt, scale), "" if v is None else _num(s, ".3g", scale),
-                      unit)
+            scale: float = 1.0, std_unit: str = "") -> None:
+        table.add_row(name, _num(v, fmt, scale),
+                      "" if v is None else _num(s, ".3g", scale) + std_unit, unit)
 
     if a.geodetic is not None:
         lat, lon, alt = a.geodetic
-        row("latitude", lat, a.enu_std[1], ".6f", "deg (std in m, north)")
-        row("longitude", lon, a.enu_std[0], ".6f", "deg (std in m, east)")
+        row("latitude", lat, a.enu_std[1], ".6f", "deg", std_unit=" m")
+        row("longitude", lon, a.enu_std[0], ".6f", "deg", std_unit=" m")
         if a.dim == 3:
             row("altitude (WGS-84 ellipsoid)", alt, a.enu_std[2], ".1f", "m")
     for i, name in enumerate(("east", "north", "up")[: a.dim]):
@@ -209,8 +209,8 @@ def print_answers(a: Any, units: str) -> None:
     units : str
         ``si`` or ``nautical``.
     """
-    out.print(answers_table(a, units, answer_title(a, "emitter position" if a.stationary
-                                                   else "emitter")))
+    print_wide(answers_table(a, units, answer_title(a, "emitter position" if a.stationary
+                                                    else "emitter")))
     note = ("std: linearised (delta method) from the covariance; position ellipse: "
             f"{a.ellipse.level if a.ellipse else 0.95:.0%} probability (chi-square, 2 dof)")
     if a.dim == 2:

@@ -20,6 +20,19 @@ out = Console()
 err = Console(stderr=True)
 
 
+def print_wide(renderable: object) -> None:
+    """Print a table at the terminal's width, or 120 columns when output is not a terminal.
+
+    Piped output is otherwise narrowed to 80 columns, which cuts numbers and wraps headers.
+
+    Parameters
+    ----------
+    renderable : rich renderable
+        The table.
+    """
+    (out if out.is_terminal else Console(width=120)).print(renderable)
+
+
 def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on standard error and return the exit (status 2) to raise.
 

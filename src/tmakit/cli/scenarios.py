@@ -17,6 +17,7 @@ from .common import (
     load_scenario_or_fail,
     out,
     parse_origin,
+    print_wide,
     read_or_fail,
     refuse_existing,
     write_or_fail,
@@ -50,19 +51,6 @@ def summary_table(meas: Any, title: str) -> Table:
                       f"{r['value_min']:.10g}", f"{r['value_max']:.10g}", unit,
                       f"{r['sigma_median']:.4g}", sigma_unit(unit))
     return table
-
-
-def wide_table(table: Table) -> None:
-    """Print a table at the terminal's width, or 120 columns when the output is not a terminal.
-
-    Parameters
-    ----------
-    table : rich.table.Table
-        The table (its numbers are never cut: piped output is not narrowed to 80 columns).
-    """
-    from rich.console import Console
-
-    (out if out.is_terminal else Console(width=120)).print(table)
 
 
 def sigma_unit(unit: str) -> str:
@@ -189,7 +177,7 @@ def show(
         title += f" of scenario {meta['scenario']}"
         if "seed" in meta:
             title += f" (seed {meta['seed']})"
-    wide_table(summary_table(meas, title))
+    print_wide(summary_table(meas, title))
     out.print(describe_sensors(meas))
     if "truth" in meta:
         out.print(f"truth ({meta.get('motion', '?')}): {truth_text(meta)}", highlight=False)

@@ -78,8 +78,6 @@ def track(
     No initial guess is needed: the filter starts from a batch estimate over the shortest
     initial window of the data that determines the position well enough (or from --prior).
     """
-    import json
-
     from .. import tracking
 
     check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
@@ -102,15 +100,42 @@ def track(
     except ValueError as e:
         raise fail(str(e)) from None
     truth = tracking.truth_states(meas, tr.times, d)
-    answer = final_answer(tr, meas, sensor)
+    report_track(tr, meas, truth, rows, as_json, final_answer(tr, meas, sensor), units)
+    write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
+                        err if as_json else out)
+
+
+def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,
+                 units: str) -> None:
+    """Print the track (table or one line of JSON), its final answers and the warnings.
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The track.
+    meas : tmakit.data.MeasurementSet
+        The measurements tracked.
+    truth : numpy.ndarray or None
+        True states at the track's times.
+    rows : int
+        Rows of the table.
+    as_json : bool
+        ``--json``.
+    answer : tmakit.results.answers.Answer
+        The last state in the user's terms.
+    units : str
+        ``--units``.
+    """
+    import json
+
+    from .. import tracking
+
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
         typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
     else:
         print_track(tr, truth, rows)
         print_answers(answer, units)
     print_warnings(measurement_warnings(meas))
-    write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
-                        err if as_json else out)
 
 
 def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:

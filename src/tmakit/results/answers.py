@@ -38,11 +38,27 @@ NAUTICAL_MILE = 1852.0
 ELLIPSE_LEVEL = 0.95
 """Default probability inside the reported position ellipse."""
 
-def _std(grad: NDArray[np.float64], cov: NDArray[np.float64]) -> float | None:
-    """Linearised standard deviation ``sqrt(g^T P g)``; None when unobservable."""
+#: A quantity is unobservable when its gradient's cosine with a state-space null direction
+#: (within the state components it depends on) exceeds this.
+NULL_COSINE = 0.05
+
+
+def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
+         null: NDArray[np.float64] | None = None) -> float | None:
+    """Return the linearised std ``sqrt(g^T P g)``; None when unobservable.
+
+    ``null`` (6, r) holds how the state moves along the fit's unobservable directions; a
+    quantity that moves with them is unobservable whatever its computed variance.
+    """
     used = grad != 0
     if not np.any(used):
         return 0.0
+    if null is not None and null.size:
+        part = null[used]
+        norms = np.linalg.norm(part, axis=0) * np.linalg.norm(grad[used])
+        moving = norms > 0
+        if np.any(np.abs(grad[used] @ part[:, moving]) > NULL_COSINE * norms[moving]):
+            return None
     sub = cov[np.ix_(used, used)]
     if not np.all(np.isfinite(sub)):
         return None
@@ -209,7 +225,8 @@ def _finite(v: float, s: float | None) -> tuple[float | None, float | None]:
     return float(v), s
 
 
-def _motion_part(state: NDArray[np.float64], cov: NDArray[np.float64], stationary: bool
+def _motion_part(state: NDArray[np.float64], cov: NDArray[np.float64], stationary: bool,
+                 null: NDArray[np.float64] | None = None
                  ) -> tuple[float | None, float | None, float | None, float | None]:
     """Course (deg true) and speed (m/s) with their linearised std; None when not defined."""
     v = state[3:6]
@@ -219,17 +236,17 @@ def _motion_part(state: NDArray[np.float64], cov: NDArray[np.float64], stationar
     speed = float(np.linalg.norm(v))
     g = np.zeros(6)
     g[3:6] = v / speed
-    speed, speed_sd = _finite(speed, _std(g, cov))
+    speed, speed_sd = _finite(speed, _std(g, cov, null))
     g = np.zeros(6)
     g[3], g[4] = v[1] / h2, -v[0] / h2
-    c_sd = _std(g, cov)
+    c_sd = _std(g, cov, null)
     course, course_sd = _finite(float(np.degrees(np.arctan2(v[0], v[1])) % 360.0),
                                 None if c_sd is None else float(np.degrees(c_sd)))
     return course, course_sd, speed, speed_sd
 
 
 def _from_sensor(state: NDArray[np.float64], cov: NDArray[np.float64],
-                 where: NDArray[np.float64]
+                 where: NDArray[np.float64], null: NDArray[np.float64] | None = None
                  ) -> tuple[float | None, float | None, float | None, float | None]:
     """Range (m) and bearing (deg true) from a sensor position, with linearised std."""
     d = state[:3] - where
@@ -239,10 +256,10 @@ def _from_sensor(state: NDArray[np.float64], cov: NDArray[np.float64],
         return None, None, None, None
     g = np.zeros(6)
     g[:3] = d / r
-    rng, rng_sd = _finite(r, _std(g, cov))
+    rng, rng_sd = _finite(r, _std(g, cov, null))
     g = np.zeros(6)
     g[0], g[1] = d[1] / h2, -d[0] / h2
-    b_sd = _std(g, cov)
+    b_sd = _std(g, cov, null)
     brg, brg_sd = _finite(float(np.degrees(np.arctan2(d[0], d[1])) % 360.0),
                           None if b_sd is None else float(np.degrees(b_sd)))
     return rng, rng_sd, brg, brg_sd
@@ -251,7 +268,8 @@ def _from_sensor(state: NDArray[np.float64], cov: NDArray[np.float64],
 def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: float,
                       meas: MeasurementSet | None = None, sensor: str | None = None,
                       dim: int = 3, stationary: bool = False,
-                      level: float = ELLIPSE_LEVEL) -> Answer:
+                      level: float = ELLIPSE_LEVEL,
+                      null: NDArray[np.float64] | None = None) -> Answer:
     """Return the answer for a state and its covariance (the one computation of user terms).
 
     Parameters
@@ -272,6 +290,9 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
         The emitter does not move: no course or speed.
     level : float
         Probability inside the position ellipse (default 0.95).
+    null : ndarray, shape (6, r), optional
+        How the state moves along the fit's unobservable directions (an unobservable fit);
+        every quantity that moves with them is reported as None.
 
     Returns
     -------
@@ -282,16 +303,16 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     cov = np.where(np.isnan(cov), np.inf, np.asarray(cov, dtype=float))
     enu, enu_sd = [], []
     for i in range(3):
-        v, s = _finite(state[i], _std(np.eye(6)[i], cov)) if i < dim else (None, None)
+        v, s = _finite(state[i], _std(np.eye(6)[i], cov, null)) if i < dim else (None, None)
         enu.append(v)
         enu_sd.append(s)
     vel, vel_sd = [], []
     for i in range(3):
-        v, s = (_finite(state[3 + i], _std(np.eye(6)[3 + i], cov))
+        v, s = (_finite(state[3 + i], _std(np.eye(6)[3 + i], cov, null))
                 if i < dim and not stationary else (None, None))
         vel.append(v)
         vel_sd.append(s)
-    course, course_sd, speed, speed_sd = _motion_part(state, cov, stationary)
+    course, course_sd, speed, speed_sd = _motion_part(state, cov, stationary, null)
     origin = origin_of(meas)
     geo = None
     if origin is not None:
@@ -307,10 +328,11 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
         where = sensor_position(meas, sensor, t)
         if dim == 2:
             where = np.array([where[0], where[1], state[2]])
-        rng, rng_sd, brg, brg_sd = _from_sensor(state, cov, where)
+        rng, rng_sd, brg, brg_sd = _from_sensor(state, cov, where, null)
     return Answer(float(t), clock_time(meas, t), dim, stationary, tuple(enu), tuple(enu_sd), geo,
                   tuple(vel), tuple(vel_sd), course, course_sd, speed, speed_sd, sensor, rng,
-                  rng_sd, brg, brg_sd, position_ellipse(cov[:2, :2], level), cov)
+                  rng_sd, brg, brg_sd,
+                  position_ellipse(cov[:2, :2], level) if None not in enu[:2] else None, cov)
 
 
 def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:
@@ -349,6 +371,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
                 else float(getattr(motion, "ref_time", 0.0)))
     theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
     t = np.array([float(time)])
+    null = None
     if not np.all(np.isfinite(theta)):
         state, jac = np.full(6, np.nan), np.zeros((6, theta.size))
         cov = np.full((6, 6), np.inf)
@@ -358,10 +381,12 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
         bound = result.bound  # type: ignore[attr-defined]
         if bound is not None:
             state, cov = bound.state_covariance(float(time))
+            basis = bound.observability.null_basis
+            null = jac @ basis[: jac.shape[1]] if basis.size else None
         else:
             cov = jac @ np.asarray(result.covariance) @ jac.T  # type: ignore[attr-defined]
     return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
-                             _is_stationary(jac, state), level)
+                             _is_stationary(jac, state), level, null)
 
 
 def track_answer(track: object, meas: MeasurementSet | None = None, index: int = -1,
@@ -406,8 +431,8 @@ _PARAM_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m
 def parameter_display(name: str, value: float, std: float) -> tuple[float, float, str]:
     """Return a parameter's value and std in the unit shown to the user, and that unit.
 
-    Angles (rad inside) are shown in degrees (a course from 0 to 360); accelerations ``at_*``/``an_*`` in m/s²,
-    change-over times ``t_*`` in s; everything else in its SI unit.
+    Angles (rad inside) are shown in degrees (a course from 0 to 360); accelerations
+    ``at_*``/``an_*`` in m/s², change-over times ``t_*`` in s; everything else in SI.
 
     Parameters
     ----------
