@@ -28,7 +28,7 @@ def bo():
 
 
 def test_course_speed_range_bearing_match_an_independent_computation(bo):
-    scn, meas, res = bo
+    _, meas, res = bo
     a = res.answer(meas)
     assert a.time == meas.time.max() and a.sensor == "observer"
     # The bound's own delta method (another code path) at the same time.

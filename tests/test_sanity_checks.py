@@ -21,7 +21,7 @@ from tmakit.results import (
 from tmakit.results.checks import CHI2_P_LIMIT, FAR_FROM_ORIGIN, chi2_probability
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
-from sanity_checks import chi2_study, radians_study  # noqa: E402
+from sanity_checks import chi2_study, radians_study
 
 runner = CliRunner()
 
