@@ -203,3 +203,15 @@ def test_estimate_answer_without_a_bound_uses_the_method_covariance():
     a = estimate_answer(res, meas, time=0.0)
     assert a.enu_std[0] == pytest.approx(res.std[0])
     assert a.enu_std[1] == pytest.approx(res.std[1])
+
+
+def test_clock_time_in_tables_when_the_file_records_its_time_origin(tmp_path, bo):
+    _, meas, _ = bo
+    path = write_geo_file(tmp_path, meas)
+    shown = run("show", str(path)).output
+    assert "UTC" in shown and "2024-05-01T12:00:01 .. 12:10:00" in shown
+    tracked = run("track", str(path), "--rows", "3").output
+    assert "2024-05-01T12:10:00" in tracked.split("std: position")[0]  # in the table
+    plain = tmp_path / "plain.csv"
+    tk.write_measurements(meas, plain)
+    assert "UTC" not in run("show", str(plain)).output  # seconds only without an origin

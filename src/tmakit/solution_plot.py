@@ -185,7 +185,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     ax.set_xlabel(frame.labels[0])
     ax.set_ylabel(frame.labels[1])
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="upper left", fontsize=8, framealpha=0.85)
+    ax.legend(loc="best", fontsize=8, framealpha=0.85)
     _scale_bar(ax, frame)
 
 

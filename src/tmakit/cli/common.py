@@ -21,7 +21,7 @@ err = Console(stderr=True)
 
 
 def print_wide(renderable: object) -> None:
-    """Print a table at the terminal's width, or 120 columns when output is not a terminal.
+    """Print a table at the terminal's width, or 160 columns when output is not a terminal.
 
     Piped output is otherwise narrowed to 80 columns, which cuts numbers and wraps headers.
 
@@ -30,7 +30,7 @@ def print_wide(renderable: object) -> None:
     renderable : rich renderable
         The table.
     """
-    (out if out.is_terminal else Console(width=120)).print(renderable)
+    (out if out.is_terminal else Console(width=160)).print(renderable)
 
 
 def fail(message: str) -> typer.Exit:

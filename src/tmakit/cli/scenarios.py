@@ -25,7 +25,7 @@ from .common import (
 
 
 def summary_table(meas: Any, title: str) -> Table:
-    """One row per sensor and kind: count, time span (s), value range, median sigma, unit.
+    """One row per sensor and kind: count, time span (s; UTC when known), values, median sigma.
 
     Parameters
     ----------
@@ -39,15 +39,21 @@ def summary_table(meas: Any, title: str) -> Table:
     rich.table.Table
         The table.
     """
+    from ..results.context import clock_time
+
+    clock = clock_time(meas, 0.0) is not None
     table = Table(title=title, title_justify="left")
     for col, justify in (("sensor", "left"), ("kind", "left"), ("n", "right"),
-                         ("time (s)", "right"), ("min", "right"), ("max", "right"),
+                         ("time (s)", "right"), *([("UTC", "left")] if clock else []),
+                         ("min", "right"), ("max", "right"),
                          ("unit", "left"), ("median sigma", "right"), ("sigma unit", "left")):
         table.add_column(col, justify=justify, no_wrap=True)  # type: ignore[arg-type]
     for r in meas.summary_rows():
         unit = str(r["unit"])
         table.add_row(r["sensor"], r["kind"], str(r["count"]),
                       f"{r['t_first']:g} .. {r['t_last']:g}",
+                      *([f"{clock_time(meas, float(r['t_first']))}"[:19] + " .. "
+                         + f"{clock_time(meas, float(r['t_last']))}"[11:19]] if clock else []),
                       f"{r['value_min']:.10g}", f"{r['value_max']:.10g}", unit,
                       f"{r['sigma_median']:.4g}", sigma_unit(unit))
     return table

@@ -22,6 +22,7 @@ from .common import (
     out,
     parse_assignments,
     parse_origin,
+    print_wide,
     read_or_fail,
     refuse_existing,
 )
@@ -133,7 +134,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
         typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
     else:
-        print_track(tr, truth, rows)
+        print_track(tr, truth, rows, meas)
         print_answers(answer, units)
     print_warnings(measurement_warnings(meas))
 
@@ -407,7 +408,7 @@ def start_sentence(tr: Any) -> str:
     return text
 
 
-def print_track(tr: Any, truth: Any, n_rows: int) -> None:
+def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None) -> None:
     """Print the track's summary table (``n_rows`` rows spread over it) and its checks.
 
     Parameters
@@ -419,8 +420,12 @@ def print_track(tr: Any, truth: Any, n_rows: int) -> None:
         Mahalanobis distance.
     n_rows : int
         Rows of the table.
+    meas : tmakit.data.MeasurementSet, optional
+        The measurements: with a time origin, the table shows UTC clock times too.
     """
     import numpy as np
+
+    from ..results.context import clock_time
 
     dim = len(tr.state_names) // 2
     k_sel = np.unique(np.linspace(0, len(tr) - 1, min(n_rows, len(tr))).round().astype(int))
@@ -428,7 +433,9 @@ def print_track(tr: Any, truth: Any, n_rows: int) -> None:
     table = Table(title=f"{tr.filter_name} track: {len(tr)} rows, t = {tr.times[0]:g} .. "
                         f"{tr.times[-1]:g} s, q = {q} m/s^2 ({len(k_sel)} rows shown)",
                   title_justify="left")
-    cols = ["t\n(s)", *(f"{n}\n(m)" for n in tr.state_names[:dim]), "std\n(m)",
+    clock = meas is not None and clock_time(meas, 0.0) is not None
+    cols = [*(["UTC"] if clock else []), "t\n(s)",
+            *(f"{n}\n(m)" for n in tr.state_names[:dim]), "std\n(m)",
             "speed\n(m/s)", "course\n(deg)", "NIS/\ndof"]
     if truth is not None:
         cols.append("error\n(m)")
@@ -440,12 +447,13 @@ def print_track(tr: Any, truth: Any, n_rows: int) -> None:
         speed = float(np.linalg.norm(v))
         course = float(np.degrees(np.arctan2(v[0], v[1])) % 360.0)
         nis = (f"{tr.nis[k]:.2f}/{tr.dof[k]}" if tr.dof[k] > 0 else "start")
-        row = [f"{tr.times[k]:g}", *(f"{x:.1f}" for x in tr.states[k, :dim]),
+        row = [*([str(clock_time(meas, float(tr.times[k])))[:19]] if clock else []),
+               f"{tr.times[k]:g}", *(f"{x:.1f}" for x in tr.states[k, :dim]),
                f"{pos_sd[k]:.1f}", f"{speed:.2f}", f"{course:.1f}", nis]
         if truth is not None:
             row.append(f"{np.linalg.norm(tr.states[k, :dim] - truth[k, :dim]):.1f}")
         table.add_row(*row)
-    out.print(table)
+    print_wide(table)
     out.print("std: position RMS std sqrt(trace P); NIS: normalised innovation squared",
               highlight=False)
     out.print(start_sentence(tr), highlight=False)
