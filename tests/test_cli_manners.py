@@ -56,3 +56,14 @@ def test_crlb_at_gives_the_course_in_degrees_true():
     value = float(course.split()[1])
     assert 0 <= value < 360 and course.rstrip().endswith("deg")
     assert value == pytest.approx(240.0, abs=0.01)  # vx -21.65, vy -12.5: 240 deg true
+
+
+def test_crlb_at_json_adds_the_course_in_degrees_and_keeps_radians():
+    import json
+
+    data = json.loads(run("crlb", "gu2007", "--at", "60", "--json").stdout)
+    at = data["at"]
+    assert at["course_deg"]["value"] == pytest.approx(240.0, abs=0.01)
+    assert at["course"]["value"] == pytest.approx(-2.0944, abs=1e-3)  # pinned key, radians
+    assert at["course_deg"]["std"] == pytest.approx(
+        at["course"]["std"] * 180 / 3.141592653589793)
