@@ -67,3 +67,11 @@ def test_crlb_at_json_adds_the_course_in_degrees_and_keeps_radians():
     assert at["course"]["value"] == pytest.approx(-2.0944, abs=1e-3)  # pinned key, radians
     assert at["course_deg"]["std"] == pytest.approx(
         at["course"]["std"] * 180 / 3.141592653589793)
+
+
+def test_reproduction_figures_are_printed_as_words_not_python_values():
+    from tmakit.cli.reproduce import plain
+
+    text = plain({"rmse": [1.0, 2.5e-7], "ok": True, "n": 3})
+    assert text == "rmse = 1, 2.5e-07; ok = true; n = 3"
+    assert "[" not in plain([[1.0, 2.0], [3.0]]) and "{" not in plain({"a": {"b": 1.0}})
