@@ -196,7 +196,9 @@ def answer_title(a: Any, what: str) -> str:
         The title.
     """
     when = f"t = {a.time:g} s" + (f" ({a.clock})" if a.clock else "")
-    return f"{what} at {when}" if not a.stationary else f"{what} (stationary)"
+    if not a.stationary:
+        return f"{what} at {when}"
+    return f"{what} (stationary)" + (f"; range and bearing at {when}" if a.sensor else "")
 
 
 def print_answers(a: Any, units: str) -> None:
