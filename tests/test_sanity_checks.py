@@ -155,3 +155,14 @@ def test_solution_picture_in_lat_lon_with_residual_panels_per_kind(tmp_path):
     assert any(t.startswith("frequency residuals") for t in titles)
     assert any(t.startswith("power residuals") for t in titles)
     assert all(y == "residual (σ)" for _, y, _ in labels[1:])
+
+
+def test_show_warns_about_radian_bearings(tmp_path):
+    meas = tk.load_scenario("bearings-only-2d").simulate(rng=2)
+    rad = tk.MeasurementSet.from_si(meas.time, meas.sensor, meas.kind,
+                                    np.radians(meas.value_si), meas.sigma_si,
+                                    meas.sensor_state)
+    path = tmp_path / "rad.csv"
+    tk.write_measurements(rad, path)
+    out = run("show", str(path))
+    assert out.exit_code == 0 and "warning:" in out.output and "radians" in out.output

@@ -187,6 +187,10 @@ def show(
     out.print(describe_sensors(meas))
     if "truth" in meta:
         out.print(f"truth ({meta.get('motion', '?')}): {truth_text(meta)}", highlight=False)
+    from ..results import measurement_warnings
+    from .answers_out import print_warnings
+
+    print_warnings(measurement_warnings(meas))
     if plot is not None:
         from ..plot import plot_measurements
 
