@@ -215,3 +215,18 @@ def test_clock_time_in_tables_when_the_file_records_its_time_origin(tmp_path, bo
     plain = tmp_path / "plain.csv"
     tk.write_measurements(meas, plain)
     assert "UTC" not in run("show", str(plain)).output  # seconds only without an origin
+
+
+@pytest.mark.parametrize(("option", "value", "words"), [
+    ("--sensor", "nobody", "no such sensor"),
+    ("--units", "imperial", "expected si or nautical"),
+    ("--at", "yesterday", "ISO-8601"),
+    ("--at", "2024-05-01T12:00:00Z", "time origin"),  # a clock time without one in the file
+])
+def test_bad_answer_options_are_refused_naming_the_option(tmp_path, bo, option, value, words):
+    _, meas, _ = bo
+    path = tmp_path / "bo.csv"
+    tk.write_measurements(meas, path)
+    out = run("estimate", str(path), "--motion", "cv2d", option, value)
+    assert out.exit_code == 2 and option in out.output and words in out.output
+    assert "Traceback" not in out.output
