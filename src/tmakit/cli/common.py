@@ -20,6 +20,19 @@ out = Console()
 err = Console(stderr=True)
 
 
+def print_wide(renderable: object) -> None:
+    """Print a table at the terminal's width, or 160 columns when output is not a terminal.
+
+    Piped output is otherwise narrowed to 80 columns, which cuts numbers and wraps headers.
+
+    Parameters
+    ----------
+    renderable : rich renderable
+        The table.
+    """
+    (out if out.is_terminal else Console(width=160)).print(renderable)
+
+
 def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on standard error and return the exit (status 2) to raise.
 
@@ -54,6 +67,31 @@ def refuse_existing(path: Path, force: bool) -> None:
     """
     if path.exists() and not force:
         raise fail(f"{path} already exists; use --force to overwrite it")
+
+
+PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_plot_path(path: Path, force: bool) -> None:
+    """Check a picture path before any work: a known suffix, an existing folder, no overwrite.
+
+    Parameters
+    ----------
+    path : Path
+        The picture to write.
+    force : bool
+        Overwrite an existing picture.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the path cannot or may not be written.
+    """
+    if path.suffix.lower() not in PICTURE_SUFFIXES:
+        raise fail(f"--plot {path}: the picture is written as {', '.join(PICTURE_SUFFIXES)}")
+    if not path.parent.is_dir():
+        raise fail(f"--plot {path}: the folder {path.parent} does not exist")
+    refuse_existing(path, force)
 
 
 def parse_origin(text: str | None) -> tuple[float, float, float] | None:

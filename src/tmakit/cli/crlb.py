@@ -141,9 +141,16 @@ def derived_at(bound: Any, at: float) -> dict[str, Any]:
         ``{"time": at, name: {"value", "std"}, ..., "ellipse_90": {...}}``; a std is None
         where the quantity is unobservable.
     """
-    return {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
+    data = {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
         "inf") else None} for k, (v, sd) in bound.derived(at).items()},
         "ellipse_90": bound.ellipse(at, 0.9)}
+    if "course" in data:  # the command line's angles are degrees (true); "course" stays rad
+        from ..results.answers import parameter_display
+
+        c = data["course"]
+        value, sd, _ = parameter_display("course", c["value"], c["std"] or float("nan"))
+        data["course_deg"] = {"value": value, "std": sd if c["std"] is not None else None}
+    return data
 
 
 def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> None:
@@ -169,12 +176,16 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> No
     out.print(bound.summary(), highlight=False)
     if derived is not None:
         out.print(f"at t = {derived['time']:g} s:", highlight=False)
+        from ..results.answers import parameter_display
+
         for k, v in derived.items():
             if isinstance(v, dict) and "value" in v:
                 sd = v["std"]
-                out.print(f"  {k:<6} {v['value']:14.6g}  std "
-                          + (f"{sd:.4g}" if sd is not None else "unobservable"),
-                          highlight=False)
+                value, sd_shown, unit = parameter_display(
+                    k, v["value"], sd if sd is not None else float("nan"))
+                out.print(f"  {k:<6} {value:14.6g}  std "
+                          + (f"{sd_shown:.4g}" if sd is not None else "unobservable")
+                          + f" {unit}", highlight=False)
         e = derived["ellipse_90"]
         out.print(f"  90 % ellipse: semi-axes {e['major']:.4g} m x {e['minor']:.4g} m, "
                   f"major axis bearing {e['bearing_deg']:.1f} deg", highlight=False)
