@@ -11,11 +11,16 @@ from typing import Annotated, Any
 import typer
 
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
     DriftOption,
+    FormatOption,
     FreeExponentOption,
     JsonOption,
+    MappingOption,
     MotionOption,
     OriginOption,
+    OwnshipOption,
     RefTimeOption,
     fail,
     model_options,
@@ -24,6 +29,7 @@ from .common import (
     parse_assignments,
     parse_origin,
     read_or_fail,
+    reader_options,
 )
 
 
@@ -40,6 +46,11 @@ def estimate(
     drift: DriftOption = False,
     free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
+    format: FormatOption = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    mapping: MappingOption = None,
+    bearing_sigma: BearingSigmaOption = None,
     exact: Annotated[bool, typer.Option(
         "--exact", help="curvilinear:M: fit exactly M manoeuvres (default: 0 to M)")] = False,
     criterion: Annotated[str | None, typer.Option(
@@ -59,7 +70,8 @@ def estimate(
     number by BIC or likelihood-ratio tests, and holds at zero the accelerations the data do
     not need (tmakit.batch.curvilinear).
     """
-    meas = read_or_fail(file, parse_origin(origin))
+    meas = read_or_fail(file, parse_origin(origin),
+                        **reader_options(format, ownship, contact, mapping, bearing_sigma))
     start = parse_assignments(init, "--init") or None
     options = model_options(drift, free_exponent)
     # -- manoeuvring targets: tmakit.batch.curvilinear --------------------------------------
