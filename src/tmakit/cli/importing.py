@@ -127,7 +127,8 @@ def print_import(meas: Any, output: Path) -> None:
     meta = meas.metadata
     counts = ", ".join(f"{r['count']} {r['kind']} ({r['unit']}) from {r['sensor']}"
                        for r in meas.summary_rows())
-    out.print(f"wrote {output}: {len(meas)} measurements: {counts}", highlight=False, soft_wrap=True)
+    out.print(f"wrote {output}: {len(meas)} measurements: {counts}", highlight=False,
+              soft_wrap=True)
     if "source" in meta:
         out.print(f"  source: {meta['source']}", highlight=False, soft_wrap=True)
     if "time_origin" in meta:
