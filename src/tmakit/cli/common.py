@@ -174,16 +174,35 @@ def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None,
 
     if not path.exists():
         raise fail(f"{path}: no such file")
-    options = {k: v for k, v in options.items() if v is not None}
-    if "mapping" in options and "format" not in options and path.suffix.lower() in (
-            ".csv", ".parquet", ".pq"):
-        options["format"] = "wide"  # a column mapping: the file is a wide log
+    options = _log_options(path, {k: v for k, v in options.items() if v is not None})
     try:
         return read_measurements(path, origin=origin, **options)
     except (MeasurementFileError, ValueError) as e:
         from ..io.positions import ORIGIN_HINT
 
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
+
+
+def _log_options(path: Path, options: dict[str, Any]) -> dict[str, Any]:
+    """Keep the reader options of real logs for real logs; refuse them for tmakit's files."""
+    from ..io import find_format
+
+    if "mapping" in options and "format" not in options and path.suffix.lower() in (
+            ".csv", ".parquet", ".pq"):
+        options["format"] = "wide"  # a column mapping: the file is a wide log
+    try:
+        fmt = find_format(path, options.get("format"), reading=True)
+    except ValueError as e:
+        raise fail(f"--format: {e}") from None
+    if fmt is None or fmt.name not in ("csv", "parquet"):
+        return options
+    options.pop("dim", None)  # tmakit's own files: the filter's --dim only
+    given = [f"--{k.replace('_', '-')}" for k in options if k != "format"]
+    if given:
+        verb = "apply" if len(given) > 1 else "applies"
+        raise fail(f"{', '.join(given)} {verb} to real logs (Debrief, wide CSV/Parquet with "
+                   f"--mapping, GPX, NMEA), not to tmakit's {fmt.label} file {path}")
+    return options
 
 
 def write_or_fail(meas: Any, path: Path, force: bool) -> None:
