@@ -198,7 +198,7 @@ def test_wide_log_refusals_name_row_line_and_column(tmp_path, edit, expect):
 def test_mapping_errors_name_the_key(tmp_path):
     log, mapping, _ = drone_files(tmp_path)
     mapping.write_text(mapping.read_text().replace('unit = "dBm"', 'unit = "mW"'))
-    with pytest.raises(MeasurementFileError, match="measurement.0: unit 'mW' of power: "
+    with pytest.raises(MeasurementFileError, match=r"measurement\.0: unit 'mW' of power: "
                        "expected one of dBm, dBW"):
         tk.read_measurements(log, format="wide", mapping=mapping)
 
