@@ -58,7 +58,7 @@ def main() -> None:
     distances, converged = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(args.seed, args.seed + args.runs):
-            meas, result, origin, truth_en, truth = fit(Path(tmp), seed)
+            _, result, origin, truth_en, truth = fit(Path(tmp), seed)
             err = result.estimate[:2] - truth_en
             cov = result.covariance[:2, :2]
             distances.append(float(np.sqrt(err @ np.linalg.solve(cov, err))))

@@ -65,11 +65,8 @@ def track(
     drift: DriftOption = False,
     free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
-    format: FormatOption = None,
-    ownship: OwnshipOption = None,
-    contact: ContactOption = None,
-    mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None,
+    format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
+    mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -91,8 +88,8 @@ def track(
     from .. import tracking
 
     check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
-    meas = read_or_fail(file, parse_origin(origin), dim=dim,
-                        **reader_options(format, ownship, contact, mapping, bearing_sigma))
+    meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
+        format, ownship, contact, mapping, bearing_sigma))
     try:
         d = tracking.filter_dim(meas, dim)
         q_axes = tracking.process_noise(parse_q(q, d), d)
