@@ -281,3 +281,14 @@ def test_nmea_bad_checksum_and_times_outside_the_track_name_the_line(tmp_path):
         tk.read_measurements(gpx, measurements=log, mapping=mapping)
     with pytest.raises(MeasurementFileError, match="give the measurement log too"):
         tk.read_measurements(gpx)
+
+
+def test_surface_rule_in_tmakits_own_lat_lon_files(tmp_path):
+    rows = ["0,a,bearing,10,1,48.0,11.5,3", "60,a,bearing,11,1,48.18,11.5,-2"]  # 20 km north
+    text = "time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt\n" + "\n".join(rows)
+    flat = write(tmp_path, "flat.csv", "# origin_lat: 48.0\n# origin_lon: 11.5\n" + text)
+    ms = tk.read_measurements(flat)
+    assert np.all(ms.sensor_state[:, 2] == 0.0) and ms.dim == 2
+    assert ms.sensor_state[1, 1] == pytest.approx(20000.0, rel=0.01)
+    kept = write(tmp_path, "kept.csv", "# origin_lat: 48.0\n# origin_lon: 11.5\n# dim: 3\n" + text)
+    assert tk.read_measurements(kept).sensor_state[1, 2] < -25.0  # curvature as height
