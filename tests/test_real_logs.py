@@ -292,3 +292,20 @@ def test_surface_rule_in_tmakits_own_lat_lon_files(tmp_path):
     assert ms.sensor_state[1, 1] == pytest.approx(20000.0, rel=0.01)
     kept = write(tmp_path, "kept.csv", "# origin_lat: 48.0\n# origin_lon: 11.5\n# dim: 3\n" + text)
     assert tk.read_measurements(kept).sensor_state[1, 2] < -25.0  # curvature as height
+
+
+def test_dsf_sensor_lines_with_tabs_eight_digit_dates_and_no_track_lines(tmp_path):
+    lines = [f";SENSOR:\t20100112\t1213{s:02d}\tOWNSHIP  @A\t0\t4\t{s / 10:.1f}\tS\t30\t0\t10\tW"
+             f"\t{2.4 + s / 10:.1f}\t12000\tPlain\tCookie SUBJECT held" for s in range(0, 60, 10)]
+    dsf = write(tmp_path, "s.dsf", "\n".join(lines) + "\n;TA_MODULES: 20100112 NULL\n")
+    ms = tk.read_measurements(dsf, range_sigma=100.0)
+    assert ms.metadata["time_origin"] == "2010-01-12T12:13:00Z"
+    assert len(ms.select(kind="bearing")) == 6 and len(ms.select(kind="range")) == 6
+    assert ms.select(kind="range").value_si[0] == pytest.approx(12000 * 0.9144)
+    b = ms.select(kind="bearing")  # 1" of latitude south per 10 s: 3.09 m/s south
+    assert np.allclose(b.sensor_state[:, 4], -30.87 / 10, rtol=0.02)
+    assert "derived from the sensor lines" in ms.metadata["velocity_source"]
+    null = write(tmp_path, "n.dsf", ";SENSOR: 100112 121300 OWNSHIP @A NULL 2.0 NULL TA\n")
+    with pytest.raises(MeasurementFileError, match="line 1: sensor position NULL, but own "
+                       "ship 'OWNSHIP' has no track lines"):
+        tk.read_measurements(null)

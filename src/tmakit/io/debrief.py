@@ -6,6 +6,8 @@ The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
   tracks carry sensor lines.  Its track lines give the sensor's position and velocity
   (course and speed over the ground); a sensor line whose position is ``NULL`` takes the
   host track's position interpolated linearly at its time (refused outside the track).
+  Without track lines (DSF files often have none) the sensor lines' own positions are the
+  track, and the velocity is derived from them (:func:`~.logs.velocity_from_positions`).
 - **Contact** (``contact=``): the sensor lines whose sensor name is the name, or whose label
   starts with it (Debrief labels usually name the contact first); needed when the own
   ship's sensor lines come from several sensors.
@@ -43,6 +45,7 @@ from .logs import (
     local_frame,
     relative_seconds,
     time_origin_ns,
+    velocity_from_positions,
 )
 
 __all__ = ["DEFAULT_BEARING_SIGMA_DEG", "DEFAULT_FREQUENCY_SIGMA_HZ", "DEFAULT_RANGE_SIGMA_M",
@@ -133,13 +136,18 @@ def _choose(path: Path, sensors: list[SensorLine], ownship: str | None,
     return ownship, chosen
 
 
-def _host_fixes(path: Path, tracks: list[TrackLine], host: str) -> Fixes:
+def _host_fixes(path: Path, tracks: list[TrackLine], host: str,
+                rows: list[SensorLine]) -> Fixes:
+    """Return the host's fixes: its track lines, else the positions of its sensor lines."""
     mine = [t for t in tracks if t.name == host]
     if not mine:
-        named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
-        raise MeasurementFileError(path, [
-            f"own ship {host!r} has no track lines (tracks in the file: {named}); its "
-            "positions are needed for the sensor lines"])
+        null = [s.line for s in rows if s.lat is None]
+        if null:
+            named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
+            raise MeasurementFileError(path, [
+                f"line {line}: sensor position NULL, but own ship {host!r} has no track lines "
+                f"(tracks in the file: {named})" for line in null])
+        return _sensor_line_fixes(rows)
     fixes = Fixes(np.array([t.time_ns for t in mine], np.int64), np.array([t.lat for t in mine]),
                   np.array([t.lon for t in mine]), np.zeros(len(mine)),
                   course_speed_velocity(np.array([t.course for t in mine]),
@@ -154,12 +162,23 @@ def _host_fixes(path: Path, tracks: list[TrackLine], host: str) -> Fixes:
     return fixes
 
 
+def _sensor_line_fixes(rows: list[SensorLine]) -> Fixes:
+    """Return fixes from the sensor lines' own positions (no velocity: derived from them)."""
+    times = sorted({s.time_ns: s for s in rows}.items())
+    return Fixes(np.array([t for t, _ in times], np.int64),
+                 np.array([s.lat for _, s in times], float),
+                 np.array([s.lon for _, s in times], float), np.zeros(len(times)), None,
+                 np.array([s.line for _, s in times], np.int64))
+
+
 def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: object,
                    origin_ns: int) -> NDArray[np.float64]:
     """Return each sensor line's state (m, m/s): its own position or the host's, interpolated."""
     t_fix = relative_seconds(fixes.time_ns, origin_ns)
-    host = np.column_stack([frame.enu(fixes.lat, fixes.lon, fixes.alt),  # type: ignore[attr-defined]
-                            fixes.velocity])
+    positions = frame.enu(fixes.lat, fixes.lon, fixes.alt)  # type: ignore[attr-defined]
+    velocity = (fixes.velocity if fixes.velocity is not None
+                else velocity_from_positions(t_fix, positions))
+    host = np.column_stack([positions, velocity])
     t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
     states, outside = interpolate_states(t_fix, host, t)
     given = np.array([s.lat is not None for s in rows])
@@ -243,7 +262,7 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
         raise MeasurementFileError(path, bad)
     tracks, sensors = _load(path)
     host, rows = _choose(path, sensors, ownship, contact)
-    fixes = _host_fixes(path, tracks, host)
+    fixes = _host_fixes(path, tracks, host, rows)
     try:
         frame = local_frame([fixes], origin, dim, "msl")
     except ValueError as e:
@@ -262,6 +281,8 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
     metadata = {"source": f"Debrief replay {path.name}, own ship {host}"
                 + (f", contact {contact}" if contact else ""),
                 "time_origin": iso_utc(origin_ns), **frame.metadata(),
+                "velocity_source": "the own ship's course and speed" if fixes.velocity
+                is not None else "derived from the sensor lines' positions (10 s line fit)",
                 "bearing_sigma_deg": repr(sig["bearing"]),
                 "ambiguous_bearings_unused": str(sum(s.ambiguous is not None for s in rows))}
     return MeasurementSet.from_si(np.array(times), np.full(len(times), host), np.array(kinds),

@@ -13,9 +13,10 @@ Written from Debrief's documentation of the replay format; the lines tmakit read
 SENSOR [label]``
     the same with an ambiguous bearing (degrees) and a frequency (Hz), each or ``NULL``.
 
-Names with spaces are in double quotes.  Other lines starting with ``;`` (comments ``;;``,
-narratives, shapes) and blank lines are skipped.  ``YYMMDD`` years 00-49 are 2000-2049 and
-50-99 are 1950-1999; ``YYYYMMDD`` is read too.  Every problem names the line.
+Fields are separated by spaces or tabs; names with spaces are in double quotes. Other lines
+starting with ``;`` (comments ``;;``, narratives, shapes) and blank lines are skipped.
+``YYMMDD`` years 00-49 are 2000-2049 and 50-99 are 1950-1999; ``YYYYMMDD`` is read too.
+Every problem names the line.
 """
 
 from __future__ import annotations
@@ -192,13 +193,13 @@ def parse_replay_text(text: str) -> tuple[list[TrackLine], list[SensorLine], lis
         line = raw.strip()
         if not line:
             continue
-        head, _, body = line.partition(" ")
+        tokens = _TOKEN.findall(line)  # fields are separated by spaces or tabs
+        head = tokens[0].upper()
         try:
-            if head.upper() in (";SENSOR:", ";SENSOR2:"):
-                version = 2 if head.upper() == ";SENSOR2:" else 1
-                sensors.append(_sensor(_TOKEN.findall(body), number, version))
+            if head in (";SENSOR:", ";SENSOR2:"):
+                sensors.append(_sensor(tokens[1:], number, 2 if head == ";SENSOR2:" else 1))
             elif not line.startswith(";"):
-                tracks.append(_track(_TOKEN.findall(line), number))
+                tracks.append(_track(tokens, number))
         except LineError as e:
             problems.append(f"line {number}: {e}")
     return tracks, sensors, problems
