@@ -309,3 +309,30 @@ def test_dsf_sensor_lines_with_tabs_eight_digit_dates_and_no_track_lines(tmp_pat
     with pytest.raises(MeasurementFileError, match="line 1: sensor position NULL, but own "
                        "ship 'OWNSHIP' has no track lines"):
         tk.read_measurements(null)
+
+
+def test_relative_bearings_take_the_heading_from_hdt_or_a_column(tmp_path):
+    gpx, nmea, log, mapping, _ = boat_files(tmp_path)
+    true = tk.read_measurements(nmea, measurements=log, mapping=mapping)
+    # the sample's HDT heading is the course over the ground: relative = true - course
+    course = np.rad2deg(np.arctan2(true.sensor_state[:, 3], true.sensor_state[:, 4]))
+    rows = log.read_text().splitlines()
+    rel = [f"{r.split(',')[0]},{(float(r.split(',')[1]) - c) % 360:.6f},{c % 360:.6f}"
+           for r, c in zip(rows[1:], course, strict=True)]
+    write(tmp_path, "rel.csv", "epoch_s,bearing_deg,hdg\n" + "\n".join(rel) + "\n")
+    text = mapping.read_text().replace('kind = "bearing"', 'kind = "bearing"\nreference = '
+                                       '"relative"')
+    write(tmp_path, "rel.toml", text)
+    from_hdt = tk.read_measurements(nmea, measurements=tmp_path / "rel.csv",
+                                    mapping=tmp_path / "rel.toml")
+    assert np.allclose(np.angle(np.exp(1j * (from_hdt.value_si - true.value_si))), 0.0,
+                       atol=np.deg2rad(0.06))  # HDT is written to 0.1 deg
+    write(tmp_path, "col.toml", 'heading = "hdg"\n' + text)
+    from_column = tk.read_measurements(gpx, measurements=tmp_path / "rel.csv",
+                                       mapping=tmp_path / "col.toml")
+    assert np.allclose(np.angle(np.exp(1j * (from_column.value_si - true.value_si))), 0.0,
+                       atol=1e-6)
+    with pytest.raises(MeasurementFileError, match="row 1 \\(line 2\\), column 'bearing_deg': "
+                       "a bearing relative to the heading needs the heading"):
+        tk.read_measurements(gpx, measurements=tmp_path / "rel.csv",
+                             mapping=tmp_path / "rel.toml")

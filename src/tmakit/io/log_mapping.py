@@ -27,6 +27,8 @@ A mapping file (every key is described in ``docs/your-own-data.md``)::
     kind = "power"
     unit = "dBm"
     sigma = 2.0             # in the unit (dB for power), or sigma_column = "..."
+    # reference = "relative": a bearing clockwise from the heading (column `heading = "..."`
+    # at the top, or the HDT sentences of an NMEA track), made true by adding it
 
 On the command line the same mapping is ``key=value`` pairs (:func:`mapping_from_text`).
 """
@@ -122,6 +124,7 @@ class MeasurementMap(_Strict):
     unit: str
     sigma: float | None = Field(default=None, gt=0)
     sigma_column: str | None = None
+    reference: Literal["true", "relative"] = "true"
 
     @model_validator(mode="after")
     def _kind_unit(self) -> MeasurementMap:
@@ -130,6 +133,8 @@ class MeasurementMap(_Strict):
         if self.unit not in UNITS[self.kind]:
             raise ValueError(f"unit {self.unit!r} of {self.kind}: expected one of "
                              f"{', '.join(UNITS[self.kind])}")
+        if self.reference == "relative" and self.kind != "bearing":
+            raise ValueError("reference 'relative' (to the heading) applies to bearings only")
         if (self.sigma is None) == (self.sigma_column is None):
             raise ValueError("give sigma (in the unit; dB for power) or sigma_column")
         return self
@@ -142,6 +147,7 @@ class LogMapping(_Strict):
     sensor: str = "sensor"
     sensor_column: str | None = None
     track: str | None = None
+    heading: str | None = None
     position: PositionMap | None = None
     velocity: VelocityMap | None = None
     velocity_window: float = Field(default=10.0, gt=0)

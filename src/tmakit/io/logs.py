@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["KNOT", "SURFACE_TOLERANCE_M", "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame",
-           "course_speed_velocity", "interpolate_states", "iso_utc", "local_frame",
-           "parse_clock_times", "relative_seconds", "surface_dim", "time_origin_ns",
+           "course_speed_velocity", "interpolate_heading", "interpolate_states", "iso_utc",
+           "local_frame", "parse_clock_times", "relative_seconds", "surface_dim", "time_origin_ns",
            "velocity_from_positions"]
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
@@ -62,6 +62,8 @@ class Fixes:
         Velocity east, north, up (m/s); None when the log gives none.
     lines : numpy.ndarray of int, shape (n,), optional
         Line of each fix in its file (for messages).
+    heading : numpy.ndarray, shape (n,), optional
+        True heading (deg; NaN where unknown), for bearings relative to the heading.
     """
 
     time_ns: NDArray[np.int64]
@@ -70,13 +72,15 @@ class Fixes:
     alt: NDArray[np.float64]
     velocity: NDArray[np.float64] | None = None
     lines: NDArray[np.int64] | None = None
+    heading: NDArray[np.float64] | None = None
 
     def sorted(self) -> Fixes:
         """Return the fixes in time order (stable)."""
         order = np.argsort(self.time_ns, kind="stable")
         return Fixes(self.time_ns[order], self.lat[order], self.lon[order], self.alt[order],
                      None if self.velocity is None else self.velocity[order],
-                     None if self.lines is None else self.lines[order])
+                     None if self.lines is None else self.lines[order],
+                     None if self.heading is None else self.heading[order])
 
 
 @dataclass(frozen=True)
@@ -345,6 +349,31 @@ def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
     outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(
         t.shape, bool)
     return out, outside
+
+
+def interpolate_heading(t_fix: NDArray[np.float64], heading_deg: NDArray[np.float64],
+                        t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Interpolate headings (deg) at times ``t`` along the shorter turn; NaN headings skipped.
+
+    Parameters
+    ----------
+    t_fix : numpy.ndarray, shape (m,)
+        Times of the headings (s), increasing.
+    heading_deg : numpy.ndarray, shape (m,)
+        True headings (deg); NaN where unknown.
+    t : numpy.ndarray, shape (n,)
+        Times wanted (s).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        Headings in [0, 360) deg; NaN everywhere when no heading is known.
+    """
+    known = np.isfinite(heading_deg)
+    if not known.any():
+        return np.full(np.shape(t), np.nan)
+    h = np.unwrap(np.deg2rad(heading_deg[known]))
+    return np.rad2deg(np.interp(t, t_fix[known], h)) % 360.0
 
 
 def course_speed_velocity(course_deg: NDArray[np.float64], speed: NDArray[np.float64]

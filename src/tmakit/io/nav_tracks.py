@@ -6,7 +6,8 @@
 - **NMEA 0183**: ``RMC`` (date, time, position, speed and course over the ground), ``GGA``
   (time, position, altitude above the ellipsoid: above mean sea level plus the geoid
   separation the sentence gives), ``VTG`` (course and speed, for the fix of
-  the sentence before it) and ``HDT`` (true heading, kept for relative bearings).  Fixes are
+  the sentence before it) and ``HDT`` (true heading, for bearings measured relative to the
+  heading: a mapping's ``reference = "relative"``).  Fixes are
   merged by time: the position of a time's ``GGA`` (with its altitude) or else its ``RMC``,
   the velocity of its ``RMC`` or ``VTG``.  A ``GGA`` takes its date from the last ``RMC``
   before it.  Sentences with a bad checksum, unreadable ones and RMC fixes marked void
@@ -179,10 +180,12 @@ def read_nmea_fixes(path: str | os.PathLike[str]) -> Fixes:
     if all("sog" in f for f in fixes):
         velocity = course_speed_velocity(np.array([f["cog"] for f in fixes]),
                                          np.array([f["sog"] for f in fixes]) * KNOT)
+    heading = np.array([f.get("heading", np.nan) for f in fixes], float)
     return Fixes(times, np.array([f["lat"] for f in fixes], float),
                  np.array([f["lon"] for f in fixes], float),
                  np.array([f.get("alt", 0.0) for f in fixes], float), velocity,
-                 np.array([f["line"] for f in fixes], np.int64))
+                 np.array([f["line"] for f in fixes], np.int64),
+                 heading if np.isfinite(heading).any() else None)
 
 
 def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:

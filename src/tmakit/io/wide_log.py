@@ -6,11 +6,13 @@ NMEA own track joined by time: :mod:`.nav_tracks`), its velocity (ENU or NED col
 derived from the positions) and measurement columns with their kind, unit and sigma.
 
 The mapping to a :class:`~tmakit.data.MeasurementSet`: one row per non-empty measurement
-cell; value and sigma converted from the column's unit to SI once; the sensor's state from
-the position (and velocity) of the same row, or interpolated linearly in the own track at
-the row's time (refused outside it).  An empty measurement cell is a sample without that
-measurement, not an error.  Clock time, origin and the surface rule as in :mod:`.logs`.
-Every refused cell names the row, the line (CSV) and the column.
+cell; value and sigma converted from the column's unit to SI once (a bearing relative to the
+heading made true by adding the heading: a column, or the NMEA track's HDT interpolated
+along the shorter turn); the sensor's state from the position (and velocity) of the same
+row, or interpolated linearly in the own track at the row's time (refused outside it). An
+empty measurement cell is a sample without that measurement, not an error. Clock time,
+origin and the surface rule as in :mod:`.logs`. Every refused cell names the row, the line
+(CSV) and the column.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from .formats import Format, register_format
 from .logs import (
     Fixes,
     LocalFrame,
+    interpolate_heading,
     interpolate_states,
     iso_utc,
     local_frame,
@@ -51,6 +54,7 @@ class _Table:
     def __init__(self, path: Path, frame: pd.DataFrame, lines: NDArray[np.int64] | None) -> None:
         self.path, self.frame, self.lines = path, frame, lines
         self.problems: list[str] = []
+        self.heading: NDArray[np.float64] | None = None  # deg true per row, for relative bearings
 
     def where(self, row: int, column: str) -> str:
         line = f" (line {self.lines[row]})" if self.lines is not None else ""
@@ -217,6 +221,8 @@ def _track_states(tab: _Table, track: Fixes, frame: LocalFrame, t: NDArray[np.fl
     if frame.dim == 2:
         vel[:, 2] = 0.0
     states, outside = interpolate_states(tf, np.column_stack([pos, vel]), t)
+    if track.heading is not None and tab.heading is None:
+        tab.heading = interpolate_heading(tf, track.heading, t)
     span = f"{iso_utc(int(track.time_ns[0]))} to {iso_utc(int(track.time_ns[-1]))}"
     for k in np.flatnonzero(outside)[:25]:
         tab.problems.append(f"{tab.where(int(k), 'time')}: time {iso_utc(t0)} + "
@@ -274,6 +280,8 @@ def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
     for spec in m.measurement:
         tab.need(spec.column, f"{spec.kind} in {spec.unit}")
         tab.need(spec.sigma_column, f"sigma of {spec.column}")
+    if m.heading and tab.need(m.heading, "heading (deg true)"):
+        tab.heading = tab.numbers(m.heading, "a heading (deg)", required=False)
     tab.fail()
     t_ns, bad = parse_clock_times(tab.frame[m.time].tolist())
     for k in np.flatnonzero(bad)[:25]:
@@ -288,6 +296,16 @@ def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
         raise MeasurementFileError(path, [str(e)]) from None
     return _assemble(tab, m, relative_seconds(t_ns, t0), states,
                      {"source": f"wide log {path.name}", "time_origin": iso_utc(t0), **meta})
+
+
+def _headings(tab: _Table, column: str, rows: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Return the heading (deg) of each row of a relative bearing, or record the problem."""
+    heading = tab.heading[rows] if tab.heading is not None else np.full(rows.size, np.nan)
+    for k in rows[~np.isfinite(heading)][:25]:
+        tab.problems.append(f"{tab.where(int(k), column)}: a bearing relative to the heading "
+                            "needs the heading at its time (mapping key heading = COLUMN, or "
+                            "HDT sentences in the NMEA track)")
+    return heading
 
 
 def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArray[np.float64],
@@ -306,6 +324,8 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
         rows = np.flatnonzero(np.isfinite(value))
         scale, offset = UNITS[spec.kind][spec.unit]
         si = value[rows] * scale + offset
+        if spec.reference == "relative":
+            si = si + np.deg2rad(_headings(tab, spec.column, rows))
         if spec.kind == "bearing":
             si = np.mod(si, 2 * np.pi)
         parts.append((t[rows], ids[rows], np.full(rows.size, spec.kind), si,
