@@ -65,9 +65,10 @@ def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | No
 # `tma import`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def import_(
     format: Annotated[str, typer.Argument(
-        help="rep or dsf (Debrief), wide (CSV/Parquet log + mapping), gpx or nmea (own "
-             "track, then the measurement log)")],
-    files: Annotated[list[Path], typer.Argument(help="the file(s) to read")],
+        metavar="FORMAT", help="rep or dsf (Debrief), wide (CSV/Parquet log + mapping), gpx "
+                               "or nmea (own track, then the measurement log)")],
+    files: Annotated[list[Path], typer.Argument(metavar="FILE...",
+                                                help="the file(s) to read")],
     output: Annotated[Path, typer.Option("-o", "--output",
                                          help="tmakit measurement file to write (.parquet "
                                               "or .csv)")],
