@@ -67,7 +67,7 @@ def import_(
     format: Annotated[str, typer.Argument(
         metavar="FORMAT", help="rep or dsf (Debrief), wide (CSV/Parquet log + mapping), gpx "
                                "or nmea (own track, then the measurement log)")],
-    files: Annotated[list[Path], typer.Argument(metavar="FILE...",
+    files: Annotated[list[Path], typer.Argument(metavar="FILE",
                                                 help="the file(s) to read")],
     output: Annotated[Path, typer.Option("-o", "--output",
                                          help="tmakit measurement file to write (.parquet "
