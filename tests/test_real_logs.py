@@ -336,3 +336,16 @@ def test_relative_bearings_take_the_heading_from_hdt_or_a_column(tmp_path):
                        "a bearing relative to the heading needs the heading"):
         tk.read_measurements(gpx, measurements=tmp_path / "rel.csv",
                              mapping=tmp_path / "rel.toml")
+
+
+def test_clock_times_of_a_set_from_its_time_origin(tmp_path):
+    from tmakit.io.logs import clock_times
+
+    log, mapping, _ = drone_files(tmp_path)
+    ms = tk.read_measurements(tk.write_measurements(
+        tk.read_measurements(log, format="wide", mapping=mapping), tmp_path / "o.csv"))
+    stamps = clock_times(ms.metadata, ms.time[:3])
+    assert [str(s) for s in stamps] == ["2026-05-04T09:30:00.000000000"] * 2 + [
+        "2026-05-04T09:30:01.000000000"]
+    assert clock_times({}, ms.time) is None
+    assert ms.time.max() < 200.0  # seconds from the origin, no epoch in the numbers

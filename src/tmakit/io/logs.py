@@ -32,9 +32,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["KNOT", "SURFACE_TOLERANCE_M", "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame",
-           "course_speed_velocity", "interpolate_heading", "interpolate_states", "iso_utc",
-           "local_frame", "parse_clock_times", "relative_seconds", "surface_dim", "time_origin_ns",
-           "velocity_from_positions"]
+           "clock_times", "course_speed_velocity", "interpolate_heading", "interpolate_states",
+           "iso_utc", "local_frame", "parse_clock_times", "relative_seconds", "surface_dim",
+           "time_origin_ns", "velocity_from_positions"]
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
 #: (2-D) unless 3-D is asked for: GPS altitude noise is a few metres (1 sigma) and a ship's
@@ -282,6 +282,32 @@ def iso_utc(time_ns: int) -> str:
     if frac:
         stamp += f".{frac:09d}".rstrip("0")
     return stamp + "Z"
+
+
+def clock_times(metadata: dict[str, str], t: NDArray[np.float64]
+                ) -> NDArray[np.datetime64] | None:
+    """Return the UTC clock times of set times ``t`` (s), from the ``time_origin`` metadata.
+
+    Parameters
+    ----------
+    metadata : dict of str to str
+        A measurement set's metadata.
+    t : numpy.ndarray
+        Times (s since the origin).
+
+    Returns
+    -------
+    numpy.ndarray of datetime64[ns], or None
+        The clock times (UTC), None when the set has no (readable) ``time_origin``.
+    """
+    text = metadata.get("time_origin")
+    if not text:
+        return None
+    origin, bad = parse_clock_times([text])
+    if bad[0]:
+        return None
+    ns = np.int64(origin[0]) + np.round(np.asarray(t, float) * _NS).astype(np.int64)
+    return ns.astype("datetime64[ns]")
 
 
 def velocity_from_positions(t: NDArray[np.float64], pos: NDArray[np.float64],
