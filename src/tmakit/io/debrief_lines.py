@@ -138,11 +138,12 @@ def _track(tokens: list[str], line: int) -> TrackLine:
                         f"latitude D M S H, longitude D M S H, course, speed, depth), found "
                         f"{len(tokens)}")
     lat, lon = _position(tokens, 4)
-    course, speed, depth = (_number(t, w) for t, w in zip(
-        tokens[12:15], ("a course (degrees)", "a speed (knots)", "a depth (m)"), strict=True))
-    assert course is not None and speed is not None and depth is not None
+    course, speed = (_number(t, w) for t, w in zip(
+        tokens[12:14], ("a course (degrees)", "a speed (knots)"), strict=True))
+    depth = _number(tokens[14], "a depth (m) or NaN", null=True)  # not used: may be unknown
+    assert course is not None and speed is not None
     return TrackLine(line, _name(tokens[2]), _clock(tokens[0], tokens[1]), lat, lon, course,
-                     speed, depth)
+                     speed, float("nan") if depth is None else depth)
 
 
 def _sensor(tokens: list[str], line: int, version: int) -> SensorLine:

@@ -10,9 +10,9 @@
   heading: a mapping's ``reference = "relative"``).  Fixes are
   merged by time: the position of a time's ``GGA`` (with its altitude) or else its ``RMC``,
   the velocity of its ``RMC`` or ``VTG``.  A ``GGA`` takes its date from the last ``RMC``
-  before it.  Sentences with a bad checksum, unreadable ones and RMC fixes marked void
-  (status ``V``) are refused or skipped as stated in the messages; other sentences are
-  ignored.
+  before it.  A sentence with a bad checksum or unreadable is refused (naming its line); RMC
+  fixes marked void (status ``V``) and GGA sentences without a fix are skipped; other
+  sentences, and text before the ``$`` of a line (a logger's time stamp), are ignored.
 
 The fixes are joined to a measurement log by :mod:`.wide_log` (the log's ``track`` key).
 """
@@ -122,8 +122,10 @@ def _nmea_fixes(path: Path, lines: list[str]) -> tuple[dict[int, dict], list[str
     undated = 0
     for number, raw in enumerate(lines, start=1):
         text = raw.strip()
-        if not text or not text.startswith(("$", "!")):
-            continue
+        start = min((i for i in (text.find("$"), text.find("!")) if i >= 0), default=-1)
+        if start < 0:
+            continue  # not a sentence (loggers may prefix sentences with a time stamp)
+        text = text[start:]
         try:
             msg = pynmea2.parse(text, check=True)
             kind, stamp, fields = _nmea_record(msg, day)
