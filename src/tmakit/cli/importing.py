@@ -115,21 +115,22 @@ def import_(
     print_import(meas, output)
 
 
-def print_import(meas: Any, output: Path) -> None:
+def print_import(meas: Any, output: Path | None) -> None:
     """Print what was imported: rows, clock time, frame, and the choices made.
 
     Parameters
     ----------
     meas : tmakit.data.MeasurementSet
         The set written.
-    output : Path
-        The file written.
+    output : Path or None
+        The file written (None: only the clock time, frame and choices are printed).
     """
     meta = meas.metadata
     counts = ", ".join(f"{r['count']} {r['kind']} ({r['unit']}) from {r['sensor']}"
                        for r in meas.summary_rows())
-    out.print(f"wrote {output}: {len(meas)} measurements: {counts}", highlight=False,
-              soft_wrap=True)
+    if output is not None:
+        out.print(f"wrote {output}: {len(meas)} measurements: {counts}", highlight=False,
+                  soft_wrap=True)
     if "source" in meta:
         out.print(f"  source: {meta['source']}", highlight=False, soft_wrap=True)
     if "time_origin" in meta:

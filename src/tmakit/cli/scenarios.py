@@ -144,6 +144,10 @@ def show(
     out.print(describe_sensors(meas))
     if "truth" in meta:
         out.print(f"truth ({meta.get('motion', '?')}): {meta['truth']}", highlight=False)
+    if "time_origin" in meta:  # a real log: its clock time and frame
+        from .importing import print_import
+
+        print_import(meas, None)
     if plot is not None:
         from ..plot import plot_measurements
 
