@@ -349,3 +349,17 @@ def test_clock_times_of_a_set_from_its_time_origin(tmp_path):
         "2026-05-04T09:30:01.000000000"]
     assert clock_times({}, ms.time) is None
     assert ms.time.max() < 200.0  # seconds from the origin, no epoch in the numbers
+
+
+def test_a_parquet_wide_log_with_a_timestamp_column_reads_like_the_csv(tmp_path):
+    import pandas as pd
+
+    log, mapping, _ = drone_files(tmp_path)
+    frame = pd.read_csv(log)
+    frame["utc"] = pd.to_datetime(frame["utc"])
+    frame.to_parquet(tmp_path / "drone.parquet")
+    a = tk.read_measurements(log, format="wide", mapping=mapping)
+    b = tk.read_measurements(tmp_path / "drone.parquet", format="wide", mapping=mapping)
+    assert np.array_equal(a.time, b.time) and np.array_equal(a.value, b.value)
+    assert np.allclose(a.sensor_state, b.sensor_state, atol=1e-9)
+    assert b.metadata["time_origin"] == a.metadata["time_origin"]
