@@ -16,6 +16,7 @@ latitude/longitude about :data:`SAMPLE_ORIGIN`; clock times start at :data:`SAMP
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from typing import Any
 
@@ -306,8 +307,7 @@ def gpx_nmea_sample(seed: int = 0) -> tuple[str, str, str, str, dict[str, float]
     gpx = gpxpy.gpx.GPX()
     segment = gpxpy.gpx.GPXTrackSegment()
     for k, stamp in enumerate(_clock(t)):
-        when = stamp.astype("datetime64[us]").item().replace(tzinfo=__import__(
-            "datetime").UTC)
+        when = stamp.astype("datetime64[us]").item().replace(tzinfo=dt.UTC)
         segment.points.append(gpxpy.gpx.GPXTrackPoint(round(float(lat[k]), 8),
                                                       round(float(lon[k]), 8), 2.0, when))
     track = gpxpy.gpx.GPXTrack(name="boat")
