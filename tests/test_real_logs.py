@@ -363,3 +363,17 @@ def test_a_parquet_wide_log_with_a_timestamp_column_reads_like_the_csv(tmp_path)
     assert np.array_equal(a.time, b.time) and np.array_equal(a.value, b.value)
     assert np.allclose(a.sensor_state, b.sensor_state, atol=1e-9)
     assert b.metadata["time_origin"] == a.metadata["time_origin"]
+
+
+def test_the_shipped_samples_are_the_simulations_output():
+    """src/tmakit/examples is what benchmarks/make_sample_logs.py writes (seed 0)."""
+    from importlib import resources
+
+    shipped = resources.files("tmakit") / "examples"
+    rep, _ = replay_sample(0)
+    drone, drone_map, _ = drone_sample(0)
+    gpx, nmea, bearings, bearings_map, _ = gpx_nmea_sample(0)
+    for name, text in (("contact.rep", rep), ("drone.csv", drone), ("drone.toml", drone_map),
+                       ("own.gpx", gpx), ("own.nmea", nmea), ("bearings.csv", bearings),
+                       ("bearings.toml", bearings_map)):
+        assert (shipped / name).read_text(encoding="utf-8") == text, name
