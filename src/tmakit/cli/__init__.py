@@ -11,6 +11,8 @@
     tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
     tma track FILE [--filter ekf|ukf|mgekf|pf] [--q Q] [--json] [-o track.csv] [--plot out.png]
     tma plan SCENARIO.toml [-o path.csv] [--plot figs.png] [--runs N] [--seed S] [--json]
+    tma import rep|wide|gpx|nmea FILE... -o obs.parquet [--ownship N] [--contact N] [--mapping M]
+    tma examples DIR                               write the sample logs (docs/your-own-data.md)
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
@@ -24,6 +26,7 @@ import typer
 
 from .crlb import crlb
 from .estimate import estimate
+from .importing import examples, import_
 from .montecarlo import montecarlo
 from .plan import plan
 from .reproduce import reproduce
@@ -55,6 +58,8 @@ def _root(version: Annotated[bool, typer.Option(
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
                  plan, demo):
     app.command()(_command)
+app.command(name="import")(import_)
+app.command()(examples)
 
 
 def main() -> None:

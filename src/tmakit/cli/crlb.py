@@ -8,10 +8,15 @@ from typing import Annotated, Any
 import typer
 
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
     DriftOption,
+    FormatOption,
     FreeExponentOption,
     JsonOption,
+    MappingOption,
     MotionOption,
+    OwnshipOption,
     RefTimeOption,
     fail,
     is_measurement_file,
@@ -21,6 +26,7 @@ from .common import (
     out,
     parse_assignments,
     read_or_fail,
+    reader_options,
 )
 
 
@@ -38,6 +44,11 @@ def crlb(
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
     as_json: JsonOption = False,
+    format: FormatOption = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    mapping: MappingOption = None,
+    bearing_sigma: BearingSigmaOption = None,
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 
@@ -45,9 +56,10 @@ def crlb(
     sigmas (its measured values are not used).  Nuisance parameters are unknown unless
     --known-nuisance is given.
     """
-    if is_measurement_file(source):
+    if is_measurement_file(source) or format is not None:
         bound = bound_of_file(Path(source), motion, ref_time, truth, known_nuisance, drift,
-                              free_exponent)
+                              free_exponent,
+                              reader_options(format, ownship, contact, mapping, bearing_sigma))
     else:
         bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
     derived = None if at is None else derived_at(bound, at)
@@ -55,7 +67,8 @@ def crlb(
 
 
 def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth: str | None,
-                  known_nuisance: bool, drift: bool, free_exponent: bool) -> Any:
+                  known_nuisance: bool, drift: bool, free_exponent: bool,
+                  options: dict[str, Any] | None = None) -> Any:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
 
     It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor
@@ -69,6 +82,8 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
         ``--motion``, ``--ref-time``, ``--truth``.
     known_nuisance, drift, free_exponent : bool
         ``--known-nuisance``, ``--drift``, ``--free-exponent``.
+    options : dict, optional
+        The reader's options (:func:`~tmakit.cli.common.reader_options`).
 
     Returns
     -------
@@ -84,7 +99,7 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
 
     from ..bounds import crlb as compute
 
-    meas = read_or_fail(file)
+    meas = read_or_fail(file, **(options or {}))
     model = motion_or_fail(motion, ref_time, meas)
     values = parse_assignments(truth, "--truth")
     if not values and "truth" in meas.metadata and motion is None:

@@ -21,11 +21,16 @@ from .answers_out import (
     select_window,
 )
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
     DriftOption,
+    FormatOption,
     FreeExponentOption,
     JsonOption,
+    MappingOption,
     MotionOption,
     OriginOption,
+    OwnshipOption,
     RefTimeOption,
     check_plot_path,
     err,
@@ -36,6 +41,7 @@ from .common import (
     parse_assignments,
     parse_origin,
     read_or_fail,
+    reader_options,
 )
 
 
@@ -52,6 +58,11 @@ def estimate(
     drift: DriftOption = False,
     free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
+    format: FormatOption = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    mapping: MappingOption = None,
+    bearing_sigma: BearingSigmaOption = None,
     exact: Annotated[bool, typer.Option(
         "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")
     ] = False,
@@ -94,7 +105,8 @@ def estimate(
     check_units(units)
     if plot is not None:
         check_plot_path(plot, force)
-    meas = select_window(read_or_fail(file, parse_origin(origin)), start, stop)
+    meas = select_window(read_or_fail(file, parse_origin(origin), **reader_options(
+        format, ownship, contact, mapping, bearing_sigma)), start, stop)
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations))

@@ -12,13 +12,19 @@ import typer
 from rich.table import Table
 
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
+    FormatOption,
+    MappingOption,
     OriginOption,
+    OwnshipOption,
     fail,
     load_scenario_or_fail,
     out,
     parse_origin,
     print_wide,
     read_or_fail,
+    reader_options,
     refuse_existing,
     write_or_fail,
 )
@@ -171,12 +177,18 @@ def show(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
     plot: Annotated[Path | None, typer.Option(help="write a picture (PNG, PDF, SVG)")] = None,
     origin: OriginOption = None,
+    format: FormatOption = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    mapping: MappingOption = None,
+    bearing_sigma: BearingSigmaOption = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
     if plot is not None:
         refuse_existing(plot, force)
-    meas = read_or_fail(file, parse_origin(origin))
+    meas = read_or_fail(file, parse_origin(origin),
+                        **reader_options(format, ownship, contact, mapping, bearing_sigma))
     meta = meas.metadata
     title = f"{file}: {len(meas)} measurements"
     if "scenario" in meta:
@@ -187,6 +199,10 @@ def show(
     out.print(describe_sensors(meas))
     if "truth" in meta:
         out.print(f"truth ({meta.get('motion', '?')}): {truth_text(meta)}", highlight=False)
+    if "time_origin" in meta:  # a real log: its clock time and frame
+        from .importing import print_import
+
+        print_import(meas, None)
     from ..results import measurement_warnings
     from .answers_out import print_warnings
 

@@ -13,9 +13,14 @@ from rich.table import Table
 
 from .answers_out import SensorOption, UnitsOption, check_units, print_answers, print_warnings
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
     DriftOption,
+    FormatOption,
     FreeExponentOption,
+    MappingOption,
     OriginOption,
+    OwnshipOption,
     err,
     fail,
     model_options,
@@ -24,6 +29,7 @@ from .common import (
     parse_origin,
     print_wide,
     read_or_fail,
+    reader_options,
     refuse_existing,
 )
 
@@ -61,6 +67,8 @@ def track(
     drift: DriftOption = False,
     free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
+    format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
+    mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -83,7 +91,8 @@ def track(
 
     check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
     check_units(units)
-    meas = read_or_fail(file, parse_origin(origin))
+    meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
+        format, ownship, contact, mapping, bearing_sigma))
     try:
         d = tracking.filter_dim(meas, dim)
         q_axes = tracking.process_noise(parse_q(q, d), d)
