@@ -422,7 +422,8 @@ class TrackingFilter(ABC):
             block = self._run_kernel(compiled, k)
             if block is not None:
                 rec.add_block(block)
-                self.kernel_updates += block.stop - k
+                if not block.general:
+                    self.kernel_updates += block.stop - k
                 k = block.stop
                 if k >= total:
                     break
@@ -484,8 +485,9 @@ class _Recorder:
     def add_block(self, block: KernelRun) -> None:
         self._flush()
         k = block.states.shape[0]
-        self.blocks.append((block.times, block.states, block.covariances, block.nis,
-                            np.ones(k, dtype=np.int64), block.log_likelihoods))
+        dof = np.ones(k, dtype=np.int64) if block.dof is None else block.dof
+        self.blocks.append((block.times, block.states, block.covariances, block.nis, dof,
+                            block.log_likelihoods))
 
     def track(self, filt: TrackingFilter) -> Track:
         self._flush()

@@ -209,6 +209,29 @@ class MeasurementModel:
         """
         raise NotImplementedError
 
+    def predict_gradient(self, rel: Array, t: Array | None = None,
+                         nuisance: Array | None = None) -> tuple[Array, Array]:
+        """Give the predictions and their derivatives with respect to ``rel`` in one pass.
+
+        The filters' step (:mod:`tmakit.filters.general`) calls it once per kind and update;
+        kinds override it to share the work of :meth:`predict` and :meth:`jacobian`.  Not for
+        kinds that :attr:`uses_reference`.
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`predict` (``rel`` an array ``(..., n, 6)``, m and m/s).
+
+        Returns
+        -------
+        values : ndarray
+            ``rel.shape[:-1]``, SI units (rad, m, m/s, Hz, dBW).
+        d_rel : ndarray
+            ``rel.shape``: d value / d relative state (SI per m, per m/s).
+        """
+        return (self.predict(rel, t, nuisance, None),
+                self.jacobian(rel, t, nuisance, None).rel)
+
     def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
                rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
         """Split the prediction as ``h0 + A @ nuisance`` (every nuisance enters linearly).

@@ -68,3 +68,24 @@ class Bearing(MeasurementModel):
         d[..., 0] = dy / rho2
         d[..., 1] = -dx / rho2
         return Jacobian(d, None, zeros_nuisance(rel))
+
+    def predict_gradient(self, rel: Array, t: Array | None = None,
+                         nuisance: Array | None = None) -> tuple[Array, Array]:
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.predict_gradient`; only ``rel`` is used.
+
+        Returns
+        -------
+        values, d_rel : ndarray
+            Bearings ``rel.shape[:-1]`` and their derivatives ``rel.shape``.
+        """
+        dx, dy = rel[..., 0], rel[..., 1]
+        inv = 1.0 / (dx * dx + dy * dy)
+        d = np.zeros(rel.shape)
+        d[..., 0] = dy * inv
+        d[..., 1] = -dx * inv
+        return np.arctan2(dx, dy), d

@@ -1,0 +1,416 @@
+"""The general filter path, compiled once per file: any kinds, any sensors, 2-D and 3-D.
+
+A filter step on the general path used to build a :class:`~tmakit.observation.MeasurementGroup`
+(its row model, noise covariance and layout), move the state to the rows, call each kind's
+``predict`` and ``jacobian``, chain the Jacobian, and solve twice on a Cholesky factor: about
+290 Python calls.  Here everything that does not depend on the state is made once per file
+(:class:`StepPlan`): the rows of each update sorted by kind (every kind's rows a slice, a
+view), the linear map from the filter state to the target states at the rows (one per pattern
+of row-time offsets), the noise covariance of each update, the angle rows.  A step is then one
+product for the relative states, one fused ``predict_gradient`` per kind, one product for the
+chained Jacobian, and :func:`kalman_gain` — closed form for one and two rows, one Cholesky
+factorisation otherwise.  The dynamics' ``Phi`` and ``Q`` are cached per step size
+(:class:`DynamicsCache`), and the posterior covariance is repaired only when its Cholesky
+check fails (:func:`checked_psd`).
+
+Kinds with an earlier reference sample (range differences) keep the group path.  The results
+equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding;
+``tests/test_filters.py::test_general_plan_equals_the_group_path`` pins them.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.linalg.lapack import dpotrf, dpotrs
+
+from ..arrays import Array
+from ..frames import wrap_angle
+from ..linalg import repair_psd, solve_spd
+from ..measurements import MeasurementModel
+from ..motion.dynamics import NearlyConstantVelocity
+from ..observation.groups import TIME_TOLERANCE
+from ..observation.rows import as_slice, correlated_blocks
+from .kernels import KernelRun
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .compiled import CompiledMeasurements
+
+#: One update of a plan: update time (s), values (m,), sensor states flattened (m * 6,),
+#: the kinds' parts, the state-to-target map ``T`` (m * 6, n), its rows as (m, 6, n) or None
+#: when every row is at the update time (then ``E`` (6, n) chains), noise ``R`` (m, m), the
+#: angle rows (index or None), and the row times (m,).
+Step = tuple
+
+
+def sym(p: Array) -> Array:
+    """Give ``(P + P^T) / 2`` of one square matrix (the value of :func:`~tmakit.linalg.symmetrise`).
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        ``(n, n)`` (any units).
+
+    Returns
+    -------
+    numpy.ndarray
+        A new symmetric matrix (units of ``p``).
+    """
+    out = p + p.T
+    out *= 0.5
+    return out
+
+
+def checked_psd(p: Array) -> Array:
+    """Give ``p`` symmetrised, repaired (:func:`~tmakit.linalg.repair_psd`) only if not PD.
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        Covariance ``(n, n)`` (any units).
+
+    Returns
+    -------
+    numpy.ndarray
+        Symmetric, numerically positive-definite ``(n, n)`` matrix: ``p`` symmetrised when its
+        Cholesky factorisation succeeds (the check), else :func:`~tmakit.linalg.repair_psd`.
+    """
+    p = sym(p)
+    if dpotrf(p, lower=1, clean=0)[1] == 0:
+        return p
+    return repair_psd(p)
+
+
+def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float, float]:
+    """Give ``(S^-1 HP)^T``, the NIS ``residual^T S^-1 residual`` and ``log det S``.
+
+    One and two rows in closed form, more by one Cholesky factorisation (LAPACK ``potrf``
+    and ``potrs``); an ``S`` that is not numerically positive definite goes to
+    :func:`~tmakit.linalg.solve_spd`, which repairs it.
+
+    Parameters
+    ----------
+    s : numpy.ndarray
+        Innovation covariance ``(m, m)`` (measurement units squared), symmetric for three or
+        more rows (one and two rows are read as symmetric: ``s[0, 1]`` and ``s[1, 0]`` are
+        averaged).
+    hp : numpy.ndarray
+        ``H P`` ``(m, n)`` (the cross covariance of measurement and state, transposed).
+    residual : numpy.ndarray
+        Innovation ``(m,)`` (SI).
+
+    Returns
+    -------
+    gain : numpy.ndarray
+        ``P H^T S^-1`` ``(n, m)``.
+    nis : float
+        Normalised innovation squared.
+    log_det : float
+        ``log det S`` (natural logarithm).
+    """
+    m = s.shape[0]
+    if m == 1:
+        s00 = float(s[0, 0])
+        if s00 > 0.0:
+            y0 = float(residual[0])
+            return hp.T / s00, y0 * y0 / s00, math.log(s00)
+    elif m == 2:
+        a, c = float(s[0, 0]), float(s[1, 1])
+        b = 0.5 * (float(s[0, 1]) + float(s[1, 0]))
+        det = a * c - b * b
+        if a > 0.0 and det > 0.0:
+            inv = np.array([[c, -b], [-b, a]]) / det
+            return (inv @ hp).T, float(residual @ inv @ residual), math.log(det)
+    else:
+        chol, info = dpotrf(s, lower=1, clean=1)
+        if info == 0:
+            sol, _ = dpotrs(chol, np.concatenate([hp, residual[:, None]], axis=1), lower=1)
+            return (sol[:, :-1].T, float(residual @ sol[:, -1]),
+                    float(2.0 * np.sum(np.log(np.diagonal(chol)))))
+    sol, log_det = solve_spd(s, np.concatenate([hp, residual[:, None]], axis=1))
+    return sol[:, :-1].T, float(residual @ sol[:, -1]), log_det
+
+
+def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
+                ) -> tuple[Array, float, float]:
+    """Give the Kalman gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``.
+
+    Parameters
+    ----------
+    cov : numpy.ndarray
+        Prior covariance ``(n, n)``.
+    h : numpy.ndarray
+        Measurement matrix ``(m, n)``.
+    r : numpy.ndarray
+        Measurement noise covariance ``(m, m)``.
+    residual : numpy.ndarray
+        Innovation ``(m,)`` (SI).
+
+    Returns
+    -------
+    gain, nis, log_det
+        As for :func:`innovation_solve`.
+    """
+    hp = h @ cov
+    s = hp @ h.T
+    s += r
+    return innovation_solve(s if s.shape[0] < 3 else sym(s), hp, residual)
+
+
+class DynamicsCache:
+    """``Phi(dt)`` and ``Q(dt)`` of nearly-constant-velocity dynamics, made once per step size.
+
+    Parameters
+    ----------
+    dynamics : NearlyConstantVelocity
+        The dynamics (Chen & Sun, §2.1).
+    """
+
+    def __init__(self, dynamics: NearlyConstantVelocity) -> None:
+        self.dynamics = dynamics
+        self._cache: dict[float, tuple[Array, Array, Array]] = {}
+
+    def get(self, dt: float) -> tuple[Array, Array, Array]:
+        """Give ``(Phi, Phi^T, Q)`` for a step ``dt`` (s)."""
+        out = self._cache.get(dt)
+        if out is None:
+            if len(self._cache) > 256:  # irregular times: keep the cache small
+                self._cache.clear()
+            phi = self.dynamics.transition(dt)
+            out = (phi, np.ascontiguousarray(phi.T), self.dynamics.noise(dt))
+            self._cache[dt] = out
+        return out
+
+
+def _state_map(dt: Array, dim: int) -> Array:
+    """``T`` (m, 6, 2 dim): target states at rows ``dt`` (s) after the filter time."""
+    m = dt.shape[0]
+    out = np.zeros((m, 6, 2 * dim))
+    for j in range(dim):
+        out[:, j, j] = 1.0
+        out[:, j, dim + j] = dt
+        out[:, 3 + j, dim + j] = 1.0
+    return out
+
+
+class StepPlan:
+    """Every update of a compiled set, prepared for the general path (see the module text).
+
+    Parameters
+    ----------
+    compiled : CompiledMeasurements
+        The set compiled for the filter (its ``dim``, options and nuisance values).
+
+    Attributes
+    ----------
+    ok : bool
+        False when a kind uses an earlier reference sample (the group path is used).
+    steps : list
+        One :data:`Step` per update.
+    sizes : numpy.ndarray
+        Rows per update (K,).
+    """
+
+    def __init__(self, compiled: CompiledMeasurements) -> None:
+        self.dim = compiled.dim
+        self.ok = not any(m.uses_reference for m in compiled.models.values())
+        self.steps: list[Step] = []
+        self.sizes = np.diff(compiled.bounds)
+        if not self.ok or len(compiled) == 0:
+            return
+        names = list(compiled.models)
+        codes = compiled.model_index
+        update = np.repeat(np.arange(len(compiled)), self.sizes)
+        # Rows of each update sorted by kind: every kind's rows become one slice.
+        perm = np.lexsort((codes, update))
+        codes = codes[perm]
+        dt = compiled.time[perm] - compiled.times[update]
+        values = compiled.values[perm]
+        sens = compiled.sensor_state[perm]
+        var = compiled.sigmas[perm] ** 2
+        time, time_ref = compiled.time[perm], compiled.time_ref[perm]
+        sensor, sigmas = compiled.sensor[perm], compiled.sigmas[perm]
+        correlated = any(m.correlated_noise for m in compiled.models.values())
+        patterns: dict[bytes, tuple[list, object, dict]] = {}
+        maps: dict[bytes, tuple[Array, Array | None]] = {}
+        eye_map = _state_map(np.zeros(1), self.dim)[0]
+        bounds = compiled.bounds
+        for k in range(len(compiled)):
+            a, b = int(bounds[k]), int(bounds[k + 1])
+            key = codes[a:b].tobytes()
+            pat = patterns.get(key)
+            if pat is None:
+                pat = self._pattern(codes[a:b], names, compiled)
+                patterns[key] = pat
+            parts, angle, index = pat
+            dtk = dt[a:b]
+            dkey = dtk.tobytes()
+            tm = maps.get(dkey)
+            if tm is None:
+                t3 = _state_map(dtk, self.dim)
+                tm = (t3.reshape(-1, 2 * self.dim), None if not np.any(dtk) else t3)
+                maps[dkey] = tm
+            r = np.diag(var[a:b])
+            if correlated:
+                for rows, cov in correlated_blocks(compiled.models, index, time[a:b],
+                                                   time_ref[a:b], sigmas[a:b], sensor[a:b]):
+                    r[np.ix_(rows, rows)] = cov
+            self.steps.append((float(compiled.times[k]), values[a:b], sens[a:b].reshape(-1),
+                               parts, tm[0], tm[1], r, angle, time[a:b]))
+        self.eye_map = eye_map
+
+    @staticmethod
+    def _pattern(codes: Array, names: list[str], compiled: CompiledMeasurements
+                 ) -> tuple[list[tuple[MeasurementModel, slice, Array]], object, dict]:
+        """Give the kinds' parts ``(model, rows, nuisance)``, the angle rows, the kinds' index."""
+        parts, index = [], {}
+        angle = np.zeros(codes.shape[0], dtype=bool)
+        for i, kind in enumerate(names):
+            idx = np.flatnonzero(codes == i)
+            if idx.size:
+                sl = as_slice(idx)
+                model = compiled.models[kind]
+                parts.append((model, sl, compiled.nuisance[kind]))
+                index[kind] = sl
+                angle[sl] = model.is_angle
+        ang: object = None if not angle.any() else as_slice(np.flatnonzero(angle))
+        return parts, ang, index
+
+
+def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
+    """Give the predictions ``(..., m)`` and relative states ``(..., m, 6)`` at states ``x``.
+
+    Parameters
+    ----------
+    step : Step
+        One update of a :class:`StepPlan`.
+    x : numpy.ndarray
+        Filter states ``(..., 2 dim)`` (m, m/s).
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    values, rel : numpy.ndarray
+        Predicted values (SI) and the relative states they came from (m, m/s).
+    """
+    _, _, sens, parts, tmap, _, _, _, times = step
+    rel = (x @ tmap.T - sens).reshape(*x.shape[:-1], -1, 6)
+    if len(parts) == 1:
+        model, _, nu = parts[0]
+        return model.predict(rel, times, nu, None), rel
+    out = np.empty(rel.shape[:-1])
+    for model, sl, nu in parts:
+        out[..., sl] = model.predict(rel[..., sl, :], times[sl], nu, None)
+    return out, rel
+
+
+def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array]:
+    """Give the wrapped residual ``z - h(x)`` (m,) and the Jacobian ``H`` (m, n) at ``x``.
+
+    Parameters
+    ----------
+    step : Step
+        One update of a :class:`StepPlan`.
+    x : numpy.ndarray
+        Filter state ``(n,)`` (m, m/s).
+    eye_map : numpy.ndarray
+        The map ``(6, n)`` of a row at the update time.
+
+    Returns
+    -------
+    residual, h : numpy.ndarray
+        Innovation (SI, angles wrapped to (-pi, pi]) and ``d h / d x``.
+    """
+    _, z, sens, parts, tmap, t3, _, angle, times = step
+    rel = (tmap @ x - sens).reshape(-1, 6)
+    if len(parts) == 1:
+        model, _, nu = parts[0]
+        pred, d = model.predict_gradient(rel, times, nu)
+    else:
+        pred = np.empty(rel.shape[0])
+        d = np.empty(rel.shape)
+        for model, sl, nu in parts:
+            pred[sl], d[sl] = model.predict_gradient(rel[sl], times[sl], nu)
+    h = d @ eye_map if t3 is None else np.einsum("mi,min->mn", d, t3)
+    y = z - pred
+    if angle is not None:
+        y[angle] = wrap_angle(y[angle])
+    return y, h
+
+
+def finite(y: Array, h: Array) -> bool:
+    """Tell whether a residual and a Jacobian are finite (one reduction each)."""
+    total = float(np.add.reduce(y)) + float(np.add.reduce(h, axis=None))
+    return total - total == 0.0
+
+
+class PlanOutputs:
+    """Per-update outputs of a run on a plan, in preallocated arrays.
+
+    Parameters
+    ----------
+    k : int
+        Number of updates.
+    n : int
+        State size.
+    """
+
+    def __init__(self, k: int, n: int) -> None:
+        self.times = np.empty(k)
+        self.states = np.empty((k, n))
+        self.covariances = np.empty((k, n, n))
+        self.nis = np.empty(k)
+        self.dof = np.empty(k, dtype=np.int64)
+        self.log_likelihoods = np.empty(k)
+
+    def put(self, i: int, t: float, mean: Array, cov: Array, nis: float, dof: int,
+            ll: float) -> None:
+        """Record update ``i``: time (s), state, covariance, NIS, rows, cumulative nats."""
+        self.times[i] = t
+        self.states[i] = mean
+        self.covariances[i] = cov
+        self.nis[i] = nis
+        self.dof[i] = dof
+        self.log_likelihoods[i] = ll
+
+    def run(self, mean: Array, cov: Array, t: float, ll: float) -> KernelRun:
+        """Give the outputs as a :class:`~.kernels.KernelRun` ending at the last update."""
+        return KernelRun(self.times.shape[0], False, mean, cov, t, ll, self.times, self.states,
+                         self.covariances, self.nis, self.log_likelihoods, self.dof, True)
+
+
+def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: float
+                     ) -> tuple[Array, Array, float]:
+    """Move a Gaussian from ``t`` to ``tk`` (s) as :meth:`TrackingFilter.predict` does.
+
+    Parameters
+    ----------
+    dyn : DynamicsCache
+        The dynamics' ``Phi`` and ``Q`` per step size.
+    mean, cov : numpy.ndarray
+        State ``(n,)`` and covariance ``(n, n)`` at ``t``.
+    t, tk : float
+        Times (s).
+
+    Returns
+    -------
+    mean, cov, time
+        At ``max(t, tk)``.
+
+    Raises
+    ------
+    ValueError
+        If ``tk`` is earlier than ``t`` (beyond :data:`TIME_TOLERANCE`).
+    """
+    dt = tk - t
+    if dt > TIME_TOLERANCE:
+        phi, phit, q = dyn.get(dt)
+        p = phi @ cov @ phit
+        p += q
+        return phi @ mean, sym(p), tk
+    if dt < -TIME_TOLERANCE:
+        raise ValueError(f"filters run forward: cannot predict from t={t} s back to t={tk} s")
+    return mean, cov, max(t, tk)
