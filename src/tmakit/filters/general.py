@@ -33,7 +33,11 @@ from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE
 from ..observation.rows import as_slice, correlated_blocks
-from .kernels import KernelRun
+from .kernels import KernelRun, wrap
+
+#: Updates of at most this many rows, all of kinds with a plain-float ``row_gradient``, are
+#: linearised row by row in Python floats (cheaper than NumPy calls on so few numbers).
+SCALAR_ROWS = 8
 
 if TYPE_CHECKING:  # pragma: no cover
     from .compiled import CompiledMeasurements
@@ -41,7 +45,8 @@ if TYPE_CHECKING:  # pragma: no cover
 #: One update of a plan: update time (s), values (m,), sensor states flattened (m * 6,),
 #: the kinds' parts, the state-to-target map ``T`` (m * 6, n), its rows as (m, 6, n) or None
 #: when every row is at the update time (then ``E`` (6, n) chains), noise ``R`` (m, m), the
-#: angle rows (index or None), and the row times (m,).
+#: angle rows (index or None), the row times (m,), and the rows as plain-float records
+#: for the kinds' ``row_gradient`` (or None: the kinds' ``predict_gradient`` on arrays).
 Step = tuple
 
 
@@ -93,9 +98,8 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
     Parameters
     ----------
     s : numpy.ndarray
-        Innovation covariance ``(m, m)`` (measurement units squared), symmetric for three or
-        more rows (one and two rows are read as symmetric: ``s[0, 1]`` and ``s[1, 0]`` are
-        averaged).
+        Innovation covariance ``(m, m)`` (measurement units squared), symmetric to rounding:
+        two rows average ``s[0, 1]`` and ``s[1, 0]``, more rows read the lower triangle.
     hp : numpy.ndarray
         ``H P`` ``(m, n)`` (the cross covariance of measurement and state, transposed).
     residual : numpy.ndarray
@@ -128,7 +132,7 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
         if info == 0:
             sol, _ = dpotrs(chol, np.concatenate([hp, residual[:, None]], axis=1), lower=1)
             return (sol[:, :-1].T, float(residual @ sol[:, -1]),
-                    float(2.0 * np.sum(np.log(np.diagonal(chol)))))
+                    2.0 * math.fsum(map(math.log, chol.diagonal().tolist())))
     sol, log_det = solve_spd(s, np.concatenate([hp, residual[:, None]], axis=1))
     return sol[:, :-1].T, float(residual @ sol[:, -1]), log_det
 
@@ -156,7 +160,7 @@ def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
     hp = h @ cov
     s = hp @ h.T
     s += r
-    return innovation_solve(s if s.shape[0] < 3 else sym(s), hp, residual)
+    return innovation_solve(s, hp, residual)
 
 
 class DynamicsCache:
@@ -233,33 +237,48 @@ class StepPlan:
         time, time_ref = compiled.time[perm], compiled.time_ref[perm]
         sensor, sigmas = compiled.sensor[perm], compiled.sigmas[perm]
         correlated = any(m.correlated_noise for m in compiled.models.values())
+        scalar = all(m.has_row_gradient for m in compiled.models.values())
+        recs = self._records(compiled, names, codes, values, sens, dt, time) if scalar else None
         patterns: dict[bytes, tuple[list, object, dict]] = {}
         maps: dict[bytes, tuple[Array, Array | None]] = {}
-        eye_map = _state_map(np.zeros(1), self.dim)[0]
-        bounds = compiled.bounds
+        self.eye_map = _state_map(np.zeros(1), self.dim)[0]
+        bounds = compiled.bounds.tolist()
+        code_bytes, width = codes.tobytes(), codes.itemsize
+        moved = (np.add.reduceat(dt != 0.0, compiled.bounds[:-1]) > 0).tolist()
+        flat_sens = sens.reshape(-1)
+        update_times = compiled.times.tolist()
         for k in range(len(compiled)):
-            a, b = int(bounds[k]), int(bounds[k + 1])
-            key = codes[a:b].tobytes()
+            a, b = bounds[k], bounds[k + 1]
+            key = code_bytes[a * width:b * width]
             pat = patterns.get(key)
             if pat is None:
-                pat = self._pattern(codes[a:b], names, compiled)
-                patterns[key] = pat
+                pat = patterns[key] = self._pattern(codes[a:b], names, compiled)
             parts, angle, index = pat
-            dtk = dt[a:b]
-            dkey = dtk.tobytes()
+            dkey = dt[a:b].tobytes() if moved[k] else b - a
             tm = maps.get(dkey)
             if tm is None:
-                t3 = _state_map(dtk, self.dim)
-                tm = (t3.reshape(-1, 2 * self.dim), None if not np.any(dtk) else t3)
-                maps[dkey] = tm
+                t3 = _state_map(dt[a:b], self.dim)
+                tm = maps[dkey] = (t3.reshape(-1, 2 * self.dim), t3 if moved[k] else None)
             r = np.diag(var[a:b])
             if correlated:
                 for rows, cov in correlated_blocks(compiled.models, index, time[a:b],
                                                    time_ref[a:b], sigmas[a:b], sensor[a:b]):
                     r[np.ix_(rows, rows)] = cov
-            self.steps.append((float(compiled.times[k]), values[a:b], sens[a:b].reshape(-1),
-                               parts, tm[0], tm[1], r, angle, time[a:b]))
-        self.eye_map = eye_map
+            self.steps.append((update_times[k], values[a:b], flat_sens[6 * a:6 * b], parts,
+                               tm[0], tm[1], r, angle, time[a:b],
+                               recs[a:b] if recs is not None and b - a <= SCALAR_ROWS
+                               else None))
+
+    @staticmethod
+    def _records(compiled: CompiledMeasurements, names: list[str], codes: Array,
+                 values: Array, sens: Array, dt: Array, time: Array) -> list[tuple]:
+        """Give every row as a plain-float record for :func:`linearise` (kinds in order)."""
+        info = [(compiled.models[k].row_gradient, tuple(compiled.nuisance[k].tolist()),
+                 compiled.models[k].is_angle) for k in names]
+        per_row = [info[c] for c in codes.tolist()]
+        return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
+                zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
+                    map(tuple, sens.tolist()), strict=True)]
 
     @staticmethod
     def _pattern(codes: Array, names: list[str], compiled: CompiledMeasurements
@@ -296,7 +315,7 @@ def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
     values, rel : numpy.ndarray
         Predicted values (SI) and the relative states they came from (m, m/s).
     """
-    _, _, sens, parts, tmap, _, _, _, times = step
+    _, _, sens, parts, tmap, _, _, _, times, _ = step
     rel = (x @ tmap.T - sens).reshape(*x.shape[:-1], -1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
@@ -324,7 +343,9 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array]:
     residual, h : numpy.ndarray
         Innovation (SI, angles wrapped to (-pi, pi]) and ``d h / d x``.
     """
-    _, z, sens, parts, tmap, t3, _, angle, times = step
+    _, z, sens, parts, tmap, t3, _, angle, times, rows = step
+    if rows is not None:
+        return _linearise_rows(rows, x, eye_map.shape[1] // 2)
     rel = (tmap @ x - sens).reshape(-1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
@@ -341,10 +362,47 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array]:
     return y, h
 
 
+def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array]:
+    """:func:`linearise` in plain floats, row by row (``row_gradient`` of each kind).
+
+    A row whose arithmetic divides by zero (the state on a sensor) gives NaN, as NumPy's
+    inf/NaN would, so that the update is skipped.
+    """
+    xs = x.tolist()
+    if dim == 2:
+        px, py, vx, vy = xs
+        pz = vz = 0.0
+    else:
+        px, py, pz, vx, vy, vz = xs
+    ys, hs = [], []
+    nan = float("nan")
+    for fn, nu, t, dt, z, ang, s in rows:
+        rel = (px + dt * vx - s[0], py + dt * vy - s[1], pz + dt * vz - s[2],
+               vx - s[3], vy - s[4], vz - s[5]) if dt else \
+            (px - s[0], py - s[1], pz - s[2], vx - s[3], vy - s[4], vz - s[5])
+        try:
+            v, g0, g1, g2, g3, g4, g5 = fn(rel, t, nu)
+        except (ZeroDivisionError, OverflowError, ValueError):
+            v = g0 = g1 = g2 = g3 = g4 = g5 = nan
+        ys.append(wrap(z - v) if ang else z - v)
+        if dim == 2:
+            hs.append((g0, g1, g0 * dt + g3, g1 * dt + g4))
+        else:
+            hs.append((g0, g1, g2, g0 * dt + g3, g1 * dt + g4, g2 * dt + g5))
+    return np.array(ys), np.array(hs)
+
+
 def finite(y: Array, h: Array) -> bool:
-    """Tell whether a residual and a Jacobian are finite (one reduction each)."""
-    total = float(np.add.reduce(y)) + float(np.add.reduce(h, axis=None))
-    return total - total == 0.0
+    """Tell whether a residual and a Jacobian are finite.
+
+    Two dot products decide when their sum is finite; otherwise (a NaN, an infinity, or an
+    overflow of the squares) ``numpy.isfinite`` does.
+    """
+    flat = h.reshape(-1)
+    total = float(y @ y) + float(flat @ flat)
+    if total - total == 0.0:
+        return True
+    return bool(np.isfinite(y).all() and np.isfinite(h).all())
 
 
 class PlanOutputs:

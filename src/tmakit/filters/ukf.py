@@ -49,7 +49,6 @@ from .general import (
     innovation_solve,
     predict_gaussian,
     predict_rows,
-    sym,
 )
 from .kernels import KernelRun, ukf_bearing_2d
 
@@ -204,7 +203,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         pzz = dzw.T @ dz
         pzz += step[6]
         pxz_t = dzw.T @ (pts - mean)
-        gain, nis, log_det = innovation_solve(pzz if pzz.shape[0] < 3 else sym(pzz), pxz_t, nu)
+        gain, nis, log_det = innovation_solve(pzz, pxz_t, nu)
         m = nu.shape[0]
         return (mean + gain @ nu, checked_psd(cov - gain @ pzz @ gain.T), nis, m,
                 -0.5 * (nis + log_det + m * LOG_2PI))

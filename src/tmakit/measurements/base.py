@@ -209,6 +209,38 @@ class MeasurementModel:
         """
         raise NotImplementedError
 
+    #: Whether :meth:`row_gradient` is implemented (plain floats for one row).
+    has_row_gradient = False
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give one row's prediction and its derivatives in plain floats.
+
+        Filters with a handful of rows per update (:mod:`tmakit.filters.general`) call it in
+        place of :meth:`predict_gradient`, whose NumPy calls cost more than the arithmetic on
+        so few numbers; kinds that have it set :attr:`has_row_gradient`.
+
+        Parameters
+        ----------
+        rel : tuple of float
+            The relative state ``(x, y, z, vx, vy, vz)`` (m, m/s).
+        t : float
+            Sample time (s).
+        nuisance : tuple of float
+            The kind's nuisance values (SI), in :attr:`nuisance_names` order.
+
+        Returns
+        -------
+        tuple of float
+            The value (SI) followed by its six derivatives with respect to ``rel``.
+
+        Raises
+        ------
+        NotImplementedError
+            Unless the kind implements it.
+        """
+        raise NotImplementedError(f"{self.kind}: no plain-float row_gradient")
+
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:
         """Give the predictions and their derivatives with respect to ``rel`` in one pass.

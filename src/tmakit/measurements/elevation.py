@@ -5,6 +5,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -89,3 +91,25 @@ class Elevation(MeasurementModel):
         d[..., 1] = c * dy
         d[..., 2] = rho * inv_r2
         return np.arctan2(dz, rho), d
+
+    has_row_gradient = True
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give :meth:`predict_gradient` for one row in plain floats (rad, rad/m).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
+
+        Returns
+        -------
+        tuple of float
+            The elevation and its six derivatives.
+        """
+        dx, dy, dz = rel[0], rel[1], rel[2]
+        rho = math.hypot(dx, dy)
+        inv_r2 = 1.0 / (rho * rho + dz * dz)
+        c = -dz * inv_r2 / rho
+        return math.atan2(dz, rho), c * dx, c * dy, rho * inv_r2, 0.0, 0.0, 0.0

@@ -16,12 +16,14 @@ heard at a higher frequency.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..units import SPEED_OF_LIGHT
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
-from .range_rate import range_rate_and_gradient
+from .range_rate import range_rate_and_gradient, range_rate_row
 
 
 class Frequency(MeasurementModel):
@@ -248,6 +250,28 @@ class Frequency(MeasurementModel):
             carrier = nu[0]
         grad *= (carrier / -self.c)[..., None]
         return carrier * (1.0 - rdot / self.c), grad
+
+    has_row_gradient = True
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give :meth:`predict_gradient` for one row in plain floats (Hz, Hz/m, Hz s/m).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.row_gradient`.
+
+        Returns
+        -------
+        tuple of float
+            The frequency and its six derivatives.
+        """
+        rdot, g0, g1, g2, g3, g4, g5 = range_rate_row(rel)
+        carrier = nuisance[0] + nuisance[1] * t if self.drift else nuisance[0]
+        k = carrier / -self.c
+        return (carrier * (1.0 - rdot / self.c), g0 * k, g1 * k, g2 * k, g3 * k, g4 * k,
+                g5 * k)
 
     def __repr__(self) -> str:
         """Name the kind with its drift option, e.g. ``Frequency(drift=False)``."""
