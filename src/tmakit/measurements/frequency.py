@@ -16,8 +16,6 @@ heard at a higher frequency.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike
 
