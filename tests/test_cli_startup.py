@@ -68,3 +68,5 @@ def test_listing_the_scenarios_needs_no_scenario_parser():
     modules = imported_by("scenarios")
     assert heavy(modules) == []
     assert "tmakit.scenario_catalog" in modules
+    # Nor pydantic: typer would import it to coerce parameters; the listing has none.
+    assert not [m for m in modules if m == "pydantic" or m.startswith("pydantic.")]

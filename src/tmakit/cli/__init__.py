@@ -18,6 +18,8 @@ reports bad input as ``error: ...`` naming the file, row and field, with exit st
 
 from __future__ import annotations
 
+import sys
+
 import typer
 
 from .crlb import crlb
@@ -39,6 +41,12 @@ for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarl
 
 def main() -> None:
     """Entry point of the ``tma`` console script."""
+    if sys.argv[1:] == ["scenarios"]:
+        # Typer (>= 0.2x) imports pydantic to coerce any command's parameters, even --help;
+        # the plain listing has none, so it is run directly (same output and exit, no
+        # pydantic).
+        scenarios()
+        raise SystemExit(0)
     app()
 
 
