@@ -181,13 +181,12 @@ class ObservationModel:
         ``(matrix (p, 6 m), offset (6 m,))`` with the relative states at ``m`` rows,
         component by component, ``theta @ matrix + offset`` (None if not affine).
         """
-        amap = self.motion.affine_map(times)
-        if amap is None:
+        cmap = self.motion.component_map(times)
+        if cmap is None:
             return None
-        offset, matrix = amap
+        matrix, offset = cmap
         m, p = times.shape[0], self.motion.n_params
-        return (np.ascontiguousarray(matrix.transpose(2, 1, 0).reshape(p, 6 * m)),
-                (offset - sensor).T.reshape(6 * m))
+        return matrix.reshape(p, 6 * m), (offset - sensor.T).reshape(6 * m)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
                       rel_map: tuple[Array, Array] | None, batch_inner: bool = False
