@@ -9,9 +9,9 @@
 * **batch LM from the same start**: tmakit's Levenberg-Marquardt (``levenberg_marquardt`` on
   the variable-projection problem) against ``scipy.optimize.least_squares(method="lm")`` with
   the analytic Jacobian of the same ``ObservationModel``, both from the truth shifted by three
-  standard deviations, at equal tolerance (scipy's ``xtol = ftol = gtol = 1e-10``; tmakit's
-  step tolerance 1e-10 relative, see ``--tol``), on bearings-only-2d and gu2007 with their
-  rows repeated at a higher rate (the same geometry and span, N rows).
+  standard deviations, at equal tolerance (``ftol = xtol = gtol = 1e-10`` for both, see
+  ``--tol``; tmakit's absolute decrement floor ``dtol`` off), on bearings-only-2d and gu2007
+  with their rows repeated at a higher rate (the same geometry and span, N rows).
 
 The problems: the built-in scenarios with their measurement times replaced by N evenly spaced
 times over the same span (bearings-only-2d: one sensor, bearings; gu2007: power and
@@ -124,13 +124,14 @@ def lm_rows(sizes, repeat, tol):
     for name in ("bearings-only-2d", "gu2007"):
         for n in sizes:
             problem, y, start, fun, jac, x0, scale, bound, k = lm_problem(name, n)
-            ours = levenberg_marquardt(problem, y, start[None]).theta[0]
+            ours = levenberg_marquardt(problem, y, start[None], ftol=tol, xtol=tol, gtol=tol,
+                                       dtol=0.0).theta[0]
             ref = least_squares(fun, np.zeros(x0.size), jac=jac, method="lm", xtol=tol,
                                 ftol=tol, gtol=tol)
             agree = np.max(np.abs(ours - (x0 + ref.x * scale)[:k]) / bound.std[:k])
             stats = interleaved({
-                "tmakit": lambda problem=problem, y=y, start=start:
-                    levenberg_marquardt(problem, y, start[None]),
+                "tmakit": lambda problem=problem, y=y, start=start: levenberg_marquardt(
+                    problem, y, start[None], ftol=tol, xtol=tol, gtol=tol, dtol=0.0),
                 "scipy": lambda fun=fun, jac=jac, x0=x0: least_squares(
                     fun, np.zeros(x0.size), jac=jac, method="lm", xtol=tol, ftol=tol,
                     gtol=tol)}, repeat)

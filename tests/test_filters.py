@@ -487,3 +487,30 @@ def test_general_plan_skips_an_update_at_a_sensor_as_the_group_path_does():
     assert fast_filter.skipped_updates == slow_filter.skipped_updates == 1
     assert np.isnan(fast.nis[9]) and fast.dof[9] == 0
     assert np.allclose(fast.states, slow.states, rtol=1e-9, atol=1e-6)
+
+
+def test_particle_filter_limits_blas_threads_and_results_do_not_depend_on_them():
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from tmakit.blas import one_thread
+
+    with one_thread():
+        inside = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+    assert inside and all(n == 1 for n in inside)
+    scn = tk.load_scenario("bearings-only-2d")
+    meas = scn.simulate(np.random.default_rng(4))
+    meas = meas.take(meas.time <= 20.0)
+    mean0 = scn.target_states([0.0])[0][[0, 1, 3, 4]] + np.array([300.0, -200.0, 1.0, 0.0])
+    p0 = np.diag([800.0**2, 800.0**2, 4.0**2, 4.0**2])
+    assert ParticleFilter.single_blas_thread and not ExtendedKalmanFilter.single_blas_thread
+
+    def run():
+        return ParticleFilter(mean0, p0, 0.0, particles=20000, rng=5).run(meas)
+
+    default = run()
+    with threadpool_limits(2, user_api="blas"):
+        two = run()
+    with threadpool_limits(1, user_api="blas"):
+        one = run()
+    assert np.array_equal(default.states, one.states)
+    assert np.array_equal(two.covariances, one.covariances)

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
+from ..blas import one_thread
 from ..data import MeasurementSet
 from ..linalg import check_prior, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity, state_names
@@ -203,6 +204,10 @@ class TrackingFilter(ABC):
     #: ``numpy.random.Generator`` or seed): declared, so that no caller inspects a signature.
     takes_particles = False
     takes_rng = False
+    #: Whether BLAS is limited to one thread while the filter works (:func:`tmakit.blas.
+    #: one_thread`): for thin products over many particles, where threads cost more than
+    #: they gain.
+    single_blas_thread = False
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  q: float | tuple[float, ...] = 0.0,
@@ -331,7 +336,8 @@ class TrackingFilter(ABC):
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
                              f"to t={time} s")
         if dt > TIME_TOLERANCE:
-            self._predict(dt)
+            with one_thread(self.single_blas_thread):
+                self._predict(dt)
         self.time = max(self.time, float(time))
 
     def update(self, rows: MeasurementSet | MeasurementGroup) -> UpdateInfo:
@@ -347,7 +353,8 @@ class TrackingFilter(ABC):
         UpdateInfo
             NIS, degrees of freedom and log-likelihood of the update.
         """
-        info = self._update(self.group(rows))
+        with one_thread(self.single_blas_thread):
+            info = self._update(self.group(rows))
         self.log_likelihood += info.log_likelihood
         return info
 
@@ -413,6 +420,10 @@ class TrackingFilter(ABC):
         if compiled.dim != self.dim:
             raise ValueError(f"the measurements were compiled for a {compiled.dim}-D filter; "
                              f"this one is {self.dim}-D")
+        with one_thread(self.single_blas_thread):
+            return self._run_compiled(compiled)
+
+    def _run_compiled(self, compiled: CompiledMeasurements) -> Track:
         if not self._plain_interface():
             return self.run_groups((float(compiled.times[k]), compiled.rows(k))
                                    for k in range(len(compiled)))
@@ -455,10 +466,11 @@ class TrackingFilter(ABC):
             If a time is earlier than the filter's time.
         """
         rec = _Recorder(2 * self.dim)
-        for time, rows in groups:
-            self.predict(time)
-            info = self.update(rows)
-            rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
+        with one_thread(self.single_blas_thread):
+            for time, rows in groups:
+                self.predict(time)
+                info = self.update(rows)
+                rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
         return rec.track(self)
 
 
