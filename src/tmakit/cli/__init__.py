@@ -30,7 +30,9 @@ from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
 from .track import track
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+# Plain (click) help: typer's rich help loads rich's Markdown renderer and its parser, which
+# took longer than all of numpy's import (benchmarks/run_all.py --only startup).
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   help="tmakit: passive emitter localisation and target motion analysis.")
 
 # Registered in this order: ``tma --help`` lists the commands in it.
