@@ -17,7 +17,6 @@ from .general import (
     Step,
     StepPlan,
     checked_psd,
-    finite,
     kalman_gain,
     linearise,
     predict_gaussian,
@@ -235,8 +234,8 @@ class ExtendedKalmanFilter(TrackingFilter):
     def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
                      ) -> tuple[Array, Array, float, int, float]:
         """One update of the general path: mean, covariance, NIS, rows, log-likelihood."""
-        y, h = linearise(step, mean, plan.eye_map)
-        if not finite(y, h):
+        y, h, ok = linearise(step, mean, plan.eye_map)
+        if not ok:
             self.skipped_updates += 1
             return mean, cov, float("nan"), 0, 0.0
         r = step[6]
@@ -244,8 +243,8 @@ class ExtendedKalmanFilter(TrackingFilter):
         new = mean + gain @ y
         new_cov = joseph(cov, gain, h, r)
         for _ in range(self.iterations - 1):  # the iterated EKF, as in _update
-            y_i, h_i = linearise(step, new, plan.eye_map)
-            if not finite(y_i, h_i):
+            y_i, h_i, ok = linearise(step, new, plan.eye_map)
+            if not ok:
                 break
             g_i = kalman_gain(cov, h_i, r, y_i - h_i @ (mean - new))[0]
             nxt = mean + g_i @ (y_i - h_i @ (mean - new))
@@ -263,11 +262,11 @@ class ExtendedKalmanFilter(TrackingFilter):
         out = PlanOutputs(len(steps), 2 * self.dim)
         dyn = self._dynamics_cache()
         mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
-        for i, step in enumerate(steps):
+        for step in steps:
             mean, cov, t = predict_gaussian(dyn, mean, cov, t, step[0])
             mean, cov, nis, m, lli = self._plan_update(step, plan, mean, cov)
             ll += lli
-            out.put(i, t, mean, cov, nis, m, ll)
+            out.put(t, mean, cov, nis, m, ll)
         return self._adopt(out.run(mean, cov, t, ll))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:

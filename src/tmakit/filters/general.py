@@ -24,7 +24,7 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.linalg.lapack import dpotrf, dpotrs
+from scipy.linalg.lapack import dposv, dpotrf
 
 from ..arrays import Array
 from ..frames import wrap_angle
@@ -91,8 +91,8 @@ def checked_psd(p: Array) -> Array:
 def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float, float]:
     """Give ``(S^-1 HP)^T``, the NIS ``residual^T S^-1 residual`` and ``log det S``.
 
-    One and two rows in closed form, more by one Cholesky factorisation (LAPACK ``potrf``
-    and ``potrs``); an ``S`` that is not numerically positive definite goes to
+    One and two rows in closed form, more by one Cholesky factorisation and solve (LAPACK
+    ``posv``); an ``S`` that is not numerically positive definite goes to
     :func:`~tmakit.linalg.solve_spd`, which repairs it.
 
     Parameters
@@ -128,9 +128,8 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
             inv = np.array([[c, -b], [-b, a]]) / det
             return (inv @ hp).T, float(residual @ inv @ residual), math.log(det)
     else:
-        chol, info = dpotrf(s, lower=1, clean=1)
+        chol, sol, info = dposv(s, np.concatenate([hp, residual[:, None]], axis=1), lower=1)
         if info == 0:
-            sol, _ = dpotrs(chol, np.concatenate([hp, residual[:, None]], axis=1), lower=1)
             return (sol[:, :-1].T, float(residual @ sol[:, -1]),
                     2.0 * math.fsum(map(math.log, chol.diagonal().tolist())))
     sol, log_det = solve_spd(s, np.concatenate([hp, residual[:, None]], axis=1))
@@ -326,7 +325,7 @@ def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
     return out, rel
 
 
-def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array]:
+def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]:
     """Give the wrapped residual ``z - h(x)`` (m,) and the Jacobian ``H`` (m, n) at ``x``.
 
     Parameters
@@ -342,6 +341,8 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array]:
     -------
     residual, h : numpy.ndarray
         Innovation (SI, angles wrapped to (-pi, pi]) and ``d h / d x``.
+    ok : bool
+        Whether both are finite.
     """
     _, z, sens, parts, tmap, t3, _, angle, times, rows = step
     if rows is not None:
@@ -359,10 +360,10 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array]:
     y = z - pred
     if angle is not None:
         y[angle] = wrap_angle(y[angle])
-    return y, h
+    return y, h, finite(y, h)
 
 
-def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array]:
+def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array, bool]:
     """:func:`linearise` in plain floats, row by row (``row_gradient`` of each kind).
 
     A row whose arithmetic divides by zero (the state on a sensor) gives NaN, as NumPy's
@@ -374,7 +375,9 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
         pz = vz = 0.0
     else:
         px, py, pz, vx, vy, vz = xs
-    ys, hs = [], []
+    ys: list[float] = []
+    hs: list[float] = []
+    total = 0.0
     nan = float("nan")
     for fn, nu, t, dt, z, ang, s in rows:
         rel = (px + dt * vx - s[0], py + dt * vy - s[1], pz + dt * vz - s[2],
@@ -384,12 +387,20 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
             v, g0, g1, g2, g3, g4, g5 = fn(rel, t, nu)
         except (ZeroDivisionError, OverflowError, ValueError):
             v = g0 = g1 = g2 = g3 = g4 = g5 = nan
-        ys.append(wrap(z - v) if ang else z - v)
+        y = wrap(z - v) if ang else z - v
+        ys.append(y)
         if dim == 2:
-            hs.append((g0, g1, g0 * dt + g3, g1 * dt + g4))
+            hs += (g0, g1, g0 * dt + g3, g1 * dt + g4)
         else:
-            hs.append((g0, g1, g2, g0 * dt + g3, g1 * dt + g4, g2 * dt + g5))
-    return np.array(ys), np.array(hs)
+            hs += (g0, g1, g2, g0 * dt + g3, g1 * dt + g4, g2 * dt + g5)
+        total += y + g0 + g1 + g2 + g3 + g4 + g5
+    m = len(ys)
+    both = np.array(ys + hs)
+    y_arr, h_arr = both[:m], both[m:].reshape(m, 2 * dim)
+    # NaN or infinity anywhere makes the sum NaN or infinite; an overflow of a finite sum
+    # is told apart by the arrays themselves.
+    ok = total - total == 0.0 or bool(np.isfinite(both).all())
+    return y_arr, h_arr, ok
 
 
 def finite(y: Array, h: Array) -> bool:
@@ -406,7 +417,9 @@ def finite(y: Array, h: Array) -> bool:
 
 
 class PlanOutputs:
-    """Per-update outputs of a run on a plan, in preallocated arrays.
+    """Per-update outputs of a run on a plan, gathered in lists, stacked at the end.
+
+    The states and covariances are kept by reference: every step makes new arrays.
 
     Parameters
     ----------
@@ -417,32 +430,38 @@ class PlanOutputs:
     """
 
     def __init__(self, k: int, n: int) -> None:
-        self.times = np.empty(k)
-        self.states = np.empty((k, n))
-        self.covariances = np.empty((k, n, n))
-        self.nis = np.empty(k)
-        self.dof = np.empty(k, dtype=np.int64)
-        self.log_likelihoods = np.empty(k)
+        self.n = n
+        self.times: list[float] = []
+        self.states: list[Array] = []
+        self.covariances: list[Array] = []
+        self.nis: list[float] = []
+        self.dof: list[int] = []
+        self.log_likelihoods: list[float] = []
 
-    def put(self, i: int, t: float, mean: Array, cov: Array, nis: float, dof: int,
-            ll: float) -> None:
-        """Record update ``i``: time (s), state, covariance, NIS, rows, cumulative nats."""
-        self.times[i] = t
-        self.states[i] = mean
-        self.covariances[i] = cov
-        self.nis[i] = nis
-        self.dof[i] = dof
-        self.log_likelihoods[i] = ll
+    def put(self, t: float, mean: Array, cov: Array, nis: float, dof: int, ll: float) -> None:
+        """Record the next update: time (s), state, covariance, NIS, rows, cumulative nats."""
+        self.times.append(t)
+        self.states.append(mean)
+        self.covariances.append(cov)
+        self.nis.append(nis)
+        self.dof.append(dof)
+        self.log_likelihoods.append(ll)
 
     def run(self, mean: Array, cov: Array, t: float, ll: float) -> KernelRun:
         """Give the outputs as a :class:`~.kernels.KernelRun` ending at the last update."""
-        return KernelRun(self.times.shape[0], False, mean, cov, t, ll, self.times, self.states,
-                         self.covariances, self.nis, self.log_likelihoods, self.dof, True)
+        n = self.n
+        return KernelRun(len(self.times), False, mean, cov, t, ll, np.array(self.times),
+                         np.array(self.states).reshape(-1, n),
+                         np.array(self.covariances).reshape(-1, n, n), np.array(self.nis),
+                         np.array(self.log_likelihoods), np.array(self.dof, dtype=np.int64),
+                         True)
 
 
 def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: float
                      ) -> tuple[Array, Array, float]:
     """Move a Gaussian from ``t`` to ``tk`` (s) as :meth:`TrackingFilter.predict` does.
+
+    The predicted covariance is not symmetrised: it only enters the update, whose result is.
 
     Parameters
     ----------
@@ -468,7 +487,7 @@ def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: 
         phi, phit, q = dyn.get(dt)
         p = phi @ cov @ phit
         p += q
-        return phi @ mean, sym(p), tk
+        return phi @ mean, p, tk
     if dt < -TIME_TOLERANCE:
         raise ValueError(f"filters run forward: cannot predict from t={t} s back to t={tk} s")
     return mean, cov, max(t, tk)

@@ -214,11 +214,11 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         out = PlanOutputs(len(steps), 2 * self.dim)
         dyn = self._dynamics_cache()
         mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
-        for i, step in enumerate(steps):
+        for step in steps:
             mean, cov, t = predict_gaussian(dyn, mean, cov, t, step[0])
             mean, cov, nis, m, lli = self._plan_update(step, mean, cov)
             ll += lli
-            out.put(i, t, mean, cov, nis, m, ll)
+            out.put(t, mean, cov, nis, m, ll)
         return self._adopt(out.run(mean, cov, t, ll))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:

@@ -35,7 +35,7 @@ class AffineRows:
     """
 
     def __init__(self, terms: Sequence[Term], offset: Array, p: int) -> None:
-        self.terms = list(terms)
+        self.terms = sorted(terms, key=lambda term: term[0])
         self.offset = np.ascontiguousarray(offset)
         self.p = int(p)
         self.m = int(self.offset.shape[1])
@@ -70,12 +70,15 @@ class AffineRows:
             ``(m, 6)`` or ``(1, m, 6)``: a view of a component-major ``(6, m)`` array.
         """
         th = theta.reshape(-1).tolist()
-        out = self.offset.copy()
+        out = np.zeros((6, self.m))
+        # The terms in parameter order, then the offset: the order of the dense product's
+        # sums (``theta @ matrix + offset``).
         for i, c, coef in self.terms:
             if coef is None:
                 out[c] += th[i]
             else:
                 out[c] += th[i] * coef
+        out += self.offset
         return out.T if theta.ndim == 1 else out.T[None]
 
     def take(self, rows: NDArray[np.intp]) -> AffineRows:
