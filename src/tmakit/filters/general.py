@@ -198,6 +198,20 @@ def _state_map(dt: Array, dim: int) -> Array:
     return out
 
 
+def _diagonal_noise(var: Array, bounds: Array) -> list[Array]:
+    """Give ``diag(var)`` of each update's rows, made per update size at once (views)."""
+    sizes = np.diff(bounds)
+    out: list[Array] = [np.empty((0, 0))] * sizes.shape[0]
+    for m in np.unique(sizes).tolist():
+        which = np.flatnonzero(sizes == m)
+        stack = np.zeros((which.size, m, m))
+        idx = np.arange(m)
+        stack[:, idx, idx] = var[bounds[which][:, None] + idx]
+        for j, r in zip(which.tolist(), stack, strict=True):
+            out[j] = r
+    return out
+
+
 class StepPlan:
     """Every update of a compiled set, prepared for the general path (see the module text).
 
@@ -245,6 +259,7 @@ class StepPlan:
         code_bytes, width = codes.tobytes(), codes.itemsize
         moved = (np.add.reduceat(dt != 0.0, compiled.bounds[:-1]) > 0).tolist()
         flat_sens = sens.reshape(-1)
+        noise = _diagonal_noise(var, compiled.bounds)
         update_times = compiled.times.tolist()
         for k in range(len(compiled)):
             a, b = bounds[k], bounds[k + 1]
@@ -258,7 +273,7 @@ class StepPlan:
             if tm is None:
                 t3 = _state_map(dt[a:b], self.dim)
                 tm = maps[dkey] = (t3.reshape(-1, 2 * self.dim), t3 if moved[k] else None)
-            r = np.diag(var[a:b])
+            r = noise[k]
             if correlated:
                 for rows, cov in correlated_blocks(compiled.models, index, time[a:b],
                                                    time_ref[a:b], sigmas[a:b], sensor[a:b]):
