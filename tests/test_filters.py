@@ -20,8 +20,8 @@ from tmakit.filters import (
     transition_matrix,
 )
 from tmakit.filters.compiled import CompiledMeasurements
-from tmakit.filters.general import SCALAR_ROWS
 from tmakit.filters.particle import systematic_resample
+from tmakit.filters.plan import SCALAR_ROWS, plan_for
 
 NUISANCE = {"carrier": 9.4e9, "power_constant_db": -30.0}
 KINDS8 = ("bearing", "elevation", "azimuth_rate", "range", "range_rate", "frequency", "power",
@@ -445,7 +445,7 @@ def several_kinds_run(dim: int, seed: int = 5, scalar: bool = False
 def test_general_plan_equals_the_group_path(dim, scalar):
     meas, mean0, p0 = several_kinds_run(dim, scalar=scalar)
     compiled = CompiledMeasurements(meas, dim, None, NUISANCE)
-    plan = compiled.step_plan()
+    plan = plan_for(compiled)
     assert plan.ok and not compiled.single_bearing
     # Plain-float rows for updates of at most SCALAR_ROWS rows of such kinds, arrays otherwise.
     assert [step[9] is not None for step in plan.steps] == \

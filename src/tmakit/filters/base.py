@@ -24,28 +24,10 @@ from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .compiled import CompiledMeasurements
 from .extras import TrackExtras
 from .kernels import KernelRun
+from .record import Recorder, UpdateInfo
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
-
-
-@dataclass(frozen=True)
-class UpdateInfo:
-    """What one update saw.
-
-    Parameters
-    ----------
-    nis : float
-        Normalised innovation squared (NaN for a skipped update).
-    dof : int
-        Its degrees of freedom (measurement rows; 0 when skipped).
-    log_likelihood : float
-        Log-likelihood of the group given the past (nats).
-    """
-
-    nis: float
-    dof: int
-    log_likelihood: float
 
 
 @dataclass
@@ -204,9 +186,7 @@ class TrackingFilter(ABC):
     #: ``numpy.random.Generator`` or seed): declared, so that no caller inspects a signature.
     takes_particles = False
     takes_rng = False
-    #: Whether BLAS is limited to one thread while the filter works (:func:`tmakit.blas.
-    #: one_thread`): for thin products over many particles, where threads cost more than
-    #: they gain.
+    #: Limit BLAS to one thread while working (:func:`tmakit.blas.one_thread`).
     single_blas_thread = False
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
@@ -427,14 +407,13 @@ class TrackingFilter(ABC):
         if not self._plain_interface():
             return self.run_groups((float(compiled.times[k]), compiled.rows(k))
                                    for k in range(len(compiled)))
-        rec = _Recorder(2 * self.dim)
+        rec = Recorder(2 * self.dim)
         k, total = 0, len(compiled)
         while k < total:
             block = self._run_kernel(compiled, k)
             if block is not None:
                 rec.add_block(block)
-                if not block.general:
-                    self.kernel_updates += block.stop - k
+                self.kernel_updates += 0 if block.general else block.stop - k
                 k = block.stop
                 if k >= total:
                     break
@@ -443,7 +422,7 @@ class TrackingFilter(ABC):
             self.log_likelihood += info.log_likelihood
             rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
             k += 1
-        return rec.track(self)
+        return self._track(rec)
 
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
         """Predict to each ``time`` and update with its rows, in the order given.
@@ -465,50 +444,15 @@ class TrackingFilter(ABC):
         ValueError
             If a time is earlier than the filter's time.
         """
-        rec = _Recorder(2 * self.dim)
-        with one_thread(self.single_blas_thread):
-            for time, rows in groups:
-                self.predict(time)
-                info = self.update(rows)
-                rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
-        return rec.track(self)
+        rec = Recorder(2 * self.dim)
+        for time, rows in groups:
+            self.predict(time)
+            info = self.update(rows)
+            rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
+        return self._track(rec)
 
-
-class _Recorder:
-    """Collects a filter's per-update outputs (single updates and kernel blocks)."""
-
-    def __init__(self, n: int) -> None:
-        self.n = n
-        self.blocks: list[tuple[Array, ...]] = []
-        self.rows: list[tuple[float, Array, Array, float, int, float]] = []
-
-    def add(self, time: float, state: Array, cov: Array, info: UpdateInfo,
-            loglik: float) -> None:
-        self.rows.append((time, state, cov, info.nis, info.dof, loglik))
-
-    def _flush(self) -> None:
-        if self.rows:
-            t, x, p, nis, dof, ll = zip(*self.rows, strict=True)
-            self.blocks.append((np.array(t, dtype=float), np.array(x, dtype=float),
-                                np.array(p, dtype=float), np.array(nis, dtype=float),
-                                np.array(dof, dtype=np.int64), np.array(ll, dtype=float)))
-            self.rows = []
-
-    def add_block(self, block: KernelRun) -> None:
-        self._flush()
-        k = block.states.shape[0]
-        dof = np.ones(k, dtype=np.int64) if block.dof is None else block.dof
-        self.blocks.append((block.times, block.states, block.covariances, block.nis, dof,
-                            block.log_likelihoods))
-
-    def track(self, filt: TrackingFilter) -> Track:
-        self._flush()
-        n = self.n
-        if not self.blocks:
-            parts: list[Array] = [np.zeros(0), np.zeros((0, n)), np.zeros((0, n, n)),
-                                  np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0)]
-        else:
-            parts = [np.concatenate([b[i] for b in self.blocks]) for i in range(6)]
-        return Track(filt.name, filt.state_names, parts[0], parts[1].reshape(-1, n),
-                     parts[2].reshape(-1, n, n), parts[3], parts[4].astype(np.int64),
-                     parts[5], extra=TrackExtras(skipped_updates=int(filt.skipped_updates)))
+    def _track(self, rec: Recorder) -> Track:
+        """Make the track of the updates ``rec`` collected."""
+        t, x, p, nis, dof, ll = rec.parts()
+        return Track(self.name, self.state_names, t, x, p, nis, dof, ll,
+                     extra=TrackExtras(skipped_updates=int(self.skipped_updates)))

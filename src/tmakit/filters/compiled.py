@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,9 +24,6 @@ from ..arrays import Array
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import MeasurementModel
 from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .general import StepPlan
 
 
 @dataclass(frozen=True)
@@ -105,7 +101,8 @@ class CompiledMeasurements:
             lookup[KIND_CODES[k]] = i
         self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
         self._lists: tuple[list[float], ...] | None = None
-        self._plan: StepPlan | None = None
+        #: What the filters derive from the set once per run (e.g. the general path's plan).
+        self.cache: dict[str, object] = {}
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
         #: row layout, made once and shared by the updates with that pattern.
         self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
@@ -118,19 +115,6 @@ class CompiledMeasurements:
     def model_index(self) -> Array:
         """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
         return self._codes
-
-    def step_plan(self) -> StepPlan:
-        """Return the set prepared for the general path (:class:`~.general.StepPlan`), made once.
-
-        Returns
-        -------
-        StepPlan
-        """
-        if self._plan is None:
-            from .general import StepPlan
-
-            self._plan = StepPlan(self)
-        return self._plan
 
     def __len__(self) -> int:
         """Return the number of updates."""

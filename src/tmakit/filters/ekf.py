@@ -15,13 +15,13 @@ from .general import (
     DynamicsCache,
     PlanOutputs,
     Step,
-    StepPlan,
     checked_psd,
     kalman_gain,
     linearise,
     predict_gaussian,
 )
 from .kernels import KernelRun, ekf_bearing_2d
+from .plan import StepPlan, plan_for
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 _EYE = {4: np.eye(4), 6: np.eye(6)}
@@ -222,7 +222,7 @@ class ExtendedKalmanFilter(TrackingFilter):
         if (compiled.single_bearing or type(self.dynamics) is not NearlyConstantVelocity
                 or me._update is not cls._update or me._predict is not cls._predict):
             return None
-        plan = compiled.step_plan()
+        plan = plan_for(compiled)
         return plan if plan.ok else None
 
     def _dynamics_cache(self) -> DynamicsCache:

@@ -44,13 +44,13 @@ from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
 from .general import (
     PlanOutputs,
     Step,
-    StepPlan,
     checked_psd,
     innovation_solve,
     predict_gaussian,
     predict_rows,
 )
 from .kernels import KernelRun, ukf_bearing_2d
+from .plan import StepPlan
 
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float
