@@ -209,7 +209,8 @@ class TrackingFilter(ABC):
         #: because the prediction was not finite (the target at a sensor).
         self.kernel_updates = 0
         self.skipped_updates = 0
-        self._init_state(mean, cov)
+        with one_thread(self.single_blas_thread):
+            self._init_state(mean, cov)
 
     # -- what subclasses provide -------------------------------------------------------------
     @abstractmethod
