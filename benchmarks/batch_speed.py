@@ -9,9 +9,13 @@
 * **batch LM from the same start**: tmakit's Levenberg-Marquardt (``levenberg_marquardt`` on
   the variable-projection problem) against ``scipy.optimize.least_squares(method="lm")`` with
   the analytic Jacobian of the same ``ObservationModel``, both from the truth shifted by three
-  standard deviations, at equal tolerance (``ftol = xtol = gtol = 1e-10`` for both, see
-  ``--tol``; tmakit's absolute decrement floor ``dtol`` off), on bearings-only-2d and gu2007
-  with their rows repeated at a higher rate (the same geometry and span, N rows).
+  standard deviations, at equal accuracy: scipy with ``ftol = xtol = gtol = 1e-10``
+  (``--tol``), tmakit with 100 times smaller tolerances and its absolute decrement floor
+  ``dtol`` off.  tmakit's ``ftol`` bounds the decrement a Gauss-Newton step predicts, scipy's
+  the reduction a step achieved: at the same 1e-10 tmakit stopped one step earlier, 3e-4
+  standard deviations from the optimum (scipy 4e-7); at 1e-12 both are within 1e-5.  The
+  printed agreement is between the two optima.  On bearings-only-2d and gu2007 with their
+  rows repeated at a higher rate (the same geometry and span, N rows).
 
 The problems: the built-in scenarios with their measurement times replaced by N evenly spaced
 times over the same span (bearings-only-2d: one sensor, bearings; gu2007: power and
@@ -124,14 +128,16 @@ def lm_rows(sizes, repeat, tol):
     for name in ("bearings-only-2d", "gu2007"):
         for n in sizes:
             problem, y, start, fun, jac, x0, scale, bound, k = lm_problem(name, n)
-            ours = levenberg_marquardt(problem, y, start[None], ftol=tol, xtol=tol, gtol=tol,
-                                       dtol=0.0).theta[0]
+            ours_tol = tol * 1e-2
+            ours = levenberg_marquardt(problem, y, start[None], ftol=ours_tol, xtol=ours_tol,
+                                       gtol=ours_tol, dtol=0.0).theta[0]
             ref = least_squares(fun, np.zeros(x0.size), jac=jac, method="lm", xtol=tol,
                                 ftol=tol, gtol=tol)
             agree = np.max(np.abs(ours - (x0 + ref.x * scale)[:k]) / bound.std[:k])
             stats = interleaved({
-                "tmakit": lambda problem=problem, y=y, start=start: levenberg_marquardt(
-                    problem, y, start[None], ftol=tol, xtol=tol, gtol=tol, dtol=0.0),
+                "tmakit": lambda problem=problem, y=y, start=start, t=ours_tol:
+                    levenberg_marquardt(problem, y, start[None], ftol=t, xtol=t, gtol=t,
+                                        dtol=0.0),
                 "scipy": lambda fun=fun, jac=jac, x0=x0: least_squares(
                     fun, np.zeros(x0.size), jac=jac, method="lm", xtol=tol, ftol=tol,
                     gtol=tol)}, repeat)
