@@ -20,6 +20,7 @@ reports bad input as ``error: ...`` naming the file, row and field, with exit st
 
 from __future__ import annotations
 
+import sys
 from typing import Annotated
 
 import typer
@@ -33,7 +34,9 @@ from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
 from .track import track
 
-# Plain help: no rich markup (a help text's "a:b:" is not an emoji), -h as well as --help.
+# Plain (click) help, -h as well as --help: no rich markup (a help text's "a:b:" is not an
+# emoji), and typer's rich help loads rich's Markdown renderer and its parser, which took
+# longer than all of numpy's import (benchmarks/run_all.py --only startup).
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   context_settings={"help_option_names": ["-h", "--help"]},
                   help="tmakit: passive emitter localisation and target motion analysis.")
@@ -64,6 +67,12 @@ app.command()(examples)
 
 def main() -> None:
     """Entry point of the ``tma`` console script."""
+    if sys.argv[1:] == ["scenarios"]:
+        # Typer (>= 0.2x) imports pydantic to coerce any command's parameters, even --help;
+        # the plain listing has none, so it is run directly (same output and exit, no
+        # pydantic).
+        scenarios()
+        raise SystemExit(0)
     app()
 
 

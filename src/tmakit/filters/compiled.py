@@ -101,6 +101,8 @@ class CompiledMeasurements:
             lookup[KIND_CODES[k]] = i
         self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
         self._lists: tuple[list[float], ...] | None = None
+        #: What the filters derive from the set once per run (e.g. the general path's plan).
+        self.cache: dict[str, object] = {}
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
         #: row layout, made once and shared by the updates with that pattern.
         self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
@@ -108,6 +110,11 @@ class CompiledMeasurements:
         #: Every update is one bearing row (the closed-form kernels apply).
         self.single_bearing = bool(n > 0 and np.all(sizes == 1)
                                    and set(self.models) == {"bearing"})
+
+    @property
+    def model_index(self) -> Array:
+        """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
+        return self._codes
 
     def __len__(self) -> int:
         """Return the number of updates."""

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from ..batch.methods import estimate_with
 from ..batch.ml import Best, solve_without_guess
 from ..batch.solver import VarProProblem, levenberg_marquardt
+from ..blas import one_thread
 from ..data import MeasurementSet
 from ..observation import ObservationModel
 from ..results.estimate import assemble_result
@@ -152,11 +153,14 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     ChunkOutput
         Its runs' results.
     """
-    scn = task.scenario
-    meas = scn.simulate_many([np.random.default_rng(s) for s in task.seeds])
-    if task.estimator == "ml" and _shared_layout(meas):
-        return _ml_batched(task, meas)
-    return _per_run(task, meas)
+    # One BLAS thread: a chunk's products are many and mid-sized, and the cores are shared
+    # with the other chunks (workers or processes), where BLAS threads spin against them.
+    with one_thread():
+        scn = task.scenario
+        meas = scn.simulate_many([np.random.default_rng(s) for s in task.seeds])
+        if task.estimator == "ml" and _shared_layout(meas):
+            return _ml_batched(task, meas)
+        return _per_run(task, meas)
 
 
 def _shared_layout(meas: Sequence[MeasurementSet]) -> bool:
