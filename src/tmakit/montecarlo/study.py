@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ..bounds.fim import crlb
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
@@ -45,16 +45,22 @@ def _check_seed(seed: object) -> None:
         raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
 
 
-def _init_vector(scenario: Scenario, init: Mapping[str, float] | ArrayLike
-                 ) -> NDArray[np.float64]:
+def _check_init(scenario: Scenario, init: Mapping[str, float] | ArrayLike | None) -> None:
+    """Refuse a bad ``init`` before any run."""
     motion = scenario.motion
+    if init is None:
+        return
     if isinstance(init, Mapping):
-        return motion.theta(init)
-    vec = np.asarray(init, dtype=float).reshape(-1)
-    if vec.shape[0] != motion.n_params:
+        motion.theta(init)
+    elif np.asarray(init, dtype=float).size != motion.n_params:
         raise ValueError(f"init must give {motion.n_params} values "
                          f"({', '.join(motion.param_names)})")
-    return vec
+
+
+def _known(scenario: Scenario, known_nuisance: KnownNuisanceLike) -> KnownNuisance | None:
+    """Convert to the one type; the scenario's true values fill the names left out."""
+    known = as_known_nuisance(known_nuisance)
+    return None if known is None else KnownNuisance(known.over(scenario.nuisance))
 
 
 def _scenario(scenario: Scenario | str | Path) -> Scenario:
@@ -130,10 +136,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         The nuisance model per kind; default the scenario's
         (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None
-        Hold the nuisance parameters known, in the estimator and the CRLB
-        (:mod:`tmakit.results.nuisance`): ``True`` at the scenario's true values; a
-        :class:`~tmakit.results.nuisance.KnownNuisance` or mapping at the values it names,
-        the scenario's for the others.  Default: estimated.
+        Known to the estimator and the CRLB, at the values named, the scenario's (true) for
+        the others (``True``: all the scenario's).  Default: estimated.
     init : mapping or array_like, optional
         A starting point given to every run (default: the estimator's own initialisation).
     progress : bool
@@ -160,12 +164,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
     _check_seed(seed)
-    known = as_known_nuisance(known_nuisance)
-    if known is not None:
-        known = KnownNuisance(known.over(scenario.nuisance))
+    known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
-    if init is not None:
-        _init_vector(scenario, init)  # refuse a bad init before any run
+    _check_init(scenario, init)
     opts = {str(k): dict(v) for k, v in (
         scenario.measurement_options if options is None else options).items()}
 

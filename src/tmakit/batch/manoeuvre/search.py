@@ -87,8 +87,7 @@ class ManoeuvreSearch:
     options : mapping, optional
         Nuisance model per kind, as for :func:`tmakit.batch.ml.estimate`.
     known_nuisance : KnownNuisance or None
-        The nuisance parameters held at known values (names left out take the model
-        defaults), or None: estimated.
+        The nuisance held at known values (others: model defaults); None: estimated.
     settings : ManoeuvreSettings
         How to search.
 
