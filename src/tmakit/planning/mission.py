@@ -427,7 +427,20 @@ class MissionPlanner:
         return self.optimise(platform, belief, np.array(initial) if initial else None)
 
     def first_leg(self, platform: PlatformState, plan: MissionPlan) -> Actions:
-        """Return the sub-step actions of the plan's first leg (fly them, then re-plan)."""
+        """Return the sub-step actions of the plan's first leg (fly them, then re-plan).
+
+        Parameters
+        ----------
+        platform : PlatformState
+            The platform at the plan's decision time.
+        plan : MissionPlan
+            The plan.
+
+        Returns
+        -------
+        Actions
+            One per sub-step of :attr:`step` seconds.
+        """
         _, counts = self.legs(platform.time)
         return plan.actions[np.arange(int(counts[0]))]
 

@@ -90,9 +90,19 @@ class Recommendation:
 
 
 def position_bound(information: Array, covariance: Array | None = None) -> Array:
-    """Return ``sqrt(trace)`` of the position block of ``J^{-1}`` (...,), m.
+    """Return ``sqrt(trace)`` of the position block of ``J^{-1}``.
 
-    ``covariance``, if given, is ``bound_covariance(information)`` already computed.
+    Parameters
+    ----------
+    information : ndarray, shape (..., n, n)
+        ``J``, SI.
+    covariance : ndarray, shape (..., n, n), optional
+        ``bound_covariance(information)`` if already computed.
+
+    Returns
+    -------
+    ndarray, shape (...,)
+        The position RMS bound, m.
     """
     dim = information.shape[-1] // 2
     cov = bound_covariance(information) if covariance is None else covariance

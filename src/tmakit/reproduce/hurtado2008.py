@@ -171,6 +171,10 @@ def cases(radar: str = "derived", particles: int = 2000, steps: int | None = Non
     -------
     list of LoopCase
         ``fixed``, ``adaptive``, ``min-range hard``, ``min-range penalty``.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), §5, Examples 1 and 2.
     """
     plan = radar_plan(radar)
     cfg = HURTADO_NEHORAI_2008
@@ -362,6 +366,10 @@ def plot(rep: Hurtado2008Reproduction, path: str | Path) -> Path:
     ------
     ValueError
         If ``rep`` holds no study.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), §5, Figs. 1-3.
     """
     import matplotlib
 
