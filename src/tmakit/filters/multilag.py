@@ -132,10 +132,6 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
     ------
     ValueError
         On bad lags or start, no rows, two bearings at a sample, or no lag-1 differences.
-
-    References
-    ----------
-    Chen & Sun (1993), §2.2-2.4.
     """
     lags = _check_lags(lags)
     if len(meas) == 0:

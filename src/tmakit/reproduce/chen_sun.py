@@ -127,10 +127,6 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
     ------
     ValueError
         If ``range_guess <= |height_guess|`` or there is no bearing.
-
-    References
-    ----------
-    Chen & Sun (1993), §2.5.
     """
     if not range_guess > abs(height_guess):
         raise ValueError(f"range_guess ({range_guess} m) must exceed |height_guess| "
@@ -467,10 +463,6 @@ def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
     ------
     ValueError
         If ``rep`` has no time series (``runs = 0``).
-
-    References
-    ----------
-    Chen & Sun (1993), Fig. 2.
     """
     if not rep.series:
         raise ValueError("plot() needs chen_sun.run() with runs > 0")

@@ -274,10 +274,6 @@ def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
     ------
     ValueError
         If ``rep`` lacks the scenario or the bound sequences.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), Fig. 2.
     """
     import matplotlib
 
