@@ -105,7 +105,17 @@ class PosteriorBound:
         return len(self.state_names) // 2
 
     def index_at(self, time: float) -> int:
-        """Return the index of the last update at or before ``time`` (s).
+        """Return the index of the last update at or before ``time``.
+
+        Parameters
+        ----------
+        time : float
+            s.
+
+        Returns
+        -------
+        int
+            Into :attr:`times`.
 
         Raises
         ------
@@ -119,7 +129,12 @@ class PosteriorBound:
         return k
 
     def at(self, time: float) -> dict[str, object]:
-        """Return the bound after the last update at or before ``time`` (s).
+        """Return the bound after the last update at or before ``time``.
+
+        Parameters
+        ----------
+        time : float
+            s.
 
         Returns
         -------
@@ -142,7 +157,13 @@ class PosteriorBound:
         return out
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form (SI units)."""
+        """Return the JSON form (SI units).
+
+        Returns
+        -------
+        dict
+            The bound's settings, times, standard deviations and position RMS.
+        """
         return {
             "bound": "posterior CRB (Tichavsky recursion)",
             "mode": self.mode,
@@ -162,7 +183,17 @@ class PosteriorBound:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
-        """Return :meth:`as_dict` as JSON text, indented by ``indent`` (None: one line)."""
+        """Return :meth:`as_dict` as JSON text.
+
+        Parameters
+        ----------
+        indent : int or None, optional
+            Indentation (None: one line).
+
+        Returns
+        -------
+        str
+        """
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self, times: ArrayLike | None = None) -> str:
