@@ -105,17 +105,7 @@ class PosteriorBound:
         return len(self.state_names) // 2
 
     def index_at(self, time: float) -> int:
-        """Return the index of the last update at or before ``time``.
-
-        Parameters
-        ----------
-        time : float
-            s.
-
-        Returns
-        -------
-        int
-            Into :attr:`times`.
+        """Return the index of the last update at or before ``time`` (s).
 
         Raises
         ------
@@ -129,12 +119,7 @@ class PosteriorBound:
         return k
 
     def at(self, time: float) -> dict[str, object]:
-        """Return the bound after the last update at or before ``time``.
-
-        Parameters
-        ----------
-        time : float
-            s.
+        """Return the bound after the last update at or before ``time`` (s).
 
         Returns
         -------
@@ -157,13 +142,7 @@ class PosteriorBound:
         return out
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form (SI units).
-
-        Returns
-        -------
-        dict
-            The bound's settings, times, standard deviations and position RMS.
-        """
+        """Return the JSON form (SI units)."""
         return {
             "bound": "posterior CRB (Tichavsky recursion)",
             "mode": self.mode,
@@ -183,17 +162,7 @@ class PosteriorBound:
         }
 
     def to_json(self, indent: int | None = 2) -> str:
-        """Return :meth:`as_dict` as JSON text.
-
-        Parameters
-        ----------
-        indent : int or None, optional
-            Indentation (None: one line).
-
-        Returns
-        -------
-        str
-        """
+        """Return :meth:`as_dict` as JSON text, indented by ``indent`` (None: one line)."""
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self, times: ArrayLike | None = None) -> str:
