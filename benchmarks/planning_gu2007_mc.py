@@ -42,6 +42,7 @@ import time
 
 import numpy as np
 from planning_passive import bound_along
+from planning_passive_mc import rmse_interval
 
 import tmakit as tk
 from tmakit.bounds import PosteriorInformation
@@ -147,12 +148,6 @@ def horizon_run(run: Run, planner: Planner, start: PlatformState) -> float:
         belief = planner.advance(belief, rec, tracker.state)
         platform = rec.step.end
     return error(tracker)
-
-
-def rmse_interval(err: np.ndarray, rng: np.random.Generator) -> tuple[float, float, float]:
-    """RMSE and its bootstrap 5-95 % interval."""
-    boot = np.sqrt(np.mean(rng.choice(err, (2000, err.size)) ** 2, axis=1))
-    return float(np.sqrt(np.mean(err**2))), *np.percentile(boot, [5, 95])
 
 
 def main() -> None:
