@@ -238,11 +238,12 @@ class MissionPlanner:
                                         self.gamma, cloud)
                 actions.append(act)
                 state = flown.end
-                found = step_violations(self.constraints, flown, belief, self.step)
-                hard = hard + penalties(found, hard.size)[1]
-                worst = found if not worst else [
-                    replace(w, amount=np.maximum(w.amount, f.amount))
-                    for w, f in zip(worst, found, strict=True)]
+                if self.constraints:
+                    found = step_violations(self.constraints, flown, belief, self.step)
+                    hard = hard + penalties(found, hard.size)[1]
+                    worst = found if not worst else [
+                        replace(w, amount=np.maximum(w.amount, f.amount))
+                        for w, f in zip(worst, found, strict=True)]
         return _Rollout(info, leg_states, leg_info, actions, state, worst, hard)
 
     def evaluate(self, platform: PlatformState, belief: Belief, headings: ArrayLike,
