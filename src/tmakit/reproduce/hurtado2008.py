@@ -36,9 +36,9 @@ and is tracked by a particle filter with the transitional prior (section 3.1).  
   correlated (-0.999, from the chirp), which pins the range to about 5 m given the range
   rate, and the full covariance is used by the simulation, the planner's bound and the
   tracker's update (:class:`~tmakit.observation.MeasurementGroup` with ``covariance``).  The
-  paper's claims were measured over 100 runs with the marginal variants; the correlated one
-  changes the planner's choices (it gains more by turning the line of sight than by closing
-  in), see ``benchmarks/hurtado2008_claims.py``.
+  paper's claims were measured over 100 runs with the marginal variants; with the correlated
+  one the planner no longer closes in on the target (``docs/planning.md``,
+  ``benchmarks/hurtado2008_claims.py --radar derived-correlated``).
 """
 
 from __future__ import annotations
