@@ -222,7 +222,17 @@ class PlanningSetup:
         return self.steps * self.planner.interval
 
     def replace(self, **changes: Any) -> PlanningSetup:
-        """Return a copy with fields changed (e.g. ``steps``, ``particles``, ``runs``)."""
+        """Return a copy with fields changed (e.g. ``steps``, ``particles``, ``runs``).
+
+        Parameters
+        ----------
+        **changes
+            Field names and their new values.
+
+        Returns
+        -------
+        PlanningSetup
+        """
         return dataclasses.replace(self, **changes)
 
 

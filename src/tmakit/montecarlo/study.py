@@ -15,9 +15,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ..bounds.fim import crlb
+from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario import Scenario
 from .estimators import check_estimator
 from .execution import dask_client, default_chunk, progress_bar, run_dask, run_local
@@ -44,16 +45,22 @@ def _check_seed(seed: object) -> None:
         raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
 
 
-def _init_vector(scenario: Scenario, init: Mapping[str, float] | ArrayLike
-                 ) -> NDArray[np.float64]:
+def _check_init(scenario: Scenario, init: Mapping[str, float] | ArrayLike | None) -> None:
+    """Refuse a bad ``init`` before any run."""
     motion = scenario.motion
+    if init is None:
+        return
     if isinstance(init, Mapping):
-        return motion.theta(init)
-    vec = np.asarray(init, dtype=float).reshape(-1)
-    if vec.shape[0] != motion.n_params:
+        motion.theta(init)
+    elif np.asarray(init, dtype=float).size != motion.n_params:
         raise ValueError(f"init must give {motion.n_params} values "
                          f"({', '.join(motion.param_names)})")
-    return vec
+
+
+def _known(scenario: Scenario, known_nuisance: KnownNuisanceLike) -> KnownNuisance | None:
+    """Convert to the one type; the scenario's true values fill the names left out."""
+    known = as_known_nuisance(known_nuisance)
+    return None if known is None else KnownNuisance(known.over(scenario.nuisance))
 
 
 def _scenario(scenario: Scenario | str | Path) -> Scenario:
@@ -107,7 +114,7 @@ def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
 
 def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: int = 100,
                 seed: int | None = 0, options: Options | None = None,
-                known_nuisance: bool = False,
+                known_nuisance: KnownNuisanceLike = False,
                 init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
                 dask: str | Client | None = None, chunk: int | None = None
                 ) -> MonteCarloResult:
@@ -128,8 +135,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     options : mapping, optional
         The nuisance model per kind; default the scenario's
         (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
-    known_nuisance : bool
-        Give the estimator (and the CRLB) the scenario's true nuisance values.
+    known_nuisance : KnownNuisance, Mapping[str, float], bool or None
+        Known to the estimator and the CRLB, at the values named, the scenario's (true) for
+        the others (``True``: all the scenario's).  Default: estimated.
     init : mapping or array_like, optional
         A starting point given to every run (default: the estimator's own initialisation).
     progress : bool
@@ -156,9 +164,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
     _check_seed(seed)
-    known_nuisance = bool(known_nuisance)
-    check_estimator(estimator, known_nuisance)
-    init_vector = None if init is None else _init_vector(scenario, init)
+    known = _known(scenario, known_nuisance)
+    check_estimator(estimator, known is not None)
+    _check_init(scenario, init)
     opts = {str(k): dict(v) for k, v in (
         scenario.measurement_options if options is None else options).items()}
 
@@ -168,8 +176,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     client, own_client = (None, False) if dask is None else dask_client(dask)
     try:
         size = chunk or default_chunk(runs, estimator, client)
-        batched_init = init_vector if estimator == "ml" else None
-        tasks = [ChunkTask(scenario, estimator, opts, known_nuisance, init, batched_init, lo,
+        tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
         outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs,
                                  progress)
@@ -180,8 +187,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
 
     names = scenario.motion.param_names
     table, failures = _table(outputs, runs, names)
-    bound = crlb(scenario, known_nuisance=known_nuisance, options=opts)
+    bound = crlb(scenario, known_nuisance=known, options=opts)
     std = np.array([bound.std_of(n) for n in names])
     return MonteCarloResult(scenario.name, estimator, names, scenario.theta.copy(), std,
-                            table, wall, entropy, known_nuisance, executor, size, failures,
+                            table, wall, entropy, known, executor, size, failures,
                             bound)
