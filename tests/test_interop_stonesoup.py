@@ -199,3 +199,25 @@ def test_stone_soup_ekf_tracker_started_by_the_batch_estimate():
     own = tk.track(meas, "ekf", q=0.0)
     ss = np.asarray(track.state.state_vector, float)[[0, 2, 1, 3], 0]
     assert np.all(np.abs(ss - own.states[-1]) < 0.05 * own.std[-1])
+
+
+def test_log_likelihood_of_many_states_is_the_wrapped_gaussian():
+    from scipy.stats import multivariate_normal
+    from stonesoup.types.array import StateVectors
+
+    meas = tk.load_scenario("hurtado2008").simulate(rng=1)  # bearing, range, range rate
+    det = to_detections(meas)[10]
+    model = det.measurement_model
+    states = np.array([[-2000.0, 25, 15000, 0], [-2100, 24, 15100, 1], [-1900, 26, 14900, -1]]).T
+    got = model.logpdf(det, State(StateVectors(states)))
+    z = np.asarray(det.state_vector, float)[:, 0]
+    for k in range(3):
+        r = z - np.asarray(model.function(State(states[:, k:k + 1])), float)[:, 0]
+        r[model.group.angle] = wrapped(r[model.group.angle])
+        assert got[k] == pytest.approx(multivariate_normal.logpdf(r, cov=model.covar()),
+                                       rel=1e-12)
+    assert model.pdf(det, State(states[:, :1])) == pytest.approx(np.exp(got[0]), rel=1e-12)
+    draws = np.asarray(model.rvs(20000, random_state=3), float)
+    cov = np.asarray(model.covar(), float)  # independent rows
+    np.testing.assert_allclose(np.var(draws, axis=1), np.diag(cov), rtol=0.05)
+    assert np.all(np.abs(np.corrcoef(draws)[np.triu_indices(3, 1)]) < 0.03)
