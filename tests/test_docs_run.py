@@ -207,22 +207,37 @@ def test_a_not_run_comment_skips_the_next_block_only(tmp_path):
     assert [b.line for b in found] == [3, 7, 11]
 
 
-def inventory() -> list[tuple[str, int, int, list[str]]]:
-    """Per document: blocks run, blocks skipped, and the reasons."""
+def commands(block: Block) -> int:
+    """Shell commands in a block (continuation lines joined, comments and blank lines not)."""
+    if block.lang in CONSOLE:
+        return len(console_commands(block.code))
+    if block.lang in SHELL:
+        text = block.code.replace("\\\n", " ")
+        return sum(1 for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#"))
+    return 0
+
+
+def inventory() -> list[tuple[str, int, int, int, int, list[str]]]:
+    """Per document: Python blocks and shell commands run, the same not run, and why."""
     rows = []
     for doc in DOCS:
         runnable = [b for b in blocks(doc) if b.lang in RUNNABLE]
+        ran = [b for b in runnable if b.skip_reason is None]
         skipped = [b for b in runnable if b.skip_reason is not None]
-        rows.append((str(doc.relative_to(ROOT)), len(runnable) - len(skipped), len(skipped),
+        rows.append((str(doc.relative_to(ROOT)),
+                     sum(b.lang in PYTHON for b in ran), sum(commands(b) for b in ran),
+                     sum(b.lang in PYTHON for b in skipped), sum(commands(b) for b in skipped),
                      [f"{b.where}: {b.skip_reason}" for b in skipped]))
     return rows
 
 
 if __name__ == "__main__":
-    total_run = total_skipped = 0
-    for name, ran, skipped, reasons in inventory():
-        total_run, total_skipped = total_run + ran, total_skipped + skipped
-        print(f"{name:32s} {ran:3d} run  {skipped:3d} not run")
+    totals = [0, 0, 0, 0]
+    print(f"{'document':24s} {'run: python blocks':>18s} {'commands':>9s}   "
+          f"{'not run: python':>15s} {'commands':>9s}")
+    for name, *counts, reasons in inventory():
+        totals = [a + b for a, b in zip(totals, counts, strict=True)]
+        print(f"{name:24s} {counts[0]:18d} {counts[1]:9d}   {counts[2]:15d} {counts[3]:9d}")
         for reason in reasons:
-            print(f"    {reason}")
-    print(f"{'total':32s} {total_run:3d} run  {total_skipped:3d} not run")
+            print(f"    not run: {reason}")
+    print(f"{'total':24s} {totals[0]:18d} {totals[1]:9d}   {totals[2]:15d} {totals[3]:9d}")
