@@ -95,11 +95,12 @@ def test_bearings_round_trip_modulo_a_turn_and_per_sensor_detections():
     ("gu2007", {"carrier": 1.9e9, "power_constant_db": -38.0}),
     ("hurtado2008", None),  # bearing, range, range rate
     ("doppler-lecture", {"carrier": 1.0e10}),  # frequency, 3-D
+    ("chen-sun-1", None),  # bearing + range difference to an earlier pulse, 3-D
 ])
 def test_model_predicts_like_tmakit_with_an_analytic_jacobian(scenario, nuisance, monkeypatch):
     scn = tk.load_scenario(scenario)
     meas = scn.simulate(rng=1)
-    dim = meas.dim
+    dim = scn.motion.dim  # the target's (chen-sun: 3-D, though its data alone say 2-D)
     rows = meas.take(np.flatnonzero(meas.time == meas.time[len(meas) // 2]))
     model = TmakitMeasurementModel.from_rows(rows, dim, nuisance=nuisance)
     x = scn.target_states(rows.time[:1])[0]
