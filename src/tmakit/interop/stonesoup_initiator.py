@@ -37,7 +37,9 @@ class BatchInitiator(GaussianInitiator):
     at the latest detection time; :attr:`estimate` keeps tmakit's result.
 
     Detections are read by :func:`from_detections` (tmakit's own models or Stone Soup's
-    bearing, elevation and range models).
+    bearing, elevation and range models).  One target: every detection it is given is taken
+    to be of the target it starts (use it where association has removed clutter, or with a
+    single-target tracker).
     """
 
     dim: int = Property(default=2, doc="Spatial dimension of the target, 2 or 3.")
