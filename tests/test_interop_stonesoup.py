@@ -222,3 +222,23 @@ def test_log_likelihood_of_many_states_is_the_wrapped_gaussian():
     cov = np.asarray(model.covar(), float)  # independent rows
     np.testing.assert_allclose(np.var(draws, axis=1), np.diag(cov), rtol=0.05)
     assert np.all(np.abs(np.corrcoef(draws)[np.triu_indices(3, 1)]) < 0.03)
+
+
+def test_a_model_for_kinds_agrees_with_stone_soups_own_bearing_range_rate_model():
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRangeRate2D
+
+    sensor = np.array([200.0, -100.0, 0.0, 3.0, 4.0, 0.0])
+    sigmas = [np.radians(1.0), 10.0, 0.5]
+    ours = TmakitMeasurementModel.for_kinds(["bearing", "range", "range_rate"], sigmas, sensor,
+                                            sensor="ship")
+    theirs = CartesianToBearingRangeRate2D(
+        ndim_state=4, mapping=(0, 2), velocity_mapping=(1, 3), noise_covar=np.diag(sigmas) ** 2,
+        translation_offset=sensor[:2, None], velocity=sensor[3:5, None])
+    target = State(np.array([[3000.0], [-5.0], [4000.0], [8.0]]))
+    b, r, rr = np.asarray(ours.function(target), float)[:, 0]
+    phi, rho, rate = np.asarray(theirs.function(target), float)[:, 0]
+    assert wrapped(0.5 * np.pi - b - phi) == pytest.approx(0.0, abs=1e-12)  # clockwise from N
+    assert (r, rr) == pytest.approx((rho, rate), rel=1e-12)
+    np.testing.assert_allclose(ours.covar(), theirs.covar())
+    det = Detection(ours.function(target), timestamp=EPOCH, measurement_model=ours)
+    assert from_detections([det]).sensors == ["ship"]

@@ -10,7 +10,9 @@ Install with ``pip install "tmakit[stonesoup]"`` (Stone Soup ≥ 1.0).
   elevation, azimuth rate, range, range rate, frequency and power with known nuisance values,
   range differences) as a Stone Soup non-linear Gaussian measurement model: predictions,
   **analytic** Jacobians and the noise covariance come from tmakit's observation layer
-  (:class:`~tmakit.observation.MeasurementGroup`), not from finite differences.
+  (:class:`~tmakit.observation.MeasurementGroup`), not from finite differences;
+  :meth:`TmakitMeasurementModel.for_kinds` builds one from a sensor state for Stone Soup's
+  own simulators and updaters.
 * :func:`from_detections` turns Stone Soup detections back into a measurement set: those made
   with :class:`TmakitMeasurementModel`, and those of Stone Soup's own bearing, elevation and
   range models (:data:`NATIVE_MODELS`).

@@ -102,6 +102,47 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
         return cls(ndim_state=n_state, mapping=pos, velocity_mapping=vel,
                    noise_covar=np.array(group.covariance), group=group)
 
+    @classmethod
+    def for_kinds(cls, kinds: str | Sequence[str], sigmas: ArrayLike,
+                  sensor_state: ArrayLike, dim: int = 2, *, sensor: str = "sensor",
+                  options: Mapping[str, Mapping[str, object]] | None = None,
+                  nuisance: Mapping[str, float] | None = None,
+                  **mappings: object) -> TmakitMeasurementModel:
+        """Build a model of tmakit kinds made from one sensor state, for Stone Soup's own loops.
+
+        A row per kind (no earlier sample, so not ``range_difference``), like Stone Soup's
+        models with a ``translation_offset`` (and ``velocity``): use it in a Stone Soup
+        detection simulator or updater.
+
+        Parameters
+        ----------
+        kinds : str or sequence of str
+            The kind of each row (``"bearing"``, ``"frequency"``, ...).
+        sigmas : array_like
+            Noise standard deviation per row, SI (rad, m, m/s, Hz, dB).
+        sensor_state : array_like
+            The sensor's ``[x, y, z, vx, vy, vz]`` (m, m/s, East-North-Up).
+        dim : int
+            2 or 3: the target's spatial dimension.
+        sensor : str
+            The sensor id (kept by :func:`from_detections`).
+        options, nuisance
+            As for :meth:`from_rows`.
+        **mappings
+            ``ndim_state``, ``mapping``, ``velocity_mapping`` as for :meth:`from_rows`.
+
+        Returns
+        -------
+        TmakitMeasurementModel
+        """
+        names = [kinds] if isinstance(kinds, str) else list(kinds)
+        n = len(names)
+        rows = MeasurementSet.from_si(np.zeros(n), [sensor] * n, names, np.zeros(n),
+                                      np.broadcast_to(np.asarray(sigmas, dtype=float), (n,)),
+                                      np.tile(np.asarray(sensor_state, dtype=float), (n, 1)))
+        return cls.from_rows(rows, dim, options=options, nuisance=nuisance,
+                             **mappings)  # type: ignore[arg-type]
+
     @property
     def ndim_meas(self) -> int:
         """The number of rows ``m``."""
