@@ -98,15 +98,22 @@ def test_show_missing_file(tmp_path):
     assert result.exit_code == 2 and "no such file" in result.output
 
 
-def test_demo_writes_data_and_picture_then_refuses_to_repeat(tmp_path):
+def test_demo_is_rerunnable_in_its_own_folder_and_spares_other_folders(tmp_path):
     folder = tmp_path / "demo"
     result = run("demo", "--out-dir", str(folder))
     assert result.exit_code == 0, result.output
     assert (folder / "gu2007.csv").exists() and (folder / "gu2007.png").exists()
     assert "gu2007" in result.output
-    again = run("demo", "--out-dir", str(folder))
-    assert again.exit_code == 2 and "--force" in again.output
-    assert run("demo", "--out-dir", str(folder), "--force").exit_code == 0
+    (folder / "stale.txt").write_text("left by an earlier run")
+    again = run("demo", "--out-dir", str(folder))  # its own folder: replaced
+    assert again.exit_code == 0, again.output
+    assert (folder / "gu2007.csv").exists() and not (folder / "stale.txt").exists()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("the user's")
+    refused = run("demo", "--out-dir", str(mine))
+    assert refused.exit_code == 2 and "--force" in refused.output
+    assert (mine / "notes.txt").read_text() == "the user's"
 
 
 @pytest.mark.parametrize("origin", ["1,2", "a,b,c"])

@@ -32,12 +32,13 @@ def small_set() -> tk.MeasurementSet:
 
 
 def test_builtin_formats_are_registered_by_name_and_suffix():
-    assert [f.name for f in registered_formats()] == ["csv", "parquet"]
+    assert {"csv", "parquet", "rep", "wide"} <= {f.name for f in registered_formats()}
+    assert find_format("a.rep").name == find_format("a.DSF").name == "rep"
     assert find_format("a.CSV").name == "csv"
     assert find_format("a.pq").name == "parquet"
     assert find_format("a.txt") is None
-    with pytest.raises(ValueError, match="unknown measurement file format 'gpx'"):
-        find_format("a.csv", "gpx")
+    with pytest.raises(ValueError, match="unknown measurement file format 'kml'"):
+        find_format("a.csv", "kml")
 
 
 def test_a_new_format_is_one_registration(tmp_path):
@@ -53,7 +54,8 @@ def test_a_new_format_is_one_registration(tmp_path):
 def _use_new_format(tmp_path):
     path = write_measurements(small_set(), tmp_path / "obs.tsvish")
     assert read_measurements(path).equals(small_set())
-    with pytest.raises(MeasurementFileError, match=r"\.tsvish \(CSV, Parquet or TSV-ish\)"):
+    with pytest.raises(MeasurementFileError,
+                       match=r"\.tsvish \(CSV, Debrief replay, Parquet, .* or TSV-ish\)"):
         read_measurements(tmp_path / "obs.txt")
     with pytest.raises(ValueError, match="registered already"):
         register_format(Format("csv", "CSV", (".csv2",)))

@@ -214,5 +214,5 @@ def test_cli_reproduce_chen_sun_observability_only():
 
     result = CliRunner().invoke(app, ["reproduce", "chen-sun", "--runs", "0"])
     assert result.exit_code == 0, result.output
-    assert "POORLY" in result.output and "poorly_observable_paths: [2]" in result.output
+    assert "POORLY" in result.output and "poorly observable paths: 2" in result.output
     assert "garbled" in result.output  # the initial-guess reading is stated

@@ -55,6 +55,10 @@ _LAZY = {
     "Bound": "results",
     "Observability": "results",
     "KnownNuisance": "results.nuisance",
+    "Answer": "results",
+    "SanityWarning": "results",
+    "track_answer": "results",
+    "measurement_warnings": "results",
     "Track": "filters",
     "PosteriorBound": "bounds",
     "PosteriorInformation": "bounds",
@@ -100,7 +104,15 @@ if TYPE_CHECKING:  # pragma: no cover
     )
     from .observation import ObservationModel
     from .planning import recommend
-    from .results import Bound, EstimateResult, Observability
+    from .results import (
+        Answer,
+        Bound,
+        EstimateResult,
+        Observability,
+        SanityWarning,
+        measurement_warnings,
+        track_answer,
+    )
     from .results.nuisance import KnownNuisance
     from .scenario import MeasurementPlan, Scenario, simulate
     from .scenario_file import (
@@ -142,6 +154,7 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "KINDS",
+    "Answer",
     "Bound",
     "ConstantVelocity",
     "CrbSequence",
@@ -165,6 +178,7 @@ __all__ = [
     "PosteriorBound",
     "PosteriorInformation",
     "RecordedTrack",
+    "SanityWarning",
     "Scenario",
     "ScenarioFileError",
     "SensorTrack",
@@ -178,6 +192,7 @@ __all__ = [
     "geodetic_to_enu",
     "load_planning",
     "load_scenario",
+    "measurement_warnings",
     "model_for",
     "monte_carlo",
     "motion_from_name",
@@ -189,6 +204,7 @@ __all__ = [
     "scenario_from_dict",
     "simulate",
     "track",
+    "track_answer",
     "write_measurements",
     "write_track",
 ]

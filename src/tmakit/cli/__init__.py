@@ -11,6 +11,8 @@
     tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
     tma track FILE [--filter ekf|ukf|mgekf|pf] [--q Q] [--json] [-o track.csv] [--plot out.png]
     tma plan SCENARIO.toml [-o path.csv] [--plot figs.png] [--runs N] [--seed S] [--json]
+    tma import rep|wide|gpx|nmea FILE... -o obs.parquet [--ownship N] [--contact N] [--mapping M]
+    tma examples DIR                               write the sample logs (docs/your-own-data.md)
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
@@ -18,23 +20,46 @@ reports bad input as ``error: ...`` naming the file, row and field, with exit st
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import typer
 
 from .crlb import crlb
 from .estimate import estimate
+from .importing import examples, import_
 from .montecarlo import montecarlo
 from .plan import plan
 from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
 from .track import track
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+# Plain help: no rich markup (a help text's "a:b:" is not an emoji), -h as well as --help.
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
+                  context_settings={"help_option_names": ["-h", "--help"]},
                   help="tmakit: passive emitter localisation and target motion analysis.")
+
+
+def _print_version(value: bool) -> None:
+    """Print ``tma <version>`` and stop (``--version``)."""
+    if value:
+        from .. import __version__
+
+        typer.echo(f"tma (tmakit) {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(version: Annotated[bool, typer.Option(
+        "--version", callback=_print_version, is_eager=True,
+        help="print the version and exit")] = False) -> None:
+    """Passive emitter localisation and target motion analysis (tmakit)."""
 
 # Registered in this order: ``tma --help`` lists the commands in it.
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
                  plan, demo):
     app.command()(_command)
+app.command(name="import")(import_)
+app.command()(examples)
 
 
 def main() -> None:

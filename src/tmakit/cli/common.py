@@ -20,6 +20,19 @@ out = Console()
 err = Console(stderr=True)
 
 
+def print_wide(renderable: object) -> None:
+    """Print a table at the terminal's width, or 160 columns when output is not a terminal.
+
+    Piped output is otherwise narrowed to 80 columns, which cuts numbers and wraps headers.
+
+    Parameters
+    ----------
+    renderable : rich renderable
+        The table.
+    """
+    (out if out.is_terminal else Console(width=160)).print(renderable)
+
+
 def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on standard error and return the exit (status 2) to raise.
 
@@ -54,6 +67,31 @@ def refuse_existing(path: Path, force: bool) -> None:
     """
     if path.exists() and not force:
         raise fail(f"{path} already exists; use --force to overwrite it")
+
+
+PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_plot_path(path: Path, force: bool) -> None:
+    """Check a picture path before any work: a known suffix, an existing folder, no overwrite.
+
+    Parameters
+    ----------
+    path : Path
+        The picture to write.
+    force : bool
+        Overwrite an existing picture.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the path cannot or may not be written.
+    """
+    if path.suffix.lower() not in PICTURE_SUFFIXES:
+        raise fail(f"--plot {path}: the picture is written as {', '.join(PICTURE_SUFFIXES)}")
+    if not path.parent.is_dir():
+        raise fail(f"--plot {path}: the folder {path.parent} does not exist")
+    refuse_existing(path, force)
 
 
 def parse_origin(text: str | None) -> tuple[float, float, float] | None:
@@ -146,15 +184,19 @@ def load_scenario_or_fail(name: str) -> Any:
         raise fail(str(e)) from None
 
 
-def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None) -> Any:
+def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None,
+                 **options: Any) -> Any:
     """Read a measurement file, errors (missing file, bad row or field) as ``error: ...``.
 
     Parameters
     ----------
     path : Path
-        The ``.csv`` or ``.parquet`` file.
+        The file (``.csv``, ``.parquet``, ``.rep``, ...; any registered format).
     origin : tuple of float, optional
         ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
+    **options
+        The reader's options (:func:`reader_options`): ``format``, ``ownship``,
+        ``contact``, ``mapping``, ``bearing_sigma``, ``dim``; None values are dropped.
 
     Returns
     -------
@@ -170,12 +212,35 @@ def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None) -
 
     if not path.exists():
         raise fail(f"{path}: no such file")
+    options = _log_options(path, {k: v for k, v in options.items() if v is not None})
     try:
-        return read_measurements(path, origin=origin)
+        return read_measurements(path, origin=origin, **options)
     except (MeasurementFileError, ValueError) as e:
         from ..io.positions import ORIGIN_HINT
 
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
+
+
+def _log_options(path: Path, options: dict[str, Any]) -> dict[str, Any]:
+    """Keep the reader options of real logs for real logs; refuse them for tmakit's files."""
+    from ..io import find_format
+
+    if "mapping" in options and "format" not in options and path.suffix.lower() in (
+            ".csv", ".parquet", ".pq"):
+        options["format"] = "wide"  # a column mapping: the file is a wide log
+    try:
+        fmt = find_format(path, options.get("format"), reading=True)
+    except ValueError as e:
+        raise fail(f"--format: {e}") from None
+    if fmt is None or fmt.name not in ("csv", "parquet"):
+        return options
+    options.pop("dim", None)  # tmakit's own files: the filter's --dim only
+    given = [f"--{k.replace('_', '-')}" for k in options if k != "format"]
+    if given:
+        verb = "apply" if len(given) > 1 else "applies"
+        raise fail(f"{', '.join(given)} {verb} to real logs (Debrief, wide CSV/Parquet with "
+                   f"--mapping, GPX, NMEA), not to tmakit's {fmt.label} file {path}")
+    return options
 
 
 def write_or_fail(meas: Any, path: Path, force: bool) -> None:
@@ -291,3 +356,33 @@ OriginOption = Annotated[str | None, typer.Option(
     help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")]
 ForceOption = Annotated[bool, typer.Option(help="overwrite existing output files")]
 JsonOption = Annotated[bool, typer.Option("--json", help="print JSON")]
+# Options of the readers of real logs (docs/your-own-data.md).
+FormatOption = Annotated[str | None, typer.Option(
+    "--format", help="file format when the suffix does not say it: csv, parquet, rep, wide, "
+                     "gpx, nmea")]
+OwnshipOption = Annotated[str | None, typer.Option(
+    help="Debrief: the own ship's track name (when several tracks have sensor lines)")]
+ContactOption = Annotated[str | None, typer.Option(
+    help="Debrief: the contact, a sensor name or the first word of the sensor labels")]
+MappingOption = Annotated[Path | None, typer.Option(
+    help="wide CSV/Parquet log: its column mapping (TOML file)")]
+BearingSigmaOption = Annotated[float | None, typer.Option(
+    help="Debrief: bearing noise std (deg), default 1 (replay files carry no sigma)")]
+
+
+def reader_options(format: str | None, ownship: str | None, contact: str | None,
+                   mapping: Path | None, bearing_sigma: float | None) -> dict[str, Any]:
+    """Collect the reader options of a command (None when not given).
+
+    Parameters
+    ----------
+    format, ownship, contact, mapping, bearing_sigma
+        ``--format``, ``--ownship``, ``--contact``, ``--mapping``, ``--bearing-sigma``.
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :func:`read_or_fail`.
+    """
+    return {"format": format, "ownship": ownship, "contact": contact, "mapping": mapping,
+            "bearing_sigma": bearing_sigma}

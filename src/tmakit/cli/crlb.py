@@ -8,10 +8,15 @@ from typing import Annotated, Any
 import typer
 
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
     DriftOption,
+    FormatOption,
     FreeExponentOption,
     JsonOption,
+    MappingOption,
     MotionOption,
+    OwnshipOption,
     RefTimeOption,
     fail,
     is_measurement_file,
@@ -21,6 +26,7 @@ from .common import (
     out,
     parse_assignments,
     read_or_fail,
+    reader_options,
 )
 
 
@@ -38,6 +44,11 @@ def crlb(
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
     as_json: JsonOption = False,
+    format: FormatOption = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    mapping: MappingOption = None,
+    bearing_sigma: BearingSigmaOption = None,
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 
@@ -45,9 +56,10 @@ def crlb(
     sigmas (its measured values are not used).  Nuisance parameters are unknown unless
     --known-nuisance is given.
     """
-    if is_measurement_file(source):
+    if is_measurement_file(source) or format is not None:
         bound = bound_of_file(Path(source), motion, ref_time, truth, known_nuisance, drift,
-                              free_exponent)
+                              free_exponent,
+                              reader_options(format, ownship, contact, mapping, bearing_sigma))
     else:
         bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
     derived = None if at is None else derived_at(bound, at)
@@ -55,7 +67,8 @@ def crlb(
 
 
 def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth: str | None,
-                  known_nuisance: bool, drift: bool, free_exponent: bool) -> Any:
+                  known_nuisance: bool, drift: bool, free_exponent: bool,
+                  options: dict[str, Any] | None = None) -> Any:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
 
     It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor
@@ -69,6 +82,8 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
         ``--motion``, ``--ref-time``, ``--truth``.
     known_nuisance, drift, free_exponent : bool
         ``--known-nuisance``, ``--drift``, ``--free-exponent``.
+    options : dict, optional
+        The reader's options (:func:`~tmakit.cli.common.reader_options`).
 
     Returns
     -------
@@ -84,7 +99,7 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
 
     from ..bounds import crlb as compute
 
-    meas = read_or_fail(file)
+    meas = read_or_fail(file, **(options or {}))
     model = motion_or_fail(motion, ref_time, meas)
     values = parse_assignments(truth, "--truth")
     if not values and "truth" in meas.metadata and motion is None:
@@ -141,9 +156,16 @@ def derived_at(bound: Any, at: float) -> dict[str, Any]:
         ``{"time": at, name: {"value", "std"}, ..., "ellipse_90": {...}}``; a std is None
         where the quantity is unobservable.
     """
-    return {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
+    data = {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
         "inf") else None} for k, (v, sd) in bound.derived(at).items()},
         "ellipse_90": bound.ellipse(at, 0.9)}
+    if "course" in data:  # the command line's angles are degrees (true); "course" stays rad
+        from ..results.answers import parameter_display
+
+        c = data["course"]
+        value, sd, _ = parameter_display("course", c["value"], c["std"] or float("nan"))
+        data["course_deg"] = {"value": value, "std": sd if c["std"] is not None else None}
+    return data
 
 
 def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> None:
@@ -169,12 +191,16 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> No
     out.print(bound.summary(), highlight=False)
     if derived is not None:
         out.print(f"at t = {derived['time']:g} s:", highlight=False)
+        from ..results.answers import parameter_display
+
         for k, v in derived.items():
             if isinstance(v, dict) and "value" in v:
                 sd = v["std"]
-                out.print(f"  {k:<6} {v['value']:14.6g}  std "
-                          + (f"{sd:.4g}" if sd is not None else "unobservable"),
-                          highlight=False)
+                value, sd_shown, unit = parameter_display(
+                    k, v["value"], sd if sd is not None else float("nan"))
+                out.print(f"  {k:<6} {value:14.6g}  std "
+                          + (f"{sd_shown:.4g}" if sd is not None else "unobservable")
+                          + f" {unit}", highlight=False)
         e = derived["ellipse_90"]
         out.print(f"  90 % ellipse: semi-axes {e['major']:.4g} m x {e['minor']:.4g} m, "
                   f"major axis bearing {e['bearing_deg']:.1f} deg", highlight=False)

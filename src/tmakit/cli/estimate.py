@@ -10,13 +10,30 @@ from typing import Annotated, Any
 
 import typer
 
+from .answers_out import (
+    AtOption,
+    SensorOption,
+    UnitsOption,
+    check_units,
+    parse_time,
+    print_answers,
+    print_warnings,
+    select_window,
+)
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
     DriftOption,
+    FormatOption,
     FreeExponentOption,
     JsonOption,
+    MappingOption,
     MotionOption,
     OriginOption,
+    OwnshipOption,
     RefTimeOption,
+    check_plot_path,
+    err,
     fail,
     model_options,
     motion_or_fail,
@@ -24,6 +41,7 @@ from .common import (
     parse_assignments,
     parse_origin,
     read_or_fail,
+    reader_options,
 )
 
 
@@ -40,8 +58,14 @@ def estimate(
     drift: DriftOption = False,
     free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
+    format: FormatOption = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    mapping: MappingOption = None,
+    bearing_sigma: BearingSigmaOption = None,
     exact: Annotated[bool, typer.Option(
-        "--exact", help="curvilinear:M: fit exactly M manoeuvres (default: 0 to M)")] = False,
+        "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")
+    ] = False,
     criterion: Annotated[str | None, typer.Option(
         help="curvilinear: how the number of manoeuvres is chosen, bic (default) or lrt")
     ] = None,
@@ -51,18 +75,78 @@ def estimate(
     accelerations: Annotated[str | None, typer.Option(
         help="curvilinear: select (default: hold at zero the accelerations the data do not "
              "need, by the same criterion) or all")] = None,
+    at: AtOption = None,
+    sensor: SensorOption = None,
+    units: UnitsOption = "si",
+    scale_sigma: Annotated[bool, typer.Option(
+        "--scale-sigma", help="rescale each kind's sigma from the residuals of a first fit "
+                              "(chi2/dof becomes 1) and fit again; the covariance follows")
+    ] = False,
+    start: Annotated[str | None, typer.Option(
+        "--from", help="solve one leg: first time (seconds or UTC clock time)")] = None,
+    stop: Annotated[str | None, typer.Option(
+        "--to", help="solve one leg: last time (seconds or UTC clock time)")] = None,
+    plot: Annotated[Path | None, typer.Option(
+        help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, "
+             "SVG)")] = None,
+    force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
     as_json: JsonOption = False,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
+
+    Gives position (east/north, and lat/lon when the origin is known), course, speed, range
+    and bearing from a sensor, each with its std, and the position's 95 % ellipse; warns when
+    the fit is improbable, angles look like radians or positions are far from the origin.
 
     --motion curvilinear[:M] searches 0 to M manoeuvres (default M = 2) and chooses their
     number by BIC or likelihood-ratio tests, and holds at zero the accelerations the data do
     not need (tmakit.batch.curvilinear).
     """
-    meas = read_or_fail(file, parse_origin(origin))
-    start = parse_assignments(init, "--init") or None
-    options = model_options(drift, free_exponent)
-    # -- manoeuvring targets: tmakit.batch.curvilinear --------------------------------------
+    check_units(units)
+    if plot is not None:
+        check_plot_path(plot, force)
+    meas = select_window(read_or_fail(file, parse_origin(origin), **reader_options(
+        format, ownship, contact, mapping, bearing_sigma)), start, stop)
+    fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
+                 model_options(drift, free_exponent),
+                 (exact, criterion, alpha, accelerations))
+    result = fit(meas)
+    factors = None
+    if scale_sigma:
+        meas, result, factors = refit_scaled(meas, result, fit, model_options(drift,
+                                                                              free_exponent))
+    answer = answer_or_fail(result, meas, parse_time(at, meas, "--at"), sensor)
+    warnings = result.warnings(meas)
+    print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
+                   factors=factors, plot=(plot, file, model_options(drift, free_exponent)))
+
+
+def fitter(meas: Any, motion: str | None, ref_time: float | None,
+           start: dict[str, float] | None, method: str, options: dict[str, Any],
+           manoeuvre: tuple[bool, str | None, float | None, str | None]) -> Any:
+    """Return the fit the options ask for, as a function of the measurements.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements (their metadata may name the motion).
+    motion, ref_time, start, method, options
+        ``--motion``, ``--ref-time``, ``--init`` by name, ``--method`` and the measurement
+        model options.
+    manoeuvre : tuple
+        ``--exact``, ``--criterion``, ``--alpha``, ``--accelerations``.
+
+    Returns
+    -------
+    callable
+        ``fit(meas) -> EstimateResult``; errors become ``error: ...`` with status 2.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 on bad options.
+    """
+    exact, criterion, alpha, accelerations = manoeuvre
     name = motion if motion is not None else meas.metadata.get("motion")
     if name is not None and getattr(motion_or_fail(name, ref_time), "manoeuvres", None) is not None:
         if method != "ml":
@@ -70,27 +154,91 @@ def estimate(
                        "estimated by ml only")
         if ref_time is None and motion is None and "ref_time" in meas.metadata:
             ref_time = float(meas.metadata["ref_time"])
-        result = estimate_manoeuvring(meas, name, start, options, ref_time, exact, criterion,
-                                      alpha, accelerations)
-        print_estimate(meas, result, as_json)
-        return
+        return lambda m: estimate_manoeuvring(m, name, start, options, ref_time, exact,
+                                              criterion, alpha, accelerations)
     if exact or criterion is not None or alpha is not None or accelerations is not None:
         raise fail("--exact, --criterion, --alpha and --accelerations apply to --motion "
                    "curvilinear[:M] only")
-    # -------------------------------------------------------------------------------------
     model = motion_or_fail(motion, ref_time, meas)
-    try:
-        if method == "ml":
-            from ..batch import estimate as run
 
-            result = run(meas, model, init=start, options=options)
-        else:
+    def fit(m: Any) -> Any:
+        try:
+            if method == "ml":
+                from ..batch import estimate as run
+
+                return run(m, model, init=start, options=options)
             from ..batch.methods import estimate_with
 
-            result = estimate_with(method, meas, model, init=start, options=options)
+            return estimate_with(method, m, model, init=start, options=options)
+        except ValueError as e:
+            raise fail(str(e)) from None
+
+    return fit
+
+
+def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
+                 ) -> tuple[Any, Any, dict[str, float]]:
+    """``--scale-sigma``: rescale each kind's sigma from the residuals and fit again.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    result : tmakit.results.EstimateResult
+        The first fit.
+    fit : callable
+        The fit (:func:`fitter`).
+    options : dict
+        Measurement-model options (for the residuals).
+
+    Returns
+    -------
+    tuple
+        The rescaled measurements, the new fit and the factor per kind.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the first fit leaves nothing to rescale from.
+    """
+    from ..results import normalised_residuals, scale_sigma
+
+    try:
+        scaled, factors = scale_sigma(meas, normalised_residuals(result, meas, options),
+                                      result.dof)
     except ValueError as e:
-        raise fail(str(e)) from None
-    print_estimate(meas, result, as_json)
+        raise fail(f"--scale-sigma: {e}") from None
+    return scaled, fit(scaled), factors
+
+
+def answer_or_fail(result: Any, meas: Any, at: float | None, sensor: str | None) -> Any:
+    """Return the estimate in the user's terms (``--at``, ``--sensor``), errors as ``error: ...``.
+
+    Parameters
+    ----------
+    result : tmakit.results.EstimateResult
+        The estimate.
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    at : float or None
+        Time (s); None for the last measurement.
+    sensor : str or None
+        Sensor name; None for the sensor of the last measurement.
+
+    Returns
+    -------
+    tmakit.results.answers.Answer
+        The answers.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for an unknown sensor.
+    """
+    if sensor is not None and sensor not in meas.sensors:
+        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
+                   f"{', '.join(meas.sensors)})")
+    return result.answer(meas, time=at, sensor=sensor)
 
 
 def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
@@ -136,8 +284,11 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
         raise fail(str(e)) from None
 
 
-def print_estimate(meas: Any, result: Any, as_json: bool) -> None:
-    """Print an estimate (text or JSON); exit status 1 unless it converged.
+def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
+                   units: str = "si", warnings: list[Any] | None = None,
+                   factors: dict[str, float] | None = None,
+                   plot: tuple[Path | None, Path, Any] | None = None) -> None:
+    """Print an estimate (text or JSON), draw it; exit status 1 unless it converged.
 
     Parameters
     ----------
@@ -147,28 +298,82 @@ def print_estimate(meas: Any, result: Any, as_json: bool) -> None:
         The estimate.
     as_json : bool
         Print JSON.
+    answer : tmakit.results.answers.Answer, optional
+        The estimate in the user's terms (default: at the last measurement).
+    units : str
+        ``si`` or ``nautical``.
+    warnings : list of tmakit.results.checks.SanityWarning, optional
+        Printed on standard error, and in the JSON.
+    factors : dict, optional
+        ``--scale-sigma``'s factor per kind.
+    plot : tuple, optional
+        ``(picture path or None, measurement file, model options)``.
 
     Raises
     ------
     typer.Exit
         Status 1 when the estimate did not converge.
     """
+    from ..results.checks import chi2_probability
+
+    answer = answer if answer is not None else result.answer(meas)
+    warnings = list(warnings or [])
     geo = geodetic_position(meas, result)
     if as_json:
         import json
 
+        import numpy as np
+
         data = result.as_dict()
         if geo is not None:
             data["geodetic"] = geo
+        data["answer"] = answer.as_dict()
+        data["covariance"] = [[float(c) if np.isfinite(c) else None for c in r]
+                              for r in np.asarray(result.covariance)]
+        data["chi2_p_value"] = chi2_probability(result.chi2, result.dof)
+        data["warnings"] = [w.as_dict() for w in warnings]
+        data["sigma_scale"] = factors
         out.print_json(json.dumps(data))
     else:
         out.print(result.summary(), highlight=False)
-        if geo is not None:
-            out.print(f"position at t = {geo['time']:g} s: lat {geo['lat']:.7f} deg, "
-                      f"lon {geo['lon']:.7f} deg, alt {geo['alt']:.1f} m (WGS-84)",
-                      highlight=False)
+        if factors is not None:
+            out.print("--scale-sigma: sigma multiplied by " + ", ".join(
+                f"{f:.3g} ({k})" for k, f in factors.items()) + " from the first fit's "
+                "residuals; the estimate and covariance above are of the refit",
+                highlight=False)
+        print_answers(answer, units)
+    print_warnings(warnings)
+    if plot is not None and plot[0] is not None:
+        draw_solution(meas, result, answer, plot, err if as_json else out)
     if result.status != "converged":
         raise typer.Exit(1)
+
+
+def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path, Any],
+                  say: Any) -> None:
+    """Draw the solution picture (``--plot``) and say so.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements fitted.
+    result : tmakit.results.EstimateResult
+        The estimate.
+    answer : tmakit.results.answers.Answer
+        The estimate in the user's terms.
+    plot : tuple
+        ``(picture path, measurement file, model options)``.
+    say : rich.console.Console
+        Where to report.
+    """
+    from ..results import normalised_residuals
+    from ..solution_plot import plot_solution
+
+    path, file, options = plot
+    assert path is not None
+    plot_solution(meas, result, path, residuals=normalised_residuals(result, meas, options),
+                  answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}")
+    say.print(f"wrote {path}", highlight=False)
 
 
 def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
@@ -192,6 +397,8 @@ def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
     meta = meas.metadata
     if not {"origin_lat", "origin_lon"} <= set(meta) or not result.estimate.size:
         return None
+    if result.status in ("unobservable", "diverged"):
+        return None  # no number for an unobservable position (an altitude of 2.5e9 m)
     import numpy as np
 
     from ..geodesy import enu_to_geodetic

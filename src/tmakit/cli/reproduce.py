@@ -135,4 +135,28 @@ def print_report(rep: Any) -> None:
         if section.note:
             out.print(section.note, highlight=False)
     for key, value in rep.figures.items():
-        out.print(f"{key}: {value}", highlight=False)
+        out.print(f"{key.replace('_', ' ')}: {plain(value)}", highlight=False)
+
+
+def plain(value: Any) -> str:
+    """Return a figure as plain words: numbers to 6 digits, lists and mappings unbracketed.
+
+    Parameters
+    ----------
+    value : Any
+        A number, text, list or mapping (nested).
+
+    Returns
+    -------
+    str
+        ``a = 1, b = 2`` for a mapping, ``1, 2, 3`` for a list, no Python brackets.
+    """
+    if isinstance(value, bool) or value is None:
+        return str(value).lower() if value is not None else "none"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, dict):
+        return "; ".join(f"{k} = {plain(v)}" for k, v in value.items())
+    if isinstance(value, list | tuple):
+        return ", ".join(plain(v) for v in value)
+    return str(value)

@@ -12,18 +12,26 @@ import typer
 from rich.table import Table
 
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
+    FormatOption,
+    MappingOption,
     OriginOption,
+    OwnshipOption,
+    fail,
     load_scenario_or_fail,
     out,
     parse_origin,
+    print_wide,
     read_or_fail,
+    reader_options,
     refuse_existing,
     write_or_fail,
 )
 
 
 def summary_table(meas: Any, title: str) -> Table:
-    """One row per sensor and kind: count, time span (s), value range, median sigma, unit.
+    """One row per sensor and kind: count, time span (s; UTC when known), values, median sigma.
 
     Parameters
     ----------
@@ -37,17 +45,70 @@ def summary_table(meas: Any, title: str) -> Table:
     rich.table.Table
         The table.
     """
+    from ..results.context import clock_time
+
+    clock = clock_time(meas, 0.0) is not None
     table = Table(title=title, title_justify="left")
     for col, justify in (("sensor", "left"), ("kind", "left"), ("n", "right"),
-                         ("time (s)", "right"), ("value range", "right"),
-                         ("median sigma", "right"), ("unit", "left")):
-        table.add_column(col, justify=justify)  # type: ignore[arg-type]
+                         ("time (s)", "right"), *([("UTC", "left")] if clock else []),
+                         ("min", "right"), ("max", "right"),
+                         ("unit", "left"), ("median sigma", "right"), ("sigma unit", "left")):
+        table.add_column(col, justify=justify, no_wrap=True)  # type: ignore[arg-type]
     for r in meas.summary_rows():
+        unit = str(r["unit"])
         table.add_row(r["sensor"], r["kind"], str(r["count"]),
                       f"{r['t_first']:g} .. {r['t_last']:g}",
-                      f"{r['value_min']:.10g} .. {r['value_max']:.10g}",
-                      f"{r['sigma_median']:.4g}", r["unit"])
+                      *([f"{clock_time(meas, float(r['t_first']))}"[:19] + " .. "
+                         + f"{clock_time(meas, float(r['t_last']))}"[11:19]] if clock else []),
+                      f"{r['value_min']:.10g}", f"{r['value_max']:.10g}", unit,
+                      f"{r['sigma_median']:.4g}", sigma_unit(unit))
     return table
+
+
+def sigma_unit(unit: str) -> str:
+    """Return the unit of a standard deviation of values in ``unit``.
+
+    A power's sigma is a ratio, so dB (not dBm or dBW); other units are their own.
+
+    Parameters
+    ----------
+    unit : str
+        The values' unit.
+
+    Returns
+    -------
+    str
+        The sigma's unit.
+    """
+    return "dB" if unit.startswith("dB") else unit
+
+
+def truth_text(meta: dict[str, str]) -> str:
+    """Return the file's true motion parameters as ``name = value unit`` text.
+
+    Parameters
+    ----------
+    meta : dict
+        The file's metadata (``truth`` as JSON, ``motion``).
+
+    Returns
+    -------
+    str
+        One line, angles in degrees.
+    """
+    import json
+
+    from ..results.answers import parameter_display
+
+    try:
+        truth = json.loads(meta["truth"])
+    except (ValueError, TypeError):
+        return str(meta["truth"])
+    parts = []
+    for name, value in truth.items():
+        v, _, unit = parameter_display(name, float(value), 0.0)
+        parts.append(f"{name} = {v:g}" + (f" {unit}" if unit else ""))
+    return ", ".join(parts)
 
 
 def describe_sensors(meas: Any) -> Table:
@@ -116,22 +177,36 @@ def show(
     file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
     plot: Annotated[Path | None, typer.Option(help="write a picture (PNG, PDF, SVG)")] = None,
     origin: OriginOption = None,
+    format: FormatOption = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    mapping: MappingOption = None,
+    bearing_sigma: BearingSigmaOption = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
     if plot is not None:
         refuse_existing(plot, force)
-    meas = read_or_fail(file, parse_origin(origin))
+    meas = read_or_fail(file, parse_origin(origin),
+                        **reader_options(format, ownship, contact, mapping, bearing_sigma))
     meta = meas.metadata
     title = f"{file}: {len(meas)} measurements"
     if "scenario" in meta:
         title += f" of scenario {meta['scenario']}"
         if "seed" in meta:
             title += f" (seed {meta['seed']})"
-    out.print(summary_table(meas, title))
+    print_wide(summary_table(meas, title))
     out.print(describe_sensors(meas))
     if "truth" in meta:
-        out.print(f"truth ({meta.get('motion', '?')}): {meta['truth']}", highlight=False)
+        out.print(f"truth ({meta.get('motion', '?')}): {truth_text(meta)}", highlight=False)
+    if "time_origin" in meta:  # a real log: its clock time and frame
+        from .importing import print_import
+
+        print_import(meas, None)
+    from ..results import measurement_warnings
+    from .answers_out import print_warnings
+
+    print_warnings(measurement_warnings(meas))
     if plot is not None:
         from ..plot import plot_measurements
 
@@ -139,22 +214,57 @@ def show(
         out.print(f"wrote {plot}", highlight=False)
 
 
+#: The file that marks a folder as written by ``tma demo`` (so that a re-run may replace it).
+DEMO_MARK = ".tma-demo"
+
+
 # `tma demo`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def demo(
-    out_dir: Annotated[Path, typer.Option(help="folder for the demo's files")] = Path(
-        "tma-demo"),
+    out_dir: Annotated[Path, typer.Option(
+        help="the demo's own folder, replaced on every run")] = Path("tma-demo"),
     seed: Annotated[int, typer.Option(help="random seed")] = 1,
-    force: Annotated[bool, typer.Option(help="overwrite earlier demo files")] = False,
+    force: Annotated[bool, typer.Option(
+        help="replace the folder even if tma demo did not make it")] = False,
 ) -> None:
-    """Simulate the gu2007 scenario, summarise it and draw it."""
+    """Simulate the gu2007 scenario, summarise it and draw it, in a folder of its own.
+
+    Re-running replaces the folder that an earlier tma demo made; a folder that tma demo did
+    not make is left alone unless --force is given.
+    """
+    prepare_demo_folder(out_dir, force)
     csv = out_dir / "gu2007.csv"
     png = out_dir / "gu2007.png"
-    for p in (csv, png):
-        refuse_existing(p, force)
-    out_dir.mkdir(parents=True, exist_ok=True)
     scn = load_scenario_or_fail("gu2007")
     out.print(scn.summary(), highlight=False)
     meas = scn.simulate(rng=seed)
-    write_or_fail(meas, csv, force)
+    write_or_fail(meas, csv, force=True)
     out.print(f"wrote {csv}", highlight=False)
-    show(csv, plot=png, origin=None, force=force)
+    show(csv, plot=png, origin=None, force=True)
+
+
+def prepare_demo_folder(folder: Path, force: bool) -> None:
+    """Make ``folder`` an empty demo folder, replacing an earlier demo's.
+
+    Parameters
+    ----------
+    folder : Path
+        The demo's folder.
+    force : bool
+        Replace it even when it is not an earlier demo's (nor empty).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the folder holds other files and ``force`` is false, or is a file.
+    """
+    import shutil
+
+    if folder.exists() and not folder.is_dir():
+        raise fail(f"--out-dir {folder}: a file of that name exists")
+    if folder.is_dir() and any(folder.iterdir()):
+        if not (folder / DEMO_MARK).exists() and not force:
+            raise fail(f"--out-dir {folder}: the folder holds files that tma demo did not "
+                       "write; choose another folder or use --force to replace it")
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / DEMO_MARK).write_text("written by tma demo; replaced when it runs again\n")

@@ -11,17 +11,25 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
+from .answers_out import SensorOption, UnitsOption, check_units, print_answers, print_warnings
 from .common import (
+    BearingSigmaOption,
+    ContactOption,
     DriftOption,
+    FormatOption,
     FreeExponentOption,
+    MappingOption,
     OriginOption,
+    OwnshipOption,
     err,
     fail,
     model_options,
     out,
     parse_assignments,
     parse_origin,
+    print_wide,
     read_or_fail,
+    reader_options,
     refuse_existing,
 )
 
@@ -59,6 +67,8 @@ def track(
     drift: DriftOption = False,
     free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
+    format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
+    mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -68,6 +78,8 @@ def track(
     ellipses: Annotated[int, typer.Option(
         help="number of 90 %/95 % position ellipses drawn along the track")] = 8,
     rows: Annotated[int, typer.Option(help="rows of the summary table")] = 12,
+    sensor: SensorOption = None,
+    units: UnitsOption = "si",
     force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
@@ -75,12 +87,12 @@ def track(
     No initial guess is needed: the filter starts from a batch estimate over the shortest
     initial window of the data that determines the position well enough (or from --prior).
     """
-    import json
-
     from .. import tracking
 
     check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
-    meas = read_or_fail(file, parse_origin(origin))
+    check_units(units)
+    meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
+        format, ownship, contact, mapping, bearing_sigma))
     try:
         d = tracking.filter_dim(meas, dim)
         q_axes = tracking.process_noise(parse_q(q, d), d)
@@ -98,12 +110,90 @@ def track(
     except ValueError as e:
         raise fail(str(e)) from None
     truth = tracking.truth_states(meas, tr.times, d)
-    if as_json:  # one line: the track is long, and rich's JSON printer slow on it
-        typer.echo(json.dumps(tracking.track_dict(tr)))
-    else:
-        print_track(tr, truth, rows)
+    report_track(tr, meas, truth, rows, as_json, final_answer(tr, meas, sensor), units)
     write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
                         err if as_json else out)
+
+
+def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,
+                 units: str) -> None:
+    """Print the track (table or one line of JSON), its final answers and the warnings.
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The track.
+    meas : tmakit.data.MeasurementSet
+        The measurements tracked.
+    truth : numpy.ndarray or None
+        True states at the track's times.
+    rows : int
+        Rows of the table.
+    as_json : bool
+        ``--json``.
+    answer : tmakit.results.answers.Answer
+        The last state in the user's terms.
+    units : str
+        ``--units``.
+    """
+    import json
+
+    from .. import tracking
+
+    if as_json:  # one line: the track is long, and rich's JSON printer slow on it
+        typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
+    else:
+        print_track(tr, truth, rows, meas)
+        print_answers(answer, units)
+    print_warnings(measurement_warnings(meas))
+
+
+def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
+    """Return the track's last state in the user's terms (``--sensor`` for range and bearing).
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The track.
+    meas : tmakit.data.MeasurementSet
+        The measurements tracked.
+    sensor : str or None
+        ``--sensor``; None for the sensor of the last measurement.
+
+    Returns
+    -------
+    tmakit.results.answers.Answer
+        The answers after the last update.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for an unknown sensor.
+    """
+    from ..results import track_answer
+
+    if sensor is not None and sensor not in meas.sensors:
+        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
+                   f"{', '.join(meas.sensors)})")
+    return track_answer(tr, meas, sensor=sensor)
+
+
+def measurement_warnings(meas: Any) -> list[Any]:
+    """Return the sanity warnings about the measurements (radians, far sensors).
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+
+    Returns
+    -------
+    list of tmakit.results.checks.SanityWarning
+        The warnings.
+    """
+    from ..results import measurement_warnings as check
+
+    return check(meas)
 
 
 def parse_q(text: str, dim: int) -> list[float]:
@@ -327,7 +417,7 @@ def start_sentence(tr: Any) -> str:
     return text
 
 
-def print_track(tr: Any, truth: Any, n_rows: int) -> None:
+def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None) -> None:
     """Print the track's summary table (``n_rows`` rows spread over it) and its checks.
 
     Parameters
@@ -339,8 +429,12 @@ def print_track(tr: Any, truth: Any, n_rows: int) -> None:
         Mahalanobis distance.
     n_rows : int
         Rows of the table.
+    meas : tmakit.data.MeasurementSet, optional
+        The measurements: with a time origin, the table shows UTC clock times too.
     """
     import numpy as np
+
+    from ..results.context import clock_time
 
     dim = len(tr.state_names) // 2
     k_sel = np.unique(np.linspace(0, len(tr) - 1, min(n_rows, len(tr))).round().astype(int))
@@ -348,7 +442,9 @@ def print_track(tr: Any, truth: Any, n_rows: int) -> None:
     table = Table(title=f"{tr.filter_name} track: {len(tr)} rows, t = {tr.times[0]:g} .. "
                         f"{tr.times[-1]:g} s, q = {q} m/s^2 ({len(k_sel)} rows shown)",
                   title_justify="left")
-    cols = ["t\n(s)", *(f"{n}\n(m)" for n in tr.state_names[:dim]), "std\n(m)",
+    clock = meas is not None and clock_time(meas, 0.0) is not None
+    cols = [*(["UTC"] if clock else []), "t\n(s)",
+            *(f"{n}\n(m)" for n in tr.state_names[:dim]), "std\n(m)",
             "speed\n(m/s)", "course\n(deg)", "NIS/\ndof"]
     if truth is not None:
         cols.append("error\n(m)")
@@ -360,12 +456,13 @@ def print_track(tr: Any, truth: Any, n_rows: int) -> None:
         speed = float(np.linalg.norm(v))
         course = float(np.degrees(np.arctan2(v[0], v[1])) % 360.0)
         nis = (f"{tr.nis[k]:.2f}/{tr.dof[k]}" if tr.dof[k] > 0 else "start")
-        row = [f"{tr.times[k]:g}", *(f"{x:.1f}" for x in tr.states[k, :dim]),
+        row = [*([str(clock_time(meas, float(tr.times[k])))[:19]] if clock else []),
+               f"{tr.times[k]:g}", *(f"{x:.1f}" for x in tr.states[k, :dim]),
                f"{pos_sd[k]:.1f}", f"{speed:.2f}", f"{course:.1f}", nis]
         if truth is not None:
             row.append(f"{np.linalg.norm(tr.states[k, :dim] - truth[k, :dim]):.1f}")
         table.add_row(*row)
-    out.print(table)
+    print_wide(table)
     out.print("std: position RMS std sqrt(trace P); NIS: normalised innovation squared",
               highlight=False)
     out.print(start_sentence(tr), highlight=False)

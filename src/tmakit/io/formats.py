@@ -166,13 +166,14 @@ def suffix_text(candidates: tuple[Format, ...]) -> str:
     Parameters
     ----------
     candidates : tuple of Format
-        The formats.
+        The formats (those without a suffix, read by name only, are left out).
 
     Returns
     -------
     str
         Their suffixes, then their labels in parentheses.
     """
+    candidates = tuple(f for f in candidates if f.suffixes)  # "wide": read by name only
     suffixes = [s for f in candidates for s in f.suffixes]
     labels = [f.label for f in candidates]
     named = labels[0] if len(labels) == 1 else (

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data import MeasurementSet
-from . import csv_file, parquet_file  # noqa: F401  (register the built-in formats)
+from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .contract import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError
 from .formats import find_format, registered_formats, suffix_text

@@ -112,7 +112,9 @@ def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
             enu_origin, origin_metadata = resolve_origin(origin, problems.raw.metadata,
                                                          problems)
             if enu_origin is not None:
-                _geodetic_positions(num, enu_origin, state, problems)
+                rule = _geodetic_positions(num, enu_origin, state, problems)
+                if rule:
+                    origin_metadata["dim_rule"] = rule
     else:
         for i, c in enumerate(("sensor_x", "sensor_y", "sensor_z")):
             state[:, i] = num.get(c, zeros if c == "sensor_z" else np.full(n, np.nan))
@@ -122,19 +124,30 @@ def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
 
 
 def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
-                        state: NDArray[np.float64], problems: Problems) -> None:
+                        state: NDArray[np.float64], problems: Problems) -> str:
+    """Fill ENU positions from lat/lon/alt; return the surface rule's text if it flattened.
+
+    The surface rule of :func:`tmakit.io.logs.surface_dim`: sensors whose altitudes all lie
+    within its tolerance of the origin's are on a surface (z = 0, no curvature as height),
+    unless the file's metadata says ``dim: 3``.
+    """
     from ..geodesy import geodetic_to_enu
+    from .logs import surface_dim
 
     lat, lon = num["sensor_lat"].copy(), num["sensor_lon"].copy()
-    alt = num.get("sensor_alt", np.zeros(lat.shape[0])).copy()
+    alt = num.get("sensor_alt", np.full(lat.shape[0], origin[2])).copy()
     bad = problems.bad_rows(*GEO_COLUMNS)
     lat[bad] = lon[bad] = alt[bad] = np.nan  # pymap3d refuses |lat| > 90
+    asked = problems.raw.metadata.get("dim", "").strip()
+    dim, rule = surface_dim(alt[np.isfinite(alt)], origin[2], 3 if asked == "3" else None)
     try:
         with np.errstate(invalid="ignore"):
-            e, nn, u = geodetic_to_enu(lat, lon, alt, origin)
-        state[:, 0], state[:, 1], state[:, 2] = e, nn, u
+            e, nn, u = geodetic_to_enu(lat, lon, np.where(np.isfinite(alt), origin[2], alt)
+                                       if dim == 2 else alt, origin)
+        state[:, 0], state[:, 1], state[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
     except ValueError as err:
         problems.file.append(f"origin {origin}: {err}")
+    return rule if dim == 2 else ""
 
 
 def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[np.object_],

@@ -3,7 +3,16 @@
 They are in one place below every estimator so that each can build and read them.
 """
 
+from .answers import Answer, Ellipse, answer_from_state, estimate_answer, track_answer
 from .bound import Bound, bound_from_information
+from .checks import (
+    SanityWarning,
+    chi2_warning,
+    fit_warnings,
+    measurement_warnings,
+    normalised_residuals,
+    scale_sigma,
+)
 from .estimate import (
     CONVERGED,
     DIVERGED,
@@ -18,7 +27,33 @@ from .estimate import (
 from .nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from .observability import Direction, Observability, analyse
 
-__all__ = ["CONVERGED", "DIVERGED", "NOT_CONVERGED", "UNOBSERVABLE", "Bound", "Direction",
-           "EstimateResult", "KnownNuisance", "KnownNuisanceLike", "Observability", "analyse",
-           "as_known_nuisance", "assemble_result", "bound_from_information", "diverged_result",
-           "fit_status", "result_from_covariance"]
+__all__ = [
+    "CONVERGED",
+    "DIVERGED",
+    "NOT_CONVERGED",
+    "UNOBSERVABLE",
+    "Answer",
+    "Bound",
+    "Direction",
+    "Ellipse",
+    "EstimateResult",
+    "KnownNuisance",
+    "KnownNuisanceLike",
+    "Observability",
+    "SanityWarning",
+    "analyse",
+    "answer_from_state",
+    "as_known_nuisance",
+    "assemble_result",
+    "bound_from_information",
+    "chi2_warning",
+    "diverged_result",
+    "estimate_answer",
+    "fit_status",
+    "fit_warnings",
+    "measurement_warnings",
+    "normalised_residuals",
+    "result_from_covariance",
+    "scale_sigma",
+    "track_answer",
+]

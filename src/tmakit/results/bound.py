@@ -21,6 +21,7 @@ from scipy.stats import chi2
 from ..data import MeasurementSet
 from ..linalg import normalised_eigh
 from ..motion import MotionModel
+from .answers import parameter_display
 from .nuisance import KnownNuisance, as_known_nuisance
 from .observability import Observability, analyse
 
@@ -299,10 +300,11 @@ class Bound:
                  f"rank {self.rank} of {len(self.parameters)}"
                  + ("" if self.observability.full_rank else " — NOT fully observable")]
         width = max(len(p) for p in self.parameters)
-        lines.append(f"  {'parameter':<{width}}  {'value':>16}  {'std (CRLB)':>14}")
+        lines.append(f"  {'parameter':<{width}}  {'value':>16}  {'std (CRLB)':>14}  unit")
         for name, val, sd in zip(self.parameters, self.values, self.std, strict=True):
+            val, sd, unit = parameter_display(name, val, sd)
             sd_text = f"{sd:14.6g}" if np.isfinite(sd) else f"{'unobservable':>14}"
-            lines.append(f"  {name:<{width}}  {val:16.8g}  {sd_text}")
+            lines.append(f"  {name:<{width}}  {val:16.8g}  {sd_text}  {unit}")
         for d in self.observability.directions:
             lines.append(f"  unobservable: {d.sentence}")
             lines.append("      parameter change: " + ", ".join(

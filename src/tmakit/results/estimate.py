@@ -22,10 +22,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
+from .answers import ELLIPSE_LEVEL, Answer, estimate_answer, parameter_display
 from .bound import Bound, bound_from_information
+from .checks import SanityWarning, fit_warnings
 from .nuisance import KnownNuisance, as_known_nuisance
 
 CONVERGED = "converged"
@@ -122,6 +125,45 @@ class EstimateResult:
                              if self.bound is not None else []),
         }
 
+    def answer(self, meas: MeasurementSet | None = None, time: float | None = None,
+               sensor: str | None = None, level: float = ELLIPSE_LEVEL) -> Answer:
+        """Return the estimate in the user's terms (:mod:`tmakit.results.answers`).
+
+        Parameters
+        ----------
+        meas : MeasurementSet, optional
+            The measurements fitted: ENU and clock-time origins, the sensor's track.
+        time : float, optional
+            Time (s); default the last measurement time.
+        sensor : str, optional
+            Sensor for range and bearing; default the sensor of the last measurement.
+        level : float
+            Probability inside the position ellipse (default 0.95).
+
+        Returns
+        -------
+        Answer
+            Position (E/N, lat/lon), course, speed, range and bearing, each with its
+            linearised std, and the position ellipse; None for what is unobservable.
+        """
+        return estimate_answer(self, meas, time, sensor, level)
+
+    def warnings(self, meas: MeasurementSet) -> list[SanityWarning]:
+        """Return the sanity warnings of the fit (:mod:`tmakit.results.checks`).
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements fitted.
+
+        Returns
+        -------
+        list of SanityWarning
+            Improbable chi-square (p < 0.001), angles that look like radians, positions
+            far from the origin; empty when nothing looks wrong.
+        """
+        return fit_warnings(self, meas)
+
     def to_json(self, indent: int | None = 2) -> str:
         """Return :meth:`as_dict` as JSON text.
 
@@ -153,13 +195,16 @@ class EstimateResult:
         if self.message:
             lines.append(self.message)
         width = max(len(n) for n in (*self.parameters, *self.nuisance))
-        lines.append(f"  {'parameter':<{width}}  {'estimate':>16}  {'std':>12}")
-        for n, v, s in zip(self.parameters, self.estimate, self.std, strict=True):
-            lines.append(f"  {n:<{width}}  {v:16.8g}  "
-                         + (f"{s:12.4g}" if np.isfinite(s) else f"{'unobservable':>12}"))
-        for n, (v, s) in self.nuisance.items():
-            lines.append(f"  {n:<{width}}  {v:16.13g}  "
-                         + (f"{s:12.4g}" if np.isfinite(s) else f"{'unobservable':>12}"))
+        lines.append(f"  {'parameter':<{width}}  {'estimate':>16}  {'std':>12}  unit")
+        for n, v, s in (*zip(self.parameters, self.estimate, self.std, strict=True),
+                        *((n, v, s) for n, (v, s) in self.nuisance.items())):
+            v, s, unit = parameter_display(n, v, s)
+            value = f"{v:16.13g}" if n in self.nuisance else f"{v:16.8g}"
+            if not np.isfinite(s):
+                value = f"{'-':>16}"  # not an estimate: no number for what is unobservable
+            lines.append(f"  {n:<{width}}  {value}  "
+                         + (f"{s:12.4g}" if np.isfinite(s) else f"{'unobservable':>12}")
+                         + f"  {unit}")
         if self.bound is not None:
             for d in self.bound.observability.directions:
                 lines.append(f"  unobservable: {d.sentence}")

@@ -140,11 +140,14 @@ class _Windows:
                       f"has a position std of {rel:.0%} of the range")
         else:
             detail = "no window gave a converged, observable estimate"
+        flat = ("; the track is 3-D: if the sensors move on a surface the height is not "
+                "observable, track in 2-D ({dim} 2)" if self.dim == 3 else "")
         return StartError(
             f"cannot start the filter from the data: {detail}, and the start needs less "
             f"than {max_relative_std:.0%} ({len(self.tried)} windows of up to {len(self)} "
             "measurement times tried); give a prior ({prior}/{prior_std}) or relax the start "
-            "quality ({max_relative_std})", "prior", ["prior", "prior_std", "max_relative_std"])
+            "quality ({max_relative_std})" + flat, "prior",
+            ["prior", "prior_std", "max_relative_std", *(["dim"] if flat else [])])
 
 
 def search_window(meas: MeasurementSet, dim: int,

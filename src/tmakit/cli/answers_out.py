@@ -1,0 +1,232 @@
+"""The answers table, the warnings and the time options of ``tma estimate`` and ``tma track``.
+
+What is printed is computed by :mod:`tmakit.results.answers` and :mod:`tmakit.results.checks`;
+this module only lays it out.  No numpy at import time (``tma --help`` stays light).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from .common import err, fail, out, print_wide
+
+UnitsOption = Annotated[str, typer.Option(
+    "--units", help="si (speed m/s, range m) or nautical (speed kn, range nmi)")]
+AtOption = Annotated[str | None, typer.Option(
+    "--at", help="time of the answers: seconds, or a UTC clock time (ISO-8601) when the "
+                 "file records its time origin (default: the last measurement)")]
+SensorOption = Annotated[str | None, typer.Option(
+    "--sensor", help="sensor that range and bearing are given from (default: the sensor of "
+                     "the last measurement)")]
+
+SPEED_UNITS = {"si": ("m/s", 1.0), "nautical": ("kn", 1852.0 / 3600.0)}
+RANGE_UNITS = {"si": ("m", 1.0), "nautical": ("nmi", 1852.0)}
+
+
+def check_units(units: str) -> None:
+    """Refuse an unknown ``--units``.
+
+    Parameters
+    ----------
+    units : str
+        ``si`` or ``nautical``.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for anything else.
+    """
+    if units not in SPEED_UNITS:
+        raise fail(f"--units {units!r}: expected si or nautical")
+
+
+def parse_time(text: str | None, meas: Any, option: str) -> float | None:
+    """Return a time option in seconds: a number of seconds or an ISO-8601 clock time.
+
+    Parameters
+    ----------
+    text : str or None
+        The option's text.
+    meas : tmakit.data.MeasurementSet
+        The measurements (metadata ``time_origin`` for clock times).
+    option : str
+        The option's name for the error message.
+
+    Returns
+    -------
+    float or None
+        Seconds since the measurement set's time origin; None when not given.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the text is neither, or a clock time is given without a time origin.
+    """
+    if text is None:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    import datetime as dt
+
+    from ..results.context import TIME_ORIGIN_KEY
+
+    origin = meas.metadata.get(TIME_ORIGIN_KEY)
+    try:
+        when = dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        raise fail(f"{option} {text!r}: expected seconds or an ISO-8601 clock time, e.g. "
+                   "2024-05-01T12:30:00Z") from None
+    if origin is None:
+        raise fail(f"{option} {text!r}: a clock time needs the file's time origin "
+                   f"({TIME_ORIGIN_KEY}), which this file does not give; give seconds")
+    t0 = dt.datetime.fromisoformat(origin.replace("Z", "+00:00"))
+    utc = dt.UTC
+    return ((when if when.tzinfo else when.replace(tzinfo=utc))
+            - (t0 if t0.tzinfo else t0.replace(tzinfo=utc))).total_seconds()
+
+
+def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
+    """Return the rows with ``--from <= time <= --to`` (one leg), refusing an empty window.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    start, stop : str or None
+        ``--from`` and ``--to``: seconds or ISO-8601 clock times.
+
+    Returns
+    -------
+    tmakit.data.MeasurementSet
+        The rows in the window (all rows when neither is given).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for a bad time or a window without measurements.
+    """
+    t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
+    if t_from is None and t_to is None:
+        return meas
+    keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
+            & (meas.time <= (t_to if t_to is not None else float("inf"))))
+    if int(keep.sum()) == 0:
+        raise fail(f"--from/--to: no measurement between {t_from} and {t_to} s (the file "
+                   f"covers {meas.time.min():g} .. {meas.time.max():g} s)")
+    return meas.take(keep)
+
+
+def _num(v: float | None, fmt: str, scale: float = 1.0) -> str:
+    """Format a number, or ``unobservable`` for None."""
+    return "unobservable" if v is None else format(v / scale, fmt)
+
+
+def answers_table(a: Any, units: str, title: str) -> Table:
+    """Lay out an :class:`~tmakit.results.answers.Answer` as a table with units in its header.
+
+    Parameters
+    ----------
+    a : tmakit.results.answers.Answer
+        The answers.
+    units : str
+        ``si`` or ``nautical``.
+    title : str
+        The table's title.
+
+    Returns
+    -------
+    rich.table.Table
+        Quantity, value, std, unit.
+    """
+    sp_unit, sp = SPEED_UNITS[units]
+    rg_unit, rg = RANGE_UNITS[units]
+    table = Table(title=title, title_justify="left")
+    for col, justify in (("quantity", "left"), ("value", "right"), ("std (1σ)", "right"),
+                         ("unit", "left")):
+        table.add_column(col, justify=justify)  # type: ignore[arg-type]
+
+    def row(name: str, v: float | None, s: float | None, fmt: str, unit: str,
+            scale: float = 1.0, std_unit: str = "") -> None:
+        table.add_row(name, _num(v, fmt, scale),
+                      "" if v is None else _num(s, ".3g", scale) + std_unit, unit)
+
+    if a.geodetic is not None:
+        lat, lon, alt = a.geodetic
+        row("latitude", lat, a.enu_std[1], ".6f", "deg", std_unit=" m")
+        row("longitude", lon, a.enu_std[0], ".6f", "deg", std_unit=" m")
+        if a.dim == 3:
+            row("altitude (WGS-84 ellipsoid)", alt, a.enu_std[2], ".1f", "m")
+    for i, name in enumerate(("east", "north", "up")[: a.dim]):
+        row(name, a.enu[i], a.enu_std[i], ".1f", "m")
+    if not a.stationary:
+        row("course (true)", a.course_deg, a.course_std_deg, ".1f", "deg")
+        row("speed", a.speed, a.speed_std, ".3g", sp_unit, sp)
+    if a.sensor is not None:
+        row(f"range from {a.sensor}", a.range_m, a.range_std, ".4g", rg_unit, rg)
+        row(f"bearing from {a.sensor} (true)", a.bearing_deg, a.bearing_std_deg, ".2f", "deg")
+    e = a.ellipse
+    if e is None:
+        table.add_row("position ellipse", "unobservable", "", "")
+    else:
+        table.add_row(f"{e.level:.0%} ellipse semi-axes", f"{e.semi_major:.4g} x "
+                      f"{e.semi_minor:.4g}", "", "m")
+        table.add_row(f"{e.level:.0%} ellipse major axis (true)", f"{e.orientation_deg:.1f}",
+                      "", "deg")
+    return table
+
+
+def answer_title(a: Any, what: str) -> str:
+    """Return the answers table's title: what, at which time (seconds and UTC when known).
+
+    Parameters
+    ----------
+    a : tmakit.results.answers.Answer
+        The answers.
+    what : str
+        ``emitter position`` or ``emitter``.
+
+    Returns
+    -------
+    str
+        The title.
+    """
+    when = f"t = {a.time:g} s" + (f" ({a.clock})" if a.clock else "")
+    if not a.stationary:
+        return f"{what} at {when}"
+    return f"{what} (stationary)" + (f"; range and bearing at {when}" if a.sensor else "")
+
+
+def print_answers(a: Any, units: str) -> None:
+    """Print the answers table and how its std were computed.
+
+    Parameters
+    ----------
+    a : tmakit.results.answers.Answer
+        The answers.
+    units : str
+        ``si`` or ``nautical``.
+    """
+    print_wide(answers_table(a, units, answer_title(a, "emitter position" if a.stationary
+                                                    else "emitter")))
+    note = ("std: linearised (delta method) from the covariance; position ellipse: "
+            f"{a.ellipse.level if a.ellipse else 0.95:.0%} probability (chi-square, 2 dof)")
+    if a.dim == 2:
+        note += "; range is horizontal (2-D motion)"
+    out.print(note, highlight=False)
+
+
+def print_warnings(warnings: list[Any]) -> None:
+    """Print each sanity warning on standard error as ``warning: ...``.
+
+    Parameters
+    ----------
+    warnings : list of tmakit.results.checks.SanityWarning
+        The warnings.
+    """
+    for w in warnings:
+        err.print(f"[bold yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)

@@ -1,0 +1,173 @@
+"""``tma import`` and ``tma examples``: real logs into tmakit's own file, and the sample logs.
+
+``tma import FORMAT FILE... -o obs.parquet`` reads a Debrief replay file, a wide CSV/Parquet
+log with its column mapping, or a GPX/NMEA own track with a measurement log, and writes
+tmakit's measurement file (its metadata keeps the clock time of t = 0 and the ENU origin).
+``tma examples DIR`` writes the sample logs shipped with tmakit (made by its simulation).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from .common import (
+    BearingSigmaOption,
+    ContactOption,
+    ForceOption,
+    MappingOption,
+    OriginOption,
+    OwnshipOption,
+    fail,
+    out,
+    parse_origin,
+    read_or_fail,
+    refuse_existing,
+    write_or_fail,
+)
+
+#: The formats of ``tma import`` and how many files each takes.
+IMPORT_FORMATS = {"rep": 1, "dsf": 1, "wide": 1, "gpx": 2, "nmea": 2}
+#: The sample logs shipped in ``tmakit/examples`` (written by ``tma examples``).
+EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea",
+                 "bearings.csv", "bearings.toml", "truth.json")
+
+
+def _check_output(output: Path, force: bool) -> None:
+    from ..io import find_format, registered_formats
+    from ..io.formats import suffix_text
+
+    refuse_existing(output, force)
+    fmt = find_format(output, reading=False)
+    if fmt is None or fmt.write is None:
+        raise fail(f"-o {output}: tmakit writes measurement files ending in "
+                   f"{suffix_text(registered_formats(reading=False))}")
+    if not output.parent.exists():
+        raise fail(f"-o {output}: the folder {output.parent} does not exist")
+
+
+def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None) -> Any:
+    if map_text is None and not measure:
+        return mapping
+    if mapping is not None:
+        raise fail("give the column mapping as --mapping FILE.toml or as --map/--measure, "
+                   "not both")
+    from ..io.log_mapping import MappingError, mapping_from_text
+
+    try:
+        return mapping_from_text(map_text or "", list(measure or []))
+    except MappingError as e:
+        raise fail(str(e)) from None
+
+
+# `tma import`: the docstring is its --help text, so no numpydoc sections (help= has them).
+def import_(
+    format: Annotated[str, typer.Argument(
+        metavar="FORMAT", help="rep or dsf (Debrief), wide (CSV/Parquet log + mapping), gpx "
+                               "or nmea (own track, then the measurement log)")],
+    files: Annotated[list[Path], typer.Argument(metavar="FILE",
+                                                help="the file(s) to read")],
+    output: Annotated[Path, typer.Option("-o", "--output",
+                                         help="tmakit measurement file to write (.parquet "
+                                              "or .csv)")],
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    bearing_sigma: BearingSigmaOption = None,
+    mapping: MappingOption = None,
+    map_text: Annotated[str | None, typer.Option(
+        "--map", help="the mapping inline: time=COL,lat=COL,lon=COL,alt=COL,vn=COL,ve=COL,"
+                      "vd=COL,sensor=NAME,altitude=msl")] = None,
+    measure: Annotated[list[str] | None, typer.Option(
+        help="with --map, one per measurement column: COLUMN=KIND:UNIT:SIGMA")] = None,
+    origin: OriginOption = None,
+    dim: Annotated[int | None, typer.Option(
+        help="2 or 3: override the surface rule (default: 2-D when the sensors' altitudes "
+             "stay within 25 m of the origin's)")] = None,
+    force: ForceOption = False,
+) -> None:
+    """Read a real log (Debrief, wide CSV/Parquet, GPX or NMEA) into a tmakit file.
+
+    The clock time of t = 0 and the ENU origin (default: the first fix) go into the file's
+    metadata and are printed; see docs/your-own-data.md.
+    """
+    fmt = format.lower()
+    if fmt not in IMPORT_FORMATS:
+        raise fail(f"unknown format {format!r}: expected one of {', '.join(IMPORT_FORMATS)}")
+    if len(files) != IMPORT_FORMATS[fmt]:
+        what = ("the own track and the measurement log" if IMPORT_FORMATS[fmt] == 2
+                else "one file")
+        raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
+    if dim not in (None, 2, 3):
+        raise fail(f"--dim {dim}: expected 2 or 3")
+    _check_output(output, force)
+    for f in files:
+        if not f.exists():
+            raise fail(f"{f}: no such file")
+    options: dict[str, Any] = {"format": "rep" if fmt == "dsf" else fmt, "ownship": ownship,
+                               "contact": contact, "bearing_sigma": bearing_sigma,
+                               "mapping": _mapping(mapping, map_text, measure), "dim": dim}
+    if fmt in ("gpx", "nmea"):
+        options["measurements"] = files[1]
+    meas = read_or_fail(files[0], parse_origin(origin), **options)
+    write_or_fail(meas, output, force)
+    print_import(meas, output)
+
+
+def print_import(meas: Any, output: Path | None) -> None:
+    """Print what was imported: rows, clock time, frame, and the choices made.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The set written.
+    output : Path or None
+        The file written (None: only the clock time, frame and choices are printed).
+    """
+    meta = meas.metadata
+    counts = ", ".join(f"{r['count']} {r['kind']} ({r['unit']}) from {r['sensor']}"
+                       for r in meas.summary_rows())
+    if output is not None:
+        out.print(f"wrote {output}: {len(meas)} measurements: {counts}", highlight=False,
+                  soft_wrap=True)
+    if "source" in meta:
+        out.print(f"  source: {meta['source']}", highlight=False, soft_wrap=True)
+    if "time_origin" in meta:
+        out.print(f"  t = 0 s is {meta['time_origin']} (UTC); the data span "
+                  f"{meas.time.min():g} .. {meas.time.max():g} s", highlight=False)
+    if "origin_lat" in meta:
+        out.print(f"  ENU origin: lat {float(meta['origin_lat']):.7f} deg, lon "
+                  f"{float(meta['origin_lon']):.7f} deg, alt {float(meta['origin_alt']):.1f} m "
+                  f"({meta.get('altitude_reference', 'ellipsoid')})", highlight=False)
+    for key, label in (("dim_rule", "frame"), ("velocity_source", "sensor velocity"),
+                       ("bearing_sigma_deg", "bearing sigma (deg, not in the file)")):
+        if key in meta:
+            out.print(f"  {label}: {meta[key]}", highlight=False, soft_wrap=True)
+
+
+# `tma examples`: the docstring is its --help text.
+def examples(
+    folder: Annotated[Path, typer.Argument(help="folder to write the sample logs into")],
+    force: ForceOption = False,
+) -> None:
+    """Write the sample logs shipped with tmakit (made by its own simulation) into FOLDER.
+
+    contact.rep (Debrief), drone.csv + drone.toml (wide log), own.gpx, own.nmea,
+    bearings.csv + bearings.toml (own track + bearings), truth.json (what the simulation
+    put in them); see docs/your-own-data.md.
+    """
+    from importlib import resources
+
+    targets = [folder / name for name in EXAMPLE_FILES]
+    for t in targets:
+        refuse_existing(t, force)
+    folder.mkdir(parents=True, exist_ok=True)
+    from ..io import atomic_write
+
+    for name, target in zip(EXAMPLE_FILES, targets, strict=True):
+        data = (resources.files("tmakit") / "examples" / name).read_bytes()
+        with atomic_write(target, force=force) as tmp:
+            Path(tmp).write_bytes(data)
+    out.print(f"wrote {len(targets)} sample logs to {folder}: {', '.join(EXAMPLE_FILES)}",
+              highlight=False)

@@ -1,0 +1,206 @@
+"""The lines of a Debrief replay file (REP, and DSF: the same lines), parsed one by one.
+
+Written from Debrief's documentation of the replay format; the lines tmakit reads:
+
+``YYMMDD HHMMSS[.SSS] NAME SYMBOLOGY LAT LON COURSE SPEED DEPTH [label]``
+    a track fix: ``LAT`` is ``DD MM SS.SS H`` (H = N or S), ``LON`` is ``DDD MM SS.SS H``
+    (E or W), course in degrees true, speed in knots, depth in metres.
+``;SENSOR: YYMMDD HHMMSS[.SSS] HOST SYMBOLOGY POSITION BEARING RANGE SENSOR [label]``
+    a sensor contact: ``POSITION`` is ``LAT LON`` or ``NULL`` (the host track's position at
+    that time); bearing in degrees true (may be negative) or ``NULL``; range in yards or
+    ``NULL``.
+``;SENSOR2: YYMMDD HHMMSS[.SSS] HOST SYMBOLOGY POSITION BEARING AMBIGUOUS FREQUENCY RANGE
+SENSOR [label]``
+    the same with an ambiguous bearing (degrees) and a frequency (Hz), each or ``NULL``.
+
+Fields are separated by spaces or tabs; names with spaces are in double quotes. Other lines
+starting with ``;`` (comments ``;;``, narratives, shapes) and blank lines are skipped.
+``YYMMDD`` years 00-49 are 2000-2049 and 50-99 are 1950-1999; ``YYYYMMDD`` is read too.
+Every problem names the line.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+__all__ = ["SensorLine", "TrackLine", "parse_replay_text"]
+
+_TOKEN = re.compile(r'"[^"]*"|\S+')
+_NS = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class TrackLine:
+    """A track fix of a replay file (angles in degrees, speed in knots, depth in m)."""
+
+    line: int
+    name: str
+    time_ns: int
+    lat: float
+    lon: float
+    course: float
+    speed_kn: float
+    depth: float
+
+
+@dataclass(frozen=True)
+class SensorLine:
+    """A ``;SENSOR:`` or ``;SENSOR2:`` contact (None where the file says ``NULL``).
+
+    Angles in degrees, range in yards, frequency in Hz; ``lat``/``lon`` None means the host
+    track's position at ``time_ns``.
+    """
+
+    line: int
+    host: str
+    time_ns: int
+    lat: float | None
+    lon: float | None
+    bearing: float | None
+    ambiguous: float | None
+    frequency: float | None
+    range_yd: float | None
+    sensor: str
+    label: str
+
+
+class LineError(ValueError):
+    """One line that breaks the replay format (``line N: ...``)."""
+
+
+def _name(token: str) -> str:
+    return token[1:-1] if len(token) >= 2 and token[0] == token[-1] == '"' else token
+
+
+def _clock(date: str, clock: str) -> int:
+    """``YYMMDD`` (or ``YYYYMMDD``) and ``HHMMSS[.SSS]`` as UTC nanoseconds."""
+    import datetime as dt
+
+    if not re.fullmatch(r"\d{6}|\d{8}", date):
+        raise LineError(f"expected a date YYMMDD, found {date!r}")
+    if not re.fullmatch(r"\d{6}(\.\d+)?", clock):
+        raise LineError(f"expected a time HHMMSS or HHMMSS.SSS, found {clock!r}")
+    if len(date) == 6:
+        yy = int(date[:2])
+        year, rest = (2000 + yy if yy < 50 else 1900 + yy), date[2:]
+    else:
+        year, rest = int(date[:4]), date[4:]
+    try:
+        day = dt.datetime(year, int(rest[:2]), int(rest[2:4]), int(clock[:2]), int(clock[2:4]),
+                          int(clock[4:6]), tzinfo=dt.UTC)
+    except ValueError as e:
+        raise LineError(f"date {date} time {clock}: {e}") from None
+    frac = clock[7:] if "." in clock else ""
+    ns = int((frac + "000000000")[:9]) if frac else 0
+    return int(day.timestamp()) * _NS + ns
+
+
+def _number(token: str, what: str, null: bool = False) -> float | None:
+    if null and token.upper() in ("NULL", "NAN"):
+        return None
+    try:
+        value = float(token)
+    except ValueError:
+        raise LineError(f"expected {what}, found {token!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise LineError(f"expected {what}, found {token!r}")
+    return value
+
+
+def _angle(tokens: list[str], at: int, hemispheres: str, limit: float) -> float:
+    """Degrees from ``D M S H`` at ``tokens[at:at+4]``."""
+    if len(tokens) < at + 4:
+        raise LineError(f"expected a position D M S {'/'.join(hemispheres)}, found the end of "
+                        "the line")
+    d, m, s = (_number(t, "degrees, minutes and seconds") for t in tokens[at:at + 3])
+    hem = tokens[at + 3].upper()
+    if hem not in hemispheres:
+        raise LineError(f"expected the hemisphere {' or '.join(hemispheres)}, found "
+                        f"{tokens[at + 3]!r}")
+    assert d is not None and m is not None and s is not None
+    if not (0 <= m < 60 and 0 <= s < 60 and d >= 0):
+        raise LineError(f"expected minutes and seconds in [0, 60), found {tokens[at + 1]} "
+                        f"{tokens[at + 2]}")
+    value = d + m / 60.0 + s / 3600.0
+    if value > limit:
+        raise LineError(f"expected at most {limit:g} degrees, found {value:g}")
+    return -value if hem in "SW" else value
+
+
+def _position(tokens: list[str], at: int) -> tuple[float, float]:
+    return _angle(tokens, at, "NS", 90.0), _angle(tokens, at + 4, "EW", 180.0)
+
+
+def _track(tokens: list[str], line: int) -> TrackLine:
+    if len(tokens) < 15:
+        raise LineError(f"a track line has at least 15 fields (date, time, name, symbology, "
+                        f"latitude D M S H, longitude D M S H, course, speed, depth), found "
+                        f"{len(tokens)}")
+    lat, lon = _position(tokens, 4)
+    course, speed = (_number(t, w) for t, w in zip(
+        tokens[12:14], ("a course (degrees)", "a speed (knots)"), strict=True))
+    depth = _number(tokens[14], "a depth (m) or NaN", null=True)  # not used: may be unknown
+    assert course is not None and speed is not None
+    return TrackLine(line, _name(tokens[2]), _clock(tokens[0], tokens[1]), lat, lon, course,
+                     speed, float("nan") if depth is None else depth)
+
+
+def _sensor(tokens: list[str], line: int, version: int) -> SensorLine:
+    if len(tokens) < 5:
+        raise LineError("a sensor line starts with date, time, host track, symbology and a "
+                        "position (or NULL)")
+    time_ns = _clock(tokens[0], tokens[1])
+    lat = lon = None
+    at = 5
+    if tokens[4].upper() != "NULL":
+        lat, lon = _position(tokens, 4)
+        at = 12
+    names = (("bearing", "a bearing (degrees) or NULL"), ("range", "a range (yards) or NULL"))
+    if version == 2:
+        names = (names[0], ("ambiguous", "an ambiguous bearing (degrees) or NULL"),
+                 ("frequency", "a frequency (Hz) or NULL"), names[1])
+    if len(tokens) < at + len(names) + 1:
+        raise LineError(f"expected {', '.join(n for n, _ in names)} and the sensor name after "
+                        "the position, found the end of the line")
+    values = {n: _number(tokens[at + i], what, null=True) for i, (n, what) in enumerate(names)}
+    rest = tokens[at + len(names):]
+    return SensorLine(line, _name(tokens[2]), time_ns, lat, lon, values["bearing"],
+                      values.get("ambiguous"), values.get("frequency"), values["range"],
+                      _name(rest[0]), " ".join(_name(t) for t in rest[1:]))
+
+
+def parse_replay_text(text: str) -> tuple[list[TrackLine], list[SensorLine], list[str]]:
+    """Parse the text of a replay file.
+
+    Parameters
+    ----------
+    text : str
+        The file's text.
+
+    Returns
+    -------
+    tracks : list of TrackLine
+        The track fixes, in file order.
+    sensors : list of SensorLine
+        The ``;SENSOR:`` and ``;SENSOR2:`` contacts, in file order.
+    problems : list of str
+        ``line N: ...`` for every line that breaks the format.
+    """
+    tracks: list[TrackLine] = []
+    sensors: list[SensorLine] = []
+    problems: list[str] = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line:
+            continue
+        tokens = _TOKEN.findall(line)  # fields are separated by spaces or tabs
+        head = tokens[0].upper()
+        try:
+            if head in (";SENSOR:", ";SENSOR2:"):
+                sensors.append(_sensor(tokens[1:], number, 2 if head == ";SENSOR2:" else 1))
+            elif not line.startswith(";"):
+                tracks.append(_track(tokens, number))
+        except LineError as e:
+            problems.append(f"line {number}: {e}")
+    return tracks, sensors, problems

@@ -1,0 +1,416 @@
+"""What the readers of real logs share: clock times, the local frame, the surface rule, velocities.
+
+The readers of Debrief, GPX, NMEA and wide logs (:mod:`.debrief`, :mod:`.nav_tracks`,
+:mod:`.wide_log`) turn a platform's fixes (UTC clock time, latitude, longitude, altitude) into
+tmakit's sensor states (ENU m, m/s) and seconds, all in the same way:
+
+- **Clock time.** Times are read as UTC nanoseconds (integers).  The set's time origin is the
+  first time of the file, floored to the whole second; ``t`` (s) is the difference, computed
+  in integers before it becomes a float, so absolute epoch times never enter the numerics.
+  The origin is recorded as ``time_origin`` (ISO-8601 UTC) in the set's metadata.
+- **Local frame.** The ENU origin is the first fix (or the one given), recorded as
+  ``origin_lat``, ``origin_lon``, ``origin_alt`` with ``altitude_reference`` (``ellipsoid``
+  or ``msl``).  tmakit has no geoid model: heights above mean sea level are used as they are,
+  which shifts the local frame by the geoid height, a constant to within a metre over tens
+  of kilometres; the reference says what the origin's (and the output's) altitudes mean.
+- **The surface rule** (:func:`surface_dim`).  Sensors whose altitudes all lie within
+  :data:`SURFACE_TOLERANCE_M` of the origin's altitude are on a surface (a ship, a level
+  flight with GPS noise): the set is 2-D, sensor ``z`` and ``vz`` are 0, the Earth's
+  curvature (which puts a point 10 km away 7.8 m below the origin's tangent plane) is not
+  mistaken for height.  ``dim=3`` keeps the heights; ``dim=2`` flattens any heights.
+- **Velocity from positions** (:func:`velocity_from_positions`) when a log gives none: the
+  slope of a least-squares straight line through the fixes within a centred window
+  (:data:`VELOCITY_WINDOW_S`) of each fix.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["KNOT", "SURFACE_TOLERANCE_M", "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame",
+           "clock_times", "course_speed_velocity", "interpolate_heading", "interpolate_states",
+           "iso_utc", "local_frame", "parse_clock_times", "relative_seconds", "surface_dim",
+           "time_origin_ns", "velocity_from_positions"]
+
+#: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
+#: (2-D) unless 3-D is asked for: GPS altitude noise is a few metres (1 sigma) and a ship's
+#: antenna moves less; a climbing drone or an aircraft leaves the band.
+SURFACE_TOLERANCE_M = 25.0
+#: Default width (s) of the centred window of the velocity-from-positions fit.
+VELOCITY_WINDOW_S = 10.0
+ALTITUDE_REFERENCES = ("ellipsoid", "msl")
+_NS = 1_000_000_000
+
+
+@dataclass
+class Fixes:
+    """A platform's navigation fixes.
+
+    Parameters
+    ----------
+    time_ns : numpy.ndarray of int64, shape (n,)
+        UTC time of each fix (ns since 1970-01-01).
+    lat, lon : numpy.ndarray, shape (n,)
+        Latitude and longitude (deg, WGS-84).
+    alt : numpy.ndarray, shape (n,)
+        Altitude (m, in the frame's altitude reference).
+    velocity : numpy.ndarray, shape (n, 3), optional
+        Velocity east, north, up (m/s); None when the log gives none.
+    lines : numpy.ndarray of int, shape (n,), optional
+        Line of each fix in its file (for messages).
+    heading : numpy.ndarray, shape (n,), optional
+        True heading (deg; NaN where unknown), for bearings relative to the heading.
+    """
+
+    time_ns: NDArray[np.int64]
+    lat: NDArray[np.float64]
+    lon: NDArray[np.float64]
+    alt: NDArray[np.float64]
+    velocity: NDArray[np.float64] | None = None
+    lines: NDArray[np.int64] | None = None
+    heading: NDArray[np.float64] | None = None
+
+    def sorted(self) -> Fixes:
+        """Return the fixes in time order (stable)."""
+        order = np.argsort(self.time_ns, kind="stable")
+        return Fixes(self.time_ns[order], self.lat[order], self.lon[order], self.alt[order],
+                     None if self.velocity is None else self.velocity[order],
+                     None if self.lines is None else self.lines[order],
+                     None if self.heading is None else self.heading[order])
+
+
+@dataclass(frozen=True)
+class LocalFrame:
+    """The local ENU frame of a log, and its dimension.
+
+    Parameters
+    ----------
+    origin : (lat, lon, alt)
+        The frame's origin (deg, deg, m).
+    altitude_reference : str
+        ``ellipsoid`` or ``msl``: what the altitudes mean.
+    dim : int
+        2 (sensors on a surface: z = 0) or 3.
+    rule : str
+        One sentence saying why the frame is 2-D or 3-D.
+    """
+
+    origin: tuple[float, float, float]
+    altitude_reference: str
+    dim: int
+    rule: str
+
+    def metadata(self) -> dict[str, str]:
+        """Return the frame as metadata of a measurement set (``origin_*``, ...)."""
+        lat, lon, alt = self.origin
+        return {"origin_lat": repr(lat), "origin_lon": repr(lon), "origin_alt": repr(alt),
+                "altitude_reference": self.altitude_reference, "dim_rule": self.rule}
+
+    def enu(self, lat: NDArray[np.float64], lon: NDArray[np.float64],
+            alt: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Convert fixes to ENU positions ``(n, 3)`` (m); ``up`` is 0 in a 2-D frame.
+
+        In a 2-D frame the points are taken at the origin's altitude (on the surface), so
+        neither their altitude noise nor the Earth's curvature becomes height.
+
+        Parameters
+        ----------
+        lat, lon, alt : numpy.ndarray
+            Latitude, longitude (deg) and altitude (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 3)
+            East, north, up (m).
+        """
+        from ..geodesy import geodetic_to_enu
+
+        lat = np.asarray(lat, float)
+        height = np.full(lat.shape, self.origin[2]) if self.dim == 2 else np.asarray(alt, float)
+        e, n, u = geodetic_to_enu(lat, np.asarray(lon, float), height, self.origin)
+        out = np.column_stack([e, n, u])
+        if self.dim == 2:
+            out[:, 2] = 0.0
+        return out
+
+
+def surface_dim(alt: NDArray[np.float64], origin_alt: float, dim: int | None,
+                tolerance: float = SURFACE_TOLERANCE_M) -> tuple[int, str]:
+    """Decide whether sensors are on a surface (2-D) or not (3-D): the surface rule.
+
+    Parameters
+    ----------
+    alt : numpy.ndarray
+        The sensors' altitudes (m).
+    origin_alt : float
+        The origin's altitude (m).
+    dim : int or None
+        2 or 3 to force the answer; None applies the rule.
+    tolerance : float, optional
+        Altitudes within this many metres of the origin's are on the surface.
+
+    Returns
+    -------
+    dim : int
+        2 or 3.
+    rule : str
+        Why, in one sentence (recorded as ``dim_rule`` metadata).
+
+    Raises
+    ------
+    ValueError
+        If ``dim`` is not None, 2 or 3.
+    """
+    if dim not in (None, 2, 3):
+        raise ValueError(f"dim must be 2 or 3, not {dim!r}")
+    spread = float(np.max(np.abs(np.asarray(alt, float) - origin_alt))) if len(alt) else 0.0
+    if dim is not None:
+        return dim, f"{dim}-D as asked (sensor altitudes within {spread:.1f} m of the origin's)"
+    if spread <= tolerance:
+        return 2, (f"2-D: sensor altitudes within {spread:.1f} m of the origin's (tolerance "
+                   f"{tolerance:g} m), a surface; ask for dim 3 to keep heights")
+    return 3, (f"3-D: sensor altitudes differ from the origin's by up to {spread:.1f} m "
+               f"(more than the surface tolerance {tolerance:g} m)")
+
+
+def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int | None,
+                altitude_reference: str = "ellipsoid",
+                tolerance: float = SURFACE_TOLERANCE_M) -> LocalFrame:
+    """Build a log's frame: the origin (default the first fix) and the surface rule.
+
+    Parameters
+    ----------
+    fixes : sequence of Fixes
+        The sensors' fixes; the first fix of the first is the default origin.
+    origin : (lat, lon, alt) or None
+        The origin (deg, deg, m), or None for the first fix.
+    dim : int or None
+        2 or 3 to force; None applies :func:`surface_dim`.
+    altitude_reference : str, optional
+        ``ellipsoid`` (default) or ``msl``.
+    tolerance : float, optional
+        The surface rule's tolerance (m).
+
+    Returns
+    -------
+    LocalFrame
+        The frame.
+
+    Raises
+    ------
+    ValueError
+        If the altitude reference is unknown, there is no fix, or ``origin`` is not three
+        numbers.
+    """
+    if altitude_reference not in ALTITUDE_REFERENCES:
+        raise ValueError(f"altitude reference {altitude_reference!r}: expected one of "
+                         f"{', '.join(ALTITUDE_REFERENCES)}")
+    if origin is None:
+        first = next((f for f in fixes if len(f.time_ns)), None)
+        if first is None:
+            raise ValueError("no position fix: the origin cannot default to the first fix")
+        k = int(np.argmin(first.time_ns))
+        origin = (float(first.lat[k]), float(first.lon[k]), float(first.alt[k]))
+    try:
+        lat0, lon0, alt0 = (float(v) for v in origin)
+    except (TypeError, ValueError):
+        raise ValueError(f"origin {origin!r}: expected (lat, lon, alt) in degrees, degrees, "
+                         "metres") from None
+    alts = np.concatenate([np.asarray(f.alt, float) for f in fixes]) if fixes else np.zeros(0)
+    d, rule = surface_dim(alts, alt0, dim, tolerance)
+    return LocalFrame((lat0, lon0, alt0), altitude_reference, d, rule)
+
+
+def parse_clock_times(values: Sequence[object]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Read clock times: ISO-8601 text (UTC unless it names a zone) or epoch seconds.
+
+    Parameters
+    ----------
+    values : sequence
+        The cells: text such as ``2026-05-04T10:00:00.5Z`` or ``2026-05-04 10:00:00+02:00``,
+        or numbers (seconds since 1970-01-01 UTC).
+
+    Returns
+    -------
+    time_ns : numpy.ndarray of int64
+        UTC nanoseconds since 1970-01-01 (0 where unreadable).
+    bad : numpy.ndarray of bool
+        The unreadable cells.
+    """
+    import pandas as pd
+
+    series = pd.Series(list(values), dtype=object)
+    numbers = pd.to_numeric(series, errors="coerce")
+    out = np.zeros(len(series), dtype=np.int64)
+    is_number = numbers.notna().to_numpy() & np.isfinite(numbers.to_numpy(float, na_value=np.nan))
+    if is_number.any():
+        secs = numbers.to_numpy(float, na_value=np.nan)[is_number]
+        whole = np.floor(secs)
+        out[is_number] = (whole.astype(np.int64) * _NS
+                          + np.round((secs - whole) * _NS).astype(np.int64))
+    text = ~is_number
+    bad = np.zeros(len(series), dtype=bool)
+    if text.any():
+        stamps = pd.to_datetime(series[text].astype(str).str.strip(), utc=True, errors="coerce",
+                                format="ISO8601")
+        ok = stamps.notna().to_numpy()
+        ns = stamps.dt.tz_convert("UTC").dt.tz_localize(None).astype("datetime64[ns]")
+        out[np.flatnonzero(text)[ok]] = ns.to_numpy()[ok].astype(np.int64)
+        bad[np.flatnonzero(text)[~ok]] = True
+    return out, bad
+
+
+def time_origin_ns(*times: NDArray[np.int64]) -> int:
+    """Return the time origin: the earliest time given, floored to the whole second (ns)."""
+    first = min(int(np.min(t)) for t in times if len(t))
+    return (first // _NS) * _NS
+
+
+def relative_seconds(time_ns: NDArray[np.int64], origin_ns: int) -> NDArray[np.float64]:
+    """Seconds since the time origin (the difference is taken in integers, then scaled)."""
+    return (np.asarray(time_ns, np.int64) - np.int64(origin_ns)).astype(float) / _NS
+
+
+def iso_utc(time_ns: int) -> str:
+    """Return a UTC time as ISO-8601 text with a ``Z`` (fractions of a second when present)."""
+    secs, frac = divmod(int(time_ns), _NS)
+    stamp = np.datetime64(secs, "s").astype(str)
+    if frac:
+        stamp += f".{frac:09d}".rstrip("0")
+    return stamp + "Z"
+
+
+def clock_times(metadata: dict[str, str], t: NDArray[np.float64]
+                ) -> NDArray[np.datetime64] | None:
+    """Return the UTC clock times of set times ``t`` (s), from the ``time_origin`` metadata.
+
+    Parameters
+    ----------
+    metadata : dict of str to str
+        A measurement set's metadata.
+    t : numpy.ndarray
+        Times (s since the origin).
+
+    Returns
+    -------
+    numpy.ndarray of datetime64[ns], or None
+        The clock times (UTC), None when the set has no (readable) ``time_origin``.
+    """
+    text = metadata.get("time_origin")
+    if not text:
+        return None
+    origin, bad = parse_clock_times([text])
+    if bad[0]:
+        return None
+    ns = np.int64(origin[0]) + np.round(np.asarray(t, float) * _NS).astype(np.int64)
+    return ns.astype("datetime64[ns]")
+
+
+def velocity_from_positions(t: NDArray[np.float64], pos: NDArray[np.float64],
+                            window: float = VELOCITY_WINDOW_S) -> NDArray[np.float64]:
+    """Estimate velocities from positions: a local straight-line fit per fix.
+
+    The velocity at each fix is the slope of the least-squares line through the fixes within
+    ``window / 2`` seconds of it (at least its two nearest neighbours in time).
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Times (s), increasing.
+    pos : numpy.ndarray, shape (n, d)
+        Positions (m).
+    window : float, optional
+        Width of the centred window (s).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, d)
+        Velocities (m/s); zero when there are fewer than two fixes.
+    """
+    n = t.shape[0]
+    out = np.zeros_like(pos, dtype=float)
+    if n < 2:
+        return out
+    half = max(window / 2.0, 0.0)
+    lo = np.searchsorted(t, t - half, side="left")
+    hi = np.searchsorted(t, t + half, side="right")
+    for k in range(n):
+        a, b = int(lo[k]), int(hi[k])
+        if b - a < 2:  # widen to the nearest neighbours
+            a, b = max(0, k - 1), min(n, k + 2)
+        tt = t[a:b] - t[k]
+        dt = tt - tt.mean()
+        den = float(dt @ dt)
+        if den > 0:
+            out[k] = dt @ (pos[a:b] - pos[a:b].mean(axis=0)) / den
+    return out
+
+
+def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
+                       t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Interpolate platform states linearly in time (each component), and mark times outside.
+
+    Parameters
+    ----------
+    t_fix : numpy.ndarray, shape (m,)
+        Times of the fixes (s), increasing.
+    states : numpy.ndarray, shape (m, k)
+        States at the fixes.
+    t : numpy.ndarray, shape (n,)
+        Times wanted (s).
+
+    Returns
+    -------
+    states : numpy.ndarray, shape (n, k)
+        The interpolated states (the end states outside the fixes' span).
+    outside : numpy.ndarray of bool, shape (n,)
+        Times before the first fix or after the last.
+    """
+    out = np.column_stack([np.interp(t, t_fix, states[:, j]) for j in range(states.shape[1])])
+    eps = 1e-9 * max(1.0, float(np.max(np.abs(t_fix)))) if len(t_fix) else 0.0
+    outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(
+        t.shape, bool)
+    return out, outside
+
+
+def interpolate_heading(t_fix: NDArray[np.float64], heading_deg: NDArray[np.float64],
+                        t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Interpolate headings (deg) at times ``t`` along the shorter turn; NaN headings skipped.
+
+    Parameters
+    ----------
+    t_fix : numpy.ndarray, shape (m,)
+        Times of the headings (s), increasing.
+    heading_deg : numpy.ndarray, shape (m,)
+        True headings (deg); NaN where unknown.
+    t : numpy.ndarray, shape (n,)
+        Times wanted (s).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        Headings in [0, 360) deg; NaN everywhere when no heading is known.
+    """
+    known = np.isfinite(heading_deg)
+    if not known.any():
+        return np.full(np.shape(t), np.nan)
+    h = np.unwrap(np.deg2rad(heading_deg[known]))
+    return np.rad2deg(np.interp(t, t_fix[known], h)) % 360.0
+
+
+def course_speed_velocity(course_deg: NDArray[np.float64], speed: NDArray[np.float64]
+                          ) -> NDArray[np.float64]:
+    """Velocity ENU ``(n, 3)`` (m/s) from course (deg true) and speed (m/s) over the ground."""
+    c = np.deg2rad(np.asarray(course_deg, float))
+    s = np.asarray(speed, float)
+    return np.column_stack([s * np.sin(c), s * np.cos(c), np.zeros_like(s)])
+
+
+#: One knot in m/s (1852 m per hour).
+KNOT = 1852.0 / 3600.0
+#: One yard in m.
+YARD = 0.9144

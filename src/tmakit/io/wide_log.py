@@ -1,0 +1,379 @@
+"""Wide logs (one row per sample, one column per quantity) as measurement sets.
+
+A CSV or Parquet table whose columns a mapping names (:mod:`.log_mapping`): the time
+(ISO-8601 or epoch seconds), the sensor's position (lat/lon/alt or east/north/up, or a GPX /
+NMEA own track joined by time: :mod:`.nav_tracks`), its velocity (ENU or NED columns, or
+derived from the positions) and measurement columns with their kind, unit and sigma.
+
+The mapping to a :class:`~tmakit.data.MeasurementSet`: one row per non-empty measurement
+cell; value and sigma converted from the column's unit to SI once (a bearing relative to the
+heading made true by adding the heading: a column, or the NMEA track's HDT interpolated
+along the shorter turn); the sensor's state from the position (and velocity) of the same
+row, or interpolated linearly in the own track at the row's time (refused outside it). An
+empty measurement cell is a sample without that measurement, not an error. Clock time,
+origin and the surface rule as in :mod:`.logs`. Every refused cell names the row, the line
+(CSV) and the column.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import MeasurementSet
+from .errors import MeasurementFileError
+from .formats import Format, register_format
+from .logs import (
+    Fixes,
+    LocalFrame,
+    interpolate_heading,
+    interpolate_states,
+    iso_utc,
+    local_frame,
+    parse_clock_times,
+    relative_seconds,
+    time_origin_ns,
+    velocity_from_positions,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+    from .log_mapping import LogMapping
+
+__all__ = ["GPX", "NMEA", "WIDE", "read_track_log", "read_wide_log"]
+
+
+class _Table:
+    """The log's cells, the line of each row (CSV) and the problems found."""
+
+    def __init__(self, path: Path, frame: pd.DataFrame, lines: NDArray[np.int64] | None) -> None:
+        self.path, self.frame, self.lines = path, frame, lines
+        self.problems: list[str] = []
+        self.heading: NDArray[np.float64] | None = None  # deg true per row, for relative bearings
+
+    def where(self, row: int, column: str) -> str:
+        line = f" (line {self.lines[row]})" if self.lines is not None else ""
+        return f"row {row + 1}{line}, column {column!r}"
+
+    def need(self, column: str | None, purpose: str) -> bool:
+        if column is None or column in self.frame.columns:
+            return True
+        self.problems.append(f"column {column!r} ({purpose}) is missing; the file has "
+                             f"{', '.join(map(str, self.frame.columns))}")
+        return False
+
+    def numbers(self, column: str, what: str, required: bool = True) -> NDArray[np.float64]:
+        import pandas as pd
+
+        raw = self.frame[column]
+        values = pd.to_numeric(raw, errors="coerce").to_numpy(float, na_value=np.nan)
+        empty = raw.isna().to_numpy() | (raw.astype(str).str.strip() == "").to_numpy()
+        bad = ~np.isfinite(values) & (~empty if not required else np.ones_like(empty))
+        for k in np.flatnonzero(bad)[:25]:
+            self.problems.append(f"{self.where(int(k), column)}: expected {what}, found "
+                                 f"{raw.iloc[k]!r}")
+        return values
+
+    def fail(self) -> None:
+        if self.problems:
+            raise MeasurementFileError(self.path, self.problems)
+
+
+def _load(path: Path) -> _Table:
+    import pandas as pd
+
+    if path.suffix.lower() in (".parquet", ".pq"):
+        try:
+            return _Table(path, pd.read_parquet(path).reset_index(drop=True), None)
+        except (OSError, ValueError) as e:
+            raise MeasurementFileError(path, [f"cannot be read as Parquet ({e})"]) from None
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False,
+                            encoding="utf-8-sig")
+    except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as e:
+        raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
+    lines = np.arange(len(frame), dtype=np.int64) + 2
+    keep = ~(frame.astype(str).apply(lambda c: c.str.strip() == "")).all(axis=1).to_numpy()
+    return _Table(path, frame[keep].reset_index(drop=True), lines[keep])
+
+
+def _row_positions(tab: _Table, m: LogMapping) -> tuple[Fixes | None, NDArray | None]:
+    """Return the rows' fixes (lat/lon) or ENU positions, from the position columns."""
+    p = m.position
+    assert p is not None
+    cols = [c for c in (p.lat, p.lon, p.alt, p.east, p.north, p.up) if c]
+    if not all([tab.need(c, "sensor position") for c in cols]):
+        return None, None
+    if p.geodetic:
+        assert p.lat is not None and p.lon is not None
+        lat = tab.numbers(p.lat, "a latitude (deg)")
+        lon = tab.numbers(p.lon, "a longitude (deg)")
+        for k in np.flatnonzero(np.abs(lat) > 90)[:25]:
+            tab.problems.append(f"{tab.where(int(k), p.lat)}: expected a latitude in "
+                                f"[-90, 90] degrees, found {lat[k]:g}")
+        alt = tab.numbers(p.alt, "an altitude (m)") if p.alt else np.zeros(lat.shape)
+        return Fixes(np.zeros(lat.shape, np.int64), lat, lon, alt), None
+    assert p.east is not None and p.north is not None
+    enu = np.column_stack([tab.numbers(p.east, "east (m)"), tab.numbers(p.north, "north (m)"),
+                           tab.numbers(p.up, "up (m)") if p.up else np.zeros(len(tab.frame))])
+    return None, enu
+
+
+def _row_velocity(tab: _Table, m: LogMapping) -> NDArray[np.float64] | None:
+    v = m.velocity
+    if v is None:
+        return None
+    vertical = v.up or v.down
+    if not all([tab.need(c, "sensor velocity") for c in (v.east, v.north, vertical)]):
+        return None
+    z = tab.numbers(vertical, "a velocity (m/s)") if vertical else np.zeros(len(tab.frame))
+    out = np.column_stack([tab.numbers(v.east, "a velocity (m/s)"),
+                           tab.numbers(v.north, "a velocity (m/s)"), z])
+    if v.frame == "ned":
+        out[:, 2] = -out[:, 2]
+    return out
+
+
+def _states(tab: _Table, m: LogMapping, t_ns: NDArray[np.int64], origin: Any, dim: int | None
+            ) -> tuple[NDArray[np.float64], dict[str, str], int]:
+    """Return each row's sensor state (m, m/s), the frame's metadata, the time origin (ns)."""
+    from .nav_tracks import read_track_fixes
+
+    track = read_track_fixes(m.track) if m.track else None
+    fixes, enu = _row_positions(tab, m) if m.position is not None else (None, None)
+    velocity = _row_velocity(tab, m)
+    tab.fail()
+    origin = origin if origin is not None else m.origin
+    dim = dim if dim is not None else m.dim
+    t0 = time_origin_ns(t_ns, *(() if track is None else (track.time_ns,)))
+    t = relative_seconds(t_ns, t0)
+    source = track if track is not None else fixes
+    if source is None:  # east/north/up columns: no frame to build
+        assert enu is not None
+        pos, meta = enu, _enu_metadata(origin, m)
+        if dim == 2:
+            pos[:, 2] = 0.0
+    else:
+        if fixes is not None:
+            fixes.time_ns = t_ns
+        altitude = m.altitude or (m.position.altitude if m.position else "ellipsoid")
+        frame = local_frame([source], origin, dim, altitude)
+        meta = frame.metadata()
+        if track is not None:
+            states = _track_states(tab, track, frame, t, t0, m.velocity_window)
+            meta["velocity_source"] = ("the track's speed and course over the ground"
+                                       if track.velocity is not None else _derived(m))
+            return states, meta, t0
+        assert fixes is not None
+        pos = frame.enu(fixes.lat, fixes.lon, fixes.alt)
+    if velocity is None:
+        velocity = _derive_by_sensor(tab, m, t, pos)
+        meta["velocity_source"] = _derived(m)
+    else:
+        meta["velocity_source"] = f"columns ({m.velocity.frame if m.velocity else ''})"
+        if meta.get("dim_rule", "").startswith("2-D") or dim == 2:
+            velocity[:, 2] = 0.0
+    return np.column_stack([pos, velocity]), meta, t0
+
+
+def _enu_metadata(origin: Any, m: LogMapping) -> dict[str, str]:
+    if origin is None:
+        return {}
+    lat, lon, alt = (float(v) for v in origin)
+    return {"origin_lat": repr(lat), "origin_lon": repr(lon), "origin_alt": repr(alt),
+            "altitude_reference": m.altitude or "ellipsoid"}
+
+
+def _derived(m: LogMapping) -> str:
+    return (f"derived from positions: slope of a least-squares line through the fixes within "
+            f"{m.velocity_window:g} s (centred)")
+
+
+def _sensor_ids(tab: _Table, m: LogMapping) -> NDArray[np.str_]:
+    if m.sensor_column and tab.need(m.sensor_column, "sensor id"):
+        return tab.frame[m.sensor_column].astype(str).str.strip().to_numpy(str)
+    return np.full(len(tab.frame), m.sensor)
+
+
+def _derive_by_sensor(tab: _Table, m: LogMapping, t: NDArray[np.float64],
+                      pos: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.zeros_like(pos)
+    ids = _sensor_ids(tab, m)
+    for s in dict.fromkeys(ids.tolist()):
+        rows = np.flatnonzero(ids == s)
+        rows = rows[np.argsort(t[rows], kind="stable")]
+        out[rows] = velocity_from_positions(t[rows], pos[rows], m.velocity_window)
+    return out
+
+
+def _track_states(tab: _Table, track: Fixes, frame: LocalFrame, t: NDArray[np.float64],
+                  t0: int, window: float) -> NDArray[np.float64]:
+    tf = relative_seconds(track.time_ns, t0)
+    pos = frame.enu(track.lat, track.lon, track.alt)
+    vel = track.velocity if track.velocity is not None else velocity_from_positions(
+        tf, pos, window)
+    vel = np.array(vel, float)
+    if frame.dim == 2:
+        vel[:, 2] = 0.0
+    states, outside = interpolate_states(tf, np.column_stack([pos, vel]), t)
+    if track.heading is not None and tab.heading is None:
+        tab.heading = interpolate_heading(tf, track.heading, t)
+    span = f"{iso_utc(int(track.time_ns[0]))} to {iso_utc(int(track.time_ns[-1]))}"
+    for k in np.flatnonzero(outside)[:25]:
+        tab.problems.append(f"{tab.where(int(k), 'time')}: time {iso_utc(t0)} + "
+                            f"{t[k]:g} s is outside the own track ({span})")
+    tab.fail()
+    return states
+
+
+def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
+                  origin: Any = None, dim: int | None = None, track: str | None = None,
+                  **_: object) -> MeasurementSet:
+    """Read a wide CSV/Parquet log through a column mapping (see the module text).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The log (``.csv``, ``.parquet``, ``.pq``).
+    mapping : LogMapping or str or os.PathLike
+        The mapping, or the path of its TOML file.
+    origin : (lat, lon, alt), optional
+        ENU origin (deg, deg, m); default the mapping's, else the first fix.
+    dim : int, optional
+        2 or 3 to override the surface rule.
+    track : str, optional
+        A GPX or NMEA own track, instead of the mapping's ``track``.
+    **_
+        Options of other readers, ignored.
+
+    Returns
+    -------
+    MeasurementSet
+        One row per measurement cell; metadata ``time_origin``, the frame, ``source``,
+        ``velocity_source``.
+
+    Raises
+    ------
+    MeasurementFileError
+        If the mapping is missing or invalid, a column is missing, or a cell is unreadable
+        (naming row, line and column).
+    """
+    from .log_mapping import LogMapping, MappingError, load_mapping
+
+    path = Path(path)
+    try:
+        if mapping is None:
+            raise MappingError("a wide log needs a column mapping (a TOML file: --mapping, or "
+                               "--map/--measure on the command line)")
+        m = mapping if isinstance(mapping, LogMapping) else load_mapping(mapping)
+    except MappingError as e:
+        raise MeasurementFileError(path, [str(e)]) from None
+    if track is not None:
+        m = m.model_copy(update={"track": str(track)})
+    tab = _load(path)
+    tab.need(m.time, "time")
+    for spec in m.measurement:
+        tab.need(spec.column, f"{spec.kind} in {spec.unit}")
+        tab.need(spec.sigma_column, f"sigma of {spec.column}")
+    if m.heading and tab.need(m.heading, "heading (deg true)"):
+        tab.heading = tab.numbers(m.heading, "a heading (deg)", required=False)
+    tab.fail()
+    t_ns, bad = parse_clock_times(tab.frame[m.time].tolist())
+    for k in np.flatnonzero(bad)[:25]:
+        tab.problems.append(f"{tab.where(int(k), m.time)}: expected an ISO-8601 time or epoch "
+                            f"seconds, found {tab.frame[m.time].iloc[k]!r}")
+    tab.fail()
+    try:
+        states, meta, t0 = _states(tab, m, t_ns, origin, dim)
+    except ValueError as e:
+        if isinstance(e, MeasurementFileError):
+            raise
+        raise MeasurementFileError(path, [str(e)]) from None
+    return _assemble(tab, m, relative_seconds(t_ns, t0), states,
+                     {"source": f"wide log {path.name}", "time_origin": iso_utc(t0), **meta})
+
+
+def _headings(tab: _Table, column: str, rows: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Return the heading (deg) of each row of a relative bearing, or record the problem."""
+    heading = tab.heading[rows] if tab.heading is not None else np.full(rows.size, np.nan)
+    for k in rows[~np.isfinite(heading)][:25]:
+        tab.problems.append(f"{tab.where(int(k), column)}: a bearing relative to the heading "
+                            "needs the heading at its time (mapping key heading = COLUMN, or "
+                            "HDT sentences in the NMEA track)")
+    return heading
+
+
+def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArray[np.float64],
+              metadata: dict[str, str]) -> MeasurementSet:
+    from .log_mapping import UNITS
+
+    ids = _sensor_ids(tab, m)
+    parts: list[tuple[NDArray, ...]] = []
+    for spec in m.measurement:
+        value = tab.numbers(spec.column, f"a {spec.kind} in {spec.unit}", required=False)
+        sigma = (tab.numbers(spec.sigma_column, f"a sigma in {spec.unit}", required=False)
+                 if spec.sigma_column else np.full(value.shape, spec.sigma))
+        for k in np.flatnonzero(np.isfinite(value) & ~(sigma > 0))[:25]:
+            tab.problems.append(f"{tab.where(int(k), spec.sigma_column or spec.column)}: "
+                                f"expected a sigma > 0, found {sigma[k]:g}")
+        rows = np.flatnonzero(np.isfinite(value))
+        scale, offset = UNITS[spec.kind][spec.unit]
+        si = value[rows] * scale + offset
+        if spec.reference == "relative":
+            si = si + np.deg2rad(_headings(tab, spec.column, rows))
+        if spec.kind == "bearing":
+            si = np.mod(si, 2 * np.pi)
+        parts.append((t[rows], ids[rows], np.full(rows.size, spec.kind), si,
+                      sigma[rows] * scale, states[rows]))
+    tab.fail()
+    cols = [np.concatenate([p[i] for p in parts]) for i in range(6)]
+    if cols[0].size == 0:
+        raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing "
+                                              "measured"])
+    return MeasurementSet.from_si(*cols, metadata=metadata).sorted()
+
+
+def read_track_log(path: str | os.PathLike[str], *, measurements: Any = None,
+                   mapping: Any = None, **options: Any) -> MeasurementSet:
+    """Read a GPX or NMEA own track joined by time to a wide measurement log.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The own track (``.gpx``, ``.nmea``).
+    measurements : str or os.PathLike
+        The wide log of measurements (CSV or Parquet).
+    mapping : LogMapping or str or os.PathLike
+        The log's mapping (its ``track`` is replaced by ``path``).
+    **options
+        As :func:`read_wide_log` (``origin``, ``dim``).
+
+    Returns
+    -------
+    MeasurementSet
+        As :func:`read_wide_log`.
+
+    Raises
+    ------
+    MeasurementFileError
+        If the measurement log is not given, or as :func:`read_wide_log`.
+    """
+    if measurements is None:
+        raise MeasurementFileError(path, [
+            "an own track gives the sensor's positions only: give the measurement log too "
+            "(tma import gpx|nmea TRACK LOG --mapping MAP.toml; measurements= in Python)"])
+    options.pop("track", None)
+    return read_wide_log(measurements, mapping=mapping, track=str(path), **options)
+
+
+#: Wide logs: read with ``format="wide"`` and a mapping (CSV or Parquet; no suffix of its own).
+WIDE = register_format(Format("wide", "wide log", (), read_wide_log, None))
+#: GPX own tracks joined to a measurement log (``measurements=``, ``mapping=``).
+GPX = register_format(Format("gpx", "GPX", (".gpx",), read_track_log, None))
+#: NMEA 0183 own tracks joined to a measurement log (``measurements=``, ``mapping=``).
+NMEA = register_format(Format("nmea", "NMEA 0183", (".nmea", ".nme"), read_track_log, None))

@@ -1,0 +1,457 @@
+"""Answers in the user's terms: where the emitter is, where it goes, how far and in which direction.
+
+Computed once here from a state and its covariance, and used by the command line, the JSON
+output and the pictures alike:
+
+* position East/North/Up (m) from the ENU origin and, when the origin is known, latitude,
+  longitude and altitude (WGS-84 ellipsoid);
+* course (degrees true, clockwise from North) and speed (m/s; knots on request), omitted for a
+  stationary emitter;
+* range (m) and bearing (degrees true) from a chosen sensor at a chosen time;
+* the horizontal position's uncertainty ellipse (semi-axes in metres, major-axis orientation in
+  degrees true) at a stated confidence level.
+
+Every standard deviation is linearised: the gradient of the quantity with respect to the state,
+``g``, gives ``std = sqrt(g^T P g)`` (the delta method) with ``P`` the state covariance.  A
+quantity whose variance is infinite or not a number is unobservable and reported as ``None``
+(never as a number).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import chi2 as chi2_dist
+
+from ..data import MeasurementSet
+from ..geodesy import enu_to_geodetic
+from .context import clock_time, origin_of, sensor_position
+
+KNOT = 1852.0 / 3600.0
+"""One knot in m/s (one nautical mile, 1852 m, per hour)."""
+
+NAUTICAL_MILE = 1852.0
+"""One nautical mile in metres."""
+
+ELLIPSE_LEVEL = 0.95
+"""Default probability inside the reported position ellipse."""
+
+#: A quantity is unobservable when its gradient's cosine with a state-space null direction
+#: (within the state components it depends on) exceeds this.
+NULL_COSINE = 0.05
+
+
+def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
+         null: NDArray[np.float64] | None = None) -> float | None:
+    """Return the linearised std ``sqrt(g^T P g)``; None when unobservable.
+
+    ``null`` (6, r) holds how the state moves along the fit's unobservable directions; a
+    quantity that moves with them is unobservable whatever its computed variance.
+    """
+    used = grad != 0
+    if not np.any(used):
+        return 0.0
+    if null is not None and null.size:
+        part = null[used]
+        norms = np.linalg.norm(part, axis=0) * np.linalg.norm(grad[used])
+        moving = norms > 0
+        if np.any(np.abs(grad[used] @ part[:, moving]) > NULL_COSINE * norms[moving]):
+            return None
+    sub = cov[np.ix_(used, used)]
+    if not np.all(np.isfinite(sub)):
+        return None
+    var = float(grad[used] @ sub @ grad[used])
+    return float(np.sqrt(max(var, 0.0))) if np.isfinite(var) else None
+
+
+@dataclass(frozen=True)
+class Ellipse:
+    """The horizontal position's confidence ellipse.
+
+    Parameters
+    ----------
+    semi_major, semi_minor : float
+        Semi-axes (m).
+    orientation_deg : float
+        Direction of the major axis, degrees true (clockwise from North, 0 to 180).
+    level : float
+        Probability inside the ellipse (a chi-square with 2 degrees of freedom).
+    """
+
+    semi_major: float
+    semi_minor: float
+    orientation_deg: float
+    level: float
+
+
+def position_ellipse(cov2: NDArray[np.float64], level: float = ELLIPSE_LEVEL
+                     ) -> Ellipse | None:
+    """Return the confidence ellipse of an East/North position covariance.
+
+    Parameters
+    ----------
+    cov2 : ndarray, shape (2, 2)
+        Covariance of East and North (m²).
+    level : float
+        Probability inside the ellipse (0 to 1).
+
+    Returns
+    -------
+    Ellipse or None
+        None when the covariance is not finite (the position is unobservable).
+    """
+    if not np.all(np.isfinite(cov2)):
+        return None
+    k = float(np.sqrt(chi2_dist.ppf(level, 2)))
+    evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
+    major = evecs[:, 1]
+    return Ellipse(k * float(np.sqrt(max(evals[1], 0.0))), k * float(np.sqrt(max(evals[0], 0.0))),
+                   float(np.degrees(np.arctan2(major[0], major[1])) % 180.0), level)
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The emitter at one time in the user's terms; ``None`` marks what is unobservable.
+
+    Parameters
+    ----------
+    time : float
+        Time (s since the measurement set's time origin).
+    clock : str or None
+        The same time in UTC when the time origin is known.
+    dim : int
+        2 or 3: whether the height is part of the motion.
+    stationary : bool
+        The emitter does not move (course and speed are then None).
+    enu, enu_std : tuple of (float or None)
+        Position East, North, Up (m) and their std (m).
+    geodetic : tuple of (float or None) or None
+        Latitude, longitude (deg) and altitude above the WGS-84 ellipsoid (m); None without an
+        origin.  Their std are those of North, East and Up.
+    velocity, velocity_std : tuple of (float or None)
+        Velocity East, North, Up (m/s) and std.
+    course_deg, course_std_deg : float or None
+        Course, degrees true, and its std (deg).
+    speed, speed_std : float or None
+        Speed (m/s) and its std (m/s).
+    sensor : str or None
+        The sensor that range and bearing are taken from.
+    range_m, range_std : float or None
+        Range from the sensor (m, slant range in three dimensions) and its std.
+    bearing_deg, bearing_std_deg : float or None
+        Bearing from the sensor, degrees true, and its std (deg).
+    ellipse : Ellipse or None
+        The horizontal position's confidence ellipse.
+    covariance : ndarray, shape (6, 6)
+        State covariance (ENU position m, velocity m/s), infinite where unobservable.
+    """
+
+    time: float
+    clock: str | None
+    dim: int
+    stationary: bool
+    enu: tuple[float | None, ...]
+    enu_std: tuple[float | None, ...]
+    geodetic: tuple[float | None, ...] | None
+    velocity: tuple[float | None, ...]
+    velocity_std: tuple[float | None, ...]
+    course_deg: float | None
+    course_std_deg: float | None
+    speed: float | None
+    speed_std: float | None
+    sensor: str | None
+    range_m: float | None
+    range_std: float | None
+    bearing_deg: float | None
+    bearing_std_deg: float | None
+    ellipse: Ellipse | None
+    covariance: NDArray[np.float64] = field(repr=False)
+
+    @property
+    def speed_knots(self) -> float | None:
+        """Speed in knots (None when unobservable or stationary)."""
+        return None if self.speed is None else self.speed / KNOT
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON form (SI units and degrees; ``None`` where unobservable).
+
+        Returns
+        -------
+        dict
+            ``time`` (s), ``clock`` (UTC), ``stationary``, ``position`` (east, north, up m,
+            with std; lat, lon deg and alt m when the origin is known), ``velocity`` (m/s),
+            ``course_deg``, ``speed_mps``, ``speed_kn`` (with std), ``from_sensor`` (range m,
+            bearing deg), ``ellipse`` (semi-axes m, orientation deg true, level) and
+            ``state_covariance`` (6 x 6, m and m/s; None where unobservable).
+        """
+        def pair(v: float | None, s: float | None) -> dict[str, float | None]:
+            return {"value": v, "std": s}
+
+        pos: dict[str, object] = {n: pair(v, s) for n, v, s in
+                                  zip(("east_m", "north_m", "up_m"), self.enu, self.enu_std,
+                                      strict=True)}
+        if self.geodetic is not None:
+            pos.update(lat_deg=self.geodetic[0], lon_deg=self.geodetic[1],
+                       alt_m=self.geodetic[2], altitude_reference="WGS-84 ellipsoid")
+        cov = [[float(c) if np.isfinite(c) else None for c in row] for row in self.covariance]
+        kn = None if self.speed_std is None else self.speed_std / KNOT
+        return {
+            "time_s": self.time, "clock": self.clock, "stationary": self.stationary,
+            "position": pos,
+            "velocity": {n: pair(v, s) for n, v, s in zip(
+                ("east_mps", "north_mps", "up_mps"), self.velocity, self.velocity_std,
+                strict=True)},
+            "course_deg": pair(self.course_deg, self.course_std_deg),
+            "speed_mps": pair(self.speed, self.speed_std),
+            "speed_kn": pair(self.speed_knots, kn),
+            "from_sensor": {"sensor": self.sensor, "range_m": pair(self.range_m, self.range_std),
+                            "bearing_deg": pair(self.bearing_deg, self.bearing_std_deg)},
+            "ellipse": (None if self.ellipse is None else {
+                "semi_major_m": self.ellipse.semi_major, "semi_minor_m": self.ellipse.semi_minor,
+                "orientation_deg_true": self.ellipse.orientation_deg,
+                "level": self.ellipse.level}),
+            "state": ["east", "north", "up", "v_east", "v_north", "v_up"],
+            "state_covariance": cov,
+            "std_method": "linearised (delta method) from the covariance",
+        }
+
+
+def _finite(v: float, s: float | None) -> tuple[float | None, float | None]:
+    """Return a value and its std, both None when the std says the value is unobservable."""
+    if s is None or not np.isfinite(v):
+        return None, None
+    return float(v), s
+
+
+def _motion_part(state: NDArray[np.float64], cov: NDArray[np.float64], stationary: bool,
+                 null: NDArray[np.float64] | None = None
+                 ) -> tuple[float | None, float | None, float | None, float | None]:
+    """Course (deg true) and speed (m/s) with their linearised std; None when not defined."""
+    v = state[3:6]
+    h2 = float(v[0] ** 2 + v[1] ** 2)
+    if stationary or h2 == 0.0:
+        return None, None, None, None
+    speed = float(np.linalg.norm(v))
+    g = np.zeros(6)
+    g[3:6] = v / speed
+    speed, speed_sd = _finite(speed, _std(g, cov, null))
+    g = np.zeros(6)
+    g[3], g[4] = v[1] / h2, -v[0] / h2
+    c_sd = _std(g, cov, null)
+    course, course_sd = _finite(float(np.degrees(np.arctan2(v[0], v[1])) % 360.0),
+                                None if c_sd is None else float(np.degrees(c_sd)))
+    return course, course_sd, speed, speed_sd
+
+
+def _from_sensor(state: NDArray[np.float64], cov: NDArray[np.float64],
+                 where: NDArray[np.float64], null: NDArray[np.float64] | None = None
+                 ) -> tuple[float | None, float | None, float | None, float | None]:
+    """Range (m) and bearing (deg true) from a sensor position, with linearised std."""
+    d = state[:3] - where
+    r = float(np.linalg.norm(d))
+    h2 = float(d[0] ** 2 + d[1] ** 2)
+    if r == 0.0 or h2 == 0.0:
+        return None, None, None, None
+    g = np.zeros(6)
+    g[:3] = d / r
+    rng, rng_sd = _finite(r, _std(g, cov, null))
+    g = np.zeros(6)
+    g[0], g[1] = d[1] / h2, -d[0] / h2
+    b_sd = _std(g, cov, null)
+    brg, brg_sd = _finite(float(np.degrees(np.arctan2(d[0], d[1])) % 360.0),
+                          None if b_sd is None else float(np.degrees(b_sd)))
+    return rng, rng_sd, brg, brg_sd
+
+
+def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: float,
+                      meas: MeasurementSet | None = None, sensor: str | None = None,
+                      dim: int = 3, stationary: bool = False,
+                      level: float = ELLIPSE_LEVEL,
+                      null: NDArray[np.float64] | None = None) -> Answer:
+    """Return the answer for a state and its covariance (the one computation of user terms).
+
+    Parameters
+    ----------
+    state : ndarray, shape (6,)
+        ENU position (m) and velocity (m/s) at ``t``.
+    cov : ndarray, shape (6, 6)
+        Its covariance; infinite or NaN entries mark unobservable directions.
+    t : float
+        Time (s).
+    meas : MeasurementSet, optional
+        The measurements: ENU origin and time origin (metadata) and the sensor's track.
+    sensor : str, optional
+        The sensor for range and bearing; default the sensor of the last measurement.
+    dim : int
+        2 or 3: with 2 the height is not reported (Up and altitude are None).
+    stationary : bool
+        The emitter does not move: no course or speed.
+    level : float
+        Probability inside the position ellipse (default 0.95).
+    null : ndarray, shape (6, r), optional
+        How the state moves along the fit's unobservable directions (an unobservable fit);
+        every quantity that moves with them is reported as None.
+
+    Returns
+    -------
+    Answer
+        The emitter in the user's terms.
+    """
+    state = np.asarray(state, dtype=float)
+    cov = np.where(np.isnan(cov), np.inf, np.asarray(cov, dtype=float))
+    enu, enu_sd = [], []
+    for i in range(3):
+        v, s = _finite(state[i], _std(np.eye(6)[i], cov, null)) if i < dim else (None, None)
+        enu.append(v)
+        enu_sd.append(s)
+    vel, vel_sd = [], []
+    for i in range(3):
+        v, s = (_finite(state[3 + i], _std(np.eye(6)[3 + i], cov, null))
+                if i < dim and not stationary else (None, None))
+        vel.append(v)
+        vel_sd.append(s)
+    course, course_sd, speed, speed_sd = _motion_part(state, cov, stationary, null)
+    origin = origin_of(meas)
+    geo = None
+    if origin is not None:
+        geo = (None, None, None)
+        if enu[0] is not None and enu[1] is not None:
+            lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2] if dim == 3 else 0.0,
+                                            origin)
+            geo = (float(lat), float(lon), float(alt) if enu[2] is not None or dim == 2 else None)
+    if meas is not None and len(meas) and sensor is None:
+        sensor = str(meas.sensor[int(np.argmax(meas.time))])
+    rng = rng_sd = brg = brg_sd = None
+    if meas is not None and sensor is not None and enu[0] is not None and enu[1] is not None:
+        where = sensor_position(meas, sensor, t)
+        if dim == 2:
+            where = np.array([where[0], where[1], state[2]])
+        rng, rng_sd, brg, brg_sd = _from_sensor(state, cov, where, null)
+    return Answer(float(t), clock_time(meas, t), dim, stationary, tuple(enu), tuple(enu_sd), geo,
+                  tuple(vel), tuple(vel_sd), course, course_sd, speed, speed_sd, sensor, rng,
+                  rng_sd, brg, brg_sd,
+                  position_ellipse(cov[:2, :2], level) if None not in enu[:2] else None, cov)
+
+
+def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:
+    """Whether no parameter moves the emitter (velocity zero with zero derivatives)."""
+    return bool(not np.any(jac[3:6]) and not np.any(state[3:6]))
+
+
+def estimate_answer(result: object, meas: MeasurementSet | None = None,
+                    time: float | None = None, sensor: str | None = None,
+                    level: float = ELLIPSE_LEVEL) -> Answer:
+    """Return a batch estimate in the user's terms at a chosen time.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        The estimate (its motion model maps the parameters to states; its bound, when there
+        is one, marks the unobservable directions).
+    meas : MeasurementSet, optional
+        The measurements fitted (origins and the sensor's track).
+    time : float, optional
+        Time (s); default the last measurement time (the motion's reference time without
+        measurements).
+    sensor : str, optional
+        Sensor for range and bearing; default the sensor of the last measurement.
+    level : float
+        Probability inside the position ellipse (default 0.95).
+
+    Returns
+    -------
+    Answer
+        The emitter at ``time``.
+    """
+    motion = result.motion  # type: ignore[attr-defined]
+    if time is None:
+        time = (float(np.max(meas.time)) if meas is not None and len(meas)
+                else float(getattr(motion, "ref_time", 0.0)))
+    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    t = np.array([float(time)])
+    null = None
+    if not np.all(np.isfinite(theta)):
+        state, jac = np.full(6, np.nan), np.zeros((6, theta.size))
+        cov = np.full((6, 6), np.inf)
+    else:
+        state = motion.states(theta, t)[0]
+        jac = motion.jacobian(theta, t)[0]
+        bound = result.bound  # type: ignore[attr-defined]
+        if bound is not None:
+            state, cov = bound.state_covariance(float(time))
+            basis = bound.observability.null_basis
+            null = jac @ basis[: jac.shape[1]] if basis.size else None
+        else:
+            cov = jac @ np.asarray(result.covariance) @ jac.T  # type: ignore[attr-defined]
+    return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
+                             _is_stationary(jac, state), level, null)
+
+
+def track_answer(track: object, meas: MeasurementSet | None = None, index: int = -1,
+                 sensor: str | None = None, level: float = ELLIPSE_LEVEL) -> Answer:
+    """Return a filter's state after one update in the user's terms.
+
+    Parameters
+    ----------
+    track : tmakit.filters.Track
+        The track (``state_names`` x, y[, z], vx, vy[, vz]; states and covariances per update).
+    meas : MeasurementSet, optional
+        The measurements tracked (origins and the sensor's track).
+    index : int
+        The update (default the last).
+    sensor : str, optional
+        Sensor for range and bearing; default the sensor of the last measurement.
+    level : float
+        Probability inside the position ellipse (default 0.95).
+
+    Returns
+    -------
+    Answer
+        The emitter at the update's time.
+    """
+    names = tuple(track.state_names)  # type: ignore[attr-defined]
+    dim = len(names) // 2
+    idx = [*range(dim), *range(3, 3 + dim)]
+    state = np.zeros(6)
+    cov = np.zeros((6, 6))
+    state[idx] = track.states[index]  # type: ignore[attr-defined]
+    cov[np.ix_(idx, idx)] = track.covariances[index]  # type: ignore[attr-defined]
+    t = float(track.times[index])  # type: ignore[attr-defined]
+    return answer_from_state(state, cov, t, meas, sensor, dim, False, level)
+
+
+#: Units of motion and nuisance parameters on screen, by name (angles shown in degrees).
+_PARAM_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
+                "speed": "m/s", "course": "deg", "carrier": "Hz", "drift": "Hz/s",
+                "power_constant_db": "dBW", "exponent": "", "path_loss_exponent": ""}
+
+
+def parameter_display(name: str, value: float, std: float) -> tuple[float, float, str]:
+    """Return a parameter's value and std in the unit shown to the user, and that unit.
+
+    Angles (rad inside) are shown in degrees (a course from 0 to 360); accelerations
+    ``at_*``/``an_*`` in m/s², change-over times ``t_*`` in s; everything else in SI.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name.
+    value, std : float
+        Its value and std in SI.
+
+    Returns
+    -------
+    tuple
+        ``(value, std, unit)``; the unit is ``""`` when dimensionless or unknown.
+    """
+    unit = _PARAM_UNITS.get(name)
+    if unit is None:
+        unit = ("m/s^2" if name.startswith(("at_", "an_"))
+                else "s" if name.startswith("t_") else "")
+    if unit == "deg":  # a course is shown in degrees true, 0 to 360
+        shown = float(np.degrees(value))
+        return (shown % 360.0 if name == "course" and np.isfinite(shown) else shown,
+                float(np.degrees(std)), unit)
+    return float(value), float(std), unit

@@ -1,0 +1,322 @@
+"""Sanity checks that speak: an improbable fit, angles that look like radians, far positions.
+
+Each check returns :class:`SanityWarning` objects (a code and a sentence) rather than printing,
+so the command line prints them and a Python user reads them from
+:meth:`tmakit.results.EstimateResult.warnings` or :func:`measurement_warnings`.
+
+The rules, stated once:
+
+* **improbable chi-square** (``improbable-chi2``): the fit's weighted sum of squares has
+  probability ``p = P(chi2_dof >= chi2) < 0.001`` under the stated noise;
+* **radians** (``radians``): every value of an angle kind whose file unit is degrees (bearing,
+  elevation) lies within ``[-2 pi, 2 pi]`` — at least :data:`RADIAN_MIN_ROWS` rows, spread over
+  less than ``4 pi`` — which is what angles written in radians look like;
+* **far from the origin** (``far-sensor``, ``far-estimate``): a sensor more than
+  :data:`FAR_FROM_ORIGIN` metres from the ENU origin (the flat local frame then departs from the
+  Earth: the ground drops ``d^2 / 2R``, 785 m at 100 km, and North turns by the meridians'
+  convergence), or an estimated position farther than that and farther than
+  :data:`FAR_FACTOR` times the farthest sensor (a sign of an unobservable or mis-specified fit).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import chi2 as chi2_dist
+
+from ..data import MeasurementSet
+from ..measurements import model_for
+from ..observation import ObservationModel
+
+CHI2_P_LIMIT = 0.001
+"""A fit whose chi-square has a smaller upper-tail probability is flagged improbable."""
+
+RADIAN_MIN_ROWS = 3
+"""Fewest rows of an angle kind for the radians check."""
+
+FAR_FROM_ORIGIN = 100_000.0
+"""Distance from the ENU origin (m) beyond which positions are warned about."""
+
+FAR_FACTOR = 10.0
+"""An estimate this many times farther than the farthest sensor is warned about."""
+
+
+@dataclass(frozen=True)
+class SanityWarning:
+    """A warning about the data or a fit.
+
+    Parameters
+    ----------
+    code : str
+        ``improbable-chi2``, ``radians``, ``far-sensor`` or ``far-estimate``.
+    message : str
+        The sentence for the user: what was seen, the rule, and what to do.
+    """
+
+    code: str
+    message: str
+
+    def as_dict(self) -> dict[str, str]:
+        """Return ``{"code": ..., "message": ...}`` (JSON)."""
+        return {"code": self.code, "message": self.message}
+
+
+def chi2_probability(chi2: float, dof: int) -> float | None:
+    """Return the upper-tail probability of a chi-square value, ``P(chi2_dof >= chi2)``.
+
+    Parameters
+    ----------
+    chi2 : float
+        The weighted sum of squares.
+    dof : int
+        Its degrees of freedom.
+
+    Returns
+    -------
+    float or None
+        The probability, or None without degrees of freedom or a finite chi2.
+    """
+    if dof <= 0 or not np.isfinite(chi2):
+        return None
+    return float(chi2_dist.sf(chi2, dof))
+
+
+def chi2_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT) -> SanityWarning | None:
+    """Flag a fit whose chi-square is improbable (``p < limit``) and name the likely causes.
+
+    Parameters
+    ----------
+    chi2 : float
+        The weighted sum of squares at the fit.
+    dof : int
+        Its degrees of freedom.
+    limit : float
+        The probability below which the fit is flagged (default 0.001).
+
+    Returns
+    -------
+    SanityWarning or None
+        The warning, or None when the fit is plausible (or has no degrees of freedom).
+    """
+    p = chi2_probability(chi2, dof)
+    if p is None or p >= limit:
+        return None
+    return SanityWarning(
+        "improbable-chi2",
+        f"the fit is improbable under the stated noise: chi2 = {chi2:.4g} on {dof} degrees of "
+        f"freedom (chi2/dof = {chi2 / dof:.3g}, p = {p:.2g} < {limit:g}). Likely causes: the "
+        "target manoeuvred (try a manoeuvring motion, curvilinear[:M], or a shorter leg), the "
+        "sigma are too small (rescale them from the residuals: scale_sigma, --scale-sigma), "
+        "or outliers (look at the residuals in units of sigma: --plot)")
+
+
+def radian_warnings(meas: MeasurementSet) -> list[SanityWarning]:
+    """Warn about angle kinds in degrees whose values all look like radians.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (values in file units).
+
+    Returns
+    -------
+    list of SanityWarning
+        One per suspicious kind.
+    """
+    found = []
+    for kind in meas.kinds:
+        if model_for(kind).file_unit != "deg":
+            continue
+        values = meas.value[meas.kind_mask(kind)]
+        if values.size < RADIAN_MIN_ROWS or np.max(np.abs(values)) > 2 * np.pi:
+            continue
+        found.append(SanityWarning(
+            "radians",
+            f"every {kind} value lies within ±2π ({np.min(values):.3g} .. {np.max(values):.3g}) "
+            f"although the file's unit is degrees: were they written in radians? Multiply by "
+            f"180/π ({values.size} rows; rule: all |{kind}| <= 2π with at least "
+            f"{RADIAN_MIN_ROWS} rows)"))
+    return found
+
+
+def sensor_distance_warnings(meas: MeasurementSet) -> list[SanityWarning]:
+    """Warn about sensors far from the ENU origin.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (sensor states, m).
+
+    Returns
+    -------
+    list of SanityWarning
+        At most one.
+    """
+    if not len(meas):
+        return []
+    d = np.linalg.norm(meas.sensor_state[:, :2], axis=1)
+    k = int(np.argmax(d))
+    if d[k] <= FAR_FROM_ORIGIN:
+        return []
+    return [SanityWarning(
+        "far-sensor",
+        f"sensor {meas.sensor[k]} is {d[k] / 1000:.4g} km from the ENU origin (time "
+        f"{meas.time[k]:g} s); beyond {FAR_FROM_ORIGIN / 1000:g} km the flat local frame "
+        "departs from the Earth (curvature, the turn of North): take an origin near the "
+        "sensors, or check the positions' unit")]
+
+
+def measurement_warnings(meas: MeasurementSet) -> list[SanityWarning]:
+    """Return the warnings about a measurement set (radians, sensors far from the origin).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+
+    Returns
+    -------
+    list of SanityWarning
+        Empty when nothing looks wrong.
+    """
+    return [*radian_warnings(meas), *sensor_distance_warnings(meas)]
+
+
+def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSet
+                              ) -> SanityWarning | None:
+    """Warn about an estimated position far from the origin and from every sensor.
+
+    Parameters
+    ----------
+    position : ndarray, shape (2,) or (3,)
+        The estimated position, East and North first (m).
+    meas : MeasurementSet
+        The measurements (sensor positions, m).
+
+    Returns
+    -------
+    SanityWarning or None
+        The warning, or None.
+    """
+    position = np.asarray(position, dtype=float)
+    if not np.all(np.isfinite(position[:2])) or not len(meas):
+        return None
+    d = float(np.linalg.norm(position[:2]))
+    reach = float(np.max(np.linalg.norm(meas.sensor_state[:, :2], axis=1)))
+    if d <= max(FAR_FROM_ORIGIN, FAR_FACTOR * reach):
+        return None
+    return SanityWarning(
+        "far-estimate",
+        f"the estimated position is {d / 1000:.4g} km from the ENU origin, more than "
+        f"{FAR_FACTOR:g} times the farthest sensor ({reach / 1000:.3g} km): the data may not "
+        "determine it (bearings in the wrong unit, too little geometry)")
+
+
+def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
+    """Return every warning about a batch estimate and its measurements.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        The estimate (chi2, dof, motion, parameters).
+    meas : MeasurementSet
+        The measurements fitted.
+
+    Returns
+    -------
+    list of SanityWarning
+        Improbable chi-square, radians, far sensors, far estimate; empty when all is well.
+    """
+    found = measurement_warnings(meas)
+    w = chi2_warning(float(result.chi2), int(result.dof))  # type: ignore[attr-defined]
+    if w is not None:
+        found.append(w)
+    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    if np.all(np.isfinite(theta)) and len(meas):
+        motion = result.motion  # type: ignore[attr-defined]
+        state = motion.states(theta, np.array([float(np.max(meas.time))]))[0]
+        far = estimate_distance_warning(state[:3], meas)
+        if far is not None:
+            found.append(far)
+    return found
+
+
+def normalised_residuals(result: object, meas: MeasurementSet,
+                         options: Mapping[str, Mapping[str, object]] | None = None
+                         ) -> NDArray[np.float64]:
+    """Return each row's residual (measured minus predicted at the fit) in units of its sigma.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        The estimate (motion, parameters and nuisance values).
+    meas : MeasurementSet
+        The measurements fitted, in their own row order.
+    options : mapping, optional
+        The measurement-model options of the fit (drift, path-loss exponent).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``(value - prediction) / sigma`` per row, angles wrapped; NaN for a diverged fit.
+    """
+    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    if not np.all(np.isfinite(theta)):
+        return np.full(len(meas), np.nan)
+    obs = ObservationModel(meas, result.motion, options)  # type: ignore[attr-defined]
+    nu = obs.nuisance_vector({k: v for k, (v, _) in
+                              result.nuisance.items()})  # type: ignore[attr-defined]
+    return obs.residuals(theta, nu) / meas.sigma_si
+
+
+def scale_sigma(meas: MeasurementSet, residuals: NDArray[np.float64], dof: int
+                ) -> tuple[MeasurementSet, dict[str, float]]:
+    """Rescale each kind's sigma so that the fit's chi-square per degree of freedom becomes 1.
+
+    Each kind ``k`` gets the factor ``s_k = sqrt(sum z_k^2 / (n_k dof / n))`` with ``z`` the
+    residuals in units of sigma, ``n_k`` the kind's rows and ``dof / n`` the share of degrees
+    of freedom per row (the fit's parameters charged to every row alike).  Refitting the
+    rescaled set gives the estimate weighted by the observed noise, and a covariance scaled
+    accordingly.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    residuals : ndarray, shape (n,)
+        Their residuals at a fit, in units of sigma (:func:`normalised_residuals`).
+    dof : int
+        The fit's degrees of freedom.
+
+    Returns
+    -------
+    scaled : MeasurementSet
+        The same rows with sigma multiplied by their kind's factor.
+    factors : dict of str to float
+        The factor per kind.
+
+    Raises
+    ------
+    ValueError
+        Without degrees of freedom or finite residuals.
+    """
+    residuals = np.asarray(residuals, dtype=float)
+    if dof <= 0 or not np.all(np.isfinite(residuals)):
+        raise ValueError("the noise can be rescaled only from a fit with finite residuals and "
+                         "degrees of freedom left")
+    share = dof / len(meas)
+    factors = {}
+    sigma = meas.sigma_si.copy()
+    for kind in meas.kinds:
+        rows = meas.kind_mask(kind)
+        factors[kind] = float(np.sqrt(np.sum(residuals[rows] ** 2) / (rows.sum() * share)))
+        sigma[rows] *= factors[kind]
+    scaled = MeasurementSet.from_si(meas.time, meas.sensor, meas.kind, meas.value_si, sigma,
+                                    meas.sensor_state, meas.time_ref, meas.ref_sensor_state,
+                                    dict(meas.metadata,
+                                         sigma_scaled=",".join(f"{k}={v:.6g}"
+                                                               for k, v in factors.items())))
+    return scaled, factors

@@ -1,0 +1,102 @@
+"""Where and when a measurement set is: its ENU origin, its clock-time origin, its sensors.
+
+The metadata keys read here: ``origin_lat``, ``origin_lon``, ``origin_alt`` (the ENU origin,
+degrees and metres) and ``time_origin`` (the UTC clock time of t = 0 s, ISO-8601).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import MeasurementSet
+
+#: Metadata key of the measurement set's clock-time origin (ISO-8601 UTC of t = 0 s).
+TIME_ORIGIN_KEY = "time_origin"
+
+
+def clock_time(meas: MeasurementSet | None, t: float) -> str | None:
+    """Return the UTC clock time of ``t`` seconds when the set records its time origin.
+
+    Parameters
+    ----------
+    meas : MeasurementSet or None
+        The measurements; their metadata ``time_origin`` (ISO-8601, UTC when no zone is given)
+        is the clock time of t = 0 s.
+    t : float
+        Time (s since the time origin).
+
+    Returns
+    -------
+    str or None
+        ``YYYY-MM-DDTHH:MM:SS.sssZ``, or None when no time origin is known.
+    """
+    if meas is None or TIME_ORIGIN_KEY not in meas.metadata or not np.isfinite(t):
+        return None
+    try:
+        t0 = _dt.datetime.fromisoformat(meas.metadata[TIME_ORIGIN_KEY].replace("Z", "+00:00"))
+    except ValueError:
+        return None
+    if t0.tzinfo is None:
+        t0 = t0.replace(tzinfo=_dt.UTC)
+    t_utc = (t0 + _dt.timedelta(seconds=float(t))).astimezone(_dt.UTC)
+    return t_utc.strftime("%Y-%m-%dT%H:%M:%S.") + f"{t_utc.microsecond // 1000:03d}Z"
+
+
+def origin_of(meas: MeasurementSet | None) -> tuple[float, float, float] | None:
+    """Return the ENU origin ``(lat_deg, lon_deg, alt_m)`` recorded in the metadata, if any.
+
+    Parameters
+    ----------
+    meas : MeasurementSet or None
+        The measurements (metadata ``origin_lat``, ``origin_lon``, ``origin_alt``).
+
+    Returns
+    -------
+    tuple of float or None
+        The origin, or None when the file gives none.
+    """
+    if meas is None or not {"origin_lat", "origin_lon"} <= set(meas.metadata):
+        return None
+    m = meas.metadata
+    return float(m["origin_lat"]), float(m["origin_lon"]), float(m.get("origin_alt", 0.0))
+
+
+def sensor_position(meas: MeasurementSet, sensor: str, t: float) -> NDArray[np.float64]:
+    """Return a sensor's ENU position at time ``t`` from its rows.
+
+    Linear interpolation between the sensor's two nearest recorded positions; outside the
+    recorded times, the nearest position moved on by its recorded velocity.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (their sensor states).
+    sensor : str
+        The sensor's name.
+    t : float
+        Time (s).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        East, North, Up (m).
+
+    Raises
+    ------
+    ValueError
+        If the set has no row of ``sensor``.
+    """
+    sel = meas.sensor == sensor
+    if not np.any(sel):
+        raise ValueError(f"no measurement of sensor {sensor!r} (sensors: "
+                         f"{', '.join(meas.sensors)})")
+    times, states = meas.time[sel], meas.sensor_state[sel]
+    order = np.argsort(times, kind="stable")
+    times, states = times[order], states[order]
+    if t <= times[0] or t >= times[-1] or times.size == 1:
+        k = 0 if t <= times[0] else times.size - 1
+        return states[k, :3] + states[k, 3:6] * (t - times[k])
+    return np.array([np.interp(t, times, states[:, i]) for i in range(3)])

@@ -1,0 +1,287 @@
+"""The solution picture of a batch estimate: the analyst's geometry and residuals.
+
+Left, the geometry: the sensor tracks, the bearing lines, the estimated track with its
+position ellipses at labelled times (the truth too when the file knows it), on a map in
+latitude/longitude when the ENU origin is known (else East/North in km), with a scale bar.
+Right, one panel per measurement kind: the residuals against time in units of sigma
+("stacked dots"), with the ±1σ and ±3σ bands.  Written with matplotlib's Agg backend.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .data import MeasurementSet
+from .geodesy import enu_to_geodetic
+from .results import EstimateResult
+from .results.answers import estimate_answer
+from .results.context import clock_time, origin_of, sensor_position
+from .truth import truth_states
+
+#: At most this many bearing lines are drawn (evenly spread over the rows).
+MAX_BEARING_LINES = 40
+
+
+class MapFrame:
+    """Map coordinates: lon/lat (deg) when the origin is known, else East/North (km)."""
+
+    def __init__(self, meas: MeasurementSet) -> None:
+        self.origin = origin_of(meas)
+        self.geodetic = self.origin is not None
+        self.labels = (("longitude (deg)", "latitude (deg)") if self.geodetic
+                       else ("East (km)", "North (km)"))
+
+    def xy(self, east: np.ndarray, north: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return map coordinates of ENU positions (m).
+
+        Parameters
+        ----------
+        east, north : ndarray
+            ENU positions (m).
+
+        Returns
+        -------
+        tuple of ndarray
+            (lon, lat) in degrees, or (East, North) in km.
+        """
+        east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
+        if not self.geodetic:
+            return east / 1000.0, north / 1000.0
+        lat, lon, _ = enu_to_geodetic(east, north, np.zeros_like(east), self.origin)
+        return np.asarray(lon), np.asarray(lat)
+
+    def metres_per_x(self) -> float:
+        """Metres per unit of the horizontal map coordinate (at the origin)."""
+        if not self.geodetic:
+            return 1000.0
+        return 111_320.0 * float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
+
+    def aspect(self) -> float:
+        """Axis aspect ratio that keeps distances true (1 / cos(latitude) in lon/lat)."""
+        if not self.geodetic:
+            return 1.0
+        return 1.0 / float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
+
+
+def _scale_bar(ax: Any, frame: MapFrame) -> None:
+    """Draw a scale bar of a round length, about a fifth of the map's width."""
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    x0, x1 = ax.get_xlim()
+    width_m = abs(x1 - x0) * frame.metres_per_x()
+    target = width_m / 5.0
+    step = 10.0 ** np.floor(np.log10(target))
+    length = max((m * step for m in (1, 2, 5) if m * step <= target), default=step)
+    text = f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m"
+    ax.add_artist(AnchoredSizeBar(ax.transData, length / frame.metres_per_x(), text,
+                                  "lower right", pad=0.5, frameon=True, size_vertical=0, sep=4,
+                                  label_top=True))
+
+
+def _ellipse(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
+    """Points ``(n, 2)`` (m, relative) of the confidence ellipse of a 2x2 covariance."""
+    from scipy.stats import chi2
+
+    evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
+    k = np.sqrt(chi2.ppf(level, 2))
+    a = np.linspace(0.0, 2.0 * np.pi, n)
+    circle = np.stack([np.cos(a), np.sin(a)], axis=1)
+    return k * circle * np.sqrt(np.clip(evals, 0.0, None)) @ evecs.T
+
+
+def _label(meas: MeasurementSet, t: float) -> str:
+    """Return a time label: UTC clock time (HH:MM:SS) when known, else seconds."""
+    clock = clock_time(meas, t)
+    return clock[11:19] if clock else f"{t:.0f} s"
+
+
+def _draw_bearings(ax: Any, meas: MeasurementSet, frame: MapFrame, reach: float) -> None:
+    """Draw the bearing lines from the sensors (evenly spread rows, ``reach`` metres long)."""
+    rows = np.flatnonzero(meas.kind == "bearing")
+    if rows.size == 0:
+        return
+    rows = rows[np.unique(np.linspace(0, rows.size - 1,
+                                      min(rows.size, MAX_BEARING_LINES)).round().astype(int))]
+    b = meas.value_si[rows]
+    start = meas.sensor_state[rows, :2]
+    end = start + reach * np.stack([np.sin(b), np.cos(b)], axis=1)
+    for (e0, n0), (e1, n1) in zip(start, end, strict=True):
+        xs, ys = frame.xy(np.linspace(e0, e1, 20), np.linspace(n0, n1, 20))
+        ax.plot(xs, ys, color="tab:orange", lw=0.6, alpha=0.45, zorder=1)
+    ax.plot([], [], color="tab:orange", lw=0.8, label=f"bearings ({rows.size} drawn)")
+
+
+def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame: MapFrame,
+                   n_labels: int, level: float) -> None:
+    """Draw the estimated track, its ellipses and labelled times."""
+    t = np.linspace(meas.time.min(), meas.time.max(), 200)
+    states = result.motion.states(result.estimate, t)
+    xs, ys = frame.xy(states[:, 0], states[:, 1])
+    ax.plot(xs, ys, color="tab:red", lw=2.0, label=f"estimate ({result.status})", zorder=4)
+    for tk in np.linspace(meas.time.min(), meas.time.max(), n_labels):
+        a = estimate_answer(result, meas, time=float(tk), level=level)
+        s = result.motion.states(result.estimate, np.array([tk]))[0]
+        px, py = frame.xy(np.array([s[0]]), np.array([s[1]]))
+        ax.plot(px, py, "o", color="tab:red", ms=4, zorder=5)
+        ax.annotate(_label(meas, float(tk)), (px[0], py[0]), textcoords="offset points",
+                    xytext=(6, 6), fontsize=8, color="tab:red",
+                    bbox={"fc": "white", "alpha": 0.7, "lw": 0, "pad": 1})
+        cov2 = a.covariance[:2, :2]
+        if a.ellipse is not None and np.all(np.isfinite(cov2)):
+            pts = _ellipse(cov2, level) + s[:2]
+            ex, ey = frame.xy(pts[:, 0], pts[:, 1])
+            ax.plot(ex, ey, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
+        if a.stationary:
+            break
+    ax.plot([], [], color="tab:red", lw=0.9, label=f"{level:.0%} position ellipses")
+
+
+def _fill_panel(ax: Any, frame: MapFrame, ratio: float = 1.15) -> None:
+    """Widen the shorter side of the map so that, at true scale, width / height = ``ratio``."""
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    w, h = (x1 - x0), (y1 - y0) * frame.aspect()  # both in horizontal map units
+    if w < ratio * h:
+        pad = (ratio * h - w) / 2
+        ax.set_xlim(x0 - pad, x1 + pad)
+    else:
+        pad = (w / ratio - h) / 2 / frame.aspect()
+        ax.set_ylim(y0 - pad, y1 + pad)
+
+
+def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: int,
+              level: float) -> None:
+    """Draw the geometry panel."""
+    frame = MapFrame(meas)
+    for s in meas.sensors:
+        t = np.unique(meas.time[meas.sensor == s])
+        pos = np.array([sensor_position(meas, s, float(tt)) for tt in t])
+        xs, ys = frame.xy(pos[:, 0], pos[:, 1])
+        ax.plot(xs, ys, color="tab:blue", lw=1.5, zorder=3)
+        ax.plot(xs[:1], ys[:1], "^", color="tab:blue", ms=6, zorder=3)
+        ax.annotate(f"{s} {_label(meas, float(t[0]))}", (xs[0], ys[0]),
+                    textcoords="offset points", xytext=(-6, -12), fontsize=8,
+                    color="tab:blue")
+    ax.plot([], [], color="tab:blue", lw=1.5, label="sensor track (▲ start)")
+    finite = bool(np.all(np.isfinite(result.estimate)))
+    truth = truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), 100), 3)
+    if truth is not None:
+        xs, ys = frame.xy(truth[:, 0], truth[:, 1])
+        ax.plot(xs, ys, "--", color="0.35", lw=1.2, label="truth (file metadata)", zorder=2)
+    if finite:
+        _draw_solution(ax, result, meas, frame, n_labels, level)
+    ax.autoscale()
+    _fill_panel(ax, frame)
+    ax.set_aspect(frame.aspect(), adjustable="box")
+    if finite:  # bearing lines long enough to cross the solution, not to set the scale
+        x0, x1 = ax.get_xlim()
+        y0, y1 = ax.get_ylim()
+        reach = 1.3 * max(abs(x1 - x0), abs(y1 - y0) / frame.aspect()) * frame.metres_per_x()
+        ax.set_autoscale_on(False)
+        _draw_bearings(ax, meas, frame, reach)
+    ax.set_xlabel(frame.labels[0])
+    ax.set_ylabel(frame.labels[1])
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8, framealpha=0.85)
+    _scale_bar(ax, frame)
+
+
+def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray) -> None:
+    """One panel per kind: residuals in units of sigma against time, ±1σ and ±3σ bands."""
+    for ax, kind in zip(axes, meas.kinds, strict=True):
+        rows = meas.kind_mask(kind)
+        z = residuals[rows]
+        for s in meas.sensors:
+            sel = meas.sensor[rows] == s
+            if np.any(sel):
+                ax.plot(meas.time[rows][sel], z[sel], ".", ms=4, label=s)
+        ax.axhspan(-1, 1, color="tab:green", alpha=0.12)
+        for y in (-3, 3):
+            ax.axhline(y, color="tab:red", lw=0.8, ls=":")
+        ax.axhline(0, color="0.3", lw=0.6)
+        rms = float(np.sqrt(np.nanmean(z ** 2))) if z.size else float("nan")
+        out3 = int(np.sum(np.abs(z) > 3))
+        ax.set_title(f"{kind} residuals: RMS {rms:.2f} σ, {out3} beyond 3σ", fontsize=9)
+        ax.set_ylabel("residual (σ)")
+        lim = max(4.0, float(np.nanmax(np.abs(z))) * 1.1) if np.any(np.isfinite(z)) else 4.0
+        ax.set_ylim(-lim, lim)
+        ax.grid(True, alpha=0.3)
+        if len(meas.sensors) > 1:
+            ax.legend(fontsize=7, loc="upper right")
+    axes[-1].set_xlabel("time (s)" if clock_time(meas, 0.0) is None
+                        else f"time (s since {clock_time(meas, 0.0)})")
+
+
+def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,
+                  residuals: np.ndarray, answer: Any = None, title: str | None = None,
+                  labels: int = 5, level: float = 0.95) -> Path:
+    """Write the solution picture: geometry with bearing lines and ellipses, and residuals.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements fitted.
+    result : EstimateResult
+        The estimate.
+    path : str or Path
+        The picture (PNG, PDF, SVG).
+    residuals : ndarray, shape (n,)
+        Each row's residual in units of its sigma
+        (:func:`tmakit.results.normalised_residuals`).
+    answer : tmakit.results.answers.Answer, optional
+        The answers shown under the title (course, speed, position ellipse).
+    title : str, optional
+        The figure's title.
+    labels : int
+        Times labelled along the estimated track (each with its ellipse).
+    level : float
+        Probability inside the ellipses (default 0.95).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kinds = meas.kinds
+    fig = plt.figure(figsize=(13, 7.5), layout="constrained")
+    grid = fig.add_gridspec(max(len(kinds), 1), 2, width_ratios=(1.35, 1))
+    ax_map = fig.add_subplot(grid[:, 0])
+    res_axes = [fig.add_subplot(grid[i, 1]) for i in range(len(kinds))]
+    for ax in res_axes[1:]:
+        ax.sharex(res_axes[0])
+    _draw_map(ax_map, result, meas, labels, level)
+    _draw_residuals(res_axes, meas, np.asarray(residuals, dtype=float))
+    lines = [title or f"{result.method} estimate"]
+    if answer is not None:
+        lines.append(_answer_line(answer, result))
+    fig.suptitle("\n".join(lines), fontsize=11)
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _answer_line(a: Any, result: EstimateResult) -> str:
+    """One line of answers for the title: course, speed, range, ellipse, chi2/dof."""
+    parts = [f"at {a.clock or f't = {a.time:g} s'}"]
+    if a.course_deg is not None and a.speed is not None:
+        parts.append(f"course {a.course_deg:.1f}° ± {a.course_std_deg:.1f}°, speed "
+                     f"{a.speed:.2f} ± {a.speed_std:.2f} m/s ({a.speed / 0.514444:.1f} kn)")
+    if a.range_m is not None:
+        parts.append(f"range {a.range_m / 1000:.3g} ± {a.range_std / 1000:.2g} km, bearing "
+                     f"{a.bearing_deg:.1f}° from {a.sensor}")
+    if a.ellipse is not None:
+        parts.append(f"{a.ellipse.level:.0%} ellipse {a.ellipse.semi_major:.3g} x "
+                     f"{a.ellipse.semi_minor:.3g} m")
+    if result.dof > 0:
+        parts.append(f"χ²/dof {result.chi2 / result.dof:.2f}")
+    half = (len(parts) + 1) // 2
+    return (parts[0] + ": " + ", ".join(parts[1:half]) + "\n" + ", ".join(parts[half:]))

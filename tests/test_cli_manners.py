@@ -1,0 +1,77 @@
+"""The command's manners (issue 12, item 8): -h, --version, plain help, words not dicts."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from typer.testing import CliRunner
+
+import tmakit
+from tmakit.cli import app
+
+runner = CliRunner()
+COMMANDS = ["scenarios", "simulate", "show", "crlb", "estimate", "reproduce", "montecarlo",
+            "track", "plan", "demo"]
+
+
+def run(*args: str):
+    return runner.invoke(app, list(args))
+
+
+def test_version():
+    out = run("--version")
+    assert out.exit_code == 0 and out.output.strip() == f"tma (tmakit) {tmakit.__version__}"
+
+
+@pytest.mark.parametrize("command", [None, *COMMANDS])
+def test_short_help_is_the_long_help_and_plain(command):
+    args = [command] if command else []
+    short, long = run(*args, "-h"), run(*args, "--help")
+    assert short.exit_code == 0 and short.output == long.output
+    text = short.output
+    assert "<bool>" not in text  # flags are --name / --no-name, no placeholder
+    assert not re.search(r"[\u2460-\u24ff\U0001F000-\U0001FAFF]", text)  # no emoji markup
+    assert "[bold" not in text and "[/" not in text
+
+
+def test_exact_help_reads_as_written():
+    text = run("estimate", "-h").output
+    assert "curvilinear with M manoeuvres: fit exactly M" in " ".join(text.split())
+
+
+def test_show_prints_the_truth_in_words_and_power_sigma_in_db(tmp_path):
+    obs = tmp_path / "gu.csv"
+    run("simulate", "gu2007", "--seed", "1", "-o", str(obs))
+    out = run("show", str(obs)).output
+    assert "{" not in out and "}" not in out  # no raw Python or JSON dicts
+    assert "x = 3200 m" in out and "vx = -21.65 m/s" in out
+    power = next(line for line in out.splitlines() if " power " in line)
+    assert "dBm" in power and power.rstrip(" │").endswith("dB")  # value dBm, sigma dB
+
+
+def test_crlb_at_gives_the_course_in_degrees_true():
+    out = run("crlb", "gu2007", "--at", "60").output
+    course = next(line for line in out.splitlines() if line.strip().startswith("course"))
+    value = float(course.split()[1])
+    assert 0 <= value < 360 and course.rstrip().endswith("deg")
+    assert value == pytest.approx(240.0, abs=0.01)  # vx -21.65, vy -12.5: 240 deg true
+
+
+def test_crlb_at_json_adds_the_course_in_degrees_and_keeps_radians():
+    import json
+
+    data = json.loads(run("crlb", "gu2007", "--at", "60", "--json").stdout)
+    at = data["at"]
+    assert at["course_deg"]["value"] == pytest.approx(240.0, abs=0.01)
+    assert at["course"]["value"] == pytest.approx(-2.0944, abs=1e-3)  # pinned key, radians
+    assert at["course_deg"]["std"] == pytest.approx(
+        at["course"]["std"] * 180 / 3.141592653589793)
+
+
+def test_reproduction_figures_are_printed_as_words_not_python_values():
+    from tmakit.cli.reproduce import plain
+
+    text = plain({"rmse": [1.0, 2.5e-7], "ok": True, "n": 3})
+    assert text == "rmse = 1, 2.5e-07; ok = true; n = 3"
+    assert "[" not in plain([[1.0, 2.0], [3.0]]) and "{" not in plain({"a": {"b": 1.0}})

@@ -1,0 +1,115 @@
+"""``tma import`` and ``tma examples``, and the other commands reading real logs directly."""
+
+from __future__ import annotations
+
+import numpy as np
+from typer.testing import CliRunner
+
+import tmakit as tk
+from tmakit.cli import app
+from tmakit.cli.importing import EXAMPLE_FILES
+
+runner = CliRunner()
+
+
+def run(*args: str):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def examples(tmp_path):
+    result = run("examples", tmp_path)
+    assert result.exit_code == 0, result.output
+    return tmp_path
+
+
+def test_examples_writes_the_samples_and_refuses_to_overwrite(tmp_path):
+    folder = examples(tmp_path / "ex")
+    assert sorted(p.name for p in folder.iterdir()) == sorted(EXAMPLE_FILES)
+    again = run("examples", folder)
+    assert again.exit_code == 2 and "already exists; use --force" in again.output
+    assert run("examples", folder, "--force").exit_code == 0
+
+
+def test_import_rep_writes_tmakits_file_with_clock_time_and_origin(tmp_path):
+    folder = examples(tmp_path)
+    out = folder / "obs.parquet"
+    result = run("import", "rep", folder / "contact.rep", "--ownship", "OWNSHIP", "--contact",
+                 "CONTACT", "--bearing-sigma", "0.5", "-o", out)
+    assert result.exit_code == 0, result.output
+    assert "t = 0 s is 2026-05-04T09:30:00Z (UTC)" in result.output
+    assert "ENU origin: lat 47.9500000 deg, lon -5.2500000 deg, alt 0.0 m (msl)" in result.output
+    ms = tk.read_measurements(out)
+    assert ms.metadata["time_origin"] == "2026-05-04T09:30:00Z" and len(ms) == 720
+    assert np.all(ms.sigma == 0.5)
+    refused = run("import", "rep", folder / "contact.rep", "-o", out)
+    assert refused.exit_code == 2 and "already exists; use --force" in refused.output
+
+
+def test_import_checks_output_and_arguments_before_work(tmp_path):
+    folder = examples(tmp_path)
+    bad = run("import", "rep", folder / "contact.rep", "-o", folder / "obs.txt")
+    assert bad.exit_code == 2 and "-o" in bad.output and ".parquet" in bad.output
+    missing = run("import", "rep", folder / "nothing.rep", "-o", folder / "o.csv")
+    assert missing.exit_code == 2 and "no such file" in missing.output
+    two = run("import", "gpx", folder / "own.gpx", "-o", folder / "o.csv")
+    assert two.exit_code == 2 and "the own track and the measurement log" in two.output
+    fmt = run("import", "kml", folder / "own.gpx", "-o", folder / "o.csv")
+    assert fmt.exit_code == 2 and "unknown format 'kml'" in fmt.output
+    assert not (folder / "o.csv").exists()
+
+
+def test_import_refusal_names_the_line(tmp_path):
+    rep = tmp_path / "bad.rep"
+    rep.write_text("260504 093000 OWN @A 47 57 00.00 N 005 15 00.00 E 90.0 x 0.0\n")
+    result = run("import", "rep", rep, "-o", tmp_path / "o.parquet")
+    assert result.exit_code == 2
+    assert f"{rep}: 1 problem" in result.output and "line 1: expected a speed" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_import_wide_gpx_nmea_and_inline_mapping(tmp_path):
+    folder = examples(tmp_path)
+    drone = run("import", "wide", folder / "drone.csv", "--mapping", folder / "drone.toml",
+                "-o", folder / "drone.parquet")
+    assert drone.exit_code == 0, drone.output
+    assert "sensor velocity: columns (ned)" in drone.output
+    inline = run("import", "wide", folder / "drone.csv", "--map",
+                 "time=utc,sensor=drone,lat=lat,lon=lon,alt=alt_m,altitude=msl,vn=vn,ve=ve,vd=vd",
+                 "--measure", "rssi_dbm=power:dBm:2", "--measure", "freq_hz=frequency:Hz:1",
+                 "-o", folder / "inline.parquet")
+    assert inline.exit_code == 0, inline.output
+    a = tk.read_measurements(folder / "drone.parquet")
+    b = tk.read_measurements(folder / "inline.parquet")
+    assert np.array_equal(a.value, b.value) and np.array_equal(a.sensor_state, b.sensor_state)
+    for fmt, track in (("gpx", "own.gpx"), ("nmea", "own.nmea")):
+        result = run("import", fmt, folder / track, folder / "bearings.csv", "--mapping",
+                     folder / "bearings.toml", "-o", folder / f"{fmt}.csv")
+        assert result.exit_code == 0, result.output
+        assert len(tk.read_measurements(folder / f"{fmt}.csv")) == 119
+
+
+def test_estimate_show_crlb_track_read_a_replay_file_directly(tmp_path):
+    folder = examples(tmp_path)
+    rep = folder / "contact.rep"
+    est = run("estimate", rep, "--ownship", "OWNSHIP", "--contact", "CONTACT", "--motion",
+              "cv2d", "--bearing-sigma", "0.5")
+    assert est.exit_code == 0, est.output
+    assert "converged" in est.output
+    assert run("show", rep).exit_code == 0
+    crlb = run("crlb", rep, "--motion", "cv2d", "--truth", "x=2000,y=5000,vx=-4,vy=-3")
+    assert crlb.exit_code == 0, crlb.output
+    wide = run("estimate", folder / "drone.csv", "--mapping", folder / "drone.toml",
+               "--motion", "static2d")
+    assert wide.exit_code == 0, wide.output
+    own = run("estimate", folder / "drone.csv", "--ownship", "X", "--motion", "static2d")
+    assert own.exit_code == 2 and "--ownship applies to real logs" in own.output
+
+
+def test_a_failed_3d_start_names_dim_2(tmp_path):
+    folder = examples(tmp_path)
+    out = folder / "three.csv"
+    assert run("import", "rep", folder / "contact.rep", "--dim", "3", "-o", out).exit_code == 0
+    assert tk.read_measurements(out).dim == 3  # the Earth's curvature becomes height
+    result = run("track", out)
+    assert result.exit_code == 2 and "track in 2-D (--dim 2)" in result.output
+    assert run("track", out, "--dim", "2", "--rows", "2").exit_code == 0
