@@ -36,7 +36,7 @@ PYTHON = {"python", "py", "python3"}
 SHELL = {"bash", "sh", "shell"}
 CONSOLE = {"console", "shell-session"}
 RUNNABLE = PYTHON | SHELL | CONSOLE
-FENCE = re.compile(r"^(?P<indent> {0,3})(?P<fence>`{3,}|~{3,})(?P<info>[^\n`]*)$")
+FENCE = re.compile(r"^(?P<indent> *)(?P<fence>`{3,}|~{3,})(?P<info>[^\n`]*)$")  # in lists too
 NOT_RUN = re.compile(r"^<!--\s*not run\s*:(?P<reason>.*?)-->\s*$", re.S)
 BLOCK_TIMEOUT_S = 600
 
@@ -71,8 +71,11 @@ def blocks(doc: Path) -> list[Block]:
         while end < len(lines) and not (lines[end].strip().startswith(fence[0] * len(fence))
                                          and lines[end].strip().strip(fence[0]) == ""):
             end += 1
-        found.append(Block(doc, i + 1, info.split()[0].lower() if info else "",
-                           "\n".join(lines[i + 1:end]) + "\n", _skip_reason(lines, i)))
+        indent = len(m.group("indent"))
+        code = "\n".join(ln[indent:] if not ln[:indent].strip() else ln.lstrip()
+                         for ln in lines[i + 1:end]) + "\n"
+        found.append(Block(doc, i + 1, info.split()[0].lower() if info else "", code,
+                           _skip_reason(lines, i)))
         i = end + 1
     return found
 
@@ -205,6 +208,15 @@ def test_a_not_run_comment_skips_the_next_block_only(tmp_path):
     found = blocks(doc)
     assert [b.skip_reason for b in found] == ["needs a radio", None, ""]
     assert [b.line for b in found] == [3, 7, 11]
+
+
+def test_a_block_in_a_list_item_is_found_and_dedented(tmp_path):
+    doc = tmp_path / "d.md"
+    doc.write_text("1. Simulate:\n\n    ```bash\n    tma scenarios\n    ```\n\n"
+                   "```python\nfor k in range(2):\n    print(k)\n```\n")
+    listed, top = blocks(doc)
+    assert (listed.lang, listed.code) == ("bash", "tma scenarios\n")
+    assert top.code == "for k in range(2):\n    print(k)\n"  # indentation kept
 
 
 def commands(block: Block) -> int:
