@@ -240,8 +240,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         ceiling: Array | None = None, *,
                         free: NDArray[np.bool_] | None = None, damping: str = "nielsen",
                         max_reject: int | None = None, stall: float = 0.0,
-                        dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN)
-                        ) -> SolveResult:
+                        dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN),
+                        damping0: float = 1e-3) -> SolveResult:
     """Fit a batch by Levenberg–Marquardt (Marquardt's diagonal scaling), nuisance reduced.
 
     Parameters
@@ -270,7 +270,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     free : ndarray of bool, optional
         ``(p,)`` the parameters fitted, the others held at their start (default: all).
     damping : {"nielsen", "factors"}
-        The damping schedule (:data:`DAMPING`); it starts at 1e-3, floored at 1e-12.
+        The damping schedule (:data:`DAMPING`); it starts at ``damping0``, floored at 1e-12.
     max_reject : int, optional
         A run stops, not converged, after this many rejected steps in a row.
     stall : float
@@ -278,6 +278,9 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         cost by less than ``stall`` in all.
     dominance : (float, float)
         ``(factor, margin)`` of the dominance test (half chi2; default the module constants).
+    damping0 : float
+        The first damping (in the scaled variables): small from a start known to be near the
+        optimum, where Gauss–Newton steps converge fast.
 
     Returns
     -------
@@ -306,6 +309,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
                    damping, max_reject, stall, dominance)
     runs = _start(problem, y, theta0, groups, ceiling, stall > 0)
+    runs.lam[:] = damping0
     with np.errstate(invalid="ignore", divide="ignore"):
         runs = _iterate(problem, runs, max_iter, rules)
     runs.finish()
