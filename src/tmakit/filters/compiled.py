@@ -229,9 +229,12 @@ def compiled_for(meas: MeasurementSet, dim: int,
     key = repr((int(dim), sorted((str(k), sorted(dict(v).items()))
                                  for k, v in dict(options or {}).items()),
                 sorted(dict(nuisance or {}).items())))
-    per_set = _COMPILED.get(meas)
-    if per_set is None:
-        per_set = _COMPILED[meas] = {}
+    try:
+        per_set = _COMPILED.get(meas)
+        if per_set is None:
+            per_set = _COMPILED[meas] = {}
+    except TypeError:  # a set that cannot be weakly referenced or hashed: compiled each time
+        return CompiledMeasurements(meas, dim, options, nuisance)
     out = per_set.get(key)
     if out is None:
         if len(per_set) >= 8:  # many settings on one set: keep the cache small
