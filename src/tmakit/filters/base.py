@@ -21,7 +21,7 @@ from ..data import MeasurementSet
 from ..linalg import check_prior, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .compiled import CompiledMeasurements
+from .compiled import CompiledMeasurements, compiled_for
 from .extras import TrackExtras
 from .kernels import KernelRun
 from .record import Recorder, UpdateInfo
@@ -342,7 +342,8 @@ class TrackingFilter(ABC):
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
-        The set is compiled once (:class:`~.compiled.CompiledMeasurements`); a filter with a
+        The set is compiled once (:class:`~.compiled.CompiledMeasurements`, kept for the
+        set's next runs with the same dimension, options and nuisance); a filter with a
         closed-form kernel for the case (:mod:`.kernels`) uses it.
 
         Parameters
@@ -367,8 +368,7 @@ class TrackingFilter(ABC):
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
             raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
                              f"filter's prior time t={self.time} s")
-        return self.run_compiled(CompiledMeasurements(meas, self.dim, self.options,
-                                                      self.nuisance))
+        return self.run_compiled(compiled_for(meas, self.dim, self.options, self.nuisance))
 
     def _plain_interface(self) -> bool:
         """Tell whether predict, update and group are the base class's (else run uses them)."""
