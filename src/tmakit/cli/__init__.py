@@ -14,6 +14,9 @@
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
+Exit statuses: 0 success, 1 honest non-success (unobservable, diverged, not converged), 2 bad
+input, 3 internal error (traceback in a log file, or on the terminal with ``tma --debug``),
+130 interrupted, 143 terminated (see :mod:`tmakit.cli.guard`).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import typer
 
 from .crlb import crlb
 from .estimate import estimate
+from .guard import guarded, install_sigterm, set_debug
 from .montecarlo import montecarlo
 from .plan import plan
 from .reproduce import reproduce
@@ -31,14 +35,26 @@ from .track import track
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="tmakit: passive emitter localisation and target motion analysis.")
 
-# Registered in this order: ``tma --help`` lists the commands in it.
+
+
+@app.callback()
+def _options(debug: bool = typer.Option(
+        False, "--debug", help="show tracebacks and numerical warnings (for bug reports)"),
+             ) -> None:
+    """Passive emitter localisation and target motion analysis."""
+    set_debug(debug)
+
+
+# Registered in this order: ``tma --help`` lists the commands in it.  Each is guarded: no
+# traceback reaches the user (tmakit.cli.guard).
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
                  plan, demo):
-    app.command()(_command)
+    app.command()(guarded(_command))
 
 
 def main() -> None:
     """Entry point of the ``tma`` console script."""
+    install_sigterm()
     app()
 
 

@@ -170,8 +170,12 @@ def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None) -
 
     if not path.exists():
         raise fail(f"{path}: no such file")
+    if path.is_dir():
+        raise fail(f"{path}: is a folder, not a measurement file")
     try:
         return read_measurements(path, origin=origin)
+    except OSError as e:
+        raise fail(f"{path}: cannot be read ({e.strerror or e})") from None
     except (MeasurementFileError, ValueError) as e:
         from ..io.positions import ORIGIN_HINT
 

@@ -8,7 +8,8 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from .common import fail, load_scenario_or_fail, out, refuse_existing
+from .common import fail, load_scenario_or_fail, out
+from .outputs import check_outputs
 
 
 # `tma montecarlo`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -33,13 +34,8 @@ def montecarlo(
     force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
 ) -> None:
     """Simulate and estimate a scenario many times; compare the RMSE with the CRLB."""
-    for path in (output, json_file):
-        if path is not None:
-            refuse_existing(path, force)
-    from ..io.study_files import STUDY_SUFFIXES
-
-    if output is not None and output.suffix.lower() not in STUDY_SUFFIXES:
-        raise fail(f"{output}: the per-run table is written as .csv or .parquet")
+    output, json_file = check_outputs([("-o", output, "table"), ("--json", json_file, "json")],
+                                      force)
     scn = load_scenario_or_fail(scenario)
     from ..montecarlo import monte_carlo
 
