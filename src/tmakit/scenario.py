@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import rules
 from .data import MeasurementSet
 from .measurements import KINDS, interval_count
 from .motion import MotionModel
@@ -253,7 +254,7 @@ class Scenario:
             states[key] = track.states(times)
         return MeasurementSet.from_si(times, np.full(n, plan.sensor), np.full(n, plan.kind),
                                       np.zeros(n), sigma_si, states[key], time_ref,
-                                      ref_state)
+                                      ref_state, check=False)  # values: simulate_many
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
         """Observe the scenario.
@@ -275,7 +276,8 @@ class Scenario:
         ------
         ValueError
             If a power plan's SNR_p is so low that the multiplicative noise makes a power
-            negative.
+            negative, or a simulated row breaks a rule of the file format
+            (:mod:`tmakit.rules`: a NaN truth, an infinite sigma, ...).
         """
         return self.simulate_many([rng], noise)[0]
 
@@ -343,6 +345,7 @@ class Scenario:
             meas.value_si = np.concatenate(values)[order]
             if isinstance(rng, int):
                 meas.metadata["seed"] = str(rng)
+            rules.check_set(meas, order=False)  # what a file reader would refuse
             out.append(meas)
         return out
 
