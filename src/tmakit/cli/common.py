@@ -10,6 +10,7 @@ must start without numpy's heavy users (scipy, the estimators) or pydantic.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -233,8 +234,10 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
     typer.Exit
         Status 2 when no motion is named or the name is unknown.
     """
-    from ..motion import motion_from_name
+    from ..motion import default_ref_time, motion_from_name
 
+    if ref_time is not None and not math.isfinite(ref_time):
+        raise fail(f"--ref-time {ref_time}: expected a finite time (s)")
     if name is None:
         if meas is not None and "motion" in meas.metadata:
             name = meas.metadata["motion"]
@@ -243,7 +246,9 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
         else:
             raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
     try:
-        return motion_from_name(name, 0.0 if ref_time is None else ref_time)
+        if ref_time is None:  # inside the data: the fit does not depend on the time origin
+            ref_time = 0.0 if meas is None else default_ref_time(meas.time)
+        return motion_from_name(name, ref_time)
     except ValueError as e:
         raise fail(str(e)) from None
 
