@@ -248,9 +248,14 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
     try:
         if ref_time is None:  # inside the data: the fit does not depend on the time origin
             ref_time = 0.0 if meas is None else default_ref_time(meas.time)
-        return motion_from_name(name, ref_time)
+        model = motion_from_name(name, ref_time)
     except ValueError as e:
         raise fail(str(e)) from None
+    if meas is not None and model.n_params > len(meas):  # work limit: not identifiable
+        raise fail(f"--motion {name}: {model.n_params:,} parameters from {len(meas):,} "
+                   "measurements cannot be identified (at most one parameter per "
+                   "measurement); choose a motion with fewer parameters")
+    return model
 
 
 def model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, object]]:

@@ -64,7 +64,8 @@ def estimate(
     options = model_options(drift, free_exponent)
     # -- manoeuvring targets: tmakit.batch.curvilinear --------------------------------------
     name = motion if motion is not None else meas.metadata.get("motion")
-    if name is not None and getattr(motion_or_fail(name, ref_time), "manoeuvres", None) is not None:
+    if name is not None and getattr(motion_or_fail(name, ref_time, meas), "manoeuvres",
+                                                None) is not None:
         if method != "ml":
             raise fail(f"--method {method}: manoeuvring targets (--motion {name}) are "
                        "estimated by ml only")

@@ -146,3 +146,48 @@ def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
             draw(tmp)
     except FileExistsError:
         raise fail(f"{path} already exists; use --force to overwrite it") from None
+
+
+def memory_limit() -> int:
+    """Give the memory a command may plan to use (bytes): ``TMA_MAX_MEMORY_GB``, default 2.
+
+    Returns
+    -------
+    int
+        The limit in bytes.
+    """
+    try:
+        gb = float(os.environ.get("TMA_MAX_MEMORY_GB", "2"))
+    except ValueError:
+        gb = 2.0
+    return int(max(gb, 0.001) * 2**30)
+
+
+def check_particles(particles: int | None, option: str = "--particles",
+                    bytes_per_particle: int = 8 * 8 * 8) -> None:
+    """Refuse a particle count whose working arrays would not fit the memory limit.
+
+    A particle filter holds a few arrays of (particles, state + nuisance) doubles; about
+    ``bytes_per_particle`` bytes per particle in all (default 8 values x 8 bytes x 8 copies).
+
+    Parameters
+    ----------
+    particles : int or None
+        The count asked for (None: the default).
+    option : str
+        The option's name, for the message.
+    bytes_per_particle : int
+        Estimated working memory per particle (bytes).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 naming the size, the limit and how to raise it.
+    """
+    if particles is None:
+        return
+    need = particles * bytes_per_particle
+    if need > memory_limit():
+        raise fail(f"{option} {particles:,}: about {need / 2**30:.1f} GiB of working memory, "
+                   f"more than the limit of {memory_limit() / 2**30:.1f} GiB; raise it with "
+                   "TMA_MAX_MEMORY_GB=N")

@@ -72,6 +72,9 @@ def plan(
         raise fail("--runs must be 1 or more")
     if particles is not None and particles < 2:
         raise fail("--particles must be 2 or more")
+    from .outputs import check_particles
+
+    check_particles(particles)
     from ..scenario_planning import PLANNING_TRACKERS
 
     if tracker is not None and tracker not in PLANNING_TRACKERS:

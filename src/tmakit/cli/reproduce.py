@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from .common import JsonOption, fail, out
-from .outputs import check_outputs, write_picture
+from .outputs import check_outputs, check_particles, write_picture
 
 
 # `tma reproduce`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -60,6 +60,7 @@ def reproduce(
                      if hasattr(importlib.import_module(m), "plot")]
             raise fail(f"--plot: reproduction {name!r} draws no figure (figures: "
                        f"{', '.join(drawn)})")
+    check_particles(particles)
     plot, output = check_outputs([("--plot", plot, "picture"), ("-o", output, "table")], force)
     checkpoint = None
     if output is not None:

@@ -191,8 +191,9 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
     """
     from .. import tracking
     from ..filters import FILTERS
-    from .outputs import check_outputs
+    from .outputs import check_outputs, check_particles
 
+    check_particles(particles)
     output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")

@@ -58,8 +58,13 @@ def _record_lines(path: Path, body: str, pre_lines: int) -> tuple[list[str], lis
             f"{', '.join(COLUMN_ORDER[:5])}, ..."])
     header_line = pre_lines + reader.line_num
     names = [h.strip() for h in header]
-    problems = [f"line {header_line}: column {name!r} appears more than once in the header"
-                for i, name in enumerate(names) if name in names[:i]]
+    seen: set[str] = set()  # linear in the columns (a list search would be quadratic)
+    problems = []
+    for name in names:
+        if name in seen:
+            problems.append(f"line {header_line}: column {name!r} appears more than once in "
+                            "the header")
+        seen.add(name)
     problems += [f"line {header_line}: column {i + 1} of the header has no name"
                  for i, name in enumerate(names) if not name]
     lines: list[int] = []
