@@ -135,8 +135,12 @@ def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
     typer.Exit
         Status 2 when the scenario cannot be simulated (the message says why).
     """
+    from numpy.linalg import LinAlgError
+
     try:
         return scn.simulate(rng=seed, noise=noise)
+    except LinAlgError:  # a numerical failure, not bad input: the guard reports it
+        raise
     except ValueError as e:
         raise fail(f"scenario {scn.name}: {e}") from None
 
