@@ -337,3 +337,40 @@ def test_a_scenario_asking_for_too_many_rows_is_refused(tmp_path):
     result = run("simulate", path, "-o", tmp_path / "big.csv")
     assert result.exit_code == 2, result.output
     assert "TMA_MAX_SAMPLES" in result.output
+
+
+# -- non-finite and repeated options; undefined geometry ------------------------------------
+
+@pytest.mark.parametrize("args, words", [
+    (("crlb", "gu2007", "--at", "nan"), "--at nan: expected a finite number"),
+    (("crlb", "{obs}", "--motion", "cv2d", "--ref-time", "inf"), "--ref-time inf"),
+    (("crlb", "{obs}", "--motion", "cv2d", "--truth", "x=4000,x=5"), "x is given twice"),
+    (("crlb", "{obs}", "--motion", "cv2d", "--truth", "x=nan,y=1"), "not a finite number"),
+    (("track", "{obs}", "--prior-time", "nan"), "--prior-time nan"),
+])
+def test_non_finite_or_repeated_option_values_are_refused(obs, args, words):
+    result = run(*(a.format(obs=obs) for a in args))
+    assert result.exit_code == 2, result.output
+    assert words in result.output
+
+
+def test_a_target_exactly_on_a_sensor_is_refused_not_given_a_bearing_of_zero(tmp_path):
+    path = tmp_path / "on.toml"
+    path.write_text("""name = "on"
+[target]
+motion = "cv2d"
+truth = { x = 0.0, y = 0.0, vx = 0.0, vy = 0.0 }
+[[sensors]]
+id = "post"
+type = "fixed"
+position = [0.0, 0.0]
+[[measurements]]
+kind = "bearing"
+sensor = "post"
+times = { start = 0.0, stop = 10.0, step = 1.0 }
+sigma = 1.0
+""")
+    result = run("simulate", path, "-o", tmp_path / "on.csv")
+    assert result.exit_code == 2, result.output
+    assert "exactly at sensor 'post'" in result.output
+    assert not (tmp_path / "on.csv").exists()

@@ -309,6 +309,7 @@ class Scenario:
         states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
         for plan in self.plans:
             rows = self._layout(plan, states)
+            self._refuse_coincident(plan, rows)
             obs = ObservationModel(rows, self.motion, self.measurement_options)
             clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
             plans.append((plan, rows, clean, obs.models[plan.kind]))
@@ -348,6 +349,14 @@ class Scenario:
             rules.check_set(meas, order=False)  # what a file reader would refuse
             out.append(meas)
         return out
+
+    def _refuse_coincident(self, plan: MeasurementPlan, rows: MeasurementSet) -> None:
+        """Refuse a target exactly at a sensor (bearings and ranges undefined there)."""
+        target = np.asarray(self.motion.states(self.theta, rows.time), dtype=float)[:, :3]
+        at = np.flatnonzero(np.all(target == rows.sensor_state[:, :3], axis=1))
+        if at.size:
+            raise ValueError(f"the target is exactly at sensor {plan.sensor!r} at t = "
+                             f"{rows.time[at[0]]:g} s: its {plan.kind} is undefined there")
 
     @staticmethod
     def _noisy(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],

@@ -398,6 +398,11 @@ def _read_toml(path: Path) -> dict[str, Any]:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ScenarioFileError(f"{path}: no such scenario file") from None
+    except UnicodeDecodeError as e:
+        raise ScenarioFileError(f"{path}: not a UTF-8 text (TOML) file ({e.reason} at byte "
+                                f"{e.start})") from None
+    except OSError as e:  # a folder, no permission
+        raise ScenarioFileError(f"{path}: cannot be read ({e.strerror or e})") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

@@ -127,6 +127,17 @@ def _interrupted(code: int, why: str) -> int:
     return code
 
 
+def _refuse_non_finite(options: dict[str, Any]) -> None:
+    """Refuse NaN or infinite numeric options (``--at nan``, ``--ref-time inf``): exit 2."""
+    import math
+
+    for name, value in options.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            from .common import fail
+
+            raise fail(f"--{name.replace('_', '-')} {value}: expected a finite number")
+
+
 def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
     """Wrap a ``tma`` command: unexpected exceptions become ``error: ...`` (exit 3).
 
@@ -146,6 +157,7 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:
+        _refuse_non_finite(kwargs)
         caught: list[warnings.WarningMessage] = []
         try:
             with warnings.catch_warnings(record=not _state["debug"]) as record:

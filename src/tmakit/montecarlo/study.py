@@ -178,11 +178,17 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     Raises
     ------
     ValueError
-        A bad argument (the message names it), an unknown estimator or scenario.
+        A bad argument (the message names it), an unknown estimator or scenario, or a
+        scenario whose target manoeuvres.
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
     scenario = _scenario(scenario)
+    if getattr(scenario.motion, "manoeuvres", None):
+        raise ValueError(f"scenario {scenario.name}: its target manoeuvres "
+                         f"({scenario.motion.name}); Monte Carlo studies fit one motion model "
+                         "per run and cannot start a manoeuvring one (for hoerst2010: tma "
+                         "reproduce hoerst2010)")
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
     _check_seed(seed)
