@@ -374,3 +374,18 @@ sigma = 1.0
     assert result.exit_code == 2, result.output
     assert "exactly at sensor 'post'" in result.output
     assert not (tmp_path / "on.csv").exists()
+
+
+def test_a_parquet_list_column_is_a_clear_error_not_a_schema_dump(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table({"time": [0.0, 1.0], "sensor": ["a", "a"], "kind": ["bearing"] * 2,
+                      "value": [[1.0], [2.0]], "sigma": [1.0, 1.0], "sensor_x": [0.0, 0.0],
+                      "sensor_y": [0.0, 0.0], "sensor_z": [0.0, 0.0]})
+    path = tmp_path / "list.parquet"
+    pq.write_table(table, path)
+    result = run("show", path)
+    assert result.exit_code == 2, result.output
+    assert "column 'value': expected numbers" in result.output
+    assert "DATATYPE_COERCION" not in result.output

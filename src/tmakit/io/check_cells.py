@@ -78,11 +78,18 @@ def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
         table = schema.validate(table, lazy=True)
     except pa.errors.SchemaErrors as err:
         fc = err.failure_cases
+        whole: set[str] = set()
         for column, index in zip(fc["column"], fc["index"], strict=True):
             if column in cols and index is not None and not is_blank(index):
                 row = int(index)
                 problems.cell(row, str(column), "a number")
                 table.loc[row, column] = np.nan  # type: ignore[index]
+            elif column in cols:  # the column as a whole (lists, structs): not numbers
+                whole.add(str(column))
+        for column in sorted(whole):
+            problems.file.append(f"column '{column}': expected numbers, found values of type "
+                                 f"{frame[column].dtype}")
+            table[column] = np.nan
         table = schema.validate(table, lazy=True)
     return {c: table[c].to_numpy(dtype=np.float64, copy=True) for c in present}
 
