@@ -44,7 +44,8 @@ def _where(rows: NDArray[np.intp], column: str, expected: str,
 def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                     kind: NDArray[np.integer], value: NDArray[np.float64],
                     sigma: NDArray[np.float64], sensor_state: NDArray[np.float64],
-                    time_ref: NDArray[np.float64], order: bool = True) -> list[str]:
+                    time_ref: NDArray[np.float64], order: bool = True, ranges: bool = True
+                    ) -> list[str]:
     """Check the columns of a measurement set against the rules of the file format.
 
     Every check is vectorised (linear in the rows, plus one sort for the time order).
@@ -65,6 +66,9 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
         Reference times (s) of range differences; NaN elsewhere.
     order : bool, optional
         Check that time does not decrease within a sensor (default).
+    ranges : bool, optional
+        Check each kind's value range (default; a file's rule, not a simulation's: a noisy
+        simulated range may be negative).
 
     Returns
     -------
@@ -84,7 +88,7 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     bad = np.flatnonzero(np.isfinite(sigma) & ~(sigma > 0))
     found += _where(bad, "sigma", SIGMA_POSITIVE, sigma[bad])
     for code, cls in enumerate(KINDS.values()):
-        if cls.value_range is None:
+        if cls.value_range is None or not ranges:
             continue
         rows = np.flatnonzero((kind == code) & np.isfinite(value))
         bad = rows[~cls.check_values(value[rows])]
@@ -193,15 +197,15 @@ def raise_problems(found: list[str], what: str = "measurement set") -> None:
         raise ValueError(f"invalid {what}: " + "\n  ".join(found[:3 * _SHOWN]) + more)
 
 
-def check_set(meas: Any, order: bool = True) -> None:
+def check_set(meas: Any, order: bool = True, ranges: bool = True) -> None:
     """Refuse a measurement set that breaks a rule (columns and metadata).
 
     Parameters
     ----------
     meas : tmakit.data.MeasurementSet
         The set (its file-unit values are checked, as in a file).
-    order : bool, optional
-        Check the time order within each sensor too (default).
+    order, ranges : bool, optional
+        Check the time order within each sensor and each kind's value range (default).
 
     Raises
     ------
@@ -209,5 +213,6 @@ def check_set(meas: Any, order: bool = True) -> None:
         Listing every problem (row, column, what was expected and found).
     """
     raise_problems(column_problems(meas.time, meas.sensor_code, meas.kind_code, meas.value,
-                                   meas.sigma, meas.sensor_state, meas.time_ref, order)
+                                   meas.sigma, meas.sensor_state, meas.time_ref, order,
+                                   ranges)
                    + metadata_problems(meas.metadata))

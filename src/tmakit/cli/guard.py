@@ -6,11 +6,12 @@ Every command runs inside :func:`guarded`.  An exception the command did not tur
     error: internal error in `tma estimate` while computing tmakit.batch.ml.fit:
     LinAlgError: SVD did not converge (please report; traceback in /tmp/tma-error-....log)
 
-with exit status :data:`EXIT_INTERNAL`; the traceback goes to a log file (or to the terminal
-under ``tma --debug`` or ``TMA_DEBUG=1``).  Ctrl-C ends a command with status 130 and SIGTERM
-with 143, after the files being written are cleaned up.  Numerical ``RuntimeWarning`` s (an
-overflow in an exponential, a division by zero that the code handles) are not printed; they
-are counted in the log under ``--debug``.
+with exit status :data:`EXIT_INTERNAL`; the traceback goes to a log file.  Under
+``tma --debug`` (or ``TMA_DEBUG=1``) the exception is not caught: Python prints its
+traceback.  Ctrl-C ends a command with status 130 and SIGTERM with 143, after the files being
+written are cleaned up.  Numerical ``RuntimeWarning`` s (an overflow in an exponential, a
+division by zero that the code handles) are not printed (``--debug`` shows them); they are
+listed in the log of an internal error.
 
 Exit statuses of ``tma``: 0 success; 1 an honest non-success (unobservable, diverged, did not
 converge); 2 bad input or options (the message names the file, row, column or option); 3 an
@@ -187,6 +188,8 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
                       markup=True, soft_wrap=True)
             raise typer.Exit(EXIT_BAD_INPUT) from None
         except Exception as exc:  # the point: nothing escapes as a traceback
+            if _state["debug"]:  # tma --debug: the exception itself, traceback and all
+                raise
             raise typer.Exit(_report(exc, command.__name__, caught)) from None
 
     return run

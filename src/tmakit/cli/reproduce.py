@@ -61,7 +61,8 @@ def reproduce(
             raise fail(f"--plot: reproduction {name!r} draws no figure (figures: "
                        f"{', '.join(drawn)})")
     check_particles(particles)
-    plot, output = check_outputs([("--plot", plot, "picture"), ("-o", output, "table")], force)
+    plot, output = check_outputs([("--plot", plot, "picture"), ("--output", output, "table")],
+                                 force)
     checkpoint = None
     if output is not None:
         checkpoint = _checkpoint(output, force)

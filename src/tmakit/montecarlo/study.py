@@ -65,6 +65,11 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
     if not isinstance(scenario, Scenario):
         raise ValueError(f"scenario must be a Scenario or a scenario name, not "
                          f"{type(scenario).__name__}")
+    if getattr(scenario.motion, "manoeuvres", None):
+        raise ValueError(f"scenario {scenario.name}: its target manoeuvres "
+                         f"({scenario.motion.name}); Monte Carlo studies fit one motion model "
+                         "per run and cannot start a manoeuvring one (for hoerst2010: tma "
+                         "reproduce hoerst2010)")
     return scenario
 
 
@@ -133,8 +138,7 @@ def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
 
 
 def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: int = 100,
-                seed: int | None = 0, options: Options | None = None,
-                known_nuisance: bool = False,
+                seed: int | None = 0, options: Options | None = None, known_nuisance: bool = False,
                 init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
                 dask: str | Client | None = None, chunk: int | None = None,
                 on_chunk: Callable[[ChunkOutput], None] | None = None) -> MonteCarloResult:
@@ -150,11 +154,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs : int
         Number of runs (>= 1).
     seed : int or None
-        Fixes every run's data (see the module docstring); ``None`` draws fresh entropy,
-        recorded in the result.
+        Fixes every run's data (module docstring); ``None``: fresh entropy, recorded.
     options : mapping, optional
-        The nuisance model per kind; default the scenario's
-        (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
+        The nuisance model per kind (default :attr:`Scenario.measurement_options`), CRLB too.
     known_nuisance : bool
         Give the estimator (and the CRLB) the scenario's true nuisance values.
     init : mapping or array_like, optional
@@ -167,8 +169,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         Runs per task (default :func:`~.execution.default_chunk`).  The table is the same,
         run for run, for any ``chunk`` and ``dask``.
     on_chunk : callable, optional
-        Called with each chunk's output as soon as it is finished (to save the finished runs
-        of a study that is interrupted or fails: :func:`finished_runs_table`).
+        Called with each finished chunk's output (:func:`finished_runs_table` saves them).
 
     Returns
     -------
@@ -178,17 +179,11 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     Raises
     ------
     ValueError
-        A bad argument (the message names it), an unknown estimator or scenario, or a
-        scenario whose target manoeuvres.
+        A bad argument (named), an unknown estimator or scenario, a manoeuvring target.
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
     scenario = _scenario(scenario)
-    if getattr(scenario.motion, "manoeuvres", None):
-        raise ValueError(f"scenario {scenario.name}: its target manoeuvres "
-                         f"({scenario.motion.name}); Monte Carlo studies fit one motion model "
-                         "per run and cannot start a manoeuvring one (for hoerst2010: tma "
-                         "reproduce hoerst2010)")
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
     _check_seed(seed)
@@ -207,8 +202,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         batched_init = init_vector if estimator == "ml" else None
         tasks = [ChunkTask(scenario, estimator, opts, known_nuisance, init, batched_init, lo,
                            tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
-        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs,
-                                 progress, on_chunk)
+        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs, progress,
+                                 on_chunk)
         executor = "local" if client is None else f"dask {client.scheduler.address}"
     finally:
         if own_client and client is not None:

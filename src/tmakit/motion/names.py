@@ -90,12 +90,13 @@ def motion_from_name(name: str, ref_time: float = 0.0) -> MotionModel:
 
 
 def default_ref_time(times: ArrayLike) -> float:
-    """Give the reference time of a motion model fitted to data at ``times``: inside the data.
+    """Give the reference time of a motion model fitted to data at ``times``: near the data.
 
-    0 when the data's time span holds it (as before), else the first time: parameters
-    referred to a time far from the data (an absolute clock, 1.7e9 s since 1970) would make
-    the positions at the reference time depend on the velocities 1e9 times over, and the
-    fit ill-conditioned.  So the estimate and bound do not depend on the time origin.
+    0 when the data lie within one time span of it (as before: files that start at or near
+    0 keep their parameters), else the first time.  Parameters referred to a time far from
+    the data (an absolute clock, 1.7e9 s since 1970) would make the positions at the
+    reference time depend on the velocities 1e9 times over and the fit ill-conditioned; so
+    data shifted far from 0 give the same estimate and bound as data starting at 0.
 
     Parameters
     ----------
@@ -109,6 +110,8 @@ def default_ref_time(times: ArrayLike) -> float:
     """
     t = np.asarray(times, dtype=float)
     t = t[np.isfinite(t)]
-    if t.size == 0 or t.min() <= 0.0 <= t.max():
+    if t.size == 0:
         return 0.0
-    return float(t.min())
+    low, high = float(t.min()), float(t.max())
+    span = max(high - low, 1.0)
+    return 0.0 if low - span <= 0.0 <= high + span else low
