@@ -22,3 +22,31 @@ def test_a_killed_writer_leaves_no_partial_target_and_no_temporary_file(tmp_path
         state = kill_once(tmp_path, suffix, 20_000, float(rng.uniform(0.0, 0.4)),
                           SIGNALS[sig], overwrite)
         assert state in (("old", "new") if overwrite else ("absent", "new")), (sig, state)
+
+
+def test_sigterm_ends_tma_with_143_keeping_finished_runs_and_no_temporary_file(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "runs.csv"
+    proc = subprocess.Popen([sys.executable, "-m", "tmakit.cli", "montecarlo", "gu2007",
+                             "--runs", "100000", "--chunk", "20", "-o", str(out)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            env=os.environ.copy())
+    assert proc.stderr is not None
+    proc.stderr.read(1)  # the progress bar is drawn: the study (and the handler) is running
+    time.sleep(3.0)  # a few chunks of 20 runs finish
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if ".tmp" in p.name]
+    import pandas as pd
+
+    table = pd.read_csv(tmp_path / "runs.partial.csv")  # the finished runs, whole chunks
+    assert len(table) > 0 and len(table) % 20 == 0
+    assert list(table["run"]) == list(range(len(table)))
