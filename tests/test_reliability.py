@@ -280,9 +280,9 @@ def base_set(obs):
 
 @settings(max_examples=4, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(origin=st.sampled_from([0.0, 1e5, 1.7e9]), eighths=st.integers(0, 7))
+@given(origin=st.sampled_from([1e5, 1.7e9]), eighths=st.integers(0, 7))
 def test_bound_and_estimate_do_not_depend_on_the_time_origin(base_set, origin, eighths):
-    m = base_set
+    m = base_set  # times from 0; a clock far from them: 1e5 s, or Unix time 1.7e9 s
     shift = origin + eighths / 8  # fractional seconds, exactly representable
     moved = tk.MeasurementSet(m.time + shift, m.sensor, m.kind, m.value, m.sigma,
                               m.sensor_state)
