@@ -562,7 +562,7 @@ def test_every_caller_reads_a_motion_name_alike(name, hoerst_file, monkeypatch, 
     with pytest.raises(_Routed) as short:
         tk.estimate(meas, name)
     assert short.value.args[0] == want
-    cli = CliRunner().invoke(app, ["estimate", str(hoerst_file), "--motion", name])
+    cli = CliRunner().invoke(app, ["--debug", "estimate", str(hoerst_file), "--motion", name])
     assert isinstance(cli.exception, _Routed), cli.output
     assert cli.exception.args[0] == want
     # a scenario file naming its target's motion so: the built-in file, its motion renamed

@@ -45,7 +45,7 @@ PLANNING_TRACKERS = ("pf", "ekf", "ukf")
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)  # NaN/inf: refused
 
 
 class LimitsSpec(_Strict):

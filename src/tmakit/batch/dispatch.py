@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 from ..data import MeasurementSet
-from ..motion import MotionModel, PiecewiseCurvilinear, motion_from_name
+from ..motion import MotionModel, PiecewiseCurvilinear, default_ref_time, motion_from_name
 from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options
@@ -53,7 +53,9 @@ def model_of(motion: MotionModel | str, meas: MeasurementSet,
         The measurements (their first time is a manoeuvring model's default reference).
     ref_time : float or None
         The reference time (s) of a model made from a name; default the first measurement
-        time for a manoeuvring target, 0 for the others.
+        time for a manoeuvring target, and for the others a time inside the data
+        (:func:`tmakit.motion.default_ref_time`: 0 when the data span it), so that the fit
+        does not depend on the time origin.
 
     Returns
     -------
@@ -67,7 +69,8 @@ def model_of(motion: MotionModel | str, meas: MeasurementSet,
     """
     if not isinstance(motion, str):
         return motion
-    model = motion_from_name(motion, 0.0 if ref_time is None else float(ref_time))
+    model = motion_from_name(motion, default_ref_time(meas.time) if ref_time is None
+                             else float(ref_time))
     if ref_time is None and isinstance(model, PiecewiseCurvilinear) and len(meas):
         model = PiecewiseCurvilinear(model.manoeuvres, float(meas.time.min()))
     return model

@@ -16,6 +16,9 @@
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
+Exit statuses: 0 success, 1 honest non-success (unobservable, diverged, not converged), 2 bad
+input, 3 internal error (traceback in a log file, or on the terminal with ``tma --debug``),
+130 interrupted, 143 terminated (see :mod:`tmakit.cli.guard`).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import typer
 
 from .crlb import crlb
 from .estimate import estimate
+from .guard import guarded, install_sigterm, set_debug
 from .importing import examples, import_
 from .montecarlo import montecarlo
 from .plan import plan
@@ -54,19 +58,26 @@ def _print_version(value: bool) -> None:
 @app.callback()
 def _root(version: Annotated[bool, typer.Option(
         "--version", callback=_print_version, is_eager=True,
-        help="print the version and exit")] = False) -> None:
+        help="print the version and exit")] = False,
+          debug: Annotated[bool, typer.Option(
+        "--debug", help="show tracebacks and numerical warnings (for bug reports)")] = False,
+          ) -> None:
     """Passive emitter localisation and target motion analysis (tmakit)."""
+    set_debug(debug)
 
-# Registered in this order: ``tma --help`` lists the commands in it.
+
+# Registered in this order: ``tma --help`` lists the commands in it.  Each is guarded: no
+# traceback reaches the user (tmakit.cli.guard).
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
                  plan, demo):
-    app.command()(_command)
-app.command(name="import")(import_)
-app.command()(examples)
+    app.command()(guarded(_command))
+app.command(name="import")(guarded(import_))
+app.command()(guarded(examples))
 
 
 def main() -> None:
     """Entry point of the ``tma`` console script."""
+    install_sigterm()
     if sys.argv[1:] == ["scenarios"]:
         # Typer (>= 0.2x) imports pydantic to coerce any command's parameters, even --help;
         # the plain listing has none, so it is run directly (same output and exit, no

@@ -9,7 +9,7 @@ cluster): run ``r``'s data do not depend on the number of runs either.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -28,7 +28,7 @@ from .runs import ChunkOutput, ChunkTask
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
 
-__all__ = ["monte_carlo"]
+__all__ = ["finished_runs_table", "monte_carlo"]
 
 Options = Mapping[str, Mapping[str, object]]
 
@@ -72,21 +72,53 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
     if not isinstance(scenario, Scenario):
         raise ValueError(f"scenario must be a Scenario or a scenario name, not "
                          f"{type(scenario).__name__}")
+    if getattr(scenario.motion, "manoeuvres", None):
+        raise ValueError(f"scenario {scenario.name}: its target manoeuvres "
+                         f"({scenario.motion.name}); Monte Carlo studies fit one motion model "
+                         "per run and cannot start a manoeuvring one (for hoerst2010: tma "
+                         "reproduce hoerst2010)")
     return scenario
 
 
 def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
-             progress: bool) -> tuple[list[ChunkOutput], float]:
+             progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None
+             ) -> tuple[list[ChunkOutput], float]:
     """Run the chunks here or on Dask; their outputs in run order and the wall time (s)."""
     bar = progress_bar(runs, progress, bar_label)
     start = time.perf_counter()
     try:
-        outputs = run_local(tasks, bar) if client is None else run_dask(tasks, client, bar)
+        outputs = (run_local(tasks, bar, on_done=on_chunk) if client is None
+                   else run_dask(tasks, client, bar, on_done=on_chunk))
     finally:
         bar.close()
     wall = time.perf_counter() - start
     outputs.sort(key=lambda o: o.first_run)
     return outputs, wall
+
+
+def finished_runs_table(outputs: Sequence[ChunkOutput], names: Sequence[str]
+                        ) -> pd.DataFrame:
+    """Build the per-run table of the chunks finished so far (a study interrupted or failed).
+
+    Parameters
+    ----------
+    outputs : sequence of ChunkOutput
+        Finished chunks, in any order (as given to ``on_chunk`` of :func:`monte_carlo`).
+    names : sequence of str
+        The motion parameters' names (``est_<name>`` columns).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The columns of :attr:`MonteCarloResult.table`, the runs in order.
+    """
+    done = sorted(outputs, key=lambda o: o.first_run)
+    if not done:
+        return pd.DataFrame({"run": np.zeros(0, np.int64)})
+    table, _ = _table(done, 0, tuple(names))
+    table["run"] = np.concatenate([np.arange(o.first_run, o.first_run + len(o))
+                                   for o in done])
+    return table
 
 
 def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
@@ -97,7 +129,7 @@ def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
     ``est_<param>``; both, from the chunks' outputs in run order.
     """
     table = pd.DataFrame({
-        "run": np.arange(runs, dtype=np.int64),
+        "run": np.arange(sum(len(o) for o in outputs), dtype=np.int64),
         "status": np.concatenate([np.asarray(o.status, dtype=object) for o in outputs]),
         "iterations": np.concatenate([o.iterations for o in outputs]),
         "chi2": np.concatenate([o.chi2 for o in outputs]),
@@ -116,8 +148,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
                 seed: int | None = 0, options: Options | None = None,
                 known_nuisance: KnownNuisanceLike = False,
                 init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
-                dask: str | Client | None = None, chunk: int | None = None
-                ) -> MonteCarloResult:
+                dask: str | Client | None = None, chunk: int | None = None,
+                on_chunk: Callable[[ChunkOutput], None] | None = None) -> MonteCarloResult:
     """Simulate ``scenario`` ``runs`` times, estimate each run, and compare with the CRLB.
 
     Parameters
@@ -130,8 +162,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs : int
         Number of runs (>= 1).
     seed : int or None
-        Fixes every run's data (see the module docstring); ``None`` draws fresh entropy,
-        recorded in the result.
+        Fixes every run's data (module docstring); ``None``: fresh entropy, recorded.
     options : mapping, optional
         The nuisance model per kind; default the scenario's
         (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
@@ -147,6 +178,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     chunk : int, optional
         Runs per task (default :func:`~.execution.default_chunk`).  The table is the same,
         run for run, for any ``chunk`` and ``dask``.
+    on_chunk : callable, optional
+        Called with each finished chunk's output (:func:`finished_runs_table` saves them).
 
     Returns
     -------
@@ -156,7 +189,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     Raises
     ------
     ValueError
-        A bad argument (the message names it), an unknown estimator or scenario.
+        A bad argument (named), an unknown estimator or scenario, a manoeuvring target.
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
@@ -178,8 +211,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         size = chunk or default_chunk(runs, estimator, client)
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
-        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs,
-                                 progress)
+        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs, progress,
+                                 on_chunk)
         executor = "local" if client is None else f"dask {client.scheduler.address}"
     finally:
         if own_client and client is not None:

@@ -349,7 +349,7 @@ def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: Arr
     t = group.time if time is None else float(time)
     return MeasurementSet(np.full(m, t), np.full(m, sensor), kinds.astype(str),
                           (value - offset) / scale, np.sqrt(np.diagonal(r)) / scale,
-                          np.repeat(s, m, axis=0))
+                          np.repeat(s, m, axis=0), check=False)  # noisy: a range may be < 0
 
 
 def _truth_path(setup: LoopSetup, dynamics: NearlyConstantVelocity,

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ...data import MeasurementSet
-from ...motion import PiecewiseCurvilinear, motion_from_name
+from ...motion import PiecewiseCurvilinear, default_ref_time, motion_from_name
 from ...results.estimate import EstimateResult
 from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .report import ManoeuvreEstimate, report
@@ -200,7 +200,8 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
     """
     if isinstance(motion, str):
         ref = kw.pop("ref_time", None)
-        model = motion_from_name(motion, 0.0 if ref is None else float(ref))
+        model = motion_from_name(motion, default_ref_time(meas.time) if ref is None
+                                 else float(ref))
         if not isinstance(model, PiecewiseCurvilinear):
             from ..ml import estimate
 
