@@ -6,7 +6,6 @@ Gaussian noise makes the ML estimate the weighted least-squares fit.  The nuisan
 (:mod:`tmakit.batch.init`) unless ``init`` is given.  The covariance is the inverse Fisher
 information at the estimate, over the motion and nuisance parameters together.  The status is
 never hidden: ``converged``, ``did not converge``, ``unobservable`` or ``diverged``.
-
 :class:`MaximumLikelihood` fits one motion model; a manoeuvring target has its own estimator
 (:mod:`tmakit.batch.manoeuvre`), and :func:`tmakit.batch.estimate` chooses by the motion.  This
 module imports neither.

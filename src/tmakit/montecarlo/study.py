@@ -164,8 +164,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     seed : int or None
         Fixes every run's data (module docstring); ``None``: fresh entropy, recorded.
     options : mapping, optional
-        The nuisance model per kind; default the scenario's
-        (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
+        The nuisance model per kind (default :attr:`Scenario.measurement_options`), CRLB too.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None
         Known to the estimator and the CRLB, at the values named, the scenario's (true) for
         the others (``True``: all the scenario's).  Default: estimated.
