@@ -250,6 +250,11 @@ class ManoeuvreSearch:
         order ``m - 1`` by one grid time; each warm-started from the order ``m - 1`` profile
         (the start reproduces that fit, so the held fit can only improve on it).
 
+        Parameters
+        ----------
+        m : int
+            Number of manoeuvres (change-over times), ``m >= 1``.
+
         Returns
         -------
         tuples : ndarray of int
