@@ -285,7 +285,19 @@ class MeasurementGroup:
                                           else NoiseModel.from_covariance(full))
 
     def at(self, t: float, dim: int) -> MeasurementGroup:
-        """Return this group, checked to be at filter time ``t`` (s) in ``dim`` dimensions.
+        """Return this group, checked to be at filter time ``t`` in ``dim`` dimensions.
+
+        Parameters
+        ----------
+        t : float
+            The filter's time, s.
+        dim : int
+            The filter's dimension, 2 or 3.
+
+        Returns
+        -------
+        MeasurementGroup
+            ``self``.
 
         Raises
         ------
