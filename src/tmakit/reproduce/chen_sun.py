@@ -79,7 +79,12 @@ POOR_HORIZONTAL_FRACTION = 0.05
 class ChenSunReproduction(Reproduction):
     """The report plus the time series that :func:`plot` draws.
 
-    ``series[key][path]``: ``time`` (K,) s, ``rms`` (K, 5) x, y, z, R, rho (m), ``nees`` (K,).
+    Attributes
+    ----------
+    series : dict
+        ``series[key][path]``: ``time`` (K,) s, ``rms`` (K, 5) x, y, z, R, rho (m), ``nees`` (K,).
+    lags : tuple of int
+        Lags (samples back) of the multi-lag vectors, Chen & Sun §2.2.
     """
 
     series: dict[str, dict[int, dict[str, NDArray[np.float64]]]] = field(
@@ -87,13 +92,7 @@ class ChenSunReproduction(Reproduction):
     lags: tuple[int, ...] = DEFAULT_LAGS
 
     def as_dict(self) -> dict[str, object]:
-        """Give the reproduction as JSON-ready data.
-
-        Returns
-        -------
-        dict
-            That of the base class plus ``series`` (as lists).
-        """
+        """Give :meth:`Reproduction.as_dict` plus ``series`` (as lists)."""
         out = super().as_dict()
         out["series"] = {key: {str(p): {k: v.tolist() for k, v in s.items()}
                                for p, s in by_path.items()}
