@@ -21,8 +21,7 @@ __all__ = ["PosteriorBound"]
 class PosteriorBound:
     """The posterior CRB after each update (``K`` updates, ``n`` state components, SI units).
 
-    Built by :func:`~tmakit.bounds.posterior_crb` (Tichavský et al. (1998) recursion as
-    Hurtado & Nehorai (2008), eqs. 10-11 write it).
+    Built by :func:`~tmakit.bounds.posterior_crb` and :func:`~tmakit.bounds.deterministic_pcrb`.
 
     Attributes
     ----------
@@ -58,6 +57,11 @@ class PosteriorBound:
         Monte Carlo only: the largest share of one trajectory in ``Gamma_k`` (each weighted
         by the predicted information): ``1/trajectories`` when all see alike, near 1 when one
         close pass to a sensor dominates.
+
+    References
+    ----------
+    Tichavský, Muravchik & Nehorai (1998) (the recursion); Hurtado & Nehorai (2008),
+    eqs. 10-11.
     """
 
     state_names: tuple[str, ...]

@@ -162,7 +162,11 @@ class DynamicsCache:
     Parameters
     ----------
     dynamics : NearlyConstantVelocity
-        The dynamics (Chen & Sun, §2.1).
+        The dynamics.
+
+    References
+    ----------
+    Chen & Sun, §2.1 (``Phi(T)`` and ``Q_k``).
     """
 
     def __init__(self, dynamics: NearlyConstantVelocity) -> None:

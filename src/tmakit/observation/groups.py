@@ -138,6 +138,10 @@ class MeasurementGroup:
     :meth:`from_arrays` builds one from precomputed columns without a MeasurementSet (the
     filters' fast path, :mod:`tmakit.filters.compiled`); ``rows`` is then made on first use.
     :meth:`planned` builds one for measurements not yet made (a planner's candidates).
+
+    References
+    ----------
+    Chen & Sun, eq. 1 (range differences sharing pulse intervals: correlated noise).
     """
 
     def __init__(self, rows: MeasurementSet, t: float, dim: int,
