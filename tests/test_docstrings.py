@@ -13,6 +13,9 @@ documented as attributes (their one-line summary), so they need no ``Returns``.
 An override of a base-class method may leave its sections to the base, but only when the
 base method (found by name among tmakit's classes) is itself complete.
 
+``Raises``: an exception class a public function raises itself (a ``raise`` in its own body,
+not caught there by an enclosing ``try``) is named in its ``Raises`` section.
+
 ``References``: every module that docs/references.md credits with taking something from one
 of the papers has a public definition whose ``References`` section cites it (author, year,
 section / equation), so the citation sits where the paper is implemented.
@@ -183,6 +186,41 @@ def method(cls: ast.ClassDef, name: str) -> ast.FunctionDef | ast.AsyncFunctionD
     return None
 
 
+#: Raised for control flow, not an error a caller handles.
+CONTROL_FLOW = {"SystemExit", "Exit", "NotImplementedError", "StopIteration"}
+_SCOPES = (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda, ast.ClassDef)
+
+
+def raised_here(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> set[str]:
+    """Exception classes ``fn`` raises in its own body and does not catch itself."""
+    found: set[str] = set()
+
+    def visit(node: ast.AST, caught: frozenset[str]) -> None:
+        if isinstance(node, _SCOPES):  # a nested function raises when it runs, not here
+            return
+        if isinstance(node, ast.Raise) and node.exc is not None:
+            target = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            name = ast.unparse(target).split(".")[-1]
+            if name[:1].isupper() and not caught & {name, "*", "Exception"}:
+                found.add(name)
+        if isinstance(node, ast.Try):
+            names = set()
+            for h in node.handlers:
+                types = h.type.elts if isinstance(h.type, ast.Tuple) else [h.type]
+                names |= {"*" if t is None else ast.unparse(t).split(".")[-1] for t in types}
+            for stmt in node.body:
+                visit(stmt, caught | names)
+            for stmt in (*node.handlers, *node.orelse, *node.finalbody):
+                visit(stmt, caught)
+            return
+        for child in ast.iter_child_nodes(node):
+            visit(child, caught)
+
+    for stmt in fn.body:
+        visit(stmt, frozenset())
+    return found - CONTROL_FLOW
+
+
 def function_problems(fn: ast.FunctionDef | ast.AsyncFunctionDef, is_method: bool) -> list[str]:
     """What the docstring of a function or method is missing."""
     decos = decorator_names(fn)
@@ -202,6 +240,9 @@ def function_problems(fn: ast.FunctionDef | ast.AsyncFunctionDef, is_method: boo
             problems.append(f"Parameters section lacks {sorted(missing)}")
     if not is_none(fn.returns) and not ({"Returns", "Yields"} & secs.keys()):
         problems.append("no Returns/Yields section")
+    unnamed = {e for e in raised_here(fn) if e not in secs.get("Raises", "")}
+    if unnamed:
+        problems.append(f"Raises section lacks {sorted(unnamed)}")
     return problems
 
 
@@ -321,6 +362,11 @@ def test_exemptions_still_exist():
     ("def f(x: float, y: int) -> None:\n    '''Do.\n\n    Parameters\n    ----------\n"
      "    x, y : float\n        Metres.\n    '''\n", []),
     ("def f() -> int:\n    pass\n", ["no docstring"]),
+    ("def f() -> None:\n    \"\"\"Do.\"\"\"\n    raise ValueError('x')\n",
+     ["Raises section lacks ['ValueError']"]),
+    ("def f() -> None:\n    \"\"\"Do.\"\"\"\n    try:\n        raise KeyError\n"
+     "    except KeyError:\n        raise TypeError from None\n",
+     ["Raises section lacks ['TypeError']"]),
 ])
 def test_audit_catches_a_new_undocumented_function(source, expected):
     fn = ast.parse(source).body[0]

@@ -139,7 +139,6 @@ class RadarModel:
             raise ValueError("RadarModel: bandwidth must be at most a tenth of the carrier "
                              "(the signal model is narrow band)")
 
-    # -- derived parameters ----------------------------------------------------------------
     @property
     def wavelength(self) -> float:
         """Carrier wavelength ``lambda = c / f_c``, m."""
@@ -198,7 +197,6 @@ class RadarModel:
         """Resolution-limited range sigma ``c / (2 B)``, m."""
         return self.speed_of_light / (2.0 * self.bandwidth)
 
-    # -- the signal ------------------------------------------------------------------------
     def pulse(self, t: ArrayLike) -> NDArray[np.complex128]:
         """Return the complex envelope ``s(t) = exp(-t^2 / (4 sigma_t^2) + j pi kappa t^2)``.
 
@@ -345,6 +343,11 @@ class RadarModel:
         Returns
         -------
         tuple of str
+
+        Raises
+        ------
+        ValueError
+            If ``dim`` is not 2 or 3.
         """
         if dim not in (2, 3):
             raise ValueError(f"dim must be 2 or 3; got {dim!r}")
@@ -393,7 +396,7 @@ class RadarModel:
 
     def measurement_sigmas(self, kinds: Sequence[str] = ("bearing", "range", "range_rate"),
                            elevation: float = 0.0) -> Array:
-        """Return the standard deviations of :meth:`measurement_covariance`.
+        """Return the standard deviations ``(m,)`` of :meth:`measurement_covariance`, SI.
 
         Parameters
         ----------
@@ -403,7 +406,6 @@ class RadarModel:
         Returns
         -------
         ndarray
-            ``(m,)`` one per kind, SI (rad, m, m/s).
         """
         return np.sqrt(np.diagonal(self.measurement_covariance(kinds, elevation)))
 
@@ -446,15 +448,13 @@ class RadarModel:
         Returns
         -------
         ndarray
-            ``(C, N, 2 dim, 2 dim)`` (axes of a single state dropped), SI: 1/m^2, s/m^2,
-            s^2/m^2.
+            ``(C, N, 2 dim, 2 dim)`` (single-state axes dropped), SI: 1/m^2, s/m^2, s^2/m^2.
 
         References
         ----------
         Hurtado & Nehorai (2008), eqs. 4-6 and 13.
         """
-        x = np.asarray(target_states, dtype=float)
-        s = np.asarray(sensor_states, dtype=float)
+        x, s = np.asarray(target_states, dtype=float), np.asarray(sensor_states, dtype=float)
         outer = s.ndim == 2 and x.ndim == 2  # every sensor state against every target state
         rel, dim = relative_states(x[None] if outer else x, s[:, None] if outer else s)
         h = measurement_jacobian(rel, dim)
