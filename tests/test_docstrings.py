@@ -8,7 +8,9 @@ public function fails here before review.
 
 Public means: the name has no leading underscore, nor has its module (file or package), nor any
 enclosing class; functions nested in functions are locals and not public. Properties are
-documented as attributes (their one-line summary), so they need no ``Returns``.
+documented as attributes (their one-line summary), so they need no ``Returns``; setters and
+``@overload`` stubs are documented on the property / the implementation.  Private ``_name``
+parameters and ``init=False`` / ``ClassVar`` fields are not part of the public signature.
 
 An override of a base-class method may leave its sections to the base, but only when the
 base method (found by name among tmakit's classes) is itself complete.
