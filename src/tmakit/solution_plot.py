@@ -26,7 +26,13 @@ MAX_BEARING_LINES = 40
 
 
 class MapFrame:
-    """Map coordinates: lon/lat (deg) when the origin is known, else East/North (km)."""
+    """Map coordinates: lon/lat (deg) when the origin is known, else East/North (km).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements; their ``origin_*`` metadata (if any) gives the geodetic origin.
+    """
 
     def __init__(self, meas: MeasurementSet) -> None:
         self.origin = origin_of(meas)
@@ -54,13 +60,25 @@ class MapFrame:
         return np.asarray(lon), np.asarray(lat)
 
     def metres_per_x(self) -> float:
-        """Metres per unit of the horizontal map coordinate (at the origin)."""
+        """Give the metres per unit of the horizontal map coordinate (at the origin).
+
+        Returns
+        -------
+        float
+            1000 for km, else the metres per degree of longitude at the origin's latitude.
+        """
         if not self.geodetic:
             return 1000.0
         return 111_320.0 * float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
 
     def aspect(self) -> float:
-        """Axis aspect ratio that keeps distances true (1 / cos(latitude) in lon/lat)."""
+        """Give the axis aspect ratio that keeps distances true.
+
+        Returns
+        -------
+        float
+            1 for km, ``1 / cos(latitude)`` in lon/lat.
+        """
         if not self.geodetic:
             return 1.0
         return 1.0 / float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]

@@ -129,6 +129,12 @@ def estimator(method: str, **settings: object) -> BatchEstimator:
         own nuisance model: no drift, path-loss exponent 2).
     TypeError
         For a setting it does not take.
+
+    References
+    ----------
+    Gu et al. (2007), §3 (``gu-direct``), eqs. 19-25 (``ratio-power``), 26-32
+    (``ratio-doppler``), 33-34 (``ratio``); the Doppler-tracking lecture notes
+    (``lecture-gn``, Gauss-Newton on the 7-parameter vector).
     """
     if method not in METHODS:
         raise ValueError(f"unknown estimation method {method!r}; expected one of "

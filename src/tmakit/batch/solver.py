@@ -299,7 +299,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
 
     References
     ----------
-    Marquardt (1963) for the scaling; Nielsen (1999) for the ``"nielsen"`` damping update.
+    Marquardt (1963), the scaling; Nielsen (1999), the ``"nielsen"`` damping; Golub & Pereyra
+    (1973), variable projection, which avoids the ill-conditioning of Gu et al. (2007), §3.
     """
     if damping not in DAMPING:
         raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
@@ -309,8 +310,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     with np.errstate(invalid="ignore", divide="ignore"):
         runs = _iterate(problem, runs, max_iter, rules)
     runs.finish()
-    out = runs.out
-    # Every accepted point carries the nuisance eliminated at its own theta: no re-evaluation.
+    out = runs.out  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
                        out, runs.dominated)
 

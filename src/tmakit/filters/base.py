@@ -179,6 +179,11 @@ class TrackingFilter(ABC):
     ------
     ValueError
         If the prior is not a valid 4- or 6-state Gaussian or the dynamics' dimension differs.
+
+    References
+    ----------
+    Chen & Sun, §2.1 (``Phi(T)`` and ``Q_k`` of the dynamics), §2.2 (measurements at earlier
+    sample times).
     """
 
     name = ""

@@ -162,7 +162,11 @@ class DynamicsCache:
     Parameters
     ----------
     dynamics : NearlyConstantVelocity
-        The dynamics (Chen & Sun, §2.1).
+        The dynamics.
+
+    References
+    ----------
+    Chen & Sun, §2.1 (``Phi(T)`` and ``Q_k``).
     """
 
     def __init__(self, dynamics: NearlyConstantVelocity) -> None:
@@ -170,7 +174,18 @@ class DynamicsCache:
         self._cache: dict[float, tuple[Array, Array, Array]] = {}
 
     def get(self, dt: float) -> tuple[Array, Array, Array]:
-        """Give ``(Phi, Phi^T, Q)`` for a step ``dt`` (s)."""
+        """Give the transition and process noise of one step (cached by step size).
+
+        Parameters
+        ----------
+        dt : float
+            The step, s (> 0).
+
+        Returns
+        -------
+        phi, phi_t, q : ndarray
+            ``Phi(dt)``, its transpose (contiguous) and ``Q(dt)``, each ``(n, n)``, SI.
+        """
         out = self._cache.get(dt)
         if out is None:
             if len(self._cache) > 256:  # irregular times: keep the cache small
@@ -292,6 +307,16 @@ def finite(y: Array, h: Array) -> bool:
 
     Two dot products decide when their sum is finite; otherwise (a NaN, an infinity, or an
     overflow of the squares) ``numpy.isfinite`` does.
+
+    Parameters
+    ----------
+    y, h : ndarray
+        A residual ``(m,)`` and a Jacobian ``(m, n)``.
+
+    Returns
+    -------
+    bool
+        True when every entry of both is finite.
     """
     flat = h.reshape(-1)
     total = float(y @ y) + float(flat @ flat)
@@ -323,7 +348,21 @@ class PlanOutputs:
         self.log_likelihoods: list[float] = []
 
     def put(self, t: float, mean: Array, cov: Array, nis: float, dof: int, ll: float) -> None:
-        """Record the next update: time (s), state, covariance, NIS, rows, cumulative nats."""
+        """Record the next update.
+
+        Parameters
+        ----------
+        t : float
+            Its time, s.
+        mean, cov : ndarray
+            The updated state ``(n,)`` and covariance ``(n, n)``, SI (kept by reference).
+        nis : float
+            Normalised innovation squared.
+        dof : int
+            Measurement rows of the update.
+        ll : float
+            Cumulative log-likelihood, nats.
+        """
         self.times.append(t)
         self.states.append(mean)
         self.covariances.append(cov)
@@ -332,7 +371,22 @@ class PlanOutputs:
         self.log_likelihoods.append(ll)
 
     def run(self, mean: Array, cov: Array, t: float, ll: float) -> KernelRun:
-        """Give the outputs as a :class:`~.kernels.KernelRun` ending at the last update."""
+        """Give the outputs as a :class:`~.kernels.KernelRun` ending at the last update.
+
+        Parameters
+        ----------
+        mean, cov : ndarray
+            The final state ``(n,)`` and covariance ``(n, n)``, SI.
+        t : float
+            Their time, s.
+        ll : float
+            The final cumulative log-likelihood, nats.
+
+        Returns
+        -------
+        KernelRun
+            The run, with every recorded update stacked.
+        """
         n = self.n
         return KernelRun(len(self.times), False, mean, cov, t, ll, np.array(self.times),
                          np.array(self.states).reshape(-1, n),

@@ -215,6 +215,11 @@ def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov:
         Updated covariance ``(n, n)``, repaired to be positive definite.
     info : UpdateInfo
         NIS, degrees of freedom and log-likelihood (nats).
+
+    References
+    ----------
+    Song & Speyer (1985) (gain from the EKF rows, modified rows in the covariance); with
+    ``h_gain = h_cov`` the gain of Chen & Sun, §2.5.
     """
     return gaussian_update(mean, cov, residual, h_gain, r, h_cov=h_cov)
 

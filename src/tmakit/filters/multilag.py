@@ -104,7 +104,7 @@ class _SensorData:
 def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
                     reuse_inflation: bool = False,
                     start: int = 0) -> list[tuple[float, MeasurementSet]]:
-    """Form the multi-lag measurement vectors of ``meas`` (Chen & Sun, §2.2).
+    """Form the multi-lag measurement vectors of ``meas``.
 
     One update per sample time ``t_k`` with, per sensor, the bearings at ``k`` and ``k - N_j``
     and the range differences ``dr_{k - N_{j-1}, k - N_j}`` (sums of the lag-1 ones between,
@@ -125,26 +125,28 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
     Returns
     -------
     list of (float, MeasurementSet)
-        ``(t_k (s), rows)`` for :meth:`~tmakit.filters.TrackingFilter.run_groups` (rows at
-        ``time`` and ``time_ref``, predicted back: Chen & Sun, §2.3-2.4).
+        ``(t_k (s), rows)`` for :meth:`~tmakit.filters.TrackingFilter.run_groups`.
 
     Raises
     ------
     ValueError
         On bad lags or start, no rows, two bearings at a sample, or no lag-1 differences.
+
+    References
+    ----------
+    Chen & Sun, §2.2 (the vectors), eq. 1 (their noise), §2.3-2.4 (rows predicted back from
+    ``time`` and ``time_ref``).
     """
     lags = _check_lags(lags)
     if len(meas) == 0:
         raise ValueError("no measurements to build multi-lag vectors from")
     if start < 0:
         raise ValueError(f"start must be >= 0; got {start}")
-    sensors = [s for s in meas.sensors
-               if np.any((meas.sensor == s) & np.isin(meas.kind, ("bearing",
-                                                                  "range_difference")))]
+    pair = ("bearing", "range_difference")
+    sensors = [s for s in meas.sensors if np.any((meas.sensor == s) & np.isin(meas.kind, pair))]
     data = {s: _SensorData(meas, s) for s in sensors}
-    other = np.flatnonzero(~np.isin(meas.kind, ("bearing", "range_difference")))
+    other = np.flatnonzero(~np.isin(meas.kind, pair))
     offsets = np.array((0, *lags))
-
     # Per sensor: the sample sets of every update, then how often each datum is used.
     plans: dict[str, list[tuple[int, NDArray[np.int64]]]] = {}
     use_b: dict[str, NDArray[np.float64]] = {}
@@ -161,8 +163,7 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
     for t in other_times:
         by_time.setdefault(float(t), [])
 
-    value_si = meas.value_si
-    sigma_si = meas.sigma_si
+    value_si, sigma_si = meas.value_si, meas.sigma_si
     groups: list[tuple[float, MeasurementSet]] = []
     for t in sorted(by_time):
         # (time, sensor, kind, value, sigma, sensor state, time_ref, reference state)

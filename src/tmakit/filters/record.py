@@ -46,7 +46,19 @@ class Recorder:
 
     def add(self, time: float, state: Array, cov: Array, info: UpdateInfo,
             loglik: float) -> None:
-        """Record one update: time (s), state, covariance, what it saw, cumulative nats."""
+        """Record one update.
+
+        Parameters
+        ----------
+        time : float
+            Its time, s.
+        state, cov : ndarray
+            The updated state ``(n,)`` and covariance ``(n, n)``, SI.
+        info : UpdateInfo
+            What the update saw (its NIS and rows are kept).
+        loglik : float
+            Cumulative log-likelihood, nats.
+        """
         self.rows.append((time, state, cov, info.nis, info.dof, loglik))
 
     def _flush(self) -> None:
@@ -58,7 +70,13 @@ class Recorder:
             self.rows = []
 
     def add_block(self, block: KernelRun) -> None:
-        """Record the updates of a kernel or general-path run."""
+        """Record the updates of a kernel or general-path run.
+
+        Parameters
+        ----------
+        block : KernelRun
+            The run; its per-update outputs are appended after the rows recorded so far.
+        """
         self._flush()
         k = block.states.shape[0]
         dof = np.ones(k, dtype=np.int64) if block.dof is None else block.dof
@@ -66,7 +84,14 @@ class Recorder:
                             block.log_likelihoods))
 
     def parts(self) -> list[Array]:
-        """Give the stacked outputs: times, states, covariances, NIS, dof, log-likelihoods."""
+        """Give the stacked outputs of every update recorded.
+
+        Returns
+        -------
+        list of ndarray
+            Times ``(K,)`` s, states ``(K, n)``, covariances ``(K, n, n)`` (SI), NIS ``(K,)``,
+            rows per update ``(K,)`` and cumulative log-likelihoods ``(K,)`` nats.
+        """
         self._flush()
         n = self.n
         if not self.blocks:

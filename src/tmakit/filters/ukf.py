@@ -127,7 +127,8 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
 
     References
     ----------
-    Wan & van der Merwe (2000); Julier (2002) (see the module docstring).
+    Wan & van der Merwe (2000); Julier (2002) (see the module docstring); Chen & Sun, §2.1
+    (the dynamics).
     """
 
     name = "ukf"

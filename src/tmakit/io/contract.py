@@ -48,7 +48,13 @@ def reference_kinds() -> tuple[str, ...]:
 
 
 def reference_kinds_text() -> str:
-    """Name the reference kinds for messages (``range_difference``, or ``a / b``)."""
+    """Name the reference kinds for messages.
+
+    Returns
+    -------
+    str
+        ``range_difference``, or ``a / b`` for several.
+    """
     return " / ".join(reference_kinds())
 
 _AXES = {"x": "east (m, ENU)", "y": "north (m, ENU)", "z": "up (m, ENU)",

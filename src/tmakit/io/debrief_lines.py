@@ -32,7 +32,21 @@ _NS = 1_000_000_000
 
 @dataclass(frozen=True)
 class TrackLine:
-    """A track fix of a replay file (angles in degrees, speed in knots, depth in m)."""
+    """A track fix of a replay file.
+
+    Attributes
+    ----------
+    line : int
+        Line number in the file (1-based).
+    name : str
+        The track's name.
+    time_ns : int
+        Time, ns since the Unix epoch (UTC).
+    lat, lon : float
+        Position, degrees.
+    course, speed_kn, depth : float
+        Course (degrees true), speed (knots) and depth (m).
+    """
 
     line: int
     name: str
@@ -48,8 +62,24 @@ class TrackLine:
 class SensorLine:
     """A ``;SENSOR:`` or ``;SENSOR2:`` contact (None where the file says ``NULL``).
 
-    Angles in degrees, range in yards, frequency in Hz; ``lat``/``lon`` None means the host
-    track's position at ``time_ns``.
+    Attributes
+    ----------
+    line : int
+        Line number in the file (1-based).
+    host : str
+        The track that holds the sensor.
+    time_ns : int
+        Time, ns since the Unix epoch (UTC).
+    lat, lon : float or None
+        The sensor's position, degrees (None: the host track's position at ``time_ns``).
+    bearing, ambiguous : float or None
+        Bearing and its ambiguous twin, degrees true.
+    frequency : float or None
+        Frequency, Hz.
+    range_yd : float or None
+        Range, yards.
+    sensor, label : str
+        The sensor's name and the contact's label.
     """
 
     line: int

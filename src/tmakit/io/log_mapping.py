@@ -163,7 +163,18 @@ class LogMapping(_Strict):
         return self
 
     def resolve_track(self, base: Path | None) -> LogMapping:
-        """Return the mapping with ``track`` relative to ``base`` (the mapping file's folder)."""
+        """Return the mapping with a relative ``track`` path taken relative to ``base``.
+
+        Parameters
+        ----------
+        base : Path or None
+            The mapping file's folder (None: leave ``track`` as given).
+
+        Returns
+        -------
+        LogMapping
+            ``self`` when nothing changes, else a copy with the resolved ``track``.
+        """
         if self.track is None or base is None or Path(self.track).is_absolute():
             return self
         return self.model_copy(update={"track": str(base / self.track)})

@@ -75,7 +75,13 @@ class Fixes:
     heading: NDArray[np.float64] | None = None
 
     def sorted(self) -> Fixes:
-        """Return the fixes in time order (stable)."""
+        """Return the fixes in time order (stable).
+
+        Returns
+        -------
+        Fixes
+            A new set of fixes, every column reordered alike.
+        """
         order = np.argsort(self.time_ns, kind="stable")
         return Fixes(self.time_ns[order], self.lat[order], self.lon[order], self.alt[order],
                      None if self.velocity is None else self.velocity[order],
@@ -105,7 +111,14 @@ class LocalFrame:
     rule: str
 
     def metadata(self) -> dict[str, str]:
-        """Return the frame as metadata of a measurement set (``origin_*``, ...)."""
+        """Return the frame as metadata of a measurement set.
+
+        Returns
+        -------
+        dict of str
+            ``origin_lat``, ``origin_lon`` (deg), ``origin_alt`` (m), ``altitude_reference``
+            and ``dim_rule``, as text.
+        """
         lat, lon, alt = self.origin
         return {"origin_lat": repr(lat), "origin_lon": repr(lon), "origin_alt": repr(alt),
                 "altitude_reference": self.altitude_reference, "dim_rule": self.rule}
@@ -265,18 +278,53 @@ def parse_clock_times(values: Sequence[object]) -> tuple[NDArray[np.int64], NDAr
 
 
 def time_origin_ns(*times: NDArray[np.int64]) -> int:
-    """Return the time origin: the earliest time given, floored to the whole second (ns)."""
+    """Return the time origin: the earliest time given, floored to the whole second.
+
+    Parameters
+    ----------
+    *times : ndarray of int64
+        Times, ns since the Unix epoch (UTC); empty arrays are skipped.
+
+    Returns
+    -------
+    int
+        The origin, ns since the Unix epoch.
+    """
     first = min(int(np.min(t)) for t in times if len(t))
     return (first // _NS) * _NS
 
 
 def relative_seconds(time_ns: NDArray[np.int64], origin_ns: int) -> NDArray[np.float64]:
-    """Seconds since the time origin (the difference is taken in integers, then scaled)."""
+    """Give seconds since the time origin (the difference is taken in integers, then scaled).
+
+    Parameters
+    ----------
+    time_ns : ndarray of int64
+        Times, ns since the Unix epoch.
+    origin_ns : int
+        The origin, ns since the Unix epoch (:func:`time_origin_ns`).
+
+    Returns
+    -------
+    ndarray
+        Seconds since the origin.
+    """
     return (np.asarray(time_ns, np.int64) - np.int64(origin_ns)).astype(float) / _NS
 
 
 def iso_utc(time_ns: int) -> str:
-    """Return a UTC time as ISO-8601 text with a ``Z`` (fractions of a second when present)."""
+    """Return a UTC time as ISO-8601 text with a ``Z`` (fractions of a second when present).
+
+    Parameters
+    ----------
+    time_ns : int
+        ns since the Unix epoch.
+
+    Returns
+    -------
+    str
+        E.g. ``2024-05-01T12:00:00.5Z``.
+    """
     secs, frac = divmod(int(time_ns), _NS)
     stamp = np.datetime64(secs, "s").astype(str)
     if frac:
@@ -404,7 +452,20 @@ def interpolate_heading(t_fix: NDArray[np.float64], heading_deg: NDArray[np.floa
 
 def course_speed_velocity(course_deg: NDArray[np.float64], speed: NDArray[np.float64]
                           ) -> NDArray[np.float64]:
-    """Velocity ENU ``(n, 3)`` (m/s) from course (deg true) and speed (m/s) over the ground."""
+    """Give the ENU velocity from course and speed over the ground (vertical 0).
+
+    Parameters
+    ----------
+    course_deg : ndarray
+        ``(n,)`` course over the ground, degrees clockwise from true North.
+    speed : ndarray
+        ``(n,)`` speed over the ground, m/s.
+
+    Returns
+    -------
+    ndarray
+        ``(n, 3)`` velocity East, North, Up, m/s.
+    """
     c = np.deg2rad(np.asarray(course_deg, float))
     s = np.asarray(speed, float)
     return np.column_stack([s * np.sin(c), s * np.cos(c), np.zeros_like(s)])

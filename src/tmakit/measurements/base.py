@@ -370,7 +370,18 @@ class MeasurementModel:
         return np.asarray(value, dtype=float) * self.file_scale + self.file_offset
 
     def value_from_si(self, value: ArrayLike) -> Array:
-        """Convert SI values (array_like) to :attr:`file_unit`, inverting :meth:`value_to_si`."""
+        """Convert SI values to :attr:`file_unit`, inverting :meth:`value_to_si`.
+
+        Parameters
+        ----------
+        value : array_like
+            Values in SI units (rad, m, m/s, Hz, dBW).
+
+        Returns
+        -------
+        ndarray
+            Values in :attr:`file_unit`.
+        """
         return (np.asarray(value, dtype=float) - self.file_offset) / self.file_scale
 
     def sigma_to_si(self, sigma: ArrayLike) -> Array:
@@ -389,7 +400,18 @@ class MeasurementModel:
         return np.asarray(sigma, dtype=float) * self.file_scale
 
     def sigma_from_si(self, sigma: ArrayLike) -> Array:
-        """Convert SI standard deviations to :attr:`file_unit`, inverting :meth:`sigma_to_si`."""
+        """Convert SI standard deviations to :attr:`file_unit`, inverting :meth:`sigma_to_si`.
+
+        Parameters
+        ----------
+        sigma : array_like
+            Standard deviations in SI units.
+
+        Returns
+        -------
+        ndarray
+            Standard deviations in :attr:`file_unit`.
+        """
         return np.asarray(sigma, dtype=float) / self.file_scale
 
     def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:

@@ -70,5 +70,16 @@ def inverse_range_and_unit(rel: Array) -> tuple[Array, Array]:
 
 
 def zeros_nuisance(rel: Array) -> Array:
-    """Give zeros ``(..., n, 0)`` for ``rel`` ``(..., n, 6)``: a nuisance Jacobian of none."""
+    """Give a nuisance Jacobian of no columns, for kinds without nuisance parameters.
+
+    Parameters
+    ----------
+    rel : ndarray
+        ``(..., n, 6)`` relative states (m, m/s); only the shape is used.
+
+    Returns
+    -------
+    ndarray
+        Zeros ``(..., n, 0)``.
+    """
     return np.zeros((*rel.shape[:-1], 0))

@@ -433,7 +433,10 @@ class PiecewiseCurvilinear(MotionModel):
     def intrinsic_states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
         """Give the intrinsic states ``(x, y, speed, course)`` at times ``t``.
 
-        Parameters as :meth:`states`.
+        Parameters
+        ----------
+        theta, t : array_like
+            ``(..., p)`` parameters (SI) and ``(n,)`` times (s), as :meth:`states`.
 
         Returns
         -------
@@ -446,10 +449,7 @@ class PiecewiseCurvilinear(MotionModel):
         return intrinsic.reshape(*lead, t.shape[0], 4)
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s).
-
-        Parameters and returns as :meth:`MotionModel.jacobian`.
-        """
+        """Give the analytic ``d state / d theta`` as :meth:`MotionModel.jacobian` does."""
         flat, t, lead = self._flat(theta, t)
         jac = self._evaluate(flat, t, derivatives=True)[2]
         assert jac is not None

@@ -138,6 +138,10 @@ class MeasurementGroup:
     :meth:`from_arrays` builds one from precomputed columns without a MeasurementSet (the
     filters' fast path, :mod:`tmakit.filters.compiled`); ``rows`` is then made on first use.
     :meth:`planned` builds one for measurements not yet made (a planner's candidates).
+
+    References
+    ----------
+    Chen & Sun, eq. 1 (range differences sharing pulse intervals: correlated noise).
     """
 
     def __init__(self, rows: MeasurementSet, t: float, dim: int,
@@ -285,7 +289,19 @@ class MeasurementGroup:
                                           else NoiseModel.from_covariance(full))
 
     def at(self, t: float, dim: int) -> MeasurementGroup:
-        """Return this group, checked to be at filter time ``t`` (s) in ``dim`` dimensions.
+        """Return this group, checked to be at filter time ``t`` in ``dim`` dimensions.
+
+        Parameters
+        ----------
+        t : float
+            The filter's time, s.
+        dim : int
+            The filter's dimension, 2 or 3.
+
+        Returns
+        -------
+        MeasurementGroup
+            ``self``.
 
         Raises
         ------

@@ -84,11 +84,7 @@ class ObservationModel:
         self._const_design: Array | None = None
 
     def _set_row_model(self) -> None:
-        """Build the observation core of the grouped rows (each kind a slice).
-
-        It gives predictions, designs and their derivatives per kind, through the kinds'
-        hooks.
-        """
+        """Build the observation core of the grouped rows (per-kind predictions, designs)."""
         g = self.grouped
         self.row_model = RowModel(self.models, self.slices, self._time, g.time_ref,
                                   self.sigmas_grouped, g.sensor, self._sensor,
@@ -177,11 +173,7 @@ class ObservationModel:
 
     # -- grouped order (for solvers) ---------------------------------------------------------
     def _relative_map(self, times: Array, sensor: Array) -> AffineRows | None:
-        """Return the map of an affine motion model from ``theta`` to relative states.
-
-        The relative states at ``m`` rows, component by component,
-        ``theta @ matrix + offset`` (:class:`~.affine_rows.AffineRows`; None if not affine).
-        """
+        """Map ``theta`` to relative states, ``theta @ matrix + offset`` (None: not affine)."""
         terms = self.motion.component_terms(times)
         if terms is None:
             return None
@@ -213,11 +205,7 @@ class ObservationModel:
 
     def _relative(self, theta: Array, batch_inner: bool = False
                   ) -> tuple[Array, Array | None]:
-        """Return relative states (..., n, 6) in grouped order.
-
-        Also (..., n_rd, 6) at the reference times of the range differences (None without
-        range differences).
-        """
+        """Relative states (..., n, 6), grouped, and (..., n_rd, 6) at references (or None)."""
         theta = self.motion.check_theta(theta)
         rel = self._states_minus(theta, self._time, self._sensor, self._rel_map, batch_inner)
         rel_ref = None
@@ -311,7 +299,18 @@ class ObservationModel:
         return lin.h0, a_const, lin.a_var, dh0, d_a
 
     def predict_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
-        """Return :meth:`predict` in grouped order, ``(..., n)``, SI."""
+        """Return :meth:`predict` in grouped order.
+
+        Parameters
+        ----------
+        theta, nuisance : array_like
+            Motion ``(..., p)`` and nuisance ``(..., k)`` parameters (default zeros), SI.
+
+        Returns
+        -------
+        ndarray
+            ``(..., n)``, SI.
+        """
         theta = np.asarray(theta, dtype=float)
         nu = np.zeros(0) if nuisance is None else np.asarray(nuisance, dtype=float)
         rel, rel_ref = self._relative(theta)
@@ -319,7 +318,18 @@ class ObservationModel:
 
     def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                          ) -> tuple[Array, Array]:
-        """Return :meth:`jacobian` in grouped order."""
+        """Return :meth:`jacobian` in grouped order.
+
+        Parameters
+        ----------
+        theta, nuisance : array_like
+            Motion ``(..., p)`` and nuisance ``(k,)`` parameters (default zeros), SI.
+
+        Returns
+        -------
+        j_theta, j_nuisance : ndarray
+            ``(..., n, p)`` and ``(..., n, k)``, SI.
+        """
         lin = self.linearisation(theta, derivatives=True)
         nu = np.zeros(self.n_nuisance) if nuisance is None else np.asarray(nuisance, float)
         return lin.jacobian(nu), self.const_design + lin.a_var

@@ -5,9 +5,8 @@ A :class:`RowModel` holds the SI columns of a block of rows and each kind's
 gives predictions and Jacobians (vectorised over rows and any leading batch axes), the noise
 covariance with the correlated blocks a kind declares through its ``noise_covariance`` hook
 (range differences that share pulse intervals, Chen & Sun, eq. 1), and the nuisance structure.
-Nothing here names a kind (hooks ``uses_reference``, ``is_angle``, ``correlated_noise``), so a
-new kind needs no change in this layer.  :class:`~tmakit.observation.MeasurementGroup` and
-:class:`~tmakit.observation.ObservationModel` build on it.
+Nothing here names a kind (hooks ``uses_reference``, ``is_angle``, ``correlated_noise``): a
+new kind needs no change here.  ``MeasurementGroup`` and ``ObservationModel`` build on it.
 """
 
 from __future__ import annotations
@@ -153,8 +152,7 @@ class RowLayout:
                  m: int) -> None:
         self.models = dict(models)
         self.index = dict(index)
-        # Where a kind's rows sit: all rows (one kind), or its index; contiguous rows as a
-        # slice (a view instead of a copy of the relative states).
+        # A kind's rows: all (one kind), or its index, contiguous ones as a slice (a view).
         self.take: dict[str, Index] = ({k: slice(None) for k in self.models}
                                        if len(self.models) == 1 else
                                        {k: as_slice(i) for k, i in self.index.items()})
@@ -163,8 +161,7 @@ class RowLayout:
             if model.is_angle:
                 self.angle[self.index[kind]] = True
         self.ref_take: dict[str, slice] = {}
-        #: Rows grouped by kind (every index a slice): the span of the reference kinds.
-        self.reference_slice: slice | None = None
+        self.reference_slice: slice | None = None  # rows grouped by kind: the reference span
         self.reference: NDArray[np.intp] | None = None
         if all(isinstance(i, slice) for i in self.index.values()):
             span = reference_span(self.models, self.index)  # type: ignore[arg-type]
@@ -224,8 +221,7 @@ class RowModel:
                  time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike, sensor: ArrayLike,
                  sensor_state: ArrayLike, ref_sensor_state: ArrayLike,
                  layout: RowLayout | None = None) -> None:
-        self.time = np.asarray(time, dtype=float)
-        self.time_ref = np.asarray(time_ref, dtype=float)
+        self.time, self.time_ref = np.asarray(time, float), np.asarray(time_ref, float)
         self.sigma = np.asarray(sigma, dtype=float)
         self.sensor = np.asarray(sensor)
         self.sensor_state = np.asarray(sensor_state, dtype=float)
@@ -355,12 +351,17 @@ class RowModel:
         return d, d_ref, d_nu
 
     def reference_rows(self, kind: str) -> slice | None:
-        """Return where ``kind`` (str)'s rows sit in arrays at the reference samples.
+        """Return where a kind's rows sit in arrays at the reference samples.
+
+        Parameters
+        ----------
+        kind : str
+            The measurement kind.
 
         Returns
         -------
         slice or None
-            None for a kind without reference.
+            The rows; None for a kind without reference.
         """
         return self._ref_take.get(kind)
 

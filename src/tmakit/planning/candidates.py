@@ -129,6 +129,11 @@ def step_information(belief: Belief, information: Array, plan: SensorPlan,
     ndarray, shape (*B, n, n)
         ``J_{k+1}`` at the end of the step, SI.
 
+    Raises
+    ------
+    ValueError
+        If ``sensor_states`` do not have one time per measurement of the plan.
+
     References
     ----------
     Hurtado & Nehorai (2008), eqs. 10-13.

@@ -59,16 +59,8 @@ from .candidates import GammaForm, check_gamma, step_information
 from .measurement_plan import SensorPlan
 from .planner import position_bound
 
-__all__ = [
-    "TRACKERS",
-    "FixedChoice",
-    "FixedPolicy",
-    "LoopRecord",
-    "LoopSetup",
-    "Policy",
-    "run_closed_loop",
-    "simulate_group",
-]
+__all__ = ["TRACKERS", "FixedChoice", "FixedPolicy", "LoopRecord", "LoopSetup", "Policy",
+           "run_closed_loop", "simulate_group"]
 
 #: Trackers the loop can run (names of :data:`tmakit.filters.FILTERS`).
 TRACKERS = ("pf", "ekf", "ukf")
@@ -88,7 +80,18 @@ class Policy(Protocol):
     """What chooses the next step: :class:`~tmakit.planning.Planner` or :class:`FixedPolicy`."""
 
     def recommend(self, platform: PlatformState, belief: Belief) -> Choice:
-        """Choose the next action from ``platform`` given ``belief``."""
+        """Choose the next action from ``platform`` given ``belief``.
+
+        Parameters
+        ----------
+        platform, belief : PlatformState, Belief
+            The platform now (one state) and the belief at the same time.
+
+        Returns
+        -------
+        Choice
+            The chosen action's index, its step, bound and constraint violations.
+        """
 
 
 @dataclass(frozen=True)

@@ -132,6 +132,11 @@ def block_indices(block: Block, n: int) -> Array:
     Returns
     -------
     ndarray of int
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``block``.
     """
     dim = n // 2
     if block == "position":
@@ -176,6 +181,12 @@ class WeightedTrace:
         -------
         ndarray, shape (n, n)
             The weighting (position block ones by default).
+
+        Raises
+        ------
+        ValueError
+            If the given weighting is not a finite, symmetric positive semi-definite
+            ``(n, n)`` matrix.
         """
         if self.weights is None:
             pi = np.zeros((n, n))

@@ -59,7 +59,30 @@ class Planner(Protocol):
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: str) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from each of a batch of states for one step."""
+        """Fly every action from each of a batch of states for one step.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            States of batch shape ``B``, ``depth`` steps after the decision time.
+        information : ndarray, shape (*B, n, n)
+            The posterior information ``J`` at that time (SI), per state.
+        belief : Belief
+            The decision's belief.
+        depth : int
+            Steps after the decision time (0 for the first).
+        gamma : {"mean", "cloud"}
+            How the expected measurement information ``Gamma`` is formed.
+
+        Returns
+        -------
+        steps : Step, shape (*B, A)
+            The flown steps, one per action.
+        information : ndarray, shape (*B, A, n, n)
+            ``J`` after the step.
+        violations : list of Violation
+            One per constraint.
+        """
         ...
 
 

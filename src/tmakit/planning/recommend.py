@@ -82,6 +82,11 @@ def recommend(track: Estimate, platform: PlatformState, planner: Planner,
         On an estimate of the wrong shape, a tracker or ``posterior`` not at the platform's
         time, or an unknown ``cloud``.
 
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 10-13 (the predicted posterior CRB), eq. 12 (the
+    criterion ``Tr{Pi J^{-1}}``).
+
     Examples
     --------
     >>> import math

@@ -69,9 +69,8 @@ FILTER_SETS: dict[str, tuple[str, Callable[..., TrackingFilter], bool]] = {
     "ekf-inflated": ("EKF, reuse-inflated R", ReflectingEKF, True),
     "mgekf-inflated": ("MGEKF, reuse-inflated R", PaperMGEKF, True),
 }
-#: A path is poorly observable when the batch CRLB (data only, no prior) of its final height
-#: exceeds the height itself, or that of its horizontal position exceeds this fraction of
-#: the range.
+#: Poorly observable: the batch CRLB (data only, no prior) of the final height exceeds the
+#: height itself, or that of the horizontal position exceeds this fraction of the range.
 POOR_HORIZONTAL_FRACTION = 0.05
 
 
@@ -79,7 +78,12 @@ POOR_HORIZONTAL_FRACTION = 0.05
 class ChenSunReproduction(Reproduction):
     """The report plus the time series that :func:`plot` draws.
 
-    ``series[key][path]``: ``time`` (K,) s, ``rms`` (K, 5) x, y, z, R, rho (m), ``nees`` (K,).
+    Attributes
+    ----------
+    series : dict
+        ``series[key][path]``: ``time`` (K,) s, ``rms`` (K, 5) x, y, z, R, rho (m), ``nees`` (K,).
+    lags : tuple of int
+        Lags (samples back) of the multi-lag vectors, Chen & Sun §2.2.
     """
 
     series: dict[str, dict[int, dict[str, NDArray[np.float64]]]] = field(
@@ -87,13 +91,7 @@ class ChenSunReproduction(Reproduction):
     lags: tuple[int, ...] = DEFAULT_LAGS
 
     def as_dict(self) -> dict[str, object]:
-        """Give the reproduction as JSON-ready data.
-
-        Returns
-        -------
-        dict
-            That of the base class plus ``series`` (as lists).
-        """
+        """Give :meth:`Reproduction.as_dict` plus ``series`` (as lists)."""
         out = super().as_dict()
         out["series"] = {key: {str(p): {k: v.tolist() for k, v in s.items()}
                                for p, s in by_path.items()}
@@ -127,6 +125,10 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
     ------
     ValueError
         If ``range_guess <= |height_guess|`` or there is no bearing.
+
+    References
+    ----------
+    Chen & Sun, §2.5 (the initial guess and ``P_0``), §3.1 (``R_o``, ``z``, ``v_max``).
     """
     if not range_guess > abs(height_guess):
         raise ValueError(f"range_guess ({range_guess} m) must exceed |height_guess| "
@@ -139,10 +141,9 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
     s = b.sensor_state[i]
     rho = np.sqrt(range_guess**2 - height_guess**2)
     v = 0.5 * np.asarray(V_MAX) if velocity is None else np.asarray(velocity, dtype=float)
-    mean = np.array([s[0] + rho * np.sin(beta), s[1] + rho * np.cos(beta), s[2] + height_guess,
-                     *v])
+    pos = np.array([s[0] + rho * np.sin(beta), s[1] + rho * np.cos(beta), s[2] + height_guess])
     cov = np.diag([position_var] * 3 + [velocity_var] * 3)
-    return mean, cov, float(b.time[i])
+    return np.concatenate([pos, v]), cov, float(b.time[i])
 
 
 def observability(path: int) -> dict[str, float | bool]:
@@ -180,8 +181,7 @@ def observability(path: int) -> dict[str, float | bool]:
 
 def _errors(states: NDArray[np.float64], truth: NDArray[np.float64]) -> NDArray[np.float64]:
     """Errors (K, 5) in x, y, z, slant range and horizontal range (m)."""
-    d_est = states[:, :3] - RECEIVER
-    d_true = truth[:, :3] - RECEIVER
+    d_est, d_true = states[:, :3] - RECEIVER, truth[:, :3] - RECEIVER
     return np.column_stack([
         states[:, :3] - truth[:, :3],
         np.linalg.norm(d_est, axis=1) - np.linalg.norm(d_true, axis=1),

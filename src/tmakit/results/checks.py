@@ -60,7 +60,13 @@ class SanityWarning:
     message: str
 
     def as_dict(self) -> dict[str, str]:
-        """Return ``{"code": ..., "message": ...}`` (JSON)."""
+        """Return the warning as JSON-ready data.
+
+        Returns
+        -------
+        dict
+            ``{"code": ..., "message": ...}``.
+        """
         return {"code": self.code, "message": self.message}
 
 

@@ -84,6 +84,11 @@ def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: Arra
     -------
     ndarray, shape (..., 6)
         ``[x, y, z, vx, vy, vz]`` (m, m/s) at ``dt``.
+
+    Raises
+    ------
+    ValueError
+        If ``position`` does not end in 2 or 3 coordinates.
     """
     pos = _arr(position)
     if pos.ndim == 0 or pos.shape[-1] not in (2, 3):

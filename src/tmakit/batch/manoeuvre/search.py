@@ -1,10 +1,9 @@
 """The change-over-time search of the manoeuvre estimator.
 
 Profile likelihood on a grid, refinement with every parameter free, a finer profile around
-the result, and the corner test (see :mod:`tmakit.batch.manoeuvre` for the method).
-
-Every fit is a run of the shared solver, :func:`tmakit.batch.solver.levenberg_marquardt`, with
-the search's settings (:func:`lm_fit`).
+the result, and the corner test (see :mod:`tmakit.batch.manoeuvre` for the method). Every fit
+is a run of :func:`tmakit.batch.solver.levenberg_marquardt` with the search's settings
+(:func:`lm_fit`).
 """
 
 from __future__ import annotations
@@ -146,7 +145,7 @@ class ManoeuvreSearch:
         Returns
         -------
         int
-            The largest order with at least one grid tuple.
+            The largest order with a grid tuple.
         """
         m = 0
         while m < self.s.max_manoeuvres and grid_tuples(self.grid, m + 1,
@@ -244,19 +243,19 @@ class ManoeuvreSearch:
     def profile(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
         """Fit with the change-over times held on the grid tuples of order ``m``.
 
-        Needs the order ``m - 1`` profile.
-
         All tuples, or, beyond ``max_tuples``, those extending the best ``refine`` minima of
         order ``m - 1`` by one grid time; each warm-started from the order ``m - 1`` profile
-        (the start reproduces that fit, so the held fit can only improve on it).
+        (needed; the start reproduces that fit, so the held fit can only improve on it).
+
+        Parameters
+        ----------
+        m : int
+            Number of change-over times, ``m >= 1``.
 
         Returns
         -------
-        tuples : ndarray of int
-            ``(T, m)`` grid index tuples.
-        theta : ndarray
-            ``(T, p)`` the held fits (NaN: no start).
-        cost : ndarray
+        tuples, theta, cost : ndarray
+            ``(T, m)`` grid index tuples (int); ``(T, p)`` the held fits (NaN: no start);
             ``(T,)`` their costs (half chi2; inf: no start).
         """
         tuples, start, best_cost = self._profile_starts(m)

@@ -3,7 +3,6 @@
 See :mod:`tmakit.sensors.radar` for the derivation and the choices.
 """
 
-
 from __future__ import annotations
 
 import math
@@ -16,7 +15,6 @@ from numpy.typing import ArrayLike, NDArray
 from .geometry import elevation_of, measurement_jacobian, measurements, relative_states
 
 __all__ = ["HURTADO_NEHORAI_2008_RADAR", "RADAR_KINDS", "RadarModel"]
-
 Array = NDArray[np.float64]
 
 #: The measured quantities in tmakit's kinds, the order of the full information matrix.
@@ -141,7 +139,6 @@ class RadarModel:
             raise ValueError("RadarModel: bandwidth must be at most a tenth of the carrier "
                              "(the signal model is narrow band)")
 
-    # -- derived parameters ----------------------------------------------------------------
     @property
     def wavelength(self) -> float:
         """Carrier wavelength ``lambda = c / f_c``, m."""
@@ -200,7 +197,6 @@ class RadarModel:
         """Resolution-limited range sigma ``c / (2 B)``, m."""
         return self.speed_of_light / (2.0 * self.bandwidth)
 
-    # -- the signal ------------------------------------------------------------------------
     def pulse(self, t: ArrayLike) -> NDArray[np.complex128]:
         """Return the complex envelope ``s(t) = exp(-t^2 / (4 sigma_t^2) + j pi kappa t^2)``.
 
@@ -222,8 +218,6 @@ class RadarModel:
                amplitude: complex | None = None, times: ArrayLike | None = None
                ) -> NDArray[np.complex128]:
         """Return the noise-free array output ``b p(phi, psi) s(t - tau) e^{j omega_D t}``.
-
-        Hurtado & Nehorai (2008), eq. 5, with an echo amplitude ``b`` and noise variance 1.
 
         Parameters
         ----------
@@ -301,7 +295,6 @@ class RadarModel:
             out = out[..., keep, :][..., keep]
         return out
 
-    # -- tmakit's measurements -------------------------------------------------------------
     @property
     def measurement_scale(self) -> Array:
         """``d [bearing, elevation, range, range_rate] / d [phi, psi, tau, omega_D]`` (4,).
@@ -315,8 +308,8 @@ class RadarModel:
         """Return the information about ``[bearing, elevation, range, range_rate]`` per pulse.
 
         The signal information mapped to tmakit's quantities; with ``range_accuracy=
-        "resolution"`` the (range, range-rate) block is ``diag(1 / (c / 2B)^2, 1 /
-        var_rdot)`` with ``var_rdot`` the derived marginal.
+        "resolution"`` the (range, range-rate) block is ``diag((2B / c)^2, 1 / var_rdot)``,
+        ``var_rdot`` the derived marginal.
 
         Parameters
         ----------
@@ -350,6 +343,11 @@ class RadarModel:
         Returns
         -------
         tuple of str
+
+        Raises
+        ------
+        ValueError
+            If ``dim`` is not 2 or 3.
         """
         if dim not in (2, 3):
             raise ValueError(f"dim must be 2 or 3; got {dim!r}")
@@ -398,10 +396,19 @@ class RadarModel:
 
     def measurement_sigmas(self, kinds: Sequence[str] = ("bearing", "range", "range_rate"),
                            elevation: float = 0.0) -> Array:
-        """Return the standard deviations of :meth:`measurement_covariance` (m,), SI."""
+        """Return the standard deviations ``(m,)`` of :meth:`measurement_covariance`, SI.
+
+        Parameters
+        ----------
+        kinds, elevation : sequence of str, float
+            As :meth:`measurement_covariance` (elevation in rad).
+
+        Returns
+        -------
+        ndarray
+        """
         return np.sqrt(np.diagonal(self.measurement_covariance(kinds, elevation)))
 
-    # -- the state -------------------------------------------------------------------------
     def measure(self, target_states: ArrayLike, sensor_states: ArrayLike) -> Array:
         """Return the noise-free measurements of targets from sensors (broadcast).
 
@@ -421,7 +428,6 @@ class RadarModel:
         return measurements(*relative_states(target_states, sensor_states))
 
     def _information_at(self, rel: Array, dim: int) -> Array:
-        """Measurement information at relative states' elevations (2-D: reduced)."""
         info = self.measurement_information(elevation_of(rel))
         return info if dim == 3 else info[..., [0, 2, 3], :][..., [0, 2, 3]]
 
@@ -442,15 +448,13 @@ class RadarModel:
         Returns
         -------
         ndarray
-            ``(C, N, 2 dim, 2 dim)`` (axes of a single state dropped), SI: 1/m^2, s/m^2,
-            s^2/m^2.
+            ``(C, N, 2 dim, 2 dim)`` (single-state axes dropped), SI: 1/m^2, s/m^2, s^2/m^2.
 
         References
         ----------
         Hurtado & Nehorai (2008), eqs. 4-6 and 13.
         """
-        x = np.asarray(target_states, dtype=float)
-        s = np.asarray(sensor_states, dtype=float)
+        x, s = np.asarray(target_states, dtype=float), np.asarray(sensor_states, dtype=float)
         outer = s.ndim == 2 and x.ndim == 2  # every sensor state against every target state
         rel, dim = relative_states(x[None] if outer else x, s[:, None] if outer else s)
         h = measurement_jacobian(rel, dim)
@@ -477,8 +481,7 @@ class RadarModel:
         Raises
         ------
         ValueError
-            In 3-D, for a target at an elevation where the array gives no elevation
-            information.
+            In 3-D, at an elevation where the array gives no elevation information.
         """
         gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         z = self.measure(target_states, sensor_states)
