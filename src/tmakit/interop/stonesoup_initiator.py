@@ -40,6 +40,17 @@ class BatchInitiator(GaussianInitiator):
     bearing, elevation and range models).  One target: every detection it is given is taken
     to be of the target it starts (use it where association has removed clutter, or with a
     single-target tracker).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        Stone Soup properties, by position or name: ``dim``, ``max_relative_std``,
+        ``min_window``, ``growth``, ``options`` and ``epoch`` (documented with each below).
+
+    Raises
+    ------
+    ValueError
+        For a ``dim`` other than 2 or 3, or a start rule that cannot be met.
     """
 
     dim: int = Property(default=2, doc="Spatial dimension of the target, 2 or 3.")

@@ -38,6 +38,11 @@ def cartesian_mapping(dim: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
     -------
     mapping, velocity_mapping : tuple of int
         ``(0, 2(, 4))`` and ``(1, 3(, 5))``.
+
+    Raises
+    ------
+    ValueError
+        When ``dim`` is not 2 or 3.
     """
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim}")
@@ -149,7 +154,13 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
         return len(self.group)
 
     def typed_vector(self) -> Array:
-        """Return a column with Bearing(0) on the angle rows, 0.0 elsewhere (m, 1)."""
+        """Return a column with Bearing(0) on the angle rows, 0.0 elsewhere.
+
+        Returns
+        -------
+        numpy.ndarray of object, shape (m, 1)
+            Stone Soup's typed zero vector of the rows (angles wrap as ``Bearing``).
+        """
         return np.array([[Bearing(0.0)] if a else [0.0] for a in self.group.angle],
                         dtype=object)
 
@@ -247,5 +258,16 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
         return float(ll[0]) if ll.shape[0] == 1 else ll
 
     def pdf(self, state1: object, state2: object, **kwargs: object) -> float | Array:
-        """Return the likelihood, ``exp(logpdf)`` (see :meth:`logpdf`)."""
+        """Return the likelihood, ``exp(logpdf)``.
+
+        Parameters
+        ----------
+        state1, state2, **kwargs
+            As for :meth:`logpdf`: the measurement and the state(s).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The Gaussian likelihood of the measurement given each state.
+        """
         return np.exp(self.logpdf(state1, state2, **kwargs))

@@ -3,14 +3,12 @@
 Joins a :class:`~tmakit.motion.MotionModel`, the sensor states recorded in a
 :class:`~tmakit.data.MeasurementSet` and one :class:`~tmakit.measurements.MeasurementModel` per
 kind.  The batch Jacobian is the chain ``d value / d rel  x  d state / d theta`` (the sensor is
-known, so ``d rel / d state`` is the identity), plus ``d value / d nuisance``.
-
-Nuisance parameters are shared by all rows of a kind; their vector is the concatenation of
-each kind's :attr:`~tmakit.measurements.MeasurementModel.nuisance_names` in kind order.
-
-Internally the rows are grouped by kind (:attr:`ObservationModel.order`) so that every kind is
-a contiguous slice; the ``*_grouped`` methods work in that order (solvers use them, since row
-order does not matter to a fit) and the public methods return the set's own row order.
+known, so ``d rel / d state`` is the identity), plus ``d value / d nuisance``.  Nuisance
+parameters are shared by all rows of a kind; their vector is the concatenation of each kind's
+:attr:`~tmakit.measurements.MeasurementModel.nuisance_names` in kind order.  Internally the
+rows are grouped by kind (:attr:`ObservationModel.order`), each kind a contiguous slice; the
+``*_grouped`` methods work in that order (solvers use them: row order does not matter to a
+fit) and the public methods return the set's own row order.
 """
 
 from __future__ import annotations
@@ -39,10 +37,8 @@ class ObservationModel:
 
     Parameters
     ----------
-    meas : MeasurementSet
-        The measurements (SI values, sigmas, times and sensor states are used).
-    motion : MotionModel
-        The target motion model, ``p`` parameters ``theta`` (SI).
+    meas, motion : MeasurementSet, MotionModel
+        The measurements (SI) and the target motion model, ``p`` parameters ``theta`` (SI).
     options : mapping, optional
         Per-kind model options.
     """
