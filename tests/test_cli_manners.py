@@ -75,3 +75,21 @@ def test_reproduction_figures_are_printed_as_words_not_python_values():
     text = plain({"rmse": [1.0, 2.5e-7], "ok": True, "n": 3})
     assert text == "rmse = 1, 2.5e-07; ok = true; n = 3"
     assert "[" not in plain([[1.0, 2.0], [3.0]]) and "{" not in plain({"a": {"b": 1.0}})
+
+
+@pytest.mark.parametrize("command", [*COMMANDS, "import", "examples"])
+def test_help_names_values_not_python_types(command):
+    text = run(command, "-h").output
+    # typer's type labels (<str>, <float>, <int>, <path>, <list[Path]>) and {file} usage
+    assert not re.search(r"<(str|int|float|path|bool|list\[[^]]*\])>", text), text
+    assert "{" not in text.split("\n\n")[0]  # the usage line
+
+
+def test_help_shows_what_each_value_is():
+    text = " ".join(run("estimate", "-h").output.split())
+    assert "estimate [OPTIONS] FILE Estimate" in text
+    for shown in ("--origin LAT,LON,ALT", "--plot FILE", "--units si|nautical", "--at T",
+                  "--bearing-sigma DEG"):
+        assert shown in text
+    assert "--json print JSON" in text  # a flag takes no value
+    assert "-o, --output FILE" in " ".join(run("track", "-h").output.split())

@@ -28,6 +28,7 @@ from .crlb import crlb
 from .estimate import estimate
 from .importing import examples, import_
 from .montecarlo import montecarlo
+from .plain_help import PlainCommand
 from .plan import plan
 from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
@@ -57,9 +58,9 @@ def _root(version: Annotated[bool, typer.Option(
 # Registered in this order: ``tma --help`` lists the commands in it.
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
                  plan, demo):
-    app.command()(_command)
-app.command(name="import")(import_)
-app.command()(examples)
+    app.command(cls=PlainCommand)(_command)
+app.command(name="import", cls=PlainCommand)(import_)
+app.command(cls=PlainCommand)(examples)
 
 
 def main() -> None:
