@@ -192,6 +192,21 @@ def test_track_answers_and_json(tmp_path, bo):
     assert "emitter at t = 600 s" in text.output and "kn" in text.output
 
 
+def test_a_track_answers_for_itself_like_an_estimate(bo):
+    """Issue 12 item 3: answers from the Python result objects, the track's as the estimate's."""
+    scn, meas, res = bo
+    tr = tk.track(meas, "ekf")
+    a = tr.answer(meas)
+    assert a.as_dict() == track_answer(tr, meas).as_dict()
+    mid = tr.answer(meas, index=len(tr) // 2, sensor="observer", level=0.9)
+    assert mid.time == tr.times[len(tr) // 2] and mid.ellipse.level == 0.9
+    # The track's last answer agrees with the batch estimate's at the same time within 3 sigma.
+    b = res.answer(meas, time=a.time)
+    assert abs(a.course_deg - b.course_deg) < 3 * np.hypot(a.course_std_deg, b.course_std_deg)
+    assert abs(a.range_m - b.range_m) < 3 * np.hypot(a.range_std, b.range_std)
+    assert 0 <= a.bearing_deg < 360 and a.speed_knots == pytest.approx(a.speed / KNOT)
+
+
 def test_estimate_answer_without_a_bound_uses_the_method_covariance():
     scn = tk.load_scenario("gu2007")
     meas = scn.simulate(rng=1)

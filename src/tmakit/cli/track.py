@@ -170,12 +170,10 @@ def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
     typer.Exit
         Status 2 for an unknown sensor.
     """
-    from ..results import track_answer
-
     if sensor is not None and sensor not in meas.sensors:
         raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
                    f"{', '.join(meas.sensors)})")
-    return track_answer(tr, meas, sensor=sensor)
+    return tr.answer(meas, sensor=sensor)
 
 
 def measurement_warnings(meas: Any) -> list[Any]:
