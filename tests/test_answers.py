@@ -194,7 +194,7 @@ def test_track_answers_and_json(tmp_path, bo):
 
 def test_a_track_answers_for_itself_like_an_estimate(bo):
     """Issue 12 item 3: answers from the Python result objects, the track's as the estimate's."""
-    scn, meas, res = bo
+    _, meas, res = bo
     tr = tk.track(meas, "ekf")
     a = tr.answer(meas)
     assert a.as_dict() == track_answer(tr, meas).as_dict()
@@ -245,3 +245,28 @@ def test_bad_answer_options_are_refused_naming_the_option(tmp_path, bo, option, 
     out = run("estimate", str(path), "--motion", "cv2d", option, value)
     assert out.exit_code == 2 and option in out.output and words in out.output
     assert "Traceback" not in out.output
+
+
+def test_altitude_is_labelled_by_the_files_altitude_reference(tmp_path):
+    """A Debrief file's altitudes are above mean sea level: no output calls them WGS-84."""
+    from tmakit.io.samples import replay_sample
+    from tmakit.results.answers import answer_from_state
+
+    rep = tmp_path / "s.rep"
+    rep.write_text(replay_sample(3)[0])
+    ms = tk.read_measurements(rep)
+    assert ms.metadata["altitude_reference"] == "msl"
+    state, cov = np.array([100.0, 200.0, 5.0, 1.0, 2.0, 0.0]), np.eye(6)
+    a = answer_from_state(state, cov, 60.0, ms, dim=3)
+    assert a.altitude_reference == "mean sea level"
+    assert a.as_dict()["position"]["altitude_reference"] == "mean sea level"
+    gps = ms.take(np.arange(len(ms)))
+    gps.metadata["altitude_reference"] = "ellipsoid"
+    assert answer_from_state(state, cov, 60.0, gps, dim=3).altitude_reference == \
+        "WGS-84 ellipsoid"
+    csv = tmp_path / "s3.csv"
+    assert run("import", "rep", str(rep), "--dim", "3", "-o", str(csv)).exit_code == 0
+    out = run("estimate", str(csv), "--motion", "cv3d")
+    assert "altitude (mean sea level)" in out.output and "WGS-84" not in out.output
+    data = json.loads(run("estimate", str(csv), "--motion", "cv3d", "--json").stdout)
+    assert data["answer"]["position"]["altitude_reference"] == "mean sea level"

@@ -160,7 +160,7 @@ def answers_table(a: Any, units: str, title: str) -> Table:
         row("latitude", lat, a.enu_std[1], ".6f", "deg", std_unit=" m")
         row("longitude", lon, a.enu_std[0], ".6f", "deg", std_unit=" m")
         if a.dim == 3:
-            row("altitude (WGS-84 ellipsoid)", alt, a.enu_std[2], ".1f", "m")
+            row(f"altitude ({a.altitude_reference})", alt, a.enu_std[2], ".1f", "m")
     for i, name in enumerate(("east", "north", "up")[: a.dim]):
         row(name, a.enu[i], a.enu_std[i], ".1f", "m")
     if not a.stationary:

@@ -376,8 +376,8 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
     say.print(f"wrote {path}", highlight=False)
 
 
-def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
-    """Return the estimated position at the motion model's reference time in WGS-84.
+def geodetic_position(meas: Any, result: Any) -> dict[str, object] | None:
+    """Return the estimated position at the motion model's reference time in lat/lon/alt.
 
     Only when the file gives the ENU origin (``origin_lat``, ``origin_lon``, ``origin_alt``).
 
@@ -391,7 +391,8 @@ def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
     Returns
     -------
     dict or None
-        ``{"time" (s), "lat" (deg), "lon" (deg), "alt" (m)}``, or None without an origin or
+        ``{"time" (s), "lat" (deg), "lon" (deg), "alt" (m), "altitude_reference"}`` (the
+        file's: ``WGS-84 ellipsoid`` or ``mean sea level``), or None without an origin or
         a finite position.
     """
     meta = meas.metadata
@@ -402,6 +403,7 @@ def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
     import numpy as np
 
     from ..geodesy import enu_to_geodetic
+    from ..results.answers import altitude_reference
 
     t = float(getattr(result.motion, "ref_time", meas.time.min()))
     state = result.motion.states(result.estimate, np.array([t]))[0]
@@ -410,4 +412,5 @@ def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
     origin = (float(meta["origin_lat"]), float(meta["origin_lon"]),
               float(meta.get("origin_alt", 0.0)))
     lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2], origin)
-    return {"time": t, "lat": float(lat), "lon": float(lon), "alt": float(alt)}
+    return {"time": t, "lat": float(lat), "lon": float(lon), "alt": float(alt),
+            "altitude_reference": altitude_reference(meas)}
