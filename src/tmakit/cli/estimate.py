@@ -26,11 +26,13 @@ from .common import (
     DriftOption,
     FormatOption,
     FreeExponentOption,
+    FrequencySigmaOption,
     JsonOption,
     MappingOption,
     MotionOption,
     OriginOption,
     OwnshipOption,
+    RangeSigmaOption,
     RefTimeOption,
     check_plot_path,
     err,
@@ -63,6 +65,8 @@ def estimate(
     contact: ContactOption = None,
     mapping: MappingOption = None,
     bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None,
+    frequency_sigma: FrequencySigmaOption = None,
     exact: Annotated[bool, typer.Option(
         "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")
     ] = False,
@@ -106,7 +110,8 @@ def estimate(
     if plot is not None:
         check_plot_path(plot, force)
     meas = select_window(read_or_fail(file, parse_origin(origin), **reader_options(
-        format, ownship, contact, mapping, bearing_sigma)), start, stop)
+        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma)),
+        start, stop)
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations))

@@ -18,9 +18,11 @@ from .common import (
     DriftOption,
     FormatOption,
     FreeExponentOption,
+    FrequencySigmaOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
+    RangeSigmaOption,
     err,
     fail,
     model_options,
@@ -69,6 +71,7 @@ def track(
     origin: OriginOption = None,
     format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None, frequency_sigma: FrequencySigmaOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -92,7 +95,7 @@ def track(
     check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
     check_units(units)
     meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
-        format, ownship, contact, mapping, bearing_sigma))
+        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma))
     try:
         d = tracking.filter_dim(meas, dim)
         q_axes = tracking.process_noise(parse_q(q, d), d)
