@@ -224,6 +224,19 @@ def _rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.flo
     return out
 
 
+def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
+                    frequency: float | None) -> tuple[dict[str, float], set[str]]:
+    """Return the sigmas of lines stating none (deg, m, Hz) and the kinds the user gave."""
+    given = {"bearing": bearing, "range": range_, "frequency": frequency}
+    default = {"bearing": DEFAULT_BEARING_SIGMA_DEG, "range": DEFAULT_RANGE_SIGMA_M,
+               "frequency": DEFAULT_FREQUENCY_SIGMA_HZ}
+    sig = {k: default[k] if v is None else v for k, v in given.items()}
+    bad = [f"{k} sigma {v!r}: expected a number > 0" for k, v in sig.items() if not v > 0]
+    if bad:
+        raise MeasurementFileError(path, bad)
+    return sig, {k for k, v in given.items() if v is not None}
+
+
 def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None = None,
                 ownship: str | None = None, contact: str | None = None,
                 bearing_sigma: float | None = None, range_sigma: float | None = None,
@@ -269,13 +282,7 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
         (listing the names present), or a NULL position outside the host track.
     """
     path = Path(path)
-    sig = {"bearing": DEFAULT_BEARING_SIGMA_DEG if bearing_sigma is None else bearing_sigma,
-           "range": DEFAULT_RANGE_SIGMA_M if range_sigma is None else range_sigma,
-           "frequency": DEFAULT_FREQUENCY_SIGMA_HZ if frequency_sigma is None
-           else frequency_sigma}
-    bad = [f"{k} sigma {v!r}: expected a number > 0" for k, v in sig.items() if not v > 0]
-    if bad:
-        raise MeasurementFileError(path, bad)
+    sig, asked = _default_sigmas(path, bearing_sigma, range_sigma, frequency_sigma)
     tracks, sensors = _load(path)
     host, rows = _choose(path, sensors, ownship, contact)
     fixes = _host_fixes(path, tracks, host, rows)
@@ -290,8 +297,6 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
     t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    asked = {k for k, v in (("bearing", bearing_sigma), ("range", range_sigma),
-                            ("frequency", frequency_sigma)) if v is not None}
     times, kinds, values, sigmas, st = _rows(rows, states, t, si, asked)
     if not times:
         raise MeasurementFileError(path, [f"the sensor lines of {host!r} measure nothing (every "
