@@ -15,70 +15,14 @@ from typing import Any
 import numpy as np
 
 from .data import MeasurementSet
-from .geodesy import enu_to_geodetic
+from .plot_frame import MapFrame, format_time_axis, map_legend, plot_times
 from .results import EstimateResult
 from .results.answers import estimate_answer
-from .results.context import clock_time, origin_of, sensor_position
+from .results.context import clock_time, sensor_position
 from .truth import truth_states
 
 #: At most this many bearing lines are drawn (evenly spread over the rows).
 MAX_BEARING_LINES = 40
-
-
-class MapFrame:
-    """Map coordinates: lon/lat (deg) when the origin is known, else East/North (km)."""
-
-    def __init__(self, meas: MeasurementSet) -> None:
-        self.origin = origin_of(meas)
-        self.geodetic = self.origin is not None
-        self.labels = (("longitude (deg)", "latitude (deg)") if self.geodetic
-                       else ("East (km)", "North (km)"))
-
-    def xy(self, east: np.ndarray, north: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return map coordinates of ENU positions (m).
-
-        Parameters
-        ----------
-        east, north : ndarray
-            ENU positions (m).
-
-        Returns
-        -------
-        tuple of ndarray
-            (lon, lat) in degrees, or (East, North) in km.
-        """
-        east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
-        if not self.geodetic:
-            return east / 1000.0, north / 1000.0
-        lat, lon, _ = enu_to_geodetic(east, north, np.zeros_like(east), self.origin)
-        return np.asarray(lon), np.asarray(lat)
-
-    def metres_per_x(self) -> float:
-        """Metres per unit of the horizontal map coordinate (at the origin)."""
-        if not self.geodetic:
-            return 1000.0
-        return 111_320.0 * float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
-
-    def aspect(self) -> float:
-        """Axis aspect ratio that keeps distances true (1 / cos(latitude) in lon/lat)."""
-        if not self.geodetic:
-            return 1.0
-        return 1.0 / float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
-
-
-def _scale_bar(ax: Any, frame: MapFrame) -> None:
-    """Draw a scale bar of a round length, about a fifth of the map's width."""
-    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
-
-    x0, x1 = ax.get_xlim()
-    width_m = abs(x1 - x0) * frame.metres_per_x()
-    target = width_m / 5.0
-    step = 10.0 ** np.floor(np.log10(target))
-    length = max((m * step for m in (1, 2, 5) if m * step <= target), default=step)
-    text = f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m"
-    ax.add_artist(AnchoredSizeBar(ax.transData, length / frame.metres_per_x(), text,
-                                  "lower right", pad=0.5, frameon=True, size_vertical=0, sep=4,
-                                  label_top=True))
 
 
 def _ellipse(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
@@ -126,7 +70,8 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
         s = result.motion.states(result.estimate, np.array([tk]))[0]
         px, py = frame.xy(np.array([s[0]]), np.array([s[1]]))
         ax.plot(px, py, "o", color="tab:red", ms=4, zorder=5)
-        ax.annotate(_label(meas, float(tk)), (px[0], py[0]), textcoords="offset points",
+        text = "emitter (stationary)" if a.stationary else _label(meas, float(tk))
+        ax.annotate(text, (px[0], py[0]), textcoords="offset points",
                     xytext=(6, 6), fontsize=8, color="tab:red",
                     bbox={"fc": "white", "alpha": 0.7, "lw": 0, "pad": 1})
         cov2 = a.covariance[:2, :2]
@@ -185,19 +130,20 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     ax.set_xlabel(frame.labels[0])
     ax.set_ylabel(frame.labels[1])
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8, framealpha=0.85)
-    _scale_bar(ax, frame)
+    map_legend(ax)
+    frame.scale_bar(ax)
 
 
 def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray) -> None:
     """One panel per kind: residuals in units of sigma against time, ±1σ and ±3σ bands."""
+    when, label = plot_times(meas, meas.time)
     for ax, kind in zip(axes, meas.kinds, strict=True):
         rows = meas.kind_mask(kind)
         z = residuals[rows]
         for s in meas.sensors:
             sel = meas.sensor[rows] == s
             if np.any(sel):
-                ax.plot(meas.time[rows][sel], z[sel], ".", ms=4, label=s)
+                ax.plot(when[rows][sel], z[sel], ".", ms=4, label=s)
         ax.axhspan(-1, 1, color="tab:green", alpha=0.12)
         for y in (-3, 3):
             ax.axhline(y, color="tab:red", lw=0.8, ls=":")
@@ -211,8 +157,8 @@ def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray
         ax.grid(True, alpha=0.3)
         if len(meas.sensors) > 1:
             ax.legend(fontsize=7, loc="upper right")
-    axes[-1].set_xlabel("time (s)" if clock_time(meas, 0.0) is None
-                        else f"time (s since {clock_time(meas, 0.0)})")
+    axes[-1].set_xlabel(label)
+    format_time_axis(axes[-1], when)
 
 
 def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,
