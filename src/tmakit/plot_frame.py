@@ -54,17 +54,21 @@ class MapFrame:
         lat, lon, _ = enu_to_geodetic(east, north, np.zeros_like(east), self.origin)
         return np.asarray(lon), np.asarray(lat)
 
+    def _metres_per_degree(self) -> tuple[float, float]:
+        """Metres per degree of longitude and of latitude at the origin (WGS-84, 1 km steps)."""
+        lon, lat = self.xy(np.array([0.0, 1000.0, 0.0]), np.array([0.0, 0.0, 1000.0]))
+        return 1000.0 / float(lon[1] - lon[0]), 1000.0 / float(lat[2] - lat[0])
+
     def metres_per_x(self) -> float:
         """Give the metres per unit of the horizontal map coordinate (at the origin)."""
-        if not self.geodetic:
-            return 1000.0
-        return 111_320.0 * float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
+        return self._metres_per_degree()[0] if self.geodetic else 1000.0
 
     def aspect(self) -> float:
-        """Give the axis aspect ratio that keeps distances true (1 / cos(lat) in lon/lat)."""
+        """Give the axis aspect ratio that keeps distances true (about 1 / cos(lat) in lon/lat)."""
         if not self.geodetic:
             return 1.0
-        return 1.0 / float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
+        per_lon, per_lat = self._metres_per_degree()
+        return per_lat / per_lon
 
     def decorate(self, ax: Any) -> None:
         """Label the axes, keep distances true, draw a grid and a scale bar (lower right).
@@ -78,6 +82,7 @@ class MapFrame:
         ax.set_ylabel(self.labels[1])
         ax.set_aspect(self.aspect(), adjustable="datalim")
         ax.grid(True, alpha=0.3)
+        ax.apply_aspect()  # the limits the picture will have, for the scale bar's length
         self.scale_bar(ax)
 
     def scale_bar(self, ax: Any) -> None:
