@@ -93,3 +93,18 @@ def test_help_shows_what_each_value_is():
         assert shown in text
     assert "--json print JSON" in text  # a flag takes no value
     assert "-o, --output FILE" in " ".join(run("track", "-h").output.split())
+
+
+def test_montecarlo_table_has_units():
+    out = run("montecarlo", "gu2007", "--runs", "2", "--no-progress")
+    assert out.exit_code == 0, out.output
+    header = next(line for line in out.output.splitlines() if "parameter" in line)
+    assert "unit" in header
+    vx = next(line for line in out.output.splitlines() if line.strip("│ ").startswith("vx "))
+    assert "m/s" in vx
+
+
+def test_montecarlo_of_a_motion_it_cannot_start_is_an_error_not_a_traceback():
+    out = run("montecarlo", "hoerst2010", "--runs", "2", "--no-progress")
+    assert out.exit_code == 2 and "error: hoerst2010" in out.output
+    assert "Traceback" not in out.output
