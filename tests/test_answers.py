@@ -270,3 +270,18 @@ def test_altitude_is_labelled_by_the_files_altitude_reference(tmp_path):
     assert "altitude (mean sea level)" in out.output and "WGS-84" not in out.output
     data = json.loads(run("estimate", str(csv), "--motion", "cv3d", "--json").stdout)
     assert data["answer"]["position"]["altitude_reference"] == "mean sea level"
+
+
+def test_estimate_states_the_origin_it_defaulted_to_and_the_clock(tmp_path):
+    """Issue 12: the origin defaults to the first fix, stated in the output."""
+    from tmakit.io.samples import replay_sample
+
+    rep = tmp_path / "c.rep"
+    rep.write_text(replay_sample(0)[0])
+    out = run("estimate", str(rep), "--motion", "cv2d", "--units", "nautical")
+    text = " ".join(out.output.split())
+    assert ("frame: ENU origin lat 47.950000 deg, lon -5.250000 deg, alt 0.0 m (the first fix), "
+            "altitudes above mean sea level; t = 0 s is 2026-05-04T09:30:00Z (UTC)") in text
+    given = run("estimate", str(rep), "--motion", "cv2d", "--origin", "48,-5.3,0")
+    assert "lat 48.000000 deg, lon -5.300000 deg, alt 0.0 m (given)" in " ".join(
+        given.output.split())

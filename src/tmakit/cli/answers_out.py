@@ -201,8 +201,39 @@ def answer_title(a: Any, what: str) -> str:
     return f"{what} (stationary)" + (f"; range and bearing at {when}" if a.sensor else "")
 
 
-def print_answers(a: Any, units: str) -> None:
-    """Print the answers table and how its std were computed.
+def frame_note(meas: Any) -> str | None:
+    """Say where lat/lon and clock times come from: the ENU origin and the time origin.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet or None
+        The measurements (their ``origin_*``, ``origin_source``, ``altitude_reference`` and
+        ``time_origin`` metadata).
+
+    Returns
+    -------
+    str or None
+        ``frame: ENU origin lat .. deg, lon .. deg, alt .. m (the first fix), altitudes above
+        mean sea level; t = 0 s is ...``, or None when the set records neither origin.
+    """
+    from ..results.answers import altitude_reference
+
+    meta = {} if meas is None else meas.metadata
+    parts = []
+    if "origin_lat" in meta and "origin_lon" in meta:
+        source = meta.get("origin_source")
+        parts.append(f"ENU origin lat {float(meta['origin_lat']):.6f} deg, lon "
+                     f"{float(meta['origin_lon']):.6f} deg, alt "
+                     f"{float(meta.get('origin_alt', 0.0)):.1f} m"
+                     + (f" ({source})" if source else "")
+                     + f", altitudes above {altitude_reference(meas)}")
+    if "time_origin" in meta:
+        parts.append(f"t = 0 s is {meta['time_origin']} (UTC)")
+    return "frame: " + "; ".join(parts) if parts else None
+
+
+def print_answers(a: Any, units: str, meas: Any = None) -> None:
+    """Print the answers table, how its std were computed and the frame of lat/lon and clock.
 
     Parameters
     ----------
@@ -210,6 +241,8 @@ def print_answers(a: Any, units: str) -> None:
         The answers.
     units : str
         ``si`` or ``nautical``.
+    meas : tmakit.data.MeasurementSet, optional
+        The measurements: their ENU and time origins are stated (:func:`frame_note`).
     """
     print_wide(answers_table(a, units, answer_title(a, "emitter position" if a.stationary
                                                     else "emitter")))
@@ -218,6 +251,9 @@ def print_answers(a: Any, units: str) -> None:
     if a.dim == 2:
         note += "; range is horizontal (2-D motion)"
     out.print(note, highlight=False)
+    frame = frame_note(meas)
+    if frame is not None:
+        out.print(frame, highlight=False)
 
 
 def print_warnings(warnings: list[Any]) -> None:

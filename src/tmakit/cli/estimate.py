@@ -346,7 +346,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                 f"{f:.3g} ({k})" for k, f in factors.items()) + " from the first fit's "
                 "residuals; the estimate and covariance above are of the refit",
                 highlight=False)
-        print_answers(answer, units)
+        print_answers(answer, units, meas)
     print_warnings(warnings)
     if plot is not None and plot[0] is not None:
         draw_solution(meas, result, answer, plot, err if as_json else out)

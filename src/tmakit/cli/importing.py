@@ -144,7 +144,9 @@ def print_import(meas: Any, output: Path | None) -> None:
     if "origin_lat" in meta:
         out.print(f"  ENU origin: lat {float(meta['origin_lat']):.7f} deg, lon "
                   f"{float(meta['origin_lon']):.7f} deg, alt {float(meta['origin_alt']):.1f} m "
-                  f"({meta.get('altitude_reference', 'ellipsoid')})", highlight=False)
+                  f"({meta.get('altitude_reference', 'ellipsoid')})"
+                  + (f", {meta['origin_source']}" if "origin_source" in meta else ""),
+                  highlight=False)
     for key, label in (("dim_rule", "frame"), ("velocity_source", "sensor velocity")):
         if key in meta:
             out.print(f"  {label}: {meta[key]}", highlight=False, soft_wrap=True)

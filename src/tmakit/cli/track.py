@@ -147,7 +147,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
         typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
     else:
         print_track(tr, truth, rows, meas)
-        print_answers(answer, units)
+        print_answers(answer, units, meas)
     print_warnings(measurement_warnings(meas))
 
 
