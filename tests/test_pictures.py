@@ -94,3 +94,11 @@ def test_plot_times_and_map_frame(rep):
     _, lat2 = frame.xy([0.0], [1000.0])
     assert (lat2[0] - lat[0]) * frame.aspect() * frame.metres_per_x() == pytest.approx(1000.0,
                                                                                         rel=1e-6)
+
+
+def test_solution_title_speaks_the_users_units(tmp_path, rep, figures):
+    out = runner.invoke(app, ["estimate", str(rep), "--motion", "cv2d", "--units", "nautical",
+                              "--plot", str(tmp_path / "p.png")])
+    assert out.exit_code == 0, out.output
+    title = figures[0].get_suptitle()
+    assert " kn, range " in title and " nmi, bearing " in title and "m/s" not in title

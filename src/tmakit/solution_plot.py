@@ -17,10 +17,12 @@ import numpy as np
 from .data import MeasurementSet
 from .plot_frame import MapFrame, format_time_axis, map_legend, plot_times
 from .results import EstimateResult
-from .results.answers import estimate_answer
+from .results.answers import KNOT, estimate_answer
 from .results.context import clock_time, sensor_position
 from .truth import truth_states
 
+#: One nautical mile (m).
+NAUTICAL_MILE = 1852.0
 #: At most this many bearing lines are drawn (evenly spread over the rows).
 MAX_BEARING_LINES = 40
 
@@ -163,7 +165,7 @@ def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray
 
 def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,
                   residuals: np.ndarray, answer: Any = None, title: str | None = None,
-                  labels: int = 5, level: float = 0.95) -> Path:
+                  labels: int = 5, level: float = 0.95, units: str = "si") -> Path:
     """Write the solution picture: geometry with bearing lines and ellipses, and residuals.
 
     Parameters
@@ -185,6 +187,8 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
         Times labelled along the estimated track (each with its ellipse).
     level : float
         Probability inside the ellipses (default 0.95).
+    units : str
+        ``si`` (speed m/s, range km) or ``nautical`` (speed kn, range nmi) in the title.
 
     Returns
     -------
@@ -207,7 +211,7 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     _draw_residuals(res_axes, meas, np.asarray(residuals, dtype=float))
     lines = [title or f"{result.method} estimate"]
     if answer is not None:
-        lines.append(_answer_line(answer, result))
+        lines.append(_answer_line(answer, result, units))
     fig.suptitle("\n".join(lines), fontsize=11)
     path = Path(path)
     fig.savefig(path, dpi=110)
@@ -215,15 +219,20 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     return path
 
 
-def _answer_line(a: Any, result: EstimateResult) -> str:
+def _answer_line(a: Any, result: EstimateResult, units: str = "si") -> str:
     """One line of answers for the title: course, speed, range, ellipse, chi2/dof."""
+    nautical = units == "nautical"
+    speed_unit, speed_scale = ("kn", KNOT) if nautical else ("m/s", 1.0)
+    range_unit, range_scale = ("nmi", NAUTICAL_MILE) if nautical else ("km", 1000.0)
     parts = [f"at {a.clock or f't = {a.time:g} s'}"]
     if a.course_deg is not None and a.speed is not None:
         parts.append(f"course {a.course_deg:.1f}° ± {a.course_std_deg:.1f}°, speed "
-                     f"{a.speed:.2f} ± {a.speed_std:.2f} m/s ({a.speed / 0.514444:.1f} kn)")
+                     f"{a.speed / speed_scale:.2f} ± {a.speed_std / speed_scale:.2f} "
+                     f"{speed_unit}")
     if a.range_m is not None:
-        parts.append(f"range {a.range_m / 1000:.3g} ± {a.range_std / 1000:.2g} km, bearing "
-                     f"{a.bearing_deg:.1f}° from {a.sensor}")
+        parts.append(f"range {a.range_m / range_scale:.3g} ± {a.range_std / range_scale:.2g} "
+                     f"{range_unit}, bearing {a.bearing_deg:.1f}° ± {a.bearing_std_deg:.2g}° "
+                     f"from {a.sensor}")
     if a.ellipse is not None:
         parts.append(f"{a.ellipse.level:.0%} ellipse {a.ellipse.semi_major:.3g} x "
                      f"{a.ellipse.semi_minor:.3g} m")

@@ -349,13 +349,13 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         print_answers(answer, units, meas)
     print_warnings(warnings)
     if plot is not None and plot[0] is not None:
-        draw_solution(meas, result, answer, plot, err if as_json else out)
+        draw_solution(meas, result, answer, plot, err if as_json else out, units)
     if result.status != "converged":
         raise typer.Exit(1)
 
 
 def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path, Any],
-                  say: Any) -> None:
+                  say: Any, units: str = "si") -> None:
     """Draw the solution picture (``--plot``) and say so.
 
     Parameters
@@ -370,6 +370,8 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
         ``(picture path, measurement file, model options)``.
     say : rich.console.Console
         Where to report.
+    units : str
+        ``si`` or ``nautical``: the units of speed and range in the picture's title.
     """
     from ..results import normalised_residuals
     from ..solution_plot import plot_solution
@@ -377,7 +379,8 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
     path, file, options = plot
     assert path is not None
     plot_solution(meas, result, path, residuals=normalised_residuals(result, meas, options),
-                  answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}")
+                  answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}",
+                  units=units)
     say.print(f"wrote {path}", highlight=False)
 
 
