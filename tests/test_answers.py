@@ -285,3 +285,24 @@ def test_estimate_states_the_origin_it_defaulted_to_and_the_clock(tmp_path):
     given = run("estimate", str(rep), "--motion", "cv2d", "--origin", "48,-5.3,0")
     assert "lat 48.000000 deg, lon -5.300000 deg, alt 0.0 m (given)" in " ".join(
         given.output.split())
+
+
+def test_an_unobservable_height_leaves_the_horizontal_answers(tmp_path):
+    """A 3-D bearings-only fit: Up is unobservable, East/North, lat/lon and course are not."""
+    from tmakit.io.samples import replay_sample
+
+    rep = tmp_path / "c.rep"
+    rep.write_text(replay_sample(0)[0])
+    flat = tk.read_measurements(rep, bearing_sigma=0.5)
+    tall = tk.read_measurements(rep, bearing_sigma=0.5, dim=3)
+    assert tall.dim == 3
+    a2 = tk.estimate(flat, tk.motion_from_name("cv2d")).answer(flat)
+    res3 = tk.estimate(tall, tk.motion_from_name("cv3d"))
+    assert res3.status == "unobservable"
+    a3 = res3.answer(tall)
+    assert a3.enu[2] is None and a3.geodetic[2] is None and a3.range_m is None
+    assert a3.enu[0] == pytest.approx(a2.enu[0], abs=1.0)
+    assert a3.geodetic[0] == pytest.approx(a2.geodetic[0], abs=1e-5)  # not moved by Up
+    assert a3.geodetic[1] == pytest.approx(a2.geodetic[1], abs=1e-5)
+    assert a3.course_deg == pytest.approx(a2.course_deg, abs=0.05)
+    assert a3.bearing_deg == pytest.approx(a2.bearing_deg, abs=0.01)

@@ -54,10 +54,10 @@ def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
     if not np.any(used):
         return 0.0
     if null is not None and null.size:
-        part = null[used]
-        norms = np.linalg.norm(part, axis=0) * np.linalg.norm(grad[used])
+        # Relative to the whole null direction: round-off (1e-16) in a component is no motion.
+        norms = np.linalg.norm(null, axis=0) * np.linalg.norm(grad)
         moving = norms > 0
-        if np.any(np.abs(grad[used] @ part[:, moving]) > NULL_COSINE * norms[moving]):
+        if np.any(np.abs(grad @ null[:, moving]) > NULL_COSINE * norms[moving]):
             return None
     sub = cov[np.ix_(used, used)]
     if not np.all(np.isfinite(sub)):
@@ -322,8 +322,9 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     if origin is not None:
         geo = (None, None, None)
         if enu[0] is not None and enu[1] is not None:
-            lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2] if dim == 3 else 0.0,
-                                            origin)
+            # An unobservable height (a 3-D bearings-only fit) must not move lat/lon.
+            up = state[2] if dim == 3 and enu[2] is not None else 0.0
+            lat, lon, alt = enu_to_geodetic(state[0], state[1], up, origin)
             geo = (float(lat), float(lon), float(alt) if enu[2] is not None or dim == 2 else None)
     if meas is not None and len(meas) and sensor is None:
         sensor = str(meas.sensor[int(np.argmax(meas.time))])
