@@ -56,6 +56,7 @@ def test_crlb_at_gives_the_course_in_degrees_true():
     value = float(course.split()[1])
     assert 0 <= value < 360 and course.rstrip().endswith("deg")
     assert value == pytest.approx(240.0, abs=0.01)  # vx -21.65, vy -12.5: 240 deg true
+    assert "course_deg" not in out  # the JSON's degree copy is not printed twice
 
 
 def test_crlb_at_json_adds_the_course_in_degrees_and_keeps_radians():

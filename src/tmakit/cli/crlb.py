@@ -198,8 +198,8 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> No
         out.print(f"at t = {derived['time']:g} s:", highlight=False)
         from ..results.answers import parameter_display
 
-        for k, v in derived.items():
-            if isinstance(v, dict) and "value" in v:
+        for k, v in derived.items():  # course_deg is the JSON's copy of course, in degrees
+            if isinstance(v, dict) and "value" in v and k != "course_deg":
                 sd = v["std"]
                 value, sd_shown, unit = parameter_display(
                     k, v["value"], sd if sd is not None else float("nan"))
