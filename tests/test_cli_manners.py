@@ -109,3 +109,16 @@ def test_montecarlo_of_a_motion_it_cannot_start_is_an_error_not_a_traceback():
     out = run("montecarlo", "hoerst2010", "--runs", "2", "--no-progress")
     assert out.exit_code == 2 and "error: hoerst2010" in out.output
     assert "Traceback" not in out.output
+
+
+def test_curvilinear_estimate_gives_the_course_in_degrees_true(tmp_path):
+    obs = tmp_path / "ho.csv"
+    assert run("simulate", "hoerst2010", "--seed", "1", "-o", str(obs)).exit_code == 0
+    out = run("estimate", str(obs), "--motion", "curvilinear:1").output
+    course = next(line.split() for line in out.splitlines() if line.strip().startswith("course"))
+    assert course[-1] == "deg"
+    # the truth starts East (90 deg); one manoeuvre fewer than the truth bends it a little,
+    # a value in radians (1.57) would be far off
+    assert float(course[1]) == pytest.approx(90.0, abs=15.0)
+    answer = next(line for line in out.splitlines() if "course (true)" in line)
+    assert answer.rstrip(" │").endswith("deg") and "rad" not in out
