@@ -61,8 +61,9 @@ def _draw_bearings(ax: Any, meas: MeasurementSet, frame: MapFrame, reach: float)
 
 
 def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame: MapFrame,
-                   n_labels: int, level: float) -> None:
-    """Draw the estimated track, its ellipses and labelled times."""
+                   n_labels: int, level: float) -> float:
+    """Draw the estimated track, its ellipses and labelled times; give the largest semi-axis."""
+    largest = 0.0
     t = np.linspace(meas.time.min(), meas.time.max(), 200)
     states = result.motion.states(result.estimate, t)
     xs, ys = frame.xy(states[:, 0], states[:, 1])
@@ -81,9 +82,19 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
             pts = _ellipse(cov2, level) + s[:2]
             ex, ey = frame.xy(pts[:, 0], pts[:, 1])
             ax.plot(ex, ey, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
+            largest = max(largest, a.ellipse.semi_major)
         if a.stationary:
             break
-    ax.plot([], [], color="tab:red", lw=0.9, label=f"{level:.0%} position ellipses")
+    return largest
+
+
+def _ellipse_legend(ax: Any, frame: MapFrame, level: float, largest: float) -> None:
+    """Add the ellipses' legend entry; say so when they are too small to be seen on the map."""
+    x0, x1 = ax.get_xlim()
+    width_m = abs(x1 - x0) * frame.metres_per_x()
+    note = (f" (largest {largest:.3g} m: hidden by the dots)" if 0 < largest < 0.01 * width_m
+            else "")
+    ax.plot([], [], color="tab:red", lw=0.9, label=f"{level:.0%} position ellipses{note}")
 
 
 def _fill_panel(ax: Any, frame: MapFrame, ratio: float = 1.15) -> None:
@@ -118,8 +129,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     if truth is not None:
         xs, ys = frame.xy(truth[:, 0], truth[:, 1])
         ax.plot(xs, ys, "--", color="0.35", lw=1.2, label="truth (file metadata)", zorder=2)
-    if finite:
-        _draw_solution(ax, result, meas, frame, n_labels, level)
+    largest = _draw_solution(ax, result, meas, frame, n_labels, level) if finite else 0.0
     ax.autoscale()
     _fill_panel(ax, frame)
     ax.set_aspect(frame.aspect(), adjustable="box")
@@ -128,6 +138,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
         y0, y1 = ax.get_ylim()
         reach = 1.3 * max(abs(x1 - x0), abs(y1 - y0) / frame.aspect()) * frame.metres_per_x()
         ax.set_autoscale_on(False)
+        _ellipse_legend(ax, frame, level, largest)
         _draw_bearings(ax, meas, frame, reach)
     ax.set_xlabel(frame.labels[0])
     ax.set_ylabel(frame.labels[1])
