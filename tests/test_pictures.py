@@ -98,7 +98,7 @@ def test_plot_times_and_map_frame(rep):
 
 def test_solution_title_speaks_the_users_units(tmp_path, rep, figures):
     out = runner.invoke(app, ["estimate", str(rep), "--motion", "cv2d", "--units", "nautical",
-                              "--plot", str(tmp_path / "p.png")])
+                              "--bearing-sigma", "0.5", "--plot", str(tmp_path / "p.png")])
     assert out.exit_code == 0, out.output
     title = figures[0].get_suptitle()
     assert " kn, range " in title and " nmi, bearing " in title and "m/s" not in title
