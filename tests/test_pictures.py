@@ -105,3 +105,23 @@ def test_solution_title_speaks_the_users_units(tmp_path, rep, figures):
     legend = [t.get_text() for t in figures[0].legends[0].get_texts()]
     ellipses = next(t for t in legend if "position ellipses" in t)
     assert "hidden by the dots" in ellipses  # 250 m ellipses on a 40 km map: said, not lost
+
+
+def test_show_of_a_drone_log_plain_ticks_and_power_sigma_in_db(tmp_path, figures):
+    from tmakit.io.samples import drone_sample
+
+    text, mapping, _ = drone_sample(0)
+    log, toml = tmp_path / "drone.csv", tmp_path / "drone.toml"
+    log.write_text(text)
+    toml.write_text(mapping)
+    out = runner.invoke(app, ["show", str(log), "--mapping", str(toml), "--plot",
+                              str(tmp_path / "p.png")])
+    assert out.exit_code == 0, out.output
+    fig = figures[0]
+    fig.canvas.draw()
+    the_map = next(ax for ax in fig.get_axes() if ax.get_xlabel() == "longitude (deg)")
+    assert the_map.yaxis.get_offset_text().get_text() == ""  # 47.955, not +4.795e1
+    labels = [t.get_text() for t in the_map.get_yticklabels() if t.get_text()]
+    assert all(label.startswith("47.9") for label in labels)
+    power = next(ax.get_title() for ax in fig.get_axes() if ax.get_title().startswith("power"))
+    assert power.endswith(" dB") and "dBm" not in power

@@ -111,7 +111,8 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
             ax.set_ylabel(f"{label} - {offset / 1e6:.3f} MHz ({unit})", fontsize=8)
         else:
             ax.set_ylabel(f"{label} ({unit})", fontsize=8)
-        ax.set_title(f"{label}: {int(sel_k.sum())} samples, median sigma {sig:.3g} {unit}",
+        sig_unit = "dB" if unit.startswith("dB") else unit  # a power's sigma is a ratio
+        ax.set_title(f"{label}: {int(sel_k.sum())} samples, median sigma {sig:.3g} {sig_unit}",
                      fontsize=9)
         ax.grid(True, alpha=0.3)
         if i == len(kinds) - 1:

@@ -17,7 +17,7 @@ from .data import MeasurementSet
 from .geodesy import enu_to_geodetic
 from .results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 
-__all__ = ["MapFrame", "format_time_axis", "map_legend", "plot_times"]
+__all__ = ["MapFrame", "format_time_axis", "map_legend", "plain_ticks", "plot_times"]
 
 
 class MapFrame:
@@ -82,6 +82,7 @@ class MapFrame:
         ax.set_ylabel(self.labels[1])
         ax.set_aspect(self.aspect(), adjustable="datalim")
         ax.grid(True, alpha=0.3)
+        plain_ticks(ax)
         ax.apply_aspect()  # the limits the picture will have, for the scale bar's length
         self.scale_bar(ax)
 
@@ -165,3 +166,20 @@ def map_legend(ax: Any, columns: int = 3) -> None:
     if handles:
         ax.figure.legend(handles, labels, loc="outside lower left", ncol=columns, fontsize=8,
                          frameon=False)
+
+
+def plain_ticks(ax: Any) -> None:
+    """Write a map's tick labels in full (47.955, not an offset +4.795e1), at most 6 per axis.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The map.
+    """
+    from matplotlib.ticker import MaxNLocator, ScalarFormatter
+
+    for axis in (ax.xaxis, ax.yaxis):
+        formatter = ScalarFormatter(useOffset=False)
+        formatter.set_scientific(False)
+        axis.set_major_formatter(formatter)
+        axis.set_major_locator(MaxNLocator(nbins=6, steps=[1, 2, 2.5, 5, 10]))

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .data import MeasurementSet
-from .plot_frame import MapFrame, format_time_axis, map_legend, plot_times
+from .plot_frame import MapFrame, format_time_axis, map_legend, plain_ticks, plot_times
 from .results import EstimateResult
 from .results.answers import KNOT, estimate_answer
 from .results.context import clock_time, sensor_position
@@ -143,6 +143,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     ax.set_xlabel(frame.labels[0])
     ax.set_ylabel(frame.labels[1])
     ax.grid(True, alpha=0.3)
+    plain_ticks(ax)
     map_legend(ax)
     frame.scale_bar(ax)
 
