@@ -102,6 +102,7 @@ def test_solution_title_speaks_the_users_units(tmp_path, rep, figures):
     assert out.exit_code == 0, out.output
     title = figures[0].get_suptitle()
     assert " kn, range " in title and " nmi, bearing " in title and "m/s" not in title
+    assert "lat 47.8" in title and "lon -5.4" in title and "ellipse semi-axes" in title
     legend = [t.get_text() for t in figures[0].legends[0].get_texts()]
     ellipses = next(t for t in legend if "position ellipses" in t)
     assert "hidden by the dots" in ellipses  # 250 m ellipses on a 40 km map: said, not lost

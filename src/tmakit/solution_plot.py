@@ -237,6 +237,8 @@ def _answer_line(a: Any, result: EstimateResult, units: str = "si") -> str:
     speed_unit, speed_scale = ("kn", KNOT) if nautical else ("m/s", 1.0)
     range_unit, range_scale = ("nmi", NAUTICAL_MILE) if nautical else ("km", 1000.0)
     parts = [f"at {a.clock or f't = {a.time:g} s'}"]
+    if a.geodetic is not None and None not in a.geodetic[:2]:
+        parts.append(f"lat {a.geodetic[0]:.5f}°, lon {a.geodetic[1]:.5f}°")
     if a.course_deg is not None and a.speed is not None:
         parts.append(f"course {a.course_deg:.1f}° ± {a.course_std_deg:.1f}°, speed "
                      f"{a.speed / speed_scale:.2f} ± {a.speed_std / speed_scale:.2f} "
@@ -246,8 +248,9 @@ def _answer_line(a: Any, result: EstimateResult, units: str = "si") -> str:
                      f"{range_unit}, bearing {a.bearing_deg:.1f}° ± {a.bearing_std_deg:.2g}° "
                      f"from {a.sensor}")
     if a.ellipse is not None:
-        parts.append(f"{a.ellipse.level:.0%} ellipse {a.ellipse.semi_major:.3g} x "
-                     f"{a.ellipse.semi_minor:.3g} m")
+        parts.append(f"{a.ellipse.level:.0%} ellipse semi-axes {a.ellipse.semi_major:.3g} x "
+                     f"{a.ellipse.semi_minor:.3g} m, major axis {a.ellipse.orientation_deg:.0f}° "
+                     "true")
     if result.dof > 0:
         parts.append(f"χ²/dof {result.chi2 / result.dof:.2f}")
     half = (len(parts) + 1) // 2
