@@ -68,3 +68,12 @@ def test_listing_the_scenarios_needs_no_scenario_parser():
     modules = imported_by("scenarios")
     assert heavy(modules) == []
     assert "tmakit.scenario_catalog" in modules
+    # Nor pydantic: typer would import it to coerce parameters; the listing has none.
+    assert not [m for m in modules if m == "pydantic" or m.startswith("pydantic.")]
+
+
+def test_help_does_not_load_the_markdown_renderer():
+    # typer's rich help imports rich.markdown (and markdown_it): the help is plain instead.
+    modules = imported_by("--help")
+    assert not [m for m in modules if m.startswith(("rich.markdown", "markdown_it",
+                                                    "typer.rich_utils"))]

@@ -166,6 +166,106 @@ def test_known_nuisance_in_bounds_and_estimates(gu, meas):
     assert all(std == 0.0 for _, std in b.nuisance.values())
 
 
+def test_known_nuisance_runs_through_the_manoeuvre_estimator_as_one_type(monkeypatch):
+    """A KnownNuisance reaches the manoeuvre search as itself (no dict or bool in between),
+    and every spelling gives the same fit."""
+    import tmakit.batch.manoeuvre.estimator as manoeuvre
+
+    ho = tk.load_scenario("hoerst2010")
+    m = ho.simulate(rng=2)
+    motion = tk.PiecewiseCurvilinear(0, 0.0)
+    seen = []
+    search = manoeuvre.ManoeuvreSearch
+
+    def spy(meas, options, known, settings):
+        seen.append(known)
+        return search(meas, options, known, settings)
+
+    monkeypatch.setattr(manoeuvre, "ManoeuvreSearch", spy)
+    typed = ManoeuvreEstimator(exact=True, known_nuisance=KnownNuisance()).fit(m, motion)
+    flag = tk.estimate(m, motion, exact=True, known_nuisance=True)
+    same(typed, flag)
+    assert seen == [KnownNuisance(), KnownNuisance()]
+    assert all(isinstance(k, KnownNuisance) for k in seen)
+    assert typed.bound is not None and typed.bound.known_nuisance is not None
+    free = ManoeuvreEstimator(exact=True).fit(m, motion)
+    assert seen[-1] is None and free.bound.known_nuisance is None
+
+
+def test_ml_by_motion_reads_a_name_once_and_sends_fixed_models_straight_to_ml(gu, meas,
+                                                                            monkeypatch):
+    import tmakit.batch.dispatch as dispatch
+    import tmakit.batch.manoeuvre.method as method
+
+    calls = []
+    parse = dispatch.motion_from_name
+    monkeypatch.setattr(dispatch, "motion_from_name",
+                        lambda name, ref=0.0: calls.append(name) or parse(name, ref))
+
+    def refuse(*a, **k):
+        raise AssertionError("a fixed motion model reached the manoeuvre estimator")
+
+    monkeypatch.setattr(method, "estimate_for", refuse)
+    opts = gu.measurement_options
+    same(MLByMotion(options=opts).fit(meas, "cv2d"),
+         MaximumLikelihood(options=opts).fit(meas, tk.ConstantVelocity(2, 0.0)))
+    same(MLByMotion(options=opts, ref_time=10.0).fit(meas, "cv2d"),
+         MaximumLikelihood(options=opts).fit(meas, tk.ConstantVelocity(2, 10.0)))
+    assert calls == ["cv2d", "cv2d"]
+    # a manoeuvring name is read into its model, referenced at the first measurement time
+    model = dispatch.model_of("curvilinear:1", meas, None)
+    assert model.manoeuvres == 1 and model.ref_time == float(meas.time.min())
+    assert dispatch.model_of("curvilinear", meas, 4.0).ref_time == 4.0
+
+
+# -- many data sets at once: the batched fit is the one-by-one fit ------------------------------
+def test_fit_many_equals_fit_set_by_set(gu):
+    sets = [gu.simulate(rng=s) for s in (11, 12, 13)]
+    opts = gu.measurement_options
+    start = {"x": 3000.0, "y": 3500.0, "vx": -20.0, "vy": -10.0}
+    for ml in (MaximumLikelihood(options=opts),
+               MaximumLikelihood(options=opts, known_nuisance=KnownNuisance(gu.nuisance)),
+               MaximumLikelihood(options=opts, init=start)):
+        many = ml.fit_many(sets, gu.motion)
+        assert len(many) == len(sets)
+        for one, data in zip(many, sets, strict=True):
+            alone = ml.fit(data, gu.motion)
+            assert one.status == alone.status and one.starts == alone.starts
+            # a batched solve may round a convergence test the other way on its last step
+            assert abs(one.iterations - alone.iterations) <= 1
+            np.testing.assert_allclose(one.estimate, alone.estimate, rtol=1e-6)
+            np.testing.assert_allclose(one.chi2, alone.chi2, rtol=1e-6)
+            np.testing.assert_allclose(one.std, alone.std, rtol=1e-5)
+    assert MaximumLikelihood().fit_many([], gu.motion) == []
+
+
+def test_fit_many_fits_sets_of_other_rows_one_by_one_and_returns_errors_per_set(gu):
+    from tmakit.batch.ml import same_rows
+
+    a, b = gu.simulate(rng=1), gu.simulate(rng=2)
+    short = a.take(np.arange(len(a) - 4))
+    assert same_rows([a, b]) and not same_rows([a, short])
+    ml = MaximumLikelihood(options=gu.measurement_options)
+    many = ml.fit_many([a, short], gu.motion)
+    same(many[0], ml.fit(a, gu.motion))
+    same(many[1], ml.fit(short, gu.motion))
+    # a set no fit can use gives its error in its place; the others are fitted as alone
+    bad = gu.simulate(rng=2)
+    bad.value_si = np.full(len(bad), np.nan)
+    batch = ml.fit_many([a, bad, b], gu.motion)
+    same(batch[0], ml.fit(a, gu.motion))
+    assert isinstance(batch[1], ValueError)
+    with pytest.raises(ValueError) as alone:
+        ml.fit(bad, gu.motion)
+    assert str(alone.value) == str(batch[1])
+    assert batch[2].status == ml.fit(b, gu.motion).status
+    np.testing.assert_allclose(batch[2].estimate, ml.fit(b, gu.motion).estimate, rtol=1e-6)
+    with pytest.raises(ValueError, match="init must give 4 values"):
+        MaximumLikelihood(init=[1.0, 2.0]).fit_many([a, b], gu.motion)
+    with pytest.raises(TypeError, match="manoeuvring target"):
+        ml.fit_many([a], tk.PiecewiseCurvilinear(1, 0.0))
+
+
 # -- one result assembly -----------------------------------------------------------------------
 def test_diverged_and_own_covariance_results(gu):
     res = diverged_result(gu.motion, ["carrier"], 7, 10, "x", "why", extra={"k": 1})

@@ -462,3 +462,33 @@ def test_frequency_drift_and_power_values():
     assert p3 == pytest.approx(-20.0 - 30.0 * np.log10(5000.0), rel=1e-14)
     rd = RangeDifference().predict(rel, None, None, _state(600.0, 800.0))[0]
     assert rd == pytest.approx(4000.0, rel=1e-14)
+
+
+FUSED = [Bearing(), Elevation(), Range(), RangeRate(), Frequency(), Frequency(drift=True),
+         AzimuthRate(), Power()]
+
+
+@pytest.mark.parametrize("model", FUSED, ids=repr)
+def test_fused_gradients_equal_predict_and_jacobian(model):
+    """predict_gradient (the filters' general path) and, where a kind has it, the plain-float
+    row_gradient give predict and jacobian's rel part."""
+    rng = np.random.default_rng(3)
+    rel = np.c_[rng.uniform(-9e3, 9e3, (40, 3)), rng.uniform(-30, 30, (40, 3))]
+    t = rng.uniform(0, 100, 40)
+    nu = model.nuisance_vector({"carrier": 9.4e9, "carrier_drift": 0.3,
+                                "power_constant_db": -30.0}) if model.nuisance_names else None
+    want_v = model.predict(rel, t, nu)
+    want_d = model.jacobian(rel, t, nu).rel
+    got_v, got_d = model.predict_gradient(rel, t, nu)
+    scale = np.abs(want_d).max(axis=1, keepdims=True)
+    assert np.allclose(got_v, want_v, rtol=1e-14, atol=0)
+    assert np.all(np.abs(got_d - want_d) <= 1e-14 * scale)
+    if model.has_row_gradient:
+        nus = () if nu is None else tuple(nu.tolist())
+        rows = np.array([model.row_gradient(tuple(r), float(ti), nus)
+                         for r, ti in zip(rel.tolist(), t, strict=True)])
+        assert np.allclose(rows[:, 0], want_v, rtol=1e-14, atol=0)
+        assert np.all(np.abs(rows[:, 1:] - want_d) <= 1e-14 * scale)
+    else:
+        with pytest.raises(NotImplementedError):
+            model.row_gradient(tuple(rel[0]), 0.0, ())

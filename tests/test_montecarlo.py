@@ -105,6 +105,27 @@ def test_batched_ml_equals_estimate_with_known_nuisance_and_with_init(gu2007):
     assert np.all(known.crlb <= unknown.crlb * (1 + 1e-9))
 
 
+def test_known_nuisance_reaches_every_run_and_the_bound_as_one_type(gu2007):
+    """``True``, a mapping and a KnownNuisance say the same; values it names are the ones
+    every run's estimator and the CRLB hold, the scenario's fill the rest."""
+    flag = monte_carlo(gu2007, runs=2, seed=6, progress=False, known_nuisance=True)
+    typed = monte_carlo(gu2007, runs=2, seed=6, progress=False,
+                        known_nuisance=tk.KnownNuisance())
+    pd.testing.assert_frame_equal(flag.table, typed.table)
+    assert flag.known_nuisance == tk.KnownNuisance(gu2007.nuisance)
+    wrong = {"carrier": gu2007.nuisance["carrier"] + 50.0}  # a mis-known carrier
+    off = monte_carlo(gu2007, runs=2, seed=6, progress=False, known_nuisance=wrong)
+    assert off.known_nuisance.values["carrier"] == wrong["carrier"]
+    children = np.random.SeedSequence(6).spawn(2)
+    for r in range(2):
+        meas = gu2007.simulate(np.random.default_rng(children[r]))
+        one = estimate(meas, gu2007.motion, options=gu2007.measurement_options,
+                       known_nuisance={**gu2007.nuisance, **wrong})
+        np.testing.assert_allclose(_estimates(off)[r], one.estimate, rtol=1e-6)
+    assert not np.allclose(_estimates(off), _estimates(flag))
+    assert off.bound.nuisance_values["carrier"] == wrong["carrier"]
+
+
 def test_batched_ml_equals_estimate_with_bearings_whose_grid_depends_on_the_data():
     scn = tk.load_scenario("chen-sun-1")  # azimuth + range differences: grid along bearings
     res = monte_carlo(scn, runs=4, seed=3, progress=False)

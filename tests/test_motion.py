@@ -562,7 +562,7 @@ def test_every_caller_reads_a_motion_name_alike(name, hoerst_file, monkeypatch, 
     with pytest.raises(_Routed) as short:
         tk.estimate(meas, name)
     assert short.value.args[0] == want
-    cli = CliRunner().invoke(app, ["estimate", str(hoerst_file), "--motion", name])
+    cli = CliRunner().invoke(app, ["--debug", "estimate", str(hoerst_file), "--motion", name])
     assert isinstance(cli.exception, _Routed), cli.output
     assert cli.exception.args[0] == want
     # a scenario file naming its target's motion so: the built-in file, its motion renamed
@@ -592,3 +592,14 @@ def test_an_unknown_name_is_refused_alike(hoerst_file):
         assert str(hook.value) == str(lib.value)
         cli = CliRunner().invoke(app, ["estimate", str(hoerst_file), "--motion", bad])
         assert cli.exit_code == 2 and repr(bad) in cli.output
+
+
+@pytest.mark.parametrize("motion", [ConstantVelocity(2, ref_time=3.0), ConstantVelocity(3),
+                                    Stationary(2)], ids=lambda m: m.name)
+def test_component_map_is_the_affine_map_component_major(motion):
+    t = np.linspace(-5.0, 50.0, 7)
+    offset, matrix = motion.affine_map(t)
+    cm_matrix, cm_offset = motion.component_map(t)
+    assert cm_matrix.flags.c_contiguous and cm_offset.flags.c_contiguous
+    assert np.array_equal(cm_matrix, matrix.transpose(2, 1, 0))
+    assert np.array_equal(cm_offset, offset.T)

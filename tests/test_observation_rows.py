@@ -95,3 +95,30 @@ def test_a_planned_group_needs_no_rows():
     assert h.shape == (2, 4) and np.isfinite(h).all()
     with pytest.raises(ValueError, match="planned group has no measurement rows"):
         group.rows  # noqa: B018
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_affine_rows_single_equals_the_dense_product_and_the_motion_model(dim):
+    from tmakit.motion import ConstantVelocity, Stationary
+    from tmakit.observation.affine_rows import AffineRows
+
+    rng = np.random.default_rng(1)
+    t = np.sort(rng.uniform(0, 300, 50))
+    sensor = rng.normal(0, 1000, (50, 6))
+    for motion in (ConstantVelocity(dim, ref_time=40.0), Stationary(dim)):
+        terms, offset = motion.component_terms(t)
+        matrix, offset_dense = motion.component_map(t)
+        dense = np.zeros_like(matrix)
+        for i, c, coef in terms:
+            dense[i, c] = 1.0 if coef is None else coef
+        assert np.array_equal(dense, matrix) and np.array_equal(offset, offset_dense)
+        rows = AffineRows(terms, offset - sensor.T, motion.n_params)
+        theta = rng.normal(0, 500, motion.n_params)
+        want = motion.states(theta, t) - sensor
+        one = rows.single(theta)
+        batch = (theta[None] @ rows.matrix + rows.flat_offset).reshape(6, -1).T
+        assert one.shape == (50, 6) and rows.single(theta[None]).shape == (1, 50, 6)
+        assert np.allclose(one, want, rtol=1e-13, atol=1e-9)
+        assert np.allclose(batch, want, rtol=1e-13, atol=1e-9)
+        sub = rows.take(np.array([3, 7, 7, 20]))
+        assert np.array_equal(sub.single(theta), one[[3, 7, 7, 20]])

@@ -9,6 +9,7 @@ import pytest
 import tmakit as tk
 from tmakit.batch.solver import VarProProblem
 from tmakit.observation import ObservationModel, RowLayout, RowModel
+from tmakit.observation.affine_rows import AffineRows
 from tmakit.observation.noise import NoiseModel
 
 
@@ -23,7 +24,7 @@ def _same(a: object, b: object) -> bool:
         return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
     if isinstance(a, tk.MeasurementSet):
         return a.equals(b)
-    if isinstance(a, RowModel | RowLayout):  # the observation core: same rows and layout
+    if isinstance(a, RowModel | RowLayout | AffineRows):  # the observation core: same rows
         return type(b) is type(a) and _same(vars(a), vars(b))
     if hasattr(a, "nuisance_names"):  # measurement models: same kind and options
         return type(a) is type(b) and vars(a) == vars(b)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import copy
 import math
 import re
-import shlex
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -164,24 +163,6 @@ def test_tma_plan_refuses_bad_outputs_before_running(tmp_path):
 def snippets(kind: str) -> list[str]:
     text = (ROOT / "docs" / "planning.md").read_text(encoding="utf-8")
     return re.findall(rf"```{kind}\n(.*?)```", text, flags=re.S)
-
-
-def test_the_python_snippets_of_docs_planning_run(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    code = snippets("python")
-    assert code
-    for block in code:
-        exec(compile(block, "docs/planning.md", "exec"), {})
-
-
-def test_the_commands_of_docs_planning_run(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    lines = [ln for block in snippets("console") for ln in block.splitlines()
-             if ln.startswith("$ tma ")]
-    assert lines
-    for line in lines:
-        result = runner.invoke(app, shlex.split(line[len("$ tma "):]))
-        assert result.exit_code == 0, (line, result.output)
 
 
 def test_the_toml_of_docs_planning_is_a_valid_planning_table():

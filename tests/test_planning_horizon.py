@@ -138,3 +138,70 @@ def test_mission_receding_over_legs_and_bad_settings():
         MissionPlanner(SHIP, BEARINGS, 10.0, 25.0, 160.0)
     with pytest.raises(ValueError, match="headings"):
         planner.evaluate(START, bearing_belief(), np.zeros((1, 3)))
+
+
+# -- tactical constraints along the mission path -------------------------------------------------
+ZONE = [(200.0, 200.0), (1200.0, 200.0), (1200.0, 1200.0), (200.0, 1200.0)]
+AREA = [(-300.0, -300.0), (300.0, -300.0), (300.0, 300.0), (-300.0, 300.0)]
+
+
+def flown_positions(plan) -> tuple[np.ndarray, np.ndarray]:
+    """The planned path's sensor and (estimated = true here) target positions every 0.5 s."""
+    ts = np.arange(0.0, 160.25, 0.5)
+    sensor = SHIP.fly(START, plan.actions, 10.0).states(ts)[:, :2]
+    target = np.array([DYN.transition(t) @ TRUTH for t in ts])[:, :2]
+    return sensor, target
+
+
+def test_mission_plan_keeps_hard_constraints_the_free_plan_breaks():
+    import shapely
+
+    from tmakit.planning.constraints import KeepOutZones, MinimumRange, OperatingArea
+
+    belief = bearing_belief()
+    free = small_mission().optimise(START, belief)
+    sensor, target = flown_positions(free)
+    zone, area = shapely.Polygon(ZONE), shapely.Polygon(AREA)
+    # the unconstrained plan breaks each of the three constraints below
+    assert np.hypot(*(sensor - target).T).min() < 9000.0
+    assert shapely.contains_xy(zone, sensor[:, 0], sensor[:, 1]).any()
+    assert not shapely.contains_xy(area, sensor[:, 0], sensor[:, 1]).all()
+    for constraint in (MinimumRange(9300.0), KeepOutZones([ZONE]), OperatingArea(AREA)):
+        plan = small_mission(constraints=[constraint]).optimise(START, belief)
+        assert plan.feasible and plan.violations == {constraint.name: 0.0}
+        sensor, target = flown_positions(plan)
+        points = shapely.points(sensor)
+        if isinstance(constraint, MinimumRange):   # checked 4 times a step: 1 m of slack
+            assert np.hypot(*(sensor - target).T).min() >= 9300.0 - 1.0
+        elif isinstance(constraint, KeepOutZones):
+            inside = shapely.contains_xy(zone, sensor[:, 0], sensor[:, 1])
+            assert shapely.distance(zone.boundary, points)[inside].max(initial=0.0) < 1.0
+        else:
+            assert shapely.distance(area, points).max() < 1.0
+        assert plan.bound > free.bound * (1 - 1e-9)   # a constraint never helps the bound
+
+
+def test_mission_penalty_and_an_infeasible_mission_are_reported():
+    from tmakit.planning.constraints import MinimumRange, OperatingArea
+
+    belief = bearing_belief()
+    soft = MinimumRange(9300.0, hard=False, weight=10.0)
+    plan = small_mission(constraints=[soft]).optimise(START, belief)
+    sensor, target = flown_positions(plan)
+    amount = plan.violations["minimum range"]
+    assert plan.feasible and amount >= 0.0
+    assert amount == pytest.approx(max(0.0, 9300.0 - np.hypot(*(sensor - target).T).min()),
+                                   abs=1.0)
+    expected = small_mission().criterion(plan.information[None])[0] * (1 + 10.0 * amount
+                                                                      / 9300.0)
+    assert plan.cost == pytest.approx(expected, rel=1e-12)
+    # an operating area 2 km to the south-west of the start cannot be reached in 160 s
+    far = [(-3000.0, -3000.0), (-2000.0, -3000.0), (-2000.0, -2000.0), (-3000.0, -2000.0)]
+    stuck = small_mission(constraints=[OperatingArea(far)]).optimise(START, belief)
+    assert not stuck.feasible and stuck.violations["operating area"] > 0.0
+    # the least violating path turns for the area at once and holds on to it: it ends
+    # within 60 m of as near as the ship could get (8 m/s for 160 s, less a 20 s turn)
+    sensor, _ = flown_positions(stuck)
+    start_gap = math.hypot(2000.0, 2000.0)
+    assert stuck.violations["operating area"] < start_gap + 100.0   # the worst: at the turn
+    assert np.hypot(*(sensor[-1] + 2000.0)) < start_gap - 8.0 * 140.0 + 60.0

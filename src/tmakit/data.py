@@ -1,21 +1,17 @@
 """MeasurementSet: the columnar table of observations, from simulation or files to estimators.
 
-One row per observed value.  Columns follow the measurement-file contract (README,
-``docs/file-format.md``): ``time`` (s), ``sensor`` (id), ``kind``, ``value`` and ``sigma`` in the
-file unit of the kind (degrees, deg/s, m, m/s, Hz, dBm), the sensor's ENU state at ``time``,
-and, for range differences, ``time_ref`` and the sensor state at ``time_ref``.
+One row per observed value; the columns and their rules are those of a measurement file
+(``docs/file-format.md``, :mod:`tmakit.rules`), values in the kind's file unit.
 
 How the set holds its columns (SI inside, converted once at the edge):
-
 - SI is the stored form (:attr:`~MeasurementSet.value_si`, :attr:`~MeasurementSet.sigma_si`:
   rad, rad/s, m, m/s, Hz, dBW).  Library code builds sets with :meth:`MeasurementSet.from_si`;
   the constructor takes file units and is the reader's edge (:mod:`tmakit.io`).  ``value`` and
   ``sigma`` (file units) are the file's numbers exactly for a set read from a file, derived
   from SI on first use otherwise (writers, printing).  All four arrays are read-only.
-- ``kind`` and ``sensor`` are categorical: integer codes (:attr:`~MeasurementSet.kind_code`
-  into :data:`KIND_NAMES`, :attr:`~MeasurementSet.sensor_code` into
-  :attr:`~MeasurementSet.sensor_names`); the text arrays, :attr:`~MeasurementSet.kinds` and
-  :attr:`~MeasurementSet.sensors` are built once from the codes, O(1) afterwards.
+- ``kind`` and ``sensor`` are categorical: integer codes (``kind_code`` into
+  :data:`KIND_NAMES`, ``sensor_code`` into ``sensor_names``); the text arrays, ``kinds`` and
+  ``sensors`` are built once from the codes, O(1) afterwards.
 """
 
 from __future__ import annotations
@@ -26,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import rules
 from .measurements import KINDS
 from .measurements import codes as categorical
 from .measurements.codes import KIND_CODES, KIND_NAMES
@@ -62,12 +59,15 @@ class MeasurementSet:
     ref_sensor_state : array_like, shape (n, 6), optional
         Sensor state at ``time_ref`` (ENU m, m/s; NaN where unused, the default).
     metadata : mapping of str to str, optional
-        Free text: scenario name, seed, ENU origin, truth.
+        Free text: scenario name, seed, ENU origin, truth (the keys the library reads are
+        checked).
+    check : bool, optional
+        Refuse what the file reader refuses, with its messages (:mod:`tmakit.rules`; default).
 
     Raises
     ------
     ValueError
-        If a column's length differs from that of ``time``, or a kind is unknown.
+        A column's length differs from that of ``time``, a kind is unknown, or a rule fails.
 
     Notes
     -----
@@ -78,7 +78,7 @@ class MeasurementSet:
     def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value: ArrayLike,
                  sigma: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
                  ref_sensor_state: ArrayLike | None = None,
-                 metadata: Mapping[str, str] | None = None) -> None:
+                 metadata: Mapping[str, str] | None = None, check: bool = True) -> None:
         self.time = np.asarray(time, dtype=float)
         n = self.time.shape[0]
         sensor_text = np.asarray(sensor, dtype=str)
@@ -98,17 +98,20 @@ class MeasurementSet:
         self._set_kinds(kind_text)
         self._set_sensors(sensor_text)
         self._set_file_values(value_file, sigma_file)
+        if check:  # the rules of the file reader (tmakit.rules), with its messages
+            rules.check_set(self)
 
     @classmethod
     def from_si(cls, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value_si: ArrayLike,
                 sigma_si: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
                 ref_sensor_state: ArrayLike | None = None,
-                metadata: Mapping[str, str] | None = None) -> MeasurementSet:
+                metadata: Mapping[str, str] | None = None, check: bool = True
+                ) -> MeasurementSet:
         """Build a set from SI values (how library code builds sets; file units on first use).
 
         Parameters
         ----------
-        time, sensor, kind, sensor_state, time_ref, ref_sensor_state, metadata
+        time, sensor, kind, sensor_state, time_ref, ref_sensor_state, metadata, check
             As for :class:`MeasurementSet`.
         value_si, sigma_si : array_like, shape (n,)
             Values and noise standard deviations in SI (rad, rad/s, m, m/s, Hz, dBW; dB).
@@ -125,9 +128,11 @@ class MeasurementSet:
         """
         n = np.shape(time)[0] if np.ndim(time) else 0
         out = cls(time, sensor, kind, np.zeros(n), np.zeros(n), sensor_state, time_ref,
-                  ref_sensor_state, metadata)
+                  ref_sensor_state, metadata, check=False)
         out._set_si_values(out._new_column("value", value_si),
                            out._new_column("sigma", sigma_si))
+        if check:  # finite cells, sigma > 0, metadata; not the file's order and value ranges
+            rules.check_set(out, order=False, ranges=False)
         return out
 
     def _set_file_values(self, value: NDArray[np.float64] | None,
@@ -402,7 +407,7 @@ class MeasurementSet:
         """
         if not parts:
             raise ValueError("nothing to concatenate")
-        cat = MeasurementSet.from_si(
+        cat = MeasurementSet.from_si(  # checked parts; in order once sorted
             np.concatenate([p.time for p in parts]),
             np.concatenate([p.sensor for p in parts]),
             np.concatenate([p.kind for p in parts]),
@@ -411,8 +416,7 @@ class MeasurementSet:
             np.concatenate([p.sensor_state for p in parts]),
             np.concatenate([p.time_ref for p in parts]),
             np.concatenate([p.ref_sensor_state for p in parts]),
-            dict(metadata if metadata is not None else parts[0].metadata),
-        )
+            dict(metadata if metadata is not None else parts[0].metadata), check=False)
         if all(p._value is not None for p in parts):  # keep a file's numbers exactly
             cat._value = _frozen(np.concatenate([p.value for p in parts]))
         if all(p._sigma is not None for p in parts):
@@ -474,15 +478,12 @@ class MeasurementSet:
                 sel = of_sensor & self.kind_mask(k)
                 if not np.any(sel):
                     continue
-                rows.append({
-                    "sensor": s, "kind": k, "unit": KINDS[k].file_unit,
-                    "count": int(sel.sum()),
-                    "t_first": float(self.time[sel].min()),
-                    "t_last": float(self.time[sel].max()),
-                    "value_min": float(self.value[sel].min()),
-                    "value_max": float(self.value[sel].max()),
-                    "sigma_median": float(np.median(self.sigma[sel])),
-                })
+                t, v = self.time[sel], self.value[sel]
+                rows.append({"sensor": s, "kind": k, "unit": KINDS[k].file_unit,
+                             "count": int(sel.sum()), "t_first": float(t.min()),
+                             "t_last": float(t.max()), "value_min": float(v.min()),
+                             "value_max": float(v.max()),
+                             "sigma_median": float(np.median(self.sigma[sel]))})
         return rows
 
     def __setstate__(self, state: dict[str, Any]) -> None:

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import rules
 from .data import MeasurementSet
 from .measurements import KINDS, interval_count
 from .motion import MotionModel
@@ -253,7 +254,7 @@ class Scenario:
             states[key] = track.states(times)
         return MeasurementSet.from_si(times, np.full(n, plan.sensor), np.full(n, plan.kind),
                                       np.zeros(n), sigma_si, states[key], time_ref,
-                                      ref_state)
+                                      ref_state, check=False)  # values: simulate_many
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
         """Observe the scenario.
@@ -275,7 +276,8 @@ class Scenario:
         ------
         ValueError
             If a power plan's SNR_p is so low that the multiplicative noise makes a power
-            negative.
+            negative, or a simulated row breaks a rule of the file format
+            (:mod:`tmakit.rules`: a NaN truth, an infinite sigma, ...).
         """
         return self.simulate_many([rng], noise)[0]
 
@@ -307,6 +309,7 @@ class Scenario:
         states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
         for plan in self.plans:
             rows = self._layout(plan, states)
+            self._refuse_coincident(plan, rows)
             obs = ObservationModel(rows, self.motion, self.measurement_options)
             clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
             plans.append((plan, rows, clean, obs.models[plan.kind]))
@@ -343,8 +346,17 @@ class Scenario:
             meas.value_si = np.concatenate(values)[order]
             if isinstance(rng, int):
                 meas.metadata["seed"] = str(rng)
+            rules.check_set(meas, order=False, ranges=False)  # NaN truth, infinite sigma, ...
             out.append(meas)
         return out
+
+    def _refuse_coincident(self, plan: MeasurementPlan, rows: MeasurementSet) -> None:
+        """Refuse a target exactly at a sensor (bearings and ranges undefined there)."""
+        target = np.asarray(self.motion.states(self.theta, rows.time), dtype=float)[:, :3]
+        at = np.flatnonzero(np.all(target == rows.sensor_state[:, :3], axis=1))
+        if at.size:
+            raise ValueError(f"the target is exactly at sensor {plan.sensor!r} at t = "
+                             f"{rows.time[at[0]]:g} s: its {plan.kind} is undefined there")
 
     @staticmethod
     def _noisy(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],

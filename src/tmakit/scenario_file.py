@@ -24,6 +24,7 @@ from .scenario import MeasurementPlan, Scenario
 from .scenario_catalog import builtin_scenario_names
 from .scenario_catalog import builtin_scenarios as builtin_scenarios  # re-exported
 from .scenario_planning import PlanningSetup, PlanningSpec, build_planning
+from .scenario_times import TimeRange
 from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
 from .units import free_space_constant, linear_to_db
 
@@ -33,36 +34,7 @@ class ScenarioFileError(ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class TimeRange(_Strict):
-    """Sample times ``start, start + step, ...`` up to and including ``stop`` (s).
-
-    ``start``, ``stop`` (s; ``stop`` included to 1e-9 of a step), ``step`` (s, > 0).
-    """
-
-    start: float
-    stop: float
-    step: float = Field(gt=0)
-
-    def values(self) -> np.ndarray:
-        """Give the sample times (s).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``start + step * [0, 1, ..., n - 1]`` (s).
-
-        Raises
-        ------
-        ValueError
-            If ``stop`` is before ``start``.
-        """
-        n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
-        if n < 1:
-            raise ValueError("stop is before start")
-        return self.start + self.step * np.arange(n)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)  # NaN/inf: refused
 
 
 Times = TimeRange | list[float]
@@ -77,7 +49,8 @@ class LegSpec(_Strict):
     file's angle convention), ``speed`` (m/s, > 0; None keeps the previous one).
     """
 
-    duration: float = Field(gt=0, description="seconds; inf for a last leg that never ends")
+    duration: float = Field(gt=0, allow_inf_nan=True,
+                            description="seconds; inf for a last leg that never ends")
     turn_rate_deg_s: float = 0.0
     speed: float | None = Field(default=None, gt=0)
 
@@ -217,6 +190,15 @@ class ScenarioSpec(_Strict):
     angle_convention: Literal["north_cw", "east_ccw"] = "north_cw"
     origin: Annotated[list[float], Field(min_length=3, max_length=3)] | None = None
     target: TargetSpec
+
+    @field_validator("origin")
+    @classmethod
+    def _origin_on_earth(cls, v: list[float] | None) -> list[float] | None:
+        if v is not None and not (-90 <= v[0] <= 90 and -180 <= v[1] <= 360):
+            raise ValueError(f"origin (lat, lon, alt) = {v}: latitude must be within "
+                             "[-90, 90] deg and longitude within [-180, 360] deg")
+        return v
+
     emitter: EmitterSpec = EmitterSpec()
     sensors: list[SensorSpec] = Field(min_length=1)
     measurements: list[MeasurementSpec] = Field(min_length=1)
@@ -416,6 +398,11 @@ def _read_toml(path: Path) -> dict[str, Any]:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ScenarioFileError(f"{path}: no such scenario file") from None
+    except UnicodeDecodeError as e:
+        raise ScenarioFileError(f"{path}: not a UTF-8 text (TOML) file ({e.reason} at byte "
+                                f"{e.start})") from None
+    except OSError as e:  # a folder, no permission
+        raise ScenarioFileError(f"{path}: cannot be read ({e.strerror or e})") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

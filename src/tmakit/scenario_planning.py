@@ -45,7 +45,7 @@ PLANNING_TRACKERS = ("pf", "ekf", "ukf")
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)  # NaN/inf: refused
 
 
 class LimitsSpec(_Strict):
@@ -222,7 +222,17 @@ class PlanningSetup:
         return self.steps * self.planner.interval
 
     def replace(self, **changes: Any) -> PlanningSetup:
-        """Return a copy with fields changed (e.g. ``steps``, ``particles``, ``runs``)."""
+        """Return a copy with fields changed (e.g. ``steps``, ``particles``, ``runs``).
+
+        Parameters
+        ----------
+        **changes
+            Field names and their new values.
+
+        Returns
+        -------
+        PlanningSetup
+        """
         return dataclasses.replace(self, **changes)
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 from ..data import MeasurementSet
-from ..motion import MotionModel
+from ..motion import MotionModel, PiecewiseCurvilinear, default_ref_time, motion_from_name
 from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options
@@ -21,24 +21,59 @@ from .init import GridSettings
 from .manoeuvre import ManoeuvreEstimator
 from .ml import estimate as estimate_ml
 
-__all__ = ["MLByMotion", "estimate"]
+__all__ = ["MLByMotion", "estimate", "model_of"]
 
 
-def is_manoeuvring(motion: MotionModel | str) -> bool:
+def is_manoeuvring(motion: MotionModel) -> bool:
     """Tell whether ``motion`` is a manoeuvring target's.
 
     Parameters
     ----------
-    motion : MotionModel or str
-        A motion name (parsed by the manoeuvre estimator, which hands the other names back
-        to maximum likelihood) or a motion model.
+    motion : MotionModel
+        A motion model (a name is read first by :func:`model_of`).
 
     Returns
     -------
     bool
-        True for a name or a model with a number of manoeuvres.
+        True for a model with a number of manoeuvres
+        (a :class:`~tmakit.motion.PiecewiseCurvilinear`).
     """
-    return isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None
+    return getattr(motion, "manoeuvres", None) is not None
+
+
+def model_of(motion: MotionModel | str, meas: MeasurementSet,
+             ref_time: float | None) -> MotionModel:
+    """Read a motion name once, into the model it stands for; give a model back as it is.
+
+    Parameters
+    ----------
+    motion : MotionModel or str
+        A model, or a name of :func:`tmakit.motion.motion_from_name`.
+    meas : MeasurementSet
+        The measurements (their first time is a manoeuvring model's default reference).
+    ref_time : float or None
+        The reference time (s) of a model made from a name; default the first measurement
+        time for a manoeuvring target, and for the others a time inside the data
+        (:func:`tmakit.motion.default_ref_time`: 0 when the data span it), so that the fit
+        does not depend on the time origin.
+
+    Returns
+    -------
+    MotionModel
+        The model.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (the message of :func:`~tmakit.motion.motion_from_name`).
+    """
+    if not isinstance(motion, str):
+        return motion
+    model = motion_from_name(motion, default_ref_time(meas.time) if ref_time is None
+                             else float(ref_time))
+    if ref_time is None and isinstance(model, PiecewiseCurvilinear) and len(meas):
+        model = PiecewiseCurvilinear(model.manoeuvres, float(meas.time.min()))
+    return model
 
 
 class MLByMotion(BatchEstimator):
@@ -108,13 +143,16 @@ class MLByMotion(BatchEstimator):
         ValueError
             As the chosen estimator.
         """
+        options = dict(self.manoeuvre_options)
+        if isinstance(motion, str):  # the name is read here, once; its ref_time is used up
+            motion = model_of(motion, meas, options.pop("ref_time", None))  # type: ignore
         if is_manoeuvring(motion):
             return ManoeuvreEstimator(self.init, self.options, self.known_nuisance,
-                                      self.max_iter, **self.manoeuvre_options  # type: ignore
-                                      ).fit(meas, motion)
-        return estimate_ml(meas, motion, init=self.init, options=self.options,  # type: ignore
+                                      self.max_iter, **options  # type: ignore[arg-type]
+                                      ).fit(meas, motion)  # type: ignore[arg-type]
+        return estimate_ml(meas, motion, init=self.init, options=self.options,
                            known_nuisance=self.known_nuisance, grid=self.grid,
-                           max_iter=self.max_iter, **self.manoeuvre_options)
+                           max_iter=self.max_iter, **options)
 
 
 def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,

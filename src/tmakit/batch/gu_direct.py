@@ -233,6 +233,10 @@ class GuDirect(PaperMethod):
         ------
         ValueError
             Without ``init``, for another motion model, or data of other kinds.
+
+        References
+        ----------
+        Gu et al. (2007), §3, eqs. 7, 8, 12 and 16.
         """
         method = self.name
         check_planar_cv(motion, method)

@@ -414,6 +414,10 @@ def carrier_guess(meas: MeasurementSet) -> float:
     -------
     float
         Median received frequency (Hz), or 1.9 GHz without any (Gu et al. (2007), §5).
+
+    References
+    ----------
+    Gu et al. (2007), §5 (the 1.9 GHz carrier).
     """
     f = meas.value_si[meas.kind == "frequency"]
     return float(np.median(f)) if f.size else DEFAULT_CARRIER

@@ -26,7 +26,7 @@ from .grid import GridSettings, grid_candidates
 from .solver import VarProProblem
 
 __all__ = ["GridScorer", "GridSettings", "Starts", "best_starts", "best_starts_many",
-           "grid_candidates", "grid_start", "orthonormal_columns"]
+           "grid_candidates", "grid_start", "orthonormal_columns", "subsample"]
 
 
 def _subsample(problem: VarProProblem, max_rows: int
@@ -45,6 +45,27 @@ def _subsample(problem: VarProProblem, max_rows: int
         keep.append(rows[_evenly_spread(rows.size, take)])
     idx = np.sort(np.concatenate(keep))
     return problem.take(idx), idx
+
+
+def subsample(problem: VarProProblem, max_rows: int
+              ) -> tuple[VarProProblem, NDArray[np.int64]]:
+    """Return the problem on about ``max_rows`` evenly spread rows per kind, and the rows kept.
+
+    The whole problem (and every row) when it has no more rows or its noise is correlated.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem.
+    max_rows : int
+        Rows wanted in all (shared among the kinds by their counts).
+
+    Returns
+    -------
+    (VarProProblem, ndarray of int)
+        The smaller problem and its rows in the measurement set's order.
+    """
+    return _subsample(problem, max_rows)
 
 
 @lru_cache(maxsize=64)

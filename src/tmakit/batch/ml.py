@@ -14,7 +14,7 @@ module imports neither.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -27,7 +27,7 @@ from ..observation import ObservationModel
 from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options
-from .init import GridSettings, best_starts_many
+from .init import GridSettings, best_starts_many, subsample
 from .solver import VarProProblem, levenberg_marquardt
 
 
@@ -96,33 +96,132 @@ class MaximumLikelihood(BatchEstimator):
         ValueError
             When ``init`` has the wrong length or no grid point gives finite predictions.
         """
+        res = self.fit_many([meas], motion)[0]
+        if isinstance(res, Exception):
+            raise res
+        return res
+
+    def fit_many(self, sets: Sequence[MeasurementSet], motion: MotionModel
+                 ) -> list[EstimateResult | Exception]:
+        """Fit many data sets, batched where they share their rows: :meth:`fit` of each.
+
+        Sets with the rows of the first (times, sensors, kinds, sigmas; :func:`same_rows`)
+        differ only in their values, so one problem serves them all: the grid's predictions
+        are computed once (:func:`~tmakit.batch.init.best_starts_many`) and every
+        Levenberg–Marquardt solve is one batch (:func:`solve_without_guess`).  Each row of a
+        batched solve is independent of the others, so each result is the one :meth:`fit`
+        gives; :meth:`fit` is this method on one set, and ``tests/test_estimators.py`` pins
+        the batch to one-by-one fits.  Sets of other rows are fitted one by one.
+
+        Parameters
+        ----------
+        sets : Sequence[MeasurementSet]
+            The data sets (a Monte Carlo study's runs).
+        motion : MotionModel
+            A motion model without manoeuvres.
+
+        Returns
+        -------
+        list of EstimateResult or Exception
+            Per set, in order: its result, or the error (of :data:`FIT_ERRORS`) that
+            :meth:`fit` raises for it alone.
+
+        Raises
+        ------
+        TypeError
+            For a manoeuvring motion model or a motion name (see the class notes).
+        ValueError
+            When ``init`` has the wrong length.
+        """
         if isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None:
             raise TypeError(f"MaximumLikelihood fits one motion model; the motion {motion!r} "
                             "is a manoeuvring target's: use ManoeuvreEstimator "
                             "(tmakit.batch.manoeuvre) or tmakit.batch.estimate")
+        sets = list(sets)
+        if len(sets) > 1 and not same_rows(sets):
+            return [r for m in sets for r in self.fit_many([m], motion)]
+        theta0 = None if self.init is None else self._start(motion)
+        if not sets:
+            return []
         known = self.known_nuisance
-        obs = ObservationModel(meas, motion, self.options)
+        obs = ObservationModel(sets[0], motion, self.options)
         fixed = None if known is None else obs.nuisance_vector(known.values)
         problem = VarProProblem(obs, None, fixed)
-        y = obs.values
-        if self.init is not None:
-            init = self.init
-            theta0 = (motion.theta(init) if isinstance(init, Mapping)
-                      else np.asarray(init, dtype=float)).reshape(1, -1)
-            if theta0.shape[1] != motion.n_params:
-                raise ValueError(f"init must give {motion.n_params} values "
-                                 f"({', '.join(motion.param_names)})")
-            sol = levenberg_marquardt(problem, y, theta0, max_iter=self.max_iter)
-            best = Best(sol.theta[0], sol.nuisance[0], float(sol.cost[0]),
-                        int(sol.iterations[0]), bool(sol.converged[0]), 1)
-        else:
-            (found,) = solve_without_guess(problem, y[None, :], self.grid, self.max_iter)
-            if found is None:
-                raise ValueError("no starting point gives finite predictions; check the data")
-            best = found
-        return assemble_result(problem.obs, problem.noise, best.theta, best.nuisance,
-                               best.cost, best.iterations, best.converged, self.name,
-                               best.starts, known, best.note)
+        ys = np.stack([m.value_si for m in sets])
+        bests = self._solve(problem, ys, theta0)
+        out: list[EstimateResult | Exception] = []
+        for best in bests:
+            if isinstance(best, Exception):
+                out.append(best)
+                continue
+            try:
+                out.append(assemble_result(problem.obs, problem.noise, best.theta,
+                                           best.nuisance, best.cost, best.iterations,
+                                           best.converged, self.name, best.starts, known,
+                                           best.note))
+            except FIT_ERRORS as e:  # pragma: no cover - the bound of a finite fit
+                out.append(e)
+        return out
+
+    def _start(self, motion: MotionModel) -> NDArray[np.float64]:
+        """``init`` as a ``(1, p)`` parameter vector (SI); refuse a wrong length."""
+        init = self.init
+        theta0 = (motion.theta(init) if isinstance(init, Mapping)
+                  else np.asarray(init, dtype=float)).reshape(1, -1)
+        if theta0.shape[1] != motion.n_params:
+            raise ValueError(f"init must give {motion.n_params} values "
+                             f"({', '.join(motion.param_names)})")
+        return theta0
+
+    def _solve(self, problem: VarProProblem, ys: NDArray[np.float64],
+               theta0: NDArray[np.float64] | None) -> list[Best | Exception]:
+        """Solve every data set from ``theta0``, else without a guess; errors per set."""
+        if theta0 is not None:
+            sol = levenberg_marquardt(problem, ys, np.repeat(theta0, ys.shape[0], 0),
+                                      max_iter=self.max_iter)
+            return [Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
+                         int(sol.iterations[i]), bool(sol.converged[i]), 1)
+                    for i in range(ys.shape[0])]
+        try:
+            found: list[Best | Exception | None] = list(
+                solve_without_guess(problem, ys, self.grid, self.max_iter))
+        except FIT_ERRORS as e:
+            if ys.shape[0] == 1:
+                return [e]
+            found = [self._solve(problem, ys[i:i + 1], None)[0] for i in range(ys.shape[0])]
+        return [ValueError("no starting point gives finite predictions; check the data")
+                if b is None else b for b in found]
+
+
+FIT_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
+"""Errors a fit may raise on one unlucky data set; :meth:`MaximumLikelihood.fit_many` returns
+them per set."""
+
+
+def same_rows(sets: Sequence[MeasurementSet]) -> bool:
+    """Tell whether every set has the rows of the first, so that one problem serves them all.
+
+    Parameters
+    ----------
+    sets : Sequence[MeasurementSet]
+        The data sets.
+
+    Returns
+    -------
+    bool
+        True when times, sensors, kinds, sigmas, sensor states and reference samples are
+        equal: the sets differ only in their values.
+    """
+    a = sets[0]
+    for b in sets[1:]:
+        if len(b) != len(a) or not (
+                np.array_equal(a.time, b.time) and np.array_equal(a.sensor, b.sensor)
+                and np.array_equal(a.kind, b.kind) and np.array_equal(a.sigma, b.sigma)
+                and np.array_equal(a.sensor_state, b.sensor_state)
+                and np.array_equal(a.time_ref, b.time_ref, equal_nan=True)
+                and np.array_equal(a.ref_sensor_state, b.ref_sensor_state, equal_nan=True)):
+            return False
+    return True
 
 
 def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
@@ -246,8 +345,9 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         owner = np.concatenate([np.full(blocks[r].shape[0], r) for r in runs])
         # Starts bound for a worse minimum than one already reached stop early.
         reached = np.array([np.inf if best[r] is None else best[r].cost for r in range(b)])
+        theta, near = presolve(problem, ys[owner], theta, max_iter)
         sol = levenberg_marquardt(problem, ys[owner], theta, max_iter=max_iter, groups=owner,
-                                  ceiling=reached[owner])
+                                  ceiling=reached[owner], damping0=1e-8 if near else 1e-3)
         for r in runs:
             rows = np.flatnonzero(owner == r)
             cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
@@ -276,6 +376,49 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
             if fit is not None:
                 fit.theta, fit.note = prefer_above(problem.obs.motion, fit.theta, plane)
     return best
+
+
+PRESOLVE_ROWS = 20_000
+"""Rows above which :func:`solve_without_guess` first converges its starts on a subset."""
+PRESOLVE_SUBSET = 5_000
+"""Evenly spread rows of that subset (its optimum lies a few standard deviations of the whole
+set's from the whole set's: the full solve then needs one or two steps, not five or six)."""
+
+
+def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
+             max_iter: int) -> tuple[NDArray[np.float64], bool]:
+    """Move starting points to their optimum on a subset of rows, for problems of many rows.
+
+    Below :data:`PRESOLVE_ROWS` rows (or with correlated noise) the starts come back as they
+    are.  Otherwise each is fitted by Levenberg–Marquardt on :data:`PRESOLVE_SUBSET` evenly
+    spread rows; a fit that converged to a finite cost replaces its start.  Every full-size
+    evaluation costs as much as the subset's whole fit.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The whole problem.
+    ys : ndarray
+        ``(B, n)`` data, one row per start (SI, the measurement set's order).
+    theta : ndarray
+        ``(B, p)`` starting points (SI).
+    max_iter : int
+        Levenberg–Marquardt iterations at most on the subset.
+
+    Returns
+    -------
+    (ndarray, bool)
+        ``(B, p)`` the starting points for the whole problem, and whether every one is a
+        subset's optimum (near the whole set's: its solve may start lightly damped).
+    """
+    if len(problem.obs.meas) <= PRESOLVE_ROWS:
+        return theta, False
+    small, rows = subsample(problem, PRESOLVE_SUBSET)
+    if small is problem:
+        return theta, False
+    pre = levenberg_marquardt(small, ys[:, rows], theta, max_iter=max_iter)
+    ok = pre.converged & np.isfinite(pre.cost)
+    return np.where(ok[:, None], pre.theta, theta), bool(ok.all())
 
 
 def mirror_plane(problem: VarProProblem) -> float | None:

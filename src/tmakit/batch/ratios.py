@@ -289,6 +289,10 @@ class RatioMethod(PaperMethod):
         ValueError
             Without ``init``, for another motion model, data of other kinds, or fewer
             ratios than parameters.
+
+        References
+        ----------
+        Gu et al. (2007), §4, eqs. 19-34.
         """
         check_planar_cv(motion, "ratio method")
         kinds_used, sub = select_kinds(meas, self.kinds, "ratio method")

@@ -236,12 +236,11 @@ class _Runs:
 def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         max_iter: int = 100, ftol: float = 1e-10, xtol: float = 1e-12,
                         gtol: float = 1e-10, dtol: float = 1e-5,
-                        groups: NDArray[np.int64] | None = None,
-                        ceiling: Array | None = None, *,
+                        groups: NDArray[np.int64] | None = None, ceiling: Array | None = None, *,
                         free: NDArray[np.bool_] | None = None, damping: str = "nielsen",
                         max_reject: int | None = None, stall: float = 0.0,
-                        dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN)
-                        ) -> SolveResult:
+                        dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN),
+                        damping0: float = 1e-3) -> SolveResult:
     """Fit a batch by Levenberg–Marquardt (Marquardt's diagonal scaling), nuisance reduced.
 
     Parameters
@@ -269,8 +268,9 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         ``(B,)`` a cost reached by an earlier solve, for the dominance test.
     free : ndarray of bool, optional
         ``(p,)`` the parameters fitted, the others held at their start (default: all).
-    damping : {"nielsen", "factors"}
-        The damping schedule (:data:`DAMPING`); it starts at 1e-3, floored at 1e-12.
+    damping, damping0 : {"nielsen", "factors"}, float
+        The damping schedule (:data:`DAMPING`) and its start (small from a start near the
+        optimum, where Gauss–Newton steps converge fast), floored at 1e-12.
     max_reject : int, optional
         A run stops, not converged, after this many rejected steps in a row.
     stall : float
@@ -305,7 +305,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
     rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
                    damping, max_reject, stall, dominance)
-    runs = _start(problem, y, theta0, groups, ceiling, stall > 0)
+    runs = _start(problem, y, theta0, groups, ceiling, stall > 0, damping0)
     with np.errstate(invalid="ignore", divide="ignore"):
         runs = _iterate(problem, runs, max_iter, rules)
     runs.finish()
@@ -316,7 +316,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
 
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
-           groups: NDArray[np.int64] | None, ceiling: Array | None, stall: bool) -> _Runs:
+           groups: NDArray[np.int64] | None, ceiling: Array | None, stall: bool,
+           damping0: float = 1e-3) -> _Runs:
     """Set up the runs of :func:`levenberg_marquardt` at their starting points."""
     theta = np.array(theta0, dtype=float, ndmin=2)
     y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
@@ -331,7 +332,9 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
             np.minimum.at(reached, groups, np.broadcast_to(ceiling, (b,)))
     # Trial points may sit on a sensor (zero range): infinite cost, not an error.
     start = problem.evaluate_part(theta, u, nu_star, True)
-    return _Runs(start, u, nu_star, groups, reached, stall)
+    runs = _Runs(start, u, nu_star, groups, reached, stall)
+    runs.lam[:] = damping0
+    return runs
 
 
 def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:

@@ -172,7 +172,12 @@ class CrbSequence:
         return self.points[int(hits[0])]
 
     def label(self) -> str:
-        """Name the kinds used (and known manoeuvres), for titles and legends."""
+        """Name the kinds used (and known manoeuvres), for titles and legends.
+
+        Returns
+        -------
+        str
+        """
         kinds = " + ".join("azimuth" if k == "bearing" else k.replace("_", " ")
                            for k in self.kinds)
         return kinds + (", manoeuvres known" if self.known_manoeuvres else "")

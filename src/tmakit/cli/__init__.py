@@ -16,16 +16,21 @@
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
+Exit statuses: 0 success, 1 honest non-success (unobservable, diverged, not converged), 2 bad
+input, 3 internal error (traceback in a log file, or on the terminal with ``tma --debug``),
+130 interrupted, 143 terminated (see :mod:`tmakit.cli.guard`).
 """
 
 from __future__ import annotations
 
+import sys
 from typing import Annotated
 
 import typer
 
 from .crlb import crlb
 from .estimate import estimate
+from .guard import guarded, install_sigterm, set_debug
 from .importing import examples, import_
 from .montecarlo import montecarlo
 from .plain_help import PlainCommand
@@ -34,7 +39,9 @@ from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
 from .track import track
 
-# Plain help: no rich markup (a help text's "a:b:" is not an emoji), -h as well as --help.
+# Plain (click) help, -h as well as --help: no rich markup (a help text's "a:b:" is not an
+# emoji), and typer's rich help loads rich's Markdown renderer and its parser, which took
+# longer than all of numpy's import (benchmarks/run_all.py --only startup).
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   context_settings={"help_option_names": ["-h", "--help"]},
                   help="tmakit: passive emitter localisation and target motion analysis.")
@@ -52,19 +59,32 @@ def _print_version(value: bool) -> None:
 @app.callback()
 def _root(version: Annotated[bool, typer.Option(
         "--version", callback=_print_version, is_eager=True,
-        help="print the version and exit")] = False) -> None:
+        help="print the version and exit")] = False,
+          debug: Annotated[bool, typer.Option(
+        "--debug", help="show tracebacks and numerical warnings (for bug reports)")] = False,
+          ) -> None:
     """Passive emitter localisation and target motion analysis (tmakit)."""
+    set_debug(debug)
 
-# Registered in this order: ``tma --help`` lists the commands in it.
+
+# Registered in this order: ``tma --help`` lists the commands in it.  Each is guarded: no
+# traceback reaches the user (tmakit.cli.guard).
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
                  plan, demo):
-    app.command(cls=PlainCommand)(_command)
-app.command(name="import", cls=PlainCommand)(import_)
-app.command(cls=PlainCommand)(examples)
+    app.command(cls=PlainCommand)(guarded(_command))
+app.command(name="import", cls=PlainCommand)(guarded(import_))
+app.command(cls=PlainCommand)(guarded(examples))
 
 
 def main() -> None:
     """Entry point of the ``tma`` console script."""
+    install_sigterm()
+    if sys.argv[1:] == ["scenarios"]:
+        # Typer (>= 0.2x) imports pydantic to coerce any command's parameters, even --help;
+        # the plain listing has none, so it is run directly (same output and exit, no
+        # pydantic).
+        scenarios()
+        raise SystemExit(0)
     app()
 
 

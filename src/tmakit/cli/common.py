@@ -10,6 +10,7 @@ must start without numpy's heavy users (scipy, the estimators) or pydantic.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -69,31 +70,6 @@ def refuse_existing(path: Path, force: bool) -> None:
         raise fail(f"{path} already exists; use --force to overwrite it")
 
 
-PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
-
-
-def check_plot_path(path: Path, force: bool) -> None:
-    """Check a picture path before any work: a known suffix, an existing folder, no overwrite.
-
-    Parameters
-    ----------
-    path : Path
-        The picture to write.
-    force : bool
-        Overwrite an existing picture.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the path cannot or may not be written.
-    """
-    if path.suffix.lower() not in PICTURE_SUFFIXES:
-        raise fail(f"--plot {path}: the picture is written as {', '.join(PICTURE_SUFFIXES)}")
-    if not path.parent.is_dir():
-        raise fail(f"--plot {path}: the folder {path.parent} does not exist")
-    refuse_existing(path, force)
-
-
 def parse_origin(text: str | None) -> tuple[float, float, float] | None:
     """``--origin LAT,LON,ALT`` as ``(lat_deg, lon_deg, alt_m)``, or None when not given.
 
@@ -150,7 +126,13 @@ def parse_assignments(text: str | None, option: str) -> dict[str, float]:
         try:
             if not eq or not name.strip():
                 raise ValueError
-            values[name.strip()] = float(value)
+            number = float(value)
+            if not math.isfinite(number) or name.strip() in values:
+                raise fail(f"{option} {text!r}: {name.strip()} is given twice" if
+                           name.strip() in values else
+                           f"{option} {text!r}: {name.strip()}={value.strip()} is not a "
+                           "finite number")
+            values[name.strip()] = number
         except ValueError:
             raise fail(f"{option} {text!r}: expected name=value pairs separated by commas, "
                        f"e.g. x=3200,y=3200,vx=-21.65,vy=-12.5 (problem at {part!r})"
@@ -213,9 +195,13 @@ def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None,
 
     if not path.exists():
         raise fail(f"{path}: no such file")
+    if path.is_dir():
+        raise fail(f"{path}: is a folder, not a measurement file")
     options = _log_options(path, {k: v for k, v in options.items() if v is not None})
     try:
         return read_measurements(path, origin=origin, **options)
+    except OSError as e:
+        raise fail(f"{path}: cannot be read ({e.strerror or e})") from None
     except (MeasurementFileError, ValueError) as e:
         from ..io.positions import ORIGIN_HINT
 
@@ -295,8 +281,10 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
     typer.Exit
         Status 2 when no motion is named or the name is unknown.
     """
-    from ..motion import motion_from_name
+    from ..motion import default_ref_time, motion_from_name
 
+    if ref_time is not None and not math.isfinite(ref_time):
+        raise fail(f"--ref-time {ref_time}: expected a finite time (s)")
     if name is None:
         if meas is not None and "motion" in meas.metadata:
             name = meas.metadata["motion"]
@@ -305,9 +293,16 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
         else:
             raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
     try:
-        return motion_from_name(name, 0.0 if ref_time is None else ref_time)
+        if ref_time is None:  # inside the data: the fit does not depend on the time origin
+            ref_time = 0.0 if meas is None else default_ref_time(meas.time)
+        model = motion_from_name(name, ref_time)
     except ValueError as e:
         raise fail(str(e)) from None
+    if meas is not None and model.n_params > len(meas):  # work limit: not identifiable
+        raise fail(f"--motion {name}: {model.n_params:,} parameters from {len(meas):,} "
+                   "measurements cannot be identified (at most one parameter per "
+                   "measurement); choose a motion with fewer parameters")
+    return model
 
 
 def model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, object]]:

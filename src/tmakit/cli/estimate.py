@@ -34,7 +34,6 @@ from .common import (
     OwnshipOption,
     RangeSigmaOption,
     RefTimeOption,
-    check_plot_path,
     err,
     fail,
     model_options,
@@ -45,6 +44,7 @@ from .common import (
     read_or_fail,
     reader_options,
 )
+from .outputs import check_output
 
 
 # `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -107,8 +107,7 @@ def estimate(
     not need (tmakit.batch.curvilinear).
     """
     check_units(units)
-    if plot is not None:
-        check_plot_path(plot, force)
+    plot = check_output(plot, "--plot", force, "picture")
     meas = select_window(read_or_fail(file, parse_origin(origin), **reader_options(
         format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma)),
         start, stop)
@@ -153,7 +152,8 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
     """
     exact, criterion, alpha, accelerations = manoeuvre
     name = motion if motion is not None else meas.metadata.get("motion")
-    if name is not None and getattr(motion_or_fail(name, ref_time), "manoeuvres", None) is not None:
+    if name is not None and getattr(motion_or_fail(name, ref_time, meas), "manoeuvres",
+                                                None) is not None:
         if method != "ml":
             raise fail(f"--method {method}: manoeuvring targets (--motion {name}) are "
                        "estimated by ml only")

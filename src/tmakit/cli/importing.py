@@ -29,6 +29,7 @@ from .common import (
     refuse_existing,
     write_or_fail,
 )
+from .outputs import check_output
 
 #: The formats of ``tma import`` and how many files each takes.
 IMPORT_FORMATS = {"rep": 1, "dsf": 1, "wide": 1, "gpx": 2, "nmea": 2}
@@ -38,16 +39,7 @@ EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea"
 
 
 def _check_output(output: Path, force: bool) -> None:
-    from ..io import find_format, registered_formats
-    from ..io.formats import suffix_text
-
-    refuse_existing(output, force)
-    fmt = find_format(output, reading=False)
-    if fmt is None or fmt.write is None:
-        raise fail(f"-o {output}: tmakit writes measurement files ending in "
-                   f"{suffix_text(registered_formats(reading=False))}")
-    if not output.parent.exists():
-        raise fail(f"-o {output}: the folder {output.parent} does not exist")
+    check_output(output, "-o", force, "measurements")
 
 
 def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None) -> Any:

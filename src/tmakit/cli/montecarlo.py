@@ -8,14 +8,18 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from .common import fail, load_scenario_or_fail, out, print_wide, refuse_existing
+from .common import err, fail, load_scenario_or_fail, out, print_wide
+from .outputs import check_outputs
+
+#: Default limit of ``--runs`` (raise with ``--max-runs``).
+MAX_RUNS = 1_000_000
 
 
 # `tma montecarlo`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def montecarlo(
     scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
-    runs: Annotated[int, typer.Option(help="number of Monte Carlo runs")] = 100,
-    seed: Annotated[int, typer.Option(help="random seed (same seed, same table)")] = 0,
+    runs: Annotated[int, typer.Option(min=1, help="number of Monte Carlo runs")] = 100,
+    seed: Annotated[int, typer.Option(min=0, help="random seed (same seed, same table)")] = 0,
     estimator: Annotated[str, typer.Option(
         help="ml (default) or another method of tmakit.batch.methods")] = "ml",
     known_nuisance: Annotated[bool, typer.Option(
@@ -23,38 +27,45 @@ def montecarlo(
         "power constant, ...; default: unknown, estimated")] = False,
     dask: Annotated[str | None, typer.Option(
         help="Dask scheduler address (tcp://host:8786); default: run here")] = None,
-    chunk: Annotated[int | None, typer.Option(help="runs per task")] = None,
+    chunk: Annotated[int | None, typer.Option(min=1, help="runs per task")] = None,
     output: Annotated[Path | None, typer.Option(
-        "-o", "--output", help="write the per-run table (.csv or .parquet)")] = None,
+        "-o", "--output", help="write the per-run table (.csv or .parquet); if the study is "
+        "interrupted or fails, the finished runs go to NAME.partial.csv")] = None,
     json_file: Annotated[Path | None, typer.Option(
         "--json", help="write the summary as JSON")] = None,
     no_progress: Annotated[bool, typer.Option("--no-progress",
                                               help="no progress bar")] = False,
     force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+    max_runs: Annotated[int, typer.Option(
+        min=1, help="refuse more runs than this (each run holds its seed and table row; "
+        "raise it for a larger study)")] = MAX_RUNS,
 ) -> None:
     """Simulate and estimate a scenario many times; compare the RMSE with the CRLB."""
-    for path in (output, json_file):
-        if path is not None:
-            refuse_existing(path, force)
-    from ..io.study_files import STUDY_SUFFIXES
-
-    if output is not None and output.suffix.lower() not in STUDY_SUFFIXES:
-        raise fail(f"{output}: the per-run table is written as .csv or .parquet")
+    partial = None if output is None else output.with_name(
+        f"{output.stem}.partial{output.suffix}")
+    output, json_file, partial = check_outputs(
+        [("-o", output, "table"), ("--json", json_file, "json"),
+         ("-o (partial results)", partial, "table")], force)
+    if runs > max_runs:
+        raise fail(f"--runs {runs:,}: more than the limit of {max_runs:,} runs; raise it with "
+                   "--max-runs")
     scn = load_scenario_or_fail(scenario)
     from ..montecarlo import monte_carlo
 
+    finished: list[Any] = []
     try:
         res = monte_carlo(scn, estimator=estimator, runs=runs, seed=seed,
                           known_nuisance=known_nuisance, progress=not no_progress,
-                          dask=dask, chunk=chunk)
+                          dask=dask, chunk=chunk, on_chunk=finished.append)
     except (ValueError, ImportError) as e:
+        save_partial(finished, scn, partial)
         raise fail(str(e)) from None
-    except NotImplementedError as e:  # a motion the no-guess start cannot seed
-        raise fail(f"{scenario}: {e}; the Monte Carlo study of this scenario's motion "
-                   f"({scn.motion.name}) needs another estimator or a cv/static scenario"
-                   ) from None
     except OSError as e:  # the Dask scheduler cannot be reached
+        save_partial(finished, scn, partial)
         raise fail(f"Dask scheduler {dask}: {e}") from None
+    except BaseException:  # interrupted, or an internal error: keep the finished runs
+        save_partial(finished, scn, partial)
+        raise
     print_summary(res)
     if output is not None:
         from ..io.study_files import write_study_table
@@ -67,6 +78,28 @@ def montecarlo(
         with atomic_write(json_file, force=force) as tmp:
             tmp.write_text(res.to_json() + "\n")
         out.print(f"wrote {json_file}", highlight=False)
+
+
+def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
+    """Write the finished runs of a study that did not end (``NAME.partial.csv``).
+
+    Parameters
+    ----------
+    finished : list of ChunkOutput
+        The chunks finished so far.
+    scn : tmakit.scenario.Scenario
+        The scenario (its parameter names).
+    partial : Path or None
+        Where to write them (checked before the study started); None: nowhere.
+    """
+    if partial is None or not finished:
+        return
+    from ..io.tables import write_table
+    from ..montecarlo import finished_runs_table
+
+    table = finished_runs_table(finished, scn.motion.param_names)
+    write_table(partial, table, force=True, what="the finished runs")
+    err.print(f"saved the {len(table)} finished runs to {partial}", highlight=False)
 
 
 def print_summary(res: Any) -> None:

@@ -14,11 +14,12 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from .common import ForceOption, err, fail, out, refuse_existing
+from .common import ForceOption, err, fail, out
+from .outputs import check_outputs as _check_paths
 
 
-def check_outputs(paths: list[tuple[str, Path | None]], force: bool) -> None:
-    """Refuse bad output paths before running: existing (without --force), no folder, suffix.
+def check_outputs(paths: list[tuple[str, Path | None]], force: bool) -> list[Path | None]:
+    """Refuse bad output paths before running (:func:`tmakit.cli.outputs.check_outputs`).
 
     Parameters
     ----------
@@ -27,23 +28,18 @@ def check_outputs(paths: list[tuple[str, Path | None]], force: bool) -> None:
     force : bool
         ``--force``.
 
+    Returns
+    -------
+    list of Path or None
+        The exact files that will be written.
+
     Raises
     ------
     typer.Exit
         Status 2 for the first bad path.
     """
-    from ..io.tables import table_format
-
-    for option, path in paths:
-        if path is None:
-            continue
-        refuse_existing(path, force)
-        if not path.parent.is_dir():
-            raise fail(f"{option} {path}: the folder {path.parent} does not exist")
-        if option == "-o" and table_format(path) is None:
-            raise fail(f"-o {path}: the per-step table is written as .csv or .parquet")
-        if option == "--plot" and path.suffix.lower() not in (".png", ".pdf", ".svg"):
-            raise fail(f"--plot {path}: the picture is written as .png, .pdf or .svg")
+    return _check_paths([(option, path, "picture" if option == "--plot" else "table")
+                         for option, path in paths], force)
 
 
 # `tma plan`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -71,11 +67,14 @@ def plan(
     force: ForceOption = False,
 ) -> None:
     """Steer the scenario's sensor by the predicted posterior CRB, in the closed loop."""
-    check_outputs([("-o", output), ("--plot", plot)], force)
+    output, plot = check_outputs([("-o", output), ("--plot", plot)], force)
     if runs is not None and runs < 1:
         raise fail("--runs must be 1 or more")
     if particles is not None and particles < 2:
         raise fail("--particles must be 2 or more")
+    from .outputs import check_particles
+
+    check_particles(particles)
     from ..scenario_planning import PLANNING_TRACKERS
 
     if tracker is not None and tracker not in PLANNING_TRACKERS:
@@ -129,8 +128,9 @@ def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bo
         console.print(f"wrote {output}", highlight=False)
     if plot is not None:
         from ..plot import plot_plan
+        from .outputs import write_picture
 
-        plot_plan(result, plot)
+        write_picture(plot, force, lambda tmp: plot_plan(result, tmp))
         console.print(f"wrote {plot}", highlight=False)
 
 

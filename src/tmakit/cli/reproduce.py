@@ -8,7 +8,8 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from .common import JsonOption, fail, out, refuse_existing
+from .common import JsonOption, fail, out
+from .outputs import check_outputs, check_particles, write_picture
 
 
 # `tma reproduce`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -59,7 +60,9 @@ def reproduce(
                      if hasattr(importlib.import_module(m), "plot")]
             raise fail(f"--plot: reproduction {name!r} draws no figure (figures: "
                        f"{', '.join(drawn)})")
-        refuse_existing(plot, force)
+    check_particles(particles)
+    plot, output = check_outputs([("--plot", plot, "picture"), ("--output", output, "table")],
+                                 force)
     checkpoint = None
     if output is not None:
         checkpoint = _checkpoint(output, force)
@@ -72,7 +75,7 @@ def reproduce(
     if checkpoint is not None:
         checkpoint.finish(rep.study)
     if plot is not None:
-        module.plot(rep, plot)
+        write_picture(plot, force, lambda tmp: module.plot(rep, tmp))
     if as_json:
         import json
 

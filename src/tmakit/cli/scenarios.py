@@ -27,9 +27,9 @@ from .common import (
     print_wide,
     read_or_fail,
     reader_options,
-    refuse_existing,
     write_or_fail,
 )
+from .outputs import check_output, write_picture
 
 
 def summary_table(meas: Any, title: str) -> Table:
@@ -160,18 +160,51 @@ def simulate(
     scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
     output: Annotated[Path, typer.Option("-o", "--output",
                                          help="measurement file to write (.csv or .parquet)")],
-    seed: Annotated[int | None, typer.Option(help="random seed (same seed, same data)")] = None,
+    seed: Annotated[int | None, typer.Option(
+        min=0, help="random seed, 0 or more (same seed, same data)")] = None,
     no_noise: Annotated[bool, typer.Option("--no-noise", help="noise-free values")] = False,
     force: Annotated[bool, typer.Option(help="overwrite an existing output file")] = False,
 ) -> None:
     """Simulate a scenario's measurements and write them to a file."""
-    refuse_existing(output, force)
+    output = check_output(output, "-o", force, "measurements")
     scn = load_scenario_or_fail(scenario)
-    meas = scn.simulate(rng=seed, noise=not no_noise)
+    meas = simulate_or_fail(scn, seed, not no_noise)
     write_or_fail(meas, output, force)
     out.print(f"wrote {len(meas)} measurements of {scn.name} to {output}"
               + (f" (seed {seed})" if seed is not None else "")
               + (" without noise" if no_noise else ""), highlight=False)
+
+
+def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
+    """Simulate a scenario, errors of its values (``ValueError``) as ``error: ...``.
+
+    Parameters
+    ----------
+    scn : tmakit.scenario.Scenario
+        The scenario.
+    seed : int or None
+        Random seed.
+    noise : bool
+        Add the measurement noise.
+
+    Returns
+    -------
+    tmakit.data.MeasurementSet
+        The simulated measurements.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the scenario cannot be simulated (the message says why).
+    """
+    from numpy.linalg import LinAlgError
+
+    try:
+        return scn.simulate(rng=seed, noise=noise)
+    except LinAlgError:  # a numerical failure, not bad input: the guard reports it
+        raise
+    except ValueError as e:
+        raise fail(f"scenario {scn.name}: {e}") from None
 
 
 # `tma show`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -189,8 +222,7 @@ def show(
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
-    if plot is not None:
-        refuse_existing(plot, force)
+    plot = check_output(plot, "--plot", force, "picture")
     meas = read_or_fail(file, parse_origin(origin),
                         **reader_options(format, ownship, contact, mapping, bearing_sigma,
                                          range_sigma, frequency_sigma))
@@ -215,7 +247,7 @@ def show(
     if plot is not None:
         from ..plot import plot_measurements
 
-        plot_measurements(meas, plot, title=title)
+        write_picture(plot, force, lambda tmp: plot_measurements(meas, tmp, title=title))
         out.print(f"wrote {plot}", highlight=False)
 
 

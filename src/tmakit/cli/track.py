@@ -32,7 +32,6 @@ from .common import (
     print_wide,
     read_or_fail,
     reader_options,
-    refuse_existing,
 )
 
 
@@ -92,7 +91,8 @@ def track(
     """
     from .. import tracking
 
-    check_track_options(output, plot, force, filter_name, particles, seed, ellipses, rows)
+    output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
+                                       ellipses, rows)
     check_units(units)
     meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
         format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma))
@@ -254,7 +254,7 @@ def tracking_failure(e: Any) -> typer.Exit:
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
-                        ellipses: int, rows: int) -> None:
+                        ellipses: int, rows: int) -> tuple[Path | None, Path | None]:
     """Refuse bad ``tma track`` options before reading the file.
 
     Parameters
@@ -270,6 +270,11 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
     ellipses, rows : int
         ``--ellipses`` (0 or more) and ``--rows`` (1 or more).
 
+    Returns
+    -------
+    tuple of (Path or None)
+        The exact files ``-o`` and ``--plot`` will write.
+
     Raises
     ------
     typer.Exit
@@ -277,13 +282,10 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
     """
     from .. import tracking
     from ..filters import FILTERS
-    from ..io.track_files import TRACK_SUFFIXES
+    from .outputs import check_outputs, check_particles
 
-    for path in (output, plot):
-        if path is not None:
-            refuse_existing(path, force)
-    if output is not None and output.suffix.lower() not in TRACK_SUFFIXES:
-        raise fail(f"{output}: the track table is written as .csv or .parquet")
+    check_particles(particles)
+    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
     random_filters = tracking.random_filters()
@@ -295,6 +297,7 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
                        f"{filter_name}")
     if ellipses < 0 or rows < 1:
         raise fail("--ellipses must be 0 or more and --rows 1 or more")
+    return output, plot
 
 
 def parse_prior(prior: str | None, prior_std: str | None, nuisance: str | None,
@@ -371,14 +374,16 @@ def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path
         say.print(f"wrote {output}", highlight=False)
     if plot is not None:
         from ..plot import plot_track
+        from .outputs import write_picture
 
         bound, note = (tracking.track_pcrb(meas, tr, truth) if truth is not None
                        else (None, ""))
         title = f"{file}: {tr.filter_name} track"
         if "scenario" in meas.metadata:
             title += f" of scenario {meas.metadata['scenario']}"
-        plot_track(tr, meas, plot, truth=truth, pcrb=bound, pcrb_note=note,
-                   ellipses=ellipses, title=title)
+        write_picture(plot, force, lambda tmp: plot_track(
+            tr, meas, tmp, truth=truth, pcrb=bound, pcrb_note=note, ellipses=ellipses,
+            title=title))
         say.print(f"wrote {plot}", highlight=False)
 
 

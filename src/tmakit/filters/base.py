@@ -15,14 +15,16 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..arrays import Array
+from ..blas import one_thread
 from ..data import MeasurementSet
 from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .compiled import CompiledMeasurements
+from .compiled import CompiledMeasurements, compiled_for
 from .extras import TrackExtras
 from .kernels import KernelRun
-from .track import Track, UpdateInfo
+from .record import Recorder, UpdateInfo
+from .track import Track
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
@@ -60,6 +62,8 @@ class TrackingFilter(ABC):
     #: ``numpy.random.Generator`` or seed): declared, so that no caller inspects a signature.
     takes_particles = False
     takes_rng = False
+    #: Limit BLAS to one thread while working (:func:`tmakit.blas.one_thread`).
+    single_blas_thread = False
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  q: float | tuple[float, ...] = 0.0,
@@ -81,7 +85,8 @@ class TrackingFilter(ABC):
         #: because the prediction was not finite (the target at a sensor).
         self.kernel_updates = 0
         self.skipped_updates = 0
-        self._init_state(mean, cov)
+        with one_thread(self.single_blas_thread):
+            self._init_state(mean, cov)
 
     # -- what subclasses provide -------------------------------------------------------------
     @abstractmethod
@@ -188,7 +193,8 @@ class TrackingFilter(ABC):
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
                              f"to t={time} s")
         if dt > TIME_TOLERANCE:
-            self._predict(dt)
+            with one_thread(self.single_blas_thread):
+                self._predict(dt)
         self.time = max(self.time, float(time))
 
     def update(self, rows: MeasurementSet | MeasurementGroup) -> UpdateInfo:
@@ -204,14 +210,16 @@ class TrackingFilter(ABC):
         UpdateInfo
             NIS, degrees of freedom and log-likelihood of the update.
         """
-        info = self._update(self.group(rows))
+        with one_thread(self.single_blas_thread):
+            info = self._update(self.group(rows))
         self.log_likelihood += info.log_likelihood
         return info
 
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
-        The set is compiled once (:class:`~.compiled.CompiledMeasurements`); a filter with a
+        The set is compiled once (:class:`~.compiled.CompiledMeasurements`, kept for the
+        set's next runs with the same dimension, options and nuisance); a filter with a
         closed-form kernel for the case (:mod:`.kernels`) uses it.
 
         Parameters
@@ -236,8 +244,7 @@ class TrackingFilter(ABC):
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
             raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
                              f"filter's prior time t={self.time} s")
-        return self.run_compiled(CompiledMeasurements(meas, self.dim, self.options,
-                                                      self.nuisance))
+        return self.run_compiled(compiled_for(meas, self.dim, self.options, self.nuisance))
 
     def _plain_interface(self) -> bool:
         """Tell whether predict, update and group are the base class's (else run uses them)."""
@@ -270,16 +277,20 @@ class TrackingFilter(ABC):
         if compiled.dim != self.dim:
             raise ValueError(f"the measurements were compiled for a {compiled.dim}-D filter; "
                              f"this one is {self.dim}-D")
+        with one_thread(self.single_blas_thread):
+            return self._run_compiled(compiled)
+
+    def _run_compiled(self, compiled: CompiledMeasurements) -> Track:
         if not self._plain_interface():
             return self.run_groups((float(compiled.times[k]), compiled.rows(k))
                                    for k in range(len(compiled)))
-        rec = _Recorder(2 * self.dim)
+        rec = Recorder(2 * self.dim)
         k, total = 0, len(compiled)
         while k < total:
             block = self._run_kernel(compiled, k)
             if block is not None:
                 rec.add_block(block)
-                self.kernel_updates += block.stop - k
+                self.kernel_updates += 0 if block.general else block.stop - k
                 k = block.stop
                 if k >= total:
                     break
@@ -288,7 +299,7 @@ class TrackingFilter(ABC):
             self.log_likelihood += info.log_likelihood
             rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
             k += 1
-        return rec.track(self)
+        return self._track(rec)
 
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
         """Predict to each ``time`` and update with its rows, in the order given.
@@ -310,48 +321,15 @@ class TrackingFilter(ABC):
         ValueError
             If a time is earlier than the filter's time.
         """
-        rec = _Recorder(2 * self.dim)
+        rec = Recorder(2 * self.dim)
         for time, rows in groups:
             self.predict(time)
             info = self.update(rows)
             rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
-        return rec.track(self)
+        return self._track(rec)
 
-
-class _Recorder:
-    """Collects a filter's per-update outputs (single updates and kernel blocks)."""
-
-    def __init__(self, n: int) -> None:
-        self.n = n
-        self.blocks: list[tuple[Array, ...]] = []
-        self.rows: list[tuple[float, Array, Array, float, int, float]] = []
-
-    def add(self, time: float, state: Array, cov: Array, info: UpdateInfo,
-            loglik: float) -> None:
-        self.rows.append((time, state, cov, info.nis, info.dof, loglik))
-
-    def _flush(self) -> None:
-        if self.rows:
-            t, x, p, nis, dof, ll = zip(*self.rows, strict=True)
-            self.blocks.append((np.array(t, dtype=float), np.array(x, dtype=float),
-                                np.array(p, dtype=float), np.array(nis, dtype=float),
-                                np.array(dof, dtype=np.int64), np.array(ll, dtype=float)))
-            self.rows = []
-
-    def add_block(self, block: KernelRun) -> None:
-        self._flush()
-        k = block.states.shape[0]
-        self.blocks.append((block.times, block.states, block.covariances, block.nis,
-                            np.ones(k, dtype=np.int64), block.log_likelihoods))
-
-    def track(self, filt: TrackingFilter) -> Track:
-        self._flush()
-        n = self.n
-        if not self.blocks:
-            parts: list[Array] = [np.zeros(0), np.zeros((0, n)), np.zeros((0, n, n)),
-                                  np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0)]
-        else:
-            parts = [np.concatenate([b[i] for b in self.blocks]) for i in range(6)]
-        return Track(filt.name, filt.state_names, parts[0], parts[1].reshape(-1, n),
-                     parts[2].reshape(-1, n, n), parts[3], parts[4].astype(np.int64),
-                     parts[5], extra=TrackExtras(skipped_updates=int(filt.skipped_updates)))
+    def _track(self, rec: Recorder) -> Track:
+        """Make the track of the updates ``rec`` collected."""
+        t, x, p, nis, dof, ll = rec.parts()
+        return Track(self.name, self.state_names, t, x, p, nis, dof, ll,
+                     extra=TrackExtras(skipped_updates=int(self.skipped_updates)))

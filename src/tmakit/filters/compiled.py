@@ -15,6 +15,7 @@ the specialised path, tested equal to the general one.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -101,6 +102,8 @@ class CompiledMeasurements:
             lookup[KIND_CODES[k]] = i
         self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
         self._lists: tuple[list[float], ...] | None = None
+        #: What the filters derive from the set once per run (e.g. the general path's plan).
+        self.cache: dict[str, object] = {}
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
         #: row layout, made once and shared by the updates with that pattern.
         self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
@@ -108,6 +111,11 @@ class CompiledMeasurements:
         #: Every update is one bearing row (the closed-form kernels apply).
         self.single_bearing = bool(n > 0 and np.all(sizes == 1)
                                    and set(self.models) == {"bearing"})
+
+    @property
+    def model_index(self) -> Array:
+        """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
+        return self._codes
 
     def __len__(self) -> int:
         """Return the number of updates."""
@@ -190,3 +198,46 @@ class CompiledMeasurements:
             t, self.dim, models, nus, index, self.values[a:b], self.sigmas[a:b],
             self.time[a:b], self.time_ref[a:b], self.sensor_state[a:b],
             self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k), layout)
+
+
+#: The sets compiled so far, per measurement set (whose arrays are read-only) and per
+#: (dimension, options, nuisance values): a set filtered again (another filter, another prior,
+#: the same filter once more) is compiled once.  Kept while the set lives.
+_COMPILED: weakref.WeakKeyDictionary[MeasurementSet, dict[str, CompiledMeasurements]] = \
+    weakref.WeakKeyDictionary()
+
+
+def compiled_for(meas: MeasurementSet, dim: int,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> CompiledMeasurements:
+    """Give ``meas`` compiled for a filter, made once per set and settings.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    dim : int
+        Filter dimension, 2 or 3.
+    options, nuisance : mapping, optional
+        As for :class:`CompiledMeasurements`.
+
+    Returns
+    -------
+    CompiledMeasurements
+        The same object for the same set, dimension, options and nuisance values.
+    """
+    key = repr((int(dim), sorted((str(k), sorted(dict(v).items()))
+                                 for k, v in dict(options or {}).items()),
+                sorted(dict(nuisance or {}).items())))
+    try:
+        per_set = _COMPILED.get(meas)
+        if per_set is None:
+            per_set = _COMPILED[meas] = {}
+    except TypeError:  # a set that cannot be weakly referenced or hashed: compiled each time
+        return CompiledMeasurements(meas, dim, options, nuisance)
+    out = per_set.get(key)
+    if out is None:
+        if len(per_set) >= 8:  # many settings on one set: keep the cache small
+            per_set.clear()
+        out = per_set[key] = CompiledMeasurements(meas, dim, options, nuisance)
+    return out

@@ -6,14 +6,25 @@ from typing import Any
 
 import numpy as np
 
-from ..linalg import joseph_update, repair_psd, solve_spd, symmetrise
+from ..linalg import symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, TrackingFilter, UpdateInfo
 from .compiled import CompiledMeasurements
+from .general import (
+    DynamicsCache,
+    PlanOutputs,
+    Step,
+    checked_psd,
+    kalman_gain,
+    linearise,
+    predict_gaussian,
+)
 from .kernels import KernelRun, ekf_bearing_2d
+from .plan import StepPlan, plan_for
 
 LOG_2PI = float(np.log(2.0 * np.pi))
+_EYE = {4: np.eye(4), 6: np.eye(6)}
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of
 #: the smallest distance to a sensor of the group.
 IEKF_TOL = 1e-10
@@ -57,16 +68,31 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
     info : UpdateInfo
         NIS, degrees of freedom (m) and log-likelihood (nats) of the update.
     """
-    hp = h @ cov
-    s = symmetrise(hp @ h.T + r)
-    sol, log_det = solve_spd(s, np.concatenate([hp, residual[:, None]], axis=1))
-    gain = sol[:, :-1].T
-    nis = float(residual @ sol[:, -1])
+    gain, nis, log_det = kalman_gain(cov, h, r, residual)
     m = residual.shape[0]
     loglik = -0.5 * (nis + log_det + m * LOG_2PI)
     g = h if h_cov is None else h_cov
-    return (mean + gain @ residual, repair_psd(joseph_update(cov, gain, g, r)),
-            UpdateInfo(nis, m, loglik))
+    return mean + gain @ residual, joseph(cov, gain, g, r), UpdateInfo(nis, m, loglik)
+
+
+def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
+    """Give the Joseph-form update ``(I - K H) P (I - K H)^T + K R K^T``, checked PD.
+
+    Parameters
+    ----------
+    cov, gain, h, r : numpy.ndarray
+        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The covariance, symmetrised and repaired only when its Cholesky check fails
+        (:func:`~.general.checked_psd`).
+    """
+    i_kh = _EYE[cov.shape[0]] - gain @ h
+    p = i_kh @ cov @ i_kh.T
+    p += gain @ r @ gain.T
+    return checked_psd(p)
 
 
 def skipped() -> UpdateInfo:
@@ -190,9 +216,63 @@ class ExtendedKalmanFilter(TrackingFilter):
         self.time, self.log_likelihood = block.time, block.log_likelihood
         return block
 
+    def _plan_ok(self, compiled: CompiledMeasurements, cls: type) -> StepPlan | None:
+        """Give the general plan of ``compiled`` if this filter can run on it (else None)."""
+        me = type(self)
+        if (compiled.single_bearing or type(self.dynamics) is not NearlyConstantVelocity
+                or me._update is not cls._update or me._predict is not cls._predict):
+            return None
+        plan = plan_for(compiled)
+        return plan if plan.ok else None
+
+    def _dynamics_cache(self) -> DynamicsCache:
+        cache = getattr(self, "_dyn_cache", None)
+        if cache is None or cache.dynamics is not self.dynamics:
+            cache = self._dyn_cache = DynamicsCache(self.dynamics)
+        return cache
+
+    def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
+                     ) -> tuple[Array, Array, float, int, float]:
+        """One update of the general path: mean, covariance, NIS, rows, log-likelihood."""
+        y, h, ok = linearise(step, mean, plan.eye_map)
+        if not ok:
+            self.skipped_updates += 1
+            return mean, cov, float("nan"), 0, 0.0
+        r = step[6]
+        gain, nis, log_det = kalman_gain(cov, h, r, y)
+        new = mean + gain @ y
+        new_cov = joseph(cov, gain, h, r)
+        for _ in range(self.iterations - 1):  # the iterated EKF, as in _update
+            y_i, h_i, ok = linearise(step, new, plan.eye_map)
+            if not ok:
+                break
+            g_i = kalman_gain(cov, h_i, r, y_i - h_i @ (mean - new))[0]
+            nxt = mean + g_i @ (y_i - h_i @ (mean - new))
+            size = float(np.linalg.norm((nxt - new)[:self.dim]))
+            new, new_cov = nxt, joseph(cov, g_i, h_i, r)
+            pos = step[2].reshape(-1, 6)[:, :self.dim]
+            if size <= IEKF_TOL * float(np.min(np.linalg.norm(pos - new[:self.dim], axis=1))):
+                break
+        m = y.shape[0]
+        return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
+
+    def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
+        """Run updates ``start`` on of a plan (the general path compiled once per file)."""
+        steps = plan.steps[start:]
+        out = PlanOutputs(len(steps), 2 * self.dim)
+        dyn = self._dynamics_cache()
+        mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
+        for step in steps:
+            mean, cov, t = predict_gaussian(dyn, mean, cov, t, step[0])
+            mean, cov, nis, m, lli = self._plan_update(step, plan, mean, cov)
+            ll += lli
+            out.put(t, mean, cov, nis, m, ll)
+        return self._adopt(out.run(mean, cov, t, ll))
+
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
         if not self._kernel_ok(compiled, ExtendedKalmanFilter):
-            return None
+            plan = self._plan_ok(compiled, ExtendedKalmanFilter)
+            return None if plan is None else self._run_plan(plan, start)
         return self._adopt(ekf_bearing_2d(self._mean, self._cov, self.time,
                                           self.log_likelihood, start, compiled.bearing_lists(),
                                           self._q2(), self.iterations))

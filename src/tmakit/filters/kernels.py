@@ -78,6 +78,10 @@ class KernelRun:
     times, states, covariances, nis, log_likelihoods : numpy.ndarray
         Per-update outputs of the updates it did: times ``(k,)`` (s), states ``(k, 4)``,
         covariances ``(k, 4, 4)``, NIS ``(k,)`` and cumulative log-likelihoods ``(k,)``.
+    dof : numpy.ndarray, optional
+        Degrees of freedom of each update ``(k,)`` (None: one row each).
+    general : bool, optional
+        True for a run of the general path (:mod:`.general`), not a closed-form kernel.
     """
 
     stop: int
@@ -91,6 +95,8 @@ class KernelRun:
     covariances: Array
     nis: Array
     log_likelihoods: Array
+    dof: Array | None = None
+    general: bool = False
 
 
 def wrap(a: float) -> float:

@@ -153,6 +153,7 @@ class ParticleFilter(TrackingFilter):
 
     name = "pf"
     takes_particles = True
+    single_blas_thread = True
     takes_rng = True
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,

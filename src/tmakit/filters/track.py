@@ -1,4 +1,4 @@
-"""A filter's output, :class:`Track` (one row per update), and what one update saw.
+"""A filter's output, :class:`Track`: one row per update.
 
 A track's :meth:`Track.answer` gives the emitter after any update in the user's terms (position
 in E/N and lat/lon, course, speed, range and bearing, each with its std, and the ellipse), the
@@ -17,25 +17,6 @@ from ..data import MeasurementSet
 from ..linalg import symmetrise
 from ..results.answers import ELLIPSE_LEVEL, Answer, track_answer
 from .extras import TrackExtras
-
-
-@dataclass(frozen=True)
-class UpdateInfo:
-    """What one update saw.
-
-    Parameters
-    ----------
-    nis : float
-        Normalised innovation squared (NaN for a skipped update).
-    dof : int
-        Its degrees of freedom (measurement rows; 0 when skipped).
-    log_likelihood : float
-        Log-likelihood of the group given the past (nats).
-    """
-
-    nis: float
-    dof: int
-    log_likelihood: float
 
 
 @dataclass

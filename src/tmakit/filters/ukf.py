@@ -33,13 +33,24 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.linalg.lapack import dpotrf
 
-from ..linalg import repair_psd, safe_cholesky, solve_spd, symmetrise
+from ..frames import wrap_angle
+from ..linalg import safe_cholesky, symmetrise
 from ..observation.groups import MeasurementGroup
 from .base import Array, UpdateInfo
 from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
+from .general import (
+    PlanOutputs,
+    Step,
+    checked_psd,
+    innovation_solve,
+    predict_gaussian,
+    predict_rows,
+)
 from .kernels import KernelRun, ukf_bearing_2d
+from .plan import StepPlan
 
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float
@@ -155,17 +166,65 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         pzz = symmetrise((dz * wc[:, None]).T @ dz + group.covariance)
         pxz = (dx * wc[:, None]).T @ dz
         nu = group.residual(zbar)
-        sol, log_det = solve_spd(pzz, np.concatenate([pxz.T, nu[:, None]], axis=1))
-        gain = sol[:, :-1].T
-        nis = float(nu @ sol[:, -1])
+        gain, nis, log_det = innovation_solve(pzz, pxz.T, nu)
         self._mean = self._mean + gain @ nu
-        self._cov = repair_psd(self._cov - gain @ pzz @ gain.T)
+        self._cov = checked_psd(self._cov - gain @ pzz @ gain.T)
         m = nu.shape[0]
         return UpdateInfo(nis, m, -0.5 * (nis + log_det + m * LOG_2PI))
 
+    def _plan_points(self, mean: Array, cov: Array) -> Array:
+        """Give the sigma points of ``(mean, cov)`` (one Cholesky check; as sigma_points)."""
+        chol, info = dpotrf(cov, lower=1, clean=1)
+        if info != 0:
+            chol = safe_cholesky(cov)
+        dev = self._gamma * chol.T
+        return np.concatenate([mean[None, :], mean + dev, mean - dev])
+
+    def _plan_update(self, step: Step, mean: Array, cov: Array
+                     ) -> tuple[Array, Array, float, int, float]:
+        """One UKF update of the general path (the arithmetic of :meth:`_update`)."""
+        pts = self._plan_points(mean, cov)
+        z, _ = predict_rows(step, pts, self.dim)
+        total = float(np.add.reduce(z, axis=None))
+        if total - total != 0.0:
+            self.skipped_updates += 1
+            return mean, cov, float("nan"), 0, 0.0
+        angle = step[7]
+        wm, wc = self._wm, self._wc
+        zbar = wm @ z
+        dz = z - zbar
+        nu = step[1] - zbar
+        if angle is not None:
+            za = z[:, angle]
+            zbar[angle] = np.arctan2(wm @ np.sin(za), wm @ np.cos(za))
+            dz[:, angle] = wrap_angle(za - zbar[angle])
+            nu[angle] = wrap_angle(step[1][angle] - zbar[angle])
+        dzw = dz * wc[:, None]
+        pzz = dzw.T @ dz
+        pzz += step[6]
+        pxz_t = dzw.T @ (pts - mean)
+        gain, nis, log_det = innovation_solve(pzz, pxz_t, nu)
+        m = nu.shape[0]
+        return (mean + gain @ nu, checked_psd(cov - gain @ pzz @ gain.T), nis, m,
+                -0.5 * (nis + log_det + m * LOG_2PI))
+
+    def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
+        """Run updates ``start`` on of a plan (the general path compiled once per file)."""
+        steps = plan.steps[start:]
+        out = PlanOutputs(len(steps), 2 * self.dim)
+        dyn = self._dynamics_cache()
+        mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
+        for step in steps:
+            mean, cov, t = predict_gaussian(dyn, mean, cov, t, step[0])
+            mean, cov, nis, m, lli = self._plan_update(step, mean, cov)
+            ll += lli
+            out.put(t, mean, cov, nis, m, ll)
+        return self._adopt(out.run(mean, cov, t, ll))
+
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
         if not self._kernel_ok(compiled, UnscentedKalmanFilter):
-            return None
+            plan = self._plan_ok(compiled, UnscentedKalmanFilter)
+            return None if plan is None else self._run_plan(plan, start)
         weights = (self._gamma, float(self._wm[0]), float(self._wc[0]), float(self._wm[1]))
         return self._adopt(ukf_bearing_2d(self._mean, self._cov, self.time,
                                           self.log_likelihood, start, compiled.bearing_lists(),

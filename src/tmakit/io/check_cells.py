@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
 from ..measurements import KINDS
+from ..rules import FINITE, LATITUDE, LONGITUDE, SIGMA_POSITIVE
 from .cells import blank_mask, is_blank, number_text, show, text_column
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS, reference_kinds_text
 from .problems import Problems
@@ -77,11 +78,18 @@ def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
         table = schema.validate(table, lazy=True)
     except pa.errors.SchemaErrors as err:
         fc = err.failure_cases
+        whole: set[str] = set()
         for column, index in zip(fc["column"], fc["index"], strict=True):
             if column in cols and index is not None and not is_blank(index):
                 row = int(index)
                 problems.cell(row, str(column), "a number")
                 table.loc[row, column] = np.nan  # type: ignore[index]
+            elif column in cols:  # the column as a whole (lists, structs): not numbers
+                whole.add(str(column))
+        for column in sorted(whole):
+            problems.file.append(f"column '{column}': expected numbers, found values of type "
+                                 f"{frame[column].dtype}")
+            table[column] = np.nan
         table = schema.validate(table, lazy=True)
     return {c: table[c].to_numpy(dtype=np.float64, copy=True) for c in present}
 
@@ -106,7 +114,7 @@ class _Checks:
         return pa.Check(fn, name=name, ignore_na=ignore_na)
 
     def finite(self, column: str) -> pa.Check:
-        return self.check(column, "finite", lambda v, r: np.isfinite(v), "a finite number")
+        return self.check(column, "finite", lambda v, r: np.isfinite(v), FINITE)
 
 
 def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
@@ -180,15 +188,15 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
     if "sigma" in columns:
         columns["sigma"].checks.append(checks.check(
             "sigma", "positive", lambda v, r: v > 0,
-            "a noise standard deviation > 0 (in the unit of value)"))
+            SIGMA_POSITIVE))
     if "sensor_lat" in columns:
         columns["sensor_lat"].checks.append(checks.check(
             "sensor_lat", "latitude", lambda v, r: (v >= -90) & (v <= 90),
-            "a latitude within [-90, 90] deg"))
+            LATITUDE))
     if "sensor_lon" in columns:
         columns["sensor_lon"].checks.append(checks.check(
             "sensor_lon", "longitude", lambda v, r: (v >= -180) & (v <= 360),
-            "a longitude within [-180, 360] deg"))
+            LONGITUDE))
     return columns
 
 

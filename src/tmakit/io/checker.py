@@ -18,6 +18,7 @@ import numpy as np
 
 from ..data import MeasurementSet
 from ..measurements import KINDS
+from ..rules import metadata_problems
 from .cells import text_column
 from .check_cells import check_cells, read_numbers
 from .check_columns import check_columns
@@ -71,6 +72,7 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     time_ref = num["time_ref"] if "time_ref" in num else np.full(n, np.nan)
     ref_state = ref_sensor_state(num, state, sensor, is_rd, ref_given, layout, problems)
 
+    problems.file.extend(metadata_problems(raw.metadata))  # the keys the library reads
     found = problems.sorted()
     if found:
         raise MeasurementFileError(Path(path), found)

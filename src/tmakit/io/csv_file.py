@@ -15,11 +15,15 @@ import numpy as np
 from ..data import MeasurementSet
 from .checker import table_reader
 from .columns import file_columns
-from .contract import COLUMN_ORDER, FORMAT_LINE
+from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS
 from .errors import MeasurementFileError
 from .formats import Format, register_format
 from .problems import RawTable
 from .tables import write_table
+
+#: The columns the reader uses; others are ignored (docs/file-format.md) and not even parsed,
+#: so a header of 200,000 columns costs little.
+READ_COLUMNS = frozenset(("sensor", "kind", *NUMERIC_COLUMNS))
 
 __all__ = ["CSV", "csv_metadata_line", "load_csv", "read_csv", "write_csv"]
 
@@ -58,8 +62,13 @@ def _record_lines(path: Path, body: str, pre_lines: int) -> tuple[list[str], lis
             f"{', '.join(COLUMN_ORDER[:5])}, ..."])
     header_line = pre_lines + reader.line_num
     names = [h.strip() for h in header]
-    problems = [f"line {header_line}: column {name!r} appears more than once in the header"
-                for i, name in enumerate(names) if name in names[:i]]
+    seen: set[str] = set()  # linear in the columns (a list search would be quadratic)
+    problems = []
+    for name in names:
+        if name in seen:
+            problems.append(f"line {header_line}: column {name!r} appears more than once in "
+                            "the header")
+        seen.add(name)
     problems += [f"line {header_line}: column {i + 1} of the header has no name"
                  for i, name in enumerate(names) if not name]
     lines: list[int] = []
@@ -114,10 +123,11 @@ def load_csv(path: Path) -> RawTable:
     names, lines = _record_lines(path, body, pre_lines)
     try:
         frame = pd.read_csv(io.StringIO(body), dtype=str, na_filter=False,
-                            keep_default_na=False, index_col=False, skip_blank_lines=True)
+                            keep_default_na=False, index_col=False, skip_blank_lines=True,
+                            usecols=lambda c: c.strip() in READ_COLUMNS)
     except (pd.errors.ParserError, ValueError) as e:
         raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
-    frame.columns = names
+    frame.columns = [n for n in names if n in READ_COLUMNS]  # others are ignored: not read
     frame = frame.reset_index(drop=True)
     line_numbers = np.asarray(lines, dtype=np.int64) if len(lines) == len(frame) else None
     return RawTable(frame, metadata, line_numbers)

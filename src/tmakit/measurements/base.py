@@ -209,6 +209,61 @@ class MeasurementModel:
         """
         raise NotImplementedError
 
+    #: Whether :meth:`row_gradient` is implemented (plain floats for one row).
+    has_row_gradient = False
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give one row's prediction and its derivatives in plain floats.
+
+        Filters with a handful of rows per update (:mod:`tmakit.filters.general`) call it in
+        place of :meth:`predict_gradient`, whose NumPy calls cost more than the arithmetic on
+        so few numbers; kinds that have it set :attr:`has_row_gradient`.
+
+        Parameters
+        ----------
+        rel : tuple of float
+            The relative state ``(x, y, z, vx, vy, vz)`` (m, m/s).
+        t : float
+            Sample time (s).
+        nuisance : tuple of float
+            The kind's nuisance values (SI), in :attr:`nuisance_names` order.
+
+        Returns
+        -------
+        tuple of float
+            The value (SI) followed by its six derivatives with respect to ``rel``.
+
+        Raises
+        ------
+        NotImplementedError
+            Unless the kind implements it.
+        """
+        raise NotImplementedError(f"{self.kind}: no plain-float row_gradient")
+
+    def predict_gradient(self, rel: Array, t: Array | None = None,
+                         nuisance: Array | None = None) -> tuple[Array, Array]:
+        """Give the predictions and their derivatives with respect to ``rel`` in one pass.
+
+        The filters' step (:mod:`tmakit.filters.general`) calls it once per kind and update;
+        kinds override it to share the work of :meth:`predict` and :meth:`jacobian`.  Not for
+        kinds that :attr:`uses_reference`.
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`predict` (``rel`` an array ``(..., n, 6)``, m and m/s).
+
+        Returns
+        -------
+        values : ndarray
+            ``rel.shape[:-1]``, SI units (rad, m, m/s, Hz, dBW).
+        d_rel : ndarray
+            ``rel.shape``: d value / d relative state (SI per m, per m/s).
+        """
+        return (self.predict(rel, t, nuisance, None),
+                self.jacobian(rel, t, nuisance, None).rel)
+
     def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
                rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
         """Split the prediction as ``h0 + A @ nuisance`` (every nuisance enters linearly).

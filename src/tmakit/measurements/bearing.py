@@ -5,6 +5,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -68,3 +70,44 @@ class Bearing(MeasurementModel):
         d[..., 0] = dy / rho2
         d[..., 1] = -dx / rho2
         return Jacobian(d, None, zeros_nuisance(rel))
+
+    def predict_gradient(self, rel: Array, t: Array | None = None,
+                         nuisance: Array | None = None) -> tuple[Array, Array]:
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.predict_gradient`; only ``rel`` is used.
+
+        Returns
+        -------
+        values, d_rel : ndarray
+            Bearings ``rel.shape[:-1]`` and their derivatives ``rel.shape``.
+        """
+        dx, dy = rel[..., 0], rel[..., 1]
+        inv = 1.0 / (dx * dx + dy * dy)
+        d = np.zeros(rel.shape)
+        d[..., 0] = dy * inv
+        d[..., 1] = -dx * inv
+        return np.arctan2(dx, dy), d
+
+    has_row_gradient = True
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give :meth:`predict_gradient` for one row in plain floats (rad, rad/m).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
+
+        Returns
+        -------
+        tuple of float
+            The bearing and its six derivatives.
+        """
+        dx, dy = rel[0], rel[1]
+        inv = 1.0 / (dx * dx + dy * dy)
+        return math.atan2(dx, dy), dy * inv, -dx * inv, 0.0, 0.0, 0.0, 0.0

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from ..units import SPEED_OF_LIGHT
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
-from .range_rate import range_rate_and_gradient
+from .range_rate import range_rate_and_gradient, range_rate_row
 
 
 class Frequency(MeasurementModel):
@@ -218,6 +218,58 @@ class Frequency(MeasurementModel):
         if self.drift:
             cols.append(scale * np.asarray(t, dtype=float))
         return Jacobian(d_rel, None, np.stack(cols, axis=-1))
+
+    def predict_gradient(self, rel: Array, t: Array | None = None,
+                         nuisance: Array | None = None) -> tuple[Array, Array]:
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (Hz, Hz/m, Hz s/m).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.predict_gradient`; ``nuisance`` is required.
+
+        Returns
+        -------
+        values, d_rel : ndarray
+            Frequencies ``rel.shape[:-1]`` and their derivatives ``rel.shape``.
+
+        Raises
+        ------
+        ValueError
+            As for :meth:`predict`.
+        """
+        if nuisance is None:
+            raise ValueError("frequency: the carrier (nuisance parameter) is needed")
+        rdot, grad = range_rate_and_gradient(rel)
+        nu = np.asarray(nuisance, dtype=float)
+        if self.drift or nu.ndim != 1 or nu.shape[0] != 1:
+            carrier = self._carrier(t, nuisance, rdot.shape)
+        else:  # one known carrier: a scalar
+            carrier = nu[0]
+        grad *= (carrier / -self.c)[..., None]
+        return carrier * (1.0 - rdot / self.c), grad
+
+    has_row_gradient = True
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give :meth:`predict_gradient` for one row in plain floats (Hz, Hz/m, Hz s/m).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.row_gradient`.
+
+        Returns
+        -------
+        tuple of float
+            The frequency and its six derivatives.
+        """
+        rdot, g0, g1, g2, g3, g4, g5 = range_rate_row(rel)
+        carrier = nuisance[0] + nuisance[1] * t if self.drift else nuisance[0]
+        k = carrier / -self.c
+        return (carrier * (1.0 - rdot / self.c), g0 * k, g1 * k, g2 * k, g3 * k, g4 * k,
+                g5 * k)
 
     def __repr__(self) -> str:
         """Name the kind with its drift option, e.g. ``Frequency(drift=False)``."""

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -54,3 +56,23 @@ class Range(MeasurementModel):
         d = np.zeros(rel.shape)
         d[..., :3] = rel[..., :3] / r
         return Jacobian(d, None, zeros_nuisance(rel))
+
+    has_row_gradient = True
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give the range and its derivatives for one row in plain floats (m, 1).
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
+
+        Returns
+        -------
+        tuple of float
+            The range and its six derivatives.
+        """
+        px, py, pz = rel[0], rel[1], rel[2]
+        r = math.sqrt(px * px + py * py + pz * pz)
+        return r, px / r, py / r, pz / r, 0.0, 0.0, 0.0

@@ -6,6 +6,8 @@ target recedes); the sensor's own velocity enters through the relative velocity.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -52,6 +54,27 @@ def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
     if scale != 1.0:
         rdot *= scale
     return rdot, grad
+
+
+def range_rate_row(rel: tuple[float, ...]) -> tuple[float, ...]:
+    """Give :func:`range_rate_and_gradient` (scale 1) for one row in plain floats.
+
+    Parameters
+    ----------
+    rel : tuple of float
+        The relative state ``(x, y, z, vx, vy, vz)`` (m, m/s).
+
+    Returns
+    -------
+    tuple of float
+        The range rate (m/s) and its six derivatives (1/s, dimensionless).
+    """
+    px, py, pz, vx, vy, vz = rel
+    inv_r = 1.0 / math.sqrt(px * px + py * py + pz * pz)
+    ux, uy, uz = px * inv_r, py * inv_r, pz * inv_r
+    rdot = ux * vx + uy * vy + uz * vz
+    return (rdot, (vx - rdot * ux) * inv_r, (vy - rdot * uy) * inv_r,
+            (vz - rdot * uz) * inv_r, ux, uy, uz)
 
 
 class RangeRate(MeasurementModel):
@@ -102,3 +125,21 @@ class RangeRate(MeasurementModel):
         """
         rel = as_rel(rel)
         return Jacobian(range_rate_and_gradient(rel)[1], None, zeros_nuisance(rel))
+
+    has_row_gradient = True
+
+    def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
+                     ) -> tuple[float, ...]:
+        """Give the range rate and its derivatives for one row in plain floats.
+
+        Parameters
+        ----------
+        rel, t, nuisance
+            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
+
+        Returns
+        -------
+        tuple of float
+            The range rate (m/s) and its six derivatives.
+        """
+        return range_rate_row(rel)

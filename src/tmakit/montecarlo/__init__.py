@@ -30,8 +30,19 @@ from .estimators import available_estimators
 from .execution import LOCAL_CHUNK, LOOP_CHUNK
 from .result import MonteCarloResult, ratio_interval
 from .runs import FAILED, RUN_ERRORS
-from .study import monte_carlo
+from .study import finished_runs_table, monte_carlo
 
-__all__ = ["FAILED", "LOCAL_CHUNK", "LOOP_CHUNK", "RUN_ERRORS", "ClosedLoopStudy", "LoopCase",
-           "MonteCarloResult", "available_estimators", "closed_loop_study", "monte_carlo",
-           "ratio_interval"]
+__all__ = [
+           "FAILED",
+           "LOCAL_CHUNK",
+           "LOOP_CHUNK",
+           "RUN_ERRORS",
+           "ClosedLoopStudy",
+           "LoopCase",
+           "MonteCarloResult",
+           "available_estimators",
+           "closed_loop_study",
+           "finished_runs_table",
+           "monte_carlo",
+           "ratio_interval",
+]

@@ -163,7 +163,22 @@ class ClosedLoopStudy:
         return list(self.records)
 
     def runs(self, case: str) -> int:
-        """Return the number of runs of ``case``."""
+        """Return the number of runs of ``case``.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        int
+
+        Raises
+        ------
+        ValueError
+            For a case the study does not have.
+        """
         return len(self._of(case))
 
     def _of(self, case: str) -> list[LoopRecord]:
@@ -172,7 +187,23 @@ class ClosedLoopStudy:
         return self.records[case]
 
     def times(self, case: str) -> Array:
-        """Return the decision times of ``case`` (D,), s."""
+        """Return the decision times of ``case``.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            s.
+
+        Raises
+        ------
+        ValueError
+            For a case the study does not have.
+        """
         return self._of(case)[0].times
 
     def stack(self, case: str, name: str) -> Array:
@@ -193,18 +224,54 @@ class ClosedLoopStudy:
         return np.stack([getattr(r, name) for r in self._of(case)])
 
     def rmse(self, case: str) -> Array:
-        """Return the position RMSE over runs at each step (D,), m."""
+        """Return the position RMSE over runs at each step.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            m.
+
+        Raises
+        ------
+        ValueError
+            For a case the study does not have.
+        """
         return np.sqrt(np.mean(self.stack(case, "error_m") ** 2, axis=0))
 
     def bound(self, case: str) -> Array:
-        """Return the RMS over runs of the bound along the flown path at each step (D,), m.
+        """Return the RMS over runs of the bound along the flown path at each step.
 
         The root of the mean of the runs' conditional mean-square-error bounds.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            m.
+
+        Raises
+        ------
+        ValueError
+            For a case the study does not have.
         """
         return np.sqrt(np.mean(self.stack(case, "bound_m") ** 2, axis=0))
 
     def summary(self, case: str) -> dict[str, float | int]:
         """Return the case's key figures.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
 
         Returns
         -------

@@ -76,11 +76,23 @@ class PlanRun:
         return self.study.times(CASE)
 
     def rmse(self) -> np.ndarray:
-        """Position RMSE over the runs at each decision (D,), m."""
+        """Return the position RMSE over the runs at each decision.
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            m.
+        """
         return self.study.rmse(CASE)
 
     def bound(self) -> np.ndarray:
-        """RMS over the runs of the position bound along the flown path (D,), m."""
+        """Return the RMS over the runs of the position bound along the flown path.
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            m.
+        """
         return self.study.bound(CASE)
 
     def table(self) -> pd.DataFrame:

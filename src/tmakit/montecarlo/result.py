@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from ..results.bound import Bound
 from ..results.estimate import CONVERGED
+from ..results.nuisance import KnownNuisance
 from .execution import LOCAL_CHUNK
 
 __all__ = ["MonteCarloResult", "ratio_interval"]
@@ -83,8 +84,8 @@ class MonteCarloResult:
         Seconds the runs took.
     seed : int
         The entropy that reproduces the runs.
-    known_nuisance : bool
-        Whether the estimator (and the bound) knew the nuisance values.
+    known_nuisance : KnownNuisance or None
+        The nuisance values the estimator (and the bound) knew; None: estimated.
     executor : str
         ``local`` or ``dask <address>``.
     chunk : int
@@ -107,7 +108,7 @@ class MonteCarloResult:
     table: pd.DataFrame
     wall_time: float
     seed: int
-    known_nuisance: bool
+    known_nuisance: KnownNuisance | None
     executor: str = "local"
     chunk: int = LOCAL_CHUNK
     failures: dict[int, str] = field(default_factory=dict)

@@ -2,15 +2,12 @@
 
 In this process or on a Dask worker.
 
-The maximum-likelihood estimator without an initial guess is vectorised across the runs of a
-chunk when they share times, sensors and noise (their noise-free rows are simulated once,
-:meth:`~tmakit.scenario.Scenario.simulate_many`): the grid's predictions are computed once
-for all of them (:func:`~tmakit.batch.init.best_starts_many`), one batched
-Levenberg–Marquardt call solves every run from its first starting points, and further batched
-calls re-solve only the runs whose best fit did not converge or has an implausible chi2 —
-exactly what :func:`~tmakit.batch.ml.estimate` does run by run
-(:func:`~tmakit.batch.ml.solve_without_guess` serves both).  Other estimators (the registry of
-:mod:`.estimators`) are called run by run.
+The maximum-likelihood estimator of a motion model without manoeuvres is batched across the
+runs of a chunk by :meth:`tmakit.batch.ml.MaximumLikelihood.fit_many` (the runs share times,
+sensors and noise; their noise-free rows are simulated once,
+:meth:`~tmakit.scenario.Scenario.simulate_many`), which gives each run the result of
+:func:`~tmakit.batch.ml.estimate`.  Other estimators (the registry of :mod:`.estimators`), and
+``"ml"`` on a manoeuvring target, are called run by run.
 """
 
 from __future__ import annotations
@@ -22,12 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..batch.dispatch import is_manoeuvring
 from ..batch.methods import estimate_with
-from ..batch.ml import Best, solve_without_guess
-from ..batch.solver import VarProProblem, levenberg_marquardt
+from ..batch.ml import FIT_ERRORS, MaximumLikelihood
+from ..blas import one_thread
 from ..data import MeasurementSet
-from ..observation import ObservationModel
-from ..results.estimate import assemble_result
 from ..results.nuisance import KnownNuisance
 from ..scenario import Scenario
 
@@ -36,7 +32,7 @@ __all__ = ["FAILED", "RUN_ERRORS", "ChunkOutput", "ChunkTask", "run_chunk"]
 #: Status of a run whose estimator raised an error (the message is in ``result.failures``).
 FAILED = "failed"
 #: Errors an estimator may raise on one unlucky data set; they mark the run as failed.
-RUN_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
+RUN_ERRORS = FIT_ERRORS
 
 
 @dataclass(frozen=True)
@@ -51,12 +47,10 @@ class ChunkTask:
         ``"ml"`` or a name of the registry (:mod:`.estimators`).
     options : dict
         Per-kind measurement-model options.
-    known_nuisance : bool
-        Give the estimator the scenario's true nuisance values.
+    known_nuisance : KnownNuisance or None
+        The nuisance values given to the estimator (None: estimated).
     init : object
         The starting point given to every run (``None``: the estimator's own).
-    init_vector : ndarray or None
-        ``init`` as a parameter vector, for the batched ``ml`` solve.
     first_run : int
         Index of the chunk's first run.
     seeds : tuple of numpy.random.SeedSequence
@@ -66,9 +60,8 @@ class ChunkTask:
     scenario: Scenario
     estimator: str
     options: dict[str, dict[str, object]]
-    known_nuisance: bool
+    known_nuisance: KnownNuisance | None
     init: Any
-    init_vector: NDArray[np.float64] | None
     first_run: int
     seeds: tuple[np.random.SeedSequence, ...]
 
@@ -152,36 +145,21 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     ChunkOutput
         Its runs' results.
     """
-    scn = task.scenario
-    meas = scn.simulate_many([np.random.default_rng(s) for s in task.seeds])
-    if task.estimator == "ml" and _shared_layout(meas):
-        return _ml_batched(task, meas)
-    return _per_run(task, meas)
-
-
-def _shared_layout(meas: Sequence[MeasurementSet]) -> bool:
-    """Tell whether every set has the rows of the first.
-
-    Rows means times, sensors, kinds, sigmas, sensor states; then they differ only in their values
-    and one problem serves them all.
-    """
-    a = meas[0]
-    for b in meas[1:]:
-        if len(b) != len(a) or not (
-                np.array_equal(a.time, b.time) and np.array_equal(a.sensor, b.sensor)
-                and np.array_equal(a.kind, b.kind) and np.array_equal(a.sigma, b.sigma)
-                and np.array_equal(a.sensor_state, b.sensor_state)
-                and np.array_equal(a.time_ref, b.time_ref, equal_nan=True)
-                and np.array_equal(a.ref_sensor_state, b.ref_sensor_state, equal_nan=True)):
-            return False
-    return True
+    # One BLAS thread: a chunk's products are many and mid-sized, and the cores are shared
+    # with the other chunks (workers or processes), where BLAS threads spin against them.
+    with one_thread():
+        scn = task.scenario
+        meas = scn.simulate_many([np.random.default_rng(s) for s in task.seeds])
+        if task.estimator == "ml" and not is_manoeuvring(scn.motion):
+            return _ml_batched(task, meas)
+        return _per_run(task, meas)
 
 
 def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
     """Each run through the estimator's public function."""
     scn = task.scenario
     out = ChunkOutput.empty(task.first_run, len(meas), scn.motion.n_params)
-    known = {"known_nuisance": dict(scn.nuisance)} if task.known_nuisance else {}
+    known = {} if task.known_nuisance is None else {"known_nuisance": task.known_nuisance}
     for i, m in enumerate(meas):
         try:
             res = estimate_with(task.estimator, m, scn.motion, init=task.init,
@@ -194,53 +172,13 @@ def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
 
 
 def _ml_batched(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
-    """:func:`tmakit.batch.ml.estimate` for every run of the chunk, the solves batched.
-
-    Step for step what ``estimate`` does per run: best grid starts (or ``init``), a solve from
-    the first start, a solve from the other starts if that fit did not converge or has an
-    implausible chi2, the lowest cost wins, and ``_result`` gives the status.  Each row of a
-    batched Levenberg–Marquardt solve is independent of the others, so the results are those
-    of ``estimate``.
-    """
+    """:func:`tmakit.batch.ml.estimate` for every run of the chunk, the solves batched."""
     scn = task.scenario
-    motion = scn.motion
-    m, p = len(meas), motion.n_params
-    out = ChunkOutput.empty(task.first_run, m, p)
-    obs0 = ObservationModel(meas[0], motion, task.options)
-    known = KnownNuisance(scn.nuisance) if task.known_nuisance else None
-    fixed = None if known is None else obs0.nuisance_vector(known.values)
-    # As estimate() builds it (the problem makes its own noise model, in its row order); the
-    # noise model is then shared by every run of the chunk: they have the same rows.
-    problem = VarProProblem(obs0, None, fixed)
-    ys = np.stack([x.value_si for x in meas])
-
-    if task.init_vector is not None:
-        sol = levenberg_marquardt(problem, ys, np.repeat(task.init_vector.reshape(1, p), m, 0))
-        bests: list[Best | None] = [
-            Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]), int(sol.iterations[i]),
-                 bool(sol.converged[i]), 1) for i in range(m)]
-    else:
-        try:  # the very code estimate() runs, for the whole chunk at once
-            bests = solve_without_guess(problem, ys)
-        except RUN_ERRORS:  # find the run at fault one by one
-            bests = []
-            for i in range(m):
-                try:
-                    bests.extend(solve_without_guess(problem, ys[i:i + 1]))
-                except RUN_ERRORS as e:
-                    out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
-                    bests.append(None)
-    for i, best in enumerate(bests):
-        if best is None:
-            out.failures.setdefault(task.first_run + i, "ValueError: no starting point gives "
-                                    "finite predictions; check the data")
-            continue
-        try:
-            res = assemble_result(problem.obs, problem.noise, best.theta, best.nuisance,
-                                  best.cost, best.iterations, best.converged, "ml",
-                                  best.starts, known, best.note)
-        except RUN_ERRORS as e:  # pragma: no cover - the bound of a finite fit
-            out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
-            continue
-        out.record(i, res)
+    out = ChunkOutput.empty(task.first_run, len(meas), scn.motion.n_params)
+    ml = MaximumLikelihood(task.init, task.options, task.known_nuisance)
+    for i, res in enumerate(ml.fit_many(meas, scn.motion)):
+        if isinstance(res, Exception):
+            out.failures[task.first_run + i] = f"{type(res).__name__}: {res}"
+        else:
+            out.record(i, res)
     return out

@@ -9,15 +9,16 @@ cluster): run ``r``'s data do not depend on the number of runs either.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ..bounds.fim import crlb
+from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario import Scenario
 from .estimators import check_estimator
 from .execution import dask_client, default_chunk, progress_bar, run_dask, run_local
@@ -27,7 +28,7 @@ from .runs import ChunkOutput, ChunkTask
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
 
-__all__ = ["monte_carlo"]
+__all__ = ["finished_runs_table", "monte_carlo"]
 
 Options = Mapping[str, Mapping[str, object]]
 
@@ -44,16 +45,22 @@ def _check_seed(seed: object) -> None:
         raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
 
 
-def _init_vector(scenario: Scenario, init: Mapping[str, float] | ArrayLike
-                 ) -> NDArray[np.float64]:
+def _check_init(scenario: Scenario, init: Mapping[str, float] | ArrayLike | None) -> None:
+    """Refuse a bad ``init`` before any run."""
     motion = scenario.motion
+    if init is None:
+        return
     if isinstance(init, Mapping):
-        return motion.theta(init)
-    vec = np.asarray(init, dtype=float).reshape(-1)
-    if vec.shape[0] != motion.n_params:
+        motion.theta(init)
+    elif np.asarray(init, dtype=float).size != motion.n_params:
         raise ValueError(f"init must give {motion.n_params} values "
                          f"({', '.join(motion.param_names)})")
-    return vec
+
+
+def _known(scenario: Scenario, known_nuisance: KnownNuisanceLike) -> KnownNuisance | None:
+    """Convert to the one type; the scenario's true values fill the names left out."""
+    known = as_known_nuisance(known_nuisance)
+    return None if known is None else KnownNuisance(known.over(scenario.nuisance))
 
 
 def _scenario(scenario: Scenario | str | Path) -> Scenario:
@@ -65,21 +72,53 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
     if not isinstance(scenario, Scenario):
         raise ValueError(f"scenario must be a Scenario or a scenario name, not "
                          f"{type(scenario).__name__}")
+    if getattr(scenario.motion, "manoeuvres", None):
+        raise ValueError(f"scenario {scenario.name}: its target manoeuvres "
+                         f"({scenario.motion.name}); Monte Carlo studies fit one motion model "
+                         "per run and cannot start a manoeuvring one (for hoerst2010: tma "
+                         "reproduce hoerst2010)")
     return scenario
 
 
 def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
-             progress: bool) -> tuple[list[ChunkOutput], float]:
+             progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None
+             ) -> tuple[list[ChunkOutput], float]:
     """Run the chunks here or on Dask; their outputs in run order and the wall time (s)."""
     bar = progress_bar(runs, progress, bar_label)
     start = time.perf_counter()
     try:
-        outputs = run_local(tasks, bar) if client is None else run_dask(tasks, client, bar)
+        outputs = (run_local(tasks, bar, on_done=on_chunk) if client is None
+                   else run_dask(tasks, client, bar, on_done=on_chunk))
     finally:
         bar.close()
     wall = time.perf_counter() - start
     outputs.sort(key=lambda o: o.first_run)
     return outputs, wall
+
+
+def finished_runs_table(outputs: Sequence[ChunkOutput], names: Sequence[str]
+                        ) -> pd.DataFrame:
+    """Build the per-run table of the chunks finished so far (a study interrupted or failed).
+
+    Parameters
+    ----------
+    outputs : sequence of ChunkOutput
+        Finished chunks, in any order (as given to ``on_chunk`` of :func:`monte_carlo`).
+    names : sequence of str
+        The motion parameters' names (``est_<name>`` columns).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The columns of :attr:`MonteCarloResult.table`, the runs in order.
+    """
+    done = sorted(outputs, key=lambda o: o.first_run)
+    if not done:
+        return pd.DataFrame({"run": np.zeros(0, np.int64)})
+    table, _ = _table(done, 0, tuple(names))
+    table["run"] = np.concatenate([np.arange(o.first_run, o.first_run + len(o))
+                                   for o in done])
+    return table
 
 
 def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
@@ -90,7 +129,7 @@ def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
     ``est_<param>``; both, from the chunks' outputs in run order.
     """
     table = pd.DataFrame({
-        "run": np.arange(runs, dtype=np.int64),
+        "run": np.arange(sum(len(o) for o in outputs), dtype=np.int64),
         "status": np.concatenate([np.asarray(o.status, dtype=object) for o in outputs]),
         "iterations": np.concatenate([o.iterations for o in outputs]),
         "chi2": np.concatenate([o.chi2 for o in outputs]),
@@ -107,10 +146,10 @@ def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
 
 def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: int = 100,
                 seed: int | None = 0, options: Options | None = None,
-                known_nuisance: bool = False,
+                known_nuisance: KnownNuisanceLike = False,
                 init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
-                dask: str | Client | None = None, chunk: int | None = None
-                ) -> MonteCarloResult:
+                dask: str | Client | None = None, chunk: int | None = None,
+                on_chunk: Callable[[ChunkOutput], None] | None = None) -> MonteCarloResult:
     """Simulate ``scenario`` ``runs`` times, estimate each run, and compare with the CRLB.
 
     Parameters
@@ -123,13 +162,13 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs : int
         Number of runs (>= 1).
     seed : int or None
-        Fixes every run's data (see the module docstring); ``None`` draws fresh entropy,
-        recorded in the result.
+        Fixes every run's data (module docstring); ``None``: fresh entropy, recorded.
     options : mapping, optional
         The nuisance model per kind; default the scenario's
         (:attr:`Scenario.measurement_options`).  The CRLB uses the same options.
-    known_nuisance : bool
-        Give the estimator (and the CRLB) the scenario's true nuisance values.
+    known_nuisance : KnownNuisance, Mapping[str, float], bool or None
+        Known to the estimator and the CRLB, at the values named, the scenario's (true) for
+        the others (``True``: all the scenario's).  Default: estimated.
     init : mapping or array_like, optional
         A starting point given to every run (default: the estimator's own initialisation).
     progress : bool
@@ -139,6 +178,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     chunk : int, optional
         Runs per task (default :func:`~.execution.default_chunk`).  The table is the same,
         run for run, for any ``chunk`` and ``dask``.
+    on_chunk : callable, optional
+        Called with each finished chunk's output (:func:`finished_runs_table` saves them).
 
     Returns
     -------
@@ -148,7 +189,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     Raises
     ------
     ValueError
-        A bad argument (the message names it), an unknown estimator or scenario.
+        A bad argument (named), an unknown estimator or scenario, a manoeuvring target.
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
@@ -156,9 +197,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
     _check_seed(seed)
-    known_nuisance = bool(known_nuisance)
-    check_estimator(estimator, known_nuisance)
-    init_vector = None if init is None else _init_vector(scenario, init)
+    known = _known(scenario, known_nuisance)
+    check_estimator(estimator, known is not None)
+    _check_init(scenario, init)
     opts = {str(k): dict(v) for k, v in (
         scenario.measurement_options if options is None else options).items()}
 
@@ -168,11 +209,10 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     client, own_client = (None, False) if dask is None else dask_client(dask)
     try:
         size = chunk or default_chunk(runs, estimator, client)
-        batched_init = init_vector if estimator == "ml" else None
-        tasks = [ChunkTask(scenario, estimator, opts, known_nuisance, init, batched_init, lo,
+        tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
-        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs,
-                                 progress)
+        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs, progress,
+                                 on_chunk)
         executor = "local" if client is None else f"dask {client.scheduler.address}"
     finally:
         if own_client and client is not None:
@@ -180,8 +220,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
 
     names = scenario.motion.param_names
     table, failures = _table(outputs, runs, names)
-    bound = crlb(scenario, known_nuisance=known_nuisance, options=opts)
+    bound = crlb(scenario, known_nuisance=known, options=opts)
     std = np.array([bound.std_of(n) for n in names])
     return MonteCarloResult(scenario.name, estimator, names, scenario.theta.copy(), std,
-                            table, wall, entropy, known_nuisance, executor, size, failures,
+                            table, wall, entropy, known, executor, size, failures,
                             bound)

@@ -8,7 +8,7 @@ from .base import MotionModel, numerical_jacobian
 from .constant_velocity import ConstantVelocity, Stationary
 from .curvilinear import PiecewiseCurvilinear, propagate_curvilinear
 from .fixed import FixedParameters
-from .names import DEFAULT_MANOEUVRES, MOTION_NAMES, motion_from_name
+from .names import DEFAULT_MANOEUVRES, MOTION_NAMES, default_ref_time, motion_from_name
 
 __all__ = [
     "DEFAULT_MANOEUVRES",
@@ -18,6 +18,7 @@ __all__ = [
     "MotionModel",
     "PiecewiseCurvilinear",
     "Stationary",
+    "default_ref_time",
     "motion_from_name",
     "numerical_jacobian",
     "propagate_curvilinear",

@@ -91,6 +91,59 @@ class MotionModel(ABC):
         zero = np.zeros(self.n_params)
         return self.states(zero, t), self.jacobian(zero, t)
 
+    def component_map(self, t: ArrayLike
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Give :meth:`affine_map` component-major: ``(matrix (p, 6, n), offset (6, n))``.
+
+        ``states(theta, t)[j, c] = offset[c, j] + theta @ matrix[:, c, j]``: the layout the
+        observation layer multiplies by (one product for all rows); models with a simple
+        structure build it directly.
+
+        Parameters
+        ----------
+        t : array_like
+            ``(n,)`` sample times (s).
+
+        Returns
+        -------
+        tuple of ndarray or None
+            C-contiguous ``(matrix, offset)`` (m, m/s), None when the model is not affine.
+        """
+        amap = self.affine_map(t)
+        if amap is None:
+            return None
+        offset, matrix = amap
+        return (np.ascontiguousarray(matrix.transpose(2, 1, 0)),
+                np.ascontiguousarray(offset.T))
+
+    def component_terms(self, t: ArrayLike
+                        ) -> tuple[list[tuple[int, int, NDArray[np.float64] | None]],
+                                   NDArray[np.float64]] | None:
+        """Give the non-zero terms of :meth:`component_map` and its offset.
+
+        Parameters
+        ----------
+        t : array_like
+            ``(n,)`` sample times (s).
+
+        Returns
+        -------
+        tuple or None
+            ``(terms, offset (6, n))``: each term ``(parameter, component, coefficients (n,)
+            or None for all ones)``; None when the model is not affine.
+        """
+        cmap = self.component_map(t)
+        if cmap is None:
+            return None
+        matrix, offset = cmap
+        terms = []
+        for i in range(matrix.shape[0]):
+            for c in range(6):
+                row = matrix[i, c]
+                if np.any(row != 0.0):
+                    terms.append((i, c, None if np.all(row == 1.0) else row.copy()))
+        return terms, offset
+
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
         """Apply the chain rule: ``d value / d theta`` from ``d value / d state``.

@@ -78,6 +78,35 @@ class ConstantVelocity(MotionModel):
             jac[:, 3 + i, d + i] = 1.0
         return np.broadcast_to(jac, (*theta.shape[:-1], *jac.shape)).copy()
 
+    def component_map(self, t: ArrayLike
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Give the affine map component-major, built directly (no ``(n, 6, p)`` tensor).
+
+        Parameters and returns as :meth:`MotionModel.component_map`.
+        """
+        dt = np.asarray(t, dtype=float) - self.ref_time
+        d = self.dim
+        matrix = np.zeros((2 * d, 6, dt.shape[0]))
+        for i in range(d):
+            matrix[i, i] = 1.0
+            matrix[d + i, i] = dt
+            matrix[d + i, 3 + i] = 1.0
+        return matrix, np.zeros((6, dt.shape[0]))
+
+    def component_terms(self, t: ArrayLike
+                        ) -> tuple[list[tuple[int, int, NDArray[np.float64] | None]],
+                                   NDArray[np.float64]] | None:
+        """Give the non-zero terms of the affine map: position ``i`` from ``i`` and ``dt v_i``.
+
+        Parameters and returns as :meth:`MotionModel.component_terms`.
+        """
+        dt = np.asarray(t, dtype=float) - self.ref_time
+        d = self.dim
+        terms: list[tuple[int, int, NDArray[np.float64] | None]] = []
+        for i in range(d):
+            terms += [(i, i, None), (d + i, i, dt), (d + i, 3 + i, None)]
+        return terms, np.zeros((6, dt.shape[0]))
+
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
         """Apply the chain rule through ``[[I, dt I], [0, I]]`` without a tensor product.

@@ -140,9 +140,35 @@ class NearlyConstantVelocity:
         return 2 * self.dim
 
     def transition(self, dt: float) -> Array:
-        """Give ``Phi(dt)`` for a step ``dt`` (s); see :func:`transition_matrix`."""
+        """Give ``Phi(dt)`` for a step ``dt`` (see :func:`transition_matrix`).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (any sign).
+
+        Returns
+        -------
+        ndarray, shape (2 dim, 2 dim)
+            Dimensionless and s (position from velocity).
+        """
         return transition_matrix(dt, self.dim)
 
     def noise(self, dt: float) -> Array:
-        """Give ``Q_k`` for a step ``dt`` (s); see :func:`process_noise`."""
+        """Give ``Q_k`` for a step ``dt`` (see :func:`process_noise`).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (2 dim, 2 dim)
+            m^2, m^2/s, m^2/s^2.
+
+        References
+        ----------
+        Chen & Sun (1993), §2.1 (the nearly-constant-velocity ``Q_k``).
+        """
         return process_noise(dt, self.q, self.dim)

@@ -23,11 +23,14 @@ manoeuvres for a model with ``M`` (unless told ``exact``), searches 0, 1 or 2 â€
 
 from __future__ import annotations
 
+import numpy as np
+from numpy.typing import ArrayLike
+
 from .base import MotionModel
 from .constant_velocity import ConstantVelocity, Stationary
 from .curvilinear import PiecewiseCurvilinear
 
-__all__ = ["DEFAULT_MANOEUVRES", "MOTION_NAMES", "motion_from_name"]
+__all__ = ["DEFAULT_MANOEUVRES", "MOTION_NAMES", "default_ref_time", "motion_from_name"]
 
 DEFAULT_MANOEUVRES = 2
 """Manoeuvres of the bare name ``curvilinear`` (it means ``curvilinear:2``)."""
@@ -84,3 +87,31 @@ def motion_from_name(name: str, ref_time: float = 0.0) -> MotionModel:
                          "manoeuvres")
     raise ValueError(f"unknown motion model {name!r}; expected one of "
                      f"{', '.join(MOTION_NAMES)}")
+
+
+def default_ref_time(times: ArrayLike) -> float:
+    """Give the reference time of a motion model fitted to data at ``times``: near the data.
+
+    0 when the data lie within one time span of it (as before: files that start at or near
+    0 keep their parameters), else the first time.  Parameters referred to a time far from
+    the data (an absolute clock, 1.7e9 s since 1970) would make the positions at the
+    reference time depend on the velocities 1e9 times over and the fit ill-conditioned; so
+    data shifted far from 0 give the same estimate and bound as data starting at 0.
+
+    Parameters
+    ----------
+    times : array_like
+        The measurement times (s).
+
+    Returns
+    -------
+    float
+        The reference time (s); 0 for no finite times.
+    """
+    t = np.asarray(times, dtype=float)
+    t = t[np.isfinite(t)]
+    if t.size == 0:
+        return 0.0
+    low, high = float(t.min()), float(t.max())
+    span = max(high - low, 1.0)
+    return 0.0 if low - span <= 0.0 <= high + span else low

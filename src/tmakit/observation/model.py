@@ -26,6 +26,7 @@ from ..data import MeasurementSet
 from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
+from .affine_rows import AffineRows
 from .rows import RowModel, nuisance_layout
 
 
@@ -55,7 +56,7 @@ class ObservationModel:
         self.models: dict[str, MeasurementModel] = {
             k: model_for(k, **dict(options.get(k, {}))) for k in meas.kinds
         }
-        self.rows = {k: np.flatnonzero(meas.kind == k) for k in self.models}
+        self.rows = {k: np.flatnonzero(meas.kind_mask(k)) for k in self.models}
         self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
         # Rows grouped by kind: each kind a contiguous slice of the grouped order.
         self.order = (np.concatenate([self.rows[k] for k in self.models])
@@ -175,22 +176,19 @@ class ObservationModel:
         return np.concatenate(parts) if parts else np.zeros(0)
 
     # -- grouped order (for solvers) ---------------------------------------------------------
-    def _relative_map(self, times: Array, sensor: Array) -> tuple[Array, Array] | None:
+    def _relative_map(self, times: Array, sensor: Array) -> AffineRows | None:
         """Return the map of an affine motion model from ``theta`` to relative states.
 
-        ``(matrix (p, 6 m), offset (6 m,))`` with the relative states at ``m`` rows,
-        component by component, ``theta @ matrix + offset`` (None if not affine).
+        The relative states at ``m`` rows, component by component,
+        ``theta @ matrix + offset`` (:class:`~.affine_rows.AffineRows`; None if not affine).
         """
-        amap = self.motion.affine_map(times)
-        if amap is None:
+        terms = self.motion.component_terms(times)
+        if terms is None:
             return None
-        offset, matrix = amap
-        m, p = times.shape[0], self.motion.n_params
-        return (np.ascontiguousarray(matrix.transpose(2, 1, 0).reshape(p, 6 * m)),
-                (offset - sensor).T.reshape(6 * m))
+        return AffineRows(terms[0], terms[1] - sensor.T, self.motion.n_params)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
-                      rel_map: tuple[Array, Array] | None, batch_inner: bool = False
+                      rel_map: AffineRows | None, batch_inner: bool = False
                       ) -> Array:
         """Relative states ``(..., m, 6)`` of the target at ``times`` seen from ``sensor``.
 
@@ -203,12 +201,14 @@ class ObservationModel:
         if rel_map is None:
             return self.motion.states(theta, times) - sensor
         m = times.shape[0]
+        if theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1):
+            return rel_map.single(theta)
         if batch_inner and theta.ndim == 2:
-            flat = matmul(np.ascontiguousarray(rel_map[0].T), theta.T)
-            flat += rel_map[1][:, None]
+            flat = matmul(np.ascontiguousarray(rel_map.matrix.T), theta.T)
+            flat += rel_map.flat_offset[:, None]
             return flat.reshape(6, m, theta.shape[0]).transpose(2, 1, 0)
-        flat = matmul(theta, rel_map[0])
-        flat += rel_map[1]
+        flat = matmul(theta, rel_map.matrix)
+        flat += rel_map.flat_offset
         return flat.reshape(*theta.shape[:-1], 6, m).swapaxes(-1, -2)
 
     def _relative(self, theta: Array, batch_inner: bool = False
@@ -413,15 +413,9 @@ class ObservationModel:
         return np.where(self.angle_mask, wrap_angle(res), res)
 
 
-def _take_map(rel_map: tuple[Array, Array] | None, rows: NDArray[np.intp]
-              ) -> tuple[Array, Array] | None:
+def _take_map(rel_map: AffineRows | None, rows: NDArray[np.intp]) -> AffineRows | None:
     """Return the relative-state map (see :meth:`ObservationModel._relative_map`) of ``rows``."""
-    if rel_map is None:
-        return None
-    matrix, offset = rel_map
-    p, m = matrix.shape[0], offset.size // 6
-    return (matrix.reshape(p, 6, m)[:, :, rows].reshape(p, 6 * rows.size),
-            offset.reshape(6, m)[:, rows].reshape(6 * rows.size))
+    return None if rel_map is None else rel_map.take(rows)
 
 
 class Linearisation:
@@ -475,6 +469,9 @@ class Linearisation:
             raise ValueError("this linearisation was made without derivatives")
         obs = self.obs
         nu = np.asarray(nuisance, dtype=float)
+        if with_h0 and not self.d_a and self.d_h0_ref is None:
+            # Nothing is added to d h0: the chain rule reads it (writes a new array).
+            return obs.motion.chain(self.d_h0, self.theta, obs._time)
         d = self.d_h0.copy(order="K") if with_h0 else np.zeros_like(self.d_h0)
         d_ref = None
         if self.d_h0_ref is not None:

@@ -53,8 +53,10 @@ class NoiseModel:
                  models: Mapping[str, MeasurementModel] | None = None) -> None:
         chosen: dict[str, MeasurementModel] = {}
         index: dict[str, NDArray[np.intp]] = {}
+        present = set(meas.kinds)
         for kind, cls in KINDS.items():
-            rows = np.flatnonzero(meas.kind == kind) if cls.correlated_noise else ()
+            rows = (np.flatnonzero(meas.kind_mask(kind))
+                    if cls.correlated_noise and kind in present else ())
             if len(rows):
                 chosen[kind] = (models[kind] if models is not None and kind in models
                                 else model_for(kind))

@@ -138,5 +138,17 @@ class Belief:
 
     def replace(self, posterior: PosteriorInformation, states: ArrayLike,
                 weights: ArrayLike | None = None) -> Belief:
-        """Return a belief with new contents (for the next decision)."""
+        """Return a belief with new contents (for the next decision).
+
+        Parameters
+        ----------
+        posterior : PosteriorInformation
+            ``J`` at the new time.
+        states, weights
+            The new target cloud, as for the constructor.
+
+        Returns
+        -------
+        Belief
+        """
         return Belief(posterior, states, weights)

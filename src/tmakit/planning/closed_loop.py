@@ -27,9 +27,10 @@ identical runs, estimate for estimate (a one-candidate planner and the fixed pat
 (``prior_std`` in position and velocity) and ``m_0`` the truth plus a draw from ``P_0``, so
 the truth is a draw from the prior the bound assumes.
 
-A measurement plan whose ``R`` has correlated rows gives the tracker the rows' standard
-deviations only (a :class:`~tmakit.data.MeasurementSet` holds no correlations); the
-simulation and the bound use the full ``R``.
+A measurement plan with a full ``R`` (correlated rows: the radar's range and range rate) is
+used whole by the simulation, the bound and the tracker (it updates with a
+:class:`~tmakit.observation.MeasurementGroup` carrying ``R``; a
+:class:`~tmakit.data.MeasurementSet` alone holds no correlations).
 """
 
 from __future__ import annotations
@@ -348,7 +349,7 @@ def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: Arr
     t = group.time if time is None else float(time)
     return MeasurementSet(np.full(m, t), np.full(m, sensor), kinds.astype(str),
                           (value - offset) / scale, np.sqrt(np.diagonal(r)) / scale,
-                          np.repeat(s, m, axis=0))
+                          np.repeat(s, m, axis=0), check=False)  # noisy: a range may be < 0
 
 
 def _truth_path(setup: LoopSetup, dynamics: NearlyConstantVelocity,
@@ -372,6 +373,17 @@ def _tracker(setup: LoopSetup, mean: Array, rng: np.random.Generator) -> Trackin
     if cls.takes_rng:
         kwargs["rng"] = rng
     return cls(mean, setup.prior_covariance, setup.platform.time, **kwargs)
+
+
+def _with_covariance(rows: MeasurementSet, plan: SensorPlan, t: float
+                     ) -> MeasurementSet | MeasurementGroup:
+    """Give the rows as the tracker updates with them: with the plan's full ``R`` if any.
+
+    The rows are in the plan's group order (:func:`simulate_group`), the order of ``R``.
+    """
+    if plan.covariance is None:
+        return rows
+    return MeasurementGroup(rows, t, plan.dim, plan.options, plan.nuisance, plan.covariance)
 
 
 def _six(x: Array, dim: int) -> Array:
@@ -460,7 +472,7 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
         sensor = platform.sensor_state
         rows = simulate_group(plan.group, truth[k + 1], sensor, r_meas, t1)
         tracker.predict(t1)
-        tracker.update(rows)
+        tracker.update(_with_covariance(rows, plan, t1))
         info = step_information(belief, belief.posterior.information, plan,
                                 sensor[None, None], setup.interval, gamma)[0]
         belief = Belief.from_filter(tracker, PosteriorInformation(info, dyn, t1))

@@ -61,7 +61,13 @@ class Violation:
         return self.amount > 1e-3
 
     def penalty_factor(self) -> Array:
-        """Return the cost factor ``1 + weight * amount / scale`` (C,) (1 for hard)."""
+        """Return the cost factor ``1 + weight * amount / scale`` (1 for hard).
+
+        Returns
+        -------
+        ndarray, shape (C,)
+            Dimensionless, >= 1.
+        """
         if self.hard:
             return np.ones_like(self.amount)
         return 1.0 + self.weight * self.amount / self.scale
@@ -119,7 +125,20 @@ class MinimumRange:
         _check_limit("the minimum range", self.distance, self.weight)
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike) -> Violation:
-        """Return the violation (m) per candidate, ``max(distance - range, 0)``."""
+        """Return the violation (m) per candidate, ``max(distance - range, 0)``.
+
+        Parameters
+        ----------
+        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
+            Candidate sensor positions at the checked times, ENU m.
+        target_positions : array_like, shape (k, 3) or (3,)
+            The estimated target position at those times, ENU m.
+
+        Returns
+        -------
+        Violation
+            Its amounts (C,), m: the largest over the checked times.
+        """
         r = _horizontal_range(sensor_positions, target_positions)
         amount = np.clip(self.distance - r, 0.0, None).max(axis=-1)
         return Violation(self.name, amount, self.hard, self.distance, self.weight)
@@ -149,7 +168,20 @@ class MaximumRange:
         _check_limit("the maximum range", self.distance, self.weight)
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike) -> Violation:
-        """Return the violation (m) per candidate, ``max(range - distance, 0)``."""
+        """Return the violation (m) per candidate, ``max(range - distance, 0)``.
+
+        Parameters
+        ----------
+        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
+            Candidate sensor positions at the checked times, ENU m.
+        target_positions : array_like, shape (k, 3) or (3,)
+            The estimated target position at those times, ENU m.
+
+        Returns
+        -------
+        Violation
+            Its amounts (C,), m: the largest over the checked times.
+        """
         r = _horizontal_range(sensor_positions, target_positions)
         amount = np.clip(r - self.distance, 0.0, None).max(axis=-1)
         return Violation(self.name, amount, self.hard, self.distance, self.weight)
@@ -212,7 +244,20 @@ class KeepOutZones:
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike | None = None
               ) -> Violation:
-        """Return the depth (m) of each candidate inside a zone (0 outside)."""
+        """Return the depth (m) of each candidate inside a zone (0 outside).
+
+        Parameters
+        ----------
+        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
+            Candidate sensor positions at the checked times, ENU m.
+        target_positions : array_like, shape (k, 3) or (3,), optional
+            The estimated target position at those times, ENU m (not used: the zones are fixed).
+
+        Returns
+        -------
+        Violation
+            Its amounts (C,), m: the largest over the checked times.
+        """
         import shapely
 
         pos = _positions(sensor_positions)
@@ -252,7 +297,20 @@ class OperatingArea:
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike | None = None
               ) -> Violation:
-        """Return the distance (m) of each candidate outside the area (0 inside)."""
+        """Return the distance (m) of each candidate outside the area (0 inside).
+
+        Parameters
+        ----------
+        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
+            Candidate sensor positions at the checked times, ENU m.
+        target_positions : array_like, shape (k, 3) or (3,), optional
+            The estimated target position at those times, ENU m (not used: the area is fixed).
+
+        Returns
+        -------
+        Violation
+            Its amounts (C,), m: the largest over the checked times.
+        """
         import shapely
 
         pos = _positions(sensor_positions)

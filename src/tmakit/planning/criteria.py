@@ -165,7 +165,18 @@ class WeightedTrace:
     name: str = field(default="weighted trace", init=False)
 
     def matrix(self, n: int) -> Array:
-        """Return ``Pi`` (n, n) for an ``n``-component state."""
+        """Return ``Pi`` for an ``n``-component state.
+
+        Parameters
+        ----------
+        n : int
+            State components (``2 dim``: position, then velocity).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            The weighting (position block ones by default).
+        """
         if self.weights is None:
             pi = np.zeros((n, n))
             idx = block_indices("position", n)
@@ -185,7 +196,22 @@ class WeightedTrace:
         return self.of_covariance(bound_covariance(np.asarray(information, dtype=float)))
 
     def of_covariance(self, covariance: Array) -> Array:
-        """Return ``Tr{Pi C}`` (...,) of ``C = J^{-1}`` (..., n, n), SI."""
+        """Return ``Tr{Pi C}`` of ``C = J^{-1}``.
+
+        Parameters
+        ----------
+        covariance : ndarray, shape (..., n, n)
+            ``J^{-1}``, SI.
+
+        Returns
+        -------
+        ndarray, shape (...,)
+            The weighted trace (m^2 for the default position weighting).
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), eq. 12.
+        """
         pi = self.matrix(covariance.shape[-1])
         return np.einsum("ij,...ji->...", pi, covariance)
 
@@ -214,7 +240,18 @@ class LogDet:
         return self.of_covariance(bound_covariance(np.asarray(information, dtype=float)))
 
     def of_covariance(self, covariance: Array) -> Array:
-        """Return ``log det`` of the chosen block of ``C = J^{-1}`` (..., n, n)."""
+        """Return ``log det`` of the chosen block of ``C = J^{-1}``.
+
+        Parameters
+        ----------
+        covariance : ndarray, shape (..., n, n)
+            ``J^{-1}``, SI.
+
+        Returns
+        -------
+        ndarray, shape (...,)
+            ``log det`` of the block (``inf`` where it is not positive definite).
+        """
         idx = block_indices(self.block, covariance.shape[-1])
         sign, logdet = np.linalg.slogdet(covariance[..., idx[:, None], idx[None, :]])
         return np.where(sign > 0, logdet, np.inf)

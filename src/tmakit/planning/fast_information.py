@@ -31,7 +31,18 @@ GEOMETRIC_KINDS = frozenset({"bearing", "elevation", "range", "range_rate"})
 
 
 def supports(plan: SensorPlan) -> bool:
-    """Whether the plan's kinds are all geometric, with no options or nuisance."""
+    """Tell whether the plan's kinds are all geometric, with no options or nuisance.
+
+    Parameters
+    ----------
+    plan : SensorPlan
+        What is measured.
+
+    Returns
+    -------
+    bool
+        True when :func:`cloud_information` applies.
+    """
     return (set(plan.kinds) <= GEOMETRIC_KINDS and not plan.options and not plan.nuisance)
 
 

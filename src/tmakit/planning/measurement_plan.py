@@ -91,7 +91,17 @@ class SensorPlan:
             object.__setattr__(self, name, value)
 
     def measurement_times(self, interval: float) -> Array:
-        """Return the measurement times of a step of ``interval`` s (s after its start).
+        """Return the measurement times of a step of ``interval`` s.
+
+        Parameters
+        ----------
+        interval : float
+            The step, s.
+
+        Returns
+        -------
+        ndarray
+            s after the step's start (the plan's ``times``, or the step's end).
 
         Raises
         ------

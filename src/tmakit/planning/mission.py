@@ -25,12 +25,21 @@ many local minima over the path (which way to turn first, and when); a coarse gr
 finds the basin that a gradient method (scipy, finite differences) would miss from a poor
 start, and every candidate of a sweep is one vectorised rollout.  The evaluations are counted
 (:attr:`MissionPlan.evaluations`).
+
+**Tactical constraints** (:mod:`tmakit.planning.constraints`) are checked along every
+candidate path, each sub-step at :data:`~tmakit.planning.planner.CHECK_POINTS` times, against
+the estimated target (the belief's mean, predicted).  A path's violation of a constraint is
+its largest along the path (m): a hard constraint makes the path infeasible, a penalty
+multiplies its cost by ``1 + weight * amount / scale`` once.  Paths are ranked feasible
+first (then by cost); among infeasible ones the least hard violation summed over the
+sub-steps wins (the path that leaves the violation soonest), and the plan says so
+(:attr:`MissionPlan.feasible`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -40,9 +49,11 @@ from ..frames import wrap_angle
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
+from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace
+from .horizon import penalties
 from .measurement_plan import SensorPlan
-from .planner import position_bound
+from .planner import position_bound, step_violations
 
 _TOL = 1e-9
 
@@ -69,6 +80,11 @@ class MissionPlan:
         The sub-step actions that fly the path (``kinematics.fly(platform, actions, step)``).
     evaluations : int
         Candidate paths (each from some leg to the end) scored by the search.
+    violations : dict of str to float
+        Per constraint, the largest predicted violation along the path (m, 0 where kept).
+    feasible : bool
+        False when no path the search tried kept every hard constraint (the least violating
+        was chosen).
     """
 
     headings: Array
@@ -79,6 +95,8 @@ class MissionPlan:
     information: Array
     actions: Actions
     evaluations: int
+    violations: dict[str, float] = field(default_factory=dict)
+    feasible: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,6 +108,13 @@ class _Rollout:
     leg_info: list[Array]       # (C, n, n) at the start of each leg flown
     actions: list[Actions]      # (C,) per sub-step
     end: PlatformState          # (C,) at the end
+    violations: list[Violation]  # per constraint, the largest along each path (C,)
+    hard: Array                  # (C,) hard violations summed over the sub-steps, m
+
+    def ranked_cost(self, criterion: Criterion) -> tuple[Array, Array]:
+        """Return the cost with penalties and the summed hard violation (m) per path (C,)."""
+        factor, _ = penalties(self.violations, self.information.shape[0])
+        return criterion(self.information) * factor, self.hard
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,6 +146,8 @@ class MissionPlanner:
         Rounds of finer offsets after the coarse grid (each halves the spacing).
     gamma : {"mean", "cloud"}, optional
         How ``Gamma`` is formed (:mod:`tmakit.planning.candidates`).
+    constraints : sequence of Constraint, optional
+        Tactical constraints along the path (module docstring).
 
     Raises
     ------
@@ -145,9 +172,11 @@ class MissionPlanner:
     sweeps: int = 3
     refine: int = 2
     gamma: GammaForm = "mean"
+    constraints: Sequence[Constraint] = ()
 
     def __post_init__(self) -> None:
         """Check the settings."""
+        object.__setattr__(self, "constraints", tuple(self.constraints))
         if not (np.isfinite(self.step) and self.step > 0):
             raise ValueError(f"step must be > 0 s; got {self.step}")
         ratio = self.leg_duration / self.step
@@ -191,6 +220,8 @@ class MissionPlanner:
                  speeds: Array, counts: Array, first_leg: int) -> _Rollout:
         """Fly candidate paths (C,) from the start of ``first_leg`` to the end."""
         leg_states, leg_info, actions = [], [], []
+        worst: list[Violation] = []
+        hard = np.zeros(headings.shape[0])
         dyn = belief.posterior.dynamics
         times = self.plan.measurement_times(self.step)
         for leg in range(first_leg, counts.size):
@@ -207,7 +238,13 @@ class MissionPlanner:
                                         self.gamma, cloud)
                 actions.append(act)
                 state = flown.end
-        return _Rollout(info, leg_states, leg_info, actions, state)
+                if self.constraints:
+                    found = step_violations(self.constraints, flown, belief, self.step)
+                    hard = hard + penalties(found, hard.size)[1]
+                    worst = found if not worst else [
+                        replace(w, amount=np.maximum(w.amount, f.amount))
+                        for w, f in zip(worst, found, strict=True)]
+        return _Rollout(info, leg_states, leg_info, actions, state, worst, hard)
 
     def evaluate(self, platform: PlatformState, belief: Belief, headings: ArrayLike,
                  speeds: ArrayLike | None = None) -> Array:
@@ -281,12 +318,13 @@ class MissionPlanner:
         state = _repeat_batch(base.leg_states[leg], g)
         info = np.repeat(base.leg_info[leg], g, axis=0)
         out = self._rollout(belief, state, info, cand_h, cand_v, counts, leg)
-        cost = self.criterion(out.information).reshape(m, g)
-        rows = np.arange(m) * g + np.argmin(cost, axis=1)
+        cost, bad = out.ranked_cost(self.criterion)
+        # feasible first, then by cost (the earlier legs, shared by a row, are not re-checked)
+        rows = np.arange(m) * g + np.lexsort((cost.reshape(m, g), bad.reshape(m, g)))[:, 0]
         kept = _Rollout(out.information[rows],
                         base.leg_states[:leg] + [s[rows] for s in out.leg_states],
                         base.leg_info[:leg] + [i[rows] for i in out.leg_info], [],
-                        out.end[rows])
+                        out.end[rows], [], out.hard[rows])
         return cand_h[rows], cand_v[rows], kept
 
     def optimise(self, platform: PlatformState, belief: Belief,
@@ -349,14 +387,16 @@ class MissionPlanner:
         info0 = np.broadcast_to(belief.posterior.information,
                                 (m, *belief.posterior.information.shape[-2:]))
         final = self._rollout(belief, _repeat(platform, m), info0, heads, speeds, counts, 0)
-        cost = self.criterion(final.information)
-        k = int(np.argmin(cost))
+        cost, bad = final.ranked_cost(self.criterion)
+        k = int(np.lexsort((cost, bad))[0])
         acts = final.actions
         actions = Actions(np.array([a.heading_change[k] for a in acts]), 0.0,
                           np.array([a.speed_change[k] for a in acts]))
         info = final.information[k]
         return MissionPlan(wrap_angle(heads[k]), speeds[k].copy(), starts, float(cost[k]),
-                           float(position_bound(info)), info, actions, evaluations + m)
+                           float(position_bound(info)), info, actions, evaluations + m,
+                           {v.name: float(v.amount[k]) for v in final.violations},
+                           bool(bad[k] <= 0.0))
 
     def recommend(self, platform: PlatformState, belief: Belief,
                   previous: MissionPlan | None = None, pattern: ArrayLike | None = None
@@ -388,7 +428,20 @@ class MissionPlanner:
         return self.optimise(platform, belief, np.array(initial) if initial else None)
 
     def first_leg(self, platform: PlatformState, plan: MissionPlan) -> Actions:
-        """Return the sub-step actions of the plan's first leg (fly them, then re-plan)."""
+        """Return the sub-step actions of the plan's first leg (fly them, then re-plan).
+
+        Parameters
+        ----------
+        platform : PlatformState
+            The platform at the plan's decision time.
+        plan : MissionPlan
+            The plan.
+
+        Returns
+        -------
+        Actions
+            One per sub-step of :attr:`step` seconds.
+        """
         _, counts = self.legs(platform.time)
         return plan.actions[np.arange(int(counts[0]))]
 

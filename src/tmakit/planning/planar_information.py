@@ -39,7 +39,20 @@ BLOCK_ELEMENTS = 1 << 14
 
 
 def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
-    """Whether the closed form applies: 2-D, planar kinds, every sensor at ``z = 0``."""
+    """Tell whether the closed form applies: 2-D, planar kinds, every sensor at ``z = 0``.
+
+    Parameters
+    ----------
+    plan : SensorPlan
+        What is measured.
+    sensor_states : ndarray, shape (*B, 6)
+        Candidate sensor states (m, m/s).
+
+    Returns
+    -------
+    bool
+        True when :func:`planar_information` applies.
+    """
     return (plan.dim == 2 and set(plan.kinds) <= PLANAR_KINDS and not plan.options
             and not plan.nuisance and not np.any(sensor_states[..., 2]))
 

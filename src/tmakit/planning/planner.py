@@ -90,9 +90,19 @@ class Recommendation:
 
 
 def position_bound(information: Array, covariance: Array | None = None) -> Array:
-    """Return ``sqrt(trace)`` of the position block of ``J^{-1}`` (...,), m.
+    """Return ``sqrt(trace)`` of the position block of ``J^{-1}``.
 
-    ``covariance``, if given, is ``bound_covariance(information)`` already computed.
+    Parameters
+    ----------
+    information : ndarray, shape (..., n, n)
+        ``J``, SI.
+    covariance : ndarray, shape (..., n, n), optional
+        ``bound_covariance(information)`` if already computed.
+
+    Returns
+    -------
+    ndarray, shape (...,)
+        The position RMS bound, m.
     """
     dim = information.shape[-1] // 2
     cov = bound_covariance(information) if covariance is None else covariance
@@ -205,19 +215,7 @@ class Planner:
         cloud = (belief.states @ f.T, belief.weights)
         info = step_information(belief, information[..., None, :, :], self.plan, sensor,
                                 self.interval, gamma, cloud)
-        return steps, info, self._violations(steps, belief)
-
-    def _violations(self, steps: Step, belief: Belief) -> list[Violation]:
-        if not self.constraints:
-            return []
-        times = steps.start.time + self.interval * np.arange(1, CHECK_POINTS + 1) / CHECK_POINTS
-        pos = steps.sensor_states(times)[..., :3].reshape(-1, CHECK_POINTS, 3)
-        dyn = belief.posterior.dynamics
-        dim = belief.posterior.dim
-        target = np.zeros((CHECK_POINTS, 3))
-        for j, t in enumerate(times):   # CHECK_POINTS times, not candidates
-            target[j, :dim] = (dyn.transition(t - belief.time) @ belief.mean)[:dim]
-        return [c.check(pos, target) for c in self.constraints]
+        return steps, info, step_violations(self.constraints, steps, belief, self.interval)
 
     def recommend(self, platform: PlatformState, belief: Belief) -> Recommendation:
         """Choose the next action.
@@ -278,6 +276,39 @@ class Planner:
         nxt = type(post)(recommendation.information[recommendation.index], post.dynamics,
                          belief.time + self.interval)
         return Belief(nxt, states, weights)
+
+
+def step_violations(constraints: Sequence[Constraint], steps: Step, belief: Belief,
+                    interval: float) -> list[Violation]:
+    """Check every constraint along candidate steps against the estimated target.
+
+    Parameters
+    ----------
+    constraints : sequence of Constraint
+        The tactical constraints (:mod:`tmakit.planning.constraints`).
+    steps : Step
+        Candidate steps of any batch shape, all from one start time.
+    belief : Belief
+        Its mean, predicted by its dynamics, is the estimated target.
+    interval : float
+        The steps' length, s: they are checked at :data:`CHECK_POINTS` equally spaced times
+        after their start, the end included.
+
+    Returns
+    -------
+    list of Violation
+        One per constraint, amounts (m) of shape ``(steps.size,)`` (batch flattened).
+    """
+    if not constraints:
+        return []
+    times = steps.start.time + interval * np.arange(1, CHECK_POINTS + 1) / CHECK_POINTS
+    pos = steps.sensor_states(times)[..., :3].reshape(-1, CHECK_POINTS, 3)
+    dyn = belief.posterior.dynamics
+    dim = belief.posterior.dim
+    target = np.zeros((CHECK_POINTS, 3))
+    for j, t in enumerate(times):   # CHECK_POINTS times, not candidates
+        target[j, :dim] = (dyn.transition(t - belief.time) @ belief.mean)[:dim]
+    return [c.check(pos, target) for c in constraints]
 
 
 def _choose(actions: Actions, steps: Step, info: Array, cost: Array, bad: Array,

@@ -36,6 +36,10 @@ def with_receivers(n: int) -> Scenario:
     -------
     Scenario
         The scenario with one frequency plan per receiver (the first plan's times and sigma).
+
+    References
+    ----------
+    The Doppler-tracking lecture notes (the worked example's receiver).
     """
     scn = copy.deepcopy(load_scenario("doppler-lecture"))
     base = scn.plans[0]

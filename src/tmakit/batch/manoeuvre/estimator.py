@@ -15,8 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ...data import MeasurementSet
-from ...motion import PiecewiseCurvilinear, motion_from_name
+from ...motion import PiecewiseCurvilinear, default_ref_time, motion_from_name
 from ...results.estimate import EstimateResult
+from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .report import ManoeuvreEstimate, report
 from .search import ManoeuvreSearch
 from .selection import select_order, sparsify
@@ -90,7 +91,7 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
                         accelerations: str | None = None, ref_time: float | None = None,
                         init: Mapping[str, float] | ArrayLike | None = None,
                         options: Mapping[str, Mapping[str, object]] | None = None,
-                        known_nuisance: Mapping[str, float] | None = None,
+                        known_nuisance: KnownNuisanceLike = None,
                         settings: ManoeuvreSettings | None = None) -> ManoeuvreEstimate:
     """Estimate piecewise curvilinear motion by maximum likelihood, no initial guess needed.
 
@@ -119,8 +120,11 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
         ``curvilinear:max_manoeuvres`` parameters referenced at ``ref_time`` (by name or as a
         vector, SI): exactly that order is fitted from that start, no search; its change-over
         times must lie inside the data span.
-    options, known_nuisance : mapping, optional
+    options : mapping, optional
         As for :func:`tmakit.batch.ml.estimate`.
+    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
+        Hold the nuisance parameters at known values (:mod:`tmakit.results.nuisance`;
+        converted once, here).
     settings : ManoeuvreSettings, optional
         Overrides the search (grid spacing, shortest segment, ...); its order and criterion
         fields are replaced by the arguments.
@@ -145,7 +149,7 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
                 alpha=alpha, accelerations=accelerations or base.accelerations)
     if len(meas) == 0:
         raise ValueError("the measurement set is empty")
-    search = ManoeuvreSearch(meas, options, known_nuisance, s)
+    search = ManoeuvreSearch(meas, options, as_known_nuisance(known_nuisance), s)
     ref = search.t0 if ref_time is None else float(ref_time)
     if init is not None:
         return _fit_from_start(search, ref, init)
@@ -155,7 +159,7 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
 def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
                  init: Mapping[str, float] | ArrayLike | None = None,
                  options: Mapping[str, Mapping[str, object]] | None = None,
-                 known_nuisance: Mapping[str, float] | None = None,
+                 known_nuisance: KnownNuisanceLike = None,
                  max_iter: int = 100, **kw: Any) -> EstimateResult:
     """Estimate motion given by name or as a piecewise curvilinear model.
 
@@ -196,7 +200,8 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
     """
     if isinstance(motion, str):
         ref = kw.pop("ref_time", None)
-        model = motion_from_name(motion, 0.0 if ref is None else float(ref))
+        model = motion_from_name(motion, default_ref_time(meas.time) if ref is None
+                                 else float(ref))
         if not isinstance(model, PiecewiseCurvilinear):
             from ..ml import estimate
 

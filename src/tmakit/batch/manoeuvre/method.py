@@ -123,7 +123,6 @@ class ManoeuvreEstimator(BatchEstimator):
         TypeError
             For manoeuvre settings with a motion name that has no manoeuvres.
         """
-        known = self.known_nuisance
         return estimate_for(meas, motion, init=self.init, options=self.options,
-                            known_nuisance=None if known is None else dict(known.values),
+                            known_nuisance=self.known_nuisance,
                             max_iter=self.max_iter, **self.manoeuvre_options())

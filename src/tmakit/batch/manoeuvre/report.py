@@ -194,7 +194,7 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
     res = assemble_result(ObservationModel(search.meas, fitted, search.options), pr.noise,
                           theta[free], fit.nuisance, fit.chi2 / 2.0, fit.iterations,
                           fit.converged or bool(fit.note), "ml", fit.starts,
-                          pr.fixed is not None, fit.note)
+                          search.known, fit.note)
     status = res.status if fit.converged or res.status != CONVERGED else NOT_CONVERGED
     p = motion.n_params
     std = np.zeros(p)

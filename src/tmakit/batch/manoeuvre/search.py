@@ -20,6 +20,7 @@ from ...data import MeasurementSet
 from ...motion import ConstantVelocity
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...observation import ObservationModel
+from ...results.nuisance import KnownNuisance
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
 from .grid import grid_tuples, local_minima, split_segment
 from .settings import ManoeuvreSettings, OrderFit
@@ -85,8 +86,8 @@ class ManoeuvreSearch:
         The data.
     options : mapping, optional
         Nuisance model per kind, as for :func:`tmakit.batch.ml.estimate`.
-    fixed_nuisance : mapping, optional
-        Known nuisance values by name (None: estimated).
+    known_nuisance : KnownNuisance or None
+        The nuisance held at known values (others: model defaults); None: estimated.
     settings : ManoeuvreSettings
         How to search.
 
@@ -102,11 +103,11 @@ class ManoeuvreSearch:
     """
 
     def __init__(self, meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
-                 fixed_nuisance: Mapping[str, float] | None,
+                 known_nuisance: KnownNuisance | None,
                  settings: ManoeuvreSettings) -> None:
         self.meas = meas
         self.options = options
-        self.fixed = fixed_nuisance
+        self.known = known_nuisance
         self.s = settings
         self.t0 = float(meas.time.min())
         self.t_end = float(meas.time.max())
@@ -135,7 +136,7 @@ class ManoeuvreSearch:
         if m not in self._problems:
             model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
             obs = ObservationModel(self.meas, model, self.options)
-            fixed = None if self.fixed is None else obs.nuisance_vector(self.fixed)
+            fixed = None if self.known is None else obs.nuisance_vector(self.known.values)
             self._problems[m] = VarProProblem(obs, None, fixed)
         return self._problems[m]
 
@@ -195,7 +196,7 @@ class ManoeuvreSearch:
             from ..ml import estimate as estimate_cv
 
             cv = estimate_cv(self.meas, ConstantVelocity(2, self.t0), options=self.options,
-                             known_nuisance=self.fixed)
+                             known_nuisance=self.known)
             x, y, vx, vy = cv.estimate
             init = np.array([x, y, math.hypot(vx, vy), math.atan2(vx, vy), 0.0, 0.0])
         sol = levenberg_marquardt(pr, pr.obs.values, np.atleast_2d(init),

@@ -15,7 +15,27 @@ Array = NDArray[np.float64]
 
 
 def relative_states(target_states: ArrayLike, sensor_states: ArrayLike) -> tuple[Array, int]:
-    """Relative states target minus sensor ``(..., 6)`` and the dimension of the targets."""
+    """Return the relative states target minus sensor and the dimension of the targets.
+
+    Parameters
+    ----------
+    target_states : array_like, shape (..., 4) or (..., 6)
+        ``[x, y, vx, vy]`` (2-D) or ``[x, y, z, vx, vy, vz]`` (m, m/s).
+    sensor_states : array_like, shape (..., 6)
+        ``[x, y, z, vx, vy, vz]`` (m, m/s); broadcasts with the targets.
+
+    Returns
+    -------
+    relative : ndarray, shape (..., 6)
+        Target minus sensor (m, m/s); a 2-D target at ``z = 0``.
+    dim : int
+        2 or 3.
+
+    Raises
+    ------
+    ValueError
+        On states of the wrong length.
+    """
     x = np.asarray(target_states, dtype=float)
     s = np.asarray(sensor_states, dtype=float)
     if x.ndim == 0 or x.shape[-1] not in (4, 6):
@@ -32,7 +52,24 @@ def relative_states(target_states: ArrayLike, sensor_states: ArrayLike) -> tuple
 
 
 def measurement_jacobian(rel: Array, dim: int) -> Array:
-    """``d [bearing, (elevation), range, range_rate] / d target state`` ``(..., m, 2 dim)``."""
+    """Return ``d [bearing, (elevation), range, range_rate] / d target state``.
+
+    Parameters
+    ----------
+    rel : ndarray, shape (..., 6)
+        Relative states (:func:`relative_states`), m and m/s.
+    dim : int
+        2 (no elevation row) or 3.
+
+    Returns
+    -------
+    ndarray, shape (..., m, 2 dim)
+        Rad/m, m/m, (m/s)/m and (m/s)/(m/s).
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), the chain from the radar parameters to the state (after eq. 4).
+    """
     p, v = rel[..., :3], rel[..., 3:]
     r = np.linalg.norm(p, axis=-1)
     unit = p / r[..., None]
@@ -60,7 +97,18 @@ def measurement_jacobian(rel: Array, dim: int) -> Array:
 
 
 def elevation_of(rel: Array) -> Array:
-    """Elevation ``atan2(dz, hypot(dx, dy))`` of relative states ``(..., 6)``, rad."""
+    """Return the elevation ``atan2(dz, hypot(dx, dy))`` of relative states.
+
+    Parameters
+    ----------
+    rel : ndarray, shape (..., 6)
+        Relative states, m and m/s.
+
+    Returns
+    -------
+    ndarray, shape (...,)
+        Rad.
+    """
     return np.arctan2(rel[..., 2], np.hypot(rel[..., 0], rel[..., 1]))
 
 

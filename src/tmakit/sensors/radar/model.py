@@ -242,6 +242,10 @@ class RadarModel:
         -------
         ndarray
             ``(N, M)`` complex samples.
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), §2.2, eq. 5.
         """
         t = self.sample_offsets + delay if times is None else np.asarray(times, dtype=float)
         if amplitude is None:
@@ -440,6 +444,10 @@ class RadarModel:
         ndarray
             ``(C, N, 2 dim, 2 dim)`` (axes of a single state dropped), SI: 1/m^2, s/m^2,
             s^2/m^2.
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), eqs. 4-6 and 13.
         """
         x = np.asarray(target_states, dtype=float)
         s = np.asarray(sensor_states, dtype=float)

@@ -1,0 +1,175 @@
+"""Every speed figure of tmakit beside its peer, in one table, measured in one run.
+
+Each row: what is measured, tmakit's median [interquartile range], the peer's, and the ratio
+the goal is stated in (the machine may be shared: both sides are measured interleaved in the
+same process, so the ratio is the figure; absolute times move with the load).
+
+Sections (``--only`` picks some):
+
+* ``filters``: the general EKF/UKF path per step (bearing + frequency from two sensors 2-D;
+  bearing + elevation from two sensors 3-D) beside FilterPy's ``ExtendedKalmanFilter`` and
+  ``UnscentedKalmanFilter`` and a minimal NumPy EKF loop (``filters_general_speed.py``);
+* ``startup``: ``tma --help`` and ``tma scenarios`` beside ``python -c "import numpy"``, each a
+  fresh interpreter, interleaved;
+* ``crlb``: the CRLB and the no-guess estimate at N = 10^3 ... 10^5 bearings beside a
+  hand-written NumPy Fisher matrix, and the log-log slopes (``batch_speed.py``);
+* ``lm``: batch Levenberg-Marquardt from the same start beside
+  ``scipy.optimize.least_squares(method="lm")`` at equal tolerance, N = 10^2 ... 10^5,
+  bearings-only-2d and gu2007 (``batch_speed.py``);
+* ``threads``: the particle filter with 10^5 particles, default BLAS threads beside one
+  (``threads_speed.py``);
+* ``montecarlo``: the no-guess Monte Carlo of gu2007 in one process and on two local Dask
+  workers (10,000 runs; ``--quick``: 1,000);
+* ``manoeuvre``: the hoerst2010 manoeuvre estimate (orders 0..3) on seeded data sets.
+
+``--quick`` (about two minutes on an idle two-core machine) uses fewer repeats, sizes and
+runs.
+
+    PYTHONPATH=src python benchmarks/run_all.py [--quick] [--only filters startup ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_problems import fmt
+
+SECTIONS = ("filters", "startup", "crlb", "lm", "threads", "montecarlo", "manoeuvre")
+
+
+def startup_rows(repeat):
+    """``tma --help`` and ``tma scenarios`` beside ``python -c "import numpy"``."""
+    env = dict(os.environ)
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    tma = [sys.executable, "-c", "import sys; from tmakit.cli import main; "
+           "sys.argv[0] = 'tma'; sys.exit(main())"]
+    commands = {"numpy": [sys.executable, "-c", "import numpy"],
+                "tma --help": [*tma, "--help"], "tma scenarios": [*tma, "scenarios"]}
+    times = {k: [] for k in commands}
+    for _ in range(repeat):
+        for name, cmd in commands.items():
+            t0 = time.perf_counter()
+            subprocess.run(cmd, env=env, stdout=subprocess.DEVNULL, check=True)
+            times[name].append(time.perf_counter() - t0)
+    stats = {k: (float(np.median(v)), float(np.percentile(v, 25)), float(np.percentile(v, 75)))
+             for k, v in times.items()}
+    goal = {"tma --help": 1.6, "tma scenarios": 2.0}
+    return [(f"start-up, {name}", fmt(stats[name], 1e3),
+             f"import numpy {fmt(stats['numpy'], 1e3)}", stats[name][0] / stats["numpy"][0],
+             f"tmakit/peer (goal <= {goal[name]})") for name in goal]
+
+
+def montecarlo_rows(runs, workers):
+    """No-guess Monte Carlo of gu2007 in one process and on a local Dask cluster."""
+    import tmakit as tk
+    from tmakit.montecarlo import monte_carlo
+
+    scn = tk.load_scenario("gu2007")
+    t0 = time.perf_counter()
+    one = monte_carlo(scn, runs=runs, seed=0, progress=False)
+    t_one = time.perf_counter() - t0
+    rows = [(f"Monte Carlo gu2007 no guess, {runs} runs, one process", f"{t_one:.2f} s",
+             "goal <= 10 s for 10,000 runs", t_one, f"converged {one.convergence_rate:.1%}")]
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        return rows
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        client.run(lambda: __import__("tmakit.montecarlo"))
+        t0 = time.perf_counter()
+        many = monte_carlo(scn, runs=runs, seed=0, progress=False, dask=client)
+        t_many = time.perf_counter() - t0
+    a, b = one.estimates(converged_only=False), many.estimates(converged_only=False)
+    same = a.shape == b.shape and bool(np.allclose(a, b, rtol=1e-9, atol=1e-9, equal_nan=True))
+    rows.append((f"Monte Carlo gu2007 no guess, {runs} runs, {workers} Dask workers",
+                 f"{t_many:.2f} s", f"one process {t_one:.2f} s", t_one / t_many,
+                 f"one/{workers} workers (goal > 1); same estimates: {same}"))
+    return rows
+
+
+def manoeuvre_rows(sets, repeat):
+    """hoerst2010 manoeuvre estimate, orders 0..3, median over seeded data sets."""
+    import tmakit as tk
+
+    scn = tk.load_scenario("hoerst2010")
+    times, chosen = [], []
+    for seed in range(sets):
+        meas = scn.simulate(np.random.default_rng(seed))
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            res = tk.estimate(meas, "curvilinear:3")
+            times.append(time.perf_counter() - t0)
+        chosen.append(getattr(res.motion, "name", "?"))
+    stat = (float(np.median(times)), float(np.percentile(times, 25)),
+            float(np.percentile(times, 75)))
+    return [(f"manoeuvre estimate hoerst2010 ({len(meas)} rows), orders 0..3",
+             fmt(stat, 1.0, "s"), "goal <= 1.5 s", stat[0],
+             f"{sets} data sets; chosen {', '.join(chosen)}")]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="about two minutes")
+    ap.add_argument("--only", nargs="+", choices=SECTIONS, default=list(SECTIONS))
+    args = ap.parse_args()
+    q = args.quick
+    rows = []
+
+    def section(name, fn):
+        if name in args.only:
+            t0 = time.perf_counter()
+            got = fn()
+            rows.extend(got)
+            for row in got:
+                print_row(row)
+            print(f"  ({name}: {time.perf_counter() - t0:.0f} s)", flush=True)
+
+    section("filters", lambda: _filters(3 if q else 7, 200 if q else 600))
+    section("startup", lambda: startup_rows(5 if q else 15))
+    section("crlb", lambda: _crlb([1000, 10000, 100000], 3 if q else 7))
+    section("lm", lambda: _lm([100, 1000, 10000, 100000] if not q else [100, 10000, 100000],
+                              3 if q else 7))
+    section("threads", lambda: _threads(10 if q else 20, 3 if q else 7))
+    section("montecarlo", lambda: montecarlo_rows(1000 if q else 10_000, 2))
+    section("manoeuvre", lambda: manoeuvre_rows(1 if q else 3, 1))
+
+
+def print_row(row):
+    what, ours, peer, ratio, note = row
+    print(f"{what:58s} {ours:26s} {peer:38s} {ratio:8.2f}  {note}", flush=True)
+
+
+def _filters(repeat, steps):
+    from filters_general_speed import measure
+
+    return measure("bf2", steps, repeat) + measure("be3", steps, repeat)
+
+
+def _crlb(sizes, repeat):
+    from batch_speed import crlb_rows
+
+    return crlb_rows(sizes, repeat)
+
+
+def _lm(sizes, repeat):
+    from batch_speed import lm_rows
+
+    return lm_rows(sizes, repeat, 1e-10)
+
+
+def _threads(steps, repeat):
+    from threads_speed import pf_rows
+
+    return pf_rows(100_000, steps, repeat)
+
+
+if __name__ == "__main__":
+    main()

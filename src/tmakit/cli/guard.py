@@ -1,0 +1,195 @@
+"""No traceback reaches a user of ``tma``: the guard around every command.
+
+Every command runs inside :func:`guarded`.  An exception the command did not turn into an
+``error: ...`` message (a bug, or a numerical failure nobody foresaw) becomes one line
+
+    error: internal error in `tma estimate` while computing tmakit.batch.ml.fit:
+    LinAlgError: SVD did not converge (please report; traceback in /tmp/tma-error-....log)
+
+with exit status :data:`EXIT_INTERNAL`; the traceback goes to a log file.  Under
+``tma --debug`` (or ``TMA_DEBUG=1``) the exception is not caught: Python prints its
+traceback.  Ctrl-C ends a command with status 130 and SIGTERM with 143, after the files being
+written are cleaned up.  Numerical ``RuntimeWarning`` s (an overflow in an exponential, a
+division by zero that the code handles) are not printed (``--debug`` shows them); they are
+listed in the log of an internal error.
+
+Exit statuses of ``tma``: 0 success; 1 an honest non-success (unobservable, diverged, did not
+converge); 2 bad input or options (the message names the file, row, column or option); 3 an
+internal error (please report); 130 interrupted (Ctrl-C); 143 terminated (SIGTERM).
+
+Nothing numerical is imported here: ``tma --help`` stays light.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+import tempfile
+import time
+import traceback
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+import typer
+
+__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_STATUS",
+           "EXIT_TERMINATED", "guarded", "install_sigterm", "set_debug"]
+
+EXIT_STATUS = 1
+EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 3
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
+
+_state = {"debug": bool(os.environ.get("TMA_DEBUG"))}
+
+
+class Terminated(BaseException):
+    """Raised in the main thread by SIGTERM so that ``finally`` blocks (temp files) run."""
+
+
+def set_debug(on: bool) -> None:
+    """Show tracebacks and RuntimeWarnings on the terminal (``tma --debug``).
+
+    Parameters
+    ----------
+    on : bool
+        Debug output on.
+    """
+    _state["debug"] = bool(on) or bool(os.environ.get("TMA_DEBUG"))
+
+
+def install_sigterm() -> None:
+    """Turn SIGTERM into :class:`Terminated` so that temporary files are removed.
+
+    Only from the main thread of the ``tma`` process (the console script).
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+
+    def _raise(signum: int, frame: Any) -> None:
+        raise Terminated
+
+    signal.signal(signal.SIGTERM, _raise)
+
+
+def _log_dir() -> Path:
+    return Path(os.environ.get("TMA_LOG_DIR") or tempfile.gettempdir())
+
+
+def _where(exc: BaseException) -> str:
+    """Name the innermost tmakit function on the traceback: what was being computed."""
+    where = ""
+    for frame, _ in traceback.walk_tb(exc.__traceback__):
+        module = frame.f_globals.get("__name__", "")
+        if module.startswith("tmakit.") and not module.startswith("tmakit.cli"):
+            where = f"{module}.{frame.f_code.co_name}"
+    return where
+
+
+def _report(exc: BaseException, command: str, caught: list[warnings.WarningMessage]) -> int:
+    text = "".join(traceback.format_exception(exc))
+    if caught:
+        text += f"\n{len(caught)} RuntimeWarning(s) during the command:\n" + "".join(
+            f"  {w.filename}:{w.lineno}: {w.message}\n" for w in caught[:50])
+    where = _where(exc)
+    what = f" while computing {where}" if where else ""
+    message = f"{type(exc).__name__}: {exc}".strip().rstrip(":")
+    if len(message) > 400:
+        message = message[:400] + " ..."
+    if _state["debug"]:
+        sys.stderr.write(text)
+        hint = "please report, with the traceback above"
+    else:
+        try:
+            log = _log_dir() / f"tma-error-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log"
+            log.write_text(f"tma {command}\n{text}")
+            hint = f"please report; traceback in {log}"
+        except OSError:
+            hint = "please report; rerun with tma --debug for the traceback"
+    from .common import err
+
+    err.print(f"[bold red]error:[/] internal error in `tma {command}`{what}: {message} "
+              f"({hint})", highlight=False, markup=True, soft_wrap=True)
+    return EXIT_INTERNAL
+
+
+def _interrupted(code: int, why: str) -> int:
+    from .common import err
+
+    err.print(f"[bold red]{why}[/]", highlight=False, markup=True)
+    return code
+
+
+def _refuse_non_finite(options: dict[str, Any]) -> None:
+    """Refuse NaN or infinite numeric options (``--at nan``, ``--ref-time inf``): exit 2."""
+    import math
+
+    for name, value in options.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            from .common import fail
+
+            raise fail(f"--{name.replace('_', '-')} {value}: expected a finite number")
+
+
+def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Wrap a ``tma`` command: unexpected exceptions become ``error: ...`` (exit 3).
+
+    ``typer.Exit`` (the commands' own ``error: ...`` exits and successes) and click's usage
+    errors pass through unchanged.
+
+    Parameters
+    ----------
+    command : callable
+        The command function (its signature defines the options).
+
+    Returns
+    -------
+    callable
+        The same command, guarded.
+    """
+
+    @functools.wraps(command)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        _refuse_non_finite(kwargs)
+        caught: list[warnings.WarningMessage] = []
+        try:
+            with warnings.catch_warnings(record=not _state["debug"]) as record:
+                if not _state["debug"]:
+                    warnings.simplefilter("always", RuntimeWarning)
+                try:
+                    return command(*args, **kwargs)
+                finally:
+                    if record is not None:
+                        caught = [w for w in record if issubclass(w.category, RuntimeWarning)]
+                        for w in record:  # other warnings are meant for the user
+                            if not issubclass(w.category, RuntimeWarning):
+                                warnings.showwarning(w.message, w.category, w.filename,
+                                                     w.lineno)
+        except (typer.Exit, click.exceptions.ClickException, click.exceptions.Exit,
+                click.exceptions.Abort):
+            raise
+        except KeyboardInterrupt:
+            raise typer.Exit(_interrupted(EXIT_INTERRUPTED, "interrupted")) from None
+        except Terminated:
+            raise typer.Exit(_interrupted(EXIT_TERMINATED, "terminated")) from None
+        except MemoryError:
+            from .common import err
+
+            err.print(f"[bold red]error:[/] `tma {command.__name__}` ran out of memory; ask "
+                      "for less work (fewer runs, rows or particles)", highlight=False,
+                      markup=True, soft_wrap=True)
+            raise typer.Exit(EXIT_BAD_INPUT) from None
+        except Exception as exc:  # the point: nothing escapes as a traceback
+            if _state["debug"]:  # tma --debug: the exception itself, traceback and all
+                raise
+            raise typer.Exit(_report(exc, command.__name__, caught)) from None
+
+    return run

@@ -1,0 +1,193 @@
+"""Output paths checked before any work starts, and pictures written atomically.
+
+Every file a command will write (``-o``, ``--json FILE``, ``--plot``) goes through
+:func:`check_output` first: it is resolved to the exact file that will be written (a picture
+without a suffix gets ``.png``, as matplotlib would add), and refused (exit 2, naming the
+option) when it exists without ``--force``, is a folder, lies in a folder that does not exist
+or cannot be written, or has a suffix the writer does not know.
+
+Nothing numerical is imported here.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from .common import fail
+
+__all__ = ["PICTURE_SUFFIXES", "TABLE_SUFFIXES", "check_output", "check_outputs",
+           "write_picture"]
+
+#: Suffixes of pictures (matplotlib's formats that tmakit promises).
+PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
+#: Suffixes of tables and measurement files (CSV, Parquet).
+TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
+
+_FORMATS = {"picture": PICTURE_SUFFIXES, "table": TABLE_SUFFIXES, "json": None,
+            "measurements": None}
+
+
+def check_output(path: Path | None, option: str, force: bool, kind: str = "table"
+                 ) -> Path | None:
+    """Resolve and check one output path before any computation.
+
+    Parameters
+    ----------
+    path : Path or None
+        The path given (None: no such output).
+    option : str
+        The option's name (``-o``, ``--plot``, ``--json``) for the messages.
+    force : bool
+        ``--force``: an existing file may be replaced.
+    kind : {"table", "measurements", "picture", "json"}
+        What is written: tables take .csv/.parquet/.pq, measurement files a writable format
+        of the registry; pictures .png/.pdf/.svg (none given: .png); JSON any suffix.
+
+    Returns
+    -------
+    Path or None
+        The exact file that will be written.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2, naming the option, for the first problem found.
+    """
+    if path is None:
+        return None
+    path = Path(path)
+    suffixes = _FORMATS[kind]
+    if kind == "picture" and path.suffix == "" and not path.is_dir():
+        path = path.with_name(path.name + ".png")  # what matplotlib would write
+    if path.is_dir():
+        raise fail(f"{option} {path}: is a folder, not a file")
+    if kind == "measurements":
+        from ..io import find_format  # the registry: a new writable format is known here too
+        from ..io.formats import registered_formats
+
+        if find_format(path, reading=False) is None:
+            known = sorted({x for f in registered_formats(False) for x in f.suffixes})
+            raise fail(f"{option} {path}: unknown format {path.suffix or '(no suffix)'!r}; "
+                       f"expected {', '.join(known)}")
+    elif suffixes is not None and path.suffix.lower() not in suffixes:
+        said = ".csv or .parquet" if kind == "table" else ".png, .pdf or .svg"
+        raise fail(f"{option} {path}: unknown format {path.suffix or '(no suffix)'!r}; "
+                   f"written as {said}")
+    parent = path.parent
+    if not parent.exists():
+        raise fail(f"{option} {path}: the folder {parent} does not exist")
+    if not parent.is_dir():
+        raise fail(f"{option} {path}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise fail(f"{option} {path}: the folder {parent} cannot be written")
+    if path.exists() and not force:
+        raise fail(f"{path} already exists; use --force to overwrite it")
+    return path
+
+
+def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool
+                  ) -> list[Path | None]:
+    """Check several outputs (:func:`check_output`) and refuse two options naming one file.
+
+    Parameters
+    ----------
+    outputs : iterable of (str, Path or None, str)
+        ``(option, path, kind)`` for each output.
+    force : bool
+        ``--force``.
+
+    Returns
+    -------
+    list of Path or None
+        The resolved paths, in order.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for the first problem.
+    """
+    resolved: list[Path | None] = []
+    seen: dict[Path, str] = {}
+    for option, path, kind in outputs:
+        p = check_output(path, option, force, kind)
+        if p is not None:
+            key = p.resolve()
+            if key in seen:
+                raise fail(f"{option} {p}: the same file as {seen[key]}")
+            seen[key] = option
+        resolved.append(p)
+    return resolved
+
+
+def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
+    """Draw a picture into a temporary file and move it into place (never a partial file).
+
+    Parameters
+    ----------
+    path : Path
+        The picture (resolved by :func:`check_output`).
+    force : bool
+        Replace an existing file.
+    draw : callable
+        Writes the picture to the path it is given (whose suffix names the format).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the file appeared meanwhile (without ``force``).
+    """
+    from ..io import atomic_write
+
+    try:
+        with atomic_write(path, force=force, keep_suffix=True) as tmp:
+            draw(tmp)
+    except FileExistsError:
+        raise fail(f"{path} already exists; use --force to overwrite it") from None
+
+
+def memory_limit() -> int:
+    """Give the memory a command may plan to use (bytes): ``TMA_MAX_MEMORY_GB``, default 2.
+
+    Returns
+    -------
+    int
+        The limit in bytes.
+    """
+    try:
+        gb = float(os.environ.get("TMA_MAX_MEMORY_GB", "2"))
+    except ValueError:
+        gb = 2.0
+    return int(max(gb, 0.001) * 2**30)
+
+
+def check_particles(particles: int | None, option: str = "--particles",
+                    bytes_per_particle: int = 8 * 8 * 8) -> None:
+    """Refuse a particle count whose working arrays would not fit the memory limit.
+
+    A particle filter holds a few arrays of (particles, state + nuisance) doubles; about
+    ``bytes_per_particle`` bytes per particle in all (default 8 values x 8 bytes x 8 copies).
+
+    Parameters
+    ----------
+    particles : int or None
+        The count asked for (None: the default).
+    option : str
+        The option's name, for the message.
+    bytes_per_particle : int
+        Estimated working memory per particle (bytes).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 naming the size, the limit and how to raise it.
+    """
+    if particles is None:
+        return
+    need = particles * bytes_per_particle
+    if need > memory_limit():
+        raise fail(f"{option} {particles:,}: about {need / 2**30:.1f} GiB of working memory, "
+                   f"more than the limit of {memory_limit() / 2**30:.1f} GiB; raise it with "
+                   "TMA_MAX_MEMORY_GB=N")

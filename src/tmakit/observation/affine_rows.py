@@ -1,0 +1,97 @@
+"""Relative states of an affine motion model at many rows, for one or many parameter vectors.
+
+For an affine motion model (constant velocity, stationary) the relative state of the target at
+row ``j``, component ``c``, is ``offset[c, j] + sum_i theta_i coef[i, c, j]``.  Most
+coefficients are zero and many are one (a position component depends on its position and
+velocity parameters only), so one parameter vector is evaluated from the non-zero terms, a few
+passes over the rows (:meth:`AffineRows.single`), and a batch of them by one matrix product
+with the dense map (:attr:`AffineRows.matrix`, made on first use).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..arrays import Array
+
+#: One non-zero term: parameter index, state component, coefficient per row (None: all 1).
+Term = tuple[int, int, Array | None]
+
+
+class AffineRows:
+    """``theta -> `` relative states ``(..., m, 6)`` at ``m`` rows (m, m/s).
+
+    Parameters
+    ----------
+    terms : sequence of Term
+        The non-zero terms of the map, in any order.
+    offset : numpy.ndarray
+        ``(6, m)``: the relative states at ``theta = 0`` (target offset minus sensor state).
+    p : int
+        Number of parameters.
+    """
+
+    def __init__(self, terms: Sequence[Term], offset: Array, p: int) -> None:
+        self.terms = sorted(terms, key=lambda term: term[0])
+        self.offset = np.ascontiguousarray(offset)
+        self.p = int(p)
+        self.m = int(self.offset.shape[1])
+        self._matrix: Array | None = None
+
+    @property
+    def matrix(self) -> Array:
+        """The dense map ``(p, 6 m)``, component-major (made on first use)."""
+        if self._matrix is None:
+            dense = np.zeros((self.p, 6, self.m))
+            for i, c, coef in self.terms:
+                dense[i, c] = 1.0 if coef is None else coef
+            self._matrix = dense.reshape(self.p, 6 * self.m)
+        return self._matrix
+
+    @property
+    def flat_offset(self) -> Array:
+        """The offset flattened ``(6 m,)`` (a view)."""
+        return self.offset.reshape(6 * self.m)
+
+    def single(self, theta: Array) -> Array:
+        """Give the relative states of one parameter vector from the non-zero terms.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(p,)`` or ``(1, p)``, SI.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(m, 6)`` or ``(1, m, 6)``: a view of a component-major ``(6, m)`` array.
+        """
+        th = theta.reshape(-1).tolist()
+        out = np.zeros((6, self.m))
+        # The terms in parameter order, then the offset: the order of the dense product's
+        # sums (``theta @ matrix + offset``).
+        for i, c, coef in self.terms:
+            if coef is None:
+                out[c] += th[i]
+            else:
+                out[c] += th[i] * coef
+        out += self.offset
+        return out.T if theta.ndim == 1 else out.T[None]
+
+    def take(self, rows: NDArray[np.intp]) -> AffineRows:
+        """Give the map of some rows.
+
+        Parameters
+        ----------
+        rows : numpy.ndarray
+            Row indices.
+
+        Returns
+        -------
+        AffineRows
+        """
+        terms = [(i, c, None if coef is None else coef[rows]) for i, c, coef in self.terms]
+        return AffineRows(terms, self.offset[:, rows], self.p)

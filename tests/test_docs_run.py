@@ -1,0 +1,255 @@
+"""Every shell command and Python snippet in README.md and docs/*.md runs as written.
+
+The one doc runner. Each document is run on its own, in a fresh empty folder, its blocks in the
+order they appear, as a reader would paste them:
+
+- ```` ```python ```` blocks share one interpreter namespace per document (one session);
+- ```` ```bash ```` (or ``sh``, ``shell``) blocks run as a script with ``bash -e -o pipefail``:
+  every line must succeed;
+- ```` ```console ```` blocks run their ``$ `` lines (a line ending in ``\\`` continues on the
+  next); the other lines are the output a reader sees, and are not compared;
+- any other block (``text``, ``toml``, ``csv``, ``json``, …) is not run;
+- a runnable block right after an HTML comment ``<!-- not run: REASON -->`` is skipped; the
+  reason is required, and the skipped blocks are counted (``python tests/test_docs_run.py``
+  prints the inventory).
+
+The folder is empty but for a link ``benchmarks`` to the checkout's ``benchmarks/`` (the docs
+run ``python benchmarks/….py`` from a checkout, as the README says). Shell blocks find
+``python``, ``python3`` and ``tma`` of the interpreter running the tests, and draw with
+matplotlib's Agg backend.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+PYTHON = {"python", "py", "python3"}
+SHELL = {"bash", "sh", "shell"}
+CONSOLE = {"console", "shell-session"}
+RUNNABLE = PYTHON | SHELL | CONSOLE
+FENCE = re.compile(r"^(?P<indent> *)(?P<fence>`{3,}|~{3,})(?P<info>[^\n`]*)$")  # in lists too
+NOT_RUN = re.compile(r"^<!--\s*not run\s*:(?P<reason>.*?)-->\s*$", re.S)
+BLOCK_TIMEOUT_S = 600
+
+
+@dataclass(frozen=True)
+class Block:
+    """One fenced block of a document."""
+
+    doc: Path
+    line: int  # of the opening fence, 1-based
+    lang: str
+    code: str
+    skip_reason: str | None  # None: runs (if runnable); "" : a `not run` comment without reason
+
+    @property
+    def where(self) -> str:
+        return f"{self.doc.relative_to(ROOT)}:{self.line}"
+
+
+def blocks(doc: Path) -> list[Block]:
+    """The fenced blocks of ``doc``, in order, with the `not run` comment before each."""
+    lines = doc.read_text(encoding="utf-8").splitlines()
+    found: list[Block] = []
+    i = 0
+    while i < len(lines):
+        m = FENCE.match(lines[i])
+        if not m:
+            i += 1
+            continue
+        fence, info = m.group("fence"), m.group("info").strip()
+        end = i + 1
+        while end < len(lines) and not (lines[end].strip().startswith(fence[0] * len(fence))
+                                         and lines[end].strip().strip(fence[0]) == ""):
+            end += 1
+        indent = len(m.group("indent"))
+        code = "\n".join(ln[indent:] if not ln[:indent].strip() else ln.lstrip()
+                         for ln in lines[i + 1:end]) + "\n"
+        found.append(Block(doc, i + 1, info.split()[0].lower() if info else "", code,
+                           _skip_reason(lines, i)))
+        i = end + 1
+    return found
+
+
+def _skip_reason(lines: list[str], fence_index: int) -> str | None:
+    """The reason of a `<!-- not run: … -->` comment on the last non-blank line before a fence."""
+    j = fence_index - 1
+    while j >= 0 and not lines[j].strip():
+        j -= 1
+    if j < 0 or not lines[j].rstrip().endswith("-->"):
+        return None
+    k = j
+    while k >= 0 and "<!--" not in lines[k]:
+        k -= 1
+    m = NOT_RUN.match("\n".join(lines[k:j + 1]).strip()) if k >= 0 else None
+    return None if m is None else " ".join(m.group("reason").split())
+
+
+def console_commands(code: str) -> list[str]:
+    """The ``$ `` commands of a console block, continuation lines joined."""
+    commands: list[str] = []
+    current: list[str] | None = None
+    for ln in code.splitlines():
+        if current is not None:
+            current.append(ln)
+        elif ln.startswith("$ "):
+            current = [ln[2:]]
+        else:
+            continue
+        if not ln.endswith("\\"):
+            commands.append("\n".join(current))
+            current = None
+    if current is not None:
+        commands.append("\n".join(current))
+    return commands
+
+
+def shell_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["MPLBACKEND"] = "Agg"
+    env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
+    return env
+
+
+def run_shell(block: Block, script: str, cwd: Path) -> None:
+    # `python` and `python3` are the interpreter running the tests, whatever the PATH holds.
+    prelude = f'python() {{ "{sys.executable}" "$@"; }}\npython3() {{ "{sys.executable}" "$@"; }}\n'
+    try:
+        done = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", prelude + script],
+                              cwd=cwd, env=shell_env(), capture_output=True, text=True,
+                              timeout=BLOCK_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{block.where}: ```{block.lang} block ran over {BLOCK_TIMEOUT_S} s:\n{script}")
+    if done.returncode != 0:
+        pytest.fail(f"{block.where}: ```{block.lang} block failed (exit {done.returncode}):\n"
+                    f"{script}\n--- stdout (tail) ---\n{done.stdout[-3000:]}\n"
+                    f"--- stderr (tail) ---\n{done.stderr[-3000:]}")
+
+
+def run_python(block: Block, namespace: dict) -> None:
+    # Pad with blank lines so a traceback names the document's own line numbers.
+    code = compile("\n" * block.line + block.code, str(block.doc), "exec")
+    try:
+        exec(code, namespace)
+    except Exception as exc:  # report which block of which document, then the error
+        raise AssertionError(f"{block.where}: ```python block failed: "
+                             f"{type(exc).__name__}: {exc}\n{block.code}") from exc
+
+
+def run_document(doc: Path, cwd: Path) -> None:
+    """Run the runnable blocks of ``doc`` in order in the folder ``cwd``."""
+    namespace: dict = {"__name__": "__main__"}
+    for block in blocks(doc):
+        if block.lang not in RUNNABLE or block.skip_reason is not None:
+            continue
+        if block.lang in PYTHON:
+            run_python(block, namespace)
+        elif block.lang in SHELL:
+            run_shell(block, block.code, cwd)
+        else:
+            for command in console_commands(block.code):
+                run_shell(block, command, cwd)
+
+
+def runnable_docs() -> list[Path]:
+    return [d for d in DOCS
+            if any(b.lang in RUNNABLE and b.skip_reason is None for b in blocks(d))]
+
+
+@pytest.mark.parametrize("doc", runnable_docs(), ids=lambda p: p.name)
+def test_every_block_of_the_document_runs_in_order(doc, tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    (tmp_path / "benchmarks").symlink_to(ROOT / "benchmarks", target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    try:
+        run_document(doc, tmp_path)
+    finally:
+        plt.close("all")
+
+
+def test_every_block_names_its_language_and_every_skip_its_reason():
+    problems = []
+    for doc in DOCS:
+        for b in blocks(doc):
+            if not b.lang:
+                problems.append(f"{b.where}: a fenced block without a language (```text, "
+                                "```bash, ```python, …): say whether it runs")
+            if b.skip_reason == "":
+                problems.append(f"{b.where}: `<!-- not run: -->` without a reason")
+            if b.skip_reason is not None and b.lang not in RUNNABLE:
+                problems.append(f"{b.where}: `not run` before a ```{b.lang} block, "
+                                "which never runs")
+    assert problems == [], "\n".join(problems)
+
+
+def test_console_commands_join_continuation_lines():
+    code = "$ tma a \\\n    --b 1\noutput line\n$ tma c\n"
+    assert console_commands(code) == ["tma a \\\n    --b 1", "tma c"]
+
+
+def test_a_not_run_comment_skips_the_next_block_only(tmp_path):
+    doc = tmp_path / "d.md"
+    doc.write_text("<!-- not run: needs a radio -->\n\n```bash\nexit 1\n```\n\n```python\n"
+                   "x = 1\n```\n<!-- not run: -->\n```python\nraise SystemExit\n```\n")
+    found = blocks(doc)
+    assert [b.skip_reason for b in found] == ["needs a radio", None, ""]
+    assert [b.line for b in found] == [3, 7, 11]
+
+
+def test_a_block_in_a_list_item_is_found_and_dedented(tmp_path):
+    doc = tmp_path / "d.md"
+    doc.write_text("1. Simulate:\n\n    ```bash\n    tma scenarios\n    ```\n\n"
+                   "```python\nfor k in range(2):\n    print(k)\n```\n")
+    listed, top = blocks(doc)
+    assert (listed.lang, listed.code) == ("bash", "tma scenarios\n")
+    assert top.code == "for k in range(2):\n    print(k)\n"  # indentation kept
+
+
+def commands(block: Block) -> int:
+    """Shell commands in a block (continuation lines joined, comments and blank lines not)."""
+    if block.lang in CONSOLE:
+        return len(console_commands(block.code))
+    if block.lang in SHELL:
+        text = block.code.replace("\\\n", " ")
+        return sum(1 for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#"))
+    return 0
+
+
+def inventory() -> list[tuple[str, int, int, int, int, list[str]]]:
+    """Per document: Python blocks and shell commands run, the same not run, and why."""
+    rows = []
+    for doc in DOCS:
+        runnable = [b for b in blocks(doc) if b.lang in RUNNABLE]
+        ran = [b for b in runnable if b.skip_reason is None]
+        skipped = [b for b in runnable if b.skip_reason is not None]
+        rows.append((str(doc.relative_to(ROOT)),
+                     sum(b.lang in PYTHON for b in ran), sum(commands(b) for b in ran),
+                     sum(b.lang in PYTHON for b in skipped), sum(commands(b) for b in skipped),
+                     [f"{b.where}: {b.skip_reason}" for b in skipped]))
+    return rows
+
+
+if __name__ == "__main__":
+    totals = [0, 0, 0, 0]
+    print(f"{'document':24s} {'run: python blocks':>18s} {'commands':>9s}   "
+          f"{'not run: python':>15s} {'commands':>9s}")
+    for name, *counts, reasons in inventory():
+        totals = [a + b for a, b in zip(totals, counts, strict=True)]
+        print(f"{name:24s} {counts[0]:18d} {counts[1]:9d}   {counts[2]:15d} {counts[3]:9d}")
+        for reason in reasons:
+            print(f"    not run: {reason}")
+    print(f"{'total':24s} {totals[0]:18d} {totals[1]:9d}   {totals[2]:15d} {totals[3]:9d}")

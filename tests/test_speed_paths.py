@@ -1,0 +1,77 @@
+"""Shortcuts of issue 14 that must not change what the user gets.
+
+* A no-guess estimate on many rows first converges on a subset (``batch.ml.presolve``): its
+  optimum is the whole set's, as reached by the solver started at the truth.
+* A filter run on a set already filtered reuses its compiled form (``compiled_for``): tracks
+  are identical, and other settings get their own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+import tmakit as tk
+from tmakit.batch import ml
+from tmakit.batch.varpro import VarProProblem
+from tmakit.filters import ExtendedKalmanFilter
+from tmakit.filters.compiled import compiled_for
+from tmakit.frames import wrap_angle
+from tmakit.observation import ObservationModel
+
+
+def _many_rows(n: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
+    scn = tk.load_scenario("bearings-only-2d")
+    lo, hi = scn.time_span()
+    plans = [dataclasses.replace(p, times=np.linspace(lo, hi, n)) for p in scn.plans]
+    scn = dataclasses.replace(scn, plans=plans)
+    return scn, scn.simulate(np.random.default_rng(3))
+
+
+def test_presolved_estimate_is_the_optimum_from_the_truth() -> None:
+    scn, meas = _many_rows(ml.PRESOLVE_ROWS + 5_000)
+    blind = tk.estimate(meas, scn.motion)
+    assert blind.status == "converged"
+    from_truth = tk.estimate(meas, scn.motion, init=scn.truth)
+    # Both at the same minimum: well within the solver's tolerance of a standard deviation.
+    assert np.all(np.abs(blind.estimate - from_truth.estimate) < 1e-3 * from_truth.std)
+    assert abs(blind.chi2 - from_truth.chi2) < 1e-3
+
+
+def test_presolve_leaves_small_problems_alone() -> None:
+    scn = tk.load_scenario("bearings-only-2d")
+    meas = scn.simulate(np.random.default_rng(0))
+    assert len(meas) <= ml.PRESOLVE_ROWS
+    problem = VarProProblem(ObservationModel(meas, scn.motion))
+    theta = np.atleast_2d(scn.theta)
+    out, near = ml.presolve(problem, np.atleast_2d(meas.value_si), theta, 50)
+    assert out is theta and not near
+
+
+def test_a_set_filtered_again_is_compiled_once() -> None:
+    scn = tk.load_scenario("bearings-only-2d")
+    meas = scn.simulate(np.random.default_rng(1))
+    a = compiled_for(meas, 2)
+    assert compiled_for(meas, 2) is a
+    assert compiled_for(meas, 2, nuisance={"carrier": 1e9}) is not a
+    assert compiled_for(meas, 3) is not a
+    prior = np.array([3000.0, 8000.0, 0.0, 0.0])
+    cov = np.diag([1e3, 1e3, 10.0, 10.0]) ** 2
+    first = ExtendedKalmanFilter(prior, cov, 0.0, q=0.01).run(meas)
+    again = ExtendedKalmanFilter(prior, cov, 0.0, q=0.01).run(meas)
+    assert np.array_equal(first.states, again.states)
+    assert np.array_equal(first.covariances, again.covariances)
+
+
+def test_wrap_angle_keeps_its_values_bit_for_bit() -> None:
+    rng = np.random.default_rng(0)
+    x = np.concatenate([rng.uniform(-0.1, 0.1, 1000), rng.uniform(-40, 40, 1000),
+                        [np.pi, -np.pi, 3 * np.pi, -3 * np.pi, 0.0, -0.0, 2 * np.pi,
+                         np.nextafter(-np.pi, 0.0), np.nextafter(np.pi, 4.0), np.inf, np.nan]])
+    with np.errstate(invalid="ignore"):
+        want = np.mod(x + np.pi, 2.0 * np.pi) - np.pi
+        want = np.where(want == -np.pi, np.pi, want)
+        got = wrap_angle(x)
+    assert np.array_equal(got, want, equal_nan=True)
+    assert float(wrap_angle(-np.pi)) == np.pi
