@@ -266,3 +266,31 @@ def print_warnings(warnings: list[Any]) -> None:
     """
     for w in warnings:
         err.print(f"[bold yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
+
+
+def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
+    """Return the track's last state in the user's terms (``--sensor`` for range and bearing).
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The track.
+    meas : tmakit.data.MeasurementSet
+        The measurements tracked.
+    sensor : str or None
+        ``--sensor``; None for the sensor of the last measurement.
+
+    Returns
+    -------
+    tmakit.results.answers.Answer
+        The answers after the last update.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for an unknown sensor.
+    """
+    if sensor is not None and sensor not in meas.sensors:
+        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
+                   f"{', '.join(meas.sensors)})")
+    return tr.answer(meas, sensor=sensor)

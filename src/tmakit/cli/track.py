@@ -11,7 +11,14 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from .answers_out import SensorOption, UnitsOption, check_units, print_answers, print_warnings
+from .answers_out import (
+    SensorOption,
+    UnitsOption,
+    check_units,
+    final_answer,
+    print_answers,
+    print_warnings,
+)
 from .common import (
     BearingSigmaOption,
     ContactOption,
@@ -149,34 +156,6 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
         print_track(tr, truth, rows, meas)
         print_answers(answer, units, meas)
     print_warnings(measurement_warnings(meas))
-
-
-def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
-    """Return the track's last state in the user's terms (``--sensor`` for range and bearing).
-
-    Parameters
-    ----------
-    tr : tmakit.filters.Track
-        The track.
-    meas : tmakit.data.MeasurementSet
-        The measurements tracked.
-    sensor : str or None
-        ``--sensor``; None for the sensor of the last measurement.
-
-    Returns
-    -------
-    tmakit.results.answers.Answer
-        The answers after the last update.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for an unknown sensor.
-    """
-    if sensor is not None and sensor not in meas.sensors:
-        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
-                   f"{', '.join(meas.sensors)})")
-    return tr.answer(meas, sensor=sensor)
 
 
 def measurement_warnings(meas: Any) -> list[Any]:
