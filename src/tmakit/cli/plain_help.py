@@ -24,7 +24,8 @@ VALUE_NAMES = {
     "truth": "NAME=VALUE,...", "prior": "NAME=VALUE,...", "prior_std": "NAME=VALUE,...",
     "map_text": "COLUMN=ROLE,...", "measure": "COLUMN:KIND:UNIT:SIGMA", "dask": "ADDRESS",
     "filter_name": "FILTER", "units": "si|nautical", "criterion": "bic|lrt",
-    "accelerations": "select|all",
+    "accelerations": "select|all", "max_runs": "N", "ownship": "NAME", "contact": "NAME",
+    "sensor": "NAME",
 }
 
 
