@@ -9,8 +9,10 @@ power constant unknown), exactly as
     tma estimate drone.csv --mapping drone.toml --motion static2d
 
 does.  The transmitter's lat/lon and its 95 % ellipse (semi-axes in m, orientation of the
-major axis in degrees true) are printed for the first log; over all logs, the share whose
-2-D position error has a Mahalanobis distance <= 3 (target: at least 97 %).
+major axis in degrees true) are the answers that command prints (``EstimateResult.answer()``),
+shown for the first log; over all logs, the share whose 2-D position error (the answer's
+East/North against the truth) has a Mahalanobis distance <= 3 under the answer's covariance
+(target: at least 97 %).
 
     python benchmarks/real_logs_drone.py --runs 100 --seed 0
 """
@@ -22,10 +24,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import chi2
 
 import tmakit as tk
-from tmakit.geodesy import enu_to_geodetic, geodetic_to_enu
+from tmakit.geodesy import geodetic_to_enu
 from tmakit.io.samples import drone_sample
 
 
@@ -41,15 +42,6 @@ def fit(folder: Path, seed: int):
     return meas, result, origin, np.array([float(e), float(n)]), truth
 
 
-def ellipse(cov: np.ndarray, level: float = 0.95) -> tuple[float, float, float]:
-    """Semi-axes (m) and the major axis's orientation (deg true) of a 2-D confidence ellipse."""
-    w, v = np.linalg.eigh(cov)
-    k = np.sqrt(chi2.ppf(level, 2))
-    major = v[:, 1]
-    return k * np.sqrt(w[1]), k * np.sqrt(w[0]), float(np.rad2deg(np.arctan2(major[0],
-                                                                              major[1])) % 180)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=100)
@@ -58,19 +50,20 @@ def main() -> None:
     distances, converged = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(args.seed, args.seed + args.runs):
-            _, result, origin, truth_en, truth = fit(Path(tmp), seed)
-            err = result.estimate[:2] - truth_en
-            cov = result.covariance[:2, :2]
+            meas, result, _, truth_en, truth = fit(Path(tmp), seed)
+            answer = result.answer(meas)  # what tma estimate prints: position, ellipse
+            err = np.array(answer.enu[:2], dtype=float) - truth_en
+            cov = answer.covariance[:2, :2]
             distances.append(float(np.sqrt(err @ np.linalg.solve(cov, err))))
             converged.append(result.status == "converged")
             if seed == args.seed:
-                lat, lon, _ = enu_to_geodetic(result.estimate[0], result.estimate[1], origin[2],
-                                              origin)
-                a, b, angle = ellipse(cov)
-                print(f"seed {seed}: transmitter at lat {float(lat):.6f} deg, lon "
-                      f"{float(lon):.6f} deg (truth {truth['lat']:.6f}, {truth['lon']:.6f}); "
-                      f"95 % ellipse {a:.0f} m x {b:.0f} m, major axis {angle:.0f} deg true; "
-                      f"error {np.hypot(*err):.0f} m, Mahalanobis {distances[-1]:.2f}")
+                lat, lon, _ = answer.geodetic
+                e = answer.ellipse
+                print(f"seed {seed}: transmitter at lat {lat:.6f} deg, lon {lon:.6f} deg "
+                      f"(truth {truth['lat']:.6f}, {truth['lon']:.6f}); {e.level:.0%} ellipse "
+                      f"{e.semi_major:.0f} m x {e.semi_minor:.0f} m, major axis "
+                      f"{e.orientation_deg:.0f} deg true; error {np.hypot(*err):.0f} m, "
+                      f"Mahalanobis {distances[-1]:.2f}")
     d = np.array(distances)
     print(f"{args.runs} seeded drone logs (seeds {args.seed}..{args.seed + args.runs - 1}): "
           f"{np.mean(converged):.0%} converged; Mahalanobis distance of the 2-D error: "

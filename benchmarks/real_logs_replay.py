@@ -5,10 +5,14 @@ a constant-velocity contact at 8-14 kn 6-9 km away, 720 bearings with 0.5 deg no
 hour, ``NULL`` sensor positions taken from the own ship's track) is read by the Debrief
 reader and fitted by maximum likelihood (cv2d), exactly as
 
-    tma estimate contact.rep --ownship OWNSHIP --contact CONTACT --motion cv2d --bearing-sigma 0.5
+    tma estimate contact.rep --ownship OWNSHIP --contact CONTACT --motion cv2d \
+        --bearing-sigma 0.5 --units nautical
 
-does.  Course = atan2(vx, vy) in degrees true and speed in knots, from the estimate; compared
-with the contact's true course and speed.  Target: within 1 deg and 0.2 kn.
+does.  Course (degrees true) and speed (knots) are the answers that command prints, from
+``EstimateResult.answer()`` (the shared computation of ``tmakit.results.answers``), at the last
+measurement; compared with the contact's true course and speed (constant over the hour).
+Target: within 1 deg and 0.2 kn.  The one command is checked to print range, bearing, course
+and speed, each with its std, in nautical units.
 
     python benchmarks/real_logs_replay.py --runs 100 --seed 0
 """
@@ -24,11 +28,13 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.io.logs import KNOT
 from tmakit.io.samples import replay_sample
 
 COMMAND = ["--ownship", "OWNSHIP", "--contact", "CONTACT", "--motion", "cv2d",
-           "--bearing-sigma", "0.5"]
+           "--bearing-sigma", "0.5", "--units", "nautical"]
+#: The rows the one command must print with a value, a std and the unit (nautical units).
+ROWS = {"course (true)": "deg", "speed": "kn", "range from OWNSHIP": "nmi",
+        "bearing from OWNSHIP (true)": "deg"}
 
 
 def one_command(folder: Path) -> None:
@@ -39,6 +45,16 @@ def one_command(folder: Path) -> None:
           f"{truth['course']:.2f} deg, speed {truth['speed']:.3f} kn)")
     result = CliRunner().invoke(app, ["estimate", str(rep), *COMMAND])
     print(result.output)
+    cells = {}
+    for line in result.output.splitlines():
+        parts = [p.strip() for p in line.strip("│ ").split("│")]
+        if len(parts) == 4 and parts[0] in ROWS:
+            cells[parts[0]] = parts[1:]
+    for name, unit in ROWS.items():
+        value, std, shown_unit = cells.get(name, ("", "", ""))
+        ok = bool(value) and bool(std) and shown_unit == unit
+        print(f"  printed {name}: {value} +- {std} {shown_unit} "
+              f"({'ok' if ok else 'MISSING: expected value, std and ' + unit})")
 
 
 def main() -> None:
@@ -57,10 +73,9 @@ def main() -> None:
             meas = tk.read_measurements(rep, ownship="OWNSHIP", contact="CONTACT",
                                         bearing_sigma=0.5)
             result = tk.estimate(meas, tk.motion_from_name("cv2d"))
-            vx, vy = result.estimate[2], result.estimate[3]
-            course = np.rad2deg(np.arctan2(vx, vy)) % 360.0
-            dc.append(abs((course - truth["course"] + 180.0) % 360.0 - 180.0))
-            ds.append(abs(np.hypot(vx, vy) / KNOT - truth["speed"]))
+            answer = result.answer(meas)  # what tma estimate prints
+            dc.append(abs((answer.course_deg - truth["course"] + 180.0) % 360.0 - 180.0))
+            ds.append(abs(answer.speed_knots - truth["speed"]))
             status.append(result.status == "converged")
     dc, ds = np.array(dc), np.array(ds)
     both = (dc < 1.0) & (ds < 0.2)

@@ -192,6 +192,21 @@ def test_track_answers_and_json(tmp_path, bo):
     assert "emitter at t = 600 s" in text.output and "kn" in text.output
 
 
+def test_a_track_answers_for_itself_like_an_estimate(bo):
+    """Issue 12 item 3: answers from the Python result objects, the track's as the estimate's."""
+    _, meas, res = bo
+    tr = tk.track(meas, "ekf")
+    a = tr.answer(meas)
+    assert a.as_dict() == track_answer(tr, meas).as_dict()
+    mid = tr.answer(meas, index=len(tr) // 2, sensor="observer", level=0.9)
+    assert mid.time == tr.times[len(tr) // 2] and mid.ellipse.level == 0.9
+    # The track's last answer agrees with the batch estimate's at the same time within 3 sigma.
+    b = res.answer(meas, time=a.time)
+    assert abs(a.course_deg - b.course_deg) < 3 * np.hypot(a.course_std_deg, b.course_std_deg)
+    assert abs(a.range_m - b.range_m) < 3 * np.hypot(a.range_std, b.range_std)
+    assert 0 <= a.bearing_deg < 360 and a.speed_knots == pytest.approx(a.speed / KNOT)
+
+
 def test_estimate_answer_without_a_bound_uses_the_method_covariance():
     scn = tk.load_scenario("gu2007")
     meas = scn.simulate(rng=1)
@@ -230,3 +245,64 @@ def test_bad_answer_options_are_refused_naming_the_option(tmp_path, bo, option, 
     out = run("estimate", str(path), "--motion", "cv2d", option, value)
     assert out.exit_code == 2 and option in out.output and words in out.output
     assert "Traceback" not in out.output
+
+
+def test_altitude_is_labelled_by_the_files_altitude_reference(tmp_path):
+    """A Debrief file's altitudes are above mean sea level: no output calls them WGS-84."""
+    from tmakit.io.samples import replay_sample
+    from tmakit.results.answers import answer_from_state
+
+    rep = tmp_path / "s.rep"
+    rep.write_text(replay_sample(3)[0])
+    ms = tk.read_measurements(rep)
+    assert ms.metadata["altitude_reference"] == "msl"
+    state, cov = np.array([100.0, 200.0, 5.0, 1.0, 2.0, 0.0]), np.eye(6)
+    a = answer_from_state(state, cov, 60.0, ms, dim=3)
+    assert a.altitude_reference == "mean sea level"
+    assert a.as_dict()["position"]["altitude_reference"] == "mean sea level"
+    gps = ms.take(np.arange(len(ms)))
+    gps.metadata["altitude_reference"] = "ellipsoid"
+    assert answer_from_state(state, cov, 60.0, gps, dim=3).altitude_reference == \
+        "WGS-84 ellipsoid"
+    csv = tmp_path / "s3.csv"
+    assert run("import", "rep", str(rep), "--dim", "3", "-o", str(csv)).exit_code == 0
+    out = run("estimate", str(csv), "--motion", "cv3d")
+    assert "altitude (mean sea level)" in out.output and "WGS-84" not in out.output
+    data = json.loads(run("estimate", str(csv), "--motion", "cv3d", "--json").stdout)
+    assert data["answer"]["position"]["altitude_reference"] == "mean sea level"
+
+
+def test_estimate_states_the_origin_it_defaulted_to_and_the_clock(tmp_path):
+    """Issue 12: the origin defaults to the first fix, stated in the output."""
+    from tmakit.io.samples import replay_sample
+
+    rep = tmp_path / "c.rep"
+    rep.write_text(replay_sample(0)[0])
+    out = run("estimate", str(rep), "--motion", "cv2d", "--units", "nautical")
+    text = " ".join(out.output.split())
+    assert ("frame: ENU origin lat 47.950000 deg, lon -5.250000 deg, alt 0.0 m (the first fix), "
+            "altitudes above mean sea level; t = 0 s is 2026-05-04T09:30:00Z (UTC)") in text
+    given = run("estimate", str(rep), "--motion", "cv2d", "--origin", "48,-5.3,0")
+    assert "lat 48.000000 deg, lon -5.300000 deg, alt 0.0 m (given)" in " ".join(
+        given.output.split())
+
+
+def test_an_unobservable_height_leaves_the_horizontal_answers(tmp_path):
+    """A 3-D bearings-only fit: Up is unobservable, East/North, lat/lon and course are not."""
+    from tmakit.io.samples import replay_sample
+
+    rep = tmp_path / "c.rep"
+    rep.write_text(replay_sample(0)[0])
+    flat = tk.read_measurements(rep, bearing_sigma=0.5)
+    tall = tk.read_measurements(rep, bearing_sigma=0.5, dim=3)
+    assert tall.dim == 3
+    a2 = tk.estimate(flat, tk.motion_from_name("cv2d")).answer(flat)
+    res3 = tk.estimate(tall, tk.motion_from_name("cv3d"))
+    assert res3.status == "unobservable"
+    a3 = res3.answer(tall)
+    assert a3.enu[2] is None and a3.geodetic[2] is None and a3.range_m is None
+    assert a3.enu[0] == pytest.approx(a2.enu[0], abs=1.0)
+    assert a3.geodetic[0] == pytest.approx(a2.geodetic[0], abs=1e-5)  # not moved by Up
+    assert a3.geodetic[1] == pytest.approx(a2.geodetic[1], abs=1e-5)
+    assert a3.course_deg == pytest.approx(a2.course_deg, abs=0.05)
+    assert a3.bearing_deg == pytest.approx(a2.bearing_deg, abs=0.01)

@@ -56,6 +56,7 @@ def test_crlb_at_gives_the_course_in_degrees_true():
     value = float(course.split()[1])
     assert 0 <= value < 360 and course.rstrip().endswith("deg")
     assert value == pytest.approx(240.0, abs=0.01)  # vx -21.65, vy -12.5: 240 deg true
+    assert "course_deg" not in out  # the JSON's degree copy is not printed twice
 
 
 def test_crlb_at_json_adds_the_course_in_degrees_and_keeps_radians():
@@ -75,3 +76,49 @@ def test_reproduction_figures_are_printed_as_words_not_python_values():
     text = plain({"rmse": [1.0, 2.5e-7], "ok": True, "n": 3})
     assert text == "rmse = 1, 2.5e-07; ok = true; n = 3"
     assert "[" not in plain([[1.0, 2.0], [3.0]]) and "{" not in plain({"a": {"b": 1.0}})
+
+
+@pytest.mark.parametrize("command", [*COMMANDS, "import", "examples"])
+def test_help_names_values_not_python_types(command):
+    text = run(command, "-h").output
+    # typer's type labels (<str>, <float>, <int>, <path>, <list[Path]>) and {file} usage
+    assert not re.search(r"<(str|int|float|path|bool|list\[[^]]*\])>", text), text
+    assert "{" not in text.split("\n\n")[0]  # the usage line
+
+
+def test_help_shows_what_each_value_is():
+    text = " ".join(run("estimate", "-h").output.split())
+    assert "estimate [OPTIONS] FILE Estimate" in text
+    for shown in ("--origin LAT,LON,ALT", "--plot FILE", "--units si|nautical", "--at T",
+                  "--bearing-sigma DEG"):
+        assert shown in text
+    assert "--json print JSON" in text  # a flag takes no value
+    assert "-o, --output FILE" in " ".join(run("track", "-h").output.split())
+
+
+def test_montecarlo_table_has_units():
+    out = run("montecarlo", "gu2007", "--runs", "2", "--no-progress")
+    assert out.exit_code == 0, out.output
+    header = next(line for line in out.output.splitlines() if "parameter" in line)
+    assert "unit" in header
+    vx = next(line for line in out.output.splitlines() if line.strip("│ ").startswith("vx "))
+    assert "m/s" in vx
+
+
+def test_montecarlo_of_a_motion_it_cannot_start_is_an_error_not_a_traceback():
+    out = run("montecarlo", "hoerst2010", "--runs", "2", "--no-progress")
+    assert out.exit_code == 2 and out.output.startswith("error:") and "hoerst2010" in out.output
+    assert "Traceback" not in out.output
+
+
+def test_curvilinear_estimate_gives_the_course_in_degrees_true(tmp_path):
+    obs = tmp_path / "ho.csv"
+    assert run("simulate", "hoerst2010", "--seed", "1", "-o", str(obs)).exit_code == 0
+    out = run("estimate", str(obs), "--motion", "curvilinear:1").output
+    course = next(line.split() for line in out.splitlines() if line.strip().startswith("course"))
+    assert course[-1] == "deg"
+    # the truth starts East (90 deg); one manoeuvre fewer than the truth bends it a little,
+    # a value in radians (1.57) would be far off
+    assert float(course[1]) == pytest.approx(90.0, abs=15.0)
+    answer = next(line for line in out.splitlines() if "course (true)" in line)
+    assert answer.rstrip(" │").endswith("deg") and "rad" not in out

@@ -113,3 +113,26 @@ def test_a_failed_3d_start_names_dim_2(tmp_path):
     result = run("track", out)
     assert result.exit_code == 2 and "track in 2-D (--dim 2)" in result.output
     assert run("track", out, "--dim", "2", "--rows", "2").exit_code == 0
+
+
+def test_replay_range_and_frequency_sigmas_from_the_command_line(tmp_path):
+    rep = tmp_path / "s.rep"
+    rep.write_text(";; test\n"
+                   "260504 093000 OWN @A 47 57 00.00 N 005 15 00.00 W 90.0 10.0 0.0\n"
+                   "260504 093100 OWN @A 47 57 00.00 N 005 14 12.00 W 90.0 10.0 0.0\n"
+                   ";SENSOR2: 260504 093030 OWN @A NULL 10.0 NULL 150.5 1000 TA T1\n"
+                   ";SENSOR3: 260504 093040 OWN @A NULL 12.0 0.7 150.6 0.02 1100 TA T1\n")
+    out = tmp_path / "o.csv"
+    result = run("import", "rep", rep, "--range-sigma", "30", "--frequency-sigma", "0.5",
+                 "-o", out)
+    assert result.exit_code == 0, result.output
+    assert "sigma: bearing 1 deg, range 30 m, frequency 0.5 Hz; 1 ;SENSOR3: lines state their " \
+           "own accuracy" in " ".join(result.output.split())
+    ms = tk.read_measurements(out)
+    assert np.allclose(ms.select(kind="range").sigma_si, 30.0)
+    assert np.allclose(ms.select(kind="frequency").sigma_si, 0.5)  # the user's word wins
+    assert np.allclose(ms.select(kind="bearing").sigma, [1.0, 0.7])  # the line's accuracy
+    shown = run("show", rep, "--range-sigma", "30")
+    assert shown.exit_code == 0 and "30" in shown.output
+    bad = run("import", "rep", rep, "--range-sigma", "-1", "-o", tmp_path / "b.csv")
+    assert bad.exit_code == 2 and "range sigma -1.0: expected a number > 0" in bad.output

@@ -84,6 +84,28 @@ def test_replay_sensor2_ranges_frequencies_quotes_and_negative_bearings(tmp_path
     assert np.allclose(b.sensor_state[:, 0], [east_end / 2, east_end * 30 / 48], rtol=1e-6)
 
 
+def test_replay_sensor3_accuracies_are_the_sigmas_unless_the_user_gives_one(tmp_path):
+    """Debrief's ;SENSOR3: line: bearing, its accuracy, frequency, its accuracy, range."""
+    rep = write(tmp_path, "s3.rep", HEAD + OWN +
+                ";SENSOR3: 260504 093010 OWN @A NULL 45.0 2.5 150.25 0.05 2000 TA T1 a\n"
+                ";SENSOR3: 260504 093020 OWN @A NULL 46.0 NULL 150.30 NULL NULL TA T1 b\n")
+    ms = tk.read_measurements(rep)
+    b, f = ms.select(kind="bearing"), ms.select(kind="frequency")
+    assert np.allclose(b.value, [45.0, 46.0]) and np.allclose(f.value, [150.25, 150.30])
+    assert np.allclose(b.sigma, [2.5, 1.0])  # the line's accuracy, then the default (deg)
+    assert np.allclose(f.sigma_si, [0.05, 0.1])
+    assert ms.select(kind="range").value_si[0] == pytest.approx(2000 * 0.9144)
+    assert ms.metadata["sigma_from_file"] == "1"
+    mine = tk.read_measurements(rep, bearing_sigma=0.5, frequency_sigma=0.2, range_sigma=30.0)
+    assert np.allclose(mine.select(kind="bearing").sigma, 0.5)  # the user's word wins
+    assert np.allclose(mine.select(kind="frequency").sigma_si, 0.2)
+    assert mine.select(kind="range").sigma_si[0] == 30.0
+    bad = write(tmp_path, "b3.rep", HEAD + OWN +
+                ";SENSOR3: 260504 093010 OWN @A NULL 45.0 0 150.25 0.05 NULL TA T1\n")
+    with pytest.raises(MeasurementFileError, match="line 4: expected bearing accuracy > 0"):
+        tk.read_measurements(bad)
+
+
 @pytest.mark.parametrize(("line", "expect"), [
     ("2605x4 093000 OWN @A 47 57 00.00 N 005 15 00.00 W 90.0 10.0 0.0",
      "line 4: expected a date YYMMDD"),

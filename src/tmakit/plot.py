@@ -13,6 +13,8 @@ import numpy as np
 
 from .data import MeasurementSet
 from .measurements import KINDS
+from .plot_frame import MapFrame, format_time_axis, map_legend, plot_times
+from .results.context import clock_time
 from .truth import truth_states
 
 if TYPE_CHECKING:  # annotations only: plot is imported without the filters and bounds
@@ -74,22 +76,22 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     sensor_colour = {s: colours[i % len(colours)] for i, s in enumerate(meas.sensors)}
 
+    frame = MapFrame(meas)
     for s in meas.sensors:
         sel = meas.sensor == s
         order = np.argsort(meas.time[sel], kind="stable")
-        xy = meas.sensor_state[sel][order, :2] / 1e3
-        ax_map.plot(xy[:, 0], xy[:, 1], "-", color=sensor_colour[s], label=f"sensor {s}")
-        ax_map.plot(xy[0, 0], xy[0, 1], "s", color=sensor_colour[s], ms=7)
+        xs, ys = frame.xy(*meas.sensor_state[sel][order, :2].T)
+        ax_map.plot(xs, ys, "-", color=sensor_colour[s], label=f"sensor {s}")
+        ax_map.plot(xs[0], ys[0], "s", color=sensor_colour[s], ms=7)
     target = truth_track(meas)
     if target is not None:
-        ax_map.plot(target[:, 0] / 1e3, target[:, 1] / 1e3, "k--", label="target (truth)")
-        ax_map.plot(target[0, 0] / 1e3, target[0, 1] / 1e3, "ks", ms=7)
-    ax_map.set_xlabel("East (km)")
-    ax_map.set_ylabel("North (km)")
-    ax_map.set_aspect("equal", adjustable="datalim")
-    ax_map.grid(True, alpha=0.3)
-    ax_map.legend(loc="best", fontsize=8)
+        xs, ys = frame.xy(target[:, 0], target[:, 1])
+        ax_map.plot(xs, ys, "k--", label="target (truth)")
+        ax_map.plot(xs[0], ys[0], "ks", ms=7)
+    frame.decorate(ax_map)
+    map_legend(ax_map)
     ax_map.set_title("tracks (squares mark the start)", fontsize=10)
+    when, time_label = plot_times(meas, meas.time)
 
     for i, k in enumerate(kinds):
         ax = fig.add_subplot(grid[i, 1])
@@ -101,7 +103,7 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
         for s in meas.sensors:
             sel = sel_k & (meas.sensor == s)
             if np.any(sel):
-                ax.plot(meas.time[sel], meas.value[sel] - offset, ".", ms=3,
+                ax.plot(when[sel], meas.value[sel] - offset, ".", ms=3,
                         color=sensor_colour[s], label=s)
         sig = float(np.median(meas.sigma[sel_k]))
         label = k.replace("_", " ")
@@ -109,12 +111,20 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
             ax.set_ylabel(f"{label} - {offset / 1e6:.3f} MHz ({unit})", fontsize=8)
         else:
             ax.set_ylabel(f"{label} ({unit})", fontsize=8)
-        ax.set_title(f"{label}: {int(sel_k.sum())} samples, median sigma {sig:.3g} {unit}",
+        sig_unit = "dB" if unit.startswith("dB") else unit  # a power's sigma is a ratio
+        ax.set_title(f"{label}: {int(sel_k.sum())} samples, median sigma {sig:.3g} {sig_unit}",
                      fontsize=9)
         ax.grid(True, alpha=0.3)
         if i == len(kinds) - 1:
-            ax.set_xlabel("time (s)")
+            ax.set_xlabel(time_label)
+            format_time_axis(ax, when)
     return _save(fig, path, title)
+
+
+def _clock_label(meas: MeasurementSet, t: float) -> str:
+    """Return ``HH:MM:SS`` (UTC) when the set records its time origin, else ``t s``."""
+    clock = clock_time(meas, t)
+    return clock[11:19] if clock else f"{t:.0f} s"
 
 
 def _save(fig: Any, path: str | Path, title: str | None) -> Path:
@@ -192,51 +202,59 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
         ax_map = fig.add_subplot(1, 1, 1)
     _track_map(ax_map, tr, meas, truth, ellipses, probabilities, colours)
     if truth is not None:
-        _axis_errors(ax_axes, tr, truth, pcrb, colours)
-        _norm_errors(ax_norm, tr, truth, pcrb, pcrb_note, colours)
+        def axis(t: np.ndarray) -> np.ndarray:
+            return plot_times(meas, t)[0]
+
+        _axis_errors(ax_axes, tr, truth, pcrb, colours, axis)
+        _norm_errors(ax_norm, tr, truth, pcrb, pcrb_note, colours, axis)
+        ax_norm.set_xlabel(plot_times(meas, tr.times)[1])
+        format_time_axis(ax_norm, axis(tr.times))
     return _save(fig, path, title)
 
 
 def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray | None,
                ellipses: int, probabilities: tuple[float, ...], colours: list[str]) -> None:
     """Draw the map: sensor paths, the true path, the track and its position ellipses."""
+    frame = MapFrame(meas)
     for i, s in enumerate(meas.sensors):
         sel = meas.sensor == s
         order = np.argsort(meas.time[sel], kind="stable")
-        xy = meas.sensor_state[sel][order, :2] / 1e3
+        xs, ys = frame.xy(*meas.sensor_state[sel][order, :2].T)
         c = colours[(i + 2) % len(colours)]
-        ax_map.plot(xy[:, 0], xy[:, 1], "-", color=c, lw=1.2, label=f"sensor {s}")
-        ax_map.plot(xy[0, 0], xy[0, 1], "s", color=c, ms=6)
+        ax_map.plot(xs, ys, "-", color=c, lw=1.2, label=f"sensor {s}")
+        ax_map.plot(xs[0], ys[0], "s", color=c, ms=6)
     if truth is not None:
         path_true = truth_track(meas)
         path_true = truth if path_true is None else path_true
-        ax_map.plot(path_true[:, 0] / 1e3, path_true[:, 1] / 1e3, "k--", lw=1.2,
+        ax_map.plot(*frame.xy(path_true[:, 0], path_true[:, 1]), "k--", lw=1.2,
                     label="target (truth)")
-    pos = tr.states[:, :2] / 1e3
-    ax_map.plot(pos[:, 0], pos[:, 1], "-", color=colours[0], lw=1.5,
-                label=f"track ({tr.filter_name})")
-    ax_map.plot(pos[0, 0], pos[0, 1], "o", color=colours[0], ms=6, label="track start")
+    xs, ys = frame.xy(tr.states[:, 0], tr.states[:, 1])
+    ax_map.plot(xs, ys, "-", color=colours[0], lw=1.5, label=f"track ({tr.filter_name})")
+    ax_map.plot(xs[0], ys[0], "o", color=colours[0], ms=6, label="track start")
     k_sel = np.unique(np.linspace(0, len(tr) - 1, max(1, ellipses)).round().astype(int)) \
         if ellipses > 0 and len(tr) else np.array([], dtype=int)
     styles = ("-", "--", ":", "-.")
     for j, p in enumerate(probabilities):
         for n_k, k in enumerate(k_sel):
-            pts = _ellipse_xy(tr.states[k, :2], tr.covariances[k, :2, :2], p) / 1e3
-            ax_map.plot(pts[:, 0], pts[:, 1], styles[j % len(styles)], color=colours[1],
-                        lw=0.9, label=f"{p:.0%} ellipse" if n_k == 0 else None)
-    ax_map.set_xlabel("East (km)")
-    ax_map.set_ylabel("North (km)")
-    ax_map.set_aspect("equal", adjustable="datalim")
-    ax_map.grid(True, alpha=0.3)
-    ax_map.legend(loc="best", fontsize=8)
-    ax_map.set_title(f"track and position ellipses at {len(k_sel)} times", fontsize=10)
+            pts = _ellipse_xy(tr.states[k, :2], tr.covariances[k, :2, :2], p)
+            ax_map.plot(*frame.xy(pts[:, 0], pts[:, 1]), styles[j % len(styles)],
+                        color=colours[1], lw=0.9, label=f"{p:.0%} ellipse" if n_k == 0 else None)
+    frame.decorate(ax_map)
+    map_legend(ax_map)
+    times = ", ".join(_clock_label(meas, float(tr.times[k])) for k in k_sel[:: max(
+        1, len(k_sel) // 4)])
+    ax_map.set_title(f"track and position ellipses at {len(k_sel)} times ({times}, ...)"
+                     if len(k_sel) else "track", fontsize=10)
 
 
 def _axis_errors(ax_axes: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBound | None,
-                 colours: list[str]) -> None:
-    """Estimate minus truth per axis, within the filter's ±1 std and the PCRB's."""
+                 colours: list[str], axis: Any) -> None:
+    """Estimate minus truth per axis, within the filter's ±1 std and the PCRB's.
+
+    ``axis`` maps times (s) to the time axis's values (clock time when known).
+    """
     dim = len(tr.state_names) // 2
-    t = tr.times
+    t = axis(tr.times)
     err = tr.states[:, :dim] - truth[:, :dim]
     std = tr.std[:, :dim]
     for a, name in enumerate(tr.state_names[:dim]):
@@ -245,9 +263,9 @@ def _axis_errors(ax_axes: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBoun
         ax_axes.fill_between(t, -std[:, a], std[:, a], color=c, alpha=0.15,
                              label=f"±1 filter std {name}")
         if pcrb is not None:
-            ax_axes.plot(pcrb.times, pcrb.std[:, a], ":", color=c, lw=1.0,
+            ax_axes.plot(axis(pcrb.times), pcrb.std[:, a], ":", color=c, lw=1.0,
                          label=f"±PCRB std {name}")
-            ax_axes.plot(pcrb.times, -pcrb.std[:, a], ":", color=c, lw=1.0)
+            ax_axes.plot(axis(pcrb.times), -pcrb.std[:, a], ":", color=c, lw=1.0)
     ax_axes.set_ylabel("position error (m)")
     ax_axes.set_title("estimate minus truth per axis", fontsize=10)
     ax_axes.grid(True, alpha=0.3)
@@ -260,10 +278,10 @@ def _axis_errors(ax_axes: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBoun
 
 
 def _norm_errors(ax_norm: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBound | None,
-                 pcrb_note: str, colours: list[str]) -> None:
+                 pcrb_note: str, colours: list[str], axis: Any) -> None:
     """|position error| against the filter's sqrt(tr P) and the PCRB position RMS."""
     dim = len(tr.state_names) // 2
-    t = tr.times
+    t = axis(tr.times)
     err = tr.states[:, :dim] - truth[:, :dim]
     norm = np.linalg.norm(err, axis=1)
     sd = np.sqrt(np.einsum("kii->k", tr.covariances[:, :dim, :dim]))
@@ -274,11 +292,10 @@ def _norm_errors(ax_norm: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBoun
     if pcrb is not None:
         how = ("along the true path" if pcrb.mode == "deterministic"
                else f"{pcrb.trajectories} trajectories")
-        ax_norm.semilogy(pcrb.times, pcrb.position_rms, "k--", lw=1.2,
+        ax_norm.semilogy(axis(pcrb.times), pcrb.position_rms, "k--", lw=1.2,
                          label=f"PCRB position RMS ({how})")
     else:
         ax_norm.plot([], [], " ", label=pcrb_note or "PCRB not available")
-    ax_norm.set_xlabel("time (s)")
     ax_norm.set_ylabel("m")
     ax_norm.set_title("position error against the filter's std and the posterior CRB",
                       fontsize=10)

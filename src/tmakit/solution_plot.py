@@ -15,88 +15,16 @@ from typing import Any
 import numpy as np
 
 from .data import MeasurementSet
-from .geodesy import enu_to_geodetic
+from .plot_frame import MapFrame, format_time_axis, map_legend, plain_ticks, plot_times
 from .results import EstimateResult
-from .results.answers import estimate_answer
-from .results.context import clock_time, origin_of, sensor_position
+from .results.answers import KNOT, estimate_answer
+from .results.context import clock_time, sensor_position
 from .truth import truth_states
 
+#: One nautical mile (m).
+NAUTICAL_MILE = 1852.0
 #: At most this many bearing lines are drawn (evenly spread over the rows).
 MAX_BEARING_LINES = 40
-
-
-class MapFrame:
-    """Map coordinates: lon/lat (deg) when the origin is known, else East/North (km).
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements; their ``origin_*`` metadata (if any) gives the geodetic origin.
-    """
-
-    def __init__(self, meas: MeasurementSet) -> None:
-        self.origin = origin_of(meas)
-        self.geodetic = self.origin is not None
-        self.labels = (("longitude (deg)", "latitude (deg)") if self.geodetic
-                       else ("East (km)", "North (km)"))
-
-    def xy(self, east: np.ndarray, north: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return map coordinates of ENU positions (m).
-
-        Parameters
-        ----------
-        east, north : ndarray
-            ENU positions (m).
-
-        Returns
-        -------
-        tuple of ndarray
-            (lon, lat) in degrees, or (East, North) in km.
-        """
-        east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
-        if not self.geodetic:
-            return east / 1000.0, north / 1000.0
-        lat, lon, _ = enu_to_geodetic(east, north, np.zeros_like(east), self.origin)
-        return np.asarray(lon), np.asarray(lat)
-
-    def metres_per_x(self) -> float:
-        """Give the metres per unit of the horizontal map coordinate (at the origin).
-
-        Returns
-        -------
-        float
-            1000 for km, else the metres per degree of longitude at the origin's latitude.
-        """
-        if not self.geodetic:
-            return 1000.0
-        return 111_320.0 * float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
-
-    def aspect(self) -> float:
-        """Give the axis aspect ratio that keeps distances true.
-
-        Returns
-        -------
-        float
-            1 for km, ``1 / cos(latitude)`` in lon/lat.
-        """
-        if not self.geodetic:
-            return 1.0
-        return 1.0 / float(np.cos(np.radians(self.origin[0])))  # type: ignore[index]
-
-
-def _scale_bar(ax: Any, frame: MapFrame) -> None:
-    """Draw a scale bar of a round length, about a fifth of the map's width."""
-    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
-
-    x0, x1 = ax.get_xlim()
-    width_m = abs(x1 - x0) * frame.metres_per_x()
-    target = width_m / 5.0
-    step = 10.0 ** np.floor(np.log10(target))
-    length = max((m * step for m in (1, 2, 5) if m * step <= target), default=step)
-    text = f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m"
-    ax.add_artist(AnchoredSizeBar(ax.transData, length / frame.metres_per_x(), text,
-                                  "lower right", pad=0.5, frameon=True, size_vertical=0, sep=4,
-                                  label_top=True))
 
 
 def _ellipse(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
@@ -133,8 +61,9 @@ def _draw_bearings(ax: Any, meas: MeasurementSet, frame: MapFrame, reach: float)
 
 
 def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame: MapFrame,
-                   n_labels: int, level: float) -> None:
-    """Draw the estimated track, its ellipses and labelled times."""
+                   n_labels: int, level: float) -> float:
+    """Draw the estimated track, its ellipses and labelled times; give the largest semi-axis."""
+    largest = 0.0
     t = np.linspace(meas.time.min(), meas.time.max(), 200)
     states = result.motion.states(result.estimate, t)
     xs, ys = frame.xy(states[:, 0], states[:, 1])
@@ -144,7 +73,8 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
         s = result.motion.states(result.estimate, np.array([tk]))[0]
         px, py = frame.xy(np.array([s[0]]), np.array([s[1]]))
         ax.plot(px, py, "o", color="tab:red", ms=4, zorder=5)
-        ax.annotate(_label(meas, float(tk)), (px[0], py[0]), textcoords="offset points",
+        text = "emitter (stationary)" if a.stationary else _label(meas, float(tk))
+        ax.annotate(text, (px[0], py[0]), textcoords="offset points",
                     xytext=(6, 6), fontsize=8, color="tab:red",
                     bbox={"fc": "white", "alpha": 0.7, "lw": 0, "pad": 1})
         cov2 = a.covariance[:2, :2]
@@ -152,9 +82,19 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
             pts = _ellipse(cov2, level) + s[:2]
             ex, ey = frame.xy(pts[:, 0], pts[:, 1])
             ax.plot(ex, ey, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
+            largest = max(largest, a.ellipse.semi_major)
         if a.stationary:
             break
-    ax.plot([], [], color="tab:red", lw=0.9, label=f"{level:.0%} position ellipses")
+    return largest
+
+
+def _ellipse_legend(ax: Any, frame: MapFrame, level: float, largest: float) -> None:
+    """Add the ellipses' legend entry; say so when they are too small to be seen on the map."""
+    x0, x1 = ax.get_xlim()
+    width_m = abs(x1 - x0) * frame.metres_per_x()
+    note = (f" (largest {largest:.3g} m: hidden by the dots)" if 0 < largest < 0.01 * width_m
+            else "")
+    ax.plot([], [], color="tab:red", lw=0.9, label=f"{level:.0%} position ellipses{note}")
 
 
 def _fill_panel(ax: Any, frame: MapFrame, ratio: float = 1.15) -> None:
@@ -189,8 +129,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     if truth is not None:
         xs, ys = frame.xy(truth[:, 0], truth[:, 1])
         ax.plot(xs, ys, "--", color="0.35", lw=1.2, label="truth (file metadata)", zorder=2)
-    if finite:
-        _draw_solution(ax, result, meas, frame, n_labels, level)
+    largest = _draw_solution(ax, result, meas, frame, n_labels, level) if finite else 0.0
     ax.autoscale()
     _fill_panel(ax, frame)
     ax.set_aspect(frame.aspect(), adjustable="box")
@@ -199,23 +138,26 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
         y0, y1 = ax.get_ylim()
         reach = 1.3 * max(abs(x1 - x0), abs(y1 - y0) / frame.aspect()) * frame.metres_per_x()
         ax.set_autoscale_on(False)
+        _ellipse_legend(ax, frame, level, largest)
         _draw_bearings(ax, meas, frame, reach)
     ax.set_xlabel(frame.labels[0])
     ax.set_ylabel(frame.labels[1])
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8, framealpha=0.85)
-    _scale_bar(ax, frame)
+    plain_ticks(ax)
+    map_legend(ax)
+    frame.scale_bar(ax)
 
 
 def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray) -> None:
     """One panel per kind: residuals in units of sigma against time, ±1σ and ±3σ bands."""
+    when, label = plot_times(meas, meas.time)
     for ax, kind in zip(axes, meas.kinds, strict=True):
         rows = meas.kind_mask(kind)
         z = residuals[rows]
         for s in meas.sensors:
             sel = meas.sensor[rows] == s
             if np.any(sel):
-                ax.plot(meas.time[rows][sel], z[sel], ".", ms=4, label=s)
+                ax.plot(when[rows][sel], z[sel], ".", ms=4, label=s)
         ax.axhspan(-1, 1, color="tab:green", alpha=0.12)
         for y in (-3, 3):
             ax.axhline(y, color="tab:red", lw=0.8, ls=":")
@@ -229,13 +171,13 @@ def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray
         ax.grid(True, alpha=0.3)
         if len(meas.sensors) > 1:
             ax.legend(fontsize=7, loc="upper right")
-    axes[-1].set_xlabel("time (s)" if clock_time(meas, 0.0) is None
-                        else f"time (s since {clock_time(meas, 0.0)})")
+    axes[-1].set_xlabel(label)
+    format_time_axis(axes[-1], when)
 
 
 def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,
                   residuals: np.ndarray, answer: Any = None, title: str | None = None,
-                  labels: int = 5, level: float = 0.95) -> Path:
+                  labels: int = 5, level: float = 0.95, units: str = "si") -> Path:
     """Write the solution picture: geometry with bearing lines and ellipses, and residuals.
 
     Parameters
@@ -257,6 +199,8 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
         Times labelled along the estimated track (each with its ellipse).
     level : float
         Probability inside the ellipses (default 0.95).
+    units : str
+        ``si`` (speed m/s, range km) or ``nautical`` (speed kn, range nmi) in the title.
 
     Returns
     -------
@@ -279,7 +223,7 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     _draw_residuals(res_axes, meas, np.asarray(residuals, dtype=float))
     lines = [title or f"{result.method} estimate"]
     if answer is not None:
-        lines.append(_answer_line(answer, result))
+        lines.append(_answer_line(answer, result, units))
     fig.suptitle("\n".join(lines), fontsize=11)
     path = Path(path)
     fig.savefig(path, dpi=110)
@@ -287,18 +231,26 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     return path
 
 
-def _answer_line(a: Any, result: EstimateResult) -> str:
+def _answer_line(a: Any, result: EstimateResult, units: str = "si") -> str:
     """One line of answers for the title: course, speed, range, ellipse, chi2/dof."""
+    nautical = units == "nautical"
+    speed_unit, speed_scale = ("kn", KNOT) if nautical else ("m/s", 1.0)
+    range_unit, range_scale = ("nmi", NAUTICAL_MILE) if nautical else ("km", 1000.0)
     parts = [f"at {a.clock or f't = {a.time:g} s'}"]
+    if a.geodetic is not None and None not in a.geodetic[:2]:
+        parts.append(f"lat {a.geodetic[0]:.5f}°, lon {a.geodetic[1]:.5f}°")
     if a.course_deg is not None and a.speed is not None:
         parts.append(f"course {a.course_deg:.1f}° ± {a.course_std_deg:.1f}°, speed "
-                     f"{a.speed:.2f} ± {a.speed_std:.2f} m/s ({a.speed / 0.514444:.1f} kn)")
+                     f"{a.speed / speed_scale:.2f} ± {a.speed_std / speed_scale:.2f} "
+                     f"{speed_unit}")
     if a.range_m is not None:
-        parts.append(f"range {a.range_m / 1000:.3g} ± {a.range_std / 1000:.2g} km, bearing "
-                     f"{a.bearing_deg:.1f}° from {a.sensor}")
+        parts.append(f"range {a.range_m / range_scale:.3g} ± {a.range_std / range_scale:.2g} "
+                     f"{range_unit}, bearing {a.bearing_deg:.1f}° ± {a.bearing_std_deg:.2g}° "
+                     f"from {a.sensor}")
     if a.ellipse is not None:
-        parts.append(f"{a.ellipse.level:.0%} ellipse {a.ellipse.semi_major:.3g} x "
-                     f"{a.ellipse.semi_minor:.3g} m")
+        parts.append(f"{a.ellipse.level:.0%} ellipse semi-axes {a.ellipse.semi_major:.3g} x "
+                     f"{a.ellipse.semi_minor:.3g} m, major axis {a.ellipse.orientation_deg:.0f}° "
+                     "true")
     if result.dof > 0:
         parts.append(f"χ²/dof {result.chi2 / result.dof:.2f}")
     half = (len(parts) + 1) // 2

@@ -33,6 +33,7 @@ from .estimate import estimate
 from .guard import guarded, install_sigterm, set_debug
 from .importing import examples, import_
 from .montecarlo import montecarlo
+from .plain_help import PlainCommand
 from .plan import plan
 from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
@@ -70,9 +71,9 @@ def _root(version: Annotated[bool, typer.Option(
 # traceback reaches the user (tmakit.cli.guard).
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
                  plan, demo):
-    app.command()(guarded(_command))
-app.command(name="import")(guarded(import_))
-app.command()(guarded(examples))
+    app.command(cls=PlainCommand)(guarded(_command))
+app.command(name="import", cls=PlainCommand)(guarded(import_))
+app.command(cls=PlainCommand)(guarded(examples))
 
 
 def main() -> None:

@@ -160,7 +160,7 @@ def answers_table(a: Any, units: str, title: str) -> Table:
         row("latitude", lat, a.enu_std[1], ".6f", "deg", std_unit=" m")
         row("longitude", lon, a.enu_std[0], ".6f", "deg", std_unit=" m")
         if a.dim == 3:
-            row("altitude (WGS-84 ellipsoid)", alt, a.enu_std[2], ".1f", "m")
+            row(f"altitude ({a.altitude_reference})", alt, a.enu_std[2], ".1f", "m")
     for i, name in enumerate(("east", "north", "up")[: a.dim]):
         row(name, a.enu[i], a.enu_std[i], ".1f", "m")
     if not a.stationary:
@@ -201,8 +201,39 @@ def answer_title(a: Any, what: str) -> str:
     return f"{what} (stationary)" + (f"; range and bearing at {when}" if a.sensor else "")
 
 
-def print_answers(a: Any, units: str) -> None:
-    """Print the answers table and how its std were computed.
+def frame_note(meas: Any) -> str | None:
+    """Say where lat/lon and clock times come from: the ENU origin and the time origin.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet or None
+        The measurements (their ``origin_*``, ``origin_source``, ``altitude_reference`` and
+        ``time_origin`` metadata).
+
+    Returns
+    -------
+    str or None
+        ``frame: ENU origin lat .. deg, lon .. deg, alt .. m (the first fix), altitudes above
+        mean sea level; t = 0 s is ...``, or None when the set records neither origin.
+    """
+    from ..results.answers import altitude_reference
+
+    meta = {} if meas is None else meas.metadata
+    parts = []
+    if "origin_lat" in meta and "origin_lon" in meta:
+        source = meta.get("origin_source")
+        parts.append(f"ENU origin lat {float(meta['origin_lat']):.6f} deg, lon "
+                     f"{float(meta['origin_lon']):.6f} deg, alt "
+                     f"{float(meta.get('origin_alt', 0.0)):.1f} m"
+                     + (f" ({source})" if source else "")
+                     + f", altitudes above {altitude_reference(meas)}")
+    if "time_origin" in meta:
+        parts.append(f"t = 0 s is {meta['time_origin']} (UTC)")
+    return "frame: " + "; ".join(parts) if parts else None
+
+
+def print_answers(a: Any, units: str, meas: Any = None) -> None:
+    """Print the answers table, how its std were computed and the frame of lat/lon and clock.
 
     Parameters
     ----------
@@ -210,6 +241,8 @@ def print_answers(a: Any, units: str) -> None:
         The answers.
     units : str
         ``si`` or ``nautical``.
+    meas : tmakit.data.MeasurementSet, optional
+        The measurements: their ENU and time origins are stated (:func:`frame_note`).
     """
     print_wide(answers_table(a, units, answer_title(a, "emitter position" if a.stationary
                                                     else "emitter")))
@@ -218,6 +251,9 @@ def print_answers(a: Any, units: str) -> None:
     if a.dim == 2:
         note += "; range is horizontal (2-D motion)"
     out.print(note, highlight=False)
+    frame = frame_note(meas)
+    if frame is not None:
+        out.print(frame, highlight=False)
 
 
 def print_warnings(warnings: list[Any]) -> None:
@@ -230,3 +266,31 @@ def print_warnings(warnings: list[Any]) -> None:
     """
     for w in warnings:
         err.print(f"[bold yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
+
+
+def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
+    """Return the track's last state in the user's terms (``--sensor`` for range and bearing).
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The track.
+    meas : tmakit.data.MeasurementSet
+        The measurements tracked.
+    sensor : str or None
+        ``--sensor``; None for the sensor of the last measurement.
+
+    Returns
+    -------
+    tmakit.results.answers.Answer
+        The answers after the last update.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for an unknown sensor.
+    """
+    if sensor is not None and sensor not in meas.sensors:
+        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
+                   f"{', '.join(meas.sensors)})")
+    return tr.answer(meas, sensor=sensor)

@@ -178,7 +178,8 @@ def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None,
         ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
     **options
         The reader's options (:func:`reader_options`): ``format``, ``ownship``,
-        ``contact``, ``mapping``, ``bearing_sigma``, ``dim``; None values are dropped.
+        ``contact``, ``mapping``, ``bearing_sigma``, ``range_sigma``, ``frequency_sigma``,
+        ``dim``; None values are dropped.
 
     Returns
     -------
@@ -362,17 +363,26 @@ ContactOption = Annotated[str | None, typer.Option(
 MappingOption = Annotated[Path | None, typer.Option(
     help="wide CSV/Parquet log: its column mapping (TOML file)")]
 BearingSigmaOption = Annotated[float | None, typer.Option(
-    help="Debrief: bearing noise std (deg), default 1 (replay files carry no sigma)")]
+    help="Debrief: bearing noise std (deg); default a ;SENSOR3: line's accuracy, else 1")]
+RangeSigmaOption = Annotated[float | None, typer.Option(
+    metavar="M", help="Debrief: range noise std (m), default 100")]
+FrequencySigmaOption = Annotated[float | None, typer.Option(
+    metavar="HZ", help="Debrief: frequency noise std (Hz); default a ;SENSOR3: line's "
+                       "accuracy, else 0.1")]
 
 
 def reader_options(format: str | None, ownship: str | None, contact: str | None,
-                   mapping: Path | None, bearing_sigma: float | None) -> dict[str, Any]:
+                   mapping: Path | None, bearing_sigma: float | None,
+                   range_sigma: float | None = None,
+                   frequency_sigma: float | None = None) -> dict[str, Any]:
     """Collect the reader options of a command (None when not given).
 
     Parameters
     ----------
     format, ownship, contact, mapping, bearing_sigma
         ``--format``, ``--ownship``, ``--contact``, ``--mapping``, ``--bearing-sigma``.
+    range_sigma, frequency_sigma
+        ``--range-sigma`` (m) and ``--frequency-sigma`` (Hz).
 
     Returns
     -------
@@ -380,4 +390,5 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
         Keyword arguments of :func:`read_or_fail`.
     """
     return {"format": format, "ownship": ownship, "contact": contact, "mapping": mapping,
-            "bearing_sigma": bearing_sigma}
+            "bearing_sigma": bearing_sigma, "range_sigma": range_sigma,
+            "frequency_sigma": frequency_sigma}

@@ -13,10 +13,12 @@ from .common import (
     DriftOption,
     FormatOption,
     FreeExponentOption,
+    FrequencySigmaOption,
     JsonOption,
     MappingOption,
     MotionOption,
     OwnshipOption,
+    RangeSigmaOption,
     RefTimeOption,
     fail,
     is_measurement_file,
@@ -49,6 +51,8 @@ def crlb(
     contact: ContactOption = None,
     mapping: MappingOption = None,
     bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None,
+    frequency_sigma: FrequencySigmaOption = None,
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 
@@ -59,7 +63,8 @@ def crlb(
     if is_measurement_file(source) or format is not None:
         bound = bound_of_file(Path(source), motion, ref_time, truth, known_nuisance, drift,
                               free_exponent,
-                              reader_options(format, ownship, contact, mapping, bearing_sigma))
+                              reader_options(format, ownship, contact, mapping, bearing_sigma,
+                                             range_sigma, frequency_sigma))
     else:
         bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
     derived = None if at is None else derived_at(bound, at)
@@ -193,8 +198,8 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> No
         out.print(f"at t = {derived['time']:g} s:", highlight=False)
         from ..results.answers import parameter_display
 
-        for k, v in derived.items():
-            if isinstance(v, dict) and "value" in v:
+        for k, v in derived.items():  # course_deg is the JSON's copy of course, in degrees
+            if isinstance(v, dict) and "value" in v and k != "course_deg":
                 sd = v["std"]
                 value, sd_shown, unit = parameter_display(
                     k, v["value"], sd if sd is not None else float("nan"))

@@ -26,11 +26,13 @@ from .common import (
     DriftOption,
     FormatOption,
     FreeExponentOption,
+    FrequencySigmaOption,
     JsonOption,
     MappingOption,
     MotionOption,
     OriginOption,
     OwnshipOption,
+    RangeSigmaOption,
     RefTimeOption,
     err,
     fail,
@@ -63,6 +65,8 @@ def estimate(
     contact: ContactOption = None,
     mapping: MappingOption = None,
     bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None,
+    frequency_sigma: FrequencySigmaOption = None,
     exact: Annotated[bool, typer.Option(
         "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")
     ] = False,
@@ -105,7 +109,8 @@ def estimate(
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture")
     meas = select_window(read_or_fail(file, parse_origin(origin), **reader_options(
-        format, ownship, contact, mapping, bearing_sigma)), start, stop)
+        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma)),
+        start, stop)
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations))
@@ -341,16 +346,16 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                 f"{f:.3g} ({k})" for k, f in factors.items()) + " from the first fit's "
                 "residuals; the estimate and covariance above are of the refit",
                 highlight=False)
-        print_answers(answer, units)
+        print_answers(answer, units, meas)
     print_warnings(warnings)
     if plot is not None and plot[0] is not None:
-        draw_solution(meas, result, answer, plot, err if as_json else out)
+        draw_solution(meas, result, answer, plot, err if as_json else out, units)
     if result.status != "converged":
         raise typer.Exit(1)
 
 
 def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path, Any],
-                  say: Any) -> None:
+                  say: Any, units: str = "si") -> None:
     """Draw the solution picture (``--plot``) and say so.
 
     Parameters
@@ -365,6 +370,8 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
         ``(picture path, measurement file, model options)``.
     say : rich.console.Console
         Where to report.
+    units : str
+        ``si`` or ``nautical``: the units of speed and range in the picture's title.
     """
     from ..results import normalised_residuals
     from ..solution_plot import plot_solution
@@ -372,12 +379,13 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
     path, file, options = plot
     assert path is not None
     plot_solution(meas, result, path, residuals=normalised_residuals(result, meas, options),
-                  answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}")
+                  answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}",
+                  units=units)
     say.print(f"wrote {path}", highlight=False)
 
 
-def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
-    """Return the estimated position at the motion model's reference time in WGS-84.
+def geodetic_position(meas: Any, result: Any) -> dict[str, object] | None:
+    """Return the estimated position at the motion model's reference time in lat/lon/alt.
 
     Only when the file gives the ENU origin (``origin_lat``, ``origin_lon``, ``origin_alt``).
 
@@ -391,7 +399,8 @@ def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
     Returns
     -------
     dict or None
-        ``{"time" (s), "lat" (deg), "lon" (deg), "alt" (m)}``, or None without an origin or
+        ``{"time" (s), "lat" (deg), "lon" (deg), "alt" (m), "altitude_reference"}`` (the
+        file's: ``WGS-84 ellipsoid`` or ``mean sea level``), or None without an origin or
         a finite position.
     """
     meta = meas.metadata
@@ -402,6 +411,7 @@ def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
     import numpy as np
 
     from ..geodesy import enu_to_geodetic
+    from ..results.answers import altitude_reference
 
     t = float(getattr(result.motion, "ref_time", meas.time.min()))
     state = result.motion.states(result.estimate, np.array([t]))[0]
@@ -410,4 +420,5 @@ def geodetic_position(meas: Any, result: Any) -> dict[str, float] | None:
     origin = (float(meta["origin_lat"]), float(meta["origin_lon"]),
               float(meta.get("origin_alt", 0.0)))
     lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2], origin)
-    return {"time": t, "lat": float(lat), "lon": float(lon), "alt": float(alt)}
+    return {"time": t, "lat": float(lat), "lon": float(lon), "alt": float(alt),
+            "altitude_reference": altitude_reference(meas)}

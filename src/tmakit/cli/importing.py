@@ -17,9 +17,11 @@ from .common import (
     BearingSigmaOption,
     ContactOption,
     ForceOption,
+    FrequencySigmaOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
+    RangeSigmaOption,
     fail,
     out,
     parse_origin,
@@ -67,6 +69,8 @@ def import_(
     ownship: OwnshipOption = None,
     contact: ContactOption = None,
     bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None,
+    frequency_sigma: FrequencySigmaOption = None,
     mapping: MappingOption = None,
     map_text: Annotated[str | None, typer.Option(
         "--map", help="the mapping inline: time=COL,lat=COL,lon=COL,alt=COL,vn=COL,ve=COL,"
@@ -99,6 +103,7 @@ def import_(
             raise fail(f"{f}: no such file")
     options: dict[str, Any] = {"format": "rep" if fmt == "dsf" else fmt, "ownship": ownship,
                                "contact": contact, "bearing_sigma": bearing_sigma,
+                               "range_sigma": range_sigma, "frequency_sigma": frequency_sigma,
                                "mapping": _mapping(mapping, map_text, measure), "dim": dim}
     if fmt in ("gpx", "nmea"):
         options["measurements"] = files[1]
@@ -131,11 +136,25 @@ def print_import(meas: Any, output: Path | None) -> None:
     if "origin_lat" in meta:
         out.print(f"  ENU origin: lat {float(meta['origin_lat']):.7f} deg, lon "
                   f"{float(meta['origin_lon']):.7f} deg, alt {float(meta['origin_alt']):.1f} m "
-                  f"({meta.get('altitude_reference', 'ellipsoid')})", highlight=False)
-    for key, label in (("dim_rule", "frame"), ("velocity_source", "sensor velocity"),
-                       ("bearing_sigma_deg", "bearing sigma (deg, not in the file)")):
+                  f"({meta.get('altitude_reference', 'ellipsoid')})"
+                  + (f", {meta['origin_source']}" if "origin_source" in meta else ""),
+                  highlight=False)
+    for key, label in (("dim_rule", "frame"), ("velocity_source", "sensor velocity")):
         if key in meta:
             out.print(f"  {label}: {meta[key]}", highlight=False, soft_wrap=True)
+    if "bearing_sigma_deg" in meta:
+        out.print("  " + _replay_sigmas(meta, set(meas.kinds)), highlight=False, soft_wrap=True)
+
+
+def _replay_sigmas(meta: dict[str, str], kinds: set[str]) -> str:
+    """Say which sigmas a Debrief file's rows got: the lines' accuracies or the defaults."""
+    given = [f"{kind} {float(meta[key]):g} {unit}" for kind, key, unit in (
+        ("bearing", "bearing_sigma_deg", "deg"), ("range", "range_sigma_m", "m"),
+        ("frequency", "frequency_sigma_hz", "Hz")) if kind in kinds and key in meta]
+    stated = int(meta.get("sigma_from_file", "0"))
+    where = (f"; {stated} ;SENSOR3: lines state their own accuracy" if stated
+             else " (not in the file)")
+    return "sigma: " + ", ".join(given) + where
 
 
 # `tma examples`: the docstring is its --help text.

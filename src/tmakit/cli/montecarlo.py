@@ -8,7 +8,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from .common import err, fail, load_scenario_or_fail, out
+from .common import err, fail, load_scenario_or_fail, out, print_wide
 from .outputs import check_outputs
 
 #: Default limit of ``--runs`` (raise with ``--max-runs``).
@@ -116,12 +116,17 @@ def print_summary(res: Any) -> None:
     table = Table(title=f"{res.estimator} on {res.scenario}: {res.runs} runs (seed {res.seed}), "
                         f"nuisance {'known' if res.known_nuisance else 'unknown'}",
                   title_justify="left")
-    for col in ("parameter", "truth", "bias", "RMSE", "CRLB", "RMSE/CRLB", "95 % interval"):
-        table.add_column(col, justify="left" if col == "parameter" else "right")
+    from ..results.answers import parameter_display
+
+    for col in ("parameter", "unit", "truth", "bias", "RMSE", "CRLB", "RMSE/CRLB",
+                "95 % interval"):
+        table.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
     for r in res.summary_table():
-        table.add_row(r["parameter"], f"{r['truth']:.6g}", f"{r['bias']:.4g}",
-                      f"{r['rmse']:.4g}", f"{r['crlb']:.4g}", f"{r['ratio']:.3f}",
+        # The unit shown for the parameter (angles in degrees); bias, RMSE, CRLB scale with it.
+        truth, one, unit = parameter_display(r["parameter"], r["truth"], 1.0)
+        table.add_row(r["parameter"], unit or "-", f"{truth:.6g}", f"{r['bias'] * one:.4g}",
+                      f"{r['rmse'] * one:.4g}", f"{r['crlb'] * one:.4g}", f"{r['ratio']:.3f}",
                       f"{r['ratio_low']:.3f} .. {r['ratio_high']:.3f}")
-    out.print(table)
+    print_wide(table)
     out.print(f"converged {res.convergence_rate:.1%} ({counts}); {res.wall_time:.1f} s, "
               f"{res.runs_per_second:.1f} runs/s ({res.executor})", highlight=False)

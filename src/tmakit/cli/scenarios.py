@@ -15,9 +15,11 @@ from .common import (
     BearingSigmaOption,
     ContactOption,
     FormatOption,
+    FrequencySigmaOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
+    RangeSigmaOption,
     fail,
     load_scenario_or_fail,
     out,
@@ -215,12 +217,15 @@ def show(
     contact: ContactOption = None,
     mapping: MappingOption = None,
     bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None,
+    frequency_sigma: FrequencySigmaOption = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
     plot = check_output(plot, "--plot", force, "picture")
     meas = read_or_fail(file, parse_origin(origin),
-                        **reader_options(format, ownship, contact, mapping, bearing_sigma))
+                        **reader_options(format, ownship, contact, mapping, bearing_sigma,
+                                         range_sigma, frequency_sigma))
     meta = meas.metadata
     title = f"{file}: {len(meas)} measurements"
     if "scenario" in meta:

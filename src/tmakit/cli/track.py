@@ -11,16 +11,25 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from .answers_out import SensorOption, UnitsOption, check_units, print_answers, print_warnings
+from .answers_out import (
+    SensorOption,
+    UnitsOption,
+    check_units,
+    final_answer,
+    print_answers,
+    print_warnings,
+)
 from .common import (
     BearingSigmaOption,
     ContactOption,
     DriftOption,
     FormatOption,
     FreeExponentOption,
+    FrequencySigmaOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
+    RangeSigmaOption,
     err,
     fail,
     model_options,
@@ -73,6 +82,7 @@ def track(
     origin: OriginOption = None,
     format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None, frequency_sigma: FrequencySigmaOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -97,7 +107,7 @@ def track(
                                        ellipses, rows)
     check_units(units)
     meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
-        format, ownship, contact, mapping, bearing_sigma))
+        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma))
     try:
         d = tracking.filter_dim(meas, dim)
         q_axes = tracking.process_noise(parse_q(q, d), d)
@@ -149,38 +159,8 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
         typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
     else:
         print_track(tr, truth, rows, meas)
-        print_answers(answer, units)
+        print_answers(answer, units, meas)
     print_warnings(measurement_warnings(meas))
-
-
-def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
-    """Return the track's last state in the user's terms (``--sensor`` for range and bearing).
-
-    Parameters
-    ----------
-    tr : tmakit.filters.Track
-        The track.
-    meas : tmakit.data.MeasurementSet
-        The measurements tracked.
-    sensor : str or None
-        ``--sensor``; None for the sensor of the last measurement.
-
-    Returns
-    -------
-    tmakit.results.answers.Answer
-        The answers after the last update.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for an unknown sensor.
-    """
-    from ..results import track_answer
-
-    if sensor is not None and sensor not in meas.sensors:
-        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
-                   f"{', '.join(meas.sensors)})")
-    return track_answer(tr, meas, sensor=sensor)
 
 
 def measurement_warnings(meas: Any) -> list[Any]:

@@ -9,149 +9,25 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ..arrays import Array
 from ..blas import one_thread
 from ..data import MeasurementSet
-from ..linalg import check_prior, symmetrise
+from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .compiled import CompiledMeasurements, compiled_for
 from .extras import TrackExtras
 from .kernels import KernelRun
 from .record import Recorder, UpdateInfo
+from .track import Track
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
-
-
-@dataclass
-class Track:
-    """A filter's output: one row per update.
-
-    Parameters
-    ----------
-    filter_name : str
-        Name of the filter (``"ekf"``, ``"ukf"``, ``"pf"``, ``"mgekf"``).
-    state_names : tuple of str
-        Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``).
-    times, nis, dof, log_likelihood : numpy.ndarray
-        Per update ``(K,)``: time (s), NIS, degrees of freedom, cumulative log-likelihood (nats).
-    states, covariances : numpy.ndarray
-        State ``(K, n)`` and covariance ``(K, n, n)`` after each update (m, m/s).
-    extra : TrackExtras, optional
-        What the track records beside its rows (skipped updates, how it started, ...).
-    """
-
-    filter_name: str
-    state_names: tuple[str, ...]
-    times: Array
-    states: Array
-    covariances: Array
-    nis: Array
-    dof: NDArray[np.int64]
-    log_likelihood: Array
-    extra: TrackExtras = field(default_factory=TrackExtras)
-
-    def __len__(self) -> int:
-        """Give the number of updates K."""
-        return int(self.times.shape[0])
-
-    @property
-    def std(self) -> Array:
-        """Standard deviations ``(K, n)`` of the state components (m, m/s)."""
-        return np.sqrt(np.clip(np.einsum("kii->ki", self.covariances), 0.0, None))
-
-    def errors(self, truth: ArrayLike) -> Array:
-        """Give the estimate minus the truth ``(K, n)`` (m, m/s).
-
-        Parameters
-        ----------
-        truth : array_like
-            True states ``(K, n)`` at :attr:`times` (m, m/s).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``states - truth``.
-        """
-        return self.states - np.asarray(truth, dtype=float)
-
-    def nees(self, truth: ArrayLike) -> Array:
-        """Give the normalised estimation error squared ``e^T P^-1 e`` per update ``(K,)``.
-
-        Parameters
-        ----------
-        truth : array_like
-            True states ``(K, n)`` at :attr:`times` (m, m/s).
-
-        Returns
-        -------
-        numpy.ndarray
-            NEES per update; ``inf`` where a singular covariance (a collapsed particle cloud) says
-            the error is impossible.
-        """
-        err = self.errors(truth)
-        try:
-            return np.einsum("ki,ki->k", err,
-                             np.linalg.solve(self.covariances, err[..., None])[..., 0])
-        except np.linalg.LinAlgError:
-            evals, evecs = np.linalg.eigh(symmetrise(self.covariances))
-            proj = np.einsum("kji,kj->ki", evecs, err)  # error in the eigenbasis
-            tiny = evals <= 1e-12 * np.max(np.abs(evals), axis=-1, keepdims=True)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                terms = np.where(tiny, np.where(proj == 0, 0.0, np.inf), proj**2 / evals)
-            return np.sum(terms, axis=-1)
-
-    def as_dict(self) -> dict[str, object]:
-        """Give the track as JSON-ready lists (the keys of ``tma track``'s JSON output).
-
-        Returns
-        -------
-        dict
-            ``filter``, ``state``, ``time`` (s), ``estimate`` and ``std`` (m, m/s), ``covariance``,
-            ``nis``, ``dof``, ``log_likelihood`` (nats).
-        """
-        return {
-            "filter": self.filter_name,
-            "state": list(self.state_names),
-            "time": self.times.tolist(),
-            "estimate": self.states.tolist(),
-            "std": self.std.tolist(),
-            "covariance": self.covariances.tolist(),
-            "nis": self.nis.tolist(),
-            "dof": self.dof.tolist(),
-            "log_likelihood": self.log_likelihood.tolist(),
-        }
-
-    def table_columns(self) -> dict[str, Array]:
-        """Give the columns of a CSV/Parquet track table.
-
-        Returns
-        -------
-        dict of str to numpy.ndarray
-            ``time`` (s), each state (m, m/s) and its ``std_*``, the covariance's upper triangle
-            (``cov_x_y``, ...), ``nis``, ``dof`` and ``log_likelihood`` (nats).
-        """
-        cols: dict[str, Array] = {"time": self.times}
-        n = len(self.state_names)
-        for i, name in enumerate(self.state_names):
-            cols[name] = self.states[:, i]
-        for i, name in enumerate(self.state_names):
-            cols[f"std_{name}"] = self.std[:, i]
-        for i in range(n):
-            for j in range(i, n):
-                cols[f"cov_{self.state_names[i]}_{self.state_names[j]}"] = \
-                    self.covariances[:, i, j]
-        cols["nis"] = self.nis
-        cols["dof"] = self.dof.astype(float)
-        cols["log_likelihood"] = self.log_likelihood
-        return cols
 
 
 class TrackingFilter(ABC):

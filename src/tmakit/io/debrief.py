@@ -14,7 +14,9 @@ The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
 - **Rows.** Each bearing becomes a ``bearing`` row (degrees true, wrapped to [0, 360)) with
   sigma ``bearing_sigma`` (default :data:`DEFAULT_BEARING_SIGMA_DEG`: replay files carry no
   sigma); each range (yards) a ``range`` row (m) with ``range_sigma``; each ``;SENSOR2:``
-  frequency a ``frequency`` row (Hz) with ``frequency_sigma``.  Ambiguous bearings are not
+  frequency a ``frequency`` row (Hz) with ``frequency_sigma``.  A ``;SENSOR3:`` line states
+  its bearing's and frequency's accuracy: that is the row's sigma, unless ``bearing_sigma`` or
+  ``frequency_sigma`` is given (the user's word wins).  Ambiguous bearings are not
   used (tmakit has no two-valued bearing); their count is recorded as metadata.
 - **Frame.** Positions are on the sea surface (depth is not used: bearings are horizontal),
   so the set is 2-D unless ``dim=3``; the origin defaults to the own ship's first fix.
@@ -107,7 +109,8 @@ def _choose(path: Path, sensors: list[SensorLine], ownship: str | None,
     """Choose the own ship and the contact's sensor lines, or refuse listing the names."""
     hosts = list(dict.fromkeys(s.host for s in sensors))
     if not hosts:
-        raise MeasurementFileError(path, ["no ;SENSOR: or ;SENSOR2: line: nothing measured"])
+        raise MeasurementFileError(path, ["no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing "
+                                          "measured"])
     if ownship is None:
         if len(hosts) > 1:
             raise MeasurementFileError(path, [
@@ -197,19 +200,41 @@ def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: obje
 
 
 def _rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
-          sigmas: dict[str, float]) -> tuple[list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state) of each measured value."""
+          sigmas: dict[str, float], asked: set[str]) -> tuple[list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state) of each measured value.
+
+    A ``;SENSOR3:`` line's accuracy is the sigma of its bearing or frequency unless the user
+    gave that kind's sigma (``asked``); otherwise ``sigmas`` (SI) is used.
+    """
     out: tuple[list, list, list, list, list] = ([], [], [], [], [])
     for k, s in enumerate(rows):
+        stated = {"bearing": None if s.bearing_accuracy is None
+                  else float(np.deg2rad(s.bearing_accuracy)),
+                  "frequency": s.frequency_accuracy}
         for kind, value in (("bearing", s.bearing), ("range", s.range_yd),
                             ("frequency", s.frequency)):
             if value is None:
                 continue
             si = {"bearing": lambda v: np.deg2rad(v % 360.0), "range": lambda v: v * YARD,
                   "frequency": lambda v: v}[kind](value)
-            for col, item in zip(out, (t[k], kind, si, sigmas[kind], states[k]), strict=True):
+            line_sigma = stated.get(kind)
+            sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
+            for col, item in zip(out, (t[k], kind, si, sigma, states[k]), strict=True):
                 col.append(item)
     return out
+
+
+def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
+                    frequency: float | None) -> tuple[dict[str, float], set[str]]:
+    """Return the sigmas of lines stating none (deg, m, Hz) and the kinds the user gave."""
+    given = {"bearing": bearing, "range": range_, "frequency": frequency}
+    default = {"bearing": DEFAULT_BEARING_SIGMA_DEG, "range": DEFAULT_RANGE_SIGMA_M,
+               "frequency": DEFAULT_FREQUENCY_SIGMA_HZ}
+    sig = {k: default[k] if v is None else v for k, v in given.items()}
+    bad = [f"{k} sigma {v!r}: expected a number > 0" for k, v in sig.items() if not v > 0]
+    if bad:
+        raise MeasurementFileError(path, bad)
+    return sig, {k for k, v in given.items() if v is not None}
 
 
 def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None = None,
@@ -229,11 +254,13 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
         The own ship's track name and the contact (sensor name or first word of the labels);
         needed when the file holds several.
     bearing_sigma : float, optional
-        Bearing noise (deg), default :data:`DEFAULT_BEARING_SIGMA_DEG`.
+        Bearing noise (deg); default a ``;SENSOR3:`` line's bearing accuracy, else
+        :data:`DEFAULT_BEARING_SIGMA_DEG`.
     range_sigma : float, optional
         Range noise (m), default :data:`DEFAULT_RANGE_SIGMA_M`.
     frequency_sigma : float, optional
-        Frequency noise (Hz), default :data:`DEFAULT_FREQUENCY_SIGMA_HZ`.
+        Frequency noise (Hz); default a ``;SENSOR3:`` line's frequency accuracy, else
+        :data:`DEFAULT_FREQUENCY_SIGMA_HZ`.
     dim : int, optional
         3 to keep the set 3-D (default 2: the sea surface).
     **_
@@ -244,7 +271,9 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
     MeasurementSet
         Rows of the own ship's sensor (id: the own ship's name); metadata ``time_origin``,
         the frame (``origin_*``, ``altitude_reference``, ``dim_rule``), ``source``,
-        ``bearing_sigma_deg`` and ``ambiguous_bearings_unused``.
+        ``bearing_sigma_deg``, ``range_sigma_m``, ``frequency_sigma_hz`` (the defaults used
+        where a line states no accuracy), ``sigma_from_file`` (lines that state one) and
+        ``ambiguous_bearings_unused``.
 
     Raises
     ------
@@ -253,13 +282,7 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
         (listing the names present), or a NULL position outside the host track.
     """
     path = Path(path)
-    sig = {"bearing": DEFAULT_BEARING_SIGMA_DEG if bearing_sigma is None else bearing_sigma,
-           "range": DEFAULT_RANGE_SIGMA_M if range_sigma is None else range_sigma,
-           "frequency": DEFAULT_FREQUENCY_SIGMA_HZ if frequency_sigma is None
-           else frequency_sigma}
-    bad = [f"{k} sigma {v!r}: expected a number > 0" for k, v in sig.items() if not v > 0]
-    if bad:
-        raise MeasurementFileError(path, bad)
+    sig, asked = _default_sigmas(path, bearing_sigma, range_sigma, frequency_sigma)
     tracks, sensors = _load(path)
     host, rows = _choose(path, sensors, ownship, contact)
     fixes = _host_fixes(path, tracks, host, rows)
@@ -274,7 +297,7 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
     t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds, values, sigmas, st = _rows(rows, states, t, si)
+    times, kinds, values, sigmas, st = _rows(rows, states, t, si, asked)
     if not times:
         raise MeasurementFileError(path, [f"the sensor lines of {host!r} measure nothing (every "
                                           "bearing, range and frequency is NULL)"])
@@ -284,6 +307,10 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
                 "velocity_source": "the own ship's course and speed" if fixes.velocity
                 is not None else "derived from the sensor lines' positions (10 s line fit)",
                 "bearing_sigma_deg": repr(sig["bearing"]),
+                "range_sigma_m": repr(sig["range"]),
+                "frequency_sigma_hz": repr(sig["frequency"]),
+                "sigma_from_file": str(sum(s.bearing_accuracy is not None
+                                           or s.frequency_accuracy is not None for s in rows)),
                 "ambiguous_bearings_unused": str(sum(s.ambiguous is not None for s in rows))}
     return MeasurementSet.from_si(np.array(times), np.full(len(times), host), np.array(kinds),
                                   np.array(values), np.array(sigmas), np.array(st),

@@ -12,6 +12,10 @@ Written from Debrief's documentation of the replay format; the lines tmakit read
 ``;SENSOR2: YYMMDD HHMMSS[.SSS] HOST SYMBOLOGY POSITION BEARING AMBIGUOUS FREQUENCY RANGE
 SENSOR [label]``
     the same with an ambiguous bearing (degrees) and a frequency (Hz), each or ``NULL``.
+``;SENSOR3: YYMMDD HHMMSS[.SSS] HOST SYMBOLOGY POSITION BEARING BEARING_ACCURACY FREQUENCY
+FREQUENCY_ACCURACY RANGE SENSOR [label]``
+    a contact with its accuracies: the bearing's (degrees) and the frequency's (Hz), each or
+    ``NULL``; tmakit takes an accuracy as the standard deviation of its value.
 
 Fields are separated by spaces or tabs; names with spaces are in double quotes. Other lines
 starting with ``;`` (comments ``;;``, narratives, shapes) and blank lines are skipped.
@@ -28,6 +32,7 @@ __all__ = ["SensorLine", "TrackLine", "parse_replay_text"]
 
 _TOKEN = re.compile(r'"[^"]*"|\S+')
 _NS = 1_000_000_000
+_VERSIONS = {";SENSOR:": 1, ";SENSOR2:": 2, ";SENSOR3:": 3}
 
 
 @dataclass(frozen=True)
@@ -60,7 +65,7 @@ class TrackLine:
 
 @dataclass(frozen=True)
 class SensorLine:
-    """A ``;SENSOR:`` or ``;SENSOR2:`` contact (None where the file says ``NULL``).
+    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact (None where the file says ``NULL``).
 
     Attributes
     ----------
@@ -78,6 +83,8 @@ class SensorLine:
         Frequency, Hz.
     range_yd : float or None
         Range, yards.
+    bearing_accuracy, frequency_accuracy : float or None
+        The standard deviations a ``;SENSOR3:`` line states (deg, Hz); None elsewhere.
     sensor, label : str
         The sensor's name and the contact's label.
     """
@@ -93,6 +100,8 @@ class SensorLine:
     range_yd: float | None
     sensor: str
     label: str
+    bearing_accuracy: float | None = None
+    frequency_accuracy: float | None = None
 
 
 class LineError(ValueError):
@@ -190,14 +199,24 @@ def _sensor(tokens: list[str], line: int, version: int) -> SensorLine:
     if version == 2:
         names = (names[0], ("ambiguous", "an ambiguous bearing (degrees) or NULL"),
                  ("frequency", "a frequency (Hz) or NULL"), names[1])
+    elif version == 3:
+        names = (names[0], ("bearing_accuracy", "a bearing accuracy (degrees) or NULL"),
+                 ("frequency", "a frequency (Hz) or NULL"),
+                 ("frequency_accuracy", "a frequency accuracy (Hz) or NULL"), names[1])
     if len(tokens) < at + len(names) + 1:
         raise LineError(f"expected {', '.join(n for n, _ in names)} and the sensor name after "
                         "the position, found the end of the line")
     values = {n: _number(tokens[at + i], what, null=True) for i, (n, what) in enumerate(names)}
+    for n in ("bearing_accuracy", "frequency_accuracy"):
+        value = values.get(n)
+        if value is not None and not value > 0:
+            raise LineError(f"expected {n.replace('_', ' ')} > 0 (a standard deviation) or "
+                            f"NULL, found {tokens[at + [m for m, _ in names].index(n)]!r}")
     rest = tokens[at + len(names):]
     return SensorLine(line, _name(tokens[2]), time_ns, lat, lon, values["bearing"],
                       values.get("ambiguous"), values.get("frequency"), values["range"],
-                      _name(rest[0]), " ".join(_name(t) for t in rest[1:]))
+                      _name(rest[0]), " ".join(_name(t) for t in rest[1:]),
+                      values.get("bearing_accuracy"), values.get("frequency_accuracy"))
 
 
 def parse_replay_text(text: str) -> tuple[list[TrackLine], list[SensorLine], list[str]]:
@@ -213,7 +232,7 @@ def parse_replay_text(text: str) -> tuple[list[TrackLine], list[SensorLine], lis
     tracks : list of TrackLine
         The track fixes, in file order.
     sensors : list of SensorLine
-        The ``;SENSOR:`` and ``;SENSOR2:`` contacts, in file order.
+        The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order.
     problems : list of str
         ``line N: ...`` for every line that breaks the format.
     """
@@ -227,8 +246,8 @@ def parse_replay_text(text: str) -> tuple[list[TrackLine], list[SensorLine], lis
         tokens = _TOKEN.findall(line)  # fields are separated by spaces or tabs
         head = tokens[0].upper()
         try:
-            if head in (";SENSOR:", ";SENSOR2:"):
-                sensors.append(_sensor(tokens[1:], number, 2 if head == ";SENSOR2:" else 1))
+            if head in _VERSIONS:
+                sensors.append(_sensor(tokens[1:], number, _VERSIONS[head]))
             elif not line.startswith(";"):
                 tracks.append(_track(tokens, number))
         except LineError as e:

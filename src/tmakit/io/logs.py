@@ -103,12 +103,15 @@ class LocalFrame:
         2 (sensors on a surface: z = 0) or 3.
     rule : str
         One sentence saying why the frame is 2-D or 3-D.
+    origin_source : str
+        Where the origin comes from: ``the first fix`` (the default) or ``given``.
     """
 
     origin: tuple[float, float, float]
     altitude_reference: str
     dim: int
     rule: str
+    origin_source: str = "given"
 
     def metadata(self) -> dict[str, str]:
         """Return the frame as metadata of a measurement set.
@@ -121,7 +124,8 @@ class LocalFrame:
         """
         lat, lon, alt = self.origin
         return {"origin_lat": repr(lat), "origin_lon": repr(lon), "origin_alt": repr(alt),
-                "altitude_reference": self.altitude_reference, "dim_rule": self.rule}
+                "altitude_reference": self.altitude_reference, "dim_rule": self.rule,
+                "origin_source": self.origin_source}
 
     def enu(self, lat: NDArray[np.float64], lon: NDArray[np.float64],
             alt: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -222,7 +226,9 @@ def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int
     if altitude_reference not in ALTITUDE_REFERENCES:
         raise ValueError(f"altitude reference {altitude_reference!r}: expected one of "
                          f"{', '.join(ALTITUDE_REFERENCES)}")
+    source = "given"
     if origin is None:
+        source = "the first fix"
         first = next((f for f in fixes if len(f.time_ns)), None)
         if first is None:
             raise ValueError("no position fix: the origin cannot default to the first fix")
@@ -235,7 +241,7 @@ def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int
                          "metres") from None
     alts = np.concatenate([np.asarray(f.alt, float) for f in fixes]) if fixes else np.zeros(0)
     d, rule = surface_dim(alts, alt0, dim, tolerance)
-    return LocalFrame((lat0, lon0, alt0), altitude_reference, d, rule)
+    return LocalFrame((lat0, lon0, alt0), altitude_reference, d, rule, source)
 
 
 def parse_clock_times(values: Sequence[object]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:

@@ -54,10 +54,10 @@ def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
     if not np.any(used):
         return 0.0
     if null is not None and null.size:
-        part = null[used]
-        norms = np.linalg.norm(part, axis=0) * np.linalg.norm(grad[used])
+        # Relative to the whole null direction: round-off (1e-16) in a component is no motion.
+        norms = np.linalg.norm(null, axis=0) * np.linalg.norm(grad)
         moving = norms > 0
-        if np.any(np.abs(grad[used] @ part[:, moving]) > NULL_COSINE * norms[moving]):
+        if np.any(np.abs(grad @ null[:, moving]) > NULL_COSINE * norms[moving]):
             return None
     sub = cov[np.ix_(used, used)]
     if not np.all(np.isfinite(sub)):
@@ -128,8 +128,8 @@ class Answer:
     enu, enu_std : tuple of (float or None)
         Position East, North, Up (m) and their std (m).
     geodetic : tuple of (float or None) or None
-        Latitude, longitude (deg) and altitude above the WGS-84 ellipsoid (m); None without an
-        origin.  Their std are those of North, East and Up.
+        Latitude, longitude (deg) and altitude (m, above :attr:`altitude_reference`); None
+        without an origin.  Their std are those of North, East and Up.
     velocity, velocity_std : tuple of (float or None)
         Velocity East, North, Up (m/s) and std.
     course_deg, course_std_deg : float or None
@@ -146,6 +146,9 @@ class Answer:
         The horizontal position's confidence ellipse.
     covariance : ndarray, shape (6, 6)
         State covariance (ENU position m, velocity m/s), infinite where unobservable.
+    altitude_reference : str
+        What the altitude is measured from, as words: ``WGS-84 ellipsoid`` or ``mean sea level``
+        (the measurement set's ``altitude_reference`` metadata, ``ellipsoid`` or ``msl``).
     """
 
     time: float
@@ -168,6 +171,7 @@ class Answer:
     bearing_std_deg: float | None
     ellipse: Ellipse | None
     covariance: NDArray[np.float64] = field(repr=False)
+    altitude_reference: str = "WGS-84 ellipsoid"
 
     @property
     def speed_knots(self) -> float | None:
@@ -194,7 +198,7 @@ class Answer:
                                       strict=True)}
         if self.geodetic is not None:
             pos.update(lat_deg=self.geodetic[0], lon_deg=self.geodetic[1],
-                       alt_m=self.geodetic[2], altitude_reference="WGS-84 ellipsoid")
+                       alt_m=self.geodetic[2], altitude_reference=self.altitude_reference)
         cov = [[float(c) if np.isfinite(c) else None for c in row] for row in self.covariance]
         kn = None if self.speed_std is None else self.speed_std / KNOT
         return {
@@ -318,8 +322,9 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     if origin is not None:
         geo = (None, None, None)
         if enu[0] is not None and enu[1] is not None:
-            lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2] if dim == 3 else 0.0,
-                                            origin)
+            # An unobservable height (a 3-D bearings-only fit) must not move lat/lon.
+            up = state[2] if dim == 3 and enu[2] is not None else 0.0
+            lat, lon, alt = enu_to_geodetic(state[0], state[1], up, origin)
             geo = (float(lat), float(lon), float(alt) if enu[2] is not None or dim == 2 else None)
     if meas is not None and len(meas) and sensor is None:
         sensor = str(meas.sensor[int(np.argmax(meas.time))])
@@ -332,7 +337,30 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     return Answer(float(t), clock_time(meas, t), dim, stationary, tuple(enu), tuple(enu_sd), geo,
                   tuple(vel), tuple(vel_sd), course, course_sd, speed, speed_sd, sensor, rng,
                   rng_sd, brg, brg_sd,
-                  position_ellipse(cov[:2, :2], level) if None not in enu[:2] else None, cov)
+                  position_ellipse(cov[:2, :2], level) if None not in enu[:2] else None, cov,
+                  altitude_reference(meas))
+
+
+#: The altitude references a measurement set's metadata names, in words.
+ALTITUDE_REFERENCES = {"ellipsoid": "WGS-84 ellipsoid", "msl": "mean sea level"}
+
+
+def altitude_reference(meas: MeasurementSet | None) -> str:
+    """Return what a measurement set's altitudes are measured from, in words.
+
+    Parameters
+    ----------
+    meas : MeasurementSet or None
+        The measurements; their ``altitude_reference`` metadata (``ellipsoid``, the default,
+        or ``msl``) says it.
+
+    Returns
+    -------
+    str
+        ``WGS-84 ellipsoid`` or ``mean sea level``.
+    """
+    ref = "ellipsoid" if meas is None else meas.metadata.get("altitude_reference", "ellipsoid")
+    return ALTITUDE_REFERENCES.get(ref, ref)
 
 
 def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:

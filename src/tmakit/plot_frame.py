@@ -1,0 +1,198 @@
+"""What every tmakit picture shares: the map's coordinates and the time axis.
+
+A map is in latitude/longitude (degrees, true scale: the aspect is 1 / cos(latitude)) when the
+measurement set knows its ENU origin, else in East/North (km); it carries a scale bar.  A time
+axis shows UTC clock time when the set records its time origin, else seconds.  Used by
+:mod:`tmakit.plot` (``tma show``/``tma track --plot``) and :mod:`tmakit.solution_plot`
+(``tma estimate --plot``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .data import MeasurementSet
+from .geodesy import enu_to_geodetic
+from .results.context import TIME_ORIGIN_KEY, clock_time, origin_of
+
+__all__ = ["MapFrame", "format_time_axis", "map_legend", "plain_ticks", "plot_times"]
+
+
+class MapFrame:
+    """Map coordinates: lon/lat (deg) when the origin is known, else East/North (km).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements; their ``origin_lat``/``origin_lon``/``origin_alt`` metadata.
+    """
+
+    def __init__(self, meas: MeasurementSet) -> None:
+        self.origin = origin_of(meas)
+        self.geodetic = self.origin is not None
+        self.labels = (("longitude (deg)", "latitude (deg)") if self.geodetic
+                       else ("East (km)", "North (km)"))
+
+    def xy(self, east: Any, north: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Return map coordinates of ENU positions (m).
+
+        Parameters
+        ----------
+        east, north : array_like
+            ENU positions (m).
+
+        Returns
+        -------
+        tuple of ndarray
+            (lon, lat) in degrees, or (East, North) in km.
+        """
+        east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
+        if not self.geodetic:
+            return east / 1000.0, north / 1000.0
+        lat, lon, _ = enu_to_geodetic(east, north, np.zeros_like(east), self.origin)
+        return np.asarray(lon), np.asarray(lat)
+
+    def _metres_per_degree(self) -> tuple[float, float]:
+        """Metres per degree of longitude and of latitude at the origin (WGS-84, 1 km steps)."""
+        lon, lat = self.xy(np.array([0.0, 1000.0, 0.0]), np.array([0.0, 0.0, 1000.0]))
+        return 1000.0 / float(lon[1] - lon[0]), 1000.0 / float(lat[2] - lat[0])
+
+    def metres_per_x(self) -> float:
+        """Give the metres per unit of the horizontal map coordinate (at the origin).
+
+        Returns
+        -------
+        float
+            1000 for km, else the metres per degree of longitude at the origin.
+        """
+        return self._metres_per_degree()[0] if self.geodetic else 1000.0
+
+    def aspect(self) -> float:
+        """Give the axis aspect ratio that keeps distances true.
+
+        Returns
+        -------
+        float
+            1 for km; in lon/lat the metres per degree of latitude over those of longitude
+            (about ``1 / cos(latitude)``).
+        """
+        if not self.geodetic:
+            return 1.0
+        per_lon, per_lat = self._metres_per_degree()
+        return per_lat / per_lon
+
+    def decorate(self, ax: Any) -> None:
+        """Label the axes, keep distances true, draw a grid and a scale bar (lower right).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            The map, its data drawn.
+        """
+        ax.set_xlabel(self.labels[0])
+        ax.set_ylabel(self.labels[1])
+        ax.set_aspect(self.aspect(), adjustable="datalim")
+        ax.grid(True, alpha=0.3)
+        plain_ticks(ax)
+        ax.apply_aspect()  # the limits the picture will have, for the scale bar's length
+        self.scale_bar(ax)
+
+    def scale_bar(self, ax: Any) -> None:
+        """Draw a scale bar of a round length, about a fifth of the map's width.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes
+            The map, its limits set.
+        """
+        from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+        x0, x1 = ax.get_xlim()
+        width_m = abs(x1 - x0) * self.metres_per_x()
+        target = width_m / 5.0
+        step = 10.0 ** np.floor(np.log10(target))
+        length = max((m * step for m in (1, 2, 5) if m * step <= target), default=step)
+        text = f"{length / 1000:g} km" if length >= 1000 else f"{length:g} m"
+        ax.add_artist(AnchoredSizeBar(ax.transData, length / self.metres_per_x(), text,
+                                      "lower right", pad=0.5, frameon=True, size_vertical=0,
+                                      sep=4, label_top=True))
+
+
+def plot_times(meas: MeasurementSet, t: Any) -> tuple[np.ndarray, str]:
+    """Return times for a plot's axis and the axis label: UTC clock time when known.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements; their ``time_origin`` metadata is the clock time of t = 0 s.
+    t : array_like
+        Times (s since the time origin).
+
+    Returns
+    -------
+    values : ndarray
+        ``datetime64[ms]`` UTC times when the set records its time origin, else ``t`` (s).
+    label : str
+        ``time (UTC, YYYY-MM-DD)`` or ``time (s)``.
+    """
+    t = np.asarray(t, dtype=float)
+    start = clock_time(meas, 0.0)
+    if start is None or TIME_ORIGIN_KEY not in meas.metadata:
+        return t, "time (s)"
+    t0 = np.datetime64(start.rstrip("Z"), "ms")
+    values = t0 + np.round(t * 1000.0).astype("int64").astype("timedelta64[ms]")
+    first = clock_time(meas, float(np.nanmin(t))) if t.size else start
+    return values, f"time (UTC, {(first or start)[:10]})"
+
+
+def format_time_axis(ax: Any, values: np.ndarray) -> None:
+    """Show clock times as ``HH:MM`` (``HH:MM:SS`` over spans under 10 min); seconds unchanged.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes whose x axis is time.
+    values : ndarray
+        The times plotted (:func:`plot_times`): ``datetime64`` or seconds.
+    """
+    if not np.issubdtype(np.asarray(values).dtype, np.datetime64) or not np.size(values):
+        return
+    import matplotlib.dates as mdates
+
+    span = (np.max(values) - np.min(values)) / np.timedelta64(1, "s")
+    ax.xaxis.set_major_formatter(mdates.DateFormatter("%H:%M:%S" if span < 600 else "%H:%M"))
+
+
+def map_legend(ax: Any, columns: int = 3) -> None:
+    """Put a map's legend under the figure, outside the map: it hides no data, no scale bar.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The map (its artists labelled).
+    columns : int
+        Entries per row.
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        ax.figure.legend(handles, labels, loc="outside lower left", ncol=columns, fontsize=8,
+                         frameon=False)
+
+
+def plain_ticks(ax: Any) -> None:
+    """Write a map's tick labels in full (47.955, not an offset +4.795e1), at most 6 per axis.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The map.
+    """
+    from matplotlib.ticker import MaxNLocator, ScalarFormatter
+
+    for axis in (ax.xaxis, ax.yaxis):
+        formatter = ScalarFormatter(useOffset=False)
+        formatter.set_scientific(False)
+        axis.set_major_formatter(formatter)
+        axis.set_major_locator(MaxNLocator(nbins=6, steps=[1, 2, 2.5, 5, 10]))
