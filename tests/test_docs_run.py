@@ -11,7 +11,10 @@ order they appear, as a reader would paste them:
 - any other block (``text``, ``toml``, ``csv``, ``json``, …) is not run;
 - a runnable block right after an HTML comment ``<!-- not run: REASON -->`` is skipped; the
   reason is required, and the skipped blocks are counted (``python tests/test_docs_run.py``
-  prints the inventory).
+  prints the inventory);
+- a runnable block right after ``<!-- slow: REASON -->`` (a study of minutes, too long for the
+  five-minute suite) runs, in its place in the document, only when ``TMAKIT_SLOW_DOCS=1``:
+  ``TMAKIT_SLOW_DOCS=1 python -m pytest tests/test_docs_run.py`` runs every such block too.
 
 The folder is empty but for a link ``benchmarks`` to the checkout's ``benchmarks/`` (the docs
 run ``python benchmarks/….py`` from a checkout, as the README says). Shell blocks find
@@ -38,6 +41,8 @@ CONSOLE = {"console", "shell-session"}
 RUNNABLE = PYTHON | SHELL | CONSOLE
 FENCE = re.compile(r"^(?P<indent> *)(?P<fence>`{3,}|~{3,})(?P<info>[^\n`]*)$")  # in lists too
 NOT_RUN = re.compile(r"^<!--\s*not run\s*:(?P<reason>.*?)-->\s*$", re.S)
+SLOW = re.compile(r"^<!--\s*slow\s*:(?P<reason>.*?)-->\s*$", re.S)
+RUN_SLOW = os.environ.get("TMAKIT_SLOW_DOCS") == "1"
 BLOCK_TIMEOUT_S = 600
 
 
@@ -50,6 +55,12 @@ class Block:
     lang: str
     code: str
     skip_reason: str | None  # None: runs (if runnable); "" : a `not run` comment without reason
+    slow_reason: str | None = None  # a `slow` block: runs only with TMAKIT_SLOW_DOCS=1
+
+    @property
+    def skipped(self) -> bool:
+        """Not run in this session: a `not run` block, or a `slow` one without the variable."""
+        return self.skip_reason is not None or (self.slow_reason is not None and not RUN_SLOW)
 
     @property
     def where(self) -> str:
@@ -75,13 +86,13 @@ def blocks(doc: Path) -> list[Block]:
         code = "\n".join(ln[indent:] if not ln[:indent].strip() else ln.lstrip()
                          for ln in lines[i + 1:end]) + "\n"
         found.append(Block(doc, i + 1, info.split()[0].lower() if info else "", code,
-                           _skip_reason(lines, i)))
+                           _skip_reason(lines, i), _skip_reason(lines, i, SLOW)))
         i = end + 1
     return found
 
 
-def _skip_reason(lines: list[str], fence_index: int) -> str | None:
-    """The reason of a `<!-- not run: … -->` comment on the last non-blank line before a fence."""
+def _skip_reason(lines: list[str], fence_index: int, marker: re.Pattern = NOT_RUN) -> str | None:
+    """The reason of a `<!-- not run: … -->` (or ``marker``) comment just before a fence."""
     j = fence_index - 1
     while j >= 0 and not lines[j].strip():
         j -= 1
@@ -90,7 +101,7 @@ def _skip_reason(lines: list[str], fence_index: int) -> str | None:
     k = j
     while k >= 0 and "<!--" not in lines[k]:
         k -= 1
-    m = NOT_RUN.match("\n".join(lines[k:j + 1]).strip()) if k >= 0 else None
+    m = marker.match("\n".join(lines[k:j + 1]).strip()) if k >= 0 else None
     return None if m is None else " ".join(m.group("reason").split())
 
 
@@ -149,7 +160,7 @@ def run_document(doc: Path, cwd: Path) -> None:
     """Run the runnable blocks of ``doc`` in order in the folder ``cwd``."""
     namespace: dict = {"__name__": "__main__"}
     for block in blocks(doc):
-        if block.lang not in RUNNABLE or block.skip_reason is not None:
+        if block.lang not in RUNNABLE or block.skipped:
             continue
         if block.lang in PYTHON:
             run_python(block, namespace)
@@ -161,8 +172,7 @@ def run_document(doc: Path, cwd: Path) -> None:
 
 
 def runnable_docs() -> list[Path]:
-    return [d for d in DOCS
-            if any(b.lang in RUNNABLE and b.skip_reason is None for b in blocks(d))]
+    return [d for d in DOCS if any(b.lang in RUNNABLE and not b.skipped for b in blocks(d))]
 
 
 @pytest.mark.parametrize("doc", runnable_docs(), ids=lambda p: p.name)
@@ -188,10 +198,12 @@ def test_every_block_names_its_language_and_every_skip_its_reason():
             if not b.lang:
                 problems.append(f"{b.where}: a fenced block without a language (```text, "
                                 "```bash, ```python, …): say whether it runs")
-            if b.skip_reason == "":
-                problems.append(f"{b.where}: `<!-- not run: -->` without a reason")
-            if b.skip_reason is not None and b.lang not in RUNNABLE:
-                problems.append(f"{b.where}: `not run` before a ```{b.lang} block, "
+            if b.skip_reason == "" or b.slow_reason == "":
+                problems.append(f"{b.where}: `<!-- not run: -->` or `<!-- slow: -->` without "
+                                "a reason")
+            if (b.skip_reason is not None or b.slow_reason is not None) \
+                    and b.lang not in RUNNABLE:
+                problems.append(f"{b.where}: `not run` or `slow` before a ```{b.lang} block, "
                                 "which never runs")
     assert problems == [], "\n".join(problems)
 
@@ -208,6 +220,14 @@ def test_a_not_run_comment_skips_the_next_block_only(tmp_path):
     found = blocks(doc)
     assert [b.skip_reason for b in found] == ["needs a radio", None, ""]
     assert [b.line for b in found] == [3, 7, 11]
+
+
+def test_a_slow_comment_marks_the_next_block_to_run_only_on_request(tmp_path):
+    doc = tmp_path / "d.md"
+    doc.write_text("<!-- slow: a long study -->\n```bash\nsleep 600\n```\n\n```bash\ntrue\n```\n")
+    slow, plain = blocks(doc)
+    assert (slow.slow_reason, slow.skip_reason, plain.slow_reason) == ("a long study", None, None)
+    assert slow.skipped is not RUN_SLOW and not plain.skipped
 
 
 def test_a_block_in_a_list_item_is_found_and_dedented(tmp_path):
@@ -234,12 +254,13 @@ def inventory() -> list[tuple[str, int, int, int, int, list[str]]]:
     rows = []
     for doc in DOCS:
         runnable = [b for b in blocks(doc) if b.lang in RUNNABLE]
-        ran = [b for b in runnable if b.skip_reason is None]
-        skipped = [b for b in runnable if b.skip_reason is not None]
+        ran = [b for b in runnable if not b.skipped]
+        skipped = [b for b in runnable if b.skipped]
         rows.append((str(doc.relative_to(ROOT)),
                      sum(b.lang in PYTHON for b in ran), sum(commands(b) for b in ran),
                      sum(b.lang in PYTHON for b in skipped), sum(commands(b) for b in skipped),
-                     [f"{b.where}: {b.skip_reason}" for b in skipped]))
+                     [f"{b.where}: {b.skip_reason or 'slow (TMAKIT_SLOW_DOCS=1 runs it): '}"
+                      f"{b.slow_reason or ''}" for b in skipped]))
     return rows
 
 

@@ -268,22 +268,25 @@ def print_warnings(warnings: list[Any]) -> None:
         err.print(f"[bold yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
 
 
-def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
-    """Return the track's last state in the user's terms (``--sensor`` for range and bearing).
+def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> Any:
+    """Return an estimate's or a track's answers (``--sensor``), errors as ``error: ...``.
 
     Parameters
     ----------
-    tr : tmakit.filters.Track
-        The track.
+    source : tmakit.results.EstimateResult or tmakit.filters.Track
+        What answers: its ``answer(meas, sensor=..., ...)`` method.
     meas : tmakit.data.MeasurementSet
-        The measurements tracked.
+        The measurements.
     sensor : str or None
         ``--sensor``; None for the sensor of the last measurement.
+    **where
+        Passed on: ``time`` (s, ``--at``) for an estimate; a track answers after its last
+        update.
 
     Returns
     -------
     tmakit.results.answers.Answer
-        The answers after the last update.
+        The answers.
 
     Raises
     ------
@@ -293,4 +296,4 @@ def final_answer(tr: Any, meas: Any, sensor: str | None) -> Any:
     if sensor is not None and sensor not in meas.sensors:
         raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
                    f"{', '.join(meas.sensors)})")
-    return tr.answer(meas, sensor=sensor)
+    return source.answer(meas, sensor=sensor, **where)

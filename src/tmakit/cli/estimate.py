@@ -14,6 +14,7 @@ from .answers_out import (
     AtOption,
     SensorOption,
     UnitsOption,
+    answer_or_fail,
     check_units,
     parse_time,
     print_answers,
@@ -119,7 +120,7 @@ def estimate(
     if scale_sigma:
         meas, result, factors = refit_scaled(meas, result, fit, model_options(drift,
                                                                               free_exponent))
-    answer = answer_or_fail(result, meas, parse_time(at, meas, "--at"), sensor)
+    answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
     warnings = result.warnings(meas)
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, file, model_options(drift, free_exponent)))
@@ -214,36 +215,6 @@ def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
     except ValueError as e:
         raise fail(f"--scale-sigma: {e}") from None
     return scaled, fit(scaled), factors
-
-
-def answer_or_fail(result: Any, meas: Any, at: float | None, sensor: str | None) -> Any:
-    """Return the estimate in the user's terms (``--at``, ``--sensor``), errors as ``error: ...``.
-
-    Parameters
-    ----------
-    result : tmakit.results.EstimateResult
-        The estimate.
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    at : float or None
-        Time (s); None for the last measurement.
-    sensor : str or None
-        Sensor name; None for the sensor of the last measurement.
-
-    Returns
-    -------
-    tmakit.results.answers.Answer
-        The answers.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for an unknown sensor.
-    """
-    if sensor is not None and sensor not in meas.sensors:
-        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
-                   f"{', '.join(meas.sensors)})")
-    return result.answer(meas, time=at, sensor=sensor)
 
 
 def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,

@@ -14,8 +14,8 @@ from rich.table import Table
 from .answers_out import (
     SensorOption,
     UnitsOption,
+    answer_or_fail,
     check_units,
-    final_answer,
     print_answers,
     print_warnings,
 )
@@ -125,7 +125,7 @@ def track(
     except ValueError as e:
         raise fail(str(e)) from None
     truth = tracking.truth_states(meas, tr.times, d)
-    report_track(tr, meas, truth, rows, as_json, final_answer(tr, meas, sensor), units)
+    report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
     write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
                         err if as_json else out)
 

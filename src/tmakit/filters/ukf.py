@@ -42,11 +42,9 @@ from .base import Array, UpdateInfo
 from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
 from .general import (
-    PlanOutputs,
     Step,
     checked_psd,
     innovation_solve,
-    predict_gaussian,
     predict_rows,
 )
 from .kernels import KernelRun, ukf_bearing_2d
@@ -181,9 +179,13 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         dev = self._gamma * chol.T
         return np.concatenate([mean[None, :], mean + dev, mean - dev])
 
-    def _plan_update(self, step: Step, mean: Array, cov: Array
+    def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
                      ) -> tuple[Array, Array, float, int, float]:
-        """One UKF update of the general path (the arithmetic of :meth:`_update`)."""
+        """One UKF update of the general path (the arithmetic of :meth:`_update`).
+
+        The loop over a plan's steps is the EKF's (:meth:`ExtendedKalmanFilter._run_plan`);
+        ``plan`` is not needed here.
+        """
         pts = self._plan_points(mean, cov)
         z, _ = predict_rows(step, pts, self.dim)
         total = float(np.add.reduce(z, axis=None))
@@ -208,19 +210,6 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         m = nu.shape[0]
         return (mean + gain @ nu, checked_psd(cov - gain @ pzz @ gain.T), nis, m,
                 -0.5 * (nis + log_det + m * LOG_2PI))
-
-    def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
-        """Run updates ``start`` on of a plan (the general path compiled once per file)."""
-        steps = plan.steps[start:]
-        out = PlanOutputs(len(steps), 2 * self.dim)
-        dyn = self._dynamics_cache()
-        mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
-        for step in steps:
-            mean, cov, t = predict_gaussian(dyn, mean, cov, t, step[0])
-            mean, cov, nis, m, lli = self._plan_update(step, mean, cov)
-            ll += lli
-            out.put(t, mean, cov, nis, m, ll)
-        return self._adopt(out.run(mean, cov, t, ll))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
         if not self._kernel_ok(compiled, UnscentedKalmanFilter):
