@@ -306,3 +306,28 @@ def test_an_unobservable_height_leaves_the_horizontal_answers(tmp_path):
     assert a3.geodetic[1] == pytest.approx(a2.geodetic[1], abs=1e-5)
     assert a3.course_deg == pytest.approx(a2.course_deg, abs=0.05)
     assert a3.bearing_deg == pytest.approx(a2.bearing_deg, abs=0.01)
+
+
+def test_track_table_speed_follows_units(bo, tmp_path):
+    """``tma track --units nautical``: the table's speed column is in knots, like the answers."""
+    _, meas, _ = bo
+    path = tmp_path / "bo.csv"
+    tk.write_measurements(meas, path)
+    tr = tk.track(meas, "ekf")
+    last_speed = float(np.hypot(*tr.states[-1, 2:]))
+
+    def table_speed(text: str, header: str) -> float:
+        lines = text.splitlines()
+        assert any(header in ln for ln in lines), text
+        last_row = [ln for ln in lines if ln.strip().startswith(f"{tr.times[-1]:g} ")
+                    or f" {tr.times[-1]:g} " in ln and "│" in ln][-1]
+        cells = [c.strip() for c in last_row.split("│") if c.strip()]
+        return float(cells[4])  # t, x, y, std, speed
+
+    si = run("track", str(path), "--rows", "3")
+    kn = run("track", str(path), "--rows", "3", "--units", "nautical")
+    assert si.exit_code == 0 and kn.exit_code == 0, kn.output
+    assert "(m/s)" in si.output and "(kn)" not in si.output.split("emitter at")[0]
+    assert "(kn)" in kn.output.split("emitter at")[0]
+    assert table_speed(si.output, "(m/s)") == pytest.approx(last_speed, abs=0.006)
+    assert table_speed(kn.output, "(kn)") == pytest.approx(last_speed / KNOT, abs=0.006)
