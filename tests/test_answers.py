@@ -319,8 +319,8 @@ def test_track_table_speed_follows_units(bo, tmp_path):
     def table_speed(text: str, header: str) -> float:
         lines = text.splitlines()
         assert any(header in ln for ln in lines), text
-        last_row = [ln for ln in lines if ln.strip().startswith(f"{tr.times[-1]:g} ")
-                    or f" {tr.times[-1]:g} " in ln and "│" in ln][-1]
+        last_row = [ln for ln in lines if ln.startswith("│")
+                    and ln.split("│")[1].strip() == f"{tr.times[-1]:g}"][-1]
         cells = [c.strip() for c in last_row.split("│") if c.strip()]
         return float(cells[4])  # t, x, y, std, speed
 

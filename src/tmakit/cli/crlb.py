@@ -115,7 +115,10 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
         return compute(meas, model, values, known_nuisance=known_nuisance,
                        options=model_options(drift, free_exponent))
     except ValueError as e:
-        raise fail(str(e)) from None
+        msg = str(e)
+        if msg.startswith("truth ") and truth is not None:
+            msg = f"--truth {truth}: {msg}"
+        raise fail(msg) from None
 
 
 def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
@@ -133,6 +136,11 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
     -------
     tmakit.results.Bound
         The bound.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the scenario's bound is undefined (its target on a sensor).
     """
     from ..bounds import crlb as compute
 
@@ -142,7 +150,10 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
         opts.setdefault("frequency", {})["drift"] = True
     if free_exponent:
         opts.setdefault("power", {})["exponent"] = None
-    return compute(scn, known_nuisance=known_nuisance, options=opts)
+    try:
+        return compute(scn, known_nuisance=known_nuisance, options=opts)
+    except ValueError as e:  # e.g. the truth crosses a sensor at a measurement time
+        raise fail(f"scenario {source}: {e}") from None
 
 
 def derived_at(bound: Any, at: float) -> dict[str, Any]:
