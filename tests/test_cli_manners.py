@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -122,3 +123,20 @@ def test_curvilinear_estimate_gives_the_course_in_degrees_true(tmp_path):
     assert float(course[1]) == pytest.approx(90.0, abs=15.0)
     answer = next(line for line in out.splitlines() if "course (true)" in line)
     assert answer.rstrip(" │").endswith("deg") and "rad" not in out
+
+
+def test_reproduce_parameter_tables_say_their_units():
+    """Printed reproduction tables with a parameter column gain a unit column (JSON unchanged)."""
+    from tmakit.cli.reproduce import with_unit_column
+
+    text = runner.invoke(app, ["reproduce", "doppler-lecture"])
+    assert text.exit_code == 0, text.output
+    rows = {ln.split("│")[1].strip(): ln.split("│")[2].strip()
+            for ln in text.output.splitlines() if ln.startswith("│") and ln.count("│") > 6}
+    assert rows["x"] == "m" and rows["vz"] == "m/s" and rows["carrier"] == "Hz"
+    data = json.loads(runner.invoke(app, ["reproduce", "doppler-lecture", "--json"]).stdout)
+    assert "unit" not in data["sections"][1]["header"]
+    # A table that has a unit column already, or no parameter column, is left as it is.
+    assert with_unit_column(["parameter", "unit"], [["x", "m"]]) == (
+        ["parameter", "unit"], [["x", "m"]])
+    assert with_unit_column(["case", "n"], [["a", 1]]) == (["case", "n"], [["a", 1]])
