@@ -140,3 +140,21 @@ def test_reproduce_parameter_tables_say_their_units():
     assert with_unit_column(["parameter", "unit"], [["x", "m"]]) == (
         ["parameter", "unit"], [["x", "m"]])
     assert with_unit_column(["case", "n"], [["a", 1]]) == (["case", "n"], [["a", 1]])
+
+
+def test_crlb_at_follows_units():
+    """``tma crlb SCENARIO --at T --units nautical``: speeds in knots, the JSON still in SI."""
+    si = runner.invoke(app, ["crlb", "hurtado2008", "--at", "10"])
+    kn = runner.invoke(app, ["crlb", "hurtado2008", "--at", "10", "--units", "nautical"])
+    assert si.exit_code == 0 and kn.exit_code == 0, kn.output
+
+    def speed(text):
+        line = next(ln for ln in text.splitlines() if ln.strip().startswith("speed"))
+        return float(line.split()[1]), line.split()[-1]
+
+    (v_si, u_si), (v_kn, u_kn) = speed(si.output), speed(kn.output)
+    assert (u_si, u_kn) == ("m/s", "kn")
+    assert v_kn == pytest.approx(v_si * 3600 / 1852, rel=1e-5)
+    data = json.loads(runner.invoke(app, ["crlb", "hurtado2008", "--at", "10", "--json",
+                                          "--units", "nautical"]).stdout)
+    assert data["at"]["speed"]["value"] == pytest.approx(v_si, rel=1e-5)
