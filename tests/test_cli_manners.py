@@ -158,3 +158,14 @@ def test_crlb_at_follows_units():
     data = json.loads(runner.invoke(app, ["crlb", "hurtado2008", "--at", "10", "--json",
                                           "--units", "nautical"]).stdout)
     assert data["at"]["speed"]["value"] == pytest.approx(v_si, rel=1e-5)
+
+
+def test_reproduce_list_figures_are_named_with_units():
+    """``tma reproduce gu2007``: the Monte Carlo RMSE line names each parameter and its unit."""
+    res = runner.invoke(app, ["reproduce", "gu2007", "--runs", "3"])
+    assert res.exit_code == 0, res.output
+    line = next(ln for ln in res.output.splitlines() if ln.startswith("ml rmse:"))
+    assert re.fullmatch(r"ml rmse: x \S+ m, y \S+ m, vx \S+ m/s, vy \S+ m/s", line), line
+    data = json.loads(runner.invoke(app, ["reproduce", "gu2007", "--runs", "3",
+                                          "--json"]).stdout)
+    assert len(data["figures"]["ml_rmse"]) == 4 and "labels" not in data

@@ -139,7 +139,13 @@ def print_report(rep: Any) -> None:
         if section.note:
             out.print(section.note, highlight=False)
     for key, value in rep.figures.items():
-        out.print(f"{key.replace('_', ' ')}: {plain(value)}", highlight=False)
+        labels = getattr(rep, "labels", {}).get(key)
+        if labels and isinstance(value, list) and len(value) == len(labels):
+            text = ", ".join(f"{n} {plain(v)}" + (f" {u}" if u else "")
+                             for (n, u), v in zip(labels, value, strict=True))
+        else:
+            text = plain(value)
+        out.print(f"{key.replace('_', ' ')}: {text}", highlight=False)
 
 
 def with_unit_column(header: list[str], rows: list[list[Any]]
