@@ -331,3 +331,20 @@ def test_track_table_speed_follows_units(bo, tmp_path):
     assert "(kn)" in kn.output.split("emitter at")[0]
     assert table_speed(si.output, "(m/s)") == pytest.approx(last_speed, abs=0.006)
     assert table_speed(kn.output, "(kn)") == pytest.approx(last_speed / KNOT, abs=0.006)
+
+
+def test_estimate_parameter_table_follows_units(bo):
+    """``tma estimate --units nautical``: the parameters' velocities are in knots too."""
+    _, _, res = bo
+    si, kn = res.summary(), res.summary("nautical")
+
+    def row(text, name):
+        return next(ln.split() for ln in text.splitlines() if ln.split()[:1] == [name])
+
+    for name in ("vx", "vy"):
+        assert row(si, name)[-1] == "m/s" and row(kn, name)[-1] == "kn"
+        assert float(row(kn, name)[1]) == pytest.approx(float(row(si, name)[1]) / KNOT,
+                                                        rel=1e-6)
+        assert float(row(kn, name)[2]) == pytest.approx(float(row(si, name)[2]) / KNOT,
+                                                        rel=1e-3)
+    assert row(kn, "x") == row(si, "x")  # positions stay in metres (local East/North)
