@@ -306,3 +306,45 @@ def test_an_unobservable_height_leaves_the_horizontal_answers(tmp_path):
     assert a3.geodetic[1] == pytest.approx(a2.geodetic[1], abs=1e-5)
     assert a3.course_deg == pytest.approx(a2.course_deg, abs=0.05)
     assert a3.bearing_deg == pytest.approx(a2.bearing_deg, abs=0.01)
+
+
+def test_track_table_speed_follows_units(bo, tmp_path):
+    """``tma track --units nautical``: the table's speed column is in knots, like the answers."""
+    _, meas, _ = bo
+    path = tmp_path / "bo.csv"
+    tk.write_measurements(meas, path)
+    tr = tk.track(meas, "ekf")
+    last_speed = float(np.hypot(*tr.states[-1, 2:]))
+
+    def table_speed(text: str, header: str) -> float:
+        lines = text.splitlines()
+        assert any(header in ln for ln in lines), text
+        last_row = [ln for ln in lines if ln.startswith("│")
+                    and ln.split("│")[1].strip() == f"{tr.times[-1]:g}"][-1]
+        cells = [c.strip() for c in last_row.split("│") if c.strip()]
+        return float(cells[4])  # t, x, y, std, speed
+
+    si = run("track", str(path), "--rows", "3")
+    kn = run("track", str(path), "--rows", "3", "--units", "nautical")
+    assert si.exit_code == 0 and kn.exit_code == 0, kn.output
+    assert "(m/s)" in si.output and "(kn)" not in si.output.split("emitter at")[0]
+    assert "(kn)" in kn.output.split("emitter at")[0]
+    assert table_speed(si.output, "(m/s)") == pytest.approx(last_speed, abs=0.006)
+    assert table_speed(kn.output, "(kn)") == pytest.approx(last_speed / KNOT, abs=0.006)
+
+
+def test_estimate_parameter_table_follows_units(bo):
+    """``tma estimate --units nautical``: the parameters' velocities are in knots too."""
+    _, _, res = bo
+    si, kn = res.summary(), res.summary("nautical")
+
+    def row(text, name):
+        return next(ln.split() for ln in text.splitlines() if ln.split()[:1] == [name])
+
+    for name in ("vx", "vy"):
+        assert row(si, name)[-1] == "m/s" and row(kn, name)[-1] == "kn"
+        assert float(row(kn, name)[1]) == pytest.approx(float(row(si, name)[1]) / KNOT,
+                                                        rel=1e-6)
+        assert float(row(kn, name)[2]) == pytest.approx(float(row(si, name)[2]) / KNOT,
+                                                        rel=1e-3)
+    assert row(kn, "x") == row(si, "x")  # positions stay in metres (local East/North)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -122,3 +123,49 @@ def test_curvilinear_estimate_gives_the_course_in_degrees_true(tmp_path):
     assert float(course[1]) == pytest.approx(90.0, abs=15.0)
     answer = next(line for line in out.splitlines() if "course (true)" in line)
     assert answer.rstrip(" │").endswith("deg") and "rad" not in out
+
+
+def test_reproduce_parameter_tables_say_their_units():
+    """Printed reproduction tables with a parameter column gain a unit column (JSON unchanged)."""
+    from tmakit.cli.reproduce import with_unit_column
+
+    text = runner.invoke(app, ["reproduce", "doppler-lecture"])
+    assert text.exit_code == 0, text.output
+    rows = {ln.split("│")[1].strip(): ln.split("│")[2].strip()
+            for ln in text.output.splitlines() if ln.startswith("│") and ln.count("│") > 6}
+    assert rows["x"] == "m" and rows["vz"] == "m/s" and rows["carrier"] == "Hz"
+    data = json.loads(runner.invoke(app, ["reproduce", "doppler-lecture", "--json"]).stdout)
+    assert "unit" not in data["sections"][1]["header"]
+    # A table that has a unit column already, or no parameter column, is left as it is.
+    assert with_unit_column(["parameter", "unit"], [["x", "m"]]) == (
+        ["parameter", "unit"], [["x", "m"]])
+    assert with_unit_column(["case", "n"], [["a", 1]]) == (["case", "n"], [["a", 1]])
+
+
+def test_crlb_at_follows_units():
+    """``tma crlb SCENARIO --at T --units nautical``: speeds in knots, the JSON still in SI."""
+    si = runner.invoke(app, ["crlb", "hurtado2008", "--at", "10"])
+    kn = runner.invoke(app, ["crlb", "hurtado2008", "--at", "10", "--units", "nautical"])
+    assert si.exit_code == 0 and kn.exit_code == 0, kn.output
+
+    def speed(text):
+        line = next(ln for ln in text.splitlines() if ln.strip().startswith("speed"))
+        return float(line.split()[1]), line.split()[-1]
+
+    (v_si, u_si), (v_kn, u_kn) = speed(si.output), speed(kn.output)
+    assert (u_si, u_kn) == ("m/s", "kn")
+    assert v_kn == pytest.approx(v_si * 3600 / 1852, rel=1e-5)
+    data = json.loads(runner.invoke(app, ["crlb", "hurtado2008", "--at", "10", "--json",
+                                          "--units", "nautical"]).stdout)
+    assert data["at"]["speed"]["value"] == pytest.approx(v_si, rel=1e-5)
+
+
+def test_reproduce_list_figures_are_named_with_units():
+    """``tma reproduce gu2007``: the Monte Carlo RMSE line names each parameter and its unit."""
+    res = runner.invoke(app, ["reproduce", "gu2007", "--runs", "3"])
+    assert res.exit_code == 0, res.output
+    line = next(ln for ln in res.output.splitlines() if ln.startswith("ml rmse:"))
+    assert re.fullmatch(r"ml rmse: x \S+ m, y \S+ m, vx \S+ m/s, vy \S+ m/s", line), line
+    data = json.loads(runner.invoke(app, ["reproduce", "gu2007", "--runs", "3",
+                                          "--json"]).stdout)
+    assert len(data["figures"]["ml_rmse"]) == 4 and "labels" not in data

@@ -241,8 +241,8 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
     TypeError
         When ``source`` is neither a scenario nor a measurement set.
     ValueError
-        When a measurement set comes without ``motion`` or ``truth``, or ``truth`` has the
-        wrong length.
+        When a measurement set comes without ``motion`` or ``truth``, ``truth`` has the
+        wrong length, or it puts the target on a sensor at a measurement time.
 
     References
     ----------
@@ -252,6 +252,7 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
                                                           options, "crlb()")
     known = as_known_nuisance(known_nuisance)
     theta = truth_vector(motion, truth)
+    check_off_sensors(meas, motion, theta)
     obs = ObservationModel(meas, motion, options)
     values = _nuisance_values(meas, nuisance)
     if known is not None:
@@ -262,3 +263,40 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
     vals = theta if known else np.concatenate([theta, nu])
     used = {n: float(v) for n, v in zip(obs.nuisance_names, nu, strict=True)}
     return bound_from_information(info, names, vals, meas, motion, known, used)
+
+
+#: Closer than this (m) to a sensor at a measurement time, the target is "on the sensor".
+ON_SENSOR_M = 1e-3
+
+
+def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLike) -> None:
+    """Refuse a truth that puts the target on a sensor at one of the measurement times.
+
+    There a bearing or elevation has no value, a range no derivative and a power is
+    infinite: the Fisher information, hence the bound, is undefined.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (their times and sensor positions, m).
+    motion : MotionModel
+        The motion model.
+    theta : array_like
+        The truth's motion parameters (SI).
+
+    Raises
+    ------
+    ValueError
+        Naming the sensor, the time and the distance, when the target is within
+        :data:`ON_SENSOR_M` of a sensor.
+    """
+    if len(meas) == 0:
+        return
+    pos = motion.states(theta, meas.time)[..., :3]
+    dist = np.linalg.norm(pos - meas.sensor_state[:, :3], axis=-1)
+    k = int(np.argmin(dist))
+    if not dist[k] >= ON_SENSOR_M:  # also NaN
+        raise ValueError(
+            f"truth puts the target on sensor {str(meas.sensor[k])!r} at t = {meas.time[k]:g} s "
+            f"(distance {dist[k]:.3g} m < {ON_SENSOR_M:g} m): the bound is undefined there "
+            "(no bearing, no range derivative); choose a truth away from every sensor")

@@ -7,6 +7,7 @@ from typing import Annotated, Any
 
 import typer
 
+from .answers_out import SPEED_UNITS, UnitsOption, check_units
 from .common import (
     BearingSigmaOption,
     ContactOption,
@@ -53,6 +54,7 @@ def crlb(
     bearing_sigma: BearingSigmaOption = None,
     range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
+    units: UnitsOption = "si",
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 
@@ -60,6 +62,7 @@ def crlb(
     sigmas (its measured values are not used).  Nuisance parameters are unknown unless
     --known-nuisance is given.
     """
+    check_units(units)
     if is_measurement_file(source) or format is not None:
         bound = bound_of_file(Path(source), motion, ref_time, truth, known_nuisance, drift,
                               free_exponent,
@@ -68,7 +71,7 @@ def crlb(
     else:
         bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
     derived = None if at is None else derived_at(bound, at)
-    print_bound(bound, derived, as_json)
+    print_bound(bound, derived, as_json, units)
 
 
 def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth: str | None,
@@ -115,7 +118,10 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
         return compute(meas, model, values, known_nuisance=known_nuisance,
                        options=model_options(drift, free_exponent))
     except ValueError as e:
-        raise fail(str(e)) from None
+        msg = str(e)
+        if msg.startswith("truth ") and truth is not None:
+            msg = f"--truth {truth}: {msg}"
+        raise fail(msg) from None
 
 
 def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
@@ -133,6 +139,11 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
     -------
     tmakit.results.Bound
         The bound.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the scenario's bound is undefined (its target on a sensor).
     """
     from ..bounds import crlb as compute
 
@@ -142,7 +153,10 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
         opts.setdefault("frequency", {})["drift"] = True
     if free_exponent:
         opts.setdefault("power", {})["exponent"] = None
-    return compute(scn, known_nuisance=known_nuisance, options=opts)
+    try:
+        return compute(scn, known_nuisance=known_nuisance, options=opts)
+    except ValueError as e:  # e.g. the truth crosses a sensor at a measurement time
+        raise fail(f"scenario {source}: {e}") from None
 
 
 def derived_at(bound: Any, at: float) -> dict[str, Any]:
@@ -173,7 +187,8 @@ def derived_at(bound: Any, at: float) -> dict[str, Any]:
     return data
 
 
-def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> None:
+def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
+                units: str = "si") -> None:
     """Print the bound, and what :func:`derived_at` gave, as text or JSON.
 
     Parameters
@@ -184,6 +199,8 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> No
         The output of :func:`derived_at`, or None without ``--at``.
     as_json : bool
         Print JSON.
+    units : str
+        ``--units``: ``nautical`` shows the speeds at ``--at`` in knots (the JSON stays SI).
     """
     import json
 
@@ -203,6 +220,9 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool) -> No
                 sd = v["std"]
                 value, sd_shown, unit = parameter_display(
                     k, v["value"], sd if sd is not None else float("nan"))
+                if unit == "m/s":
+                    unit, scale = SPEED_UNITS[units]
+                    value, sd_shown = value / scale, sd_shown / scale
                 out.print(f"  {k:<6} {value:14.6g}  std "
                           + (f"{sd_shown:.4g}" if sd is not None else "unobservable")
                           + f" {unit}", highlight=False)

@@ -311,7 +311,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         data["sigma_scale"] = factors
         out.print_json(json.dumps(data))
     else:
-        out.print(result.summary(), highlight=False)
+        out.print(result.summary(units), highlight=False)
         if factors is not None:
             out.print("--scale-sigma: sigma multiplied by " + ", ".join(
                 f"{f:.3g} ({k})" for k, f in factors.items()) + " from the first fit's "

@@ -130,15 +130,52 @@ def print_report(rep: Any) -> None:
     """
     for section in rep.sections:
         table = Table(title=section.title, title_justify="left")
-        for col in section.header:
+        header, rows = with_unit_column(section.header, section.rows)
+        for col in header:
             table.add_column(col)
-        for row in section.rows:
+        for row in rows:
             table.add_row(*(f"{v:.10g}" if isinstance(v, float) else str(v) for v in row))
         out.print(table)
         if section.note:
             out.print(section.note, highlight=False)
     for key, value in rep.figures.items():
-        out.print(f"{key.replace('_', ' ')}: {plain(value)}", highlight=False)
+        labels = getattr(rep, "labels", {}).get(key)
+        if labels and isinstance(value, list) and len(value) == len(labels):
+            text = ", ".join(f"{n} {plain(v)}" + (f" {u}" if u else "")
+                             for (n, u), v in zip(labels, value, strict=True))
+        else:
+            text = plain(value)
+        out.print(f"{key.replace('_', ' ')}: {text}", highlight=False)
+
+
+def with_unit_column(header: list[str], rows: list[list[Any]]
+                     ) -> tuple[list[str], list[list[Any]]]:
+    """Add a ``unit`` column after a ``parameter`` column that has none (printed tables only).
+
+    The JSON keeps the section as it is (its layout is pinned); the printed table says each
+    parameter's unit (m, m/s, Hz, ...), from the same table as ``tma estimate``'s.
+
+    Parameters
+    ----------
+    header : list of str
+        The section's column names.
+    rows : list of list
+        Its rows.
+
+    Returns
+    -------
+    tuple
+        ``(header, rows)``, with the unit column when there is a ``parameter`` column and no
+        ``unit`` column, unchanged otherwise.
+    """
+    from ..results.answers import parameter_display
+
+    if "parameter" not in header or any("unit" in h for h in header):
+        return header, rows
+    j = header.index("parameter") + 1
+    return ([*header[:j], "unit", *header[j:]],
+            [[*r[:j], parameter_display(str(r[j - 1]), 0.0, 0.0)[2] or "-", *r[j:]]
+             for r in rows])
 
 
 def plain(value: Any) -> str:

@@ -12,6 +12,7 @@ import typer
 from rich.table import Table
 
 from .answers_out import (
+    SPEED_UNITS,
     SensorOption,
     UnitsOption,
     answer_or_fail,
@@ -158,7 +159,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
         typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
     else:
-        print_track(tr, truth, rows, meas)
+        print_track(tr, truth, rows, meas, units)
         print_answers(answer, units, meas)
     print_warnings(measurement_warnings(meas))
 
@@ -269,7 +270,8 @@ def start_sentence(tr: Any) -> str:
     return text
 
 
-def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None) -> None:
+def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
+                units: str = "si") -> None:
     """Print the track's summary table (``n_rows`` rows spread over it) and its checks.
 
     Parameters
@@ -283,6 +285,9 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None) -> None:
         Rows of the table.
     meas : tmakit.data.MeasurementSet, optional
         The measurements: with a time origin, the table shows UTC clock times too.
+    units : str
+        ``--units``: ``si`` (speed in m/s) or ``nautical`` (speed in knots); positions, their
+        std and the error stay in metres (local East/North/Up), as in the answers table.
     """
     import numpy as np
 
@@ -295,9 +300,10 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None) -> None:
                         f"{tr.times[-1]:g} s, q = {q} m/s^2 ({len(k_sel)} rows shown)",
                   title_justify="left")
     clock = meas is not None and clock_time(meas, 0.0) is not None
+    sp_unit, sp_scale = SPEED_UNITS[units]
     cols = [*(["UTC"] if clock else []), "t\n(s)",
             *(f"{n}\n(m)" for n in tr.state_names[:dim]), "std\n(m)",
-            "speed\n(m/s)", "course\n(deg)", "NIS/\ndof"]
+            f"speed\n({sp_unit})", "course\n(deg)", "NIS/\ndof"]
     if truth is not None:
         cols.append("error\n(m)")
     for c in cols:
@@ -305,7 +311,7 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None) -> None:
     pos_sd = np.sqrt(np.einsum("kii->k", tr.covariances[:, :dim, :dim]))
     for k in k_sel:
         v = tr.states[k, dim:]
-        speed = float(np.linalg.norm(v))
+        speed = float(np.linalg.norm(v)) / sp_scale
         course = float(np.degrees(np.arctan2(v[0], v[1])) % 360.0)
         nis = (f"{tr.nis[k]:.2f}/{tr.dof[k]}" if tr.dof[k] > 0 else "start")
         row = [*([str(clock_time(meas, float(tr.times[k])))[:19]] if clock else []),

@@ -42,11 +42,15 @@ class Reproduction:
         The report's tables, in order.
     figures : dict, optional
         Key numbers by name (units in the names, e.g. ``rms_m``), JSON-ready.
+    labels : dict, optional
+        For a figure that is a list, the name and unit of each entry (``("x", "m")``), for
+        the printed report (not in the JSON).
     """
 
     name: str
     sections: list[Section] = field(default_factory=list)
     figures: dict[str, object] = field(default_factory=dict)
+    labels: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, object]:
         """Give the reproduction as JSON-ready data.

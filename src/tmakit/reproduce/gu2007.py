@@ -131,6 +131,8 @@ def _monte_carlo(rep: Reproduction, runs: int, seed: int, progress: bool) -> Non
         rep.figures[f"{estimator}_rmse"] = rmse
         rep.figures[f"{estimator}_ratio"] = [summary[p]["ratio"] for p in PARAMS]
         rep.figures[f"{estimator}_converged"] = mc.convergence_rate
+        rep.labels[f"{estimator}_rmse"] = [(p, "m" if p in "xy" else "m/s") for p in PARAMS]
+        rep.labels[f"{estimator}_ratio"] = [(p, "") for p in PARAMS]
     rep.sections.append(Section(
         "§5 Monte Carlo: RMS error, SNR_p = 40 dB, sigma_f = 1.9 Hz",
         ["", "x0 (m)", "y0 (m)", "vx (m/s)", "vy (m/s)", "converged", "RMSE/CRLB"], rows,

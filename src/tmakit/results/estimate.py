@@ -26,7 +26,7 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
-from .answers import ELLIPSE_LEVEL, Answer, estimate_answer, parameter_display
+from .answers import ELLIPSE_LEVEL, KNOT, Answer, estimate_answer, parameter_display
 from .bound import Bound, bound_from_information
 from .checks import SanityWarning, fit_warnings
 from .nuisance import KnownNuisance, as_known_nuisance
@@ -179,13 +179,19 @@ class EstimateResult:
         """
         return json.dumps(self.as_dict(), indent=indent)
 
-    def summary(self) -> str:
+    def summary(self, units: str = "si") -> str:
         """Return a readable table: status, chi2, each parameter with its std, what is unseen.
+
+        Parameters
+        ----------
+        units : str, optional
+            ``si`` (default: SI units, angles in degrees) or ``nautical`` (velocities and
+            speeds in knots, the rest as with ``si``).
 
         Returns
         -------
         str
-            The table (SI units).
+            The table, with each parameter's unit.
         """
         lines = [f"{self.method} estimate, motion {self.motion.name}: {self.status}"
                  f" after {self.iterations} iterations"
@@ -199,6 +205,8 @@ class EstimateResult:
         for n, v, s in (*zip(self.parameters, self.estimate, self.std, strict=True),
                         *((n, v, s) for n, (v, s) in self.nuisance.items())):
             v, s, unit = parameter_display(n, v, s)
+            if units == "nautical" and unit == "m/s":
+                v, s, unit = v / KNOT, s / KNOT, "kn"
             value = f"{v:16.13g}" if n in self.nuisance else f"{v:16.8g}"
             if not np.isfinite(s):
                 value = f"{'-':>16}"  # not an estimate: no number for what is unobservable

@@ -97,15 +97,20 @@ class ManoeuvreEstimate(EstimateResult):
                                   for k, (v, s) in self.final.items()}}
         return data
 
-    def summary(self) -> str:
+    def summary(self, units: str = "si") -> str:
         """Describe the estimate, the order selection and the final position (m), as text.
+
+        Parameters
+        ----------
+        units : str, optional
+            ``si`` or ``nautical`` (speeds in knots), as for the estimate's table.
 
         Returns
         -------
         str
             Several lines.
         """
-        parts = [super().summary()]
+        parts = [super().summary(units)]
         if self.selection is not None:
             parts.append(self.selection.summary())
         if self.final:
