@@ -63,6 +63,24 @@ def test_debug_shows_the_traceback(tmp_path, monkeypatch):
     run("simulate", "--help")  # --debug is per invocation: the next one resets it
 
 
+def test_a_library_warning_is_shown_once_and_the_command_finishes(tmp_path, monkeypatch):
+    # A warning meant for the user (say a dependency's deprecation) is shown after the command,
+    # once; showing it while warnings were still being recorded would record it again, forever.
+    real = tk.Scenario.simulate
+
+    def warns(self, *args, **kwargs):
+        warnings.warn("a dependency is deprecated", DeprecationWarning, stacklevel=1)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(tk.Scenario, "simulate", warns)
+    with warnings.catch_warnings(record=True) as shown:
+        warnings.simplefilter("always")
+        result = run("simulate", "gu2007", "-o", tmp_path / "x.csv")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "x.csv").exists()
+    assert [str(w.message) for w in shown].count("a dependency is deprecated") == 1
+
+
 def test_numerical_failure_names_what_was_computed(tmp_path, monkeypatch):
     def singular(*args, **kwargs):
         raise np.linalg.LinAlgError("SVD did not converge")

@@ -160,6 +160,7 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
     def run(*args: Any, **kwargs: Any) -> Any:
         _refuse_non_finite(kwargs)
         caught: list[warnings.WarningMessage] = []
+        others: list[warnings.WarningMessage] = []  # meant for the user: shown after recording
         try:
             with warnings.catch_warnings(record=not _state["debug"]) as record:
                 if not _state["debug"]:
@@ -167,12 +168,9 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
                 try:
                     return command(*args, **kwargs)
                 finally:
-                    if record is not None:
-                        caught = [w for w in record if issubclass(w.category, RuntimeWarning)]
-                        for w in record:  # other warnings are meant for the user
-                            if not issubclass(w.category, RuntimeWarning):
-                                warnings.showwarning(w.message, w.category, w.filename,
-                                                     w.lineno)
+                    # Only sorted here: showing one while recording would record it again.
+                    for w in record or []:
+                        (caught if issubclass(w.category, RuntimeWarning) else others).append(w)
         except (typer.Exit, click.exceptions.ClickException, click.exceptions.Exit,
                 click.exceptions.Abort):
             raise
@@ -191,5 +189,8 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
             if _state["debug"]:  # tma --debug: the exception itself, traceback and all
                 raise
             raise typer.Exit(_report(exc, command.__name__, caught)) from None
+        finally:
+            for w in others:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
     return run
