@@ -109,7 +109,7 @@ def _read_frame(body: bytes, names: list[str], as_text: bool) -> pd.DataFrame:
     """Read the columns the reader uses: numbers as float64 when every cell is a finite number.
 
     A text cell costs about 60 bytes, a float64 8; so unless ``as_text``, numeric columns are
-    parsed as float64 (exactly, by Python's own conversion), and only if a cell is not a
+    parsed as float64 (pandas reads round-trip text exactly), and only if a cell is not a
     finite number (an empty cell, ``nan``, a word) is the table read as text.
     """
     import pandas as pd
@@ -123,7 +123,7 @@ def _read_frame(body: bytes, names: list[str], as_text: bool) -> pd.DataFrame:
         dtypes = {c: (np.float64 if c.strip() in numeric else str)
                   for c in _raw_header(body) if c.strip() in READ_COLUMNS}
         try:
-            frame = pd.read_csv(io.BytesIO(body), dtype=dtypes, float_precision="round_trip",
+            frame = pd.read_csv(io.BytesIO(body), dtype=dtypes,
                                 **options)
         except (pd.errors.ParserError, ValueError, TypeError):
             frame = None
