@@ -124,8 +124,9 @@ def text_column(series: pd.Series) -> NDArray[np.object_]:
     """
     import pandas as pd
 
-    if isinstance(series.dtype, pd.StringDtype):
-        return series.fillna("").to_numpy(dtype=object)
+    if isinstance(series.dtype, pd.StringDtype):  # one str object per distinct id, shared
+        codes, uniques = pd.factorize(series.fillna(""))
+        return np.asarray(uniques, dtype=object)[codes]
     out = np.empty(len(series), dtype=object)
     for i, v in enumerate(series.tolist()):
         out[i] = "" if is_blank(v) else str(v)

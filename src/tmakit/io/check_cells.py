@@ -25,7 +25,11 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
     import pandera.pandas as pa
 
-__all__ = ["check_cells", "read_numbers"]
+__all__ = ["CHUNK_ROWS", "check_cells", "read_numbers"]
+
+#: Rows validated at a time by the pandera schema: its working memory (a few hundred bytes
+#: per row) is bounded by this, not by the file.
+CHUNK_ROWS = 100_000
 
 Numbers = dict[str, NDArray[np.float64]]
 RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
@@ -63,6 +67,8 @@ def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     import pandera.pandas as pa
 
     present = [c for c in NUMERIC_COLUMNS if c in frame.columns]
+    if all(frame[c].dtype == np.float64 for c in present):  # nothing to coerce (nor copy twice)
+        return {c: frame[c].to_numpy(dtype=np.float64, copy=True) for c in present}
     cols = {}
     for c in present:
         s = frame[c]
@@ -154,12 +160,16 @@ def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
     for c in REF_STATE_COLUMNS:
         if c in num and "kind" in frame.columns:
             columns[c] = _ref_state_column(c, kind, is_rd, ref_given, checks)
-    table = pd.DataFrame({c: (num[c] if c in num else text_column(frame[c]))
-                          for c in columns}, index=pd.RangeIndex(len(frame)))
-    try:
-        pa.DataFrameSchema(columns).validate(table, lazy=True)
-    except pa.errors.SchemaErrors as err:
-        _record_failures(err.failure_cases, checks, problems)
+    schema = pa.DataFrameSchema(columns)
+    text = {c: text_column(frame[c]) for c in columns if c not in num}
+    for lo in range(0, max(len(frame), 1), CHUNK_ROWS):  # bounded memory; rows keep their index
+        hi = min(len(frame), lo + CHUNK_ROWS)
+        table = pd.DataFrame({c: (num[c][lo:hi] if c in num else text[c][lo:hi])
+                              for c in columns}, index=pd.RangeIndex(lo, hi))
+        try:
+            schema.validate(table, lazy=True)
+        except pa.errors.SchemaErrors as err:
+            _record_failures(err.failure_cases, checks, problems)
     return ref_given
 
 
@@ -250,7 +260,9 @@ def _record_failures(fc: pd.DataFrame, checks: _Checks, problems: Problems) -> N
                                          fc["failure_case"], strict=True):
         column = str(column)
         if index is None or is_blank(index):
-            problems.file.append(f"column '{column}': {name}: {case}")
+            message = f"column '{column}': {name}: {case}"
+            if message not in problems.file:  # once, not once per chunk of rows
+                problems.file.append(message)
             continue
         row = int(index)
         if name == "not_nullable":

@@ -34,7 +34,9 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
     t = num["time"]
     tr = num.get("time_ref", np.full(t.shape[0], np.nan))
     rows = np.flatnonzero(~problems.bad_rows("time", "sensor"))
-    table = pd.DataFrame({"sensor": sensor[rows], "kind": kind[rows],
+    # codes, not text: equal ids give equal codes, and groupby on integers is light
+    table = pd.DataFrame({"sensor": pd.factorize(sensor[rows])[0],
+                          "kind": pd.factorize(kind[rows])[0],
                           "time": t[rows], "time_ref": tr[rows], "row": rows})
     by_sensor = table.groupby("sensor", sort=False)
     prev_row = by_sensor["row"].shift().to_numpy()

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..data import MeasurementSet
 from ..measurements import KINDS
@@ -60,8 +61,8 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     has = set(frame.columns).__contains__
     sensor = (text_column(frame["sensor"]) if has("sensor")
               else np.full(n, "", dtype=object))
-    kind = (np.array([k.strip() for k in text_column(frame["kind"])], dtype=object)
-            if has("kind") else np.full(n, "", dtype=object))
+    kind = (_stripped(text_column(frame["kind"])) if has("kind")
+            else np.full(n, "", dtype=object))
     is_rd = np.isin(kind, reference_kinds())
 
     layout = check_columns(frame.columns, [k for k in KINDS if np.any(kind == k)], problems)
@@ -81,6 +82,14 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     return MeasurementSet(num["time"], np.asarray(sensor.tolist(), dtype=str),
                           np.asarray(kind.tolist(), dtype=str), num["value"],
                           num["sigma"], state, time_ref, ref_state, meta)
+
+
+def _stripped(text: NDArray[np.object_]) -> NDArray[np.object_]:
+    """Strip each cell, once per distinct text (the cells then share their str objects)."""
+    import pandas as pd
+
+    codes, uniques = pd.factorize(text)
+    return np.array([str(u).strip() for u in uniques] + [""], dtype=object)[codes]
 
 
 def table_reader(load: Callable[[Path], RawTable], label: str

@@ -1,19 +1,24 @@
 """The CSV measurement file: ``# key: value`` metadata lines, a header, one row per value.
 
-Reading keeps every cell as text (the checker turns them into numbers and names the line of
-each problem); writing uses pandas' shortest round-trip floats, so files round-trip exactly.
+Reading parses numbers as float64 when every cell is a finite number, else keeps every cell
+as text (the checker turns them into numbers and names the line of each problem); writing
+uses pandas' shortest round-trip floats, so files round-trip exactly.
 """
 
 from __future__ import annotations
 
+import codecs
 import csv
 import io
+from array import array
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..data import MeasurementSet
-from .checker import table_reader
+from .checker import check_table
 from .columns import file_columns
 from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS
 from .errors import MeasurementFileError
@@ -24,6 +29,12 @@ from .tables import write_table
 #: The columns the reader uses; others are ignored (docs/file-format.md) and not even parsed,
 #: so a header of 200,000 columns costs little.
 READ_COLUMNS = frozenset(("sensor", "kind", *NUMERIC_COLUMNS))
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+#: Characters of the file searched for the ``# key: value`` preamble before the whole text.
+_PREAMBLE_SCAN = 1 << 20
 
 __all__ = ["CSV", "csv_metadata_line", "load_csv", "read_csv", "write_csv"]
 
@@ -48,13 +59,14 @@ def _split_metadata(text: str) -> tuple[dict[str, str], int, int]:
     return metadata, consumed, pre_lines
 
 
-def _record_lines(path: Path, body: str, pre_lines: int) -> tuple[list[str], list[int]]:
+def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], NDArray[np.int64]]:
     """Read the header names and the line of each data record.
 
-    The csv module knows quoted fields that span lines.  A missing or bad header and
-    unreadable or ragged records are refused (:class:`MeasurementFileError`).
+    The csv module knows quoted fields that span lines; the body is decoded line by line
+    (never held as one str).  A missing or bad header and unreadable or ragged records are
+    refused (:class:`MeasurementFileError`).
     """
-    reader = csv.reader(io.StringIO(body, newline=""))
+    reader = csv.reader(io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline=""))
     header = next(reader, None)
     if header is None:
         raise MeasurementFileError(path, [
@@ -71,7 +83,7 @@ def _record_lines(path: Path, body: str, pre_lines: int) -> tuple[list[str], lis
         seen.add(name)
     problems += [f"line {header_line}: column {i + 1} of the header has no name"
                  for i, name in enumerate(names) if not name]
-    lines: list[int] = []
+    lines = array("q")  # 8 bytes per row (a list of ints takes 36)
     while True:
         start = reader.line_num
         try:
@@ -90,21 +102,65 @@ def _record_lines(path: Path, body: str, pre_lines: int) -> tuple[list[str], lis
                 f"header column), found {len(record)}")
     if problems:
         raise MeasurementFileError(path, problems)
-    return names, lines
+    return names, np.frombuffer(lines, dtype=np.int64)
 
 
-def load_csv(path: Path) -> RawTable:
-    """Read a CSV measurement file as a raw table of text cells, with the line of each row.
+def _read_frame(body: bytes, names: list[str], as_text: bool) -> pd.DataFrame:
+    """Read the columns the reader uses: numbers as float64 when every cell is a finite number.
+
+    A text cell costs about 60 bytes, a float64 8; so unless ``as_text``, numeric columns are
+    parsed as float64 (pandas reads round-trip text exactly), and only if a cell is not a
+    finite number (an empty cell, ``nan``, a word) is the table read as text.
+    """
+    import pandas as pd
+
+    used = [n for n in names if n in READ_COLUMNS]
+    options: dict[str, Any] = {"na_filter": False, "keep_default_na": False,
+                               "index_col": False, "skip_blank_lines": True,
+                               "usecols": lambda c: c.strip() in READ_COLUMNS}
+    numeric = {c for c in used if c in NUMERIC_COLUMNS}
+    if not as_text and len(set(used)) == len(used) and numeric:
+        dtypes = {c: (np.float64 if c.strip() in numeric else str)
+                  for c in _raw_header(body) if c.strip() in READ_COLUMNS}
+        try:
+            frame = pd.read_csv(io.BytesIO(body), dtype=dtypes,
+                                **options)
+        except (pd.errors.ParserError, ValueError, TypeError):
+            frame = None
+        cols = [] if frame is None else [c for c in frame.columns if c.strip() in numeric]
+        if frame is not None and all(frame[c].dtype == np.float64 for c in cols) and all(
+                np.isfinite(frame[c].to_numpy()).all() for c in cols):
+            return frame
+        del frame
+    return pd.read_csv(io.BytesIO(body), dtype=str, **options)
+
+
+def _raw_header(body: bytes) -> list[str]:
+    """Return the header names as written (not stripped), as pandas will see them."""
+    first = io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline="")
+    return next(csv.reader(first), [])
+
+
+def load_csv(path: Path, as_text: bool = False) -> RawTable:
+    """Read a CSV measurement file as a raw table of cells, with the line of each row.
+
+    Numeric columns are read as float64 when all their cells are finite numbers (exactly
+    as Python's ``float`` reads them), else (or if ``as_text``) every cell is kept as text.
+    Memory: the file's bytes once, plus about 8 bytes per numeric column and row, 8 bytes
+    per row for the line numbers and 8 per text column and row (repeated sensor ids and
+    kinds are shared).
 
     Parameters
     ----------
     path : pathlib.Path
         The file (UTF-8, with or without a byte-order mark).
+    as_text : bool
+        Keep every cell as text (as written), for messages that quote cells.
 
     Returns
     -------
     RawTable
-        Text cells, metadata from the leading ``# key: value`` lines, line numbers.
+        Cells, metadata from the leading ``# key: value`` lines, line numbers.
 
     Raises
     ------
@@ -113,23 +169,29 @@ def load_csv(path: Path) -> RawTable:
     """
     import pandas as pd
 
+    with open(path, "rb") as f:
+        data = f.read()
     try:
-        with open(path, encoding="utf-8-sig", newline="") as f:
-            text = f.read()
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise MeasurementFileError(path, [f"not a UTF-8 text file ({e})"]) from None
-    metadata, consumed, pre_lines = _split_metadata(text)
-    body = text[consumed:]
+    metadata, consumed, pre_lines = _split_metadata(text[:_PREAMBLE_SCAN]
+                                                    if len(text) > _PREAMBLE_SCAN else text)
+    if consumed == _PREAMBLE_SCAN:  # a preamble longer than the scan: read it all
+        metadata, consumed, pre_lines = _split_metadata(text)
+    start = len(text[:consumed].encode("utf-8")) + (3 if data.startswith(codecs.BOM_UTF8)
+                                                     else 0)
+    del text
+    body = data[start:] if start else data
+    del data
     names, lines = _record_lines(path, body, pre_lines)
     try:
-        frame = pd.read_csv(io.StringIO(body), dtype=str, na_filter=False,
-                            keep_default_na=False, index_col=False, skip_blank_lines=True,
-                            usecols=lambda c: c.strip() in READ_COLUMNS)
+        frame = _read_frame(body, names, as_text)
     except (pd.errors.ParserError, ValueError) as e:
         raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
     frame.columns = [n for n in names if n in READ_COLUMNS]  # others are ignored: not read
     frame = frame.reset_index(drop=True)
-    line_numbers = np.asarray(lines, dtype=np.int64) if len(lines) == len(frame) else None
+    line_numbers = lines if len(lines) == len(frame) else None
     return RawTable(frame, metadata, line_numbers)
 
 
@@ -189,7 +251,41 @@ def write_csv(ms: MeasurementSet, path: Path, force: bool) -> None:
     write_table(path, file_columns(ms), format="csv", force=force, csv_preamble=preamble)
 
 
-#: Read and check a CSV measurement file (the :data:`CSV` format's reader).
-read_csv = table_reader(load_csv, "CSV")
+def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
+             **options: Any) -> MeasurementSet:
+    """Read and check a CSV measurement file (the :data:`CSV` format's reader).
+
+    The file is read with numbers as float64 (:func:`load_csv`); if the checker finds a
+    problem, it is read again with every cell as text and checked again, so each message
+    quotes the cells as written.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    origin : (lat, lon, alt), optional
+        ENU origin (degrees, degrees, metres), as for :func:`~.checker.check_table`.
+    **options
+        None are taken; any is refused with a ``TypeError`` naming it.
+
+    Returns
+    -------
+    MeasurementSet
+        The rows in file order.
+
+    Raises
+    ------
+    MeasurementFileError
+        With every problem found (row, line and column of each).
+    """
+    if options:
+        raise TypeError(f"CSV files take no options {', '.join(sorted(options))}")
+    try:
+        return check_table(path, load_csv(path), origin)
+    except MeasurementFileError:
+        pass  # read again as text, so the messages quote the cells as written
+    return check_table(path, load_csv(path, as_text=True), origin)
+
+
 #: The CSV format: ``.csv``.
 CSV = register_format(Format("csv", "CSV", (".csv",), read_csv, write_csv))
