@@ -277,6 +277,8 @@ def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
     ------
     MeasurementFileError
         With every problem found (row, line and column of each).
+    TypeError
+        When given reader options (tmakit's own CSV files take none).
     """
     if options:
         raise TypeError(f"CSV files take no options {', '.join(sorted(options))}")
