@@ -211,8 +211,10 @@ class Planner:
             sensor = steps.end.sensor_state[..., None, :]
         else:
             sensor = steps.sensor_states(t0 + offsets)          # (*B, A, k, 6)
-        f = belief.posterior.dynamics.transition(t0 - belief.time)
-        cloud = (belief.states @ f.T, belief.weights)
+        cloud = None   # at the decision time: the belief's own cloud
+        if t0 != belief.time:
+            f = belief.posterior.dynamics.transition(t0 - belief.time)
+            cloud = (belief.states @ f.T, belief.weights)
         info = step_information(belief, information[..., None, :, :], self.plan, sensor,
                                 self.interval, gamma, cloud)
         return steps, info, step_violations(self.constraints, steps, belief, self.interval)

@@ -1,0 +1,82 @@
+"""The compiled planning kernel (optional numba) gives the NumPy path's Gamma and decisions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tmakit.bounds.pcrb_recursion import PosteriorInformation
+from tmakit.motion.dynamics import NearlyConstantVelocity
+from tmakit.planning import Belief, Planner, SensorPlan, planar_kernel
+from tmakit.planning.planar_information import planar_information
+from tmakit.sensors import PlatformState, platform_configuration
+
+pytest.importorskip("numba")
+
+TARGET = np.array([-2000.0, 15000.0, 25.0, 0.0])
+SPREAD = np.array([500.0, 500.0, 10.0, 10.0])
+
+
+@pytest.fixture
+def numpy_path():
+    """Run the body with the compiled kernel switched off, then switch it back."""
+    before = planar_kernel.use_compiled(False)
+    yield
+    planar_kernel.use_compiled(before)
+
+
+def _both(fn):
+    assert planar_kernel.available()
+    fast = fn()
+    before = planar_kernel.use_compiled(False)
+    try:
+        assert not planar_kernel.available()
+        slow = fn()
+    finally:
+        planar_kernel.use_compiled(before)
+    return fast, slow
+
+
+@pytest.mark.parametrize("kinds", [["bearing"], ["bearing", "range"],
+                                   ["bearing", "range", "range_rate"], ["range_rate"],
+                                   ["bearing", "range_rate"]])
+def test_compiled_and_numpy_gamma_agree_to_1e_12(kinds):
+    rng = np.random.default_rng(11)
+    sig = rng.uniform(0.01, 2.0, len(kinds))
+    plan = SensorPlan(kinds, sig)
+    states = TARGET + rng.standard_normal((5000, 4)) * SPREAD
+    w = rng.random(5000)
+    w /= w.sum()
+    sensors = np.zeros((15, 6))
+    sensors[:, [0, 1, 3, 4]] = rng.normal(size=(15, 4)) * [50, 50, 30, 30]
+    fast, slow = _both(lambda: planar_information(plan, states, w, sensors))
+    scale = np.abs(slow).max(axis=(-1, -2), keepdims=True)
+    assert np.all(np.abs(fast - slow) <= 1e-12 * scale)
+    # and entry by entry, where an entry is not a cancellation to ~0
+    big = np.abs(slow) > 1e-6 * scale
+    np.testing.assert_allclose(fast[big], slow[big], rtol=1e-12)
+
+
+@pytest.mark.parametrize("gamma", ["mean", "cloud"])
+def test_compiled_and_numpy_decisions_agree(gamma):
+    config = platform_configuration("hurtado_nehorai_2008")
+    dyn = NearlyConstantVelocity(dim=2, q=0.1)
+    rng = np.random.default_rng(2)
+    b = Belief(PosteriorInformation.from_prior(np.diag(SPREAD**2), dyn),
+               TARGET + rng.standard_normal((3000, 4)) * SPREAD)
+    planner = Planner(config.kinematics, config.actions, config.interval,
+                      SensorPlan(["bearing", "range"], [math.radians(1.0), 30.0]), gamma=gamma)
+    start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=50.0)
+    fast, slow = _both(lambda: planner.recommend(start, b))
+    assert fast.index == slow.index
+    np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)
+    np.testing.assert_allclose(fast.information, slow.information, rtol=1e-12, atol=1e-12 *
+                               np.abs(slow.information).max())
+
+
+def test_switch_off_by_hand(numpy_path):
+    assert not planar_kernel.available()
+    with pytest.raises(RuntimeError, match="not available"):
+        planar_kernel.cloud_sums(["ir2"], np.zeros((4, 3)), np.ones(3) / 3, np.ones((2, 6)))
