@@ -84,6 +84,11 @@ def _arr(a: ArrayLike) -> Array:
     return np.asarray(a, dtype=float)
 
 
+def _clip(a: Array, low: ArrayLike, high: ArrayLike) -> Array:
+    """``np.clip`` for ``low <= high`` (the same values; fewer checks, a few us less per call)."""
+    return np.minimum(np.maximum(a, low), high)
+
+
 def _differs(applied: Array, commanded: Array) -> NDArray[np.bool_]:
     """Where a limit changed a commanded value by more than rounding."""
     return np.abs(applied - commanded) > _LIMIT_TOL * np.maximum(1.0, np.abs(commanded))
@@ -257,15 +262,15 @@ class PlatformKinematics:
         v0 = np.broadcast_to(state.speed, shape)
         z0 = np.broadcast_to(state.position[..., 2], shape)
         target = v0 * actions.speed_factor + actions.speed_change
-        v1 = np.clip(target, self.min_speed, self.max_speed)
+        v1 = _clip(target, self.min_speed, self.max_speed)
         acc_cmd = (v1 - v0) / T
-        acc = np.clip(acc_cmd, -self.max_acceleration, self.max_acceleration)
+        acc = _clip(acc_cmd, -self.max_acceleration, self.max_acceleration)
         w_cmd = np.broadcast_to(actions.heading_change / T, shape)
-        w = np.clip(w_cmd, -self.max_turn_rate, self.max_turn_rate)
+        w = _clip(w_cmd, -self.max_turn_rate, self.max_turn_rate)
         c_cmd = np.broadcast_to(state.climb_rate if actions.climb_rate is None
                                 else actions.climb_rate, shape)
-        c = np.clip(c_cmd, (self.min_altitude - z0) / T, (self.max_altitude - z0) / T)
-        c = np.clip(c, -self.max_climb_rate, self.max_climb_rate)
+        c = _clip(c_cmd, (self.min_altitude - z0) / T, (self.max_altitude - z0) / T)
+        c = _clip(c, -self.max_climb_rate, self.max_climb_rate)
         flags = {"speed range": _differs(v1, target),
                  "acceleration limit": _differs(acc, acc_cmd),
                  "turn-rate limit": _differs(w, w_cmd),
