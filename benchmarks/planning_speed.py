@@ -32,7 +32,7 @@ Stone Soup (``pip install stonesoup``, the ``bench`` extra):
   a noiseless detection, an EKF update, the drop in the Frobenius norm of the covariance).
 
 With ``numba`` installed (the ``fast`` extra) the cloud sums run compiled
-(:mod:`tmakit.planning.planar_kernel`); the row ``cloud-np`` is the same decision with the
+(:mod:`tmakit.planning.compiled`); the row ``cloud-np`` is the same decision with the
 compiled kernel switched off (the NumPy fallback), to show what it gains.
 
 Timing: both ``time.perf_counter`` (wall) and ``time.process_time`` (the process's CPU time,
@@ -60,7 +60,7 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.planning import Belief, Planner, SensorPlan, planar_kernel
+from tmakit.planning import Belief, Planner, SensorPlan, compiled
 from tmakit.sensors import PlatformState, platform_configuration
 
 GOALS_MS = {"mean": 1.0, "cloud": 1.0, "cloud-np": 1.0, "H=3": 20.0}
@@ -104,11 +104,11 @@ def decision(name: str, planner: Planner, start: PlatformState, belief: Belief):
         return lambda: planner.recommend(start, belief)
 
     def numpy_only():
-        before = planar_kernel.use_compiled(False)
+        before = compiled.use_compiled(False)
         try:
             return planner.recommend(start, belief)
         finally:
-            planar_kernel.use_compiled(before)
+            compiled.use_compiled(before)
     return numpy_only
 
 
@@ -289,7 +289,7 @@ def run(args: argparse.Namespace) -> None:
         call()
 
     times = time_rounds(calls, args.repeat)
-    kernel = "compiled (numba)" if planar_kernel.available() else "NumPy (numba not installed)"
+    kernel = "compiled (numba)" if compiled.available() else "NumPy (numba not installed)"
     print(f"one decision over {n_cand} candidates (HURTADO_NEHORAI_2008, one 0.5 s step); "
           f"azimuth 1 deg + range 30 m; {args.repeat} interleaved rounds; "
           f"cloud = {args.particles} particles; cloud sums {kernel}; BLAS {blas_note()}")

@@ -9,7 +9,7 @@ import pytest
 
 from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.planning import Belief, Planner, SensorPlan, planar_kernel
+from tmakit.planning import Belief, Planner, SensorPlan, compiled
 from tmakit.planning.planar_information import planar_information
 from tmakit.sensors import PlatformState, platform_configuration
 
@@ -22,20 +22,20 @@ SPREAD = np.array([500.0, 500.0, 10.0, 10.0])
 @pytest.fixture
 def numpy_path():
     """Run the body with the compiled kernel switched off, then switch it back."""
-    before = planar_kernel.use_compiled(False)
+    before = compiled.use_compiled(False)
     yield
-    planar_kernel.use_compiled(before)
+    compiled.use_compiled(before)
 
 
 def _both(fn):
-    assert planar_kernel.available()
+    assert compiled.available()
     fast = fn()
-    before = planar_kernel.use_compiled(False)
+    before = compiled.use_compiled(False)
     try:
-        assert not planar_kernel.available()
+        assert not compiled.available()
         slow = fn()
     finally:
-        planar_kernel.use_compiled(before)
+        compiled.use_compiled(before)
     return fast, slow
 
 
@@ -77,6 +77,28 @@ def test_compiled_and_numpy_decisions_agree(gamma):
 
 
 def test_switch_off_by_hand(numpy_path):
-    assert not planar_kernel.available()
+    assert not compiled.available()
     with pytest.raises(RuntimeError, match="not available"):
-        planar_kernel.cloud_sums(["ir2"], np.zeros((4, 3)), np.ones(3) / 3, np.ones((2, 6)))
+        compiled.cloud_sums(["ir2"], np.zeros((4, 3)), np.ones(3) / 3, np.ones((2, 6)))
+
+
+def test_compiled_and_numpy_bound_covariance_agree():
+    from tmakit.planning.criteria import bound_covariance
+
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(200, 4, 4))
+    scales = np.array([1e-6, 1e-6, 1e-2, 1e-2])   # SI units: position and velocity information
+    info = (a @ np.swapaxes(a, -1, -2) + 0.01 * np.eye(4)) * np.sqrt(np.outer(scales, scales))
+    info[:50] += np.diag(scales) * 1e4              # some well determined, some barely
+    fast, slow = _both(lambda: bound_covariance(info))
+    scale = np.abs(slow).max(axis=(-1, -2), keepdims=True)
+    cond = np.linalg.cond(info / np.sqrt(np.einsum("kii,kjj->kij", info, info)))
+    ok = cond < 1e6       # the two algorithms agree to cond * eps
+    assert ok.sum() > 100
+    assert np.all(np.abs(fast - slow)[ok] <= 1e-12 * scale[ok])
+    # a matrix that is not positive definite takes the NumPy path (eigenvalues floored)
+    bad = info[:3].copy()
+    bad[1] = np.eye(4)
+    bad[1, 0, 1] = bad[1, 1, 0] = 2.0             # indefinite, positive diagonal
+    fast, slow = _both(lambda: bound_covariance(bad))
+    np.testing.assert_array_equal(fast, slow)

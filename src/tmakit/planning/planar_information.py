@@ -31,7 +31,7 @@ import threading
 import numpy as np
 
 from ..arrays import Array
-from . import planar_kernel
+from . import compiled
 from .measurement_plan import SensorPlan
 
 PLANAR_KINDS = frozenset({"bearing", "range", "range_rate"})
@@ -136,8 +136,8 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
     batch = sensor_states.shape[:-1]
     s = sensor_states.reshape(-1, 6)
     cols = np.ascontiguousarray(states.T)
-    if planar_kernel.available():
-        sums = planar_kernel.cloud_sums([name for name, _ in basis], cols, weights, s)
+    if compiled.available():
+        sums = compiled.cloud_sums([name for name, _ in basis], cols, weights, s)
     else:
         sums = numpy_sums(basis, cols, weights, s)
     return _assemble(k, _field_sums(basis, sums)).reshape(*batch, 4, 4)
@@ -161,7 +161,7 @@ def numpy_sums(basis: list[tuple[str, tuple[float, float, float]]], cols: Array,
     Returns
     -------
     ndarray, shape (2 + 3 P, C)
-        The rows of :func:`tmakit.planning.planar_kernel.cloud_sums` (SI).
+        The rows of :func:`tmakit.planning.compiled.cloud_sums` (SI).
     """
     block = max(1, BLOCK_ELEMENTS // s.shape[0])
     sums = np.zeros((2 + 3 * len(basis), s.shape[0]))

@@ -84,22 +84,6 @@ def _arr(a: ArrayLike) -> Array:
     return np.asarray(a, dtype=float)
 
 
-def _clip(a: Array, low: ArrayLike, high: ArrayLike) -> Array:
-    """``np.clip`` for ``low <= high`` (the same values; fewer checks, a few us less per call)."""
-    return np.minimum(np.maximum(a, low), high)
-
-
-def _spread(a: ArrayLike, shape: tuple[int, ...]) -> Array:
-    """Return ``a`` broadcast to ``shape`` as a new float array.
-
-    The values of ``np.broadcast_to``, without its view machinery (which costs more than the
-    copy for a few candidates).
-    """
-    out = np.empty(shape)
-    out[...] = a
-    return out
-
-
 def _differs(applied: Array, commanded: Array) -> NDArray[np.bool_]:
     """Where a limit changed a commanded value by more than rounding."""
     return np.abs(applied - commanded) > _LIMIT_TOL * np.maximum(1.0, np.abs(commanded))
@@ -270,18 +254,18 @@ class PlatformKinematics:
         if not (math.isfinite(T) and T > 0):
             raise ValueError(f"decision interval must be positive, got {interval} s")
         shape = np.broadcast_shapes(state.shape, actions.shape)
-        v0 = _spread(state.speed, shape)
-        z0 = _spread(state.position[..., 2], shape)
+        v0 = np.broadcast_to(state.speed, shape)
+        z0 = np.broadcast_to(state.position[..., 2], shape)
         target = v0 * actions.speed_factor + actions.speed_change
-        v1 = _clip(target, self.min_speed, self.max_speed)
+        v1 = np.clip(target, self.min_speed, self.max_speed)
         acc_cmd = (v1 - v0) / T
-        acc = _clip(acc_cmd, -self.max_acceleration, self.max_acceleration)
-        w_cmd = _spread(actions.heading_change / T, shape)
-        w = _clip(w_cmd, -self.max_turn_rate, self.max_turn_rate)
-        c_cmd = _spread(state.climb_rate if actions.climb_rate is None
+        acc = np.clip(acc_cmd, -self.max_acceleration, self.max_acceleration)
+        w_cmd = np.broadcast_to(actions.heading_change / T, shape)
+        w = np.clip(w_cmd, -self.max_turn_rate, self.max_turn_rate)
+        c_cmd = np.broadcast_to(state.climb_rate if actions.climb_rate is None
                                 else actions.climb_rate, shape)
-        c = _clip(c_cmd, (self.min_altitude - z0) / T, (self.max_altitude - z0) / T)
-        c = _clip(c, -self.max_climb_rate, self.max_climb_rate)
+        c = np.clip(c_cmd, (self.min_altitude - z0) / T, (self.max_altitude - z0) / T)
+        c = np.clip(c, -self.max_climb_rate, self.max_climb_rate)
         flags = {"speed range": _differs(v1, target),
                  "acceleration limit": _differs(acc, acc_cmd),
                  "turn-rate limit": _differs(w, w_cmd),
@@ -293,12 +277,12 @@ class PlatformKinematics:
                     raise ValueError(f"action {first} of the step from t = {state.time:g} s "
                                      f"exceeds the platform's {name}")
         v_end = np.where(flags["acceleration limit"], np.maximum(v0 + acc * T, 0.0), v1)
-        pos = _spread(state.position, (*shape, 3))
-        psi0 = _spread(state.heading, shape)
+        pos = np.broadcast_to(state.position, (*shape, 3))
+        psi0 = np.broadcast_to(state.heading, shape)
         end = propagate_constant_turn(pos, psi0, v0, c, w, acc, T)
         trusted = PlatformState.trusted     # every field derived from checked ones
         end = trusted(end[..., :3], psi0 + w * T, v_end, c, state.time + T)
-        return Step(trusted(pos, psi0, v0, _spread(state.climb_rate, shape), state.time),
+        return Step(trusted(pos, psi0, v0, np.broadcast_to(state.climb_rate, shape), state.time),
                     end, w, acc, c, T, flags["speed range"], flags["turn-rate limit"],
                     flags["acceleration limit"], flags["climb-rate limit or altitude band"])
 
