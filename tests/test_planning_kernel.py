@@ -102,3 +102,25 @@ def test_compiled_and_numpy_bound_covariance_agree():
     bad[1, 0, 1] = bad[1, 1, 0] = 2.0             # indefinite, positive diagonal
     fast, slow = _both(lambda: bound_covariance(bad))
     np.testing.assert_array_equal(fast, slow)
+
+
+@pytest.mark.parametrize("kinds", [["bearing", "range"], ["bearing", "range", "range_rate"]])
+def test_compiled_assembly_is_numpys_to_the_bit(kinds):
+    from tmakit.planning import numba_kernels
+    from tmakit.planning.planar_information import (
+        _assemble,
+        _coefficients,
+        _field_sums,
+        numpy_sums,
+    )
+
+    rng = np.random.default_rng(8)
+    plan = SensorPlan(kinds, rng.uniform(0.01, 2.0, len(kinds)))
+    cols = (TARGET + rng.standard_normal((400, 4)) * SPREAD).T.copy()
+    sensors = np.zeros((9, 6))
+    sensors[:, [0, 1, 3, 4]] = rng.normal(size=(9, 4)) * [50, 50, 30, 30]
+    k, basis, (_, coef, constants) = _coefficients(plan)
+    sums = numpy_sums(basis, cols, np.full(400, 1 / 400), sensors)
+    out = np.empty((9, 4, 4))
+    numba_kernels.assemble_gamma(sums, coef, constants, out)
+    np.testing.assert_array_equal(out, _assemble(k, _field_sums(basis, sums)))

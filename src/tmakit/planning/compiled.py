@@ -79,7 +79,8 @@ def _compile() -> dict[str, Callable[..., object]]:
     from . import numba_kernels
 
     return {"position": numba_kernels.position_sums, "general": numba_kernels.general_sums,
-            "spd_inverse": numba_kernels.spd_inverse_stack}
+            "spd_inverse": numba_kernels.spd_inverse_stack,
+            "assemble": numba_kernels.assemble_gamma}
 
 
 def spd_inverse(information: Array) -> Array | None:
@@ -152,3 +153,34 @@ def cloud_sums(names: list[str], cols: Array, weights: Array, sensors: Array) ->
         k = 2 + 3 * PRODUCTS.index(name)
         rows += [k, k + 1, k + 2]
     return full[rows]
+
+
+def planar_gamma(names: list[str], coefficients: Array, constants: Array, cols: Array,
+                 weights: Array, sensors: Array) -> Array:
+    """Return ``Gamma`` (C, 4, 4) of the planar closed form, compiled end to end.
+
+    Parameters
+    ----------
+    names : list of str
+        The products needed (a subsequence of :data:`PRODUCTS`), ``P`` of them.
+    coefficients : ndarray, shape (P, 3)
+        Each product's coefficients in the fields ``A``, ``B``, ``E``.
+    constants : ndarray, shape (3,)
+        The constant fields ``D``, ``G``, ``F``.
+    cols, weights, sensors
+        As for :func:`cloud_sums`.
+
+    Returns
+    -------
+    ndarray, shape (C, 4, 4)
+        SI.
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    sums = cloud_sums(names, cols, weights, sensors)
+    out = np.empty((sensors.shape[0], 4, 4))
+    _STATE["kernels"]["assemble"](sums, coefficients, constants, out)
+    return out

@@ -168,3 +168,35 @@ def spd_inverse_stack(info: Array, out: Array) -> bool:
         if not _gram(inv, d, out[k]):
             return False
     return True
+
+
+@_exact
+def assemble_gamma(sums: Array, coef: Array, dgf: Array, out: Array) -> None:
+    """Write ``Gamma`` (C, 4, 4) from the cloud sums (2 + 3 P, C), as NumPy does it.
+
+    The arithmetic of ``planar_information._field_sums`` and ``_assemble`` in the same order
+    (no reassociation, so the same numbers): ``coef`` (P, 3) holds each product's coefficients
+    in the fields ``A``, ``B``, ``E``; ``dgf`` the constants ``D``, ``G``, ``F``.
+    """
+    d, g, f = dgf[0], dgf[1], dgf[2]
+    fields = np.empty(11)
+    for c in range(sums.shape[1]):
+        fields[:9] = 0.0
+        fields[9] = sums[0, c]
+        fields[10] = sums[1, c]
+        for j in range(coef.shape[0]):
+            for k in range(3):
+                if coef[j, k] != 0.0:
+                    for m in range(3):
+                        fields[3 * k + m] += coef[j, k] * sums[2 + 3 * j + m, c]
+        ea, eac2, eacs, eb, ebc2, ebcs, ee, eec2, eecs, ec2, ecs = fields
+        out[c, 0, 0] = ea - eac2 + 2.0 * ebcs + d * ec2
+        out[c, 0, 1] = out[c, 1, 0] = -eacs + eb - 2.0 * ebc2 + d * ecs
+        out[c, 1, 1] = eac2 - 2.0 * ebcs + d * (1.0 - ec2)
+        out[c, 0, 2] = out[c, 2, 0] = eecs + g * ec2
+        out[c, 0, 3] = out[c, 3, 0] = ee - eec2 + g * ecs
+        out[c, 1, 2] = out[c, 2, 1] = -eec2 + g * ecs
+        out[c, 1, 3] = out[c, 3, 1] = -eecs + g * (1.0 - ec2)
+        out[c, 2, 2] = f * ec2
+        out[c, 2, 3] = out[c, 3, 2] = f * ecs
+        out[c, 3, 3] = f * (1.0 - ec2)

@@ -58,9 +58,14 @@ def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
             and not plan.nuisance and not np.any(sensor_states[..., 2]))
 
 
-def _coefficients(plan: SensorPlan
-                  ) -> tuple[dict[str, float], list[tuple[str, tuple[float, float, float]]]]:
-    """Return the constant coefficients of the scalar fields, from ``W = R^{-1}``, and the basis.
+#: The basis of :func:`_coefficients`, packed for the compiled kernels: names, coefficients
+#: (P, 3) in ``A``, ``B``, ``E``, and the constants ``D``, ``G``, ``F``.
+Packed = tuple[list[str], Array, Array]
+Basis = list[tuple[str, tuple[float, float, float]]]
+
+
+def _coefficients(plan: SensorPlan) -> tuple[dict[str, float], Basis, Packed]:
+    """Return the constant coefficients of the scalar fields (from ``W = R^{-1}``), the basis.
 
     Kept per content of the plan (kinds, sigmas, covariance), not per object.
     """
@@ -71,12 +76,12 @@ def _coefficients(plan: SensorPlan
         if len(_COEFFICIENTS) >= 64:
             _COEFFICIENTS.clear()
         k = _compute_coefficients(plan.kinds, sigmas, cov)
-        _COEFFICIENTS[key] = (k, _basis(k))
+        basis = _basis(k)
+        _COEFFICIENTS[key] = (k, basis, _compiled_basis(k, basis))
     return _COEFFICIENTS[key]
 
 
-_COEFFICIENTS: dict[tuple[object, ...], tuple[dict[str, float], list[tuple[str, tuple[
-    float, float, float]]]]] = {}
+_COEFFICIENTS: dict[tuple[object, ...], tuple[dict[str, float], Basis, Packed]] = {}
 
 
 def _compute_coefficients(kinds: tuple[str, ...], sigmas: Array,
@@ -132,15 +137,21 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
     ----------
     Hurtado & Nehorai (2008), eqs. 11 and 13.
     """
-    k, basis = _coefficients(plan)
+    k, basis, packed = _coefficients(plan)
     batch = sensor_states.shape[:-1]
     s = sensor_states.reshape(-1, 6)
     cols = np.ascontiguousarray(states.T)
     if compiled.available():
-        sums = compiled.cloud_sums([name for name, _ in basis], cols, weights, s)
+        gamma = compiled.planar_gamma(*packed, cols, weights, s)
     else:
-        sums = numpy_sums(basis, cols, weights, s)
-    return _assemble(k, _field_sums(basis, sums)).reshape(*batch, 4, 4)
+        gamma = _assemble(k, _field_sums(basis, numpy_sums(basis, cols, weights, s)))
+    return gamma.reshape(*batch, 4, 4)
+
+
+def _compiled_basis(k: dict[str, float], basis: Basis) -> Packed:
+    """Pack the basis for the compiled kernels: names, coefficients (P, 3), D, G, F."""
+    coef = np.array([c for _, c in basis], dtype=float).reshape(-1, 3)
+    return [n for n, _ in basis], coef, np.array([k["D"], k["G"], k["F"]])
 
 
 def numpy_sums(basis: list[tuple[str, tuple[float, float, float]]], cols: Array,
