@@ -40,7 +40,10 @@ which other jobs on a shared machine inflate less) around each call; the cases a
 interleaved within each of ``--repeat`` rounds, in an order rotated from round to round (so no
 case always runs right after Stone Soup's, on cold caches).  ``--clock`` chooses the clock of
 the goals and ratios.  Printed: median and interquartile range per decision, cost per candidate
-(decision / 15; H=3 also per sequence / 3375) and Stone Soup's per-candidate cost over tmakit's.
+(decision / 15) and Stone Soup's per-candidate cost over tmakit's; for H=3 the cost per
+sequence (/ 3375) and per node of the search tree (/ (15 + 15^2 + 15^3): each node is one
+candidate step, its predicted information and criterion, the work Stone Soup spends per
+candidate) beside Stone Soup's per-candidate cost.
 ``--blas-threads N`` limits BLAS to ``N`` threads (``threadpoolctl``) for the whole run; the
 header says what BLAS and how many threads ran.
 
@@ -298,8 +301,13 @@ def run(args: argparse.Namespace) -> None:
     h3 = summary(times[args.clock]["H=3"])[0]
     ss_per = summary(times[args.clock]["stonesoup"])[0] / n_cand
     n_seq = len(config.actions) ** 3
-    print(f"H=3 searches {n_seq} sequences: {1e3 * h3 / n_seq:.2f} us per sequence "
-          f"({args.clock}; Stone Soup's brute force is one step: {ss_per:.3f} ms per candidate)")
+    n_nodes = sum(len(config.actions) ** d for d in (1, 2, 3))
+    per_node = h3 / n_nodes
+    print(f"H=3 searches {n_seq} sequences, {n_nodes} nodes (one candidate step each: predicted "
+          f"information and criterion; the cloud at depth 1, the mean beyond): "
+          f"{1e3 * h3 / n_seq:.2f} us per sequence, {1e3 * per_node:.2f} us per node; Stone Soup "
+          f"{ss_per:.3f} ms per candidate step = {ss_per / per_node:.0f}x a tmakit node "
+          f"({args.clock})")
 
     rec = cases["mean"][0].recommend(START, cases["mean"][2])
     rec_cloud = cases["cloud"][0].recommend(START, cases["cloud"][2])

@@ -37,6 +37,7 @@ from .measurement_plan import SensorPlan
 
 #: Times per step at which the constraints are checked (equally spaced, end included).
 CHECK_POINTS = 4
+_ONE = np.ones(1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -214,7 +215,9 @@ class Planner:
         cloud = None   # at the decision time: the belief's own cloud
         if t0 != belief.time:
             f = belief.posterior.dynamics.transition(t0 - belief.time)
-            cloud = (belief.states @ f.T, belief.weights)
+            # Xi at the mean needs the moved mean only (the moved cloud's mean: F is linear)
+            cloud = (((f @ belief.mean)[None], _ONE) if gamma == "mean"
+                     else (belief.states @ f.T, belief.weights))
         info = step_information(belief, information[..., None, :, :], self.plan, sensor,
                                 self.interval, gamma, cloud)
         return steps, info, step_violations(self.constraints, steps, belief, self.interval)
