@@ -159,7 +159,6 @@ def step_information(belief: Belief, information: Array, plan: SensorPlan,
 
 
 _ONE = np.ones(1)
-_ONE.flags.writeable = False
 
 
 def _predict(posterior: PosteriorInformation, info: Array, dt: float) -> Array:

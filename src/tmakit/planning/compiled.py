@@ -21,6 +21,7 @@ after ``use_compiled(False)``, :func:`available` is False and the NumPy path is 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -71,16 +72,29 @@ def available() -> bool:
             _STATE["kernels"] = _compile()
         except ImportError:
             _STATE["kernels"] = False
+        except Exception as err:   # numba present but unusable here: say so, use NumPy
+            warnings.warn(f"tmakit's compiled planning kernels failed ({err!r}); using the "
+                          "NumPy path", RuntimeWarning, stacklevel=2)
+            _STATE["kernels"] = False
     return _STATE["kernels"] is not False
 
 
 def _compile() -> dict[str, Callable[..., object]]:
-    """Import ``numba`` and the kernels (compiled lazily at their first call, cached on disk)."""
-    from . import numba_kernels
+    """Import ``numba`` and the kernels and compile them on tiny inputs (cached on disk).
 
-    return {"position": numba_kernels.position_sums, "general": numba_kernels.general_sums,
-            "spd_inverse": numba_kernels.spd_inverse_stack,
-            "assemble": numba_kernels.assemble_gamma}
+    Compiling here, not at the first real call, lets :func:`available` fall back to NumPy
+    when ``numba`` is installed but cannot compile (an incompatible NumPy, no cache dir).
+    """
+    from . import numba_kernels as nk
+
+    kernels = {"position": nk.position_sums, "general": nk.general_sums,
+               "spd_inverse": nk.spd_inverse_stack, "assemble": nk.assemble_gamma}
+    one, sensor = np.ones(1), np.zeros((1, 6))
+    nk.position_sums(one, one, one, one[:1] * 0, one[:1] * 0, np.empty((5, 1)))
+    nk.general_sums(one, one, one, one, one, sensor, np.empty((ROWS, 1)))
+    nk.spd_inverse_stack(np.eye(4)[None], np.empty((1, 4, 4)))
+    nk.assemble_gamma(np.ones((5, 1)), np.ones((1, 3)), np.ones(3), np.empty((1, 4, 4)))
+    return kernels
 
 
 def spd_inverse(information: Array) -> Array | None:
