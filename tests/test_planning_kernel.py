@@ -124,3 +124,14 @@ def test_compiled_assembly_is_numpys_to_the_bit(kinds):
     out = np.empty((9, 4, 4))
     numba_kernels.assemble_gamma(sums, coef, constants, out)
     np.testing.assert_array_equal(out, _assemble(k, _field_sums(basis, sums)))
+
+
+def test_unusable_numba_falls_back_to_numpy_with_a_warning(monkeypatch):
+    def broken():
+        raise RuntimeError("no cache directory")
+
+    monkeypatch.setattr(compiled, "_compile", broken)
+    monkeypatch.setitem(compiled._STATE, "kernels", None)
+    with pytest.warns(RuntimeWarning, match="NumPy path"):
+        assert not compiled.available()
+    assert compiled.spd_inverse(np.eye(4)[None]) is None     # the callers' NumPy path
