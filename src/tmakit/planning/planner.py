@@ -28,6 +28,7 @@ import numpy as np
 
 from ..arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
+from . import compiled
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
@@ -176,6 +177,7 @@ class Planner:
                                       or self.beam < 1):
             raise ValueError(f"beam must be a whole number >= 1 or None; got {self.beam!r}")
         object.__setattr__(self, "constraints", tuple(self.constraints))
+        compiled.available()   # load numba's cached kernels now, not in the first decision
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
