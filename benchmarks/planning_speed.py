@@ -31,15 +31,24 @@ Stone Soup (``pip install stonesoup``, the ``bench`` extra):
   one decision (each candidate: a deep copy of platform and sensor, the move, an EKF prediction,
   a noiseless detection, an EKF update, the drop in the Frobenius norm of the covariance).
 
-Timing: ``time.perf_counter`` around each call (``--clock cpu``: ``time.process_time``, the
-process's CPU time, which a machine loaded by other jobs does not inflate); the cases are
-interleaved within each of ``--repeat`` rounds (the machine is shared: compare the two in the
-same run).  Printed: median
-and 5th-95th percentile per decision, cost per candidate (decision / 15; H=3 also per sequence
-/ 3375) and Stone Soup's per-candidate cost over tmakit's.
+With ``numba`` installed (the ``fast`` extra) the cloud sums run compiled
+(:mod:`tmakit.planning.compiled`); the row ``cloud-np`` is the same decision with the
+compiled kernel switched off (the NumPy fallback), to show what it gains.
+
+Timing: both ``time.perf_counter`` (wall) and ``time.process_time`` (the process's CPU time,
+which other jobs on a shared machine inflate less) around each call; the cases are
+interleaved within each of ``--repeat`` rounds, in an order rotated from round to round (so no
+case always runs right after Stone Soup's, on cold caches).  ``--clock`` chooses the clock of
+the goals and ratios.  Printed: median and interquartile range per decision, cost per candidate
+(decision / 15) and Stone Soup's per-candidate cost over tmakit's; for H=3 the cost per
+sequence (/ 3375) and per node of the search tree (/ (15 + 15^2 + 15^3): each node is one
+candidate step, its predicted information and criterion, the work Stone Soup spends per
+candidate) beside Stone Soup's per-candidate cost.
+``--blas-threads N`` limits BLAS to ``N`` threads (``threadpoolctl``) for the whole run; the
+header says what BLAS and how many threads ran.
 
     PYTHONPATH=src python benchmarks/planning_speed.py [--repeat 200] [--particles 10000]
-        [--q 0.1] [--seed 0] [--clock wall|cpu]
+        [--q 0.1] [--seed 0] [--clock wall|cpu] [--blas-threads N]
 """
 
 from __future__ import annotations
@@ -50,13 +59,14 @@ import math
 import time
 
 import numpy as np
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.planning import Belief, Planner, SensorPlan
+from tmakit.planning import Belief, Planner, SensorPlan, compiled
 from tmakit.sensors import PlatformState, platform_configuration
 
-GOALS_MS = {"mean": 1.0, "cloud": 1.0, "H=3": 20.0}
+GOALS_MS = {"mean": 1.0, "cloud": 1.0, "cloud-np": 1.0, "H=3": 20.0}
 RATIO_GOAL = 100.0
 TARGET = np.array([-2000.0, 15000.0, 25.0, 0.0])        # x, y, vx, vy (m, m/s)
 PRIOR = np.diag([500.0**2, 500.0**2, 10.0**2, 10.0**2])
@@ -86,8 +96,23 @@ def tmakit_cases(q: float, particles: int, seed: int) -> dict[str, tuple[object,
     return {
         "mean": (Planner(**base, gamma="mean"), START, Belief(posterior, TARGET)),
         "cloud": (Planner(**base, gamma="cloud"), START, belief),
+        "cloud-np": (Planner(**base, gamma="cloud"), START, belief),
         "H=3": (Planner(**base, gamma="cloud", horizon=3), START, belief),
     }
+
+
+def decision(name: str, planner: Planner, start: PlatformState, belief: Belief):
+    """One tmakit decision as a callable (``cloud-np``: the compiled kernel switched off)."""
+    if name != "cloud-np":
+        return lambda: planner.recommend(start, belief)
+
+    def numpy_only():
+        before = compiled.use_compiled(False)
+        try:
+            return planner.recommend(start, belief)
+        finally:
+            compiled.use_compiled(before)
+    return numpy_only
 
 
 def stonesoup_case(q: float, positions: np.ndarray, interval: float):
@@ -184,9 +209,52 @@ def check_same_candidates(manager, platform, t1, positions: np.ndarray) -> None:
 
 
 def summary(samples: list[float]) -> tuple[float, float, float]:
-    """Median, 5th and 95th percentile, ms."""
+    """Median, 25th and 75th percentile, ms."""
     a = np.asarray(samples) * 1e3
-    return float(np.median(a)), float(np.percentile(a, 5)), float(np.percentile(a, 95))
+    return float(np.median(a)), float(np.percentile(a, 25)), float(np.percentile(a, 75))
+
+
+def time_rounds(calls: dict[str, object], repeat: int) -> dict[str, dict[str, list[float]]]:
+    """Wall and CPU seconds of every call, ``repeat`` rounds in a rotated order."""
+    names = list(calls)
+    times = {clock: {name: [] for name in names} for clock in ("wall", "cpu")}
+    for r in range(repeat):
+        for k in range(len(names)):
+            name = names[(r + k) % len(names)]
+            w, c = time.perf_counter(), time.process_time()
+            calls[name]()
+            c, w = time.process_time() - c, time.perf_counter() - w
+            times["wall"][name].append(w)
+            times["cpu"][name].append(c)
+    return times
+
+
+def blas_note() -> str:
+    """What BLAS runs and on how many threads."""
+    blas = [p for p in threadpool_info() if p.get("user_api") == "blas"]
+    return ", ".join(f"{p['internal_api']} {p['num_threads']} thread(s)" for p in blas) or "?"
+
+
+def print_table(times: dict[str, dict[str, list[float]]], clock: str, n_cand: int,
+                names: list[str]) -> None:
+    """The table of one clock."""
+    ss_med, ss_lo, ss_hi = summary(times[clock]["stonesoup"])
+    ss_per = ss_med / n_cand
+    print(f"{clock} time, ms: median (interquartile range)")
+    head = (f"{'what':<8} {'tmakit':>24} {'goal':>6} {'Stone Soup BruteForce':>24} "
+            f"{'tmakit/cand':>12} {'SS/cand':>9} {'ratio':>8}")
+    print(head)
+    print("-" * len(head))
+    for name in names:
+        med, lo, hi = summary(times[clock][name])
+        per = med / n_cand
+        if name == "H=3":   # Stone Soup's brute force decides one step only
+            print(f"{name:<8} {med:>9.3f} ({lo:.3f}-{hi:.3f}) {GOALS_MS[name]:>6.1f} "
+                  f"{'-':>24} {per:>12.4f} {'-':>9} {'-':>8}")
+            continue
+        print(f"{name:<8} {med:>9.3f} ({lo:.3f}-{hi:.3f}) {GOALS_MS[name]:>6.1f} "
+              f"{ss_med:>9.2f} ({ss_lo:.2f}-{ss_hi:.2f}) {per:>12.4f} {ss_per:>9.3f} "
+              f"{ss_per / per:>7.0f}x")
 
 
 def main() -> None:
@@ -197,61 +265,49 @@ def main() -> None:
     ap.add_argument("--q", type=float, default=0.1, help="process noise, m/s^2 per axis")
     ap.add_argument("--seed", type=int, default=0, help="seed of the particle cloud")
     ap.add_argument("--clock", choices=("wall", "cpu"), default="wall",
-                    help="wall: time.perf_counter; cpu: time.process_time (this process's "
-                    "CPU time, for a machine shared with other jobs)")
+                    help="clock of the goals and ratios (both are printed): wall "
+                    "(time.perf_counter) or cpu (time.process_time, this process's CPU time)")
+    ap.add_argument("--blas-threads", type=int, default=None,
+                    help="limit BLAS to this many threads (threadpoolctl; default: as set up)")
     args = ap.parse_args()
     if args.repeat < 1 or args.particles < 1:
         raise SystemExit("--repeat and --particles must be >= 1")
+    if args.blas_threads is not None and args.blas_threads < 1:
+        raise SystemExit("--blas-threads must be >= 1")
+    with threadpool_limits(limits=args.blas_threads, user_api="blas"):
+        run(args)
 
+
+def run(args: argparse.Namespace) -> None:
+    """Time the decisions and print the tables."""
     config = platform_configuration("hurtado_nehorai_2008")
     positions = candidate_positions()
     n_cand = positions.shape[0]
     cases = tmakit_cases(args.q, args.particles, args.seed)
     manager, platform, track, t1 = stonesoup_case(args.q, positions, config.interval)
     check_same_candidates(manager, platform, t1, positions)
+    calls = {name: decision(name, *case) for name, case in cases.items()}
+    calls["stonesoup"] = lambda: manager.choose_actions({track}, t1)
+    for call in calls.values():      # warm up (compiled kernels, caches, work arrays)
+        call()
 
-    def stonesoup_decision():
-        return manager.choose_actions({track}, t1)
-
-    for planner, start, belief in cases.values():      # warm up (caches, work arrays)
-        planner.recommend(start, belief)
-    stonesoup_decision()
-
-    clock = time.perf_counter if args.clock == "wall" else time.process_time
-    times: dict[str, list[float]] = {name: [] for name in (*cases, "stonesoup")}
-    for _ in range(args.repeat):
-        for name, (planner, start, belief) in cases.items():
-            t = clock()
-            planner.recommend(start, belief)
-            times[name].append(clock() - t)
-        t = clock()
-        stonesoup_decision()
-        times["stonesoup"].append(clock() - t)
-
-    ss_med, ss_lo, ss_hi = summary(times["stonesoup"])
-    ss_per = ss_med / n_cand
+    times = time_rounds(calls, args.repeat)
+    kernel = "compiled (numba)" if compiled.available() else "NumPy (numba not installed)"
     print(f"one decision over {n_cand} candidates (HURTADO_NEHORAI_2008, one 0.5 s step); "
           f"azimuth 1 deg + range 30 m; {args.repeat} interleaved rounds; "
-          f"cloud = {args.particles} particles; {args.clock} time in ms, median (5th-95th "
-          "percentile)")
-    head = (f"{'what':<7} {'tmakit':>24} {'goal':>6} {'Stone Soup BruteForce':>24} "
-            f"{'tmakit/cand':>12} {'SS/cand':>9} {'ratio':>8}")
-    print(head)
-    print("-" * len(head))
-    for name in cases:
-        med, lo, hi = summary(times[name])
-        per = med / n_cand
-        if name == "H=3":   # Stone Soup's brute force decides one step only
-            print(f"{name:<7} {med:>9.3f} ({lo:.3f}-{hi:.3f}) {GOALS_MS[name]:>6.1f} "
-                  f"{'-':>24} {per:>12.4f} {'-':>9} {'-':>8}")
-            continue
-        print(f"{name:<7} {med:>9.3f} ({lo:.3f}-{hi:.3f}) {GOALS_MS[name]:>6.1f} "
-              f"{ss_med:>9.2f} ({ss_lo:.2f}-{ss_hi:.2f}) {per:>12.4f} {ss_per:>9.3f} "
-              f"{ss_per / per:>7.0f}x")
-    h3 = summary(times["H=3"])[0]
+          f"cloud = {args.particles} particles; cloud sums {kernel}; BLAS {blas_note()}")
+    for clock in ("wall", "cpu"):
+        print_table(times, clock, n_cand, list(cases))
+    h3 = summary(times[args.clock]["H=3"])[0]
+    ss_per = summary(times[args.clock]["stonesoup"])[0] / n_cand
     n_seq = len(config.actions) ** 3
-    print(f"H=3 searches {n_seq} sequences: {1e3 * h3 / n_seq:.2f} us per sequence "
-          f"(Stone Soup's brute force is one step: {ss_per:.3f} ms per candidate)")
+    n_nodes = sum(len(config.actions) ** d for d in (1, 2, 3))
+    per_node = h3 / n_nodes
+    print(f"H=3 searches {n_seq} sequences, {n_nodes} nodes (one candidate step each: predicted "
+          f"information and criterion; the cloud at depth 1, the mean beyond): "
+          f"{1e3 * h3 / n_seq:.2f} us per sequence, {1e3 * per_node:.2f} us per node; Stone Soup "
+          f"{ss_per:.3f} ms per candidate step = {ss_per / per_node:.0f}x a tmakit node "
+          f"({args.clock})")
 
     rec = cases["mean"][0].recommend(START, cases["mean"][2])
     rec_cloud = cases["cloud"][0].recommend(START, cases["cloud"][2])
@@ -264,14 +320,14 @@ def main() -> None:
           f"{rewards.min():.4g}..{rewards.max():.4g})")
     verdicts = []
     for name in cases:
-        med = summary(times[name])[0]
+        med = summary(times[args.clock][name])[0]
         verdicts.append(f"{name} {'met' if med <= GOALS_MS[name] else 'MISSED'} "
                         f"({med:.3f} <= {GOALS_MS[name]:g} ms)")
         if name != "H=3":
             ratio = ss_per / (med / n_cand)
             verdicts.append(f"{name} ratio {'met' if ratio >= RATIO_GOAL else 'MISSED'} "
                             f"({ratio:.0f}x >= {RATIO_GOAL:g}x)")
-    print("goals: " + "; ".join(verdicts))
+    print(f"goals ({args.clock}): " + "; ".join(verdicts))
 
 
 if __name__ == "__main__":

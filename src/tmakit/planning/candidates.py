@@ -92,7 +92,7 @@ def expected_information(plan: SensorPlan, states: Array, weights: Array,
     Hurtado & Nehorai (2008), eqs. 11 and 13, section 4.2.
     """
     if gamma == "mean" or states.shape[0] == 1:
-        states, weights = (weights @ states)[None, :], np.ones(1)
+        states, weights = (weights @ states)[None, :], _ONE
     if supports_planar(plan, sensor_states):
         return planar_information(plan, states, weights, sensor_states)
     if supports(plan):
@@ -145,14 +145,20 @@ def step_information(belief: Belief, information: Array, plan: SensorPlan,
         raise ValueError(f"sensor states have {sensor_states.shape[-2]} times; the plan "
                          f"measures at {times.size}")
     info = np.asarray(information, dtype=float)
+    if gamma == "mean" or states.shape[0] == 1:   # Xi at the mean: move the mean only
+        states, weights = (weights @ states)[None, :], _ONE
     done = 0.0
     for j, s in enumerate(times):   # a few measurement times per step, not candidates
         info = _predict(posterior, info, s - done)
         f = posterior.dynamics.transition(s)
-        info = info + expected_information(plan, states @ f.T, weights,
+        # (F X^T)^T: the moved cloud with contiguous columns (what the fused sums read)
+        info = info + expected_information(plan, (f @ states.T).T, weights,
                                            sensor_states[..., j, :], gamma)
         done = s
     return symmetrise(_predict(posterior, info, interval - done))
+
+
+_ONE = np.ones(1)
 
 
 def _predict(posterior: PosteriorInformation, info: Array, dt: float) -> Array:

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 
 from ..arrays import Array
 from ..bounds.pcrb_recursion import information_inverse
+from . import compiled
 
 Block = Literal["position", "velocity", "state"]
 
@@ -45,6 +46,10 @@ def bound_covariance(information: Array) -> Array:
         (..., n, n), SI.
     """
     info = np.asarray(information, dtype=float)
+    if info.ndim > 2:
+        fast = compiled.spd_inverse(info)
+        if fast is not None:
+            return fast
     d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
     scale = d[..., :, None] * d[..., None, :]
     try:

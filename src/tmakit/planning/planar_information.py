@@ -31,6 +31,7 @@ import threading
 import numpy as np
 
 from ..arrays import Array
+from . import compiled
 from .measurement_plan import SensorPlan
 
 PLANAR_KINDS = frozenset({"bearing", "range", "range_rate"})
@@ -57,8 +58,14 @@ def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
             and not plan.nuisance and not np.any(sensor_states[..., 2]))
 
 
-def _coefficients(plan: SensorPlan) -> dict[str, float]:
-    """Return the constant coefficients of the scalar fields, from ``W = R^{-1}``.
+#: The basis of :func:`_coefficients`, packed for the compiled kernels: names, coefficients
+#: (P, 3) in ``A``, ``B``, ``E``, and the constants ``D``, ``G``, ``F``.
+Packed = tuple[list[str], Array, Array]
+Basis = list[tuple[str, tuple[float, float, float]]]
+
+
+def _coefficients(plan: SensorPlan) -> tuple[dict[str, float], Basis, Packed]:
+    """Return the constant coefficients of the scalar fields (from ``W = R^{-1}``), the basis.
 
     Kept per content of the plan (kinds, sigmas, covariance), not per object.
     """
@@ -68,11 +75,13 @@ def _coefficients(plan: SensorPlan) -> dict[str, float]:
     if key not in _COEFFICIENTS:
         if len(_COEFFICIENTS) >= 64:
             _COEFFICIENTS.clear()
-        _COEFFICIENTS[key] = _compute_coefficients(plan.kinds, sigmas, cov)
+        k = _compute_coefficients(plan.kinds, sigmas, cov)
+        basis = _basis(k)
+        _COEFFICIENTS[key] = (k, basis, _compiled_basis(k, basis))
     return _COEFFICIENTS[key]
 
 
-_COEFFICIENTS: dict[tuple[object, ...], dict[str, float]] = {}
+_COEFFICIENTS: dict[tuple[object, ...], tuple[dict[str, float], Basis, Packed]] = {}
 
 
 def _compute_coefficients(kinds: tuple[str, ...], sigmas: Array,
@@ -128,16 +137,48 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
     ----------
     Hurtado & Nehorai (2008), eqs. 11 and 13.
     """
-    k = _coefficients(plan)
-    basis = _basis(k)
+    k, basis, packed = _coefficients(plan)
     batch = sensor_states.shape[:-1]
     s = sensor_states.reshape(-1, 6)
+    cols = np.ascontiguousarray(states.T)
+    if compiled.available():
+        gamma = compiled.planar_gamma(*packed, cols, weights, s)
+    else:
+        gamma = _assemble(k, _field_sums(basis, numpy_sums(basis, cols, weights, s)))
+    return gamma.reshape(*batch, 4, 4)
+
+
+def _compiled_basis(k: dict[str, float], basis: Basis) -> Packed:
+    """Pack the basis for the compiled kernels: names, coefficients (P, 3), D, G, F."""
+    coef = np.array([c for _, c in basis], dtype=float).reshape(-1, 3)
+    return [n for n, _ in basis], coef, np.array([k["D"], k["G"], k["F"]])
+
+
+def numpy_sums(basis: list[tuple[str, tuple[float, float, float]]], cols: Array,
+               weights: Array, s: Array) -> Array:
+    """Return the weighted cloud sums (2 + 3 P, C) in NumPy, block by block of the cloud.
+
+    Parameters
+    ----------
+    basis : list
+        The products needed and their coefficients (``_basis``).
+    cols : ndarray, shape (4, N)
+        The cloud by rows (m, m/s).
+    weights : ndarray, shape (N,)
+        Normalised weights.
+    s : ndarray, shape (C, 6)
+        Candidate sensor states (m, m/s).
+
+    Returns
+    -------
+    ndarray, shape (2 + 3 P, C)
+        The rows of :func:`tmakit.planning.compiled.cloud_sums` (SI).
+    """
     block = max(1, BLOCK_ELEMENTS // s.shape[0])
     sums = np.zeros((2 + 3 * len(basis), s.shape[0]))
-    cols = np.ascontiguousarray(states.T)
-    for lo in range(0, states.shape[0], block):   # blocks of the cloud, not members
+    for lo in range(0, cols.shape[1], block):   # blocks of the cloud, not members
         sums += _block_sums(basis, cols[:, lo:lo + block], weights[lo:lo + block], s)
-    return _assemble(k, _field_sums(basis, sums)).reshape(*batch, 4, 4)
+    return sums
 
 
 #: The products of ``1/r`` and ``q`` the fields are made of, and their coefficients in

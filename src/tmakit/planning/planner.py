@@ -28,6 +28,7 @@ import numpy as np
 
 from ..arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
+from . import compiled
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
@@ -37,6 +38,7 @@ from .measurement_plan import SensorPlan
 
 #: Times per step at which the constraints are checked (equally spaced, end included).
 CHECK_POINTS = 4
+_ONE = np.ones(1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,6 +177,7 @@ class Planner:
                                       or self.beam < 1):
             raise ValueError(f"beam must be a whole number >= 1 or None; got {self.beam!r}")
         object.__setattr__(self, "constraints", tuple(self.constraints))
+        compiled.available()   # load numba's cached kernels now, not in the first decision
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
@@ -211,8 +214,12 @@ class Planner:
             sensor = steps.end.sensor_state[..., None, :]
         else:
             sensor = steps.sensor_states(t0 + offsets)          # (*B, A, k, 6)
-        f = belief.posterior.dynamics.transition(t0 - belief.time)
-        cloud = (belief.states @ f.T, belief.weights)
+        cloud = None   # at the decision time: the belief's own cloud
+        if t0 != belief.time:
+            f = belief.posterior.dynamics.transition(t0 - belief.time)
+            # Xi at the mean needs the moved mean only (the moved cloud's mean: F is linear)
+            cloud = (((f @ belief.mean)[None], _ONE) if gamma == "mean"
+                     else (belief.states @ f.T, belief.weights))
         info = step_information(belief, information[..., None, :, :], self.plan, sensor,
                                 self.interval, gamma, cloud)
         return steps, info, step_violations(self.constraints, steps, belief, self.interval)

@@ -39,15 +39,20 @@ def _turn_factors(z: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ..
     e1 = np.empty_like(z)
     e2 = np.empty_like(z)
     small = np.abs(z) < _SERIES_BELOW
-    if small.any():                             # Horner on the power series
-        zs = z[small]
+    every = bool(small.all())
+    if every or small.any():                    # Horner on the power series
+        zs = z if every else z[small]
         s1 = np.full_like(zs, _E1_COEFF[-1])
         s2 = np.full_like(zs, _E2_COEFF[-1])
         for c1, c2 in zip(_E1_COEFF[-2::-1], _E2_COEFF[-2::-1], strict=True):
-            s1 = s1 * zs + c1
-            s2 = s2 * zs + c2
+            s1 *= zs    # in place: the same values as s1 * zs + c1, no temporaries
+            s1 += c1
+            s2 *= zs
+            s2 += c2
+        if every:
+            return s1.reshape(shape), s2.reshape(shape)
         e1[small], e2[small] = s1, s2
-    if not small.all():
+    if not every:
         large = ~small
         zl = z[large]
         ez = np.exp(zl)
@@ -95,13 +100,14 @@ def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: Arra
         raise ValueError(f"position must end in 2 or 3 ENU coordinates (m), got {pos.shape}")
     if pos.shape[-1] == 2:
         pos = np.concatenate([pos, np.zeros((*pos.shape[:-1], 1))], axis=-1)
-    psi0, v0, c, w, a, s = np.broadcast_arrays(*(_arr(q) for q in (
-        heading, speed, climb_rate, turn_rate, acceleration, dt)))
+    # no broadcast_arrays: the arithmetic broadcasts (the same values, fewer array views)
+    psi0, v0, c, w, a, s = (_arr(q) for q in (
+        heading, speed, climb_rate, turn_rate, acceleration, dt))
     e1, e2 = _turn_factors(1j * w * s)
     rot0 = np.exp(1j * psi0)
     disp = rot0 * s * (v0 * e1 + a * s * e2)
     vel = (v0 + a * s) * np.exp(1j * (psi0 + w * s))
-    shape = np.broadcast_shapes(pos.shape[:-1], s.shape)
+    shape = np.broadcast_shapes(pos.shape[:-1], *(q.shape for q in (psi0, v0, c, w, a, s)))
     out = np.empty((*shape, 6))
     out[..., 0] = pos[..., 0] + disp.imag
     out[..., 1] = pos[..., 1] + disp.real

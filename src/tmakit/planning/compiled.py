@@ -1,0 +1,200 @@
+"""Compiled kernels of the planner's hot loops (optional ``numba``), with NumPy fallbacks.
+
+* :func:`cloud_sums` — the cloud sums of :mod:`tmakit.planning.planar_information`: ``Gamma``
+  over a cloud of ``N`` members for ``C`` candidate sensors reduces to weighted sums over the
+  cloud of a few fields (``c2``, ``cs`` and the products ``1/r^2``, ``q/r``, ``q^2``, ``1/r``,
+  ``q`` times ``1``, ``c2``, ``cs``).  In NumPy each field is a ``(C, N)`` array written to
+  memory and read back; here one compiled loop per candidate runs over the cloud once and
+  keeps every sum in a register, in float64 (reassociated into SIMD lanes, so the sums may
+  differ from NumPy's in the last bits).
+* :func:`spd_inverse` — ``J^{-1}`` of a stack of small positive-definite information
+  matrices, as :func:`tmakit.planning.criteria.bound_covariance` computes it (normalised by
+  the diagonal, Cholesky, triangular inverse), one loop instead of a dozen NumPy calls.
+
+``tests/test_planning_kernel.py`` checks that both agree with the NumPy path to 1e-12
+relative.  ``numba`` is an optional extra (``pip install tmakit[fast]``): without it, or with
+the environment variable ``TMAKIT_NO_NUMBA`` set to a non-empty value other than ``0``, or
+after ``use_compiled(False)``, :func:`available` is False and the NumPy path is used.
+``numba`` is imported, and the kernels compiled (cached on disk), at the first call only.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..arrays import Array
+
+#: The products of ``1/r`` and the bearing rate ``q`` the kernels sum, in the order of
+#: :data:`tmakit.planning.planar_information._PRODUCTS`.
+PRODUCTS = ("ir2", "irq", "qq", "ir", "q")
+#: Rows of the general kernel's output: ``E[c2]``, ``E[cs]``, then per product ``g``
+#: ``E[g]``, ``E[g c2]``, ``E[g cs]``.
+ROWS = 2 + 3 * len(PRODUCTS)
+
+_STATE: dict[str, Any] = {"enabled": os.environ.get("TMAKIT_NO_NUMBA", "") in ("", "0"),
+                          "kernels": None}
+
+
+def use_compiled(enabled: bool) -> bool:
+    """Switch the compiled kernels on or off (for comparisons); return the previous setting.
+
+    Parameters
+    ----------
+    enabled : bool
+        False: every call takes the NumPy path, even with ``numba`` installed.
+
+    Returns
+    -------
+    bool
+        The setting before the call.
+    """
+    before = bool(_STATE["enabled"])
+    _STATE["enabled"] = bool(enabled)
+    return before
+
+
+def available() -> bool:
+    """Tell whether the compiled kernels are switched on and ``numba`` can be imported.
+
+    Returns
+    -------
+    bool
+    """
+    if not _STATE["enabled"]:
+        return False
+    if _STATE["kernels"] is None:
+        try:
+            _STATE["kernels"] = _compile()
+        except ImportError:
+            _STATE["kernels"] = False
+        except Exception as err:   # numba present but unusable here: say so, use NumPy
+            warnings.warn(f"tmakit's compiled planning kernels failed ({err!r}); using the "
+                          "NumPy path", RuntimeWarning, stacklevel=2)
+            _STATE["kernels"] = False
+    return _STATE["kernels"] is not False
+
+
+def _compile() -> dict[str, Callable[..., object]]:
+    """Import ``numba`` and the kernels and compile them on tiny inputs (cached on disk).
+
+    Compiling here, not at the first real call, lets :func:`available` fall back to NumPy
+    when ``numba`` is installed but cannot compile (an incompatible NumPy, no cache dir).
+    """
+    from . import numba_kernels as nk
+
+    kernels = {"position": nk.position_sums, "general": nk.general_sums,
+               "spd_inverse": nk.spd_inverse_stack, "assemble": nk.assemble_gamma}
+    one, sensor = np.ones(1), np.zeros((1, 6))
+    nk.position_sums(one, one, one, one[:1] * 0, one[:1] * 0, np.empty((5, 1)))
+    nk.general_sums(one, one, one, one, one, sensor, np.empty((ROWS, 1)))
+    nk.spd_inverse_stack(np.eye(4)[None], np.empty((1, 4, 4)))
+    nk.assemble_gamma(np.ones((5, 1)), np.ones((1, 3)), np.ones(3), np.empty((1, 4, 4)))
+    return kernels
+
+
+def spd_inverse(information: Array) -> Array | None:
+    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices, compiled.
+
+    Parameters
+    ----------
+    information : ndarray, shape (..., n, n)
+        ``J``, SI.
+
+    Returns
+    -------
+    ndarray or None
+        The inverses (SI); None when the kernels are not :func:`available` or a matrix is
+        not numerically positive definite (the caller then takes its NumPy path).
+    """
+    if not available():
+        return None
+    info = np.ascontiguousarray(information, dtype=float)
+    n = info.shape[-1]
+    flat = info.reshape(-1, n, n)
+    out = np.empty_like(flat)
+    if not _STATE["kernels"]["spd_inverse"](flat, out):
+        return None
+    return out.reshape(info.shape)
+
+
+def cloud_sums(names: list[str], cols: Array, weights: Array, sensors: Array) -> Array:
+    """Return the weighted cloud sums (2 + 3 P, C) of the products ``names``, compiled.
+
+    Parameters
+    ----------
+    names : list of str
+        The products needed (a subsequence of :data:`PRODUCTS`), ``P`` of them.
+    cols : ndarray, shape (4, N)
+        The cloud ``[x, y, vx, vy]`` by rows (m, m/s).
+    weights : ndarray, shape (N,)
+        Normalised weights.
+    sensors : ndarray, shape (C, 6)
+        Candidate sensor states (m, m/s).
+
+    Returns
+    -------
+    ndarray, shape (2 + 3 P, C)
+        Rows ``E[c2]``, ``E[cs]``, then per product ``g`` of ``names``: ``E[g]``,
+        ``E[g c2]``, ``E[g cs]`` (SI).
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled planning kernels are not available (numba)")
+    kernels = _STATE["kernels"]
+    c = sensors.shape[0]
+    w = np.ascontiguousarray(weights, dtype=float)
+    x = np.ascontiguousarray(cols[0])
+    y = np.ascontiguousarray(cols[1])
+    if names == ["ir2"]:
+        out = np.empty((5, c))
+        kernels["position"](x, y, w, np.ascontiguousarray(sensors[:, 0]),
+                            np.ascontiguousarray(sensors[:, 1]), out)
+        return out
+    full = np.empty((ROWS, c))
+    kernels["general"](x, y, np.ascontiguousarray(cols[2]), np.ascontiguousarray(cols[3]), w,
+                       np.ascontiguousarray(sensors, dtype=float), full)
+    rows = [0, 1]
+    for name in names:
+        k = 2 + 3 * PRODUCTS.index(name)
+        rows += [k, k + 1, k + 2]
+    return full[rows]
+
+
+def planar_gamma(names: list[str], coefficients: Array, constants: Array, cols: Array,
+                 weights: Array, sensors: Array) -> Array:
+    """Return ``Gamma`` (C, 4, 4) of the planar closed form, compiled end to end.
+
+    Parameters
+    ----------
+    names : list of str
+        The products needed (a subsequence of :data:`PRODUCTS`), ``P`` of them.
+    coefficients : ndarray, shape (P, 3)
+        Each product's coefficients in the fields ``A``, ``B``, ``E``.
+    constants : ndarray, shape (3,)
+        The constant fields ``D``, ``G``, ``F``.
+    cols, weights, sensors
+        As for :func:`cloud_sums`.
+
+    Returns
+    -------
+    ndarray, shape (C, 4, 4)
+        SI.
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    sums = cloud_sums(names, cols, weights, sensors)
+    out = np.empty((sensors.shape[0], 4, 4))
+    _STATE["kernels"]["assemble"](sums, coefficients, constants, out)
+    return out
