@@ -261,6 +261,29 @@ def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
     return out, rel
 
 
+def wrap_small(a: Array) -> Array:
+    """Wrap angle differences to (-pi, pi], leaving those already inside untouched.
+
+    :func:`~tmakit.frames.wrap_angle` computes ``(a + pi) - pi`` even inside, which rounds a
+    small difference to the spacing of pi (4.4e-16 rad); here such values are returned as
+    they are, and only an array with a value outside goes to ``wrap_angle``.
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Angle differences (rad), any shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``a`` itself when every entry is in (-pi, pi], else ``wrap_angle(a)`` (rad).
+    """
+    flat = a.ravel().tolist()
+    if flat and -math.pi < min(flat) and max(flat) <= math.pi:
+        return a
+    return wrap_angle(a)
+
+
 def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]:
     """Give the wrapped residual ``z - h(x)`` (m,) and the Jacobian ``H`` (m, n) at ``x``.
 
