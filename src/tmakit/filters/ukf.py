@@ -35,7 +35,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg.lapack import dpotrf
 
-from ..frames import wrap_angle
 from ..linalg import safe_cholesky, symmetrise
 from ..observation.groups import MeasurementGroup
 from .base import Array, UpdateInfo
