@@ -10,8 +10,10 @@ of row-time offsets), the noise covariance of each update, the angle rows.  A st
 product for the relative states, one fused ``predict_gradient`` per kind, one product for the
 chained Jacobian, and :func:`kalman_gain` — closed form for one and two rows, one Cholesky
 factorisation otherwise.  The dynamics' ``Phi`` and ``Q`` are cached per step size
-(:class:`DynamicsCache`), and the posterior covariance is repaired only when its Cholesky
-check fails (:func:`checked_psd`).
+(:class:`DynamicsCache`); the EKF's posterior covariance is ``P - K H P``, the Joseph form only
+when that fails its Cholesky check (:func:`updated_covariance`), repaired only when that fails
+too (:func:`checked_psd`).  Small products use ``ndarray.dot``: on arrays of a few entries
+NumPy 2's ``@`` (a ufunc) costs about twice as much per call, for the same BLAS result.
 
 Kinds with an earlier reference sample (range differences) keep the group path.  The results
 equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding;
