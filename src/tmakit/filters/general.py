@@ -23,7 +23,6 @@ equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding;
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg.lapack import dposv, dpotrf
@@ -34,9 +33,6 @@ from ..linalg import repair_psd, solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE
 from .kernels import TWO_PI, KernelRun
-
-if TYPE_CHECKING:  # pragma: no cover
-    pass
 
 #: One update of a plan: update time (s), values (m,), sensor states flattened (m * 6,),
 #: the kinds' parts, the state-to-target map ``T`` (m * 6, n), its rows as (m, 6, n) or None
