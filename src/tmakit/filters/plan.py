@@ -144,7 +144,7 @@ class StepPlan:
         per_row = [info[c] for c in codes.tolist()]
         return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
                 zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
-                    map(tuple, sens.tolist()), strict=True)]
+                    sens.tolist(), strict=True)]
 
     @staticmethod
     def _pattern(codes: Array, names: list[str], compiled: CompiledMeasurements
