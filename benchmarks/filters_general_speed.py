@@ -16,20 +16,26 @@ Neither is the single-bearing 2-D case of the compiled kernel: tmakit runs its g
   predictions and Jacobian by hand for the four rows, ``S``, ``K`` by ``numpy.linalg.solve``,
   Joseph-form covariance.
 
-Timing: ``filter.run(meas)`` whole for tmakit (compiling the set, the track's arrays); each
-peer's loop over updates with arrays prepared beforehand.  Per step = total / updates;
-interleaved repeats, median [interquartile range].  The final estimates are printed with their
-largest difference to tmakit's (they solve the same equations, so they agree to rounding).
+Timing: ``filter.run(meas)`` whole for tmakit (the track's arrays included); each peer's loop
+over updates with arrays prepared beforehand.  A set is compiled for the filters on its first
+run and the compiled plan kept with it; the rows ``first run`` time tmakit on a new copy of the
+set each time (compilation and plan included).  Per step = total / updates; interleaved
+repeats, median [interquartile range]; ``--clock cpu`` (default) is the process CPU time, less
+disturbed by other work on a shared machine than ``--clock wall``.  The final estimates are
+printed with their largest difference to tmakit's (they solve the same equations, so they
+agree to rounding).
 
     PYTHONPATH=src python benchmarks/filters_general_speed.py [--repeat 7] [--steps 600]
+        [--clock cpu]
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 
 import numpy as np
-from bench_problems import CARRIER, C, filter_problem, fmt, interleaved
+from bench_problems import CARRIER, C, filter_problem, fmt
 
 from tmakit.filters import ExtendedKalmanFilter, UnscentedKalmanFilter
 from tmakit.motion.dynamics import process_noise, transition_matrix
@@ -174,8 +180,37 @@ def tmakit_run(cls, p):
     return f.run(p.meas).states[-1]
 
 
-def measure(case, steps, repeat):
-    """Rows of (what, tmakit, peer, ratio) for one problem."""
+def interleaved(funcs, repeats, clock="cpu"):
+    """Time each callable ``repeats`` times, interleaved: ``{name: (median, q1, q3)}`` s.
+
+    ``clock``: ``"cpu"`` (process CPU time) or ``"wall"``.
+    """
+    tick = time.process_time if clock == "cpu" else time.perf_counter
+    times = {name: [] for name in funcs}
+    for _ in range(repeats):
+        for name, fn in funcs.items():
+            t0 = tick()
+            fn()
+            times[name].append(tick() - t0)
+    return {name: (float(np.median(v)), float(np.percentile(v, 25)),
+                   float(np.percentile(v, 75))) for name, v in times.items()}
+
+
+def first_runs(p, repeat, clock):
+    """Median [IQR] s of tmakit's EKF on a new copy of the set each time (compiled anew)."""
+    tick = time.process_time if clock == "cpu" else time.perf_counter
+    times = []
+    for _ in range(repeat):
+        fresh = p.meas.take(np.arange(len(p.meas)))
+        t0 = tick()
+        ExtendedKalmanFilter(p.mean0, p.cov0, 0.0, q=p.q, nuisance=p.nuisance).run(fresh)
+        times.append(tick() - t0)
+    return (float(np.median(times)), float(np.percentile(times, 25)),
+            float(np.percentile(times, 75)))
+
+
+def measure(case, steps, repeat, clock="cpu"):
+    """Rows of (what, tmakit, peer, ratio, note) for one problem."""
     p = filter_problem(case, steps)
     data = arrays(p)
     finals = {"tmakit ekf": tmakit_run(ExtendedKalmanFilter, p),
@@ -187,7 +222,8 @@ def measure(case, steps, repeat):
         "numpy ekf": lambda: numpy_loop(p, data),
         "filterpy ekf": lambda: filterpy_ekf(p, data),
         "tmakit ukf": lambda: tmakit_run(UnscentedKalmanFilter, p),
-        "filterpy ukf": lambda: filterpy_ukf(p, data)}, repeat)
+        "filterpy ukf": lambda: filterpy_ukf(p, data)}, repeat, clock)
+    stats["tmakit ekf first run"] = first_runs(p, repeat, clock)
     per = {k: tuple(v / steps for v in s) for k, s in stats.items()}
     agree_ekf = max(np.max(np.abs(finals["tmakit ekf"] - finals[k])[:p.dim])
                     for k in ("numpy ekf", "filterpy ekf"))
@@ -198,6 +234,10 @@ def measure(case, steps, repeat):
         rows.append((f"EKF per step, {label[case]}", fmt(per["tmakit ekf"], 1e6, "us"),
                      f"{peer} {fmt(per[peer], 1e6, 'us')}",
                      per[peer][0] / per["tmakit ekf"][0], f"positions agree {agree_ekf:.1e} m"))
+    first = per["tmakit ekf first run"]
+    rows.append((f"EKF first run (set compiled), {label[case]}", fmt(first, 1e6, "us"),
+                 f"filterpy ekf {fmt(per['filterpy ekf'], 1e6, 'us')}",
+                 per["filterpy ekf"][0] / first[0], "peer/tmakit, the plan made in the run"))
     rows.append((f"UKF per step, {label[case]}", fmt(per["tmakit ukf"], 1e6, "us"),
                  f"filterpy ukf {fmt(per['filterpy ukf'], 1e6, 'us')}",
                  per["filterpy ukf"][0] / per["tmakit ukf"][0],
@@ -209,9 +249,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--steps", type=int, default=600)
+    ap.add_argument("--clock", choices=["cpu", "wall"], default="cpu")
     args = ap.parse_args()
+    print(f"clock {args.clock}; per step, median [interquartile range] of {args.repeat}")
     for case in ("bf2", "be3"):
-        for what, ours, peer, ratio, note in measure(case, args.steps, args.repeat):
+        for what, ours, peer, ratio, note in measure(case, args.steps, args.repeat, args.clock):
             print(f"{what:45s} {ours:28s} {peer:40s} peer/tmakit {ratio:5.2f}  {note}")
 
 

@@ -8,7 +8,13 @@ Sections (``--only`` picks some):
 
 * ``filters``: the general EKF/UKF path per step (bearing + frequency from two sensors 2-D;
   bearing + elevation from two sensors 3-D) beside FilterPy's ``ExtendedKalmanFilter`` and
-  ``UnscentedKalmanFilter`` and a minimal NumPy EKF loop (``filters_general_speed.py``);
+  ``UnscentedKalmanFilter`` and a minimal NumPy EKF loop, and the EKF's first run on a new
+  set (compiling it) beside FilterPy; process CPU time (``filters_general_speed.py``);
+* ``pf``: the particle filters at equal accuracy and at equal particle count on
+  bearings-only-2d: tmakit's regularised SIR beside Stone Soup's SIR (and, without
+  ``--quick``, Stone Soup's SIR with its ``MCMCRegulariser``); for each Stone Soup count, the
+  tmakit count that reaches at least the same final position RMSE and the time per step at
+  those two counts (``filters_pf_accuracy.py``);
 * ``startup``: ``tma --help`` and ``tma scenarios`` beside ``python -c "import numpy"``, each a
   fresh interpreter, interleaved;
 * ``crlb``: the CRLB and the no-guess estimate at N = 10^3 ... 10^5 bearings beside a
@@ -40,7 +46,7 @@ from pathlib import Path
 import numpy as np
 from bench_problems import fmt
 
-SECTIONS = ("filters", "startup", "crlb", "lm", "threads", "montecarlo", "manoeuvre")
+SECTIONS = ("filters", "pf", "startup", "crlb", "lm", "threads", "montecarlo", "manoeuvre")
 
 
 def startup_rows(repeat):
@@ -133,6 +139,7 @@ def main():
             print(f"  ({name}: {time.perf_counter() - t0:.0f} s)", flush=True)
 
     section("filters", lambda: _filters(3 if q else 7, 200 if q else 600))
+    section("pf", lambda: _pf(q))
     section("startup", lambda: startup_rows(5 if q else 15))
     section("crlb", lambda: _crlb([1000, 10000, 100000], 3 if q else 7))
     section("lm", lambda: _lm([100, 1000, 10000, 100000] if not q else [100, 10000, 100000],
@@ -151,6 +158,19 @@ def _filters(repeat, steps):
     from filters_general_speed import measure
 
     return measure("bf2", steps, repeat) + measure("be3", steps, repeat)
+
+
+def _pf(quick):
+    from filters_pf_accuracy import measure
+
+    try:
+        import stonesoup  # noqa: F401
+    except ImportError:
+        return [("PF equal accuracy", "-", "Stone Soup not installed", float("nan"),
+                 "pip install 'tmakit[bench]'")]
+    if quick:
+        return measure(3, 0, [50, 100, 250, 1000], [250, 1000], False)[0]
+    return measure(8, 0, [50, 100, 250, 1000, 4000], [250, 1000, 4000], True)[0]
 
 
 def _crlb(sizes, repeat):

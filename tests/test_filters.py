@@ -442,6 +442,53 @@ def several_kinds_run(dim: int, seed: int = 5, scalar: bool = False
     return meas, x0[keep] + offset, np.diag(np.r_[np.full(dim, 300.0**2), np.full(dim, 4.0**2)])
 
 
+def test_updated_covariance_is_the_short_form_unless_that_is_not_positive_definite():
+    from scipy.linalg.lapack import dpotrf
+
+    from tmakit.filters.ekf import joseph
+    from tmakit.filters.general import innovation_solve, updated_covariance
+
+    rng = np.random.default_rng(0)
+    forms = set()
+    for r in (1.0, 1e-12):  # ordinary noise; noise so small that rounding breaks P - KHP
+        for _ in range(5):
+            a = rng.standard_normal((4, 4))
+            cov = 1e6 * a @ a.T + np.eye(4)
+            h = rng.standard_normal((2, 4))
+            hp = h @ cov
+            gain = innovation_solve(hp @ h.T + r * np.eye(2), hp, np.zeros(2))[0]
+            got = updated_covariance(cov, gain, hp, h, r * np.eye(2))
+            short = cov - gain @ hp
+            short = 0.5 * (short + short.T)
+            if dpotrf(short, lower=1, clean=0)[1] == 0:
+                forms.add("short")
+                assert np.array_equal(got, short)
+            else:
+                forms.add("joseph")
+                assert np.array_equal(got, joseph(cov, gain, h, r * np.eye(2)))
+            assert np.array_equal(got, got.T) and np.all(np.linalg.eigvalsh(got) > 0)
+    assert forms == {"short", "joseph"}
+
+
+def test_particle_filter_bearing_run_equals_the_group_path():
+    # run() on single bearings takes each update from the compiled columns, without a group;
+    # the same draws in the same order give the same track bit for bit, resamplings included.
+    scn = tk.load_scenario("bearings-only-2d")
+    meas = scn.simulate(np.random.default_rng(4))
+    meas = meas.take(meas.time <= 150.0)
+    mean0 = scn.target_states([0.0])[0][[0, 1, 3, 4]] + np.array([300.0, -200.0, 1.0, 1.0])
+    p0 = np.diag([500.0**2, 500.0**2, 5.0**2, 5.0**2])
+    fast_filter = ParticleFilter(mean0, p0, 0.0, q=0.01, particles=300, rng=2)
+    fast = fast_filter.run(meas)
+    slow_filter = ParticleFilter(mean0, p0, 0.0, q=0.01, particles=300, rng=2)
+    slow = general_path(slow_filter, meas)
+    assert fast_filter.kernel_updates == len(meas) and fast_filter.resamples > 3
+    assert fast_filter.resamples == slow_filter.resamples
+    for name in ("times", "states", "covariances", "nis", "log_likelihood", "dof"):
+        assert np.array_equal(getattr(fast, name), getattr(slow, name)), name
+    assert np.array_equal(fast_filter.particles, slow_filter.particles)
+
+
 @pytest.mark.parametrize(("dim", "scalar"), [(2, False), (3, False), (2, True), (3, True)])
 def test_general_plan_equals_the_group_path(dim, scalar):
     meas, mean0, p0 = several_kinds_run(dim, scalar=scalar)

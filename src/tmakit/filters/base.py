@@ -193,13 +193,17 @@ class TrackingFilter(ABC):
         ValueError
             If ``time`` is earlier than the filter's time.
         """
+        with one_thread(self.single_blas_thread):
+            self._advance(time)
+
+    def _advance(self, time: float) -> None:
+        """:meth:`predict` inside a run, whose BLAS thread limit is already set."""
         dt = float(time) - self.time
         if dt < -TIME_TOLERANCE:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
                              f"to t={time} s")
         if dt > TIME_TOLERANCE:
-            with one_thread(self.single_blas_thread):
-                self._predict(dt)
+            self._predict(dt)
         self.time = max(self.time, float(time))
 
     def update(self, rows: MeasurementSet | MeasurementGroup) -> UpdateInfo:
@@ -299,7 +303,7 @@ class TrackingFilter(ABC):
                 k = block.stop
                 if k >= total:
                     break
-            self.predict(float(compiled.times[k]))
+            self._advance(float(compiled.times[k]))
             info = self._update(compiled.group(k, self.time))
             self.log_likelihood += info.log_likelihood
             rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..linalg import symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
-from ..observation.groups import MeasurementGroup
+from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .base import Array, TrackingFilter, UpdateInfo
 from .compiled import CompiledMeasurements
 from .general import (
@@ -16,9 +16,11 @@ from .general import (
     PlanOutputs,
     Step,
     checked_psd,
+    innovation_solve,
     kalman_gain,
     linearise,
     predict_gaussian,
+    updated_covariance,
 )
 from .kernels import KernelRun, ekf_bearing_2d
 from .plan import StepPlan, plan_for
@@ -233,40 +235,71 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
                      ) -> tuple[Array, Array, float, int, float]:
-        """One update of the general path: mean, covariance, NIS, rows, log-likelihood."""
+        """One update of the general path: mean, covariance, NIS, rows, log-likelihood.
+
+        The covariance is ``P - K H P`` when that is positive definite, else the Joseph form
+        (:func:`~.general.updated_covariance`).
+        """
         y, h, ok = linearise(step, mean, plan.eye_map)
         if not ok:
             self.skipped_updates += 1
             return mean, cov, float("nan"), 0, 0.0
         r = step[6]
-        gain, nis, log_det = kalman_gain(cov, h, r, y)
-        new = mean + gain @ y
-        new_cov = joseph(cov, gain, h, r)
-        for _ in range(self.iterations - 1):  # the iterated EKF, as in _update
+        hp = h.dot(cov)
+        s = hp.dot(h.T)
+        s += r
+        gain, nis, log_det = innovation_solve(s, hp, y)
+        new = mean + gain.dot(y)
+        new_cov = updated_covariance(cov, gain, hp, h, r)
+        if self.iterations > 1:
+            new, new_cov = self._iterate(step, plan, mean, cov, new, new_cov)
+        m = y.shape[0]
+        return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
+
+    def _iterate(self, step: Step, plan: StepPlan, mean: Array, cov: Array, new: Array,
+                 new_cov: Array) -> tuple[Array, Array]:
+        """Relinearise an update of the general path (the iterated EKF, as in ``_update``)."""
+        r = step[6]
+        for _ in range(self.iterations - 1):
             y_i, h_i, ok = linearise(step, new, plan.eye_map)
             if not ok:
                 break
-            g_i = kalman_gain(cov, h_i, r, y_i - h_i @ (mean - new))[0]
-            nxt = mean + g_i @ (y_i - h_i @ (mean - new))
+            hp = h_i.dot(cov)
+            s = hp.dot(h_i.T)
+            s += r
+            y_i = y_i - h_i.dot(mean - new)
+            g_i = innovation_solve(s, hp, y_i)[0]
+            nxt = mean + g_i.dot(y_i)
             size = float(np.linalg.norm((nxt - new)[:self.dim]))
-            new, new_cov = nxt, joseph(cov, g_i, h_i, r)
+            new, new_cov = nxt, updated_covariance(cov, g_i, hp, h_i, r)
             pos = step[2].reshape(-1, 6)[:, :self.dim]
             if size <= IEKF_TOL * float(np.min(np.linalg.norm(pos - new[:self.dim], axis=1))):
                 break
-        m = y.shape[0]
-        return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
+        return new, new_cov
 
     def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
         """Run updates ``start`` on of a plan (the general path compiled once per file)."""
         steps = plan.steps[start:]
         out = PlanOutputs(len(steps), 2 * self.dim)
-        dyn = self._dynamics_cache()
+        put = out.rows.append
+        get = self._dynamics_cache().get
+        update = self._plan_update
         mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
         for step in steps:
-            mean, cov, t = predict_gaussian(dyn, mean, cov, t, step[0])
-            mean, cov, nis, m, lli = self._plan_update(step, plan, mean, cov)
+            tk = step[0]
+            dt = tk - t
+            if dt > TIME_TOLERANCE:  # predict_gaussian, inline
+                phi, phit, q = get(dt)
+                cov = phi.dot(cov).dot(phit)
+                cov += q
+                mean, t = phi.dot(mean), tk
+            elif dt < -TIME_TOLERANCE:
+                predict_gaussian(None, mean, cov, t, tk)  # raises
+            elif tk > t:
+                t = tk
+            mean, cov, nis, m, lli = update(step, plan, mean, cov)
             ll += lli
-            out.put(t, mean, cov, nis, m, ll)
+            put((t, mean, cov, nis, m, ll))
         return self._adopt(out.run(mean, cov, t, ll))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:

@@ -10,8 +10,10 @@ of row-time offsets), the noise covariance of each update, the angle rows.  A st
 product for the relative states, one fused ``predict_gradient`` per kind, one product for the
 chained Jacobian, and :func:`kalman_gain` — closed form for one and two rows, one Cholesky
 factorisation otherwise.  The dynamics' ``Phi`` and ``Q`` are cached per step size
-(:class:`DynamicsCache`), and the posterior covariance is repaired only when its Cholesky
-check fails (:func:`checked_psd`).
+(:class:`DynamicsCache`); the EKF's posterior covariance is ``P - K H P``, the Joseph form only
+when that fails its Cholesky check (:func:`updated_covariance`), repaired only when that fails
+too (:func:`checked_psd`).  Small products use ``ndarray.dot``: on arrays of a few entries
+NumPy 2's ``@`` (a ufunc) costs about twice as much per call, for the same BLAS result.
 
 Kinds with an earlier reference sample (range differences) keep the group path.  The results
 equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding;
@@ -21,7 +23,6 @@ equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding;
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg.lapack import dposv, dpotrf
@@ -31,10 +32,7 @@ from ..frames import wrap_angle
 from ..linalg import repair_psd, solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE
-from .kernels import KernelRun, wrap
-
-if TYPE_CHECKING:  # pragma: no cover
-    pass
+from .kernels import TWO_PI, KernelRun
 
 #: One update of a plan: update time (s), values (m,), sensor states flattened (m * 6,),
 #: the kinds' parts, the state-to-target map ``T`` (m * 6, n), its rows as (m, 6, n) or None
@@ -120,11 +118,11 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
         det = a * c - b * b
         if a > 0.0 and det > 0.0:
             inv = np.array([[c, -b], [-b, a]]) / det
-            return (inv @ hp).T, float(residual @ inv @ residual), math.log(det)
+            return inv.dot(hp).T, float(residual.dot(inv).dot(residual)), math.log(det)
     else:
-        chol, sol, info = dposv(s, np.concatenate([hp, residual[:, None]], axis=1), lower=1)
+        chol, sol, info = dposv(s, np.concatenate((hp, residual[:, None]), axis=1), lower=1)
         if info == 0:
-            return (sol[:, :-1].T, float(residual @ sol[:, -1]),
+            return (sol[:, :-1].T, float(residual.dot(sol[:, -1])),
                     2.0 * math.fsum(map(math.log, chol.diagonal().tolist())))
     sol, log_det = solve_spd(s, np.concatenate([hp, residual[:, None]], axis=1))
     return sol[:, :-1].T, float(residual @ sol[:, -1]), log_det
@@ -150,10 +148,46 @@ def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
     gain, nis, log_det
         As for :func:`innovation_solve`.
     """
-    hp = h @ cov
-    s = hp @ h.T
+    hp = h.dot(cov)
+    s = hp.dot(h.T)
     s += r
     return innovation_solve(s, hp, residual)
+
+
+def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -> Array:
+    """Give the updated covariance ``P - K H P``, in Joseph form only when that is not PD.
+
+    ``P - K (H P)`` symmetrised is taken when its Cholesky check succeeds; otherwise the Joseph
+    form ``(I - K H) P (I - K H)^T + K R K^T`` (equal for the optimal gain, and safer in
+    rounding), symmetrised and repaired when its own check fails (:func:`checked_psd`).
+
+    Parameters
+    ----------
+    cov : numpy.ndarray
+        Prior covariance ``P`` ``(n, n)`` (SI).
+    gain : numpy.ndarray
+        Kalman gain ``K`` ``(n, m)``.
+    hp : numpy.ndarray
+        ``H P`` ``(m, n)``.
+    h : numpy.ndarray
+        Measurement matrix ``H`` ``(m, n)``.
+    r : numpy.ndarray
+        Measurement noise covariance ``(m, m)`` (SI).
+
+    Returns
+    -------
+    numpy.ndarray
+        The updated covariance ``(n, n)``, symmetric and numerically positive definite.
+    """
+    p = cov - gain.dot(hp)
+    p = p + p.T
+    p *= 0.5
+    if dpotrf(p, lower=1, clean=0)[1] == 0:
+        return p
+    i_kh = np.eye(cov.shape[0]) - gain.dot(h)
+    p = i_kh.dot(cov).dot(i_kh.T)
+    p += gain.dot(r).dot(gain.T)
+    return checked_psd(p)
 
 
 class DynamicsCache:
@@ -214,7 +248,8 @@ def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
         Predicted values (SI) and the relative states they came from (m, m/s).
     """
     _, _, sens, parts, tmap, _, _, _, times, _ = step
-    rel = (x @ tmap.T - sens).reshape(*x.shape[:-1], -1, 6)
+    xt = x.dot(tmap.T) if x.ndim <= 2 else x @ tmap.T
+    rel = (xt - sens).reshape(*x.shape[:-1], -1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
         return model.predict(rel, times, nu, None), rel
@@ -222,6 +257,29 @@ def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
     for model, sl, nu in parts:
         out[..., sl] = model.predict(rel[..., sl, :], times[sl], nu, None)
     return out, rel
+
+
+def wrap_small(a: Array) -> Array:
+    """Wrap angle differences to (-pi, pi], leaving those already inside untouched.
+
+    :func:`~tmakit.frames.wrap_angle` computes ``(a + pi) - pi`` even inside, which rounds a
+    small difference to the spacing of pi (4.4e-16 rad); here such values are returned as
+    they are, and only an array with a value outside goes to ``wrap_angle``.
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Angle differences (rad), any shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``a`` itself when every entry is in (-pi, pi], else ``wrap_angle(a)`` (rad).
+    """
+    flat = a.ravel().tolist()
+    if flat and -math.pi < min(flat) and max(flat) <= math.pi:
+        return a
+    return wrap_angle(a)
 
 
 def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]:
@@ -246,7 +304,7 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
     _, z, sens, parts, tmap, t3, _, angle, times, rows = step
     if rows is not None:
         return _linearise_rows(rows, x, eye_map.shape[1] // 2)
-    rel = (tmap @ x - sens).reshape(-1, 6)
+    rel = (tmap.dot(x) - sens).reshape(-1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
         pred, d = model.predict_gradient(rel, times, nu)
@@ -255,7 +313,7 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
         d = np.empty(rel.shape)
         for model, sl, nu in parts:
             pred[sl], d[sl] = model.predict_gradient(rel[sl], times[sl], nu)
-    h = d @ eye_map if t3 is None else np.einsum("mi,min->mn", d, t3)
+    h = d.dot(eye_map) if t3 is None else np.einsum("mi,min->mn", d, t3)
     y = z - pred
     if angle is not None:
         y[angle] = wrap_angle(y[angle])
@@ -276,28 +334,35 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
         px, py, pz, vx, vy, vz = xs
     ys: list[float] = []
     hs: list[float] = []
-    total = 0.0
     nan = float("nan")
     for fn, nu, t, dt, z, ang, s in rows:
-        rel = (px + dt * vx - s[0], py + dt * vy - s[1], pz + dt * vz - s[2],
-               vx - s[3], vy - s[4], vz - s[5]) if dt else \
-            (px - s[0], py - s[1], pz - s[2], vx - s[3], vy - s[4], vz - s[5])
         try:
-            v, g0, g1, g2, g3, g4, g5 = fn(rel, t, nu)
+            if dt:
+                v, g0, g1, g2, g3, g4, g5 = fn(
+                    (px + dt * vx - s[0], py + dt * vy - s[1], pz + dt * vz - s[2],
+                     vx - s[3], vy - s[4], vz - s[5]), t, nu)
+            else:
+                v, g0, g1, g2, g3, g4, g5 = fn(
+                    (px - s[0], py - s[1], pz - s[2], vx - s[3], vy - s[4], vz - s[5]), t, nu)
         except (ZeroDivisionError, OverflowError, ValueError):
             v = g0 = g1 = g2 = g3 = g4 = g5 = nan
-        y = wrap(z - v) if ang else z - v
-        ys.append(y)
-        if dim == 2:
-            hs += (g0, g1, g0 * dt + g3, g1 * dt + g4)
+        if ang:
+            y = math.remainder(z - v, TWO_PI)
+            ys.append(math.pi if y == -math.pi else y)
         else:
-            hs += (g0, g1, g2, g0 * dt + g3, g1 * dt + g4, g2 * dt + g5)
-        total += y + g0 + g1 + g2 + g3 + g4 + g5
+            ys.append(z - v)
+        if dim == 2:
+            hs += (g0, g1, g0 * dt + g3, g1 * dt + g4) if dt else (g0, g1, g3, g4)
+        else:
+            hs += (g0, g1, g2, g0 * dt + g3, g1 * dt + g4, g2 * dt + g5) if dt else \
+                (g0, g1, g2, g3, g4, g5)
     m = len(ys)
-    both = np.array(ys + hs)
+    ys += hs
+    both = np.array(ys)
     y_arr, h_arr = both[:m], both[m:].reshape(m, 2 * dim)
     # NaN or infinity anywhere makes the sum NaN or infinite; an overflow of a finite sum
     # is told apart by the arrays themselves.
+    total = sum(ys)
     ok = total - total == 0.0 or bool(np.isfinite(both).all())
     return y_arr, h_arr, ok
 
@@ -319,14 +384,14 @@ def finite(y: Array, h: Array) -> bool:
         True when every entry of both is finite.
     """
     flat = h.reshape(-1)
-    total = float(y @ y) + float(flat @ flat)
+    total = float(y.dot(y)) + float(flat.dot(flat))
     if total - total == 0.0:
         return True
     return bool(np.isfinite(y).all() and np.isfinite(h).all())
 
 
 class PlanOutputs:
-    """Per-update outputs of a run on a plan, gathered in lists, stacked at the end.
+    """Per-update outputs of a run on a plan, gathered as rows, stacked at the end.
 
     The states and covariances are kept by reference: every step makes new arrays.
 
@@ -336,16 +401,17 @@ class PlanOutputs:
         Number of updates.
     n : int
         State size.
+
+    Attributes
+    ----------
+    rows : list of tuple
+        One ``(time s, state (n,), covariance (n, n), NIS, rows, cumulative log-likelihood
+        nats)`` per update, appended by the run (``rows.append``: one call a step).
     """
 
     def __init__(self, k: int, n: int) -> None:
         self.n = n
-        self.times: list[float] = []
-        self.states: list[Array] = []
-        self.covariances: list[Array] = []
-        self.nis: list[float] = []
-        self.dof: list[int] = []
-        self.log_likelihoods: list[float] = []
+        self.rows: list[tuple[float, Array, Array, float, int, float]] = []
 
     def put(self, t: float, mean: Array, cov: Array, nis: float, dof: int, ll: float) -> None:
         """Record the next update.
@@ -363,12 +429,7 @@ class PlanOutputs:
         ll : float
             Cumulative log-likelihood, nats.
         """
-        self.times.append(t)
-        self.states.append(mean)
-        self.covariances.append(cov)
-        self.nis.append(nis)
-        self.dof.append(dof)
-        self.log_likelihoods.append(ll)
+        self.rows.append((t, mean, cov, nis, dof, ll))
 
     def run(self, mean: Array, cov: Array, t: float, ll: float) -> KernelRun:
         """Give the outputs as a :class:`~.kernels.KernelRun` ending at the last update.
@@ -387,12 +448,16 @@ class PlanOutputs:
         KernelRun
             The run, with every recorded update stacked.
         """
-        n = self.n
-        return KernelRun(len(self.times), False, mean, cov, t, ll, np.array(self.times),
-                         np.array(self.states).reshape(-1, n),
-                         np.array(self.covariances).reshape(-1, n, n), np.array(self.nis),
-                         np.array(self.log_likelihoods), np.array(self.dof, dtype=np.int64),
-                         True)
+        n, k = self.n, len(self.rows)
+        if not k:
+            return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
+                             np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
+                             np.zeros(0, dtype=np.int64), True)
+        times, states, covs, nis, dof, lls = zip(*self.rows, strict=True)
+        return KernelRun(k, False, mean, cov, t, ll, np.array(times),
+                         np.concatenate(states).reshape(-1, n),
+                         np.concatenate(covs).reshape(-1, n, n), np.array(nis),
+                         np.array(lls), np.array(dof, dtype=np.int64), True)
 
 
 def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: float
@@ -423,9 +488,9 @@ def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: 
     dt = tk - t
     if dt > TIME_TOLERANCE:
         phi, phit, q = dyn.get(dt)
-        p = phi @ cov @ phit
+        p = phi.dot(cov).dot(phit)
         p += q
-        return phi @ mean, p, tk
+        return phi.dot(mean), p, tk
     if dt < -TIME_TOLERANCE:
         raise ValueError(f"filters run forward: cannot predict from t={t} s back to t={tk} s")
     return mean, cov, max(t, tk)

@@ -52,7 +52,9 @@ from ..linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, TrackingFilter, UpdateInfo
+from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, skipped
+from .kernels import KernelRun
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
 LOG_NEGLIGIBLE = -575.0
@@ -288,10 +290,17 @@ class ParticleFilter(TrackingFilter):
         ``c = cos z dy + sin z dx``), wrapped to (-pi, pi] by construction; computed as
         ``atan(s / c)`` plus ``±pi`` where ``c < 0``.
         """
-        z = float(group.values[0])
-        sigma = float(group.sigmas[0])
-        sz, cz = math.sin(z), math.cos(z)
         sx, sy = (float(v) for v in group.sensor_state[0, :2])
+        return self._bearing_update(float(group.values[0]), float(group.sigmas[0]), sx, sy)
+
+    def _bearing_update(self, z: float, sigma: float, sx: float, sy: float
+                        ) -> UpdateInfo | None:
+        """Make :meth:`_update_bearing` from plain floats.
+
+        ``z`` and ``sigma`` are the bearing and its std (rad), ``(sx, sy)`` the sensor
+        position (m).
+        """
+        sz, cz = math.sin(z), math.cos(z)
         x, y = self._x[0], self._x[1]
         s, c, r = self._work
         np.multiply(y, sz, out=s)  # s = sin z (y - sy) - cos z (x - sx)
@@ -308,15 +317,52 @@ class ParticleFilter(TrackingFilter):
             r[neg] += np.where(s[neg] >= 0.0, np.pi, -np.pi)
         uniform = self._uniform
         w_prior = self._w
-        nu_bar = float(np.sum(r)) / self.n_particles if uniform else float(r @ w_prior)
+        nu_bar = float(r.sum()) / self.n_particles if uniform else float(r @ w_prior)
         if not math.isfinite(nu_bar):
             return None
         r *= r
-        second = float(np.sum(r)) / self.n_particles if uniform else float(r @ w_prior)
+        second = float(r.sum()) / self.n_particles if uniform else float(r @ w_prior)
         var = max(second - nu_bar * nu_bar, 0.0) + sigma * sigma
         r *= -0.5 / (sigma * sigma)
         const = -math.log(sigma) - 0.5 * LOG_2PI
         return self._normalise(r, const, nu_bar * nu_bar / var, 1)
+
+    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
+        """Run the updates of single bearings in 2-D from ``start`` without building groups.
+
+        The same arithmetic as :meth:`_update` on each update's group (and the same draws);
+        it stops before an update the closed form cannot take (a particle on the sensor),
+        predicted to it, which the caller then makes on the general path.
+        """
+        me = type(self)
+        if not (compiled.single_bearing and self.dim == 2 and self._ncv
+                and me._update is ParticleFilter._update
+                and me._predict is ParticleFilter._predict):
+            return None
+        times, values, sigmas = compiled.times.tolist(), compiled.values.tolist(), \
+            compiled.sigmas.tolist()
+        sensors = compiled.sensor_state[:, :2].tolist()
+        rows = []
+        k, total = start, len(times)
+        while k < total:
+            self._advance(times[k])
+            sx, sy = sensors[k]
+            info = self._bearing_update(values[k], sigmas[k], sx, sy)
+            if info is None:
+                break
+            self.log_likelihood += info.log_likelihood
+            mean, cov = self._compute_moments()
+            rows.append((self.time, mean.copy(), cov.copy(), info.nis, info.dof,
+                         self.log_likelihood))
+            k += 1
+        if not rows:
+            return None
+        t, x, p, nis, dof, ll = zip(*rows, strict=True)
+        n = 2 * self.dim
+        return KernelRun(k, k < total, self.state, self.covariance, self.time,
+                         self.log_likelihood, np.array(t),
+                         np.concatenate(x).reshape(-1, n), np.concatenate(p).reshape(-1, n, n),
+                         np.array(nis), np.array(ll), np.array(dof, dtype=np.int64))
 
     def _normalise(self, total: Array, const: float, nis: float, dof: int) -> UpdateInfo:
         """Multiply the weights by the likelihoods ``exp(total + const)`` and normalise.
@@ -327,7 +373,7 @@ class ParticleFilter(TrackingFilter):
         uniform = self._uniform
         if not uniform:
             total += self._logw
-        top = float(np.max(total))
+        top = float(total.max())
         if not math.isfinite(top):
             self.skipped_updates += 1
             return skipped()
@@ -339,7 +385,7 @@ class ParticleFilter(TrackingFilter):
         if dead.any():
             w[dead] = 0.0
             total[dead] = -np.inf
-        s = float(np.sum(w))
+        s = float(w.sum())
         log_s = math.log(s)
         increment = top + log_s + const - (math.log(self.n_particles) if uniform else 0.0)
         logw = np.subtract(total, log_s, out=self._logw_spare)

@@ -9,6 +9,7 @@ covariance of each update, the angle rows, and plain-float row records for the k
 
 from __future__ import annotations
 
+from itertools import pairwise
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -48,6 +49,17 @@ def _diagonal_noise(var: Array, bounds: Array) -> list[Array]:
         for j, r in zip(which.tolist(), stack, strict=True):
             out[j] = r
     return out
+
+
+def _views(arr: Array, bounds: list[int], width: int = 1) -> list[Array]:
+    """Give ``arr[width a:width b]`` for each update's rows ``a:b`` (views).
+
+    When every update has as many rows, the rows of one reshape (made at once).
+    """
+    sizes = {b - a for a, b in pairwise(bounds)}
+    if len(sizes) == 1 and arr.shape[0] == width * bounds[-1]:
+        return list(arr.reshape(len(bounds) - 1, -1))
+    return [arr[width * a:width * b] for a, b in pairwise(bounds)]
 
 
 class StepPlan:
@@ -99,6 +111,8 @@ class StepPlan:
         flat_sens = sens.reshape(-1)
         noise = _diagonal_noise(var, compiled.bounds)
         update_times = compiled.times.tolist()
+        value_k, sens_k, time_k = (_views(values, bounds), _views(flat_sens, bounds, 6),
+                                   _views(time, bounds))
         for k in range(len(compiled)):
             a, b = bounds[k], bounds[k + 1]
             key = code_bytes[a * width:b * width]
@@ -116,8 +130,8 @@ class StepPlan:
                 for rows, cov in correlated_blocks(compiled.models, index, time[a:b],
                                                    time_ref[a:b], sigmas[a:b], sensor[a:b]):
                     r[np.ix_(rows, rows)] = cov
-            self.steps.append((update_times[k], values[a:b], flat_sens[6 * a:6 * b], parts,
-                               tm[0], tm[1], r, angle, time[a:b],
+            self.steps.append((update_times[k], value_k[k], sens_k[k], parts,
+                               tm[0], tm[1], r, angle, time_k[k],
                                recs[a:b] if recs is not None and b - a <= SCALAR_ROWS
                                else None))
 
@@ -130,7 +144,7 @@ class StepPlan:
         per_row = [info[c] for c in codes.tolist()]
         return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
                 zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
-                    map(tuple, sens.tolist()), strict=True)]
+                    sens.tolist(), strict=True)]
 
     @staticmethod
     def _pattern(codes: Array, names: list[str], compiled: CompiledMeasurements

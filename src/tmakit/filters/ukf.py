@@ -35,7 +35,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg.lapack import dpotrf
 
-from ..frames import wrap_angle
 from ..linalg import safe_cholesky, symmetrise
 from ..observation.groups import MeasurementGroup
 from .base import Array, UpdateInfo
@@ -46,6 +45,7 @@ from .general import (
     checked_psd,
     innovation_solve,
     predict_rows,
+    wrap_small,
 )
 from .kernels import KernelRun, ukf_bearing_2d
 from .plan import StepPlan
@@ -138,6 +138,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         self.alpha, self.beta, self.kappa = float(alpha), float(beta), float(kappa)
         self._gamma, self._wm, self._wc = unscented_weights(max(n, 1), self.alpha, self.beta,
                                                             self.kappa)
+        self._wc_col = self._wc[:, None]
         super().__init__(mean, covariance, time, **kwargs)
 
     def sigma_points(self) -> Array:
@@ -177,38 +178,38 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         if info != 0:
             chol = safe_cholesky(cov)
         dev = self._gamma * chol.T
-        return np.concatenate([mean[None, :], mean + dev, mean - dev])
+        return np.concatenate((mean[None, :], mean + dev, mean - dev))
 
     def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
                      ) -> tuple[Array, Array, float, int, float]:
         """One UKF update of the general path (the arithmetic of :meth:`_update`).
 
         The loop over a plan's steps is the EKF's (:meth:`ExtendedKalmanFilter._run_plan`);
-        ``plan`` is not needed here.
+        ``plan`` is not needed here.  Angle differences already in (-pi, pi] are not wrapped
+        (:func:`~.general.wrap_small`).
         """
         pts = self._plan_points(mean, cov)
         z, _ = predict_rows(step, pts, self.dim)
-        total = float(np.add.reduce(z, axis=None))
+        total = float(z.sum())
         if total - total != 0.0:
             self.skipped_updates += 1
             return mean, cov, float("nan"), 0, 0.0
         angle = step[7]
-        wm, wc = self._wm, self._wc
-        zbar = wm @ z
+        wm = self._wm
+        zbar = wm.dot(z)
         dz = z - zbar
         nu = step[1] - zbar
         if angle is not None:
             za = z[:, angle]
-            zbar[angle] = np.arctan2(wm @ np.sin(za), wm @ np.cos(za))
-            dz[:, angle] = wrap_angle(za - zbar[angle])
-            nu[angle] = wrap_angle(step[1][angle] - zbar[angle])
-        dzw = dz * wc[:, None]
-        pzz = dzw.T @ dz
+            zbar[angle] = np.arctan2(wm.dot(np.sin(za)), wm.dot(np.cos(za)))
+            dz[:, angle] = wrap_small(za - zbar[angle])
+            nu[angle] = wrap_small(step[1][angle] - zbar[angle])
+        dzw = dz * self._wc_col
+        pzz = dzw.T.dot(dz)
         pzz += step[6]
-        pxz_t = dzw.T @ (pts - mean)
-        gain, nis, log_det = innovation_solve(pzz, pxz_t, nu)
+        gain, nis, log_det = innovation_solve(pzz, dzw.T.dot(pts - mean), nu)
         m = nu.shape[0]
-        return (mean + gain @ nu, checked_psd(cov - gain @ pzz @ gain.T), nis, m,
+        return (mean + gain.dot(nu), checked_psd(cov - gain.dot(pzz).dot(gain.T)), nis, m,
                 -0.5 * (nis + log_det + m * LOG_2PI))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
