@@ -1,0 +1,150 @@
+"""Large CSV files stream in bounded memory; one set of rules for reader, from_si, simulator."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit.data import MeasurementSet
+from tmakit.io import MeasurementFileError, csv_stream, read_measurements
+from tmakit.io.checker import check_table
+from tmakit.io.csv_file import load_csv
+
+HEADER = "time,sensor,kind,value,sigma,sensor_x,sensor_y,sensor_z,sensor_vx,sensor_vy,sensor_vz"
+
+
+def full_read(path):
+    """The full checker's set (what the reader built before streaming)."""
+    return check_table(path, load_csv(path))
+
+
+def write_rows(path, rows, preamble=("# tmakit measurements v1", "# note: x")):
+    path.write_text("\n".join([*preamble, HEADER, *rows]) + "\n", encoding="utf-8")
+    return path
+
+
+def two_sensor_rows(n):
+    """Bearings and frequencies from two sensors, interleaved, a new sensor late in the file."""
+    rows = []
+    for i in range(n):
+        t = float(i)
+        rows.append(f"{t},ship,bearing,{(37.0 + 0.01 * i) % 360:.6f},1,{5 * t},0,0,5,0,0")
+        rows.append(f"{t},ship,frequency,{1000.0 + 0.001 * i:.6f},0.1,{5 * t},0,0,5,0,0")
+        if i >= n // 2:
+            rows.append(f"{t},buoy 2,bearing,{(300.0 + 0.02 * i) % 360:.6f},2,100,-50,0,0,0,0")
+    return rows
+
+
+def test_a_streamed_file_equals_the_full_checkers_set_across_many_blocks(tmp_path,
+                                                                          monkeypatch):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~70 blocks: growth, late sensor
+    path = write_rows(tmp_path / "obs.csv", two_sensor_rows(2000))
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None
+    full = full_read(path)
+    assert streamed.equals(full)
+    assert streamed.sensors == ["ship", "buoy 2"] and streamed.kinds == ["bearing", "frequency"]
+    assert streamed.metadata == full.metadata == {"note": "x"}
+    np.testing.assert_array_equal(streamed.value_si, full.value_si)
+    np.testing.assert_array_equal(streamed.sigma_si, full.sigma_si)
+    assert read_measurements(path).equals(full)  # the reader takes the stream
+
+
+def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
+    path = write_rows(tmp_path / "obs.csv", two_sensor_rows(500))
+    meas = csv_stream.stream_csv(path)
+    held = [meas.time, meas.sensor_state, meas.kind_code, meas.sensor_code, meas.value,
+            meas.sigma, meas.value_si, meas.sigma_si]
+    assert sum(a.nbytes for a in held) == csv_stream.SET_BYTES_PER_ROW * len(meas)
+    # time_ref and the reference state are views of one NaN, not arrays of rows
+    assert meas.time_ref.base is not None and meas.time_ref.strides == (0,)
+    assert np.isnan(meas.ref_sensor_state).all()
+    assert meas.take(np.arange(3)).time_ref.shape == (3,)
+
+
+@pytest.mark.parametrize(("edit", "words"), [
+    (lambda r: [*r[:5], "3.5,ship,bearing,400,1,0,0,0,5,0,0", *r[5:]],
+     "column 'value': expected a bearing"),
+    (lambda r: [*r[:5], "3.5,ship,bearing,10,,0,0,0,5,0,0", *r[5:]], "column 'sigma'"),
+    (lambda r: [*r[:5], "3.5,ship,bearng,10,1,0,0,0,5,0,0", *r[5:]], "column 'kind'"),
+    (lambda r: [*r, r[-1]], "one row per (sensor, kind, time, time_ref)"),
+    (lambda r: [*r, "0.5,ship,bearing,10,1,0,0,0,5,0,0"], "time decreases for sensor 'ship'"),
+    (lambda r: [*r[:5], "3.5,ship,bearing,10,1,0,0,0", *r[5:]], "expected 11 fields"),
+])
+def test_a_file_with_a_problem_is_not_streamed_and_the_reader_names_row_and_line(
+        tmp_path, edit, words):
+    path = write_rows(tmp_path / "bad.csv", edit(two_sensor_rows(20)))
+    assert csv_stream.stream_csv(path) is None
+    with pytest.raises(MeasurementFileError) as err:
+        read_measurements(path)
+    assert words in str(err.value) and "(line " in str(err.value)
+
+
+def test_from_si_refuses_what_the_reader_refuses_with_its_words():
+    state = np.zeros((3, 6))
+    args = (["s"] * 3, ["range"] * 3)
+    with pytest.raises(ValueError, match=r"row 3, column 'time': expected a time >= 2\.0 s"):
+        MeasurementSet.from_si([1.0, 2.0, 1.5], *args, [1.0, 2.0, 3.0], np.ones(3), state)
+    with pytest.raises(ValueError, match=r"row 2, column 'value': expected a range"):
+        MeasurementSet.from_si([1.0, 2.0, 3.0], *args, [1.0, -2.0, 3.0], np.ones(3), state)
+    with pytest.raises(ValueError, match=r"row 1, column 'value': expected a bearing"):
+        MeasurementSet.from_si([1.0], ["s"], ["bearing"], [np.radians(400.0)], [0.01],
+                               np.zeros((1, 6)))
+    # the same words as the constructor (file units), which is the reader's edge
+    with pytest.raises(ValueError, match=r"row 2, column 'value': expected a range"):
+        MeasurementSet([1.0, 2.0, 3.0], *args, [1.0, -2.0, 3.0], np.ones(3), state)
+    rows = MeasurementSet.from_si([2.0, 1.0], ["s", "s"], ["range"] * 2, [1.0, 2.0],
+                                  [1.0, 1.0], np.zeros((2, 6)), check=False).sorted()
+    assert rows.time.tolist() == [1.0, 2.0]  # out of order: check=False, then sort
+
+
+CLOSE_RANGE = """
+name = "close-range"
+[target]
+motion = "cv2d"
+ref_time = 0.0
+truth = {{ x = 50.0, y = 0.0, vx = 0.0, vy = 1.0 }}
+[[sensors]]
+type = "legs"
+id = "radar"
+start = [0.0, 0.0]
+heading_deg = 0.0
+speed = 1.0
+legs = [{{ duration = inf }}]
+[[measurements]]
+kind = "range"
+sensor = "radar"
+times = {{ start = 0.0, stop = 99.0, step = 1.0 }}
+sigma = {sigma}
+"""
+
+
+def test_the_simulator_refuses_a_negative_noisy_range_naming_row_and_seed(tmp_path):
+    path = tmp_path / "close.toml"
+    path.write_text(CLOSE_RANGE.format(sigma=40.0))
+    scn = tk.load_scenario(path)
+    with pytest.raises(ValueError) as err:
+        scn.simulate(rng=3)
+    text = str(err.value)
+    assert "impossible range with seed 3" in text and "sensor 'radar' at t = " in text
+    assert "noise-free 50" in text and "sigma 40" in text and "lower the plan's sigma" in text
+    path.write_text(CLOSE_RANGE.format(sigma=1.0))  # 50 sigma from the limit: simulated
+    meas = tk.load_scenario(path).simulate(rng=3)
+    assert (meas.value > 0).all()
+    out = tk.write_measurements(meas, tmp_path / "close.csv")
+    assert read_measurements(out).equals(meas)
+
+
+def test_the_command_line_refuses_an_impossible_draw_with_exit_2(tmp_path):
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    path = tmp_path / "close.toml"
+    path.write_text(CLOSE_RANGE.format(sigma=40.0))
+    res = CliRunner().invoke(app, ["simulate", str(path), "--seed", "3", "-o",
+                                   str(tmp_path / "x.csv")])
+    assert res.exit_code == 2, res.output
+    assert "impossible range" in res.output and "Traceback" not in res.output
+    assert not (tmp_path / "x.csv").exists()
