@@ -148,3 +148,19 @@ def test_the_command_line_refuses_an_impossible_draw_with_exit_2(tmp_path):
     assert res.exit_code == 2, res.output
     assert "impossible range" in res.output and "Traceback" not in res.output
     assert not (tmp_path / "x.csv").exists()
+
+
+@pytest.mark.parametrize("name", ["bearings-only-2d", "hurtado2008"])
+def test_a_fit_of_many_rows_summed_by_chunks_equals_the_whole_jacobians(name, monkeypatch):
+    from tmakit import blas
+
+    meas = tk.load_scenario(name).simulate(rng=2)
+    whole = tk.estimate(meas, meas.metadata["motion"])
+    monkeypatch.setattr(blas, "CHUNKED_ROWS", 100)  # these few rows count as many
+    monkeypatch.setattr(blas, "CHUNK_ROWS", 77)
+    chunked = tk.estimate(meas, meas.metadata["motion"])
+    assert chunked.status == whole.status == "converged"
+    assert chunked.iterations == whole.iterations
+    assert np.all(np.abs(chunked.estimate - whole.estimate) <= 1e-9 * whole.std)
+    np.testing.assert_allclose(chunked.std, whole.std, rtol=1e-9)
+    assert chunked.chi2 == pytest.approx(whole.chi2, rel=1e-12)
