@@ -38,8 +38,8 @@ def two_sensor_rows(n):
 
 def test_a_streamed_file_equals_the_full_checkers_set_across_many_blocks(tmp_path,
                                                                           monkeypatch):
-    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~70 blocks: growth, late sensor
-    path = write_rows(tmp_path / "obs.csv", two_sensor_rows(2000))
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks: growth, late sensor
+    path = write_rows(tmp_path / "obs.csv", two_sensor_rows(600))
     streamed = csv_stream.stream_csv(path)
     assert streamed is not None
     full = full_read(path)
@@ -164,3 +164,43 @@ def test_a_fit_of_many_rows_summed_by_chunks_equals_the_whole_jacobians(name, mo
     assert np.all(np.abs(chunked.estimate - whole.estimate) <= 1e-9 * whole.std)
     np.testing.assert_allclose(chunked.std, whole.std, rtol=1e-9)
     assert chunked.chi2 == pytest.approx(whole.chi2, rel=1e-12)
+
+
+PEAK_OF_A_READ = """
+import resource, sys
+from pathlib import Path
+from tmakit.io import read_measurements
+read_measurements(Path(sys.argv[2]))  # a small file first: the libraries are loaded
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+meas = read_measurements(Path(sys.argv[1]))
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(len(meas), (after - before) * 1024)
+"""
+
+
+def peak_of_reading(tmp_path, n):
+    """Write an n-row bearings file; return its size and the growth of a child's peak RSS."""
+    import subprocess
+    import sys
+
+    t = np.arange(n) * 0.01
+    b = np.degrees(np.arctan2(4000.0 - 11 * t, 9000.0 - 3 * t)) % 360
+    path = tmp_path / f"big{n}.csv"
+    with open(path, "w") as f:
+        f.write(HEADER + "\n")
+        f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{5 * ti:.3f},0,0,5,0,0\n"
+                     for ti, bi in zip(t, b, strict=True))
+    small = write_rows(tmp_path / "small.csv", two_sensor_rows(50))
+    out = subprocess.run([sys.executable, "-c", PEAK_OF_A_READ, str(path), str(small)],
+                         check=True, capture_output=True, text=True).stdout.split()
+    assert int(out[0]) == n
+    return path.stat().st_size, int(out[1])
+
+
+def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path):
+    size_small, grown_small = peak_of_reading(tmp_path, 100_000)
+    size_big, grown_big = peak_of_reading(tmp_path, 400_000)
+    per_row_memory = (grown_big - grown_small) / 300_000
+    per_row_file = (size_big - size_small) / 300_000
+    assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)
+    assert per_row_memory >= csv_stream.SET_BYTES_PER_ROW * 0.9  # the set itself is held

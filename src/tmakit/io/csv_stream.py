@@ -42,7 +42,7 @@ __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "st
 #: Bytes of CSV text parsed at a time.
 BLOCK_BYTES = 1 << 22
 #: Blocks between two returns of freed memory to the system (:func:`_give_back`).
-_GIVE_BACK_EVERY = 8
+_GIVE_BACK_EVERY = 1
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); ``time_ref`` and the
 #: reference state are all-NaN views that take no memory.
@@ -149,8 +149,10 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
     cols: _Columns | None = None
     with pa.OSFile(str(path)) as f:
         f.seek(start)
-        reader = pcsv.open_csv(f, read_options=pcsv.ReadOptions(block_size=BLOCK_BYTES),
-                               convert_options=convert)
+        # one thread: no blocks parsed ahead of the consumer, so the peak does not depend
+        # on the machine's load
+        reader = pcsv.open_csv(f, read_options=pcsv.ReadOptions(
+            block_size=BLOCK_BYTES, use_threads=False), convert_options=convert)
         for blocks, batch in enumerate(reader):
             k = batch.num_rows
             if cols is None:  # the rows per byte of the first block, 5 % spare
