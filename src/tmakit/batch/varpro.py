@@ -44,6 +44,9 @@ class Evaluation:
         ``(B,)`` half the squared whitened residual (inf where there is no prediction).
     jacobian : ndarray, optional
         ``(B, n, p)`` whitened, projected Jacobian (per parameter unit).
+    normal : (ndarray, ndarray), optional
+        ``(B, p, p)`` ``J'J`` and ``(B, p)`` ``J'r`` in place of the Jacobian, summed over
+        row chunks (more than :data:`tmakit.blas.CHUNKED_ROWS` rows).
     """
 
     theta: Array      # (B, p)
@@ -51,9 +54,7 @@ class Evaluation:
     residual: Array   # (B, n) whitened, nuisance projected out
     cost: Array       # (B,)  half the squared whitened residual
     jacobian: Array | None = None  # (B, n, p) whitened, projected
-    #: ``(B, p, p)`` J'J and ``(B, p)`` J'r in place of the Jacobian, summed over row chunks
-    #: (more than :data:`tmakit.blas.CHUNKED_ROWS` rows; :meth:`VarProProblem.evaluate_part`).
-    normal: tuple[Array, Array] | None = None
+    normal: tuple[Array, Array] | None = None  # (B, p, p) J'J and (B, p) J'r, by chunks
 
     def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
         """Copy the evaluations of ``rows``.
