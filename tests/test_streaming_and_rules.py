@@ -53,6 +53,21 @@ def test_a_streamed_file_equals_the_full_checkers_set_across_many_blocks(tmp_pat
     assert read_measurements(path).equals(full)  # the reader takes the stream
 
 
+@pytest.mark.parametrize("text", [
+    "\ufeff# a: b\n\n# c:d\n" + HEADER + "\n0,ship,bearing,10,1,0,0,0,5,0,0\n",
+    (HEADER + "\n0,ship,bearing,10,1,0,0,0,5,0,0\n1,ship,bearing,11,1,5,0,0,5,0,0\n"
+     ).replace("\n", "\r\n"),
+    HEADER + '\n0,"ship",bearing,"10",1,0,0,0,5,0,0\n1,01,bearing,11,1,5,0,0,5,0,0\n',
+    "kind,extra,sensor_y,time,value,sensor,sigma,sensor_x\nbearing,zz,0,0,10,ship,1,0\n",
+    " time , sensor,kind,value,sigma,sensor_x,sensor_y,time_ref\n0,7,bearing,1e1,1,0,0,\n",
+], ids=["bom-preamble", "crlf", "quoted-ids", "order-extra", "spaces-no-velocity"])
+def test_odd_valid_files_stream_to_the_full_checkers_set(tmp_path, text):
+    path = tmp_path / "odd.csv"
+    path.write_text(text, encoding="utf-8", newline="")
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None and streamed.equals(full_read(path))
+
+
 def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
     path = write_rows(tmp_path / "obs.csv", two_sensor_rows(500))
     meas = csv_stream.stream_csv(path)
@@ -70,6 +85,7 @@ def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
      "column 'value': expected a bearing"),
     (lambda r: [*r[:5], "3.5,ship,bearing,10,,0,0,0,5,0,0", *r[5:]], "column 'sigma'"),
     (lambda r: [*r[:5], "3.5,ship,bearng,10,1,0,0,0,5,0,0", *r[5:]], "column 'kind'"),
+    (lambda r: [*r[:5], "3.5,ship, bearing ,10,1,0,0,0,5,0,0", *r[5:]], "column 'kind'"),
     (lambda r: [*r, r[-1]], "one row per (sensor, kind, time, time_ref)"),
     (lambda r: [*r, "0.5,ship,bearing,10,1,0,0,0,5,0,0"], "time decreases for sensor 'ship'"),
     (lambda r: [*r[:5], "3.5,ship,bearing,10,1,0,0,0", *r[5:]], "expected 11 fields"),

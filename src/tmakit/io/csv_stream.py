@@ -119,7 +119,7 @@ class _Columns:
 
     def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
         """Store a block of kind codes from its dictionary (known, not range differences)."""
-        table = np.array([KIND_CODES.get(k.strip(), -1) for k in names], dtype=np.int8)
+        table = np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
         if np.any(table < 0) or any(KINDS[KIND_NAMES[c]].uses_reference for c in table):
             raise _Fallback
         self.kind[self.n:self.n + indices.shape[0]] = table[indices]
