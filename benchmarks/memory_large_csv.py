@@ -4,13 +4,14 @@
 
 Writes a bearings-only CSV of ``rows`` rows (a CV target seen from a sensor on a zig-zag, 1 deg
 noise, seeded), then runs each command in a fresh process and reports its peak resident
-memory (``ru_maxrss`` of the child), the file size and their ratio, and the wall time.
+memory (its VmHWM, Linux), the file size and their ratio, the bytes per row above
+what ``tma show`` of a 3-row file takes (the interpreter and libraries), and the wall time.
 """
 
 from __future__ import annotations
 
 import argparse
-import resource
+import os
 import subprocess
 import sys
 import tempfile
@@ -40,18 +41,39 @@ def write_csv(path: Path, rows: int, seed: int = 1) -> None:
             f.write("\n".join(lines) + "\n")
 
 
-def peak_of(args: list[str]) -> tuple[int, float, float]:
-    """Run a command in a child; return its exit code, peak RSS (MB) and wall time (s)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+def small_file(folder: Path) -> Path:
+    """Write a 3-row file of the same columns (for the libraries' own memory)."""
+    path = folder / "small.csv"
+    path.write_text(HEADER + "\n" + "".join(f"{t},ship,bearing,10,1,0,0,0,5,0,0\n"
+                                             for t in range(3)))
+    return path
+
+
+#: Runs ``tma ARGS`` and writes the process's own peak RSS (VmHWM, kB) to $TMA_BENCH_HWM at
+#: exit (``ru_maxrss`` of a child also counts its parent's peak before the exec).
+WRAPPER = """
+import atexit, os, runpy, sys
+def hwm():
+    with open("/proc/self/status") as f:
+        kb = next(line.split()[1] for line in f if line.startswith("VmHWM"))
+    with open(os.environ["TMA_BENCH_HWM"], "w") as out:
+        out.write(kb)
+atexit.register(hwm)
+sys.argv = ["tma", *sys.argv[1:]]
+runpy.run_module("tmakit.cli", run_name="__main__")
+"""
+
+
+def peak_of(args: list[str], folder: Path) -> tuple[int, float, float]:
+    """Run ``tma args`` in a child; return its exit code, peak RSS (MB) and wall time (s)."""
+    record = folder / "hwm.txt"
     start = time.perf_counter()
-    proc = subprocess.run(args, capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-c", WRAPPER, *args], capture_output=True,
+                          text=True, env={**os.environ, "TMA_BENCH_HWM": str(record)})
     wall = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    if peak <= before:  # ru_maxrss of children is the max over all children so far
-        print("  (peak not above an earlier child's; reported as at most that)")
     if proc.returncode not in (0, 1):
         print(proc.stderr[-500:])
-    return proc.returncode, peak / 1024, wall
+    return proc.returncode, int(record.read_text()) / 1024, wall
 
 
 def main() -> None:
@@ -63,13 +85,19 @@ def main() -> None:
         write_csv(path, a.rows)
         size = path.stat().st_size / 2**20
         print(f"{a.rows:,} rows, {size:.0f} MB")
-        cmd = [sys.executable, "-m", "tmakit.cli"]
-        for label, args in (("tma show", [*cmd, "show", str(path)]),
+        # the interpreter and libraries alone
+        _, base, _ = peak_of(["show", str(small_file(Path(d)))], Path(d))
+        print(f"tma show of a 3-row file: peak RSS {base:.0f} MB (the interpreter and "
+              "libraries)")
+        for label, args in (("tma show", ["show", str(path)]),
                             ("tma estimate --motion cv2d",
-                             [*cmd, "estimate", str(path), "--motion", "cv2d"])):
-            code, peak, wall = peak_of(args)
+                             ["estimate", str(path), "--motion", "cv2d"])):
+            code, peak, wall = peak_of(args, Path(d))
+            per_row = (peak - base) * 2**20 / a.rows
             print(f"{label}: exit {code}, peak RSS {peak:.0f} MB ({peak / size:.1f}x the "
-                  f"file), {wall:.1f} s")
+                  f"file), {per_row:.0f} bytes per row above the libraries' "
+                  f"({per_row / (size * 2**20 / a.rows):.1f}x a row of the file), "
+                  f"{wall:.1f} s")
 
 
 if __name__ == "__main__":

@@ -22,6 +22,14 @@ from numpy.typing import NDArray
 SINGLE_THREAD_WORK = 200_000
 """Largest ``m * n * k`` of one product (below OpenBLAS's multithreading threshold)."""
 
+CHUNKED_ROWS = 1_000_000
+"""Rows above which the solvers and the Fisher information of a fit with independent rows
+work :data:`CHUNK_ROWS` rows at a time, summing ``J'J`` and ``J'r`` over the chunks: no
+``(n, p)`` Jacobian is held, and the temporaries are those of one chunk (about 270 bytes per
+row at once otherwise)."""
+CHUNK_ROWS = 1 << 17
+"""Rows of one chunk (see :data:`CHUNKED_ROWS`)."""
+
 
 def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Multiply ``a @ b`` in row blocks of ``a`` small enough for a single-threaded product.

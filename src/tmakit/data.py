@@ -131,8 +131,8 @@ class MeasurementSet:
                   ref_sensor_state, metadata, check=False)
         out._set_si_values(out._new_column("value", value_si),
                            out._new_column("sigma", sigma_si))
-        if check:  # finite cells, sigma > 0, metadata; not the file's order and value ranges
-            rules.check_set(out, order=False, ranges=False)
+        if check:  # the file's rules: build out-of-order rows with check=False, then sort
+            rules.check_set(out)
         return out
 
     def _set_file_values(self, value: NDArray[np.float64] | None,

@@ -48,7 +48,9 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                     ) -> list[str]:
     """Check the columns of a measurement set against the rules of the file format.
 
-    Every check is vectorised (linear in the rows, plus one sort for the time order).
+    Every check is vectorised: linear in the rows, with boolean masks (1 byte per row) as
+    its only full-size temporaries, plus one sort of the sensor codes for the time order
+    when there are several sensors.
 
     Parameters
     ----------
@@ -67,8 +69,7 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     order : bool, optional
         Check that time does not decrease within a sensor (default).
     ranges : bool, optional
-        Check each kind's value range (default; a file's rule, not a simulation's: a noisy
-        simulated range may be negative).
+        Check each kind's value range (default).
 
     Returns
     -------
@@ -90,8 +91,8 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     for code, cls in enumerate(KINDS.values()):
         if cls.value_range is None or not ranges:
             continue
-        rows = np.flatnonzero((kind == code) & np.isfinite(value))
-        bad = rows[~cls.check_values(value[rows])]
+        # masks only (1 byte per row), no index or value copies of the kind's rows
+        bad = np.flatnonzero((kind == code) & np.isfinite(value) & ~cls.check_values(value))
         found += _where(bad, "value", str(cls.describe_values()), value[bad])
     bad = np.flatnonzero(np.isinf(time_ref))
     found += _where(bad, "time_ref", FINITE, time_ref[bad])
@@ -102,16 +103,24 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
 
 def _order_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
                     ) -> list[str]:
-    """List the times that decrease within a sensor (file order kept)."""
+    """List the times that decrease within a sensor (file order kept).
+
+    One sensor costs a comparison pass; several, one stable sort of the sensor codes.
+    """
     n = time.shape[0]
     if n < 2:
         return []
-    order = np.lexsort((np.arange(n), sensor_code))  # by sensor, file order within
-    t, s = time[order], sensor_code[order]
-    back = np.flatnonzero((s[1:] == s[:-1]) & (t[1:] < t[:-1]))
-    return [f"row {int(order[i + 1]) + 1}, column 'time': expected a time >= "
-            f"{float(t[i])!r} s, the time of the previous row of its sensor (row "
-            f"{int(order[i]) + 1}), found {float(t[i + 1])!r}" for i in back[:_SHOWN]]
+    if int(sensor_code.min()) == int(sensor_code.max()):  # one sensor: no sort, no copies
+        back = np.flatnonzero(time[1:] < time[:-1])
+        pairs = [(int(i), int(i) + 1) for i in back[:_SHOWN]]
+    else:  # by sensor, file order within
+        order = np.argsort(sensor_code, kind="stable")
+        t, s = time[order], sensor_code[order]
+        back = np.flatnonzero((s[1:] == s[:-1]) & (t[1:] < t[:-1]))
+        pairs = [(int(order[i]), int(order[i + 1])) for i in back[:_SHOWN]]
+    return [f"row {row + 1}, column 'time': expected a time >= {float(time[prev])!r} s, the "
+            f"time of the previous row of its sensor (row {prev + 1}), found "
+            f"{float(time[row])!r}" for prev, row in pairs]
 
 
 def _json_numbers(text: str, key: str) -> str | None:

@@ -341,12 +341,13 @@ class Scenario:
                 value_si = self._noisy(plan, rows, clean, gen) if noise else clean
                 if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
                     value_si = np.mod(value_si, model.wrap_period)
+                self._refuse_impossible(plan, rows, clean, value_si, rng)
                 values.append(value_si)
             meas = template.take(np.arange(len(template)))
             meas.value_si = np.concatenate(values)[order]
             if isinstance(rng, int):
                 meas.metadata["seed"] = str(rng)
-            rules.check_set(meas, order=False, ranges=False)  # NaN truth, infinite sigma, ...
+            rules.check_set(meas)  # the file's rules: NaN truth, infinite sigma, ...
             out.append(meas)
         return out
 
@@ -357,6 +358,33 @@ class Scenario:
         if at.size:
             raise ValueError(f"the target is exactly at sensor {plan.sensor!r} at t = "
                              f"{rows.time[at[0]]:g} s: its {plan.kind} is undefined there")
+
+    def _refuse_impossible(self, plan: MeasurementPlan, rows: MeasurementSet,
+                           clean: NDArray[np.float64], value_si: NDArray[np.float64],
+                           rng: RngLike) -> None:
+        """Refuse a noisy draw that no sensor can report: a negative range, ... (see docs).
+
+        The noise is not reflected nor drawn again: either would change the Gaussian noise
+        that the estimators and the bounds assume, without a word.
+        """
+        cls = KINDS[plan.kind]
+        if cls.value_range is None:
+            return
+        model = cls()
+        value = model.value_from_si(value_si)
+        bad = np.flatnonzero(np.isfinite(value) & ~cls.check_values(value))
+        if bad.size == 0:
+            return
+        i = int(bad[0])
+        seed = f" with seed {rng}" if isinstance(rng, int) else ""
+        raise ValueError(
+            f"the noise drew an impossible {plan.kind}{seed}: sensor {plan.sensor!r} at t = "
+            f"{rows.time[i]:g} s gives {value[i]:g} {cls.file_unit} (noise-free "
+            f"{model.value_from_si(clean[i]):g}, sigma "
+            f"{model.sigma_from_si(rows.sigma_si[i]):g}), expected {cls.describe_values()}; "
+            f"{bad.size} of {value.size} rows of this plan.  The Gaussian noise model does not "
+            "hold this close to the limit: lower the plan's sigma (or keep the target "
+            "farther from the limit)")
 
     @staticmethod
     def _noisy(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],

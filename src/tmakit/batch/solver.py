@@ -131,10 +131,14 @@ class _Model:
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> _Model:
         """Build the model at the evaluated points ``ev`` (over the ``free`` columns)."""
-        jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
-        jrt = jac.swapaxes(1, 2)
-        jtj = _gram(jac)
-        grad = (jrt @ ev.residual[:, :, None])[..., 0]
+        if ev.normal is not None:  # summed over row chunks (large problems)
+            jtj, grad = ev.normal
+            if free is not None:
+                jtj, grad = jtj[:, free][:, :, free], grad[:, free]
+        else:
+            jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
+            jtj = _gram(jac)
+            grad = (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
         scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
         w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
         # eigenvalues floored at 1e-12 of the largest: a rank-deficient J'J gives finite steps

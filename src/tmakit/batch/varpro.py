@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import blas
 from ..arrays import Array
 from ..frames import wrap_angle
 from ..observation import Linearisation, ObservationModel
@@ -43,6 +44,9 @@ class Evaluation:
         ``(B,)`` half the squared whitened residual (inf where there is no prediction).
     jacobian : ndarray, optional
         ``(B, n, p)`` whitened, projected Jacobian (per parameter unit).
+    normal : (ndarray, ndarray), optional
+        ``(B, p, p)`` ``J'J`` and ``(B, p)`` ``J'r`` in place of the Jacobian, summed over
+        row chunks (more than :data:`tmakit.blas.CHUNKED_ROWS` rows).
     """
 
     theta: Array      # (B, p)
@@ -50,6 +54,7 @@ class Evaluation:
     residual: Array   # (B, n) whitened, nuisance projected out
     cost: Array       # (B,)  half the squared whitened residual
     jacobian: Array | None = None  # (B, n, p) whitened, projected
+    normal: tuple[Array, Array] | None = None  # (B, p, p) J'J and (B, p) J'r, by chunks
 
     def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
         """Copy the evaluations of ``rows``.
@@ -66,7 +71,8 @@ class Evaluation:
         """
         return Evaluation(self.theta[rows], self.nuisance[rows], self.residual[rows],
                           self.cost[rows], None if self.jacobian is None
-                          else self.jacobian[rows])
+                          else self.jacobian[rows], None if self.normal is None
+                          else (self.normal[0][rows], self.normal[1][rows]))
 
     def put(self, rows: NDArray[np.bool_] | NDArray[np.int64], other: Evaluation,
             which: NDArray[np.bool_] | NDArray[np.int64] | slice = slice(None)) -> None:
@@ -87,6 +93,10 @@ class Evaluation:
         self.cost[rows] = other.cost[which]
         if self.jacobian is not None and other.jacobian is not None:
             self.jacobian[rows] = other.jacobian[which]
+        if self.normal is not None and other.normal is not None:
+            self.normal[0][rows] = other.normal[0][which]
+            self.normal[1][rows] = other.normal[1][which]
+
 
 
 class VarProProblem:
@@ -276,7 +286,33 @@ class VarProProblem:
         theta = np.asarray(theta, dtype=float)
         # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
         with np.errstate(invalid="ignore", divide="ignore"):
+            if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0 and not self.noise.correlated:
+                return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
             return self._evaluate(theta, u, nu_star, with_jacobian)
+
+    def _evaluate_chunked(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
+                          ) -> Evaluation:
+        """Evaluate in chunks of rows, summing J'J and J'r (no Jacobian held).
+
+        Rows are independent here (no nuisance, independent noise), so each chunk's residuals
+        and Jacobian rows are those of the whole problem (:data:`tmakit.blas.CHUNK_ROWS`).
+        """
+        b, n = u.shape
+        r = np.empty((b, n))
+        gram, grad = np.zeros((b, self.p, self.p)), np.zeros((b, self.p))
+        for lo in range(0, n, blas.CHUNK_ROWS):
+            hi = min(n, lo + blas.CHUNK_ROWS)
+            part = self.take(self.obs.order[lo:hi])._evaluate(theta, u[:, lo:hi], nu_star,
+                                                              with_jacobian)
+            r[:, lo:hi] = part.residual
+            if part.jacobian is not None:
+                jt = part.jacobian.swapaxes(1, 2)
+                gram += jt @ part.jacobian
+                grad += (jt @ part.residual[:, :, None])[..., 0]
+        cost = 0.5 * np.einsum("bn,bn->b", r, r)
+        cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
+        return Evaluation(theta, np.array(nu_star, dtype=float), r, cost, None,
+                          (gram, grad) if with_jacobian else None)
 
     def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                   ) -> Evaluation:

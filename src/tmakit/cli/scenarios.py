@@ -131,12 +131,14 @@ def describe_sensors(meas: Any) -> Table:
         table.add_column(col)
     import numpy as np
 
-    for s in meas.sensors:
-        sel = meas.sensor == s
-        st = meas.sensor_state[sel]
-        order = np.argsort(meas.time[sel], kind="stable")
-        a, b = st[order[0]], st[order[-1]]
-        speed = float(np.mean(np.linalg.norm(st[:, 3:], axis=1)))
+    for s in meas.sensors:  # no copy of the states of a set's only sensor (large files)
+        sel = meas.sensor_mask(s)
+        whole = bool(sel.all())
+        t = meas.time if whole else meas.time[sel]
+        st = meas.sensor_state if whole else meas.sensor_state[sel]
+        a, b = st[int(np.argmin(t))], st[t.shape[0] - 1 - int(np.argmax(t[::-1]))]
+        v = st[:, 3:]
+        speed = float(np.mean(np.sqrt(np.einsum("ij,ij->i", v, v))))
         table.add_row(s, f"{a[0]:.1f}, {a[1]:.1f}, {a[2]:.1f}",
                       f"{b[0]:.1f}, {b[1]:.1f}, {b[2]:.1f}", f"{speed:.2f}")
     return table

@@ -36,6 +36,7 @@ from itertools import pairwise
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import rules
 from ..data import MeasurementSet
 
 #: Default lags (samples) of the multi-lag vectors: eight sample times 0, 8, ..., 56 samples
@@ -243,11 +244,13 @@ def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
     """
     cols = list(zip(*rows, strict=True))
     n = len(rows)
-    return MeasurementSet.from_si(
+    out = MeasurementSet.from_si(
         np.array(cols[0], dtype=float), np.array(cols[1]), np.array(cols[2]),
         np.array(cols[3], dtype=float), np.array(cols[4], dtype=float),
         np.array(cols[5], dtype=float).reshape(n, 6), np.array(cols[6], dtype=float),
-        np.array(cols[7], dtype=float).reshape(n, 6), dict(metadata))
+        np.array(cols[7], dtype=float).reshape(n, 6), dict(metadata), check=False)
+    rules.check_set(out, order=False)  # the rows of an update, not in a file's time order
+    return out
 
 
 def multilag_layout(lags: Sequence[int], k: int) -> list[tuple[str, int, int]]:

@@ -21,6 +21,7 @@ from ..data import MeasurementSet
 from .checker import check_table
 from .columns import file_columns
 from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS
+from .csv_stream import split_metadata, stream_csv
 from .errors import MeasurementFileError
 from .formats import Format, register_format
 from .problems import RawTable
@@ -37,26 +38,6 @@ if TYPE_CHECKING:  # pragma: no cover
 _PREAMBLE_SCAN = 1 << 20
 
 __all__ = ["CSV", "csv_metadata_line", "load_csv", "read_csv", "write_csv"]
-
-
-def _split_metadata(text: str) -> tuple[dict[str, str], int, int]:
-    """Split off the leading '# key: value' comment lines (and blank lines) of a CSV text.
-
-    Returns the metadata, and the characters and the lines the comment lines take.
-    """
-    metadata: dict[str, str] = {}
-    consumed = pre_lines = 0
-    for line in io.StringIO(text, newline=""):
-        stripped = line.strip()
-        if stripped and not stripped.startswith("#"):
-            break
-        consumed += len(line)
-        pre_lines += 1
-        if stripped.startswith("#"):
-            key, sep, value = stripped[1:].partition(":")
-            if sep and key.strip():
-                metadata[key.strip()] = value.strip()
-    return metadata, consumed, pre_lines
 
 
 def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], NDArray[np.int64]]:
@@ -175,10 +156,10 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise MeasurementFileError(path, [f"not a UTF-8 text file ({e})"]) from None
-    metadata, consumed, pre_lines = _split_metadata(text[:_PREAMBLE_SCAN]
+    metadata, consumed, pre_lines = split_metadata(text[:_PREAMBLE_SCAN]
                                                     if len(text) > _PREAMBLE_SCAN else text)
     if consumed == _PREAMBLE_SCAN:  # a preamble longer than the scan: read it all
-        metadata, consumed, pre_lines = _split_metadata(text)
+        metadata, consumed, pre_lines = split_metadata(text)
     start = len(text[:consumed].encode("utf-8")) + (3 if data.startswith(codecs.BOM_UTF8)
                                                      else 0)
     del text
@@ -282,6 +263,9 @@ def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
     """
     if options:
         raise TypeError(f"CSV files take no options {', '.join(sorted(options))}")
+    streamed = stream_csv(path, _PREAMBLE_SCAN)  # a valid file, in bounded memory
+    if streamed is not None:
+        return streamed
     try:
         return check_table(path, load_csv(path), origin)
     except MeasurementFileError:

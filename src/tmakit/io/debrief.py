@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import rules
 from ..data import MeasurementSet
 from .debrief_lines import SensorLine, TrackLine, parse_replay_text
 from .errors import MeasurementFileError
@@ -312,9 +313,11 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
                 "sigma_from_file": str(sum(s.bearing_accuracy is not None
                                            or s.frequency_accuracy is not None for s in rows)),
                 "ambiguous_bearings_unused": str(sum(s.ambiguous is not None for s in rows))}
-    return MeasurementSet.from_si(np.array(times), np.full(len(times), host), np.array(kinds),
+    meas = MeasurementSet.from_si(np.array(times), np.full(len(times), host), np.array(kinds),
                                   np.array(values), np.array(sigmas), np.array(st),
-                                  metadata=metadata).sorted()
+                                  metadata=metadata, check=False).sorted()
+    rules.check_set(meas)  # the file rules, once the rows are in time order
+    return meas
 
 
 #: Debrief replay files: ``.rep`` and ``.dsf`` (the same line format).

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import rules
 from ..data import MeasurementSet
 from .errors import MeasurementFileError
 from .formats import Format, register_format
@@ -335,7 +336,9 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
     if cols[0].size == 0:
         raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing "
                                               "measured"])
-    return MeasurementSet.from_si(*cols, metadata=metadata).sorted()
+    meas = MeasurementSet.from_si(*cols, metadata=metadata, check=False).sorted()
+    rules.check_set(meas)  # the file rules, once the rows are in time order
+    return meas
 
 
 def read_track_log(path: str | os.PathLike[str], *, measurements: Any = None,

@@ -169,9 +169,9 @@ def sensor_distance_warnings(meas: MeasurementSet) -> list[SanityWarning]:
         return []
     return [SanityWarning(
         "far-sensor",
-        f"sensor {meas.sensor[k]} is {d[k] / 1000:.4g} km from the ENU origin (time "
-        f"{meas.time[k]:g} s); beyond {FAR_FROM_ORIGIN / 1000:g} km the flat local frame "
-        "departs from the Earth (curvature, the turn of North): take an origin near the "
+        f"sensor {meas.sensor_names[meas.sensor_code[k]]} is {d[k] / 1000:.4g} km from the ENU "
+        f"origin (time {meas.time[k]:g} s); beyond {FAR_FROM_ORIGIN / 1000:g} km the flat local "
+        "frame departs from the Earth (curvature, the turn of North): take an origin near the "
         "sensors, or check the positions' unit")]
 
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import blas
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
@@ -346,10 +347,7 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)
-    j_theta, j_nu = obs.jacobian_grouped(theta, nu)  # the noise model is grouped too
-    jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
-    w = noise.whiten(jac, axis=-2)
-    info = w.T @ w
+    info = _information(obs, noise, theta, nu, known)
     names = motion.param_names + (() if known else names_nu)
     values = theta if known else np.concatenate([theta, nu])
     nu_values = dict(zip(names_nu, nu, strict=True))
@@ -369,6 +367,25 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
     return EstimateResult(motion.param_names, theta.copy(), std, cov, nuis, status,
                           int(iterations), float(2.0 * cost), dof, method, motion, bound,
                           starts, message)
+
+
+def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.float64],
+                 nu: NDArray[np.float64], known: bool) -> NDArray[np.float64]:
+    """Fisher information ``J'WJ`` at the fit; chunk by chunk for many independent rows.
+
+    (Chunks without nuisance only: a chunk's model has the nuisance of its own kinds.)
+    """
+    n = len(obs.meas)
+    chunks = n > blas.CHUNKED_ROWS and not noise.blocks and obs.n_nuisance == 0
+    info = 0.0
+    for lo in range(0, n, blas.CHUNK_ROWS if chunks else max(n, 1)):
+        hi = min(n, lo + blas.CHUNK_ROWS) if chunks else n
+        part = obs.take(obs.order[lo:hi]) if chunks else obs
+        j_theta, j_nu = part.jacobian_grouped(theta, nu)  # the noise model is grouped too
+        jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
+        w = jac * noise.inv_sigma[lo:hi, None] if chunks else noise.whiten(jac, axis=-2)
+        info = info + w.T @ w
+    return np.asarray(info, dtype=float)
 
 
 def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[str, str]:

@@ -1,0 +1,357 @@
+"""Stream a large, valid CSV measurement file into a set, block by block, in bounded memory.
+
+The common case of a big file is a valid one with ENU sensor positions and no range
+differences.  :func:`stream_csv` reads such a file with pyarrow's streaming CSV reader,
+:data:`BLOCK_BYTES` of text at a time, converting each block's columns straight into the
+set's own arrays (float64 numbers; the kind and the sensor as small integer codes with one
+table of names), so the file's text, an Arrow table of the whole file or a text cell per row
+are never held.  The set is then checked by the one set of rules (:mod:`tmakit.rules`) and for
+duplicate rows, as the reader does.
+
+Whatever the stream does not take (a problem in any cell, a missing column, latitude and
+longitude, range differences, a ragged or quoted-newline record, a long preamble) makes
+:func:`stream_csv` return ``None``: the full checker (:func:`tmakit.io.checker.check_table`)
+then reads the file and reports every problem by row, line and column.
+
+Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`), plus up to
+5 % spare rows while reading, one block of text and its parsed columns (about
+``3 * BLOCK_BYTES``), and after reading the rules' transient arrays (about 30 bytes per row).
+"""
+
+from __future__ import annotations
+
+import codecs
+import csv
+import ctypes
+import functools
+import io
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import REF_STATE_COLUMNS, MeasurementSet
+from ..measurements import KINDS
+from ..measurements.codes import KIND_CODES, KIND_NAMES
+from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
+
+__all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "stream_csv"]
+
+#: Bytes of CSV text parsed at a time.
+BLOCK_BYTES = 1 << 22
+#: Blocks between two returns of freed memory to the system (:func:`_give_back`).
+_GIVE_BACK_EVERY = 1
+#: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
+#: sensor state (48), the sensor code (4) and the kind code (1); ``time_ref`` and the
+#: reference state are all-NaN views that take no memory.
+SET_BYTES_PER_ROW = 93
+#: Columns a streamed file must have.
+_REQUIRED = ("time", "sensor", "kind", "value", "sigma", "sensor_x", "sensor_y")
+#: Numeric columns stored; ``time_ref`` (all empty) is read to be checked, not stored.
+_STORED = ("time", "value", "sigma", "sensor_x", "sensor_y", "sensor_z", "sensor_vx",
+           "sensor_vy", "sensor_vz")
+
+
+class _Fallback(Exception):
+    """The file is not for the stream: the full checker reads it."""
+
+
+def _header(path: Path, start: int) -> list[str] | None:
+    """Return the header names as written (from byte ``start``), None if not streamable."""
+    with open(path, "rb") as f:
+        f.seek(start)
+        text = io.TextIOWrapper(f, encoding="utf-8", newline="")
+        try:
+            names = next(csv.reader(text), None)
+        except (UnicodeDecodeError, csv.Error):
+            return None
+    if not names or any("\n" in n or "\r" in n for n in names):
+        return None
+    stripped = [n.strip() for n in names]
+    if "" in stripped or len(set(stripped)) != len(stripped):
+        return None
+    has = set(stripped).__contains__
+    if not all(has(c) for c in _REQUIRED) or any(
+            has(c) for c in (*GEO_COLUMNS, *REF_STATE_COLUMNS)) or has("sensor_vx") != has(
+            "sensor_vy"):
+        return None
+    return names
+
+
+class _Columns:
+    """The set's arrays, filled block by block (grown in place when the estimate is short)."""
+
+    def __init__(self, rows: int) -> None:
+        self.n = 0
+        self.num = {c: np.zeros(rows) for c in ("time", "value", "sigma")}
+        self.state = np.zeros((rows, 6))
+        self.sensor = np.zeros(rows, dtype=np.int32)
+        self.kind = np.zeros(rows, dtype=np.int8)
+        self.sensor_names: dict[str, int] = {}
+
+    def reserve(self, rows: int) -> None:
+        """Make room for ``rows`` more rows (grown by a quarter at least)."""
+        need = self.n + rows
+        if need <= self.kind.shape[0]:
+            return
+        size = max(need, int(self.kind.shape[0] * 1.25))
+        for a in (*self.num.values(), self.sensor, self.kind):
+            a.resize(size, refcheck=False)
+        self.state.resize((size, 6), refcheck=False)
+
+    def trim(self) -> None:
+        """Drop the spare rows."""
+        for a in (*self.num.values(), self.sensor, self.kind):
+            a.resize(self.n, refcheck=False)
+        self.state.resize((self.n, 6), refcheck=False)
+
+    def put_number(self, name: str, values: NDArray[np.float64]) -> None:
+        """Store a block of a numeric column (finite numbers only)."""
+        if not np.isfinite(values).all():
+            raise _Fallback
+        lo, hi = self.n, self.n + values.shape[0]
+        if name in self.num:
+            self.num[name][lo:hi] = values
+        else:
+            self.state[lo:hi, _STORED.index(name) - 3] = values
+
+    def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
+        """Store a block of kind codes from its dictionary (known, not range differences)."""
+        table = np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
+        if np.any(table < 0) or any(KINDS[KIND_NAMES[c]].uses_reference for c in table):
+            raise _Fallback
+        self.kind[self.n:self.n + indices.shape[0]] = table[indices]
+
+    def put_sensor(self, indices: NDArray[np.integer], names: list[str]) -> None:
+        """Store a block of sensor codes, new ids numbered in order of first appearance."""
+        present, first = np.unique(indices, return_index=True)
+        table = np.zeros(len(names), dtype=np.int32)
+        for i in present[np.argsort(first, kind="stable")].tolist():
+            name = names[i]
+            if not name.strip():
+                raise _Fallback
+            table[i] = self.sensor_names.setdefault(name, len(self.sensor_names))
+        self.sensor[self.n:self.n + indices.shape[0]] = table[indices]
+
+
+def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
+    """Parse the file's records block by block into :class:`_Columns`."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    used = [n for n in names if n.strip() in ("sensor", "kind", *NUMERIC_COLUMNS)]
+    text_type = pa.dictionary(pa.int32(), pa.string())
+    types = {n: (text_type if n.strip() in ("sensor", "kind") else pa.float64()) for n in used}
+    convert = pcsv.ConvertOptions(column_types=types, include_columns=used, null_values=[""],
+                                  strings_can_be_null=False, quoted_strings_can_be_null=False)
+    cols: _Columns | None = None
+    with pa.OSFile(str(path)) as f:
+        f.seek(start)
+        # one thread: no blocks parsed ahead of the consumer, so the peak does not depend
+        # on the machine's load
+        reader = pcsv.open_csv(f, read_options=pcsv.ReadOptions(
+            block_size=BLOCK_BYTES, use_threads=False), convert_options=convert)
+        for blocks, batch in enumerate(reader):
+            k = batch.num_rows
+            if cols is None:  # the rows per byte of the first block, 5 % spare
+                left = max(1, path.stat().st_size - start)
+                cols = _Columns(max(k, int(1.05 * k * left / min(left, BLOCK_BYTES))))
+            cols.reserve(k)
+            for name, col in zip(batch.schema.names, batch.columns, strict=True):
+                _put(cols, name.strip(), col)
+            cols.n += k
+            del batch
+            if blocks % _GIVE_BACK_EVERY == 0:
+                _give_back()
+    _give_back()
+    if cols is None or cols.n == 0:
+        raise _Fallback
+    cols.trim()
+    return cols
+
+
+def _give_back() -> None:
+    """Return the memory of dropped blocks to the system.
+
+    Without this, pyarrow's allocator and the C library's keep freed blocks (their sum grows
+    with the file: about 130 bytes per row at 3 million rows), and the peak is theirs.
+    """
+    import pyarrow as pa
+
+    pa.default_memory_pool().release_unused()
+    trim = _malloc_trim()
+    if trim is not None:
+        trim(0)
+
+
+@functools.cache
+def _malloc_trim() -> Any:
+    """Find the C library's ``malloc_trim`` (glibc); None where there is none."""
+    try:
+        return ctypes.CDLL(None).malloc_trim
+    except (OSError, AttributeError):
+        return None
+
+
+def _put(cols: _Columns, name: str, col: Any) -> None:
+    """Store one block of one column."""
+    if name == "time_ref":  # only range differences have one: every cell empty here
+        if col.null_count != len(col):
+            raise _Fallback
+        return
+    if col.null_count:
+        raise _Fallback
+    if name in ("sensor", "kind"):
+        indices = _numbers(col.indices, np.int32)
+        put: Callable[[NDArray[np.integer], list[str]], None] = (
+            cols.put_sensor if name == "sensor" else cols.put_kind)
+        put(indices, col.dictionary.to_pylist())
+    else:
+        cols.put_number(name, _numbers(col, np.float64))
+
+
+def _numbers(col: Any, dtype: type) -> NDArray[Any]:
+    """View a pyarrow array without nulls as numpy (no copy, and no pandas import)."""
+    return np.frombuffer(col.buffers()[1], dtype=dtype, count=len(col),
+                         offset=col.offset * np.dtype(dtype).itemsize)
+
+
+def _has_duplicates(time: NDArray[np.float64], sensor: NDArray[np.int32],
+                     kind: NDArray[np.int8]) -> bool:
+    """Whether two rows share (sensor, kind, time), the rows of each sensor in time order."""
+    if sensor.shape[0] < 2:
+        return False
+    order = (None if int(sensor.max()) == 0 else np.argsort(sensor, kind="stable"))
+    t = time if order is None else time[order]
+    s = sensor if order is None else sensor[order]
+    same = np.flatnonzero((t[1:] == t[:-1]) & (s[1:] == s[:-1]))
+    if same.shape[0] == 0:
+        return False
+    rows = np.unique(np.concatenate((same, same + 1)))
+    rows = rows if order is None else order[rows]
+    by = np.lexsort((kind[rows], time[rows], sensor[rows]))
+    r = rows[by]
+    return bool(np.any((sensor[r[1:]] == sensor[r[:-1]]) & (time[r[1:]] == time[r[:-1]])
+                       & (kind[r[1:]] == kind[r[:-1]])))
+
+
+def _build(cols: _Columns, metadata: dict[str, str]) -> MeasurementSet:
+    """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds).
+
+    Raises ``ValueError`` (a rule of :mod:`tmakit.rules`) like the constructor.
+    """
+    from .. import rules
+
+    n = cols.n
+    out = object.__new__(MeasurementSet)
+    out.time, out.sensor_state = cols.num["time"], cols.state
+    out.kind_code, out.sensor_code = cols.kind, cols.sensor
+    out.sensor_names = tuple(cols.sensor_names)
+    out.time_ref = np.broadcast_to(np.float64(np.nan), (n,))
+    out.ref_sensor_state = np.broadcast_to(np.float64(np.nan), (n, 6))
+    out.metadata = dict(metadata)
+    out._kind = out._sensor = out._kinds = None
+    out._sensors = out.sensor_names
+    out._set_file_values(cols.num["value"], cols.num["sigma"])
+    rules.check_set(out)
+    return out
+
+
+def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
+    """Split off the leading ``# key: value`` comment lines (and blank lines) of a CSV text.
+
+    Parameters
+    ----------
+    text : str
+        The start of the file's text.
+
+    Returns
+    -------
+    metadata : dict of str to str
+        The ``key: value`` pairs.
+    chars, lines : int
+        The characters and the lines the comment and blank lines take.
+    """
+    metadata: dict[str, str] = {}
+    consumed = pre_lines = 0
+    for line in io.StringIO(text, newline=""):
+        stripped = line.strip()
+        if stripped and not stripped.startswith("#"):
+            break
+        consumed += len(line)
+        pre_lines += 1
+        if stripped.startswith("#"):
+            key, sep, value = stripped[1:].partition(":")
+            if sep and key.strip():
+                metadata[key.strip()] = value.strip()
+    return metadata, consumed, pre_lines
+
+
+def preamble(path: Path, scan: int) -> tuple[dict[str, str], int] | None:
+    """Read the leading ``# key: value`` lines from the first ``scan`` bytes of a file.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file (UTF-8, with or without a byte-order mark).
+    scan : int
+        Bytes read at most.
+
+    Returns
+    -------
+    (dict of str to str, int) or None
+        The metadata and the byte offset of the header line; None when the preamble is not
+        within the first ``scan`` bytes or they are not UTF-8.
+    """
+    with open(path, "rb") as f:
+        data = f.read(scan)
+    try:
+        text = codecs.getincrementaldecoder("utf-8-sig")().decode(data, final=False)
+    except UnicodeDecodeError:
+        return None
+    metadata, consumed, _ = split_metadata(text)
+    if consumed >= len(text) and len(data) == scan:
+        return None
+    bom = 3 if data.startswith(codecs.BOM_UTF8) else 0
+    return metadata, bom + len(text[:consumed].encode("utf-8"))
+
+
+def stream_csv(path: Path, scan: int = 1 << 20) -> MeasurementSet | None:
+    """Read a valid CSV measurement file with ENU positions and no range differences.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    scan : int, optional
+        Bytes searched for the ``# key: value`` preamble.
+
+    Returns
+    -------
+    MeasurementSet or None
+        The checked set, equal to what the full checker builds (:meth:`MeasurementSet.equals`);
+        None when the file is not of that kind or breaks a rule (the full checker then
+        reads it and names each problem).
+    """
+    found = preamble(path, scan)
+    if found is None:
+        return None
+    metadata, start = found
+    names = _header(path, start)
+    if names is None:
+        return None
+    try:
+        cols = _read_blocks(path, start, names)
+        present = np.bincount(cols.kind, minlength=len(KIND_NAMES)) > 0
+        stripped = {n.strip() for n in names}
+        if "sensor_vx" not in stripped and any(
+                KINDS[k].uses_velocity for k, p in zip(KIND_NAMES, present, strict=True) if p):
+            return None
+        meas = _build(cols, metadata)
+    except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
+        return None
+    if _has_duplicates(meas.time, meas.sensor_code, meas.kind_code):
+        return None
+    return meas

@@ -1,0 +1,231 @@
+"""Large CSV files stream in bounded memory; one set of rules for reader, from_si, simulator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit.data import MeasurementSet
+from tmakit.io import MeasurementFileError, csv_stream, read_measurements
+from tmakit.io.checker import check_table
+from tmakit.io.csv_file import load_csv
+
+HEADER = "time,sensor,kind,value,sigma,sensor_x,sensor_y,sensor_z,sensor_vx,sensor_vy,sensor_vz"
+
+
+def full_read(path):
+    """The full checker's set (what the reader built before streaming)."""
+    return check_table(path, load_csv(path))
+
+
+def write_rows(path, rows, preamble=("# tmakit measurements v1", "# note: x")):
+    path.write_text("\n".join([*preamble, HEADER, *rows]) + "\n", encoding="utf-8")
+    return path
+
+
+def two_sensor_rows(n):
+    """Bearings and frequencies from two sensors, interleaved, a new sensor late in the file."""
+    rows = []
+    for i in range(n):
+        t = float(i)
+        rows.append(f"{t},ship,bearing,{(37.0 + 0.01 * i) % 360:.6f},1,{5 * t},0,0,5,0,0")
+        rows.append(f"{t},ship,frequency,{1000.0 + 0.001 * i:.6f},0.1,{5 * t},0,0,5,0,0")
+        if i >= n // 2:
+            rows.append(f"{t},buoy 2,bearing,{(300.0 + 0.02 * i) % 360:.6f},2,100,-50,0,0,0,0")
+    return rows
+
+
+def test_a_streamed_file_equals_the_full_checkers_set_across_many_blocks(tmp_path,
+                                                                          monkeypatch):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks: growth, late sensor
+    path = write_rows(tmp_path / "obs.csv", two_sensor_rows(600))
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None
+    full = full_read(path)
+    assert streamed.equals(full)
+    assert streamed.sensors == ["ship", "buoy 2"] and streamed.kinds == ["bearing", "frequency"]
+    assert streamed.metadata == full.metadata == {"note": "x"}
+    np.testing.assert_array_equal(streamed.value_si, full.value_si)
+    np.testing.assert_array_equal(streamed.sigma_si, full.sigma_si)
+    assert read_measurements(path).equals(full)  # the reader takes the stream
+
+
+@pytest.mark.parametrize("text", [
+    "\ufeff# a: b\n\n# c:d\n" + HEADER + "\n0,ship,bearing,10,1,0,0,0,5,0,0\n",
+    (HEADER + "\n0,ship,bearing,10,1,0,0,0,5,0,0\n1,ship,bearing,11,1,5,0,0,5,0,0\n"
+     ).replace("\n", "\r\n"),
+    HEADER + '\n0,"ship",bearing,"10",1,0,0,0,5,0,0\n1,01,bearing,11,1,5,0,0,5,0,0\n',
+    "kind,extra,sensor_y,time,value,sensor,sigma,sensor_x\nbearing,zz,0,0,10,ship,1,0\n",
+    " time , sensor,kind,value,sigma,sensor_x,sensor_y,time_ref\n0,7,bearing,1e1,1,0,0,\n",
+], ids=["bom-preamble", "crlf", "quoted-ids", "order-extra", "spaces-no-velocity"])
+def test_odd_valid_files_stream_to_the_full_checkers_set(tmp_path, text):
+    path = tmp_path / "odd.csv"
+    path.write_text(text, encoding="utf-8", newline="")
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None and streamed.equals(full_read(path))
+
+
+def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
+    path = write_rows(tmp_path / "obs.csv", two_sensor_rows(500))
+    meas = csv_stream.stream_csv(path)
+    held = [meas.time, meas.sensor_state, meas.kind_code, meas.sensor_code, meas.value,
+            meas.sigma, meas.value_si, meas.sigma_si]
+    assert sum(a.nbytes for a in held) == csv_stream.SET_BYTES_PER_ROW * len(meas)
+    # time_ref and the reference state are views of one NaN, not arrays of rows
+    assert meas.time_ref.base is not None and meas.time_ref.strides == (0,)
+    assert np.isnan(meas.ref_sensor_state).all()
+    assert meas.take(np.arange(3)).time_ref.shape == (3,)
+
+
+@pytest.mark.parametrize(("edit", "words"), [
+    (lambda r: [*r[:5], "3.5,ship,bearing,400,1,0,0,0,5,0,0", *r[5:]],
+     "column 'value': expected a bearing"),
+    (lambda r: [*r[:5], "3.5,ship,bearing,10,,0,0,0,5,0,0", *r[5:]], "column 'sigma'"),
+    (lambda r: [*r[:5], "3.5,ship,bearng,10,1,0,0,0,5,0,0", *r[5:]], "column 'kind'"),
+    (lambda r: [*r[:5], "3.5,ship, bearing ,10,1,0,0,0,5,0,0", *r[5:]], "column 'kind'"),
+    (lambda r: [*r, r[-1]], "one row per (sensor, kind, time, time_ref)"),
+    (lambda r: [*r, "0.5,ship,bearing,10,1,0,0,0,5,0,0"], "time decreases for sensor 'ship'"),
+    (lambda r: [*r[:5], "3.5,ship,bearing,10,1,0,0,0", *r[5:]], "expected 11 fields"),
+])
+def test_a_file_with_a_problem_is_not_streamed_and_the_reader_names_row_and_line(
+        tmp_path, edit, words):
+    path = write_rows(tmp_path / "bad.csv", edit(two_sensor_rows(20)))
+    assert csv_stream.stream_csv(path) is None
+    with pytest.raises(MeasurementFileError) as err:
+        read_measurements(path)
+    assert words in str(err.value) and "(line " in str(err.value)
+
+
+def test_from_si_refuses_what_the_reader_refuses_with_its_words():
+    state = np.zeros((3, 6))
+    args = (["s"] * 3, ["range"] * 3)
+    with pytest.raises(ValueError, match=r"row 3, column 'time': expected a time >= 2\.0 s"):
+        MeasurementSet.from_si([1.0, 2.0, 1.5], *args, [1.0, 2.0, 3.0], np.ones(3), state)
+    with pytest.raises(ValueError, match=r"row 2, column 'value': expected a range"):
+        MeasurementSet.from_si([1.0, 2.0, 3.0], *args, [1.0, -2.0, 3.0], np.ones(3), state)
+    with pytest.raises(ValueError, match=r"row 1, column 'value': expected a bearing"):
+        MeasurementSet.from_si([1.0], ["s"], ["bearing"], [np.radians(400.0)], [0.01],
+                               np.zeros((1, 6)))
+    # the same words as the constructor (file units), which is the reader's edge
+    with pytest.raises(ValueError, match=r"row 2, column 'value': expected a range"):
+        MeasurementSet([1.0, 2.0, 3.0], *args, [1.0, -2.0, 3.0], np.ones(3), state)
+    rows = MeasurementSet.from_si([2.0, 1.0], ["s", "s"], ["range"] * 2, [1.0, 2.0],
+                                  [1.0, 1.0], np.zeros((2, 6)), check=False).sorted()
+    assert rows.time.tolist() == [1.0, 2.0]  # out of order: check=False, then sort
+
+
+CLOSE_RANGE = """
+name = "close-range"
+[target]
+motion = "cv2d"
+ref_time = 0.0
+truth = {{ x = 50.0, y = 0.0, vx = 0.0, vy = 1.0 }}
+[[sensors]]
+type = "legs"
+id = "radar"
+start = [0.0, 0.0]
+heading_deg = 0.0
+speed = 1.0
+legs = [{{ duration = inf }}]
+[[measurements]]
+kind = "range"
+sensor = "radar"
+times = {{ start = 0.0, stop = 99.0, step = 1.0 }}
+sigma = {sigma}
+"""
+
+
+def test_the_simulator_refuses_a_negative_noisy_range_naming_row_and_seed(tmp_path):
+    path = tmp_path / "close.toml"
+    path.write_text(CLOSE_RANGE.format(sigma=40.0))
+    scn = tk.load_scenario(path)
+    with pytest.raises(ValueError) as err:
+        scn.simulate(rng=3)
+    text = str(err.value)
+    assert "impossible range with seed 3" in text and "sensor 'radar' at t = " in text
+    assert "noise-free 50" in text and "sigma 40" in text and "lower the plan's sigma" in text
+    path.write_text(CLOSE_RANGE.format(sigma=1.0))  # 50 sigma from the limit: simulated
+    meas = tk.load_scenario(path).simulate(rng=3)
+    assert (meas.value > 0).all()
+    out = tk.write_measurements(meas, tmp_path / "close.csv")
+    assert read_measurements(out).equals(meas)
+
+
+def test_the_command_line_refuses_an_impossible_draw_with_exit_2(tmp_path):
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    path = tmp_path / "close.toml"
+    path.write_text(CLOSE_RANGE.format(sigma=40.0))
+    res = CliRunner().invoke(app, ["simulate", str(path), "--seed", "3", "-o",
+                                   str(tmp_path / "x.csv")])
+    assert res.exit_code == 2, res.output
+    assert "impossible range" in res.output and "Traceback" not in res.output
+    assert not (tmp_path / "x.csv").exists()
+
+
+@pytest.mark.parametrize("name", ["bearings-only-2d", "hurtado2008"])
+def test_a_fit_of_many_rows_summed_by_chunks_equals_the_whole_jacobians(name, monkeypatch):
+    from tmakit import blas
+
+    meas = tk.load_scenario(name).simulate(rng=2)
+    whole = tk.estimate(meas, meas.metadata["motion"])
+    monkeypatch.setattr(blas, "CHUNKED_ROWS", 100)  # these few rows count as many
+    monkeypatch.setattr(blas, "CHUNK_ROWS", 77)
+    chunked = tk.estimate(meas, meas.metadata["motion"])
+    assert chunked.status == whole.status == "converged"
+    assert chunked.iterations == whole.iterations
+    assert np.all(np.abs(chunked.estimate - whole.estimate) <= 1e-9 * whole.std)
+    np.testing.assert_allclose(chunked.std, whole.std, rtol=1e-9)
+    assert chunked.chi2 == pytest.approx(whole.chi2, rel=1e-12)
+
+
+PEAK_OF_A_READ = """
+import sys
+from pathlib import Path
+from tmakit.io import read_measurements
+
+
+def peak():  # this process's own peak (ru_maxrss would carry the parent's over exec)
+    with open("/proc/self/status") as f:
+        return next(int(x.split()[1]) * 1024 for x in f if x.startswith("VmHWM"))
+
+
+read_measurements(Path(sys.argv[2]))  # a small file first: the libraries are loaded
+before = peak()
+meas = read_measurements(Path(sys.argv[1]))
+print(len(meas), peak() - before)
+"""
+
+
+def peak_of_reading(tmp_path, n):
+    """Write an n-row bearings file; return its size and the growth of a child's peak RSS."""
+    import subprocess
+    import sys
+
+    t = np.arange(n) * 0.01
+    b = np.degrees(np.arctan2(4000.0 - 11 * t, 9000.0 - 3 * t)) % 360
+    path = tmp_path / f"big{n}.csv"
+    with open(path, "w") as f:
+        f.write(HEADER + "\n")
+        f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{5 * ti:.3f},0,0,5,0,0\n"
+                     for ti, bi in zip(t, b, strict=True))
+    small = write_rows(tmp_path / "small.csv", two_sensor_rows(50))
+    out = subprocess.run([sys.executable, "-c", PEAK_OF_A_READ, str(path), str(small)],
+                         check=True, capture_output=True, text=True).stdout.split()
+    assert int(out[0]) == n
+    return path.stat().st_size, int(out[1])
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
+def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path):
+    size_small, grown_small = peak_of_reading(tmp_path, 100_000)
+    size_big, grown_big = peak_of_reading(tmp_path, 400_000)
+    per_row_memory = (grown_big - grown_small) / 300_000
+    per_row_file = (size_big - size_small) / 300_000
+    assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)
+    assert per_row_memory >= csv_stream.SET_BYTES_PER_ROW * 0.9, (grown_small, grown_big)
