@@ -232,6 +232,21 @@ def test_dask_local_cluster_gives_the_local_table(gu2007):
     assert remote.executor.startswith("dask ")
 
 
+# -- worker processes --------------------------------------------------------------------------
+def test_two_worker_processes_give_the_one_process_table(gu2007):
+    """Same seed, same chunks: 1 and 2 workers give identical per-run results."""
+    one = monte_carlo(gu2007, runs=12, seed=3, progress=False, chunk=3)
+    two = monte_carlo(gu2007, runs=12, seed=3, progress=False, chunk=3, workers=2)
+    pd.testing.assert_frame_equal(one.table, two.table)
+    assert (one.executor, two.executor) == ("local", "2 processes")
+    saved = []
+    monte_carlo(gu2007, runs=5, seed=3, progress=False, chunk=2, workers=2,
+                on_chunk=saved.append)
+    assert sorted(o.first_run for o in saved) == [0, 2, 4]
+    pd.testing.assert_frame_equal(mc.finished_runs_table(saved, one.parameters),
+                                  one.table.iloc[:5])
+
+
 # -- the estimator registry --------------------------------------------------------------------
 def test_the_registry_names_the_estimators_and_what_they_accept(gu2007):
     assert mc.available_estimators() == tuple(METHODS)
@@ -286,6 +301,8 @@ def test_other_estimators_run_by_run_through_the_registry(monkeypatch, gu2007):
     ({"init": [1.0, 2.0]}, "init must give 4 values"),
     ({"init": {"x": 1.0}}, "missing y, vx, vy"),
     ({"dask": 42}, "dask must be a scheduler address"),
+    ({"workers": 0}, "workers must be a whole number >= 1, got 0"),
+    ({"workers": 2, "dask": "tcp://127.0.0.1:1"}, "either dask .* or workers"),
 ])
 def test_bad_arguments_raise_value_error_with_a_clear_message(gu2007, kwargs, message):
     if "dask" in kwargs:
