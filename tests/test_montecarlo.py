@@ -232,6 +232,48 @@ def test_dask_local_cluster_gives_the_local_table(gu2007):
     assert remote.executor.startswith("dask ")
 
 
+def test_simulated_values_are_the_sets_simulate_gives(gu2007):
+    """One template and a values array: the draws and rows of simulate(), run by run."""
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(8).spawn(3)]
+    template, values = gu2007.simulate_values(rngs)
+    for r, child in enumerate(np.random.SeedSequence(8).spawn(3)):
+        one = gu2007.simulate(np.random.default_rng(child))
+        np.testing.assert_array_equal(values[r], one.value_si)
+        np.testing.assert_array_equal(template.time, one.time)
+        np.testing.assert_array_equal(template.sigma_si, one.sigma_si)
+    sets = gu2007.simulate_many([1, 2])
+    assert sets[1].metadata["seed"] == "2"
+    np.testing.assert_array_equal(sets[0].value_si, gu2007.simulate(1).value_si)
+
+
+def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
+    """Unobservable (a 3-D bearings-only fit), diverged and failed runs, summarised in one
+    batch, read as estimate() and a failed run do."""
+    from tmakit.batch.ml import Best, MaximumLikelihood
+    from tmakit.io.samples import replay_sample
+    from tmakit.montecarlo.ml_runs import solve_runs, summarise_runs
+
+    rep = tmp_path / "c.rep"
+    rep.write_text(replay_sample(0)[0])
+    tall = tk.read_measurements(rep, bearing_sigma=0.5, dim=3)
+    motion = tk.motion_from_name("cv3d")
+    one = estimate(tall, motion)
+    assert one.status == "unobservable"
+    problem, bests = solve_runs(MaximumLikelihood(), tall, np.stack([tall.value_si] * 2),
+                                motion)
+    bests += [Best(np.full(6, np.nan), bests[0].nuisance, np.inf, 3, False, 2),
+              ValueError("no start")]
+    got = summarise_runs(problem, bests, None)
+    assert got.status == ["unobservable", "unobservable", "diverged", None]
+    assert got.iterations.tolist() == [one.iterations] * 2 + [3, 0]
+    assert got.starts.tolist() == [one.starts] * 2 + [2, 0]
+    np.testing.assert_allclose(got.chi2[:2], one.chi2, rtol=1e-9)
+    assert np.isinf(got.chi2[2]) and np.isnan(got.chi2[3])
+    seen = [k for k, n in enumerate(motion.param_names) if n != "z"]  # z: not observed
+    np.testing.assert_allclose(got.estimates[:2, seen], [one.estimate[seen]] * 2, rtol=1e-6)
+    assert np.isnan(got.estimates[2:]).all() and list(got.failures) == [3]
+
+
 # -- worker processes --------------------------------------------------------------------------
 def test_two_worker_processes_give_the_one_process_table(gu2007):
     """Same seed, same chunks: 1 and 2 workers give identical per-run results."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -305,6 +306,66 @@ class Scenario:
         ValueError
             As :meth:`simulate`.
         """
+        template, values = self.simulate_values(rngs, noise)
+        out = []
+        for rng, value_si in zip(rngs, values, strict=True):
+            meas = template.take(np.arange(len(template)))
+            meas.value_si = value_si
+            if isinstance(rng, int):
+                meas.metadata["seed"] = str(rng)
+            out.append(meas)
+        return out
+
+    def simulate_values(self, rngs: Sequence[RngLike], noise: bool = True
+                        ) -> tuple[MeasurementSet, NDArray[np.float64]]:
+        """Observe the scenario once per random source: the shared rows and each set's values.
+
+        Row ``i`` of ``values`` in the rows of ``template`` is what :meth:`simulate` gives for
+        ``rngs[i]`` (the same draws): Monte Carlo runs, without a set per run.  The rows are
+        checked once; each run's values only for being finite (the one rule noise can break).
+
+        Parameters
+        ----------
+        rngs : sequence of numpy.random.Generator, int or None
+            One random source or seed per set.
+        noise : bool, optional
+            Add the plans' measurement noise.
+
+        Returns
+        -------
+        template : MeasurementSet
+            The rows (times, sensors, kinds, sigmas, metadata), their noise-free values.
+        values : ndarray, shape (len(rngs), n)
+            Each set's values (SI: rad, m, m/s, Hz, dBW), in the template's row order.
+
+        Raises
+        ------
+        ValueError
+            As :meth:`simulate`.
+        """
+        plans, template, order = self._simulation_rows(noise)
+        values = np.empty((len(rngs), len(template)))
+        for i, rng in enumerate(rngs):
+            gen = as_generator(rng)
+            parts = []
+            for plan, rows, clean, model in plans:
+                value_si = self._noisy(plan, rows, clean, gen) if noise else clean
+                if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
+                    value_si = np.mod(value_si, model.wrap_period)
+                parts.append(value_si)
+            values[i] = np.concatenate(parts)[order]
+        # NaN truth, infinite sigma, ...: the first set that breaks a rule names its rows, as
+        # simulate() would.
+        for i in np.flatnonzero(~np.isfinite(values).all(axis=1)):
+            bad = template.take(np.arange(len(template)))
+            bad.value_si = values[i]
+            rules.check_set(bad, order=False, ranges=False)
+        rules.check_set(template, order=False, ranges=False)
+        return template, values
+
+    def _simulation_rows(self, noise: bool) -> tuple[list[Any], MeasurementSet,
+                                                     NDArray[np.int64]]:
+        """Plans with their rows, noise-free values and models; the set; the plans' order."""
         plans = []  # (plan, rows, noise-free values SI, model), in plan order
         states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
         for plan in self.plans:
@@ -333,22 +394,10 @@ class Scenario:
             rows.value_si = start + np.arange(rows.time.shape[0], dtype=float)
         template = MeasurementSet.concatenate([rows for _, rows, _, _ in plans], meta)
         order = template.value_si.astype(int)
-        out = []
-        for rng in rngs:
-            gen = as_generator(rng)
-            values = []
-            for plan, rows, clean, model in plans:
-                value_si = self._noisy(plan, rows, clean, gen) if noise else clean
-                if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
-                    value_si = np.mod(value_si, model.wrap_period)
-                values.append(value_si)
-            meas = template.take(np.arange(len(template)))
-            meas.value_si = np.concatenate(values)[order]
-            if isinstance(rng, int):
-                meas.metadata["seed"] = str(rng)
-            rules.check_set(meas, order=False, ranges=False)  # NaN truth, infinite sigma, ...
-            out.append(meas)
-        return out
+        clean = [c if m.wrap_period is None else np.mod(c, m.wrap_period)
+                 for _, _, c, m in plans]
+        template.value_si = np.concatenate(clean)[order]
+        return plans, template, order
 
     def _refuse_coincident(self, plan: MeasurementPlan, rows: MeasurementSet) -> None:
         """Refuse a target exactly at a sensor (bearings and ranges undefined there)."""

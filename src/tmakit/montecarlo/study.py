@@ -46,6 +46,15 @@ def _whole(value: object, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
+def _workers(workers: object, dask: object) -> int:
+    """Check ``workers`` (a whole number >= 1; above 1 not with ``dask``)."""
+    count = _whole(workers, "workers")
+    if count > 1 and dask is not None:
+        raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
+                         f"(workers={count})")
+    return count
+
+
 def _check_seed(seed: object) -> None:
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
                              or seed < 0):
@@ -89,8 +98,11 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
 
 def _execute(tasks: Sequence[ChunkTask], client: Client | None, workers: int, bar_label: str,
              runs: int, progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None
-             ) -> tuple[list[ChunkOutput], float]:
-    """Run the chunks here, in worker processes or on Dask; outputs in run order, wall (s)."""
+             ) -> tuple[list[ChunkOutput], float, str]:
+    """Run the chunks here, in worker processes or on Dask.
+
+    Their outputs in run order, the wall time (s) and the executor's description.
+    """
     bar = progress_bar(runs, progress, bar_label)
     start = time.perf_counter()
     try:
@@ -104,7 +116,9 @@ def _execute(tasks: Sequence[ChunkTask], client: Client | None, workers: int, ba
         bar.close()
     wall = time.perf_counter() - start
     outputs.sort(key=lambda o: o.first_run)
-    return outputs, wall
+    executor = (f"dask {client.scheduler.address}" if client is not None
+                else f"{workers} processes" if workers > 1 else "local")
+    return outputs, wall, executor
 
 
 def finished_runs_table(outputs: Sequence[ChunkOutput], names: Sequence[str]
@@ -211,10 +225,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     scenario = _scenario(scenario)
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
-    workers = _whole(workers, "workers")
-    if workers > 1 and dask is not None:
-        raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
-                         f"(workers={workers})")
+    workers = _workers(workers, dask)
     _check_seed(seed)
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
@@ -230,18 +241,24 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         size = chunk or default_chunk(runs, estimator, client)
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
-        outputs, wall = _execute(tasks, client, workers, f"{scenario.name} {estimator}", runs,
-                                 progress, on_chunk)
-        executor = (f"dask {client.scheduler.address}" if client is not None
-                    else f"{workers} processes" if workers > 1 else "local")
+        outputs, wall, executor = _execute(tasks, client, workers,
+                                           f"{scenario.name} {estimator}", runs, progress,
+                                           on_chunk)
     finally:
         if own_client and client is not None:
             client.close()
+    return _result(scenario, estimator, outputs, runs, opts, known,
+                   (wall, entropy, executor, size))
 
+
+def _result(scenario: Scenario, estimator: str, outputs: Sequence[ChunkOutput], runs: int,
+            opts: Options, known: KnownNuisance | None, how: tuple[float, int, str, int]
+            ) -> MonteCarloResult:
+    """Assemble the study's result: table, CRLB; ``how``: wall, seed, executor, chunk."""
     names = scenario.motion.param_names
     table, failures = _table(outputs, runs, names)
     bound = crlb(scenario, known_nuisance=known, options=opts)
     std = np.array([bound.std_of(n) for n in names])
+    wall, entropy, executor, size = how
     return MonteCarloResult(scenario.name, estimator, names, scenario.theta.copy(), std,
-                            table, wall, entropy, known, executor, size, failures,
-                            bound)
+                            table, wall, entropy, known, executor, size, failures, bound)
