@@ -7,8 +7,9 @@ every iteration pays page faults for memory it just freed.  Dask's nanny makes i
 starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which fixes both thresholds low (a
 chunk of gu2007 runs took 2.5x the CPU time of the same chunk in a plain process).  Raising
 both thresholds to 32 MiB keeps the freed blocks in the heap for the next iteration: a chunk of
-50 gu2007 runs took 0.048 s of CPU instead of 0.072 s (median of 15, shared 2-core machine).
-The price is up to 32 MiB of freed memory kept by the process.  Other platforms (and C
+50 gu2007 runs took 0.053 s of CPU instead of 0.073 s (medians of three processes run
+interleaved on the shared 2-core machine), and 0.06 s instead of 0.19-0.23 s under Dask's
+setting.  The price is up to 32 MiB of freed memory kept by the process.  Other platforms (and C
 libraries without ``mallopt``) are left as they are.
 """
 
