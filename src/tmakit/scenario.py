@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -343,17 +342,25 @@ class Scenario:
         ValueError
             As :meth:`simulate`.
         """
-        plans, template, order = self._simulation_rows(noise)
-        values = np.empty((len(rngs), len(template)))
-        for i, rng in enumerate(rngs):
-            gen = as_generator(rng)
-            parts = []
-            for plan, rows, clean, model in plans:
-                value_si = self._noisy(plan, rows, clean, gen) if noise else clean
-                if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
-                    value_si = np.mod(value_si, model.wrap_period)
-                parts.append(value_si)
+        plans = []  # (plan, rows, noise-free values SI, model), in plan order
+        states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
+        for plan in self.plans:
+            rows = self._layout(plan, states)
+            self._refuse_coincident(plan, rows)
+            obs = ObservationModel(rows, self.motion, self.measurement_options)
+            clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
+            plans.append((plan, rows, clean, obs.models[plan.kind].wrap_period))
+        template, order = self._template([rows for _, rows, _, _ in plans], noise)
+        values = np.empty((len(rngs) + 1, len(template)))  # the last: noise-free
+        for i in range(len(rngs) + 1):
+            gen = as_generator(rngs[i]) if noise and i < len(rngs) else None
+            parts = [clean if gen is None else self._noisy(plan, rows, clean, gen)
+                     for plan, rows, clean, _ in plans]
+            for k, (_, _, _, period) in enumerate(plans):
+                if period is not None:  # files carry bearings in [0, 360) deg
+                    parts[k] = np.mod(parts[k], period)
             values[i] = np.concatenate(parts)[order]
+        template.value_si, values = values[-1], values[:-1]
         # NaN truth, infinite sigma, ...: the first set that breaks a rule names its rows, as
         # simulate() would.
         for i in np.flatnonzero(~np.isfinite(values).all(axis=1)):
@@ -363,17 +370,12 @@ class Scenario:
         rules.check_set(template, order=False, ranges=False)
         return template, values
 
-    def _simulation_rows(self, noise: bool) -> tuple[list[Any], MeasurementSet,
-                                                     NDArray[np.int64]]:
-        """Plans with their rows, noise-free values and models; the set; the plans' order."""
-        plans = []  # (plan, rows, noise-free values SI, model), in plan order
-        states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
-        for plan in self.plans:
-            rows = self._layout(plan, states)
-            self._refuse_coincident(plan, rows)
-            obs = ObservationModel(rows, self.motion, self.measurement_options)
-            clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
-            plans.append((plan, rows, clean, obs.models[plan.kind]))
+    def _template(self, parts: list[MeasurementSet], noise: bool
+                  ) -> tuple[MeasurementSet, NDArray[np.int64]]:
+        """Join the plans' rows in one set (by sensor, in time order); give the order too.
+
+        ``order[j]`` is the index, in the plans' rows one after the other, of the set's row j.
+        """
         meta = {
             "scenario": self.name,
             "motion": self.motion.name,
@@ -387,17 +389,11 @@ class Scenario:
         if self.origin is not None:
             meta["origin_lat"], meta["origin_lon"], meta["origin_alt"] = (
                 repr(float(v)) for v in self.origin)
-        # The rows of every plan, grouped by sensor and in time order: ``order`` maps them to
-        # the plans' rows one after the other.
-        n = [rows.time.shape[0] for _, rows, _, _ in plans]
-        for (_, rows, _, _), start in zip(plans, np.cumsum([0, *n[:-1]]), strict=True):
+        n = [rows.time.shape[0] for rows in parts]
+        for rows, start in zip(parts, np.cumsum([0, *n[:-1]]), strict=True):
             rows.value_si = start + np.arange(rows.time.shape[0], dtype=float)
-        template = MeasurementSet.concatenate([rows for _, rows, _, _ in plans], meta)
-        order = template.value_si.astype(int)
-        clean = [c if m.wrap_period is None else np.mod(c, m.wrap_period)
-                 for _, _, c, m in plans]
-        template.value_si = np.concatenate(clean)[order]
-        return plans, template, order
+        template = MeasurementSet.concatenate(parts, meta)
+        return template, template.value_si.astype(int)
 
     def _refuse_coincident(self, plan: MeasurementPlan, rows: MeasurementSet) -> None:
         """Refuse a target exactly at a sensor (bearings and ranges undefined there)."""

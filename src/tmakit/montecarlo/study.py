@@ -96,9 +96,9 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
     return scenario
 
 
-def _execute(tasks: Sequence[ChunkTask], client: Client | None, workers: int, bar_label: str,
-             runs: int, progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None
-             ) -> tuple[list[ChunkOutput], float, str]:
+def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
+             progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None,
+             workers: int = 1) -> tuple[list[ChunkOutput], float, str]:
     """Run the chunks here, in worker processes or on Dask.
 
     Their outputs in run order, the wall time (s) and the executor's description.
@@ -241,9 +241,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         size = chunk or default_chunk(runs, estimator, client)
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
-        outputs, wall, executor = _execute(tasks, client, workers,
-                                           f"{scenario.name} {estimator}", runs, progress,
-                                           on_chunk)
+        outputs, wall, executor = _execute(tasks, client, f"{scenario.name} {estimator}",
+                                           runs, progress, on_chunk, workers=workers)
     finally:
         if own_client and client is not None:
             client.close()
