@@ -289,6 +289,20 @@ def test_two_worker_processes_give_the_one_process_table(gu2007):
                                   one.table.iloc[:5])
 
 
+def test_chunks_keep_freed_memory_where_glibc_allows(gu2007):
+    """The allocator setting is taken once per process on Linux (glibc), and a study after it
+    gives the same table."""
+    import sys
+
+    from tmakit.montecarlo.memory import keep_freed_memory
+
+    before = monte_carlo(gu2007, runs=3, seed=12, progress=False)
+    if sys.platform.startswith("linux"):
+        assert keep_freed_memory() is True
+    after = monte_carlo(gu2007, runs=3, seed=12, progress=False)
+    pd.testing.assert_frame_equal(before.table, after.table)
+
+
 # -- the estimator registry --------------------------------------------------------------------
 def test_the_registry_names_the_estimators_and_what_they_accept(gu2007):
     assert mc.available_estimators() == tuple(METHODS)
