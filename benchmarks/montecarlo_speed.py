@@ -1,7 +1,13 @@
 """Monte Carlo throughput: ML with no initial guess on gu2007 (C and f_s unknown), many runs,
-in this process and on a two-worker local Dask cluster (the machine's 2 cores).
+in this process, in a pool of worker processes and on a local Dask cluster of as many workers.
 
-    python benchmarks/montecarlo_speed.py [--runs 10000] [--seed 0] [--workers 2]
+The three are measured interleaved (``--repeat`` rounds, each running all three), so that a
+shared machine's load falls on all of them; the figures are medians with interquartile ranges.
+One process's CPU time is printed too (what an idle machine's wall time would be).  The
+tables of all three are compared run for run (same seed, same chunks: identical).
+
+    python benchmarks/montecarlo_speed.py [--runs 10000] [--seed 0] [--workers 2] [--repeat 3]
+        [--chunk 50] [--no-dask]
 """
 
 from __future__ import annotations
@@ -9,8 +15,80 @@ from __future__ import annotations
 import argparse
 import time
 
+import numpy as np
+from bench_problems import fmt
+
 import tmakit as tk
 from tmakit.montecarlo import monte_carlo
+
+
+def _stat(values):
+    return (float(np.median(values)), float(np.percentile(values, 25)),
+            float(np.percentile(values, 75)))
+
+
+def measure(runs, workers=2, repeat=3, seed=0, chunk=None, dask=True):
+    """Time one process, ``workers`` processes and ``workers`` Dask workers, interleaved.
+
+    Returns
+    -------
+    dict
+        ``wall`` (per executor, a list of s), ``cpu`` (one process's CPU s per round),
+        ``same`` (whether every executor gave the one-process table), ``result`` (one
+        process's last result).
+    """
+    scn = tk.load_scenario("gu2007")
+    monte_carlo(scn, runs=min(runs, 50), seed=seed, progress=False)  # warm the imports
+    wall = {"one": [], "pool": [], "dask": []}
+    cpu, tables, res = [], {}, None
+
+    def run(name, **kw):
+        t0 = time.perf_counter()
+        out = monte_carlo(scn, runs=runs, seed=seed, progress=False, chunk=chunk, **kw)
+        wall[name].append(time.perf_counter() - t0)
+        tables[name] = out.table
+        return out
+
+    client = cluster = None
+    if dask:
+        from distributed import Client, LocalCluster
+
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+        client.run(lambda: __import__("tmakit.montecarlo"))  # warm the workers' imports
+    try:
+        for _ in range(repeat):
+            c0 = time.process_time()
+            res = run("one")
+            cpu.append(time.process_time() - c0)
+            run("pool", workers=workers)
+            if client is not None:
+                run("dask", dask=client)
+    finally:
+        if client is not None:
+            client.close()
+            cluster.close()
+    same = all(t.equals(tables["one"]) for t in tables.values())
+    return {"wall": {k: v for k, v in wall.items() if v}, "cpu": cpu, "same": same,
+            "result": res}
+
+
+def rows(runs, workers=2, repeat=3, seed=0, chunk=None, dask=True):
+    """The Monte Carlo rows of ``run_all.py``: (what, ours, peer, ratio, note)."""
+    m = measure(runs, workers, repeat, seed, chunk, dask)
+    one, cpu = _stat(m["wall"]["one"]), _stat(m["cpu"])
+    label = f"Monte Carlo gu2007 no guess, {runs} runs"
+    goal = 10.0 * runs / 10_000
+    out = [(f"{label}, one process", fmt(one, 1.0, "s"), f"goal <= {goal:g} s", one[0],
+            f"CPU {fmt(cpu, 1.0, 's')}; converged {m['result'].convergence_rate:.1%}")]
+    for name, what in (("pool", "processes"), ("dask", "Dask workers")):
+        if name in m["wall"]:
+            got = _stat(m["wall"][name])
+            out.append((f"{label}, {workers} {what}", fmt(got, 1.0, "s"),
+                        f"one process {fmt(one, 1.0, 's')}", one[0] / got[0],
+                        f"one/{workers} {what} (goal > 1); same table: {m['same']}"))
+    return out
 
 
 def main() -> None:
@@ -18,31 +96,13 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=10_000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--chunk", type=int, default=250)
-    parser.add_argument("--skip-local", action="store_true", help="only the cluster run")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--chunk", type=int, default=None, help="runs per task (default 50)")
+    parser.add_argument("--no-dask", action="store_true", help="no Dask cluster")
     args = parser.parse_args()
-    scn = tk.load_scenario("gu2007")
-
-    def report(label: str, res, wall: float) -> None:
-        ratios = " ".join(f"{r['ratio']:.3f}" for r in res.summary_table())
-        print(f"{label:<34} {args.runs} runs in {wall:6.1f} s = {args.runs / wall:7.1f} runs/s; "
-              f"converged {res.convergence_rate:.2%}; RMSE/CRLB {ratios}")
-
-    if not args.skip_local:
-        t0 = time.perf_counter()
-        res = monte_carlo(scn, runs=args.runs, seed=args.seed, progress=False,
-                          chunk=args.chunk)
-        report("one process", res, time.perf_counter() - t0)
-
-    from distributed import Client, LocalCluster
-
-    with LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
-        client.run(lambda: __import__("tmakit.montecarlo"))  # warm the workers' imports
-        t0 = time.perf_counter()
-        res = monte_carlo(scn, runs=args.runs, seed=args.seed, progress=False,
-                          chunk=args.chunk, dask=client)
-        report(f"local Dask cluster, {args.workers} workers", res, time.perf_counter() - t0)
+    for what, ours, peer, ratio, note in rows(args.runs, args.workers, args.repeat, args.seed,
+                                              args.chunk, not args.no_dask):
+        print(f"{what:58s} {ours:26s} {peer:30s} {ratio:6.2f}  {note}", flush=True)
 
 
 if __name__ == "__main__":

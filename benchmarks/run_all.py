@@ -24,8 +24,9 @@ Sections (``--only`` picks some):
   bearings-only-2d and gu2007 (``batch_speed.py``);
 * ``threads``: the particle filter with 10^5 particles, default BLAS threads beside one
   (``threads_speed.py``);
-* ``montecarlo``: the no-guess Monte Carlo of gu2007 in one process and on two local Dask
-  workers (10,000 runs; ``--quick``: 1,000);
+* ``montecarlo``: the no-guess Monte Carlo of gu2007 in one process, in two worker processes
+  and on two local Dask workers, interleaved (10,000 runs; ``--quick``: 1,000;
+  ``montecarlo_speed.py``);
 * ``manoeuvre``: the hoerst2010 manoeuvre estimate (orders 0..3) on seeded data sets.
 
 ``--quick`` (about two minutes on an idle two-core machine) uses fewer repeats, sizes and
@@ -72,33 +73,15 @@ def startup_rows(repeat):
              f"tmakit/peer (goal <= {goal[name]})") for name in goal]
 
 
-def montecarlo_rows(runs, workers):
-    """No-guess Monte Carlo of gu2007 in one process and on a local Dask cluster."""
-    import tmakit as tk
-    from tmakit.montecarlo import monte_carlo
+def montecarlo_rows(runs, workers, repeat):
+    """No-guess Monte Carlo of gu2007: one process, a process pool, a local Dask cluster."""
+    from montecarlo_speed import rows
 
-    scn = tk.load_scenario("gu2007")
-    t0 = time.perf_counter()
-    one = monte_carlo(scn, runs=runs, seed=0, progress=False)
-    t_one = time.perf_counter() - t0
-    rows = [(f"Monte Carlo gu2007 no guess, {runs} runs, one process", f"{t_one:.2f} s",
-             "goal <= 10 s for 10,000 runs", t_one, f"converged {one.convergence_rate:.1%}")]
     try:
-        from distributed import Client, LocalCluster
+        import distributed  # noqa: F401
     except ImportError:
-        return rows
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
-        client.run(lambda: __import__("tmakit.montecarlo"))
-        t0 = time.perf_counter()
-        many = monte_carlo(scn, runs=runs, seed=0, progress=False, dask=client)
-        t_many = time.perf_counter() - t0
-    a, b = one.estimates(converged_only=False), many.estimates(converged_only=False)
-    same = a.shape == b.shape and bool(np.allclose(a, b, rtol=1e-9, atol=1e-9, equal_nan=True))
-    rows.append((f"Monte Carlo gu2007 no guess, {runs} runs, {workers} Dask workers",
-                 f"{t_many:.2f} s", f"one process {t_one:.2f} s", t_one / t_many,
-                 f"one/{workers} workers (goal > 1); same estimates: {same}"))
-    return rows
+        return rows(runs, workers, repeat, dask=False)
+    return rows(runs, workers, repeat)
 
 
 def manoeuvre_rows(sets, repeat):
@@ -145,7 +128,7 @@ def main():
     section("lm", lambda: _lm([100, 1000, 10000, 100000] if not q else [100, 10000, 100000],
                               3 if q else 7))
     section("threads", lambda: _threads(10 if q else 20, 3 if q else 7))
-    section("montecarlo", lambda: montecarlo_rows(1000 if q else 10_000, 2))
+    section("montecarlo", lambda: montecarlo_rows(1000 if q else 10_000, 2, 3))
     section("manoeuvre", lambda: manoeuvre_rows(1 if q else 3, 1))
 
 

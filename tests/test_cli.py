@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -187,6 +188,15 @@ def test_montecarlo_and_reproduce_commands(tmp_path):
     result = run("montecarlo", "gu2007", "--runs", "6", "--no-progress", "-o", str(table))
     assert result.exit_code == 0, result.output
     assert "RMSE/CRLB" in result.output and table.exists()
+    pool = run("montecarlo", "gu2007", "--runs", "6", "--no-progress", "--workers", "2",
+               "--chunk", "3", "-o", str(tmp_path / "pool.csv"))
+    assert pool.exit_code == 0 and "2 processes" in pool.output, pool.output
+    here, pooled = pd.read_csv(table), pd.read_csv(tmp_path / "pool.csv")
+    assert (here["status"] == pooled["status"]).all()
+    np.testing.assert_allclose(here.filter(like="est_"), pooled.filter(like="est_"), rtol=1e-6)
+    both = run("montecarlo", "gu2007", "--runs", "2", "--workers", "2", "--dask",
+               "tcp://127.0.0.1:1")
+    assert both.exit_code == 2 and "not both" in both.output
     again = run("montecarlo", "gu2007", "--runs", "6", "--no-progress", "-o", str(table))
     assert again.exit_code == 2 and "already exists" in again.output
     rep = run("reproduce", "gu2007", "--runs", "0")

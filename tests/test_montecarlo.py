@@ -232,6 +232,77 @@ def test_dask_local_cluster_gives_the_local_table(gu2007):
     assert remote.executor.startswith("dask ")
 
 
+def test_simulated_values_are_the_sets_simulate_gives(gu2007):
+    """One template and a values array: the draws and rows of simulate(), run by run."""
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(8).spawn(3)]
+    template, values = gu2007.simulate_values(rngs)
+    for r, child in enumerate(np.random.SeedSequence(8).spawn(3)):
+        one = gu2007.simulate(np.random.default_rng(child))
+        np.testing.assert_array_equal(values[r], one.value_si)
+        np.testing.assert_array_equal(template.time, one.time)
+        np.testing.assert_array_equal(template.sigma_si, one.sigma_si)
+    sets = gu2007.simulate_many([1, 2])
+    assert sets[1].metadata["seed"] == "2"
+    np.testing.assert_array_equal(sets[0].value_si, gu2007.simulate(1).value_si)
+
+
+def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
+    """Unobservable (a 3-D bearings-only fit), diverged and failed runs, summarised in one
+    batch, read as estimate() and a failed run do."""
+    from tmakit.batch.ml import Best, MaximumLikelihood
+    from tmakit.io.samples import replay_sample
+    from tmakit.montecarlo.ml_runs import solve_runs, summarise_runs
+
+    rep = tmp_path / "c.rep"
+    rep.write_text(replay_sample(0)[0])
+    tall = tk.read_measurements(rep, bearing_sigma=0.5, dim=3)
+    motion = tk.motion_from_name("cv3d")
+    one = estimate(tall, motion)
+    assert one.status == "unobservable"
+    problem, bests = solve_runs(MaximumLikelihood(), tall, np.stack([tall.value_si] * 2),
+                                motion)
+    bests += [Best(np.full(6, np.nan), bests[0].nuisance, np.inf, 3, False, 2),
+              ValueError("no start")]
+    got = summarise_runs(problem, bests, None)
+    assert got.status == ["unobservable", "unobservable", "diverged", None]
+    assert got.iterations.tolist() == [one.iterations] * 2 + [3, 0]
+    assert got.starts.tolist() == [one.starts] * 2 + [2, 0]
+    np.testing.assert_allclose(got.chi2[:2], one.chi2, rtol=1e-9)
+    assert np.isinf(got.chi2[2]) and np.isnan(got.chi2[3])
+    seen = [k for k, n in enumerate(motion.param_names) if n != "z"]  # z: not observed
+    np.testing.assert_allclose(got.estimates[:2, seen], [one.estimate[seen]] * 2, rtol=1e-6)
+    assert np.isnan(got.estimates[2:]).all() and list(got.failures) == [3]
+
+
+# -- worker processes --------------------------------------------------------------------------
+def test_two_worker_processes_give_the_one_process_table(gu2007):
+    """Same seed, same chunks: 1 and 2 workers give identical per-run results."""
+    one = monte_carlo(gu2007, runs=12, seed=3, progress=False, chunk=3)
+    two = monte_carlo(gu2007, runs=12, seed=3, progress=False, chunk=3, workers=2)
+    pd.testing.assert_frame_equal(one.table, two.table)
+    assert (one.executor, two.executor) == ("local", "2 processes")
+    saved = []
+    monte_carlo(gu2007, runs=5, seed=3, progress=False, chunk=2, workers=2,
+                on_chunk=saved.append)
+    assert sorted(o.first_run for o in saved) == [0, 2, 4]
+    pd.testing.assert_frame_equal(mc.finished_runs_table(saved, one.parameters),
+                                  one.table.iloc[:5])
+
+
+def test_chunks_keep_freed_memory_where_glibc_allows(gu2007):
+    """The allocator setting is taken once per process on Linux (glibc), and a study after it
+    gives the same table."""
+    import sys
+
+    from tmakit.montecarlo.memory import keep_freed_memory
+
+    before = monte_carlo(gu2007, runs=3, seed=12, progress=False)
+    if sys.platform.startswith("linux"):
+        assert keep_freed_memory() is True
+    after = monte_carlo(gu2007, runs=3, seed=12, progress=False)
+    pd.testing.assert_frame_equal(before.table, after.table)
+
+
 # -- the estimator registry --------------------------------------------------------------------
 def test_the_registry_names_the_estimators_and_what_they_accept(gu2007):
     assert mc.available_estimators() == tuple(METHODS)
@@ -286,6 +357,8 @@ def test_other_estimators_run_by_run_through_the_registry(monkeypatch, gu2007):
     ({"init": [1.0, 2.0]}, "init must give 4 values"),
     ({"init": {"x": 1.0}}, "missing y, vx, vy"),
     ({"dask": 42}, "dask must be a scheduler address"),
+    ({"workers": 0}, "workers must be a whole number >= 1, got 0"),
+    ({"workers": 2, "dask": "tcp://127.0.0.1:1"}, "either dask .* or workers"),
 ])
 def test_bad_arguments_raise_value_error_with_a_clear_message(gu2007, kwargs, message):
     if "dask" in kwargs:

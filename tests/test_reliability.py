@@ -89,7 +89,7 @@ def test_numerical_failure_names_what_was_computed(tmp_path, monkeypatch):
     monkeypatch.setattr("tmakit.scenario.ObservationModel", singular)
     result = run("simulate", "gu2007", "-o", tmp_path / "x.csv")
     assert result.exit_code == 3
-    assert "while computing tmakit.scenario.simulate_many" in result.output
+    assert "while computing tmakit.scenario.simulate_values" in result.output
     assert "LinAlgError: SVD did not converge" in result.output
     assert "Traceback" not in result.output
 
@@ -196,7 +196,8 @@ def test_montecarlo_interrupted_keeps_the_finished_runs(tmp_path, monkeypatch):
 
     real = study._execute
 
-    def interrupted_after_first_chunk(tasks, client, label, runs, progress, on_chunk=None):
+    def interrupted_after_first_chunk(tasks, client, label, runs, progress, on_chunk=None,
+                                      workers=1):
         real(tasks[:1], client, label, len(tasks[0].seeds), progress, on_chunk)
         raise KeyboardInterrupt
 

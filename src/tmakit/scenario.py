@@ -18,9 +18,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import rules
 from .data import MeasurementSet
-from .measurements import KINDS, interval_count
+from .measurements import KINDS
 from .motion import MotionModel
 from .observation import ObservationModel
+from .scenario_plan import MeasurementPlan, noisy_values, refuse_impossible
 from .sensors import SensorTrack
 from .units import snr_to_sigma_db
 
@@ -43,74 +44,6 @@ def as_generator(rng: RngLike) -> np.random.Generator:
     if isinstance(rng, np.random.Generator):
         return rng
     return np.random.default_rng(rng)
-
-
-@dataclass
-class MeasurementPlan:
-    """One stream of measurements: a kind from one sensor at given times, with its noise.
-
-    Parameters
-    ----------
-    kind : str
-        Measurement kind, a key of :data:`tmakit.measurements.KINDS` (``"bearing"``,
-        ``"frequency"``, ``"power"``, ``"range_difference"``, ...).
-    sensor : str
-        Id of the sensor (a key of :attr:`Scenario.sensors`).
-    times : array_like
-        Sample times (s), non-empty and increasing.
-    sigma : float, optional
-        Noise standard deviation in SI (rad for angles, rad/s for azimuth rate, dB for
-        power, Hz, m, m/s).  For range differences: that of one pulse interval's difference.
-    snr_db : float, optional
-        Power only, instead of ``sigma``: SNR_p (dB) of the multiplicative noise
-        ``P_measured = P (1 + e)``, ``var(e) = 1/SNR_p`` (Gu et al. (2007), §2).
-    pri : float, optional
-        Range differences only: the pulse repetition interval (s, > 0).
-    lags : tuple of int, optional
-        Range differences only: how many intervals back each difference reaches (>= 1);
-        the noise accumulates one term per interval (Chen & Sun, eq. 1).
-
-    Raises
-    ------
-    ValueError
-        If the kind is unknown, the times are empty or not increasing, ``sigma`` is missing
-        or not positive (power: both ``sigma`` and ``snr_db`` given), or a range-difference
-        plan has no positive ``pri`` or a lag below 1.
-
-    References
-    ----------
-    Gu et al. (2007), §2 (power noise); Chen & Sun, eq. 1 (range differences from ΔTOA).
-    """
-
-    kind: str
-    sensor: str
-    times: NDArray[np.float64]
-    sigma: float | None = None
-    snr_db: float | None = None
-    pri: float | None = None
-    lags: tuple[int, ...] = (1,)
-
-    def __post_init__(self) -> None:
-        """Check the plan and normalise ``times`` (float array) and ``lags`` (ints)."""
-        if self.kind not in KINDS:
-            raise ValueError(f"unknown measurement kind {self.kind!r}; expected one of "
-                             f"{', '.join(KINDS)}")
-        self.times = np.atleast_1d(np.asarray(self.times, dtype=float))
-        if self.times.ndim != 1 or self.times.size == 0 or np.any(np.diff(self.times) <= 0):
-            raise ValueError(f"{self.kind} from {self.sensor}: sample times must be a "
-                             "non-empty increasing list")
-        if self.kind == "power" and self.snr_db is not None:
-            if self.sigma is not None:
-                raise ValueError("power: give either snr_db or sigma, not both")
-        elif self.sigma is None or not self.sigma > 0:
-            raise ValueError(f"{self.kind} from {self.sensor}: sigma must be positive")
-        if KINDS[self.kind].uses_reference:  # range differences: pulse interval and lags
-            if self.pri is None or not self.pri > 0:
-                raise ValueError(f"{self.kind}: the pulse repetition interval pri (s) "
-                                 "must be positive")
-            if not self.lags or any(int(lag) < 1 for lag in self.lags):
-                raise ValueError(f"{self.kind}: lags must be whole numbers >= 1")
-            self.lags = tuple(int(lag) for lag in self.lags)
 
 
 @dataclass
@@ -305,6 +238,43 @@ class Scenario:
         ValueError
             As :meth:`simulate`.
         """
+        template, values = self.simulate_values(rngs, noise)
+        out = []
+        for rng, value_si in zip(rngs, values, strict=True):
+            meas = template.take(np.arange(len(template)))
+            meas.value_si = value_si
+            if isinstance(rng, int):
+                meas.metadata["seed"] = str(rng)
+            out.append(meas)
+        return out
+
+    def simulate_values(self, rngs: Sequence[RngLike], noise: bool = True
+                        ) -> tuple[MeasurementSet, NDArray[np.float64]]:
+        """Observe the scenario once per random source: the shared rows and each set's values.
+
+        Row ``i`` of ``values`` in the rows of ``template`` is what :meth:`simulate` gives for
+        ``rngs[i]`` (the same draws): Monte Carlo runs, without a set per run.  The rows are
+        checked once; each run's values only for being finite (the one rule noise can break).
+
+        Parameters
+        ----------
+        rngs : sequence of numpy.random.Generator, int or None
+            One random source or seed per set.
+        noise : bool, optional
+            Add the plans' measurement noise.
+
+        Returns
+        -------
+        template : MeasurementSet
+            The rows (times, sensors, kinds, sigmas, metadata), their noise-free values.
+        values : ndarray, shape (len(rngs), n)
+            Each set's values (SI: rad, m, m/s, Hz, dBW), in the template's row order.
+
+        Raises
+        ------
+        ValueError
+            As :meth:`simulate`.
+        """
         plans = []  # (plan, rows, noise-free values SI, model), in plan order
         states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
         for plan in self.plans:
@@ -312,7 +282,35 @@ class Scenario:
             self._refuse_coincident(plan, rows)
             obs = ObservationModel(rows, self.motion, self.measurement_options)
             clean = obs.predict(self.theta, obs.nuisance_vector(self.nuisance))
-            plans.append((plan, rows, clean, obs.models[plan.kind]))
+            plans.append((plan, rows, clean, obs.models[plan.kind].wrap_period))
+        template, order = self._template([rows for _, rows, _, _ in plans], noise)
+        values = np.empty((len(rngs) + 1, len(template)))  # the last: noise-free
+        for i in range(len(rngs) + 1):
+            gen = as_generator(rngs[i]) if noise and i < len(rngs) else None
+            parts = [clean if gen is None else noisy_values(plan, rows, clean, gen)
+                     for plan, rows, clean, _ in plans]
+            for k, (plan, rows, clean, period) in enumerate(plans):
+                if period is not None:  # files carry bearings in [0, 360) deg
+                    parts[k] = np.mod(parts[k], period)
+                if gen is not None:
+                    refuse_impossible(plan, rows, clean, parts[k], rngs[i])
+            values[i] = np.concatenate(parts)[order]
+        template.value_si, values = values[-1], values[:-1]
+        # NaN truth, infinite sigma, ...: the first set that breaks a rule names its rows, as
+        # simulate() would.
+        for i in np.flatnonzero(~np.isfinite(values).all(axis=1)):
+            bad = template.take(np.arange(len(template)))
+            bad.value_si = values[i]
+            rules.check_set(bad, order=False, ranges=False)
+        rules.check_set(template)  # the file's rules, time order and value ranges too
+        return template, values
+
+    def _template(self, parts: list[MeasurementSet], noise: bool
+                  ) -> tuple[MeasurementSet, NDArray[np.int64]]:
+        """Join the plans' rows in one set (by sensor, in time order); give the order too.
+
+        ``order[j]`` is the index, in the plans' rows one after the other, of the set's row j.
+        """
         meta = {
             "scenario": self.name,
             "motion": self.motion.name,
@@ -326,30 +324,11 @@ class Scenario:
         if self.origin is not None:
             meta["origin_lat"], meta["origin_lon"], meta["origin_alt"] = (
                 repr(float(v)) for v in self.origin)
-        # The rows of every plan, grouped by sensor and in time order: ``order`` maps them to
-        # the plans' rows one after the other.
-        n = [rows.time.shape[0] for _, rows, _, _ in plans]
-        for (_, rows, _, _), start in zip(plans, np.cumsum([0, *n[:-1]]), strict=True):
+        n = [rows.time.shape[0] for rows in parts]
+        for rows, start in zip(parts, np.cumsum([0, *n[:-1]]), strict=True):
             rows.value_si = start + np.arange(rows.time.shape[0], dtype=float)
-        template = MeasurementSet.concatenate([rows for _, rows, _, _ in plans], meta)
-        order = template.value_si.astype(int)
-        out = []
-        for rng in rngs:
-            gen = as_generator(rng)
-            values = []
-            for plan, rows, clean, model in plans:
-                value_si = self._noisy(plan, rows, clean, gen) if noise else clean
-                if model.wrap_period is not None:  # files carry bearings in [0, 360) deg
-                    value_si = np.mod(value_si, model.wrap_period)
-                self._refuse_impossible(plan, rows, clean, value_si, rng)
-                values.append(value_si)
-            meas = template.take(np.arange(len(template)))
-            meas.value_si = np.concatenate(values)[order]
-            if isinstance(rng, int):
-                meas.metadata["seed"] = str(rng)
-            rules.check_set(meas)  # the file's rules: NaN truth, infinite sigma, ...
-            out.append(meas)
-        return out
+        template = MeasurementSet.concatenate(parts, meta)
+        return template, template.value_si.astype(int)
 
     def _refuse_coincident(self, plan: MeasurementPlan, rows: MeasurementSet) -> None:
         """Refuse a target exactly at a sensor (bearings and ranges undefined there)."""
@@ -358,55 +337,6 @@ class Scenario:
         if at.size:
             raise ValueError(f"the target is exactly at sensor {plan.sensor!r} at t = "
                              f"{rows.time[at[0]]:g} s: its {plan.kind} is undefined there")
-
-    def _refuse_impossible(self, plan: MeasurementPlan, rows: MeasurementSet,
-                           clean: NDArray[np.float64], value_si: NDArray[np.float64],
-                           rng: RngLike) -> None:
-        """Refuse a noisy draw that no sensor can report: a negative range, ... (see docs).
-
-        The noise is not reflected nor drawn again: either would change the Gaussian noise
-        that the estimators and the bounds assume, without a word.
-        """
-        cls = KINDS[plan.kind]
-        if cls.value_range is None:
-            return
-        model = cls()
-        value = model.value_from_si(value_si)
-        bad = np.flatnonzero(np.isfinite(value) & ~cls.check_values(value))
-        if bad.size == 0:
-            return
-        i = int(bad[0])
-        seed = f" with seed {rng}" if isinstance(rng, int) else ""
-        raise ValueError(
-            f"the noise drew an impossible {plan.kind}{seed}: sensor {plan.sensor!r} at t = "
-            f"{rows.time[i]:g} s gives {value[i]:g} {cls.file_unit} (noise-free "
-            f"{model.value_from_si(clean[i]):g}, sigma "
-            f"{model.sigma_from_si(rows.sigma_si[i]):g}), expected {cls.describe_values()}; "
-            f"{bad.size} of {value.size} rows of this plan.  The Gaussian noise model does not "
-            "hold this close to the limit: lower the plan's sigma (or keep the target "
-            "farther from the limit)")
-
-    @staticmethod
-    def _noisy(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
-               gen: np.random.Generator) -> NDArray[np.float64]:
-        if plan.kind == "power" and plan.snr_db is not None:
-            # Gu et al. (2007), §2: P_hat = P + eta with var(eta / P) = 1 / SNR_p.
-            rel_noise = gen.standard_normal(clean.shape) / np.sqrt(10.0 ** (plan.snr_db / 10))
-            if np.any(rel_noise <= -1.0):
-                raise ValueError(f"power: SNR_p = {plan.snr_db} dB is too low for the "
-                                 "multiplicative noise model (a power came out negative); "
-                                 "give sigma in dB instead")
-            return clean + 10.0 * np.log10(1.0 + rel_noise)
-        if KINDS[plan.kind].uses_reference:
-            # One independent noise term per pulse interval, summed over each difference.
-            assert plan.pri is not None and plan.sigma is not None
-            t0 = float(rows.time_ref.min())
-            end = interval_count(rows.time, t0, plan.pri)
-            start = interval_count(rows.time_ref, t0, plan.pri)
-            steps = gen.standard_normal(int(end.max()) + 1) * plan.sigma
-            walk = np.concatenate([[0.0], np.cumsum(steps[1:])])
-            return clean + walk[end] - walk[start]
-        return clean + gen.standard_normal(clean.shape) * rows.sigma_si
 
     def summary(self) -> str:
         """Describe the scenario in a few lines.

@@ -28,6 +28,9 @@ def montecarlo(
     dask: Annotated[str | None, typer.Option(
         help="Dask scheduler address (tcp://host:8786); default: run here")] = None,
     chunk: Annotated[int | None, typer.Option(min=1, help="runs per task")] = None,
+    workers: Annotated[int, typer.Option(
+        min=1, help="worker processes on this machine, BLAS on one thread each (same table "
+        "for any number); not with --dask")] = 1,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the per-run table (.csv or .parquet); if the study is "
         "interrupted or fails, the finished runs go to NAME.partial.csv")] = None,
@@ -56,7 +59,8 @@ def montecarlo(
     try:
         res = monte_carlo(scn, estimator=estimator, runs=runs, seed=seed,
                           known_nuisance=known_nuisance, progress=not no_progress,
-                          dask=dask, chunk=chunk, on_chunk=finished.append)
+                          dask=dask, chunk=chunk, on_chunk=finished.append,
+                          workers=workers)
     except (ValueError, ImportError) as e:
         save_partial(finished, scn, partial)
         raise fail(str(e)) from None

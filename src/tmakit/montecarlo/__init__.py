@@ -12,7 +12,11 @@ One job per module:
   ``np.random.SeedSequence(seed)``, whatever the chunking), chunks, the CRLB.
 * :mod:`.runs` — one chunk of runs: simulate, estimate (the ``ml`` solves batched across
   runs, equal to :func:`tmakit.batch.estimate` run by run), record.
-* :mod:`.execution` — where the chunks run: this process or a Dask cluster; progress bar.
+* :mod:`.ml_runs` — the ``ml`` runs of a chunk: one batch of solves on the rows they share,
+  their status, chi-square and estimate summarised in one batch.
+* :mod:`.memory` — the allocator keeps the temporaries a chunk frees (glibc thresholds).
+* :mod:`.execution` — where the chunks run: this process, ``workers`` processes of this
+  machine, or a Dask cluster; progress bar.
 * :mod:`.estimators` — the estimator names a study accepts (the registry
   :mod:`tmakit.batch.methods`).
 * :mod:`.closed_loop` — :func:`closed_loop_study`: closed-loop runs of sensor planners

@@ -1,12 +1,16 @@
 """Where the chunks of a Monte Carlo study run.
 
-In this process or on a Dask cluster, with a progress bar.  Dask, distributed and tqdm are imported
-only when used.
+In this process, in a pool of worker processes on this machine, or on a Dask cluster, with a
+progress bar.  Every chunk computes the same runs wherever it runs, so the table does not
+depend on the executor or the number of workers.  Dask, distributed and tqdm are imported only
+when used.
 """
 
 from __future__ import annotations
 
 import math
+import multiprocessing
+import sys
 import warnings
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
@@ -24,6 +28,7 @@ __all__ = [
     "progress_bar",
     "run_dask",
     "run_local",
+    "run_pool",
 ]
 
 #: Runs per chunk when running in this process.
@@ -96,6 +101,75 @@ def run_local(tasks: Sequence[Any], bar: Any, fn: Callable[[Any], Any] = run_chu
         if on_done is not None:
             on_done(res)
         bar.update(len(res))
+    return outputs
+
+
+def _single_threaded_worker() -> None:
+    """Hold a pool worker's BLAS to one thread for its life (the cores go to the workers)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")
+
+
+def _pool_context() -> Any:
+    """Give the start method of the pool's workers.
+
+    Fork on Linux (a worker starts in milliseconds, tmakit already imported); else the
+    platform's default (spawn: each worker imports tmakit once).
+    """
+    methods = multiprocessing.get_all_start_methods()
+    if sys.platform.startswith("linux") and "fork" in methods:
+        return multiprocessing.get_context("fork")
+    return multiprocessing.get_context()
+
+
+def run_pool(tasks: Sequence[Any], workers: int, bar: Any, fn: Callable[[Any], Any] = run_chunk,
+             on_done: Callable[[Any], None] | None = None) -> list[Any]:
+    """Run the chunks in ``workers`` processes of this machine.
+
+    Each worker keeps BLAS to one thread; the chunks are handed out as workers free up, so
+    start-up (one process per worker, not per chunk) is paid once per study.
+
+    Parameters
+    ----------
+    tasks : sequence of ChunkTask
+        The chunks (or the tasks ``fn`` takes; picklable).
+    workers : int
+        Worker processes (>= 1).
+    bar : object
+        Progress bar (:func:`progress_bar`).
+    fn : callable, optional
+        What computes one chunk (default :func:`~.runs.run_chunk`), importable by the
+        workers; its output has ``len()``.
+    on_done : callable, optional
+        Called here with each chunk's output as soon as it arrives (to save it).
+
+    Returns
+    -------
+    list of ChunkOutput
+        In the order they finished (outputs of ``fn``).  An error or an interrupt cancels
+        the chunks not started and waits for the running ones.
+    """
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    outputs = []
+    with ProcessPoolExecutor(max_workers=min(workers, max(1, len(tasks))),
+                             mp_context=_pool_context(),
+                             initializer=_single_threaded_worker) as pool:
+        pending = {pool.submit(fn, task) for task in tasks}
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    res = fut.result()
+                    outputs.append(res)
+                    if on_done is not None:
+                        on_done(res)
+                    bar.update(len(res))
+        except BaseException:
+            for fut in pending:
+                fut.cancel()  # an error or an interrupt: start nothing more
+            raise
     return outputs
 
 

@@ -87,7 +87,7 @@ class MonteCarloResult:
     known_nuisance : KnownNuisance or None
         The nuisance values the estimator (and the bound) knew; None: estimated.
     executor : str
-        ``local`` or ``dask <address>``.
+        ``local``, ``<n> processes`` or ``dask <address>``.
     chunk : int
         Runs per task.
     failures : dict of int to str

@@ -3,9 +3,9 @@
 In this process or on a Dask worker.
 
 The maximum-likelihood estimator of a motion model without manoeuvres is batched across the
-runs of a chunk by :meth:`tmakit.batch.ml.MaximumLikelihood.fit_many` (the runs share times,
-sensors and noise; their noise-free rows are simulated once,
-:meth:`~tmakit.scenario.Scenario.simulate_many`), which gives each run the result of
+runs of a chunk (:mod:`.ml_runs`: the runs share times, sensors and noise, so their rows are
+simulated and checked once and only their values differ,
+:meth:`~tmakit.scenario.Scenario.simulate_values`), which gives each run the result of
 :func:`~tmakit.batch.ml.estimate`.  Other estimators (the registry of :mod:`.estimators`), and
 ``"ml"`` on a manoeuvring target, are called run by run.
 """
@@ -26,6 +26,8 @@ from ..blas import one_thread
 from ..data import MeasurementSet
 from ..results.nuisance import KnownNuisance
 from ..scenario import Scenario
+from .memory import keep_freed_memory
+from .ml_runs import solve_runs, summarise_runs
 
 __all__ = ["FAILED", "RUN_ERRORS", "ChunkOutput", "ChunkTask", "run_chunk"]
 
@@ -147,12 +149,14 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     """
     # One BLAS thread: a chunk's products are many and mid-sized, and the cores are shared
     # with the other chunks (workers or processes), where BLAS threads spin against them.
+    # The allocator keeps the temporaries it frees for the next iteration (.memory).
+    keep_freed_memory()
     with one_thread():
         scn = task.scenario
-        meas = scn.simulate_many([np.random.default_rng(s) for s in task.seeds])
+        rngs = [np.random.default_rng(s) for s in task.seeds]
         if task.estimator == "ml" and not is_manoeuvring(scn.motion):
-            return _ml_batched(task, meas)
-        return _per_run(task, meas)
+            return _ml_batched(task, *scn.simulate_values(rngs))
+        return _per_run(task, scn.simulate_many(rngs))
 
 
 def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
@@ -171,14 +175,20 @@ def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
     return out
 
 
-def _ml_batched(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
-    """:func:`tmakit.batch.ml.estimate` for every run of the chunk, the solves batched."""
-    scn = task.scenario
-    out = ChunkOutput.empty(task.first_run, len(meas), scn.motion.n_params)
+def _ml_batched(task: ChunkTask, meas: MeasurementSet, values: NDArray[np.float64]
+                ) -> ChunkOutput:
+    """:func:`tmakit.batch.ml.estimate` for every run of the chunk, the solves batched.
+
+    ``meas`` holds the rows the runs share, ``values`` each run's values (SI).
+    """
+    motion = task.scenario.motion
     ml = MaximumLikelihood(task.init, task.options, task.known_nuisance)
-    for i, res in enumerate(ml.fit_many(meas, scn.motion)):
-        if isinstance(res, Exception):
-            out.failures[task.first_run + i] = f"{type(res).__name__}: {res}"
-        else:
-            out.record(i, res)
+    problem, bests = solve_runs(ml, meas, values, motion)
+    got = summarise_runs(problem, bests, ml.known_nuisance)
+    out = ChunkOutput.empty(task.first_run, values.shape[0], motion.n_params)
+    for i, e in got.failures.items():
+        out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
+    out.status = [FAILED if st is None else st for st in got.status]
+    out.iterations, out.chi2, out.starts, out.estimates = (got.iterations, got.chi2,
+                                                           got.starts, got.estimates)
     return out

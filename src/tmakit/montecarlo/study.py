@@ -21,7 +21,14 @@ from ..bounds.fim import crlb
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario import Scenario
 from .estimators import check_estimator
-from .execution import dask_client, default_chunk, progress_bar, run_dask, run_local
+from .execution import (
+    dask_client,
+    default_chunk,
+    progress_bar,
+    run_dask,
+    run_local,
+    run_pool,
+)
 from .result import MonteCarloResult
 from .runs import ChunkOutput, ChunkTask
 
@@ -37,6 +44,15 @@ def _whole(value: object, name: str, minimum: int = 1) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
         raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
     return int(value)
+
+
+def _workers(workers: object, dask: object) -> int:
+    """Check ``workers`` (a whole number >= 1; above 1 not with ``dask``)."""
+    count = _whole(workers, "workers")
+    if count > 1 and dask is not None:
+        raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
+                         f"(workers={count})")
+    return count
 
 
 def _check_seed(seed: object) -> None:
@@ -81,19 +97,28 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
 
 
 def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
-             progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None
-             ) -> tuple[list[ChunkOutput], float]:
-    """Run the chunks here or on Dask; their outputs in run order and the wall time (s)."""
+             progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None,
+             workers: int = 1) -> tuple[list[ChunkOutput], float, str]:
+    """Run the chunks here, in worker processes or on Dask.
+
+    Their outputs in run order, the wall time (s) and the executor's description.
+    """
     bar = progress_bar(runs, progress, bar_label)
     start = time.perf_counter()
     try:
-        outputs = (run_local(tasks, bar, on_done=on_chunk) if client is None
-                   else run_dask(tasks, client, bar, on_done=on_chunk))
+        if client is not None:
+            outputs = run_dask(tasks, client, bar, on_done=on_chunk)
+        elif workers > 1:
+            outputs = run_pool(tasks, workers, bar, on_done=on_chunk)
+        else:
+            outputs = run_local(tasks, bar, on_done=on_chunk)
     finally:
         bar.close()
     wall = time.perf_counter() - start
     outputs.sort(key=lambda o: o.first_run)
-    return outputs, wall
+    executor = (f"dask {client.scheduler.address}" if client is not None
+                else f"{workers} processes" if workers > 1 else "local")
+    return outputs, wall, executor
 
 
 def finished_runs_table(outputs: Sequence[ChunkOutput], names: Sequence[str]
@@ -149,7 +174,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
                 known_nuisance: KnownNuisanceLike = False,
                 init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
                 dask: str | Client | None = None, chunk: int | None = None,
-                on_chunk: Callable[[ChunkOutput], None] | None = None) -> MonteCarloResult:
+                on_chunk: Callable[[ChunkOutput], None] | None = None,
+                workers: int = 1) -> MonteCarloResult:
     """Simulate ``scenario`` ``runs`` times, estimate each run, and compare with the CRLB.
 
     Parameters
@@ -176,9 +202,12 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         Send the chunks to a Dask cluster (its workers must import tmakit).
     chunk : int, optional
         Runs per task (default :func:`~.execution.default_chunk`).  The table is the same,
-        run for run, for any ``chunk`` and ``dask``.
+        run for run, for any ``chunk``, ``workers`` and ``dask``.
     on_chunk : callable, optional
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
+    workers : int, optional
+        Worker processes on this machine (default 1: this process), each with BLAS on one
+        thread (:func:`~.execution.run_pool`); not with ``dask``.
 
     Returns
     -------
@@ -188,13 +217,15 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     Raises
     ------
     ValueError
-        A bad argument (named), an unknown estimator or scenario, a manoeuvring target.
+        A bad argument (named), an unknown estimator or scenario, a manoeuvring target,
+        ``workers`` > 1 with ``dask``.
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
     scenario = _scenario(scenario)
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
+    workers = _workers(workers, dask)
     _check_seed(seed)
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
@@ -210,17 +241,23 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         size = chunk or default_chunk(runs, estimator, client)
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
-        outputs, wall = _execute(tasks, client, f"{scenario.name} {estimator}", runs, progress,
-                                 on_chunk)
-        executor = "local" if client is None else f"dask {client.scheduler.address}"
+        outputs, wall, executor = _execute(tasks, client, f"{scenario.name} {estimator}",
+                                           runs, progress, on_chunk, workers=workers)
     finally:
         if own_client and client is not None:
             client.close()
+    return _result(scenario, estimator, outputs, runs, opts, known,
+                   (wall, entropy, executor, size))
 
+
+def _result(scenario: Scenario, estimator: str, outputs: Sequence[ChunkOutput], runs: int,
+            opts: Options, known: KnownNuisance | None, how: tuple[float, int, str, int]
+            ) -> MonteCarloResult:
+    """Assemble the study's result: table, CRLB; ``how``: wall, seed, executor, chunk."""
     names = scenario.motion.param_names
     table, failures = _table(outputs, runs, names)
     bound = crlb(scenario, known_nuisance=known, options=opts)
     std = np.array([bound.std_of(n) for n in names])
+    wall, entropy, executor, size = how
     return MonteCarloResult(scenario.name, estimator, names, scenario.theta.copy(), std,
-                            table, wall, entropy, known, executor, size, failures,
-                            bound)
+                            table, wall, entropy, known, executor, size, failures, bound)

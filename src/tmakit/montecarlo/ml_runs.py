@@ -1,0 +1,210 @@
+"""The maximum-likelihood runs of a Monte Carlo chunk, solved and summarised as one batch.
+
+The runs share their rows (times, sensors, kinds, noise): one observation model serves them
+all, their values are one ``(runs, n)`` array (:meth:`tmakit.scenario.Scenario.simulate_values`)
+and every Levenberg–Marquardt solve is one batch, as in
+:meth:`tmakit.batch.ml.MaximumLikelihood.fit_many`.  What a study keeps of each run (status,
+iterations, chi-square, starts, estimate) is then computed for all runs at once: the Fisher
+information at every estimate in one product and its rank in one batched eigen-decomposition,
+with the test of :func:`tmakit.results.observability.analyse`, instead of a full
+:class:`~tmakit.results.EstimateResult` per run (its covariance, observability directions and
+messages, which a study does not keep).  ``tests/test_montecarlo.py`` pins the runs to
+:func:`tmakit.batch.estimate` run by run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..batch.ml import FIT_ERRORS, Best, MaximumLikelihood, solve_without_guess
+from ..batch.solver import VarProProblem, levenberg_marquardt
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from ..observation import ObservationModel
+from ..results.estimate import (
+    CONVERGED,
+    DIVERGED,
+    NOT_CONVERGED,
+    UNOBSERVABLE,
+    assemble_result,
+)
+from ..results.nuisance import KnownNuisance
+from ..results.observability import RANK_TOL
+
+__all__ = ["RunSummaries", "solve_runs", "summarise_runs"]
+
+#: Runs times rows of one block of the Fisher information (bounds its temporaries).
+BLOCK_ROWS = 200_000
+
+
+@dataclass
+class RunSummaries:
+    """What a study keeps of each run, in run order.
+
+    Parameters
+    ----------
+    status : list of str
+        ``converged``, ``did not converge``, ``unobservable`` or ``diverged``; ``None`` for a
+        run whose fit raised (its message in ``failures``).
+    iterations, starts : ndarray of int
+        Iterations of the solve that found the estimate; starting points solved.
+    chi2 : ndarray
+        Twice the final cost (inf for a diverged run, NaN for a failed one).
+    estimates : ndarray, shape (runs, p)
+        The motion parameters (SI; NaN for a diverged or failed run).
+    failures : dict of int to Exception
+        Index of the run (in the batch) to its error.
+    """
+
+    status: list[str | None]
+    iterations: NDArray[np.int64]
+    chi2: NDArray[np.float64]
+    starts: NDArray[np.int64]
+    estimates: NDArray[np.float64]
+    failures: dict[int, Exception] = field(default_factory=dict)
+
+
+def solve_runs(ml: MaximumLikelihood, meas: MeasurementSet, values: NDArray[np.float64],
+               motion: MotionModel) -> tuple[VarProProblem, list[Best | Exception]]:
+    """Solve every run's values on the shared rows, as :meth:`MaximumLikelihood.fit_many`.
+
+    Parameters
+    ----------
+    ml : MaximumLikelihood
+        The estimator (its ``init``, ``options``, ``known_nuisance``, ``grid``,
+        ``max_iter``).
+    meas : MeasurementSet
+        The rows the runs share (their values are not used).
+    values : ndarray, shape (runs, n)
+        Each run's values (SI), in the rows of ``meas``.
+    motion : MotionModel
+        A motion model without manoeuvres.
+
+    Returns
+    -------
+    problem : VarProProblem
+        The problem solved (observation and noise model, nuisance fixed or eliminated).
+    bests : list of Best or Exception
+        Per run: its best fit, or the error a fit of it alone raises.
+    """
+    known = ml.known_nuisance
+    obs = ObservationModel(meas, motion, ml.options)
+    fixed = None if known is None else obs.nuisance_vector(known.values)
+    problem = VarProProblem(obs, None, fixed)
+    if ml.init is not None:
+        init = ml.init
+        theta0 = (motion.theta(init) if isinstance(init, Mapping)
+                  else np.asarray(init, dtype=float)).reshape(1, -1)
+        sol = levenberg_marquardt(problem, values, np.repeat(theta0, values.shape[0], 0),
+                                  max_iter=ml.max_iter)
+        return problem, [Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
+                              int(sol.iterations[i]), bool(sol.converged[i]), 1)
+                         for i in range(values.shape[0])]
+    return problem, _without_guess(ml, problem, values)
+
+
+def _without_guess(ml: MaximumLikelihood, problem: VarProProblem,
+                   values: NDArray[np.float64]) -> list[Best | Exception]:
+    """No-guess solves of all runs; should the batch raise, each run alone."""
+    try:
+        found = solve_without_guess(problem, values, ml.grid, ml.max_iter)
+    except FIT_ERRORS as e:
+        if values.shape[0] == 1:
+            return [e]
+        return [r for i in range(values.shape[0])
+                for r in _without_guess(ml, problem, values[i:i + 1])]
+    return [ValueError("no starting point gives finite predictions; check the data")
+            if b is None else b for b in found]
+
+
+def summarise_runs(problem: VarProProblem, bests: list[Best | Exception],
+                   known: KnownNuisance | None) -> RunSummaries:
+    """Summarise each run's fit as :func:`~tmakit.results.estimate.assemble_result` would.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem solved (:func:`solve_runs`).
+    bests : list of Best or Exception
+        Per run its best fit or its error.
+    known : KnownNuisance or None
+        The nuisance values the runs were given (then not among the unknowns); None:
+        estimated.
+
+    Returns
+    -------
+    RunSummaries
+        Status (the information's rank at the estimate decides ``unobservable``),
+        iterations, chi-square, starts and estimate of every run.
+    """
+    obs = problem.obs
+    m, p = len(bests), obs.motion.n_params
+    out = RunSummaries([None] * m, np.zeros(m, np.int64), np.full(m, np.nan),
+                       np.zeros(m, np.int64), np.full((m, p), np.nan))
+    fitted: list[tuple[int, Best]] = []
+    for i, best in enumerate(bests):
+        if isinstance(best, Exception):
+            out.failures[i] = best
+            continue
+        out.iterations[i], out.starts[i] = best.iterations, best.starts
+        if np.all(np.isfinite(best.theta)) and np.isfinite(best.cost):
+            fitted.append((i, best))
+        else:
+            out.status[i], out.chi2[i] = DIVERGED, np.inf
+    block = max(1, BLOCK_ROWS // max(1, len(obs.meas)))
+    for lo in range(0, len(fitted), block):
+        _full_rank_block(problem, fitted[lo:lo + block], known, out)
+    return out
+
+
+def _full_rank_block(problem: VarProProblem, fits: list[tuple[int, Best]],
+                     known: KnownNuisance | None, out: RunSummaries) -> None:
+    """Status, chi2 and estimate of finite fits (run, fit), their information in a batch."""
+    theta = np.stack([b.theta for _, b in fits])
+    nu = np.stack([b.nuisance for _, b in fits])
+    j_theta, j_nu = problem.obs.jacobian_grouped(theta, nu)
+    jac = j_theta if known is not None else np.concatenate(
+        [j_theta, np.broadcast_to(j_nu, (*j_theta.shape[:-1], j_nu.shape[-1]))], axis=-1)
+    w = problem.noise.whiten(jac, axis=-2)
+    info = w.swapaxes(-1, -2) @ w
+    sound = np.isfinite(info).all(axis=(-2, -1))
+    full = np.zeros(len(fits), dtype=bool)
+    if sound.any():
+        full[sound] = _full_rank(info[sound])
+    for k, (i, best) in enumerate(fits):
+        if not sound[k]:  # what a single fit's result does with it, exactly
+            _one_by_one(problem, best, known, i, out)
+            continue
+        out.status[i] = (UNOBSERVABLE if not full[k] else
+                         CONVERGED if best.converged else NOT_CONVERGED)
+        out.chi2[i] = 2.0 * best.cost
+        out.estimates[i] = best.theta
+
+
+def _full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """``(B,)`` whether each information matrix has full rank (the test of ``analyse``)."""
+    d = np.diagonal(info, axis1=-2, axis2=-1)
+    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
+    evals = np.linalg.eigh(info * scale[:, :, None] * scale[:, None, :])[0]
+    top = np.maximum(evals[:, -1], np.finfo(float).tiny)
+    return ~(evals <= RANK_TOL * top[:, None]).any(axis=1)
+
+
+def _one_by_one(problem: VarProProblem, best: Best, known: KnownNuisance | None, i: int,
+                out: RunSummaries) -> None:
+    """Summarise one run through the full result (a fit whose information is not finite)."""
+    try:
+        res = assemble_result(problem.obs, problem.noise, best.theta, best.nuisance,
+                              best.cost, best.iterations, best.converged, "ml", best.starts,
+                              known, best.note)
+    except FIT_ERRORS as e:
+        out.failures[i] = e
+        out.iterations[i] = out.starts[i] = 0
+        return
+    out.status[i] = str(res.status)
+    out.chi2[i] = float(res.chi2)
+    out.estimates[i] = np.asarray(res.estimate, dtype=float)
