@@ -303,7 +303,8 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
 
 def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu: NDArray,
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
-                    known_nuisance: KnownNuisance | None, note: str = "") -> EstimateResult:
+                    known_nuisance: KnownNuisance | None, note: str = "", *,
+                    jacobian: tuple[NDArray, NDArray] | None = None) -> EstimateResult:
     """Return the result of a weighted least-squares fit of an observation model.
 
     Parameters
@@ -331,6 +332,9 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
         they were held at ``nu`` (their std are then 0).
     note : str, optional
         A sentence appended to the message.
+    jacobian : (ndarray, ndarray), optional
+        ``obs.jacobian_grouped(theta, nu)`` when the caller has it (computed for many fits
+        at once); default: computed here.
 
     Returns
     -------
@@ -346,7 +350,8 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)
-    j_theta, j_nu = obs.jacobian_grouped(theta, nu)  # the noise model is grouped too
+    j_theta, j_nu = (obs.jacobian_grouped(theta, nu) if jacobian is None  # grouped, like
+                     else jacobian)  # the noise model
     jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
     w = noise.whiten(jac, axis=-2)
     info = w.T @ w
