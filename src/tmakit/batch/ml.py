@@ -232,9 +232,10 @@ def same_rows(sets: Sequence[MeasurementSet]) -> bool:
     """
     a = sets[0]
     for b in sets[1:]:
-        if len(b) != len(a) or not (
-                np.array_equal(a.time, b.time) and np.array_equal(a.sensor, b.sensor)
-                and np.array_equal(a.kind, b.kind) and np.array_equal(a.sigma, b.sigma)
+        if len(b) != len(a) or a.sensor_names != b.sensor_names or not (  # codes: no text
+                np.array_equal(a.time, b.time) and np.array_equal(a.sensor_code, b.sensor_code)
+                and np.array_equal(a.kind_code, b.kind_code)
+                and np.array_equal(a.sigma_si, b.sigma_si)
                 and np.array_equal(a.sensor_state, b.sensor_state)
                 and np.array_equal(a.time_ref, b.time_ref, equal_nan=True)
                 and np.array_equal(a.ref_sensor_state, b.ref_sensor_state, equal_nan=True)):
