@@ -63,7 +63,7 @@ class GridSettings:
 
 
 def _reference_point(meas: MeasurementSet, t_mid: float) -> NDArray[np.float64]:
-    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * (meas.sensor != s))
+    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * ~meas.sensor_mask(s))
             for s in meas.sensors]
     return meas.sensor_state[near, :3].mean(axis=0)
 
@@ -76,11 +76,12 @@ def _positions(meas: MeasurementSet, t_mid: float, dim: int, g: GridSettings
     around the sensors.
     """
     ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
-    bearing_rows = np.flatnonzero(meas.kind == "bearing")
+    bearing_rows = np.flatnonzero(meas.kind_mask("bearing"))
     if bearing_rows.size:
         ends = []
-        for s in np.unique(meas.sensor[bearing_rows]):
-            rows = bearing_rows[meas.sensor[bearing_rows] == s]
+        codes = meas.sensor_code[bearing_rows]  # the sensors in the order of their ids
+        for c in sorted(np.unique(codes).tolist(), key=meas.sensor_names.__getitem__):
+            rows = bearing_rows[codes == c]
             ends.append(rows[np.argmin(np.abs(meas.time[rows] - t_mid))])
         origins = meas.sensor_state[ends, :3]
         dirs = _directions(meas.value_si[ends], _elevations(dim, tuple(g.elevations_deg)))

@@ -373,7 +373,7 @@ def best_starts(problem: VarProProblem, y: NDArray[np.float64],
 
 def _data_dependent(problem: VarProProblem) -> bool:
     """Tell whether the candidate set depends on the data (rays along measured bearings)."""
-    return bool(np.any(problem.obs.meas.kind == "bearing"))
+    return bool(np.any(problem.obs.meas.kind_mask("bearing")))
 
 
 def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],

@@ -352,7 +352,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
     b = ys.shape[0]
     dof = problem.noise.rank - problem.p - (0 if problem.fixed is not None else problem.k)
-    has_bearings = bool(np.any(problem.obs.meas.kind == "bearing"))
+    has_bearings = bool(np.any(problem.obs.meas.kind_mask("bearing")))
     starts = best_starts_many(problem, ys, g)
     best: list[Best | None] = [None] * b
 
