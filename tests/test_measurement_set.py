@@ -85,6 +85,7 @@ def test_from_si_holds_si_exactly_and_derives_file_units():
         MeasurementSet.from_si([0], ["a"], ["range"], [1.0, 2.0], [1.0], np.zeros((1, 6)))
 
 
+@pytest.mark.filterwarnings("ignore:overflow encountered")  # 1e307 rad in degrees
 @pytest.mark.parametrize("column, bad, message", [
     ("value_si", np.nan, "row 2, column 'value': expected a finite number, found nan"),
     ("value_si", 1e307, "row 2, column 'value': expected a finite number, found inf"),
