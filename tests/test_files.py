@@ -538,3 +538,29 @@ def test_a_bad_cell_past_the_first_chunk_keeps_its_row_number(tmp_path, monkeypa
     rows[4] = "4,a,bearing,10,-1.50,0,0,5,0,"
     message = refused(write_csv(tmp_path, rows))
     assert "row 5 (line 7), column 'sigma'" in message and "-1.50" in message
+
+
+_RECORD_BODIES = [b"a,b,c\n1,2,3\n", b"a,b,c\n1,2,3", b"a,b,c\n\n1,2,3\n\n\n4,5\n",
+                  b"a, b ,c\n1,2,3,4\n,,\n \n", b"a,a,\n1,2,3\n", b"a,b\n", b"a,b",
+                  b"x\n1\n\n2\n\n"]
+
+
+@pytest.mark.parametrize("body", _RECORD_BODIES)
+@pytest.mark.parametrize("scan", [3, 1 << 22])
+def test_plain_record_split_equals_the_csv_module(monkeypatch, body, scan):
+    """The NumPy split of a quote-free body gives the csv module's header, lines, problems."""
+    from tmakit.io import csv_file
+    from tmakit.io.errors import MeasurementFileError
+
+    def outcome() -> tuple:
+        try:
+            names, lines = csv_file._record_lines(Path("x.csv"), body, 4)
+        except MeasurementFileError as e:
+            return ("refused", e.problems)
+        return ("read", names, lines.tolist())
+
+    monkeypatch.setattr(csv_file, "_SCAN_BYTES", scan)  # scanned in pieces, too
+    assert csv_file._plain_records(body, 4) is not None  # the NumPy split is used
+    plain = outcome()
+    monkeypatch.setattr(csv_file, "_plain_records", lambda body, pre_lines: None)
+    assert plain == outcome()

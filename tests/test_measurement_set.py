@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -82,3 +83,20 @@ def test_from_si_holds_si_exactly_and_derives_file_units():
     assert np.array_equal(joined.value_si, value_si[[0, 1, 1, 2]])
     with pytest.raises(ValueError, match="value"):
         MeasurementSet.from_si([0], ["a"], ["range"], [1.0, 2.0], [1.0], np.zeros((1, 6)))
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered")  # 1e307 rad in degrees
+@pytest.mark.parametrize("column, bad, message", [
+    ("value_si", np.nan, "row 2, column 'value': expected a finite number, found nan"),
+    ("value_si", 1e307, "row 2, column 'value': expected a finite number, found inf"),
+    ("sigma_si", 0.0, "row 2, column 'sigma': expected a noise standard deviation > 0"),
+    ("sigma_si", -np.inf, "row 2, column 'sigma': expected a finite number, found -inf")])
+def test_a_set_built_in_si_is_refused_with_the_file_unit_cell(column, bad, message):
+    """SI sets skip the cell rules only when every cell plainly obeys them."""
+    cols = {"value_si": np.array([0.1, 0.2, 0.3]), "sigma_si": np.full(3, 0.01)}
+    MeasurementSet.from_si([0, 1, 2], ["a"] * 3, ["bearing"] * 3, cols["value_si"],
+                           cols["sigma_si"], np.zeros((3, 6)))
+    cols[column][1] = bad
+    with pytest.raises(ValueError, match=re.escape(message)):
+        MeasurementSet.from_si([0, 1, 2], ["a"] * 3, ["bearing"] * 3, cols["value_si"],
+                               cols["sigma_si"], np.zeros((3, 6)))

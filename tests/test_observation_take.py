@@ -73,3 +73,17 @@ def test_independent_noise_model_equals_the_one_made_from_the_set():
     assert not made.correlated
     for key in vars(made):
         assert _same(getattr(direct, key), getattr(made, key)), key
+
+
+def test_jacobians_of_many_fits_each_equal_the_fit_alone_bit_for_bit():
+    """``each=True``: every row of a batch linearised as for it alone (fit_many's results)."""
+    scn = tk.load_scenario("gu2007")
+    obs = ObservationModel(scn.simulate(rng=1), scn.motion, scn.measurement_options)
+    truth = scn.motion.theta(scn.truth)
+    thetas = np.stack([truth, truth * 1.01, truth + 50.0])
+    nus = np.stack([np.linspace(1.0, 2.0, obs.n_nuisance) * (i + 1) for i in range(3)])
+    j_theta, j_nu = obs.jacobian_grouped(thetas, nus, each=True)
+    for i in range(3):
+        alone_theta, alone_nu = obs.jacobian_grouped(thetas[i], nus[i])
+        assert np.array_equal(j_theta[i], alone_theta)
+        assert np.array_equal(j_nu[i], alone_nu)

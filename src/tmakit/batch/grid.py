@@ -14,9 +14,11 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
+from ..data import MeasurementSet
+from ..motion import MotionModel
 from .solver import VarProProblem
 
-__all__ = ["GridSettings", "grid_candidates"]
+__all__ = ["GridSettings", "grid_candidates", "grid_candidates_for"]
 
 @dataclass(frozen=True)
 class GridSettings:
@@ -60,33 +62,32 @@ class GridSettings:
     refine: int = 256
 
 
-def _reference_point(problem: VarProProblem, t_mid: float) -> NDArray[np.float64]:
-    meas = problem.obs.meas
-    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * (meas.sensor != s))
+def _reference_point(meas: MeasurementSet, t_mid: float) -> NDArray[np.float64]:
+    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * ~meas.sensor_mask(s))
             for s in meas.sensors]
     return meas.sensor_state[near, :3].mean(axis=0)
 
 
-def _positions(problem: VarProProblem, t_mid: float, dim: int, g: GridSettings
+def _positions(meas: MeasurementSet, t_mid: float, dim: int, g: GridSettings
                ) -> NDArray[np.float64]:
     """Return candidate positions ``(m, 3)``: rays x elevations x ranges, in that order.
 
     The rays go from each bearing sensor along its bearing nearest ``t_mid``, or fan out
     around the sensors.
     """
-    meas = problem.obs.meas
     ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
-    bearing_rows = np.flatnonzero(meas.kind == "bearing")
+    bearing_rows = np.flatnonzero(meas.kind_mask("bearing"))
     if bearing_rows.size:
         ends = []
-        for s in np.unique(meas.sensor[bearing_rows]):
-            rows = bearing_rows[meas.sensor[bearing_rows] == s]
+        codes = meas.sensor_code[bearing_rows]  # the sensors in the order of their ids
+        for c in sorted(np.unique(codes).tolist(), key=meas.sensor_names.__getitem__):
+            rows = bearing_rows[codes == c]
             ends.append(rows[np.argmin(np.abs(meas.time[rows] - t_mid))])
         origins = meas.sensor_state[ends, :3]
         dirs = _directions(meas.value_si[ends], _elevations(dim, tuple(g.elevations_deg)))
     else:
         dirs = _fan(g.n_bearings, dim, tuple(g.elevations_deg))
-        origins = np.broadcast_to(_reference_point(problem, t_mid), (dirs.shape[0], 3))
+        origins = np.broadcast_to(_reference_point(meas, t_mid), (dirs.shape[0], 3))
     pts = (origins[:, None, None, :]
            + ranges[None, None, :, None] * dirs[:, :, None, :]).reshape(-1, 3)
     if dim == 2:
@@ -155,11 +156,30 @@ def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
     ndarray, shape (m, p)
         Motion parameters (SI) of the grid's states at the median measurement time.
     """
+    return grid_candidates_for(problem.obs.meas, problem.obs.motion, settings)
+
+
+def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
+                        settings: GridSettings | None = None) -> NDArray[np.float64]:
+    """Return :func:`grid_candidates` from the measurements and motion model themselves.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements that place the grid (times, sensors, measured bearings).
+    motion : MotionModel
+        The motion model that converts it.
+    settings : GridSettings, optional
+        Extent and density (default :class:`GridSettings()`).
+
+    Returns
+    -------
+    ndarray, shape (m, p)
+        Motion parameters (SI) of the grid's states at the median measurement time.
+    """
     g = settings or GridSettings()
-    motion = problem.obs.motion
-    meas = problem.obs.meas
     t_mid = float(np.median(meas.time))
-    pos = _positions(problem, t_mid, motion.dim, g)
+    pos = _positions(meas, t_mid, motion.dim, g)
     moving = "vx" in motion.param_names or "speed" in motion.param_names
     vel = _velocities(tuple(g.speeds), g.n_courses) if moving else np.zeros((1, 3))
     # Component-major (each component of every state contiguous): the conversion then runs

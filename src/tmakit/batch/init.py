@@ -22,7 +22,7 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
-from .grid import GridSettings, grid_candidates
+from .grid import GridSettings, grid_candidates, grid_candidates_for
 from .solver import VarProProblem
 
 __all__ = ["GridScorer", "GridSettings", "Starts", "best_starts", "best_starts_many",
@@ -373,7 +373,7 @@ def best_starts(problem: VarProProblem, y: NDArray[np.float64],
 
 def _data_dependent(problem: VarProProblem) -> bool:
     """Tell whether the candidate set depends on the data (rays along measured bearings)."""
-    return bool(np.any(problem.obs.meas.kind == "bearing"))
+    return bool(np.any(problem.obs.meas.kind_mask("bearing")))
 
 
 def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
@@ -404,7 +404,8 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
     if _data_dependent(problem):
         out = []
         for b in range(ys.shape[0]):
-            cand = grid_candidates(_with_values(small, stages[1][1][b]), g)
+            cand = grid_candidates_for(_with_values(small, stages[1][1][b]),
+                                       problem.obs.motion, g)
             cand, cost = _scores(stages, cand, g.refine, b)
             out.append(Starts(cand, cost[0]))
         return out
@@ -433,18 +434,19 @@ def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
     return cand, GridScorer(small, cand).score(y_small)
 
 
-def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> VarProProblem:
-    """Return the problem whose measurement set carries the values ``y`` (grouped order).
+def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> MeasurementSet:
+    """Return the problem's measurement set carrying the values ``y`` (grouped order).
 
-    The grid can then follow this data set's measured bearings.
+    The grid can then follow this data set's measured bearings.  The set itself when it
+    carries them already (a fit of one set).
     """
-    from ..observation import ObservationModel
-
     meas = problem.obs.meas
+    values = y_grouped[problem.obs.inverse]
+    if np.array_equal(values, meas.value_si):
+        return meas
     copy = meas.take(np.arange(len(meas)))
-    copy.value_si = y_grouped[problem.obs.inverse]
-    obs = ObservationModel(copy, problem.obs.motion, problem.obs.options)
-    return VarProProblem(obs, problem.noise, problem.fixed)
+    copy.value_si = values
+    return copy
 
 
 def grid_start(meas: MeasurementSet, motion: MotionModel,

@@ -27,6 +27,7 @@ from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options
 from .init import GridSettings, best_starts_many, subsample
+from .mirror import mirror_plane, prefer_above
 from .solver import VarProProblem, levenberg_marquardt
 
 
@@ -148,6 +149,7 @@ class MaximumLikelihood(BatchEstimator):
         problem = VarProProblem(obs, None, fixed)
         ys = np.stack([m.value_si for m in sets])
         bests = self._solve(problem, ys, theta0)
+        jacobians = _jacobians(problem.obs, bests)
         out: list[EstimateResult | Exception] = []
         for best in bests:
             if isinstance(best, Exception):
@@ -157,7 +159,7 @@ class MaximumLikelihood(BatchEstimator):
                 out.append(assemble_result(problem.obs, problem.noise, best.theta,
                                            best.nuisance, best.cost, best.iterations,
                                            best.converged, self.name, best.starts, known,
-                                           best.note))
+                                           best.note, jacobian=jacobians.get(id(best))))
             except FIT_ERRORS as e:  # pragma: no cover - the bound of a finite fit
                 out.append(e)
         return out
@@ -192,6 +194,23 @@ class MaximumLikelihood(BatchEstimator):
                 if b is None else b for b in found]
 
 
+def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
+               ) -> dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """Return the grouped Jacobians at several finite fits in one evaluation, by ``id(fit)``.
+
+    Each equal bit for bit to the one of its fit alone.  Empty for fewer than two such fits
+    (:func:`assemble_result` then makes its own).
+    """
+    fits = [b for b in bests if isinstance(b, Best)
+            and np.all(np.isfinite(b.theta)) and np.isfinite(b.cost)]
+    if len(fits) < 2:
+        return {}
+    j_theta, j_nu = obs.jacobian_grouped(np.stack([b.theta for b in fits]),  # each bit for
+                                         np.stack([b.nuisance for b in fits]), each=True)  # bit
+    j_nu = np.broadcast_to(j_nu, (len(fits), *j_nu.shape[-2:]))
+    return {id(b): (j_theta[i], j_nu[i]) for i, b in enumerate(fits)}
+
+
 FIT_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
 """Errors a fit may raise on one unlucky data set; :meth:`MaximumLikelihood.fit_many` returns
 them per set."""
@@ -213,9 +232,10 @@ def same_rows(sets: Sequence[MeasurementSet]) -> bool:
     """
     a = sets[0]
     for b in sets[1:]:
-        if len(b) != len(a) or not (
-                np.array_equal(a.time, b.time) and np.array_equal(a.sensor, b.sensor)
-                and np.array_equal(a.kind, b.kind) and np.array_equal(a.sigma, b.sigma)
+        if len(b) != len(a) or a.sensor_names != b.sensor_names or not (  # codes: no text
+                np.array_equal(a.time, b.time) and np.array_equal(a.sensor_code, b.sensor_code)
+                and np.array_equal(a.kind_code, b.kind_code)
+                and np.array_equal(a.sigma_si, b.sigma_si)
                 and np.array_equal(a.sensor_state, b.sensor_state)
                 and np.array_equal(a.time_ref, b.time_ref, equal_nan=True)
                 and np.array_equal(a.ref_sensor_state, b.ref_sensor_state, equal_nan=True)):
@@ -332,7 +352,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
     b = ys.shape[0]
     dof = problem.noise.rank - problem.p - (0 if problem.fixed is not None else problem.k)
-    has_bearings = bool(np.any(problem.obs.meas.kind == "bearing"))
+    has_bearings = bool(np.any(problem.obs.meas.kind_mask("bearing")))
     starts = best_starts_many(problem, ys, g)
     best: list[Best | None] = [None] * b
 
@@ -418,67 +438,6 @@ def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.
     pre = levenberg_marquardt(small, ys[:, rows], theta, max_iter=max_iter)
     ok = pre.converged & np.isfinite(pre.cost)
     return np.where(ok[:, None], pre.theta, theta), bool(ok.all())
-
-
-def mirror_plane(problem: VarProProblem) -> float | None:
-    """Return the height of a plane through every sensor that mirrors the track unseen.
-
-    Reflecting the track through it leaves every measurement unchanged when all sensors are at
-    one height, none moves vertically, every kind is ``mirror_symmetric`` (elevation is not)
-    and the motion is 3-D.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem (its measurements and motion model).
-
-    Returns
-    -------
-    float or None
-        The plane's height (m), or None when there is no such plane.
-    """
-    meas, motion = problem.obs.meas, problem.obs.motion
-    if (motion.dim != 3 or "z" not in motion.param_names
-            or not np.all(meas.kind_flag("mirror_symmetric"))):
-        return None
-    z = np.concatenate([meas.sensor_state[:, 2], meas.ref_sensor_state[:, 2]])
-    z = z[np.isfinite(z)]
-    vz = meas.sensor_state[:, 5]
-    if z.size == 0 or np.ptp(z) > 1e-9 * max(1.0, np.abs(z).max()) or np.any(vz != 0):
-        return None
-    return float(z[0])
-
-
-def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
-                 ) -> tuple[NDArray[np.float64], str]:
-    """Choose, of a track and its mirror image through the sensors' plane, the one above.
-
-    Parameters
-    ----------
-    motion : MotionModel
-        The motion model (with parameters ``z`` and maybe ``vz``).
-    theta : ndarray, shape (p,)
-        The fitted motion parameters (SI).
-    plane : float
-        Height of the sensors' plane (m).
-
-    Returns
-    -------
-    theta : ndarray, shape (p,)
-        The track above the plane.
-    note : str
-        A sentence saying so.
-    """
-    names = motion.param_names
-    theta = np.array(theta, dtype=float)
-    iz = names.index("z")
-    note = (f"z is ambiguous: the mirror image through the sensors' plane z = {plane:g} m fits "
-            "exactly as well (no elevation is measured); the solution above it is reported")
-    if theta[iz] < plane:
-        theta[iz] = 2.0 * plane - theta[iz]
-        if "vz" in names:
-            theta[names.index("vz")] *= -1.0
-    return theta, note
 
 
 def plausible_chi2(chi2: float, dof: int) -> bool:

@@ -404,9 +404,11 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
                 runs.cur = cur.take(slice(None))
             runs.cur.put(better, trial, better)
             runs.model = None
-        runs.rejected = np.where(better, 0, runs.rejected + 1)
         give_up = runs.lam > 1e12
         if rules.max_reject is not None:
+            runs.rejected = np.where(better, 0, runs.rejected + 1)
             give_up |= runs.rejected >= rules.max_reject
-        runs.stop(tiny | give_up | runs.stalled(iteration, rules.stall), tiny)
+        if runs.history is not None:  # (``stall`` set)
+            give_up |= runs.stalled(iteration, rules.stall)
+        runs.stop(tiny | give_up, tiny)
     return runs

@@ -132,6 +132,7 @@ class VarProProblem:
         self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
         self.angle = obs.angle_mask_grouped
         self.has_angle = bool(self.angle.any())
+        self.all_angle = bool(self.angle.all())  # every row an angle: wrap without a mask
         self.eliminates = self.fixed is None and self.k > 0
         # The geometry-free part of the design, whitened once (see ObservationModel).
         self.const_design = obs.const_design
@@ -324,7 +325,9 @@ class VarProProblem:
         e = u - lin.h0
         if self.k:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]
-        if self.has_angle:
+        if self.all_angle:
+            e = wrap_angle(e)
+        elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         r = self.noise.whiten(e)
         nu = nu_star

@@ -44,9 +44,15 @@ def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], N
     """Read the header names and the line of each data record.
 
     The csv module knows quoted fields that span lines; the body is decoded line by line
-    (never held as one str).  A missing or bad header and unreadable or ragged records are
-    refused (:class:`MeasurementFileError`).
+    (never held as one str).  A body without quotes, carriage returns or NUL bytes (what
+    tmakit writes) has one record per line: it is split with NumPy instead
+    (:func:`_plain_records`, the same names, lines and problems).  A missing or bad header
+    and unreadable or ragged records are refused (:class:`MeasurementFileError`).
     """
+    plain = _plain_records(body, pre_lines)
+    if plain is not None:
+        header, header_line, lines, problems = plain
+        return _checked_header(path, header, header_line, problems), lines
     reader = csv.reader(io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline=""))
     header = next(reader, None)
     if header is None:
@@ -54,16 +60,7 @@ def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], N
             "the file has no header line; expected the columns "
             f"{', '.join(COLUMN_ORDER[:5])}, ..."])
     header_line = pre_lines + reader.line_num
-    names = [h.strip() for h in header]
-    seen: set[str] = set()  # linear in the columns (a list search would be quadratic)
-    problems = []
-    for name in names:
-        if name in seen:
-            problems.append(f"line {header_line}: column {name!r} appears more than once in "
-                            "the header")
-        seen.add(name)
-    problems += [f"line {header_line}: column {i + 1} of the header has no name"
-                 for i, name in enumerate(names) if not name]
+    problems: list[str] = []
     lines = array("q")  # 8 bytes per row (a list of ints takes 36)
     while True:
         start = reader.line_num
@@ -81,9 +78,69 @@ def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], N
             problems.append(
                 f"row {len(lines)} (line {lines[-1]}): expected {len(header)} fields (one per "
                 f"header column), found {len(record)}")
+    return (_checked_header(path, header, header_line, problems),
+            np.frombuffer(lines, dtype=np.int64))
+
+
+def _checked_header(path: Path, header: list[str], header_line: int,
+                    record_problems: list[str]) -> list[str]:
+    """Return the stripped header names; refuse duplicates, unnamed columns, bad records."""
+    names = [h.strip() for h in header]
+    seen: set[str] = set()  # linear in the columns (a list search would be quadratic)
+    problems = []
+    for name in names:
+        if name in seen:
+            problems.append(f"line {header_line}: column {name!r} appears more than once in "
+                            "the header")
+        seen.add(name)
+    problems += [f"line {header_line}: column {i + 1} of the header has no name"
+                 for i, name in enumerate(names) if not name]
+    problems += record_problems
     if problems:
         raise MeasurementFileError(path, problems)
-    return names, np.frombuffer(lines, dtype=np.int64)
+    return names
+
+
+#: Bytes of the body scanned at a time by :func:`_plain_records` (bounds its temporaries).
+_SCAN_BYTES = 1 << 22
+
+
+def _plain_records(body: bytes, pre_lines: int
+                   ) -> tuple[list[str], int, NDArray[np.int64], list[str]] | None:
+    """Split a body without quotes, carriage returns or NUL bytes into its records, in NumPy.
+
+    Each line is then one record of ``commas + 1`` fields and an empty line is skipped, as
+    the csv module reads it.  Returns the header fields, the header's line, each record's
+    line and the ragged-record problems; None when the body needs the csv module (quotes,
+    carriage returns, NUL, an empty first line, a line longer than the csv module's field limit).
+    """
+    if not body or b'"' in body or b"\r" in body or b"\0" in body:
+        return None
+    arr = np.frombuffer(body, dtype=np.uint8)
+    n = arr.size
+    ends = np.concatenate([np.flatnonzero(arr[lo:lo + _SCAN_BYTES] == 10) + lo
+                           for lo in range(0, n, _SCAN_BYTES)])
+    if ends.size == 0 or ends[-1] != n - 1:
+        ends = np.append(ends, n)  # the last line has no line end
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    length = ends - starts
+    if length[0] == 0 or length.max() > csv.field_size_limit():
+        return None
+    commas = np.empty(starts.size, dtype=np.int64)
+    cuts = np.unique(np.searchsorted(starts, np.arange(0, n, _SCAN_BYTES)))
+    cuts = cuts[cuts < starts.size].tolist()
+    for i0, i1 in zip(cuts, [*cuts[1:], starts.size], strict=True):
+        lo, hi = int(starts[i0]), int(ends[i1 - 1]) + 1  # whole lines, line ends included
+        seg = (arr[lo:hi] == 44).view(np.uint8)  # the commas
+        commas[i0:i1] = np.add.reduceat(seg, starts[i0:i1] - lo, dtype=np.int64)
+    header = body[:int(ends[0])].decode("utf-8").split(",")
+    kept = np.flatnonzero(length[1:] > 0) + 1  # a blank line is skipped, as pandas does
+    lines = pre_lines + kept + 1
+    fields = commas[kept] + 1
+    problems = [f"row {r + 1} (line {lines[r]}): expected {len(header)} fields (one per header "
+                f"column), found {fields[r]}"
+                for r in np.flatnonzero(fields != len(header)).tolist()]
+    return header, pre_lines + 1, lines.astype(np.int64), problems
 
 
 def _read_frame(body: bytes, names: list[str], as_text: bool) -> pd.DataFrame:

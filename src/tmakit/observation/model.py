@@ -25,6 +25,7 @@ from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .affine_rows import AffineRows
+from .linearisation import Linearisation
 from .rows import RowModel, nuisance_layout
 
 
@@ -176,21 +177,24 @@ class ObservationModel:
         return AffineRows(terms[0], terms[1] - sensor.T, self.motion.n_params)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
-                      rel_map: AffineRows | None, batch_inner: bool = False
-                      ) -> Array:
+                      rel_map: AffineRows | None, batch_inner: bool = False,
+                      each: bool = False) -> Array:
         """Relative states ``(..., m, 6)`` of the target at ``times`` seen from ``sensor``.
 
         With an affine motion model one matrix product gives them, component-major in memory
         (``rel[..., i]`` is contiguous), which the measurement models' formulas prefer; with
         ``batch_inner`` (a 2-D ``theta`` of many rows, such as a grid of candidates) the batch
         axis is the fastest in memory, so that the formulas run over long contiguous rows
-        even when ``m`` is small.
+        even when ``m`` is small; with ``each``, those of each row of a 2-D ``theta`` as for
+        it alone (bit for bit).
         """
         if rel_map is None:
             return self.motion.states(theta, times) - sensor
         m = times.shape[0]
         if theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1):
             return rel_map.single(theta)
+        if each and theta.ndim == 2:
+            return np.stack([rel_map.single(t) for t in theta])
         if batch_inner and theta.ndim == 2:
             flat = matmul(np.ascontiguousarray(rel_map.matrix.T), theta.T)
             flat += rel_map.flat_offset[:, None]
@@ -199,16 +203,17 @@ class ObservationModel:
         flat += rel_map.flat_offset
         return flat.reshape(*theta.shape[:-1], 6, m).swapaxes(-1, -2)
 
-    def _relative(self, theta: Array, batch_inner: bool = False
+    def _relative(self, theta: Array, batch_inner: bool = False, each: bool = False
                   ) -> tuple[Array, Array | None]:
         """Relative states (..., n, 6), grouped, and (..., n_rd, 6) at references (or None)."""
         theta = self.motion.check_theta(theta)
-        rel = self._states_minus(theta, self._time, self._sensor, self._rel_map, batch_inner)
+        rel = self._states_minus(theta, self._time, self._sensor, self._rel_map, batch_inner,
+                                 each)
         rel_ref = None
         if self._ref is not None:
             g, sl = self.grouped, self._ref
             rel_ref = self._states_minus(theta, g.time_ref[sl], g.ref_sensor_state[sl],
-                                         self._rel_map_ref, batch_inner)
+                                         self._rel_map_ref, batch_inner, each)
         return rel, rel_ref
 
     @property
@@ -222,7 +227,8 @@ class ObservationModel:
             self._const_design = self.row_model.const_design()
         return self._const_design
 
-    def linearisation(self, theta: ArrayLike, derivatives: bool = True) -> Linearisation:
+    def linearisation(self, theta: ArrayLike, derivatives: bool = True, each: bool = False
+                      ) -> Linearisation:
         """Linearise the predictions ``h0 + (A_const + A_var) @ nu`` in grouped order.
 
         ``A_const`` is :attr:`const_design`; the derivatives with respect to the relative
@@ -235,6 +241,8 @@ class ObservationModel:
             Motion parameters ``(..., p)``, SI.
         derivatives : bool
             Also compute the derivatives.
+        each : bool
+            Each row of a 2-D ``theta`` as for it alone, bit for bit (not one matrix product).
 
         Returns
         -------
@@ -244,7 +252,7 @@ class ObservationModel:
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
         inner = not derivatives and theta.ndim == 2 and theta.shape[0] > n
-        rel, rel_ref = self._relative(theta, inner)
+        rel, rel_ref = self._relative(theta, inner, each)
         batch = rel.shape[:-2]
         if inner:
             h0 = np.empty((n, batch[0])).T
@@ -312,21 +320,23 @@ class ObservationModel:
         rel, rel_ref = self._relative(theta)
         return self.row_model.predict(rel, rel_ref, nu)
 
-    def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None
-                         ) -> tuple[Array, Array]:
+    def jacobian_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None,
+                         each: bool = False) -> tuple[Array, Array]:
         """Return :meth:`jacobian` in grouped order.
 
         Parameters
         ----------
         theta, nuisance : array_like
-            Motion ``(..., p)`` and nuisance ``(k,)`` parameters (default zeros), SI.
+            Motion ``(..., p)`` and nuisance ``(..., k)`` parameters (default zeros), SI.
+        each : bool
+            As for :meth:`linearisation`.
 
         Returns
         -------
         j_theta, j_nuisance : ndarray
             ``(..., n, p)`` and ``(..., n, k)``, SI.
         """
-        lin = self.linearisation(theta, derivatives=True)
+        lin = self.linearisation(theta, derivatives=True, each=each)
         nu = np.zeros(self.n_nuisance) if nuisance is None else np.asarray(nuisance, float)
         return lin.jacobian(nu), self.const_design + lin.a_var
 
@@ -422,78 +432,3 @@ class ObservationModel:
 def _take_map(rel_map: AffineRows | None, rows: NDArray[np.intp]) -> AffineRows | None:
     """Return the relative-state map (see :meth:`ObservationModel._relative_map`) of ``rows``."""
     return None if rel_map is None else rel_map.take(rows)
-
-
-class Linearisation:
-    """The predictions of an :class:`ObservationModel` at a batch of ``theta``, linearised.
-
-    In grouped order, ``h0 + (A_const + A_var) @ nu``, and their derivatives with respect to
-    the relative states: ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at the range differences'
-    reference samples) and, per kind whose design depends on the geometry,
-    ``(kind, dA, dA_ref)`` with ``dA`` ``(..., n_kind, k_kind, 6)``.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The model linearised.
-    theta : ndarray
-        Motion parameters ``(..., p)``, SI.
-    h0, a_var : ndarray
-        ``(..., n)`` and ``(..., n, k)``, SI.
-    """
-
-    def __init__(self, obs: ObservationModel, theta: Array, h0: Array, a_var: Array) -> None:
-        self.obs = obs
-        self.theta = theta
-        self.h0 = h0
-        self.a_var = a_var
-        self.d_h0: Array | None = None
-        self.d_h0_ref: Array | None = None
-        self.d_a: list[tuple[str, Array, Array | None]] = []
-
-    def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
-        """Return ``d predictions / d theta`` at nuisance values.
-
-        Parameters
-        ----------
-        nuisance : ndarray
-            ``(..., k)``: one vector per row of the batch, or one for all.
-        with_h0 : bool
-            False leaves out the derivative of ``h0`` (the nuisance part alone).
-
-        Returns
-        -------
-        ndarray
-            ``(..., n, p)``, SI.
-
-        Raises
-        ------
-        ValueError
-            When the linearisation was made without derivatives.
-        """
-        if self.d_h0 is None:
-            raise ValueError("this linearisation was made without derivatives")
-        obs = self.obs
-        nu = np.asarray(nuisance, dtype=float)
-        if with_h0 and not self.d_a and self.d_h0_ref is None:
-            # Nothing is added to d h0: the chain rule reads it (writes a new array).
-            return obs.motion.chain(self.d_h0, self.theta, obs._time)
-        d = self.d_h0.copy(order="K") if with_h0 else np.zeros_like(self.d_h0)
-        d_ref = None
-        if self.d_h0_ref is not None:
-            d_ref = (self.d_h0_ref.copy(order="K") if with_h0
-                     else np.zeros_like(self.d_h0_ref))
-        for kind, da, da_ref in self.d_a:
-            sl, ns = obs.slices[kind], obs.nuisance_slices[kind]
-            for j in range(ns.stop - ns.start):
-                w = nu[..., ns.start + j, None, None]
-                if da is not None:
-                    d[..., sl, :] += da[..., j, :] * w
-                if da_ref is not None and d_ref is not None:
-                    d_ref[..., obs.row_model.reference_rows(kind), :] += da_ref[..., j, :] * w
-        motion = obs.motion
-        jac = motion.chain(d, self.theta, obs._time)
-        if d_ref is not None:
-            sl = obs._ref
-            jac[..., sl, :] += motion.chain(d_ref, self.theta, obs.grouped.time_ref[sl])
-        return jac

@@ -304,7 +304,8 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
 
 def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu: NDArray,
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
-                    known_nuisance: KnownNuisance | None, note: str = "") -> EstimateResult:
+                    known_nuisance: KnownNuisance | None, note: str = "", *,
+                    jacobian: tuple[NDArray, NDArray] | None = None) -> EstimateResult:
     """Return the result of a weighted least-squares fit of an observation model.
 
     Parameters
@@ -332,6 +333,9 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
         they were held at ``nu`` (their std are then 0).
     note : str, optional
         A sentence appended to the message.
+    jacobian : (ndarray, ndarray), optional
+        ``obs.jacobian_grouped(theta, nu)`` when the caller has it (computed for many fits
+        at once); default: computed here.
 
     Returns
     -------
@@ -347,7 +351,7 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)
-    info = _information(obs, noise, theta, nu, known)
+    info = _information(obs, noise, theta, nu, known, jacobian)
     names = motion.param_names + (() if known else names_nu)
     values = theta if known else np.concatenate([theta, nu])
     nu_values = dict(zip(names_nu, nu, strict=True))
@@ -370,13 +374,21 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
 
 
 def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.float64],
-                 nu: NDArray[np.float64], known: bool) -> NDArray[np.float64]:
+                 nu: NDArray[np.float64], known: bool,
+                 jacobian: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+                 ) -> NDArray[np.float64]:
     """Fisher information ``J'WJ`` at the fit; chunk by chunk for many independent rows.
 
     (Chunks without nuisance only: a chunk's model has the nuisance of its own kinds.)
+    ``jacobian``, the grouped Jacobians already computed at the fit, is used when given.
     """
     n = len(obs.meas)
     chunks = n > blas.CHUNKED_ROWS and not noise.blocks and obs.n_nuisance == 0
+    if jacobian is not None and not chunks:
+        j_theta, j_nu = jacobian
+        jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
+        w = noise.whiten(jac, axis=-2)
+        return np.asarray(w.T @ w, dtype=float)
     info = 0.0
     for lo in range(0, n, blas.CHUNK_ROWS if chunks else max(n, 1)):
         hi = min(n, lo + blas.CHUNK_ROWS) if chunks else n

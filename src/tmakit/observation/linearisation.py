@@ -1,0 +1,90 @@
+"""The linearised predictions of an observation model at a batch of motion parameters.
+
+Made by :meth:`tmakit.observation.ObservationModel.linearisation`; the solvers form the
+Jacobian at any nuisance value from it (:meth:`Linearisation.jacobian`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..arrays import Array
+
+__all__ = ["Linearisation"]
+
+
+class Linearisation:
+    """The predictions of an :class:`ObservationModel` at a batch of ``theta``, linearised.
+
+    In grouped order, ``h0 + (A_const + A_var) @ nu``, and their derivatives with respect to
+    the relative states: ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at the range differences'
+    reference samples) and, per kind whose design depends on the geometry,
+    ``(kind, dA, dA_ref)`` with ``dA`` ``(..., n_kind, k_kind, 6)``.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The model linearised.
+    theta : ndarray
+        Motion parameters ``(..., p)``, SI.
+    h0, a_var : ndarray
+        ``(..., n)`` and ``(..., n, k)``, SI.
+    """
+
+    def __init__(self, obs: Any, theta: Array, h0: Array, a_var: Array) -> None:
+        self.obs = obs
+        self.theta = theta
+        self.h0 = h0
+        self.a_var = a_var
+        self.d_h0: Array | None = None
+        self.d_h0_ref: Array | None = None
+        self.d_a: list[tuple[str, Array, Array | None]] = []
+
+    def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
+        """Return ``d predictions / d theta`` at nuisance values.
+
+        Parameters
+        ----------
+        nuisance : ndarray
+            ``(..., k)``: one vector per row of the batch, or one for all.
+        with_h0 : bool
+            False leaves out the derivative of ``h0`` (the nuisance part alone).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, p)``, SI.
+
+        Raises
+        ------
+        ValueError
+            When the linearisation was made without derivatives.
+        """
+        if self.d_h0 is None:
+            raise ValueError("this linearisation was made without derivatives")
+        obs = self.obs
+        nu = np.asarray(nuisance, dtype=float)
+        if with_h0 and not self.d_a and self.d_h0_ref is None:
+            # Nothing is added to d h0: the chain rule reads it (writes a new array).
+            return obs.motion.chain(self.d_h0, self.theta, obs._time)
+        d = self.d_h0.copy(order="K") if with_h0 else np.zeros_like(self.d_h0)
+        d_ref = None
+        if self.d_h0_ref is not None:
+            d_ref = (self.d_h0_ref.copy(order="K") if with_h0
+                     else np.zeros_like(self.d_h0_ref))
+        for kind, da, da_ref in self.d_a:
+            sl, ns = obs.slices[kind], obs.nuisance_slices[kind]
+            for j in range(ns.stop - ns.start):
+                w = nu[..., ns.start + j, None, None]
+                if da is not None:
+                    d[..., sl, :] += da[..., j, :] * w
+                if da_ref is not None and d_ref is not None:
+                    d_ref[..., obs.row_model.reference_rows(kind), :] += da_ref[..., j, :] * w
+        motion = obs.motion
+        jac = motion.chain(d, self.theta, obs._time)
+        if d_ref is not None:
+            sl = obs._ref
+            jac[..., sl, :] += motion.chain(d_ref, self.theta, obs.grouped.time_ref[sl])
+        return jac
