@@ -148,10 +148,31 @@ def planning_belief(run: Run, belief: Belief, platform, mode: str) -> Belief:
     return Belief(belief.posterior, cloud[order[(QUANTILES * order.size).astype(int)]])
 
 
-def mission_run(run: Run, mp: MissionPlanner, mode: str) -> tuple[float, float]:
-    """Closed loop: re-plan the remaining legs at each leg from the tracker."""
-    platform, plan = START, None
-    belief = Belief(PosteriorInformation.from_prior(PRIOR, DYN, 0.0), run.mean0)
+def hold(run: Run, wait: float) -> tuple[object, Belief]:
+    """Fly straight for the first ``wait`` s (bearings to the tracker, ``J`` along it)."""
+    post = PosteriorInformation.from_prior(PRIOR, DYN, 0.0)
+    if wait <= 0:
+        return START, Belief(post, run.mean0)
+    track = KIN.fly(START, Actions(np.zeros(round(wait / INTERVAL))), INTERVAL)
+    run.measure(track, 0.0, track.end_time)
+    info, belief = post.information[None], Belief(post, run.mean0)
+    for k in range(round(wait / INTERVAL)):     # J with Gamma at the estimate, as advance()
+        t = k * INTERVAL
+        info = step_information(belief, info, THIN,
+                                track.states(t + THIN.measurement_times(INTERVAL))[None],
+                                INTERVAL, "mean", (run.mean0[None] @ DYN.transition(t).T,
+                                                   np.ones(1)))
+    return track.end, Belief(PosteriorInformation(info[0], DYN, track.end_time),
+                             run.tracker.state)
+
+
+def mission_run(run: Run, mp: MissionPlanner, mode: str, wait: float) -> tuple[float, float]:
+    """Closed loop: re-plan the remaining legs at each leg from the tracker.
+
+    The first decision is taken after ``wait`` s of straight flight (bearings first).
+    """
+    platform, belief = hold(run, wait)
+    plan = None
     while belief.time < END - 1e-6:
         belief = planning_belief(run, belief, platform, mode)
         plan = mp.recommend(platform, belief, previous=plan)
@@ -174,7 +195,7 @@ def horizon_run(run: Run, planner: Planner) -> tuple[float, float]:
     return run.result()
 
 
-def case_fn(name: str) -> Callable[[Run], tuple[float, float]]:
+def case_fn(name: str, wait: float) -> Callable[[Run], tuple[float, float]]:
     """The closed loop of one path."""
     if name in FIXED:
         path = fixed_path(name)
@@ -190,14 +211,14 @@ def case_fn(name: str) -> Callable[[Run], tuple[float, float]]:
     mp = MissionPlanner(KIN, THIN, INTERVAL, 60.0, END, headings=12, sweeps=2, refine=1,
                         gamma="cloud" if name == "pooled" else "mean",
                         hypotheses=name == "hypotheses")
-    return lambda r: mission_run(r, mp, name)
+    return lambda r: mission_run(r, mp, name, wait)
 
 
-def one(job: tuple[str, np.random.SeedSequence, int]) -> tuple[float, float, float]:
+def one(job: tuple[str, np.random.SeedSequence, int, float]) -> tuple[float, float, float]:
     """Run one case on one run's draws; error (m), flown bound (m), seconds."""
-    name, seed, particles = job
+    name, seed, particles, wait = job
     t0 = time.process_time()
-    err, bound = case_fn(name)(Run(seed, particles))
+    err, bound = case_fn(name, wait)(Run(seed, particles))
     return err, bound, time.process_time() - t0
 
 
@@ -223,7 +244,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--particles", type=int, default=4000)
     ap.add_argument("--jobs", type=int, default=1, help="processes (same numbers)")
-    ap.add_argument("--cases", default="zigzag,one-turn,straight,hypotheses,estimate,h2")
+    ap.add_argument("--cases", default="zigzag,one-turn,straight,hypotheses,estimate,truth,h2")
+    ap.add_argument("--wait", type=float, default=0.0,
+                    help="s of straight flight before the mission planner's first decision")
     ap.add_argument("--save", help="write the per-run errors and bounds to this .npz")
     args = ap.parse_args()
     names = args.cases.split(",")
@@ -231,7 +254,7 @@ def main() -> None:
     if unknown:
         ap.error(f"--cases: unknown {unknown}; choose from {sorted(LABELS)}")
     seeds = np.random.SeedSequence(args.seed).spawn(args.runs)
-    jobs = [(n, s, args.particles) for n in names for s in seeds]
+    jobs = [(n, s, args.particles, args.wait) for n in names for s in seeds]
     if args.jobs > 1:
         with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
             out = np.array(list(progress(pool.imap(one, jobs), jobs)))
@@ -242,7 +265,8 @@ def main() -> None:
         np.savez(args.save, names=names, errors=out[..., 0], bounds=out[..., 1])
     boot = np.random.default_rng(args.seed)
     print(f"bearings-only-2d, {args.runs} runs (seed {args.seed}), particle filter with "
-          f"{args.particles} particles; prior N(truth, 5 km / 10 m/s)")
+          f"{args.particles} particles; prior N(truth, 5 km / 10 m/s); first mission decision "
+          f"at {args.wait:g} s")
     print(f"{'path':<46}{'RMSE (m)':>9}{'90 % int.':>11}{'x best fixed':>13}"
           f"{'median':>8}{'bound':>7}{'RMSE/bound':>11}{'cpu s/run':>10}")
     fixed = [rmse_interval(out[k, :, 0], boot)[0] for k, n in enumerate(names) if n in FIXED]
