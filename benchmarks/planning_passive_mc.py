@@ -16,6 +16,8 @@ its own seeded stream) is the same.  Paths:
     tracker's particles, each carried through its own recursion, a path scored by the mean of
     their final bounds (``MissionPlanner(hypotheses=True)``): the first legs are flown before
     the range is known, so the path is planned for every plausible range;
+  - ``ranges``: as ``hypotheses``, each hypothesis also with its own ``J`` along the path
+    flown so far (the flown legs evaluated at it), not the one ``J`` at the estimates;
   - ``pooled``: the same three states as one cloud (Gamma averaged over them, the "cloud"
     form): the nearest dominates through 1/r^2;
   - ``truth`` (diagnosis only, not a planner a user has): the true target;
@@ -26,7 +28,7 @@ Printed per path: final (t = 600 s) position RMSE over the runs (with its bootst
 interval), its ratio to the best fixed pattern, the median final error, the bound at the true
 target along the path each run flew (RMS over runs) and the tracker's efficiency (RMSE over
 that bound).  ``--cases`` picks paths by name (zigzag, one-turn, straight, estimate,
-hypotheses, pooled, truth, h2); ``--jobs`` spreads the runs over processes (same numbers).
+hypotheses, ranges, pooled, truth, h2); ``--jobs`` spreads the runs over processes (same numbers).
 
     PYTHONPATH=src python benchmarks/planning_passive_mc.py [--runs 20] [--seed 1]
         [--particles 4000] [--jobs 1] [--cases zigzag,one-turn,straight,hypotheses]
@@ -67,6 +69,7 @@ LABELS = {"zigzag": "fixed: zig-zag of bearings-only-2d",
           "straight": "fixed: straight",
           "estimate": "mission planner, Gamma at the estimate",
           "hypotheses": "mission planner, 3 range hypotheses",
+          "ranges": "mission planner, 3 ranges, own J each",
           "pooled": "mission planner, 3 ranges pooled (cloud)",
           "truth": "mission planner given the truth (diagnosis)",
           "h2": "H = 2 + straight continuation"}
@@ -172,10 +175,18 @@ def mission_run(run: Run, mp: MissionPlanner, mode: str, wait: float) -> tuple[f
     The first decision is taken after ``wait`` s of straight flight (bearings first).
     """
     platform, belief = hold(run, wait)
-    plan = None
+    plan, flown = None, []
     while belief.time < END - 1e-6:
         belief = planning_belief(run, belief, platform, mode)
-        plan = mp.recommend(platform, belief, previous=plan)
+        info = None
+        if mode == "ranges" and flown and wait <= 0:
+            past = MissionPlanner(KIN, THIN, INTERVAL, mp.leg_duration, belief.time,
+                                  hypotheses=True)
+            back = belief.states @ DYN.transition(-belief.time).T
+            info = past.evaluate(START, Belief(PosteriorInformation.from_prior(PRIOR, DYN, 0.0),
+                                               back), np.array(flown)[None])[0]
+        plan = mp.recommend(platform, belief, previous=plan, information=info)
+        flown.append(plan.headings[0])
         track = KIN.fly(platform, mp.first_leg(platform, plan), INTERVAL)
         run.measure(track, belief.time, track.end_time)
         platform, belief = mp.advance(platform, belief, plan, run.tracker.state)
@@ -210,7 +221,7 @@ def case_fn(name: str, wait: float) -> Callable[[Run], tuple[float, float]]:
         return lambda r: horizon_run(r, hz)
     mp = MissionPlanner(KIN, THIN, INTERVAL, 60.0, END, headings=12, sweeps=2, refine=1,
                         gamma="cloud" if name == "pooled" else "mean",
-                        hypotheses=name == "hypotheses")
+                        hypotheses=name in ("hypotheses", "ranges"))
     return lambda r: mission_run(r, mp, name, wait)
 
 

@@ -173,12 +173,19 @@ class MissionPlanner:
         starts = time + self.step * np.concatenate([[0], np.cumsum(counts)[:-1]])
         return starts.astype(float), counts.astype(int)
 
-    def _start_info(self, belief: Belief, c: int) -> Array:
+    def _start_info(self, belief: Belief, c: int, information: ArrayLike | None = None
+                    ) -> Array:
         """``J`` now for ``c`` paths: (c, n, n), or (c, K, n, n) with hypotheses."""
         j = belief.posterior.information
-        if self.hypotheses:
-            return np.broadcast_to(j, (c, belief.states.shape[0], *j.shape[-2:]))
-        return np.broadcast_to(j, (c, *j.shape[-2:]))
+        if not self.hypotheses:
+            return np.broadcast_to(j, (c, *j.shape[-2:]))
+        shape = (belief.states.shape[0], *j.shape[-2:])
+        if information is not None:
+            j = np.asarray(information, dtype=float)
+            if j.shape != shape:
+                raise ValueError(f"information must be one J per hypothesis, {shape}; got "
+                                 f"{j.shape}")
+        return np.broadcast_to(j, (c, *shape))
 
     def _step_info(self, belief: Belief, info: Array, sensor: Array,
                    cloud: tuple[Array, Array]) -> Array:
@@ -302,7 +309,8 @@ class MissionPlanner:
         return cand_h[rows], cand_v[rows], kept
 
     def optimise(self, platform: PlatformState, belief: Belief,
-                 initial: ArrayLike | None = None) -> MissionPlan:
+                 initial: ArrayLike | None = None, information: ArrayLike | None = None
+                 ) -> MissionPlan:
         """Find the remaining path that minimises the criterion of the final information.
 
         Parameters
@@ -314,6 +322,9 @@ class MissionPlanner:
         initial : array_like, shape (M, L) or (L,), optional
             Start paths (leg headings, rad) besides the straight one: the operator's
             pattern, the previous plan.
+        information : array_like, shape (K, n, n), optional
+            With :attr:`hypotheses`: ``J`` now under each hypothesis (the path flown so far
+            evaluated at it); default the belief's ``J`` for every one.
 
         Returns
         -------
@@ -322,8 +333,9 @@ class MissionPlanner:
         Raises
         ------
         ValueError
-            If the platform is not one state at the belief's time, no leg is left, or
-            ``initial`` does not have one heading per leg.
+            If the platform is not one state at the belief's time, no leg is left,
+            ``initial`` does not have one heading per leg, or ``information`` is not one ``J``
+            per hypothesis.
         """
         if platform.shape != () or abs(platform.time - belief.time) > 1e-6:
             raise ValueError("optimise() takes one platform state at the belief's time")
@@ -340,8 +352,9 @@ class MissionPlanner:
         speeds = np.full(heads.shape, float(platform.speed))
         evaluations = 0
         m = heads.shape[0]
-        base = self._rollout(belief, repeat_state(platform, m), self._start_info(belief, m),
-                             heads, speeds, counts, 0)
+        info0 = self._start_info(belief, 1, information)[0]
+        base = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+            info0, (m, *info0.shape)), heads, speeds, counts, 0)
         for round_ in range(self.refine + 1):
             for _ in range(self.sweeps if round_ == 0 else 1):
                 before = heads.copy()
@@ -352,13 +365,15 @@ class MissionPlanner:
                                                                speeds[:, 0])[0].shape[1]
                 if np.allclose(wrap_angle(heads - before), 0.0):
                     break
-        return self._result(platform, belief, heads, speeds, starts, counts, evaluations)
+        return self._result(platform, belief, heads, speeds, (starts, counts), evaluations,
+                            info0)
 
     def _result(self, platform: PlatformState, belief: Belief, heads: Array, speeds: Array,
-                starts: Array, counts: Array, evaluations: int) -> MissionPlan:
+                legs: tuple[Array, Array], evaluations: int, info0: Array) -> MissionPlan:
         m = heads.shape[0]
-        final = self._rollout(belief, repeat_state(platform, m), self._start_info(belief, m),
-                              heads, speeds, counts, 0)
+        starts, counts = legs
+        final = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+            info0, (m, *info0.shape)), heads, speeds, counts, 0)
         cost, bad = final.ranked_cost(self.criterion)
         k = int(np.lexsort((cost, bad))[0])
         acts = final.actions
@@ -374,8 +389,8 @@ class MissionPlanner:
                            bool(bad[k] <= 0.0))
 
     def recommend(self, platform: PlatformState, belief: Belief,
-                  previous: MissionPlan | None = None, pattern: ArrayLike | None = None
-                  ) -> MissionPlan:
+                  previous: MissionPlan | None = None, pattern: ArrayLike | None = None,
+                  information: ArrayLike | None = None) -> MissionPlan:
         """Re-plan the remaining legs from the current belief (receding over legs).
 
         Parameters
@@ -386,6 +401,8 @@ class MissionPlanner:
             The last plan; its legs still ahead start the search.
         pattern : array_like, optional
             An operator's pattern for the legs left (rad), also a start.
+        information : array_like, shape (K, n, n), optional
+            As for :meth:`optimise`.
 
         Returns
         -------
@@ -400,7 +417,8 @@ class MissionPlanner:
                 initial.append(ahead)
         if pattern is not None:
             initial.append(np.asarray(pattern, dtype=float))
-        return self.optimise(platform, belief, np.array(initial) if initial else None)
+        return self.optimise(platform, belief, np.array(initial) if initial else None,
+                             information)
 
     def first_leg(self, platform: PlatformState, plan: MissionPlan) -> Actions:
         """Return the sub-step actions of the plan's first leg (fly them, then re-plan).
