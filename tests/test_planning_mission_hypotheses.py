@@ -58,3 +58,19 @@ def test_cost_is_the_weighted_mean_bound_and_one_hypothesis_is_the_plain_plan():
     b = planner().optimise(START, belief(TRUTH))
     np.testing.assert_array_equal(a.headings, b.headings)
     assert a.cost == pytest.approx(b.cost, rel=1e-12)
+
+
+def test_information_per_hypothesis_starts_each_recursion():
+    states = np.array([0.6, 1.4])[:, None] * TRUTH[None, :]
+    mp = planner(hypotheses=True)
+    b = belief(states)
+    j0 = b.posterior.information
+    same = mp.optimise(START, b, information=np.stack([j0, j0]))
+    plain = mp.optimise(START, b)
+    np.testing.assert_array_equal(same.headings, plain.headings)
+    # more information under one hypothesis: a lower expected bound for the same path
+    richer = mp.optimise(START, b, initial=plain.headings,
+                         information=np.stack([j0, j0 + np.diag([1e-2, 1e-2, 0.0, 0.0])]))
+    assert richer.cost < plain.cost
+    with pytest.raises(ValueError, match="one J per hypothesis"):
+        mp.optimise(START, b, information=np.stack([j0, j0, j0]))
