@@ -31,7 +31,9 @@ that bound).  ``--cases`` picks paths by name (zigzag, one-turn, straight, estim
 hypotheses, ranges, pooled, truth, h2); ``--jobs`` spreads the runs over processes (same numbers).
 
     PYTHONPATH=src python benchmarks/planning_passive_mc.py [--runs 20] [--seed 1]
-        [--particles 4000] [--jobs 1] [--cases zigzag,one-turn,straight,hypotheses]
+        [--particles 4000] [--jobs 1] [--wait 0] [--cases zigzag,one-turn,straight,ranges]
+
+Measured (50 runs, seed 1): zig-zag 75.4 m, ranges 53.8 m (0.71x); see docs/planning.md.
 """
 
 from __future__ import annotations
@@ -255,7 +257,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--particles", type=int, default=4000)
     ap.add_argument("--jobs", type=int, default=1, help="processes (same numbers)")
-    ap.add_argument("--cases", default="zigzag,one-turn,straight,hypotheses,estimate,truth,h2")
+    ap.add_argument("--cases", default="zigzag,one-turn,straight,ranges,hypotheses,estimate")
     ap.add_argument("--wait", type=float, default=0.0,
                     help="s of straight flight before the mission planner's first decision")
     ap.add_argument("--save", help="write the per-run errors and bounds to this .npz")
