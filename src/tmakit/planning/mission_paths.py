@@ -60,21 +60,53 @@ class MissionPlan:
 
 @dataclass(frozen=True, eq=False)
 class Rollout:
-    """Candidate paths flown from one leg to the mission end."""
+    """Candidate paths (C,) flown from one leg to the mission end.
 
-    information: Array          # (C, n, n), or (C, K, n, n) per hypothesis, at the end
-    leg_states: list[PlatformState]  # (C,) at the start of each leg flown
-    leg_info: list[Array]       # (C, n, n) or (C, K, n, n) at the start of each leg flown
-    actions: list[Actions]      # (C,) per sub-step
-    end: PlatformState          # (C,) at the end
-    violations: list[Violation]  # per constraint, the largest along each path (C,)
-    hard: Array                  # (C,) hard violations summed over the sub-steps, m
-    weights: Array | None = None  # (K,) of the hypotheses, when ``information`` has them
+    Attributes
+    ----------
+    information : ndarray, shape (C, n, n) or (C, K, n, n)
+        ``J`` at the end (per target hypothesis when 4-D), SI.
+    leg_states : list of PlatformState
+        Batch (C,) at the start of each leg flown.
+    leg_info : list of ndarray
+        ``J`` (as ``information``) at the start of each leg flown, SI.
+    actions : list of Actions
+        Batch (C,) per sub-step.
+    end : PlatformState
+        Batch (C,) at the end.
+    violations : list of Violation
+        Per constraint, the largest along each path (C,), m.
+    hard : ndarray, shape (C,)
+        Hard violations summed over the sub-steps, m.
+    weights : ndarray, shape (K,), optional
+        Weights of the hypotheses, when ``information`` has them.
+    """
+
+    information: Array
+    leg_states: list[PlatformState]
+    leg_info: list[Array]
+    actions: list[Actions]
+    end: PlatformState
+    violations: list[Violation]
+    hard: Array
+    weights: Array | None = None
 
     def ranked_cost(self, criterion: Criterion) -> tuple[Array, Array]:
-        """Return the cost with penalties and the summed hard violation (m) per path (C,).
+        """Return the cost with penalties and the summed hard violation per path.
 
         With hypotheses, the cost of a path is the weighted mean of the criterion over them.
+
+        Parameters
+        ----------
+        criterion : Criterion
+            Cost of one ``J``.
+
+        Returns
+        -------
+        cost : ndarray, shape (C,)
+            The criterion times the penalty factors.
+        hard : ndarray, shape (C,)
+            Summed hard violation, m.
         """
         factor, _ = penalties(self.violations, self.information.shape[0])
         return path_cost(criterion, self.information, self.weights) * factor, self.hard
@@ -101,16 +133,40 @@ def path_cost(criterion: Criterion, information: Array, weights: Array | None) -
     return cost if weights is None else cost @ weights
 
 
-
-
 def repeat_state(platform: PlatformState, c: int) -> PlatformState:
-    """``c`` copies of one platform state, batch shape (c,)."""
+    """Return ``c`` copies of one platform state.
+
+    Parameters
+    ----------
+    platform : PlatformState
+        Batch shape ``()``.
+    c : int
+        Copies.
+
+    Returns
+    -------
+    PlatformState
+        Batch shape (c,).
+    """
     return PlatformState(np.repeat(platform.position[None, :], c, 0),
                          np.full(c, float(platform.heading)), np.full(c, float(platform.speed)),
                          np.full(c, float(platform.climb_rate)), platform.time)
 
 
 def repeat_batch(state: PlatformState, g: int) -> PlatformState:
-    """Each of a batch (M,) of states repeated ``g`` times, (M g,)."""
+    """Return each of a batch of states repeated ``g`` times.
+
+    Parameters
+    ----------
+    state : PlatformState
+        Batch shape (M,).
+    g : int
+        Repeats of each.
+
+    Returns
+    -------
+    PlatformState
+        Batch shape (M g,), each state's copies together.
+    """
     return PlatformState(np.repeat(state.position, g, 0), np.repeat(state.heading, g),
                          np.repeat(state.speed, g), np.repeat(state.climb_rate, g), state.time)
