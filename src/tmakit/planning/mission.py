@@ -26,6 +26,14 @@ finds the basin that a gradient method (scipy, finite differences) would miss fr
 start, and every candidate of a sweep is one vectorised rollout.  The evaluations are counted
 (:attr:`MissionPlan.evaluations`).
 
+**Target hypotheses** (``hypotheses=True``).  Early in a bearings-only track the range is not
+known, and the first legs are flown before it is: a path planned at the estimate (or on the
+information averaged over a cloud, which the nearest members dominate through their ``1/r^2``)
+is planned for one range.  With hypotheses the belief's members (say the range quantiles of the
+tracker's particles) are each carried through their own recursion, every path at once, and a
+path's cost is the weighted mean of the criterion over them: a path good for every plausible
+range (the classic range-parameterised answer to "when and where to turn").
+
 **Tactical constraints** (:mod:`tmakit.planning.constraints`) are checked along every
 candidate path, each sub-step at :data:`~tmakit.planning.planner.CHECK_POINTS` times, against
 the estimated target (the belief's mean, predicted).  A path's violation of a constraint is
@@ -53,68 +61,10 @@ from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace
 from .horizon import penalties
 from .measurement_plan import SensorPlan
+from .mission_paths import MissionPlan, Rollout, repeat_batch, repeat_state
 from .planner import position_bound, step_violations
 
 _TOL = 1e-9
-
-
-@dataclass(frozen=True, eq=False)
-class MissionPlan:
-    """A planned remaining path.
-
-    Attributes
-    ----------
-    headings : ndarray, shape (L,)
-        Commanded heading of each leg, rad (clockwise from North).
-    speeds : ndarray, shape (L,)
-        Commanded speed of each leg, m/s.
-    leg_starts : ndarray, shape (L,)
-        Start time of each leg, s.
-    cost : float
-        The criterion of the predicted final information.
-    bound : float
-        Predicted final position RMS bound, m.
-    information : ndarray, shape (n, n)
-        Predicted Bayesian information at the mission end, SI.
-    actions : Actions, shape (K,)
-        The sub-step actions that fly the path (``kinematics.fly(platform, actions, step)``).
-    evaluations : int
-        Candidate paths (each from some leg to the end) scored by the search.
-    violations : dict of str to float
-        Per constraint, the largest predicted violation along the path (m, 0 where kept).
-    feasible : bool
-        False when no path the search tried kept every hard constraint (the least violating
-        was chosen).
-    """
-
-    headings: Array
-    speeds: Array
-    leg_starts: Array
-    cost: float
-    bound: float
-    information: Array
-    actions: Actions
-    evaluations: int
-    violations: dict[str, float] = field(default_factory=dict)
-    feasible: bool = True
-
-
-@dataclass(frozen=True, eq=False)
-class _Rollout:
-    """Candidate paths flown from one leg to the mission end."""
-
-    information: Array          # (C, n, n) at the end
-    leg_states: list[PlatformState]  # (C,) at the start of each leg flown
-    leg_info: list[Array]       # (C, n, n) at the start of each leg flown
-    actions: list[Actions]      # (C,) per sub-step
-    end: PlatformState          # (C,) at the end
-    violations: list[Violation]  # per constraint, the largest along each path (C,)
-    hard: Array                  # (C,) hard violations summed over the sub-steps, m
-
-    def ranked_cost(self, criterion: Criterion) -> tuple[Array, Array]:
-        """Return the cost with penalties and the summed hard violation (m) per path (C,)."""
-        factor, _ = penalties(self.violations, self.information.shape[0])
-        return criterion(self.information) * factor, self.hard
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +98,12 @@ class MissionPlanner:
         How ``Gamma`` is formed (:mod:`tmakit.planning.candidates`).
     constraints : sequence of Constraint, optional
         Tactical constraints along the path (module docstring).
+    hypotheses : bool, optional
+        Take each member of the belief's cloud as a hypothesis of the target (for example a
+        few ranges along the measured bearing) and score a path by the weighted mean over
+        them of the criterion of ``J`` computed with ``Gamma`` at that member: the expected
+        bound, not the bound of the expected information (module docstring).  ``J`` now is
+        the belief's for every hypothesis; :meth:`advance` carries it with ``gamma``.
 
     Raises
     ------
@@ -173,6 +129,7 @@ class MissionPlanner:
     refine: int = 2
     gamma: GammaForm = "mean"
     constraints: Sequence[Constraint] = ()
+    hypotheses: bool = False
 
     def __post_init__(self) -> None:
         """Check the settings."""
@@ -216,8 +173,33 @@ class MissionPlanner:
         starts = time + self.step * np.concatenate([[0], np.cumsum(counts)[:-1]])
         return starts.astype(float), counts.astype(int)
 
+    def _start_info(self, belief: Belief, c: int, information: ArrayLike | None = None
+                    ) -> Array:
+        """``J`` now for ``c`` paths: (c, n, n), or (c, K, n, n) with hypotheses."""
+        j = belief.posterior.information
+        if not self.hypotheses:
+            return np.broadcast_to(j, (c, *j.shape[-2:]))
+        shape = (belief.states.shape[0], *j.shape[-2:])
+        if information is not None:
+            j = np.asarray(information, dtype=float)
+            if j.shape != shape:
+                raise ValueError(f"information must be one J per hypothesis, {shape}; got "
+                                 f"{j.shape}")
+        return np.broadcast_to(j, (c, *shape))
+
+    def _step_info(self, belief: Belief, info: Array, sensor: Array,
+                   cloud: tuple[Array, Array]) -> Array:
+        """Carry ``J`` of every path through one sub-step (per hypothesis when 4-D)."""
+        if info.ndim < 4:
+            return step_information(belief, info, self.plan, sensor, self.step, self.gamma,
+                                    cloud)
+        # one recursion per hypothesis (a few), each over every path at once
+        return np.stack([step_information(belief, info[:, k], self.plan, sensor, self.step,
+                                          "mean", (cloud[0][k:k + 1], np.ones(1)))
+                         for k in range(info.shape[1])], axis=1)
+
     def _rollout(self, belief: Belief, state: PlatformState, info: Array, headings: Array,
-                 speeds: Array, counts: Array, first_leg: int) -> _Rollout:
+                 speeds: Array, counts: Array, first_leg: int) -> Rollout:
         """Fly candidate paths (C,) from the start of ``first_leg`` to the end."""
         leg_states, leg_info, actions = [], [], []
         worst: list[Violation] = []
@@ -233,9 +215,7 @@ class MissionPlanner:
                               speeds[:, leg])
                 flown = self.kinematics.step(state, act, self.step)
                 cloud = (belief.states @ dyn.transition(t - belief.time).T, belief.weights)
-                info = step_information(belief, info, self.plan,
-                                        flown.sensor_states(t + times), self.step,
-                                        self.gamma, cloud)
+                info = self._step_info(belief, info, flown.sensor_states(t + times), cloud)
                 actions.append(act)
                 state = flown.end
                 if self.constraints:
@@ -244,11 +224,14 @@ class MissionPlanner:
                     worst = found if not worst else [
                         replace(w, amount=np.maximum(w.amount, f.amount))
                         for w, f in zip(worst, found, strict=True)]
-        return _Rollout(info, leg_states, leg_info, actions, state, worst, hard)
+        return Rollout(info, leg_states, leg_info, actions, state, worst, hard,
+                       belief.weights if info.ndim == 4 else None)
 
     def evaluate(self, platform: PlatformState, belief: Belief, headings: ArrayLike,
                  speeds: ArrayLike | None = None) -> Array:
         """Return the predicted final information of candidate paths (C, n, n).
+
+        With :attr:`hypotheses`, one per path and hypothesis, (C, K, n, n).
 
         Parameters
         ----------
@@ -279,10 +262,8 @@ class MissionPlanner:
         v = (np.broadcast_to(platform.speed, h.shape) if speeds is None
              else np.broadcast_to(np.asarray(speeds, dtype=float), h.shape))
         c = h.shape[0]
-        state = _repeat(platform, c)
-        info = np.broadcast_to(belief.posterior.information, (c, *belief.posterior
-                                                              .information.shape[-2:]))
-        return self._rollout(belief, state, info, h, np.array(v), counts, 0).information
+        return self._rollout(belief, repeat_state(platform, c), self._start_info(belief, c), h,
+                             np.array(v), counts, 0).information
 
     def _grid(self, round_: int, current: Array, speed: Array) -> tuple[Array, Array]:
         """Heading and speed candidates (M, G) for one leg of M start paths."""
@@ -302,8 +283,8 @@ class MissionPlanner:
         heads_all = np.concatenate([heads_all, current[:, None]], axis=1)
         return heads_all, speed_all
 
-    def _sweep_leg(self, belief: Belief, base: _Rollout, headings: Array, speeds: Array,
-                   counts: Array, leg: int, round_: int) -> tuple[Array, Array, _Rollout]:
+    def _sweep_leg(self, belief: Belief, base: Rollout, headings: Array, speeds: Array,
+                   counts: Array, leg: int, round_: int) -> tuple[Array, Array, Rollout]:
         """Try the grid on one leg of every start path; keep the best of each.
 
         ``base`` holds the start paths' states and information at the start of every leg;
@@ -315,20 +296,21 @@ class MissionPlanner:
         cand_h = np.repeat(headings, g, axis=0)
         cand_v = np.repeat(speeds, g, axis=0)
         cand_h[:, leg], cand_v[:, leg] = heads.ravel(), vs.ravel()
-        state = _repeat_batch(base.leg_states[leg], g)
+        state = repeat_batch(base.leg_states[leg], g)
         info = np.repeat(base.leg_info[leg], g, axis=0)
         out = self._rollout(belief, state, info, cand_h, cand_v, counts, leg)
         cost, bad = out.ranked_cost(self.criterion)
         # feasible first, then by cost (the earlier legs, shared by a row, are not re-checked)
         rows = np.arange(m) * g + np.lexsort((cost.reshape(m, g), bad.reshape(m, g)))[:, 0]
-        kept = _Rollout(out.information[rows],
-                        base.leg_states[:leg] + [s[rows] for s in out.leg_states],
-                        base.leg_info[:leg] + [i[rows] for i in out.leg_info], [],
-                        out.end[rows], [], out.hard[rows])
+        kept = Rollout(out.information[rows],
+                       base.leg_states[:leg] + [s[rows] for s in out.leg_states],
+                       base.leg_info[:leg] + [i[rows] for i in out.leg_info], [],
+                       out.end[rows], [], out.hard[rows], out.weights)
         return cand_h[rows], cand_v[rows], kept
 
     def optimise(self, platform: PlatformState, belief: Belief,
-                 initial: ArrayLike | None = None) -> MissionPlan:
+                 initial: ArrayLike | None = None, information: ArrayLike | None = None
+                 ) -> MissionPlan:
         """Find the remaining path that minimises the criterion of the final information.
 
         Parameters
@@ -340,6 +322,9 @@ class MissionPlanner:
         initial : array_like, shape (M, L) or (L,), optional
             Start paths (leg headings, rad) besides the straight one: the operator's
             pattern, the previous plan.
+        information : array_like, shape (K, n, n), optional
+            With :attr:`hypotheses`: ``J`` now under each hypothesis (the path flown so far
+            evaluated at it); default the belief's ``J`` for every one.
 
         Returns
         -------
@@ -348,8 +333,9 @@ class MissionPlanner:
         Raises
         ------
         ValueError
-            If the platform is not one state at the belief's time, no leg is left, or
-            ``initial`` does not have one heading per leg.
+            If the platform is not one state at the belief's time, no leg is left,
+            ``initial`` does not have one heading per leg, or ``information`` is not one ``J``
+            per hypothesis.
         """
         if platform.shape != () or abs(platform.time - belief.time) > 1e-6:
             raise ValueError("optimise() takes one platform state at the belief's time")
@@ -366,9 +352,9 @@ class MissionPlanner:
         speeds = np.full(heads.shape, float(platform.speed))
         evaluations = 0
         m = heads.shape[0]
-        info0 = np.broadcast_to(belief.posterior.information,
-                                (m, *belief.posterior.information.shape[-2:]))
-        base = self._rollout(belief, _repeat(platform, m), info0, heads, speeds, counts, 0)
+        info0 = self._start_info(belief, 1, information)[0]
+        base = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+            info0, (m, *info0.shape)), heads, speeds, counts, 0)
         for round_ in range(self.refine + 1):
             for _ in range(self.sweeps if round_ == 0 else 1):
                 before = heads.copy()
@@ -379,28 +365,32 @@ class MissionPlanner:
                                                                speeds[:, 0])[0].shape[1]
                 if np.allclose(wrap_angle(heads - before), 0.0):
                     break
-        return self._result(platform, belief, heads, speeds, starts, counts, evaluations)
+        return self._result(platform, belief, heads, speeds, (starts, counts), evaluations,
+                            info0)
 
     def _result(self, platform: PlatformState, belief: Belief, heads: Array, speeds: Array,
-                starts: Array, counts: Array, evaluations: int) -> MissionPlan:
+                legs: tuple[Array, Array], evaluations: int, info0: Array) -> MissionPlan:
         m = heads.shape[0]
-        info0 = np.broadcast_to(belief.posterior.information,
-                                (m, *belief.posterior.information.shape[-2:]))
-        final = self._rollout(belief, _repeat(platform, m), info0, heads, speeds, counts, 0)
+        starts, counts = legs
+        final = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+            info0, (m, *info0.shape)), heads, speeds, counts, 0)
         cost, bad = final.ranked_cost(self.criterion)
         k = int(np.lexsort((cost, bad))[0])
         acts = final.actions
         actions = Actions(np.array([a.heading_change[k] for a in acts]), 0.0,
                           np.array([a.speed_change[k] for a in acts]))
         info = final.information[k]
+        bound = position_bound(info)
+        if final.weights is not None:   # RMS over the hypotheses
+            bound = np.sqrt(final.weights @ bound**2)
         return MissionPlan(wrap_angle(heads[k]), speeds[k].copy(), starts, float(cost[k]),
-                           float(position_bound(info)), info, actions, evaluations + m,
+                           float(bound), info, actions, evaluations + m,
                            {v.name: float(v.amount[k]) for v in final.violations},
                            bool(bad[k] <= 0.0))
 
     def recommend(self, platform: PlatformState, belief: Belief,
-                  previous: MissionPlan | None = None, pattern: ArrayLike | None = None
-                  ) -> MissionPlan:
+                  previous: MissionPlan | None = None, pattern: ArrayLike | None = None,
+                  information: ArrayLike | None = None) -> MissionPlan:
         """Re-plan the remaining legs from the current belief (receding over legs).
 
         Parameters
@@ -411,6 +401,8 @@ class MissionPlanner:
             The last plan; its legs still ahead start the search.
         pattern : array_like, optional
             An operator's pattern for the legs left (rad), also a start.
+        information : array_like, shape (K, n, n), optional
+            As for :meth:`optimise`.
 
         Returns
         -------
@@ -425,7 +417,8 @@ class MissionPlanner:
                 initial.append(ahead)
         if pattern is not None:
             initial.append(np.asarray(pattern, dtype=float))
-        return self.optimise(platform, belief, np.array(initial) if initial else None)
+        return self.optimise(platform, belief, np.array(initial) if initial else None,
+                             information)
 
     def first_leg(self, platform: PlatformState, plan: MissionPlan) -> Actions:
         """Return the sub-step actions of the plan's first leg (fly them, then re-plan).
@@ -469,21 +462,9 @@ class MissionPlanner:
         """
         _, counts = self.legs(belief.time)
         info = belief.posterior.information[None]
-        out = self._rollout(belief, _repeat(platform, 1), info, plan.headings[None, :1],
+        out = self._rollout(belief, repeat_state(platform, 1), info, plan.headings[None, :1],
                             plan.speeds[None, :1], counts[:1], 0)
         end = out.end[0]
         post = type(belief.posterior)(out.information[0], belief.posterior.dynamics, end.time)
         return end, Belief(post, states, weights)
 
-
-def _repeat(platform: PlatformState, c: int) -> PlatformState:
-    """``c`` copies of one platform state, batch shape (c,)."""
-    return PlatformState(np.repeat(platform.position[None, :], c, 0),
-                         np.full(c, float(platform.heading)), np.full(c, float(platform.speed)),
-                         np.full(c, float(platform.climb_rate)), platform.time)
-
-
-def _repeat_batch(state: PlatformState, g: int) -> PlatformState:
-    """Each of a batch (M,) of states repeated ``g`` times, (M g,)."""
-    return PlatformState(np.repeat(state.position, g, 0), np.repeat(state.heading, g),
-                         np.repeat(state.speed, g), np.repeat(state.climb_rate, g), state.time)
