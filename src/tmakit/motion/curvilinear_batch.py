@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..arrays import Array
 from ..blas import matmul
 from .base import MotionModel
-from .curvilinear import propagate_with_partials
+from .curvilinear_closed import propagate_position_velocity, propagate_with_partials
 
 
 class ForwardPiecewise(MotionModel):
@@ -85,6 +85,7 @@ class ForwardPiecewise(MotionModel):
         self.name = f"curvilinear:{self.manoeuvres}"
         self._times = np.zeros(0)  # the unique times of the last states() call
         self._cache: tuple | None = None
+        self._rows: tuple[Array, NDArray[np.int64] | None] = (np.zeros(0), None)
 
     # -- the chain of change-over states -----------------------------------------------------
     def _anchors(self, theta: Array, partials: bool
@@ -129,21 +130,31 @@ class ForwardPiecewise(MotionModel):
                   ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
         """Propagate every sample from the start of its segment.
 
-        Give per sample its segment ``(B, n)``, propagated values ``(B, n, 6)`` and partials
-        ``(B, n, 6, 7)`` with respect to the segment's start state, accelerations and the time
-        since its start; plus the anchors' derivatives.
+        Give per sample its segment ``(B, n)``, propagated values ``(B, n, 6)`` and the
+        partials of ``(x, y, vx, vy)`` ``(B, n, 4, 7)`` with respect to the segment's start
+        state, accelerations and the time since its start; plus the anchors' derivatives.
         """
         M = self.manoeuvres
         b = theta.shape[0]
         anchors, d_anchor, starts, _ = self._anchors(theta, partials)
-        cot = theta[:, 6 + 2 * M:]
-        seg = np.sum(t[None, :, None] > cot[:, None, :], axis=-1)  # (B, n)
-        rows = np.arange(b)[:, None]
-        a0 = anchors[rows, seg]                          # (B, n, 4)
-        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)[rows, seg]  # (B, n, 2)
-        dt = t[None, :] - starts[rows, seg]
-        val, par = propagate_with_partials(a0[..., 0], a0[..., 1], a0[..., 2], a0[..., 3],
-                                           acc[..., 0], acc[..., 1], dt, partials)
+        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
+        if M == 0:
+            seg = np.zeros((b, t.size), dtype=np.int64)
+            a0 = np.broadcast_to(anchors[:, :1], (b, t.size, 4))
+            ac = np.broadcast_to(acc[:, :1], (b, t.size, 2))
+            dt = np.broadcast_to(t[None, :] - starts[:, :1], (b, t.size))
+        else:
+            cot = theta[:, 6 + 2 * M:]
+            seg = np.sum(t[None, :, None] > cot[:, None, :], axis=-1)  # (B, n)
+            rows = np.arange(b)[:, None]
+            a0 = anchors[rows, seg]                          # (B, n, 4)
+            ac = acc[rows, seg]                              # (B, n, 2)
+            dt = t[None, :] - starts[rows, seg]
+        args = (a0[..., 0], a0[..., 1], a0[..., 2], a0[..., 3], ac[..., 0], ac[..., 1], dt)
+        if partials:
+            val, par = propagate_position_velocity(*args)
+        else:
+            val, par = propagate_with_partials(*args, partials=False)
         return seg, val, par, d_anchor
 
     def _flat(self, theta: ArrayLike) -> tuple[Array, tuple[int, ...]]:
@@ -155,13 +166,17 @@ class ForwardPiecewise(MotionModel):
         """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
 
         Parameters and returns as :meth:`MotionModel.states`; NaN for parameters outside the
-        model's domain (see the class docstring).
+        model's domain (see the class docstring).  The derivatives at the same parameters and
+        times are computed in the same pass and kept for :meth:`chain` (an observation model
+        asks for them next).
         """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
         self._times = tu
-        _, val, _, _ = self._segments(flat, tu, partials=False)
+        seg_u, val, par_u, d_anchor = self._segments(flat, tu, partials=True)
+        self._cache = ((flat.tobytes(), flat.shape), tu, seg_u, par_u, d_anchor)
+        self._rows = (t, inv.reshape(-1))
         out = np.zeros((flat.shape[0], tu.size, 6))
         out[..., 0], out[..., 1] = val[..., 0], val[..., 1]
         out[..., 3], out[..., 4] = val[..., 4], val[..., 5]
@@ -177,18 +192,21 @@ class ForwardPiecewise(MotionModel):
         time since its start — and the segment start states' derivatives ``(B, M+1, 4, p)``;
         plus the index of every ``t`` into ``tu`` (None when ``t`` is ``tu``).
 
-        The last result is kept: an observation model asks for the states at all its rows and
-        then for the derivatives at the same parameters and times.
+        The last result is kept (:meth:`states` makes it): an observation model asks for the
+        states at all its rows and then for the derivatives at the same parameters and times.
         """
         key = (flat.tobytes(), flat.shape)
         cache = self._cache
+        last_t, last_idx = self._rows
+        same_rows = t is last_t or (t.shape == last_t.shape and np.array_equal(t, last_t))
+        if cache is not None and cache[0] == key and same_rows:
+            return cache[2], cache[3], cache[4], last_idx
         if cache is None or cache[0] != key or not np.all(np.isin(t, cache[1])):
             tu = np.unique(t)
             if self._times.size and np.all(np.isin(t, self._times)):
                 tu = self._times
-            seg_u, _, par, d_anchor = self._segments(flat, tu, partials=True)
-            assert par is not None and d_anchor is not None
-            par_u = np.ascontiguousarray(par[:, :, [0, 1, 4, 5], :])
+            seg_u, _, par_u, d_anchor = self._segments(flat, tu, partials=True)
+            assert par_u is not None and d_anchor is not None
             self._cache = cache = (key, tu, seg_u, par_u, d_anchor)
         tu, seg_u, par_u, d_anchor = cache[1:]
         idx = None
