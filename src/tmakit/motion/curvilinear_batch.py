@@ -232,49 +232,27 @@ class ForwardPiecewise(MotionModel):
         """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``.
 
         Per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
-        then one product with the inputs' derivatives of every segment, ``w`` masked by
-        segment.
+        then, segment by segment, its start-state part times the start state's derivatives,
+        and its acceleration and time parts added to their own columns.
         """
         M, p = self.manoeuvres, self.n_params
         b, n = flat.shape[0], t.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
-        d4 = ds[..., [0, 1, 3, 4]][..., None, :]        # (B, n, 1, 4)
-        # Rows that follow the unique times in order (one block per kind, usually) are
-        # contracted on views; anything else is gathered.
-        if idx is None:
-            blocks = [(0, n, 0)]
-        else:
-            cuts = np.flatnonzero(np.diff(idx) != 1) + 1
-            starts = np.concatenate([[0], cuts])
-            ends = np.concatenate([cuts, [n]])
-            blocks = ([(int(a), int(e), int(idx[a])) for a, e in zip(starts, ends, strict=True)]
-                      if starts.size <= 16 else [])
-        w = np.empty((b, n, 7))
-        seg = np.empty((b, n), dtype=seg_u.dtype)
-        if blocks:
-            for a, e, u in blocks:
-                w[:, a:e] = (d4[:, a:e] @ par_u[:, u:u + e - a])[..., 0, :]
-                seg[:, a:e] = seg_u[:, u:u + e - a]
-        else:
-            assert idx is not None
-            w = (d4 @ par_u[:, idx])[..., 0, :]
-            seg = seg_u[:, idx]
+        w, seg = _weights(ds, par_u, seg_u, idx)
+        out = np.empty((b, n, p))
         if M == 0:
-            out = np.empty((b, n, p))
-            out[..., :4] = w[..., :4]
-            out[..., 4:6] = w[..., 4:6]
+            out[...] = w[..., :6]
             return out
-        wide = np.zeros((b, n, M + 1, 7))
-        for m in range(M + 1):
-            np.copyto(wide[:, :, m], w, where=(seg == m)[..., None])
-        d_inputs = np.zeros((b, M + 1, 7, p))
-        d_inputs[:, :, :4] = d_anchor
-        for m in range(M + 1):
-            d_inputs[:, m, 4, 4 + 2 * m] = 1.0
-            d_inputs[:, m, 5, 5 + 2 * m] = 1.0
-            if m >= 1:
-                d_inputs[:, m, 6, 5 + 2 * M + m] = -1.0
-        return matmul(wide.reshape(b, n, 7 * (M + 1)), d_inputs.reshape(b, 7 * (M + 1), p))
+        w4 = np.ascontiguousarray(w[..., :4])
+        out[...] = matmul(w4, d_anchor[:, 0])
+        for m in range(1, M + 1):
+            np.copyto(out, matmul(w4, d_anchor[:, m]), where=(seg == m)[..., None])
+        rb, rn = np.arange(b)[:, None], np.arange(n)[None, :]
+        out[rb, rn, 4 + 2 * seg] += w[..., 4]
+        out[rb, rn, 5 + 2 * seg] += w[..., 5]
+        # the time since the segment's start falls as its change-over time t_seg grows
+        out[rb, rn, 5 + 2 * M + seg] -= np.where(seg >= 1, w[..., 6], 0.0)
+        return out
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
         """Apply the chain rule, contracting the state axis before the parameter axis.
@@ -315,3 +293,35 @@ class ForwardPiecewise(MotionModel):
     def __repr__(self) -> str:
         """Name the class, the number of manoeuvres and the reference time."""
         return f"ForwardPiecewise(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"
+
+
+def _weights(ds: Array, par_u: Array, seg_u: NDArray[np.int64], idx: NDArray[np.int64] | None
+             ) -> tuple[Array, NDArray[np.int64]]:
+    """Contract ``ds`` ``(B, n, 6)`` with the sample partials ``par_u`` ``(B, nu, 4, 7)``.
+
+    Give ``w`` ``(B, n, 7)`` and every row's segment ``(B, n)``.  Rows that follow the unique
+    times in order (one block per kind, usually) are contracted on views; anything else is
+    gathered.
+    """
+    b, n = ds.shape[:2]
+    if idx is None:
+        blocks = [(0, n, 0)]
+    else:
+        cuts = np.flatnonzero(np.diff(idx) != 1) + 1
+        starts = np.concatenate([[0], cuts])
+        ends = np.concatenate([cuts, [n]])
+        blocks = ([(int(a), int(e), int(idx[a])) for a, e in zip(starts, ends, strict=True)]
+                  if starts.size <= 16 else [])
+    if not blocks:
+        assert idx is not None
+        par_u, seg_u, blocks = par_u[:, idx], seg_u[:, idx], [(0, n, 0)]
+    w = np.empty((b, n, 7))
+    seg = np.empty((b, n), dtype=seg_u.dtype)
+    w[..., 0], w[..., 1] = ds[..., 0], ds[..., 1]  # the position rows: (1, 0) and (0, 1)
+    for a, e, u in blocks:
+        par = par_u[:, u:u + e - a, :, 2:]
+        d = ds[:, a:e]
+        w[:, a:e, 2:] = (d[..., 0, None] * par[:, :, 0] + d[..., 1, None] * par[:, :, 1]
+                         + d[..., 3, None] * par[:, :, 2] + d[..., 4, None] * par[:, :, 3])
+        seg[:, a:e] = seg_u[:, u:u + e - a]
+    return w, seg
