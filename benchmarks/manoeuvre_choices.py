@@ -60,7 +60,7 @@ def choices(seed: int, max_m: int) -> dict:
 def agree(a: dict, b: dict, tol: float) -> tuple[bool, str]:
     """Whether two runs made the same choices; and the first difference in words."""
     def same_times(x: list[float], y: list[float]) -> bool:
-        return len(x) == len(y) and all(abs(p - q) <= tol for p, q in zip(x, y))
+        return len(x) == len(y) and all(abs(p - q) <= tol for p, q in zip(x, y, strict=True))
 
     if a["manoeuvres"] != b["manoeuvres"]:
         return False, f"order {a['manoeuvres']} vs {b['manoeuvres']}"
@@ -68,7 +68,9 @@ def agree(a: dict, b: dict, tol: float) -> tuple[bool, str]:
         return False, f"held {a['held']} vs {b['held']}"
     if not same_times(a["times"], b["times"]):
         return False, f"times {a['times']} vs {b['times']}"
-    for oa, ob in zip(a["orders"], b["orders"]):
+    if len(a["orders"]) != len(b["orders"]):
+        return False, "orders tried"
+    for oa, ob in zip(a["orders"], b["orders"], strict=False):
         if oa["held"] != ob["held"] or not same_times(oa["times"], ob["times"]):
             return False, (f"order {oa['manoeuvres']} fit: held {oa['held']} vs {ob['held']}, "
                            f"times {oa['times']} vs {ob['times']}")
@@ -80,7 +82,7 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=200)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--skip", type=int, default=0,
-                    help="with --save, start at this run (to split the runs between processes)")
+                    help="start at this run (to split the runs between processes)")
     ap.add_argument("--max-manoeuvres", type=int, default=3)
     ap.add_argument("--save", help="write the choices to this file (JSON lines)")
     ap.add_argument("--compare", help="compare with the choices saved in this file")
@@ -100,7 +102,7 @@ def main() -> None:
                 print(f"  {i + 1}/{args.runs}", flush=True)
         return
     with open(args.compare) as f:
-        saved = [json.loads(line) for line in f if line.strip()][: args.runs]
+        saved = [json.loads(line) for line in f if line.strip()][args.skip:args.runs]
     same, new_s, old_s, max_dt, max_dchi2 = 0, [], [], 0.0, 0.0
     for i, old in enumerate(saved):
         new = choices(old["seed"], args.max_manoeuvres)
@@ -108,9 +110,10 @@ def main() -> None:
         same += ok
         new_s.append(new["cpu_seconds"])
         old_s.append(old["cpu_seconds"])
-        for oa, ob in zip(old["orders"], new["orders"]):
+        for oa, ob in zip(old["orders"], new["orders"], strict=False):
             if len(oa["times"]) == len(ob["times"]):
-                max_dt = max([max_dt, *(abs(p - q) for p, q in zip(oa["times"], ob["times"]))])
+                max_dt = max([max_dt, *(abs(p - q) for p, q in
+                                        zip(oa["times"], ob["times"], strict=True))])
             max_dchi2 = max(max_dchi2, abs(oa["chi2"] - ob["chi2"]))
         print(f"  run {i + 1} (seed {old['seed']}): {'same' if ok else 'DIFFERENT: ' + why}; "
               f"{old['cpu_seconds']:.2f} s -> {new['cpu_seconds']:.2f} s", flush=True)

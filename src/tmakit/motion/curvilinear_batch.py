@@ -232,26 +232,27 @@ class ForwardPiecewise(MotionModel):
         """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``.
 
         Per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
-        then, segment by segment, its start-state part times the start state's derivatives,
-        and its acceleration and time parts added to their own columns.
+        then, segment by segment, ``w`` times the derivatives of that segment's inputs (its
+        start state's, unit rows for its accelerations, minus one for its change-over time),
+        kept on the rows in that segment.
         """
         M, p = self.manoeuvres, self.n_params
-        b, n = flat.shape[0], t.shape[0]
+        b = flat.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
         w, seg = _weights(ds, par_u, seg_u, idx)
-        out = np.empty((b, n, p))
         if M == 0:
-            out[...] = w[..., :6]
-            return out
-        w4 = np.ascontiguousarray(w[..., :4])
-        out[...] = matmul(w4, d_anchor[:, 0])
+            return np.ascontiguousarray(w[..., :6])
+        # d (segment inputs) / d theta per segment: the start state's derivatives, then unit
+        # rows for the accelerations and minus one for the change-over time starting it
+        d_inputs = np.zeros((b, M + 1, 7, p))
+        d_inputs[:, :, :4] = d_anchor
+        for m in range(M + 1):
+            d_inputs[:, m, 4, 4 + 2 * m] = d_inputs[:, m, 5, 5 + 2 * m] = 1.0
+            if m >= 1:
+                d_inputs[:, m, 6, 5 + 2 * M + m] = -1.0
+        out = matmul(w, d_inputs[:, 0])
         for m in range(1, M + 1):
-            np.copyto(out, matmul(w4, d_anchor[:, m]), where=(seg == m)[..., None])
-        rb, rn = np.arange(b)[:, None], np.arange(n)[None, :]
-        out[rb, rn, 4 + 2 * seg] += w[..., 4]
-        out[rb, rn, 5 + 2 * seg] += w[..., 5]
-        # the time since the segment's start falls as its change-over time t_seg grows
-        out[rb, rn, 5 + 2 * M + seg] -= np.where(seg >= 1, w[..., 6], 0.0)
+            np.copyto(out, matmul(w, d_inputs[:, m]), where=(seg == m)[..., None])
         return out
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
