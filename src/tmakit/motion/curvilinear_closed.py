@@ -31,11 +31,17 @@ def _log1p_over(r: Array) -> tuple[Array, Array]:
 
     The closed form of ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series.
     """
+    if not r.any():  # no tangential acceleration (often held at zero): the series' first terms
+        return np.ones_like(r), np.full_like(r, -0.5)
     small = np.abs(r) < _L_SERIES_BELOW
     safe = np.where(small, 0.5, r)
     lg = np.log1p(safe)
     value = lg / safe
     deriv = (safe / (1.0 + safe) - lg) / (safe * safe)
+    if np.any(small):
+        zero = small & (r == 0.0)
+        value[zero], deriv[zero] = 1.0, -0.5
+        small &= ~zero
     if np.any(small):
         rs = r[small]
         # log1p(r)/r = sum_k (-r)^k / (k + 1);  derivative sum_{k>=1} k (-1)^k r^(k-1) / (k+1)
@@ -108,6 +114,13 @@ def segment_terms(v0: Array, a_t: Array, a_n: Array, s: Array, partials: bool
     if partials:
         terms["Fg"] = ((1.0 + r) * L * E - F) / denom
         terms["Fr"] = (E + (1.0 + r) * g * dL * E - F) / denom
+    if np.any(use_series):
+        # no acceleration at all (held at zero): the series is 1, its derivatives 1/2 and 0
+        still = use_series & (g == 0.0) & (r == 0.0)
+        F[still] = 1.0
+        if partials:
+            terms["Fg"][still], terms["Fr"][still] = 0.5, 0.0
+        use_series &= ~still
     if np.any(use_series):
         F_s, Fg_s, Fr_s = _f_series(g[use_series], r[use_series])
         F[use_series] = F_s
