@@ -31,7 +31,11 @@ from numpy.typing import ArrayLike, NDArray
 from ..arrays import Array
 from ..blas import matmul
 from .base import MotionModel
-from .curvilinear_closed import propagate_position_velocity, propagate_with_partials
+from .curvilinear_closed import (
+    propagate_position_velocity,
+    propagate_state_partials,
+    propagate_with_partials,
+)
 
 
 class ForwardPiecewise(MotionModel):
@@ -109,13 +113,15 @@ class ForwardPiecewise(MotionModel):
             d_anchor = np.zeros((b, M + 1, 4, p))
             d_anchor[:, 0, :, :4] = np.eye(4)
         for m in range(1, M + 1):
-            val, par = propagate_with_partials(*anchors[:, m - 1].T, acc[:, m - 1, 0],
-                                               acc[:, m - 1, 1],
-                                               starts[:, m] - starts[:, m - 1], partials)
+            args = (*anchors[:, m - 1].T, acc[:, m - 1, 0], acc[:, m - 1, 1],
+                    starts[:, m] - starts[:, m - 1])
+            if partials:
+                val, par = propagate_state_partials(*args)
+            else:
+                val, _ = propagate_with_partials(*args, partials=False)
             anchors[:, m] = val[:, :4]
             if partials:
-                assert par is not None and d_anchor is not None
-                par = par[:, :4]
+                assert d_anchor is not None
                 d = np.einsum("bij,bjp->bip", par[:, :, :4], d_anchor[:, m - 1])
                 d[:, :, 4 + 2 * (m - 1)] += par[:, :, 4]
                 d[:, :, 5 + 2 * (m - 1)] += par[:, :, 5]
