@@ -3,8 +3,9 @@
 State ``(x, y, v, phi)``: ENU position (m), speed (m/s), course phi (rad, clockwise from North).
 ``a_t`` changes the speed, ``a_n`` turns the course at rate ``a_n / v`` (positive: starboard).
 
-Closed form (the one copy in tmakit: :func:`propagate_with_partials`; the batched model of
-:mod:`tmakit.motion.curvilinear_batch` calls it too).  Write the complex position
+Closed form (the one copy in tmakit: :mod:`tmakit.motion.curvilinear_closed`,
+:func:`propagate_with_partials` and its variants; the batched model of
+:mod:`tmakit.motion.curvilinear_batch` calls them too).  Write the complex position
 ``Z = y + i x`` and velocity ``V = v e^{i phi}`` (real part North, imaginary part East).  Then
 ``dV/ds = (a_t + i a_n) V / v`` with ``v(s) = v0 + a_t s``, so with ``g = (a_t + i a_n) s / v0``,
 ``r = a_t s / v0`` and ``L(r) = log1p(r) / r``::

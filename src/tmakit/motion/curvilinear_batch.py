@@ -13,10 +13,13 @@ restriction costs nothing; results are reported in the user's own parameterisati
 Everything is vectorised over a leading batch axis (grid points of a profile likelihood, or
 starting points), which the general model's per-vector evaluation is not.
 
-The one-segment closed form and its derivatives are those of :mod:`tmakit.motion.curvilinear`
-(:func:`~tmakit.motion.curvilinear.propagate_with_partials`, the one copy in tmakit); this module
+The one-segment closed form and its derivatives are those of
+:mod:`tmakit.motion.curvilinear_closed` (the one copy in tmakit); this module
 chains segments forwards from the reference state through the change-over states (Hörst &
-Oispuu (2010), eq. 4) by the chain rule, for a batch of parameter vectors at once.
+Oispuu (2010), eq. 4) by the chain rule, for a batch of parameter vectors at once.  One pass
+per parameter batch gives the states and, kept for :meth:`ForwardPiecewise.chain`, the
+derivatives (an observation model asks for both at the same point); at the samples only the
+position and velocity derivatives are formed, and the chain rule runs segment by segment.
 
 References
 ----------
