@@ -185,7 +185,7 @@ class ForwardPiecewise(MotionModel):
         self._times = tu
         seg_u, val, par_u, d_anchor = self._segments(flat, tu, partials=True)
         self._cache = ((flat.tobytes(), flat.shape), tu, seg_u, par_u, d_anchor)
-        self._rows = (t, inv.reshape(-1))
+        self._rows = (t.copy(), inv.reshape(-1))
         out = np.zeros((flat.shape[0], tu.size, 6))
         out[..., 0], out[..., 1] = val[..., 0], val[..., 1]
         out[..., 3], out[..., 4] = val[..., 4], val[..., 5]
@@ -207,7 +207,7 @@ class ForwardPiecewise(MotionModel):
         key = (flat.tobytes(), flat.shape)
         cache = self._cache
         last_t, last_idx = self._rows
-        same_rows = t is last_t or (t.shape == last_t.shape and np.array_equal(t, last_t))
+        same_rows = t.shape == last_t.shape and np.array_equal(t, last_t)
         if cache is not None and cache[0] == key and same_rows:
             return cache[2], cache[3], cache[4], last_idx
         if cache is None or cache[0] != key or not np.all(np.isin(t, cache[1])):
