@@ -79,6 +79,11 @@ m = tk.load_scenario("hoerst2010").simulate(rng=2)
 t = time.process_time()
 tk.estimate(m, "curvilinear:2")
 """,
+    "manoeuvres hoerst2010 curvilinear:3": """
+m = tk.load_scenario("hoerst2010").simulate(rng=2)
+t = time.process_time()
+tk.estimate(m, "curvilinear:3")
+""",
 }
 
 

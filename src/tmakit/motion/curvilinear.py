@@ -3,8 +3,9 @@
 State ``(x, y, v, phi)``: ENU position (m), speed (m/s), course phi (rad, clockwise from North).
 ``a_t`` changes the speed, ``a_n`` turns the course at rate ``a_n / v`` (positive: starboard).
 
-Closed form (the one copy in tmakit: :func:`propagate_with_partials`; the batched model of
-:mod:`tmakit.motion.curvilinear_batch` calls it too).  Write the complex position
+Closed form (the one copy in tmakit: :mod:`tmakit.motion.curvilinear_closed`,
+:func:`propagate_with_partials` and its variants; the batched model of
+:mod:`tmakit.motion.curvilinear_batch` calls them too).  Write the complex position
 ``Z = y + i x`` and velocity ``V = v e^{i phi}`` (real part North, imaginary part East).  Then
 ``dV/ds = (a_t + i a_n) V / v`` with ``v(s) = v0 + a_t s``, so with ``g = (a_t + i a_n) s / v0``,
 ``r = a_t s / v0`` and ``L(r) = log1p(r) / r``::
@@ -28,167 +29,12 @@ times included, and never differences across a change-over time.  Reference: Hö
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 from .base import MotionModel
-
-_SERIES_BELOW = 1e-3     # |g| + |r| below which F and its derivatives come from the series
-_SERIES_TERMS = 6        # term n is below size^n / (n+1)!: < 1e-20 at the switch
-_L_SERIES_BELOW = 1e-3   # |r| below which L(r) and L'(r) come from their power series
-_L_TERMS = 6
-
-
-def _log1p_over(r: Array) -> tuple[Array, Array]:
-    """Compute ``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1``.
-
-    The closed form of ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series.
-    """
-    small = np.abs(r) < _L_SERIES_BELOW
-    safe = np.where(small, 0.5, r)
-    lg = np.log1p(safe)
-    value = lg / safe
-    deriv = (safe / (1.0 + safe) - lg) / (safe * safe)
-    if np.any(small):
-        rs = r[small]
-        # log1p(r)/r = sum_k (-r)^k / (k + 1);  derivative sum_{k>=1} k (-1)^k r^(k-1) / (k+1)
-        ser = np.zeros_like(rs)
-        ser_d = np.zeros_like(rs)
-        power = np.ones_like(rs)  # r^k
-        for k in range(_L_TERMS):
-            sign = -1.0 if k % 2 else 1.0
-            ser += sign * power / (k + 1)
-            ser_d -= sign * (k + 1) * power / (k + 2)
-            power = power * rs
-        value[small], deriv[small] = ser, ser_d
-    return value, deriv
-
-
-def _f_series(g: NDArray[np.complex128], r: Array
-              ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
-    """Sum ``F``, ``dF/dg``, ``dF/dr`` from ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``."""
-    F = np.zeros_like(g)
-    Fg = np.zeros_like(g)
-    Fr = np.zeros_like(g)
-    T = np.ones_like(g)
-    Tg = np.zeros_like(g)
-    Tr = np.zeros_like(g)
-    for n in range(_SERIES_TERMS):
-        f = 1.0 / math.factorial(n + 1)
-        F, Fg, Fr = F + T * f, Fg + Tg * f, Fr + Tr * f
-        factor = g - n * r
-        T, Tg, Tr = T * factor, Tg * factor + T, Tr * factor - n * T
-    return F, Fg, Fr
-
-
-def _partials(v0: Array, a_t: Array, a_n: Array, s: Array, parts: dict[str, Array]
-              ) -> Array:
-    """Assemble the ``(n, 6, 7)`` derivatives of one segment.
-
-    ``d (x, y, speed, course, vx, vy) / d (x0, y0, v0, phi0, a_t, a_n, s)``, from the
-    intermediate values ``parts`` of :func:`propagate_with_partials` (flat inputs, valid rows).
-    """
-    sv, r, c, g, L, dL, F, Fg, Fr, V0, disp, V = (
-        parts[k] for k in ("sv", "r", "c", "g", "L", "dL", "F", "Fg", "Fr", "V0", "disp", "V"))
-    inv1r = 1.0 / (1.0 + r)  # = L + r L'
-    q = V0 * sv
-    # d(Z, V) with respect to (v0, phi0, a_t, a_n, s), complex; speed and course real.
-    dZ = np.stack([q * (F - g * Fg - r * Fr), 1j * disp, q * s * (Fg + Fr), 1j * q * s * Fg,
-                   V], axis=-1)
-    Vsv = V * sv
-    dV = np.stack([V / v0 * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
-                   V * c / v0 * inv1r], axis=-1)
-    zero = np.zeros_like(s)
-    one = np.ones_like(s)
-    out = np.empty((s.size, 6, 7))
-    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = one, zero, zero, one
-    out[:, 4:, :2] = 0.0
-    out[:, 0, 2:], out[:, 1, 2:] = dZ.imag, dZ.real
-    out[:, 4, 2:], out[:, 5, 2:] = dV.imag, dV.real
-    out[:, 2] = np.stack([zero, zero, one, zero, s, zero, a_t], axis=-1)
-    an_v = a_n / v0 * inv1r
-    out[:, 3] = np.stack([zero, zero, -an_v * sv, one, a_n * sv * sv * dL, sv * L, an_v],
-                         axis=-1)
-    return out
-
-
-def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
-                            a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
-                            partials: bool = True) -> tuple[Array, Array | None]:
-    """Propagate one curvilinear segment by ``dt`` seconds (any sign), with derivatives.
-
-    Parameters
-    ----------
-    x, y : array_like
-        Start position (m, East and North); all inputs broadcast.
-    speed : array_like
-        Start speed (m/s).
-    course : array_like
-        Start course (rad, clockwise from North).
-    a_t, a_n : array_like
-        Tangential and normal acceleration (m/s^2; positive ``a_n`` turns to starboard).
-    dt : array_like
-        Propagation time (s, any sign).
-    partials : bool
-        Whether to compute the derivatives.
-
-    Returns
-    -------
-    values : ndarray
-        ``(..., 6)``: ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad unwrapped, m/s, m/s).
-    partials : ndarray or None
-        ``(..., 6, 7)``: derivatives of ``values`` with respect to
-        ``(x, y, speed, course, a_t, a_n, dt)``; None unless asked for.  Where the speed
-        would reach zero before ``dt`` values and derivatives are NaN.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 1 (the closed form: see the module docstring).
-    """
-    x, y, v0, phi0, a_t, a_n, s = np.broadcast_arrays(
-        *(np.asarray(a, dtype=float) for a in (x, y, speed, course, a_t, a_n, dt)))
-    shape = s.shape
-    x, y, v0, phi0, a_t, a_n, s = (a.reshape(-1) for a in (x, y, v0, phi0, a_t, a_n, s))
-    with np.errstate(invalid="ignore"):
-        valid = (v0 > 0) & (v0 + a_t * s > 0)
-    v0 = np.where(valid, v0, 1.0)
-    a_t = np.where(valid, a_t, 0.0)
-    a_n = np.where(valid, a_n, 0.0)
-    s = np.where(valid, s, 0.0)
-    sv = s / v0
-    r = a_t * sv
-    c = a_t + 1j * a_n
-    g = c * sv
-    L, dL = _log1p_over(r)
-    E = np.exp(g * L)
-    use_series = (np.abs(g) + np.abs(r)) < _SERIES_BELOW
-    denom = np.where(use_series, 1.0, g + r)
-    F = ((1.0 + r) * E - 1.0) / denom
-    if partials:
-        Fg = ((1.0 + r) * L * E - F) / denom
-        Fr = (E + (1.0 + r) * g * dL * E - F) / denom
-    if np.any(use_series):
-        F_s, Fg_s, Fr_s = _f_series(g[use_series], r[use_series])
-        F[use_series] = F_s
-        if partials:
-            Fg[use_series], Fr[use_series] = Fg_s, Fr_s
-    V0 = v0 * np.exp(1j * phi0)
-    disp = V0 * s * F
-    V = V0 * E
-    nan = np.where(valid, 0.0, np.nan)
-    values = np.stack([x + disp.imag, y + disp.real, v0 + a_t * s,
-                       phi0 + a_n * sv * L, V.imag, V.real], axis=-1) + nan[..., None]
-    values = values.reshape(*shape, 6)
-    if not partials:
-        return values, None
-    out = _partials(v0, a_t, a_n, s, dict(sv=sv, r=r, c=c, g=g, L=L, dL=dL, F=F, Fg=Fg, Fr=Fr,
-                                          V0=V0, disp=disp, V=V))
-    if not np.all(valid):
-        out[~valid] = np.nan
-    return values, out.reshape(*shape, 6, 7)
+from .curvilinear_closed import propagate_with_partials
 
 
 def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,

@@ -13,10 +13,13 @@ restriction costs nothing; results are reported in the user's own parameterisati
 Everything is vectorised over a leading batch axis (grid points of a profile likelihood, or
 starting points), which the general model's per-vector evaluation is not.
 
-The one-segment closed form and its derivatives are those of :mod:`tmakit.motion.curvilinear`
-(:func:`~tmakit.motion.curvilinear.propagate_with_partials`, the one copy in tmakit); this module
+The one-segment closed form and its derivatives are those of
+:mod:`tmakit.motion.curvilinear_closed` (the one copy in tmakit); this module
 chains segments forwards from the reference state through the change-over states (Hörst &
-Oispuu (2010), eq. 4) by the chain rule, for a batch of parameter vectors at once.
+Oispuu (2010), eq. 4) by the chain rule, for a batch of parameter vectors at once.  One pass
+per parameter batch gives the states and, kept for :meth:`ForwardPiecewise.chain`, the
+derivatives (an observation model asks for both at the same point); at the samples only the
+position and velocity derivatives are formed, and the chain rule runs segment by segment.
 
 References
 ----------
@@ -31,7 +34,11 @@ from numpy.typing import ArrayLike, NDArray
 from ..arrays import Array
 from ..blas import matmul
 from .base import MotionModel
-from .curvilinear import propagate_with_partials
+from .curvilinear_closed import (
+    propagate_position_velocity,
+    propagate_state_partials,
+    propagate_with_partials,
+)
 
 
 class ForwardPiecewise(MotionModel):
@@ -85,6 +92,7 @@ class ForwardPiecewise(MotionModel):
         self.name = f"curvilinear:{self.manoeuvres}"
         self._times = np.zeros(0)  # the unique times of the last states() call
         self._cache: tuple | None = None
+        self._rows: tuple[Array, NDArray[np.int64] | None] = (np.zeros(0), None)
 
     # -- the chain of change-over states -----------------------------------------------------
     def _anchors(self, theta: Array, partials: bool
@@ -108,13 +116,15 @@ class ForwardPiecewise(MotionModel):
             d_anchor = np.zeros((b, M + 1, 4, p))
             d_anchor[:, 0, :, :4] = np.eye(4)
         for m in range(1, M + 1):
-            val, par = propagate_with_partials(*anchors[:, m - 1].T, acc[:, m - 1, 0],
-                                               acc[:, m - 1, 1],
-                                               starts[:, m] - starts[:, m - 1], partials)
+            args = (*anchors[:, m - 1].T, acc[:, m - 1, 0], acc[:, m - 1, 1],
+                    starts[:, m] - starts[:, m - 1])
+            if partials:
+                val, par = propagate_state_partials(*args)
+            else:
+                val, _ = propagate_with_partials(*args, partials=False)
             anchors[:, m] = val[:, :4]
             if partials:
-                assert par is not None and d_anchor is not None
-                par = par[:, :4]
+                assert d_anchor is not None
                 d = np.einsum("bij,bjp->bip", par[:, :, :4], d_anchor[:, m - 1])
                 d[:, :, 4 + 2 * (m - 1)] += par[:, :, 4]
                 d[:, :, 5 + 2 * (m - 1)] += par[:, :, 5]
@@ -129,21 +139,31 @@ class ForwardPiecewise(MotionModel):
                   ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
         """Propagate every sample from the start of its segment.
 
-        Give per sample its segment ``(B, n)``, propagated values ``(B, n, 6)`` and partials
-        ``(B, n, 6, 7)`` with respect to the segment's start state, accelerations and the time
-        since its start; plus the anchors' derivatives.
+        Give per sample its segment ``(B, n)``, propagated values ``(B, n, 6)`` and the
+        partials of ``(x, y, vx, vy)`` ``(B, n, 4, 7)`` with respect to the segment's start
+        state, accelerations and the time since its start; plus the anchors' derivatives.
         """
         M = self.manoeuvres
         b = theta.shape[0]
         anchors, d_anchor, starts, _ = self._anchors(theta, partials)
-        cot = theta[:, 6 + 2 * M:]
-        seg = np.sum(t[None, :, None] > cot[:, None, :], axis=-1)  # (B, n)
-        rows = np.arange(b)[:, None]
-        a0 = anchors[rows, seg]                          # (B, n, 4)
-        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)[rows, seg]  # (B, n, 2)
-        dt = t[None, :] - starts[rows, seg]
-        val, par = propagate_with_partials(a0[..., 0], a0[..., 1], a0[..., 2], a0[..., 3],
-                                           acc[..., 0], acc[..., 1], dt, partials)
+        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
+        if M == 0:
+            seg = np.zeros((b, t.size), dtype=np.int64)
+            a0 = np.broadcast_to(anchors[:, :1], (b, t.size, 4))
+            ac = np.broadcast_to(acc[:, :1], (b, t.size, 2))
+            dt = np.broadcast_to(t[None, :] - starts[:, :1], (b, t.size))
+        else:
+            cot = theta[:, 6 + 2 * M:]
+            seg = np.sum(t[None, :, None] > cot[:, None, :], axis=-1)  # (B, n)
+            rows = np.arange(b)[:, None]
+            a0 = anchors[rows, seg]                          # (B, n, 4)
+            ac = acc[rows, seg]                              # (B, n, 2)
+            dt = t[None, :] - starts[rows, seg]
+        args = (a0[..., 0], a0[..., 1], a0[..., 2], a0[..., 3], ac[..., 0], ac[..., 1], dt)
+        if partials:
+            val, par = propagate_position_velocity(*args)
+        else:
+            val, par = propagate_with_partials(*args, partials=False)
         return seg, val, par, d_anchor
 
     def _flat(self, theta: ArrayLike) -> tuple[Array, tuple[int, ...]]:
@@ -155,13 +175,17 @@ class ForwardPiecewise(MotionModel):
         """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
 
         Parameters and returns as :meth:`MotionModel.states`; NaN for parameters outside the
-        model's domain (see the class docstring).
+        model's domain (see the class docstring).  The derivatives at the same parameters and
+        times are computed in the same pass and kept for :meth:`chain` (an observation model
+        asks for them next).
         """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
         self._times = tu
-        _, val, _, _ = self._segments(flat, tu, partials=False)
+        seg_u, val, par_u, d_anchor = self._segments(flat, tu, partials=True)
+        self._cache = ((flat.tobytes(), flat.shape), tu, seg_u, par_u, d_anchor)
+        self._rows = (t.copy(), inv.reshape(-1))
         out = np.zeros((flat.shape[0], tu.size, 6))
         out[..., 0], out[..., 1] = val[..., 0], val[..., 1]
         out[..., 3], out[..., 4] = val[..., 4], val[..., 5]
@@ -177,18 +201,21 @@ class ForwardPiecewise(MotionModel):
         time since its start — and the segment start states' derivatives ``(B, M+1, 4, p)``;
         plus the index of every ``t`` into ``tu`` (None when ``t`` is ``tu``).
 
-        The last result is kept: an observation model asks for the states at all its rows and
-        then for the derivatives at the same parameters and times.
+        The last result is kept (:meth:`states` makes it): an observation model asks for the
+        states at all its rows and then for the derivatives at the same parameters and times.
         """
         key = (flat.tobytes(), flat.shape)
         cache = self._cache
+        last_t, last_idx = self._rows
+        same_rows = t.shape == last_t.shape and np.array_equal(t, last_t)
+        if cache is not None and cache[0] == key and same_rows:
+            return cache[2], cache[3], cache[4], last_idx
         if cache is None or cache[0] != key or not np.all(np.isin(t, cache[1])):
             tu = np.unique(t)
             if self._times.size and np.all(np.isin(t, self._times)):
                 tu = self._times
-            seg_u, _, par, d_anchor = self._segments(flat, tu, partials=True)
-            assert par is not None and d_anchor is not None
-            par_u = np.ascontiguousarray(par[:, :, [0, 1, 4, 5], :])
+            seg_u, _, par_u, d_anchor = self._segments(flat, tu, partials=True)
+            assert par_u is not None and d_anchor is not None
             self._cache = cache = (key, tu, seg_u, par_u, d_anchor)
         tu, seg_u, par_u, d_anchor = cache[1:]
         idx = None
@@ -214,49 +241,28 @@ class ForwardPiecewise(MotionModel):
         """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``.
 
         Per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
-        then one product with the inputs' derivatives of every segment, ``w`` masked by
-        segment.
+        then, segment by segment, ``w`` times the derivatives of that segment's inputs (its
+        start state's, unit rows for its accelerations, minus one for its change-over time),
+        kept on the rows in that segment.
         """
         M, p = self.manoeuvres, self.n_params
-        b, n = flat.shape[0], t.shape[0]
+        b = flat.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
-        d4 = ds[..., [0, 1, 3, 4]][..., None, :]        # (B, n, 1, 4)
-        # Rows that follow the unique times in order (one block per kind, usually) are
-        # contracted on views; anything else is gathered.
-        if idx is None:
-            blocks = [(0, n, 0)]
-        else:
-            cuts = np.flatnonzero(np.diff(idx) != 1) + 1
-            starts = np.concatenate([[0], cuts])
-            ends = np.concatenate([cuts, [n]])
-            blocks = ([(int(a), int(e), int(idx[a])) for a, e in zip(starts, ends, strict=True)]
-                      if starts.size <= 16 else [])
-        w = np.empty((b, n, 7))
-        seg = np.empty((b, n), dtype=seg_u.dtype)
-        if blocks:
-            for a, e, u in blocks:
-                w[:, a:e] = (d4[:, a:e] @ par_u[:, u:u + e - a])[..., 0, :]
-                seg[:, a:e] = seg_u[:, u:u + e - a]
-        else:
-            assert idx is not None
-            w = (d4 @ par_u[:, idx])[..., 0, :]
-            seg = seg_u[:, idx]
+        w, seg = _weights(ds, par_u, seg_u, idx)
         if M == 0:
-            out = np.empty((b, n, p))
-            out[..., :4] = w[..., :4]
-            out[..., 4:6] = w[..., 4:6]
-            return out
-        wide = np.zeros((b, n, M + 1, 7))
-        for m in range(M + 1):
-            np.copyto(wide[:, :, m], w, where=(seg == m)[..., None])
+            return np.ascontiguousarray(w[..., :6])
+        # d (segment inputs) / d theta per segment: the start state's derivatives, then unit
+        # rows for the accelerations and minus one for the change-over time starting it
         d_inputs = np.zeros((b, M + 1, 7, p))
         d_inputs[:, :, :4] = d_anchor
         for m in range(M + 1):
-            d_inputs[:, m, 4, 4 + 2 * m] = 1.0
-            d_inputs[:, m, 5, 5 + 2 * m] = 1.0
+            d_inputs[:, m, 4, 4 + 2 * m] = d_inputs[:, m, 5, 5 + 2 * m] = 1.0
             if m >= 1:
                 d_inputs[:, m, 6, 5 + 2 * M + m] = -1.0
-        return matmul(wide.reshape(b, n, 7 * (M + 1)), d_inputs.reshape(b, 7 * (M + 1), p))
+        out = matmul(w, d_inputs[:, 0])
+        for m in range(1, M + 1):
+            np.copyto(out, matmul(w, d_inputs[:, m]), where=(seg == m)[..., None])
+        return out
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
         """Apply the chain rule, contracting the state axis before the parameter axis.
@@ -297,3 +303,35 @@ class ForwardPiecewise(MotionModel):
     def __repr__(self) -> str:
         """Name the class, the number of manoeuvres and the reference time."""
         return f"ForwardPiecewise(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"
+
+
+def _weights(ds: Array, par_u: Array, seg_u: NDArray[np.int64], idx: NDArray[np.int64] | None
+             ) -> tuple[Array, NDArray[np.int64]]:
+    """Contract ``ds`` ``(B, n, 6)`` with the sample partials ``par_u`` ``(B, nu, 4, 7)``.
+
+    Give ``w`` ``(B, n, 7)`` and every row's segment ``(B, n)``.  Rows that follow the unique
+    times in order (one block per kind, usually) are contracted on views; anything else is
+    gathered.
+    """
+    b, n = ds.shape[:2]
+    if idx is None:
+        blocks = [(0, n, 0)]
+    else:
+        cuts = np.flatnonzero(np.diff(idx) != 1) + 1
+        starts = np.concatenate([[0], cuts])
+        ends = np.concatenate([cuts, [n]])
+        blocks = ([(int(a), int(e), int(idx[a])) for a, e in zip(starts, ends, strict=True)]
+                  if starts.size <= 16 else [])
+    if not blocks:
+        assert idx is not None
+        par_u, seg_u, blocks = par_u[:, idx], seg_u[:, idx], [(0, n, 0)]
+    w = np.empty((b, n, 7))
+    seg = np.empty((b, n), dtype=seg_u.dtype)
+    w[..., 0], w[..., 1] = ds[..., 0], ds[..., 1]  # the position rows: (1, 0) and (0, 1)
+    for a, e, u in blocks:
+        par = par_u[:, u:u + e - a, :, 2:]
+        d = ds[:, a:e]
+        w[:, a:e, 2:] = (d[..., 0, None] * par[:, :, 0] + d[..., 1, None] * par[:, :, 1]
+                         + d[..., 3, None] * par[:, :, 2] + d[..., 4, None] * par[:, :, 3])
+        seg[:, a:e] = seg_u[:, u:u + e - a]
+    return w, seg
