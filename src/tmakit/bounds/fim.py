@@ -292,11 +292,11 @@ def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLik
     """
     if len(meas) == 0:
         return
-    pos = motion.states(theta, meas.time)[..., :3]
-    dist = np.linalg.norm(pos - meas.sensor_state[:, :3], axis=-1)
-    k = int(np.argmin(dist))
-    if not dist[k] >= ON_SENSOR_M:  # also NaN
+    diff = motion.states(theta, meas.time)[..., :3] - meas.sensor_state[:, :3]
+    dist2 = np.einsum("...i,...i->...", diff, diff)  # squared: no square root per row
+    k = int(np.argmin(dist2))
+    if not dist2[k] >= ON_SENSOR_M**2:  # also NaN
         raise ValueError(
             f"truth puts the target on sensor {str(meas.sensor[k])!r} at t = {meas.time[k]:g} s "
-            f"(distance {dist[k]:.3g} m < {ON_SENSOR_M:g} m): the bound is undefined there "
-            "(no bearing, no range derivative); choose a truth away from every sensor")
+            f"(distance {np.sqrt(dist2[k]):.3g} m < {ON_SENSOR_M:g} m): the bound is undefined "
+            "there (no bearing, no range derivative); choose a truth away from every sensor")
