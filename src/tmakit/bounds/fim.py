@@ -97,9 +97,14 @@ def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayL
     """
     if noise is None:  # rows in the model's grouped order: F does not depend on the order
         j_theta, j_nu = obs.jacobian_grouped(theta, nuisance)
-        jac = (j_theta if as_known_nuisance(known_nuisance) is not None
-               else np.concatenate([j_theta, j_nu], axis=-1))
-        w = NoiseModel.from_rows(obs.row_model).whiten(jac, axis=-2)
+        known = as_known_nuisance(known_nuisance) is not None
+        w = (j_theta if known or j_nu.shape[-1] == 0
+             else np.concatenate([j_theta, j_nu], axis=-1))
+        noise = NoiseModel.from_rows(obs.row_model)
+        if noise.correlated:
+            w = noise.whiten(w, axis=-2)
+        else:  # a fresh array: scaled in place, row by row
+            w *= noise.inv_sigma[:, None]
     else:
         w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
     return w.T @ w

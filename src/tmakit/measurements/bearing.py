@@ -65,10 +65,12 @@ class Bearing(MeasurementModel):
         """
         rel = as_rel(rel)
         dx, dy = rel[..., 0], rel[..., 1]
-        rho2 = dx * dx + dy * dy
-        d = np.zeros(rel.shape)
-        d[..., 0] = dy / rho2
-        d[..., 1] = -dx / rho2
+        rho2 = dx * dx
+        rho2 += dy * dy
+        d = np.zeros_like(rel)  # the layout of rel: copied into a like one without transposing
+        np.divide(dy, rho2, out=d[..., 0])
+        np.divide(dx, rho2, out=d[..., 1])
+        np.negative(d[..., 1], out=d[..., 1])  # -(dx / rho2) == -dx / rho2 exactly
         return Jacobian(d, None, zeros_nuisance(rel))
 
     def predict_gradient(self, rel: Array, t: Array | None = None,

@@ -119,8 +119,12 @@ class ObservationModel:
         ndarray
             ``(n,)``, m^2.
         """
-        rel, _ = self._relative(np.asarray(theta, dtype=float), each=False, ref=False)
-        x, y, z = rel[..., 0], rel[..., 1], rel[..., 2]
+        theta = self.motion.check_theta(np.asarray(theta, dtype=float))
+        if self._rel_map is not None and theta.ndim == 1:  # the positions alone
+            x, y, z = self._rel_map.single(theta, components=3)
+        else:
+            rel, _ = self._relative(theta, ref=False)
+            x, y, z = rel[..., 0], rel[..., 1], rel[..., 2]
         out = x * x
         out += y * y
         out += z * z
@@ -211,7 +215,12 @@ class ObservationModel:
         terms = self.motion.component_terms(times)
         if terms is None:
             return None
-        return AffineRows(terms[0], terms[1] - sensor.T, self.motion.n_params)
+        offset = terms[1]
+        if offset.flags.owndata and offset.flags.writeable and offset.flags.c_contiguous:
+            np.subtract(offset, sensor.T, out=offset)  # a fresh array: no second (6, m) one
+        else:
+            offset = offset - sensor.T
+        return AffineRows(terms[0], offset, self.motion.n_params)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
                       rel_map: AffineRows | None, batch_inner: bool = False,
