@@ -299,6 +299,14 @@ class ObservationModel:
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
         inner = not derivatives and theta.ndim == 2 and theta.shape[0] > n
         rel, rel_ref = self._relative(theta, inner, each)
+        if derivatives and k == 0 and rel_ref is None and len(self.models) == 1:
+            # One kind without nuisance (bearings only): its arrays as they come, no copies.
+            h0, _, a_var, d0, *_ = next(iter(self.models.values())).affine_derivatives(
+                rel, self._time)
+            if d0 is not None and d0.flags.writeable and d0.shape == rel.shape:
+                lin = Linearisation(self, theta, h0 if h0.flags.owndata else h0.copy(), a_var)
+                lin.d_h0 = d0
+                return lin
         batch = rel.shape[:-2]
         if inner:
             h0 = np.empty((n, batch[0])).T
