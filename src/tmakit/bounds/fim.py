@@ -100,11 +100,7 @@ def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayL
         known = as_known_nuisance(known_nuisance) is not None
         w = (j_theta if known or j_nu.shape[-1] == 0
              else np.concatenate([j_theta, j_nu], axis=-1))
-        noise = NoiseModel.from_rows(obs.row_model)
-        if noise.correlated:
-            w = noise.whiten(w, axis=-2)
-        else:  # a fresh array: scaled in place, row by row
-            w *= noise.inv_sigma[:, None]
+        w = NoiseModel.from_rows(obs.row_model).whiten(w, axis=-2, overwrite=True)
     else:
         w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
     return w.T @ w

@@ -67,7 +67,8 @@ class Bearing(MeasurementModel):
         dx, dy = rel[..., 0], rel[..., 1]
         rho2 = dx * dx
         rho2 += dy * dy
-        d = np.zeros_like(rel)  # the layout of rel: copied into a like one without transposing
+        # Component-major, like the relative states: columns 2..5 stay untouched zero pages.
+        d = np.zeros(rel.swapaxes(-1, -2).shape).swapaxes(-1, -2)
         np.divide(dy, rho2, out=d[..., 0])
         np.divide(dx, rho2, out=d[..., 1])
         np.negative(d[..., 1], out=d[..., 1])  # -(dx / rho2) == -dx / rho2 exactly
