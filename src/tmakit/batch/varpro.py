@@ -329,13 +329,13 @@ class VarProProblem:
             e = wrap_angle(e)
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
-        r = self.noise.whiten(e)
+        r = self.noise.whiten(e, overwrite=True)  # e is this function's own array
         nu = nu_star
         jt = None
         if self.eliminates:
             nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
         elif with_jacobian:
-            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2))
+            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2), overwrite=True)
         cost = 0.5 * np.einsum("bn,bn->b", r, r)
         cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
         return Evaluation(theta, np.array(nu, dtype=float), r, cost,
@@ -371,7 +371,7 @@ class VarProProblem:
         jt = None
         if with_jacobian:
             # Kaufman's projected Jacobian, at the eliminated nuisance.
-            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2))
+            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2), overwrite=True)
             proj = jt @ qt
             if ginv is not None:
                 proj = proj @ ginv

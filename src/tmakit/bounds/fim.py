@@ -95,8 +95,14 @@ def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayL
     ----------
     Gu et al. (2007), eqs. 17-18; Hörst & Oispuu (2010), eq. 9.
     """
-    noise = noise or NoiseModel(obs.meas)
-    w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
+    if noise is None:  # rows in the model's grouped order: F does not depend on the order
+        j_theta, j_nu = obs.jacobian_grouped(theta, nuisance)
+        known = as_known_nuisance(known_nuisance) is not None
+        w = (j_theta if known or j_nu.shape[-1] == 0
+             else np.concatenate([j_theta, j_nu], axis=-1))
+        w = NoiseModel.from_rows(obs.row_model).whiten(w, axis=-2, overwrite=True)
+    else:
+        w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
     return w.T @ w
 
 
@@ -252,8 +258,8 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
                                                           options, "crlb()")
     known = as_known_nuisance(known_nuisance)
     theta = truth_vector(motion, truth)
-    check_off_sensors(meas, motion, theta)
     obs = ObservationModel(meas, motion, options)
+    check_off_sensors(meas, motion, theta, obs)
     values = _nuisance_values(meas, nuisance)
     if known is not None:
         values = known.over(values)
@@ -269,7 +275,8 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
 ON_SENSOR_M = 1e-3
 
 
-def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLike) -> None:
+def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLike,
+                      obs: ObservationModel | None = None) -> None:
     """Refuse a truth that puts the target on a sensor at one of the measurement times.
 
     There a bearing or elevation has no value, a range no derivative and a power is
@@ -283,6 +290,9 @@ def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLik
         The motion model.
     theta : array_like
         The truth's motion parameters (SI).
+    obs : ObservationModel, optional
+        The observation model of ``meas`` and ``motion``, when there is one: its relative
+        positions are used (no state array is made).
 
     Raises
     ------
@@ -292,11 +302,16 @@ def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLik
     """
     if len(meas) == 0:
         return
-    diff = motion.states(theta, meas.time)[..., :3] - meas.sensor_state[:, :3]
-    dist2 = np.einsum("...i,...i->...", diff, diff)  # squared: no square root per row
-    k = int(np.argmin(dist2))
-    if not dist2[k] >= ON_SENSOR_M**2:  # also NaN
+    if obs is not None:  # squared distances (no square root per row), grouped order
+        dist2 = obs.squared_ranges(theta)
+        j = int(np.argmin(dist2))
+        k = int(obs.order[j])
+    else:
+        diff = motion.states(theta, meas.time)[..., :3] - meas.sensor_state[:, :3]
+        dist2 = np.einsum("...i,...i->...", diff, diff)
+        k = j = int(np.argmin(dist2))
+    if not dist2[j] >= ON_SENSOR_M**2:  # also NaN
         raise ValueError(
             f"truth puts the target on sensor {str(meas.sensor[k])!r} at t = {meas.time[k]:g} s "
-            f"(distance {np.sqrt(dist2[k]):.3g} m < {ON_SENSOR_M:g} m): the bound is undefined "
+            f"(distance {np.sqrt(dist2[j]):.3g} m < {ON_SENSOR_M:g} m): the bound is undefined "
             "there (no bearing, no range derivative); choose a truth away from every sensor")

@@ -65,10 +65,13 @@ class Bearing(MeasurementModel):
         """
         rel = as_rel(rel)
         dx, dy = rel[..., 0], rel[..., 1]
-        rho2 = dx * dx + dy * dy
-        d = np.zeros(rel.shape)
-        d[..., 0] = dy / rho2
-        d[..., 1] = -dx / rho2
+        rho2 = dx * dx
+        rho2 += dy * dy
+        # Component-major, like the relative states: columns 2..5 stay untouched zero pages.
+        d = np.zeros(rel.swapaxes(-1, -2).shape).swapaxes(-1, -2)
+        np.divide(dy, rho2, out=d[..., 0])
+        np.divide(dx, rho2, out=d[..., 1])
+        np.negative(d[..., 1], out=d[..., 1])  # -(dx / rho2) == -dx / rho2 exactly
         return Jacobian(d, None, zeros_nuisance(rel))
 
     def predict_gradient(self, rel: Array, t: Array | None = None,

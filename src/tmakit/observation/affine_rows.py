@@ -56,13 +56,16 @@ class AffineRows:
         """The offset flattened ``(6 m,)`` (a view)."""
         return self.offset.reshape(6 * self.m)
 
-    def single(self, theta: Array) -> Array:
+    def single(self, theta: Array, components: int | None = None) -> Array:
         """Give the relative states of one parameter vector from the non-zero terms.
 
         Parameters
         ----------
         theta : numpy.ndarray
             ``(p,)`` or ``(1, p)``, SI.
+        components : int, optional
+            Only the first ``components`` state components, returned component-major
+            ``(components, m)`` (e.g. 3: the relative positions, m).
 
         Returns
         -------
@@ -70,15 +73,20 @@ class AffineRows:
             ``(m, 6)`` or ``(1, m, 6)``: a view of a component-major ``(6, m)`` array.
         """
         th = theta.reshape(-1).tolist()
-        out = np.zeros((6, self.m))
+        n_c = 6 if components is None else int(components)
+        out = np.zeros((n_c, self.m))
         # The terms in parameter order, then the offset: the order of the dense product's
         # sums (``theta @ matrix + offset``).
         for i, c, coef in self.terms:
+            if c >= n_c:
+                continue
             if coef is None:
                 out[c] += th[i]
             else:
                 out[c] += th[i] * coef
-        out += self.offset
+        out += self.offset[:n_c]
+        if components is not None:
+            return out
         return out.T if theta.ndim == 1 else out.T[None]
 
     def take(self, rows: NDArray[np.intp]) -> AffineRows:

@@ -58,8 +58,10 @@ class ObservationModel:
         # Rows grouped by kind: each kind a contiguous slice of the grouped order.
         self.order = (np.concatenate([self.rows[k] for k in self.models])
                       if self.models else np.zeros(0, dtype=int))
-        self.inverse = np.argsort(self.order)
         grouped_already = np.array_equal(self.order, np.arange(self.order.size))
+        #: Grouped order is the set's own (one kind, or kinds already in blocks).
+        self.in_set_order = grouped_already
+        self.inverse = self.order if grouped_already else np.argsort(self.order)
         self.grouped = meas if grouped_already else meas.take(self.order)
         self.slices: dict[str, slice] = {}
         start = 0
@@ -70,10 +72,10 @@ class ObservationModel:
         self._time = g.time
         self._sensor = g.sensor_state
         self.values, self.sigmas = meas.value_si, meas.sigma_si
-        self.values_grouped = self.values[self.order]
-        self.sigmas_grouped = self.sigmas[self.order]
+        self.values_grouped = self._to_grouped(self.values)
+        self.sigmas_grouped = self._to_grouped(self.sigmas)
         self._set_row_model()
-        self.angle_mask = self.angle_mask_grouped[self.inverse]
+        self.angle_mask = self._to_set_order(self.angle_mask_grouped)
         # Affine motion models: relative states by one matrix product (see _states_minus).
         self._rel_map = self._relative_map(self._time, self._sensor)
         self._rel_map_ref = (None if self._ref is None else self._relative_map(
@@ -90,6 +92,43 @@ class ObservationModel:
         self._ref = self.row_model.reference_slice
         self.has_reference = self._ref is not None
         self.angle_mask_grouped = self.row_model.angle
+
+    def _to_grouped(self, x: Array) -> Array:
+        """Return rows ``(..., n)`` of the set in grouped order (no copy when they agree)."""
+        return x if self.in_set_order else x[..., self.order]
+
+    def _to_set_order(self, x: Array, axis: int = -1) -> Array:
+        """Return grouped rows (along ``axis``) in the set's order (no copy when they agree)."""
+        if self.in_set_order:
+            return x
+        return x[..., self.inverse] if axis == -1 else x[..., self.inverse, :]
+
+    def squared_ranges(self, theta: ArrayLike) -> Array:
+        """Return the squared distance from each row's sensor to the target, grouped order.
+
+        Only the rows' own sensor positions at their times (not the reference samples of
+        range differences).
+
+        Parameters
+        ----------
+        theta : array_like
+            Motion parameters ``(p,)``, SI.
+
+        Returns
+        -------
+        ndarray
+            ``(n,)``, m^2.
+        """
+        theta = self.motion.check_theta(np.asarray(theta, dtype=float))
+        if self._rel_map is not None and theta.ndim == 1:  # the positions alone
+            x, y, z = self._rel_map.single(theta, components=3)
+        else:
+            rel, _ = self._relative(theta, ref=False)
+            x, y, z = rel[..., 0], rel[..., 1], rel[..., 2]
+        out = x * x
+        out += y * y
+        out += z * z
+        return out
 
     def take(self, index: ArrayLike) -> ObservationModel:
         """Return the model of the rows ``index`` of the set.
@@ -127,14 +166,16 @@ class ObservationModel:
         sub.rows = {k: order[sl] for k, sl in sub.slices.items()}
         sub.nuisance_slices = dict(self.nuisance_slices)
         sub.nuisance_names = self.nuisance_names
-        sub.order, sub.inverse = order, np.argsort(order)
         grouped_already = np.array_equal(order, np.arange(order.size))
+        sub.in_set_order = grouped_already
+        sub.order, sub.inverse = order, order if grouped_already else np.argsort(order)
         sub.grouped = meas if grouped_already else meas.take(order)
         sub._time, sub._sensor = sub.grouped.time, sub.grouped.sensor_state
         sub.values, sub.sigmas = self.values[idx], self.sigmas[idx]
-        sub.values_grouped, sub.sigmas_grouped = sub.values[order], sub.sigmas[order]
+        sub.values_grouped = sub._to_grouped(sub.values)
+        sub.sigmas_grouped = sub._to_grouped(sub.sigmas)
         sub._set_row_model()
-        sub.angle_mask = sub.angle_mask_grouped[sub.inverse]
+        sub.angle_mask = sub._to_set_order(sub.angle_mask_grouped)
         sub._rel_map = _take_map(self._rel_map, pick)
         sub._rel_map_ref = (None if sub._ref is None
                             else _take_map(self._rel_map_ref, pick[sub._ref] - self._ref.start))
@@ -174,7 +215,12 @@ class ObservationModel:
         terms = self.motion.component_terms(times)
         if terms is None:
             return None
-        return AffineRows(terms[0], terms[1] - sensor.T, self.motion.n_params)
+        offset = terms[1]
+        if offset.flags.owndata and offset.flags.writeable and offset.flags.c_contiguous:
+            np.subtract(offset, sensor.T, out=offset)  # a fresh array: no second (6, m) one
+        else:
+            offset = offset - sensor.T
+        return AffineRows(terms[0], offset, self.motion.n_params)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
                       rel_map: AffineRows | None, batch_inner: bool = False,
@@ -203,14 +249,14 @@ class ObservationModel:
         flat += rel_map.flat_offset
         return flat.reshape(*theta.shape[:-1], 6, m).swapaxes(-1, -2)
 
-    def _relative(self, theta: Array, batch_inner: bool = False, each: bool = False
-                  ) -> tuple[Array, Array | None]:
+    def _relative(self, theta: Array, batch_inner: bool = False, each: bool = False,
+                  ref: bool = True) -> tuple[Array, Array | None]:
         """Relative states (..., n, 6), grouped, and (..., n_rd, 6) at references (or None)."""
         theta = self.motion.check_theta(theta)
         rel = self._states_minus(theta, self._time, self._sensor, self._rel_map, batch_inner,
                                  each)
         rel_ref = None
-        if self._ref is not None:
+        if ref and self._ref is not None:
             g, sl = self.grouped, self._ref
             rel_ref = self._states_minus(theta, g.time_ref[sl], g.ref_sensor_state[sl],
                                          self._rel_map_ref, batch_inner, each)
@@ -253,6 +299,14 @@ class ObservationModel:
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
         inner = not derivatives and theta.ndim == 2 and theta.shape[0] > n
         rel, rel_ref = self._relative(theta, inner, each)
+        if derivatives and k == 0 and rel_ref is None and len(self.models) == 1:
+            # One kind without nuisance (bearings only): its arrays as they come, no copies.
+            h0, _, a_var, d0, *_ = next(iter(self.models.values())).affine_derivatives(
+                rel, self._time)
+            if d0 is not None and d0.flags.writeable and d0.shape == rel.shape:
+                lin = Linearisation(self, theta, h0 if h0.flags.owndata else h0.copy(), a_var)
+                lin.d_h0 = d0
+                return lin
         batch = rel.shape[:-2]
         if inner:
             h0 = np.empty((n, batch[0])).T
@@ -356,7 +410,7 @@ class ObservationModel:
         ndarray
             ``(..., n)``, SI (rad, m, m/s, Hz, dBW).
         """
-        return self.predict_grouped(theta, nuisance)[..., self.inverse]
+        return self._to_set_order(self.predict_grouped(theta, nuisance))
 
     def jacobian(self, theta: ArrayLike, nuisance: ArrayLike | None = None
                  ) -> tuple[Array, Array]:
@@ -373,7 +427,7 @@ class ObservationModel:
             ``d value / d theta`` (..., n, p) and ``d value / d nuisance`` (..., n, k), SI.
         """
         j_theta, j_nu = self.jacobian_grouped(theta, nuisance)
-        return j_theta[..., self.inverse, :], j_nu[..., self.inverse, :]
+        return self._to_set_order(j_theta, -2), self._to_set_order(j_nu, -2)
 
     def affine_parts(self, theta: ArrayLike) -> tuple[Array, Array, Array]:
         """Return ``(h0, A_const, A_var)`` with predictions ``h0 + (A_const + A_var) @ nu``.

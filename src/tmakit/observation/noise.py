@@ -144,7 +144,8 @@ class NoiseModel:
         out._setup(np.asarray(sigma, dtype=float), [])
         return out
 
-    def whiten(self, x: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
+    def whiten(self, x: NDArray[np.float64], axis: int = -1, overwrite: bool = False
+               ) -> NDArray[np.float64]:
         """Return ``W x`` along ``axis`` (the measurement axis) of ``x``.
 
         Parameters
@@ -153,6 +154,9 @@ class NoiseModel:
             Values in SI units, ``m`` long along ``axis``.
         axis : int
             The measurement axis.
+        overwrite : bool
+            ``x`` (a float array the caller owns) may be scaled in place when the rows are
+            independent (no new array of its size).
 
         Returns
         -------
@@ -161,10 +165,12 @@ class NoiseModel:
         """
         if not self.blocks:  # independent rows: a scaling (the common, hot case)
             x = np.asarray(x, dtype=float)
-            if axis == -1:
-                return x * self.inv_sigma
-            if axis == -2:
-                return x * self.inv_sigma[:, None]
+            if axis in (-1, -2):
+                scale = self.inv_sigma if axis == -1 else self.inv_sigma[:, None]
+                if overwrite and x.flags.writeable:
+                    x *= scale
+                    return x
+                return x * scale
         x = np.moveaxis(np.asarray(x, dtype=float), axis, -1)
         out = x * self.inv_sigma
         for rows, whitener in self.blocks:

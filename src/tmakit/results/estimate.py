@@ -394,8 +394,10 @@ def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.flo
         hi = min(n, lo + blas.CHUNK_ROWS) if chunks else n
         part = obs.take(obs.order[lo:hi]) if chunks else obs
         j_theta, j_nu = part.jacobian_grouped(theta, nu)  # the noise model is grouped too
-        jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
-        w = jac * noise.inv_sigma[lo:hi, None] if chunks else noise.whiten(jac, axis=-2)
+        jac = j_theta if known or j_nu.shape[-1] == 0 else np.concatenate([j_theta, j_nu], -1)
+        if chunks:  # jac is this loop's own array: scaled in place
+            jac *= noise.inv_sigma[lo:hi, None]
+        w = jac if chunks else noise.whiten(jac, axis=-2, overwrite=True)
         info = info + w.T @ w
     return np.asarray(info, dtype=float)
 
