@@ -254,8 +254,8 @@ class Scenario:
 
         Row ``i`` of ``values`` in the rows of ``template`` is what :meth:`simulate` gives for
         ``rngs[i]`` (the same draws): Monte Carlo runs, without a set per run.  The rows are
-        checked once; each run's values for being finite and possible (noise can break only
-        these rules: an impossible draw is refused, :func:`~tmakit.scenario_plan.refuse_impossible`).
+        checked once; each run's values for being finite and possible (the rules noise can
+        break: see :func:`~tmakit.scenario_plan.refuse_impossible`).
 
         Parameters
         ----------
