@@ -80,6 +80,72 @@ def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
     assert meas.take(np.arange(3)).time_ref.shape == (3,)
 
 
+GEO_HEADER = "time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt,sensor_vx,sensor_vy"
+ORIGIN = ("# origin_lat: 43.25", "# origin_lon: 5.375", "# origin_alt: 12")
+
+
+def geodetic_rows(n, climb):
+    """Bearings and frequencies from a ship and a late sensor, altitudes rising by ``climb`` m."""
+    rows = []
+    for i in range(n):
+        t, lat, lon = float(i), 43.25 + 1e-4 * i, 5.375 - 2e-4 * i
+        alt = 12.0 + climb * i / n
+        rows.append(f"{t},ship,bearing,{(37.0 + 0.01 * i) % 360:.6f},1,{lat:.8f},{lon:.8f},"
+                    f"{alt:.3f},5,0")
+        rows.append(f"{t},ship,frequency,{1000.0 + 0.001 * i:.6f},0.1,{lat:.8f},{lon:.8f},"
+                    f"{alt:.3f},5,0")
+        if i >= n // 2:
+            rows.append(f"{t},buoy 2,bearing,{(300.0 + 0.02 * i) % 360:.6f},2,43.3,5.4,"
+                        f"{alt - 7:.3f},0,0")
+    return rows
+
+
+@pytest.mark.parametrize(("climb", "preamble", "origin", "dim"), [
+    (20.0, ORIGIN, None, 2),  # within 25 m of the origin's altitude: a surface
+    (400.0, ORIGIN, None, 3),  # climbing 400 m: heights kept
+    (20.0, (*ORIGIN, "# dim: 3"), None, 3),  # asked for 3-D
+    (400.0, ("# note: x",), (43.2, 5.3, 50.0), 3),  # the origin argument, no metadata
+    (5.0, ("# origin_lat: 43.25", "# origin_lon: 5.375"), (43.2, 5.3, 10.0), 2),  # it wins
+    (None, ("# origin_lat: 43.25", "# origin_lon: 5.375"), None, 2),  # no altitudes
+], ids=["2d", "3d", "asked-3d", "origin-argument", "argument-wins", "no-altitude"])
+def test_a_streamed_latlon_file_equals_the_full_checkers_set(tmp_path, monkeypatch, climb,
+                                                             preamble, origin, dim):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks
+    monkeypatch.setattr(csv_stream, "_ENU_ROWS", 97)  # converted in many pieces
+    rows, header = geodetic_rows(300, climb or 0.0), GEO_HEADER
+    if climb is None:  # drop the sensor_alt column
+        rows = [",".join(r.split(",")[:7] + r.split(",")[8:]) for r in rows]
+        header = GEO_HEADER.replace(",sensor_alt", "")
+    path = tmp_path / "geo.csv"
+    path.write_text("\n".join([*preamble, header, *rows]) + "\n", encoding="utf-8")
+    streamed = csv_stream.stream_csv(path, origin=origin)
+    assert streamed is not None
+    full = check_table(path, load_csv(path), origin)
+    assert streamed.equals(full)  # bit for bit, metadata (origin, dim_rule) included
+    assert streamed.metadata == full.metadata
+    assert ("dim_rule" in streamed.metadata) == (dim == 2)
+    up = streamed.sensor_state[:, 2]
+    assert np.all(up == 0) == (dim == 2)
+    assert np.ptp(streamed.sensor_state[:, 1]) > 1000  # north, in metres
+    assert read_measurements(path, origin).equals(full)  # the reader takes the stream
+
+
+@pytest.mark.parametrize(("preamble", "edit"), [
+    (("# note: x",), None),  # no origin anywhere: the checker says how to give one
+    (ORIGIN, lambda r: [*r[:5], r[5].replace(",43.2", ",93.2", 1), *r[6:]]),  # latitude > 90
+    (("# origin_lat: 43.25", "# origin_lon: east"), None),  # an unreadable origin
+])
+def test_a_latlon_file_the_stream_cannot_take_goes_to_the_full_checker(tmp_path, preamble,
+                                                                       edit):
+    rows = geodetic_rows(20, 0.0)
+    path = tmp_path / "geo.csv"
+    path.write_text("\n".join([*preamble, GEO_HEADER, *(edit(rows) if edit else rows)]) + "\n",
+                    encoding="utf-8")
+    assert csv_stream.stream_csv(path) is None
+    with pytest.raises(MeasurementFileError):
+        read_measurements(path)
+
+
 @pytest.mark.parametrize(("edit", "words"), [
     (lambda r: [*r[:5], "3.5,ship,bearing,400,1,0,0,0,5,0,0", *r[5:]],
      "column 'value': expected a bearing"),

@@ -36,6 +36,8 @@ from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
+from .positions import resolve_origin
+from .problems import Problems, RawTable
 
 __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "stream_csv"]
 
@@ -47,11 +49,20 @@ _GIVE_BACK_EVERY = 1
 #: sensor state (48), the sensor code (4) and the kind code (1); ``time_ref`` and the
 #: reference state are all-NaN views that take no memory.
 SET_BYTES_PER_ROW = 93
-#: Columns a streamed file must have.
-_REQUIRED = ("time", "sensor", "kind", "value", "sigma", "sensor_x", "sensor_y")
-#: Numeric columns stored; ``time_ref`` (all empty) is read to be checked, not stored.
-_STORED = ("time", "value", "sigma", "sensor_x", "sensor_y", "sensor_z", "sensor_vx",
-           "sensor_vy", "sensor_vz")
+#: Columns a streamed file must have, and those of its positions (ENU or geodetic).
+_REQUIRED = ("time", "sensor", "kind", "value", "sigma")
+_ENU_REQUIRED = ("sensor_x", "sensor_y")
+_ENU_COLUMNS = ("sensor_x", "sensor_y", "sensor_z")
+_GEO_REQUIRED = ("sensor_lat", "sensor_lon")
+#: Column of the sensor state each numeric column is stored in (latitude, longitude and
+#: altitude are held in the position's place until :func:`_to_enu` converts them);
+#: ``time_ref`` (all empty) is read to be checked, not stored.
+_STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "sensor_vy": 4,
+                 "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
+#: The contract's ranges of latitude and longitude (deg), as the full checker's.
+_RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
+#: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
+_ENU_ROWS = 1 << 16
 
 
 class _Fallback(Exception):
@@ -73,8 +84,10 @@ def _header(path: Path, start: int) -> list[str] | None:
     if "" in stripped or len(set(stripped)) != len(stripped):
         return None
     has = set(stripped).__contains__
-    if not all(has(c) for c in _REQUIRED) or any(
-            has(c) for c in (*GEO_COLUMNS, *REF_STATE_COLUMNS)) or has("sensor_vx") != has(
+    geodetic = any(has(c) for c in GEO_COLUMNS)
+    position = (_GEO_REQUIRED, _ENU_COLUMNS) if geodetic else (_ENU_REQUIRED, GEO_COLUMNS)
+    if not all(has(c) for c in (*_REQUIRED, *position[0])) or any(
+            has(c) for c in (*position[1], *REF_STATE_COLUMNS)) or has("sensor_vx") != has(
             "sensor_vy"):
         return None
     return names
@@ -111,11 +124,15 @@ class _Columns:
         """Store a block of a numeric column (finite numbers only)."""
         if not np.isfinite(values).all():
             raise _Fallback
+        if name in _RANGES:
+            low, high = _RANGES[name]
+            if np.any((values < low) | (values > high)):
+                raise _Fallback
         lo, hi = self.n, self.n + values.shape[0]
         if name in self.num:
             self.num[name][lo:hi] = values
         else:
-            self.state[lo:hi, _STORED.index(name) - 3] = values
+            self.state[lo:hi, _STATE_COLUMN[name]] = values
 
     def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
         """Store a block of kind codes from its dictionary (known, not range differences)."""
@@ -318,8 +335,9 @@ def preamble(path: Path, scan: int) -> tuple[dict[str, str], int] | None:
     return metadata, bom + len(text[:consumed].encode("utf-8"))
 
 
-def stream_csv(path: Path, scan: int = 1 << 20) -> MeasurementSet | None:
-    """Read a valid CSV measurement file with ENU positions and no range differences.
+def stream_csv(path: Path, scan: int = 1 << 20,
+               origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
+    """Read a valid CSV measurement file without range differences, in bounded memory.
 
     Parameters
     ----------
@@ -327,6 +345,10 @@ def stream_csv(path: Path, scan: int = 1 << 20) -> MeasurementSet | None:
         The file.
     scan : int, optional
         Bytes searched for the ``# key: value`` preamble.
+    origin : (lat, lon, alt), optional
+        ENU origin (degrees, degrees, metres) for a file with ``sensor_lat`` and
+        ``sensor_lon``; wins over its ``origin_*`` metadata, as for
+        :func:`~.checker.check_table`.
 
     Returns
     -------
@@ -342,16 +364,74 @@ def stream_csv(path: Path, scan: int = 1 << 20) -> MeasurementSet | None:
     names = _header(path, start)
     if names is None:
         return None
+    stripped = {n.strip() for n in names}
+    enu_origin: tuple[float, float, float] | None = None
+    if "sensor_lat" in stripped:
+        enu_origin, origin_metadata = _origin(origin, metadata)
+        if enu_origin is None:
+            return None
+        metadata = {**metadata, **origin_metadata}
     try:
         cols = _read_blocks(path, start, names)
         present = np.bincount(cols.kind, minlength=len(KIND_NAMES)) > 0
-        stripped = {n.strip() for n in names}
         if "sensor_vx" not in stripped and any(
                 KINDS[k].uses_velocity for k, p in zip(KIND_NAMES, present, strict=True) if p):
             return None
+        if enu_origin is not None:
+            if "sensor_alt" not in stripped:  # as the full reader: the origin's altitude
+                cols.state[:, 2] = enu_origin[2]
+            rule = _to_enu(cols.state, enu_origin, metadata.get("dim", "").strip() == "3")
+            if rule:
+                metadata["dim_rule"] = rule
         meas = _build(cols, metadata)
     except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
         return None
     if _has_duplicates(meas.time, meas.sensor_code, meas.kind_code):
         return None
     return meas
+
+
+def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
+            ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
+    """Pick the ENU origin as the full reader does (:func:`.positions.resolve_origin`).
+
+    The argument, else the file's ``origin_lat``, ``origin_lon`` (and ``origin_alt``, 0 m
+    when absent) metadata; ``(None, {})`` when there is none or it is unreadable.
+    """
+    problems = Problems(RawTable(None, metadata, None))  # type: ignore[arg-type]
+    found, origin_metadata = resolve_origin(origin, metadata, problems)
+    return (None, {}) if problems.file else (found, origin_metadata)
+
+
+def _to_enu(state: NDArray[np.float64], origin: tuple[float, float, float],
+            dim3: bool) -> str:
+    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU in place.
+
+    As the full reader does (:func:`.positions.sensor_state`): the surface rule of
+    :func:`tmakit.io.logs.surface_dim` over every row's altitude decides 2-D (altitude the
+    origin's, up 0) or 3-D, unless ``dim3`` (metadata ``dim: 3``).  Converted
+    :data:`_ENU_ROWS` rows at a time, so the conversion's arrays stay small.
+
+    Returns
+    -------
+    str
+        The surface rule's text when it flattened the positions, else ``""``.
+    """
+    from ..geodesy import geodetic_to_enu
+    from .logs import surface_dim
+
+    n, alt0 = state.shape[0], origin[2]
+    worst, spread = alt0, -1.0  # the altitude farthest from the origin's
+    for lo in range(0, n, _ENU_ROWS):
+        off = np.abs(state[lo:lo + _ENU_ROWS, 2] - alt0)
+        i = int(np.argmax(off))
+        if off[i] > spread:
+            worst, spread = float(state[lo + i, 2]), float(off[i])
+    dim, rule = surface_dim(np.array([worst]), alt0, 3 if dim3 else None)
+    for lo in range(0, n, _ENU_ROWS):
+        block = state[lo:lo + _ENU_ROWS]
+        alt = np.full(block.shape[0], alt0) if dim == 2 else block[:, 2]
+        with np.errstate(invalid="ignore"):
+            e, nn, u = geodetic_to_enu(block[:, 0], block[:, 1], alt, origin)
+        block[:, 0], block[:, 1], block[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
+    return rule if dim == 2 else ""
