@@ -268,8 +268,11 @@ print(len(meas), peak() - before)
 """
 
 
-def peak_of_reading(tmp_path, n):
-    """Write an n-row bearings file; return its size and the growth of a child's peak RSS."""
+def peak_of_reading(tmp_path, n, geodetic=False):
+    """Write an n-row bearings file; return its size and the growth of a child's peak RSS.
+
+    ``geodetic``: positions as latitude, longitude and altitude (a 3-D file with an origin).
+    """
     import subprocess
     import sys
 
@@ -277,10 +280,19 @@ def peak_of_reading(tmp_path, n):
     b = np.degrees(np.arctan2(4000.0 - 11 * t, 9000.0 - 3 * t)) % 360
     path = tmp_path / f"big{n}.csv"
     with open(path, "w") as f:
-        f.write(HEADER + "\n")
-        f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{5 * ti:.3f},0,0,5,0,0\n"
-                     for ti, bi in zip(t, b, strict=True))
-    small = write_rows(tmp_path / "small.csv", two_sensor_rows(50))
+        if geodetic:
+            f.write("\n".join([*ORIGIN, GEO_HEADER]) + "\n")
+            f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{43.25 + 4e-5 * ti:.7f},5.375,"
+                         f"{12 + ti:.2f},5,0\n" for ti, bi in zip(t, b, strict=True))
+        else:
+            f.write(HEADER + "\n")
+            f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{5 * ti:.3f},0,0,5,0,0\n"
+                         for ti, bi in zip(t, b, strict=True))
+    small = tmp_path / "small.csv"  # of the same layout: the same libraries are loaded
+    if geodetic:
+        small.write_text("\n".join([*ORIGIN, GEO_HEADER, *geodetic_rows(50, 400.0)]) + "\n")
+    else:
+        write_rows(small, two_sensor_rows(50))
     out = subprocess.run([sys.executable, "-c", PEAK_OF_A_READ, str(path), str(small)],
                          check=True, capture_output=True, text=True).stdout.split()
     assert int(out[0]) == n
@@ -288,9 +300,10 @@ def peak_of_reading(tmp_path, n):
 
 
 @pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
-def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path):
-    size_small, grown_small = peak_of_reading(tmp_path, 100_000)
-    size_big, grown_big = peak_of_reading(tmp_path, 400_000)
+@pytest.mark.parametrize("geodetic", [False, True], ids=["enu", "latlon"])
+def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path, geodetic):
+    size_small, grown_small = peak_of_reading(tmp_path, 100_000, geodetic)
+    size_big, grown_big = peak_of_reading(tmp_path, 400_000, geodetic)
     per_row_memory = (grown_big - grown_small) / 300_000
     per_row_file = (size_big - size_small) / 300_000
     assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)
