@@ -1,11 +1,13 @@
 """Memory figure: peak RSS of `tma show` and `tma estimate --motion cv2d` on a large CSV.
 
-    python benchmarks/memory_large_csv.py [--rows 10000000]
+    python benchmarks/memory_large_csv.py [--rows 10000000] [--latlon]
 
 Writes a bearings-only CSV of ``rows`` rows (a CV target seen from a sensor on a zig-zag, 1 deg
-noise, seeded), then runs each command in a fresh process and reports its peak resident
-memory (its VmHWM, Linux), the file size and their ratio, the bytes per row above
-what ``tma show`` of a 3-row file takes (the interpreter and libraries), and the wall time.
+noise, seeded; with ``--latlon`` the sensor positions as latitude, longitude and a sea-level
+altitude with ``origin_*`` metadata, read as 2-D), then runs each command in a fresh
+process and reports its peak resident memory (its VmHWM, Linux), the file size and their
+ratio, the bytes per row above what ``tma show`` of a 3-row file takes (the interpreter and
+libraries), and the wall time.
 """
 
 from __future__ import annotations
@@ -21,12 +23,23 @@ from pathlib import Path
 import numpy as np
 
 HEADER = "time,sensor,kind,value,sigma,sensor_x,sensor_y,sensor_z,sensor_vx,sensor_vy,sensor_vz"
+GEO_HEADER = "time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt,sensor_vx,sensor_vy"
+#: ENU origin of the ``--latlon`` file (deg, deg, m) and metres per degree there (approximate:
+#: the file's positions only need to be near the ENU ones).
+ORIGIN = (43.25, 5.375, 0.0)
+M_PER_DEG_LAT, M_PER_DEG_LON = 111_132.0, 111_320.0 * np.cos(np.radians(ORIGIN[0]))
 
 
-def write_csv(path: Path, rows: int, seed: int = 1) -> None:
+def geo_preamble() -> str:
+    """Return the ``--latlon`` file's origin metadata and header lines."""
+    return "".join(f"# origin_{k}: {v}\n" for k, v in zip(("lat", "lon", "alt"), ORIGIN,
+                                                           strict=True)) + GEO_HEADER + "\n"
+
+
+def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False) -> None:
     rng = np.random.default_rng(seed)
     with open(path, "w") as f:
-        f.write(HEADER + "\n")
+        f.write(geo_preamble() if latlon else HEADER + "\n")
         block = 1_000_000
         for lo in range(0, rows, block):
             k = np.arange(lo, min(rows, lo + block), dtype=float)
@@ -36,16 +49,26 @@ def write_csv(path: Path, rows: int, seed: int = 1) -> None:
             tx, ty = 4000.0 - 6.0 * t, 9000.0 - 3.0 * t
             b = (np.degrees(np.arctan2(tx - sx, ty - sy)) + rng.normal(0, 1, k.size)) % 360
             table = np.column_stack([t, b, sx, sy])
-            lines = [f"{r[0]:.2f},ship,bearing,{r[1]:.6f},1,{r[2]:.3f},{r[3]:.1f},0,5,0,0"
-                     for r in table]
+            if latlon:
+                lat = ORIGIN[0] + sy / M_PER_DEG_LAT
+                lon = ORIGIN[1] + sx / M_PER_DEG_LON
+                lines = [f"{r[0]:.2f},ship,bearing,{r[1]:.6f},1,{la:.8f},{lo:.8f},0,5,0"
+                         for r, la, lo in zip(table, lat, lon, strict=True)]
+            else:
+                lines = [f"{r[0]:.2f},ship,bearing,{r[1]:.6f},1,{r[2]:.3f},{r[3]:.1f},0,5,0,0"
+                         for r in table]
             f.write("\n".join(lines) + "\n")
 
 
-def small_file(folder: Path) -> Path:
+def small_file(folder: Path, latlon: bool = False) -> Path:
     """Write a 3-row file of the same columns (for the libraries' own memory)."""
     path = folder / "small.csv"
-    path.write_text(HEADER + "\n" + "".join(f"{t},ship,bearing,10,1,0,0,0,5,0,0\n"
-                                             for t in range(3)))
+    if latlon:
+        path.write_text(geo_preamble() + "".join(f"{t},ship,bearing,10,1,43.25,5.375,0,5,0\n"
+                                                 for t in range(3)))
+    else:
+        path.write_text(HEADER + "\n" + "".join(f"{t},ship,bearing,10,1,0,0,0,5,0,0\n"
+                                                 for t in range(3)))
     return path
 
 
@@ -79,14 +102,17 @@ def peak_of(args: list[str], folder: Path) -> tuple[int, float, float]:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--rows", type=int, default=10_000_000)
+    ap.add_argument("--latlon", action="store_true",
+                    help="sensor positions as latitude/longitude/altitude (read as 2-D)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "big.csv"
-        write_csv(path, a.rows)
+        write_csv(path, a.rows, latlon=a.latlon)
         size = path.stat().st_size / 2**20
-        print(f"{a.rows:,} rows, {size:.0f} MB")
+        print(f"{a.rows:,} rows, {size:.0f} MB ({'lat/lon/alt' if a.latlon else 'ENU'} "
+              "positions)")
         # the interpreter and libraries alone
-        _, base, _ = peak_of(["show", str(small_file(Path(d)))], Path(d))
+        _, base, _ = peak_of(["show", str(small_file(Path(d), a.latlon))], Path(d))
         print(f"tma show of a 3-row file: peak RSS {base:.0f} MB (the interpreter and "
               "libraries)")
         for label, args in (("tma show", ["show", str(path)]),
