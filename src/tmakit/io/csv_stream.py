@@ -1,17 +1,24 @@
 """Stream a large, valid CSV measurement file into a set, block by block, in bounded memory.
 
-The common case of a big file is a valid one with ENU sensor positions and no range
-differences.  :func:`stream_csv` reads such a file with pyarrow's streaming CSV reader,
-:data:`BLOCK_BYTES` of text at a time, converting each block's columns straight into the
-set's own arrays (float64 numbers; the kind and the sensor as small integer codes with one
-table of names), so the file's text, an Arrow table of the whole file or a text cell per row
-are never held.  The set is then checked by the one set of rules (:mod:`tmakit.rules`) and for
-duplicate rows, as the reader does.
+The common case of a big file is a valid one without range differences, with ENU or
+latitude/longitude sensor positions.  :func:`stream_csv` reads such a file with pyarrow's
+streaming CSV reader, :data:`BLOCK_BYTES` of text at a time, converting each block's columns
+straight into the set's own arrays (float64 numbers; the kind and the sensor as small integer
+codes with one table of names), so the file's text, an Arrow table of the whole file or a text
+cell per row are never held.  The set is then checked by the one set of rules
+(:mod:`tmakit.rules`) and for duplicate rows, as the reader does.
 
-Whatever the stream does not take (a problem in any cell, a missing column, latitude and
-longitude, range differences, a ragged or quoted-newline record, a long preamble) makes
-:func:`stream_csv` return ``None``: the full checker (:func:`tmakit.io.checker.check_table`)
-then reads the file and reports every problem by row, line and column.
+Latitude, longitude and altitude are held in the place of the ENU position while reading;
+after the last block the surface rule is decided over every row's altitude and the positions
+are converted to ENU in place, :data:`_ENU_ROWS` rows at a time, about the origin the full
+reader takes (the ``origin`` argument, else the ``origin_*`` metadata), so the set and its
+metadata (origin, ``dim_rule``) are those the full reader builds.
+
+Whatever the stream does not take (a problem in any cell, a missing column, a lat/lon file
+without a known origin, range differences, a ragged or quoted-newline record, a long preamble)
+makes :func:`stream_csv` return ``None``: the full checker
+(:func:`tmakit.io.checker.check_table`) then reads the file and reports every problem by row,
+line and column.
 
 Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`), plus up to
 5 % spare rows while reading, one block of text and its parsed columns (about
