@@ -146,6 +146,85 @@ def test_a_latlon_file_the_stream_cannot_take_goes_to_the_full_checker(tmp_path,
         read_measurements(path)
 
 
+RD_HEADER = HEADER + ",time_ref,ref_sensor_x,ref_sensor_y"
+
+
+def range_difference_rows(n):
+    """Bearings, and range differences whose time_ref is a row's time, between two rows, or
+    given with its own ref_sensor_* cells; a second sensor's range differences late."""
+    rows = []
+    for i in range(n):
+        t, x = float(i), 5.0 * i
+        rows.append(f"{t},ship,bearing,{(37.0 + 0.01 * i) % 360:.6f},1,{x},0,0,5,0,0,,,")
+        if i >= 2:
+            ref = ("", "") if i % 3 else (f"{x - 7.5}", "0.5")
+            back = 1.0 if i % 2 else 1.5  # the sensor's row, or between two rows
+            rows.append(f"{t},ship,range_difference,{-12.5 + 0.01 * i:.4f},3,{x},0,0,5,0,0,"
+                        f"{t - back},{ref[0]},{ref[1]}")
+        if i >= n // 2 + 2:
+            rows.append(f"{t},buoy,range_difference,{4.0 + 0.02 * i:.4f},2,100,-50,0,0,0,0,"
+                        f"{t - 2},,")
+        elif i >= n // 2:
+            rows.append(f"{t},buoy,bearing,{(300.0 + 0.02 * i) % 360:.6f},2,100,-50,0,0,0,0,,,")
+    return rows
+
+
+def test_a_streamed_file_with_range_differences_equals_the_full_checkers_set(tmp_path,
+                                                                             monkeypatch):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks
+    path = write_rows(tmp_path / "rd.csv", range_difference_rows(300))
+    path.write_text(path.read_text().replace(HEADER, RD_HEADER, 1))
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None
+    full = full_read(path)
+    assert streamed.equals(full)
+    rd = np.asarray(streamed.kind) == "range_difference"
+    assert rd.sum() == 298 + 148 and np.isfinite(streamed.ref_sensor_state[rd]).all()
+    assert np.isnan(streamed.ref_sensor_state[~rd]).all() and np.isnan(streamed.time_ref[~rd]).all()
+    assert read_measurements(path).equals(full)
+
+
+def test_a_streamed_latlon_file_with_range_differences_equals_the_full_checkers_set(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)
+    monkeypatch.setattr(csv_stream, "_ENU_ROWS", 97)
+    rows = []
+    for row in geodetic_rows(200, 400.0):  # 3-D: the references from the ENU rows
+        t = float(row.split(",")[0])
+        rows.append(row + ",")
+        if row.split(",")[1:3] == ["ship", "bearing"] and t >= 2:
+            rows.append(row.replace("bearing", "range_difference", 1) + f",{t - 1.5}")
+    path = tmp_path / "geo-rd.csv"
+    path.write_text("\n".join([*ORIGIN, GEO_HEADER + ",time_ref", *rows]) + "\n")
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None
+    full = full_read(path)
+    assert streamed.equals(full) and np.ptp(streamed.ref_sensor_state[:, 2][
+        np.asarray(streamed.kind) == "range_difference"]) > 100
+
+
+@pytest.mark.parametrize("edit", [
+    lambda r: [r[0].replace(",,,", ",-1,,"), *r[1:]],  # a time_ref on a bearing row
+    lambda r: r,  # the control: unchanged, it streams
+    lambda r: [*r[:3], r[3].rsplit(",", 3)[0] + ",9,,", *r[4:]],  # time_ref after time
+    lambda r: [*r[:3], r[3].rsplit(",", 3)[0] + ",-9,,", *r[4:]],  # before the sensor's rows
+    lambda r: [*r[:3], r[3].rsplit(",", 3)[0] + ",1.5,0,", *r[4:]],  # half a ref state
+    lambda r: [*r, r[-1]],  # a duplicate (sensor, kind, time, time_ref)
+], ids=["on-a-bearing", "unchanged", "after-time", "unknown-position", "half-ref",
+        "duplicate"])
+def test_a_range_difference_file_with_a_problem_is_not_streamed(tmp_path, edit):
+    rows = range_difference_rows(8)
+    path = write_rows(tmp_path / "rd.csv", edit(rows))
+    path.write_text(path.read_text().replace(HEADER, RD_HEADER, 1))
+    streamed = csv_stream.stream_csv(path)
+    if edit(rows) == rows:
+        assert streamed is not None and streamed.equals(full_read(path))
+        return
+    assert streamed is None
+    with pytest.raises(MeasurementFileError):
+        read_measurements(path)
+
+
 @pytest.mark.parametrize(("edit", "words"), [
     (lambda r: [*r[:5], "3.5,ship,bearing,400,1,0,0,0,5,0,0", *r[5:]],
      "column 'value': expected a bearing"),

@@ -45,6 +45,7 @@ from ..measurements.codes import KIND_CODES, KIND_NAMES
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
 from .positions import resolve_origin
 from .problems import Problems, RawTable
+from .stream_refs import block_is_valid, has_duplicates, reference_states
 
 __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "stream_csv"]
 
@@ -61,15 +62,19 @@ _REQUIRED = ("time", "sensor", "kind", "value", "sigma")
 _ENU_REQUIRED = ("sensor_x", "sensor_y")
 _ENU_COLUMNS = ("sensor_x", "sensor_y", "sensor_z")
 _GEO_REQUIRED = ("sensor_lat", "sensor_lon")
+_REF_REQUIRED = ("time_ref", "ref_sensor_x", "ref_sensor_y")
 #: Column of the sensor state each numeric column is stored in (latitude, longitude and
-#: altitude are held in the position's place until :func:`_to_enu` converts them);
-#: ``time_ref`` (all empty) is read to be checked, not stored.
+#: altitude are held in the position's place until :func:`_to_enu` converts them).
 _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "sensor_vy": 4,
                  "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
 #: The contract's ranges of latitude and longitude (deg), as the full checker's.
 _RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
 #: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
 _ENU_ROWS = 1 << 16
+
+
+#: Columns of range differences (empty on other rows).
+_REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
 
 
 class _Fallback(Exception):
@@ -93,9 +98,9 @@ def _header(path: Path, start: int) -> list[str] | None:
     has = set(stripped).__contains__
     geodetic = any(has(c) for c in GEO_COLUMNS)
     position = (_GEO_REQUIRED, _ENU_COLUMNS) if geodetic else (_ENU_REQUIRED, GEO_COLUMNS)
-    if not all(has(c) for c in (*_REQUIRED, *position[0])) or any(
-            has(c) for c in (*position[1], *REF_STATE_COLUMNS)) or has("sensor_vx") != has(
-            "sensor_vy"):
+    refs = any(has(c) for c in REF_STATE_COLUMNS)
+    if not all(has(c) for c in (*_REQUIRED, *position[0], *(_REF_REQUIRED if refs else ()))
+               ) or any(has(c) for c in position[1]) or has("sensor_vx") != has("sensor_vy"):
         return None
     return names
 
@@ -110,6 +115,15 @@ class _Columns:
         self.sensor = np.zeros(rows, dtype=np.int32)
         self.kind = np.zeros(rows, dtype=np.int8)
         self.sensor_names: dict[str, int] = {}
+        # range differences: allocated at the first cell given (NaN for empty cells)
+        self.time_ref: NDArray[np.float64] | None = None
+        self.ref: NDArray[np.float64] | None = None
+        self.ref_columns: list[int] = []
+
+    def _arrays(self) -> list[NDArray[Any]]:
+        """List the per-row arrays (the 1-D ones)."""
+        return [*self.num.values(), self.sensor, self.kind,
+                *(() if self.time_ref is None else (self.time_ref,))]
 
     def reserve(self, rows: int) -> None:
         """Make room for ``rows`` more rows (grown by a quarter at least)."""
@@ -117,15 +131,45 @@ class _Columns:
         if need <= self.kind.shape[0]:
             return
         size = max(need, int(self.kind.shape[0] * 1.25))
-        for a in (*self.num.values(), self.sensor, self.kind):
+        for a in self._arrays():
             a.resize(size, refcheck=False)
-        self.state.resize((size, 6), refcheck=False)
+        for b in (self.state, self.ref):
+            if b is not None:
+                b.resize((size, 6), refcheck=False)
 
     def trim(self) -> None:
         """Drop the spare rows."""
-        for a in (*self.num.values(), self.sensor, self.kind):
+        for a in self._arrays():
             a.resize(self.n, refcheck=False)
-        self.state.resize((self.n, 6), refcheck=False)
+        for b in (self.state, self.ref):
+            if b is not None:
+                b.resize((self.n, 6), refcheck=False)
+
+    def put_reference(self, name: str, values: NDArray[np.float64]) -> None:
+        """Store a block of ``time_ref`` or a ``ref_sensor_*`` column (NaN for empty)."""
+        lo, hi = self.n, self.n + values.shape[0]
+        if name == "time_ref":
+            if self.time_ref is None and np.isnan(values).all():
+                return
+            if self.time_ref is None:  # the first one given: the rows before had none
+                self.time_ref = np.full(self.kind.shape[0], np.nan)
+            self.time_ref[lo:hi] = values
+            return
+        i = REF_STATE_COLUMNS.index(name)
+        if i not in self.ref_columns:
+            self.ref_columns.append(i)
+        if self.ref is None and np.isnan(values).all():
+            return
+        if self.ref is None:
+            self.ref = np.full((self.kind.shape[0], 6), np.nan)
+        self.ref[lo:hi, i] = values
+
+    def block_is_valid(self, k: int) -> bool:
+        """Check the range-difference cells of the block of ``k`` rows just stored."""
+        lo, hi = self.n, self.n + k
+        return block_is_valid(self.num["time"][lo:hi], self.kind[lo:hi],
+                              None if self.time_ref is None else self.time_ref[lo:hi],
+                              None if self.ref is None else self.ref[lo:hi], self.ref_columns)
 
     def put_number(self, name: str, values: NDArray[np.float64]) -> None:
         """Store a block of a numeric column (finite numbers only)."""
@@ -144,7 +188,7 @@ class _Columns:
     def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
         """Store a block of kind codes from its dictionary (known, not range differences)."""
         table = np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
-        if np.any(table < 0) or any(KINDS[KIND_NAMES[c]].uses_reference for c in table):
+        if np.any(table < 0):
             raise _Fallback
         self.kind[self.n:self.n + indices.shape[0]] = table[indices]
 
@@ -185,6 +229,8 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
             cols.reserve(k)
             for name, col in zip(batch.schema.names, batch.columns, strict=True):
                 _put(cols, name.strip(), col)
+            if not cols.block_is_valid(k):
+                raise _Fallback
             cols.n += k
             del batch
             if blocks % _GIVE_BACK_EVERY == 0:
@@ -221,9 +267,8 @@ def _malloc_trim() -> Any:
 
 def _put(cols: _Columns, name: str, col: Any) -> None:
     """Store one block of one column."""
-    if name == "time_ref":  # only range differences have one: every cell empty here
-        if col.null_count != len(col):
-            raise _Fallback
+    if name in _REFERENCE:  # empty cells are NaN
+        cols.put_reference(name, np.asarray(col.to_numpy(zero_copy_only=False), float))
         return
     if col.null_count:
         raise _Fallback
@@ -242,29 +287,12 @@ def _numbers(col: Any, dtype: type) -> NDArray[Any]:
                          offset=col.offset * np.dtype(dtype).itemsize)
 
 
-def _has_duplicates(time: NDArray[np.float64], sensor: NDArray[np.int32],
-                     kind: NDArray[np.int8]) -> bool:
-    """Whether two rows share (sensor, kind, time), the rows of each sensor in time order."""
-    if sensor.shape[0] < 2:
-        return False
-    order = (None if int(sensor.max()) == 0 else np.argsort(sensor, kind="stable"))
-    t = time if order is None else time[order]
-    s = sensor if order is None else sensor[order]
-    same = np.flatnonzero((t[1:] == t[:-1]) & (s[1:] == s[:-1]))
-    if same.shape[0] == 0:
-        return False
-    rows = np.unique(np.concatenate((same, same + 1)))
-    rows = rows if order is None else order[rows]
-    by = np.lexsort((kind[rows], time[rows], sensor[rows]))
-    r = rows[by]
-    return bool(np.any((sensor[r[1:]] == sensor[r[:-1]]) & (time[r[1:]] == time[r[:-1]])
-                       & (kind[r[1:]] == kind[r[:-1]])))
-
-
-def _build(cols: _Columns, metadata: dict[str, str]) -> MeasurementSet:
+def _build(cols: _Columns, metadata: dict[str, str],
+           ref: NDArray[np.float64] | None = None) -> MeasurementSet:
     """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds).
 
-    Raises ``ValueError`` (a rule of :mod:`tmakit.rules`) like the constructor.
+    ``ref``: the sensor states at ``time_ref`` of a file with range differences.  Raises
+    ``ValueError`` (a rule of :mod:`tmakit.rules`) like the constructor.
     """
     from .. import rules
 
@@ -273,8 +301,9 @@ def _build(cols: _Columns, metadata: dict[str, str]) -> MeasurementSet:
     out.time, out.sensor_state = cols.num["time"], cols.state
     out.kind_code, out.sensor_code = cols.kind, cols.sensor
     out.sensor_names = tuple(cols.sensor_names)
-    out.time_ref = np.broadcast_to(np.float64(np.nan), (n,))
-    out.ref_sensor_state = np.broadcast_to(np.float64(np.nan), (n, 6))
+    nan = np.float64(np.nan)  # without range differences: views of one NaN
+    out.time_ref = np.broadcast_to(nan, (n,)) if ref is None else cols.time_ref
+    out.ref_sensor_state = np.broadcast_to(nan, (n, 6)) if ref is None else ref
     out.metadata = dict(metadata)
     out._kind = out._sensor = out._kinds = None
     out._sensors = out.sensor_names
@@ -390,12 +419,24 @@ def stream_csv(path: Path, scan: int = 1 << 20,
             rule = _to_enu(cols.state, enu_origin, metadata.get("dim", "").strip() == "3")
             if rule:
                 metadata["dim_rule"] = rule
-        meas = _build(cols, metadata)
+        meas = _build(cols, metadata, _reference_states(cols, "sensor_vx" in stripped))
     except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
         return None
-    if _has_duplicates(meas.time, meas.sensor_code, meas.kind_code):
+    if has_duplicates(meas.time, meas.sensor_code, meas.kind_code, meas.time_ref):
         return None
     return meas
+
+
+def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64] | None:
+    """Find the sensor states at ``time_ref`` of range differences; None without any."""
+    if cols.time_ref is None:
+        return None
+    ref = reference_states(cols.num["time"], cols.time_ref, cols.kind, cols.sensor,
+                           list(cols.sensor_names), cols.state, cols.ref, cols.ref_columns,
+                           has_velocity)
+    if ref is None:
+        raise _Fallback
+    return ref
 
 
 def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
