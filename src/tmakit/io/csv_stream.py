@@ -1,7 +1,7 @@
 """Stream a large, valid CSV measurement file into a set, block by block, in bounded memory.
 
-The common case of a big file is a valid one without range differences, with ENU or
-latitude/longitude sensor positions.  :func:`stream_csv` reads such a file with pyarrow's
+The common case of a big file is a valid one, with ENU or latitude/longitude sensor
+positions, with or without range differences.  :func:`stream_csv` reads such a file with pyarrow's
 streaming CSV reader, :data:`BLOCK_BYTES` of text at a time, converting each block's columns
 straight into the set's own arrays (float64 numbers; the kind and the sensor as small integer
 codes with one table of names), so the file's text, an Arrow table of the whole file or a text
@@ -14,13 +14,17 @@ are converted to ENU in place, :data:`_ENU_ROWS` rows at a time, about the origi
 reader takes (the ``origin`` argument, else the ``origin_*`` metadata), so the set and its
 metadata (origin, ``dim_rule``) are those the full reader builds.
 
+Range differences: ``time_ref`` and the ``ref_sensor_*`` cells are checked per block, and the
+sensor states at ``time_ref`` found after the stream (:mod:`.stream_refs`).
+
 Whatever the stream does not take (a problem in any cell, a missing column, a lat/lon file
-without a known origin, range differences, a ragged or quoted-newline record, a long preamble)
+without a known origin, a ragged or quoted-newline record, a long preamble)
 makes :func:`stream_csv` return ``None``: the full checker
 (:func:`tmakit.io.checker.check_table`) then reads the file and reports every problem by row,
 line and column.
 
-Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`), plus up to
+Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
+with range differences: ``time_ref`` and the reference state), plus up to
 5 % spare rows while reading, one block of text and its parsed columns (about
 ``3 * BLOCK_BYTES``), and after reading the rules' transient arrays (about 30 bytes per row).
 """
@@ -54,8 +58,8 @@ BLOCK_BYTES = 1 << 22
 #: Blocks between two returns of freed memory to the system (:func:`_give_back`).
 _GIVE_BACK_EVERY = 1
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
-#: sensor state (48), the sensor code (4) and the kind code (1); ``time_ref`` and the
-#: reference state are all-NaN views that take no memory.
+#: sensor state (48), the sensor code (4) and the kind code (1); without range differences
+#: ``time_ref`` and the reference state are all-NaN views that take no memory.
 SET_BYTES_PER_ROW = 93
 #: Columns a streamed file must have, and those of its positions (ENU or geodetic).
 _REQUIRED = ("time", "sensor", "kind", "value", "sigma")
@@ -373,7 +377,7 @@ def preamble(path: Path, scan: int) -> tuple[dict[str, str], int] | None:
 
 def stream_csv(path: Path, scan: int = 1 << 20,
                origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
-    """Read a valid CSV measurement file without range differences, in bounded memory.
+    """Read a valid CSV measurement file in bounded memory.
 
     Parameters
     ----------
