@@ -272,7 +272,10 @@ def _malloc_trim() -> Any:
 def _put(cols: _Columns, name: str, col: Any) -> None:
     """Store one block of one column."""
     if name in _REFERENCE:  # empty cells are NaN
-        cols.put_reference(name, np.asarray(col.to_numpy(zero_copy_only=False), float))
+        values = np.asarray(col.to_numpy(zero_copy_only=False), float)
+        if np.count_nonzero(np.isnan(values)) != col.null_count:  # a cell "nan"
+            raise _Fallback
+        cols.put_reference(name, values)
         return
     if col.null_count:
         raise _Fallback
