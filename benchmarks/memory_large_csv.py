@@ -1,10 +1,11 @@
 """Memory figure: peak RSS of `tma show` and `tma estimate --motion cv2d` on a large CSV.
 
-    python benchmarks/memory_large_csv.py [--rows 10000000] [--latlon]
+    python benchmarks/memory_large_csv.py [--rows 10000000] [--latlon] [--range-differences]
 
 Writes a bearings-only CSV of ``rows`` rows (a CV target seen from a sensor on a zig-zag, 1 deg
 noise, seeded; with ``--latlon`` the sensor positions as latitude, longitude and a sea-level
-altitude with ``origin_*`` metadata, read as 2-D), then runs each command in a fresh
+altitude with ``origin_*`` metadata, read as 2-D; with ``--range-differences`` every other
+row a range difference to the row before), then runs each command in a fresh
 process and reports its peak resident memory (its VmHWM, Linux), the file size and their
 ratio, the bytes per row above what ``tma show`` of a 3-row file takes (the interpreter and
 libraries), and the wall time.
@@ -36,10 +37,12 @@ def geo_preamble() -> str:
                                                            strict=True)) + GEO_HEADER + "\n"
 
 
-def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False) -> None:
+def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False,
+              range_differences: bool = False) -> None:
     rng = np.random.default_rng(seed)
     with open(path, "w") as f:
-        f.write(geo_preamble() if latlon else HEADER + "\n")
+        header = geo_preamble() if latlon else HEADER + "\n"
+        f.write(header.replace("\n", ",time_ref\n") if range_differences else header)
         block = 1_000_000
         for lo in range(0, rows, block):
             k = np.arange(lo, min(rows, lo + block), dtype=float)
@@ -48,16 +51,26 @@ def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False) -> Non
             sy = 800.0 * np.floor(t / 60.0) % 1600.0
             tx, ty = 4000.0 - 6.0 * t, 9000.0 - 3.0 * t
             b = (np.degrees(np.arctan2(tx - sx, ty - sy)) + rng.normal(0, 1, k.size)) % 360
-            table = np.column_stack([t, b, sx, sy])
             if latlon:
                 lat = ORIGIN[0] + sy / M_PER_DEG_LAT
                 lon = ORIGIN[1] + sx / M_PER_DEG_LON
-                lines = [f"{r[0]:.2f},ship,bearing,{r[1]:.6f},1,{la:.8f},{lo:.8f},0,5,0"
-                         for r, la, lo in zip(table, lat, lon, strict=True)]
+                pos = [f"{la:.8f},{lo:.8f},0,5,0" for la, lo in zip(lat, lon, strict=True)]
             else:
-                lines = [f"{r[0]:.2f},ship,bearing,{r[1]:.6f},1,{r[2]:.3f},{r[3]:.1f},0,5,0,0"
-                         for r in table]
-            f.write("\n".join(lines) + "\n")
+                pos = [f"{x:.3f},{y:.1f},0,5,0,0" for x, y in zip(sx, sy, strict=True)]
+            if range_differences:
+                f.write(range_difference_text(t, b, pos, np.hypot(tx - sx, ty - sy), rng))
+            else:
+                f.write("".join(f"{ti:.2f},ship,bearing,{bi:.6f},1,{p}\n"
+                                for ti, bi, p in zip(t, b, pos, strict=True)))
+
+
+def range_difference_text(t: np.ndarray, b: np.ndarray, pos: list[str], r: np.ndarray,
+                          rng: np.random.Generator) -> str:
+    """Write odd rows as range differences (m) to the previous row's time, even as bearings."""
+    dr = np.diff(r, prepend=np.nan) + rng.normal(0, 1, t.size)
+    return "".join(f"{t[i]:.2f},ship,bearing,{b[i]:.6f},1,{pos[i]},\n" if i % 2 == 0 else
+                   f"{t[i]:.2f},ship,range_difference,{dr[i]:.3f},1,{pos[i]},{t[i - 1]:.2f}\n"
+                   for i in range(t.size))
 
 
 def small_file(folder: Path, latlon: bool = False) -> Path:
@@ -104,13 +117,15 @@ def main() -> None:
     ap.add_argument("--rows", type=int, default=10_000_000)
     ap.add_argument("--latlon", action="store_true",
                     help="sensor positions as latitude/longitude/altitude (read as 2-D)")
+    ap.add_argument("--range-differences", action="store_true",
+                    help="every other row a range difference to the row before (time_ref)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "big.csv"
-        write_csv(path, a.rows, latlon=a.latlon)
+        write_csv(path, a.rows, latlon=a.latlon, range_differences=a.range_differences)
         size = path.stat().st_size / 2**20
         print(f"{a.rows:,} rows, {size:.0f} MB ({'lat/lon/alt' if a.latlon else 'ENU'} "
-              "positions)")
+              f"positions{', range differences' if a.range_differences else ''})")
         # the interpreter and libraries alone
         _, base, _ = peak_of(["show", str(small_file(Path(d), a.latlon))], Path(d))
         print(f"tma show of a 3-row file: peak RSS {base:.0f} MB (the interpreter and "
