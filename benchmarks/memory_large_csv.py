@@ -42,7 +42,7 @@ def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False,
     rng = np.random.default_rng(seed)
     with open(path, "w") as f:
         header = geo_preamble() if latlon else HEADER + "\n"
-        f.write(header.replace("\n", ",time_ref\n") if range_differences else header)
+        f.write(header[:-1] + ",time_ref\n" if range_differences else header)
         block = 1_000_000
         for lo in range(0, rows, block):
             k = np.arange(lo, min(rows, lo + block), dtype=float)
