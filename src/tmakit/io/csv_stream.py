@@ -1,11 +1,11 @@
 """Stream a large, valid CSV measurement file into a set, block by block, in bounded memory.
 
 The common case of a big file is a valid one, with ENU or latitude/longitude sensor
-positions, with or without range differences.  :func:`stream_csv` reads such a file with pyarrow's
-streaming CSV reader, :data:`BLOCK_BYTES` of text at a time, converting each block's columns
-straight into the set's own arrays (float64 numbers; the kind and the sensor as small integer
-codes with one table of names), so the file's text, an Arrow table of the whole file or a text
-cell per row are never held.  The set is then checked by the one set of rules
+positions, with or without range differences.  :func:`stream_csv` reads such a file with
+pyarrow's streaming CSV reader, :data:`BLOCK_BYTES` of text at a time, converting each block's
+columns straight into the set's own arrays (float64 numbers; the kind and the sensor as small
+integer codes with one table of names), so the file's text, an Arrow table of the whole file
+or a text cell per row are never held.  The set is then checked by the one set of rules
 (:mod:`tmakit.rules`) and for duplicate rows, as the reader does.
 
 Latitude, longitude and altitude are held in the place of the ENU position while reading;
@@ -18,15 +18,14 @@ Range differences: ``time_ref`` and the ``ref_sensor_*`` cells are checked per b
 sensor states at ``time_ref`` found after the stream (:mod:`.stream_refs`).
 
 Whatever the stream does not take (a problem in any cell, a missing column, a lat/lon file
-without a known origin, a ragged or quoted-newline record, a long preamble)
-makes :func:`stream_csv` return ``None``: the full checker
-(:func:`tmakit.io.checker.check_table`) then reads the file and reports every problem by row,
-line and column.
+without a known origin, a ragged or quoted-newline record, a long preamble) makes
+:func:`stream_csv` return ``None``: the full checker (:func:`tmakit.io.checker.check_table`)
+then reads the file and reports every problem by row, line and column.
 
 Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
-with range differences: ``time_ref`` and the reference state), plus up to
-5 % spare rows while reading, one block of text and its parsed columns (about
-``3 * BLOCK_BYTES``), and after reading the rules' transient arrays (about 30 bytes per row).
+with range differences: ``time_ref`` and the reference state), plus up to 5 % spare rows
+while reading, one block of text and its parsed columns (about ``3 * BLOCK_BYTES``), and after
+reading the rules' transient arrays (about 30 bytes per row).
 """
 
 from __future__ import annotations
@@ -75,8 +74,6 @@ _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "s
 _RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
 #: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
 _ENU_ROWS = 1 << 16
-
-
 #: Columns of range differences (empty on other rows).
 _REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
 
@@ -190,7 +187,7 @@ class _Columns:
             self.state[lo:hi, _STATE_COLUMN[name]] = values
 
     def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
-        """Store a block of kind codes from its dictionary (known, not range differences)."""
+        """Store a block of kind codes from its dictionary (known kinds only)."""
         table = np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
         if np.any(table < 0):
             raise _Fallback
