@@ -1,11 +1,14 @@
 """Memory figure: peak RSS of `tma show` and `tma estimate --motion cv2d` on a large CSV.
 
-    python benchmarks/memory_large_csv.py [--rows 10000000]
+    python benchmarks/memory_large_csv.py [--rows 10000000] [--latlon] [--range-differences]
 
 Writes a bearings-only CSV of ``rows`` rows (a CV target seen from a sensor on a zig-zag, 1 deg
-noise, seeded), then runs each command in a fresh process and reports its peak resident
-memory (its VmHWM, Linux), the file size and their ratio, the bytes per row above
-what ``tma show`` of a 3-row file takes (the interpreter and libraries), and the wall time.
+noise, seeded; with ``--latlon`` the sensor positions as latitude, longitude and a sea-level
+altitude with ``origin_*`` metadata, read as 2-D; with ``--range-differences`` every other
+row a range difference to the row before), then runs each command in a fresh
+process and reports its peak resident memory (its VmHWM, Linux), the file size and their
+ratio, the bytes per row above what ``tma show`` of a 3-row file takes (the interpreter and
+libraries), and the wall time.
 """
 
 from __future__ import annotations
@@ -21,12 +24,25 @@ from pathlib import Path
 import numpy as np
 
 HEADER = "time,sensor,kind,value,sigma,sensor_x,sensor_y,sensor_z,sensor_vx,sensor_vy,sensor_vz"
+GEO_HEADER = "time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt,sensor_vx,sensor_vy"
+#: ENU origin of the ``--latlon`` file (deg, deg, m) and metres per degree there (approximate:
+#: the file's positions only need to be near the ENU ones).
+ORIGIN = (43.25, 5.375, 0.0)
+M_PER_DEG_LAT, M_PER_DEG_LON = 111_132.0, 111_320.0 * np.cos(np.radians(ORIGIN[0]))
 
 
-def write_csv(path: Path, rows: int, seed: int = 1) -> None:
+def geo_preamble() -> str:
+    """Return the ``--latlon`` file's origin metadata and header lines."""
+    return "".join(f"# origin_{k}: {v}\n" for k, v in zip(("lat", "lon", "alt"), ORIGIN,
+                                                           strict=True)) + GEO_HEADER + "\n"
+
+
+def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False,
+              range_differences: bool = False) -> None:
     rng = np.random.default_rng(seed)
     with open(path, "w") as f:
-        f.write(HEADER + "\n")
+        header = geo_preamble() if latlon else HEADER + "\n"
+        f.write(header[:-1] + ",time_ref\n" if range_differences else header)
         block = 1_000_000
         for lo in range(0, rows, block):
             k = np.arange(lo, min(rows, lo + block), dtype=float)
@@ -35,17 +51,37 @@ def write_csv(path: Path, rows: int, seed: int = 1) -> None:
             sy = 800.0 * np.floor(t / 60.0) % 1600.0
             tx, ty = 4000.0 - 6.0 * t, 9000.0 - 3.0 * t
             b = (np.degrees(np.arctan2(tx - sx, ty - sy)) + rng.normal(0, 1, k.size)) % 360
-            table = np.column_stack([t, b, sx, sy])
-            lines = [f"{r[0]:.2f},ship,bearing,{r[1]:.6f},1,{r[2]:.3f},{r[3]:.1f},0,5,0,0"
-                     for r in table]
-            f.write("\n".join(lines) + "\n")
+            if latlon:
+                lat = ORIGIN[0] + sy / M_PER_DEG_LAT
+                lon = ORIGIN[1] + sx / M_PER_DEG_LON
+                pos = [f"{la:.8f},{lo:.8f},0,5,0" for la, lo in zip(lat, lon, strict=True)]
+            else:
+                pos = [f"{x:.3f},{y:.1f},0,5,0,0" for x, y in zip(sx, sy, strict=True)]
+            if range_differences:
+                f.write(range_difference_text(t, b, pos, np.hypot(tx - sx, ty - sy), rng))
+            else:
+                f.write("".join(f"{ti:.2f},ship,bearing,{bi:.6f},1,{p}\n"
+                                for ti, bi, p in zip(t, b, pos, strict=True)))
 
 
-def small_file(folder: Path) -> Path:
+def range_difference_text(t: np.ndarray, b: np.ndarray, pos: list[str], r: np.ndarray,
+                          rng: np.random.Generator) -> str:
+    """Write odd rows as range differences (m) to the previous row's time, even as bearings."""
+    dr = np.diff(r, prepend=np.nan) + rng.normal(0, 1, t.size)
+    return "".join(f"{t[i]:.2f},ship,bearing,{b[i]:.6f},1,{pos[i]},\n" if i % 2 == 0 else
+                   f"{t[i]:.2f},ship,range_difference,{dr[i]:.3f},1,{pos[i]},{t[i - 1]:.2f}\n"
+                   for i in range(t.size))
+
+
+def small_file(folder: Path, latlon: bool = False) -> Path:
     """Write a 3-row file of the same columns (for the libraries' own memory)."""
     path = folder / "small.csv"
-    path.write_text(HEADER + "\n" + "".join(f"{t},ship,bearing,10,1,0,0,0,5,0,0\n"
-                                             for t in range(3)))
+    if latlon:
+        path.write_text(geo_preamble() + "".join(f"{t},ship,bearing,10,1,43.25,5.375,0,5,0\n"
+                                                 for t in range(3)))
+    else:
+        path.write_text(HEADER + "\n" + "".join(f"{t},ship,bearing,10,1,0,0,0,5,0,0\n"
+                                                 for t in range(3)))
     return path
 
 
@@ -79,14 +115,19 @@ def peak_of(args: list[str], folder: Path) -> tuple[int, float, float]:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--rows", type=int, default=10_000_000)
+    ap.add_argument("--latlon", action="store_true",
+                    help="sensor positions as latitude/longitude/altitude (read as 2-D)")
+    ap.add_argument("--range-differences", action="store_true",
+                    help="every other row a range difference to the row before (time_ref)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "big.csv"
-        write_csv(path, a.rows)
+        write_csv(path, a.rows, latlon=a.latlon, range_differences=a.range_differences)
         size = path.stat().st_size / 2**20
-        print(f"{a.rows:,} rows, {size:.0f} MB")
+        print(f"{a.rows:,} rows, {size:.0f} MB ({'lat/lon/alt' if a.latlon else 'ENU'} "
+              f"positions{', range differences' if a.range_differences else ''})")
         # the interpreter and libraries alone
-        _, base, _ = peak_of(["show", str(small_file(Path(d)))], Path(d))
+        _, base, _ = peak_of(["show", str(small_file(Path(d), a.latlon))], Path(d))
         print(f"tma show of a 3-row file: peak RSS {base:.0f} MB (the interpreter and "
               "libraries)")
         for label, args in (("tma show", ["show", str(path)]),

@@ -80,6 +80,151 @@ def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
     assert meas.take(np.arange(3)).time_ref.shape == (3,)
 
 
+GEO_HEADER = "time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt,sensor_vx,sensor_vy"
+ORIGIN = ("# origin_lat: 43.25", "# origin_lon: 5.375", "# origin_alt: 12")
+
+
+def geodetic_rows(n, climb):
+    """Bearings and frequencies from a ship and a late sensor, altitudes rising by ``climb`` m."""
+    rows = []
+    for i in range(n):
+        t, lat, lon = float(i), 43.25 + 1e-4 * i, 5.375 - 2e-4 * i
+        alt = 12.0 + climb * i / n
+        rows.append(f"{t},ship,bearing,{(37.0 + 0.01 * i) % 360:.6f},1,{lat:.8f},{lon:.8f},"
+                    f"{alt:.3f},5,0")
+        rows.append(f"{t},ship,frequency,{1000.0 + 0.001 * i:.6f},0.1,{lat:.8f},{lon:.8f},"
+                    f"{alt:.3f},5,0")
+        if i >= n // 2:
+            rows.append(f"{t},buoy 2,bearing,{(300.0 + 0.02 * i) % 360:.6f},2,43.3,5.4,"
+                        f"{alt - 7:.3f},0,0")
+    return rows
+
+
+@pytest.mark.parametrize(("climb", "preamble", "origin", "dim"), [
+    (20.0, ORIGIN, None, 2),  # within 25 m of the origin's altitude: a surface
+    (400.0, ORIGIN, None, 3),  # climbing 400 m: heights kept
+    (20.0, (*ORIGIN, "# dim: 3"), None, 3),  # asked for 3-D
+    (400.0, ("# note: x",), (43.2, 5.3, 50.0), 3),  # the origin argument, no metadata
+    (5.0, ("# origin_lat: 43.25", "# origin_lon: 5.375"), (43.2, 5.3, 10.0), 2),  # it wins
+    (None, ("# origin_lat: 43.25", "# origin_lon: 5.375"), None, 2),  # no altitudes
+], ids=["2d", "3d", "asked-3d", "origin-argument", "argument-wins", "no-altitude"])
+def test_a_streamed_latlon_file_equals_the_full_checkers_set(tmp_path, monkeypatch, climb,
+                                                             preamble, origin, dim):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks
+    monkeypatch.setattr(csv_stream, "_ENU_ROWS", 97)  # converted in many pieces
+    rows, header = geodetic_rows(300, climb or 0.0), GEO_HEADER
+    if climb is None:  # drop the sensor_alt column
+        rows = [",".join(r.split(",")[:7] + r.split(",")[8:]) for r in rows]
+        header = GEO_HEADER.replace(",sensor_alt", "")
+    path = tmp_path / "geo.csv"
+    path.write_text("\n".join([*preamble, header, *rows]) + "\n", encoding="utf-8")
+    streamed = csv_stream.stream_csv(path, origin=origin)
+    assert streamed is not None
+    full = check_table(path, load_csv(path), origin)
+    assert streamed.equals(full)  # bit for bit, metadata (origin, dim_rule) included
+    assert streamed.metadata == full.metadata
+    assert ("dim_rule" in streamed.metadata) == (dim == 2)
+    up = streamed.sensor_state[:, 2]
+    assert np.all(up == 0) == (dim == 2)
+    assert np.ptp(streamed.sensor_state[:, 1]) > 1000  # north, in metres
+    assert read_measurements(path, origin).equals(full)  # the reader takes the stream
+
+
+@pytest.mark.parametrize(("preamble", "edit"), [
+    (("# note: x",), None),  # no origin anywhere: the checker says how to give one
+    (ORIGIN, lambda r: [*r[:5], r[5].replace(",43.2", ",93.2", 1), *r[6:]]),  # latitude > 90
+    (("# origin_lat: 43.25", "# origin_lon: east"), None),  # an unreadable origin
+])
+def test_a_latlon_file_the_stream_cannot_take_goes_to_the_full_checker(tmp_path, preamble,
+                                                                       edit):
+    rows = geodetic_rows(20, 0.0)
+    path = tmp_path / "geo.csv"
+    path.write_text("\n".join([*preamble, GEO_HEADER, *(edit(rows) if edit else rows)]) + "\n",
+                    encoding="utf-8")
+    assert csv_stream.stream_csv(path) is None
+    with pytest.raises(MeasurementFileError):
+        read_measurements(path)
+
+
+RD_HEADER = HEADER + ",time_ref,ref_sensor_x,ref_sensor_y"
+
+
+def range_difference_rows(n):
+    """Bearings, and range differences whose time_ref is a row's time, between two rows, or
+    given with its own ref_sensor_* cells; a second sensor's range differences late."""
+    rows = []
+    for i in range(n):
+        t, x = float(i), 5.0 * i
+        rows.append(f"{t},ship,bearing,{(37.0 + 0.01 * i) % 360:.6f},1,{x},0,0,5,0,0,,,")
+        if i >= 2:
+            ref = ("", "") if i % 3 else (f"{x - 7.5}", "0.5")
+            back = 1.0 if i % 2 else 1.5  # the sensor's row, or between two rows
+            rows.append(f"{t},ship,range_difference,{-12.5 + 0.01 * i:.4f},3,{x},0,0,5,0,0,"
+                        f"{t - back},{ref[0]},{ref[1]}")
+        if i >= n // 2 + 2:
+            rows.append(f"{t},buoy,range_difference,{4.0 + 0.02 * i:.4f},2,100,-50,0,0,0,0,"
+                        f"{t - 2},,")
+        elif i >= n // 2:
+            rows.append(f"{t},buoy,bearing,{(300.0 + 0.02 * i) % 360:.6f},2,100,-50,0,0,0,0,,,")
+    return rows
+
+
+def test_a_streamed_file_with_range_differences_equals_the_full_checkers_set(tmp_path,
+                                                                             monkeypatch):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks
+    path = write_rows(tmp_path / "rd.csv", range_difference_rows(300))
+    path.write_text(path.read_text().replace(HEADER, RD_HEADER, 1))
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None
+    full = full_read(path)
+    assert streamed.equals(full)
+    rd = np.asarray(streamed.kind) == "range_difference"
+    assert rd.sum() == 298 + 148 and np.isfinite(streamed.ref_sensor_state[rd]).all()
+    assert np.isnan(streamed.ref_sensor_state[~rd]).all() and np.isnan(streamed.time_ref[~rd]).all()
+    assert read_measurements(path).equals(full)
+
+
+def test_a_streamed_latlon_file_with_range_differences_equals_the_full_checkers_set(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)
+    monkeypatch.setattr(csv_stream, "_ENU_ROWS", 97)
+    rows = []
+    for row in geodetic_rows(200, 400.0):  # 3-D: the references from the ENU rows
+        t = float(row.split(",")[0])
+        rows.append(row + ",")
+        if row.split(",")[1:3] == ["ship", "bearing"] and t >= 2:
+            rows.append(row.replace("bearing", "range_difference", 1) + f",{t - 1.5}")
+    path = tmp_path / "geo-rd.csv"
+    path.write_text("\n".join([*ORIGIN, GEO_HEADER + ",time_ref", *rows]) + "\n")
+    streamed = csv_stream.stream_csv(path)
+    assert streamed is not None
+    full = full_read(path)
+    assert streamed.equals(full) and np.ptp(streamed.ref_sensor_state[:, 2][
+        np.asarray(streamed.kind) == "range_difference"]) > 100
+
+
+@pytest.mark.parametrize("edit", [
+    lambda r: [r[0].replace(",,,", ",-1,,"), *r[1:]],  # a time_ref on a bearing row
+    lambda r: r,  # the control: unchanged, it streams
+    lambda r: [*r[:3], r[3].rsplit(",", 3)[0] + ",9,,", *r[4:]],  # time_ref after time
+    lambda r: [*r[:3], r[3].rsplit(",", 3)[0] + ",-9,,", *r[4:]],  # before the sensor's rows
+    lambda r: [*r[:3], r[3].rsplit(",", 3)[0] + ",1.5,0,", *r[4:]],  # half a ref state
+    lambda r: [*r, r[-1]],  # a duplicate (sensor, kind, time, time_ref)
+], ids=["on-a-bearing", "unchanged", "after-time", "unknown-position", "half-ref",
+        "duplicate"])
+def test_a_range_difference_file_with_a_problem_is_not_streamed(tmp_path, edit):
+    rows = range_difference_rows(8)
+    path = write_rows(tmp_path / "rd.csv", edit(rows))
+    path.write_text(path.read_text().replace(HEADER, RD_HEADER, 1))
+    streamed = csv_stream.stream_csv(path)
+    if edit(rows) == rows:
+        assert streamed is not None and streamed.equals(full_read(path))
+        return
+    assert streamed is None
+    with pytest.raises(MeasurementFileError):
+        read_measurements(path)
+
+
 @pytest.mark.parametrize(("edit", "words"), [
     (lambda r: [*r[:5], "3.5,ship,bearing,400,1,0,0,0,5,0,0", *r[5:]],
      "column 'value': expected a bearing"),
@@ -202,8 +347,11 @@ print(len(meas), peak() - before)
 """
 
 
-def peak_of_reading(tmp_path, n):
-    """Write an n-row bearings file; return its size and the growth of a child's peak RSS."""
+def peak_of_reading(tmp_path, n, geodetic=False):
+    """Write an n-row bearings file; return its size and the growth of a child's peak RSS.
+
+    ``geodetic``: positions as latitude, longitude and altitude (a 3-D file with an origin).
+    """
     import subprocess
     import sys
 
@@ -211,10 +359,19 @@ def peak_of_reading(tmp_path, n):
     b = np.degrees(np.arctan2(4000.0 - 11 * t, 9000.0 - 3 * t)) % 360
     path = tmp_path / f"big{n}.csv"
     with open(path, "w") as f:
-        f.write(HEADER + "\n")
-        f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{5 * ti:.3f},0,0,5,0,0\n"
-                     for ti, bi in zip(t, b, strict=True))
-    small = write_rows(tmp_path / "small.csv", two_sensor_rows(50))
+        if geodetic:
+            f.write("\n".join([*ORIGIN, GEO_HEADER]) + "\n")
+            f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{43.25 + 4e-5 * ti:.7f},5.375,"
+                         f"{12 + ti:.2f},5,0\n" for ti, bi in zip(t, b, strict=True))
+        else:
+            f.write(HEADER + "\n")
+            f.writelines(f"{ti:.2f},ship,bearing,{bi:.6f},1,{5 * ti:.3f},0,0,5,0,0\n"
+                         for ti, bi in zip(t, b, strict=True))
+    small = tmp_path / "small.csv"  # of the same layout: the same libraries are loaded
+    if geodetic:
+        small.write_text("\n".join([*ORIGIN, GEO_HEADER, *geodetic_rows(50, 400.0)]) + "\n")
+    else:
+        write_rows(small, two_sensor_rows(50))
     out = subprocess.run([sys.executable, "-c", PEAK_OF_A_READ, str(path), str(small)],
                          check=True, capture_output=True, text=True).stdout.split()
     assert int(out[0]) == n
@@ -222,9 +379,10 @@ def peak_of_reading(tmp_path, n):
 
 
 @pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
-def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path):
-    size_small, grown_small = peak_of_reading(tmp_path, 100_000)
-    size_big, grown_big = peak_of_reading(tmp_path, 400_000)
+@pytest.mark.parametrize("geodetic", [False, True], ids=["enu", "latlon"])
+def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path, geodetic):
+    size_small, grown_small = peak_of_reading(tmp_path, 100_000, geodetic)
+    size_big, grown_big = peak_of_reading(tmp_path, 400_000, geodetic)
     per_row_memory = (grown_big - grown_small) / 300_000
     per_row_file = (size_big - size_small) / 300_000
     assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)

@@ -320,7 +320,7 @@ def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
     """
     if options:
         raise TypeError(f"CSV files take no options {', '.join(sorted(options))}")
-    streamed = stream_csv(path, _PREAMBLE_SCAN)  # a valid file, in bounded memory
+    streamed = stream_csv(path, _PREAMBLE_SCAN, origin)  # a valid file, bounded memory
     if streamed is not None:
         return streamed
     try:

@@ -1,21 +1,31 @@
 """Stream a large, valid CSV measurement file into a set, block by block, in bounded memory.
 
-The common case of a big file is a valid one with ENU sensor positions and no range
-differences.  :func:`stream_csv` reads such a file with pyarrow's streaming CSV reader,
-:data:`BLOCK_BYTES` of text at a time, converting each block's columns straight into the
-set's own arrays (float64 numbers; the kind and the sensor as small integer codes with one
-table of names), so the file's text, an Arrow table of the whole file or a text cell per row
-are never held.  The set is then checked by the one set of rules (:mod:`tmakit.rules`) and for
-duplicate rows, as the reader does.
+The common case of a big file is a valid one, with ENU or latitude/longitude sensor
+positions, with or without range differences.  :func:`stream_csv` reads such a file with
+pyarrow's streaming CSV reader, :data:`BLOCK_BYTES` of text at a time, converting each block's
+columns straight into the set's own arrays (float64 numbers; the kind and the sensor as small
+integer codes with one table of names), so the file's text, an Arrow table of the whole file
+or a text cell per row are never held.  The set is then checked by the one set of rules
+(:mod:`tmakit.rules`) and for duplicate rows, as the reader does.
 
-Whatever the stream does not take (a problem in any cell, a missing column, latitude and
-longitude, range differences, a ragged or quoted-newline record, a long preamble) makes
+Latitude, longitude and altitude are held in the place of the ENU position while reading;
+after the last block the surface rule is decided over every row's altitude and the positions
+are converted to ENU in place, :data:`_ENU_ROWS` rows at a time, about the origin the full
+reader takes (the ``origin`` argument, else the ``origin_*`` metadata), so the set and its
+metadata (origin, ``dim_rule``) are those the full reader builds.
+
+Range differences: ``time_ref`` and the ``ref_sensor_*`` cells are checked per block, and the
+sensor states at ``time_ref`` found after the stream (:mod:`.stream_refs`).
+
+Whatever the stream does not take (a problem in any cell, a missing column, a lat/lon file
+without a known origin, a ragged or quoted-newline record, a long preamble) makes
 :func:`stream_csv` return ``None``: the full checker (:func:`tmakit.io.checker.check_table`)
 then reads the file and reports every problem by row, line and column.
 
-Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`), plus up to
-5 % spare rows while reading, one block of text and its parsed columns (about
-``3 * BLOCK_BYTES``), and after reading the rules' transient arrays (about 30 bytes per row).
+Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
+with range differences: ``time_ref`` and the reference state), plus up to 5 % spare rows
+while reading, one block of text and its parsed columns (about ``3 * BLOCK_BYTES``), and after
+reading the rules' transient arrays (about 30 bytes per row).
 """
 
 from __future__ import annotations
@@ -36,6 +46,9 @@ from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
+from .positions import resolve_origin
+from .problems import Problems, RawTable
+from .stream_refs import block_is_valid, has_duplicates, reference_states
 
 __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "stream_csv"]
 
@@ -44,14 +57,25 @@ BLOCK_BYTES = 1 << 22
 #: Blocks between two returns of freed memory to the system (:func:`_give_back`).
 _GIVE_BACK_EVERY = 1
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
-#: sensor state (48), the sensor code (4) and the kind code (1); ``time_ref`` and the
-#: reference state are all-NaN views that take no memory.
+#: sensor state (48), the sensor code (4) and the kind code (1); without range differences
+#: ``time_ref`` and the reference state are all-NaN views that take no memory.
 SET_BYTES_PER_ROW = 93
-#: Columns a streamed file must have.
-_REQUIRED = ("time", "sensor", "kind", "value", "sigma", "sensor_x", "sensor_y")
-#: Numeric columns stored; ``time_ref`` (all empty) is read to be checked, not stored.
-_STORED = ("time", "value", "sigma", "sensor_x", "sensor_y", "sensor_z", "sensor_vx",
-           "sensor_vy", "sensor_vz")
+#: Columns a streamed file must have, and those of its positions (ENU or geodetic).
+_REQUIRED = ("time", "sensor", "kind", "value", "sigma")
+_ENU_REQUIRED = ("sensor_x", "sensor_y")
+_ENU_COLUMNS = ("sensor_x", "sensor_y", "sensor_z")
+_GEO_REQUIRED = ("sensor_lat", "sensor_lon")
+_REF_REQUIRED = ("time_ref", "ref_sensor_x", "ref_sensor_y")
+#: Column of the sensor state each numeric column is stored in (latitude, longitude and
+#: altitude are held in the position's place until :func:`_to_enu` converts them).
+_STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "sensor_vy": 4,
+                 "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
+#: The contract's ranges of latitude and longitude (deg), as the full checker's.
+_RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
+#: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
+_ENU_ROWS = 1 << 16
+#: Columns of range differences (empty on other rows).
+_REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
 
 
 class _Fallback(Exception):
@@ -73,9 +97,11 @@ def _header(path: Path, start: int) -> list[str] | None:
     if "" in stripped or len(set(stripped)) != len(stripped):
         return None
     has = set(stripped).__contains__
-    if not all(has(c) for c in _REQUIRED) or any(
-            has(c) for c in (*GEO_COLUMNS, *REF_STATE_COLUMNS)) or has("sensor_vx") != has(
-            "sensor_vy"):
+    geodetic = any(has(c) for c in GEO_COLUMNS)
+    position = (_GEO_REQUIRED, _ENU_COLUMNS) if geodetic else (_ENU_REQUIRED, GEO_COLUMNS)
+    refs = any(has(c) for c in REF_STATE_COLUMNS)
+    if not all(has(c) for c in (*_REQUIRED, *position[0], *(_REF_REQUIRED if refs else ()))
+               ) or any(has(c) for c in position[1]) or has("sensor_vx") != has("sensor_vy"):
         return None
     return names
 
@@ -90,6 +116,15 @@ class _Columns:
         self.sensor = np.zeros(rows, dtype=np.int32)
         self.kind = np.zeros(rows, dtype=np.int8)
         self.sensor_names: dict[str, int] = {}
+        # range differences: allocated at the first cell given (NaN for empty cells)
+        self.time_ref: NDArray[np.float64] | None = None
+        self.ref: NDArray[np.float64] | None = None
+        self.ref_columns: list[int] = []
+
+    def _arrays(self) -> list[NDArray[Any]]:
+        """List the per-row arrays (the 1-D ones)."""
+        return [*self.num.values(), self.sensor, self.kind,
+                *(() if self.time_ref is None else (self.time_ref,))]
 
     def reserve(self, rows: int) -> None:
         """Make room for ``rows`` more rows (grown by a quarter at least)."""
@@ -97,30 +132,64 @@ class _Columns:
         if need <= self.kind.shape[0]:
             return
         size = max(need, int(self.kind.shape[0] * 1.25))
-        for a in (*self.num.values(), self.sensor, self.kind):
+        for a in self._arrays():
             a.resize(size, refcheck=False)
-        self.state.resize((size, 6), refcheck=False)
+        for b in (self.state, self.ref):
+            if b is not None:
+                b.resize((size, 6), refcheck=False)
 
     def trim(self) -> None:
         """Drop the spare rows."""
-        for a in (*self.num.values(), self.sensor, self.kind):
+        for a in self._arrays():
             a.resize(self.n, refcheck=False)
-        self.state.resize((self.n, 6), refcheck=False)
+        for b in (self.state, self.ref):
+            if b is not None:
+                b.resize((self.n, 6), refcheck=False)
+
+    def put_reference(self, name: str, values: NDArray[np.float64]) -> None:
+        """Store a block of ``time_ref`` or a ``ref_sensor_*`` column (NaN for empty)."""
+        lo, hi = self.n, self.n + values.shape[0]
+        if name == "time_ref":
+            if self.time_ref is None and np.isnan(values).all():
+                return
+            if self.time_ref is None:  # the first one given: the rows before had none
+                self.time_ref = np.full(self.kind.shape[0], np.nan)
+            self.time_ref[lo:hi] = values
+            return
+        i = REF_STATE_COLUMNS.index(name)
+        if i not in self.ref_columns:
+            self.ref_columns.append(i)
+        if self.ref is None and np.isnan(values).all():
+            return
+        if self.ref is None:
+            self.ref = np.full((self.kind.shape[0], 6), np.nan)
+        self.ref[lo:hi, i] = values
+
+    def block_is_valid(self, k: int) -> bool:
+        """Check the range-difference cells of the block of ``k`` rows just stored."""
+        lo, hi = self.n, self.n + k
+        return block_is_valid(self.num["time"][lo:hi], self.kind[lo:hi],
+                              None if self.time_ref is None else self.time_ref[lo:hi],
+                              None if self.ref is None else self.ref[lo:hi], self.ref_columns)
 
     def put_number(self, name: str, values: NDArray[np.float64]) -> None:
         """Store a block of a numeric column (finite numbers only)."""
         if not np.isfinite(values).all():
             raise _Fallback
+        if name in _RANGES:
+            low, high = _RANGES[name]
+            if np.any((values < low) | (values > high)):
+                raise _Fallback
         lo, hi = self.n, self.n + values.shape[0]
         if name in self.num:
             self.num[name][lo:hi] = values
         else:
-            self.state[lo:hi, _STORED.index(name) - 3] = values
+            self.state[lo:hi, _STATE_COLUMN[name]] = values
 
     def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
-        """Store a block of kind codes from its dictionary (known, not range differences)."""
+        """Store a block of kind codes from its dictionary (known kinds only)."""
         table = np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
-        if np.any(table < 0) or any(KINDS[KIND_NAMES[c]].uses_reference for c in table):
+        if np.any(table < 0):
             raise _Fallback
         self.kind[self.n:self.n + indices.shape[0]] = table[indices]
 
@@ -161,6 +230,8 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
             cols.reserve(k)
             for name, col in zip(batch.schema.names, batch.columns, strict=True):
                 _put(cols, name.strip(), col)
+            if not cols.block_is_valid(k):
+                raise _Fallback
             cols.n += k
             del batch
             if blocks % _GIVE_BACK_EVERY == 0:
@@ -197,9 +268,11 @@ def _malloc_trim() -> Any:
 
 def _put(cols: _Columns, name: str, col: Any) -> None:
     """Store one block of one column."""
-    if name == "time_ref":  # only range differences have one: every cell empty here
-        if col.null_count != len(col):
+    if name in _REFERENCE:  # empty cells are NaN
+        values = np.asarray(col.to_numpy(zero_copy_only=False), float)
+        if np.count_nonzero(np.isnan(values)) != col.null_count:  # a cell "nan"
             raise _Fallback
+        cols.put_reference(name, values)
         return
     if col.null_count:
         raise _Fallback
@@ -218,29 +291,12 @@ def _numbers(col: Any, dtype: type) -> NDArray[Any]:
                          offset=col.offset * np.dtype(dtype).itemsize)
 
 
-def _has_duplicates(time: NDArray[np.float64], sensor: NDArray[np.int32],
-                     kind: NDArray[np.int8]) -> bool:
-    """Whether two rows share (sensor, kind, time), the rows of each sensor in time order."""
-    if sensor.shape[0] < 2:
-        return False
-    order = (None if int(sensor.max()) == 0 else np.argsort(sensor, kind="stable"))
-    t = time if order is None else time[order]
-    s = sensor if order is None else sensor[order]
-    same = np.flatnonzero((t[1:] == t[:-1]) & (s[1:] == s[:-1]))
-    if same.shape[0] == 0:
-        return False
-    rows = np.unique(np.concatenate((same, same + 1)))
-    rows = rows if order is None else order[rows]
-    by = np.lexsort((kind[rows], time[rows], sensor[rows]))
-    r = rows[by]
-    return bool(np.any((sensor[r[1:]] == sensor[r[:-1]]) & (time[r[1:]] == time[r[:-1]])
-                       & (kind[r[1:]] == kind[r[:-1]])))
-
-
-def _build(cols: _Columns, metadata: dict[str, str]) -> MeasurementSet:
+def _build(cols: _Columns, metadata: dict[str, str],
+           ref: NDArray[np.float64] | None = None) -> MeasurementSet:
     """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds).
 
-    Raises ``ValueError`` (a rule of :mod:`tmakit.rules`) like the constructor.
+    ``ref``: the sensor states at ``time_ref`` of a file with range differences.  Raises
+    ``ValueError`` (a rule of :mod:`tmakit.rules`) like the constructor.
     """
     from .. import rules
 
@@ -249,8 +305,9 @@ def _build(cols: _Columns, metadata: dict[str, str]) -> MeasurementSet:
     out.time, out.sensor_state = cols.num["time"], cols.state
     out.kind_code, out.sensor_code = cols.kind, cols.sensor
     out.sensor_names = tuple(cols.sensor_names)
-    out.time_ref = np.broadcast_to(np.float64(np.nan), (n,))
-    out.ref_sensor_state = np.broadcast_to(np.float64(np.nan), (n, 6))
+    nan = np.float64(np.nan)  # without range differences: views of one NaN
+    out.time_ref = np.broadcast_to(nan, (n,)) if ref is None else cols.time_ref
+    out.ref_sensor_state = np.broadcast_to(nan, (n, 6)) if ref is None else ref
     out.metadata = dict(metadata)
     out._kind = out._sensor = out._kinds = None
     out._sensors = out.sensor_names
@@ -318,8 +375,9 @@ def preamble(path: Path, scan: int) -> tuple[dict[str, str], int] | None:
     return metadata, bom + len(text[:consumed].encode("utf-8"))
 
 
-def stream_csv(path: Path, scan: int = 1 << 20) -> MeasurementSet | None:
-    """Read a valid CSV measurement file with ENU positions and no range differences.
+def stream_csv(path: Path, scan: int = 1 << 20,
+               origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
+    """Read a valid CSV measurement file in bounded memory.
 
     Parameters
     ----------
@@ -327,6 +385,10 @@ def stream_csv(path: Path, scan: int = 1 << 20) -> MeasurementSet | None:
         The file.
     scan : int, optional
         Bytes searched for the ``# key: value`` preamble.
+    origin : (lat, lon, alt), optional
+        ENU origin (degrees, degrees, metres) for a file with ``sensor_lat`` and
+        ``sensor_lon``; wins over its ``origin_*`` metadata, as for
+        :func:`~.checker.check_table`.
 
     Returns
     -------
@@ -342,16 +404,86 @@ def stream_csv(path: Path, scan: int = 1 << 20) -> MeasurementSet | None:
     names = _header(path, start)
     if names is None:
         return None
+    stripped = {n.strip() for n in names}
+    enu_origin: tuple[float, float, float] | None = None
+    if "sensor_lat" in stripped:
+        enu_origin, origin_metadata = _origin(origin, metadata)
+        if enu_origin is None:
+            return None
+        metadata = {**metadata, **origin_metadata}
     try:
         cols = _read_blocks(path, start, names)
         present = np.bincount(cols.kind, minlength=len(KIND_NAMES)) > 0
-        stripped = {n.strip() for n in names}
         if "sensor_vx" not in stripped and any(
                 KINDS[k].uses_velocity for k, p in zip(KIND_NAMES, present, strict=True) if p):
             return None
-        meas = _build(cols, metadata)
+        if enu_origin is not None:
+            if "sensor_alt" not in stripped:  # as the full reader: the origin's altitude
+                cols.state[:, 2] = enu_origin[2]
+            rule = _to_enu(cols.state, enu_origin, metadata.get("dim", "").strip() == "3")
+            if rule:
+                metadata["dim_rule"] = rule
+        meas = _build(cols, metadata, _reference_states(cols, "sensor_vx" in stripped))
     except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
         return None
-    if _has_duplicates(meas.time, meas.sensor_code, meas.kind_code):
+    if has_duplicates(meas.time, meas.sensor_code, meas.kind_code, meas.time_ref):
         return None
     return meas
+
+
+def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64] | None:
+    """Find the sensor states at ``time_ref`` of range differences; None without any."""
+    if cols.time_ref is None:
+        return None
+    ref = reference_states(cols.num["time"], cols.time_ref, cols.kind, cols.sensor,
+                           list(cols.sensor_names), cols.state, cols.ref, cols.ref_columns,
+                           has_velocity)
+    if ref is None:
+        raise _Fallback
+    return ref
+
+
+def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
+            ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
+    """Pick the ENU origin as the full reader does (:func:`.positions.resolve_origin`).
+
+    The argument, else the file's ``origin_lat``, ``origin_lon`` (and ``origin_alt``, 0 m
+    when absent) metadata; ``(None, {})`` when there is none or it is unreadable.
+    """
+    problems = Problems(RawTable(None, metadata, None))  # type: ignore[arg-type]
+    found, origin_metadata = resolve_origin(origin, metadata, problems)
+    return (None, {}) if problems.file else (found, origin_metadata)
+
+
+def _to_enu(state: NDArray[np.float64], origin: tuple[float, float, float],
+            dim3: bool) -> str:
+    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU in place.
+
+    As the full reader does (:func:`.positions.sensor_state`): the surface rule of
+    :func:`tmakit.io.logs.surface_dim` over every row's altitude decides 2-D (altitude the
+    origin's, up 0) or 3-D, unless ``dim3`` (metadata ``dim: 3``).  Converted
+    :data:`_ENU_ROWS` rows at a time, so the conversion's arrays stay small.
+
+    Returns
+    -------
+    str
+        The surface rule's text when it flattened the positions, else ``""``.
+    """
+    from ..geodesy import geodetic_to_enu
+    from .logs import surface_dim
+
+    n, alt0 = state.shape[0], origin[2]
+    worst, spread = alt0, -1.0  # the altitude farthest from the origin's
+    for lo in range(0, n, _ENU_ROWS):
+        off = np.abs(state[lo:lo + _ENU_ROWS, 2] - alt0)
+        i = int(np.argmax(off))
+        if off[i] > spread:
+            worst, spread = float(state[lo + i, 2]), float(off[i])
+    dim, rule = surface_dim(np.array([worst]), alt0, 3 if dim3 else None)
+    for lo in range(0, n, _ENU_ROWS):
+        block = state[lo:lo + _ENU_ROWS]
+        alt = np.full(block.shape[0], alt0) if dim == 2 else block[:, 2]
+        with np.errstate(invalid="ignore"):
+            e, nn, u = geodetic_to_enu(block[:, 0], block[:, 1], alt, origin)
+        block[:, 0], block[:, 1], block[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
+    return rule if dim == 2 else ""

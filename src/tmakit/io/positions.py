@@ -21,7 +21,8 @@ from .problems import Problems
 #: How a caller of the library gives the ENU origin (the command line replaces it with its flag).
 ORIGIN_HINT = "origin=(lat, lon, alt) to read_measurements"
 
-__all__ = ["ORIGIN_KEYS", "ref_sensor_state", "resolve_origin", "sensor_state"]
+__all__ = ["ORIGIN_KEYS", "ref_of_sensor", "ref_sensor_state", "resolve_origin",
+           "sensor_state"]
 
 Numbers = dict[str, NDArray[np.float64]]
 #: Metadata keys of the ENU origin (degrees, degrees, metres).
@@ -194,17 +195,37 @@ def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[n
     usable = (~problems.bad_rows("time", "sensor", *state_cols)
               & np.all(np.isfinite(state), axis=1))
     for s in dict.fromkeys(sensor[need]):
-        _ref_of_sensor(s, np.flatnonzero(need & (sensor == s)),
+        ref_of_sensor(s, np.flatnonzero(need & (sensor == s)),
                        np.flatnonzero(usable & (sensor == s)), num["time"], time_ref, state,
                        ref, layout.has_velocity, problems)
     return ref
 
 
-def _ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp],
+def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp],
                    t: NDArray[np.float64], time_ref: NDArray[np.float64],
                    state: NDArray[np.float64], ref: NDArray[np.float64], has_velocity: bool,
                    problems: Problems) -> None:
-    """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else linear)."""
+    """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else linear).
+
+    Parameters
+    ----------
+    sensor : str
+        The sensor's id (for messages).
+    rows : numpy.ndarray of int
+        The range-difference rows whose state at ``time_ref`` is wanted.
+    mine : numpy.ndarray of int
+        The sensor's usable rows, in file order.
+    t, time_ref : numpy.ndarray
+        Each row's time and ``time_ref`` (s).
+    state : numpy.ndarray, shape (n, 6)
+        Each row's sensor state (ENU m, m/s).
+    ref : numpy.ndarray, shape (n, 6)
+        Filled in place at ``rows`` (m, m/s).
+    has_velocity : bool
+        The file gives velocities (else the interpolated ones are 0).
+    problems : Problems
+        Where a ``time_ref`` without a known sensor position is recorded.
+    """
     from ..sensors import RecordedTrack
 
     tr = time_ref[rows]
