@@ -7,6 +7,11 @@
   memory and read back; here one compiled loop per candidate runs over the cloud once and
   keeps every sum in a register, in float64 (reassociated into SIMD lanes, so the sums may
   differ from NumPy's in the last bits).
+* :func:`fly` — :meth:`~tmakit.sensors.PlatformKinematics.step` of every candidate action from
+  a batch of start states in one compiled loop (:mod:`tmakit.planning.numba_decision`).
+* :func:`decide_planar` — a whole one-step decision of the planner for a planar plan measured
+  at the end of the step: kinematics, predicted information, ``Gamma``, ``J^{-1}``, cost and
+  bound of every candidate in one compiled call (:mod:`tmakit.planning.fused`).
 * :func:`spd_inverse` — ``J^{-1}`` of a stack of small positive-definite information
   matrices, as :func:`tmakit.planning.criteria.bound_covariance` computes it (normalised by
   the diagonal, Cholesky, triangular inverse), one loop instead of a dozen NumPy calls.
@@ -85,11 +90,14 @@ def _compile() -> dict[str, Callable[..., object]]:
     Compiling here, not at the first real call, lets :func:`available` fall back to NumPy
     when ``numba`` is installed but cannot compile (an incompatible NumPy, no cache dir).
     """
+    from . import numba_decision as nd
     from . import numba_kernels as nk
 
     kernels = {"position": nk.position_sums, "general": nk.general_sums,
-               "spd_inverse": nk.spd_inverse_stack, "assemble": nk.assemble_gamma}
+               "spd_inverse": nk.spd_inverse_stack, "assemble": nk.assemble_gamma,
+               "fly": nd.fly, "decide_planar": nd.decide_planar}
     one, sensor = np.ones(1), np.zeros((1, 6))
+    _warm_decision(nd)
     nk.position_sums(one, one, one, one[:1] * 0, one[:1] * 0, np.empty((5, 1)))
     nk.general_sums(one, one, one, one, one, sensor, np.empty((ROWS, 1)))
     nk.spd_inverse_stack(np.eye(4)[None], np.empty((1, 4, 4)))
@@ -198,3 +206,80 @@ def planar_gamma(names: list[str], coefficients: Array, constants: Array, cols: 
     out = np.empty((sensors.shape[0], 4, 4))
     _STATE["kernels"]["assemble"](sums, coefficients, constants, out)
     return out
+
+
+def _warm_decision(nd: Any) -> None:
+    """Compile :func:`fly` and :func:`decide_planar` on tiny inputs (both cloud forms)."""
+    start = np.array([[0.0, 0.0, 0.0, 0.0, 50.0, 0.0]])
+    acts = np.array([[0.1], [1.0], [0.0], [0.0]])
+    limits = np.array([0.0, np.inf, np.inf, np.inf, np.inf, -np.inf, np.inf])
+    out, flags = np.empty((1, nd.COLUMNS)), np.empty((1, 4), dtype=np.bool_)
+    nd.fly(start, acts, True, limits, 1.0, out, flags)
+    eye, cloud = np.eye(4), np.array([[1e3, 1e3, 1.0, 1.0]])
+    for at_mean, position_only in ((True, True), (False, False)):
+        coef = np.ones((1 if position_only else len(PRODUCTS), 3))
+        nd.decide_planar(start, acts, True, limits, 1.0, eye, eye, np.ones((4, 1)), eye,
+                         cloud, np.ones(1), at_mean, coef, np.ones(3), position_only, eye,
+                         out, flags, np.empty((1, 4, 4)), np.empty((1, 4, 4)), np.empty(1),
+                         np.empty(1))
+
+
+def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval: float
+        ) -> tuple[Array, Array]:
+    """Fly every action from every start for one step, compiled (rows of ``numba_decision``).
+
+    Parameters
+    ----------
+    starts : ndarray, shape (M, 6)
+        ``[x, y, z, heading, speed, climb rate]`` (m, rad, m/s).
+    actions : ndarray, shape (4, A)
+        Heading change (rad), speed factor, speed change (m/s), climb rate (m/s).
+    own_climb : bool
+        Each start keeps its climb rate (the actions give none).
+    limits : ndarray, shape (7,)
+        Speed range (m/s), turn rate (rad/s), acceleration (m/s^2), climb rate (m/s) and
+        altitude band (m) limits.
+    interval : float
+        The step, s.
+
+    Returns
+    -------
+    rows : ndarray, shape (M A, 20)
+        Columns of :mod:`tmakit.planning.numba_decision` (SI).
+    flags : ndarray of bool, shape (M A, 4)
+        Speed range, turn-rate, acceleration, climb-rate/altitude limit acted.
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled planning kernels are not available (numba)")
+    size = starts.shape[0] * actions.shape[1]
+    rows, flags = np.empty((size, 20)), np.empty((size, 4), dtype=np.bool_)
+    _STATE["kernels"]["fly"](starts, actions, own_climb, limits, float(interval), rows, flags)
+    return rows, flags
+
+
+def decide_planar(*args: Any) -> int:
+    """Run :func:`tmakit.planning.numba_decision.decide_planar` (same arguments).
+
+    Parameters
+    ----------
+    *args
+        The kernel's arguments (:func:`tmakit.planning.fused.decide` prepares them).
+
+    Returns
+    -------
+    int
+        0 when done, else why not (the caller then takes the general path).
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled planning kernels are not available (numba)")
+    return int(_STATE["kernels"]["decide_planar"](*args))

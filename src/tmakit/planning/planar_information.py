@@ -148,6 +148,27 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
     return gamma.reshape(*batch, 4, 4)
 
 
+def compiled_basis(plan: SensorPlan) -> Packed:
+    """Return the plan's planar basis packed for the compiled kernels.
+
+    Parameters
+    ----------
+    plan : SensorPlan
+        2-D, kinds among bearing, range, range rate.
+
+    Returns
+    -------
+    names : list of str
+        The products of ``1/r`` and ``q`` needed (a subsequence of
+        :data:`tmakit.planning.compiled.PRODUCTS`).
+    coefficients : ndarray, shape (P, 3)
+        Their coefficients in the fields ``A``, ``B``, ``E`` (SI).
+    constants : ndarray, shape (3,)
+        The constant fields ``D``, ``G``, ``F`` (SI).
+    """
+    return _coefficients(plan)[2]
+
+
 def _compiled_basis(k: dict[str, float], basis: Basis) -> Packed:
     """Pack the basis for the compiled kernels: names, coefficients (P, 3), D, G, F."""
     coef = np.array([c for _, c in basis], dtype=float).reshape(-1, 3)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
-from . import compiled
+from . import compiled, fused
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
@@ -161,6 +161,8 @@ class Planner:
     horizon: int = 1
     beam: int | None = None
     continuation: Continuation | None = None
+    _fast: dict[str, object] = field(default_factory=dict, init=False, repr=False,
+                                     compare=False)
 
     def __post_init__(self) -> None:
         """Check the settings."""
@@ -207,7 +209,9 @@ class Planner:
         start = PlatformState.trusted(platform.position[..., None, :],
                                       platform.heading[..., None], platform.speed[..., None],
                                       platform.climb_rate[..., None], platform.time)
-        steps = self.kinematics.step(start, self.actions, self.interval)
+        steps = fused.fly(self.kinematics, platform, self.actions, self.interval)
+        if steps is None:
+            steps = self.kinematics.step(start, self.actions, self.interval)
         t0 = platform.time
         offsets = self.plan.measurement_times(self.interval)
         if offsets.size == 1 and offsets[0] == self.interval:   # one pulse, at the end
@@ -248,16 +252,22 @@ class Planner:
         if abs(platform.time - belief.time) > 1e-6:
             raise ValueError(f"the platform is at t = {platform.time:g} s and the belief at "
                              f"t = {belief.time:g} s")
-        steps, info, viol = self.expand(platform, belief.posterior.information, belief, 0,
-                                        self.gamma)
+        fast = fused.decide(self, self._fast, platform, belief)
+        if fast is None:
+            steps, info, viol = self.expand(platform, belief.posterior.information, belief, 0,
+                                            self.gamma)
+            cov = bound_covariance(info)      # once, for the criterion and the bound
+            cost, bound = evaluate(self.criterion, info, cov), position_bound(info, cov)
+        else:
+            steps, info, cost, bound = fast.steps, fast.information, fast.cost, fast.bound
+            viol = step_violations(self.constraints, steps, belief, self.interval)
         factor, bad = penalties(viol, len(self.actions))
-        cov = bound_covariance(info)      # once, for the criterion and the bound
-        cost = evaluate(self.criterion, info, cov) * factor
+        cost = cost * factor
         if self.horizon > 1 or self.continuation is not None:
             found = search(self, steps.end, steps.turn_rate, info, belief, factor, bad,
                            self.beam, self.continuation)
             cost, bad = found.cost, found.bad
-        return _choose(self.actions, steps, info, cost, bad, viol, position_bound(info, cov))
+        return _choose(self.actions, steps, info, cost, bad, viol, bound)
 
     def advance(self, belief: Belief, recommendation: Recommendation, states: Array,
                 weights: Array | None = None) -> Belief:

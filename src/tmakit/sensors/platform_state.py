@@ -211,6 +211,37 @@ class PlatformState:
         return state
 
     @classmethod
+    def view(cls, position: Array, heading: Array, speed: Array, climb_rate: Array,
+             time: float) -> PlatformState:
+        """Make a state holding the given arrays as they are: no copy, no check, no wrap.
+
+        For compiled kinematics that write every field into one buffer (already wrapped and
+        derived from checked states); the arrays are made read-only so the state stays
+        immutable.
+
+        Parameters
+        ----------
+        position : ndarray, shape (*shape, 3)
+            ENU position (m).
+        heading, speed, climb_rate : ndarray, shape shape
+            Heading (rad clockwise from North, in ``(-pi, pi]``), speed (m/s, >= 0), climb
+            rate (m/s).
+        time : float
+            Time (s).
+
+        Returns
+        -------
+        PlatformState
+        """
+        state = object.__new__(cls)
+        for name, value in (("position", position), ("heading", heading), ("speed", speed),
+                            ("climb_rate", climb_rate)):
+            value.flags.writeable = False
+            object.__setattr__(state, name, value)
+        object.__setattr__(state, "time", float(time))
+        return state
+
+    @classmethod
     def from_velocity(cls, position: ArrayLike, velocity: ArrayLike,
                       time: float = 0.0) -> PlatformState:
         """Make the state of a platform at ``position`` moving with ENU ``velocity``.

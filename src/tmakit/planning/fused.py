@@ -1,0 +1,259 @@
+"""The planner's fast path: a whole decision, or every candidate's kinematics, in one call.
+
+:meth:`~tmakit.planning.Planner.recommend` spends most of a one-step decision around the
+arrays, not in them: flying 15 candidates through :meth:`~tmakit.sensors.PlatformKinematics.step`
+and carrying ``J`` through the step is a few hundred NumPy calls on arrays of 15.  Here:
+
+* :func:`fly` — the candidates' kinematics in one compiled loop
+  (:func:`tmakit.planning.compiled.fly`), returned as the same :class:`~tmakit.sensors.Step`
+  (fields are read-only views of one buffer);
+* :func:`decide` — for a planar plan (2-D target, bearing / range / range-rate rows, no model
+  options) measured once at the end of the step: the kinematics, the prediction of ``J``, ``Gamma``
+  at the moved mean or over the moved cloud, ``J^{-1}``, the criterion and the position bound of
+  every candidate in one compiled call (:func:`tmakit.planning.compiled.decide_planar`).
+
+Both return None when they do not apply (no ``numba`` or ``TMAKIT_NO_NUMBA``, limits that
+raise, a 3-D plan, a sensor off the plane, a ``J`` not numerically positive definite): the
+planner then takes its NumPy path, which computes the same numbers.  The settings that do not
+change between decisions (packed actions and limits, the planar basis, ``Pi``) are kept per
+planner.  ``tests/test_planning_fused.py`` checks both paths agree to 1e-12 relative and choose
+the same action.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..arrays import Array
+from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
+from . import compiled
+from .belief import Belief
+from .criteria import WeightedTrace, evaluate
+from .planar_information import PLANAR_KINDS, compiled_basis
+
+#: Columns of the compiled kinematics' rows (see :mod:`tmakit.planning.numba_decision`).
+_COLS = {"end": slice(0, 3), "heading": 3, "speed": 4, "climb": 5, "turn": 6, "accel": 7,
+         "start": slice(14, 17), "start_heading": 17, "start_speed": 18, "start_climb": 19}
+
+
+def pack_actions(actions: Actions) -> tuple[Array, bool]:
+    """Return the actions as rows (4, A) and whether each platform keeps its climb rate.
+
+    Parameters
+    ----------
+    actions : Actions, shape (A,)
+        Candidate actions.
+
+    Returns
+    -------
+    rows : ndarray, shape (4, A)
+        Heading change (rad), speed factor, speed change (m/s), climb rate (m/s; 0 if none).
+    own_climb : bool
+        True when the actions give no climb rate.
+    """
+    climb = actions.climb_rate
+    rows = np.stack([actions.heading_change, actions.speed_factor, actions.speed_change,
+                     np.zeros(actions.shape) if climb is None else climb]).astype(float)
+    return np.ascontiguousarray(rows.reshape(4, -1)), climb is None
+
+
+def pack_limits(kinematics: PlatformKinematics) -> Array:
+    """Return the limits (7,): speed range, turn rate, acceleration, climb rate, altitude band.
+
+    Parameters
+    ----------
+    kinematics : PlatformKinematics
+        The platform.
+
+    Returns
+    -------
+    ndarray, shape (7,)
+        m/s, m/s, rad/s, m/s^2, m/s, m, m.
+    """
+    k = kinematics
+    return np.array([k.min_speed, k.max_speed, k.max_turn_rate, k.max_acceleration,
+                     k.max_climb_rate, k.min_altitude, k.max_altitude], dtype=float)
+
+
+def pack_starts(platform: PlatformState) -> Array:
+    """Return the start states by rows (M, 6): ``[x, y, z, heading, speed, climb rate]``.
+
+    Parameters
+    ----------
+    platform : PlatformState
+        Any batch shape (flattened, C order).
+
+    Returns
+    -------
+    ndarray, shape (M, 6)
+        m, rad, m/s.
+    """
+    out = np.empty((platform.speed.size, 6))
+    out[:, :3] = platform.position.reshape(-1, 3)
+    out[:, 3] = platform.heading.ravel()
+    out[:, 4] = platform.speed.ravel()
+    out[:, 5] = platform.climb_rate.ravel()
+    return out
+
+
+def step_from_rows(rows: Array, flags: Array, shape: tuple[int, ...], interval: float,
+                   time: float) -> Step:
+    """Return the :class:`Step` whose fields are views of the compiled kernel's rows.
+
+    Parameters
+    ----------
+    rows : ndarray, shape (size, 20)
+        Written by :func:`tmakit.planning.compiled.fly`.
+    flags : ndarray of bool, shape (size, 4)
+        Its limit flags.
+    shape : tuple of int
+        The batch shape of the step (``size`` elements).
+    interval, time : float
+        The step's length and start time, s.
+
+    Returns
+    -------
+    Step
+    """
+    r = rows.reshape(*shape, rows.shape[-1])
+    f = flags.reshape(*shape, 4)
+    c = _COLS
+    start = PlatformState.view(r[..., c["start"]], r[..., c["start_heading"]],
+                               r[..., c["start_speed"]], r[..., c["start_climb"]], time)
+    end = PlatformState.view(r[..., c["end"]], r[..., c["heading"]], r[..., c["speed"]],
+                             r[..., c["climb"]], time + interval)
+    return Step(start, end, r[..., c["turn"]], r[..., c["accel"]], r[..., c["climb"]],
+                float(interval), f[..., 0], f[..., 1], f[..., 2], f[..., 3])
+
+
+def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Actions,
+        interval: float) -> Step | None:
+    """Fly every action from every state of ``platform`` for one step, compiled.
+
+    Parameters
+    ----------
+    kinematics : PlatformKinematics
+        The platform's limits.
+    platform : PlatformState
+        Start states, batch shape ``B``.
+    actions : Actions, shape (A,)
+        Candidate actions.
+    interval : float
+        The step, s (> 0).
+
+    Returns
+    -------
+    Step or None
+        Batch shape ``(*B, A)``: ``kinematics.step`` of every state with every action, to
+        rounding; None when the kernels are not available or the limits raise (then use
+        ``kinematics.step``).
+    """
+    if (not compiled.available() or kinematics.on_limit != "clip"
+            or len(actions.shape) != 1 or not interval > 0):
+        return None
+    packed, own_climb = pack_actions(actions)
+    rows, flags = compiled.fly(pack_starts(platform), packed, own_climb,
+                               pack_limits(kinematics), interval)
+    return step_from_rows(rows, flags, (*platform.shape, actions.shape[0]), interval,
+                          platform.time)
+
+
+@dataclass(frozen=True, eq=False)
+class Decision:
+    """Every candidate of one decision, as the fused kernel computed it.
+
+    Attributes
+    ----------
+    steps : Step, shape (A,)
+        The candidates flown for one step.
+    information, covariance : ndarray, shape (A, 4, 4)
+        ``J_{k+1}`` and ``J_{k+1}^{-1}``, SI.
+    cost : ndarray, shape (A,)
+        The criterion (no penalties).
+    bound : ndarray, shape (A,)
+        Position RMS bound, m.
+    """
+
+    steps: Step
+    information: Array
+    covariance: Array
+    cost: Array
+    bound: Array
+
+
+def _setup(planner: Any) -> tuple[Any, ...] | None:
+    """Return the decision's constant arguments for ``planner`` (None: no fast path)."""
+    plan, kin = planner.plan, planner.kinematics
+    times = plan.measurement_times(planner.interval)
+    if (kin.on_limit != "clip" or plan.dim != 2 or not set(plan.kinds) <= PLANAR_KINDS
+            or plan.options or plan.nuisance or times.size != 1
+            or times[0] != planner.interval or len(planner.actions.shape) != 1):
+        return None
+    names, coef, dgf = compiled_basis(plan)
+    position_only = names == ["ir2"]
+    if not position_only:   # the general kernel writes every product: zero rows for the rest
+        full = np.zeros((len(compiled.PRODUCTS), 3))
+        for j, name in enumerate(names):
+            full[compiled.PRODUCTS.index(name)] = coef[j]
+        coef = full
+    criterion = planner.criterion
+    trace = type(criterion) is WeightedTrace
+    weighting = criterion.matrix(4) if trace else np.zeros((4, 4))
+    packed, own_climb = pack_actions(planner.actions)
+    return (packed, own_climb, pack_limits(kin), float(planner.interval), coef, dgf,
+            position_only, np.ascontiguousarray(weighting), trace)
+
+
+def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
+           belief: Belief) -> Decision | None:
+    """One step of every candidate of ``planner`` from ``platform``, in one compiled call.
+
+    Parameters
+    ----------
+    planner : Planner
+        Its kinematics, actions, interval, plan, criterion and ``gamma`` are used.
+    cache : dict
+        The planner's own store for the settings that do not change between decisions.
+    platform : PlatformState
+        One state, at ``belief.time``.
+    belief : Belief
+        ``J_k`` (4, 4) and the target cloud.
+
+    Returns
+    -------
+    Decision or None
+        None when the fast path does not apply (module docstring).
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 10-13.
+    """
+    if not compiled.available():
+        return None
+    if "setup" not in cache:
+        cache["setup"] = _setup(planner)
+    setup = cache["setup"]
+    post = belief.posterior
+    if setup is None or post.information.shape != (4, 4):
+        return None
+    packed, own_climb, limits, interval, coef, dgf, position_only, weighting, trace = setup
+    f_inv, g = post.step_factors(interval)
+    n_act = packed.shape[1]
+    rows, flags = np.empty((n_act, 20)), np.empty((n_act, 4), dtype=np.bool_)
+    info, cov = np.empty((n_act, 4, 4)), np.empty((n_act, 4, 4))
+    cost, bound = np.empty(n_act), np.empty(n_act)
+    states = belief.states
+    at_mean = planner.gamma == "mean" or states.shape[0] == 1
+    status = compiled.decide_planar(
+        pack_starts(platform), packed, own_climb, limits, interval, post.information, f_inv,
+        g, post.dynamics.transition(interval), states, belief.weights, at_mean, coef, dgf,
+        position_only, weighting, rows, flags, info, cov, cost, bound)
+    if status:
+        return None
+    if not trace:
+        cost = evaluate(planner.criterion, info, cov)
+    steps = step_from_rows(rows, flags, (n_act,), interval, platform.time)
+    return Decision(steps, info, cov, cost, bound)

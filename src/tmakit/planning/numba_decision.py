@@ -1,0 +1,348 @@
+"""The ``numba`` kernels of one whole planning decision (imported only by ``compiled``).
+
+* :func:`fly` — :meth:`tmakit.sensors.PlatformKinematics.step` for ``M`` start states times
+  ``A`` actions in one loop: the limits (speed range, acceleration, turn rate, altitude band,
+  climb rate) clipped and flagged as there, the exact constant-turn, constant-acceleration
+  end position (the power series of ``E1``, ``E2`` near a straight step, the closed form
+  beyond), the wrapped end heading and the sensor state at the end of the step.
+* :func:`decide_planar` — one decision of :meth:`tmakit.planning.Planner.recommend` for a
+  planar plan measured once at the end of the step: :func:`fly`, the prediction of ``J``
+  through the step (Woodbury form of :func:`tmakit.bounds.pcrb_recursion.predict_information`),
+  ``Gamma`` at the moved mean or over the moved cloud (the sums of :mod:`.numba_kernels`),
+  ``J^{-1}``, the weighted trace and the position bound of every candidate.
+
+The arithmetic follows the NumPy code it replaces operation by operation, so the results agree
+to rounding (``tests/test_planning_fused.py`` checks 1e-12 relative and the same choice).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..arrays import Array
+from .numba_kernels import assemble_gamma, general_sums, position_sums, spd_inverse_stack
+
+_exact = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+#: Columns of :func:`fly`'s output rows.
+END_POSITION, END_HEADING, END_SPEED, CLIMB, TURN, ACCEL = 0, 3, 4, 5, 6, 7
+SENSOR, START_POSITION, START_HEADING, START_SPEED, START_CLIMB = 8, 14, 17, 18, 19
+COLUMNS = 20
+
+_SERIES_BELOW = 0.25
+_TERMS = 17
+_E1 = np.array([1.0 / math.factorial(n + 1) for n in range(_TERMS)])
+_E2 = np.array([1.0 / (math.factorial(n) * (n + 2)) for n in range(_TERMS)])
+_LIMIT_TOL = 1e-9
+_TWO_PI = 2.0 * np.pi
+
+
+@_exact
+def _differs(applied: float, commanded: float) -> bool:
+    return abs(applied - commanded) > _LIMIT_TOL * max(1.0, abs(commanded))
+
+
+@_exact
+def _clip(value: float, low: float, high: float) -> float:
+    return min(max(value, low), high)
+
+
+@_exact
+def _wrap(angle: float) -> float:
+    """``tmakit.frames.wrap_angle`` of one angle (rad), the same operations."""
+    shifted = angle + np.pi
+    out = shifted - np.pi
+    if not (shifted >= 0.0 and shifted < _TWO_PI):
+        out = np.mod(shifted, _TWO_PI) - np.pi
+    if out == -np.pi:
+        out = np.pi
+    return out
+
+
+@_exact
+def _turn_factors(z: complex) -> tuple[complex, complex]:
+    """``E1(z) = (e^z - 1) / z`` and ``E2(z) = (e^z (z - 1) + 1) / z^2``, stable at 0."""
+    if abs(z) < _SERIES_BELOW:
+        s1 = complex(_E1[_TERMS - 1])
+        s2 = complex(_E2[_TERMS - 1])
+        for k in range(_TERMS - 2, -1, -1):
+            s1 = s1 * z + _E1[k]
+            s2 = s2 * z + _E2[k]
+        return s1, s2
+    ez = np.exp(z)
+    return (ez - 1.0) / z, (ez * (z - 1.0) + 1.0) / (z * z)
+
+
+@_exact
+def _fly_one(st: Array, hc: float, target: float, c_cmd: float, lim: Array, t: float,
+             row: Array, flag: Array) -> None:
+    """One start state ``st`` and one action; ``row`` and ``flag`` written (module doc)."""
+    x0, y0, z0, psi0, v0 = st[0], st[1], st[2], st[3], st[4]
+    v1 = _clip(target, lim[0], lim[1])
+    acc_cmd = (v1 - v0) / t
+    acc = _clip(acc_cmd, -lim[3], lim[3])
+    w_cmd = hc / t
+    w = _clip(w_cmd, -lim[2], lim[2])
+    c = _clip(c_cmd, (lim[5] - z0) / t, (lim[6] - z0) / t)
+    c = _clip(c, -lim[4], lim[4])
+    flag[0] = _differs(v1, target)
+    flag[1] = _differs(w, w_cmd)
+    flag[2] = _differs(acc, acc_cmd)
+    flag[3] = _differs(c, c_cmd)
+    v_end = max(v0 + acc * t, 0.0) if flag[2] else v1
+    e1, e2 = _turn_factors(1j * (w * t))
+    disp = np.exp(1j * psi0) * t * (v0 * e1 + acc * t * e2)
+    psi = _wrap(psi0 + w * t)
+    row[0] = x0 + disp.imag
+    row[1] = y0 + disp.real
+    row[2] = z0 + c * t
+    row[3] = psi
+    row[4] = v_end
+    row[5] = c
+    row[6] = w
+    row[7] = acc
+    row[8] = row[0]
+    row[9] = row[1]
+    row[10] = row[2]
+    row[11] = v_end * np.sin(psi)
+    row[12] = v_end * np.cos(psi)
+    row[13] = c
+    row[14] = x0
+    row[15] = y0
+    row[16] = z0
+    row[17] = psi0
+    row[18] = v0
+    row[19] = st[5]
+
+
+@_exact
+def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval: float,
+        out: Array, flags: Array) -> None:
+    """Fly every action from every start state for one step; write ``(M A, 20)`` rows.
+
+    Parameters
+    ----------
+    starts : ndarray, shape (M, 6)
+        ``[x, y, z, heading, speed, climb rate]`` (m, rad, m/s).
+    actions : ndarray, shape (4, A)
+        Heading change (rad), speed factor, speed change (m/s), climb rate (m/s).
+    own_climb : bool
+        True: each start keeps its own climb rate (the actions' climb rate is None).
+    limits : ndarray, shape (7,)
+        Min and max speed (m/s), max turn rate (rad/s), max acceleration (m/s^2), max climb
+        rate (m/s), min and max altitude (m).
+    interval : float
+        The step, s.
+    out : ndarray, shape (M A, 20)
+        Written, row ``m A + a``, columns as the module constants.
+    flags : ndarray of bool, shape (M A, 4)
+        Written: speed range, turn-rate, acceleration, climb/altitude limit acted.
+    """
+    n_act = actions.shape[1]
+    for m in range(starts.shape[0]):
+        st = starts[m]
+        for a in range(n_act):
+            target = st[4] * actions[1, a] + actions[2, a]
+            c_cmd = st[5] if own_climb else actions[3, a]
+            k = m * n_act + a
+            _fly_one(st, actions[0, a], target, c_cmd, limits, interval, out[k], flags[k])
+
+
+@_exact
+def _symmetric_product(left: Array, mid: Array, out: Array) -> None:
+    """``out = sym(left^T mid left)`` for small square matrices (plain loops, no BLAS)."""
+    n = mid.shape[0]
+    tmp = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += mid[i, k] * left[k, j]
+            tmp[i, j] = acc
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += left[k, i] * tmp[k, j]
+            out[i, j] = acc
+    _symmetrise(out)
+
+
+@_exact
+def _symmetrise(a: Array) -> None:
+    n = a.shape[0]
+    for i in range(n):
+        for j in range(i + 1, n):
+            v = 0.5 * (a[i, j] + a[j, i])
+            a[i, j] = v
+            a[j, i] = v
+
+
+@_exact
+def _cholesky_solve(s: Array, ag: Array) -> Array:
+    """Return ``H = L^{-1} (A G)^T`` with ``L L^T = S`` (positive definite, r x r)."""
+    r, n = s.shape[0], ag.shape[0]
+    low = np.zeros((r, r))
+    for j in range(r):
+        acc = s[j, j]
+        for p in range(j):
+            acc -= low[j, p] * low[j, p]
+        low[j, j] = np.sqrt(acc)
+        for i in range(j + 1, r):
+            acc = s[i, j]
+            for p in range(j):
+                acc -= low[i, p] * low[j, p]
+            low[i, j] = acc / low[j, j]
+    half = np.empty((r, n))   # forward substitution L H = (A G)^T
+    for col in range(n):
+        for i in range(r):
+            acc = ag[col, i]
+            for p in range(i):
+                acc -= low[i, p] * half[p, col]
+            half[i, col] = acc / low[i, i]
+    return half
+
+
+@_exact
+def _predict(info: Array, f_inv: Array, g: Array) -> Array:
+    """``predict_information`` of one (n, n) matrix: the same Woodbury form, in plain loops.
+
+    ``A = sym(F^-T J F^-1)``; ``S = I + G^T A G = L L^T``; ``H = L^{-1} (A G)^T``;
+    ``J' = sym(A - H^T H)``.  Small matrices: loops, not BLAS and LAPACK calls (whose code
+    is large and cold in a decision).
+    """
+    n, r = info.shape[0], g.shape[1]
+    a = np.empty((n, n))
+    _symmetric_product(f_inv, info, a)
+    if r == 0:
+        return a
+    ag = np.zeros((n, r))
+    for i in range(n):
+        for j in range(r):
+            for k in range(n):
+                ag[i, j] += a[i, k] * g[k, j]
+    s = np.empty((r, r))
+    for i in range(r):
+        for j in range(r):
+            acc = 1.0 if i == j else 0.0
+            for k in range(n):
+                acc += g[k, i] * ag[k, j]
+            s[i, j] = acc
+    _symmetrise(s)
+    half = _cholesky_solve(s, ag)
+    out = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(r):
+                acc += half[k, i] * half[k, j]
+            out[i, j] = a[i, j] - acc
+    _symmetrise(out)
+    return out
+
+
+@_exact
+def _moved_cloud(states: Array, weights: Array, transition: Array, at_mean: bool) -> Array:
+    """Return the cloud ``F x_i`` by rows (n, N), or its moved weighted mean (n, 1)."""
+    n = states.shape[1]
+    if at_mean:
+        mean = np.zeros(n)
+        for i in range(states.shape[0]):
+            for j in range(n):
+                mean[j] += weights[i] * states[i, j]
+        out = np.zeros((n, 1))
+        for i in range(n):
+            for j in range(n):
+                out[i, 0] += transition[i, j] * mean[j]
+        return out
+    out = np.zeros((n, states.shape[0]))
+    for p in range(states.shape[0]):
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += transition[i, j] * states[p, j]
+            out[i, p] = acc
+    return out
+
+
+@_exact
+def decide_planar(start: Array, actions: Array, own_climb: bool, limits: Array,
+                  interval: float, information: Array, f_inv: Array, g: Array,
+                  transition: Array, states: Array, weights: Array, at_mean: bool,
+                  coef: Array, dgf: Array, position_only: bool, weighting: Array,
+                  out: Array, flags: Array, info: Array, cov: Array, cost: Array,
+                  bound: Array) -> int:
+    """One decision over ``A`` candidates (module docstring); return 0, or why not done.
+
+    Parameters
+    ----------
+    start : ndarray, shape (1, 6)
+        The platform (as the rows of :func:`fly`'s ``starts``).
+    actions, own_climb, limits, interval
+        As for :func:`fly`.
+    information : ndarray, shape (4, 4)
+        ``J_k`` at the decision time, SI.
+    f_inv, g : ndarray
+        ``F^{-1}`` (4, 4) and ``G`` (4, r) of the step (``G G^T = Q``).
+    transition : ndarray, shape (4, 4)
+        ``F`` of the step.
+    states, weights : ndarray, shapes (N, 4), (N,)
+        The belief's cloud at the decision time.
+    at_mean : bool
+        ``Gamma`` at the moved mean (the paper's), else over the moved cloud.
+    coef, dgf : ndarray
+        The planar basis: the products' coefficients (P, 3) (P = 1 with ``position_only``,
+        else 5 in the order of ``compiled.PRODUCTS``) and ``D``, ``G``, ``F``.
+    position_only : bool
+        Only ``1/r^2`` is needed (bearing and range rows, no range rate).
+    weighting : ndarray, shape (4, 4)
+        ``Pi`` of the weighted trace.
+    out, flags
+        As for :func:`fly` (``A`` rows).
+    info, cov : ndarray, shape (A, 4, 4)
+        Written with ``J_{k+1}`` and ``J_{k+1}^{-1}``, SI.
+    cost, bound : ndarray, shape (A,)
+        Written with ``Tr{Pi J^{-1}}`` and the position RMS bound (m).
+
+    Returns
+    -------
+    int
+        0 when done; 1 if a candidate sensor leaves the plane ``z = 0`` (the planar form
+        does not apply); 2 if a ``J`` is not numerically positive definite.
+    """
+    fly(start, actions, own_climb, limits, interval, out, flags)
+    n_cand = out.shape[0]
+    for c in range(n_cand):
+        if out[c, SENSOR + 2] != 0.0:
+            return 1
+    sensor = np.ascontiguousarray(out[:, SENSOR:SENSOR + 6])
+    cols = _moved_cloud(states, weights, transition, at_mean)
+    w = np.ones(1) if at_mean else weights
+    if position_only:
+        sums = np.empty((5, n_cand))
+        position_sums(cols[0], cols[1], w, np.ascontiguousarray(sensor[:, 0]),
+                      np.ascontiguousarray(sensor[:, 1]), sums)
+    else:
+        sums = np.empty((17, n_cand))
+        general_sums(cols[0], cols[1], cols[2], cols[3], w, sensor, sums)
+    assemble_gamma(sums, coef, dgf, info)
+    pred = _predict(information, f_inv, g)
+    for c in range(n_cand):
+        for i in range(4):
+            for j in range(i, 4):
+                v = 0.5 * ((pred[i, j] + info[c, i, j]) + (pred[j, i] + info[c, j, i]))
+                info[c, i, j] = v
+                info[c, j, i] = v
+    if not spd_inverse_stack(info, cov):
+        return 2
+    for c in range(n_cand):
+        acc = 0.0
+        for i in range(4):
+            for j in range(4):
+                acc += weighting[i, j] * cov[c, j, i]
+        cost[c] = acc
+        bound[c] = np.sqrt(max(cov[c, 0, 0] + cov[c, 1, 1], 0.0))
+    return 0
