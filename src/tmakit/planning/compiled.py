@@ -213,7 +213,7 @@ def _warm_decision(nd: Any) -> None:
     start = np.array([[0.0, 0.0, 0.0, 0.0, 50.0, 0.0]])
     acts = np.array([[0.1], [1.0], [0.0], [0.0]])
     limits = np.array([0.0, np.inf, np.inf, np.inf, np.inf, -np.inf, np.inf])
-    out, flags = np.empty((1, nd.COLUMNS)), np.empty((1, 4), dtype=np.bool_)
+    out, flags = np.empty((nd.COLUMNS, 1)), np.empty((4, 1), dtype=np.bool_)
     nd.fly(start, acts, True, limits, 1.0, out, flags)
     eye, cloud = np.eye(4), np.array([[1e3, 1e3, 1.0, 1.0]])
     for at_mean, position_only in ((True, True), (False, False)):
@@ -244,9 +244,9 @@ def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval:
 
     Returns
     -------
-    rows : ndarray, shape (M A, 20)
-        Columns of :mod:`tmakit.planning.numba_decision` (SI).
-    flags : ndarray of bool, shape (M A, 4)
+    fields : ndarray, shape (20, M A)
+        Rows of :mod:`tmakit.planning.numba_decision` (SI).
+    flags : ndarray of bool, shape (4, M A)
         Speed range, turn-rate, acceleration, climb-rate/altitude limit acted.
 
     Raises
@@ -257,9 +257,10 @@ def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval:
     if not available():
         raise RuntimeError("the compiled planning kernels are not available (numba)")
     size = starts.shape[0] * actions.shape[1]
-    rows, flags = np.empty((size, 20)), np.empty((size, 4), dtype=np.bool_)
-    _STATE["kernels"]["fly"](starts, actions, own_climb, limits, float(interval), rows, flags)
-    return rows, flags
+    fields, flags = np.empty((20, size)), np.empty((4, size), dtype=np.bool_)
+    _STATE["kernels"]["fly"](starts, actions, own_climb, limits, float(interval), fields,
+                             flags)
+    return fields, flags
 
 
 def decide_planar(*args: Any) -> int:

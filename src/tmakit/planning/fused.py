@@ -34,10 +34,6 @@ from .belief import Belief
 from .criteria import WeightedTrace, evaluate
 from .planar_information import PLANAR_KINDS, compiled_basis
 
-#: Columns of the compiled kinematics' rows (see :mod:`tmakit.planning.numba_decision`).
-_COLS = {"end": slice(0, 3), "heading": 3, "speed": 4, "climb": 5, "turn": 6, "accel": 7,
-         "start": slice(14, 17), "start_heading": 17, "start_speed": 18, "start_climb": 19}
-
 
 def pack_actions(actions: Actions) -> tuple[Array, bool]:
     """Return the actions as rows (4, A) and whether each platform keeps its climb rate.
@@ -99,15 +95,15 @@ def pack_starts(platform: PlatformState) -> Array:
     return out
 
 
-def step_from_rows(rows: Array, flags: Array, shape: tuple[int, ...], interval: float,
+def step_from_rows(fields: Array, flags: Array, shape: tuple[int, ...], interval: float,
                    time: float) -> Step:
-    """Return the :class:`Step` whose fields are views of the compiled kernel's rows.
+    """Return the :class:`Step` whose fields are views of the compiled kernel's output.
 
     Parameters
     ----------
-    rows : ndarray, shape (size, 20)
-        Written by :func:`tmakit.planning.compiled.fly`.
-    flags : ndarray of bool, shape (size, 4)
+    fields : ndarray, shape (20, size)
+        Written by :func:`tmakit.planning.compiled.fly`, one row per field.
+    flags : ndarray of bool, shape (4, size)
         Its limit flags.
     shape : tuple of int
         The batch shape of the step (``size`` elements).
@@ -118,15 +114,16 @@ def step_from_rows(rows: Array, flags: Array, shape: tuple[int, ...], interval: 
     -------
     Step
     """
-    r = rows.reshape(*shape, rows.shape[-1])
-    f = flags.reshape(*shape, 4)
-    c = _COLS
-    start = PlatformState.view(r[..., c["start"]], r[..., c["start_heading"]],
-                               r[..., c["start_speed"]], r[..., c["start_climb"]], time)
-    end = PlatformState.view(r[..., c["end"]], r[..., c["heading"]], r[..., c["speed"]],
-                             r[..., c["climb"]], time + interval)
-    return Step(start, end, r[..., c["turn"]], r[..., c["accel"]], r[..., c["climb"]],
-                float(interval), f[..., 0], f[..., 1], f[..., 2], f[..., 3])
+    if len(shape) != 1:
+        fields = fields.reshape(fields.shape[0], *shape)
+        flags = flags.reshape(4, *shape)
+    axes = (*range(1, len(shape) + 1), 0)   # (3, *shape) -> (*shape, 3)
+    start = PlatformState.view(fields[14:17].transpose(axes), fields[17], fields[18],
+                               fields[19], time)
+    end = PlatformState.view(fields[0:3].transpose(axes), fields[3], fields[4], fields[5],
+                             time + interval)
+    return Step(start, end, fields[6], fields[7], fields[5], float(interval), flags[0],
+                flags[1], flags[2], flags[3])
 
 
 def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Actions,
@@ -207,6 +204,17 @@ def _setup(planner: Any) -> tuple[Any, ...] | None:
             position_only, np.ascontiguousarray(weighting), trace)
 
 
+def _step_factors(cache: dict[str, Any], post: Any, interval: float
+                  ) -> tuple[Array, Array, Array]:
+    """Return ``F^{-1}``, ``G`` and ``F`` of one step, kept while the dynamics stay the same."""
+    dyn = post.dynamics
+    kept = cache.get("dynamics")
+    if kept is None or not (kept[0] is dyn or kept[0] == dyn):
+        f_inv, g = post.step_factors(interval)
+        kept = cache["dynamics"] = (dyn, f_inv, g, dyn.transition(interval))
+    return kept[1], kept[2], kept[3]
+
+
 def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
            belief: Belief) -> Decision | None:
     """One step of every candidate of ``planner`` from ``platform``, in one compiled call.
@@ -240,16 +248,16 @@ def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
     if setup is None or post.information.shape != (4, 4):
         return None
     packed, own_climb, limits, interval, coef, dgf, position_only, weighting, trace = setup
-    f_inv, g = post.step_factors(interval)
+    f_inv, g, f = _step_factors(cache, post, interval)
     n_act = packed.shape[1]
-    rows, flags = np.empty((n_act, 20)), np.empty((n_act, 4), dtype=np.bool_)
+    rows, flags = np.empty((20, n_act)), np.empty((4, n_act), dtype=np.bool_)
     info, cov = np.empty((n_act, 4, 4)), np.empty((n_act, 4, 4))
     cost, bound = np.empty(n_act), np.empty(n_act)
     states = belief.states
     at_mean = planner.gamma == "mean" or states.shape[0] == 1
     status = compiled.decide_planar(
         pack_starts(platform), packed, own_climb, limits, interval, post.information, f_inv,
-        g, post.dynamics.transition(interval), states, belief.weights, at_mean, coef, dgf,
+        g, f, states, belief.weights, at_mean, coef, dgf,
         position_only, weighting, rows, flags, info, cov, cost, bound)
     if status:
         return None

@@ -27,7 +27,7 @@ from .numba_kernels import assemble_gamma, general_sums, position_sums, spd_inve
 
 _exact = numba.njit(cache=True, nogil=True, error_model="numpy")
 
-#: Columns of :func:`fly`'s output rows.
+#: Rows (fields) of :func:`fly`'s output.
 END_POSITION, END_HEADING, END_SPEED, CLIMB, TURN, ACCEL = 0, 3, 4, 5, 6, 7
 SENSOR, START_POSITION, START_HEADING, START_SPEED, START_CLIMB = 8, 14, 17, 18, 19
 COLUMNS = 20
@@ -79,7 +79,7 @@ def _turn_factors(z: complex) -> tuple[complex, complex]:
 @_exact
 def _fly_one(st: Array, hc: float, target: float, c_cmd: float, lim: Array, t: float,
              row: Array, flag: Array) -> None:
-    """One start state ``st`` and one action; ``row`` and ``flag`` written (module doc)."""
+    """One start state ``st`` and one action; its fields ``row`` and ``flag`` written."""
     x0, y0, z0, psi0, v0 = st[0], st[1], st[2], st[3], st[4]
     v1 = _clip(target, lim[0], lim[1])
     acc_cmd = (v1 - v0) / t
@@ -121,7 +121,7 @@ def _fly_one(st: Array, hc: float, target: float, c_cmd: float, lim: Array, t: f
 @_exact
 def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval: float,
         out: Array, flags: Array) -> None:
-    """Fly every action from every start state for one step; write ``(M A, 20)`` rows.
+    """Fly every action from every start state for one step; write ``(20, M A)`` fields.
 
     Parameters
     ----------
@@ -136,9 +136,9 @@ def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval:
         rate (m/s), min and max altitude (m).
     interval : float
         The step, s.
-    out : ndarray, shape (M A, 20)
-        Written, row ``m A + a``, columns as the module constants.
-    flags : ndarray of bool, shape (M A, 4)
+    out : ndarray, shape (20, M A)
+        Written, column ``m A + a``, one row per field (the module constants).
+    flags : ndarray of bool, shape (4, M A)
         Written: speed range, turn-rate, acceleration, climb/altitude limit acted.
     """
     n_act = actions.shape[1]
@@ -148,7 +148,8 @@ def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval:
             target = st[4] * actions[1, a] + actions[2, a]
             c_cmd = st[5] if own_climb else actions[3, a]
             k = m * n_act + a
-            _fly_one(st, actions[0, a], target, c_cmd, limits, interval, out[k], flags[k])
+            _fly_one(st, actions[0, a], target, c_cmd, limits, interval, out[:, k],
+                     flags[:, k])
 
 
 @_exact
@@ -245,8 +246,12 @@ def _predict(info: Array, f_inv: Array, g: Array) -> Array:
 
 
 @_exact
-def _moved_cloud(states: Array, weights: Array, transition: Array, at_mean: bool) -> Array:
-    """Return the cloud ``F x_i`` by rows (n, N), or its moved weighted mean (n, 1)."""
+def _moved_cloud(states: Array, weights: Array, transition: Array, at_mean: bool,
+                 rows: int) -> Array:
+    """Return the cloud ``F x_i`` by rows (4, N) (the first ``rows`` written), or its mean.
+
+    With ``at_mean``: the moved weighted mean (4, 1), every row.
+    """
     n = states.shape[1]
     if at_mean:
         mean = np.zeros(n)
@@ -258,13 +263,12 @@ def _moved_cloud(states: Array, weights: Array, transition: Array, at_mean: bool
             for j in range(n):
                 out[i, 0] += transition[i, j] * mean[j]
         return out
-    out = np.zeros((n, states.shape[0]))
-    for p in range(states.shape[0]):
-        for i in range(n):
-            acc = 0.0
-            for j in range(n):
-                acc += transition[i, j] * states[p, j]
-            out[i, p] = acc
+    out = np.empty((n, states.shape[0]))
+    for i in range(rows):   # the planar state [x, y, vx, vy]: four terms, unrolled
+        f0, f1, f2, f3 = transition[i, 0], transition[i, 1], transition[i, 2], transition[i, 3]
+        for p in range(states.shape[0]):
+            out[i, p] = (((f0 * states[p, 0]) + f1 * states[p, 1]) + f2 * states[p, 2]
+                         + f3 * states[p, 3])
     return out
 
 
@@ -301,7 +305,7 @@ def decide_planar(start: Array, actions: Array, own_climb: bool, limits: Array,
     weighting : ndarray, shape (4, 4)
         ``Pi`` of the weighted trace.
     out, flags
-        As for :func:`fly` (``A`` rows).
+        As for :func:`fly` (``A`` columns).
     info, cov : ndarray, shape (A, 4, 4)
         Written with ``J_{k+1}`` and ``J_{k+1}^{-1}``, SI.
     cost, bound : ndarray, shape (A,)
@@ -314,17 +318,16 @@ def decide_planar(start: Array, actions: Array, own_climb: bool, limits: Array,
         does not apply); 2 if a ``J`` is not numerically positive definite.
     """
     fly(start, actions, own_climb, limits, interval, out, flags)
-    n_cand = out.shape[0]
+    n_cand = out.shape[1]
     for c in range(n_cand):
-        if out[c, SENSOR + 2] != 0.0:
+        if out[SENSOR + 2, c] != 0.0:
             return 1
-    sensor = np.ascontiguousarray(out[:, SENSOR:SENSOR + 6])
-    cols = _moved_cloud(states, weights, transition, at_mean)
+    sensor = np.ascontiguousarray(out[SENSOR:SENSOR + 6].T)
+    cols = _moved_cloud(states, weights, transition, at_mean, 2 if position_only else 4)
     w = np.ones(1) if at_mean else weights
     if position_only:
         sums = np.empty((5, n_cand))
-        position_sums(cols[0], cols[1], w, np.ascontiguousarray(sensor[:, 0]),
-                      np.ascontiguousarray(sensor[:, 1]), sums)
+        position_sums(cols[0], cols[1], w, out[SENSOR], out[SENSOR + 1], sums)
     else:
         sums = np.empty((17, n_cand))
         general_sums(cols[0], cols[1], cols[2], cols[3], w, sensor, sums)

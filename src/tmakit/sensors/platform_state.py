@@ -216,8 +216,7 @@ class PlatformState:
         """Make a state holding the given arrays as they are: no copy, no check, no wrap.
 
         For compiled kinematics that write every field into one buffer (already wrapped and
-        derived from checked states); the arrays are made read-only so the state stays
-        immutable.
+        derived from checked states).
 
         Parameters
         ----------
@@ -234,10 +233,11 @@ class PlatformState:
         PlatformState
         """
         state = object.__new__(cls)
-        for name, value in (("position", position), ("heading", heading), ("speed", speed),
-                            ("climb_rate", climb_rate)):
-            value.flags.writeable = False
-            object.__setattr__(state, name, value)
+        setattr_ = object.__setattr__
+        setattr_(state, "position", position)
+        setattr_(state, "heading", heading)
+        setattr_(state, "speed", speed)
+        setattr_(state, "climb_rate", climb_rate)
         object.__setattr__(state, "time", float(time))
         return state
 
