@@ -46,10 +46,11 @@ interleaved within each of ``--repeat`` rounds, in a fresh random order each rou
 evict the caches (a rotation would keep the same neighbours).  The ``mean`` case's median is
 also printed split by whether it ran right after Stone Soup's call (cold caches) or after
 another case.  ``--clock`` chooses the clock of the goals and ratios.  Printed: median and
-interquartile range per decision, cost per candidate (decision / 15) and Stone Soup's per-candidate cost over tmakit's; for H=3 the cost per
-sequence (/ 3375) and per node of the search tree (/ (15 + 15^2 + 15^3): each node is one
-candidate step, its predicted information and criterion, the work Stone Soup spends per
-candidate) beside Stone Soup's per-candidate cost.
+interquartile range per decision, cost per candidate (decision / 15) and Stone Soup's
+per-candidate cost over tmakit's; for H=3 the cost per sequence (/ 3375) and per node of the
+search tree (/ (15 + 15^2 + 15^3): each node is one candidate step, its predicted information
+and criterion, the work Stone Soup spends per candidate) beside Stone Soup's per-candidate
+cost.
 ``--blas-threads N`` limits BLAS to ``N`` threads (``threadpoolctl``) for the whole run; the
 header says what BLAS and how many threads ran.
 
