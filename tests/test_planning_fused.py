@@ -170,3 +170,15 @@ def test_fast_path_steps_aside_where_it_does_not_apply():
     fast, slow = _both(lambda: climbing.recommend(start, belief))
     assert fast.index == slow.index
     np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)
+
+
+def test_horizon_search_on_compiled_kinematics_chooses_as_numpy():
+    config = platform_configuration("hurtado_nehorai_2008")
+    rng = np.random.default_rng(21)
+    belief = _belief(rng, 400)
+    start = PlatformState(position=(500.0, 2000.0), heading=-0.4, speed=120.0, time=3.0)
+    planner = Planner(config.kinematics, config.actions, config.interval,
+                      SensorPlan(["bearing", "range"], [0.02, 30.0]), gamma="cloud", horizon=2)
+    fast, slow = _both(lambda: planner.recommend(start, belief))
+    assert fast.index == slow.index
+    np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)

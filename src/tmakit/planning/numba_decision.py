@@ -113,7 +113,7 @@ def _fly_one(st: Array, hc: float, target: float, c_cmd: float, lim: Array, t: f
     row[14] = x0
     row[15] = y0
     row[16] = z0
-    row[17] = psi0
+    row[17] = _wrap(psi0)   # as PlatformState.trusted does (the same value, to rounding)
     row[18] = v0
     row[19] = st[5]
 
