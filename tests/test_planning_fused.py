@@ -182,3 +182,22 @@ def test_horizon_search_on_compiled_kinematics_chooses_as_numpy():
     fast, slow = _both(lambda: planner.recommend(start, belief))
     assert fast.index == slow.index
     np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)
+
+
+def test_the_recommendation_of_the_fast_path_reads_as_the_numpy_one():
+    import pickle
+
+    config = platform_configuration("hurtado_nehorai_2008")
+    belief = _belief(np.random.default_rng(4), 1)
+    start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=50.0, time=3.0)
+    planner = Planner(config.kinematics, config.actions, config.interval,
+                      SensorPlan(["bearing", "range"], [0.02, 30.0]))
+    fast, slow = _both(lambda: planner.recommend(start, belief))
+    assert isinstance(fast.steps, fused.LazyStep)
+    again = pickle.loads(pickle.dumps(fast.steps))
+    _same_step(again, slow.steps)                     # before any field was read
+    _same_step(fast.step, slow.step)                  # one candidate: Step.__getitem__
+    assert "Step" in repr(fast.steps) and fast.steps.shape == (15,)
+    np.testing.assert_array_equal(fast.feasible, slow.feasible)
+    assert fast.violations == slow.violations == {} and not fast.all_infeasible
+    np.testing.assert_allclose(fast.action.heading_change, slow.action.heading_change)

@@ -218,7 +218,8 @@ def _warm_decision(nd: Any) -> None:
     eye, cloud = np.eye(4), np.array([[1e3, 1e3, 1.0, 1.0]])
     for at_mean, position_only in ((True, True), (False, False)):
         coef = np.ones((1 if position_only else len(PRODUCTS), 3))
-        nd.decide_planar(start, acts, True, limits, 1.0, eye, eye, np.ones((4, 1)), eye,
+        nd.decide_planar(start[0, :3].copy(), 0.0, 50.0, 0.0, acts, True, limits, 1.0, eye,
+                         eye, np.ones((4, 1)), eye,
                          cloud, np.ones(1), at_mean, coef, np.ones(3), position_only, eye,
                          out, flags, np.empty((1, 4, 4)), np.empty((1, 4, 4)), np.empty(1),
                          np.empty(1))
@@ -274,7 +275,7 @@ def decide_planar(*args: Any) -> int:
     Returns
     -------
     int
-        0 when done, else why not (the caller then takes the general path).
+        The best candidate (>= 0), or why not done (< 0: the caller takes the general path).
 
     Raises
     ------

@@ -22,6 +22,7 @@ the same action.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -126,6 +127,43 @@ def step_from_rows(fields: Array, flags: Array, shape: tuple[int, ...], interval
                 flags[1], flags[2], flags[3])
 
 
+class LazyStep(Step):
+    """A :class:`Step` whose fields are made from the compiled kernel's output when first read.
+
+    The kernel has computed every field; only the Python views on its buffer are put off
+    (a decision that reads nothing of the candidates' steps does not pay for them).  Reading
+    any field makes them all, once; the object then behaves as the :class:`Step` of
+    :func:`step_from_rows`.
+    """
+
+    @classmethod
+    def of(cls, fields: Array, flags: Array, shape: tuple[int, ...], interval: float,
+           time: float) -> LazyStep:
+        """Return the lazy step over the kernel's output (arguments of :func:`step_from_rows`).
+
+        Parameters
+        ----------
+        fields, flags, shape, interval, time
+            As for :func:`step_from_rows`.
+
+        Returns
+        -------
+        LazyStep
+        """
+        step = object.__new__(cls)
+        object.__setattr__(step, "_source", (fields, flags, shape, interval, time))
+        return step
+
+    def __getattr__(self, name: str) -> Any:
+        """Make every field on the first read of one (only called for missing attributes)."""
+        if name.startswith("__") or name == "_source":
+            raise AttributeError(name)
+        made = step_from_rows(*object.__getattribute__(self, "_source"))
+        for f in dataclasses.fields(Step):
+            object.__setattr__(self, f.name, getattr(made, f.name))
+        return object.__getattribute__(self, name)
+
+
 def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Actions,
         interval: float) -> Step | None:
     """Fly every action from every state of ``platform`` for one step, compiled.
@@ -172,6 +210,9 @@ class Decision:
         The criterion (no penalties).
     bound : ndarray, shape (A,)
         Position RMS bound, m.
+    best : int or None
+        The candidate of least cost (ties: the first; NaN last), or None when the cost was
+        computed outside the kernel.
     """
 
     steps: Step
@@ -179,6 +220,7 @@ class Decision:
     covariance: Array
     cost: Array
     bound: Array
+    best: int | None
 
 
 def _setup(planner: Any) -> tuple[Any, ...] | None:
@@ -255,13 +297,14 @@ def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
     cost, bound = np.empty(n_act), np.empty(n_act)
     states = belief.states
     at_mean = planner.gamma == "mean" or states.shape[0] == 1
-    status = compiled.decide_planar(
-        pack_starts(platform), packed, own_climb, limits, interval, post.information, f_inv,
-        g, f, states, belief.weights, at_mean, coef, dgf,
-        position_only, weighting, rows, flags, info, cov, cost, bound)
-    if status:
+    best = compiled.decide_planar(
+        platform.position, float(platform.heading), float(platform.speed),
+        float(platform.climb_rate), packed, own_climb, limits, interval, post.information,
+        f_inv, g, f, states, belief.weights, at_mean, coef, dgf, position_only, weighting,
+        rows, flags, info, cov, cost, bound)
+    if best < 0:
         return None
     if not trace:
-        cost = evaluate(planner.criterion, info, cov)
-    steps = step_from_rows(rows, flags, (n_act,), interval, platform.time)
-    return Decision(steps, info, cov, cost, bound)
+        cost, best = evaluate(planner.criterion, info, cov), None
+    steps = LazyStep.of(rows, flags, (n_act,), interval, platform.time)
+    return Decision(steps, info, cov, cost, bound, best)

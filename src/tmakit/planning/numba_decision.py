@@ -273,18 +273,53 @@ def _moved_cloud(states: Array, weights: Array, transition: Array, at_mean: bool
 
 
 @_exact
-def decide_planar(start: Array, actions: Array, own_climb: bool, limits: Array,
-                  interval: float, information: Array, f_inv: Array, g: Array,
+def _add_symmetric(pred: Array, info: Array) -> None:
+    """``info[c] = sym(pred + info[c])`` for every candidate (``symmetrise`` of the sum)."""
+    n = pred.shape[0]
+    for c in range(info.shape[0]):
+        for i in range(n):
+            for j in range(i, n):
+                v = 0.5 * ((pred[i, j] + info[c, i, j]) + (pred[j, i] + info[c, j, i]))
+                info[c, i, j] = v
+                info[c, j, i] = v
+
+
+@_exact
+def _score(cov: Array, weighting: Array, cost: Array, bound: Array) -> int:
+    """Write ``Tr{Pi C}`` and the position bound (m) per candidate; return the least cost's.
+
+    Ties: the first; NaN costs last (as ``numpy.lexsort``); all NaN: 0.
+    """
+    n = cov.shape[1]
+    best = -1
+    for c in range(cov.shape[0]):
+        acc = 0.0
+        for i in range(n):
+            for j in range(n):
+                acc += weighting[i, j] * cov[c, j, i]
+        cost[c] = acc
+        bound[c] = np.sqrt(max(cov[c, 0, 0] + cov[c, 1, 1], 0.0))
+        if acc == acc and (best < 0 or acc < cost[best]):
+            best = c
+    return max(best, 0)
+
+
+@_exact
+def decide_planar(position: Array, heading: float, speed: float, climb: float,
+                  actions: Array, own_climb: bool, limits: Array, interval: float,
+                  information: Array, f_inv: Array, g: Array,
                   transition: Array, states: Array, weights: Array, at_mean: bool,
                   coef: Array, dgf: Array, position_only: bool, weighting: Array,
                   out: Array, flags: Array, info: Array, cov: Array, cost: Array,
                   bound: Array) -> int:
-    """One decision over ``A`` candidates (module docstring); return 0, or why not done.
+    """One decision over ``A`` candidates (module docstring); return the best, or why not.
 
     Parameters
     ----------
-    start : ndarray, shape (1, 6)
-        The platform (as the rows of :func:`fly`'s ``starts``).
+    position : ndarray, shape (3,)
+        The platform's ENU position, m.
+    heading, speed, climb : float
+        Its heading (rad), speed and climb rate (m/s).
     actions, own_climb, limits, interval
         As for :func:`fly`.
     information : ndarray, shape (4, 4)
@@ -314,15 +349,20 @@ def decide_planar(start: Array, actions: Array, own_climb: bool, limits: Array,
     Returns
     -------
     int
-        0 when done; 1 if a candidate sensor leaves the plane ``z = 0`` (the planar form
-        does not apply); 2 if a ``J`` is not numerically positive definite.
+        The candidate of least cost (the first of equal ones; NaN costs last, as
+        ``numpy.lexsort``); -1 if a candidate sensor leaves the plane ``z = 0`` (the planar
+        form does not apply); -2 if a ``J`` is not numerically positive definite.
     """
+    start = np.empty((1, 6))
+    start[0, :3] = position
+    start[0, 3] = heading
+    start[0, 4] = speed
+    start[0, 5] = climb
     fly(start, actions, own_climb, limits, interval, out, flags)
     n_cand = out.shape[1]
     for c in range(n_cand):
         if out[SENSOR + 2, c] != 0.0:
-            return 1
-    sensor = np.ascontiguousarray(out[SENSOR:SENSOR + 6].T)
+            return -1
     cols = _moved_cloud(states, weights, transition, at_mean, 2 if position_only else 4)
     w = np.ones(1) if at_mean else weights
     if position_only:
@@ -330,22 +370,10 @@ def decide_planar(start: Array, actions: Array, own_climb: bool, limits: Array,
         position_sums(cols[0], cols[1], w, out[SENSOR], out[SENSOR + 1], sums)
     else:
         sums = np.empty((17, n_cand))
+        sensor = np.ascontiguousarray(out[SENSOR:SENSOR + 6].T)
         general_sums(cols[0], cols[1], cols[2], cols[3], w, sensor, sums)
     assemble_gamma(sums, coef, dgf, info)
-    pred = _predict(information, f_inv, g)
-    for c in range(n_cand):
-        for i in range(4):
-            for j in range(i, 4):
-                v = 0.5 * ((pred[i, j] + info[c, i, j]) + (pred[j, i] + info[c, j, i]))
-                info[c, i, j] = v
-                info[c, j, i] = v
+    _add_symmetric(_predict(information, f_inv, g), info)
     if not spd_inverse_stack(info, cov):
-        return 2
-    for c in range(n_cand):
-        acc = 0.0
-        for i in range(4):
-            for j in range(4):
-                acc += weighting[i, j] * cov[c, j, i]
-        cost[c] = acc
-        bound[c] = np.sqrt(max(cov[c, 0, 0] + cov[c, 1, 1], 0.0))
-    return 0
+        return -2
+    return _score(cov, weighting, cost, bound)

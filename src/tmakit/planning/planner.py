@@ -253,6 +253,11 @@ class Planner:
             raise ValueError(f"the platform is at t = {platform.time:g} s and the belief at "
                              f"t = {belief.time:g} s")
         fast = fused.decide(self, self._fast, platform, belief)
+        if (fast is not None and fast.best is not None and not self.constraints
+                and self.horizon == 1 and self.continuation is None):
+            n_act = len(self.actions)   # nothing to penalise or search: the kernel's choice
+            return Recommendation(fast.best, self.actions, fast.steps, fast.information,
+                                  fast.cost, fast.bound, np.ones(n_act, dtype=bool), {}, False)
         if fast is None:
             steps, info, viol = self.expand(platform, belief.posterior.information, belief, 0,
                                             self.gamma)
