@@ -6,7 +6,7 @@ and carrying ``J`` through the step is a few hundred NumPy calls on arrays of 15
 
 * :func:`fly` — the candidates' kinematics in one compiled loop
   (:func:`tmakit.planning.compiled.fly`), returned as the same :class:`~tmakit.sensors.Step`
-  (fields are read-only views of one buffer);
+  (its fields are views of the kernel's one output buffer);
 * :func:`decide` — for a planar plan (2-D target, bearing / range / range-rate rows, no model
   options) measured once at the end of the step: the kinematics, the prediction of ``J``, ``Gamma``
   at the moved mean or over the moved cloud, ``J^{-1}``, the criterion and the position bound of

@@ -17,6 +17,12 @@ at the mission end after a default path), its penalties multiplied along the way
 feasible only if every step is.  Beyond the first step ``Gamma`` is formed at the predicted
 mean (the cloud expectation over ``A^H`` sequences would multiply the work by the cloud size
 for a second-order change).
+
+With ``numba`` the first step of a planar plan measured once per step is one compiled call
+(:func:`tmakit.planning.fused.decide`: kinematics, information, criterion, bound and — with
+no constraint or horizon to apply — the choice), and every candidate's kinematics are
+compiled (:func:`tmakit.planning.fused.fly`); without it the NumPy path gives the same numbers
+to rounding.
 """
 
 from __future__ import annotations
@@ -206,11 +212,11 @@ class Planner:
         violations : list of Violation
             One per constraint, amounts of shape ``(*B * A,)`` flattened.
         """
-        start = PlatformState.trusted(platform.position[..., None, :],
-                                      platform.heading[..., None], platform.speed[..., None],
-                                      platform.climb_rate[..., None], platform.time)
         steps = fused.fly(self.kinematics, platform, self.actions, self.interval)
-        if steps is None:
+        if steps is None:   # no numba, or limits that raise: the NumPy step
+            start = PlatformState.trusted(
+                platform.position[..., None, :], platform.heading[..., None],
+                platform.speed[..., None], platform.climb_rate[..., None], platform.time)
             steps = self.kinematics.step(start, self.actions, self.interval)
         t0 = platform.time
         offsets = self.plan.measurement_times(self.interval)
