@@ -201,3 +201,19 @@ def test_the_recommendation_of_the_fast_path_reads_as_the_numpy_one():
     np.testing.assert_array_equal(fast.feasible, slow.feasible)
     assert fast.violations == slow.violations == {} and not fast.all_infeasible
     np.testing.assert_allclose(fast.action.heading_change, slow.action.heading_change)
+
+
+def test_fast_path_takes_views_and_fortran_ordered_clouds():
+    config = platform_configuration("hurtado_nehorai_2008")
+    rng = np.random.default_rng(8)
+    cloud = np.asfortranarray(TARGET + rng.standard_normal((300, 4)) * SPREAD)
+    post = PosteriorInformation(np.asfortranarray(np.diag([4e-6, 4e-6, 1e-2, 1e-2])),
+                                NearlyConstantVelocity(dim=2, q=0.1), time=3.0)
+    belief = Belief(post, cloud)
+    start = PlatformState(position=(10.0, 20.0), heading=1.0, speed=80.0, time=3.0)
+    planner = Planner(config.kinematics, config.actions, config.interval,
+                      SensorPlan(["bearing", "range"], [0.02, 30.0]), gamma="cloud")
+    assert fused.decide(planner, {}, start, belief) is not None
+    fast, slow = _both(lambda: planner.recommend(start, belief))
+    assert fast.index == slow.index
+    np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)

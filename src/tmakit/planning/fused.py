@@ -253,7 +253,9 @@ def _step_factors(cache: dict[str, Any], post: Any, interval: float
     kept = cache.get("dynamics")
     if kept is None or not (kept[0] is dyn or kept[0] == dyn):
         f_inv, g = post.step_factors(interval)
-        kept = cache["dynamics"] = (dyn, f_inv, g, dyn.transition(interval))
+        c_array = np.ascontiguousarray
+        kept = cache["dynamics"] = (dyn, c_array(f_inv, dtype=float), c_array(g, dtype=float),
+                                    c_array(dyn.transition(interval), dtype=float))
     return kept[1], kept[2], kept[3]
 
 
@@ -297,11 +299,12 @@ def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
     cost, bound = np.empty(n_act), np.empty(n_act)
     states = belief.states
     at_mean = planner.gamma == "mean" or states.shape[0] == 1
+    c_array = np.ascontiguousarray   # one compiled layout: no new compilation for a view
     best = compiled.decide_planar(
-        platform.position, float(platform.heading), float(platform.speed),
-        float(platform.climb_rate), packed, own_climb, limits, interval, post.information,
-        f_inv, g, f, states, belief.weights, at_mean, coef, dgf, position_only, weighting,
-        rows, flags, info, cov, cost, bound)
+        c_array(platform.position), float(platform.heading), float(platform.speed),
+        float(platform.climb_rate), packed, own_climb, limits, interval,
+        c_array(post.information), f_inv, g, f, c_array(states), c_array(belief.weights),
+        at_mean, coef, dgf, position_only, weighting, rows, flags, info, cov, cost, bound)
     if best < 0:
         return None
     if not trace:
