@@ -9,9 +9,10 @@
   differ from NumPy's in the last bits).
 * :func:`fly` — :meth:`~tmakit.sensors.PlatformKinematics.step` of every candidate action from
   a batch of start states in one compiled loop (:mod:`tmakit.planning.numba_decision`).
-* :func:`decide_planar` — a whole one-step decision of the planner for a planar plan measured
-  at the end of the step: kinematics, predicted information, ``Gamma``, ``J^{-1}``, cost and
-  bound of every candidate in one compiled call (:mod:`tmakit.planning.fused`).
+* ``kernel("decide_planar")`` — a whole one-step decision of the planner for a planar plan
+  measured at the end of the step: kinematics, predicted information, ``Gamma``, ``J^{-1}``,
+  cost, bound and choice over every candidate in one compiled call
+  (:mod:`tmakit.planning.fused`).
 * :func:`spd_inverse` — ``J^{-1}`` of a stack of small positive-definite information
   matrices, as :func:`tmakit.planning.criteria.bound_covariance` computes it (normalised by
   the diagonal, Cholesky, triangular inverse), one loop instead of a dozen NumPy calls.
@@ -209,7 +210,7 @@ def planar_gamma(names: list[str], coefficients: Array, constants: Array, cols: 
 
 
 def _warm_decision(nd: Any) -> None:
-    """Compile :func:`fly` and :func:`decide_planar` on tiny inputs (both cloud forms)."""
+    """Compile ``fly`` and ``decide_planar`` on tiny inputs (both cloud forms)."""
     start = np.array([[0.0, 0.0, 0.0, 0.0, 50.0, 0.0]])
     acts = np.array([[0.1], [1.0], [0.0], [0.0]])
     limits = np.array([0.0, np.inf, np.inf, np.inf, np.inf, -np.inf, np.inf])
@@ -264,24 +265,18 @@ def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval:
     return fields, flags
 
 
-def decide_planar(*args: Any) -> int:
-    """Run :func:`tmakit.planning.numba_decision.decide_planar` (same arguments).
+def kernel(name: str) -> Callable[..., Any] | None:
+    """Return the compiled kernel ``name`` (``"fly"``, ``"decide_planar"``, ...), or None.
 
     Parameters
     ----------
-    *args
-        The kernel's arguments (:func:`tmakit.planning.fused.decide` prepares them).
+    name : str
+        A kernel of :mod:`tmakit.planning.numba_kernels` or
+        :mod:`tmakit.planning.numba_decision` as registered here.
 
     Returns
     -------
-    int
-        The best candidate (>= 0), or why not done (< 0: the caller takes the general path).
-
-    Raises
-    ------
-    RuntimeError
-        If the kernels are not :func:`available`.
+    callable or None
+        None when the kernels are not :func:`available`.
     """
-    if not available():
-        raise RuntimeError("the compiled planning kernels are not available (numba)")
-    return int(_STATE["kernels"]["decide_planar"](*args))
+    return _STATE["kernels"][name] if available() else None

@@ -10,7 +10,7 @@ and carrying ``J`` through the step is a few hundred NumPy calls on arrays of 15
 * :func:`decide` — for a planar plan (2-D target, bearing / range / range-rate rows, no model
   options) measured once at the end of the step: the kinematics, the prediction of ``J``, ``Gamma``
   at the moved mean or over the moved cloud, ``J^{-1}``, the criterion and the position bound of
-  every candidate in one compiled call (:func:`tmakit.planning.compiled.decide_planar`).
+  every candidate in one compiled call (:func:`tmakit.planning.numba_decision.decide_planar`).
 
 Both return None when they do not apply (no ``numba`` or ``TMAKIT_NO_NUMBA``, limits that
 raise, a 3-D plan, a sensor off the plane, a ``J`` not numerically positive definite): the
@@ -283,7 +283,8 @@ def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
     ----------
     Hurtado & Nehorai (2008), eqs. 10-13.
     """
-    if not compiled.available():
+    kernel = compiled.kernel("decide_planar")
+    if kernel is None:
         return None
     if "setup" not in cache:
         cache["setup"] = _setup(planner)
@@ -300,7 +301,7 @@ def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
     states = belief.states
     at_mean = planner.gamma == "mean" or states.shape[0] == 1
     c_array = np.ascontiguousarray   # one compiled layout: no new compilation for a view
-    best = compiled.decide_planar(
+    best = kernel(
         c_array(platform.position), float(platform.heading), float(platform.speed),
         float(platform.climb_rate), packed, own_climb, limits, interval,
         c_array(post.information), f_inv, g, f, c_array(states), c_array(belief.weights),
