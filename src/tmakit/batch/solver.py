@@ -26,7 +26,7 @@ from ..blas import SINGLE_THREAD_WORK
 from .varpro import Evaluation, VarProProblem
 
 __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "Evaluation", "SolveResult",
-           "VarProProblem", "levenberg_marquardt"]
+           "VarProProblem", "information_of", "levenberg_marquardt"]
 
 DAMPING = ("nielsen", "factors")
 """How the damping follows a step.
@@ -63,6 +63,38 @@ def _gram(j: Array) -> Array:
     for lo in range(0, n, block):
         out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
     return out
+
+
+def information_of(problem: VarProProblem, ev: Evaluation, run: int) -> Array | None:
+    """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it.
+
+    The evaluation's whitened Jacobian (or its chunked ``J'J``) is the information over the
+    motion parameters when no nuisance is eliminated (none, or held at known values), so a
+    fit's final evaluation gives its information without evaluating the model again.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem evaluated.
+    ev : Evaluation
+        The evaluations (e.g. :attr:`SolveResult.evaluation`).
+    run : int
+        The run (row of the batch).
+
+    Returns
+    -------
+    ndarray or None
+        ``(p, p)`` (per parameter unit squared); None when the nuisance is eliminated (the
+        projected Jacobian is not the information over motion and nuisance) or the
+        evaluation holds no derivatives.
+    """
+    if problem.eliminates:
+        return None
+    if ev.normal is not None:
+        return np.array(ev.normal[0][run], dtype=float)
+    if ev.jacobian is None:
+        return None
+    return _gram(ev.jacobian[run])
 
 
 @dataclass
@@ -204,7 +236,10 @@ class _Runs:
         if dominated is not None:
             self.dominated[ids] = dominated[mask]
         if self.cur is not self.out:
-            self.out.put(ids, self.cur, mask)
+            if ids.size == self.out.cost.shape[0]:  # every run at once: no copy
+                self.out = self.cur
+            else:
+                self.out.put(ids, self.cur, mask)
         keep = ~mask
         self.ids = self.ids[keep]
         self.cur = self.cur.take(keep)
@@ -234,7 +269,10 @@ class _Runs:
     def finish(self) -> None:
         """Write the state of the runs still live (the iteration limit) into ``out``."""
         if self.cur is not self.out and self.ids.size:
-            self.out.put(self.ids, self.cur)
+            if self.ids.size == self.out.cost.shape[0]:  # every run still live: no copy
+                self.out = self.cur
+            else:
+                self.out.put(self.ids, self.cur)
 
 
 def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
