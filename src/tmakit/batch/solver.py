@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg.lapack import dsyevd as _dsyevd
 
 from ..arrays import Array
 from ..blas import SINGLE_THREAD_WORK
@@ -97,6 +98,9 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int) -> Array | 
     return _gram(ev.jacobian[run])
 
 
+_DIRECT_EIGH = 32  # largest matrix decomposed by a direct LAPACK call
+
+
 @dataclass
 class SolveResult:
     """The final state of every run of :func:`levenberg_marquardt`.
@@ -143,6 +147,20 @@ class _Rules:
     dominance: tuple[float, float]
 
 
+def _normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Array, Array]:
+    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` at ``ev`` over the ``free`` columns."""
+    if ev.normal is not None:  # summed over row chunks (large problems)
+        jtj, grad = ev.normal
+        if free is not None:
+            jtj, grad = jtj[:, free][:, :, free], grad[:, free]
+        return jtj, grad
+    jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
+    if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
+        j = jac[0]
+        return _gram(j)[None], ev.residual[0].dot(j)[None]
+    return _gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
+
+
 @dataclass
 class _Model:
     """The Gauss-Newton model of a batch at its current points.
@@ -163,14 +181,11 @@ class _Model:
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> _Model:
         """Build the model at the evaluated points ``ev`` (over the ``free`` columns)."""
-        if ev.normal is not None:  # summed over row chunks (large problems)
-            jtj, grad = ev.normal
-            if free is not None:
-                jtj, grad = jtj[:, free][:, :, free], grad[:, free]
-        else:
-            jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
-            jtj = _gram(jac)
-            grad = (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
+        jtj, grad = _normal_equations(ev, free)
+        if jtj.shape[0] == 1 and jtj.shape[1] <= _DIRECT_EIGH:
+            one = cls._one(jtj[0], grad[0], float(ev.cost[0]), gtol)
+            if one is not None:
+                return one
         scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
         w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
         # eigenvalues floored at 1e-12 of the largest: a rank-deficient J'J gives finite steps
@@ -179,6 +194,23 @@ class _Model:
         rnorm = np.sqrt(2.0 * ev.cost)[:, None]
         return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
                    (np.abs(grad) <= gtol * scale * rnorm).all(axis=1))
+
+    @classmethod
+    def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> _Model | None:
+        """Build the model of a single run as :meth:`at` does, in 2-D arrays (fewer calls).
+
+        LAPACK's ``dsyevd`` is called directly (NumPy's batched ``eigh`` costs several times
+        the decomposition of a small matrix); None where it reports a failure.
+        """
+        scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
+        w, v, info = _dsyevd(jtj / np.multiply.outer(scale, scale), compute_v=1, lower=1)
+        if info != 0:
+            return None
+        w = np.maximum(w, 1e-12 * w[-1])  # floored as in :meth:`at`
+        vg = (grad / scale).dot(v)
+        small = bool((np.abs(grad) <= gtol * np.sqrt(2.0 * cost) * scale).all())
+        return cls(w[None], v[None], vg[None], scale[None],
+                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]))
 
     def take(self, rows: NDArray[np.bool_]) -> _Model:
         """Keep the runs ``rows``."""
@@ -190,6 +222,12 @@ class _Model:
 
         The damping is ``lam * I`` in the scaled variables.
         """
+        if self.w.shape[0] == 1:  # one run: 2-D products (fewer, cheaper calls)
+            w, vg, lam1 = self.w[0], self.vg[0], float(lam[0])
+            lw = w + lam1
+            q = vg / lw
+            step = self.v[0].dot(q) / self.scale[0]
+            return step[None], np.array([0.5 * q.dot(vg * (w + 2.0 * lam1) / lw)])
         lw = self.w + lam[:, None]
         step = (self.v @ (self.vg / lw)[:, :, None])[..., 0] / self.scale
         vg2 = self.vg * self.vg
