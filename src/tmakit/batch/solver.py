@@ -386,8 +386,9 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
     rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
                    damping, max_reject, stall, dominance)
-    runs = _start(problem, y, theta0, groups, ceiling, stall > 0, damping0)
+    # Trial points may sit on a sensor (zero range): infinite cost, not an error.
     with np.errstate(invalid="ignore", divide="ignore"):
+        runs = _start(problem, y, theta0, groups, ceiling, stall > 0, damping0)
         runs = _iterate(problem, runs, max_iter, rules)
     runs.finish()
     out = runs.out  # each accepted point carries its own eliminated nuisance: no re-evaluation
@@ -410,8 +411,7 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
         reached = np.full(int(groups.max()) + 1, np.inf)  # lowest cost of a stopped run
         if ceiling is not None:
             np.minimum.at(reached, groups, np.broadcast_to(ceiling, (b,)))
-    # Trial points may sit on a sensor (zero range): infinite cost, not an error.
-    start = problem.evaluate_part(theta, u, nu_star, True)
+    start = problem.evaluate_part(theta, u, nu_star, True, quiet=True)  # (errors ignored)
     runs = _Runs(start, u, nu_star, groups, reached, stall)
     runs.lam[:] = damping0
     return runs
@@ -447,6 +447,17 @@ def _damp(runs: _Runs, better: NDArray[np.bool_], gain: Array, rules: _Rules) ->
     runs.grow = np.where(better, 2.0, 2.0 * runs.grow)
 
 
+def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: float) -> None:
+    """Update the damping of a single run after a step, as :func:`_damp` does (Nielsen)."""
+    lam, grow = float(runs.lam[0]), float(runs.grow[0])
+    if better:  # 0 < gain <= 1 here: no overflow in floats
+        gain = min((cost - trial) / max(predicted, 1e-300), 1.0)
+        lam, grow = max(lam * max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3), 1e-12), 2.0
+    else:
+        lam, grow = lam * grow, 2.0 * grow
+    runs.lam, runs.grow = np.array([lam]), np.array([grow])
+
+
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
     free = rules.free
@@ -464,15 +475,20 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             full = np.zeros_like(cur.theta)
             full[:, free] = step
             step = full
-        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True)
+        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
         runs.iterations[runs.ids] += 1
         better = trial.cost < cur.cost
-        _damp(runs, better, np.minimum((cur.cost - trial.cost) / np.maximum(predicted, 1e-300),
-                                       1.0), rules)
+        if lam.shape[0] == 1 and rules.damping == "nielsen":  # one run: in floats
+            _damp_one(runs, bool(better[0]), float(cur.cost[0]), float(trial.cost[0]),
+                      float(predicted[0]))
+        else:
+            _damp(runs, better, np.minimum((cur.cost - trial.cost)
+                                           / np.maximum(predicted, 1e-300), 1.0), rules)
         # A heavily damped step is small without being converged, hence the damping
         # condition on the step test.
-        tiny = better & (lam <= 1e-2) & (
-            np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
+        tiny = better & (lam <= 1e-2)
+        if tiny.any():
+            tiny &= (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
         if better.all():
             runs.cur, runs.model = trial, None
         elif better.any():
