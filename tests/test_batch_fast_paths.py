@@ -2,7 +2,12 @@
 
 - the information at a fit taken from the solver's last evaluation equals the information
   evaluated again at the fit (no nuisance, known nuisance), and is not used where the nuisance
-  is eliminated or the fit was mirrored;
+  is eliminated;
+- one run's Gauss-Newton model (LAPACK ``dsyevd`` called directly, 2-D products) equals the
+  batched model (NumPy's ``eigh``) on well-conditioned, ill-conditioned and rank-deficient
+  Jacobians: eigenvalues, decrement, steps and predicted decreases;
+- one run's damping update in floats equals the batched update;
+- a singular problem is still reported honestly (unobservable, finite estimate).
 """
 
 from __future__ import annotations
@@ -13,9 +18,10 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch import VarProProblem
+from tmakit.batch import VarProProblem, solver
 from tmakit.batch.ml import solve_without_guess
 from tmakit.batch.solver import information_of, levenberg_marquardt
+from tmakit.batch.varpro import Evaluation
 from tmakit.results.estimate import assemble_result
 
 
@@ -57,3 +63,74 @@ def test_no_guess_fit_reports_the_information_at_its_estimate(seed):
                             res.iterations, True, "ml", 1, None)
     np.testing.assert_allclose(res.covariance, plain.covariance, rtol=1e-9)
     np.testing.assert_allclose(res.std, plain.std, rtol=1e-9)
+
+
+def _jacobian(kind: str, rng: np.random.Generator) -> np.ndarray:
+    j = rng.normal(size=(200, 5))
+    if kind == "ill-conditioned":  # columns nearly dependent, scales 1e-4 .. 1e4
+        j[:, 4] = j[:, 3] + 1e-9 * rng.normal(size=200)
+        j *= np.logspace(-4, 4, 5)
+    elif kind == "rank-deficient":  # two columns copies of others
+        j[:, 4] = j[:, 1]
+        j[:, 2] = -2.0 * j[:, 0]
+    return j
+
+
+@pytest.mark.parametrize("kind", ["well-conditioned", "ill-conditioned", "rank-deficient"])
+def test_one_run_model_equals_the_batched_model(kind):
+    rng = np.random.default_rng(7)
+    j = _jacobian(kind, rng)
+    r = rng.normal(size=200)
+    cost = np.array([0.5 * r @ r])
+
+    def evaluation(b):
+        return Evaluation(np.zeros((b, 5)), np.zeros((b, 0)), np.tile(r, (b, 1)),
+                          np.repeat(cost, b), np.tile(j, (b, 1, 1)))
+
+    one = solver._Model.at(evaluation(1), 1e-10, None)
+    two = solver._Model.at(evaluation(2), 1e-10, None)  # a batch: NumPy's eigh
+    np.testing.assert_allclose(one.w[0], two.w[0], rtol=1e-9, atol=1e-12 * two.w[0, -1])
+    np.testing.assert_allclose(one.decrement[0], two.decrement[0], rtol=1e-7)
+    assert one.small_grad[0] == two.small_grad[0]
+    for lam in (1e-8, 1e-3, 1.0, 1e3):
+        s1, p1 = one.step(np.array([lam]))
+        s2, p2 = two.step(np.array([lam, lam]))
+        assert np.all(np.isfinite(s1))
+        np.testing.assert_allclose(s1[0], s2[0], rtol=1e-6, atol=1e-9 * np.abs(s2[0]).max())
+        np.testing.assert_allclose(p1[0], p2[0], rtol=1e-7)
+
+
+def test_one_run_damping_equals_the_batched_damping():
+    rng = np.random.default_rng(3)
+    rules = solver._Rules(1e-10, 1e-12, 1e-10, 1e-5, None, "nielsen", None, 0.0, (10.0, 1.0))
+    for _ in range(200):
+        cost, predicted = 10.0, 10.0 ** rng.uniform(-3, 1)
+        trial = cost - predicted * rng.uniform(-2.0, 1.5)
+        lam, grow = 10.0 ** rng.uniform(-12, 6), 2.0 ** rng.integers(1, 5)
+        runs = [type("R", (), {"lam": np.array([lam]), "grow": np.array([grow])})()
+                for _ in range(2)]
+        better = trial < cost
+        solver._damp_one(runs[0], better, cost, trial, predicted)
+        solver._damp(runs[1], np.array([better]),
+                     np.minimum((cost - trial) / np.maximum([predicted], 1e-300), 1.0), rules)
+        np.testing.assert_allclose(runs[0].lam, runs[1].lam, rtol=1e-12)
+        np.testing.assert_array_equal(runs[0].grow, runs[1].grow)
+
+
+def test_a_singular_problem_is_reported_unobservable():
+    # One sensor at rest and bearings only: the range of a constant-velocity target is not
+    # determined, J'J is singular.
+    scn, _ = _bearings(200, 0)
+    meas = scn.simulate(np.random.default_rng(5))
+    state = meas.sensor_state.copy()
+    state[:] = state[0]
+    state[:, 3:] = 0.0
+    still = meas.take(np.arange(len(meas)))
+    still.sensor_state = state
+    obs = tk.ObservationModel(still, scn.motion)
+    problem = VarProProblem(obs)
+    sol = levenberg_marquardt(problem, still.value_si, scn.theta[None], max_iter=30)
+    assert np.all(np.isfinite(sol.theta)) and np.isfinite(sol.cost[0])
+    res = tk.estimate(still, scn.motion, init=scn.theta)
+    assert res.status == "unobservable"
+    assert np.all(np.isfinite(res.estimate))
