@@ -395,15 +395,21 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     if again:
         dense = best_starts_many(problem, ys[again], DENSE_GRID)
         solve({r: d.first(DENSE_GRID.starts) for r, d in zip(again, dense, strict=True)})
-    plane = mirror_plane(problem)
-    if plane is not None:
-        for fit in best:
-            if fit is not None:
-                theta, fit.note = prefer_above(problem.obs.motion, fit.theta, plane)
-                if not np.array_equal(theta, fit.theta):  # mirrored: the information is not
-                    fit.information = None                # the one at the new point
-                fit.theta = theta
+    _prefer_above(problem, best)
     return best
+
+
+def _prefer_above(problem: VarProProblem, best: list[Best | None]) -> None:
+    """Report each fit above the sensors' mirror plane, if there is one (in place)."""
+    plane = mirror_plane(problem)
+    if plane is None:
+        return
+    for fit in best:
+        if fit is not None:
+            theta, fit.note = prefer_above(problem.obs.motion, fit.theta, plane)
+            if not np.array_equal(theta, fit.theta):  # mirrored: the information is not
+                fit.information = None                # the one at the new point
+            fit.theta = theta
 
 
 PRESOLVE_ROWS = 20_000

@@ -69,25 +69,21 @@ def _gram(j: Array) -> Array:
 def information_of(problem: VarProProblem, ev: Evaluation, run: int) -> Array | None:
     """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it.
 
-    The evaluation's whitened Jacobian (or its chunked ``J'J``) is the information over the
-    motion parameters when no nuisance is eliminated (none, or held at known values), so a
-    fit's final evaluation gives its information without evaluating the model again.
+    The evaluation's whitened Jacobian (or chunked ``J'J``) when no nuisance is eliminated
+    (none, or known): a fit's last evaluation gives it without evaluating the model again.
 
     Parameters
     ----------
     problem : VarProProblem
         The problem evaluated.
-    ev : Evaluation
-        The evaluations (e.g. :attr:`SolveResult.evaluation`).
-    run : int
-        The run (row of the batch).
+    ev, run : Evaluation, int
+        The evaluations (e.g. :attr:`SolveResult.evaluation`) and the run (row of the batch).
 
     Returns
     -------
     ndarray or None
         ``(p, p)`` (per parameter unit squared); None when the nuisance is eliminated (the
-        projected Jacobian is not the information over motion and nuisance) or the
-        evaluation holds no derivatives.
+        projected Jacobian is not that information) or there are no derivatives.
     """
     if problem.eliminates:
         return None
@@ -156,8 +152,7 @@ def _normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[A
         return jtj, grad
     jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
-        j = jac[0]
-        return _gram(j)[None], ev.residual[0].dot(j)[None]
+        return _gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
     return _gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
 
 
@@ -197,10 +192,10 @@ class _Model:
 
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> _Model | None:
-        """Build the model of a single run as :meth:`at` does, in 2-D arrays (fewer calls).
+        """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls).
 
-        LAPACK's ``dsyevd`` is called directly (NumPy's batched ``eigh`` costs several times
-        the decomposition of a small matrix); None where it reports a failure.
+        LAPACK's ``dsyevd`` directly (NumPy's batched ``eigh`` costs several times the
+        decomposition of a small matrix); None where it fails.
         """
         scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
         w, v, info = _dsyevd(jtj / np.multiply.outer(scale, scale), compute_v=1, lower=1)
@@ -386,8 +381,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
     rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
                    damping, max_reject, stall, dominance)
-    # Trial points may sit on a sensor (zero range): infinite cost, not an error.
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):  # a trial on a sensor: cost inf
         runs = _start(problem, y, theta0, groups, ceiling, stall > 0, damping0)
         runs = _iterate(problem, runs, max_iter, rules)
     runs.finish()
