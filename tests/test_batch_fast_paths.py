@@ -19,6 +19,7 @@ import pytest
 
 import tmakit as tk
 from tmakit.batch import VarProProblem, solver
+from tmakit.batch.gauss_newton import GaussNewtonModel
 from tmakit.batch.ml import solve_without_guess
 from tmakit.batch.solver import information_of, levenberg_marquardt
 from tmakit.batch.varpro import Evaluation
@@ -87,8 +88,8 @@ def test_one_run_model_equals_the_batched_model(kind):
         return Evaluation(np.zeros((b, 5)), np.zeros((b, 0)), np.tile(r, (b, 1)),
                           np.repeat(cost, b), np.tile(j, (b, 1, 1)))
 
-    one = solver._Model.at(evaluation(1), 1e-10, None)
-    two = solver._Model.at(evaluation(2), 1e-10, None)  # a batch: NumPy's eigh
+    one = GaussNewtonModel.at(evaluation(1), 1e-10, None)
+    two = GaussNewtonModel.at(evaluation(2), 1e-10, None)  # a batch: NumPy's eigh
     np.testing.assert_allclose(one.w[0], two.w[0], rtol=1e-9, atol=1e-12 * two.w[0, -1])
     np.testing.assert_allclose(one.decrement[0], two.decrement[0], rtol=1e-7)
     assert one.small_grad[0] == two.small_grad[0]

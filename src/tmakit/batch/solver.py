@@ -20,10 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dsyevd as _dsyevd
 
 from ..arrays import Array
-from ..blas import SINGLE_THREAD_WORK
+from .gauss_newton import GaussNewtonModel, information_of
 from .varpro import Evaluation, VarProProblem
 
 __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "Evaluation", "SolveResult",
@@ -47,54 +46,6 @@ DOMINANCE_MARGIN = 1.0
 """Cost margin (half a chi2 unit per unit) of the dominance test."""
 
 _STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
-
-
-def _gram(j: Array) -> Array:
-    """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``.
-
-    Summed over row blocks below OpenBLAS's multithreading threshold when one product would
-    pass it (:mod:`tmakit.blas`).
-    """
-    n, p = j.shape[-2:]
-    jt = np.swapaxes(j, -1, -2)
-    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
-    if n <= block:
-        return jt @ j
-    out = np.zeros((*j.shape[:-2], p, p))
-    for lo in range(0, n, block):
-        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
-    return out
-
-
-def information_of(problem: VarProProblem, ev: Evaluation, run: int) -> Array | None:
-    """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it.
-
-    The evaluation's whitened Jacobian (or chunked ``J'J``) when no nuisance is eliminated
-    (none, or known): a fit's last evaluation gives it without evaluating the model again.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem evaluated.
-    ev, run : Evaluation, int
-        The evaluations (e.g. :attr:`SolveResult.evaluation`) and the run (row of the batch).
-
-    Returns
-    -------
-    ndarray or None
-        ``(p, p)`` (per parameter unit squared); None when the nuisance is eliminated (the
-        projected Jacobian is not that information) or there are no derivatives.
-    """
-    if problem.eliminates:
-        return None
-    if ev.normal is not None:
-        return np.array(ev.normal[0][run], dtype=float)
-    if ev.jacobian is None:
-        return None
-    return _gram(ev.jacobian[run])
-
-
-_DIRECT_EIGH = 32  # largest matrix decomposed by a direct LAPACK call
 
 
 @dataclass
@@ -142,91 +93,10 @@ class _Rules:
     stall: float
     dominance: tuple[float, float]
 
-
-def _normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Array, Array]:
-    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` at ``ev`` over the ``free`` columns."""
-    if ev.normal is not None:  # summed over row chunks (large problems)
-        jtj, grad = ev.normal
-        if free is not None:
-            jtj, grad = jtj[:, free][:, :, free], grad[:, free]
-        return jtj, grad
-    jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
-    if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
-        return _gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
-    return _gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
-
-
-@dataclass
-class _Model:
-    """The Gauss-Newton model of a batch at its current points.
-
-    For :func:`levenberg_marquardt`: ``J'J`` (over the ``free`` columns) in variables scaled by the
-    square roots of its diagonal (``scale``) as ``v diag(w) v'``, the scaled gradient ``vg`` in
-    that basis, the Gauss-Newton decrement (the decrease an undamped step predicts) and whether
-    the gradient is orthogonal to every Jacobian column (``gtol``).
-    """
-
-    w: Array
-    v: Array
-    vg: Array
-    scale: Array
-    decrement: Array
-    small_grad: NDArray[np.bool_]
-
-    @classmethod
-    def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> _Model:
-        """Build the model at the evaluated points ``ev`` (over the ``free`` columns)."""
-        jtj, grad = _normal_equations(ev, free)
-        if jtj.shape[0] == 1 and jtj.shape[1] <= _DIRECT_EIGH:
-            one = cls._one(jtj[0], grad[0], float(ev.cost[0]), gtol)
-            if one is not None:
-                return one
-        scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
-        w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
-        # eigenvalues floored at 1e-12 of the largest: a rank-deficient J'J gives finite steps
-        w = np.maximum(w, 1e-12 * w[:, -1:])
-        vg = (v.swapaxes(1, 2) @ (grad / scale)[:, :, None])[..., 0]
-        rnorm = np.sqrt(2.0 * ev.cost)[:, None]
-        return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
-                   (np.abs(grad) <= gtol * scale * rnorm).all(axis=1))
-
-    @classmethod
-    def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> _Model | None:
-        """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls).
-
-        LAPACK's ``dsyevd`` directly (NumPy's batched ``eigh`` costs several times the
-        decomposition of a small matrix); None where it fails.
-        """
-        scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
-        w, v, info = _dsyevd(jtj / np.multiply.outer(scale, scale), compute_v=1, lower=1)
-        if info != 0:
-            return None
-        w = np.maximum(w, 1e-12 * w[-1])  # floored as in :meth:`at`
-        vg = (grad / scale).dot(v)
-        small = bool((np.abs(grad) <= gtol * np.sqrt(2.0 * cost) * scale).all())
-        return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]))
-
-    def take(self, rows: NDArray[np.bool_]) -> _Model:
-        """Keep the runs ``rows``."""
-        return _Model(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
-                      self.decrement[rows], self.small_grad[rows])
-
-    def step(self, lam: Array) -> tuple[Array, Array]:
-        """Give the step at damping ``lam`` and the decrease the model predicts for it.
-
-        The damping is ``lam * I`` in the scaled variables.
-        """
-        if self.w.shape[0] == 1:  # one run: 2-D products (fewer, cheaper calls)
-            w, vg, lam1 = self.w[0], self.vg[0], float(lam[0])
-            lw = w + lam1
-            q = vg / lw
-            step = self.v[0].dot(q) / self.scale[0]
-            return step[None], np.array([0.5 * q.dot(vg * (w + 2.0 * lam1) / lw)])
-        lw = self.w + lam[:, None]
-        step = (self.v @ (self.vg / lw)[:, :, None])[..., 0] / self.scale
-        vg2 = self.vg * self.vg
-        return step, 0.5 * (vg2 * (self.w + 2.0 * lam[:, None]) / (lw * lw)).sum(axis=1)
+    @property
+    def plain(self) -> bool:
+        """Nielsen's damping without ``max_reject`` or ``stall`` (the no-guess fit's rules)."""
+        return self.damping == "nielsen" and self.max_reject is None and self.stall <= 0
 
 
 class _Runs:
@@ -251,7 +121,7 @@ class _Runs:
         self.rejected = np.zeros(b, dtype=np.int64)  # rejected steps in a row
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
-        self.model: _Model | None = None
+        self.model: GaussNewtonModel | None = None
         self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
@@ -419,6 +289,11 @@ def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:
     # deviations (whitened residuals) and does not depend on the damping, so a run sitting
     # at the minimum is recognised even where rounding makes every step look worse;
     # dtol = 1e-5 means within 4.5e-3 sigma, far inside the statistical error.
+    if runs.reached is None and runs.ids.size == 1:  # one run: the test in floats
+        if model.small_grad[0] or (float(model.decrement[0])
+                                   <= rules.ftol * float(cur.cost[0]) + rules.dtol):
+            runs.stop(np.ones(1, dtype=bool), np.ones(1, dtype=bool))
+        return
     done = model.small_grad | (model.decrement <= rules.ftol * cur.cost + rules.dtol)
     beaten = None
     if runs.reached is not None:
@@ -452,6 +327,24 @@ def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: f
     runs.lam, runs.grow = np.array([lam]), np.array([grow])
 
 
+def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: float,
+                    rules: _Rules) -> None:
+    """Accept or reject a single run's step, as :func:`_iterate` does for a batch (floats).
+
+    For :attr:`_Rules.plain` rules: Nielsen's damping, no ``max_reject``, no ``stall``.
+    """
+    cost, new = float(runs.cur.cost[0]), float(trial.cost[0])
+    better, lam = new < cost, float(runs.lam[0])
+    _damp_one(runs, better, cost, new, predicted)
+    # A heavily damped step is small without being converged (see _iterate).
+    tiny = better and lam <= 1e-2 and bool(
+        (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all())
+    if better:
+        runs.cur, runs.model = trial, None
+    if tiny or float(runs.lam[0]) > 1e12:
+        runs.stop(np.ones(1, dtype=bool), np.array([tiny]))
+
+
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
     free = rules.free
@@ -459,7 +352,7 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
         if runs.ids.size == 0:
             break
         if runs.model is None:  # a new point for some run: its Gauss-Newton model
-            runs.model = _Model.at(runs.cur, rules.gtol, free)
+            runs.model = GaussNewtonModel.at(runs.cur, rules.gtol, free)
         _stop_converged_or_dominated(runs, rules)
         if runs.ids.size == 0:
             break
@@ -471,13 +364,12 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             step = full
         trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
         runs.iterations[runs.ids] += 1
+        if lam.shape[0] == 1 and rules.plain:  # one run: its tests in floats
+            _after_step_one(runs, trial, step, float(predicted[0]), rules)
+            continue
         better = trial.cost < cur.cost
-        if lam.shape[0] == 1 and rules.damping == "nielsen":  # one run: in floats
-            _damp_one(runs, bool(better[0]), float(cur.cost[0]), float(trial.cost[0]),
-                      float(predicted[0]))
-        else:
-            _damp(runs, better, np.minimum((cur.cost - trial.cost)
-                                           / np.maximum(predicted, 1e-300), 1.0), rules)
+        _damp(runs, better, np.minimum((cur.cost - trial.cost)
+                                       / np.maximum(predicted, 1e-300), 1.0), rules)
         # A heavily damped step is small without being converged, hence the damping
         # condition on the step test.
         tiny = better & (lam <= 1e-2)

@@ -99,6 +99,22 @@ class Evaluation:
 
 
 
+def _wrap_own(e: Array) -> Array:
+    """Return :func:`~tmakit.frames.wrap_angle` of ``e``, an array the caller owns, same bits.
+
+    When every ``e + pi`` lies in ``[0, 2 pi)`` (residuals nearly always) the result is
+    ``(e + pi) - pi``, formed in place, checked by two reductions instead of masks;
+    otherwise :func:`wrap_angle` itself.
+    """
+    shifted = e + np.pi
+    if shifted.size and shifted.min() >= 0.0 and shifted.max() < 2.0 * np.pi:
+        out = np.subtract(shifted, np.pi, out=shifted)
+        if out.min() == -np.pi:  # the convention keeps +pi
+            out[out == -np.pi] = np.pi
+        return out
+    return wrap_angle(e)
+
+
 class VarProProblem:
     """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
 
@@ -336,7 +352,7 @@ class VarProProblem:
         if at is not None:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]
         if self.all_angle:
-            e = wrap_angle(e)
+            e = _wrap_own(e)
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         r = self.noise.whiten(e, overwrite=True)  # e is this function's own array
