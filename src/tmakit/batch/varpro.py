@@ -102,17 +102,24 @@ class Evaluation:
 def _wrap_own(e: Array) -> Array:
     """Return :func:`~tmakit.frames.wrap_angle` of ``e``, an array the caller owns, same bits.
 
-    When every ``e + pi`` lies in ``[0, 2 pi)`` (residuals nearly always) the result is
-    ``(e + pi) - pi``, formed in place, checked by two reductions instead of masks;
-    otherwise :func:`wrap_angle` itself.
+    Residuals of angles lie within one turn of the interval: where every ``e + pi`` is in
+    ``[-2 pi, 4 pi)``, ``mod(e + pi, 2 pi)`` is ``e + pi`` shifted by at most one turn, the
+    same rounding as ``mod``'s (Sterbenz: ``x - 2 pi`` is exact on ``[2 pi, 4 pi)``; ``mod``
+    itself adds ``2 pi`` below 0), formed with two comparisons and in place instead of masks
+    and gathers.  Otherwise (or with NaN) :func:`wrap_angle` itself.
     """
     shifted = e + np.pi
-    if shifted.size and shifted.min() >= 0.0 and shifted.max() < 2.0 * np.pi:
-        out = np.subtract(shifted, np.pi, out=shifted)
-        if out.min() == -np.pi:  # the convention keeps +pi
-            out[out == -np.pi] = np.pi
-        return out
-    return wrap_angle(e)
+    two_pi = 2.0 * np.pi
+    if not (shifted.size and shifted.min() >= -two_pi and shifted.max() < 2.0 * two_pi):
+        return wrap_angle(e)
+    turns = (shifted >= two_pi).astype(np.int8)
+    turns -= shifted < 0.0
+    if turns.any():
+        shifted -= turns * two_pi  # exact multiples: -2 pi, 0, 2 pi
+    out = np.subtract(shifted, np.pi, out=shifted)
+    if out.min() == -np.pi:  # the convention keeps +pi
+        out[out == -np.pi] = np.pi
+    return out
 
 
 class VarProProblem:
