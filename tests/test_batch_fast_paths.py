@@ -7,7 +7,9 @@
   batched model (NumPy's ``eigh``) on well-conditioned, ill-conditioned and rank-deficient
   Jacobians: eigenvalues, decrement, steps and predicted decreases;
 - one run's damping update in floats equals the batched update;
-- a singular problem is still reported honestly (unobservable, finite estimate).
+- a singular problem is still reported honestly (unobservable, finite estimate);
+- the residual wrapping of the solver equals ``frames.wrap_angle`` bit for bit, within one
+  turn (where it shifts by hand), at the boundaries and beyond (where it hands over).
 """
 
 from __future__ import annotations
@@ -22,7 +24,8 @@ from tmakit.batch import VarProProblem, solver
 from tmakit.batch.gauss_newton import GaussNewtonModel
 from tmakit.batch.ml import solve_without_guess
 from tmakit.batch.solver import information_of, levenberg_marquardt
-from tmakit.batch.varpro import Evaluation
+from tmakit.batch.varpro import Evaluation, _wrap_own
+from tmakit.frames import wrap_angle
 from tmakit.results.estimate import assemble_result
 
 
@@ -135,3 +138,21 @@ def test_a_singular_problem_is_reported_unobservable():
     res = tk.estimate(still, scn.motion, init=scn.theta)
     assert res.status == "unobservable"
     assert np.all(np.isfinite(res.estimate))
+
+
+@pytest.mark.parametrize("scale", [1e-9, 1.0, 3.0, 6.0, 9.0, 30.0])
+def test_residual_wrapping_is_wrap_angle_bit_for_bit(scale):
+    rng = np.random.default_rng(11)
+    turn = 2.0 * np.pi
+    edges = [np.pi, -np.pi, 0.0, -0.0, turn, 3 * np.pi, -3 * np.pi, 5e-324, -1e-17,
+             np.nextafter(3 * np.pi, 0.0), np.nextafter(-3 * np.pi, 0.0),
+             np.nextafter(np.pi, 0.0), np.nextafter(-np.pi, -4.0)]
+    for _ in range(100):
+        e = rng.uniform(-1.0, 1.0, size=(2, 40)) * scale
+        e[0, :len(edges)] = edges
+        got, want = _wrap_own(e.copy()), wrap_angle(e.copy())
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(np.signbit(got), np.signbit(want))
+    for c in (-3 * np.pi, -np.pi, np.pi, 3 * np.pi):  # every float near the boundaries
+        e = (c + np.arange(-500, 500) * np.spacing(c))[None]
+        np.testing.assert_array_equal(_wrap_own(e.copy()), wrap_angle(e.copy()))

@@ -100,7 +100,7 @@ class Evaluation:
 
 
 def _wrap_own(e: Array) -> Array:
-    """Return :func:`~tmakit.frames.wrap_angle` of ``e``, an array the caller owns, same bits.
+    """Return :func:`~tmakit.frames.wrap_angle` of ``e`` (a new array), the same bits.
 
     Residuals of angles lie within one turn of the interval: where every ``e + pi`` is in
     ``[-2 pi, 4 pi)``, ``mod(e + pi, 2 pi)`` is ``e + pi`` shifted by at most one turn, the
