@@ -53,6 +53,12 @@ def test_information_from_the_last_evaluation_is_the_information_at_the_fit(know
                             float(sol.cost[0]), 1, True, "ml", 1, tk.KnownNuisance(gu.nuisance))
     assert plain.bound is not None
     np.testing.assert_allclose(info, plain.bound.information, rtol=1e-10)
+    # the solver's own J'J at its converged point (formed for the convergence test)
+    assert sol.converged[0] and sol.information is not None
+    kept = information_of(problem, sol.evaluation, 0, sol.information)
+    np.testing.assert_allclose(kept, plain.bound.information, rtol=1e-10)
+    two = levenberg_marquardt(problem, np.stack([meas.value_si] * 2), np.stack([gu.theta] * 2))
+    np.testing.assert_allclose(two.information[1], plain.bound.information, rtol=1e-9)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -50,7 +50,8 @@ def gram(j: Array) -> Array:
     return out
 
 
-def information_of(problem: VarProProblem, ev: Evaluation, run: int) -> Array | None:
+def information_of(problem: VarProProblem, ev: Evaluation, run: int,
+                   known: Array | None = None) -> Array | None:
     """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it.
 
     The evaluation's whitened Jacobian (or chunked ``J'J``) when no nuisance is eliminated
@@ -62,6 +63,9 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int) -> Array | 
         The problem evaluated.
     ev, run : Evaluation, int
         The evaluations (e.g. :attr:`SolveResult.evaluation`) and the run (row of the batch).
+    known : ndarray, optional
+        ``(B, p, p)`` ``J'J`` already formed at the evaluated points, NaN where not
+        (:attr:`SolveResult.information`): used where finite.
 
     Returns
     -------
@@ -71,6 +75,8 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int) -> Array | 
     """
     if problem.eliminates:
         return None
+    if known is not None and np.all(np.isfinite(known[run])):
+        return np.array(known[run], dtype=float)
     if ev.normal is not None:
         return np.array(ev.normal[0][run], dtype=float)
     if ev.jacobian is None:
@@ -129,6 +135,8 @@ class GaussNewtonModel:
         ``(B,)`` the Gauss-Newton decrement (half chi2).
     small_grad : ndarray of bool
         ``(B,)`` whether the gradient test is met.
+    jtj : ndarray, optional
+        ``(B, p, p)`` ``J'J`` itself (the Fisher information at the points).
     """
 
     w: Array
@@ -137,6 +145,7 @@ class GaussNewtonModel:
     scale: Array
     decrement: Array
     small_grad: NDArray[np.bool_]
+    jtj: Array | None = None
 
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> GaussNewtonModel:
@@ -168,7 +177,7 @@ class GaussNewtonModel:
         vg = (v.swapaxes(1, 2) @ (grad / scale)[:, :, None])[..., 0]
         rnorm = np.sqrt(2.0 * ev.cost)[:, None]
         return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
-                   (np.abs(grad) <= gtol * scale * rnorm).all(axis=1))
+                   (np.abs(grad) <= gtol * scale * rnorm).all(axis=1), jtj)
 
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
@@ -185,7 +194,7 @@ class GaussNewtonModel:
         vg = (grad / scale).dot(v)
         small = bool((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).all())
         return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]))
+                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
         """Keep the runs ``rows``.
@@ -201,7 +210,8 @@ class GaussNewtonModel:
             Their models.
         """
         return GaussNewtonModel(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
-                      self.decrement[rows], self.small_grad[rows])
+                                self.decrement[rows], self.small_grad[rows],
+                                None if self.jtj is None else self.jtj[rows])
 
     def step(self, lam: Array) -> tuple[Array, Array]:
         """Give the step at damping ``lam`` and the decrease the model predicts for it.

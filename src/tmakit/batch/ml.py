@@ -380,7 +380,8 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
             if best[r] is None or sol.cost[i] < best[r].cost:
                 best[r] = Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
                                int(sol.iterations[i]), bool(sol.converged[i]), used,
-                               information=information_of(problem, sol.evaluation, i))
+                               information=information_of(problem, sol.evaluation, i,
+                                                           sol.information))
             else:
                 best[r].starts = used
 

@@ -68,6 +68,9 @@ class SolveResult:
         The final evaluation of every run.
     dominated : ndarray of bool, optional
         ``(B,)`` stopped as bound for a worse minimum; None without groups.
+    information : ndarray, optional
+        ``(B, q, q)`` ``J'J`` over the fitted columns at each run's final point, where the
+        solver formed it there (its convergence test), NaN elsewhere; None if nowhere.
     """
 
     theta: Array        # (B, p)
@@ -77,6 +80,7 @@ class SolveResult:
     converged: NDArray[np.bool_]
     evaluation: Evaluation
     dominated: NDArray[np.bool_] | None = None  # stopped: bound for a worse minimum
+    information: Array | None = None  # J'J at the final points, where formed there
 
 
 @dataclass(frozen=True)
@@ -122,6 +126,7 @@ class _Runs:
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
         self.model: GaussNewtonModel | None = None
+        self.information: Array | None = None  # J'J of stopped runs at their final points
         self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
@@ -133,6 +138,11 @@ class _Runs:
         if not mask.any():
             return
         ids = self.ids[mask]
+        if self.model is not None and self.model.jtj is not None:  # the model is at cur
+            if self.information is None:
+                q = self.model.jtj.shape[-1]
+                self.information = np.full((self.out.cost.shape[0], q, q), np.nan)
+            self.information[ids] = self.model.jtj[mask]
         if self.reached is not None:
             np.minimum.at(self.reached, self.groups[mask], self.cur.cost[mask])
         self.converged[ids] = converged[mask]
@@ -257,7 +267,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     runs.finish()
     out = runs.out  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
-                       out, runs.dominated)
+                       out, runs.dominated, runs.information)
 
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
