@@ -159,6 +159,7 @@ def test_residual_wrapping_is_wrap_angle_bit_for_bit(scale):
         got, want = _wrap_own(e.copy()), wrap_angle(e.copy())
         np.testing.assert_array_equal(got, want)
         np.testing.assert_array_equal(np.signbit(got), np.signbit(want))
+    np.testing.assert_array_equal(_wrap_own(np.zeros((1, 0))), np.zeros((1, 0)))
     for c in (-3 * np.pi, -np.pi, np.pi, 3 * np.pi):  # every float near the boundaries
         e = (c + np.arange(-500, 500) * np.spacing(c))[None]
         np.testing.assert_array_equal(_wrap_own(e.copy()), wrap_angle(e.copy()))

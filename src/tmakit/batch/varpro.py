@@ -110,11 +110,14 @@ def _wrap_own(e: Array) -> Array:
     """
     shifted = e + np.pi
     two_pi = 2.0 * np.pi
-    if not (shifted.size and shifted.min() >= -two_pi and shifted.max() < 2.0 * two_pi):
+    if not shifted.size:
         return wrap_angle(e)
-    turns = (shifted >= two_pi).astype(np.int8)
-    turns -= shifted < 0.0
-    if turns.any():
+    low, high = shifted.min(), shifted.max()
+    if not (low >= -two_pi and high < 2.0 * two_pi):  # (NaN fails too)
+        return wrap_angle(e)
+    if low < 0.0 or high >= two_pi:  # some rows one turn out
+        turns = (shifted >= two_pi).astype(np.int8)
+        turns -= shifted < 0.0
         shifted -= turns * two_pi  # exact multiples: -2 pi, 0, 2 pi
     out = np.subtract(shifted, np.pi, out=shifted)
     if out.min() == -np.pi:  # the convention keeps +pi
