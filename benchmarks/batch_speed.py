@@ -14,8 +14,10 @@
   ``dtol`` off.  tmakit's ``ftol`` bounds the decrement a Gauss-Newton step predicts, scipy's
   the reduction a step achieved: at the same 1e-10 tmakit stopped one step earlier, 3e-4
   standard deviations from the optimum (scipy 4e-7); at 1e-12 both are within 1e-5.  The
-  printed agreement is between the two optima.  On bearings-only-2d and gu2007 with their
-  rows repeated at a higher rate (the same geometry and span, N rows).
+  printed agreement is between the two optima.  Process CPU time per solve (a sample repeats
+  a fast solve, both sides the same number of times, to last about 20 ms).  On
+  bearings-only-2d and gu2007 with their rows repeated at a higher rate (the same geometry
+  and span, N rows).
 
 The problems: the built-in scenarios with their measurement times replaced by N evenly spaced
 times over the same span (bearings-only-2d: one sensor, bearings; gu2007: power and
@@ -23,7 +25,7 @@ frequency, carrier and power constant unknown).  Medians [interquartile range] o
 repeats.
 
     PYTHONPATH=src python benchmarks/batch_speed.py [--sizes 100 1000 10000 100000]
-        [--repeat 5]
+        [--repeat 5] [--clock cpu|wall]
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import argparse
 import dataclasses
 
 import numpy as np
-from bench_problems import fmt, interleaved
+from bench_problems import fmt
 
 import tmakit as tk
 
@@ -59,24 +61,26 @@ def fisher_by_hand(meas, theta):
     return jac.T @ jac
 
 
-def crlb_rows(sizes, repeat):
+def crlb_rows(sizes, repeat, clock="cpu"):
     """CRLB and no-guess estimate vs the hand Fisher matrix, and the log-log slopes."""
     rows, t_crlb, t_est = [], [], []
+    unit = "ms CPU" if clock == "cpu" else "ms"
     for n in sizes:
         scn, meas = scaled("bearings-only-2d", n)
         theta = scn.theta
-        stats = interleaved({
+        stats = per_call({
             "crlb": lambda scn=scn, meas=meas: tk.crlb(meas, scn.motion, scn.truth),
             "fisher": lambda meas=meas, theta=theta: np.linalg.inv(fisher_by_hand(meas, theta)),
             "estimate": lambda scn=scn, meas=meas: tk.estimate(meas, scn.motion),
-        }, repeat)
+        }, repeat, clock)
         t_crlb.append(stats["crlb"][0])
         t_est.append(stats["estimate"][0])
-        rows.append((f"CRLB, bearings-only, N = {n}", fmt(stats["crlb"], 1e3),
-                     f"NumPy Fisher {fmt(stats['fisher'], 1e3)}",
+        rows.append((f"CRLB, bearings-only, N = {n}", fmt(stats["crlb"], 1e3, unit),
+                     f"NumPy Fisher {fmt(stats['fisher'], 1e3, unit)}",
                      stats["crlb"][0] / stats["fisher"][0], "tmakit/peer (goal <= 3)"))
         rows.append((f"no-guess estimate, bearings-only, N = {n}",
-                     fmt(stats["estimate"], 1e3), f"NumPy Fisher {fmt(stats['fisher'], 1e3)}",
+                     fmt(stats["estimate"], 1e3, unit),
+                     f"NumPy Fisher {fmt(stats['fisher'], 1e3, unit)}",
                      stats["estimate"][0] / stats["fisher"][0], "tmakit/peer (goal <= 3)"))
     big = [i for i, n in enumerate(sizes) if n >= 1000]
     if len(big) >= 2:
@@ -118,13 +122,46 @@ def lm_problem(name, n):
     return problem, y, start, fun, jac, x0, scale, bound, k
 
 
-def lm_rows(sizes, repeat, tol):
+SAMPLE_SECONDS = 0.02
+"""Least duration of one timed sample: a fast solve is repeated within a sample (the same
+number of times for both sides), so that a sample is not a single sub-millisecond call."""
+
+
+def per_call(funcs, repeat, clock="cpu", seconds=SAMPLE_SECONDS):
+    """``{name: (median, q1, q3)}`` seconds per call, interleaved.
+
+    Each sample repeats every callable the same number of times (the slowest lasting about
+    ``seconds``).  ``clock="cpu"`` (the default) times process CPU time: the machine is
+    shared, and a process waiting for a core is not slower code; ``"wall"`` wall time.
+    """
+    import time
+
+    now = time.process_time if clock == "cpu" else time.perf_counter
+    slowest = 0.0
+    for fn in funcs.values():
+        fn()  # warm
+        t0 = now()
+        fn()
+        slowest = max(slowest, now() - t0)
+    calls = max(1, int(seconds / max(slowest, 1e-6)))
+    times = {name: [] for name in funcs}
+    for _ in range(repeat):
+        for name, fn in funcs.items():
+            t0 = now()
+            for _ in range(calls):
+                fn()
+            times[name].append((now() - t0) / calls)
+    return {name: (float(np.median(v)), float(np.percentile(v, 25)),
+                   float(np.percentile(v, 75))) for name, v in times.items()}
+
+
+def lm_rows(sizes, repeat, tol, clock="cpu"):
     """tmakit's LM vs scipy least_squares(method="lm") from the same start."""
     from scipy.optimize import least_squares
 
     from tmakit.batch import levenberg_marquardt
 
-    rows = []
+    rows, unit = [], "ms CPU" if clock == "cpu" else "ms"
     for name in ("bearings-only-2d", "gu2007"):
         for n in sizes:
             problem, y, start, fun, jac, x0, scale, bound, k = lm_problem(name, n)
@@ -134,15 +171,17 @@ def lm_rows(sizes, repeat, tol):
             ref = least_squares(fun, np.zeros(x0.size), jac=jac, method="lm", xtol=tol,
                                 ftol=tol, gtol=tol)
             agree = np.max(np.abs(ours - (x0 + ref.x * scale)[:k]) / bound.std[:k])
-            stats = interleaved({
+            funcs = {
                 "tmakit": lambda problem=problem, y=y, start=start, t=ours_tol:
                     levenberg_marquardt(problem, y, start[None], ftol=t, xtol=t, gtol=t,
                                         dtol=0.0),
                 "scipy": lambda fun=fun, jac=jac, x0=x0: least_squares(
                     fun, np.zeros(x0.size), jac=jac, method="lm", xtol=tol, ftol=tol,
-                    gtol=tol)}, repeat)
-            rows.append((f"batch LM same start, {name}, N = {n}", fmt(stats["tmakit"], 1e3),
-                         f"scipy lm {fmt(stats['scipy'], 1e3)}",
+                    gtol=tol)}
+            stats = per_call(funcs, repeat, clock)
+            rows.append((f"batch LM same start, {name}, N = {n}",
+                         fmt(stats["tmakit"], 1e3, unit),
+                         f"scipy lm {fmt(stats['scipy'], 1e3, unit)}",
                          stats["scipy"][0] / stats["tmakit"][0],
                          f"peer/tmakit (goal >= 1); optima agree {agree:.1e} std"))
     return rows
@@ -154,12 +193,14 @@ def main():
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--tol", type=float, default=1e-10)
     ap.add_argument("--only", choices=["crlb", "lm"], default=None)
+    ap.add_argument("--clock", choices=["cpu", "wall"], default="cpu",
+                    help="process CPU time (default) or wall time")
     args = ap.parse_args()
     rows = []
     if args.only in (None, "crlb"):
-        rows += crlb_rows(args.sizes, args.repeat)
+        rows += crlb_rows(args.sizes, args.repeat, args.clock)
     if args.only in (None, "lm"):
-        rows += lm_rows(args.sizes, args.repeat, args.tol)
+        rows += lm_rows(args.sizes, args.repeat, args.tol, args.clock)
     for what, ours, peer, ratio, note in rows:
         print(f"{what:50s} {ours:26s} {peer:36s} {ratio:7.2f}  {note}")
 

@@ -28,7 +28,7 @@ from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options
 from .init import GridSettings, best_starts_many, subsample
 from .mirror import mirror_plane, prefer_above
-from .solver import VarProProblem, levenberg_marquardt
+from .solver import VarProProblem, information_of, levenberg_marquardt
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,7 +159,8 @@ class MaximumLikelihood(BatchEstimator):
                 out.append(assemble_result(problem.obs, problem.noise, best.theta,
                                            best.nuisance, best.cost, best.iterations,
                                            best.converged, self.name, best.starts, known,
-                                           best.note, jacobian=jacobians.get(id(best))))
+                                           best.note, jacobian=jacobians.get(id(best)),
+                                           information=best.information))
             except FIT_ERRORS as e:  # pragma: no cover - the bound of a finite fit
                 out.append(e)
         return out
@@ -201,7 +202,7 @@ def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
     Each equal bit for bit to the one of its fit alone.  Empty for fewer than two such fits
     (:func:`assemble_result` then makes its own).
     """
-    fits = [b for b in bests if isinstance(b, Best)
+    fits = [b for b in bests if isinstance(b, Best) and b.information is None
             and np.all(np.isfinite(b.theta)) and np.isfinite(b.cost)]
     if len(fits) < 2:
         return {}
@@ -306,6 +307,9 @@ class Best:
         Starting points solved for the data set.
     note : str, optional
         A sentence for the result's message.
+    information : ndarray, shape (p, p), optional
+        The Fisher information at ``theta`` from the solve's last evaluation
+        (:func:`~tmakit.batch.solver.information_of`), when it has it.
     """
 
     theta: NDArray[np.float64]
@@ -315,6 +319,7 @@ class Best:
     converged: bool
     starts: int
     note: str = ""
+    information: NDArray[np.float64] | None = None
 
 
 def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
@@ -374,7 +379,9 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
             used = rows.size + (best[r].starts if best[r] is not None else 0)
             if best[r] is None or sol.cost[i] < best[r].cost:
                 best[r] = Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
-                               int(sol.iterations[i]), bool(sol.converged[i]), used)
+                               int(sol.iterations[i]), bool(sol.converged[i]), used,
+                               information=information_of(problem, sol.evaluation, i,
+                                                           sol.information))
             else:
                 best[r].starts = used
 
@@ -389,12 +396,21 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     if again:
         dense = best_starts_many(problem, ys[again], DENSE_GRID)
         solve({r: d.first(DENSE_GRID.starts) for r, d in zip(again, dense, strict=True)})
-    plane = mirror_plane(problem)
-    if plane is not None:
-        for fit in best:
-            if fit is not None:
-                fit.theta, fit.note = prefer_above(problem.obs.motion, fit.theta, plane)
+    _prefer_above(problem, best)
     return best
+
+
+def _prefer_above(problem: VarProProblem, best: list[Best | None]) -> None:
+    """Report each fit above the sensors' mirror plane, if there is one (in place)."""
+    plane = mirror_plane(problem)
+    if plane is None:
+        return
+    for fit in best:
+        if fit is not None:
+            theta, fit.note = prefer_above(problem.obs.motion, fit.theta, plane)
+            if not np.array_equal(theta, fit.theta):  # mirrored: the information is not
+                fit.information = None                # the one at the new point
+            fit.theta = theta
 
 
 PRESOLVE_ROWS = 20_000

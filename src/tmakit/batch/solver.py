@@ -22,11 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arrays import Array
-from ..blas import SINGLE_THREAD_WORK
+from .gauss_newton import GaussNewtonModel, information_of
 from .varpro import Evaluation, VarProProblem
 
 __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "Evaluation", "SolveResult",
-           "VarProProblem", "levenberg_marquardt"]
+           "VarProProblem", "information_of", "levenberg_marquardt"]
 
 DAMPING = ("nielsen", "factors")
 """How the damping follows a step.
@@ -46,23 +46,6 @@ DOMINANCE_MARGIN = 1.0
 """Cost margin (half a chi2 unit per unit) of the dominance test."""
 
 _STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
-
-
-def _gram(j: Array) -> Array:
-    """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)``.
-
-    Summed over row blocks below OpenBLAS's multithreading threshold when one product would
-    pass it (:mod:`tmakit.blas`).
-    """
-    n, p = j.shape[-2:]
-    jt = np.swapaxes(j, -1, -2)
-    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
-    if n <= block:
-        return jt @ j
-    out = np.zeros((*j.shape[:-2], p, p))
-    for lo in range(0, n, block):
-        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
-    return out
 
 
 @dataclass
@@ -85,6 +68,9 @@ class SolveResult:
         The final evaluation of every run.
     dominated : ndarray of bool, optional
         ``(B,)`` stopped as bound for a worse minimum; None without groups.
+    information : ndarray, optional
+        ``(B, q, q)`` ``J'J`` over the fitted columns at each run's final point, where the
+        solver formed it there (its convergence test), NaN elsewhere; None if nowhere.
     """
 
     theta: Array        # (B, p)
@@ -94,6 +80,7 @@ class SolveResult:
     converged: NDArray[np.bool_]
     evaluation: Evaluation
     dominated: NDArray[np.bool_] | None = None  # stopped: bound for a worse minimum
+    information: Array | None = None  # J'J at the final points, where formed there
 
 
 @dataclass(frozen=True)
@@ -110,58 +97,10 @@ class _Rules:
     stall: float
     dominance: tuple[float, float]
 
-
-@dataclass
-class _Model:
-    """The Gauss-Newton model of a batch at its current points.
-
-    For :func:`levenberg_marquardt`: ``J'J`` (over the ``free`` columns) in variables scaled by the
-    square roots of its diagonal (``scale``) as ``v diag(w) v'``, the scaled gradient ``vg`` in
-    that basis, the Gauss-Newton decrement (the decrease an undamped step predicts) and whether
-    the gradient is orthogonal to every Jacobian column (``gtol``).
-    """
-
-    w: Array
-    v: Array
-    vg: Array
-    scale: Array
-    decrement: Array
-    small_grad: NDArray[np.bool_]
-
-    @classmethod
-    def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> _Model:
-        """Build the model at the evaluated points ``ev`` (over the ``free`` columns)."""
-        if ev.normal is not None:  # summed over row chunks (large problems)
-            jtj, grad = ev.normal
-            if free is not None:
-                jtj, grad = jtj[:, free][:, :, free], grad[:, free]
-        else:
-            jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
-            jtj = _gram(jac)
-            grad = (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
-        scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
-        w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
-        # eigenvalues floored at 1e-12 of the largest: a rank-deficient J'J gives finite steps
-        w = np.maximum(w, 1e-12 * w[:, -1:])
-        vg = (v.swapaxes(1, 2) @ (grad / scale)[:, :, None])[..., 0]
-        rnorm = np.sqrt(2.0 * ev.cost)[:, None]
-        return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
-                   (np.abs(grad) <= gtol * scale * rnorm).all(axis=1))
-
-    def take(self, rows: NDArray[np.bool_]) -> _Model:
-        """Keep the runs ``rows``."""
-        return _Model(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
-                      self.decrement[rows], self.small_grad[rows])
-
-    def step(self, lam: Array) -> tuple[Array, Array]:
-        """Give the step at damping ``lam`` and the decrease the model predicts for it.
-
-        The damping is ``lam * I`` in the scaled variables.
-        """
-        lw = self.w + lam[:, None]
-        step = (self.v @ (self.vg / lw)[:, :, None])[..., 0] / self.scale
-        vg2 = self.vg * self.vg
-        return step, 0.5 * (vg2 * (self.w + 2.0 * lam[:, None]) / (lw * lw)).sum(axis=1)
+    @property
+    def plain(self) -> bool:
+        """Nielsen's damping without ``max_reject`` or ``stall`` (the no-guess fit's rules)."""
+        return self.damping == "nielsen" and self.max_reject is None and self.stall <= 0
 
 
 class _Runs:
@@ -186,7 +125,8 @@ class _Runs:
         self.rejected = np.zeros(b, dtype=np.int64)  # rejected steps in a row
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
-        self.model: _Model | None = None
+        self.model: GaussNewtonModel | None = None
+        self.information: Array | None = None  # J'J of stopped runs at their final points
         self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
@@ -198,13 +138,21 @@ class _Runs:
         if not mask.any():
             return
         ids = self.ids[mask]
+        if self.model is not None and self.model.jtj is not None:  # the model is at cur
+            if self.information is None:
+                q = self.model.jtj.shape[-1]
+                self.information = np.full((self.out.cost.shape[0], q, q), np.nan)
+            self.information[ids] = self.model.jtj[mask]
         if self.reached is not None:
             np.minimum.at(self.reached, self.groups[mask], self.cur.cost[mask])
         self.converged[ids] = converged[mask]
         if dominated is not None:
             self.dominated[ids] = dominated[mask]
         if self.cur is not self.out:
-            self.out.put(ids, self.cur, mask)
+            if ids.size == self.out.cost.shape[0]:  # every run at once: no copy
+                self.out = self.cur
+            else:
+                self.out.put(ids, self.cur, mask)
         keep = ~mask
         self.ids = self.ids[keep]
         self.cur = self.cur.take(keep)
@@ -234,7 +182,10 @@ class _Runs:
     def finish(self) -> None:
         """Write the state of the runs still live (the iteration limit) into ``out``."""
         if self.cur is not self.out and self.ids.size:
-            self.out.put(self.ids, self.cur)
+            if self.ids.size == self.out.cost.shape[0]:  # every run still live: no copy
+                self.out = self.cur
+            else:
+                self.out.put(self.ids, self.cur)
 
 
 def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
@@ -310,13 +261,13 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
     rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
                    damping, max_reject, stall, dominance)
-    runs = _start(problem, y, theta0, groups, ceiling, stall > 0, damping0)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):  # a trial on a sensor: cost inf
+        runs = _start(problem, y, theta0, groups, ceiling, stall > 0, damping0)
         runs = _iterate(problem, runs, max_iter, rules)
     runs.finish()
     out = runs.out  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
-                       out, runs.dominated)
+                       out, runs.dominated, runs.information)
 
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
@@ -334,8 +285,7 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
         reached = np.full(int(groups.max()) + 1, np.inf)  # lowest cost of a stopped run
         if ceiling is not None:
             np.minimum.at(reached, groups, np.broadcast_to(ceiling, (b,)))
-    # Trial points may sit on a sensor (zero range): infinite cost, not an error.
-    start = problem.evaluate_part(theta, u, nu_star, True)
+    start = problem.evaluate_part(theta, u, nu_star, True, quiet=True)  # (errors ignored)
     runs = _Runs(start, u, nu_star, groups, reached, stall)
     runs.lam[:] = damping0
     return runs
@@ -349,6 +299,11 @@ def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:
     # deviations (whitened residuals) and does not depend on the damping, so a run sitting
     # at the minimum is recognised even where rounding makes every step look worse;
     # dtol = 1e-5 means within 4.5e-3 sigma, far inside the statistical error.
+    if runs.reached is None and runs.ids.size == 1:  # one run: the test in floats
+        if model.small_grad[0] or (float(model.decrement[0])
+                                   <= rules.ftol * float(cur.cost[0]) + rules.dtol):
+            runs.stop(np.ones(1, dtype=bool), np.ones(1, dtype=bool))
+        return
     done = model.small_grad | (model.decrement <= rules.ftol * cur.cost + rules.dtol)
     beaten = None
     if runs.reached is not None:
@@ -371,6 +326,35 @@ def _damp(runs: _Runs, better: NDArray[np.bool_], gain: Array, rules: _Rules) ->
     runs.grow = np.where(better, 2.0, 2.0 * runs.grow)
 
 
+def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: float) -> None:
+    """Update the damping of a single run after a step, as :func:`_damp` does (Nielsen)."""
+    lam, grow = float(runs.lam[0]), float(runs.grow[0])
+    if better:  # 0 < gain <= 1 here: no overflow in floats
+        gain = min((cost - trial) / max(predicted, 1e-300), 1.0)
+        lam, grow = max(lam * max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3), 1e-12), 2.0
+    else:
+        lam, grow = lam * grow, 2.0 * grow
+    runs.lam, runs.grow = np.array([lam]), np.array([grow])
+
+
+def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: float,
+                    rules: _Rules) -> None:
+    """Accept or reject a single run's step, as :func:`_iterate` does for a batch (floats).
+
+    For :attr:`_Rules.plain` rules: Nielsen's damping, no ``max_reject``, no ``stall``.
+    """
+    cost, new = float(runs.cur.cost[0]), float(trial.cost[0])
+    better, lam = new < cost, float(runs.lam[0])
+    _damp_one(runs, better, cost, new, predicted)
+    # A heavily damped step is small without being converged (see _iterate).
+    tiny = better and lam <= 1e-2 and bool(
+        (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all())
+    if better:
+        runs.cur, runs.model = trial, None
+    if tiny or float(runs.lam[0]) > 1e12:
+        runs.stop(np.ones(1, dtype=bool), np.array([tiny]))
+
+
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
     free = rules.free
@@ -378,7 +362,7 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
         if runs.ids.size == 0:
             break
         if runs.model is None:  # a new point for some run: its Gauss-Newton model
-            runs.model = _Model.at(runs.cur, rules.gtol, free)
+            runs.model = GaussNewtonModel.at(runs.cur, rules.gtol, free)
         _stop_converged_or_dominated(runs, rules)
         if runs.ids.size == 0:
             break
@@ -388,15 +372,19 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             full = np.zeros_like(cur.theta)
             full[:, free] = step
             step = full
-        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True)
+        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
         runs.iterations[runs.ids] += 1
+        if lam.shape[0] == 1 and rules.plain:  # one run: its tests in floats
+            _after_step_one(runs, trial, step, float(predicted[0]), rules)
+            continue
         better = trial.cost < cur.cost
-        _damp(runs, better, np.minimum((cur.cost - trial.cost) / np.maximum(predicted, 1e-300),
-                                       1.0), rules)
+        _damp(runs, better, np.minimum((cur.cost - trial.cost)
+                                       / np.maximum(predicted, 1e-300), 1.0), rules)
         # A heavily damped step is small without being converged, hence the damping
         # condition on the step test.
-        tiny = better & (lam <= 1e-2) & (
-            np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
+        tiny = better & (lam <= 1e-2)
+        if tiny.any():
+            tiny &= (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
         if better.all():
             runs.cur, runs.model = trial, None
         elif better.any():

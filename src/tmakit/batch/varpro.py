@@ -99,6 +99,32 @@ class Evaluation:
 
 
 
+def _wrap_own(e: Array) -> Array:
+    """Return :func:`~tmakit.frames.wrap_angle` of ``e`` (a new array), the same bits.
+
+    Residuals of angles lie within one turn of the interval: where every ``e + pi`` is in
+    ``[-2 pi, 4 pi)``, ``mod(e + pi, 2 pi)`` is ``e + pi`` shifted by at most one turn, the
+    same rounding as ``mod``'s (Sterbenz: ``x - 2 pi`` is exact on ``[2 pi, 4 pi)``; ``mod``
+    itself adds ``2 pi`` below 0), formed with two comparisons and in place instead of masks
+    and gathers.  Otherwise (or with NaN) :func:`wrap_angle` itself.
+    """
+    shifted = e + np.pi
+    two_pi = 2.0 * np.pi
+    if not shifted.size:
+        return wrap_angle(e)
+    low, high = shifted.min(), shifted.max()
+    if not (low >= -two_pi and high < 2.0 * two_pi):  # (NaN fails too)
+        return wrap_angle(e)
+    if low < 0.0 or high >= two_pi:  # some rows one turn out
+        turns = (shifted >= two_pi).astype(np.int8)
+        turns -= shifted < 0.0
+        shifted -= turns * two_pi  # exact multiples: -2 pi, 0, 2 pi
+    out = np.subtract(shifted, np.pi, out=shifted)
+    if out.min() == -np.pi:  # the convention keeps +pi
+        out[out == -np.pi] = np.pi
+    return out
+
+
 class VarProProblem:
     """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
 
@@ -265,7 +291,7 @@ class VarProProblem:
         return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
 
     def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
-                      with_jacobian: bool = True) -> Evaluation:
+                      with_jacobian: bool = True, quiet: bool = False) -> Evaluation:
         """Evaluate as :meth:`evaluate`, from the data part ``u`` of :meth:`data_part`.
 
         Parameters
@@ -278,6 +304,9 @@ class VarProProblem:
             ``(B, k)`` the reference nuisance.
         with_jacobian : bool
             Whether to compute the projected Jacobian.
+        quiet : bool
+            True when the caller already ignores invalid and divide floating-point errors
+            (``np.errstate``; the solver's loop): not set again.
 
         Returns
         -------
@@ -285,11 +314,18 @@ class VarProProblem:
             As :meth:`evaluate`.
         """
         theta = np.asarray(theta, dtype=float)
+        if quiet:
+            return self._evaluate_any(theta, u, nu_star, with_jacobian)
         # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
         with np.errstate(invalid="ignore", divide="ignore"):
-            if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0 and not self.noise.correlated:
-                return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
-            return self._evaluate(theta, u, nu_star, with_jacobian)
+            return self._evaluate_any(theta, u, nu_star, with_jacobian)
+
+    def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
+                      ) -> Evaluation:
+        """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
+        if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0 and not self.noise.correlated:
+            return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
+        return self._evaluate(theta, u, nu_star, with_jacobian)
 
     def _evaluate_chunked(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                           ) -> Evaluation:
@@ -320,13 +356,13 @@ class VarProProblem:
         # Worked with the design and the Jacobian transposed, (B, k, n) and (B, p, n): every
         # operation then runs along the rows.
         lin = self.obs.linearisation(theta, with_jacobian)
-        at = lin.a_var.swapaxes(-1, -2)
+        at = lin.a_var.swapaxes(-1, -2) if self.k else None
         # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
         e = u - lin.h0
-        if self.k:
+        if at is not None:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]
         if self.all_angle:
-            e = wrap_angle(e)
+            e = _wrap_own(e)
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         r = self.noise.whiten(e, overwrite=True)  # e is this function's own array
@@ -337,7 +373,11 @@ class VarProProblem:
         elif with_jacobian:
             jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2), overwrite=True)
         cost = 0.5 * np.einsum("bn,bn->b", r, r)
-        cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
+        if r.shape[0] == 1:  # one point: tested as a float (fewer calls)
+            if not cost[0] < np.inf:
+                cost[0] = np.inf  # nan (no prediction) -> inf
+        else:
+            cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
         return Evaluation(theta, np.array(nu, dtype=float), r, cost,
                           None if jt is None else jt.swapaxes(1, 2))
 

@@ -17,6 +17,8 @@ from numpy.typing import NDArray
 
 from ..arrays import Array
 
+_IN_PLACE_ROWS = 2048  # rows from which :meth:`AffineRows.single` writes in place
+
 #: One non-zero term: parameter index, state component, coefficient per row (None: all 1).
 Term = tuple[int, int, Array | None]
 
@@ -40,6 +42,10 @@ class AffineRows:
         self.p = int(p)
         self.m = int(self.offset.shape[1])
         self._matrix: Array | None = None
+        #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
+        self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
+        for i, c, coef in self.terms:
+            self._by_component[c].append((i, coef))
 
     @property
     def matrix(self) -> Array:
@@ -74,20 +80,44 @@ class AffineRows:
         """
         th = theta.reshape(-1).tolist()
         n_c = 6 if components is None else int(components)
-        out = np.zeros((n_c, self.m))
-        # The terms in parameter order, then the offset: the order of the dense product's
-        # sums (``theta @ matrix + offset``).
-        for i, c, coef in self.terms:
-            if c >= n_c:
-                continue
-            if coef is None:
-                out[c] += th[i]
-            else:
-                out[c] += th[i] * coef
+        # Each component sums its terms in parameter order, then the offset: the order of
+        # the dense product's sums (``theta @ matrix + offset``).
+        if self.m >= _IN_PLACE_ROWS:
+            # The first product written in place (``0 + a`` is ``a``, ``a + b`` is
+            # ``b + a``, the same bits): no zeroed array and no temporary per term.
+            out = np.empty((n_c, self.m))
+            for c in range(n_c):
+                self._component(th, c, out[c])
+        else:  # few rows: fewest calls
+            out = np.zeros((n_c, self.m))
+            for i, c, coef in self.terms:
+                if c < n_c:
+                    out[c] += th[i] if coef is None else th[i] * coef
         out += self.offset[:n_c]
         if components is not None:
             return out
         return out.T if theta.ndim == 1 else out.T[None]
+
+    def _component(self, th: list[float], c: int, row: Array) -> None:
+        """Write the sum of component ``c``'s terms at parameters ``th`` into ``row``."""
+        terms = self._by_component[c]
+        if not terms:
+            row.fill(0.0)
+            return
+        (i, coef), rest = terms[0], terms[1:]
+        if coef is None and rest and rest[0][1] is not None:  # a + b*coef as b*coef + a
+            (j, coef_j), rest = rest[0], rest[1:]
+            np.multiply(coef_j, th[j], out=row)
+            row += th[i]
+        elif coef is None:
+            row.fill(th[i])
+        else:
+            np.multiply(coef, th[i], out=row)
+        for j, coef_j in rest:
+            if coef_j is None:
+                row += th[j]
+            else:
+                row += th[j] * coef_j
 
     def take(self, rows: NDArray[np.intp]) -> AffineRows:
         """Give the map of some rows.

@@ -65,10 +65,10 @@ class Linearisation:
         if self.d_h0 is None:
             raise ValueError("this linearisation was made without derivatives")
         obs = self.obs
-        nu = np.asarray(nuisance, dtype=float)
         if with_h0 and not self.d_a and self.d_h0_ref is None:
             # Nothing is added to d h0: the chain rule reads it (writes a new array).
             return obs.motion.chain(self.d_h0, self.theta, obs._time)
+        nu = np.asarray(nuisance, dtype=float)
         d = self.d_h0.copy(order="K") if with_h0 else np.zeros_like(self.d_h0)
         d_ref = None
         if self.d_h0_ref is not None:

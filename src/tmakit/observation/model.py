@@ -81,6 +81,7 @@ class ObservationModel:
         self._rel_map_ref = (None if self._ref is None else self._relative_map(
             g.time_ref[self._ref], g.ref_sensor_state[self._ref]))
         self._const_design: Array | None = None
+        self._kind_code: NDArray[np.intp] | None = None  # (see _kind_index)
 
     def _set_row_model(self) -> None:
         """Build the observation core of the grouped rows (per-kind predictions, designs)."""
@@ -149,13 +150,11 @@ class ObservationModel:
         idx = np.asarray(index)
         idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
         meas = self.meas.take(idx)
-        code = np.empty(len(self.meas), dtype=np.intp)  # each row's kind, in model order
-        for i, rows in enumerate(self.rows.values()):
-            code[rows] = i
-        counts = np.bincount(code[idx], minlength=len(self.models))
+        code = self._kind_index()[idx]  # each row's kind, in model order
+        counts = np.bincount(code, minlength=len(self.models))
         if not counts.all():  # a kind is left out, and its nuisance parameters with it
             return ObservationModel(meas, self.motion, self.options)
-        order = np.argsort(code[idx], kind="stable")  # grouped by kind, set order within
+        order = np.argsort(code, kind="stable")  # grouped by kind, set order within
         pick = self.inverse[idx[order]]  # this model's grouped rows, in the new grouped order
         sub = object.__new__(ObservationModel)
         sub.options = {k: dict(v) for k, v in self.options.items()}
@@ -180,7 +179,19 @@ class ObservationModel:
         sub._rel_map_ref = (None if sub._ref is None
                             else _take_map(self._rel_map_ref, pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
+        sub._kind_code = None
         return sub
+
+    def _kind_index(self) -> NDArray[np.intp]:
+        """Each row's kind as its position in :attr:`models` (set order), made once."""
+        code = self._kind_code
+        if code is None:
+            code = np.empty(len(self.meas), dtype=np.intp)
+            for i, rows in enumerate(self.rows.values()):
+                code[rows] = i
+            code.flags.writeable = False
+            self._kind_code = code
+        return code
 
     @property
     def n_nuisance(self) -> int:

@@ -305,7 +305,8 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
 def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu: NDArray,
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
                     known_nuisance: KnownNuisance | None, note: str = "", *,
-                    jacobian: tuple[NDArray, NDArray] | None = None) -> EstimateResult:
+                    jacobian: tuple[NDArray, NDArray] | None = None,
+                    information: NDArray | None = None) -> EstimateResult:
     """Return the result of a weighted least-squares fit of an observation model.
 
     Parameters
@@ -336,6 +337,10 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
     jacobian : (ndarray, ndarray), optional
         ``obs.jacobian_grouped(theta, nu)`` when the caller has it (computed for many fits
         at once); default: computed here.
+    information : ndarray, optional
+        The Fisher information at the fit when the solver has it (its last evaluation's
+        ``J' R^-1 J``, over the motion parameters, and over the nuisance too when it is
+        estimated); default: computed here.
 
     Returns
     -------
@@ -351,7 +356,10 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)
-    info = _information(obs, noise, theta, nu, known, jacobian)
+    n_info = motion.n_params + (0 if known else len(names_nu))
+    info = (np.asarray(information, dtype=float) if information is not None
+            and np.shape(information) == (n_info, n_info)
+            else _information(obs, noise, theta, nu, known, jacobian))
     names = motion.param_names + (() if known else names_nu)
     values = theta if known else np.concatenate([theta, nu])
     nu_values = dict(zip(names_nu, nu, strict=True))

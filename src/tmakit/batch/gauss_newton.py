@@ -1,0 +1,241 @@
+"""The Gauss-Newton model of :func:`tmakit.batch.solver.levenberg_marquardt` at a batch of points.
+
+``J'J`` and ``J'r`` of the whitened, projected Jacobian, the eigen-decomposition of ``J'J`` in
+variables scaled by the square roots of its diagonal (Marquardt (1963)), and from it the
+Gauss-Newton decrement and the step at any damping.  A single run (the commonest solve) is
+built in 2-D arrays with LAPACK's ``dsyevd`` called directly: NumPy's batched ``eigh`` costs
+several times the decomposition of a small matrix.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg.lapack import dsyevd as _dsyevd
+
+from ..arrays import Array
+from ..blas import SINGLE_THREAD_WORK
+from .varpro import Evaluation, VarProProblem
+
+__all__ = ["GaussNewtonModel", "gram", "information_of", "normal_equations"]
+
+
+def gram(j: Array) -> Array:
+    """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)`` (or ``(p, p)`` of ``(n, p)``).
+
+    Summed over row blocks below OpenBLAS's multithreading threshold when one product would
+    pass it (:mod:`tmakit.blas`).
+
+    Parameters
+    ----------
+    j : ndarray
+        The Jacobian (per parameter unit).
+
+    Returns
+    -------
+    ndarray
+        ``J^T J`` (per parameter unit squared).
+    """
+    n, p = j.shape[-2:]
+    jt = np.swapaxes(j, -1, -2)
+    block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
+    if n <= block:
+        return jt @ j
+    out = np.zeros((*j.shape[:-2], p, p))
+    for lo in range(0, n, block):
+        out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
+    return out
+
+
+def information_of(problem: VarProProblem, ev: Evaluation, run: int,
+                   known: Array | None = None) -> Array | None:
+    """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it.
+
+    The evaluation's whitened Jacobian (or chunked ``J'J``) when no nuisance is eliminated
+    (none, or known): a fit's last evaluation gives it without evaluating the model again.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem evaluated.
+    ev, run : Evaluation, int
+        The evaluations (e.g. :attr:`SolveResult.evaluation`) and the run (row of the batch).
+    known : ndarray, optional
+        ``(B, p, p)`` ``J'J`` already formed at the evaluated points, NaN where not
+        (:attr:`SolveResult.information`): used where finite.
+
+    Returns
+    -------
+    ndarray or None
+        ``(p, p)`` (per parameter unit squared); None when the nuisance is eliminated (the
+        projected Jacobian is not that information) or there are no derivatives.
+    """
+    if problem.eliminates:
+        return None
+    if known is not None and np.all(np.isfinite(known[run])):
+        return np.array(known[run], dtype=float)
+    if ev.normal is not None:
+        return np.array(ev.normal[0][run], dtype=float)
+    if ev.jacobian is None:
+        return None
+    return gram(ev.jacobian[run])
+
+
+_DIRECT_EIGH = 32  # largest matrix decomposed by a direct LAPACK call
+
+
+def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Array, Array]:
+    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` at ``ev`` over the ``free`` columns.
+
+    Parameters
+    ----------
+    ev : Evaluation
+        The evaluated points (whitened Jacobian, or its chunked normal equations).
+    free : ndarray of bool, optional
+        ``(p,)`` the fitted parameters (default all).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``J'J`` and ``J'r`` (per parameter unit squared, per parameter unit).
+    """
+    if ev.normal is not None:  # summed over row chunks (large problems)
+        jtj, grad = ev.normal
+        if free is not None:
+            jtj, grad = jtj[:, free][:, :, free], grad[:, free]
+        return jtj, grad
+    jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
+    if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
+        return gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
+    return gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
+
+
+@dataclass
+class GaussNewtonModel:
+    """The Gauss-Newton model of a batch at its current points.
+
+    For :func:`levenberg_marquardt`: ``J'J`` (over the ``free`` columns) in variables scaled by the
+    square roots of its diagonal (``scale``) as ``v diag(w) v'``, the scaled gradient ``vg`` in
+    that basis, the Gauss-Newton decrement (the decrease an undamped step predicts) and whether
+    the gradient is orthogonal to every Jacobian column (``gtol``).
+
+    Parameters
+    ----------
+    w, v : ndarray
+        ``(B, p)`` eigenvalues (floored at 1e-12 of the largest) and ``(B, p, p)``
+        eigenvectors of the scaled ``J'J``.
+    vg : ndarray
+        ``(B, p)`` the scaled gradient in the eigenvector basis.
+    scale : ndarray
+        ``(B, p)`` square roots of the diagonal of ``J'J`` (per parameter unit).
+    decrement : ndarray
+        ``(B,)`` the Gauss-Newton decrement (half chi2).
+    small_grad : ndarray of bool
+        ``(B,)`` whether the gradient test is met.
+    jtj : ndarray, optional
+        ``(B, p, p)`` ``J'J`` itself (the Fisher information at the points).
+    """
+
+    w: Array
+    v: Array
+    vg: Array
+    scale: Array
+    decrement: Array
+    small_grad: NDArray[np.bool_]
+    jtj: Array | None = None
+
+    @classmethod
+    def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> GaussNewtonModel:
+        """Build the model at the evaluated points ``ev`` (over the ``free`` columns).
+
+        Parameters
+        ----------
+        ev : Evaluation
+            The evaluated points.
+        gtol : float
+            The gradient test's tolerance (see :func:`levenberg_marquardt`).
+        free : ndarray of bool, optional
+            ``(p,)`` the fitted parameters (default all).
+
+        Returns
+        -------
+        GaussNewtonModel
+            The model of every run of ``ev``.
+        """
+        jtj, grad = normal_equations(ev, free)
+        if jtj.shape[0] == 1 and jtj.shape[1] <= _DIRECT_EIGH:
+            one = cls._one(jtj[0], grad[0], float(ev.cost[0]), gtol)
+            if one is not None:
+                return one
+        scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
+        w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
+        # eigenvalues floored at 1e-12 of the largest: a rank-deficient J'J gives finite steps
+        w = np.maximum(w, 1e-12 * w[:, -1:])
+        vg = (v.swapaxes(1, 2) @ (grad / scale)[:, :, None])[..., 0]
+        rnorm = np.sqrt(2.0 * ev.cost)[:, None]
+        return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
+                   (np.abs(grad) <= gtol * scale * rnorm).all(axis=1), jtj)
+
+    @classmethod
+    def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
+        """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls).
+
+        LAPACK's ``dsyevd`` directly (NumPy's batched ``eigh`` costs several times the
+        decomposition of a small matrix); None where it fails.
+        """
+        scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
+        w, v, info = _dsyevd(jtj / np.multiply.outer(scale, scale), compute_v=1, lower=1)
+        if info != 0:
+            return None
+        w = np.maximum(w, 1e-12 * w[-1])  # floored as in :meth:`at`
+        vg = (grad / scale).dot(v)
+        small = bool((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).all())
+        return cls(w[None], v[None], vg[None], scale[None],
+                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None])
+
+    def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
+        """Keep the runs ``rows``.
+
+        Parameters
+        ----------
+        rows : ndarray of bool
+            The runs kept.
+
+        Returns
+        -------
+        GaussNewtonModel
+            Their models.
+        """
+        return GaussNewtonModel(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
+                                self.decrement[rows], self.small_grad[rows],
+                                None if self.jtj is None else self.jtj[rows])
+
+    def step(self, lam: Array) -> tuple[Array, Array]:
+        """Give the step at damping ``lam`` and the decrease the model predicts for it.
+
+        The damping is ``lam * I`` in the scaled variables.
+
+        Parameters
+        ----------
+        lam : ndarray
+            ``(B,)`` the damping of each run.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``(B, p)`` the steps (parameter units) and ``(B,)`` the predicted decreases of
+            half chi2.
+        """
+        if self.w.shape[0] == 1:  # one run: 2-D products (fewer, cheaper calls)
+            w, vg, lam1 = self.w[0], self.vg[0], float(lam[0])
+            lw = w + lam1
+            q = vg / lw
+            step = self.v[0].dot(q) / self.scale[0]
+            return step[None], np.array([0.5 * q.dot(vg * (w + 2.0 * lam1) / lw)])
+        lw = self.w + lam[:, None]
+        step = (self.v @ (self.vg / lw)[:, :, None])[..., 0] / self.scale
+        vg2 = self.vg * self.vg
+        return step, 0.5 * (vg2 * (self.w + 2.0 * lam[:, None]) / (lw * lw)).sum(axis=1)
