@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import importlib
 import json
 
 import numpy as np
@@ -16,6 +18,7 @@ from tmakit.observation.noise import NoiseModel
 from tmakit.observation.noise_blocks import overlapping_groups
 
 
+@functools.cache
 def shared_reference_set(seed=2):
     """chen-sun-1 with each three range differences in a row sharing one reference time."""
     m = tk.load_scenario("chen-sun-1").simulate(rng=seed)
@@ -77,3 +80,30 @@ def test_a_correlated_fit_summed_by_chunks_equals_the_whole_jacobians(monkeypatc
     assert np.all(np.abs(chunked.estimate - whole.estimate) <= 1e-9 * whole.std)
     np.testing.assert_allclose(chunked.std, whole.std, rtol=1e-9)
     assert chunked.chi2 == pytest.approx(whole.chi2, rel=1e-12)
+
+
+def test_the_command_fits_a_large_set_grouped_by_kind_with_the_same_result(tmp_path,
+                                                                          monkeypatch):
+    from typer.testing import CliRunner
+
+    from tmakit import blas
+    from tmakit.cli import app
+    from tmakit.io import write_measurements
+
+    cli_estimate = importlib.import_module("tmakit.cli.estimate")  # the module, not the command
+
+    meas = shared_reference_set()
+    path = tmp_path / "rd.csv"
+    write_measurements(meas, path)
+    monkeypatch.setattr(blas, "CHUNKED_ROWS", 100)  # these few rows count as many
+    monkeypatch.setattr(blas, "CHUNK_ROWS", 37)
+    grouped = cli_estimate.grouped_by_kind(meas)
+    codes = grouped.kind_code
+    assert len(grouped) == len(meas) and np.all(codes[1:] >= codes[:-1])
+    assert not np.array_equal(codes, meas.kind_code)  # the file's kinds alternate
+    args = ["estimate", str(path), "--motion", "cv3d", "--json"]
+    regrouped = CliRunner().invoke(app, args)
+    monkeypatch.setattr(cli_estimate, "grouped_by_kind", lambda m: m)  # the file's order
+    in_file_order = CliRunner().invoke(app, args)
+    assert regrouped.exit_code == in_file_order.exit_code == 0, regrouped.output
+    assert json.loads(regrouped.stdout) == json.loads(in_file_order.stdout)
