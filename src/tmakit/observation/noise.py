@@ -63,7 +63,7 @@ class NoiseModel:
                                 else model_for(kind))
                 index[kind] = rows
         self._setup(meas.sigma_si, correlated_blocks(chosen, index, meas.time, meas.time_ref,
-                                                     meas.sigma_si, meas.sensor, False))
+                                                     meas.sigma_si, meas.sensor_code, False))
 
     @classmethod
     def from_rows(cls, rows: RowModel) -> NoiseModel:

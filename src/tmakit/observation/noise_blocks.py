@@ -13,6 +13,7 @@ of rows that never split a group: :meth:`tmakit.observation.NoiseModel.chunk_bou
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,7 +58,7 @@ def overlapping_groups(rows: NDArray[np.intp], time: Array, time_ref: Array,
 
 
 def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
-                      time: Array, time_ref: Array, sigma: Array, sensor: NDArray[np.str_],
+                      time: Array, time_ref: Array, sigma: Array, sensor: NDArray[Any],
                       singletons: bool = True) -> list[tuple[NDArray[np.intp], Array]]:
     """Return the correlated noise blocks of a set of rows.
 
@@ -66,7 +67,8 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
     models, index
         Each kind's model and rows (ascending indices or a slice).
     time, time_ref, sigma, sensor
-        The rows' columns (m,): s, s, SI, ids.
+        The rows' columns (m,): s, s, SI, sensor ids or codes (rows of one sensor are
+        correlated).
     singletons : bool, optional
         Also give the rows that share no interval with another row, each as a 1 x 1 block
         (its variance as the kind's hook computes it); without them the blocks are only

@@ -199,7 +199,7 @@ class RowModel:
     time, time_ref : array_like
         Row times and reference times (m,), s (the latter for kinds ``uses_reference``).
     sigma, sensor : array_like
-        Noise standard deviations (m,), SI, and sensor ids (m,).
+        Noise standard deviations (m,), SI, and sensor ids or codes (m,).
     sensor_state, ref_sensor_state : array_like
         Sensor states ``[x, y, z, vx, vy, vz]`` (m, 6), m and m/s, at the rows' times and at
         their reference times.
