@@ -5,7 +5,8 @@
 Writes a bearings-only CSV of ``rows`` rows (a CV target seen from a sensor on a zig-zag, 1 deg
 noise, seeded; with ``--latlon`` the sensor positions as latitude, longitude and a sea-level
 altitude with ``origin_*`` metadata, read as 2-D; with ``--range-differences`` every other
-row a range difference to the row before), then runs each command in a fresh
+row a range difference to the row before, whose noise is then independent: the spans do not
+overlap), then runs each command in a fresh
 process and reports its peak resident memory (its VmHWM, Linux), the file size and their
 ratio, the bytes per row above what ``tma show`` of a 3-row file takes (the interpreter and
 libraries), and the wall time.
