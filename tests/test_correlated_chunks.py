@@ -107,3 +107,22 @@ def test_the_command_fits_a_large_set_grouped_by_kind_with_the_same_result(tmp_p
     in_file_order = CliRunner().invoke(app, args)
     assert regrouped.exit_code == in_file_order.exit_code == 0, regrouped.output
     assert json.loads(regrouped.stdout) == json.loads(in_file_order.stdout)
+
+
+def test_a_subset_of_correlated_rows_keeps_their_covariance():
+    from tmakit.batch.init import subsample
+    from tmakit.batch.varpro import VarProProblem
+
+    meas = shared_reference_set()
+    problem = VarProProblem(ObservationModel(meas, motion_from_name("cv3d")))
+    assert problem.noise.correlated
+    small, rows = subsample(problem, 150)  # for the grid and the presolve
+    assert small is not problem and len(rows) < len(meas)
+    sub = small.obs.grouped
+    rd = np.flatnonzero(np.asarray(sub.kind) == "range_difference")
+    dense = np.diag(sub.sigma_si**2)
+    dense[np.ix_(rd, rd)] = range_difference_covariance(sub.time[rd], sub.time_ref[rd],
+                                                        sub.sigma_si[rd])
+    assert np.count_nonzero(dense - np.diag(np.diag(dense))) > 0  # still correlated
+    np.testing.assert_allclose(small.noise.covariance(), dense, rtol=1e-9,
+                               atol=1e-12 * dense.max())
