@@ -1,11 +1,14 @@
 """Memory figure: peak RSS of `tma show` and `tma estimate --motion cv2d` on a large CSV.
 
     python benchmarks/memory_large_csv.py [--rows 10000000] [--latlon] [--range-differences]
+        [--shared-references]
 
 Writes a bearings-only CSV of ``rows`` rows (a CV target seen from a sensor on a zig-zag, 1 deg
 noise, seeded; with ``--latlon`` the sensor positions as latitude, longitude and a sea-level
 altitude with ``origin_*`` metadata, read as 2-D; with ``--range-differences`` every other
-row a range difference to the row before), then runs each command in a fresh
+row a range difference to the row before, whose noise is then independent: the spans do not
+overlap; with ``--shared-references`` the differences in threes to one reference time,
+correlated), then runs each command in a fresh
 process and reports its peak resident memory (its VmHWM, Linux), the file size and their
 ratio, the bytes per row above what ``tma show`` of a 3-row file takes (the interpreter and
 libraries), and the wall time.
@@ -38,7 +41,7 @@ def geo_preamble() -> str:
 
 
 def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False,
-              range_differences: bool = False) -> None:
+              range_differences: bool = False, shared: bool = False) -> None:
     rng = np.random.default_rng(seed)
     with open(path, "w") as f:
         header = geo_preamble() if latlon else HEADER + "\n"
@@ -58,18 +61,28 @@ def write_csv(path: Path, rows: int, seed: int = 1, latlon: bool = False,
             else:
                 pos = [f"{x:.3f},{y:.1f},0,5,0,0" for x, y in zip(sx, sy, strict=True)]
             if range_differences:
-                f.write(range_difference_text(t, b, pos, np.hypot(tx - sx, ty - sy), rng))
+                f.write(range_difference_text(t, b, pos, np.hypot(tx - sx, ty - sy), rng,
+                                              shared))
             else:
                 f.write("".join(f"{ti:.2f},ship,bearing,{bi:.6f},1,{p}\n"
                                 for ti, bi, p in zip(t, b, pos, strict=True)))
 
 
 def range_difference_text(t: np.ndarray, b: np.ndarray, pos: list[str], r: np.ndarray,
-                          rng: np.random.Generator) -> str:
-    """Write odd rows as range differences (m) to the previous row's time, even as bearings."""
-    dr = np.diff(r, prepend=np.nan) + rng.normal(0, 1, t.size)
+                          rng: np.random.Generator, shared: bool = False) -> str:
+    """Write odd rows as range differences (m), even rows as bearings.
+
+    Each difference is to the previous row's time; with ``shared``, the three differences of
+    each six rows are to the time of the first of the six (their spans overlap: correlated
+    noise, one 3 x 3 block per three).  Blocks of rows start at multiples of 6.
+    """
+    ref = np.arange(t.size) - 1
+    if shared:
+        ref = (np.arange(t.size) // 6) * 6
+    ref = np.maximum(ref, 0)
+    dr = r - r[ref] + rng.normal(0, 1, t.size)
     return "".join(f"{t[i]:.2f},ship,bearing,{b[i]:.6f},1,{pos[i]},\n" if i % 2 == 0 else
-                   f"{t[i]:.2f},ship,range_difference,{dr[i]:.3f},1,{pos[i]},{t[i - 1]:.2f}\n"
+                   f"{t[i]:.2f},ship,range_difference,{dr[i]:.3f},1,{pos[i]},{t[ref[i]]:.2f}\n"
                    for i in range(t.size))
 
 
@@ -119,13 +132,18 @@ def main() -> None:
                     help="sensor positions as latitude/longitude/altitude (read as 2-D)")
     ap.add_argument("--range-differences", action="store_true",
                     help="every other row a range difference to the row before (time_ref)")
+    ap.add_argument("--shared-references", action="store_true",
+                    help="range differences in threes to one reference time (correlated noise)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "big.csv"
-        write_csv(path, a.rows, latlon=a.latlon, range_differences=a.range_differences)
+        write_csv(path, a.rows, latlon=a.latlon,
+                  range_differences=a.range_differences or a.shared_references,
+                  shared=a.shared_references)
         size = path.stat().st_size / 2**20
         print(f"{a.rows:,} rows, {size:.0f} MB ({'lat/lon/alt' if a.latlon else 'ENU'} "
-              f"positions{', range differences' if a.range_differences else ''})")
+              f"positions{', range differences' if a.range_differences else ''}"
+              f"{', range differences sharing references' if a.shared_references else ''})")
         # the interpreter and libraries alone
         _, base, _ = peak_of(["show", str(small_file(Path(d), a.latlon))], Path(d))
         print(f"tma show of a 3-row file: peak RSS {base:.0f} MB (the interpreter and "

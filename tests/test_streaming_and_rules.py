@@ -387,3 +387,42 @@ def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path, geo
     per_row_file = (size_big - size_small) / 300_000
     assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)
     assert per_row_memory >= csv_stream.SET_BYTES_PER_ROW * 0.9, (grown_small, grown_big)
+
+
+def peak_of_reading_range_differences(tmp_path, n):
+    """As :func:`peak_of_reading`, every other row a range difference (ENU, velocities).
+
+    The reference time of a range difference is the row before's time, or every fourth one
+    between two rows (interpolated).
+    """
+    import subprocess
+    import sys
+
+    t = np.arange(n) * 0.01
+    b = np.degrees(np.arctan2(4000.0 - 11 * t, 9000.0 - 3 * t)) % 360
+    path = tmp_path / f"rd{n}.csv"
+    with open(path, "w") as f:
+        f.write(HEADER + ",time_ref\n")
+        f.writelines(f"{t[i]:.2f},ship,bearing,{b[i]:.6f},1,{5 * t[i]:.3f},0,0,5,0,0,\n"
+                     if i % 2 == 0 else
+                     f"{t[i]:.2f},ship,range_difference,{0.01 * (i % 97):.2f},1,"
+                     f"{5 * t[i]:.3f},0,0,5,0,0,{t[i - 1] + (0.005 if i % 8 == 1 else 0):.3f}\n"
+                     for i in range(n))
+    small = tmp_path / "small-rd.csv"  # of the same layout: the same libraries are loaded
+    small.write_text(HEADER + ",time_ref\n0,ship,bearing,10,1,0,0,0,5,0,0,\n"
+                     "1,ship,range_difference,1,1,5,0,0,5,0,0,0.5\n"
+                     "2,ship,range_difference,1,1,10,0,0,5,0,0,1\n")
+    out = subprocess.run([sys.executable, "-c", PEAK_OF_A_READ, str(path), str(small)],
+                         check=True, capture_output=True, text=True).stdout.split()
+    assert int(out[0]) == n
+    return path.stat().st_size, int(out[1])
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
+def test_reading_range_differences_costs_less_than_three_times_the_bytes_of_each_row(tmp_path):
+    size_small, grown_small = peak_of_reading_range_differences(tmp_path, 100_000)
+    size_big, grown_big = peak_of_reading_range_differences(tmp_path, 400_000)
+    per_row_memory = (grown_big - grown_small) / 300_000
+    per_row_file = (size_big - size_small) / 300_000
+    assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)
+    assert per_row_memory >= csv_stream.SET_BYTES_PER_ROW * 0.9, (grown_small, grown_big)

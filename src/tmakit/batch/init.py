@@ -37,7 +37,7 @@ def _subsample(problem: VarProProblem, max_rows: int
     """
     meas = problem.obs.meas
     every = np.arange(len(meas))
-    if len(meas) <= max_rows or problem.noise.correlated:
+    if len(meas) <= max_rows:  # correlated rows: the subset's noise is its own block
         return problem, every
     keep = []
     for rows in problem.obs.rows.values():
@@ -51,7 +51,9 @@ def subsample(problem: VarProProblem, max_rows: int
               ) -> tuple[VarProProblem, NDArray[np.int64]]:
     """Return the problem on about ``max_rows`` evenly spread rows per kind, and the rows kept.
 
-    The whole problem (and every row) when it has no more rows or its noise is correlated.
+    The whole problem (and every row) when it has no more rows.  With correlated noise
+    (range differences whose spans overlap) the subset's noise model is made for its own rows:
+    their covariance is the whole one's block on them.
 
     Parameters
     ----------

@@ -323,7 +323,7 @@ class VarProProblem:
     def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                       ) -> Evaluation:
         """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
-        if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0 and not self.noise.correlated:
+        if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0:
             return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
         return self._evaluate(theta, u, nu_star, with_jacobian)
 
@@ -331,14 +331,15 @@ class VarProProblem:
                           ) -> Evaluation:
         """Evaluate in chunks of rows, summing J'J and J'r (no Jacobian held).
 
-        Rows are independent here (no nuisance, independent noise), so each chunk's residuals
-        and Jacobian rows are those of the whole problem (:data:`tmakit.blas.CHUNK_ROWS`).
+        Without nuisance, and with chunks that never split a correlated noise block
+        (:meth:`~tmakit.observation.NoiseModel.chunk_bounds`: each chunk whitened alone, by
+        its own blocks), each chunk's residuals and Jacobian rows are those of the whole
+        problem (:data:`tmakit.blas.CHUNK_ROWS`).
         """
         b, n = u.shape
         r = np.empty((b, n))
         gram, grad = np.zeros((b, self.p, self.p)), np.zeros((b, self.p))
-        for lo in range(0, n, blas.CHUNK_ROWS):
-            hi = min(n, lo + blas.CHUNK_ROWS)
+        for lo, hi in self.noise.chunk_bounds(blas.CHUNK_ROWS):
             part = self.take(self.obs.order[lo:hi])._evaluate(theta, u[:, lo:hi], nu_star,
                                                               with_jacobian)
             r[:, lo:hi] = part.residual

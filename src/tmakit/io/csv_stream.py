@@ -25,7 +25,9 @@ then reads the file and reports every problem by row, line and column.
 Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
 with range differences: ``time_ref`` and the reference state), plus up to 5 % spare rows
 while reading, one block of text and its parsed columns (about ``3 * BLOCK_BYTES``), and after
-reading the rules' transient arrays (about 30 bytes per row).
+reading the rules' transient arrays (about 30 bytes per row); the sensor states at
+``time_ref`` are looked up a block of rows at a time (:mod:`.sensor_record`), adding only
+their own 48 bytes per row.
 """
 
 from __future__ import annotations

@@ -201,11 +201,13 @@ def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[n
     return ref
 
 
-def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp],
-                   t: NDArray[np.float64], time_ref: NDArray[np.float64],
-                   state: NDArray[np.float64], ref: NDArray[np.float64], has_velocity: bool,
-                   problems: Problems) -> None:
-    """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else linear).
+def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp] | None,
+                  t: NDArray[np.float64], time_ref: NDArray[np.float64],
+                  state: NDArray[np.float64], ref: NDArray[np.float64], has_velocity: bool,
+                  problems: Problems) -> None:
+    """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else interpolated).
+
+    The look-up of :class:`.sensor_record.SensorRecord` (bounded memory).
 
     Parameters
     ----------
@@ -213,8 +215,8 @@ def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp],
         The sensor's id (for messages).
     rows : numpy.ndarray of int
         The range-difference rows whose state at ``time_ref`` is wanted.
-    mine : numpy.ndarray of int
-        The sensor's usable rows, in file order.
+    mine : numpy.ndarray of int or None
+        The sensor's usable rows, in file order; None for every row.
     t, time_ref : numpy.ndarray
         Each row's time and ``time_ref`` (s).
     state : numpy.ndarray, shape (n, 6)
@@ -226,28 +228,16 @@ def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp],
     problems : Problems
         Where a ``time_ref`` without a known sensor position is recorded.
     """
-    from ..sensors import RecordedTrack
+    from .sensor_record import SensorRecord
 
-    tr = time_ref[rows]
-    # one row per time (the first), in time order
-    times, first = np.unique(t[mine], return_index=True)
-    first = mine[first]
-    found = np.zeros(rows.shape[0], dtype=bool)
-    if times.shape[0] > 0:
-        at = np.clip(np.searchsorted(times, tr), 0, times.shape[0] - 1)
-        found = times[at] == tr
-        ref[rows[found]] = state[first[at[found]]]
-    inside = ~found & (tr >= times[0]) & (tr <= times[-1]) if times.shape[0] > 1 \
-        else np.zeros(rows.shape[0], dtype=bool)
-    if np.any(inside):
-        velocities = state[first, 3:] if has_velocity else None
-        track = RecordedTrack(times, state[first, :3], velocities)
-        ref[rows[inside]] = track.states(tr[inside])
-        if not has_velocity:  # like the sensor velocities, absent from the file
-            ref[rows[inside], 3:] = 0.0
+    record = SensorRecord(t, state, mine, has_velocity)
+    missing = record.fill(rows, time_ref, ref)
+    if not np.any(missing):
+        return
+    times = record.times
     known = (f"its rows span {number_text(times[0])} to {number_text(times[-1])} s"
              if times.shape[0] > 0 else "it has no other usable rows")
-    for row in rows[~found & ~inside]:
+    for row in rows[missing]:
         problems.cell(int(row), "time_ref",
                       f"a time at which sensor '{sensor}' has a known position ({known}; "
                       "or give the ref_sensor_* columns)",

@@ -16,8 +16,7 @@ from numpy.typing import NDArray
 from ..data import REF_STATE_COLUMNS
 from ..measurements import KINDS
 from ..measurements.codes import KIND_NAMES
-from .positions import ref_of_sensor
-from .problems import Problems, RawTable
+from .sensor_record import QUERY_ROWS, SensorRecord
 
 __all__ = ["block_is_valid", "has_duplicates", "reference_states"]
 
@@ -102,17 +101,31 @@ def reference_states(time: NDArray[np.float64], time_ref: NDArray[np.float64],
     n = time.shape[0]
     if ref is None:
         ref = np.full((n, 6), np.nan)
-    given = ~np.isnan(ref[:, 0])
-    for i in range(2, len(REF_STATE_COLUMNS)):
-        if i not in ref_columns:
-            ref[given, i] = 0.0
-    need = USES_REFERENCE[kind] & ~given
-    problems = Problems(RawTable(None, {}, None))  # type: ignore[arg-type]
-    for code in np.unique(sensor[need]).tolist():
-        mine = sensor == code
-        ref_of_sensor(names[code], np.flatnonzero(need & mine), np.flatnonzero(mine), time,
-                      time_ref, state, ref, has_velocity, problems)
-    return None if problems.cells else ref
+    absent = [i for i in range(2, len(REF_STATE_COLUMNS)) if i not in ref_columns]
+    counts = np.zeros(len(names), dtype=np.int64)
+    for lo in range(0, n, QUERY_ROWS):  # block by block: no temporary of every row
+        block = ref[lo:lo + QUERY_ROWS]
+        given = ~np.isnan(block[:, 0])
+        for i in absent:
+            block[given, i] = 0.0
+        counts += np.bincount(sensor[lo:lo + QUERY_ROWS][_need(kind, ref, lo)],
+                              minlength=len(names))
+    for code in np.flatnonzero(counts).tolist():
+        mine = None if len(names) == 1 else np.flatnonzero(sensor == code)
+        record = SensorRecord(time, state, mine, has_velocity)
+        for lo in range(0, n, QUERY_ROWS):
+            need = _need(kind, ref, lo)
+            if len(names) > 1:
+                need &= sensor[lo:lo + QUERY_ROWS] == code
+            if np.any(record.fill(lo + np.flatnonzero(need), time_ref, ref)):
+                return None
+    return ref
+
+
+def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[np.bool_]:
+    """Flag the range differences without ``ref_sensor_*`` cells of a block from row ``lo``."""
+    hi = lo + QUERY_ROWS
+    return USES_REFERENCE[kind[lo:hi]] & np.isnan(ref[lo:hi, 0])
 
 
 def has_duplicates(time: NDArray[np.float64], sensor: NDArray[np.int32],

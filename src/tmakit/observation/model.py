@@ -87,7 +87,7 @@ class ObservationModel:
         """Build the observation core of the grouped rows (per-kind predictions, designs)."""
         g = self.grouped
         self.row_model = RowModel(self.models, self.slices, self._time, g.time_ref,
-                                  self.sigmas_grouped, g.sensor, self._sensor,
+                                  self.sigmas_grouped, g.sensor_code, self._sensor,
                                   g.ref_sensor_state)
         #: The rows of kinds with an earlier reference sample (a slice of the grouped order).
         self._ref = self.row_model.reference_slice

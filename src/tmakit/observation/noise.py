@@ -16,7 +16,8 @@ from numpy.typing import NDArray
 
 from ..data import MeasurementSet
 from ..measurements import KINDS, MeasurementModel, model_for
-from .rows import RowModel, correlated_blocks
+from .noise_blocks import correlated_blocks
+from .rows import RowModel
 
 
 class NoiseModel:
@@ -62,7 +63,7 @@ class NoiseModel:
                                 else model_for(kind))
                 index[kind] = rows
         self._setup(meas.sigma_si, correlated_blocks(chosen, index, meas.time, meas.time_ref,
-                                                     meas.sigma_si, meas.sensor))
+                                                     meas.sigma_si, meas.sensor_code, False))
 
     @classmethod
     def from_rows(cls, rows: RowModel) -> NoiseModel:
@@ -78,7 +79,7 @@ class NoiseModel:
         NoiseModel
         """
         out = object.__new__(cls)
-        out._setup(rows.sigma, rows.correlated_blocks())
+        out._setup(rows.sigma, rows.correlated_blocks(singletons=False))
         return out
 
     def _setup(self, sigma: NDArray[np.float64],
@@ -176,6 +177,35 @@ class NoiseModel:
         for rows, whitener in self.blocks:
             out[..., rows] = np.einsum("ij,...j->...i", whitener, x[..., rows])
         return np.moveaxis(out, -1, axis)
+
+    def chunk_bounds(self, size: int) -> list[tuple[int, int]]:
+        """Cut the rows into ranges of about ``size`` that never split a correlated block.
+
+        Each range then holds whole blocks: whitening it alone gives its rows of the whole
+        whitening, so sums over the ranges (``J'J``, ``J'r``) are those of the whole set.
+
+        Parameters
+        ----------
+        size : int
+            Rows of a range (at least; more where a block straddles the cut).
+
+        Returns
+        -------
+        list of (int, int)
+            ``(lo, hi)`` row ranges covering ``0 .. n`` in order.
+        """
+        n = self.n
+        inside = np.zeros(n + 1, dtype=np.int64)  # blocks straddling a cut before row c
+        for rows, _ in self.blocks:
+            inside[rows[0] + 1] += 1
+            inside[rows[-1] + 1] -= 1
+        safe = np.flatnonzero(np.cumsum(inside) == 0)  # cuts that split no block
+        bounds, lo = [], 0
+        while lo < n:
+            hi = int(safe[np.searchsorted(safe, min(n, lo + max(1, size)))])
+            bounds.append((lo, hi))
+            lo = hi
+        return bounds
 
     def covariance(self) -> NDArray[np.float64]:
         """Return the dense covariance matrix, the pseudo-inverse of ``W^T W``.

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..arrays import Array
 from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
+from .noise_blocks import correlated_blocks
 
 #: The rows of one kind: integer indices or a slice.
 Index = NDArray[np.intp] | slice
@@ -198,7 +199,7 @@ class RowModel:
     time, time_ref : array_like
         Row times and reference times (m,), s (the latter for kinds ``uses_reference``).
     sigma, sensor : array_like
-        Noise standard deviations (m,), SI, and sensor ids (m,).
+        Noise standard deviations (m,), SI, and sensor ids or codes (m,).
     sensor_state, ref_sensor_state : array_like
         Sensor states ``[x, y, z, vx, vy, vz]`` (m, 6), m and m/s, at the rows' times and at
         their reference times.
@@ -444,8 +445,14 @@ class RowModel:
         return np.where(self.angle, wrap_angle(diff), diff)
 
     # -- noise -------------------------------------------------------------------------------
-    def correlated_blocks(self) -> list[tuple[NDArray[np.intp], Array]]:
+    def correlated_blocks(self, singletons: bool = True
+                          ) -> list[tuple[NDArray[np.intp], Array]]:
         """Return the noise blocks that are not diagonal (see :func:`correlated_blocks`).
+
+        Parameters
+        ----------
+        singletons : bool, optional
+            Also give each row that shares no interval with another as a 1 x 1 block.
 
         Returns
         -------
@@ -453,7 +460,7 @@ class RowModel:
             Row indices and their covariance (SI units squared).
         """
         return correlated_blocks(self.models, self.index, self.time, self.time_ref,
-                                 self.sigma, self.sensor)
+                                 self.sigma, self.sensor, singletons)
 
     def covariance(self) -> Array:
         """Return the noise covariance ``R``.
@@ -468,33 +475,3 @@ class RowModel:
         for rows, cov in self.correlated_blocks():
             r[np.ix_(rows, rows)] = cov
         return r
-
-
-def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
-                      time: Array, time_ref: Array, sigma: Array, sensor: NDArray[np.str_]
-                      ) -> list[tuple[NDArray[np.intp], Array]]:
-    """Return the correlated noise blocks of a set of rows.
-
-    Parameters
-    ----------
-    models, index
-        Each kind's model and rows (ascending indices or a slice).
-    time, time_ref, sigma, sensor
-        The rows' columns (m,): s, s, SI, ids.
-
-    Returns
-    -------
-    list of (rows, covariance)
-        One block per kind with ``correlated_noise`` and per sensor: its rows (ascending)
-        and their covariance from the kind's ``noise_covariance`` hook (SI units squared).
-    """
-    blocks: list[tuple[NDArray[np.intp], Array]] = []
-    m = time.shape[0]
-    for kind, model in models.items():
-        if not model.correlated_noise:
-            continue
-        rows = np.arange(m)[index[kind]]
-        for s in np.unique(sensor[rows]):
-            own = rows[sensor[rows] == s]
-            blocks.append((own, model.noise_covariance(time[own], time_ref[own], sigma[own])))
-    return blocks

@@ -385,25 +385,27 @@ def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.flo
                  nu: NDArray[np.float64], known: bool,
                  jacobian: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
                  ) -> NDArray[np.float64]:
-    """Fisher information ``J'WJ`` at the fit; chunk by chunk for many independent rows.
+    """Fisher information ``J'WJ`` at the fit; chunk by chunk for many rows.
 
-    (Chunks without nuisance only: a chunk's model has the nuisance of its own kinds.)
+    (Chunks without nuisance only: a chunk's model has the nuisance of its own kinds; chunks
+    hold whole correlated noise blocks, each whitened by its own.)
     ``jacobian``, the grouped Jacobians already computed at the fit, is used when given.
     """
     n = len(obs.meas)
-    chunks = n > blas.CHUNKED_ROWS and not noise.blocks and obs.n_nuisance == 0
+    chunks = n > blas.CHUNKED_ROWS and obs.n_nuisance == 0
     if jacobian is not None and not chunks:
         j_theta, j_nu = jacobian
         jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
         w = noise.whiten(jac, axis=-2)
         return np.asarray(w.T @ w, dtype=float)
     info = 0.0
-    for lo in range(0, n, blas.CHUNK_ROWS if chunks else max(n, 1)):
-        hi = min(n, lo + blas.CHUNK_ROWS) if chunks else n
+    for lo, hi in noise.chunk_bounds(blas.CHUNK_ROWS) if chunks else [(0, n)]:
         part = obs.take(obs.order[lo:hi]) if chunks else obs
         j_theta, j_nu = part.jacobian_grouped(theta, nu)  # the noise model is grouped too
         jac = j_theta if known or j_nu.shape[-1] == 0 else np.concatenate([j_theta, j_nu], -1)
-        if chunks:  # jac is this loop's own array: scaled in place
+        if chunks and noise.blocks:  # whole blocks only: whitened by the chunk's own
+            jac = NoiseModel(part.grouped).whiten(jac, axis=-2, overwrite=True)
+        elif chunks:  # jac is this loop's own array: scaled in place
             jac *= noise.inv_sigma[lo:hi, None]
         w = jac if chunks else noise.whiten(jac, axis=-2, overwrite=True)
         info = info + w.T @ w

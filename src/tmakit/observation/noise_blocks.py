@@ -1,0 +1,94 @@
+"""The correlated noise blocks of a set of rows, one per group of overlapping spans.
+
+Range differences of one sensor are correlated when their spans ``(time_ref, time]`` share
+pulse intervals (Chen & Sun, eq. 1): the covariance of two rows is the length of the overlap
+of their spans times the noise density.  Rows whose spans overlap, directly or through other
+rows, form a group; rows of different groups are independent, so the covariance is
+block-diagonal by group and each group is one block (found in ``O(m log m)`` by sorting the
+spans by their start).  A row that overlaps no other is independent with its own sigma.  A
+large set of range differences is then whitened group by group (and can be fitted in chunks
+of rows that never split a group: :meth:`tmakit.observation.NoiseModel.chunk_bounds`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..arrays import Array
+from ..measurements import MeasurementModel
+
+__all__ = ["correlated_blocks", "overlapping_groups"]
+
+Index = NDArray[np.intp] | slice
+
+
+def overlapping_groups(rows: NDArray[np.intp], time: Array, time_ref: Array,
+                       singletons: bool = True) -> Iterator[NDArray[np.intp]]:
+    """Split rows into groups whose spans ``(time_ref, time]`` overlap (transitively).
+
+    Parameters
+    ----------
+    rows : numpy.ndarray of int
+        The rows (ascending), of one sensor.
+    time, time_ref : numpy.ndarray
+        Every row's time and reference time (s).
+    singletons : bool, optional
+        Also give the rows that overlap no other, each alone.
+
+    Yields
+    ------
+    numpy.ndarray of int
+        The rows of one group, ascending; groups in order of their earliest span start.
+    """
+    if rows.shape[0] == 0:
+        return
+    order = np.argsort(time_ref[rows], kind="stable")
+    start, end = time_ref[rows][order], time[rows][order]
+    # a new group starts where a span begins at or after the end of every earlier span
+    reach = np.maximum.accumulate(end)
+    cut = np.flatnonzero(start[1:] >= reach[:-1]) + 1
+    bounds = np.concatenate(([0], cut, [rows.shape[0]]))
+    for lo, hi in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        if hi - lo > 1 or singletons:
+            yield np.sort(rows[order[lo:hi]])
+
+
+def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                      time: Array, time_ref: Array, sigma: Array, sensor: NDArray[Any],
+                      singletons: bool = True) -> list[tuple[NDArray[np.intp], Array]]:
+    """Return the correlated noise blocks of a set of rows.
+
+    Parameters
+    ----------
+    models, index
+        Each kind's model and rows (ascending indices or a slice).
+    time, time_ref, sigma, sensor
+        The rows' columns (m,): s, s, SI, sensor ids or codes (rows of one sensor are
+        correlated).
+    singletons : bool, optional
+        Also give the rows that share no interval with another row, each as a 1 x 1 block
+        (its variance as the kind's hook computes it); without them the blocks are only
+        those with correlations, and the other rows keep their sigma.
+
+    Returns
+    -------
+    list of (rows, covariance)
+        One block per kind with ``correlated_noise``, per sensor and per group of rows whose
+        spans overlap (:func:`overlapping_groups`): its rows (ascending) and their covariance
+        from the kind's ``noise_covariance`` hook (SI units squared).
+    """
+    blocks: list[tuple[NDArray[np.intp], Array]] = []
+    m = time.shape[0]
+    for kind, model in models.items():
+        if not model.correlated_noise:
+            continue
+        rows = np.arange(m)[index[kind]]
+        for s in np.unique(sensor[rows]):
+            own = rows[sensor[rows] == s]
+            blocks.extend((g, model.noise_covariance(time[g], time_ref[g], sigma[g]))
+                          for g in overlapping_groups(own, time, time_ref, singletons))
+    return blocks
