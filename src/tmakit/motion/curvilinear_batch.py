@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 from ..blas import matmul
+from . import curvilinear_compiled as compiled
 from .base import MotionModel
 from .curvilinear_closed import (
     propagate_position_velocity,
@@ -144,6 +145,8 @@ class ForwardPiecewise(MotionModel):
         state, accelerations and the time since its start; plus the anchors' derivatives.
         """
         M = self.manoeuvres
+        if compiled.available():
+            return compiled.piecewise(theta, t, M, self.ref_time, self.end_time, partials)
         b = theta.shape[0]
         anchors, d_anchor, starts, _ = self._anchors(theta, partials)
         acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
@@ -248,6 +251,8 @@ class ForwardPiecewise(MotionModel):
         M, p = self.manoeuvres, self.n_params
         b = flat.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
+        if compiled.available():
+            return compiled.chain(ds, par_u, seg_u, idx, d_anchor, M)
         w, seg = _weights(ds, par_u, seg_u, idx)
         if M == 0:
             return np.ascontiguousarray(w[..., :6])
