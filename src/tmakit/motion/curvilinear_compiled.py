@@ -77,7 +77,8 @@ def _compile() -> dict[str, Callable[..., object]]:
     kn.piecewise(theta, t, 1, 0.0, np.inf, True, seg, vals, par, d_anchor)
     out = np.empty((1, 2, 9))
     kn.chain(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1, out)
-    return {"piecewise": kn.piecewise, "chain": kn.chain}
+    kn.scatter_states(vals, np.arange(2), np.empty((1, 2, 6)))
+    return {"piecewise": kn.piecewise, "chain": kn.chain, "scatter": kn.scatter_states}
 
 
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
@@ -162,4 +163,32 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
     _STATE["kernels"]["chain"](np.asarray(ds, dtype=float), par, seg, rows, d_anchor,
                                manoeuvres, out)
+    return out
+
+
+def scatter_states(vals: Array, inv: Array) -> Array:
+    """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times, compiled.
+
+    Parameters
+    ----------
+    vals : ndarray
+        ``(B, nu, 6)`` ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad, m/s, m/s) as
+        :func:`piecewise` gives them.
+    inv : ndarray of int
+        ``(n,)`` every row's unique time.
+
+    Returns
+    -------
+    ndarray
+        ``(B, n, 6)`` ``(x, y, 0, vx, vy, 0)`` (m, m/s; NaN outside the model's domain).
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
+    out = np.empty((vals.shape[0], inv.shape[0], 6))
+    _STATE["kernels"]["scatter"](vals, np.ascontiguousarray(inv, dtype=np.int64), out)
     return out

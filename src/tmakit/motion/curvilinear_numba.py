@@ -59,10 +59,9 @@ def _f_terms(g: complex, r: float, L: float, dL: float, E: complex
              ) -> tuple[complex, complex, complex]:  # pragma: no cover - compiled
     """Give ``F``, ``dF/dg``, ``dF/dr`` of the closed form (series near zero)."""
     if abs(g) + abs(r) >= _SERIES_BELOW:
-        denom = g + r
-        F = ((1.0 + r) * E - 1.0) / denom
-        return (F, ((1.0 + r) * L * E - F) / denom,
-                (E + (1.0 + r) * g * dL * E - F) / denom)
+        inv = 1.0 / (g + r)  # one complex division, not three
+        F = ((1.0 + r) * E - 1.0) * inv
+        return F, ((1.0 + r) * L * E - F) * inv, (E + (1.0 + r) * g * dL * E - F) * inv
     if g == 0.0 and r == 0.0:
         return 1.0 + 0.0j, 0.5 + 0.0j, 0.0j
     F = 0.0j
@@ -290,3 +289,29 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array, manoeu
             out[b, i, 5 + 2 * sg] += w[5]
             if sg >= 1:
                 out[b, i, 5 + 2 * M + sg] -= w[6]
+
+
+@_jit
+def scatter_states(vals: Array, inv: Array, out: Array) -> None:  # pragma: no cover - compiled
+    """Write ENU states ``(B, n, 6)`` of the rows from the values at the unique times.
+
+    Parameters
+    ----------
+    vals : ndarray
+        ``(B, nu, 6)`` ``(x, y, speed, course, vx, vy)`` at the unique times.
+    inv : ndarray of int
+        ``(n,)`` every row's unique time.
+    out : ndarray
+        ``(B, n, 6)`` written with ``(x, y, 0, vx, vy, 0)`` (the zeros NaN where ``x`` is).
+    """
+    for b in range(out.shape[0]):
+        for i in range(out.shape[1]):
+            u = inv[i]
+            x = vals[b, u, 0]
+            zero = x - x  # NaN where the state is
+            out[b, i, 0] = x
+            out[b, i, 1] = vals[b, u, 1]
+            out[b, i, 2] = zero
+            out[b, i, 3] = vals[b, u, 4]
+            out[b, i, 4] = vals[b, u, 5]
+            out[b, i, 5] = zero
