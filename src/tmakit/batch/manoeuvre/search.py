@@ -23,6 +23,7 @@ from ...results.nuisance import KnownNuisance
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
 from .grid import grid_tuples, local_minima, split_segment
 from .settings import ManoeuvreSettings, OrderFit
+from .variants import batched_fit
 
 _CHUNK = 256  # held fits per batch on the profile grid
 PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
@@ -31,7 +32,8 @@ PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 
 def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
            rtol: float = 1e-3, atol: float = 0.02, prune: float | None = None,
-           best: float = np.inf, max_reject: int = 40, stall: float = 0.0) -> SolveResult:
+           best: float = np.inf, max_reject: int = 40, stall: float = 0.0,
+           groups: NDArray[np.int64] | None = None) -> SolveResult:
     """Fit by Levenberg–Marquardt with the search's damping and stopping rules.
 
     Only the columns ``free`` are fitted, from the starts ``theta0``; the damping is divided
@@ -63,6 +65,9 @@ def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_i
     stall : float
         With ``stall > 0`` a fit also stops once six iterations in a row lowered its cost by
         less than ``stall`` in all (creeping along corners or a flat valley).
+    groups : ndarray of int, optional
+        ``(B,)`` with ``prune``: the fits compared for it are those of one group (default:
+        all of the batch).
 
     Returns
     -------
@@ -71,7 +76,8 @@ def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_i
     """
     return levenberg_marquardt(
         problem, problem.obs.values, theta0, max_iter, ftol=rtol, xtol=0.0, gtol=0.0,
-        dtol=atol, ceiling=None if prune is None else np.asarray(best), free=free,
+        dtol=atol, groups=groups, ceiling=None if prune is None else np.asarray(best),
+        free=free,
         damping="factors", max_reject=max_reject, stall=stall,
         dominance=(2.0, 0.0 if prune is None else prune))
 
@@ -370,14 +376,16 @@ class ManoeuvreSearch:
             if start.size == 0:
                 break
             best_theta, best_cost = None, fit.chi2 / 2.0
-            for k in range(m):  # one batch per held time (the free columns differ)
-                rows = np.flatnonzero(held_k == k)
-                if rows.size == 0:
-                    continue
-                free = fit.free_mask().copy()
-                free[k0 + k] = False
-                sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=self.s.prune)
-                i = int(np.argmin(sol.cost))
+            ks = [k for k in range(m) if np.any(held_k == k)]
+            free_sets = np.tile(fit.free_mask(), (len(ks), 1))
+            free_sets[np.arange(len(ks)), k0 + np.array(ks, dtype=np.int64)] = False
+            variant = np.searchsorted(ks, held_k)
+            # one solver loop for every held time, each fit as if alone (variants.py)
+            sol = batched_fit(lm_fit, pr, start, free_sets, variant,
+                              max_iter=self.s.profile_iter, prune=self.s.prune)
+            for v in range(len(ks)):
+                rows = np.flatnonzero(variant == v)
+                i = rows[int(np.argmin(sol.cost[rows]))]
                 if sol.cost[i] < best_cost - 1e-9:
                     best_theta, best_cost = sol.theta[i], float(sol.cost[i])
             if best_theta is None:
