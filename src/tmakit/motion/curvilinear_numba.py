@@ -27,6 +27,7 @@ import numpy as np
 from ..arrays import Array
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 _SERIES_BELOW = 1e-3     # as curvilinear_closed: |g| + |r| below which F comes from its series
 _SERIES_TERMS = 6
@@ -35,7 +36,7 @@ _L_TERMS = 6
 _INV_FACTORIAL = tuple(1.0 / math.factorial(n + 1) for n in range(_SERIES_TERMS))
 
 
-@_jit
+@_inline
 def _log1p_over(r: float) -> tuple[float, float]:  # pragma: no cover - compiled
     """Give ``L(r) = log1p(r) / r`` and ``L'(r)`` (the branches of the NumPy path)."""
     if r == 0.0:
@@ -54,7 +55,7 @@ def _log1p_over(r: float) -> tuple[float, float]:  # pragma: no cover - compiled
     return lg / r, (r / (1.0 + r) - lg) / (r * r)
 
 
-@_jit
+@_inline
 def _f_terms(g: complex, r: float, L: float, dL: float, E: complex
              ) -> tuple[complex, complex, complex]:  # pragma: no cover - compiled
     """Give ``F``, ``dF/dg``, ``dF/dr`` of the closed form (series near zero)."""
@@ -78,7 +79,7 @@ def _f_terms(g: complex, r: float, L: float, dL: float, E: complex
     return F, Fg, Fr
 
 
-@_jit
+@_inline
 def _segment(x: float, y: float, v0: float, phi0: float, V0: complex, a_t: float,
              a_n: float, s: float, vals: Array, par: Array, state_rows: bool,
              partials: bool) -> None:  # pragma: no cover - compiled
