@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
+from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings, variants
 from tmakit.batch.manoeuvre.search import lm_fit
 from tmakit.batch.manoeuvre.selection import hold_starts, may_hold
 from tmakit.batch.manoeuvre.variants import HeldVariants, batched_fit
+from tmakit.batch.solver import VarProProblem
 
 
 @pytest.fixture(scope="module")
@@ -62,3 +63,18 @@ def test_batched_holds_equal_the_holds_fitted_one_by_one(fitted, prune):
         np.testing.assert_array_equal(sol.iterations[rows], alone.iterations)
         np.testing.assert_array_equal(sol.converged[rows], alone.converged)
         assert np.all(sol.theta[rows][:, cands[v]] == 0.0)  # held at zero
+
+
+def test_blocked_evaluation_equals_one_piece(fitted):
+    search, fit = fitted
+    pr = search.problem(1)
+    assert isinstance(pr, variants.BlockedProblem)
+    rng = np.random.default_rng(4)
+    theta = fit.theta + 1e-3 * rng.normal(size=(variants.BLOCK * 2 + 5, pr.p))
+    y = np.broadcast_to(pr.group(pr.obs.values), (theta.shape[0], len(search.meas)))
+    nu = pr.reference_nuisance(y)
+    u = pr.data_part(y, nu)
+    blocked = pr.evaluate_part(theta, u, nu, True)
+    whole = VarProProblem.evaluate_part(pr, theta, u, nu, True)
+    for name in ("theta", "nuisance", "residual", "cost", "jacobian"):
+        np.testing.assert_array_equal(getattr(blocked, name), getattr(whole, name))

@@ -21,9 +21,9 @@ from ...motion.curvilinear_batch import ForwardPiecewise
 from ...observation import ObservationModel
 from ...results.nuisance import KnownNuisance
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
-from .grid import grid_tuples, local_minima, split_segment
+from .grid import grid_tuples, local_minima, probe_starts, split_segment
 from .settings import ManoeuvreSettings, OrderFit
-from .variants import batched_fit
+from .variants import BlockedProblem, batched_fit
 
 _CHUNK = 256  # held fits per batch on the profile grid
 PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
@@ -142,7 +142,7 @@ class ManoeuvreSearch:
             model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
             obs = ObservationModel(self.meas, model, self.options)
             fixed = None if self.known is None else obs.nuisance_vector(self.known.values)
-            self._problems[m] = VarProProblem(obs, None, fixed)
+            self._problems[m] = BlockedProblem(obs, None, fixed)
         return self._problems[m]
 
     def max_order(self) -> int:
@@ -430,26 +430,6 @@ class ManoeuvreSearch:
             self.settle(fit)
         return fit
 
-    def _probes(self, theta: Array, m: int) -> Array:
-        """Make the held starts of the corner test.
-
-        Each change-over time of ``theta`` is moved by :data:`PROBES` and onto the
-        measurement time either side.
-        """
-        k0 = 6 + 2 * m
-        samples = np.unique(self.meas.time)
-        probes = []
-        for k in range(m):
-            t_k = theta[k0 + k]
-            # the corners either side, and steps of 0.05 to 3 s
-            below = samples[samples < t_k - 1e-6][-1:]
-            above = samples[samples > t_k + 1e-6][:1]
-            for target in (*(t_k + d for d in PROBES), *below, *above):
-                q = theta.copy()
-                q[k0 + k] = target
-                probes.append(q)
-        return np.array(probes)
-
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
         """Settle, in place, a refinement that stopped short of the smooth convergence tests.
 
@@ -479,8 +459,8 @@ class ManoeuvreSearch:
             held = lm_fit(pr, fit.theta[None], held_free, 50, rtol=1e-10, atol=1e-7)
             if not held.converged[0]:
                 break
-            ps = lm_fit(pr, self._probes(held.theta[0], m), held_free, 50, rtol=1e-10,
-                        atol=1e-7)
+            probes = probe_starts(held.theta[0], m, np.unique(self.meas.time), PROBES)
+            ps = lm_fit(pr, probes, held_free, 50, rtol=1e-10, atol=1e-7)
             c0 = float(held.cost[0])
             fit.iterations += int(held.iterations[0])
             if np.all(ps.cost >= c0 - tol / 2.0):

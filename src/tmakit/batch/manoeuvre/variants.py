@@ -170,3 +170,50 @@ def batched_fit(fit: Callable[..., SolveResult], problem: VarProProblem, starts:
               groups=groups, **kw)
     sol.theta = held.unpack(sol.theta)[0]
     return sol
+
+
+BLOCK = 32
+"""Parameter vectors per evaluation in :class:`BlockedProblem` (bounds the working set)."""
+
+
+class BlockedProblem(VarProProblem):
+    """A :class:`VarProProblem` that evaluates large batches in blocks of :data:`BLOCK` rows.
+
+    The profile of the change-over times fits hundreds of grid points at once; evaluated in
+    one piece their ``(B, n, p)`` arrays leave the caches.  Each row's evaluation is its own,
+    so the blocks give the same numbers (``tests/test_manoeuvre_variants.py``).
+    """
+
+    def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
+                      with_jacobian: bool = True) -> Evaluation:
+        """Evaluate as :meth:`VarProProblem.evaluate_part`, in blocks of rows.
+
+        Parameters
+        ----------
+        theta, u, nu_star : ndarray
+            ``(B, p)``, ``(B, n)``, ``(B, k)`` as for :meth:`VarProProblem.evaluate_part`.
+        with_jacobian : bool
+            Whether to compute the Jacobian.
+
+        Returns
+        -------
+        Evaluation
+            Of every row.
+        """
+        b = np.shape(theta)[0]
+        if b <= BLOCK:
+            return super().evaluate_part(theta, u, nu_star, with_jacobian)
+        parts = [super(BlockedProblem, self).evaluate_part(theta[a:a + BLOCK], u[a:a + BLOCK],
+                                                           nu_star[a:a + BLOCK], with_jacobian)
+                 for a in range(0, b, BLOCK)]
+
+        def join(name: str) -> Array | None:
+            got = [getattr(p, name) for p in parts]
+            return None if got[0] is None else np.concatenate(got)
+
+        normal = None
+        if parts[0].normal is not None:
+            normal = (np.concatenate([p.normal[0] for p in parts]),
+                      np.concatenate([p.normal[1] for p in parts]))
+        return Evaluation(join("theta"), join("nuisance"), join("residual"), join("cost"),
+                          join("jacobian"), normal)
