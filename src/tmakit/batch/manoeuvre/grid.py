@@ -100,39 +100,3 @@ def local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
             keep.append(i)
     keep_arr = np.array(keep, dtype=np.int64)
     return keep_arr[np.argsort(cost[keep_arr])] if keep_arr.size else keep_arr
-
-
-def probe_starts(theta: Array, m: int, samples: Array, moves: tuple[float, ...]) -> Array:
-    """Make the held starts of the corner test (:meth:`ManoeuvreSearch.settle`).
-
-    Each change-over time of ``theta`` is moved by ``moves`` and onto the measurement time
-    either side.
-
-    Parameters
-    ----------
-    theta : ndarray
-        ``(p,)`` internal parameters (SI) with ``m`` change-over times last.
-    m : int
-        The number of manoeuvres.
-    samples : ndarray
-        The measurement times, increasing (s).
-    moves : tuple of float
-        The moves (s).
-
-    Returns
-    -------
-    ndarray
-        ``(S, p)`` the starts, by change-over time.
-    """
-    k0 = 6 + 2 * m
-    probes = []
-    for k in range(m):
-        t_k = theta[k0 + k]
-        # the corners either side, and the moves
-        below = samples[samples < t_k - 1e-6][-1:]
-        above = samples[samples > t_k + 1e-6][:1]
-        for target in (*(t_k + d for d in moves), *below, *above):
-            q = theta.copy()
-            q[k0 + k] = target
-            probes.append(q)
-    return np.array(probes)

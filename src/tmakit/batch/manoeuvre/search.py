@@ -21,9 +21,8 @@ from ...motion.curvilinear_batch import ForwardPiecewise
 from ...observation import ObservationModel
 from ...results.nuisance import KnownNuisance
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
-from .grid import grid_tuples, local_minima, probe_starts, split_segment
+from .grid import grid_tuples, local_minima, split_segment
 from .settings import ManoeuvreSettings, OrderFit
-from .variants import BlockedProblem, batched_fit
 
 _CHUNK = 256  # held fits per batch on the profile grid
 PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
@@ -32,8 +31,7 @@ PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 
 def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
            rtol: float = 1e-3, atol: float = 0.02, prune: float | None = None,
-           best: float = np.inf, max_reject: int = 40, stall: float = 0.0,
-           groups: NDArray[np.int64] | None = None) -> SolveResult:
+           best: float = np.inf, max_reject: int = 40, stall: float = 0.0) -> SolveResult:
     """Fit by Levenberg–Marquardt with the search's damping and stopping rules.
 
     Only the columns ``free`` are fitted, from the starts ``theta0``; the damping is divided
@@ -65,9 +63,6 @@ def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_i
     stall : float
         With ``stall > 0`` a fit also stops once six iterations in a row lowered its cost by
         less than ``stall`` in all (creeping along corners or a flat valley).
-    groups : ndarray of int, optional
-        ``(B,)`` with ``prune``: the fits compared for it are those of one group (default:
-        all of the batch).
 
     Returns
     -------
@@ -76,8 +71,7 @@ def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_i
     """
     return levenberg_marquardt(
         problem, problem.obs.values, theta0, max_iter, ftol=rtol, xtol=0.0, gtol=0.0,
-        dtol=atol, groups=groups, ceiling=None if prune is None else np.asarray(best),
-        free=free,
+        dtol=atol, ceiling=None if prune is None else np.asarray(best), free=free,
         damping="factors", max_reject=max_reject, stall=stall,
         dominance=(2.0, 0.0 if prune is None else prune))
 
@@ -142,7 +136,7 @@ class ManoeuvreSearch:
             model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
             obs = ObservationModel(self.meas, model, self.options)
             fixed = None if self.known is None else obs.nuisance_vector(self.known.values)
-            self._problems[m] = BlockedProblem(obs, None, fixed)
+            self._problems[m] = VarProProblem(obs, None, fixed)
         return self._problems[m]
 
     def max_order(self) -> int:
@@ -376,16 +370,14 @@ class ManoeuvreSearch:
             if start.size == 0:
                 break
             best_theta, best_cost = None, fit.chi2 / 2.0
-            ks = [k for k in range(m) if np.any(held_k == k)]
-            free_sets = np.tile(fit.free_mask(), (len(ks), 1))
-            free_sets[np.arange(len(ks)), k0 + np.array(ks, dtype=np.int64)] = False
-            variant = np.searchsorted(ks, held_k)
-            # one solver loop for every held time, each fit as if alone (variants.py)
-            sol = batched_fit(lm_fit, pr, start, free_sets, variant,
-                              max_iter=self.s.profile_iter, prune=self.s.prune)
-            for v in range(len(ks)):
-                rows = np.flatnonzero(variant == v)
-                i = rows[int(np.argmin(sol.cost[rows]))]
+            for k in range(m):  # one batch per held time (the free columns differ)
+                rows = np.flatnonzero(held_k == k)
+                if rows.size == 0:
+                    continue
+                free = fit.free_mask().copy()
+                free[k0 + k] = False
+                sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=self.s.prune)
+                i = int(np.argmin(sol.cost))
                 if sol.cost[i] < best_cost - 1e-9:
                     best_theta, best_cost = sol.theta[i], float(sol.cost[i])
             if best_theta is None:
@@ -430,6 +422,26 @@ class ManoeuvreSearch:
             self.settle(fit)
         return fit
 
+    def _probes(self, theta: Array, m: int) -> Array:
+        """Make the held starts of the corner test.
+
+        Each change-over time of ``theta`` is moved by :data:`PROBES` and onto the
+        measurement time either side.
+        """
+        k0 = 6 + 2 * m
+        samples = np.unique(self.meas.time)
+        probes = []
+        for k in range(m):
+            t_k = theta[k0 + k]
+            # the corners either side, and steps of 0.05 to 3 s
+            below = samples[samples < t_k - 1e-6][-1:]
+            above = samples[samples > t_k + 1e-6][:1]
+            for target in (*(t_k + d for d in PROBES), *below, *above):
+                q = theta.copy()
+                q[k0 + k] = target
+                probes.append(q)
+        return np.array(probes)
+
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
         """Settle, in place, a refinement that stopped short of the smooth convergence tests.
 
@@ -459,8 +471,8 @@ class ManoeuvreSearch:
             held = lm_fit(pr, fit.theta[None], held_free, 50, rtol=1e-10, atol=1e-7)
             if not held.converged[0]:
                 break
-            probes = probe_starts(held.theta[0], m, np.unique(self.meas.time), PROBES)
-            ps = lm_fit(pr, probes, held_free, 50, rtol=1e-10, atol=1e-7)
+            ps = lm_fit(pr, self._probes(held.theta[0], m), held_free, 50, rtol=1e-10,
+                        atol=1e-7)
             c0 = float(held.cost[0])
             fit.iterations += int(held.iterations[0])
             if np.all(ps.cost >= c0 - tol / 2.0):

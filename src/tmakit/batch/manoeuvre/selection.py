@@ -17,7 +17,6 @@ from scipy.stats import chi2 as chi2_dist
 from ...arrays import Array
 from .search import ManoeuvreSearch, lm_fit
 from .settings import CRITERIA, ManoeuvreSettings, OrderFit
-from .variants import batched_fit
 
 
 @dataclass
@@ -239,23 +238,18 @@ def _best_hold(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool
     """
     m = current.manoeuvres
     pr = search.problem(m)
-    cands = [i for i in range(4, 6 + 2 * m) if free[i] and may_hold(free, i, m)]
-    if not cands:
-        return None
-    free_sets = np.tile(free, (len(cands), 1))
-    free_sets[np.arange(len(cands)), cands] = False
-    starts = [hold_starts(search, current.theta, i, m) for i in cands]
-    variant = np.repeat(np.arange(len(cands)), [s.shape[0] for s in starts])
-    # ranking holds needs chi2 to ~0.04; a start that cannot come within the price of the
-    # current fit is dropped early.  One solver loop for every hold, each fit as if alone.
-    sol = batched_fit(lm_fit, pr, np.concatenate(starts), free_sets, variant, max_iter=30,
-                      rtol=0.0, atol=0.02, max_reject=8, stall=1e-2, prune=price / 2.0,
-                      best=current.chi2 / 2.0)
     best: tuple[float, int, Array, Array] | None = None
-    cost = np.where(np.isfinite(sol.cost), sol.cost, np.inf)
-    for v, i in enumerate(cands):
-        rows = np.flatnonzero(variant == v)
-        j = rows[int(np.argmin(cost[rows]))]
+    for i in range(4, 6 + 2 * m):
+        if not free[i] or not may_hold(free, i, m):
+            continue
+        mask = free.copy()
+        mask[i] = False
+        starts = hold_starts(search, current.theta, i, m)
+        # ranking holds needs chi2 to ~0.04; a start that cannot come within the price of the
+        # current fit is dropped early
+        sol = lm_fit(pr, starts, mask, 30, rtol=0.0, atol=0.02, max_reject=8, stall=1e-2,
+                     prune=price / 2.0, best=current.chi2 / 2.0)
+        j = int(np.argmin(np.where(np.isfinite(sol.cost), sol.cost, np.inf)))
         if best is None or 2.0 * sol.cost[j] < best[0]:
             best = (float(2.0 * sol.cost[j]), i, sol.theta[j], sol.nuisance[j])
     return best
