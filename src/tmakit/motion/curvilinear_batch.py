@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 from ..blas import matmul
+from . import curvilinear_compiled as compiled
 from .base import MotionModel
 from .curvilinear_closed import (
     propagate_position_velocity,
@@ -144,6 +145,8 @@ class ForwardPiecewise(MotionModel):
         state, accelerations and the time since its start; plus the anchors' derivatives.
         """
         M = self.manoeuvres
+        if compiled.available():
+            return compiled.piecewise(theta, t, M, self.ref_time, self.end_time, partials)
         b = theta.shape[0]
         anchors, d_anchor, starts, _ = self._anchors(theta, partials)
         acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
@@ -181,16 +184,23 @@ class ForwardPiecewise(MotionModel):
         """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
-        tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
+        last_t, last_inv = self._rows
+        if last_inv is not None and t.shape == last_t.shape and np.array_equal(t, last_t):
+            tu, inv = self._times, last_inv  # the rows of the last call (the usual case)
+        else:
+            tu, inv = np.unique(t, return_inverse=True)  # kinds measured at the same times
+            inv = inv.reshape(-1)
+            self._rows = (t.copy(), inv)
         self._times = tu
         seg_u, val, par_u, d_anchor = self._segments(flat, tu, partials=True)
         self._cache = ((flat.tobytes(), flat.shape), tu, seg_u, par_u, d_anchor)
-        self._rows = (t.copy(), inv.reshape(-1))
+        if compiled.available():
+            return compiled.scatter_states(val, inv).reshape(*lead, t.shape[0], 6)
         out = np.zeros((flat.shape[0], tu.size, 6))
         out[..., 0], out[..., 1] = val[..., 0], val[..., 1]
         out[..., 3], out[..., 4] = val[..., 4], val[..., 5]
         out[..., 2] = out[..., 5] = np.where(np.isnan(val[..., 0]), np.nan, 0.0)
-        return out[:, inv.reshape(-1)].reshape(*lead, t.shape[0], 6)
+        return out[:, inv].reshape(*lead, t.shape[0], 6)
 
     def _theta_partials(self, flat: Array, t: Array
                         ) -> tuple[Array, Array, Array, NDArray[np.int64] | None]:
@@ -248,6 +258,8 @@ class ForwardPiecewise(MotionModel):
         M, p = self.manoeuvres, self.n_params
         b = flat.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
+        if compiled.available():
+            return compiled.chain(ds, par_u, seg_u, idx, d_anchor, M)
         w, seg = _weights(ds, par_u, seg_u, idx)
         if M == 0:
             return np.ascontiguousarray(w[..., :6])

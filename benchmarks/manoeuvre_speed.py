@@ -1,0 +1,103 @@
+"""CPU time of the hoerst2010 manoeuvre estimate beside an earlier commit, in one process.
+
+    PYTHONPATH=src python benchmarks/manoeuvre_speed.py --base fbbd762 --runs 1 2 3 4 5
+
+The base commit's ``src/tmakit`` is exported to a temporary folder and imported under another
+name (``tmakit_base``), so that both trees run in the same process, interleaved data set by
+data set: the earlier code, this tree with its compiled trajectory kernels (numba) and this
+tree on its NumPy path (``use_compiled(False)``).  Each estimate is ``M = 0 .. 3`` on the
+seeded runs of ``benchmarks/montecarlo_hoerst2010.py`` (``SeedSequence(0)``), timed by
+``time.process_time`` (BLAS on one thread; one untimed warm-up estimate first, which imports
+numba and loads the kernels).  Printed: every run's times and ratios, whether the chosen order
+and held accelerations agree, and the medians with the ratios' interquartile range.  On a
+loaded machine the ratios hold better than the times.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse
+import importlib
+import io
+import re
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def export_base(commit: str, folder: Path) -> None:
+    """Export ``src/tmakit`` of ``commit`` into ``folder/tmakit_base``, renamed throughout."""
+    blob = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "src/tmakit"],
+                          check=True, capture_output=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(blob)) as tar:
+        tar.extractall(folder, filter="data")
+    (folder / "src" / "tmakit").rename(folder / "tmakit_base")
+    for path in (folder / "tmakit_base").rglob("*.py"):
+        text = path.read_text()
+        path.write_text(re.sub(r"\btmakit\b", "tmakit_base", text))
+
+
+def main() -> None:
+    """Time the three variants interleaved and print the table."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--base", default="fbbd762", help="the earlier commit (default fbbd762)")
+    ap.add_argument("--runs", type=int, nargs="+", default=[1, 2, 3, 4, 5],
+                    help="run numbers (1-based) of the 200 seeded runs")
+    args = ap.parse_args()
+    import tmakit as tk
+    from tmakit.batch.curvilinear import estimate_manoeuvres as new_estimate
+    from tmakit.motion import curvilinear_compiled
+
+    with tempfile.TemporaryDirectory() as tmp:
+        export_base(args.base, Path(tmp))
+        sys.path.insert(0, tmp)
+        old_estimate = importlib.import_module("tmakit_base.batch.curvilinear"
+                                               ).estimate_manoeuvres
+        scn = tk.load_scenario("hoerst2010")
+        seeds = np.random.SeedSequence(0).generate_state(max(args.runs))
+
+        def data(i: int) -> tk.MeasurementSet:
+            return scn.simulate(rng=np.random.default_rng(int(seeds[i - 1])))
+
+        warm = data(args.runs[0])
+        new_estimate(warm, 1)
+        old_estimate(warm, 1)
+        rows = []
+        for i in args.runs:
+            meas = data(i)
+            times, chosen = [], []
+            for fn, kernels in ((old_estimate, True), (new_estimate, True),
+                                (new_estimate, False)):
+                curvilinear_compiled.use_compiled(kernels)
+                t0 = time.process_time()
+                res = fn(meas, 3)
+                times.append(time.process_time() - t0)
+                chosen.append((res.manoeuvres, sorted(res.held)))
+            curvilinear_compiled.use_compiled(True)
+            rows.append(times)
+            old, fast, plain = times
+            print(f"run {i}: base {old:.2f} s, compiled {fast:.2f} s ({old / fast:.2f}x), "
+                  f"NumPy path {plain:.2f} s ({old / plain:.2f}x); same order and held: "
+                  f"{chosen[0] == chosen[1] == chosen[2]}", flush=True)
+    t = np.array(rows)
+    r = t[:, :1] / t[:, 1:]
+    med = np.median(t, axis=0)
+    print(f"median CPU: base {med[0]:.2f} s, compiled {med[1]:.2f} s, NumPy path {med[2]:.2f} s; "
+          f"base / compiled {np.median(r[:, 0]):.2f}x (IQR {np.percentile(r[:, 0], 25):.2f}"
+          f"..{np.percentile(r[:, 0], 75):.2f}), base / NumPy path {np.median(r[:, 1]):.2f}x "
+          f"(IQR {np.percentile(r[:, 1], 25):.2f}..{np.percentile(r[:, 1], 75):.2f})")
+
+
+if __name__ == "__main__":
+    main()

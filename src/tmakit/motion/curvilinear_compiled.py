@@ -1,0 +1,194 @@
+"""Compiled piecewise-curvilinear propagation (optional ``numba``), with the NumPy path.
+
+:class:`tmakit.motion.curvilinear_batch.ForwardPiecewise` spends nearly all of the manoeuvre
+estimator's time (:mod:`tmakit.batch.manoeuvre`) in the closed form of a segment and its
+derivatives at every sample, and in the chain rule to the parameters.  With ``numba``
+installed (``pip install tmakit[fast]``) both run as the compiled loops of
+:mod:`tmakit.motion.curvilinear_numba`; otherwise, with the environment variable
+``TMAKIT_NO_NUMBA`` set to a non-empty value other than ``0``, or after
+``use_compiled(False)``, :func:`available` is False and the NumPy path of
+:mod:`tmakit.motion.curvilinear_closed` is used.  Both agree to rounding
+(``tests/test_curvilinear_kernel.py``).  ``numba`` is imported, and the kernels compiled
+(cached on disk), at the first call only.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..arrays import Array
+
+_STATE: dict[str, Any] = {"enabled": os.environ.get("TMAKIT_NO_NUMBA", "") in ("", "0"),
+                          "kernels": None}
+
+
+def use_compiled(enabled: bool) -> bool:
+    """Switch the compiled kernels on or off (for comparisons); return the previous setting.
+
+    Parameters
+    ----------
+    enabled : bool
+        False: every call takes the NumPy path, even with ``numba`` installed.
+
+    Returns
+    -------
+    bool
+        The setting before the call.
+    """
+    before = bool(_STATE["enabled"])
+    _STATE["enabled"] = bool(enabled)
+    return before
+
+
+def available() -> bool:
+    """Tell whether the compiled kernels are switched on and ``numba`` can be imported.
+
+    Returns
+    -------
+    bool
+    """
+    if not _STATE["enabled"]:
+        return False
+    if _STATE["kernels"] is None:
+        try:
+            _STATE["kernels"] = _compile()
+        except ImportError:
+            _STATE["kernels"] = False
+        except Exception as err:   # numba present but unusable here: say so, use NumPy
+            warnings.warn(f"tmakit's compiled curvilinear kernels failed ({err!r}); using the "
+                          "NumPy path", RuntimeWarning, stacklevel=2)
+            _STATE["kernels"] = False
+    return _STATE["kernels"] is not False
+
+
+def _compile() -> dict[str, Callable[..., object]]:
+    """Import ``numba`` and the kernels and compile them on tiny inputs (cached on disk)."""
+    from . import curvilinear_numba as kn
+
+    theta = np.array([[0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.01, 0.01, 1.0]])
+    t = np.array([0.5, 2.0])
+    seg = np.empty((1, 2), dtype=np.int64)
+    vals, par, d_anchor = np.empty((1, 2, 6)), np.empty((1, 2, 4, 7)), np.empty((1, 2, 4, 9))
+    kn.piecewise(theta, t, 1, 0.0, np.inf, True, seg, vals, par, d_anchor)
+    out = np.empty((1, 2, 9))
+    kn.chain(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1, out)
+    kn.scatter_states(vals, np.arange(2), np.empty((1, 2, 6)))
+    return {"piecewise": kn.piecewise, "chain": kn.chain, "scatter": kn.scatter_states}
+
+
+def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
+              partials: bool) -> tuple[Array, Array, Array | None, Array | None]:
+    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``, compiled.
+
+    Parameters
+    ----------
+    theta : ndarray
+        ``(B, p)`` parameters of :class:`~tmakit.motion.curvilinear_batch.ForwardPiecewise`
+        (SI).
+    t : ndarray
+        ``(n,)`` times (s).
+    manoeuvres : int
+        The number of manoeuvres ``M``.
+    ref_time, end_time : float
+        Reference time and end of the admissible change-over times (s).
+    partials : bool
+        Whether the derivatives are wanted.
+
+    Returns
+    -------
+    seg : ndarray of int
+        ``(B, n)`` every sample's segment.
+    values : ndarray
+        ``(B, n, 6)`` ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad, m/s, m/s; NaN
+        outside the model's domain).
+    par : ndarray or None
+        ``(B, n, 4, 7)`` ``d (x, y, vx, vy) / d (segment start x, y, speed, course, a_t, a_n,
+        time since its start)``.
+    d_anchor : ndarray or None
+        ``(B, M + 1, 4, p)`` the derivatives of every segment's start state.
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
+    theta = np.ascontiguousarray(theta, dtype=float)
+    t = np.ascontiguousarray(t, dtype=float)
+    b, p = theta.shape
+    seg = np.empty((b, t.size), dtype=np.int64)
+    vals = np.empty((b, t.size, 6))
+    par = np.empty((b, t.size, 4, 7)) if partials else np.empty((1, 1, 4, 7))
+    d_anchor = np.empty((b, manoeuvres + 1, 4, p)) if partials else np.empty((1, 1, 4, p))
+    _STATE["kernels"]["piecewise"](theta, t, manoeuvres, ref_time, end_time, partials, seg,
+                                   vals, par, d_anchor)
+    return seg, vals, (par if partials else None), (d_anchor if partials else None)
+
+
+def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
+          manoeuvres: int) -> Array:
+    """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``, compiled.
+
+    Parameters
+    ----------
+    ds : ndarray
+        ``(B, n, 6)`` derivatives of some values with respect to the ENU state.
+    par, seg, d_anchor : ndarray
+        As :func:`piecewise` gives them at the unique times.
+    idx : ndarray of int or None
+        ``(n,)`` every row's unique time (None: the rows are the unique times).
+    manoeuvres : int
+        The number of manoeuvres ``M``.
+
+    Returns
+    -------
+    ndarray
+        ``(B, n, p)``.
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
+    b, n = ds.shape[:2]
+    out = np.empty((b, n, d_anchor.shape[-1]))
+    rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
+    _STATE["kernels"]["chain"](np.asarray(ds, dtype=float), par, seg, rows, d_anchor,
+                               manoeuvres, out)
+    return out
+
+
+def scatter_states(vals: Array, inv: Array) -> Array:
+    """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times, compiled.
+
+    Parameters
+    ----------
+    vals : ndarray
+        ``(B, nu, 6)`` ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad, m/s, m/s) as
+        :func:`piecewise` gives them.
+    inv : ndarray of int
+        ``(n,)`` every row's unique time.
+
+    Returns
+    -------
+    ndarray
+        ``(B, n, 6)`` ``(x, y, 0, vx, vy, 0)`` (m, m/s; NaN outside the model's domain).
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
+    out = np.empty((vals.shape[0], inv.shape[0], 6))
+    _STATE["kernels"]["scatter"](vals, np.ascontiguousarray(inv, dtype=np.int64), out)
+    return out

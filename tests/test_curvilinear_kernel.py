@@ -1,0 +1,96 @@
+"""The compiled piecewise-curvilinear kernels (optional numba) agree with the NumPy path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit.motion import PiecewiseCurvilinear
+from tmakit.motion import curvilinear_compiled as compiled
+from tmakit.motion.curvilinear_batch import ForwardPiecewise
+
+pytest.importorskip("numba")
+
+
+def _both(fn):
+    """Run ``fn`` with the kernels, then with the NumPy path; give both results."""
+    assert compiled.available()
+    fast = fn()
+    before = compiled.use_compiled(False)
+    try:
+        assert not compiled.available()
+        slow = fn()
+    finally:
+        compiled.use_compiled(before)
+    return fast, slow
+
+
+def _thetas(m: int, rng: np.random.Generator) -> np.ndarray:
+    """Parameter vectors of ``m`` manoeuvres on hoerst2010, with the corner cases."""
+    scn = tk.load_scenario("hoerst2010")
+    base = np.concatenate([scn.theta[:4], np.tile([0.01, 0.02], m + 1),
+                           np.linspace(200.0, 700.0, m)])
+    theta = np.tile(base, (8, 1))
+    theta[:, 4:6 + 2 * m] += 0.01 * rng.normal(size=(8, 2 + 2 * m))
+    theta[1, 4:6 + 2 * m:2] = 0.0            # straight in speed: r = 0
+    theta[2, 4:6 + 2 * m] = 0.0              # no acceleration at all: the held case
+    theta[3, 4] = 1e-7                       # the series side of both closed forms
+    theta[4, 4] = -1.0                       # the speed dies: NaN
+    if m:
+        theta[5, 6 + 2 * m] = -5.0           # a change-over time before the reference
+        theta[6, -1] = 2000.0                # after the end time
+    return theta
+
+
+@pytest.mark.parametrize("m", [0, 1, 3])
+def test_compiled_states_and_chain_equal_numpy_to_1e_12(m):
+    rng = np.random.default_rng(7)
+    theta = _thetas(m, rng)
+    times = np.arange(0.0, 901.0, 3.0)
+    times[50] = 200.0  # a sample on a change-over time: the earlier segment's
+    t = np.concatenate([times, times[::2]])  # rows sharing unique times, not in order
+    d = rng.normal(size=(theta.shape[0], t.size, 6))
+
+    def run():
+        model = ForwardPiecewise(m, 0.0, end_time=1000.0)
+        return model.states(theta, t), model.chain(d, theta, t), model.segment_states(theta, t)
+
+    (s_fast, c_fast, g_fast), (s_slow, c_slow, g_slow) = _both(run)
+    assert np.isnan(s_slow[4, -1, 0]) and np.isfinite(s_slow[4, 0, 0])  # the speed dies
+    if m:
+        assert np.all(np.isnan(s_slow[5:7]))  # change-over times out of the domain
+    np.testing.assert_array_equal(np.isnan(s_fast), np.isnan(s_slow))
+    valid = np.isfinite(s_slow[..., 0])  # (B, n): derivatives where the state exists
+    for fast, slow in ((s_fast, s_slow), (c_fast, c_slow), (g_fast, g_slow)):
+        fast, slow = fast[valid], slow[valid]
+        assert np.all(np.isfinite(fast) == np.isfinite(slow))
+        scale = np.abs(np.where(np.isfinite(slow), slow, 0.0)).max()
+        assert np.all(np.abs(np.where(np.isfinite(slow), fast - slow, 0.0)) <= 1e-12 * scale)
+
+
+def test_compiled_chain_equals_the_general_model_jacobian():
+    rng = np.random.default_rng(2)
+    theta = _thetas(2, rng)[:4]
+    t = np.arange(0.0, 901.0, 7.0)
+    fast, general = ForwardPiecewise(2, 0.0), PiecewiseCurvilinear(2, 0.0)
+    d = rng.normal(size=(theta.shape[0], t.size, 6))
+    np.testing.assert_allclose(fast.states(theta, t), general.states(theta, t), rtol=0,
+                               atol=1e-6)
+    expected = np.einsum("bni,bnip->bnp", d, general.jacobian(theta, t))
+    got = fast.chain(d, theta, t)
+    scale = np.abs(expected).max(axis=(1, 2), keepdims=True)
+    np.testing.assert_allclose(got / scale, expected / scale, rtol=0, atol=1e-9)
+
+
+def test_unusable_numba_falls_back_to_numpy_with_a_warning(monkeypatch):
+    def broken():
+        raise RuntimeError("no cache dir")
+
+    monkeypatch.setitem(compiled._STATE, "kernels", None)
+    monkeypatch.setattr(compiled, "_compile", broken)
+    with pytest.warns(RuntimeWarning, match="NumPy path"):
+        assert not compiled.available()
+    theta = _thetas(1, np.random.default_rng(0))[:1]
+    assert np.all(np.isfinite(ForwardPiecewise(1, 0.0).states(theta, np.arange(10.0))))
+    monkeypatch.setitem(compiled._STATE, "kernels", None)
