@@ -33,7 +33,8 @@ class MeasurementModel:
     Per-kind special cases are hooks here, so that a new kind is one file plus its
     registration in :data:`tmakit.measurements.KINDS`: :attr:`value_range` (checked by the
     file reader, :meth:`check_values`), :attr:`uses_reference` (an earlier sample),
-    :attr:`correlated_noise` and :meth:`noise_covariance` (the noise of rows of one sensor),
+    :attr:`correlated_noise`, :meth:`noise_covariance` and :meth:`noise_blocks` (the noise
+    of rows of one sensor),
     :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure),
     :attr:`mirror_symmetric` and :attr:`gives_height` (the sensor-plane ambiguity),
     :attr:`wrap_period` (how simulated values are written).
@@ -113,6 +114,29 @@ class MeasurementModel:
             (m, m); ``diag(sigma^2)`` unless the kind has :attr:`correlated_noise`.
         """
         return np.diag(np.asarray(sigma, dtype=float) ** 2)
+
+    def noise_blocks(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike
+                     ) -> list[tuple[NDArray[np.intp], Array]]:
+        """Split the noise of rows of one sensor into independent blocks.
+
+        Parameters
+        ----------
+        time, time_ref : array_like
+            Row times and reference times (m,), s.
+        sigma : array_like
+            Standard deviations (m,), SI.
+
+        Returns
+        -------
+        list of (rows, covariance)
+            Row indices (into the m rows, ascending) and their covariance (SI units squared)
+            from :meth:`noise_covariance`; rows of different blocks are independent.  Here
+            one block of every row; a kind whose rows are correlated only in groups (range
+            differences whose spans overlap) gives one block per group, so no ``(m, m)``
+            matrix is formed.
+        """
+        m = np.asarray(sigma).shape[0]
+        return [(np.arange(m), self.noise_covariance(time, time_ref, sigma))]
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:

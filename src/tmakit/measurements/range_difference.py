@@ -66,6 +66,61 @@ class RangeDifference(MeasurementModel):
         """
         return range_difference_covariance(time, time_ref, sigma, sensor)
 
+    def noise_blocks(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike
+                     ) -> list[tuple[NDArray[np.intp], NDArray[np.float64]]]:
+        """Split range differences of one sensor into groups that share pulse intervals.
+
+        Two differences are correlated only if their spans ``(time_ref, time]`` overlap, so
+        the covariance is block-diagonal over the groups of overlapping spans
+        (:func:`overlap_groups`): each group's block is that of :meth:`noise_covariance`
+        (the same numbers), and no ``(m, m)`` matrix is formed for a long log.
+
+        Parameters
+        ----------
+        time, time_ref : array_like
+            Times of the later and earlier samples (m,), s.
+        sigma : array_like
+            Standard deviations (m,), m.
+
+        Returns
+        -------
+        list of (rows, covariance)
+            Each group's rows (ascending) and covariance, m^2.
+
+        Raises
+        ------
+        ValueError
+            If a row has ``time_ref >= time``, or a group of more than
+            :data:`MAX_GROUP_ROWS` rows (its covariance would not fit in memory).
+        """
+        t = np.asarray(time, dtype=float)
+        t_ref = np.asarray(time_ref, dtype=float)
+        sigma = np.asarray(sigma, dtype=float)
+        span = t - t_ref
+        if np.any(span <= 0):
+            raise ValueError("every range difference needs time_ref < time")
+        group = overlap_groups(t, t_ref)
+        size = np.bincount(group)
+        alone = np.flatnonzero(size[group] == 1)
+        density = sigma[alone] ** 2 / span[alone]
+        var = span[alone] * np.sqrt(density * density)  # the diagonal of the formula
+        blocks = [(alone[k:k + 1], var[k:k + 1, None]) for k in range(alone.shape[0])]
+        if size.max() > MAX_GROUP_ROWS:
+            raise ValueError(
+                f"{int(size.max()):,} range differences of one sensor share pulse intervals "
+                "(their spans time_ref..time overlap in one chain, e.g. one time_ref for "
+                f"all): their noise is one dense {int(size.max()):,} x {int(size.max()):,} "
+                f"covariance, more than the limit of {MAX_GROUP_ROWS:,} rows (its memory grows "
+                "with the square, its time with the cube); use differences between "
+                "consecutive samples, or fewer rows (--from/--to)")
+        order = np.argsort(group, kind="stable")
+        starts = np.flatnonzero(np.diff(group[order], prepend=-1))
+        for rows in np.split(order, starts[1:]):
+            if rows.shape[0] > 1:
+                blocks.append((rows, range_difference_covariance(t[rows], t_ref[rows],
+                                                                 sigma[rows])))
+        return blocks
+
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
         """Predict range differences, m; see :meth:`MeasurementModel.predict`.
@@ -146,6 +201,40 @@ def interval_count(t: ArrayLike, t_ref: ArrayLike, pri: float) -> NDArray[np.int
     Chen & Sun, eq. 1 (``t_ref = t - j T``).
     """
     return np.rint((np.asarray(t, float) - np.asarray(t_ref, float)) / pri).astype(np.int64)
+
+
+#: Most range differences of one sensor whose spans overlap in a chain (one correlated noise
+#: block; its covariance and eigen-decomposition take about 5 * 8 * n^2 bytes).
+MAX_GROUP_ROWS = 4096
+
+
+def overlap_groups(t: ArrayLike, t_ref: ArrayLike) -> NDArray[np.intp]:
+    """Give each range difference the number of its group of overlapping spans ``(t_ref, t]``.
+
+    Two spans share pulse intervals if they overlap by a positive length; a group is a chain
+    of such spans, and differences of different groups are independent.
+
+    Parameters
+    ----------
+    t, t_ref : array_like
+        Times of the later and earlier samples (m,), s, ``t_ref < t``.
+
+    Returns
+    -------
+    ndarray of int
+        Each row's group, 0, 1, ... in the order of the groups' first ``t_ref``.
+    """
+    t = np.asarray(t, dtype=float)
+    t_ref = np.asarray(t_ref, dtype=float)
+    order = np.argsort(t_ref, kind="stable")
+    if order.shape[0] == 0:
+        return np.zeros(0, dtype=np.intp)
+    reach = np.maximum.accumulate(t[order])
+    # a span starting at or after every earlier span's end begins a new group
+    new = np.concatenate([[0], (t_ref[order][1:] >= reach[:-1]).astype(np.intp)])
+    group = np.empty(order.shape[0], dtype=np.intp)
+    group[order] = np.cumsum(new)
+    return group
 
 
 def range_difference_covariance(t: ArrayLike, t_ref: ArrayLike, sigma: ArrayLike,

@@ -485,8 +485,8 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
     Returns
     -------
     list of (rows, covariance)
-        One block per kind with ``correlated_noise`` and per sensor: its rows (ascending)
-        and their covariance from the kind's ``noise_covariance`` hook (SI units squared).
+        Per kind with ``correlated_noise`` and per sensor, the independent blocks of its
+        ``noise_blocks`` hook: their rows (ascending) and covariance (SI units squared).
     """
     blocks: list[tuple[NDArray[np.intp], Array]] = []
     m = time.shape[0]
@@ -496,5 +496,6 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
         rows = np.arange(m)[index[kind]]
         for s in np.unique(sensor[rows]):
             own = rows[sensor[rows] == s]
-            blocks.append((own, model.noise_covariance(time[own], time_ref[own], sigma[own])))
+            blocks += [(own[local], cov) for local, cov in
+                       model.noise_blocks(time[own], time_ref[own], sigma[own])]
     return blocks
