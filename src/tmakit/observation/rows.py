@@ -496,6 +496,6 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
         rows = np.arange(m)[index[kind]]
         for s in np.unique(sensor[rows]):
             own = rows[sensor[rows] == s]
-            blocks += [(own[local], cov) for local, cov in
-                       model.noise_blocks(time[own], time_ref[own], sigma[own])]
+            blocks += [(own[i], c) for i, c in model.noise_blocks(time[own], time_ref[own],
+                                                                  sigma[own])]
     return blocks
