@@ -489,13 +489,12 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
         ``noise_blocks`` hook: their rows (ascending) and covariance (SI units squared).
     """
     blocks: list[tuple[NDArray[np.intp], Array]] = []
-    m = time.shape[0]
+    m, cols = time.shape[0], (time, time_ref, sigma)
     for kind, model in models.items():
         if not model.correlated_noise:
             continue
         rows = np.arange(m)[index[kind]]
         for s in np.unique(sensor[rows]):
             own = rows[sensor[rows] == s]
-            blocks += [(own[i], c) for i, c in model.noise_blocks(time[own], time_ref[own],
-                                                                  sigma[own])]
+            blocks += [(own[i], c) for i, c in model.noise_blocks(*(a[own] for a in cols))]
     return blocks
