@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+import tmakit as tk
+from tmakit.cli import app
 from tmakit.measurements import range_difference_covariance
 from tmakit.measurements.range_difference import MAX_GROUP_ROWS, RangeDifference, overlap_groups
 from tmakit.observation.noise import NoiseModel
+from tmakit.planning import Planner, SensorPlan
+from tmakit.sensors import PlatformState, platform_configuration
+
+runner = CliRunner()
 
 
 def _dense(blocks, m):
@@ -57,3 +67,63 @@ def test_one_chain_of_too_many_overlapping_range_differences_is_refused():
     t = np.arange(1.0, n + 1.0)
     with pytest.raises(ValueError, match=r"share pulse intervals.*consecutive samples"):
         RangeDifference().noise_blocks(t, np.zeros(n), np.ones(n))
+
+
+# -- planning: settings that cannot work are refused before any run ---------------------------
+
+PLAN_TOML = Path(tk.__file__).parent / "scenarios" / "plan-bearings-only.toml"
+
+
+def _plan_file(tmp_path, edit):
+    path = tmp_path / "mine.toml"
+    path.write_text(edit(PLAN_TOML.read_text()))
+    return path
+
+
+@pytest.mark.parametrize(("edit", "words"), [
+    (lambda t: t + '\n[[planning.constraints]]\ntype = "max_range"\ndistance = 500.0\n',
+     "planning.constraints: the minimum range 1000 m is not below the maximum range 500 m"),
+    (lambda t: t.replace('criterion = "trace"',
+                         'criterion = "trace"\nweights = [0.0, 0.0, 0.0, 0.0]'),
+     "planning.weights: all zero"),
+    (lambda t: t.replace("horizon = 1", "horizon = 4").replace(
+        "heading_changes_deg = [-90.0, -45.0, 0.0, 45.0, 90.0]",
+        "heading_changes_deg = [-90.0, -70.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 70.0, 90.0]"
+    ).replace("speed_factors = [1.0]", "speed_factors = [0.5, 1.0, 1.5]"),
+     "30 actions over a horizon of 4 make 810,000 sequences"),
+], ids=["min-above-max-range", "zero-weights", "too-many-sequences"])
+def test_a_plan_that_cannot_work_is_refused_with_the_field(tmp_path, edit, words):
+    path = _plan_file(tmp_path, edit)
+    result = runner.invoke(app, ["plan", str(path), "--runs", "1", "--no-progress"])
+    assert result.exit_code == 2, result.output
+    assert result.output.startswith(f"error: {path}") or "mine.toml" in result.output
+    assert words in " ".join(result.output.split())
+
+
+def test_planner_sensor_plan_and_recommend_refuse_wrong_types_by_name():
+    cfg = platform_configuration("hurtado_nehorai_2008")
+    radar = SensorPlan(["bearing", "range"], [math.radians(1.0), 30.0])
+    planner = Planner(cfg.kinematics, cfg.actions, cfg.interval, radar)
+    platform = PlatformState((0.0, 0.0), 0.0, 50.0)
+    estimate = (np.array([0.0, 15000.0, 25.0, 0.0]), np.diag([500.0**2] * 2 + [10.0**2] * 2))
+    assert 0 <= tk.recommend(estimate, platform, planner).index < 15
+    for args, words in [((estimate, None, planner), "platform must be a PlatformState"),
+                        ((estimate, (0.0, 0.0), planner), "platform must be a PlatformState"),
+                        ((estimate, platform, "x"), "planner must be a Planner")]:
+        with pytest.raises(TypeError, match=words):
+            tk.recommend(*args)
+    with pytest.raises(TypeError, match="posterior must be"):
+        tk.recommend(estimate, platform, planner, posterior=np.eye(4))
+    with pytest.raises(ValueError, match="positive definite"):
+        tk.recommend((estimate[0], -estimate[1]), platform, planner)
+    with pytest.raises(ValueError, match="one per kind"):
+        SensorPlan(["bearing", "range"], [1.0])  # was broadcast: the range sigma became 1 m
+    with pytest.raises(ValueError, match="unknown 'bearng'"):
+        SensorPlan(["bearng"], [1.0])
+    with pytest.raises(ValueError, match="15 actions over a horizon of 9"):
+        Planner(cfg.kinematics, cfg.actions, cfg.interval, radar, horizon=9)
+    assert Planner(cfg.kinematics, cfg.actions, cfg.interval, radar, horizon=9, beam=5).beam == 5
+    with pytest.raises(TypeError, match="actions must be"):
+        Planner(cfg.kinematics, None, cfg.interval, radar)
+    with pytest.raises(TypeError, match="PlanningSetup"):
+        tk.plan(tk.load_scenario("plan-bearings-only"), runs=1)

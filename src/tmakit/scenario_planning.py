@@ -315,6 +315,9 @@ class _Build:
                 raise ValueError(f"planning.weights: give {n} diagonal weights or a {n} x {n} "
                                  f"matrix for the state [position, velocity]; got {w.size}")
             w = np.diag(w)
+        if not np.any(w):
+            raise ValueError("planning.weights: all zero, so every candidate would cost 0 "
+                             "and the choice would be arbitrary")
         crit = WeightedTrace(w)
         try:
             crit.matrix(n)
@@ -360,6 +363,13 @@ class _Build:
             except ValueError as e:
                 msg = str(e)
                 raise ValueError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+        ranges = [(c.type, c.distance) for c in self.spec.constraints
+                  if isinstance(c, RangeConstraintSpec)]
+        near = max((d for k, d in ranges if k == "min_range"), default=0.0)
+        far = min((d for k, d in ranges if k == "max_range"), default=math.inf)
+        if near >= far:
+            raise ValueError(f"planning.constraints: the minimum range {near:g} m is not below "
+                             f"the maximum range {far:g} m; no path can keep both")
         return out
 
     def start(self, sensor_spec: Any) -> PlatformState:
