@@ -127,3 +127,28 @@ def test_planner_sensor_plan_and_recommend_refuse_wrong_types_by_name():
         Planner(cfg.kinematics, None, cfg.interval, radar)
     with pytest.raises(TypeError, match="PlanningSetup"):
         tk.plan(tk.load_scenario("plan-bearings-only"), runs=1)
+
+
+# -- tma track: a particle filter too small to hold a covariance ------------------------------
+
+def test_track_refuses_fewer_particles_than_a_covariance_needs(tmp_path):
+    obs = tmp_path / "obs.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(
+        rng=np.random.default_rng(1)), obs)
+    for n in ("2", "6"):  # 2 ended in an internal error (a singular covariance)
+        result = runner.invoke(app, ["track", str(obs), "--filter", "pf", "--particles", n])
+        assert result.exit_code == 2 and result.output.startswith(f"error: --particles {n}:")
+
+
+def test_the_final_check_of_a_track_says_when_its_covariance_is_singular(capsys):
+    from types import SimpleNamespace
+
+    from tmakit.cli.track import print_track_checks
+
+    tr = SimpleNamespace(dof=np.array([0, 1]), nis=np.array([0.0, 1.0]),
+                         log_likelihood=np.array([0.0, -1.0]),
+                         states=np.array([[0.0, 0.0, 1.0, 1.0]] * 2),
+                         covariances=np.zeros((2, 4, 4)))
+    print_track_checks(tr, np.array([[3.0, 4.0, 1.0, 1.0]] * 2), 2)
+    said = " ".join(capsys.readouterr().out.split())
+    assert "final position error 5.0 m, the final covariance is singular" in said
