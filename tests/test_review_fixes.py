@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -152,3 +153,17 @@ def test_the_final_check_of_a_track_says_when_its_covariance_is_singular(capsys)
     print_track_checks(tr, np.array([[3.0, 4.0, 1.0, 1.0]] * 2), 2)
     said = " ".join(capsys.readouterr().out.split())
     assert "final position error 5.0 m, the final covariance is singular" in said
+
+
+# -- tma montecarlo --workers: no more processes than chunks and CPUs -------------------------
+
+def test_a_huge_worker_count_starts_no_more_processes_than_chunks_and_cpus(monkeypatch):
+    from tmakit.montecarlo import monte_carlo, study
+
+    monkeypatch.setattr(study, "_cpus", lambda: 2)
+    res = monte_carlo("gu2007", runs=4, seed=1, chunk=1, workers=10**20, progress=False)
+    assert res.executor == "2 processes, 100,000,000,000,000,000,000 asked: 4 chunks, 2 CPUs"
+    one = monte_carlo("gu2007", runs=4, seed=1, chunk=1, progress=False)
+    pd.testing.assert_frame_equal(res.table, one.table)
+    few = monte_carlo("gu2007", runs=3, seed=1, workers=8, progress=False)  # one chunk
+    assert few.executor == "local, 8 asked: 1 chunks, 2 CPUs"
