@@ -167,3 +167,23 @@ def test_a_huge_worker_count_starts_no_more_processes_than_chunks_and_cpus(monke
     pd.testing.assert_frame_equal(res.table, one.table)
     few = monte_carlo("gu2007", runs=3, seed=1, workers=8, progress=False)  # one chunk
     assert few.executor == "local, 8 asked: 1 chunks, 2 CPUs"
+
+
+# -- messages --------------------------------------------------------------------------------
+
+def test_a_latlon_file_without_origin_has_one_problem_not_one_per_range_difference(tmp_path):
+    from fuzzing import GEO_HEADER, latlon_rows
+
+    path = tmp_path / "geo.csv"
+    path.write_text("\n".join([GEO_HEADER, *latlon_rows(10)]) + "\n")
+    result = runner.invoke(app, ["show", str(path)])
+    assert result.exit_code == 2
+    assert result.output.startswith(f"error: {path}: 1 problem in the measurement file")
+    assert "no ENU origin is known" in result.output and "time_ref" not in result.output
+    ok = runner.invoke(app, ["show", str(path), "--origin", "48.137,11.575,520"])
+    assert ok.exit_code == 0, ok.output
+
+
+def test_import_help_writes_measure_as_it_is_given():
+    result = runner.invoke(app, ["import", "--help"])
+    assert "--measure COLUMN=KIND:UNIT:SIGMA" in result.output  # was COLUMN:KIND:UNIT:SIGMA
