@@ -187,3 +187,20 @@ def test_a_latlon_file_without_origin_has_one_problem_not_one_per_range_differen
 def test_import_help_writes_measure_as_it_is_given():
     result = runner.invoke(app, ["import", "--help"])
     assert "--measure COLUMN=KIND:UNIT:SIGMA" in result.output  # was COLUMN:KIND:UNIT:SIGMA
+
+
+# -- --at / --from / --to: a time the answers can be given at --------------------------------
+
+@pytest.mark.parametrize("args", [
+    ["estimate", "{obs}", "--motion", "cv2d", "--at", "nan"],
+    ["estimate", "{obs}", "--motion", "cv2d", "--from", "inf"],
+    ["crlb", "bearings-only-2d", "--at", "1e300"],
+    ["crlb", "bearings-only-2d", "--at", "nan"],
+])
+def test_a_time_that_is_not_finite_or_overflows_is_refused(tmp_path, args):
+    obs = tmp_path / "obs.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(
+        rng=np.random.default_rng(1)), obs)
+    result = runner.invoke(app, [a.replace("{obs}", str(obs)) for a in args])
+    assert result.exit_code == 2, result.output  # was exit 0 with "t = nan" or inf ellipses
+    assert result.output.startswith(f"error: {args[-2]} ")
