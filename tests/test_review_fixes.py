@@ -204,3 +204,15 @@ def test_a_time_that_is_not_finite_or_overflows_is_refused(tmp_path, args):
     result = runner.invoke(app, [a.replace("{obs}", str(obs)) for a in args])
     assert result.exit_code == 2, result.output  # was exit 0 with "t = nan" or inf ellipses
     assert result.output.startswith(f"error: {args[-2]} ")
+
+
+def test_origin_out_of_range_is_refused_and_an_unused_one_is_said(tmp_path):
+    obs = tmp_path / "obs.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(
+        rng=np.random.default_rng(1)), obs)
+    for bad in ("91,0,0", "0,400,0", "nan,0,0", "0,0,inf"):
+        result = runner.invoke(app, ["show", str(obs), "--origin", bad])
+        assert result.exit_code == 2 and result.output.startswith(f"error: --origin '{bad}'")
+    result = runner.invoke(app, ["show", str(obs), "--origin", "48,11,0"])  # an ENU file
+    assert result.exit_code == 0
+    assert "warning: --origin is for files with sensor_lat/sensor_lon" in result.output
