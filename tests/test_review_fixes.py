@@ -92,7 +92,9 @@ def _plan_file(tmp_path, edit):
         "heading_changes_deg = [-90.0, -70.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 70.0, 90.0]"
     ).replace("speed_factors = [1.0]", "speed_factors = [0.5, 1.0, 1.5]"),
      "30 actions over a horizon of 4 make 810,000 sequences"),
-], ids=["min-above-max-range", "zero-weights", "too-many-sequences"])
+    (lambda t: t.replace("duration = 600.0", "duration = 1e12"),
+     "planning.duration: 100,000,000,000 decisions of 10 s, more than the limit of 1,000,000"),
+], ids=["min-above-max-range", "zero-weights", "too-many-sequences", "endless-duration"])
 def test_a_plan_that_cannot_work_is_refused_with_the_field(tmp_path, edit, words):
     path = _plan_file(tmp_path, edit)
     result = runner.invoke(app, ["plan", str(path), "--runs", "1", "--no-progress"])
@@ -216,3 +218,10 @@ def test_origin_out_of_range_is_refused_and_an_unused_one_is_said(tmp_path):
     result = runner.invoke(app, ["show", str(obs), "--origin", "48,11,0"])  # an ENU file
     assert result.exit_code == 0
     assert "warning: --origin is for files with sensor_lat/sensor_lon" in result.output
+
+
+def test_plan_refuses_a_duration_of_more_decisions_than_the_limit():
+    result = runner.invoke(app, ["plan", "plan-bearings-only", "--runs", "1", "--duration",
+                                 "1e12", "--no-progress"])  # ran out of memory, naming no option
+    assert result.exit_code == 2
+    assert "--duration 1e+12 s: 100,000,000,000 decisions" in " ".join(result.output.split())

@@ -42,6 +42,9 @@ from .sensors import Actions, PlatformKinematics, PlatformState, platform_config
 
 #: Trackers a ``[planning]`` table may name (keys of :data:`tmakit.filters.FILTERS`).
 PLANNING_TRACKERS = ("pf", "ekf", "ukf")
+#: Most decisions of one run a duration may ask for (the per-step table holds a row each;
+#: 1e11 ran out of memory).
+MAX_DECISIONS = 1_000_000
 
 
 class _Strict(BaseModel):
@@ -407,6 +410,9 @@ class _Build:
         if steps < 1 or abs(ratio - steps) > 1e-6 * max(1.0, ratio):
             raise ValueError(f"planning.duration: {self.spec.duration:g} s is not a whole "
                              f"number (>= 1) of decision intervals of {interval:g} s")
+        if steps > MAX_DECISIONS:
+            raise ValueError(f"planning.duration: {steps:,} decisions of {interval:g} s, more "
+                             f"than the limit of {MAX_DECISIONS:,}")
         return int(steps)
 
 

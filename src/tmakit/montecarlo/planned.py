@@ -18,7 +18,7 @@ import numpy as np
 
 from ..planning.closed_loop import LoopSetup
 from ..scenario_file import load_planning
-from ..scenario_planning import PlanningSetup
+from ..scenario_planning import MAX_DECISIONS, PlanningSetup
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -202,6 +202,10 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
             raise ValueError(f"duration must be a whole number (>= 1) of decision intervals "
                              f"of {setup.interval:g} s; got {duration} s")
         changes["steps"] = round(ratio)
+        if changes["steps"] > MAX_DECISIONS:
+            raise ValueError(f"duration {duration:g} s: {changes['steps']:,} decisions of "
+                             f"{setup.interval:g} s per run, more than the limit of "
+                             f"{MAX_DECISIONS:,}")
     if particles is not None:
         changes["particles"] = particles
     if tracker is not None:
