@@ -1,6 +1,7 @@
 """The fuzz outcome table: hostile files, scenarios and options, counted by outcome.
 
     python benchmarks/fuzz_outcomes.py [--files 120] [--scenarios 100] [--options 120]
+        [--latlon 60] [--plans 60]
 
 Draws cases from the strategies of tests/fuzzing.py (seeded: the same cases every run), runs
 each in-process and prints the count per outcome, the slowest case and every case that is not
@@ -22,8 +23,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from fuzzing import (
     GOOD,
     base_file,
+    latlon_range_difference_files,
     measurement_files,
     option_cases,
+    plan_scenarios,
     run_case,
     toml_scenarios,
 )
@@ -32,6 +35,8 @@ from hypothesis import HealthCheck, given, settings
 
 def collect(strategy, n: int) -> list:
     cases: list = []
+    if n < 1:
+        return cases
 
     @settings(max_examples=n, deadline=None, derandomize=True, database=None,
               suppress_health_check=list(HealthCheck))
@@ -48,6 +53,9 @@ def main() -> None:
     ap.add_argument("--files", type=int, default=120)
     ap.add_argument("--scenarios", type=int, default=100)
     ap.add_argument("--options", type=int, default=120)
+    ap.add_argument("--latlon", type=int, default=60, help="lat/lon files with range "
+                    "differences (show and estimate each)")
+    ap.add_argument("--plans", type=int, default=60, help="odd [planning] tables (tma plan)")
     a = ap.parse_args()
     counts: Counter[str] = Counter()
     bad: list[tuple[str, str, str]] = []
@@ -63,6 +71,13 @@ def main() -> None:
                          ("out.csv",)))
         for option, args in collect(option_cases(), a.options):
             jobs.append((f"option {option}", base_file().encode(), args, ()))
+        for what, data in collect(latlon_range_difference_files(), a.latlon):
+            for args in (["show", "{file}"], ["estimate", "{file}", "--motion", "cv3d"]):
+                jobs.append((f"{what} / {args[0]}", data, args, ()))
+        for field, data in collect(plan_scenarios(), a.plans):
+            jobs.append((f"plan {field}", data, ["plan", "{toml}", "--runs", "1", "--duration",
+                                                 "20", "--particles", "50", "--no-progress",
+                                                 "-o", "{out}"], ("out.csv",)))
         for label, data, args, may_write in jobs:
             for p in folder.iterdir():
                 p.unlink()
@@ -80,7 +95,8 @@ def main() -> None:
                             if o.output.strip() else ""))
     total = sum(counts.values())
     print(f"{total} cases ({a.files} files x 2 commands, {a.scenarios} scenarios, "
-          f"{a.options} option strings)")
+          f"{a.options} option strings, {a.latlon} lat/lon range-difference files x 2 "
+          f"commands, {a.plans} planning tables)")
     print("| outcome | count |\n|---|---|")
     for kind in (*GOOD, "unclear error", "traceback", "changed file", "nonsense",
                  "over 10 s"):

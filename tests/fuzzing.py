@@ -181,6 +181,123 @@ def toml_scenarios(draw: st.DrawFn) -> tuple[str, bytes]:
     return field, SCENARIO.format(**fields).encode()
 
 
+# -- latitude/longitude files with range differences ---------------------------------------
+
+ORIGIN = (48.137, 11.575, 520.0)
+GEO_HEADER = ("time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt,sensor_vx,"
+              "sensor_vy,sensor_vz,time_ref")
+
+
+def latlon_rows(n: int = 20) -> list[str]:
+    """A UAV 300 m up flying East at 40 m/s: bearings, and range differences against the
+    previous second (a row's own time) and the previous half second (interpolated)."""
+    import numpy as np
+    import pymap3d
+
+    def r(t: float) -> float:
+        return float(np.sqrt((3000.0 - 40.0 * t) ** 2 + 4000.0**2 + 300.0**2))
+
+    rows = []
+    for k in range(n):
+        t = float(k)
+        lat, lon, h = pymap3d.enu2geodetic(40.0 * t, 0.0, 300.0, *ORIGIN)
+        where = f"{lat:.9f},{lon:.9f},{h:.3f},40,0,0"
+        b = np.degrees(np.arctan2(3000.0 - 40.0 * t, 4000.0)) % 360
+        rows.append(f"{t:g},uav,bearing,{b:.6f},1,{where},")
+        if k:
+            rows.append(f"{t:g},uav,range_difference,{r(t) - r(t - 1):.4f},0.7,{where},{t - 1:g}")
+            rows.append(f"{t:g},uav,range_difference,{r(t) - r(t - 0.5):.4f},0.7,{where},"
+                        f"{t - 0.5:g}")
+    return rows
+
+
+@st.composite
+def latlon_range_difference_files(draw: st.DrawFn) -> tuple[str, bytes]:
+    """Return ``(what was changed, file bytes)`` of a lat/lon file with range differences."""
+    rows = latlon_rows()
+    meta = {"origin_lat": ORIGIN[0], "origin_lon": ORIGIN[1], "origin_alt": ORIGIN[2],
+            "dim": "3"}
+    head = GEO_HEADER
+    op = draw(st.sampled_from(["none", "time_ref", "ref on bearing", "no origin", "ghost sensor",
+                               "one chain", "no velocity", "enu and geo", "crlf bom"]))
+    i = draw(st.integers(0, len(rows) - 1))
+    if op == "time_ref":
+        i = next(k for k in range(i, len(rows) + i) if "range_diff" in rows[k % len(rows)])
+        cells = rows[i % len(rows)].split(",")
+        cells[-1] = draw(st.one_of(CELLS, st.sampled_from(["-5", cells[0], "1e300", "19.5"])))
+        rows[i % len(rows)] = ",".join(cells)
+    elif op == "ref on bearing":
+        rows[0] = rows[0] + "0"
+    elif op == "no origin":
+        meta = {"dim": "3"}
+    elif op == "ghost sensor":  # a range difference of a sensor with no row at time_ref
+        rows.append(rows[2].replace("uav,", "ghost,"))
+    elif op == "one chain":  # every range difference against the first sample
+        rows = [r.rsplit(",", 1)[0] + ",0" if "range_diff" in r else r for r in rows]
+    elif op == "no velocity":
+        head = head.replace("sensor_vx,sensor_vy,sensor_vz,", "")
+        rows = [",".join(r.split(",")[:8] + r.split(",")[11:]) for r in rows]
+    elif op == "enu and geo":
+        head += ",sensor_x"
+        rows = [r + ",0" for r in rows]
+    lines = [*(f"# {k}: {v}" for k, v in meta.items()), head, *rows]
+    text = "\n".join(lines) + "\n"
+    if op == "crlf bom":
+        return op, b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode()
+    return f"latlon {op}", text.encode("utf-8", "replace")
+
+
+# -- planning tables ------------------------------------------------------------------------
+
+def plan_table() -> str:
+    """The built-in ``plan-bearings-only`` scenario file's text."""
+    from importlib.resources import files
+
+    return (files("tmakit") / "scenarios" / "plan-bearings-only.toml").read_text()
+
+
+PLAN_EDITS = {
+    "limits": [("min_speed = 8.0", v) for v in ("min_speed = 20.0", "min_speed = -1.0",
+                                                 "min_speed = nan")]
+    + [("max_turn_rate_deg_s = 9.0", v) for v in ("max_turn_rate_deg_s = 0.0",
+                                                   "max_turn_rate_deg_s = -9.0",
+                                                   "max_turn_rate_deg_s = inf")],
+    "horizon": [("horizon = 1", f"horizon = {v}") for v in ("0", "2", "4", "50", "1.5", '"2"')],
+    "interval": [("interval = 10.0 ", f"interval = {v} ") for v in ("0.0", "-10.0", "7.0",
+                                                                    "1e300")],
+    "duration": [("duration = 600.0", f"duration = {v}") for v in ("0.0", "615.0", "1e12")],
+    "actions": [("heading_changes_deg = [-90.0, -45.0, 0.0, 45.0, 90.0]",
+                 f"heading_changes_deg = {v}") for v in ("[]", "[0.0]", "[1e9]",
+                                                         "[-90.0, nan]")],
+    "particles": [("particles = 2000", f"particles = {v}") for v in ("0", "1", "3", "1e9")],
+    "weights": [('criterion = "trace"', f'criterion = "trace"\nweights = {v}')
+                for v in ("[0.0, 0.0, 0.0, 0.0]", "[1.0, -1.0, 0.0, 0.0]", "[1.0]")],
+    "constraint": [("hard = true", "hard = true\n" + v) for v in (
+        '[[planning.constraints]]\ntype = "max_range"\ndistance = 500.0',
+        '[[planning.constraints]]\ntype = "keep_out"\npolygons = [[]]',
+        '[[planning.constraints]]\ntype = "keep_out"\npolygons = [[[-500.0, -500.0], '
+        '[500.0, -500.0], [500.0, 500.0], [-500.0, 500.0]]]',
+        '[[planning.constraints]]\ntype = "operating_area"\npolygon = [[0.0, 0.0], '
+        '[1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]',
+        '[[planning.constraints]]\ntype = "operating_area"\npolygon = [[5000.0, 5000.0], '
+        '[6000.0, 5000.0], [6000.0, 6000.0]]')],
+    "sensor": [('sensor = "observer"          #', 'sensor = "nobody" #')],
+    "measurements": [('kind = "bearing"\nsigma = 1.0                  # deg',
+                      f'kind = "{k}"\nsigma = {v}') for k, v in (
+        ("frequency", "1.0"), ("range", "0.0"), ("bearng", "1.0"), ("range_difference", "1.0"))],
+}
+
+
+@st.composite
+def plan_scenarios(draw: st.DrawFn) -> tuple[str, bytes]:
+    """Return ``(field changed, TOML bytes)``: ``plan-bearings-only`` with one odd value."""
+    field = draw(st.sampled_from(sorted(PLAN_EDITS)))
+    old, new = draw(st.sampled_from(PLAN_EDITS[field]))
+    text = plan_table()
+    assert old in text, old
+    return f"{field}: {new.splitlines()[-1]}", text.replace(old, new, 1).encode()
+
+
 # -- option strings -------------------------------------------------------------------------
 
 OPTION_TEXT = st.one_of(
@@ -192,7 +309,7 @@ OPTION_TEXT = st.one_of(
 OPTIONS = {
     "crlb": ["--truth", "--ref-time", "--motion"],
     "estimate": ["--init", "--ref-time", "--motion", "--origin"],
-    "track": ["--q", "--prior-time", "--rows", "--ellipses", "--filter"],
+    "track": ["--q", "--prior-time", "--rows", "--ellipses", "--filter", "--particles"],
     "show": ["--origin"],
 }
 
@@ -204,7 +321,9 @@ def option_cases(draw: st.DrawFn) -> tuple[str, list[str]]:
     option = draw(st.sampled_from(OPTIONS[command]))
     value = draw(OPTION_TEXT)
     extra = ["--motion", "cv2d"] if command in ("crlb", "estimate") and option != "--motion" \
-        else []
+        else ["--filter", "pf", "--seed", "1"] if option == "--particles" else []
+    if option == "--particles":
+        value = draw(st.one_of(OPTION_TEXT, st.sampled_from(["2", "3", "6", "7", "50"])))
     return f"{command} {option}", [command, "{file}", option, value, *extra]
 
 

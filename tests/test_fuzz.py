@@ -12,7 +12,16 @@ import os
 import tempfile
 from pathlib import Path
 
-from fuzzing import GOOD, base_file, measurement_files, option_cases, run_case, toml_scenarios
+from fuzzing import (
+    GOOD,
+    base_file,
+    latlon_range_difference_files,
+    measurement_files,
+    option_cases,
+    plan_scenarios,
+    run_case,
+    toml_scenarios,
+)
 from hypothesis import HealthCheck, given, settings
 
 import tmakit as tk
@@ -68,3 +77,38 @@ def test_hostile_option_values_give_a_result_or_name_the_option(case):
         outcome = run_case([a.replace("{file}", str(path)) for a in args], folder)
         assert outcome.kind in GOOD, (option, args, outcome)
         assert outcome.seconds < LIMIT_S, (option, outcome.seconds)
+
+
+@FUZZ
+@given(case=latlon_range_difference_files())
+def test_latlon_files_with_range_differences_give_a_fit_or_name_the_row(case):
+    what, data = case
+    with tempfile.TemporaryDirectory() as d:
+        folder = Path(d)
+        path = folder / "obs.csv"
+        path.write_bytes(data)
+        for args in (["show", str(path)], ["estimate", str(path), "--motion", "cv3d"]):
+            outcome = run_case(args, folder)
+            assert outcome.kind in GOOD, (what, args, outcome)
+            assert outcome.seconds < LIMIT_S, (what, args, outcome.seconds)
+            if outcome.exit_code == 2:
+                assert "obs.csv" in outcome.output or "range differences" in outcome.output, (
+                    what, outcome)
+
+
+@FUZZ
+@given(case=plan_scenarios())
+def test_odd_planning_tables_are_refused_by_field_or_planned(case):
+    field, data = case
+    with tempfile.TemporaryDirectory() as d:
+        folder = Path(d)
+        toml = folder / "s.toml"
+        toml.write_bytes(data)
+        outcome = run_case(["plan", str(toml), "--runs", "1", "--duration", "20",
+                            "--particles", "50", "--no-progress", "-o", str(folder / "p.csv")],
+                           folder, may_write=("p.csv",))
+        assert outcome.kind in GOOD, (field, outcome)
+        assert outcome.seconds < LIMIT_S, (field, outcome.seconds)
+        if outcome.exit_code == 2:
+            assert "s.toml" in outcome.output or "--duration" in outcome.output, (field, outcome)
+            assert not (folder / "p.csv").exists()

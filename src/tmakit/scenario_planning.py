@@ -42,6 +42,9 @@ from .sensors import Actions, PlatformKinematics, PlatformState, platform_config
 
 #: Trackers a ``[planning]`` table may name (keys of :data:`tmakit.filters.FILTERS`).
 PLANNING_TRACKERS = ("pf", "ekf", "ukf")
+#: Most decisions of one run a duration may ask for (the per-step table holds a row each;
+#: 1e11 ran out of memory).
+MAX_DECISIONS = 1_000_000
 
 
 class _Strict(BaseModel):
@@ -315,6 +318,9 @@ class _Build:
                 raise ValueError(f"planning.weights: give {n} diagonal weights or a {n} x {n} "
                                  f"matrix for the state [position, velocity]; got {w.size}")
             w = np.diag(w)
+        if not np.any(w):
+            raise ValueError("planning.weights: all zero, so every candidate would cost 0 "
+                             "and the choice would be arbitrary")
         crit = WeightedTrace(w)
         try:
             crit.matrix(n)
@@ -360,6 +366,13 @@ class _Build:
             except ValueError as e:
                 msg = str(e)
                 raise ValueError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+        ranges = [(c.type, c.distance) for c in self.spec.constraints
+                  if isinstance(c, RangeConstraintSpec)]
+        near = max((d for k, d in ranges if k == "min_range"), default=0.0)
+        far = min((d for k, d in ranges if k == "max_range"), default=math.inf)
+        if near >= far:
+            raise ValueError(f"planning.constraints: the minimum range {near:g} m is not below "
+                             f"the maximum range {far:g} m; no path can keep both")
         return out
 
     def start(self, sensor_spec: Any) -> PlatformState:
@@ -397,6 +410,9 @@ class _Build:
         if steps < 1 or abs(ratio - steps) > 1e-6 * max(1.0, ratio):
             raise ValueError(f"planning.duration: {self.spec.duration:g} s is not a whole "
                              f"number (>= 1) of decision intervals of {interval:g} s")
+        if steps > MAX_DECISIONS:
+            raise ValueError(f"planning.duration: {steps:,} decisions of {interval:g} s, more "
+                             f"than the limit of {MAX_DECISIONS:,}")
         return int(steps)
 
 

@@ -6,6 +6,7 @@ this module only lays it out.  No numpy at import time (``tma --help`` stays lig
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any
 
 import typer
@@ -68,9 +69,13 @@ def parse_time(text: str | None, meas: Any, option: str) -> float | None:
     if text is None:
         return None
     try:
-        return float(text)
+        seconds = float(text)
     except ValueError:
         pass
+    else:
+        if not math.isfinite(seconds):
+            raise fail(f"{option} {text!r}: expected a finite time (s)")
+        return seconds
     import datetime as dt
 
     from ..results.context import TIME_ORIGIN_KEY

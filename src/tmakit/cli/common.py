@@ -95,6 +95,9 @@ def parse_origin(text: str | None) -> tuple[float, float, float] | None:
     except ValueError:
         raise fail(f"--origin {text!r}: expected LAT,LON,ALT in degrees, degrees, "
                    "metres") from None
+    if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 360.0 and math.isfinite(alt)):
+        raise fail(f"--origin {text!r}: expected a latitude in [-90, 90] deg, a longitude in "
+                   "[-180, 360] deg and a finite altitude (m)")
     return lat, lon, alt
 
 
@@ -199,13 +202,17 @@ def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None,
         raise fail(f"{path}: is a folder, not a measurement file")
     options = _log_options(path, {k: v for k, v in options.items() if v is not None})
     try:
-        return read_measurements(path, origin=origin, **options)
+        meas = read_measurements(path, origin=origin, **options)
     except OSError as e:
         raise fail(f"{path}: cannot be read ({e.strerror or e})") from None
     except (MeasurementFileError, ValueError) as e:
         from ..io.positions import ORIGIN_HINT
 
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
+    if origin is not None and "origin_lat" not in meas.metadata:
+        err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {path.name} "
+                  "gives ENU positions, so it is not used", highlight=False)
+    return meas
 
 
 def _log_options(path: Path, options: dict[str, Any]) -> dict[str, Any]:

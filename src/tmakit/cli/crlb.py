@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -63,6 +64,8 @@ def crlb(
     --known-nuisance is given.
     """
     check_units(units)
+    if at is not None and not math.isfinite(at):
+        raise fail(f"--at {at}: expected a finite time (s)")
     if is_measurement_file(source) or format is not None:
         bound = bound_of_file(Path(source), motion, ref_time, truth, known_nuisance, drift,
                               free_exponent,
@@ -71,6 +74,10 @@ def crlb(
     else:
         bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
     derived = None if at is None else derived_at(bound, at)
+    if derived is not None and bound.rank == len(bound.parameters) and not all(
+            math.isfinite(derived["ellipse_90"][k]) for k in ("east", "north", "major")):
+        raise fail(f"--at {at:g}: the bound overflows so far from the measurement times; "
+                   "give a time near them (s)")
     print_bound(bound, derived, as_json, units)
 
 

@@ -29,8 +29,8 @@ def montecarlo(
         help="Dask scheduler address (tcp://host:8786); default: run here")] = None,
     chunk: Annotated[int | None, typer.Option(min=1, help="runs per task")] = None,
     workers: Annotated[int, typer.Option(
-        min=1, help="worker processes on this machine, BLAS on one thread each (same table "
-        "for any number); not with --dask")] = 1,
+        min=1, help="worker processes on this machine, BLAS on one thread each, at most one "
+        "per CPU (same table for any number); not with --dask")] = 1,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the per-run table (.csv or .parquet); if the study is "
         "interrupted or fails, the finished runs go to NAME.partial.csv")] = None,

@@ -22,7 +22,7 @@ VALUE_NAMES = {
     "prior_time": "T", "start": "T", "stop": "T", "duration": "S", "bearing_sigma": "DEG",
     "start_std": "M", "alpha": "P", "q": "Q", "init": "NAME=VALUE,...",
     "truth": "NAME=VALUE,...", "prior": "NAME=VALUE,...", "prior_std": "NAME=VALUE,...",
-    "map_text": "COLUMN=ROLE,...", "measure": "COLUMN:KIND:UNIT:SIGMA", "dask": "ADDRESS",
+    "map_text": "COLUMN=ROLE,...", "measure": "COLUMN=KIND:UNIT:SIGMA", "dask": "ADDRESS",
     "filter_name": "FILTER", "units": "si|nautical", "criterion": "bic|lrt",
     "accelerations": "select|all", "max_runs": "N", "ownship": "NAME", "contact": "NAME",
     "sensor": "NAME",

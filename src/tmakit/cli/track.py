@@ -350,7 +350,10 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
     if truth is not None:
         e = tr.states[-1, :dim] - truth[-1, :dim]
         cov = tr.covariances[-1, :dim, :dim]
-        m = float(np.sqrt(e @ np.linalg.solve(cov, e)))
+        try:
+            sigma = f"{float(np.sqrt(e @ np.linalg.solve(cov, e))):.2f} sigma (Mahalanobis, " \
+                f"{dim}-D)"
+        except np.linalg.LinAlgError:
+            sigma = "the final covariance is singular (a collapsed cloud or track)"
         out.print(f"truth known (file metadata): final position error "
-                  f"{np.linalg.norm(e):.1f} m, {m:.2f} sigma (Mahalanobis, {dim}-D)",
-                  highlight=False)
+                  f"{np.linalg.norm(e):.1f} m, {sigma}", highlight=False)

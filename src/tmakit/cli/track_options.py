@@ -44,6 +44,10 @@ def parse_q(text: str, dim: int) -> list[float]:
 
 
 #: The flags of `tma track` for the library parameters its errors name.
+#: Fewest particles ``tma track`` takes: one more than a 3-D state's six values, the fewest
+#: whose cloud can have a non-singular covariance.
+MIN_PARTICLES = 7
+
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
                "max_relative_std": "--start-std"}
 
@@ -103,6 +107,10 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
     from .outputs import check_outputs, check_particles
 
     check_particles(particles)
+    if particles is not None and particles < MIN_PARTICLES:
+        raise fail(f"--particles {particles}: a cloud of fewer than {MIN_PARTICLES} particles "
+                   "cannot span the target's state (4 or 6 values), so its covariance is "
+                   "singular; use hundreds or more")
     output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")

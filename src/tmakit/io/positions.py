@@ -194,6 +194,8 @@ def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[n
     state_cols = [c for c in (*SENSOR_STATE_COLUMNS, *GEO_COLUMNS) if c in num]
     usable = (~problems.bad_rows("time", "sensor", *state_cols)
               & np.all(np.isfinite(state), axis=1))
+    if not np.any(usable):  # no position at all (no origin, bad cells): reported already
+        return ref
     for s in dict.fromkeys(sensor[need]):
         ref_of_sensor(s, np.flatnonzero(need & (sensor == s)),
                        np.flatnonzero(usable & (sensor == s)), num["time"], time_ref, state,

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..planning.closed_loop import LoopSetup
 from ..scenario_file import load_planning
-from ..scenario_planning import PlanningSetup
+from ..scenario_planning import MAX_DECISIONS, PlanningSetup
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -177,6 +177,9 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         If the scenario or its ``[planning]`` table is not valid.
     ValueError
         Naming the option out of range.
+    TypeError
+        If ``scenario`` is none of the types above (a ``Scenario`` object has no planning
+        table: use its TOML file).
 
     Examples
     --------
@@ -185,14 +188,24 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
     >>> run.summary()["steps"], len(run.table())
     (6, 6)
     """
+    if not isinstance(scenario, PlanningSetup | str | os.PathLike):
+        raise TypeError(f"plan() takes a scenario name, a TOML file with a [planning] table or "
+                        f"a PlanningSetup (tmakit.load_planning), not "
+                        f"{type(scenario).__name__}")
     setup = scenario if isinstance(scenario, PlanningSetup) else load_planning(scenario)
     changes: dict[str, Any] = {}
     if duration is not None:
+        if isinstance(duration, bool) or not isinstance(duration, int | float | np.floating):
+            raise ValueError(f"duration must be a number of seconds; got {duration!r}")
         ratio = float(duration) / setup.interval
         if not (ratio >= 1 and abs(ratio - round(ratio)) <= 1e-6 * ratio):
             raise ValueError(f"duration must be a whole number (>= 1) of decision intervals "
                              f"of {setup.interval:g} s; got {duration} s")
         changes["steps"] = round(ratio)
+        if changes["steps"] > MAX_DECISIONS:
+            raise ValueError(f"duration {duration:g} s: {changes['steps']:,} decisions of "
+                             f"{setup.interval:g} s per run, more than the limit of "
+                             f"{MAX_DECISIONS:,}")
     if particles is not None:
         changes["particles"] = particles
     if tracker is not None:

@@ -8,6 +8,7 @@ cluster): run ``r``'s data do not depend on the number of runs either.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -96,20 +97,28 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
     return scenario
 
 
+def _cpus() -> int:
+    """Return the CPUs this process may run on."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
+
+
 def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
              progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None,
              workers: int = 1) -> tuple[list[ChunkOutput], float, str]:
     """Run the chunks here, in worker processes or on Dask.
 
-    Their outputs in run order, the wall time (s) and the executor's description.
+    At most one process per chunk and per CPU is started (more would only wait).  Their
+    outputs in run order, the wall time (s) and the executor's description.
     """
+    processes = min(workers, len(tasks), _cpus())
     bar = progress_bar(runs, progress, bar_label)
     start = time.perf_counter()
     try:
         if client is not None:
             outputs = run_dask(tasks, client, bar, on_done=on_chunk)
-        elif workers > 1:
-            outputs = run_pool(tasks, workers, bar, on_done=on_chunk)
+        elif processes > 1:
+            outputs = run_pool(tasks, processes, bar, on_done=on_chunk)
         else:
             outputs = run_local(tasks, bar, on_done=on_chunk)
     finally:
@@ -117,7 +126,9 @@ def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, 
     wall = time.perf_counter() - start
     outputs.sort(key=lambda o: o.first_run)
     executor = (f"dask {client.scheduler.address}" if client is not None
-                else f"{workers} processes" if workers > 1 else "local")
+                else f"{processes} processes" if processes > 1 else "local")
+    if client is None and processes < workers:
+        executor += f", {workers:,} asked: {len(tasks):,} chunks, {_cpus()} CPUs"
     return outputs, wall, executor
 
 
@@ -207,7 +218,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
     workers : int, optional
         Worker processes on this machine (default 1: this process), each with BLAS on one
-        thread (:func:`~.execution.run_pool`); not with ``dask``.
+        thread (:func:`~.execution.run_pool`); at most one per chunk and per CPU is started
+        (the result's ``executor`` says how many); not with ``dask``.
 
     Returns
     -------

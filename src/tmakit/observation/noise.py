@@ -101,6 +101,10 @@ class NoiseModel:
             self.log_det += float(np.sum(np.log(evals[keep])) - 2.0 * np.sum(np.log(
                 sigma[rows])))
         self.correlated = bool(self.blocks)
+        # blocks of one size stacked, so whitening many small groups is one product per size
+        sizes = sorted({rows.size for rows, _ in self.blocks})
+        self._stacks = [(np.stack([r for r, _ in self.blocks if r.size == b]),
+                         np.stack([w for r, w in self.blocks if r.size == b])) for b in sizes]
 
     @classmethod
     def from_covariance(cls, covariance: NDArray[np.float64]) -> NoiseModel:
@@ -174,8 +178,8 @@ class NoiseModel:
                 return x * scale
         x = np.moveaxis(np.asarray(x, dtype=float), axis, -1)
         out = x * self.inv_sigma
-        for rows, whitener in self.blocks:
-            out[..., rows] = np.einsum("ij,...j->...i", whitener, x[..., rows])
+        for rows, whitener in self._stacks:  # (k, b) rows, (k, b, b) whiteners
+            out[..., rows] = np.einsum("kij,...kj->...ki", whitener, x[..., rows])
         return np.moveaxis(out, -1, axis)
 
     def chunk_bounds(self, size: int) -> list[tuple[int, int]]:

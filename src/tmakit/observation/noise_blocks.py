@@ -21,9 +21,13 @@ from numpy.typing import NDArray
 from ..arrays import Array
 from ..measurements import MeasurementModel
 
-__all__ = ["correlated_blocks", "overlapping_groups"]
+__all__ = ["MAX_GROUP_ROWS", "correlated_blocks", "overlapping_groups"]
 
 Index = NDArray[np.intp] | slice
+
+#: Most rows of one sensor whose spans overlap in one chain (one dense correlated noise block;
+#: its covariance and eigen-decomposition take about 5 * 8 * n^2 bytes and n^3 operations).
+MAX_GROUP_ROWS = 4096
 
 
 def overlapping_groups(rows: NDArray[np.intp], time: Array, time_ref: Array,
@@ -89,6 +93,18 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
         rows = np.arange(m)[index[kind]]
         for s in np.unique(sensor[rows]):
             own = rows[sensor[rows] == s]
-            blocks.extend((g, model.noise_covariance(time[g], time_ref[g], sigma[g]))
-                          for g in overlapping_groups(own, time, time_ref, singletons))
+            for g in overlapping_groups(own, time, time_ref, singletons):
+                _check_group_size(g.shape[0])
+                blocks.append((g, model.noise_covariance(time[g], time_ref[g], sigma[g])))
     return blocks
+
+
+def _check_group_size(n: int) -> None:
+    """Refuse one chain of overlapping rows too large for a dense covariance."""
+    if n > MAX_GROUP_ROWS:
+        raise ValueError(
+            f"{n:,} range differences of one sensor share pulse intervals (their spans "
+            f"time_ref..time overlap in one chain, e.g. one time_ref for all): their noise is "
+            f"one dense {n:,} x {n:,} covariance, more than the limit of {MAX_GROUP_ROWS:,} "
+            "rows (its memory grows with the square, its time with the cube); use differences "
+            "between consecutive samples, or fewer rows (--from/--to)")

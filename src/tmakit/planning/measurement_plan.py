@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..arrays import Array
+from ..measurements import KINDS
 from ..observation import MeasurementGroup
 
 
@@ -46,8 +47,8 @@ class SensorPlan:
     Raises
     ------
     ValueError
-        On empty kinds, sigmas that are not positive and finite, or times that are not
-        increasing and positive.
+        On empty or unknown kinds, sigmas that are not one or one per kind, positive and
+        finite, or times that are not increasing and positive.
     """
 
     kinds: tuple[str, ...]
@@ -66,7 +67,15 @@ class SensorPlan:
         names = (kinds,) if isinstance(kinds, str) else tuple(kinds)
         if not names:
             raise ValueError("a sensor plan needs at least one measurement kind")
-        sig = np.broadcast_to(np.asarray(sigmas, dtype=float), (len(names),)).copy()
+        unknown = [k for k in names if k not in KINDS]
+        if unknown:
+            raise ValueError(f"sensor plan kinds: unknown {', '.join(map(repr, unknown))}; "
+                             f"expected some of {', '.join(KINDS)}")
+        given = np.asarray(sigmas, dtype=float)
+        if given.ndim > 1 or (given.ndim == 1 and given.shape[0] != len(names)):
+            raise ValueError(f"sensor plan sigmas: give one value, or one per kind "
+                             f"({len(names)}); got shape {given.shape}")
+        sig = np.broadcast_to(given, (len(names),)).copy()
         if not np.all(np.isfinite(sig) & (sig > 0)):
             raise ValueError(f"sensor plan sigmas must be positive and finite (SI); got {sig}")
         if dim not in (2, 3):

@@ -44,6 +44,9 @@ from .measurement_plan import SensorPlan
 
 #: Times per step at which the constraints are checked (equally spaced, end included).
 CHECK_POINTS = 4
+#: Most action sequences an exhaustive search scores per decision (``A ** horizon``, no
+#: ``beam``): 166,375 took 0.4 s and 0.5 GB per decision; beyond, memory runs out.
+MAX_SEQUENCES = 200_000
 _ONE = np.ones(1)
 
 
@@ -150,7 +153,10 @@ class Planner:
     Raises
     ------
     ValueError
-        On an empty action set, a non-positive interval or horizon, or an unknown gamma.
+        On an empty action set, a non-positive interval or horizon, an unknown gamma, or an
+        exhaustive search of more than :data:`MAX_SEQUENCES` sequences.
+    TypeError
+        If ``actions`` is not an :class:`~tmakit.sensors.Actions`.
 
     References
     ----------
@@ -172,6 +178,9 @@ class Planner:
 
     def __post_init__(self) -> None:
         """Check the settings."""
+        if not isinstance(self.actions, Actions):
+            raise TypeError(f"actions must be a tmakit.sensors.Actions (e.g. Actions.grid), "
+                            f"not {type(self.actions).__name__}")
         if len(self.actions.shape) != 1 or self.actions.shape[0] < 1:
             raise ValueError("the planner needs a 1-D set of at least one candidate action")
         if not (np.isfinite(self.interval) and self.interval > 0):
@@ -184,6 +193,12 @@ class Planner:
         if self.beam is not None and (isinstance(self.beam, bool) or int(self.beam) != self.beam
                                       or self.beam < 1):
             raise ValueError(f"beam must be a whole number >= 1 or None; got {self.beam!r}")
+        if self.beam is None and self.actions.shape[0] ** int(self.horizon) > MAX_SEQUENCES:
+            raise ValueError(
+                f"{self.actions.shape[0]} actions over a horizon of {self.horizon} make "
+                f"{self.actions.shape[0] ** int(self.horizon):,} sequences to score per "
+                f"decision, more than {MAX_SEQUENCES:,} (memory and time grow with them): "
+                "lower the horizon, offer fewer actions or search with Planner(beam=N)")
         object.__setattr__(self, "constraints", tuple(self.constraints))
         compiled.available()   # load numba's cached kernels now, not in the first decision
 

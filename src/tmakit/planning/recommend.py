@@ -42,7 +42,23 @@ def _gaussian(track: Estimate) -> tuple[np.ndarray, np.ndarray]:
                                                      and np.all(np.isfinite(p))):
         raise ValueError(f"the estimate must be a finite mean [x, y, (z,) vx, vy, (vz)] (4 or "
                          f"6 values) and its (n, n) covariance; got {m.shape} and {p.shape}")
-    return m, symmetrise(p)
+    p = symmetrise(p)
+    if np.any(np.linalg.eigvalsh(p) <= 0.0):
+        raise ValueError("the estimate's covariance must be positive definite (SI: m^2, "
+                         "m^2/s^2)")
+    return m, p
+
+
+def _check_types(platform: object, planner: object, posterior: object) -> None:
+    """Refuse arguments of the wrong type with their name (not an AttributeError later)."""
+    for name, value, cls in (("platform", platform, PlatformState),
+                             ("planner", planner, Planner)):
+        if not isinstance(value, cls):
+            raise TypeError(f"recommend(): {name} must be a {cls.__name__}, not "
+                            f"{type(value).__name__}")
+    if posterior is not None and not isinstance(posterior, PosteriorInformation):
+        raise TypeError(f"recommend(): posterior must be a PosteriorInformation or None, not "
+                        f"{type(posterior).__name__}")
 
 
 def recommend(track: Estimate, platform: PlatformState, planner: Planner,
@@ -78,9 +94,9 @@ def recommend(track: Estimate, platform: PlatformState, planner: Planner,
 
     Raises
     ------
-    ValueError
-        On an estimate of the wrong shape, a tracker or ``posterior`` not at the platform's
-        time, or an unknown ``cloud``.
+    ValueError, TypeError
+        On a bad estimate or cloud, a tracker or posterior not at the platform's time; a
+        platform, planner or posterior not of its type.
 
     References
     ----------
@@ -101,6 +117,7 @@ def recommend(track: Estimate, platform: PlatformState, planner: Planner,
     >>> rec.bound.shape, bool(rec.bound[rec.index] == rec.bound[rec.feasible].min())
     ((15,), True)
     """
+    _check_types(platform, planner, posterior)
     if isinstance(track, TrackingFilter):
         if abs(track.time - platform.time) > 1e-6:
             raise ValueError(f"the tracker is at t = {track.time:g} s and the platform at "
