@@ -38,8 +38,8 @@ EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea"
                  "bearings.csv", "bearings.toml", "truth.json")
 
 
-def _check_output(output: Path, force: bool) -> None:
-    check_output(output, "-o", force, "measurements")
+def _check_output(output: Path, force: bool, inputs: list[Path]) -> None:
+    check_output(output, "-o", force, "measurements", inputs)
 
 
 def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None) -> Any:
@@ -97,7 +97,7 @@ def import_(
         raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
     if dim not in (None, 2, 3):
         raise fail(f"--dim {dim}: expected 2 or 3")
-    _check_output(output, force)
+    _check_output(output, force, [*files, *([mapping] if mapping is not None else [])])
     for f in files:
         if not f.exists():
             raise fail(f"{f}: no such file")

@@ -30,8 +30,8 @@ _FORMATS = {"picture": PICTURE_SUFFIXES, "table": TABLE_SUFFIXES, "json": None,
             "measurements": None}
 
 
-def check_output(path: Path | None, option: str, force: bool, kind: str = "table"
-                 ) -> Path | None:
+def check_output(path: Path | None, option: str, force: bool, kind: str = "table",
+                 inputs: Iterable[Path] = ()) -> Path | None:
     """Resolve and check one output path before any computation.
 
     Parameters
@@ -45,6 +45,9 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
     kind : {"table", "measurements", "picture", "json"}
         What is written: tables take .csv/.parquet/.pq, measurement files a writable format
         of the registry; pictures .png/.pdf/.svg (none given: .png); JSON any suffix.
+    inputs : iterable of Path, optional
+        The files the command reads: never written over, even with ``--force`` (the
+        command would destroy its own input, and a failure halfway would lose both).
 
     Returns
     -------
@@ -83,13 +86,17 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
         raise fail(f"{option} {path}: {parent} is not a folder")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise fail(f"{option} {path}: the folder {parent} cannot be written")
-    if path.exists() and not force:
-        raise fail(f"{path} already exists; use --force to overwrite it")
+    if path.exists():
+        for source in inputs:
+            if Path(source).exists() and Path(source).resolve() == path.resolve():
+                raise fail(f"{option} {path}: is the input file; write to another file")
+        if not force:
+            raise fail(f"{path} already exists; use --force to overwrite it")
     return path
 
 
-def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool
-                  ) -> list[Path | None]:
+def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool,
+                  inputs: Iterable[Path] = ()) -> list[Path | None]:
     """Check several outputs (:func:`check_output`) and refuse two options naming one file.
 
     Parameters
@@ -98,6 +105,8 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool
         ``(option, path, kind)`` for each output.
     force : bool
         ``--force``.
+    inputs : iterable of Path, optional
+        The files the command reads (never written over; :func:`check_output`).
 
     Returns
     -------
@@ -111,8 +120,9 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool
     """
     resolved: list[Path | None] = []
     seen: dict[Path, str] = {}
+    inputs = list(inputs)
     for option, path, kind in outputs:
-        p = check_output(path, option, force, kind)
+        p = check_output(path, option, force, kind, inputs)
         if p is not None:
             key = p.resolve()
             if key in seen:

@@ -5,6 +5,7 @@ Its library errors are translated here into the flags that would fix them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -76,7 +77,8 @@ def tracking_failure(e: Any) -> typer.Exit:
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
-                        ellipses: int, rows: int) -> tuple[Path | None, Path | None]:
+                        ellipses: int, rows: int, inputs: Sequence[Path] = ()
+                        ) -> tuple[Path | None, Path | None]:
     """Refuse bad ``tma track`` options before reading the file.
 
     Parameters
@@ -91,6 +93,8 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
         ``--particles`` and ``--seed``: for the random (particle) filters only.
     ellipses, rows : int
         ``--ellipses`` (0 or more) and ``--rows`` (1 or more).
+    inputs : sequence of Path, optional
+        The files read: never written over, even with ``force``.
 
     Returns
     -------
@@ -111,7 +115,8 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
         raise fail(f"--particles {particles}: a cloud of fewer than {MIN_PARTICLES} particles "
                    "cannot span the target's state (4 or 6 values), so its covariance is "
                    "singular; use hundreds or more")
-    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
+    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force,
+                                 inputs)
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
     random_filters = tracking.random_filters()
