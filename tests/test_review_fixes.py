@@ -243,3 +243,10 @@ def test_plan_refuses_a_duration_of_more_decisions_than_the_limit():
                                  "1e12", "--no-progress"])  # ran out of memory, naming no option
     assert result.exit_code == 2
     assert "--duration 1e+12 s: 100,000,000,000 decisions" in " ".join(result.output.split())
+
+
+def test_plan_refuses_particles_for_a_tracker_that_has_none():
+    result = runner.invoke(app, ["plan", str(PLAN_TOML), "--tracker", "ekf", "--particles", "50",
+                                "--runs", "1"])
+    assert result.exit_code == 2
+    assert "--particles applies only to the particle filter" in result.output

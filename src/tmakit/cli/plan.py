@@ -83,6 +83,10 @@ def plan(
 
     try:
         setup = load_planning(scenario)
+        if particles is not None and (tracker or setup.tracker) != "pf":
+            raise fail(f"--particles applies only to the particle filter (pf), not to the "
+                       f"{tracker or setup.tracker} tracker "
+                       f"{'given by --tracker' if tracker else 'of ' + str(scenario)}")
         from ..montecarlo.planned import plan as run_plan
 
         result = run_plan(setup, runs=runs, seed=seed, duration=duration,
