@@ -250,3 +250,14 @@ def test_plan_refuses_particles_for_a_tracker_that_has_none():
                                 "--runs", "1"])
     assert result.exit_code == 2
     assert "--particles applies only to the particle filter" in result.output
+
+
+def test_plan_says_when_the_sensor_starts_inside_a_keep_out_zone(tmp_path):
+    zone = ('\n[[planning.constraints]]\ntype = "keep_out"\n'
+            'polygons = [[[-500.0, -500.0], [500.0, -500.0], [500.0, 500.0], [-500.0, 500.0]]]\n')
+    path = _plan_file(tmp_path, lambda text: text + zone)
+    result = runner.invoke(app, ["plan", str(path), "--runs", "1", "--duration", "30",
+                                 "--no-progress"])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())  # the console wraps long lines
+    assert "starts in breach of its keep-out zone constraint (by 500 m)" in said

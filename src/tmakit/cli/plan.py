@@ -87,6 +87,8 @@ def plan(
             raise fail(f"--particles applies only to the particle filter (pf), not to the "
                        f"{tracker or setup.tracker} tracker "
                        f"{'given by --tracker' if tracker else 'of ' + str(scenario)}")
+        for warning in start_warnings(setup):
+            err.print(f"warning: {escape(warning)}", highlight=False)
         from ..montecarlo.planned import plan as run_plan
 
         result = run_plan(setup, runs=runs, seed=seed, duration=duration,
@@ -108,6 +110,37 @@ def plan(
     else:
         print_summary(result, summary, seed)
     write_outputs(result, output, plot, force, err if as_json else out)
+
+
+def start_warnings(setup: Any) -> list[str]:
+    """Say which constraints the steered sensor already breaks where it starts.
+
+    Parameters
+    ----------
+    setup : tmakit.scenario_planning.PlanningSetup
+        The loaded planning table.
+
+    Returns
+    -------
+    list of str
+        One sentence per constraint broken at the start (by the true target's position for
+        the range limits): the planner steers out of it, and the steps until then are counted
+        as violated.
+    """
+    import numpy as np
+
+    start = np.asarray(setup.start.position, dtype=float)[None, :]
+    dim = setup.target.shape[0] // 2
+    target = np.zeros(3)
+    target[:dim] = setup.target[:dim]
+    said = []
+    for c in setup.planner.constraints:
+        amount = float(c.check(start, target).amount[0])
+        if amount > 1e-3:
+            said.append(f"sensor {setup.sensor!r} starts in breach of its {c.name} constraint "
+                        f"(by {amount:,.0f} m); the planner steers out of it, and the steps "
+                        "until then count as violated")
+    return said
 
 
 def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bool,

@@ -105,9 +105,7 @@ def track(
     from .. import tracking
 
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
-                                       ellipses, rows,
-                                       inputs=[p for p in (file, ownship, contact, mapping)
-                                               if p is not None])
+                                       ellipses, rows, (file, ownship, contact, mapping))
     check_units(units)
     meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
         format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma))

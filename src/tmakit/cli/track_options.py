@@ -77,7 +77,7 @@ def tracking_failure(e: Any) -> typer.Exit:
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
-                        ellipses: int, rows: int, inputs: Sequence[Path] = ()
+                        ellipses: int, rows: int, inputs: Sequence[Path | None] = ()
                         ) -> tuple[Path | None, Path | None]:
     """Refuse bad ``tma track`` options before reading the file.
 
@@ -93,8 +93,8 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
         ``--particles`` and ``--seed``: for the random (particle) filters only.
     ellipses, rows : int
         ``--ellipses`` (0 or more) and ``--rows`` (1 or more).
-    inputs : sequence of Path, optional
-        The files read: never written over, even with ``force``.
+    inputs : sequence of Path or None, optional
+        The files read (None: not given): never written over, even with ``force``.
 
     Returns
     -------
@@ -116,7 +116,7 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
                    "cannot span the target's state (4 or 6 values), so its covariance is "
                    "singular; use hundreds or more")
     output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force,
-                                 inputs)
+                                 [p for p in inputs if p is not None])
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
     random_filters = tracking.random_filters()
