@@ -41,6 +41,9 @@ class Linearisation:
         self.d_h0: Array | None = None
         self.d_h0_ref: Array | None = None
         self.d_a: list[tuple[str, Array, Array | None]] = []
+        #: The Jacobian ``(..., n, p)`` made by the fused path (:mod:`.fused`), or None.
+        self.fused: Array | None = None
+        self._fused_given = False
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
         """Return ``d predictions / d theta`` at nuisance values.
@@ -62,6 +65,11 @@ class Linearisation:
         ValueError
             When the linearisation was made without derivatives.
         """
+        if self.fused is not None:  # no nuisance: the Jacobian itself, a new array once
+            if with_h0 and not self._fused_given:
+                self._fused_given = True
+                return self.fused
+            return self.fused.copy() if with_h0 else np.zeros_like(self.fused)
         if self.d_h0 is None:
             raise ValueError("this linearisation was made without derivatives")
         obs = self.obs

@@ -25,6 +25,7 @@ from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .affine_rows import AffineRows
+from .fused import fused_linearisation
 from .linearisation import Linearisation
 from .rows import RowModel, nuisance_layout
 
@@ -175,9 +176,9 @@ class ObservationModel:
         sub.sigmas_grouped = sub._to_grouped(sub.sigmas)
         sub._set_row_model()
         sub.angle_mask = sub._to_set_order(sub.angle_mask_grouped)
-        sub._rel_map = _take_map(self._rel_map, pick)
-        sub._rel_map_ref = (None if sub._ref is None
-                            else _take_map(self._rel_map_ref, pick[sub._ref] - self._ref.start))
+        sub._rel_map = None if self._rel_map is None else self._rel_map.take(pick)
+        sub._rel_map_ref = (None if sub._ref is None or self._rel_map_ref is None
+                            else self._rel_map_ref.take(pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
         sub._kind_code = None
         return sub
@@ -306,6 +307,8 @@ class ObservationModel:
         Linearisation
         """
         theta = np.asarray(theta, dtype=float)
+        if derivatives and (lin := fused_linearisation(self, theta)) is not None:
+            return lin  # one planar kind, affine motion, one theta: only what it needs
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
         inner = not derivatives and theta.ndim == 2 and theta.shape[0] > n
@@ -492,8 +495,3 @@ class ObservationModel:
         """
         res = self.values - self.predict(theta, nuisance)
         return np.where(self.angle_mask, wrap_angle(res), res)
-
-
-def _take_map(rel_map: AffineRows | None, rows: NDArray[np.intp]) -> AffineRows | None:
-    """Return the relative-state map (see :meth:`ObservationModel._relative_map`) of ``rows``."""
-    return None if rel_map is None else rel_map.take(rows)
