@@ -65,7 +65,15 @@ def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
     lin = Linearisation(obs, theta, h0.reshape(*batch, rel_map.m),
                         np.zeros((*batch, rel_map.m, 0)))
     lin.fused = jac.T.reshape(*batch, rel_map.m, rel_map.p)
+    lin.fused_again = lambda: _jacobian_again(obs, theta)
     return lin
+
+
+def _jacobian_again(obs: Any, theta: Array) -> Array:
+    """Make the fused Jacobian at ``theta`` again (the first one was handed over)."""
+    lin = fused_linearisation(obs, theta)
+    assert lin is not None and lin.fused is not None  # (it was fused before)
+    return lin.fused
 
 
 def _needs_copy(rel_map: Any) -> bool:
