@@ -227,12 +227,8 @@ class ObservationModel:
         terms = self.motion.component_terms(times)
         if terms is None:
             return None
-        offset = terms[1]
-        if offset.flags.owndata and offset.flags.writeable and offset.flags.c_contiguous:
-            np.subtract(offset, sensor.T, out=offset)  # a fresh array: no second (6, m) one
-        else:
-            offset = offset - sensor.T
-        return AffineRows(terms[0], offset, self.motion.n_params)
+        # The offset minus the sensor states made when used (fused bearings: two components).
+        return AffineRows(terms[0], terms[1], self.motion.n_params, sensor)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
                       rel_map: AffineRows | None, batch_inner: bool = False,
