@@ -167,5 +167,6 @@ class AffineRows:
         """
         terms = [(i, c, None if coef is None else coef[rows]) for i, c, coef in self.terms]
         if self._offset is None and self._sensor is not None:  # still lazy: both parts taken
-            return AffineRows(terms, self._base[:, rows], self.p, self._sensor[rows])
-        return AffineRows(terms, self.offset[:, rows], self.p)
+            return AffineRows(terms, np.take(self._base, rows, axis=1), self.p,
+                              np.take(self._sensor, rows, axis=0))
+        return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)
