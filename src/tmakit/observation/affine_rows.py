@@ -38,7 +38,7 @@ class AffineRows:
     sensor : numpy.ndarray, optional
         ``(m, 6)`` sensor states subtracted from ``offset`` on first use: the whole
         component-major :attr:`offset` (a transposing pass) only when needed, single
-        components (:meth:`single` with ``components``) each by itself.
+        components (:meth:`single` with ``components``) alone.
     """
 
     def __init__(self, terms: Sequence[Term], offset: Array, p: int,
@@ -46,7 +46,7 @@ class AffineRows:
         self.terms = sorted(terms, key=lambda term: term[0])
         self._base, self._sensor = offset, sensor
         self._offset = None if sensor is not None else np.ascontiguousarray(offset)
-        self._parts: dict[int, Array] = {}  # single components of the offset, made on use
+        self._head: Array | None = None  # the first components of the offset, made on use
         self.p = int(p)
         self.m = int(offset.shape[1])
         self._matrix: Array | None = None
@@ -77,15 +77,15 @@ class AffineRows:
                 self._offset = base - sensor.T
         return self._offset
 
-    def _offset_row(self, c: int) -> Array:
-        """Component ``c`` of :attr:`offset` (alone, without making the whole of it)."""
+    def _offset_head(self, n_c: int) -> Array:
+        """Give the first ``n_c`` components of :attr:`offset` (not making the whole of it)."""
         if self._offset is not None:
-            return self._offset[c]
-        part = self._parts.get(c)
-        if part is None:
+            return self._offset[:n_c]
+        head = self._head
+        if head is None or head.shape[0] < n_c:
             assert self._sensor is not None
-            part = self._parts[c] = self._base[c] - self._sensor[:, c]
-        return part
+            head = self._head = self._base[:n_c] - self._sensor[:, :n_c].T  # one pass
+        return head[:n_c]
 
     @property
     def flat_offset(self) -> Array:
@@ -123,11 +123,7 @@ class AffineRows:
             for i, c, coef in self.terms:
                 if c < n_c:
                     out[c] += th[i] if coef is None else th[i] * coef
-        if n_c < 6 and self._offset is None:  # the components asked for, alone
-            for c in range(n_c):
-                out[c] += self._offset_row(c)
-        else:
-            out += self.offset[:n_c]
+        out += self._offset_head(n_c) if n_c < 6 else self.offset
         if components is not None:
             return out
         return out.T if theta.ndim == 1 else out.T[None]
