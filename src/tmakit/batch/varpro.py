@@ -198,9 +198,11 @@ class VarProProblem:
         Returns
         -------
         ndarray
-            ``(..., n)`` the same data, grouped by kind.
+            ``(..., n)`` the same data, grouped by kind (``y`` itself as floats, not a copy,
+            when the set's rows are grouped already).
         """
-        return np.asarray(y, dtype=float)[..., self.obs.order]
+        y = np.asarray(y, dtype=float)
+        return y if self.obs.in_set_order else y[..., self.obs.order]
 
     def reference_nuisance(self, y: Array) -> Array:
         """Give a nuisance value close to the data's, per data row.
