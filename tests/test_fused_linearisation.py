@@ -6,7 +6,8 @@ components a bearing uses.  It must give what the general path (relative states 
 their derivatives, the motion's chain rule) gives, to 1e-12, and a Jacobian equal to central
 finite differences of the predictions; it must not apply where it cannot (several kinds, a
 batch of parameter vectors) and the Jacobian it hands over may be scaled by the caller
-without changing a later one.
+without changing a later one.  The solver's evaluation with it (residual wrapped in place)
+equals the general one.
 """
 
 from __future__ import annotations
@@ -15,6 +16,9 @@ import numpy as np
 import pytest
 
 import tmakit as tk
+from tmakit.batch import VarProProblem
+from tmakit.batch.varpro import _wrap_own
+from tmakit.frames import wrap_angle
 from tmakit.observation.fused import fused_linearisation
 
 
@@ -104,3 +108,35 @@ def test_fused_path_declines_other_problems():
     gu = tk.load_scenario("gu2007")  # bearing and frequency, with a carrier nuisance
     obs_gu = tk.ObservationModel(gu.simulate(0), gu.motion, gu.measurement_options)
     assert fused_linearisation(obs_gu, gu.theta) is None
+
+
+@pytest.mark.parametrize("scale", [1e-9, 1.0, 3.0, 6.0, 9.0, 30.0])
+def test_residual_wrapping_in_place_is_wrap_angle_bit_for_bit(scale):
+    # the solver wraps its own residual array in place (the range tested on e before it is
+    # shifted): the same bits as wrap_angle, also where it hands over (beyond one turn)
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        e = rng.uniform(-1.0, 1.0, size=(1, 60)) * scale
+        e[0, :6] = [np.pi, -np.pi, -0.0, 3 * np.pi, np.nextafter(3 * np.pi, 0.0), -3 * np.pi]
+        want = wrap_angle(e.copy())
+        got = _wrap_own(e, in_place=True)
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(np.signbit(got), np.signbit(want))
+    for c in (-3 * np.pi, -np.pi, np.pi, 3 * np.pi):  # every float near the boundaries
+        e = (c + np.arange(-500, 500) * np.spacing(c))[None]
+        want = wrap_angle(e.copy())
+        np.testing.assert_array_equal(_wrap_own(e, in_place=True), want)
+
+
+def test_solver_evaluation_with_the_fused_path_equals_the_general_one():
+    motion, theta, _ = CASES[0]
+    meas = _bearings(motion, theta, 3000, seed=4)
+    problem = VarProProblem(tk.ObservationModel(meas, motion))
+    u = problem.group(meas.value_si)[None]
+    one = problem.evaluate_part(theta[None] * 1.02, u, np.zeros((1, 0)))  # fused
+    two = problem.evaluate_part(np.stack([theta * 1.02] * 2), np.vstack([u, u]),
+                                np.zeros((2, 0)))  # general (a batch)
+    np.testing.assert_allclose(one.residual[0], two.residual[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(one.cost[0], two.cost[0], rtol=1e-12)
+    np.testing.assert_allclose(one.jacobian[0], two.jacobian[0], rtol=0,
+                               atol=1e-12 * np.abs(two.jacobian).max())
