@@ -187,9 +187,10 @@ class ObservationModel:
         """Each row's kind as its position in :attr:`models` (set order), made once."""
         code = self._kind_code
         if code is None:
-            code = np.empty(len(self.meas), dtype=np.intp)
+            code = np.zeros(len(self.meas), dtype=np.intp)  # one kind: all 0, nothing set
             for i, rows in enumerate(self.rows.values()):
-                code[rows] = i
+                if i:
+                    code[rows] = i
             code.flags.writeable = False
             self._kind_code = code
         return code
