@@ -36,9 +36,8 @@ def _subsample(problem: VarProProblem, max_rows: int
     The grid needs no more rows.
     """
     meas = problem.obs.meas
-    every = np.arange(len(meas))
     if len(meas) <= max_rows:  # correlated rows: the subset's noise is its own block
-        return problem, every
+        return problem, np.arange(len(meas))
     keep = []
     for rows in problem.obs.rows.values():
         take = max(2, round(max_rows * rows.size / len(meas)))

@@ -99,8 +99,10 @@ class Evaluation:
 
 
 
-def _wrap_own(e: Array) -> Array:
-    """Return :func:`~tmakit.frames.wrap_angle` of ``e`` (a new array), the same bits.
+def _wrap_own(e: Array, in_place: bool = False) -> Array:
+    """Return :func:`~tmakit.frames.wrap_angle` of ``e``, the same bits.
+
+    A new array, or ``e`` itself overwritten with ``in_place`` where it is wrapped by hand.
 
     Residuals of angles lie within one turn of the interval: where every ``e + pi`` is in
     ``[-2 pi, 4 pi)``, ``mod(e + pi, 2 pi)`` is ``e + pi`` shifted by at most one turn, the
@@ -108,13 +110,14 @@ def _wrap_own(e: Array) -> Array:
     itself adds ``2 pi`` below 0), formed with two comparisons and in place instead of masks
     and gathers.  Otherwise (or with NaN) :func:`wrap_angle` itself.
     """
-    shifted = e + np.pi
     two_pi = 2.0 * np.pi
-    if not shifted.size:
+    if not e.size:
         return wrap_angle(e)
-    low, high = shifted.min(), shifted.max()
+    # min(e + pi) is min(e) + pi exactly (rounding is monotonic): tested before e is touched
+    low, high = e.min() + np.pi, e.max() + np.pi
     if not (low >= -two_pi and high < 2.0 * two_pi):  # (NaN fails too)
         return wrap_angle(e)
+    shifted = np.add(e, np.pi, out=e) if in_place else e + np.pi
     if low < 0.0 or high >= two_pi:  # some rows one turn out
         turns = (shifted >= two_pi).astype(np.int8)
         turns -= shifted < 0.0
@@ -198,9 +201,11 @@ class VarProProblem:
         Returns
         -------
         ndarray
-            ``(..., n)`` the same data, grouped by kind.
+            ``(..., n)`` the same data, grouped by kind (``y`` itself as floats, not a copy,
+            when the set's rows are grouped already).
         """
-        return np.asarray(y, dtype=float)[..., self.obs.order]
+        y = np.asarray(y, dtype=float)
+        return y if self.obs.in_set_order else y[..., self.obs.order]
 
     def reference_nuisance(self, y: Array) -> Array:
         """Give a nuisance value close to the data's, per data row.
@@ -359,11 +364,13 @@ class VarProProblem:
         lin = self.obs.linearisation(theta, with_jacobian)
         at = lin.a_var.swapaxes(-1, -2) if self.k else None
         # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
-        e = u - lin.h0
+        # The fused path's h0 is its own fresh array, read only here: the residual takes it.
+        own = lin.fused is not None and lin.h0.shape == u.shape
+        e = np.subtract(u, lin.h0, out=lin.h0) if own else u - lin.h0
         if at is not None:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]
         if self.all_angle:
-            e = _wrap_own(e)
+            e = _wrap_own(e, in_place=True)  # e is this function's own array
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         r = self.noise.whiten(e, overwrite=True)  # e is this function's own array

@@ -74,6 +74,31 @@ class Bearing(MeasurementModel):
         np.negative(d[..., 1], out=d[..., 1])  # -(dx / rho2) == -dx / rho2 exactly
         return Jacobian(d, None, zeros_nuisance(rel))
 
+    def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array) -> Array:
+        """Give bearings and write their derivatives by the relative east and north (fused).
+
+        The same operations as :meth:`jacobian` (the same bits), for the fused linearisation
+        (:mod:`tmakit.observation.fused`): only the two components used are read or written.
+
+        Parameters
+        ----------
+        dx, dy : ndarray
+            Relative east and north positions ``(m,)``, m.
+        out_x, out_y : ndarray
+            ``(m,)`` written with ``dy / r^2`` and ``-dx / r^2``, rad/m.
+
+        Returns
+        -------
+        ndarray
+            ``atan2(dx, dy)``, rad in (-pi, pi], ``(m,)``.
+        """
+        rho2 = dx * dx
+        rho2 += dy * dy
+        np.divide(dy, rho2, out=out_x)
+        np.divide(dx, rho2, out=out_y)
+        np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
+        return np.arctan2(dx, dy)
+
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:
         """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m).

@@ -31,16 +31,24 @@ class AffineRows:
     terms : sequence of Term
         The non-zero terms of the map, in any order.
     offset : numpy.ndarray
-        ``(6, m)``: the relative states at ``theta = 0`` (target offset minus sensor state).
+        ``(6, m)``: the relative states at ``theta = 0`` (target offset minus sensor state);
+        with ``sensor``, the target's offset alone (this object's to overwrite).
     p : int
         Number of parameters.
+    sensor : numpy.ndarray, optional
+        ``(m, 6)`` sensor states subtracted from ``offset`` on first use: the whole
+        component-major :attr:`offset` (a transposing pass) only when needed, single
+        components (:meth:`single` with ``components``) alone.
     """
 
-    def __init__(self, terms: Sequence[Term], offset: Array, p: int) -> None:
+    def __init__(self, terms: Sequence[Term], offset: Array, p: int,
+                 sensor: Array | None = None) -> None:
         self.terms = sorted(terms, key=lambda term: term[0])
-        self.offset = np.ascontiguousarray(offset)
+        self._base, self._sensor = offset, sensor
+        self._offset = None if sensor is not None else np.ascontiguousarray(offset)
+        self._head: Array | None = None  # the first components of the offset, made on use
         self.p = int(p)
-        self.m = int(self.offset.shape[1])
+        self.m = int(offset.shape[1])
         self._matrix: Array | None = None
         #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
@@ -56,6 +64,28 @@ class AffineRows:
                 dense[i, c] = 1.0 if coef is None else coef
             self._matrix = dense.reshape(self.p, 6 * self.m)
         return self._matrix
+
+    @property
+    def offset(self) -> Array:
+        """The relative states at ``theta = 0``, ``(6, m)`` component-major (m, m/s)."""
+        if self._offset is None:
+            base, sensor = self._base, self._sensor
+            assert sensor is not None  # (set without a sensor otherwise)
+            if base.flags.owndata and base.flags.writeable and base.flags.c_contiguous:
+                self._offset = np.subtract(base, sensor.T, out=base)  # no second (6, m)
+            else:
+                self._offset = base - sensor.T
+        return self._offset
+
+    def _offset_head(self, n_c: int) -> Array:
+        """Give the first ``n_c`` components of :attr:`offset` (not making the whole of it)."""
+        if self._offset is not None:
+            return self._offset[:n_c]
+        head = self._head
+        if head is None or head.shape[0] < n_c:
+            assert self._sensor is not None
+            head = self._head = self._base[:n_c] - self._sensor[:, :n_c].T  # one pass
+        return head[:n_c]
 
     @property
     def flat_offset(self) -> Array:
@@ -93,7 +123,7 @@ class AffineRows:
             for i, c, coef in self.terms:
                 if c < n_c:
                     out[c] += th[i] if coef is None else th[i] * coef
-        out += self.offset[:n_c]
+        out += self._offset_head(n_c) if n_c < 6 else self.offset
         if components is not None:
             return out
         return out.T if theta.ndim == 1 else out.T[None]
@@ -132,4 +162,7 @@ class AffineRows:
         AffineRows
         """
         terms = [(i, c, None if coef is None else coef[rows]) for i, c, coef in self.terms]
-        return AffineRows(terms, self.offset[:, rows], self.p)
+        if self._offset is None and self._sensor is not None:  # still lazy: both parts taken
+            return AffineRows(terms, np.take(self._base, rows, axis=1), self.p,
+                              np.take(self._sensor, rows, axis=0))
+        return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)

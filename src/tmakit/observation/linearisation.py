@@ -6,6 +6,7 @@ Jacobian at any nuisance value from it (:meth:`Linearisation.jacobian`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -41,6 +42,12 @@ class Linearisation:
         self.d_h0: Array | None = None
         self.d_h0_ref: Array | None = None
         self.d_a: list[tuple[str, Array, Array | None]] = []
+        #: The Jacobian ``(..., n, p)`` made by the fused path (:mod:`.fused`), or None,
+        #: handed over on the first call of :meth:`jacobian` (the caller may scale it), then
+        #: made again by ``fused_again``.
+        self.fused: Array | None = None
+        self.fused_again: Callable[[], Array] | None = None
+        self._fused_given = False
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
         """Return ``d predictions / d theta`` at nuisance values.
@@ -62,6 +69,13 @@ class Linearisation:
         ValueError
             When the linearisation was made without derivatives.
         """
+        if self.fused is not None:  # no nuisance: the Jacobian itself, a new array once
+            if not with_h0:
+                return np.zeros_like(self.fused)
+            if self._fused_given and self.fused_again is not None:
+                return self.fused_again()
+            self._fused_given = True
+            return self.fused
         if self.d_h0 is None:
             raise ValueError("this linearisation was made without derivatives")
         obs = self.obs

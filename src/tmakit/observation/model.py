@@ -25,6 +25,7 @@ from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .affine_rows import AffineRows
+from .fused import fused_linearisation
 from .linearisation import Linearisation
 from .rows import RowModel, nuisance_layout
 
@@ -175,9 +176,9 @@ class ObservationModel:
         sub.sigmas_grouped = sub._to_grouped(sub.sigmas)
         sub._set_row_model()
         sub.angle_mask = sub._to_set_order(sub.angle_mask_grouped)
-        sub._rel_map = _take_map(self._rel_map, pick)
-        sub._rel_map_ref = (None if sub._ref is None
-                            else _take_map(self._rel_map_ref, pick[sub._ref] - self._ref.start))
+        sub._rel_map = None if self._rel_map is None else self._rel_map.take(pick)
+        sub._rel_map_ref = (None if sub._ref is None or self._rel_map_ref is None
+                            else self._rel_map_ref.take(pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
         sub._kind_code = None
         return sub
@@ -186,9 +187,10 @@ class ObservationModel:
         """Each row's kind as its position in :attr:`models` (set order), made once."""
         code = self._kind_code
         if code is None:
-            code = np.empty(len(self.meas), dtype=np.intp)
+            code = np.zeros(len(self.meas), dtype=np.intp)  # one kind: all 0, nothing set
             for i, rows in enumerate(self.rows.values()):
-                code[rows] = i
+                if i:
+                    code[rows] = i
             code.flags.writeable = False
             self._kind_code = code
         return code
@@ -226,12 +228,8 @@ class ObservationModel:
         terms = self.motion.component_terms(times)
         if terms is None:
             return None
-        offset = terms[1]
-        if offset.flags.owndata and offset.flags.writeable and offset.flags.c_contiguous:
-            np.subtract(offset, sensor.T, out=offset)  # a fresh array: no second (6, m) one
-        else:
-            offset = offset - sensor.T
-        return AffineRows(terms[0], offset, self.motion.n_params)
+        # The offset minus the sensor states made when used (fused bearings: two components).
+        return AffineRows(terms[0], terms[1], self.motion.n_params, sensor)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
                       rel_map: AffineRows | None, batch_inner: bool = False,
@@ -306,6 +304,8 @@ class ObservationModel:
         Linearisation
         """
         theta = np.asarray(theta, dtype=float)
+        if derivatives and (lin := fused_linearisation(self, theta)) is not None:
+            return lin  # one planar kind, affine motion, one theta: only what it needs
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
         inner = not derivatives and theta.ndim == 2 and theta.shape[0] > n
@@ -492,8 +492,3 @@ class ObservationModel:
         """
         res = self.values - self.predict(theta, nuisance)
         return np.where(self.angle_mask, wrap_angle(res), res)
-
-
-def _take_map(rel_map: AffineRows | None, rows: NDArray[np.intp]) -> AffineRows | None:
-    """Return the relative-state map (see :meth:`ObservationModel._relative_map`) of ``rows``."""
-    return None if rel_map is None else rel_map.take(rows)

@@ -88,7 +88,8 @@ class NoiseModel:
         self.inv_sigma = 1.0 / sigma
         self.blocks: list[tuple[NDArray[np.intp], NDArray[np.float64]]] = []
         self.rank = self.n
-        self.log_det = float(2.0 * np.sum(np.log(sigma)))
+        self._sigma = sigma  # (log_det: made on first use)
+        self._log_det_blocks: list[float] = []
         for rows, cov in blocks:
             if np.count_nonzero(cov - np.diag(np.diag(cov))) == 0:
                 continue  # no shared intervals: the diagonal is exact
@@ -98,13 +99,26 @@ class NoiseModel:
             whitener[: keep.sum()] = (evecs[:, keep] / np.sqrt(evals[keep])).T
             self.blocks.append((rows, whitener))
             self.rank -= int(rows.size - keep.sum())
-            self.log_det += float(np.sum(np.log(evals[keep])) - 2.0 * np.sum(np.log(
-                sigma[rows])))
+            self._log_det_blocks.append(float(np.sum(np.log(evals[keep])) - 2.0 * np.sum(
+                np.log(sigma[rows]))))
         self.correlated = bool(self.blocks)
         # blocks of one size stacked, so whitening many small groups is one product per size
         sizes = sorted({rows.size for rows, _ in self.blocks})
         self._stacks = [(np.stack([r for r, _ in self.blocks if r.size == b]),
                          np.stack([w for r, w in self.blocks if r.size == b])) for b in sizes]
+
+    @property
+    def log_det(self) -> float:
+        """``log det R`` of the noise covariance (rows of SI units squared), on first use.
+
+        A pass of logarithms over every row, not needed by the fits: made when asked for.
+        """
+        if not hasattr(self, "_log_det"):
+            log_det = float(2.0 * np.sum(np.log(self._sigma)))
+            for term in self._log_det_blocks:  # in block order, as they were found
+                log_det += term
+            self._log_det = log_det
+        return self._log_det
 
     @classmethod
     def from_covariance(cls, covariance: NDArray[np.float64]) -> NoiseModel:

@@ -378,7 +378,7 @@ class RowModel:
         """
         m, k = len(self), len(self.nuisance_names)
         out = np.zeros((m, k))
-        rel = np.ones((m, 6))  # any finite geometry: A_const does not depend on it
+        rel = np.ones((m if k else 0, 6))  # any finite geometry (none without nuisance)
         for kind, model in self.models.items():
             rows, ns = self._take[kind], self.nuisance_slices[kind]
             if ns.stop > ns.start:

@@ -1,0 +1,119 @@
+"""Fused prediction and Jacobian for one kind of planar measurement under affine motion.
+
+The general linearisation (:meth:`tmakit.observation.ObservationModel.linearisation`) writes
+the relative states ``(n, 6)`` and their derivatives ``(n, 6)``, then applies the motion's
+chain rule.  A bearing depends on two of the six components, and under an affine motion
+model (constant velocity, stationary) each component is ``offset + sum_i theta_i coef_i``
+(:class:`~tmakit.observation.affine_rows.AffineRows`), so
+
+    d h / d theta_i = sum_c (d h / d rel_c) coef[i, c]
+
+over the components the kind uses.  For the bearing ``atan2(dx, dy)`` under 2-D constant
+velocity this is ``(dy, -dx, dy dt, -dx dt) / r^2`` (rad/m, rad s/m): the four rows of the
+Jacobian are written directly, component-major, with the same operations as the general path
+(the same bits), and nothing else of size ``n``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..arrays import Array
+from .linearisation import Linearisation
+
+__all__ = ["fused_linearisation"]
+
+
+def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
+    """Give the linearisation of ``obs`` at one ``theta`` by the fused path, or None.
+
+    The fused path applies to one kind with a planar fused gradient (the bearing: the model's
+    ``planar_gradient``), without nuisance or reference samples, an affine motion model and
+    one parameter vector ``(p,)`` or ``(1, p)``.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The observation model.
+    theta : numpy.ndarray
+        Motion parameters, SI.
+
+    Returns
+    -------
+    Linearisation or None
+        ``h0`` (rad) and the Jacobian ``(..., n, p)`` (rad/m, rad s/m) set; None when the
+        fused path does not apply (the caller uses the general one).
+    """
+    rel_map = obs._rel_map
+    if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
+            or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
+        return None
+    model = next(iter(obs.models.values()))
+    gradient = getattr(model, "planar_gradient", None)
+    if gradient is None or theta.shape[-1] != rel_map.p:
+        return None
+    theta = obs.motion.check_theta(theta)
+    rel = rel_map.single(theta, components=2)  # (2, m): dx, dy, component-major
+    jac = np.empty((rel_map.p, rel_map.m))
+    h0 = gradient(rel[0], rel[1], jac[0], jac[1])  # parked in rows 0, 1
+    in_place = not _needs_copy(rel_map)
+    g = (jac[0], jac[1]) if in_place else (jac[0].copy(), jac[1].copy())
+    _chain_terms(rel_map.terms, g, jac, in_place)
+    batch = theta.shape[:-1]
+    lin = Linearisation(obs, theta, h0.reshape(*batch, rel_map.m),
+                        np.zeros((*batch, rel_map.m, 0)))
+    lin.fused = jac.T.reshape(*batch, rel_map.m, rel_map.p)
+    lin.fused_again = lambda: _jacobian_again(obs, theta)
+    return lin
+
+
+def _jacobian_again(obs: Any, theta: Array) -> Array:
+    """Make the fused Jacobian at ``theta`` again (the first one was handed over)."""
+    lin = fused_linearisation(obs, theta)
+    assert lin is not None and lin.fused is not None  # (it was fused before)
+    return lin.fused
+
+
+def _needs_copy(rel_map: Any) -> bool:
+    """Whether the gradient rows (parked in rows 0, 1) would be overwritten before read.
+
+    They stay in place when parameter ``c`` (for ``c`` = 0, 1) is exactly the term
+    ``(c, c, 1)`` of component ``c`` alone (a position): then its Jacobian row is the
+    gradient itself, and the other rows are written from them without touching them.
+    """
+    for c in (0, 1):
+        own = [(i, comp, coef) for i, comp, coef in rel_map.terms if i == c and comp < 2]
+        if own != [(c, c, None)]:
+            return True
+    return False
+
+
+def _chain_terms(terms: list[tuple[int, int, Array | None]], g: tuple[Array, Array],
+                 jac: Array, in_place: bool) -> None:
+    """Write ``jac[i] = sum_c g[c] coef[i, c]`` over the terms of components 0 and 1.
+
+    In parameter order and term order, the order of the general chain rule's sums; a
+    parameter without such a term gets zeros.  With ``in_place``, rows 0 and 1 already hold
+    ``g`` (see :func:`_needs_copy`).
+    """
+    for i in range(jac.shape[0]):
+        own = [(c, coef) for j, c, coef in terms if j == i and c < 2]
+        row = jac[i]
+        if not own:
+            row.fill(0.0)
+            continue
+        first = True
+        for c, coef in own:
+            if first:
+                if coef is None:
+                    if not (in_place and i == c):
+                        row[...] = g[c]
+                else:
+                    np.multiply(g[c], coef, out=row)
+                first = False
+            elif coef is None:
+                row += g[c]
+            else:
+                row += g[c] * coef
