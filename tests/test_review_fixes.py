@@ -261,3 +261,18 @@ def test_plan_says_when_the_sensor_starts_inside_a_keep_out_zone(tmp_path):
     assert result.exit_code == 0, result.output
     said = " ".join(result.output.split())  # the console wraps long lines
     assert "starts in breach of its keep-out zone constraint (by 500 m)" in said
+
+
+def test_a_manoeuvre_search_beyond_the_limit_is_refused_and_the_limit_can_be_raised(
+        tmp_path, monkeypatch):
+    obs = tmp_path / "obs.csv"
+    assert runner.invoke(app, ["simulate", "bearings-only-2d", "-o", str(obs)]).exit_code == 0
+    result = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear:99"])
+    assert result.exit_code == 2
+    said = " ".join(result.output.split())
+    assert "99 manoeuvres is more than the limit of 5" in said
+    assert "TMA_MAX_MANOEUVRES=N" in said
+    monkeypatch.setenv("TMA_MAX_MANOEUVRES", "1")
+    result = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear:2"])
+    assert result.exit_code == 2
+    assert "limit of 1" in " ".join(result.output.split())
