@@ -136,3 +136,13 @@ def test_replay_range_and_frequency_sigmas_from_the_command_line(tmp_path):
     assert shown.exit_code == 0 and "30" in shown.output
     bad = run("import", "rep", rep, "--range-sigma", "-1", "-o", tmp_path / "b.csv")
     assert bad.exit_code == 2 and "range sigma -1.0: expected a number > 0" in bad.output
+
+
+def test_import_refuses_a_track_whose_suffix_says_the_other_format(tmp_path):
+    folder = examples(tmp_path)
+    for fmt, track, other in (("nmea", "own.gpx", "gpx"), ("gpx", "own.nmea", "nmea")):
+        result = run("import", fmt, folder / track, folder / "bearings.csv", "--mapping",
+                     folder / "bearings.toml", "-o", folder / f"{fmt}.parquet")
+        assert result.exit_code == 2
+        assert f"use tma import {other}" in " ".join(result.output.split())
+        assert not (folder / f"{fmt}.parquet").exists()

@@ -42,6 +42,16 @@ def _check_output(output: Path, force: bool, inputs: list[Path]) -> None:
     check_output(output, "-o", force, "measurements", inputs)
 
 
+def _check_track_suffix(fmt: str, track: Path) -> None:
+    """Refuse a track whose suffix says the other format (tracks are read by suffix)."""
+    is_gpx = track.suffix.lower() == ".gpx"
+    if is_gpx != (fmt == "gpx"):
+        other = "gpx" if is_gpx else "nmea"
+        raise fail(f"import {fmt}: the track {track} would be read as "
+                   f"{'GPX' if is_gpx else 'NMEA 0183'} (a track is read by its suffix: .gpx "
+                   f"is GPX, any other NMEA 0183); use tma import {other}, or rename the file")
+
+
 def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None) -> Any:
     if map_text is None and not measure:
         return mapping
@@ -106,6 +116,7 @@ def import_(
                                "range_sigma": range_sigma, "frequency_sigma": frequency_sigma,
                                "mapping": _mapping(mapping, map_text, measure), "dim": dim}
     if fmt in ("gpx", "nmea"):
+        _check_track_suffix(fmt, files[0])
         options["measurements"] = files[1]
     meas = read_or_fail(files[0], parse_origin(origin), **options)
     write_or_fail(meas, output, force)
