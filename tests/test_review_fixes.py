@@ -276,3 +276,20 @@ def test_a_manoeuvre_search_beyond_the_limit_is_refused_and_the_limit_can_be_rai
     result = runner.invoke(app, ["estimate", str(obs), "--motion", "curvilinear:2"])
     assert result.exit_code == 2
     assert "limit of 1" in " ".join(result.output.split())
+
+
+def test_the_track_says_when_its_innovations_contradict_its_covariances():
+    from tmakit.cli.track import nis_verdict
+
+    assert nis_verdict(440.0 * 1.069, 440) == ""  # a consistent bearings-only track
+    said = nis_verdict(886 * 6.5, 886)  # a manoeuvring target tracked as constant velocity
+    assert "larger than the track's covariances allow" in said and "overconfident" in said
+    assert "smaller than the measurement sigmas imply" in nis_verdict(300.0, 440)
+
+
+def test_tracking_a_manoeuvring_target_as_constant_velocity_is_flagged(tmp_path):
+    obs = tmp_path / "h.csv"
+    assert runner.invoke(app, ["simulate", "hoerst2010", "-o", str(obs)]).exit_code == 0
+    result = runner.invoke(app, ["track", str(obs), "--filter", "ekf"])
+    assert result.exit_code == 0, result.output
+    assert "warning: the innovations are larger" in " ".join(result.output.split())

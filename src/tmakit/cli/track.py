@@ -327,6 +327,38 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
     print_track_checks(tr, truth, dim)
 
 
+def nis_verdict(nis: float, dof: int, level: float = 1e-3) -> str:
+    """Say when the innovations contradict the filter's covariances (chi-square test).
+
+    Parameters
+    ----------
+    nis : float
+        The sum of the normalised innovations squared over the updates.
+    dof : int
+        Its degrees of freedom (the rows of the updates).
+    level : float, optional
+        Two-sided significance: a tail probability below it is reported.
+
+    Returns
+    -------
+    str
+        Empty when the sum is within the chi-square's central range; otherwise the
+        sentence, with the tail probability.
+    """
+    from scipy.stats import chi2
+
+    upper, lower = float(chi2.sf(nis, dof)), float(chi2.cdf(nis, dof))
+    if upper < level:
+        return (f"the innovations are larger than the track's covariances allow (NIS {nis:.1f} "
+                f"on {dof} dof, p = {upper:.2g}): the track is overconfident or has diverged; "
+                "its standard deviations understate the error")
+    if lower < level:
+        return (f"the innovations are smaller than the measurement sigmas imply (NIS {nis:.1f} "
+                f"on {dof} dof, p = {lower:.2g}): the sigmas may be too large, and the "
+                "standard deviations overstate the error")
+    return ""
+
+
 def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
     """Print the mean NIS per degree of freedom and, with the truth, the final error.
 
@@ -347,6 +379,9 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
         out.print(f"{int(np.sum(used))} updates, mean NIS per degree of freedom "
                   f"{mean_nis:.3f} (1 when consistent), log-likelihood "
                   f"{tr.log_likelihood[-1]:.2f}", highlight=False)
+        verdict = nis_verdict(float(np.sum(tr.nis[used])), int(np.sum(tr.dof[used])))
+        if verdict:
+            err.print(f"warning: {verdict}", highlight=False)
     if truth is not None:
         e = tr.states[-1, :dim] - truth[-1, :dim]
         cov = tr.covariances[-1, :dim, :dim]
