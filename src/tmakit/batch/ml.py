@@ -336,9 +336,8 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     3. then from the best points of a denser grid (:data:`DENSE_GRID`).
     A start bound for a worse minimum than one already reached stops early; the lowest cost
     wins.  On 2000 random observable geometries every fit reached the fit started at the
-    truth (``benchmarks/blind_start.py``).  With correlated noise and many rows all of this
-    runs on a subset and only the best fit is solved on every row
-    (:mod:`tmakit.batch.subset_first`).
+    truth (``benchmarks/blind_start.py``).  With correlated noise and many rows all this runs
+    on a subset, and the best fit alone on every row (:mod:`tmakit.batch.subset_first`).
 
     Parameters
     ----------
