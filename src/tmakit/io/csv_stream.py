@@ -24,8 +24,9 @@ then reads the file and reports every problem by row, line and column.
 
 Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
 with range differences: ``time_ref`` and the reference state), plus up to 5 % spare rows
-while reading, one block of text and its parsed columns (about ``3 * BLOCK_BYTES``), and after
-reading the rules' transient arrays (about 30 bytes per row); the sensor states at
+while reading, the blocks of text pyarrow reads ahead (its reader's input thread queues up to
+about 32 blocks: ``32 * BLOCK_BYTES``, whatever the file's size) and one block's parsed columns,
+and after reading the rules' transient arrays (about 30 bytes per row); the sensor states at
 ``time_ref`` are looked up a block of rows at a time (:mod:`.sensor_record`), adding only
 their own 48 bytes per row.
 """
@@ -54,8 +55,11 @@ from .stream_refs import block_is_valid, has_duplicates, reference_states
 
 __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "stream_csv"]
 
-#: Bytes of CSV text parsed at a time.
-BLOCK_BYTES = 1 << 22
+#: Bytes of CSV text parsed at a time.  pyarrow's streaming reader reads up to about 32
+#: blocks ahead on its input thread (not an option of the reader): with 4 MiB blocks that
+#: queue held 72 MB of a 60 MB file at once, the largest part of the fixed memory of a read;
+#: 1 MiB blocks bound it at about 33 MB and read as fast.
+BLOCK_BYTES = 1 << 20
 #: Blocks between two returns of freed memory to the system (:func:`_give_back`).
 _GIVE_BACK_EVERY = 1
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
@@ -218,12 +222,16 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
     convert = pcsv.ConvertOptions(column_types=types, include_columns=used, null_values=[""],
                                   strings_can_be_null=False, quoted_strings_can_be_null=False)
     cols: _Columns | None = None
-    with pa.OSFile(str(path)) as f:
+    # The C library's allocator: the text and parsed blocks are then given back with the
+    # rules' arrays (:func:`_give_back`), where pyarrow's own pool kept about 10 MB.
+    pool = pa.system_memory_pool()
+    with pa.OSFile(str(path), memory_pool=pool) as f:
         f.seek(start)
         # one thread: no blocks parsed ahead of the consumer, so the peak does not depend
         # on the machine's load
         reader = pcsv.open_csv(f, read_options=pcsv.ReadOptions(
-            block_size=BLOCK_BYTES, use_threads=False), convert_options=convert)
+            block_size=BLOCK_BYTES, use_threads=False), convert_options=convert,
+            memory_pool=pool)
         for blocks, batch in enumerate(reader):
             k = batch.num_rows
             if cols is None:  # the rows per byte of the first block, 5 % spare
@@ -271,7 +279,7 @@ def _malloc_trim() -> Any:
 def _put(cols: _Columns, name: str, col: Any) -> None:
     """Store one block of one column."""
     if name in _REFERENCE:  # empty cells are NaN
-        values = np.asarray(col.to_numpy(zero_copy_only=False), float)
+        values = _with_nan(col)
         if np.count_nonzero(np.isnan(values)) != col.null_count:  # a cell "nan"
             raise _Fallback
         cols.put_reference(name, values)
@@ -285,6 +293,20 @@ def _put(cols: _Columns, name: str, col: Any) -> None:
         put(indices, col.dictionary.to_pylist())
     else:
         cols.put_number(name, _numbers(col, np.float64))
+
+
+def _with_nan(col: Any) -> NDArray[np.float64]:
+    """Return a pyarrow float64 array as numpy, NaN where null.
+
+    From its buffers: ``col.to_numpy(zero_copy_only=False)`` and ``pyarrow.compute.fill_null``
+    import pandas (39 MB more memory, half a second).
+    """
+    values = _numbers(col, np.float64)
+    if not col.null_count:
+        return values
+    bits = np.frombuffer(col.buffers()[0], dtype=np.uint8)
+    valid = np.unpackbits(bits, bitorder="little")[col.offset:col.offset + len(col)]
+    return np.where(valid.view(bool), values, np.nan)
 
 
 def _numbers(col: Any, dtype: type) -> NDArray[Any]:
@@ -430,6 +452,10 @@ def stream_csv(path: Path, scan: int = 1 << 20,
         return None
     if has_duplicates(meas.time, meas.sensor_code, meas.kind_code, meas.time_ref):
         return None
+    # The rules' and the duplicate check's arrays came from the C library's heap (its mmap
+    # threshold grows as large blocks are freed) and stay resident when freed below live
+    # arrays: 47 MiB of a 1e6-row file with range differences, until given back here.
+    _give_back()
     return meas
 
 
