@@ -57,11 +57,13 @@ __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "st
 
 #: Bytes of CSV text parsed at a time.  pyarrow's streaming reader reads up to about 32
 #: blocks ahead on its input thread (not an option of the reader): with 4 MiB blocks that
-#: queue held 72 MB of a 60 MB file at once, the largest part of the fixed memory of a read;
-#: 1 MiB blocks bound it at about 33 MB and read as fast.
+#: queue held 72 MB of a 60 MB file at once (all of it); 1 MiB blocks bound it at about
+#: 37 MB (``tests/test_stream_readahead.py``).
 BLOCK_BYTES = 1 << 20
-#: Blocks between two returns of freed memory to the system (:func:`_give_back`).
-_GIVE_BACK_EVERY = 1
+#: Blocks between two returns of freed memory to the system (:func:`_give_back`): every
+#: 4 MiB of text (each return walks the heap: after every 1 MiB block the read took 15 %
+#: longer).
+_GIVE_BACK_EVERY = 4
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); without range differences
 #: ``time_ref`` and the reference state are all-NaN views that take no memory.
