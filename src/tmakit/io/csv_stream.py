@@ -35,8 +35,6 @@ from __future__ import annotations
 
 import codecs
 import csv
-import ctypes
-import functools
 import io
 from collections.abc import Callable
 from pathlib import Path
@@ -48,6 +46,7 @@ from numpy.typing import NDArray
 from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
+from .arrow_blocks import give_back, numbers, with_nan
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
 from .positions import resolve_origin
 from .problems import Problems, RawTable
@@ -60,9 +59,9 @@ __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "st
 #: queue held 72 MB of a 60 MB file at once (all of it); 1 MiB blocks bound it at about
 #: 37 MB (``tests/test_stream_readahead.py``).
 BLOCK_BYTES = 1 << 20
-#: Blocks between two returns of freed memory to the system (:func:`_give_back`): every
-#: 4 MiB of text (each return walks the heap: after every 1 MiB block the read took 15 %
-#: longer).
+#: Blocks between two returns of freed memory to the system
+#: (:func:`~.arrow_blocks.give_back`): every 4 MiB of text (each return walks the heap: after
+#: every 1 MiB block the read took 15 % longer).
 _GIVE_BACK_EVERY = 4
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); without range differences
@@ -225,7 +224,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
                                   strings_can_be_null=False, quoted_strings_can_be_null=False)
     cols: _Columns | None = None
     # The C library's allocator: the text and parsed blocks are then given back with the
-    # rules' arrays (:func:`_give_back`), where pyarrow's own pool kept about 10 MB.
+    # rules' arrays (:func:`~.arrow_blocks.give_back`), where pyarrow's own pool kept about 10 MB.
     pool = pa.system_memory_pool()
     with pa.OSFile(str(path), memory_pool=pool) as f:
         f.seek(start)
@@ -247,41 +246,18 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
             cols.n += k
             del batch
             if blocks % _GIVE_BACK_EVERY == 0:
-                _give_back()
-    _give_back()
+                give_back()
+    give_back()
     if cols is None or cols.n == 0:
         raise _Fallback
     cols.trim()
     return cols
 
 
-def _give_back() -> None:
-    """Return the memory of dropped blocks to the system.
-
-    Without this, pyarrow's allocator and the C library's keep freed blocks (their sum grows
-    with the file: about 130 bytes per row at 3 million rows), and the peak is theirs.
-    """
-    import pyarrow as pa
-
-    pa.default_memory_pool().release_unused()
-    trim = _malloc_trim()
-    if trim is not None:
-        trim(0)
-
-
-@functools.cache
-def _malloc_trim() -> Any:
-    """Find the C library's ``malloc_trim`` (glibc); None where there is none."""
-    try:
-        return ctypes.CDLL(None).malloc_trim
-    except (OSError, AttributeError):
-        return None
-
-
 def _put(cols: _Columns, name: str, col: Any) -> None:
     """Store one block of one column."""
     if name in _REFERENCE:  # empty cells are NaN
-        values = _with_nan(col)
+        values = with_nan(col)
         if np.count_nonzero(np.isnan(values)) != col.null_count:  # a cell "nan"
             raise _Fallback
         cols.put_reference(name, values)
@@ -289,32 +265,12 @@ def _put(cols: _Columns, name: str, col: Any) -> None:
     if col.null_count:
         raise _Fallback
     if name in ("sensor", "kind"):
-        indices = _numbers(col.indices, np.int32)
+        indices = numbers(col.indices, np.int32)
         put: Callable[[NDArray[np.integer], list[str]], None] = (
             cols.put_sensor if name == "sensor" else cols.put_kind)
         put(indices, col.dictionary.to_pylist())
     else:
-        cols.put_number(name, _numbers(col, np.float64))
-
-
-def _with_nan(col: Any) -> NDArray[np.float64]:
-    """Return a pyarrow float64 array as numpy, NaN where null.
-
-    From its buffers: ``col.to_numpy(zero_copy_only=False)`` and ``pyarrow.compute.fill_null``
-    import pandas (39 MB more memory, half a second).
-    """
-    values = _numbers(col, np.float64)
-    if not col.null_count:
-        return values
-    bits = np.frombuffer(col.buffers()[0], dtype=np.uint8)
-    valid = np.unpackbits(bits, bitorder="little")[col.offset:col.offset + len(col)]
-    return np.where(valid.view(bool), values, np.nan)
-
-
-def _numbers(col: Any, dtype: type) -> NDArray[Any]:
-    """View a pyarrow array without nulls as numpy (no copy, and no pandas import)."""
-    return np.frombuffer(col.buffers()[1], dtype=dtype, count=len(col),
-                         offset=col.offset * np.dtype(dtype).itemsize)
+        cols.put_number(name, numbers(col, np.float64))
 
 
 def _build(cols: _Columns, metadata: dict[str, str],
@@ -457,7 +413,7 @@ def stream_csv(path: Path, scan: int = 1 << 20,
     # The rules' and the duplicate check's arrays came from the C library's heap (its mmap
     # threshold grows as large blocks are freed) and stay resident when freed below live
     # arrays: 47 MiB of a 1e6-row file with range differences, until given back here.
-    _give_back()
+    give_back()
     return meas
 
 
