@@ -32,7 +32,13 @@ def give_back() -> None:
 
 @functools.cache
 def malloc_trim() -> Any:
-    """Find the C library's ``malloc_trim`` (glibc); None where there is none."""
+    """Find the C library's ``malloc_trim`` (glibc).
+
+    Returns
+    -------
+    ctypes function or None
+        ``malloc_trim(pad)``; None where there is none.
+    """
     try:
         return ctypes.CDLL(None).malloc_trim
     except (OSError, AttributeError):
@@ -44,6 +50,16 @@ def with_nan(col: Any) -> NDArray[np.float64]:
 
     From its buffers: ``col.to_numpy(zero_copy_only=False)`` and ``pyarrow.compute.fill_null``
     import pandas (39 MB more memory, half a second).
+
+    Parameters
+    ----------
+    col : pyarrow.Array
+        A float64 column (any unit).
+
+    Returns
+    -------
+    numpy.ndarray
+        Its values (same unit): a read-only view without nulls, else a copy with NaN.
     """
     values = numbers(col, np.float64)
     if not col.null_count:
@@ -54,6 +70,19 @@ def with_nan(col: Any) -> NDArray[np.float64]:
 
 
 def numbers(col: Any, dtype: type) -> NDArray[Any]:
-    """View a pyarrow array without nulls as numpy (no copy, and no pandas import)."""
+    """View a pyarrow array without nulls as numpy (no copy, and no pandas import).
+
+    Parameters
+    ----------
+    col : pyarrow.Array
+        A column of fixed-width numbers without nulls.
+    dtype : type
+        Its numpy type (``np.float64``, ``np.int32``).
+
+    Returns
+    -------
+    numpy.ndarray
+        A read-only view of its values.
+    """
     return np.frombuffer(col.buffers()[1], dtype=dtype, count=len(col),
                          offset=col.offset * np.dtype(dtype).itemsize)
