@@ -10,8 +10,8 @@ row a range difference to the row before, whose noise is then independent: the s
 overlap; with ``--shared-references`` the differences in threes to one reference time,
 correlated), then runs each command in a fresh
 process and reports its peak resident memory (its VmHWM, Linux), the file size and their
-ratio, the bytes per row above what ``tma show`` of a 3-row file takes (the interpreter and
-libraries), and the wall time.
+ratio, the bytes per row above what ``tma show`` of the file's first 3 rows takes (the
+interpreter and libraries), and the wall time.
 """
 
 from __future__ import annotations
@@ -86,15 +86,20 @@ def range_difference_text(t: np.ndarray, b: np.ndarray, pos: list[str], r: np.nd
                    for i in range(t.size))
 
 
-def small_file(folder: Path, latlon: bool = False) -> Path:
-    """Write a 3-row file of the same columns (for the libraries' own memory)."""
+def small_file(folder: Path, big: Path) -> Path:
+    """Write the large file's preamble, header and first 3 rows (for the libraries' memory).
+
+    The same columns and kinds: a reader or command may import more for some (range
+    differences once imported pandas, 39 MB), which is not memory per row.
+    """
     path = folder / "small.csv"
-    if latlon:
-        path.write_text(geo_preamble() + "".join(f"{t},ship,bearing,10,1,43.25,5.375,0,5,0\n"
-                                                 for t in range(3)))
-    else:
-        path.write_text(HEADER + "\n" + "".join(f"{t},ship,bearing,10,1,0,0,0,5,0,0\n"
-                                                 for t in range(3)))
+    lines = []
+    with open(big) as f:
+        for line in f:
+            lines.append(line)
+            if not line.startswith("#") and len(lines) > 3 and not lines[-4].startswith("#"):
+                break
+    path.write_text("".join(lines))
     return path
 
 
@@ -145,8 +150,8 @@ def main() -> None:
               f"positions{', range differences' if a.range_differences else ''}"
               f"{', range differences sharing references' if a.shared_references else ''})")
         # the interpreter and libraries alone
-        _, base, _ = peak_of(["show", str(small_file(Path(d), a.latlon))], Path(d))
-        print(f"tma show of a 3-row file: peak RSS {base:.0f} MB (the interpreter and "
+        _, base, _ = peak_of(["show", str(small_file(Path(d), path))], Path(d))
+        print(f"tma show of its first 3 rows: peak RSS {base:.0f} MB (the interpreter and "
               "libraries)")
         for label, args in (("tma show", ["show", str(path)]),
                             ("tma estimate --motion cv2d",

@@ -29,6 +29,7 @@ from .estimator import BatchEstimator, Init, Options
 from .init import GridSettings, best_starts_many, subsample
 from .mirror import mirror_plane, prefer_above
 from .solver import VarProProblem, information_of, levenberg_marquardt
+from .subset_first import solve_on_subset_first, subset_first
 
 
 @dataclass(frozen=True, eq=False)
@@ -335,7 +336,8 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     3. then from the best points of a denser grid (:data:`DENSE_GRID`).
     A start bound for a worse minimum than one already reached stops early; the lowest cost
     wins.  On 2000 random observable geometries every fit reached the fit started at the
-    truth (``benchmarks/blind_start.py``).
+    truth (``benchmarks/blind_start.py``).  With correlated noise and many rows all this runs
+    on a subset, and the best fit alone on every row (:mod:`tmakit.batch.subset_first`).
 
     Parameters
     ----------
@@ -355,6 +357,9 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     """
     g = grid or GridSettings()
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
+    if subset_first(problem):  # correlated and many rows: every start on a subset only
+        return solve_on_subset_first(
+            problem, ys, lambda small, y: solve_without_guess(small, y, g, max_iter), max_iter)
     b = ys.shape[0]
     dof = problem.noise.rank - problem.p - (0 if problem.fixed is not None else problem.k)
     has_bearings = bool(np.any(problem.obs.meas.kind_mask("bearing")))

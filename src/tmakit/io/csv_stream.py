@@ -24,8 +24,9 @@ then reads the file and reports every problem by row, line and column.
 
 Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
 with range differences: ``time_ref`` and the reference state), plus up to 5 % spare rows
-while reading, one block of text and its parsed columns (about ``3 * BLOCK_BYTES``), and after
-reading the rules' transient arrays (about 30 bytes per row); the sensor states at
+while reading, the blocks of text pyarrow reads ahead (its reader's input thread queues up to
+about 32 blocks: ``32 * BLOCK_BYTES``, whatever the file's size) and one block's parsed columns,
+and after reading the rules' transient arrays (about 30 bytes per row); the sensor states at
 ``time_ref`` are looked up a block of rows at a time (:mod:`.sensor_record`), adding only
 their own 48 bytes per row.
 """
@@ -34,8 +35,6 @@ from __future__ import annotations
 
 import codecs
 import csv
-import ctypes
-import functools
 import io
 from collections.abc import Callable
 from pathlib import Path
@@ -47,6 +46,7 @@ from numpy.typing import NDArray
 from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
+from .arrow_blocks import give_back, numbers, with_nan
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
 from .positions import resolve_origin
 from .problems import Problems, RawTable
@@ -54,10 +54,15 @@ from .stream_refs import block_is_valid, has_duplicates, reference_states
 
 __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "stream_csv"]
 
-#: Bytes of CSV text parsed at a time.
-BLOCK_BYTES = 1 << 22
-#: Blocks between two returns of freed memory to the system (:func:`_give_back`).
-_GIVE_BACK_EVERY = 1
+#: Bytes of CSV text parsed at a time.  pyarrow's streaming reader reads up to about 32
+#: blocks ahead on its input thread (not an option of the reader): with 4 MiB blocks that
+#: queue held 72 MB of a 60 MB file at once (all of it); 1 MiB blocks bound it at about
+#: 37 MB (``tests/test_stream_readahead.py``).
+BLOCK_BYTES = 1 << 20
+#: Blocks between two returns of freed memory to the system
+#: (:func:`~.arrow_blocks.give_back`): every 4 MiB of text (each return walks the heap: after
+#: every 1 MiB block the read took 15 % longer).
+_GIVE_BACK_EVERY = 4
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); without range differences
 #: ``time_ref`` and the reference state are all-NaN views that take no memory.
@@ -218,12 +223,16 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
     convert = pcsv.ConvertOptions(column_types=types, include_columns=used, null_values=[""],
                                   strings_can_be_null=False, quoted_strings_can_be_null=False)
     cols: _Columns | None = None
-    with pa.OSFile(str(path)) as f:
+    # The C library's allocator: the text and parsed blocks are then given back with the
+    # rules' arrays (:func:`~.arrow_blocks.give_back`), where pyarrow's own pool kept about 10 MB.
+    pool = pa.system_memory_pool()
+    with pa.OSFile(str(path), memory_pool=pool) as f:
         f.seek(start)
         # one thread: no blocks parsed ahead of the consumer, so the peak does not depend
         # on the machine's load
         reader = pcsv.open_csv(f, read_options=pcsv.ReadOptions(
-            block_size=BLOCK_BYTES, use_threads=False), convert_options=convert)
+            block_size=BLOCK_BYTES, use_threads=False), convert_options=convert,
+            memory_pool=pool)
         for blocks, batch in enumerate(reader):
             k = batch.num_rows
             if cols is None:  # the rows per byte of the first block, 5 % spare
@@ -237,41 +246,18 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
             cols.n += k
             del batch
             if blocks % _GIVE_BACK_EVERY == 0:
-                _give_back()
-    _give_back()
+                give_back()
+    give_back()
     if cols is None or cols.n == 0:
         raise _Fallback
     cols.trim()
     return cols
 
 
-def _give_back() -> None:
-    """Return the memory of dropped blocks to the system.
-
-    Without this, pyarrow's allocator and the C library's keep freed blocks (their sum grows
-    with the file: about 130 bytes per row at 3 million rows), and the peak is theirs.
-    """
-    import pyarrow as pa
-
-    pa.default_memory_pool().release_unused()
-    trim = _malloc_trim()
-    if trim is not None:
-        trim(0)
-
-
-@functools.cache
-def _malloc_trim() -> Any:
-    """Find the C library's ``malloc_trim`` (glibc); None where there is none."""
-    try:
-        return ctypes.CDLL(None).malloc_trim
-    except (OSError, AttributeError):
-        return None
-
-
 def _put(cols: _Columns, name: str, col: Any) -> None:
     """Store one block of one column."""
     if name in _REFERENCE:  # empty cells are NaN
-        values = np.asarray(col.to_numpy(zero_copy_only=False), float)
+        values = with_nan(col)
         if np.count_nonzero(np.isnan(values)) != col.null_count:  # a cell "nan"
             raise _Fallback
         cols.put_reference(name, values)
@@ -279,18 +265,12 @@ def _put(cols: _Columns, name: str, col: Any) -> None:
     if col.null_count:
         raise _Fallback
     if name in ("sensor", "kind"):
-        indices = _numbers(col.indices, np.int32)
+        indices = numbers(col.indices, np.int32)
         put: Callable[[NDArray[np.integer], list[str]], None] = (
             cols.put_sensor if name == "sensor" else cols.put_kind)
         put(indices, col.dictionary.to_pylist())
     else:
-        cols.put_number(name, _numbers(col, np.float64))
-
-
-def _numbers(col: Any, dtype: type) -> NDArray[Any]:
-    """View a pyarrow array without nulls as numpy (no copy, and no pandas import)."""
-    return np.frombuffer(col.buffers()[1], dtype=dtype, count=len(col),
-                         offset=col.offset * np.dtype(dtype).itemsize)
+        cols.put_number(name, numbers(col, np.float64))
 
 
 def _build(cols: _Columns, metadata: dict[str, str],
@@ -430,6 +410,10 @@ def stream_csv(path: Path, scan: int = 1 << 20,
         return None
     if has_duplicates(meas.time, meas.sensor_code, meas.kind_code, meas.time_ref):
         return None
+    # The rules' and the duplicate check's arrays came from the C library's heap (its mmap
+    # threshold grows as large blocks are freed) and stay resident when freed below live
+    # arrays: 47 MiB of a 1e6-row file with range differences, until given back here.
+    give_back()
     return meas
 
 

@@ -1,0 +1,89 @@
+"""Fits of many correlated rows: every starting point solved on a subset, one carried to all.
+
+A set with independent noise carries one grid start over all its rows when its fit is settled
+(converged with a plausible chi2); a set of range differences with correlated noise often is
+not on its first start, and the multi-start strategy of :func:`tmakit.batch.ml.solve_without_guess`
+then carried 12-23 starts over every row (7 GB and 117 s at 1e6 rows).  Here the whole
+strategy (grid, first start, next starts, dense grid) runs on :data:`SUBSET_ROWS` evenly spread
+rows, whose noise is their own block of the covariance, and only the subset's best fit per
+data set is then solved on every row (chunked by the solver above ``blas.CHUNKED_ROWS``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .init import subsample
+from .solver import VarProProblem, information_of, levenberg_marquardt
+
+__all__ = ["SUBSET_FIRST_ROWS", "SUBSET_ROWS", "solve_on_subset_first", "subset_first"]
+
+SUBSET_FIRST_ROWS = 20_000
+"""Rows above which a problem with correlated noise is solved on a subset first."""
+SUBSET_ROWS = 5_000
+"""Evenly spread rows of that subset (the same as the presolve's,
+:data:`tmakit.batch.ml.PRESOLVE_SUBSET`)."""
+
+
+def subset_first(problem: VarProProblem) -> bool:
+    """Tell whether ``problem`` chooses its start on a subset (correlated noise, many rows).
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The whole problem.
+
+    Returns
+    -------
+    bool
+        True with correlated noise and more than :data:`SUBSET_FIRST_ROWS` rows (and more
+        than twice :data:`SUBSET_ROWS`: a subset is never solved on a subset again).
+    """
+    rows = len(problem.obs.meas)
+    return bool(problem.noise.correlated) and rows > max(SUBSET_FIRST_ROWS, 2 * SUBSET_ROWS)
+
+
+def solve_on_subset_first(problem: VarProProblem, ys: NDArray[np.float64],
+                          solve_all: Callable[[VarProProblem, NDArray[np.float64]],
+                                              Sequence[Any]],
+                          max_iter: int) -> list[Any]:
+    """Fit each data set on a subset with every start, then its best fit on every row.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The whole problem.
+    ys : ndarray, shape (B, n)
+        The data sets (SI, the measurement set's order).
+    solve_all : callable
+        ``solve_all(small, ys_small)``: the multi-start fit of a (smaller) problem, one
+        :class:`tmakit.batch.ml.Best` or None per data set.
+    max_iter : int
+        Levenberg–Marquardt iterations of the whole-set solve at most.
+
+    Returns
+    -------
+    list of Best or None
+        The fits on every row (their ``starts`` count the starts solved on the subset); None
+        where no start gave finite predictions.
+    """
+    small, rows = subsample(problem, SUBSET_ROWS)
+    found = list(solve_all(small, ys[:, rows]))
+    runs = [r for r, fit in enumerate(found) if fit is not None]
+    if not runs or small is problem:
+        return found
+    theta = np.stack([found[r].theta for r in runs])
+    # The subset's optimum is within a few standard deviations of the whole set's: one or
+    # two lightly damped steps.
+    sol = levenberg_marquardt(problem, ys[runs], theta, max_iter=max_iter, damping0=1e-8)
+    for i, r in enumerate(runs):
+        fit = found[r]
+        fit.theta, fit.nuisance = sol.theta[i], sol.nuisance[i]
+        fit.cost, fit.iterations = float(sol.cost[i]), int(sol.iterations[i])
+        fit.converged = bool(sol.converged[i])
+        fit.information = information_of(problem, sol.evaluation, i, sol.information)
+    return found
