@@ -376,7 +376,9 @@ class ManoeuvreSearch:
                     continue
                 free = fit.free_mask().copy()
                 free[k0 + k] = False
-                sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=self.s.prune)
+                # only a start that beats the best so far matters: the others stop early
+                sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=0.0,
+                             best=best_cost)
                 i = int(np.argmin(sol.cost))
                 if sol.cost[i] < best_cost - 1e-9:
                     best_theta, best_cost = sol.theta[i], float(sol.cost[i])
@@ -471,9 +473,10 @@ class ManoeuvreSearch:
             held = lm_fit(pr, fit.theta[None], held_free, 50, rtol=1e-10, atol=1e-7)
             if not held.converged[0]:
                 break
-            ps = lm_fit(pr, self._probes(held.theta[0], m), held_free, 50, rtol=1e-10,
-                        atol=1e-7)
             c0 = float(held.cost[0])
+            # only a probe that beats c0 - tol / 2 matters: one that cannot is stopped early
+            ps = lm_fit(pr, self._probes(held.theta[0], m), held_free, 50, rtol=1e-10,
+                        atol=1e-7, prune=0.0, best=c0 - tol / 2.0)
             fit.iterations += int(held.iterations[0])
             if np.all(ps.cost >= c0 - tol / 2.0):
                 fit.theta, fit.nuisance, fit.chi2 = held.theta[0], held.nuisance[0], 2.0 * c0
