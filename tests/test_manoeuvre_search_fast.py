@@ -8,6 +8,8 @@ pruning); the acceleration hold chosen by the backward elimination against a pla
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -108,3 +110,41 @@ def test_backward_elimination_holds_what_a_plain_search_holds(small):
     assert plain[best[1]] - 1e-6 <= best[0] <= plain[best[1]] + 0.5
     others = [v for i, v in plain.items() if i != best[1]]
     assert not others or min(others) > best[0]
+
+
+def _unpruned(monkeypatch):
+    """Make the search's pruned fits (``prune=0``: stop what cannot beat a cost) run in full."""
+    from tmakit.batch.manoeuvre import search as search_mod
+
+    def plain(problem, theta0, free, max_iter, **kw):
+        if kw.get("prune") == 0.0:
+            kw["prune"], kw["best"] = None, np.inf
+        return lm_fit(problem, theta0, free, max_iter, **kw)
+
+    monkeypatch.setattr(search_mod, "lm_fit", plain)
+
+
+def test_pruned_corner_probes_settle_as_the_full_probes_do(small, monkeypatch):
+    fit = small.fit_from(1, small.fit(1, small.fit_zero()).theta[None])
+    fit.theta[-1] += 7.0  # off its minimum: the probes find a better change-over time
+    pruned = copy.deepcopy(fit)
+    small.settle(pruned)
+    _unpruned(monkeypatch)
+    full = copy.deepcopy(fit)
+    small.settle(full)
+    assert pruned.converged == full.converged and pruned.note == full.note
+    assert pruned.chi2 == pytest.approx(full.chi2, abs=1e-6)
+    np.testing.assert_allclose(pruned.theta[-1], full.theta[-1], atol=1e-6)
+
+
+def test_pruned_finer_profile_polishes_as_the_full_one_does(small, monkeypatch):
+    fit = small.fit_from(1, small.fit(1, small.fit_zero()).theta[None])
+    fit.theta[-1] += 30.0  # a dip next to the deepest one
+    fit = small.fit_from(1, fit.theta[None], np.r_[np.ones(8, bool), False])
+    fit.free = None
+    pruned = small.polish(copy.deepcopy(fit))
+    _unpruned(monkeypatch)
+    full = small.polish(copy.deepcopy(fit))
+    assert pruned.chi2 == pytest.approx(full.chi2, abs=1e-6)
+    np.testing.assert_allclose(pruned.theta[-1], full.theta[-1], atol=1e-6)
+    assert pruned.chi2 <= fit.chi2

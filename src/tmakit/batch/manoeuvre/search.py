@@ -340,9 +340,9 @@ class ManoeuvreSearch:
 
         The likelihood has a corner at every measurement time (:meth:`settle`), so near its
         minimum it is bumpy and the refinement can stop in a dip next to the deepest one.
-        Each ``t_m`` in turn is held on a ``polish_step`` grid within ``reach`` of its
-        estimate, every other parameter free (its profile likelihood); if a grid point beats
-        the fit, everything is refined again from it.  At most ``polish_rounds`` rounds.
+        Each ``t_m`` in turn is held on a ``polish_step`` grid within ``reach`` of its estimate,
+        every other parameter free (held fits that cannot beat the best so far stop early); if
+        one beats the fit, everything is refined again from it.  At most ``polish_rounds``.
 
         Parameters
         ----------
@@ -376,7 +376,7 @@ class ManoeuvreSearch:
                     continue
                 free = fit.free_mask().copy()
                 free[k0 + k] = False
-                sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=self.s.prune)
+                sol = lm_fit(pr, start[rows], free, self.s.profile_iter, prune=0.0, best=best_cost)
                 i = int(np.argmin(sol.cost))
                 if sol.cost[i] < best_cost - 1e-9:
                     best_theta, best_cost = sol.theta[i], float(sol.cost[i])
@@ -451,8 +451,8 @@ class ManoeuvreSearch:
         next to a corner, its tests unmet.  The fit is accepted as converged when, the
         change-over times held, the other parameters converge and no held fit with one
         change-over time moved by :data:`PROBES` or onto the measurement time either side
-        lowers chi2 by more than ``tol``.  Otherwise everything is refined again from the best
-        such fit, at most ``rounds`` times.
+        lowers chi2 by more than ``tol`` (probes that cannot are stopped early).  Otherwise
+        everything is refined again from the best such fit, at most ``rounds`` times.
 
         Parameters
         ----------
@@ -471,9 +471,9 @@ class ManoeuvreSearch:
             held = lm_fit(pr, fit.theta[None], held_free, 50, rtol=1e-10, atol=1e-7)
             if not held.converged[0]:
                 break
-            ps = lm_fit(pr, self._probes(held.theta[0], m), held_free, 50, rtol=1e-10,
-                        atol=1e-7)
             c0 = float(held.cost[0])
+            ps = lm_fit(pr, self._probes(held.theta[0], m), held_free, 50, rtol=1e-10,
+                        atol=1e-7, prune=0.0, best=c0 - tol / 2.0)
             fit.iterations += int(held.iterations[0])
             if np.all(ps.cost >= c0 - tol / 2.0):
                 fit.theta, fit.nuisance, fit.chi2 = held.theta[0], held.nuisance[0], 2.0 * c0
