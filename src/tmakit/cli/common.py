@@ -305,16 +305,16 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
         model = motion_from_name(name, ref_time)
     except ValueError as e:
         raise fail(str(e)) from None
+    if meas is not None and model.n_params > len(meas):  # work limit: not identifiable
+        raise fail(f"--motion {name}: {model.n_params:,} parameters from {len(meas):,} "
+                   "measurements cannot be identified (at most one parameter per "
+                   "measurement); choose a motion with fewer parameters")
     manoeuvres = getattr(model, "manoeuvres", None)
     if manoeuvres is not None and manoeuvres > max_manoeuvres():  # work limit: run time
         raise fail(f"--motion {name}: {manoeuvres:,} manoeuvres is more than the limit of "
                    f"{max_manoeuvres():,} (an estimate searches the change-over times of every "
                    "manoeuvre: seconds to minutes each on a long log); raise it with "
                    "TMA_MAX_MANOEUVRES=N")
-    if meas is not None and model.n_params > len(meas):  # work limit: not identifiable
-        raise fail(f"--motion {name}: {model.n_params:,} parameters from {len(meas):,} "
-                   "measurements cannot be identified (at most one parameter per "
-                   "measurement); choose a motion with fewer parameters")
     return model
 
 
