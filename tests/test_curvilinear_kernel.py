@@ -87,10 +87,10 @@ def test_unusable_numba_falls_back_to_numpy_with_a_warning(monkeypatch):
     def broken():
         raise RuntimeError("no cache dir")
 
-    monkeypatch.setitem(compiled._STATE, "kernels", None)
+    monkeypatch.setattr(compiled.KERNELS, "kernels", None)
     monkeypatch.setattr(compiled, "_compile", broken)
     with pytest.warns(RuntimeWarning, match="NumPy path"):
         assert not compiled.available()
     theta = _thetas(1, np.random.default_rng(0))[:1]
     assert np.all(np.isfinite(ForwardPiecewise(1, 0.0).states(theta, np.arange(10.0))))
-    monkeypatch.setitem(compiled._STATE, "kernels", None)
+    monkeypatch.setattr(compiled.KERNELS, "kernels", None)

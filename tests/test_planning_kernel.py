@@ -131,7 +131,7 @@ def test_unusable_numba_falls_back_to_numpy_with_a_warning(monkeypatch):
         raise RuntimeError("no cache directory")
 
     monkeypatch.setattr(compiled, "_compile", broken)
-    monkeypatch.setitem(compiled._STATE, "kernels", None)
+    monkeypatch.setattr(compiled.KERNELS, "kernels", None)
     with pytest.warns(RuntimeWarning, match="NumPy path"):
         assert not compiled.available()
     assert compiled.spd_inverse(np.eye(4)[None]) is None     # the callers' NumPy path

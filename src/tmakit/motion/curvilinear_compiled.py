@@ -14,56 +14,17 @@ installed (``pip install tmakit[fast]``) both run as the compiled loops of
 
 from __future__ import annotations
 
-import os
-import warnings
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from ..arrays import Array
+from ..optional_kernels import OptionalKernels
 
-_STATE: dict[str, Any] = {"enabled": os.environ.get("TMAKIT_NO_NUMBA", "") in ("", "0"),
-                          "kernels": None}
-
-
-def use_compiled(enabled: bool) -> bool:
-    """Switch the compiled kernels on or off (for comparisons); return the previous setting.
-
-    Parameters
-    ----------
-    enabled : bool
-        False: every call takes the NumPy path, even with ``numba`` installed.
-
-    Returns
-    -------
-    bool
-        The setting before the call.
-    """
-    before = bool(_STATE["enabled"])
-    _STATE["enabled"] = bool(enabled)
-    return before
-
-
-def available() -> bool:
-    """Tell whether the compiled kernels are switched on and ``numba`` can be imported.
-
-    Returns
-    -------
-    bool
-    """
-    if not _STATE["enabled"]:
-        return False
-    if _STATE["kernels"] is None:
-        try:
-            _STATE["kernels"] = _compile()
-        except ImportError:
-            _STATE["kernels"] = False
-        except Exception as err:   # numba present but unusable here: say so, use NumPy
-            warnings.warn(f"tmakit's compiled curvilinear kernels failed ({err!r}); using the "
-                          "NumPy path", RuntimeWarning, stacklevel=2)
-            _STATE["kernels"] = False
-    return _STATE["kernels"] is not False
+#: The module's kernels (:mod:`tmakit.optional_kernels`).
+KERNELS = OptionalKernels("curvilinear", lambda: _compile())
+use_compiled = KERNELS.use_compiled
+available = KERNELS.available
 
 
 def _compile() -> dict[str, Callable[..., object]]:
@@ -126,7 +87,7 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
     vals = np.empty((b, t.size, 6))
     par = np.empty((b, t.size, 4, 7)) if partials else np.empty((1, 1, 4, 7))
     d_anchor = np.empty((b, manoeuvres + 1, 4, p)) if partials else np.empty((1, 1, 4, p))
-    _STATE["kernels"]["piecewise"](theta, t, manoeuvres, ref_time, end_time, partials, seg,
+    KERNELS["piecewise"](theta, t, manoeuvres, ref_time, end_time, partials, seg,
                                    vals, par, d_anchor)
     return seg, vals, (par if partials else None), (d_anchor if partials else None)
 
@@ -161,7 +122,7 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     b, n = ds.shape[:2]
     out = np.empty((b, n, d_anchor.shape[-1]))
     rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
-    _STATE["kernels"]["chain"](np.asarray(ds, dtype=float), par, seg, rows, d_anchor,
+    KERNELS["chain"](np.asarray(ds, dtype=float), par, seg, rows, d_anchor,
                                manoeuvres, out)
     return out
 
@@ -190,5 +151,5 @@ def scatter_states(vals: Array, inv: Array) -> Array:
     if not available():
         raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
     out = np.empty((vals.shape[0], inv.shape[0], 6))
-    _STATE["kernels"]["scatter"](vals, np.ascontiguousarray(inv, dtype=np.int64), out)
+    KERNELS["scatter"](vals, np.ascontiguousarray(inv, dtype=np.int64), out)
     return out

@@ -26,14 +26,13 @@ after ``use_compiled(False)``, :func:`available` is False and the NumPy path is 
 
 from __future__ import annotations
 
-import os
-import warnings
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from ..arrays import Array
+from ..optional_kernels import OptionalKernels
 
 #: The products of ``1/r`` and the bearing rate ``q`` the kernels sum, in the order of
 #: :data:`tmakit.planning.planar_information._PRODUCTS`.
@@ -42,47 +41,10 @@ PRODUCTS = ("ir2", "irq", "qq", "ir", "q")
 #: ``E[g]``, ``E[g c2]``, ``E[g cs]``.
 ROWS = 2 + 3 * len(PRODUCTS)
 
-_STATE: dict[str, Any] = {"enabled": os.environ.get("TMAKIT_NO_NUMBA", "") in ("", "0"),
-                          "kernels": None}
-
-
-def use_compiled(enabled: bool) -> bool:
-    """Switch the compiled kernels on or off (for comparisons); return the previous setting.
-
-    Parameters
-    ----------
-    enabled : bool
-        False: every call takes the NumPy path, even with ``numba`` installed.
-
-    Returns
-    -------
-    bool
-        The setting before the call.
-    """
-    before = bool(_STATE["enabled"])
-    _STATE["enabled"] = bool(enabled)
-    return before
-
-
-def available() -> bool:
-    """Tell whether the compiled kernels are switched on and ``numba`` can be imported.
-
-    Returns
-    -------
-    bool
-    """
-    if not _STATE["enabled"]:
-        return False
-    if _STATE["kernels"] is None:
-        try:
-            _STATE["kernels"] = _compile()
-        except ImportError:
-            _STATE["kernels"] = False
-        except Exception as err:   # numba present but unusable here: say so, use NumPy
-            warnings.warn(f"tmakit's compiled planning kernels failed ({err!r}); using the "
-                          "NumPy path", RuntimeWarning, stacklevel=2)
-            _STATE["kernels"] = False
-    return _STATE["kernels"] is not False
+#: The module's kernels (:mod:`tmakit.optional_kernels`).
+KERNELS = OptionalKernels("planning", lambda: _compile())
+use_compiled = KERNELS.use_compiled
+available = KERNELS.available
 
 
 def _compile() -> dict[str, Callable[..., object]]:
@@ -126,7 +88,7 @@ def spd_inverse(information: Array) -> Array | None:
     n = info.shape[-1]
     flat = info.reshape(-1, n, n)
     out = np.empty_like(flat)
-    if not _STATE["kernels"]["spd_inverse"](flat, out):
+    if not KERNELS["spd_inverse"](flat, out):
         return None
     return out.reshape(info.shape)
 
@@ -158,7 +120,7 @@ def cloud_sums(names: list[str], cols: Array, weights: Array, sensors: Array) ->
     """
     if not available():
         raise RuntimeError("the compiled planning kernels are not available (numba)")
-    kernels = _STATE["kernels"]
+    kernels = KERNELS
     c = sensors.shape[0]
     w = np.ascontiguousarray(weights, dtype=float)
     x = np.ascontiguousarray(cols[0])
@@ -205,7 +167,7 @@ def planar_gamma(names: list[str], coefficients: Array, constants: Array, cols: 
     """
     sums = cloud_sums(names, cols, weights, sensors)
     out = np.empty((sensors.shape[0], 4, 4))
-    _STATE["kernels"]["assemble"](sums, coefficients, constants, out)
+    KERNELS["assemble"](sums, coefficients, constants, out)
     return out
 
 
@@ -260,7 +222,7 @@ def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval:
         raise RuntimeError("the compiled planning kernels are not available (numba)")
     size = starts.shape[0] * actions.shape[1]
     fields, flags = np.empty((20, size)), np.empty((4, size), dtype=np.bool_)
-    _STATE["kernels"]["fly"](starts, actions, own_climb, limits, float(interval), fields,
+    KERNELS["fly"](starts, actions, own_climb, limits, float(interval), fields,
                              flags)
     return fields, flags
 
@@ -279,4 +241,4 @@ def kernel(name: str) -> Callable[..., Any] | None:
     callable or None
         None when the kernels are not :func:`available`.
     """
-    return _STATE["kernels"][name] if available() else None
+    return KERNELS[name] if available() else None
