@@ -14,6 +14,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from ..arrays import Array
 from ..data import MeasurementSet
 from ..measurements import KINDS, MeasurementModel, model_for
 from .noise_blocks import correlated_blocks
@@ -86,26 +87,51 @@ class NoiseModel:
                blocks: list[tuple[NDArray[np.intp], NDArray[np.float64]]]) -> None:
         self.n = sigma.shape[0]
         self.inv_sigma = 1.0 / sigma
-        self.blocks: list[tuple[NDArray[np.intp], NDArray[np.float64]]] = []
         self.rank = self.n
         self._sigma = sigma  # (log_det: made on first use)
-        self._log_det_blocks: list[float] = []
+        self._log_det_blocks: list[Array] = []
+        by_size: dict[int, list[tuple[NDArray[np.intp], NDArray[np.float64]]]] = {}
         for rows, cov in blocks:
-            if np.count_nonzero(cov - np.diag(np.diag(cov))) == 0:
-                continue  # no shared intervals: the diagonal is exact
-            evals, evecs = np.linalg.eigh(cov)
-            keep = evals > 1e-10 * evals.max()
-            whitener = np.zeros((rows.size, rows.size))
-            whitener[: keep.sum()] = (evecs[:, keep] / np.sqrt(evals[keep])).T
-            self.blocks.append((rows, whitener))
-            self.rank -= int(rows.size - keep.sum())
-            self._log_det_blocks.append(float(np.sum(np.log(evals[keep])) - 2.0 * np.sum(
-                np.log(sigma[rows]))))
-        self.correlated = bool(self.blocks)
-        # blocks of one size stacked, so whitening many small groups is one product per size
-        sizes = sorted({rows.size for rows, _ in self.blocks})
-        self._stacks = [(np.stack([r for r, _ in self.blocks if r.size == b]),
-                         np.stack([w for r, w in self.blocks if r.size == b])) for b in sizes]
+            by_size.setdefault(rows.size, []).append((rows, cov))
+        # blocks of one size stacked: decomposed in one call, whitened with one product
+        self._stacks: list[tuple[NDArray[np.intp], NDArray[np.float64]]] = []
+        for size in sorted(by_size):
+            stack = self._whiteners(sigma, size, by_size.pop(size))
+            if stack is not None:
+                self._stacks.append(stack)
+        self.correlated = bool(self._stacks)
+
+    def _whiteners(self, sigma: NDArray[np.float64], size: int,
+                   blocks: list[tuple[NDArray[np.intp], NDArray[np.float64]]]
+                   ) -> tuple[NDArray[np.intp], NDArray[np.float64]] | None:
+        """Whiten the dense blocks of one size: ``(k, size)`` rows and ``(k, size, size)``."""
+        rows = np.stack([r for r, _ in blocks])
+        cov = np.stack([c for _, c in blocks])
+        off = cov.copy()
+        off[:, np.arange(size), np.arange(size)] = 0.0
+        dense = np.any(off != 0.0, axis=(1, 2))  # no shared intervals: the diagonal is exact
+        if not dense.any():
+            return None
+        rows, cov = rows[dense], cov[dense]
+        evals, evecs = np.linalg.eigh(cov)  # ascending, so the kept ones are the last
+        keep = evals > 1e-10 * evals[:, -1:]
+        kept = keep.sum(axis=1)
+        scaled = np.where(keep[:, None, :], evecs / np.sqrt(np.where(keep, evals, 1.0))[:, None, :],
+                          0.0)
+        # row i of a block's whitener: its i-th kept eigenvector / sqrt(eigenvalue), then zeros
+        order = (np.arange(size)[None, :] + (size - kept)[:, None]) % size
+        whitener = np.take_along_axis(np.swapaxes(scaled, 1, 2), order[:, :, None], axis=1)
+        self.rank -= int(np.sum(size - kept))
+        self._log_det_blocks.append(
+            np.sum(np.log(np.where(keep, evals, 1.0)), axis=1)
+            - 2.0 * np.sum(np.log(sigma[rows]), axis=1))
+        return rows, np.ascontiguousarray(whitener)
+
+    @property
+    def blocks(self) -> list[tuple[NDArray[np.intp], NDArray[np.float64]]]:
+        """The dense blocks: each one's rows (ascending) and whitener (for small sets, tests)."""
+        return [(r, w) for rows, whiteners in self._stacks for r, w in zip(rows, whiteners,
+                                                                           strict=True)]
 
     @property
     def log_det(self) -> float:
@@ -115,8 +141,9 @@ class NoiseModel:
         """
         if not hasattr(self, "_log_det"):
             log_det = float(2.0 * np.sum(np.log(self._sigma)))
-            for term in self._log_det_blocks:  # in block order, as they were found
-                log_det += term
+            for terms in self._log_det_blocks:  # per block size, blocks in the order found
+                for term in terms.tolist():
+                    log_det += term
             self._log_det = log_det
         return self._log_det
 
@@ -182,7 +209,7 @@ class NoiseModel:
         ndarray
             Whitened values (dimensionless), the shape of ``x``.
         """
-        if not self.blocks:  # independent rows: a scaling (the common, hot case)
+        if not self._stacks:  # independent rows: a scaling (the common, hot case)
             x = np.asarray(x, dtype=float)
             if axis in (-1, -2):
                 scale = self.inv_sigma if axis == -1 else self.inv_sigma[:, None]
@@ -214,9 +241,9 @@ class NoiseModel:
         """
         n = self.n
         inside = np.zeros(n + 1, dtype=np.int64)  # blocks straddling a cut before row c
-        for rows, _ in self.blocks:
-            inside[rows[0] + 1] += 1
-            inside[rows[-1] + 1] -= 1
+        for rows, _ in self._stacks:
+            np.add.at(inside, rows[:, 0] + 1, 1)
+            np.add.at(inside, rows[:, -1] + 1, -1)
         safe = np.flatnonzero(np.cumsum(inside) == 0)  # cuts that split no block
         bounds, lo = [], 0
         while lo < n:
