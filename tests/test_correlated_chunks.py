@@ -126,3 +126,36 @@ def test_a_subset_of_correlated_rows_keeps_their_covariance():
     assert np.count_nonzero(dense - np.diag(np.diag(dense))) > 0  # still correlated
     np.testing.assert_allclose(small.noise.covariance(), dense, rtol=1e-9,
                                atol=1e-12 * dense.max())
+
+
+def test_batched_whiteners_are_each_blocks_own_decomposition_bit_for_bit():
+    """Blocks of one size are decomposed together; each equals its own eigh, singular ones too."""
+    rng = np.random.default_rng(1)
+    blocks, m = [], 0
+    for k in range(120):
+        b = int(rng.integers(1, 6))
+        t = np.sort(rng.uniform(0.0, 10.0, b)) + 20.0
+        t_ref = t - rng.choice([0.5, 1.0, 2.5, 6.0], b)
+        cov = range_difference_covariance(t, t_ref, rng.uniform(0.5, 2.0, b))
+        if k % 11 == 0 and b >= 2:  # a repeated combination: a singular block
+            v = rng.normal(size=(b, b - 1))
+            cov = v @ v.T
+        blocks.append((np.arange(m, m + b), cov))
+        m += b
+    sigma = np.concatenate([np.sqrt(np.diag(c)) for _, c in blocks])
+    noise = NoiseModel.independent(sigma)
+    noise._setup(sigma, blocks)
+    expected, rank = {}, m
+    for rows, cov in blocks:
+        if np.count_nonzero(cov - np.diag(np.diag(cov))) == 0:
+            continue
+        evals, evecs = np.linalg.eigh(cov)
+        keep = evals > 1e-10 * evals.max()
+        w = np.zeros((rows.size, rows.size))
+        w[: keep.sum()] = (evecs[:, keep] / np.sqrt(evals[keep])).T
+        expected[int(rows[0])] = w
+        rank -= int(rows.size - keep.sum())
+    got = {int(rows[0]): w for rows, w in noise.blocks}
+    assert got.keys() == expected.keys()
+    assert all(np.array_equal(got[k], expected[k]) for k in expected)
+    assert noise.rank == rank < m
