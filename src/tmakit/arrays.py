@@ -9,7 +9,42 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Array"]
+__all__ = ["Array", "broadcast", "take_rows"]
 
 #: A float64 array (shapes and units are given where it is used).
 Array = NDArray[np.float64]
+
+
+def broadcast(column: NDArray[np.generic]) -> bool:
+    """Tell whether ``column`` holds one value for every row (a zero-stride broadcast).
+
+    Parameters
+    ----------
+    column : ndarray
+        ``(n, ...)`` a column of a table.
+
+    Returns
+    -------
+    bool
+    """
+    return column.ndim > 0 and column.strides[0] == 0
+
+
+def take_rows(column: Array, rows: NDArray[np.intp]) -> Array:
+    """Give ``column``'s ``rows``; a broadcast column stays one (no memory per row).
+
+    Parameters
+    ----------
+    column : ndarray
+        ``(n, ...)`` the column.
+    rows : ndarray of int
+        ``(m,)`` row indices.
+
+    Returns
+    -------
+    ndarray
+        ``(m, ...)``; read-only when ``column`` is a broadcast.
+    """
+    if broadcast(column):
+        return np.broadcast_to(column[:1], (rows.shape[0], *column.shape[1:]))
+    return np.take(column, rows, 0)

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import rules
+from .arrays import broadcast, take_rows
 from .measurements import KINDS
 from .measurements import codes as categorical
 from .measurements.codes import KIND_CODES, KIND_NAMES
@@ -86,9 +87,9 @@ class MeasurementSet:
         value_file = np.array(value, dtype=float)
         sigma_file = np.array(sigma, dtype=float)
         self.sensor_state = np.asarray(sensor_state, dtype=float).reshape(n, 6)
-        self.time_ref = (np.full(n, np.nan) if time_ref is None
-                         else np.asarray(time_ref, dtype=float))
-        self.ref_sensor_state = (np.full((n, 6), np.nan) if ref_sensor_state is None
+        nan = np.broadcast_to(np.nan, (n, 6))  # absent references: no memory per row
+        self.time_ref = nan[:, 0] if time_ref is None else np.asarray(time_ref, dtype=float)
+        self.ref_sensor_state = (nan if ref_sensor_state is None
                                  else np.asarray(ref_sensor_state, dtype=float).reshape(n, 6))
         for name, col in (("sensor", sensor_text), ("kind", kind_text), ("value", value_file),
                           ("sigma", sigma_file), ("time_ref", self.time_ref)):
@@ -324,10 +325,8 @@ class MeasurementSet:
     @property
     def dim(self) -> int:
         """3 if any sensor leaves the plane z = 0 or a kind gives height (elevation), else 2."""
-        if any(KINDS[k].gives_height for k in self.kinds):
-            return 3
-        return 3 if np.any(self.sensor_state[:, 2] != 0) or np.any(
-            self.sensor_state[:, 5] != 0) else 2
+        return 3 if any(KINDS[k].gives_height for k in self.kinds) or np.any(
+            self.sensor_state[:, 2] != 0) or np.any(self.sensor_state[:, 5] != 0) else 2
 
     def take(self, index: ArrayLike) -> MeasurementSet:
         """Return the rows at ``index`` (integer indices or a boolean mask), metadata kept.
@@ -357,9 +356,9 @@ class MeasurementSet:
         out._sigma = None if self._sigma is None else _frozen(self._sigma[idx])
         out._value_si, out._sigma_si = _frozen(self._value_si[idx]), _frozen(self._sigma_si[idx])
         ix = np.flatnonzero(idx) if idx.dtype == bool else idx  # np.take: faster than [ix]
-        out.time_ref, out.metadata = self.time_ref[idx], dict(self.metadata)
+        out.time_ref, out.metadata = take_rows(self.time_ref, ix), dict(self.metadata)
         out.sensor_state = np.take(self.sensor_state, ix, 0)
-        out.ref_sensor_state = np.take(self.ref_sensor_state, ix, 0)
+        out.ref_sensor_state = take_rows(self.ref_sensor_state, ix)
         out._kind = out._sensor = out._kinds = out._sensors = None
         return out
 
@@ -407,6 +406,7 @@ class MeasurementSet:
         """
         if not parts:
             raise ValueError("nothing to concatenate")
+        refs = not all(broadcast(p.time_ref) and broadcast(p.ref_sensor_state) for p in parts)
         cat = MeasurementSet.from_si(  # checked parts; in order once sorted
             np.concatenate([p.time for p in parts]),
             np.concatenate([p.sensor for p in parts]),
@@ -414,8 +414,8 @@ class MeasurementSet:
             np.concatenate([p.value_si for p in parts]),
             np.concatenate([p.sigma_si for p in parts]),
             np.concatenate([p.sensor_state for p in parts]),
-            np.concatenate([p.time_ref for p in parts]),
-            np.concatenate([p.ref_sensor_state for p in parts]),
+            np.concatenate([p.time_ref for p in parts]) if refs else None,
+            np.concatenate([p.ref_sensor_state for p in parts]) if refs else None,
             dict(metadata if metadata is not None else parts[0].metadata), check=False)
         if all(p._value is not None for p in parts):  # keep a file's numbers exactly
             cat._value = _frozen(np.concatenate([p.value for p in parts]))

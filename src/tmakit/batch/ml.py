@@ -26,8 +26,9 @@ from ..observation import ObservationModel
 from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options
-from .init import GridSettings, best_starts_many, subsample
+from .init import GridSettings
 from .mirror import mirror_plane, prefer_above
+from .presolve import grid_starts, presolve_subset, solve_all_rows
 from .solver import VarProProblem, information_of, levenberg_marquardt
 from .subset_first import solve_on_subset_first, subset_first
 
@@ -363,7 +364,8 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     b = ys.shape[0]
     dof = problem.noise.rank - problem.p - (0 if problem.fixed is not None else problem.k)
     has_bearings = bool(np.any(problem.obs.meas.kind_mask("bearing")))
-    starts = best_starts_many(problem, ys, g)
+    subset = presolve_subset(problem)  # many rows: the grid and the presolve on one subset
+    starts = grid_starts(problem, ys, g, subset)
     best: list[Best | None] = [None] * b
 
     def solve(blocks: dict[int, NDArray[np.float64]]) -> None:
@@ -374,9 +376,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         owner = np.concatenate([np.full(blocks[r].shape[0], r) for r in runs])
         # Starts bound for a worse minimum than one already reached stop early.
         reached = np.array([np.inf if best[r] is None else best[r].cost for r in range(b)])
-        theta, near = presolve(problem, ys[owner], theta, max_iter)
-        sol = levenberg_marquardt(problem, ys[owner], theta, max_iter=max_iter, groups=owner,
-                                  ceiling=reached[owner], damping0=1e-8 if near else 1e-3)
+        sol = solve_all_rows(problem, ys[owner], theta, max_iter, owner, reached[owner], subset)
         for r in runs:
             rows = np.flatnonzero(owner == r)
             cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
@@ -399,7 +399,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     solve({r: starts[r].first(max(24, g.starts))[first:] for r in unsettled()})
     again = unsettled()
     if again:
-        dense = best_starts_many(problem, ys[again], DENSE_GRID)
+        dense = grid_starts(problem, ys[again], DENSE_GRID, subset)
         solve({r: d.first(DENSE_GRID.starts) for r, d in zip(again, dense, strict=True)})
     _prefer_above(problem, best)
     return best
@@ -416,49 +416,6 @@ def _prefer_above(problem: VarProProblem, best: list[Best | None]) -> None:
             if not np.array_equal(theta, fit.theta):  # mirrored: the information is not
                 fit.information = None                # the one at the new point
             fit.theta = theta
-
-
-PRESOLVE_ROWS = 20_000
-"""Rows above which :func:`solve_without_guess` first converges its starts on a subset."""
-PRESOLVE_SUBSET = 5_000
-"""Evenly spread rows of that subset (its optimum lies a few standard deviations of the whole
-set's from the whole set's: the full solve then needs one or two steps, not five or six)."""
-
-
-def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
-             max_iter: int) -> tuple[NDArray[np.float64], bool]:
-    """Move starting points to their optimum on a subset of rows, for problems of many rows.
-
-    Below :data:`PRESOLVE_ROWS` rows (or with correlated noise) the starts come back as they
-    are.  Otherwise each is fitted by Levenberg–Marquardt on :data:`PRESOLVE_SUBSET` evenly
-    spread rows; a fit that converged to a finite cost replaces its start.  Every full-size
-    evaluation costs as much as the subset's whole fit.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    ys : ndarray
-        ``(B, n)`` data, one row per start (SI, the measurement set's order).
-    theta : ndarray
-        ``(B, p)`` starting points (SI).
-    max_iter : int
-        Levenberg–Marquardt iterations at most on the subset.
-
-    Returns
-    -------
-    (ndarray, bool)
-        ``(B, p)`` the starting points for the whole problem, and whether every one is a
-        subset's optimum (near the whole set's: its solve may start lightly damped).
-    """
-    if len(problem.obs.meas) <= PRESOLVE_ROWS:
-        return theta, False
-    small, rows = subsample(problem, PRESOLVE_SUBSET)
-    if small is problem:
-        return theta, False
-    pre = levenberg_marquardt(small, ys[:, rows], theta, max_iter=max_iter)
-    ok = pre.converged & np.isfinite(pre.cost)
-    return np.where(ok[:, None], pre.theta, theta), bool(ok.all())
 
 
 def plausible_chi2(chi2: float, dof: int) -> bool:

@@ -96,6 +96,7 @@ class _Rules:
     max_reject: int | None
     stall: float
     dominance: tuple[float, float]
+    polish: float = 0.0
 
     @property
     def plain(self) -> bool:
@@ -138,7 +139,8 @@ class _Runs:
         if not mask.any():
             return
         ids = self.ids[mask]
-        if self.model is not None and self.model.jtj is not None:  # the model is at cur
+        # The model is at cur (or at the point a polishing step left: see _polished).
+        if self.model is not None and self.model.jtj is not None:
             if self.information is None:
                 q = self.model.jtj.shape[-1]
                 self.information = np.full((self.out.cost.shape[0], q, q), np.nan)
@@ -195,7 +197,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         free: NDArray[np.bool_] | None = None, damping: str = "nielsen",
                         max_reject: int | None = None, stall: float = 0.0,
                         dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN),
-                        damping0: float = 1e-3) -> SolveResult:
+                        damping0: float = 1e-3, polish: float = 0.0) -> SolveResult:
     """Fit a batch by Levenberg–Marquardt (Marquardt's diagonal scaling), nuisance reduced.
 
     Parameters
@@ -217,22 +219,22 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     gtol : float
         Converged when the gradient's cosine with every Jacobian column is below ``gtol``
         (0: only an exactly zero gradient).
-    groups : ndarray of int, optional
-        ``(B,)`` labels of the runs that fit the same data, for the dominance test.
-    ceiling : ndarray, optional
-        ``(B,)`` a cost reached by an earlier solve, for the dominance test.
+    groups, ceiling : ndarray, optional
+        ``(B,)`` labels of the runs that fit the same data (int), and a cost each must beat
+        (reached by an earlier solve), for the dominance test.
     free : ndarray of bool, optional
         ``(p,)`` the parameters fitted, the others held at their start (default: all).
     damping, damping0 : {"nielsen", "factors"}, float
         The damping schedule (:data:`DAMPING`) and its start (small from a start near the
         optimum, where Gauss–Newton steps converge fast), floored at 1e-12.
-    max_reject : int, optional
-        A run stops, not converged, after this many rejected steps in a row.
-    stall : float
-        With ``stall > 0`` a run stops, not converged, once six steps in a row lowered its
-        cost by less than ``stall`` in all.
+    max_reject, stall : int or None, float
+        A run stops, not converged, after ``max_reject`` rejected steps in a row, or (``stall >
+        0``) once six steps in a row lowered its cost by less than ``stall`` in all.
     dominance : (float, float)
         ``(factor, margin)`` of the dominance test (half chi2; default the module constants).
+    polish : float
+        A single run whose decrement is at most ``polish > 0`` ends with a step checked by
+        its residuals alone (:func:`_polished`).
 
     Returns
     -------
@@ -246,7 +248,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
 
     Notes
     -----
-    The convergence tests precede each step, so a converged run costs no further evaluation.
+    The convergence tests precede each step: a converged run costs no further evaluation.
     Runs whose damping passes 1e12 without meeting a test stop, not converged.  With
     ``groups`` or ``ceiling``, a run whose cost exceeds the lowest cost reached in its group
     (or its ceiling) by more than ``factor`` times its Gauss–Newton decrement plus ``margin``
@@ -260,10 +262,10 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     if damping not in DAMPING:
         raise ValueError(f"damping must be one of {', '.join(DAMPING)}, got {damping!r}")
     rules = _Rules(ftol, xtol, gtol, dtol, None if free is None else np.asarray(free, bool),
-                   damping, max_reject, stall, dominance)
+                   damping, max_reject, stall, dominance, polish)
     with np.errstate(invalid="ignore", divide="ignore"):  # a trial on a sensor: cost inf
-        runs = _start(problem, y, theta0, groups, ceiling, stall > 0, damping0)
-        runs = _iterate(problem, runs, max_iter, rules)
+        runs = _iterate(problem, _start(problem, y, theta0, groups, ceiling, stall > 0,
+                                        damping0), max_iter, rules)
     runs.finish()
     out = runs.out  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
@@ -355,6 +357,48 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
         runs.stop(np.ones(1, dtype=bool), np.array([tiny]))
 
 
+POLISH_AGREEMENT = 0.01
+"""Largest relative gap between the decrease of a polishing step and the decrease its
+Gauss-Newton model predicted (see :func:`_polished`)."""
+
+
+def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
+    """End a single run with a Gauss–Newton step checked by its residuals alone.
+
+    Near the minimum, once the decrement ``d`` (the decrease the model predicts) is at most
+    ``rules.polish``, the lightly damped step is taken and only the residuals are evaluated
+    there (no Jacobian: on many rows that is most of an evaluation).  When the cost fell by
+    ``d`` to within :data:`POLISH_AGREEMENT` the model is exact to that order, so what is
+    left at the new point is of order ``d**2`` (Gauss–Newton converges quadratically where the
+    model holds): the run stops there, converged, its information ``J'J`` that of the point
+    the step left (it moves by at most ``sqrt(2 d)`` standard deviations).  Otherwise the
+    trial is dropped and the iterations go on as without ``polish``.
+
+    Returns
+    -------
+    bool
+        Whether the run stopped.
+    """
+    model, cur = runs.model, runs.cur
+    assert model is not None
+    predicted = float(model.decrement[0])
+    if runs.ids.size != 1 or predicted > rules.polish or float(runs.lam[0]) > 1e-2:
+        return False
+    step, expected = model.step(runs.lam)
+    if rules.free is not None:
+        full = np.zeros_like(cur.theta)
+        full[:, rules.free] = step
+        step = full
+    trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, False, quiet=True)
+    runs.iterations[runs.ids] += 1
+    drop, want = float(cur.cost[0]) - float(trial.cost[0]), float(expected[0])
+    if not (drop > 0.0 and abs(drop - want) <= POLISH_AGREEMENT * want):
+        return False
+    runs.cur = trial  # the model (its J'J) stays that of the point the step left
+    runs.stop(np.ones(1, dtype=bool), np.ones(1, dtype=bool))
+    return True
+
+
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
     free = rules.free
@@ -364,7 +408,7 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
         if runs.model is None:  # a new point for some run: its Gauss-Newton model
             runs.model = GaussNewtonModel.at(runs.cur, rules.gtol, free)
         _stop_converged_or_dominated(runs, rules)
-        if runs.ids.size == 0:
+        if runs.ids.size == 0 or (rules.polish > 0 and _polished(problem, runs, rules)):
             break
         cur, model, lam = runs.cur, runs.model, runs.lam
         step, predicted = model.step(lam)

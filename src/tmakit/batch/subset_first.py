@@ -25,8 +25,8 @@ __all__ = ["SUBSET_FIRST_ROWS", "SUBSET_ROWS", "solve_on_subset_first", "subset_
 SUBSET_FIRST_ROWS = 20_000
 """Rows above which a problem with correlated noise is solved on a subset first."""
 SUBSET_ROWS = 5_000
-"""Evenly spread rows of that subset (the same as the presolve's,
-:data:`tmakit.batch.ml.PRESOLVE_SUBSET`)."""
+"""Evenly spread rows of that subset (every start is solved there, not only the best, as in
+:data:`tmakit.batch.presolve.PRESOLVE_SUBSET`)."""
 
 
 def subset_first(problem: VarProProblem) -> bool:

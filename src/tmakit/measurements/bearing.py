@@ -99,6 +99,24 @@ class Bearing(MeasurementModel):
         np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
         return np.arctan2(dx, dy)
 
+    def planar_value(self, dx: Array, dy: Array) -> Array:
+        """Give bearings from the relative east and north positions (fused values alone).
+
+        The values of :meth:`planar_gradient` (the same bits), for a solver that checks a
+        step by its cost alone (:func:`tmakit.observation.fused.fused_values`).
+
+        Parameters
+        ----------
+        dx, dy : ndarray
+            Relative east and north positions ``(m,)``, m.
+
+        Returns
+        -------
+        ndarray
+            ``atan2(dx, dy)``, rad in (-pi, pi], ``(m,)``.
+        """
+        return np.arctan2(dx, dy)
+
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:
         """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m).

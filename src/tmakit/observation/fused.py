@@ -23,7 +23,7 @@ import numpy as np
 from ..arrays import Array
 from .linearisation import Linearisation
 
-__all__ = ["fused_linearisation"]
+__all__ = ["fused_linearisation", "fused_values"]
 
 
 def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
@@ -46,15 +46,10 @@ def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
         ``h0`` (rad) and the Jacobian ``(..., n, p)`` (rad/m, rad s/m) set; None when the
         fused path does not apply (the caller uses the general one).
     """
-    rel_map = obs._rel_map
-    if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
-            or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
+    found = _fused_kind(obs, theta, "planar_gradient")
+    if found is None:
         return None
-    model = next(iter(obs.models.values()))
-    gradient = getattr(model, "planar_gradient", None)
-    if gradient is None or theta.shape[-1] != rel_map.p:
-        return None
-    theta = obs.motion.check_theta(theta)
+    rel_map, gradient, theta = found
     rel = rel_map.single(theta, components=2)  # (2, m): dx, dy, component-major
     jac = np.empty((rel_map.p, rel_map.m))
     h0 = gradient(rel[0], rel[1], jac[0], jac[1])  # parked in rows 0, 1
@@ -67,6 +62,50 @@ def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
     lin.fused = jac.T.reshape(*batch, rel_map.m, rel_map.p)
     lin.fused_again = lambda: _jacobian_again(obs, theta)
     return lin
+
+
+def fused_values(obs: Any, theta: Array) -> Linearisation | None:
+    """Give the predictions of ``obs`` at one ``theta`` alone by the fused path, or None.
+
+    Where :func:`fused_linearisation` applies (the model's ``planar_value`` giving the same
+    bits as its ``planar_gradient``): the relative east and north positions and the values,
+    nothing else of size ``n``.  A solver checking a step by its cost alone needs no more.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The observation model.
+    theta : numpy.ndarray
+        Motion parameters, SI.
+
+    Returns
+    -------
+    Linearisation or None
+        ``h0`` (rad) set, no derivatives; None when the fused path does not apply.
+    """
+    found = _fused_kind(obs, theta, "planar_value")
+    if found is None:
+        return None
+    rel_map, value, theta = found
+    rel = rel_map.single(theta, components=2)
+    batch = theta.shape[:-1]
+    return Linearisation(obs, theta, value(rel[0], rel[1]).reshape(*batch, rel_map.m),
+                         np.zeros((*batch, rel_map.m, 0)))
+
+
+def _fused_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
+    """Give the affine row map, the one kind's fused ``method`` and the checked ``theta``.
+
+    None when the fused path does not apply (see :func:`fused_linearisation`).
+    """
+    rel_map = obs._rel_map
+    if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
+            or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
+        return None
+    fused = getattr(next(iter(obs.models.values())), method, None)
+    if fused is None or theta.shape[-1] != rel_map.p:
+        return None
+    return rel_map, fused, obs.motion.check_theta(theta)
 
 
 def _jacobian_again(obs: Any, theta: Array) -> Array:

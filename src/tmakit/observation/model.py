@@ -25,7 +25,7 @@ from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .affine_rows import AffineRows
-from .fused import fused_linearisation
+from .fused import fused_linearisation, fused_values
 from .linearisation import Linearisation
 from .rows import RowModel, nuisance_layout
 
@@ -304,7 +304,8 @@ class ObservationModel:
         Linearisation
         """
         theta = np.asarray(theta, dtype=float)
-        if derivatives and (lin := fused_linearisation(self, theta)) is not None:
+        if (lin := (fused_linearisation if derivatives else fused_values)(self, theta)
+                ) is not None:
             return lin  # one planar kind, affine motion, one theta: only what it needs
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.

@@ -1,0 +1,115 @@
+"""The no-guess fit of many rows ends with a Gauss–Newton step checked by its residuals alone.
+
+``levenberg_marquardt(..., polish=d)`` (one run) stops, once the decrement is at most ``d``,
+after one lightly damped step whose decrease agrees with the model's prediction, without a
+Jacobian at the end.  What the user gets must be the optimum the solver reaches without it,
+and a step that does not do what the model predicted must not stop the run.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit.batch import presolve, solver
+from tmakit.batch.gauss_newton import GaussNewtonModel
+from tmakit.batch.varpro import VarProProblem
+from tmakit.observation import ObservationModel
+from tmakit.observation.fused import fused_linearisation, fused_values
+
+
+def _many_rows(n: int, seed: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
+    scn = tk.load_scenario("bearings-only-2d")
+    lo, hi = scn.time_span()
+    plans = [dataclasses.replace(p, times=np.linspace(lo, hi, n)) for p in scn.plans]
+    scn = dataclasses.replace(scn, plans=plans)
+    return scn, scn.simulate(np.random.default_rng(seed))
+
+
+@pytest.fixture(scope="module")
+def large() -> tuple[tk.Scenario, tk.MeasurementSet]:
+    return _many_rows(100_000, 5)
+
+
+def _counting(monkeypatch: pytest.MonkeyPatch) -> collections.Counter:
+    counts: collections.Counter = collections.Counter()
+    evaluate = VarProProblem._evaluate
+
+    def counted(self, theta, u, nu_star, with_jacobian):
+        if u.shape[-1] > presolve.PRESOLVE_ROWS:
+            counts["jacobian" if with_jacobian else "residuals"] += 1
+        return evaluate(self, theta, u, nu_star, with_jacobian)
+
+    monkeypatch.setattr(VarProProblem, "_evaluate", counted)
+    return counts
+
+
+def test_polished_fit_is_the_fit_without_polish(large, monkeypatch) -> None:
+    scn, meas = large
+    counts = _counting(monkeypatch)
+    polished = tk.estimate(meas, scn.motion)
+    assert counts["residuals"] == 1  # it ended with a step checked by its residuals
+    used = counts["jacobian"]
+    monkeypatch.setattr(presolve, "POLISH_DECREMENT", 0.0)
+    counts.clear()
+    full = tk.estimate(meas, scn.motion)
+    assert counts["residuals"] == 0 and counts["jacobian"] == used + 1
+    assert polished.status == full.status == "converged"
+    # The same optimum, to the solver's own tolerance (dtol: within 4.5e-3 sigma).
+    assert np.all(np.abs(polished.estimate - full.estimate) < 1e-3 * full.std)
+    assert abs(polished.chi2 - full.chi2) < 1e-5
+    # The covariance is the one at the point the last step left (at most one standard
+    # deviation away): the same to the relative size of a standard deviation.
+    np.testing.assert_allclose(polished.covariance, full.covariance, rtol=2e-3)
+    # And the point reported is a minimum: its own decrement is below the tolerance.
+    problem = VarProProblem(ObservationModel(meas, scn.motion))
+    ev = problem.evaluate(polished.estimate[None], meas.value_si[None], np.zeros((1, 0)))
+    assert float(GaussNewtonModel.at(ev, 1e-10, None).decrement[0]) < 1e-5
+
+
+def test_a_step_the_model_does_not_predict_does_not_stop_the_run(large, monkeypatch) -> None:
+    # No step agrees with its model exactly: every polishing trial is dropped, and the fit
+    # goes on as without polish (one more Jacobian), to the same point.
+    scn, meas = large
+    tried = []
+    polished = solver._polished
+
+    def spy(problem, runs, rules):
+        out = polished(problem, runs, rules)
+        tried.append(out)
+        return out
+
+    monkeypatch.setattr(solver, "_polished", spy)
+    monkeypatch.setattr(solver, "POLISH_AGREEMENT", 0.0)
+    dropped = tk.estimate(meas, scn.motion)
+    monkeypatch.setattr(presolve, "POLISH_DECREMENT", 0.0)
+    full = tk.estimate(meas, scn.motion)
+    assert tried and not any(tried)
+    assert dropped.status == full.status == "converged"
+    np.testing.assert_array_equal(dropped.estimate, full.estimate)
+    assert dropped.chi2 == full.chi2
+
+
+def test_fused_values_are_the_fused_linearisation_values_bit_for_bit() -> None:
+    scn, meas = _many_rows(500, 1)
+    obs = ObservationModel(meas, scn.motion)
+    theta = scn.theta + np.array([100.0, -50.0, 0.5, -0.2])
+    lin = fused_linearisation(obs, theta)
+    values = fused_values(obs, theta)
+    assert lin is not None and values is not None
+    assert np.array_equal(values.h0, lin.h0)
+    each = obs.linearisation(np.stack([theta, theta]), derivatives=False, each=True)
+    assert np.array_equal(values.h0, each.h0[0])  # the general path, this point alone
+
+
+def test_a_set_without_references_holds_no_memory_per_row_for_them() -> None:
+    _, meas = _many_rows(1000, 0)
+    assert meas.time_ref.strides[0] == 0 and meas.ref_sensor_state.strides[0] == 0
+    part = meas.take(np.arange(0, 1000, 7))
+    assert part.ref_sensor_state.shape == (143, 6) and part.time_ref.shape == (143,)
+    assert part.ref_sensor_state.strides[0] == 0
+    assert np.isnan(part.ref_sensor_state).all() and np.isnan(part.time_ref).all()
