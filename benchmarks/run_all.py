@@ -176,9 +176,17 @@ def _pf(quick):
 
 
 def _crlb(sizes, repeat):
+    """The CRLB and the no-guess estimate on the NumPy path (a process that has not loaded
+    numba, e.g. one ``tma estimate``), then the estimate at 10^5 rows with numba loaded."""
     from batch_speed import crlb_rows
 
-    return crlb_rows(sizes, repeat)
+    rows = crlb_rows(sizes, repeat, kernel="numpy")
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return rows
+    return rows + [r for r in crlb_rows([max(sizes)], repeat, kernel="numba")
+                   if r[0].startswith("no-guess")]
 
 
 def _lm(sizes, repeat):

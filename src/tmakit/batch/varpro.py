@@ -25,6 +25,7 @@ from .. import blas
 from ..arrays import Array
 from ..frames import wrap_angle
 from ..observation import Linearisation, ObservationModel
+from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
 from ..observation.noise import NoiseModel
 
 
@@ -87,6 +88,12 @@ class Evaluation:
         which : ndarray of bool or int, or slice
             Its rows read (default: all).
         """
+        if (self.jacobian is None) != (other.jacobian is None):
+            # One holds its Jacobian, the other only J'J and J'r (the compiled bearing pass
+            # applies to one parameter vector): both as normal equations.
+            self.normal, self.jacobian = _normal_of(self), None
+            other = Evaluation(other.theta, other.nuisance, other.residual, other.cost, None,
+                               _normal_of(other))
         self.theta[rows] = other.theta[which]
         self.nuisance[rows] = other.nuisance[which]
         self.residual[rows] = other.residual[which]
@@ -97,6 +104,14 @@ class Evaluation:
             self.normal[0][rows] = other.normal[0][which]
             self.normal[1][rows] = other.normal[1][which]
 
+
+
+def _normal_of(ev: Evaluation) -> tuple[Array, Array] | None:
+    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` of ``ev`` (its own when it has them)."""
+    if ev.normal is not None or ev.jacobian is None:
+        return ev.normal
+    jt = ev.jacobian.swapaxes(1, 2)
+    return jt @ ev.jacobian, (jt @ ev.residual[:, :, None])[..., 0]
 
 
 def _wrap_own(e: Array, in_place: bool = False) -> Array:
@@ -330,7 +345,33 @@ class VarProProblem:
         """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
         if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0:
             return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
+        if self.k == 0 and self.all_angle and not self.noise.blocks:
+            compiled = self._evaluate_compiled(theta, u, nu_star, with_jacobian)
+            if compiled is not None:
+                return compiled
         return self._evaluate(theta, u, nu_star, with_jacobian)
+
+    def _evaluate_compiled(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
+                           ) -> Evaluation | None:
+        """Evaluate bearings by one compiled pass (no Jacobian held), or None.
+
+        None where the pass does not apply (:mod:`tmakit.observation.fused_compiled`).
+        """
+        inv_sigma = self.noise.inv_sigma
+        if with_jacobian:
+            fused = bearing_normal_equations(self.obs, theta, u, inv_sigma)
+            if fused is None:
+                return None
+            r, jtj, jtr = fused
+            cost, normal = 0.5 * np.einsum("bn,bn->b", r, r), (jtj, jtr)
+        else:
+            values = bearing_residuals(self.obs, theta, u, inv_sigma)
+            if values is None:
+                return None
+            r, cost, normal = values[0], np.array([values[1]]), None
+        if not cost[0] < np.inf:
+            cost[0] = np.inf  # nan (no prediction) -> inf
+        return Evaluation(theta, np.array(nu_star, dtype=float), r, cost, None, normal)
 
     def _evaluate_chunked(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                           ) -> Evaluation:

@@ -77,6 +77,25 @@ class AffineRows:
                 self._offset = base - sensor.T
         return self._offset
 
+    def position_source(self) -> tuple[Array, Array, bool]:
+        """Give what the relative east and north positions are made from, without a pass.
+
+        The relative position is ``base[c] - sensor[:, c]`` (``lazy``) or ``base[c]``: the
+        offset (or its head) once made, else the target's part and the sensor states, so
+        that a compiled pass subtracts them on the fly instead of making the head first.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray, bool)
+            ``base`` ``(>= 2, m)`` (m), ``sensor`` ``(m, >= 2)`` (m; ``base.T`` when not
+            lazy) and ``lazy``; read only by the caller.
+        """
+        made = self._offset if self._offset is not None else self._head
+        if made is not None and made.shape[0] >= 2:
+            return made, made.T, False
+        assert self._sensor is not None  # (the offset is made at once otherwise)
+        return self._base, self._sensor, True
+
     def _offset_head(self, n_c: int) -> Array:
         """Give the first ``n_c`` components of :attr:`offset` (not making the whole of it)."""
         if self._offset is not None:
