@@ -202,6 +202,10 @@ class GridScorer:
         if bad.any():  # no prediction: infinite cost; any finite values do meanwhile
             h0[bad] = 0.0
             a_var[bad] = self.ref
+        if self.problem.all_angle:  # angles alone (no nuisance): the chord form is the cost
+            cost = self._chord(y, h0)
+            cost[:, bad] = np.inf
+            return cost
         g = h0.copy(order="K")
         for j in np.flatnonzero(star):  # the design one column at a time (k is small)
             g += a_var[..., j] * star[j]
@@ -225,12 +229,15 @@ class GridScorer:
             sv = qu - qg
             cost -= 0.5 * np.einsum("bck,bck->bc", sv, sv)
         if np.any(angle):
-            ya, ha = y[:, angle], h0[:, angle]
-            w2 = self.weight2
-            cost += (w2.sum() - matmul(np.cos(ha), (np.cos(ya) * w2).T).T
-                     - matmul(np.sin(ha), (np.sin(ya) * w2).T).T)
+            cost += self._chord(y[:, angle], h0[:, angle])
         cost[:, bad] = np.inf
         return cost
+
+    def _chord(self, ya: NDArray[np.float64], ha: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Give ``sum w^2 (1 - cos(y - h))`` ``(B, c)`` of the angle rows (data, candidates)."""
+        w2 = self.weight2
+        return (w2.sum() - matmul(np.cos(ha), (np.cos(ya) * w2).T).T
+                - matmul(np.sin(ha), (np.sin(ya) * w2).T).T)
 
 
 CANDIDATE_ROWS = 8000
