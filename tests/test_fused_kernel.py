@@ -156,10 +156,27 @@ def test_compiled_relative_positions_are_the_affine_maps_bit_for_bit(motion, the
     lazy = rel_map._offset is None
     base = rel_map._base if lazy else rel_map.offset
     coef = next((c for _, _, c in rel_map.terms if c is not None), base[0])
-    got = np.empty((2, rel_map.m))
+    got, head = np.empty((2, rel_map.m)), np.empty((2, rel_map.m))
     fused_numba.relative_east_north(base, rel_map._sensor if lazy else base.T, lazy, theta,
-                                    coef, theta.size == 4, got)
+                                    coef, theta.size == 4, got, head)
     np.testing.assert_array_equal(got, want)
+    if lazy:  # the offset's head it keeps for the next passes: NumPy's bits
+        np.testing.assert_array_equal(head, rel_map._offset_head(2))
+
+
+def test_an_estimate_keeps_the_offset_head_of_its_first_compiled_pass():
+    motion, theta = CASES[0]
+    meas = _bearings(motion, theta, N, seed=4)
+    problem = VarProProblem(tk.ObservationModel(meas, motion))
+    u = problem.group(meas.value_si)[None]
+    rel_map = problem.obs._rel_map
+    assert rel_map.position_source()[2]  # nothing made yet: from the sensor states
+    first = problem.evaluate_part(theta[None] * 1.01, u, np.zeros((1, 0)))
+    base, _, lazy = rel_map.position_source()
+    assert first.jacobian is None and not lazy  # the head was kept
+    np.testing.assert_array_equal(base, rel_map._base[:2] - rel_map._sensor[:, :2].T)
+    again = problem.evaluate_part(theta[None] * 1.01, u, np.zeros((1, 0)))
+    np.testing.assert_array_equal(again.residual, first.residual)
 
 
 def test_evaluations_of_both_forms_are_merged_as_normal_equations():

@@ -96,6 +96,17 @@ class AffineRows:
         assert self._sensor is not None  # (the offset is made at once otherwise)
         return self._base, self._sensor, True
 
+    def keep_head(self, head: Array) -> None:
+        """Keep ``head`` as the first components of :attr:`offset` (made by a compiled pass).
+
+        Parameters
+        ----------
+        head : numpy.ndarray
+            ``(n_c, m)`` ``base[:n_c] - sensor[:, :n_c].T`` (m), the same bits as made here.
+        """
+        if self._offset is None and (self._head is None or self._head.shape[0] < head.shape[0]):
+            self._head = head
+
     def _offset_head(self, n_c: int) -> Array:
         """Give the first ``n_c`` components of :attr:`offset` (not making the whole of it)."""
         if self._offset is not None:

@@ -50,7 +50,7 @@ def _compile() -> dict[str, Callable[..., object]]:
     one = np.ones(1)
     out = np.empty((2, 1))
     fn.relative_east_north(np.ones((2, 1)), np.zeros((1, 6)), True, np.ones(4), one, True,
-                           out)
+                           out, np.empty((2, 1)))
     fn.bearing_normal(one, one, one, one, one, one, True, np.empty(1), np.zeros((4, 4)),
                       np.zeros(4))
     fn.bearing_residual(one, one, one, np.empty(1))
@@ -199,8 +199,12 @@ def _bearings(obs: Any, theta: Array, u: Array
         return None
     velocity, coef = plan
     theta = obs.motion.check_theta(theta)
-    base, sensor, lazy = obs._rel_map.position_source()
-    rel = np.empty((2, obs._rel_map.m))  # east, north
+    rel_map = obs._rel_map
+    base, sensor, lazy = rel_map.position_source()
+    rel = np.empty((2, rel_map.m))  # east, north
+    head = np.empty((2, rel_map.m) if lazy else (2, 0))  # kept for the next evaluations
     KERNELS["relative"](base, sensor, lazy, theta[0], base[0] if coef is None else coef,
-                        velocity, rel)
+                        velocity, rel, head)
+    if lazy:
+        rel_map.keep_head(head)
     return rel, np.arctan2(rel[0], rel[1]), velocity, coef

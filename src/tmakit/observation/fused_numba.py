@@ -175,7 +175,8 @@ _exact = numba.njit(cache=True, nogil=True, error_model="numpy")  # no fastmath:
 
 @_exact
 def relative_east_north(base: Array, sensor: Array, lazy: bool, theta: Array, coef: Array,
-                        velocity: bool, out: Array) -> None:  # pragma: no cover - compiled
+                        velocity: bool, out: Array, head: Array
+                        ) -> None:  # pragma: no cover - compiled
     """Write the relative east and north positions of the affine map (m), one pass.
 
     ``out[c] = (theta[2 + c] coef + theta[c]) + (base[c] - sensor[:, c])`` (``lazy``) or
@@ -199,6 +200,9 @@ def relative_east_north(base: Array, sensor: Array, lazy: bool, theta: Array, co
         Whether ``theta`` has the velocities.
     out : ndarray
         ``(2, n)`` written (m).
+    head : ndarray
+        ``(2, n)`` written with ``base[c] - sensor[:, c]`` when ``lazy`` (m), the offset's
+        head for the next passes; not touched otherwise (may be empty).
     """
     n = out.shape[1]
     th0, th1 = theta[0], theta[1]
@@ -206,6 +210,7 @@ def relative_east_north(base: Array, sensor: Array, lazy: bool, theta: Array, co
     for k in range(n):
         if lazy:
             head0, head1 = base[0, k] - sensor[k, 0], base[1, k] - sensor[k, 1]
+            head[0, k], head[1, k] = head0, head1
         else:
             head0, head1 = base[0, k], base[1, k]
         if velocity:
