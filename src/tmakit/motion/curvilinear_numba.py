@@ -311,32 +311,38 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array, manoeu
     M = manoeuvres
     b_count, n, p = out.shape
     k0 = 6 + 2 * M
-    w = np.empty(7)
     for b in range(b_count):
+        da = d_anchor[b]
         for i in range(n):
             u = idx[i]
             sg = seg[b, u]
             d0, d1, d3, d4 = ds[b, i, 0], ds[b, i, 1], ds[b, i, 3], ds[b, i, 4]
-            w[0] = d0
-            w[1] = d1
-            for k in range(2, 7):
-                w[k] = (d0 * par[b, u, 0, k] + d1 * par[b, u, 1, k] + d3 * par[b, u, 2, k]
-                        + d4 * par[b, u, 3, k])
+            pu = (par[b, u, 0, 2], par[b, u, 1, 2], par[b, u, 2, 2], par[b, u, 3, 2],
+                  par[b, u, 0, 3], par[b, u, 1, 3], par[b, u, 2, 3], par[b, u, 3, 3],
+                  par[b, u, 0, 4], par[b, u, 1, 4], par[b, u, 2, 4], par[b, u, 3, 4],
+                  par[b, u, 0, 5], par[b, u, 1, 5], par[b, u, 2, 5], par[b, u, 3, 5],
+                  par[b, u, 0, 6], par[b, u, 1, 6], par[b, u, 2, 6], par[b, u, 3, 6])
+            w = (d0 * pu[0] + d1 * pu[1] + d3 * pu[2] + d4 * pu[3],
+                 d0 * pu[4] + d1 * pu[5] + d3 * pu[6] + d4 * pu[7],
+                 d0 * pu[8] + d1 * pu[9] + d3 * pu[10] + d4 * pu[11],
+                 d0 * pu[12] + d1 * pu[13] + d3 * pu[14] + d4 * pu[15],
+                 d0 * pu[16] + d1 * pu[17] + d3 * pu[18] + d4 * pu[19])
             # a segment's start state depends on (x, y, speed, course), the accelerations
             # and change-over times before it only: the other columns are 0
-            w0, w1, w2, w3 = w[0], w[1], w[2], w[3]
-            for lo, hi in ((0, 4 + 2 * sg), (k0, k0 + sg)):
-                for c in range(lo, hi):
-                    out[b, i, c] = (w0 * d_anchor[b, sg, 0, c] + w1 * d_anchor[b, sg, 1, c]
-                                    + w2 * d_anchor[b, sg, 2, c] + w3 * d_anchor[b, sg, 3, c])
+            for c in range(4 + 2 * sg):
+                out[b, i, c] = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
+                                + w[0] * da[sg, 2, c] + w[1] * da[sg, 3, c])
             for c in range(4 + 2 * sg, k0):
                 out[b, i, c] = 0.0
+            for c in range(k0, k0 + sg):
+                out[b, i, c] = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
+                                + w[0] * da[sg, 2, c] + w[1] * da[sg, 3, c])
             for c in range(k0 + sg, p):
                 out[b, i, c] = 0.0
-            out[b, i, 4 + 2 * sg] += w[4]
-            out[b, i, 5 + 2 * sg] += w[5]
+            out[b, i, 4 + 2 * sg] += w[2]
+            out[b, i, 5 + 2 * sg] += w[3]
             if sg >= 1:
-                out[b, i, 5 + 2 * M + sg] -= w[6]
+                out[b, i, 5 + 2 * M + sg] -= w[4]
 
 
 @_jit
