@@ -93,7 +93,8 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
     Parameters
     ----------
     ev : Evaluation
-        The evaluated points (whitened Jacobian, or its chunked normal equations).
+        The evaluated points (whitened Jacobian, or its chunked normal equations); a
+        Jacobian of ``free``'s columns only is taken as it is.
     free : ndarray of bool, optional
         ``(p,)`` the fitted parameters (default all).
 
@@ -107,7 +108,10 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
         if free is not None:
             jtj, grad = jtj[:, free][:, :, free], grad[:, free]
         return jtj, grad
-    jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
+    jac = ev.jacobian
+    if free is not None:
+        # a Jacobian of the free columns only is copied the same way (the same products)
+        jac = jac[:, :, free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], bool)]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
         return gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
     return gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]

@@ -346,6 +346,70 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array, manoeu
 
 
 @_jit
+def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
+                  manoeuvres: int, cols: Array, out: Array) -> None:  # pragma: no cover
+    """Apply the chain rule for the parameters ``cols`` only: write ``(B, n, q)`` into ``out``.
+
+    Column ``j`` is :func:`chain`'s column ``cols[j]``, the same operations in the same order
+    (the same bits); the others (parameters held by a fit) are not formed.
+
+    Parameters
+    ----------
+    ds, par, seg, idx, d_anchor : ndarray
+        As for :func:`chain`.
+    manoeuvres : int
+        ``M``.
+    cols : ndarray of int
+        ``(q,)`` the parameters, increasing.
+    out : ndarray
+        ``(B, n, q)``.
+    """
+    M = manoeuvres
+    b_count, n, q = out.shape
+    k0 = 6 + 2 * M
+    # per column: 0 start state, 1 a_t, 2 a_n, 3 change-over time; and its segment (for a
+    # time t_m: m)
+    kind = np.empty(q, dtype=np.int64)
+    of = np.empty(q, dtype=np.int64)
+    for j in range(q):
+        c = cols[j]
+        if c < 4:
+            kind[j], of[j] = 0, 0
+        elif c < k0:
+            kind[j], of[j] = 1 + (c - 4) % 2, (c - 4) // 2
+        else:
+            kind[j], of[j] = 3, c - k0 + 1
+    for b in range(b_count):
+        da = d_anchor[b]
+        for i in range(n):
+            u = idx[i]
+            sg = seg[b, u]
+            d0, d1, d3, d4 = ds[b, i, 0], ds[b, i, 1], ds[b, i, 3], ds[b, i, 4]
+            w0 = d0 * par[b, u, 0, 2] + d1 * par[b, u, 1, 2] + d3 * par[b, u, 2, 2] \
+                + d4 * par[b, u, 3, 2]
+            w1 = d0 * par[b, u, 0, 3] + d1 * par[b, u, 1, 3] + d3 * par[b, u, 2, 3] \
+                + d4 * par[b, u, 3, 3]
+            w = (d0 * par[b, u, 0, 4] + d1 * par[b, u, 1, 4] + d3 * par[b, u, 2, 4]
+                 + d4 * par[b, u, 3, 4],
+                 d0 * par[b, u, 0, 5] + d1 * par[b, u, 1, 5] + d3 * par[b, u, 2, 5]
+                 + d4 * par[b, u, 3, 5],
+                 d0 * par[b, u, 0, 6] + d1 * par[b, u, 1, 6] + d3 * par[b, u, 2, 6]
+                 + d4 * par[b, u, 3, 6])
+            for j in range(q):
+                c, kd, sj = cols[j], kind[j], of[j]
+                if kd == 0 or (kd == 3 and sj <= sg) or (kd != 3 and sj < sg):
+                    v = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
+                         + w0 * da[sg, 2, c] + w1 * da[sg, 3, c])
+                    if kd == 3 and sj == sg:
+                        v -= w[2]
+                elif kd != 3 and sj == sg:
+                    v = 0.0 + w[kd - 1]
+                else:
+                    v = 0.0
+                out[b, i, j] = v
+
+
+@_jit
 def scatter_states(vals: Array, inv: Array, out: Array) -> None:  # pragma: no cover - compiled
     """Write ENU states ``(B, n, 6)`` of the rows from the values at the unique times.
 
