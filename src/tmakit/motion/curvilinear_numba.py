@@ -346,6 +346,31 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array, manoeu
 
 
 @_jit
+def _column_runs(cols: Array, M: int) -> tuple:  # pragma: no cover - compiled
+    """Give, per segment of a row, where :func:`chain_columns` writes what.
+
+    ``cols`` increase, so the output columns of the parameters a segment's start state
+    depends on are two runs, ``[0, lo)`` and ``[mid, hi)``, the others are 0; ``own`` are the
+    columns of the segment's own ``a_t``, ``a_n`` and change-over time (-1: not wanted).
+    """
+    k0 = 6 + 2 * M
+    lo = np.zeros(M + 1, dtype=np.int64)
+    mid = np.zeros(M + 1, dtype=np.int64)
+    hi = np.zeros(M + 1, dtype=np.int64)
+    own = np.full((M + 1, 3), -1, dtype=np.int64)
+    for sg in range(M + 1):
+        for j in range(cols.size):
+            c = cols[j]
+            lo[sg] += c < 4 + 2 * sg
+            mid[sg] += c < k0
+            hi[sg] += c < k0 + sg
+            for k, ck in enumerate((4 + 2 * sg, 5 + 2 * sg, k0 + sg - 1 if sg else -1)):
+                if c == ck:
+                    own[sg, k] = j
+    return lo, mid, hi, own
+
+
+@_jit
 def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
                   manoeuvres: int, cols: Array, out: Array) -> None:  # pragma: no cover
     """Apply the chain rule for the parameters ``cols`` only: write ``(B, n, q)`` into ``out``.
@@ -366,21 +391,13 @@ def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array
     """
     M = manoeuvres
     b_count, n, q = out.shape
-    k0 = 6 + 2 * M
-    # per column: 0 start state, 1 a_t, 2 a_n, 3 change-over time; and its segment (for a
-    # time t_m: m)
-    kind = np.empty(q, dtype=np.int64)
-    of = np.empty(q, dtype=np.int64)
-    for j in range(q):
-        c = cols[j]
-        if c < 4:
-            kind[j], of[j] = 0, 0
-        elif c < k0:
-            kind[j], of[j] = 1 + (c - 4) % 2, (c - 4) // 2
-        else:
-            kind[j], of[j] = 3, c - k0 + 1
+    lo, mid, hi, own = _column_runs(cols, M)
+    sel = np.empty((M + 1, 4, q))
     for b in range(b_count):
-        da = d_anchor[b]
+        for sg in range(M + 1):  # the start states' derivatives, free columns only
+            for r in range(4):
+                for j in range(q):
+                    sel[sg, r, j] = d_anchor[b, sg, r, cols[j]]
         for i in range(n):
             u = idx[i]
             sg = seg[b, u]
@@ -389,24 +406,29 @@ def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array
                 + d4 * par[b, u, 3, 2]
             w1 = d0 * par[b, u, 0, 3] + d1 * par[b, u, 1, 3] + d3 * par[b, u, 2, 3] \
                 + d4 * par[b, u, 3, 3]
-            w = (d0 * par[b, u, 0, 4] + d1 * par[b, u, 1, 4] + d3 * par[b, u, 2, 4]
-                 + d4 * par[b, u, 3, 4],
-                 d0 * par[b, u, 0, 5] + d1 * par[b, u, 1, 5] + d3 * par[b, u, 2, 5]
-                 + d4 * par[b, u, 3, 5],
-                 d0 * par[b, u, 0, 6] + d1 * par[b, u, 1, 6] + d3 * par[b, u, 2, 6]
-                 + d4 * par[b, u, 3, 6])
-            for j in range(q):
-                c, kd, sj = cols[j], kind[j], of[j]
-                if kd == 0 or (kd == 3 and sj <= sg) or (kd != 3 and sj < sg):
-                    v = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
-                         + w0 * da[sg, 2, c] + w1 * da[sg, 3, c])
-                    if kd == 3 and sj == sg:
-                        v -= w[2]
-                elif kd != 3 and sj == sg:
-                    v = 0.0 + w[kd - 1]
-                else:
-                    v = 0.0
-                out[b, i, j] = v
+            j0, j1, j2 = lo[sg], mid[sg], hi[sg]
+            for j in range(j0):
+                out[b, i, j] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
+                                + w0 * sel[sg, 2, j] + w1 * sel[sg, 3, j])
+            for j in range(j0, j1):
+                out[b, i, j] = 0.0
+            for j in range(j1, j2):
+                out[b, i, j] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
+                                + w0 * sel[sg, 2, j] + w1 * sel[sg, 3, j])
+            for j in range(j2, q):
+                out[b, i, j] = 0.0
+            j = own[sg, 0]
+            if j >= 0:
+                out[b, i, j] += (d0 * par[b, u, 0, 4] + d1 * par[b, u, 1, 4]
+                                 + d3 * par[b, u, 2, 4] + d4 * par[b, u, 3, 4])
+            j = own[sg, 1]
+            if j >= 0:
+                out[b, i, j] += (d0 * par[b, u, 0, 5] + d1 * par[b, u, 1, 5]
+                                 + d3 * par[b, u, 2, 5] + d4 * par[b, u, 3, 5])
+            j = own[sg, 2]
+            if j >= 0:
+                out[b, i, j] -= (d0 * par[b, u, 0, 6] + d1 * par[b, u, 1, 6]
+                                 + d3 * par[b, u, 2, 6] + d4 * par[b, u, 3, 6])
 
 
 @_jit
