@@ -59,7 +59,10 @@ def _log1p_over(r: float) -> tuple[float, float]:  # pragma: no cover - compiled
 def _f_terms(g: complex, r: float, L: float, dL: float, E: complex
              ) -> tuple[complex, complex, complex]:  # pragma: no cover - compiled
     """Give ``F``, ``dF/dg``, ``dF/dr`` of the closed form (series near zero)."""
-    if abs(g) + abs(r) >= _SERIES_BELOW:
+    # abs(g) + abs(r) >= _SERIES_BELOW, decided without the hypotenuse where its bounds do
+    ar, ai, ar_ = abs(g.real), abs(g.imag), abs(r)
+    if (max(ar, ai) + ar_ >= _SERIES_BELOW
+            or (ar + ai + ar_ >= _SERIES_BELOW and abs(g) + ar_ >= _SERIES_BELOW)):
         inv = 1.0 / (g + r)  # one complex division, not three
         F = ((1.0 + r) * E - 1.0) * inv
         return F, ((1.0 + r) * L * E - F) * inv, (E + (1.0 + r) * g * dL * E - F) * inv
