@@ -87,6 +87,13 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
 _DIRECT_EIGH = 32  # largest matrix decomposed by a direct LAPACK call
 
 
+def _selected_layout(jac: Array) -> bool:
+    """Whether ``jac`` ``(B, n, q)`` lies in memory as ``jac[:, :, mask]`` would copy it."""
+    b, n, _ = jac.shape
+    size = jac.itemsize
+    return jac.dtype == np.float64 and jac.strides == (size * n, size, size * n * b)
+
+
 def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Array, Array]:
     """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` at ``ev`` over the ``free`` columns.
 
@@ -109,7 +116,7 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
             jtj, grad = jtj[:, free][:, :, free], grad[:, free]
         return jtj, grad
     jac = ev.jacobian
-    if free is not None:
+    if free is not None and (jac.shape[-1] == free.size or not _selected_layout(jac)):
         # a Jacobian of the free columns only is copied the same way (the same products)
         jac = jac[:, :, free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], bool)]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)

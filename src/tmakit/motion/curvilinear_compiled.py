@@ -40,7 +40,7 @@ def _compile() -> dict[str, Callable[..., object]]:
     out = np.empty((1, 2, 9))
     kn.chain(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1, out)
     kn.chain_columns(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1,
-                     np.arange(8), np.empty((1, 2, 8)))
+                     np.arange(8), np.empty((8, 1, 2)))
     kn.scatter_states(vals, np.arange(2), np.empty((1, 2, 6)))
     return {"piecewise": kn.piecewise, "chain": kn.chain, "chain_columns": kn.chain_columns,
             "scatter": kn.scatter_states}
@@ -117,7 +117,7 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     Returns
     -------
     ndarray
-        ``(B, n, p)``, or ``(B, n, q)`` with ``columns``.
+        ``(B, n, p)``, or ``(B, n, q)`` with ``columns`` (each column contiguous in memory).
 
     Raises
     ------
@@ -130,10 +130,12 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
     ds = np.asarray(ds, dtype=float)
     if columns is not None:
-        out = np.empty((b, n, columns.size))
+        # each column contiguous over the rows: the layout of a column selection of the
+        # whole (``jac[:, :, free]``), which the solver's J'J then reads as it is
+        out = np.empty((columns.size, b, n))
         KERNELS["chain_columns"](ds, par, seg, rows, d_anchor, manoeuvres,
                                  np.ascontiguousarray(columns, dtype=np.int64), out)
-        return out
+        return out.transpose(1, 2, 0)
     out = np.empty((b, n, d_anchor.shape[-1]))
     KERNELS["chain"](ds, par, seg, rows, d_anchor, manoeuvres, out)
     return out

@@ -376,7 +376,7 @@ def _column_runs(cols: Array, M: int) -> tuple:  # pragma: no cover - compiled
 @_jit
 def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
                   manoeuvres: int, cols: Array, out: Array) -> None:  # pragma: no cover
-    """Apply the chain rule for the parameters ``cols`` only: write ``(B, n, q)`` into ``out``.
+    """Apply the chain rule for the parameters ``cols`` only, into ``out`` ``(q, B, n)``.
 
     Column ``j`` is :func:`chain`'s column ``cols[j]``, the same operations in the same order
     (the same bits); the others (parameters held by a fit) are not formed.
@@ -390,10 +390,10 @@ def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array
     cols : ndarray of int
         ``(q,)`` the parameters, increasing.
     out : ndarray
-        ``(B, n, q)``.
+        ``(q, B, n)`` (column-major over the rows: each parameter's column contiguous).
     """
     M = manoeuvres
-    b_count, n, q = out.shape
+    q, b_count, n = out.shape
     lo, mid, hi, own = _column_runs(cols, M)
     sel = np.empty((M + 1, 4, q))
     for b in range(b_count):
@@ -411,26 +411,26 @@ def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array
                 + d4 * par[b, u, 3, 3]
             j0, j1, j2 = lo[sg], mid[sg], hi[sg]
             for j in range(j0):
-                out[b, i, j] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
+                out[j, b, i] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
                                 + w0 * sel[sg, 2, j] + w1 * sel[sg, 3, j])
             for j in range(j0, j1):
-                out[b, i, j] = 0.0
+                out[j, b, i] = 0.0
             for j in range(j1, j2):
-                out[b, i, j] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
+                out[j, b, i] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
                                 + w0 * sel[sg, 2, j] + w1 * sel[sg, 3, j])
             for j in range(j2, q):
-                out[b, i, j] = 0.0
+                out[j, b, i] = 0.0
             j = own[sg, 0]
             if j >= 0:
-                out[b, i, j] += (d0 * par[b, u, 0, 4] + d1 * par[b, u, 1, 4]
+                out[j, b, i] += (d0 * par[b, u, 0, 4] + d1 * par[b, u, 1, 4]
                                  + d3 * par[b, u, 2, 4] + d4 * par[b, u, 3, 4])
             j = own[sg, 1]
             if j >= 0:
-                out[b, i, j] += (d0 * par[b, u, 0, 5] + d1 * par[b, u, 1, 5]
+                out[j, b, i] += (d0 * par[b, u, 0, 5] + d1 * par[b, u, 1, 5]
                                  + d3 * par[b, u, 2, 5] + d4 * par[b, u, 3, 5])
             j = own[sg, 2]
             if j >= 0:
-                out[b, i, j] -= (d0 * par[b, u, 0, 6] + d1 * par[b, u, 1, 6]
+                out[j, b, i] -= (d0 * par[b, u, 0, 6] + d1 * par[b, u, 1, 6]
                                  + d3 * par[b, u, 2, 6] + d4 * par[b, u, 3, 6])
 
 
