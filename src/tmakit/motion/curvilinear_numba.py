@@ -86,6 +86,16 @@ _NAN_C = complex(np.nan, np.nan)
 
 
 @_inline
+def _over(z: complex, d: float) -> complex:  # pragma: no cover - compiled
+    """Give ``z / d`` for a real ``d > 0``: complex division's result with two divisions.
+
+    Complex division (CPython's algorithm, numba's too) by ``d + 0i`` forms ``(Re z + Im z *
+    0) / d`` and ``(Im z - Re z * 0) / d``: the same values for finite ``z``.
+    """
+    return complex(z.real / d, z.imag / d)
+
+
+@_inline
 def _straight(x: float, y: float, v0: float, phi0: float, V0: complex, s: float
               ) -> tuple:  # pragma: no cover - compiled
     """Give :func:`_segment`'s result for a straight segment (``a_t = a_n = 0``).
@@ -99,7 +109,7 @@ def _straight(x: float, y: float, v0: float, phi0: float, V0: complex, s: float
     q = V0 * sv
     return (True, (x + disp.imag, y + disp.real, v0, phi0, V0.imag, V0.real),
             (q, 1j * disp, q * s * 0.5, 1j * q * s * 0.5, V0),
-            (V0 / v0, 1j * V0, q, 1j * q, 0.0j), (0.0, 0.0, 0.0, 0.0))
+            (_over(V0, v0), 1j * V0, q, 1j * q, 0.0j), (0.0, 0.0, 0.0, 0.0))
 
 
 @_inline
@@ -138,8 +148,9 @@ def _segment(x: float, y: float, v0: float, phi0: float, V0: complex, a_t: float
         an_v = a_n / v0 * inv1r
         return (True, vals, dz, dz, (-an_v * sv, a_n * sv * sv * dL, sv * L, an_v))
     Vsv = V * sv
-    dv = (V / v0 * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
-          V * c / v0 * inv1r)
+    Vc = V * c
+    dv = (_over(V, v0) * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
+          _over(Vc, v0) * inv1r)
     return (True, vals, dz, dv, (0.0, 0.0, 0.0, 0.0))
 
 
