@@ -87,13 +87,21 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
 _DIRECT_EIGH = 32  # largest matrix decomposed by a direct LAPACK call
 
 
+def _selected_layout(jac: Array) -> bool:
+    """Whether ``jac`` ``(B, n, q)`` lies in memory as ``jac[:, :, mask]`` would copy it."""
+    b, n, _ = jac.shape
+    size = jac.itemsize
+    return jac.dtype == np.float64 and jac.strides == (size * n, size, size * n * b)
+
+
 def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Array, Array]:
     """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` at ``ev`` over the ``free`` columns.
 
     Parameters
     ----------
     ev : Evaluation
-        The evaluated points (whitened Jacobian, or its chunked normal equations).
+        The evaluated points (whitened Jacobian, or its chunked normal equations); a
+        Jacobian of ``free``'s columns only is taken as it is.
     free : ndarray of bool, optional
         ``(p,)`` the fitted parameters (default all).
 
@@ -107,7 +115,10 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
         if free is not None:
             jtj, grad = jtj[:, free][:, :, free], grad[:, free]
         return jtj, grad
-    jac = ev.jacobian if free is None else ev.jacobian[:, :, free]
+    jac = ev.jacobian
+    if free is not None and (jac.shape[-1] == free.size or not _selected_layout(jac)):
+        # a Jacobian of the free columns only is copied the same way (the same products)
+        jac = jac[:, :, free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], bool)]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
         return gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
     return gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]

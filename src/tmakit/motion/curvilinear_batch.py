@@ -28,6 +28,9 @@ Hörst & Oispuu (2010), §2, eqs. 1-4.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -56,7 +59,8 @@ class ForwardPiecewise(MotionModel):
 
     The derivatives of the last parameters and times asked for are cached (an observation
     model asks for states, then derivatives, at the same point): one instance should not be
-    shared between threads.
+    shared between threads.  Within :meth:`derivatives_for`, :meth:`chain` gives the
+    derivatives with respect to some parameters only (a fit holding the others).
 
     Parameters
     ----------
@@ -94,6 +98,33 @@ class ForwardPiecewise(MotionModel):
         self._times = np.zeros(0)  # the unique times of the last states() call
         self._cache: tuple | None = None
         self._rows: tuple[Array, NDArray[np.int64] | None] = (np.zeros(0), None)
+        self._columns: NDArray[np.int64] | None = None  # chain()'s columns (None: all)
+
+    @contextmanager
+    def derivatives_for(self, free: NDArray[np.bool_] | None) -> Iterator[None]:
+        """Make :meth:`chain` give, within the block, the derivatives for ``free`` only.
+
+        Its columns are then those of the parameters ``free`` (the same values as in the
+        whole Jacobian), the others not formed: for a fit that holds them (a solver given the
+        same ``free`` reads such a Jacobian as its fitted columns).
+
+        Parameters
+        ----------
+        free : ndarray of bool, optional
+            ``(p,)`` the parameters whose derivatives are wanted (None: all).
+
+        Yields
+        ------
+        None
+            Inside the block, :meth:`chain` gives ``(..., n, q)``, ``q`` the number free.
+        """
+        before = self._columns
+        self._columns = (None if free is None or np.all(free)
+                         else np.flatnonzero(np.asarray(free, dtype=bool)))
+        try:
+            yield
+        finally:
+            self._columns = before
 
     # -- the chain of change-over states -----------------------------------------------------
     def _anchors(self, theta: Array, partials: bool
@@ -247,22 +278,23 @@ class ForwardPiecewise(MotionModel):
             jac[:, :, c] = self._chain_flat(d, flat, t)
         return jac.reshape(*lead, t.shape[0], 6, self.n_params)
 
-    def _chain_flat(self, ds: Array, flat: Array, t: Array) -> Array:
+    def _chain_flat(self, ds: Array, flat: Array, t: Array,
+                    cols: NDArray[np.int64] | None = None) -> Array:
         """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``.
 
         Per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
         then, segment by segment, ``w`` times the derivatives of that segment's inputs (its
         start state's, unit rows for its accelerations, minus one for its change-over time),
-        kept on the rows in that segment.
+        kept on the rows in that segment.  With ``cols``, only those columns ``(B, n, q)``.
         """
         M, p = self.manoeuvres, self.n_params
         b = flat.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
         if compiled.available():
-            return compiled.chain(ds, par_u, seg_u, idx, d_anchor, M)
+            return compiled.chain(ds, par_u, seg_u, idx, d_anchor, M, cols)
         w, seg = _weights(ds, par_u, seg_u, idx)
         if M == 0:
-            return np.ascontiguousarray(w[..., :6])
+            return np.ascontiguousarray(w[..., :6] if cols is None else w[..., cols])
         # d (segment inputs) / d theta per segment: the start state's derivatives, then unit
         # rows for the accelerations and minus one for the change-over time starting it
         d_inputs = np.zeros((b, M + 1, 7, p))
@@ -274,7 +306,7 @@ class ForwardPiecewise(MotionModel):
         out = matmul(w, d_inputs[:, 0])
         for m in range(1, M + 1):
             np.copyto(out, matmul(w, d_inputs[:, m]), where=(seg == m)[..., None])
-        return out
+        return out if cols is None else np.ascontiguousarray(out[..., cols])
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
         """Apply the chain rule, contracting the state axis before the parameter axis.
@@ -284,10 +316,12 @@ class ForwardPiecewise(MotionModel):
         """
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
+        cols = self._columns
         if d_state.ndim != len(lead) + 2:
-            return super().chain(d_state, theta, t)
-        out = self._chain_flat(d_state.reshape(flat.shape[0], t.shape[0], 6), flat, t)
-        return out.reshape(*lead, t.shape[0], self.n_params)
+            out = super().chain(d_state, theta, t)
+            return out if cols is None else out[..., cols]
+        out = self._chain_flat(d_state.reshape(flat.shape[0], t.shape[0], 6), flat, t, cols)
+        return out.reshape(*lead, t.shape[0], out.shape[-1])
 
     def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
         """Give ``(x, y, speed, course)`` at times ``t``, the course unwrapped.

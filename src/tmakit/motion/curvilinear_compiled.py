@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from ..optional_kernels import OptionalKernels
@@ -38,8 +39,11 @@ def _compile() -> dict[str, Callable[..., object]]:
     kn.piecewise(theta, t, 1, 0.0, np.inf, True, seg, vals, par, d_anchor)
     out = np.empty((1, 2, 9))
     kn.chain(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1, out)
+    kn.chain_columns(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1,
+                     np.arange(8), np.empty((8, 1, 2)))
     kn.scatter_states(vals, np.arange(2), np.empty((1, 2, 6)))
-    return {"piecewise": kn.piecewise, "chain": kn.chain, "scatter": kn.scatter_states}
+    return {"piecewise": kn.piecewise, "chain": kn.chain, "chain_columns": kn.chain_columns,
+            "scatter": kn.scatter_states}
 
 
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
@@ -93,7 +97,7 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
 
 
 def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
-          manoeuvres: int) -> Array:
+          manoeuvres: int, columns: NDArray[np.int64] | None = None) -> Array:
     """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``, compiled.
 
     Parameters
@@ -106,11 +110,14 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
         ``(n,)`` every row's unique time (None: the rows are the unique times).
     manoeuvres : int
         The number of manoeuvres ``M``.
+    columns : ndarray of int, optional
+        ``(q,)`` increasing: the derivatives with respect to these parameters only (the same
+        values as those columns of the whole).
 
     Returns
     -------
     ndarray
-        ``(B, n, p)``.
+        ``(B, n, p)``, or ``(B, n, q)`` with ``columns`` (each column contiguous in memory).
 
     Raises
     ------
@@ -120,10 +127,17 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     if not available():
         raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
     b, n = ds.shape[:2]
-    out = np.empty((b, n, d_anchor.shape[-1]))
     rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
-    KERNELS["chain"](np.asarray(ds, dtype=float), par, seg, rows, d_anchor,
-                               manoeuvres, out)
+    ds = np.asarray(ds, dtype=float)
+    if columns is not None:
+        # each column contiguous over the rows: the layout of a column selection of the
+        # whole (``jac[:, :, free]``), which the solver's J'J then reads as it is
+        out = np.empty((columns.size, b, n))
+        KERNELS["chain_columns"](ds, par, seg, rows, d_anchor, manoeuvres,
+                                 np.ascontiguousarray(columns, dtype=np.int64), out)
+        return out.transpose(1, 2, 0)
+    out = np.empty((b, n, d_anchor.shape[-1]))
+    KERNELS["chain"](ds, par, seg, rows, d_anchor, manoeuvres, out)
     return out
 
 

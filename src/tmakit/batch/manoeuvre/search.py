@@ -20,60 +20,14 @@ from ...motion import ConstantVelocity
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...observation import ObservationModel
 from ...results.nuisance import KnownNuisance
-from ..solver import SolveResult, VarProProblem, levenberg_marquardt
+from ..solver import VarProProblem, levenberg_marquardt
+from .fitting import lm_fit
 from .grid import grid_tuples, local_minima, split_segment
 from .settings import ManoeuvreSettings, OrderFit
 
 _CHUNK = 256  # held fits per batch on the profile grid
 PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 """Moves (s) of a change-over time in the corner test (:meth:`ManoeuvreSearch.settle`)."""
-
-
-def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
-           rtol: float = 1e-3, atol: float = 0.02, prune: float | None = None,
-           best: float = np.inf, max_reject: int = 40, stall: float = 0.0) -> SolveResult:
-    """Fit by Levenberg–Marquardt with the search's damping and stopping rules.
-
-    Only the columns ``free`` are fitted, from the starts ``theta0``; the damping is divided
-    by 3 after an accepted step and multiplied by 4 after a rejected one.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The order's least-squares problem (:meth:`ManoeuvreSearch.problem`).
-    theta0 : ndarray
-        ``(B, p)`` starting points (internal parameters, SI).
-    free : ndarray of bool
-        ``(p,)`` the parameters fitted.
-    max_iter : int
-        Most steps per fit.
-    rtol, atol : float
-        Converged: the Gauss–Newton decrement below ``rtol * cost + atol`` (half chi2).  The
-        default (within ~0.05 of the held minimum in chi2) suffices to rank grid points;
-        refinements ask for ``rtol=1e-10, atol=1e-7``.
-    prune : float, optional
-        A cost (half chi2): a fit stops early once even twice its Gauss–Newton decrement could
-        not bring it within ``prune`` of the best cost of the batch (or ``best``); its current
-        cost (an upper bound) is kept.
-    best : float
-        A cost reached elsewhere, for ``prune``.
-    max_reject : int
-        A fit stops unconverged after this many rejected steps in a row (on a corner of the
-        likelihood, :meth:`ManoeuvreSearch.settle`, no damping helps).
-    stall : float
-        With ``stall > 0`` a fit also stops once six iterations in a row lowered its cost by
-        less than ``stall`` in all (creeping along corners or a flat valley).
-
-    Returns
-    -------
-    SolveResult
-        Every fit's final point, cost (half chi2), convergence and iterations.
-    """
-    return levenberg_marquardt(
-        problem, problem.obs.values, theta0, max_iter, ftol=rtol, xtol=0.0, gtol=0.0,
-        dtol=atol, ceiling=None if prune is None else np.asarray(best), free=free,
-        damping="factors", max_reject=max_reject, stall=stall,
-        dominance=(2.0, 0.0 if prune is None else prune))
 
 
 class ManoeuvreSearch:
