@@ -310,6 +310,28 @@ class MeasurementModel:
         h0, a = self.affine(rel, t, rel_ref)
         return h0, np.zeros(a.shape), a
 
+    def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
+                                    d_rel: Array) -> None:
+        """Write :meth:`predict` and :meth:`jacobian`'s ``rel`` into given arrays (no nuisance).
+
+        For kinds without nuisance parameters or reference samples: the solvers' linearisation
+        writes each kind's rows straight into its own arrays (no temporaries, no copies).
+        Kinds override it to share work between the two, with the same operations (the same
+        bits).
+
+        Parameters
+        ----------
+        rel, t
+            As for :meth:`predict`.
+        values : ndarray
+            ``rel.shape[:-1]``, written (SI).
+        d_rel : ndarray
+            ``rel.shape``, zeros on entry; written where the derivatives are not zero (SI per
+            m, per m/s).
+        """
+        values[...] = self.predict(rel, t, None, None)
+        d_rel[...] = self.jacobian(rel, t, None, None).rel
+
     def affine_derivatives(self, rel: ArrayLike, t: ArrayLike | None = None,
                            rel_ref: ArrayLike | None = None
                            ) -> tuple[Array, Array, Array, Array | None, Array | None,

@@ -74,6 +74,23 @@ class Bearing(MeasurementModel):
         np.negative(d[..., 1], out=d[..., 1])  # -(dx / rho2) == -dx / rho2 exactly
         return Jacobian(d, None, zeros_nuisance(rel))
 
+    def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
+                                    d_rel: Array) -> None:
+        """Write bearings and their derivatives (the operations of :meth:`jacobian`).
+
+        Parameters
+        ----------
+        rel, t, values, d_rel
+            As for :meth:`MeasurementModel.values_and_derivatives_into`.
+        """
+        dx, dy = rel[..., 0], rel[..., 1]
+        np.arctan2(dx, dy, out=values)
+        rho2 = dx * dx
+        rho2 += dy * dy
+        np.divide(dy, rho2, out=d_rel[..., 0])
+        np.divide(dx, rho2, out=d_rel[..., 1])
+        np.negative(d_rel[..., 1], out=d_rel[..., 1])
+
     def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array) -> Array:
         """Give bearings and write their derivatives by the relative east and north (fused).
 

@@ -418,6 +418,10 @@ class RowModel:
             if d_h0 is None:
                 h0[..., rows], _, a_var[..., rows, ns] = model.affine_parts(r_k, t, ref_k)
                 continue
+            if (ns.stop == ns.start and ref_k is None and not model.uses_reference
+                    and isinstance(rows, slice)):  # (views: written in place)
+                model.values_and_derivatives_into(r_k, t, h0[..., rows], d_h0[..., rows, :])
+                continue  # no nuisance, no reference: written in place
             base, _, v, d0, d0_ref, da, da_ref = model.affine_derivatives(r_k, t, ref_k)
             h0[..., rows], a_var[..., rows, ns] = base, v
             if d0 is not None:
