@@ -27,6 +27,7 @@ from ..frames import wrap_angle
 from ..observation import Linearisation, ObservationModel
 from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
 from ..observation.noise import NoiseModel
+from ..observation.rows import as_slice
 
 
 @dataclass
@@ -177,6 +178,9 @@ class VarProProblem:
         self.angle = obs.angle_mask_grouped
         self.has_angle = bool(self.angle.any())
         self.all_angle = bool(self.angle.all())  # every row an angle: wrap without a mask
+        # Angle rows in one run (kinds are grouped): wrapped in place, the other rows untouched.
+        angle_rows = as_slice(np.flatnonzero(self.angle))
+        self._angle_rows = angle_rows if isinstance(angle_rows, slice) else None
         self.eliminates = self.fixed is None and self.k > 0
         # The geometry-free part of the design, whitened once (see ObservationModel).
         self.const_design = obs.const_design
@@ -412,6 +416,8 @@ class VarProProblem:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]
         if self.all_angle:
             e = _wrap_own(e, in_place=True)  # e is this function's own array
+        elif self._angle_rows is not None and e.flags.writeable and e is not u:
+            e[..., self._angle_rows] = _wrap_own(e[..., self._angle_rows], in_place=True)
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         r = self.noise.whiten(e, overwrite=True)  # e is this function's own array
