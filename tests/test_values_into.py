@@ -31,7 +31,7 @@ def test_values_and_derivatives_into_are_predict_and_jacobian(kind, component_ma
     rel = _rel(np.random.default_rng(7), component_major)
     t = np.linspace(0.0, 100.0, 50)
     values = np.empty(rel.shape[:-1])
-    d_rel = np.zeros(rel.shape[:-2] + (6, rel.shape[-2])).swapaxes(-1, -2)
+    d_rel = np.zeros((*rel.shape[:-2], 6, rel.shape[-2])).swapaxes(-1, -2)
     model.values_and_derivatives_into(rel, t, values, d_rel)
     np.testing.assert_array_equal(values, model.predict(rel, t, None, None))
     np.testing.assert_array_equal(d_rel, model.jacobian(rel, t, None, None).rel)
