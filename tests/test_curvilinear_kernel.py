@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from kernel_paths import both_paths
 
 import tmakit as tk
 from tmakit.motion import PiecewiseCurvilinear
@@ -14,16 +15,8 @@ pytest.importorskip("numba")
 
 
 def _both(fn):
-    """Run ``fn`` with the kernels, then with the NumPy path; give both results."""
-    assert compiled.available()
-    fast = fn()
-    before = compiled.use_compiled(False)
-    try:
-        assert not compiled.available()
-        slow = fn()
-    finally:
-        compiled.use_compiled(before)
-    return fast, slow
+    """Run ``fn`` with the kernels, then on the NumPy path; give both results."""
+    return both_paths(compiled, fn)
 
 
 def _thetas(m: int, rng: np.random.Generator) -> np.ndarray:

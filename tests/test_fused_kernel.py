@@ -16,6 +16,8 @@ import sys
 
 import numpy as np
 import pytest
+from bearing_sets import bearings
+from kernel_paths import both_paths
 
 import tmakit as tk
 from tmakit.batch import VarProProblem
@@ -28,35 +30,13 @@ pytestmark = pytest.mark.skipif(not compiled.available(), reason="compiled kerne
 N = compiled.KERNEL_ROWS + 1000
 
 
-def _bearings(motion: tk.MotionModel, theta: np.ndarray, n: int, seed: int,
-              dim: int = 2) -> tk.MeasurementSet:
-    rng = np.random.default_rng(seed)
-    t = np.sort(rng.uniform(0.0, 1800.0, n))
-    state = np.zeros((n, 6))
-    state[:, 0] = 3000.0 * np.sin(t / 300.0)
-    state[:, 1] = 400.0 * t / 60.0
-    state[:, 3] = 10.0 * np.cos(t / 300.0)
-    state[:, 4] = 400.0 / 60.0
-    if dim == 3:
-        state[:, 2] = -50.0
-    truth = motion.states(theta, t)
-    bearing = np.arctan2(truth[:, 0] - state[:, 0], truth[:, 1] - state[:, 1])
-    sigma = np.radians(rng.uniform(0.5, 2.0, n))  # unequal weights
-    return tk.MeasurementSet.from_si(t, np.zeros(n, dtype=int), np.full(n, "bearing"),
-                                     bearing + sigma * rng.normal(size=n), sigma, state)
+def _bearings(motion, theta, n, seed, dim=2):
+    return bearings(motion, theta, n, seed, dim, unequal_sigma=True)  # unequal weights
 
 
 def _both(fn):
-    """Run ``fn`` with the kernel, then with the NumPy path; give both results."""
-    assert compiled.available()
-    fast = fn()
-    before = compiled.use_compiled(False)
-    try:
-        assert not compiled.available()
-        slow = fn()
-    finally:
-        compiled.use_compiled(before)
-    return fast, slow
+    """Run ``fn`` with the kernels, then on the NumPy path; give both results."""
+    return both_paths(compiled, fn)
 
 
 CASES = [

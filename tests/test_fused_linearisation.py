@@ -14,31 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from bearing_sets import bearings
 
 import tmakit as tk
 from tmakit.batch import VarProProblem
 from tmakit.batch.varpro import _wrap_own
 from tmakit.frames import wrap_angle
 from tmakit.observation.fused import fused_linearisation
-
-
-def _bearings(motion: tk.MotionModel, theta: np.ndarray, n: int, seed: int,
-              dim: int = 2) -> tk.MeasurementSet:
-    rng = np.random.default_rng(seed)
-    t = np.sort(rng.uniform(0.0, 1800.0, n))
-    state = np.zeros((n, 6))
-    state[:, 0] = 3000.0 * np.sin(t / 300.0)
-    state[:, 1] = 400.0 * t / 60.0
-    state[:, 3] = 10.0 * np.cos(t / 300.0)
-    state[:, 4] = 400.0 / 60.0
-    if dim == 3:
-        state[:, 2] = -50.0
-    truth = motion.states(theta, t)
-    bearing = np.arctan2(truth[:, 0] - state[:, 0], truth[:, 1] - state[:, 1])
-    sigma = np.full(n, np.radians(1.0))
-    return tk.MeasurementSet.from_si(t, np.zeros(n, dtype=int), np.full(n, "bearing"),
-                                     bearing + sigma * rng.normal(size=n), sigma, state)
-
 
 CASES = [
     (tk.ConstantVelocity(2), np.array([8000.0, 12000.0, -4.0, 2.5]), 2),
@@ -51,7 +33,7 @@ CASES = [
 @pytest.mark.parametrize("n", [50, 5000])  # both ways of AffineRows.single
 @pytest.mark.parametrize(("motion", "theta", "dim"), CASES)
 def test_fused_equals_the_general_path(motion, theta, dim, n):
-    meas = _bearings(motion, theta, n, seed=n, dim=dim)
+    meas = bearings(motion, theta, n, seed=n, dim=dim)
     obs = tk.ObservationModel(meas, motion)
     trial = theta * 1.01 + 3.0
     for point in (trial, trial[None]):
@@ -71,8 +53,8 @@ def test_fused_equals_the_general_path(motion, theta, dim, n):
 
 
 @pytest.mark.parametrize(("motion", "theta", "dim"), CASES)
-def test_fused_jacobian_is_the_finite_difference_of_the_bearings(motion, theta, dim):
-    meas = _bearings(motion, theta, 300, seed=1, dim=dim)
+def test_fused_jacobian_is_the_finite_difference_of_thebearings(motion, theta, dim):
+    meas = bearings(motion, theta, 300, seed=1, dim=dim)
     obs = tk.ObservationModel(meas, motion)
     jac = obs.linearisation(theta).jacobian(np.zeros(0))
     step = np.where(np.arange(theta.size) < dim, 1.0, 1e-3)  # m and m/s
@@ -91,7 +73,7 @@ def test_fused_jacobian_is_the_finite_difference_of_the_bearings(motion, theta, 
 
 def test_fused_jacobian_handed_over_once_then_copied():
     motion, theta, _ = CASES[0]
-    obs = tk.ObservationModel(_bearings(motion, theta, 100, seed=2), motion)
+    obs = tk.ObservationModel(bearings(motion, theta, 100, seed=2), motion)
     lin = obs.linearisation(theta)
     first = lin.jacobian(np.zeros(0))
     kept = first.copy()
@@ -102,7 +84,7 @@ def test_fused_jacobian_handed_over_once_then_copied():
 
 def test_fused_path_declines_other_problems():
     motion, theta, _ = CASES[0]
-    meas = _bearings(motion, theta, 100, seed=3)
+    meas = bearings(motion, theta, 100, seed=3)
     obs = tk.ObservationModel(meas, motion)
     assert fused_linearisation(obs, np.stack([theta, theta])) is None  # a batch
     gu = tk.load_scenario("gu2007")  # bearing and frequency, with a carrier nuisance
@@ -130,7 +112,7 @@ def test_residual_wrapping_in_place_is_wrap_angle_bit_for_bit(scale):
 
 def test_solver_evaluation_with_the_fused_path_equals_the_general_one():
     motion, theta, _ = CASES[0]
-    meas = _bearings(motion, theta, 3000, seed=4)
+    meas = bearings(motion, theta, 3000, seed=4)
     problem = VarProProblem(tk.ObservationModel(meas, motion))
     u = problem.group(meas.value_si)[None]
     one = problem.evaluate_part(theta[None] * 1.02, u, np.zeros((1, 0)))  # fused

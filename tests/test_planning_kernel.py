@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from kernel_paths import both_paths
 
 from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
@@ -28,15 +29,8 @@ def numpy_path():
 
 
 def _both(fn):
-    assert compiled.available()
-    fast = fn()
-    before = compiled.use_compiled(False)
-    try:
-        assert not compiled.available()
-        slow = fn()
-    finally:
-        compiled.use_compiled(before)
-    return fast, slow
+    """Run ``fn`` with the kernels, then on the NumPy path; give both results."""
+    return both_paths(compiled, fn)
 
 
 @pytest.mark.parametrize("kinds", [["bearing"], ["bearing", "range"],
