@@ -416,7 +416,7 @@ class VarProProblem:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]
         if self.all_angle:
             e = _wrap_own(e, in_place=True)  # e is this function's own array
-        elif self._angle_rows is not None and e.flags.writeable and e is not u:
+        elif self._angle_rows is not None:  # (e is this function's own array)
             e[..., self._angle_rows] = _wrap_own(e[..., self._angle_rows], in_place=True)
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
