@@ -64,14 +64,27 @@ def test_a_set_filtered_again_is_compiled_once() -> None:
     assert np.array_equal(first.covariances, again.covariances)
 
 
-def test_wrap_angle_keeps_its_values_bit_for_bit() -> None:
+def test_wrap_angle_keeps_angles_in_the_interval_and_shifts_by_exact_turns() -> None:
     rng = np.random.default_rng(0)
     x = np.concatenate([rng.uniform(-0.1, 0.1, 1000), rng.uniform(-40, 40, 1000),
                         [np.pi, -np.pi, 3 * np.pi, -3 * np.pi, 0.0, -0.0, 2 * np.pi,
-                         np.nextafter(-np.pi, 0.0), np.nextafter(np.pi, 4.0), np.inf, np.nan]])
+                         np.nextafter(-np.pi, 0.0), np.nextafter(np.pi, 4.0), np.inf, np.nan,
+                         1e-300, -1e-20]])
     with np.errstate(invalid="ignore"):
-        want = np.mod(x + np.pi, 2.0 * np.pi) - np.pi
-        want = np.where(want == -np.pi, np.pi, want)
+        mod = np.mod(x + np.pi, 2.0 * np.pi) - np.pi
+        mod = np.where(mod == -np.pi, np.pi, mod)
         got = wrap_angle(x)
-    assert np.array_equal(got, want, equal_nan=True)
+    inside = (x > -np.pi) & (x <= np.pi)
+    assert np.array_equal(got[inside], x[inside])  # no rounding through x + pi
+    assert np.array_equal(np.signbit(got[inside]), np.signbit(x[inside]))
+    turn = ~inside & (x - 2.0 * np.pi <= np.pi) & (x + 2.0 * np.pi > -np.pi)  # one turn out
+    assert turn.sum() > 100
+    assert np.array_equal(got[turn], x[turn] - np.sign(x[turn]) * 2.0 * np.pi)  # exact
+    finite = np.isfinite(x)
+    assert np.all((got[finite] > -np.pi) & (got[finite] <= np.pi))
+    gap = np.abs(got[finite] - mod[finite])  # on the circle: +-pi are one angle
+    assert np.all(np.minimum(gap, np.abs(gap - 2.0 * np.pi)) <= 4 * np.spacing(np.pi))
+    assert np.isnan(got[~finite]).all()
     assert float(wrap_angle(-np.pi)) == np.pi
+    assert float(wrap_angle(3 * np.pi)) == float(wrap_angle(np.array([3 * np.pi]))[0])
+    assert float(wrap_angle(1e-300)) == 1e-300

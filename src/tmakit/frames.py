@@ -21,8 +21,16 @@ STATE_SIZE = 6
 """Every state in tmakit is a 3-D position and velocity; 2-D problems keep z = vz = 0."""
 
 
+TWO_PI = 2.0 * np.pi
+"""A turn (rad), as the float ``2 * np.pi`` (twice ``np.pi`` exactly)."""
+
+
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
     """Wrap angles to the interval (-pi, pi].
+
+    An angle in the interval is returned as it is; one within a turn of it is shifted by a
+    turn, exactly (Sterbenz: ``a - 2 pi`` has no rounding for ``a`` in ``[pi, 4 pi]``);
+    any other is ``mod(a + pi, 2 pi) - pi``, with ``-pi`` taken as ``+pi``.
 
     Parameters
     ----------
@@ -32,22 +40,28 @@ def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
     Returns
     -------
     numpy.ndarray
-        The angles wrapped to (-pi, pi] (rad); ``+pi`` stays ``+pi``.
+        The angles wrapped to (-pi, pi] (rad), a new array; ``+pi`` stays ``+pi``; NaN stays
+        NaN.
     """
-    a = np.asarray(angle, dtype=float)
-    if a.ndim == 0:
-        wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-        # mod maps +pi to -pi; the convention keeps +pi.
-        return np.where(wrapped == -np.pi, np.pi, wrapped)
-    # The same values as ``mod(a + pi, 2 pi) - pi`` bit for bit, with ``mod`` (slow: it
-    # computes a quotient too) only where ``a + pi`` is outside [0, 2 pi).
-    shifted = a + np.pi
-    out = np.subtract(shifted, np.pi)
-    outside = ~((shifted >= 0.0) & (shifted < 2.0 * np.pi))
-    if outside.any():
-        out[outside] = np.mod(shifted[outside], 2.0 * np.pi) - np.pi
-    out[out == -np.pi] = np.pi
+    out = np.array(angle, dtype=float)
+    if out.ndim == 0:
+        return np.array(_wrap_moved(out.reshape(1))[0])
+    flat = out.reshape(-1)  # a view: out is a new contiguous array
+    moved = np.flatnonzero((flat > np.pi) | (flat <= -np.pi))
+    if moved.size:
+        flat[moved] = _wrap_moved(flat[moved])
     return out
+
+
+def _wrap_moved(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Wrap angles ``(m,)`` of :func:`wrap_angle` (those out of the interval: a new array)."""
+    w = np.where(v > np.pi, v - TWO_PI, np.where(v <= -np.pi, v + TWO_PI, v))
+    far = (w > np.pi) | (w <= -np.pi)  # more than a turn out (NaN never is)
+    if far.any():
+        m = np.mod(v[far] + np.pi, TWO_PI) - np.pi
+        m[m == -np.pi] = np.pi  # mod maps +pi to -pi; the convention keeps +pi
+        w[far] = m
+    return w
 
 
 def wrap_to_2pi(angle: ArrayLike) -> NDArray[np.float64]:

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from .. import blas
 from ..arrays import Array
-from ..frames import wrap_angle
+from ..frames import TWO_PI, wrap_angle
 from ..observation import Linearisation, ObservationModel
 from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
 from ..observation.noise import NoiseModel
@@ -118,29 +118,22 @@ def _normal_of(ev: Evaluation) -> tuple[Array, Array] | None:
 def _wrap_own(e: Array, in_place: bool = False) -> Array:
     """Return :func:`~tmakit.frames.wrap_angle` of ``e``, the same bits.
 
-    A new array, or ``e`` itself overwritten with ``in_place`` where it is wrapped by hand.
-
-    Residuals of angles lie within one turn of the interval: where every ``e + pi`` is in
-    ``[-2 pi, 4 pi)``, ``mod(e + pi, 2 pi)`` is ``e + pi`` shifted by at most one turn, the
-    same rounding as ``mod``'s (Sterbenz: ``x - 2 pi`` is exact on ``[2 pi, 4 pi)``; ``mod``
-    itself adds ``2 pi`` below 0), formed with two comparisons and in place instead of masks
-    and gathers.  Otherwise (or with NaN) :func:`wrap_angle` itself.
+    ``e`` itself overwritten with ``in_place``, else a new array.  Residuals of angles lie in
+    (-pi, pi], or within a turn of it where the data cross +-pi: two reductions tell, and
+    the rows out are shifted by a turn in place, exactly as :func:`wrap_angle` does, no
+    copy made.  Otherwise (or with NaN) :func:`wrap_angle` itself.
     """
-    two_pi = 2.0 * np.pi
     if not e.size:
         return wrap_angle(e)
-    # min(e + pi) is min(e) + pi exactly (rounding is monotonic): tested before e is touched
-    low, high = e.min() + np.pi, e.max() + np.pi
-    if not (low >= -two_pi and high < 2.0 * two_pi):  # (NaN fails too)
+    low, high = e.min(), e.max()
+    # a - 2 pi is exact for a in [pi, 4 pi] (Sterbenz): the tests hold for the shifted rows
+    if not (high - TWO_PI <= np.pi and low + TWO_PI > -np.pi):  # (NaN fails too)
         return wrap_angle(e)
-    shifted = np.add(e, np.pi, out=e) if in_place else e + np.pi
-    if low < 0.0 or high >= two_pi:  # some rows one turn out
-        turns = (shifted >= two_pi).astype(np.int8)
-        turns -= shifted < 0.0
-        shifted -= turns * two_pi  # exact multiples: -2 pi, 0, 2 pi
-    out = np.subtract(shifted, np.pi, out=shifted)
-    if out.min() == -np.pi:  # the convention keeps +pi
-        out[out == -np.pi] = np.pi
+    out = e if in_place else e.copy()
+    if high > np.pi:
+        out[out > np.pi] -= TWO_PI
+    if low <= -np.pi:
+        out[out <= -np.pi] += TWO_PI
     return out
 
 
@@ -172,6 +165,8 @@ class VarProProblem:
             noise = (NoiseModel(obs.grouped) if any(m.correlated_noise for m in obs.models.values())
                      else NoiseModel.independent(obs.sigmas_grouped))
         self.noise = noise
+        # Independent rows: the fused Jacobian is made whitened (see _evaluate).
+        self._weights = None if noise.correlated else noise.inv_sigma
         self.k = obs.n_nuisance
         self.p = obs.motion.n_params
         self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
@@ -406,7 +401,7 @@ class VarProProblem:
                   ) -> Evaluation:
         # Worked with the design and the Jacobian transposed, (B, k, n) and (B, p, n): every
         # operation then runs along the rows.
-        lin = self.obs.linearisation(theta, with_jacobian)
+        lin = self.obs.linearisation(theta, with_jacobian, weights=self._weights)
         at = lin.a_var.swapaxes(-1, -2) if self.k else None
         # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
         # The fused path's h0 is its own fresh array, read only here: the residual takes it.
@@ -426,7 +421,9 @@ class VarProProblem:
         if self.eliminates:
             nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
         elif with_jacobian:
-            jt = self.noise.whiten(lin.jacobian(nu).swapaxes(-1, -2), overwrite=True)
+            jt = lin.jacobian(nu).swapaxes(-1, -2)
+            if not lin.whitened:
+                jt = self.noise.whiten(jt, overwrite=True)
         cost = 0.5 * np.einsum("bn,bn->b", r, r)
         if r.shape[0] == 1:  # one point: tested as a float (fewer calls)
             if not cost[0] < np.inf:

@@ -91,7 +91,8 @@ class Bearing(MeasurementModel):
         np.divide(dx, rho2, out=d_rel[..., 1])
         np.negative(d_rel[..., 1], out=d_rel[..., 1])
 
-    def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array) -> Array:
+    def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
+                        weight: Array | None = None) -> Array:
         """Give bearings and write their derivatives by the relative east and north (fused).
 
         The same operations as :meth:`jacobian` (the same bits), for the fused linearisation
@@ -102,7 +103,11 @@ class Bearing(MeasurementModel):
         dx, dy : ndarray
             Relative east and north positions ``(m,)``, m.
         out_x, out_y : ndarray
-            ``(m,)`` written with ``dy / r^2`` and ``-dx / r^2``, rad/m.
+            ``(m,)`` written with ``dy / r^2`` and ``-dx / r^2``, rad/m (times ``weight``).
+        weight : ndarray, optional
+            ``(m,)`` factors of the derivatives (the inverse standard deviations, 1/rad:
+            the whitened derivatives, 1/m, in the passes that make them; equal to the
+            derivatives scaled afterwards to rounding).
 
         Returns
         -------
@@ -111,8 +116,13 @@ class Bearing(MeasurementModel):
         """
         rho2 = dx * dx
         rho2 += dy * dy
-        np.divide(dy, rho2, out=out_x)
-        np.divide(dx, rho2, out=out_y)
+        if weight is None:
+            np.divide(dy, rho2, out=out_x)
+            np.divide(dx, rho2, out=out_y)
+        else:
+            scale = np.divide(weight, rho2, out=rho2)
+            np.multiply(dy, scale, out=out_x)
+            np.multiply(dx, scale, out=out_y)
         np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
         return np.arctan2(dx, dy)
 

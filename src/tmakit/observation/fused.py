@@ -26,7 +26,8 @@ from .linearisation import Linearisation
 __all__ = ["fused_linearisation", "fused_values"]
 
 
-def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
+def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
+                        ) -> Linearisation | None:
     """Give the linearisation of ``obs`` at one ``theta`` by the fused path, or None.
 
     The fused path applies to one kind with a planar fused gradient (the bearing: the model's
@@ -39,12 +40,16 @@ def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
         The observation model.
     theta : numpy.ndarray
         Motion parameters, SI.
+    weights : numpy.ndarray, optional
+        ``(n,)`` inverse standard deviations of independent rows (1/rad): the Jacobian is
+        then made whitened (:attr:`Linearisation.whitened`), saving a pass over it.
 
     Returns
     -------
     Linearisation or None
-        ``h0`` (rad) and the Jacobian ``(..., n, p)`` (rad/m, rad s/m) set; None when the
-        fused path does not apply (the caller uses the general one).
+        ``h0`` (rad) and the Jacobian ``(..., n, p)`` (rad/m, rad s/m; per m, per m/s
+        whitened) set; None when the fused path does not apply (the caller uses the general
+        one).
     """
     found = _fused_kind(obs, theta, "planar_gradient")
     if found is None:
@@ -52,7 +57,7 @@ def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
     rel_map, gradient, theta = found
     rel = rel_map.single(theta, components=2)  # (2, m): dx, dy, component-major
     jac = np.empty((rel_map.p, rel_map.m))
-    h0 = gradient(rel[0], rel[1], jac[0], jac[1])  # parked in rows 0, 1
+    h0 = gradient(rel[0], rel[1], jac[0], jac[1], weights)  # parked in rows 0, 1
     in_place = not _needs_copy(rel_map)
     g = (jac[0], jac[1]) if in_place else (jac[0].copy(), jac[1].copy())
     _chain_terms(rel_map.terms, g, jac, in_place)
@@ -60,7 +65,8 @@ def fused_linearisation(obs: Any, theta: Array) -> Linearisation | None:
     lin = Linearisation(obs, theta, h0.reshape(*batch, rel_map.m),
                         np.zeros((*batch, rel_map.m, 0)))
     lin.fused = jac.T.reshape(*batch, rel_map.m, rel_map.p)
-    lin.fused_again = lambda: _jacobian_again(obs, theta)
+    lin.fused_again = lambda: _jacobian_again(obs, theta, weights)
+    lin.whitened = weights is not None
     return lin
 
 
@@ -108,9 +114,9 @@ def _fused_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] |
     return rel_map, fused, obs.motion.check_theta(theta)
 
 
-def _jacobian_again(obs: Any, theta: Array) -> Array:
+def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
     """Make the fused Jacobian at ``theta`` again (the first one was handed over)."""
-    lin = fused_linearisation(obs, theta)
+    lin = fused_linearisation(obs, theta, weights)
     assert lin is not None and lin.fused is not None  # (it was fused before)
     return lin.fused
 

@@ -27,17 +27,22 @@ _BLOCK = 256  # rows summed apart before being added to the totals (smaller roun
 
 @_jit
 def _wrapped(e: float) -> float:  # pragma: no cover - compiled
-    """Give ``mod(e + pi, 2 pi) - pi``, with ``-pi`` taken as ``+pi`` (rad).
+    """Give :func:`~tmakit.frames.wrap_angle` of ``e`` within a turn of (-pi, pi] (rad).
 
-    For ``e + pi`` in ``[-2 pi, 4 pi)`` (the caller checks): a shift of one turn at most,
-    exact (Sterbenz), as the NumPy path's, by selections (no branch: the loop is vectorised).
+    ``e`` itself in the interval, else shifted by a turn (exact, as the NumPy path's: the
+    caller checks the turn with :func:`_beyond`), by selections (no branch: the loop is
+    vectorised).
     """
     two_pi = 2.0 * math.pi
-    s = e + math.pi
-    s = s - two_pi if s >= two_pi else s
-    s = s + two_pi if s < 0.0 else s
-    out = s - math.pi
-    return math.pi if out == -math.pi else out
+    out = e - two_pi if e > math.pi else e
+    return out + two_pi if e <= -math.pi else out
+
+
+@_jit
+def _beyond(e: float) -> int:  # pragma: no cover - compiled
+    """Give 1 where ``e`` lies more than a turn outside (-pi, pi], else 0 (NaN: 0, kept)."""
+    two_pi = 2.0 * math.pi
+    return 1 if (e - two_pi > math.pi or e + two_pi <= -math.pi) else 0
 
 
 @_jit
@@ -98,7 +103,6 @@ def bearing_normal(dx: Array, dy: Array, h: Array, u: Array, inv_sigma: Array, c
         the caller then takes the NumPy path).
     """
     n = dx.shape[0]
-    two_pi = 2.0 * math.pi
     bad = 0
     for lo in range(0, n, _BLOCK):
         s00 = s01 = s11 = s02 = s03 = s12 = s13 = s22 = s23 = s33 = 0.0
@@ -109,7 +113,7 @@ def bearing_normal(dx: Array, dy: Array, h: Array, u: Array, inv_sigma: Array, c
             q = inv_sigma[k] / rho2
             a, b = y * q, -(x * q)
             e = u[k] - h[k]
-            bad += 1 if (e + math.pi < -two_pi) or (e + math.pi >= 2.0 * two_pi) else 0
+            bad += _beyond(e)
             rk = _wrapped(e) * inv_sigma[k]
             r[k] = rk
             s00 += a * a
@@ -158,12 +162,11 @@ def bearing_residual(h: Array, u: Array, inv_sigma: Array, r: Array
         Half the sum of ``r**2``, and the rows whose residual lies more than a turn outside
         ``[-pi, pi)`` (not wrapped: the caller then takes the NumPy path).
     """
-    two_pi = 2.0 * math.pi
     bad = 0
     total = 0.0
     for k in range(h.shape[0]):
         e = u[k] - h[k]
-        bad += 1 if (e + math.pi < -two_pi) or (e + math.pi >= 2.0 * two_pi) else 0
+        bad += _beyond(e)
         rk = _wrapped(e) * inv_sigma[k]
         r[k] = rk
         total += rk * rk

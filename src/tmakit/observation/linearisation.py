@@ -48,6 +48,8 @@ class Linearisation:
         self.fused: Array | None = None
         self.fused_again: Callable[[], Array] | None = None
         self._fused_given = False
+        #: Whether the fused Jacobian is already whitened (made with the noise's weights).
+        self.whitened = False
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
         """Return ``d predictions / d theta`` at nuisance values.

@@ -282,8 +282,8 @@ class ObservationModel:
             self._const_design = self.row_model.const_design()
         return self._const_design
 
-    def linearisation(self, theta: ArrayLike, derivatives: bool = True, each: bool = False
-                      ) -> Linearisation:
+    def linearisation(self, theta: ArrayLike, derivatives: bool = True, each: bool = False,
+                      weights: Array | None = None) -> Linearisation:
         """Linearise the predictions ``h0 + (A_const + A_var) @ nu`` in grouped order.
 
         ``A_const`` is :attr:`const_design`; the derivatives with respect to the relative
@@ -298,14 +298,17 @@ class ObservationModel:
             Also compute the derivatives.
         each : bool
             Each row of a 2-D ``theta`` as for it alone, bit for bit (not one matrix product).
+        weights : ndarray, optional
+            ``(n,)`` inverse standard deviations of independent rows: where the fused path
+            makes the Jacobian it makes it whitened (:attr:`Linearisation.whitened`).
 
         Returns
         -------
         Linearisation
         """
         theta = np.asarray(theta, dtype=float)
-        if (lin := (fused_linearisation if derivatives else fused_values)(self, theta)
-                ) is not None:
+        if (lin := (fused_linearisation(self, theta, weights) if derivatives
+                    else fused_values(self, theta))) is not None:
             return lin  # one planar kind, affine motion, one theta: only what it needs
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
