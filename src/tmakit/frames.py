@@ -64,6 +64,40 @@ def _wrap_moved(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return w
 
 
+def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np.float64]:
+    """Return :func:`wrap_angle` of ``e``, the same bits, in place where it can.
+
+    For the solvers' residuals of angles: ``e`` itself overwritten with ``in_place``, else a
+    new array.  Residuals of angles lie in (-pi, pi], or within a turn of it where the data
+    cross +-pi: two reductions tell, and the rows out are shifted by a turn in place, exactly
+    as :func:`wrap_angle` does, no copy made.  Otherwise (or with NaN) :func:`wrap_angle` itself.
+
+    Parameters
+    ----------
+    e : numpy.ndarray
+        Angles (rad), float.
+    in_place : bool
+        Whether ``e`` (the caller's own array) may be overwritten.
+
+    Returns
+    -------
+    numpy.ndarray
+        The angles wrapped to (-pi, pi] (rad).
+    """
+    if not e.size:
+        return wrap_angle(e)
+    low, high = e.min(), e.max()
+    # a - 2 pi is exact for a in [pi, 4 pi] (Sterbenz): the tests hold for the shifted rows
+    if not (high - TWO_PI <= np.pi and low + TWO_PI > -np.pi):  # (NaN fails too)
+        return wrap_angle(e)
+    out = e if in_place else e.copy()
+    if high > np.pi:
+        out[out > np.pi] -= TWO_PI
+    if low <= -np.pi:
+        out[out <= -np.pi] += TWO_PI
+    return out
+
+
 def wrap_to_2pi(angle: ArrayLike) -> NDArray[np.float64]:
     """Wrap angles to the interval [0, 2 pi).
 

@@ -23,7 +23,8 @@ from numpy.typing import NDArray
 
 from .. import blas
 from ..arrays import Array
-from ..frames import TWO_PI, wrap_angle
+from ..frames import wrap_angle
+from ..frames import wrap_angle_own as _wrap_own
 from ..observation import Linearisation, ObservationModel
 from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
 from ..observation.noise import NoiseModel
@@ -113,28 +114,6 @@ def _normal_of(ev: Evaluation) -> tuple[Array, Array] | None:
         return ev.normal
     jt = ev.jacobian.swapaxes(1, 2)
     return jt @ ev.jacobian, (jt @ ev.residual[:, :, None])[..., 0]
-
-
-def _wrap_own(e: Array, in_place: bool = False) -> Array:
-    """Return :func:`~tmakit.frames.wrap_angle` of ``e``, the same bits.
-
-    ``e`` itself overwritten with ``in_place``, else a new array.  Residuals of angles lie in
-    (-pi, pi], or within a turn of it where the data cross +-pi: two reductions tell, and
-    the rows out are shifted by a turn in place, exactly as :func:`wrap_angle` does, no
-    copy made.  Otherwise (or with NaN) :func:`wrap_angle` itself.
-    """
-    if not e.size:
-        return wrap_angle(e)
-    low, high = e.min(), e.max()
-    # a - 2 pi is exact for a in [pi, 4 pi] (Sterbenz): the tests hold for the shifted rows
-    if not (high - TWO_PI <= np.pi and low + TWO_PI > -np.pi):  # (NaN fails too)
-        return wrap_angle(e)
-    out = e if in_place else e.copy()
-    if high > np.pi:
-        out[out > np.pi] -= TWO_PI
-    if low <= -np.pi:
-        out[out <= -np.pi] += TWO_PI
-    return out
 
 
 class VarProProblem:
@@ -275,10 +254,11 @@ class VarProProblem:
         Returns
         -------
         ndarray
-            ``(B, n)`` (SI units).
+            ``(B, n)`` (SI units); ``y`` itself (as floats) without nuisance: the solvers
+            only read it.
         """
         if self.k == 0:
-            return np.array(y, dtype=float)
+            return np.asarray(y, dtype=float)
         return y - nu_star @ self.const_design.T
 
     def evaluate(self, theta: Array, y: Array, nu_star: Array,

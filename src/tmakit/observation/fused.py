@@ -23,7 +23,7 @@ import numpy as np
 from ..arrays import Array
 from .linearisation import Linearisation
 
-__all__ = ["fused_linearisation", "fused_values"]
+__all__ = ["fused_gradient_rows", "fused_linearisation", "fused_values", "gradient_of_rows"]
 
 
 def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
@@ -97,6 +97,76 @@ def fused_values(obs: Any, theta: Array) -> Linearisation | None:
     batch = theta.shape[:-1]
     return Linearisation(obs, theta, value(rel[0], rel[1]).reshape(*batch, rel_map.m),
                          np.zeros((*batch, rel_map.m, 0)))
+
+
+def fused_gradient_rows(obs: Any, theta: Array, weights: Array
+                        ) -> tuple[Array, Array] | None:
+    """Give the predictions and the whitened derivatives by east and north, or None.
+
+    The part of :func:`fused_linearisation` before its chain rule: enough for the gradient
+    ``J'r`` (:func:`gradient_of_rows`) without writing the ``(p, n)`` Jacobian.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The observation model.
+    theta : numpy.ndarray
+        Motion parameters ``(p,)`` or ``(1, p)``, SI.
+    weights : numpy.ndarray
+        ``(n,)`` inverse standard deviations of independent rows (1/rad).
+
+    Returns
+    -------
+    (ndarray, ndarray) or None
+        ``(n,)`` predictions (rad) and ``(2, n)`` their whitened derivatives by the relative
+        east and north positions (1/m); None where :func:`fused_linearisation` does not
+        apply.
+    """
+    found = _fused_kind(obs, theta, "planar_gradient")
+    if found is None:
+        return None
+    rel_map, gradient, theta = found
+    rel = rel_map.single(theta, components=2)
+    rows = np.empty((2, rel_map.m))
+    h0 = gradient(rel[0], rel[1], rows[0], rows[1], weights)
+    return h0, rows
+
+
+def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
+    """Give ``J'r`` ``(p,)`` from :func:`fused_gradient_rows`' derivatives, the chain unwritten.
+
+    ``(J'r)_i = sum_c rows[c] . (coef_ic r)`` over the affine map's terms of components 0
+    and 1: one product per distinct coefficient array, then dot products (NumPy's own loops,
+    no BLAS threads).
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The observation model of :func:`fused_gradient_rows`.
+    rows : numpy.ndarray
+        ``(2, n)`` whitened derivatives by east and north (1/m).
+    r : numpy.ndarray
+        ``(n,)`` whitened residuals (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(p,)`` the gradient of half chi2 with the sign of ``J'r`` (per parameter unit).
+    """
+    rel_map = obs._rel_map
+    weighted: dict[int, Array] = {}
+    out = np.zeros(rel_map.p)
+    for i, c, coef in rel_map.terms:
+        if c >= 2:
+            continue
+        if coef is None:
+            factor = r
+        else:
+            factor = weighted.get(id(coef))
+            if factor is None:
+                factor = weighted[id(coef)] = coef * r
+        out[i] += np.einsum("n,n->", rows[c], factor)
+    return out
 
 
 def _fused_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
