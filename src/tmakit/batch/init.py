@@ -21,12 +21,14 @@ from ..blas import matmul
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..observation.fused import PlanarUnits, planar_units
 from ..observation.noise import NoiseModel
 from .grid import GridSettings, grid_candidates, grid_candidates_for
 from .solver import VarProProblem
 
-__all__ = ["GridScorer", "GridSettings", "Starts", "best_starts", "best_starts_many",
-           "grid_candidates", "grid_start", "orthonormal_columns", "subsample"]
+__all__ = ["ChordScorer", "GridScorer", "GridSettings", "Starts", "best_starts",
+           "best_starts_many", "chord_units", "grid_candidates", "grid_start",
+           "orthonormal_columns", "subsample"]
 
 
 def _subsample(problem: VarProProblem, max_rows: int
@@ -35,15 +37,20 @@ def _subsample(problem: VarProProblem, max_rows: int
 
     The grid needs no more rows.
     """
-    meas = problem.obs.meas
-    if len(meas) <= max_rows:  # correlated rows: the subset's noise is its own block
-        return problem, np.arange(len(meas))
-    keep = []
-    for rows in problem.obs.rows.values():
-        take = max(2, round(max_rows * rows.size / len(meas)))
-        keep.append(rows[_evenly_spread(rows.size, take)])
-    idx = np.sort(np.concatenate(keep))
+    idx = _spread_rows(problem, max_rows)
+    if idx is None:  # correlated rows: the subset's noise is its own block
+        return problem, np.arange(len(problem.obs.meas))
     return problem.take(idx), idx
+
+
+def _spread_rows(problem: VarProProblem, max_rows: int) -> NDArray[np.int64] | None:
+    """Return the rows (set order) of :func:`_subsample`, or None when it keeps them all."""
+    n = len(problem.obs.meas)
+    if n <= max_rows:
+        return None
+    keep = [rows[_evenly_spread(rows.size, max(2, round(max_rows * rows.size / n)))]
+            for rows in problem.obs.rows.values()]
+    return keep[0] if len(keep) == 1 else np.sort(np.concatenate(keep))
 
 
 def subsample(problem: VarProProblem, max_rows: int
@@ -381,7 +388,7 @@ def best_starts(problem: VarProProblem, y: NDArray[np.float64],
 
 def _data_dependent(problem: VarProProblem) -> bool:
     """Tell whether the candidate set depends on the data (rays along measured bearings)."""
-    return bool(np.any(problem.obs.meas.kind_mask("bearing")))
+    return "bearing" in problem.obs.models  # (the kinds present)
 
 
 def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
@@ -406,50 +413,183 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
     """
     g = settings or GridSettings()
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
-    small, rows = _subsample(problem, g.max_rows)
-    coarse, coarse_rows = _subsample(problem, min(g.coarse_rows, g.max_rows))
-    stages = ((coarse, coarse.group(ys[:, coarse_rows])), (small, small.group(ys[:, rows])))
+    small = _Stage(problem, _spread_rows(problem, g.max_rows), ys)
+    coarse = _Stage(problem, _spread_rows(problem, min(g.coarse_rows, g.max_rows)), ys)
     if _data_dependent(problem):
         out = []
+        meas = small.meas()
         for b in range(ys.shape[0]):
-            cand = grid_candidates_for(_with_values(small, stages[1][1][b]),
+            cand = grid_candidates_for(_with_values(meas, small.values(b)),
                                        problem.obs.motion, g)
-            cand, cost = _scores(stages, cand, g.refine, b)
+            cand, cost = _scores(coarse, small, cand, g.refine, b)
             out.append(Starts(cand, cost[0]))
         return out
-    cand, cost = _scores(stages, grid_candidates(small, g), g.refine)
+    cand, cost = _scores(coarse, small, grid_candidates_for(small.meas(), problem.obs.motion,
+                                                            g), g.refine)
     scaled = _scaled(cand)
     return [Starts(cand, cost[b], scaled) for b in range(ys.shape[0])]
 
 
-def _scores(stages: tuple[tuple[VarProProblem, NDArray[np.float64]], ...],
-            cand: NDArray[np.float64], refine: int, run: int | None = None
-            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+class _Stage:
+    """The rows one stage of the grid scores on, and the data sets on them.
+
+    All-angle problems of one planar kind under an affine motion model (bearings, constant
+    velocity or at rest) are scored by :class:`ChordScorer` on the rows of the problem
+    itself; the others by :class:`GridScorer` on the problem restricted to the rows
+    (:func:`_subsample`).
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The whole problem.
+    rows : ndarray of int or None
+        The stage's rows (set order), None for all.
+    ys : ndarray, shape (B, n)
+        The data sets (SI, set order).
+    """
+
+    def __init__(self, problem: VarProProblem, rows: NDArray[np.int64] | None,
+                 ys: NDArray[np.float64]) -> None:
+        self.rows = rows
+        self.units = chord_units(problem, rows)
+        self.whole = problem
+        if self.units is None:
+            self.problem = problem if rows is None else problem.take(rows)
+            self.y = self.problem.group(ys if rows is None else ys[:, rows])
+            return
+        self.problem = None
+        self.y = ys if rows is None else ys[:, rows]  # one kind: grouped is set order
+        # the weights of the noise model the subset would get (see VarProProblem.take)
+        self.weight2 = (problem.noise.inv_sigma if rows is None
+                        else 1.0 / problem.obs.sigmas_grouped[rows]) ** 2
+
+    def scorer(self, candidates: NDArray[np.float64]) -> GridScorer | ChordScorer:
+        """Return the scorer of ``candidates`` ``(C, p)`` on the stage's rows."""
+        if self.units is None:
+            return GridScorer(self.problem, candidates)
+        return ChordScorer(self.units, self.weight2, candidates)
+
+    def meas(self) -> MeasurementSet:
+        """Return the measurement set of the stage's rows."""
+        if self.problem is not None:
+            return self.problem.obs.meas
+        meas = self.whole.obs.meas
+        return meas if self.rows is None else meas.take(self.rows)
+
+    def values(self, b: int) -> NDArray[np.float64]:
+        """Return data set ``b`` on the stage's rows in the set's order (SI)."""
+        if self.problem is None:
+            return self.y[b]
+        return self.y[b][self.problem.obs.inverse]
+
+
+def chord_units(problem: VarProProblem, rows: NDArray[np.int64] | None = None
+                ) -> PlanarUnits | None:
+    """Give the predicted angles' sines and cosines of a problem's rows, or None.
+
+    For problems whose every row is an angle of one planar kind (the bearing), without
+    correlated noise, under an affine motion model (:func:`~tmakit.observation.fused.
+    planar_units`); the grid scores them by :class:`ChordScorer`.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem.
+    rows : ndarray of int, optional
+        Its rows (set order; default all).
+
+    Returns
+    -------
+    PlanarUnits or None
+        None when the problem is not of that form.
+    """
+    obs = problem.obs
+    if not problem.all_angle or problem.noise.correlated or not obs.in_set_order:
+        return None
+    return planar_units(obs, rows)
+
+
+class ChordScorer:
+    """Chord cost of candidates for an all-angle problem, from the angles' sines and cosines.
+
+    The cost of :class:`GridScorer` for such problems, ``sum w^2 (1 - cos(y - h))`` with
+    ``cos(y - h) = cos y cos h + sin y sin h``, but with ``sin h`` and ``cos h`` made from
+    the relative positions (:class:`~tmakit.observation.fused.PlanarUnits`) instead of the
+    angles ``h``: equal up to rounding.
+
+    Parameters
+    ----------
+    units : PlanarUnits
+        The rows' ``theta -> (sin h, cos h)``.
+    weight2 : ndarray, shape (m,)
+        The rows' weights ``1 / sigma^2`` (rad^-2).
+    candidates : ndarray, shape (C, p)
+        Motion parameters of the candidates (SI).
+    """
+
+    def __init__(self, units: PlanarUnits, weight2: NDArray[np.float64],
+                 candidates: NDArray[np.float64]) -> None:
+        self.units = units
+        self.weight2 = weight2
+        self.candidates = candidates
+        step = _block_size(units.m)
+        self.blocks = [slice(lo, lo + step) for lo in range(0, candidates.shape[0], step)]
+
+    def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Return the chord costs of every candidate for each data set.
+
+        Parameters
+        ----------
+        y : ndarray, shape (B, m) or (m,)
+            Data sets on the rows (rad).
+
+        Returns
+        -------
+        ndarray, shape (B, C)
+            Half the weighted sum of squares for small residuals (dimensionless); inf
+            without predictions.
+        """
+        y = np.atleast_2d(np.asarray(y, dtype=float))
+        w2 = self.weight2
+        data = np.empty((2, w2.size, y.shape[0]))  # (sin y, cos y) weighted, rows first
+        np.multiply(np.sin(y).T, w2[:, None], out=data[0])
+        np.multiply(np.cos(y).T, w2[:, None], out=data[1])
+        data = data.reshape(2 * w2.size, y.shape[0])
+        total = w2.sum()
+        cost = np.empty((y.shape[0], self.candidates.shape[0]))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            for block in self.blocks:
+                units = self.units(self.candidates[block])
+                cost[:, block] = (total - matmul(units.reshape(units.shape[0], -1), data)).T
+        return np.where(np.isfinite(cost), cost, np.inf)
+
+
+def _scores(coarse: _Stage, small: _Stage, cand: NDArray[np.float64], refine: int,
+            run: int | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Return grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages.
 
-    Every candidate on a few rows (``stages[0]``: problem and grouped data), then the
-    ``refine`` best of each data set (their union) on more rows (``stages[1]``).  ``run``
-    scores that data set only.
+    Every candidate on a few rows (``coarse``), then the ``refine`` best of each data set
+    (their union) on more rows (``small``).  ``run`` scores that data set only.
     """
-    (coarse, y_coarse), (small, y_small) = stages
+    y_coarse, y_small = coarse.y, small.y
     if run is not None:
         y_coarse, y_small = y_coarse[run:run + 1], y_small[run:run + 1]
-    if coarse is not small and cand.shape[0] > refine:
-        first = GridScorer(coarse, cand).score(y_coarse)
+    if coarse.rows is not None and cand.shape[0] > refine:  # (else both are every row)
+        first = coarse.scorer(cand).score(y_coarse)
         best = np.argpartition(first, refine - 1, axis=1)[:, :refine]
-        keep = np.unique(best[np.isfinite(np.take_along_axis(first, best, axis=1))])
+        finite = best[np.isfinite(np.take_along_axis(first, best, axis=1))]
+        # one data set: distinct already (np.unique, sorted, costs more than the sort)
+        keep = np.sort(finite) if first.shape[0] == 1 else np.unique(finite)
         cand = cand[keep]
-    return cand, GridScorer(small, cand).score(y_small)
+    return cand, small.scorer(cand).score(y_small)
 
 
-def _with_values(problem: VarProProblem, y_grouped: NDArray[np.float64]) -> MeasurementSet:
-    """Return the problem's measurement set carrying the values ``y`` (grouped order).
+def _with_values(meas: MeasurementSet, values: NDArray[np.float64]) -> MeasurementSet:
+    """Return the measurement set carrying ``values`` (SI, its row order).
 
     The grid can then follow this data set's measured bearings.  The set itself when it
     carries them already (a fit of one set).
     """
-    meas = problem.obs.meas
-    values = y_grouped[problem.obs.inverse]
     if np.array_equal(values, meas.value_si):
         return meas
     copy = meas.take(np.arange(len(meas)))

@@ -144,6 +144,40 @@ class Bearing(MeasurementModel):
         """
         return np.arctan2(dx, dy)
 
+    def planar_unit(self, east_north: Array) -> Array:
+        """Give the sines and cosines of bearings from relative east and north positions.
+
+        The bearing ``h = atan2(dx, dy)`` has ``sin h = dx / r`` and ``cos h = dy / r`` with
+        ``r = sqrt(dx^2 + dy^2)``: no arctangent, sine or cosine (a grid scores many candidates
+        by these alone, :class:`~tmakit.batch.init.GridScorer`).  The same values as
+        ``sin``/``cos`` of :meth:`planar_value` up to rounding; where ``r`` is 0 or not finite
+        (or ``r^2`` under- or overflows) they are those of :meth:`planar_value` itself.
+
+        Parameters
+        ----------
+        east_north : ndarray, shape (..., 2, m)
+            Relative east and north positions (m); overwritten.
+
+        Returns
+        -------
+        ndarray, shape (..., 2, m)
+            ``east_north`` holding ``sin h`` and ``cos h`` (dimensionless).
+        """
+        dx, dy = east_north[..., 0, :], east_north[..., 1, :]
+        squares = east_north * east_north  # (not hypot: three times as long)
+        r = np.add(squares[..., 0, :], squares[..., 1, :])
+        np.sqrt(r, out=r)
+        # min and max carry any NaN: one test for a zero, infinite or NaN distance (or a
+        # square under- or overflowed)
+        if not r.size or (r.min() > 0.0 and r.max() < np.inf):
+            return np.divide(east_north, r[..., None, :], out=east_north)
+        at = ~((r > 0.0) & (r < np.inf))
+        h = np.arctan2(dx[at], dy[at])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            np.divide(east_north, r[..., None, :], out=east_north)
+        dx[at], dy[at] = np.sin(h), np.cos(h)
+        return east_north
+
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:
         """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m).

@@ -50,6 +50,7 @@ class AffineRows:
         self.p = int(p)
         self.m = int(offset.shape[1])
         self._matrix: Array | None = None
+        self._head_maps: dict[int, tuple[Array, Array]] = {}  # (see leading_many)
         #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
         for i, c, coef in self.terms:
@@ -116,6 +117,37 @@ class AffineRows:
             assert self._sensor is not None
             head = self._head = self._base[:n_c] - self._sensor[:, :n_c].T  # one pass
         return head[:n_c]
+
+    def leading_many(self, theta: Array, components: int) -> Array:
+        """Give the first ``components`` relative state components of many parameter vectors.
+
+        One product with the map of those components alone (made on first use).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(c, p)`` parameter vectors, SI.
+        components : int
+            How many leading state components (e.g. 2: the relative east and north
+            positions).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(c, components, m)``, a new array (m, m/s).
+        """
+        n_c = int(components)
+        head = self._head_maps.get(n_c)
+        if head is None:
+            dense = np.zeros((self.p, n_c, self.m))
+            for i, c, coef in self.terms:
+                if c < n_c:
+                    dense[i, c] = 1.0 if coef is None else coef
+            head = self._head_maps[n_c] = (dense.reshape(self.p, n_c * self.m),
+                                           self._offset_head(n_c).reshape(n_c * self.m))
+        out = theta @ head[0]
+        out += head[1]
+        return out.reshape(theta.shape[0], n_c, self.m)
 
     @property
     def flat_offset(self) -> Array:

@@ -23,7 +23,8 @@ import numpy as np
 from ..arrays import Array
 from .linearisation import Linearisation
 
-__all__ = ["fused_gradient_rows", "fused_linearisation", "fused_values", "gradient_of_rows"]
+__all__ = ["PlanarUnits", "fused_gradient_rows", "fused_linearisation",
+           "fused_values", "gradient_of_rows", "planar_units"]
 
 
 def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
@@ -167,6 +168,71 @@ def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
                 factor = weighted[id(coef)] = coef * r
         out[i] += np.einsum("n,n->", rows[c], factor)
     return out
+
+
+class PlanarUnits:
+    """Sines and cosines of one planar angle kind's predictions, many parameter vectors at once.
+
+    For a grid of candidates scored by the chord of the angles
+    (:class:`~tmakit.batch.init.GridScorer`): the relative east and north positions by one
+    product with the affine row map, then the model's ``planar_unit`` (for the bearing
+    ``(dx, dy) / r``): no angle is formed.  Made by :func:`planar_units`.
+
+    Parameters
+    ----------
+    rel_map : AffineRows
+        The rows' affine map.
+    unit : callable
+        The kind's ``planar_unit``.
+    """
+
+    def __init__(self, rel_map: Any, unit: Any) -> None:
+        self.rel_map = rel_map
+        self.unit = unit
+        self.m = int(rel_map.m)  #: rows
+
+    def __call__(self, theta: Array) -> Array:
+        """Give ``sin h`` and ``cos h`` of the predictions at each parameter vector.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(c, p)`` motion parameters, SI.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(c, 2, m)``: ``[:, 0]`` the sines, ``[:, 1]`` the cosines (dimensionless).
+        """
+        return self.unit(self.rel_map.leading_many(theta, 2))
+
+
+def planar_units(obs: Any, rows: Array | None = None) -> PlanarUnits | None:
+    """Give :class:`PlanarUnits` of the rows ``rows`` of ``obs`` (grouped order), or None.
+
+    It applies where :func:`fused_values` does (one kind, no nuisance or reference samples,
+    an affine motion model) for a kind with a ``planar_unit`` (the bearing).
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The observation model.
+    rows : numpy.ndarray of int, optional
+        Its rows in grouped order (default: all).
+
+    Returns
+    -------
+    PlanarUnits or None
+        None when it does not apply.
+    """
+    rel_map = obs._rel_map
+    if (rel_map is None or obs.n_nuisance or obs._ref is not None
+            or len(obs.models) != 1):
+        return None
+    unit = getattr(next(iter(obs.models.values())), "planar_unit", None)
+    if unit is None:
+        return None
+    return PlanarUnits(rel_map if rows is None else rel_map.take(rows), unit)
 
 
 def _fused_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
