@@ -104,11 +104,13 @@ def test_planar_unit_is_the_sine_and_cosine_of_the_bearing():
     en[1, :, :3] = [[np.inf, -np.inf, 3.0], [2.0, np.inf, np.nan]]
     en[2, :, :2] = [[1e200, 1e-200], [1e200, 2e-200]]  # squares over- and underflow
     h = Bearing().planar_value(en[:, 0], en[:, 1])
+    dx, dy = en[:, 0].copy(), en[:, 1].copy()
     with np.errstate(over="ignore", invalid="ignore"):
-        unit = Bearing().planar_unit(en.copy())
-    np.testing.assert_allclose(unit[:, 0], np.sin(h), rtol=1e-15, atol=1e-15)
-    np.testing.assert_allclose(unit[:, 1], np.cos(h), rtol=1e-15, atol=1e-15)
-    assert np.isnan(unit[1, :, 2]).all()
+        sin_h, cos_h = Bearing().planar_unit(dx, dy)
+    assert sin_h is dx and cos_h is dy  # in place
+    np.testing.assert_allclose(sin_h, np.sin(h), rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(cos_h, np.cos(h), rtol=1e-15, atol=1e-15)
+    assert np.isnan(sin_h[1, 2]) and np.isnan(cos_h[1, 2])
 
 
 def test_leading_components_of_many_parameter_vectors_are_the_relative_states():
@@ -121,7 +123,7 @@ def test_leading_components_of_many_parameter_vectors_are_the_relative_states():
     for rel_map, r in ((obs._rel_map, slice(None)), (obs._rel_map.take(rows), rows)):
         for n_c in (2, 3):
             got = rel_map.leading_many(theta, n_c)
-            np.testing.assert_allclose(got, rel[:, r, :n_c].swapaxes(1, 2), rtol=1e-12,
+            np.testing.assert_allclose(got, rel[:, r, :n_c].transpose(2, 0, 1), rtol=1e-12,
                                        atol=1e-9)
 
 

@@ -551,16 +551,15 @@ class ChordScorer:
         """
         y = np.atleast_2d(np.asarray(y, dtype=float))
         w2 = self.weight2
-        data = np.empty((2, w2.size, y.shape[0]))  # (sin y, cos y) weighted, rows first
-        np.multiply(np.sin(y).T, w2[:, None], out=data[0])
-        np.multiply(np.cos(y).T, w2[:, None], out=data[1])
-        data = data.reshape(2 * w2.size, y.shape[0])
+        sin_w, cos_w = (np.sin(y) * w2).T, (np.cos(y) * w2).T  # (m, B)
         total = w2.sum()
         cost = np.empty((y.shape[0], self.candidates.shape[0]))
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             for block in self.blocks:
-                units = self.units(self.candidates[block])
-                cost[:, block] = (total - matmul(units.reshape(units.shape[0], -1), data)).T
+                sin_h, cos_h = self.units(self.candidates[block])
+                dot = matmul(sin_h, sin_w)
+                dot += matmul(cos_h, cos_w)
+                cost[:, block] = (total - dot).T
         return np.where(np.isfinite(cost), cost, np.inf)
 
 
@@ -576,10 +575,12 @@ def _scores(coarse: _Stage, small: _Stage, cand: NDArray[np.float64], refine: in
         y_coarse, y_small = y_coarse[run:run + 1], y_small[run:run + 1]
     if coarse.rows is not None and cand.shape[0] > refine:  # (else both are every row)
         first = coarse.scorer(cand).score(y_coarse)
-        best = np.argpartition(first, refine - 1, axis=1)[:, :refine]
-        finite = best[np.isfinite(np.take_along_axis(first, best, axis=1))]
-        # one data set: distinct already (np.unique, sorted, costs more than the sort)
-        keep = np.sort(finite) if first.shape[0] == 1 else np.unique(finite)
+        if first.shape[0] == 1:  # one data set: its best are distinct, sorted by a sort
+            best = np.argpartition(first[0], refine - 1)[:refine]
+            keep = np.sort(best[np.isfinite(first[0, best])])
+        else:
+            best = np.argpartition(first, refine - 1, axis=1)[:, :refine]
+            keep = np.unique(best[np.isfinite(np.take_along_axis(first, best, axis=1))])
         cand = cand[keep]
     return cand, small.scorer(cand).score(y_small)
 

@@ -144,39 +144,47 @@ class Bearing(MeasurementModel):
         """
         return np.arctan2(dx, dy)
 
-    def planar_unit(self, east_north: Array) -> Array:
+    def planar_unit(self, dx: Array, dy: Array) -> tuple[Array, Array]:
         """Give the sines and cosines of bearings from relative east and north positions.
 
         The bearing ``h = atan2(dx, dy)`` has ``sin h = dx / r`` and ``cos h = dy / r`` with
-        ``r = sqrt(dx^2 + dy^2)``: no arctangent, sine or cosine (a grid scores many candidates
-        by these alone, :class:`~tmakit.batch.init.GridScorer`).  The same values as
-        ``sin``/``cos`` of :meth:`planar_value` up to rounding; where ``r`` is 0 or not finite
-        (or ``r^2`` under- or overflows) they are those of :meth:`planar_value` itself.
+        ``r = sqrt(dx^2 + dy^2)``: no arctangent, sine or cosine (a grid scores many
+        candidates by these alone, :class:`~tmakit.batch.init.ChordScorer`).  The same values
+        as ``sin``/``cos`` of :meth:`planar_value` up to rounding; where ``r`` is 0 or not
+        finite (or ``r^2`` under- or overflows) they are those of :meth:`planar_value`
+        itself.
 
         Parameters
         ----------
-        east_north : ndarray, shape (..., 2, m)
-            Relative east and north positions (m); overwritten.
+        dx, dy : ndarray
+            Relative east and north positions, one shape (m); overwritten.
 
         Returns
         -------
-        ndarray, shape (..., 2, m)
-            ``east_north`` holding ``sin h`` and ``cos h`` (dimensionless).
+        (ndarray, ndarray)
+            ``dx`` holding ``sin h`` and ``dy`` holding ``cos h`` (dimensionless).
         """
-        dx, dy = east_north[..., 0, :], east_north[..., 1, :]
-        squares = east_north * east_north  # (not hypot: three times as long)
-        r = np.add(squares[..., 0, :], squares[..., 1, :])
-        np.sqrt(r, out=r)
+        inv = dx * dx  # (not hypot: three times as long)
+        inv += dy * dy
+        np.sqrt(inv, out=inv)
         # min and max carry any NaN: one test for a zero, infinite or NaN distance (or a
         # square under- or overflowed)
-        if not r.size or (r.min() > 0.0 and r.max() < np.inf):
-            return np.divide(east_north, r[..., None, :], out=east_north)
-        at = ~((r > 0.0) & (r < np.inf))
-        h = np.arctan2(dx[at], dy[at])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            np.divide(east_north, r[..., None, :], out=east_north)
-        dx[at], dy[at] = np.sin(h), np.cos(h)
-        return east_north
+        if inv.size and not (inv.min() > 0.0 and inv.max() < np.inf):
+            at = ~((inv > 0.0) & (inv < np.inf))
+            h = np.arctan2(dx[at], dy[at])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                self._scale_by_inverse(dx, dy, inv)
+            dx[at], dy[at] = np.sin(h), np.cos(h)
+            return dx, dy
+        self._scale_by_inverse(dx, dy, inv)
+        return dx, dy
+
+    @staticmethod
+    def _scale_by_inverse(dx: Array, dy: Array, r: Array) -> None:
+        """Divide ``dx`` and ``dy`` by ``r`` in place (by one reciprocal: ``r`` overwritten)."""
+        np.divide(1.0, r, out=r)
+        dx *= r
+        dy *= r
 
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:

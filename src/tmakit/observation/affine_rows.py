@@ -50,7 +50,7 @@ class AffineRows:
         self.p = int(p)
         self.m = int(offset.shape[1])
         self._matrix: Array | None = None
-        self._head_maps: dict[int, tuple[Array, Array]] = {}  # (see leading_many)
+        self._head_maps: dict[int, Array] = {}  # (see leading_many)
         #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
         for i, c, coef in self.terms:
@@ -65,6 +65,40 @@ class AffineRows:
                 dense[i, c] = 1.0 if coef is None else coef
             self._matrix = dense.reshape(self.p, 6 * self.m)
         return self._matrix
+
+    def leading_many(self, theta: Array, components: int) -> Array:
+        """Give the first ``components`` relative state components of many parameter vectors.
+
+        One product with the map of those components alone and their offset (made on first
+        use), the offset a last parameter always 1: no pass of its own.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(c, p)`` parameter vectors, SI.
+        components : int
+            How many leading state components (e.g. 2: the relative east and north
+            positions).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(components, c, m)``, a new array, component-major: each component of every
+            vector contiguous (m, m/s).
+        """
+        n_c = int(components)
+        head = self._head_maps.get(n_c)
+        if head is None:
+            head = np.zeros((n_c, self.p + 1, self.m))
+            for i, c, coef in self.terms:
+                if c < n_c:
+                    head[c, i] = 1.0 if coef is None else coef
+            head[:, self.p] = self._offset_head(n_c)
+            self._head_maps[n_c] = head
+        with_one = np.empty((theta.shape[0], self.p + 1))
+        with_one[:, :self.p] = theta
+        with_one[:, self.p] = 1.0
+        return np.matmul(with_one, head)  # (c, p + 1) @ (n_c, p + 1, m): one call
 
     @property
     def offset(self) -> Array:
@@ -117,37 +151,6 @@ class AffineRows:
             assert self._sensor is not None
             head = self._head = self._base[:n_c] - self._sensor[:, :n_c].T  # one pass
         return head[:n_c]
-
-    def leading_many(self, theta: Array, components: int) -> Array:
-        """Give the first ``components`` relative state components of many parameter vectors.
-
-        One product with the map of those components alone (made on first use).
-
-        Parameters
-        ----------
-        theta : numpy.ndarray
-            ``(c, p)`` parameter vectors, SI.
-        components : int
-            How many leading state components (e.g. 2: the relative east and north
-            positions).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(c, components, m)``, a new array (m, m/s).
-        """
-        n_c = int(components)
-        head = self._head_maps.get(n_c)
-        if head is None:
-            dense = np.zeros((self.p, n_c, self.m))
-            for i, c, coef in self.terms:
-                if c < n_c:
-                    dense[i, c] = 1.0 if coef is None else coef
-            head = self._head_maps[n_c] = (dense.reshape(self.p, n_c * self.m),
-                                           self._offset_head(n_c).reshape(n_c * self.m))
-        out = theta @ head[0]
-        out += head[1]
-        return out.reshape(theta.shape[0], n_c, self.m)
 
     @property
     def flat_offset(self) -> Array:

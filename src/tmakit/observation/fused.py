@@ -202,9 +202,11 @@ class PlanarUnits:
         Returns
         -------
         numpy.ndarray
-            ``(c, 2, m)``: ``[:, 0]`` the sines, ``[:, 1]`` the cosines (dimensionless).
+            ``(2, c, m)``: ``[0]`` the sines, ``[1]`` the cosines (dimensionless).
         """
-        return self.unit(self.rel_map.leading_many(theta, 2))
+        east_north = self.rel_map.leading_many(theta, 2)
+        self.unit(east_north[0], east_north[1])
+        return east_north
 
 
 def planar_units(obs: Any, rows: Array | None = None) -> PlanarUnits | None:
