@@ -12,7 +12,7 @@ from bearing_sets import bearings
 
 import tmakit as tk
 from tmakit.batch import init
-from tmakit.batch.grid import _median
+from tmakit.batch.grid import _median, grid_candidates_for
 from tmakit.batch.solver import VarProProblem
 from tmakit.measurements.bearing import Bearing
 from tmakit.observation import ObservationModel
@@ -26,6 +26,13 @@ def _scaled(name: str, n: int, seed: int) -> tuple[tk.Scenario, tk.MeasurementSe
     scn = dataclasses.replace(scn, plans=[dataclasses.replace(p, times=np.linspace(lo, hi, per))
                                           for p in scn.plans])
     return scn, scn.simulate(np.random.default_rng(seed))
+
+
+def _two_sensors() -> tk.MeasurementSet:
+    """Bearings of two sensors, every other row (one track: enough for the grid)."""
+    one = bearings(tk.Stationary(2), np.array([-6e3, 9e3]), 60, 8)
+    return tk.MeasurementSet.from_si(one.time, np.arange(60) % 2, np.full(60, "bearing"),
+                                     one.value_si, one.sigma_si, one.sensor_state)
 
 
 def _cases():
@@ -43,8 +50,9 @@ def _cases():
                                                 seed), tk.Stationary(2))
         yield (f"weave-cv3d-{seed}", bearings(cv3, np.array([8e3, 12e3, 300.0, -4.0, 2.0, 0.0]),
                                               200, seed, dim=3), cv3)
-    chen = tk.load_scenario("chen-sun-1")  # several sensors, 3-D: its bearings alone
+    chen = tk.load_scenario("chen-sun-1")  # 3-D: its bearings alone
     yield "chen-sun-1-bearings", chen.simulate(5).select(kind="bearing"), chen.motion
+    yield "two-sensors", _two_sensors(), tk.Stationary(2)
 
 
 CASES = list(_cases())
@@ -132,3 +140,22 @@ def test_median_is_numpys(n):
     t = np.random.default_rng(n).uniform(-1e3, 1e3, n)
     assert _median(t) == np.median(t)
     assert _median(np.round(t)) == np.median(np.round(t))
+
+
+@pytest.mark.parametrize("name", ["bearings-only-2d", "chen-sun-1", "gu2007", "two-sensors"])
+def test_grid_of_some_rows_and_values_is_the_grid_of_those_rows_taken(name):
+    if name == "two-sensors":
+        scn, meas = tk.load_scenario("bearings-only-2d"), _two_sensors()
+        assert len(meas.sensors) == 2
+    else:
+        scn = tk.load_scenario(name)
+        meas = scn.simulate(2)
+    rng = np.random.default_rng(6)
+    rows = np.sort(rng.choice(len(meas), size=min(len(meas), 23), replace=False))
+    values = meas.value_si[rows] + rng.normal(size=rows.size) * 0.01
+    taken = meas.take(rows)
+    got = grid_candidates_for(meas, scn.motion, None, rows)
+    np.testing.assert_array_equal(got, grid_candidates_for(taken, scn.motion))
+    taken.value_si = values
+    got = grid_candidates_for(meas, scn.motion, None, rows, values)
+    np.testing.assert_array_equal(got, grid_candidates_for(taken, scn.motion))

@@ -68,26 +68,37 @@ def _reference_point(meas: MeasurementSet, t_mid: float) -> NDArray[np.float64]:
     return meas.sensor_state[near, :3].mean(axis=0)
 
 
-def _positions(meas: MeasurementSet, t_mid: float, dim: int, g: GridSettings
+def _positions(meas: MeasurementSet, rows: NDArray[np.intp] | None,
+               values: NDArray[np.float64] | None, t_mid: float, dim: int, g: GridSettings
                ) -> NDArray[np.float64]:
     """Return candidate positions ``(m, 3)``: rays x elevations x ranges, in that order.
 
     The rays go from each bearing sensor along its bearing nearest ``t_mid``, or fan out
-    around the sensors.
+    around the sensors.  Of the rows ``rows`` of the set (None: all), whose values are
+    ``values`` (None: the set's).
     """
     ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
-    bearing_rows = np.flatnonzero(meas.kind_mask("bearing"))
-    if bearing_rows.size:
-        ends = []
-        codes = meas.sensor_code[bearing_rows]  # the sensors in the order of their ids
-        for c in sorted(np.unique(codes).tolist(), key=meas.sensor_names.__getitem__):
-            rows = bearing_rows[codes == c]
-            ends.append(rows[np.argmin(np.abs(meas.time[rows] - t_mid))])
-        origins = meas.sensor_state[ends, :3]
-        dirs = _directions(meas.value_si[ends], _elevations(dim, tuple(g.elevations_deg)))
+    kind = meas.kind_mask("bearing")
+    at = np.flatnonzero(kind if rows is None else kind[rows])  # bearings among the rows
+    if at.size:
+        own = at if rows is None else rows[at]  # (their rows in the set)
+        codes, time = meas.sensor_code[own], meas.time[own]
+        if codes.min() == codes.max():  # one sensor
+            ends = [at[np.argmin(np.abs(time - t_mid))]]
+        else:  # the sensors in the order of their ids
+            ends = []
+            for c in sorted(np.unique(codes).tolist(), key=meas.sensor_names.__getitem__):
+                mine = codes == c
+                ends.append(at[mine][np.argmin(np.abs(time[mine] - t_mid))])
+        ends_set = ends if rows is None else rows[ends]
+        origins = meas.sensor_state[ends_set, :3]
+        bearings = meas.value_si[ends_set] if values is None else values[ends]
+        dirs = _directions(bearings, _elevations(dim, tuple(g.elevations_deg)))
     else:
         dirs = _fan(g.n_bearings, dim, tuple(g.elevations_deg))
-        origins = np.broadcast_to(_reference_point(meas, t_mid), (dirs.shape[0], 3))
+        origins = np.broadcast_to(
+            _reference_point(meas if rows is None else meas.take(rows), t_mid),
+            (dirs.shape[0], 3))
     pts = (origins[:, None, None, :]
            + ranges[None, None, :, None] * dirs[:, :, None, :]).reshape(-1, 3)
     if dim == 2:
@@ -179,7 +190,9 @@ def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
 
 
 def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
-                        settings: GridSettings | None = None) -> NDArray[np.float64]:
+                        settings: GridSettings | None = None,
+                        rows: NDArray[np.intp] | None = None,
+                        values: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """Return :func:`grid_candidates` from the measurements and motion model themselves.
 
     Parameters
@@ -190,6 +203,11 @@ def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
         The motion model that converts it.
     settings : GridSettings, optional
         Extent and density (default :class:`GridSettings()`).
+    rows : ndarray of int, optional
+        The rows of ``meas`` that place it (its row order; default all): the grid of
+        ``meas.take(rows)``.
+    values : ndarray, optional
+        The values of those rows (SI; default the set's), e.g. another data set's bearings.
 
     Returns
     -------
@@ -197,8 +215,8 @@ def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
         Motion parameters (SI) of the grid's states at the median measurement time.
     """
     g = settings or GridSettings()
-    t_mid = _median(meas.time)
-    pos = _positions(meas, t_mid, motion.dim, g)
+    t_mid = _median(meas.time if rows is None else meas.time[rows])
+    pos = _positions(meas, rows, values, t_mid, motion.dim, g)
     moving = "vx" in motion.param_names or "speed" in motion.param_names
     vel = _velocities(tuple(g.speeds), g.n_courses) if moving else np.zeros((1, 3))
     # Component-major (each component of every state contiguous): the conversion then runs

@@ -415,17 +415,16 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
     small = _Stage(problem, _spread_rows(problem, g.max_rows), ys)
     coarse = _Stage(problem, _spread_rows(problem, min(g.coarse_rows, g.max_rows)), ys)
+    meas, rows = small.source()
     if _data_dependent(problem):
         out = []
-        meas = small.meas()
-        for b in range(ys.shape[0]):
-            cand = grid_candidates_for(_with_values(meas, small.values(b)),
-                                       problem.obs.motion, g)
+        for b in range(ys.shape[0]):  # the grid along this data set's bearings
+            cand = grid_candidates_for(meas, problem.obs.motion, g, rows, small.values(b))
             cand, cost = _scores(coarse, small, cand, g.refine, b)
             out.append(Starts(cand, cost[0]))
         return out
-    cand, cost = _scores(coarse, small, grid_candidates_for(small.meas(), problem.obs.motion,
-                                                            g), g.refine)
+    cand, cost = _scores(coarse, small, grid_candidates_for(meas, problem.obs.motion, g, rows),
+                         g.refine)
     scaled = _scaled(cand)
     return [Starts(cand, cost[b], scaled) for b in range(ys.shape[0])]
 
@@ -469,12 +468,11 @@ class _Stage:
             return GridScorer(self.problem, candidates)
         return ChordScorer(self.units, self.weight2, candidates)
 
-    def meas(self) -> MeasurementSet:
-        """Return the measurement set of the stage's rows."""
+    def source(self) -> tuple[MeasurementSet, NDArray[np.int64] | None]:
+        """Return a measurement set and its rows (None: all) that are the stage's rows."""
         if self.problem is not None:
-            return self.problem.obs.meas
-        meas = self.whole.obs.meas
-        return meas if self.rows is None else meas.take(self.rows)
+            return self.problem.obs.meas, None
+        return self.whole.obs.meas, self.rows
 
     def values(self, b: int) -> NDArray[np.float64]:
         """Return data set ``b`` on the stage's rows in the set's order (SI)."""
@@ -583,19 +581,6 @@ def _scores(coarse: _Stage, small: _Stage, cand: NDArray[np.float64], refine: in
             keep = np.unique(best[np.isfinite(np.take_along_axis(first, best, axis=1))])
         cand = cand[keep]
     return cand, small.scorer(cand).score(y_small)
-
-
-def _with_values(meas: MeasurementSet, values: NDArray[np.float64]) -> MeasurementSet:
-    """Return the measurement set carrying ``values`` (SI, its row order).
-
-    The grid can then follow this data set's measured bearings.  The set itself when it
-    carries them already (a fit of one set).
-    """
-    if np.array_equal(values, meas.value_si):
-        return meas
-    copy = meas.take(np.arange(len(meas)))
-    copy.value_si = values
-    return copy
 
 
 def grid_start(meas: MeasurementSet, motion: MotionModel,
