@@ -16,6 +16,7 @@ from tmakit.batch.grid import _median, grid_candidates_for
 from tmakit.batch.solver import VarProProblem
 from tmakit.measurements.bearing import Bearing
 from tmakit.observation import ObservationModel
+from tmakit.observation.affine_rows import leading_states
 
 
 def _scaled(name: str, n: int, seed: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
@@ -128,11 +129,18 @@ def test_leading_components_of_many_parameter_vectors_are_the_relative_states():
     theta = np.random.default_rng(1).normal(size=(9, 6)) * [1e4, 1e4, 1e3, 10, 10, 1]
     rel = np.stack([cv.states(th, obs._time) for th in theta]) - obs._sensor
     rows = np.array([0, 3, 17, 49])
-    for rel_map, r in ((obs._rel_map, slice(None)), (obs._rel_map.take(rows), rows)):
-        for n_c in (2, 3):
-            got = rel_map.leading_many(theta, n_c)
-            np.testing.assert_allclose(got, rel[:, r, :n_c].transpose(2, 0, 1), rtol=1e-12,
-                                       atol=1e-9)
+    for n_c in (2, 3):
+        want = rel[..., :n_c].transpose(2, 0, 1)
+        np.testing.assert_allclose(obs._rel_map.leading_many(theta, n_c), want, rtol=1e-12,
+                                   atol=1e-9)
+        for rel_map in (obs._rel_map, obs._rel_map.take(np.arange(50))):  # lazy and made
+            head = rel_map.leading_map(n_c, rows)
+            np.testing.assert_array_equal(head, rel_map.take(rows).leading_map(n_c))
+            np.testing.assert_allclose(leading_states(theta, head), want[..., rows],
+                                       rtol=1e-12, atol=1e-9)
+        obs._rel_map.offset  # noqa: B018  (the offset made: the rows taken from it)
+        np.testing.assert_array_equal(obs._rel_map.leading_map(n_c, rows),
+                                      obs._rel_map.take(rows).leading_map(n_c))
 
 
 @pytest.mark.parametrize("n", [1, 2, 7, 30, 31, 100])

@@ -360,8 +360,9 @@ class Starts:
 
 def _scaled(candidates: NDArray[np.float64]) -> NDArray[np.float64]:
     """Candidates over each parameter's spread, transposed ``(p, C)`` for fast distances."""
-    scale = np.maximum(np.abs(candidates).max(axis=0), 1.0)
-    return np.ascontiguousarray((candidates / scale).T)
+    scaled = np.array(candidates.T, order="C")  # a copy; reductions along rows: fast
+    scaled /= np.maximum(np.abs(scaled).max(axis=1), 1.0)[:, None]
+    return scaled
 
 
 def best_starts(problem: VarProProblem, y: NDArray[np.float64],

@@ -66,39 +66,64 @@ class AffineRows:
             self._matrix = dense.reshape(self.p, 6 * self.m)
         return self._matrix
 
+    def leading_map(self, components: int, rows: NDArray[np.intp] | None = None) -> Array:
+        """Give the map of the first ``components`` relative state components at some rows.
+
+        The offset is a last parameter, always 1 (:func:`leading_states`): no pass of its
+        own.  Made from this map's terms and offset at those rows alone (no taken map).
+
+        Parameters
+        ----------
+        components : int
+            How many leading state components (e.g. 2: the relative east and north
+            positions).
+        rows : numpy.ndarray of int, optional
+            The rows (default all: made once).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(components, p + 1, m')`` (SI), read only by the caller.
+        """
+        n_c = int(components)
+        if rows is None and n_c in self._head_maps:
+            return self._head_maps[n_c]
+        m = self.m if rows is None else rows.shape[0]
+        head = np.zeros((n_c, self.p + 1, m))
+        for i, c, coef in self.terms:
+            if c < n_c:
+                head[c, i] = 1.0 if coef is None else coef if rows is None else coef[rows]
+        if rows is None:
+            head[:, self.p] = self._offset_head(n_c)
+            self._head_maps[n_c] = head
+            return head
+        made = self._offset if self._offset is not None else self._head
+        if made is not None and made.shape[0] >= n_c:
+            head[:, self.p] = made[:n_c][:, rows]
+        else:  # the rows of base - sensor (as _offset_head makes them)
+            assert self._sensor is not None
+            np.subtract(self._base[:n_c][:, rows], self._sensor[rows, :n_c].T,
+                        out=head[:, self.p])
+        return head
+
     def leading_many(self, theta: Array, components: int) -> Array:
         """Give the first ``components`` relative state components of many parameter vectors.
 
-        One product with the map of those components alone and their offset (made on first
-        use), the offset a last parameter always 1: no pass of its own.
+        :func:`leading_states` of :meth:`leading_map`.
 
         Parameters
         ----------
         theta : numpy.ndarray
             ``(c, p)`` parameter vectors, SI.
         components : int
-            How many leading state components (e.g. 2: the relative east and north
-            positions).
+            How many leading state components.
 
         Returns
         -------
         numpy.ndarray
-            ``(components, c, m)``, a new array, component-major: each component of every
-            vector contiguous (m, m/s).
+            ``(components, c, m)`` (m, m/s).
         """
-        n_c = int(components)
-        head = self._head_maps.get(n_c)
-        if head is None:
-            head = np.zeros((n_c, self.p + 1, self.m))
-            for i, c, coef in self.terms:
-                if c < n_c:
-                    head[c, i] = 1.0 if coef is None else coef
-            head[:, self.p] = self._offset_head(n_c)
-            self._head_maps[n_c] = head
-        with_one = np.empty((theta.shape[0], self.p + 1))
-        with_one[:, :self.p] = theta
-        with_one[:, self.p] = 1.0
-        return np.matmul(with_one, head)  # (c, p + 1) @ (n_c, p + 1, m): one call
+        return leading_states(theta, self.leading_map(components))
 
     @property
     def offset(self) -> Array:
@@ -231,3 +256,26 @@ class AffineRows:
             return AffineRows(terms, np.take(self._base, rows, axis=1), self.p,
                               np.take(self._sensor, rows, axis=0))
         return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)
+
+
+def leading_states(theta: Array, head: Array) -> Array:
+    """Give leading relative state components of many parameter vectors from their map.
+
+    Parameters
+    ----------
+    theta : numpy.ndarray
+        ``(c, p)`` parameter vectors, SI.
+    head : numpy.ndarray
+        ``(n_c, p + 1, m)`` :meth:`AffineRows.leading_map`.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_c, c, m)``, a new array, component-major: each component of every vector
+        contiguous (m, m/s).
+    """
+    p = head.shape[1] - 1
+    with_one = np.empty((theta.shape[0], p + 1))
+    with_one[:, :p] = theta
+    with_one[:, p] = 1.0
+    return np.matmul(with_one, head)  # (c, p + 1) @ (n_c, p + 1, m): one call

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..arrays import Array
+from .affine_rows import leading_states
 from .linearisation import Linearisation
 
 __all__ = ["PlanarUnits", "fused_gradient_rows", "fused_linearisation",
@@ -180,16 +181,17 @@ class PlanarUnits:
 
     Parameters
     ----------
-    rel_map : AffineRows
-        The rows' affine map.
+    head : numpy.ndarray
+        ``(2, p + 1, m)`` the map of the rows' relative east and north positions
+        (:meth:`~tmakit.observation.affine_rows.AffineRows.leading_map`).
     unit : callable
         The kind's ``planar_unit``.
     """
 
-    def __init__(self, rel_map: Any, unit: Any) -> None:
-        self.rel_map = rel_map
+    def __init__(self, head: Array, unit: Any) -> None:
+        self.head = head
         self.unit = unit
-        self.m = int(rel_map.m)  #: rows
+        self.m = int(head.shape[2])  #: rows
 
     def __call__(self, theta: Array) -> Array:
         """Give ``sin h`` and ``cos h`` of the predictions at each parameter vector.
@@ -204,7 +206,7 @@ class PlanarUnits:
         numpy.ndarray
             ``(2, c, m)``: ``[0]`` the sines, ``[1]`` the cosines (dimensionless).
         """
-        east_north = self.rel_map.leading_many(theta, 2)
+        east_north = leading_states(theta, self.head)
         self.unit(east_north[0], east_north[1])
         return east_north
 
@@ -234,7 +236,7 @@ def planar_units(obs: Any, rows: Array | None = None) -> PlanarUnits | None:
     unit = getattr(next(iter(obs.models.values())), "planar_unit", None)
     if unit is None:
         return None
-    return PlanarUnits(rel_map if rows is None else rel_map.take(rows), unit)
+    return PlanarUnits(rel_map.leading_map(2, rows), unit)
 
 
 def _fused_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
