@@ -92,9 +92,12 @@ def test_chord_scorer_costs_are_the_grid_scorers():
     on_sensor = np.concatenate([meas.sensor_state[3, :2], [0.0, 0.0]])
     cand = np.vstack([cand, on_sensor])  # a bearing at range 0 (atan2 gives 0: finite)
     y = problem.group(problem.obs.values)[None]
-    chord = init.ChordScorer(init.chord_units(problem), problem.noise.inv_sigma ** 2, cand)
-    np.testing.assert_allclose(chord.score(y), init.GridScorer(problem, cand).score(y),
-                               rtol=1e-10, atol=1e-8)
+    general = init.GridScorer(problem, cand).score(y)
+    for step in (64, 1000):  # blocks of candidates, or one
+        chord = init.ChordScorer(init.chord_units(problem), problem.noise.inv_sigma ** 2, cand,
+                                 step)
+        assert len(chord.blocks) == (6 if step == 64 else 1)
+        np.testing.assert_allclose(chord.score(y), general, rtol=1e-10, atol=1e-8)
 
 
 def test_problems_not_of_one_planar_angle_under_affine_motion_keep_the_general_path():

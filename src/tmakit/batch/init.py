@@ -3,6 +3,10 @@
 A coarse grid of trajectories is scored by the reduced (nuisance-eliminated) likelihood in two
 vectorised stages (every point on a few rows, the best of them on more), and the best few,
 mutually distinct, become the starting points of the batched Levenberg–Marquardt solve.
+Bearings alone under an affine motion model are scored by
+:class:`~tmakit.batch.chord.ChordScorer` on the rows of the problem itself (sines and cosines
+from the relative positions, no subset problem); the others by :class:`GridScorer` on the
+problem restricted to the rows.
 The grid itself is :mod:`tmakit.batch.grid`: positions along the measured bearings or on a
 polar grid around the sensors, velocities on a grid of speeds and courses; 3-D models add a few
 elevation angles above the sensors' plane (emitters below the sensors are not searched: with
@@ -21,10 +25,11 @@ from ..blas import matmul
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
-from ..observation.fused import PlanarUnits, planar_units
 from ..observation.noise import NoiseModel
+from .chord import ChordScorer, chord_units
 from .grid import GridSettings, grid_candidates, grid_candidates_for
 from .solver import VarProProblem
+from .starts import Starts, starts_of
 
 __all__ = ["ChordScorer", "GridScorer", "GridSettings", "Starts", "best_starts",
            "best_starts_many", "chord_units", "grid_candidates", "grid_start",
@@ -311,60 +316,6 @@ def orthonormal_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return q
 
 
-class Starts:
-    """The mutually distinct candidates of one data set, best first, chosen when asked for.
-
-    Greedily in order of cost, each candidate not within 5 % of each parameter's spread of one
-    already chosen.
-
-    Parameters
-    ----------
-    candidates : ndarray, shape (C, p)
-        Motion parameters (SI).
-    cost : ndarray, shape (C,)
-        Their grid costs (non-finite: never chosen).
-    scaled : ndarray, shape (p, C), optional
-        The candidates over that spread, transposed; may be shared by data sets with the
-        same candidates.
-    """
-
-    def __init__(self, candidates: NDArray[np.float64], cost: NDArray[np.float64],
-                 scaled: NDArray[np.float64] | None = None) -> None:
-        self.candidates = candidates
-        self.scaled = _scaled(candidates) if scaled is None else scaled
-        self.left = np.where(np.isfinite(cost), cost, np.inf)
-        self.chosen: list[int] = []
-
-    def first(self, m: int) -> NDArray[np.float64]:
-        """Return the ``m`` best distinct candidates.
-
-        Parameters
-        ----------
-        m : int
-            How many.
-
-        Returns
-        -------
-        ndarray, shape (<= m, p)
-            Motion parameters (SI), best first; fewer when no more are finite.
-        """
-        while len(self.chosen) < m:
-            i = int(np.argmin(self.left))
-            if not np.isfinite(self.left[i]):
-                break
-            self.chosen.append(i)
-            near = np.max(np.abs(self.scaled - self.scaled[:, i:i + 1]), axis=0) <= 0.05
-            self.left[near] = np.inf
-        return self.candidates[self.chosen[:m]]
-
-
-def _scaled(candidates: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Candidates over each parameter's spread, transposed ``(p, C)`` for fast distances."""
-    scaled = np.array(candidates.T, order="C")  # a copy; reductions along rows: fast
-    scaled /= np.maximum(np.abs(scaled).max(axis=1), 1.0)[:, None]
-    return scaled
-
-
 def best_starts(problem: VarProProblem, y: NDArray[np.float64],
                 settings: GridSettings | None = None) -> NDArray[np.float64]:
     """Return the best few distinct grid candidates for one data set, best first.
@@ -426,16 +377,15 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
         return out
     cand, cost = _scores(coarse, small, grid_candidates_for(meas, problem.obs.motion, g, rows),
                          g.refine)
-    scaled = _scaled(cand)
-    return [Starts(cand, cost[b], scaled) for b in range(ys.shape[0])]
+    return starts_of(cand, cost)
 
 
 class _Stage:
     """The rows one stage of the grid scores on, and the data sets on them.
 
     All-angle problems of one planar kind under an affine motion model (bearings, constant
-    velocity or at rest) are scored by :class:`ChordScorer` on the rows of the problem
-    itself; the others by :class:`GridScorer` on the problem restricted to the rows
+    velocity or at rest) are scored by :class:`~tmakit.batch.chord.ChordScorer` on the rows
+    of the problem itself; the others by :class:`GridScorer` on the problem restricted to the rows
     (:func:`_subsample`).
 
     Parameters
@@ -467,7 +417,7 @@ class _Stage:
         """Return the scorer of ``candidates`` ``(C, p)`` on the stage's rows."""
         if self.units is None:
             return GridScorer(self.problem, candidates)
-        return ChordScorer(self.units, self.weight2, candidates)
+        return ChordScorer(self.units, self.weight2, candidates, _block_size(self.units.m))
 
     def source(self) -> tuple[MeasurementSet, NDArray[np.int64] | None]:
         """Return a measurement set and its rows (None: all) that are the stage's rows."""
@@ -480,86 +430,6 @@ class _Stage:
         if self.problem is None:
             return self.y[b]
         return self.y[b][self.problem.obs.inverse]
-
-
-def chord_units(problem: VarProProblem, rows: NDArray[np.int64] | None = None
-                ) -> PlanarUnits | None:
-    """Give the predicted angles' sines and cosines of a problem's rows, or None.
-
-    For problems whose every row is an angle of one planar kind (the bearing), without
-    correlated noise, under an affine motion model (:func:`~tmakit.observation.fused.
-    planar_units`); the grid scores them by :class:`ChordScorer`.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem.
-    rows : ndarray of int, optional
-        Its rows (set order; default all).
-
-    Returns
-    -------
-    PlanarUnits or None
-        None when the problem is not of that form.
-    """
-    obs = problem.obs
-    if not problem.all_angle or problem.noise.correlated or not obs.in_set_order:
-        return None
-    return planar_units(obs, rows)
-
-
-class ChordScorer:
-    """Chord cost of candidates for an all-angle problem, from the angles' sines and cosines.
-
-    The cost of :class:`GridScorer` for such problems, ``sum w^2 (1 - cos(y - h))`` with
-    ``cos(y - h) = cos y cos h + sin y sin h``, but with ``sin h`` and ``cos h`` made from
-    the relative positions (:class:`~tmakit.observation.fused.PlanarUnits`) instead of the
-    angles ``h``: equal up to rounding.
-
-    Parameters
-    ----------
-    units : PlanarUnits
-        The rows' ``theta -> (sin h, cos h)``.
-    weight2 : ndarray, shape (m,)
-        The rows' weights ``1 / sigma^2`` (rad^-2).
-    candidates : ndarray, shape (C, p)
-        Motion parameters of the candidates (SI).
-    """
-
-    def __init__(self, units: PlanarUnits, weight2: NDArray[np.float64],
-                 candidates: NDArray[np.float64]) -> None:
-        self.units = units
-        self.weight2 = weight2
-        self.candidates = candidates
-        step = _block_size(units.m)
-        self.blocks = [slice(lo, lo + step) for lo in range(0, candidates.shape[0], step)]
-
-    def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Return the chord costs of every candidate for each data set.
-
-        Parameters
-        ----------
-        y : ndarray, shape (B, m) or (m,)
-            Data sets on the rows (rad).
-
-        Returns
-        -------
-        ndarray, shape (B, C)
-            Half the weighted sum of squares for small residuals (dimensionless); inf
-            without predictions.
-        """
-        y = np.atleast_2d(np.asarray(y, dtype=float))
-        w2 = self.weight2
-        sin_w, cos_w = (np.sin(y) * w2).T, (np.cos(y) * w2).T  # (m, B)
-        total = w2.sum()
-        cost = np.empty((y.shape[0], self.candidates.shape[0]))
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            for block in self.blocks:
-                sin_h, cos_h = self.units(self.candidates[block])
-                dot = matmul(sin_h, sin_w)
-                dot += matmul(cos_h, cos_w)
-                cost[:, block] = (total - dot).T
-        return np.where(np.isfinite(cost), cost, np.inf)
 
 
 def _scores(coarse: _Stage, small: _Stage, cand: NDArray[np.float64], refine: int,

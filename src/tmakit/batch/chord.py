@@ -1,0 +1,104 @@
+"""The grid's chord cost for bearings alone under affine motion, without forming the angles.
+
+The grid start (:mod:`tmakit.batch.init`) scores a problem whose every row is an angle by the
+chord ``sum w^2 (1 - cos(y - h))``.  For one planar kind (the bearing) under an affine motion
+model (constant velocity, at rest) ``cos h`` and ``sin h`` come from the relative east and
+north positions of the rows (:class:`~tmakit.observation.fused.PlanarUnits`), on the rows of
+the problem itself: no arctangent, sine or cosine per candidate and row, and no smaller
+problem built for the rows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..blas import matmul
+from ..observation.fused import PlanarUnits, planar_units
+from .solver import VarProProblem
+
+__all__ = ["ChordScorer", "chord_units"]
+
+
+def chord_units(problem: VarProProblem, rows: NDArray[np.int64] | None = None
+                ) -> PlanarUnits | None:
+    """Give the predicted angles' sines and cosines of a problem's rows, or None.
+
+    For problems whose every row is an angle of one planar kind (the bearing), without
+    correlated noise, under an affine motion model
+    (:func:`~tmakit.observation.fused.planar_units`); the grid (:mod:`tmakit.batch.init`)
+    scores them by :class:`ChordScorer`.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem.
+    rows : ndarray of int, optional
+        Its rows (set order; default all).
+
+    Returns
+    -------
+    PlanarUnits or None
+        None when the problem is not of that form.
+    """
+    obs = problem.obs
+    if not problem.all_angle or problem.noise.correlated or not obs.in_set_order:
+        return None
+    return planar_units(obs, rows)
+
+
+class ChordScorer:
+    """Chord cost of candidates for an all-angle problem, from the angles' sines and cosines.
+
+    The cost of :class:`~tmakit.batch.init.GridScorer` for such problems,
+    ``sum w^2 (1 - cos(y - h))`` with ``cos(y - h) = cos y cos h + sin y sin h``, but with
+    ``sin h`` and ``cos h`` made from the relative positions
+    (:class:`~tmakit.observation.fused.PlanarUnits`) instead of the angles ``h``: equal up
+    to rounding.
+
+    Parameters
+    ----------
+    units : PlanarUnits
+        The rows' ``theta -> (sin h, cos h)``.
+    weight2 : ndarray, shape (m,)
+        The rows' weights ``1 / sigma^2`` (rad^-2).
+    candidates : ndarray, shape (C, p)
+        Motion parameters of the candidates (SI).
+    step : int
+        Candidates per block: no array holds the predictions of more (see
+        :data:`~tmakit.batch.init.CANDIDATE_ROWS`).
+    """
+
+    def __init__(self, units: PlanarUnits, weight2: NDArray[np.float64],
+                 candidates: NDArray[np.float64], step: int) -> None:
+        self.units = units
+        self.weight2 = weight2
+        self.candidates = candidates
+        self.blocks = [slice(lo, lo + step) for lo in range(0, candidates.shape[0], step)]
+
+    def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Return the chord costs of every candidate for each data set.
+
+        Parameters
+        ----------
+        y : ndarray, shape (B, m) or (m,)
+            Data sets on the rows (rad).
+
+        Returns
+        -------
+        ndarray, shape (B, C)
+            Half the weighted sum of squares for small residuals (dimensionless); inf
+            without predictions.
+        """
+        y = np.atleast_2d(np.asarray(y, dtype=float))
+        w2 = self.weight2
+        sin_w, cos_w = (np.sin(y) * w2).T, (np.cos(y) * w2).T  # (m, B)
+        total = w2.sum()
+        cost = np.empty((y.shape[0], self.candidates.shape[0]))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            for block in self.blocks:
+                sin_h, cos_h = self.units(self.candidates[block])
+                dot = matmul(sin_h, sin_w)
+                dot += matmul(cos_h, cos_w)
+                cost[:, block] = (total - dot).T
+        return np.where(np.isfinite(cost), cost, np.inf)
