@@ -149,7 +149,7 @@ class Bearing(MeasurementModel):
 
         The bearing ``h = atan2(dx, dy)`` has ``sin h = dx / r`` and ``cos h = dy / r`` with
         ``r = sqrt(dx^2 + dy^2)``: no arctangent, sine or cosine (a grid scores many
-        candidates by these alone, :class:`~tmakit.batch.init.ChordScorer`).  The same values
+        candidates by these alone, :class:`~tmakit.batch.chord.ChordScorer`).  The same values
         as ``sin``/``cos`` of :meth:`planar_value` up to rounding; where ``r`` is 0 or not
         finite (or ``r^2`` under- or overflows) they are those of :meth:`planar_value`
         itself.
