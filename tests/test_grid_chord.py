@@ -11,7 +11,7 @@ import pytest
 from bearing_sets import bearings
 
 import tmakit as tk
-from tmakit.batch import init
+from tmakit.batch import init, presolve
 from tmakit.batch.grid import _median, grid_candidates_for
 from tmakit.batch.solver import VarProProblem
 from tmakit.measurements.bearing import Bearing
@@ -170,3 +170,15 @@ def test_grid_of_some_rows_and_values_is_the_grid_of_those_rows_taken(name):
     taken.value_si = values
     got = grid_candidates_for(meas, scn.motion, None, rows, values)
     np.testing.assert_array_equal(got, grid_candidates_for(taken, scn.motion))
+
+
+def test_chord_path_on_the_presolve_subset_chooses_the_general_paths_starts(monkeypatch):
+    scn, meas = _scaled("bearings-only-2d", 30_000, 3)  # the grid runs on a taken subset
+    problem = VarProProblem(ObservationModel(meas, scn.motion))
+    subset = presolve.presolve_subset(problem)
+    assert subset is not None and init.chord_units(subset[0]) is not None
+    ys = problem.obs.values[None]
+    fast = presolve.grid_starts(problem, ys, init.GridSettings(), subset)[0]
+    monkeypatch.setattr(init, "chord_units", lambda *_: None)
+    general = presolve.grid_starts(problem, ys, init.GridSettings(), subset)[0]
+    np.testing.assert_array_equal(fast.first(12), general.first(12))
