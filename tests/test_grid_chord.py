@@ -16,7 +16,7 @@ from tmakit.batch.grid import _median, grid_candidates_for
 from tmakit.batch.solver import VarProProblem
 from tmakit.measurements.bearing import Bearing
 from tmakit.observation import ObservationModel
-from tmakit.observation.affine_rows import leading_states
+from tmakit.observation.affine_rows import AffineRows
 
 
 def _scaled(name: str, n: int, seed: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
@@ -139,7 +139,7 @@ def test_leading_components_of_many_parameter_vectors_are_the_relative_states():
         for rel_map in (obs._rel_map, obs._rel_map.take(np.arange(50))):  # lazy and made
             head = rel_map.leading_map(n_c, rows)
             np.testing.assert_array_equal(head, rel_map.take(rows).leading_map(n_c))
-            np.testing.assert_allclose(leading_states(theta, head), want[..., rows],
+            np.testing.assert_allclose(AffineRows.leading_states(theta, head), want[..., rows],
                                        rtol=1e-12, atol=1e-9)
         obs._rel_map.offset  # noqa: B018  (the offset made: the rows taken from it)
         np.testing.assert_array_equal(obs._rel_map.leading_map(n_c, rows),

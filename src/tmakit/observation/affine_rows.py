@@ -69,7 +69,7 @@ class AffineRows:
     def leading_map(self, components: int, rows: NDArray[np.intp] | None = None) -> Array:
         """Give the map of the first ``components`` relative state components at some rows.
 
-        The offset is a last parameter, always 1 (:func:`leading_states`): no pass of its
+        The offset is a last parameter, always 1 (:meth:`leading_states`): no pass of its
         own.  Made from this map's terms and offset at those rows alone (no taken map).
 
         Parameters
@@ -109,7 +109,7 @@ class AffineRows:
     def leading_many(self, theta: Array, components: int) -> Array:
         """Give the first ``components`` relative state components of many parameter vectors.
 
-        :func:`leading_states` of :meth:`leading_map`.
+        :meth:`leading_states` of :meth:`leading_map`.
 
         Parameters
         ----------
@@ -123,7 +123,30 @@ class AffineRows:
         numpy.ndarray
             ``(components, c, m)`` (m, m/s).
         """
-        return leading_states(theta, self.leading_map(components))
+        return self.leading_states(theta, self.leading_map(components))
+
+    @staticmethod
+    def leading_states(theta: Array, head: Array) -> Array:
+        """Give leading relative state components of many parameter vectors from their map.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            ``(c, p)`` parameter vectors, SI.
+        head : numpy.ndarray
+            ``(n_c, p + 1, m)`` :meth:`leading_map`.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_c, c, m)``, a new array, component-major: each component of every vector
+            contiguous (m, m/s).
+        """
+        p = head.shape[1] - 1
+        with_one = np.empty((theta.shape[0], p + 1))
+        with_one[:, :p] = theta
+        with_one[:, p] = 1.0
+        return np.matmul(with_one, head)  # (c, p + 1) @ (n_c, p + 1, m): one call
 
     @property
     def offset(self) -> Array:
@@ -256,26 +279,3 @@ class AffineRows:
             return AffineRows(terms, np.take(self._base, rows, axis=1), self.p,
                               np.take(self._sensor, rows, axis=0))
         return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)
-
-
-def leading_states(theta: Array, head: Array) -> Array:
-    """Give leading relative state components of many parameter vectors from their map.
-
-    Parameters
-    ----------
-    theta : numpy.ndarray
-        ``(c, p)`` parameter vectors, SI.
-    head : numpy.ndarray
-        ``(n_c, p + 1, m)`` :meth:`AffineRows.leading_map`.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n_c, c, m)``, a new array, component-major: each component of every vector
-        contiguous (m, m/s).
-    """
-    p = head.shape[1] - 1
-    with_one = np.empty((theta.shape[0], p + 1))
-    with_one[:, :p] = theta
-    with_one[:, p] = 1.0
-    return np.matmul(with_one, head)  # (c, p + 1) @ (n_c, p + 1, m): one call

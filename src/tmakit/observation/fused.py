@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..arrays import Array
-from .affine_rows import leading_states
+from .affine_rows import AffineRows
 from .linearisation import Linearisation
 
 __all__ = ["PlanarUnits", "fused_gradient_rows", "fused_linearisation",
@@ -206,7 +206,7 @@ class PlanarUnits:
         numpy.ndarray
             ``(2, c, m)``: ``[0]`` the sines, ``[1]`` the cosines (dimensionless).
         """
-        east_north = leading_states(theta, self.head)
+        east_north = AffineRows.leading_states(theta, self.head)
         self.unit(east_north[0], east_north[1])
         return east_north
 
