@@ -363,7 +363,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
             problem, ys, lambda small, y: solve_without_guess(small, y, g, max_iter), max_iter)
     b = ys.shape[0]
     dof = problem.noise.rank - problem.p - (0 if problem.fixed is not None else problem.k)
-    has_bearings = bool(np.any(problem.obs.meas.kind_mask("bearing")))
+    has_bearings = "bearing" in problem.obs.models  # (the kinds present)
     subset = presolve_subset(problem)  # many rows: the grid and the presolve on one subset
     starts = grid_starts(problem, ys, g, subset)
     best: list[Best | None] = [None] * b

@@ -17,6 +17,7 @@ problem, or many Monte Carlo runs that share times, sensors and noise (each with
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +28,6 @@ from ..frames import wrap_angle
 from ..observation import Linearisation, ObservationModel
 from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
 from ..observation.noise import NoiseModel
-from ..observation.rows import as_slice
 
 
 @dataclass
@@ -144,6 +144,19 @@ def _wrap_own(e: Array, in_place: bool = False) -> Array:
     return out
 
 
+def _angle_runs(obs: ObservationModel) -> tuple[bool, bool, slice | None]:
+    """Tell whether some and all grouped rows are angles, and give them as one run or None.
+
+    From the kinds' slices of the grouped order (no pass over the rows).
+    """
+    runs = sorted((sl.start, sl.stop) for kind, sl in obs.slices.items()
+                  if obs.models[kind].is_angle and sl.stop > sl.start)
+    count = sum(stop - start for start, stop in runs)
+    joined = all(a[1] == b[0] for a, b in pairwise(runs))
+    one_run = slice(runs[0][0], runs[-1][1]) if runs and joined else None
+    return count > 0, count == len(obs.meas), one_run
+
+
 class VarProProblem:
     """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
 
@@ -176,11 +189,9 @@ class VarProProblem:
         self.p = obs.motion.n_params
         self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
         self.angle = obs.angle_mask_grouped
-        self.has_angle = bool(self.angle.any())
-        self.all_angle = bool(self.angle.all())  # every row an angle: wrap without a mask
-        # Angle rows in one run (kinds are grouped): wrapped in place, the other rows untouched.
-        angle_rows = as_slice(np.flatnonzero(self.angle))
-        self._angle_rows = angle_rows if isinstance(angle_rows, slice) else None
+        #: Whether some rows are angles, all are (wrapped without a mask), and the angle rows
+        #: as one slice when they form one run (wrapped in place, the other rows untouched).
+        self.has_angle, self.all_angle, self._angle_rows = _angle_runs(obs)
         self.eliminates = self.fixed is None and self.k > 0
         # The geometry-free part of the design, whitened once (see ObservationModel).
         self.const_design = obs.const_design
@@ -280,10 +291,12 @@ class VarProProblem:
         Returns
         -------
         ndarray
-            ``(B, n)`` (SI units).
+            ``(B, n)`` (SI units); without nuisance ``y`` itself when it is a writeable float
+            array (read only by the solver), else a copy.
         """
         if self.k == 0:
-            return np.array(y, dtype=float)
+            y_float = isinstance(y, np.ndarray) and y.dtype == np.float64 and y.flags.writeable
+            return y if y_float else np.array(y, dtype=float)
         return y - nu_star @ self.const_design.T
 
     def evaluate(self, theta: Array, y: Array, nu_star: Array,
