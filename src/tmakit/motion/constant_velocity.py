@@ -8,8 +8,6 @@ the Doppler-tracking lecture notes).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -100,13 +98,9 @@ class ConstantVelocity(MotionModel):
                                    NDArray[np.float64]] | None:
         """Give the non-zero terms of the affine map: position ``i`` from ``i`` and ``dt v_i``.
 
-        Parameters and returns as :meth:`MotionModel.component_terms` (the coefficients of
-        a model referenced at time 0 are ``t`` itself as floats, read only by the caller).
+        Parameters and returns as :meth:`MotionModel.component_terms`.
         """
-        t = np.asarray(t, dtype=float)
-        # t - 0.0 is t, bit for bit (not t - (-0.0): -0.0 would become 0.0)
-        zero_ref = self.ref_time == 0.0 and math.copysign(1.0, self.ref_time) > 0.0
-        dt = t if zero_ref else t - self.ref_time
+        dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
         terms: list[tuple[int, int, NDArray[np.float64] | None]] = []
         for i in range(d):
