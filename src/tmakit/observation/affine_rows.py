@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from ..arrays import Array
 
 _IN_PLACE_ROWS = 2048  # rows from which :meth:`AffineRows.single` writes in place
+_SENSOR_BLOCK = 4096  # rows of sensor states (192 kB) whose components are made together
 
 #: One non-zero term: parameter index, state component, coefficient per row (None: all 1).
 Term = tuple[int, int, Array | None]
@@ -72,10 +73,9 @@ class AffineRows:
         if self._offset is None:
             base, sensor = self._base, self._sensor
             assert sensor is not None  # (set without a sensor otherwise)
-            if base.flags.owndata and base.flags.writeable and base.flags.c_contiguous:
-                self._offset = np.subtract(base, sensor.T, out=base)  # no second (6, m)
-            else:  # component-major whatever the layouts of base and sensor
-                self._offset = np.subtract(base, sensor.T, out=np.empty((6, self.m)))
+            # Written over the target's offset when it is this object's own: no second (6, m).
+            own = base.flags.owndata and base.flags.writeable and base.flags.c_contiguous
+            self._offset = _minus_sensor(base, sensor, 6, base if own else None)
         return self._offset
 
     def position_source(self) -> tuple[Array, Array, bool]:
@@ -118,9 +118,7 @@ class AffineRows:
         head = self._head
         if head is None or head.shape[0] < n_c:
             assert self._sensor is not None
-            # One pass, component-major whatever the layouts of base and sensor.
-            head = self._head = np.subtract(self._base[:n_c], self._sensor[:, :n_c].T,
-                                            out=np.empty((n_c, self.m)))
+            head = self._head = _minus_sensor(self._base, self._sensor, n_c)
         return head[:n_c]
 
     @property
@@ -212,6 +210,21 @@ class AffineRows:
             return AffineRows(terms, _take_columns(self._base, rows), self.p,
                               np.take(self._sensor, rows, axis=0) if sensor is None else sensor)
         return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)
+
+
+def _minus_sensor(base: Array, sensor: Array, n_c: int, out: Array | None = None) -> Array:
+    """Give ``base[:n_c] - sensor[:, :n_c].T`` component-major ``(n_c, m)`` (into ``out``).
+
+    By blocks of :data:`_SENSOR_BLOCK` rows: each block of the ``(m, 6)`` sensor states is
+    read from memory once for all its components (a component at a time over every row
+    would read the whole array ``n_c`` times); elementwise, so the same bits.
+    """
+    m = sensor.shape[0]
+    out = np.empty((n_c, m)) if out is None else out
+    for lo in range(0, m, _SENSOR_BLOCK):
+        hi = lo + _SENSOR_BLOCK
+        np.subtract(base[:n_c, lo:hi], sensor[lo:hi, :n_c].T, out=out[:n_c, lo:hi])
+    return out
 
 
 def _take_columns(base: Array, rows: NDArray[np.intp]) -> Array:
