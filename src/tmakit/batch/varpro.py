@@ -17,7 +17,6 @@ problem, or many Monte Carlo runs that share times, sensors and noise (each with
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,6 +26,7 @@ from ..arrays import Array
 from ..frames import wrap_angle
 from ..observation import Linearisation, ObservationModel
 from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
+from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
 
 
@@ -144,19 +144,6 @@ def _wrap_own(e: Array, in_place: bool = False) -> Array:
     return out
 
 
-def _angle_runs(obs: ObservationModel) -> tuple[bool, bool, slice | None]:
-    """Tell whether some and all grouped rows are angles, and give them as one run or None.
-
-    From the kinds' slices of the grouped order (no pass over the rows).
-    """
-    runs = sorted((sl.start, sl.stop) for kind, sl in obs.slices.items()
-                  if obs.models[kind].is_angle and sl.stop > sl.start)
-    count = sum(stop - start for start, stop in runs)
-    joined = all(a[1] == b[0] for a, b in pairwise(runs))
-    one_run = slice(runs[0][0], runs[-1][1]) if runs and joined else None
-    return count > 0, count == len(obs.meas), one_run
-
-
 class VarProProblem:
     """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
 
@@ -191,7 +178,8 @@ class VarProProblem:
         self.angle = obs.angle_mask_grouped
         #: Whether some rows are angles, all are (wrapped without a mask), and the angle rows
         #: as one slice when they form one run (wrapped in place, the other rows untouched).
-        self.has_angle, self.all_angle, self._angle_rows = _angle_runs(obs)
+        self.has_angle, self.all_angle, self._angle_rows = angle_runs(obs.models, obs.slices,
+                                                                     len(obs.meas))
         self.eliminates = self.fixed is None and self.k > 0
         # The geometry-free part of the design, whitened once (see ObservationModel).
         self.const_design = obs.const_design

@@ -20,34 +20,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 from ..blas import matmul
-from ..data import KIND_CODES, MeasurementSet
+from ..data import MeasurementSet
 from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .affine_rows import AffineRows
 from .fused import fused_linearisation, fused_values
+from .kind_blocks import group_by_kind
 from .linearisation import Linearisation
 from .rows import RowModel, nuisance_layout
-
-
-def _group_by_kind(meas: MeasurementSet, kinds: list[str]
-                   ) -> tuple[dict[str, slice], NDArray[np.intp] | None]:
-    """Give each kind's slice of the rows grouped by kind, and that order (None: the set's own).
-
-    ``kinds`` are the kinds present, in kind code order; rows keep the set's order within a
-    kind.  From the kind codes alone: no pass for one kind, one comparison pass when the kinds are
-    in blocks already, else a stable sort of the codes (set order within a kind).
-    """
-    n = len(meas)
-    if len(kinds) <= 1:
-        return {k: slice(0, n) for k in kinds}, None
-    code = meas.kind_code
-    order = None
-    if not bool(np.all(code[1:] >= code[:-1])):
-        order = np.argsort(code, kind="stable")
-        code = code[order]
-    ends = np.searchsorted(code, [KIND_CODES[k] for k in kinds], side="right").tolist()
-    return {k: slice(a, b) for k, a, b in zip(kinds, [0, *ends[:-1]], ends, strict=True)}, order
 
 
 class ObservationModel:
@@ -76,7 +57,7 @@ class ObservationModel:
         }
         self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
         #: Each kind's rows, a contiguous slice of the grouped order.
-        self.slices, order = _group_by_kind(meas, list(self.models))
+        self.slices, order = group_by_kind(meas, list(self.models))
         #: Grouped order is the set's own (one kind, or kinds already in blocks).
         self.in_set_order = order is None
         self._order = order  # None: the identity, made on first use (see order)
@@ -184,7 +165,7 @@ class ObservationModel:
         idx = np.asarray(index)
         idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
         meas = self.meas.take(idx)
-        slices, order = _group_by_kind(meas, list(self.models))
+        slices, order = group_by_kind(meas, list(self.models))
         if any(sl.stop == sl.start for sl in slices.values()):
             return ObservationModel(meas, self.motion, self.options)  # a kind is left out,
             # and its nuisance parameters with it
