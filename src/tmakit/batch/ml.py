@@ -376,7 +376,9 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         owner = np.concatenate([np.full(blocks[r].shape[0], r) for r in runs])
         # Starts bound for a worse minimum than one already reached stop early.
         reached = np.array([np.inf if best[r] is None else best[r].cost for r in range(b)])
-        sol = solve_all_rows(problem, ys[owner], theta, max_iter, owner, reached[owner], subset)
+        # One start per data set, in order: the data themselves (read only), not a copy.
+        data = ys if ys.flags.c_contiguous and np.array_equal(owner, np.arange(b)) else ys[owner]
+        sol = solve_all_rows(problem, data, theta, max_iter, owner, reached[owner], subset)
         for r in runs:
             rows = np.flatnonzero(owner == r)
             cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
