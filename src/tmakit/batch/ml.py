@@ -357,7 +357,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         The best fit per data set; None where no start gave finite predictions.
     """
     g = grid or GridSettings()
-    ys = np.atleast_2d(np.asarray(ys, dtype=float))
+    ys = np.ascontiguousarray(np.atleast_2d(np.asarray(ys, dtype=float)))  # (read, not written)
     if subset_first(problem):  # correlated and many rows: every start on a subset only
         return solve_on_subset_first(
             problem, ys, lambda small, y: solve_without_guess(small, y, g, max_iter), max_iter)
@@ -376,8 +376,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         owner = np.concatenate([np.full(blocks[r].shape[0], r) for r in runs])
         # Starts bound for a worse minimum than one already reached stop early.
         reached = np.array([np.inf if best[r] is None else best[r].cost for r in range(b)])
-        # One start per data set, in order: the data themselves (read only), not a copy.
-        data = ys if ys.flags.c_contiguous and np.array_equal(owner, np.arange(b)) else ys[owner]
+        data = ys if np.array_equal(owner, np.arange(b)) else ys[owner]  # (1 start a set: no copy)
         sol = solve_all_rows(problem, data, theta, max_iter, owner, reached[owner], subset)
         for r in runs:
             rows = np.flatnonzero(owner == r)
