@@ -166,9 +166,8 @@ class ObservationModel:
         idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
         meas = self.meas.take(idx)
         slices, order = group_by_kind(meas, list(self.models))
-        if any(sl.stop == sl.start for sl in slices.values()):
-            return ObservationModel(meas, self.motion, self.options)  # a kind is left out,
-            # and its nuisance parameters with it
+        if any(sl.stop == sl.start for sl in slices.values()):  # a kind left out, and its
+            return ObservationModel(meas, self.motion, self.options)  # nuisance with it
         grouped_idx = idx if order is None else idx[order]  # the new grouped rows, set rows
         pick = grouped_idx if self._inverse is None else self._inverse[grouped_idx]  # ours
         sub = object.__new__(ObservationModel)
