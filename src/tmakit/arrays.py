@@ -46,5 +46,8 @@ def take_rows(column: Array, rows: NDArray[np.intp]) -> Array:
         ``(m, ...)``; read-only when ``column`` is a broadcast.
     """
     if broadcast(column):
-        return np.broadcast_to(column[:1], (rows.shape[0], *column.shape[1:]))
+        m = rows.shape[0]
+        if m <= column.shape[0] and not column.flags.writeable:
+            return column[:m]  # every row the same: a slice is the broadcast (no call)
+        return np.broadcast_to(column[:1], (m, *column.shape[1:]))
     return np.take(column, rows, 0)

@@ -357,13 +357,13 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         The best fit per data set; None where no start gave finite predictions.
     """
     g = grid or GridSettings()
-    ys = np.atleast_2d(np.asarray(ys, dtype=float))
+    ys = np.ascontiguousarray(np.atleast_2d(np.asarray(ys, dtype=float)))  # (read, not written)
     if subset_first(problem):  # correlated and many rows: every start on a subset only
         return solve_on_subset_first(
             problem, ys, lambda small, y: solve_without_guess(small, y, g, max_iter), max_iter)
     b = ys.shape[0]
     dof = problem.noise.rank - problem.p - (0 if problem.fixed is not None else problem.k)
-    has_bearings = "bearing" in problem.obs.models  # (a model per kind in the set)
+    has_bearings = "bearing" in problem.obs.models  # (the kinds present)
     subset = presolve_subset(problem)  # many rows: the grid and the presolve on one subset
     starts = grid_starts(problem, ys, g, subset)
     best: list[Best | None] = [None] * b
@@ -376,7 +376,8 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         owner = np.concatenate([np.full(blocks[r].shape[0], r) for r in runs])
         # Starts bound for a worse minimum than one already reached stop early.
         reached = np.array([np.inf if best[r] is None else best[r].cost for r in range(b)])
-        sol = solve_all_rows(problem, ys[owner], theta, max_iter, owner, reached[owner], subset)
+        data = ys if np.array_equal(owner, np.arange(b)) else ys[owner]  # (1 start a set: no copy)
+        sol = solve_all_rows(problem, data, theta, max_iter, owner, reached[owner], subset)
         for r in runs:
             rows = np.flatnonzero(owner == r)
             cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)

@@ -277,8 +277,10 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
            damping0: float = 1e-3) -> _Runs:
     """Set up the runs of :func:`levenberg_marquardt` at their starting points."""
     theta = np.array(theta0, dtype=float, ndmin=2)
-    y = np.broadcast_to(problem.group(y), (theta.shape[0], len(problem.obs.meas)))
     b = theta.shape[0]
+    y = problem.group(y)
+    if y.shape != (b, len(problem.obs.meas)):  # (a view of the right shape is read-only)
+        y = np.broadcast_to(y, (b, len(problem.obs.meas)))
     nu_star = problem.reference_nuisance(y)
     u = problem.data_part(y, nu_star)
     reached = None

@@ -27,8 +27,8 @@ from ..frames import wrap_angle
 from ..frames import wrap_angle_own as _wrap_own
 from ..observation import Linearisation, ObservationModel
 from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
+from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
-from ..observation.rows import as_slice
 
 
 @dataclass
@@ -150,11 +150,10 @@ class VarProProblem:
         self.p = obs.motion.n_params
         self.fixed = None if fixed_nuisance is None else np.asarray(fixed_nuisance, float)
         self.angle = obs.angle_mask_grouped
-        self.has_angle = bool(self.angle.any())
-        self.all_angle = bool(self.angle.all())  # every row an angle: wrap without a mask
-        # Angle rows in one run (kinds are grouped): wrapped in place, the other rows untouched.
-        angle_rows = as_slice(np.flatnonzero(self.angle))
-        self._angle_rows = angle_rows if isinstance(angle_rows, slice) else None
+        #: Whether some rows are angles, all are (wrapped without a mask), and the angle rows
+        #: as one slice when they form one run (wrapped in place, the other rows untouched).
+        self.has_angle, self.all_angle, self._angle_rows = angle_runs(obs.models, obs.slices,
+                                                                     len(obs.meas))
         self.eliminates = self.fixed is None and self.k > 0
         # The geometry-free part of the design, whitened once (see ObservationModel).
         self.const_design = obs.const_design
@@ -254,11 +253,12 @@ class VarProProblem:
         Returns
         -------
         ndarray
-            ``(B, n)`` (SI units); ``y`` itself (as floats) without nuisance: the solvers
-            only read it.
+            ``(B, n)`` (SI units); without nuisance ``y`` itself when it is a writeable float
+            array (read only by the solver), else a copy.
         """
         if self.k == 0:
-            return np.asarray(y, dtype=float)
+            y_float = isinstance(y, np.ndarray) and y.dtype == np.float64 and y.flags.writeable
+            return y if y_float else np.array(y, dtype=float)
         return y - nu_star @ self.const_design.T
 
     def evaluate(self, theta: Array, y: Array, nu_star: Array,

@@ -130,7 +130,8 @@ class MotionModel(ABC):
         -------
         tuple or None
             ``(terms, offset (6, n))``: each term ``(parameter, component, coefficients (n,)
-            or None for all ones)``; None when the model is not affine.
+            or None for all ones)``; None when the model is not affine.  The offset may be a
+            read-only broadcast (a constant velocity model's zeros).
         """
         cmap = self.component_map(t)
         if cmap is None:

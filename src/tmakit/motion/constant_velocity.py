@@ -105,7 +105,8 @@ class ConstantVelocity(MotionModel):
         terms: list[tuple[int, int, NDArray[np.float64] | None]] = []
         for i in range(d):
             terms += [(i, i, None), (d + i, i, dt), (d + i, 3 + i, None)]
-        return terms, np.zeros((6, dt.shape[0]))
+        # The offset is zero: a read-only broadcast, no memory per row.
+        return terms, np.broadcast_to(0.0, (6, dt.shape[0]))
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:

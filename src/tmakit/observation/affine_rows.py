@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from ..arrays import Array
 
 _IN_PLACE_ROWS = 2048  # rows from which :meth:`AffineRows.single` writes in place
+_SENSOR_BLOCK = 4096  # rows of sensor states (192 kB) whose components are made together
 
 #: One non-zero term: parameter index, state component, coefficient per row (None: all 1).
 Term = tuple[int, int, Array | None]
@@ -32,7 +33,8 @@ class AffineRows:
         The non-zero terms of the map, in any order.
     offset : numpy.ndarray
         ``(6, m)``: the relative states at ``theta = 0`` (target offset minus sensor state);
-        with ``sensor``, the target's offset alone (this object's to overwrite).
+        with ``sensor``, the target's offset alone (this object's to overwrite, or a
+        read-only broadcast such as a constant velocity model's zeros: no memory per row).
     p : int
         Number of parameters.
     sensor : numpy.ndarray, optional
@@ -154,10 +156,9 @@ class AffineRows:
         if self._offset is None:
             base, sensor = self._base, self._sensor
             assert sensor is not None  # (set without a sensor otherwise)
-            if base.flags.owndata and base.flags.writeable and base.flags.c_contiguous:
-                self._offset = np.subtract(base, sensor.T, out=base)  # no second (6, m)
-            else:
-                self._offset = base - sensor.T
+            # Written over the target's offset when it is this object's own: no second (6, m).
+            own = base.flags.owndata and base.flags.writeable and base.flags.c_contiguous
+            self._offset = _minus_sensor(base, sensor, 6, base if own else None)
         return self._offset
 
     def position_source(self) -> tuple[Array, Array, bool]:
@@ -177,7 +178,10 @@ class AffineRows:
         if made is not None and made.shape[0] >= 2:
             return made, made.T, False
         assert self._sensor is not None  # (the offset is made at once otherwise)
-        return self._base, self._sensor, True
+        base = self._base
+        if not base.flags.c_contiguous:  # a broadcast: the compiled pass reads a plain array
+            base = np.ascontiguousarray(base[:2])
+        return base, self._sensor, True
 
     def keep_head(self, head: Array) -> None:
         """Keep ``head`` as the first components of :attr:`offset` (made by a compiled pass).
@@ -197,7 +201,7 @@ class AffineRows:
         head = self._head
         if head is None or head.shape[0] < n_c:
             assert self._sensor is not None
-            head = self._head = self._base[:n_c] - self._sensor[:, :n_c].T  # one pass
+            head = self._head = _minus_sensor(self._base, self._sensor, n_c)
         return head[:n_c]
 
     @property
@@ -262,20 +266,52 @@ class AffineRows:
             else:
                 row += th[j] * coef_j
 
-    def take(self, rows: NDArray[np.intp]) -> AffineRows:
+    def take(self, rows: NDArray[np.intp], sensor: Array | None = None) -> AffineRows:
         """Give the map of some rows.
 
         Parameters
         ----------
         rows : numpy.ndarray
             Row indices.
+        sensor : numpy.ndarray, optional
+            ``(len(rows), 6)`` the sensor states of those rows, if the caller holds them
+            already (m, m/s): not gathered again.
 
         Returns
         -------
         AffineRows
         """
-        terms = [(i, c, None if coef is None else coef[rows]) for i, c, coef in self.terms]
+        taken: dict[int, Array] = {}  # a coefficient array shared by terms, gathered once
+        terms = []
+        for i, c, coef in self.terms:
+            if coef is not None:
+                if id(coef) not in taken:
+                    taken[id(coef)] = coef[rows]
+                coef = taken[id(coef)]
+            terms.append((i, c, coef))
         if self._offset is None and self._sensor is not None:  # still lazy: both parts taken
-            return AffineRows(terms, np.take(self._base, rows, axis=1), self.p,
-                              np.take(self._sensor, rows, axis=0))
+            return AffineRows(terms, _take_columns(self._base, rows), self.p,
+                              np.take(self._sensor, rows, axis=0) if sensor is None else sensor)
         return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)
+
+
+def _minus_sensor(base: Array, sensor: Array, n_c: int, out: Array | None = None) -> Array:
+    """Give ``base[:n_c] - sensor[:, :n_c].T`` component-major ``(n_c, m)`` (into ``out``).
+
+    By blocks of :data:`_SENSOR_BLOCK` rows: each block of the ``(m, 6)`` sensor states is
+    read from memory once for all its components (a component at a time over every row
+    would read the whole array ``n_c`` times); elementwise, so the same bits.
+    """
+    m = sensor.shape[0]
+    out = np.empty((n_c, m)) if out is None else out
+    for lo in range(0, m, _SENSOR_BLOCK):
+        hi = lo + _SENSOR_BLOCK
+        np.subtract(base[:n_c, lo:hi], sensor[lo:hi, :n_c].T, out=out[:n_c, lo:hi])
+    return out
+
+
+def _take_columns(base: Array, rows: NDArray[np.intp]) -> Array:
+    """Give ``base[:, rows]``; a broadcast (one value everywhere) stays one."""
+    if base.strides == (0, 0):
+        return np.broadcast_to(base[:, :1], (base.shape[0], rows.shape[0]))
+    return np.take(base, rows, axis=1)

@@ -26,6 +26,7 @@ from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .affine_rows import AffineRows
 from .fused import fused_linearisation, fused_values
+from .kind_blocks import group_by_kind
 from .linearisation import Linearisation
 from .rows import RowModel, nuisance_layout
 
@@ -54,21 +55,14 @@ class ObservationModel:
         self.models: dict[str, MeasurementModel] = {
             k: model_for(k, **dict(options.get(k, {}))) for k in meas.kinds
         }
-        self.rows = {k: np.flatnonzero(meas.kind_mask(k)) for k in self.models}
         self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
-        # Rows grouped by kind: each kind a contiguous slice of the grouped order.
-        self.order = (np.concatenate([self.rows[k] for k in self.models])
-                      if self.models else np.zeros(0, dtype=int))
-        grouped_already = np.array_equal(self.order, np.arange(self.order.size))
+        #: Each kind's rows, a contiguous slice of the grouped order.
+        self.slices, order = group_by_kind(meas, list(self.models))
         #: Grouped order is the set's own (one kind, or kinds already in blocks).
-        self.in_set_order = grouped_already
-        self.inverse = self.order if grouped_already else np.argsort(self.order)
-        self.grouped = meas if grouped_already else meas.take(self.order)
-        self.slices: dict[str, slice] = {}
-        start = 0
-        for k in self.models:
-            self.slices[k] = slice(start, start + self.rows[k].size)
-            start += self.rows[k].size
+        self.in_set_order = order is None
+        self._order = order  # None: the identity, made on first use (see order)
+        self._inverse = None if order is None else np.argsort(order)
+        self.grouped = meas if order is None else meas.take(order)
         g = self.grouped
         self._time = g.time
         self._sensor = g.sensor_state
@@ -82,7 +76,27 @@ class ObservationModel:
         self._rel_map_ref = (None if self._ref is None else self._relative_map(
             g.time_ref[self._ref], g.ref_sensor_state[self._ref]))
         self._const_design: Array | None = None
-        self._kind_code: NDArray[np.intp] | None = None  # (see _kind_index)
+
+    @property
+    def order(self) -> NDArray[np.intp]:
+        """The set's rows in grouped order: grouped row ``j`` is the set's row ``order[j]``.
+
+        Made on first use when the set's rows are grouped already (then ``arange(n)``).
+        """
+        if self._order is None:
+            self._order = np.arange(len(self.meas))
+        return self._order
+
+    @property
+    def inverse(self) -> NDArray[np.intp]:
+        """Each of the set's rows' position in the grouped order (the inverse of :attr:`order`)."""
+        return self.order if self._inverse is None else self._inverse
+
+    @property
+    def rows(self) -> dict[str, NDArray[np.intp]]:
+        """Each kind's rows of the set, ascending (its slice of :attr:`order`), in kind order."""
+        order = self.order
+        return {k: order[sl] for k, sl in self.slices.items()}
 
     def _set_row_model(self) -> None:
         """Build the observation core of the grouped rows (per-kind predictions, designs)."""
@@ -151,49 +165,32 @@ class ObservationModel:
         idx = np.asarray(index)
         idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
         meas = self.meas.take(idx)
-        code = self._kind_index()[idx]  # each row's kind, in model order
-        counts = np.bincount(code, minlength=len(self.models))
-        if not counts.all():  # a kind is left out, and its nuisance parameters with it
-            return ObservationModel(meas, self.motion, self.options)
-        order = np.argsort(code, kind="stable")  # grouped by kind, set order within
-        pick = self.inverse[idx[order]]  # this model's grouped rows, in the new grouped order
+        slices, order = group_by_kind(meas, list(self.models))
+        if any(sl.stop == sl.start for sl in slices.values()):  # a kind left out, and its
+            return ObservationModel(meas, self.motion, self.options)  # nuisance with it
+        grouped_idx = idx if order is None else idx[order]  # the new grouped rows, set rows
+        pick = grouped_idx if self._inverse is None else self._inverse[grouped_idx]  # ours
         sub = object.__new__(ObservationModel)
         sub.options = {k: dict(v) for k, v in self.options.items()}
         sub.meas, sub.motion, sub.models = meas, self.motion, self.models
-        ends = np.cumsum(counts)
-        sub.slices = {k: slice(int(e - c), int(e))
-                      for k, c, e in zip(self.models, counts, ends, strict=True)}
-        sub.rows = {k: order[sl] for k, sl in sub.slices.items()}
-        sub.nuisance_slices = dict(self.nuisance_slices)
         sub.nuisance_names = self.nuisance_names
-        grouped_already = np.array_equal(order, np.arange(order.size))
-        sub.in_set_order = grouped_already
-        sub.order, sub.inverse = order, order if grouped_already else np.argsort(order)
-        sub.grouped = meas if grouped_already else meas.take(order)
+        sub.nuisance_slices = dict(self.nuisance_slices)
+        sub.slices, sub.in_set_order, sub._order = slices, order is None, order
+        sub._inverse = None if order is None else np.argsort(order)
+        sub.grouped = meas if order is None else meas.take(order)
         sub._time, sub._sensor = sub.grouped.time, sub.grouped.sensor_state
-        sub.values, sub.sigmas = self.values[idx], self.sigmas[idx]
+        sub.values, sub.sigmas = meas.value_si, meas.sigma_si  # (our values at idx)
         sub.values_grouped = sub._to_grouped(sub.values)
         sub.sigmas_grouped = sub._to_grouped(sub.sigmas)
         sub._set_row_model()
         sub.angle_mask = sub._to_set_order(sub.angle_mask_grouped)
-        sub._rel_map = None if self._rel_map is None else self._rel_map.take(pick)
+        # Our map's sensor states at pick are the new grouped ones: not gathered again.
+        sub._rel_map = (None if self._rel_map is None
+                        else self._rel_map.take(pick, sensor=sub._sensor))
         sub._rel_map_ref = (None if sub._ref is None or self._rel_map_ref is None
                             else self._rel_map_ref.take(pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
-        sub._kind_code = None
         return sub
-
-    def _kind_index(self) -> NDArray[np.intp]:
-        """Each row's kind as its position in :attr:`models` (set order), made once."""
-        code = self._kind_code
-        if code is None:
-            code = np.zeros(len(self.meas), dtype=np.intp)  # one kind: all 0, nothing set
-            for i, rows in enumerate(self.rows.values()):
-                if i:
-                    code[rows] = i
-            code.flags.writeable = False
-            self._kind_code = code
-        return code
 
     @property
     def n_nuisance(self) -> int:

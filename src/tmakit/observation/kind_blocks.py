@@ -1,0 +1,75 @@
+"""Rows grouped by kind: each kind's block of rows, and what follows from the blocks.
+
+The observation model works on a set's rows grouped by kind, each kind a contiguous slice
+(:class:`~tmakit.observation.ObservationModel`).  The grouping comes from the categorical kind
+codes (:attr:`~tmakit.data.MeasurementSet.kind_code`) and the facts solvers need from the
+slices alone, without a pass over the rows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import KIND_CODES, MeasurementSet
+from ..measurements import MeasurementModel
+
+
+def group_by_kind(meas: MeasurementSet, kinds: list[str]
+                  ) -> tuple[dict[str, slice], NDArray[np.intp] | None]:
+    """Group the rows of a set by kind: each kind's slice of the grouped order, and that order.
+
+    Rows keep the set's order within a kind.  From the kind codes alone: no pass for one kind,
+    one comparison pass when the kinds come in blocks already, else a stable sort of the codes.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The set.
+    kinds : list of str
+        The kinds present, in kind code order (:attr:`~tmakit.data.MeasurementSet.kinds`).
+
+    Returns
+    -------
+    slices : dict of str to slice
+        Each kind's rows in the grouped order, in the order of ``kinds``.
+    order : ndarray of int or None
+        ``(n,)`` the set's rows in grouped order; None when that is the set's own order.
+    """
+    n = len(meas)
+    if len(kinds) <= 1:
+        return {k: slice(0, n) for k in kinds}, None
+    code = meas.kind_code
+    order = None
+    if not bool(np.all(code[1:] >= code[:-1])):
+        order = np.argsort(code, kind="stable")
+        code = code[order]
+    ends = np.searchsorted(code, [KIND_CODES[k] for k in kinds], side="right").tolist()
+    return {k: slice(a, b) for k, a, b in zip(kinds, [0, *ends[:-1]], ends, strict=True)}, order
+
+
+def angle_runs(models: Mapping[str, MeasurementModel], slices: Mapping[str, slice], m: int
+               ) -> tuple[bool, bool, slice | None]:
+    """Tell whether some and all of ``m`` rows grouped by kind are angles, and where.
+
+    Parameters
+    ----------
+    models, slices : mapping
+        Each kind's measurement model and rows (slices of the rows grouped by kind).
+    m : int
+        The number of rows.
+
+    Returns
+    -------
+    (bool, bool, slice or None)
+        Whether some rows are angles, whether all are, and the angle rows as one slice when
+        they form one run (None otherwise, or without angle rows).
+    """
+    runs = sorted((sl.start, sl.stop) for kind, sl in slices.items()
+                  if models[kind].is_angle and sl.stop > sl.start)
+    count = sum(stop - start for start, stop in runs)
+    # Disjoint runs form one run when their span holds no other row.
+    one = bool(runs) and runs[-1][1] - runs[0][0] == count
+    return count > 0, count == m, slice(runs[0][0], runs[-1][1]) if one else None
