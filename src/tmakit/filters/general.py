@@ -262,9 +262,9 @@ def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
 def wrap_small(a: Array) -> Array:
     """Wrap angle differences to (-pi, pi], leaving those already inside untouched.
 
-    :func:`~tmakit.frames.wrap_angle` computes ``(a + pi) - pi`` even inside, which rounds a
-    small difference to the spacing of pi (4.4e-16 rad); here such values are returned as
-    they are, and only an array with a value outside goes to ``wrap_angle``.
+    The values of :func:`~tmakit.frames.wrap_angle` (which also keeps values inside as they
+    are), without its copy: the few entries of a filter's update are tested as floats, and
+    only an array with a value outside goes to ``wrap_angle``.
 
     Parameters
     ----------
