@@ -29,3 +29,15 @@ def bearings(motion: tk.MotionModel, theta: np.ndarray, n: int, seed: int, dim: 
              else np.full(n, np.radians(1.0)))
     return tk.MeasurementSet.from_si(t, np.zeros(n, dtype=int), np.full(n, "bearing"),
                                      bearing + sigma * rng.normal(size=n), sigma, state)
+
+
+def scenario_rows(n: int, seed: int, name: str = "bearings-only-2d"
+                  ) -> tuple[tk.Scenario, tk.MeasurementSet]:
+    """Give the scenario ``name`` with ``n`` evenly spaced rows per plan and one seeded set."""
+    import dataclasses
+
+    scn = tk.load_scenario(name)
+    lo, hi = scn.time_span()
+    plans = [dataclasses.replace(p, times=np.linspace(lo, hi, n)) for p in scn.plans]
+    scn = dataclasses.replace(scn, plans=plans)
+    return scn, scn.simulate(np.random.default_rng(seed))

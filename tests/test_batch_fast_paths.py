@@ -14,10 +14,9 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
+from bearing_sets import scenario_rows
 
 import tmakit as tk
 from tmakit.batch import VarProProblem, solver
@@ -27,14 +26,6 @@ from tmakit.batch.solver import information_of, levenberg_marquardt
 from tmakit.batch.varpro import Evaluation, _wrap_own
 from tmakit.frames import wrap_angle
 from tmakit.results.estimate import assemble_result
-
-
-def _bearings(n: int, seed: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
-    scn = tk.load_scenario("bearings-only-2d")
-    lo, hi = scn.time_span()
-    plans = [dataclasses.replace(p, times=np.linspace(lo, hi, n)) for p in scn.plans]
-    scn = dataclasses.replace(scn, plans=plans)
-    return scn, scn.simulate(np.random.default_rng(seed))
 
 
 @pytest.mark.parametrize("known", [False, True])
@@ -63,7 +54,7 @@ def test_information_from_the_last_evaluation_is_the_information_at_the_fit(know
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_no_guess_fit_reports_the_information_at_its_estimate(seed):
-    scn, meas = _bearings(3000, seed)
+    scn, meas = scenario_rows(3000, seed)
     res = tk.estimate(meas, scn.motion)
     obs = tk.ObservationModel(meas, scn.motion)
     problem = VarProProblem(obs)
@@ -130,7 +121,7 @@ def test_one_run_damping_equals_the_batched_damping():
 def test_a_singular_problem_is_reported_unobservable():
     # One sensor at rest and bearings only: the range of a constant-velocity target is not
     # determined, J'J is singular.
-    scn, _ = _bearings(200, 0)
+    scn, _ = scenario_rows(200, 0)
     meas = scn.simulate(np.random.default_rng(5))
     state = meas.sensor_state.copy()
     state[:] = state[0]

@@ -9,10 +9,10 @@ and a step that does not do what the model predicted must not stop the run.
 from __future__ import annotations
 
 import collections
-import dataclasses
 
 import numpy as np
 import pytest
+from bearing_sets import scenario_rows
 
 import tmakit as tk
 from tmakit.batch import presolve, solver
@@ -22,17 +22,9 @@ from tmakit.observation import ObservationModel
 from tmakit.observation.fused import fused_linearisation, fused_values
 
 
-def _many_rows(n: int, seed: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
-    scn = tk.load_scenario("bearings-only-2d")
-    lo, hi = scn.time_span()
-    plans = [dataclasses.replace(p, times=np.linspace(lo, hi, n)) for p in scn.plans]
-    scn = dataclasses.replace(scn, plans=plans)
-    return scn, scn.simulate(np.random.default_rng(seed))
-
-
 @pytest.fixture(scope="module")
 def large() -> tuple[tk.Scenario, tk.MeasurementSet]:
-    return _many_rows(100_000, 5)
+    return scenario_rows(100_000, 5)
 
 
 def _counting(monkeypatch: pytest.MonkeyPatch) -> collections.Counter:
@@ -95,7 +87,7 @@ def test_a_step_the_model_does_not_predict_does_not_stop_the_run(large, monkeypa
 
 
 def test_fused_values_are_the_fused_linearisation_values_bit_for_bit() -> None:
-    scn, meas = _many_rows(500, 1)
+    scn, meas = scenario_rows(500, 1)
     obs = ObservationModel(meas, scn.motion)
     theta = scn.theta + np.array([100.0, -50.0, 0.5, -0.2])
     lin = fused_linearisation(obs, theta)
@@ -107,7 +99,7 @@ def test_fused_values_are_the_fused_linearisation_values_bit_for_bit() -> None:
 
 
 def test_a_set_without_references_holds_no_memory_per_row_for_them() -> None:
-    _, meas = _many_rows(1000, 0)
+    _, meas = scenario_rows(1000, 0)
     assert meas.time_ref.strides[0] == 0 and meas.ref_sensor_state.strides[0] == 0
     part = meas.take(np.arange(0, 1000, 7))
     assert part.ref_sensor_state.shape == (143, 6) and part.time_ref.shape == (143,)

@@ -11,10 +11,10 @@ full-size Jacobian fewer.
 from __future__ import annotations
 
 import collections
-import dataclasses
 
 import numpy as np
 import pytest
+from bearing_sets import scenario_rows
 
 import tmakit as tk
 from tmakit.batch import presolve
@@ -23,17 +23,9 @@ from tmakit.batch.init import GridSettings
 from tmakit.batch.varpro import VarProProblem
 
 
-def _many_rows(n: int, seed: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
-    scn = tk.load_scenario("bearings-only-2d")
-    lo, hi = scn.time_span()
-    plans = [dataclasses.replace(p, times=np.linspace(lo, hi, n)) for p in scn.plans]
-    scn = dataclasses.replace(scn, plans=plans)
-    return scn, scn.simulate(np.random.default_rng(seed))
-
-
 @pytest.fixture(scope="module")
 def large() -> tuple[tk.Scenario, tk.MeasurementSet]:
-    return _many_rows(60_000, 3)
+    return scenario_rows(60_000, 3)
 
 
 def _data_part(problem: VarProProblem, meas: tk.MeasurementSet) -> np.ndarray:
