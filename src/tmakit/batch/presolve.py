@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from ..frames import wrap_angle_own
 from ..observation.fused import fused_gradient_rows, gradient_of_rows
 from ..observation.fused_compiled import bearing_normal_equations
+from ..results.observability import full_rank
 from .init import GridSettings, Starts, best_starts_many, subsample
 from .solver import SolveResult, VarProProblem, levenberg_marquardt
 
@@ -95,8 +96,9 @@ def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.
 
     Below :data:`PRESOLVE_ROWS` rows (or with correlated noise) the starts come back as they
     are.  Otherwise each is fitted by Levenberg–Marquardt on :data:`PRESOLVE_SUBSET` evenly
-    spread rows; a fit that converged to a finite cost replaces its start.  Every full-size
-    evaluation costs as much as the subset's whole fit.
+    spread rows; a fit that converged to a finite cost, where the subset's information has
+    full rank (:func:`~tmakit.results.observability.full_rank`), replaces its start.  Every
+    full-size evaluation costs as much as the subset's whole fit.
 
     Parameters
     ----------
@@ -136,6 +138,13 @@ def _presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np
     small, rows = subset
     pre = levenberg_marquardt(small, ys[:, rows], theta, max_iter=max_iter, dtol=PRESOLVE_DTOL)
     ok = pre.converged & np.isfinite(pre.cost)
+    if pre.information is not None:
+        # A subset that cannot see every parameter (the library's own rank test) has no
+        # optimum near the whole set's: bearings from a barely turning observer fit at 10^7 m
+        # and more, where the whole set's solve stays on the plateau.  Such a start stays as
+        # it was.
+        sound = ok & np.isfinite(pre.information).all(axis=(1, 2))
+        ok[sound] = full_rank(pre.information[sound])
     information = None
     if pre.information is not None and not problem.eliminates:
         # Evenly spread rows: each row of the subset stands for a share of the whole set's

@@ -33,7 +33,7 @@ from ..results.estimate import (
     assemble_result,
 )
 from ..results.nuisance import KnownNuisance
-from ..results.observability import RANK_TOL
+from ..results.observability import full_rank
 
 __all__ = ["RunSummaries", "solve_runs", "summarise_runs"]
 
@@ -174,7 +174,7 @@ def _full_rank_block(problem: VarProProblem, fits: list[tuple[int, Best]],
     sound = np.isfinite(info).all(axis=(-2, -1))
     full = np.zeros(len(fits), dtype=bool)
     if sound.any():
-        full[sound] = _full_rank(info[sound])
+        full[sound] = full_rank(info[sound])
     for k, (i, best) in enumerate(fits):
         if not sound[k]:  # what a single fit's result does with it, exactly
             _one_by_one(problem, best, known, i, out)
@@ -183,15 +183,6 @@ def _full_rank_block(problem: VarProProblem, fits: list[tuple[int, Best]],
                          CONVERGED if best.converged else NOT_CONVERGED)
         out.chi2[i] = 2.0 * best.cost
         out.estimates[i] = best.theta
-
-
-def _full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """``(B,)`` whether each information matrix has full rank (the test of ``analyse``)."""
-    d = np.diagonal(info, axis1=-2, axis2=-1)
-    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
-    evals = np.linalg.eigh(info * scale[:, :, None] * scale[:, None, :])[0]
-    top = np.maximum(evals[:, -1], np.finfo(float).tiny)
-    return ~(evals <= RANK_TOL * top[:, None]).any(axis=1)
 
 
 def _one_by_one(problem: VarProProblem, best: Best, known: KnownNuisance | None, i: int,

@@ -26,6 +26,27 @@ from ..motion import MotionModel
 RANK_TOL = 1e-10
 """Eigenvalues of the normalised information below this fraction of the largest are zero."""
 
+def full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Tell whether each of a batch of information matrices has full rank (as :func:`analyse`).
+
+    Parameters
+    ----------
+    info : ndarray, shape (B, q, q)
+        Finite Fisher information matrices (SI units of the parameters, inverse squared).
+
+    Returns
+    -------
+    ndarray of bool, shape (B,)
+        True where no eigenvalue of the normalised matrix (``D F D``, ``D = diag(F)^-1/2``) is
+        at most :data:`RANK_TOL` times the largest.
+    """
+    d = np.diagonal(info, axis1=-2, axis2=-1)
+    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
+    evals = np.linalg.eigh(info * scale[:, :, None] * scale[:, None, :])[0]
+    top = np.maximum(evals[:, -1], np.finfo(float).tiny)
+    return ~(evals <= RANK_TOL * top[:, None]).any(axis=1)
+
+
 _AXES = {"East": np.array([1.0, 0, 0]), "North": np.array([0, 1.0, 0]),
          "Up": np.array([0, 0, 1.0])}
 
