@@ -18,7 +18,7 @@ from tmakit.results.observability import full_rank
 from tmakit.scenario_file import scenario_from_dict
 
 
-def _weak_turn(n: int) -> tk.Scenario:
+def _weak_turn(n: int, sigma: float = 3.0) -> tk.Scenario:
     data = {
         "name": "weak-turn",
         "target": {"motion": "cv2d", "ref_time": 0.0,
@@ -31,7 +31,7 @@ def _weak_turn(n: int) -> tk.Scenario:
         "measurements": [{"kind": "bearing", "sensor": "observer",
                           "times": {"start": 1.0, "stop": 600.0,
                                     "step": 599.0 / (n - 1)},
-                          "sigma": 3.0}],
+                          "sigma": sigma}],
     }
     return scenario_from_dict(data)
 
@@ -54,3 +54,30 @@ def test_full_rank_is_the_observability_rank_test() -> None:
                      [[1.0, 1.0], [1.0, 1.0]],    # rank 1
                      [[1.0, 0.0], [0.0, 0.0]]])   # a zero column
     np.testing.assert_array_equal(full_rank(info), [True, False, False])
+
+
+def test_a_subset_step_that_raises_the_cost_is_not_taken(monkeypatch) -> None:
+    # Where the subset barely sees the range, the full Gauss-Newton step from its optimum
+    # can raise the cost: the solve then starts at the subset's optimum, as without the step.
+    scn = _weak_turn(20_001)
+    meas = scn.simulate(np.random.default_rng(23))
+    taken = []
+    step = presolve.subset_step
+
+    def spy(problem, ys, theta, information):
+        out = step(problem, ys, theta, information)
+        if out is not None:
+            y = problem.group(ys)
+            u = problem.data_part(y, problem.reference_nuisance(y))
+            after = problem.evaluate_part(out[0], u, np.zeros((1, 0)), False).cost[0]
+            taken.append(after > out[1])
+        return out
+
+    monkeypatch.setattr(presolve, "subset_step", spy)
+    fit = tk.estimate(meas, scn.motion)
+    assert taken == [True]  # (this set's step raises the cost)
+    monkeypatch.setattr(presolve, "subset_step", lambda *args: None)
+    without = tk.estimate(meas, scn.motion)
+    np.testing.assert_array_equal(fit.estimate, without.estimate)
+    np.testing.assert_array_equal(fit.covariance, without.covariance)
+    assert fit.iterations == without.iterations + 1  # (the step tried)

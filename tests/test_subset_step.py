@@ -69,7 +69,8 @@ def test_subset_information_scaled_is_the_whole_sets(large) -> None:
                                                   np.zeros((1, 0))), None)[0][0]
     scale = np.sqrt(np.outer(np.diag(full), np.diag(full)))
     assert np.max(np.abs(information[0] - full) / scale) < 1e-2
-    stepped = presolve.subset_step(problem, ys, theta, information)
+    stepped, cost = presolve.subset_step(problem, ys, theta, information)
+    assert cost == presolve.gradient_at(problem, theta, _data_part(problem, meas))[0]
     # the step lands where the exact Gauss-Newton step would: within the polishing range
     jtj, jtr = normal_equations(problem.evaluate_part(stepped, _data_part(problem, meas),
                                                       np.zeros((1, 0))), None)

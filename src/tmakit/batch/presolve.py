@@ -202,7 +202,8 @@ def gradient_at(problem: VarProProblem, theta: NDArray[np.float64], u: NDArray[n
 
 
 def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
-                information: NDArray[np.float64] | None) -> NDArray[np.float64] | None:
+                information: NDArray[np.float64] | None
+                ) -> tuple[NDArray[np.float64], float] | None:
     """Take the first Gauss–Newton step on every row with the subset's ``J'J``, or None.
 
     From a subset's optimum, a few of the whole set's standard deviations away, the solve's
@@ -211,7 +212,11 @@ def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[
     rows of ``bearings-only-2d``), gives the step to about 1e-3 of its length.  The gradient
     alone (:func:`gradient_at`) costs less than an
     evaluation with the Jacobian.  The solve then starts at the point reached, where its first
-    evaluation checks the step: nothing of the approximation reaches the result.
+    evaluation checks the step against the cost at ``theta`` (``fallback`` of
+    :func:`~tmakit.batch.solver.levenberg_marquardt`): nothing of the approximation reaches
+    the result.  The check matters where the subset barely determines the parameters (an
+    observer that hardly turns): there the full Gauss–Newton step itself may raise the cost
+    a thousandfold.
 
     Parameters
     ----------
@@ -226,10 +231,10 @@ def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[
 
     Returns
     -------
-    ndarray or None
-        ``(1, p)`` the point reached (SI); None for several starts, without a finite
-        ``information``, where the gradient alone cannot be had (see ``gradient_at``), or
-        when the step is not finite.
+    (ndarray, float) or None
+        ``(1, p)`` the point reached (SI) and the cost (half chi2) at ``theta``; None for
+        several starts, without a finite ``information``, where the gradient alone cannot be
+        had (see ``gradient_at``), or when the step is not finite.
     """
     if (theta.shape[0] != 1 or information is None
             or not np.all(np.isfinite(information))):
@@ -242,7 +247,7 @@ def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[
         step = np.linalg.solve(information[0], found[1])
     except np.linalg.LinAlgError:
         return None
-    return theta + step[None] if np.all(np.isfinite(step)) else None
+    return (theta + step[None], found[0]) if np.all(np.isfinite(step)) else None
 
 
 POLISH_DECREMENT = 0.5
@@ -282,10 +287,11 @@ def solve_all_rows(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArr
     """
     theta, near, information = _presolve(problem, ys, theta, max_iter, subset)
     stepped = subset_step(problem, ys, theta, information) if near else None
-    sol = levenberg_marquardt(problem, ys, theta if stepped is None else stepped,
+    sol = levenberg_marquardt(problem, ys, theta if stepped is None else stepped[0],
                               max_iter=max_iter, groups=groups, ceiling=ceiling,
                               damping0=1e-8 if near else 1e-3,
-                              polish=POLISH_DECREMENT if near else 0.0)
+                              polish=POLISH_DECREMENT if near else 0.0,
+                              fallback=None if stepped is None else (theta, np.array([stepped[1]])))
     if stepped is not None:
         sol.iterations += 1  # the step taken with the subset's J'J
     return sol

@@ -197,7 +197,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         free: NDArray[np.bool_] | None = None, damping: str = "nielsen",
                         max_reject: int | None = None, stall: float = 0.0,
                         dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN),
-                        damping0: float = 1e-3, polish: float = 0.0) -> SolveResult:
+                        damping0: float = 1e-3, polish: float = 0.0,
+                        fallback: tuple[Array, Array] | None = None) -> SolveResult:
     """Fit a batch by Levenberg–Marquardt (Marquardt's diagonal scaling), nuisance reduced.
 
     Parameters
@@ -235,6 +236,10 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     polish : float
         A single run whose decrement is at most ``polish > 0`` ends with a step checked by
         its residuals alone (:func:`_polished`).
+    fallback : (ndarray, ndarray), optional
+        ``(B, p)`` points and ``(B,)`` their costs (half chi2) from which ``theta0`` was
+        reached by a step taken before the solve: a run whose start does not cost less
+        starts from its fallback point instead (the step is checked by the first evaluation).
 
     Returns
     -------
@@ -265,7 +270,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                    damping, max_reject, stall, dominance, polish)
     with np.errstate(invalid="ignore", divide="ignore"):  # a trial on a sensor: cost inf
         runs = _iterate(problem, _start(problem, y, theta0, groups, ceiling, stall > 0,
-                                        damping0), max_iter, rules)
+                                        damping0, fallback), max_iter, rules)
     runs.finish()
     out = runs.out  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
@@ -274,8 +279,8 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
            groups: NDArray[np.int64] | None, ceiling: Array | None, stall: bool,
-           damping0: float = 1e-3) -> _Runs:
-    """Set up the runs of :func:`levenberg_marquardt` at their starting points."""
+           damping0: float = 1e-3, fallback: tuple[Array, Array] | None = None) -> _Runs:
+    """Set up the runs of :func:`levenberg_marquardt` at their starting points (or fallbacks)."""
     theta = np.array(theta0, dtype=float, ndmin=2)
     b = theta.shape[0]
     y = problem.group(y)
@@ -290,6 +295,11 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
         if ceiling is not None:
             np.minimum.at(reached, groups, np.broadcast_to(ceiling, (b,)))
     start = problem.evaluate_part(theta, u, nu_star, True, quiet=True)  # (errors ignored)
+    if fallback is not None:
+        back = ~(start.cost < np.asarray(fallback[1]))
+        if back.any():  # (all runs again: a step that failed is rare)
+            theta = np.where(back[:, None], fallback[0], theta)
+            start = problem.evaluate_part(theta, u, nu_star, True, quiet=True)
     runs = _Runs(start, u, nu_star, groups, reached, stall)
     runs.lam[:] = damping0
     return runs
