@@ -36,6 +36,10 @@ DAMPING = ("nielsen", "factors")
 after a rejected one (the manoeuvre search's schedule).
 """
 
+Fallback = tuple[Array, Array]
+"""``(B, p)`` points and ``(B,)`` their costs (half chi2): where a run starts if its own start
+costs no less (``fallback`` of :func:`levenberg_marquardt`)."""
+
 DOMINANCE_FACTOR = 10.0
 """Decrements of excess cost at which a run stops as dominated.
 
@@ -181,13 +185,14 @@ class _Runs:
         then = self.history[(iteration - _STALL_WINDOW) % slots, self.ids]
         return then - self.cur.cost < stall
 
-    def finish(self) -> None:
-        """Write the state of the runs still live (the iteration limit) into ``out``."""
+    def finish(self) -> Evaluation:
+        """Write the state of the runs still live (the iteration limit) into ``out``; give it."""
         if self.cur is not self.out and self.ids.size:
             if self.ids.size == self.out.cost.shape[0]:  # every run still live: no copy
                 self.out = self.cur
             else:
                 self.out.put(self.ids, self.cur)
+        return self.out
 
 
 def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
@@ -195,10 +200,9 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         gtol: float = 1e-10, dtol: float = 1e-5,
                         groups: NDArray[np.int64] | None = None, ceiling: Array | None = None, *,
                         free: NDArray[np.bool_] | None = None, damping: str = "nielsen",
-                        max_reject: int | None = None, stall: float = 0.0,
+                        max_reject: int | None = None, stall: float = 0.0, polish: float = 0.0,
                         dominance: tuple[float, float] = (DOMINANCE_FACTOR, DOMINANCE_MARGIN),
-                        damping0: float = 1e-3, polish: float = 0.0,
-                        fallback: tuple[Array, Array] | None = None) -> SolveResult:
+                        damping0: float = 1e-3, fallback: Fallback | None = None) -> SolveResult:
     """Fit a batch by Levenberg–Marquardt (Marquardt's diagonal scaling), nuisance reduced.
 
     Parameters
@@ -233,13 +237,10 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
         0``) once six steps in a row lowered its cost by less than ``stall`` in all.
     dominance : (float, float)
         ``(factor, margin)`` of the dominance test (half chi2; default the module constants).
-    polish : float
+    polish, fallback : float, (ndarray, ndarray) or None
         A single run whose decrement is at most ``polish > 0`` ends with a step checked by
-        its residuals alone (:func:`_polished`).
-    fallback : (ndarray, ndarray), optional
-        ``(B, p)`` points and ``(B,)`` their costs (half chi2) from which ``theta0`` was
-        reached by a step taken before the solve: a run whose start does not cost less
-        starts from its fallback point instead (the step is checked by the first evaluation).
+        its residuals alone (:func:`_polished`).  A run whose start costs no less than its
+        ``fallback`` (``(B, p)`` points, ``(B,)`` half chi2) starts from that point instead.
 
     Returns
     -------
@@ -271,15 +272,14 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
     with np.errstate(invalid="ignore", divide="ignore"):  # a trial on a sensor: cost inf
         runs = _iterate(problem, _start(problem, y, theta0, groups, ceiling, stall > 0,
                                         damping0, fallback), max_iter, rules)
-    runs.finish()
-    out = runs.out  # each accepted point carries its own eliminated nuisance: no re-evaluation
+    out = runs.finish()  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
                        out, runs.dominated, runs.information)
 
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
            groups: NDArray[np.int64] | None, ceiling: Array | None, stall: bool,
-           damping0: float = 1e-3, fallback: tuple[Array, Array] | None = None) -> _Runs:
+           damping0: float = 1e-3, fallback: Fallback | None = None) -> _Runs:
     """Set up the runs of :func:`levenberg_marquardt` at their starting points (or fallbacks)."""
     theta = np.array(theta0, dtype=float, ndmin=2)
     b = theta.shape[0]
