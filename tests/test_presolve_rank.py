@@ -1,10 +1,13 @@
-"""The presolve keeps its start where the subset of rows cannot see every parameter.
+"""The presolve on a subset of rows where that subset barely sees the range.
 
 Bearings from an observer that turns by 4 degrees once in 600 s: the whole set of 20,001
-rows (3 deg noise) determines the range, the presolve's subset of 2,000 rows does not, and
-its fit runs off to 10^7 m and more.  Taken as the start of the whole set's solve, that point
-left the fit on the plateau far out (``unobservable`` at 10^11 m, chi2 up by 10) where the
-fit on every row converges near the truth.
+rows determines the range, the presolve's subset of 2,000 rows hardly does.
+
+* At 5 deg noise the subset's fit runs off to 10^7 m, its information rank deficient; taken
+  as the start of the whole set's solve, that point left the fit on the plateau far out
+  (``unobservable`` 1,000 km out, chi2 up by 0.7) where the fit on every row converges.
+* At 3 deg the subset's optimum is sound but the full Gauss-Newton step from it (the subset
+  step) raises the cost 3,500-fold; the solve took 27 iterations from there, not 8.
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ def _weak_turn(n: int, sigma: float = 3.0) -> tk.Scenario:
 
 
 def test_subset_blind_to_the_range_leaves_the_start(monkeypatch) -> None:
-    scn = _weak_turn(20_001)
+    scn = _weak_turn(20_001, 5.0)
     meas = scn.simulate(np.random.default_rng(8))
     assert len(meas.time) > presolve.PRESOLVE_ROWS
     fit = tk.estimate(meas, scn.motion)
@@ -60,7 +63,7 @@ def test_a_subset_step_that_raises_the_cost_is_not_taken(monkeypatch) -> None:
     # Where the subset barely sees the range, the full Gauss-Newton step from its optimum
     # can raise the cost: the solve then starts at the subset's optimum, as without the step.
     scn = _weak_turn(20_001)
-    meas = scn.simulate(np.random.default_rng(23))
+    meas = scn.simulate(np.random.default_rng(0))
     taken = []
     step = presolve.subset_step
 
