@@ -291,7 +291,8 @@ def solve_all_rows(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArr
                               max_iter=max_iter, groups=groups, ceiling=ceiling,
                               damping0=1e-8 if near else 1e-3,
                               polish=POLISH_DECREMENT if near else 0.0,
-                              fallback=None if stepped is None else (theta, np.array([stepped[1]])))
+                              fallback=None if stepped is None
+                              else (theta, np.array([stepped[1]]), information))
     if stepped is not None:
         sol.iterations += 1  # the step taken with the subset's J'J
     return sol

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..arrays import Array
-from .gauss_newton import GaussNewtonModel, information_of
+from .gauss_newton import GaussNewtonModel, information_of, information_steady
 from .varpro import Evaluation, VarProProblem
 
 __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "Evaluation", "SolveResult",
@@ -36,9 +36,11 @@ DAMPING = ("nielsen", "factors")
 after a rejected one (the manoeuvre search's schedule).
 """
 
-Fallback = tuple[Array, Array]
+Fallback = tuple[Array, Array] | tuple[Array, Array, Array]
 """``(B, p)`` points and ``(B,)`` their costs (half chi2): where a run starts if its own start
-costs no less (``fallback`` of :func:`levenberg_marquardt`)."""
+costs no less (``fallback`` of :func:`levenberg_marquardt`); optionally ``(B, p, p)`` an
+approximation of ``J'J`` there, the previous information a single run's ``polish`` compares
+its own with (:func:`~tmakit.batch.gauss_newton.information_steady`)."""
 
 DOMINANCE_FACTOR = 10.0
 """Decrements of excess cost at which a run stops as dominated.
@@ -132,6 +134,8 @@ class _Runs:
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
         self.model: GaussNewtonModel | None = None
         self.information: Array | None = None  # J'J of stopped runs at their final points
+        # a single run's previous point and its J'J (how fast J'J changes: information_steady)
+        self.previous: tuple[Array, Array] | None = None
         self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
@@ -301,6 +305,8 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
             theta = np.where(back[:, None], fallback[0], theta)
             start = problem.evaluate_part(theta, u, nu_star, True, quiet=True)
     runs = _Runs(start, u, nu_star, groups, reached, stall)
+    if fallback is not None and len(fallback) == 3 and b == 1 and not back[0]:
+        runs.previous = (np.asarray(fallback[0])[0], np.asarray(fallback[2])[0])
     runs.lam[:] = damping0
     return runs
 
@@ -364,6 +370,8 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
     tiny = better and lam <= 1e-2 and bool(
         (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all())
     if better:
+        if runs.model is not None and runs.model.jtj is not None:
+            runs.previous = (runs.cur.theta[0], runs.model.jtj[0])
         runs.cur, runs.model = trial, None
     if tiny or float(runs.lam[0]) > 1e12:
         runs.stop(np.ones(1, dtype=bool), np.array([tiny]))
@@ -372,7 +380,6 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
 POLISH_AGREEMENT = 0.01
 """Largest relative gap between the decrease of a polishing step and the decrease its
 Gauss-Newton model predicted (see :func:`_polished`)."""
-
 
 def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
     """End a single run with a Gauss–Newton step checked by its residuals alone.
@@ -394,7 +401,9 @@ def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
     model, cur = runs.model, runs.cur
     assert model is not None
     predicted = float(model.decrement[0])
-    if runs.ids.size != 1 or predicted > rules.polish or float(runs.lam[0]) > 1e-2:
+    if (runs.ids.size != 1 or predicted > rules.polish or float(runs.lam[0]) > 1e-2
+            or not information_steady(model, runs.cur.theta[0], runs.previous, predicted,
+                                      rules.free)):
         return False
     step, expected = model.step(runs.lam)
     if rules.free is not None:
