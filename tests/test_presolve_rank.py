@@ -81,6 +81,8 @@ def test_a_subset_step_that_raises_the_cost_is_not_taken(monkeypatch) -> None:
     assert taken == [True]  # (this set's step raises the cost)
     monkeypatch.setattr(presolve, "subset_step", lambda *args: None)
     without = tk.estimate(meas, scn.motion)
-    np.testing.assert_array_equal(fit.estimate, without.estimate)
-    np.testing.assert_array_equal(fit.covariance, without.covariance)
+    # the same path from the same point: equal to rounding (bit for bit on the NumPy path;
+    # the compiled kernel's reassociated sums depend on the arrays' alignment)
+    np.testing.assert_allclose(fit.estimate, without.estimate, rtol=1e-9)
+    np.testing.assert_allclose(fit.covariance, without.covariance, rtol=1e-6)
     assert fit.iterations == without.iterations + 1  # (the step tried)
