@@ -210,8 +210,8 @@ def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[
     first step needs the whole set's gradient ``J'r`` but only an approximation of its ``J'J``:
     the subset's, scaled to every row (:func:`_presolve`; within 1e-3 of the whole set's on 10^5
     rows of ``bearings-only-2d``), gives the step to about 1e-3 of its length.  The gradient
-    alone (:func:`gradient_at`) costs less than an
-    evaluation with the Jacobian.  The solve then starts at the point reached, where its first
+    alone (:func:`gradient_at`) costs less than an evaluation with the Jacobian.  The solve
+    then starts at the point reached, where its first
     evaluation checks the step against the cost at ``theta`` (``fallback`` of
     :func:`~tmakit.batch.solver.levenberg_marquardt`): nothing of the approximation reaches
     the result.  The check matters where the subset barely determines the parameters (an
