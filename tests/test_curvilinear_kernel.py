@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from kernel_paths import both_paths
+from kernel_paths import both_paths, hoerst_thetas
 
-import tmakit as tk
 from tmakit.motion import PiecewiseCurvilinear
 from tmakit.motion import curvilinear_compiled as compiled
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
@@ -21,11 +20,7 @@ def _both(fn):
 
 def _thetas(m: int, rng: np.random.Generator) -> np.ndarray:
     """Parameter vectors of ``m`` manoeuvres on hoerst2010, with the corner cases."""
-    scn = tk.load_scenario("hoerst2010")
-    base = np.concatenate([scn.theta[:4], np.tile([0.01, 0.02], m + 1),
-                           np.linspace(200.0, 700.0, m)])
-    theta = np.tile(base, (8, 1))
-    theta[:, 4:6 + 2 * m] += 0.01 * rng.normal(size=(8, 2 + 2 * m))
+    theta = hoerst_thetas(m, rng, 8)
     theta[1, 4:6 + 2 * m:2] = 0.0            # straight in speed: r = 0
     theta[2, 4:6 + 2 * m] = 0.0              # no acceleration at all: the held case
     theta[3, 4] = 1e-7                       # the series side of both closed forms

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from kernel_paths import hoerst_thetas
 
 import tmakit as tk
 from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
@@ -21,11 +22,7 @@ from tmakit.motion.curvilinear_batch import ForwardPiecewise
 
 def _theta(m: int, rng: np.random.Generator) -> np.ndarray:
     """Four parameter vectors of ``m`` manoeuvres on hoerst2010, some accelerations zero."""
-    scn = tk.load_scenario("hoerst2010")
-    base = np.concatenate([scn.theta[:4], np.tile([0.01, 0.02], m + 1),
-                           np.linspace(200.0, 700.0, m)])
-    theta = np.tile(base, (4, 1))
-    theta[:, 4:6 + 2 * m] += 0.01 * rng.normal(size=(4, 2 + 2 * m))
+    theta = hoerst_thetas(m, rng, 4)
     theta[1, 4:6] = 0.0  # a straight first segment
     theta[2, 4:6 + 2 * m:2] = 0.0  # constant speed throughout
     return theta
