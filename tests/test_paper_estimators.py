@@ -235,7 +235,8 @@ def test_lecture_gauss_newton_with_three_receivers_reaches_the_bound():
     start = scn.theta + np.array([500.0, -500.0, 300.0, 10.0, -10.0, 5.0])
     exact = lecture_gauss_newton(scn.simulate(noise=False), scn.motion, start)
     assert exact.status == "converged"
-    assert exact.estimate == pytest.approx(scn.theta, abs=1e-4)
+    # noise-free data: within the solver's tolerance (an update below 1e-4 std) of the truth
+    assert np.all(np.abs(exact.estimate - scn.theta) <= 1e-4 * bound.std[:6])
     assert exact.std == pytest.approx(bound.std[:6], rel=0.10)
     assert exact.nuisance["carrier"][1] == pytest.approx(bound.std_of("carrier"), rel=0.10)
     # Noisy data: the same answer as tmakit's ML.  The std is the inverse information at the
