@@ -91,10 +91,11 @@ def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np
     if not (high - TWO_PI <= np.pi and low + TWO_PI > -np.pi):  # (NaN fails too)
         return wrap_angle(e)
     out = e if in_place else e.copy()
+    # (a masked ufunc: one pass, no gather and scatter of the rows out)
     if high > np.pi:
-        out[out > np.pi] -= TWO_PI
+        np.subtract(out, TWO_PI, out=out, where=out > np.pi)
     if low <= -np.pi:
-        out[out <= -np.pi] += TWO_PI
+        np.add(out, TWO_PI, out=out, where=out <= -np.pi)
     return out
 
 

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from scipy.linalg.lapack import dsyevd as _dsyevd
 
 from ..arrays import Array
-from ..blas import SINGLE_THREAD_WORK
+from ..blas import SINGLE_THREAD_WORK, by_dots, normal_rows
 from .varpro import Evaluation, VarProProblem
 
 __all__ = ["POLISH_INFORMATION", "GaussNewtonModel", "gram", "information_of",
@@ -41,6 +41,8 @@ def gram(j: Array) -> Array:
         ``J^T J`` (per parameter unit squared).
     """
     n, p = j.shape[-2:]
+    if j.ndim == 2 and by_dots(j):
+        return normal_rows(j.T)[0]
     jt = np.swapaxes(j, -1, -2)
     block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
     if n <= block:
@@ -121,6 +123,9 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
         # a Jacobian of the free columns only is copied the same way (the same products)
         jac = jac[:, :, free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], bool)]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
+        if by_dots(jac[0]):
+            jtj, jtr = normal_rows(jac[0].T, ev.residual[0])
+            return jtj[None], jtr[None]
         return gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
     return gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
 

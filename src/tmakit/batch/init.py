@@ -53,8 +53,13 @@ def _spread_rows(problem: VarProProblem, max_rows: int) -> NDArray[np.int64] | N
     n = len(problem.obs.meas)
     if n <= max_rows:
         return None
-    keep = [rows[_evenly_spread(rows.size, max(2, round(max_rows * rows.size / n)))]
-            for rows in problem.obs.rows.values()]
+    obs = problem.obs
+    keep = []
+    for sl in obs.slices.values():
+        size = sl.stop - sl.start
+        pick = _evenly_spread(size, max(2, round(max_rows * size / n)))
+        # rows already grouped: a kind's rows are its slice (no index array of every row)
+        keep.append(pick + sl.start if obs.in_set_order else obs.order[sl][pick])
     return keep[0] if len(keep) == 1 else np.sort(np.concatenate(keep))
 
 

@@ -92,7 +92,7 @@ class Bearing(MeasurementModel):
         np.negative(d_rel[..., 1], out=d_rel[..., 1])
 
     def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
-                        weight: Array | None = None) -> Array:
+                        weight: Array | None = None, negate: bool = True) -> Array:
         """Give bearings and write their derivatives by the relative east and north (fused).
 
         The same operations as :meth:`jacobian` (the same bits), for the fused linearisation
@@ -108,6 +108,10 @@ class Bearing(MeasurementModel):
             ``(m,)`` factors of the derivatives (the inverse standard deviations, 1/rad:
             the whitened derivatives, 1/m, in the passes that make them; equal to the
             derivatives scaled afterwards to rounding).
+        negate : bool, optional
+            False leaves ``out_y`` holding ``dx / r^2`` (times ``weight``), the derivative's
+            negative, for a caller that flips the sign of what it sums from it (one pass
+            over the rows fewer; negation is exact).
 
         Returns
         -------
@@ -123,7 +127,8 @@ class Bearing(MeasurementModel):
             scale = np.divide(weight, rho2, out=rho2)
             np.multiply(dy, scale, out=out_x)
             np.multiply(dx, scale, out=out_y)
-        np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
+        if negate:
+            np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
         return np.arctan2(dx, dy)
 
     def planar_value(self, dx: Array, dy: Array) -> Array:

@@ -100,7 +100,9 @@ class ConstantVelocity(MotionModel):
 
         Parameters and returns as :meth:`MotionModel.component_terms`.
         """
-        dt = np.asarray(t, dtype=float) - self.ref_time
+        dt = np.asarray(t, dtype=float)
+        if self.ref_time != 0.0:  # (t - 0 is t: no pass over the rows)
+            dt = dt - self.ref_time
         d = self.dim
         terms: list[tuple[int, int, NDArray[np.float64] | None]] = []
         for i in range(d):

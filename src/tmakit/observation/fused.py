@@ -121,8 +121,9 @@ def fused_gradient_rows(obs: Any, theta: Array, weights: Array
     -------
     (ndarray, ndarray) or None
         ``(n,)`` predictions (rad) and ``(2, n)`` their whitened derivatives by the relative
-        east and north positions (1/m); None where :func:`fused_linearisation` does not
-        apply.
+        east and north positions (1/m), the north one's sign flipped (what
+        :func:`gradient_of_rows` reads: one pass fewer); None where
+        :func:`fused_linearisation` does not apply.
     """
     found = _fused_kind(obs, theta, "planar_gradient")
     if found is None:
@@ -130,7 +131,7 @@ def fused_gradient_rows(obs: Any, theta: Array, weights: Array
     rel_map, gradient, theta = found
     rel = rel_map.single(theta, components=2)
     rows = np.empty((2, rel_map.m))
-    h0 = gradient(rel[0], rel[1], rows[0], rows[1], weights)
+    h0 = gradient(rel[0], rel[1], rows[0], rows[1], weights, negate=False)
     return h0, rows
 
 
@@ -146,7 +147,8 @@ def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
     obs : ObservationModel
         The observation model of :func:`fused_gradient_rows`.
     rows : numpy.ndarray
-        ``(2, n)`` whitened derivatives by east and north (1/m).
+        ``(2, n)`` whitened derivatives by east and north (1/m), the north one's sign
+        flipped (as :func:`fused_gradient_rows` gives them).
     r : numpy.ndarray
         ``(n,)`` whitened residuals (dimensionless).
 
@@ -167,7 +169,9 @@ def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
             factor = weighted.get(id(coef))
             if factor is None:
                 factor = weighted[id(coef)] = coef * r
-        out[i] += np.einsum("n,n->", rows[c], factor)
+        # every product of the north row negated: its sum exactly negated
+        term = np.einsum("n,n->", rows[c], factor)
+        out[i] += -term if c == 1 else term
     return out
 
 
