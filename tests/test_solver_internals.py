@@ -16,6 +16,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -205,6 +207,36 @@ def test_blocked_matmul_is_the_matrix_product():
     np.testing.assert_allclose(matmul(a, b), a @ b, rtol=1e-12, atol=1e-12)
     a3 = rng.normal(size=(2, 5, 40))
     np.testing.assert_allclose(matmul(a3, b), a3 @ b, rtol=1e-12, atol=1e-12)
+
+
+def test_normal_equations_by_dots_are_the_products_and_ignore_the_thread_count():
+    from threadpoolctl import threadpool_limits
+
+    from tmakit.batch.gauss_newton import gram, normal_equations
+    from tmakit.blas import DOT_ROWS, by_dots, normal_rows
+
+    rng = np.random.default_rng(2)
+    n = 3 * DOT_ROWS + 17  # (a last block shorter than the others)
+    rows = rng.normal(size=(4, n)) * np.exp(rng.normal(size=n) * 3)  # sums that round
+    r = rng.normal(size=n)
+    jtj, jtr = normal_rows(rows, r)
+    want = rows @ rows.T
+    np.testing.assert_allclose(jtj, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    np.testing.assert_allclose(jtr, rows @ r, rtol=1e-11, atol=1e-12 * np.abs(rows @ r).max())
+    assert np.array_equal(jtj, jtj.T)
+    with threadpool_limits(2, user_api="blas"):
+        two = normal_rows(rows, r)
+    with threadpool_limits(1, user_api="blas"):
+        one = normal_rows(rows, r)
+    assert np.array_equal(two[0], one[0]) and np.array_equal(two[1], one[1])
+    # Which Jacobians go by dots: many rows, few columns, each column contiguous.
+    assert by_dots(rows.T) and not by_dots(np.ascontiguousarray(rows.T))
+    assert not by_dots(rows[:, :DOT_ROWS - 1].T) and not by_dots(rng.normal(size=(7, n)).T)
+    # The solver's normal equations and gram take that path for one run.
+    ev = SimpleNamespace(normal=None, jacobian=rows.T[None], residual=r[None])
+    got_jtj, got_jtr = normal_equations(ev, None)
+    assert np.array_equal(got_jtj[0], jtj) and np.array_equal(got_jtr[0], jtr)
+    assert np.array_equal(gram(rows.T), jtj)
 
 
 # -- held parameters and the manoeuvre search's schedule --------------------------------------
