@@ -57,6 +57,15 @@ class AffineRows:
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
         for i, c, coef in self.terms:
             self._by_component[c].append((i, coef))
+        #: Per parameter, its terms ``(component, coefficient)`` of east and north (components
+        #: 0 and 1) in term order: the chain rule of the fused planar linearisation.
+        self.planar_terms: list[list[tuple[int, Array | None]]] = [
+            [(c, coef) for j, c, coef in self.terms if j == i and c < 2] for i in range(self.p)]
+        #: Whether parameters 0 and 1 are the east and north positions alone (``(c, c, 1)``):
+        #: their Jacobian rows are then the derivatives by east and north themselves.
+        self.planar_positions = self.p >= 2 and all(
+            len(own) == 1 and own[0][0] == c and own[0][1] is None
+            for c, own in enumerate(self.planar_terms[:2]))
 
     @property
     def matrix(self) -> Array:

@@ -60,9 +60,9 @@ def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
     rel = rel_map.single(theta, components=2)  # (2, m): dx, dy, component-major
     jac = np.empty((rel_map.p, rel_map.m))
     h0 = gradient(rel[0], rel[1], jac[0], jac[1], weights)  # parked in rows 0, 1
-    in_place = not _needs_copy(rel_map)
+    in_place = rel_map.planar_positions  # (else rows 0, 1 are overwritten before read)
     g = (jac[0], jac[1]) if in_place else (jac[0].copy(), jac[1].copy())
-    _chain_terms(rel_map.terms, g, jac, in_place)
+    _chain_terms(rel_map.planar_terms, g, jac, in_place)
     batch = theta.shape[:-1]
     lin = Linearisation(obs, theta, h0.reshape(*batch, rel_map.m),
                         np.zeros((*batch, rel_map.m, 0)))
@@ -265,30 +265,16 @@ def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
     return lin.fused
 
 
-def _needs_copy(rel_map: Any) -> bool:
-    """Whether the gradient rows (parked in rows 0, 1) would be overwritten before read.
-
-    They stay in place when parameter ``c`` (for ``c`` = 0, 1) is exactly the term
-    ``(c, c, 1)`` of component ``c`` alone (a position): then its Jacobian row is the
-    gradient itself, and the other rows are written from them without touching them.
-    """
-    for c in (0, 1):
-        own = [(i, comp, coef) for i, comp, coef in rel_map.terms if i == c and comp < 2]
-        if own != [(c, c, None)]:
-            return True
-    return False
-
-
-def _chain_terms(terms: list[tuple[int, int, Array | None]], g: tuple[Array, Array],
+def _chain_terms(planar_terms: list[list[tuple[int, Array | None]]], g: tuple[Array, Array],
                  jac: Array, in_place: bool) -> None:
     """Write ``jac[i] = sum_c g[c] coef[i, c]`` over the terms of components 0 and 1.
 
-    In parameter order and term order, the order of the general chain rule's sums; a
-    parameter without such a term gets zeros.  With ``in_place``, rows 0 and 1 already hold
-    ``g`` (see :func:`_needs_copy`).
+    ``planar_terms`` are the affine map's (:attr:`AffineRows.planar_terms`): in parameter
+    order and term order, the order of the general chain rule's sums; a parameter without
+    such a term gets zeros.  With ``in_place``, rows 0 and 1 already hold ``g``
+    (:attr:`AffineRows.planar_positions`).
     """
-    for i in range(jac.shape[0]):
-        own = [(c, coef) for j, c, coef in terms if j == i and c < 2]
+    for i, own in enumerate(planar_terms):
         row = jac[i]
         if not own:
             row.fill(0.0)
