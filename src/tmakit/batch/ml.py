@@ -149,7 +149,7 @@ class MaximumLikelihood(BatchEstimator):
         obs = ObservationModel(sets[0], motion, self.options)
         fixed = None if known is None else obs.nuisance_vector(known.values)
         problem = VarProProblem(obs, None, fixed)
-        ys = sets[0].value_si[None] if len(sets) == 1 else np.stack([m.value_si for m in sets])
+        ys = np.stack([m.value_si for m in sets])  # (writeable: the solver takes it as it is)
         bests = self._solve(problem, ys, theta0)
         jacobians = _jacobians(problem.obs, bests)
         out: list[EstimateResult | Exception] = []
