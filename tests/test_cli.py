@@ -183,6 +183,20 @@ def test_estimate_reports_unobservable_with_exit_status_1(tmp_path):
     assert "unobservable" in result.output and "rotation" in result.output
 
 
+def test_a_reference_time_far_from_the_data_is_refused(tmp_path):
+    # An absolute clock given to relative times (or a typo) would make the fit lose its
+    # digits: refused with the data's times and the reach, before any fit; near is fitted.
+    obs = tmp_path / "obs.csv"
+    run("simulate", "bearings-only-2d", "-o", str(obs))
+    for command in ("estimate", "crlb"):
+        far = run(command, str(obs), "--motion", "cv2d", "--ref-time", "1777887010")
+        assert far.exit_code == 2, far.output
+        assert "--ref-time 1.77789e+09" in far.output and "from the measurements" in far.output
+        assert "Traceback" not in far.output
+    near = run("estimate", str(obs), "--motion", "cv2d", "--ref-time", "-5000")
+    assert near.exit_code == 0, near.output
+
+
 def test_montecarlo_and_reproduce_commands(tmp_path):
     table = tmp_path / "runs.csv"
     result = run("montecarlo", "gu2007", "--runs", "6", "--no-progress", "-o", str(table))

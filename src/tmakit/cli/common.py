@@ -264,6 +264,31 @@ def write_or_fail(meas: Any, path: Path, force: bool) -> None:
         raise fail(str(e)) from None
 
 
+FAR_REF_SPANS = 1000.0
+"""Spans of the data (at least 1 s each) beyond which a reference time is refused: the
+positions there depend on the velocities that many times over, and the fit loses the digits."""
+
+
+def _near_the_data(ref_time: float, times: Any, source: str) -> None:
+    """Refuse a reference time farther than :data:`FAR_REF_SPANS` spans from the data."""
+    import numpy as np  # (not at import: ``tma --help`` loads no numerical library)
+
+    t = np.asarray(times, dtype=float)
+    t = t[np.isfinite(t)]
+    if not t.size:
+        return
+    low, high = float(t.min()), float(t.max())
+    reach = FAR_REF_SPANS * max(high - low, 1.0)
+    if low - reach <= ref_time <= high + reach:
+        return
+    far = ref_time - high if ref_time > high else low - ref_time
+    raise fail(f"{source} {ref_time:g}: {far:.3g} s from the measurements (t = {low:g} ... "
+               f"{high:g} s); the positions at a time that far depend on the velocities "
+               f"{far:.0e} times over and the fit would lose its digits.  Give a time within "
+               f"{reach:g} s of the data, in the file's time scale, or leave the reference "
+               "time out (a time near the data)")
+
+
 def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -> Any:
     """Return the motion model named by ``--motion``, errors as ``error: ...``.
 
@@ -292,13 +317,16 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
 
     if ref_time is not None and not math.isfinite(ref_time):
         raise fail(f"--ref-time {ref_time}: expected a finite time (s)")
+    source = "--ref-time"
     if name is None:
         if meas is not None and "motion" in meas.metadata:
             name = meas.metadata["motion"]
             if ref_time is None and "ref_time" in meas.metadata:
-                ref_time = float(meas.metadata["ref_time"])
+                ref_time, source = float(meas.metadata["ref_time"]), "the file's ref_time"
         else:
             raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
+    if ref_time is not None and meas is not None:
+        _near_the_data(ref_time, meas.time, source)
     try:
         if ref_time is None:  # inside the data: the fit does not depend on the time origin
             ref_time = 0.0 if meas is None else default_ref_time(meas.time)
