@@ -77,3 +77,5 @@ def test_help_does_not_load_the_markdown_renderer():
     modules = imported_by("--help")
     assert not [m for m in modules if m.startswith(("rich.markdown", "markdown_it",
                                                     "typer.rich_utils"))]
+    # Nor rich's tables: the commands import them where they make one.
+    assert "rich.table" not in modules

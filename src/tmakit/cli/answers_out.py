@@ -7,10 +7,9 @@ this module only lays it out.  No numpy at import time (``tma --help`` stays lig
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.table import Table
 
 from .common import err, fail, out, print_wide
 
@@ -25,6 +24,9 @@ SensorOption = Annotated[str | None, typer.Option(
 
 SPEED_UNITS = {"si": ("m/s", 1.0), "nautical": ("kn", 1852.0 / 3600.0)}
 RANGE_UNITS = {"si": ("m", 1.0), "nautical": ("nmi", 1852.0)}
+
+if TYPE_CHECKING:
+    from rich.table import Table
 
 
 def check_units(units: str) -> None:
@@ -148,6 +150,8 @@ def answers_table(a: Any, units: str, title: str) -> Table:
     rich.table.Table
         Quantity, value, std, unit.
     """
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
     sp_unit, sp = SPEED_UNITS[units]
     rg_unit, rg = RANGE_UNITS[units]
     table = Table(title=title, title_justify="left")

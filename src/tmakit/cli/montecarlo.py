@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.table import Table
 
 from .common import err, fail, load_scenario_or_fail, out, print_wide
 from .outputs import check_outputs
@@ -116,6 +115,8 @@ def print_summary(res: Any) -> None:
     res : tmakit.montecarlo.MonteCarloResult
         The Monte Carlo result.
     """
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
     counts = ", ".join(f"{k} {v}" for k, v in res.status_counts.items())
     table = Table(title=f"{res.estimator} on {res.scenario}: {res.runs} runs (seed {res.seed}), "
                         f"nuisance {'known' if res.known_nuisance else 'unknown'}",

@@ -12,7 +12,6 @@ from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
-from rich.table import Table
 
 from .common import ForceOption, err, fail, out
 from .outputs import check_outputs as _check_paths
@@ -183,6 +182,8 @@ def print_summary(result: Any, summary: dict[str, Any], seed: int) -> None:
     seed : int
         The seed, for the title.
     """
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
     s = result.setup
     p = s.planner
     table = Table(title=f"{s.scenario.name}: sensor {s.sensor!r} planned over "

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.table import Table
 
 from .common import JsonOption, fail, out
 from .outputs import check_outputs, check_particles, write_picture
@@ -128,6 +127,8 @@ def print_report(rep: Any) -> None:
     rep : tmakit.reproduce.common.Reproduction
         The reproduction's report.
     """
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
     for section in rep.sections:
         table = Table(title=section.title, title_justify="left")
         header, rows = with_unit_column(section.header, section.rows)

@@ -6,10 +6,9 @@ The built-in scenarios, their simulated measurement files, and a file's summary 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.table import Table
 
 from .common import (
     BearingSigmaOption,
@@ -31,6 +30,9 @@ from .common import (
 )
 from .outputs import check_output, write_picture
 
+if TYPE_CHECKING:
+    from rich.table import Table
+
 
 def summary_table(meas: Any, title: str) -> Table:
     """One row per sensor and kind: count, time span (s; UTC when known), values, median sigma.
@@ -47,6 +49,8 @@ def summary_table(meas: Any, title: str) -> Table:
     rich.table.Table
         The table.
     """
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
     from ..results.context import clock_time
 
     clock = clock_time(meas, 0.0) is not None
@@ -126,6 +130,8 @@ def describe_sensors(meas: Any) -> Table:
     rich.table.Table
         The table.
     """
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
     table = Table(title="sensors", title_justify="left")
     for col in ("sensor", "start (E, N, U) m", "end (E, N, U) m", "mean speed (m/s)"):
         table.add_column(col)
@@ -147,6 +153,8 @@ def describe_sensors(meas: Any) -> Table:
 # `tma scenarios`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def scenarios() -> None:
     """List the built-in scenarios, one line each."""
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
     from ..scenario_catalog import builtin_scenarios
 
     table = Table(show_header=True, box=None)

@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.table import Table
 
 from .answers_out import (
     SPEED_UNITS,
@@ -290,6 +289,7 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
         std and the error stay in metres (local East/North/Up), as in the answers table.
     """
     import numpy as np
+    from rich.table import Table  # (loaded where a table is made: not for --help)
 
     from ..results.context import clock_time
 
