@@ -79,3 +79,35 @@ def test_help_does_not_load_the_markdown_renderer():
                                                     "typer.rich_utils"))]
     # Nor rich's tables: the commands import them where they make one.
     assert "rich.table" not in modules
+
+
+@pytest.mark.parametrize("args", [[], ["-h"], ["--help"]])
+def test_the_listing_is_the_full_apps_help(args):
+    # `tma`, `tma -h` and `tma --help` are answered by an app whose commands have no
+    # parameters (typer builds none): its output and exit status must be the full app's.
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app, listing_app
+
+    runner = CliRunner()
+    full, listing = runner.invoke(app, args), runner.invoke(listing_app(), args)
+    assert listing.output == full.output and listing.exit_code == full.exit_code
+    assert "estimate" in full.output and "Options:" in full.output
+
+
+def test_main_answers_the_bare_help_with_the_listing(monkeypatch, capsys):
+    import typer.main
+
+    import tmakit.cli as cli
+
+    built = []
+    original = typer.main.get_params_from_function
+    monkeypatch.setattr(typer.main, "get_params_from_function",
+                        lambda f: built.append(f) or original(f))
+    monkeypatch.setattr(sys, "argv", ["tma", "--help"])
+    with pytest.raises(SystemExit) as ended:
+        cli.main()
+    assert ended.value.code == 0 and "Commands:" in capsys.readouterr().out
+    # the root's options and the stand-ins were built, no command's parameters
+    commands = {info.callback for info in cli.app.registered_commands}
+    assert len(built) > len(commands) and not commands & set(built)

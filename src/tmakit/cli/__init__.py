@@ -42,9 +42,11 @@ from .track import track
 # Plain (click) help, -h as well as --help: no rich markup (a help text's "a:b:" is not an
 # emoji), and typer's rich help loads rich's Markdown renderer and its parser, which took
 # longer than all of numpy's import (benchmarks/run_all.py --only startup).
-app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
-                  context_settings={"help_option_names": ["-h", "--help"]},
-                  help="tmakit: passive emitter localisation and target motion analysis.")
+_APP_SETTINGS = {
+    "add_completion": False, "no_args_is_help": True, "rich_markup_mode": None,
+    "context_settings": {"help_option_names": ["-h", "--help"]},
+    "help": "tmakit: passive emitter localisation and target motion analysis."}
+app = typer.Typer(**_APP_SETTINGS)
 
 
 def _print_version(value: bool) -> None:
@@ -76,9 +78,39 @@ app.command(name="import", cls=PlainCommand)(guarded(import_))
 app.command(cls=PlainCommand)(guarded(examples))
 
 
+def listing_app() -> typer.Typer:
+    """Give an app with ``tma``'s options and commands, the commands without parameters.
+
+    ``tma --help`` lists every command by its name and the first line of its help, and shows
+    none of their options; typer still builds every command's parameters from its signature
+    first (a quarter of the help's time).  This app registers, per command, a function of no
+    parameters with the command's name and docstring: its help is the full app's, character
+    for character (``tests/test_cli_startup.py``).
+
+    Returns
+    -------
+    typer.Typer
+        The listing app (for ``tma``, ``tma -h`` and ``tma --help`` alone).
+    """
+    listing = typer.Typer(**_APP_SETTINGS)
+    listing.callback()(_root)
+    for info in app.registered_commands:
+        command = info.callback
+        assert command is not None  # (every command registered above has its function)
+
+        def stub() -> None:
+            """Stand in for a command in the listing (never run)."""
+
+        stub.__name__, stub.__doc__ = command.__name__, command.__doc__
+        listing.command(name=info.name, cls=PlainCommand)(stub)
+    return listing
+
+
 def main() -> None:
     """Entry point of the ``tma`` console script."""
     install_sigterm()
+    if sys.argv[1:] in ([], ["-h"], ["--help"]):
+        listing_app()()  # (the listing alone: no command's parameters built)
     if sys.argv[1:] == ["scenarios"]:
         # Typer (>= 0.2x) imports pydantic to coerce any command's parameters, even --help;
         # the plain listing has none, so it is run directly (same output and exit, no
@@ -88,4 +120,4 @@ def main() -> None:
     app()
 
 
-__all__ = ["app", "main"]
+__all__ = ["app", "listing_app", "main"]
