@@ -195,6 +195,13 @@ def test_a_reference_time_far_from_the_data_is_refused(tmp_path):
         assert "Traceback" not in far.output
     near = run("estimate", str(obs), "--motion", "cv2d", "--ref-time", "-5000")
     assert near.exit_code == 0, near.output
+    # A file's own motion and reference time (a number assigned into its metadata is written
+    # as text): the same refusal, naming where the time came from.
+    meas = tk.load_scenario("bearings-only-2d").simulate(rng=1)
+    meas.metadata.update(motion="cv2d", ref_time=1e12)
+    tk.write_measurements(meas, tmp_path / "far.parquet")
+    far = run("estimate", str(tmp_path / "far.parquet"))
+    assert far.exit_code == 2 and "the file's ref_time 1e+12" in far.output, far.output
 
 
 def test_montecarlo_and_reproduce_commands(tmp_path):

@@ -273,6 +273,8 @@ def _near_the_data(ref_time: float, times: Any, source: str) -> None:
     """Refuse a reference time farther than :data:`FAR_REF_SPANS` spans from the data."""
     import numpy as np  # (not at import: ``tma --help`` loads no numerical library)
 
+    if not math.isfinite(ref_time):  # (a file's own; --ref-time is checked on entry)
+        raise fail(f"{source} {ref_time}: expected a finite time (s)")
     t = np.asarray(times, dtype=float)
     t = t[np.isfinite(t)]
     if not t.size:

@@ -85,7 +85,8 @@ def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
     fields = [pa.field(name, pa.string(), nullable=False) if name in ("sensor", "kind")
               else pa.field(name, pa.float64()) for name in columns]
     metadata = {"tmakit": "measurements v1"}
-    metadata.update({PARQUET_METADATA_PREFIX + k: v for k, v in ms.metadata.items()})
+    # (text, as MeasurementSet keeps it; a value assigned into .metadata since is made so)
+    metadata.update({PARQUET_METADATA_PREFIX + str(k): str(v) for k, v in ms.metadata.items()})
     write_table(path, columns, format="parquet", force=force, parquet_metadata=metadata,
                 parquet_schema=pa.schema(fields))
 
