@@ -191,7 +191,7 @@ def test_a_reference_time_far_from_the_data_is_refused(tmp_path):
     for command in ("estimate", "crlb"):
         far = run(command, str(obs), "--motion", "cv2d", "--ref-time", "1777887010")
         assert far.exit_code == 2, far.output
-        assert "--ref-time 1.77789e+09" in far.output and "from the measurements" in far.output
+        assert "--ref-time 1777887010:" in far.output and "(t = 1 ... 600 s)" in far.output
         assert "Traceback" not in far.output
     near = run("estimate", str(obs), "--motion", "cv2d", "--ref-time", "-5000")
     assert near.exit_code == 0, near.output
@@ -201,7 +201,37 @@ def test_a_reference_time_far_from_the_data_is_refused(tmp_path):
     meas.metadata.update(motion="cv2d", ref_time=1e12)
     tk.write_measurements(meas, tmp_path / "far.parquet")
     far = run("estimate", str(tmp_path / "far.parquet"))
-    assert far.exit_code == 2 and "the file's ref_time 1e+12" in far.output, far.output
+    assert far.exit_code == 2 and "the file's ref_time 1000000000000" in far.output, far.output
+    assert "--motion" in far.output  # (the remedy: the file's time is its own)
+    # An empty one is no reference time (the reader's rule): the fit chooses one.
+    meas.metadata.update(ref_time="")
+    tk.write_measurements(meas, tmp_path / "empty.parquet")
+    assert run("crlb", str(tmp_path / "empty.parquet")).exit_code == 0
+    # A manoeuvring target's file: the same refusal before its search.
+    hoerst = tk.load_scenario("hoerst2010").simulate(rng=1)
+    hoerst.metadata.update(motion="curvilinear:2", ref_time=1e9)
+    tk.write_measurements(hoerst, tmp_path / "hoerst.parquet")
+    far = run("estimate", str(tmp_path / "hoerst.parquet"))
+    assert far.exit_code == 2 and "the file's ref_time 1000000000" in far.output, far.output
+
+
+def test_crlb_refuses_options_it_would_ignore_or_misread(tmp_path):
+    # A scenario's bound is at its own truth and motion: --motion, --ref-time, --truth refused.
+    for flag, value in (("--motion", "cv3d"), ("--ref-time", "1e9"),
+                        ("--truth", "x=1,y=2,vx=0,vy=0")):
+        got = run("crlb", "bearings-only-2d", flag, value)
+        assert got.exit_code == 2 and f"{flag}: for a measurement file" in got.output
+    # A file's truth is stated at its reference time: read at another it is another
+    # trajectory (the bound of another geometry, silently, before).
+    obs = tmp_path / "obs.csv"
+    run("simulate", "bearings-only-2d", "-o", str(obs))
+    moved = run("crlb", str(obs), "--ref-time", "300")
+    assert moved.exit_code == 2 and "the file's truth is stated at its reference time 0" in (
+        moved.output)
+    assert run("crlb", str(obs), "--ref-time", "0").exit_code == 0
+    shifted = run("crlb", str(obs), "--ref-time", "300", "--motion", "cv2d",
+                  "--truth", "x=1000,y=9000,vx=-6,vy=-3")
+    assert shifted.exit_code == 0, shifted.output
 
 
 def test_montecarlo_and_reproduce_commands(tmp_path):

@@ -115,7 +115,10 @@ def main() -> None:
         # Typer (>= 0.2x) imports pydantic to coerce any command's parameters, even --help;
         # the plain listing has none, so it is run directly (same output and exit, no
         # pydantic).
-        scenarios()
+        try:
+            guarded(scenarios)()  # (no traceback here either: tmakit.cli.guard)
+        except typer.Exit as e:
+            raise SystemExit(e.exit_code) from None
         raise SystemExit(0)
     app()
 

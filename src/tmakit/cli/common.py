@@ -264,13 +264,45 @@ def write_or_fail(meas: Any, path: Path, force: bool) -> None:
         raise fail(str(e)) from None
 
 
-FAR_REF_SPANS = 1000.0
+FAR_REF_SPANS = 100.0
 """Spans of the data (at least 1 s each) beyond which a reference time is refused: the
-positions there depend on the velocities that many times over, and the fit loses the digits."""
+positions there depend on the velocities that many times over, and the fit loses digits (a
+manoeuvring target's was rank deficient at 900 spans)."""
 
 
-def _near_the_data(ref_time: float, times: Any, source: str) -> None:
-    """Refuse a reference time farther than :data:`FAR_REF_SPANS` spans from the data."""
+def file_ref_time(meas: Any) -> float | None:
+    """Give the reference time a file's metadata states (s), or None (absent or empty).
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements read (their metadata checked by the reader).
+
+    Returns
+    -------
+    float or None
+    """
+    text = meas.metadata.get("ref_time", "")
+    return None if text == "" else float(text)
+
+
+def check_ref_time(ref_time: float, times: Any, source: str) -> None:
+    """Refuse a reference time farther than :data:`FAR_REF_SPANS` spans from the data.
+
+    Parameters
+    ----------
+    ref_time : float
+        The reference time (s).
+    times : array_like
+        The measurement times (s).
+    source : str
+        Where it came from, for the message: ``--ref-time`` or ``the file's ref_time``.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2, naming the time, the data's times and the reach.
+    """
     import numpy as np  # (not at import: ``tma --help`` loads no numerical library)
 
     if not math.isfinite(ref_time):  # (a file's own; --ref-time is checked on entry)
@@ -284,11 +316,14 @@ def _near_the_data(ref_time: float, times: Any, source: str) -> None:
     if low - reach <= ref_time <= high + reach:
         return
     far = ref_time - high if ref_time > high else low - ref_time
-    raise fail(f"{source} {ref_time:g}: {far:.3g} s from the measurements (t = {low:g} ... "
-               f"{high:g} s); the positions at a time that far depend on the velocities "
-               f"{far:.0e} times over and the fit would lose its digits.  Give a time within "
-               f"{reach:g} s of the data, in the file's time scale, or leave the reference "
-               "time out (a time near the data)")
+    remedy = ("give --ref-time near the data, or --motion (then the file's reference time is "
+              "not used)" if source != "--ref-time"
+              else "give a time near the data, in the file's time scale, or leave --ref-time "
+              "out (a time near the data is chosen)")
+    raise fail(f"{source} {ref_time:.15g}: {far:.6g} s from the measurements (t = {low:.15g} "
+               f"... {high:.15g} s), more than {reach:.6g} s ({FAR_REF_SPANS:g} spans of the "
+               f"data); the positions at a time that far depend on the velocities {far:.3g} "
+               f"times over and the fit would lose its digits: {remedy}")
 
 
 def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -> Any:
@@ -323,12 +358,12 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
     if name is None:
         if meas is not None and "motion" in meas.metadata:
             name = meas.metadata["motion"]
-            if ref_time is None and "ref_time" in meas.metadata:
-                ref_time, source = float(meas.metadata["ref_time"]), "the file's ref_time"
+            if ref_time is None and (ref_time := file_ref_time(meas)) is not None:
+                source = "the file's ref_time"
         else:
             raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
-    if ref_time is not None and meas is not None:
-        _near_the_data(ref_time, meas.time, source)
+    if ref_time is not None and meas is not None and not str(name).startswith("static"):
+        check_ref_time(ref_time, meas.time, source)  # (a static target has no velocity)
     try:
         if ref_time is None:  # inside the data: the fit does not depend on the time origin
             ref_time = 0.0 if meas is None else default_ref_time(meas.time)

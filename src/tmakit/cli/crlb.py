@@ -23,6 +23,7 @@ from .common import (
     RangeSigmaOption,
     RefTimeOption,
     fail,
+    file_ref_time,
     is_measurement_file,
     load_scenario_or_fail,
     model_options,
@@ -72,6 +73,11 @@ def crlb(
                               reader_options(format, ownship, contact, mapping, bearing_sigma,
                                              range_sigma, frequency_sigma))
     else:
+        given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
+                                          ("--truth", truth)) if value is not None]
+        if given:  # (not silently ignored)
+            raise fail(f"{', '.join(given)}: for a measurement file; a scenario's bound is "
+                       f"taken at its own truth and motion ({source} is a scenario)")
         bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
     derived = None if at is None else derived_at(bound, at)
     if derived is not None and bound.rank == len(bound.parameters) and not all(
@@ -118,6 +124,16 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
     model = motion_or_fail(motion, ref_time, meas)
     values = parse_assignments(truth, "--truth")
     if not values and "truth" in meas.metadata and motion is None:
+        from ..motion import default_ref_time
+
+        stated = file_ref_time(meas)
+        stated = default_ref_time(meas.time) if stated is None else stated
+        if ref_time is not None and ref_time != stated:
+            # The file's truth is stated at its own reference time: read at another it would
+            # be another trajectory.
+            raise fail(f"--ref-time {ref_time:.15g}: the file's truth is stated at its "
+                       f"reference time {stated:.15g} s; give --truth at --ref-time, or leave "
+                       "--ref-time out")
         values = json.loads(meas.metadata["truth"])
     if not values:
         raise fail("--truth is needed to evaluate the bound of a measurement file")

@@ -35,8 +35,10 @@ from .common import (
     OwnshipOption,
     RangeSigmaOption,
     RefTimeOption,
+    check_ref_time,
     err,
     fail,
+    file_ref_time,
     model_options,
     motion_or_fail,
     out,
@@ -188,8 +190,8 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
         if method != "ml":
             raise fail(f"--method {method}: manoeuvring targets (--motion {name}) are "
                        "estimated by ml only")
-        if ref_time is None and motion is None and "ref_time" in meas.metadata:
-            ref_time = float(meas.metadata["ref_time"])
+        if ref_time is None and motion is None and (ref_time := file_ref_time(meas)) is not None:
+            check_ref_time(ref_time, meas.time, "the file's ref_time")
         return lambda m: estimate_manoeuvring(m, name, start, options, ref_time, exact,
                                               criterion, alpha, accelerations)
     if exact or criterion is not None or alpha is not None or accelerations is not None:

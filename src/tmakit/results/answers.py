@@ -410,7 +410,9 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
         if bound is not None:
             state, cov = bound.state_covariance(float(time))
             basis = bound.observability.null_basis
-            null = jac @ basis[: jac.shape[1]] if basis.size else None
+            if basis.size:  # (in the bound's parameters: a manoeuvre fit's held ones are not)
+                seen = bound.motion.jacobian(bound.values[: bound.motion.n_params], t)[0]
+                null = seen @ basis[: seen.shape[1]]
         else:
             cov = jac @ np.asarray(result.covariance) @ jac.T  # type: ignore[attr-defined]
     return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
