@@ -19,7 +19,7 @@ PINNED = [
     ("crlb-gu2007-known-at", [], ["crlb", "gu2007", "--known-nuisance", "--at", "60", "--json"]),
     ("crlb-chen-sun-1", [], ["crlb", "chen-sun-1", "--json"]),
     ("crlb-bearings-only-2d", [], ["crlb", "bearings-only-2d", "--json"]),
-    ("crlb-hoerst2010-cv", [], ["crlb", "hoerst2010", "--motion", "cv2d", "--json"]),
+    ("crlb-hoerst2010", [], ["crlb", "hoerst2010", "--json"]),
     ("estimate-gu2007", [SIMULATE_GU], ["estimate", "gu.csv", "--motion", "cv2d", "--json"]),
     ("estimate-gu2007-drift", [SIMULATE_GU],
      ["estimate", "gu.csv", "--motion", "cv2d", "--drift", "--json"]),
