@@ -195,6 +195,9 @@ def test_a_reference_time_far_from_the_data_is_refused(tmp_path):
         assert "Traceback" not in far.output
     near = run("estimate", str(obs), "--motion", "cv2d", "--ref-time", "-5000")
     assert near.exit_code == 0, near.output
+    fixed = run("crlb", str(obs), "--motion", "static2d", "--ref-time", "1e7",
+                "--truth", "x=1000,y=9000")  # (a fixed emitter: no velocity to lose digits to)
+    assert fixed.exit_code == 0, fixed.output
     # A file's own motion and reference time (a number assigned into its metadata is written
     # as text): the same refusal, naming where the time came from.
     meas = tk.load_scenario("bearings-only-2d").simulate(rng=1)

@@ -350,7 +350,7 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
     typer.Exit
         Status 2 when no motion is named or the name is unknown.
     """
-    from ..motion import default_ref_time, motion_from_name
+    from ..motion import Stationary, default_ref_time, motion_from_name
 
     if ref_time is not None and not math.isfinite(ref_time):
         raise fail(f"--ref-time {ref_time}: expected a finite time (s)")
@@ -362,14 +362,15 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
                 source = "the file's ref_time"
         else:
             raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
-    if ref_time is not None and meas is not None and not str(name).startswith("static"):
-        check_ref_time(ref_time, meas.time, source)  # (a static target has no velocity)
     try:
+        chosen = ref_time is not None
         if ref_time is None:  # inside the data: the fit does not depend on the time origin
             ref_time = 0.0 if meas is None else default_ref_time(meas.time)
         model = motion_from_name(name, ref_time)
     except ValueError as e:
         raise fail(str(e)) from None
+    if chosen and meas is not None and not isinstance(model, Stationary):
+        check_ref_time(ref_time, meas.time, source)  # (a fixed emitter has no velocity)
     if meas is not None and model.n_params > len(meas):  # work limit: not identifiable
         raise fail(f"--motion {name}: {model.n_params:,} parameters from {len(meas):,} "
                    "measurements cannot be identified (at most one parameter per "
