@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -195,6 +197,12 @@ def test_a_reference_time_far_from_the_data_is_refused(tmp_path):
         assert "Traceback" not in far.output
     near = run("estimate", str(obs), "--motion", "cv2d", "--ref-time", "-5000")
     assert near.exit_code == 0, near.output
+    # The time the parameters are at is said, in the text and in the JSON.
+    assert "parameters at the motion's reference time t = -5000 s" in near.output
+    as_json = run("estimate", str(obs), "--motion", "cv2d", "--ref-time", "-5000", "--json")
+    assert json.loads(as_json.output)["ref_time"] == -5000.0
+    static = tk.estimate(tk.load_scenario("bearings-only-2d").simulate(rng=1), "static2d")
+    assert static.as_dict()["ref_time"] is None  # (a fixed emitter is at no time)
     fixed = run("crlb", str(obs), "--motion", "static2d", "--ref-time", "1e7",
                 "--truth", "x=1000,y=9000")  # (a fixed emitter: no velocity to lose digits to)
     assert fixed.exit_code == 0, fixed.output

@@ -120,6 +120,7 @@ class EstimateResult:
             "dof": self.dof,
             "method": self.method,
             "motion": self.motion.name,
+            "ref_time": _reference_time(self.motion),
             "starts": self.starts,
             "message": self.message,
             "unobservable": ([d.as_dict() for d in self.bound.observability.directions]
@@ -201,6 +202,9 @@ class EstimateResult:
                  + (f" (chi2/dof = {self.chi2 / self.dof:.3f})" if self.dof > 0 else "")]
         if self.message:
             lines.append(self.message)
+        ref = _reference_time(self.motion)
+        if ref is not None:  # (what x, y, ... are at: the time origin the fit chose or was given)
+            lines.append(f"parameters at the motion's reference time t = {ref:.15g} s")
         width = max(len(n) for n in (*self.parameters, *self.nuisance))
         lines.append(f"  {'parameter':<{width}}  {'estimate':>16}  {'std':>12}  unit")
         for n, v, s in (*zip(self.parameters, self.estimate, self.std, strict=True),
@@ -218,6 +222,12 @@ class EstimateResult:
             for d in self.bound.observability.directions:
                 lines.append(f"  unobservable: {d.sentence}")
         return "\n".join(lines)
+
+
+def _reference_time(motion: MotionModel) -> float | None:
+    """Give the time (s) a motion model's parameters are at; None for a fixed emitter."""
+    ref = getattr(motion, "ref_time", None)
+    return float(ref) if ref is not None and np.isfinite(ref) else None
 
 
 def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iterations: int,
