@@ -30,6 +30,7 @@ from .init import GridSettings
 from .mirror import mirror_plane, prefer_above
 from .presolve import grid_starts, presolve_subset, solve_all_rows
 from .solver import VarProProblem, information_of, levenberg_marquardt
+from .starts import first_of_many
 from .subset_first import solve_on_subset_first, subset_first
 
 
@@ -396,10 +397,10 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
             best[r].converged and plausible_chi2(2.0 * best[r].cost, dof))]
 
     first = 1 if has_bearings else g.starts
-    solve({r: starts[r].first(first) for r in range(b)})
-    solve({r: starts[r].first(max(24, g.starts))[first:] for r in unsettled()})
-    again = unsettled()
-    if again:
+    solve(dict(enumerate(first_of_many(starts, first))))
+    more = first_of_many([starts[r] for r in unsettled()], max(24, g.starts))
+    solve({r: th[first:] for r, th in zip(unsettled(), more, strict=True)})
+    if again := unsettled():
         dense = grid_starts(problem, ys[again], DENSE_GRID, subset)
         solve({r: d.first(DENSE_GRID.starts) for r, d in zip(again, dense, strict=True)})
     _prefer_above(problem, best)

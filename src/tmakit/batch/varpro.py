@@ -29,6 +29,8 @@ from ..observation import Linearisation, ObservationModel
 from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
 from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
+from ..observation.varpro_compiled import evaluate_batch, plan_for
+from ..observation.varpro_compiled import wanted as compiled_wanted
 
 
 @dataclass
@@ -163,6 +165,7 @@ class VarProProblem:
         # One nuisance column per kind at most: the columns touch disjoint rows (whitening
         # mixes rows of one kind only), so they are orthogonal and need no Gram inverse.
         self._orthogonal = all(ns.stop - ns.start <= 1 for ns in obs.nuisance_slices.values())
+        self._batch_plan: object = None  # the compiled kernel's plan (False: none applies)
 
     def take(self, index: NDArray[np.int64] | NDArray[np.bool_]) -> VarProProblem:
         """Restrict the problem to the rows ``index`` of the set.
@@ -322,6 +325,12 @@ class VarProProblem:
     def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                       ) -> Evaluation:
         """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
+        b = theta.shape[0]
+        if (self._batch_plan is not False and not (b == 1 and self.k == 0 and self.all_angle)
+                and compiled_wanted(b * u.shape[-1])):
+            compiled = self._evaluate_batch_compiled(theta, u, nu_star, with_jacobian)
+            if compiled is not None:
+                return compiled
         if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0:
             return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
         if self.k == 0 and self.all_angle and not self.noise.blocks:
@@ -329,6 +338,27 @@ class VarProProblem:
             if compiled is not None:
                 return compiled
         return self._evaluate(theta, u, nu_star, with_jacobian)
+
+    def _evaluate_batch_compiled(self, theta: Array, u: Array, nu_star: Array,
+                                 with_jacobian: bool) -> Evaluation | None:
+        """Evaluate by the compiled kernel of :mod:`tmakit.observation.varpro_compiled`.
+
+        None where it does not apply (its plan is made once per problem); the Evaluation
+        holds ``J'J`` and ``J'r`` of the projected Jacobian, not the Jacobian.
+        """
+        if self._batch_plan is None:
+            independent = not self.noise.correlated and not self.noise.blocks
+            self._batch_plan = plan_for(self.obs, self.noise.inv_sigma if independent else None,
+                                        self.const_design) or False
+        if self._batch_plan is False:
+            return None
+        got = evaluate_batch(self._batch_plan, theta, u, nu_star,  # type: ignore[arg-type]
+                             self.eliminates, with_jacobian)
+        if got is None:
+            return None
+        r, nu, cost, jtj, jtr = got
+        cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
+        return Evaluation(theta, nu, r, cost, None, (jtj, jtr) if with_jacobian else None)
 
     def _evaluate_compiled(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                            ) -> Evaluation | None:

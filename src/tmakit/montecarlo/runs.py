@@ -24,6 +24,7 @@ from ..batch.methods import estimate_with
 from ..batch.ml import FIT_ERRORS, MaximumLikelihood
 from ..blas import one_thread
 from ..data import MeasurementSet
+from ..observation.varpro_compiled import compiled_batches
 from ..results.nuisance import KnownNuisance
 from ..scenario import Scenario
 from .memory import keep_freed_memory
@@ -57,6 +58,10 @@ class ChunkTask:
         Index of the chunk's first run.
     seeds : tuple of numpy.random.SeedSequence
         One seed sequence per run.
+    compiled : bool or None
+        Whether the batched fits evaluate by the compiled kernel where it applies
+        (:func:`tmakit.observation.varpro_compiled.compiled_batches`): decided once per
+        study, so that every executor evaluates the same way; None: the kernel's own rule.
     """
 
     scenario: Scenario
@@ -66,6 +71,7 @@ class ChunkTask:
     init: Any
     first_run: int
     seeds: tuple[np.random.SeedSequence, ...]
+    compiled: bool | None = None
 
 
 @dataclass
@@ -151,7 +157,7 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     # with the other chunks (workers or processes), where BLAS threads spin against them.
     # The allocator keeps the temporaries it frees for the next iteration (.memory).
     keep_freed_memory()
-    with one_thread():
+    with one_thread(), compiled_batches(task.compiled):
         scn = task.scenario
         rngs = [np.random.default_rng(s) for s in task.seeds]
         if task.estimator == "ml" and not is_manoeuvring(scn.motion):

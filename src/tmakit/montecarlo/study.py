@@ -41,6 +41,21 @@ __all__ = ["finished_runs_table", "monte_carlo"]
 Options = Mapping[str, Mapping[str, object]]
 
 
+COMPILED_WORK = 200_000
+"""Runs times rows from which a study's batched fits evaluate by the compiled kernel
+(:mod:`tmakit.observation.varpro_compiled`, with ``numba`` installed): loading it (about
+0.5 s per process) then costs less than it saves (about 5 us per run and row, measured on
+gu2007).  Below, the NumPy path: a small study gives the same bits wherever it runs."""
+
+
+def _compiled(scenario: Scenario, runs: int) -> bool:
+    """Tell whether a study of ``runs`` runs asks for the compiled kernel.
+
+    See :data:`COMPILED_WORK`; the rows of a run are its plans' samples.
+    """
+    return runs * sum(len(plan.times) for plan in scenario.plans) >= COMPILED_WORK
+
+
 def _whole(value: object, name: str, minimum: int = 1) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
         raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
@@ -246,13 +261,13 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         scenario.measurement_options if options is None else options).items()}
 
     seq = np.random.SeedSequence(seed)
-    entropy = int(seq.entropy)  # type: ignore[arg-type]
-    children = seq.spawn(runs)
+    entropy, children = int(seq.entropy), seq.spawn(runs)  # type: ignore[arg-type]
     client, own_client = (None, False) if dask is None else dask_client(dask)
     try:
         size = chunk or default_chunk(runs, estimator, client)
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
-                           tuple(children[lo:lo + size])) for lo in range(0, runs, size)]
+                           tuple(children[lo:lo + size]), _compiled(scenario, runs))
+                 for lo in range(0, runs, size)]
         outputs, wall, executor = _execute(tasks, client, f"{scenario.name} {estimator}",
                                            runs, progress, on_chunk, workers=workers)
     finally:

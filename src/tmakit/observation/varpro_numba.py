@@ -1,0 +1,285 @@
+"""The ``numba`` kernel behind :mod:`tmakit.observation.varpro_compiled` (imported from there).
+
+One call evaluates a batch of parameter vectors of a weighted least-squares problem whose
+rows are of the point kinds (bearing, elevation, range, range rate, frequency without drift,
+power with a known exponent) under an affine motion model, with independent noise and at
+most one linear nuisance parameter per kind.  The rows are grouped by kind (contiguous
+blocks).  For each parameter vector, in scratch arrays of the rows' size that stay in cache:
+
+1. the relative states ``offset + sum_t theta[i_t] coef_t`` (the affine map's non-zero terms);
+2. per kind block, the prediction's geometric part ``h0`` and nuisance design ``a`` (the
+   formulas of :mod:`tmakit.measurements`);
+3. the whitened residual ``r = w (u - h0 - a nu*)`` (angles wrapped to one turn) and the
+   whitened design column ``q = w (a_const + a)``; the nuisance eliminated in closed form (the
+   columns of different kinds touch disjoint rows, so they are orthogonal:
+   ``nu = nu* + q.r / q.q``, Golub & Pereyra (1973)) and ``r`` projected;
+4. the whitened derivatives by the relative state at the eliminated nuisance, the Jacobian
+   rows through the affine map (chain rule), and ``J'J``, ``J'r`` with the projection of
+   Kaufman (1975) applied to the sums: ``J_p'J_p = J'J - (QJ)'(QJ)`` and
+   ``J_p'r_p = J'r_p - (QJ)'(Q r_p)`` for the unit design columns ``Q``.
+
+Every loop runs along the rows of one kind, branch-free (vectorised where the formulas allow).
+The results agree with the NumPy path of :class:`tmakit.batch.varpro.VarProProblem` to
+rounding (``tests/test_varpro_kernel.py``).  Importing this module imports ``numba`` (an
+optional extra).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..arrays import Array
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+#: Kind codes of the kernel (see :func:`tmakit.observation.varpro_compiled.plan_for`).
+BEARING, ELEVATION, RANGE, RANGE_RATE, FREQUENCY, POWER = 0, 1, 2, 3, 4, 5
+
+_TEN_OVER_LN10 = 10.0 / math.log(10.0)
+
+
+@_jit
+def _values(code: int, param: float, lo: int, hi: int, rel: Array, h: Array, a: Array
+            ) -> None:  # pragma: no cover - compiled
+    """Write ``h0`` and the design ``a`` of rows ``lo:hi`` of one kind.
+
+    ``param`` is the speed of propagation (frequency, m/s) or the path-loss exponent (power).
+    """
+    if code == BEARING:  # atan2(dx, dy), clockwise from north
+        for j in range(lo, hi):
+            h[j] = math.atan2(rel[0, j], rel[1, j])
+            a[j] = 0.0
+    elif code == ELEVATION:
+        for j in range(lo, hi):
+            h[j] = math.atan2(rel[2, j], math.hypot(rel[0, j], rel[1, j]))
+            a[j] = 0.0
+    elif code == POWER:  # h0 = -10 n log10 R; a = 1 (the constant's column)
+        k = -0.5 * _TEN_OVER_LN10 * param
+        for j in range(lo, hi):
+            x, y, z = rel[0, j], rel[1, j], rel[2, j]
+            h[j] = math.log(x * x + y * y + z * z) * k
+            a[j] = 1.0
+    elif code == RANGE:
+        for j in range(lo, hi):
+            x, y, z = rel[0, j], rel[1, j], rel[2, j]
+            h[j] = math.sqrt(x * x + y * y + z * z)
+            a[j] = 0.0
+    else:  # range rate p.v / |p|; frequency: h0 = 0, a = -rdot / c (times the carrier)
+        frequency = code == FREQUENCY
+        scale = -1.0 / param if frequency else 1.0
+        for j in range(lo, hi):
+            x, y, z = rel[0, j], rel[1, j], rel[2, j]
+            rdot = (x * rel[3, j] + y * rel[4, j] + z * rel[5, j]) / math.sqrt(
+                x * x + y * y + z * z)
+            h[j] = 0.0 if frequency else rdot
+            a[j] = rdot * scale if frequency else 0.0
+
+
+@_jit
+def _gradient(code: int, param: float, lo: int, hi: int, rel: Array, w: Array, nu: float,
+              g: Array) -> None:  # pragma: no cover - compiled
+    """Write the whitened derivatives of rows ``lo:hi``'s predictions by the relative state.
+
+    ``g`` ``(6, n)``: only the components the kind depends on are written (the others stay
+    zero); for a frequency the derivative of ``a nu``, the carrier ``nu`` eliminated.
+    """
+    if code == BEARING:
+        for j in range(lo, hi):
+            x, y = rel[0, j], rel[1, j]
+            s = w[j] / (x * x + y * y)
+            g[0, j] = y * s
+            g[1, j] = -x * s
+    elif code == ELEVATION:
+        for j in range(lo, hi):
+            x, y, z = rel[0, j], rel[1, j], rel[2, j]
+            rho = math.hypot(x, y)
+            inv_r2 = 1.0 / (rho * rho + z * z)
+            c = -z * inv_r2 / rho * w[j]
+            g[0, j] = c * x
+            g[1, j] = c * y
+            g[2, j] = rho * inv_r2 * w[j]
+    elif code == POWER:
+        k = -_TEN_OVER_LN10 * param
+        for j in range(lo, hi):
+            x, y, z = rel[0, j], rel[1, j], rel[2, j]
+            s = k / (x * x + y * y + z * z) * w[j]
+            g[0, j] = x * s
+            g[1, j] = y * s
+            g[2, j] = z * s
+    elif code == RANGE:
+        for j in range(lo, hi):
+            x, y, z = rel[0, j], rel[1, j], rel[2, j]
+            s = w[j] / math.sqrt(x * x + y * y + z * z)
+            g[0, j] = x * s
+            g[1, j] = y * s
+            g[2, j] = z * s
+    else:  # d rdot / d rel = ((v - rdot u) / r, u), times -nu / c for a frequency
+        scale = -nu / param if code == FREQUENCY else 1.0
+        for j in range(lo, hi):
+            x, y, z = rel[0, j], rel[1, j], rel[2, j]
+            vx, vy, vz = rel[3, j], rel[4, j], rel[5, j]
+            inv_r = 1.0 / math.sqrt(x * x + y * y + z * z)
+            ux, uy, uz = x * inv_r, y * inv_r, z * inv_r
+            rdot = ux * vx + uy * vy + uz * vz
+            s = scale * w[j]
+            t = inv_r * s
+            g[0, j] = (vx - rdot * ux) * t
+            g[1, j] = (vy - rdot * uy) * t
+            g[2, j] = (vz - rdot * uz) * t
+            g[3, j] = ux * s
+            g[4, j] = uy * s
+            g[5, j] = uz * s
+
+
+@_jit
+def _relative(theta: Array, offset: Array, t_par: Array, t_comp: Array, t_coef: Array,
+              t_one: Array, rel: Array) -> None:  # pragma: no cover - compiled
+    """Write the relative states ``(6, n)`` at ``theta`` ``(p,)`` through the affine map."""
+    n = rel.shape[1]
+    for c in range(6):
+        for j in range(n):
+            rel[c, j] = offset[c, j]
+    for t in range(t_par.shape[0]):
+        th, c = theta[t_par[t]], t_comp[t]
+        if t_one[t]:
+            for j in range(n):
+                rel[c, j] += th
+        else:
+            for j in range(n):
+                rel[c, j] += th * t_coef[t, j]
+
+
+@_jit
+def _residuals(u: Array, nu_star: Array, blocks: Array, block_param: Array, const: Array,
+               angle: Array, w: Array, eliminate: bool, rel: Array, h: Array, a: Array,
+               q: Array, r: Array, nu: Array) -> float:  # pragma: no cover - compiled
+    """Write one parameter vector's projected residuals ``r``, nuisance ``nu``, unit columns ``q``.
+
+    Gives half chi2 (NaN: no prediction; inf: an angle more than a turn out).
+    """
+    two_pi = 2.0 * math.pi
+    half = 0.0
+    for blk in range(blocks.shape[0]):
+        lo, hi, code, col = blocks[blk, 0], blocks[blk, 1], blocks[blk, 2], blocks[blk, 3]
+        _values(code, block_param[blk], lo, hi, rel, h, a)
+        ref = nu_star[col] if col >= 0 else 0.0
+        for j in range(lo, hi):
+            e = u[j] - h[j] - a[j] * ref
+            if angle[j]:
+                if e > math.pi:
+                    e -= two_pi
+                elif e <= -math.pi:
+                    e += two_pi
+                if e > math.pi or e <= -math.pi:
+                    return math.inf
+            r[j] = w[j] * e
+        if col >= 0:
+            nu[col] = ref
+        if col >= 0 and eliminate:
+            qq = 0.0
+            qr = 0.0
+            for j in range(lo, hi):
+                qv = w[j] * (const[j] + a[j])
+                q[j] = qv
+                qq += qv * qv
+                qr += qv * r[j]
+            coef = qr / qq if qq > 0.0 else 0.0
+            norm = math.sqrt(qq) if qq > 0.0 else math.inf
+            nu[col] = ref + coef
+            for j in range(lo, hi):
+                r[j] -= q[j] * coef
+                q[j] /= norm  # the unit column (zero without weight)
+        for j in range(lo, hi):
+            half += r[j] * r[j]
+    return 0.5 * half
+
+
+@_jit
+def _normal(blocks: Array, block_param: Array, w: Array, t_par: Array, t_comp: Array,
+            t_coef: Array, t_one: Array, eliminate: bool, rel: Array, q: Array, r: Array,
+            nu: Array, g: Array, jac: Array, qj: Array, jtj: Array, jtr: Array
+            ) -> None:  # pragma: no cover - compiled
+    """Write ``J'J`` and ``J'r`` of one parameter vector's projected whitened Jacobian."""
+    p, n = jac.shape
+    for blk in range(blocks.shape[0]):
+        lo, hi, code, col = blocks[blk, 0], blocks[blk, 1], blocks[blk, 2], blocks[blk, 3]
+        _gradient(code, block_param[blk], lo, hi, rel, w, nu[col] if col >= 0 else 0.0, g)
+    jac[:, :] = 0.0
+    for t in range(t_par.shape[0]):  # the chain rule through the affine map
+        i, c = t_par[t], t_comp[t]
+        if t_one[t]:
+            for j in range(n):
+                jac[i, j] += g[c, j]
+        else:
+            for j in range(n):
+                jac[i, j] += g[c, j] * t_coef[t, j]
+    for i in range(p):
+        jtr[i] = np.dot(jac[i], r)
+        for m in range(i, p):
+            jtj[i, m] = np.dot(jac[i], jac[m])
+    for blk in range(blocks.shape[0] if eliminate else 0):
+        lo, hi, col = blocks[blk, 0], blocks[blk, 1], blocks[blk, 3]
+        if col < 0:
+            continue
+        qrp = np.dot(q[lo:hi], r[lo:hi])
+        for i in range(p):
+            qj[i] = np.dot(q[lo:hi], jac[i, lo:hi])
+        for i in range(p):  # Kaufman's projection, on the sums
+            jtr[i] -= qj[i] * qrp
+            for m in range(i, p):
+                jtj[i, m] -= qj[i] * qj[m]
+    for i in range(p):
+        for m in range(i + 1, p):
+            jtj[m, i] = jtj[i, m]
+
+
+@_jit
+def varpro_batch(theta: Array, u: Array, nu_star: Array, blocks: Array, block_param: Array,
+                 const: Array, angle: Array, w: Array, offset: Array, t_par: Array,
+                 t_comp: Array, t_coef: Array, t_one: Array, eliminate: bool,
+                 derivatives: bool, r_out: Array, nu_out: Array, cost: Array, jtj: Array,
+                 jtr: Array) -> int:  # pragma: no cover - compiled
+    """Evaluate a batch (see the module): residuals, nuisance, cost and normal equations.
+
+    Parameters
+    ----------
+    theta, u, nu_star : ndarray
+        ``(B, p)`` motion parameters, ``(B, n)`` data part (the data minus the constant design
+        at ``nu_star``), ``(B, k)`` reference nuisance (SI).
+    blocks, block_param : ndarray
+        Per kind block ``(K, 4)`` int: first row, end row, kind code, nuisance column (-1:
+        none); ``(K,)`` the kind's parameter.
+    const, angle, w : ndarray
+        Per row: constant design entry, whether an angle (wrapped), inverse sigma.
+    offset, t_par, t_comp, t_coef, t_one : ndarray
+        The affine map: ``(6, n)`` offset, and per non-zero term its parameter, state
+        component, ``(T, n)`` coefficients and whether they are all one.
+    eliminate, derivatives : bool
+        Whether the nuisance is eliminated (else ``nu_star`` is used as it is), and whether
+        ``J'J`` and ``J'r`` are formed.
+    r_out, nu_out, cost, jtj, jtr : ndarray
+        Outputs ``(B, n)``, ``(B, k)``, ``(B,)``, ``(B, p, p)``, ``(B, p)``.
+
+    Returns
+    -------
+    int
+        1 when an angle residual lies more than a turn outside (-pi, pi] (the caller takes
+        the NumPy path, which wraps it), else 0.
+    """
+    n = u.shape[1]
+    p = theta.shape[1]
+    rel, g, jac = np.empty((6, n)), np.zeros((6, n)), np.empty((p, n))
+    h, a, q, qj = np.empty(n), np.empty(n), np.zeros(n), np.empty(p)
+    for b in range(u.shape[0]):
+        _relative(theta[b], offset, t_par, t_comp, t_coef, t_one, rel)
+        cost[b] = _residuals(u[b], nu_star[b], blocks, block_param, const, angle, w,
+                             eliminate, rel, h, a, q, r_out[b], nu_out[b])
+        if cost[b] == math.inf:
+            return 1
+        if derivatives:
+            _normal(blocks, block_param, w, t_par, t_comp, t_coef, t_one, eliminate, rel, q,
+                    r_out[b], nu_out[b], g, jac, qj, jtj[b], jtr[b])
+    return 0
