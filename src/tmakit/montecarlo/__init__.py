@@ -31,12 +31,13 @@ from __future__ import annotations
 
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
 from .estimators import available_estimators
-from .execution import LOCAL_CHUNK, LOOP_CHUNK
+from .execution import COMPILED_CHUNK, LOCAL_CHUNK, LOOP_CHUNK
 from .result import MonteCarloResult, ratio_interval
 from .runs import FAILED, RUN_ERRORS
 from .study import finished_runs_table, monte_carlo
 
 __all__ = [
+           "COMPILED_CHUNK",
            "FAILED",
            "LOCAL_CHUNK",
            "LOOP_CHUNK",

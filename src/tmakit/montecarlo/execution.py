@@ -21,6 +21,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
 
 __all__ = [
+    "COMPILED_CHUNK",
     "LOCAL_CHUNK",
     "LOOP_CHUNK",
     "dask_client",
@@ -33,6 +34,9 @@ __all__ = [
 
 #: Runs per chunk when running in this process.
 LOCAL_CHUNK = 50
+#: Runs per chunk of a study whose fits evaluate by the compiled kernel (see
+#: :func:`default_chunk`).
+COMPILED_CHUNK = 250
 #: Runs per chunk for estimators solved run by run (the progress bar moves per chunk).
 LOOP_CHUNK = 10
 
@@ -249,7 +253,8 @@ def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
     return outputs
 
 
-def default_chunk(runs: int, estimator: str, client: Client | None) -> int:
+def default_chunk(runs: int, estimator: str, client: Client | None,
+                  compiled: bool = False) -> int:
     """Return the runs per chunk when none is asked for.
 
     Parameters
@@ -260,16 +265,21 @@ def default_chunk(runs: int, estimator: str, client: Client | None) -> int:
         ``"ml"`` (batched: larger chunks) or another.
     client : distributed.Client or None
         The Dask client, or ``None`` in this process.
+    compiled : bool
+        Whether the fits evaluate by the compiled kernel (its batches cost no memory of
+        their size: larger chunks pay).
 
     Returns
     -------
     int
-        :data:`LOCAL_CHUNK` or :data:`LOOP_CHUNK` in this process; on Dask about four chunks
-        per worker thread (to balance the load), at most :data:`LOCAL_CHUNK`.
+        :data:`LOCAL_CHUNK` (:data:`COMPILED_CHUNK` compiled) or :data:`LOOP_CHUNK` in this
+        process; on Dask about four chunks per worker thread (to balance the load), at most
+        that.
     """
+    most = COMPILED_CHUNK if compiled and estimator == "ml" else LOCAL_CHUNK
     if client is None:
-        return LOCAL_CHUNK if estimator == "ml" else LOOP_CHUNK
+        return most if estimator == "ml" else LOOP_CHUNK
     threads = sum(client.nthreads().values()) or 1
     # About four chunks per worker thread balance the load; large enough chunks keep the
     # batched solves efficient.
-    return int(min(LOCAL_CHUNK, max(1, math.ceil(runs / (4 * threads)))))
+    return int(min(most, max(1, math.ceil(runs / (4 * threads)))))

@@ -260,13 +260,13 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     opts = {str(k): dict(v) for k, v in (
         scenario.measurement_options if options is None else options).items()}
 
-    seq = np.random.SeedSequence(seed)
+    seq, compiled = np.random.SeedSequence(seed), _compiled(scenario, runs)
     entropy, children = int(seq.entropy), seq.spawn(runs)  # type: ignore[arg-type]
     client, own_client = (None, False) if dask is None else dask_client(dask)
     try:
-        size = chunk or default_chunk(runs, estimator, client)
+        size = chunk or default_chunk(runs, estimator, client, compiled)
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
-                           tuple(children[lo:lo + size]), _compiled(scenario, runs))
+                           tuple(children[lo:lo + size]), compiled)
                  for lo in range(0, runs, size)]
         outputs, wall, executor = _execute(tasks, client, f"{scenario.name} {estimator}",
                                            runs, progress, on_chunk, workers=workers)

@@ -42,7 +42,7 @@ from ..measurements.range_rate import RangeRate
 from ..optional_kernels import OptionalKernels
 
 __all__ = ["KERNELS", "KERNEL_ELEMENTS", "BatchPlan", "compiled_batches", "evaluate_batch",
-           "plan_for", "use_compiled"]
+           "plan_for", "use_compiled", "wanted"]
 
 KERNEL_ELEMENTS = 20_000
 """Rows times parameter vectors from which the kernel is used when ``numba`` is loaded

@@ -18,10 +18,11 @@ blocks).  For each parameter vector, in scratch arrays of the rows' size that st
    Kaufman (1975) applied to the sums: ``J_p'J_p = J'J - (QJ)'(QJ)`` and
    ``J_p'r_p = J'r_p - (QJ)'(Q r_p)`` for the unit design columns ``Q``.
 
-Every loop runs along the rows of one kind, branch-free (vectorised where the formulas allow).
-The results agree with the NumPy path of :class:`tmakit.batch.varpro.VarProProblem` to
-rounding (``tests/test_varpro_kernel.py``).  Importing this module imports ``numba`` (an
-optional extra).
+Every loop runs along the rows of one kind, branch-free.  Sums are in a fixed order (no
+``fastmath``): the same inputs give the same bits, wherever the arrays lie.  The results
+agree with the NumPy path of :class:`tmakit.batch.varpro.VarProProblem` to rounding
+(``tests/test_varpro_kernel.py``).  Importing this module imports ``numba`` (an optional
+extra).
 """
 
 from __future__ import annotations
@@ -198,6 +199,29 @@ def _residuals(u: Array, nu_star: Array, blocks: Array, block_param: Array, cons
 
 
 @_jit
+def _dot(x: Array, y: Array, lo: int, hi: int) -> float:  # pragma: no cover - compiled
+    """Give ``x[lo:hi] . y[lo:hi]`` in four interleaved partial sums (fixed order, no BLAS).
+
+    Four independent chains run in parallel on the core; the order of the sums is fixed, so
+    the result does not depend on where the arrays lie in memory (with ``fastmath``'s
+    reassociation the compiler vectorised it from an alignment-dependent start: 1 ulp apart
+    from call to call).
+    """
+    s0 = s1 = s2 = s3 = 0.0
+    j = lo
+    while j + 4 <= hi:
+        s0 += x[j] * y[j]
+        s1 += x[j + 1] * y[j + 1]
+        s2 += x[j + 2] * y[j + 2]
+        s3 += x[j + 3] * y[j + 3]
+        j += 4
+    while j < hi:
+        s0 += x[j] * y[j]
+        j += 1
+    return (s0 + s1) + (s2 + s3)
+
+
+@_jit
 def _normal(blocks: Array, block_param: Array, w: Array, t_par: Array, t_comp: Array,
             t_coef: Array, t_one: Array, eliminate: bool, rel: Array, q: Array, r: Array,
             nu: Array, g: Array, jac: Array, qj: Array, jtj: Array, jtr: Array
@@ -217,16 +241,16 @@ def _normal(blocks: Array, block_param: Array, w: Array, t_par: Array, t_comp: A
             for j in range(n):
                 jac[i, j] += g[c, j] * t_coef[t, j]
     for i in range(p):
-        jtr[i] = np.dot(jac[i], r)
+        jtr[i] = _dot(jac[i], r, 0, n)
         for m in range(i, p):
-            jtj[i, m] = np.dot(jac[i], jac[m])
+            jtj[i, m] = _dot(jac[i], jac[m], 0, n)
     for blk in range(blocks.shape[0] if eliminate else 0):
         lo, hi, col = blocks[blk, 0], blocks[blk, 1], blocks[blk, 3]
         if col < 0:
             continue
-        qrp = np.dot(q[lo:hi], r[lo:hi])
+        qrp = _dot(q, r, lo, hi)
         for i in range(p):
-            qj[i] = np.dot(q[lo:hi], jac[i, lo:hi])
+            qj[i] = _dot(q, jac[i], lo, hi)
         for i in range(p):  # Kaufman's projection, on the sums
             jtr[i] -= qj[i] * qrp
             for m in range(i, p):
