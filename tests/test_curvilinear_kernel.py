@@ -82,3 +82,57 @@ def test_unusable_numba_falls_back_to_numpy_with_a_warning(monkeypatch):
     theta = _thetas(1, np.random.default_rng(0))[:1]
     assert np.all(np.isfinite(ForwardPiecewise(1, 0.0).states(theta, np.arange(10.0))))
     monkeypatch.setattr(compiled.KERNELS, "kernels", None)
+
+
+@pytest.mark.parametrize("m", [0, 1, 3])
+def test_normal_equations_by_segments_equal_the_chained_jacobian(m):
+    """J'J and J'r summed by segments (the Jacobian never formed) equal those of chain()."""
+    rng = np.random.default_rng(12)
+    theta = _thetas(m, rng)[:4]  # valid points, the held and series cases among them
+    times = np.arange(0.0, 901.0, 3.0)
+    times[50] = 200.0
+    t = np.concatenate([times, times[::2]])
+    model = ForwardPiecewise(m, 0.0, end_time=1000.0)
+    model.states(theta, t)
+    d = rng.normal(size=(theta.shape[0], t.size, 6))
+    r = rng.normal(size=(theta.shape[0], t.size))
+    w = rng.uniform(0.5, 2.0, t.size)
+    jac = model.chain(d, theta, t) * w[None, :, None]
+    jtj, jtr = model.normal_equations(d, r, w, theta, t)
+    expected = jac.swapaxes(1, 2) @ jac
+    scale = np.abs(expected).max(axis=(1, 2), keepdims=True)
+    np.testing.assert_allclose(jtj / scale, expected / scale, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(jtr, np.einsum("bnp,bn->bp", jac, r), rtol=1e-10,
+                               atol=1e-10 * np.abs(jtr).max())
+    with model.derivatives_for(np.arange(model.n_params) != 4):  # every column still given
+        assert model.normal_equations(d, r, w, theta, t)[0].shape == expected.shape
+    before = compiled.use_compiled(False)
+    try:
+        assert model.normal_equations(d, r, w, theta, t) is None  # the NumPy path: no sums
+    finally:
+        compiled.use_compiled(before)
+
+
+def test_a_manoeuvre_fit_evaluates_alike_with_and_without_the_segment_sums(monkeypatch):
+    import tmakit as tk
+    from tmakit.batch import varpro
+    from tmakit.batch.varpro import VarProProblem
+    from tmakit.observation import ObservationModel
+
+    scn = tk.load_scenario("hoerst2010")
+    meas = scn.simulate(np.random.default_rng(3))
+    model = ForwardPiecewise(2, float(meas.time.min()), end_time=float(meas.time.max()))
+    problem = VarProProblem(ObservationModel(meas, model))
+    theta = hoerst_thetas(2, np.random.default_rng(4), 5)
+    y = np.broadcast_to(problem.group(meas.value_si), (5, len(meas)))
+    nu = problem.reference_nuisance(y)
+    summed = problem.evaluate(theta, y, nu)
+    assert summed.jacobian is None and summed.normal is not None
+    monkeypatch.setattr(varpro, "motion_normal", lambda *args: None)
+    chained = problem.evaluate(theta, y, nu)
+    jt = chained.jacobian.swapaxes(1, 2)
+    np.testing.assert_array_equal(summed.residual, chained.residual)
+    for got, want in ((summed.normal[0], jt @ chained.jacobian),
+                      (summed.normal[1], (jt @ chained.residual[:, :, None])[..., 0])):
+        scale = np.abs(want).max(axis=tuple(range(1, want.ndim)), keepdims=True)
+        np.testing.assert_allclose(got / scale, want / scale, rtol=0, atol=1e-11)

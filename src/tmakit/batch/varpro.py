@@ -31,6 +31,7 @@ from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
 from ..observation.varpro_compiled import evaluate_batch, plan_for
 from ..observation.varpro_compiled import wanted as compiled_wanted
+from .varpro_normal import motion_normal
 
 
 @dataclass
@@ -426,11 +427,10 @@ class VarProProblem:
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         r = self.noise.whiten(e, overwrite=True)  # e is this function's own array
-        nu = nu_star
-        jt = None
+        nu, jt, normal = nu_star, None, None
         if self.eliminates:
             nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
-        elif with_jacobian:
+        elif with_jacobian and (normal := motion_normal(self.obs, lin, r, self._weights)) is None:
             jt = lin.jacobian(nu).swapaxes(-1, -2)
             if not lin.whitened:
                 jt = self.noise.whiten(jt, overwrite=True)
@@ -441,7 +441,7 @@ class VarProProblem:
         else:
             cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
         return Evaluation(theta, np.array(nu, dtype=float), r, cost,
-                          None if jt is None else jt.swapaxes(1, 2))
+                          None if jt is None else jt.swapaxes(1, 2), normal)
 
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
                  with_jacobian: bool) -> tuple[Array, Array, Array | None]:

@@ -323,6 +323,41 @@ class ForwardPiecewise(MotionModel):
         out = self._chain_flat(d_state.reshape(flat.shape[0], t.shape[0], 6), flat, t, cols)
         return out.reshape(*lead, t.shape[0], out.shape[-1])
 
+    def normal_equations(self, d_state: Array, residual: Array, weights: Array,
+                         theta: ArrayLike, t: ArrayLike) -> tuple[Array, Array] | None:
+        """Give ``J'J`` and ``J'r`` of the whitened Jacobian without forming it, or None.
+
+        ``J`` is :meth:`chain` of ``d_state`` with every parameter (``derivatives_for`` not
+        applied: a solver selects its free rows and columns), its rows whitened by
+        ``weights``; summed by segments (:mod:`tmakit.motion.curvilinear_normal_numba`).
+        None without the compiled kernels.
+
+        Parameters
+        ----------
+        d_state : ndarray
+            ``(B, n, 6)`` derivatives of the predictions by the ENU state.
+        residual : ndarray
+            ``(B, n)`` whitened residuals.
+        weights : ndarray
+            ``(n,)`` inverse standard deviations of the rows.
+        theta : array_like
+            ``(B, p)`` parameters (SI units).
+        t : array_like
+            ``(n,)`` the rows' times (s).
+
+        Returns
+        -------
+        (ndarray, ndarray) or None
+            ``(B, p, p)`` and ``(B, p)``.
+        """
+        if not compiled.available():
+            return None
+        flat, _ = self._flat(theta)
+        t = np.asarray(t, dtype=float)
+        seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
+        return compiled.segment_normal(d_state, residual, weights, par_u, seg_u, idx, d_anchor,
+                                       self.manoeuvres)
+
     def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
         """Give ``(x, y, speed, course)`` at times ``t``, the course unwrapped.
 

@@ -30,6 +30,7 @@ available = KERNELS.available
 
 def _compile() -> dict[str, Callable[..., object]]:
     """Import ``numba`` and the kernels and compile them on tiny inputs (cached on disk)."""
+    from . import curvilinear_normal_numba as kc
     from . import curvilinear_numba as kn
 
     theta = np.array([[0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.01, 0.01, 1.0]])
@@ -42,8 +43,11 @@ def _compile() -> dict[str, Callable[..., object]]:
     kn.chain_columns(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1,
                      np.arange(8), np.empty((8, 1, 2)))
     kn.scatter_states(vals, np.arange(2), np.empty((1, 2, 6)))
+    for ds in (np.ones((1, 2, 6)), np.ones((1, 6, 2)).transpose(0, 2, 1)):  # rows or components
+        kc.segment_normal(ds, np.ones((1, 2)), np.ones(2), par, seg, np.arange(2), d_anchor, 1,
+                          np.empty((1, 9, 9)), np.empty((1, 9)))
     return {"piecewise": kn.piecewise, "chain": kn.chain, "chain_columns": kn.chain_columns,
-            "scatter": kn.scatter_states}
+            "scatter": kn.scatter_states, "segment_normal": kc.segment_normal}
 
 
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
@@ -139,6 +143,45 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     out = np.empty((b, n, d_anchor.shape[-1]))
     KERNELS["chain"](ds, par, seg, rows, d_anchor, manoeuvres, out)
     return out
+
+
+def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: Array | None,
+                   d_anchor: Array, manoeuvres: int) -> tuple[Array, Array]:
+    """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, compiled.
+
+    :func:`tmakit.motion.curvilinear_normal_numba.segment_normal`: the Jacobian (the
+    :func:`chain` of ``ds``, whitened by ``w``) is not formed.
+
+    Parameters
+    ----------
+    ds : ndarray
+        ``(B, n, 6)`` derivatives of the predictions by the ENU state.
+    r, w : ndarray
+        ``(B, n)`` whitened residuals, ``(n,)`` inverse standard deviations.
+    par, seg, idx, d_anchor, manoeuvres
+        As for :func:`chain`.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``(B, p, p)`` and ``(B, p)`` (per parameter unit squared, per parameter unit).
+
+    Raises
+    ------
+    RuntimeError
+        If the kernels are not :func:`available`.
+    """
+    if not available():
+        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
+    b, n = ds.shape[:2]
+    p = d_anchor.shape[-1]
+    rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
+    jtj, jtr = np.empty((b, p, p)), np.empty((b, p))
+    # (ds read in its own layout: the observation model's is component-major, no copy made)
+    KERNELS["segment_normal"](np.asarray(ds, dtype=float), np.ascontiguousarray(r),
+                              np.ascontiguousarray(w, dtype=float), par, seg, rows, d_anchor,
+                              manoeuvres, jtj, jtr)
+    return jtj, jtr
 
 
 def scatter_states(vals: Array, inv: Array) -> Array:
