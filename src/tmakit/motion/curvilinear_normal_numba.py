@@ -22,9 +22,12 @@ import numpy as np
 from ..arrays import Array
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+# Inlined into the loop over the samples (as a call, every array argument's reference count
+# would change twice per sample: more than the arithmetic).
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
-@_jit
+@_inline
 def _inputs(ds: Array, par: Array, d_anchor: Array, b: int, i: int, u: int, sg: int,
             own: int, w: float, v: Array) -> None:  # pragma: no cover - compiled
     """Write row ``i``'s whitened derivatives by its segment's inputs into ``v``.
