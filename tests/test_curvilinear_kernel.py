@@ -136,3 +136,28 @@ def test_a_manoeuvre_fit_evaluates_alike_with_and_without_the_segment_sums(monke
                       (summed.normal[1], (jt @ chained.residual[:, :, None])[..., 0])):
         scale = np.abs(want).max(axis=tuple(range(1, want.ndim)), keepdims=True)
         np.testing.assert_allclose(got / scale, want / scale, rtol=0, atol=1e-11)
+
+
+def test_chunks_of_rows_add_the_segment_sums(monkeypatch):
+    """A problem of more than CHUNKED_ROWS rows sums each chunk's J'J, however the chunk
+    gives it (the motion model's sums or the Jacobian's products)."""
+    import tmakit as tk
+    from tmakit import blas
+    from tmakit.batch.varpro import VarProProblem
+    from tmakit.observation import ObservationModel
+
+    scn = tk.load_scenario("hoerst2010")
+    meas = scn.simulate(np.random.default_rng(8))
+    model = ForwardPiecewise(1, float(meas.time.min()), end_time=float(meas.time.max()))
+    problem = VarProProblem(ObservationModel(meas, model))
+    theta = hoerst_thetas(1, np.random.default_rng(9), 2)
+    y = np.broadcast_to(problem.group(meas.value_si), (2, len(meas)))
+    nu = problem.reference_nuisance(y)
+    whole = problem.evaluate(theta, y, nu)
+    monkeypatch.setattr(blas, "CHUNKED_ROWS", 500)
+    monkeypatch.setattr(blas, "CHUNK_ROWS", 400)
+    chunked = problem.evaluate(theta, y, nu)
+    assert chunked.jacobian is None and chunked.normal is not None
+    for got, want in zip(chunked.normal, whole.normal, strict=True):
+        scale = np.abs(want).max(axis=tuple(range(1, want.ndim)), keepdims=True)
+        np.testing.assert_allclose(got / scale, want / scale, rtol=0, atol=1e-12)

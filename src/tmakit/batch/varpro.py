@@ -399,10 +399,9 @@ class VarProProblem:
             part = self.take(self.obs.order[lo:hi])._evaluate(theta, u[:, lo:hi], nu_star,
                                                               with_jacobian)
             r[:, lo:hi] = part.residual
-            if part.jacobian is not None:
-                jt = part.jacobian.swapaxes(1, 2)
-                gram += jt @ part.jacobian
-                grad += (jt @ part.residual[:, :, None])[..., 0]
+            if (normal := _normal_of(part)) is not None:  # (its J'J and J'r, however held)
+                gram += normal[0]
+                grad += normal[1]
         cost = 0.5 * np.einsum("bn,bn->b", r, r)
         cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
         return Evaluation(theta, np.array(nu_star, dtype=float), r, cost, None,
