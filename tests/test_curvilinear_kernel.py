@@ -113,51 +113,50 @@ def test_normal_equations_by_segments_equal_the_chained_jacobian(m):
         compiled.use_compiled(before)
 
 
-def test_a_manoeuvre_fit_evaluates_alike_with_and_without_the_segment_sums(monkeypatch):
+def _hoerst_problem(m, seed, batch):
+    """A problem of ``m`` manoeuvres on seeded hoerst2010 data, points, data, reference."""
     import tmakit as tk
-    from tmakit.batch import varpro
     from tmakit.batch.varpro import VarProProblem
     from tmakit.observation import ObservationModel
 
     scn = tk.load_scenario("hoerst2010")
-    meas = scn.simulate(np.random.default_rng(3))
-    model = ForwardPiecewise(2, float(meas.time.min()), end_time=float(meas.time.max()))
+    meas = scn.simulate(np.random.default_rng(seed))
+    model = ForwardPiecewise(m, float(meas.time.min()), end_time=float(meas.time.max()))
     problem = VarProProblem(ObservationModel(meas, model))
-    theta = hoerst_thetas(2, np.random.default_rng(4), 5)
-    y = np.broadcast_to(problem.group(meas.value_si), (5, len(meas)))
-    nu = problem.reference_nuisance(y)
+    theta = hoerst_thetas(m, np.random.default_rng(seed + 1), batch)
+    y = np.broadcast_to(problem.group(meas.value_si), (batch, len(meas)))
+    return problem, theta, y, problem.reference_nuisance(y)
+
+
+def _assert_scaled_close(got, want, atol):
+    scale = np.abs(want).max(axis=tuple(range(1, want.ndim)), keepdims=True)
+    np.testing.assert_allclose(got / scale, want / scale, rtol=0, atol=atol)
+
+
+def test_a_manoeuvre_fit_evaluates_alike_with_and_without_the_segment_sums(monkeypatch):
+    from tmakit.batch import varpro
+
+    problem, theta, y, nu = _hoerst_problem(2, 3, 5)
     summed = problem.evaluate(theta, y, nu)
     assert summed.jacobian is None and summed.normal is not None
     monkeypatch.setattr(varpro, "motion_normal", lambda *args: None)
     chained = problem.evaluate(theta, y, nu)
     jt = chained.jacobian.swapaxes(1, 2)
     np.testing.assert_array_equal(summed.residual, chained.residual)
-    for got, want in ((summed.normal[0], jt @ chained.jacobian),
-                      (summed.normal[1], (jt @ chained.residual[:, :, None])[..., 0])):
-        scale = np.abs(want).max(axis=tuple(range(1, want.ndim)), keepdims=True)
-        np.testing.assert_allclose(got / scale, want / scale, rtol=0, atol=1e-11)
+    _assert_scaled_close(summed.normal[0], jt @ chained.jacobian, 1e-11)
+    _assert_scaled_close(summed.normal[1], (jt @ chained.residual[:, :, None])[..., 0], 1e-11)
 
 
 def test_chunks_of_rows_add_the_segment_sums(monkeypatch):
     """A problem of more than CHUNKED_ROWS rows sums each chunk's J'J, however the chunk
     gives it (the motion model's sums or the Jacobian's products)."""
-    import tmakit as tk
     from tmakit import blas
-    from tmakit.batch.varpro import VarProProblem
-    from tmakit.observation import ObservationModel
 
-    scn = tk.load_scenario("hoerst2010")
-    meas = scn.simulate(np.random.default_rng(8))
-    model = ForwardPiecewise(1, float(meas.time.min()), end_time=float(meas.time.max()))
-    problem = VarProProblem(ObservationModel(meas, model))
-    theta = hoerst_thetas(1, np.random.default_rng(9), 2)
-    y = np.broadcast_to(problem.group(meas.value_si), (2, len(meas)))
-    nu = problem.reference_nuisance(y)
+    problem, theta, y, nu = _hoerst_problem(1, 8, 2)
     whole = problem.evaluate(theta, y, nu)
     monkeypatch.setattr(blas, "CHUNKED_ROWS", 500)
     monkeypatch.setattr(blas, "CHUNK_ROWS", 400)
     chunked = problem.evaluate(theta, y, nu)
     assert chunked.jacobian is None and chunked.normal is not None
     for got, want in zip(chunked.normal, whole.normal, strict=True):
-        scale = np.abs(want).max(axis=tuple(range(1, want.ndim)), keepdims=True)
-        np.testing.assert_allclose(got / scale, want / scale, rtol=0, atol=1e-12)
+        _assert_scaled_close(got, want, 1e-12)

@@ -100,6 +100,14 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
     return seg, vals, (par if partials else None), (d_anchor if partials else None)
 
 
+def _rows(ds: Array, idx: Array | None) -> tuple[int, int, Array]:
+    """Give the batch size, the rows and every row's unique time; refuse without the kernels."""
+    if not available():
+        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
+    b, n = ds.shape[:2]
+    return b, n, (np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64))
+
+
 def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
           manoeuvres: int, columns: NDArray[np.int64] | None = None) -> Array:
     """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``, compiled.
@@ -128,10 +136,7 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     RuntimeError
         If the kernels are not :func:`available`.
     """
-    if not available():
-        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
-    b, n = ds.shape[:2]
-    rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
+    b, n, rows = _rows(ds, idx)
     ds = np.asarray(ds, dtype=float)
     if columns is not None:
         # each column contiguous over the rows: the layout of a column selection of the
@@ -171,11 +176,8 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
     RuntimeError
         If the kernels are not :func:`available`.
     """
-    if not available():
-        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
-    b, n = ds.shape[:2]
+    b, _, rows = _rows(ds, idx)
     p = d_anchor.shape[-1]
-    rows = np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64)
     jtj, jtr = np.empty((b, p, p)), np.empty((b, p))
     # (ds read in its own layout: the observation model's is component-major, no copy made)
     KERNELS["segment_normal"](np.asarray(ds, dtype=float), np.ascontiguousarray(r),
