@@ -71,6 +71,10 @@ class Starts:
     def _choose(self, i: int) -> None:
         """Choose candidate ``i``: no candidate near it is chosen later."""
         self.chosen.append(i)
+        self._drop_near(i)
+
+    def _drop_near(self, i: int) -> None:
+        """Leave out every candidate near candidate ``i`` (within 5 % of each spread)."""
         near = np.max(np.abs(self.scaled - self.scaled[:, i:i + 1]), axis=0) <= 0.05
         self.left[near] = np.inf
 
@@ -79,30 +83,17 @@ class Starts:
 
         The greedy choice takes candidates in order of (cost, index), each one not near one
         chosen before: the same choices are made walking the cheapest :data:`SHORTLIST` in
-        that order, up to the first whose cost ties the shortlist's last (a tie at the cut
-        may have left out a candidate of lower index).  Then the full set takes over, the
-        shortlist's choices applied to it.
+        that order (:func:`_walk_together`), up to the first whose cost ties the shortlist's
+        last (a tie at the cut may have left out a candidate of lower index).  Then the full
+        set takes over, the shortlist's choices applied to it.
         """
         if self._short is None:
             self._short = self._shortlist(_cheapest(self.left[None, :])[0])
-        idx, scaled, out = self._short
-        assert self._short is not False
-        cut = self.left[idx[-1]] if idx.shape[0] == SHORTLIST else np.inf
-        while len(self.chosen) < m and self._at < idx.shape[0]:
-            at = self._at
-            cost = self.left[idx[at]] if not out[at] else None
-            if cost is not None and not (cost < cut and np.isfinite(cost)):
-                break  # a tie with the cut, or no finite candidate left in the shortlist
-            self._at += 1
-            if cost is None:
-                continue
-            self.chosen.append(int(idx[at]))
-            out |= np.max(np.abs(scaled - scaled[:, at:at + 1]), axis=0) <= 0.05
+        _walk_together([self], m)
         if len(self.chosen) < m:  # the full set takes over from here
             self._short = False
             for i in self.chosen:
-                near = np.max(np.abs(self.scaled - self.scaled[:, i:i + 1]), axis=0) <= 0.05
-                self.left[near] = np.inf
+                self._drop_near(i)
 
 
 SHORTLIST = 64
@@ -149,7 +140,12 @@ def first_of_many(starts: list[Starts], m: int) -> list[NDArray[np.float64]]:
 
 
 def _walk_together(group: list[Starts], m: int) -> None:
-    """Walk the shortlists of ``group`` as :meth:`Starts._from_shortlist` does, in place."""
+    """Walk the shortlists of ``group`` (all of one length) to ``m`` choices each, in place.
+
+    Each data set's next choice is its first candidate at or after its position that is not
+    near one chosen; the walk of a set stops at a candidate whose cost is not below the cut
+    (the shortlist's last cost when it is a full :data:`SHORTLIST`, else none) or not finite.
+    """
     shorts = [s._short for s in group]
     idx = np.stack([sh[0] for sh in shorts])  # type: ignore[index]
     scaled = np.stack([sh[1] for sh in shorts])  # type: ignore[index]  # (R, p, K)
@@ -157,7 +153,9 @@ def _walk_together(group: list[Starts], m: int) -> None:
     cost = np.stack([s.left[i] for s, i in zip(group, idx, strict=True)])
     at = np.array([s._at for s in group])
     need = np.array([m - len(s.chosen) for s in group])
-    cut, pos, rows = cost[:, -1], np.arange(SHORTLIST), np.arange(len(group))
+    k = idx.shape[1]
+    cut = cost[:, -1] if k == SHORTLIST else np.full(len(group), np.inf)
+    pos, rows = np.arange(k), np.arange(len(group))
     live = need > 0
     while live.any():
         avail = ~out & (pos >= at[:, None])
@@ -166,7 +164,7 @@ def _walk_together(group: list[Starts], m: int) -> None:
         c = cost[rows, nxt]
         ok = has & (c < cut) & np.isfinite(c)
         stop = live & ~ok  # a tie with the cut, or none left: the walk stops there
-        at[stop] = np.where(has[stop], nxt[stop], SHORTLIST)
+        at[stop] = np.where(has[stop], nxt[stop], k)
         live &= ok
         r = np.flatnonzero(live)
         if not r.size:

@@ -326,7 +326,7 @@ class VarProProblem:
     def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                       ) -> Evaluation:
         """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
-        b = theta.shape[0]
+        b = theta.shape[0]  # (one vector of angles alone: the bearing kernel's, below)
         if (self._batch_plan is not False and not (b == 1 and self.k == 0 and self.all_angle)
                 and compiled_wanted(b * u.shape[-1])):
             compiled = self._evaluate_batch_compiled(theta, u, nu_star, with_jacobian)

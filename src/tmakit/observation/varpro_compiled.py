@@ -150,17 +150,11 @@ def plan_for(obs: Any, inv_sigma: Array | None, const_design: Array) -> BatchPla
         sl, ns = obs.slices[kind], obs.nuisance_slices[kind]
         code = _CODES.get(type(model))
         width = ns.stop - ns.start
-        if code is None or width != (1 if code >= 4 else 0):
-            return None
-        param = 0.0
-        if code == 4:
-            if model.drift:
-                return None
-            param = model.c
-        if code == 5:
-            if model.exponent is None:
-                return None
-            param = model.exponent
+        with_nuisance = isinstance(model, Frequency | Power)
+        if code is None or width != int(with_nuisance):
+            return None  # (a drift, or an unknown exponent: two columns in one kind)
+        param = (model.c if isinstance(model, Frequency)
+                 else model.exponent if isinstance(model, Power) else 0.0)
         col = ns.start if width else -1
         if width:
             const[sl] = const_design[sl, col]
