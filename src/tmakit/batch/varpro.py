@@ -16,8 +16,6 @@ problem, or many Monte Carlo runs that share times, sensors and noise (each with
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -31,92 +29,9 @@ from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
 from ..observation.varpro_compiled import evaluate_batch, plan_for
 from ..observation.varpro_compiled import wanted as compiled_wanted
+from .evaluation import Evaluation
+from .evaluation import normal_of as _normal_of
 from .varpro_normal import motion_normal
-
-
-@dataclass
-class Evaluation:
-    """Reduced residuals and what a step needs, for a batch of parameter vectors.
-
-    Parameters
-    ----------
-    theta : ndarray
-        ``(B, p)`` motion parameters (SI units).
-    nuisance : ndarray
-        ``(B, k)`` eliminated (or fixed) nuisance values (SI units).
-    residual : ndarray
-        ``(B, n)`` whitened residuals, nuisance projected out (dimensionless).
-    cost : ndarray
-        ``(B,)`` half the squared whitened residual (inf where there is no prediction).
-    jacobian : ndarray, optional
-        ``(B, n, p)`` whitened, projected Jacobian (per parameter unit).
-    normal : (ndarray, ndarray), optional
-        ``(B, p, p)`` ``J'J`` and ``(B, p)`` ``J'r`` in place of the Jacobian, summed over
-        row chunks (more than :data:`tmakit.blas.CHUNKED_ROWS` rows).
-    """
-
-    theta: Array      # (B, p)
-    nuisance: Array   # (B, k) eliminated (or fixed) nuisance values
-    residual: Array   # (B, n) whitened, nuisance projected out
-    cost: Array       # (B,)  half the squared whitened residual
-    jacobian: Array | None = None  # (B, n, p) whitened, projected
-    normal: tuple[Array, Array] | None = None  # (B, p, p) J'J and (B, p) J'r, by chunks
-
-    def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
-        """Copy the evaluations of ``rows``.
-
-        Parameters
-        ----------
-        rows : ndarray of bool or int
-            The rows kept.
-
-        Returns
-        -------
-        Evaluation
-            A copy of those rows.
-        """
-        return Evaluation(self.theta[rows], self.nuisance[rows], self.residual[rows],
-                          self.cost[rows], None if self.jacobian is None
-                          else self.jacobian[rows], None if self.normal is None
-                          else (self.normal[0][rows], self.normal[1][rows]))
-
-    def put(self, rows: NDArray[np.bool_] | NDArray[np.int64], other: Evaluation,
-            which: NDArray[np.bool_] | NDArray[np.int64] | slice = slice(None)) -> None:
-        """Overwrite ``rows`` with ``other``'s evaluations ``which``, in place.
-
-        Parameters
-        ----------
-        rows : ndarray of bool or int
-            The rows written.
-        other : Evaluation
-            The source.
-        which : ndarray of bool or int, or slice
-            Its rows read (default: all).
-        """
-        if (self.jacobian is None) != (other.jacobian is None):
-            # One holds its Jacobian, the other only J'J and J'r (the compiled bearing pass
-            # applies to one parameter vector): both as normal equations.
-            self.normal, self.jacobian = _normal_of(self), None
-            other = Evaluation(other.theta, other.nuisance, other.residual, other.cost, None,
-                               _normal_of(other))
-        self.theta[rows] = other.theta[which]
-        self.nuisance[rows] = other.nuisance[which]
-        self.residual[rows] = other.residual[which]
-        self.cost[rows] = other.cost[which]
-        if self.jacobian is not None and other.jacobian is not None:
-            self.jacobian[rows] = other.jacobian[which]
-        if self.normal is not None and other.normal is not None:
-            self.normal[0][rows] = other.normal[0][which]
-            self.normal[1][rows] = other.normal[1][which]
-
-
-
-def _normal_of(ev: Evaluation) -> tuple[Array, Array] | None:
-    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` of ``ev`` (its own when it has them)."""
-    if ev.normal is not None or ev.jacobian is None:
-        return ev.normal
-    jt = ev.jacobian.swapaxes(1, 2)
-    return jt @ ev.jacobian, (jt @ ev.residual[:, :, None])[..., 0]
 
 
 class VarProProblem:

@@ -7,20 +7,106 @@ model's chain rule makes the Jacobian ``(B, n, p)``; the solver then whitens it 
 ForwardPiecewise.normal_equations`) sums ``J'J`` and ``J'r`` by segments instead, the Jacobian
 never written.  Used by :class:`tmakit.batch.varpro.VarProProblem` where nothing else enters
 the Jacobian: no nuisance, no reference samples, independent noise.
+
+The sums are made when first read (:class:`DeferredNormal`): a Levenberg–Marquardt trial
+point that is rejected — about a third of them in the manoeuvre search — never needs them,
+and of a batch only the runs whose step was accepted do.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from ..observation import Linearisation
 
-__all__ = ["motion_normal"]
+__all__ = ["DeferredNormal", "motion_normal"]
+
+
+class DeferredNormal:
+    """``J'J`` and ``J'r`` of a batch, summed when first read, for the runs read.
+
+    Read as the pair ``(J'J, J'r)`` (indexing, unpacking): the whole is then summed once and
+    kept.  :meth:`take` and :meth:`runs` sum only some runs.  Every run's sums are the same
+    bits however they are asked for.
+
+    Parameters
+    ----------
+    make : callable
+        ``make(runs)`` gives ``(R, p, p)`` and ``(R, p)`` for the rows ``runs`` of the batch
+        it was made for (None: all).
+    size : int
+        The number of runs of that batch.
+    rows : ndarray of int, optional
+        The runs this object stands for, rows of that batch (default all).
+    """
+
+    def __init__(self, make: Callable[[NDArray[np.int64] | None], tuple[Array, Array]],
+                 size: int, rows: NDArray[np.int64] | None = None) -> None:
+        self._make, self._size, self._rows = make, size, rows
+        self._value: tuple[Array, Array] | None = None
+
+    def _whole(self) -> tuple[Array, Array]:
+        if self._value is None:
+            self._value = self._make(self._rows)
+        return self._value
+
+    def __getitem__(self, i: int) -> Array:
+        """Give ``J'J`` (0) or ``J'r`` (1) of every run, summing them if not yet done."""
+        return self._whole()[i]
+
+    def __iter__(self) -> Iterator[Array]:
+        """Give ``J'J`` then ``J'r``."""
+        return iter(self._whole())
+
+    def __len__(self) -> int:
+        """Two: ``J'J`` and ``J'r``."""
+        return 2
+
+    def runs(self, which: NDArray[np.bool_] | NDArray[np.int64] | slice) -> tuple[Array, Array]:
+        """Give the sums of the runs ``which`` (indices into this object's runs).
+
+        Parameters
+        ----------
+        which : ndarray of bool or int, or slice
+            The runs.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``J'J`` ``(R, p, p)`` and ``J'r`` ``(R, p)``.
+        """
+        if self._value is not None:
+            return self._value[0][which], self._value[1][which]
+        own = np.arange(self._size) if self._rows is None else self._rows
+        return self._make(own[which])
+
+    def take(self, which: NDArray[np.bool_] | NDArray[np.int64] | slice
+             ) -> DeferredNormal | tuple[Array, Array]:
+        """Stand for the runs ``which`` only (their sums still deferred, or copied if made).
+
+        Parameters
+        ----------
+        which : ndarray of bool or int, or slice
+            The runs kept (indices into this object's runs).
+
+        Returns
+        -------
+        DeferredNormal or (ndarray, ndarray)
+            The deferred sums of those runs, or a copy of them once summed.
+        """
+        if self._value is not None:
+            return self._value[0][which], self._value[1][which]
+        own = np.arange(self._size) if self._rows is None else self._rows
+        return DeferredNormal(self._make, self._size, own[which])
 
 
 def motion_normal(obs: Any, lin: Linearisation, residual: Array, weights: Array | None
-                  ) -> tuple[Array, Array] | None:
+                  ) -> DeferredNormal | None:
     """Give ``J'J`` and ``J'r`` of the whitened Jacobian from the motion model, or None.
 
     Parameters
@@ -36,12 +122,13 @@ def motion_normal(obs: Any, lin: Linearisation, residual: Array, weights: Array 
 
     Returns
     -------
-    (ndarray, ndarray) or None
-        ``(B, p, p)`` and ``(B, p)``; None where the motion model cannot, or something besides
-        the relative states enters the Jacobian (the caller forms it).
+    DeferredNormal or None
+        ``(B, p, p)`` and ``(B, p)``, summed when read; None where the motion model cannot, or
+        something besides the relative states enters the Jacobian (the caller forms it).
     """
-    normal = getattr(obs.motion, "normal_equations", None)
+    normal = getattr(obs.motion, "normal_equations_later", None)
     if (normal is None or weights is None or lin.fused is not None or lin.d_h0 is None
             or lin.d_a or lin.d_h0_ref is not None or lin.theta.ndim != 2):
         return None
-    return normal(lin.d_h0, residual, weights, lin.theta, obs._time)
+    make = normal(lin.d_h0, residual, weights, lin.theta, obs._time)
+    return None if make is None else DeferredNormal(make, residual.shape[0])

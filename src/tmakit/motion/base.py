@@ -48,6 +48,25 @@ class MotionModel(ABC):
             ``(..., n, 6)`` ENU position (m) and velocity (m/s).
         """
 
+    def states_minus(self, theta: ArrayLike, t: ArrayLike, sensor: NDArray[np.float64]
+                     ) -> NDArray[np.float64]:
+        """Compute the target states at times ``t`` relative to ``sensor``'s.
+
+        Parameters
+        ----------
+        theta, t : array_like
+            As for :meth:`states`.
+        sensor : ndarray
+            ``(n, 6)`` the sensor's ENU states at ``t`` (m, m/s).
+
+        Returns
+        -------
+        ndarray
+            ``(..., n, 6)`` :meth:`states` minus ``sensor`` (models may do it in one pass,
+            the same bits).
+        """
+        return self.states(theta, t) - sensor
+
     @abstractmethod
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
         """Compute ``d state / d theta`` at times ``t``.

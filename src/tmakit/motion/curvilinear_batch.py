@@ -28,7 +28,7 @@ Hörst & Oispuu (2010), §2, eqs. 1-4.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import numpy as np
@@ -43,6 +43,9 @@ from .curvilinear_closed import (
     propagate_state_partials,
     propagate_with_partials,
 )
+
+NormalMaker = Callable[[NDArray[np.int64] | None], tuple[Array, Array]]
+"""``make(runs)``: ``J'J`` and ``J'r`` of some runs of a batch (None: all)."""
 
 
 class ForwardPiecewise(MotionModel):
@@ -213,6 +216,21 @@ class ForwardPiecewise(MotionModel):
         times are computed in the same pass and kept for :meth:`chain` (an observation model
         asks for them next).
         """
+        return self._rows_states(theta, t, None)
+
+    def states_minus(self, theta: ArrayLike, t: ArrayLike, sensor: Array) -> Array:
+        """Give :meth:`states` minus the sensor's states ``(n, 6)``, in one pass if compiled.
+
+        Parameters and returns as :meth:`MotionModel.states_minus` (the same bits).
+        """
+        sensor = np.asarray(sensor, dtype=float)
+        t = np.asarray(t, dtype=float)
+        if sensor.shape != (t.shape[0], 6) or not compiled.available():
+            return self.states(theta, t) - sensor
+        return self._rows_states(theta, t, sensor)
+
+    def _rows_states(self, theta: ArrayLike, t: ArrayLike, sensor: Array | None) -> Array:
+        """Give the states at every time of ``t`` (minus ``sensor``'s if given, compiled)."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         last_t, last_inv = self._rows
@@ -226,7 +244,7 @@ class ForwardPiecewise(MotionModel):
         seg_u, val, par_u, d_anchor = self._segments(flat, tu, partials=True)
         self._cache = ((flat.tobytes(), flat.shape), tu, seg_u, par_u, d_anchor)
         if compiled.available():
-            return compiled.scatter_states(val, inv).reshape(*lead, t.shape[0], 6)
+            return compiled.scatter_states(val, inv, sensor).reshape(*lead, t.shape[0], 6)
         out = np.zeros((flat.shape[0], tu.size, 6))
         out[..., 0], out[..., 1] = val[..., 0], val[..., 1]
         out[..., 3], out[..., 4] = val[..., 4], val[..., 5]
@@ -350,13 +368,40 @@ class ForwardPiecewise(MotionModel):
         (ndarray, ndarray) or None
             ``(B, p, p)`` and ``(B, p)``.
         """
+        later = self.normal_equations_later(d_state, residual, weights, theta, t)
+        return None if later is None else later(None)
+
+    def normal_equations_later(self, d_state: Array, residual: Array, weights: Array,
+                               theta: ArrayLike, t: ArrayLike) -> NormalMaker | None:
+        """Hold what :meth:`normal_equations` needs; sum it later, for the runs asked.
+
+        A solver rejects about a third of its trial points; their ``J'J`` is never summed.
+        The arrays are held as they are (none is written again: the sample partials are
+        those of this ``theta``, made by :meth:`states`).
+
+        Parameters
+        ----------
+        d_state, residual, weights, theta, t
+            As for :meth:`normal_equations`.
+
+        Returns
+        -------
+        callable or None
+            ``make(runs)``: ``J'J`` ``(R, p, p)`` and ``J'r`` ``(R, p)`` of the rows ``runs``
+            of the batch (None: all), each the same bits as in the whole; None without the
+            compiled kernels.
+        """
         if not compiled.available():
             return None
         flat, _ = self._flat(theta)
         t = np.asarray(t, dtype=float)
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
-        return compiled.segment_normal(d_state, residual, weights, par_u, seg_u, idx, d_anchor,
-                                       self.manoeuvres)
+        m = self.manoeuvres
+
+        def make(runs: NDArray[np.int64] | None) -> tuple[Array, Array]:
+            return compiled.segment_normal(d_state, residual, weights, par_u, seg_u, idx,
+                                           d_anchor, m, runs)
+        return make
 
     def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
         """Give ``(x, y, speed, course)`` at times ``t``, the course unwrapped.

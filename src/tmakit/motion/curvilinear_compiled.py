@@ -43,11 +43,13 @@ def _compile() -> dict[str, Callable[..., object]]:
     kn.chain_columns(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1,
                      np.arange(8), np.empty((8, 1, 2)))
     kn.scatter_states(vals, np.arange(2), np.empty((1, 2, 6)))
+    kn.scatter_relative(vals, np.arange(2), np.zeros((2, 6)), np.empty((1, 2, 6)))
     for ds in (np.ones((1, 2, 6)), np.ones((1, 6, 2)).transpose(0, 2, 1)):  # rows or components
         kc.segment_normal(ds, np.ones((1, 2)), np.ones(2), par, seg, np.arange(2), d_anchor, 1,
-                          np.empty((1, 9, 9)), np.empty((1, 9)))
+                          np.zeros(1, dtype=np.int64), np.empty((1, 9, 9)), np.empty((1, 9)))
     return {"piecewise": kn.piecewise, "chain": kn.chain, "chain_columns": kn.chain_columns,
-            "scatter": kn.scatter_states, "segment_normal": kc.segment_normal}
+            "scatter": kn.scatter_states, "scatter_relative": kn.scatter_relative,
+            "segment_normal": kc.segment_normal}
 
 
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
@@ -151,7 +153,8 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
 
 
 def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: Array | None,
-                   d_anchor: Array, manoeuvres: int) -> tuple[Array, Array]:
+                   d_anchor: Array, manoeuvres: int, runs: NDArray[np.int64] | None = None
+                   ) -> tuple[Array, Array]:
     """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, compiled.
 
     :func:`tmakit.motion.curvilinear_normal_numba.segment_normal`: the Jacobian (the
@@ -165,11 +168,14 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
         ``(B, n)`` whitened residuals, ``(n,)`` inverse standard deviations.
     par, seg, idx, d_anchor, manoeuvres
         As for :func:`chain`.
+    runs : ndarray of int, optional
+        ``(R,)`` rows of the batch: the sums of these parameter vectors only, in this order
+        (each the same bits as in the whole batch; default all).
 
     Returns
     -------
     (ndarray, ndarray)
-        ``(B, p, p)`` and ``(B, p)`` (per parameter unit squared, per parameter unit).
+        ``(R, p, p)`` and ``(R, p)`` (per parameter unit squared, per parameter unit).
 
     Raises
     ------
@@ -177,16 +183,17 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
         If the kernels are not :func:`available`.
     """
     b, _, rows = _rows(ds, idx)
+    runs = np.arange(b) if runs is None else np.ascontiguousarray(runs, dtype=np.int64)
     p = d_anchor.shape[-1]
-    jtj, jtr = np.empty((b, p, p)), np.empty((b, p))
+    jtj, jtr = np.empty((runs.size, p, p)), np.empty((runs.size, p))
     # (ds read in its own layout: the observation model's is component-major, no copy made)
     KERNELS["segment_normal"](np.asarray(ds, dtype=float), np.ascontiguousarray(r),
                               np.ascontiguousarray(w, dtype=float), par, seg, rows, d_anchor,
-                              manoeuvres, jtj, jtr)
+                              manoeuvres, runs, jtj, jtr)
     return jtj, jtr
 
 
-def scatter_states(vals: Array, inv: Array) -> Array:
+def scatter_states(vals: Array, inv: Array, sensor: Array | None = None) -> Array:
     """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times, compiled.
 
     Parameters
@@ -196,11 +203,14 @@ def scatter_states(vals: Array, inv: Array) -> Array:
         :func:`piecewise` gives them.
     inv : ndarray of int
         ``(n,)`` every row's unique time.
+    sensor : ndarray, optional
+        ``(n, 6)`` sensor states subtracted in the same pass (the same bits as after).
 
     Returns
     -------
     ndarray
-        ``(B, n, 6)`` ``(x, y, 0, vx, vy, 0)`` (m, m/s; NaN outside the model's domain).
+        ``(B, n, 6)`` ``(x, y, 0, vx, vy, 0)`` (m, m/s; NaN outside the model's domain), minus
+        ``sensor`` if given.
 
     Raises
     ------
@@ -210,5 +220,9 @@ def scatter_states(vals: Array, inv: Array) -> Array:
     if not available():
         raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
     out = np.empty((vals.shape[0], inv.shape[0], 6))
-    KERNELS["scatter"](vals, np.ascontiguousarray(inv, dtype=np.int64), out)
+    inv = np.ascontiguousarray(inv, dtype=np.int64)
+    if sensor is None:
+        KERNELS["scatter"](vals, inv, out)
+    else:
+        KERNELS["scatter_relative"](vals, inv, np.ascontiguousarray(sensor, dtype=float), out)
     return out

@@ -69,9 +69,9 @@ def _inputs_by_params(d_anchor: Array, b: int, sg: int, manoeuvres: int, d: Arra
 
 @_jit
 def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: Array,
-                   d_anchor: Array, manoeuvres: int, jtj: Array, jtr: Array
+                   d_anchor: Array, manoeuvres: int, runs: Array, jtj: Array, jtr: Array
                    ) -> None:  # pragma: no cover - compiled
-    """Write ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` of the whitened Jacobian.
+    """Write ``J'J`` ``(R, p, p)`` and ``J'r`` ``(R, p)`` of the whitened Jacobian of ``runs``.
 
     Parameters
     ----------
@@ -83,6 +83,8 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
         As for :func:`tmakit.motion.curvilinear_numba.chain`.
     manoeuvres : int
         ``M``.
+    runs : ndarray of int
+        ``(R,)`` the parameter vectors (rows of the batch) summed, in the order written.
     jtj, jtr : ndarray
         Outputs.
     """
@@ -94,7 +96,8 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
     v = np.empty(7)
     d = np.empty((7, p))
     dv = np.empty((7, p))
-    for b in range(ds.shape[0]):
+    for j in range(runs.shape[0]):
+        b = runs[j]
         s[:] = 0.0
         g[:] = 0.0
         for i in range(ds.shape[1]):
@@ -107,11 +110,11 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
                 g[sg, k] += vk * ri
                 for m in range(k, 7):
                     s[sg, k, m] += vk * v[m]
-        jtj[b] = 0.0
-        jtr[b] = 0.0
+        jtj[j] = 0.0
+        jtr[j] = 0.0
         for sg in range(m1):
             _inputs_by_params(d_anchor, b, sg, manoeuvres, d)
-            _add_segment(s[sg], g[sg], d, dv, jtj[b], jtr[b])
+            _add_segment(s[sg], g[sg], d, dv, jtj[j], jtr[j])
 
 
 @_jit

@@ -469,3 +469,30 @@ def scatter_states(vals: Array, inv: Array, out: Array) -> None:  # pragma: no c
             out[b, i, 3] = vals[b, u, 4]
             out[b, i, 4] = vals[b, u, 5]
             out[b, i, 5] = zero
+
+
+@_jit
+def scatter_relative(vals: Array, inv: Array, sensor: Array, out: Array
+                     ) -> None:  # pragma: no cover - compiled
+    """Write :func:`scatter_states`' states minus ``sensor`` (the same bits as after).
+
+    Parameters
+    ----------
+    vals, inv : ndarray
+        As for :func:`scatter_states`.
+    sensor : ndarray
+        ``(n, 6)`` the sensor's states at the rows (m, m/s).
+    out : ndarray
+        ``(B, n, 6)`` written with the relative states.
+    """
+    for b in range(out.shape[0]):
+        for i in range(out.shape[1]):
+            u = inv[i]
+            x = vals[b, u, 0]
+            zero = x - x
+            out[b, i, 0] = x - sensor[i, 0]
+            out[b, i, 1] = vals[b, u, 1] - sensor[i, 1]
+            out[b, i, 2] = zero - sensor[i, 2]
+            out[b, i, 3] = vals[b, u, 4] - sensor[i, 3]
+            out[b, i, 4] = vals[b, u, 5] - sensor[i, 4]
+            out[b, i, 5] = zero - sensor[i, 5]

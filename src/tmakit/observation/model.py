@@ -241,7 +241,7 @@ class ObservationModel:
         it alone (bit for bit).
         """
         if rel_map is None:
-            return self.motion.states(theta, times) - sensor
+            return self.motion.states_minus(theta, times, sensor)
         m = times.shape[0]
         if theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1):
             return rel_map.single(theta)
