@@ -30,7 +30,7 @@ import typer
 
 from .crlb import crlb
 from .estimate import estimate
-from .guard import guarded, install_sigterm, set_debug
+from .guard import WRITE_ERRORS, guarded, install_sigterm, set_debug, write_failed
 from .importing import examples, import_
 from .montecarlo import montecarlo
 from .plain_help import PlainCommand
@@ -109,6 +109,16 @@ def listing_app() -> typer.Typer:
 def main() -> None:
     """Entry point of the ``tma`` console script."""
     install_sigterm()
+    try:
+        _run()
+    except OSError as exc:  # help or usage text that could not be written (a full disk)
+        if exc.errno not in WRITE_ERRORS:
+            raise
+        raise SystemExit(write_failed(exc, " ".join(sys.argv[1:2]))) from None
+
+
+def _run() -> None:
+    """Run the command line (the listing and ``tma scenarios`` without typer's full app)."""
     if sys.argv[1:] in ([], ["-h"], ["--help"]):
         listing_app()()  # (the listing alone: no command's parameters built)
     if sys.argv[1:] == ["scenarios"]:

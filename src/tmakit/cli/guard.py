@@ -13,15 +13,21 @@ written are cleaned up.  Numerical ``RuntimeWarning`` s (an overflow in an expon
 division by zero that the code handles) are not printed (``--debug`` shows them); they are
 listed in the log of an internal error.
 
+Output that cannot be written (a full disk, a read-only or failing device: ``tma scenarios >
+/dev/full``) ends the command with one line naming the failure, status 1, never a traceback
+(:func:`write_failed`).
+
 Exit statuses of ``tma``: 0 success; 1 an honest non-success (unobservable, diverged, did not
-converge); 2 bad input or options (the message names the file, row, column or option); 3 an
-internal error (please report); 130 interrupted (Ctrl-C); 143 terminated (SIGTERM).
+converge; output that could not be written); 2 bad input or options (the message names the
+file, row, column or option); 3 an internal error (please report); 130 interrupted (Ctrl-C);
+143 terminated (SIGTERM).
 
 Nothing numerical is imported here: ``tma --help`` stays light.
 """
 
 from __future__ import annotations
 
+import errno
 import functools
 import os
 import sys
@@ -37,7 +43,8 @@ import click
 import typer
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_STATUS",
-           "EXIT_TERMINATED", "guarded", "install_sigterm", "set_debug"]
+           "EXIT_TERMINATED", "WRITE_ERRORS", "guarded", "install_sigterm", "set_debug",
+           "write_failed"]
 
 EXIT_STATUS = 1
 EXIT_BAD_INPUT = 2
@@ -46,6 +53,34 @@ EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 
 _state = {"debug": bool(os.environ.get("TMA_DEBUG"))}
+
+WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO, errno.EFBIG})
+"""Errors of writing output that are the machine's, not tmakit's (full disk, read-only ...)."""
+
+
+def write_failed(exc: OSError, command: str) -> int:
+    """Say in one line that output could not be written; give the exit status (1).
+
+    Parameters
+    ----------
+    exc : OSError
+        The error (one of :data:`WRITE_ERRORS`).
+    command : str
+        The command, as typed after ``tma`` (``""`` for ``tma`` itself).
+
+    Returns
+    -------
+    int
+        :data:`EXIT_STATUS`.
+    """
+    where = f" {exc.filename}" if exc.filename else " its output"
+    name = f"tma {command}".strip()
+    try:
+        sys.stderr.write(f"error: `{name}` could not write{where}: {exc.strerror or exc}\n")
+        sys.stderr.flush()
+    except OSError:
+        pass  # (stderr itself unwritable: the status says it)
+    return EXIT_STATUS
 
 
 class Terminated(BaseException):
@@ -178,6 +213,12 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
             raise typer.Exit(_interrupted(EXIT_INTERRUPTED, "interrupted")) from None
         except Terminated:
             raise typer.Exit(_interrupted(EXIT_TERMINATED, "terminated")) from None
+        except OSError as exc:
+            if exc.errno not in WRITE_ERRORS or _state["debug"]:
+                if _state["debug"]:
+                    raise
+                raise typer.Exit(_report(exc, command.__name__, caught)) from None
+            raise typer.Exit(write_failed(exc, command.__name__)) from None
         except MemoryError:
             from .common import err
 
