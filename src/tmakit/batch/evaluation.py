@@ -102,8 +102,7 @@ class Evaluation:
             self.normal[0][rows], self.normal[1][rows] = got
 
 
-
-def normal_of(ev: Evaluation) -> tuple[Array, Array] | None:
+def normal_of(ev: Evaluation) -> tuple[Array, Array] | DeferredNormal | None:
     """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` of ``ev`` (its own when it has them).
 
     Parameters
