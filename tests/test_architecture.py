@@ -3,7 +3,8 @@
 - the layers contract of ``pyproject.toml`` holds (``import-linter``);
 - no import cycles between tmakit modules;
 - no module imports another module's private (``_underscore``) name;
-- modules stay under 500 lines and functions under 80, except the listed compiled kernels.
+- functions stay under 80 lines, except the listed compiled kernels (a module is sized by its
+  idea, not by a cap: docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -13,11 +14,9 @@ import sys
 from pathlib import Path
 
 import grimp
-import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "tmakit"
-MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
 
 #: Functions allowed over the limit, each with the reason.
@@ -148,12 +147,6 @@ def long_functions(path: Path) -> list[tuple[str, int]]:
             if length > MAX_FUNCTION_LINES:
                 out.append((f"{rel}:{node.name}", length))
     return out
-
-
-@pytest.mark.parametrize("path", python_files(), ids=lambda p: p.relative_to(SRC).as_posix())
-def test_module_size(path):
-    lines = len(path.read_text(encoding="utf-8").splitlines())
-    assert lines <= MAX_MODULE_LINES, f"{path.name}: {lines} lines (limit {MAX_MODULE_LINES})"
 
 
 def test_function_size():
