@@ -6,7 +6,6 @@ this module only lays it out.  No numpy at import time (``tma --help`` stays lig
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -47,7 +46,10 @@ def check_units(units: str) -> None:
 
 
 def parse_time(text: str | None, meas: Any, option: str) -> float | None:
-    """Return a time option in seconds: a number of seconds or an ISO-8601 clock time.
+    """Return a time option in seconds: seconds, an ISO-8601 clock time, or ``HH:MM[:SS]``.
+
+    A clock time without a date is taken on the data's day, where the data lie within one UTC
+    day (:func:`tmakit.io.clock_text.seconds_of_time_text`).
 
     Parameters
     ----------
@@ -66,35 +68,30 @@ def parse_time(text: str | None, meas: Any, option: str) -> float | None:
     Raises
     ------
     typer.Exit
-        Status 2 when the text is neither, or a clock time is given without a time origin.
+        Status 2 when the text is none of these, a clock time is given without a time origin,
+        or a clock time without a date where the data span several days.
     """
     if text is None:
         return None
-    try:
-        seconds = float(text)
-    except ValueError:
-        pass
-    else:
-        if not math.isfinite(seconds):
-            raise fail(f"{option} {text!r}: expected a finite time (s)")
-        return seconds
-    import datetime as dt
-
+    from ..io.clock_text import seconds_of_time_text
     from ..results.context import TIME_ORIGIN_KEY
 
-    origin = meas.metadata.get(TIME_ORIGIN_KEY)
+    origin_ns = span = None
+    if (origin := meas.metadata.get(TIME_ORIGIN_KEY)) is not None:
+        import numpy as np
+
+        from ..io.logs import parse_clock_times
+
+        stamps, bad = parse_clock_times([origin])
+        if not bad[0]:
+            origin_ns = int(stamps[0])
+            if len(meas):
+                span = tuple(origin_ns + round(float(f(meas.time)) * 1e9)
+                             for f in (np.min, np.max))
     try:
-        when = dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
-    except ValueError:
-        raise fail(f"{option} {text!r}: expected seconds or an ISO-8601 clock time, e.g. "
-                   "2024-05-01T12:30:00Z") from None
-    if origin is None:
-        raise fail(f"{option} {text!r}: a clock time needs the file's time origin "
-                   f"({TIME_ORIGIN_KEY}), which this file does not give; give seconds")
-    t0 = dt.datetime.fromisoformat(origin.replace("Z", "+00:00"))
-    utc = dt.UTC
-    return ((when if when.tzinfo else when.replace(tzinfo=utc))
-            - (t0 if t0.tzinfo else t0.replace(tzinfo=utc))).total_seconds()
+        return seconds_of_time_text(text, option, origin_ns, span)  # type: ignore[arg-type]
+    except ValueError as e:
+        raise fail(str(e)) from None
 
 
 def select_window(meas: Any, start: str | None, stop: str | None) -> Any:

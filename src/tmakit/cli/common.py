@@ -169,72 +169,65 @@ def load_scenario_or_fail(name: str) -> Any:
         raise fail(str(e)) from None
 
 
-def read_or_fail(path: Path, origin: tuple[float, float, float] | None = None,
+def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | None = None,
                  **options: Any) -> Any:
-    """Read a measurement file, errors (missing file, bad row or field) as ``error: ...``.
+    """Read a measurement file (or several read as one), errors as ``error: ...``.
+
+    The reader's notes and warnings (a position's 60 seconds read as a carry, cuts left out,
+    placeholder ranges, ...) are printed on standard error as ``note: ...`` / ``warning: ...``.
 
     Parameters
     ----------
-    path : Path
-        The file (``.csv``, ``.parquet``, ``.rep``, ...; any registered format).
+    path : Path or list of Path
+        The file (``.csv``, ``.parquet``, ``.rep``, ...; any registered format), or several
+        Debrief files read as one replay (a sensor file and the own ship's track file).
     origin : tuple of float, optional
         ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
     **options
         The reader's options (:func:`reader_options`): ``format``, ``ownship``,
         ``contact``, ``mapping``, ``bearing_sigma``, ``range_sigma``, ``frequency_sigma``,
-        ``dim``; None values are dropped.
+        ``dim``, ``kinds`` (``--kinds`` text), ``ranges``, ``window`` (``--from``, ``--to``
+        texts: Debrief files keep the cuts in it before their checks); None values are
+        dropped.
 
     Returns
     -------
     tmakit.data.MeasurementSet
-        The measurements.
+        The measurements (of the kinds asked for).
 
     Raises
     ------
     typer.Exit
-        Status 2 when the file is missing or invalid.
+        Status 2 when a file is missing or invalid.
     """
+    from ..io.errors import reader_notes
     from ..io.measurement_files import MeasurementFileError, read_measurements
+    from .reading import log_options, only_kinds, parse_kinds
 
-    if not path.exists():
-        raise fail(f"{path}: no such file")
-    if path.is_dir():
-        raise fail(f"{path}: is a folder, not a measurement file")
-    options = _log_options(path, {k: v for k, v in options.items() if v is not None})
+    paths = [path] if isinstance(path, Path) else list(path)
+    for p in paths:
+        if not p.exists():
+            raise fail(f"{p}: no such file")
+        if p.is_dir():
+            raise fail(f"{p}: is a folder, not a measurement file")
+    options = {k: v for k, v in options.items() if v is not None}
+    kinds = parse_kinds(options.pop("kinds", None))
+    options = log_options(paths, options, kinds)
     try:
-        meas = read_measurements(path, origin=origin, **options)
+        meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin,
+                                 **options)
     except OSError as e:
-        raise fail(f"{path}: cannot be read ({e.strerror or e})") from None
+        raise fail(f"{e.filename or paths[0]}: cannot be read ({e.strerror or e})") from None
     except (MeasurementFileError, ValueError) as e:
         from ..io.positions import ORIGIN_HINT
 
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
+    for note in reader_notes(meas.metadata, pop=True):
+        err.print(note, highlight=False, markup=False, soft_wrap=True)
     if origin is not None and "origin_lat" not in meas.metadata:
-        err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {path.name} "
+        err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
                   "gives ENU positions, so it is not used", highlight=False)
-    return meas
-
-
-def _log_options(path: Path, options: dict[str, Any]) -> dict[str, Any]:
-    """Keep the reader options of real logs for real logs; refuse them for tmakit's files."""
-    from ..io import find_format
-
-    if "mapping" in options and "format" not in options and path.suffix.lower() in (
-            ".csv", ".parquet", ".pq"):
-        options["format"] = "wide"  # a column mapping: the file is a wide log
-    try:
-        fmt = find_format(path, options.get("format"), reading=True)
-    except ValueError as e:
-        raise fail(f"--format: {e}") from None
-    if fmt is None or fmt.name not in ("csv", "parquet"):
-        return options
-    options.pop("dim", None)  # tmakit's own files: the filter's --dim only
-    given = [f"--{k.replace('_', '-')}" for k in options if k != "format"]
-    if given:
-        verb = "apply" if len(given) > 1 else "applies"
-        raise fail(f"{', '.join(given)} {verb} to real logs (Debrief, wide CSV/Parquet with "
-                   f"--mapping, GPX, NMEA), not to tmakit's {fmt.label} file {path}")
-    return options
+    return only_kinds(meas, kinds, paths)
 
 
 def write_or_fail(meas: Any, path: Path, force: bool) -> None:
@@ -466,11 +459,22 @@ FrequencySigmaOption = Annotated[float | None, typer.Option(
     metavar="HZ", help="Debrief: frequency noise std (Hz); default a ;SENSOR3: line's "
                        "accuracy, else 0.1")]
 
+KindsOption = Annotated[str | None, typer.Option(
+    metavar="KIND[,KIND...]", help="keep only these kinds of the file, e.g. bearing (bearings-"
+                                   "only TMA of a file with ranges) or bearing,frequency")]
+RangesOption = Annotated[str | None, typer.Option(
+    metavar="use|ignore", help="Debrief: fit every range (use) or none (ignore); default: "
+                               "placeholder ranges (0, or the same on every cut) left out")]
+FilesArgument = Annotated[list[Path], typer.Argument(
+    metavar="FILE...", help="measurement file, or several Debrief files read as one replay (a "
+                            "sensor file and the own ship's track file)")]
+
 
 def reader_options(format: str | None, ownship: str | None, contact: str | None,
                    mapping: Path | None, bearing_sigma: float | None,
                    range_sigma: float | None = None,
-                   frequency_sigma: float | None = None) -> dict[str, Any]:
+                   frequency_sigma: float | None = None, *, kinds: str | None = None,
+                   ranges: str | None = None) -> dict[str, Any]:
     """Collect the reader options of a command (None when not given).
 
     Parameters
@@ -479,12 +483,16 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
         ``--format``, ``--ownship``, ``--contact``, ``--mapping``, ``--bearing-sigma``.
     range_sigma, frequency_sigma
         ``--range-sigma`` (m) and ``--frequency-sigma`` (Hz).
+    kinds, ranges
+        ``--kinds`` (text) and ``--ranges`` (``use`` or ``ignore``).
 
     Returns
     -------
     dict
         Keyword arguments of :func:`read_or_fail`.
     """
+    if ranges is not None and ranges not in ("use", "ignore"):
+        raise fail(f"--ranges {ranges!r}: expected use or ignore")
     return {"format": format, "ownship": ownship, "contact": contact, "mapping": mapping,
             "bearing_sigma": bearing_sigma, "range_sigma": range_sigma,
-            "frequency_sigma": frequency_sigma}
+            "frequency_sigma": frequency_sigma, "kinds": kinds, "ranges": ranges}

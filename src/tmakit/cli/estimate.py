@@ -25,15 +25,18 @@ from .common import (
     BearingSigmaOption,
     ContactOption,
     DriftOption,
+    FilesArgument,
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
     JsonOption,
+    KindsOption,
     MappingOption,
     MotionOption,
     OriginOption,
     OwnshipOption,
     RangeSigmaOption,
+    RangesOption,
     RefTimeOption,
     check_ref_time,
     err,
@@ -52,7 +55,7 @@ from .outputs import check_output
 
 # `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def estimate(
-    file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
+    files: FilesArgument,
     motion: MotionOption = None,
     ref_time: RefTimeOption = None,
     init: Annotated[str | None, typer.Option(
@@ -70,6 +73,8 @@ def estimate(
     bearing_sigma: BearingSigmaOption = None,
     range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
+    kinds: KindsOption = None,
+    ranges: RangesOption = None,
     exact: Annotated[bool, typer.Option(
         "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")
     ] = False,
@@ -90,9 +95,11 @@ def estimate(
                               "(chi2/dof becomes 1) and fit again; the covariance follows")
     ] = False,
     start: Annotated[str | None, typer.Option(
-        "--from", help="solve one leg: first time (seconds or UTC clock time)")] = None,
+        "--from", help="solve one leg: first time (seconds, a UTC clock time, or HH:MM[:SS] on "
+                       "the data's day)")] = None,
     stop: Annotated[str | None, typer.Option(
-        "--to", help="solve one leg: last time (seconds or UTC clock time)")] = None,
+        "--to", help="solve one leg: last time (seconds, a UTC clock time, or HH:MM[:SS] on "
+                     "the data's day)")] = None,
     plot: Annotated[Path | None, typer.Option(
         help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, "
              "SVG)")] = None,
@@ -110,10 +117,12 @@ def estimate(
     not need (tmakit.batch.curvilinear).
     """
     check_units(units)
-    plot = check_output(plot, "--plot", force, "picture")
-    meas = select_window(read_or_fail(file, parse_origin(origin), **reader_options(
-        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma)),
-        start, stop)
+    plot = check_output(plot, "--plot", force, "picture", files)
+    meas = select_window(read_or_fail(files, parse_origin(origin), window=(start, stop),
+                                      **reader_options(format, ownship, contact, mapping,
+                                                       bearing_sigma, range_sigma,
+                                                       frequency_sigma, kinds=kinds,
+                                                       ranges=ranges)), start, stop)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
@@ -126,7 +135,8 @@ def estimate(
     answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
     warnings = result.warnings(meas)
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
-                   factors=factors, plot=(plot, file, model_options(drift, free_exponent)))
+                   factors=factors, plot=(plot, " + ".join(map(str, files)),
+                                         model_options(drift, free_exponent)))
 
 
 def grouped_by_kind(meas: Any) -> Any:

@@ -2,22 +2,35 @@
 
 The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
 
+- **Files.** One file, or several read as one replay in any order (the usual pair: a sensor
+  file, ``.dsf`` or ``.rep`` of ``;SENSOR:`` lines, and the own ship's track file).
 - **Own ship** (``ownship=``): the host track of the sensor lines used; needed when several
   tracks carry sensor lines.  Its track lines give the sensor's position and velocity
   (course and speed over the ground); a sensor line whose position is ``NULL`` takes the
-  host track's position interpolated linearly at its time (refused outside the track).
-  Without track lines (DSF files often have none) the sensor lines' own positions are the
-  track, and the velocity is derived from them (:func:`~.logs.velocity_from_positions`).
+  host track's position interpolated linearly at its time.  Without track lines (DSF files
+  often have none) the positions the sensor lines state are the track, and the velocity is
+  derived from them (:func:`~.logs.velocity_from_positions`).  Fixes written twice, cuts
+  outside the track: :mod:`.debrief_fixes`.
 - **Contact** (``contact=``): the sensor lines whose sensor name is the name, or whose label
   starts with it (Debrief labels usually name the contact first); needed when the own
   ship's sensor lines come from several sensors.
+- **What is used.** A line that breaks the format refuses the file when it belongs to the own
+  ship (or its track cannot be told); on another track it is a warning.  ``window=(from,
+  to)`` keeps the cuts in that time window before any other check (times as in
+  :func:`~.clock_text.seconds_of_time_text`); ``kinds=`` keeps only those kinds.
+- **Placeholder ranges.** A range field of 0, or the same on every cut (``12000`` yd: a
+  plotting default), is not a measurement: left out with a note, unless ``ranges="use"``;
+  ``ranges="ignore"`` leaves every range out.
+- **Notes.** What was read in another way than written (a position's 60 seconds as a carry),
+  merged or left out is said in the set's ``reader_notes`` metadata (``note: ...``,
+  ``warning: ...``; :func:`~.errors.reader_notes`), which ``tma`` prints.
 - **Rows.** Each bearing becomes a ``bearing`` row (degrees true, wrapped to [0, 360)) with
   sigma ``bearing_sigma`` (default :data:`DEFAULT_BEARING_SIGMA_DEG`: replay files carry no
   sigma); each range (yards) a ``range`` row (m) with ``range_sigma``; each ``;SENSOR2:``
   frequency a ``frequency`` row (Hz) with ``frequency_sigma``.  A ``;SENSOR3:`` line states
   its bearing's and frequency's accuracy: that is the row's sigma, unless ``bearing_sigma`` or
-  ``frequency_sigma`` is given (the user's word wins).  Ambiguous bearings are not
-  used (tmakit has no two-valued bearing); their count is recorded as metadata.
+  ``frequency_sigma`` is given (the user's word wins).  The second, ambiguous bearing of a
+  ``;SENSOR2:`` cut is not used (tmakit has no two-valued bearing): a note says how many.
 - **Frame.** Positions are on the sea surface (depth is not used: bearings are horizontal),
   so the set is 2-D unless ``dim=3``; the origin defaults to the own ship's first fix.
 - **Clock.** Times are seconds since the file's first time (floored to the second),
@@ -27,7 +40,7 @@ The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -35,21 +48,13 @@ from numpy.typing import NDArray
 
 from .. import rules
 from ..data import MeasurementSet
-from .debrief_lines import SensorLine, TrackLine, parse_replay_text
-from .errors import MeasurementFileError
+from .clock_text import seconds_of_time_text
+from .debrief_fixes import at_line, host_fixes, sensor_states
+from .debrief_lines import LineProblem, ParsedReplay, SensorLine, parse_replay_text
+from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
+from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
-from .logs import (
-    KNOT,
-    YARD,
-    Fixes,
-    course_speed_velocity,
-    interpolate_states,
-    iso_utc,
-    local_frame,
-    relative_seconds,
-    time_origin_ns,
-    velocity_from_positions,
-)
+from .logs import iso_utc, local_frame, relative_seconds, time_origin_ns
 
 __all__ = ["DEFAULT_BEARING_SIGMA_DEG", "DEFAULT_FREQUENCY_SIGMA_HZ", "DEFAULT_RANGE_SIGMA_M",
            "REPLAY", "read_replay", "replay_tracks"]
@@ -62,24 +67,42 @@ DEFAULT_RANGE_SIGMA_M = 100.0
 DEFAULT_FREQUENCY_SIGMA_HZ = 0.1
 
 
-def _load(path: Path) -> tuple[list[TrackLine], list[SensorLine]]:
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        text = path.read_text(encoding="latin-1")
-    tracks, sensors, problems = parse_replay_text(text)
-    if problems:
-        raise MeasurementFileError(path, problems)
-    return tracks, sensors
+ReplayPaths = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
+_KINDS = ("bearing", "range", "frequency")
 
 
-def replay_tracks(path: str | os.PathLike[str]) -> dict[str, dict[str, NDArray]]:
-    """Read the track lines of a replay file, by track name.
+def _paths(path: ReplayPaths) -> tuple[list[Path], Path]:
+    """Return the files and the name that messages give them (``A.rep + B.dsf``)."""
+    paths = ([Path(path)] if isinstance(path, str | os.PathLike)
+             else [Path(p) for p in path])
+    if not paths:
+        raise ValueError("read_replay: no file given")
+    return paths, Path(" + ".join(str(p) for p in paths))
+
+
+def _load(paths: list[Path]) -> ParsedReplay:
+    """Parse the files as one replay (each line tagged with its file when there are several)."""
+    merged = ParsedReplay([], [], [], [])
+    for p in paths:
+        try:
+            text = p.read_text(encoding="utf-8-sig")
+        except UnicodeDecodeError:
+            text = p.read_text(encoding="latin-1")
+        one = parse_replay_text(text, p.name if len(paths) > 1 else "")
+        merged.tracks += one.tracks
+        merged.sensors += one.sensors
+        merged.problems += one.problems
+        merged.carries += one.carries
+    return merged
+
+
+def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
+    """Read the track lines of a replay file (or of several, as one replay), by track name.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        The ``.rep`` or ``.dsf`` file.
+    path : str or os.PathLike, or a sequence of them
+        The ``.rep`` or ``.dsf`` file(s).
 
     Returns
     -------
@@ -92,10 +115,13 @@ def replay_tracks(path: str | os.PathLike[str]) -> dict[str, dict[str, NDArray]]
     MeasurementFileError
         If a line breaks the format (naming its line).
     """
-    tracks, _ = _load(Path(path))
+    paths, where = _paths(path)
+    parsed = _load(paths)
+    if parsed.problems:
+        raise MeasurementFileError(where, [_problem(p) for p in parsed.problems])
     out: dict[str, dict[str, NDArray]] = {}
-    for name in dict.fromkeys(t.name for t in tracks):
-        mine = sorted((t for t in tracks if t.name == name), key=lambda t: t.time_ns)
+    for name in dict.fromkeys(t.name for t in parsed.tracks):
+        mine = sorted((t for t in parsed.tracks if t.name == name), key=lambda t: t.time_ns)
         out[name] = {"time_ns": np.array([t.time_ns for t in mine], np.int64),
                      "lat": np.array([t.lat for t in mine]),
                      "lon": np.array([t.lon for t in mine]),
@@ -105,6 +131,30 @@ def replay_tracks(path: str | os.PathLike[str]) -> dict[str, dict[str, NDArray]]
     return out
 
 
+def _problem(p: LineProblem) -> str:
+    return f"{at_line(p)}: {p.message}"  # type: ignore[arg-type]
+
+
+def _listed(items: list[str], most: int = 5) -> str:
+    return "; ".join(items[:most]) + (f"; and {len(items) - most} more" if len(items) > most
+                                      else "")
+
+
+def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[str]) -> None:
+    """Refuse the problems in the own ship's lines (or lines of no known track); warn of others."""
+    used = [p for p in parsed.problems if p.owner is None or p.owner == host]
+    if used:
+        raise MeasurementFileError(where, [_problem(p) for p in used])
+    other = [f"{_problem(p)} (track {p.owner!r})" for p in parsed.problems]
+    if other:
+        notes.append(f"warning: {len(other)} line(s) of tracks not used break the format and "
+                     f"are skipped: {_listed(other)}")
+    if parsed.carries:
+        carried = [f"{at_line(c)} {c.message}" for c in parsed.carries]  # type: ignore[arg-type]
+        notes.append(f"note: {len(carried)} position(s) written with 60 minutes or seconds read "
+                     f"as a carry, as Debrief reads them: {_listed(carried)}")
+
+
 def _choose(path: Path, sensors: list[SensorLine], ownship: str | None,
             contact: str | None) -> tuple[str, list[SensorLine]]:
     """Choose the own ship and the contact's sensor lines, or refuse listing the names."""
@@ -112,6 +162,8 @@ def _choose(path: Path, sensors: list[SensorLine], ownship: str | None,
     if not hosts:
         raise MeasurementFileError(path, ["no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing "
                                           "measured"])
+    ownship = None if ownship is None else ownship.strip()
+    contact = None if contact is None else contact.strip()
     if ownship is None:
         if len(hosts) > 1:
             raise MeasurementFileError(path, [
@@ -140,89 +192,33 @@ def _choose(path: Path, sensors: list[SensorLine], ownship: str | None,
     return ownship, chosen
 
 
-def _host_fixes(path: Path, tracks: list[TrackLine], host: str,
-                rows: list[SensorLine]) -> Fixes:
-    """Return the host's fixes: its track lines, else the positions of its sensor lines."""
-    mine = [t for t in tracks if t.name == host]
-    if not mine:
-        null = [s.line for s in rows if s.lat is None]
-        if null:
-            named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
-            raise MeasurementFileError(path, [
-                f"line {line}: sensor position NULL, but own ship {host!r} has no track lines "
-                f"(tracks in the file: {named})" for line in null])
-        return _sensor_line_fixes(rows)
-    fixes = Fixes(np.array([t.time_ns for t in mine], np.int64), np.array([t.lat for t in mine]),
-                  np.array([t.lon for t in mine]), np.zeros(len(mine)),
-                  course_speed_velocity(np.array([t.course for t in mine]),
-                                        np.array([t.speed_kn for t in mine]) * KNOT),
-                  np.array([t.line for t in mine], np.int64)).sorted()
-    same = np.flatnonzero(np.diff(fixes.time_ns) == 0)
-    if same.size:
-        assert fixes.lines is not None
-        raise MeasurementFileError(path, [
-            f"line {fixes.lines[k + 1]}: own ship {host!r} has a second fix at the time of "
-            f"line {fixes.lines[k]}" for k in same])
-    return fixes
+def _in_window(where: Path, rows: list[SensorLine], window: Sequence[str | None] | None,
+               origin_ns: int, span: tuple[int, int]) -> list[SensorLine]:
+    """Keep the cuts within ``window`` (from, to), before any other check of them."""
+    if window is None or all(w is None for w in window):
+        return rows
+    try:
+        lo, hi = (None if text is None else origin_ns + round(
+            seconds_of_time_text(text, option, origin_ns, span) * 1e9)
+            for text, option in zip(window, ("--from", "--to"), strict=True))
+    except ValueError as e:
+        raise MeasurementFileError(where, [str(e)]) from None
+    kept = [s for s in rows if (lo is None or s.time_ns >= lo) and (hi is None or s.time_ns <= hi)]
+    if not kept:
+        raise MeasurementFileError(where, [
+            f"no cut between {window[0] or 'the start'} and {window[1] or 'the end'} (the cuts "
+            f"span {iso_utc(rows[0].time_ns)} to {iso_utc(rows[-1].time_ns)})"])
+    return kept
 
 
-def _sensor_line_fixes(rows: list[SensorLine]) -> Fixes:
-    """Return fixes from the sensor lines' own positions (no velocity: derived from them)."""
-    times = sorted({s.time_ns: s for s in rows}.items())
-    return Fixes(np.array([t for t, _ in times], np.int64),
-                 np.array([s.lat for _, s in times], float),
-                 np.array([s.lon for _, s in times], float), np.zeros(len(times)), None,
-                 np.array([s.line for _, s in times], np.int64))
-
-
-def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: object,
-                   origin_ns: int) -> NDArray[np.float64]:
-    """Return each sensor line's state (m, m/s): its own position or the host's, interpolated."""
-    t_fix = relative_seconds(fixes.time_ns, origin_ns)
-    positions = frame.enu(fixes.lat, fixes.lon, fixes.alt)  # type: ignore[attr-defined]
-    velocity = (fixes.velocity if fixes.velocity is not None
-                else velocity_from_positions(t_fix, positions))
-    host = np.column_stack([positions, velocity])
-    t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
-    states, outside = interpolate_states(t_fix, host, t)
-    given = np.array([s.lat is not None for s in rows])
-    if given.any():
-        lat = np.array([s.lat for s in rows if s.lat is not None], float)
-        lon = np.array([s.lon for s in rows if s.lon is not None], float)
-        states[given, :3] = frame.enu(lat, lon, np.zeros(lat.shape))  # type: ignore[attr-defined]
-    bad = outside & ~given
-    if bad.any():
-        span = f"{iso_utc(int(fixes.time_ns[0]))} to {iso_utc(int(fixes.time_ns[-1]))}"
-        raise MeasurementFileError(path, [
-            f"line {rows[k].line}: sensor position NULL at {iso_utc(rows[k].time_ns)}, outside "
-            f"the host track {rows[k].host!r} ({span}); give the position on the line or "
-            "add track lines" for k in np.flatnonzero(bad)])
-    return states
-
-
-def _rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
-          sigmas: dict[str, float], asked: set[str]) -> tuple[list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state) of each measured value.
-
-    A ``;SENSOR3:`` line's accuracy is the sigma of its bearing or frequency unless the user
-    gave that kind's sigma (``asked``); otherwise ``sigmas`` (SI) is used.
-    """
-    out: tuple[list, list, list, list, list] = ([], [], [], [], [])
-    for k, s in enumerate(rows):
-        stated = {"bearing": None if s.bearing_accuracy is None
-                  else float(np.deg2rad(s.bearing_accuracy)),
-                  "frequency": s.frequency_accuracy}
-        for kind, value in (("bearing", s.bearing), ("range", s.range_yd),
-                            ("frequency", s.frequency)):
-            if value is None:
-                continue
-            si = {"bearing": lambda v: np.deg2rad(v % 360.0), "range": lambda v: v * YARD,
-                  "frequency": lambda v: v}[kind](value)
-            line_sigma = stated.get(kind)
-            sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
-            for col, item in zip(out, (t[k], kind, si, sigma, states[k]), strict=True):
-                col.append(item)
-    return out
+def _kinds(where: Path, kinds: Collection[str] | None) -> set[str]:
+    if kinds is None:
+        return set(_KINDS)
+    unknown = sorted(set(kinds) - set(_KINDS))
+    if unknown:
+        raise MeasurementFileError(where, [f"kinds {', '.join(unknown)}: a replay file measures "
+                                           f"{', '.join(_KINDS)}"])
+    return set(kinds)
 
 
 def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
@@ -238,22 +234,24 @@ def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
     return sig, {k for k, v in given.items() if v is not None}
 
 
-def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None = None,
+def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
                 ownship: str | None = None, contact: str | None = None,
                 bearing_sigma: float | None = None, range_sigma: float | None = None,
                 frequency_sigma: float | None = None, dim: int | None = None,
-                **_: object) -> MeasurementSet:
-    """Read a Debrief replay file (REP or DSF) as a measurement set (mapping: module text).
+                ranges: str | None = None, kinds: Collection[str] | None = None,
+                window: Sequence[str | None] | None = None, **_: object) -> MeasurementSet:
+    """Read Debrief replay files (REP or DSF) as a measurement set (mapping: module text).
 
     Parameters
     ----------
-    path : str or os.PathLike
-        The file.
+    path : str or os.PathLike, or a sequence of them
+        The file, or several files read as one replay (a sensor file and the own ship's
+        track file, in any order).
     origin : (lat, lon, alt), optional
         ENU origin (deg, deg, m); default the own ship's first fix.
     ownship, contact : str, optional
         The own ship's track name and the contact (sensor name or first word of the labels);
-        needed when the file holds several.
+        needed when the files hold several.  Spaces around a name are not part of it.
     bearing_sigma : float, optional
         Bearing noise (deg); default a ``;SENSOR3:`` line's bearing accuracy, else
         :data:`DEFAULT_BEARING_SIGMA_DEG`.
@@ -264,6 +262,14 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
         :data:`DEFAULT_FREQUENCY_SIGMA_HZ`.
     dim : int, optional
         3 to keep the set 3-D (default 2: the sea surface).
+    ranges : {None, "use", "ignore"}, optional
+        None: placeholder ranges (0, or the same on every cut) are left out with a note;
+        ``use``: every range is fitted; ``ignore``: no range is.
+    kinds : collection of str, optional
+        Keep only these kinds (``bearing``, ``range``, ``frequency``).
+    window : (from, to), optional
+        Keep only the cuts in this time window, before any other check: seconds since the
+        time origin, ISO-8601 clock times or clock times of the data's day (``19:30``).
     **_
         Options of other readers, ignored.
 
@@ -273,37 +279,54 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
         Rows of the own ship's sensor (id: the own ship's name); metadata ``time_origin``,
         the frame (``origin_*``, ``altitude_reference``, ``dim_rule``), ``source``,
         ``bearing_sigma_deg``, ``range_sigma_m``, ``frequency_sigma_hz`` (the defaults used
-        where a line states no accuracy), ``sigma_from_file`` (lines that state one) and
-        ``ambiguous_bearings_unused``.
+        where a line states no accuracy), ``sigma_from_file`` (lines that state one),
+        ``ambiguous_bearings_unused`` and ``reader_notes`` (:func:`~.errors.reader_notes`).
 
     Raises
     ------
     MeasurementFileError
-        For a line that breaks the format, an own ship or contact that is ambiguous or absent
-        (listing the names present), or a NULL position outside the host track.
+        For a line of the own ship that breaks the format, an own ship or contact that is
+        ambiguous or absent (listing the names present), two different own-ship fixes at one
+        time, or no cut with a position.
     """
-    path = Path(path)
-    sig, asked = _default_sigmas(path, bearing_sigma, range_sigma, frequency_sigma)
-    tracks, sensors = _load(path)
-    host, rows = _choose(path, sensors, ownship, contact)
-    fixes = _host_fixes(path, tracks, host, rows)
+    paths, where = _paths(path)
+    if ranges not in (None, *RANGES_CHOICES):
+        raise MeasurementFileError(where, [f"ranges {ranges!r}: expected use or ignore"])
+    sig, asked = _default_sigmas(where, bearing_sigma, range_sigma, frequency_sigma)
+    wanted = _kinds(where, kinds)
+    parsed = _load(paths)
+    notes: list[str] = []
+    host, rows = _choose(where, parsed.sensors, ownship, contact)
+    _judge_problems(where, parsed, host, notes)
+    every = np.array([t.time_ns for t in parsed.tracks] + [s.time_ns for s in parsed.sensors],
+                     np.int64)
+    origin_ns = time_origin_ns(every)
+    rows = _in_window(where, sorted(rows, key=lambda s: s.time_ns), window, origin_ns,
+                      (int(every.min()), int(every.max())))
+    fixes = host_fixes(where, parsed.tracks, host, rows, notes)
     try:
         frame = local_frame([fixes], origin, dim, "msl")
     except ValueError as e:
-        raise MeasurementFileError(path, [str(e)]) from None
-    origin_ns = time_origin_ns(np.array([t.time_ns for t in tracks] + [s.time_ns for s in sensors],
-                                        np.int64))
-    rows = sorted(rows, key=lambda s: s.time_ns)
-    states = _sensor_states(path, rows, fixes, frame, origin_ns)
+        raise MeasurementFileError(where, [str(e)]) from None
+    rows, states = sensor_states(where, rows, fixes, frame, origin_ns, notes)
+    no_range = (placeholder_ranges(rows, ranges, notes) if "range" in wanted
+                else np.ones(len(rows), bool))
     t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds, values, sigmas, st = _rows(rows, states, t, si, asked)
+    times, kinds_, values, sigmas, st = cut_rows(rows, states, t, si, asked, wanted, no_range)
     if not times:
-        raise MeasurementFileError(path, [f"the sensor lines of {host!r} measure nothing (every "
-                                          "bearing, range and frequency is NULL)"])
-    metadata = {"source": f"Debrief replay {path.name}, own ship {host}"
-                + (f", contact {contact}" if contact else ""),
+        raise MeasurementFileError(where, [
+            f"the sensor lines of {host!r} measure nothing of {', '.join(sorted(wanted))} (every "
+            "such field is NULL" + (", or a placeholder range" if no_range.any() else "") + ")"])
+    ambiguous = sum(s.ambiguous is not None for s in rows) if "bearing" in wanted else 0
+    if ambiguous:
+        notes.append(f"note: {ambiguous} cut(s) carry a second, ambiguous bearing (;SENSOR2:, "
+                     "the mirror of a towed array), not used: the first bearing of each cut is "
+                     "fitted")
+    names = " + ".join(p.name for p in paths)
+    metadata = {"source": f"Debrief replay {names}, own ship {host}"
+                + (f", contact {contact.strip()}" if contact else ""),
                 "time_origin": iso_utc(origin_ns), **frame.metadata(),
                 "velocity_source": "the own ship's course and speed" if fixes.velocity
                 is not None else "derived from the sensor lines' positions (10 s line fit)",
@@ -312,8 +335,10 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
                 "frequency_sigma_hz": repr(sig["frequency"]),
                 "sigma_from_file": str(sum(s.bearing_accuracy is not None
                                            or s.frequency_accuracy is not None for s in rows)),
-                "ambiguous_bearings_unused": str(sum(s.ambiguous is not None for s in rows))}
-    meas = MeasurementSet.from_si(np.array(times), np.full(len(times), host), np.array(kinds),
+                "ambiguous_bearings_unused": str(ambiguous)}
+    if notes:
+        metadata[READER_NOTES_KEY] = NOTES_SEPARATOR.join(notes)
+    meas = MeasurementSet.from_si(np.array(times), np.full(len(times), host), np.array(kinds_),
                                   np.array(values), np.array(sigmas), np.array(st),
                                   metadata=metadata, check=False).sorted()
     rules.check_set(meas)  # the file rules, once the rows are in time order
@@ -321,4 +346,5 @@ def read_replay(path: str | os.PathLike[str], *, origin: Sequence[float] | None 
 
 
 #: Debrief replay files: ``.rep`` and ``.dsf`` (the same line format).
-REPLAY = register_format(Format("rep", "Debrief replay", (".rep", ".dsf"), read_replay, None))
+REPLAY = register_format(Format("rep", "Debrief replay", (".rep", ".dsf"), read_replay, None,
+                                several=True))

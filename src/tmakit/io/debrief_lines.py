@@ -17,18 +17,22 @@ FREQUENCY_ACCURACY RANGE SENSOR [label]``
     a contact with its accuracies: the bearing's (degrees) and the frequency's (Hz), each or
     ``NULL``; tmakit takes an accuracy as the standard deviation of its value.
 
-Fields are separated by spaces or tabs; names with spaces are in double quotes. Other lines
+Fields are separated by spaces or tabs; names with spaces are in double quotes (spaces
+around a name are not part of it: ``" Frigate Optic5 "`` is ``Frigate Optic5``). Other lines
 starting with ``;`` (comments ``;;``, narratives, shapes) and blank lines are skipped.
 ``YYMMDD`` years 00-49 are 2000-2049 and 50-99 are 1950-1999; ``YYYYMMDD`` is read too.
-Every problem names the line.
+Minutes or seconds of a position written ``60`` (``010 15 60.00 E``, a rounding of 59.995 and
+up) are a carry, as Debrief reads them (``010 16 00.00 E``); each is reported as a note.
+Every problem names the line and, where the line gets that far, the track it belongs to (so
+that a reader can tell a problem in the data it uses from one in a track it does not use).
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-__all__ = ["SensorLine", "TrackLine", "parse_replay_text"]
+__all__ = ["LineProblem", "ParsedReplay", "SensorLine", "TrackLine", "parse_replay_text"]
 
 _TOKEN = re.compile(r'"[^"]*"|\S+')
 _NS = 1_000_000_000
@@ -51,6 +55,8 @@ class TrackLine:
         Position, degrees.
     course, speed_kn, depth : float
         Course (degrees true), speed (knots) and depth (m).
+    file : str
+        The file's name (for messages when several files are read as one replay).
     """
 
     line: int
@@ -61,6 +67,7 @@ class TrackLine:
     course: float
     speed_kn: float
     depth: float
+    file: str = ""
 
 
 @dataclass(frozen=True)
@@ -102,6 +109,30 @@ class SensorLine:
     label: str
     bearing_accuracy: float | None = None
     frequency_accuracy: float | None = None
+    file: str = ""
+
+
+@dataclass(frozen=True)
+class LineProblem:
+    """A line that breaks the replay format.
+
+    Attributes
+    ----------
+    line : int
+        Line number in the file (1-based).
+    owner : str or None
+        The track the line belongs to (a track line's name, a sensor line's host), None when
+        the line does not get that far.
+    message : str
+        What is wrong (``expected ..., found ...``).
+    file : str
+        The file's name.
+    """
+
+    line: int
+    owner: str | None
+    message: str
+    file: str = ""
 
 
 class LineError(ValueError):
@@ -109,7 +140,7 @@ class LineError(ValueError):
 
 
 def _name(token: str) -> str:
-    return token[1:-1] if len(token) >= 2 and token[0] == token[-1] == '"' else token
+    return (token[1:-1] if len(token) >= 2 and token[0] == token[-1] == '"' else token).strip()
 
 
 def _clock(date: str, clock: str) -> int:
@@ -147,8 +178,9 @@ def _number(token: str, what: str, null: bool = False) -> float | None:
     return value
 
 
-def _angle(tokens: list[str], at: int, hemispheres: str, limit: float) -> float:
-    """Degrees from ``D M S H`` at ``tokens[at:at+4]``."""
+def _angle(tokens: list[str], at: int, hemispheres: str, limit: float,
+           carries: list[str]) -> float:
+    """Degrees from ``D M S H`` at ``tokens[at:at+4]``; a minute or second of 60 is a carry."""
     if len(tokens) < at + 4:
         raise LineError(f"expected a position D M S {'/'.join(hemispheres)}, found the end of "
                         "the line")
@@ -158,25 +190,28 @@ def _angle(tokens: list[str], at: int, hemispheres: str, limit: float) -> float:
         raise LineError(f"expected the hemisphere {' or '.join(hemispheres)}, found "
                         f"{tokens[at + 3]!r}")
     assert d is not None and m is not None and s is not None
-    if not (0 <= m < 60 and 0 <= s < 60 and d >= 0):
+    if not (0 <= m <= 60 and 0 <= s <= 60 and d >= 0):
         raise LineError(f"expected minutes and seconds in [0, 60), found {tokens[at + 1]} "
                         f"{tokens[at + 2]}")
+    if m == 60 or s == 60:
+        carries.append(" ".join(tokens[at:at + 4]))
     value = d + m / 60.0 + s / 3600.0
     if value > limit:
         raise LineError(f"expected at most {limit:g} degrees, found {value:g}")
     return -value if hem in "SW" else value
 
 
-def _position(tokens: list[str], at: int) -> tuple[float, float]:
-    return _angle(tokens, at, "NS", 90.0), _angle(tokens, at + 4, "EW", 180.0)
+def _position(tokens: list[str], at: int, carries: list[str]) -> tuple[float, float]:
+    return (_angle(tokens, at, "NS", 90.0, carries),
+            _angle(tokens, at + 4, "EW", 180.0, carries))
 
 
-def _track(tokens: list[str], line: int) -> TrackLine:
+def _track(tokens: list[str], line: int, carries: list[str]) -> TrackLine:
     if len(tokens) < 15:
         raise LineError(f"a track line has at least 15 fields (date, time, name, symbology, "
                         f"latitude D M S H, longitude D M S H, course, speed, depth), found "
                         f"{len(tokens)}")
-    lat, lon = _position(tokens, 4)
+    lat, lon = _position(tokens, 4, carries)
     course, speed = (_number(t, w) for t, w in zip(
         tokens[12:14], ("a course (degrees)", "a speed (knots)"), strict=True))
     depth = _number(tokens[14], "a depth (m) or NaN", null=True)  # not used: may be unknown
@@ -185,7 +220,7 @@ def _track(tokens: list[str], line: int) -> TrackLine:
                      speed, float("nan") if depth is None else depth)
 
 
-def _sensor(tokens: list[str], line: int, version: int) -> SensorLine:
+def _sensor(tokens: list[str], line: int, version: int, carries: list[str]) -> SensorLine:
     if len(tokens) < 5:
         raise LineError("a sensor line starts with date, time, host track, symbology and a "
                         "position (or NULL)")
@@ -193,7 +228,7 @@ def _sensor(tokens: list[str], line: int, version: int) -> SensorLine:
     lat = lon = None
     at = 5
     if tokens[4].upper() != "NULL":
-        lat, lon = _position(tokens, 4)
+        lat, lon = _position(tokens, 4, carries)
         at = 12
     names = (("bearing", "a bearing (degrees) or NULL"), ("range", "a range (yards) or NULL"))
     if version == 2:
@@ -219,37 +254,65 @@ def _sensor(tokens: list[str], line: int, version: int) -> SensorLine:
                       values.get("bearing_accuracy"), values.get("frequency_accuracy"))
 
 
-def parse_replay_text(text: str) -> tuple[list[TrackLine], list[SensorLine], list[str]]:
+@dataclass
+class ParsedReplay:
+    """The lines of one or more replay files, parsed.
+
+    Attributes
+    ----------
+    tracks : list of TrackLine
+        The track fixes, in file order.
+    sensors : list of SensorLine
+        The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order.
+    problems : list of LineProblem
+        Every line that breaks the format.
+    carries : list of LineProblem
+        Each position written with a minute or second of 60 (a carry), as written.
+    """
+
+    tracks: list[TrackLine]
+    sensors: list[SensorLine]
+    problems: list[LineProblem]
+    carries: list[LineProblem]
+
+
+def _owner(tokens: list[str], head: str) -> str | None:
+    """Return the track a line belongs to, if the line has that field (for problems)."""
+    at = 3 if head in _VERSIONS else 2
+    return _name(tokens[at]) if len(tokens) > at else None
+
+
+def parse_replay_text(text: str, file: str = "") -> ParsedReplay:
     """Parse the text of a replay file.
 
     Parameters
     ----------
     text : str
         The file's text.
+    file : str, optional
+        The file's name, kept on every line (for messages).
 
     Returns
     -------
-    tracks : list of TrackLine
-        The track fixes, in file order.
-    sensors : list of SensorLine
-        The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order.
-    problems : list of str
-        ``line N: ...`` for every line that breaks the format.
+    ParsedReplay
+        Track fixes, sensor contacts, problems and carries.
     """
-    tracks: list[TrackLine] = []
-    sensors: list[SensorLine] = []
-    problems: list[str] = []
+    out = ParsedReplay([], [], [], [])
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line:
             continue
         tokens = _TOKEN.findall(line)  # fields are separated by spaces or tabs
         head = tokens[0].upper()
+        carries: list[str] = []
         try:
             if head in _VERSIONS:
-                sensors.append(_sensor(tokens[1:], number, _VERSIONS[head]))
+                s = _sensor(tokens[1:], number, _VERSIONS[head], carries)
+                out.sensors.append(replace(s, file=file))
             elif not line.startswith(";"):
-                tracks.append(_track(tokens, number))
+                out.tracks.append(replace(_track(tokens, number, carries), file=file))
         except LineError as e:
-            problems.append(f"line {number}: {e}")
-    return tracks, sensors, problems
+            out.problems.append(LineProblem(number, _owner(tokens, head), str(e), file))
+            continue
+        out.carries += [LineProblem(number, _owner(tokens, head), c, file) for c in carries]
+    return out

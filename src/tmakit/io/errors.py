@@ -7,7 +7,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["MAX_LISTED_PROBLEMS", "MeasurementFileError"]
+__all__ = ["MAX_LISTED_PROBLEMS", "NOTES_SEPARATOR", "READER_NOTES_KEY", "MeasurementFileError",
+           "reader_notes"]
 
 #: At most this many problems are listed in a :class:`MeasurementFileError` message.
 MAX_LISTED_PROBLEMS = 25
@@ -47,3 +48,28 @@ class MeasurementFileError(ValueError):
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle by path and problems (the message is rebuilt from them)."""
         return (type(self), (self.path, self.problems))
+
+
+#: Metadata key of a reader's notes and warnings (``note: ...`` / ``warning: ...``), joined by
+#: :data:`NOTES_SEPARATOR`: what was read in another way than written, or left out, and why.
+READER_NOTES_KEY = "reader_notes"
+NOTES_SEPARATOR = " || "
+
+
+def reader_notes(metadata: dict[str, str], pop: bool = False) -> list[str]:
+    """Return a set's reader notes (``note: ...`` or ``warning: ...``), optionally removing them.
+
+    Parameters
+    ----------
+    metadata : dict of str to str
+        A measurement set's metadata.
+    pop : bool, optional
+        Remove them from the metadata (they are about reading that file, not about the data).
+
+    Returns
+    -------
+    list of str
+        The notes, in the order the reader made them.
+    """
+    text = metadata.pop(READER_NOTES_KEY, "") if pop else metadata.get(READER_NOTES_KEY, "")
+    return [n for n in text.split(NOTES_SEPARATOR) if n]

@@ -42,6 +42,9 @@ class Format:
         The reader; None for a format that is only written.
     write : Writer, optional
         The writer; None for a format that is only read (a navigation log).
+    several : bool, optional
+        The reader takes a sequence of files and reads them as one (Debrief replays: a
+        sensor file and the own ship's track file).
     """
 
     name: str
@@ -49,6 +52,7 @@ class Format:
     suffixes: tuple[str, ...]
     read: Reader | None = None
     write: Writer | None = None
+    several: bool = False
 
 
 _FORMATS: dict[str, Format] = {}

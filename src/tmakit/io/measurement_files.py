@@ -24,6 +24,7 @@ back to the same number, so files round-trip exactly.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +46,7 @@ __all__ = [
 ]
 
 
-def read_measurements(path: str | os.PathLike[str],
+def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
                       origin: tuple[float, float, float] | None = None, *,
                       format: str | None = None, **options: Any) -> MeasurementSet:
     """Read a measurement file into a MeasurementSet, by its format.
@@ -56,8 +57,9 @@ def read_measurements(path: str | os.PathLike[str],
 
     Parameters
     ----------
-    path : str or os.PathLike
-        The file (``.csv``, ``.parquet`` or ``.pq``, or any registered format's suffix).
+    path : str or os.PathLike, or a sequence of them
+        The file (``.csv``, ``.parquet`` or ``.pq``, or any registered format's suffix), or
+        several files of a format whose reader reads them as one (Debrief replays).
     origin : (lat, lon, alt), optional
         ENU origin (degrees, degrees, metres) for files that give ``sensor_lat`` and
         ``sensor_lon``; it wins over ``origin_*`` metadata in the file and is recorded in
@@ -81,6 +83,8 @@ def read_measurements(path: str | os.PathLike[str],
     ValueError
         If ``format`` names no registered format.
     """
+    if not isinstance(path, str | os.PathLike):
+        return _read_several([Path(p) for p in path], origin, format, options)
     path = Path(path)
     fmt = find_format(path, format, reading=True)
     if fmt is None or fmt.read is None:
@@ -91,6 +95,24 @@ def read_measurements(path: str | os.PathLike[str],
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
     return fmt.read(path, origin=origin, **options)
+
+
+def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
+                  format: str | None, options: dict[str, Any]) -> MeasurementSet:
+    """Read several files as one, where their format's reader takes several."""
+    if len(paths) == 1:
+        return read_measurements(paths[0], origin, format=format, **options)
+    formats = {p: find_format(p, format, reading=True) for p in paths}
+    names = {f.name if f is not None else None for f in formats.values()}
+    fmt = next(iter(formats.values()))
+    if len(names) != 1 or fmt is None or fmt.read is None or not fmt.several:
+        listed = ", ".join(f"{p.name} ({f.label if f else 'unknown'})" for p, f in formats.items())
+        raise MeasurementFileError(Path(" + ".join(map(str, paths))), [
+            f"several files are read as one only for Debrief replays (.rep, .dsf); got {listed}"])
+    for p in paths:
+        if not p.exists():
+            raise FileNotFoundError(f"{p}: no such file")
+    return fmt.read(paths, origin=origin, **options)
 
 
 def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],

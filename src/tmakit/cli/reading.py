@@ -1,0 +1,132 @@
+"""How ``tma`` reads its measurement files: the options of real logs, ``--kinds``.
+
+:func:`tmakit.cli.common.read_or_fail` reads; this module decides which reader options apply
+to which format, reads ``--kinds`` and keeps the rows of those kinds.  No numerical library at
+import time.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from .common import fail
+
+__all__ = ["log_options", "only_kinds", "parse_kinds"]
+
+
+def parse_kinds(text: str | None) -> list[str] | None:
+    """Read ``--kinds bearing,frequency``: the measurement kinds to keep (None: all).
+
+    Parameters
+    ----------
+    text : str or None
+        Kind names separated by commas.
+
+    Returns
+    -------
+    list of str or None
+        The kinds, None when not given.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for a name that is no measurement kind.
+    """
+    if text is None:
+        return None
+    from ..measurements import KINDS
+
+    kinds = [k.strip() for k in text.split(",") if k.strip()]
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown or not kinds:
+        raise fail(f"--kinds {text!r}: expected measurement kinds separated by commas, from "
+                   f"{', '.join(KINDS)}" + (f" (not {', '.join(unknown)})" if unknown else ""))
+    return kinds
+
+
+def only_kinds(meas: Any, kinds: list[str] | None, paths: list[Path]) -> Any:
+    """Keep the rows of the kinds asked for (``--kinds``); refuse when none is left.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The set read.
+    kinds : list of str or None
+        The kinds kept (None: all).
+    paths : list of Path
+        The files, for the message.
+
+    Returns
+    -------
+    tmakit.data.MeasurementSet
+        The rows of those kinds.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when no row is of those kinds.
+    """
+    if kinds is None:
+        return meas
+    import numpy as np
+
+    keep = np.isin(meas.kinds, kinds)
+    if not keep.any():
+        have = ", ".join(sorted(set(meas.kinds)))
+        raise fail(f"--kinds {','.join(kinds)}: {' + '.join(map(str, paths))} has no "
+                   f"measurement of these kinds (it has {have})")
+    return meas if keep.all() else meas.take(keep)
+
+
+def log_options(paths: list[Path], options: dict[str, Any],
+                 kinds: list[str] | None) -> dict[str, Any]:
+    """Keep the reader options of real logs for real logs; refuse them for tmakit's files.
+
+    Debrief files also take ``kinds``, ``ranges`` and the time ``window`` (their checks come
+    after it); other files get the window and the kinds applied once read.
+
+    Parameters
+    ----------
+    paths : list of Path
+        The files (the first one's format decides).
+    options : dict
+        The reader options given (None values dropped).
+    kinds : list of str or None
+        ``--kinds``, parsed.
+
+    Returns
+    -------
+    dict
+        The options for the reader.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for an option that does not apply to the file's format.
+    """
+    from ..io import find_format
+
+    path = paths[0]
+    if "mapping" in options and "format" not in options and path.suffix.lower() in (
+            ".csv", ".parquet", ".pq"):
+        options["format"] = "wide"  # a column mapping: the file is a wide log
+    try:
+        fmt = find_format(path, options.get("format"), reading=True)
+    except ValueError as e:
+        raise fail(f"--format: {e}") from None
+    if fmt is not None and fmt.name == "rep":
+        return options | ({"kinds": kinds} if kinds is not None else {})
+    options.pop("window", None)  # applied to the set once read (select_window)
+    if "ranges" in options:
+        raise fail("--ranges applies to Debrief files (.rep, .dsf), whose range field may be a "
+                   f"placeholder, not to {path}")
+    if fmt is None or fmt.name not in ("csv", "parquet"):
+        return options
+    options.pop("dim", None)  # tmakit's own files: the filter's --dim only
+    given = [f"--{k.replace('_', '-')}" for k in options if k != "format"]
+    if given:
+        verb = "apply" if len(given) > 1 else "applies"
+        raise fail(f"{', '.join(given)} {verb} to real logs (Debrief, wide CSV/Parquet with "
+                   f"--mapping, GPX, NMEA), not to tmakit's {fmt.label} file {path}")
+    return options

@@ -1,0 +1,203 @@
+"""The own ship's fixes of a Debrief replay, and the sensor's state at each cut.
+
+- **Fixes.** The host track's lines (course and speed give the velocity); without track lines,
+  the positions its sensor lines state (velocity derived from them).  The same fix written
+  twice (the same time, position, course and speed: a simulator's first fix, or a track file
+  and a sensor file that both carry it) is one fix; two different fixes at one time are
+  refused, naming both lines.
+- **States.** A cut that states its position keeps it; a cut with a ``NULL`` position takes
+  the host's position interpolated at its time.  Cuts with a ``NULL`` position outside the
+  host's fixes are left out with a warning naming them (never a refusal of the file); only
+  when no cut is left, or the host has no fix at all, is the file refused, and the message
+  says how to supply the own ship's track.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .debrief_lines import SensorLine, TrackLine
+from .errors import MeasurementFileError
+from .logs import (
+    KNOT,
+    Fixes,
+    LocalFrame,
+    course_speed_velocity,
+    interpolate_states,
+    iso_utc,
+    relative_seconds,
+    velocity_from_positions,
+)
+
+__all__ = ["PAIR_HINT", "at_line", "host_fixes", "sensor_states"]
+
+#: How to give a sensor file its own ship's positions (the end of the refusals that need it).
+PAIR_HINT = ("give the own ship's track file in the same command, e.g. tma import rep OWN.rep "
+             "SENSOR.dsf -o obs.parquet (the files are read as one replay, in any order)")
+_SAME_DEG = 0.011 / 3600.0  # the files' 0.01" of arc (0.3 m)
+
+
+def at_line(item: TrackLine | SensorLine) -> str:
+    """Name a line: ``line N``, or ``FILE line N`` when several files are read."""
+    return f"{item.file} line {item.line}" if item.file else f"line {item.line}"
+
+
+def _values(item: TrackLine | SensorLine) -> str:
+    text = f"{item.lat:.6f}, {item.lon:.6f}"
+    if isinstance(item, TrackLine):
+        text += f", course {item.course:g}, speed {item.speed_kn:g} kn"
+    return text
+
+
+def _same(a: TrackLine | SensorLine, b: TrackLine | SensorLine) -> bool:
+    assert a.lat is not None and b.lat is not None and a.lon is not None and b.lon is not None
+    close = abs(a.lat - b.lat) <= _SAME_DEG and abs(a.lon - b.lon) <= _SAME_DEG
+    if isinstance(a, TrackLine) and isinstance(b, TrackLine):
+        close = close and abs(a.course - b.course) <= 0.01 and abs(a.speed_kn - b.speed_kn) <= 0.01
+    return close
+
+
+def _unique(path: Path, lines: Sequence[TrackLine | SensorLine], host: str,
+            notes: list[str]) -> list[TrackLine | SensorLine]:
+    """Keep one of each fix written twice; refuse two different fixes at one time."""
+    ordered = sorted(lines, key=lambda x: x.time_ns)
+    kept: list[TrackLine | SensorLine] = []
+    repeats: list[str] = []
+    problems: list[str] = []
+    for item in ordered:
+        if kept and kept[-1].time_ns == item.time_ns:
+            if _same(kept[-1], item):
+                repeats.append(f"{at_line(item)} repeats {at_line(kept[-1])}")
+            else:
+                problems.append(
+                    f"{at_line(item)}: own ship {host!r} has two different fixes at "
+                    f"{iso_utc(item.time_ns)}: {at_line(kept[-1])} ({_values(kept[-1])}) and "
+                    f"{at_line(item)} ({_values(item)})")
+            continue
+        kept.append(item)
+    if problems:
+        raise MeasurementFileError(path, problems)
+    if repeats:
+        shown = "; ".join(repeats[:5]) + (f"; and {len(repeats) - 5} more" if len(repeats) > 5
+                                          else "")
+        notes.append(f"note: own ship {host!r}: {len(repeats)} fix(es) written twice (same time "
+                     f"and values) read once: {shown}")
+    return kept
+
+
+def host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[SensorLine],
+               notes: list[str]) -> Fixes:
+    """Return the host's fixes: its track lines, else the positions its sensor lines state.
+
+    Parameters
+    ----------
+    path : Path
+        The file (or files) for messages.
+    tracks : list of TrackLine
+        Every track line read.
+    host : str
+        The own ship.
+    rows : list of SensorLine
+        The cuts used.
+    notes : list of str
+        Notes are appended here (fixes written twice).
+
+    Returns
+    -------
+    Fixes
+        In time order, one per time.
+
+    Raises
+    ------
+    MeasurementFileError
+        Two different fixes at one time, or cuts without a position and no fix to take it from.
+    """
+    mine = [t for t in tracks if t.name == host]
+    if not mine:
+        stated = [s for s in rows if s.lat is not None]
+        null = [s for s in rows if s.lat is None]
+        if null and not stated:
+            named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
+            lines = ", ".join(at_line(s) for s in null[:5]) + (
+                f" and {len(null) - 5} more" if len(null) > 5 else "")
+            raise MeasurementFileError(path, [
+                f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
+                f"(tracks read: {named}): {PAIR_HINT}"])
+        fixes = _unique(path, stated, host, notes)
+        return Fixes(np.array([s.time_ns for s in fixes], np.int64),
+                     np.array([s.lat for s in fixes], float),
+                     np.array([s.lon for s in fixes], float), np.zeros(len(fixes)), None,
+                     np.array([s.line for s in fixes], np.int64))
+    kept = [t for t in _unique(path, mine, host, notes) if isinstance(t, TrackLine)]
+    return Fixes(np.array([t.time_ns for t in kept], np.int64),
+                 np.array([t.lat for t in kept]), np.array([t.lon for t in kept]),
+                 np.zeros(len(kept)),
+                 course_speed_velocity(np.array([t.course for t in kept]),
+                                       np.array([t.speed_kn for t in kept]) * KNOT),
+                 np.array([t.line for t in kept], np.int64))
+
+
+def sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: LocalFrame,
+                  origin_ns: int, notes: list[str]
+                  ) -> tuple[list[SensorLine], NDArray[np.float64]]:
+    """Return the cuts kept and each one's sensor state (m, m/s).
+
+    A cut keeps the position it states; a ``NULL`` one takes the host's, interpolated.  Cuts
+    with a ``NULL`` position outside the host's fixes are left out with a warning.
+
+    Parameters
+    ----------
+    path : Path
+        The file (or files) for messages.
+    rows : list of SensorLine
+        The cuts, in time order.
+    fixes : Fixes
+        The host's fixes (:func:`host_fixes`).
+    frame : LocalFrame
+        The local frame.
+    origin_ns : int
+        The time origin (UTC ns).
+    notes : list of str
+        Warnings are appended here.
+
+    Returns
+    -------
+    rows : list of SensorLine
+        The cuts kept.
+    states : numpy.ndarray, shape (n, 6)
+        Their sensor states.
+
+    Raises
+    ------
+    MeasurementFileError
+        When no cut is left.
+    """
+    t_fix = relative_seconds(fixes.time_ns, origin_ns)
+    positions = frame.enu(fixes.lat, fixes.lon, fixes.alt)
+    velocity = (fixes.velocity if fixes.velocity is not None
+                else velocity_from_positions(t_fix, positions))
+    t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
+    states, outside = interpolate_states(t_fix, np.column_stack([positions, velocity]), t)
+    given = np.array([s.lat is not None for s in rows], bool)
+    if given.any():
+        lat = np.array([s.lat for s in rows if s.lat is not None], float)
+        lon = np.array([s.lon for s in rows if s.lon is not None], float)
+        states[given, :3] = frame.enu(lat, lon, np.zeros(lat.shape))
+    bad = np.flatnonzero(outside & ~given)
+    if bad.size:
+        span = f"{iso_utc(int(fixes.time_ns[0]))} to {iso_utc(int(fixes.time_ns[-1]))}"
+        named = ", ".join(at_line(rows[k]) for k in bad[:5]) + (
+            f" and {bad.size - 5} more" if bad.size > 5 else "")
+        message = (f"{bad.size} cut(s) with a NULL position fall outside the own ship's track "
+                   f"{rows[bad[0]].host!r} ({span}) and are left out: {named}")
+        if bad.size == len(rows):
+            raise MeasurementFileError(path, [f"{message}; no cut is left: {PAIR_HINT}"])
+        notes.append(f"warning: {message}")
+        keep = np.ones(len(rows), bool)
+        keep[bad] = False
+        return [s for s, k in zip(rows, keep, strict=True) if k], states[keep]
+    return rows, states

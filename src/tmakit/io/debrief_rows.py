@@ -1,0 +1,110 @@
+"""The measured values of a Debrief replay's cuts: bearings, ranges and frequencies as rows.
+
+Each cut gives a ``bearing`` row (degrees true, wrapped), a ``range`` row (yards to m) and a
+``frequency`` row (Hz) where its field is not ``NULL``.  A ``;SENSOR3:`` line's accuracy is the
+sigma of its bearing or frequency unless the user gave that kind's sigma.
+
+**Placeholder ranges.**  Debrief sensor lines carry a range field that is often a plotting
+default, not a measurement: ``0000`` on every line, or the same value (``12000`` yd) on every
+cut.  Fitted as ranges they pull the answer far off with small stds, so by default a range of
+0 is left out, and so are the ranges of cuts that all state the same value; each with a note.
+``ranges="use"`` keeps them all, ``ranges="ignore"`` leaves every range out.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .debrief_lines import SensorLine
+from .logs import YARD
+
+__all__ = ["RANGES_CHOICES", "cut_rows", "placeholder_ranges"]
+
+#: The values of ``ranges=``: None (placeholders left out), ``use`` or ``ignore``.
+RANGES_CHOICES = ("use", "ignore")
+
+
+def placeholder_ranges(rows: list[SensorLine], ranges: str | None,
+                       notes: list[str]) -> NDArray[np.bool_]:
+    """Mark the cuts whose range is left out (a placeholder, or ``ranges="ignore"``).
+
+    Parameters
+    ----------
+    rows : list of SensorLine
+        The cuts used.
+    ranges : {None, "use", "ignore"}
+        None: leave placeholders out; ``use``: keep every range; ``ignore``: none.
+    notes : list of str
+        A note is appended for each kind of range left out.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True where the cut's range is not used.
+    """
+    value = np.array([np.nan if s.range_yd is None else s.range_yd for s in rows], float)
+    stated = np.isfinite(value)
+    if ranges == "use" or not stated.any():
+        return np.zeros(len(rows), bool)
+    if ranges == "ignore":
+        notes.append(f"note: {int(stated.sum())} range(s) left out (--ranges ignore)")
+        return stated
+    drop = stated & (value == 0)
+    if drop.any():
+        notes.append(f"note: {int(drop.sum())} range(s) of 0 yd left out: a placeholder, not a "
+                     "measurement (--ranges use to fit them anyway)")
+    rest = value[stated & ~drop]
+    if rest.size >= 2 and np.all(rest == rest[0]):
+        notes.append(f"note: the {rest.size} ranges left out: every cut states {rest[0]:g} yd, "
+                     "a plotting default rather than a measurement (--ranges use to fit them "
+                     "anyway)")
+        drop = stated
+    return drop
+
+
+def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
+             sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
+             no_range: NDArray[np.bool_]) -> tuple[list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state) of each measured value used.
+
+    Parameters
+    ----------
+    rows : list of SensorLine
+        The cuts.
+    states : numpy.ndarray, shape (n, 6)
+        Their sensor states.
+    t : numpy.ndarray, shape (n,)
+        Their times (s).
+    sigmas : dict
+        The default sigma of each kind (SI).
+    asked : set of str
+        The kinds whose sigma the user gave (a ``;SENSOR3:`` accuracy does not replace it).
+    kinds : collection of str
+        The kinds kept.
+    no_range : numpy.ndarray of bool
+        Cuts whose range is not used (:func:`placeholder_ranges`).
+
+    Returns
+    -------
+    tuple of five lists
+        Times, kinds, values, sigmas, states.
+    """
+    out: tuple[list, list, list, list, list] = ([], [], [], [], [])
+    for k, s in enumerate(rows):
+        stated = {"bearing": None if s.bearing_accuracy is None
+                  else float(np.deg2rad(s.bearing_accuracy)),
+                  "frequency": s.frequency_accuracy}
+        for kind, value in (("bearing", s.bearing), ("range", s.range_yd),
+                            ("frequency", s.frequency)):
+            if value is None or kind not in kinds or (kind == "range" and no_range[k]):
+                continue
+            si = {"bearing": lambda v: np.deg2rad(v % 360.0), "range": lambda v: v * YARD,
+                  "frequency": lambda v: v}[kind](value)
+            line_sigma = stated.get(kind)
+            sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
+            for col, item in zip(out, (t[k], kind, si, sigma, states[k]), strict=True):
+                col.append(item)
+    return out
