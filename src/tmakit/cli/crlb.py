@@ -17,10 +17,12 @@ from .common import (
     FreeExponentOption,
     FrequencySigmaOption,
     JsonOption,
+    KindsOption,
     MappingOption,
     MotionOption,
     OwnshipOption,
     RangeSigmaOption,
+    RangesOption,
     RefTimeOption,
     fail,
     file_ref_time,
@@ -37,7 +39,9 @@ from .common import (
 
 # `tma crlb`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def crlb(
-    source: Annotated[str, typer.Argument(help="measurement file, or a scenario name/TOML")],
+    sources: Annotated[list[str], typer.Argument(
+        metavar="SOURCE...", help="measurement file (several Debrief files: one replay), or a "
+                                  "scenario name/TOML")],
     motion: MotionOption = None,
     ref_time: RefTimeOption = None,
     truth: Annotated[str | None, typer.Option(
@@ -56,6 +60,8 @@ def crlb(
     bearing_sigma: BearingSigmaOption = None,
     range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
+    kinds: KindsOption = None,
+    ranges: RangesOption = None,
     units: UnitsOption = "si",
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
@@ -67,11 +73,13 @@ def crlb(
     check_units(units)
     if at is not None and not math.isfinite(at):
         raise fail(f"--at {at}: expected a finite time (s)")
-    if is_measurement_file(source) or format is not None:
-        bound = bound_of_file(Path(source), motion, ref_time, truth, known_nuisance, drift,
-                              free_exponent,
+    source = sources[0]
+    if len(sources) > 1 or is_measurement_file(source) or format is not None:
+        bound = bound_of_file([Path(s) for s in sources], motion, ref_time, truth,
+                              known_nuisance, drift, free_exponent,
                               reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                             range_sigma, frequency_sigma))
+                                             range_sigma, frequency_sigma, kinds=kinds,
+                                             ranges=ranges))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
                                           ("--truth", truth)) if value is not None]
@@ -87,8 +95,8 @@ def crlb(
     print_bound(bound, derived, as_json, units)
 
 
-def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth: str | None,
-                  known_nuisance: bool, drift: bool, free_exponent: bool,
+def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float | None,
+                  truth: str | None, known_nuisance: bool, drift: bool, free_exponent: bool,
                   options: dict[str, Any] | None = None) -> Any:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
 
@@ -97,8 +105,8 @@ def bound_of_file(file: Path, motion: str | None, ref_time: float | None, truth:
 
     Parameters
     ----------
-    file : Path
-        The measurement file.
+    file : Path or list of Path
+        The measurement file (or several Debrief files read as one replay).
     motion, ref_time, truth : str, float (s), str or None
         ``--motion``, ``--ref-time``, ``--truth``.
     known_nuisance, drift, free_exponent : bool

@@ -18,21 +18,24 @@ from .common import (
     ContactOption,
     ForceOption,
     FrequencySigmaOption,
+    KindsOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
     RangeSigmaOption,
+    RangesOption,
     fail,
     out,
     parse_origin,
     read_or_fail,
+    reader_options,
     refuse_existing,
     write_or_fail,
 )
 from .outputs import check_output
 
-#: The formats of ``tma import`` and how many files each takes.
-IMPORT_FORMATS = {"rep": 1, "dsf": 1, "wide": 1, "gpx": 2, "nmea": 2}
+#: The formats of ``tma import`` and how many files each takes (0: one or more, one replay).
+IMPORT_FORMATS = {"rep": 0, "dsf": 0, "wide": 1, "gpx": 2, "nmea": 2}
 #: The sample logs shipped in ``tmakit/examples`` (written by ``tma examples``).
 EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea",
                  "bearings.csv", "bearings.toml", "truth.json")
@@ -69,9 +72,10 @@ def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | No
 # `tma import`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def import_(
     format: Annotated[str, typer.Argument(
-        metavar="FORMAT", help="rep or dsf (Debrief), wide (CSV/Parquet log + mapping), gpx "
-                               "or nmea (own track, then the measurement log)")],
-    files: Annotated[list[Path], typer.Argument(metavar="FILE",
+        metavar="FORMAT", help="rep or dsf (Debrief: one or more files, read as one replay), "
+                               "wide (CSV/Parquet log + mapping), gpx or nmea (own track, "
+                               "then the measurement log)")],
+    files: Annotated[list[Path], typer.Argument(metavar="FILE...",
                                                 help="the file(s) to read")],
     output: Annotated[Path, typer.Option("-o", "--output",
                                          help="tmakit measurement file to write (.parquet "
@@ -81,6 +85,8 @@ def import_(
     bearing_sigma: BearingSigmaOption = None,
     range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
+    kinds: KindsOption = None,
+    ranges: RangesOption = None,
     mapping: MappingOption = None,
     map_text: Annotated[str | None, typer.Option(
         "--map", help="the mapping inline: time=COL,lat=COL,lon=COL,alt=COL,vn=COL,ve=COL,"
@@ -101,7 +107,7 @@ def import_(
     fmt = format.lower()
     if fmt not in IMPORT_FORMATS:
         raise fail(f"unknown format {format!r}: expected one of {', '.join(IMPORT_FORMATS)}")
-    if len(files) != IMPORT_FORMATS[fmt]:
+    if IMPORT_FORMATS[fmt] and len(files) != IMPORT_FORMATS[fmt]:
         what = ("the own track and the measurement log" if IMPORT_FORMATS[fmt] == 2
                 else "one file")
         raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
@@ -111,14 +117,14 @@ def import_(
     for f in files:
         if not f.exists():
             raise fail(f"{f}: no such file")
-    options: dict[str, Any] = {"format": "rep" if fmt == "dsf" else fmt, "ownship": ownship,
-                               "contact": contact, "bearing_sigma": bearing_sigma,
-                               "range_sigma": range_sigma, "frequency_sigma": frequency_sigma,
-                               "mapping": _mapping(mapping, map_text, measure), "dim": dim}
+    options: dict[str, Any] = reader_options(
+        "rep" if fmt == "dsf" else fmt, ownship, contact, _mapping(mapping, map_text, measure),
+        bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges) | {"dim": dim}
     if fmt in ("gpx", "nmea"):
         _check_track_suffix(fmt, files[0])
         options["measurements"] = files[1]
-    meas = read_or_fail(files[0], parse_origin(origin), **options)
+    meas = read_or_fail(files if fmt in ("rep", "dsf") else files[0], parse_origin(origin),
+                        **options)
     write_or_fail(meas, output, force)
     print_import(meas, output)
 

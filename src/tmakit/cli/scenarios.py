@@ -13,12 +13,15 @@ import typer
 from .common import (
     BearingSigmaOption,
     ContactOption,
+    FilesArgument,
     FormatOption,
     FrequencySigmaOption,
+    KindsOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
     RangeSigmaOption,
+    RangesOption,
     fail,
     load_scenario_or_fail,
     out,
@@ -219,7 +222,7 @@ def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
 
 # `tma show`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def show(
-    file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
+    files: FilesArgument,
     plot: Annotated[Path | None, typer.Option(help="write a picture (PNG, PDF, SVG)")] = None,
     origin: OriginOption = None,
     format: FormatOption = None,
@@ -229,15 +232,18 @@ def show(
     bearing_sigma: BearingSigmaOption = None,
     range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
+    kinds: KindsOption = None,
+    ranges: RangesOption = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
-    plot = check_output(plot, "--plot", force, "picture")
-    meas = read_or_fail(file, parse_origin(origin),
+    plot = check_output(plot, "--plot", force, "picture", files)
+    meas = read_or_fail(files, parse_origin(origin),
                         **reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                         range_sigma, frequency_sigma))
+                                         range_sigma, frequency_sigma, kinds=kinds,
+                                         ranges=ranges))
     meta = meas.metadata
-    title = f"{file}: {len(meas)} measurements"
+    title = f"{' + '.join(map(str, files))}: {len(meas)} measurements"
     if "scenario" in meta:
         title += f" of scenario {meta['scenario']}"
         if "seed" in meta:
@@ -286,7 +292,7 @@ def demo(
     meas = scn.simulate(rng=seed)
     write_or_fail(meas, csv, force=True)
     out.print(f"wrote {csv}", highlight=False)
-    show(csv, plot=png, origin=None, force=True)
+    show([csv], plot=png, origin=None, force=True)
 
 
 def prepare_demo_folder(folder: Path, force: bool) -> None:

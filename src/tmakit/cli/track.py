@@ -23,13 +23,16 @@ from .common import (
     BearingSigmaOption,
     ContactOption,
     DriftOption,
+    FilesArgument,
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
+    KindsOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
     RangeSigmaOption,
+    RangesOption,
     err,
     fail,
     model_options,
@@ -49,7 +52,7 @@ from .track_options import (
 
 # `tma track`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def track(
-    file: Annotated[Path, typer.Argument(help="measurement file (.csv or .parquet)")],
+    files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
         "--filter", help="ekf, ukf, mgekf or pf (the filters of tmakit.filters.FILTERS)")
     ] = "ekf",
@@ -83,6 +86,7 @@ def track(
     format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
     range_sigma: RangeSigmaOption = None, frequency_sigma: FrequencySigmaOption = None,
+    kinds: KindsOption = None, ranges: RangesOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -104,10 +108,11 @@ def track(
     from .. import tracking
 
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
-                                       ellipses, rows, (file, ownship, contact, mapping))
+                                       ellipses, rows, (*files, mapping))
     check_units(units)
-    meas = read_or_fail(file, parse_origin(origin), dim=dim, **reader_options(
-        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma))
+    meas = read_or_fail(files, parse_origin(origin), dim=dim, **reader_options(
+        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma,
+        kinds=kinds, ranges=ranges))
     try:
         d = tracking.filter_dim(meas, dim)
         q_axes = tracking.process_noise(parse_q(q, d), d)
@@ -126,8 +131,8 @@ def track(
         raise fail(str(e)) from None
     truth = tracking.truth_states(meas, tr.times, d)
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
-    write_track_outputs(file, meas, tr, truth, output, plot, ellipses, force,
-                        err if as_json else out)
+    write_track_outputs(Path(" + ".join(map(str, files))), meas, tr, truth, output, plot,
+                        ellipses, force, err if as_json else out)
 
 
 def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,

@@ -13,7 +13,8 @@ The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
   outside the track: :mod:`.debrief_fixes`.
 - **Contact** (``contact=``): the sensor lines whose sensor name is the name, or whose label
   starts with it (Debrief labels usually name the contact first); needed when the own
-  ship's sensor lines come from several sensors.
+  ship's sensor lines come from several sensors, unless every label names the same contact
+  first (a bearing sensor and a frequency sensor on one contact: both are read).
 - **What is used.** A line that breaks the format refuses the file when it belongs to the own
   ship (or its track cannot be told); on another track it is a warning.  ``window=(from,
   to)`` keeps the cuts in that time window before any other check (times as in
@@ -176,6 +177,9 @@ def _choose(path: Path, sensors: list[SensorLine], ownship: str | None,
             f"{', '.join(hosts)}"])
     mine = [s for s in sensors if s.host == ownship]
     names = list(dict.fromkeys(s.sensor for s in mine))
+    subjects = {(s.label.split() or [""])[0] for s in mine}
+    if contact is None and len(names) > 1 and len(subjects) == 1 and "" not in subjects:
+        return ownship, mine  # several sensors, one contact named first in every label
     if contact is None:
         if len(names) > 1:
             raise MeasurementFileError(path, [
@@ -296,7 +300,13 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     wanted = _kinds(where, kinds)
     parsed = _load(paths)
     notes: list[str] = []
-    host, rows = _choose(where, parsed.sensors, ownship, contact)
+    try:
+        host, rows = _choose(where, parsed.sensors, ownship, contact)
+    except MeasurementFileError as e:  # the lines that break the format may be why
+        if not parsed.problems:
+            raise
+        raise MeasurementFileError(where, [*map(_problem, parsed.problems), *(
+            e.problems if parsed.sensors else [])]) from None
     _judge_problems(where, parsed, host, notes)
     every = np.array([t.time_ns for t in parsed.tracks] + [s.time_ns for s in parsed.sensors],
                      np.int64)

@@ -1,0 +1,59 @@
+"""Public Debrief sample files (tests/data/debrief) read as given, and cv2d on their legs.
+
+The figure is ``benchmarks/debrief_samples.py``; these tests pin what it shows: every file is
+read (no valid content refused) and each straight leg of each subject with enough cuts comes
+out within 2 deg and 0.3 kn of the truth, or is reported unobservable (the last TA_DUMMY leg:
+the own ship holds its course all through it).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from tmakit.cli import app
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
+import debrief_samples as bench  # the benchmark's own definitions
+
+
+@pytest.fixture(scope="module")
+def samples(tmp_path_factory):
+    return bench.unpacked(tmp_path_factory.mktemp("debrief"))
+
+
+def test_every_sample_file_is_read(samples):
+    files = sorted(str(p.relative_to(samples)) for p in samples.rglob("*") if p.is_file())
+    assert len(files) == 12
+    for rel in files:
+        refused = [(what, why) for what, why in bench.readings(samples, rel) if why is not None]
+        assert not refused, (rel, refused)
+
+
+def test_bulk_data_answers_with_its_60_second_positions_read_as_a_carry(samples):
+    result = CliRunner().invoke(app, [
+        "estimate", str(samples / "pepys" / "bulk_data.rep"), "--ownship", "MER", "--contact",
+        "GreenFV1_010", "--motion", "cv2d", "--from", "19:30", "--units", "nautical"])
+    assert result.exit_code == 0, result.output
+    assert "note: 2 position(s) written with 60 minutes or seconds read as a carry" in (
+        result.output)
+    assert "line 8826 010 15 60.00 E" in result.output
+    rows = {p[0]: p[1] for p in (
+        [c.strip() for c in line.strip("│ ").split("│")] for line in result.output.splitlines())
+        if len(p) == 4}
+    assert abs(float(rows["course (true)"]) - 58.28) < 0.2  # true 58.28 deg, 6.00 kn
+    assert abs(float(rows["speed"]) - 6.00) < 0.05
+
+
+def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable(samples):
+    results = bench.leg_results(samples)
+    fitted = [r for r in results if r.verdict != "too few cuts"]
+    verdicts = {(r.sample, round(r.course, 2)): r.verdict for r in fitted}
+    assert len(fitted) == 14
+    assert verdicts.pop(("TA_DUMMY narrowband", 309.24)) == "unobservable"
+    assert set(verdicts.values()) == {"within"}, [r for r in fitted if r.verdict == "off"]
+    assert {r.sample for r in results if r.verdict == "too few cuts"} == {
+        "bulk_data MER/GreenFV1_006", "bulk_data MER/GreenFV1_011", "bulk_data MER/GreenFV1_012"}
