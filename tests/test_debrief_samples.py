@@ -57,3 +57,13 @@ def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable(samples):
     assert set(verdicts.values()) == {"within"}, [r for r in fitted if r.verdict == "off"]
     assert {r.sample for r in results if r.verdict == "too few cuts"} == {
         "bulk_data MER/GreenFV1_006", "bulk_data MER/GreenFV1_011", "bulk_data MER/GreenFV1_012"}
+
+
+def test_the_shipped_debrief_sample_is_the_stored_one():
+    """``tma examples`` ships Debrief's TA_DUMMY files unchanged (the docs' Debrief pair)."""
+    from importlib import resources
+
+    shipped = resources.files("tmakit") / "examples"
+    for name in ("Freq_BlueSensor.rep", "Freq_BlueTrack.rep", "Freq_RedTrack.rep"):
+        assert (shipped / name).read_bytes() == (bench.DATA / "ta_dummy" / name).read_bytes()
+    assert "Eclipse Public License" in (shipped / "debrief-samples.txt").read_text()

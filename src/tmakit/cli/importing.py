@@ -36,9 +36,12 @@ from .outputs import check_output
 
 #: The formats of ``tma import`` and how many files each takes (0: one or more, one replay).
 IMPORT_FORMATS = {"rep": 0, "dsf": 0, "wide": 1, "gpx": 2, "nmea": 2}
-#: The sample logs shipped in ``tmakit/examples`` (written by ``tma examples``).
+#: The sample logs shipped in ``tmakit/examples`` (written by ``tma examples``): tmakit's
+#: simulated logs, and a public Debrief sample (a sensor file, the own ship's and the subject's
+#: tracks, with their source and licence in ``debrief-samples.txt``).
 EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea",
-                 "bearings.csv", "bearings.toml", "truth.json")
+                 "bearings.csv", "bearings.toml", "truth.json", "Freq_BlueSensor.rep",
+                 "Freq_BlueTrack.rep", "Freq_RedTrack.rep", "debrief-samples.txt")
 
 
 def _check_output(output: Path, force: bool, inputs: list[Path]) -> None:
@@ -183,7 +186,9 @@ def examples(
 
     contact.rep (Debrief), drone.csv + drone.toml (wide log), own.gpx, own.nmea,
     bearings.csv + bearings.toml (own track + bearings), truth.json (what the simulation
-    put in them); see docs/your-own-data.md.
+    put in them), and Debrief's public TA_DUMMY sample: Freq_BlueSensor.rep (sensor file),
+    Freq_BlueTrack.rep (own ship), Freq_RedTrack.rep (the subject's truth), with their source
+    and licence in debrief-samples.txt; see docs/your-own-data.md.
     """
     from importlib import resources
 
