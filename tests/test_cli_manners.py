@@ -89,7 +89,7 @@ def test_help_names_values_not_python_types(command):
 
 def test_help_shows_what_each_value_is():
     text = " ".join(run("estimate", "-h").output.split())
-    assert "estimate [OPTIONS] FILE Estimate" in text
+    assert "estimate [OPTIONS] FILE... Estimate" in text  # one file, or a Debrief replay's
     for shown in ("--origin LAT,LON,ALT", "--plot FILE", "--units si|nautical", "--at T",
                   "--bearing-sigma DEG"):
         assert shown in text

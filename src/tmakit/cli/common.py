@@ -169,67 +169,6 @@ def load_scenario_or_fail(name: str) -> Any:
         raise fail(str(e)) from None
 
 
-def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | None = None,
-                 **options: Any) -> Any:
-    """Read a measurement file (or several read as one), errors as ``error: ...``.
-
-    The reader's notes and warnings (a position's 60 seconds read as a carry, cuts left out,
-    placeholder ranges, ...) are printed on standard error as ``note: ...`` / ``warning: ...``.
-
-    Parameters
-    ----------
-    path : Path or list of Path
-        The file (``.csv``, ``.parquet``, ``.rep``, ...; any registered format), or several
-        Debrief files read as one replay (a sensor file and the own ship's track file).
-    origin : tuple of float, optional
-        ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
-    **options
-        The reader's options (:func:`reader_options`): ``format``, ``ownship``,
-        ``contact``, ``mapping``, ``bearing_sigma``, ``range_sigma``, ``frequency_sigma``,
-        ``dim``, ``kinds`` (``--kinds`` text), ``ranges``, ``window`` (``--from``, ``--to``
-        texts: Debrief files keep the cuts in it before their checks); None values are
-        dropped.
-
-    Returns
-    -------
-    tmakit.data.MeasurementSet
-        The measurements (of the kinds asked for).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when a file is missing or invalid.
-    """
-    from ..io.errors import reader_notes
-    from ..io.measurement_files import MeasurementFileError, read_measurements
-    from .reading import log_options, only_kinds, parse_kinds
-
-    paths = [path] if isinstance(path, Path) else list(path)
-    for p in paths:
-        if not p.exists():
-            raise fail(f"{p}: no such file")
-        if p.is_dir():
-            raise fail(f"{p}: is a folder, not a measurement file")
-    options = {k: v for k, v in options.items() if v is not None}
-    kinds = parse_kinds(options.pop("kinds", None))
-    options = log_options(paths, options, kinds)
-    try:
-        meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin,
-                                 **options)
-    except OSError as e:
-        raise fail(f"{e.filename or paths[0]}: cannot be read ({e.strerror or e})") from None
-    except (MeasurementFileError, ValueError) as e:
-        from ..io.positions import ORIGIN_HINT
-
-        raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
-    for note in reader_notes(meas.metadata, pop=True):
-        err.print(note, highlight=False, markup=False, soft_wrap=True)
-    if origin is not None and "origin_lat" not in meas.metadata:
-        err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
-                  "gives ENU positions, so it is not used", highlight=False)
-    return only_kinds(meas, kinds, paths)
-
-
 def write_or_fail(meas: Any, path: Path, force: bool) -> None:
     """Write a measurement file, errors as ``error: ...``.
 
@@ -466,7 +405,7 @@ RangesOption = Annotated[str | None, typer.Option(
     metavar="use|ignore", help="Debrief: fit every range (use) or none (ignore); default: "
                                "placeholder ranges (0, or the same on every cut) left out")]
 FilesArgument = Annotated[list[Path], typer.Argument(
-    metavar="FILE...", help="measurement file, or several Debrief files read as one replay (a "
+    metavar="FILE", help="measurement file, or several Debrief files read as one replay (a "
                             "sensor file and the own ship's track file)")]
 
 
@@ -489,7 +428,7 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
     Returns
     -------
     dict
-        Keyword arguments of :func:`read_or_fail`.
+        Keyword arguments of :func:`tmakit.cli.reading.read_or_fail`.
     """
     if ranges is not None and ranges not in ("use", "ignore"):
         raise fail(f"--ranges {ranges!r}: expected use or ignore")

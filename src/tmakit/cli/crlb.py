@@ -32,9 +32,9 @@ from .common import (
     motion_or_fail,
     out,
     parse_assignments,
-    read_or_fail,
     reader_options,
 )
+from .reading import read_or_fail
 
 
 # `tma crlb`: the docstring is its --help text, so no numpydoc sections (help= has them).

@@ -47,10 +47,10 @@ from .common import (
     out,
     parse_assignments,
     parse_origin,
-    read_or_fail,
     reader_options,
 )
 from .outputs import check_output
+from .reading import read_or_fail
 
 
 # `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -63,8 +63,7 @@ def estimate(
     method: Annotated[str, typer.Option(
         help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
              "ratio-doppler, lecture-gn")] = "ml",
-    drift: DriftOption = False,
-    free_exponent: FreeExponentOption = False,
+    drift: DriftOption = False, free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
     format: FormatOption = None,
     ownship: OwnshipOption = None,
@@ -73,8 +72,7 @@ def estimate(
     bearing_sigma: BearingSigmaOption = None,
     range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None,
-    ranges: RangesOption = None,
+    kinds: KindsOption = None, ranges: RangesOption = None,
     exact: Annotated[bool, typer.Option(
         "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")
     ] = False,
@@ -118,11 +116,10 @@ def estimate(
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
+    options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
+                             frequency_sigma, kinds=kinds, ranges=ranges)
     meas = select_window(read_or_fail(files, parse_origin(origin), window=(start, stop),
-                                      **reader_options(format, ownship, contact, mapping,
-                                                       bearing_sigma, range_sigma,
-                                                       frequency_sigma, kinds=kinds,
-                                                       ranges=ranges)), start, stop)
+                                      **options), start, stop)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),

@@ -27,12 +27,12 @@ from .common import (
     fail,
     out,
     parse_origin,
-    read_or_fail,
     reader_options,
     refuse_existing,
     write_or_fail,
 )
 from .outputs import check_output
+from .reading import read_or_fail
 
 #: The formats of ``tma import`` and how many files each takes (0: one or more, one replay).
 IMPORT_FORMATS = {"rep": 0, "dsf": 0, "wide": 1, "gpx": 2, "nmea": 2}

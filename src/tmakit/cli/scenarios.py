@@ -27,11 +27,11 @@ from .common import (
     out,
     parse_origin,
     print_wide,
-    read_or_fail,
     reader_options,
     write_or_fail,
 )
 from .outputs import check_output, write_picture
+from .reading import read_or_fail
 
 if TYPE_CHECKING:
     from rich.table import Table

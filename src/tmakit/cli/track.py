@@ -39,9 +39,9 @@ from .common import (
     out,
     parse_origin,
     print_wide,
-    read_or_fail,
     reader_options,
 )
+from .reading import read_or_fail
 from .track_options import (
     check_track_options,
     parse_prior,
@@ -80,8 +80,7 @@ def track(
              "of the range")] = 0.25,
     dim: Annotated[int | None, typer.Option(
         help="2 or 3 (default: 3 when the data or the file's motion need it)")] = None,
-    drift: DriftOption = False,
-    free_exponent: FreeExponentOption = False,
+    drift: DriftOption = False, free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
     format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
@@ -96,8 +95,7 @@ def track(
     ellipses: Annotated[int, typer.Option(
         help="number of 90 %/95 % position ellipses drawn along the track")] = 8,
     rows: Annotated[int, typer.Option(help="rows of the summary table")] = 12,
-    sensor: SensorOption = None,
-    units: UnitsOption = "si",
+    sensor: SensorOption = None, units: UnitsOption = "si",
     force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.

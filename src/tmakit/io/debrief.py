@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Collection, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +56,7 @@ from .debrief_lines import LineProblem, ParsedReplay, SensorLine, parse_replay_t
 from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
-from .logs import iso_utc, local_frame, relative_seconds, time_origin_ns
+from .logs import Fixes, LocalFrame, iso_utc, local_frame, relative_seconds, time_origin_ns
 
 __all__ = ["DEFAULT_BEARING_SIGMA_DEG", "DEFAULT_FREQUENCY_SIGMA_HZ", "DEFAULT_RANGE_SIGMA_M",
            "REPLAY", "read_replay", "replay_tracks"]
@@ -133,7 +134,7 @@ def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
 
 
 def _problem(p: LineProblem) -> str:
-    return f"{at_line(p)}: {p.message}"  # type: ignore[arg-type]
+    return f"{at_line(p)}: {p.message}"
 
 
 def _listed(items: list[str], most: int = 5) -> str:
@@ -151,7 +152,7 @@ def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[st
         notes.append(f"warning: {len(other)} line(s) of tracks not used break the format and "
                      f"are skipped: {_listed(other)}")
     if parsed.carries:
-        carried = [f"{at_line(c)} {c.message}" for c in parsed.carries]  # type: ignore[arg-type]
+        carried = [f"{at_line(c)} {c.message}" for c in parsed.carries]
         notes.append(f"note: {len(carried)} position(s) written with 60 minutes or seconds read "
                      f"as a carry, as Debrief reads them: {_listed(carried)}")
 
@@ -298,8 +299,45 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
         raise MeasurementFileError(where, [f"ranges {ranges!r}: expected use or ignore"])
     sig, asked = _default_sigmas(where, bearing_sigma, range_sigma, frequency_sigma)
     wanted = _kinds(where, kinds)
-    parsed = _load(paths)
     notes: list[str] = []
+    cuts = _cuts(where, paths, ownship, contact, window, origin, dim, notes)
+    no_range = (placeholder_ranges(cuts.rows, ranges, notes) if "range" in wanted
+                else np.ones(len(cuts.rows), bool))
+    t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
+    si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
+          "frequency": sig["frequency"]}
+    times, kinds_, values, sigmas, st = cut_rows(cuts.rows, cuts.states, t, si, asked, wanted,
+                                                 no_range)
+    if not times:
+        raise MeasurementFileError(where, [
+            f"the sensor lines of {cuts.host!r} measure nothing of {', '.join(sorted(wanted))} "
+            "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
+            + ")"])
+    metadata = _metadata(paths, cuts, contact, sig, "bearing" in wanted, notes)
+    meas = MeasurementSet.from_si(np.array(times), np.full(len(times), cuts.host),
+                                  np.array(kinds_), np.array(values), np.array(sigmas),
+                                  np.array(st), metadata=metadata, check=False).sorted()
+    rules.check_set(meas)  # the file rules, once the rows are in time order
+    return meas
+
+
+@dataclass
+class _Cuts:
+    """The cuts used, their sensor states, and what they were read with."""
+
+    host: str
+    rows: list[SensorLine]
+    states: NDArray[np.float64]
+    fixes: Fixes
+    frame: LocalFrame
+    origin_ns: int
+
+
+def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | None,
+          window: Sequence[str | None] | None, origin: Sequence[float] | None,
+          dim: int | None, notes: list[str]) -> _Cuts:
+    """Parse, choose the own ship and contact, apply the window, and place every cut."""
+    parsed = _load(paths)
     try:
         host, rows = _choose(where, parsed.sensors, ownship, contact)
     except MeasurementFileError as e:  # the lines that break the format may be why
@@ -319,40 +357,33 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     except ValueError as e:
         raise MeasurementFileError(where, [str(e)]) from None
     rows, states = sensor_states(where, rows, fixes, frame, origin_ns, notes)
-    no_range = (placeholder_ranges(rows, ranges, notes) if "range" in wanted
-                else np.ones(len(rows), bool))
-    t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
-    si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
-          "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st = cut_rows(rows, states, t, si, asked, wanted, no_range)
-    if not times:
-        raise MeasurementFileError(where, [
-            f"the sensor lines of {host!r} measure nothing of {', '.join(sorted(wanted))} (every "
-            "such field is NULL" + (", or a placeholder range" if no_range.any() else "") + ")"])
-    ambiguous = sum(s.ambiguous is not None for s in rows) if "bearing" in wanted else 0
+    return _Cuts(host, rows, states, fixes, frame, origin_ns)
+
+
+def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str, float],
+              bearings: bool, notes: list[str]) -> dict[str, str]:
+    """Return the set's metadata (the ambiguous bearings' note joins the notes)."""
+    ambiguous = sum(s.ambiguous is not None for s in cuts.rows) if bearings else 0
     if ambiguous:
         notes.append(f"note: {ambiguous} cut(s) carry a second, ambiguous bearing (;SENSOR2:, "
                      "the mirror of a towed array), not used: the first bearing of each cut is "
                      "fitted")
     names = " + ".join(p.name for p in paths)
-    metadata = {"source": f"Debrief replay {names}, own ship {host}"
+    metadata = {"source": f"Debrief replay {names}, own ship {cuts.host}"
                 + (f", contact {contact.strip()}" if contact else ""),
-                "time_origin": iso_utc(origin_ns), **frame.metadata(),
-                "velocity_source": "the own ship's course and speed" if fixes.velocity
+                "time_origin": iso_utc(cuts.origin_ns), **cuts.frame.metadata(),
+                "velocity_source": "the own ship's course and speed" if cuts.fixes.velocity
                 is not None else "derived from the sensor lines' positions (10 s line fit)",
                 "bearing_sigma_deg": repr(sig["bearing"]),
                 "range_sigma_m": repr(sig["range"]),
                 "frequency_sigma_hz": repr(sig["frequency"]),
                 "sigma_from_file": str(sum(s.bearing_accuracy is not None
-                                           or s.frequency_accuracy is not None for s in rows)),
+                                           or s.frequency_accuracy is not None
+                                           for s in cuts.rows)),
                 "ambiguous_bearings_unused": str(ambiguous)}
     if notes:
         metadata[READER_NOTES_KEY] = NOTES_SEPARATOR.join(notes)
-    meas = MeasurementSet.from_si(np.array(times), np.full(len(times), host), np.array(kinds_),
-                                  np.array(values), np.array(sigmas), np.array(st),
-                                  metadata=metadata, check=False).sorted()
-    rules.check_set(meas)  # the file rules, once the rows are in time order
-    return meas
+    return metadata
 
 
 #: Debrief replay files: ``.rep`` and ``.dsf`` (the same line format).

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .debrief_lines import SensorLine, TrackLine
+from .debrief_lines import LineProblem, SensorLine, TrackLine
 from .errors import MeasurementFileError
 from .logs import (
     KNOT,
@@ -41,8 +41,19 @@ PAIR_HINT = ("give the own ship's track file in the same command, e.g. tma impor
 _SAME_DEG = 0.011 / 3600.0  # the files' 0.01" of arc (0.3 m)
 
 
-def at_line(item: TrackLine | SensorLine) -> str:
-    """Name a line: ``line N``, or ``FILE line N`` when several files are read."""
+def at_line(item: TrackLine | SensorLine | LineProblem) -> str:
+    """Name a line: ``line N``, or ``FILE line N`` when several files are read.
+
+    Parameters
+    ----------
+    item : TrackLine, SensorLine or LineProblem
+        A parsed line (its ``file`` is empty when one file is read).
+
+    Returns
+    -------
+    str
+        The line's name for messages.
+    """
     return f"{item.file} line {item.line}" if item.file else f"line {item.line}"
 
 

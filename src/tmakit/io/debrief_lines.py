@@ -94,6 +94,8 @@ class SensorLine:
         The standard deviations a ``;SENSOR3:`` line states (deg, Hz); None elsewhere.
     sensor, label : str
         The sensor's name and the contact's label.
+    file : str
+        The file's name (for messages when several files are read as one replay).
     """
 
     line: int
