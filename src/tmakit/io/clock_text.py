@@ -73,6 +73,14 @@ def seconds_of_time_text(text: str, option: str, origin_ns: int | None,
             raise ValueError(f"{option} {text!r}: expected a finite time (s)")
         return seconds
     clock = _CLOCK.fullmatch(text.strip())
+    when = None
+    if clock is None:
+        try:
+            when = dt.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+        except ValueError:
+            raise ValueError(f"{option} {text!r}: expected seconds, an ISO-8601 clock time (e.g. "
+                             "2024-05-01T12:30:00Z) or a clock time of the data's day (e.g. "
+                             "12:30 or 12:30:15, UTC)") from None
     if origin_ns is None:
         raise ValueError(f"{option} {text!r}: a clock time needs the file's time origin "
                          "(time_origin), which this file does not give; give seconds")
@@ -88,12 +96,7 @@ def seconds_of_time_text(text: str, option: str, origin_ns: int | None,
                 f"to {_iso(span_ns[1])}), so a clock time without a date is ambiguous; give "
                 f"the date, e.g. {_iso(first_day * 86400 * _NS)[:10]}T{text.strip()}Z")
         return (first_day * 86400 * _NS - origin_ns) / _NS + of_day
-    try:
-        when = dt.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
-    except ValueError:
-        raise ValueError(f"{option} {text!r}: expected seconds, an ISO-8601 clock time (e.g. "
-                         "2024-05-01T12:30:00Z) or a clock time of the data's day (e.g. "
-                         "12:30 or 12:30:15, UTC)") from None
+    assert when is not None
     when = when if when.tzinfo else when.replace(tzinfo=dt.UTC)
     whole = dt.datetime.fromtimestamp(origin_ns // _NS, dt.UTC)
     return (when - whole).total_seconds() - (origin_ns % _NS) / _NS
