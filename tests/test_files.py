@@ -140,13 +140,19 @@ finite = st.floats(allow_nan=False, allow_infinity=False)
 positive = st.floats(min_value=0.0, exclude_min=True, allow_infinity=False)
 
 
+#: The values each kind may hold (tmakit.rules: the kind's range, positions within reach).
+_VALUES = {"range_rate": st.floats(-299_792_458.0, 299_792_458.0),
+           "power": st.floats(-400.0, 400.0), "azimuth_rate": finite,
+           "range_difference": st.floats(-1e9, 1e9)}
+
+
 @st.composite
 def random_sets(draw) -> MeasurementSet:
     n = draw(st.integers(1, 6))
-    times = sorted(draw(st.lists(st.floats(-1e300, 1e300), min_size=n, max_size=n,
+    # within 1e4 s of each other: no time is far from the rest (rules.far_times)
+    times = sorted(draw(st.lists(st.floats(-5e3, 5e3), min_size=n, max_size=n,
                                  unique=True)))
-    kinds = draw(st.lists(st.sampled_from(["range_rate", "power", "azimuth_rate",
-                                           "range_difference"]), min_size=n, max_size=n))
+    kinds = draw(st.lists(st.sampled_from(list(_VALUES)), min_size=n, max_size=n))
     time_ref = np.full(n, np.nan)
     ref = np.full((n, 6), np.nan)
     for i, k in enumerate(kinds):
@@ -155,10 +161,14 @@ def random_sets(draw) -> MeasurementSet:
                                          allow_infinity=False))
             ref[i] = draw(st.lists(finite, min_size=6, max_size=6))
     sensor = draw(st.sampled_from(["1", "007", "uav-1", "NaN", "a,b", ' q"x ']))
+    values = [draw(_VALUES[k]) for k in kinds]
+    sigmas = [draw(st.floats(min_value=1e-12 * max(abs(v), 1.0), allow_infinity=False))
+              for v in values]
+    state = np.array(draw(st.lists(st.floats(-1e9, 1e9), min_size=3 * n, max_size=3 * n))
+                     + draw(st.lists(st.floats(-2.99e8, 2.99e8), min_size=3 * n, max_size=3 * n)))
+    state = np.concatenate([state[:3 * n].reshape(n, 3), state[3 * n:].reshape(n, 3)], axis=1)
     return MeasurementSet(
-        times, [sensor] * n, kinds, draw(st.lists(finite, min_size=n, max_size=n)),
-        draw(st.lists(positive, min_size=n, max_size=n)),
-        np.array(draw(st.lists(finite, min_size=6 * n, max_size=6 * n))).reshape(n, 6),
+        times, [sensor] * n, kinds, values, sigmas, state,
         time_ref, ref, {"note": draw(st.text("abc:#, é", max_size=8)).strip() or "x"})
 
 
@@ -226,9 +236,19 @@ BAD_CELLS = {
                           ["[-360, 360]", "360.5"]),
     "bearing too small": ({0: "0,s1,bearing,-361,1,0,0,5,0,"}, 1, "value", ["[-360, 360]"]),
     "elevation": ({0: "0,s1,elevation,90.5,1,0,0,5,0,"}, 1, "value", ["[-90, 90]", "90.5"]),
-    "frequency zero": ({1: "0,s1,frequency,0,2,0,0,5,0,"}, 2, "value", ["frequency > 0"]),
-    "frequency negative": ({1: "0,s1,frequency,-1e9,2,0,0,5,0,"}, 2, "value", ["> 0"]),
-    "negative range": ({0: "0,s1,range,-0.5,1,0,0,5,0,"}, 1, "value", ["range >= 0"]),
+    "frequency zero": ({1: "0,s1,frequency,0,2,0,0,5,0,"}, 2, "value", ["frequency within (0"]),
+    "frequency negative": ({1: "0,s1,frequency,-1e9,2,0,0,5,0,"}, 2, "value", ["(0, 1e+15]"]),
+    "negative range": ({0: "0,s1,range,-0.5,1,0,0,5,0,"}, 1, "value", ["range within [0, 1000000000]"]),
+    "range beyond reach": ({0: "0,s1,range,1e300,1,0,0,5,0,"}, 1, "value",
+                           ["range within [0, 1000000000] m", "1e300"]),
+    "time 1e300": ({4: "1e300,s1,range_difference,15,3,10,0,5,0,1"}, 5, "time",
+                   ["within [-1e+10, 1e+10] s", "epoch milliseconds"]),
+    "time far from the others": ({4: "1e9,s1,range_difference,15,3,10,0,5,0,1"}, 5, "time",
+                                 ["100 spans of the bulk", "found 1e9"]),
+    "sigma 1e-300": ({0: "0,s1,bearing,10,1e-300,0,0,5,0,"}, 1, "sigma",
+                     ["at least 1e-12 times the value", "1e-300"]),
+    "position beyond reach": ({0: "0,s1,bearing,10,1,1e300,0,5,0,"}, 1, "sensor_x",
+                              ["position within [-1e+09, 1e+09] m"]),
     "time_ref missing": ({4: "2,s1,range_difference,15,3,10,0,5,0,"}, 5, "time_ref",
                          ["range_difference", "empty"]),
     "time_ref equal to time": ({4: "2,s1,range_difference,15,3,10,0,5,0,2"}, 5, "time_ref",

@@ -20,14 +20,35 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .measurements import KINDS
+from .units import REACH_M, SPEED_OF_LIGHT, TIME_LIMIT_S
 
-__all__ = ["FINITE", "LATITUDE", "LONGITUDE", "SIGMA_POSITIVE", "check_set",
-           "column_problems", "metadata_problems", "raise_problems"]
+__all__ = ["FINITE", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION", "SIGMA_FLOOR",
+           "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "check_set",
+           "column_problems", "duplicate_rows", "far_times", "metadata_problems",
+           "raise_problems", "sigma_resolved", "state_within_reach", "time_within_limit"]
 
 #: What a numeric cell must be.
 FINITE = "a finite number"
 #: What a noise standard deviation must be.
 SIGMA_POSITIVE = "a noise standard deviation > 0 (in the unit of value)"
+#: What a time must be (s).
+TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time origin (317 years; "
+        "epoch milliseconds or nanoseconds must be given as seconds)")
+#: What a sensor position must be (m).
+POSITION = f"a position within [-{REACH_M:g}, {REACH_M:g}] m of the origin"
+#: What a sensor velocity must be (m/s).
+VELOCITY = f"a velocity within [-{SPEED_OF_LIGHT:.0f}, {SPEED_OF_LIGHT:.0f}] m/s (light's speed)"
+#: The smallest sigma, relative to its value's size (``max(|value|, 1)`` in the file unit): a
+#: standard deviation below it is finer than the numbers can carry (1e-300 makes weights of
+#: 1e600) and is a unit mistake or garbage.
+SIGMA_FLOOR = 1e-12
+#: What a sigma must be beside its value.
+SIGMA_RESOLVED = (f"a noise standard deviation of at least {SIGMA_FLOOR:g} times the value's "
+                  "size (max(|value|, 1) in the unit of value)")
+#: A time farther than this many spans of the other times (at least :data:`_MIN_SPAN_S`)
+#: from them is refused (:func:`far_times`): a typo, another unit or another clock.
+OUTLIER_SPANS = 100.0
+_MIN_SPAN_S = 100.0
 #: What a latitude must be (deg).
 LATITUDE = "a latitude within [-90, 90] deg"
 #: What a longitude must be (deg).
@@ -83,23 +104,199 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     for name, col in cols.items():
         bad = np.flatnonzero(~np.isfinite(col))
         found += _where(bad, name, FINITE, col[bad])
-    for j, name in enumerate(("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor_vy",
-                              "sensor_vz")):
-        bad = np.flatnonzero(~np.isfinite(sensor_state[:, j]))
-        found += _where(bad, name, FINITE, sensor_state[bad, j])
+    bad = np.flatnonzero(np.isfinite(time) & ~time_within_limit(time))
+    found += _where(bad, "time", TIME, time[bad])
+    for j, name in enumerate(STATE_COLUMNS):
+        col = sensor_state[:, j]
+        bad = np.flatnonzero(~np.isfinite(col))
+        found += _where(bad, name, FINITE, col[bad])
+        bad = np.flatnonzero(np.isfinite(col) & ~state_within_reach(col, j))
+        found += _where(bad, name, POSITION if j < 3 else VELOCITY, col[bad])
     bad = np.flatnonzero(np.isfinite(sigma) & ~(sigma > 0))
     found += _where(bad, "sigma", SIGMA_POSITIVE, sigma[bad])
+    out_of_range = np.zeros(value.shape, dtype=bool)
     for code, cls in enumerate(KINDS.values()):
         if cls.value_range is None or not ranges:
             continue
         # masks only (1 byte per row), no index or value copies of the kind's rows
-        bad = np.flatnonzero((kind == code) & np.isfinite(value) & ~cls.check_values(value))
+        wrong = (kind == code) & np.isfinite(value) & ~cls.check_values(value)
+        bad = np.flatnonzero(wrong)
         found += _where(bad, "value", str(cls.describe_values()), value[bad])
+        out_of_range |= wrong
+    with np.errstate(invalid="ignore"):  # a sigma beside a value out of its range: moot
+        bad = np.flatnonzero((sigma > 0) & np.isfinite(value) & ~out_of_range
+                             & ~sigma_resolved(value, sigma))
+    found += _where(bad, "sigma", SIGMA_RESOLVED, sigma[bad])
     bad = np.flatnonzero(np.isinf(time_ref))
     found += _where(bad, "time_ref", FINITE, time_ref[bad])
     if order:
         found += _order_problems(time, sensor_code)
+        found += _far_time_problems(time)
+        found += _duplicate_problems(time, sensor_code, kind, time_ref)
     return found
+
+
+#: The sensor state's columns, in order.
+STATE_COLUMNS = ("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor_vy", "sensor_vz")
+
+
+def time_within_limit(time: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Tell where times (s) lie within :data:`tmakit.units.TIME_LIMIT_S` of the origin.
+
+    Parameters
+    ----------
+    time : ndarray
+        Times (s).
+
+    Returns
+    -------
+    ndarray of bool
+        False for a time beyond the limit (or NaN).
+    """
+    return np.abs(time) <= TIME_LIMIT_S
+
+
+def state_within_reach(values: NDArray[np.float64], column: int) -> NDArray[np.bool_]:
+    """Tell where a sensor state column lies within reach: positions, velocities.
+
+    Parameters
+    ----------
+    values : ndarray
+        One column of sensor states (m for columns 0-2, m/s for 3-5).
+    column : int
+        Its index in the state (``x, y, z, vx, vy, vz``).
+
+    Returns
+    -------
+    ndarray of bool
+        False beyond :data:`tmakit.units.REACH_M` (positions) or the speed of light
+        (velocities), or NaN.
+    """
+    return np.abs(values) <= (REACH_M if column < 3 else SPEED_OF_LIGHT)
+
+
+def sigma_resolved(value: NDArray[np.float64], sigma: NDArray[np.float64]
+                   ) -> NDArray[np.bool_]:
+    """Tell where a sigma is at least :data:`SIGMA_FLOOR` of its value's size.
+
+    Parameters
+    ----------
+    value, sigma : ndarray
+        Values and their standard deviations, in the same (file) unit.
+
+    Returns
+    -------
+    ndarray of bool
+        False where the sigma is finer than the value can carry (or NaN).
+    """
+    return sigma >= SIGMA_FLOOR * np.maximum(np.abs(value), 1.0)
+
+
+def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
+    """Find the times that lie far outside the span of the others (a typo, another unit).
+
+    The bulk of the times is their central half (from the first to the third quartile, in
+    row counts); a time more than :data:`OUTLIER_SPANS` times the bulk's span (at least
+    100 s) before or after it is far.  Sessions of a log a day apart are not far from each
+    other; one time in milliseconds among seconds, or a 1e9 typed for a 1e3, is.
+
+    Parameters
+    ----------
+    time : ndarray
+        Times (s); non-finite ones are left out (another rule names them).
+
+    Returns
+    -------
+    far : ndarray of bool
+        The far rows.
+    expected : str
+        What a time was expected to be (for messages), empty when none is far.
+    """
+    with np.errstate(invalid="ignore"):
+        finite = np.isfinite(time)
+        t = time if finite.all() else time[finite]
+        n = t.size
+        if n < 4 or float(t.max()) - float(t.min()) <= OUTLIER_SPANS * _MIN_SPAN_S:
+            return np.zeros(time.shape, dtype=bool), ""
+        i25, i75 = (n - 1) // 4, n - 1 - (n - 1) // 4
+        if bool(np.all(t[1:] >= t[:-1])):  # in order already (one sensor): no copy
+            low, high = float(t[i25]), float(t[i75])
+        else:
+            part = np.partition(t, (i25, i75))
+            low, high = float(part[i25]), float(part[i75])
+        reach = OUTLIER_SPANS * max(high - low, _MIN_SPAN_S)
+        far = finite & ((time < low - reach) | (time > high + reach))
+    if not far.any():
+        return far, ""
+    return far, (f"a time within {OUTLIER_SPANS:g} spans of the bulk of the times (their "
+                 f"central half lies within {low:.10g} .. {high:.10g} s; a typo, another "
+                 "unit or another clock)")
+
+
+def _far_time_problems(time: NDArray[np.float64]) -> list[str]:
+    far, expected = far_times(time)
+    bad = np.flatnonzero(far)
+    return _where(bad, "time", expected, time[bad])
+
+
+def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
+                   kind_code: NDArray[np.integer], time_ref: NDArray[np.float64]
+                   ) -> list[tuple[int, int]]:
+    """Find the rows that repeat an earlier row's (sensor, kind, time, time_ref).
+
+    Linear in the rows when no two rows of a sensor share a time (one comparison pass for
+    one sensor, a stable sort of the sensor codes for several); the rows that share a time
+    are then sorted by the four.
+
+    Parameters
+    ----------
+    time, time_ref : ndarray
+        Each row's times (s); empty ``time_ref`` cells (NaN) are equal.
+    sensor_code, kind_code : ndarray of int
+        Sensor and kind codes.
+
+    Returns
+    -------
+    list of (int, int)
+        ``(row, first)``: a row and the first row it repeats, in row order.
+    """
+    n = sensor_code.shape[0]
+    if n < 2:
+        return []
+    one = int(sensor_code.min()) == int(sensor_code.max())
+    order = None if one else np.argsort(sensor_code, kind="stable")
+    t = time if order is None else time[order]
+    s = sensor_code if order is None else sensor_code[order]
+    same = np.flatnonzero((t[1:] == t[:-1]) & (s[1:] == s[:-1]))
+    in_order = bool(np.all((t[1:] >= t[:-1]) | (s[1:] != s[:-1])))
+    if same.shape[0] == 0 and in_order:
+        return []
+    if not in_order:  # a sensor's rows out of time order (refused anyway): sort them all
+        rows = np.arange(n)
+    else:
+        rows = np.unique(np.concatenate((same, same + 1)))
+        rows = rows if order is None else order[rows]
+    ref = np.where(np.isnan(time_ref[rows]), -np.inf, time_ref[rows])
+    r = rows[np.lexsort((rows, ref, kind_code[rows], time[rows], sensor_code[rows]))]
+    key = np.where(np.isnan(time_ref[r]), -np.inf, time_ref[r])
+    twin = ((sensor_code[r[1:]] == sensor_code[r[:-1]]) & (time[r[1:]] == time[r[:-1]])
+            & (kind_code[r[1:]] == kind_code[r[:-1]]) & (key[1:] == key[:-1]))
+    pairs, first = [], -1
+    for i in range(1, r.shape[0]):
+        if not twin[i - 1]:
+            continue
+        first = int(r[i - 1]) if i == 1 or not twin[i - 2] else first
+        pairs.append((int(r[i]), first))
+    return sorted(pairs)
+
+
+def _duplicate_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
+                        kind_code: NDArray[np.integer], time_ref: NDArray[np.float64]
+                        ) -> list[str]:
+    pairs = duplicate_rows(time, sensor_code, kind_code, time_ref)
+    return [f"row {row + 1}, column 'time': expected one row per (sensor, kind, time, "
+            f"time_ref), found {float(time[row])!r}, a duplicate of row {first + 1}"
+            for row, first in pairs[:_SHOWN]]
 
 
 def _order_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
@@ -253,13 +450,19 @@ def _si_cells_plainly_valid(meas: Any) -> bool:
     """Tell whether every cell rule but the value ranges and the order surely holds.
 
     From the SI columns, without making the file-unit ones (a set built in SI has none yet):
-    finite times and sensor states, values within +-1e300 and sigmas within (1e-300, 1e300)
-    (so their file-unit twins, scaled by factors near 1 to 60, are finite and positive), no
-    infinite reference time.  False sends the set to :func:`column_problems`, which names
-    each failing cell.
+    times within the limit, sensor states within reach, values within +-1e300 and sigmas
+    within (1e-300, 1e300) and at least 100 times :data:`SIGMA_FLOOR` of their value's size
+    (so their file-unit twins, scaled by factors near 1 to 60 or shifted by 30 dB, are finite,
+    positive and resolved), no infinite reference time.  False sends the set to
+    :func:`column_problems`, which names each failing cell.
     """
     v, s = meas.value_si, meas.sigma_si
+    st = meas.sensor_state
     with np.errstate(invalid="ignore"):
-        return bool(np.isfinite(meas.time).all() and np.isfinite(meas.sensor_state).all()
+        return bool(time_within_limit(meas.time).all()
+                    and (np.abs(st[:, :3]) <= REACH_M).all()
+                    and (np.abs(st[:, 3:]) <= SPEED_OF_LIGHT).all()
                     and (np.abs(v) < _PLAIN).all() and (s > 1.0 / _PLAIN).all()
-                    and (s < _PLAIN).all() and not np.isinf(meas.time_ref).any())
+                    and (s < _PLAIN).all()
+                    and (s >= 100 * SIGMA_FLOOR * np.maximum(np.abs(v), 1.0)).all()
+                    and not np.isinf(meas.time_ref).any())

@@ -14,6 +14,15 @@ from numpy.typing import ArrayLike, NDArray
 SPEED_OF_LIGHT = 299_792_458.0
 """Speed of light in vacuum, m/s (the value Gu et al. (2007) use)."""
 
+REACH_M = 1e9
+"""The farthest a position or a range may be from the local frame's origin, m: 2.6 times the
+distance to the Moon.  Beyond it a number is a unit mistake or garbage, and a local
+East-North-Up frame means nothing (:mod:`tmakit.rules`)."""
+
+TIME_LIMIT_S = 1e10
+"""The largest time (s, either side of the time origin) a measurement may carry: 317 years.
+Epoch seconds stay below it until 2286; epoch milliseconds (1.7e12) and nanoseconds do not."""
+
 DBM_MINUS_DBW = 30.0
 """A power in dBm is its value in dBW plus 30."""
 

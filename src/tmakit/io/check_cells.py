@@ -16,7 +16,19 @@ from numpy.typing import NDArray
 
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
 from ..measurements import KINDS
-from ..rules import FINITE, LATITUDE, LONGITUDE, SIGMA_POSITIVE
+from ..rules import (
+    FINITE,
+    LATITUDE,
+    LONGITUDE,
+    POSITION,
+    SIGMA_POSITIVE,
+    SIGMA_RESOLVED,
+    TIME,
+    VELOCITY,
+    sigma_resolved,
+    state_within_reach,
+    time_within_limit,
+)
 from .cells import blank_mask, is_blank, number_text, show, text_column
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS, reference_kinds_text
 from .problems import Problems
@@ -191,6 +203,17 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
     for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
         if c in num:
             columns[c] = pa.Column("float64", nullable=False, checks=[checks.finite(c)])
+    if "time" in columns:
+        columns["time"].checks.append(checks.check(
+            "time", "time_limit", lambda v, r: time_within_limit(v), TIME))
+    for j, c in enumerate(SENSOR_STATE_COLUMNS):
+        if c in columns:
+            columns[c].checks.append(checks.check(
+                c, "reach", lambda v, r, j=j: state_within_reach(v, j),
+                POSITION if j < 3 else VELOCITY))
+    if "sensor_alt" in columns:
+        columns["sensor_alt"].checks.append(checks.check(
+            "sensor_alt", "reach", lambda v, r: state_within_reach(v, 2), POSITION))
     if "value" in columns:
         columns["value"].checks += [
             checks.check("value", f"{k}_value", _for_kind(kind, k, ok), what)
@@ -199,6 +222,15 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
         columns["sigma"].checks.append(checks.check(
             "sigma", "positive", lambda v, r: v > 0,
             SIGMA_POSITIVE))
+        if "value" in num:
+            value = num["value"]
+            moot = ~np.isfinite(value)  # no value, or one out of its range: sigma is moot
+            for k, ok, _ in value_ranges():
+                moot |= (kind == k) & ~ok(value)
+            columns["sigma"].checks.append(checks.check(
+                "sigma", "resolved",
+                lambda v, r: ~(v > 0) | moot[r] | sigma_resolved(value[r], v),
+                SIGMA_RESOLVED))
     if "sensor_lat" in columns:
         columns["sensor_lat"].checks.append(checks.check(
             "sensor_lat", "latitude", lambda v, r: (v >= -90) & (v <= 90),

@@ -1,4 +1,4 @@
-"""Rules that need several rows: time order within each sensor, no duplicate rows."""
+"""Rules that need several rows: time order within each sensor, no far time, no duplicate rows."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from ..rules import far_times
 from .cells import number_text
 from .problems import Problems
 
@@ -15,7 +16,7 @@ __all__ = ["check_order"]
 
 def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_],
                 kind: NDArray[np.object_], problems: Problems) -> None:
-    """Time order within each sensor, and no (sensor, kind, time, time_ref) twice.
+    """Time order within each sensor, no far time, no (sensor, kind, time, time_ref) twice.
 
     Parameters
     ----------
@@ -34,6 +35,9 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
     t = num["time"]
     tr = num.get("time_ref", np.full(t.shape[0], np.nan))
     rows = np.flatnonzero(~problems.bad_rows("time", "sensor"))
+    far, expected = far_times(np.where(problems.bad_rows("time"), np.nan, t))
+    for row in np.flatnonzero(far):
+        problems.cell(int(row), "time", expected)
     # codes, not text: equal ids give equal codes, and groupby on integers is light
     table = pd.DataFrame({"sensor": pd.factorize(sensor[rows])[0],
                           "kind": pd.factorize(kind[rows])[0],

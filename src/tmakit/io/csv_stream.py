@@ -6,7 +6,7 @@ pyarrow's streaming CSV reader, :data:`BLOCK_BYTES` of text at a time, convertin
 columns straight into the set's own arrays (float64 numbers; the kind and the sensor as small
 integer codes with one table of names), so the file's text, an Arrow table of the whole file
 or a text cell per row are never held.  The set is then checked by the one set of rules
-(:mod:`tmakit.rules`) and for duplicate rows, as the reader does.
+(:mod:`tmakit.rules`: duplicate rows and far times too), as the reader does.
 
 Latitude, longitude and altitude are held in the place of the ENU position while reading;
 after the last block the surface rule is decided over every row's altitude and the positions
@@ -50,7 +50,7 @@ from .arrow_blocks import give_back, numbers, with_nan
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
 from .positions import resolve_origin
 from .problems import Problems, RawTable
-from .stream_refs import block_is_valid, has_duplicates, reference_states
+from .stream_refs import block_is_valid, reference_states
 
 __all__ = ["BLOCK_BYTES", "SET_BYTES_PER_ROW", "preamble", "split_metadata", "stream_csv"]
 
@@ -407,8 +407,6 @@ def stream_csv(path: Path, scan: int = 1 << 20,
                 metadata["dim_rule"] = rule
         meas = _build(cols, metadata, _reference_states(cols, "sensor_vx" in stripped))
     except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
-        return None
-    if has_duplicates(meas.time, meas.sensor_code, meas.kind_code, meas.time_ref):
         return None
     # The rules' and the duplicate check's arrays came from the C library's heap (its mmap
     # threshold grows as large blocks are freed) and stay resident when freed below live

@@ -3,7 +3,7 @@
 The rules of the full checker (:mod:`.check_cells`) on each block of
 :mod:`tmakit.io.csv_stream`, and the reference states of the whole set after the stream (from
 the ``ref_sensor_*`` cells, else the sensor's own rows, as :func:`.positions.ref_sensor_state`
-does); and the duplicate rows of a streamed set.  Where the full checker would find a
+does).  Where the full checker would find a
 problem, each function says so (False, None or True): the file then goes to the full checker,
 which names it.
 """
@@ -18,7 +18,7 @@ from ..measurements import KINDS
 from ..measurements.codes import KIND_NAMES
 from .sensor_record import QUERY_ROWS, SensorRecord
 
-__all__ = ["block_is_valid", "has_duplicates", "reference_states"]
+__all__ = ["block_is_valid", "reference_states"]
 
 #: Whether each kind code uses a reference sample (range differences).
 USES_REFERENCE = np.array([KINDS[k].uses_reference for k in KIND_NAMES], dtype=bool)
@@ -126,38 +126,3 @@ def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[
     """Flag the range differences without ``ref_sensor_*`` cells of a block from row ``lo``."""
     hi = lo + QUERY_ROWS
     return USES_REFERENCE[kind[lo:hi]] & np.isnan(ref[lo:hi, 0])
-
-
-def has_duplicates(time: NDArray[np.float64], sensor: NDArray[np.int32],
-                     kind: NDArray[np.int8], time_ref: NDArray[np.float64]) -> bool:
-    """Tell whether two rows share (sensor, kind, time, time_ref), as :mod:`.check_rows` does.
-
-    Parameters
-    ----------
-    time, time_ref : numpy.ndarray
-        Each row's times (s); empty ``time_ref`` cells (NaN) are equal.
-    sensor : numpy.ndarray of int32
-        Sensor codes (the rows of each sensor in time order).
-    kind : numpy.ndarray of int8
-        Kind codes.
-
-    Returns
-    -------
-    bool
-        True when two rows share the four.
-    """
-    if sensor.shape[0] < 2:
-        return False
-    order = (None if int(sensor.max()) == 0 else np.argsort(sensor, kind="stable"))
-    t = time if order is None else time[order]
-    s = sensor if order is None else sensor[order]
-    same = np.flatnonzero((t[1:] == t[:-1]) & (s[1:] == s[:-1]))
-    if same.shape[0] == 0:
-        return False
-    rows = np.unique(np.concatenate((same, same + 1)))
-    rows = rows if order is None else order[rows]
-    r = rows[np.lexsort((time_ref[rows], kind[rows], time[rows], sensor[rows]))]
-    a, b = r[1:], r[:-1]
-    same_ref = (time_ref[a] == time_ref[b]) | (np.isnan(time_ref[a]) & np.isnan(time_ref[b]))
-    return bool(np.any((sensor[a] == sensor[b]) & (time[a] == time[b]) & (kind[a] == kind[b])
-                       & same_ref))

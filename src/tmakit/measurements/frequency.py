@@ -46,7 +46,7 @@ class Frequency(MeasurementModel):
     file_unit = "Hz"
     mirror_symmetric = True
     uses_velocity = True
-    value_range = ValueRange("a frequency", 0.0, low_inclusive=False)
+    value_range = ValueRange("a frequency", 0.0, 1e15, low_inclusive=False)
 
     def __init__(self, drift: bool = False, speed_of_light: float = SPEED_OF_LIGHT) -> None:
         self.drift = bool(drift)

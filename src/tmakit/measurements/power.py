@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..units import DBM_MINUS_DBW
-from .base import Array, Jacobian, MeasurementModel, as_rel, dot3
+from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 
 _TEN_OVER_LN10 = 10.0 / np.log(10.0)
 
@@ -40,6 +40,7 @@ class Power(MeasurementModel):
 
     kind = "power"
     file_unit = "dBm"
+    value_range = ValueRange("a power", -400.0, 400.0)
     mirror_symmetric = True
     file_offset = -DBM_MINUS_DBW
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..units import REACH_M
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
@@ -16,7 +17,7 @@ class Range(MeasurementModel):
     kind = "range"
     file_unit = "m"
     mirror_symmetric = True
-    value_range = ValueRange("a range", 0.0)
+    value_range = ValueRange("a range", 0.0, REACH_M)
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:

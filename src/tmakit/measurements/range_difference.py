@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .base import Array, Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from ..units import REACH_M
+from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class RangeDifference(MeasurementModel):
@@ -30,6 +31,7 @@ class RangeDifference(MeasurementModel):
 
     kind = "range_difference"
     file_unit = "m"
+    value_range = ValueRange("a range difference", -REACH_M, REACH_M)
     mirror_symmetric = True
     uses_reference = True
     correlated_noise = True

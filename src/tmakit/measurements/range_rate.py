@@ -11,10 +11,12 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..units import SPEED_OF_LIGHT
 from .base import (
     Array,
     Jacobian,
     MeasurementModel,
+    ValueRange,
     as_rel,
     dot3,
     inverse_range_and_unit,
@@ -89,6 +91,7 @@ class RangeRate(MeasurementModel):
 
     kind = "range_rate"
     file_unit = "m/s"
+    value_range = ValueRange("a range rate", -SPEED_OF_LIGHT, SPEED_OF_LIGHT)
     mirror_symmetric = True
     uses_velocity = True
 

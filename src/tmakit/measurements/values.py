@@ -86,7 +86,7 @@ class ValueRange:
         if self.low is not None and self.high is not None:
             left = "[" if self.low_inclusive else "("
             right = "]" if self.high_inclusive else ")"
-            return f"{self.noun} within {left}{self.low:g}, {self.high:g}{right} {unit}"
+            return f"{self.noun} within {left}{self.low:.10g}, {self.high:.10g}{right} {unit}"
         if self.low is not None:
             return f"{self.noun} {'>=' if self.low_inclusive else '>'} {self.low:g} {unit}"
         if self.high is not None:
