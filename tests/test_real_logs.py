@@ -67,7 +67,7 @@ def test_replay_sensor2_ranges_frequencies_quotes_and_negative_bearings(tmp_path
     rep = write(tmp_path, "s.rep", HEAD + OWN.replace("OWN", '"MY SHIP"') +
                 ';SENSOR2: 260504 093030 "MY SHIP" @A NULL -10.0 170.0 150.5 1000 TA T1 a\n'
                 ";SENSOR: 260504 093045.500 \"MY SHIP\" @A 47 57 00.00 N 005 14 30.00 W "
-                "370.0 NULL TA T1 b\n")
+                "-350.0 NULL TA T1 b\n")
     ms = tk.read_measurements(rep, range_sigma=50.0)
     assert ms.sensors == ["MY SHIP"]
     assert sorted(ms.kinds) == ["bearing", "frequency", "range"]
@@ -202,9 +202,9 @@ def test_epoch_and_iso_clock_times():
 
 @pytest.mark.parametrize(("edit", "expect"), [
     (lambda s: s.replace("2026-05-04T09:30:03.000Z", "09h30"),
-     "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds, found '09h30'"),
+     "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds (since 1970-01-01 UTC) between 1970 and 2200, found '09h30'"),
     (lambda s: s.replace(",47.95", ",97.95", 1),
-     "row 1 (line 2), column 'lat': expected a latitude in [-90, 90] degrees, found 97.95"),
+     "row 1 (line 2), column 'lat': expected a latitude within [-90, 90] deg, found 97.95"),
     (lambda s: s.replace("rssi_dbm", "rssi"), "column 'rssi_dbm' (power in dBm) is missing"),
 ])
 def test_wide_log_refusals_name_row_line_and_column(tmp_path, edit, expect):

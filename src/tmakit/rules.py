@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 from .measurements import KINDS
 from .units import REACH_M, SPEED_OF_LIGHT, TIME_LIMIT_S
 
-__all__ = ["FINITE", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION", "SIGMA_FLOOR",
+__all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION", "SIGMA_FLOOR",
            "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "check_set",
-           "column_problems", "duplicate_rows", "far_times", "metadata_problems",
+           "column_problems", "duplicate_rows", "far_times", "geo_within", "metadata_problems",
            "raise_problems", "sigma_resolved", "state_within_reach", "time_within_limit"]
 
 #: What a numeric cell must be.
@@ -53,6 +53,8 @@ _MIN_SPAN_S = 100.0
 LATITUDE = "a latitude within [-90, 90] deg"
 #: What a longitude must be (deg).
 LONGITUDE = "a longitude within [-180, 360] deg"
+#: The ranges of latitude and longitude (deg), by column.
+GEO_RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
 
 _SHOWN = 10  # problems listed in a constructor's message
 
@@ -173,6 +175,25 @@ def state_within_reach(values: NDArray[np.float64], column: int) -> NDArray[np.b
         (velocities), or NaN.
     """
     return np.abs(values) <= (REACH_M if column < 3 else SPEED_OF_LIGHT)
+
+
+def geo_within(values: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
+    """Tell where latitudes (``sensor_lat``) or longitudes (``sensor_lon``) are in range.
+
+    Parameters
+    ----------
+    values : ndarray
+        Degrees.
+    column : str
+        ``sensor_lat`` or ``sensor_lon`` (:data:`GEO_RANGES`).
+
+    Returns
+    -------
+    ndarray of bool
+        False outside the range (or NaN).
+    """
+    low, high = GEO_RANGES[column]
+    return (values >= low) & (values <= high)
 
 
 def sigma_resolved(value: NDArray[np.float64], sigma: NDArray[np.float64]

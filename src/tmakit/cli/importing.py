@@ -150,6 +150,10 @@ def print_import(meas: Any, output: Path | None) -> None:
                   soft_wrap=True)
     if "source" in meta:
         out.print(f"  source: {meta['source']}", highlight=False, soft_wrap=True)
+    if "duplicates_merged" in meta:
+        out.print(f"  note: {meta['duplicates_merged']} rows repeated an earlier row (same "
+                  "sensor, kind, time, value and sigma) and were merged into it",
+                  highlight=False, soft_wrap=True)
     if "time_origin" in meta:
         out.print(f"  t = 0 s is {meta['time_origin']} (UTC); the data span "
                   f"{meas.time.min():g} .. {meas.time.max():g} s", highlight=False)

@@ -25,6 +25,7 @@ from ..rules import (
     SIGMA_RESOLVED,
     TIME,
     VELOCITY,
+    geo_within,
     sigma_resolved,
     state_within_reach,
     time_within_limit,
@@ -233,11 +234,11 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
                 SIGMA_RESOLVED))
     if "sensor_lat" in columns:
         columns["sensor_lat"].checks.append(checks.check(
-            "sensor_lat", "latitude", lambda v, r: (v >= -90) & (v <= 90),
+            "sensor_lat", "latitude", lambda v, r: geo_within(v, "sensor_lat"),
             LATITUDE))
     if "sensor_lon" in columns:
         columns["sensor_lon"].checks.append(checks.check(
-            "sensor_lon", "longitude", lambda v, r: (v >= -180) & (v <= 360),
+            "sensor_lon", "longitude", lambda v, r: geo_within(v, "sensor_lon"),
             LONGITUDE))
     return columns
 

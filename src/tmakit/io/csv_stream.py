@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
+from ..rules import GEO_RANGES, geo_within
 from .arrow_blocks import give_back, numbers, with_nan
 from .contract import GEO_COLUMNS, NUMERIC_COLUMNS
 from .positions import resolve_origin
@@ -77,8 +78,6 @@ _REF_REQUIRED = ("time_ref", "ref_sensor_x", "ref_sensor_y")
 #: altitude are held in the position's place until :func:`_to_enu` converts them).
 _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "sensor_vy": 4,
                  "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
-#: The contract's ranges of latitude and longitude (deg), as the full checker's.
-_RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
 #: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
 _ENU_ROWS = 1 << 16
 #: Columns of range differences (empty on other rows).
@@ -183,10 +182,8 @@ class _Columns:
         """Store a block of a numeric column (finite numbers only)."""
         if not np.isfinite(values).all():
             raise _Fallback
-        if name in _RANGES:
-            low, high = _RANGES[name]
-            if np.any((values < low) | (values > high)):
-                raise _Fallback
+        if name in GEO_RANGES and not geo_within(values, name).all():
+            raise _Fallback
         lo, hi = self.n, self.n + values.shape[0]
         if name in self.num:
             self.num[name][lo:hi] = values

@@ -56,6 +56,7 @@ from .debrief_lines import LineProblem, ParsedReplay, SensorLine, parse_replay_t
 from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
+from .log_rules import checked_rows
 from .logs import Fixes, LocalFrame, iso_utc, local_frame, relative_seconds, time_origin_ns
 
 __all__ = ["DEFAULT_BEARING_SIGMA_DEG", "DEFAULT_FREQUENCY_SIGMA_HZ", "DEFAULT_RANGE_SIGMA_M",
@@ -306,17 +307,26 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st = cut_rows(cuts.rows, cuts.states, t, si, asked, wanted,
-                                                 no_range)
+    times, kinds_, values, sigmas, st, lines = cut_rows(cuts.rows, cuts.states, t, si, asked,
+                                                        wanted, no_range)
     if not times:
         raise MeasurementFileError(where, [
             f"the sensor lines of {cuts.host!r} measure nothing of {', '.join(sorted(wanted))} "
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
     metadata = _metadata(paths, cuts, contact, sig, "bearing" in wanted, notes)
-    meas = MeasurementSet.from_si(np.array(times), np.full(len(times), cuts.host),
-                                  np.array(kinds_), np.array(values), np.array(sigmas),
-                                  np.array(st), metadata=metadata, check=False).sorted()
+    return _checked(where, MeasurementSet.from_si(
+        np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
+        np.array(sigmas), np.array(st), metadata=metadata, check=False), lines)
+
+
+def _checked(path: Path, raw: MeasurementSet, lines: list[str]) -> MeasurementSet:
+    """Apply the file's rules to the lines as read, then wrap the bearings to [0, 360)."""
+    meas, _, merged = checked_rows(path, raw, lines)
+    bearing = meas.kind_mask("bearing")
+    meas.value_si = np.where(bearing, np.mod(meas.value_si, 2 * np.pi), meas.value_si)
+    if merged:
+        meas.metadata["duplicates_merged"] = str(merged)
     rules.check_set(meas)  # the file rules, once the rows are in time order
     return meas
 

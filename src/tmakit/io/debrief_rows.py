@@ -18,6 +18,7 @@ from collections.abc import Collection
 import numpy as np
 from numpy.typing import NDArray
 
+from .debrief_fixes import at_line
 from .debrief_lines import SensorLine
 from .logs import YARD
 
@@ -67,8 +68,10 @@ def placeholder_ranges(rows: list[SensorLine], ranges: str | None,
 
 def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
              sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
-             no_range: NDArray[np.bool_]) -> tuple[list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state) of each measured value used.
+             no_range: NDArray[np.bool_]) -> tuple[list, list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state, line) of each measured value used.
+
+    Bearings are not wrapped yet: the file's rules see them as written.
 
     Parameters
     ----------
@@ -89,10 +92,10 @@ def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.
 
     Returns
     -------
-    tuple of five lists
-        Times, kinds, values, sigmas, states.
+    tuple of six lists
+        Times, kinds, values, sigmas, states, and each value's line (for messages).
     """
-    out: tuple[list, list, list, list, list] = ([], [], [], [], [])
+    out: tuple[list, list, list, list, list, list] = ([], [], [], [], [], [])
     for k, s in enumerate(rows):
         stated = {"bearing": None if s.bearing_accuracy is None
                   else float(np.deg2rad(s.bearing_accuracy)),
@@ -101,10 +104,11 @@ def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.
                             ("frequency", s.frequency)):
             if value is None or kind not in kinds or (kind == "range" and no_range[k]):
                 continue
-            si = {"bearing": lambda v: np.deg2rad(v % 360.0), "range": lambda v: v * YARD,
+            si = {"bearing": np.deg2rad, "range": lambda v: v * YARD,
                   "frequency": lambda v: v}[kind](value)
             line_sigma = stated.get(kind)
             sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
-            for col, item in zip(out, (t[k], kind, si, sigma, states[k]), strict=True):
+            for col, item in zip(out, (t[k], kind, si, sigma, states[k], at_line(s)),
+                                 strict=True):
                 col.append(item)
     return out

@@ -5,7 +5,8 @@ its kind, unit and sigma.
 
 A mapping file (every key is described in ``docs/your-own-data.md``)::
 
-    time = "utc"            # ISO-8601 text (UTC unless a zone is given) or epoch seconds
+    time = "utc"            # ISO-8601 text (UTC unless a zone is given) or epoch numbers
+    time_unit = "s"         # epoch numbers in s (default), ms, us or ns since 1970 UTC
     sensor = "drone"        # the sensor id (or sensor_column = "...": one per row)
     track = "own.gpx"       # optional: positions from a GPX or NMEA file, joined by time
     velocity_window = 10.0  # s: the fit that derives velocities when none are given
@@ -144,6 +145,7 @@ class LogMapping(_Strict):
     """How a wide log maps to a measurement set (see the module text)."""
 
     time: str
+    time_unit: Literal["s", "ms", "us", "ns"] = "s"
     sensor: str = "sensor"
     sensor_column: str | None = None
     track: str | None = None
@@ -230,7 +232,8 @@ def mapping_from_text(text: str, measures: list[str]) -> LogMapping:
     Parameters
     ----------
     text : str
-        ``key=value`` pairs separated by commas: ``time``, ``sensor``, ``track``, the position
+        ``key=value`` pairs separated by commas: ``time``, ``time_unit`` (``s``, ``ms``,
+        ``us``, ``ns``), ``sensor``, ``track``, the position
         columns ``lat``, ``lon``, ``alt`` (or ``east``, ``north``, ``up``), ``altitude``
         (``ellipsoid`` or ``msl``), velocity columns ``vn``, ``ve``, ``vd`` (NED) or ``ve``,
         ``vn``, ``vu`` (ENU), ``velocity_window`` (s).
@@ -259,10 +262,11 @@ def mapping_from_text(text: str, measures: list[str]) -> LogMapping:
             position[key] = value
         elif key in _VELOCITY_KEYS:
             velocity[_VELOCITY_KEYS[key]] = value
-        elif key in ("time", "sensor", "track", "velocity_window"):
+        elif key in ("time", "time_unit", "sensor", "track", "velocity_window"):
             data[key] = value
         else:
-            raise MappingError(f"--map: unknown key {key!r}; expected time, sensor, track, "
+            raise MappingError(f"--map: unknown key {key!r}; expected time, time_unit, sensor, "
+                               "track, "
                                f"{', '.join(_POSITION_KEYS)}, vn, ve, vd, vu, velocity_window")
     if position:
         data["position"] = position

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import MeasurementFileError
-from .logs import KNOT, Fixes
+from .logs import KNOT, Fixes, fix_problems, iso_utc
 
 __all__ = ["read_gpx_fixes", "read_nmea_fixes", "read_track_fixes"]
 
@@ -206,9 +206,20 @@ def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:
     Raises
     ------
     MeasurementFileError
-        If the file is missing or breaks its format.
+        If the file is missing or breaks its format, or a value breaks the rules of a
+        measurement file (a latitude beyond 90 deg, an altitude beyond reach: naming it).
     """
     path = Path(path)
     if not path.exists():
         raise MeasurementFileError(path, ["no such track file"])
-    return read_gpx_fixes(path) if path.suffix.lower() == ".gpx" else read_nmea_fixes(path)
+    if path.suffix.lower() == ".gpx":
+        fixes = read_gpx_fixes(path)
+        found = fix_problems(fixes, lambda k, q: f"point at {iso_utc(int(fixes.time_ns[k]))}, {q}")
+    else:
+        fixes = read_nmea_fixes(path)
+        lines = fixes.lines
+        assert lines is not None
+        found = fix_problems(fixes, lambda k, q: f"line {lines[k]}, {q}")
+    if found:  # the rules of a measurement file (tmakit.rules) on the track's values
+        raise MeasurementFileError(path, found)
+    return fixes

@@ -26,11 +26,15 @@ from numpy.typing import NDArray
 
 from .. import rules
 from ..data import MeasurementSet
+from ..measurements import KINDS
 from .errors import MeasurementFileError
 from .formats import Format, register_format
 from .logs import (
     Fixes,
     LocalFrame,
+    checked_rows,
+    clock_time_problem,
+    fix_problems,
     interpolate_heading,
     interpolate_states,
     iso_utc,
@@ -57,9 +61,12 @@ class _Table:
         self.problems: list[str] = []
         self.heading: NDArray[np.float64] | None = None  # deg true per row, for relative bearings
 
-    def where(self, row: int, column: str) -> str:
+    def row(self, row: int) -> str:
         line = f" (line {self.lines[row]})" if self.lines is not None else ""
-        return f"row {row + 1}{line}, column {column!r}"
+        return f"row {row + 1}{line}"
+
+    def where(self, row: int, column: str) -> str:
+        return f"{self.row(row)}, column {column!r}"
 
     def need(self, column: str | None, purpose: str) -> bool:
         if column is None or column in self.frame.columns:
@@ -114,11 +121,12 @@ def _row_positions(tab: _Table, m: LogMapping) -> tuple[Fixes | None, NDArray | 
         assert p.lat is not None and p.lon is not None
         lat = tab.numbers(p.lat, "a latitude (deg)")
         lon = tab.numbers(p.lon, "a longitude (deg)")
-        for k in np.flatnonzero(np.abs(lat) > 90)[:25]:
-            tab.problems.append(f"{tab.where(int(k), p.lat)}: expected a latitude in "
-                                f"[-90, 90] degrees, found {lat[k]:g}")
         alt = tab.numbers(p.alt, "an altitude (m)") if p.alt else np.zeros(lat.shape)
-        return Fixes(np.zeros(lat.shape, np.int64), lat, lon, alt), None
+        fixes = Fixes(np.zeros(lat.shape, np.int64), lat, lon, alt)
+        if not tab.problems:  # the file's rules on the values read (tmakit.rules)
+            columns = {"latitude": p.lat, "longitude": p.lon, "altitude": p.alt}
+            tab.problems += fix_problems(fixes, lambda k, q: tab.where(k, columns[q] or q))
+        return fixes, None
     assert p.east is not None and p.north is not None
     enu = np.column_stack([tab.numbers(p.east, "east (m)"), tab.numbers(p.north, "north (m)"),
                            tab.numbers(p.up, "up (m)") if p.up else np.zeros(len(tab.frame))])
@@ -284,10 +292,15 @@ def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
     if m.heading and tab.need(m.heading, "heading (deg true)"):
         tab.heading = tab.numbers(m.heading, "a heading (deg)", required=False)
     tab.fail()
-    t_ns, bad = parse_clock_times(tab.frame[m.time].tolist())
+    if m.heading and tab.heading is not None:
+        h = tab.heading
+        for k in np.flatnonzero(np.isfinite(h) & ~KINDS["bearing"].check_values(h))[:25]:
+            tab.problems.append(f"{tab.where(int(k), m.heading)}: expected "
+                                f"{KINDS['bearing'].describe_values()}, found {float(h[k])!r}")
+    t_ns, bad = parse_clock_times(tab.frame[m.time].tolist(), m.time_unit)
     for k in np.flatnonzero(bad)[:25]:
-        tab.problems.append(f"{tab.where(int(k), m.time)}: expected an ISO-8601 time or epoch "
-                            f"seconds, found {tab.frame[m.time].iloc[k]!r}")
+        tab.problems.append(f"{tab.where(int(k), m.time)}: "
+                            f"{clock_time_problem(tab.frame[m.time].iloc[k], m.time_unit)}")
     tab.fail()
     try:
         states, meta, t0 = _states(tab, m, t_ns, origin, dim)
@@ -311,33 +324,41 @@ def _headings(tab: _Table, column: str, rows: NDArray[np.intp]) -> NDArray[np.fl
 
 def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArray[np.float64],
               metadata: dict[str, str]) -> MeasurementSet:
+    """Make the set: the cells checked as read by the file's rules, then made true and wrapped."""
     from .log_mapping import UNITS
 
     ids = _sensor_ids(tab, m)
     parts: list[tuple[NDArray, ...]] = []
+    where: list[str] = []
     for spec in m.measurement:
         value = tab.numbers(spec.column, f"a {spec.kind} in {spec.unit}", required=False)
         sigma = (tab.numbers(spec.sigma_column, f"a sigma in {spec.unit}", required=False)
                  if spec.sigma_column else np.full(value.shape, spec.sigma))
-        for k in np.flatnonzero(np.isfinite(value) & ~(sigma > 0))[:25]:
-            tab.problems.append(f"{tab.where(int(k), spec.sigma_column or spec.column)}: "
-                                f"expected a sigma > 0, found {sigma[k]:g}")
         rows = np.flatnonzero(np.isfinite(value))
         scale, offset = UNITS[spec.kind][spec.unit]
-        si = value[rows] * scale + offset
-        if spec.reference == "relative":
-            si = si + np.deg2rad(_headings(tab, spec.column, rows))
-        if spec.kind == "bearing":
-            si = np.mod(si, 2 * np.pi)
-        parts.append((t[rows], ids[rows], np.full(rows.size, spec.kind), si,
-                      sigma[rows] * scale, states[rows]))
+        parts.append((t[rows], ids[rows], np.full(rows.size, spec.kind),
+                      value[rows] * scale + offset, sigma[rows] * scale, states[rows], rows))
+        where += [tab.where(int(k), spec.column) for k in rows]
     tab.fail()
-    cols = [np.concatenate([p[i] for p in parts]) for i in range(6)]
+    cols = [np.concatenate([p[i] for p in parts]) for i in range(7)]
     if cols[0].size == 0:
         raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing "
                                               "measured"])
-    meas = MeasurementSet.from_si(*cols, metadata=metadata, check=False).sorted()
-    rules.check_set(meas)  # the file rules, once the rows are in time order
+    raw = MeasurementSet.from_si(*cols[:6], metadata=metadata, check=False)
+    meas, kept, merged = checked_rows(tab.path, raw, where)  # the cells as read
+    true = np.array(meas.value_si)
+    spec_of = np.concatenate([np.full(p[0].size, i) for i, p in enumerate(parts)])[kept]
+    for i, spec in enumerate(m.measurement):
+        mine = np.flatnonzero(spec_of == i)
+        if spec.reference == "relative":
+            true[mine] += np.deg2rad(_headings(tab, spec.column, cols[6][kept[mine]]))
+        if spec.kind == "bearing":
+            true[mine] = np.mod(true[mine], 2 * np.pi)
+    tab.fail()
+    meas.value_si = true
+    if merged:
+        meas.metadata["duplicates_merged"] = str(merged)
+    rules.check_set(meas)  # the file rules on the set as written
     return meas
 
 
