@@ -25,7 +25,8 @@ from .units import REACH_M, SPEED_OF_LIGHT, TIME_LIMIT_S
 __all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION", "SIGMA_FLOOR",
            "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "check_set",
            "column_problems", "duplicate_rows", "far_times", "geo_within", "metadata_problems",
-           "raise_problems", "sigma_resolved", "state_within_reach", "time_within_limit"]
+           "raise_problems", "sigma_resolved", "state_within_reach", "time_problem",
+           "time_reach", "time_within_limit"]
 
 #: What a numeric cell must be.
 FINITE = "a finite number"
@@ -252,6 +253,62 @@ def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
     return far, (f"a time within {OUTLIER_SPANS:g} spans of the bulk of the times (their "
                  f"central half lies within {low:.10g} .. {high:.10g} s; a typo, another "
                  "unit or another clock)")
+
+
+def time_reach(times: NDArray[np.float64]) -> tuple[float, float, float] | None:
+    """Give the data's first and last time and how far from them a time may be asked for.
+
+    A reference time or an answer's time more than :data:`OUTLIER_SPANS` spans of the data
+    (at least 100 s) from them is refused: the positions there depend on the velocities that
+    many times over (an answer at 1e12 s would be 1e12 s of extrapolation).
+
+    Parameters
+    ----------
+    times : array_like
+        The measurement times (s).
+
+    Returns
+    -------
+    (low, high, reach) or None
+        The first and last finite time and the reach (s); None without a finite time.
+    """
+    t = np.asarray(times, dtype=float)
+    t = t[np.isfinite(t)]
+    if not t.size:
+        return None
+    low, high = float(t.min()), float(t.max())
+    return low, high, OUTLIER_SPANS * max(high - low, 1.0)
+
+
+def time_problem(time: float, times: NDArray[np.float64] | None, what: str) -> str | None:
+    """Say why a time asked for (an answer's, a reference time) cannot be used, or None.
+
+    Parameters
+    ----------
+    time : float
+        The time (s).
+    times : array_like or None
+        The measurement times (s); None: only finiteness is checked.
+    what : str
+        What the time is, for the message (``--at``, ``time``).
+
+    Returns
+    -------
+    str or None
+        The problem (not finite, or beyond :func:`time_reach` of the data), None when fine.
+    """
+    if not math.isfinite(time):
+        return f"{what} {time}: expected a finite time (s)"
+    found = None if times is None else time_reach(times)
+    if found is None:
+        return None
+    low, high, reach = found
+    if low - reach <= time <= high + reach:
+        return None
+    far = time - high if time > high else low - time
+    return (f"{what} {time:.15g}: {far:.6g} s from the measurements (t = {low:.15g} ... "
+            f"{high:.15g} s), more than {reach:.6g} s ({OUTLIER_SPANS:g} spans of the data); "
+            f"the positions at a time that far depend on the velocities {far:.3g} times over")
 
 
 def _far_time_problems(time: NDArray[np.float64]) -> list[str]:

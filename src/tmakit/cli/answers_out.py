@@ -302,4 +302,7 @@ def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> 
     if sensor is not None and sensor not in meas.sensors:
         raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
                    f"{', '.join(meas.sensors)})")
-    return source.answer(meas, sensor=sensor, **where)
+    try:
+        return source.answer(meas, sensor=sensor, **where)
+    except ValueError as e:  # a time the data cannot answer for (tmakit.rules.time_problem)
+        raise fail(str(e).replace("time ", "--at ", 1) if "time" in where else str(e)) from None

@@ -196,12 +196,6 @@ def write_or_fail(meas: Any, path: Path, force: bool) -> None:
         raise fail(str(e)) from None
 
 
-FAR_REF_SPANS = 100.0
-"""Spans of the data (at least 1 s each) beyond which a reference time is refused: the
-positions there depend on the velocities that many times over, and the fit loses digits (a
-manoeuvring target's was rank deficient at 900 spans)."""
-
-
 def file_ref_time(meas: Any) -> float | None:
     """Give the reference time a file's metadata states (s), or None (absent or empty).
 
@@ -219,7 +213,11 @@ def file_ref_time(meas: Any) -> float | None:
 
 
 def check_ref_time(ref_time: float, times: Any, source: str) -> None:
-    """Refuse a reference time farther than :data:`FAR_REF_SPANS` spans from the data.
+    """Refuse a reference time far from the data (:func:`tmakit.rules.time_problem`).
+
+    Farther than 100 spans of the data (at least 1 s each) the positions depend on the
+    velocities that many times over, and the fit loses digits (a manoeuvring target's was
+    rank deficient at 900 spans).
 
     Parameters
     ----------
@@ -235,27 +233,16 @@ def check_ref_time(ref_time: float, times: Any, source: str) -> None:
     typer.Exit
         Status 2, naming the time, the data's times and the reach.
     """
-    import numpy as np  # (not at import: ``tma --help`` loads no numerical library)
+    from ..rules import time_problem  # (not at import: ``tma --help`` loads no numpy)
 
-    if not math.isfinite(ref_time):  # (a file's own; --ref-time is checked on entry)
-        raise fail(f"{source} {ref_time}: expected a finite time (s)")
-    t = np.asarray(times, dtype=float)
-    t = t[np.isfinite(t)]
-    if not t.size:
+    problem = time_problem(ref_time, times, source)
+    if problem is None:
         return
-    low, high = float(t.min()), float(t.max())
-    reach = FAR_REF_SPANS * max(high - low, 1.0)
-    if low - reach <= ref_time <= high + reach:
-        return
-    far = ref_time - high if ref_time > high else low - ref_time
     remedy = ("give --ref-time near the data, or --motion (then the file's reference time is "
               "not used)" if source != "--ref-time"
               else "give a time near the data, in the file's time scale, or leave --ref-time "
               "out (a time near the data is chosen)")
-    raise fail(f"{source} {ref_time:.15g}: {far:.6g} s from the measurements (t = {low:.15g} "
-               f"... {high:.15g} s), more than {reach:.6g} s ({FAR_REF_SPANS:g} spans of the "
-               f"data); the positions at a time that far depend on the velocities {far:.3g} "
-               f"times over and the fit would lose its digits: {remedy}")
+    raise fail(f"{problem} and the fit would lose its digits: {remedy}")
 
 
 def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -> Any:

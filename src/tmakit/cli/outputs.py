@@ -61,7 +61,7 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
     """
     if path is None:
         return None
-    path = Path(path)
+    given, path = path, Path(path)
     suffixes = _FORMATS[kind]
     if kind == "picture" and path.suffix == "" and not path.is_dir():
         path = path.with_name(path.name + ".png")  # what matplotlib would write
@@ -87,12 +87,55 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
     if not os.access(parent, os.W_OK | os.X_OK):
         raise fail(f"{option} {path}: the folder {parent} cannot be written")
     if path.exists():
-        for source in inputs:
-            if Path(source).exists() and Path(source).resolve() == path.resolve():
-                raise fail(f"{option} {path}: is the input file; write to another file")
+        for source in [*inputs, *_command_inputs(given)]:
+            if Path(source).is_file() and _same_file(Path(source), path):
+                raise fail(f"{option} {path}: is the input file {source} of this command; it "
+                           "is never written over, --force or not: write to another file")
         if not force:
             raise fail(f"{path} already exists; use --force to overwrite it")
     return path
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+#: The arguments of the running command, by name (set by :func:`tmakit.cli.guard.guarded`).
+_ARGUMENTS: dict[str, Any] = {}
+
+
+def note_arguments(arguments: dict[str, Any]) -> None:
+    """Remember the running command's arguments: the files they name are its inputs.
+
+    Parameters
+    ----------
+    arguments : dict
+        The command's parameters by name, as it was called.
+    """
+    _ARGUMENTS.clear()
+    _ARGUMENTS.update(arguments)
+
+
+def _command_inputs(given: object) -> list[Path]:
+    """Every file named by the running command's arguments other than the output ``given``.
+
+    Whatever a command declares as its inputs, a file named anywhere else on its command
+    line is not written over; names that are not existing files are skipped.
+    """
+    named: list[Path] = []
+    for values in _ARGUMENTS.values():
+        for value in values if isinstance(values, list | tuple) else [values]:
+            if value is given or not isinstance(value, str | Path) or not str(value):
+                continue
+            try:
+                if Path(value).is_file():
+                    named.append(Path(value))
+            except (OSError, ValueError):
+                continue
+    return named
 
 
 def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool,

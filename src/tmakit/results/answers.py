@@ -392,11 +392,22 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     -------
     Answer
         The emitter at ``time``.
+
+    Raises
+    ------
+    ValueError
+        If ``time`` is not finite, or farther from the measurements than 100 spans of them
+        (:func:`tmakit.rules.time_problem`).
     """
+    from ..rules import time_problem
+
     motion = result.motion  # type: ignore[attr-defined]
     if time is None:
         time = (float(np.max(meas.time)) if meas is not None and len(meas)
                 else float(getattr(motion, "ref_time", 0.0)))
+    problem = time_problem(float(time), None if meas is None else meas.time, "time")
+    if problem is not None:
+        raise ValueError(problem)
     theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
     t = np.array([float(time)])
     null = None
