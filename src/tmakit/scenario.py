@@ -332,8 +332,16 @@ class Scenario:
         return template, template.value_si.astype(int)
 
     def _refuse_coincident(self, plan: MeasurementPlan, rows: MeasurementSet) -> None:
-        """Refuse a target exactly at a sensor (bearings and ranges undefined there)."""
-        target = np.asarray(self.motion.states(self.theta, rows.time), dtype=float)[:, :3]
+        """Refuse a target out of reach (the file's rules) or exactly at a sensor."""
+        with np.errstate(all="ignore"):
+            states = np.asarray(self.motion.states(self.theta, rows.time), dtype=float)
+        for j, name in enumerate(("x", "y", "z", "vx", "vy", "vz")[:states.shape[1]]):
+            bad = np.flatnonzero(~rules.state_within_reach(states[:, j], j))
+            if bad.size:
+                what = rules.POSITION if j < 3 else rules.VELOCITY
+                raise ValueError(f"the target's {name} at t = {rows.time[bad[0]]:g} s is "
+                                 f"{states[bad[0], j]:g}: expected {what}")
+        target = states[:, :3]
         at = np.flatnonzero(np.all(target == rows.sensor_state[:, :3], axis=1))
         if at.size:
             raise ValueError(f"the target is exactly at sensor {plan.sensor!r} at t = "

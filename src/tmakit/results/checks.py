@@ -15,7 +15,10 @@ The rules, stated once:
   :data:`FAR_FROM_ORIGIN` metres from the ENU origin (the flat local frame then departs from the
   Earth: the ground drops ``d^2 / 2R``, 785 m at 100 km, and North turns by the meridians'
   convergence), or an estimated position farther than that and farther than
-  :data:`FAR_FACTOR` times the farthest sensor (a sign of an unobservable or mis-specified fit).
+  :data:`FAR_FACTOR` times the farthest sensor (a sign of an unobservable or mis-specified fit);
+* **implausible speed** (``implausible-speed``): an estimated speed above :data:`FAST_SPEED`
+  (faster than any craft near the Earth): times in another unit (1e-12 s apart), or a fit the
+  data do not determine.
 """
 
 from __future__ import annotations
@@ -44,6 +47,11 @@ FAR_FACTOR = 10.0
 """An estimate this many times farther than the farthest sensor is warned about."""
 
 
+FAST_SPEED = 1e4
+"""An estimated speed (m/s) above this is warned about: 10 km/s, faster than an orbiting
+satellite (7.8 km/s) or any missile."""
+
+
 @dataclass(frozen=True)
 class SanityWarning:
     """A warning about the data or a fit.
@@ -51,7 +59,8 @@ class SanityWarning:
     Parameters
     ----------
     code : str
-        ``improbable-chi2``, ``radians``, ``far-sensor`` or ``far-estimate``.
+        ``improbable-chi2``, ``radians``, ``far-sensor``, ``far-estimate`` or
+        ``implausible-speed``.
     message : str
         The sentence for the user: what was seen, the rule, and what to do.
     """
@@ -238,7 +247,8 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     Returns
     -------
     list of SanityWarning
-        Improbable chi-square, radians, far sensors, far estimate; empty when all is well.
+        Improbable chi-square, radians, far sensors, far estimate, implausible speed; empty
+        when all is well.
     """
     found = measurement_warnings(meas)
     w = chi2_warning(float(result.chi2), int(result.dof))  # type: ignore[attr-defined]
@@ -251,6 +261,14 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
         far = estimate_distance_warning(state[:3], meas)
         if far is not None:
             found.append(far)
+        speed = float(np.linalg.norm(state[3:6]))
+        if not speed <= FAST_SPEED:
+            span = float(np.max(meas.time) - np.min(meas.time))
+            found.append(SanityWarning("implausible-speed", (
+                f"the estimated speed, {speed:.3g} m/s, is faster than any craft near the "
+                f"Earth (more than {FAST_SPEED:g} m/s): the answer is not to be trusted. Are "
+                f"the times in seconds (the data span {span:.3g} s)? Otherwise the data do "
+                "not determine the motion (try a simpler --motion, or more data)")))
     return found
 
 

@@ -106,10 +106,16 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
         axes = "qx,qy" if dim == 2 else "qx,qy,qz"
         raise TrackingError(f"{{q}}: expected one value or {dim} per-axis values ({axes}) for "
                             f"a {dim}-D track, got {len(values)}", "q", ["q"])
-    if not all(np.isfinite(v) and v >= 0 for v in values):
-        raise TrackingError(f"{{q}}: process noise must be finite and >= 0 m/s^2, got "
+    if not all(np.isfinite(v) and 0 <= v <= MAX_ACCELERATION for v in values):
+        raise TrackingError(f"{{q}}: process noise must be an acceleration std within [0, "
+                            f"{MAX_ACCELERATION:g}] m/s^2 (1000 g: beyond any vehicle), got "
                             f"{values}", "q", ["q"])
     return tuple(float(v) for v in values)
+
+
+#: The largest process noise (acceleration std, m/s^2) a track takes: 1000 g.  Beyond it
+#: the filter ignores its own motion model and the number is a unit mistake or garbage.
+MAX_ACCELERATION = 1e4
 
 
 def state_vector(values: Mapping[str, float] | ArrayLike, names: tuple[str, ...],
