@@ -202,7 +202,8 @@ def test_epoch_and_iso_clock_times():
 
 @pytest.mark.parametrize(("edit", "expect"), [
     (lambda s: s.replace("2026-05-04T09:30:03.000Z", "09h30"),
-     "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds (since 1970-01-01 UTC) between 1970 and 2200, found '09h30'"),
+     "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds (since "
+     "1970-01-01 UTC) between 1970 and 2200, found '09h30'"),
     (lambda s: s.replace(",47.95", ",97.95", 1),
      "row 1 (line 2), column 'lat': expected a latitude within [-90, 90] deg, found 97.95"),
     (lambda s: s.replace("rssi_dbm", "rssi"), "column 'rssi_dbm' (power in dBm) is missing"),

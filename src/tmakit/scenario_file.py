@@ -394,6 +394,11 @@ def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> Planning
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
+    from .input_files import binary_problem, not_regular_problem
+
+    problem = not_regular_problem(path) or (path.is_file() and binary_problem(path))
+    if problem:
+        raise ScenarioFileError(f"{path}: {problem}")
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:

@@ -73,3 +73,25 @@ def reader_notes(metadata: dict[str, str], pop: bool = False) -> list[str]:
     """
     text = metadata.pop(READER_NOTES_KEY, "") if pop else metadata.get(READER_NOTES_KEY, "")
     return [n for n in text.split(NOTES_SEPARATOR) if n]
+
+
+def refuse_unreadable(path: Path, binary: bool = False) -> None:
+    """Refuse, before reading, a path that is no regular file, or binary where text is due.
+
+    Parameters
+    ----------
+    path : Path
+        An existing path.
+    binary : bool, optional
+        The format is binary (Parquet): only the regular-file rule applies.
+
+    Raises
+    ------
+    MeasurementFileError
+        Naming the file and what it is (:mod:`tmakit.input_files`).
+    """
+    from ..input_files import binary_problem, not_regular_problem
+
+    problem = not_regular_problem(path) or (None if binary else binary_problem(path))
+    if problem is not None:
+        raise MeasurementFileError(path, [problem])

@@ -209,13 +209,21 @@ def load_mapping(path: str | os.PathLike[str]) -> LogMapping:
         If the file is missing, not TOML (naming the line) or not a valid mapping (naming
         the key).
     """
+    from ..input_files import binary_problem, not_regular_problem
+
     path = Path(path)
+    problem = not_regular_problem(path) or (path.is_file() and binary_problem(path))
+    if problem:
+        raise MappingError(f"{path}: {problem}")
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise MappingError(f"{path}: no such mapping file") from None
     except tomllib.TOMLDecodeError as e:
         raise MappingError(f"{path}: not valid TOML ({e})") from None
+    except UnicodeDecodeError as e:
+        raise MappingError(f"{path}: not a UTF-8 text (TOML) file ({e.reason} at byte "
+                           f"{e.start})") from None
     try:
         return LogMapping.model_validate(data).resolve_track(path.parent)
     except ValidationError as e:

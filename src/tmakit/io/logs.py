@@ -4,7 +4,8 @@ The readers of Debrief, GPX, NMEA and wide logs (:mod:`.debrief`, :mod:`.nav_tra
 :mod:`.wide_log`) turn a platform's fixes (UTC clock time, latitude, longitude, altitude) into
 tmakit's sensor states (ENU m, m/s) and seconds, all in the same way:
 
-- **Clock time.** Times are read as UTC nanoseconds (integers).  The set's time origin is the
+- **Clock time.** Times are read as UTC nanoseconds (integers), within plausible years
+  (:mod:`.epoch_times`).  The set's time origin is the
   first time of the file, floored to the whole second; ``t`` (s) is the difference, computed
   in integers before it becomes a float, so absolute epoch times never enter the numerics.
   The origin is recorded as ``time_origin`` (ISO-8601 UTC) in the set's metadata.
@@ -25,23 +26,33 @@ tmakit's sensor states (ENU m, m/s) and seconds, all in the same way:
 
 from __future__ import annotations
 
-import re
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:  # pragma: no cover
-    from ..data import MeasurementSet
+from .epoch_times import parse_clock_times
 
-__all__ = ["KNOT", "SURFACE_TOLERANCE_M", "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame",
-           "EPOCH_UNITS", "PLAUSIBLE_YEARS", "checked_rows", "clock_time_problem", "clock_times",
-           "fix_problems",
-           "course_speed_velocity", "interpolate_heading", "interpolate_states",
-           "iso_utc", "local_frame", "parse_clock_times", "relative_seconds", "surface_dim",
-           "time_origin_ns", "velocity_from_positions"]
+__all__ = [
+    "KNOT",
+    "SURFACE_TOLERANCE_M",
+    "VELOCITY_WINDOW_S",
+    "YARD",
+    "Fixes",
+    "LocalFrame",
+    "clock_times",
+    "course_speed_velocity",
+    "interpolate_heading",
+    "interpolate_states",
+    "iso_utc",
+    "local_frame",
+    "parse_clock_times",
+    "relative_seconds",
+    "surface_dim",
+    "time_origin_ns",
+    "velocity_from_positions",
+]
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
 #: (2-D) unless 3-D is asked for: GPS altitude noise is a few metres (1 sigma) and a ship's
@@ -251,103 +262,6 @@ def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int
     return LocalFrame((lat0, lon0, alt0), altitude_reference, d, rule, source)
 
 
-#: Nanoseconds per unit of an epoch time column (a mapping's ``time_unit``).
-EPOCH_UNITS = {"s": 1_000_000_000, "ms": 1_000_000, "us": 1_000, "ns": 1}
-_UNIT_NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
-#: Clock times are refused outside these years (UTC): an epoch number in another unit than
-#: the one stated lands far outside them (milliseconds read as seconds: year 58000).
-PLAUSIBLE_YEARS = (1970, 2200)
-_LATEST_NS = int((np.datetime64(f"{PLAUSIBLE_YEARS[1]}-01-01", "ns")
-                  - np.datetime64("1970-01-01", "ns")).astype(np.int64))
-
-
-def parse_clock_times(values: Sequence[object], unit: str = "s"
-                      ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """Read clock times: ISO-8601 text (UTC unless it names a zone) or epoch numbers.
-
-    Every time must fall within :data:`PLAUSIBLE_YEARS`; one outside (an overflow, a number
-    in another unit than ``unit``) is unreadable, never wrapped or clipped.
-
-    Parameters
-    ----------
-    values : sequence
-        The cells: text such as ``2026-05-04T10:00:00.5Z`` or ``2026-05-04 10:00:00+02:00``,
-        or numbers since 1970-01-01 UTC in ``unit``.
-    unit : str, optional
-        The unit of the numbers: ``s`` (default), ``ms``, ``us`` or ``ns``
-        (:data:`EPOCH_UNITS`).
-
-    Returns
-    -------
-    time_ns : numpy.ndarray of int64
-        UTC nanoseconds since 1970-01-01 (0 where unreadable).
-    bad : numpy.ndarray of bool
-        The unreadable or implausible cells (:func:`clock_time_problem` says why).
-    """
-    import pandas as pd
-
-    per = EPOCH_UNITS[unit]
-    series = pd.Series(list(values), dtype=object)
-    numbers = pd.to_numeric(series, errors="coerce")
-    out = np.zeros(len(series), dtype=np.int64)
-    bad = np.zeros(len(series), dtype=bool)
-    as_float = numbers.to_numpy(float, na_value=np.nan)
-    is_number = np.isfinite(as_float)
-    if is_number.any():
-        with np.errstate(invalid="ignore", over="ignore"):
-            inside = is_number & (as_float >= 0) & (as_float * per < _LATEST_NS)
-        if pd.api.types.is_integer_dtype(numbers.dtype):  # exact, whatever the unit
-            out[inside] = numbers.to_numpy(np.int64)[inside] * per
-        else:
-            v = as_float[inside]
-            whole = np.floor(v)
-            out[inside] = (whole.astype(np.int64) * per
-                           + np.round((v - whole) * per).astype(np.int64))
-        bad |= is_number & ~inside
-    text = ~is_number
-    if text.any():
-        stamps = pd.to_datetime(series[text].astype(str).str.strip(), utc=True, errors="coerce",
-                                format="ISO8601")
-        ns = stamps.dt.tz_convert("UTC").dt.tz_localize(None).astype("datetime64[ns]")
-        values_ns = ns.to_numpy().astype(np.int64)
-        ok = stamps.notna().to_numpy() & (values_ns >= 0) & (values_ns < _LATEST_NS)
-        out[np.flatnonzero(text)[ok]] = values_ns[ok]
-        bad[np.flatnonzero(text)[~ok]] = True
-    return out, bad
-
-
-def clock_time_problem(cell: object, unit: str = "s") -> str:
-    """Say what a clock time cell should have been, and what it seems to be.
-
-    Parameters
-    ----------
-    cell : object
-        The cell :func:`parse_clock_times` refused.
-    unit : str, optional
-        The unit stated for epoch numbers.
-
-    Returns
-    -------
-    str
-        ``expected ..., found ...`` with, for a number, the unit that would make it a
-        plausible date.
-    """
-    low, high = PLAUSIBLE_YEARS
-    expected = (f"expected an ISO-8601 time or epoch {_UNIT_NAMES[unit]} (since 1970-01-01 "
-                f"UTC) between {low} and {high}")
-    try:
-        v = float(str(cell))
-    except ValueError:
-        return f"{expected}, found {cell!r}"
-    if not np.isfinite(v):
-        return f"{expected}, found {cell!r}"
-    fits = [u for u, per in EPOCH_UNITS.items() if 0 <= v * per < _LATEST_NS
-            and v * per >= _LATEST_NS / 1e3]  # a date after 1970 + 0.23 years
-    hint = f" (as epoch {_UNIT_NAMES[fits[0]]} it is a date: give time_unit = \"{fits[0]}\" in the mapping)" \
-        if fits and fits[0] != unit else ""
-    return f"{expected}, found {cell!r}{hint}"
-
-
 def time_origin_ns(*times: NDArray[np.int64]) -> int:
     """Return the time origin: the earliest time given, floored to the whole second.
 
@@ -548,137 +462,3 @@ KNOT = 1852.0 / 3600.0
 YARD = 0.9144
 
 
-#: Problems listed per rule (as the wide-log reader lists its cells).
-_LISTED = 25
-#: What each column of a set is, in the words of a log's problem.
-_SET_COLUMNS = {"time": "time", "value": "value", "sigma": "sigma", "time_ref": "time_ref",
-                "sensor_x": "sensor east position", "sensor_y": "sensor north position",
-                "sensor_z": "sensor height", "sensor_vx": "sensor east velocity",
-                "sensor_vy": "sensor north velocity", "sensor_vz": "sensor up velocity"}
-_ROW = re.compile(r"^row (\d+), column '(\w+)': ")
-
-
-def fix_problems(fixes: Fixes, where: Callable[[int, str], str]) -> list[str]:
-    """Check a track's fixes by the rules of a measurement file (:mod:`tmakit.rules`).
-
-    Latitude and longitude in range, altitude finite and within reach, velocity below the
-    speed of light, heading a bearing, time a plausible date.
-
-    Parameters
-    ----------
-    fixes : Fixes
-        The fixes.
-    where : callable
-        ``where(k, quantity)`` names a value of fix ``k`` in its file (``line 12,
-        latitude``); the quantities are ``latitude``, ``longitude``, ``altitude``,
-        ``velocity``, ``heading`` and ``time``.
-
-    Returns
-    -------
-    list of str
-        One problem per bad value (at most 25 per rule).
-    """
-    from .. import rules
-    from ..measurements import KINDS
-
-    checks: list[tuple[NDArray[np.float64], str, str, Callable]] = [
-        (fixes.lat, "latitude", rules.LATITUDE, lambda v: rules.geo_within(v, "sensor_lat")),
-        (fixes.lon, "longitude", rules.LONGITUDE, lambda v: rules.geo_within(v, "sensor_lon")),
-        (fixes.alt, "altitude", rules.POSITION, lambda v: rules.state_within_reach(v, 2))]
-    if fixes.velocity is not None:
-        checks += [(fixes.velocity[:, j], "velocity", rules.VELOCITY,
-                    lambda v: rules.state_within_reach(v, 3)) for j in range(3)]
-    found: list[str] = []
-    for values, name, expected, ok in checks:
-        values = np.asarray(values, float)
-        with np.errstate(invalid="ignore"):
-            bad = np.flatnonzero(~(np.isfinite(values) & ok(values)))
-        found += [f"{where(int(k), name)}: expected {expected}, found {float(values[k])!r}"
-                  for k in bad[:_LISTED]]
-    if fixes.heading is not None:
-        h = np.asarray(fixes.heading, float)
-        bad = np.flatnonzero(~np.isnan(h) & ~KINDS["bearing"].check_values(h))
-        found += [f"{where(int(k), 'heading')}: expected "
-                  f"{KINDS['bearing'].describe_values()}, found {float(h[k])!r}" for k in bad[:_LISTED]]
-    t = np.asarray(fixes.time_ns, np.int64)
-    bad = np.flatnonzero((t < 0) | (t >= _LATEST_NS))
-    found += [f"{where(int(k), 'time')}: expected a date between {PLAUSIBLE_YEARS[0]} and "
-              f"{PLAUSIBLE_YEARS[1]}" for k in bad[:_LISTED]]
-    return found
-
-
-def checked_rows(path: object, meas: MeasurementSet, where: Sequence[str]
-                 ) -> tuple[MeasurementSet, NDArray[np.intp], int]:
-    """Check a log's rows by the rules of a measurement file, and merge repeated rows.
-
-    The one set of rules (:func:`tmakit.rules.column_problems`: finite, each kind's range,
-    sigma, positions, far times) is applied to the rows as read (bearings not yet wrapped),
-    each problem named by its place in the log.  Rows that repeat an earlier row's (sensor,
-    kind, time) are merged when they also repeat its value and sigma (the same measurement
-    written twice: one is kept, the count returned); with another value they are refused,
-    naming both places (two values at one time cannot both be measurements).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The log (named in the error).
-    meas : MeasurementSet
-        The rows, built with ``check=False``, in any order.
-    where : sequence of str
-        Each row's place in the log (``line 12``, ``row 3 (line 4), column 'rssi'``).
-
-    Returns
-    -------
-    meas : MeasurementSet
-        The rows grouped by sensor in time order, repeats merged.
-    rows : ndarray of int
-        The index in the input of each row kept.
-    merged : int
-        The rows merged into an earlier one.
-
-    Raises
-    ------
-    MeasurementFileError
-        Listing every problem.
-    """
-    from .. import rules
-    from .errors import MeasurementFileError
-
-    rank_of_code = np.zeros(len(meas.sensor_names), dtype=np.intp)
-    for rank, name in enumerate(meas.sensors):
-        rank_of_code[meas.sensor_names.index(name)] = rank
-    order = np.lexsort((meas.time, rank_of_code[meas.sensor_code]))
-    ordered = meas.take(order)
-    found = [_readdressed(p, where, order) for p in rules.column_problems(
-        ordered.time, ordered.sensor_code, ordered.kind_code, ordered.value, ordered.sigma,
-        ordered.sensor_state, ordered.time_ref, order=False)]
-    far, expected = rules.far_times(ordered.time)
-    found += [f"{where[order[k]]}: time: expected {expected}, found {ordered.time[k]:.10g} s"
-              for k in np.flatnonzero(far)[:_LISTED]]
-    drop = []
-    for row, first in rules.duplicate_rows(ordered.time, ordered.sensor_code,
-                                          ordered.kind_code, ordered.time_ref):
-        if (ordered.value[row] == ordered.value[first]
-                and ordered.sigma[row] == ordered.sigma[first]):
-            drop.append(row)
-        elif len(found) < 3 * _LISTED:
-            found.append(f"{where[order[row]]}: a second {ordered.kind[row]} of sensor "
-                         f"'{ordered.sensor[row]}' at the time of {where[order[first]]} "
-                         f"({float(ordered.value[row])!r} against {float(ordered.value[first])!r}): two "
-                         "values at one time cannot both be measurements (a time rounded to "
-                         "the second? give its fractions)")
-    if found:
-        raise MeasurementFileError(path, found)  # type: ignore[arg-type]
-    keep = np.setdiff1d(np.arange(len(ordered)), np.array(drop, dtype=np.intp))
-    return ordered.take(keep), order[keep], len(drop)
-
-
-def _readdressed(problem: str, where: Sequence[str], order: NDArray[np.intp]) -> str:
-    """Name a rules problem (``row N, column 'c': ...``) by the row's place in its log."""
-    m = _ROW.match(problem)
-    if m is None:
-        return problem
-    row, column = int(m.group(1)) - 1, m.group(2)
-    if column == "value":  # the place names the cell
-        return f"{where[order[row]]}: {problem[m.end():]}"
-    return f"{where[order[row]]}, {_SET_COLUMNS.get(column, column)}: {problem[m.end():]}"

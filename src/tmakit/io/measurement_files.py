@@ -31,7 +31,7 @@ from typing import Any
 from ..data import MeasurementSet
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .contract import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
-from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError
+from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable
 from .formats import find_format, registered_formats, suffix_text
 
 __all__ = [
@@ -94,6 +94,8 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
             f"{suffix_text(registered_formats(reading=True))}"])
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
+    refuse_unreadable(path, binary=fmt.name == "parquet" or path.suffix.lower() in (
+        ".parquet", ".pq"))  # a FIFO, a device, NUL bytes in a text format: at once
     return fmt.read(path, origin=origin, **options)
 
 

@@ -27,8 +27,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import MeasurementFileError
-from .logs import KNOT, Fixes, fix_problems, iso_utc
+from .errors import MeasurementFileError, refuse_unreadable
+from .log_rules import fix_problems
+from .logs import KNOT, Fixes, iso_utc
 
 __all__ = ["read_gpx_fixes", "read_nmea_fixes", "read_track_fixes"]
 
@@ -212,6 +213,7 @@ def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:
     path = Path(path)
     if not path.exists():
         raise MeasurementFileError(path, ["no such track file"])
+    refuse_unreadable(path)
     if path.suffix.lower() == ".gpx":
         fixes = read_gpx_fixes(path)
         found = fix_problems(fixes, lambda k, q: f"point at {iso_utc(int(fixes.time_ns[k]))}, {q}")

@@ -27,14 +27,13 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 from ..measurements import KINDS
-from .errors import MeasurementFileError
+from .epoch_times import clock_time_problem
+from .errors import MeasurementFileError, refuse_unreadable
 from .formats import Format, register_format
+from .log_rules import checked_rows, fix_problems
 from .logs import (
     Fixes,
     LocalFrame,
-    checked_rows,
-    clock_time_problem,
-    fix_problems,
     interpolate_heading,
     interpolate_states,
     iso_utc,
@@ -95,6 +94,9 @@ class _Table:
 def _load(path: Path) -> _Table:
     import pandas as pd
 
+    if not path.exists():
+        raise MeasurementFileError(path, ["no such file"])
+    refuse_unreadable(path, binary=path.suffix.lower() in (".parquet", ".pq"))
     if path.suffix.lower() in (".parquet", ".pq"):
         try:
             return _Table(path, pd.read_parquet(path).reset_index(drop=True), None)

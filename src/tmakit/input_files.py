@@ -1,0 +1,66 @@
+"""What any file tmakit reads must be before it is read: a regular file, and text if text.
+
+A FIFO with no writer, a terminal or a device would block the reader forever (or read
+without end); a binary file given where text is expected (2 GB of NUL bytes as a CSV) would
+be parsed for minutes before failing.  Both are refused at once, naming the file: the first
+:data:`SNIFF_BYTES` of a text file are read and a NUL byte in them ends the read.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+__all__ = ["SNIFF_BYTES", "binary_problem", "not_regular_problem"]
+
+#: Bytes read from the start of a text file to tell it from a binary one.
+SNIFF_BYTES = 1 << 16
+
+
+def not_regular_problem(path: str | os.PathLike[str]) -> str | None:
+    """Say why an existing path cannot be read as a file, or None.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The path (not opened: a FIFO is never opened here).
+
+    Returns
+    -------
+    str or None
+        ``is a folder``, ``is a FIFO (named pipe)``, ... with what to do; None for a regular
+        file or a path that does not exist (the reader says so).
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    what = ("a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
+            else "a socket" if stat.S_ISSOCK(mode) else "a device")
+    return (f"is {what}, not a regular file: tmakit reads files (write the data to a file "
+            "first)")
+
+
+def binary_problem(path: str | os.PathLike[str]) -> str | None:
+    """Say why a regular file is not text (a NUL byte near its start), or None.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A regular file.
+
+    Returns
+    -------
+    str or None
+        The problem, naming the byte, or None when the first :data:`SNIFF_BYTES` hold no NUL.
+    """
+    with open(Path(path), "rb") as f:
+        head = f.read(SNIFF_BYTES)
+    at = head.find(b"\x00")
+    if at < 0:
+        return None
+    return (f"is not a text file (a NUL byte at byte {at}): a binary file where text (CSV, "
+            "TOML, NMEA, GPX, Debrief) was expected")
