@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from .common import err, fail, load_scenario_or_fail, out, print_wide
-from .outputs import check_outputs
+from .outputs import check_outputs, claim_outputs
 
 #: Default limit of ``--runs`` (raise with ``--max-runs``).
 MAX_RUNS = 1_000_000
@@ -52,35 +53,61 @@ def montecarlo(
         raise fail(f"--runs {runs:,}: more than the limit of {max_runs:,} runs; raise it with "
                    "--max-runs")
     scn = load_scenario_or_fail(scenario)
+    with claim_outputs([output, json_file, partial]):  # a second run to them is refused now
+        res = _study(scn, partial, estimator=estimator, runs=runs, seed=seed,
+                     known_nuisance=known_nuisance, progress=not no_progress, dask=dask,
+                     chunk=chunk, workers=workers)
+        print_summary(res)
+        _write_results(res, output, json_file, force)
+
+
+def _study(scn: Any, partial: Path | None, **options: Any) -> Any:
+    """Run the study; on any failure the finished runs go to ``partial`` first."""
     from ..montecarlo import monte_carlo
 
     finished: list[Any] = []
     try:
-        res = monte_carlo(scn, estimator=estimator, runs=runs, seed=seed,
-                          known_nuisance=known_nuisance, progress=not no_progress,
-                          dask=dask, chunk=chunk, on_chunk=finished.append,
-                          workers=workers)
+        return monte_carlo(scn, on_chunk=finished.append, **options)
     except (ValueError, ImportError) as e:
         save_partial(finished, scn, partial)
         raise fail(str(e)) from None
     except OSError as e:  # the Dask scheduler cannot be reached
         save_partial(finished, scn, partial)
-        raise fail(f"Dask scheduler {dask}: {e}") from None
+        raise fail(f"Dask scheduler {options.get('dask')}: {e}") from None
     except BaseException:  # interrupted, or an internal error: keep the finished runs
         save_partial(finished, scn, partial)
         raise
-    print_summary(res)
-    if output is not None:
-        from ..io.study_files import write_study_table
 
-        write_study_table(res, output, force=force)
-        out.print(f"wrote {output}", highlight=False)
-    if json_file is not None:
-        from ..io import atomic_write
 
-        with atomic_write(json_file, force=force) as tmp:
+def _write_results(res: Any, output: Path | None, json_file: Path | None,
+                   force: bool) -> None:
+    """Write the table and the JSON; a file that appeared meanwhile: the results go beside it."""
+    from ..io import atomic_write
+    from ..io.study_files import write_study_table
+
+    def write_json(path: Path, force: bool) -> None:
+        with atomic_write(path, force=force) as tmp:
             tmp.write_text(res.to_json() + "\n")
-        out.print(f"wrote {json_file}", highlight=False)
+
+    def write_table(path: Path, force: bool) -> None:
+        write_study_table(res, path, force=force)
+
+    lost = False
+    for path, write in ((output, write_table), (json_file, write_json)):
+        if path is None:
+            continue
+        try:
+            write(path, force)
+            out.print(f"wrote {path}", highlight=False)
+        except FileExistsError:  # written by another program while the study ran
+            elsewhere = path.with_name(f"{path.stem}.{os.getpid()}{path.suffix}")
+            write(elsewhere, False)
+            err.print(f"error: {path} appeared while the study ran (another program wrote "
+                      f"it); nothing was written over: the results are in {elsewhere}",
+                      highlight=False, soft_wrap=True)
+            lost = True
+    if lost:
+        raise typer.Exit(1)
 
 
 def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:

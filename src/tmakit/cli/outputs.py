@@ -11,15 +11,16 @@ Nothing numerical is imported here.
 
 from __future__ import annotations
 
+import contextlib
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 from .common import fail
 
 __all__ = ["PICTURE_SUFFIXES", "TABLE_SUFFIXES", "check_output", "check_outputs",
-           "write_picture"]
+           "claim_outputs", "write_picture"]
 
 #: Suffixes of pictures (matplotlib's formats that tmakit promises).
 PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -173,6 +174,71 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool,
             seen[key] = option
         resolved.append(p)
     return resolved
+
+
+def _lock_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.tma-lock")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process: alive
+        return True
+    return True
+
+
+@contextlib.contextmanager
+def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
+    """Hold the outputs of a long command for it alone while it runs (a lock file beside each).
+
+    A second ``tma`` run writing to the same file is refused at its start, naming the run
+    that holds it, instead of failing after its work (its finished runs lost).  The lock is
+    ``.NAME.tma-lock`` beside the output, holding the process id; a lock whose process has
+    ended is taken over.
+
+    Parameters
+    ----------
+    paths : iterable of Path or None
+        The outputs (checked by :func:`check_output`); None entries are skipped.
+
+    Yields
+    ------
+    None
+        While the outputs are held.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when another running process holds one of them.
+    """
+    held: list[Path] = []
+    try:
+        for path in (p for p in paths if p is not None):
+            lock = _lock_path(path)
+            for _ in range(2):
+                try:
+                    fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+                except FileExistsError:
+                    try:
+                        pid = int(lock.read_text().strip() or "0")
+                    except (OSError, ValueError):
+                        pid = 0
+                    if pid and _alive(pid):
+                        raise fail(f"{path}: another tma run (process {pid}) is writing it; "
+                                   f"write to another file, or wait (its lock: {lock})") from None
+                    lock.unlink(missing_ok=True)  # the run that held it has ended
+                    continue
+                with os.fdopen(fd, "w") as f:
+                    f.write(f"{os.getpid()}\n")
+                held.append(lock)
+                break
+        yield
+    finally:
+        for lock in held:
+            lock.unlink(missing_ok=True)
 
 
 def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
