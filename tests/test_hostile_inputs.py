@@ -1,0 +1,95 @@
+"""Hostile inputs through every door (issue 26): refused or warned, never accepted as sense.
+
+Each case named by the issue is a test (``benchmarks/hostile_inputs.py``, its ``fast``
+cases, run in this process); the script runs them all, and more, through ``tma`` itself.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import tmakit as tk
+from tmakit.cli import app
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
+import hostile_inputs as hostile
+
+NAMED = [c for c in hostile.CASES if c.fast]
+
+
+@pytest.mark.parametrize("case", NAMED, ids=[c.name for c in NAMED])
+def test_a_hostile_input_named_by_the_issue_is_refused_or_warned(tmp_path, case):
+    outcome, said = hostile.run_case(case, tmp_path, in_process=True)
+    assert outcome == case.due, said
+
+
+def test_the_script_counts_nonsense_tracebacks_and_overwritten_inputs(tmp_path):
+    """The classifier itself: an accepting command, an input changed, a refusal."""
+    accept = hostile.Case("accepted", lambda f: ["show", str(hostile.simulated(f))])
+    overwrite = hostile.Case("overwritten", lambda f: (
+        hostile.simulated(f), ["simulate", "bearings-only-2d", "-o", str(f / "obs.csv"),
+                               "--force"])[-1])
+    refuse = hostile.Case("refused", lambda f: ["show", str(f / "none.csv")])
+    counts = hostile.run_all([accept, overwrite, refuse], tmp_path, verbose=False,
+                             in_process=True)
+    assert counts == {"accepted nonsense": 1, "input overwritten": 1, "ok": 1}
+
+
+def test_a_second_montecarlo_run_into_a_held_file_is_refused_and_a_stale_hold_is_taken(
+        tmp_path):
+    out = tmp_path / "runs.csv"
+    lock = tmp_path / ".runs.csv.tma-lock"
+    lock.write_text(f"{os.getppid()}\n")  # a live process holds it
+    runner = CliRunner()
+    held = runner.invoke(app, ["montecarlo", "gu2007", "--runs", "3", "--no-progress",
+                               "-o", str(out)])
+    assert held.exit_code == 2 and "another tma run" in held.output
+    assert not out.exists()
+    lock.write_text("999999999\n")  # no such process: the run that held it has ended
+    taken = runner.invoke(app, ["montecarlo", "gu2007", "--runs", "3", "--no-progress",
+                                "-o", str(out)])
+    assert taken.exit_code == 0, taken.output
+    assert out.exists() and not lock.exists()
+
+
+def test_rows_written_twice_are_merged_and_two_values_at_one_time_refused(tmp_path):
+    hostile.examples(tmp_path)
+    log = tmp_path / "bearings.csv"
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join([*lines[:5], lines[4], *lines[5:]]) + "\n")  # row 4 twice
+    meas = tk.read_measurements(tmp_path / "own.gpx", measurements=log,
+                                mapping=tmp_path / "bearings.toml")
+    assert len(meas) == len(lines) - 1 and meas.metadata["duplicates_merged"] == "1"
+    t, b = lines[4].split(",")
+    log.write_text("\n".join([*lines[:5], f"{t},{float(b) + 3}", *lines[5:]]) + "\n")
+    with pytest.raises(tk.io.MeasurementFileError, match=r"row 5 \(line 6\).*at the time "
+                       r"of row 4 \(line 5\).*two values at one time"):
+        tk.read_measurements(tmp_path / "own.gpx", measurements=log,
+                             mapping=tmp_path / "bearings.toml")
+
+
+@pytest.mark.parametrize(("unit", "scale"), [("s", 1), ("ms", 10**3), ("us", 10**6),
+                                             ("ns", 10**9)])
+def test_epoch_times_in_each_unit_give_the_same_set_and_the_wrong_unit_is_named(
+        tmp_path, unit, scale):
+    hostile.examples(tmp_path)
+    plain = tk.read_measurements(tmp_path / "own.gpx", measurements=tmp_path / "bearings.csv",
+                                 mapping=tmp_path / "bearings.toml")
+    hostile.bearings_times(scale, unit)(tmp_path)
+    again = tk.read_measurements(tmp_path / "own.gpx", measurements=tmp_path / "bearings.csv",
+                                 mapping=tmp_path / "bearings.toml")
+    assert np.array_equal(again.time, plain.time)
+    assert again.metadata["time_origin"] == plain.metadata["time_origin"]
+    if unit != "s":  # the same numbers said to be seconds: refused, naming the unit
+        toml = tmp_path / "bearings.toml"
+        toml.write_text(toml.read_text().replace(f'time_unit = "{unit}"', 'time_unit = "s"'))
+        with pytest.raises(tk.io.MeasurementFileError,
+                           match=f'between 1970 and 2200.*give time_unit = "{unit}"'):
+            tk.read_measurements(tmp_path / "own.gpx", measurements=tmp_path / "bearings.csv",
+                                 mapping=toml)
