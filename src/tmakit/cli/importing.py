@@ -80,9 +80,8 @@ def import_(
                                "then the measurement log)")],
     files: Annotated[list[Path], typer.Argument(metavar="FILE...",
                                                 help="the file(s) to read")],
-    output: Annotated[Path, typer.Option("-o", "--output",
-                                         help="tmakit measurement file to write (.parquet "
-                                              "or .csv)")],
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="tmakit measurement file to write (.parquet or .csv)")] = None,
     ownship: OwnshipOption = None,
     contact: ContactOption = None,
     bearing_sigma: BearingSigmaOption = None,
@@ -101,6 +100,9 @@ def import_(
         help="2 or 3: override the surface rule (default: 2-D when the sensors' altitudes "
              "stay within 25 m of the origin's)")] = None,
     force: ForceOption = False,
+    guess: Annotated[bool, typer.Option(
+        "--guess", help="wide logs: print a column mapping (TOML) proposed from the file's "
+                        "header, to check and pass as --mapping; nothing is imported")] = False,
 ) -> None:
     """Read a real log (Debrief, wide CSV/Parquet, GPX or NMEA) into a tmakit file.
 
@@ -110,6 +112,12 @@ def import_(
     fmt = format.lower()
     if fmt not in IMPORT_FORMATS:
         raise fail(f"unknown format {format!r}: expected one of {', '.join(IMPORT_FORMATS)}")
+    if guess:
+        print_guess(fmt, files)
+        return
+    if output is None:
+        raise fail("give the measurement file to write: -o obs.parquet (or --guess to "
+                   "propose a mapping)")
     if IMPORT_FORMATS[fmt] and len(files) != IMPORT_FORMATS[fmt]:
         what = ("the own track and the measurement log" if IMPORT_FORMATS[fmt] == 2
                 else "one file")
@@ -130,6 +138,38 @@ def import_(
                         **options)
     write_or_fail(meas, output, force)
     print_import(meas, output)
+
+
+def print_guess(fmt: str, files: list[Path]) -> None:
+    """Print the mapping proposed for a wide log's header (``--guess``).
+
+    Parameters
+    ----------
+    fmt : str
+        The format asked for (``wide`` only).
+    files : list of Path
+        The log (one file).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for another format, a missing or unreadable file, or a header with no
+        known time or measurement column.
+    """
+    if fmt != "wide" or len(files) != 1:
+        raise fail("--guess proposes the mapping of one wide log: tma import wide FILE --guess")
+    from ..io.errors import MeasurementFileError, refuse_unreadable
+    from ..io.log_guess import guess_mapping
+
+    path = files[0]
+    if not path.exists():
+        raise fail(f"{path}: no such file")
+    try:
+        refuse_unreadable(path, binary=path.suffix.lower() in (".parquet", ".pq"))
+        proposal = guess_mapping(path)
+    except (MeasurementFileError, ValueError, OSError) as e:
+        raise fail(str(e)) from None
+    typer.echo(proposal.toml(path.name), nl=False)
 
 
 def print_import(meas: Any, output: Path | None) -> None:
