@@ -107,9 +107,9 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
         raise TrackingError(f"{{q}}: expected one value or {dim} per-axis values ({axes}) for "
                             f"a {dim}-D track, got {len(values)}", "q", ["q"])
     if not all(np.isfinite(v) and 0 <= v <= MAX_ACCELERATION for v in values):
-        raise TrackingError(f"{{q}}: process noise must be an acceleration std within [0, "
-                            f"{MAX_ACCELERATION:g}] m/s^2 (1000 g: beyond any vehicle), got "
-                            f"{values}", "q", ["q"])
+        raise TrackingError(f"{{q}}: process noise must be an acceleration std >= 0 and at "
+                            f"most {MAX_ACCELERATION:g} m/s^2 (1000 g: beyond any vehicle), "
+                            f"got {values}", "q", ["q"])
     return tuple(float(v) for v in values)
 
 
