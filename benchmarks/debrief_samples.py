@@ -122,14 +122,39 @@ def readings(root: Path, rel: str) -> list[tuple[str, str | None]]:
                     for parts in (_sensor_fields(line) for line in text.splitlines())
                     if parts})
     for host, sensor in pairs:
-        try:
-            meas = tk.read_measurements(files if len(files) > 1 else files[0], ownship=host,
-                                        contact=sensor)
-            out.append((f"{host}/{sensor}: {len(meas)} rows, "
-                        f"{len(reader_notes(meas.metadata))} note(s)", None))
-        except (tk.MeasurementFileError, ValueError) as e:
-            out.append((f"{host}/{sensor}", str(e)))
+        out += _read_contacts(files, text, host, sensor)
     return out or [("tracks only", None)]
+
+
+def _read_contacts(files: list[Path], text: str, host: str, sensor: str
+                   ) -> list[tuple[str, str | None]]:
+    """Read one sensor's cuts; a sensor holding several contacts at once, one contact each.
+
+    tmakit refuses two contacts' cuts at one time in one fit and asks for ``--contact``
+    (the first word of the labels): each contact is then read as ``tma`` would be told to.
+    """
+    source = files if len(files) > 1 else files[0]
+    try:
+        meas = tk.read_measurements(source, ownship=host, contact=sensor)
+        return [(f"{host}/{sensor}: {len(meas)} rows, "
+                 f"{len(reader_notes(meas.metadata))} note(s)", None)]
+    except (tk.MeasurementFileError, ValueError) as e:
+        if "choose one with --contact" not in str(e):
+            return [(f"{host}/{sensor}", str(e))]
+    import re
+
+    labels = sorted({m.group(1) for line in text.splitlines()
+                     if (parts := _sensor_fields(line)) and parts[3].strip('"') == host
+                     and parts[4] == sensor
+                     and (m := re.search(rf"\b{re.escape(sensor)}\s+(\S+)", line))})
+    out: list[tuple[str, str | None]] = []
+    for label in labels:
+        try:
+            meas = tk.read_measurements(source, ownship=host, contact=label)
+            out.append((f"{host}/{sensor}/{label}: {len(meas)} rows", None))
+        except (tk.MeasurementFileError, ValueError) as e:
+            out.append((f"{host}/{sensor}/{label}", str(e)))
+    return out
 
 
 def _sensor_fields(line: str) -> list[str] | None:

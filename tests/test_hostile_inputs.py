@@ -68,7 +68,7 @@ def test_rows_written_twice_are_merged_and_two_values_at_one_time_refused(tmp_pa
     assert len(meas) == len(lines) - 1 and meas.metadata["duplicates_merged"] == "1"
     t, b = lines[4].split(",")
     log.write_text("\n".join([*lines[:5], f"{t},{float(b) + 3}", *lines[5:]]) + "\n")
-    with pytest.raises(tk.io.MeasurementFileError, match=r"row 5 \(line 6\).*at the time "
+    with pytest.raises(tk.MeasurementFileError, match=r"row 5 \(line 6\).*at the time "
                        r"of row 4 \(line 5\).*two values at one time"):
         tk.read_measurements(tmp_path / "own.gpx", measurements=log,
                              mapping=tmp_path / "bearings.toml")
@@ -89,7 +89,21 @@ def test_epoch_times_in_each_unit_give_the_same_set_and_the_wrong_unit_is_named(
     if unit != "s":  # the same numbers said to be seconds: refused, naming the unit
         toml = tmp_path / "bearings.toml"
         toml.write_text(toml.read_text().replace(f'time_unit = "{unit}"', 'time_unit = "s"'))
-        with pytest.raises(tk.io.MeasurementFileError,
+        with pytest.raises(tk.MeasurementFileError,
                            match=f'between 1970 and 2200.*give time_unit = "{unit}"'):
             tk.read_measurements(tmp_path / "own.gpx", measurements=tmp_path / "bearings.csv",
                                  mapping=toml)
+
+
+def test_two_contacts_of_one_sensor_at_one_time_are_refused_naming_them(tmp_path):
+    """Debrief's bulk_data.rep: sensor SimpleCookie holds 7 contacts, two at a time."""
+    import lzma
+
+    rep = tmp_path / "bulk_data.rep"
+    packed = Path(__file__).parent / "data" / "debrief" / "pepys" / "bulk_data.rep.xz"
+    rep.write_bytes(lzma.decompress(packed.read_bytes()))
+    with pytest.raises(tk.MeasurementFileError, match=r"name 7 contacts \(GreenFV1_011; "
+                       r".*two of them at one time \(line 309 and line 308\).*--contact"):
+        tk.read_measurements(rep, ownship="MER", contact="SimpleCookie")
+    one = tk.read_measurements(rep, ownship="MER", contact="GreenFV1_011")
+    assert len(one) > 100 and (np.diff(one.time) > 0).all()

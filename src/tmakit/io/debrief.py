@@ -315,14 +315,27 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
     metadata = _metadata(paths, cuts, contact, sig, "bearing" in wanted, notes)
+    contacts = list(dict.fromkeys(s.label.split()[0] for s in cuts.rows if s.label.split()))
     return _checked(where, MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
-        np.array(sigmas), np.array(st), metadata=metadata, check=False), lines)
+        np.array(sigmas), np.array(st), metadata=metadata, check=False), lines, contacts)
 
 
-def _checked(path: Path, raw: MeasurementSet, lines: list[str]) -> MeasurementSet:
+def _checked(path: Path, raw: MeasurementSet, lines: list[str],
+             contacts: list[str]) -> MeasurementSet:
     """Apply the file's rules to the lines as read, then wrap the bearings to [0, 360)."""
-    meas, _, merged = checked_rows(path, raw, lines)
+    try:
+        meas, _, merged = checked_rows(path, raw, lines)
+    except MeasurementFileError as e:
+        twice = [p for p in e.problems if "two values at one time" in p]
+        if len(contacts) < 2 or not twice:
+            raise
+        other = twice[0].partition("at the time of ")[2].partition(" (")[0]
+        raise MeasurementFileError(path, [  # cuts of several contacts at one time
+            f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
+            f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
+            "two contacts' cuts; choose one with --contact NAME (the first word of the "
+            "labels)"]) from None
     bearing = meas.kind_mask("bearing")
     meas.value_si = np.where(bearing, np.mod(meas.value_si, 2 * np.pi), meas.value_si)
     if merged:
