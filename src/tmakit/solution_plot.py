@@ -88,6 +88,25 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
     return largest
 
 
+def _position_determined(result: EstimateResult, meas: MeasurementSet) -> bool:
+    """Whether the fit is an answer whose position the data determine (else no track)."""
+    if result.status != "converged" or not np.all(np.isfinite(result.estimate)):
+        return False
+    return None not in estimate_answer(result, meas).enu[:2]
+
+
+def _no_track_words(result: EstimateResult) -> str:
+    """Why no track is drawn, wrapped for the map panel."""
+    import textwrap
+
+    why = [f"no track: the estimate is {result.status}"
+           + ("" if result.status == "converged" else
+              f" ({result.message.split(';')[0]})" if result.message else "")]
+    if result.bound is not None:
+        why += [d.sentence for d in result.bound.observability.directions]
+    return "\n".join(textwrap.fill(w, 70) for w in why)
+
+
 def _ellipse_legend(ax: Any, frame: MapFrame, level: float, largest: float) -> None:
     """Add the ellipses' legend entry; say so when they are too small to be seen on the map."""
     x0, x1 = ax.get_xlim()
@@ -124,7 +143,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
                     textcoords="offset points", xytext=(-6, -12), fontsize=8,
                     color="tab:blue")
     ax.plot([], [], color="tab:blue", lw=1.5, label="sensor track (▲ start)")
-    finite = bool(np.all(np.isfinite(result.estimate)))
+    finite = _position_determined(result, meas)
     truth = truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), 100), 3)
     if truth is not None:
         xs, ys = frame.xy(truth[:, 0], truth[:, 1])
@@ -133,13 +152,20 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     ax.autoscale()
     _fill_panel(ax, frame)
     ax.set_aspect(frame.aspect(), adjustable="box")
-    if finite:  # bearing lines long enough to cross the solution, not to set the scale
-        x0, x1 = ax.get_xlim()
-        y0, y1 = ax.get_ylim()
-        reach = 1.3 * max(abs(x1 - x0), abs(y1 - y0) / frame.aspect()) * frame.metres_per_x()
+    # bearing lines long enough to cross the solution, not to set the scale; without a
+    # solution they fan out as far (at least 10 km) and the words say why there is none
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    reach = 1.3 * max(abs(x1 - x0), abs(y1 - y0) / frame.aspect()) * frame.metres_per_x()
+    if finite:
         ax.set_autoscale_on(False)
         _ellipse_legend(ax, frame, level, largest)
         _draw_bearings(ax, meas, frame, reach)
+    else:
+        _draw_bearings(ax, meas, frame, max(reach, 10_000.0))
+        ax.text(0.02, 0.98, _no_track_words(result), transform=ax.transAxes, fontsize=8,
+                va="top", ha="left", zorder=6,
+                bbox={"fc": "white", "alpha": 0.85, "lw": 0.5, "pad": 4})
     ax.set_xlabel(frame.labels[0])
     ax.set_ylabel(frame.labels[1])
     ax.grid(True, alpha=0.3)

@@ -25,6 +25,8 @@ class AzimuthRate(MeasurementModel):
     kind = "azimuth_rate"
     file_unit = "deg/s"
     mirror_symmetric = True
+    scale_free = True
+    height_blind = True
     file_scale = np.pi / 180.0
     uses_velocity = True
 

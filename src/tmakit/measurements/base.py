@@ -36,6 +36,8 @@ class MeasurementModel:
     :attr:`correlated_noise` and :meth:`noise_covariance` (the noise of rows of one sensor),
     :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure),
     :attr:`mirror_symmetric` and :attr:`gives_height` (the sensor-plane ambiguity),
+    :attr:`scale_free` and :attr:`height_blind` (what the observability words and the height
+    check of :mod:`tmakit.batch.height` need),
     :attr:`wrap_period` (how simulated values are written).
     """
 
@@ -61,6 +63,12 @@ class MeasurementModel:
     mirror_symmetric: bool = False
     #: The kind measures height above the sensor, so a set holding it is 3-D.
     gives_height: bool = False
+    #: Predictions do not change when the relative state (target minus sensor, position and
+    #: velocity) is scaled: angles alone, which cannot give range.
+    scale_free: bool = False
+    #: Predictions depend on the horizontal relative state only (a bearing): the height of the
+    #: emitter above the sensors changes nothing.
+    height_blind: bool = False
     #: Simulated values are written wrapped into ``[0, wrap_period)`` (SI; None: not wrapped),
     #: as files carry bearings in [0, 360) degrees.
     wrap_period: float | None = None

@@ -27,6 +27,8 @@ class Bearing(MeasurementModel):
     kind = "bearing"
     file_unit = "deg"
     mirror_symmetric = True
+    scale_free = True
+    height_blind = True
     wrap_period = 2.0 * np.pi
     file_scale = np.pi / 180.0
     is_angle = True

@@ -22,6 +22,7 @@ class Elevation(MeasurementModel):
     kind = "elevation"
     file_unit = "deg"
     gives_height = True
+    scale_free = True
     file_scale = np.pi / 180.0
     is_angle = True
     value_range = ValueRange("an elevation", -90.0, 90.0)

@@ -54,10 +54,13 @@ def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
     if not np.any(used):
         return 0.0
     if null is not None and null.size:
-        # Relative to the whole null direction: round-off (1e-16) in a component is no motion.
-        norms = np.linalg.norm(null, axis=0) * np.linalg.norm(grad)
-        moving = norms > 0
-        if np.any(np.abs(grad @ null[:, moving]) > NULL_COSINE * norms[moving]):
+        # Within the components used (a velocity moves by 1e-3 of a position along a range
+        # scaling), but round-off (1e-16 of the whole null direction) is no motion.
+        whole = np.linalg.norm(null, axis=0)
+        part = np.linalg.norm(null[used], axis=0)
+        moving = part > 1e-9 * whole
+        if np.any(np.abs(grad @ null[:, moving])
+                  > NULL_COSINE * part[moving] * np.linalg.norm(grad)):
             return None
     sub = cov[np.ix_(used, used)]
     if not np.all(np.isfinite(sub)):
@@ -329,7 +332,7 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     if meas is not None and len(meas) and sensor is None:
         sensor = str(meas.sensor[int(np.argmax(meas.time))])
     rng = rng_sd = brg = brg_sd = None
-    if meas is not None and sensor is not None and enu[0] is not None and enu[1] is not None:
+    if meas is not None and sensor is not None and np.all(np.isfinite(state[:2])):
         where = sensor_position(meas, sensor, t)
         if dim == 2:
             where = np.array([where[0], where[1], state[2]])
@@ -424,6 +427,12 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
             if basis.size:  # (in the bound's parameters: a manoeuvre fit's held ones are not)
                 seen = bound.motion.jacobian(bound.values[: bound.motion.n_params], t)[0]
                 null = seen @ basis[: seen.shape[1]]
+                # On the observable subspace: what does not move with ``null`` (the bearing
+                # of a range-free fit) keeps its std.
+                full = np.zeros((6, len(bound.parameters)))
+                full[:, : seen.shape[1]] = seen
+                pseudo = full @ bound.covariance @ full.T
+                cov = np.where(np.isfinite(pseudo), pseudo, cov)
         else:
             cov = jac @ np.asarray(result.covariance) @ jac.T  # type: ignore[attr-defined]
     return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,

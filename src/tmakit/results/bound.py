@@ -132,9 +132,15 @@ class Bound:
         full = np.zeros(len(self.parameters))
         full[: grad.size] = grad
         null = self.observability.null_basis
+        dec = self.observability.decomposition
         if null.size:
-            # A function is estimable only if its gradient is orthogonal to the null space.
-            if np.max(np.abs(full @ null)) > 1e-6 * max(np.linalg.norm(full), 1e-300) * 1e3:
+            # A function is estimable only if its gradient is orthogonal to the null space,
+            # compared in the normalised coordinates of the rank test (units cancel: a
+            # position moves by metres where a speed moves by millimetres per second).
+            scale = dec[2] if dec is not None else np.ones(full.size)
+            g, n = full * scale, null / scale[:, None]
+            n = n / np.linalg.norm(n, axis=0, keepdims=True)
+            if np.max(np.abs(g @ n)) > 1e-3 * max(np.linalg.norm(g), 1e-300):
                 return float("inf")
         return float(full @ self.covariance @ full)
 

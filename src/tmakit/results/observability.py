@@ -10,6 +10,11 @@ an axis through a fixed sensor or through two fixed sensors (range-only kinds: D
 power, range), translations (a frequency-only static problem), and scalings about a sensor
 (bearings from a non-manoeuvring observer).  A candidate is turned into a parameter change by
 least squares on the motion model's own Jacobian, so this works for every motion model.
+
+Angles alone from one sensor on one straight leg cannot give range whatever the motion model
+(:mod:`tmakit.results.own_legs`): a manoeuvring target's model can make the information
+formally full rank, but only through the shape it assumes, so that direction (the scaling of
+the track about the sensor's path) is taken out of the information and named in words.
 """
 
 from __future__ import annotations
@@ -21,7 +26,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..linalg import normalise
+from ..measurements import KINDS
 from ..motion import MotionModel
+from .own_legs import range_words, sensor_legs
 
 RANK_TOL = 1e-10
 """Eigenvalues of the normalised information below this fraction of the largest are zero."""
@@ -155,10 +162,41 @@ def _candidates(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.flo
         cands.append((f"translation of the whole track along {axis_name}",
                        np.column_stack([np.broadcast_to(axis, p.shape), np.zeros(p.shape)]),
                        t))
-    for name, c in fixed.items():
-        cands.append((f"scaling of the track about sensor {name} (range is not observable)",
-                      np.column_stack([p - c, v]), t))
+    angles = _angles_only(meas)
+    for name in meas.sensors:
+        path = fixed.get(name)
+        own = (np.column_stack([np.broadcast_to(path, p.shape), np.zeros(p.shape)])
+               if path is not None else _straight_path(meas, name, t))
+        if own is not None:
+            cands.append((range_words(meas, name) if angles else
+                          f"scaling of the track about sensor {name} (range is not observable)",
+                          states - own, t))
     return [(s, _to_theta(motion, theta, tt, d)) for s, d, tt in cands]
+
+
+def _angles_only(meas: MeasurementSet) -> bool:
+    return all(KINDS[k].scale_free for k in meas.kinds)
+
+
+def _straight_path(meas: MeasurementSet, sensor: str, t: NDArray[np.float64]
+                   ) -> NDArray[np.float64] | None:
+    """Give the sensor's states at ``t`` when its rows lie on one straight leg, else None."""
+    if len(sensor_legs(meas, sensor)) != 1:
+        return None
+    rows = meas.sensor == sensor
+    tr, st = meas.time[rows], meas.sensor_state[rows]
+    design = np.column_stack([np.ones_like(tr), tr - tr[0]])
+    coef = np.linalg.lstsq(design, st[:, :3], rcond=None)[0]  # position = a + b (t - t0)
+    pos = np.column_stack([np.ones_like(t), t - tr[0]]) @ coef
+    return np.column_stack([pos, np.broadcast_to(coef[1], pos.shape)])
+
+
+def _one_leg_sensor(meas: MeasurementSet) -> str | None:
+    """Give the one sensor of an angles-only set whose rows lie on one straight leg, else None."""
+    if len(meas.sensors) != 1 or not _angles_only(meas):
+        return None
+    name = meas.sensors[0]
+    return name if len(sensor_legs(meas, name)) == 1 else None
 
 
 def _to_theta(motion: MotionModel, theta: NDArray[np.float64], t: NDArray[np.float64],
@@ -204,6 +242,10 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     """
     size = info.shape[0]
     norm, scale = normalise(info)
+    unseen = _range_by_shape(meas, motion, np.asarray(theta, float), norm, scale, size)
+    if unseen is not None:
+        norm = norm - np.outer(norm @ unseen, unseen) - np.outer(unseen, unseen @ norm) + (
+            float(unseen @ norm @ unseen) * np.outer(unseen, unseen))
     evals, evecs = np.linalg.eigh(norm)
     top = max(float(evals[-1]), np.finfo(float).tiny)
     null = evals <= RANK_TOL * top
@@ -219,19 +261,52 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
         observable = np.linalg.norm(null_norm, axis=1) < 1e-6
     directions: list[Direction] = []
     if rank < size:
-        directions = _describe(null_norm, scale, names, norm, top, meas, motion, theta)
+        directions = _describe(null_norm, scale, names, norm, top, meas, motion, theta, unseen)
     return Observability(rank, size, condition, null_phys, directions, observable,
                          (evals, evecs, scale))
 
 
+def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.float64],
+                    norm: NDArray[np.float64], scale: NDArray[np.float64], size: int
+                    ) -> NDArray[np.float64] | None:
+    """Give the range direction (normalised unit vector) only a manoeuvre model's shape sees.
+
+    Angles from one sensor on one straight leg: the track scaled about the sensor's path is
+    taken to the nearest parameter change (least squares on the motion's Jacobian); None when
+    the rule does not apply or the data already leave that direction unseen.
+    """
+    sensor = _one_leg_sensor(meas)
+    if sensor is None or not np.all(np.isfinite(theta)):
+        return None
+    t = np.unique(meas.time)
+    own = _straight_path(meas, sensor, t)
+    jac = motion.jacobian(theta, t)
+    if own is None or not np.any(jac[:, 3:6]):
+        return None  # a stationary emitter: a moving sensor's bearings do give its range
+    d = motion.states(theta, t) - own
+    dtheta = np.linalg.lstsq(jac.reshape(-1, motion.n_params), d.reshape(-1), rcond=None)[0]
+    full = np.zeros(size)
+    full[:motion.n_params] = dtheta
+    u = full / scale
+    if not np.all(np.isfinite(u)) or not np.any(u):
+        return None
+    u /= np.linalg.norm(u)
+    top = float(np.linalg.eigvalsh(norm)[-1])
+    return u if float(u @ norm @ u) > 1e3 * RANK_TOL * top else None  # (else already unseen)
+
+
 def _describe(null_norm: NDArray[np.float64], scale: NDArray[np.float64],
               names: tuple[str, ...], norm: NDArray[np.float64], top: float,
-              meas: MeasurementSet, motion: MotionModel, theta: ArrayLike
-              ) -> list[Direction]:
+              meas: MeasurementSet, motion: MotionModel, theta: ArrayLike,
+              unseen: NDArray[np.float64] | None = None) -> list[Direction]:
     nullity = null_norm.shape[1]
     p = motion.n_params
     chosen: list[NDArray[np.float64]] = []  # normalised coordinates, unit vectors
     directions: list[Direction] = []
+    if unseen is not None:
+        chosen.append(unseen)
+        directions.append(Direction(range_words(meas, meas.sensors[0], manoeuvring_model=True),
+                                    _weights(names, unseen * scale)))
     for sentence, dtheta in _candidates(meas, motion, np.asarray(theta, float)):
         if dtheta is None:
             continue

@@ -93,7 +93,8 @@ class ManoeuvreEstimate(EstimateResult):
         data["change_over_times"] = [{"value": num(v), "std": num(s)}
                                      for v, s in self.change_over_times()]
         data["final_state"] = {"time": num(self.final_time),
-                               **{k: {"value": num(v), "std": num(s)}
+                               **{k: {"value": num(v) if np.isfinite(s) else None,
+                                      "std": num(s)}
                                   for k, (v, s) in self.final.items()}}
         return data
 
@@ -116,8 +117,11 @@ class ManoeuvreEstimate(EstimateResult):
         if self.final:
             x, sx = self.final["x"]
             y, sy = self.final["y"]
-            parts.append(f"position at t = {self.final_time:g} s: x = {x:.1f} m (std "
-                         f"{sx:.3g}), y = {y:.1f} m (std {sy:.3g})")
+            if np.isfinite(sx) and np.isfinite(sy):  # no number for what is unobservable
+                parts.append(f"position at t = {self.final_time:g} s: x = {x:.1f} m (std "
+                             f"{sx:.3g}), y = {y:.1f} m (std {sy:.3g})")
+            else:
+                parts.append(f"position at t = {self.final_time:g} s: unobservable")
         return "\n".join(parts)
 
 
