@@ -3,7 +3,7 @@
 Three families, each a hypothesis strategy giving a case to run in-process (CliRunner):
 measurement files (cells, headers, metadata, encodings, sizes), TOML scenarios and option
 strings.  :func:`run_case` runs one and classifies the outcome; :data:`GOOD` lists the
-acceptable outcomes (exit 0 with a valid result, exit 1 with an honest status, exit 2 with an
+acceptable outcomes (exit 0 with a valid result, exit 4 with an honest status, exit 2 with an
 ``error:`` naming the field); anything else is a failure of tmakit.
 """
 
@@ -367,7 +367,7 @@ def run_case(args: list[str], folder: Path, may_write: tuple[str, ...] = ()) -> 
         kind = "nonsense"  # exit 0 with NaN or infinite numbers in the result
     elif result.exit_code == 0:
         kind = "ok"
-    elif result.exit_code == 1 and any(w in out for w in HONEST):
+    elif result.exit_code == 4 and any(w in out for w in HONEST):
         kind = "honest status"
     elif (result.exit_code == 2 and out.startswith("error:")) or (
             result.exit_code == 2 and "Usage:" in out and "Invalid value" in out):

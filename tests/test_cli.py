@@ -177,11 +177,11 @@ def test_estimate_without_a_guess_text_and_json(tmp_path):
     assert ratio.exit_code == 0 and "ratio" in ratio.output
 
 
-def test_estimate_reports_unobservable_with_exit_status_1(tmp_path):
+def test_estimate_reports_unobservable_with_exit_status_4(tmp_path):
     obs = tmp_path / "obs.csv"
     run("simulate", "doppler-lecture", "-o", str(obs))
     result = run("estimate", str(obs), "--motion", "cv3d", "--ref-time", "120")
-    assert result.exit_code == 1
+    assert result.exit_code == 4
     assert "unobservable" in result.output and "rotation" in result.output
 
 

@@ -1,6 +1,6 @@
 """Fuzzing the ``tma`` command: hostile files, scenarios and options (hypothesis).
 
-For every case: exit 0 with a valid result, exit 1 with an honest status, or exit 2 with an
+For every case: exit 0 with a valid result, exit 4 with an honest status, or exit 2 with an
 ``error:`` naming what is wrong; never a traceback or internal error, never a changed file that
 was not to be written, never more than 10 s.  Few examples per property keep the normal suite
 fast; ``TMA_FUZZ_EXAMPLES=500`` (or benchmarks/fuzz_outcomes.py) runs a longer profile.

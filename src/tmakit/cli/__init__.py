@@ -16,9 +16,10 @@
 
 Every command refuses to overwrite an existing output unless ``--force`` is given, and
 reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
-Exit statuses: 0 success, 1 honest non-success (unobservable, diverged, not converged), 2 bad
+Exit statuses: 0 an answer (read its warnings), 1 output that could not be written, 2 bad
 input, 3 internal error (traceback in a log file, or on the terminal with ``tma --debug``),
-130 interrupted, 143 terminated (see :mod:`tmakit.cli.guard`).
+4 no answer (unobservable, diverged, not converged), 130 interrupted, 143 terminated (see
+:mod:`tmakit.cli.guard`).
 """
 
 from __future__ import annotations

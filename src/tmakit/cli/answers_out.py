@@ -238,7 +238,7 @@ def frame_note(meas: Any) -> str | None:
     return "frame: " + "; ".join(parts) if parts else None
 
 
-def print_answers(a: Any, units: str, meas: Any = None) -> None:
+def print_answers(a: Any, units: str, meas: Any = None, title: str | None = None) -> None:
     """Print the answers table, how its std were computed and the frame of lat/lon and clock.
 
     Parameters
@@ -249,9 +249,11 @@ def print_answers(a: Any, units: str, meas: Any = None) -> None:
         ``si`` or ``nautical``.
     meas : tmakit.data.MeasurementSet, optional
         The measurements: their ENU and time origins are stated (:func:`frame_note`).
+    title : str, optional
+        What the table shows instead of ``emitter`` (an unobservable fit's determined part).
     """
-    print_wide(answers_table(a, units, answer_title(a, "emitter position" if a.stationary
-                                                    else "emitter")))
+    what = title or ("emitter position" if a.stationary else "emitter")
+    print_wide(answers_table(a, units, answer_title(a, what)))
     note = ("std: linearised (delta method) from the covariance; position ellipse: "
             f"{a.ellipse.level if a.ellipse else 0.95:.0%} probability (chi-square, 2 dof)")
     if a.dim == 2:

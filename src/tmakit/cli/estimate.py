@@ -113,6 +113,10 @@ def estimate(
     --motion curvilinear[:M] searches 0 to M manoeuvres (default M = 2) and chooses their
     number by BIC or likelihood-ratio tests, and holds at zero the accelerations the data do
     not need (tmakit.batch.curvilinear).
+
+    Exit status 0: an answer (trust ok, or warning with its warnings on stderr); 4: no answer
+    (unobservable, did not converge, diverged), said in words, with no number given as an
+    answer; 2: bad input (docs/reliability.md).
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
@@ -303,7 +307,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                    units: str = "si", warnings: list[Any] | None = None,
                    factors: dict[str, float] | None = None,
                    plot: tuple[Path | None, Path, Any] | None = None) -> None:
-    """Print an estimate (text or JSON), draw it; exit status 1 unless it converged.
+    """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer.
 
     Parameters
     ----------
@@ -327,12 +331,18 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
     Raises
     ------
     typer.Exit
-        Status 1 when the estimate did not converge.
+        Status 4 (:data:`~tmakit.cli.guard.EXIT_NO_ANSWER`) when the trust is ``none``.
     """
     from ..results.checks import chi2_probability
+    from ..results.trust import trust_of
+    from .guard import EXIT_NO_ANSWER
 
     answer = answer if answer is not None else result.answer(meas)
     warnings = list(warnings or [])
+    trust = trust_of(result, warnings)
+    # what the data determine of an unobservable fit (a bearing) is shown; a solve that
+    # stopped short shows nothing as an answer
+    shown = answer if result.status in ("converged", "unobservable") else None
     geo = geodetic_position(meas, result)
     if as_json:
         import json
@@ -340,11 +350,12 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         import numpy as np
 
         data = result.as_dict()
+        data.update(trust.as_dict())
         if geo is not None:
             data["geodetic"] = geo
-        data["answer"] = answer.as_dict()
-        data["covariance"] = [[float(c) if np.isfinite(c) else None for c in r]
-                              for r in np.asarray(result.covariance)]
+        data["answer"] = shown.as_dict() if shown is not None else None
+        data["covariance"] = [[float(c) if np.isfinite(c) and trust.answer else None
+                               for c in r] for r in np.asarray(result.covariance)]
         data["chi2_p_value"] = chi2_probability(result.chi2, result.dof)
         data["warnings"] = [w.as_dict() for w in warnings]
         data["sigma_scale"] = factors
@@ -356,12 +367,20 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                 f"{f:.3g} ({k})" for k, f in factors.items()) + " from the first fit's "
                 "residuals; the estimate and covariance above are of the refit",
                 highlight=False)
-        print_answers(answer, units, meas)
+        if shown is not None:
+            print_answers(shown, units, meas,
+                          None if trust.answer else "what the data determine (no answer: "
+                                                    f"the estimate is {result.status})")
+        out.print(f"trust: {trust.level}" + ("" if trust.level == "ok" else
+                                             f" ({len(trust.reasons)} reason"
+                                             f"{'s' if len(trust.reasons) > 1 else ''}: "
+                                             + ", ".join(r.code for r in trust.reasons) + ")"),
+                  highlight=False)
     print_warnings(warnings)
     if plot is not None and plot[0] is not None:
         draw_solution(meas, result, answer, plot, err if as_json else out, units)
-    if result.status != "converged":
-        raise typer.Exit(1)
+    if not trust.answer:
+        raise typer.Exit(EXIT_NO_ANSWER)
 
 
 def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path, Any],

@@ -17,10 +17,11 @@ Output that cannot be written (a full disk, a read-only or failing device: ``tma
 /dev/full``) ends the command with one line naming the failure, status 1, never a traceback
 (:func:`write_failed`).
 
-Exit statuses of ``tma``: 0 success; 1 an honest non-success (unobservable, diverged, did not
-converge; output that could not be written); 2 bad input or options (the message names the
-file, row, column or option); 3 an internal error (please report); 130 interrupted (Ctrl-C);
-143 terminated (SIGTERM).
+Exit statuses of ``tma``: 0 an answer (with its warnings, if any); 1 output that could not be
+written; 2 bad input or options (the message names the file, row, column or option); 3 an
+internal error (please report); 4 no answer (the estimate is unobservable, did not converge or
+diverged: no number is printed as an answer); 130 interrupted (Ctrl-C); 143 terminated
+(SIGTERM).
 
 Nothing numerical is imported here: ``tma --help`` stays light.
 """
@@ -42,13 +43,14 @@ from typing import Any
 import click
 import typer
 
-__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_STATUS",
+__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_NO_ANSWER", "EXIT_STATUS",
            "EXIT_TERMINATED", "WRITE_ERRORS", "guarded", "install_sigterm", "set_debug",
            "write_failed"]
 
 EXIT_STATUS = 1
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 3
+EXIT_NO_ANSWER = 4
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 

@@ -26,11 +26,15 @@ from .estimate import (
 )
 from .nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from .observability import Direction, Observability, analyse
+from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, trust_of
 
 __all__ = [
     "CONVERGED",
     "DIVERGED",
     "NOT_CONVERGED",
+    "TRUST_NONE",
+    "TRUST_OK",
+    "TRUST_WARNING",
     "UNOBSERVABLE",
     "Answer",
     "Bound",
@@ -41,6 +45,7 @@ __all__ = [
     "KnownNuisanceLike",
     "Observability",
     "SanityWarning",
+    "Trust",
     "analyse",
     "answer_from_state",
     "as_known_nuisance",
@@ -56,4 +61,5 @@ __all__ = [
     "result_from_covariance",
     "scale_sigma",
     "track_answer",
+    "trust_of",
 ]

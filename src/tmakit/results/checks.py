@@ -8,6 +8,10 @@ The rules, stated once:
 
 * **improbable chi-square** (``improbable-chi2``): the fit's weighted sum of squares has
   probability ``p = P(chi2_dof >= chi2) < 0.001`` under the stated noise;
+* **too good to be true** (``chi2-too-small``): ``P(chi2_dof <= chi2) < 0.001``, the low tail
+  (a chi-square of 0.00 on 26 degrees of freedom): the stated sigma are larger than the
+  residuals say (by about ``1 / sqrt(chi2 / dof)``), so every std and ellipse printed is too
+  large by that factor (or the data are noise-free, synthetic); ``--scale-sigma`` rescales;
 * **radians** (``radians``): every value of an angle kind whose file unit is degrees (bearing,
   elevation) lies within ``[-2 pi, 2 pi]`` — at least :data:`RADIAN_MIN_ROWS` rows, spread over
   less than ``4 pi`` — which is what angles written in radians look like;
@@ -59,8 +63,8 @@ class SanityWarning:
     Parameters
     ----------
     code : str
-        ``improbable-chi2``, ``radians``, ``far-sensor``, ``far-estimate`` or
-        ``implausible-speed``.
+        ``improbable-chi2``, ``chi2-too-small``, ``radians``, ``far-sensor``, ``far-estimate``
+        or ``implausible-speed``.
     message : str
         The sentence for the user: what was seen, the rule, and what to do.
     """
@@ -126,6 +130,42 @@ def chi2_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT) -> SanityWa
         "target manoeuvred (try a manoeuvring motion, curvilinear[:M], or a shorter leg), the "
         "sigma are too small (rescale them from the residuals: scale_sigma, --scale-sigma), "
         "or outliers (look at the residuals in units of sigma: --plot)")
+
+
+def chi2_low_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT
+                     ) -> SanityWarning | None:
+    """Flag a fit whose chi-square is improbably small (``P(chi2_dof <= chi2) < limit``).
+
+    Parameters
+    ----------
+    chi2 : float
+        The weighted sum of squares at the fit.
+    dof : int
+        Its degrees of freedom.
+    limit : float
+        The low-tail probability below which the fit is flagged (default 0.001).
+
+    Returns
+    -------
+    SanityWarning or None
+        The warning (with the factor by which the sigma look too large), or None.
+    """
+    if dof <= 0 or not np.isfinite(chi2):
+        return None
+    p = float(chi2_dist.cdf(chi2, dof))
+    if p >= limit:
+        return None
+    ratio = chi2 / dof
+    factor = (f"about {1.0 / np.sqrt(ratio):.3g} times too large" if ratio > 0 else
+              "larger than any residual (the residuals are zero: noise-free data?)")
+    return SanityWarning(
+        "chi2-too-small",
+        f"the fit is too good to be true: chi2 = {chi2:.4g} on {dof} degrees of freedom "
+        f"(chi2/dof = {ratio:.3g}, P(chi2 <= {chi2:.4g}) "
+        f"{f'= {p:.2g}' if p > 0 else '< 1e-300'} < {limit:g}). The stated "
+        f"sigma look {factor}, so the std and ellipses printed are too large by that factor "
+        "(or the data are synthetic, without noise); --scale-sigma (scale_sigma in Python) "
+        "rescales them from the residuals")
 
 
 def radian_warnings(meas: MeasurementSet) -> list[SanityWarning]:
@@ -247,13 +287,14 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     Returns
     -------
     list of SanityWarning
-        Improbable chi-square, radians, far sensors, far estimate, implausible speed; empty
-        when all is well.
+        Improbable chi-square (either tail), radians, far sensors, far estimate, implausible
+        speed; empty when all is well.
     """
     found = measurement_warnings(meas)
-    w = chi2_warning(float(result.chi2), int(result.dof))  # type: ignore[attr-defined]
-    if w is not None:
-        found.append(w)
+    chi2, dof = float(result.chi2), int(result.dof)  # type: ignore[attr-defined]
+    for w in (chi2_warning(chi2, dof), chi2_low_warning(chi2, dof)):
+        if w is not None:
+            found.append(w)
     theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
     if np.all(np.isfinite(theta)) and len(meas):
         motion = result.motion  # type: ignore[attr-defined]
@@ -341,6 +382,9 @@ def scale_sigma(meas: MeasurementSet, residuals: NDArray[np.float64], dof: int
     for kind in meas.kinds:
         rows = meas.kind_mask(kind)
         factors[kind] = float(np.sqrt(np.sum(residuals[rows] ** 2) / (rows.sum() * share)))
+        if not factors[kind] > 0:
+            raise ValueError(f"every {kind} residual is zero (noise-free data): the sigma "
+                             "cannot be rescaled from them")
         sigma[rows] *= factors[kind]
     scaled = MeasurementSet.from_si(meas.time, meas.sensor, meas.kind, meas.value_si, sigma,
                                     meas.sensor_state, meas.time_ref, meas.ref_sensor_state,

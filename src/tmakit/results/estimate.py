@@ -31,6 +31,7 @@ from .answers import ELLIPSE_LEVEL, KNOT, Answer, estimate_answer, parameter_dis
 from .bound import Bound, bound_from_information
 from .checks import SanityWarning, fit_warnings
 from .nuisance import KnownNuisance, as_known_nuisance
+from .trust import Trust, trust_of
 
 CONVERGED = "converged"
 NOT_CONVERGED = "did not converge"
@@ -108,9 +109,13 @@ class EstimateResult:
         def num(x: float) -> float | None:
             return float(x) if np.isfinite(x) else None
 
-        return {
+        answer = self.status in (CONVERGED, UNOBSERVABLE)  # (unobservable: what is determined)
+        data: dict[str, object] = {
             "parameters": list(self.parameters),
-            "estimate": [num(v) for v in self.estimate],
+            # no number for what the data do not determine ("unobservable" says why) nor for
+            # a solve that stopped short ("last_iterate" keeps where it stopped)
+            "estimate": [num(v) if answer and np.isfinite(s) else None
+                         for v, s in zip(self.estimate, self.std, strict=True)],
             "std": [num(s) for s in self.std],
             "nuisance": {k: {"value": num(v), "std": num(s)}
                          for k, (v, s) in self.nuisance.items()},
@@ -126,6 +131,9 @@ class EstimateResult:
             "unobservable": ([d.as_dict() for d in self.bound.observability.directions]
                              if self.bound is not None else []),
         }
+        if not answer:
+            data["last_iterate"] = [num(v) for v in self.estimate]
+        return data
 
     def answer(self, meas: MeasurementSet | None = None, time: float | None = None,
                sensor: str | None = None, level: float = ELLIPSE_LEVEL) -> Answer:
@@ -161,10 +169,25 @@ class EstimateResult:
         Returns
         -------
         list of SanityWarning
-            Improbable chi-square (p < 0.001), angles that look like radians, positions
-            far from the origin; empty when nothing looks wrong.
+            Improbable chi-square (p < 0.001 in either tail), angles that look like
+            radians, positions far from the origin; empty when nothing looks wrong.
         """
         return fit_warnings(self, meas)
+
+    def trust(self, meas: MeasurementSet) -> Trust:
+        """Return how far to trust the estimate (:func:`tmakit.results.trust.trust_of`).
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements fitted (for the warnings).
+
+        Returns
+        -------
+        Trust
+            ``ok``, ``warning`` (with the warnings) or ``none`` (no answer: the status).
+        """
+        return trust_of(self, self.warnings(meas))
 
     def to_json(self, indent: int | None = 2) -> str:
         """Return :meth:`as_dict` as JSON text.
@@ -205,6 +228,10 @@ class EstimateResult:
         ref = _reference_time(self.motion)
         if ref is not None:  # (what x, y, ... are at: the time origin the fit chose or was given)
             lines.append(f"parameters at the motion's reference time t = {ref:.15g} s")
+        if self.status in (NOT_CONVERGED, DIVERGED):
+            lines.append("no answer: the solve stopped short of an estimate, so no parameter "
+                         "is printed (the JSON keeps its last iterate)")
+            return "\n".join(lines)
         width = max(len(n) for n in (*self.parameters, *self.nuisance))
         lines.append(f"  {'parameter':<{width}}  {'estimate':>16}  {'std':>12}  unit")
         for n, v, s in (*zip(self.parameters, self.estimate, self.std, strict=True),

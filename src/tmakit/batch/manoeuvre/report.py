@@ -114,7 +114,7 @@ class ManoeuvreEstimate(EstimateResult):
         parts = [super().summary(units)]
         if self.selection is not None:
             parts.append(self.selection.summary())
-        if self.final:
+        if self.final and self.status in ("converged", "unobservable"):
             x, sx = self.final["x"]
             y, sy = self.final["y"]
             if np.isfinite(sx) and np.isfinite(sy):  # no number for what is unobservable
