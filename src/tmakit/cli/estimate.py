@@ -85,6 +85,9 @@ def estimate(
     accelerations: Annotated[str | None, typer.Option(
         help="curvilinear: select (default: hold at zero the accelerations the data do not "
              "need, by the same criterion) or all")] = None,
+    dim: Annotated[int | None, typer.Option(
+        help="2 or 3: fit in 2-D, or in 3-D (the emitter off the sensors' plane); default: "
+             "2-D unless a 3-D fit explains the data better (docs/estimation.md)")] = None,
     at: AtOption = None,
     sensor: SensorOption = None,
     units: UnitsOption = "si",
@@ -127,7 +130,7 @@ def estimate(
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
-                 (exact, criterion, alpha, accelerations))
+                 (exact, criterion, alpha, accelerations), dim)
     result = fit(meas)
     factors = None
     if scale_sigma:
@@ -171,7 +174,8 @@ def grouped_by_kind(meas: Any) -> Any:
 
 def fitter(meas: Any, motion: str | None, ref_time: float | None,
            start: dict[str, float] | None, method: str, options: dict[str, Any],
-           manoeuvre: tuple[bool, str | None, float | None, str | None]) -> Any:
+           manoeuvre: tuple[bool, str | None, float | None, str | None],
+           dim: int | None = None) -> Any:
     """Return the fit the options ask for, as a function of the measurements.
 
     Parameters
@@ -183,6 +187,9 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
         model options.
     manoeuvre : tuple
         ``--exact``, ``--criterion``, ``--alpha``, ``--accelerations``.
+    dim : int or None
+        ``--dim``: 2 keeps the 2-D fit, 3 fits the 3-D counterpart, None lets the data choose
+        (:func:`tmakit.batch.height.choose_height`).
 
     Returns
     -------
@@ -195,9 +202,14 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
         Status 2 on bad options.
     """
     exact, criterion, alpha, accelerations = manoeuvre
+    if dim not in (None, 2, 3):
+        raise fail(f"--dim {dim}: expected 2 or 3")
     name = motion if motion is not None else meas.metadata.get("motion")
     if name is not None and getattr(motion_or_fail(name, ref_time, meas), "manoeuvres",
                                                 None) is not None:
+        if dim is not None:
+            raise fail("--dim applies to static2d and cv2d fits, not to --motion "
+                       f"{name} (a manoeuvring target moves on the surface)")
         if method != "ml":
             raise fail(f"--method {method}: manoeuvring targets (--motion {name}) are "
                        "estimated by ml only")
@@ -209,13 +221,16 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
         raise fail("--exact, --criterion, --alpha and --accelerations apply to --motion "
                    "curvilinear[:M] only")
     model = motion_or_fail(motion, ref_time, meas)
+    if dim is not None and method != "ml":
+        raise fail(f"--dim: the height is fitted by ml only, not by --method {method}")
 
     def fit(m: Any) -> Any:
         try:
             if method == "ml":
                 from ..batch import estimate as run
 
-                return run(m, model, init=start, options=options)
+                return with_height(m, run(m, model, init=start, options=options), options,
+                                   dim)
             from ..batch.methods import estimate_with
 
             return estimate_with(method, m, model, init=start, options=options)
@@ -223,6 +238,45 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
             raise fail(str(e)) from None
 
     return fit
+
+
+def with_height(meas: Any, result: Any, options: dict[str, Any], dim: int | None) -> Any:
+    """Return the 2-D fit or its 3-D counterpart, as the data (or ``--dim``) choose.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    result : tmakit.results.EstimateResult
+        Their fit.
+    options : dict
+        Measurement-model options.
+    dim : int or None
+        ``--dim``.
+
+    Returns
+    -------
+    tmakit.results.EstimateResult
+        The fit chosen; the test's numbers in ``extra["height"]``.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for ``--dim 3`` where no height can be fitted.
+    """
+    from ..batch.height import choose_height, height_matters
+
+    if dim == 2:
+        return result
+    if not height_matters(meas, result):
+        if dim == 3:
+            raise fail("--dim 3: the height is fitted for a static2d or cv2d fit of ranges, "
+                       "powers or Doppler from sensors read in one plane; give a 3-D motion "
+                       "(--motion static3d, cv3d) for a 3-D file")
+        return result
+    choice = choose_height(meas, result, options, force=dim == 3)
+    choice.result.extra["height"] = choice.as_dict()
+    return choice.result
 
 
 def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
@@ -359,6 +413,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         data["chi2_p_value"] = chi2_probability(result.chi2, result.dof)
         data["warnings"] = [w.as_dict() for w in warnings]
         data["sigma_scale"] = factors
+        data["height"] = result.extra.get("height")
         out.print_json(json.dumps(data))
     else:
         out.print(result.summary(units), highlight=False)

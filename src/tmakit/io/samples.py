@@ -131,19 +131,29 @@ def replay_sample(seed: int = 0) -> tuple[str, dict[str, float]]:
     return "\n".join(lines) + "\n", {"course": course, "speed": speed_kn}
 
 
+#: The drone's altitude and the transmitter's, above mean sea level (m): 90 m apart.
+DRONE_ALTITUDE, TRANSMITTER_ALTITUDE = 120.0, 30.0
+
+
 def _drone_scenario(rng: np.random.Generator) -> Any:
     from ..scenario_file import scenario_from_dict
 
-    bearing = rng.uniform(0.0, 2 * np.pi)
-    r = rng.uniform(1500.0, 2500.0)
-    data = {"name": "drone-sample", "title": "drone circling, stationary transmitter",
-            "target": {"motion": "static2d",
-                       "truth": {"x": r * np.sin(bearing), "y": r * np.cos(bearing)}},
+    heading, speed, rate = float(rng.uniform(0.0, 360.0)), 15.0, 3.0
+    radius = speed / math.radians(rate)  # of the circle flown after the first minute
+    h = math.radians(heading)
+    centre = 60.0 * speed * np.array([math.sin(h), math.cos(h)]) + radius * np.array(
+        [math.cos(h), -math.sin(h)])
+    where = rng.uniform(0.0, 2 * np.pi)
+    x, y = centre + radius * math.sqrt(rng.uniform(0.0, 1.0)) * np.array(
+        [math.sin(where), math.cos(where)])
+    data = {"name": "drone-sample", "title": "drone circling above a transmitter on the ground",
+            "target": {"motion": "static3d", "truth": {"x": float(x), "y": float(y),
+                                                       "z": TRANSMITTER_ALTITUDE}},
             "emitter": {"carrier_hz": 433.92e6, "power_constant_db": -30.0},
-            "sensors": [{"type": "legs", "id": "drone", "start": [0.0, 0.0],
-                         "heading_deg": float(rng.uniform(0.0, 360.0)), "speed": 15.0,
+            "sensors": [{"type": "legs", "id": "drone", "start": [0.0, 0.0, DRONE_ALTITUDE],
+                         "heading_deg": heading, "speed": speed,
                          "legs": [{"duration": 60.0},
-                                  {"duration": math.inf, "turn_rate_deg_s": 3.0}]}],
+                                  {"duration": math.inf, "turn_rate_deg_s": rate}]}],
             "measurements": [
                 {"kind": "power", "sensor": "drone", "sigma": 2.0,
                  "times": {"start": 0.0, "stop": 179.0, "step": 1.0}},
@@ -187,10 +197,11 @@ sigma = 1.0
 def drone_sample(seed: int = 0) -> tuple[str, str, dict[str, float]]:
     """Make a drone receiver log and its mapping (a stationary 433.92 MHz transmitter).
 
-    The drone flies 60 s straight then circles (15 m/s, 3 deg/s) at 120 m above mean sea
-    level (GPS noise: 0.5 m horizontal, 2 m vertical, 0.03 m/s); the transmitter stands at
-    the drone's height 1.5-2.5 km away.  One row per second for 180 s: RSSI (dBm, noise
-    2 dB, path-loss exponent 2) and received frequency (Hz, noise 1 Hz).
+    The drone flies 60 s straight then circles (15 m/s, 3 deg/s, a circle of 286 m radius)
+    at 120 m above mean sea level (GPS noise: 0.5 m horizontal, 2 m vertical, 0.03 m/s); the
+    transmitter stands on the ground at 30 m, 90 m below the drone, somewhere inside the
+    circle.  One row per second for 180 s: RSSI (dBm, noise 2 dB, path-loss exponent 2) and
+    received frequency (Hz, noise 1 Hz).
 
     Parameters
     ----------
@@ -204,7 +215,7 @@ def drone_sample(seed: int = 0) -> tuple[str, str, dict[str, float]]:
     mapping : str
         Its mapping TOML (:data:`DRONE_MAPPING`).
     truth : dict
-        ``lat``, ``lon`` (deg) of the transmitter.
+        ``lat``, ``lon`` (deg) and ``alt`` (m above mean sea level) of the transmitter.
     """
     rng = np.random.default_rng(seed)
     scn = _drone_scenario(rng)
@@ -215,7 +226,7 @@ def drone_sample(seed: int = 0) -> tuple[str, str, dict[str, float]]:
     e = st[:, 0] + rng.normal(0, 0.5, t.shape)
     n = st[:, 1] + rng.normal(0, 0.5, t.shape)
     lat, lon, _ = enu_to_geodetic(e, n, 0.0, SAMPLE_ORIGIN)
-    alt = 120.0 + rng.normal(0, 2.0, t.shape)
+    alt = st[:, 2] + rng.normal(0, 2.0, t.shape)
     v = st[:, 3:5] + rng.normal(0, 0.03, (t.shape[0], 2))
     stamps = np.datetime_as_string(_clock(t), unit="ms")
     lines = ["utc,lat,lon,alt_m,vn,ve,vd,rssi_dbm,freq_hz"]
@@ -223,8 +234,10 @@ def drone_sample(seed: int = 0) -> tuple[str, str, dict[str, float]]:
         lines.append(f"{stamps[k]}Z,{lat[k]:.8f},{lon[k]:.8f},{alt[k]:.2f},{v[k, 1]:.3f},"
                      f"{v[k, 0]:.3f},{rng.normal(0, 0.03):.3f},{power.value[k]:.2f},"
                      f"{freq.value[k]:.2f}")
-    tlat, tlon, _ = enu_to_geodetic(scn.truth["x"], scn.truth["y"], 0.0, SAMPLE_ORIGIN)
-    return "\n".join(lines) + "\n", DRONE_MAPPING, {"lat": float(tlat), "lon": float(tlon)}
+    tlat, tlon, talt = enu_to_geodetic(scn.truth["x"], scn.truth["y"], scn.truth["z"],
+                                       SAMPLE_ORIGIN)
+    return "\n".join(lines) + "\n", DRONE_MAPPING, {"lat": float(tlat), "lon": float(tlon),
+                                                     "alt": round(float(talt), 3)}
 
 
 BEARINGS_MAPPING = """\

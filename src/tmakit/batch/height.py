@@ -1,0 +1,203 @@
+"""The emitter's height, chosen by the data: a 2-D fit against its 3-D counterpart.
+
+A log whose sensors stay within 25 m of one altitude is read as 2-D (the surface rule of
+:mod:`tmakit.io.logs`): the sensors are put in the plane z = 0 and a 2-D motion model puts the
+emitter in that plane too.  For a drone flying 90 m above a transmitter on the ground, ranges,
+received powers and Doppler shifts then belong to a point 90 m too close, and the 2-D fit is
+confidently wrong: 20 m off with an ellipse of a few metres.  Bearings do not care (their kinds
+are ``height_blind``).
+
+:func:`choose_height` fits the 3-D counterpart of the motion model (``static2d`` ->
+``static3d``, ``cv2d`` -> ``cv3d``) from the 2-D estimate, the emitter started at a quarter,
+a half and the whole of its median horizontal range off the sensors' plane, and keeps the 3-D
+fit when the likelihood-ratio test says the data need the height: ``chi2_2D - chi2_3D`` against
+a chi-square with as many degrees of freedom as parameters added, ``p <`` :data:`HEIGHT_LEVEL`
+(Wilks 1938; conservative here, as the height's sign is not identified and the 2-D model
+is the boundary ``z = 0``).  With sensors in one plane, a point above and its mirror below
+give the same data: the emitter is put below the plane when the sensors fly (their plane more
+than :data:`AIRBORNE_ALTITUDE` above the altitude reference), above it otherwise, and the
+note says that this side is assumed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2 as chi2_dist
+
+from ..data import MeasurementSet
+from ..measurements import KINDS
+from ..motion import motion_from_name
+from ..results.estimate import CONVERGED, EstimateResult
+from .dispatch import estimate
+from .estimator import Options
+
+HEIGHT_LEVEL = 0.001
+"""The 3-D fit is kept when the likelihood-ratio test's p-value is below this."""
+
+AIRBORNE_ALTITUDE = 25.0
+"""Sensors whose plane lies more than this (m) above the altitude reference fly."""
+
+RAISED = {"static2d": "static3d", "cv2d": "cv3d"}
+"""The 3-D counterpart of each 2-D motion model."""
+
+_START_FRACTIONS = (0.25, 0.5, 1.0)
+
+
+@dataclass
+class HeightChoice:
+    """The outcome of :func:`choose_height`.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        The fit chosen (the 3-D one carries the note in its message).
+    flat : EstimateResult
+        The 2-D fit.
+    raised : EstimateResult or None
+        The best 3-D fit (None when the test does not apply).
+    delta_chi2 : float or None
+        ``chi2_2D - chi2_3D``.
+    p_value : float or None
+        The likelihood-ratio test's p-value.
+    dim : int
+        2 or 3: the dimension of ``result``.
+    note : str
+        What was tested and chosen, with the numbers (empty when the test does not apply).
+    """
+
+    result: EstimateResult
+    flat: EstimateResult
+    raised: EstimateResult | None
+    delta_chi2: float | None
+    p_value: float | None
+    dim: int
+    note: str
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON form.
+
+        Returns
+        -------
+        dict
+            ``dim``, ``chi2_2d``, ``chi2_3d``, ``delta_chi2``, ``p_value``, ``note``.
+        """
+        def num(x: float | None) -> float | None:
+            return float(x) if x is not None and np.isfinite(x) else None
+
+        return {"dim": self.dim, "chi2_2d": num(self.flat.chi2),
+                "chi2_3d": num(self.raised.chi2) if self.raised is not None else None,
+                "delta_chi2": num(self.delta_chi2), "p_value": num(self.p_value),
+                "note": self.note}
+
+
+def height_matters(meas: MeasurementSet, result: EstimateResult) -> bool:
+    """Tell whether a 2-D fit could be wrong for want of the emitter's height.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements fitted.
+    result : EstimateResult
+        The 2-D fit.
+
+    Returns
+    -------
+    bool
+        True for a 2-D set, a 2-D motion model with a 3-D counterpart, a finite estimate and
+        at least one kind that is not ``height_blind`` (ranges, powers, Doppler, ...).
+    """
+    return (meas.dim == 2 and result.motion.name in RAISED
+            and bool(np.all(np.isfinite(result.estimate)))
+            and not all(KINDS[k].height_blind for k in meas.kinds))
+
+
+def choose_height(meas: MeasurementSet, flat: EstimateResult, options: Options = None, *,
+                  level: float = HEIGHT_LEVEL, force: bool = False) -> HeightChoice:
+    """Fit the 3-D counterpart of a 2-D fit and keep it when the data need the height.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements fitted.
+    flat : EstimateResult
+        Their 2-D maximum-likelihood fit (``static2d`` or ``cv2d``).
+    options : Mapping, optional
+        The measurement-model options of the fit.
+    level : float, optional
+        The likelihood-ratio test's level (default :data:`HEIGHT_LEVEL`).
+    force : bool, optional
+        Keep the 3-D fit whatever the test says (``tma estimate --dim 3``).
+
+    Returns
+    -------
+    HeightChoice
+        The fit chosen, both fits, the test's numbers and a note.
+    """
+    if not height_matters(meas, flat):
+        return HeightChoice(flat, flat, None, None, None, 2, "")
+    raised = _best_raised(meas, flat, options)
+    if raised is None:
+        return HeightChoice(flat, flat, None, None, None, 2,
+                            "height: no 3-D fit converged; the 2-D fit is kept")
+    added = raised.motion.n_params - flat.motion.n_params
+    delta = float(flat.chi2 - raised.chi2)
+    p = float(chi2_dist.sf(max(delta, 0.0), added))
+    test = (f"chi2 {flat.chi2:.1f} in 2-D, {raised.chi2:.1f} in 3-D: a drop of {delta:.1f} "
+            f"for {added} more parameter{'s' if added > 1 else ''}, p = {p:.2g}")
+    if p >= level and not force:
+        return HeightChoice(flat, flat, raised, delta, p, 2,
+                            f"height: a 3-D fit does not explain the data better ({test} >= "
+                            f"{level:g}); the 2-D fit is kept (--dim 3 fits in 3-D)")
+    z, sz = float(raised.estimate[2]), float(raised.std[2])
+    side = "below" if z < 0 else "above"
+    why = ("the 3-D fit is asked for (--dim 3)" if force and p >= level else
+           f"the data need the height ({test} < {level:g})")
+    note = (f"height: the emitter is {abs(z):.0f} ± {sz:.2g} m {side} the sensors' plane: "
+            f"{why}, so the answer is the 3-D fit; the sensors fly in one plane, so above "
+            f"and below it fit alike and {side} is assumed ({_side_reason(meas)}); "
+            "--dim 2 keeps the 2-D fit")
+    message = f"{raised.message}; {note}" if raised.message else note
+    return HeightChoice(dataclasses.replace(raised, message=message), flat, raised, delta, p,
+                        3, note)
+
+
+def _plane_altitude(meas: MeasurementSet) -> float:
+    return float(meas.metadata.get("origin_alt", 0.0))
+
+
+def _side_reason(meas: MeasurementSet) -> str:
+    alt = _plane_altitude(meas)
+    ref = meas.metadata.get("altitude_reference", "ellipsoid")
+    where = "mean sea level" if ref == "msl" else "the WGS-84 ellipsoid"
+    flying = alt > AIRBORNE_ALTITUDE
+    return (f"the sensors' plane is {alt:.0f} m above {where}, "
+            + ("airborne: the emitter on the ground below" if flying
+               else "at the surface: the emitter above it"))
+
+
+def _best_raised(meas: MeasurementSet, flat: EstimateResult, options: Options
+                 ) -> EstimateResult | None:
+    """The best converged 3-D fit started from the 2-D one at several heights, or None."""
+    motion = flat.motion
+    ref = getattr(motion, "ref_time", None)
+    raised = motion_from_name(RAISED[motion.name],
+                              *(() if ref is None or not np.isfinite(ref) else (ref,)))
+    states = motion.states(flat.estimate, meas.time)
+    reach = float(np.median(np.hypot(*(states[:, :2] - meas.sensor_state[:, :2]).T)))
+    sign = -1.0 if _plane_altitude(meas) > AIRBORNE_ALTITUDE else 1.0
+    named = dict(zip(motion.param_names, flat.estimate, strict=True))
+    best = None
+    for f in _START_FRACTIONS:
+        start = {n: named.get(n, 0.0) for n in raised.param_names}
+        start["z"] = sign * max(f * reach, 1.0)
+        try:
+            fit = estimate(meas, raised, init=start, options=options)
+        except ValueError:
+            continue
+        if fit.status == CONVERGED and np.isfinite(fit.chi2) and (
+                best is None or fit.chi2 < best.chi2):
+            best = fit
+    return best
