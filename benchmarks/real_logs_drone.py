@@ -38,7 +38,7 @@ INSIDE_95 = 5.991  # chi-square, 2 dof, 0.95
 
 
 def fits(log: Path, mapping: Path, truth: dict[str, float]):
-    """The defaults' answer and the 2-D fit's, with the truth's East/North."""
+    """Fit a log: the defaults' choice and the truth's East/North."""
     meas = tk.read_measurements(log, format="wide", mapping=mapping)
     flat = tk.estimate(meas, tk.motion_from_name("static2d"))
     chosen = choose_height(meas, flat)

@@ -180,7 +180,7 @@ def _side_reason(meas: MeasurementSet) -> str:
 
 def _best_raised(meas: MeasurementSet, flat: EstimateResult, options: Options
                  ) -> EstimateResult | None:
-    """The best converged 3-D fit started from the 2-D one at several heights, or None."""
+    """Give the best converged 3-D fit started from the 2-D one at several heights, or None."""
     motion = flat.motion
     ref = getattr(motion, "ref_time", None)
     raised = motion_from_name(RAISED[motion.name],
