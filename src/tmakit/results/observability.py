@@ -12,9 +12,10 @@ power, range), translations (a frequency-only static problem), and scalings abou
 least squares on the motion model's own Jacobian, so this works for every motion model.
 
 Angles alone from one sensor on one straight leg cannot give range whatever the motion model
-(:mod:`tmakit.results.own_legs`): a manoeuvring target's model can make the information
-formally full rank, but only through the shape it assumes, so that direction (the scaling of
-the track about the sensor's path) is taken out of the information and named in words.
+(:mod:`tmakit.results.own_legs`): a manoeuvring target's model (its velocity's dependence on
+the parameters changes with time) can make the information formally full rank, but only
+through the shape it assumes, so that direction (the scaling of the track about the sensor's
+path) is taken out of the information and named in words.
 """
 
 from __future__ import annotations
@@ -281,8 +282,11 @@ def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np
     t = np.unique(meas.time)
     own = _straight_path(meas, sensor, t)
     jac = motion.jacobian(theta, t)
-    if own is None or not np.any(jac[:, 3:6]):
-        return None  # a stationary emitter: a moving sensor's bearings do give its range
+    velocity = jac[:, 3:6]
+    if own is None or np.allclose(velocity, velocity[:1], rtol=1e-9, atol=1e-12):
+        # a stationary emitter (a moving sensor's bearings do give its range) or constant
+        # velocity (the rank says whether range is seen): no manoeuvre to take it from
+        return None
     d = motion.states(theta, t) - own
     dtheta = np.linalg.lstsq(jac.reshape(-1, motion.n_params), d.reshape(-1), rcond=None)[0]
     full = np.zeros(size)
