@@ -52,6 +52,10 @@ from .common import (
 from .outputs import check_output
 from .reading import read_or_fail
 
+DimOption = Annotated[int | None, typer.Option(
+    help="2 or 3: fit in 2-D, or in 3-D (the emitter off the sensors' plane); default: 3-D "
+         "where the sensors fly or the data need the height (docs/estimation.md)")]
+
 
 # `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def estimate(
@@ -85,9 +89,7 @@ def estimate(
     accelerations: Annotated[str | None, typer.Option(
         help="curvilinear: select (default: hold at zero the accelerations the data do not "
              "need, by the same criterion) or all")] = None,
-    dim: Annotated[int | None, typer.Option(
-        help="2 or 3: fit in 2-D, or in 3-D (the emitter off the sensors' plane); default: "
-             "2-D unless a 3-D fit explains the data better (docs/estimation.md)")] = None,
+    dim: DimOption = None,
     at: AtOption = None,
     sensor: SensorOption = None,
     units: UnitsOption = "si",
@@ -117,9 +119,8 @@ def estimate(
     number by BIC or likelihood-ratio tests, and holds at zero the accelerations the data do
     not need (tmakit.batch.curvilinear).
 
-    Exit status 0: an answer (trust ok, or warning with its warnings on stderr); 4: no answer
-    (unobservable, did not converge, diverged), said in words, with no number given as an
-    answer; 2: bad input (docs/reliability.md).
+    Exit status 0: an answer (trust ok or warning); 4: no answer (unobservable, not converged,
+    diverged), in words, no number as an answer; 2: bad input (docs/reliability.md).
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)

@@ -25,7 +25,17 @@ LEG_SPEED_CHANGE = 0.1
 
 @dataclass(frozen=True)
 class Leg:
-    """One straight leg of a sensor: its time span, course (deg true) and speed (m/s)."""
+    """One straight leg of a sensor.
+
+    Parameters
+    ----------
+    start, stop : float
+        Its first and last times (s).
+    course_deg : float
+        Its course (degrees true).
+    speed : float
+        Its mean speed (m/s).
+    """
 
     start: float
     stop: float
@@ -33,7 +43,13 @@ class Leg:
     speed: float
 
     def words(self) -> str:
-        """Return the leg in words (times in s)."""
+        """Return the leg in words.
+
+        Returns
+        -------
+        str
+            ``t = START .. STOP s, course C° at S m/s`` (or ``stationary``).
+        """
         if self.speed < 0.05:
             return f"t = {self.start:g} .. {self.stop:g} s, stationary"
         return (f"t = {self.start:g} .. {self.stop:g} s, course {self.course_deg:.0f}° at "
