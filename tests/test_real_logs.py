@@ -176,7 +176,7 @@ def test_drone_log_round_trip_velocity_and_origin(tmp_path):
     assert np.allclose(ms.sensor_state[0, :3], 0.0, atol=1e-6)
     # NED velocity columns: vn -> north (y), ve -> east (x)
     assert ms.sensor_state[0, 4] == float(first[4]) and ms.sensor_state[0, 3] == float(first[5])
-    assert ms.select(kind="power").value[0] == float(first[7])
+    assert ms.select(kind="power").value[0] == pytest.approx(float(first[7]), rel=1e-14)
     back = tk.read_measurements(tk.write_measurements(ms, tmp_path / "o.parquet"))
     assert back.equals(ms)
 
@@ -226,14 +226,20 @@ def test_mapping_errors_name_the_key(tmp_path):
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_drone_figure_transmitter_within_three_sigma(tmp_path, seed):
-    """The issue's figure on a few seeds: 2-D Mahalanobis distance of the error <= 3."""
+    """The issue's figure on a few seeds: 2-D Mahalanobis distance of the error <= 3.
+
+    With ``tma estimate``'s defaults: the drone flies 90 m above the transmitter, so the
+    height is fitted (:func:`tmakit.batch.height.choose_height`; tests/test_trust.py).
+    """
+    from tmakit.batch.height import choose_height
+
     log, mapping, truth = drone_files(tmp_path, seed)
     ms = tk.read_measurements(log, format="wide", mapping=mapping)
-    result = tk.estimate(ms, tk.motion_from_name("static2d"))
+    result = choose_height(ms, tk.estimate(ms, tk.motion_from_name("static2d"))).result
     origin = [float(ms.metadata[k]) for k in ("origin_lat", "origin_lon", "origin_alt")]
     e, n, _ = geodetic_to_enu(truth["lat"], truth["lon"], origin[2], origin)
     err = result.estimate[:2] - np.array([float(e), float(n)])
-    assert result.status == "converged"
+    assert result.status == "converged" and result.motion.name == "static3d"
     assert np.sqrt(err @ np.linalg.solve(result.covariance[:2, :2], err)) <= 3.0
 
 
@@ -387,12 +393,12 @@ def test_a_parquet_wide_log_with_a_timestamp_column_reads_like_the_csv(tmp_path)
 
 
 def test_the_shipped_samples_are_the_simulations_output():
-    """src/tmakit/examples is what benchmarks/make_sample_logs.py writes (seed 0)."""
+    """src/tmakit/examples is what benchmarks/make_sample_logs.py writes (seed 0; drone 6)."""
     from importlib import resources
 
     shipped = resources.files("tmakit") / "examples"
     rep, _ = replay_sample(0)
-    drone, drone_map, _ = drone_sample(0)
+    drone, drone_map, _ = drone_sample(6)
     gpx, nmea, bearings, bearings_map, _ = gpx_nmea_sample(0)
     for name, text in (("contact.rep", rep), ("drone.csv", drone), ("drone.toml", drone_map),
                        ("own.nmea", nmea), ("bearings.csv", bearings),
