@@ -52,6 +52,11 @@ from .common import (
 from .outputs import check_output
 from .reading import read_or_fail
 
+ExactOption = Annotated[bool, typer.Option(
+    "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")]
+ScaleSigmaOption = Annotated[bool, typer.Option(
+    "--scale-sigma", help="rescale each kind's sigma from the residuals of a first fit "
+                          "(chi2/dof becomes 1) and fit again; the covariance follows")]
 DimOption = Annotated[int | None, typer.Option(
     help="2 or 3: fit in 2-D, or in 3-D (the emitter off the sensors' plane); default: 3-D "
          "where the sensors fly or the data need the height (docs/estimation.md)")]
@@ -77,9 +82,7 @@ def estimate(
     range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
     kinds: KindsOption = None, ranges: RangesOption = None,
-    exact: Annotated[bool, typer.Option(
-        "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")
-    ] = False,
+    exact: ExactOption = False,
     criterion: Annotated[str | None, typer.Option(
         help="curvilinear: how the number of manoeuvres is chosen, bic (default) or lrt")
     ] = None,
@@ -93,10 +96,7 @@ def estimate(
     at: AtOption = None,
     sensor: SensorOption = None,
     units: UnitsOption = "si",
-    scale_sigma: Annotated[bool, typer.Option(
-        "--scale-sigma", help="rescale each kind's sigma from the residuals of a first fit "
-                              "(chi2/dof becomes 1) and fit again; the covariance follows")
-    ] = False,
+    scale_sigma: ScaleSigmaOption = False,
     start: Annotated[str | None, typer.Option(
         "--from", help="solve one leg: first time (seconds, a UTC clock time, or HH:MM[:SS] on "
                        "the data's day)")] = None,
