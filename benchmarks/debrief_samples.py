@@ -36,22 +36,33 @@ from pathlib import Path
 import numpy as np
 
 import tmakit as tk
+from tmakit.geodesy import geodetic_to_enu
 from tmakit.io.debrief import replay_tracks
 from tmakit.io.errors import reader_notes
-from tmakit.io.logs import iso_utc
+from tmakit.io.logs import KNOT, iso_utc
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "debrief"
 #: A leg needs at least this many cuts to be fitted.
 MIN_CUTS = 6
 #: Within: course error (deg) and speed error (kn).
 COURSE_TOL_DEG, SPEED_TOL_KN = 2.0, 0.3
+#: A sample set whose cuts' median bearing differs from its truth track's by more (deg) is not a
+#: truth case (its sensor file and its tracks come from different runs).
+TRUTH_MISMATCH_DEG = 5.0
+#: The two-sided 95 % normal quantile: a leg's truth within this many stds is inside the answer.
+Z95 = 1.959964
+#: The verdicts on a fitted leg, in the order they are counted.
+VERDICTS = ("within", "unobservable", "uncertain", "off")
 #: The kinds fitted on a leg.
 KINDS = ("bearing", "range")
 #: Each sensor file and the track files read with it (``tma`` takes them together).
 COMPANIONS = {"satc/BlueSensor_sparse.rep": ["satc/BlueTrack.rep"],
               "ta_dummy/Freq_BlueSensor.rep": ["ta_dummy/Freq_BlueTrack.rep"],
               "pepys/sen_frig_sensor.dsf": ["pepys/sen_tracks.rep"],
-              "pepys/sen_ssk_freq.dsf": ["pepys/sen_tracks.rep"]}
+              "pepys/sen_ssk_freq.dsf": ["pepys/sen_tracks.rep"],
+              "s2r_2553/BlueSensorBrg.dsf": ["s2r_2553/BlueTrack.rep"],
+              "s2r_hover_north/Ambig_tracks_hover_north_TA.dsf": [
+                  "s2r_hover_north/Ambig_tracks_hover_north.rep"]}
 
 
 @dataclass(frozen=True)
@@ -71,6 +82,11 @@ SETS = [SampleSet("SATC Force Protection", ("satc/BlueSensor_sparse.rep", "satc/
         SampleSet("TA_DUMMY narrowband", ("ta_dummy/Freq_BlueSensor.rep",
                                           "ta_dummy/Freq_BlueTrack.rep"),
                   "ta_dummy/Freq_RedTrack.rep", "SUBJECT"),
+        SampleSet("S2R 2553 narrowband", ("s2r_2553/BlueSensorBrg.dsf", "s2r_2553/BlueTrack.rep"),
+                  "s2r_2553/RedTrack.rep", "SUBJECT"),
+        *(SampleSet(f"S2R hover north {c}", ("s2r_hover_north/Ambig_tracks_hover_north.rep",),
+                    "s2r_hover_north/Ambig_tracks_hover_north.rep", "SUBJECT", "SENSOR", c)
+          for c in ("HM", "TA")),
         *(SampleSet(f"bulk_data MER/{c}", ("pepys/bulk_data.rep",), "pepys/bulk_data.rep", c,
                     "MER", c)
           for c in ("GreenFV1_001", "GreenFV1_006", "GreenFV1_007", "GreenFV1_008",
@@ -179,8 +195,28 @@ class LegResult:
     course: float
     speed: float
     cuts: int
-    verdict: str  # within | off | unobservable | too few cuts
+    verdict: str  # one of VERDICTS, or "too few cuts"
     text: str
+
+
+def truth_bearing_error(root: Path, s: SampleSet) -> float:
+    """Return the median |measured - true bearing| (deg) over every cut of a sample set.
+
+    The true bearing is the one from the sensor's position at the cut to the subject's truth
+    track (interpolated between its fixes): a few tenths of a degree when the truth track is
+    the truth of the sensor file, tens of degrees when it is not.
+    """
+    files = [root / f for f in s.files]
+    meas = tk.read_measurements(files if len(files) > 1 else files[0], ownship=s.ownship,
+                                contact=s.contact, kinds=("bearing",))
+    truth = replay_tracks(root / s.truth_file)[s.subject]
+    t_ns = np.datetime64(meas.metadata["time_origin"].rstrip("Z"), "ns").astype(np.int64) + (
+        np.round(meas.time * 1e9).astype(np.int64))
+    lat, lon = (np.interp(t_ns, truth["time_ns"], truth[k]) for k in ("lat", "lon"))
+    origin = [float(meas.metadata[f"origin_{k}"]) for k in ("lat", "lon", "alt")]
+    east, north, _ = geodetic_to_enu(lat, lon, np.zeros(lat.shape), origin)
+    true = np.arctan2(east - meas.sensor_state[:, 0], north - meas.sensor_state[:, 1])
+    return float(np.degrees(np.median(np.abs(np.angle(np.exp(1j * (meas.value_si - true)))))))
 
 
 def fit_leg(root: Path, s: SampleSet, leg: tuple[int, int, float, float]) -> LegResult:
@@ -206,18 +242,33 @@ def fit_leg(root: Path, s: SampleSet, leg: tuple[int, int, float, float]) -> Leg
     a = result.answer(meas)
     dc = abs((a.course_deg - course + 180.0) % 360.0 - 180.0)
     ds = abs(a.speed_knots - speed)
-    verdict = "within" if dc <= COURSE_TOL_DEG and ds <= SPEED_TOL_KN else "off"
-    text = (f"{a.course_deg:6.1f} deg, {a.speed_knots:5.2f} kn (error {dc:.2f} deg, "
-            f"{ds:.2f} kn; {result.status}, chi2/dof {result.chi2 / max(result.dof, 1):.3g})")
+    sc, ss = a.course_std_deg, a.speed_std / KNOT
+    if dc <= COURSE_TOL_DEG and ds <= SPEED_TOL_KN:
+        verdict = "within"
+    elif dc <= Z95 * sc and ds <= Z95 * ss:
+        verdict = "uncertain"
+    else:
+        verdict = "off"
+    text = (f"{a.course_deg:6.1f} +- {sc:.3g} deg, {a.speed_knots:5.2f} +- {ss:.3g} kn (error "
+            f"{dc:.2f} deg, {ds:.2f} kn; {result.status}, chi2/dof "
+            f"{result.chi2 / max(result.dof, 1):.3g})")
     return LegResult(s.name, start, end, course, speed, cuts, verdict, text)
 
 
 def leg_results(root: Path) -> list[LegResult]:
-    """Fit every straight leg of every sample set's subject."""
+    """Fit every straight leg of every sample set's subject (none when its truth is not)."""
     out = []
     for s in SETS:
         truth = replay_tracks(root / s.truth_file)[s.subject]
-        out += [fit_leg(root, s, leg) for leg in straight_legs(truth)]
+        legs = straight_legs(truth)
+        error = truth_bearing_error(root, s)
+        if error > TRUTH_MISMATCH_DEG:
+            out += [LegResult(s.name, start, end, course, speed, 0, "not the truth",
+                              f"the median bearing differs from the truth track's by "
+                              f"{error:.1f} deg: this track is not the truth of these cuts")
+                    for start, end, course, speed in legs]
+            continue
+        out += [fit_leg(root, s, leg) for leg in legs]
     return out
 
 
@@ -243,12 +294,15 @@ def main() -> None:
         window = f"{iso_utc(r.start_ns)[11:19]}-{iso_utc(r.end_ns)[11:19]}"
         print(f"  {r.sample:24s} {window}  true {r.course:6.2f} deg {r.speed:5.2f} kn, "
               f"{r.cuts:3d} cuts: {r.verdict.upper()}: {r.text}")
-    fitted = [r for r in results if r.verdict != "too few cuts"]
-    count = {v: sum(r.verdict == v for r in fitted) for v in ("within", "unobservable", "off")}
-    print(f"  legs with >= {MIN_CUTS} cuts: {len(fitted)}; within: {count['within']}, "
-          f"unobservable (said so): {count['unobservable']}, off: {count['off']}; legs "
-          f"with fewer cuts: {len(results) - len(fitted)}")
-
+    fitted = [r for r in results if r.verdict in VERDICTS]
+    count = {v: sum(r.verdict == v for r in fitted) for v in VERDICTS}
+    print(f"  legs with >= {MIN_CUTS} cuts and a true truth: {len(fitted)}; within: "
+          f"{count['within']}, unobservable (said so): {count['unobservable']}, uncertain (the "
+          f"truth inside the printed 95 % intervals, no word said): {count['uncertain']}, off: "
+          f"{count['off']}")
+    print(f"  legs left out: {sum(r.verdict == 'too few cuts' for r in results)} with fewer "
+          f"cuts, {sum(r.verdict == 'not the truth' for r in results)} whose truth track is "
+          "not the truth of the cuts")
 
 if __name__ == "__main__":
     main()

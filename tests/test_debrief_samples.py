@@ -1,9 +1,9 @@
 """Public Debrief sample files (tests/data/debrief) read as given, and cv2d on their legs.
 
 The figure is ``benchmarks/debrief_samples.py``; these tests pin what it shows: every file is
-read (no valid content refused) and each straight leg of each subject with enough cuts comes
-out within 2 deg and 0.3 kn of the truth, or is reported unobservable (the last TA_DUMMY leg:
-the own ship holds its course all through it).
+read (no valid content refused) and no straight leg of a subject with enough cuts comes out
+off: each is within 2 deg and 0.3 kn of the truth, reported unobservable (the own ship holds its
+course all through it), or printed with a std that puts the truth inside its 95 % interval.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def samples(tmp_path_factory):
 
 def test_every_sample_file_is_read(samples):
     files = sorted(str(p.relative_to(samples)) for p in samples.rglob("*") if p.is_file())
-    assert len(files) == 12
+    assert len(files) == 17
     for rel in files:
         refused = [(what, why) for what, why in bench.readings(samples, rel) if why is not None]
         assert not refused, (rel, refused)
@@ -48,15 +48,33 @@ def test_bulk_data_answers_with_its_60_second_positions_read_as_a_carry(samples)
     assert abs(float(rows["speed"]) - 6.00) < 0.05
 
 
-def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable(samples):
+def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable_never_off(samples):
     results = bench.leg_results(samples)
-    fitted = [r for r in results if r.verdict != "too few cuts"]
-    verdicts = {(r.sample, round(r.course, 2)): r.verdict for r in fitted}
-    assert len(fitted) == 14
-    assert verdicts.pop(("TA_DUMMY narrowband", 309.24)) == "unobservable"
-    assert set(verdicts.values()) == {"within"}, [r for r in fitted if r.verdict == "off"]
+    verdicts = {(r.sample, round(r.course, 2)): r.verdict for r in results}
+    assert len(verdicts) == len(results) == 26
+    assert [r.verdict for r in results].count("within") == 13
+    assert "off" not in verdicts.values(), [r for r in results if r.verdict == "off"]
+    # The own ship holds its course all through these legs: said unobservable, with the reason.
+    assert {k for k, v in verdicts.items() if v == "unobservable"} == {
+        ("TA_DUMMY narrowband", 309.24), ("S2R hover north HM", 109.08),
+        ("S2R hover north TA", 109.08)}
+    # 6 and 12 bearings at 24 nmi: the course printed is 10-20 deg off, with a std of over
+    # 1000 deg (the truth inside its 95 % interval), but no word says it is undetermined.
+    assert {k for k, v in verdicts.items() if v == "uncertain"} == {
+        (f"S2R hover north {c}", course) for c in ("HM", "TA") for course in (273.51, 86.18)}
     assert {r.sample for r in results if r.verdict == "too few cuts"} == {
         "bulk_data MER/GreenFV1_006", "bulk_data MER/GreenFV1_011", "bulk_data MER/GreenFV1_012"}
+    # Debrief's S2R/2553 folder: its sensor file's bearings are not those of its red track
+    # seen from its blue track (a bug-reproduction set): no truth to compare with.
+    assert {r.sample for r in results if r.verdict == "not the truth"} == {"S2R 2553 narrowband"}
+
+
+def test_a_truth_track_is_checked_against_the_cuts(samples):
+    """The truth check tells a true truth track (a few tenths of a degree) from another run's."""
+    sets = {s.name: s for s in bench.SETS}
+    assert bench.truth_bearing_error(samples, sets["TA_DUMMY narrowband"]) < 0.5
+    assert bench.truth_bearing_error(samples, sets["S2R hover north HM"]) < 0.5
+    assert bench.truth_bearing_error(samples, sets["S2R 2553 narrowband"]) > 45.0
 
 
 def test_the_shipped_debrief_sample_is_the_stored_one():
