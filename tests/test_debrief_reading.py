@@ -78,6 +78,20 @@ def test_the_same_fix_twice_is_one_fix_and_two_different_fixes_are_refused(tmp_p
         tk.read_measurements([track, write(tmp_path, "d.dsf", moved + CUTS)])
 
 
+def test_a_cut_written_twice_is_one_cut_and_two_different_cuts_at_one_time_are_warned(tmp_path):
+    """A sensor file read with a replay that holds the same sensor's cuts (Debrief's samples)."""
+    track, cuts = write(tmp_path, "own.rep", OWN + CUTS), write(tmp_path, "s.dsf", CUTS)
+    meas = tk.read_measurements([track, cuts])
+    assert len(meas) == 5
+    assert "note: 5 cut(s) written twice (same sensor, time and values) read once: s.dsf " \
+        "line 1 repeats own.rep line 4" in notes(meas) and "warning" not in notes(meas)
+    other = write(tmp_path, "o.dsf", CUTS.replace(" 41.0 NULL", " 45.0 NULL"))
+    both = tk.read_measurements([track, other])
+    assert len(both) == 6 and sorted(both.value[:2]) == [41.0, 45.0]
+    assert "warning: 1 time(s) with two different cuts of one sensor (two files of the same " \
+        "sensor?), both fitted: own.rep line 4 and o.dsf line 1" in notes(both)
+
+
 def test_cuts_outside_the_track_are_left_out_with_a_warning_the_window_first(tmp_path):
     late = ";SENSOR: 260504 093500 OWN @A NULL 50.0 NULL TA T1\n"
     path = write(tmp_path, "l.rep", OWN + CUTS + late)

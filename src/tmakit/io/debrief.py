@@ -10,7 +10,7 @@ The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
   host track's position interpolated linearly at its time.  Without track lines (DSF files
   often have none) the positions the sensor lines state are the track, and the velocity is
   derived from them (:func:`~.logs.velocity_from_positions`).  Fixes written twice, cuts
-  outside the track: :mod:`.debrief_fixes`.
+  outside the track: :mod:`.debrief_fixes`; cuts written twice: :mod:`.debrief_rows`.
 - **Contact** (``contact=``): the sensor lines whose sensor name is the name, or whose label
   starts with it (Debrief labels usually name the contact first); needed when the own
   ship's sensor lines come from several sensors, unless every label names the same contact
@@ -53,7 +53,7 @@ from ..data import MeasurementSet
 from .clock_text import seconds_of_time_text
 from .debrief_fixes import at_line, host_fixes, sensor_states
 from .debrief_lines import LineProblem, ParsedReplay, SensorLine, parse_replay_text
-from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
+from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges, repeated_cuts
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
 from .log_rules import checked_rows
@@ -374,6 +374,7 @@ def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | No
     origin_ns = time_origin_ns(every)
     rows = _in_window(where, sorted(rows, key=lambda s: s.time_ns), window, origin_ns,
                       (int(every.min()), int(every.max())))
+    rows = repeated_cuts(rows, notes)
     fixes = host_fixes(where, parsed.tracks, host, rows, notes)
     try:
         frame = local_frame([fixes], origin, dim, "msl")
