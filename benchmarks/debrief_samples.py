@@ -2,10 +2,14 @@
 
 The sample files are in ``tests/data/debrief`` (sources, commits and licences in its README):
 Debrief's SATC "Force Protection Scenario" and TA_DUMMY "Narrowband Tracking Scenario" (a
-sensor file, the own ship's track and the subject's track each), and pepys-import's copies of
-Debrief replay files (``bulk_data.rep``: own ship ``MER`` holding 7 of 20 fishing vessels whose
-tracks are in the file; a sensor file of 5 sensors with its track file; a frequency file; a
-track file; a mixed test file with ambiguous bearings).
+sensor file, the own ship's track and the subject's track each); its S2R "2553" set (the same,
+but its sensor file is of another run) and "hover north" set (a hull-mounted and a towed-array
+sensor, ambiguous bearings, the tracks in the same file; another run's towed-array file beside
+it); its ``sen_ssk_sensor.dsf`` (a submarine's bearings of the frigate); and pepys-import's
+copies of Debrief replay files (``bulk_data.rep``: own ship ``MER`` holding 7 of 20 fishing
+vessels whose tracks are in the file; the frigate's sensor file of 5 sensors on the submarine,
+with the track file of both; a frequency file; a track file; a mixed test file with ambiguous
+bearings).
 
 1. **Every file read.**  Each file is parsed, and each of its own ships' sensors is read as
    ``tma`` reads it (with the file's track file beside it where its positions are ``NULL``),
@@ -19,8 +23,12 @@ track file; a mixed test file with ambiguous bearings).
 
    (bearings, and ranges where they are measurements: placeholder ranges are left out by the
    reader; default sigmas).  Course and speed at the leg's last cut are compared with the
-   truth: *within* 2 deg and 0.3 kn, or *unobservable* (tmakit's status, with its reason), or
-   *off* (a miss: printed as such, never rounded).
+   truth: *within* 2 deg and 0.3 kn; *unobservable* (tmakit's status, with its reason);
+   *uncertain* (not within, but the truth inside the printed course and speed +- 1.96 std:
+   not wrong, yet printed as numbers with no word that they are undetermined); or *off* (a
+   confident miss: printed as such, never rounded).  A sample set whose truth track is not
+   the truth of its cuts (their median bearing more than :data:`TRUTH_MISMATCH_DEG` from the
+   truth's) is said so, and its legs are not fitted.
 
     python benchmarks/debrief_samples.py
 """
@@ -61,6 +69,7 @@ COMPANIONS = {"satc/BlueSensor_sparse.rep": ["satc/BlueTrack.rep"],
               "pepys/sen_frig_sensor.dsf": ["pepys/sen_tracks.rep"],
               "pepys/sen_ssk_freq.dsf": ["pepys/sen_tracks.rep"],
               "s2r_2553/BlueSensorBrg.dsf": ["s2r_2553/BlueTrack.rep"],
+              "sen/sen_ssk_sensor.dsf": ["pepys/sen_tracks.rep"],
               "s2r_hover_north/Ambig_tracks_hover_north_TA.dsf": [
                   "s2r_hover_north/Ambig_tracks_hover_north.rep"]}
 
@@ -87,6 +96,11 @@ SETS = [SampleSet("SATC Force Protection", ("satc/BlueSensor_sparse.rep", "satc/
         *(SampleSet(f"S2R hover north {c}", ("s2r_hover_north/Ambig_tracks_hover_north.rep",),
                     "s2r_hover_north/Ambig_tracks_hover_north.rep", "SUBJECT", "SENSOR", c)
           for c in ("HM", "TA")),
+        # Of the Frigate's five sensors, only Frigate_Optic holds New_SSK on a straight leg.
+        SampleSet("sen_frig Frigate_Optic", ("pepys/sen_frig_sensor.dsf", "pepys/sen_tracks.rep"),
+                  "pepys/sen_tracks.rep", "New_SSK", "Frigate", "Frigate_Optic"),
+        SampleSet("sen_ssk New_SSK_BB", ("sen/sen_ssk_sensor.dsf", "pepys/sen_tracks.rep"),
+                  "pepys/sen_tracks.rep", "Frigate", "New_SSK", "New_SSK_BB"),
         *(SampleSet(f"bulk_data MER/{c}", ("pepys/bulk_data.rep",), "pepys/bulk_data.rep", c,
                     "MER", c)
           for c in ("GreenFV1_001", "GreenFV1_006", "GreenFV1_007", "GreenFV1_008",
