@@ -78,6 +78,14 @@ def test_the_same_fix_twice_is_one_fix_and_two_different_fixes_are_refused(tmp_p
         tk.read_measurements([track, write(tmp_path, "d.dsf", moved + CUTS)])
 
 
+def test_a_track_file_alone_is_refused_naming_its_tracks_and_how_to_pair_it(tmp_path):
+    with pytest.raises(MeasurementFileError, match=r"nothing measured; the tracks read \(OWN\) "
+                       r"are positions: give an own ship's track with its sensor file"):
+        tk.read_measurements(write(tmp_path, "own.rep", OWN))
+    with pytest.raises(MeasurementFileError, match=r"nothing measured$"):
+        tk.read_measurements(write(tmp_path, "empty.rep", ";; a comment\n"))
+
+
 def test_a_cut_written_twice_is_one_cut_and_two_different_cuts_at_one_time_are_warned(tmp_path):
     """A sensor file read with a replay that holds the same sensor's cuts (Debrief's samples)."""
     track, cuts = write(tmp_path, "own.rep", OWN + CUTS), write(tmp_path, "s.dsf", CUTS)

@@ -158,13 +158,18 @@ def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[st
                      f"as a carry, as Debrief reads them: {_listed(carried)}")
 
 
-def _choose(path: Path, sensors: list[SensorLine], ownship: str | None,
+def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
             contact: str | None) -> tuple[str, list[SensorLine]]:
     """Choose the own ship and the contact's sensor lines, or refuse listing the names."""
+    sensors = parsed.sensors
     hosts = list(dict.fromkeys(s.host for s in sensors))
     if not hosts:
-        raise MeasurementFileError(path, ["no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing "
-                                          "measured"])
+        tracks = list(dict.fromkeys(t.name for t in parsed.tracks))
+        raise MeasurementFileError(path, [
+            "no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing measured" + (
+                f"; the tracks read ({_listed(tracks)}) are positions: give an own ship's "
+                f"track with its sensor file in one command (tma show SENSOR.dsf OWN.rep)"
+                if tracks else "")])
     ownship = None if ownship is None else ownship.strip()
     contact = None if contact is None else contact.strip()
     if ownship is None:
@@ -362,7 +367,7 @@ def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | No
     """Parse, choose the own ship and contact, apply the window, and place every cut."""
     parsed = _load(paths)
     try:
-        host, rows = _choose(where, parsed.sensors, ownship, contact)
+        host, rows = _choose(where, parsed, ownship, contact)
     except MeasurementFileError as e:  # the lines that break the format may be why
         if not parsed.problems:
             raise
