@@ -2,7 +2,8 @@
 
 The sample files are in ``tests/data/debrief`` (sources, commits and licences in its README):
 Debrief's SATC "Force Protection Scenario" and TA_DUMMY "Narrowband Tracking Scenario" (a
-sensor file, the own ship's track and the subject's track each); its S2R "2553" set (the same,
+sensor file, the own ship's track and the subject's track each; TA_DUMMY's cuts also with
+positions ``NULL`` and three gaps, from a spreadsheet); its S2R "2553" set (the same,
 but its sensor file is of another run) and "hover north" set (a hull-mounted and a towed-array
 sensor, ambiguous bearings, the tracks in the same file; another run's towed-array file beside
 it); its ``sen_ssk_sensor.dsf`` (a submarine's bearings of the frigate); and pepys-import's
@@ -66,6 +67,7 @@ KINDS = ("bearing", "range")
 #: Each sensor file and the track files read with it (``tma`` takes them together).
 COMPANIONS = {"satc/BlueSensor_sparse.rep": ["satc/BlueTrack.rep"],
               "ta_dummy/Freq_BlueSensor.rep": ["ta_dummy/Freq_BlueTrack.rep"],
+              "ta_dummy/Freq_BlueSensor_NoPos.dsf": ["ta_dummy/Freq_BlueTrack.rep"],
               "pepys/sen_frig_sensor.dsf": ["pepys/sen_tracks.rep"],
               "pepys/sen_ssk_freq.dsf": ["pepys/sen_tracks.rep"],
               "s2r_2553/BlueSensorBrg.dsf": ["s2r_2553/BlueTrack.rep"],
@@ -90,6 +92,9 @@ SETS = [SampleSet("SATC Force Protection", ("satc/BlueSensor_sparse.rep", "satc/
                   "satc/RedTrack.rep", "SUBJECT"),
         SampleSet("TA_DUMMY narrowband", ("ta_dummy/Freq_BlueSensor.rep",
                                           "ta_dummy/Freq_BlueTrack.rep"),
+                  "ta_dummy/Freq_RedTrack.rep", "SUBJECT"),
+        SampleSet("TA_DUMMY NoPos", ("ta_dummy/Freq_BlueSensor_NoPos.dsf",
+                                     "ta_dummy/Freq_BlueTrack.rep"),
                   "ta_dummy/Freq_RedTrack.rep", "SUBJECT"),
         SampleSet("S2R 2553 narrowband", ("s2r_2553/BlueSensorBrg.dsf", "s2r_2553/BlueTrack.rep"),
                   "s2r_2553/RedTrack.rep", "SUBJECT"),
