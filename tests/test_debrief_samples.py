@@ -48,6 +48,22 @@ def test_bulk_data_answers_with_its_60_second_positions_read_as_a_carry(samples)
     assert abs(float(rows["speed"]) - 6.00) < 0.05
 
 
+def test_a_sensor_file_with_null_positions_and_gaps_is_read_with_its_track_file(samples):
+    """Debrief's Freq_BlueSensor_NoPos.dsf as a user gives it: its track file in one command."""
+    ta = samples / "ta_dummy"
+    result = CliRunner().invoke(app, [
+        "estimate", str(ta / "Freq_BlueTrack.rep"), str(ta / "Freq_BlueSensor_NoPos.dsf"),
+        str(ta / "Freq_RedTrack.rep"), "--motion", "cv2d", "--kinds", "bearing", "--from",
+        "12:38:20", "--to", "13:40:50", "--units", "nautical"])
+    assert result.exit_code == 0, result.output
+    assert "own ship 'SENSOR': 1 fix(es) written twice" in result.output
+    rows = {p[0]: p[1] for p in (
+        [c.strip() for c in line.strip("│ ").split("│")] for line in result.output.splitlines())
+        if len(p) == 4}
+    assert abs(float(rows["course (true)"]) - 350.17) < 2.0  # true 350.17 deg, 9.00 kn
+    assert abs(float(rows["speed"]) - 9.00) < 0.3
+
+
 def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable_never_off(samples):
     results = bench.leg_results(samples)
     verdicts = {(r.sample, round(r.course, 2)): r.verdict for r in results}
