@@ -86,18 +86,18 @@ def test_a_track_file_alone_is_refused_naming_its_tracks_and_how_to_pair_it(tmp_
         tk.read_measurements(write(tmp_path, "empty.rep", ";; a comment\n"))
 
 
-def test_a_cut_written_twice_is_one_cut_and_two_different_cuts_at_one_time_are_warned(tmp_path):
-    """A sensor file read with a replay that holds the same sensor's cuts (Debrief's samples)."""
+def test_one_sensor_s_cuts_in_two_files_merge_when_equal_and_are_refused_naming_the_files(
+        tmp_path):
+    """A sensor file given with a replay that holds the same sensor's cuts (Debrief's S2R
+    hover-north sample): the same cut twice is one; other values at one time are refused,
+    naming the sensor and both files."""
     track, cuts = write(tmp_path, "own.rep", OWN + CUTS), write(tmp_path, "s.dsf", CUTS)
-    meas = tk.read_measurements([track, cuts])
-    assert len(meas) == 5
-    assert "note: 5 cut(s) written twice (same sensor, time and values) read once: s.dsf " \
-        "line 1 repeats own.rep line 4" in notes(meas) and "warning" not in notes(meas)
+    assert len(tk.read_measurements([track, cuts])) == 5
     other = write(tmp_path, "o.dsf", CUTS.replace(" 41.0 NULL", " 45.0 NULL"))
-    both = tk.read_measurements([track, other])
-    assert len(both) == 6 and sorted(both.value[:2]) == [41.0, 45.0]
-    assert "warning: 1 time(s) with two different cuts of one sensor (two files of the same " \
-        "sensor?), both fitted: own.rep line 4 and o.dsf line 1" in notes(both)
+    with pytest.raises(MeasurementFileError, match=r"own.rep and o.dsf both hold cuts of sensor "
+                       r"'TA' of own ship 'OWN', 1 of them at one time with other values "
+                       r"\(o.dsf line 1 and own.rep line 4\)"):
+        tk.read_measurements([track, other])
 
 
 def test_cuts_outside_the_track_are_left_out_with_a_warning_the_window_first(tmp_path):

@@ -10,7 +10,7 @@ The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
   host track's position interpolated linearly at its time.  Without track lines (DSF files
   often have none) the positions the sensor lines state are the track, and the velocity is
   derived from them (:func:`~.logs.velocity_from_positions`).  Fixes written twice, cuts
-  outside the track: :mod:`.debrief_fixes`; cuts written twice: :mod:`.debrief_rows`.
+  outside the track: :mod:`.debrief_fixes`.
 - **Contact** (``contact=``): the sensor lines whose sensor name is the name, or whose label
   starts with it (Debrief labels usually name the contact first); needed when the own
   ship's sensor lines come from several sensors, unless every label names the same contact
@@ -53,7 +53,7 @@ from ..data import MeasurementSet
 from .clock_text import seconds_of_time_text
 from .debrief_fixes import at_line, host_fixes, sensor_states
 from .debrief_lines import LineProblem, ParsedReplay, SensorLine, parse_replay_text
-from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges, repeated_cuts
+from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
 from .log_rules import checked_rows
@@ -320,22 +320,48 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
     metadata = _metadata(paths, cuts, contact, sig, "bearing" in wanted, notes)
-    contacts = list(dict.fromkeys(s.label.split()[0] for s in cuts.rows if s.label.split()))
     return _checked(where, MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
-        np.array(sigmas), np.array(st), metadata=metadata, check=False), lines, contacts)
+        np.array(sigmas), np.array(st), metadata=metadata, check=False), lines, cuts.rows)
+
+
+def _two_files_of_one_sensor(rows: list[SensorLine]) -> tuple[str, str, str, int] | None:
+    """Return (sensor, file, other file, count) when two files give one sensor's cuts at one
+    time with other values (a sensor file and a replay holding another run of that sensor)."""
+    seen: dict[tuple[str, int], SensorLine] = {}
+    clashes: list[tuple[SensorLine, SensorLine]] = []
+    for s in rows:
+        first = seen.setdefault((s.sensor, s.time_ns), s)
+        if first is not s and first.file != s.file and (
+                (first.bearing, first.frequency, first.range_yd)
+                != (s.bearing, s.frequency, s.range_yd)):
+            clashes.append((first, s))
+    if not clashes:
+        return None
+    a, b = clashes[0]
+    return a.sensor, a.file, b.file, len(clashes)
 
 
 def _checked(path: Path, raw: MeasurementSet, lines: list[str],
-             contacts: list[str]) -> MeasurementSet:
+             rows: list[SensorLine]) -> MeasurementSet:
     """Apply the file's rules to the lines as read, then wrap the bearings to [0, 360)."""
     try:
         meas, _, merged = checked_rows(path, raw, lines)
     except MeasurementFileError as e:
         twice = [p for p in e.problems if "two values at one time" in p]
-        if len(contacts) < 2 or not twice:
+        contacts = list(dict.fromkeys(s.label.split()[0] for s in rows if s.label.split()))
+        clash = _two_files_of_one_sensor(rows) if twice else None
+        if not twice or (len(contacts) < 2 and clash is None):
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
+        if clash is not None:
+            sensor, one, two, n = clash
+            raise MeasurementFileError(path, [  # one sensor's cuts of two runs
+                f"{one} and {two} both hold cuts of sensor {sensor!r} of own ship "
+                f"{rows[0].host!r}, {n} of them at one time with other values "
+                f"({twice[0].split(':')[0]} and {other}): the files hold two runs of one "
+                "sensor, which one fit cannot take; give one of them (the same cut in both "
+                "files is read once)"]) from None
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
             f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
@@ -379,7 +405,6 @@ def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | No
     origin_ns = time_origin_ns(every)
     rows = _in_window(where, sorted(rows, key=lambda s: s.time_ns), window, origin_ns,
                       (int(every.min()), int(every.max())))
-    rows = repeated_cuts(rows, notes)
     fixes = host_fixes(where, parsed.tracks, host, rows, notes)
     try:
         frame = local_frame([fixes], origin, dim, "msl")

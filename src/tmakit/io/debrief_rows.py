@@ -9,12 +9,6 @@ default, not a measurement: ``0000`` on every line, or the same value (``12000``
 cut.  Fitted as ranges they pull the answer far off with small stds, so by default a range of
 0 is left out, and so are the ranges of cuts that all state the same value; each with a note.
 ``ranges="use"`` keeps them all, ``ranges="ignore"`` leaves every range out.
-
-**Cuts written twice.**  A sensor file read with a replay that already holds the same sensor's
-cuts (Debrief's samples ship both) gives one sensor two cuts at one time.  The same cut twice
-(same sensor, time and measured values) is one cut, with a note; two different cuts of one
-sensor at one time are both kept, with a warning naming both lines (fitted together, they count
-that instant twice).
 """
 
 from __future__ import annotations
@@ -28,7 +22,7 @@ from .debrief_fixes import at_line
 from .debrief_lines import SensorLine
 from .logs import YARD
 
-__all__ = ["RANGES_CHOICES", "cut_rows", "placeholder_ranges", "repeated_cuts"]
+__all__ = ["RANGES_CHOICES", "cut_rows", "placeholder_ranges"]
 
 #: The values of ``ranges=``: None (placeholders left out), ``use`` or ``ignore``.
 RANGES_CHOICES = ("use", "ignore")
@@ -70,49 +64,6 @@ def placeholder_ranges(rows: list[SensorLine], ranges: str | None,
                      "anyway)")
         drop = stated
     return drop
-
-
-def _measured(s: SensorLine) -> tuple[float | None, ...]:
-    return (s.bearing, s.ambiguous, s.frequency, s.range_yd, s.bearing_accuracy,
-            s.frequency_accuracy)
-
-
-def repeated_cuts(rows: list[SensorLine], notes: list[str]) -> list[SensorLine]:
-    """Read a cut written twice once; warn of one sensor's two different cuts at one time.
-
-    Parameters
-    ----------
-    rows : list of SensorLine
-        The cuts used, in time order.
-    notes : list of str
-        A note (cuts read once) and a warning (different cuts at one time) are appended here.
-
-    Returns
-    -------
-    list of SensorLine
-        The cuts, each cut written twice kept once.
-    """
-    first: dict[tuple[str, int], list[SensorLine]] = {}
-    kept, repeats, clashes = [], [], []
-    for s in rows:
-        seen = first.setdefault((s.sensor, s.time_ns), [])
-        same = next((o for o in seen if _measured(o) == _measured(s)), None)
-        if same is not None:
-            repeats.append(f"{at_line(s)} repeats {at_line(same)}")
-            continue
-        if seen:
-            clashes.append(f"{at_line(seen[0])} and {at_line(s)}")
-        seen.append(s)
-        kept.append(s)
-    for items, text in ((repeats, "note: {n} cut(s) written twice (same sensor, time and values) "
-                                  "read once: {listed}"),
-                        (clashes, "warning: {n} time(s) with two different cuts of one sensor "
-                                  "(two files of the same sensor?), both fitted: {listed}")):
-        if items:
-            listed = "; ".join(items[:5]) + (f"; and {len(items) - 5} more"
-                                             if len(items) > 5 else "")
-            notes.append(text.format(n=len(items), listed=listed))
-    return kept
 
 
 def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
