@@ -25,12 +25,19 @@ def samples(tmp_path_factory):
     return bench.unpacked(tmp_path_factory.mktemp("debrief"))
 
 
-def test_every_sample_file_is_read(samples):
+def test_every_sample_file_is_read_but_a_second_run_of_a_sensor_beside_the_first(samples):
     files = sorted(str(p.relative_to(samples)) for p in samples.rglob("*") if p.is_file())
     assert len(files) == 19
-    for rel in files:
-        refused = [(what, why) for what, why in bench.readings(samples, rel) if why is not None]
-        assert not refused, (rel, refused)
+    refused = {rel: [why for _, why in bench.readings(samples, rel) if why is not None]
+               for rel in files}
+    refused = {rel: why for rel, why in refused.items() if why}
+    # The S2R hover-north TA file's own ship is only in the replay beside it, which holds
+    # another run of the same sensor TA: 41 cuts agree (read once), 10 do not. Not read: a
+    # way to choose one file's cuts of a sensor is missing (see the README).
+    assert list(refused) == ["s2r_hover_north/Ambig_tracks_hover_north_TA.dsf"]
+    assert "Ambig_tracks_hover_north_TA.dsf and Ambig_tracks_hover_north.rep both hold cuts of " \
+        "sensor 'TA' of own ship 'SENSOR', 10 of them at one time with other values" in (
+            refused["s2r_hover_north/Ambig_tracks_hover_north_TA.dsf"][0])
 
 
 def test_bulk_data_answers_with_its_60_second_positions_read_as_a_carry(samples):

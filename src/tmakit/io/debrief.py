@@ -326,8 +326,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
 
 
 def _two_files_of_one_sensor(rows: list[SensorLine]) -> tuple[str, str, str, int] | None:
-    """Return (sensor, file, other file, count) when two files give one sensor's cuts at one
-    time with other values (a sensor file and a replay holding another run of that sensor)."""
+    """Return (sensor, file, other file, count) of one sensor's cuts at one time in two files."""
     seen: dict[tuple[str, int], SensorLine] = {}
     clashes: list[tuple[SensorLine, SensorLine]] = []
     for s in rows:
