@@ -268,9 +268,12 @@ def fit_leg(root: Path, s: SampleSet, leg: tuple[int, int, float, float]) -> Leg
         verdict = "uncertain"
     else:
         verdict = "off"
+    trust = result.trust(meas)
+    why = ", ".join(r.code for r in trust.reasons)
     text = (f"{a.course_deg:6.1f} +- {sc:.3g} deg, {a.speed_knots:5.2f} +- {ss:.3g} kn (error "
             f"{dc:.2f} deg, {ds:.2f} kn; {result.status}, chi2/dof "
-            f"{result.chi2 / max(result.dof, 1):.3g})")
+            f"{result.chi2 / max(result.dof, 1):.3g}, trust {trust.level}"
+            + (f": {why}" if why else "") + ")")
     return LegResult(s.name, start, end, course, speed, cuts, verdict, text)
 
 
