@@ -25,7 +25,9 @@ bearings).
    (bearings, and ranges where they are measurements: placeholder ranges are left out by the
    reader; default sigmas).  Course and speed at the leg's last cut are compared with the
    truth: *within* 2 deg and 0.3 kn; *unobservable* (tmakit's status, with its reason);
-   *uncertain* (not within, but the truth inside the printed course and speed +- 1.96 std:
+   *undetermined* (converged, but the course or speed left out of the answer with an
+   ``undetermined`` warning: its 1-sigma is too wide to print it as a number); *uncertain*
+   (not within, but the truth inside the printed course and speed +- 1.96 std:
    not wrong, yet printed as numbers with no word that they are undetermined); or *off* (a
    confident miss: printed as such, never rounded).  A sample set whose truth track is not
    the truth of its cuts (their median bearing more than :data:`TRUTH_MISMATCH_DEG` from the
@@ -61,7 +63,7 @@ TRUTH_MISMATCH_DEG = 5.0
 #: The two-sided 95 % normal quantile: a leg's truth within this many stds is inside the answer.
 Z95 = 1.959964
 #: The verdicts on a fitted leg, in the order they are counted.
-VERDICTS = ("within", "unobservable", "uncertain", "off")
+VERDICTS = ("within", "unobservable", "undetermined", "uncertain", "off")
 #: The kinds fitted on a leg.
 KINDS = ("bearing", "range")
 #: Each sensor file and the track files read with it (``tma`` takes them together).
@@ -259,6 +261,10 @@ def fit_leg(root: Path, s: SampleSet, leg: tuple[int, int, float, float]) -> Leg
         reason = "; ".join(d.sentence for d in result.bound.observability.directions)
         return LegResult(s.name, start, end, course, speed, cuts, "unobservable", reason)
     a = result.answer(meas)
+    if a.course_deg is None or a.speed is None:
+        return LegResult(s.name, start, end, course, speed, cuts, "undetermined",
+                         "the data do not determine " + ", ".join(a.undetermined)
+                         + f" (trust {result.trust(meas).level})")
     dc = abs((a.course_deg - course + 180.0) % 360.0 - 180.0)
     ds = abs(a.speed_knots - speed)
     sc, ss = a.course_std_deg, a.speed_std / KNOT
@@ -319,7 +325,8 @@ def main() -> None:
     fitted = [r for r in results if r.verdict in VERDICTS]
     count = {v: sum(r.verdict == v for r in fitted) for v in VERDICTS}
     print(f"  legs with >= {MIN_CUTS} cuts and a true truth: {len(fitted)}; within: "
-          f"{count['within']}, unobservable (said so): {count['unobservable']}, uncertain (the "
+          f"{count['within']}, unobservable (said so): {count['unobservable']}, "
+          f"undetermined (said so): {count['undetermined']}, uncertain (the "
           f"truth inside the printed 95 % intervals, no word said): {count['uncertain']}, off: "
           f"{count['off']}")
     print(f"  legs left out: {sum(r.verdict == 'too few cuts' for r in results)} with fewer "

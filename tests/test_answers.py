@@ -348,3 +348,19 @@ def test_estimate_parameter_table_follows_units(bo):
         assert float(row(kn, name)[2]) == pytest.approx(float(row(si, name)[2]) / KNOT,
                                                         rel=1e-3)
     assert row(kn, "x") == row(si, "x")  # positions stay in metres (local East/North)
+
+
+def test_a_course_the_data_do_not_determine_is_left_out_and_said():
+    """A converged fit whose course has a 1-sigma of over 60 deg prints no course (issue 26)."""
+    from tmakit.results.answers import answer_from_state
+
+    state = np.array([1000.0, 2000.0, 0.0, 3.0, 4.0, 0.0])
+    tight = np.diag([1e2, 1e2, 1.0, 0.01, 0.01, 1.0])
+    a = answer_from_state(state, tight, 0.0, dim=2)
+    assert a.course_deg == pytest.approx(36.87, abs=0.01) and a.undetermined == ()
+    loose = np.diag([1e2, 1e2, 1.0, 400.0, 400.0, 1.0])  # 20 m/s 1-sigma on a 5 m/s speed
+    a = answer_from_state(state, loose, 0.0, dim=2)
+    assert a.course_deg is None and a.course_std_deg is None
+    assert a.speed is None
+    assert [w.split(" ")[0] for w in a.undetermined] == ["course", "speed"]
+    assert a.enu[0] == 1000.0  # the position stays, with its (wide) ellipse

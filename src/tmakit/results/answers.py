@@ -42,6 +42,12 @@ ELLIPSE_LEVEL = 0.95
 #: (within the state components it depends on) exceeds this.
 NULL_COSINE = 0.05
 
+#: An angle (course, bearing) whose linearised 1-sigma exceeds this (deg) is not determined by
+#: the data: its 95 % interval covers most of the circle, and the delta method no longer holds.
+UNDETERMINED_ANGLE_DEG = 60.0
+#: A speed or range whose 1-sigma exceeds this multiple of its value is not determined.
+UNDETERMINED_RATIO = 3.0
+
 
 def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
          null: NDArray[np.float64] | None = None) -> float | None:
@@ -152,6 +158,11 @@ class Answer:
     altitude_reference : str
         What the altitude is measured from, as words: ``WGS-84 ellipsoid`` or ``mean sea level``
         (the measurement set's ``altitude_reference`` metadata, ``ellipsoid`` or ``msl``).
+    undetermined : tuple of str
+        The quantities left out (None) because the data do not determine them although the
+        fit is observable: an angle with a 1-sigma above :data:`UNDETERMINED_ANGLE_DEG`, a speed
+        or range with a 1-sigma above :data:`UNDETERMINED_RATIO` times its value; each as words
+        with its 1-sigma.
     """
 
     time: float
@@ -175,6 +186,7 @@ class Answer:
     ellipse: Ellipse | None
     covariance: NDArray[np.float64] = field(repr=False)
     altitude_reference: str = "WGS-84 ellipsoid"
+    undetermined: tuple[str, ...] = ()
 
     @property
     def speed_knots(self) -> float | None:
@@ -337,11 +349,32 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
         if dim == 2:
             where = np.array([where[0], where[1], state[2]])
         rng, rng_sd, brg, brg_sd = _from_sensor(state, cov, where, null)
+    weak: list[str] = []
+    course, course_sd = _determined_angle("course", course, course_sd, weak)
+    speed, speed_sd = _determined_size("speed", speed, speed_sd, "m/s", weak)
+    rng, rng_sd = _determined_size("range", rng, rng_sd, "m", weak)
+    brg, brg_sd = _determined_angle("bearing", brg, brg_sd, weak)
     return Answer(float(t), clock_time(meas, t), dim, stationary, tuple(enu), tuple(enu_sd), geo,
                   tuple(vel), tuple(vel_sd), course, course_sd, speed, speed_sd, sensor, rng,
                   rng_sd, brg, brg_sd,
                   position_ellipse(cov[:2, :2], level) if None not in enu[:2] else None, cov,
-                  altitude_reference(meas))
+                  altitude_reference(meas), tuple(weak))
+
+
+def _determined_angle(name: str, v: float | None, s: float | None, weak: list[str]
+                      ) -> tuple[float | None, float | None]:
+    if v is None or s is None or s <= UNDETERMINED_ANGLE_DEG:
+        return v, s
+    weak.append(f"{name} (1-sigma {s:.0f} deg)")
+    return None, None
+
+
+def _determined_size(name: str, v: float | None, s: float | None, unit: str, weak: list[str]
+                     ) -> tuple[float | None, float | None]:
+    if v is None or s is None or s <= UNDETERMINED_RATIO * v:
+        return v, s
+    weak.append(f"{name} (1-sigma {s:.3g} {unit} against {v:.3g} {unit})")
+    return None, None
 
 
 #: The altitude references a measurement set's metadata names, in words.

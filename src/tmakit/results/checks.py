@@ -310,7 +310,36 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
                 f"Earth (more than {FAST_SPEED:g} m/s): the answer is not to be trusted. Are "
                 f"the times in seconds (the data span {span:.3g} s)? Otherwise the data do "
                 "not determine the motion (try a simpler --motion, or more data)")))
+        found.extend(undetermined_warnings(result, meas))
     return found
+
+
+def undetermined_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
+    """Return a warning when the answer leaves out quantities the data do not determine.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        A converged estimate.
+    meas : MeasurementSet
+        The measurements fitted.
+
+    Returns
+    -------
+    list of SanityWarning
+        One ``undetermined`` warning naming each quantity and its 1-sigma (course, speed,
+        range or bearing at the last measurement time), or none.
+    """
+    from .answers import estimate_answer
+
+    weak = estimate_answer(result, meas).undetermined
+    if not weak:
+        return []
+    return [SanityWarning("undetermined", (
+        "the data do not determine " + ", ".join(weak) + " although the fit converged: these "
+        "are left out of the answer (shown as unobservable), and the position's ellipse is "
+        "wide. More data, or an own-ship manoeuvre across the line of sight, would pin them "
+        "down"))]
 
 
 def normalised_residuals(result: object, meas: MeasurementSet,
