@@ -1,21 +1,13 @@
-"""The compiled piecewise-curvilinear kernels (optional numba) agree with the NumPy path."""
+"""The batched piecewise-curvilinear model (compiled) against the general model and its sums."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from kernel_paths import both_paths, hoerst_thetas
+from kernel_paths import hoerst_thetas
 
 from tmakit.motion import PiecewiseCurvilinear
-from tmakit.motion import curvilinear_compiled as compiled
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
-
-pytest.importorskip("numba")
-
-
-def _both(fn):
-    """Run ``fn`` with the kernels, then on the NumPy path; give both results."""
-    return both_paths(compiled, fn)
 
 
 def _thetas(m: int, rng: np.random.Generator) -> np.ndarray:
@@ -32,56 +24,35 @@ def _thetas(m: int, rng: np.random.Generator) -> np.ndarray:
 
 
 @pytest.mark.parametrize("m", [0, 1, 3])
-def test_compiled_states_and_chain_equal_numpy_to_1e_12(m):
+def test_batched_states_and_chain_equal_the_general_model(m):
+    """The compiled propagation against the general model (the vectorised NumPy closed form),
+    on the corner cases of the closed form, rows sharing unique times out of order and a
+    sample on a change-over time; NaN outside the batched model's domain."""
     rng = np.random.default_rng(7)
     theta = _thetas(m, rng)
     times = np.arange(0.0, 901.0, 3.0)
     times[50] = 200.0  # a sample on a change-over time: the earlier segment's
     t = np.concatenate([times, times[::2]])  # rows sharing unique times, not in order
-    d = rng.normal(size=(theta.shape[0], t.size, 6))
-
-    def run():
-        model = ForwardPiecewise(m, 0.0, end_time=1000.0)
-        return model.states(theta, t), model.chain(d, theta, t), model.segment_states(theta, t)
-
-    (s_fast, c_fast, g_fast), (s_slow, c_slow, g_slow) = _both(run)
-    assert np.isnan(s_slow[4, -1, 0]) and np.isfinite(s_slow[4, 0, 0])  # the speed dies
+    model, general = ForwardPiecewise(m, 0.0, end_time=1000.0), PiecewiseCurvilinear(m, 0.0)
+    states = model.states(theta, t)
+    assert np.isnan(states[4, -1, 0]) and np.isfinite(states[4, 0, 0])  # the speed dies
+    np.testing.assert_array_equal(np.isnan(states[4, :, 0]),
+                                  np.isnan(general.states(theta[4], t)[:, 0]))
     if m:
-        assert np.all(np.isnan(s_slow[5:7]))  # change-over times out of the domain
-    np.testing.assert_array_equal(np.isnan(s_fast), np.isnan(s_slow))
-    valid = np.isfinite(s_slow[..., 0])  # (B, n): derivatives where the state exists
-    for fast, slow in ((s_fast, s_slow), (c_fast, c_slow), (g_fast, g_slow)):
-        fast, slow = fast[valid], slow[valid]
-        assert np.all(np.isfinite(fast) == np.isfinite(slow))
-        scale = np.abs(np.where(np.isfinite(slow), slow, 0.0)).max()
-        assert np.all(np.abs(np.where(np.isfinite(slow), fast - slow, 0.0)) <= 1e-12 * scale)
-
-
-def test_compiled_chain_equals_the_general_model_jacobian():
-    rng = np.random.default_rng(2)
-    theta = _thetas(2, rng)[:4]
-    t = np.arange(0.0, 901.0, 7.0)
-    fast, general = ForwardPiecewise(2, 0.0), PiecewiseCurvilinear(2, 0.0)
-    d = rng.normal(size=(theta.shape[0], t.size, 6))
-    np.testing.assert_allclose(fast.states(theta, t), general.states(theta, t), rtol=0,
-                               atol=1e-6)
-    expected = np.einsum("bni,bnip->bnp", d, general.jacobian(theta, t))
-    got = fast.chain(d, theta, t)
+        assert np.all(np.isnan(states[5:7]))  # change-over times out of the domain
+    ok = theta[:4]  # plain, straight in speed, held, series side
+    np.testing.assert_allclose(states[:4], general.states(ok, t), rtol=0, atol=1e-6)
+    d = rng.normal(size=(4, t.size, 6))
+    expected = np.einsum("bni,bnip->bnp", d, general.jacobian(ok, t))
     scale = np.abs(expected).max(axis=(1, 2), keepdims=True)
-    np.testing.assert_allclose(got / scale, expected / scale, rtol=0, atol=1e-9)
-
-
-def test_unusable_numba_falls_back_to_numpy_with_a_warning(monkeypatch):
-    def broken():
-        raise RuntimeError("no cache dir")
-
-    monkeypatch.setattr(compiled.KERNELS, "kernels", None)
-    monkeypatch.setattr(compiled, "_compile", broken)
-    with pytest.warns(RuntimeWarning, match="NumPy path"):
-        assert not compiled.available()
-    theta = _thetas(1, np.random.default_rng(0))[:1]
-    assert np.all(np.isfinite(ForwardPiecewise(1, 0.0).states(theta, np.arange(10.0))))
-    monkeypatch.setattr(compiled.KERNELS, "kernels", None)
+    np.testing.assert_allclose(model.chain(d, ok, t) / scale, expected / scale, rtol=0,
+                               atol=1e-9)
+    speed_course = model.segment_states(ok, times)[..., 2:]
+    velocity = general.states(ok, times)[..., 3:5]
+    np.testing.assert_allclose(speed_course[..., 0] * np.sin(speed_course[..., 1]),
+                               velocity[..., 0], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(speed_course[..., 0] * np.cos(speed_course[..., 1]),
+                               velocity[..., 1], rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize("m", [0, 1, 3])
@@ -106,11 +77,6 @@ def test_normal_equations_by_segments_equal_the_chained_jacobian(m):
                                atol=1e-10 * np.abs(jtr).max())
     with model.derivatives_for(np.arange(model.n_params) != 4):  # every column still given
         assert model.normal_equations(d, r, w, theta, t)[0].shape == expected.shape
-    before = compiled.use_compiled(False)
-    try:
-        assert model.normal_equations(d, r, w, theta, t) is None  # the NumPy path: no sums
-    finally:
-        compiled.use_compiled(before)
 
 
 def _hoerst_problem(m, seed, batch):

@@ -9,18 +9,14 @@ they are asked for, so the solver takes the same steps to the same points.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from kernel_paths import hoerst_thetas
 
 import tmakit as tk
 from tmakit.batch import varpro
 from tmakit.batch.varpro import VarProProblem
 from tmakit.batch.varpro_normal import DeferredNormal
-from tmakit.motion import curvilinear_compiled as compiled
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
 from tmakit.observation import ObservationModel
-
-pytestmark = pytest.mark.skipif(not compiled.available(), reason="numba not installed")
 
 
 def _problem(m: int, seed: int, batch: int):

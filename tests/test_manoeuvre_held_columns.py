@@ -1,9 +1,9 @@
 """Fits that hold parameters do not form their derivatives, with the same results.
 
 Inside :meth:`ForwardPiecewise.derivatives_for` the chain rule gives the free parameters'
-columns only, bit for bit those of the whole Jacobian (compiled kernel and NumPy path); the
-search's held fits (:func:`tmakit.batch.manoeuvre.search.lm_fit`) take the same steps to
-the same points as the solver given the whole Jacobian.
+columns only, bit for bit those of the whole Jacobian; the search's held fits
+(:func:`tmakit.batch.manoeuvre.search.lm_fit`) take the same steps to the same points as the
+solver given the whole Jacobian.
 """
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ import tmakit as tk
 from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
 from tmakit.batch.manoeuvre.search import lm_fit
 from tmakit.batch.solver import levenberg_marquardt
-from tmakit.motion import curvilinear_compiled as compiled
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
 
 
@@ -28,11 +27,8 @@ def _theta(m: int, rng: np.random.Generator) -> np.ndarray:
     return theta
 
 
-@pytest.mark.parametrize("kernels", [True, False])
 @pytest.mark.parametrize("m", [0, 1, 3])
-def test_held_columns_are_the_columns_of_the_whole_jacobian(m, kernels):
-    if kernels and not compiled.available():
-        pytest.skip("numba not installed")
+def test_held_columns_are_the_columns_of_the_whole_jacobian(m):
     rng = np.random.default_rng(11)
     theta = _theta(m, rng)
     times = np.arange(0.0, 901.0, 4.0)
@@ -42,19 +38,14 @@ def test_held_columns_are_the_columns_of_the_whole_jacobian(m, kernels):
     masks = [np.arange(p) < 6 + 2 * m,  # change-over times held (the profile)
              np.arange(p) != 4,  # one acceleration held (the selection)
              np.isin(np.arange(p), [0, 1, 2, 3, 5, p - 1])]  # the first and the last kept
-    before = compiled.use_compiled(kernels)
-    try:
-        model = ForwardPiecewise(m, 0.0, end_time=1000.0)
-        whole = model.chain(d, theta, t)
-        for free in masks:
-            with model.derivatives_for(free):
-                part = model.chain(d, theta, t)
-            np.testing.assert_array_equal(part, whole[..., free])
-            assert model.chain(d, theta, t).shape == whole.shape  # back to every column
-            np.testing.assert_array_equal(model.jacobian(theta[:1], t[:5]).shape,
-                                          (1, 5, 6, p))
-    finally:
-        compiled.use_compiled(before)
+    model = ForwardPiecewise(m, 0.0, end_time=1000.0)
+    whole = model.chain(d, theta, t)
+    for free in masks:
+        with model.derivatives_for(free):
+            part = model.chain(d, theta, t)
+        np.testing.assert_array_equal(part, whole[..., free])
+        assert model.chain(d, theta, t).shape == whole.shape  # back to every column
+        np.testing.assert_array_equal(model.jacobian(theta[:1], t[:5]).shape, (1, 5, 6, p))
 
 
 @pytest.mark.parametrize("sums", [True, False])
@@ -65,8 +56,6 @@ def test_held_fits_take_the_same_steps_as_with_the_whole_jacobian(sums, monkeypa
         from tmakit.batch import varpro
 
         monkeypatch.setattr(varpro, "motion_normal", lambda *args: None)
-    elif not compiled.available():
-        pytest.skip("numba not installed")
     scn = tk.load_scenario("hoerst2010")
     meas = scn.simulate(rng=np.random.default_rng(5))
     search = ManoeuvreSearch(meas, None, None, ManoeuvreSettings(max_manoeuvres=2))

@@ -20,28 +20,8 @@ from tmakit.batch.manoeuvre.search import lm_fit
 from tmakit.batch.manoeuvre.selection import hold_starts, may_hold
 from tmakit.motion import PiecewiseCurvilinear
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
-from tmakit.motion.curvilinear_closed import (
-    propagate_position_velocity,
-    propagate_with_partials,
-)
 
 
-def test_position_velocity_partials_are_rows_of_the_full_partials():
-    rng = np.random.default_rng(3)
-    args = [rng.uniform(-1e3, 1e3, 50), rng.uniform(-1e3, 1e3, 50), rng.uniform(5, 20, 50),
-            rng.uniform(-3, 3, 50), rng.normal(0, 0.02, 50), rng.normal(0, 0.05, 50),
-            rng.uniform(-300, 300, 50)]
-    args[4][:5] = 0.0  # straight legs and the series side of the closed form
-    args[5][:3] = 0.0
-    args[4][-1] = -1.0  # the speed reaches zero: NaN
-    value, par = propagate_position_velocity(*args)
-    ref_value, ref_par = propagate_with_partials(*args)
-    np.testing.assert_array_equal(value, ref_value)
-    np.testing.assert_array_equal(par, ref_par[:, [0, 1, 4, 5]])
-    assert np.all(np.isnan(par[-1])) and np.all(np.isfinite(par[:-1]))
-
-
-@pytest.mark.parametrize("layout", ["by kind", "interleaved", "unsorted"])
 def test_batched_chain_equals_the_general_model_on_every_row_layout(layout):
     rng = np.random.default_rng(1)
     scn = tk.load_scenario("hoerst2010")

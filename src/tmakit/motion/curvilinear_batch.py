@@ -11,15 +11,12 @@ barrier).  The estimator references its internal fits at the first measurement t
 restriction costs nothing; results are reported in the user's own parameterisation.
 
 Everything is vectorised over a leading batch axis (grid points of a profile likelihood, or
-starting points), which the general model's per-vector evaluation is not.
-
-The one-segment closed form and its derivatives are those of
-:mod:`tmakit.motion.curvilinear_closed` (the one copy in tmakit); this module
-chains segments forwards from the reference state through the change-over states (Hörst &
-Oispuu (2010), eq. 4) by the chain rule, for a batch of parameter vectors at once.  One pass
-per parameter batch gives the states and, kept for :meth:`ForwardPiecewise.chain`, the
-derivatives (an observation model asks for both at the same point); at the samples only the
-position and velocity derivatives are formed, and the chain rule runs segment by segment.
+starting points), which the general model's per-vector evaluation is not.  The closed form of
+a segment, the chaining of segments forwards from the reference state through the change-over
+states (Hörst & Oispuu (2010), eq. 4) and the chain rule run as the compiled loops of
+:mod:`tmakit.motion.curvilinear_compiled`, imported at the first propagation (``numba``).  One
+pass per parameter batch gives the states and, kept for :meth:`ForwardPiecewise.chain`, the
+derivatives (an observation model asks for both at the same point).
 
 References
 ----------
@@ -30,19 +27,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
-from ..blas import matmul
-from . import curvilinear_compiled as compiled
 from .base import MotionModel
-from .curvilinear_closed import (
-    propagate_position_velocity,
-    propagate_state_partials,
-    propagate_with_partials,
-)
 
 NormalMaker = Callable[[NDArray[np.int64] | None], tuple[Array, Array]]
 """``make(runs)``: ``J'J`` and ``J'r`` of some runs of a batch (None: all)."""
@@ -129,79 +120,11 @@ class ForwardPiecewise(MotionModel):
         finally:
             self._columns = before
 
-    # -- the chain of change-over states -----------------------------------------------------
-    def _anchors(self, theta: Array, partials: bool
-                 ) -> tuple[Array, Array | None, Array, Array]:
-        """Chain the states ``(x, y, speed, course)`` at the start of every segment.
-
-        Give them ``(B, M+1, 4)``, their derivatives ``(B, M+1, 4, p)`` (or None), the
-        segments' start times ``(B, M+1)`` and a validity mask ``(B,)``.
-        """
-        M, p = self.manoeuvres, self.n_params
-        b = theta.shape[0]
-        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
-        cot = theta[:, 6 + 2 * M:]
-        starts = np.concatenate([np.full((b, 1), self.ref_time), cot], axis=1)
-        valid = np.all(np.diff(starts, axis=1) > 0, axis=1) & (starts[:, -1] < self.end_time
-                                                              if M else True)
-        anchors = np.empty((b, M + 1, 4))
-        anchors[:, 0] = theta[:, :4]
-        d_anchor = None
-        if partials:
-            d_anchor = np.zeros((b, M + 1, 4, p))
-            d_anchor[:, 0, :, :4] = np.eye(4)
-        for m in range(1, M + 1):
-            args = (*anchors[:, m - 1].T, acc[:, m - 1, 0], acc[:, m - 1, 1],
-                    starts[:, m] - starts[:, m - 1])
-            if partials:
-                val, par = propagate_state_partials(*args)
-            else:
-                val, _ = propagate_with_partials(*args, partials=False)
-            anchors[:, m] = val[:, :4]
-            if partials:
-                assert d_anchor is not None
-                d = np.einsum("bij,bjp->bip", par[:, :, :4], d_anchor[:, m - 1])
-                d[:, :, 4 + 2 * (m - 1)] += par[:, :, 4]
-                d[:, :, 5 + 2 * (m - 1)] += par[:, :, 5]
-                d[:, :, 6 + 2 * M + m - 1] += par[:, :, 6]
-                if m >= 2:
-                    d[:, :, 6 + 2 * M + m - 2] -= par[:, :, 6]
-                d_anchor[:, m] = d
-        anchors[~valid] = np.nan
-        return anchors, d_anchor, starts, valid
-
     def _segments(self, theta: Array, t: Array, partials: bool
                   ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
-        """Propagate every sample from the start of its segment.
-
-        Give per sample its segment ``(B, n)``, propagated values ``(B, n, 6)`` and the
-        partials of ``(x, y, vx, vy)`` ``(B, n, 4, 7)`` with respect to the segment's start
-        state, accelerations and the time since its start; plus the anchors' derivatives.
-        """
-        M = self.manoeuvres
-        if compiled.available():
-            return compiled.piecewise(theta, t, M, self.ref_time, self.end_time, partials)
-        b = theta.shape[0]
-        anchors, d_anchor, starts, _ = self._anchors(theta, partials)
-        acc = theta[:, 4:6 + 2 * M].reshape(b, M + 1, 2)
-        if M == 0:
-            seg = np.zeros((b, t.size), dtype=np.int64)
-            a0 = np.broadcast_to(anchors[:, :1], (b, t.size, 4))
-            ac = np.broadcast_to(acc[:, :1], (b, t.size, 2))
-            dt = np.broadcast_to(t[None, :] - starts[:, :1], (b, t.size))
-        else:
-            cot = theta[:, 6 + 2 * M:]
-            seg = np.sum(t[None, :, None] > cot[:, None, :], axis=-1)  # (B, n)
-            rows = np.arange(b)[:, None]
-            a0 = anchors[rows, seg]                          # (B, n, 4)
-            ac = acc[rows, seg]                              # (B, n, 2)
-            dt = t[None, :] - starts[rows, seg]
-        args = (a0[..., 0], a0[..., 1], a0[..., 2], a0[..., 3], ac[..., 0], ac[..., 1], dt)
-        if partials:
-            val, par = propagate_position_velocity(*args)
-        else:
-            val, par = propagate_with_partials(*args, partials=False)
-        return seg, val, par, d_anchor
+        """Propagate every sample from the start of its segment (:func:`.piecewise`)."""
+        return _compiled().piecewise(theta, t, self.manoeuvres, self.ref_time, self.end_time,
+                                     partials)
 
     def _flat(self, theta: ArrayLike) -> tuple[Array, tuple[int, ...]]:
         theta = self.check_theta(theta)
@@ -219,18 +142,18 @@ class ForwardPiecewise(MotionModel):
         return self._rows_states(theta, t, None)
 
     def states_minus(self, theta: ArrayLike, t: ArrayLike, sensor: Array) -> Array:
-        """Give :meth:`states` minus the sensor's states ``(n, 6)``, in one pass if compiled.
+        """Give :meth:`states` minus the sensor's states ``(n, 6)``, in one pass.
 
         Parameters and returns as :meth:`MotionModel.states_minus` (the same bits).
         """
         sensor = np.asarray(sensor, dtype=float)
         t = np.asarray(t, dtype=float)
-        if sensor.shape != (t.shape[0], 6) or not compiled.available():
+        if sensor.shape != (t.shape[0], 6):
             return self.states(theta, t) - sensor
         return self._rows_states(theta, t, sensor)
 
     def _rows_states(self, theta: ArrayLike, t: ArrayLike, sensor: Array | None) -> Array:
-        """Give the states at every time of ``t`` (minus ``sensor``'s if given, compiled)."""
+        """Give the states at every time of ``t`` (minus ``sensor``'s if given)."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         last_t, last_inv = self._rows
@@ -243,13 +166,8 @@ class ForwardPiecewise(MotionModel):
         self._times = tu
         seg_u, val, par_u, d_anchor = self._segments(flat, tu, partials=True)
         self._cache = ((flat.tobytes(), flat.shape), tu, seg_u, par_u, d_anchor)
-        if compiled.available():
-            return compiled.scatter_states(val, inv, sensor).reshape(*lead, t.shape[0], 6)
-        out = np.zeros((flat.shape[0], tu.size, 6))
-        out[..., 0], out[..., 1] = val[..., 0], val[..., 1]
-        out[..., 3], out[..., 4] = val[..., 4], val[..., 5]
-        out[..., 2] = out[..., 5] = np.where(np.isnan(val[..., 0]), np.nan, 0.0)
-        return out[:, inv].reshape(*lead, t.shape[0], 6)
+        out = _compiled().scatter_states(val, inv, sensor)
+        return out.reshape(*lead, t.shape[0], 6)
 
     def _theta_partials(self, flat: Array, t: Array
                         ) -> tuple[Array, Array, Array, NDArray[np.int64] | None]:
@@ -300,31 +218,10 @@ class ForwardPiecewise(MotionModel):
                     cols: NDArray[np.int64] | None = None) -> Array:
         """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``.
 
-        Per sample, ``ds`` times ``d state / d (segment inputs)`` gives ``w`` ``(B, n, 7)``;
-        then, segment by segment, ``w`` times the derivatives of that segment's inputs (its
-        start state's, unit rows for its accelerations, minus one for its change-over time),
-        kept on the rows in that segment.  With ``cols``, only those columns ``(B, n, q)``.
+        With ``cols``, only those columns ``(B, n, q)`` (:func:`.curvilinear_compiled.chain`).
         """
-        M, p = self.manoeuvres, self.n_params
-        b = flat.shape[0]
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
-        if compiled.available():
-            return compiled.chain(ds, par_u, seg_u, idx, d_anchor, M, cols)
-        w, seg = _weights(ds, par_u, seg_u, idx)
-        if M == 0:
-            return np.ascontiguousarray(w[..., :6] if cols is None else w[..., cols])
-        # d (segment inputs) / d theta per segment: the start state's derivatives, then unit
-        # rows for the accelerations and minus one for the change-over time starting it
-        d_inputs = np.zeros((b, M + 1, 7, p))
-        d_inputs[:, :, :4] = d_anchor
-        for m in range(M + 1):
-            d_inputs[:, m, 4, 4 + 2 * m] = d_inputs[:, m, 5, 5 + 2 * m] = 1.0
-            if m >= 1:
-                d_inputs[:, m, 6, 5 + 2 * M + m] = -1.0
-        out = matmul(w, d_inputs[:, 0])
-        for m in range(1, M + 1):
-            np.copyto(out, matmul(w, d_inputs[:, m]), where=(seg == m)[..., None])
-        return out if cols is None else np.ascontiguousarray(out[..., cols])
+        return _compiled().chain(ds, par_u, seg_u, idx, d_anchor, self.manoeuvres, cols)
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
         """Apply the chain rule, contracting the state axis before the parameter axis.
@@ -342,13 +239,12 @@ class ForwardPiecewise(MotionModel):
         return out.reshape(*lead, t.shape[0], out.shape[-1])
 
     def normal_equations(self, d_state: Array, residual: Array, weights: Array,
-                         theta: ArrayLike, t: ArrayLike) -> tuple[Array, Array] | None:
-        """Give ``J'J`` and ``J'r`` of the whitened Jacobian without forming it, or None.
+                         theta: ArrayLike, t: ArrayLike) -> tuple[Array, Array]:
+        """Give ``J'J`` and ``J'r`` of the whitened Jacobian without forming it.
 
         ``J`` is :meth:`chain` of ``d_state`` with every parameter (``derivatives_for`` not
         applied: a solver selects its free rows and columns), its rows whitened by
-        ``weights``; summed by segments (:mod:`tmakit.motion.curvilinear_normal_numba`).
-        None without the compiled kernels.
+        ``weights``; summed by segments (:func:`.curvilinear_compiled.segment_normal`).
 
         Parameters
         ----------
@@ -365,14 +261,13 @@ class ForwardPiecewise(MotionModel):
 
         Returns
         -------
-        (ndarray, ndarray) or None
+        (ndarray, ndarray)
             ``(B, p, p)`` and ``(B, p)``.
         """
-        later = self.normal_equations_later(d_state, residual, weights, theta, t)
-        return None if later is None else later(None)
+        return self.normal_equations_later(d_state, residual, weights, theta, t)(None)
 
     def normal_equations_later(self, d_state: Array, residual: Array, weights: Array,
-                               theta: ArrayLike, t: ArrayLike) -> NormalMaker | None:
+                               theta: ArrayLike, t: ArrayLike) -> NormalMaker:
         """Hold what :meth:`normal_equations` needs; sum it later, for the runs asked.
 
         A solver rejects about a third of its trial points; their ``J'J`` is never summed.
@@ -386,21 +281,18 @@ class ForwardPiecewise(MotionModel):
 
         Returns
         -------
-        callable or None
+        callable
             ``make(runs)``: ``J'J`` ``(R, p, p)`` and ``J'r`` ``(R, p)`` of the rows ``runs``
-            of the batch (None: all), each the same bits as in the whole; None without the
-            compiled kernels.
+            of the batch (None: all), each the same bits as in the whole.
         """
-        if not compiled.available():
-            return None
         flat, _ = self._flat(theta)
         t = np.asarray(t, dtype=float)
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
         m = self.manoeuvres
 
         def make(runs: NDArray[np.int64] | None) -> tuple[Array, Array]:
-            return compiled.segment_normal(d_state, residual, weights, par_u, seg_u, idx,
-                                           d_anchor, m, runs)
+            return _compiled().segment_normal(d_state, residual, weights, par_u, seg_u, idx,
+                                              d_anchor, m, runs)
         return make
 
     def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
@@ -431,33 +323,8 @@ class ForwardPiecewise(MotionModel):
         return f"ForwardPiecewise(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"
 
 
-def _weights(ds: Array, par_u: Array, seg_u: NDArray[np.int64], idx: NDArray[np.int64] | None
-             ) -> tuple[Array, NDArray[np.int64]]:
-    """Contract ``ds`` ``(B, n, 6)`` with the sample partials ``par_u`` ``(B, nu, 4, 7)``.
 
-    Give ``w`` ``(B, n, 7)`` and every row's segment ``(B, n)``.  Rows that follow the unique
-    times in order (one block per kind, usually) are contracted on views; anything else is
-    gathered.
-    """
-    b, n = ds.shape[:2]
-    if idx is None:
-        blocks = [(0, n, 0)]
-    else:
-        cuts = np.flatnonzero(np.diff(idx) != 1) + 1
-        starts = np.concatenate([[0], cuts])
-        ends = np.concatenate([cuts, [n]])
-        blocks = ([(int(a), int(e), int(idx[a])) for a, e in zip(starts, ends, strict=True)]
-                  if starts.size <= 16 else [])
-    if not blocks:
-        assert idx is not None
-        par_u, seg_u, blocks = par_u[:, idx], seg_u[:, idx], [(0, n, 0)]
-    w = np.empty((b, n, 7))
-    seg = np.empty((b, n), dtype=seg_u.dtype)
-    w[..., 0], w[..., 1] = ds[..., 0], ds[..., 1]  # the position rows: (1, 0) and (0, 1)
-    for a, e, u in blocks:
-        par = par_u[:, u:u + e - a, :, 2:]
-        d = ds[:, a:e]
-        w[:, a:e, 2:] = (d[..., 0, None] * par[:, :, 0] + d[..., 1, None] * par[:, :, 1]
-                         + d[..., 3, None] * par[:, :, 2] + d[..., 4, None] * par[:, :, 3])
-        seg[:, a:e] = seg_u[:, u:u + e - a]
-    return w, seg
+def _compiled() -> ModuleType:
+    """Give the compiled kernels (``numba`` is imported at the first call: 0.1 s a process)."""
+    from . import curvilinear_compiled
+    return curvilinear_compiled

@@ -1,10 +1,9 @@
 """The closed form of one curvilinear segment and its derivatives (Hörst & Oispuu (2010), eq. 1).
 
-The one copy in tmakit of the formulas stated in :mod:`tmakit.motion.curvilinear` (its module
-docstring derives them): :func:`propagate_with_partials` gives every value and derivative of a
-segment; :func:`propagate_position_velocity` gives only the derivatives of the position and
-velocity, which is all the batched piecewise model (:mod:`tmakit.motion.curvilinear_batch`)
-needs at the samples, in one ``(..., 4, 7)`` array without temporaries for the rest.
+The formulas stated in :mod:`tmakit.motion.curvilinear` (its module docstring derives them),
+vectorised: :func:`propagate_with_partials` gives every value and derivative of a segment.
+The manoeuvre estimator's batched model writes the same formulas out per sample, compiled
+(:mod:`tmakit.motion.curvilinear_compiled`).
 
 References
 ----------
@@ -192,49 +191,14 @@ def _values(x: Array, y: Array, phi0: Array, valid: NDArray[np.bool_],
     return values
 
 
-def propagate_position_velocity(x: Array, y: Array, speed: Array, course: Array, a_t: Array,
-                                a_n: Array, dt: Array) -> tuple[Array, Array]:
-    """Propagate as :func:`propagate_with_partials`; derivatives of position and velocity only.
-
-    Parameters
-    ----------
-    x, y, speed, course, a_t, a_n, dt : ndarray
-        Inputs of one shape (m, m, m/s, rad, m/s^2, m/s^2, s).
-
-    Returns
-    -------
-    values : ndarray
-        ``(..., 6)`` as :func:`propagate_with_partials`.
-    partials : ndarray
-        ``(..., 4, 7)``: its rows ``x, y, vx, vy`` (NaN where the speed would reach zero).
-    """
-    shape = dt.shape
-    x, y, v0, phi0, a_t, a_n, s = (np.asarray(a, dtype=float).reshape(-1)
-                                   for a in (x, y, speed, course, a_t, a_n, dt))
-    valid, parts = segment_terms(v0, a_t, a_n, s, True)
-    values = _values(x, y, phi0, valid, parts).reshape(*shape, 6)
-    dZ, dV = _complex_partials(parts)
-    assert dV is not None
-    out = np.zeros((s.size, 4, 7))
-    out[:, 0, 0] = out[:, 1, 1] = 1.0
-    out[:, 0, 2:], out[:, 1, 2:] = dZ.imag, dZ.real
-    out[:, 2, 2:], out[:, 3, 2:] = dV.imag, dV.real
-    if not valid.all():
-        out[~valid] = np.nan
-    return values, out.reshape(*shape, 4, 7)
-
-
-def _complex_partials(parts: dict[str, Array], velocity: bool = True
-                      ) -> tuple[Array, Array | None]:
-    """Give ``d(Z, V) / d(v0, phi0, a_t, a_n, s)``, complex ``(n, 5)`` each (V's if asked)."""
+def _complex_partials(parts: dict[str, Array]) -> tuple[Array, Array]:
+    """Give ``d(Z, V) / d(v0, phi0, a_t, a_n, s)``, complex ``(n, 5)`` each."""
     v0, s, sv, r, c, g, L, dL, F, Fg, Fr, V0, disp, V = (
         parts[k] for k in ("v0", "s", "sv", "r", "c", "g", "L", "dL", "F", "Fg", "Fr", "V0",
                            "disp", "V"))
     q = V0 * sv
     dZ = np.stack([q * (F - g * Fg - r * Fr), 1j * disp, q * s * (Fg + Fr), 1j * q * s * Fg,
                    V], axis=-1)
-    if not velocity:
-        return dZ, None
     inv1r = 1.0 / (1.0 + r)  # = L + r L'
     Vsv = V * sv
     dV = np.stack([V / v0 * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
@@ -242,52 +206,24 @@ def _complex_partials(parts: dict[str, Array], velocity: bool = True
     return dZ, dV
 
 
-def _partials(parts: dict[str, Array], velocity: bool = True) -> Array:
-    """Assemble the ``(n, 6, 7)`` derivatives of one segment (``(n, 4, 7)`` without velocity).
+def _partials(parts: dict[str, Array]) -> Array:
+    """Assemble the ``(n, 6, 7)`` derivatives of one segment.
 
     ``d (x, y, speed, course, vx, vy) / d (x0, y0, v0, phi0, a_t, a_n, s)``, from the
     intermediate values ``parts`` of :func:`segment_terms` and :func:`_values`.
     """
-    dZ, dV = _complex_partials(parts, velocity)
+    dZ, dV = _complex_partials(parts)
     v0, a_t, a_n, s, sv, L, dL = (parts[k] for k in ("v0", "a_t", "a_n", "s", "sv", "L", "dL"))
     inv1r = 1.0 / (1.0 + parts["r"])
     zero = np.zeros_like(s)
     one = np.ones_like(s)
-    out = np.empty((s.size, 6 if velocity else 4, 7))
+    out = np.empty((s.size, 6, 7))
     out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = one, zero, zero, one
     out[:, 0, 2:], out[:, 1, 2:] = dZ.imag, dZ.real
-    if dV is not None:
-        out[:, 4:, :2] = 0.0
-        out[:, 4, 2:], out[:, 5, 2:] = dV.imag, dV.real
+    out[:, 4:, :2] = 0.0
+    out[:, 4, 2:], out[:, 5, 2:] = dV.imag, dV.real
     out[:, 2] = np.stack([zero, zero, one, zero, s, zero, a_t], axis=-1)
     an_v = a_n / v0 * inv1r
     out[:, 3] = np.stack([zero, zero, -an_v * sv, one, a_n * sv * sv * dL, sv * L, an_v],
                          axis=-1)
     return out
-
-
-def propagate_state_partials(x: Array, y: Array, speed: Array, course: Array, a_t: Array,
-                             a_n: Array, dt: Array) -> tuple[Array, Array]:
-    """Propagate as :func:`propagate_with_partials`; derivatives of the state ``x, y, v, phi``.
-
-    Parameters
-    ----------
-    x, y, speed, course, a_t, a_n, dt : ndarray
-        ``(n,)`` inputs (m, m, m/s, rad, m/s^2, m/s^2, s).
-
-    Returns
-    -------
-    values : ndarray
-        ``(n, 6)`` as :func:`propagate_with_partials`.
-    partials : ndarray
-        ``(n, 4, 7)``: its rows ``x, y, speed, course`` (NaN where the speed would reach
-        zero): what chaining a segment's end state into the next segment needs.
-    """
-    x, y, v0, phi0, a_t, a_n, s = (np.asarray(a, dtype=float).reshape(-1)
-                                   for a in (x, y, speed, course, a_t, a_n, dt))
-    valid, parts = segment_terms(v0, a_t, a_n, s, True)
-    values = _values(x, y, phi0, valid, parts)
-    out = _partials(parts, velocity=False)
-    if not valid.all():
-        out[~valid] = np.nan
-    return values, out

@@ -1,60 +1,549 @@
-"""Compiled piecewise-curvilinear propagation (optional ``numba``), with the NumPy path.
+"""Piecewise-curvilinear propagation, its chain rule and its normal equations, compiled.
 
-:class:`tmakit.motion.curvilinear_batch.ForwardPiecewise` spends nearly all of the manoeuvre
-estimator's time (:mod:`tmakit.batch.manoeuvre`) in the closed form of a segment and its
-derivatives at every sample, and in the chain rule to the parameters.  With ``numba``
-installed (``pip install tmakit[fast]``) both run as the compiled loops of
-:mod:`tmakit.motion.curvilinear_numba`; otherwise, with the environment variable
-``TMAKIT_NO_NUMBA`` set to a non-empty value other than ``0``, or after
-``use_compiled(False)``, :func:`available` is False and the NumPy path of
-:mod:`tmakit.motion.curvilinear_closed` is used.  Both agree to rounding
-(``tests/test_curvilinear_kernel.py``).  ``numba`` is imported, and the kernels compiled
-(cached on disk), at the first call only.
+The one implementation of the hot loops of
+:class:`tmakit.motion.curvilinear_batch.ForwardPiecewise`, the manoeuvre estimator's motion
+model (:mod:`tmakit.batch.manoeuvre`): the closed form of one curvilinear segment and its
+derivatives written out per sample (the formulas, branches and series that
+:mod:`tmakit.motion.curvilinear_closed` derives), the forward chaining of the change-over
+states with their derivatives, the chain rule to the parameters, and ``J'J``, ``J'r`` summed
+by segments.  One compiled loop keeps every intermediate term in registers (NumPy would write
+each to memory and read it back: 5x slower on the manoeuvre estimate).
+
+``numba`` is imported, and the kernels loaded from its on-disk cache (compiled on a first
+run), when this module is first imported: ``ForwardPiecewise`` imports it at its first
+propagation.  Every kernel works in float64 and writes into arrays it is given; no
+``fastmath``, sums in a fixed order (the same inputs give the same bits).
+
+Normal equations by segments: a row in segment ``s`` depends on the parameters through seven
+inputs of that segment: its start state ``(x, y, speed, course)``, its two accelerations and
+its start time.  Its Jacobian row is ``J_i = D_s' v_i``: ``v_i`` the row's derivatives by
+those inputs (from the sample's partials), ``D_s`` ``(7, p)`` the inputs' derivatives by the
+parameters (the start state's, unit rows for the accelerations, minus one for the change-over
+time).  So
+
+    J'J = sum_s D_s' (sum_{i in s} v_i v_i') D_s,    J'r = sum_s D_s' (sum_{i in s} v_i r_i)
+
+and only ``7 x 7`` sums are made per row, not the ``p`` columns of the Jacobian and their
+``p (p + 1) / 2`` products.
+
+References
+----------
+Hörst & Oispuu (2010), §2, eqs. 1-4.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import cmath
+import math
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from ..arrays import Array
-from ..optional_kernels import OptionalKernels
 
-#: The module's kernels (:mod:`tmakit.optional_kernels`).
-KERNELS = OptionalKernels("curvilinear", lambda: _compile())
-use_compiled = KERNELS.use_compiled
-available = KERNELS.available
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
-
-def _compile() -> dict[str, Callable[..., object]]:
-    """Import ``numba`` and the kernels and compile them on tiny inputs (cached on disk)."""
-    from . import curvilinear_normal_numba as kc
-    from . import curvilinear_numba as kn
-
-    theta = np.array([[0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 0.01, 0.01, 1.0]])
-    t = np.array([0.5, 2.0])
-    seg = np.empty((1, 2), dtype=np.int64)
-    vals, par, d_anchor = np.empty((1, 2, 6)), np.empty((1, 2, 4, 7)), np.empty((1, 2, 4, 9))
-    kn.piecewise(theta, t, 1, 0.0, np.inf, True, seg, vals, par, d_anchor)
-    out = np.empty((1, 2, 9))
-    kn.chain(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1, out)
-    kn.chain_columns(np.ones((1, 2, 6)), par, seg, np.arange(2), d_anchor, 1,
-                     np.arange(8), np.empty((8, 1, 2)))
-    kn.scatter_states(vals, np.arange(2), np.empty((1, 2, 6)))
-    kn.scatter_relative(vals, np.arange(2), np.zeros((2, 6)), np.empty((1, 2, 6)))
-    for ds in (np.ones((1, 2, 6)), np.ones((1, 6, 2)).transpose(0, 2, 1)):  # rows or components
-        kc.segment_normal(ds, np.ones((1, 2)), np.ones(2), par, seg, np.arange(2), d_anchor, 1,
-                          np.zeros(1, dtype=np.int64), np.empty((1, 9, 9)), np.empty((1, 9)))
-    return {"piecewise": kn.piecewise, "chain": kn.chain, "chain_columns": kn.chain_columns,
-            "scatter": kn.scatter_states, "scatter_relative": kn.scatter_relative,
-            "segment_normal": kc.segment_normal}
+_SERIES_BELOW = 1e-3     # |g| + |r| below which F comes from its series
+_SERIES_TERMS = 6
+_L_SERIES_BELOW = 1e-3   # |r| below which L(r), L'(r) come from their series
+_L_TERMS = 6
+_INV_FACTORIAL = tuple(1.0 / math.factorial(n + 1) for n in range(_SERIES_TERMS))
 
 
+@_inline
+def _log1p_over(r: float) -> tuple[float, float]:  # pragma: no cover - compiled
+    """Give ``L(r) = log1p(r) / r`` and ``L'(r)`` (a power series near 0)."""
+    if r == 0.0:
+        return 1.0, -0.5
+    if abs(r) < _L_SERIES_BELOW:
+        ser = 0.0
+        ser_d = 0.0
+        power = 1.0
+        for k in range(_L_TERMS):
+            sign = -1.0 if k % 2 else 1.0
+            ser += sign * power / (k + 1)
+            ser_d -= sign * (k + 1) * power / (k + 2)
+            power = power * r
+        return ser, ser_d
+    lg = math.log1p(r)
+    return lg / r, (r / (1.0 + r) - lg) / (r * r)
+
+
+@_inline
+def _f_terms(g: complex, r: float, L: float, dL: float, E: complex
+             ) -> tuple[complex, complex, complex]:  # pragma: no cover - compiled
+    """Give ``F``, ``dF/dg``, ``dF/dr`` of the closed form (series near zero)."""
+    # abs(g) + abs(r) >= _SERIES_BELOW, decided without the hypotenuse where its bounds do
+    ar, ai, ar_ = abs(g.real), abs(g.imag), abs(r)
+    if (max(ar, ai) + ar_ >= _SERIES_BELOW
+            or (ar + ai + ar_ >= _SERIES_BELOW and abs(g) + ar_ >= _SERIES_BELOW)):
+        inv = 1.0 / (g + r)  # one complex division, not three
+        F = ((1.0 + r) * E - 1.0) * inv
+        return F, ((1.0 + r) * L * E - F) * inv, (E + (1.0 + r) * g * dL * E - F) * inv
+    if g == 0.0 and r == 0.0:
+        return 1.0 + 0.0j, 0.5 + 0.0j, 0.0j
+    F = 0.0j
+    Fg = 0.0j
+    Fr = 0.0j
+    T = 1.0 + 0.0j
+    Tg = 0.0j
+    Tr = 0.0j
+    for n in range(_SERIES_TERMS):
+        f = _INV_FACTORIAL[n]
+        F, Fg, Fr = F + T * f, Fg + Tg * f, Fr + Tr * f
+        factor = g - n * r
+        T, Tg, Tr = T * factor, Tg * factor + T, Tr * factor - n * T
+    return F, Fg, Fr
+
+
+_NAN_C = complex(np.nan, np.nan)
+
+
+@_inline
+def _over(z: complex, d: float) -> complex:  # pragma: no cover - compiled
+    """Give ``z / d`` for a real ``d > 0``: complex division's result with two divisions.
+
+    Complex division (CPython's algorithm, numba's too) by ``d + 0i`` forms ``(Re z + Im z *
+    0) / d`` and ``(Im z - Re z * 0) / d``: the same values for finite ``z``.
+    """
+    return complex(z.real / d, z.imag / d)
+
+
+@_inline
+def _straight(x: float, y: float, v0: float, phi0: float, V0: complex, s: float
+              ) -> tuple:  # pragma: no cover - compiled
+    """Give :func:`_segment`'s result for a straight segment (``a_t = a_n = 0``).
+
+    The closed form with ``F = E = 1``, ``dF/dg = 1/2``, ``dF/dr = 0``, every product that
+    is left formed as there: the same values without the logarithm, the exponential and the
+    division (held accelerations are common in the selection's fits).
+    """
+    sv = s / v0
+    disp = V0 * s
+    q = V0 * sv
+    return (True, (x + disp.imag, y + disp.real, v0, phi0, V0.imag, V0.real),
+            (q, 1j * disp, q * s * 0.5, 1j * q * s * 0.5, V0),
+            (_over(V0, v0), 1j * V0, q, 1j * q, 0.0j), (0.0, 0.0, 0.0, 0.0))
+
+
+@_inline
+def _segment(x: float, y: float, v0: float, phi0: float, V0: complex, a_t: float,
+             a_n: float, s: float, state_rows: bool) -> tuple:  # pragma: no cover - compiled
+    """Propagate one segment (``ok`` False, NaN everywhere, if the speed dies).
+
+    Give ``(ok, vals, dz, dv, st)``: ``vals`` is ``(x, y, speed, course, vx, vy)``; ``dz``
+    and ``dv`` the derivatives of the position and of the velocity, each as the complex
+    ``North + i East``, with respect to ``(v0, phi0, a_t, a_n, s)`` (with respect to the
+    start position they are the unit matrix and zero); ``st`` (with ``state_rows``) the
+    course's derivatives with respect to ``(v0, a_t, a_n, s)``.  ``V0`` is the start
+    velocity ``v0 exp(i phi0)``.  Scalars are returned, not written into arrays: an array
+    handed to an inner function costs numba more per sample than the closed form itself.
+    """
+    if not (v0 > 0.0 and v0 + a_t * s > 0.0):
+        nan, nc = np.nan, _NAN_C
+        return (False, (nan, nan, nan, nan, nan, nan), (nc, nc, nc, nc, nc),
+                (nc, nc, nc, nc, nc), (nan, nan, nan, nan))
+    if a_t == 0.0 and a_n == 0.0 and not state_rows:
+        return _straight(x, y, v0, phi0, V0, s)
+    sv = s / v0
+    r = a_t * sv
+    c = complex(a_t, a_n)
+    g = c * sv
+    L, dL = _log1p_over(r)
+    E = cmath.exp(g * L)
+    F, Fg, Fr = _f_terms(g, r, L, dL, E)
+    disp = V0 * s * F
+    V = V0 * E
+    vals = (x + disp.imag, y + disp.real, v0 + a_t * s, phi0 + a_n * sv * L, V.imag, V.real)
+    q = V0 * sv
+    dz = (q * (F - g * Fg - r * Fr), 1j * disp, q * s * (Fg + Fr), 1j * q * s * Fg, V)
+    inv1r = 1.0 / (1.0 + r)
+    if state_rows:
+        an_v = a_n / v0 * inv1r
+        return (True, vals, dz, dz, (-an_v * sv, a_n * sv * sv * dL, sv * L, an_v))
+    Vsv = V * sv
+    Vc = V * c
+    dv = (_over(V, v0) * (1.0 - g * inv1r), 1j * V, Vsv * (L + g * dL), 1j * Vsv * L,
+          _over(Vc, v0) * inv1r)
+    return (True, vals, dz, dv, (0.0, 0.0, 0.0, 0.0))
+
+
+@_inline
+def _write(out: tuple, vals: Array, par: Array, b: int, i: int, partials: bool,
+           state_rows: bool, s: float, a_t: float) -> None:  # pragma: no cover - compiled
+    """Write :func:`_segment`'s result into ``vals[b, i]`` (6,) and ``par[b, i]`` (4, 7).
+
+    ``par`` (if ``partials``): the derivatives with respect to ``(x0, y0, v0, phi0, a_t,
+    a_n, s)`` of ``x, y, speed, course`` (``state_rows``) or of ``x, y, vx, vy``.
+    """
+    ok, v6, dz, dv, st = out
+    for k in range(6):
+        vals[b, i, k] = v6[k]
+    if not partials:
+        return
+    if not ok:
+        for k in range(4):
+            for j in range(7):
+                par[b, i, k, j] = np.nan
+        return
+    par[b, i, 0, 0] = par[b, i, 1, 1] = 1.0
+    par[b, i, 0, 1] = par[b, i, 1, 0] = 0.0
+    for k in range(5):
+        par[b, i, 0, 2 + k] = dz[k].imag
+        par[b, i, 1, 2 + k] = dz[k].real
+    par[b, i, 2, 0] = par[b, i, 2, 1] = par[b, i, 3, 0] = par[b, i, 3, 1] = 0.0
+    if state_rows:
+        par[b, i, 2, 3] = par[b, i, 2, 5] = 0.0
+        par[b, i, 2, 2] = 1.0
+        par[b, i, 2, 4] = s
+        par[b, i, 2, 6] = a_t
+        par[b, i, 3, 2] = st[0]
+        par[b, i, 3, 3] = 1.0
+        par[b, i, 3, 4] = st[1]
+        par[b, i, 3, 5] = st[2]
+        par[b, i, 3, 6] = st[3]
+        return
+    for k in range(5):
+        par[b, i, 2, 2 + k] = dv[k].imag
+        par[b, i, 3, 2 + k] = dv[k].real
+
+
+@_jit
+def _derive_anchor(p47: Array, prev: Array, m: int, k0: int, d: Array) -> None:  # pragma: no cover
+    """Write into ``d`` (4, p) the derivatives of segment ``m``'s start state.
+
+    From the previous start state's ``prev`` (4, p) and the segment partials ``p47``.
+    """
+    for i in range(4):
+        for c in range(d.shape[1]):
+            acc = 0.0
+            for j in range(4):
+                acc += p47[i, j] * prev[j, c]
+            d[i, c] = acc
+        d[i, 2 + 2 * m] += p47[i, 4]
+        d[i, 3 + 2 * m] += p47[i, 5]
+        d[i, k0 + m - 1] += p47[i, 6]
+        if m >= 2:
+            d[i, k0 + m - 2] -= p47[i, 6]
+
+
+@_jit
+def _anchors(theta: Array, M: int, ref_time: float, end_time: float, partials: bool,
+             anchors: Array, v_start: Array, starts: Array,
+             d_anchor: Array) -> None:  # pragma: no cover - compiled
+    """Chain one parameter vector's segment start states forwards (NaN outside the domain).
+
+    Writes ``anchors`` (M + 1, 4), their start velocities ``v_start`` (complex), the start
+    times ``starts`` (M + 1,) and, if ``partials``, ``d_anchor`` (M + 1, 4, p).
+    """
+    k0 = 6 + 2 * M
+    v6 = np.empty((1, 1, 6))
+    p47 = np.empty((1, 1, 4, 7))
+    starts[0] = ref_time
+    valid = True
+    for m in range(1, M + 1):
+        starts[m] = theta[k0 + m - 1]
+        valid = valid and starts[m] > starts[m - 1]
+    if M and not starts[M] < end_time:
+        valid = False
+    anchors[0, :] = theta[:4]
+    if partials:
+        d_anchor[0, :, :] = 0.0
+        for j in range(4):
+            d_anchor[0, j, j] = 1.0
+    v_start[0] = anchors[0, 2] * cmath.exp(1j * anchors[0, 3])
+    for m in range(1, M + 1):
+        dt = starts[m] - starts[m - 1]
+        a_t = theta[2 + 2 * m]
+        out = _segment(anchors[m - 1, 0], anchors[m - 1, 1], anchors[m - 1, 2],
+                       anchors[m - 1, 3], v_start[m - 1], a_t, theta[3 + 2 * m], dt, True)
+        _write(out, v6, p47, 0, 0, partials, True, dt, a_t)
+        anchors[m, :] = v6[0, 0, :4]
+        v_start[m] = anchors[m, 2] * cmath.exp(1j * anchors[m, 3])
+        if partials:
+            _derive_anchor(p47[0, 0], d_anchor[m - 1], m, k0, d_anchor[m])
+    if not valid:
+        anchors[:, :] = np.nan
+
+
+@_jit
+def _piecewise_kernel(theta: Array, t: Array, manoeuvres: int, ref_time: float,
+                      end_time: float, partials: bool, seg: Array, vals: Array, par: Array,
+                      d_anchor: Array) -> None:  # pragma: no cover - compiled
+    """Write every sample's segment, values and partials (:func:`piecewise`)."""
+    M = manoeuvres
+    k0 = 6 + 2 * M
+    anchors = np.empty((M + 1, 4))
+    v_start = np.empty(M + 1, dtype=np.complex128)
+    starts = np.empty(M + 1)
+    for b in range(theta.shape[0]):
+        _anchors(theta[b], M, ref_time, end_time, partials, anchors, v_start, starts,
+                 d_anchor[b] if partials else d_anchor[0])
+        for i in range(t.shape[0]):
+            sg = 0
+            for m in range(M):
+                if t[i] > theta[b, k0 + m]:
+                    sg += 1
+            seg[b, i] = sg
+            dt = t[i] - starts[sg]
+            a_t = theta[b, 4 + 2 * sg]
+            out = _segment(anchors[sg, 0], anchors[sg, 1], anchors[sg, 2], anchors[sg, 3],
+                           v_start[sg], a_t, theta[b, 5 + 2 * sg], dt, False)
+            _write(out, vals, par, b, i, partials, False, dt, a_t)
+
+
+@_jit
+def _chain_kernel(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
+                  manoeuvres: int, out: Array) -> None:  # pragma: no cover - compiled
+    """Write ``d value / d theta`` ``(B, n, p)`` into ``out``; see :func:`chain`."""
+    M = manoeuvres
+    b_count, n, p = out.shape
+    k0 = 6 + 2 * M
+    for b in range(b_count):
+        da = d_anchor[b]
+        for i in range(n):
+            u = idx[i]
+            sg = seg[b, u]
+            d0, d1, d3, d4 = ds[b, i, 0], ds[b, i, 1], ds[b, i, 3], ds[b, i, 4]
+            pu = (par[b, u, 0, 2], par[b, u, 1, 2], par[b, u, 2, 2], par[b, u, 3, 2],
+                  par[b, u, 0, 3], par[b, u, 1, 3], par[b, u, 2, 3], par[b, u, 3, 3],
+                  par[b, u, 0, 4], par[b, u, 1, 4], par[b, u, 2, 4], par[b, u, 3, 4],
+                  par[b, u, 0, 5], par[b, u, 1, 5], par[b, u, 2, 5], par[b, u, 3, 5],
+                  par[b, u, 0, 6], par[b, u, 1, 6], par[b, u, 2, 6], par[b, u, 3, 6])
+            w = (d0 * pu[0] + d1 * pu[1] + d3 * pu[2] + d4 * pu[3],
+                 d0 * pu[4] + d1 * pu[5] + d3 * pu[6] + d4 * pu[7],
+                 d0 * pu[8] + d1 * pu[9] + d3 * pu[10] + d4 * pu[11],
+                 d0 * pu[12] + d1 * pu[13] + d3 * pu[14] + d4 * pu[15],
+                 d0 * pu[16] + d1 * pu[17] + d3 * pu[18] + d4 * pu[19])
+            # a segment's start state depends on (x, y, speed, course), the accelerations
+            # and change-over times before it only: the other columns are 0
+            for c in range(4 + 2 * sg):
+                out[b, i, c] = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
+                                + w[0] * da[sg, 2, c] + w[1] * da[sg, 3, c])
+            for c in range(4 + 2 * sg, k0):
+                out[b, i, c] = 0.0
+            for c in range(k0, k0 + sg):
+                out[b, i, c] = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
+                                + w[0] * da[sg, 2, c] + w[1] * da[sg, 3, c])
+            for c in range(k0 + sg, p):
+                out[b, i, c] = 0.0
+            out[b, i, 4 + 2 * sg] += w[2]
+            out[b, i, 5 + 2 * sg] += w[3]
+            if sg >= 1:
+                out[b, i, 5 + 2 * M + sg] -= w[4]
+
+
+@_jit
+def _column_runs(cols: Array, M: int) -> tuple:  # pragma: no cover - compiled
+    """Give, per segment of a row, where :func:`_chain_columns_kernel` writes what.
+
+    ``cols`` increase, so the output columns of the parameters a segment's start state
+    depends on are two runs, ``[0, lo)`` and ``[mid, hi)``, the others are 0; ``own`` are the
+    columns of the segment's own ``a_t``, ``a_n`` and change-over time (-1: not wanted).
+    """
+    k0 = 6 + 2 * M
+    lo = np.zeros(M + 1, dtype=np.int64)
+    mid = np.zeros(M + 1, dtype=np.int64)
+    hi = np.zeros(M + 1, dtype=np.int64)
+    own = np.full((M + 1, 3), -1, dtype=np.int64)
+    for sg in range(M + 1):
+        for j in range(cols.size):
+            c = cols[j]
+            lo[sg] += c < 4 + 2 * sg
+            mid[sg] += c < k0
+            hi[sg] += c < k0 + sg
+            for k, ck in enumerate((4 + 2 * sg, 5 + 2 * sg, k0 + sg - 1 if sg else -1)):
+                if c == ck:
+                    own[sg, k] = j
+    return lo, mid, hi, own
+
+
+@_jit
+def _chain_columns_kernel(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
+                          manoeuvres: int, cols: Array, out: Array
+                          ) -> None:  # pragma: no cover - compiled
+    """Write :func:`_chain_kernel`'s columns ``cols`` (the same bits) into ``out`` ``(q, B, n)``."""
+    M = manoeuvres
+    q, b_count, n = out.shape
+    lo, mid, hi, own = _column_runs(cols, M)
+    sel = np.empty((M + 1, 4, q))
+    for b in range(b_count):
+        for sg in range(M + 1):  # the start states' derivatives, free columns only
+            for r in range(4):
+                for j in range(q):
+                    sel[sg, r, j] = d_anchor[b, sg, r, cols[j]]
+        for i in range(n):
+            u = idx[i]
+            sg = seg[b, u]
+            d0, d1, d3, d4 = ds[b, i, 0], ds[b, i, 1], ds[b, i, 3], ds[b, i, 4]
+            w0 = d0 * par[b, u, 0, 2] + d1 * par[b, u, 1, 2] + d3 * par[b, u, 2, 2] \
+                + d4 * par[b, u, 3, 2]
+            w1 = d0 * par[b, u, 0, 3] + d1 * par[b, u, 1, 3] + d3 * par[b, u, 2, 3] \
+                + d4 * par[b, u, 3, 3]
+            j0, j1, j2 = lo[sg], mid[sg], hi[sg]
+            for j in range(j0):
+                out[j, b, i] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
+                                + w0 * sel[sg, 2, j] + w1 * sel[sg, 3, j])
+            for j in range(j0, j1):
+                out[j, b, i] = 0.0
+            for j in range(j1, j2):
+                out[j, b, i] = (d0 * sel[sg, 0, j] + d1 * sel[sg, 1, j]
+                                + w0 * sel[sg, 2, j] + w1 * sel[sg, 3, j])
+            for j in range(j2, q):
+                out[j, b, i] = 0.0
+            j = own[sg, 0]
+            if j >= 0:
+                out[j, b, i] += (d0 * par[b, u, 0, 4] + d1 * par[b, u, 1, 4]
+                                 + d3 * par[b, u, 2, 4] + d4 * par[b, u, 3, 4])
+            j = own[sg, 1]
+            if j >= 0:
+                out[j, b, i] += (d0 * par[b, u, 0, 5] + d1 * par[b, u, 1, 5]
+                                 + d3 * par[b, u, 2, 5] + d4 * par[b, u, 3, 5])
+            j = own[sg, 2]
+            if j >= 0:
+                out[j, b, i] -= (d0 * par[b, u, 0, 6] + d1 * par[b, u, 1, 6]
+                                 + d3 * par[b, u, 2, 6] + d4 * par[b, u, 3, 6])
+
+
+@_jit
+def _scatter_states_kernel(vals: Array, inv: Array, out: Array
+                           ) -> None:  # pragma: no cover - compiled
+    """Write ``(x, y, 0, vx, vy, 0)`` of every row into ``out`` (the zeros NaN where ``x`` is)."""
+    for b in range(out.shape[0]):
+        for i in range(out.shape[1]):
+            u = inv[i]
+            x = vals[b, u, 0]
+            zero = x - x  # NaN where the state is
+            out[b, i, 0] = x
+            out[b, i, 1] = vals[b, u, 1]
+            out[b, i, 2] = zero
+            out[b, i, 3] = vals[b, u, 4]
+            out[b, i, 4] = vals[b, u, 5]
+            out[b, i, 5] = zero
+
+
+@_jit
+def _scatter_relative_kernel(vals: Array, inv: Array, sensor: Array, out: Array
+                             ) -> None:  # pragma: no cover - compiled
+    """Write :func:`_scatter_states_kernel`'s states minus ``sensor`` (the same bits)."""
+    for b in range(out.shape[0]):
+        for i in range(out.shape[1]):
+            u = inv[i]
+            x = vals[b, u, 0]
+            zero = x - x
+            out[b, i, 0] = x - sensor[i, 0]
+            out[b, i, 1] = vals[b, u, 1] - sensor[i, 1]
+            out[b, i, 2] = zero - sensor[i, 2]
+            out[b, i, 3] = vals[b, u, 4] - sensor[i, 3]
+            out[b, i, 4] = vals[b, u, 5] - sensor[i, 4]
+            out[b, i, 5] = zero - sensor[i, 5]
+
+
+# -- normal equations by segments -----------------------------------------------------------
+@_inline
+def _inputs(ds: Array, par: Array, d_anchor: Array, b: int, i: int, u: int, sg: int,
+            own: int, w: float, v: Array) -> None:  # pragma: no cover - compiled
+    """Write row ``i``'s whitened derivatives by its segment's inputs into ``v``.
+
+    ``v[6]`` is the row's whole derivative by the segment's own change-over time ``own``
+    (column of the parameters; -1 for the first segment): through the start state and, with a
+    minus sign, the time since the start.  The two nearly cancel (the trajectory is continuous
+    through a change-over), so they are subtracted here, row by row, not in the sums.
+    """
+    d0, d1, d3, d4 = ds[b, i, 0] * w, ds[b, i, 1] * w, ds[b, i, 3] * w, ds[b, i, 4] * w
+    v[0] = d0
+    v[1] = d1
+    for k in range(2, 7):
+        v[k] = d0 * par[b, u, 0, k] + d1 * par[b, u, 1, k] + d3 * par[b, u, 2, k] \
+            + d4 * par[b, u, 3, k]
+    if own >= 0:
+        v[6] = (d0 * d_anchor[b, sg, 0, own] + d1 * d_anchor[b, sg, 1, own]
+                + v[2] * d_anchor[b, sg, 2, own] + v[3] * d_anchor[b, sg, 3, own]) - v[6]
+    else:
+        v[6] = 0.0
+
+
+@_jit
+def _inputs_by_params(d_anchor: Array, b: int, sg: int, manoeuvres: int, d: Array
+                      ) -> None:  # pragma: no cover - compiled
+    """Write segment ``sg``'s ``D_s`` ``(7, p)`` into ``d`` (see :func:`_inputs` for row 6)."""
+    p = d.shape[1]
+    k0 = 6 + 2 * manoeuvres
+    d[:, :] = 0.0
+    for c in range(p):  # the start state depends on earlier segments' parameters only
+        if c < 4 + 2 * sg or k0 <= c < k0 + sg - 1:
+            for r in range(4):
+                d[r, c] = d_anchor[b, sg, r, c]
+    d[4, 4 + 2 * sg] = 1.0
+    d[5, 5 + 2 * sg] = 1.0
+    if sg >= 1:
+        d[6, k0 + sg - 1] = 1.0
+
+
+@_jit
+def _segment_normal_kernel(ds: Array, r: Array, w: Array, par: Array, seg: Array,
+                           idx: Array, d_anchor: Array, manoeuvres: int, runs: Array,
+                           jtj: Array, jtr: Array) -> None:  # pragma: no cover - compiled
+    """Write ``J'J`` and ``J'r`` of the whitened Jacobian of ``runs`` (:func:`segment_normal`)."""
+    m1 = manoeuvres + 1
+    p = jtj.shape[1]
+    k0 = 6 + 2 * manoeuvres
+    s = np.empty((m1, 7, 7))
+    g = np.empty((m1, 7))
+    v = np.empty(7)
+    d = np.empty((7, p))
+    dv = np.empty((7, p))
+    for j in range(runs.shape[0]):
+        b = runs[j]
+        s[:] = 0.0
+        g[:] = 0.0
+        for i in range(ds.shape[1]):
+            u = idx[i]
+            sg = seg[b, u]
+            _inputs(ds, par, d_anchor, b, i, u, sg, k0 + sg - 1 if sg else -1, w[i], v)
+            ri = r[b, i]
+            for k in range(7):
+                vk = v[k]
+                g[sg, k] += vk * ri
+                for m in range(k, 7):
+                    s[sg, k, m] += vk * v[m]
+        jtj[j] = 0.0
+        jtr[j] = 0.0
+        for sg in range(m1):
+            _inputs_by_params(d_anchor, b, sg, manoeuvres, d)
+            _add_segment(s[sg], g[sg], d, dv, jtj[j], jtr[j])
+
+
+@_jit
+def _add_segment(s: Array, g: Array, d: Array, dv: Array, jtj: Array, jtr: Array
+                 ) -> None:  # pragma: no cover - compiled
+    """Add ``D' S D`` to ``jtj`` and ``D' g`` to ``jtr`` (``S``'s upper triangle summed)."""
+    p = d.shape[1]
+    for k in range(7):
+        for m in range(k + 1, 7):
+            s[m, k] = s[k, m]
+    dv[:, :] = 0.0
+    for k in range(7):  # S D
+        for m in range(7):
+            skm = s[k, m]
+            if skm != 0.0:
+                for c in range(p):
+                    dv[k, c] += skm * d[m, c]
+    for c in range(p):  # D' (S D), D' g
+        for k in range(7):
+            dkc = d[k, c]
+            if dkc != 0.0:
+                jtr[c] += dkc * g[k]
+                for e in range(p):
+                    jtj[c, e] += dkc * dv[k, e]
+
+
+# -- the calls ------------------------------------------------------------------------------
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
               partials: bool) -> tuple[Array, Array, Array | None, Array | None]:
-    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``, compiled.
+    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``.
 
     Parameters
     ----------
@@ -82,14 +571,7 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
         time since its start)``.
     d_anchor : ndarray or None
         ``(B, M + 1, 4, p)`` the derivatives of every segment's start state.
-
-    Raises
-    ------
-    RuntimeError
-        If the kernels are not :func:`available`.
     """
-    if not available():
-        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
     theta = np.ascontiguousarray(theta, dtype=float)
     t = np.ascontiguousarray(t, dtype=float)
     b, p = theta.shape
@@ -97,22 +579,24 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
     vals = np.empty((b, t.size, 6))
     par = np.empty((b, t.size, 4, 7)) if partials else np.empty((1, 1, 4, 7))
     d_anchor = np.empty((b, manoeuvres + 1, 4, p)) if partials else np.empty((1, 1, 4, p))
-    KERNELS["piecewise"](theta, t, manoeuvres, ref_time, end_time, partials, seg,
-                                   vals, par, d_anchor)
+    _piecewise_kernel(theta, t, manoeuvres, ref_time, end_time, partials, seg, vals, par,
+                      d_anchor)
     return seg, vals, (par if partials else None), (d_anchor if partials else None)
 
 
 def _rows(ds: Array, idx: Array | None) -> tuple[int, int, Array]:
-    """Give the batch size, the rows and every row's unique time; refuse without the kernels."""
-    if not available():
-        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
+    """Give the batch size, the rows and every row's unique time."""
     b, n = ds.shape[:2]
     return b, n, (np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64))
 
 
 def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
           manoeuvres: int, columns: NDArray[np.int64] | None = None) -> Array:
-    """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``, compiled.
+    """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``.
+
+    Per sample, ``ds`` times ``d state / d (segment inputs)``; then the derivatives of that
+    segment's inputs (its start state's, unit rows for its accelerations, minus one for its
+    change-over time).
 
     Parameters
     ----------
@@ -132,11 +616,6 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     -------
     ndarray
         ``(B, n, p)``, or ``(B, n, q)`` with ``columns`` (each column contiguous in memory).
-
-    Raises
-    ------
-    RuntimeError
-        If the kernels are not :func:`available`.
     """
     b, n, rows = _rows(ds, idx)
     ds = np.asarray(ds, dtype=float)
@@ -144,21 +623,20 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
         # each column contiguous over the rows: the layout of a column selection of the
         # whole (``jac[:, :, free]``), which the solver's J'J then reads as it is
         out = np.empty((columns.size, b, n))
-        KERNELS["chain_columns"](ds, par, seg, rows, d_anchor, manoeuvres,
-                                 np.ascontiguousarray(columns, dtype=np.int64), out)
+        _chain_columns_kernel(ds, par, seg, rows, d_anchor, manoeuvres,
+                              np.ascontiguousarray(columns, dtype=np.int64), out)
         return out.transpose(1, 2, 0)
     out = np.empty((b, n, d_anchor.shape[-1]))
-    KERNELS["chain"](ds, par, seg, rows, d_anchor, manoeuvres, out)
+    _chain_kernel(ds, par, seg, rows, d_anchor, manoeuvres, out)
     return out
 
 
 def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: Array | None,
                    d_anchor: Array, manoeuvres: int, runs: NDArray[np.int64] | None = None
                    ) -> tuple[Array, Array]:
-    """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, compiled.
+    """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, the Jacobian not formed.
 
-    :func:`tmakit.motion.curvilinear_normal_numba.segment_normal`: the Jacobian (the
-    :func:`chain` of ``ds``, whitened by ``w``) is not formed.
+    ``J`` is the :func:`chain` of ``ds``, whitened by ``w`` (see the module docstring).
 
     Parameters
     ----------
@@ -176,25 +654,20 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
     -------
     (ndarray, ndarray)
         ``(R, p, p)`` and ``(R, p)`` (per parameter unit squared, per parameter unit).
-
-    Raises
-    ------
-    RuntimeError
-        If the kernels are not :func:`available`.
     """
     b, _, rows = _rows(ds, idx)
     runs = np.arange(b) if runs is None else np.ascontiguousarray(runs, dtype=np.int64)
     p = d_anchor.shape[-1]
     jtj, jtr = np.empty((runs.size, p, p)), np.empty((runs.size, p))
     # (ds read in its own layout: the observation model's is component-major, no copy made)
-    KERNELS["segment_normal"](np.asarray(ds, dtype=float), np.ascontiguousarray(r),
-                              np.ascontiguousarray(w, dtype=float), par, seg, rows, d_anchor,
-                              manoeuvres, runs, jtj, jtr)
+    _segment_normal_kernel(np.asarray(ds, dtype=float), np.ascontiguousarray(r),
+                           np.ascontiguousarray(w, dtype=float), par, seg, rows, d_anchor,
+                           manoeuvres, runs, jtj, jtr)
     return jtj, jtr
 
 
 def scatter_states(vals: Array, inv: Array, sensor: Array | None = None) -> Array:
-    """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times, compiled.
+    """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times.
 
     Parameters
     ----------
@@ -211,18 +684,11 @@ def scatter_states(vals: Array, inv: Array, sensor: Array | None = None) -> Arra
     ndarray
         ``(B, n, 6)`` ``(x, y, 0, vx, vy, 0)`` (m, m/s; NaN outside the model's domain), minus
         ``sensor`` if given.
-
-    Raises
-    ------
-    RuntimeError
-        If the kernels are not :func:`available`.
     """
-    if not available():
-        raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
     out = np.empty((vals.shape[0], inv.shape[0], 6))
     inv = np.ascontiguousarray(inv, dtype=np.int64)
     if sensor is None:
-        KERNELS["scatter"](vals, inv, out)
+        _scatter_states_kernel(vals, inv, out)
     else:
-        KERNELS["scatter_relative"](vals, inv, np.ascontiguousarray(sensor, dtype=float), out)
+        _scatter_relative_kernel(vals, inv, np.ascontiguousarray(sensor, dtype=float), out)
     return out
