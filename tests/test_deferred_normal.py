@@ -107,3 +107,37 @@ def test_fits_take_the_same_steps_and_skip_the_rejected_trials(monkeypatch):
     np.testing.assert_array_equal(deferred.theta, eager.theta)
     np.testing.assert_array_equal(deferred.cost, eager.cost)
     np.testing.assert_array_equal(deferred.iterations, eager.iterations)
+
+
+def test_evaluations_of_both_forms_are_merged_as_normal_equations(monkeypatch):
+    """A batch's Jacobians and one run's J'J, J'r alone (summed by chunks of rows) are
+    merged as normal equations, the run's own kept, either way round."""
+    from bearing_sets import bearings
+
+    from tmakit import blas
+    from tmakit.batch.gauss_newton import normal_equations
+
+    motion, theta = tk.ConstantVelocity(2), np.array([8000.0, 12000.0, -4.0, 2.5])
+    meas = bearings(motion, theta, 3000, 9, 2, unequal_sigma=True)
+    problem = VarProProblem(ObservationModel(meas, motion))
+    u = problem.group(meas.value_si)[None]
+    batch = np.stack([theta, theta * 1.01 + 20.0])
+    both = problem.evaluate_part(batch, np.vstack([u, u]), np.zeros((2, 0)))  # Jacobians
+    with monkeypatch.context() as chunked:
+        chunked.setattr(blas, "CHUNKED_ROWS", 500)
+        chunked.setattr(blas, "CHUNK_ROWS", 400)
+        one = problem.evaluate_part(batch[1:] + 5.0, u, np.zeros((1, 0)))  # sums alone
+    assert both.jacobian is not None and one.jacobian is None
+    want = problem.evaluate_part(np.stack([batch[0], batch[1] + 5.0]), np.vstack([u, u]),
+                                 np.zeros((2, 0)))
+    merged = both.take(np.arange(2))
+    merged.put(np.array([1]), one)
+    jtj, grad = normal_equations(merged, None)
+    jtj0, grad0 = normal_equations(want, None)
+    np.testing.assert_allclose(jtj, jtj0, rtol=0, atol=1e-12 * np.abs(jtj0).max())
+    np.testing.assert_allclose(grad, grad0, rtol=1e-9, atol=1e-9 * np.abs(grad0).max())
+    np.testing.assert_allclose(merged.cost, want.cost, rtol=1e-12)
+    back = one.take(np.arange(1))
+    back.put(np.array([0]), both, np.array([0]))  # the other way round
+    np.testing.assert_allclose(normal_equations(back, None)[0][0], jtj0[0], rtol=0,
+                               atol=1e-12 * np.abs(jtj0).max())

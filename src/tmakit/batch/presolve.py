@@ -15,7 +15,6 @@ from numpy.typing import NDArray
 
 from ..frames import wrap_angle_own
 from ..observation.fused import fused_gradient_rows, gradient_of_rows
-from ..observation.fused_compiled import bearing_normal_equations
 from ..results.observability import full_rank
 from .init import GridSettings, Starts, best_starts_many, subsample
 from .solver import SolveResult, VarProProblem, levenberg_marquardt
@@ -159,13 +158,11 @@ def gradient_at(problem: VarProProblem, theta: NDArray[np.float64], u: NDArray[n
                 ) -> tuple[float, NDArray[np.float64]] | None:
     """Give half chi2 and ``J'r`` at one point without forming the Jacobian, or None.
 
-    For bearings on the NumPy path (the fused linearisation: one kind, no nuisance,
+    For bearings (the fused linearisation: one kind, no nuisance,
     independent rows, affine motion): the whitened derivatives by east and north and the
     residual, and ``J'r`` through the affine map's terms
     (:func:`~tmakit.observation.fused.gradient_of_rows`); no ``(p, n)`` Jacobian and no
-    ``J'J`` (:func:`subset_step` brings its own).  Where the compiled pass applies, its
-    ``J'r`` (its ``J'J`` costs nothing more there, and is not used: both paths take the same
-    step).  None elsewhere.
+    ``J'J`` (:func:`subset_step` brings its own).  None elsewhere.
 
     Parameters
     ----------
@@ -188,10 +185,6 @@ def gradient_at(problem: VarProProblem, theta: NDArray[np.float64], u: NDArray[n
             or theta.shape[0] != 1):
         return None
     with np.errstate(invalid="ignore", divide="ignore"):
-        compiled = bearing_normal_equations(problem.obs, theta, u, weights)
-        if compiled is not None:
-            r, _, jtr = compiled
-            return 0.5 * float(np.einsum("n,n->", r[0], r[0])), jtr[0]
         found = fused_gradient_rows(problem.obs, theta, weights)
         if found is None:
             return None

@@ -16,6 +16,9 @@ problem, or many Monte Carlo runs that share times, sensors and noise (each with
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -24,14 +27,39 @@ from ..arrays import Array
 from ..frames import wrap_angle
 from ..frames import wrap_angle_own as _wrap_own
 from ..observation import Linearisation, ObservationModel
-from ..observation.fused_compiled import bearing_normal_equations, bearing_residuals
 from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
-from ..observation.varpro_compiled import evaluate_batch, plan_for
-from ..observation.varpro_compiled import wanted as compiled_wanted
 from .evaluation import Evaluation
 from .evaluation import normal_of as _normal_of
 from .varpro_normal import motion_normal
+
+_compiled_batches = [False]  # inside compiled_batches(True)
+
+
+@contextmanager
+def compiled_batches(wanted: bool) -> Iterator[None]:
+    """Evaluate by the compiled kernel wherever it applies (True), or never, for a while.
+
+    The kernel (:mod:`tmakit.observation.varpro_compiled`: the point kinds under affine
+    motion, independent noise) costs about 0.2 s to load once per process; a Monte Carlo study
+    large enough to repay it asks for it in every chunk, so that every executor (this process,
+    a pool, a Dask cluster) evaluates the same way.  Outside, the NumPy path.
+
+    Parameters
+    ----------
+    wanted : bool
+        Whether the batches are evaluated by the kernel where it applies.
+
+    Yields
+    ------
+    None
+    """
+    before = _compiled_batches[0]
+    _compiled_batches[0] = bool(wanted)
+    try:
+        yield
+    finally:
+        _compiled_batches[0] = before
 
 
 class VarProProblem:
@@ -241,18 +269,12 @@ class VarProProblem:
     def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                       ) -> Evaluation:
         """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
-        b = theta.shape[0]  # (one vector of angles alone: the bearing kernel's, below)
-        if (self._batch_plan is not False and not (b == 1 and self.k == 0 and self.all_angle)
-                and compiled_wanted(b * u.shape[-1])):
+        if self._batch_plan is not False and _compiled_batches[0]:
             compiled = self._evaluate_batch_compiled(theta, u, nu_star, with_jacobian)
             if compiled is not None:
                 return compiled
         if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0:
             return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
-        if self.k == 0 and self.all_angle and not self.noise.blocks:
-            compiled = self._evaluate_compiled(theta, u, nu_star, with_jacobian)
-            if compiled is not None:
-                return compiled
         return self._evaluate(theta, u, nu_star, with_jacobian)
 
     def _evaluate_batch_compiled(self, theta: Array, u: Array, nu_star: Array,
@@ -262,6 +284,8 @@ class VarProProblem:
         None where it does not apply (its plan is made once per problem); the Evaluation
         holds ``J'J`` and ``J'r`` of the projected Jacobian, not the Jacobian.
         """
+        from ..observation.varpro_compiled import evaluate_batch, plan_for
+
         if self._batch_plan is None:
             independent = not self.noise.correlated and not self.noise.blocks
             self._batch_plan = plan_for(self.obs, self.noise.inv_sigma if independent else None,
@@ -275,28 +299,6 @@ class VarProProblem:
         r, nu, cost, jtj, jtr = got
         cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
         return Evaluation(theta, nu, r, cost, None, (jtj, jtr) if with_jacobian else None)
-
-    def _evaluate_compiled(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
-                           ) -> Evaluation | None:
-        """Evaluate bearings by one compiled pass (no Jacobian held), or None.
-
-        None where the pass does not apply (:mod:`tmakit.observation.fused_compiled`).
-        """
-        inv_sigma = self.noise.inv_sigma
-        if with_jacobian:
-            fused = bearing_normal_equations(self.obs, theta, u, inv_sigma)
-            if fused is None:
-                return None
-            r, jtj, jtr = fused
-            cost, normal = 0.5 * np.einsum("bn,bn->b", r, r), (jtj, jtr)
-        else:
-            values = bearing_residuals(self.obs, theta, u, inv_sigma)
-            if values is None:
-                return None
-            r, cost, normal = values[0], np.array([values[1]]), None
-        if not cost[0] < np.inf:
-            cost[0] = np.inf  # nan (no prediction) -> inf
-        return Evaluation(theta, np.array(nu_star, dtype=float), r, cost, None, normal)
 
     def _evaluate_chunked(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                           ) -> Evaluation:

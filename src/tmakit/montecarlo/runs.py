@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 from ..batch.dispatch import is_manoeuvring
 from ..batch.methods import estimate_with
 from ..batch.ml import FIT_ERRORS, MaximumLikelihood
+from ..batch.varpro import compiled_batches
 from ..blas import one_thread
 from ..data import MeasurementSet
-from ..observation.varpro_compiled import compiled_batches
 from ..results.nuisance import KnownNuisance
 from ..scenario import Scenario
 from .memory import keep_freed_memory
@@ -58,10 +58,10 @@ class ChunkTask:
         Index of the chunk's first run.
     seeds : tuple of numpy.random.SeedSequence
         One seed sequence per run.
-    compiled : bool or None
+    compiled : bool
         Whether the batched fits evaluate by the compiled kernel where it applies
-        (:func:`tmakit.observation.varpro_compiled.compiled_batches`): decided once per
-        study, so that every executor evaluates the same way; None: the kernel's own rule.
+        (:func:`tmakit.batch.varpro.compiled_batches`): decided once per study, so that every
+        executor evaluates the same way.
     """
 
     scenario: Scenario
@@ -71,7 +71,7 @@ class ChunkTask:
     init: Any
     first_run: int
     seeds: tuple[np.random.SeedSequence, ...]
-    compiled: bool | None = None
+    compiled: bool = False
 
 
 @dataclass

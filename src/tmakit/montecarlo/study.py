@@ -43,9 +43,8 @@ Options = Mapping[str, Mapping[str, object]]
 
 COMPILED_WORK = 200_000
 """Runs times rows from which a study's batched fits evaluate by the compiled kernel
-(:mod:`tmakit.observation.varpro_compiled`, with ``numba`` installed): loading it (about
-0.5 s per process) then costs less than it saves (about 5 us per run and row, measured on
-gu2007).  Below, the NumPy path: a small study gives the same bits wherever it runs."""
+(:mod:`tmakit.observation.varpro_compiled`): loading it (about 0.2 s per process) then costs
+less than it saves (about 5 us per run and row, measured on gu2007).  Below, the NumPy path."""
 
 
 def _compiled(scenario: Scenario, runs: int) -> bool:
