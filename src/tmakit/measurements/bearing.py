@@ -10,7 +10,6 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import planar_compiled
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
@@ -79,23 +78,17 @@ class Bearing(MeasurementModel):
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write bearings and their derivatives (the operations of :meth:`jacobian`).
+        """Write bearings and their derivatives (:mod:`.planar_compiled`, in one pass).
 
         Parameters
         ----------
         rel, t, values, d_rel
             As for :meth:`MeasurementModel.values_and_derivatives_into`.
         """
-        dx, dy = rel[..., 0], rel[..., 1]
-        np.arctan2(dx, dy, out=values)
-        if planar_compiled.wanted(rel):  # (the same operations, one pass)
-            planar_compiled.bearing_gradient(rel, d_rel)
-            return
-        rho2 = dx * dx
-        rho2 += dy * dy
-        np.divide(dy, rho2, out=d_rel[..., 0])
-        np.divide(dx, rho2, out=d_rel[..., 1])
-        np.negative(d_rel[..., 1], out=d_rel[..., 1])
+        from .planar_compiled import bearing_gradient  # (numba: imported at first use)
+
+        np.arctan2(rel[..., 0], rel[..., 1], out=values)  # (NumPy's: the C library's differs)
+        bearing_gradient(rel, d_rel)
 
     def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
                         weight: Array | None = None, negate: bool = True) -> Array:
@@ -237,3 +230,4 @@ class Bearing(MeasurementModel):
         dx, dy = rel[0], rel[1]
         inv = 1.0 / (dx * dx + dy * dy)
         return math.atan2(dx, dy), dy * inv, -dx * inv, 0.0, 0.0, 0.0, 0.0
+

@@ -1,95 +1,96 @@
-"""Compiled bearing and azimuth-rate rows (optional ``numba``), used once ``numba`` is loaded.
+"""Bearing and azimuth-rate rows with their derivatives, compiled (``numba``).
 
-The manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`) linearises some ten thousand rows per
-step; the NumPy formulas of :class:`~tmakit.measurements.bearing.Bearing` and
-:class:`~tmakit.measurements.azimuth_rate.AzimuthRate` make a temporary per operation, read
-strided relative states and took a sixth of its time.  The kernels of
-:mod:`tmakit.measurements.planar_numba` do the same operations in one pass per row, giving the
-same bits, so which path runs never changes a result.  The bearing itself stays NumPy's
-``arctan2`` (NumPy's vectorised ``arctan2`` and the C library's differ in the last bit).
+The solvers' linearisation (:meth:`tmakit.observation.rows.RowModel.linearise_into`) writes
+each kind's rows straight into its own arrays; for the bearing and the azimuth rate these
+loops do it in one pass per row (NumPy would make a temporary per operation and read strided
+relative states: the manoeuvre estimate of hoerst2010 took 1.22x as long).  The formulas are
+those of :meth:`~tmakit.measurements.bearing.Bearing.jacobian` and
+:meth:`~tmakit.measurements.azimuth_rate.AzimuthRate.jacobian`, in the same order (no
+``fastmath``).  Arrays of any layout: ``rel`` ``(B, m, 6)``, ``values`` ``(B, m)``, ``d``
+``(B, m, 6)`` whose columns not written stay as given (zeros).  Importing this module imports
+``numba`` (about 0.1 s a process): the kinds import it at their first such rows.
 
-The kernels are used (:func:`wanted`) for at least :data:`KERNEL_ROWS` rows, where ``numba``
-is already imported by another compiled path: they are never the reason to import it (a few
-tenths of a second), and ``TMAKIT_NO_NUMBA`` or ``use_compiled(False)`` turn them off.
+References
+----------
+Hörst & Oispuu (2010), eq. 6.
 """
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
 
-import numpy as np
+import numba
 
 from ..arrays import Array
-from ..optional_kernels import OptionalKernels
 
-__all__ = ["KERNELS", "KERNEL_ROWS", "available", "azimuth_rate", "bearing_gradient",
-           "use_compiled", "wanted"]
-
-KERNEL_ROWS = 256
-"""Fewest rows (over the batch) for which the kernels are used: below, NumPy's calls cost less
-than the kernel's dispatch."""
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 
-def _compile() -> dict[str, Callable[..., object]]:
-    """Import ``numba`` and the kernels; compile them on the layouts the solvers pass."""
-    from . import planar_numba as kn
-
-    rel = np.ones((1, 4, 6))[:, 1:3]  # rows of one kind: a slice of every row's states
-    values = np.empty((1, 4))[:, 1:3]
-    d = np.zeros((1, 6, 4)).swapaxes(-1, -2)[:, 1:3]  # component-major, as the solvers keep
-    kn.bearing_gradient(rel, d)
-    kn.azimuth_rate(rel, values, d)
-    return {"bearing_gradient": kn.bearing_gradient, "azimuth_rate": kn.azimuth_rate}
-
-
-#: The module's kernels (:mod:`tmakit.optional_kernels`).
-KERNELS = OptionalKernels("planar measurement", _compile)
-use_compiled = KERNELS.use_compiled
-available = KERNELS.available
+@_jit
+def _bearing_gradient(rel: Array, d: Array) -> None:  # pragma: no cover - compiled
+    """Write ``d bearing / d (dx, dy) = (dy, -dx) / rho^2`` (rad/m) into ``d[..., 0:2]``."""
+    for b in range(rel.shape[0]):
+        for i in range(rel.shape[1]):
+            dx = rel[b, i, 0]
+            dy = rel[b, i, 1]
+            rho2 = dx * dx + dy * dy
+            d[b, i, 0] = dy / rho2
+            d[b, i, 1] = -(dx / rho2)
 
 
-def wanted(rel: Array) -> bool:
-    """Tell whether the kernels should take these rows (see the module docstring).
-
-    Parameters
-    ----------
-    rel : ndarray
-        ``(B, m, 6)`` relative states.
-
-    Returns
-    -------
-    bool
-        True for enough rows of a 3-D array, with ``numba`` already imported and the kernels
-        switched on.
-    """
-    return (rel.ndim == 3 and rel.shape[0] * rel.shape[1] >= KERNEL_ROWS
-            and "numba" in sys.modules and available())
+@_jit
+def _azimuth_rate(rel: Array, values: Array, d: Array) -> None:  # pragma: no cover - compiled
+    """Write azimuth rates (rad/s) into ``values``, derivatives into ``d[..., (0, 1, 3, 4)]``."""
+    for b in range(rel.shape[0]):
+        for i in range(rel.shape[1]):
+            dx = rel[b, i, 0]
+            dy = rel[b, i, 1]
+            dvx = rel[b, i, 3]
+            dvy = rel[b, i, 4]
+            rho2 = dx * dx + dy * dy
+            rate = (dvx * dy - dx * dvy) / rho2
+            values[b, i] = rate
+            d[b, i, 0] = (-dvy - 2.0 * dx * rate) / rho2
+            d[b, i, 1] = (dvx - 2.0 * dy * rate) / rho2
+            d[b, i, 3] = dy / rho2
+            d[b, i, 4] = -dx / rho2
 
 
 def bearing_gradient(rel: Array, d_rel: Array) -> None:
-    """Write the bearings' derivatives by the relative east and north, compiled.
+    """Write the bearings' derivatives by the relative east and north into ``d_rel``.
 
     Parameters
     ----------
     rel : ndarray
-        ``(B, m, 6)`` relative states (m, m/s).
+        ``(..., m, 6)`` relative states (m, m/s).
     d_rel : ndarray
-        ``(B, m, 6)``; columns 0 and 1 written with ``dy / rho^2`` and ``-dx / rho^2`` (rad/m).
+        ``(..., m, 6)``; columns 0 and 1 written with ``dy / rho^2`` and ``-dx / rho^2``
+        (rad/m).
     """
-    KERNELS["bearing_gradient"](rel, d_rel)
+    _by_batch(_bearing_gradient, rel, d_rel)
 
 
 def azimuth_rate(rel: Array, values: Array, d_rel: Array) -> None:
-    """Write azimuth rates and their derivatives by the relative state, compiled.
+    """Write azimuth rates and their derivatives by the relative state.
 
     Parameters
     ----------
     rel : ndarray
-        ``(B, m, 6)`` relative states (m, m/s).
+        ``(..., m, 6)`` relative states (m, m/s).
     values : ndarray
-        ``(B, m)`` written with the rates (rad/s).
+        ``(..., m)`` written with the rates (rad/s).
     d_rel : ndarray
-        ``(B, m, 6)``; columns 0, 1, 3, 4 written (rad/(s m), rad/m).
+        ``(..., m, 6)``; columns 0, 1, 3, 4 written (rad/(s m), rad/m).
     """
-    KERNELS["azimuth_rate"](rel, values, d_rel)
+    _by_batch(_azimuth_rate, rel, values, d_rel)
+
+
+def _by_batch(kernel: Callable[..., None], rel: Array, *out: Array) -> None:
+    """Call ``kernel`` on ``(B, m, ...)`` views of arrays of any leading shape (never copies)."""
+    if rel.ndim == 3:
+        kernel(rel, *out)
+    elif rel.ndim == 2:
+        kernel(rel[None], *(a[None] for a in out))
+    else:
+        for i in range(rel.shape[0]):
+            _by_batch(kernel, rel[i], *(a[i] for a in out))
