@@ -25,7 +25,7 @@ frequency, carrier and power constant unknown).  Medians [interquartile range] o
 repeats.
 
     PYTHONPATH=src python benchmarks/batch_speed.py [--sizes 100 1000 10000 100000]
-        [--repeat 5] [--clock cpu|wall] [--kernel auto|numpy|numba]
+        [--repeat 5] [--clock cpu|wall]
 """
 
 from __future__ import annotations
@@ -61,14 +61,8 @@ def fisher_by_hand(meas, theta):
     return jac.T @ jac
 
 
-def crlb_rows(sizes, repeat, clock="cpu", kernel="auto"):
-    """CRLB and no-guess estimate vs the hand Fisher matrix, and the log-log slopes.
-
-    ``kernel``: the no-guess estimate as a process gets it (``auto``: the compiled bearing
-    kernel only once ``numba`` is loaded, see ``tmakit.observation.fused_compiled``), on the
-    NumPy path (``numpy``), or with ``numba`` loaded first (``numba``).
-    """
-    path = _kernel_path(kernel)
+def crlb_rows(sizes, repeat, clock="cpu"):
+    """CRLB and no-guess estimate vs the hand Fisher matrix, and the log-log slopes."""
     rows, t_crlb, t_est = [], [], []
     unit = "ms CPU" if clock == "cpu" else "ms"
     for n in sizes:
@@ -88,7 +82,7 @@ def crlb_rows(sizes, repeat, clock="cpu", kernel="auto"):
                      fmt(stats["estimate"], 1e3, unit),
                      f"NumPy Fisher {fmt(stats['fisher'], 1e3, unit)}",
                      stats["estimate"][0] / stats["fisher"][0],
-                     f"tmakit/peer (goal <= 3); {path()}"))
+                     "tmakit/peer (goal <= 3)"))
     big = [i for i, n in enumerate(sizes) if n >= 1000]
     if len(big) >= 2:
         x = np.log([sizes[i] for i in big])
@@ -97,26 +91,6 @@ def crlb_rows(sizes, repeat, clock="cpu", kernel="auto"):
             rows.append((f"{name} log-log slope over N = {sizes[big[0]]}..{sizes[big[-1]]}",
                          f"{slope:.2f}", "goal <= 1.2", slope, ""))
     return rows
-
-
-def _kernel_path(kernel):
-    """Set the compiled bearing kernel as asked; give a function naming the path in use."""
-    import sys
-
-    from tmakit.observation import fused_compiled
-
-    if kernel == "numpy":
-        fused_compiled.use_compiled(False)
-    elif kernel == "numba":
-        import numba  # noqa: F401  (loaded: the kernel pays at once)
-
-        fused_compiled.use_compiled(True)
-
-    def path():
-        on = fused_compiled.KERNELS.enabled and "numba" in sys.modules and (
-            fused_compiled.available())
-        return "compiled kernel (numba loaded)" if on else "NumPy path"
-    return path
 
 
 def lm_problem(name, n):
@@ -222,13 +196,10 @@ def main():
     ap.add_argument("--only", choices=["crlb", "lm"], default=None)
     ap.add_argument("--clock", choices=["cpu", "wall"], default="cpu",
                     help="process CPU time (default) or wall time")
-    ap.add_argument("--kernel", choices=["auto", "numpy", "numba"], default="auto",
-                    help="the no-guess estimate's bearing kernel: as a process gets it "
-                         "(auto), NumPy path, or numba loaded first")
     args = ap.parse_args()
     rows = []
     if args.only in (None, "crlb"):
-        rows += crlb_rows(args.sizes, args.repeat, args.clock, args.kernel)
+        rows += crlb_rows(args.sizes, args.repeat, args.clock)
     if args.only in (None, "lm"):
         rows += lm_rows(args.sizes, args.repeat, args.tol, args.clock)
     for what, ours, peer, ratio, note in rows:

@@ -29,13 +29,10 @@ bearings beside Doppler and power (``gu2007`` with bearings), an observer on one
 (range unobservable: the estimate along the unseen direction is arbitrary, so only status and
 chi2 can agree), an observer that turns once by 4 deg (at 1 and 5 deg noise) and a target at
 60 km (range poorly determined).  ``hoerst2010`` (curvilinear, the manoeuvre fit: about 15 s a
-fit at 30,000 rows) only when asked (``--only hoerst2010 --sizes 30000``).  Every case on the
-NumPy path, then again with ``numba`` loaded and the compiled bearing kernel on
-(``--no-numba`` skips that pass); the compiled pass also prints ``kernel dtheta``: the default
-fit's distance to the NumPy pass's default fit.
+fit at 30,000 rows) only when asked (``--only hoerst2010 --sizes 30000``).
 
     PYTHONPATH=src python benchmarks/large_fit_agreement.py [--sizes 20001 30000 100000 200000]
-        [--seeds 3] [--no-numba] [--only NAME ...]
+        [--seeds 3] [--only NAME ...]
 """
 
 from __future__ import annotations
@@ -51,7 +48,6 @@ import numpy as np
 
 import tmakit as tk
 from tmakit.batch import presolve
-from tmakit.observation import fused_compiled
 from tmakit.scenario_file import scenario_from_dict
 
 TOL_THETA, TOL_CHI2, TOL_COV = 0.01, 0.01, 0.01
@@ -223,14 +219,12 @@ def compare(a, b):
     return dchi2, dtheta, dcov
 
 
-def run(cases, sizes, seeds, label, reference=None):
+def run(cases, sizes, seeds, label):
     """Fit every case both ways; print a row each; give the default fits by key."""
     print(f"\n== {label} ==")
     head = (f"{'case':20s} {'rows':>7s} {'seed':>4s} {'status (default/plain)':>26s} "
             f"{'dchi2':>9s} {'dtheta':>9s} {'dcov':>9s} {'dth nopol':>9s} {'dcov nopol':>9s} "
             f"{'ms def':>7s} {'ms plain':>8s}")
-    if reference is not None:
-        head += f" {'kernel dtheta':>13s}"
     print(head)
     fits, bad = {}, []
     for name in cases:
@@ -253,8 +247,6 @@ def run(cases, sizes, seeds, label, reference=None):
                         f"{dchi2:9.2e} {dtheta:9.2e} {dcov:9.2e} {dtheta_np:9.2e} {dcov_np:9.2e}"
                         f" {1e3 * td:7.1f} {1e3 * tp:8.1f}")
                 key = (name, n, seed)
-                if reference is not None and key in reference:
-                    line += f" {compare(d, reference[key])[1]:13.2e}"
                 print(line + ("  !!" if flag else ""), flush=True)
                 if flag:
                     bad.append(line)
@@ -268,17 +260,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[20_001, 30_000, 100_000, 200_000])
     ap.add_argument("--seeds", type=int, default=3)
-    ap.add_argument("--no-numba", action="store_true")
     ap.add_argument("--only", nargs="+", choices=sorted(CASES),
                     default=[c for c in CASES if c != "hoerst2010"])
     args = ap.parse_args()
-    fused_compiled.use_compiled(False)
-    numpy_fits = run(args.only, args.sizes, args.seeds, "NumPy path")
-    if not args.no_numba:
-        import numba  # noqa: F401  (loaded: the compiled kernel is used at once)
-
-        fused_compiled.use_compiled(True)
-        run(args.only, args.sizes, args.seeds, "numba loaded, compiled kernel", numpy_fits)
+    run(args.only, args.sizes, args.seeds, "default and plain fits")
 
 
 if __name__ == "__main__":

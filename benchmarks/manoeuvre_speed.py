@@ -4,8 +4,7 @@
 
 The base commit's ``src/tmakit`` is exported to a temporary folder and imported under another
 name (``tmakit_base``), so that both trees run in the same process, interleaved data set by
-data set: the earlier code, this tree with its compiled trajectory kernels (numba) and this
-tree on its NumPy path (``use_compiled(False)``).  Each estimate is ``M = 0 .. 3`` on the
+data set: the earlier code and this tree.  Each estimate is ``M = 0 .. 3`` on the
 seeded runs of ``benchmarks/montecarlo_hoerst2010.py`` (``SeedSequence(0)``), timed by
 ``time.process_time`` (BLAS on one thread; one untimed warm-up estimate first, which imports
 numba and loads the kernels).  The order of the variants turns: ``--repeat`` estimates of
@@ -53,7 +52,7 @@ def export_base(commit: str, folder: Path) -> None:
 
 
 def main() -> None:
-    """Time the three variants interleaved and print the table."""
+    """Time the two trees interleaved and print the table."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--base", default="fbbd762", help="the earlier commit (default fbbd762)")
     ap.add_argument("--runs", type=int, nargs="+", default=[1, 2, 3, 4, 5],
@@ -63,7 +62,6 @@ def main() -> None:
     args = ap.parse_args()
     import tmakit as tk
     from tmakit.batch.curvilinear import estimate_manoeuvres as new_estimate
-    from tmakit.motion import curvilinear_compiled
 
     with tempfile.TemporaryDirectory() as tmp:
         export_base(args.base, Path(tmp))
@@ -80,34 +78,28 @@ def main() -> None:
         new_estimate(warm, 1)
         old_estimate(warm, 1)
         rows = []
-        variants = ((old_estimate, True), (new_estimate, True), (new_estimate, False))
+        variants = (old_estimate, new_estimate)
         for i in args.runs:
             meas = data(i)
-            spent: list[list[float]] = [[], [], []]
-            chosen: list[tuple] = [(), (), ()]
+            spent: list[list[float]] = [[], []]
+            chosen: list[tuple] = [(), ()]
             for k in range(args.repeat):
-                order = [(len(rows) + j) % 3 for j in range(3)]  # turned run by run
+                order = [(len(rows) + j) % 2 for j in range(2)]  # turned run by run
                 for v in order if k % 2 == 0 else order[::-1]:  # and back and forth
-                    fn, kernels = variants[v]
-                    curvilinear_compiled.use_compiled(kernels)
                     t0 = time.process_time()
-                    res = fn(meas, 3)
+                    res = variants[v](meas, 3)
                     spent[v].append(time.process_time() - t0)
                     chosen[v] = (res.manoeuvres, sorted(res.held))
-            curvilinear_compiled.use_compiled(True)
             times = [float(np.median(x)) for x in spent]
             rows.append(times)
-            old, fast, plain = times
-            print(f"run {i}: base {old:.2f} s, compiled {fast:.2f} s ({old / fast:.2f}x), "
-                  f"NumPy path {plain:.2f} s ({old / plain:.2f}x); same order and held: "
-                  f"{chosen[0] == chosen[1] == chosen[2]}", flush=True)
+            old, new = times
+            print(f"run {i}: base {old:.2f} s, this tree {new:.2f} s ({old / new:.2f}x); same "
+                  f"order and held: {chosen[0] == chosen[1]}", flush=True)
     t = np.array(rows)
-    r = t[:, :1] / t[:, 1:]
+    r = t[:, 0] / t[:, 1]
     med = np.median(t, axis=0)
-    print(f"median CPU: base {med[0]:.2f} s, compiled {med[1]:.2f} s, NumPy path {med[2]:.2f} s; "
-          f"base / compiled {np.median(r[:, 0]):.2f}x (IQR {np.percentile(r[:, 0], 25):.2f}"
-          f"..{np.percentile(r[:, 0], 75):.2f}), base / NumPy path {np.median(r[:, 1]):.2f}x "
-          f"(IQR {np.percentile(r[:, 1], 25):.2f}..{np.percentile(r[:, 1], 75):.2f})")
+    print(f"median CPU: base {med[0]:.2f} s, this tree {med[1]:.2f} s; base / this tree "
+          f"{np.median(r):.2f}x (IQR {np.percentile(r, 25):.2f}..{np.percentile(r, 75):.2f})")
 
 
 if __name__ == "__main__":

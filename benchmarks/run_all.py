@@ -126,40 +126,28 @@ def montecarlo_rows(runs, workers, repeat):
 def manoeuvre_rows(sets, repeat):
     """hoerst2010 manoeuvre estimate, orders 0..3, median over seeded data sets.
 
-    CPU time of this process (the machine is shared; the estimate runs on one core), with the
-    compiled trajectory kernels (numba) and with their NumPy path, interleaved; after one
-    untimed order-0 estimate that imports numba and loads the kernels (once per process).
-    That the choices are those of earlier code is checked by ``manoeuvre_choices.py
-    --compare``.
+    CPU time of this process (the machine is shared; the estimate runs on one core), after
+    one untimed order-0 estimate that imports numba and loads the compiled kernels (once per
+    process).  That the choices are those of earlier code is checked by
+    ``manoeuvre_choices.py --compare``.
     """
     import tmakit as tk
-    from tmakit.motion import curvilinear_compiled
 
     scn = tk.load_scenario("hoerst2010")
-    times, plain, chosen = [], [], []
+    times, chosen = [], []
     tk.estimate(scn.simulate(np.random.default_rng(sets)), "curvilinear:0")
-    compiled = curvilinear_compiled.available()
     for seed in range(sets):
         meas = scn.simulate(np.random.default_rng(seed))
         for _ in range(repeat):
-            for kernels, out in ((True, times), (False, plain)):
-                curvilinear_compiled.use_compiled(kernels)
-                t0 = time.process_time()
-                res = tk.estimate(meas, "curvilinear:3")
-                out.append(time.process_time() - t0)
-        curvilinear_compiled.use_compiled(True)
+            t0 = time.process_time()
+            res = tk.estimate(meas, "curvilinear:3")
+            times.append(time.process_time() - t0)
         chosen.append(getattr(res.motion, "name", "?"))
-
-    def stat(ts):
-        return (float(np.median(ts)), float(np.percentile(ts, 25)), float(np.percentile(ts, 75)))
-
-    what = f"manoeuvre estimate hoerst2010 ({len(meas)} rows), orders 0..3"
-    fast = stat(times)
-    return [(what + ("" if compiled else " (numba missing: NumPy path)"),
+    fast = (float(np.median(times)), float(np.percentile(times, 25)),
+            float(np.percentile(times, 75)))
+    return [(f"manoeuvre estimate hoerst2010 ({len(meas)} rows), orders 0..3",
              fmt(fast, 1.0, "s") + " CPU", "goal <= 1.5 s", fast[0],
-             f"{sets} data sets; chosen {', '.join(chosen)}"),
-            ("the same, NumPy path (TMAKIT_NO_NUMBA=1)", fmt(stat(plain), 1.0, "s") + " CPU",
-             "", stat(plain)[0], "")]
+             f"{sets} data sets; chosen {', '.join(chosen)}")]
 
 
 def main():
@@ -216,17 +204,9 @@ def _pf(quick):
 
 
 def _crlb(sizes, repeat):
-    """The CRLB and the no-guess estimate on the NumPy path (a process that has not loaded
-    numba, e.g. one ``tma estimate``), then the estimate at 10^5 rows with numba loaded."""
     from batch_speed import crlb_rows
 
-    rows = crlb_rows(sizes, repeat, kernel="numpy")
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return rows
-    return rows + [r for r in crlb_rows([max(sizes)], repeat, kernel="numba")
-                   if r[0].startswith("no-guess")]
+    return crlb_rows(sizes, repeat)
 
 
 def _lm(sizes, repeat):

@@ -1,7 +1,7 @@
 """Optional compiled kernels (``numba``): loaded at first use, with a switch and a fallback.
 
-A module with compiled hot loops (:mod:`tmakit.planning.compiled`,
-:mod:`tmakit.motion.curvilinear_compiled`) keeps one :class:`OptionalKernels`.  The kernels are
+The planner's compiled hot loops (:mod:`tmakit.planning.compiled`) keep one
+:class:`OptionalKernels`: the last user, until the planner has one implementation.  The kernels are
 imported and compiled (cached on disk by ``numba``) at the first :meth:`~OptionalKernels.
 available`; without ``numba``, with the environment variable ``TMAKIT_NO_NUMBA`` set to a
 non-empty value other than ``0``, or after ``use_compiled(False)``, ``available()`` is False and
