@@ -22,6 +22,7 @@ from tmakit.motion import PiecewiseCurvilinear
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
 
 
+@pytest.mark.parametrize("layout", ["by kind", "interleaved", "unsorted"])
 def test_batched_chain_equals_the_general_model_on_every_row_layout(layout):
     rng = np.random.default_rng(1)
     scn = tk.load_scenario("hoerst2010")
