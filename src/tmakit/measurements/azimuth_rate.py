@@ -75,13 +75,13 @@ class AzimuthRate(MeasurementModel):
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write azimuth rates and their derivatives (:mod:`.planar_compiled`, in one pass).
+        """Write azimuth rates and their derivatives (:mod:`.azimuth_rate_compiled`, one pass).
 
         Parameters
         ----------
         rel, t, values, d_rel
             As for :meth:`MeasurementModel.values_and_derivatives_into`.
         """
-        from .planar_compiled import azimuth_rate  # (numba: imported at first use)
+        from .azimuth_rate_compiled import azimuth_rate  # (numba: imported at first use)
 
         azimuth_rate(rel, values, d_rel)

@@ -78,17 +78,20 @@ class Bearing(MeasurementModel):
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write bearings and their derivatives (:mod:`.planar_compiled`, in one pass).
+        """Write bearings and their derivatives (the operations of :meth:`jacobian`).
 
         Parameters
         ----------
         rel, t, values, d_rel
             As for :meth:`MeasurementModel.values_and_derivatives_into`.
         """
-        from .planar_compiled import bearing_gradient  # (numba: imported at first use)
-
-        np.arctan2(rel[..., 0], rel[..., 1], out=values)  # (NumPy's: the C library's differs)
-        bearing_gradient(rel, d_rel)
+        dx, dy = rel[..., 0], rel[..., 1]
+        np.arctan2(dx, dy, out=values)
+        rho2 = dx * dx
+        rho2 += dy * dy
+        np.divide(dy, rho2, out=d_rel[..., 0])
+        np.divide(dx, rho2, out=d_rel[..., 1])
+        np.negative(d_rel[..., 1], out=d_rel[..., 1])
 
     def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
                         weight: Array | None = None, negate: bool = True) -> Array:

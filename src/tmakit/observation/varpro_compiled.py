@@ -26,8 +26,8 @@ vector, in scratch arrays of the rows' size that stay in cache:
 Every loop runs along the rows of one kind, branch-free.  Sums are in a fixed order (no
 ``fastmath``): the same inputs give the same bits, wherever the arrays lie.  It agrees with
 the NumPy path to rounding (``tests/test_varpro_kernel.py``).  Importing this module imports
-``numba`` (about 0.1 s) and loads the kernel from its cache (0.08 s): a Monte Carlo study
-large enough to repay it asks for it (:func:`tmakit.batch.varpro.compiled_batches`).
+``numba`` (about 0.1 s), the first call loads the kernel from its cache (0.08 s): a Monte
+Carlo study large enough to repay it asks for it (:func:`tmakit.batch.varpro.compiled_batches`).
 """
 
 from __future__ import annotations

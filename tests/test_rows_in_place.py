@@ -1,9 +1,9 @@
-"""Compiled bearing and azimuth-rate rows, and relative states in one pass.
+"""Rows the solvers write in place, and relative states in one pass.
 
-The rows the solvers write in place (:mod:`tmakit.measurements.planar_compiled`) are the
-kinds' own ``predict`` and ``jacobian`` bit for bit (zero range and rows outside the model's
-domain included), for any leading shape; :meth:`ForwardPiecewise.states_minus` is the states
-minus the sensor's.
+The bearing's and the azimuth rate's ``values_and_derivatives_into`` (the azimuth rate's
+compiled, :mod:`tmakit.measurements.azimuth_rate_compiled`) are the kinds' own ``predict``
+and ``jacobian`` bit for bit (zero range and rows outside the model's domain included), for
+any leading shape; :meth:`ForwardPiecewise.states_minus` is the states minus the sensor's.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ def _linearise(model, rel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.mark.parametrize("model", [Bearing(), AzimuthRate()], ids=["bearing", "azimuth_rate"])
 @pytest.mark.parametrize("lead", [(), (3,), (2, 3)])
-def test_compiled_rows_are_the_kinds_predictions_and_jacobians_bit_for_bit(model, lead):
+def test_rows_in_place_are_the_kinds_predictions_and_jacobians_bit_for_bit(model, lead):
     rel = _rows(np.random.default_rng(3), 6, 400).reshape(*lead, -1, 6)
     values, d = _linearise(model, rel)
     with np.errstate(invalid="ignore", divide="ignore"):
