@@ -98,6 +98,11 @@ scn = dataclasses.replace(scn, plans=plans); m = scn.simulate(np.random.default_
 t = time.process_time()
 for _ in range(3): tk.estimate(m, scn.motion)
 """,
+    "estimate chen-sun-1 (bearing + range differences)": """
+m = tk.load_scenario("chen-sun-1").simulate(rng=2)
+t = time.process_time()
+tk.estimate(m, tk.load_scenario("chen-sun-1").motion)
+""",
     "estimate hoerst2010 cv2d (bearing + azimuth rate)": """
 m = tk.load_scenario("hoerst2010").simulate(rng=2)
 t = time.process_time()
