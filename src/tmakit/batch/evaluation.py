@@ -85,8 +85,8 @@ class Evaluation:
         if isinstance(self.normal, DeferredNormal):  # written into: summed first, as it was
             self.normal = (self.normal[0], self.normal[1])
         if (self.jacobian is None) != (other.jacobian is None):
-            # One holds its Jacobian, the other only J'J and J'r (the compiled bearing pass
-            # applies to one parameter vector): both as normal equations.
+            # One holds its Jacobian, the other only J'J and J'r (summed by chunks of rows, or
+            # by the compiled batch kernel): both as normal equations.
             self.normal, self.jacobian = normal_of(self), None
             other = Evaluation(other.theta, other.nuisance, other.residual, other.cost, None,
                                normal_of(other))
