@@ -43,6 +43,8 @@ from numpy.typing import NDArray
 from ..arrays import Array
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+# Inlined into the loops over the samples (as a call, every array argument's reference count
+# would change twice per sample: more than the arithmetic).
 _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 _SERIES_BELOW = 1e-3     # |g| + |r| below which F comes from its series
