@@ -1,9 +1,9 @@
 """Rows the solvers write in place, and relative states in one pass.
 
-The bearing's and the azimuth rate's ``values_and_derivatives_into`` (the azimuth rate's
-compiled, :mod:`tmakit.measurements.azimuth_rate_compiled`) are the kinds' own ``predict``
-and ``jacobian`` bit for bit (zero range and rows outside the model's domain included), for
-any leading shape; :meth:`ForwardPiecewise.states_minus` is the states minus the sensor's.
+The bearing's and the azimuth rate's ``values_and_derivatives_into`` are the kinds' own
+``predict`` and ``jacobian`` bit for bit (zero range and rows outside the model's domain
+included), for any leading shape; :meth:`ForwardPiecewise.states_minus` is the states minus
+the sensor's.
 """
 
 from __future__ import annotations

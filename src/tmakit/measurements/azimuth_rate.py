@@ -75,13 +75,17 @@ class AzimuthRate(MeasurementModel):
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write azimuth rates and their derivatives (:mod:`.azimuth_rate_compiled`, one pass).
+        """Write azimuth rates and their derivatives (the operations of :meth:`jacobian`).
 
         Parameters
         ----------
         rel, t, values, d_rel
             As for :meth:`MeasurementModel.values_and_derivatives_into`.
         """
-        from .azimuth_rate_compiled import azimuth_rate  # (numba: imported at first use)
-
-        azimuth_rate(rel, values, d_rel)
+        dx, dy, dvx, dvy = rel[..., 0], rel[..., 1], rel[..., 3], rel[..., 4]
+        rho2 = dx * dx + dy * dy
+        rate = np.divide(dvx * dy - dx * dvy, rho2, out=values)
+        np.divide(-dvy - 2.0 * dx * rate, rho2, out=d_rel[..., 0])
+        np.divide(dvx - 2.0 * dy * rate, rho2, out=d_rel[..., 1])
+        np.divide(dy, rho2, out=d_rel[..., 3])
+        np.divide(-dx, rho2, out=d_rel[..., 4])

@@ -233,4 +233,3 @@ class Bearing(MeasurementModel):
         dx, dy = rel[0], rel[1]
         inv = 1.0 / (dx * dx + dy * dy)
         return math.atan2(dx, dy), dy * inv, -dx * inv, 0.0, 0.0, 0.0, 0.0
-
