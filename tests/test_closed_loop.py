@@ -41,7 +41,8 @@ def test_one_candidate_planner_reproduces_the_fixed_path_exactly():
     assert np.array_equal(fixed.estimate, one.estimate)
     assert np.array_equal(fixed.covariance, one.covariance)
     assert np.array_equal(fixed.sensor, one.sensor)
-    assert np.array_equal(fixed.bound_m, one.bound_m)
+    assert np.array_equal(fixed.criterion_m, one.criterion_m)
+    assert np.array_equal(fixed.information, one.information)
     # the fixed path flies North at 50 m/s
     assert np.allclose(fixed.sensor[:, 1], 50.0 * fixed.times)
     assert np.allclose(fixed.sensor[:, 0], 0.0, atol=1e-9)
@@ -56,14 +57,14 @@ def test_seeded_runs_are_deterministic_and_trackers_follow_the_target(tracker):
     assert np.array_equal(a.estimate, b.estimate) and np.array_equal(a.action, b.action)
     assert len(set(a.action.tolist())) > 1  # the planner manoeuvres
     # the estimate stays within a few bounds of the truth (a working tracker)
-    assert np.all(a.error_m < 6 * a.bound_m + 50.0)
-    assert a.bound_m[-1] < a.bound_m[0]
+    assert np.all(a.error_m < 6 * a.criterion_m + 50.0)
+    assert a.criterion_m[-1] < a.criterion_m[0]
 
 
-def test_recorded_bound_is_the_planners_prediction_when_both_use_the_mean():
-    setup = _setup(20, bound_gamma="mean")
+def test_recorded_criterion_is_the_planners_prediction_when_both_use_the_mean():
+    setup = _setup(20, criterion_gamma="mean")
     rec = run_closed_loop(Planner(HN.kinematics, HN.actions, 0.5, PLAN), PLAN, setup, 2)
-    assert np.allclose(rec.bound_m, rec.predicted_bound_m, rtol=1e-9)
+    assert np.allclose(rec.criterion_m, rec.predicted_criterion_m, rtol=1e-9)
 
 
 def test_hard_constraints_are_respected_in_a_seeded_closed_loop():
@@ -117,8 +118,8 @@ def test_bad_setups_are_refused_by_name():
         _setup(tracker="kalman")
     with pytest.raises(ValueError, match="steps"):
         _setup(0)
-    with pytest.raises(ValueError, match="bound_gamma"):
-        _setup(bound_gamma="all")
+    with pytest.raises(ValueError, match="criterion_gamma"):
+        _setup(criterion_gamma="all")
     with pytest.raises(ValueError, match="once per decision"):
         plan = SensorPlan(("bearing",), [0.01], times=(0.25, 0.5))
         run_closed_loop(FixedPolicy(HN.kinematics, plan), plan, _setup(2), 0)
@@ -146,8 +147,10 @@ def test_study_is_the_same_local_chunked_and_run_by_run():
     # the cases meet the same draws: the first decision's measurement is the same
     assert np.array_equal(a.stack("fixed", "truth"), a.stack("adaptive", "truth"))
     s = a.summary("adaptive")
-    assert set(s) == {"final_rmse_m", "final_bound_m", "min_range_m", "mean_decision_ms",
-                      "runs"} and s["runs"] == 3
+    assert set(s) == {"final_rmse_m", "final_pcrb_m", "rmse_over_pcrb", "rmse_over_pcrb_low",
+                      "rmse_over_pcrb_high", "final_criterion_m", "min_range_m",
+                      "mean_decision_ms", "runs"} and s["runs"] == 3
+    assert s["rmse_over_pcrb_low"] is None  # no interval from 3 runs
 
 
 def test_per_step_table_round_trips_through_parquet_chunk_by_chunk(tmp_path):
@@ -160,7 +163,7 @@ def test_per_step_table_round_trips_through_parquet_chunk_by_chunk(tmp_path):
     assert not ckpt.parts.exists()
     back = pd.read_parquet(path)
     pd.testing.assert_frame_equal(back, study.table())
-    assert {"run", "case", "step", "time", "sensor_x", "sensor_y", "action", "bound_m",
+    assert {"run", "case", "step", "time", "sensor_x", "sensor_y", "action", "criterion_m",
             "error_m", "range_m", "decision_ms", "violation_m"} <= set(back.columns)
     assert "violation_minimum_range_m" in back.columns
     with pytest.raises(FileExistsError):
@@ -176,12 +179,14 @@ def test_reproduce_hurtado2008_runs_and_writes_json(tmp_path):
                               "--particles", "100", "--radar", "scenario", "--json",
                               "--output", str(out)])
     assert res.exit_code == 0, res.output
-    data = json.loads(res.output)
+    data = json.loads(res.stdout)     # the progress bar is on standard error
+    assert "closed loop" in res.stderr
     cases = data["figures"]["cases"]
     assert list(cases) == ["fixed", "adaptive", "min-range hard", "min-range penalty"]
     for figures in cases.values():
-        assert set(figures) == {"final_rmse_m", "final_bound_m", "min_range_m",
-                                "mean_decision_ms", "runs"}
+        assert set(figures) == {"final_rmse_m", "final_pcrb_m", "rmse_over_pcrb",
+                                "rmse_over_pcrb_low", "rmse_over_pcrb_high",
+                                "final_criterion_m", "min_range_m", "mean_decision_ms", "runs"}
         assert figures["runs"] == 2
     assert len(pd.read_parquet(out)) == 4 * 2 * 6
 

@@ -136,11 +136,13 @@ def test_tma_plan_runs_the_example_and_writes_its_table(tmp_path):
     import pandas as pd
 
     table = pd.read_csv(out)
-    assert len(table) == 4 and list(table["step"]) == [1, 2, 3, 4]
-    for col in ("sensor_x", "sensor_y", "estimate_x", "truth_x", "bound_m", "error_m",
+    assert len(table) == 8 and list(table["step"]) == [1, 2, 3, 4] * 2
+    assert list(table["case"]) == ["planned"] * 4 + ["fixed"] * 4
+    for col in ("sensor_x", "sensor_y", "estimate_x", "truth_x", "criterion_m", "error_m",
                 "range_m", "action", "violation_m"):
         assert col in table.columns
-    assert np.all(table["range_m"] >= 1000.0)        # the hard minimum range
+    planned = table[table["case"] == "planned"]
+    assert np.all(planned["range_m"] >= 1000.0)        # the hard minimum range
 
 
 def test_tma_plan_refuses_bad_outputs_before_running(tmp_path):

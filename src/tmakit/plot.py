@@ -307,10 +307,11 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
               ) -> Path:
     """Write a picture of planned closed-loop runs (:func:`tmakit.plan`).
 
-    Left, the paths of the first ``paths`` runs (km): the flown sensor path from its start,
-    the target's truth and the tracker's estimate; right, the true range to the target over
-    time (km, every run) and the position RMSE over the runs against the RMS bound along the
-    flown path (m, log scale).
+    Left, the paths of the first ``paths`` runs (km): the planned sensor path (and the fixed
+    pattern, dotted) from its start, the target's truth and the tracker's estimate; right,
+    the true range to the target over time (km, every run) and, for the planned path and the
+    fixed pattern, the position RMSE over the runs against the posterior CRB at the truth
+    (m, log scale).
 
     Parameters
     ----------
@@ -339,26 +340,30 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
     ax_map, ax_range = fig.add_subplot(grid[:, 0]), fig.add_subplot(grid[0, 1])
     ax_err = fig.add_subplot(grid[1, 1], sharex=ax_range)
     start = run.setup.start
-    for i, rec in enumerate(run.records[:max(paths, 1)]):
-        sensor = np.vstack([start.position[None, :2], rec.sensor[:, :2]]) / 1e3
+    cases = run.study.cases
+    for i, rec in enumerate(run.records()[:max(paths, 1)]):
         first = i == 0
-        ax_map.plot(sensor[:, 0], sensor[:, 1], color=colours[0], lw=1.2,
-                    label="sensor (flown)" if first else None)
+        for case, style in zip(cases, ("-", ":"), strict=False):
+            flown = run.records(case)[i].sensor[:, :2]
+            sensor = np.vstack([start.position[None, :2], flown]) / 1e3
+            ax_map.plot(sensor[:, 0], sensor[:, 1], color=colours[0], lw=1.2, ls=style,
+                        label=f"sensor ({case})" if first else None)
         ax_map.plot(rec.truth[:, 0] / 1e3, rec.truth[:, 1] / 1e3, color=colours[1],
                     label="target (truth)" if first else None)
         ax_map.plot(rec.estimate[:, 0] / 1e3, rec.estimate[:, 1] / 1e3, color=colours[2],
-                    ls="--", lw=1.0, label="target (estimate)" if first else None)
+                    ls="--", lw=1.0, label="target (estimate, planned)" if first else None)
     ax_map.plot(*(start.position[:2] / 1e3), "o", color=colours[0], label="sensor start")
     ax_map.set(xlabel="east (km)", ylabel="north (km)", aspect="equal")
     ax_map.legend(loc="best", fontsize="small")
     t = run.times
-    for rec in run.records:
+    for rec in run.records():
         ax_range.plot(t, rec.range_m / 1e3, color=colours[0], lw=0.8, alpha=0.6)
-    ax_range.set(ylabel="range to target (km)")
-    ax_err.semilogy(t, run.rmse(), color=colours[3], label="position RMSE")
-    ax_err.semilogy(t, run.bound(), color="k", ls="--",
-                    label="bound along the flown path")
+    ax_range.set(ylabel="range to target (km), planned path")
+    for case, colour in zip(cases, (colours[3], colours[4]), strict=False):
+        ax_err.semilogy(t, run.rmse(case), color=colour, label=f"position RMSE ({case})")
+        ax_err.semilogy(t, run.pcrb(case), color=colour, ls="--",
+                        label=f"posterior CRB at the truth ({case})")
     ax_err.set(xlabel="time (s)", ylabel="position error (m)")
     ax_err.legend(loc="best", fontsize="small")
-    default = f"{run.setup.scenario.name}: planned path, {len(run.records)} run(s)"
+    default = f"{run.setup.scenario.name}: planned path, {len(run.records())} run(s)"
     return _save(fig, path, title or default)

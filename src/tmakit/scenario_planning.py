@@ -37,6 +37,7 @@ from .planning import (
 )
 from .planning.constraints import DEFAULT_PENALTY, Constraint
 from .planning.criteria import Criterion
+from .planning.policies import passive
 from .scenario import Scenario
 from .sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
 
@@ -45,6 +46,9 @@ PLANNING_TRACKERS = ("pf", "ekf", "ukf")
 #: Most decisions of one run a duration may ask for (the per-step table holds a row each;
 #: 1e11 ran out of memory).
 MAX_DECISIONS = 1_000_000
+#: The planners a ``[planning]`` table may name; ``"auto"`` is the mission planner for a
+#: passive sensor (:func:`tmakit.planning.policies.passive`), else the horizon planner.
+PLANNERS = ("auto", "mission", "horizon")
 
 
 class _Strict(BaseModel):
@@ -139,16 +143,29 @@ ConstraintSpec = Annotated[RangeConstraintSpec | KeepOutSpec | AreaSpec,
                            Field(discriminator="type")]
 
 
+class MissionSpec(_Strict):
+    """``[planning.mission]``: the mission planner's legs and range hypotheses.
+
+    ``leg_duration`` (s, a whole number of intervals; default a tenth of the duration),
+    ``hypotheses`` (range hypotheses, default 3; 1 plans at the tracker's cloud as it is).
+    """
+
+    leg_duration: float | None = Field(default=None, gt=0)
+    hypotheses: int = Field(default=3, ge=1, le=9)
+
+
 class PlanningSpec(_Strict):
     """The ``[planning]`` table, validated (``docs/planning.md`` for every field).
 
-    ``sensor`` (the steered ``[[sensors]]`` id), ``platform`` (a named configuration),
-    ``limits``, ``actions``, ``interval`` (s), ``measurements``, ``criterion``, ``weights``,
-    ``gamma``, ``horizon``, ``constraints``, ``tracker``, ``particles``, ``q`` (m/s^2),
-    ``prior``, ``duration`` (s), ``runs``, ``start_time`` (s).
+    ``sensor`` (the steered ``[[sensors]]`` id), ``planner``, ``mission``, ``platform`` (a
+    named configuration), ``limits``, ``actions``, ``interval`` (s), ``measurements``,
+    ``criterion``, ``weights``, ``gamma``, ``horizon``, ``constraints``, ``tracker``,
+    ``particles``, ``q`` (m/s^2), ``prior``, ``duration`` (s), ``runs``, ``start_time`` (s).
     """
 
     sensor: str
+    planner: Literal["auto", "mission", "horizon"] = "auto"
+    mission: MissionSpec = MissionSpec()
     platform: str | None = None
     limits: LimitsSpec = LimitsSpec()
     actions: ActionsSpec | None = None
@@ -179,7 +196,8 @@ class PlanningSetup:
     sensor : str
         Id of the steered sensor.
     planner : Planner
-        Kinematics, actions, interval, sensor plan, criterion, constraints, gamma, horizon.
+        Kinematics, actions, interval, sensor plan, criterion, constraints, gamma, horizon:
+        the horizon planner, and what the mission planner takes its settings from.
     start : PlatformState
         The steered sensor at the start (position m, heading rad clockwise from North,
         speed m/s, climb rate m/s, time s).
@@ -199,6 +217,12 @@ class PlanningSetup:
         Monte Carlo runs.
     source : str
         The file, for messages.
+    kind : {"mission", "horizon"}
+        The planner that steers (``"auto"`` resolved).
+    leg_duration : float or None
+        The mission planner's leg, s (None: a tenth of the duration, whole intervals).
+    hypotheses : int
+        The mission planner's range hypotheses (1: none).
     """
 
     scenario: Scenario
@@ -213,6 +237,9 @@ class PlanningSetup:
     prior_std: tuple[float, float]
     runs: int
     source: str = ""
+    kind: str = "horizon"
+    leg_duration: float | None = None
+    hypotheses: int = 3
 
     @property
     def interval(self) -> float:
@@ -453,6 +480,16 @@ def build_planning(spec: PlanningSpec, scenario: Scenario, sensor_spec: Any,
     except ValueError as e:
         msg = str(e)
         raise ValueError(msg if msg.startswith("planning") else f"planning: {msg}") from None
+    kind = spec.planner
+    if kind == "auto":
+        kind = "mission" if passive(planner.plan) else "horizon"
+    legs = spec.mission.leg_duration
+    if legs is not None:
+        ratio = legs / interval
+        if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
+            raise ValueError(f"planning.mission.leg_duration: {legs:g} s is not a whole number "
+                             f"(>= 1) of decision intervals of {interval:g} s")
     return PlanningSetup(scenario, spec.sensor, planner, start, target, b.steps(interval),
                          spec.tracker, spec.particles, spec.q,
-                         (spec.prior.position_std, spec.prior.velocity_std), spec.runs, source)
+                         (spec.prior.position_std, spec.prior.velocity_std), spec.runs, source,
+                         kind, legs, spec.mission.hypotheses)

@@ -9,8 +9,9 @@ from .fim import Bound, crlb, fisher_information
 from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
 from .pcrb import PosteriorBound, deterministic_pcrb, posterior_crb
 from .pcrb_recursion import PosteriorInformation, information_inverse, predict_information
+from .pcrb_runs import pcrb_over_runs
 
 __all__ = ["Bound", "CrbPoint", "CrbSequence", "Direction", "NoiseModel", "Observability",
            "PosteriorBound", "PosteriorInformation", "analyse", "crlb",
            "curvilinear_crb_sequence", "deterministic_pcrb", "fisher_information",
-           "information_inverse", "posterior_crb", "predict_information"]
+           "information_inverse", "pcrb_over_runs", "posterior_crb", "predict_information"]

@@ -61,11 +61,14 @@ def plan(
         help="particles of the particle filter (default: the table's)")] = None,
     tracker: Annotated[str | None, typer.Option(
         help="pf, ekf or ukf (default: the table's)")] = None,
+    planner: Annotated[str | None, typer.Option(
+        help="auto (the mission planner for a sensor that measures no range, else the "
+             "horizon planner), mission or horizon (default: the table's, auto)")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
     no_progress: Annotated[bool, typer.Option("--no-progress", help="no progress bar")] = False,
     force: ForceOption = False,
 ) -> None:
-    """Steer the scenario's sensor by the predicted posterior CRB, in the closed loop."""
+    """Steer the scenario's sensor by the predicted posterior CRB, beside its fixed pattern."""
     output, plot = check_outputs([("-o", output), ("--plot", plot)], force)
     if runs is not None and runs < 1:
         raise fail("--runs must be 1 or more")
@@ -74,10 +77,12 @@ def plan(
     from .outputs import check_particles
 
     check_particles(particles)
-    from ..scenario_planning import PLANNING_TRACKERS
+    from ..scenario_planning import PLANNERS, PLANNING_TRACKERS
 
     if tracker is not None and tracker not in PLANNING_TRACKERS:
         raise fail(f"--tracker {tracker!r}: expected one of {', '.join(PLANNING_TRACKERS)}")
+    if planner is not None and planner not in PLANNERS:
+        raise fail(f"--planner {planner!r}: expected one of {', '.join(PLANNERS)}")
     from ..scenario_file import ScenarioFileError, load_planning
 
     try:
@@ -91,24 +96,57 @@ def plan(
         from ..montecarlo.planned import plan as run_plan
 
         result = run_plan(setup, runs=runs, seed=seed, duration=duration,
-                          particles=particles, tracker=tracker,
-                          progress=not (as_json or no_progress))
+                          particles=particles, tracker=tracker, planner=planner,
+                          progress=not no_progress)
     except ScenarioFileError as e:
         raise fail(escape(str(e))) from None
     except ValueError as e:
         message = str(e)
-        for name in ("duration", "runs", "particles"):
+        for name in ("duration", "runs", "particles", "planner"):
             if message.startswith(f"{name} "):
                 message = f"--{message}"
         raise fail(escape(f"{scenario}: {message}")) from None
-    summary = result.summary()
     if as_json:
         import json
 
-        typer.echo(json.dumps({"scenario": setup.scenario.name, "seed": seed, **summary}))
+        typer.echo(json.dumps(json_summary(result, seed)))
     else:
-        print_summary(result, summary, seed)
+        print_summary(result, seed)
+    for warning in result.warnings():
+        err.print(f"warning: {escape(warning)}", highlight=False)
     write_outputs(result, output, plot, force, err if as_json else out)
+
+
+def json_summary(result: Any, seed: int) -> dict[str, Any]:
+    """Return what ``tma plan --json`` prints.
+
+    Parameters
+    ----------
+    result : tmakit.montecarlo.planned.PlanRun
+        The runs.
+    seed : int
+        The seed.
+
+    Returns
+    -------
+    dict
+        ``scenario``, ``seed``, ``runs``, ``steps``, ``planner`` (``mission`` or
+        ``horizon``) and ``planner_description``; ``planned`` and ``fixed`` (each the
+        case's summary: ``final_rmse_m``, ``final_pcrb_m``, ``rmse_over_pcrb`` and its
+        interval, ``final_criterion_m``, ...; ``fixed`` null without a fixed pattern, and
+        ``fixed_note`` says why); ``comparison`` (``planned_over_fixed``, ``low``, ``high``,
+        ``verdict``) and ``warnings``.
+    """
+    from ..montecarlo.planned import CASE, FIXED, describe
+
+    has_fixed = FIXED in result.study.cases
+    return {"scenario": result.setup.scenario.name, "seed": seed,
+            "runs": result.study.runs(CASE), "steps": result.setup.steps,
+            "planner": result.setup.kind, "planner_description": describe(result.setup),
+            "planned": result.summary(CASE),
+            "fixed": result.summary(FIXED) if has_fixed else None,
+            "fixed_note": result.fixed_note, "comparison": result.comparison(),
+            "warnings": result.warnings()}
 
 
 def start_warnings(setup: Any) -> list[str]:
@@ -170,39 +208,81 @@ def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bo
         console.print(f"wrote {plot}", highlight=False)
 
 
-def print_summary(result: Any, summary: dict[str, Any], seed: int) -> None:
-    """Print the summary table of the planned runs.
+def print_summary(result: Any, seed: int) -> None:
+    """Print the planned path's figures beside the fixed pattern's.
 
     Parameters
     ----------
     result : tmakit.montecarlo.planned.PlanRun
         The runs.
-    summary : dict
-        ``result.summary()``.
     seed : int
         The seed, for the title.
     """
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
+    from ..montecarlo.planned import CASE, FIXED, describe
+
     s = result.setup
-    p = s.planner
-    table = Table(title=f"{s.scenario.name}: sensor {s.sensor!r} planned over "
-                        f"{s.steps} decisions of {s.interval:g} s, {summary['runs']} run(s) "
-                        f"(seed {seed}), tracker {s.tracker}",
-                  title_justify="left")
+    cases = [c for c in (CASE, FIXED) if c in result.study.cases]
+    summaries = {c: result.summary(c) for c in cases}
+    tracker = s.tracker + (f" ({s.particles} particles)" if s.tracker == "pf" else "")
+    table = Table(title=f"{s.scenario.name}: sensor {s.sensor!r} over {s.steps} decisions of "
+                        f"{s.interval:g} s, {result.study.runs(CASE)} run(s) (seed {seed}), "
+                        f"tracker {tracker}", title_justify="left")
     table.add_column("quantity")
-    table.add_column("value", justify="right")
-    rows = [("final position RMSE (m)", f"{summary['final_rmse_m']:.4g}"),
-            ("final bound along the flown path (m)", f"{summary['final_bound_m']:.4g}"),
-            ("RMSE / bound", f"{summary['final_rmse_m'] / summary['final_bound_m']:.3f}"),
-            ("minimum range (m)", f"{summary['min_range_m']:.6g}"),
-            ("steps with a constraint violated", str(summary["violations"])),
-            ("largest violation (m)", f"{summary['max_violation_m']:.4g}"),
-            ("mean decision time (ms)", f"{summary['mean_decision_ms']:.3g}")]
-    for row in rows:
-        table.add_row(*row)
+    for c in cases:
+        table.add_column("planned path" if c == CASE else "fixed pattern", justify="right")
+    rows = [("final position RMSE (m)", "final_rmse_m", "{:.4g}"),
+            ("posterior CRB at the truth (bound, m)", "final_pcrb_m", "{:.4g}"),
+            ("RMSE / bound", "rmse_over_pcrb", "{:.3f}"),
+            ("planning criterion along the path (m)", "final_criterion_m", "{:.4g}"),
+            ("minimum range (m)", "min_range_m", "{:.6g}"),
+            ("steps with a constraint violated", "violations", "{}"),
+            ("largest violation (m)", "max_violation_m", "{:.4g}"),
+            ("mean decision time (ms)", "mean_decision_ms", "{:.3g}")]
+    for label, key, form in rows:
+        cells = []
+        for c in cases:
+            v = summaries[c][key]
+            cell = form.format(v)
+            if key == "rmse_over_pcrb":
+                cell += interval(summaries[c]["rmse_over_pcrb_low"],
+                                 summaries[c]["rmse_over_pcrb_high"])
+            cells.append(cell)
+        table.add_row(label, *cells)
     out.print(table)
+    p = s.planner
     constraints = ", ".join(c.name + (" (hard)" if c.hard else " (penalty)")
                             for c in p.constraints) or "none"
-    out.print(f"criterion {p.criterion.name}, gamma {p.gamma}, horizon {p.horizon}, "
-              f"{len(p.actions)} actions; constraints: {constraints}", highlight=False)
+    out.print(f"planned path: {describe(s)}; constraints: {constraints}", highlight=False)
+    out.print("bound: the posterior CRB at the true target along the flown paths (Gamma the "
+              "mean over the runs, the tracker's prior and process noise); RMSE / bound with "
+              "its 95 % bootstrap interval over the runs. Planning criterion: what the "
+              "planner believed (Gamma over the tracker's cloud), not a bound.",
+              highlight=False)
+    found = result.comparison()
+    if found is None:
+        out.print(f"fixed pattern: none ({result.fixed_note})", highlight=False)
+    else:
+        out.print(f"planned / fixed final RMSE: {found['planned_over_fixed']:.3f}"
+                  f"{interval(found['low'], found['high'])}, same seeds: {found['verdict']}",
+                  highlight=False)
+
+
+def interval(low: float | None, high: float | None) -> str:
+    """Return `` (95 %: low-high)``, or that the runs are too few for an interval.
+
+    Parameters
+    ----------
+    low, high : float or None
+        The interval (None: too few runs).
+
+    Returns
+    -------
+    str
+    """
+    from ..montecarlo.closed_loop import MIN_RUNS_INTERVAL
+
+    if low is None or high is None:
+        return f" (no interval under {MIN_RUNS_INTERVAL} runs)"
+    return f" (95 %: {low:.2f}-{high:.2f})"

@@ -40,6 +40,9 @@ def reproduce(
         help="hurtado2008: Dask scheduler address (tcp://host:8786); default: run here")
     ] = None,
     chunk: Annotated[int | None, typer.Option(help="hurtado2008: runs per task")] = None,
+    no_progress: Annotated[bool, typer.Option(
+        "--no-progress", help="no progress bar (it is drawn on standard error, also with "
+        "--json)")] = False,
 ) -> None:
     """Reproduce a paper's tables and figures next to the paper's own numbers."""
     import importlib
@@ -68,7 +71,7 @@ def reproduce(
         extra["on_chunk"] = checkpoint
     try:
         rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
-                         progress=not as_json, **extra)
+                         progress=not no_progress, **extra)
     except (ValueError, ImportError) as e:
         raise fail(str(e)) from None
     if checkpoint is not None:
@@ -139,7 +142,7 @@ def print_report(rep: Any) -> None:
         out.print(table)
         if section.note:
             out.print(section.note, highlight=False)
-    for key, value in rep.figures.items():
+    for key, value in (rep.figures.items() if rep.print_figures else ()):
         labels = getattr(rep, "labels", {}).get(key)
         if labels and isinstance(value, list) and len(value) == len(labels):
             text = ", ".join(f"{n} {plain(v)}" + (f" {u}" if u else "")

@@ -11,8 +11,16 @@ and a :class:`~tmakit.planning.closed_loop.LoopSetup`.  Run ``r`` of every case 
 
 The per-step table (:meth:`ClosedLoopStudy.table`) has one row per case, run and decision:
 ``case``, ``run``, ``step``, ``time`` (s), ``sensor_x``, ``sensor_y`` (m), ``action``,
-``bound_m``, ``predicted_bound_m``, ``error_m``, ``range_m`` (m), ``decision_ms`` (ms),
-``violation_m`` and one ``violation_<constraint>_m`` per constraint of the case (m).
+``criterion_m``, ``predicted_criterion_m``, ``error_m``, ``range_m`` (m), ``decision_ms``
+(ms), ``violation_m`` and one ``violation_<constraint>_m`` per constraint of the case (m).
+
+**The bound and the criterion.**  :meth:`ClosedLoopStudy.pcrb` is the posterior CRB of the
+case (:func:`tmakit.bounds.pcrb_over_runs`: ``Gamma`` the mean over the runs of the
+information at the true target along each flown path, with the tracker's prior and process
+noise): the bound that the RMSE is held to.  :meth:`ClosedLoopStudy.criterion` is the RMS over
+runs of the planning criterion along each flown path (``Gamma`` over the tracker's cloud):
+what the planner believed, which a tracker may beat.  :meth:`ClosedLoopStudy.efficiency`
+gives the final RMSE over the bound with its bootstrap interval over the runs.
 A caller that must not lose finished work passes ``on_chunk`` (each chunk's
 :class:`LoopChunk` as soon as it is done; :mod:`tmakit.io.study_files` saves them).
 """
@@ -28,6 +36,8 @@ import numpy as np
 import pandas as pd
 
 from ..arrays import Array
+from ..bounds.pcrb_runs import pcrb_over_runs
+from ..motion.dynamics import NearlyConstantVelocity
 from ..planning.closed_loop import LoopRecord, LoopSetup, Policy, run_closed_loop
 from ..planning.measurement_plan import SensorPlan
 from .execution import dask_client, progress_bar, run_dask, run_local
@@ -40,6 +50,11 @@ __all__ = ["ClosedLoopStudy", "LoopCase", "LoopChunk", "LoopTask", "closed_loop_
 
 #: Runs per chunk in this process (a chunk's records are kept until the study ends).
 LOOP_RUNS_PER_CHUNK = 5
+#: Bootstrap resamples of the runs for the interval of RMSE over the bound.
+RESAMPLES = 2000
+#: Fewest runs for a bootstrap interval (with fewer the resamples repeat a few runs and the
+#: interval means nothing: it is None).
+MIN_RUNS_INTERVAL = 10
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,11 +166,16 @@ class ClosedLoopStudy:
         The study's seed.
     wall_s : float
         Wall time of the study (s).
+    setups : dict of str to LoopSetup
+        Per case, its loop setup (the prior and the process noise of the bound).
     """
 
     records: dict[str, list[LoopRecord]]
     seed: int | None
     wall_s: float = 0.0
+    setups: dict[str, LoopSetup] = field(default_factory=dict)
+    _efficiency: dict[tuple[str, float], dict[str, float]] = field(
+        default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def cases(self) -> list[str]:
@@ -243,10 +263,11 @@ class ClosedLoopStudy:
         """
         return np.sqrt(np.mean(self.stack(case, "error_m") ** 2, axis=0))
 
-    def bound(self, case: str) -> Array:
-        """Return the RMS over runs of the bound along the flown path at each step.
+    def criterion(self, case: str) -> Array:
+        """Return the RMS over runs of the planning criterion along the flown path, each step.
 
-        The root of the mean of the runs' conditional mean-square-error bounds.
+        The root of the mean of the runs' squared criteria (``Gamma`` over the tracker's
+        cloud: what the planner believed; not a bound, see :meth:`pcrb`).
 
         Parameters
         ----------
@@ -263,9 +284,73 @@ class ClosedLoopStudy:
         ValueError
             For a case the study does not have.
         """
-        return np.sqrt(np.mean(self.stack(case, "bound_m") ** 2, axis=0))
+        return np.sqrt(np.mean(self.stack(case, "criterion_m") ** 2, axis=0))
 
-    def summary(self, case: str) -> dict[str, float | int]:
+    def pcrb(self, case: str, weights: Array | None = None) -> Array:
+        """Return the posterior CRB of ``case`` at each step (module docstring).
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+        weights : ndarray, shape (B, runs), optional
+            Weights over the runs, one recursion per row (default: equal weights).
+
+        Returns
+        -------
+        ndarray, shape (D,) or (B, D)
+            Position RMS bound, m.
+
+        Raises
+        ------
+        ValueError
+            For a case the study does not have, or one run without its setup.
+        """
+        if case not in self.setups:
+            raise ValueError(f"the study holds no setup of case {case!r}: no bound")
+        s = self.setups[case]
+        return pcrb_over_runs(self.stack(case, "information"), self.times(case),
+                              s.prior_covariance, NearlyConstantVelocity(s.dim, s.q),
+                              s.platform.time, weights)
+
+    def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
+        """Return the final RMSE over the posterior CRB with its bootstrap interval.
+
+        The runs are resampled with replacement :data:`RESAMPLES` times (seeded by the
+        study's seed); each resample's RMSE and bound are made from the same runs.  With
+        fewer than :data:`MIN_RUNS_INTERVAL` runs there is no interval (None).
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+        level : float, optional
+            The interval's coverage.
+
+        Returns
+        -------
+        dict
+            ``final_pcrb_m`` (m), ``rmse_over_pcrb`` and its interval ``rmse_over_pcrb_low``,
+            ``rmse_over_pcrb_high`` (None with too few runs).
+        """
+        if (case, level) in self._efficiency:
+            return dict(self._efficiency[case, level])
+        err = self.stack(case, "error_m")[:, -1]
+        r = err.shape[0]
+        bound = float(self.pcrb(case)[-1])
+        found: dict[str, float | None] = {
+            "final_pcrb_m": bound, "rmse_over_pcrb": float(self.rmse(case)[-1]) / bound,
+            "rmse_over_pcrb_low": None, "rmse_over_pcrb_high": None}
+        if r >= MIN_RUNS_INTERVAL:
+            rng = np.random.default_rng([0 if self.seed is None else self.seed, r])
+            w = rng.multinomial(r, np.full(r, 1.0 / r), size=RESAMPLES) / r
+            boot = np.sqrt(w @ err**2) / self.pcrb(case, w)[:, -1]
+            lo, hi = np.quantile(boot, [(1 - level) / 2, (1 + level) / 2])
+            found["rmse_over_pcrb_low"], found["rmse_over_pcrb_high"] = float(lo), float(hi)
+        self._efficiency[case, level] = found
+        return dict(found)
+
+    def summary(self, case: str) -> dict[str, float | int | None]:
         """Return the case's key figures.
 
         Parameters
@@ -276,11 +361,15 @@ class ClosedLoopStudy:
         Returns
         -------
         dict
-            ``final_rmse_m`` and ``final_bound_m`` (last step, m), ``min_range_m`` (true
-            range over every run and step, m), ``mean_decision_ms`` (ms), ``runs``.
+            ``final_rmse_m`` (last step, m), the :meth:`efficiency` figures
+            (``final_pcrb_m``, ``rmse_over_pcrb`` and its 95 % interval, where the study has
+            the case's setup), ``final_criterion_m`` (the planning criterion, m),
+            ``min_range_m`` (true range over every run and step, m), ``mean_decision_ms``
+            (ms), ``runs``.
         """
-        return {"final_rmse_m": float(self.rmse(case)[-1]),
-                "final_bound_m": float(self.bound(case)[-1]),
+        bound = self.efficiency(case) if case in self.setups else {}
+        return {"final_rmse_m": float(self.rmse(case)[-1]), **bound,
+                "final_criterion_m": float(self.criterion(case)[-1]),
                 "min_range_m": float(self.stack(case, "range_m").min()),
                 "mean_decision_ms": float(self.stack(case, "decision_ms").mean()),
                 "runs": self.runs(case)}
@@ -367,4 +456,5 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
     records: dict[str, list[LoopRecord]] = {n: [] for n in names}
     for out in sorted(outputs, key=lambda o: (names.index(o.case), o.first_run)):
         records[out.case].extend(out.records)
-    return ClosedLoopStudy(records, seed, time.perf_counter() - start)
+    return ClosedLoopStudy(records, seed, time.perf_counter() - start,
+                           {c.name: c.setup for c in cases})

@@ -1,11 +1,22 @@
-"""Run a scenario's ``[planning]`` table: the closed loop, many times; what ``tma plan`` shows.
+"""Run a scenario's ``[planning]`` table: the planned path beside the fixed pattern, many times.
 
-:func:`plan` loads a scenario with a steered sensor (:func:`tmakit.scenario_file.load_planning`),
-runs the closed loop of :mod:`tmakit.planning.closed_loop` (truth, the planner's move, the
-simulated measurements, the tracker's update, replan) ``runs`` times through
-:func:`~tmakit.montecarlo.closed_loop.closed_loop_study`, and returns a :class:`PlanRun`: the
-per-step table (flown path, truth, estimate, bound, error, range, action, violations) and the
-summary (final error against the bound, smallest range, violations, decision time).
+:func:`plan` loads a scenario with a steered sensor (:func:`tmakit.scenario_file.load_planning`)
+and runs the closed loop of :mod:`tmakit.planning.closed_loop` (truth, the policy's move, the
+simulated measurements, the tracker's update, replan) ``runs`` times for two cases with the
+same seeds (the same truth, prior and noise draws, run for run):
+
+* ``planned`` — the sensor steered by the table's planner: for a passive sensor (no range
+  measured) by default the mission planner over range hypotheses
+  (:class:`~tmakit.planning.policies.MissionPolicy`), otherwise the horizon planner of Hurtado
+  & Nehorai (2008);
+* ``fixed`` — the steered sensor's own ``[[sensors]]`` path (the operator's pattern, e.g. a
+  zig-zag), when it covers the run.
+
+:class:`PlanRun` holds both: the per-step table, each case's final RMSE beside its posterior
+CRB (:meth:`~tmakit.montecarlo.closed_loop.ClosedLoopStudy.pcrb`) and planning criterion, and
+the planned path's RMSE over the fixed pattern's with a paired bootstrap interval
+(:meth:`PlanRun.comparison`), so that a planned path worse than the pattern is said, never
+recommended silently.
 """
 
 from __future__ import annotations
@@ -16,22 +27,146 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..planning.closed_loop import LoopSetup
+from ..planning import MissionPlanner
+from ..planning.closed_loop import LoopRecord, LoopSetup
+from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
 from ..scenario_file import load_planning
-from ..scenario_planning import MAX_DECISIONS, PlanningSetup
-from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
+from ..scenario_planning import MAX_DECISIONS, PLANNERS, PlanningSetup
+from .closed_loop import MIN_RUNS_INTERVAL, ClosedLoopStudy, LoopCase, closed_loop_study
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["CASE", "PlanRun", "loop_case", "plan"]
+__all__ = ["CASE", "FIXED", "PlanRun", "describe", "fixed_policy", "loop_case",
+           "mission_planner", "plan", "policy"]
 
 #: The case name of the planned path in the study and its table.
 CASE = "planned"
+#: The case name of the scenario's fixed pattern.
+FIXED = "fixed"
+#: Legs of the mission planner over the duration when ``leg_duration`` is not given.
+DEFAULT_LEGS = 10
+#: The mission planner's heading grid, sweeps and refinements (those of the benchmark that
+#: measured it, ``benchmarks/planning_passive_mc.py``).
+MISSION_SEARCH = {"headings": 12, "sweeps": 2, "refine": 1}
+#: Paired bootstrap resamples of the runs for the planned-over-fixed interval.
+RESAMPLES = 2000
 
 
-def loop_case(setup: PlanningSetup, name: str = CASE) -> LoopCase:
-    """Return the closed-loop case of a planning setup (its planner, plan and loop setup).
+def leg_duration(setup: PlanningSetup) -> float:
+    """Return the mission planner's leg, s: the table's, or a tenth of the duration.
+
+    Parameters
+    ----------
+    setup : PlanningSetup
+        The planning table.
+
+    Returns
+    -------
+    float
+        A whole number of decision intervals.
+    """
+    if setup.leg_duration is not None:
+        return float(setup.leg_duration)
+    return max(1, round(setup.steps / DEFAULT_LEGS)) * setup.interval
+
+
+def mission_planner(setup: PlanningSetup) -> MissionPlanner:
+    """Return the mission planner of a planning table, for its whole duration.
+
+    Parameters
+    ----------
+    setup : PlanningSetup
+        The planning table.
+
+    Returns
+    -------
+    MissionPlanner
+        The table's kinematics, measurements, criterion, gamma and constraints; legs of
+        :func:`leg_duration` to the end of the duration; range hypotheses if the table asks
+        for more than one.
+    """
+    p = setup.planner
+    return MissionPlanner(p.kinematics, p.plan, p.interval, leg_duration(setup),
+                          setup.start.time + setup.duration, p.criterion, gamma=p.gamma,
+                          constraints=p.constraints, hypotheses=setup.hypotheses > 1,
+                          **MISSION_SEARCH)
+
+
+def fixed_policy(setup: PlanningSetup) -> TrackPolicy | str:
+    """Return the scenario's fixed pattern as a policy, or why there is none.
+
+    Parameters
+    ----------
+    setup : PlanningSetup
+        The planning table.
+
+    Returns
+    -------
+    TrackPolicy or str
+        The steered sensor's own ``[[sensors]]`` path over the duration (the table's
+        constraints checked along it, not acted on); a sentence when the path does not
+        cover it.
+    """
+    track = setup.scenario.sensors[setup.sensor]
+    times = setup.start.time + setup.interval * np.arange(setup.steps + 1)
+    try:
+        states = track.states(times)
+    except ValueError as e:
+        return f"the fixed path of sensor {setup.sensor!r} does not cover the run ({e})"
+    if not np.all(np.isfinite(states)):
+        return (f"the fixed path of sensor {setup.sensor!r} does not cover the "
+                f"{setup.duration:g} s of the run")
+    return TrackPolicy(track, setup.planner.plan, setup.interval, setup.planner.constraints)
+
+
+def policy(setup: PlanningSetup) -> Policy:
+    """Return what steers the sensor: the mission policy or the horizon planner.
+
+    Parameters
+    ----------
+    setup : PlanningSetup
+        The planning table.
+
+    Returns
+    -------
+    Policy
+        :class:`~tmakit.planning.policies.MissionPolicy` (the fixed pattern one start of its
+        search, when it covers the run) or the table's :class:`~tmakit.planning.Planner`.
+    """
+    if setup.kind != "mission":
+        return setup.planner
+    k = setup.hypotheses
+    fixed = fixed_policy(setup)
+    return MissionPolicy(mission_planner(setup), tuple((2 * i + 1) / (2 * k) for i in range(k)),
+                         None if isinstance(fixed, str) else fixed.track)
+
+
+def describe(setup: PlanningSetup) -> str:
+    """Say in words which planner steers and how.
+
+    Parameters
+    ----------
+    setup : PlanningSetup
+        The planning table.
+
+    Returns
+    -------
+    str
+    """
+    p = setup.planner
+    if setup.kind == "mission":
+        hyp = (f"{setup.hypotheses} range hypotheses, each with its own information"
+               if setup.hypotheses > 1 else f"gamma {p.gamma} over the tracker's cloud")
+        return (f"mission planner: legs of {leg_duration(setup):g} s to the end, re-planned "
+                f"at every leg for the least final {p.criterion.name} over {hyp}")
+    return (f"horizon planner (Hurtado & Nehorai 2008): {len(p.actions)} actions every "
+            f"{p.interval:g} s, horizon {p.horizon}, criterion {p.criterion.name}, "
+            f"gamma {p.gamma}")
+
+
+def loop_case(setup: PlanningSetup, name: str = CASE, steer: Policy | None = None) -> LoopCase:
+    """Return a closed-loop case of a planning setup.
 
     Parameters
     ----------
@@ -39,6 +174,8 @@ def loop_case(setup: PlanningSetup, name: str = CASE) -> LoopCase:
         From a scenario's ``[planning]`` table.
     name : str, optional
         The case's name.
+    steer : Policy, optional
+        What steers (default :func:`policy` of the setup).
 
     Returns
     -------
@@ -46,106 +183,238 @@ def loop_case(setup: PlanningSetup, name: str = CASE) -> LoopCase:
     """
     loop = LoopSetup(setup.target, setup.start, setup.steps, setup.interval, setup.q,
                      setup.prior_std, setup.tracker, setup.particles)
-    return LoopCase(name, setup.planner, setup.planner.plan, loop)
+    return LoopCase(name, policy(setup) if steer is None else steer, setup.planner.plan, loop)
 
 
 @dataclass(frozen=True, eq=False)
 class PlanRun:
-    """The closed-loop runs of a planned scenario.
+    """The closed-loop runs of a planned scenario, and of its fixed pattern beside.
 
     Attributes
     ----------
     setup : PlanningSetup
         What was run.
     study : ClosedLoopStudy
-        The runs (case :data:`CASE`), per run a
-        :class:`~tmakit.planning.closed_loop.LoopRecord`.
+        The runs: case :data:`CASE` and, when the pattern covers the run, :data:`FIXED`.
+    fixed_note : str or None
+        Why there is no fixed case (None when there is one).
     """
 
     setup: PlanningSetup
     study: ClosedLoopStudy
+    fixed_note: str | None = None
 
-    @property
-    def records(self) -> list[Any]:
-        """The runs' records, in run order."""
-        return self.study.records[CASE]
+    def records(self, case: str = CASE) -> list[LoopRecord]:
+        """Return the runs' records of ``case``, in run order.
+
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
+
+        Returns
+        -------
+        list of LoopRecord
+        """
+        return self.study.records[case]
 
     @property
     def times(self) -> np.ndarray:
         """Decision times ``t_1 .. t_D`` (D,), s."""
         return self.study.times(CASE)
 
-    def rmse(self) -> np.ndarray:
-        """Return the position RMSE over the runs at each decision.
+    def rmse(self, case: str = CASE) -> np.ndarray:
+        """Return the position RMSE over the runs at each decision (D,), m.
+
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
 
         Returns
         -------
-        ndarray, shape (D,)
-            m.
+        ndarray
         """
-        return self.study.rmse(CASE)
+        return self.study.rmse(case)
 
-    def bound(self) -> np.ndarray:
-        """Return the RMS over the runs of the position bound along the flown path.
+    def pcrb(self, case: str = CASE) -> np.ndarray:
+        """Return the posterior CRB at each decision (D,), m (the bound the RMSE is held to).
+
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
 
         Returns
         -------
-        ndarray, shape (D,)
-            m.
+        ndarray
         """
-        return self.study.bound(CASE)
+        return self.study.pcrb(case)
 
     def table(self) -> pd.DataFrame:
-        """Return the per-step table: one row per run and decision.
+        """Return the per-step table: one row per case, run and decision.
 
         Returns
         -------
         pandas.DataFrame
             The closed-loop study's columns (``case``, ``run``, ``step``, ``time`` (s),
-            ``sensor_x``, ``sensor_y`` (m), ``action``, ``bound_m``, ``predicted_bound_m``,
-            ``error_m``, ``range_m`` (m), ``decision_ms`` (ms), ``violation_m`` and one
-            ``violation_<constraint>_m`` each) and the flown sensor heading ``sensor_heading_deg``
-            (deg clockwise from North), the true and estimated target position ``truth_x``,
-            ``truth_y``, ``estimate_x``, ``estimate_y`` (m) and velocity ``truth_vx``, ...,
-            ``estimate_vy`` (m/s).
+            ``sensor_x``, ``sensor_y`` (m), ``action``, ``criterion_m``,
+            ``predicted_criterion_m``, ``error_m``, ``range_m`` (m), ``decision_ms`` (ms),
+            ``violation_m`` and one ``violation_<constraint>_m`` each) and the flown sensor
+            heading ``sensor_heading_deg`` (deg clockwise from North), the true and
+            estimated target position ``truth_x``, ``truth_y``, ``estimate_x``,
+            ``estimate_y`` (m) and velocity ``truth_vx``, ..., ``estimate_vy`` (m/s).
         """
         table = self.study.table()
-        table = table[table["case"] == CASE].reset_index(drop=True)
+        records = [r for case in self.study.cases for r in self.study.records[case]]
         d = self.setup.target.shape[0] // 2
-        sensor = np.concatenate([r.sensor for r in self.records])
+        sensor = np.concatenate([r.sensor for r in records])
         table["sensor_heading_deg"] = np.degrees(np.arctan2(sensor[:, 3], sensor[:, 4])) % 360
         names = ["x", "y", "z"][:d] + ["vx", "vy", "vz"][:d]
         for what in ("truth", "estimate"):
-            values = np.concatenate([getattr(r, what) for r in self.records])
+            values = np.concatenate([getattr(r, what) for r in records])
             for j, name in enumerate(names):
                 table[f"{what}_{name}"] = values[:, j]
         return table
 
-    def summary(self) -> dict[str, float | int]:
-        """Return the key figures over every run.
+    def summary(self, case: str = CASE) -> dict[str, float | int]:
+        """Return the key figures of one case over every run.
+
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
 
         Returns
         -------
         dict
-            ``final_rmse_m`` (position RMSE over runs at the last step, m),
-            ``final_bound_m`` (RMS over runs of the bound along the flown path, m),
-            ``min_range_m`` (true range, over every run and step, m), ``violations`` (steps
-            with a constraint violation, over every run), ``max_violation_m`` (m),
-            ``mean_decision_ms`` (ms), ``runs``, ``steps``.
+            ``final_rmse_m`` (position RMSE over runs at the last step, m), ``final_pcrb_m``
+            (the posterior CRB there, m), ``rmse_over_pcrb`` with its 95 % bootstrap interval
+            (``rmse_over_pcrb_low``, ``_high``), ``final_criterion_m`` (the planning
+            criterion along the flown paths, RMS over runs, m), ``min_range_m`` (true range,
+            over every run and step, m), ``violations`` (steps with a constraint violation,
+            over every run), ``max_violation_m`` (m), ``mean_decision_ms`` (ms), ``runs``,
+            ``steps``.
         """
-        out: dict[str, float | int] = dict(self.study.summary(CASE))
+        out: dict[str, float | int] = dict(self.study.summary(case))
         worst = np.concatenate([np.max(list(r.violations.values()), axis=0)
-                                if r.violations else np.zeros(len(r)) for r in self.records])
+                                if r.violations else np.zeros(len(r))
+                                for r in self.records(case)])
         out["violations"] = int(np.sum(worst > 1e-3))
         out["max_violation_m"] = float(worst.max())
         out["steps"] = int(self.setup.steps)
         return out
 
+    def comparison(self, level: float = 0.95) -> dict[str, Any] | None:
+        """Compare the planned path's final RMSE with the fixed pattern's, run for run.
+
+        The runs share their draws, so the ratio's interval is a paired bootstrap over the
+        runs (:data:`RESAMPLES`, seeded by the study's seed).
+
+        Parameters
+        ----------
+        level : float, optional
+            The interval's coverage.
+
+        Returns
+        -------
+        dict or None
+            ``planned_over_fixed`` (final RMSE ratio), ``low``, ``high`` (its interval; None
+            with fewer than ``MIN_RUNS_INTERVAL`` runs) and ``verdict``: ``"better"``
+            (interval below 1), ``"worse"`` (above 1), ``"not distinguishable"`` or too few
+            runs; None without a fixed case.
+        """
+        if FIXED not in self.study.records:
+            return None
+        planned = self.study.stack(CASE, "error_m")[:, -1] ** 2
+        fixed = self.study.stack(FIXED, "error_m")[:, -1] ** 2
+        r = planned.shape[0]
+        found: dict[str, Any] = {"planned_over_fixed": float(np.sqrt(planned.mean()
+                                                                      / fixed.mean())),
+                                 "low": None, "high": None,
+                                 "verdict": f"too few runs to tell (< {MIN_RUNS_INTERVAL})"}
+        if r >= MIN_RUNS_INTERVAL:
+            rng = np.random.default_rng([0 if self.study.seed is None else self.study.seed, r,
+                                         1])
+            w = rng.multinomial(r, np.full(r, 1.0 / r), size=RESAMPLES)
+            boot = np.sqrt((w @ planned) / (w @ fixed))
+            lo, hi = (float(v) for v in np.quantile(boot, [(1 - level) / 2, (1 + level) / 2]))
+            found.update(low=lo, high=hi, verdict="better" if hi < 1 else "worse" if lo > 1
+                         else "not distinguishable")
+        return found
+
+    def warnings(self) -> list[str]:
+        """Say what a user must know before flying the planned path.
+
+        Returns
+        -------
+        list of str
+            A sentence when the planned path did worse than the fixed pattern (or could not
+            be shown better), when there is no fixed pattern to compare with, and when a
+            case's RMSE is below its bound beyond the Monte Carlo uncertainty.
+        """
+        said = []
+        found = self.comparison()
+        if found is None:
+            said.append(f"no comparison with a fixed pattern: {self.fixed_note}")
+        elif found["planned_over_fixed"] >= 1.0:
+            said.append(f"the planned path did WORSE than the scenario's fixed pattern "
+                        f"(final RMSE {found['planned_over_fixed']:.2f}x the fixed one's"
+                        f"{_interval(found['low'], found['high'])}): fly the fixed pattern, or "
+                        "plan with another planner (--planner)")
+        elif found["verdict"] != "better":
+            said.append(f"the planned path is not shown better than the fixed pattern over "
+                        f"{self.study.runs(CASE)} runs (final RMSE "
+                        f"{found['planned_over_fixed']:.2f}x"
+                        f"{_interval(found['low'], found['high'])}): run more (--runs)")
+        for case in self.study.cases:
+            s = self.study.summary(case)
+            high = s["rmse_over_pcrb_high"]
+            if high is not None and high < 1.0:
+                said.append(f"{case}: the RMSE is below the posterior CRB beyond its Monte "
+                            f"Carlo uncertainty (ratio {s['rmse_over_pcrb']:.2f}, 95 % "
+                            f"interval up to {high:.2f}): the tracker and the bound do not "
+                            "share a model")
+        return said
+
+
+def _interval(low: float | None, high: float | None) -> str:
+    return "" if low is None or high is None else f", 95 % interval {low:.2f}-{high:.2f}"
+
+
+def _changes(setup: PlanningSetup, duration: float | None, particles: int | None,
+             tracker: str | None, planner: str | None) -> dict[str, Any]:
+    """Return the setup fields that the options change (ValueError naming a bad option)."""
+    changes: dict[str, Any] = {}
+    if duration is not None:
+        if isinstance(duration, bool) or not isinstance(duration, int | float | np.floating):
+            raise ValueError(f"duration must be a number of seconds; got {duration!r}")
+        ratio = float(duration) / setup.interval
+        if not (ratio >= 1 and abs(ratio - round(ratio)) <= 1e-6 * ratio):
+            raise ValueError(f"duration must be a whole number (>= 1) of decision intervals "
+                             f"of {setup.interval:g} s; got {duration} s")
+        changes["steps"] = round(ratio)
+        if changes["steps"] > MAX_DECISIONS:
+            raise ValueError(f"duration {duration:g} s: {changes['steps']:,} decisions of "
+                             f"{setup.interval:g} s per run, more than the limit of "
+                             f"{MAX_DECISIONS:,}")
+    if particles is not None:
+        changes["particles"] = particles
+    if tracker is not None:
+        changes["tracker"] = tracker
+    if planner is not None:
+        if planner not in PLANNERS:
+            raise ValueError(f"planner must be one of {', '.join(PLANNERS)}; got {planner!r}")
+        changes["kind"] = (("mission" if passive(setup.planner.plan) else "horizon")
+                           if planner == "auto" else planner)
+    return changes
+
 
 def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None = None,
          seed: int | None = 0, duration: float | None = None, particles: int | None = None,
-         tracker: str | None = None, dask: Any = None, progress: bool = False) -> PlanRun:
-    """Run a scenario's planned sensor in the closed loop ``runs`` times.
+         tracker: str | None = None, planner: str | None = None, fixed: bool = True,
+         dask: Any = None, progress: bool = False) -> PlanRun:
+    """Run a scenario's planned sensor, and its fixed pattern, in the closed loop ``runs`` times.
 
     Parameters
     ----------
@@ -162,6 +431,11 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         Particles of the particle filter (default the table's).
     tracker : {"pf", "ekf", "ukf"}, optional
         The tracker (default the table's).
+    planner : {"auto", "mission", "horizon"}, optional
+        The planner (default the table's ``planner``; ``"auto"``: the mission planner for a
+        passive sensor).
+    fixed : bool, optional
+        Also fly the scenario's fixed pattern with the same seeds.
     dask : str or distributed.Client, optional
         Run on a Dask cluster.
     progress : bool, optional
@@ -186,31 +460,19 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
     >>> import tmakit as tk
     >>> run = tk.plan("plan-bearings-only", runs=1, duration=60.0, particles=300)
     >>> run.summary()["steps"], len(run.table())
-    (6, 6)
+    (6, 12)
     """
     if not isinstance(scenario, PlanningSetup | str | os.PathLike):
         raise TypeError(f"plan() takes a scenario name, a TOML file with a [planning] table or "
                         f"a PlanningSetup (tmakit.load_planning), not "
                         f"{type(scenario).__name__}")
     setup = scenario if isinstance(scenario, PlanningSetup) else load_planning(scenario)
-    changes: dict[str, Any] = {}
-    if duration is not None:
-        if isinstance(duration, bool) or not isinstance(duration, int | float | np.floating):
-            raise ValueError(f"duration must be a number of seconds; got {duration!r}")
-        ratio = float(duration) / setup.interval
-        if not (ratio >= 1 and abs(ratio - round(ratio)) <= 1e-6 * ratio):
-            raise ValueError(f"duration must be a whole number (>= 1) of decision intervals "
-                             f"of {setup.interval:g} s; got {duration} s")
-        changes["steps"] = round(ratio)
-        if changes["steps"] > MAX_DECISIONS:
-            raise ValueError(f"duration {duration:g} s: {changes['steps']:,} decisions of "
-                             f"{setup.interval:g} s per run, more than the limit of "
-                             f"{MAX_DECISIONS:,}")
-    if particles is not None:
-        changes["particles"] = particles
-    if tracker is not None:
-        changes["tracker"] = tracker
+    changes = _changes(setup, duration, particles, tracker, planner)
     setup = setup.replace(**changes) if changes else setup
-    study = closed_loop_study([loop_case(setup)], runs=setup.runs if runs is None else runs,
-                              seed=seed, dask=dask, progress=progress)
-    return PlanRun(setup, study)
+    cases = [loop_case(setup)]
+    pattern = fixed_policy(setup) if fixed else "not asked for (fixed=False)"
+    if not isinstance(pattern, str):
+        cases.append(loop_case(setup, FIXED, pattern))
+    study = closed_loop_study(cases, runs=setup.runs if runs is None else runs, seed=seed,
+                              dask=dask, progress=progress)
+    return PlanRun(setup, study, pattern if isinstance(pattern, str) else None)

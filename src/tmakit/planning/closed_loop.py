@@ -3,8 +3,9 @@
 One run of Hurtado & Nehorai (2008), §4-5, for ``D`` decisions of one interval ``T`` each
 (the radar's pulse repetition interval, 0.5 s).  At decision ``k`` (time ``t_k``):
 
-1. the policy (a :class:`~tmakit.planning.Planner`, or :class:`FixedPolicy` for a fixed
-   path) is given the platform state and the :class:`Belief` — ``J_k`` and the tracker's cloud
+1. the policy (:mod:`tmakit.planning.policies`: a :class:`~tmakit.planning.Planner`, the
+   mission planner, a fixed action or a given path) is given the platform state and the
+   :class:`Belief` — ``J_k`` and the tracker's cloud
    (particles and weights of the particle filter, the mean of an EKF or UKF) — and chooses
    an action; the time it takes is recorded (ms, a measurement, never tested);
 2. the platform flies the chosen :class:`~tmakit.sensors.Step`; the target moves by the
@@ -13,10 +14,15 @@ One run of Hurtado & Nehorai (2008), §4-5, for ``D`` decisions of one interval 
    :class:`~tmakit.observation.MeasurementGroup` with its full covariance ``R``) says,
    simulated as ``h(x) + L n``, ``L L^T = R``;
 4. the tracker predicts to ``t_{k+1}`` and updates with those rows;
-5. the bound along the flown path is carried forward: ``J_{k+1} = (Q + F J_k^{-1} F^T)^{-1}
-   + Gamma_{k+1}`` (eq. 10) with ``Gamma_{k+1}`` averaged over the tracker's cloud at ``t_k``
-   moved to ``t_{k+1}`` (``bound_gamma="cloud"``), or taken at its mean (``"mean"``, the
-   paper's suboptimal form, eq. 13) — the *conditional* PCRB of the path actually flown.
+5. the planning criterion along the flown path is carried forward: ``J_{k+1} = (Q + F J_k^{-1}
+   F^T)^{-1} + Gamma_{k+1}`` (eq. 10) with ``Gamma_{k+1}`` averaged over the tracker's cloud
+   at ``t_k`` moved to ``t_{k+1}`` (``criterion_gamma="cloud"``), or taken at its mean
+   (``"mean"``, the paper's suboptimal form, eq. 13): what the planner believes of the path
+   it flew.  It is not a bound: its ``Gamma`` is the tracker's, not the truth's;
+6. the Fisher information ``Xi`` of the step's measurements at the *true* target state and
+   the flown sensor state is recorded: averaged over the runs of a study it is ``Gamma`` of
+   the posterior CRB (:func:`tmakit.bounds.pcrb_over_runs`), the bound that the tracker's
+   error is held to.
 
 **Random streams.**  A run's seed spawns four independent streams: the target's process
 noise, the prior's offset from the truth, the measurement noise, the tracker (particle
@@ -25,7 +31,7 @@ identical runs, estimate for estimate (a one-candidate planner and the fixed pat
 
 **The prior.**  The tracker and ``J_0`` start from ``N(m_0, P_0)`` with ``P_0`` diagonal
 (``prior_std`` in position and velocity) and ``m_0`` the truth plus a draw from ``P_0``, so
-the truth is a draw from the prior the bound assumes.
+the tracker's error about the truth is distributed as the prior the bound assumes.
 
 A measurement plan with a full ``R`` (correlated rows: the radar's range and range rate) is
 used whole by the simulation, the bound and the tracker (it updates with a
@@ -37,9 +43,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
-from dataclasses import dataclass, field
-from typing import Any, Protocol
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -52,110 +57,19 @@ from ..frames import wrap_angle
 from ..measurements import KINDS
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
-from ..sensors.platform import PlatformKinematics, Step
-from ..sensors.platform_state import Actions, PlatformState
+from ..sensors.platform_state import PlatformState
 from .belief import Belief
-from .candidates import GammaForm, check_gamma, step_information
+from .candidates import GammaForm, check_gamma, expected_information, step_information
 from .measurement_plan import SensorPlan
-from .planner import position_bound
+from .policies import Choice, FixedChoice, FixedPolicy, Policy, for_run
 
-__all__ = ["TRACKERS", "FixedChoice", "FixedPolicy", "LoopRecord", "LoopSetup", "Policy",
-           "run_closed_loop", "simulate_group"]
+__all__ = ["TRACKERS", "Choice", "FixedChoice", "FixedPolicy", "LoopRecord", "LoopSetup",
+           "Policy", "run_closed_loop", "simulate_group"]
 
 #: Trackers the loop can run (names of :data:`tmakit.filters.FILTERS`).
 TRACKERS = ("pf", "ekf", "ukf")
 _STREAMS = 4  # truth, prior, measurements, tracker
-
-
-class Choice(Protocol):
-    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one)."""
-
-    index: int
-    step: Step
-    bound: Array
-    violations: Mapping[str, Array]
-
-
-class Policy(Protocol):
-    """What chooses the next step: :class:`~tmakit.planning.Planner` or :class:`FixedPolicy`."""
-
-    def recommend(self, platform: PlatformState, belief: Belief) -> Choice:
-        """Choose the next action from ``platform`` given ``belief``.
-
-        Parameters
-        ----------
-        platform, belief : PlatformState, Belief
-            The platform now (one state) and the belief at the same time.
-
-        Returns
-        -------
-        Choice
-            The chosen action's index, its step, bound and constraint violations.
-        """
-
-
-@dataclass(frozen=True)
-class FixedChoice:
-    """The choice of a :class:`FixedPolicy` (fields as a planner's recommendation).
-
-    Parameters
-    ----------
-    index : int
-        Always 0.
-    step : Step
-        The flown step.
-    bound : ndarray, shape (1,)
-        The predicted position RMS bound after the step (m).
-    violations : dict
-        Empty: a fixed path has no constraints.
-    """
-
-    index: int
-    step: Step
-    bound: Array
-    violations: Mapping[str, Array] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class FixedPolicy:
-    """Fly one action at every decision (the straight fixed path: heading change 0).
-
-    Parameters
-    ----------
-    kinematics : PlatformKinematics
-        The platform's limits.
-    plan : SensorPlan
-        The measurements, for the predicted bound of the step.
-    interval : float, optional
-        Decision interval (s).
-    action : Actions, optional
-        One action (default: straight on, speed unchanged).
-    """
-
-    kinematics: PlatformKinematics
-    plan: SensorPlan
-    interval: float = 0.5
-    action: Actions = field(default_factory=lambda: Actions([0.0]))
-
-    def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
-        """Fly :attr:`action`; the bound is the mean-state prediction of eq. 10.
-
-        Parameters
-        ----------
-        platform : PlatformState
-            Where the platform is (one state).
-        belief : Belief
-            ``J_k`` and the tracker's cloud.
-
-        Returns
-        -------
-        FixedChoice
-        """
-        step = self.kinematics.step(platform, self.action[:1], self.interval)[0]
-        times = platform.time + self.plan.measurement_times(self.interval)
-        info = step_information(belief, belief.posterior.information, self.plan,
-                                step.sensor_states(times)[None], self.interval, "mean")
-        return FixedChoice(0, step, position_bound(info))
+_ONE = np.ones(1)
 
 
 @dataclass(frozen=True)
@@ -182,8 +96,8 @@ class LoopSetup:
         (2008), §3.1), an EKF or a UKF.
     particles : int, optional
         Particles of the particle filter.
-    bound_gamma : {"cloud", "mean"}, optional
-        How ``Gamma`` of the recorded bound is formed (module docstring).
+    criterion_gamma : {"cloud", "mean"}, optional
+        How ``Gamma`` of the recorded planning criterion is formed (module docstring).
 
     Raises
     ------
@@ -199,7 +113,7 @@ class LoopSetup:
     prior_std: tuple[float, float] = (100.0, 5.0)
     tracker: str = "pf"
     particles: int = 2000
-    bound_gamma: str = "cloud"
+    criterion_gamma: str = "cloud"
 
     def __post_init__(self) -> None:
         """Check the options (see Raises)."""
@@ -227,8 +141,9 @@ class LoopSetup:
         if isinstance(self.particles, bool) or not isinstance(self.particles, int | np.integer) \
                 or self.particles < 2:
             raise ValueError(f"particles must be a whole number >= 2, got {self.particles!r}")
-        if self.bound_gamma not in ("cloud", "mean"):
-            raise ValueError(f"bound_gamma must be 'cloud' or 'mean', got {self.bound_gamma!r}")
+        if self.criterion_gamma not in ("cloud", "mean"):
+            raise ValueError(f"criterion_gamma must be 'cloud' or 'mean', got "
+                             f"{self.criterion_gamma!r}")
 
     @property
     def dim(self) -> int:
@@ -257,17 +172,23 @@ class LoopRecord:
     covariance : ndarray, shape (D, n, n)
         The tracker's covariance (SI).
     action : ndarray of int, shape (D,)
-        Chosen action index.
+        Chosen action index among a planner's actions (0 for a policy of one candidate: a
+        fixed action or path, the mission planner's leg).
     decision_ms : ndarray, shape (D,)
         Wall time of each decision (ms; a measurement of this machine).
-    bound_m : ndarray, shape (D,)
-        Position RMS bound along the flown path, the conditional PCRB (m).
-    predicted_bound_m : ndarray, shape (D,)
-        The policy's predicted bound of the chosen action (m).
+    criterion_m : ndarray, shape (D,)
+        The planning criterion along the flown path (m): the position RMS of ``J`` carried
+        with ``Gamma`` over the tracker's cloud (module docstring, step 5; not a bound).
+    predicted_criterion_m : ndarray, shape (D,)
+        The policy's prediction for its choice (m): a planner's bound after the step, the
+        mission planner's at the mission end.
     error_m, range_m : ndarray, shape (D,)
         Position error of the estimate and true sensor-target range (m).
     violations : dict of str to ndarray
         Per constraint, the violation amount of the chosen step (m, >= 0).
+    information : ndarray, shape (D, n, n)
+        Fisher information ``Xi`` of each step's measurements at the true target state and
+        the flown sensor state (SI): the runs' mean is the posterior CRB's ``Gamma``.
     """
 
     times: Array
@@ -277,11 +198,12 @@ class LoopRecord:
     covariance: Array
     action: Array
     decision_ms: Array
-    bound_m: Array
-    predicted_bound_m: Array
+    criterion_m: Array
+    predicted_criterion_m: Array
     error_m: Array
     range_m: Array
     violations: dict[str, Array]
+    information: Array
 
     def __len__(self) -> int:
         """Return the number of decisions ``D``."""
@@ -293,16 +215,17 @@ class LoopRecord:
         Returns
         -------
         dict of str to ndarray
-            ``step``, ``time`` (s), ``sensor_x``, ``sensor_y`` (m), ``action``, ``bound_m``,
-            ``predicted_bound_m``, ``error_m``, ``range_m`` (m), ``decision_ms`` (ms),
+            ``step``, ``time`` (s), ``sensor_x``, ``sensor_y`` (m), ``action``,
+            ``criterion_m``, ``predicted_criterion_m``, ``error_m``, ``range_m`` (m),
+            ``decision_ms`` (ms),
             ``violation_m`` (largest over constraints, m) and ``violation_<name>_m``.
         """
         d = len(self)
         cols: dict[str, Array] = {
             "step": np.arange(1, d + 1, dtype=np.int64), "time": self.times,
             "sensor_x": self.sensor[:, 0], "sensor_y": self.sensor[:, 1],
-            "action": self.action.astype(np.int64), "bound_m": self.bound_m,
-            "predicted_bound_m": self.predicted_bound_m, "error_m": self.error_m,
+            "action": self.action.astype(np.int64), "criterion_m": self.criterion_m,
+            "predicted_criterion_m": self.predicted_criterion_m, "error_m": self.error_m,
             "range_m": self.range_m, "decision_ms": self.decision_ms}
         amounts = list(self.violations.values())
         cols["violation_m"] = np.max(amounts, axis=0) if amounts else np.zeros(d)
@@ -438,7 +361,8 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
     Returns
     -------
     LoopRecord
-        Per decision: sensor, truth, estimate, bound, error, range, action, time, violations.
+        Per decision: sensor, truth, estimate, criterion, error, range, action, time,
+        violations and the information at the truth.
 
     Raises
     ------
@@ -463,9 +387,11 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
     platform = setup.platform
     rec = {k: np.empty((d_steps, *s)) for k, s in (
         ("times", ()), ("sensor", (6,)), ("estimate", (n,)), ("covariance", (n, n)),
-        ("action", ()), ("decision_ms", ()), ("bound_m", ()), ("predicted_bound_m", ()))}
+        ("action", ()), ("decision_ms", ()), ("criterion_m", ()), ("predicted_criterion_m", ()),
+        ("information", (n, n)))}
     violations: dict[str, Array] = {}
-    gamma: GammaForm = check_gamma(setup.bound_gamma)
+    gamma: GammaForm = check_gamma(setup.criterion_gamma)
+    policy = for_run(policy)
     for k in range(d_steps):
         start = time.perf_counter()
         choice = policy.recommend(platform, belief)
@@ -484,11 +410,14 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
             col[k] = float(np.asarray(amount)[idx])
         rec["times"][k], rec["sensor"][k], rec["action"][k] = t1, sensor, idx
         rec["estimate"][k], rec["covariance"][k] = tracker.state, tracker.covariance
-        rec["bound_m"][k] = float(belief.posterior.position_rms)
-        rec["predicted_bound_m"][k] = float(np.asarray(choice.bound)[idx])
+        rec["criterion_m"][k] = float(belief.posterior.position_rms)
+        rec["predicted_criterion_m"][k] = float(np.asarray(choice.bound)[idx])
+        rec["information"][k] = expected_information(plan, truth[k + 1][None], _ONE,
+                                                     sensor[None], "mean")[0]
     est, tru = rec["estimate"], truth[1:]
     return LoopRecord(
         rec["times"], rec["sensor"], tru, est, rec["covariance"],
-        rec["action"].astype(np.int64), rec["decision_ms"], rec["bound_m"],
-        rec["predicted_bound_m"], np.linalg.norm(est[:, :dim] - tru[:, :dim], axis=1),
-        np.linalg.norm(tru[:, :dim] - rec["sensor"][:, :dim], axis=1), violations)
+        rec["action"].astype(np.int64), rec["decision_ms"], rec["criterion_m"],
+        rec["predicted_criterion_m"], np.linalg.norm(est[:, :dim] - tru[:, :dim], axis=1),
+        np.linalg.norm(tru[:, :dim] - rec["sensor"][:, :dim], axis=1), violations,
+        rec["information"])

@@ -45,12 +45,16 @@ class Reproduction:
     labels : dict, optional
         For a figure that is a list, the name and unit of each entry (``("x", "m")``), for
         the printed report (not in the JSON).
+    print_figures : bool, optional
+        Print the figures under the tables (False where the tables already show them; the
+        JSON has them always).
     """
 
     name: str
     sections: list[Section] = field(default_factory=list)
     figures: dict[str, object] = field(default_factory=dict)
     labels: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
+    print_figures: bool = True
 
     def as_dict(self) -> dict[str, object]:
         """Give the reproduction as JSON-ready data.

@@ -1,0 +1,388 @@
+"""What steers the sensor in the closed loop: a fixed action, a given path, the mission planner.
+
+A *policy* is given the platform state and the :class:`~tmakit.planning.Belief` at each
+decision of :func:`~tmakit.planning.closed_loop.run_closed_loop` and returns a
+:class:`Choice`: the step to fly for one decision interval.  Four kinds:
+
+* :class:`~tmakit.planning.Planner` — the one-step (or ``H``-step) planner of Hurtado &
+  Nehorai (2008), choosing among the platform's actions;
+* :class:`FixedPolicy` — one action at every decision (the paper's straight fixed path);
+* :class:`TrackPolicy` — a given sensor track, such as the fixed pattern of a scenario's
+  ``[[sensors]]`` entry (the operator's zig-zag), flown step by step;
+* :class:`MissionPolicy` — the :class:`~tmakit.planning.MissionPlanner` re-planned at the start
+  of every leg, over range hypotheses drawn from the tracker (below).
+
+**Range hypotheses** (``MissionPolicy``).  For a passive sensor the range is what the first
+legs do not know, and a path planned at the tracker's estimate is planned for one range.  At
+each leg the policy takes the ranges from the platform at the weighted quantiles
+:attr:`MissionPolicy.quantiles` of the tracker's cloud (particles, or the cubature points of
+an EKF or UKF), gives each hypothesis its own Bayesian information along the path flown so far
+(the flown legs evaluated at it, from the prior), and plans the rest of the mission for the
+mean of their final bounds.  ``benchmarks/planning_passive_mc.py`` (case ``ranges``) measured
+it at 0.71x the zig-zag's final error where the planner at the estimate gave 1.55x
+(``docs/planning.md``).
+
+A policy that keeps state between the decisions of one run (the mission plan, the legs flown)
+has a ``for_run()`` method that returns a fresh copy for each run; the loop calls it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..arrays import Array
+from ..sensors.platform import PlatformKinematics, Step
+from ..sensors.platform_state import Actions, PlatformState
+from ..sensors.tracks import SensorTrack
+from .belief import Belief
+from .candidates import step_information
+from .constraints import Constraint
+from .measurement_plan import SensorPlan
+from .mission import MissionPlanner
+from .mission_paths import MissionPlan
+from .planner import position_bound, step_violations
+
+__all__ = ["RANGE_KINDS", "Choice", "FixedChoice", "FixedPolicy", "MissionPolicy", "Policy",
+           "TrackPolicy", "for_run", "passive", "range_hypotheses"]
+
+#: Kinds that measure range: a sensor without them is passive.
+RANGE_KINDS = ("range",)
+
+
+def passive(plan: SensorPlan) -> bool:
+    """Tell whether a sensor plan measures no range (its range comes from the path's geometry).
+
+    For such a sensor a planner that looks a few steps ahead gives away what a later turn
+    would bring (``docs/planning.md``): ``tma plan`` steers it with the mission planner.
+
+    Parameters
+    ----------
+    plan : SensorPlan
+        What the sensor measures.
+
+    Returns
+    -------
+    bool
+    """
+    return not any(k in RANGE_KINDS for k in plan.kinds)
+
+
+class Choice(Protocol):
+    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one)."""
+
+    index: int
+    step: Step
+    bound: Array
+    violations: Mapping[str, Array]
+
+
+class Policy(Protocol):
+    """What chooses the next step (module docstring)."""
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> Choice:
+        """Choose the next action from ``platform`` given ``belief``.
+
+        Parameters
+        ----------
+        platform, belief : PlatformState, Belief
+            The platform now (one state) and the belief at the same time.
+
+        Returns
+        -------
+        Choice
+            The chosen action's index, its step, bound and constraint violations.
+        """
+
+
+def for_run(policy: Policy) -> Policy:
+    """Return the policy to use for one run: a fresh copy of a policy with state, else itself.
+
+    Parameters
+    ----------
+    policy : Policy
+        A policy (one with a ``for_run()`` method keeps state between decisions).
+
+    Returns
+    -------
+    Policy
+    """
+    fresh = getattr(policy, "for_run", None)
+    return fresh() if callable(fresh) else policy
+
+
+@dataclass(frozen=True)
+class FixedChoice:
+    """The choice of a policy with one candidate (fields as a planner's recommendation).
+
+    Parameters
+    ----------
+    index : int
+        Always 0.
+    step : Step
+        The flown step.
+    bound : ndarray, shape (1,)
+        The policy's predicted position RMS bound (m): after the step, or at the mission end
+        for :class:`MissionPolicy`.
+    violations : dict
+        Per constraint, the amount (m) of the flown step, shape (1,); empty without
+        constraints.
+    """
+
+    index: int
+    step: Step
+    bound: Array
+    violations: Mapping[str, Array] = field(default_factory=dict)
+
+
+def _bound_after(belief: Belief, plan: SensorPlan, step: Step, interval: float) -> Array:
+    """Predict the position bound after one flown step (eq. 10, Xi at the mean), shape (1,)."""
+    times = step.start.time + plan.measurement_times(interval)
+    info = step_information(belief, belief.posterior.information, plan,
+                            step.sensor_states(times)[None], interval, "mean")
+    return position_bound(info)
+
+
+@dataclass(frozen=True)
+class FixedPolicy:
+    """Fly one action at every decision (the straight fixed path: heading change 0).
+
+    Parameters
+    ----------
+    kinematics : PlatformKinematics
+        The platform's limits.
+    plan : SensorPlan
+        The measurements, for the predicted bound of the step.
+    interval : float, optional
+        Decision interval (s).
+    action : Actions, optional
+        One action (default: straight on, speed unchanged).
+    """
+
+    kinematics: PlatformKinematics
+    plan: SensorPlan
+    interval: float = 0.5
+    action: Actions = field(default_factory=lambda: Actions([0.0]))
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
+        """Fly :attr:`action`; the bound is the mean-state prediction of eq. 10.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            Where the platform is (one state).
+        belief : Belief
+            ``J_k`` and the tracker's cloud.
+
+        Returns
+        -------
+        FixedChoice
+        """
+        step = self.kinematics.step(platform, self.action[:1], self.interval)[0]
+        return FixedChoice(0, step, _bound_after(belief, self.plan, step, self.interval))
+
+
+def _state_on(track: SensorTrack, t: float) -> PlatformState:
+    s = track.states(np.array([t]))[0]
+    return PlatformState(s[:3], math.atan2(s[3], s[4]), float(np.hypot(s[3], s[4])),
+                         float(s[5]), t)
+
+
+@dataclass(frozen=True, eq=False)
+class TrackPolicy:
+    """Fly a given sensor track: the scenario's fixed pattern, step by step.
+
+    Each step goes from the platform's state to the track's state one interval later; the
+    sensor is where the track says at the end of the step (where the closed loop measures).
+    Between the two the step is the constant turn that joins the headings (exact for legs
+    that turn at a constant rate and change at the decision times, as a zig-zag's do).
+
+    Parameters
+    ----------
+    track : SensorTrack
+        The path (for example ``scenario.sensors["observer"]``); it must cover the run.
+    plan : SensorPlan
+        The measurements, for the predicted bound of the step.
+    interval : float
+        Decision interval (s).
+    constraints : sequence of Constraint, optional
+        Checked along each step against the estimated target and reported (never acted on:
+        the path is fixed).
+    """
+
+    track: SensorTrack
+    plan: SensorPlan
+    interval: float
+    constraints: Sequence[Constraint] = ()
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
+        """Fly the track for one interval.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            Where the platform is (one state).
+        belief : Belief
+            ``J_k`` and the tracker's cloud.
+
+        Returns
+        -------
+        FixedChoice
+
+        Raises
+        ------
+        ValueError
+            If the track does not cover the end of the step.
+        """
+        end = _state_on(self.track, platform.time + self.interval)
+        turn = float(np.angle(np.exp(1j * (end.heading - platform.heading)))) / self.interval
+        no = np.zeros((), dtype=bool)
+        step = Step(platform, end, np.asarray(turn),
+                    np.asarray((end.speed - platform.speed) / self.interval),
+                    np.asarray(end.climb_rate), float(self.interval), no, no, no, no)
+        found = step_violations(self.constraints, step, belief, self.interval)
+        return FixedChoice(0, step, _bound_after(belief, self.plan, step, self.interval),
+                           {v.name: v.amount for v in found})
+
+
+def range_hypotheses(belief: Belief, position: ArrayLike, quantiles: ArrayLike) -> Belief:
+    """Return the members of the belief's cloud at weighted quantiles of range, equally weighted.
+
+    Parameters
+    ----------
+    belief : Belief
+        The tracker's cloud (particles, or sigma points).
+    position : array_like, shape (3,)
+        The sensor's position (m, ENU); range is horizontal.
+    quantiles : array_like, shape (K,)
+        In (0, 1).
+
+    Returns
+    -------
+    Belief
+        ``J`` of ``belief`` and the ``K`` members.
+    """
+    rel = belief.states[:, :2] - np.asarray(position, dtype=float)[:2]
+    order = np.argsort(np.hypot(rel[:, 0], rel[:, 1]), kind="stable")
+    cum = np.cumsum(belief.weights[order])
+    at = np.minimum(np.searchsorted(cum, np.asarray(quantiles, dtype=float)), order.size - 1)
+    return Belief(belief.posterior, belief.states[order[at]])
+
+
+@dataclass(frozen=True, eq=False)
+class MissionPolicy:
+    """The mission planner in the closed loop: re-plan the rest of the mission at every leg.
+
+    Parameters
+    ----------
+    planner : MissionPlanner
+        Its ``step`` must be the loop's decision interval.  With ``hypotheses=True`` it plans
+        over range hypotheses (module docstring); otherwise at the tracker's cloud as given.
+    quantiles : tuple of float, optional
+        The range quantiles of the hypotheses (default the 1/6, 1/2 and 5/6 quantiles).
+    pattern : SensorTrack, optional
+        An operator's path (the scenario's fixed pattern): its heading at the middle of every
+        leg left is one more start of the search, so the plan is never scored worse than it.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 10-13; the ranges: ``benchmarks/planning_passive_mc.py``.
+    """
+
+    planner: MissionPlanner
+    quantiles: tuple[float, ...] = (1 / 6, 1 / 2, 5 / 6)
+    pattern: SensorTrack | None = None
+
+    def __post_init__(self) -> None:
+        """Check the quantiles."""
+        q = tuple(float(v) for v in self.quantiles)
+        if not q or not all(0.0 < v < 1.0 for v in q):
+            raise ValueError(f"quantiles must be values in (0, 1); got {self.quantiles!r}")
+        object.__setattr__(self, "quantiles", q)
+
+    def for_run(self) -> _MissionRun:
+        """Return the policy's state for one run (the loop calls it).
+
+        Returns
+        -------
+        _MissionRun
+        """
+        return _MissionRun(self)
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
+        """Refuse: a mission policy keeps state, use ``for_run().recommend``.
+
+        Parameters
+        ----------
+        platform, belief
+            As for :class:`Policy`.
+
+        Returns
+        -------
+        FixedChoice
+
+        Raises
+        ------
+        TypeError
+            Always.
+        """
+        raise TypeError("a MissionPolicy keeps the plan between decisions: call "
+                        "for_run() once per run and recommend() on what it returns")
+
+
+@dataclass(eq=False)
+class _MissionRun:
+    """One run of a :class:`MissionPolicy`: the plan, the legs flown, the sub-steps left."""
+
+    policy: MissionPolicy
+    start: tuple[PlatformState, Belief] | None = None
+    plan: MissionPlan | None = None
+    flown: list[float] = field(default_factory=list)
+    queue: list[Actions] = field(default_factory=list)
+
+    def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
+        mp = self.policy.planner
+        if self.start is None:
+            self.start = (platform, belief)
+        if not self.queue:
+            self._replan(platform, belief)
+        step = mp.kinematics.step(platform, self.queue.pop(0), mp.step)
+        found = step_violations(mp.constraints, step, belief, mp.step)
+        assert self.plan is not None
+        return FixedChoice(0, step[0], np.array([self.plan.bound]),
+                           {v.name: v.amount for v in found})
+
+    def _replan(self, platform: PlatformState, belief: Belief) -> None:
+        mp = self.policy.planner
+        info: Any = None
+        if mp.hypotheses:
+            belief = range_hypotheses(belief, platform.position, self.policy.quantiles)
+            info = self._flown_information(belief)
+        pattern = None
+        if self.policy.pattern is not None:
+            starts, counts = mp.legs(belief.time)
+            middle = starts + 0.5 * counts * mp.step
+            s = self.policy.pattern.states(middle)
+            pattern = np.arctan2(s[:, 3], s[:, 4])
+        self.plan = mp.recommend(platform, belief, previous=self.plan, pattern=pattern,
+                                 information=info)
+        self.flown.append(float(self.plan.headings[0]))
+        acts = mp.first_leg(platform, self.plan)
+        self.queue = [acts[i:i + 1] for i in range(acts.shape[0])]
+
+    def _flown_information(self, hyp: Belief) -> Array | None:
+        """``J`` along the legs flown so far at each hypothesis, from the prior (K, n, n)."""
+        if not self.flown:
+            return None
+        assert self.start is not None
+        platform0, belief0 = self.start
+        past = replace(self.policy.planner, end_time=hyp.time, constraints=())
+        dyn = hyp.posterior.dynamics
+        back = hyp.states @ dyn.transition(belief0.time - hyp.time).T
+        return past.evaluate(platform0, Belief(belief0.posterior, back),
+                             np.array(self.flown)[None])[0]
