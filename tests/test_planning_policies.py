@@ -183,7 +183,7 @@ def test_bad_planner_options_are_refused_by_name():
     assert res.exit_code == 2 and "--planner 'greedy'" in res.output
     data = example()
     data["planning"]["mission"]["leg_duration"] = 15.0
-    with pytest.raises(ValueError, match="planning.mission.leg_duration"):
+    with pytest.raises(ValueError, match=r"planning\.mission\.leg_duration"):
         planning_from_dict(data)
     with pytest.raises(ValueError, match="quantiles"):
         MissionPolicy(None, (0.0, 0.5))   # type: ignore[arg-type]
