@@ -35,17 +35,17 @@ def main() -> None:
     study = closed_loop_study(cases, runs=args.runs, seed=args.seed, progress=False)
     print(f"adaptive case of tma reproduce hurtado2008 (derived radar), {args.runs} runs, "
           f"{args.particles} particles, same seeds")
-    print(f"{'gamma':8s} {'final RMSE (m)':>15s} {'final bound (m)':>16s} "
+    print(f"{'gamma':8s} {'final RMSE (m)':>15s} {'final PCRB (m)':>16s} "
           f"{'min range (m)':>14s} {'decision (ms)':>14s}")
     rows = {}
     for case in cases:
         s = study.summary(case.name)
         rows[case.name] = s
-        print(f"{case.policy.gamma:8s} {s['final_rmse_m']:15.2f} {s['final_bound_m']:16.2f} "
+        print(f"{case.policy.gamma:8s} {s['final_rmse_m']:15.2f} {s['final_pcrb_m']:16.2f} "
               f"{s['min_range_m']:14.0f} {s['mean_decision_ms']:14.2f}")
     mean, cloud = (rows[c.name] for c in cases)
-    print(f"cloud / mean: RMSE {cloud['final_rmse_m'] / mean['final_rmse_m']:.3f}, bound "
-          f"{cloud['final_bound_m'] / mean['final_bound_m']:.3f}, decision time "
+    print(f"cloud / mean: RMSE {cloud['final_rmse_m'] / mean['final_rmse_m']:.3f}, PCRB "
+          f"{cloud['final_pcrb_m'] / mean['final_pcrb_m']:.3f}, decision time "
           f"{cloud['mean_decision_ms'] / mean['mean_decision_ms']:.2f}x")
 
 

@@ -13,6 +13,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.bounds import deterministic_pcrb, pcrb_over_runs
+from tmakit.bounds.pcrb_runs import ratio_interval
 from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.cli import app
 from tmakit.data import MeasurementSet
@@ -52,7 +53,19 @@ def test_the_pcrb_over_one_run_is_the_deterministic_pcrb_of_its_measurements():
                           np.tile([2.0, 100.0, 5.0], len(rec)), np.repeat(rec.sensor, k, 0),
                           check=False)
     theirs = deterministic_pcrb(rows, setup.target, setup.prior_covariance, 0.0)
-    np.testing.assert_allclose(ours, theirs.position_rms, rtol=1e-9)
+    np.testing.assert_allclose(ours, theirs.covariance, rtol=1e-8, atol=1e-12)
+
+
+def test_the_interval_of_the_ratio_widens_for_few_runs_and_a_thin_error():
+    """Ten runs of an efficient tracker that happen to be small are not a failure."""
+    round_ = np.diag([50.0**2, 50.0**2])
+    thin = np.diag([70.0**2, 1.0])
+    errors = np.full(10, 0.7 * 70.7)
+    r, lo, hi = ratio_interval(errors, round_)
+    assert r == pytest.approx(0.7, rel=1e-3) and lo < r < hi
+    _, lo_thin, hi_thin = ratio_interval(errors, thin)
+    assert hi_thin > hi and lo_thin < lo          # half the degrees of freedom
+    assert ratio_interval(np.full(1000, 0.7 * 70.7), round_)[2] < 0.75   # many runs: narrow
 
 
 def test_the_recorded_information_is_at_the_truth_not_at_the_trackers_cloud():

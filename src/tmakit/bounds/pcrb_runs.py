@@ -16,9 +16,7 @@ still ``E[Xi(x_k, s_k)]``.  The mean over ``R`` runs estimates it; ``J_k^{-1}`` 
 the mean-square error matrix of any tracker that uses the same prior ``P_0``, process noise
 ``Q`` and measurement model as the bound, averaged over the runs.
 
-``weights`` gives several recursions at once, each with its own mean over the runs (rows of
-bootstrap resampling weights: the Monte Carlo uncertainty of the bound, resampled together
-with the errors of the same runs).
+The Monte Carlo uncertainty of a RMSE held to this bound: :func:`ratio_interval`.
 """
 
 from __future__ import annotations
@@ -30,13 +28,12 @@ from ..arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
 from .pcrb_recursion import PosteriorInformation
 
-__all__ = ["pcrb_over_runs"]
+__all__ = ["pcrb_over_runs", "ratio_interval"]
 
 
 def pcrb_over_runs(information: ArrayLike, times: ArrayLike, prior_cov: ArrayLike,
-                   dynamics: NearlyConstantVelocity, time0: float,
-                   weights: ArrayLike | None = None) -> Array:
-    """Return the position RMS posterior CRB after each update, ``Gamma`` the mean over runs.
+                   dynamics: NearlyConstantVelocity, time0: float) -> Array:
+    """Return the posterior CRB after each update, ``Gamma`` the mean over the runs.
 
     Parameters
     ----------
@@ -51,14 +48,11 @@ def pcrb_over_runs(information: ArrayLike, times: ArrayLike, prior_cov: ArrayLik
         The target dynamics (``Q``) the trackers assume and the truth follows.
     time0 : float
         The prior's time, s.
-    weights : array_like, shape (B, R), optional
-        Rows of weights over the runs (each summing to 1): one recursion per row.  Default:
-        one recursion with equal weights.
 
     Returns
     -------
-    ndarray, shape (D,) or (B, D)
-        ``sqrt(trace)`` of the position block of ``J_k^{-1}``, m.
+    ndarray, shape (D, n, n)
+        ``J_k^{-1}``, the bound on the mean-square error matrix after each update, SI.
 
     Raises
     ------
@@ -75,15 +69,47 @@ def pcrb_over_runs(information: ArrayLike, times: ArrayLike, prior_cov: ArrayLik
     if xi.ndim != 4 or xi.shape[1:] != (t.shape[0], n, n):
         raise ValueError(f"information must be (runs, {t.shape[0]}, {n}, {n}) for "
                          f"{t.shape[0]} update times; got {xi.shape}")
-    one = weights is None
-    w = np.full((1, xi.shape[0]), 1.0 / xi.shape[0]) if one else np.asarray(weights, float)
-    if w.ndim != 2 or w.shape[1] != xi.shape[0]:
-        raise ValueError(f"weights must be (B, {xi.shape[0]}); got {w.shape}")
+    gamma = xi.mean(axis=0)
     post = PosteriorInformation.from_prior(prior_cov, dynamics, time0)
-    post = PosteriorInformation(np.broadcast_to(post.information, (w.shape[0], n, n)),
-                                dynamics, time0)
-    out = np.empty((w.shape[0], t.shape[0]))
+    out = np.empty((t.shape[0], n, n))
     for k in range(t.shape[0]):
-        post = post.predict_to(t[k]).update(np.einsum("br,rij->bij", w, xi[:, k]))
-        out[:, k] = post.position_rms
-    return out[0] if one else out
+        post = post.predict_to(t[k]).update(gamma[k])
+        out[k] = post.covariance
+    return out
+
+
+def ratio_interval(errors: ArrayLike, bound: ArrayLike, level: float = 0.95
+                   ) -> tuple[float, float, float]:
+    """Return the RMSE over the bound and its interval, from the runs' final errors.
+
+    If the errors of the ``R`` runs were Gaussian with a covariance shaped as the bound's
+    ``P`` (an efficient tracker), their summed squares would be ``c chi^2_m`` with
+    ``c = tr(P^2) / tr P`` and ``m = R (tr P)^2 / tr(P^2)`` degrees of freedom
+    (Satterthwaite's approximation: ``m = 2 R`` for a round 2-D error, ``R`` for a thin one).
+    The interval inverts that: a ratio whose interval lies below 1 is below the bound beyond
+    the Monte Carlo uncertainty.  It holds for few runs, where a bootstrap over the runs
+    does not (ten runs that happen to have no large error look precise to a bootstrap).
+
+    Parameters
+    ----------
+    errors : array_like, shape (R,)
+        Each run's position error (m).
+    bound : array_like, shape (d, d)
+        The bound's position block, m^2.
+    level : float, optional
+        The interval's coverage.
+
+    Returns
+    -------
+    ratio, low, high : float
+        ``RMSE / sqrt(tr P)`` and its interval.
+    """
+    from scipy.stats import chi2
+
+    e = np.asarray(errors, dtype=float)
+    p = np.asarray(bound, dtype=float)
+    tr = float(np.trace(p))
+    m = e.size * tr**2 / float(np.sum(p * p.T))
+    ratio = float(np.sqrt(np.mean(e**2) / tr))
+    hi_q, lo_q = chi2.ppf([(1 + level) / 2, (1 - level) / 2], m)
+    return ratio, ratio * float(np.sqrt(m / hi_q)), ratio * float(np.sqrt(m / lo_q))

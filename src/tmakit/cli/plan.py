@@ -257,9 +257,8 @@ def print_summary(result: Any, seed: int) -> None:
     out.print(f"planned path: {describe(s)}; constraints: {constraints}", highlight=False)
     out.print("bound: the posterior CRB at the true target along the flown paths (Gamma the "
               "mean over the runs, the tracker's prior and process noise); RMSE / bound with "
-              "its 95 % bootstrap interval over the runs. Planning criterion: what the "
-              "planner believed (Gamma over the tracker's cloud), not a bound.",
-              highlight=False)
+              "its 95 % Monte Carlo interval. Planning criterion: what the planner believed "
+              "(Gamma over the tracker's cloud), not a bound.", highlight=False)
     found = result.comparison()
     if found is None:
         out.print(f"fixed pattern: none ({result.fixed_note})", highlight=False)

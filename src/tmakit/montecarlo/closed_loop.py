@@ -20,7 +20,7 @@ information at the true target along each flown path, with the tracker's prior a
 noise): the bound that the RMSE is held to.  :meth:`ClosedLoopStudy.criterion` is the RMS over
 runs of the planning criterion along each flown path (``Gamma`` over the tracker's cloud):
 what the planner believed, which a tracker may beat.  :meth:`ClosedLoopStudy.efficiency`
-gives the final RMSE over the bound with its bootstrap interval over the runs.
+gives the final RMSE over the bound with its Monte Carlo interval.
 A caller that must not lose finished work passes ``on_chunk`` (each chunk's
 :class:`LoopChunk` as soon as it is done; :mod:`tmakit.io.study_files` saves them).
 """
@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from ..arrays import Array
-from ..bounds.pcrb_runs import pcrb_over_runs
+from ..bounds.pcrb_runs import pcrb_over_runs, ratio_interval
 from ..motion.dynamics import NearlyConstantVelocity
 from ..planning.closed_loop import LoopRecord, LoopSetup, Policy, run_closed_loop
 from ..planning.measurement_plan import SensorPlan
@@ -50,10 +50,8 @@ __all__ = ["ClosedLoopStudy", "LoopCase", "LoopChunk", "LoopTask", "closed_loop_
 
 #: Runs per chunk in this process (a chunk's records are kept until the study ends).
 LOOP_RUNS_PER_CHUNK = 5
-#: Bootstrap resamples of the runs for the interval of RMSE over the bound.
-RESAMPLES = 2000
 #: Fewest runs for a bootstrap interval (with fewer the resamples repeat a few runs and the
-#: interval means nothing: it is None).
+#: interval means nothing).
 MIN_RUNS_INTERVAL = 10
 
 
@@ -286,39 +284,53 @@ class ClosedLoopStudy:
         """
         return np.sqrt(np.mean(self.stack(case, "criterion_m") ** 2, axis=0))
 
-    def pcrb(self, case: str, weights: Array | None = None) -> Array:
-        """Return the posterior CRB of ``case`` at each step (module docstring).
+    def pcrb_covariance(self, case: str) -> Array:
+        """Return the posterior CRB of ``case`` at each step (module docstring), SI.
 
         Parameters
         ----------
         case : str
             A case of the study (:attr:`cases`).
-        weights : ndarray, shape (B, runs), optional
-            Weights over the runs, one recursion per row (default: equal weights).
 
         Returns
         -------
-        ndarray, shape (D,) or (B, D)
-            Position RMS bound, m.
+        ndarray, shape (D, n, n)
+            The bound on the mean-square error matrix of the state.
 
         Raises
         ------
         ValueError
-            For a case the study does not have, or one run without its setup.
+            For a case the study does not have, or without its setup.
         """
         if case not in self.setups:
             raise ValueError(f"the study holds no setup of case {case!r}: no bound")
         s = self.setups[case]
         return pcrb_over_runs(self.stack(case, "information"), self.times(case),
                               s.prior_covariance, NearlyConstantVelocity(s.dim, s.q),
-                              s.platform.time, weights)
+                              s.platform.time)
 
-    def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
-        """Return the final RMSE over the posterior CRB with its bootstrap interval.
+    def pcrb(self, case: str) -> Array:
+        """Return the posterior CRB of the position at each step (D,), m.
 
-        The runs are resampled with replacement :data:`RESAMPLES` times (seeded by the
-        study's seed); each resample's RMSE and bound are made from the same runs.  With
-        fewer than :data:`MIN_RUNS_INTERVAL` runs there is no interval (None).
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            ``sqrt(trace)`` of the position block of :meth:`pcrb_covariance`.
+        """
+        cov = self.pcrb_covariance(case)
+        d = cov.shape[-1] // 2
+        return np.sqrt(np.clip(np.einsum("kii->k", cov[:, :d, :d]), 0.0, None))
+
+    def efficiency(self, case: str, level: float = 0.95) -> dict[str, float]:
+        """Return the final RMSE over the posterior CRB with its Monte Carlo interval.
+
+        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (the runs' summed
+        squared errors as a scaled chi-square).
 
         Parameters
         ----------
@@ -331,26 +343,18 @@ class ClosedLoopStudy:
         -------
         dict
             ``final_pcrb_m`` (m), ``rmse_over_pcrb`` and its interval ``rmse_over_pcrb_low``,
-            ``rmse_over_pcrb_high`` (None with too few runs).
+            ``rmse_over_pcrb_high``.
         """
-        if (case, level) in self._efficiency:
-            return dict(self._efficiency[case, level])
-        err = self.stack(case, "error_m")[:, -1]
-        r = err.shape[0]
-        bound = float(self.pcrb(case)[-1])
-        found: dict[str, float | None] = {
-            "final_pcrb_m": bound, "rmse_over_pcrb": float(self.rmse(case)[-1]) / bound,
-            "rmse_over_pcrb_low": None, "rmse_over_pcrb_high": None}
-        if r >= MIN_RUNS_INTERVAL:
-            rng = np.random.default_rng([0 if self.seed is None else self.seed, r])
-            w = rng.multinomial(r, np.full(r, 1.0 / r), size=RESAMPLES) / r
-            boot = np.sqrt(w @ err**2) / self.pcrb(case, w)[:, -1]
-            lo, hi = np.quantile(boot, [(1 - level) / 2, (1 + level) / 2])
-            found["rmse_over_pcrb_low"], found["rmse_over_pcrb_high"] = float(lo), float(hi)
-        self._efficiency[case, level] = found
-        return dict(found)
+        if (case, level) not in self._efficiency:
+            cov = self.pcrb_covariance(case)[-1]
+            p = cov[:cov.shape[-1] // 2, :cov.shape[-1] // 2]
+            ratio, low, high = ratio_interval(self.stack(case, "error_m")[:, -1], p, level)
+            self._efficiency[case, level] = {
+                "final_pcrb_m": float(np.sqrt(np.trace(p))), "rmse_over_pcrb": ratio,
+                "rmse_over_pcrb_low": low, "rmse_over_pcrb_high": high}
+        return dict(self._efficiency[case, level])
 
-    def summary(self, case: str) -> dict[str, float | int | None]:
+    def summary(self, case: str) -> dict[str, float | int]:
         """Return the case's key figures.
 
         Parameters
