@@ -150,7 +150,7 @@ def test_study_is_the_same_local_chunked_and_run_by_run():
     assert set(s) == {"final_rmse_m", "final_pcrb_m", "rmse_over_pcrb", "rmse_over_pcrb_low",
                       "rmse_over_pcrb_high", "final_criterion_m", "min_range_m",
                       "mean_decision_ms", "runs"} and s["runs"] == 3
-    assert s["rmse_over_pcrb_low"] < s["rmse_over_pcrb"] < s["rmse_over_pcrb_high"]
+    assert s["rmse_over_pcrb_low"] is None     # no interval from 3 runs
 
 
 def test_per_step_table_round_trips_through_parquet_chunk_by_chunk(tmp_path):

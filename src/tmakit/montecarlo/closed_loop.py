@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from ..arrays import Array
-from ..bounds.pcrb_runs import pcrb_over_runs, ratio_interval
+from ..bounds.pcrb_runs import MIN_RUNS, pcrb_over_runs, ratio_interval
 from ..motion.dynamics import NearlyConstantVelocity
 from ..planning.closed_loop import LoopRecord, LoopSetup, Policy, run_closed_loop
 from ..planning.measurement_plan import SensorPlan
@@ -50,9 +50,8 @@ __all__ = ["ClosedLoopStudy", "LoopCase", "LoopChunk", "LoopTask", "closed_loop_
 
 #: Runs per chunk in this process (a chunk's records are kept until the study ends).
 LOOP_RUNS_PER_CHUNK = 5
-#: Fewest runs for a bootstrap interval (with fewer the resamples repeat a few runs and the
-#: interval means nothing).
-MIN_RUNS_INTERVAL = 10
+#: Fewest runs for an interval (:data:`tmakit.bounds.pcrb_runs.MIN_RUNS`).
+MIN_RUNS_INTERVAL = MIN_RUNS
 
 
 @dataclass(frozen=True, eq=False)
@@ -172,7 +171,7 @@ class ClosedLoopStudy:
     seed: int | None
     wall_s: float = 0.0
     setups: dict[str, LoopSetup] = field(default_factory=dict)
-    _efficiency: dict[tuple[str, float], dict[str, float]] = field(
+    _efficiency: dict[tuple[str, float], dict[str, float | None]] = field(
         default_factory=dict, init=False, repr=False, compare=False)
 
     @property
@@ -326,11 +325,11 @@ class ClosedLoopStudy:
         d = cov.shape[-1] // 2
         return np.sqrt(np.clip(np.einsum("kii->k", cov[:, :d, :d]), 0.0, None))
 
-    def efficiency(self, case: str, level: float = 0.95) -> dict[str, float]:
+    def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
         """Return the final RMSE over the posterior CRB with its Monte Carlo interval.
 
-        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (the runs' summed
-        squared errors as a scaled chi-square).
+        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (a chi-square and a
+        bootstrap over the runs; None under ``MIN_RUNS`` runs).
 
         Parameters
         ----------
@@ -343,18 +342,19 @@ class ClosedLoopStudy:
         -------
         dict
             ``final_pcrb_m`` (m), ``rmse_over_pcrb`` and its interval ``rmse_over_pcrb_low``,
-            ``rmse_over_pcrb_high``.
+            ``rmse_over_pcrb_high`` (None under ``MIN_RUNS`` runs).
         """
         if (case, level) not in self._efficiency:
             cov = self.pcrb_covariance(case)[-1]
             p = cov[:cov.shape[-1] // 2, :cov.shape[-1] // 2]
-            ratio, low, high = ratio_interval(self.stack(case, "error_m")[:, -1], p, level)
+            ratio, low, high = ratio_interval(self.stack(case, "error_m")[:, -1], p, level,
+                                              0 if self.seed is None else self.seed)
             self._efficiency[case, level] = {
                 "final_pcrb_m": float(np.sqrt(np.trace(p))), "rmse_over_pcrb": ratio,
                 "rmse_over_pcrb_low": low, "rmse_over_pcrb_high": high}
         return dict(self._efficiency[case, level])
 
-    def summary(self, case: str) -> dict[str, float | int]:
+    def summary(self, case: str) -> dict[str, float | int | None]:
         """Return the case's key figures.
 
         Parameters

@@ -357,8 +357,8 @@ BOUND_NOTE = (
     "1998; Gamma the mean over the runs of the information at the truth and the flown radar "
     "state, with the tracker's prior and process noise), which no tracker of the same model "
     "beats on average. RMSE/bound: final position RMSE over the bound, with its 95 % "
-    "Monte Carlo interval (the runs' squared errors as a scaled chi-square; below 1 beyond "
-    "it would mean the bound and the tracker differ). Planning criterion: the bound "
+    "Monte Carlo interval (a chi-square and a bootstrap over the runs; none under 10 runs; "
+    "below 1 beyond it would mean the bound and the tracker differ). Planning criterion: the bound "
     "the planner believed along its path (Gamma over the tracker's particles, RMS over "
     "runs); not a bound. Min range: true range over every run and pulse.")
 
@@ -366,7 +366,8 @@ BOUND_NOTE = (
 def _row(case: str, s: dict[str, Any]) -> list[object]:
     return [case, round(s["final_rmse_m"], 3), round(s["final_pcrb_m"], 3),
             round(s["rmse_over_pcrb"], 3),
-            f"{s['rmse_over_pcrb_low']:.3f}-{s['rmse_over_pcrb_high']:.3f}",
+            "-" if s["rmse_over_pcrb_low"] is None
+            else f"{s['rmse_over_pcrb_low']:.3f}-{s['rmse_over_pcrb_high']:.3f}",
             round(s["final_criterion_m"], 3), round(s["min_range_m"], 1),
             round(s["mean_decision_ms"], 3), s["runs"]]
 
