@@ -67,7 +67,9 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
     t = np.linspace(meas.time.min(), meas.time.max(), 200)
     states = result.motion.states(result.estimate, t)
     xs, ys = frame.xy(states[:, 0], states[:, 1])
-    ax.plot(xs, ys, color="tab:red", lw=2.0, label=f"estimate ({result.status})", zorder=4)
+    several = f", solution 1 of {len(result.solutions)}" if len(result.solutions) > 1 else ""
+    ax.plot(xs, ys, color="tab:red", lw=2.0, label=f"estimate ({result.status}{several})",
+            zorder=4)
     for tk in np.linspace(meas.time.min(), meas.time.max(), n_labels):
         a = estimate_answer(result, meas, time=float(tk), level=level)
         s = result.motion.states(result.estimate, np.array([tk]))[0]
@@ -105,6 +107,32 @@ def _no_track_words(result: EstimateResult) -> str:
     if result.bound is not None:
         why += [d.sentence for d in result.bound.observability.directions]
     return "\n".join(textwrap.fill(w, 70) for w in why)
+#: Colours of the separated solutions after the first (which is drawn in red).
+SOLUTION_COLOURS = ("tab:purple", "tab:green", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
+
+
+def _draw_other_solutions(ax: Any, result: EstimateResult, meas: MeasurementSet,
+                          frame: MapFrame, level: float) -> float:
+    """Draw each separated solution after the first: its track and its ellipse at the end.
+
+    Give the largest semi-axis drawn (0 when the fit is the only solution).
+    """
+    largest = 0.0
+    t = np.linspace(meas.time.min(), meas.time.max(), 200)
+    for k, sol in enumerate(result.solutions[1:]):
+        colour = SOLUTION_COLOURS[k % len(SOLUTION_COLOURS)]
+        states = sol.result.motion.states(sol.result.estimate, t)
+        xs, ys = frame.xy(states[:, 0], states[:, 1])
+        ax.plot(xs, ys, "--", color=colour, lw=1.6, zorder=4,
+                label=f"solution {sol.rank}: {sol.result.motion.name}, χ² "
+                      f"{sol.result.chi2:.3g} (p {sol.p_value:.2g})")
+        a = sol.answer(meas, time=float(t[-1]), level=level)
+        ax.plot(*frame.xy(states[-1:, 0], states[-1:, 1]), "o", color=colour, ms=4, zorder=5)
+        if a.ellipse is not None and np.all(np.isfinite(a.covariance[:2, :2])):
+            pts = _ellipse(a.covariance[:2, :2], level) + states[-1, :2]
+            ax.plot(*frame.xy(pts[:, 0], pts[:, 1]), color=colour, lw=0.9, zorder=4)
+            largest = max(largest, a.ellipse.semi_major)
+    return largest
 
 
 def _ellipse_legend(ax: Any, frame: MapFrame, level: float, largest: float) -> None:
@@ -149,6 +177,8 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
         xs, ys = frame.xy(truth[:, 0], truth[:, 1])
         ax.plot(xs, ys, "--", color="0.35", lw=1.2, label="truth (file metadata)", zorder=2)
     largest = _draw_solution(ax, result, meas, frame, n_labels, level) if finite else 0.0
+    if finite:
+        largest = max(largest, _draw_other_solutions(ax, result, meas, frame, level))
     ax.autoscale()
     _fill_panel(ax, frame)
     ax.set_aspect(frame.aspect(), adjustable="box")
@@ -279,5 +309,7 @@ def _answer_line(a: Any, result: EstimateResult, units: str = "si") -> str:
                      "true")
     if result.dof > 0:
         parts.append(f"χ²/dof {result.chi2 / result.dof:.2f}")
+    if len(result.solutions) > 1:
+        parts.append(f"{len(result.solutions)} separated solutions fit about as well: all drawn")
     half = (len(parts) + 1) // 2
     return (parts[0] + ": " + ", ".join(parts[1:half]) + "\n" + ", ".join(parts[half:]))

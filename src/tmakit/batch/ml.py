@@ -14,17 +14,19 @@ module imports neither.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.stats import chi2 as chi2_dist
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..results.estimate import EstimateResult, assemble_result
-from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
+from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
+from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
 from .estimator import BatchEstimator, Init, Options
 from .init import GridSettings
 from .mirror import mirror_plane, prefer_above
@@ -154,16 +156,18 @@ class MaximumLikelihood(BatchEstimator):
         bests = self._solve(problem, ys, theta0)
         jacobians = _jacobians(problem.obs, bests)
         out: list[EstimateResult | Exception] = []
-        for best in bests:
+        for meas, best in zip(sets, bests, strict=True):
             if isinstance(best, Exception):
                 out.append(best)
                 continue
             try:
-                out.append(assemble_result(problem.obs, problem.noise, best.theta,
-                                           best.nuisance, best.cost, best.iterations,
-                                           best.converged, self.name, best.starts, known,
-                                           best.note, jacobian=jacobians.get(id(best)),
-                                           information=best.information))
+                res = assemble_result(problem.obs, problem.noise, best.theta, best.nuisance,
+                                      best.cost, best.iterations, best.converged, self.name,
+                                      best.starts, known, best.note,
+                                      jacobian=jacobians.get(id(best)),
+                                      information=best.information)
+                res.solutions = _solutions(problem, res, best, known, meas)
+                out.append(res)
             except FIT_ERRORS as e:  # pragma: no cover - the bound of a finite fit
                 out.append(e)
         return out
@@ -196,6 +200,32 @@ class MaximumLikelihood(BatchEstimator):
             found = [self._solve(problem, ys[i:i + 1], None)[0] for i in range(ys.shape[0])]
         return [ValueError("no starting point gives finite predictions; check the data")
                 if b is None else b for b in found]
+
+
+def _solutions(problem: VarProProblem, res: EstimateResult, best: Best,
+               known: KnownNuisance | None, meas: MeasurementSet) -> list[Solution]:
+    """Give the separated solutions among the starts' other ends (empty: ``res`` alone).
+
+    Ends whose chi2 fails the likelihood-ratio test against ``res`` are left out before any
+    result is made for them, and so are ends within 1e-6 (relative) of one already taken.
+    """
+    if not res.converged or not best.others:
+        return []
+    limit = float(chi2_dist.isf(SOLUTION_ALPHA, max(res.bound.rank if res.bound else 1, 1)))
+    taken = [best.theta]
+    candidates = []
+    for theta, nu, cost in sorted(best.others, key=lambda e: e[2]):
+        if 2.0 * (cost - best.cost) > limit:
+            break
+        scale = np.maximum(np.abs(theta), 1.0)
+        if any(np.all(np.abs(theta - t) <= 1e-6 * scale) for t in taken):
+            continue
+        taken.append(theta)
+        alt = assemble_result(problem.obs, problem.noise, theta, nu, cost, 0, True, res.method,
+                              best.starts, known)
+        candidates.append(alt)
+    found = separated_solutions(res, candidates, meas) if candidates else []
+    return found if len(found) > 1 else []
 
 
 def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
@@ -313,6 +343,9 @@ class Best:
     information : ndarray, shape (p, p), optional
         The Fisher information at ``theta`` from the solve's last evaluation
         (:func:`~tmakit.batch.solver.information_of`), when it has it.
+    others : list of tuple, optional
+        The other converged ends of the starts solved for the data set, ``(theta, nuisance,
+        cost)``: the candidates of :func:`~tmakit.results.solutions.separated_solutions`.
     """
 
     theta: NDArray[np.float64]
@@ -323,6 +356,12 @@ class Best:
     starts: int
     note: str = ""
     information: NDArray[np.float64] | None = None
+    others: list[tuple[NDArray[np.float64], NDArray[np.float64], float]] = field(
+        default_factory=list)
+
+    def end(self) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        """Give this fit as ``(theta, nuisance, cost)``, one of the ends :attr:`others` lists."""
+        return self.theta.copy(), self.nuisance.copy(), self.cost
 
 
 def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
@@ -384,13 +423,21 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
             cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
             i = rows[int(np.argmin(cost))]
             used = rows.size + (best[r].starts if best[r] is not None else 0)
+            ends = [(sol.theta[j].copy(), sol.nuisance[j].copy(), float(sol.cost[j]))
+                    for j in rows if j != i and sol.converged[j] and np.isfinite(sol.cost[j])]
             if best[r] is None or sol.cost[i] < best[r].cost:
+                seen = [] if best[r] is None else [*best[r].others, best[r].end()]
                 best[r] = Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
                                int(sol.iterations[i]), bool(sol.converged[i]), used,
                                information=information_of(problem, sol.evaluation, i,
-                                                           sol.information))
+                                                           sol.information),
+                               others=seen + ends)
             else:
                 best[r].starts = used
+                best[r].others += ends
+                if sol.converged[i]:
+                    best[r].others.append((sol.theta[i].copy(), sol.nuisance[i].copy(),
+                                           float(sol.cost[i])))
 
     def unsettled() -> list[int]:
         return [r for r in range(b) if best[r] is None or not (
@@ -414,6 +461,8 @@ def _prefer_above(problem: VarProProblem, best: list[Best | None]) -> None:
         return
     for fit in best:
         if fit is not None:
+            fit.others = [(prefer_above(problem.obs.motion, t, plane)[0], nu, c)
+                          for t, nu, c in fit.others]  # a mirror image is no other solution
             theta, fit.note = prefer_above(problem.obs.motion, fit.theta, plane)
             if not np.array_equal(theta, fit.theta):  # mirrored: the information is not
                 fit.information = None                # the one at the new point

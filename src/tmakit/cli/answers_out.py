@@ -264,6 +264,56 @@ def print_answers(a: Any, units: str, meas: Any = None, title: str | None = None
         out.print(frame, highlight=False)
 
 
+def print_solutions(result: Any, meas: Any, units: str) -> None:
+    """Print the separated solutions, ranked, each with its chi2, test and answers.
+
+    Nothing when the fit is the only solution (:attr:`EstimateResult.solutions` empty).
+
+    Parameters
+    ----------
+    result : tmakit.results.EstimateResult
+        The estimate.
+    meas : tmakit.data.MeasurementSet
+        The measurements fitted (the answers are at their last time).
+    units : str
+        ``si`` or ``nautical``.
+    """
+    if len(result.solutions) < 2:
+        return
+    from rich.table import Table
+
+    sp_unit, sp = SPEED_UNITS[units]
+    rg_unit, rg = RANGE_UNITS[units]
+    first = result.solutions[0].answer(meas)
+    table = Table(title=f"{len(result.solutions)} separated solutions at t = {first.time:g} s"
+                  + (f" ({first.clock})" if first.clock else "")
+                  + ": each fits the data about as well as the first", title_justify="left")
+    for col in ("#", "motion", "chi2", "LR", "p", "east m", "north m", "course deg",
+                f"speed {sp_unit}", f"range {rg_unit}", "bearing deg", "95% ellipse m"):
+        table.add_column(col, justify="left" if col in ("#", "motion") else "right")
+    for sol in result.solutions:
+        a = sol.answer(meas)
+
+        def pm(v: float | None, s: float | None, fmt: str, scale: float = 1.0) -> str:
+            return ("unobservable" if v is None
+                    else f"{v / scale:{fmt}} ± {_num(s, '.2g', scale)}")
+
+        e = a.ellipse
+        table.add_row(str(sol.rank), sol.result.motion.name, f"{sol.result.chi2:.4g}",
+                      f"{sol.lr_statistic:.3g}", f"{sol.p_value:.2g}",
+                      pm(a.enu[0], a.enu_std[0], ".0f"), pm(a.enu[1], a.enu_std[1], ".0f"),
+                      pm(a.course_deg, a.course_std_deg, ".1f") if not a.stationary else "-",
+                      pm(a.speed, a.speed_std, ".3g", sp) if not a.stationary else "-",
+                      pm(a.range_m, a.range_std, ".4g", rg),
+                      _num(a.bearing_deg, ".1f"),
+                      "unobservable" if e is None
+                      else f"{e.semi_major:.4g} x {e.semi_minor:.4g}")
+    print_wide(table)
+    out.print("solutions: LR = chi2 - chi2 of the first (0 when lower); p = P(chi2 with the "
+              "first fit's unknowns as degrees of freedom >= LR); the truth may lie in any "
+              "of their ellipses", highlight=False)
+
+
 def print_warnings(warnings: list[Any]) -> None:
     """Print each sanity warning on standard error as ``warning: ...``.
 

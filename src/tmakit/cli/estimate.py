@@ -18,6 +18,7 @@ from .answers_out import (
     check_units,
     parse_time,
     print_answers,
+    print_solutions,
     print_warnings,
     select_window,
 )
@@ -415,6 +416,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         data["warnings"] = [w.as_dict() for w in warnings]
         data["sigma_scale"] = factors
         data["height"] = result.extra.get("height")
+        data["solutions"] = [s.as_dict(meas) for s in result.ranked_solutions()]
         out.print_json(json.dumps(data))
     else:
         out.print(result.summary(units), highlight=False)
@@ -432,6 +434,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                                              f"{'s' if len(trust.reasons) > 1 else ''}: "
                                              + ", ".join(r.code for r in trust.reasons) + ")"),
                   highlight=False)
+        print_solutions(result, meas, units)
     print_warnings(warnings)
     if plot is not None and plot[0] is not None:
         draw_solution(meas, result, answer, plot, err if as_json else out, units)

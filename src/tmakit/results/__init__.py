@@ -26,6 +26,7 @@ from .estimate import (
 )
 from .nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from .observability import Direction, Observability, analyse
+from .solutions import Solution, separated_solutions
 from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, trust_of
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "KnownNuisanceLike",
     "Observability",
     "SanityWarning",
+    "Solution",
     "Trust",
     "analyse",
     "answer_from_state",
@@ -60,6 +62,7 @@ __all__ = [
     "normalised_residuals",
     "result_from_covariance",
     "scale_sigma",
+    "separated_solutions",
     "track_answer",
     "trust_of",
 ]

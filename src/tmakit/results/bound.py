@@ -229,8 +229,10 @@ class Bound:
         speed = float(np.linalg.norm(v))
 
         def std_of(grad6: NDArray[np.float64]) -> float:
-            return float(np.sqrt(grad6 @ cov @ grad6)) if np.all(
-                np.isfinite(cov[np.ix_(grad6 != 0, grad6 != 0)])) else float("inf")
+            if not np.all(np.isfinite(cov[np.ix_(grad6 != 0, grad6 != 0)])):
+                return float("inf")
+            var = float(grad6 @ cov @ grad6)  # below 0 only by rounding: not a number then
+            return float(np.sqrt(var)) if var >= 0.0 else float("nan")
 
         if speed > 0:
             g = np.zeros(6)

@@ -15,6 +15,9 @@ The rules, stated once:
 * **radians** (``radians``): every value of an angle kind whose file unit is degrees (bearing,
   elevation) lies within ``[-2 pi, 2 pi]`` — at least :data:`RADIAN_MIN_ROWS` rows, spread over
   less than ``4 pi`` — which is what angles written in radians look like;
+* **several solutions** (``several-solutions``): the search found separated fits that explain
+  the data about as well as the reported one (:mod:`tmakit.results.solutions`): one fit's std
+  is not the whole uncertainty;
 * **far from the origin** (``far-sensor``, ``far-estimate``): a sensor more than
   :data:`FAR_FROM_ORIGIN` metres from the ENU origin (the flat local frame then departs from the
   Earth: the ground drops ``d^2 / 2R``, 785 m at 100 km, and North turns by the meridians'
@@ -29,6 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -63,8 +67,8 @@ class SanityWarning:
     Parameters
     ----------
     code : str
-        ``improbable-chi2``, ``chi2-too-small``, ``radians``, ``far-sensor``, ``far-estimate``
-        or ``implausible-speed``.
+        ``improbable-chi2``, ``chi2-too-small``, ``several-solutions``, ``radians``,
+        ``far-sensor``, ``far-estimate`` or ``implausible-speed``.
     message : str
         The sentence for the user: what was seen, the rule, and what to do.
     """
@@ -274,6 +278,33 @@ def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSe
         "determine it (bearings in the wrong unit, too little geometry)")
 
 
+def solutions_warning(solutions: list[Any]) -> SanityWarning | None:
+    """Warn that separated solutions fit the data about as well as the reported one.
+
+    Parameters
+    ----------
+    solutions : list of Solution
+        The reported solutions (:attr:`EstimateResult.solutions`), the reported fit first.
+
+    Returns
+    -------
+    SanityWarning or None
+        The warning when there are two or more, naming their chi2 and test; else None.
+    """
+    if len(solutions) < 2:
+        return None
+    best = solutions[0].result
+    others = "; ".join(f"#{s.rank}: chi2 = {s.result.chi2:.4g}, LR = {s.lr_statistic:.3g}, "
+                       f"p = {s.p_value:.2g}" for s in solutions[1:])
+    return SanityWarning(
+        "several-solutions",
+        f"{len(solutions)} separated solutions fit the data about equally well (the reported "
+        f"one: chi2 = {best.chi2:.4g}; {others}; kept when the likelihood-ratio test against "
+        "the reported fit gives p >= 0.05): the reported std describe one of them, not the "
+        "whole uncertainty. All are listed (table 'solutions', JSON 'solutions') and drawn "
+        "(--plot); more bearings after an own-ship manoeuvre would tell them apart")
+
+
 def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     """Return every warning about a batch estimate and its measurements.
 
@@ -288,13 +319,16 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     -------
     list of SanityWarning
         Improbable chi-square (either tail), radians, far sensors, far estimate, implausible
-        speed; empty when all is well.
+        speed, several solutions; empty when all is well.
     """
     found = measurement_warnings(meas)
     chi2, dof = float(result.chi2), int(result.dof)  # type: ignore[attr-defined]
     for w in (chi2_warning(chi2, dof), chi2_low_warning(chi2, dof)):
         if w is not None:
             found.append(w)
+    several = solutions_warning(getattr(result, "solutions", []))
+    if several is not None:
+        found.append(several)
     theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
     if np.all(np.isfinite(theta)) and len(meas):
         motion = result.motion  # type: ignore[attr-defined]

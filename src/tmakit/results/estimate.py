@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .. import blas
 from ..data import MeasurementSet
@@ -31,6 +31,7 @@ from .answers import ELLIPSE_LEVEL, KNOT, Answer, estimate_answer, parameter_dis
 from .bound import Bound, bound_from_information
 from .checks import SanityWarning, fit_warnings
 from .nuisance import KnownNuisance, as_known_nuisance
+from .solutions import Solution
 from .trust import Trust, trust_of
 
 CONVERGED = "converged"
@@ -75,6 +76,9 @@ class EstimateResult:
         What the user should know: why not converged, what is unobservable, how it started.
     extra : dict, optional
         Method-specific diagnostics (condition numbers, update norms, ...).
+    solutions : list of Solution, optional
+        When the search found separated fits that explain the data about as well
+        (:mod:`tmakit.results.solutions`): all of them, this one first; empty otherwise.
     """
 
     parameters: tuple[str, ...]
@@ -92,11 +96,48 @@ class EstimateResult:
     starts: int = 1
     message: str = ""
     extra: dict[str, object] = field(default_factory=dict)
+    solutions: list[Solution] = field(default_factory=list, repr=False, compare=False)
 
     @property
     def converged(self) -> bool:
         """Whether the status is ``converged``."""
         return self.status == CONVERGED
+
+    def ranked_solutions(self) -> list[Solution]:
+        """Return the solutions reported, this fit first (itself alone when it is the only one).
+
+        Returns
+        -------
+        list of Solution
+            :attr:`solutions`, or this fit as the one solution.
+        """
+        return self.solutions or [Solution(self, 1, 0.0, 1.0)]
+
+    def region_contains(self, position: ArrayLike, meas: MeasurementSet | None = None,
+                        time: float | None = None, level: float = ELLIPSE_LEVEL) -> bool:
+        """Tell whether a horizontal position lies inside the reported region.
+
+        The region is the union of the position ellipses of every reported solution
+        (:meth:`ranked_solutions`) at ``time``.
+
+        Parameters
+        ----------
+        position : array_like
+            East, North (m).
+        meas : MeasurementSet, optional
+            The measurements fitted (the default time is their last).
+        time : float, optional
+            Time (s) of the ellipses.
+        level : float
+            Probability inside each ellipse (default 0.95).
+
+        Returns
+        -------
+        bool
+            True when inside at least one solution's ellipse.
+        """
+        return any(s.region_contains(position, meas, time, level)
+                   for s in self.ranked_solutions())
 
     def as_dict(self) -> dict[str, object]:
         """Return the JSON form.
@@ -130,6 +171,7 @@ class EstimateResult:
             "message": self.message,
             "unobservable": ([d.as_dict() for d in self.bound.observability.directions]
                              if self.bound is not None else []),
+            "solutions": [s.as_dict() for s in self.ranked_solutions()],
         }
         if not answer:
             data["last_iterate"] = [num(v) for v in self.estimate]
@@ -225,6 +267,10 @@ class EstimateResult:
                  + (f" (chi2/dof = {self.chi2 / self.dof:.3f})" if self.dof > 0 else "")]
         if self.message:
             lines.append(self.message)
+        if len(self.solutions) > 1:
+            lines.append(f"{len(self.solutions)} separated solutions fit the data about "
+                         "equally well; this is the first: its std are not the whole "
+                         "uncertainty (see the solutions)")
         ref = _reference_time(self.motion)
         if ref is not None:  # (what x, y, ... are at: the time origin the fit chose or was given)
             lines.append(f"parameters at the motion's reference time t = {ref:.15g} s")

@@ -18,10 +18,11 @@ from ...data import MeasurementSet
 from ...motion import PiecewiseCurvilinear, default_ref_time, motion_from_name
 from ...results.estimate import EstimateResult
 from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
+from ...results.solutions import Solution, separated_solutions
 from .report import ManoeuvreEstimate, report
 from .search import ManoeuvreSearch
-from .selection import select_order, sparsify
-from .settings import ManoeuvreSettings
+from .selection import OrderSelection, select_order, sparsify, unknown_price
+from .settings import ManoeuvreSettings, OrderFit
 
 
 def _fit_from_start(search: ManoeuvreSearch, ref: float,
@@ -47,6 +48,25 @@ def _fit_from_start(search: ManoeuvreSearch, ref: float,
     if s.accelerations == "select":
         fit = sparsify(search, fit)
     return report(search, fit, ref, None, [fit])
+
+
+def solutions_of(search: ManoeuvreSearch, res: ManoeuvreEstimate, others: list[OrderFit],
+                 ref: float, selection: OrderSelection | None, fits: list[OrderFit]
+                 ) -> list[Solution]:
+    """Give the separated solutions among the search's fits (empty when ``res`` is the one).
+
+    Every order's fit, with its accelerations selected and with all of them fitted, is a
+    candidate; :func:`~tmakit.results.solutions.separated_solutions` keeps those that fit
+    about as well as ``res``, each unknown charged the price the order criterion charges
+    (:func:`~.selection.unknown_price`), and lie apart from it.
+    """
+    if not res.converged:
+        return []
+    alternatives = [report(search, f, ref, selection, fits) for f in others
+                    if np.isfinite(f.chi2)]
+    found = separated_solutions(res, alternatives, search.meas,
+                                price=unknown_price(search.s, search.problem(0).noise.rank))
+    return found if len(found) > 1 else []
 
 
 def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
@@ -77,6 +97,8 @@ def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
         selection = select_order(fits, n, s.criterion, s.alpha)
         chosen = fits[selection.chosen]
     res = report(search, chosen, ref, selection, fits)
+    others = [f for f in (*fits, *full) if f is not chosen]
+    res.solutions = solutions_of(search, res, others, ref, selection, fits)
     if selection is not None and top and selection.chosen == top == s.max_manoeuvres:
         more = (f"the largest number of manoeuvres tried ({top}) was chosen: more may fit "
                 f"better (try curvilinear:{top + 1})")

@@ -163,6 +163,24 @@ def fit_criterion(s: ManoeuvreSettings) -> str:
             f"{1 - s.alpha:g}")
 
 
+def unknown_price(s: ManoeuvreSettings, n: int) -> float:
+    """Give what one unknown must lower chi2 by to be kept, by the settings' criterion.
+
+    Parameters
+    ----------
+    s : ManoeuvreSettings
+        The settings (criterion and level).
+    n : int
+        ``N``, the number of independent measurements.
+
+    Returns
+    -------
+    float
+        ``ln N`` for BIC, the chi-square(1) quantile ``1 - alpha`` for the tests.
+    """
+    return math.log(n) if s.criterion == "bic" else float(chi2_dist.ppf(1.0 - s.alpha, 1))
+
+
 def may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:
     """Whether acceleration ``i`` may be held at zero.
 
@@ -295,7 +313,7 @@ def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
         return fit
     s = search.s
     n = search.problem(m).noise.rank
-    price = (math.log(n) if s.criterion == "bic" else float(chi2_dist.ppf(1.0 - s.alpha, 1)))
+    price = unknown_price(s, n)
     free = fit.free_mask().copy()
     current, held = fit, False
     while True:

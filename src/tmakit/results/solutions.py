@@ -1,0 +1,232 @@
+"""Separated solutions: the fits that explain the data about as well as the one reported.
+
+A search started from many points (the order search of a manoeuvring target, its profile
+minima) ends in several fits.  When some of them lie far apart and fit the data about equally
+well, reporting one with its linearised std would be confidently wrong: the std describes the
+curvature of the likelihood at one minimum, not the other minima.  The rule, stated once:
+
+* **The test.**  A fit ``k`` is kept when the likelihood-ratio statistic against the reported
+  fit, ``Λ_k = (χ²_k + c u_k) − (χ²_best + c u_best)`` (at least 0), has
+  ``p_k = P(χ²_d ≥ Λ_k) ≥ alpha`` (default 0.05), with ``u`` the fits' unknowns, ``d`` the
+  reported fit's and ``c`` the price of one unknown.  With ``c = 0`` (fits of one model) ``k``
+  lies inside the likelihood-ratio confidence region of the reported fit at level
+  ``1 − alpha`` (Wilks' theorem).  Fits of other models (the orders of a manoeuvre search,
+  with more or fewer accelerations) are charged the price their search charges (``ln N`` for
+  BIC): a larger model whose lower χ² does not pay for its unknowns is not another solution
+  for that alone, and a smaller one need not match the reported χ².
+* **Separated.**  Two fits are the same solution when their states at the answer time
+  (position and velocity, East/North) differ by a squared Mahalanobis distance of at most the
+  chi-square(4) quantile ``1 − alpha`` under *each* one's covariance: each lies inside the
+  other's region, so the better-ranked one stands for both without losing any of it.
+* **The ranking.**  The reported fit first, then the others by ``Λ`` (by χ² for one model).
+
+The **reported region** at a confidence level is the union of the solutions' position
+ellipses at that level (:meth:`Solution.region_contains`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.stats import chi2 as chi2_dist
+
+from ..data import MeasurementSet
+from .answers import ELLIPSE_LEVEL, Answer, estimate_answer
+
+if TYPE_CHECKING:
+    from .estimate import EstimateResult
+
+SOLUTION_ALPHA = 0.05
+"""Level of the likelihood-ratio test that keeps a separated solution."""
+
+
+@dataclass(eq=False)
+class Solution:
+    """One of the solutions that fit the data about equally well.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        The fit (its estimate, covariance, chi2, motion model).
+    rank : int
+        1 for the reported fit, then by the test's statistic.
+    lr_statistic : float
+        ``Λ_k``, the test's statistic (:mod:`tmakit.results.solutions`), at least 0.
+    p_value : float
+        ``P(χ²_d ≥ lr_statistic)``, ``d`` the reported fit's unknowns (1 for the reported fit).
+    """
+
+    result: EstimateResult
+    rank: int
+    lr_statistic: float
+    p_value: float
+
+    def answer(self, meas: MeasurementSet | None = None, time: float | None = None,
+               sensor: str | None = None, level: float = ELLIPSE_LEVEL) -> Answer:
+        """Return this solution in the user's terms (:meth:`EstimateResult.answer`).
+
+        Parameters
+        ----------
+        meas : MeasurementSet, optional
+            The measurements fitted.
+        time : float, optional
+            Time (s); default the last measurement time.
+        sensor : str, optional
+            Sensor for range and bearing.
+        level : float
+            Probability inside the position ellipse.
+
+        Returns
+        -------
+        Answer
+            Position, course, speed, range and bearing with their std, and the ellipse.
+        """
+        return estimate_answer(self.result, meas, time, sensor, level)
+
+    def region_contains(self, position: ArrayLike, meas: MeasurementSet | None = None,
+                        time: float | None = None, level: float = ELLIPSE_LEVEL) -> bool:
+        """Tell whether a horizontal position lies inside this solution's position ellipse.
+
+        Parameters
+        ----------
+        position : array_like
+            East, North (m).
+        meas : MeasurementSet, optional
+            The measurements fitted (the default time is their last).
+        time : float, optional
+            Time (s) of the ellipse.
+        level : float
+            Probability inside the ellipse (default 0.95).
+
+        Returns
+        -------
+        bool
+            True when the squared Mahalanobis distance is at most the chi-square(2) quantile;
+            False for a position that is unobservable or not finite.
+        """
+        a = self.answer(meas, time, level=level)
+        if a.enu[0] is None or a.enu[1] is None:
+            return False
+        d = np.asarray(position, dtype=float)[:2] - np.array([a.enu[0], a.enu[1]])
+        cov = a.covariance[:2, :2]
+        if not np.all(np.isfinite(cov)) or not np.all(np.isfinite(d)):
+            return False
+        try:
+            m2 = float(d @ np.linalg.solve(cov, d))
+        except np.linalg.LinAlgError:
+            return False
+        return m2 <= float(chi2_dist.ppf(level, 2))
+
+    def as_dict(self, meas: MeasurementSet | None = None) -> dict[str, object]:
+        """Return the JSON form: rank, chi2, the test, estimate, covariance, answers.
+
+        Parameters
+        ----------
+        meas : MeasurementSet, optional
+            The measurements fitted; with them the answers at the last measurement time.
+
+        Returns
+        -------
+        dict
+            ``rank``, ``chi2``, ``dof``, ``lr_statistic``, ``p_value``, ``status``, ``motion``,
+            ``parameters``, ``estimate``, ``std``, ``covariance`` (SI; null where not finite)
+            and ``answer`` (:meth:`Answer.as_dict`, with ``meas``).
+        """
+        r = self.result
+
+        def num(x: float) -> float | None:
+            return float(x) if np.isfinite(x) else None
+
+        return {"rank": self.rank, "chi2": num(r.chi2), "dof": r.dof,
+                "lr_statistic": num(self.lr_statistic), "p_value": num(self.p_value),
+                "status": r.status, "motion": r.motion.name,
+                "parameters": list(r.parameters), "estimate": [num(v) for v in r.estimate],
+                "std": [num(s) for s in r.std],
+                "covariance": [[num(c) for c in row] for row in np.asarray(r.covariance)],
+                "answer": self.answer(meas).as_dict() if meas is not None else None}
+
+
+def _state(result: EstimateResult, meas: MeasurementSet, time: float
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """East/North position and velocity at ``time`` and their covariance; None if not finite."""
+    a = estimate_answer(result, meas, time)
+    idx = [0, 1, 3, 4]
+    state = np.array([a.enu[0], a.enu[1], a.velocity[0], a.velocity[1]], dtype=float)
+    cov = a.covariance[np.ix_(idx, idx)]
+    if not (np.all(np.isfinite(state)) and np.all(np.isfinite(cov))):
+        return None
+    return state, cov
+
+
+def _unknowns(result: EstimateResult) -> int:
+    """Count the fitted unknowns of a result (its bound's rank when it has one)."""
+    if result.bound is not None:
+        return max(int(result.bound.rank), 1)
+    return max(int(np.count_nonzero(np.asarray(result.std) > 0)), 1)
+
+
+def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
+                        meas: MeasurementSet, alpha: float = SOLUTION_ALPHA,
+                        price: float = 0.0) -> list[Solution]:
+    """Rank the fits that explain the data about as well as the reported one.
+
+    Parameters
+    ----------
+    best : EstimateResult
+        The reported fit (rank 1 whatever its chi2).
+    others : sequence of EstimateResult
+        Other fits the search ended in (other orders, other local minima).
+    meas : MeasurementSet
+        The measurements fitted: the answer time is their last.
+    alpha : float
+        Level of the likelihood-ratio test (default 0.05).
+    price : float
+        What each unknown adds to a fit's chi2 in the test (default 0: fits of one model).
+
+    Returns
+    -------
+    list of Solution
+        The reported fit first, then the separated fits kept by the test, by its statistic.
+        Fits that are unobservable or diverged, have no finite state or lie within another's
+        region are left out (a fit whose solve stopped before its convergence tests is kept:
+        the search ended there, and its status says so).
+    """
+    d = _unknowns(best)
+    out = [Solution(best, 1, 0.0, 1.0)]
+    time = float(np.max(meas.time)) if len(meas) else 0.0
+    kept = [_state(best, meas, time)]
+    if kept[0] is None:
+        return out
+    same = float(chi2_dist.ppf(1.0 - alpha, 4))
+    def statistic(r: EstimateResult) -> float:
+        return float(r.chi2 + price * _unknowns(r) - best.chi2 - price * d)
+
+    for r in sorted(others, key=statistic):
+        if r.status not in ("converged", "did not converge") or not np.isfinite(r.chi2):
+            continue
+        lr = max(statistic(r), 0.0)
+        p = float(chi2_dist.sf(lr, d))
+        if p < alpha:
+            continue
+        here = _state(r, meas, time)
+        if here is None or any(_close(here, k, same) for k in kept):
+            continue
+        kept.append(here)
+        out.append(Solution(r, len(out) + 1, lr, p))
+    return out
+
+
+def _close(a: tuple[NDArray[np.float64], NDArray[np.float64]],
+           b: tuple[NDArray[np.float64], NDArray[np.float64]] | None, limit: float) -> bool:
+    """Whether two states are within ``limit`` of each other under each one's covariance."""
+    if b is None:
+        return False
+    d = a[0] - b[0]
+    try:
+        return all(float(d @ np.linalg.solve(c, d)) <= limit for c in (a[1], b[1]))
+    except np.linalg.LinAlgError:
+        return bool(np.allclose(a[0], b[0]))
