@@ -302,7 +302,8 @@ def solutions_warning(solutions: list[Any]) -> SanityWarning | None:
         f"one: chi2 = {best.chi2:.4g}; {others}; kept when the likelihood-ratio test against "
         "the reported fit gives p >= 0.05): the reported std describe one of them, not the "
         "whole uncertainty. All are listed (table 'solutions', JSON 'solutions') and drawn "
-        "(--plot); more bearings after an own-ship manoeuvre would tell them apart")
+        "(--plot); what tells them apart: data from another geometry (an own-ship manoeuvre), a "
+        "motion model that can follow the contact, or sigma from the residuals (--scale-sigma)")
 
 
 def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:

@@ -55,9 +55,10 @@ def solutions_of(search: ManoeuvreSearch, res: ManoeuvreEstimate, others: list[O
                  ) -> list[Solution]:
     """Give the separated solutions among the search's fits (empty when ``res`` is the one).
 
-    Every order's fit, with its accelerations selected and with all of them fitted, is a
-    candidate; :func:`~tmakit.results.solutions.separated_solutions` keeps those that fit
-    about as well as ``res``, each unknown charged the price the order criterion charges
+    Every order's fit, with its accelerations selected and with all of them fitted, and the
+    other minima its refinement's starts ended in, is a candidate;
+    :func:`~tmakit.results.solutions.separated_solutions` keeps those that fit about as well
+    as ``res``, each unknown charged the price the order criterion charges
     (:func:`~.selection.unknown_price`), and lie apart from it.
     """
     if not res.converged:
@@ -97,7 +98,8 @@ def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
         selection = select_order(fits, n, s.criterion, s.alpha)
         chosen = fits[selection.chosen]
     res = report(search, chosen, ref, selection, fits)
-    others = [f for f in (*fits, *full) if f is not chosen]
+    others = [f for f in (*fits, *full, *(a for f in full for a in f.alternatives))
+              if f is not chosen]
     res.solutions = solutions_of(search, res, others, ref, selection, fits)
     if selection is not None and top and selection.chosen == top == s.max_manoeuvres:
         more = (f"the largest number of manoeuvres tried ({top}) was chosen: more may fit "

@@ -264,8 +264,10 @@ class ManoeuvreSearch:
                                    np.array([edges[j:j + 2].mean()]))
             starts = np.concatenate([starts, nested])
         fit = self.fit_from(m, starts)
+        alternatives = fit.alternatives  # the other minima the profile's starts end in
         if self.s.polish_rounds:
             fit = self.polish(fit)
+        fit.alternatives = alternatives
         fit.profile_times, fit.profile_chi2 = self.grid[tuples], 2.0 * cost
         return fit
 
@@ -372,6 +374,11 @@ class ManoeuvreSearch:
         fit = OrderFit(m, sol.theta[i], sol.nuisance[i], float(2 * c[i]),
                        self.unknowns(m, free), bool(sol.converged[i]), int(sol.iterations[i]),
                        int(sol.theta.shape[0]), free=None if free is None else free.copy())
+        fit.alternatives = [OrderFit(m, sol.theta[j], sol.nuisance[j], float(2 * c[j]),
+                                     fit.unknowns, True, int(sol.iterations[j]), 1,
+                                     free=fit.free)
+                            for j in range(c.shape[0]) if j != i and sol.converged[j]
+                            and np.isfinite(c[j])]
         if not fit.converged and m and np.isfinite(fit.chi2):
             self.settle(fit)
         return fit

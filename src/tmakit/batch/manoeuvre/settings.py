@@ -131,6 +131,9 @@ class OrderFit:
         The profile grid's change-over times ``(G, M)`` (s) and chi2 ``(G,)``.
     free : ndarray of bool, optional
         The internal parameters fitted; None: all (the others are accelerations held at 0).
+    alternatives : list of OrderFit
+        The other converged ends of the refinement's starts (other local minima of this
+        order), candidates of the separated solutions (:mod:`tmakit.results.solutions`).
     """
 
     manoeuvres: int
@@ -145,6 +148,7 @@ class OrderFit:
     profile_times: Array = field(default_factory=lambda: np.zeros((0, 0)))
     profile_chi2: Array = field(default_factory=lambda: np.zeros(0))
     free: NDArray[np.bool_] | None = None  # internal parameters fitted; None: all
+    alternatives: list[OrderFit] = field(default_factory=list)
 
     def free_mask(self) -> NDArray[np.bool_]:
         """Which internal parameters are fitted (the others are accelerations held at 0).
