@@ -31,7 +31,7 @@ from .estimator import BatchEstimator, Init, Options
 from .init import GridSettings
 from .mirror import mirror_plane, prefer_above
 from .presolve import grid_starts, presolve_subset, solve_all_rows
-from .solver import VarProProblem, information_of, levenberg_marquardt
+from .solver import SolveResult, VarProProblem, information_of, levenberg_marquardt
 from .starts import first_of_many
 from .subset_first import solve_on_subset_first, subset_first
 
@@ -207,18 +207,19 @@ def _solutions(problem: VarProProblem, res: EstimateResult, best: Best,
     """Give the separated solutions among the starts' other ends (empty: ``res`` alone).
 
     Ends whose chi2 fails the likelihood-ratio test against ``res`` are left out before any
-    result is made for them, and so are ends within 1e-6 (relative) of one already taken.
+    result is made for them, and so are ends within a tenth of ``res``'s std of one taken.
     """
     if not res.converged or not best.others:
         return []
     limit = float(chi2_dist.isf(SOLUTION_ALPHA, max(res.bound.rank if res.bound else 1, 1)))
     taken = [best.theta]
     candidates = []
+    # ends within a tenth of a std of one taken are that one (solver tolerance, not a minimum)
+    tol = np.where(np.isfinite(res.std), 0.1 * res.std, 1e-6 * np.maximum(np.abs(best.theta), 1))
     for theta, nu, cost in sorted(best.others, key=lambda e: e[2]):
         if 2.0 * (cost - best.cost) > limit:
             break
-        scale = np.maximum(np.abs(theta), 1.0)
-        if any(np.all(np.abs(theta - t) <= 1e-6 * scale) for t in taken):
+        if any(np.all(np.abs(theta - t) <= tol) for t in taken):
             continue
         taken.append(theta)
         alt = assemble_result(problem.obs, problem.noise, theta, nu, cost, 0, True, res.method,
@@ -419,25 +420,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         data = ys if np.array_equal(owner, np.arange(b)) else ys[owner]  # (1 start a set: no copy)
         sol = solve_all_rows(problem, data, theta, max_iter, owner, reached[owner], subset)
         for r in runs:
-            rows = np.flatnonzero(owner == r)
-            cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
-            i = rows[int(np.argmin(cost))]
-            used = rows.size + (best[r].starts if best[r] is not None else 0)
-            ends = [(sol.theta[j].copy(), sol.nuisance[j].copy(), float(sol.cost[j]))
-                    for j in rows if j != i and sol.converged[j] and np.isfinite(sol.cost[j])]
-            if best[r] is None or sol.cost[i] < best[r].cost:
-                seen = [] if best[r] is None else [*best[r].others, best[r].end()]
-                best[r] = Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
-                               int(sol.iterations[i]), bool(sol.converged[i]), used,
-                               information=information_of(problem, sol.evaluation, i,
-                                                           sol.information),
-                               others=seen + ends)
-            else:
-                best[r].starts = used
-                best[r].others += ends
-                if sol.converged[i]:
-                    best[r].others.append((sol.theta[i].copy(), sol.nuisance[i].copy(),
-                                           float(sol.cost[i])))
+            best[r] = _better(problem, best[r], sol, np.flatnonzero(owner == r))
 
     def unsettled() -> list[int]:
         return [r for r in range(b) if best[r] is None or not (
@@ -451,6 +434,27 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         dense = grid_starts(problem, ys[again], DENSE_GRID, subset)
         solve({r: d.first(DENSE_GRID.starts) for r, d in zip(again, dense, strict=True)})
     _prefer_above(problem, best)
+    return best
+
+
+def _better(problem: VarProProblem, best: Best | None, sol: SolveResult,
+            rows: NDArray[np.int64]) -> Best:
+    """Give the best of ``best`` and the solves ``rows`` of one data set; others kept as ends."""
+    cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
+    i = rows[int(np.argmin(cost))]
+    used = rows.size + (best.starts if best is not None else 0)
+    ends = [(sol.theta[j].copy(), sol.nuisance[j].copy(), float(sol.cost[j]))
+            for j in rows if j != i and sol.converged[j] and np.isfinite(sol.cost[j])]
+    if best is None or sol.cost[i] < best.cost:
+        seen = [] if best is None else [*best.others, *([best.end()] if best.converged else [])]
+        return Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]), int(sol.iterations[i]),
+                    bool(sol.converged[i]), used,
+                    information=information_of(problem, sol.evaluation, i, sol.information),
+                    others=seen + ends)
+    best.starts = used
+    best.others += ends
+    if sol.converged[i]:
+        best.others.append((sol.theta[i].copy(), sol.nuisance[i].copy(), float(sol.cost[i])))
     return best
 
 

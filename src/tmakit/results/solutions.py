@@ -28,17 +28,29 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2 as chi2_dist
 
 from ..data import MeasurementSet
+from ..motion import MotionModel
 from .answers import ELLIPSE_LEVEL, Answer, estimate_answer
 
-if TYPE_CHECKING:
-    from .estimate import EstimateResult
+
+class EstimateResult(Protocol):
+    """What a solution needs of :class:`tmakit.results.EstimateResult` (which imports this)."""
+
+    parameters: tuple[str, ...]
+    estimate: NDArray[np.float64]
+    std: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    status: str
+    chi2: float
+    dof: int
+    motion: MotionModel
+    bound: Any
 
 SOLUTION_ALPHA = 0.05
 """Level of the likelihood-ratio test that keeps a separated solution."""
