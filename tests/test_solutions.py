@@ -105,8 +105,13 @@ def test_the_test_keeps_equal_fits_once_and_drops_improbable_ones(ta_dummy):
     assert len(kept) == 2 and kept[1].result is other
 
 
-@pytest.mark.parametrize(("name", "runs", "least"), [("hoerst2010", 8, 7), ("ta-dummy", 4, 3)])
+@pytest.mark.parametrize(("name", "runs", "least"), [("hoerst2010", 8, 7), ("ta-dummy", 6, 2)])
 def test_coverage_of_the_reported_region_does_not_collapse(name, runs, least):
-    """Seeded runs of the benchmark: the truth inside the reported 95 % region."""
+    """Seeded runs of the benchmark: the truth inside the reported 95 % region at the end.
+
+    Measured over 200 runs (docs/estimation.md): ``hoerst2010`` bearings only near 100 %,
+    the TA_DUMMY geometry far lower (its last position is barely observable); these counts
+    fail when either collapses.
+    """
     out = solutions_coverage.coverage(name, runs, seed=0)
     assert sum(r.inside for r in out) >= least

@@ -294,14 +294,16 @@ def print_solutions(result: Any, meas: Any, units: str) -> None:
     for sol in result.solutions:
         a = sol.answer(meas)
 
-        def pm(v: float | None, s: float | None, fmt: str, scale: float = 1.0) -> str:
+        def pm(v: float | None, s: float | None, fmt: str, scale: float = 1.0,
+               std_fmt: str = ".2g") -> str:
             return ("unobservable" if v is None
-                    else f"{v / scale:{fmt}} ± {_num(s, '.2g', scale)}")
+                    else f"{v / scale:{fmt}} ± {_num(s, std_fmt, scale)}")
 
         e = a.ellipse
         table.add_row(str(sol.rank), sol.result.motion.name, f"{sol.result.chi2:.4g}",
                       f"{sol.lr_statistic:.3g}", f"{sol.p_value:.2g}",
-                      pm(a.enu[0], a.enu_std[0], ".0f"), pm(a.enu[1], a.enu_std[1], ".0f"),
+                      pm(a.enu[0], a.enu_std[0], ".0f", std_fmt=".0f"),
+                      pm(a.enu[1], a.enu_std[1], ".0f", std_fmt=".0f"),
                       pm(a.course_deg, a.course_std_deg, ".1f") if not a.stationary else "-",
                       pm(a.speed, a.speed_std, ".3g", sp) if not a.stationary else "-",
                       pm(a.range_m, a.range_std, ".4g", rg),
