@@ -361,7 +361,13 @@ class Best:
         default_factory=list)
 
     def end(self) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-        """Give this fit as ``(theta, nuisance, cost)``, one of the ends :attr:`others` lists."""
+        """Give this fit as one of the ends :attr:`others` lists.
+
+        Returns
+        -------
+        tuple
+            ``(theta, nuisance, cost)``, copies.
+        """
         return self.theta.copy(), self.nuisance.copy(), self.cost
 
 

@@ -50,7 +50,7 @@ def _fit_from_start(search: ManoeuvreSearch, ref: float,
     return report(search, fit, ref, None, [fit])
 
 
-def solutions_of(search: ManoeuvreSearch, res: ManoeuvreEstimate, others: list[OrderFit],
+def _solutions_of(search: ManoeuvreSearch, res: ManoeuvreEstimate, others: list[OrderFit],
                  ref: float, selection: OrderSelection | None, fits: list[OrderFit]
                  ) -> list[Solution]:
     """Give the separated solutions among the search's fits (empty when ``res`` is the one).
@@ -100,7 +100,7 @@ def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
     res = report(search, chosen, ref, selection, fits)
     others = [f for f in (*fits, *full, *(a for f in full for a in f.alternatives))
               if f is not chosen]
-    res.solutions = solutions_of(search, res, others, ref, selection, fits)
+    res.solutions = _solutions_of(search, res, others, ref, selection, fits)
     if selection is not None and top and selection.chosen == top == s.max_manoeuvres:
         more = (f"the largest number of manoeuvres tried ({top}) was chosen: more may fit "
                 f"better (try curvilinear:{top + 1})")
