@@ -20,8 +20,8 @@ Scenarios:
 * ``hoerst2010``: the built-in scenario with its azimuth-rate measurements left out (901
   bearings, sigma 2 deg, circling observer; the target turns from 400 to 600 s), estimated
   with ``curvilinear:2`` (0 to 2 manoeuvres, BIC).
-* ``ta-dummy``: Debrief's TA_DUMMY sample (``tests/data/ta_dummy``) as a scenario: the own
-  ship is the sample's own track (a cubic spline through the 145 sensor-line positions), the
+* ``ta-dummy``: Debrief's TA_DUMMY sample (``tests/data/debrief/ta_dummy``) as a scenario: the
+  own ship is the sample's own track (a cubic spline through the 145 bearing lines' positions), the
   contact is the sample's true track fitted by a piecewise curvilinear model with four
   change-overs (straight, turn, straight, turn, straight: :func:`ta_dummy_truth`, positions
   within a few metres of the track), 145 bearings 50 s apart as in the sample, sigma 0.5 deg;
@@ -57,7 +57,7 @@ from tmakit.io.debrief import replay_tracks
 from tmakit.scenario_plan import MeasurementPlan
 from tmakit.sensors import RecordedTrack
 
-DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "ta_dummy"
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "debrief" / "ta_dummy"
 KNOT = 1852.0 / 3600.0
 
 
@@ -109,12 +109,13 @@ def ta_dummy_truth(times: np.ndarray, east: np.ndarray, north: np.ndarray
 
 def ta_dummy() -> tuple[tk.Scenario, dict[str, object]]:
     """Give the TA_DUMMY geometry as a scenario, and how it is estimated."""
-    meas = tk.read_measurements(DATA / "bearings.rep")
+    meas = tk.read_measurements(DATA / "Freq_BlueSensor.rep", kinds=["bearing"])
     origin = (float(meas.metadata["origin_lat"]), float(meas.metadata["origin_lon"]), 0.0)
-    track = next(iter(replay_tracks(DATA / "contact.rep").values()))
+    track = next(iter(replay_tracks(DATA / "Freq_RedTrack.rep").values()))
+    _, once = np.unique(track["time_ns"], return_index=True)  # its first fix is written twice
     t0 = np.datetime64(meas.metadata["time_origin"].replace("Z", ""), "ns").astype(np.int64)
-    times = (track["time_ns"] - t0) / 1e9
-    east, north, _ = geodetic_to_enu(track["lat"], track["lon"], 0.0, origin)
+    times = (track["time_ns"][once] - t0) / 1e9
+    east, north, _ = geodetic_to_enu(track["lat"][once], track["lon"][once], 0.0, origin)
     truth = ta_dummy_truth(times, np.asarray(east), np.asarray(north))
     own = RecordedTrack(meas.time, meas.sensor_state[:, :2])
     plan = MeasurementPlan("bearing", "own", meas.time.copy(), sigma=math.radians(0.5))

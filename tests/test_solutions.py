@@ -25,14 +25,14 @@ from tmakit.results import separated_solutions
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
 import solutions_coverage
 
-TA_DUMMY = Path(__file__).parent / "data" / "ta_dummy" / "bearings.rep"
+TA_DUMMY = Path(__file__).parent / "data" / "debrief" / "ta_dummy" / "Freq_BlueSensor.rep"
 runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
 def ta_dummy():
     """Debrief's TA_DUMMY bearings and the curvilinear:2 estimate of issue 26."""
-    meas = tk.read_measurements(TA_DUMMY)
+    meas = tk.read_measurements(TA_DUMMY, kinds=["bearing"])
     return meas, tk.estimate(meas, "curvilinear:2")
 
 
@@ -56,8 +56,8 @@ def test_ta_dummy_reports_every_solution_and_warns(ta_dummy):
 
 def test_cli_json_table_and_picture_carry_every_solution(tmp_path):
     """``tma estimate --json``: ``solutions`` ranked with chi2, the test, estimate, answers."""
-    got = runner.invoke(app, ["estimate", str(TA_DUMMY), "--motion", "curvilinear:2",
-                              "--json"])
+    got = runner.invoke(app, ["estimate", str(TA_DUMMY), "--kinds", "bearing",
+                              "--motion", "curvilinear:2", "--json"])
     assert got.exit_code == 0, got.output
     data = json.loads(got.stdout)
     sols = data["solutions"]
@@ -68,8 +68,8 @@ def test_cli_json_table_and_picture_carry_every_solution(tmp_path):
     assert sols[0]["estimate"] == data["estimate"]
     assert "several-solutions" in [w["code"] for w in data["warnings"]]
     picture = tmp_path / "ta.png"
-    got = runner.invoke(app, ["estimate", str(TA_DUMMY), "--motion", "curvilinear:2",
-                              "--plot", str(picture)])
+    got = runner.invoke(app, ["estimate", str(TA_DUMMY), "--kinds", "bearing", "--motion",
+                              "curvilinear:2", "--plot", str(picture)])
     assert got.exit_code == 0, got.output
     assert "separated solutions at t = 7200 s" in got.stdout
     assert picture.stat().st_size > 10_000
