@@ -413,10 +413,9 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         data["covariance"] = [[float(c) if np.isfinite(c) and trust.answer else None
                                for c in r] for r in np.asarray(result.covariance)]
         data["chi2_p_value"] = chi2_probability(result.chi2, result.dof)
-        data["warnings"] = [w.as_dict() for w in warnings]
-        data["sigma_scale"] = factors
-        data["height"] = result.extra.get("height")
-        data["solutions"] = [s.as_dict(meas) for s in result.ranked_solutions()]
+        data.update(warnings=[w.as_dict() for w in warnings], sigma_scale=factors,
+                    height=result.extra.get("height"),
+                    solutions=[s.as_dict(meas) for s in result.ranked_solutions()])
         out.print_json(json.dumps(data))
     else:
         out.print(result.summary(units), highlight=False)
