@@ -249,8 +249,7 @@ def same_rows(sets: Sequence[MeasurementSet]) -> bool:
 
 def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
              options: Options = None, known_nuisance: KnownNuisanceLike = None,
-             grid: GridSettings | None = None, max_iter: int = 100,
-             **manoeuvre_options: object) -> EstimateResult:
+             grid: GridSettings | None = None, max_iter: int = 100) -> EstimateResult:
     """Fit by maximum likelihood: ``MaximumLikelihood(...).fit(meas, motion)``, short form.
 
     Parameters
@@ -261,9 +260,6 @@ def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
         A motion model without manoeuvres.
     init, options, known_nuisance, grid, max_iter
         As for :class:`MaximumLikelihood`.
-    **manoeuvre_options
-        Refused (they belong to manoeuvring targets; :func:`tmakit.batch.estimate` takes
-        them).
 
     Returns
     -------
@@ -273,14 +269,10 @@ def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
     Raises
     ------
     TypeError
-        For options of manoeuvring targets, a manoeuvring motion model or a motion name.
+        For a manoeuvring motion model or a motion name.
     ValueError
         As :meth:`MaximumLikelihood.fit`.
     """
-    if manoeuvre_options:
-        raise TypeError(f"estimate() got options for manoeuvring targets "
-                        f"({', '.join(manoeuvre_options)}) with motion "
-                        f"{getattr(motion, 'name', motion)!r}")
     return MaximumLikelihood(init, options, known_nuisance, grid, max_iter).fit(meas, motion)
 
 

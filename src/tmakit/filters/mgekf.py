@@ -64,15 +64,16 @@ and lies on the side where the user says the emitter is (above the sensors).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..observation import MeasurementGroup
-from .base import Array, UpdateInfo
+from ..motion.dynamics import NearlyConstantVelocity
+from .base import Array, KindOptions, ProcessNoise, UpdateInfo
 from .ekf import ExtendedKalmanFilter, gaussian_update
 
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
@@ -259,14 +260,8 @@ def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
 class MirrorReflectMixin:
     """Keep a 3-D Gaussian estimate above the sensors' plane while the data cannot tell.
 
-    Mixed into a Gaussian filter (``_mean``, ``_cov``); see the :mod:`.mgekf` docstring.
-
-    Parameters
-    ----------
-    *args, **kwargs
-        Arguments of the filter it is mixed into.
-    reflect : bool or None, optional
-        Reflection on or off; None takes :attr:`reflect_default`.
+    Mixed into a Gaussian filter (``_mean``, ``_cov``), whose constructor calls
+    :meth:`_start_reflecting`; see the :mod:`.mgekf` docstring.
 
     Attributes
     ----------
@@ -276,12 +271,12 @@ class MirrorReflectMixin:
 
     reflect_default = False
 
-    def __init__(self, *args: Any, reflect: bool | None = None, **kwargs: Any) -> None:
+    def _start_reflecting(self, reflect: bool | None) -> None:
+        """Reflection on or off; None takes :attr:`reflect_default`."""
         self.reflect = self.reflect_default if reflect is None else bool(reflect)
         self.reflections = 0
         self._plane: float | None = None
         self._symmetric = True
-        super().__init__(*args, **kwargs)
 
     def update(self, rows: MeasurementSet) -> UpdateInfo:
         """Update as the filter does, then reflect the estimate if the mirror rule says so.
@@ -324,8 +319,8 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     Parameters
     ----------
-    *args
-        ``mean``, ``covariance``, ``time`` as for :class:`~tmakit.filters.TrackingFilter`.
+    mean, covariance, time
+        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     gain : {"song-speyer", "paper"}, optional
         ``"paper"`` (Chen & Sun, §2.5: the modified rows in the gain and in the covariance
         update) or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF: the gain
@@ -335,9 +330,8 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
     reflect : bool, optional
         Mirror an estimate that falls below the sensors' plane while the data cannot tell
         the two sides apart (default off).
-    **kwargs
-        ``q``, ``dynamics``, ``options``, ``nuisance``, ``iterations`` as for
-        :class:`ExtendedKalmanFilter`.
+    iterations, q, dynamics, options, nuisance
+        As for :class:`ExtendedKalmanFilter`.
 
     Attributes
     ----------
@@ -358,7 +352,11 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     name = "mgekf"
 
-    def __init__(self, *args: Any, gain: str = "song-speyer", **kwargs: Any) -> None:
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 gain: str = "song-speyer", reflect: bool | None = None, iterations: int = 1,
+                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
         if gain not in ("paper", "song-speyer"):
             raise ValueError(f"gain must be 'paper' (Chen & Sun, §2.5: modified rows in the gain "
                              f"and the covariance) or 'song-speyer' (EKF rows in the gain); "
@@ -366,7 +364,9 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
         self.gain = gain
         self.fallbacks = 0
         self.bearing_rows = 0
-        super().__init__(*args, **kwargs)
+        self._start_reflecting(reflect)
+        super().__init__(mean, covariance, time, iterations=iterations, q=q, dynamics=dynamics,
+                         options=options, nuisance=nuisance)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         x = self._mean
@@ -400,11 +400,22 @@ class ReflectingEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     Parameters
     ----------
-    *args, **kwargs
-        As for :class:`ExtendedKalmanFilter`.
+    mean, covariance, time
+        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     reflect : bool or None, optional
         The mirror rule (default on).
+    iterations, q, dynamics, options, nuisance
+        As for :class:`ExtendedKalmanFilter`.
     """
 
     name = "ekf"
     reflect_default = True
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 reflect: bool | None = None, iterations: int = 1, q: ProcessNoise = 0.0,
+                 dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self._start_reflecting(reflect)
+        super().__init__(mean, covariance, time, iterations=iterations, q=q, dynamics=dynamics,
+                         options=options, nuisance=nuisance)

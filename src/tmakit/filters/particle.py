@@ -43,7 +43,7 @@ The filter starts by sampling the Gaussian prior.  Every random draw comes from 
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import Array, TrackingFilter, UpdateInfo
+from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, skipped
 from .kernels import KernelRun
@@ -129,9 +129,8 @@ class ParticleFilter(TrackingFilter):
         Move the particles by the regularisation kernel after each resampling.
     bandwidth : float, optional
         Multiple of the optimal kernel bandwidth (> 0; ``h`` must stay below 1).
-    **kwargs
-        ``q``, ``dynamics``, ``options``, ``nuisance`` as for
-        :class:`~tmakit.filters.TrackingFilter`.
+    q, dynamics, options, nuisance
+        As for :class:`~tmakit.filters.TrackingFilter`.
 
     Attributes
     ----------
@@ -161,7 +160,10 @@ class ParticleFilter(TrackingFilter):
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  particles: int = 1000, rng: np.random.Generator | int | None = None,
                  resample_threshold: float = 0.5, regularise: bool = True,
-                 bandwidth: float = 1.0, **kwargs: Any) -> None:
+                 bandwidth: float = 1.0, q: ProcessNoise = 0.0,
+                 dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
         if isinstance(particles, bool) or not isinstance(particles, (int, np.integer)) \
                 or particles < 2:
             raise ValueError(f"particles must be a whole number >= 2; got {particles!r}")
@@ -176,7 +178,8 @@ class ParticleFilter(TrackingFilter):
         self.regularise = bool(regularise)
         self.bandwidth = float(bandwidth)
         self.resamples = 0
-        super().__init__(mean, covariance, time, **kwargs)
+        super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
+                         nuisance=nuisance)
         self.h = self.bandwidth * optimal_bandwidth(self.n_particles, 2 * self.dim)
         if self.regularise and self.h >= 1.0:
             raise ValueError(f"bandwidth {bandwidth} gives a kernel bandwidth h = {self.h:.3g}"

@@ -26,7 +26,6 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from ..data import MeasurementSet
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
@@ -48,7 +47,12 @@ __all__ = [
 
 def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
                       origin: tuple[float, float, float] | None = None, *,
-                      format: str | None = None, **options: Any) -> MeasurementSet:
+                      format: str | None = None, mapping: object = None,
+                      measurements: str | os.PathLike[str] | None = None,
+                      track: str | os.PathLike[str] | None = None, ownship: str | None = None,
+                      contact: str | None = None, bearing_sigma: float | None = None,
+                      range_sigma: float | None = None, frequency_sigma: float | None = None,
+                      dim: int | None = None) -> MeasurementSet:
     """Read a measurement file into a MeasurementSet, by its format.
 
     Every cell is checked against the contract of ``docs/file-format.md``; all problems are
@@ -66,8 +70,24 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         the returned set's metadata.
     format : str, optional
         A registered format name ("csv", "parquet"); by default from the suffix of ``path``.
-    **options
-        Passed to the format's reader.
+    mapping : LogMapping or str or os.PathLike, optional
+        Wide logs, GPX and NMEA: the column mapping, or its TOML file
+        (:func:`tmakit.io.wide_log.read_wide_log`).
+    measurements : str or os.PathLike, optional
+        GPX and NMEA own tracks: the wide log of measurements joined to the track.
+    track : str or os.PathLike, optional
+        Wide logs: a GPX or NMEA own track instead of the mapping's.
+    ownship, contact : str, optional
+        Debrief replays: the own ship's track name and the contact
+        (:func:`tmakit.io.debrief.read_replay`).
+    bearing_sigma, range_sigma, frequency_sigma : float, optional
+        Debrief replays: the noise of lines that state none (deg, m, Hz; the unit of the
+        file, as ``tma --bearing-sigma``).
+    dim : int, optional
+        Real logs: 2 or 3, instead of the surface rule.
+
+    Options left at None are not passed to the reader; a format refuses options it does not
+    take (tmakit's CSV and Parquet files take none) with a ``TypeError`` naming them.
 
     Returns
     -------
@@ -96,7 +116,12 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         raise FileNotFoundError(f"{path}: no such file")
     refuse_unreadable(path, binary=fmt.name == "parquet" or path.suffix.lower() in (
         ".parquet", ".pq"))  # a FIFO, a device, NUL bytes in a text format: at once
-    return fmt.read(path, origin=origin, **options)
+    given = {k: v for k, v in (
+        ("mapping", mapping), ("measurements", measurements), ("track", track),
+        ("ownship", ownship), ("contact", contact), ("bearing_sigma", bearing_sigma),
+        ("range_sigma", range_sigma), ("frequency_sigma", frequency_sigma), ("dim", dim))
+        if v is not None}
+    return fmt.read(path, origin=origin, **given)
 
 
 def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
