@@ -71,8 +71,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
-from ..observation import MeasurementGroup
 from ..motion.dynamics import NearlyConstantVelocity
+from ..observation import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, UpdateInfo
 from .ekf import ExtendedKalmanFilter, gaussian_update
 

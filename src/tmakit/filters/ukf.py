@@ -36,8 +36,8 @@ from numpy.typing import ArrayLike
 from scipy.linalg.lapack import dpotrf
 
 from ..linalg import safe_cholesky, symmetrise
-from ..observation.groups import MeasurementGroup
 from ..motion.dynamics import NearlyConstantVelocity
+from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, UpdateInfo
 from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
