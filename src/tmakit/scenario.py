@@ -21,29 +21,10 @@ from .data import MeasurementSet
 from .measurements import KINDS
 from .motion import MotionModel
 from .observation import ObservationModel
+from .randomness import RngLike, as_generator
 from .scenario_plan import MeasurementPlan, noisy_values, refuse_impossible
 from .sensors import SensorTrack
 from .units import snr_to_sigma_db
-
-RngLike = np.random.Generator | int | None
-
-
-def as_generator(rng: RngLike) -> np.random.Generator:
-    """Give a numpy random Generator for a Generator, an integer seed or None.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator, int or None
-        A Generator (returned as is), a seed, or None for fresh entropy.
-
-    Returns
-    -------
-    numpy.random.Generator
-        The generator; the same seed gives the same numbers.
-    """
-    if isinstance(rng, np.random.Generator):
-        return rng
-    return np.random.default_rng(rng)
 
 
 @dataclass

@@ -54,7 +54,7 @@ def montecarlo(
                    "--max-runs")
     scn = load_scenario_or_fail(scenario)
     with claim_outputs([output, json_file, partial]):  # a second run to them is refused now
-        res = _study(scn, partial, estimator=estimator, runs=runs, seed=seed,
+        res = _study(scn, partial, estimator=estimator, runs=runs, rng=seed,
                      known_nuisance=known_nuisance, progress=not no_progress, dask=dask,
                      chunk=chunk, workers=workers)
         print_summary(res)

@@ -90,7 +90,7 @@ def plan(
             err.print(f"warning: {escape(warning)}", highlight=False)
         from ..montecarlo.planned import plan as run_plan
 
-        result = run_plan(setup, runs=runs, seed=seed, duration=duration,
+        result = run_plan(setup, runs=runs, rng=seed, duration=duration,
                           particles=particles, tracker=tracker,
                           progress=not (as_json or no_progress))
     except ScenarioFileError as e:

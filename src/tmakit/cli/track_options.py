@@ -50,7 +50,7 @@ def parse_q(text: str, dim: int) -> list[float]:
 MIN_PARTICLES = 7
 
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
-               "max_relative_std": "--start-std"}
+               "max_relative_std": "--start-std", "tracker": "--filter"}
 
 
 def tracking_failure(e: Any) -> typer.Exit:

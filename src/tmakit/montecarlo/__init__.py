@@ -1,7 +1,7 @@
 """Monte Carlo evaluation of an estimator on a scenario, against the Cramér–Rao bound.
 
 >>> from tmakit.montecarlo import monte_carlo
->>> res = monte_carlo(tk.load_scenario("gu2007"), "ml", runs=200, seed=1)
+>>> res = monte_carlo(tk.load_scenario("gu2007"), "ml", runs=200, rng=1)
 >>> print(res.summary())            # bias, RMSE, CRLB, RMSE/CRLB with 95 % interval
 >>> from tmakit.io.study_files import write_study_table
 >>> write_study_table(res, "gu2007-mc.parquet")   # the per-run table

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..planning.closed_loop import LoopSetup
+from ..randomness import NOT_GIVEN, NotGiven, RngLike, study_seed
 from ..scenario_file import load_planning
 from ..scenario_planning import MAX_DECISIONS, PlanningSetup
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
@@ -143,8 +144,9 @@ class PlanRun:
 
 
 def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None = None,
-         seed: int | None = 0, duration: float | None = None, particles: int | None = None,
-         tracker: str | None = None, dask: Any = None, progress: bool = False) -> PlanRun:
+         rng: RngLike = 0, duration: float | None = None, particles: int | None = None,
+         tracker: str | None = None, dask: Any = None, progress: bool = False,
+         seed: int | NotGiven | None = NOT_GIVEN) -> PlanRun:
     """Run a scenario's planned sensor in the closed loop ``runs`` times.
 
     Parameters
@@ -154,8 +156,8 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         table, or a setup already built.
     runs : int, optional
         Monte Carlo runs (default the table's ``runs``).
-    seed : int or None, optional
-        The study's seed (same seed, same table).
+    rng : int, numpy.random.Generator or None, optional
+        The study's seed (same seed, same table); a Generator gives one; None: fresh entropy.
     duration : float, optional
         Planned time (s), a whole number of decision intervals (default the table's).
     particles : int, optional
@@ -166,6 +168,8 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         Run on a Dask cluster.
     progress : bool, optional
         Show a progress bar.
+    seed : int or None, optional
+        Deprecated: ``rng``.
 
     Returns
     -------
@@ -192,6 +196,7 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         raise TypeError(f"plan() takes a scenario name, a TOML file with a [planning] table or "
                         f"a PlanningSetup (tmakit.load_planning), not "
                         f"{type(scenario).__name__}")
+    seed_used = study_seed(rng, seed, "plan")
     setup = scenario if isinstance(scenario, PlanningSetup) else load_planning(scenario)
     changes: dict[str, Any] = {}
     if duration is not None:
@@ -212,5 +217,5 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         changes["tracker"] = tracker
     setup = setup.replace(**changes) if changes else setup
     study = closed_loop_study([loop_case(setup)], runs=setup.runs if runs is None else runs,
-                              seed=seed, dask=dask, progress=progress)
+                              seed=seed_used, dask=dask, progress=progress)
     return PlanRun(setup, study)

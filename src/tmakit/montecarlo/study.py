@@ -19,6 +19,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from ..bounds.fim import crlb
+from ..randomness import NOT_GIVEN, NotGiven, RngLike, study_seed
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario import Scenario
 from .estimators import check_estimator
@@ -69,12 +70,6 @@ def _workers(workers: object, dask: object) -> int:
         raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
                          f"(workers={count})")
     return count
-
-
-def _check_seed(seed: object) -> None:
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
-                             or seed < 0):
-        raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
 
 
 def _check_init(scenario: Scenario, init: Mapping[str, float] | ArrayLike | None) -> None:
@@ -196,12 +191,13 @@ def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
 
 
 def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: int = 100,
-                seed: int | None = 0, options: Options | None = None,
+                rng: RngLike = 0, options: Options | None = None,
                 known_nuisance: KnownNuisanceLike = False,
                 init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
                 dask: str | Client | None = None, chunk: int | None = None,
                 on_chunk: Callable[[ChunkOutput], None] | None = None,
-                workers: int = 1) -> MonteCarloResult:
+                workers: int = 1, *, seed: int | NotGiven | None = NOT_GIVEN
+                ) -> MonteCarloResult:
     """Simulate ``scenario`` ``runs`` times, estimate each run, and compare with the CRLB.
 
     Parameters
@@ -213,8 +209,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         (:func:`~.estimators.available_estimators`).
     runs : int
         Number of runs (>= 1).
-    seed : int or None
-        Fixes every run's data (module docstring); ``None``: fresh entropy, recorded.
+    rng : int, numpy.random.Generator or None
+        The study's seed, which fixes every run's data (module docstring); a Generator gives
+        one; ``None``: fresh entropy.  The seed used is recorded in the result's ``seed``.
     options : mapping, optional
         The nuisance model per kind (default :attr:`Scenario.measurement_options`), CRLB too.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None
@@ -235,6 +232,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         Worker processes on this machine (default 1: this process), each with BLAS on one
         thread (:func:`~.execution.run_pool`); at most one per chunk and per CPU is started
         (the result's ``executor`` says how many); not with ``dask``.
+    seed : int or None, optional
+        Deprecated: ``rng``.
 
     Returns
     -------
@@ -253,14 +252,14 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs = _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
     workers = _workers(workers, dask)
-    _check_seed(seed)
+    seed_used = study_seed(rng, seed, "monte_carlo")
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
     _check_init(scenario, init)
     opts = {str(k): dict(v) for k, v in (
         scenario.measurement_options if options is None else options).items()}
 
-    seq, compiled = np.random.SeedSequence(seed), _compiled(scenario, runs)
+    seq, compiled = np.random.SeedSequence(seed_used), _compiled(scenario, runs)
     entropy, children = int(seq.entropy), seq.spawn(runs)  # type: ignore[arg-type]
     client, own_client = (None, False) if dask is None else dask_client(dask)
     try:

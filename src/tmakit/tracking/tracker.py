@@ -10,6 +10,7 @@ Everything is SI (m, m/s, s).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 
@@ -18,6 +19,7 @@ from numpy.typing import ArrayLike
 
 from ..data import MeasurementSet
 from ..filters import Track
+from ..randomness import NOT_GIVEN, NotGiven
 from .errors import TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim
 from .initiators import DEFAULT_MAX_RELATIVE_STD, BatchInitiator, Initiator, PriorInitiator
@@ -55,7 +57,7 @@ def _initiator(initiator: Initiator | None,
     return BatchInitiator(init_window, max_relative_std, confirm)
 
 
-def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
+def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0,
           particles: int | None = None,
           prior: Mapping[str, float] | ArrayLike | None = None,
           prior_std: Mapping[str, float] | ArrayLike | None = None,
@@ -67,15 +69,17 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
           dim: int | None = None,
           options: Mapping[str, Mapping[str, object]] | None = None,
           nuisance: Mapping[str, float] | None = None, *,
-          initiator: Initiator | None = None) -> Track:
+          initiator: Initiator | None = None,
+          filter: str | NotGiven = NOT_GIVEN) -> Track:
     """Track the emitter through ``meas`` with a recursive filter.
 
     Parameters
     ----------
     meas : MeasurementSet
         The measurements.
-    filter : str
-        A name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``mgekf``, ``pf``).
+    tracker : str
+        The filter: a name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``mgekf``,
+        ``pf``), as ``tk.plan(tracker=)`` and ``tma track --filter``.
     q : float or array_like
         Nearly-constant-velocity process noise: one acceleration standard deviation
         (m/s^2) for every axis, or one per axis (:func:`~.filter_setup.process_noise`).
@@ -100,6 +104,8 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
         Known nuisance values (Hz, dBW, ...), with a prior only.
     initiator : Initiator, optional
         The start policy; then none of the start keywords above may be given.
+    filter : str, optional
+        Deprecated (it shadows a builtin): ``tracker``.
 
     Returns
     -------
@@ -120,9 +126,15 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     """
     if not isinstance(meas, MeasurementSet):
         raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
-    filter_class(filter)
+    if filter is not NOT_GIVEN:
+        warnings.warn("track(filter=...) is deprecated; use tracker=", DeprecationWarning,
+                      stacklevel=2)
+        if tracker != "ekf":
+            raise TypeError("track() got both tracker and filter; give tracker only")
+        tracker = filter
+    filter_class(tracker)
     d = filter_dim(meas, dim)
-    setup = FilterSetup.create(filter, d, q, particles, rng, options)
+    setup = FilterSetup.create(tracker, d, q, particles, rng, options)
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
     started = _initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
