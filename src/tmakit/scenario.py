@@ -18,10 +18,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import rules
 from .data import MeasurementSet
+from .keywords import RngLike, as_generator
 from .measurements import KINDS
 from .motion import MotionModel
 from .observation import ObservationModel
-from .randomness import RngLike, as_generator
 from .scenario_plan import MeasurementPlan, noisy_values, refuse_impossible
 from .sensors import SensorTrack
 from .units import snr_to_sigma_db

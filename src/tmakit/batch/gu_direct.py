@@ -53,13 +53,8 @@ import numpy as np
 from ..arrays import Array
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from ..results.estimate import (
-    DIVERGED,
-    NOT_CONVERGED,
-    EstimateResult,
-    diverged_result,
-    result_from_covariance,
-)
+from ..results.estimate import EstimateResult, diverged_result, result_from_covariance
+from ..results.status import DIVERGED, NOT_CONVERGED
 from ..units import SPEED_OF_LIGHT, free_space_constant
 from .estimator import Init, PaperMethod, kinds_tuple
 from .gu_geometry import (

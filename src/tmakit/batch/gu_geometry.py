@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..arrays import Array
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
-from ..results.estimate import CONVERGED, DIVERGED
+from ..results.status import CONVERGED, DIVERGED
 
 PAPER_KINDS = ("power", "frequency")
 """The measurement kinds of Gu et al. (2007), in the column order of theta_pf."""

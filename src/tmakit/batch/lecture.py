@@ -49,8 +49,9 @@ from ..linalg import normalised_eigh
 from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
-from ..results.estimate import UNOBSERVABLE, EstimateResult, assemble_result
+from ..results.estimate import EstimateResult, assemble_result
 from ..results.observability import RANK_TOL
+from ..results.status import UNOBSERVABLE
 from .estimator import Init, PaperMethod
 from .gu_geometry import DIVERGENCE_FACTOR
 from .solver import VarProProblem

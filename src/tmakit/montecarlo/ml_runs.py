@@ -25,15 +25,10 @@ from ..batch.solver import VarProProblem, levenberg_marquardt
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
-from ..results.estimate import (
-    CONVERGED,
-    DIVERGED,
-    NOT_CONVERGED,
-    UNOBSERVABLE,
-    assemble_result,
-)
+from ..results.estimate import assemble_result
 from ..results.nuisance import KnownNuisance
 from ..results.observability import full_rank
+from ..results.status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE
 
 __all__ = ["RunSummaries", "solve_runs", "summarise_runs"]
 

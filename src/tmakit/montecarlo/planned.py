@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..planning.closed_loop import LoopSetup
-from ..randomness import NOT_GIVEN, NotGiven, RngLike, study_seed
 from ..scenario_file import load_planning
 from ..scenario_planning import MAX_DECISIONS, PlanningSetup
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
@@ -196,7 +196,7 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         raise TypeError(f"plan() takes a scenario name, a TOML file with a [planning] table or "
                         f"a PlanningSetup (tmakit.load_planning), not "
                         f"{type(scenario).__name__}")
-    seed_used = study_seed(rng, seed, "plan")
+    seed_used = study_seed(renamed_keyword("plan", "seed", seed, "rng", rng, 0))
     setup = scenario if isinstance(scenario, PlanningSetup) else load_planning(scenario)
     changes: dict[str, Any] = {}
     if duration is not None:

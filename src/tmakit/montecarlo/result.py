@@ -20,8 +20,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from ..results.bound import Bound
-from ..results.estimate import CONVERGED
 from ..results.nuisance import KnownNuisance
+from ..results.status import CONVERGED
 from .execution import LOCAL_CHUNK
 
 __all__ = ["MonteCarloResult", "ratio_interval"]

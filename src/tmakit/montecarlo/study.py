@@ -19,7 +19,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from ..bounds.fim import crlb
-from ..randomness import NOT_GIVEN, NotGiven, RngLike, study_seed
+from ..keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario import Scenario
 from .estimators import check_estimator
@@ -210,13 +210,13 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs : int
         Number of runs (>= 1).
     rng : int, numpy.random.Generator or None
-        The study's seed, which fixes every run's data (module docstring); a Generator gives
-        one; ``None``: fresh entropy.  The seed used is recorded in the result's ``seed``.
+        The study's seed, which fixes every run's data (module docstring; a Generator gives
+        one, None fresh entropy), recorded in the result's ``seed``.
     options : mapping, optional
         The nuisance model per kind (default :attr:`Scenario.measurement_options`), CRLB too.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None
-        Known to the estimator and the CRLB, at the values named, the scenario's (true) for
-        the others (``True``: all the scenario's).  Default: estimated.
+        Known to the estimator and the CRLB: the values named, the scenario's (true) for the
+        others (``True``: all the scenario's); default estimated.
     init : mapping or array_like, optional
         A starting point given to every run (default: the estimator's own initialisation).
     progress : bool
@@ -229,9 +229,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     on_chunk : callable, optional
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
     workers : int, optional
-        Worker processes on this machine (default 1: this process), each with BLAS on one
-        thread (:func:`~.execution.run_pool`); at most one per chunk and per CPU is started
-        (the result's ``executor`` says how many); not with ``dask``.
+        Worker processes here (default 1: this one), BLAS on one thread, at most one per chunk
+        and per CPU (:func:`~.execution.run_pool`; ``executor`` says how many); not with dask.
     seed : int or None, optional
         Deprecated: ``rng``.
 
@@ -243,21 +242,18 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     Raises
     ------
     ValueError
-        A bad argument (named), an unknown estimator or scenario, a manoeuvring target,
-        ``workers`` > 1 with ``dask``.
+        A bad argument (named), unknown estimator or scenario, manoeuvring target.
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
-    scenario = _scenario(scenario)
-    runs = _whole(runs, "runs")
+    scenario, runs = _scenario(scenario), _whole(runs, "runs")
     chunk = None if chunk is None else _whole(chunk, "chunk")
     workers = _workers(workers, dask)
-    seed_used = study_seed(rng, seed, "monte_carlo")
+    seed_used = study_seed(renamed_keyword("monte_carlo", "seed", seed, "rng", rng, 0))
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
     _check_init(scenario, init)
-    opts = {str(k): dict(v) for k, v in (
-        scenario.measurement_options if options is None else options).items()}
+    opts = _options(scenario, options)
 
     seq, compiled = np.random.SeedSequence(seed_used), _compiled(scenario, runs)
     entropy, children = int(seq.entropy), seq.spawn(runs)  # type: ignore[arg-type]
@@ -274,6 +270,12 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
             client.close()
     return _result(scenario, estimator, outputs, runs, opts, known,
                    (wall, entropy, executor, size))
+
+
+def _options(scenario: Scenario, options: Options | None) -> Options:
+    """Give the nuisance model per kind: ``options``, or the scenario's."""
+    return {str(k): dict(v) for k, v in (
+        scenario.measurement_options if options is None else options).items()}
 
 
 def _result(scenario: Scenario, estimator: str, outputs: Sequence[ChunkOutput], runs: int,

@@ -53,7 +53,7 @@ class ObservationModel:
         self.meas = meas
         self.motion = motion
         self.models: dict[str, MeasurementModel] = {
-            k: model_for(k, **dict(options.get(k, {}))) for k in meas.kinds
+            k: model_for(k, options.get(k)) for k in meas.kinds
         }
         self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
         #: Each kind's rows, a contiguous slice of the grouped order.

@@ -53,7 +53,7 @@ def resolve_models(kinds: Iterable[str],
     models: dict[str, MeasurementModel] = {}
     values: dict[str, Array] = {}
     for kind in kinds:
-        model = model_for(kind, **dict(options.get(kind, {})))
+        model = model_for(kind, options.get(kind))
         try:
             nu = model.nuisance_vector(dict(nuisance or {}))
         except ValueError as err:

@@ -13,25 +13,25 @@ from .checks import (
     normalised_residuals,
     scale_sigma,
 )
-from .estimate import (
+from .estimate import EstimateResult, assemble_result, diverged_result, result_from_covariance
+from .nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
+from .observability import Direction, Observability, analyse
+from .status import (
     CONVERGED,
     DIVERGED,
     NOT_CONVERGED,
+    STATUSES,
     UNOBSERVABLE,
-    EstimateResult,
-    assemble_result,
-    diverged_result,
+    Status,
     fit_status,
-    result_from_covariance,
 )
-from .nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
-from .observability import Direction, Observability, analyse
 from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, trust_of
 
 __all__ = [
     "CONVERGED",
     "DIVERGED",
     "NOT_CONVERGED",
+    "STATUSES",
     "TRUST_NONE",
     "TRUST_OK",
     "TRUST_WARNING",
@@ -45,6 +45,7 @@ __all__ = [
     "KnownNuisanceLike",
     "Observability",
     "SanityWarning",
+    "Status",
     "Trust",
     "analyse",
     "answer_from_state",

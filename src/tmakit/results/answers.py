@@ -27,7 +27,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from ..data import MeasurementSet
 from ..geodesy import enu_to_geodetic
-from .context import clock_time, origin_of, sensor_position
+from .context import altitude_reference, clock_time, origin_of, sensor_position
 
 KNOT = 1852.0 / 3600.0
 """One knot in m/s (one nautical mile, 1852 m, per hour)."""
@@ -342,28 +342,6 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
                   rng_sd, brg, brg_sd,
                   position_ellipse(cov[:2, :2], level) if None not in enu[:2] else None, cov,
                   altitude_reference(meas))
-
-
-#: The altitude references a measurement set's metadata names, in words.
-ALTITUDE_REFERENCES = {"ellipsoid": "WGS-84 ellipsoid", "msl": "mean sea level"}
-
-
-def altitude_reference(meas: MeasurementSet | None) -> str:
-    """Return what a measurement set's altitudes are measured from, in words.
-
-    Parameters
-    ----------
-    meas : MeasurementSet or None
-        The measurements; their ``altitude_reference`` metadata (``ellipsoid``, the default,
-        or ``msl``) says it.
-
-    Returns
-    -------
-    str
-        ``WGS-84 ellipsoid`` or ``mean sea level``.
-    """
-    ref = "ellipsoid" if meas is None else meas.metadata.get("altitude_reference", "ellipsoid")
-    return ALTITUDE_REFERENCES.get(ref, ref)
 
 
 def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:

@@ -10,7 +10,6 @@ Everything is SI (m, m/s, s).
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 
@@ -19,7 +18,7 @@ from numpy.typing import ArrayLike
 
 from ..data import MeasurementSet
 from ..filters import Track
-from ..randomness import NOT_GIVEN, NotGiven
+from ..keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from .errors import TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim
 from .initiators import DEFAULT_MAX_RELATIVE_STD, BatchInitiator, Initiator, PriorInitiator
@@ -61,8 +60,7 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
           particles: int | None = None,
           prior: Mapping[str, float] | ArrayLike | None = None,
           prior_std: Mapping[str, float] | ArrayLike | None = None,
-          prior_time: float | None = None,
-          init_window: int | None = None,
+          prior_time: float | None = None, init_window: int | None = None,
           max_relative_std: float = DEFAULT_MAX_RELATIVE_STD,
           confirm: bool = True,
           rng: np.random.Generator | int | None = None,
@@ -110,11 +108,10 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     Returns
     -------
     Track
-        One row per update (SI).  ``extra.start`` says which start was used (JSON-ready),
-        ``extra.start_record`` is its typed record (:func:`start_record`), ``extra.q``
-        the per-axis q, ``extra.dim`` and ``extra.options`` the settings.  After a
-        batch start the first row is the batch estimate at the window's last time (NIS NaN,
-        no degrees of freedom) and the log-likelihood counts the rows after it.
+        One row per update (SI); ``extra`` says how it started (``start``, JSON-ready, and
+        ``start_record``) and with which ``q``, ``dim`` and ``options``.  After a batch
+        start the first row is the batch estimate at the window's last time (NIS NaN, no
+        degrees of freedom); the log-likelihood counts the rows after it.
 
     Raises
     ------
@@ -126,12 +123,7 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     """
     if not isinstance(meas, MeasurementSet):
         raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
-    if filter is not NOT_GIVEN:
-        warnings.warn("track(filter=...) is deprecated; use tracker=", DeprecationWarning,
-                      stacklevel=2)
-        if tracker != "ekf":
-            raise TypeError("track() got both tracker and filter; give tracker only")
-        tracker = filter
+    tracker = renamed_keyword("track", "filter", filter, "tracker", tracker, "ekf")
     filter_class(tracker)
     d = filter_dim(meas, dim)
     setup = FilterSetup.create(tracker, d, q, particles, rng, options)

@@ -17,13 +17,8 @@ from ...motion import PiecewiseCurvilinear
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...motion.fixed import FixedParameters
 from ...observation import ObservationModel
-from ...results.estimate import (
-    CONVERGED,
-    DIVERGED,
-    NOT_CONVERGED,
-    EstimateResult,
-    assemble_result,
-)
+from ...results.estimate import EstimateResult, assemble_result
+from ...results.status import CONVERGED, DIVERGED, NOT_CONVERGED
 from .search import ManoeuvreSearch
 from .selection import OrderSelection, fit_criterion
 from .settings import OrderFit
@@ -73,16 +68,9 @@ class ManoeuvreEstimate(EstimateResult):
         return [(float(self.estimate[i]), float(self.std[i]))
                 for i, n in enumerate(self.parameters) if n.startswith("t_")]
 
-    def as_dict(self) -> dict[str, object]:
-        """Give the result as JSON-ready data.
-
-        Returns
-        -------
-        dict of str to object
-            The keys of :class:`EstimateResult` and ``manoeuvres``, ``held_at_zero``,
-            ``model_order``, ``change_over_times``, ``final_state`` (SI; non-finite as None).
-        """
-        data = super().as_dict()
+    def _fields(self) -> dict[str, object]:
+        """Add the manoeuvres, held accelerations, order selection and final state."""
+        data = super()._fields()
 
         def num(x: float) -> float | None:
             return float(x) if np.isfinite(x) else None
