@@ -255,7 +255,7 @@ def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])
-    tall = tk.read_measurements(rep, bearing_sigma=0.5, dim=3)
+    tall = tk.read_measurements(rep, bearing_sigma_deg=0.5, dim=3)
     motion = tk.motion_from_name("cv3d")
     one = estimate(tall, motion)
     assert one.status == "unobservable"

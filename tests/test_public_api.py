@@ -129,3 +129,30 @@ def test_the_namespace_exports_every_result_type():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert not hasattr(tk, "import_module")
+
+
+def test_names_say_the_unit_and_the_old_names_warn(tmp_path):
+    """MeasurementSet takes file units (value_file, sigma_file: degrees for a bearing),
+    MeasurementSet.from_si and MeasurementPlan SI; the old names warn for one release."""
+    from tmakit.io.samples import replay_sample
+
+    states = np.zeros((2, 6))
+    new = tk.MeasurementSet([0.0, 1.0], ["s", "s"], ["bearing"] * 2, value_file=[10.0, 20.0],
+                            sigma_file=[1.0, 1.0], sensor_state=states)
+    np.testing.assert_allclose(new.value_si, np.deg2rad([10.0, 20.0]))
+    with pytest.warns(DeprecationWarning, match=r"MeasurementSet\(value=...\) is deprecated"):
+        old = tk.MeasurementSet([0.0, 1.0], ["s", "s"], ["bearing"] * 2, value=[10.0, 20.0],
+                                sigma_file=[1.0, 1.0], sensor_state=states)
+    assert old.equals(new)
+    with pytest.raises(TypeError, match="needs value_file"):
+        tk.MeasurementSet([0.0], ["s"], ["bearing"], sigma_file=[1.0], sensor_state=states[:1])
+    text, _ = replay_sample(0)
+    rep = tmp_path / "c.rep"
+    rep.write_text(text)
+    named = tk.read_measurements(rep, ownship="OWNSHIP", contact="CONTACT",
+                                 bearing_sigma_deg=0.5)
+    with pytest.warns(DeprecationWarning, match="bearing_sigma_deg"):
+        renamed = tk.read_measurements(rep, ownship="OWNSHIP", contact="CONTACT",
+                                       bearing_sigma=0.5)
+    assert renamed.equals(named)
+    np.testing.assert_allclose(named.sigma_si[named.kind_mask("bearing")], np.deg2rad(0.5))

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import rules
 from .arrays import broadcast, take_rows
+from .keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from .measurements import KINDS
 from .measurements import codes as categorical
 from .measurements.codes import KIND_CODES, KIND_NAMES
@@ -50,11 +51,11 @@ class MeasurementSet:
         Id of the sensor that made it.
     kind : array_like of str, shape (n,)
         Measurement kind, a key of :data:`tmakit.measurements.KINDS`.
-    value, sigma : array_like, shape (n,)
+    value_file, sigma_file : array_like, shape (n,)
         Measured value and noise standard deviation in the file unit of the kind (deg, deg/s,
-        m, m/s, Hz, dBm; ``sigma`` in dB for power).
+        m, m/s, Hz, dBm; ``sigma_file`` in dB for power); :meth:`from_si` takes SI.
     sensor_state : array_like, shape (n, 6)
-        Sensor ENU position (m) and velocity (m/s) at ``time``.
+        Sensor ENU position (m) and velocity (m/s) at ``time`` (required).
     time_ref : array_like, shape (n,), optional
         Time of the earlier sample of a range difference (s); NaN elsewhere (the default).
     ref_sensor_state : array_like, shape (n, 6), optional
@@ -64,11 +65,15 @@ class MeasurementSet:
         checked).
     check : bool, optional
         Refuse what the file reader refuses, with its messages (:mod:`tmakit.rules`; default).
+    value, sigma : array_like, optional
+        Deprecated names of ``value_file`` and ``sigma_file`` (a warning).
 
     Raises
     ------
     ValueError
         A column's length differs from that of ``time``, a kind is unknown, or a rule fails.
+    TypeError
+        A required column is missing.
 
     Notes
     -----
@@ -76,10 +81,17 @@ class MeasurementSet:
     file_offset``) is stored.  Library code uses :meth:`from_si`.  Arrays are read-only.
     """
 
-    def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value: ArrayLike,
-                 sigma: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
+    def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike,
+                 value_file: ArrayLike | None = None, sigma_file: ArrayLike | None = None,
+                 sensor_state: ArrayLike | None = None, time_ref: ArrayLike | None = None,
                  ref_sensor_state: ArrayLike | None = None,
-                 metadata: Mapping[str, str] | None = None, check: bool = True) -> None:
+                 metadata: Mapping[str, str] | None = None, check: bool = True, *,
+                 value: ArrayLike | NotGiven = NOT_GIVEN,
+                 sigma: ArrayLike | NotGiven = NOT_GIVEN) -> None:
+        value = renamed_keyword("MeasurementSet", "value", value, "value_file", value_file, None)
+        sigma = renamed_keyword("MeasurementSet", "sigma", sigma, "sigma_file", sigma_file, None)
+        if value is None or sigma is None or sensor_state is None:
+            raise TypeError("MeasurementSet() needs value_file, sigma_file and sensor_state")
         self.time = np.asarray(time, dtype=float)
         n = self.time.shape[0]
         sensor_text = np.asarray(sensor, dtype=str)
@@ -250,36 +262,14 @@ class MeasurementSet:
         self._set_sensors(self._new_column("sensor", sensors, str))
 
     def kind_mask(self, kind: str) -> NDArray[np.bool_]:
-        """Mark the rows of ``kind`` (an integer comparison).
-
-        Parameters
-        ----------
-        kind : str
-            A measurement kind name.
-
-        Returns
-        -------
-        ndarray of bool, shape (n,)
-            True on its rows; all False for a kind not in the set.
-        """
+        """Mark the rows of ``kind`` (n,) by an integer comparison; none for an absent kind."""
         code = KIND_CODES.get(kind)
         if code is None:
             return np.zeros(len(self), dtype=bool)
         return self.kind_code == code
 
     def sensor_mask(self, sensor: str) -> NDArray[np.bool_]:
-        """Mark the rows of the sensor ``sensor`` (an integer comparison).
-
-        Parameters
-        ----------
-        sensor : str
-            A sensor id.
-
-        Returns
-        -------
-        ndarray of bool, shape (n,)
-            True on its rows; all False for a sensor not in the set.
-        """
+        """Mark the rows of ``sensor`` (n,) by an integer comparison; none for an absent one."""
         try:
             code = self.sensor_names.index(sensor)
         except ValueError:

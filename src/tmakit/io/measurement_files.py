@@ -28,6 +28,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..data import MeasurementSet
+from ..keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .contract import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable
@@ -50,9 +51,10 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
                       format: str | None = None, mapping: object = None,
                       measurements: str | os.PathLike[str] | None = None,
                       track: str | os.PathLike[str] | None = None, ownship: str | None = None,
-                      contact: str | None = None, bearing_sigma: float | None = None,
+                      contact: str | None = None, bearing_sigma_deg: float | None = None,
                       range_sigma: float | None = None, frequency_sigma: float | None = None,
-                      dim: int | None = None) -> MeasurementSet:
+                      dim: int | None = None,
+                      bearing_sigma: float | NotGiven | None = NOT_GIVEN) -> MeasurementSet:
     """Read a measurement file into a MeasurementSet, by its format.
 
     Every cell is checked against the contract of ``docs/file-format.md``; all problems are
@@ -80,11 +82,13 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
     ownship, contact : str, optional
         Debrief replays: the own ship's track name and the contact
         (:func:`tmakit.io.debrief.read_replay`).
-    bearing_sigma, range_sigma, frequency_sigma : float, optional
-        Debrief replays: the noise of lines that state none (deg, m, Hz; the unit of the
-        file, as ``tma --bearing-sigma``).
+    bearing_sigma_deg, range_sigma, frequency_sigma : float, optional
+        Debrief replays: the noise of lines that state none (deg, m, Hz; as
+        ``tma --bearing-sigma``).
     dim : int, optional
         Real logs: 2 or 3, instead of the surface rule.
+    bearing_sigma : float, optional
+        Deprecated: ``bearing_sigma_deg`` (the unit in the name; a warning).
 
     Options left at None are not passed to the reader; a format refuses options it does not
     take (tmakit's CSV and Parquet files take none) with a ``TypeError`` naming them.
@@ -116,9 +120,11 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         raise FileNotFoundError(f"{path}: no such file")
     refuse_unreadable(path, binary=fmt.name == "parquet" or path.suffix.lower() in (
         ".parquet", ".pq"))  # a FIFO, a device, NUL bytes in a text format: at once
+    bearing_sigma_deg = renamed_keyword("read_measurements", "bearing_sigma", bearing_sigma,
+                                        "bearing_sigma_deg", bearing_sigma_deg, None)
     given = {k: v for k, v in (
         ("mapping", mapping), ("measurements", measurements), ("track", track),
-        ("ownship", ownship), ("contact", contact), ("bearing_sigma", bearing_sigma),
+        ("ownship", ownship), ("contact", contact), ("bearing_sigma", bearing_sigma_deg),
         ("range_sigma", range_sigma), ("frequency_sigma", frequency_sigma), ("dim", dim))
         if v is not None}
     return fmt.read(path, origin=origin, **given)
