@@ -289,6 +289,19 @@ def test_two_worker_processes_give_the_one_process_table(gu2007):
                                   one.table.iloc[:5])
 
 
+def test_the_library_changes_no_process_wide_setting_unasked():
+    """A study in the user's process leaves the allocator and BLAS splitting as they were
+    (checked in a fresh interpreter); `tma montecarlo`, a process of tmakit's own, may."""
+    import subprocess
+    import sys
+
+    code = ("import tmakit as tk, tmakit.montecarlo.memory as m, tmakit.blas as b; "
+            "tk.monte_carlo('gu2007', runs=2, progress=False); print(m._done, b._SPLIT)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split() == ["False", "False"]
+
+
 def test_chunks_keep_freed_memory_where_glibc_allows(gu2007):
     """The allocator setting is taken once per process on Linux (glibc), and a study after it
     gives the same table."""

@@ -63,8 +63,9 @@ def montecarlo(
 
 def _study(scn: Any, partial: Path | None, **options: Any) -> Any:
     """Run the study; on any failure the finished runs go to ``partial`` first."""
-    from ..montecarlo import monte_carlo
+    from ..montecarlo import keep_freed_memory, monte_carlo
 
+    keep_freed_memory()  # tma's own process: the allocator keeps what the chunks free
     finished: list[Any] = []
     try:
         return monte_carlo(scn, on_chunk=finished.append, **options)

@@ -15,6 +15,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from .memory import keep_freed_memory
 from .runs import run_chunk
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -109,10 +110,15 @@ def run_local(tasks: Sequence[Any], bar: Any, fn: Callable[[Any], Any] = run_chu
 
 
 def _single_threaded_worker() -> None:
-    """Hold a pool worker's BLAS to one thread for its life (the cores go to the workers)."""
+    """Set up a pool worker, a process of tmakit's own: BLAS on one thread, freed memory kept.
+
+    The cores go to the workers; the allocator keeps the temporaries a chunk frees
+    (:func:`~.memory.keep_freed_memory`).  The user's own process is never changed.
+    """
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1, user_api="blas")
+    keep_freed_memory()
 
 
 def _pool_context() -> Any:

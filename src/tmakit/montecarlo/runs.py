@@ -27,7 +27,6 @@ from ..data import MeasurementSet
 from ..observation.varpro_compiled import compiled_batches
 from ..results.nuisance import KnownNuisance
 from ..scenario import Scenario
-from .memory import keep_freed_memory
 from .ml_runs import solve_runs, summarise_runs
 
 __all__ = ["FAILED", "RUN_ERRORS", "ChunkOutput", "ChunkTask", "run_chunk"]
@@ -155,8 +154,6 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     """
     # One BLAS thread: a chunk's products are many and mid-sized, and the cores are shared
     # with the other chunks (workers or processes), where BLAS threads spin against them.
-    # The allocator keeps the temporaries it frees for the next iteration (.memory).
-    keep_freed_memory()
     with one_thread(), compiled_batches(task.compiled):
         scn = task.scenario
         rngs = [np.random.default_rng(s) for s in task.seeds]
