@@ -88,29 +88,31 @@ class MeasurementSet:
                  metadata: Mapping[str, str] | None = None, check: bool = True, *,
                  value: ArrayLike | NotGiven = NOT_GIVEN,
                  sigma: ArrayLike | NotGiven = NOT_GIVEN) -> None:
-        value = renamed_keyword("MeasurementSet", "value", value, "value_file", value_file, None)
-        sigma = renamed_keyword("MeasurementSet", "sigma", sigma, "sigma_file", sigma_file, None)
-        if value is None or sigma is None or sensor_state is None:
+        value_file = renamed_keyword("MeasurementSet", "value", value, "value_file", value_file,
+                                     None)
+        sigma_file = renamed_keyword("MeasurementSet", "sigma", sigma, "sigma_file", sigma_file,
+                                     None)
+        if value_file is None or sigma_file is None or sensor_state is None:
             raise TypeError("MeasurementSet() needs value_file, sigma_file and sensor_state")
         self.time = np.asarray(time, dtype=float)
         n = self.time.shape[0]
         sensor_text = np.asarray(sensor, dtype=str)
         kind_text = np.asarray(kind, dtype=str)
-        value_file = np.array(value, dtype=float)
-        sigma_file = np.array(sigma, dtype=float)
+        value_array = np.array(value_file, dtype=np.float64)
+        sigma_array = np.array(sigma_file, dtype=np.float64)
         self.sensor_state = np.asarray(sensor_state, dtype=float).reshape(n, 6)
         nan = np.broadcast_to(np.nan, (n, 6))  # absent references: no memory per row
         self.time_ref = nan[:, 0] if time_ref is None else np.asarray(time_ref, dtype=float)
         self.ref_sensor_state = (nan if ref_sensor_state is None
                                  else np.asarray(ref_sensor_state, dtype=float).reshape(n, 6))
-        for name, col in (("sensor", sensor_text), ("kind", kind_text), ("value", value_file),
-                          ("sigma", sigma_file), ("time_ref", self.time_ref)):
+        for name, col in (("sensor", sensor_text), ("kind", kind_text), ("value", value_array),
+                          ("sigma", sigma_array), ("time_ref", self.time_ref)):
             if col.shape != (n,):
                 raise ValueError(f"column {name!r} has {col.shape[0]} rows, time has {n}")
         self.metadata = {str(k): str(v) for k, v in dict(metadata or {}).items()}
         self._set_kinds(kind_text)
         self._set_sensors(sensor_text)
-        self._set_file_values(value_file, sigma_file)
+        self._set_file_values(value_array, sigma_array)
         if check:  # the rules of the file reader (tmakit.rules), with its messages
             rules.check_set(self)
 
@@ -152,6 +154,8 @@ class MeasurementSet:
                          sigma: NDArray[np.float64] | None) -> None:
         """Store new file-unit values and/or sigmas (owned arrays) and their SI twins."""
         scale = categorical.FILE_SCALE[self.kind_code]
+        self._value: NDArray[np.float64] | None
+        self._sigma: NDArray[np.float64] | None
         if value is not None:
             self._value = _frozen(value)
             self._value_si = _frozen(value * scale + categorical.FILE_OFFSET[self.kind_code])
@@ -183,7 +187,7 @@ class MeasurementSet:
 
     def _new_column(self, name: str, values: ArrayLike, dtype: type = float) -> NDArray[Any]:
         """Return a column of this set's length (a copy), or raise ``ValueError``."""
-        out = np.array(values, dtype=dtype)
+        out: NDArray[Any] = np.array(values, dtype=dtype)
         if out.shape != (len(self),):
             raise ValueError(f"column {name!r} has {out.shape[0] if out.ndim else 0} rows, "
                              f"time has {len(self)}")

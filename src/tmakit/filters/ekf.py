@@ -20,7 +20,6 @@ from .general import (
     innovation_solve,
     kalman_gain,
     linearise,
-    predict_gaussian,
     updated_covariance,
 )
 from .kernels import KernelRun, ekf_bearing_2d
@@ -203,7 +202,7 @@ class ExtendedKalmanFilter(TrackingFilter):
         return info
 
     # -- the closed-form path ----------------------------------------------------------------
-    def _kernel_ok(self, compiled: CompiledMeasurements, cls: type) -> bool:
+    def _kernel_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]) -> bool:
         """Tell whether the kernel of ``cls`` applies.
 
         It does for one bearing per update, 2-D, plain NCV dynamics, when this class does not
@@ -223,7 +222,8 @@ class ExtendedKalmanFilter(TrackingFilter):
         self.time, self.log_likelihood = block.time, block.log_likelihood
         return block
 
-    def _plan_ok(self, compiled: CompiledMeasurements, cls: type) -> StepPlan | None:
+    def _plan_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]
+                 ) -> StepPlan | None:
         """Give the general plan of ``compiled`` if this filter can run on it (else None)."""
         me = type(self)
         if (compiled.single_bearing or type(self.dynamics) is not NearlyConstantVelocity
@@ -299,7 +299,8 @@ class ExtendedKalmanFilter(TrackingFilter):
                 cov += q
                 mean, t = phi.dot(mean), tk
             elif dt < -TIME_TOLERANCE:
-                predict_gaussian(None, mean, cov, t, tk)  # raises
+                raise ValueError(f"filters run forward: cannot predict from t={t} s back "
+                                 f"to t={tk} s")
             elif tk > t:
                 t = tk
             mean, cov, nis, m, lli = update(step, plan, mean, cov)

@@ -270,6 +270,10 @@ class MirrorReflectMixin:
     """
 
     reflect_default = False
+    # The filter's (it is mixed into a Gaussian filter):
+    dim: int
+    _mean: Array
+    _cov: Array
 
     def _start_reflecting(self, reflect: bool | None) -> None:
         """Reflection on or off; None takes :attr:`reflect_default`."""
@@ -278,21 +282,21 @@ class MirrorReflectMixin:
         self._plane: float | None = None
         self._symmetric = True
 
-    def update(self, rows: MeasurementSet) -> UpdateInfo:
+    def update(self, rows: MeasurementSet | MeasurementGroup) -> UpdateInfo:
         """Update as the filter does, then reflect the estimate if the mirror rule says so.
 
         Parameters
         ----------
-        rows : MeasurementSet
-            The rows of the update.
+        rows : MeasurementSet or MeasurementGroup
+            The rows of the update (a group is not reflected: its rows are not at hand).
 
         Returns
         -------
         UpdateInfo
             That of the filter's update.
         """
-        info = super().update(rows)  # type: ignore[misc]
-        if not (self.reflect and self._symmetric):
+        info: UpdateInfo = super().update(rows)  # type: ignore[misc]
+        if not (self.reflect and self._symmetric) or isinstance(rows, MeasurementGroup):
             return info
         plane = mirror_plane(rows)
         if plane is None or (self._plane is not None and abs(plane - self._plane) > 1e-6):
@@ -300,12 +304,12 @@ class MirrorReflectMixin:
         elif self._plane is None:
             self._plane = plane
         if (self.reflect and self._symmetric and self._plane is not None
-                and self.dim == 3 and self._mean[2] < self._plane):  # type: ignore[attr-defined]
+                and self.dim == 3 and self._mean[2] < self._plane):
             m = np.array([1.0, 1.0, -1.0, 1.0, 1.0, -1.0])
-            mean = self._mean * m  # type: ignore[attr-defined]
+            mean = self._mean * m
             mean[2] += 2.0 * self._plane
             self._mean = mean
-            self._cov = self._cov * m[:, None] * m[None, :]  # type: ignore[attr-defined]
+            self._cov = self._cov * m[:, None] * m[None, :]
             self.reflections += 1
         return info
 
@@ -378,7 +382,8 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
             self.skipped_updates = getattr(self, "skipped_updates", 0) + 1
             return UpdateInfo(float("nan"), 0, 0.0)
         r = group.covariance
-        idx = group.index.get("bearing")
+        where = group.index.get("bearing")
+        idx = None if where is None else np.arange(residual.shape[0])[where]
         if idx is not None:
             rel = group.relative(x)[0][idx]
             mod = modified_gain_rows(group.values[idx], rel, group.dt[idx], self.dim,

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -185,10 +186,10 @@ class ParticleFilter(TrackingFilter):
             raise ValueError(f"bandwidth {bandwidth} gives a kernel bandwidth h = {self.h:.3g}"
                              " >= 1 (the shrinkage needs h < 1); use a smaller bandwidth or "
                              "more particles")
-        q = np.broadcast_to(np.asarray(self.dynamics.q, dtype=float), (self.dim,))
-        self._q = q.copy()
-        self._any_q = bool(np.any(q > 0))
-        self._equal_q = bool(np.all(q == q[0]))
+        axes = np.broadcast_to(np.asarray(self.dynamics.q, dtype=np.float64), (self.dim,))
+        self._q = axes.copy()
+        self._any_q = bool(np.any(axes > 0))
+        self._equal_q = bool(np.all(axes == axes[0]))
         self._ncv = type(self.dynamics) is NearlyConstantVelocity
 
     # -- state --------------------------------------------------------------------------------
@@ -414,7 +415,7 @@ class ParticleFilter(TrackingFilter):
             log_det_half = float(np.sum(np.log(sig)))
         else:
             chol = safe_cholesky(r)
-            white = np.linalg.solve(chol, nu.T).T
+            white = cast(Array, np.linalg.solve(chol, nu.T).T)
             log_det_half = float(np.sum(np.log(np.diagonal(chol))))
         loglik = -0.5 * np.einsum("ij,ij->i", white, white) - log_det_half - 0.5 * m * LOG_2PI
         return loglik, nu
@@ -466,7 +467,7 @@ def _kernel_factor(cov: Array) -> Array:
     A singular covariance (all particles on a line) gets a PSD eigen-factor instead of failing.
     """
     try:
-        return np.linalg.cholesky(cov)
+        return cast(Array, np.linalg.cholesky(cov))
     except np.linalg.LinAlgError:
         evals, evecs = np.linalg.eigh(nearest_psd(cov))
         return evecs * np.sqrt(np.clip(evals, 0.0, None))

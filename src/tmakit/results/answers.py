@@ -243,13 +243,13 @@ def _motion_part(state: NDArray[np.float64], cov: NDArray[np.float64], stationar
     speed = float(np.linalg.norm(v))
     g = np.zeros(6)
     g[3:6] = v / speed
-    speed, speed_sd = _finite(speed, _std(g, cov, null))
+    speed_value, speed_sd = _finite(speed, _std(g, cov, null))
     g = np.zeros(6)
     g[3], g[4] = v[1] / h2, -v[0] / h2
     c_sd = _std(g, cov, null)
     course, course_sd = _finite(float(np.degrees(np.arctan2(v[0], v[1])) % 360.0),
                                 None if c_sd is None else float(np.degrees(c_sd)))
-    return course, course_sd, speed, speed_sd
+    return course, course_sd, speed_value, speed_sd
 
 
 def _from_sensor(state: NDArray[np.float64], cov: NDArray[np.float64],
@@ -321,7 +321,7 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
         vel_sd.append(s)
     course, course_sd, speed, speed_sd = _motion_part(state, cov, stationary, null)
     origin = origin_of(meas)
-    geo = None
+    geo: tuple[float | None, float | None, float | None] | None = None
     if origin is not None:
         geo = (None, None, None)
         if enu[0] is not None and enu[1] is not None:
@@ -389,7 +389,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     problem = time_problem(float(time), None if meas is None else meas.time, "time")
     if problem is not None:
         raise ValueError(problem)
-    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     t = np.array([float(time)])
     null = None
     if not np.all(np.isfinite(theta)):

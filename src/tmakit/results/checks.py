@@ -332,7 +332,7 @@ def normalised_residuals(result: object, meas: MeasurementSet,
     ndarray, shape (n,)
         ``(value - prediction) / sigma`` per row, angles wrapped; NaN for a diverged fit.
     """
-    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     if not np.all(np.isfinite(theta)):
         return np.full(len(meas), np.nan)
     obs = ObservationModel(meas, result.motion, options)  # type: ignore[attr-defined]

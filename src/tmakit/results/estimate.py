@@ -497,7 +497,7 @@ def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.flo
         jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
         w = noise.whiten(jac, axis=-2)
         return np.asarray(w.T @ w, dtype=float)
-    info = 0.0
+    info: float | NDArray[np.float64] = 0.0
     for lo, hi in noise.chunk_bounds(blas.CHUNK_ROWS) if chunks else [(0, n)]:
         part = obs.take(obs.order[lo:hi]) if chunks else obs
         j_theta, j_nu = part.jacobian_grouped(theta, nu)  # the noise model is grouped too

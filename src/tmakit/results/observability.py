@@ -21,6 +21,7 @@ path) is taken out of the information and named in words.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -210,7 +211,7 @@ def _to_theta(motion: MotionModel, theta: NDArray[np.float64], t: NDArray[np.flo
     sol, *_ = np.linalg.lstsq(jac, target, rcond=None)
     if np.linalg.norm(jac @ sol - target) > 1e-6 * np.linalg.norm(target):
         return None
-    return sol
+    return cast(NDArray[np.float64], sol)
 
 
 def _weights(names: tuple[str, ...], vec: NDArray[np.float64]) -> dict[str, float]:
