@@ -10,6 +10,7 @@ North convention.
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -471,7 +472,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     return scenario_from_dict(*_scenario_data(name_or_path))
 
 
-def load_planning(name_or_path: str | Path) -> PlanningSetup:
+def load_planning(name_or_path: str | os.PathLike[str]) -> PlanningSetup:
     """Load the planning setup of a scenario (built-in name or TOML file) with ``[planning]``.
 
     Parameters

@@ -128,8 +128,7 @@ class MLByMotion(BatchEstimator):
                 f"known_nuisance={self.known_nuisance!r}, grid={self.grid!r}, "
                 f"max_iter={self.max_iter!r}{extra})")
 
-    def fit(self, meas: MeasurementSet, motion: MotionModel | str  # type: ignore[override]
-            ) -> EstimateResult:
+    def fit(self, meas: MeasurementSet, motion: MotionModel | str) -> EstimateResult:
         """Return the maximum-likelihood estimate for ``motion``.
 
         Parameters

@@ -228,7 +228,7 @@ class LectureGaussNewton(PaperMethod):
             step, rank, info = _pinv_step(hw, rw)
             ranks.append(rank)
             x = x + step
-            size = float(np.sqrt(max(step @ info @ step, 0.0)))
+            size = float(np.sqrt(max(float(step @ info @ step), 0.0)))
             norms.append(size)
             if not np.all(np.isfinite(x)):
                 break

@@ -146,7 +146,7 @@ class MaximumLikelihood(BatchEstimator):
         theta0 = None if self.init is None else self._start(motion)
         if not sets:
             return []
-        known = self.known_nuisance
+        known = as_known_nuisance(self.known_nuisance)  # (one already: as it is)
         obs = ObservationModel(sets[0], motion, self.options)
         fixed = None if known is None else obs.nuisance_vector(known.values)
         problem = VarProProblem(obs, None, fixed)
@@ -368,25 +368,26 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         theta = np.concatenate([blocks[r] for r in runs])
         owner = np.concatenate([np.full(blocks[r].shape[0], r) for r in runs])
         # Starts bound for a worse minimum than one already reached stop early.
-        reached = np.array([np.inf if best[r] is None else best[r].cost for r in range(b)])
+        reached = np.array([np.inf if fit is None else fit.cost for fit in best])
         data = ys if np.array_equal(owner, np.arange(b)) else ys[owner]  # (1 start a set: no copy)
         sol = solve_all_rows(problem, data, theta, max_iter, owner, reached[owner], subset)
         for r in runs:
             rows = np.flatnonzero(owner == r)
             cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
             i = rows[int(np.argmin(cost))]
-            used = rows.size + (best[r].starts if best[r] is not None else 0)
-            if best[r] is None or sol.cost[i] < best[r].cost:
+            prev = best[r]
+            used = rows.size + (prev.starts if prev is not None else 0)
+            if prev is None or sol.cost[i] < prev.cost:
                 best[r] = Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
                                int(sol.iterations[i]), bool(sol.converged[i]), used,
                                information=information_of(problem, sol.evaluation, i,
                                                            sol.information))
             else:
-                best[r].starts = used
+                prev.starts = used
 
     def unsettled() -> list[int]:
-        return [r for r in range(b) if best[r] is None or not (
-            best[r].converged and plausible_chi2(2.0 * best[r].cost, dof))]
+        return [r for r, fit in enumerate(best) if fit is None or not (
+            fit.converged and plausible_chi2(2.0 * fit.cost, dof))]
 
     first = 1 if has_bearings else g.starts
     solve(dict(enumerate(first_of_many(starts, first))))

@@ -187,7 +187,7 @@ def _ml_batched(task: ChunkTask, meas: MeasurementSet, values: NDArray[np.float6
     motion = task.scenario.motion
     ml = MaximumLikelihood(task.init, task.options, task.known_nuisance)
     problem, bests = solve_runs(ml, meas, values, motion)
-    got = summarise_runs(problem, bests, ml.known_nuisance)
+    got = summarise_runs(problem, bests, task.known_nuisance)
     out = ChunkOutput.empty(task.first_run, values.shape[0], motion.n_params)
     for i, e in got.failures.items():
         out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"

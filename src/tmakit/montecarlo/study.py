@@ -272,7 +272,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
                    (wall, entropy, executor, size))
 
 
-def _options(scenario: Scenario, options: Options | None) -> Options:
+def _options(scenario: Scenario, options: Options | None) -> dict[str, dict[str, object]]:
     """Give the nuisance model per kind: ``options``, or the scenario's."""
     return {str(k): dict(v) for k, v in (
         scenario.measurement_options if options is None else options).items()}

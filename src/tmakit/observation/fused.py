@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from .affine_rows import AffineRows
@@ -215,7 +216,7 @@ class PlanarUnits:
         return east_north
 
 
-def planar_units(obs: Any, rows: Array | None = None) -> PlanarUnits | None:
+def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits | None:
     """Give :class:`PlanarUnits` of the rows ``rows`` of ``obs`` (grouped order), or None.
 
     It applies where :func:`fused_values` does (one kind, no nuisance or reference samples,

@@ -68,12 +68,23 @@ _STREAMS = 4  # truth, prior, measurements, tracker
 
 
 class Choice(Protocol):
-    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one)."""
+    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one); read-only."""
 
-    index: int
-    step: Step
-    bound: Array
-    violations: Mapping[str, Array]
+    @property
+    def index(self) -> int:
+        """The chosen candidate."""
+
+    @property
+    def step(self) -> Step:
+        """The chosen step."""
+
+    @property
+    def bound(self) -> Array:
+        """Each candidate's predicted position bound (m)."""
+
+    @property
+    def violations(self) -> Mapping[str, Array]:
+        """Each constraint's violation per candidate (m)."""
 
 
 class Policy(Protocol):

@@ -172,9 +172,8 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
     m = fit.manoeuvres
     motion = PiecewiseCurvilinear(m, ref_time)
     pr = search.problem(m)
+    assert isinstance(pr.obs.motion, ForwardPiecewise)  # the search fits in that form
     theta = reference(pr.obs.motion, fit.theta, ref_time)
-    common = dict(method="ml", motion=motion, selection=selection, fits=fits,
-                  final_time=search.t_end, iterations=fit.iterations, starts=fit.starts)
     if not np.all(np.isfinite(theta)) or not np.isfinite(fit.chi2):
         nan = np.full(motion.n_params, np.nan)
         return ManoeuvreEstimate(motion.param_names, nan, nan,
@@ -182,7 +181,10 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
                                  {k: (np.nan, np.nan) for k in pr.obs.nuisance_names},
                                  DIVERGED, chi2=np.inf, dof=pr.noise.rank - fit.unknowns,
                                  message="the solve left the region where the model is "
-                                         "defined (non-finite predictions)", **common)
+                                         "defined (non-finite predictions)", method="ml",
+                                 motion=motion, selection=selection, fits=fits,
+                                 final_time=search.t_end, iterations=fit.iterations,
+                                 starts=fit.starts)
     free = fit.free_mask()
     held = [n for n, f in zip(motion.param_names, free, strict=True) if not f]
     # the information of the fitted parameters only: a held acceleration is no unknown
@@ -206,4 +208,7 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
     assert res.bound is not None
     return ManoeuvreEstimate(motion.param_names, theta, std, cov, res.nuisance, status,
                              chi2=fit.chi2, dof=res.dof, bound=res.bound, message=message,
-                             final=res.bound.derived(search.t_end), held=held, **common)
+                             final=res.bound.derived(search.t_end), held=held, method="ml",
+                             motion=motion, selection=selection, fits=fits,
+                             final_time=search.t_end, iterations=fit.iterations,
+                             starts=fit.starts)
