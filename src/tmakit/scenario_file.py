@@ -225,6 +225,7 @@ class _Builder:
             raise ValueError(f"{where}: give exactly one of the ENU and the geodetic form")
         if point is not None:
             return np.asarray(point, dtype=float)
+        assert geo is not None  # (exactly one given)
         return self.enu_many(where, [geo])[0]
 
     def enu_many(self, where: str, geo: list[list[float]]) -> np.ndarray:
@@ -307,7 +308,8 @@ class _Builder:
             name=self.spec.name, motion=motion, truth=truth, sensors=sensors,
             plans=[self.plan(m) for m in self.spec.measurements], nuisance=self.nuisance(),
             description=self.spec.title or self.spec.description,
-            origin=None if self.spec.origin is None else tuple(self.spec.origin),
+            origin=None if self.spec.origin is None else (
+                self.spec.origin[0], self.spec.origin[1], self.spec.origin[2]),
             source=source)
 
 
@@ -437,7 +439,7 @@ def read_scenario_file(path: str | Path) -> Scenario:
     return scenario_from_dict(_read_toml(path), str(path))
 
 
-def _scenario_data(name_or_path: str | Path) -> tuple[dict[str, Any], str]:
+def _scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
     """Return the parsed TOML of a built-in scenario name or a file, and its source."""
     text = str(name_or_path)
     path = Path(text)

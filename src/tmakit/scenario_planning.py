@@ -254,7 +254,7 @@ class _Build:
     def kinematics(self) -> PlatformKinematics:
         base = self.config.kinematics if self.config is not None else PlatformKinematics()
         lim = self.spec.limits
-        changes: dict[str, float] = {}
+        changes: dict[str, Any] = {}
         for name in ("min_speed", "max_speed", "max_acceleration", "max_climb_rate",
                      "min_altitude", "max_altitude"):
             if getattr(lim, name) is not None:
@@ -292,7 +292,8 @@ class _Build:
                 raise ValueError("planning.measurements: give the kinds and sigmas measured "
                                  "in each step (the sensor's [[measurements]] do not all "
                                  "have a sigma)")
-            kinds, sigmas = [p.kind for p in plans], [float(p.sigma) for p in plans]
+            kinds = [p.kind for p in plans]
+            sigmas = [float(p.sigma) for p in plans if p.sigma is not None]  # (all have one)
         else:
             kinds, sigmas = [], []
             for i, m in enumerate(rows):

@@ -34,7 +34,7 @@ from contextlib import contextmanager
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..arrays import Array, IntArray
 from ..blas import matmul
 from . import curvilinear_compiled as compiled
 from .base import MotionModel
@@ -151,7 +151,8 @@ class ForwardPiecewise(MotionModel):
             d_anchor = np.zeros((b, M + 1, 4, p))
             d_anchor[:, 0, :, :4] = np.eye(4)
         for m in range(1, M + 1):
-            args = (*anchors[:, m - 1].T, acc[:, m - 1, 0], acc[:, m - 1, 1],
+            x0, y0, v0, c0 = anchors[:, m - 1].T
+            args = (x0, y0, v0, c0, acc[:, m - 1, 0], acc[:, m - 1, 1],
                     starts[:, m] - starts[:, m - 1])
             if partials:
                 val, par = propagate_state_partials(*args)
@@ -171,7 +172,7 @@ class ForwardPiecewise(MotionModel):
         return anchors, d_anchor, starts, valid
 
     def _segments(self, theta: Array, t: Array, partials: bool
-                  ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
+                  ) -> tuple[IntArray, Array, Array | None, Array | None]:
         """Propagate every sample from the start of its segment.
 
         Give per sample its segment ``(B, n)``, propagated values ``(B, n, 6)`` and the
@@ -197,6 +198,7 @@ class ForwardPiecewise(MotionModel):
             ac = acc[rows, seg]                              # (B, n, 2)
             dt = t[None, :] - starts[rows, seg]
         args = (a0[..., 0], a0[..., 1], a0[..., 2], a0[..., 3], ac[..., 0], ac[..., 1], dt)
+        par: Array | None
         if partials:
             val, par = propagate_position_velocity(*args)
         else:
@@ -252,7 +254,7 @@ class ForwardPiecewise(MotionModel):
         return out[:, inv].reshape(*lead, t.shape[0], 6)
 
     def _theta_partials(self, flat: Array, t: Array
-                        ) -> tuple[Array, Array, Array, NDArray[np.int64] | None]:
+                        ) -> tuple[IntArray, Array, Array, NDArray[np.int64] | None]:
         """Give the per-segment partials at the unique times ``tu`` of ``t``, cached.
 
         The segment of every sample ``(B, nu)``, ``d (x, y, vx, vy) / d inputs``
@@ -431,8 +433,8 @@ class ForwardPiecewise(MotionModel):
         return f"ForwardPiecewise(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"
 
 
-def _weights(ds: Array, par_u: Array, seg_u: NDArray[np.int64], idx: NDArray[np.int64] | None
-             ) -> tuple[Array, NDArray[np.int64]]:
+def _weights(ds: Array, par_u: Array, seg_u: IntArray, idx: NDArray[np.int64] | None
+             ) -> tuple[Array, IntArray]:
     """Contract ``ds`` ``(B, n, 6)`` with the sample partials ``par_u`` ``(B, nu, 4, 7)``.
 
     Give ``w`` ``(B, n, 7)`` and every row's segment ``(B, n)``.  Rows that follow the unique

@@ -19,7 +19,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..arrays import Array, IntArray
 from ..optional_kernels import OptionalKernels
 
 #: The module's kernels (:mod:`tmakit.optional_kernels`).
@@ -53,7 +53,7 @@ def _compile() -> dict[str, Callable[..., object]]:
 
 
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
-              partials: bool) -> tuple[Array, Array, Array | None, Array | None]:
+              partials: bool) -> tuple[IntArray, Array, Array | None, Array | None]:
     """Propagate a batch of piecewise curvilinear trajectories to the times ``t``, compiled.
 
     Parameters
@@ -102,7 +102,7 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
     return seg, vals, (par if partials else None), (d_anchor if partials else None)
 
 
-def _rows(ds: Array, idx: Array | None) -> tuple[int, int, Array]:
+def _rows(ds: Array, idx: IntArray | None) -> tuple[int, int, IntArray]:
     """Give the batch size, the rows and every row's unique time; refuse without the kernels."""
     if not available():
         raise RuntimeError("the compiled curvilinear kernels are not available (numba)")
@@ -110,7 +110,7 @@ def _rows(ds: Array, idx: Array | None) -> tuple[int, int, Array]:
     return b, n, (np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64))
 
 
-def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
+def chain(ds: Array, par: Array, seg: IntArray, idx: IntArray | None, d_anchor: Array,
           manoeuvres: int, columns: NDArray[np.int64] | None = None) -> Array:
     """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``, compiled.
 
@@ -152,7 +152,7 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     return out
 
 
-def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: Array | None,
+def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray, idx: IntArray | None,
                    d_anchor: Array, manoeuvres: int, runs: NDArray[np.int64] | None = None
                    ) -> tuple[Array, Array]:
     """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, compiled.
@@ -193,7 +193,7 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: A
     return jtj, jtr
 
 
-def scatter_states(vals: Array, inv: Array, sensor: Array | None = None) -> Array:
+def scatter_states(vals: Array, inv: IntArray, sensor: Array | None = None) -> Array:
     """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times, compiled.
 
     Parameters

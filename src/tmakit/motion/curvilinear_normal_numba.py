@@ -19,7 +19,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..arrays import Array
+from ..arrays import Array, IntArray
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 # Inlined into the loop over the samples (as a call, every array argument's reference count
@@ -68,8 +68,8 @@ def _inputs_by_params(d_anchor: Array, b: int, sg: int, manoeuvres: int, d: Arra
 
 
 @_jit
-def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: Array,
-                   d_anchor: Array, manoeuvres: int, runs: Array, jtj: Array, jtr: Array
+def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray, idx: IntArray,
+                   d_anchor: Array, manoeuvres: int, runs: IntArray, jtj: Array, jtr: Array
                    ) -> None:  # pragma: no cover - compiled
     """Write ``J'J`` ``(R, p, p)`` and ``J'r`` ``(R, p)`` of the whitened Jacobian of ``runs``.
 

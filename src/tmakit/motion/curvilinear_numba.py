@@ -23,8 +23,9 @@ import math
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..arrays import Array, IntArray
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -215,7 +216,7 @@ def _derive_anchor(p47: Array, prev: Array, m: int, k0: int, d: Array) -> None: 
 
 @_jit
 def _anchors(theta: Array, M: int, ref_time: float, end_time: float, partials: bool,
-             anchors: Array, v_start: Array, starts: Array,
+             anchors: Array, v_start: NDArray[np.complex128], starts: Array,
              d_anchor: Array) -> None:  # pragma: no cover - compiled
     """Chain one parameter vector's segment start states forwards (NaN outside the domain).
 
@@ -254,7 +255,7 @@ def _anchors(theta: Array, M: int, ref_time: float, end_time: float, partials: b
 
 @_jit
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
-              partials: bool, seg: Array, vals: Array, par: Array,
+              partials: bool, seg: IntArray, vals: Array, par: Array,
               d_anchor: Array) -> None:  # pragma: no cover - compiled
     """Propagate every sample of a batch from the start of its segment, chained forwards.
 
@@ -304,7 +305,7 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
 
 
 @_jit
-def chain(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array, manoeuvres: int,
+def chain(ds: Array, par: Array, seg: IntArray, idx: IntArray, d_anchor: Array, manoeuvres: int,
           out: Array) -> None:  # pragma: no cover - compiled
     """Apply the chain rule: write ``d value / d theta`` ``(B, n, p)`` into ``out``.
 
@@ -360,7 +361,7 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array, manoeu
 
 
 @_jit
-def _column_runs(cols: Array, M: int) -> tuple:  # pragma: no cover - compiled
+def _column_runs(cols: IntArray, M: int) -> tuple:  # pragma: no cover - compiled
     """Give, per segment of a row, where :func:`chain_columns` writes what.
 
     ``cols`` increase, so the output columns of the parameters a segment's start state
@@ -385,8 +386,8 @@ def _column_runs(cols: Array, M: int) -> tuple:  # pragma: no cover - compiled
 
 
 @_jit
-def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
-                  manoeuvres: int, cols: Array, out: Array) -> None:  # pragma: no cover
+def chain_columns(ds: Array, par: Array, seg: IntArray, idx: IntArray, d_anchor: Array,
+                  manoeuvres: int, cols: IntArray, out: Array) -> None:  # pragma: no cover
     """Apply the chain rule for the parameters ``cols`` only, into ``out`` ``(q, B, n)``.
 
     Column ``j`` is :func:`chain`'s column ``cols[j]``, the same operations in the same order
@@ -446,7 +447,7 @@ def chain_columns(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array
 
 
 @_jit
-def scatter_states(vals: Array, inv: Array, out: Array) -> None:  # pragma: no cover - compiled
+def scatter_states(vals: Array, inv: IntArray, out: Array) -> None:  # pragma: no cover - compiled
     """Write ENU states ``(B, n, 6)`` of the rows from the values at the unique times.
 
     Parameters
@@ -472,7 +473,7 @@ def scatter_states(vals: Array, inv: Array, out: Array) -> None:  # pragma: no c
 
 
 @_jit
-def scatter_relative(vals: Array, inv: Array, sensor: Array, out: Array
+def scatter_relative(vals: Array, inv: IntArray, sensor: Array, out: Array
                      ) -> None:  # pragma: no cover - compiled
     """Write :func:`scatter_states`' states minus ``sensor`` (the same bits as after).
 

@@ -167,9 +167,10 @@ def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
         if coef is None:
             factor = r
         else:
-            factor = weighted.get(id(coef))
-            if factor is None:
-                factor = weighted[id(coef)] = coef * r
+            found = weighted.get(id(coef))
+            if found is None:
+                found = weighted[id(coef)] = coef * r
+            factor = found
         # every product of the north row negated: its sum exactly negated
         term = np.einsum("n,n->", rows[c], factor)
         out[i] += -term if c == 1 else term

@@ -182,7 +182,8 @@ def bearing_residuals(obs: Any, theta: Array, u: Array, inv_sigma: Array
         return None
     h = found[1]
     r = np.empty((1, h.shape[0]))
-    half, bad = KERNELS["residual"](h, u[0], inv_sigma, r[0])
+    residual: Callable[..., tuple[float, bool]] = KERNELS["residual"]  # type: ignore[assignment]
+    half, bad = residual(h, u[0], inv_sigma, r[0])
     return None if bad else (r, float(half))
 
 

@@ -188,6 +188,7 @@ class ObservationModel:
         sub._rel_map = (None if self._rel_map is None
                         else self._rel_map.take(pick, sensor=sub._sensor))
         sub._rel_map_ref = (None if sub._ref is None or self._rel_map_ref is None
+                            or self._ref is None
                             else self._rel_map_ref.take(pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
         return sub

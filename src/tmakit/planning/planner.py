@@ -31,6 +31,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
@@ -85,7 +86,7 @@ class Recommendation:
     information: Array
     cost: Array
     bound: Array
-    feasible: Array
+    feasible: NDArray[np.bool_]
     violations: dict[str, Array]
     all_infeasible: bool
 
