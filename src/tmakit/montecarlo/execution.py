@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
@@ -216,6 +217,17 @@ def dask_client(dask: Any) -> tuple[Client, bool]:
                      f"distributed.Client, not {type(dask).__name__}")
 
 
+def _keep_freed_memory_on(client: Client) -> None:
+    """Have the cluster's worker processes keep freed memory (:mod:`.memory`), not this one.
+
+    Workers are compute processes (Dask's nanny tunes their allocator too); a worker that
+    runs in this process (a threads-only local cluster) is the user's process: left alone.
+    """
+    pids = client.run(os.getpid)
+    if os.getpid() not in set(pids.values()):
+        client.run(keep_freed_memory)
+
+
 def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
              fn: Callable[[Any], Any] = run_chunk,
              on_done: Callable[[Any], None] | None = None) -> list[Any]:
@@ -243,6 +255,7 @@ def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
     """
     from distributed import as_completed
 
+    _keep_freed_memory_on(client)
     futures = client.map(fn, list(tasks), pure=False)
     outputs = []
     try:

@@ -13,8 +13,9 @@ setting.  The price is up to 32 MiB of freed memory kept by the process.  Other 
 libraries without ``mallopt``) are left as they are.
 
 It is a setting of the whole process, so the library makes it only in processes of its own:
-the ``tma`` command and the worker processes of ``monte_carlo(workers=N)``.  A Python user who
-wants it calls :func:`keep_freed_memory` (on a Dask cluster: ``client.run(keep_freed_memory)``).
+the ``tma`` command, the worker processes of ``monte_carlo(workers=N)`` and the worker
+processes of a Dask cluster it sends chunks to (never a worker inside the caller's process).
+A Python user who wants it in their own process calls :func:`keep_freed_memory`.
 """
 
 from __future__ import annotations
