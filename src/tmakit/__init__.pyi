@@ -27,7 +27,7 @@ from .sensors import PlatformKinematics as PlatformKinematics
 from .sensors import PlatformTrack as PlatformTrack
 
 # scenarios
-from .scenario import MeasurementPlan as MeasurementPlan
+from .scenario_plan import MeasurementPlan as MeasurementPlan
 from .scenario import Scenario as Scenario
 from .scenario import simulate as simulate
 from .scenario_file import load_scenario as load_scenario

@@ -17,7 +17,7 @@ How the set holds its columns (SI inside, converted once at the edge):
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -270,7 +270,7 @@ class MeasurementSet:
         code = KIND_CODES.get(kind)
         if code is None:
             return np.zeros(len(self), dtype=bool)
-        return self.kind_code == code
+        return cast(NDArray[np.bool_], self.kind_code == code)
 
     def sensor_mask(self, sensor: str) -> NDArray[np.bool_]:
         """Mark the rows of ``sensor`` (n,) by an integer comparison; none for an absent one."""
@@ -278,7 +278,7 @@ class MeasurementSet:
             code = self.sensor_names.index(sensor)
         except ValueError:
             return np.zeros(len(self), dtype=bool)
-        return self.sensor_code == code
+        return cast(NDArray[np.bool_], self.sensor_code == code)
 
     def __len__(self) -> int:
         """Return the number of rows."""

@@ -14,16 +14,18 @@ import os
 import tomllib
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, cast
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from .measurements import KINDS
 from .motion import MotionModel, motion_from_name
-from .scenario import MeasurementPlan, Scenario
+from .scenario import Scenario
 from .scenario_catalog import builtin_scenario_names
 from .scenario_catalog import builtin_scenarios as builtin_scenarios  # re-exported
+from .scenario_plan import MeasurementPlan
 from .scenario_planning import PlanningSetup, PlanningSpec, build_planning
 from .scenario_times import TimeRange
 from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
@@ -226,7 +228,7 @@ class _Builder:
         if point is not None:
             return np.asarray(point, dtype=float)
         assert geo is not None  # (exactly one given)
-        return self.enu_many(where, [geo])[0]
+        return cast(NDArray[Any], self.enu_many(where, [geo])[0])
 
     def enu_many(self, where: str, geo: list[list[float]]) -> np.ndarray:
         if self.spec.origin is None:

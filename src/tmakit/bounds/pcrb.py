@@ -135,8 +135,8 @@ class _Setup:
     cov: Array
     dynamics: NearlyConstantVelocity
     q_axes: tuple[float, ...]
-    options: dict
-    nuisance: dict
+    options: dict[str, Any]
+    nuisance: dict[str, float]
 
 
 def _dynamics(q: float | ArrayLike, dim: int) -> tuple[NearlyConstantVelocity,

@@ -135,7 +135,7 @@ def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, 
         bar.close()
     wall = time.perf_counter() - start
     outputs.sort(key=lambda o: o.first_run)
-    executor = (f"dask {client.scheduler.address}" if client is not None
+    executor = (f"dask {getattr(client.scheduler, 'address', '')}" if client is not None
                 else f"{processes} processes" if processes > 1 else "local")
     if client is None and processes < workers:
         executor += f", {workers:,} asked: {len(tasks):,} chunks, {_cpus()} CPUs"
@@ -267,7 +267,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
                                            runs, progress, on_chunk, workers=workers)
     finally:
         if own_client and client is not None:
-            client.close()
+            close: Callable[[], object] = client.close  # (distributed is not typed)
+            close()
     return _result(scenario, estimator, outputs, runs, opts, known,
                    (wall, entropy, executor, size))
 

@@ -14,6 +14,7 @@ fit) and the public methods return the set's own row order.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -144,7 +145,7 @@ class ObservationModel:
         out = x * x
         out += y * y
         out += z * z
-        return out
+        return cast(Array, out)
 
     def take(self, index: ArrayLike) -> ObservationModel:
         """Return the model of the rows ``index`` of the set.

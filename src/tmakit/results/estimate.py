@@ -356,7 +356,8 @@ def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iteratio
                           {} if extra is None else extra)
 
 
-def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDArray,
+def result_from_covariance(motion: MotionModel, theta: NDArray[np.float64],
+                           covariance: NDArray[np.float64],
                            nuisance: dict[str, tuple[float, float]], status: Status,
                            iterations: int, chi2: float, dof: int, method: str,
                            message: str = "", extra: dict[str, object] | None = None
@@ -401,11 +402,12 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
                           {} if extra is None else extra)
 
 
-def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu: NDArray,
+def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.float64],
+                    nu: NDArray[np.float64],
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
                     known_nuisance: KnownNuisance | None, note: str = "", *,
-                    jacobian: tuple[NDArray, NDArray] | None = None,
-                    information: NDArray | None = None) -> EstimateResult:
+                    jacobian: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+                    information: NDArray[np.float64] | None = None) -> EstimateResult:
     """Return the result of a weighted least-squares fit of an observation model.
 
     Parameters

@@ -53,7 +53,7 @@ def full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
     scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
     evals = np.linalg.eigh(info * scale[:, :, None] * scale[:, None, :])[0]
     top = np.maximum(evals[:, -1], np.finfo(float).tiny)
-    return ~(evals <= RANK_TOL * top[:, None]).any(axis=1)
+    return cast(NDArray[np.bool_], ~(evals <= RANK_TOL * top[:, None]).any(axis=1))
 
 
 _AXES = {"East": np.array([1.0, 0, 0]), "North": np.array([0, 1.0, 0]),

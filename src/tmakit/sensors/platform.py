@@ -73,7 +73,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .platform_state import Actions, Array, Index, PlatformState, propagate_constant_turn
+from ..arrays import Array
+from .platform_state import Actions, Index, PlatformState, propagate_constant_turn
 from .tracks import SensorTrack
 
 _LIMIT_TOL = 1e-9     # relative: a clip smaller than this is rounding, not a limit
