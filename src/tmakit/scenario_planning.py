@@ -224,19 +224,26 @@ class PlanningSetup:
         """The planned time, s: ``steps * interval``."""
         return self.steps * self.planner.interval
 
-    def replace(self, **changes: Any) -> PlanningSetup:
-        """Return a copy with fields changed (e.g. ``steps``, ``particles``, ``runs``).
+    def replace(self, *, steps: int | None = None, tracker: str | None = None,
+                particles: int | None = None, q: float | None = None,
+                runs: int | None = None) -> PlanningSetup:
+        """Return a copy with run settings changed (None: as it is).
 
         Parameters
         ----------
-        **changes
-            Field names and their new values.
+        steps, tracker, particles, q, runs : optional
+            Decisions per run, the tracker's name, its particles, process noise (m/s^2) and
+            Monte Carlo runs.
 
         Returns
         -------
         PlanningSetup
         """
-        return dataclasses.replace(self, **changes)
+        return dataclasses.replace(
+            self, steps=self.steps if steps is None else steps,
+            tracker=self.tracker if tracker is None else tracker,
+            particles=self.particles if particles is None else particles,
+            q=self.q if q is None else q, runs=self.runs if runs is None else runs)
 
 
 class _Build:

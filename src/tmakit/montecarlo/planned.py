@@ -198,7 +198,7 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
                         f"{type(scenario).__name__}")
     seed_used = study_seed(renamed_keyword("plan", "seed", seed, "rng", rng, 0))
     setup = scenario if isinstance(scenario, PlanningSetup) else load_planning(scenario)
-    changes: dict[str, Any] = {}
+    steps = None
     if duration is not None:
         if isinstance(duration, bool) or not isinstance(duration, int | float | np.floating):
             raise ValueError(f"duration must be a number of seconds; got {duration!r}")
@@ -206,16 +206,12 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         if not (ratio >= 1 and abs(ratio - round(ratio)) <= 1e-6 * ratio):
             raise ValueError(f"duration must be a whole number (>= 1) of decision intervals "
                              f"of {setup.interval:g} s; got {duration} s")
-        changes["steps"] = round(ratio)
-        if changes["steps"] > MAX_DECISIONS:
-            raise ValueError(f"duration {duration:g} s: {changes['steps']:,} decisions of "
+        steps = round(ratio)
+        if steps > MAX_DECISIONS:
+            raise ValueError(f"duration {duration:g} s: {steps:,} decisions of "
                              f"{setup.interval:g} s per run, more than the limit of "
                              f"{MAX_DECISIONS:,}")
-    if particles is not None:
-        changes["particles"] = particles
-    if tracker is not None:
-        changes["tracker"] = tracker
-    setup = setup.replace(**changes) if changes else setup
+    setup = setup.replace(steps=steps, particles=particles, tracker=tracker)
     study = closed_loop_study([loop_case(setup)], runs=setup.runs if runs is None else runs,
                               seed=seed_used, dask=dask, progress=progress)
     return PlanRun(setup, study)
