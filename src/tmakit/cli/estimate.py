@@ -423,7 +423,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         raise typer.Exit(EXIT_NO_ANSWER)
 
 
-def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path, Any],
+def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path | str, Any],
                   say: Any, units: str = "si") -> None:
     """Draw the solution picture (``--plot``) and say so.
 

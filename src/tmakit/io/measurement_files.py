@@ -24,7 +24,7 @@ back to the same number, so files round-trip exactly.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 from ..data import MeasurementSet
@@ -53,7 +53,9 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
                       track: str | os.PathLike[str] | None = None, ownship: str | None = None,
                       contact: str | None = None, bearing_sigma_deg: float | None = None,
                       range_sigma: float | None = None, frequency_sigma: float | None = None,
-                      dim: int | None = None,
+                      dim: int | None = None, ranges: str | None = None,
+                      kinds: Collection[str] | None = None,
+                      window: Sequence[str | None] | None = None,
                       bearing_sigma: float | NotGiven | None = NOT_GIVEN) -> MeasurementSet:
     """Read a measurement file into a MeasurementSet, by its format.
 
@@ -87,6 +89,12 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         ``tma --bearing-sigma``).
     dim : int, optional
         Real logs: 2 or 3, instead of the surface rule.
+    ranges : {"use", "ignore"}, optional
+        Debrief replays: fit every range, or none (default: placeholder ranges left out).
+    kinds : collection of str, optional
+        Debrief replays: keep only these kinds.
+    window : (from, to), optional
+        Debrief replays: keep only the cuts in this time window, before any other check.
     bearing_sigma : float, optional
         Deprecated: ``bearing_sigma_deg`` (the unit in the name; a warning).
 
@@ -107,9 +115,21 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
     ValueError
         If ``format`` names no registered format.
     """
+    bearing_sigma_deg = renamed_keyword("read_measurements", "bearing_sigma", bearing_sigma,
+                                        "bearing_sigma_deg", bearing_sigma_deg, None)
+    given = {k: v for k, v in (
+        ("mapping", mapping), ("measurements", measurements), ("track", track),
+        ("ownship", ownship), ("contact", contact), ("bearing_sigma", bearing_sigma_deg),
+        ("range_sigma", range_sigma), ("frequency_sigma", frequency_sigma), ("dim", dim),
+        ("ranges", ranges), ("kinds", kinds), ("window", window)) if v is not None}
     if not isinstance(path, str | os.PathLike):
-        return _read_several([Path(p) for p in path], origin, format, options)
-    path = Path(path)
+        return _read_several([Path(p) for p in path], origin, format, given)
+    return _read_one(Path(path), origin, format, given)
+
+
+def _read_one(path: Path, origin: tuple[float, float, float] | None, format: str | None,
+              options: dict[str, object]) -> MeasurementSet:
+    """Read one file by its format, with the options given."""
     fmt = find_format(path, format, reading=True)
     if fmt is None or fmt.read is None:
         shown = f"'{path.suffix}'" if path.suffix else "no suffix"
@@ -120,21 +140,14 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         raise FileNotFoundError(f"{path}: no such file")
     refuse_unreadable(path, binary=fmt.name == "parquet" or path.suffix.lower() in (
         ".parquet", ".pq"))  # a FIFO, a device, NUL bytes in a text format: at once
-    bearing_sigma_deg = renamed_keyword("read_measurements", "bearing_sigma", bearing_sigma,
-                                        "bearing_sigma_deg", bearing_sigma_deg, None)
-    given = {k: v for k, v in (
-        ("mapping", mapping), ("measurements", measurements), ("track", track),
-        ("ownship", ownship), ("contact", contact), ("bearing_sigma", bearing_sigma_deg),
-        ("range_sigma", range_sigma), ("frequency_sigma", frequency_sigma), ("dim", dim))
-        if v is not None}
-    return fmt.read(path, origin=origin, **given)
+    return fmt.read(path, origin=origin, **options)
 
 
 def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
-                  format: str | None, options: dict[str, Any]) -> MeasurementSet:
+                  format: str | None, options: dict[str, object]) -> MeasurementSet:
     """Read several files as one, where their format's reader takes several."""
     if len(paths) == 1:
-        return read_measurements(paths[0], origin, format=format, **options)
+        return _read_one(paths[0], origin, format, options)
     formats = {p: find_format(p, format, reading=True) for p in paths}
     names = {f.name if f is not None else None for f in formats.values()}
     fmt = next(iter(formats.values()))
