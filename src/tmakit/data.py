@@ -266,14 +266,36 @@ class MeasurementSet:
         self._set_sensors(self._new_column("sensor", sensors, str))
 
     def kind_mask(self, kind: str) -> NDArray[np.bool_]:
-        """Mark the rows of ``kind`` (n,) by an integer comparison; none for an absent kind."""
+        """Mark the rows of ``kind`` (an integer comparison).
+
+        Parameters
+        ----------
+        kind : str
+            A measurement kind name.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True on its rows; all False for a kind not in the set.
+        """
         code = KIND_CODES.get(kind)
         if code is None:
             return np.zeros(len(self), dtype=bool)
         return cast(NDArray[np.bool_], self.kind_code == code)
 
     def sensor_mask(self, sensor: str) -> NDArray[np.bool_]:
-        """Mark the rows of ``sensor`` (n,) by an integer comparison; none for an absent one."""
+        """Mark the rows of the sensor ``sensor`` (an integer comparison).
+
+        Parameters
+        ----------
+        sensor : str
+            A sensor id.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True on its rows; all False for a sensor not in the set.
+        """
         try:
             code = self.sensor_names.index(sensor)
         except ValueError:

@@ -24,7 +24,18 @@ T = TypeVar("T")
 
 
 def as_generator(rng: RngLike) -> np.random.Generator:
-    """Give a Generator for a Generator (as is), a seed, or None (fresh entropy)."""
+    """Give a Generator for a Generator (as is), a seed, or None (fresh entropy).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator, int or None
+        The random source.
+
+    Returns
+    -------
+    numpy.random.Generator
+        The generator; the same seed gives the same numbers.
+    """
     if isinstance(rng, np.random.Generator):
         return rng
     return np.random.default_rng(rng)

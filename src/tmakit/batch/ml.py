@@ -374,8 +374,7 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         for r in runs:
             rows = np.flatnonzero(owner == r)
             cost = np.where(np.isfinite(sol.cost[rows]), sol.cost[rows], np.inf)
-            i = rows[int(np.argmin(cost))]
-            prev = best[r]
+            i, prev = rows[int(np.argmin(cost))], best[r]
             used = rows.size + (prev.starts if prev is not None else 0)
             if prev is None or sol.cost[i] < prev.cost:
                 best[r] = Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),

@@ -246,9 +246,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
-    scenario, runs = _scenario(scenario), _whole(runs, "runs")
+    scenario, runs, workers = _scenario(scenario), _whole(runs, "runs"), _workers(workers, dask)
     chunk = None if chunk is None else _whole(chunk, "chunk")
-    workers = _workers(workers, dask)
     seed_used = study_seed(renamed_keyword("monte_carlo", "seed", seed, "rng", rng, 0))
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
