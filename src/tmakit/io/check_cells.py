@@ -9,6 +9,7 @@ range-difference rows) are pandera checks whose failure cases become one problem
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -210,7 +211,7 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
     for j, c in enumerate(SENSOR_STATE_COLUMNS):
         if c in columns:
             columns[c].checks.append(checks.check(
-                c, "reach", lambda v, r, j=j: state_within_reach(v, j),
+                c, "reach", partial(_reach, column=j),
                 POSITION if j < 3 else VELOCITY))
     if "sensor_alt" in columns:
         columns["sensor_alt"].checks.append(checks.check(
@@ -241,6 +242,11 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
             "sensor_lon", "longitude", lambda v, r: geo_within(v, "sensor_lon"),
             LONGITUDE))
     return columns
+
+
+def _reach(values: NDArray[np.float64], rows: object, column: int) -> NDArray[np.bool_]:
+    """Tell where a sensor state column lies within reach (a column check's signature)."""
+    return state_within_reach(values, column)
 
 
 def _for_kind(kind: NDArray[np.object_], k: str,
