@@ -361,7 +361,7 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
 def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                    units: str = "si", warnings: list[Any] | None = None,
                    factors: dict[str, float] | None = None,
-                   plot: tuple[Path | None, Path, Any] | None = None) -> None:
+                   plot: tuple[Path | None, Path | str, Any] | None = None) -> None:
     """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer.
 
     Parameters

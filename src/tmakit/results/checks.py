@@ -295,7 +295,7 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     for w in (chi2_warning(chi2, dof), chi2_low_warning(chi2, dof)):
         if w is not None:
             found.append(w)
-    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     if np.all(np.isfinite(theta)) and len(meas):
         motion = result.motion  # type: ignore[attr-defined]
         state = motion.states(theta, np.array([float(np.max(meas.time))]))[0]

@@ -38,7 +38,7 @@ from .bound import Bound, bound_from_information
 from .checks import SanityWarning, chi2_probability, fit_warnings
 from .context import geodetic_fix, origin_of
 from .nuisance import KnownNuisance, as_known_nuisance
-from .status import CONVERGED, DIVERGED, UNOBSERVABLE, Status, fit_status
+from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
 from .trust import Trust, trust_of
 
 
