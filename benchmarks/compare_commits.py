@@ -59,6 +59,14 @@ scn = tk.load_scenario("gu2007")
 t = time.process_time()
 monte_carlo(scn, runs=300, seed=1, progress=False)
 """,
+    "monte carlo gu2007 300 runs, freed memory kept": """
+from tmakit.montecarlo import monte_carlo
+from tmakit.montecarlo.memory import keep_freed_memory
+keep_freed_memory()  # opt-in since issue 27 (the base commit made it in every chunk)
+scn = tk.load_scenario("gu2007")
+t = time.process_time()
+monte_carlo(scn, runs=300, seed=1, progress=False)
+""",
     "read 100k-row csv": """
 import numpy as np
 scn = tk.load_scenario("bearings-only-2d")

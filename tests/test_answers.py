@@ -169,7 +169,7 @@ def test_unobservable_quantities_are_never_numbers(tmp_path, bo):
     assert data["status"] == "unobservable"
     pos = data["answer"]["position"]
     assert pos["east_m"]["value"] is None and pos["lat_deg"] is None
-    assert data["answer"]["ellipse"] is None and "geodetic" not in data
+    assert data["answer"]["ellipse"] is None and data["geodetic"] is None
     text = run("estimate", str(path), "--motion", "cv2d")
     assert text.exit_code == 4
     assert "e+09" not in text.stdout and "e+10" not in text.stdout
@@ -293,8 +293,8 @@ def test_an_unobservable_height_leaves_the_horizontal_answers(tmp_path):
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])
-    flat = tk.read_measurements(rep, bearing_sigma=0.5)
-    tall = tk.read_measurements(rep, bearing_sigma=0.5, dim=3)
+    flat = tk.read_measurements(rep, bearing_sigma_deg=0.5)
+    tall = tk.read_measurements(rep, bearing_sigma_deg=0.5, dim=3)
     assert tall.dim == 3
     a2 = tk.estimate(flat, tk.motion_from_name("cv2d")).answer(flat)
     res3 = tk.estimate(tall, tk.motion_from_name("cv3d"))

@@ -162,15 +162,22 @@ def test_long_function_exceptions_are_still_needed():
 
 
 def test_public_face_is_complete_and_lazy():
-    """Every public name resolves; ``__all__`` and the lazy map agree; importing the package
-    loads none of the numerical core (checked in a fresh interpreter)."""
+    """Every public name resolves; the namespace holds the public names only (no ``Any``,
+    ``annotations`` or ``import_module`` of its own); importing the package loads none of the
+    numerical core (checked in a fresh interpreter)."""
     import subprocess
+    import types
 
     import tmakit
 
-    assert sorted(tmakit.__all__) == sorted(tmakit._LAZY)
+    assert sorted(dir(tmakit)) == sorted(tmakit.__all__)
     for name in tmakit.__all__:
         assert getattr(tmakit, name) is not None
+    for name in ("Any", "TYPE_CHECKING", "annotations", "import_module"):
+        assert not hasattr(tmakit, name)
+    own = [k for k, v in vars(tmakit).items() if not k.startswith("_")
+           and k not in tmakit.__all__ and not isinstance(v, types.ModuleType)]
+    assert own == [], f"tmakit's namespace has names not in its one list: {own}"
     assert (SRC / "py.typed").exists()
     code = ("import sys, tmakit; heavy = [m for m in ('numpy', 'scipy', 'pandas', 'pydantic') "
             "if m in sys.modules]; print(','.join(heavy))")

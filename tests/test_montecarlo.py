@@ -24,7 +24,7 @@ def gu2007() -> tk.Scenario:
 
 @pytest.fixture(scope="module")
 def gu2007_40(gu2007) -> MonteCarloResult:
-    return monte_carlo(gu2007, runs=40, seed=0, progress=False)
+    return monte_carlo(gu2007, runs=40, rng=0, progress=False)
 
 
 def _estimates(res: MonteCarloResult) -> np.ndarray:
@@ -40,9 +40,9 @@ def _same_answers(x: pd.DataFrame, y: pd.DataFrame) -> None:
 
 
 def test_same_seed_same_table_whatever_the_chunking(gu2007):
-    a = monte_carlo(gu2007, runs=7, seed=11, progress=False)
-    b = monte_carlo(gu2007, runs=7, seed=11, progress=False, chunk=3)
-    c = monte_carlo(gu2007, runs=7, seed=11, progress=False, chunk=1)
+    a = monte_carlo(gu2007, runs=7, rng=11, progress=False)
+    b = monte_carlo(gu2007, runs=7, rng=11, progress=False, chunk=3)
+    c = monte_carlo(gu2007, runs=7, rng=11, progress=False, chunk=1)
     # Chunks batch different numbers of solves together; the linear algebra may round the
     # last step differently, so iteration counts of equally good starts can differ.  The
     # answers may not.
@@ -55,16 +55,16 @@ def test_same_seed_same_table_whatever_the_chunking(gu2007):
 
 
 def test_run_data_do_not_depend_on_the_number_of_runs_and_seeds_differ(gu2007):
-    few = monte_carlo(gu2007, runs=3, seed=4, progress=False)
-    more = monte_carlo(gu2007, runs=5, seed=4, progress=False, chunk=2)
+    few = monte_carlo(gu2007, runs=3, rng=4, progress=False)
+    more = monte_carlo(gu2007, runs=5, rng=4, progress=False, chunk=2)
     _same_answers(few.table, more.table.iloc[:3])
-    other = monte_carlo(gu2007, runs=3, seed=5, progress=False)
+    other = monte_carlo(gu2007, runs=3, rng=5, progress=False)
     assert not np.allclose(_estimates(few), _estimates(other))
 
 
 def test_seed_none_records_entropy_that_reproduces_the_runs(gu2007):
-    fresh = monte_carlo(gu2007, runs=2, seed=None, progress=False)
-    again = monte_carlo(gu2007, runs=2, seed=fresh.seed, progress=False)
+    fresh = monte_carlo(gu2007, runs=2, rng=None, progress=False)
+    again = monte_carlo(gu2007, runs=2, rng=fresh.seed, progress=False)
     pd.testing.assert_frame_equal(fresh.table, again.table)
 
 
@@ -88,33 +88,33 @@ def _assert_matches_estimate(res: MonteCarloResult, scn: tk.Scenario, seed: int,
 
 
 def test_batched_ml_equals_estimate_run_by_run(gu2007):
-    res = monte_carlo(gu2007, runs=8, seed=2, progress=False, chunk=4)
+    res = monte_carlo(gu2007, runs=8, rng=2, progress=False, chunk=4)
     _assert_matches_estimate(res, gu2007, seed=2)
 
 
 def test_batched_ml_equals_estimate_with_known_nuisance_and_with_init(gu2007):
-    known = monte_carlo(gu2007, runs=3, seed=6, progress=False, known_nuisance=True)
+    known = monte_carlo(gu2007, runs=3, rng=6, progress=False, known_nuisance=True)
     assert known.known_nuisance
     _assert_matches_estimate(known, gu2007, seed=6, known=True)
     init = {"x": 3000.0, "y": 3500.0, "vx": -20.0, "vy": -10.0}
-    started = monte_carlo(gu2007, runs=3, seed=6, progress=False, init=init)
+    started = monte_carlo(gu2007, runs=3, rng=6, progress=False, init=init)
     _assert_matches_estimate(started, gu2007, seed=6, init=init)
     assert (started.table["starts"] == 1).all()
     # The bound follows the nuisance convention: knowing C and f_s can only help.
-    unknown = monte_carlo(gu2007, runs=1, seed=6, progress=False)
+    unknown = monte_carlo(gu2007, runs=1, rng=6, progress=False)
     assert np.all(known.crlb <= unknown.crlb * (1 + 1e-9))
 
 
 def test_known_nuisance_reaches_every_run_and_the_bound_as_one_type(gu2007):
     """``True``, a mapping and a KnownNuisance say the same; values it names are the ones
     every run's estimator and the CRLB hold, the scenario's fill the rest."""
-    flag = monte_carlo(gu2007, runs=2, seed=6, progress=False, known_nuisance=True)
-    typed = monte_carlo(gu2007, runs=2, seed=6, progress=False,
+    flag = monte_carlo(gu2007, runs=2, rng=6, progress=False, known_nuisance=True)
+    typed = monte_carlo(gu2007, runs=2, rng=6, progress=False,
                         known_nuisance=tk.KnownNuisance())
     pd.testing.assert_frame_equal(flag.table, typed.table)
     assert flag.known_nuisance == tk.KnownNuisance(gu2007.nuisance)
     wrong = {"carrier": gu2007.nuisance["carrier"] + 50.0}  # a mis-known carrier
-    off = monte_carlo(gu2007, runs=2, seed=6, progress=False, known_nuisance=wrong)
+    off = monte_carlo(gu2007, runs=2, rng=6, progress=False, known_nuisance=wrong)
     assert off.known_nuisance.values["carrier"] == wrong["carrier"]
     children = np.random.SeedSequence(6).spawn(2)
     for r in range(2):
@@ -128,7 +128,7 @@ def test_known_nuisance_reaches_every_run_and_the_bound_as_one_type(gu2007):
 
 def test_batched_ml_equals_estimate_with_bearings_whose_grid_depends_on_the_data():
     scn = tk.load_scenario("chen-sun-1")  # azimuth + range differences: grid along bearings
-    res = monte_carlo(scn, runs=4, seed=3, progress=False)
+    res = monte_carlo(scn, runs=4, rng=3, progress=False)
     _assert_matches_estimate(res, scn, seed=3)
 
 
@@ -138,7 +138,7 @@ def test_retries_from_other_starts_are_replicated(gu2007, monkeypatch):
     import tmakit.batch.ml as ml
 
     monkeypatch.setattr(ml, "plausible_chi2", lambda chi2, dof: False)  # one rule for both
-    res = monte_carlo(gu2007, runs=3, seed=8, progress=False)
+    res = monte_carlo(gu2007, runs=3, rng=8, progress=False)
     assert (res.table["starts"] > 1).all()
     _assert_matches_estimate(res, gu2007, seed=8)
 
@@ -220,12 +220,12 @@ def test_save_writes_csv_and_parquet_and_refuses_to_overwrite(gu2007_40, tmp_pat
 # -- Dask --------------------------------------------------------------------------------------
 def test_dask_local_cluster_gives_the_local_table(gu2007):
     distributed = pytest.importorskip("distributed")
-    local = monte_carlo(gu2007, runs=10, seed=9, progress=False)
+    local = monte_carlo(gu2007, runs=10, rng=9, progress=False)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
-        remote = monte_carlo(gu2007, runs=10, seed=9, progress=False, dask=client, chunk=3)
-        by_address = monte_carlo(gu2007, runs=4, seed=9, progress=False,
+        remote = monte_carlo(gu2007, runs=10, rng=9, progress=False, dask=client, chunk=3)
+        by_address = monte_carlo(gu2007, runs=4, rng=9, progress=False,
                                  dask=cluster.scheduler_address)
     pd.testing.assert_frame_equal(local.table, remote.table)
     pd.testing.assert_frame_equal(local.table.iloc[:4], by_address.table)
@@ -255,7 +255,7 @@ def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])
-    tall = tk.read_measurements(rep, bearing_sigma=0.5, dim=3)
+    tall = tk.read_measurements(rep, bearing_sigma_deg=0.5, dim=3)
     motion = tk.motion_from_name("cv3d")
     one = estimate(tall, motion)
     assert one.status == "unobservable"
@@ -277,16 +277,29 @@ def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
 # -- worker processes --------------------------------------------------------------------------
 def test_two_worker_processes_give_the_one_process_table(gu2007):
     """Same seed, same chunks: 1 and 2 workers give identical per-run results."""
-    one = monte_carlo(gu2007, runs=12, seed=3, progress=False, chunk=3)
-    two = monte_carlo(gu2007, runs=12, seed=3, progress=False, chunk=3, workers=2)
+    one = monte_carlo(gu2007, runs=12, rng=3, progress=False, chunk=3)
+    two = monte_carlo(gu2007, runs=12, rng=3, progress=False, chunk=3, workers=2)
     pd.testing.assert_frame_equal(one.table, two.table)
     assert (one.executor, two.executor) == ("local", "2 processes")
     saved = []
-    monte_carlo(gu2007, runs=5, seed=3, progress=False, chunk=2, workers=2,
+    monte_carlo(gu2007, runs=5, rng=3, progress=False, chunk=2, workers=2,
                 on_chunk=saved.append)
     assert sorted(o.first_run for o in saved) == [0, 2, 4]
     pd.testing.assert_frame_equal(mc.finished_runs_table(saved, one.parameters),
                                   one.table.iloc[:5])
+
+
+def test_the_library_changes_no_process_wide_setting_unasked():
+    """A study in the user's process leaves the allocator and BLAS splitting as they were
+    (checked in a fresh interpreter); `tma montecarlo`, a process of tmakit's own, may."""
+    import subprocess
+    import sys
+
+    code = ("import tmakit as tk, tmakit.montecarlo.memory as m, tmakit.blas as b; "
+            "tk.monte_carlo('gu2007', runs=2, progress=False); print(m._done, b._SPLIT)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split() == ["False", "False"]
 
 
 def test_chunks_keep_freed_memory_where_glibc_allows(gu2007):
@@ -296,10 +309,10 @@ def test_chunks_keep_freed_memory_where_glibc_allows(gu2007):
 
     from tmakit.montecarlo.memory import keep_freed_memory
 
-    before = monte_carlo(gu2007, runs=3, seed=12, progress=False)
+    before = monte_carlo(gu2007, runs=3, rng=12, progress=False)
     if sys.platform.startswith("linux"):
         assert keep_freed_memory() is True
-    after = monte_carlo(gu2007, runs=3, seed=12, progress=False)
+    after = monte_carlo(gu2007, runs=3, rng=12, progress=False)
     pd.testing.assert_frame_equal(before.table, after.table)
 
 
@@ -332,7 +345,7 @@ def test_other_estimators_run_by_run_through_the_registry(monkeypatch, gu2007):
 
     monkeypatch.setitem(METHODS, "fake", Method(Fake))
     assert mc.available_estimators()[-1] == "fake"
-    res = monte_carlo(gu2007, estimator="fake", runs=3, seed=1, progress=False)
+    res = monte_carlo(gu2007, estimator="fake", runs=3, rng=1, progress=False)
     assert [c[0] for c in calls] == ["fake"] * 3
     assert calls[0][2] == gu2007.measurement_options
     assert res.table["status"].tolist() == ["converged", "failed", "converged"]
@@ -353,7 +366,8 @@ def test_other_estimators_run_by_run_through_the_registry(monkeypatch, gu2007):
     ({"runs": True}, "runs must be a whole number >= 1"),
     ({"chunk": 0}, "chunk must be a whole number >= 1"),
     ({"estimator": "magic"}, "unknown estimator 'magic'; expected one of .*ml"),
-    ({"seed": -1}, "seed must be a whole number >= 0 or None"),
+    ({"rng": -1}, "rng must be a numpy.random.Generator, a whole number >= 0 or None"),
+    ({"rng": 1.5}, "rng must be a numpy.random.Generator"),
     ({"init": [1.0, 2.0]}, "init must give 4 values"),
     ({"init": {"x": 1.0}}, "missing y, vx, vy"),
     ({"dask": 42}, "dask must be a scheduler address"),
@@ -369,7 +383,7 @@ def test_bad_arguments_raise_value_error_with_a_clear_message(gu2007, kwargs, me
 
 def test_scenario_by_name_and_progress_bar(capsys):
     pytest.importorskip("tqdm")
-    res = monte_carlo("gu2007", runs=1, seed=0, progress=True)
+    res = monte_carlo("gu2007", runs=1, rng=0, progress=True)
     assert res.scenario == "gu2007" and res.runs == 1
     assert "1/1" in capsys.readouterr().err
     with pytest.raises(ValueError, match="unknown scenario"):

@@ -179,7 +179,7 @@ def test_plan_counts_every_violated_step_of_every_run():
     data = example()
     data["planning"]["constraints"] = [{"type": "min_range", "distance": 50000.0,
                                         "hard": False, "weight": 1.0}]
-    run = tk.plan(planning_from_dict(data), runs=2, duration=20.0, particles=100, seed=3)
+    run = tk.plan(planning_from_dict(data), runs=2, duration=20.0, particles=100, rng=3)
     summary = run.summary()
     assert summary["violations"] == 4 and summary["runs"] == 2 and summary["steps"] == 2
     assert summary["max_violation_m"] > 1000.0

@@ -96,7 +96,7 @@ def test_replay_sensor3_accuracies_are_the_sigmas_unless_the_user_gives_one(tmp_
     assert np.allclose(f.sigma_si, [0.05, 0.1])
     assert ms.select(kind="range").value_si[0] == pytest.approx(2000 * 0.9144)
     assert ms.metadata["sigma_from_file"] == "1"
-    mine = tk.read_measurements(rep, bearing_sigma=0.5, frequency_sigma=0.2, range_sigma=30.0)
+    mine = tk.read_measurements(rep, bearing_sigma_deg=0.5, frequency_sigma=0.2, range_sigma=30.0)
     assert np.allclose(mine.select(kind="bearing").sigma, 0.5)  # the user's word wins
     assert np.allclose(mine.select(kind="frequency").sigma_si, 0.2)
     assert mine.select(kind="range").sigma_si[0] == 30.0
@@ -151,7 +151,7 @@ def test_replay_figure_course_and_speed_on_a_few_seeds(tmp_path, seed):
     """The issue's figure: course within 1 deg, speed within 0.2 kn (observable geometry)."""
     text, truth = replay_sample(seed)
     ms = tk.read_measurements(write(tmp_path, "c.rep", text), ownship="OWNSHIP",
-                              contact="CONTACT", bearing_sigma=0.5)
+                              contact="CONTACT", bearing_sigma_deg=0.5)
     result = tk.estimate(ms, tk.motion_from_name("cv2d"))
     course, speed = course_speed(result.estimate)
     assert result.status == "converged"

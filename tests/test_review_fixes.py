@@ -181,11 +181,11 @@ def test_a_huge_worker_count_starts_no_more_processes_than_chunks_and_cpus(monke
     from tmakit.montecarlo import monte_carlo, study
 
     monkeypatch.setattr(study, "_cpus", lambda: 2)
-    res = monte_carlo("gu2007", runs=4, seed=1, chunk=1, workers=10**20, progress=False)
+    res = monte_carlo("gu2007", runs=4, rng=1, chunk=1, workers=10**20, progress=False)
     assert res.executor == "2 processes, 100,000,000,000,000,000,000 asked: 4 chunks, 2 CPUs"
-    one = monte_carlo("gu2007", runs=4, seed=1, chunk=1, progress=False)
+    one = monte_carlo("gu2007", runs=4, rng=1, chunk=1, progress=False)
     pd.testing.assert_frame_equal(res.table, one.table)
-    few = monte_carlo("gu2007", runs=3, seed=1, workers=8, progress=False)  # one chunk
+    few = monte_carlo("gu2007", runs=3, rng=1, workers=8, progress=False)  # one chunk
     assert few.executor == "local, 8 asked: 1 chunks, 2 CPUs"
 
 

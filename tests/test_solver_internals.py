@@ -201,12 +201,21 @@ def test_simulate_many_is_simulate_run_by_run(name):
         assert meas.metadata == one.metadata
 
 
-def test_blocked_matmul_is_the_matrix_product():
+@pytest.mark.parametrize("split", [False, True])
+def test_blocked_matmul_is_the_matrix_product_split_or_not(split):
+    """Splitting is opt-in (a process-wide setting) and changes no product."""
+    from tmakit import blas
+
     rng = np.random.default_rng(1)
     a, b = rng.normal(size=(3000, 40)), rng.normal(size=(40, 70))
-    np.testing.assert_allclose(matmul(a, b), a @ b, rtol=1e-12, atol=1e-12)
-    a3 = rng.normal(size=(2, 5, 40))
-    np.testing.assert_allclose(matmul(a3, b), a3 @ b, rtol=1e-12, atol=1e-12)
+    a3 = rng.normal(size=(2, 3000, 40))
+    assert blas._SPLIT is False  # off unless asked
+    blas.split_products(split)
+    try:
+        np.testing.assert_allclose(matmul(a, b), a @ b, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(matmul(a3, b), a3 @ b, rtol=1e-12, atol=1e-12)
+    finally:
+        blas.split_products(False)
 
 
 def test_normal_equations_by_dots_are_the_products_and_ignore_the_thread_count():

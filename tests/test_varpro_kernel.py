@@ -172,10 +172,10 @@ def test_a_large_study_asks_for_the_kernel_everywhere(monkeypatch):
     """The choice is the study's: one process and a pool of workers give the same table, for
     any chunk size, and it agrees with the NumPy path's to rounding."""
     scn = tk.load_scenario("gu2007")
-    plain = monte_carlo(scn, runs=30, seed=3, progress=False, chunk=10)
+    plain = monte_carlo(scn, runs=30, rng=3, progress=False, chunk=10)
     monkeypatch.setattr(study, "COMPILED_WORK", 1)
-    here = monte_carlo(scn, runs=30, seed=3, progress=False, chunk=10)
-    pool = monte_carlo(scn, runs=30, seed=3, progress=False, chunk=7, workers=2)
+    here = monte_carlo(scn, runs=30, rng=3, progress=False, chunk=10)
+    pool = monte_carlo(scn, runs=30, rng=3, progress=False, chunk=7, workers=2)
     assert here.table.equals(pool.table)
     assert (here.table["status"] == plain.table["status"]).all()
     assert (here.table["starts"] == plain.table["starts"]).all()

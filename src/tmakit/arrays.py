@@ -6,13 +6,19 @@ the docstring of the function that takes it.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Array", "broadcast", "take_rows"]
+__all__ = ["Array", "BoolArray", "IntArray", "broadcast", "take_rows"]
 
 #: A float64 array (shapes and units are given where it is used).
 Array = NDArray[np.float64]
+#: An array of integers (row indices, codes, segment numbers).
+IntArray = NDArray[np.integer[Any]]
+#: An array of booleans (masks).
+BoolArray = NDArray[np.bool_]
 
 
 def broadcast(column: NDArray[np.generic]) -> bool:

@@ -5,7 +5,9 @@ busy-wait for the next call.  The products of tmakit's solvers are many and mid-
 machine whose cores are already busy (Monte Carlo workers, other processes) the threads cost
 far more than they gain: a 4e3 x 4 x 180 product took 5 ms with two threads on a loaded
 two-core machine and 0.4 ms on one.  :func:`matmul` cuts a large product into row blocks below
-that threshold.  :func:`one_thread` limits BLAS to one thread (``threadpoolctl``) around code
+that threshold when asked (:func:`split_products`, or ``TMAKIT_SPLIT_PRODUCTS=1`` in the
+environment): it suits loaded machines, and costs a little where the cores are free, so it is
+off by default.  :func:`one_thread` limits BLAS to one thread (``threadpoolctl``) around code
 whose products are few and large but thin (the particle filter's ``4 x 4`` times
 ``4 x 10^5``): there two threads cost 3x the time of one on a loaded machine.  Results do not
 depend on the thread count (threads split the output, not the sums).
@@ -13,6 +15,7 @@ depend on the thread count (threads split the output, not the sums).
 
 from __future__ import annotations
 
+import os
 from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
@@ -31,8 +34,26 @@ CHUNK_ROWS = 1 << 17
 """Rows of one chunk (see :data:`CHUNKED_ROWS`)."""
 
 
+_SPLIT = os.environ.get("TMAKIT_SPLIT_PRODUCTS", "") == "1"
+
+
+def split_products(active: bool = True) -> None:
+    """Have :func:`matmul` split large products into single-threaded row blocks (or not).
+
+    A setting of the whole process, off by default (``TMAKIT_SPLIT_PRODUCTS=1`` turns it on
+    at import); results do not depend on it.
+
+    Parameters
+    ----------
+    active : bool, optional
+        Split (default) or not.
+    """
+    global _SPLIT
+    _SPLIT = bool(active)
+
+
 def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Multiply ``a @ b`` in row blocks of ``a`` small enough for a single-threaded product.
+    """Multiply ``a @ b``, in single-threaded row blocks when :func:`split_products` asks.
 
     Splitting rows does not change any sum.
 
@@ -51,6 +72,8 @@ def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64
         ``a @ b``, shape ``(..., m, n)``; equal to numpy's product (the blocks only split
         the rows).
     """
+    if not _SPLIT:
+        return a @ b
     k, n = b.shape[-2:]
     rows = a.reshape(-1, k) if b.ndim == 2 else a
     count = rows.shape[-2]

@@ -17,13 +17,14 @@ How the set holds its columns (SI inside, converted once at the edge):
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import rules
 from .arrays import broadcast, take_rows
+from .keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from .measurements import KINDS
 from .measurements import codes as categorical
 from .measurements.codes import KIND_CODES, KIND_NAMES
@@ -50,11 +51,11 @@ class MeasurementSet:
         Id of the sensor that made it.
     kind : array_like of str, shape (n,)
         Measurement kind, a key of :data:`tmakit.measurements.KINDS`.
-    value, sigma : array_like, shape (n,)
+    value_file, sigma_file : array_like, shape (n,)
         Measured value and noise standard deviation in the file unit of the kind (deg, deg/s,
-        m, m/s, Hz, dBm; ``sigma`` in dB for power).
+        m, m/s, Hz, dBm; ``sigma_file`` in dB for power); :meth:`from_si` takes SI.
     sensor_state : array_like, shape (n, 6)
-        Sensor ENU position (m) and velocity (m/s) at ``time``.
+        Sensor ENU position (m) and velocity (m/s) at ``time`` (required).
     time_ref : array_like, shape (n,), optional
         Time of the earlier sample of a range difference (s); NaN elsewhere (the default).
     ref_sensor_state : array_like, shape (n, 6), optional
@@ -64,11 +65,15 @@ class MeasurementSet:
         checked).
     check : bool, optional
         Refuse what the file reader refuses, with its messages (:mod:`tmakit.rules`; default).
+    value, sigma : array_like, optional
+        Deprecated names of ``value_file`` and ``sigma_file`` (a warning).
 
     Raises
     ------
     ValueError
         A column's length differs from that of ``time``, a kind is unknown, or a rule fails.
+    TypeError
+        A required column is missing.
 
     Notes
     -----
@@ -76,29 +81,38 @@ class MeasurementSet:
     file_offset``) is stored.  Library code uses :meth:`from_si`.  Arrays are read-only.
     """
 
-    def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value: ArrayLike,
-                 sigma: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
+    def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike,
+                 value_file: ArrayLike | None = None, sigma_file: ArrayLike | None = None,
+                 sensor_state: ArrayLike | None = None, time_ref: ArrayLike | None = None,
                  ref_sensor_state: ArrayLike | None = None,
-                 metadata: Mapping[str, str] | None = None, check: bool = True) -> None:
+                 metadata: Mapping[str, str] | None = None, check: bool = True, *,
+                 value: ArrayLike | NotGiven = NOT_GIVEN,
+                 sigma: ArrayLike | NotGiven = NOT_GIVEN) -> None:
+        value_file = renamed_keyword("MeasurementSet", "value", value, "value_file", value_file,
+                                     None)
+        sigma_file = renamed_keyword("MeasurementSet", "sigma", sigma, "sigma_file", sigma_file,
+                                     None)
+        if value_file is None or sigma_file is None or sensor_state is None:
+            raise TypeError("MeasurementSet() needs value_file, sigma_file and sensor_state")
         self.time = np.asarray(time, dtype=float)
         n = self.time.shape[0]
         sensor_text = np.asarray(sensor, dtype=str)
         kind_text = np.asarray(kind, dtype=str)
-        value_file = np.array(value, dtype=float)
-        sigma_file = np.array(sigma, dtype=float)
+        value_array = np.array(value_file, dtype=np.float64)
+        sigma_array = np.array(sigma_file, dtype=np.float64)
         self.sensor_state = np.asarray(sensor_state, dtype=float).reshape(n, 6)
         nan = np.broadcast_to(np.nan, (n, 6))  # absent references: no memory per row
         self.time_ref = nan[:, 0] if time_ref is None else np.asarray(time_ref, dtype=float)
         self.ref_sensor_state = (nan if ref_sensor_state is None
                                  else np.asarray(ref_sensor_state, dtype=float).reshape(n, 6))
-        for name, col in (("sensor", sensor_text), ("kind", kind_text), ("value", value_file),
-                          ("sigma", sigma_file), ("time_ref", self.time_ref)):
+        for name, col in (("sensor", sensor_text), ("kind", kind_text), ("value", value_array),
+                          ("sigma", sigma_array), ("time_ref", self.time_ref)):
             if col.shape != (n,):
                 raise ValueError(f"column {name!r} has {col.shape[0]} rows, time has {n}")
         self.metadata = {str(k): str(v) for k, v in dict(metadata or {}).items()}
         self._set_kinds(kind_text)
         self._set_sensors(sensor_text)
-        self._set_file_values(value_file, sigma_file)
+        self._set_file_values(value_array, sigma_array)
         if check:  # the rules of the file reader (tmakit.rules), with its messages
             rules.check_set(self)
 
@@ -140,6 +154,8 @@ class MeasurementSet:
                          sigma: NDArray[np.float64] | None) -> None:
         """Store new file-unit values and/or sigmas (owned arrays) and their SI twins."""
         scale = categorical.FILE_SCALE[self.kind_code]
+        self._value: NDArray[np.float64] | None
+        self._sigma: NDArray[np.float64] | None
         if value is not None:
             self._value = _frozen(value)
             self._value_si = _frozen(value * scale + categorical.FILE_OFFSET[self.kind_code])
@@ -171,7 +187,7 @@ class MeasurementSet:
 
     def _new_column(self, name: str, values: ArrayLike, dtype: type = float) -> NDArray[Any]:
         """Return a column of this set's length (a copy), or raise ``ValueError``."""
-        out = np.array(values, dtype=dtype)
+        out: NDArray[Any] = np.array(values, dtype=dtype)
         if out.shape != (len(self),):
             raise ValueError(f"column {name!r} has {out.shape[0] if out.ndim else 0} rows, "
                              f"time has {len(self)}")
@@ -265,7 +281,7 @@ class MeasurementSet:
         code = KIND_CODES.get(kind)
         if code is None:
             return np.zeros(len(self), dtype=bool)
-        return self.kind_code == code
+        return cast(NDArray[np.bool_], self.kind_code == code)
 
     def sensor_mask(self, sensor: str) -> NDArray[np.bool_]:
         """Mark the rows of the sensor ``sensor`` (an integer comparison).
@@ -284,7 +300,7 @@ class MeasurementSet:
             code = self.sensor_names.index(sensor)
         except ValueError:
             return np.zeros(len(self), dtype=bool)
-        return self.sensor_code == code
+        return cast(NDArray[np.bool_], self.sensor_code == code)
 
     def __len__(self) -> int:
         """Return the number of rows."""

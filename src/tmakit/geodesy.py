@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 def _check_origin(origin: ArrayLike) -> tuple[float, float, float]:
     try:
-        lat, lon, alt = (float(v) for v in origin)
+        lat, lon, alt = (float(v) for v in np.asarray(origin, dtype=np.float64).reshape(-1))
     except (TypeError, ValueError):
         raise ValueError("an ENU origin is (lat, lon, alt) in degrees, degrees, metres") from None
     if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 360.0 and np.isfinite(alt)):

@@ -6,6 +6,8 @@ are covariances in SI units (m^2, m^2/s, m^2/s^2); the functions do not care whi
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -119,10 +121,10 @@ def safe_cholesky(p: Array) -> Array:
     """
     p = symmetrise(p)
     try:
-        return np.linalg.cholesky(p)
+        return cast(Array, np.linalg.cholesky(p))
     except np.linalg.LinAlgError:
         scale = max(float(np.max(np.abs(np.diag(p)))), 1e-300)
-        return np.linalg.cholesky(nearest_psd(p, floor=1e-12 * scale))
+        return cast(Array, np.linalg.cholesky(nearest_psd(p, floor=1e-12 * scale)))
 
 
 def solve_spd(s: Array, b: Array) -> tuple[Array, float]:

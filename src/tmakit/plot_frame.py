@@ -49,7 +49,7 @@ class MapFrame:
             (lon, lat) in degrees, or (East, North) in km.
         """
         east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
-        if not self.geodetic:
+        if self.origin is None:
             return east / 1000.0, north / 1000.0
         lat, lon, _ = enu_to_geodetic(east, north, np.zeros_like(east), self.origin)
         return np.asarray(lon), np.asarray(lat)

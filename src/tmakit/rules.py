@@ -338,7 +338,7 @@ def metadata_problems(metadata: Mapping[str, str]) -> list[str]:
         ``motion`` a motion name).
     """
     json_found, motion_found = _parsed_problems(tuple(metadata.get(key) for key in _PARSED))
-    found = list(json_found)
+    found: list[str | None] = list(json_found)
     checks = {"ref_time": (-math.inf, math.inf, " (s)"), "origin_lat": (-90, 90, " deg"),
               "origin_lon": (-180, 360, " deg"), "origin_alt": (-math.inf, math.inf, " (m)")}
     for key, (low, high, unit) in checks.items():

@@ -18,32 +18,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import rules
 from .data import MeasurementSet
+from .keywords import RngLike, as_generator
 from .measurements import KINDS
 from .motion import MotionModel
 from .observation import ObservationModel
 from .scenario_plan import MeasurementPlan, noisy_values, refuse_impossible
 from .sensors import SensorTrack
 from .units import snr_to_sigma_db
-
-RngLike = np.random.Generator | int | None
-
-
-def as_generator(rng: RngLike) -> np.random.Generator:
-    """Give a numpy random Generator for a Generator, an integer seed or None.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator, int or None
-        A Generator (returned as is), a seed, or None for fresh entropy.
-
-    Returns
-    -------
-    numpy.random.Generator
-        The generator; the same seed gives the same numbers.
-    """
-    if isinstance(rng, np.random.Generator):
-        return rng
-    return np.random.default_rng(rng)
 
 
 @dataclass
@@ -164,8 +145,10 @@ class Scenario:
         model = KINDS[plan.kind]
         if model.uses_reference:  # differences with earlier samples, lags back
             t_all, t_ref_all, lag_all = [], [], []
+            assert plan.pri is not None  # MeasurementPlan refuses a difference without it
+            pri = plan.pri
             for lag in plan.lags:
-                t_ref = plan.times - lag * plan.pri
+                t_ref = plan.times - lag * pri
                 keep = t_ref >= plan.times[0] - 1e-9 * max(1.0, abs(plan.times[0]))
                 t_all.append(plan.times[keep])
                 t_ref_all.append(t_ref[keep])
@@ -180,7 +163,7 @@ class Scenario:
             time_ref = None
             ref_state = None
             sigma_si = np.full(times.shape, plan.sigma if plan.sigma is not None
-                               else snr_to_sigma_db(plan.snr_db))
+                               else snr_to_sigma_db(float(plan.snr_db or 0.0)))
         n = times.shape[0]
         key = (plan.sensor, times.tobytes())
         if key not in states:
@@ -299,7 +282,7 @@ class Scenario:
         template.value_si, values = values[-1], values[:-1]
         # NaN truth, infinite sigma, ...: the first set that breaks a rule names its rows, as
         # simulate() would.
-        for i in np.flatnonzero(~np.isfinite(values).all(axis=1)):
+        for i in np.flatnonzero(~np.isfinite(values).all(axis=1)).tolist():
             bad = template.take(np.arange(len(template)))
             bad.value_si = values[i]
             rules.check_set(bad, order=False, ranges=False)
@@ -318,8 +301,9 @@ class Scenario:
             "truth": json.dumps(self.truth, sort_keys=True),
             "noise": "yes" if noise else "no",
         }
-        if getattr(self.motion, "ref_time", None) is not None:
-            meta["ref_time"] = repr(float(self.motion.ref_time))
+        ref_time = getattr(self.motion, "ref_time", None)
+        if ref_time is not None:
+            meta["ref_time"] = repr(float(ref_time))
         if self.nuisance:
             meta["nuisance"] = json.dumps(self.nuisance, sort_keys=True)
         if self.origin is not None:
@@ -362,8 +346,9 @@ class Scenario:
                  f"  target: {self.motion.name}, {truth}",
                  f"  sensors: {', '.join(self.sensors)}; samples {t0:g}..{t1:g} s"]
         for p in self.plans:
+            model = KINDS[p.kind]
             noise = (f"SNR_p {p.snr_db:g} dB" if p.snr_db is not None else
-                     f"sigma {KINDS[p.kind]().sigma_from_si(p.sigma):g} {KINDS[p.kind].file_unit}")
+                     f"sigma {model().sigma_from_si(p.sigma or 0.0):g} {model.file_unit}")
             lines.append(f"  {p.kind} from {p.sensor}: {p.times.size} samples, {noise}")
         return "\n".join(lines)
 

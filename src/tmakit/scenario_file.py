@@ -10,19 +10,22 @@ North convention.
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, cast
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from .measurements import KINDS
 from .motion import MotionModel, motion_from_name
-from .scenario import MeasurementPlan, Scenario
+from .scenario import Scenario
 from .scenario_catalog import builtin_scenario_names
 from .scenario_catalog import builtin_scenarios as builtin_scenarios  # re-exported
+from .scenario_plan import MeasurementPlan
 from .scenario_planning import PlanningSetup, PlanningSpec, build_planning
 from .scenario_times import TimeRange
 from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
@@ -224,7 +227,8 @@ class _Builder:
             raise ValueError(f"{where}: give exactly one of the ENU and the geodetic form")
         if point is not None:
             return np.asarray(point, dtype=float)
-        return self.enu_many(where, [geo])[0]
+        assert geo is not None  # (exactly one given)
+        return cast(NDArray[Any], self.enu_many(where, [geo])[0])
 
     def enu_many(self, where: str, geo: list[list[float]]) -> np.ndarray:
         if self.spec.origin is None:
@@ -306,7 +310,8 @@ class _Builder:
             name=self.spec.name, motion=motion, truth=truth, sensors=sensors,
             plans=[self.plan(m) for m in self.spec.measurements], nuisance=self.nuisance(),
             description=self.spec.title or self.spec.description,
-            origin=None if self.spec.origin is None else tuple(self.spec.origin),
+            origin=None if self.spec.origin is None else (
+                self.spec.origin[0], self.spec.origin[1], self.spec.origin[2]),
             source=source)
 
 
@@ -436,7 +441,7 @@ def read_scenario_file(path: str | Path) -> Scenario:
     return scenario_from_dict(_read_toml(path), str(path))
 
 
-def _scenario_data(name_or_path: str | Path) -> tuple[dict[str, Any], str]:
+def _scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
     """Return the parsed TOML of a built-in scenario name or a file, and its source."""
     text = str(name_or_path)
     path = Path(text)
@@ -471,7 +476,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     return scenario_from_dict(*_scenario_data(name_or_path))
 
 
-def load_planning(name_or_path: str | Path) -> PlanningSetup:
+def load_planning(name_or_path: str | os.PathLike[str]) -> PlanningSetup:
     """Load the planning setup of a scenario (built-in name or TOML file) with ``[planning]``.
 
     Parameters

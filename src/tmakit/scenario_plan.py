@@ -8,6 +8,7 @@ could report.  :mod:`tmakit.scenario` puts plans, sensors and a target together.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -123,7 +124,7 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
             raise ValueError(f"power: SNR_p = {plan.snr_db} dB is too low for the "
                              "multiplicative noise model (a power came out negative); "
                              "give sigma in dB instead")
-        return clean + 10.0 * np.log10(1.0 + rel_noise)
+        return cast(NDArray[np.float64], clean + 10.0 * np.log10(1.0 + rel_noise))
     if KINDS[plan.kind].uses_reference:
         # One independent noise term per pulse interval, summed over each difference.
         assert plan.pri is not None and plan.sigma is not None
@@ -132,7 +133,7 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
         start = interval_count(rows.time_ref, t0, plan.pri)
         steps = gen.standard_normal(int(end.max()) + 1) * plan.sigma
         walk = np.concatenate([[0.0], np.cumsum(steps[1:])])
-        return clean + walk[end] - walk[start]
+        return cast(NDArray[np.float64], clean + walk[end] - walk[start])
     return clean + gen.standard_normal(clean.shape) * rows.sigma_si
 
 

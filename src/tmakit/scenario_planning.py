@@ -251,19 +251,29 @@ class PlanningSetup:
         """The planned time, s: ``steps * interval``."""
         return self.steps * self.planner.interval
 
-    def replace(self, **changes: Any) -> PlanningSetup:
-        """Return a copy with fields changed (e.g. ``steps``, ``particles``, ``runs``).
+    def replace(self, *, steps: int | None = None, tracker: str | None = None,
+                particles: int | None = None, q: float | None = None,
+                runs: int | None = None, kind: str | None = None) -> PlanningSetup:
+        """Return a copy with run settings changed (None: as it is).
 
         Parameters
         ----------
-        **changes
-            Field names and their new values.
+        steps, tracker, particles, q, runs : optional
+            Decisions per run, the tracker's name, its particles, process noise (m/s^2) and
+            Monte Carlo runs.
+        kind : str, optional
+            The planner that steers: ``"mission"`` or ``"horizon"``.
 
         Returns
         -------
         PlanningSetup
         """
-        return dataclasses.replace(self, **changes)
+        return dataclasses.replace(
+            self, steps=self.steps if steps is None else steps,
+            tracker=self.tracker if tracker is None else tracker,
+            particles=self.particles if particles is None else particles,
+            q=self.q if q is None else q, runs=self.runs if runs is None else runs,
+            kind=self.kind if kind is None else kind)
 
 
 class _Build:
@@ -281,7 +291,7 @@ class _Build:
     def kinematics(self) -> PlatformKinematics:
         base = self.config.kinematics if self.config is not None else PlatformKinematics()
         lim = self.spec.limits
-        changes: dict[str, float] = {}
+        changes: dict[str, Any] = {}
         for name in ("min_speed", "max_speed", "max_acceleration", "max_climb_rate",
                      "min_altitude", "max_altitude"):
             if getattr(lim, name) is not None:
@@ -319,7 +329,8 @@ class _Build:
                 raise ValueError("planning.measurements: give the kinds and sigmas measured "
                                  "in each step (the sensor's [[measurements]] do not all "
                                  "have a sigma)")
-            kinds, sigmas = [p.kind for p in plans], [float(p.sigma) for p in plans]
+            kinds = [p.kind for p in plans]
+            sigmas = [float(p.sigma) for p in plans if p.sigma is not None]  # (all have one)
         else:
             kinds, sigmas = [], []
             for i, m in enumerate(rows):

@@ -10,6 +10,7 @@ start; :mod:`tmakit.batch.ml` imports no manoeuvre code).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import ClassVar
 
 from ..data import MeasurementSet
@@ -18,7 +19,7 @@ from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options
 from .init import GridSettings
-from .manoeuvre import ManoeuvreEstimator
+from .manoeuvre import ManoeuvreEstimator, ManoeuvreSettings
 from .ml import estimate as estimate_ml
 
 __all__ = ["MLByMotion", "estimate", "model_of"]
@@ -94,10 +95,10 @@ class MLByMotion(BatchEstimator):
         for a manoeuvring target, whose search has its own grid).
     max_iter : int, optional
         Iterations per start at most (default 100).
-    **manoeuvre_options
-        Settings of :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator` (``exact``,
-        ``criterion``, ``alpha``, ``accelerations``, ``ref_time``, ``settings``); refused
-        with a motion model that has no manoeuvres.
+    exact, criterion, alpha, accelerations, ref_time, settings : optional
+        Settings of :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, for manoeuvring
+        targets; refused with a motion model that has no manoeuvres (``ref_time`` also sets
+        the reference time of a motion given by name).
     """
 
     name: ClassVar[str] = "ml"
@@ -105,23 +106,29 @@ class MLByMotion(BatchEstimator):
 
     def __init__(self, init: Init = None, options: Options = None,
                  known_nuisance: KnownNuisanceLike = None, grid: GridSettings | None = None,
-                 max_iter: int = 100, **manoeuvre_options: object) -> None:
+                 max_iter: int = 100, *, exact: bool | None = None,
+                 criterion: str | None = None, alpha: float | None = None,
+                 accelerations: str | None = None, ref_time: float | None = None,
+                 settings: ManoeuvreSettings | None = None) -> None:
         self.init = init
         self.options = options
         self.known_nuisance = as_known_nuisance(known_nuisance)
         self.grid = grid
         self.max_iter = max_iter
-        self.manoeuvre_options = dict(manoeuvre_options)
+        self.ref_time = ref_time
+        #: The manoeuvre settings given (None: not given, the estimator's default).
+        self.manoeuvre = ManoeuvreEstimator(
+            exact=exact, criterion=criterion, alpha=alpha, accelerations=accelerations,
+            ref_time=ref_time, settings=settings)
 
     def __repr__(self) -> str:
         """Return the constructor call that makes this estimator."""
-        extra = "".join(f", {k}={v!r}" for k, v in self.manoeuvre_options.items())
+        extra = "".join(f", {k}={v!r}" for k, v in self.manoeuvre.manoeuvre_options().items())
         return (f"MLByMotion(init={self.init!r}, options={self.options!r}, "
                 f"known_nuisance={self.known_nuisance!r}, grid={self.grid!r}, "
                 f"max_iter={self.max_iter!r}{extra})")
 
-    def fit(self, meas: MeasurementSet, motion: MotionModel | str  # type: ignore[override]
-            ) -> EstimateResult:
+    def fit(self, meas: MeasurementSet, motion: MotionModel | str) -> EstimateResult:
         """Return the maximum-likelihood estimate for ``motion``.
 
         Parameters
@@ -143,22 +150,31 @@ class MLByMotion(BatchEstimator):
         ValueError
             As the chosen estimator.
         """
-        options = dict(self.manoeuvre_options)
+        chosen = self.manoeuvre
         if isinstance(motion, str):  # the name is read here, once; its ref_time is used up
-            motion = model_of(motion, meas, options.pop("ref_time", None))  # type: ignore
-        if is_manoeuvring(motion):
-            return ManoeuvreEstimator(self.init, self.options, self.known_nuisance,
-                                      self.max_iter, **options  # type: ignore[arg-type]
-                                      ).fit(meas, motion)  # type: ignore[arg-type]
+            motion = model_of(motion, meas, self.ref_time)
+            chosen = replace(chosen, ref_time=None)
+        if isinstance(motion, PiecewiseCurvilinear):
+            return replace(chosen, init=self.init, options=self.options,
+                           known_nuisance=self.known_nuisance,
+                           max_iter=self.max_iter).fit(meas, motion)
+        given = chosen.manoeuvre_options()
+        if given:
+            raise TypeError(f"estimate() got options for manoeuvring targets "
+                            f"({', '.join(given)}) with motion "
+                            f"{getattr(motion, 'name', motion)!r}")
         return estimate_ml(meas, motion, init=self.init, options=self.options,
                            known_nuisance=self.known_nuisance, grid=self.grid,
-                           max_iter=self.max_iter, **options)
+                           max_iter=self.max_iter)
 
 
 def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
              options: Options = None, known_nuisance: KnownNuisanceLike = None,
-             grid: GridSettings | None = None, max_iter: int = 100,
-             **manoeuvre_options: object) -> EstimateResult:
+             grid: GridSettings | None = None, max_iter: int = 100, *,
+             exact: bool | None = None, criterion: str | None = None,
+             alpha: float | None = None, accelerations: str | None = None,
+             ref_time: float | None = None,
+             settings: ManoeuvreSettings | None = None) -> EstimateResult:
     """Estimate the motion parameters by maximum likelihood, no initial guess needed.
 
     The short form of :class:`MLByMotion` (``tk.estimate``).
@@ -183,9 +199,19 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
         The grid of starting points (motion models without manoeuvres).
     max_iter : int, optional
         Iterations per start at most (default 100).
-    **manoeuvre_options
-        For manoeuvring targets: ``exact``, ``criterion``, ``alpha``, ``accelerations``,
-        ``ref_time``, ``settings`` (:class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`).
+    exact : bool, optional
+        For a manoeuvring target: fit exactly ``M`` manoeuvres (default: search ``0..M``).
+    criterion : {"bic", "lrt"}, optional
+        For a manoeuvring target: how the number of manoeuvres is chosen (default "bic").
+    alpha : float, optional
+        For a manoeuvring target: level of the likelihood-ratio tests (default 0.01).
+    accelerations : {"select", "all"}, optional
+        For a manoeuvring target: hold unneeded accelerations at zero, or fit them all.
+    ref_time : float, optional
+        Reference time (s) of a motion given by name, and of a manoeuvring target's
+        reported parameters.
+    settings : ManoeuvreSettings, optional
+        For a manoeuvring target: the search's grid and limits.
 
     Returns
     -------
@@ -204,5 +230,6 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
     ----------
     Hörst & Oispuu (2010), eqs. 1-4 (motion) and 8 (likelihood), for the manoeuvring target.
     """
-    return MLByMotion(init, options, known_nuisance, grid, max_iter,
-                      **manoeuvre_options).fit(meas, motion)
+    return MLByMotion(init, options, known_nuisance, grid, max_iter, exact=exact,
+                      criterion=criterion, alpha=alpha, accelerations=accelerations,
+                      ref_time=ref_time, settings=settings).fit(meas, motion)

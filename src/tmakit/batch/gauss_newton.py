@@ -119,12 +119,15 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
             jtj, grad = jtj[:, free][:, :, free], grad[:, free]
         return jtj, grad
     jac = ev.jacobian
+    assert jac is not None  # an evaluation without its normal equations has its Jacobian
     if free is not None and (jac.shape[-1] == free.size or not _selected_layout(jac)):
         # a Jacobian of the free columns only is copied the same way (the same products)
-        jac = jac[:, :, free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], bool)]
+        keep = free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], np.bool_)
+        jac = jac[:, :, keep]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
         if by_dots(jac[0]):
             jtj, jtr = normal_rows(jac[0].T, ev.residual[0])
+            assert jtr is not None  # (given the residuals)
             return jtj[None], jtr[None]
         return gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
     return gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
@@ -194,7 +197,7 @@ class GaussNewtonModel:
         vg = (v.swapaxes(1, 2) @ (grad / scale)[:, :, None])[..., 0]
         rnorm = np.sqrt(2.0 * ev.cost)[:, None]
         return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
-                   (np.abs(grad) <= gtol * scale * rnorm).all(axis=1), jtj)
+                   np.asarray((np.abs(grad) <= gtol * scale * rnorm).all(axis=1)), jtj)
 
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:

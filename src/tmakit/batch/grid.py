@@ -161,10 +161,10 @@ def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64
 
     Read-only, made once per settings.
     """
-    speeds = np.array([v for v in speeds if v > 0], dtype=float)
+    moves = np.array([v for v in speeds if v > 0], dtype=np.float64)
     courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
-    moving = np.stack(np.broadcast_arrays(speeds[:, None] * np.sin(courses),
-                                          speeds[:, None] * np.cos(courses), 0.0), axis=-1)
+    moving = np.stack(np.broadcast_arrays(moves[:, None] * np.sin(courses),
+                                          moves[:, None] * np.cos(courses), 0.0), axis=-1)
     vel = np.concatenate([np.zeros((1, 3)), moving.reshape(-1, 3)])
     vel.flags.writeable = False
     return vel

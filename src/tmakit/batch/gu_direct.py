@@ -52,14 +52,9 @@ import numpy as np
 
 from ..arrays import Array
 from ..data import MeasurementSet
-from ..motion import MotionModel
-from ..results.estimate import (
-    DIVERGED,
-    NOT_CONVERGED,
-    EstimateResult,
-    diverged_result,
-    result_from_covariance,
-)
+from ..motion import ConstantVelocity, MotionModel
+from ..results.estimate import EstimateResult, diverged_result, result_from_covariance
+from ..results.status import DIVERGED, NOT_CONVERGED, Status
 from ..units import SPEED_OF_LIGHT, free_space_constant
 from .estimator import Init, PaperMethod, kinds_tuple
 from .gu_geometry import (
@@ -98,7 +93,7 @@ class _DirectSystem:
     Also builds the weighted linear system ``A``, ``B`` at a given theta (eqs. 11 and 14-16).
     """
 
-    def __init__(self, sub: MeasurementSet, motion: MotionModel, kinds: tuple[str, ...],
+    def __init__(self, sub: MeasurementSet, motion: ConstantVelocity, kinds: tuple[str, ...],
                  c0: float | None) -> None:
         self.sub = sub
         self.kinds = kinds
@@ -239,16 +234,17 @@ class GuDirect(PaperMethod):
         Gu et al. (2007), §3, eqs. 7, 8, 12 and 16.
         """
         method = self.name
-        check_planar_cv(motion, method)
+        cv = check_planar_cv(motion, method)
         kinds_used, sub = select_kinds(meas, self.kinds, method)
         theta = initial_theta(motion, init, method)
-        system = _DirectSystem(sub, motion, kinds_used, self.c0)
+        system = _DirectSystem(sub, cv, kinds_used, self.c0)
         history: dict[str, list[float]] = {"condition_numbers": [],
                                            "condition_numbers_power": [],
                                            "condition_numbers_doppler": [],
                                            "condition_numbers_equilibrated": [],
                                            "update_norms": []}
-        status, message = NOT_CONVERGED, ""
+        status: Status = NOT_CONVERGED
+        message = ""
         x = np.full(system.cols, np.nan)
         iterations = 0
         fs = system.fs
@@ -271,7 +267,7 @@ class GuDirect(PaperMethod):
                     break
             else:
                 x = np.linalg.lstsq(a_eq, bw, rcond=None)[0] / scale
-            new = x[:4]
+            new = np.asarray(x[:4], dtype=np.float64)
             if not np.all(np.isfinite(x)):
                 status, message = DIVERGED, "the iterate became non-finite"
                 break
@@ -324,7 +320,7 @@ def gu_direct(meas: MeasurementSet, motion: MotionModel, init: Init, max_iter: i
 
 
 def _direct_result(system: _DirectSystem, motion: MotionModel, theta: Array, x: Array,
-                   fs: float, status: str, message: str, iterations: int,
+                   fs: float, status: Status, message: str, iterations: int,
                    history: dict[str, list[float]]) -> EstimateResult:
     """Build the result: covariance ``D^-1`` at the last iterate, nuisance values, conditions.
 

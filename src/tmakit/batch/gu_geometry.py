@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..arrays import Array
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
-from ..results.estimate import CONVERGED, DIVERGED
+from ..results.status import CONVERGED, DIVERGED, Status
 
 PAPER_KINDS = ("power", "frequency")
 """The measurement kinds of Gu et al. (2007), in the column order of theta_pf."""
@@ -33,7 +33,7 @@ of 1 km) is declared diverged."""
 
 def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
                    range2: NDArray[np.float64], far: float, tol: float
-                   ) -> tuple[str, str] | None:
+                   ) -> tuple[Status, str] | None:
     """Decide how an iteration of the papers' fixed-point methods ends after an update.
 
     Parameters
@@ -73,8 +73,8 @@ DEFAULT_CARRIER = 1.9e9
 """Carrier (Hz) assumed for C_0 when the data hold no frequency (Gu et al. (2007) §5)."""
 
 
-def check_planar_cv(motion: MotionModel, method: str) -> None:
-    """Refuse a motion model other than 2-D constant velocity.
+def check_planar_cv(motion: MotionModel, method: str) -> ConstantVelocity:
+    """Refuse a motion model other than 2-D constant velocity; give it back as one.
 
     Parameters
     ----------
@@ -82,6 +82,11 @@ def check_planar_cv(motion: MotionModel, method: str) -> None:
         The motion model asked for.
     method : str
         The method's name (for the message).
+
+    Returns
+    -------
+    ConstantVelocity
+        ``motion``.
 
     Raises
     ------
@@ -95,6 +100,7 @@ def check_planar_cv(motion: MotionModel, method: str) -> None:
     if not isinstance(motion, ConstantVelocity) or motion.dim != 2:
         raise ValueError(f"{method}: written for 2-D constant velocity (Gu et al. "
                          f"(2007), eq. 1; motion cv2d, ConstantVelocity(2)); got {motion!r}")
+    return motion
 
 
 def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method: str

@@ -228,9 +228,10 @@ class GridScorer:
             g += a_var[..., j] * star[j]
         g = noise.whiten(g)
         g[:, angle] = 0.0
-        shared = self.shared is not None and _same_design(a_var, self.ref, self.tolerance)
-        if shared:
-            g -= matmul(matmul(g, self.shared), self.shared.T)
+        basis = self.shared
+        shared = basis is not None and _same_design(a_var, self.ref, self.tolerance)
+        if basis is not None and shared:
+            g -= matmul(matmul(g, basis), basis.T)
         u, half_uu = data[shared]
         cost = matmul(g, -u.T).T
         cost += 0.5 * np.einsum("cn,cn->c", g, g)[None, :]
@@ -281,7 +282,7 @@ def _block_size(n_rows: int) -> int:
 
 def _bad(h0: NDArray[np.float64], a_var: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Flag the candidates ``(c,)`` without finite predictions or design."""
-    return ~(np.isfinite(h0).all(axis=1) & np.isfinite(a_var).all(axis=(1, 2)))
+    return np.asarray(~(np.isfinite(h0).all(axis=1) & np.isfinite(a_var).all(axis=(1, 2))))
 
 
 def _same_design(a_var: NDArray[np.float64], ref: NDArray[np.float64],
@@ -409,7 +410,7 @@ class _Stage:
         self.units = chord_units(problem, rows)
         self.whole = problem
         if self.units is None:
-            self.problem = problem if rows is None else problem.take(rows)
+            self.problem: VarProProblem | None = problem if rows is None else problem.take(rows)
             self.y = self.problem.group(ys if rows is None else ys[:, rows])
             return
         self.problem = None
@@ -421,6 +422,7 @@ class _Stage:
     def scorer(self, candidates: NDArray[np.float64]) -> GridScorer | ChordScorer:
         """Return the scorer of ``candidates`` ``(C, p)`` on the stage's rows."""
         if self.units is None:
+            assert self.problem is not None  # (made when there are no chord units)
             return GridScorer(self.problem, candidates)
         return ChordScorer(self.units, self.weight2, candidates, _block_size(self.units.m))
 

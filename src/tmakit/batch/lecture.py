@@ -49,8 +49,9 @@ from ..linalg import normalised_eigh
 from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
-from ..results.estimate import UNOBSERVABLE, EstimateResult, assemble_result
+from ..results.estimate import EstimateResult, assemble_result
 from ..results.observability import RANK_TOL
+from ..results.status import UNOBSERVABLE
 from .estimator import Init, PaperMethod
 from .gu_geometry import DIVERGENCE_FACTOR
 from .solver import VarProProblem
@@ -227,7 +228,7 @@ class LectureGaussNewton(PaperMethod):
             step, rank, info = _pinv_step(hw, rw)
             ranks.append(rank)
             x = x + step
-            size = float(np.sqrt(max(step @ info @ step, 0.0)))
+            size = float(np.sqrt(max(float(step @ info @ step), 0.0)))
             norms.append(size)
             if not np.all(np.isfinite(x)):
                 break

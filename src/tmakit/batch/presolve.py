@@ -17,7 +17,7 @@ from ..frames import wrap_angle_own
 from ..observation.fused import fused_gradient_rows, gradient_of_rows
 from ..results.observability import full_rank
 from .init import GridSettings, Starts, best_starts_many, subsample
-from .solver import SolveResult, VarProProblem, levenberg_marquardt
+from .solver import Fallback, SolveResult, VarProProblem, levenberg_marquardt
 
 __all__ = ["POLISH_DECREMENT", "PRESOLVE_ROWS", "PRESOLVE_SUBSET", "gradient_at", "grid_starts",
            "presolve", "presolve_subset", "solve_all_rows", "subset_step"]
@@ -243,6 +243,15 @@ def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[
     return (theta + step[None], found[0]) if np.all(np.isfinite(step)) else None
 
 
+def _fallback(theta: NDArray[np.float64], stepped: tuple[NDArray[np.float64], float] | None,
+              information: NDArray[np.float64] | None) -> Fallback | None:
+    """Give the presolve's point and cost (and information) to fall back on, if stepped."""
+    if stepped is None:
+        return None
+    cost = np.array([stepped[1]], dtype=np.float64)
+    return (theta, cost) if information is None else (theta, cost, information)
+
+
 POLISH_DECREMENT = 0.5
 """Gauss–Newton decrement (half chi2: a step of at most one standard deviation) from which
 the full solve after a presolve ends with a step checked by its residuals alone
@@ -284,8 +293,7 @@ def solve_all_rows(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArr
                               max_iter=max_iter, groups=groups, ceiling=ceiling,
                               damping0=1e-8 if near else 1e-3,
                               polish=POLISH_DECREMENT if near else 0.0,
-                              fallback=None if stepped is None
-                              else (theta, np.array([stepped[1]]), information))
+                              fallback=_fallback(theta, stepped, information))
     if stepped is not None:
         sol.iterations += 1  # the step taken with the subset's J'J
     return sol

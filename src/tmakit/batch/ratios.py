@@ -92,15 +92,10 @@ import numpy as np
 
 from ..arrays import Array
 from ..data import MeasurementSet
-from ..motion import MotionModel
+from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
-from ..results.estimate import (
-    DIVERGED,
-    NOT_CONVERGED,
-    EstimateResult,
-    diverged_result,
-    result_from_covariance,
-)
+from ..results.estimate import EstimateResult, diverged_result, result_from_covariance
+from ..results.status import DIVERGED, NOT_CONVERGED, Status
 from ..units import SPEED_OF_LIGHT
 from .estimator import Init, PaperMethod, kinds_tuple
 from .gu_geometry import (
@@ -135,7 +130,7 @@ class _RatioSystem:
     Also builds the linear system at a given theta.
     """
 
-    def __init__(self, sub: MeasurementSet, motion: MotionModel, kinds: tuple[str, ...],
+    def __init__(self, sub: MeasurementSet, motion: ConstantVelocity, kinds: tuple[str, ...],
                  covariance: str) -> None:
         self.sub = sub
         self.kinds = kinds
@@ -197,7 +192,8 @@ class _RatioSystem:
                 np.concatenate(blocks_o))
 
 
-RATIO_NAMES = {("power",): "ratio-power", ("frequency",): "ratio-doppler"}
+RATIO_NAMES: dict[tuple[str, ...], str] = {("power",): "ratio-power",
+                                           ("frequency",): "ratio-doppler"}
 """The method's name by the kinds used (both: ``"ratio"``)."""
 
 
@@ -294,14 +290,15 @@ class RatioMethod(PaperMethod):
         ----------
         Gu et al. (2007), §4, eqs. 19-34.
         """
-        check_planar_cv(motion, "ratio method")
+        cv = check_planar_cv(motion, "ratio method")
         kinds_used, sub = select_kinds(meas, self.kinds, "ratio method")
         theta = initial_theta(motion, init, "ratio method")
-        system = _RatioSystem(sub, motion, kinds_used, self.covariance)
+        system = _RatioSystem(sub, cv, kinds_used, self.covariance)
         if system.n < motion.n_params:
             raise ValueError(f"ratio method: {system.n} ratios cannot determine "
                              f"{motion.n_params} parameters")
-        status, message = NOT_CONVERGED, ""
+        status: Status = NOT_CONVERGED
+        message = ""
         far = DIVERGENCE_FACTOR * max(float(np.sqrt(np.max(system.geo.range2(theta)))), 1e3)
         steps: list[float] = []
         iterations = 0
@@ -337,7 +334,7 @@ class RatioMethod(PaperMethod):
         return _ratio_result(system, motion, theta, status, message, iterations, extra)
 
 
-def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, status: str,
+def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, status: Status,
                   message: str, iterations: int, extra: dict[str, object]) -> EstimateResult:
     """Build the result at the last iterate.
 
@@ -428,7 +425,8 @@ def nuisance_given_theta(meas: MeasurementSet, motion: MotionModel, theta: Array
         ``{name: (value, std)}``: ``power_constant_db`` (dB), ``carrier`` (Hz); std from
         ``(A^T W A)^-1 + G cov_theta G^T`` (see the module docstring).
     """
-    options = {"power": {"exponent": 2.0}, "frequency": {"drift": False}}
+    options: dict[str, dict[str, object]] = {"power": {"exponent": 2.0},
+                                             "frequency": {"drift": False}}
     obs = ObservationModel(meas, motion, {k: v for k, v in options.items() if k in meas.kinds})
     h0, a = obs.affine(theta)
     w = 1.0 / obs.sigmas ** 2

@@ -153,7 +153,7 @@ class _Runs:
                 q = self.model.jtj.shape[-1]
                 self.information = np.full((self.out.cost.shape[0], q, q), np.nan)
             self.information[ids] = self.model.jtj[mask]
-        if self.reached is not None:
+        if self.reached is not None and self.groups is not None:  # (reached: with groups)
             np.minimum.at(self.reached, self.groups[mask], self.cur.cost[mask])
         self.converged[ids] = converged[mask]
         if dominated is not None:
@@ -326,7 +326,7 @@ def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:
         return
     done = model.small_grad | (model.decrement <= rules.ftol * cur.cost + rules.dtol)
     beaten = None
-    if runs.reached is not None:
+    if runs.reached is not None and runs.groups is not None:
         best = runs.reached.copy()  # the lowest cost reached in each group
         np.minimum.at(best, runs.groups, cur.cost)
         factor, margin = rules.dominance
@@ -454,7 +454,7 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             runs.cur, runs.model = trial, None
         elif better.any():
             if runs.cur is runs.out:  # never write into the results of stopped runs
-                runs.cur = cur.take(slice(None))
+                runs.cur = cur.take(np.ones(cur.cost.shape[0], dtype=np.bool_))
             runs.cur.put(better, trial, better)
             runs.model = None
         give_up = runs.lam > 1e12

@@ -8,6 +8,10 @@ from numpy.typing import NDArray
 __all__ = ["SHORTLIST", "Starts", "first_of_many", "starts_of"]
 
 
+#: A shortlist: candidate indices, their costs, whether each is still available.
+Shortlist = tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]
+
+
 class Starts:
     """The mutually distinct candidates of one data set, best first, chosen when asked for.
 
@@ -37,7 +41,9 @@ class Starts:
         self.chosen: list[int] = []
         # The shortlist walked first (see _from_shortlist): indices, their scaled candidates
         # (p, K), whether each is near one chosen; None until made, False once left behind.
-        self._short: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]] | None
+        #: The shortlist's candidates, costs and availability; None before it is made, False
+        #: once the full set has taken over.
+        self._short: Shortlist | bool | None
         self._short = None if shortlist is None else self._shortlist(shortlist)
         self._at = 0  # the shortlist's next position
 
@@ -132,8 +138,8 @@ def first_of_many(starts: list[Starts], m: int) -> list[NDArray[np.float64]]:
     list of ndarray
         ``(<= m, p)`` motion parameters (SI) per data set, best first.
     """
-    group = [s for s in starts if len(s.chosen) < m and s._short is not False
-             and s._short is not None and s._short[0].shape[0] == SHORTLIST]
+    group = [s for s in starts if len(s.chosen) < m and isinstance(s._short, tuple)
+             and s._short[0].shape[0] == SHORTLIST]
     if len(group) > 1:
         _walk_together(group, m)
     return [s.first(m) for s in starts]
@@ -159,7 +165,7 @@ def _walk_together(group: list[Starts], m: int) -> None:
     live = need > 0
     while live.any():
         avail = ~out & (pos >= at[:, None])
-        has = avail.any(axis=1)
+        has = np.asarray(avail.any(axis=1))
         nxt = np.argmax(avail, axis=1)  # the first candidate not near one chosen
         c = cost[rows, nxt]
         ok = has & (c < cut) & np.isfinite(c)

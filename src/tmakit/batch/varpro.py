@@ -345,6 +345,7 @@ class VarProProblem:
         r = self.noise.whiten(e, overwrite=True)  # e is this function's own array
         nu, jt, normal = nu_star, None, None
         if self.eliminates:
+            assert at is not None  # (a nuisance to eliminate has its design)
             nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
         elif with_jacobian and (normal := motion_normal(self.obs, lin, r, self._weights)) is None:
             jt = lin.jacobian(nu).swapaxes(-1, -2)

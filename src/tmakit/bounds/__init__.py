@@ -4,8 +4,9 @@ The posterior CRB is that of recursive trackers (Tichavský, Muravchik & Nehorai
 """
 
 from ..observation.noise import NoiseModel
+from ..results.bound import Bound
 from ..results.observability import Direction, Observability, analyse
-from .fim import Bound, crlb, fisher_information
+from .fim import crlb, fisher_information
 from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
 from .pcrb import PosteriorBound, deterministic_pcrb, posterior_crb
 from .pcrb_recursion import PosteriorInformation, information_inverse, predict_information

@@ -39,7 +39,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import FixedParameters, MotionModel, PiecewiseCurvilinear
-from .fim import Bound, bound_source, crlb, truth_vector
+from ..results.bound import Bound
+from .fim import bound_source, crlb, truth_vector
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..scenario import Scenario

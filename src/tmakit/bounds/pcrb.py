@@ -33,12 +33,16 @@ import json
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 from ..data import MeasurementSet
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..scenario import Scenario
 from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation import MeasurementGroup, group_times
@@ -94,7 +98,8 @@ def _cross_group_correlation(meas: MeasurementSet, groups: list[NDArray[np.int64
 def _resolve_source(source: object, prior_mean: ArrayLike | None,
                     options: Mapping[str, Mapping[str, object]] | None,
                     nuisance: Mapping[str, float] | None
-                    ) -> tuple[MeasurementSet, ArrayLike | None, dict, dict, object]:
+                    ) -> tuple[MeasurementSet, ArrayLike | None, dict[str, Any],
+                               dict[str, float], Scenario | None]:
     from ..scenario import Scenario
 
     if isinstance(source, Scenario):
@@ -103,7 +108,7 @@ def _resolve_source(source: object, prior_mean: ArrayLike | None,
         nu = {**source.nuisance, **dict(nuisance or {})}
         return meas, None if prior_mean is None else prior_mean, opts, nu, source
     if isinstance(source, MeasurementSet):
-        nu: dict[str, float] = {}
+        nu = {}
         if "nuisance" in source.metadata:
             nu.update(json.loads(source.metadata["nuisance"]))
         nu.update(dict(nuisance or {}))
@@ -130,8 +135,8 @@ class _Setup:
     cov: Array
     dynamics: NearlyConstantVelocity
     q_axes: tuple[float, ...]
-    options: dict
-    nuisance: dict
+    options: dict[str, Any]
+    nuisance: dict[str, float]
 
 
 def _dynamics(q: float | ArrayLike, dim: int) -> tuple[NearlyConstantVelocity,
@@ -139,8 +144,9 @@ def _dynamics(q: float | ArrayLike, dim: int) -> tuple[NearlyConstantVelocity,
     if np.ndim(q) and np.size(q) != dim:
         raise ValueError(f"q must be one value or {dim} values (one per axis) in m/s^2; "
                          f"got {np.size(q)}")
-    dynamics = NearlyConstantVelocity(dim, float(q) if np.ndim(q) == 0 else tuple(
-        float(v) for v in np.ravel(q)))
+    values = np.ravel(np.asarray(q, dtype=np.float64))
+    dynamics = NearlyConstantVelocity(dim, float(values[0]) if np.ndim(q) == 0 else tuple(
+        float(v) for v in values))
     q_axes = tuple(float(v) for v in np.broadcast_to(np.asarray(q, dtype=float), (dim,)))
     return dynamics, q_axes
 
@@ -161,6 +167,7 @@ def _setup(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
         raise ValueError(f"time0={t0} s is after the first measurement (t={times[0]} s): the "
                          "prior must hold at or before the first update")
     if prior_mean is None:  # a scenario: its true state at time0
+        assert scn is not None  # (no prior mean: the source is a scenario)
         dim0 = 3 if getattr(scn.motion, "dim", meas.dim) == 3 else 2
         keep = [0, 1, 2, 3, 4, 5] if dim0 == 3 else [0, 1, 3, 4]
         prior_mean = scn.target_states([t0])[0][keep]

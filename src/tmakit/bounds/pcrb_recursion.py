@@ -28,6 +28,8 @@ reduces exactly to ``F^{-T} J F^{-1}`` when ``Q = 0``; nothing can raise a ``Lin
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -61,7 +63,7 @@ def noise_factor(q_mat: Array) -> Array:
     if top <= 0.0:
         return np.zeros((q_mat.shape[0], 0))
     keep = evals > 1e-14 * top
-    return evecs[:, keep] * np.sqrt(evals[keep])
+    return cast(Array, evecs[:, keep] * np.sqrt(evals[keep]))
 
 
 def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
@@ -319,7 +321,7 @@ class PosteriorInformation:
         The root of the trace of the position block of :attr:`covariance`.
         """
         cov = self.covariance[..., :self.dim, :self.dim]
-        return np.sqrt(np.clip(np.einsum("...ii->...", cov), 0.0, None))
+        return cast(Array, np.sqrt(np.clip(np.einsum("...ii->...", cov), 0.0, None)))
 
     def _states_for(self, group: MeasurementGroup, states: ArrayLike | None) -> Array:
         if group.dim != self.dim:
@@ -404,4 +406,4 @@ class PosteriorInformation:
             raise ValueError(f"candidate_sensor_states must be (C, 6) or (C, {len(group)}, 6);"
                              f" got shape {np.shape(candidate_sensor_states)}")
         xi = group.information(x, cand[:, None, :, :])  # (C, N, n, n)
-        return xi.mean(axis=1)
+        return cast(Array, xi.mean(axis=1))

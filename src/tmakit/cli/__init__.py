@@ -40,14 +40,18 @@ from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
 from .track import track
 
+
 # Plain (click) help, -h as well as --help: no rich markup (a help text's "a:b:" is not an
 # emoji), and typer's rich help loads rich's Markdown renderer and its parser, which took
 # longer than all of numpy's import (benchmarks/run_all.py --only startup).
-_APP_SETTINGS = {
-    "add_completion": False, "no_args_is_help": True, "rich_markup_mode": None,
-    "context_settings": {"help_option_names": ["-h", "--help"]},
-    "help": "tmakit: passive emitter localisation and target motion analysis."}
-app = typer.Typer(**_APP_SETTINGS)
+def _typer_app() -> typer.Typer:
+    return typer.Typer(
+        add_completion=False, no_args_is_help=True, rich_markup_mode=None,
+        context_settings={"help_option_names": ["-h", "--help"]},
+        help="tmakit: passive emitter localisation and target motion analysis.")
+
+
+app = _typer_app()
 
 
 def _print_version(value: bool) -> None:
@@ -93,7 +97,7 @@ def listing_app() -> typer.Typer:
     typer.Typer
         The listing app (for ``tma``, ``tma -h`` and ``tma --help`` alone).
     """
-    listing = typer.Typer(**_APP_SETTINGS)
+    listing = _typer_app()
     listing.callback()(_root)
     for info in app.registered_commands:
         command = info.callback

@@ -362,7 +362,7 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
 def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                    units: str = "si", warnings: list[Any] | None = None,
                    factors: dict[str, float] | None = None,
-                   plot: tuple[Path | None, Path, Any] | None = None) -> None:
+                   plot: tuple[Path | None, Path | str, Any] | None = None) -> None:
     """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer.
 
     Parameters
@@ -389,7 +389,6 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
     typer.Exit
         Status 4 (:data:`~tmakit.cli.guard.EXIT_NO_ANSWER`) when the trust is ``none``.
     """
-    from ..results.checks import chi2_probability
     from ..results.trust import trust_of
     from .guard import EXIT_NO_ANSWER
 
@@ -399,24 +398,9 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
     # what the data determine of an unobservable fit (a bearing) is shown; a solve that
     # stopped short shows nothing as an answer
     shown = answer if result.status in ("converged", "unobservable") else None
-    geo = geodetic_position(meas, result)
-    if as_json:
-        import json
-
-        import numpy as np
-
-        data = result.as_dict()
-        data.update(trust.as_dict())
-        if geo is not None:
-            data["geodetic"] = geo
-        data["answer"] = shown.as_dict() if shown is not None else None
-        data["covariance"] = [[float(c) if np.isfinite(c) and trust.answer else None
-                               for c in r] for r in np.asarray(result.covariance)]
-        data["chi2_p_value"] = chi2_probability(result.chi2, result.dof)
-        data.update(warnings=[w.as_dict() for w in warnings], sigma_scale=factors,
-                    height=result.extra.get("height"),
-                    solutions=[s.as_dict(meas) for s in result.ranked_solutions()])
-        out.print_json(json.dumps(data))
+    if as_json:  # the result's own serialisation: its keys are the JSON's
+        out.print_json(result.to_json(meas, None, answer=answer, warnings=warnings,
+                                      sigma_scale=factors))
     else:
         out.print(result.summary(units), highlight=False)
         if factors is not None:
@@ -441,7 +425,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         raise typer.Exit(EXIT_NO_ANSWER)
 
 
-def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path, Any],
+def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path | str, Any],
                   say: Any, units: str = "si") -> None:
     """Draw the solution picture (``--plot``) and say so.
 
@@ -469,43 +453,3 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
                   answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}",
                   units=units)
     say.print(f"wrote {path}", highlight=False)
-
-
-def geodetic_position(meas: Any, result: Any) -> dict[str, object] | None:
-    """Return the estimated position at the motion model's reference time in lat/lon/alt.
-
-    Only when the file gives the ENU origin (``origin_lat``, ``origin_lon``, ``origin_alt``).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    result : tmakit.results.EstimateResult
-        The estimate.
-
-    Returns
-    -------
-    dict or None
-        ``{"time" (s), "lat" (deg), "lon" (deg), "alt" (m), "altitude_reference"}`` (the
-        file's: ``WGS-84 ellipsoid`` or ``mean sea level``), or None without an origin or
-        a finite position.
-    """
-    meta = meas.metadata
-    if not {"origin_lat", "origin_lon"} <= set(meta) or not result.estimate.size:
-        return None
-    if result.status in ("unobservable", "diverged"):
-        return None  # no number for an unobservable position (an altitude of 2.5e9 m)
-    import numpy as np
-
-    from ..geodesy import enu_to_geodetic
-    from ..results.answers import altitude_reference
-
-    t = float(getattr(result.motion, "ref_time", meas.time.min()))
-    state = result.motion.states(result.estimate, np.array([t]))[0]
-    if not np.all(np.isfinite(state[:3])):
-        return None
-    origin = (float(meta["origin_lat"]), float(meta["origin_lon"]),
-              float(meta.get("origin_alt", 0.0)))
-    lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2], origin)
-    return {"time": t, "lat": float(lat), "lon": float(lon), "alt": float(alt),
-            "altitude_reference": altitude_reference(meas)}

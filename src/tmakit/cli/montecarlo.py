@@ -54,7 +54,7 @@ def montecarlo(
                    "--max-runs")
     scn = load_scenario_or_fail(scenario)
     with claim_outputs([output, json_file, partial]):  # a second run to them is refused now
-        res = _study(scn, partial, estimator=estimator, runs=runs, seed=seed,
+        res = _study(scn, partial, estimator=estimator, runs=runs, rng=seed,
                      known_nuisance=known_nuisance, progress=not no_progress, dask=dask,
                      chunk=chunk, workers=workers)
         print_summary(res)
@@ -63,8 +63,9 @@ def montecarlo(
 
 def _study(scn: Any, partial: Path | None, **options: Any) -> Any:
     """Run the study; on any failure the finished runs go to ``partial`` first."""
-    from ..montecarlo import monte_carlo
+    from ..montecarlo import keep_freed_memory, monte_carlo
 
+    keep_freed_memory()  # tma's own process: the allocator keeps what the chunks free
     finished: list[Any] = []
     try:
         return monte_carlo(scn, on_chunk=finished.append, **options)

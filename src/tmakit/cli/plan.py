@@ -95,9 +95,9 @@ def plan(
             err.print(f"warning: {escape(warning)}", highlight=False)
         from ..montecarlo.planned import plan as run_plan
 
-        result = run_plan(setup, runs=runs, seed=seed, duration=duration,
+        result = run_plan(setup, runs=runs, rng=seed, duration=duration,
                           particles=particles, tracker=tracker, planner=planner,
-                          progress=not no_progress)
+                          progress=not (as_json or no_progress))
     except ScenarioFileError as e:
         raise fail(escape(str(e))) from None
     except ValueError as e:

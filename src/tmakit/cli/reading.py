@@ -58,6 +58,8 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     options = {k: v for k, v in options.items() if v is not None}
     kinds = parse_kinds(options.pop("kinds", None))
     options = log_options(paths, options, kinds)
+    if "bearing_sigma" in options:  # --bearing-sigma is in degrees
+        options["bearing_sigma_deg"] = options.pop("bearing_sigma")
     try:
         meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin,
                                  **options)

@@ -47,10 +47,12 @@ def reproduce(
     """Reproduce a paper's tables and figures next to the paper's own numbers."""
     import importlib
 
+    from ..montecarlo import keep_freed_memory
     from ..reproduce import REPRODUCTIONS
 
     if name not in REPRODUCTIONS:
         raise fail(f"no reproduction named {name!r}; available: {', '.join(REPRODUCTIONS)}")
+    keep_freed_memory()  # tma's own process: the allocator keeps what the Monte Carlo frees
     if runs is not None and runs < 0:
         raise fail("--runs must be 0 or more")
     module = importlib.import_module(REPRODUCTIONS[name])

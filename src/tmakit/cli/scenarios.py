@@ -179,7 +179,9 @@ def simulate(
     force: Annotated[bool, typer.Option(help="overwrite an existing output file")] = False,
 ) -> None:
     """Simulate a scenario's measurements and write them to a file."""
-    output = check_output(output, "-o", force, "measurements")
+    written = check_output(output, "-o", force, "measurements")
+    assert written is not None  # (-o is required)
+    output = written
     scn = load_scenario_or_fail(scenario)
     meas = simulate_or_fail(scn, seed, not no_noise)
     write_or_fail(meas, output, force)

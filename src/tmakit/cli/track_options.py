@@ -50,7 +50,7 @@ def parse_q(text: str, dim: int) -> list[float]:
 MIN_PARTICLES = 7
 
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
-               "max_relative_std": "--start-std"}
+               "max_relative_std": "--start-std", "tracker": "--filter"}
 
 
 def tracking_failure(e: Any) -> typer.Exit:
@@ -77,7 +77,7 @@ def tracking_failure(e: Any) -> typer.Exit:
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
-                        ellipses: int, rows: int, inputs: Sequence[Path | None] = ()
+                        ellipses: int, rows: int, inputs: Sequence[object] = ()
                         ) -> tuple[Path | None, Path | None]:
     """Refuse bad ``tma track`` options before reading the file.
 
@@ -116,7 +116,7 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
                    "cannot span the target's state (4 or 6 values), so its covariance is "
                    "singular; use hundreds or more")
     output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force,
-                                 [p for p in inputs if p is not None])
+                                 [p for p in inputs if isinstance(p, Path)])
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
     random_filters = tracking.random_filters()

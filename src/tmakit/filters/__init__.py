@@ -7,12 +7,14 @@ from __future__ import annotations
 
 from ..motion.dynamics import NearlyConstantVelocity, process_noise, state_names, transition_matrix
 from ..observation.groups import MeasurementGroup, group_times
-from .base import Track, TrackingFilter, UpdateInfo
+from .base import TrackingFilter
 from .ekf import ExtendedKalmanFilter
 from .extras import TrackExtras
 from .mgekf import ModifiedGainEKF
 from .multilag import multilag_groups
 from .particle import ParticleFilter
+from .record import UpdateInfo
+from .track import Track
 from .ukf import UnscentedKalmanFilter
 
 FILTERS: dict[str, type[TrackingFilter]] = {

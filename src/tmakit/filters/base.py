@@ -30,6 +30,12 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
 
 
+#: A process-noise acceleration standard deviation, for all axes or per axis (m/s^2).
+ProcessNoise = float | tuple[float, ...]
+#: Per-kind measurement-model options (``{"frequency": {"drift": True}}``).
+KindOptions = Mapping[str, Mapping[str, object]]
+
+
 class TrackingFilter(ABC):
     """A recursive filter for a nearly-constant-velocity emitter (Chen & Sun, §2.1); abstract.
 
@@ -71,9 +77,8 @@ class TrackingFilter(ABC):
     single_blas_thread = False
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
-                 q: float | tuple[float, ...] = 0.0,
-                 dynamics: NearlyConstantVelocity | None = None,
-                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
         mean, cov = check_prior(mean, covariance, "the prior mean", "the prior covariance")
         self.dim = mean.shape[0] // 2

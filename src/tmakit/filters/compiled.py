@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from ..data import KIND_CODES, MeasurementSet
@@ -113,7 +114,7 @@ class CompiledMeasurements:
                                    and set(self.models) == {"bearing"})
 
     @property
-    def model_index(self) -> Array:
+    def model_index(self) -> NDArray[np.int64]:
         """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
         return self._codes
 

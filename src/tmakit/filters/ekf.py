@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..linalg import symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .base import Array, TrackingFilter, UpdateInfo
+from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .compiled import CompiledMeasurements
 from .general import (
     DynamicsCache,
@@ -19,7 +20,6 @@ from .general import (
     innovation_solve,
     kalman_gain,
     linearise,
-    predict_gaussian,
     updated_covariance,
 )
 from .kernels import KernelRun, ekf_bearing_2d
@@ -128,13 +128,12 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     Parameters
     ----------
-    *args
-        ``mean``, ``covariance``, ``time`` as for :class:`~tmakit.filters.TrackingFilter`.
+    mean, covariance, time
+        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     iterations : int, optional
         Linearisations per update (>= 1; 1 is the plain EKF).
-    **kwargs
-        ``q``, ``dynamics``, ``options``, ``nuisance`` as for
-        :class:`~tmakit.filters.TrackingFilter`.
+    q, dynamics, options, nuisance
+        As for :class:`~tmakit.filters.TrackingFilter`.
 
     Raises
     ------
@@ -148,12 +147,17 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     name = "ekf"
 
-    def __init__(self, *args: Any, iterations: int = 1, **kwargs: Any) -> None:
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 iterations: int = 1, q: ProcessNoise = 0.0,
+                 dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
         if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) \
                 or iterations < 1:
             raise ValueError(f"iterations must be a whole number >= 1; got {iterations!r}")
         self.iterations = int(iterations)
-        super().__init__(*args, **kwargs)
+        super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
+                         nuisance=nuisance)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         self._mean = mean
@@ -198,7 +202,7 @@ class ExtendedKalmanFilter(TrackingFilter):
         return info
 
     # -- the closed-form path ----------------------------------------------------------------
-    def _kernel_ok(self, compiled: CompiledMeasurements, cls: type) -> bool:
+    def _kernel_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]) -> bool:
         """Tell whether the kernel of ``cls`` applies.
 
         It does for one bearing per update, 2-D, plain NCV dynamics, when this class does not
@@ -218,7 +222,8 @@ class ExtendedKalmanFilter(TrackingFilter):
         self.time, self.log_likelihood = block.time, block.log_likelihood
         return block
 
-    def _plan_ok(self, compiled: CompiledMeasurements, cls: type) -> StepPlan | None:
+    def _plan_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]
+                 ) -> StepPlan | None:
         """Give the general plan of ``compiled`` if this filter can run on it (else None)."""
         me = type(self)
         if (compiled.single_bearing or type(self.dynamics) is not NearlyConstantVelocity
@@ -294,7 +299,8 @@ class ExtendedKalmanFilter(TrackingFilter):
                 cov += q
                 mean, t = phi.dot(mean), tk
             elif dt < -TIME_TOLERANCE:
-                predict_gaussian(None, mean, cov, t, tk)  # raises
+                raise ValueError(f"filters run forward: cannot predict from t={t} s back "
+                                 f"to t={tk} s")
             elif tk > t:
                 t = tk
             mean, cov, nis, m, lli = update(step, plan, mean, cov)

@@ -245,7 +245,7 @@ def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # 
     times, zs, vs, sxs, sys_ = columns
     qx2, qy2 = q2
     ukf = weights is not None
-    if ukf:
+    if weights is not None:
         gamma, wm0, wc0, wi = weights
         wmc = wm0 + 4.0 * wi  # the centre and the four velocity-only points
         wcc = wc0 + 4.0 * wi

@@ -64,15 +64,16 @@ and lies on the side where the user says the emitter is (above the sensors).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
+from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
-from .base import Array, UpdateInfo
+from .base import Array, KindOptions, ProcessNoise, UpdateInfo
 from .ekf import ExtendedKalmanFilter, gaussian_update
 
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
@@ -259,14 +260,8 @@ def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
 class MirrorReflectMixin:
     """Keep a 3-D Gaussian estimate above the sensors' plane while the data cannot tell.
 
-    Mixed into a Gaussian filter (``_mean``, ``_cov``); see the :mod:`.mgekf` docstring.
-
-    Parameters
-    ----------
-    *args, **kwargs
-        Arguments of the filter it is mixed into.
-    reflect : bool or None, optional
-        Reflection on or off; None takes :attr:`reflect_default`.
+    Mixed into a Gaussian filter (``_mean``, ``_cov``), whose constructor calls
+    :meth:`_start_reflecting`; see the :mod:`.mgekf` docstring.
 
     Attributes
     ----------
@@ -275,29 +270,33 @@ class MirrorReflectMixin:
     """
 
     reflect_default = False
+    # The filter's (it is mixed into a Gaussian filter):
+    dim: int
+    _mean: Array
+    _cov: Array
 
-    def __init__(self, *args: Any, reflect: bool | None = None, **kwargs: Any) -> None:
+    def _start_reflecting(self, reflect: bool | None) -> None:
+        """Reflection on or off; None takes :attr:`reflect_default`."""
         self.reflect = self.reflect_default if reflect is None else bool(reflect)
         self.reflections = 0
         self._plane: float | None = None
         self._symmetric = True
-        super().__init__(*args, **kwargs)
 
-    def update(self, rows: MeasurementSet) -> UpdateInfo:
+    def update(self, rows: MeasurementSet | MeasurementGroup) -> UpdateInfo:
         """Update as the filter does, then reflect the estimate if the mirror rule says so.
 
         Parameters
         ----------
-        rows : MeasurementSet
-            The rows of the update.
+        rows : MeasurementSet or MeasurementGroup
+            The rows of the update (a group is not reflected: its rows are not at hand).
 
         Returns
         -------
         UpdateInfo
             That of the filter's update.
         """
-        info = super().update(rows)  # type: ignore[misc]
-        if not (self.reflect and self._symmetric):
+        info: UpdateInfo = super().update(rows)  # type: ignore[misc]
+        if not (self.reflect and self._symmetric) or isinstance(rows, MeasurementGroup):
             return info
         plane = mirror_plane(rows)
         if plane is None or (self._plane is not None and abs(plane - self._plane) > 1e-6):
@@ -305,12 +304,12 @@ class MirrorReflectMixin:
         elif self._plane is None:
             self._plane = plane
         if (self.reflect and self._symmetric and self._plane is not None
-                and self.dim == 3 and self._mean[2] < self._plane):  # type: ignore[attr-defined]
+                and self.dim == 3 and self._mean[2] < self._plane):
             m = np.array([1.0, 1.0, -1.0, 1.0, 1.0, -1.0])
-            mean = self._mean * m  # type: ignore[attr-defined]
+            mean = self._mean * m
             mean[2] += 2.0 * self._plane
             self._mean = mean
-            self._cov = self._cov * m[:, None] * m[None, :]  # type: ignore[attr-defined]
+            self._cov = self._cov * m[:, None] * m[None, :]
             self.reflections += 1
         return info
 
@@ -324,8 +323,8 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     Parameters
     ----------
-    *args
-        ``mean``, ``covariance``, ``time`` as for :class:`~tmakit.filters.TrackingFilter`.
+    mean, covariance, time
+        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     gain : {"song-speyer", "paper"}, optional
         ``"paper"`` (Chen & Sun, §2.5: the modified rows in the gain and in the covariance
         update) or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF: the gain
@@ -335,9 +334,8 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
     reflect : bool, optional
         Mirror an estimate that falls below the sensors' plane while the data cannot tell
         the two sides apart (default off).
-    **kwargs
-        ``q``, ``dynamics``, ``options``, ``nuisance``, ``iterations`` as for
-        :class:`ExtendedKalmanFilter`.
+    iterations, q, dynamics, options, nuisance
+        As for :class:`ExtendedKalmanFilter`.
 
     Attributes
     ----------
@@ -358,7 +356,11 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     name = "mgekf"
 
-    def __init__(self, *args: Any, gain: str = "song-speyer", **kwargs: Any) -> None:
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 gain: str = "song-speyer", reflect: bool | None = None, iterations: int = 1,
+                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
         if gain not in ("paper", "song-speyer"):
             raise ValueError(f"gain must be 'paper' (Chen & Sun, §2.5: modified rows in the gain "
                              f"and the covariance) or 'song-speyer' (EKF rows in the gain); "
@@ -366,7 +368,9 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
         self.gain = gain
         self.fallbacks = 0
         self.bearing_rows = 0
-        super().__init__(*args, **kwargs)
+        self._start_reflecting(reflect)
+        super().__init__(mean, covariance, time, iterations=iterations, q=q, dynamics=dynamics,
+                         options=options, nuisance=nuisance)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         x = self._mean
@@ -378,7 +382,8 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
             self.skipped_updates = getattr(self, "skipped_updates", 0) + 1
             return UpdateInfo(float("nan"), 0, 0.0)
         r = group.covariance
-        idx = group.index.get("bearing")
+        where = group.index.get("bearing")
+        idx = None if where is None else np.arange(residual.shape[0])[where]
         if idx is not None:
             rel = group.relative(x)[0][idx]
             mod = modified_gain_rows(group.values[idx], rel, group.dt[idx], self.dim,
@@ -400,11 +405,22 @@ class ReflectingEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     Parameters
     ----------
-    *args, **kwargs
-        As for :class:`ExtendedKalmanFilter`.
+    mean, covariance, time
+        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     reflect : bool or None, optional
         The mirror rule (default on).
+    iterations, q, dynamics, options, nuisance
+        As for :class:`ExtendedKalmanFilter`.
     """
 
     name = "ekf"
     reflect_default = True
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 reflect: bool | None = None, iterations: int = 1, q: ProcessNoise = 0.0,
+                 dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self._start_reflecting(reflect)
+        super().__init__(mean, covariance, time, iterations=iterations, q=q, dynamics=dynamics,
+                         options=options, nuisance=nuisance)

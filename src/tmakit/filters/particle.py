@@ -43,7 +43,8 @@ The filter starts by sampling the Gaussian prior.  Every random draw comes from 
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -51,7 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import Array, TrackingFilter, UpdateInfo
+from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, skipped
 from .kernels import KernelRun
@@ -129,9 +130,8 @@ class ParticleFilter(TrackingFilter):
         Move the particles by the regularisation kernel after each resampling.
     bandwidth : float, optional
         Multiple of the optimal kernel bandwidth (> 0; ``h`` must stay below 1).
-    **kwargs
-        ``q``, ``dynamics``, ``options``, ``nuisance`` as for
-        :class:`~tmakit.filters.TrackingFilter`.
+    q, dynamics, options, nuisance
+        As for :class:`~tmakit.filters.TrackingFilter`.
 
     Attributes
     ----------
@@ -161,7 +161,10 @@ class ParticleFilter(TrackingFilter):
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  particles: int = 1000, rng: np.random.Generator | int | None = None,
                  resample_threshold: float = 0.5, regularise: bool = True,
-                 bandwidth: float = 1.0, **kwargs: Any) -> None:
+                 bandwidth: float = 1.0, q: ProcessNoise = 0.0,
+                 dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
         if isinstance(particles, bool) or not isinstance(particles, (int, np.integer)) \
                 or particles < 2:
             raise ValueError(f"particles must be a whole number >= 2; got {particles!r}")
@@ -176,16 +179,17 @@ class ParticleFilter(TrackingFilter):
         self.regularise = bool(regularise)
         self.bandwidth = float(bandwidth)
         self.resamples = 0
-        super().__init__(mean, covariance, time, **kwargs)
+        super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
+                         nuisance=nuisance)
         self.h = self.bandwidth * optimal_bandwidth(self.n_particles, 2 * self.dim)
         if self.regularise and self.h >= 1.0:
             raise ValueError(f"bandwidth {bandwidth} gives a kernel bandwidth h = {self.h:.3g}"
                              " >= 1 (the shrinkage needs h < 1); use a smaller bandwidth or "
                              "more particles")
-        q = np.broadcast_to(np.asarray(self.dynamics.q, dtype=float), (self.dim,))
-        self._q = q.copy()
-        self._any_q = bool(np.any(q > 0))
-        self._equal_q = bool(np.all(q == q[0]))
+        axes = np.broadcast_to(np.asarray(self.dynamics.q, dtype=np.float64), (self.dim,))
+        self._q = axes.copy()
+        self._any_q = bool(np.any(axes > 0))
+        self._equal_q = bool(np.all(axes == axes[0]))
         self._ncv = type(self.dynamics) is NearlyConstantVelocity
 
     # -- state --------------------------------------------------------------------------------
@@ -411,7 +415,7 @@ class ParticleFilter(TrackingFilter):
             log_det_half = float(np.sum(np.log(sig)))
         else:
             chol = safe_cholesky(r)
-            white = np.linalg.solve(chol, nu.T).T
+            white = cast(Array, np.linalg.solve(chol, nu.T).T)
             log_det_half = float(np.sum(np.log(np.diagonal(chol))))
         loglik = -0.5 * np.einsum("ij,ij->i", white, white) - log_det_half - 0.5 * m * LOG_2PI
         return loglik, nu
@@ -463,7 +467,7 @@ def _kernel_factor(cov: Array) -> Array:
     A singular covariance (all particles on a line) gets a PSD eigen-factor instead of failing.
     """
     try:
-        return np.linalg.cholesky(cov)
+        return cast(Array, np.linalg.cholesky(cov))
     except np.linalg.LinAlgError:
         evals, evecs = np.linalg.eigh(nearest_psd(cov))
         return evecs * np.sqrt(np.clip(evals, 0.0, None))

@@ -13,10 +13,11 @@ from itertools import pairwise
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from ..measurements import MeasurementModel
-from ..observation.rows import as_slice, correlated_blocks
+from ..observation.rows import Index, as_slice, correlated_blocks
 from .general import Step
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -37,7 +38,7 @@ def _state_map(dt: Array, dim: int) -> Array:
     return out
 
 
-def _diagonal_noise(var: Array, bounds: Array) -> list[Array]:
+def _diagonal_noise(var: Array, bounds: NDArray[np.int64]) -> list[Array]:
     """Give ``diag(var)`` of each update's rows, made per update size at once (views)."""
     sizes = np.diff(bounds)
     out: list[Array] = [np.empty((0, 0))] * sizes.shape[0]
@@ -136,7 +137,7 @@ class StepPlan:
                                else None))
 
     @staticmethod
-    def _records(compiled: CompiledMeasurements, names: list[str], codes: Array,
+    def _records(compiled: CompiledMeasurements, names: list[str], codes: NDArray[np.int64],
                  values: Array, sens: Array, dt: Array, time: Array) -> list[tuple]:
         """Give every row as a plain-float record for :func:`linearise` (kinds in order)."""
         info = [(compiled.models[k].row_gradient, tuple(compiled.nuisance[k].tolist()),
@@ -147,10 +148,12 @@ class StepPlan:
                     sens.tolist(), strict=True)]
 
     @staticmethod
-    def _pattern(codes: Array, names: list[str], compiled: CompiledMeasurements
-                 ) -> tuple[list[tuple[MeasurementModel, slice, Array]], object, dict]:
+    def _pattern(codes: NDArray[np.int64], names: list[str], compiled: CompiledMeasurements
+                 ) -> tuple[list[tuple[MeasurementModel, Index, Array]], object,
+                            dict[str, Index]]:
         """Give the kinds' parts ``(model, rows, nuisance)``, the angle rows, the kinds' index."""
-        parts, index = [], {}
+        parts: list[tuple[MeasurementModel, Index, Array]] = []
+        index: dict[str, Index] = {}
         angle = np.zeros(codes.shape[0], dtype=bool)
         for i, kind in enumerate(names):
             idx = np.flatnonzero(codes == i)
@@ -177,6 +180,6 @@ def plan_for(compiled: CompiledMeasurements) -> StepPlan:
     StepPlan
     """
     plan = compiled.cache.get("step_plan")
-    if plan is None:
+    if not isinstance(plan, StepPlan):
         plan = compiled.cache["step_plan"] = StepPlan(compiled)
     return plan

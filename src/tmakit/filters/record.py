@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from .kernels import KernelRun
@@ -41,7 +43,7 @@ class Recorder:
 
     def __init__(self, n: int) -> None:
         self.n = n
-        self.blocks: list[tuple[Array, ...]] = []
+        self.blocks: list[tuple[NDArray[Any], ...]] = []
         self.rows: list[tuple[float, Array, Array, float, int, float]] = []
 
     def add(self, time: float, state: Array, cov: Array, info: UpdateInfo,
@@ -83,7 +85,7 @@ class Recorder:
         self.blocks.append((block.times, block.states, block.covariances, block.nis, dof,
                             block.log_likelihoods))
 
-    def parts(self) -> list[Array]:
+    def parts(self) -> list[NDArray[Any]]:
         """Give the stacked outputs of every update recorded.
 
         Returns

@@ -8,6 +8,7 @@ same answer :meth:`tmakit.results.EstimateResult.answer` gives for a batch estim
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -54,7 +55,7 @@ class Track:
     @property
     def std(self) -> Array:
         """Standard deviations ``(K, n)`` of the state components (m, m/s)."""
-        return np.sqrt(np.clip(np.einsum("kii->ki", self.covariances), 0.0, None))
+        return cast(Array, np.sqrt(np.clip(np.einsum("kii->ki", self.covariances), 0.0, None)))
 
     def errors(self, truth: ArrayLike) -> Array:
         """Give the estimate minus the truth ``(K, n)`` (m, m/s).
@@ -69,7 +70,7 @@ class Track:
         numpy.ndarray
             ``states - truth``.
         """
-        return self.states - np.asarray(truth, dtype=float)
+        return cast(Array, self.states - np.asarray(truth, dtype=float))
 
     def nees(self, truth: ArrayLike) -> Array:
         """Give the normalised estimation error squared ``e^T P^-1 e`` per update ``(K,)``.
@@ -87,15 +88,15 @@ class Track:
         """
         err = self.errors(truth)
         try:
-            return np.einsum("ki,ki->k", err,
-                             np.linalg.solve(self.covariances, err[..., None])[..., 0])
+            return cast(Array, np.einsum("ki,ki->k", err,
+                             np.linalg.solve(self.covariances, err[..., None])[..., 0]))
         except np.linalg.LinAlgError:
             evals, evecs = np.linalg.eigh(symmetrise(self.covariances))
             proj = np.einsum("kji,kj->ki", evecs, err)  # error in the eigenbasis
             tiny = evals <= 1e-12 * np.max(np.abs(evals), axis=-1, keepdims=True)
             with np.errstate(divide="ignore", invalid="ignore"):
                 terms = np.where(tiny, np.where(proj == 0, 0.0, np.inf), proj**2 / evals)
-            return np.sum(terms, axis=-1)
+            return cast(Array, np.sum(terms, axis=-1))
 
     def as_dict(self) -> dict[str, object]:
         """Give the track as JSON-ready lists (the keys of ``tma track``'s JSON output).

@@ -29,15 +29,16 @@ that of ``nu ~ N(0, P_zz)``.  One bearing per update in 2-D runs on the closed-f
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg.lapack import dpotrf
 
 from ..linalg import safe_cholesky, symmetrise
+from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import Array, UpdateInfo
+from .base import Array, KindOptions, ProcessNoise, UpdateInfo
 from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
 from .general import (
@@ -113,9 +114,8 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         Prior-distribution parameter (2 for a Gaussian).
     kappa : float, optional
         Secondary scaling parameter.
-    **kwargs
-        ``q``, ``dynamics``, ``options``, ``nuisance`` as for
-        :class:`~tmakit.filters.TrackingFilter`.
+    q, dynamics, options, nuisance
+        As for :class:`~tmakit.filters.TrackingFilter`.
 
     Raises
     ------
@@ -133,13 +133,16 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0,
-                 **kwargs: Any) -> None:
+                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
         n = np.asarray(mean).shape[-1] if np.ndim(mean) else 0
         self.alpha, self.beta, self.kappa = float(alpha), float(beta), float(kappa)
         self._gamma, self._wm, self._wc = unscented_weights(max(n, 1), self.alpha, self.beta,
                                                             self.kappa)
         self._wc_col = self._wc[:, None]
-        super().__init__(mean, covariance, time, **kwargs)
+        super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
+                         nuisance=nuisance)
 
     def sigma_points(self) -> Array:
         """Give the ``2n + 1`` sigma points of the current estimate.

@@ -147,10 +147,10 @@ def _native_rows(i: int, d: Detection, model: object, t: float, z: np.ndarray,
         raise ValueError(f"{where}: its measurement model {type(model).__name__} is not one "
                          "tmakit reads (TmakitMeasurementModel or "
                          f"{', '.join(c.__name__ for c in NATIVE_MODELS)})")
-    if np.any(np.asarray(model.rotation_offset, dtype=float) != 0.0):  # type: ignore[attr-defined]
+    if np.any(np.asarray(model.rotation_offset, dtype=np.float64) != 0.0):  # type: ignore[attr-defined]
         raise ValueError(f"{where}: a rotation_offset is not supported; rotate the sensor "
                          "frame into East-North-Up first")
-    cov = np.asarray(model.covar(), dtype=float)  # type: ignore[attr-defined]
+    cov = np.asarray(model.covar(), dtype=np.float64)  # type: ignore[attr-defined]
     if np.any(cov != np.diag(np.diag(cov))):
         raise ValueError(f"{where}: correlated measurement noise is not supported "
                          "(tmakit's rows have independent sigmas)")
@@ -158,7 +158,7 @@ def _native_rows(i: int, d: Detection, model: object, t: float, z: np.ndarray,
     for k, kind in enumerate(kinds):
         if kind == "bearing":  # counter-clockwise from East -> clockwise from North
             values[k] = np.angle(np.exp(1j * (0.5 * np.pi - z[k])))
-    offset = np.asarray(model.translation_offset, dtype=float).ravel()  # type: ignore[attr-defined]
+    offset = np.asarray(model.translation_offset, dtype=np.float64).ravel()  # type: ignore[attr-defined]
     state = np.zeros(6)
     state[:offset.size] = offset
     n = len(kinds)

@@ -166,7 +166,7 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
 
     def _tmakit_states(self, state: object) -> Array:
         """Return the tmakit states ``(N, 2 dim)`` of a Stone Soup state (N columns)."""
-        sv = np.asarray(state.state_vector, dtype=float)  # type: ignore[attr-defined]
+        sv = np.asarray(state.state_vector, dtype=np.float64)  # type: ignore[attr-defined]
         return sv[list(self.mapping) + list(self.velocity_mapping), :].T
 
     def function(self, state: object, noise: bool | ArrayLike = False,
@@ -250,7 +250,7 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
         -------
         float or ndarray
         """
-        z = np.asarray(state1.state_vector, dtype=float)[:, 0]  # type: ignore[attr-defined]
+        z = np.asarray(state1.state_vector, dtype=np.float64)[:, 0]  # type: ignore[attr-defined]
         r = self.group.residual(self.group.predict(self._tmakit_states(state2)), z)
         w = self.group.noise.whiten(r, axis=-1)
         _, logdet = np.linalg.slogdet(np.asarray(self.covar(), dtype=float))

@@ -9,10 +9,11 @@ range-difference rows) are pandera checks whose failure cases become one problem
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
 from ..measurements import KINDS
@@ -47,7 +48,7 @@ CHUNK_ROWS = 100_000
 Numbers = dict[str, NDArray[np.float64]]
 RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
 
-def value_ranges() -> list[tuple[str, Callable[[NDArray[np.float64]], NDArray[np.bool_]], str]]:
+def value_ranges() -> list[tuple[str, Callable[[ArrayLike], NDArray[np.bool_]], str]]:
     """Return the value ranges checked per kind, from each kind's hook (``value_range``).
 
     Returns
@@ -58,8 +59,8 @@ def value_ranges() -> list[tuple[str, Callable[[NDArray[np.float64]], NDArray[np
     """
     from ..measurements import KINDS
 
-    return [(k, cls.check_values, cls.describe_values()) for k, cls in KINDS.items()
-            if cls.value_range is not None]
+    return [(k, cls.check_values, cls.value_range.describe(cls.file_unit))
+            for k, cls in KINDS.items() if cls.value_range is not None]
 
 def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     """Numeric columns as float64 (NaN for empty cells), via pandera's coercion.
@@ -102,7 +103,7 @@ def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
             if column in cols and index is not None and not is_blank(index):
                 row = int(index)
                 problems.cell(row, str(column), "a number")
-                table.loc[row, column] = np.nan  # type: ignore[index]
+                table.loc[row, column] = np.nan
             elif column in cols:  # the column as a whole (lists, structs): not numbers
                 whole.add(str(column))
         for column in sorted(whole):
@@ -210,7 +211,7 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
     for j, c in enumerate(SENSOR_STATE_COLUMNS):
         if c in columns:
             columns[c].checks.append(checks.check(
-                c, "reach", lambda v, r, j=j: state_within_reach(v, j),
+                c, "reach", partial(_reach, column=j),
                 POSITION if j < 3 else VELOCITY))
     if "sensor_alt" in columns:
         columns["sensor_alt"].checks.append(checks.check(
@@ -241,6 +242,11 @@ def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
             "sensor_lon", "longitude", lambda v, r: geo_within(v, "sensor_lon"),
             LONGITUDE))
     return columns
+
+
+def _reach(values: NDArray[np.float64], rows: object, column: int) -> NDArray[np.bool_]:
+    """Tell where a sensor state column lies within reach (a column check's signature)."""
+    return state_within_reach(values, column)
 
 
 def _for_kind(kind: NDArray[np.object_], k: str,

@@ -36,8 +36,8 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
     tr = num.get("time_ref", np.full(t.shape[0], np.nan))
     rows = np.flatnonzero(~problems.bad_rows("time", "sensor"))
     far, expected = far_times(np.where(problems.bad_rows("time"), np.nan, t))
-    for row in np.flatnonzero(far):
-        problems.cell(int(row), "time", expected)
+    for far_row in np.flatnonzero(far).tolist():
+        problems.cell(far_row, "time", expected)
     # codes, not text: equal ids give equal codes, and groupby on integers is light
     table = pd.DataFrame({"sensor": pd.factorize(sensor[rows])[0],
                           "kind": pd.factorize(kind[rows])[0],
@@ -45,7 +45,7 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
     by_sensor = table.groupby("sensor", sort=False)
     prev_row = by_sensor["row"].shift().to_numpy()
     prev_time = by_sensor["time"].shift().to_numpy()
-    for i in np.flatnonzero(prev_time > table["time"].to_numpy()):
+    for i in np.flatnonzero(prev_time > table["time"].to_numpy()).tolist():
         row, prev, s = int(rows[i]), int(prev_row[i]), sensor[rows[i]]
         problems.cell(row, "time",
                       f"a time >= {number_text(t[prev])} s, the time of the previous row of "

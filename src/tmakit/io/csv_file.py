@@ -54,14 +54,14 @@ def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], N
         header, header_line, lines, problems = plain
         return _checked_header(path, header, header_line, problems), lines
     reader = csv.reader(io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline=""))
-    header = next(reader, None)
-    if header is None:
+    first: list[str] | None = next(reader, None)
+    if first is None:
         raise MeasurementFileError(path, [
             "the file has no header line; expected the columns "
             f"{', '.join(COLUMN_ORDER[:5])}, ..."])
-    header_line = pre_lines + reader.line_num
-    problems: list[str] = []
-    lines = array("q")  # 8 bytes per row (a list of ints takes 36)
+    header, header_line = first, pre_lines + reader.line_num
+    problems = []
+    line_numbers = array("q")  # 8 bytes per row (a list of ints takes 36)
     while True:
         start = reader.line_num
         try:
@@ -73,13 +73,13 @@ def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], N
             break
         if not record:
             continue  # a blank line, skipped by pandas too
-        lines.append(pre_lines + start + 1)
+        line_numbers.append(pre_lines + start + 1)
         if len(record) != len(header):
             problems.append(
-                f"row {len(lines)} (line {lines[-1]}): expected {len(header)} fields (one per "
-                f"header column), found {len(record)}")
+                f"row {len(line_numbers)} (line {line_numbers[-1]}): expected {len(header)} "
+                f"fields (one per header column), found {len(record)}")
     return (_checked_header(path, header, header_line, problems),
-            np.frombuffer(lines, dtype=np.int64))
+            np.frombuffer(line_numbers, dtype=np.int64))
 
 
 def _checked_header(path: Path, header: list[str], header_line: int,

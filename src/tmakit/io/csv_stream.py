@@ -285,7 +285,8 @@ def _build(cols: _Columns, metadata: dict[str, str],
     out.kind_code, out.sensor_code = cols.kind, cols.sensor
     out.sensor_names = tuple(cols.sensor_names)
     nan = np.float64(np.nan)  # without range differences: views of one NaN
-    out.time_ref = np.broadcast_to(nan, (n,)) if ref is None else cols.time_ref
+    out.time_ref = (np.broadcast_to(nan, (n,)) if ref is None or cols.time_ref is None
+                    else cols.time_ref)
     out.ref_sensor_state = np.broadcast_to(nan, (n, 6)) if ref is None else ref
     out.metadata = dict(metadata)
     out._kind = out._sensor = out._kinds = None
@@ -431,7 +432,7 @@ def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
     The argument, else the file's ``origin_lat``, ``origin_lon`` (and ``origin_alt``, 0 m
     when absent) metadata; ``(None, {})`` when there is none or it is unreadable.
     """
-    problems = Problems(RawTable(None, metadata, None))  # type: ignore[arg-type]
+    problems = Problems(RawTable(None, metadata, None))
     found, origin_metadata = resolve_origin(origin, metadata, problems)
     return (None, {}) if problems.file else (found, origin_metadata)
 

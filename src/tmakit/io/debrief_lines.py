@@ -232,7 +232,8 @@ def _sensor(tokens: list[str], line: int, version: int, carries: list[str]) -> S
     if tokens[4].upper() != "NULL":
         lat, lon = _position(tokens, 4, carries)
         at = 12
-    names = (("bearing", "a bearing (degrees) or NULL"), ("range", "a range (yards) or NULL"))
+    names: tuple[tuple[str, str], ...] = (("bearing", "a bearing (degrees) or NULL"),
+                                          ("range", "a range (yards) or NULL"))
     if version == 2:
         names = (names[0], ("ambiguous", "an ambiguous bearing (degrees) or NULL"),
                  ("frequency", "a frequency (Hz) or NULL"), names[1])

@@ -104,8 +104,8 @@ def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.
                             ("frequency", s.frequency)):
             if value is None or kind not in kinds or (kind == "range" and no_range[k]):
                 continue
-            si = {"bearing": np.deg2rad, "range": lambda v: v * YARD,
-                  "frequency": lambda v: v}[kind](value)
+            si = (float(np.deg2rad(value)) if kind == "bearing"
+                  else value * YARD if kind == "range" else value)
             line_sigma = stated.get(kind)
             sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
             for col, item in zip(out, (t[k], kind, si, sigma, states[k], at_line(s)),

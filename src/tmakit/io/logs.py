@@ -260,11 +260,11 @@ def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int
     from ..rules import LATITUDE, LONGITUDE, geo_within, state_within_reach
     from ..units import REACH_M
 
-    for value, ok, expected in ((lat0, geo_within(np.float64(lat0), "sensor_lat"), LATITUDE),
-                                (lon0, geo_within(np.float64(lon0), "sensor_lon"), LONGITUDE),
-                                (alt0, state_within_reach(np.float64(alt0), 2),
+    for value, ok, expected in ((lat0, geo_within(np.array([lat0]), "sensor_lat"), LATITUDE),
+                                (lon0, geo_within(np.array([lon0]), "sensor_lon"), LONGITUDE),
+                                (alt0, state_within_reach(np.array([alt0]), 2),
                                  f"an altitude within [-{REACH_M:g}, {REACH_M:g}] m")):
-        if not ok:
+        if not ok.all():
             raise ValueError(f"origin {origin!r}: expected {expected}, found {value!r}")
     alts = np.concatenate([np.asarray(f.alt, float) for f in fixes]) if fixes else np.zeros(0)
     d, rule = surface_dim(alts, alt0, dim, tolerance)

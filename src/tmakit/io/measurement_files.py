@@ -24,11 +24,11 @@ back to the same number, so files round-trip exactly.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
-from typing import Any
 
 from ..data import MeasurementSet
+from ..keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .contract import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable
@@ -48,7 +48,15 @@ __all__ = [
 
 def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
                       origin: tuple[float, float, float] | None = None, *,
-                      format: str | None = None, **options: Any) -> MeasurementSet:
+                      format: str | None = None, mapping: object = None,
+                      measurements: str | os.PathLike[str] | None = None,
+                      track: str | os.PathLike[str] | None = None, ownship: str | None = None,
+                      contact: str | None = None, bearing_sigma_deg: float | None = None,
+                      range_sigma: float | None = None, frequency_sigma: float | None = None,
+                      dim: int | None = None, ranges: str | None = None,
+                      kinds: Collection[str] | None = None,
+                      window: Sequence[str | None] | None = None,
+                      bearing_sigma: float | NotGiven | None = NOT_GIVEN) -> MeasurementSet:
     """Read a measurement file into a MeasurementSet, by its format.
 
     Every cell is checked against the contract of ``docs/file-format.md``; all problems are
@@ -66,8 +74,32 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         the returned set's metadata.
     format : str, optional
         A registered format name ("csv", "parquet"); by default from the suffix of ``path``.
-    **options
-        Passed to the format's reader.
+    mapping : LogMapping or str or os.PathLike, optional
+        Wide logs, GPX and NMEA: the column mapping, or its TOML file
+        (:func:`tmakit.io.wide_log.read_wide_log`).
+    measurements : str or os.PathLike, optional
+        GPX and NMEA own tracks: the wide log of measurements joined to the track.
+    track : str or os.PathLike, optional
+        Wide logs: a GPX or NMEA own track instead of the mapping's.
+    ownship, contact : str, optional
+        Debrief replays: the own ship's track name and the contact
+        (:func:`tmakit.io.debrief.read_replay`).
+    bearing_sigma_deg, range_sigma, frequency_sigma : float, optional
+        Debrief replays: the noise of lines that state none (deg, m, Hz; as
+        ``tma --bearing-sigma``).
+    dim : int, optional
+        Real logs: 2 or 3, instead of the surface rule.
+    ranges : {"use", "ignore"}, optional
+        Debrief replays: fit every range, or none (default: placeholder ranges left out).
+    kinds : collection of str, optional
+        Debrief replays: keep only these kinds.
+    window : (from, to), optional
+        Debrief replays: keep only the cuts in this time window, before any other check.
+    bearing_sigma : float, optional
+        Deprecated: ``bearing_sigma_deg`` (the unit in the name; a warning).
+
+    Options left at None are not passed to the reader; a format refuses options it does not
+    take (tmakit's CSV and Parquet files take none) with a ``TypeError`` naming them.
 
     Returns
     -------
@@ -83,9 +115,21 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
     ValueError
         If ``format`` names no registered format.
     """
+    bearing_sigma_deg = renamed_keyword("read_measurements", "bearing_sigma", bearing_sigma,
+                                        "bearing_sigma_deg", bearing_sigma_deg, None)
+    given = {k: v for k, v in (
+        ("mapping", mapping), ("measurements", measurements), ("track", track),
+        ("ownship", ownship), ("contact", contact), ("bearing_sigma", bearing_sigma_deg),
+        ("range_sigma", range_sigma), ("frequency_sigma", frequency_sigma), ("dim", dim),
+        ("ranges", ranges), ("kinds", kinds), ("window", window)) if v is not None}
     if not isinstance(path, str | os.PathLike):
-        return _read_several([Path(p) for p in path], origin, format, options)
-    path = Path(path)
+        return _read_several([Path(p) for p in path], origin, format, given)
+    return _read_one(Path(path), origin, format, given)
+
+
+def _read_one(path: Path, origin: tuple[float, float, float] | None, format: str | None,
+              options: dict[str, object]) -> MeasurementSet:
+    """Read one file by its format, with the options given."""
     fmt = find_format(path, format, reading=True)
     if fmt is None or fmt.read is None:
         shown = f"'{path.suffix}'" if path.suffix else "no suffix"
@@ -100,10 +144,10 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
 
 
 def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
-                  format: str | None, options: dict[str, Any]) -> MeasurementSet:
+                  format: str | None, options: dict[str, object]) -> MeasurementSet:
     """Read several files as one, where their format's reader takes several."""
     if len(paths) == 1:
-        return read_measurements(paths[0], origin, format=format, **options)
+        return _read_one(paths[0], origin, format, options)
     formats = {p: find_format(p, format, reading=True) for p in paths}
     names = {f.name if f is not None else None for f in formats.values()}
     fmt = next(iter(formats.values()))

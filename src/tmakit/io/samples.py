@@ -112,7 +112,8 @@ def replay_sample(seed: int = 0) -> tuple[str, dict[str, float]]:
     own = scn.sensors["OWNSHIP"].states(t_own)
     t_con = np.arange(0.0, _REPLAY_END + 1.0, 60.0)
     con = scn.target_states(t_con)
-    rows = [(t, "OWNSHIP", "@A", s) for t, s in zip(t_own, own, strict=True)]
+    rows: list[tuple[float, str | None, str | None, Any]] = [
+        (t, "OWNSHIP", "@A", s) for t, s in zip(t_own, own, strict=True)]
     rows += [(t, "CONTACT", "@C", s) for t, s in zip(t_con, con, strict=True)]
     rows += [(t, None, None, b) for t, b in zip(meas.time, meas.value, strict=True)]
     rows.sort(key=lambda r: (r[0], r[1] is None))

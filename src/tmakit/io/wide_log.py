@@ -346,7 +346,9 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
     if cols[0].size == 0:
         raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing "
                                               "measured"])
-    raw = MeasurementSet.from_si(*cols[:6], metadata=metadata, check=False)
+    time, sensor, kind, value, sigma, state = cols[:6]
+    raw = MeasurementSet.from_si(time, sensor, kind, value, sigma, state, metadata=metadata,
+                                 check=False)
     meas, kept, merged = checked_rows(tab.path, raw, where)  # the cells as read
     true = np.array(meas.value_si)
     spec_of = np.concatenate([np.full(p[0].size, i) for i, p in enumerate(parts)])[kept]

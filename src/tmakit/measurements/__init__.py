@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from .azimuth_rate import AzimuthRate
 from .base import Jacobian, MeasurementModel, ValueRange
 from .bearing import Bearing
@@ -39,15 +41,17 @@ __all__ = [
 ]
 
 
-def model_for(kind: str, **options: object) -> MeasurementModel:
+def model_for(kind: str, options: Mapping[str, object] | None = None) -> MeasurementModel:
     """Build the measurement model of a kind.
 
     Parameters
     ----------
     kind : str
         A key of :data:`KINDS` ("bearing", "frequency", ...).
-    **options
-        Passed to the kind's constructor (``Frequency(drift=...)``, ``Power(exponent=...)``).
+    options : mapping, optional
+        The kind's options, as in the per-kind ``options=`` of the estimators
+        (``{"drift": True}`` for a frequency, ``{"exponent": None}`` for a power); an
+        option the kind does not take is a ``TypeError`` naming it.
 
     Returns
     -------
@@ -64,4 +68,4 @@ def model_for(kind: str, **options: object) -> MeasurementModel:
     except KeyError:
         raise ValueError(f"unknown measurement kind {kind!r}; expected one of "
                          f"{', '.join(KINDS)}") from None
-    return cls(**options)
+    return cls(**dict(options or {}))

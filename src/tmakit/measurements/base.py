@@ -378,7 +378,7 @@ class MeasurementModel:
         for j in range(k):  # exact: the Jacobian is affine in the nuisance too
             unit = self.jacobian(rel, t, np.eye(k)[j], rel_ref)
             d_a.append(unit.rel - base.rel)
-            if base.rel_ref is not None:
+            if base.rel_ref is not None and unit.rel_ref is not None:
                 d_a_ref.append(unit.rel_ref - base.rel_ref)
         dA_ref = np.stack(d_a_ref, axis=-2) if base.rel_ref is not None else None
         return h0, a_const, a_var, base.rel, base.rel_ref, np.stack(d_a, axis=-2), dA_ref

@@ -1,7 +1,7 @@
 """Monte Carlo evaluation of an estimator on a scenario, against the Cramér–Rao bound.
 
 >>> from tmakit.montecarlo import monte_carlo
->>> res = monte_carlo(tk.load_scenario("gu2007"), "ml", runs=200, seed=1)
+>>> res = monte_carlo(tk.load_scenario("gu2007"), "ml", runs=200, rng=1)
 >>> print(res.summary())            # bias, RMSE, CRLB, RMSE/CRLB with 95 % interval
 >>> from tmakit.io.study_files import write_study_table
 >>> write_study_table(res, "gu2007-mc.parquet")   # the per-run table
@@ -14,7 +14,9 @@ One job per module:
   runs, equal to :func:`tmakit.batch.estimate` run by run), record.
 * :mod:`.ml_runs` — the ``ml`` runs of a chunk: one batch of solves on the rows they share,
   their status, chi-square and estimate summarised in one batch.
-* :mod:`.memory` — the allocator keeps the temporaries a chunk frees (glibc thresholds).
+* :mod:`.memory` — :func:`keep_freed_memory`: the allocator keeps the temporaries a chunk
+  frees (glibc thresholds); a process-wide setting, opt-in (``tma`` and the pool workers
+  make it).
 * :mod:`.execution` — where the chunks run: this process, ``workers`` processes of this
   machine, or a Dask cluster; progress bar.
 * :mod:`.estimators` — the estimator names a study accepts (the registry
@@ -32,6 +34,7 @@ from __future__ import annotations
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
 from .estimators import available_estimators
 from .execution import COMPILED_CHUNK, LOCAL_CHUNK, LOOP_CHUNK
+from .memory import keep_freed_memory
 from .result import MonteCarloResult, ratio_interval
 from .runs import FAILED, RUN_ERRORS
 from .study import finished_runs_table, monte_carlo
@@ -48,6 +51,7 @@ __all__ = [
            "available_estimators",
            "closed_loop_study",
            "finished_runs_table",
+           "keep_freed_memory",
            "monte_carlo",
            "ratio_interval",
 ]

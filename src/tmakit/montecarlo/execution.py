@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from .memory import keep_freed_memory
 from .runs import run_chunk
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -109,10 +111,15 @@ def run_local(tasks: Sequence[Any], bar: Any, fn: Callable[[Any], Any] = run_chu
 
 
 def _single_threaded_worker() -> None:
-    """Hold a pool worker's BLAS to one thread for its life (the cores go to the workers)."""
+    """Set up a pool worker, a process of tmakit's own: BLAS on one thread, freed memory kept.
+
+    The cores go to the workers; the allocator keeps the temporaries a chunk frees
+    (:func:`~.memory.keep_freed_memory`).  The user's own process is never changed.
+    """
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1, user_api="blas")
+    keep_freed_memory()
 
 
 def _pool_context() -> Any:
@@ -210,6 +217,17 @@ def dask_client(dask: Any) -> tuple[Client, bool]:
                      f"distributed.Client, not {type(dask).__name__}")
 
 
+def _keep_freed_memory_on(client: Client) -> None:
+    """Have the cluster's worker processes keep freed memory (:mod:`.memory`), not this one.
+
+    Workers are compute processes (Dask's nanny tunes their allocator too); a worker that
+    runs in this process (a threads-only local cluster) is the user's process: left alone.
+    """
+    pids = client.run(os.getpid)
+    if os.getpid() not in set(pids.values()):
+        client.run(keep_freed_memory)
+
+
 def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
              fn: Callable[[Any], Any] = run_chunk,
              on_done: Callable[[Any], None] | None = None) -> list[Any]:
@@ -237,6 +255,7 @@ def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
     """
     from distributed import as_completed
 
+    _keep_freed_memory_on(client)
     futures = client.map(fn, list(tasks), pure=False)
     outputs = []
     try:

@@ -11,6 +11,11 @@ both thresholds to 32 MiB keeps the freed blocks in the heap for the next iterat
 interleaved on the shared 2-core machine), and 0.06 s instead of 0.19-0.23 s under Dask's
 setting.  The price is up to 32 MiB of freed memory kept by the process.  Other platforms (and C
 libraries without ``mallopt``) are left as they are.
+
+It is a setting of the whole process, so the library makes it only in processes of its own:
+the ``tma`` command, the worker processes of ``monte_carlo(workers=N)`` and the worker
+processes of a Dask cluster it sends chunks to (never a worker inside the caller's process).
+A Python user who wants it in their own process calls :func:`keep_freed_memory`.
 """
 
 from __future__ import annotations
@@ -31,6 +36,8 @@ _done = False
 
 def keep_freed_memory() -> bool:
     """Raise glibc's trim and mmap thresholds to :data:`HEAP_KEEP`, once per process.
+
+    Opt-in: tmakit calls it only in processes of its own (module docstring).
 
     Returns
     -------

@@ -25,15 +25,10 @@ from ..batch.solver import VarProProblem, levenberg_marquardt
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
-from ..results.estimate import (
-    CONVERGED,
-    DIVERGED,
-    NOT_CONVERGED,
-    UNOBSERVABLE,
-    assemble_result,
-)
-from ..results.nuisance import KnownNuisance
+from ..results.estimate import assemble_result
+from ..results.nuisance import KnownNuisance, as_known_nuisance
 from ..results.observability import full_rank
+from ..results.status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE
 
 __all__ = ["RunSummaries", "solve_runs", "summarise_runs"]
 
@@ -91,7 +86,7 @@ def solve_runs(ml: MaximumLikelihood, meas: MeasurementSet, values: NDArray[np.f
     bests : list of Best or Exception
         Per run: its best fit, or the error a fit of it alone raises.
     """
-    known = ml.known_nuisance
+    known = as_known_nuisance(ml.known_nuisance)  # (one already: as it is)
     obs = ObservationModel(meas, motion, ml.options)
     fixed = None if known is None else obs.nuisance_vector(known.values)
     problem = VarProProblem(obs, None, fixed)
@@ -171,7 +166,7 @@ def _full_rank_block(problem: VarProProblem, fits: list[tuple[int, Best]],
         [j_theta, np.broadcast_to(j_nu, (*j_theta.shape[:-1], j_nu.shape[-1]))], axis=-1)
     w = problem.noise.whiten(jac, axis=-2)
     info = w.swapaxes(-1, -2) @ w
-    sound = np.isfinite(info).all(axis=(-2, -1))
+    sound = np.asarray(np.isfinite(info).all(axis=(-2, -1)))
     full = np.zeros(len(fits), dtype=bool)
     if sound.any():
         full[sound] = full_rank(info[sound])

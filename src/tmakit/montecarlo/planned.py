@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..planning import MissionPlanner
 from ..planning.closed_loop import LoopRecord, LoopSetup
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
@@ -411,9 +412,10 @@ def _changes(setup: PlanningSetup, duration: float | None, particles: int | None
 
 
 def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None = None,
-         seed: int | None = 0, duration: float | None = None, particles: int | None = None,
+         rng: RngLike = 0, duration: float | None = None, particles: int | None = None,
          tracker: str | None = None, planner: str | None = None, fixed: bool = True,
-         dask: Any = None, progress: bool = False) -> PlanRun:
+         dask: Any = None, progress: bool = False,
+         seed: int | NotGiven | None = NOT_GIVEN) -> PlanRun:
     """Run a scenario's planned sensor, and its fixed pattern, in the closed loop ``runs`` times.
 
     Parameters
@@ -423,8 +425,8 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         table, or a setup already built.
     runs : int, optional
         Monte Carlo runs (default the table's ``runs``).
-    seed : int or None, optional
-        The study's seed (same seed, same table).
+    rng : int, numpy.random.Generator or None, optional
+        The study's seed (same seed, same table); a Generator gives one; None: fresh entropy.
     duration : float, optional
         Planned time (s), a whole number of decision intervals (default the table's).
     particles : int, optional
@@ -440,6 +442,8 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         Run on a Dask cluster.
     progress : bool, optional
         Show a progress bar.
+    seed : int or None, optional
+        Deprecated: ``rng``.
 
     Returns
     -------
@@ -466,6 +470,7 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         raise TypeError(f"plan() takes a scenario name, a TOML file with a [planning] table or "
                         f"a PlanningSetup (tmakit.load_planning), not "
                         f"{type(scenario).__name__}")
+    seed_used = study_seed(renamed_keyword("plan", "seed", seed, "rng", rng, 0))
     setup = scenario if isinstance(scenario, PlanningSetup) else load_planning(scenario)
     changes = _changes(setup, duration, particles, tracker, planner)
     setup = setup.replace(**changes) if changes else setup
@@ -473,6 +478,6 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
     pattern = fixed_policy(setup) if fixed else "not asked for (fixed=False)"
     if not isinstance(pattern, str):
         cases.append(loop_case(setup, FIXED, pattern))
-    study = closed_loop_study(cases, runs=setup.runs if runs is None else runs, seed=seed,
+    study = closed_loop_study(cases, runs=setup.runs if runs is None else runs, seed=seed_used,
                               dask=dask, progress=progress)
     return PlanRun(setup, study, pattern if isinstance(pattern, str) else None)

@@ -13,15 +13,15 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
 from ..results.bound import Bound
-from ..results.estimate import CONVERGED
 from ..results.nuisance import KnownNuisance
+from ..results.status import CONVERGED
 from .execution import LOCAL_CHUNK
 
 __all__ = ["MonteCarloResult", "ratio_interval"]
@@ -128,7 +128,7 @@ class MonteCarloResult:
     @property
     def converged(self) -> NDArray[np.bool_]:
         """Mask of the converged runs."""
-        return (self.table["status"] == CONVERGED).to_numpy()
+        return cast(NDArray[np.bool_], (self.table["status"] == CONVERGED).to_numpy())
 
     @property
     def convergence_rate(self) -> float:
@@ -154,7 +154,7 @@ class MonteCarloResult:
             One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
         """
         est = self.table[[f"est_{n}" for n in self.parameters]].to_numpy(dtype=float)
-        return est[self.converged] if converged_only else est
+        return cast(NDArray[np.float64], est[self.converged] if converged_only else est)
 
     def errors(self, converged_only: bool = True) -> NDArray[np.float64]:
         """Return estimate minus truth, by default of the converged runs only.

@@ -27,7 +27,6 @@ from ..blas import one_thread
 from ..data import MeasurementSet
 from ..results.nuisance import KnownNuisance
 from ..scenario import Scenario
-from .memory import keep_freed_memory
 from .ml_runs import solve_runs, summarise_runs
 
 __all__ = ["FAILED", "RUN_ERRORS", "ChunkOutput", "ChunkTask", "run_chunk"]
@@ -155,8 +154,6 @@ def run_chunk(task: ChunkTask) -> ChunkOutput:
     """
     # One BLAS thread: a chunk's products are many and mid-sized, and the cores are shared
     # with the other chunks (workers or processes), where BLAS threads spin against them.
-    # The allocator keeps the temporaries it frees for the next iteration (.memory).
-    keep_freed_memory()
     with one_thread(), compiled_batches(task.compiled):
         scn = task.scenario
         rngs = [np.random.default_rng(s) for s in task.seeds]
@@ -190,7 +187,7 @@ def _ml_batched(task: ChunkTask, meas: MeasurementSet, values: NDArray[np.float6
     motion = task.scenario.motion
     ml = MaximumLikelihood(task.init, task.options, task.known_nuisance)
     problem, bests = solve_runs(ml, meas, values, motion)
-    got = summarise_runs(problem, bests, ml.known_nuisance)
+    got = summarise_runs(problem, bests, task.known_nuisance)
     out = ChunkOutput.empty(task.first_run, values.shape[0], motion.n_params)
     for i, e in got.failures.items():
         out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"

@@ -19,6 +19,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from ..bounds.fim import crlb
+from ..keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario import Scenario
 from .estimators import check_estimator
@@ -68,12 +69,6 @@ def _workers(workers: object, dask: object) -> int:
         raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
                          f"(workers={count})")
     return count
-
-
-def _check_seed(seed: object) -> None:
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
-                             or seed < 0):
-        raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
 
 
 def _check_init(scenario: Scenario, init: Mapping[str, float] | ArrayLike | None) -> None:
@@ -139,7 +134,7 @@ def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, 
         bar.close()
     wall = time.perf_counter() - start
     outputs.sort(key=lambda o: o.first_run)
-    executor = (f"dask {client.scheduler.address}" if client is not None
+    executor = (f"dask {getattr(client.scheduler, 'address', '')}" if client is not None
                 else f"{processes} processes" if processes > 1 else "local")
     if client is None and processes < workers:
         executor += f", {workers:,} asked: {len(tasks):,} chunks, {_cpus()} CPUs"
@@ -195,12 +190,13 @@ def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
 
 
 def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: int = 100,
-                seed: int | None = 0, options: Options | None = None,
+                rng: RngLike = 0, options: Options | None = None,
                 known_nuisance: KnownNuisanceLike = False,
                 init: Mapping[str, float] | ArrayLike | None = None, progress: bool = True,
                 dask: str | Client | None = None, chunk: int | None = None,
                 on_chunk: Callable[[ChunkOutput], None] | None = None,
-                workers: int = 1) -> MonteCarloResult:
+                workers: int = 1, *, seed: int | NotGiven | None = NOT_GIVEN
+                ) -> MonteCarloResult:
     """Simulate ``scenario`` ``runs`` times, estimate each run, and compare with the CRLB.
 
     Parameters
@@ -212,13 +208,14 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         (:func:`~.estimators.available_estimators`).
     runs : int
         Number of runs (>= 1).
-    seed : int or None
-        Fixes every run's data (module docstring); ``None``: fresh entropy, recorded.
+    rng : int, numpy.random.Generator or None
+        The study's seed, which fixes every run's data (module docstring; a Generator gives
+        one, None fresh entropy), recorded in the result's ``seed``.
     options : mapping, optional
         The nuisance model per kind (default :attr:`Scenario.measurement_options`), CRLB too.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None
-        Known to the estimator and the CRLB, at the values named, the scenario's (true) for
-        the others (``True``: all the scenario's).  Default: estimated.
+        Known to the estimator and the CRLB: the values named, the scenario's (true) for the
+        others (``True``: all the scenario's); default estimated.
     init : mapping or array_like, optional
         A starting point given to every run (default: the estimator's own initialisation).
     progress : bool
@@ -231,9 +228,10 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     on_chunk : callable, optional
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
     workers : int, optional
-        Worker processes on this machine (default 1: this process), each with BLAS on one
-        thread (:func:`~.execution.run_pool`); at most one per chunk and per CPU is started
-        (the result's ``executor`` says how many); not with ``dask``.
+        Worker processes here (default 1: this one), BLAS on one thread, at most one per chunk
+        and per CPU (:func:`~.execution.run_pool`; ``executor`` says how many); not with dask.
+    seed : int or None, optional
+        Deprecated: ``rng``.
 
     Returns
     -------
@@ -243,23 +241,19 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     Raises
     ------
     ValueError
-        A bad argument (named), an unknown estimator or scenario, a manoeuvring target,
-        ``workers`` > 1 with ``dask``.
+        A bad argument (named), unknown estimator or scenario, manoeuvring target.
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
-    scenario = _scenario(scenario)
-    runs = _whole(runs, "runs")
+    scenario, runs, workers = _scenario(scenario), _whole(runs, "runs"), _workers(workers, dask)
     chunk = None if chunk is None else _whole(chunk, "chunk")
-    workers = _workers(workers, dask)
-    _check_seed(seed)
+    seed_used = study_seed(renamed_keyword("monte_carlo", "seed", seed, "rng", rng, 0))
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
     _check_init(scenario, init)
-    opts = {str(k): dict(v) for k, v in (
-        scenario.measurement_options if options is None else options).items()}
+    opts = _options(scenario, options)
 
-    seq, compiled = np.random.SeedSequence(seed), _compiled(scenario, runs)
+    seq, compiled = np.random.SeedSequence(seed_used), _compiled(scenario, runs)
     entropy, children = int(seq.entropy), seq.spawn(runs)  # type: ignore[arg-type]
     client, own_client = (None, False) if dask is None else dask_client(dask)
     try:
@@ -271,9 +265,16 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
                                            runs, progress, on_chunk, workers=workers)
     finally:
         if own_client and client is not None:
-            client.close()
+            close: Callable[[], object] = client.close  # (distributed is not typed)
+            close()
     return _result(scenario, estimator, outputs, runs, opts, known,
                    (wall, entropy, executor, size))
+
+
+def _options(scenario: Scenario, options: Options | None) -> dict[str, dict[str, object]]:
+    """Give the nuisance model per kind: ``options``, or the scenario's."""
+    return {str(k): dict(v) for k, v in (
+        scenario.measurement_options if options is None else options).items()}
 
 
 def _result(scenario: Scenario, estimator: str, outputs: Sequence[ChunkOutput], runs: int,

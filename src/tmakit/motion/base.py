@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -190,7 +191,7 @@ class MotionModel(ABC):
         if extra > 0:
             lead = jac.ndim - 3
             jac = jac.reshape(jac.shape[:lead] + (1,) * extra + jac.shape[lead:])
-        return np.einsum("...ni,...nip->...np", d_state, jac)
+        return cast(NDArray[np.float64], np.einsum("...ni,...nip->...np", d_state, jac))
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
         """Give the parameters of the simplest trajectory through given states.

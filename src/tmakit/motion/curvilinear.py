@@ -215,7 +215,9 @@ class PiecewiseCurvilinear(MotionModel):
                 return
             a = acc[:, seg_acc]
             dt = cot[:, m - 1] - anc_t[:, frm]
-            vals, D = _propagate(*anc_s[:, frm].T, a[:, 0], a[:, 1], dt, derivatives)
+            s = anc_s[:, frm]
+            vals, D = _propagate(s[:, 0], s[:, 1], s[:, 2], s[:, 3], a[:, 0], a[:, 1], dt,
+                                 derivatives)
             anc_t[mask, to] = cot[mask, m - 1]
             anc_s[mask, to] = np.stack(vals[:4], axis=-1)[mask]
             if derivatives:
@@ -235,8 +237,9 @@ class PiecewiseCurvilinear(MotionModel):
 
             r2 = rows[:, None]
             a = acc[r2, seg_of]                                             # (B, n, 2)
-            vals, D = _propagate(*np.moveaxis(anc_s[r2, seg_of], -1, 0), a[..., 0], a[..., 1],
-                                 t[None, :] - anc_t[r2, seg_of], derivatives)
+            s = anc_s[r2, seg_of]
+            vals, D = _propagate(s[..., 0], s[..., 1], s[..., 2], s[..., 3], a[..., 0],
+                                 a[..., 1], t[None, :] - anc_t[r2, seg_of], derivatives)
         x, y, speed, course, vx, vy = vals
         bad = np.where(ordered, 0.0, np.nan)[:, None]
         zeros = np.zeros_like(x)

@@ -102,7 +102,7 @@ def segment_terms(v0: Array, a_t: Array, a_n: Array, s: Array, partials: bool
         s = np.where(valid, s, 0.0)
     sv = s / v0
     r = a_t * sv
-    c = a_t + 1j * a_n
+    c = np.asarray(a_t + 1j * a_n, dtype=np.complex128)
     g = c * sv
     L, dL = _log1p_over(r)
     E = np.exp(g * L)

@@ -15,7 +15,8 @@ structure, for batch estimators, filters and bounds alike.
 """
 
 from .groups import MeasurementGroup, group_times, time_blocks
-from .model import Linearisation, ObservationModel
+from .linearisation import Linearisation
+from .model import ObservationModel
 from .noise import NoiseModel
 from .radar import radar_group, radar_rows
 from .rows import RowLayout, RowModel, nuisance_layout, resolve_models

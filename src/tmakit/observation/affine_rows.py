@@ -263,6 +263,7 @@ class AffineRows:
         (i, coef), rest = terms[0], terms[1:]
         if coef is None and rest and rest[0][1] is not None:  # a + b*coef as b*coef + a
             (j, coef_j), rest = rest[0], rest[1:]
+            assert coef_j is not None  # (the test above)
             np.multiply(coef_j, th[j], out=row)
             row += th[i]
         elif coef is None:

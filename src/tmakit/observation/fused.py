@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
 from .affine_rows import AffineRows
@@ -166,9 +167,10 @@ def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
         if coef is None:
             factor = r
         else:
-            factor = weighted.get(id(coef))
-            if factor is None:
-                factor = weighted[id(coef)] = coef * r
+            found = weighted.get(id(coef))
+            if found is None:
+                found = weighted[id(coef)] = coef * r
+            factor = found
         # every product of the north row negated: its sum exactly negated
         term = np.einsum("n,n->", rows[c], factor)
         out[i] += -term if c == 1 else term
@@ -215,7 +217,7 @@ class PlanarUnits:
         return east_north
 
 
-def planar_units(obs: Any, rows: Array | None = None) -> PlanarUnits | None:
+def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits | None:
     """Give :class:`PlanarUnits` of the rows ``rows`` of ``obs`` (grouped order), or None.
 
     It applies where :func:`fused_values` does (one kind, no nuisance or reference samples,

@@ -41,7 +41,7 @@ class Linearisation:
         self.a_var = a_var
         self.d_h0: Array | None = None
         self.d_h0_ref: Array | None = None
-        self.d_a: list[tuple[str, Array, Array | None]] = []
+        self.d_a: list[tuple[str, Array | None, Array | None]] = []
         #: The Jacobian ``(..., n, p)`` made by the fused path (:mod:`.fused`), or None,
         #: handed over on the first call of :meth:`jacobian` (the caller may scale it), then
         #: made again by ``fused_again``.

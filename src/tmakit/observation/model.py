@@ -14,6 +14,7 @@ fit) and the public methods return the set's own row order.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,7 +54,7 @@ class ObservationModel:
         self.meas = meas
         self.motion = motion
         self.models: dict[str, MeasurementModel] = {
-            k: model_for(k, **dict(options.get(k, {}))) for k in meas.kinds
+            k: model_for(k, options.get(k)) for k in meas.kinds
         }
         self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
         #: Each kind's rows, a contiguous slice of the grouped order.
@@ -144,7 +145,7 @@ class ObservationModel:
         out = x * x
         out += y * y
         out += z * z
-        return out
+        return cast(Array, out)
 
     def take(self, index: ArrayLike) -> ObservationModel:
         """Return the model of the rows ``index`` of the set.
@@ -188,6 +189,7 @@ class ObservationModel:
         sub._rel_map = (None if self._rel_map is None
                         else self._rel_map.take(pick, sensor=sub._sensor))
         sub._rel_map_ref = (None if sub._ref is None or self._rel_map_ref is None
+                            or self._ref is None
                             else self._rel_map_ref.take(pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
         return sub

@@ -10,6 +10,7 @@ blocks are dense and whitened with their eigen-decomposition.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,7 +59,7 @@ class NoiseModel:
         present = set(meas.kinds)
         for kind, cls in KINDS.items():
             rows = (np.flatnonzero(meas.kind_mask(kind))
-                    if cls.correlated_noise and kind in present else ())
+                    if cls.correlated_noise and kind in present else np.zeros(0, np.int64))
             if len(rows):
                 chosen[kind] = (models[kind] if models is not None and kind in models
                                 else model_for(kind))
@@ -263,7 +264,7 @@ class NoiseModel:
             ``R`` (m, m), SI units squared.
         """
         w = self.whiten(np.eye(self.n), axis=0)
-        return np.linalg.pinv(w.T @ w, rcond=1e-10, hermitian=True)
+        return cast(Array, np.linalg.pinv(w.T @ w, rcond=1e-10, hermitian=True))
 
 
 def checked_covariance(covariance: object, m: int | None = None) -> NDArray[np.float64]:

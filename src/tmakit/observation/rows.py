@@ -53,7 +53,7 @@ def resolve_models(kinds: Iterable[str],
     models: dict[str, MeasurementModel] = {}
     values: dict[str, Array] = {}
     for kind in kinds:
-        model = model_for(kind, **dict(options.get(kind, {})))
+        model = model_for(kind, options.get(kind))
         try:
             nu = model.nuisance_vector(dict(nuisance or {}))
         except ValueError as err:
@@ -246,6 +246,7 @@ class RowModel:
             return None
         if isinstance(nuisance, dict):  # (dict, not Mapping: this runs once per kind and step)
             return nuisance[kind]
+        assert isinstance(nuisance, np.ndarray)  # (a mapping is a dict here)
         return nuisance[..., self.nuisance_slices[kind]][..., None, :]
 
     # -- relative states ---------------------------------------------------------------------
@@ -307,7 +308,8 @@ class RowModel:
         out = np.empty(rel.shape[:-1])
         for kind, model in self.models.items():
             rows = self._take[kind]
-            ref = rel_ref[..., self._ref_take[kind], :] if kind in self._ref_take else None
+            ref = (rel_ref[..., self._ref_take[kind], :]
+                   if kind in self._ref_take and rel_ref is not None else None)
             out[..., rows] = model.predict(rel[..., rows, :], self.time[rows],
                                            self._nuisance(kind, nuisance), ref)
         return out
@@ -341,7 +343,7 @@ class RowModel:
         for kind, model in self.models.items():
             rows = self._take[kind]
             ref_rows = self._ref_take.get(kind)
-            ref = None if ref_rows is None else rel_ref[..., ref_rows, :]
+            ref = None if ref_rows is None or rel_ref is None else rel_ref[..., ref_rows, :]
             jac = model.jacobian(rel[..., rows, :], self.time[rows],
                                  self._nuisance(kind, nuisance), ref)
             d[..., rows, :] = jac.rel

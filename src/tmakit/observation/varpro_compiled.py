@@ -38,7 +38,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from ..arrays import Array
+from ..arrays import Array, BoolArray, IntArray
 from ..measurements.bearing import Bearing
 from ..measurements.elevation import Elevation
 from ..measurements.frequency import Frequency
@@ -317,9 +317,9 @@ class BatchPlan:
         (s or 1) and whether it is one on every row.
     """
 
-    def __init__(self, blocks: Array, block_param: Array, const: Array, angle: Array,
-                 w: Array, offset: Array, t_par: Array, t_comp: Array, t_coef: Array,
-                 t_one: Array) -> None:
+    def __init__(self, blocks: IntArray, block_param: Array, const: Array, angle: BoolArray,
+                 w: Array, offset: Array, t_par: IntArray, t_comp: IntArray, t_coef: Array,
+                 t_one: BoolArray) -> None:
         self.blocks, self.block_param = blocks, block_param
         self.const, self.angle, self.w, self.offset = const, angle, w, offset
         self.t_par, self.t_comp, self.t_coef, self.t_one = t_par, t_comp, t_coef, t_one

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 from ..bounds.pcrb_recursion import PosteriorInformation, noise_factor
@@ -221,7 +221,7 @@ class LoopRecord:
             ``violation_m`` (largest over constraints, m) and ``violation_<name>_m``.
         """
         d = len(self)
-        cols: dict[str, Array] = {
+        cols: dict[str, NDArray[Any]] = {
             "step": np.arange(1, d + 1, dtype=np.int64), "time": self.times,
             "sensor_x": self.sensor[:, 0], "sensor_y": self.sensor[:, 1],
             "action": self.action.astype(np.int64), "criterion_m": self.criterion_m,

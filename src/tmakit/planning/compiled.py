@@ -56,9 +56,10 @@ def _compile() -> dict[str, Callable[..., object]]:
     from . import numba_decision as nd
     from . import numba_kernels as nk
 
-    kernels = {"position": nk.position_sums, "general": nk.general_sums,
-               "spd_inverse": nk.spd_inverse_stack, "assemble": nk.assemble_gamma,
-               "fly": nd.fly, "decide_planar": nd.decide_planar}
+    kernels: dict[str, Callable[..., object]] = {
+        "position": nk.position_sums, "general": nk.general_sums,
+        "spd_inverse": nk.spd_inverse_stack, "assemble": nk.assemble_gamma,
+        "fly": nd.fly, "decide_planar": nd.decide_planar}
     one, sensor = np.ones(1), np.zeros((1, 6))
     _warm_decision(nd)
     nk.position_sums(one, one, one, one[:1] * 0, one[:1] * 0, np.empty((5, 1)))

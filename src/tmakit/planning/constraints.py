@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 
@@ -56,7 +56,7 @@ class Violation:
     weight: float
 
     @property
-    def violated(self) -> Array:
+    def violated(self) -> NDArray[np.bool_]:
         """Boolean (C,): where the constraint is broken (by more than 1 mm)."""
         return self.amount > 1e-3
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Literal, Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..arrays import Array
 from ..bounds.pcrb_recursion import information_inverse
@@ -94,7 +94,9 @@ class Criterion(Protocol):
     :func:`evaluate` uses it when present.
     """
 
-    name: str
+    @property
+    def name(self) -> str:
+        """The criterion's name, for tables."""
 
     def __call__(self, information: Array) -> Array:
         """Return the cost (...,) of ``information`` (..., n, n), SI."""
@@ -124,7 +126,7 @@ def evaluate(criterion: Criterion, information: Array, covariance: Array | None 
     return np.asarray(of_covariance(covariance), dtype=float)
 
 
-def block_indices(block: Block, n: int) -> Array:
+def block_indices(block: Block, n: int) -> NDArray[np.intp]:
     """Return the state indices of ``block`` for an ``n``-component state.
 
     Parameters

@@ -142,9 +142,9 @@ def _block_information(plan: SensorPlan, states: Array, weights: Array, s: Array
     # sum over rows of the products, then one weighted sum over the cloud per entry
     products: dict[tuple[int, int], Array] = {}
     for acc in whitened:
-        cols = sorted(acc)
-        for i, a in enumerate(cols):
-            for b in cols[i:]:
+        present = sorted(acc)
+        for i, a in enumerate(present):
+            for b in present[i:]:
                 prod = acc[a] * acc[b]
                 if (a, b) in products:
                     products[(a, b)] += prod

@@ -50,15 +50,33 @@ from .measurement_plan import SensorPlan
 class Planner(Protocol):
     """What the search needs of a planner (:class:`tmakit.planning.Planner` is one)."""
 
-    kinematics: PlatformKinematics
-    actions: Actions
-    interval: float
-    plan: SensorPlan
-    criterion: Criterion
-    horizon: int
+    @property
+    def kinematics(self) -> PlatformKinematics:
+        """The platform's limits."""
+
+    @property
+    def actions(self) -> Actions:
+        """The candidate actions."""
+
+    @property
+    def interval(self) -> float:
+        """Seconds per decision."""
+
+    @property
+    def plan(self) -> SensorPlan:
+        """What the sensor measures in a step."""
+
+    @property
+    def criterion(self) -> Criterion:
+        """The cost of the predicted information."""
+
+    @property
+    def horizon(self) -> int:
+        """Steps looked ahead."""
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
-               depth: int, gamma: str) -> tuple[Step, Array, list[Violation]]:
+               depth: int, gamma: Literal["mean", "cloud"]
+               ) -> tuple[Step, Array, list[Violation]]:
         """Fly every action from each of a batch of states for one step.
 
         Parameters

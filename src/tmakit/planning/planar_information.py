@@ -100,10 +100,13 @@ def _compute_coefficients(kinds: tuple[str, ...], sigmas: Array,
         else:
             beta[j] = 1.0
             delta[j] = 1.0
-    return {"A_rr": alpha @ w @ alpha, "A_rq": 2.0 * (alpha @ w @ beta),
-            "A_qq": beta @ w @ beta, "B_r": alpha @ w @ gamma, "B_q": beta @ w @ gamma,
-            "D": gamma @ w @ gamma, "E_r": alpha @ w @ delta, "E_q": beta @ w @ delta,
-            "G": gamma @ w @ delta, "F": delta @ w @ delta}
+    def dot(u: Array, v: Array) -> float:
+        return float(u @ w @ v)
+
+    return {"A_rr": dot(alpha, alpha), "A_rq": 2.0 * dot(alpha, beta),
+            "A_qq": dot(beta, beta), "B_r": dot(alpha, gamma), "B_q": dot(beta, gamma),
+            "D": dot(gamma, gamma), "E_r": dot(alpha, delta), "E_q": dot(beta, delta),
+            "G": dot(gamma, delta), "F": dot(delta, delta)}
 
 
 def planar_information(plan: SensorPlan, states: Array, weights: Array,
@@ -289,8 +292,10 @@ def _block_sums(basis: list[tuple[str, tuple[float, float, float]]], cols: Array
         q -= np.multiply(uy, dx, out=tmp)
         q *= ir2
     if "irq" in slot:
+        assert ir is not None and q is not None  # (made above for these names)
         np.multiply(ir, q, out=slot["irq"])
     if "qq" in slot:
+        assert q is not None
         np.multiply(q, q, out=slot["qq"])
     for j in range(len(names)):
         np.multiply(f[2 + 3 * j], c2, out=f[3 + 3 * j])

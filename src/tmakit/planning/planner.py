@@ -29,11 +29,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..arrays import Array
-from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
+from ..sensors.platform import PlatformKinematics, Step
+from ..sensors.platform_state import Actions, PlatformState
 from . import compiled, fused
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
@@ -85,7 +88,7 @@ class Recommendation:
     information: Array
     cost: Array
     bound: Array
-    feasible: Array
+    feasible: NDArray[np.bool_]
     violations: dict[str, Array]
     all_infeasible: bool
 
@@ -117,7 +120,7 @@ def position_bound(information: Array, covariance: Array | None = None) -> Array
     """
     dim = information.shape[-1] // 2
     cov = bound_covariance(information) if covariance is None else covariance
-    return np.sqrt(np.clip(np.einsum("...ii->...", cov[..., :dim, :dim]), 0.0, None))
+    return cast(Array, np.sqrt(np.clip(np.einsum("...ii->...", cov[..., :dim, :dim]), 0.0, None)))
 
 
 @dataclass(frozen=True, eq=False)

@@ -43,7 +43,6 @@ from numpy.typing import NDArray
 
 from ..bounds import crlb
 from ..data import MeasurementSet
-from ..filters.base import TrackingFilter
 from ..filters.mgekf import ModifiedGainEKF, ReflectingEKF
 from ..filters.multilag import DEFAULT_LAGS, multilag_groups
 from ..scenario_file import load_scenario
@@ -63,7 +62,7 @@ COORDS = ("x", "y", "z", "R", "rho")        # R: slant range, rho: horizontal ra
 #: The paper's filter as printed: the modified rows in the gain too (Chen & Sun, §2.5).
 PaperMGEKF = partial(ModifiedGainEKF, gain="paper")
 #: Filters compared: key -> (label, constructor, reuse_inflation).
-FILTER_SETS: dict[str, tuple[str, Callable[..., TrackingFilter], bool]] = {
+FILTER_SETS: dict[str, tuple[str, Callable[..., ModifiedGainEKF | ReflectingEKF], bool]] = {
     "ekf": ("EKF", ReflectingEKF, False),
     "mgekf": ("MGEKF", PaperMGEKF, False),
     "ekf-inflated": ("EKF, reuse-inflated R", ReflectingEKF, True),
@@ -335,12 +334,19 @@ def _km(v: float) -> str:
     return f"{v / 1e3:.2f}" if np.isfinite(v) else "inf"
 
 
+def _figure(rep: Reproduction, name: str) -> dict[str, object]:
+    """Give the figure ``name`` of ``rep``, a table by path, made on first use."""
+    table = rep.figures.setdefault(name, {})
+    assert isinstance(table, dict)
+    return table
+
+
 def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
                  lags: tuple[int, ...]) -> None:
     results: dict[int, dict[str, dict[str, NDArray[np.float64]]]] = {}
     bar = None
     if progress:
-        from rich.progress import Progress
+        from rich.progress import Progress, TaskID
 
         bar = Progress(transient=True)
         bar.start()
@@ -350,7 +356,7 @@ def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
             if bar is not None:
                 task = bar.add_task(f"chen-sun path {p}", total=runs)
 
-                def tick(task: int = task) -> None:
+                def tick(task: TaskID = task) -> None:
                     bar.advance(task)
             results[p] = monte_carlo_path(p, runs, seed, lags, progress=tick)
     finally:
@@ -376,13 +382,11 @@ def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
             worst_ok &= worst == "z"
             inside = float(np.mean((nees[1:] >= lo) & (nees[1:] <= hi)))
             final.setdefault(key, {})[f"path {p}"] = [round(float(v)) for v in rms[-1]]
-            rep.figures.setdefault(f"{key}_mean_nees_after_10s", {})[f"path {p}"] = round(
+            _figure(rep, f"{key}_mean_nees_after_10s")[f"path {p}"] = round(
                 float(np.mean(nees[t >= 10.0])), 1)
-            rep.figures.setdefault(f"{key}_nees_inside_band", {})[f"path {p}"] = round(
-                inside, 2)
+            _figure(rep, f"{key}_nees_inside_band")[f"path {p}"] = round(inside, 2)
             refl = r["reflections"]
-            rep.figures.setdefault(f"{key}_runs_reflected", {})[f"path {p}"] = int(
-                np.count_nonzero(refl))
+            _figure(rep, f"{key}_runs_reflected")[f"path {p}"] = int(np.count_nonzero(refl))
         rep.sections.append(Section(
             f"Fig. 2, {label}: RMS error over {runs} runs (m), multi-lag vectors lags "
             f"{list(lags)}", ["path", "t (s)", "x", "y", "z (±|z|)", "R (slant)",

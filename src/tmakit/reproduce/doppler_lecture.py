@@ -73,7 +73,7 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True) -> Reproduction:
     Doppler-tracking lecture notes (the 7-parameter model and its rank deficiency).
     """
     rep = Reproduction("doppler-lecture")
-    rows = []
+    rows: list[list[object]] = []
     for n in (1, 2, 3):
         scn = with_receivers(n)
         bound = crlb(scn)
@@ -90,12 +90,13 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True) -> Reproduction:
     names = bound.parameters
     est = np.concatenate([res.estimate, [res.nuisance["carrier"][0]]])
     truth = np.concatenate([scn.theta, [scn.nuisance["carrier"]]])
-    rows = [[p, truth[i], round(float(est[i]), 3), round(float(est[i] - truth[i]), 3),
-             round(float(bound.std[i]), 3)] for i, p in enumerate(names)]
+    table: list[list[object]] = [
+        [p, truth[i], round(float(est[i]), 3), round(float(est[i] - truth[i]), 3),
+         round(float(bound.std[i]), 3)] for i, p in enumerate(names)]
     rep.sections.append(Section(
         f"Three receivers: ML estimate without an initial guess ({res.status}, "
         f"chi2 {res.chi2:.1f} on {res.dof} dof), one simulated data set (seed {seed})",
-        ["parameter", "truth", "estimate", "error", "CRLB std"], rows,
+        ["parameter", "truth", "estimate", "error", "CRLB std"], table,
         "Frequency measured with the physical Doppler sign (the notes' formula has the "
         "opposite sign convention for the velocity)."))
     rep.figures["three_receivers_status"] = res.status

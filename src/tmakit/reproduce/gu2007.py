@@ -116,7 +116,7 @@ def _monte_carlo(rep: Reproduction, runs: int, seed: int, progress: bool) -> Non
                  *(round(float(v), 4) for v in crlb_tables()[(40.0, 1.9)]["both"]), "", ""])
     for estimator in ("ml", "ratio"):
         try:
-            mc = monte_carlo(scn, estimator=estimator, runs=runs, seed=seed,
+            mc = monte_carlo(scn, estimator=estimator, runs=runs, rng=seed,
                              progress=progress)
         except ValueError as e:  # an estimator not available in this build
             rows.append([f"{estimator}: {e}", "", "", "", "", "", ""])

@@ -24,9 +24,16 @@ from pathlib import Path
 import numpy as np
 
 from ..bounds.manoeuvre import CrbSequence, curvilinear_crb_sequence
+from ..motion import PiecewiseCurvilinear
 from ..scenario import Scenario
 from ..scenario_file import load_scenario
 from .common import Reproduction, Section
+
+
+def _manoeuvres(scn: Scenario) -> int:
+    """Give the number of manoeuvres of a scenario's piecewise curvilinear target."""
+    assert isinstance(scn.motion, PiecewiseCurvilinear)
+    return scn.motion.manoeuvres
 
 STEP = 10.0                 # s between reference times / ellipses (§4)
 LEVEL = 0.9                 # 90 % confidence ellipses (§4)
@@ -144,7 +151,7 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
     scn = load_scenario("hoerst2010")
     seqs = sequences(step, scn)
     rep = Hoerst2010Reproduction("hoerst2010", scenario=scn, sequences=seqs)
-    cot = [scn.truth[f"t_{m}"] for m in range(1, scn.motion.manoeuvres + 1)]
+    cot = [scn.truth[f"t_{m}"] for m in range(1, _manoeuvres(scn) + 1)]
 
     _table_section(rep, seqs)
     _claims_section(rep, seqs, cot, step)
@@ -288,7 +295,7 @@ def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
     t = np.linspace(t0, t1, 901)
     target = scn.target_states(t)[:, :2] / 1e3
     observer = scn.sensors["observer"].states(t)[:, :2] / 1e3
-    cot = np.array([scn.truth[f"t_{m}"] for m in range(1, scn.motion.manoeuvres + 1)])
+    cot = np.array([scn.truth[f"t_{m}"] for m in range(1, _manoeuvres(scn) + 1)])
     turns = scn.target_states(cot)[:, :2] / 1e3 if cot.size else np.zeros((0, 2))
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 6.2), sharex=True, sharey=True,

@@ -186,7 +186,7 @@ def cases(radar: str = "derived", particles: int = 2000, steps: int | None = Non
     plan = radar_plan(radar)
     cfg = HURTADO_NEHORAI_2008
     loop = LoopSetup(
-        target=[*setup.target_start, *setup.target_velocity],
+        target=np.array([*setup.target_start, *setup.target_velocity], dtype=np.float64),
         platform=PlatformState(setup.radar_start, 0.0, setup.radar_speed),
         steps=setup.steps if steps is None else steps, interval=setup.interval, q=setup.q,
         prior_std=setup.prior_std, tracker=tracker, particles=particles)

@@ -13,26 +13,26 @@ from .checks import (
     normalised_residuals,
     scale_sigma,
 )
-from .estimate import (
-    CONVERGED,
-    DIVERGED,
-    NOT_CONVERGED,
-    UNOBSERVABLE,
-    EstimateResult,
-    assemble_result,
-    diverged_result,
-    fit_status,
-    result_from_covariance,
-)
+from .estimate import EstimateResult, assemble_result, diverged_result, result_from_covariance
 from .nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from .observability import Direction, Observability, analyse
 from .solutions import Solution, separated_solutions
+from .status import (
+    CONVERGED,
+    DIVERGED,
+    NOT_CONVERGED,
+    STATUSES,
+    UNOBSERVABLE,
+    Status,
+    fit_status,
+)
 from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, trust_of
 
 __all__ = [
     "CONVERGED",
     "DIVERGED",
     "NOT_CONVERGED",
+    "STATUSES",
     "TRUST_NONE",
     "TRUST_OK",
     "TRUST_WARNING",
@@ -47,6 +47,7 @@ __all__ = [
     "Observability",
     "SanityWarning",
     "Solution",
+    "Status",
     "Trust",
     "analyse",
     "answer_from_state",

@@ -27,7 +27,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from ..data import MeasurementSet
 from ..geodesy import enu_to_geodetic
-from .context import clock_time, origin_of, sensor_position
+from .context import altitude_reference, clock_time, origin_of, sensor_position
 
 KNOT = 1852.0 / 3600.0
 """One knot in m/s (one nautical mile, 1852 m, per hour)."""
@@ -255,13 +255,13 @@ def _motion_part(state: NDArray[np.float64], cov: NDArray[np.float64], stationar
     speed = float(np.linalg.norm(v))
     g = np.zeros(6)
     g[3:6] = v / speed
-    speed, speed_sd = _finite(speed, _std(g, cov, null))
+    speed_value, speed_sd = _finite(speed, _std(g, cov, null))
     g = np.zeros(6)
     g[3], g[4] = v[1] / h2, -v[0] / h2
     c_sd = _std(g, cov, null)
     course, course_sd = _finite(float(np.degrees(np.arctan2(v[0], v[1])) % 360.0),
                                 None if c_sd is None else float(np.degrees(c_sd)))
-    return course, course_sd, speed, speed_sd
+    return course, course_sd, speed_value, speed_sd
 
 
 def _from_sensor(state: NDArray[np.float64], cov: NDArray[np.float64],
@@ -333,7 +333,7 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
         vel_sd.append(s)
     course, course_sd, speed, speed_sd = _motion_part(state, cov, stationary, null)
     origin = origin_of(meas)
-    geo = None
+    geo: tuple[float | None, float | None, float | None] | None = None
     if origin is not None:
         geo = (None, None, None)
         if enu[0] is not None and enu[1] is not None:
@@ -375,28 +375,6 @@ def _determined_size(name: str, v: float | None, s: float | None, unit: str, wea
         return v, s
     weak.append(f"{name} (1-sigma {s:.3g} {unit} against {v:.3g} {unit})")
     return None, None
-
-
-#: The altitude references a measurement set's metadata names, in words.
-ALTITUDE_REFERENCES = {"ellipsoid": "WGS-84 ellipsoid", "msl": "mean sea level"}
-
-
-def altitude_reference(meas: MeasurementSet | None) -> str:
-    """Return what a measurement set's altitudes are measured from, in words.
-
-    Parameters
-    ----------
-    meas : MeasurementSet or None
-        The measurements; their ``altitude_reference`` metadata (``ellipsoid``, the default,
-        or ``msl``) says it.
-
-    Returns
-    -------
-    str
-        ``WGS-84 ellipsoid`` or ``mean sea level``.
-    """
-    ref = "ellipsoid" if meas is None else meas.metadata.get("altitude_reference", "ellipsoid")
-    return ALTITUDE_REFERENCES.get(ref, ref)
 
 
 def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:
@@ -444,7 +422,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     problem = time_problem(float(time), None if meas is None else meas.time, "time")
     if problem is not None:
         raise ValueError(problem)
-    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     t = np.array([float(time)])
     null = None
     if not np.all(np.isfinite(theta)):

@@ -140,7 +140,7 @@ class Bound:
             scale = dec[2] if dec is not None else np.ones(full.size)
             g, n = full * scale, null / scale[:, None]
             n = n / np.linalg.norm(n, axis=0, keepdims=True)
-            if np.max(np.abs(g @ n)) > 1e-3 * max(np.linalg.norm(g), 1e-300):
+            if np.max(np.abs(g @ n)) > 1e-3 * max(float(np.linalg.norm(g)), 1e-300):
                 return float("inf")
         return float(full @ self.covariance @ full)
 

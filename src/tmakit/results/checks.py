@@ -330,7 +330,7 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     several = solutions_warning(getattr(result, "solutions", []))
     if several is not None:
         found.append(several)
-    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     if np.all(np.isfinite(theta)) and len(meas):
         motion = result.motion  # type: ignore[attr-defined]
         state = motion.states(theta, np.array([float(np.max(meas.time))]))[0]
@@ -396,7 +396,7 @@ def normalised_residuals(result: object, meas: MeasurementSet,
     ndarray, shape (n,)
         ``(value - prediction) / sigma`` per row, angles wrapped; NaN for a diverged fit.
     """
-    theta = np.asarray(result.estimate, dtype=float)  # type: ignore[attr-defined]
+    theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     if not np.all(np.isfinite(theta)):
         return np.full(len(meas), np.nan)
     obs = ObservationModel(meas, result.motion, options)  # type: ignore[attr-defined]

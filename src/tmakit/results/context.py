@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..data import MeasurementSet
+from ..geodesy import enu_to_geodetic
 
 #: Metadata key of the measurement set's clock-time origin (ISO-8601 UTC of t = 0 s).
 TIME_ORIGIN_KEY = "time_origin"
@@ -100,3 +101,52 @@ def sensor_position(meas: MeasurementSet, sensor: str, t: float) -> NDArray[np.f
         k = 0 if t <= times[0] else times.size - 1
         return states[k, :3] + states[k, 3:6] * (t - times[k])
     return np.array([np.interp(t, times, states[:, i]) for i in range(3)])
+
+
+#: The altitude references a measurement set's metadata names, in words.
+ALTITUDE_REFERENCES = {"ellipsoid": "WGS-84 ellipsoid", "msl": "mean sea level"}
+
+
+def altitude_reference(meas: MeasurementSet | None) -> str:
+    """Return what a measurement set's altitudes are measured from, in words.
+
+    Parameters
+    ----------
+    meas : MeasurementSet or None
+        The measurements; their ``altitude_reference`` metadata (``ellipsoid``, the default,
+        or ``msl``) says it.
+
+    Returns
+    -------
+    str
+        ``WGS-84 ellipsoid`` or ``mean sea level``.
+    """
+    ref = "ellipsoid" if meas is None else meas.metadata.get("altitude_reference", "ellipsoid")
+    return ALTITUDE_REFERENCES.get(ref, ref)
+
+
+def geodetic_fix(meas: MeasurementSet, t: float, state: NDArray[np.float64]
+                 ) -> dict[str, object] | None:
+    """Give an ENU position in lat/lon/alt, when the set records its ENU origin.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (their :func:`origin_of` and :func:`altitude_reference`).
+    t : float
+        The time of the state (s).
+    state : ndarray
+        ``[x, y, z, ...]`` at ``t`` (m).
+
+    Returns
+    -------
+    dict or None
+        ``{"time" (s), "lat" (deg), "lon" (deg), "alt" (m), "altitude_reference"}``, or None
+        without an origin or a finite position.
+    """
+    origin = origin_of(meas)
+    if origin is None or not np.all(np.isfinite(state[:3])):
+        return None
+    lat, lon, alt = enu_to_geodetic(state[0], state[1], state[2], origin)
+    return {"time": float(t), "lat": float(lat), "lon": float(lon), "alt": float(alt),
+            "altitude_reference": altitude_reference(meas)}

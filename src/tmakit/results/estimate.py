@@ -16,7 +16,7 @@ built by one of three functions:
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,17 +27,20 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
-from .answers import ELLIPSE_LEVEL, KNOT, Answer, estimate_answer, parameter_display
+from .answers import (
+    ELLIPSE_LEVEL,
+    KNOT,
+    Answer,
+    estimate_answer,
+    parameter_display,
+)
 from .bound import Bound, bound_from_information
-from .checks import SanityWarning, fit_warnings
+from .checks import SanityWarning, chi2_probability, fit_warnings
+from .context import geodetic_fix, origin_of
 from .nuisance import KnownNuisance, as_known_nuisance
 from .solutions import Solution
+from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
 from .trust import Trust, trust_of
-
-CONVERGED = "converged"
-NOT_CONVERGED = "did not converge"
-UNOBSERVABLE = "unobservable"
-DIVERGED = "diverged"
 
 
 @dataclass
@@ -56,8 +59,9 @@ class EstimateResult:
         Their covariance.
     nuisance : dict
         ``{name: (value, std)}`` of the nuisance parameters (std 0 when known).
-    status : str
-        :data:`CONVERGED`, :data:`NOT_CONVERGED`, :data:`UNOBSERVABLE` or :data:`DIVERGED`.
+    status : Status
+        ``"converged"`` (:data:`CONVERGED`), ``"did not converge"`` (:data:`NOT_CONVERGED`),
+        ``"unobservable"`` (:data:`UNOBSERVABLE`) or ``"diverged"`` (:data:`DIVERGED`).
     iterations : int
         Iterations of the solve that gave the estimate.
     chi2 : float
@@ -86,7 +90,7 @@ class EstimateResult:
     std: NDArray[np.float64]
     covariance: NDArray[np.float64]
     nuisance: dict[str, tuple[float, float]]
-    status: str
+    status: Status
     iterations: int
     chi2: float
     dof: int
@@ -139,17 +143,67 @@ class EstimateResult:
         return any(s.region_contains(position, meas, time, level)
                    for s in self.ranked_solutions())
 
-    def as_dict(self) -> dict[str, object]:
-        """Return the JSON form.
+    @property
+    def chi2_p_value(self) -> float | None:
+        """The upper-tail probability of :attr:`chi2` on :attr:`dof` degrees of freedom.
+
+        None without degrees of freedom or a finite chi2 (:func:`.checks.chi2_probability`).
+        """
+        return chi2_probability(self.chi2, self.dof)
+
+    def as_dict(self, meas: MeasurementSet | None = None, *, answer: Answer | None = None,
+                warnings: Sequence[SanityWarning] | None = None,
+                sigma_scale: Mapping[str, float] | None = None) -> dict[str, object]:
+        """Return the JSON form: the keys of ``tma estimate --json``, which prints it.
+
+        Parameters
+        ----------
+        meas : MeasurementSet, optional
+            The measurements fitted: with them ``answer`` (at the last measurement),
+            ``warnings`` and ``geodetic`` (when the set has an ENU origin) are filled in.
+        answer : Answer, optional
+            The answer to report (default :meth:`answer` of ``meas``).
+        warnings : sequence of SanityWarning, optional
+            The warnings to report (default :meth:`warnings` of ``meas``).
+        sigma_scale : mapping of str to float, optional
+            The factor on each kind's sigma when the measurements were rescaled
+            (``tma estimate --scale-sigma``).
 
         Returns
         -------
         dict of str to object
-            JSON-ready values (SI units); non-finite numbers as ``None``.
+            JSON-ready values (SI units); non-finite numbers as ``None``.  ``answer``,
+            ``warnings`` and ``geodetic`` are None without the measurements.
         """
-        def num(x: float) -> float | None:
-            return float(x) if np.isfinite(x) else None
+        if meas is not None:
+            answer = self.answer(meas) if answer is None else answer
+            warnings = self.warnings(meas) if warnings is None else warnings
+        trust = trust_of(self, warnings or [])
+        # what the data determine of an unobservable fit (a bearing) is shown; a solve that
+        # stopped short shows nothing as an answer
+        shown = answer if self.status in (CONVERGED, UNOBSERVABLE) else None
+        return {**self._fields(), **trust.as_dict(),
+                "geodetic": None if meas is None else self._geodetic(meas),
+                "answer": None if shown is None else shown.as_dict(),
+                "covariance": [[_num(c) if trust.answer else None for c in row]
+                               for row in np.asarray(self.covariance)],
+                "chi2_p_value": self.chi2_p_value,
+                "warnings": None if warnings is None else [w.as_dict() for w in warnings],
+                "sigma_scale": None if sigma_scale is None else dict(sigma_scale),
+                "height": self.extra.get("height"),
+                "solutions": [sol.as_dict(meas) for sol in self.ranked_solutions()]}
 
+    def _geodetic(self, meas: MeasurementSet) -> dict[str, object] | None:
+        """Give the position at the reference time in lat/lon/alt (:func:`.geodetic_fix`)."""
+        if self.status in (UNOBSERVABLE, DIVERGED) or origin_of(meas) is None \
+                or not self.estimate.size:
+            return None  # no number for an unobservable position (an altitude of 2.5e9 m)
+        t = float(getattr(self.motion, "ref_time", meas.time.min()))
+        return geodetic_fix(meas, t, self.motion.states(self.estimate, np.array([t]))[0])
+
+    def _fields(self) -> dict[str, object]:
+        """Give the result's own fields in JSON form (subclasses add theirs)."""
+        num = _num
         answer = self.status in (CONVERGED, UNOBSERVABLE)  # (unobservable: what is determined)
         data: dict[str, object] = {
             "parameters": list(self.parameters),
@@ -231,11 +285,15 @@ class EstimateResult:
         """
         return trust_of(self, self.warnings(meas))
 
-    def to_json(self, indent: int | None = 2) -> str:
-        """Return :meth:`as_dict` as JSON text.
+    def to_json(self, meas: MeasurementSet | None = None, indent: int | None = 2, *,
+                answer: Answer | None = None, warnings: Sequence[SanityWarning] | None = None,
+                sigma_scale: Mapping[str, float] | None = None) -> str:
+        """Return :meth:`as_dict` as JSON text (that of ``tma estimate --json``).
 
         Parameters
         ----------
+        meas, answer, warnings, sigma_scale : optional
+            As for :meth:`as_dict`.
         indent : int or None
             Spaces of indentation (``None``: one line).
 
@@ -244,7 +302,8 @@ class EstimateResult:
         str
             The JSON text.
         """
-        return json.dumps(self.as_dict(), indent=indent)
+        return json.dumps(self.as_dict(meas, answer=answer, warnings=warnings,
+                                       sigma_scale=sigma_scale), indent=indent)
 
     def summary(self, units: str = "si") -> str:
         """Return a readable table: status, chi2, each parameter with its std, what is unseen.
@@ -297,6 +356,10 @@ class EstimateResult:
         return "\n".join(lines)
 
 
+def _num(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
 def _reference_time(motion: MotionModel) -> float | None:
     """Give the time (s) a motion model's parameters are at; None for a fixed emitter."""
     ref = getattr(motion, "ref_time", None)
@@ -340,8 +403,9 @@ def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iteratio
                           {} if extra is None else extra)
 
 
-def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDArray,
-                           nuisance: dict[str, tuple[float, float]], status: str,
+def result_from_covariance(motion: MotionModel, theta: NDArray[np.float64],
+                           covariance: NDArray[np.float64],
+                           nuisance: dict[str, tuple[float, float]], status: Status,
                            iterations: int, chi2: float, dof: int, method: str,
                            message: str = "", extra: dict[str, object] | None = None
                            ) -> EstimateResult:
@@ -358,7 +422,7 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
         the square roots of its diagonal (negative rounding clipped to 0).
     nuisance : dict
         ``{name: (value, std)}`` of the nuisance parameters.
-    status : str
+    status : Status
         ``converged``, ``did not converge`` or ``unobservable``.
     iterations : int
         Iterations run.
@@ -385,11 +449,12 @@ def result_from_covariance(motion: MotionModel, theta: NDArray, covariance: NDAr
                           {} if extra is None else extra)
 
 
-def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray, nu: NDArray,
+def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.float64],
+                    nu: NDArray[np.float64],
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
                     known_nuisance: KnownNuisance | None, note: str = "", *,
-                    jacobian: tuple[NDArray, NDArray] | None = None,
-                    information: NDArray | None = None) -> EstimateResult:
+                    jacobian: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+                    information: NDArray[np.float64] | None = None) -> EstimateResult:
     """Return the result of a weighted least-squares fit of an observation model.
 
     Parameters
@@ -481,7 +546,7 @@ def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.flo
         jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
         w = noise.whiten(jac, axis=-2)
         return np.asarray(w.T @ w, dtype=float)
-    info = 0.0
+    info: float | NDArray[np.float64] = 0.0
     for lo, hi in noise.chunk_bounds(blas.CHUNK_ROWS) if chunks else [(0, n)]:
         part = obs.take(obs.order[lo:hi]) if chunks else obs
         j_theta, j_nu = part.jacobian_grouped(theta, nu)  # the noise model is grouped too
@@ -493,32 +558,3 @@ def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.flo
         w = jac if chunks else noise.whiten(jac, axis=-2, overwrite=True)
         info = info + w.T @ w
     return np.asarray(info, dtype=float)
-
-
-def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[str, str]:
-    """Return the status of a fit and the sentence that explains it.
-
-    Parameters
-    ----------
-    converged : bool
-        Whether the solver's convergence tests were met.
-    bound : Bound
-        The information at the fit (its observability decides ``unobservable``).
-    unknowns : int
-        The number of unknowns fitted.
-
-    Returns
-    -------
-    status : str
-        ``unobservable`` when the information is rank deficient, else ``converged`` or
-        ``did not converge``.
-    message : str
-        Empty for a converged, observable fit.
-    """
-    if not bound.observability.full_rank:
-        return UNOBSERVABLE, (f"the data determine only {bound.rank} of the {unknowns} "
-                              "unknowns; parameters marked unobservable are not estimates")
-    if not converged:
-        return NOT_CONVERGED, ("the iteration limit was reached before the convergence tests "
-                               "were met")
-    return CONVERGED, ""

@@ -21,6 +21,7 @@ path) is taken out of the information and named in words.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -52,7 +53,7 @@ def full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
     scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
     evals = np.linalg.eigh(info * scale[:, :, None] * scale[:, None, :])[0]
     top = np.maximum(evals[:, -1], np.finfo(float).tiny)
-    return ~(evals <= RANK_TOL * top[:, None]).any(axis=1)
+    return cast(NDArray[np.bool_], ~(evals <= RANK_TOL * top[:, None]).any(axis=1))
 
 
 _AXES = {"East": np.array([1.0, 0, 0]), "North": np.array([0, 1.0, 0]),
@@ -210,7 +211,7 @@ def _to_theta(motion: MotionModel, theta: NDArray[np.float64], t: NDArray[np.flo
     sol, *_ = np.linalg.lstsq(jac, target, rcond=None)
     if np.linalg.norm(jac @ sol - target) > 1e-6 * np.linalg.norm(target):
         return None
-    return sol
+    return cast(NDArray[np.float64], sol)
 
 
 def _weights(names: tuple[str, ...], vec: NDArray[np.float64]) -> dict[str, float]:

@@ -73,7 +73,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .platform_state import Actions, Array, Index, PlatformState, propagate_constant_turn
+from ..arrays import Array
+from .platform_state import Actions, Index, PlatformState, propagate_constant_turn
 from .tracks import SensorTrack
 
 _LIMIT_TOL = 1e-9     # relative: a clip smaller than this is rounding, not a limit
@@ -279,9 +280,9 @@ class PlatformKinematics:
         v_end = np.where(flags["acceleration limit"], np.maximum(v0 + acc * T, 0.0), v1)
         pos = np.broadcast_to(state.position, (*shape, 3))
         psi0 = np.broadcast_to(state.heading, shape)
-        end = propagate_constant_turn(pos, psi0, v0, c, w, acc, T)
+        moved = propagate_constant_turn(pos, psi0, v0, c, w, acc, T)
         trusted = PlatformState.trusted     # every field derived from checked ones
-        end = trusted(end[..., :3], psi0 + w * T, v_end, c, state.time + T)
+        end = trusted(moved[..., :3], psi0 + w * T, v_end, c, state.time + T)
         return Step(trusted(pos, psi0, v0, np.broadcast_to(state.climb_rate, shape), state.time),
                     end, w, acc, c, T, flags["speed range"], flags["turn-rate limit"],
                     flags["acceleration limit"], flags["climb-rate limit or altitude band"])

@@ -103,7 +103,7 @@ def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: Arra
     # no broadcast_arrays: the arithmetic broadcasts (the same values, fewer array views)
     psi0, v0, c, w, a, s = (_arr(q) for q in (
         heading, speed, climb_rate, turn_rate, acceleration, dt))
-    e1, e2 = _turn_factors(1j * w * s)
+    e1, e2 = _turn_factors(np.asarray(1j * w * s, dtype=np.complex128))
     rot0 = np.exp(1j * psi0)
     disp = rot0 * s * (v0 * e1 + a * s * e2)
     vel = (v0 + a * s) * np.exp(1j * (psi0 + w * s))

@@ -280,7 +280,7 @@ class WaypointTrack(SensorTrack):
         if (speed is None) == (times is None):
             raise ValueError("give a waypoint track either a speed or the waypoint times")
         if times is None:
-            if not speed > 0:
+            if speed is None or not speed > 0:
                 raise ValueError(f"speed must be positive, got {speed}")
             lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
             times = float(start_time) + np.concatenate([[0.0], np.cumsum(lengths)]) / speed

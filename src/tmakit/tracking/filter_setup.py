@@ -176,12 +176,12 @@ def filter_class(name: str) -> type[TrackingFilter]:
     Raises
     ------
     TrackingError
-        No filter has that name (parameter ``filter``).
+        No filter has that name (parameter ``tracker``).
     """
     cls = FILTERS.get(name)
     if cls is None:
         raise TrackingError(f"filter {name!r}: expected one of {', '.join(sorted(FILTERS))}",
-                            "filter")
+                            "tracker")
     return cls
 
 

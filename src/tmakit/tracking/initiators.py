@@ -157,7 +157,7 @@ def _check_nuisance(meas: MeasurementSet, options: Mapping[str, Mapping[str, obj
     """With a prior, the nuisance parameters of the kinds present must be given."""
     missing: dict[str, list[str]] = {}
     for kind in meas.kinds:
-        model = model_for(kind, **dict(options.get(kind, {})))
+        model = model_for(kind, options.get(kind))
         names = [n for n in model.nuisance_names if n not in nuisance]
         if names:
             missing[kind] = names

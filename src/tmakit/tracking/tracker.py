@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 from ..data import MeasurementSet
 from ..filters import Track
+from ..keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from .errors import TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim
 from .initiators import DEFAULT_MAX_RELATIVE_STD, BatchInitiator, Initiator, PriorInitiator
@@ -55,27 +56,28 @@ def _initiator(initiator: Initiator | None,
     return BatchInitiator(init_window, max_relative_std, confirm)
 
 
-def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
+def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0,
           particles: int | None = None,
           prior: Mapping[str, float] | ArrayLike | None = None,
           prior_std: Mapping[str, float] | ArrayLike | None = None,
-          prior_time: float | None = None,
-          init_window: int | None = None,
+          prior_time: float | None = None, init_window: int | None = None,
           max_relative_std: float = DEFAULT_MAX_RELATIVE_STD,
           confirm: bool = True,
           rng: np.random.Generator | int | None = None,
           dim: int | None = None,
           options: Mapping[str, Mapping[str, object]] | None = None,
           nuisance: Mapping[str, float] | None = None, *,
-          initiator: Initiator | None = None) -> Track:
+          initiator: Initiator | None = None,
+          filter: str | NotGiven = NOT_GIVEN) -> Track:
     """Track the emitter through ``meas`` with a recursive filter.
 
     Parameters
     ----------
     meas : MeasurementSet
         The measurements.
-    filter : str
-        A name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``mgekf``, ``pf``).
+    tracker : str
+        The filter: a name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``mgekf``,
+        ``pf``), as ``tk.plan(tracker=)`` and ``tma track --filter``.
     q : float or array_like
         Nearly-constant-velocity process noise: one acceleration standard deviation
         (m/s^2) for every axis, or one per axis (:func:`~.filter_setup.process_noise`).
@@ -100,15 +102,16 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
         Known nuisance values (Hz, dBW, ...), with a prior only.
     initiator : Initiator, optional
         The start policy; then none of the start keywords above may be given.
+    filter : str, optional
+        Deprecated (it shadows a builtin): ``tracker``.
 
     Returns
     -------
     Track
-        One row per update (SI).  ``extra.start`` says which start was used (JSON-ready),
-        ``extra.start_record`` is its typed record (:func:`start_record`), ``extra.q``
-        the per-axis q, ``extra.dim`` and ``extra.options`` the settings.  After a
-        batch start the first row is the batch estimate at the window's last time (NIS NaN,
-        no degrees of freedom) and the log-likelihood counts the rows after it.
+        One row per update (SI); ``extra`` says how it started (``start``, JSON-ready, and
+        ``start_record``) and with which ``q``, ``dim`` and ``options``.  After a batch
+        start the first row is the batch estimate at the window's last time (NIS NaN, no
+        degrees of freedom); the log-likelihood counts the rows after it.
 
     Raises
     ------
@@ -120,9 +123,10 @@ def track(meas: MeasurementSet, filter: str = "ekf", q: float | ArrayLike = 0.0,
     """
     if not isinstance(meas, MeasurementSet):
         raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
-    filter_class(filter)
+    tracker = renamed_keyword("track", "filter", filter, "tracker", tracker, "ekf")
+    filter_class(tracker)
     d = filter_dim(meas, dim)
-    setup = FilterSetup.create(filter, d, q, particles, rng, options)
+    setup = FilterSetup.create(tracker, d, q, particles, rng, options)
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
     started = _initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,

@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -184,7 +183,10 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
                  init: Mapping[str, float] | ArrayLike | None = None,
                  options: Mapping[str, Mapping[str, object]] | None = None,
                  known_nuisance: KnownNuisanceLike = None,
-                 max_iter: int = 100, **kw: Any) -> EstimateResult:
+                 max_iter: int = 100, *, exact: bool | None = None,
+                 criterion: str | None = None, alpha: float | None = None,
+                 accelerations: str | None = None, ref_time: float | None = None,
+                 settings: ManoeuvreSettings | None = None) -> EstimateResult:
     """Estimate motion given by name or as a piecewise curvilinear model.
 
     The hook of :func:`tmakit.batch.ml.estimate` for a name or a
@@ -204,9 +206,9 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
     init, options, known_nuisance, max_iter : optional
         As for :func:`tmakit.batch.ml.estimate` (SI units); with ``init`` exactly ``M`` is
         fitted from it.
-    **kw
-        ``exact=True`` fits exactly ``M``; ``ref_time``, ``settings`` and the other keywords of
-        :func:`estimate_manoeuvres`.
+    exact, criterion, alpha, accelerations, ref_time, settings : optional
+        As for :func:`estimate_manoeuvres` (None: its default); ``exact=True`` fits exactly
+        ``M``.  Refused, but for ``ref_time``, with a name of a motion without manoeuvres.
 
     Returns
     -------
@@ -215,6 +217,8 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
 
     Raises
     ------
+    TypeError
+        For manoeuvre settings with the name of a motion without manoeuvres.
     ValueError
         For an unknown motion name, and as :func:`estimate_manoeuvres`.
 
@@ -222,18 +226,26 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
     ----------
     Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
     """
+    given = {k: v for k, v in (("exact", exact), ("criterion", criterion), ("alpha", alpha),
+                               ("accelerations", accelerations), ("settings", settings))
+             if v is not None}
     if isinstance(motion, str):
-        ref = kw.pop("ref_time", None)
+        ref = ref_time
         model = motion_from_name(motion, default_ref_time(meas.time) if ref is None
                                  else float(ref))
         if not isinstance(model, PiecewiseCurvilinear):
+            if given:
+                raise TypeError(f"estimate() got options for manoeuvring targets "
+                                f"({', '.join(given)}) with motion {motion!r}")
             from ..ml import estimate
 
             return estimate(meas, model, init=init, options=options,
-                            known_nuisance=known_nuisance, max_iter=max_iter, **kw)
+                            known_nuisance=known_nuisance, max_iter=max_iter)
         m = model.manoeuvres
     else:
-        m, ref = motion.manoeuvres, kw.pop("ref_time", motion.ref_time)
-    settings = replace(kw.pop("settings", None) or ManoeuvreSettings(), max_iter=max_iter)
-    return estimate_manoeuvres(meas, m, ref_time=ref, init=init, options=options,
-                               known_nuisance=known_nuisance, settings=settings, **kw)
+        m, ref = motion.manoeuvres, motion.ref_time if ref_time is None else ref_time
+    search = replace(settings or ManoeuvreSettings(), max_iter=max_iter)
+    return estimate_manoeuvres(
+        meas, m, exact=bool(exact), criterion="bic" if criterion is None else criterion,
+        alpha=0.01 if alpha is None else alpha, accelerations=accelerations, ref_time=ref,
+        init=init, options=options, known_nuisance=known_nuisance, settings=search)

@@ -64,7 +64,8 @@ def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_i
     # unless the rows are summed in chunks (J'J formed over every column)
     held = (isinstance(motion, ForwardPiecewise) and len(problem.obs.meas) <= blas.CHUNKED_ROWS
             and not np.all(free))
-    with motion.derivatives_for(free) if held else nullcontext():
+    with (motion.derivatives_for(free) if held and isinstance(motion, ForwardPiecewise)
+          else nullcontext()):
         return levenberg_marquardt(
             problem, problem.obs.values, theta0, max_iter, ftol=rtol, xtol=0.0, gtol=0.0,
             dtol=atol, ceiling=None if prune is None else np.asarray(best), free=free,

@@ -125,4 +125,7 @@ class ManoeuvreEstimator(BatchEstimator):
         """
         return estimate_for(meas, motion, init=self.init, options=self.options,
                             known_nuisance=self.known_nuisance,
-                            max_iter=self.max_iter, **self.manoeuvre_options())
+                            max_iter=self.max_iter, exact=self.exact,
+                            criterion=self.criterion, alpha=self.alpha,
+                            accelerations=self.accelerations, ref_time=self.ref_time,
+                            settings=self.settings)

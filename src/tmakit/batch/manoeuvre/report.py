@@ -17,13 +17,8 @@ from ...motion import PiecewiseCurvilinear
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...motion.fixed import FixedParameters
 from ...observation import ObservationModel
-from ...results.estimate import (
-    CONVERGED,
-    DIVERGED,
-    NOT_CONVERGED,
-    EstimateResult,
-    assemble_result,
-)
+from ...results.estimate import EstimateResult, assemble_result
+from ...results.status import CONVERGED, DIVERGED, NOT_CONVERGED
 from .search import ManoeuvreSearch
 from .selection import OrderSelection, fit_criterion
 from .settings import OrderFit
@@ -73,16 +68,9 @@ class ManoeuvreEstimate(EstimateResult):
         return [(float(self.estimate[i]), float(self.std[i]))
                 for i, n in enumerate(self.parameters) if n.startswith("t_")]
 
-    def as_dict(self) -> dict[str, object]:
-        """Give the result as JSON-ready data.
-
-        Returns
-        -------
-        dict of str to object
-            The keys of :class:`EstimateResult` and ``manoeuvres``, ``held_at_zero``,
-            ``model_order``, ``change_over_times``, ``final_state`` (SI; non-finite as None).
-        """
-        data = super().as_dict()
+    def _fields(self) -> dict[str, object]:
+        """Add the manoeuvres, held accelerations, order selection and final state."""
+        data = super()._fields()
 
         def num(x: float) -> float | None:
             return float(x) if np.isfinite(x) else None
@@ -184,9 +172,8 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
     m = fit.manoeuvres
     motion = PiecewiseCurvilinear(m, ref_time)
     pr = search.problem(m)
+    assert isinstance(pr.obs.motion, ForwardPiecewise)  # the search fits in that form
     theta = reference(pr.obs.motion, fit.theta, ref_time)
-    common = dict(method="ml", motion=motion, selection=selection, fits=fits,
-                  final_time=search.t_end, iterations=fit.iterations, starts=fit.starts)
     if not np.all(np.isfinite(theta)) or not np.isfinite(fit.chi2):
         nan = np.full(motion.n_params, np.nan)
         return ManoeuvreEstimate(motion.param_names, nan, nan,
@@ -194,7 +181,10 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
                                  {k: (np.nan, np.nan) for k in pr.obs.nuisance_names},
                                  DIVERGED, chi2=np.inf, dof=pr.noise.rank - fit.unknowns,
                                  message="the solve left the region where the model is "
-                                         "defined (non-finite predictions)", **common)
+                                         "defined (non-finite predictions)", method="ml",
+                                 motion=motion, selection=selection, fits=fits,
+                                 final_time=search.t_end, iterations=fit.iterations,
+                                 starts=fit.starts)
     free = fit.free_mask()
     held = [n for n, f in zip(motion.param_names, free, strict=True) if not f]
     # the information of the fitted parameters only: a held acceleration is no unknown
@@ -218,4 +208,7 @@ def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
     assert res.bound is not None
     return ManoeuvreEstimate(motion.param_names, theta, std, cov, res.nuisance, status,
                              chi2=fit.chi2, dof=res.dof, bound=res.bound, message=message,
-                             final=res.bound.derived(search.t_end), held=held, **common)
+                             final=res.bound.derived(search.t_end), held=held, method="ml",
+                             motion=motion, selection=selection, fits=fits,
+                             final_time=search.t_end, iterations=fit.iterations,
+                             starts=fit.starts)

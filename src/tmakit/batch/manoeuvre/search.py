@@ -68,7 +68,8 @@ class ManoeuvreSearch:
         n = math.floor((hi - lo) / settings.grid_step + 1e-9) + 1 if hi >= lo else 0
         # the grid centred in the span
         pad = (hi - lo - (n - 1) * settings.grid_step) / 2.0 if n else 0.0
-        self.grid = lo + pad + settings.grid_step * np.arange(max(n, 0))
+        self.grid = np.asarray(lo + pad + settings.grid_step * np.arange(max(n, 0)),
+                               dtype=np.float64)
         self.min_gap = max(settings.min_segment, settings.grid_step)
         self._problems: dict[int, VarProProblem] = {}
         self.profiles: dict[int, tuple[NDArray[np.int64], Array, Array]] = {}

@@ -133,7 +133,8 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
                        "bic": f.chi2 + f.unknowns * math.log(n), "lr_statistic": lr,
                        "p_value": pv, "converged": f.converged})
     if criterion == "bic":
-        bic = [o["bic"] if np.isfinite(o["chi2"]) else np.inf for o in orders]  # type: ignore
+        bic = [f.chi2 + f.unknowns * math.log(n) if np.isfinite(f.chi2) else np.inf
+               for f in fits]  # (the orders' "bic")
         chosen = fits[int(np.argmin(bic))].manoeuvres
     else:
         chosen = fits[0].manoeuvres

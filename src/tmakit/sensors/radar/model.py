@@ -182,7 +182,7 @@ class RadarModel:
     def sample_offsets(self) -> Array:
         """Sample times relative to the echo's centre (N,), s."""
         n = self.samples_per_pulse
-        return (np.arange(n) - (n - 1) / 2.0) / self.sampling_rate
+        return (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) / self.sampling_rate
 
     @property
     def snr(self) -> float:
@@ -248,7 +248,8 @@ class RadarModel:
         u = np.array([math.cos(azimuth) * math.cos(elevation),
                       math.sin(azimuth) * math.cos(elevation), math.sin(elevation)])
         p = np.exp(2j * np.pi * (self.element_positions @ u) / self.wavelength)
-        return amplitude * np.outer(self.pulse(t - delay) * np.exp(1j * doppler * t), p)
+        return np.asarray(amplitude * np.outer(self.pulse(t - delay)
+                                               * np.exp(1j * doppler * t), p), np.complex128)
 
     def signal_information(self, elevation: ArrayLike = 0.0, dim: int = 3) -> Array:
         """Return the Fisher information of one pulse about the paper's parameters.
@@ -392,7 +393,7 @@ class RadarModel:
                              "away from 0 or leave 'elevation' out of kinds")
         cov = np.linalg.inv(info[np.ix_(active, active)])
         pick = [active.index(RADAR_KINDS.index(k)) for k in names]
-        return cov[np.ix_(pick, pick)]
+        return np.asarray(cov[np.ix_(pick, pick)], dtype=np.float64)
 
     def measurement_sigmas(self, kinds: Sequence[str] = ("bearing", "range", "range_rate"),
                            elevation: float = 0.0) -> Array:

@@ -1,0 +1,113 @@
+"""The conventions of public keywords: random sources, and renamed keywords kept for a release.
+
+``rng=`` takes a ``numpy.random.Generator`` or a seed.  A study that spawns one stream per run
+(the Monte Carlo, the planner's closed loop) needs an integer seed it can record;
+:func:`study_seed` gives it.  A keyword renamed (``seed`` to ``rng``, ``filter`` to
+``tracker``) keeps working for one release with a ``DeprecationWarning``
+(:func:`renamed_keyword`).
+"""
+
+from __future__ import annotations
+
+import enum
+import warnings
+from typing import TypeVar
+
+import numpy as np
+
+__all__ = ["NOT_GIVEN", "NotGiven", "RngLike", "as_generator", "renamed_keyword", "study_seed"]
+
+#: A random source: a Generator, a seed (int >= 0), or None for fresh entropy.
+RngLike = np.random.Generator | int | None
+
+T = TypeVar("T")
+
+
+def as_generator(rng: RngLike) -> np.random.Generator:
+    """Give a Generator for a Generator (as is), a seed, or None (fresh entropy).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator, int or None
+        The random source.
+
+    Returns
+    -------
+    numpy.random.Generator
+        The generator; the same seed gives the same numbers.
+    """
+    if isinstance(rng, np.random.Generator):
+        return rng
+    return np.random.default_rng(rng)
+
+
+class NotGiven(enum.Enum):
+    """The default of a deprecated keyword, told apart from an explicit None."""
+
+    NOT_GIVEN = "not given"
+
+
+NOT_GIVEN = NotGiven.NOT_GIVEN
+
+
+def renamed_keyword(where: str, old: str, old_value: T | NotGiven, new: str, new_value: T,
+                    default: T) -> T:
+    """Give the value of a renamed keyword: the new one's, or the old one's with a warning.
+
+    Parameters
+    ----------
+    where : str
+        The function's name, for the messages.
+    old, new : str
+        The keyword's old and new names.
+    old_value : object or NOT_GIVEN
+        The value given under the old name.
+    new_value, default : object
+        The value under the new name, and its default.
+
+    Returns
+    -------
+    object
+        ``old_value`` when given (a ``DeprecationWarning`` is issued), else ``new_value``.
+
+    Raises
+    ------
+    TypeError
+        If both names are given (the new one not at its default).
+    """
+    if isinstance(old_value, NotGiven):
+        return new_value
+    warnings.warn(f"{where}({old}=...) is deprecated; use {new}=", DeprecationWarning,
+                  stacklevel=3)
+    if new_value is not default and not (type(new_value) is type(default)
+                                         and new_value == default):
+        raise TypeError(f"{where}() got both {new} and {old}; give {new} only")
+    return old_value
+
+
+def study_seed(rng: RngLike) -> int | None:
+    """Give the integer seed of a study from ``rng``.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator, int or None
+        A Generator (one integer is drawn from it), a seed, or None (fresh entropy, which the
+        study records).
+
+    Returns
+    -------
+    int or None
+        The seed (>= 0), or None.
+
+    Raises
+    ------
+    ValueError
+        If the seed is not a whole number >= 0.
+    """
+    if isinstance(rng, np.random.Generator):
+        return int(rng.integers(0, 2**63))
+    if rng is not None and (isinstance(rng, bool) or not isinstance(rng, int | np.integer)
+                            or rng < 0):
+        raise ValueError(f"rng must be a numpy.random.Generator, a whole number >= 0 or None, "
+                         f"got {rng!r}")
+    return None if rng is None else int(rng)

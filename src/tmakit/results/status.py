@@ -1,0 +1,48 @@
+"""How a solve went: the one vocabulary of every batch estimate's ``status``."""
+
+from __future__ import annotations
+
+from typing import Final, Literal, get_args
+
+from .bound import Bound
+
+__all__ = ["CONVERGED", "DIVERGED", "NOT_CONVERGED", "STATUSES", "UNOBSERVABLE", "Status",
+           "fit_status"]
+
+#: A batch estimate's status.
+Status = Literal["converged", "did not converge", "unobservable", "diverged"]
+CONVERGED: Final = "converged"
+NOT_CONVERGED: Final = "did not converge"
+UNOBSERVABLE: Final = "unobservable"
+DIVERGED: Final = "diverged"
+#: Every status, in that order.
+STATUSES: tuple[Status, ...] = get_args(Status)
+
+
+def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[Status, str]:
+    """Return the status of a fit and the sentence that explains it.
+
+    Parameters
+    ----------
+    converged : bool
+        Whether the solver's convergence tests were met.
+    bound : Bound
+        The information at the fit (its observability decides ``unobservable``).
+    unknowns : int
+        The number of unknowns fitted.
+
+    Returns
+    -------
+    status : Status
+        ``unobservable`` when the information is rank deficient, else ``converged`` or
+        ``did not converge``.
+    message : str
+        Empty for a converged, observable fit.
+    """
+    if not bound.observability.full_rank:
+        return UNOBSERVABLE, (f"the data determine only {bound.rank} of the {unknowns} "
+                              "unknowns; parameters marked unobservable are not estimates")
+    if not converged:
+        return NOT_CONVERGED, ("the iteration limit was reached before the convergence tests "
+                               "were met")
+    return CONVERGED, ""
