@@ -19,9 +19,8 @@ from tmakit.filters import (
     process_noise,
     transition_matrix,
 )
-from tmakit.filters.compiled import CompiledMeasurements
+from tmakit.filters.general import SCALAR_ROWS, CompiledMeasurements, plan_for
 from tmakit.filters.particle import systematic_resample
-from tmakit.filters.plan import SCALAR_ROWS, plan_for
 
 NUISANCE = {"carrier": 9.4e9, "power_constant_db": -30.0}
 KINDS8 = ("bearing", "elevation", "azimuth_rate", "range", "range_rate", "frequency", "power",

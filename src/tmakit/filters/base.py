@@ -20,8 +20,8 @@ from ..data import MeasurementSet
 from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .compiled import CompiledMeasurements, compiled_for
 from .extras import TrackExtras
+from .general import CompiledMeasurements, compiled_for
 from .kernels import KernelRun
 from .record import Recorder, UpdateInfo
 from .track import Track
@@ -227,7 +227,7 @@ class TrackingFilter(ABC):
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
-        The set is compiled once (:class:`~.compiled.CompiledMeasurements`, kept for the
+        The set is compiled once (:class:`~.general.CompiledMeasurements`, kept for the
         set's next runs with the same dimension, options and nuisance); a filter with a
         closed-form kernel for the case (:mod:`.kernels`) uses it.
 

@@ -6,24 +6,25 @@ from typing import Any
 
 import numpy as np
 
-from ..linalg import symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .base import Array, TrackingFilter, UpdateInfo
-from .compiled import CompiledMeasurements
 from .general import (
+    CompiledMeasurements,
     DynamicsCache,
     PlanOutputs,
     Step,
+    StepPlan,
     checked_psd,
     innovation_solve,
     kalman_gain,
     linearise,
+    plan_for,
     predict_gaussian,
+    sym,
     updated_covariance,
 )
 from .kernels import KernelRun, ekf_bearing_2d
-from .plan import StepPlan, plan_for
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 _EYE = {4: np.eye(4), 6: np.eye(6)}
@@ -170,9 +171,11 @@ class ExtendedKalmanFilter(TrackingFilter):
         return self._cov.copy()
 
     def _predict(self, dt: float) -> None:
-        phi = self.dynamics.transition(dt)
-        self._mean = phi @ self._mean
-        self._cov = symmetrise(phi @ self._cov @ phi.T + self.dynamics.noise(dt))
+        phi, phit, q = self._dynamics_cache().get(dt)
+        self._mean = phi.dot(self._mean)
+        cov = phi.dot(self._cov).dot(phit)
+        cov += q
+        self._cov = sym(cov)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         prior = self._mean

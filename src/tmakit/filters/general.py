@@ -1,38 +1,267 @@
-"""The general filter path, compiled once per file: any kinds, any sensors, 2-D and 3-D.
+"""The general filter path: a measurement set prepared once per file, its plan, and the step.
 
-A filter step on the general path used to build a :class:`~tmakit.observation.MeasurementGroup`
-(its row model, noise covariance and layout), move the state to the rows, call each kind's
-``predict`` and ``jacobian``, chain the Jacobian, and solve twice on a Cholesky factor: about
-290 Python calls.  Here everything that does not depend on the state is made once per file
-(:class:`~.plan.StepPlan`): the rows of each update sorted by kind (every kind's rows a slice, a
-view), the linear map from the filter state to the target states at the rows (one per pattern
-of row-time offsets), the noise covariance of each update, the angle rows.  A step is then one
-product for the relative states, one fused ``predict_gradient`` per kind, one product for the
-chained Jacobian, and :func:`kalman_gain` — closed form for one and two rows, one Cholesky
-factorisation otherwise.  The dynamics' ``Phi`` and ``Q`` are cached per step size
-(:class:`DynamicsCache`); the EKF's posterior covariance is ``P - K H P``, the Joseph form only
-when that fails its Cholesky check (:func:`updated_covariance`), repaired only when that fails
-too (:func:`checked_psd`).  Small products use ``ndarray.dot``: on arrays of a few entries
-NumPy 2's ``@`` (a ufunc) costs about twice as much per call, for the same BLAS result.
+:meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct
+measurement time.  Cutting the :class:`~tmakit.data.MeasurementSet` into one small set per update
+and building a :class:`~tmakit.observation.MeasurementGroup` from each costs more than the
+arithmetic of a filter step, so the set is prepared once, vectorised
+(:class:`CompiledMeasurements`: rows sorted by time, update boundaries, SI values and sigmas, the
+kinds' models and nuisance vectors), and so is everything of each update that does not depend
+on the state (:class:`StepPlan`): its rows sorted by kind (every kind's rows a slice), the linear
+map from the filter state to the target states at the rows (one per pattern of row-time
+offsets), its noise covariance, its angle rows, and plain-float row records for updates of at
+most :data:`SCALAR_ROWS` rows.  A step is then one product for the relative states, one fused
+``predict_gradient`` per kind, one product for the chained Jacobian, and
+:func:`innovation_solve` (closed form for one and two rows, one Cholesky factorisation
+otherwise).  ``Phi`` and ``Q`` are made once per step size (:class:`DynamicsCache`); the EKF's
+posterior covariance is ``P - K H P``, the Joseph form only when that fails its Cholesky check
+(:func:`updated_covariance`), repaired only when that fails too (:func:`checked_psd`).  Small
+products use ``ndarray.dot``, cheaper per call than NumPy 2's ``@`` on a few entries.
 
 Kinds with an earlier reference sample (range differences) keep the group path.  The results
-equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding;
-``tests/test_filters.py::test_general_plan_equals_the_group_path`` pins them.
+equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding
+(``tests/test_filters.py::test_general_plan_equals_the_group_path``).
 """
 
 from __future__ import annotations
 
 import math
+import weakref
+from collections.abc import Mapping
+from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 from scipy.linalg.lapack import dposv, dpotrf
 
 from ..arrays import Array
+from ..data import KIND_CODES, MeasurementSet
 from ..frames import wrap_angle
 from ..linalg import repair_psd, solve_spd
+from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
+from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
 from ..observation.groups import TIME_TOLERANCE
+from ..observation.rows import as_slice, correlated_blocks
 from .kernels import TWO_PI, KernelRun
+
+
+@dataclass(frozen=True)
+class BearingColumns:
+    """The columns a bearing-only step kernel needs, one entry per update.
+
+    Attributes
+    ----------
+    time : ndarray
+        Update times (K,), s.
+    value : ndarray
+        Bearings (K,), rad, clockwise from North.
+    variance : ndarray
+        Bearing variances (K,), rad^2.
+    sx, sy : ndarray
+        Sensor position (K,), m, ENU.
+    """
+
+    time: Array
+    value: Array
+    variance: Array
+    sx: Array
+    sy: Array
+
+
+class CompiledMeasurements:
+    """A measurement set prepared once for a filter run.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (SI columns are taken from it).
+    dim : int
+        Filter dimension, 2 or 3.
+    options : mapping, optional
+        Per-kind model options (``{"frequency": {"drift": True}}``).
+    nuisance : mapping, optional
+        Known nuisance values by name (Hz, dB, ...).
+
+    Raises
+    ------
+    ValueError
+        The same clear errors as :class:`~tmakit.observation.MeasurementGroup` (e.g. a
+        missing nuisance value), once, up front.
+    """
+
+    def __init__(self, meas: MeasurementSet, dim: int,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self.meas = meas
+        self.dim = int(dim)
+        n = len(meas)
+        # The same grouping as tmakit.observation.group_times: one update per time.
+        order, self.bounds = time_blocks(meas.time)
+        t = meas.time[order]
+        self.order = order
+        #: Update times (s): the last (latest) row time of each update, as ``run`` uses.
+        self.times = t[self.bounds[1:] - 1] if n else np.zeros(0)
+        self.models: dict[str, MeasurementModel]
+        self.nuisance: dict[str, Array]
+        self.models, self.nuisance = resolve_models(meas.kinds, options, nuisance)
+        self.kind = meas.kind[order]
+        self.values = meas.value_si[order]
+        self.sigmas = meas.sigma_si[order]
+        self.time = t
+        self.time_ref = meas.time_ref[order]
+        self.sensor_state = meas.sensor_state[order]
+        self.ref_sensor_state = meas.ref_sensor_state[order]
+        self.sensor = meas.sensor[order]
+        self._kind_codes = {k: i for i, k in enumerate(self.models)}
+        # The set's kind codes (data.KIND_CODES) mapped to this file's model order: no per-row
+        # Python.
+        lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
+        for k, i in self._kind_codes.items():
+            lookup[KIND_CODES[k]] = i
+        self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
+        self._lists: tuple[list[float], ...] | None = None
+        #: What the filters derive from the set once per run (e.g. the general path's plan).
+        self.cache: dict[str, object] = {}
+        #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
+        #: row layout, made once and shared by the updates with that pattern.
+        self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
+        sizes = np.diff(self.bounds)
+        #: Every update is one bearing row (the closed-form kernels apply).
+        self.single_bearing = bool(n > 0 and np.all(sizes == 1)
+                                   and set(self.models) == {"bearing"})
+
+    @property
+    def model_index(self) -> Array:
+        """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
+        return self._codes
+
+    def __len__(self) -> int:
+        """Return the number of updates."""
+        return int(self.times.shape[0])
+
+    @property
+    def bearing_columns(self) -> BearingColumns:
+        """Per-update columns for the bearing kernels (only when :attr:`single_bearing`).
+
+        Raises
+        ------
+        ValueError
+            When the updates are not all single bearings.
+        """
+        if not self.single_bearing:
+            raise ValueError("bearing_columns: the updates are not all single bearings")
+        return BearingColumns(self.time, self.values, self.sigmas**2,
+                              self.sensor_state[:, 0], self.sensor_state[:, 1])
+
+    def bearing_lists(self) -> tuple[list[float], ...]:
+        """Return :attr:`bearing_columns` as Python lists, made once.
+
+        The plain-float kernels index them faster than arrays.
+
+        Returns
+        -------
+        tuple of list of float
+            ``(time s, value rad, variance rad^2, sx m, sy m)``.
+        """
+        if self._lists is None:
+            c = self.bearing_columns
+            self._lists = (c.time.tolist(), c.value.tolist(), c.variance.tolist(),
+                           c.sx.tolist(), c.sy.tolist())
+        return self._lists
+
+    def rows(self, k: int) -> MeasurementSet:
+        """Return the rows of update ``k`` as a MeasurementSet (the slow, general path).
+
+        Parameters
+        ----------
+        k : int
+            Update index.
+
+        Returns
+        -------
+        MeasurementSet
+        """
+        return self.meas.take(self.order[self.bounds[k]:self.bounds[k + 1]])
+
+    def group(self, k: int, t: float) -> MeasurementGroup:
+        """Return update ``k`` as a :class:`MeasurementGroup`, from views of the columns.
+
+        Parameters
+        ----------
+        k : int
+            Update index.
+        t : float
+            Filter time, s.
+
+        Returns
+        -------
+        MeasurementGroup
+        """
+        a, b = int(self.bounds[k]), int(self.bounds[k + 1])
+        codes = self._codes[a:b]
+        key = codes.tobytes()
+        parts = self._layouts.get(key)
+        if parts is None:  # the first update with this pattern of kinds
+            models, index = {}, {}
+            for kind, code in self._kind_codes.items():
+                idx = np.flatnonzero(codes == code)
+                if idx.size:
+                    models[kind] = self.models[kind]
+                    index[kind] = idx
+            nus = {kind: self.nuisance[kind] for kind in models}
+            parts = (models, index, nus, RowLayout(models, index, b - a))
+            self._layouts[key] = parts
+        models, index, nus, layout = parts
+        return MeasurementGroup.from_arrays(
+            t, self.dim, models, nus, index, self.values[a:b], self.sigmas[a:b],
+            self.time[a:b], self.time_ref[a:b], self.sensor_state[a:b],
+            self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k), layout)
+
+
+#: The sets compiled so far, per measurement set (whose arrays are read-only) and per
+#: (dimension, options, nuisance values): a set filtered again (another filter, another prior,
+#: the same filter once more) is compiled once.  Kept while the set lives.
+_COMPILED: weakref.WeakKeyDictionary[MeasurementSet, dict[str, CompiledMeasurements]] = \
+    weakref.WeakKeyDictionary()
+
+
+def compiled_for(meas: MeasurementSet, dim: int,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> CompiledMeasurements:
+    """Give ``meas`` compiled for a filter, made once per set and settings.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    dim : int
+        Filter dimension, 2 or 3.
+    options, nuisance : mapping, optional
+        As for :class:`CompiledMeasurements`.
+
+    Returns
+    -------
+    CompiledMeasurements
+        The same object for the same set, dimension, options and nuisance values.
+    """
+    key = repr((int(dim), sorted((str(k), sorted(dict(v).items()))
+                                 for k, v in dict(options or {}).items()),
+                sorted(dict(nuisance or {}).items())))
+    try:
+        per_set = _COMPILED.get(meas)
+        if per_set is None:
+            per_set = _COMPILED[meas] = {}
+    except TypeError:  # a set that cannot be weakly referenced or hashed: compiled each time
+        return CompiledMeasurements(meas, dim, options, nuisance)
+    out = per_set.get(key)
+    if out is None:
+        if len(per_set) >= 8:  # many settings on one set: keep the cache small
+            per_set.clear()
+        out = per_set[key] = CompiledMeasurements(meas, dim, options, nuisance)
+    return out
+
+
+# -- the step ---------------------------------------------------------------------------------
 
 #: One update of a plan: update time (s), values (m,), sensor states flattened (m * 6,),
 #: the kinds' parts, the state-to-target map ``T`` (m * 6, n), its rows as (m, 6, n) or None
@@ -236,7 +465,7 @@ def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
     Parameters
     ----------
     step : Step
-        One update of a :class:`~.plan.StepPlan`.
+        One update of a :class:`StepPlan`.
     x : numpy.ndarray
         Filter states ``(..., 2 dim)`` (m, m/s).
     dim : int
@@ -288,7 +517,7 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
     Parameters
     ----------
     step : Step
-        One update of a :class:`~.plan.StepPlan`.
+        One update of a :class:`StepPlan`.
     x : numpy.ndarray
         Filter state ``(n,)`` (m, m/s).
     eye_map : numpy.ndarray
@@ -494,3 +723,165 @@ def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: 
     if dt < -TIME_TOLERANCE:
         raise ValueError(f"filters run forward: cannot predict from t={t} s back to t={tk} s")
     return mean, cov, max(t, tk)
+
+
+# -- the plan ---------------------------------------------------------------------------------
+
+#: Updates of at most this many rows, all of kinds with a plain-float ``row_gradient``, are
+#: linearised row by row in Python floats (cheaper than NumPy calls on so few numbers).
+SCALAR_ROWS = 8
+
+def _state_map(dt: Array, dim: int) -> Array:
+    """``T`` (m, 6, 2 dim): target states at rows ``dt`` (s) after the filter time."""
+    m = dt.shape[0]
+    out = np.zeros((m, 6, 2 * dim))
+    for j in range(dim):
+        out[:, j, j] = 1.0
+        out[:, j, dim + j] = dt
+        out[:, 3 + j, dim + j] = 1.0
+    return out
+
+
+def _diagonal_noise(var: Array, bounds: Array) -> list[Array]:
+    """Give ``diag(var)`` of each update's rows, made per update size at once (views)."""
+    sizes = np.diff(bounds)
+    out: list[Array] = [np.empty((0, 0))] * sizes.shape[0]
+    for m in np.unique(sizes).tolist():
+        which = np.flatnonzero(sizes == m)
+        stack = np.zeros((which.size, m, m))
+        idx = np.arange(m)
+        stack[:, idx, idx] = var[bounds[which][:, None] + idx]
+        for j, r in zip(which.tolist(), stack, strict=True):
+            out[j] = r
+    return out
+
+
+def _views(arr: Array, bounds: list[int], width: int = 1) -> list[Array]:
+    """Give ``arr[width a:width b]`` for each update's rows ``a:b`` (views).
+
+    When every update has as many rows, the rows of one reshape (made at once).
+    """
+    sizes = {b - a for a, b in pairwise(bounds)}
+    if len(sizes) == 1 and arr.shape[0] == width * bounds[-1]:
+        return list(arr.reshape(len(bounds) - 1, -1))
+    return [arr[width * a:width * b] for a, b in pairwise(bounds)]
+
+
+class StepPlan:
+    """Every update of a compiled set, prepared for the general path (see the module text).
+
+    Parameters
+    ----------
+    compiled : CompiledMeasurements
+        The set compiled for the filter (its ``dim``, options and nuisance values).
+
+    Attributes
+    ----------
+    ok : bool
+        False when a kind uses an earlier reference sample (the group path is used).
+    steps : list
+        One :data:`Step` per update.
+    sizes : numpy.ndarray
+        Rows per update (K,).
+    """
+
+    def __init__(self, compiled: CompiledMeasurements) -> None:
+        self.dim = compiled.dim
+        self.ok = not any(m.uses_reference for m in compiled.models.values())
+        self.steps: list[Step] = []
+        self.sizes = np.diff(compiled.bounds)
+        if not self.ok or len(compiled) == 0:
+            return
+        names = list(compiled.models)
+        codes = compiled.model_index
+        update = np.repeat(np.arange(len(compiled)), self.sizes)
+        # Rows of each update sorted by kind: every kind's rows become one slice.
+        perm = np.lexsort((codes, update))
+        codes = codes[perm]
+        dt = compiled.time[perm] - compiled.times[update]
+        values = compiled.values[perm]
+        sens = compiled.sensor_state[perm]
+        var = compiled.sigmas[perm] ** 2
+        time, time_ref = compiled.time[perm], compiled.time_ref[perm]
+        sensor, sigmas = compiled.sensor[perm], compiled.sigmas[perm]
+        correlated = any(m.correlated_noise for m in compiled.models.values())
+        scalar = all(m.has_row_gradient for m in compiled.models.values())
+        recs = self._records(compiled, names, codes, values, sens, dt, time) if scalar else None
+        patterns: dict[bytes, tuple[list, object, dict]] = {}
+        maps: dict[bytes, tuple[Array, Array | None]] = {}
+        self.eye_map = _state_map(np.zeros(1), self.dim)[0]
+        bounds = compiled.bounds.tolist()
+        code_bytes, width = codes.tobytes(), codes.itemsize
+        moved = (np.add.reduceat(dt != 0.0, compiled.bounds[:-1]) > 0).tolist()
+        flat_sens = sens.reshape(-1)
+        noise = _diagonal_noise(var, compiled.bounds)
+        update_times = compiled.times.tolist()
+        value_k, sens_k, time_k = (_views(values, bounds), _views(flat_sens, bounds, 6),
+                                   _views(time, bounds))
+        for k in range(len(compiled)):
+            a, b = bounds[k], bounds[k + 1]
+            key = code_bytes[a * width:b * width]
+            pat = patterns.get(key)
+            if pat is None:
+                pat = patterns[key] = self._pattern(codes[a:b], names, compiled)
+            parts, angle, index = pat
+            dkey = dt[a:b].tobytes() if moved[k] else b - a
+            tm = maps.get(dkey)
+            if tm is None:
+                t3 = _state_map(dt[a:b], self.dim)
+                tm = maps[dkey] = (t3.reshape(-1, 2 * self.dim), t3 if moved[k] else None)
+            r = noise[k]
+            if correlated:
+                for rows, cov in correlated_blocks(compiled.models, index, time[a:b],
+                                                   time_ref[a:b], sigmas[a:b], sensor[a:b]):
+                    r[np.ix_(rows, rows)] = cov
+            self.steps.append((update_times[k], value_k[k], sens_k[k], parts,
+                               tm[0], tm[1], r, angle, time_k[k],
+                               recs[a:b] if recs is not None and b - a <= SCALAR_ROWS
+                               else None))
+
+    @staticmethod
+    def _records(compiled: CompiledMeasurements, names: list[str], codes: Array,
+                 values: Array, sens: Array, dt: Array, time: Array) -> list[tuple]:
+        """Give every row as a plain-float record for :func:`linearise` (kinds in order)."""
+        info = [(compiled.models[k].row_gradient, tuple(compiled.nuisance[k].tolist()),
+                 compiled.models[k].is_angle) for k in names]
+        per_row = [info[c] for c in codes.tolist()]
+        return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
+                zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
+                    sens.tolist(), strict=True)]
+
+    @staticmethod
+    def _pattern(codes: Array, names: list[str], compiled: CompiledMeasurements
+                 ) -> tuple[list[tuple[MeasurementModel, slice, Array]], object, dict]:
+        """Give the kinds' parts ``(model, rows, nuisance)``, the angle rows, the kinds' index."""
+        parts, index = [], {}
+        angle = np.zeros(codes.shape[0], dtype=bool)
+        for i, kind in enumerate(names):
+            idx = np.flatnonzero(codes == i)
+            if idx.size:
+                sl = as_slice(idx)
+                model = compiled.models[kind]
+                parts.append((model, sl, compiled.nuisance[kind]))
+                index[kind] = sl
+                angle[sl] = model.is_angle
+        ang: object = None if not angle.any() else as_slice(np.flatnonzero(angle))
+        return parts, ang, index
+
+
+def plan_for(compiled: CompiledMeasurements) -> StepPlan:
+    """Give the plan of a compiled set, made on first use and kept in its cache.
+
+    Parameters
+    ----------
+    compiled : CompiledMeasurements
+        The set compiled for the filter.
+
+    Returns
+    -------
+    StepPlan
+    """
+    plan = compiled.cache.get("step_plan")
+    if plan is None:
+        plan = compiled.cache["step_plan"] = StepPlan(compiled)
+    return plan

@@ -38,17 +38,17 @@ from scipy.linalg.lapack import dpotrf
 from ..linalg import safe_cholesky, symmetrise
 from ..observation.groups import MeasurementGroup
 from .base import Array, UpdateInfo
-from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
 from .general import (
+    CompiledMeasurements,
     Step,
+    StepPlan,
     checked_psd,
     innovation_solve,
     predict_rows,
     wrap_small,
 )
 from .kernels import KernelRun, ukf_bearing_2d
-from .plan import StepPlan
 
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float
