@@ -116,6 +116,10 @@ class TrackingFilter(ABC):
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         """Condition on one group of measurements at :attr:`time`."""
 
+    def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
+        """Condition on rows without a group, where the filter can (None: use a group)."""
+        return None
+
     # -- the interface -----------------------------------------------------------------------
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -220,7 +224,11 @@ class TrackingFilter(ABC):
             NIS, degrees of freedom and log-likelihood of the update.
         """
         with one_thread(self.single_blas_thread):
-            info = self._update(self.group(rows))
+            info = None
+            if isinstance(rows, MeasurementSet) and type(self).group is TrackingFilter.group:
+                info = self._update_rows(rows)
+            if info is None:
+                info = self._update(self.group(rows))
         self.log_likelihood += info.log_likelihood
         return info
 

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .base import Array, TrackingFilter, UpdateInfo
@@ -13,9 +15,11 @@ from .general import (
     CompiledMeasurements,
     DynamicsCache,
     PlanOutputs,
+    RowSteps,
     Step,
     StepPlan,
     checked_psd,
+    finite,
     innovation_solve,
     kalman_gain,
     linearise,
@@ -33,10 +37,17 @@ _EYE = {4: np.eye(4), 6: np.eye(6)}
 IEKF_TOL = 1e-10
 
 
-def _range_scale(group: MeasurementGroup, x: Array, dim: int) -> float:
-    """Give the smallest distance (m) from the position ``x[:dim]`` to the group's sensors."""
-    pos = group.sensor_state[:, :dim]
-    return float(np.min(np.linalg.norm(pos - x[:dim], axis=1)))
+def _range_scale(rows: MeasurementGroup | Step, x: Array, dim: int) -> float:
+    """Give the smallest distance (m) from the position ``x[:dim]`` to the rows' sensors."""
+    sens = rows[2].reshape(-1, 6) if isinstance(rows, tuple) else rows.sensor_state
+    return float(np.min(np.linalg.norm(sens[:, :dim] - x[:dim], axis=1)))
+
+
+def _linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, bool]:
+    """Give the wrapped residual, the Jacobian at ``x`` and whether both are finite."""
+    y = group.residual(group.predict(x))
+    h = group.jacobian(x)
+    return y, h, finite(y, h)
 
 
 def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array,
@@ -178,27 +189,60 @@ class ExtendedKalmanFilter(TrackingFilter):
         self._cov = sym(cov)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        prior = self._mean
-        residual = group.residual(group.predict(prior))
-        h = group.jacobian(prior)
-        if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(h))):
+        self._mean, self._cov, nis, m, ll = self._kalman(_linearise_group, group,
+                                                         group.covariance, self._mean,
+                                                         self._cov)
+        return UpdateInfo(nis, m, ll)
+
+    def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
+        if type(self)._update is not self._planned()._update:
+            return None
+        step = self._row_steps().step(rows, self.time)
+        if step is None:
+            return None
+        self._mean, self._cov, nis, m, ll = self._plan_update(step, self._mean, self._cov)
+        return UpdateInfo(nis, m, ll)
+
+    @staticmethod
+    def _planned() -> type:
+        """Give the class whose ``_update`` :meth:`_plan_update` computes (else groups)."""
+        return ExtendedKalmanFilter
+
+    def _kalman(self, lin: Callable, arg: object, r: Array, mean: Array, cov: Array
+                ) -> tuple[Array, Array, float, int, float]:
+        """One (iterated) EKF update: mean, covariance, NIS, rows, log-likelihood.
+
+        ``lin(arg, x)`` gives the wrapped residual, the Jacobian at ``x`` and whether both are
+        finite (a plan's step or a group).  The covariance is ``P - K H P`` when that is
+        positive definite, else the Joseph form (:func:`~.general.updated_covariance`).  An
+        update whose linearisation is not finite is skipped and counted.
+        """
+        y, h, ok = lin(arg, mean)
+        if not ok:
             self.skipped_updates += 1
-            return skipped()
-        r = group.covariance
-        mean, cov, info = gaussian_update(prior, self._cov, residual, h, r)
+            return mean, cov, float("nan"), 0, 0.0
+        hp = h.dot(cov)
+        s = hp.dot(h.T)
+        s += r
+        gain, nis, log_det = innovation_solve(s, hp, y)
+        new = mean + gain.dot(y)
+        new_cov = updated_covariance(cov, gain, hp, h, r)
         for _ in range(self.iterations - 1):
-            res_i = group.residual(group.predict(mean))
-            h_i = group.jacobian(mean)
-            if not (np.all(np.isfinite(res_i)) and np.all(np.isfinite(h_i))):
+            y_i, h_i, ok = lin(arg, new)
+            if not ok:
                 break
-            new, cov_i, _ = gaussian_update(prior, self._cov, res_i - h_i @ (prior - mean),
-                                            h_i, r)
-            step = float(np.linalg.norm((new - mean)[:self.dim]))
-            mean, cov = new, cov_i
-            if step <= IEKF_TOL * _range_scale(group, mean, self.dim):
+            hp = h_i.dot(cov)
+            s = hp.dot(h_i.T)
+            s += r
+            y_i = y_i - h_i.dot(mean - new)
+            g_i = innovation_solve(s, hp, y_i)[0]
+            nxt = mean + g_i.dot(y_i)
+            size = float(np.linalg.norm((nxt - new)[:self.dim]))
+            new, new_cov = nxt, updated_covariance(cov, g_i, hp, h_i, r)
+            if size <= IEKF_TOL * _range_scale(arg, new, self.dim):
                 break
-        self._mean, self._cov = mean, cov
-        return info
+        m = y.shape[0]
+        return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
 
     # -- the closed-form path ----------------------------------------------------------------
     def _kernel_ok(self, compiled: CompiledMeasurements, cls: type) -> bool:
@@ -236,49 +280,16 @@ class ExtendedKalmanFilter(TrackingFilter):
             cache = self._dyn_cache = DynamicsCache(self.dynamics)
         return cache
 
-    def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
+    def _plan_update(self, step: Step, mean: Array, cov: Array
                      ) -> tuple[Array, Array, float, int, float]:
-        """One update of the general path: mean, covariance, NIS, rows, log-likelihood.
+        """One update of the general path (:meth:`_kalman` on the step)."""
+        return self._kalman(linearise, step, step[6], mean, cov)
 
-        The covariance is ``P - K H P`` when that is positive definite, else the Joseph form
-        (:func:`~.general.updated_covariance`).
-        """
-        y, h, ok = linearise(step, mean, plan.eye_map)
-        if not ok:
-            self.skipped_updates += 1
-            return mean, cov, float("nan"), 0, 0.0
-        r = step[6]
-        hp = h.dot(cov)
-        s = hp.dot(h.T)
-        s += r
-        gain, nis, log_det = innovation_solve(s, hp, y)
-        new = mean + gain.dot(y)
-        new_cov = updated_covariance(cov, gain, hp, h, r)
-        if self.iterations > 1:
-            new, new_cov = self._iterate(step, plan, mean, cov, new, new_cov)
-        m = y.shape[0]
-        return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
-
-    def _iterate(self, step: Step, plan: StepPlan, mean: Array, cov: Array, new: Array,
-                 new_cov: Array) -> tuple[Array, Array]:
-        """Relinearise an update of the general path (the iterated EKF, as in ``_update``)."""
-        r = step[6]
-        for _ in range(self.iterations - 1):
-            y_i, h_i, ok = linearise(step, new, plan.eye_map)
-            if not ok:
-                break
-            hp = h_i.dot(cov)
-            s = hp.dot(h_i.T)
-            s += r
-            y_i = y_i - h_i.dot(mean - new)
-            g_i = innovation_solve(s, hp, y_i)[0]
-            nxt = mean + g_i.dot(y_i)
-            size = float(np.linalg.norm((nxt - new)[:self.dim]))
-            new, new_cov = nxt, updated_covariance(cov, g_i, hp, h_i, r)
-            pos = step[2].reshape(-1, 6)[:, :self.dim]
-            if size <= IEKF_TOL * float(np.min(np.linalg.norm(pos - new[:self.dim], axis=1))):
-                break
-        return new, new_cov
+    def _row_steps(self) -> RowSteps:
+        steps = getattr(self, "_steps", None)
+        if steps is None:
+            steps = self._steps = RowSteps(self.dim, self.options, self.nuisance)
+        return steps
 
     def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
         """Run updates ``start`` on of a plan (the general path compiled once per file)."""
@@ -300,14 +311,14 @@ class ExtendedKalmanFilter(TrackingFilter):
                 predict_gaussian(None, mean, cov, t, tk)  # raises
             elif tk > t:
                 t = tk
-            mean, cov, nis, m, lli = update(step, plan, mean, cov)
+            mean, cov, nis, m, lli = update(step, mean, cov)
             ll += lli
             put((t, mean, cov, nis, m, ll))
         return self._adopt(out.run(mean, cov, t, ll))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        if not self._kernel_ok(compiled, ExtendedKalmanFilter):
-            plan = self._plan_ok(compiled, ExtendedKalmanFilter)
+        if not self._kernel_ok(compiled, self._planned()):
+            plan = self._plan_ok(compiled, self._planned())
             return None if plan is None else self._run_plan(plan, start)
         return self._adopt(ekf_bearing_2d(self._mean, self._cov, self.time,
                                           self.log_likelihood, start, compiled.bearing_lists(),

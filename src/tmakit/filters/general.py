@@ -459,33 +459,18 @@ class DynamicsCache:
         return out
 
 
-def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
-    """Give the predictions ``(..., m)`` and relative states ``(..., m, 6)`` at states ``x``.
-
-    Parameters
-    ----------
-    step : Step
-        One update of a :class:`StepPlan`.
-    x : numpy.ndarray
-        Filter states ``(..., 2 dim)`` (m, m/s).
-    dim : int
-        2 or 3.
-
-    Returns
-    -------
-    values, rel : numpy.ndarray
-        Predicted values (SI) and the relative states they came from (m, m/s).
-    """
+def predict_rows(step: Step, x: Array) -> Array:
+    """Give the predictions ``(..., m)`` (SI) of a plan's step at filter states ``x`` (..., n)."""
     _, _, sens, parts, tmap, _, _, _, times, _ = step
     xt = x.dot(tmap.T) if x.ndim <= 2 else x @ tmap.T
     rel = (xt - sens).reshape(*x.shape[:-1], -1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
-        return model.predict(rel, times, nu, None), rel
+        return model.predict(rel, times, nu, None)
     out = np.empty(rel.shape[:-1])
     for model, sl, nu in parts:
         out[..., sl] = model.predict(rel[..., sl, :], times[sl], nu, None)
-    return out, rel
+    return out
 
 
 def wrap_small(a: Array) -> Array:
@@ -511,7 +496,7 @@ def wrap_small(a: Array) -> Array:
     return wrap_angle(a)
 
 
-def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]:
+def linearise(step: Step, x: Array) -> tuple[Array, Array, bool]:
     """Give the wrapped residual ``z - h(x)`` (m,) and the Jacobian ``H`` (m, n) at ``x``.
 
     Parameters
@@ -520,8 +505,6 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
         One update of a :class:`StepPlan`.
     x : numpy.ndarray
         Filter state ``(n,)`` (m, m/s).
-    eye_map : numpy.ndarray
-        The map ``(6, n)`` of a row at the update time.
 
     Returns
     -------
@@ -532,7 +515,7 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
     """
     _, z, sens, parts, tmap, t3, _, angle, times, rows = step
     if rows is not None:
-        return _linearise_rows(rows, x, eye_map.shape[1] // 2)
+        return _linearise_rows(rows, x, x.shape[0] // 2)
     rel = (tmap.dot(x) - sens).reshape(-1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
@@ -542,7 +525,7 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
         d = np.empty(rel.shape)
         for model, sl, nu in parts:
             pred[sl], d[sl] = model.predict_gradient(rel[sl], times[sl], nu)
-    h = d.dot(eye_map) if t3 is None else np.einsum("mi,min->mn", d, t3)
+    h = d.dot(EYE_MAPS[x.shape[0]]) if t3 is None else np.einsum("mi,min->mn", d, t3)
     y = z - pred
     if angle is not None:
         y[angle] = wrap_angle(y[angle])
@@ -731,6 +714,25 @@ def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: 
 #: linearised row by row in Python floats (cheaper than NumPy calls on so few numbers).
 SCALAR_ROWS = 8
 
+
+def _pattern(codes: Array, names: list[str], models: Mapping[str, MeasurementModel],
+             nuisance: Mapping[str, Array]
+             ) -> tuple[list[tuple[MeasurementModel, slice, Array]], object, dict]:
+    """Give the kinds' parts ``(model, rows, nuisance)``, the angle rows, the kinds' index."""
+    parts, index = [], {}
+    angle = np.zeros(codes.shape[0], dtype=bool)
+    for i, kind in enumerate(names):
+        idx = np.flatnonzero(codes == i)
+        if idx.size:
+            sl = as_slice(idx)
+            model = models[kind]
+            parts.append((model, sl, nuisance[kind]))
+            index[kind] = sl
+            angle[sl] = model.is_angle
+    ang: object = None if not angle.any() else as_slice(np.flatnonzero(angle))
+    return parts, ang, index
+
+
 def _state_map(dt: Array, dim: int) -> Array:
     """``T`` (m, 6, 2 dim): target states at rows ``dt`` (s) after the filter time."""
     m = dt.shape[0]
@@ -809,7 +811,6 @@ class StepPlan:
         recs = self._records(compiled, names, codes, values, sens, dt, time) if scalar else None
         patterns: dict[bytes, tuple[list, object, dict]] = {}
         maps: dict[bytes, tuple[Array, Array | None]] = {}
-        self.eye_map = _state_map(np.zeros(1), self.dim)[0]
         bounds = compiled.bounds.tolist()
         code_bytes, width = codes.tobytes(), codes.itemsize
         moved = (np.add.reduceat(dt != 0.0, compiled.bounds[:-1]) > 0).tolist()
@@ -823,7 +824,8 @@ class StepPlan:
             key = code_bytes[a * width:b * width]
             pat = patterns.get(key)
             if pat is None:
-                pat = patterns[key] = self._pattern(codes[a:b], names, compiled)
+                pat = patterns[key] = _pattern(codes[a:b], names, compiled.models,
+                                                compiled.nuisance)
             parts, angle, index = pat
             dkey = dt[a:b].tobytes() if moved[k] else b - a
             tm = maps.get(dkey)
@@ -851,22 +853,6 @@ class StepPlan:
                 zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
                     sens.tolist(), strict=True)]
 
-    @staticmethod
-    def _pattern(codes: Array, names: list[str], compiled: CompiledMeasurements
-                 ) -> tuple[list[tuple[MeasurementModel, slice, Array]], object, dict]:
-        """Give the kinds' parts ``(model, rows, nuisance)``, the angle rows, the kinds' index."""
-        parts, index = [], {}
-        angle = np.zeros(codes.shape[0], dtype=bool)
-        for i, kind in enumerate(names):
-            idx = np.flatnonzero(codes == i)
-            if idx.size:
-                sl = as_slice(idx)
-                model = compiled.models[kind]
-                parts.append((model, sl, compiled.nuisance[kind]))
-                index[kind] = sl
-                angle[sl] = model.is_angle
-        ang: object = None if not angle.any() else as_slice(np.flatnonzero(angle))
-        return parts, ang, index
 
 
 def plan_for(compiled: CompiledMeasurements) -> StepPlan:
@@ -885,3 +871,78 @@ def plan_for(compiled: CompiledMeasurements) -> StepPlan:
     if plan is None:
         plan = compiled.cache["step_plan"] = StepPlan(compiled)
     return plan
+
+
+#: The map ``(6, n)`` from a filter state to the target state at the update time, per ``n``.
+EYE_MAPS = {2 * d: _state_map(np.zeros(1), d)[0] for d in (2, 3)}
+
+
+class RowSteps:
+    """Steps, as a plan's, for rows handed over one update at a time (the step-by-step API).
+
+    What depends only on the rows' kinds and their times relative to the update (models, kind
+    slices, the state-to-row map, angle rows) is made once per such pattern.
+
+    Parameters
+    ----------
+    dim : int
+        Filter dimension, 2 or 3.
+    options, nuisance : mapping, optional
+        As for :class:`CompiledMeasurements`.
+    """
+
+    def __init__(self, dim: int, options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self.dim, self.options, self.nuisance = dim, options, nuisance
+        self._patterns: dict[bytes, tuple | None] = {}
+
+    def step(self, rows: MeasurementSet, t: float) -> Step | None:
+        """Give the step of ``rows`` at filter time ``t`` (s); None for the group path.
+
+        Kinds with an earlier reference sample or correlated noise take the group path.
+
+        Raises
+        ------
+        ValueError
+            When a kind needs a nuisance value that was not given (from
+            :func:`~tmakit.observation.resolve_models`).
+        """
+        dt = rows.time - t
+        key = rows.kind_code.tobytes() + dt.tobytes()
+        if key not in self._patterns:
+            if len(self._patterns) > 256:  # irregular row times: keep the cache small
+                self._patterns.clear()
+            self._patterns[key] = self._pattern(rows, dt)
+        pat = self._patterns[key]
+        if pat is None:
+            return None
+        perm, parts, tmap, t3, angle, info, dts = pat
+        values, sigmas, time, sens = rows.value_si, rows.sigma_si, rows.time, rows.sensor_state
+        if perm is not None:
+            values, sigmas, time, sens = values[perm], sigmas[perm], time[perm], sens[perm]
+        recs = None if info is None else [
+            (fn, nu, ti, d, v, ang, s) for (fn, nu, ang), ti, d, v, s in
+            zip(info, time.tolist(), dts, values.tolist(), sens.tolist(), strict=True)]
+        return (t, values, sens.reshape(-1), parts, tmap, t3, np.diag(sigmas * sigmas), angle,
+                time, recs)
+
+    def _pattern(self, rows: MeasurementSet, dt: Array) -> tuple | None:
+        models, nus = resolve_models(rows.kinds, self.options, self.nuisance)
+        if any(m.uses_reference or m.correlated_noise for m in models.values()):
+            return None
+        names = list(models)
+        lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
+        for i, k in enumerate(names):
+            lookup[KIND_CODES[k]] = i
+        codes = lookup[rows.kind_code]
+        perm = np.argsort(codes, kind="stable")
+        codes, dt = codes[perm], dt[perm]
+        parts, angle, _ = _pattern(codes, names, models, nus)
+        t3 = _state_map(dt, self.dim)
+        info = None
+        if codes.shape[0] <= SCALAR_ROWS and all(m.has_row_gradient for m in models.values()):
+            info = [(models[names[c]].row_gradient, tuple(nus[names[c]].tolist()),
+                     models[names[c]].is_angle) for c in codes.tolist()]
+        moved = bool(np.any(dt != 0.0))
+        return (None if np.all(perm[:-1] < perm[1:]) else perm, parts,
+                t3.reshape(-1, 2 * self.dim), t3 if moved else None, angle, info, dt.tolist())
