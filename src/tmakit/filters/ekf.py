@@ -14,7 +14,6 @@ from .base import Array, TrackingFilter, UpdateInfo
 from .general import (
     CompiledMeasurements,
     DynamicsCache,
-    PlanOutputs,
     RowSteps,
     Step,
     StepPlan,
@@ -24,7 +23,7 @@ from .general import (
     kalman_gain,
     linearise,
     plan_for,
-    predict_gaussian,
+    stacked_run,
     sym,
     updated_covariance,
 )
@@ -294,27 +293,28 @@ class ExtendedKalmanFilter(TrackingFilter):
     def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
         """Run updates ``start`` on of a plan (the general path compiled once per file)."""
         steps = plan.steps[start:]
-        out = PlanOutputs(len(steps), 2 * self.dim)
-        put = out.rows.append
+        rows: list[tuple] = []
+        put = rows.append
         get = self._dynamics_cache().get
         update = self._plan_update
         mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
         for step in steps:
             tk = step[0]
             dt = tk - t
-            if dt > TIME_TOLERANCE:  # predict_gaussian, inline
+            if dt > TIME_TOLERANCE:
                 phi, phit, q = get(dt)
                 cov = phi.dot(cov).dot(phit)
                 cov += q
                 mean, t = phi.dot(mean), tk
             elif dt < -TIME_TOLERANCE:
-                predict_gaussian(None, mean, cov, t, tk)  # raises
+                raise ValueError(f"filters run forward: cannot predict from t={t} s back to "
+                                 f"t={tk} s")
             elif tk > t:
                 t = tk
             mean, cov, nis, m, lli = update(step, mean, cov)
             ll += lli
             put((t, mean, cov, nis, m, ll))
-        return self._adopt(out.run(mean, cov, t, ll))
+        return self._adopt(stacked_run(rows, 2 * self.dim, mean, cov, t, ll))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
         if not self._kernel_ok(compiled, self._planned()):

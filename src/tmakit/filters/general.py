@@ -17,9 +17,11 @@ posterior covariance is ``P - K H P``, the Joseph form only when that fails its 
 (:func:`updated_covariance`), repaired only when that fails too (:func:`checked_psd`).  Small
 products use ``ndarray.dot``, cheaper per call than NumPy 2's ``@`` on a few entries.
 
-Kinds with an earlier reference sample (range differences) keep the group path.  The results
-equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding
-(``tests/test_filters.py::test_general_plan_equals_the_group_path``).
+Rows handed over one update at a time (``predict`` then ``update``, as a live tracker calls a
+filter) get the same step (:class:`RowSteps`), made per pattern of kinds and row times.  Kinds
+with an earlier reference sample (range differences), and groups given whole, are linearised by
+the :class:`~tmakit.observation.MeasurementGroup` instead, into the same update arithmetic; the
+results equal to rounding (``tests/test_filters.py::test_general_plan_equals_the_group_path``).
 """
 
 from __future__ import annotations
@@ -27,7 +29,6 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Mapping
-from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
@@ -40,32 +41,8 @@ from ..linalg import repair_psd, solve_spd
 from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
-from ..observation.groups import TIME_TOLERANCE
 from ..observation.rows import as_slice, correlated_blocks
 from .kernels import TWO_PI, KernelRun
-
-
-@dataclass(frozen=True)
-class BearingColumns:
-    """The columns a bearing-only step kernel needs, one entry per update.
-
-    Attributes
-    ----------
-    time : ndarray
-        Update times (K,), s.
-    value : ndarray
-        Bearings (K,), rad, clockwise from North.
-    variance : ndarray
-        Bearing variances (K,), rad^2.
-    sx, sy : ndarray
-        Sensor position (K,), m, ENU.
-    """
-
-    time: Array
-    value: Array
-    variance: Array
-    sx: Array
-    sy: Array
 
 
 class CompiledMeasurements:
@@ -139,34 +116,13 @@ class CompiledMeasurements:
         """Return the number of updates."""
         return int(self.times.shape[0])
 
-    @property
-    def bearing_columns(self) -> BearingColumns:
-        """Per-update columns for the bearing kernels (only when :attr:`single_bearing`).
-
-        Raises
-        ------
-        ValueError
-            When the updates are not all single bearings.
-        """
-        if not self.single_bearing:
-            raise ValueError("bearing_columns: the updates are not all single bearings")
-        return BearingColumns(self.time, self.values, self.sigmas**2,
-                              self.sensor_state[:, 0], self.sensor_state[:, 1])
-
     def bearing_lists(self) -> tuple[list[float], ...]:
-        """Return :attr:`bearing_columns` as Python lists, made once.
-
-        The plain-float kernels index them faster than arrays.
-
-        Returns
-        -------
-        tuple of list of float
-            ``(time s, value rad, variance rad^2, sx m, sy m)``.
-        """
+        """Give the bearing kernels' columns (time, bearing, variance, sensor x, y), as lists."""
+        if not self.single_bearing:
+            raise ValueError("bearing_lists: the updates are not all single bearings")
         if self._lists is None:
-            c = self.bearing_columns
-            self._lists = (c.time.tolist(), c.value.tolist(), c.variance.tolist(),
-                           c.sx.tolist(), c.sy.tolist())
+            self._lists = (self.time.tolist(), self.values.tolist(), (self.sigmas**2).tolist(),
+                           self.sensor_state[:, 0].tolist(), self.sensor_state[:, 1].tolist())
         return self._lists
 
     def rows(self, k: int) -> MeasurementSet:
@@ -272,37 +228,14 @@ Step = tuple
 
 
 def sym(p: Array) -> Array:
-    """Give ``(P + P^T) / 2`` of one square matrix (the value of :func:`~tmakit.linalg.symmetrise`).
-
-    Parameters
-    ----------
-    p : numpy.ndarray
-        ``(n, n)`` (any units).
-
-    Returns
-    -------
-    numpy.ndarray
-        A new symmetric matrix (units of ``p``).
-    """
+    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.linalg.symmetrise`)."""
     out = p + p.T
     out *= 0.5
     return out
 
 
 def checked_psd(p: Array) -> Array:
-    """Give ``p`` symmetrised, repaired (:func:`~tmakit.linalg.repair_psd`) only if not PD.
-
-    Parameters
-    ----------
-    p : numpy.ndarray
-        Covariance ``(n, n)`` (any units).
-
-    Returns
-    -------
-    numpy.ndarray
-        Symmetric, numerically positive-definite ``(n, n)`` matrix: ``p`` symmetrised when its
-        Cholesky factorisation succeeds (the check), else :func:`~tmakit.linalg.repair_psd`.
-    """
+    """Give ``p`` symmetrised, repaired (:func:`~tmakit.linalg.repair_psd`) only if not PD."""
     p = sym(p)
     if dpotrf(p, lower=1, clean=0)[1] == 0:
         return p
@@ -310,30 +243,11 @@ def checked_psd(p: Array) -> Array:
 
 
 def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float, float]:
-    """Give ``(S^-1 HP)^T``, the NIS ``residual^T S^-1 residual`` and ``log det S``.
+    """Give ``(S^-1 HP)^T`` (the gain), the NIS ``r^T S^-1 r`` and ``log det S``.
 
-    One and two rows in closed form, more by one Cholesky factorisation and solve (LAPACK
-    ``posv``); an ``S`` that is not numerically positive definite goes to
-    :func:`~tmakit.linalg.solve_spd`, which repairs it.
-
-    Parameters
-    ----------
-    s : numpy.ndarray
-        Innovation covariance ``(m, m)`` (measurement units squared), symmetric to rounding:
-        two rows average ``s[0, 1]`` and ``s[1, 0]``, more rows read the lower triangle.
-    hp : numpy.ndarray
-        ``H P`` ``(m, n)`` (the cross covariance of measurement and state, transposed).
-    residual : numpy.ndarray
-        Innovation ``(m,)`` (SI).
-
-    Returns
-    -------
-    gain : numpy.ndarray
-        ``P H^T S^-1`` ``(n, m)``.
-    nis : float
-        Normalised innovation squared.
-    log_det : float
-        ``log det S`` (natural logarithm).
+    One and two rows in closed form (``S`` symmetric to rounding), more by one Cholesky
+    factorisation (LAPACK ``posv``, lower triangle); an ``S`` that is not numerically positive
+    definite goes to :func:`~tmakit.linalg.solve_spd`, which repairs it.
     """
     m = s.shape[0]
     if m == 1:
@@ -359,24 +273,7 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
 
 def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
                 ) -> tuple[Array, float, float]:
-    """Give the Kalman gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``.
-
-    Parameters
-    ----------
-    cov : numpy.ndarray
-        Prior covariance ``(n, n)``.
-    h : numpy.ndarray
-        Measurement matrix ``(m, n)``.
-    r : numpy.ndarray
-        Measurement noise covariance ``(m, m)``.
-    residual : numpy.ndarray
-        Innovation ``(m,)`` (SI).
-
-    Returns
-    -------
-    gain, nis, log_det
-        As for :func:`innovation_solve`.
-    """
+    """Give the gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``."""
     hp = h.dot(cov)
     s = hp.dot(h.T)
     s += r
@@ -384,29 +281,10 @@ def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
 
 
 def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -> Array:
-    """Give the updated covariance ``P - K H P``, in Joseph form only when that is not PD.
+    """Give ``P - K H P`` symmetrised, or the Joseph form when that fails its Cholesky check.
 
-    ``P - K (H P)`` symmetrised is taken when its Cholesky check succeeds; otherwise the Joseph
-    form ``(I - K H) P (I - K H)^T + K R K^T`` (equal for the optimal gain, and safer in
-    rounding), symmetrised and repaired when its own check fails (:func:`checked_psd`).
-
-    Parameters
-    ----------
-    cov : numpy.ndarray
-        Prior covariance ``P`` ``(n, n)`` (SI).
-    gain : numpy.ndarray
-        Kalman gain ``K`` ``(n, m)``.
-    hp : numpy.ndarray
-        ``H P`` ``(m, n)``.
-    h : numpy.ndarray
-        Measurement matrix ``H`` ``(m, n)``.
-    r : numpy.ndarray
-        Measurement noise covariance ``(m, m)`` (SI).
-
-    Returns
-    -------
-    numpy.ndarray
-        The updated covariance ``(n, n)``, symmetric and numerically positive definite.
+    The Joseph form ``(I - K H) P (I - K H)^T + K R K^T`` (equal for the optimal gain, safer in
+    rounding) is symmetrised and repaired when its own check fails (:func:`checked_psd`).
     """
     p = cov - gain.dot(hp)
     p = p + p.T
@@ -437,18 +315,7 @@ class DynamicsCache:
         self._cache: dict[float, tuple[Array, Array, Array]] = {}
 
     def get(self, dt: float) -> tuple[Array, Array, Array]:
-        """Give the transition and process noise of one step (cached by step size).
-
-        Parameters
-        ----------
-        dt : float
-            The step, s (> 0).
-
-        Returns
-        -------
-        phi, phi_t, q : ndarray
-            ``Phi(dt)``, its transpose (contiguous) and ``Q(dt)``, each ``(n, n)``, SI.
-        """
+        """Give ``Phi(dt)``, its transpose (contiguous) and ``Q(dt)``, cached by step size."""
         out = self._cache.get(dt)
         if out is None:
             if len(self._cache) > 256:  # irregular times: keep the cache small
@@ -474,22 +341,7 @@ def predict_rows(step: Step, x: Array) -> Array:
 
 
 def wrap_small(a: Array) -> Array:
-    """Wrap angle differences to (-pi, pi], leaving those already inside untouched.
-
-    The values of :func:`~tmakit.frames.wrap_angle` (which also keeps values inside as they
-    are), without its copy: the few entries of a filter's update are tested as floats, and
-    only an array with a value outside goes to ``wrap_angle``.
-
-    Parameters
-    ----------
-    a : numpy.ndarray
-        Angle differences (rad), any shape.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``a`` itself when every entry is in (-pi, pi], else ``wrap_angle(a)`` (rad).
-    """
+    """Give ``wrap_angle(a)``, or ``a`` itself (no copy) when every entry is in (-pi, pi]."""
     flat = a.ravel().tolist()
     if flat and -math.pi < min(flat) and max(flat) <= math.pi:
         return a
@@ -580,21 +432,7 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
 
 
 def finite(y: Array, h: Array) -> bool:
-    """Tell whether a residual and a Jacobian are finite.
-
-    Two dot products decide when their sum is finite; otherwise (a NaN, an infinity, or an
-    overflow of the squares) ``numpy.isfinite`` does.
-
-    Parameters
-    ----------
-    y, h : ndarray
-        A residual ``(m,)`` and a Jacobian ``(m, n)``.
-
-    Returns
-    -------
-    bool
-        True when every entry of both is finite.
-    """
+    """Tell whether a residual and a Jacobian are finite (two dot products decide most)."""
     flat = h.reshape(-1)
     total = float(y.dot(y)) + float(flat.dot(flat))
     if total - total == 0.0:
@@ -602,110 +440,18 @@ def finite(y: Array, h: Array) -> bool:
     return bool(np.isfinite(y).all() and np.isfinite(h).all())
 
 
-class PlanOutputs:
-    """Per-update outputs of a run on a plan, gathered as rows, stacked at the end.
-
-    The states and covariances are kept by reference: every step makes new arrays.
-
-    Parameters
-    ----------
-    k : int
-        Number of updates.
-    n : int
-        State size.
-
-    Attributes
-    ----------
-    rows : list of tuple
-        One ``(time s, state (n,), covariance (n, n), NIS, rows, cumulative log-likelihood
-        nats)`` per update, appended by the run (``rows.append``: one call a step).
-    """
-
-    def __init__(self, k: int, n: int) -> None:
-        self.n = n
-        self.rows: list[tuple[float, Array, Array, float, int, float]] = []
-
-    def put(self, t: float, mean: Array, cov: Array, nis: float, dof: int, ll: float) -> None:
-        """Record the next update.
-
-        Parameters
-        ----------
-        t : float
-            Its time, s.
-        mean, cov : ndarray
-            The updated state ``(n,)`` and covariance ``(n, n)``, SI (kept by reference).
-        nis : float
-            Normalised innovation squared.
-        dof : int
-            Measurement rows of the update.
-        ll : float
-            Cumulative log-likelihood, nats.
-        """
-        self.rows.append((t, mean, cov, nis, dof, ll))
-
-    def run(self, mean: Array, cov: Array, t: float, ll: float) -> KernelRun:
-        """Give the outputs as a :class:`~.kernels.KernelRun` ending at the last update.
-
-        Parameters
-        ----------
-        mean, cov : ndarray
-            The final state ``(n,)`` and covariance ``(n, n)``, SI.
-        t : float
-            Their time, s.
-        ll : float
-            The final cumulative log-likelihood, nats.
-
-        Returns
-        -------
-        KernelRun
-            The run, with every recorded update stacked.
-        """
-        n, k = self.n, len(self.rows)
-        if not k:
-            return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
-                             np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
-                             np.zeros(0, dtype=np.int64), True)
-        times, states, covs, nis, dof, lls = zip(*self.rows, strict=True)
-        return KernelRun(k, False, mean, cov, t, ll, np.array(times),
-                         np.concatenate(states).reshape(-1, n),
-                         np.concatenate(covs).reshape(-1, n, n), np.array(nis),
-                         np.array(lls), np.array(dof, dtype=np.int64), True)
-
-
-def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: float
-                     ) -> tuple[Array, Array, float]:
-    """Move a Gaussian from ``t`` to ``tk`` (s) as :meth:`TrackingFilter.predict` does.
-
-    The predicted covariance is not symmetrised: it only enters the update, whose result is.
-
-    Parameters
-    ----------
-    dyn : DynamicsCache
-        The dynamics' ``Phi`` and ``Q`` per step size.
-    mean, cov : numpy.ndarray
-        State ``(n,)`` and covariance ``(n, n)`` at ``t``.
-    t, tk : float
-        Times (s).
-
-    Returns
-    -------
-    mean, cov, time
-        At ``max(t, tk)``.
-
-    Raises
-    ------
-    ValueError
-        If ``tk`` is earlier than ``t`` (beyond :data:`TIME_TOLERANCE`).
-    """
-    dt = tk - t
-    if dt > TIME_TOLERANCE:
-        phi, phit, q = dyn.get(dt)
-        p = phi.dot(cov).dot(phit)
-        p += q
-        return phi.dot(mean), p, tk
-    if dt < -TIME_TOLERANCE:
-        raise ValueError(f"filters run forward: cannot predict from t={t} s back to t={tk} s")
-    return mean, cov, max(t, tk)
+def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll: float
+                ) -> KernelRun:
+    """Give per-update rows ``(t, state, covariance, NIS, dof, log-likelihood)`` as a run."""
+    if not rows:
+        return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
+                         np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
+                         np.zeros(0, dtype=np.int64), True)
+    times, states, covs, nis, dof, lls = zip(*rows, strict=True)
+    return KernelRun(len(rows), False, mean, cov, t, ll, np.array(times),
+                     np.concatenate(states).reshape(-1, n),
+                     np.concatenate(covs).reshape(-1, n, n), np.array(nis), np.array(lls),
+                     np.array(dof, dtype=np.int64), True)
 
 
 # -- the plan ---------------------------------------------------------------------------------
