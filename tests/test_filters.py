@@ -462,8 +462,7 @@ def several_kinds_run(dim: int, seed: int = 5, scalar: bool = False
 def test_updated_covariance_is_the_short_form_unless_that_is_not_positive_definite():
     from scipy.linalg.lapack import dpotrf
 
-    from tmakit.filters.ekf import joseph
-    from tmakit.filters.general import innovation_solve, updated_covariance
+    from tmakit.filters.general import innovation_solve, joseph, updated_covariance
 
     rng = np.random.default_rng(0)
     forms = set()

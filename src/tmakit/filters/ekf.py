@@ -17,9 +17,9 @@ from .general import (
     RowSteps,
     Step,
     StepPlan,
-    checked_psd,
     finite,
     innovation_solve,
+    joseph,
     kalman_gain,
     linearise,
     plan_for,
@@ -30,7 +30,6 @@ from .general import (
 from .kernels import KernelRun, ekf_bearing_2d
 
 LOG_2PI = float(np.log(2.0 * np.pi))
-_EYE = {4: np.eye(4), 6: np.eye(6)}
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of
 #: the smallest distance to a sensor of the group.
 IEKF_TOL = 1e-10
@@ -86,26 +85,6 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
     loglik = -0.5 * (nis + log_det + m * LOG_2PI)
     g = h if h_cov is None else h_cov
     return mean + gain @ residual, joseph(cov, gain, g, r), UpdateInfo(nis, m, loglik)
-
-
-def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
-    """Give the Joseph-form update ``(I - K H) P (I - K H)^T + K R K^T``, checked PD.
-
-    Parameters
-    ----------
-    cov, gain, h, r : numpy.ndarray
-        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        The covariance, symmetrised and repaired only when its Cholesky check fails
-        (:func:`~.general.checked_psd`).
-    """
-    i_kh = _EYE[cov.shape[0]] - gain @ h
-    p = i_kh @ cov @ i_kh.T
-    p += gain @ r @ gain.T
-    return checked_psd(p)
 
 
 def skipped() -> UpdateInfo:

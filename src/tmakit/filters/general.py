@@ -291,6 +291,11 @@ def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -
     p *= 0.5
     if dpotrf(p, lower=1, clean=0)[1] == 0:
         return p
+    return joseph(cov, gain, h, r)
+
+
+def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
+    """Give the Joseph form ``(I - K H) P (I - K H)^T + K R K^T``, checked (:func:`checked_psd`)."""
     i_kh = np.eye(cov.shape[0]) - gain.dot(h)
     p = i_kh.dot(cov).dot(i_kh.T)
     p += gain.dot(r).dot(gain.T)

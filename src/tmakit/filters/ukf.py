@@ -149,9 +149,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         numpy.ndarray
             ``[x, x + gamma L_j, x - gamma L_j]`` ``(2n+1, n)`` (m, m/s).
         """
-        chol = safe_cholesky(self._cov)
-        dev = self._gamma * chol.T  # rows: gamma L_j
-        return np.concatenate([self._mean[None, :], self._mean + dev, self._mean - dev])
+        return self._plan_points(self._mean, self._cov)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         angle = group.angle if group.angle.any() else None
@@ -164,7 +162,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         return UnscentedKalmanFilter
 
     def _plan_points(self, mean: Array, cov: Array) -> Array:
-        """Give the sigma points of ``(mean, cov)`` (one Cholesky check; as sigma_points)."""
+        """Give the sigma points of ``(mean, cov)`` (``safe_cholesky`` if LAPACK's fails)."""
         chol, info = dpotrf(cov, lower=1, clean=1)
         if info != 0:
             chol = safe_cholesky(cov)
@@ -220,32 +218,3 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
 
 def _predict_group(group: MeasurementGroup, points: Array) -> Array:
     return group.predict(points)
-
-
-def weighted_mean(z: Array, weights: Array, angle: ArrayLike | None = None) -> Array:
-    """Give the weighted mean over the first axis, circular for angle columns.
-
-    Parameters
-    ----------
-    z : numpy.ndarray
-        Values ``(k, m)`` (measurement units; angles in rad).
-    weights : numpy.ndarray
-        Weights ``(k,)``.
-    angle : array_like of bool, optional
-        ``(m,)``: columns that are angles; they get the circular mean
-        ``atan2(sum w sin z, sum w cos z)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        Weighted means ``(m,)`` (units of ``z``; angle columns in (-pi, pi]).
-    """
-    mean = weights @ z
-    if angle is None:
-        return mean
-    angle = np.asarray(angle, dtype=bool)
-    if np.any(angle):
-        za = z[:, angle]
-        mean[angle] = np.arctan2(weights @ np.sin(za), weights @ np.cos(za))
-    return mean
-
