@@ -117,7 +117,18 @@ class CompiledMeasurements:
         return int(self.times.shape[0])
 
     def bearing_lists(self) -> tuple[list[float], ...]:
-        """Give the bearing kernels' columns (time, bearing, variance, sensor x, y), as lists."""
+        """Give the bearing kernels' columns, as lists made once.
+
+        Returns
+        -------
+        tuple of list of float
+            ``(time s, bearing rad, variance rad^2, sensor x m, sensor y m)``.
+
+        Raises
+        ------
+        ValueError
+            When the updates are not all single bearings.
+        """
         if not self.single_bearing:
             raise ValueError("bearing_lists: the updates are not all single bearings")
         if self._lists is None:
@@ -228,14 +239,36 @@ Step = tuple
 
 
 def sym(p: Array) -> Array:
-    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.linalg.symmetrise`)."""
+    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.linalg.symmetrise`).
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        ``(n, n)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        A new symmetric matrix.
+    """
     out = p + p.T
     out *= 0.5
     return out
 
 
 def checked_psd(p: Array) -> Array:
-    """Give ``p`` symmetrised, repaired (:func:`~tmakit.linalg.repair_psd`) only if not PD."""
+    """Give ``p`` symmetrised, repaired (:func:`~tmakit.linalg.repair_psd`) only if not PD.
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        Covariance ``(n, n)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Symmetric, numerically positive definite ``(n, n)``.
+    """
     p = sym(p)
     if dpotrf(p, lower=1, clean=0)[1] == 0:
         return p
@@ -243,11 +276,25 @@ def checked_psd(p: Array) -> Array:
 
 
 def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float, float]:
-    """Give ``(S^-1 HP)^T`` (the gain), the NIS ``r^T S^-1 r`` and ``log det S``.
+    """Give the gain ``(S^-1 HP)^T``, the NIS ``r^T S^-1 r`` and ``log det S``.
 
-    One and two rows in closed form (``S`` symmetric to rounding), more by one Cholesky
-    factorisation (LAPACK ``posv``, lower triangle); an ``S`` that is not numerically positive
-    definite goes to :func:`~tmakit.linalg.solve_spd`, which repairs it.
+    One and two rows in closed form, more by one Cholesky factorisation (LAPACK ``posv``,
+    lower triangle); an ``S`` that is not numerically positive definite goes to
+    :func:`~tmakit.linalg.solve_spd`, which repairs it.
+
+    Parameters
+    ----------
+    s : numpy.ndarray
+        Innovation covariance ``(m, m)``, symmetric to rounding.
+    hp : numpy.ndarray
+        ``H P`` ``(m, n)``.
+    residual : numpy.ndarray
+        Innovation ``(m,)`` (SI).
+
+    Returns
+    -------
+    gain, nis, log_det
+        ``(n, m)``, float, float (natural logarithm).
     """
     m = s.shape[0]
     if m == 1:
@@ -273,7 +320,20 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
 
 def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
                 ) -> tuple[Array, float, float]:
-    """Give the gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``."""
+    """Give the gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``.
+
+    Parameters
+    ----------
+    cov, h, r : numpy.ndarray
+        ``P`` ``(n, n)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
+    residual : numpy.ndarray
+        Innovation ``(m,)`` (SI).
+
+    Returns
+    -------
+    gain, nis, log_det
+        As for :func:`innovation_solve`.
+    """
     hp = h.dot(cov)
     s = hp.dot(h.T)
     s += r
@@ -283,8 +343,15 @@ def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
 def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -> Array:
     """Give ``P - K H P`` symmetrised, or the Joseph form when that fails its Cholesky check.
 
-    The Joseph form ``(I - K H) P (I - K H)^T + K R K^T`` (equal for the optimal gain, safer in
-    rounding) is symmetrised and repaired when its own check fails (:func:`checked_psd`).
+    Parameters
+    ----------
+    cov, gain, hp, h, r : numpy.ndarray
+        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H P`` ``(m, n)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The updated covariance ``(n, n)``, symmetric, numerically PD.
     """
     p = cov - gain.dot(hp)
     p = p + p.T
@@ -295,7 +362,18 @@ def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -
 
 
 def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
-    """Give the Joseph form ``(I - K H) P (I - K H)^T + K R K^T``, checked (:func:`checked_psd`)."""
+    """Give the Joseph form ``(I - K H) P (I - K H)^T + K R K^T``, checked (:func:`checked_psd`).
+
+    Parameters
+    ----------
+    cov, gain, h, r : numpy.ndarray
+        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The covariance ``(n, n)``.
+    """
     i_kh = np.eye(cov.shape[0]) - gain.dot(h)
     p = i_kh.dot(cov).dot(i_kh.T)
     p += gain.dot(r).dot(gain.T)
@@ -320,7 +398,18 @@ class DynamicsCache:
         self._cache: dict[float, tuple[Array, Array, Array]] = {}
 
     def get(self, dt: float) -> tuple[Array, Array, Array]:
-        """Give ``Phi(dt)``, its transpose (contiguous) and ``Q(dt)``, cached by step size."""
+        """Give the transition and process noise of one step, cached by step size.
+
+        Parameters
+        ----------
+        dt : float
+            The step, s (> 0).
+
+        Returns
+        -------
+        phi, phi_t, q : numpy.ndarray
+            ``Phi(dt)``, its transpose (contiguous), ``Q(dt)``.
+        """
         out = self._cache.get(dt)
         if out is None:
             if len(self._cache) > 256:  # irregular times: keep the cache small
@@ -332,7 +421,20 @@ class DynamicsCache:
 
 
 def predict_rows(step: Step, x: Array) -> Array:
-    """Give the predictions ``(..., m)`` (SI) of a plan's step at filter states ``x`` (..., n)."""
+    """Give the predictions of a plan's step at filter states.
+
+    Parameters
+    ----------
+    step : Step
+        One update of a :class:`StepPlan` or :class:`RowSteps`.
+    x : numpy.ndarray
+        Filter states ``(..., n)`` (m, m/s).
+
+    Returns
+    -------
+    numpy.ndarray
+        Predicted values ``(..., m)`` (SI).
+    """
     _, _, sens, parts, tmap, _, _, _, times, _ = step
     xt = x.dot(tmap.T) if x.ndim <= 2 else x @ tmap.T
     rel = (xt - sens).reshape(*x.shape[:-1], -1, 6)
@@ -346,7 +448,18 @@ def predict_rows(step: Step, x: Array) -> Array:
 
 
 def wrap_small(a: Array) -> Array:
-    """Give ``wrap_angle(a)``, or ``a`` itself (no copy) when every entry is in (-pi, pi]."""
+    """Give ``wrap_angle(a)``, or ``a`` itself (no copy) when every entry is in (-pi, pi].
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Angle differences (rad).
+
+    Returns
+    -------
+    numpy.ndarray
+        The wrapped angles (rad).
+    """
     flat = a.ravel().tolist()
     if flat and -math.pi < min(flat) and max(flat) <= math.pi:
         return a
@@ -437,7 +550,18 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
 
 
 def finite(y: Array, h: Array) -> bool:
-    """Tell whether a residual and a Jacobian are finite (two dot products decide most)."""
+    """Tell whether a residual and a Jacobian are finite (two dot products decide most cases).
+
+    Parameters
+    ----------
+    y, h : numpy.ndarray
+        A residual ``(m,)`` and a Jacobian ``(m, n)``.
+
+    Returns
+    -------
+    bool
+        True when every entry of both is finite.
+    """
     flat = h.reshape(-1)
     total = float(y.dot(y)) + float(flat.dot(flat))
     if total - total == 0.0:
@@ -447,7 +571,24 @@ def finite(y: Array, h: Array) -> bool:
 
 def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll: float
                 ) -> KernelRun:
-    """Give per-update rows ``(t, state, covariance, NIS, dof, log-likelihood)`` as a run."""
+    """Give a plan run's per-update rows as a :class:`~.kernels.KernelRun`.
+
+    Parameters
+    ----------
+    rows : list of tuple
+        ``(time s, state, covariance, NIS, rows, cumulative log-likelihood)``.
+    n : int
+        State size.
+    mean, cov : numpy.ndarray
+        The final state ``(n,)`` and covariance ``(n, n)``.
+    t, ll : float
+        Their time (s) and the cumulative log-likelihood (nats).
+
+    Returns
+    -------
+    KernelRun
+        The run, every update stacked.
+    """
     if not rows:
         return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
                          np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
@@ -648,15 +789,24 @@ class RowSteps:
         self._patterns: dict[bytes, tuple | None] = {}
 
     def step(self, rows: MeasurementSet, t: float) -> Step | None:
-        """Give the step of ``rows`` at filter time ``t`` (s); None for the group path.
+        """Give the step of ``rows`` at filter time ``t``, or None where a group is needed.
 
-        Kinds with an earlier reference sample or correlated noise take the group path.
+        Parameters
+        ----------
+        rows : MeasurementSet
+            The update's rows (any times: predicted from the state).
+        t : float
+            Filter time, s.
+
+        Returns
+        -------
+        Step or None
+            None for kinds with a reference sample or correlated noise.
 
         Raises
         ------
         ValueError
-            When a kind needs a nuisance value that was not given (from
-            :func:`~tmakit.observation.resolve_models`).
+            When a kind needs a nuisance value that was not given.
         """
         dt = rows.time - t
         key = rows.kind_code.tobytes() + dt.tobytes()
