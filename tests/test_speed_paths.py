@@ -16,7 +16,7 @@ import tmakit as tk
 from tmakit.batch import presolve
 from tmakit.batch.varpro import VarProProblem
 from tmakit.filters import ExtendedKalmanFilter
-from tmakit.filters.compiled import compiled_for
+from tmakit.filters.general import compiled_for
 from tmakit.frames import wrap_angle
 from tmakit.observation import ObservationModel
 

@@ -20,8 +20,8 @@ from ..data import MeasurementSet
 from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .compiled import CompiledMeasurements, compiled_for
 from .extras import TrackExtras
+from .general import CompiledMeasurements, compiled_for
 from .kernels import KernelRun
 from .record import Recorder, UpdateInfo
 from .track import Track
@@ -120,6 +120,10 @@ class TrackingFilter(ABC):
     @abstractmethod
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         """Condition on one group of measurements at :attr:`time`."""
+
+    def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
+        """Condition on rows without a group, where the filter can (None: use a group)."""
+        return None
 
     # -- the interface -----------------------------------------------------------------------
     @property
@@ -225,14 +229,18 @@ class TrackingFilter(ABC):
             NIS, degrees of freedom and log-likelihood of the update.
         """
         with one_thread(self.single_blas_thread):
-            info = self._update(self.group(rows))
+            info = None
+            if isinstance(rows, MeasurementSet) and type(self).group is TrackingFilter.group:
+                info = self._update_rows(rows)
+            if info is None:
+                info = self._update(self.group(rows))
         self.log_likelihood += info.log_likelihood
         return info
 
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
-        The set is compiled once (:class:`~.compiled.CompiledMeasurements`, kept for the
+        The set is compiled once (:class:`~.general.CompiledMeasurements`, kept for the
         set's next runs with the same dimension, options and nuisance); a filter with a
         closed-form kernel for the case (:mod:`.kernels`) uses it.
 

@@ -2,40 +2,50 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..linalg import symmetrise
+from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
-from .compiled import CompiledMeasurements
 from .general import (
+    CompiledMeasurements,
     DynamicsCache,
-    PlanOutputs,
+    RowSteps,
     Step,
-    checked_psd,
+    StepPlan,
+    finite,
     innovation_solve,
+    joseph,
     kalman_gain,
     linearise,
+    plan_for,
+    stacked_run,
+    sym,
     updated_covariance,
 )
 from .kernels import KernelRun, ekf_bearing_2d
-from .plan import StepPlan, plan_for
 
 LOG_2PI = float(np.log(2.0 * np.pi))
-_EYE = {4: np.eye(4), 6: np.eye(6)}
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of
 #: the smallest distance to a sensor of the group.
 IEKF_TOL = 1e-10
 
 
-def _range_scale(group: MeasurementGroup, x: Array, dim: int) -> float:
-    """Give the smallest distance (m) from the position ``x[:dim]`` to the group's sensors."""
-    pos = group.sensor_state[:, :dim]
-    return float(np.min(np.linalg.norm(pos - x[:dim], axis=1)))
+def _range_scale(rows: MeasurementGroup | Step, x: Array, dim: int) -> float:
+    """Give the smallest distance (m) from the position ``x[:dim]`` to the rows' sensors."""
+    sens = rows[2].reshape(-1, 6) if isinstance(rows, tuple) else rows.sensor_state
+    return float(np.min(np.linalg.norm(sens[:, :dim] - x[:dim], axis=1)))
+
+
+def _linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, bool]:
+    """Give the wrapped residual, the Jacobian at ``x`` and whether both are finite."""
+    y = group.residual(group.predict(x))
+    h = group.jacobian(x)
+    return y, h, finite(y, h)
 
 
 def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array,
@@ -75,26 +85,6 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
     loglik = -0.5 * (nis + log_det + m * LOG_2PI)
     g = h if h_cov is None else h_cov
     return mean + gain @ residual, joseph(cov, gain, g, r), UpdateInfo(nis, m, loglik)
-
-
-def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
-    """Give the Joseph-form update ``(I - K H) P (I - K H)^T + K R K^T``, checked PD.
-
-    Parameters
-    ----------
-    cov, gain, h, r : numpy.ndarray
-        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        The covariance, symmetrised and repaired only when its Cholesky check fails
-        (:func:`~.general.checked_psd`).
-    """
-    i_kh = _EYE[cov.shape[0]] - gain @ h
-    p = i_kh @ cov @ i_kh.T
-    p += gain @ r @ gain.T
-    return checked_psd(p)
 
 
 def skipped() -> UpdateInfo:
@@ -174,32 +164,67 @@ class ExtendedKalmanFilter(TrackingFilter):
         return self._cov.copy()
 
     def _predict(self, dt: float) -> None:
-        phi = self.dynamics.transition(dt)
-        self._mean = phi @ self._mean
-        self._cov = symmetrise(phi @ self._cov @ phi.T + self.dynamics.noise(dt))
+        phi, phit, q = self._dynamics_cache().get(dt)
+        self._mean = phi.dot(self._mean)
+        cov = phi.dot(self._cov).dot(phit)
+        cov += q
+        self._cov = sym(cov)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        prior = self._mean
-        residual = group.residual(group.predict(prior))
-        h = group.jacobian(prior)
-        if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(h))):
+        self._mean, self._cov, nis, m, ll = self._kalman(_linearise_group, group,
+                                                         group.covariance, self._mean,
+                                                         self._cov)
+        return UpdateInfo(nis, m, ll)
+
+    def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
+        if type(self)._update is not self._planned()._update:
+            return None
+        step = self._row_steps().step(rows, self.time)
+        if step is None:
+            return None
+        self._mean, self._cov, nis, m, ll = self._plan_update(step, self._mean, self._cov)
+        return UpdateInfo(nis, m, ll)
+
+    @staticmethod
+    def _planned() -> type:
+        """Give the class whose ``_update`` :meth:`_plan_update` computes (else groups)."""
+        return ExtendedKalmanFilter
+
+    def _kalman(self, lin: Callable, arg: object, r: Array, mean: Array, cov: Array
+                ) -> tuple[Array, Array, float, int, float]:
+        """One (iterated) EKF update: mean, covariance, NIS, rows, log-likelihood.
+
+        ``lin(arg, x)`` gives the wrapped residual, the Jacobian at ``x`` and whether both are
+        finite (a plan's step or a group).  The covariance is ``P - K H P`` when that is
+        positive definite, else the Joseph form (:func:`~.general.updated_covariance`).  An
+        update whose linearisation is not finite is skipped and counted.
+        """
+        y, h, ok = lin(arg, mean)
+        if not ok:
             self.skipped_updates += 1
-            return skipped()
-        r = group.covariance
-        mean, cov, info = gaussian_update(prior, self._cov, residual, h, r)
+            return mean, cov, float("nan"), 0, 0.0
+        hp = h.dot(cov)
+        s = hp.dot(h.T)
+        s += r
+        gain, nis, log_det = innovation_solve(s, hp, y)
+        new = mean + gain.dot(y)
+        new_cov = updated_covariance(cov, gain, hp, h, r)
         for _ in range(self.iterations - 1):
-            res_i = group.residual(group.predict(mean))
-            h_i = group.jacobian(mean)
-            if not (np.all(np.isfinite(res_i)) and np.all(np.isfinite(h_i))):
+            y_i, h_i, ok = lin(arg, new)
+            if not ok:
                 break
-            new, cov_i, _ = gaussian_update(prior, self._cov, res_i - h_i @ (prior - mean),
-                                            h_i, r)
-            step = float(np.linalg.norm((new - mean)[:self.dim]))
-            mean, cov = new, cov_i
-            if step <= IEKF_TOL * _range_scale(group, mean, self.dim):
+            hp = h_i.dot(cov)
+            s = hp.dot(h_i.T)
+            s += r
+            y_i = y_i - h_i.dot(mean - new)
+            g_i = innovation_solve(s, hp, y_i)[0]
+            nxt = mean + g_i.dot(y_i)
+            size = float(np.linalg.norm((nxt - new)[:self.dim]))
+            new, new_cov = nxt, updated_covariance(cov, g_i, hp, h_i, r)
+            if size <= IEKF_TOL * _range_scale(arg, new, self.dim):
                 break
-        self._mean, self._cov = mean, cov
-        return info
+        m = y.shape[0]
+        return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
 
     # -- the closed-form path ----------------------------------------------------------------
     def _kernel_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]) -> bool:
@@ -238,79 +263,46 @@ class ExtendedKalmanFilter(TrackingFilter):
             cache = self._dyn_cache = DynamicsCache(self.dynamics)
         return cache
 
-    def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
+    def _plan_update(self, step: Step, mean: Array, cov: Array
                      ) -> tuple[Array, Array, float, int, float]:
-        """One update of the general path: mean, covariance, NIS, rows, log-likelihood.
+        """One update of the general path (:meth:`_kalman` on the step)."""
+        return self._kalman(linearise, step, step[6], mean, cov)
 
-        The covariance is ``P - K H P`` when that is positive definite, else the Joseph form
-        (:func:`~.general.updated_covariance`).
-        """
-        y, h, ok = linearise(step, mean, plan.eye_map)
-        if not ok:
-            self.skipped_updates += 1
-            return mean, cov, float("nan"), 0, 0.0
-        r = step[6]
-        hp = h.dot(cov)
-        s = hp.dot(h.T)
-        s += r
-        gain, nis, log_det = innovation_solve(s, hp, y)
-        new = mean + gain.dot(y)
-        new_cov = updated_covariance(cov, gain, hp, h, r)
-        if self.iterations > 1:
-            new, new_cov = self._iterate(step, plan, mean, cov, new, new_cov)
-        m = y.shape[0]
-        return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
-
-    def _iterate(self, step: Step, plan: StepPlan, mean: Array, cov: Array, new: Array,
-                 new_cov: Array) -> tuple[Array, Array]:
-        """Relinearise an update of the general path (the iterated EKF, as in ``_update``)."""
-        r = step[6]
-        for _ in range(self.iterations - 1):
-            y_i, h_i, ok = linearise(step, new, plan.eye_map)
-            if not ok:
-                break
-            hp = h_i.dot(cov)
-            s = hp.dot(h_i.T)
-            s += r
-            y_i = y_i - h_i.dot(mean - new)
-            g_i = innovation_solve(s, hp, y_i)[0]
-            nxt = mean + g_i.dot(y_i)
-            size = float(np.linalg.norm((nxt - new)[:self.dim]))
-            new, new_cov = nxt, updated_covariance(cov, g_i, hp, h_i, r)
-            pos = step[2].reshape(-1, 6)[:, :self.dim]
-            if size <= IEKF_TOL * float(np.min(np.linalg.norm(pos - new[:self.dim], axis=1))):
-                break
-        return new, new_cov
+    def _row_steps(self) -> RowSteps:
+        steps = getattr(self, "_steps", None)
+        if steps is None:
+            steps = self._steps = RowSteps(self.dim, self.options, self.nuisance)
+        return steps
 
     def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
         """Run updates ``start`` on of a plan (the general path compiled once per file)."""
         steps = plan.steps[start:]
-        out = PlanOutputs(len(steps), 2 * self.dim)
-        put = out.rows.append
+        rows: list[tuple] = []
+        put = rows.append
         get = self._dynamics_cache().get
         update = self._plan_update
         mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
         for step in steps:
             tk = step[0]
             dt = tk - t
-            if dt > TIME_TOLERANCE:  # predict_gaussian, inline
+            if dt > TIME_TOLERANCE:
                 phi, phit, q = get(dt)
                 cov = phi.dot(cov).dot(phit)
                 cov += q
                 mean, t = phi.dot(mean), tk
             elif dt < -TIME_TOLERANCE:
-                raise ValueError(f"filters run forward: cannot predict from t={t} s back "
-                                 f"to t={tk} s")
+                raise ValueError(f"filters run forward: cannot predict from t={t} s back to "
+                                 f"t={tk} s")
             elif tk > t:
                 t = tk
-            mean, cov, nis, m, lli = update(step, plan, mean, cov)
+            mean, cov, nis, m, lli = update(step, mean, cov)
             ll += lli
             put((t, mean, cov, nis, m, ll))
-        return self._adopt(out.run(mean, cov, t, ll))
+        return self._adopt(stacked_run(rows, 2 * self.dim, mean, cov, t, ll))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        if not self._kernel_ok(compiled, ExtendedKalmanFilter):
-            plan = self._plan_ok(compiled, ExtendedKalmanFilter)
+        if not self._kernel_ok(compiled, self._planned()):
+            plan = self._plan_ok(compiled, self._planned())
             return None if plan is None else self._run_plan(plan, start)
         return self._adopt(ekf_bearing_2d(self._mean, self._cov, self.time,
                                           self.log_likelihood, start, compiled.bearing_lists(),

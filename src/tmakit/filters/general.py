@@ -1,38 +1,234 @@
-"""The general filter path, compiled once per file: any kinds, any sensors, 2-D and 3-D.
+"""The general filter path: a measurement set prepared once per file, its plan, and the step.
 
-A filter step on the general path used to build a :class:`~tmakit.observation.MeasurementGroup`
-(its row model, noise covariance and layout), move the state to the rows, call each kind's
-``predict`` and ``jacobian``, chain the Jacobian, and solve twice on a Cholesky factor: about
-290 Python calls.  Here everything that does not depend on the state is made once per file
-(:class:`~.plan.StepPlan`): the rows of each update sorted by kind (every kind's rows a slice, a
-view), the linear map from the filter state to the target states at the rows (one per pattern
-of row-time offsets), the noise covariance of each update, the angle rows.  A step is then one
-product for the relative states, one fused ``predict_gradient`` per kind, one product for the
-chained Jacobian, and :func:`kalman_gain` — closed form for one and two rows, one Cholesky
-factorisation otherwise.  The dynamics' ``Phi`` and ``Q`` are cached per step size
-(:class:`DynamicsCache`); the EKF's posterior covariance is ``P - K H P``, the Joseph form only
-when that fails its Cholesky check (:func:`updated_covariance`), repaired only when that fails
-too (:func:`checked_psd`).  Small products use ``ndarray.dot``: on arrays of a few entries
-NumPy 2's ``@`` (a ufunc) costs about twice as much per call, for the same BLAS result.
+:meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct
+measurement time.  Cutting the :class:`~tmakit.data.MeasurementSet` into one small set per update
+and building a :class:`~tmakit.observation.MeasurementGroup` from each costs more than the
+arithmetic of a filter step, so the set is prepared once, vectorised
+(:class:`CompiledMeasurements`: rows sorted by time, update boundaries, SI values and sigmas, the
+kinds' models and nuisance vectors), and so is everything of each update that does not depend
+on the state (:class:`StepPlan`): its rows sorted by kind (every kind's rows a slice), the linear
+map from the filter state to the target states at the rows (one per pattern of row-time
+offsets), its noise covariance, its angle rows, and plain-float row records for updates of at
+most :data:`SCALAR_ROWS` rows.  A step is then one product for the relative states, one fused
+``predict_gradient`` per kind, one product for the chained Jacobian, and
+:func:`innovation_solve` (closed form for one and two rows, one Cholesky factorisation
+otherwise).  ``Phi`` and ``Q`` are made once per step size (:class:`DynamicsCache`); the EKF's
+posterior covariance is ``P - K H P``, the Joseph form only when that fails its Cholesky check
+(:func:`updated_covariance`), repaired only when that fails too (:func:`checked_psd`).  Small
+products use ``ndarray.dot``, cheaper per call than NumPy 2's ``@`` on a few entries.
 
-Kinds with an earlier reference sample (range differences) keep the group path.  The results
-equal the group path's (:meth:`TrackingFilter.run_groups`) to rounding;
-``tests/test_filters.py::test_general_plan_equals_the_group_path`` pins them.
+Rows handed over one update at a time (``predict`` then ``update``, as a live tracker calls a
+filter) get the same step (:class:`RowSteps`), made per pattern of kinds and row times.  Kinds
+with an earlier reference sample (range differences), and groups given whole, are linearised by
+the :class:`~tmakit.observation.MeasurementGroup` instead, into the same update arithmetic; the
+results equal to rounding (``tests/test_filters.py::test_general_plan_equals_the_group_path``).
 """
 
 from __future__ import annotations
 
 import math
+import weakref
+from collections.abc import Mapping
+from itertools import pairwise
 
 import numpy as np
 from scipy.linalg.lapack import dposv, dpotrf
 
 from ..arrays import Array
+from ..data import KIND_CODES, MeasurementSet
 from ..frames import wrap_angle
 from ..linalg import repair_psd, solve_spd
+from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
-from ..observation.groups import TIME_TOLERANCE
+from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
+from ..observation.rows import as_slice, correlated_blocks
 from .kernels import TWO_PI, KernelRun
+
+
+class CompiledMeasurements:
+    """A measurement set prepared once for a filter run.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (SI columns are taken from it).
+    dim : int
+        Filter dimension, 2 or 3.
+    options : mapping, optional
+        Per-kind model options (``{"frequency": {"drift": True}}``).
+    nuisance : mapping, optional
+        Known nuisance values by name (Hz, dB, ...).
+
+    Raises
+    ------
+    ValueError
+        The same clear errors as :class:`~tmakit.observation.MeasurementGroup` (e.g. a
+        missing nuisance value), once, up front.
+    """
+
+    def __init__(self, meas: MeasurementSet, dim: int,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self.meas = meas
+        self.dim = int(dim)
+        n = len(meas)
+        # The same grouping as tmakit.observation.group_times: one update per time.
+        order, self.bounds = time_blocks(meas.time)
+        t = meas.time[order]
+        self.order = order
+        #: Update times (s): the last (latest) row time of each update, as ``run`` uses.
+        self.times = t[self.bounds[1:] - 1] if n else np.zeros(0)
+        self.models: dict[str, MeasurementModel]
+        self.nuisance: dict[str, Array]
+        self.models, self.nuisance = resolve_models(meas.kinds, options, nuisance)
+        self.kind = meas.kind[order]
+        self.values = meas.value_si[order]
+        self.sigmas = meas.sigma_si[order]
+        self.time = t
+        self.time_ref = meas.time_ref[order]
+        self.sensor_state = meas.sensor_state[order]
+        self.ref_sensor_state = meas.ref_sensor_state[order]
+        self.sensor = meas.sensor[order]
+        self._kind_codes = {k: i for i, k in enumerate(self.models)}
+        # The set's kind codes (data.KIND_CODES) mapped to this file's model order: no per-row
+        # Python.
+        lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
+        for k, i in self._kind_codes.items():
+            lookup[KIND_CODES[k]] = i
+        self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
+        self._lists: tuple[list[float], ...] | None = None
+        #: What the filters derive from the set once per run (e.g. the general path's plan).
+        self.cache: dict[str, object] = {}
+        #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
+        #: row layout, made once and shared by the updates with that pattern.
+        self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
+        sizes = np.diff(self.bounds)
+        #: Every update is one bearing row (the closed-form kernels apply).
+        self.single_bearing = bool(n > 0 and np.all(sizes == 1)
+                                   and set(self.models) == {"bearing"})
+
+    @property
+    def model_index(self) -> Array:
+        """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
+        return self._codes
+
+    def __len__(self) -> int:
+        """Return the number of updates."""
+        return int(self.times.shape[0])
+
+    def bearing_lists(self) -> tuple[list[float], ...]:
+        """Give the bearing kernels' columns, as lists made once.
+
+        Returns
+        -------
+        tuple of list of float
+            ``(time s, bearing rad, variance rad^2, sensor x m, sensor y m)``.
+
+        Raises
+        ------
+        ValueError
+            When the updates are not all single bearings.
+        """
+        if not self.single_bearing:
+            raise ValueError("bearing_lists: the updates are not all single bearings")
+        if self._lists is None:
+            self._lists = (self.time.tolist(), self.values.tolist(), (self.sigmas**2).tolist(),
+                           self.sensor_state[:, 0].tolist(), self.sensor_state[:, 1].tolist())
+        return self._lists
+
+    def rows(self, k: int) -> MeasurementSet:
+        """Return the rows of update ``k`` as a MeasurementSet (the slow, general path).
+
+        Parameters
+        ----------
+        k : int
+            Update index.
+
+        Returns
+        -------
+        MeasurementSet
+        """
+        return self.meas.take(self.order[self.bounds[k]:self.bounds[k + 1]])
+
+    def group(self, k: int, t: float) -> MeasurementGroup:
+        """Return update ``k`` as a :class:`MeasurementGroup`, from views of the columns.
+
+        Parameters
+        ----------
+        k : int
+            Update index.
+        t : float
+            Filter time, s.
+
+        Returns
+        -------
+        MeasurementGroup
+        """
+        a, b = int(self.bounds[k]), int(self.bounds[k + 1])
+        codes = self._codes[a:b]
+        key = codes.tobytes()
+        parts = self._layouts.get(key)
+        if parts is None:  # the first update with this pattern of kinds
+            models, index = {}, {}
+            for kind, code in self._kind_codes.items():
+                idx = np.flatnonzero(codes == code)
+                if idx.size:
+                    models[kind] = self.models[kind]
+                    index[kind] = idx
+            nus = {kind: self.nuisance[kind] for kind in models}
+            parts = (models, index, nus, RowLayout(models, index, b - a))
+            self._layouts[key] = parts
+        models, index, nus, layout = parts
+        return MeasurementGroup.from_arrays(
+            t, self.dim, models, nus, index, self.values[a:b], self.sigmas[a:b],
+            self.time[a:b], self.time_ref[a:b], self.sensor_state[a:b],
+            self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k), layout)
+
+
+#: The sets compiled so far, per measurement set (whose arrays are read-only) and per
+#: (dimension, options, nuisance values): a set filtered again (another filter, another prior,
+#: the same filter once more) is compiled once.  Kept while the set lives.
+_COMPILED: weakref.WeakKeyDictionary[MeasurementSet, dict[str, CompiledMeasurements]] = \
+    weakref.WeakKeyDictionary()
+
+
+def compiled_for(meas: MeasurementSet, dim: int,
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> CompiledMeasurements:
+    """Give ``meas`` compiled for a filter, made once per set and settings.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    dim : int
+        Filter dimension, 2 or 3.
+    options, nuisance : mapping, optional
+        As for :class:`CompiledMeasurements`.
+
+    Returns
+    -------
+    CompiledMeasurements
+        The same object for the same set, dimension, options and nuisance values.
+    """
+    key = repr((int(dim), sorted((str(k), sorted(dict(v).items()))
+                                 for k, v in dict(options or {}).items()),
+                sorted(dict(nuisance or {}).items())))
+    try:
+        per_set = _COMPILED.get(meas)
+        if per_set is None:
+            per_set = _COMPILED[meas] = {}
+    except TypeError:  # a set that cannot be weakly referenced or hashed: compiled each time
+        return CompiledMeasurements(meas, dim, options, nuisance)
+    out = per_set.get(key)
+    if out is None:
+        if len(per_set) >= 8:  # many settings on one set: keep the cache small
+            per_set.clear()
+        out = per_set[key] = CompiledMeasurements(meas, dim, options, nuisance)
+    return out
+
+
+# -- the step ---------------------------------------------------------------------------------
 
 #: One update of a plan: update time (s), values (m,), sensor states flattened (m * 6,),
 #: the kinds' parts, the state-to-target map ``T`` (m * 6, n), its rows as (m, 6, n) or None
@@ -43,17 +239,17 @@ Step = tuple
 
 
 def sym(p: Array) -> Array:
-    """Give ``(P + P^T) / 2`` of one square matrix (the value of :func:`~tmakit.linalg.symmetrise`).
+    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.linalg.symmetrise`).
 
     Parameters
     ----------
     p : numpy.ndarray
-        ``(n, n)`` (any units).
+        ``(n, n)``.
 
     Returns
     -------
     numpy.ndarray
-        A new symmetric matrix (units of ``p``).
+        A new symmetric matrix.
     """
     out = p + p.T
     out *= 0.5
@@ -66,13 +262,12 @@ def checked_psd(p: Array) -> Array:
     Parameters
     ----------
     p : numpy.ndarray
-        Covariance ``(n, n)`` (any units).
+        Covariance ``(n, n)``.
 
     Returns
     -------
     numpy.ndarray
-        Symmetric, numerically positive-definite ``(n, n)`` matrix: ``p`` symmetrised when its
-        Cholesky factorisation succeeds (the check), else :func:`~tmakit.linalg.repair_psd`.
+        Symmetric, numerically positive definite ``(n, n)``.
     """
     p = sym(p)
     if dpotrf(p, lower=1, clean=0)[1] == 0:
@@ -81,30 +276,25 @@ def checked_psd(p: Array) -> Array:
 
 
 def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float, float]:
-    """Give ``(S^-1 HP)^T``, the NIS ``residual^T S^-1 residual`` and ``log det S``.
+    """Give the gain ``(S^-1 HP)^T``, the NIS ``r^T S^-1 r`` and ``log det S``.
 
-    One and two rows in closed form, more by one Cholesky factorisation and solve (LAPACK
-    ``posv``); an ``S`` that is not numerically positive definite goes to
+    One and two rows in closed form, more by one Cholesky factorisation (LAPACK ``posv``,
+    lower triangle); an ``S`` that is not numerically positive definite goes to
     :func:`~tmakit.linalg.solve_spd`, which repairs it.
 
     Parameters
     ----------
     s : numpy.ndarray
-        Innovation covariance ``(m, m)`` (measurement units squared), symmetric to rounding:
-        two rows average ``s[0, 1]`` and ``s[1, 0]``, more rows read the lower triangle.
+        Innovation covariance ``(m, m)``, symmetric to rounding.
     hp : numpy.ndarray
-        ``H P`` ``(m, n)`` (the cross covariance of measurement and state, transposed).
+        ``H P`` ``(m, n)``.
     residual : numpy.ndarray
         Innovation ``(m,)`` (SI).
 
     Returns
     -------
-    gain : numpy.ndarray
-        ``P H^T S^-1`` ``(n, m)``.
-    nis : float
-        Normalised innovation squared.
-    log_det : float
-        ``log det S`` (natural logarithm).
+    gain, nis, log_det
+        ``(n, m)``, float, float (natural logarithm).
     """
     m = s.shape[0]
     if m == 1:
@@ -130,16 +320,12 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
 
 def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
                 ) -> tuple[Array, float, float]:
-    """Give the Kalman gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``.
+    """Give the gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``.
 
     Parameters
     ----------
-    cov : numpy.ndarray
-        Prior covariance ``(n, n)``.
-    h : numpy.ndarray
-        Measurement matrix ``(m, n)``.
-    r : numpy.ndarray
-        Measurement noise covariance ``(m, m)``.
+    cov, h, r : numpy.ndarray
+        ``P`` ``(n, n)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
     residual : numpy.ndarray
         Innovation ``(m,)`` (SI).
 
@@ -155,35 +341,39 @@ def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
 
 
 def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -> Array:
-    """Give the updated covariance ``P - K H P``, in Joseph form only when that is not PD.
-
-    ``P - K (H P)`` symmetrised is taken when its Cholesky check succeeds; otherwise the Joseph
-    form ``(I - K H) P (I - K H)^T + K R K^T`` (equal for the optimal gain, and safer in
-    rounding), symmetrised and repaired when its own check fails (:func:`checked_psd`).
+    """Give ``P - K H P`` symmetrised, or the Joseph form when that fails its Cholesky check.
 
     Parameters
     ----------
-    cov : numpy.ndarray
-        Prior covariance ``P`` ``(n, n)`` (SI).
-    gain : numpy.ndarray
-        Kalman gain ``K`` ``(n, m)``.
-    hp : numpy.ndarray
-        ``H P`` ``(m, n)``.
-    h : numpy.ndarray
-        Measurement matrix ``H`` ``(m, n)``.
-    r : numpy.ndarray
-        Measurement noise covariance ``(m, m)`` (SI).
+    cov, gain, hp, h, r : numpy.ndarray
+        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H P`` ``(m, n)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
 
     Returns
     -------
     numpy.ndarray
-        The updated covariance ``(n, n)``, symmetric and numerically positive definite.
+        The updated covariance ``(n, n)``, symmetric, numerically PD.
     """
     p = cov - gain.dot(hp)
     p = p + p.T
     p *= 0.5
     if dpotrf(p, lower=1, clean=0)[1] == 0:
         return p
+    return joseph(cov, gain, h, r)
+
+
+def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
+    """Give the Joseph form ``(I - K H) P (I - K H)^T + K R K^T``, checked (:func:`checked_psd`).
+
+    Parameters
+    ----------
+    cov, gain, h, r : numpy.ndarray
+        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The covariance ``(n, n)``.
+    """
     i_kh = np.eye(cov.shape[0]) - gain.dot(h)
     p = i_kh.dot(cov).dot(i_kh.T)
     p += gain.dot(r).dot(gain.T)
@@ -208,7 +398,7 @@ class DynamicsCache:
         self._cache: dict[float, tuple[Array, Array, Array]] = {}
 
     def get(self, dt: float) -> tuple[Array, Array, Array]:
-        """Give the transition and process noise of one step (cached by step size).
+        """Give the transition and process noise of one step, cached by step size.
 
         Parameters
         ----------
@@ -217,8 +407,8 @@ class DynamicsCache:
 
         Returns
         -------
-        phi, phi_t, q : ndarray
-            ``Phi(dt)``, its transpose (contiguous) and ``Q(dt)``, each ``(n, n)``, SI.
+        phi, phi_t, q : numpy.ndarray
+            ``Phi(dt)``, its transpose (contiguous), ``Q(dt)``.
         """
         out = self._cache.get(dt)
         if out is None:
@@ -230,51 +420,45 @@ class DynamicsCache:
         return out
 
 
-def predict_rows(step: Step, x: Array, dim: int) -> tuple[Array, Array]:
-    """Give the predictions ``(..., m)`` and relative states ``(..., m, 6)`` at states ``x``.
+def predict_rows(step: Step, x: Array) -> Array:
+    """Give the predictions of a plan's step at filter states.
 
     Parameters
     ----------
     step : Step
-        One update of a :class:`~.plan.StepPlan`.
+        One update of a :class:`StepPlan` or :class:`RowSteps`.
     x : numpy.ndarray
-        Filter states ``(..., 2 dim)`` (m, m/s).
-    dim : int
-        2 or 3.
+        Filter states ``(..., n)`` (m, m/s).
 
     Returns
     -------
-    values, rel : numpy.ndarray
-        Predicted values (SI) and the relative states they came from (m, m/s).
+    numpy.ndarray
+        Predicted values ``(..., m)`` (SI).
     """
     _, _, sens, parts, tmap, _, _, _, times, _ = step
     xt = x.dot(tmap.T) if x.ndim <= 2 else x @ tmap.T
     rel = (xt - sens).reshape(*x.shape[:-1], -1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
-        return model.predict(rel, times, nu, None), rel
+        return model.predict(rel, times, nu, None)
     out = np.empty(rel.shape[:-1])
     for model, sl, nu in parts:
         out[..., sl] = model.predict(rel[..., sl, :], times[sl], nu, None)
-    return out, rel
+    return out
 
 
 def wrap_small(a: Array) -> Array:
-    """Wrap angle differences to (-pi, pi], leaving those already inside untouched.
-
-    The values of :func:`~tmakit.frames.wrap_angle` (which also keeps values inside as they
-    are), without its copy: the few entries of a filter's update are tested as floats, and
-    only an array with a value outside goes to ``wrap_angle``.
+    """Give ``wrap_angle(a)``, or ``a`` itself (no copy) when every entry is in (-pi, pi].
 
     Parameters
     ----------
     a : numpy.ndarray
-        Angle differences (rad), any shape.
+        Angle differences (rad).
 
     Returns
     -------
     numpy.ndarray
-        ``a`` itself when every entry is in (-pi, pi], else ``wrap_angle(a)`` (rad).
+        The wrapped angles (rad).
     """
     flat = a.ravel().tolist()
     if flat and -math.pi < min(flat) and max(flat) <= math.pi:
@@ -282,17 +466,15 @@ def wrap_small(a: Array) -> Array:
     return wrap_angle(a)
 
 
-def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]:
+def linearise(step: Step, x: Array) -> tuple[Array, Array, bool]:
     """Give the wrapped residual ``z - h(x)`` (m,) and the Jacobian ``H`` (m, n) at ``x``.
 
     Parameters
     ----------
     step : Step
-        One update of a :class:`~.plan.StepPlan`.
+        One update of a :class:`StepPlan`.
     x : numpy.ndarray
         Filter state ``(n,)`` (m, m/s).
-    eye_map : numpy.ndarray
-        The map ``(6, n)`` of a row at the update time.
 
     Returns
     -------
@@ -303,7 +485,7 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
     """
     _, z, sens, parts, tmap, t3, _, angle, times, rows = step
     if rows is not None:
-        return _linearise_rows(rows, x, eye_map.shape[1] // 2)
+        return _linearise_rows(rows, x, x.shape[0] // 2)
     rel = (tmap.dot(x) - sens).reshape(-1, 6)
     if len(parts) == 1:
         model, _, nu = parts[0]
@@ -313,7 +495,7 @@ def linearise(step: Step, x: Array, eye_map: Array) -> tuple[Array, Array, bool]
         d = np.empty(rel.shape)
         for model, sl, nu in parts:
             pred[sl], d[sl] = model.predict_gradient(rel[sl], times[sl], nu)
-    h = d.dot(eye_map) if t3 is None else np.einsum("mi,min->mn", d, t3)
+    h = d.dot(EYE_MAPS[x.shape[0]]) if t3 is None else np.einsum("mi,min->mn", d, t3)
     y = z - pred
     if angle is not None:
         y[angle] = wrap_angle(y[angle])
@@ -368,14 +550,11 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
 
 
 def finite(y: Array, h: Array) -> bool:
-    """Tell whether a residual and a Jacobian are finite.
-
-    Two dot products decide when their sum is finite; otherwise (a NaN, an infinity, or an
-    overflow of the squares) ``numpy.isfinite`` does.
+    """Tell whether a residual and a Jacobian are finite (two dot products decide most cases).
 
     Parameters
     ----------
-    y, h : ndarray
+    y, h : numpy.ndarray
         A residual ``(m,)`` and a Jacobian ``(m, n)``.
 
     Returns
@@ -390,107 +569,281 @@ def finite(y: Array, h: Array) -> bool:
     return bool(np.isfinite(y).all() and np.isfinite(h).all())
 
 
-class PlanOutputs:
-    """Per-update outputs of a run on a plan, gathered as rows, stacked at the end.
-
-    The states and covariances are kept by reference: every step makes new arrays.
+def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll: float
+                ) -> KernelRun:
+    """Give a plan run's per-update rows as a :class:`~.kernels.KernelRun`.
 
     Parameters
-    ----------
-    k : int
-        Number of updates.
-    n : int
-        State size.
-
-    Attributes
     ----------
     rows : list of tuple
-        One ``(time s, state (n,), covariance (n, n), NIS, rows, cumulative log-likelihood
-        nats)`` per update, appended by the run (``rows.append``: one call a step).
-    """
-
-    def __init__(self, k: int, n: int) -> None:
-        self.n = n
-        self.rows: list[tuple[float, Array, Array, float, int, float]] = []
-
-    def put(self, t: float, mean: Array, cov: Array, nis: float, dof: int, ll: float) -> None:
-        """Record the next update.
-
-        Parameters
-        ----------
-        t : float
-            Its time, s.
-        mean, cov : ndarray
-            The updated state ``(n,)`` and covariance ``(n, n)``, SI (kept by reference).
-        nis : float
-            Normalised innovation squared.
-        dof : int
-            Measurement rows of the update.
-        ll : float
-            Cumulative log-likelihood, nats.
-        """
-        self.rows.append((t, mean, cov, nis, dof, ll))
-
-    def run(self, mean: Array, cov: Array, t: float, ll: float) -> KernelRun:
-        """Give the outputs as a :class:`~.kernels.KernelRun` ending at the last update.
-
-        Parameters
-        ----------
-        mean, cov : ndarray
-            The final state ``(n,)`` and covariance ``(n, n)``, SI.
-        t : float
-            Their time, s.
-        ll : float
-            The final cumulative log-likelihood, nats.
-
-        Returns
-        -------
-        KernelRun
-            The run, with every recorded update stacked.
-        """
-        n, k = self.n, len(self.rows)
-        if not k:
-            return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
-                             np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
-                             np.zeros(0, dtype=np.int64), True)
-        times, states, covs, nis, dof, lls = zip(*self.rows, strict=True)
-        return KernelRun(k, False, mean, cov, t, ll, np.array(times),
-                         np.concatenate(states).reshape(-1, n),
-                         np.concatenate(covs).reshape(-1, n, n), np.array(nis),
-                         np.array(lls), np.array(dof, dtype=np.int64), True)
-
-
-def predict_gaussian(dyn: DynamicsCache, mean: Array, cov: Array, t: float, tk: float
-                     ) -> tuple[Array, Array, float]:
-    """Move a Gaussian from ``t`` to ``tk`` (s) as :meth:`TrackingFilter.predict` does.
-
-    The predicted covariance is not symmetrised: it only enters the update, whose result is.
-
-    Parameters
-    ----------
-    dyn : DynamicsCache
-        The dynamics' ``Phi`` and ``Q`` per step size.
+        ``(time s, state, covariance, NIS, rows, cumulative log-likelihood)``.
+    n : int
+        State size.
     mean, cov : numpy.ndarray
-        State ``(n,)`` and covariance ``(n, n)`` at ``t``.
-    t, tk : float
-        Times (s).
+        The final state ``(n,)`` and covariance ``(n, n)``.
+    t, ll : float
+        Their time (s) and the cumulative log-likelihood (nats).
 
     Returns
     -------
-    mean, cov, time
-        At ``max(t, tk)``.
-
-    Raises
-    ------
-    ValueError
-        If ``tk`` is earlier than ``t`` (beyond :data:`TIME_TOLERANCE`).
+    KernelRun
+        The run, every update stacked.
     """
-    dt = tk - t
-    if dt > TIME_TOLERANCE:
-        phi, phit, q = dyn.get(dt)
-        p = phi.dot(cov).dot(phit)
-        p += q
-        return phi.dot(mean), p, tk
-    if dt < -TIME_TOLERANCE:
-        raise ValueError(f"filters run forward: cannot predict from t={t} s back to t={tk} s")
-    return mean, cov, max(t, tk)
+    if not rows:
+        return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
+                         np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
+                         np.zeros(0, dtype=np.int64), True)
+    times, states, covs, nis, dof, lls = zip(*rows, strict=True)
+    return KernelRun(len(rows), False, mean, cov, t, ll, np.array(times),
+                     np.concatenate(states).reshape(-1, n),
+                     np.concatenate(covs).reshape(-1, n, n), np.array(nis), np.array(lls),
+                     np.array(dof, dtype=np.int64), True)
+
+
+# -- the plan ---------------------------------------------------------------------------------
+
+#: Updates of at most this many rows, all of kinds with a plain-float ``row_gradient``, are
+#: linearised row by row in Python floats (cheaper than NumPy calls on so few numbers).
+SCALAR_ROWS = 8
+
+
+def _pattern(codes: Array, names: list[str], models: Mapping[str, MeasurementModel],
+             nuisance: Mapping[str, Array]
+             ) -> tuple[list[tuple[MeasurementModel, slice, Array]], object, dict]:
+    """Give the kinds' parts ``(model, rows, nuisance)``, the angle rows, the kinds' index."""
+    parts, index = [], {}
+    angle = np.zeros(codes.shape[0], dtype=bool)
+    for i, kind in enumerate(names):
+        idx = np.flatnonzero(codes == i)
+        if idx.size:
+            sl = as_slice(idx)
+            model = models[kind]
+            parts.append((model, sl, nuisance[kind]))
+            index[kind] = sl
+            angle[sl] = model.is_angle
+    ang: object = None if not angle.any() else as_slice(np.flatnonzero(angle))
+    return parts, ang, index
+
+
+def _state_map(dt: Array, dim: int) -> Array:
+    """``T`` (m, 6, 2 dim): target states at rows ``dt`` (s) after the filter time."""
+    m = dt.shape[0]
+    out = np.zeros((m, 6, 2 * dim))
+    for j in range(dim):
+        out[:, j, j] = 1.0
+        out[:, j, dim + j] = dt
+        out[:, 3 + j, dim + j] = 1.0
+    return out
+
+
+def _diagonal_noise(var: Array, bounds: Array) -> list[Array]:
+    """Give ``diag(var)`` of each update's rows, made per update size at once (views)."""
+    sizes = np.diff(bounds)
+    out: list[Array] = [np.empty((0, 0))] * sizes.shape[0]
+    for m in np.unique(sizes).tolist():
+        which = np.flatnonzero(sizes == m)
+        stack = np.zeros((which.size, m, m))
+        idx = np.arange(m)
+        stack[:, idx, idx] = var[bounds[which][:, None] + idx]
+        for j, r in zip(which.tolist(), stack, strict=True):
+            out[j] = r
+    return out
+
+
+def _views(arr: Array, bounds: list[int], width: int = 1) -> list[Array]:
+    """Give ``arr[width a:width b]`` for each update's rows ``a:b`` (views).
+
+    When every update has as many rows, the rows of one reshape (made at once).
+    """
+    sizes = {b - a for a, b in pairwise(bounds)}
+    if len(sizes) == 1 and arr.shape[0] == width * bounds[-1]:
+        return list(arr.reshape(len(bounds) - 1, -1))
+    return [arr[width * a:width * b] for a, b in pairwise(bounds)]
+
+
+class StepPlan:
+    """Every update of a compiled set, prepared for the general path (see the module text).
+
+    Parameters
+    ----------
+    compiled : CompiledMeasurements
+        The set compiled for the filter (its ``dim``, options and nuisance values).
+
+    Attributes
+    ----------
+    ok : bool
+        False when a kind uses an earlier reference sample (the group path is used).
+    steps : list
+        One :data:`Step` per update.
+    sizes : numpy.ndarray
+        Rows per update (K,).
+    """
+
+    def __init__(self, compiled: CompiledMeasurements) -> None:
+        self.dim = compiled.dim
+        self.ok = not any(m.uses_reference for m in compiled.models.values())
+        self.steps: list[Step] = []
+        self.sizes = np.diff(compiled.bounds)
+        if not self.ok or len(compiled) == 0:
+            return
+        names = list(compiled.models)
+        codes = compiled.model_index
+        update = np.repeat(np.arange(len(compiled)), self.sizes)
+        # Rows of each update sorted by kind: every kind's rows become one slice.
+        perm = np.lexsort((codes, update))
+        codes = codes[perm]
+        dt = compiled.time[perm] - compiled.times[update]
+        values = compiled.values[perm]
+        sens = compiled.sensor_state[perm]
+        var = compiled.sigmas[perm] ** 2
+        time, time_ref = compiled.time[perm], compiled.time_ref[perm]
+        sensor, sigmas = compiled.sensor[perm], compiled.sigmas[perm]
+        correlated = any(m.correlated_noise for m in compiled.models.values())
+        scalar = all(m.has_row_gradient for m in compiled.models.values())
+        recs = self._records(compiled, names, codes, values, sens, dt, time) if scalar else None
+        patterns: dict[bytes, tuple[list, object, dict]] = {}
+        maps: dict[bytes, tuple[Array, Array | None]] = {}
+        bounds = compiled.bounds.tolist()
+        code_bytes, width = codes.tobytes(), codes.itemsize
+        moved = (np.add.reduceat(dt != 0.0, compiled.bounds[:-1]) > 0).tolist()
+        flat_sens = sens.reshape(-1)
+        noise = _diagonal_noise(var, compiled.bounds)
+        update_times = compiled.times.tolist()
+        value_k, sens_k, time_k = (_views(values, bounds), _views(flat_sens, bounds, 6),
+                                   _views(time, bounds))
+        for k in range(len(compiled)):
+            a, b = bounds[k], bounds[k + 1]
+            key = code_bytes[a * width:b * width]
+            pat = patterns.get(key)
+            if pat is None:
+                pat = patterns[key] = _pattern(codes[a:b], names, compiled.models,
+                                                compiled.nuisance)
+            parts, angle, index = pat
+            dkey = dt[a:b].tobytes() if moved[k] else b - a
+            tm = maps.get(dkey)
+            if tm is None:
+                t3 = _state_map(dt[a:b], self.dim)
+                tm = maps[dkey] = (t3.reshape(-1, 2 * self.dim), t3 if moved[k] else None)
+            r = noise[k]
+            if correlated:
+                for rows, cov in correlated_blocks(compiled.models, index, time[a:b],
+                                                   time_ref[a:b], sigmas[a:b], sensor[a:b]):
+                    r[np.ix_(rows, rows)] = cov
+            self.steps.append((update_times[k], value_k[k], sens_k[k], parts,
+                               tm[0], tm[1], r, angle, time_k[k],
+                               recs[a:b] if recs is not None and b - a <= SCALAR_ROWS
+                               else None))
+
+    @staticmethod
+    def _records(compiled: CompiledMeasurements, names: list[str], codes: Array,
+                 values: Array, sens: Array, dt: Array, time: Array) -> list[tuple]:
+        """Give every row as a plain-float record for :func:`linearise` (kinds in order)."""
+        info = [(compiled.models[k].row_gradient, tuple(compiled.nuisance[k].tolist()),
+                 compiled.models[k].is_angle) for k in names]
+        per_row = [info[c] for c in codes.tolist()]
+        return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
+                zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
+                    sens.tolist(), strict=True)]
+
+
+
+def plan_for(compiled: CompiledMeasurements) -> StepPlan:
+    """Give the plan of a compiled set, made on first use and kept in its cache.
+
+    Parameters
+    ----------
+    compiled : CompiledMeasurements
+        The set compiled for the filter.
+
+    Returns
+    -------
+    StepPlan
+    """
+    plan = compiled.cache.get("step_plan")
+    if plan is None:
+        plan = compiled.cache["step_plan"] = StepPlan(compiled)
+    return plan
+
+
+#: The map ``(6, n)`` from a filter state to the target state at the update time, per ``n``.
+EYE_MAPS = {2 * d: _state_map(np.zeros(1), d)[0] for d in (2, 3)}
+
+
+class RowSteps:
+    """Steps, as a plan's, for rows handed over one update at a time (the step-by-step API).
+
+    What depends only on the rows' kinds and their times relative to the update (models, kind
+    slices, the state-to-row map, angle rows) is made once per such pattern.
+
+    Parameters
+    ----------
+    dim : int
+        Filter dimension, 2 or 3.
+    options, nuisance : mapping, optional
+        As for :class:`CompiledMeasurements`.
+    """
+
+    def __init__(self, dim: int, options: Mapping[str, Mapping[str, object]] | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self.dim, self.options, self.nuisance = dim, options, nuisance
+        self._patterns: dict[bytes, tuple | None] = {}
+
+    def step(self, rows: MeasurementSet, t: float) -> Step | None:
+        """Give the step of ``rows`` at filter time ``t``, or None where a group is needed.
+
+        Parameters
+        ----------
+        rows : MeasurementSet
+            The update's rows (any times: predicted from the state).
+        t : float
+            Filter time, s.
+
+        Returns
+        -------
+        Step or None
+            None for kinds with a reference sample or correlated noise.
+
+        Raises
+        ------
+        ValueError
+            When a kind needs a nuisance value that was not given.
+        """
+        dt = rows.time - t
+        key = rows.kind_code.tobytes() + dt.tobytes()
+        if key not in self._patterns:
+            if len(self._patterns) > 256:  # irregular row times: keep the cache small
+                self._patterns.clear()
+            self._patterns[key] = self._pattern(rows, dt)
+        pat = self._patterns[key]
+        if pat is None:
+            return None
+        perm, parts, tmap, t3, angle, info, dts = pat
+        values, sigmas, time, sens = rows.value_si, rows.sigma_si, rows.time, rows.sensor_state
+        if perm is not None:
+            values, sigmas, time, sens = values[perm], sigmas[perm], time[perm], sens[perm]
+        recs = None if info is None else [
+            (fn, nu, ti, d, v, ang, s) for (fn, nu, ang), ti, d, v, s in
+            zip(info, time.tolist(), dts, values.tolist(), sens.tolist(), strict=True)]
+        return (t, values, sens.reshape(-1), parts, tmap, t3, np.diag(sigmas * sigmas), angle,
+                time, recs)
+
+    def _pattern(self, rows: MeasurementSet, dt: Array) -> tuple | None:
+        models, nus = resolve_models(rows.kinds, self.options, self.nuisance)
+        if any(m.uses_reference or m.correlated_noise for m in models.values()):
+            return None
+        names = list(models)
+        lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
+        for i, k in enumerate(names):
+            lookup[KIND_CODES[k]] = i
+        codes = lookup[rows.kind_code]
+        perm = np.argsort(codes, kind="stable")
+        codes, dt = codes[perm], dt[perm]
+        parts, angle, _ = _pattern(codes, names, models, nus)
+        t3 = _state_map(dt, self.dim)
+        info = None
+        if codes.shape[0] <= SCALAR_ROWS and all(m.has_row_gradient for m in models.values()):
+            info = [(models[names[c]].row_gradient, tuple(nus[names[c]].tolist()),
+                     models[names[c]].is_angle) for c in codes.tolist()]
+        moved = bool(np.any(dt != 0.0))
+        return (None if np.all(perm[:-1] < perm[1:]) else perm, parts,
+                t3.reshape(-1, 2 * self.dim), t3 if moved else None, angle, info, dt.tolist())

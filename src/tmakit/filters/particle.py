@@ -53,8 +53,8 @@ from ..linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
-from .compiled import CompiledMeasurements
 from .ekf import LOG_2PI, skipped
+from .general import CompiledMeasurements
 from .kernels import KernelRun
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).

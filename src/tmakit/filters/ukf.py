@@ -29,19 +29,19 @@ that of ``nu ~ N(0, P_zz)``.  One bearing per update in 2-D runs on the closed-f
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg.lapack import dpotrf
 
-from ..linalg import safe_cholesky, symmetrise
+from ..linalg import safe_cholesky
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, UpdateInfo
-from .compiled import CompiledMeasurements
-from .ekf import LOG_2PI, ExtendedKalmanFilter, skipped
+from .ekf import LOG_2PI, ExtendedKalmanFilter
 from .general import (
+    CompiledMeasurements,
     Step,
     checked_psd,
     innovation_solve,
@@ -49,7 +49,6 @@ from .general import (
     wrap_small,
 )
 from .kernels import KernelRun, ukf_bearing_2d
-from .plan import StepPlan
 
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float
@@ -152,72 +151,66 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         numpy.ndarray
             ``[x, x + gamma L_j, x - gamma L_j]`` ``(2n+1, n)`` (m, m/s).
         """
-        chol = safe_cholesky(self._cov)
-        dev = self._gamma * chol.T  # rows: gamma L_j
-        return np.concatenate([self._mean[None, :], self._mean + dev, self._mean - dev])
+        return self._plan_points(self._mean, self._cov)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        pts = self.sigma_points()
-        z = group.predict(pts)  # (2n+1, m)
-        if not np.all(np.isfinite(z)):
-            self.skipped_updates += 1
-            return skipped()
-        zbar = weighted_mean(z, self._wm, group.angle)
-        dz = group.residual(zbar, z)  # z_i - zbar, wrapped
-        dx = pts - self._mean
-        wc = self._wc
-        pzz = symmetrise((dz * wc[:, None]).T @ dz + group.covariance)
-        pxz = (dx * wc[:, None]).T @ dz
-        nu = group.residual(zbar)
-        gain, nis, log_det = innovation_solve(pzz, pxz.T, nu)
-        self._mean = self._mean + gain @ nu
-        self._cov = checked_psd(self._cov - gain @ pzz @ gain.T)
-        m = nu.shape[0]
-        return UpdateInfo(nis, m, -0.5 * (nis + log_det + m * LOG_2PI))
+        angle = group.angle if group.angle.any() else None
+        self._mean, self._cov, nis, m, ll = self._unscented(
+            _predict_group, group, group.values, angle, group.covariance, self._mean, self._cov)
+        return UpdateInfo(nis, m, ll)
+
+    @staticmethod
+    def _planned() -> type:
+        return UnscentedKalmanFilter
 
     def _plan_points(self, mean: Array, cov: Array) -> Array:
-        """Give the sigma points of ``(mean, cov)`` (one Cholesky check; as sigma_points)."""
+        """Give the sigma points of ``(mean, cov)`` (``safe_cholesky`` if LAPACK's fails)."""
         chol, info = dpotrf(cov, lower=1, clean=1)
         if info != 0:
             chol = safe_cholesky(cov)
         dev = self._gamma * chol.T
         return np.concatenate((mean[None, :], mean + dev, mean - dev))
 
-    def _plan_update(self, step: Step, plan: StepPlan, mean: Array, cov: Array
+    def _plan_update(self, step: Step, mean: Array, cov: Array
                      ) -> tuple[Array, Array, float, int, float]:
-        """One UKF update of the general path (the arithmetic of :meth:`_update`).
+        """One update of the general path (:meth:`_unscented` on the step)."""
+        return self._unscented(predict_rows, step, step[1], step[7], step[6], mean, cov)
 
-        The loop over a plan's steps is the EKF's (:meth:`ExtendedKalmanFilter._run_plan`);
-        ``plan`` is not needed here.  Angle differences already in (-pi, pi] are not wrapped
-        (:func:`~.general.wrap_small`).
+    def _unscented(self, predict: Callable, arg: object, values: Array, angle: object,
+                   r: Array, mean: Array, cov: Array) -> tuple[Array, Array, float, int, float]:
+        """One UKF update: mean, covariance, NIS, rows, log-likelihood.
+
+        ``predict(arg, points)`` gives the rows' predictions at the sigma points (a plan's step
+        or a group); ``angle`` indexes the angle rows (None: none).  Angle differences already
+        in (-pi, pi] are not wrapped (:func:`~.general.wrap_small`).  An update whose
+        predictions are not finite is skipped and counted.
         """
         pts = self._plan_points(mean, cov)
-        z, _ = predict_rows(step, pts, self.dim)
+        z = predict(arg, pts)
         total = float(z.sum())
         if total - total != 0.0:
             self.skipped_updates += 1
             return mean, cov, float("nan"), 0, 0.0
-        angle = step[7]
         wm = self._wm
         zbar = wm.dot(z)
         dz = z - zbar
-        nu = step[1] - zbar
+        nu = values - zbar
         if angle is not None:
             za = z[:, angle]
             zbar[angle] = np.arctan2(wm.dot(np.sin(za)), wm.dot(np.cos(za)))
             dz[:, angle] = wrap_small(za - zbar[angle])
-            nu[angle] = wrap_small(step[1][angle] - zbar[angle])
+            nu[angle] = wrap_small(values[angle] - zbar[angle])
         dzw = dz * self._wc_col
         pzz = dzw.T.dot(dz)
-        pzz += step[6]
+        pzz += r
         gain, nis, log_det = innovation_solve(pzz, dzw.T.dot(pts - mean), nu)
         m = nu.shape[0]
         return (mean + gain.dot(nu), checked_psd(cov - gain.dot(pzz).dot(gain.T)), nis, m,
                 -0.5 * (nis + log_det + m * LOG_2PI))
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        if not self._kernel_ok(compiled, UnscentedKalmanFilter):
-            plan = self._plan_ok(compiled, UnscentedKalmanFilter)
+        if not self._kernel_ok(compiled, self._planned()):
+            plan = self._plan_ok(compiled, self._planned())
             return None if plan is None else self._run_plan(plan, start)
         weights = (self._gamma, float(self._wm[0]), float(self._wc[0]), float(self._wm[1]))
         return self._adopt(ukf_bearing_2d(self._mean, self._cov, self.time,
@@ -225,30 +218,5 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
                                           self._q2(), weights))
 
 
-def weighted_mean(z: Array, weights: Array, angle: ArrayLike | None = None) -> Array:
-    """Give the weighted mean over the first axis, circular for angle columns.
-
-    Parameters
-    ----------
-    z : numpy.ndarray
-        Values ``(k, m)`` (measurement units; angles in rad).
-    weights : numpy.ndarray
-        Weights ``(k,)``.
-    angle : array_like of bool, optional
-        ``(m,)``: columns that are angles; they get the circular mean
-        ``atan2(sum w sin z, sum w cos z)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        Weighted means ``(m,)`` (units of ``z``; angle columns in (-pi, pi]).
-    """
-    mean = weights @ z
-    if angle is None:
-        return mean
-    angle = np.asarray(angle, dtype=bool)
-    if np.any(angle):
-        za = z[:, angle]
-        mean[angle] = np.arctan2(weights @ np.sin(za), weights @ np.cos(za))
-    return mean
-
+def _predict_group(group: MeasurementGroup, points: Array) -> Array:
+    return group.predict(points)

@@ -136,7 +136,7 @@ class MeasurementGroup:
     Notes
     -----
     :meth:`from_arrays` builds one from precomputed columns without a MeasurementSet (the
-    filters' fast path, :mod:`tmakit.filters.compiled`); ``rows`` is then made on first use.
+    filters' fast path, :mod:`tmakit.filters.general`); ``rows`` is then made on first use.
     :meth:`planned` builds one for measurements not yet made (a planner's candidates).
 
     References
