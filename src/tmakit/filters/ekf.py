@@ -186,11 +186,11 @@ class ExtendedKalmanFilter(TrackingFilter):
         return UpdateInfo(nis, m, ll)
 
     @staticmethod
-    def _planned() -> type:
+    def _planned() -> type[ExtendedKalmanFilter]:
         """Give the class whose ``_update`` :meth:`_plan_update` computes (else groups)."""
         return ExtendedKalmanFilter
 
-    def _kalman(self, lin: Callable, arg: object, r: Array, mean: Array, cov: Array
+    def _kalman(self, lin: Callable, arg: MeasurementGroup | Step, r: Array, mean: Array, cov: Array
                 ) -> tuple[Array, Array, float, int, float]:
         """One (iterated) EKF update: mean, covariance, NIS, rows, log-likelihood.
 

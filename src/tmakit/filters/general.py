@@ -34,14 +34,14 @@ from itertools import pairwise
 import numpy as np
 from scipy.linalg.lapack import dposv, dpotrf
 
-from ..arrays import Array
+from ..arrays import Array, IntArray
 from ..data import KIND_CODES, MeasurementSet
 from ..frames import wrap_angle
 from ..linalg import repair_psd, solve_spd
 from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
-from ..observation.rows import as_slice, correlated_blocks
+from ..observation.rows import Index, as_slice, correlated_blocks
 from .kernels import TWO_PI, KernelRun
 
 
@@ -108,7 +108,7 @@ class CompiledMeasurements:
                                    and set(self.models) == {"bearing"})
 
     @property
-    def model_index(self) -> Array:
+    def model_index(self) -> IntArray:
         """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
         return self._codes
 
@@ -607,11 +607,13 @@ def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll
 SCALAR_ROWS = 8
 
 
-def _pattern(codes: Array, names: list[str], models: Mapping[str, MeasurementModel],
+def _pattern(codes: IntArray, names: list[str], models: Mapping[str, MeasurementModel],
              nuisance: Mapping[str, Array]
-             ) -> tuple[list[tuple[MeasurementModel, slice, Array]], object, dict]:
+             ) -> tuple[list[tuple[MeasurementModel, Index, Array]],
+                        Index | None, dict[str, Index]]:
     """Give the kinds' parts ``(model, rows, nuisance)``, the angle rows, the kinds' index."""
-    parts, index = [], {}
+    parts: list[tuple[MeasurementModel, Index, Array]] = []
+    index: dict[str, Index] = {}
     angle = np.zeros(codes.shape[0], dtype=bool)
     for i, kind in enumerate(names):
         idx = np.flatnonzero(codes == i)
@@ -621,7 +623,7 @@ def _pattern(codes: Array, names: list[str], models: Mapping[str, MeasurementMod
             parts.append((model, sl, nuisance[kind]))
             index[kind] = sl
             angle[sl] = model.is_angle
-    ang: object = None if not angle.any() else as_slice(np.flatnonzero(angle))
+    ang = None if not angle.any() else as_slice(np.flatnonzero(angle))
     return parts, ang, index
 
 
@@ -636,7 +638,7 @@ def _state_map(dt: Array, dim: int) -> Array:
     return out
 
 
-def _diagonal_noise(var: Array, bounds: Array) -> list[Array]:
+def _diagonal_noise(var: Array, bounds: IntArray) -> list[Array]:
     """Give ``diag(var)`` of each update's rows, made per update size at once (views)."""
     sizes = np.diff(bounds)
     out: list[Array] = [np.empty((0, 0))] * sizes.shape[0]
@@ -735,7 +737,7 @@ class StepPlan:
                                else None))
 
     @staticmethod
-    def _records(compiled: CompiledMeasurements, names: list[str], codes: Array,
+    def _records(compiled: CompiledMeasurements, names: list[str], codes: IntArray,
                  values: Array, sens: Array, dt: Array, time: Array) -> list[tuple]:
         """Give every row as a plain-float record for :func:`linearise` (kinds in order)."""
         info = [(compiled.models[k].row_gradient, tuple(compiled.nuisance[k].tolist()),
@@ -760,7 +762,7 @@ def plan_for(compiled: CompiledMeasurements) -> StepPlan:
     StepPlan
     """
     plan = compiled.cache.get("step_plan")
-    if plan is None:
+    if not isinstance(plan, StepPlan):
         plan = compiled.cache["step_plan"] = StepPlan(compiled)
     return plan
 

@@ -38,6 +38,7 @@ from scipy.linalg.lapack import dpotrf
 from ..linalg import safe_cholesky
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
+from ..observation.rows import Index
 from .base import Array, KindOptions, ProcessNoise, UpdateInfo
 from .ekf import LOG_2PI, ExtendedKalmanFilter
 from .general import (
@@ -160,7 +161,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         return UpdateInfo(nis, m, ll)
 
     @staticmethod
-    def _planned() -> type:
+    def _planned() -> type[ExtendedKalmanFilter]:
         return UnscentedKalmanFilter
 
     def _plan_points(self, mean: Array, cov: Array) -> Array:
@@ -176,7 +177,8 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         """One update of the general path (:meth:`_unscented` on the step)."""
         return self._unscented(predict_rows, step, step[1], step[7], step[6], mean, cov)
 
-    def _unscented(self, predict: Callable, arg: object, values: Array, angle: object,
+    def _unscented(self, predict: Callable, arg: object, values: Array,
+                   angle: Index | None,
                    r: Array, mean: Array, cov: Array) -> tuple[Array, Array, float, int, float]:
         """One UKF update: mean, covariance, NIS, rows, log-likelihood.
 
