@@ -148,7 +148,7 @@ class MaximumLikelihood(BatchEstimator):
         theta0 = None if self.init is None else self._start(motion)
         if not sets:
             return []
-        known = self.known_nuisance
+        known = as_known_nuisance(self.known_nuisance)  # (no-op: __post_init__ converted it)
         obs = ObservationModel(sets[0], motion, self.options)
         fixed = None if known is None else obs.nuisance_vector(known.values)
         problem = VarProProblem(obs, None, fixed)
@@ -422,15 +422,15 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         theta = np.concatenate([blocks[r] for r in runs])
         owner = np.concatenate([np.full(blocks[r].shape[0], r) for r in runs])
         # Starts bound for a worse minimum than one already reached stop early.
-        reached = np.array([np.inf if best[r] is None else best[r].cost for r in range(b)])
+        reached = np.array([np.inf if f is None else f.cost for f in best])
         data = ys if np.array_equal(owner, np.arange(b)) else ys[owner]  # (1 start a set: no copy)
         sol = solve_all_rows(problem, data, theta, max_iter, owner, reached[owner], subset)
         for r in runs:
             best[r] = _better(problem, best[r], sol, np.flatnonzero(owner == r))
 
     def unsettled() -> list[int]:
-        return [r for r in range(b) if best[r] is None or not (
-            best[r].converged and plausible_chi2(2.0 * best[r].cost, dof))]
+        return [r for r, f in enumerate(best) if f is None or not (
+            f.converged and plausible_chi2(2.0 * f.cost, dof))]
 
     first = 1 if has_bearings else g.starts
     solve(dict(enumerate(first_of_many(starts, first))))

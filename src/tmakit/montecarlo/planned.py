@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
@@ -47,9 +47,19 @@ CASE = "planned"
 FIXED = "fixed"
 #: Legs of the mission planner over the duration when ``leg_duration`` is not given.
 DEFAULT_LEGS = 10
+
+
+class _MissionSearch(TypedDict):
+    """The mission planner's search settings (keywords of :class:`.MissionPlanner`)."""
+
+    headings: int
+    sweeps: int
+    refine: int
+
+
 #: The mission planner's heading grid, sweeps and refinements (those of the benchmark that
 #: measured it, ``benchmarks/planning_passive_mc.py``).
-MISSION_SEARCH = {"headings": 12, "sweeps": 2, "refine": 1}
+MISSION_SEARCH: _MissionSearch = {"headings": 12, "sweeps": 2, "refine": 1}
 #: Paired bootstrap resamples of the runs for the planned-over-fixed interval.
 RESAMPLES = 2000
 
@@ -278,7 +288,7 @@ class PlanRun:
                 table[f"{what}_{name}"] = values[:, j]
         return table
 
-    def summary(self, case: str = CASE) -> dict[str, float | int]:
+    def summary(self, case: str = CASE) -> dict[str, float | int | None]:
         """Return the key figures of one case over every run.
 
         Parameters
@@ -291,13 +301,13 @@ class PlanRun:
         dict
             ``final_rmse_m`` (position RMSE over runs at the last step, m), ``final_pcrb_m``
             (the posterior CRB there, m), ``rmse_over_pcrb`` with its 95 % bootstrap interval
-            (``rmse_over_pcrb_low``, ``_high``), ``final_criterion_m`` (the planning
-            criterion along the flown paths, RMS over runs, m), ``min_range_m`` (true range,
-            over every run and step, m), ``violations`` (steps with a constraint violation,
-            over every run), ``max_violation_m`` (m), ``mean_decision_ms`` (ms), ``runs``,
-            ``steps``.
+            (``rmse_over_pcrb_low``, ``_high``; None under :data:`MIN_RUNS_INTERVAL` runs),
+            ``final_criterion_m`` (the planning criterion along the flown paths, RMS over
+            runs, m), ``min_range_m`` (true range, over every run and step, m),
+            ``violations`` (steps with a constraint violation, over every run),
+            ``max_violation_m`` (m), ``mean_decision_ms`` (ms), ``runs``, ``steps``.
         """
-        out: dict[str, float | int] = dict(self.study.summary(case))
+        out: dict[str, float | int | None] = dict(self.study.summary(case))
         worst = np.concatenate([np.max(list(r.violations.values()), axis=0)
                                 if r.violations else np.zeros(len(r))
                                 for r in self.records(case)])

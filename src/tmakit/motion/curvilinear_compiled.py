@@ -40,7 +40,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..arrays import Array, IntArray
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 # Inlined into the loops over the samples (as a call, every array argument's reference count
@@ -233,7 +233,7 @@ def _derive_anchor(p47: Array, prev: Array, m: int, k0: int, d: Array) -> None: 
 
 @_jit
 def _anchors(theta: Array, M: int, ref_time: float, end_time: float, partials: bool,
-             anchors: Array, v_start: Array, starts: Array,
+             anchors: Array, v_start: NDArray[np.complex128], starts: Array,
              d_anchor: Array) -> None:  # pragma: no cover - compiled
     """Chain one parameter vector's segment start states forwards (NaN outside the domain).
 
@@ -272,8 +272,8 @@ def _anchors(theta: Array, M: int, ref_time: float, end_time: float, partials: b
 
 @_jit
 def _piecewise_kernel(theta: Array, t: Array, manoeuvres: int, ref_time: float,
-                      end_time: float, partials: bool, seg: Array, vals: Array, par: Array,
-                      d_anchor: Array) -> None:  # pragma: no cover - compiled
+                      end_time: float, partials: bool, seg: IntArray, vals: Array,
+                      par: Array, d_anchor: Array) -> None:  # pragma: no cover - compiled
     """Write every sample's segment, values and partials (:func:`piecewise`)."""
     M = manoeuvres
     k0 = 6 + 2 * M
@@ -297,7 +297,7 @@ def _piecewise_kernel(theta: Array, t: Array, manoeuvres: int, ref_time: float,
 
 
 @_jit
-def _chain_kernel(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
+def _chain_kernel(ds: Array, par: Array, seg: IntArray, idx: IntArray, d_anchor: Array,
                   manoeuvres: int, out: Array) -> None:  # pragma: no cover - compiled
     """Write ``d value / d theta`` ``(B, n, p)`` into ``out``; see :func:`chain`."""
     M = manoeuvres
@@ -338,7 +338,7 @@ def _chain_kernel(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array
 
 
 @_jit
-def _column_runs(cols: Array, M: int) -> tuple:  # pragma: no cover - compiled
+def _column_runs(cols: IntArray, M: int) -> tuple:  # pragma: no cover - compiled
     """Give, per segment of a row, where :func:`_chain_columns_kernel` writes what.
 
     ``cols`` increase, so the output columns of the parameters a segment's start state
@@ -363,8 +363,8 @@ def _column_runs(cols: Array, M: int) -> tuple:  # pragma: no cover - compiled
 
 
 @_jit
-def _chain_columns_kernel(ds: Array, par: Array, seg: Array, idx: Array, d_anchor: Array,
-                          manoeuvres: int, cols: Array, out: Array
+def _chain_columns_kernel(ds: Array, par: Array, seg: IntArray, idx: IntArray,
+                          d_anchor: Array, manoeuvres: int, cols: IntArray, out: Array
                           ) -> None:  # pragma: no cover - compiled
     """Write :func:`_chain_kernel`'s columns ``cols`` (the same bits) into ``out`` ``(q, B, n)``."""
     M = manoeuvres
@@ -485,8 +485,8 @@ def _inputs_by_params(d_anchor: Array, b: int, sg: int, manoeuvres: int, d: Arra
 
 
 @_jit
-def _segment_normal_kernel(ds: Array, r: Array, w: Array, par: Array, seg: Array,
-                           idx: Array, d_anchor: Array, manoeuvres: int, runs: Array,
+def _segment_normal_kernel(ds: Array, r: Array, w: Array, par: Array, seg: IntArray,
+                           idx: IntArray, d_anchor: Array, manoeuvres: int, runs: IntArray,
                            jtj: Array, jtr: Array) -> None:  # pragma: no cover - compiled
     """Write ``J'J`` and ``J'r`` of the whitened Jacobian of ``runs`` (:func:`segment_normal`)."""
     m1 = manoeuvres + 1
@@ -544,7 +544,7 @@ def _add_segment(s: Array, g: Array, d: Array, dv: Array, jtj: Array, jtr: Array
 
 # -- the calls ------------------------------------------------------------------------------
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
-              partials: bool) -> tuple[Array, Array, Array | None, Array | None]:
+              partials: bool) -> tuple[IntArray, Array, Array | None, Array | None]:
     """Propagate a batch of piecewise curvilinear trajectories to the times ``t``.
 
     Parameters
@@ -586,13 +586,13 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
     return seg, vals, (par if partials else None), (d_anchor if partials else None)
 
 
-def _rows(ds: Array, idx: Array | None) -> tuple[int, int, Array]:
+def _rows(ds: Array, idx: IntArray | None) -> tuple[int, int, IntArray]:
     """Give the batch size, the rows and every row's unique time."""
     b, n = ds.shape[:2]
     return b, n, (np.arange(n) if idx is None else np.ascontiguousarray(idx, dtype=np.int64))
 
 
-def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
+def chain(ds: Array, par: Array, seg: IntArray, idx: IntArray | None, d_anchor: Array,
           manoeuvres: int, columns: NDArray[np.int64] | None = None) -> Array:
     """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``.
 
@@ -633,8 +633,9 @@ def chain(ds: Array, par: Array, seg: Array, idx: Array | None, d_anchor: Array,
     return out
 
 
-def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: Array, idx: Array | None,
-                   d_anchor: Array, manoeuvres: int, runs: NDArray[np.int64] | None = None
+def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray,
+                   idx: IntArray | None, d_anchor: Array, manoeuvres: int,
+                   runs: NDArray[np.int64] | None = None
                    ) -> tuple[Array, Array]:
     """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, the Jacobian not formed.
 

@@ -152,8 +152,8 @@ def _gradient(code: int, param: float, lo: int, hi: int, rel: Array, w: Array, n
 
 
 @_jit
-def _relative(theta: Array, offset: Array, t_par: Array, t_comp: Array, t_coef: Array,
-              t_one: Array, rel: Array) -> None:  # pragma: no cover - compiled
+def _relative(theta: Array, offset: Array, t_par: IntArray, t_comp: IntArray, t_coef: Array,
+              t_one: BoolArray, rel: Array) -> None:  # pragma: no cover - compiled
     """Write the relative states ``(6, n)`` at ``theta`` ``(p,)`` through the affine map."""
     n = rel.shape[1]
     for c in range(6):
@@ -170,8 +170,8 @@ def _relative(theta: Array, offset: Array, t_par: Array, t_comp: Array, t_coef: 
 
 
 @_jit
-def _residuals(u: Array, nu_star: Array, blocks: Array, block_param: Array, const: Array,
-               angle: Array, w: Array, eliminate: bool, rel: Array, h: Array, a: Array,
+def _residuals(u: Array, nu_star: Array, blocks: IntArray, block_param: Array, const: Array,
+               angle: BoolArray, w: Array, eliminate: bool, rel: Array, h: Array, a: Array,
                q: Array, r: Array, nu: Array) -> float:  # pragma: no cover - compiled
     """Write one parameter vector's projected residuals ``r``, nuisance ``nu``, unit columns ``q``.
 
@@ -238,8 +238,8 @@ def _dot(x: Array, y: Array, lo: int, hi: int) -> float:  # pragma: no cover - c
 
 
 @_jit
-def _normal(blocks: Array, block_param: Array, w: Array, t_par: Array, t_comp: Array,
-            t_coef: Array, t_one: Array, eliminate: bool, rel: Array, q: Array, r: Array,
+def _normal(blocks: IntArray, block_param: Array, w: Array, t_par: IntArray, t_comp: IntArray,
+            t_coef: Array, t_one: BoolArray, eliminate: bool, rel: Array, q: Array, r: Array,
             nu: Array, g: Array, jac: Array, qj: Array, jtj: Array, jtr: Array
             ) -> None:  # pragma: no cover - compiled
     """Write ``J'J`` and ``J'r`` of one parameter vector's projected whitened Jacobian."""
@@ -277,9 +277,10 @@ def _normal(blocks: Array, block_param: Array, w: Array, t_par: Array, t_comp: A
 
 
 @_jit
-def _varpro_batch(theta: Array, u: Array, nu_star: Array, blocks: Array, block_param: Array,
-                  const: Array, angle: Array, w: Array, offset: Array, t_par: Array,
-                  t_comp: Array, t_coef: Array, t_one: Array, eliminate: bool,
+def _varpro_batch(theta: Array, u: Array, nu_star: Array, blocks: IntArray,
+                  block_param: Array, const: Array, angle: BoolArray, w: Array, offset: Array,
+                  t_par: IntArray, t_comp: IntArray, t_coef: Array, t_one: BoolArray,
+                  eliminate: bool,
                   derivatives: bool, r_out: Array, nu_out: Array, cost: Array, jtj: Array,
                   jtr: Array) -> int:  # pragma: no cover - compiled
     """Evaluate a batch (see the module and :func:`evaluate_batch`); 1: an angle a turn out."""

@@ -74,12 +74,26 @@ def passive(plan: SensorPlan) -> bool:
 
 
 class Choice(Protocol):
-    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one)."""
+    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one).
 
-    index: int
-    step: Step
-    bound: Array
-    violations: Mapping[str, Array]
+    Its members are read (a frozen dataclass's fields, or properties), never assigned.
+    """
+
+    @property
+    def index(self) -> int:
+        """The chosen action's index."""
+
+    @property
+    def step(self) -> Step:
+        """The chosen step, flown for one decision interval."""
+
+    @property
+    def bound(self) -> Array:
+        """The predicted position RMS bound (m)."""
+
+    @property
+    def violations(self) -> Mapping[str, Array]:
+        """Per constraint, the amount (m) of the chosen step's violation."""
 
 
 class Policy(Protocol):

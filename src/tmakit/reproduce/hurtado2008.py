@@ -51,7 +51,7 @@ table printed the latter as "final bound".
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -253,8 +253,8 @@ def claims(study: ClosedLoopStudy, setup: Hurtado2008Setup = SETUP) -> list[list
     first = int(np.argmax(mean_range["adaptive"] <= 2 * close))
     turns = _turns(study, "adaptive", first)
     far = {c: float(np.median(study.stack(c, "range_m")[:, late:])) for c in study.cases}
-    final = {c: study.summary(c)["final_rmse_m"] for c in study.cases}
-    hard_min = study.summary("min-range hard")["min_range_m"]
+    final = {c: _figure(study.summary(c), "final_rmse_m") for c in study.cases}
+    hard_min = _figure(study.summary("min-range hard"), "min_range_m")
     return [
         ["the adaptive radar moves toward the target",
          f"mean range {r0 / 1e3:.2f} km -> {close / 1e3:.2f} km", close < 0.25 * r0],
@@ -336,16 +336,17 @@ def run(runs: int = 100, seed: int = 1, progress: bool = True, *, particles: int
         [_row(c, s) for c, s in summaries.items()], BOUND_NOTE))
     rep.sections.append(Section(
         "The paths flown", ["case", "planning criterion (m)", "min range (m)", "decision (ms)"],
-        [[c, round(s["final_criterion_m"], 3), round(s["min_range_m"], 1),
-          round(s["mean_decision_ms"], 3)] for c, s in summaries.items()], PATHS_NOTE))
+        [[c, round(_figure(s, "final_criterion_m"), 3), round(_figure(s, "min_range_m"), 1),
+          round(_figure(s, "mean_decision_ms"), 3)] for c, s in summaries.items()], PATHS_NOTE))
     checked = claims(study)
     rep.sections.append(Section("The paper's claims, measured", ["claim", "measured", "holds"],
                                 [[c, m, "yes" if ok else "NO"] for c, m, ok in checked]))
-    fixed = summaries["fixed"]["final_rmse_m"]
+    fixed = _figure(summaries["fixed"], "final_rmse_m")
     rep.figures = {
         "cases": summaries,
         "claims": {c: bool(ok) for c, _, ok in checked},
-        "rmse_ratio_to_fixed": {c: s["final_rmse_m"] / fixed for c, s in summaries.items()},
+        "rmse_ratio_to_fixed": {c: _figure(s, "final_rmse_m") / fixed
+                                for c, s in summaries.items()},
         "settings": {"radar": radar, "tracker": tracker, "particles": particles,
                      "seed": seed, "target_start_m": list(SETUP.target_start),
                      "radar_start_m": list(SETUP.radar_start),
@@ -367,6 +368,18 @@ PATHS_NOTE = (
     "Planning criterion: what the planner believed along its path at the last pulse (the "
     "same recursion with Gamma over the tracker's particles, RMS over runs); not a bound. "
     "Min range: true range over every run and pulse. Decision: mean time of one decision.")
+
+
+def _figure(summary: Mapping[str, float | int | None], key: str) -> float:
+    """Give a figure of :meth:`ClosedLoopStudy.summary` that is always a number.
+
+    Only the RMSE/bound interval's ends may be None there (too few runs); the others are
+    numbers whatever the runs.
+    """
+    value = summary[key]
+    if value is None:
+        raise ValueError(f"the closed-loop study gives no {key}")
+    return float(value)
 
 
 def _row(case: str, s: dict[str, Any]) -> list[object]:

@@ -37,6 +37,7 @@ from scipy.stats import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from .answers import ELLIPSE_LEVEL, Answer, estimate_answer
+from .status import Status
 
 
 class EstimateResult(Protocol):
@@ -46,7 +47,7 @@ class EstimateResult(Protocol):
     estimate: NDArray[np.float64]
     std: NDArray[np.float64]
     covariance: NDArray[np.float64]
-    status: str
+    status: Status
     chi2: float
     dof: int
     motion: MotionModel
