@@ -26,6 +26,7 @@ def test_a_killed_writer_leaves_no_partial_target_and_no_temporary_file(tmp_path
 
 def test_sigterm_ends_tma_with_143_keeping_finished_runs_and_no_temporary_file(tmp_path):
     import os
+    import re
     import signal
     import subprocess
     import sys
@@ -37,8 +38,16 @@ def test_sigterm_ends_tma_with_143_keeping_finished_runs_and_no_temporary_file(t
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             env=os.environ.copy())
     assert proc.stderr is not None
-    proc.stderr.read(1)  # the progress bar is drawn: the study (and the handler) is running
-    time.sleep(3.0)  # a few chunks of 20 runs finish
+    # Wait until the progress bar shows two chunks of 20 runs done (however long the first
+    # chunk takes: a cold numba cache compiles the Monte Carlo kernel first), then a little.
+    seen, done = "", 0
+    while done < 40:
+        c = proc.stderr.read(1)
+        assert c, "tma montecarlo ended before two chunks were done: " + seen[-2000:]
+        seen += c
+        counts = re.findall(r"(\d+)/100000", seen[-200:])
+        done = int(counts[-1]) if counts else 0
+    time.sleep(0.5)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 143, err

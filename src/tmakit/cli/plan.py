@@ -97,7 +97,7 @@ def plan(
 
         result = run_plan(setup, runs=runs, rng=seed, duration=duration,
                           particles=particles, tracker=tracker, planner=planner,
-                          progress=not (as_json or no_progress))
+                          progress=not no_progress)
     except ScenarioFileError as e:
         raise fail(escape(str(e))) from None
     except ValueError as e:
