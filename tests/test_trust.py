@@ -15,7 +15,6 @@ import typer
 from typer.testing import CliRunner
 
 import tmakit as tk
-from tmakit.batch.height import choose_height
 from tmakit.cli import app
 from tmakit.cli.estimate import print_estimate
 from tmakit.geodesy import geodetic_to_enu
@@ -60,7 +59,7 @@ def test_the_drone_log_in_2d_is_confidently_wrong_and_the_height_check_puts_it_r
     _, _, meas, truth = drone
     assert meas.dim == 2  # the surface rule: altitudes within 25 m
     flat = tk.estimate(meas, "static2d")
-    choice = choose_height(meas, flat)
+    choice = tk.choose_height(meas, flat)
     truth_en = _truth_en(meas, truth)
     a_flat = flat.answer(meas)
     d_flat, m2_flat = _miss(a_flat.enu, a_flat.covariance, truth_en)
@@ -106,7 +105,7 @@ def test_over_seeded_drone_logs_the_defaults_cover_the_truth_and_2d_alone_does_n
         (tmp_path / "d.toml").write_text(mapping)
         meas = tk.read_measurements(tmp_path / "d.csv", format="wide",
                                     mapping=tmp_path / "d.toml")
-        choice = choose_height(meas, tk.estimate(meas, "static2d"))
+        choice = tk.choose_height(meas, tk.estimate(meas, "static2d"))
         assert choice.dim == 3 and choice.result.estimate[2] < 0  # airborne: below
         for result, count in ((choice.result, "3"), (choice.flat, "2")):
             a = result.answer(meas)
@@ -131,7 +130,7 @@ def test_dim_is_refused_where_no_height_can_be_fitted(tmp_path):
 def test_bearings_only_fits_are_not_refitted_in_3d(tmp_path):
     meas = tk.load_scenario("bearings-only-2d").simulate(rng=1)
     flat = tk.estimate(meas, "cv2d")
-    choice = choose_height(meas, flat)
+    choice = tk.choose_height(meas, flat)
     assert choice.result is flat and choice.raised is None and choice.dim == 2
 
 

@@ -62,6 +62,8 @@ from .planning import Recommendation as Recommendation
 
 # estimators, bounds, applications
 from .batch import estimate as estimate
+from .batch.height import choose_height as choose_height
+from .batch.height import HeightChoice as HeightChoice
 from .bounds import crlb as crlb
 from .bounds import posterior_crb as posterior_crb
 from .tracking import track as track

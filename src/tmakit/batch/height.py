@@ -38,7 +38,8 @@ from scipy.stats import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..measurements import KINDS
 from ..motion import MotionModel, motion_from_name
-from ..results.estimate import CONVERGED, EstimateResult
+from ..results.estimate import EstimateResult
+from ..results.status import CONVERGED
 from .dispatch import estimate
 from .estimator import Options
 
