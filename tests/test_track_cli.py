@@ -333,3 +333,17 @@ def test_truth_comes_from_the_metadata_in_the_scenario_layer():
     assert truth_states(meas, [0.0], 3).shape == (1, 6)
     meas.metadata.pop("truth")
     assert truth_states(meas, [0.0], 2) is None
+
+
+def test_track_json_carries_trust_warning_when_the_innovations_are_inconsistent(obs, tmp_path):
+    """A consistent EKF track says trust ok; the CV EKF on the manoeuvring hoerst2010 target
+    (its innovations far larger than its covariances allow) says warning, with the reason."""
+    good = json.loads(run("track", obs, "--filter", "ekf", "--json").output)
+    assert good["trust"] == "ok" and good["trust_reasons"] == []
+    path = tmp_path / "hoerst.csv"
+    tk.write_measurements(tk.load_scenario("hoerst2010").simulate(rng=1), path)
+    result = run("track", path, "--filter", "ekf", "--json")
+    assert result.exit_code == 0, result.output
+    bad = json.loads(result.output.splitlines()[0])
+    assert bad["trust"] == "warning"
+    assert bad["trust_reasons"][0]["code"] == "inconsistent-innovations"

@@ -158,12 +158,45 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
 
     from .. import tracking
 
+    warnings = measurement_warnings(meas)
+    trust = track_trust(tr, warnings)
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
-        typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict()}))
+        typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict(),
+                               **trust.as_dict()}))
     else:
         print_track(tr, truth, rows, meas, units)
         print_answers(answer, units, meas)
-    print_warnings(measurement_warnings(meas))
+        out.print(f"trust: {trust.level}", highlight=False)
+    print_warnings(warnings)
+
+
+def track_trust(tr: Any, warnings: list[Any]) -> Any:
+    """Return how far to trust a track: ``warning`` when its innovations are inconsistent.
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The track.
+    warnings : list of tmakit.results.checks.SanityWarning
+        The measurements' warnings.
+
+    Returns
+    -------
+    tmakit.results.Trust
+        ``warning`` with the reasons (the NIS test of :func:`nis_verdict`, the measurements'
+        warnings), else ``ok``.
+    """
+    import numpy as np
+
+    from ..results import TRUST_OK, TRUST_WARNING, SanityWarning, Trust
+
+    reasons = list(warnings)
+    used = tr.dof > 0
+    if np.any(used):
+        verdict = nis_verdict(float(np.sum(tr.nis[used])), int(np.sum(tr.dof[used])))
+        if verdict:
+            reasons.insert(0, SanityWarning("inconsistent-innovations", verdict))
+    return Trust(TRUST_WARNING if reasons else TRUST_OK, reasons)
 
 
 def measurement_warnings(meas: Any) -> list[Any]:
