@@ -27,9 +27,9 @@ import time
 import numpy as np
 
 from tmakit.bounds.manoeuvre import CrbPoint, curvilinear_crb_sequence
-from tmakit.linalg import normalise
+from tmakit.core.linalg import normalise
 from tmakit.reproduce import hoerst2010
-from tmakit.scenario_file import load_scenario
+from tmakit.scenario.files import load_scenario
 
 
 def plain_rms(p: CrbPoint) -> float:

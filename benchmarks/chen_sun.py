@@ -41,7 +41,7 @@ def gain_forms(runs: int, seed: int, lags: tuple[int, ...]) -> None:
     """The MGEKF as printed vs Song & Speyer's form on the three paths."""
     from tmakit.filters.mgekf import ModifiedGainEKF
     from tmakit.filters.multilag import multilag_groups
-    from tmakit.scenario_file import load_scenario
+    from tmakit.scenario.files import load_scenario
 
     print(f"\nMGEKF gain forms on the three paths ({runs} runs, multi-lag vectors, no "
           "reuse inflation): final RMS (m) and mean NEES over t >= 10 s")

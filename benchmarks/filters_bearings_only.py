@@ -1,6 +1,6 @@
 """Consistency and accuracy of the EKF, UKF and particle filter on bearings-only-2d.
 
-The scenario (``src/tmakit/scenarios/bearings-only-2d.toml``): a constant-velocity target at
+The scenario (``src/tmakit/scenario/builtin/bearings-only-2d.toml``): a constant-velocity target at
 about 10 km, an observer zig-zagging in five legs, one bearing per second with 1° noise for
 600 s — 600 updates.  Filters run with q = 0 (the target really moves at constant velocity).
 

@@ -284,7 +284,8 @@ def py_read(make_files: Callable[[Path], list[str]], **options: object
 # -- the older cases --------------------------------------------------------------------------
 
 def simulate_far_target(folder: Path) -> list[str]:
-    scenario = (resources.files("tmakit") / "scenarios" / "bearings-only-2d.toml").read_text()
+    scenario = (resources.files("tmakit.scenario") / "builtin"
+                / "bearings-only-2d.toml").read_text()
     (folder / "far.toml").write_text(scenario.replace("x = 4000.0", "x = 1e300"))
     return ["simulate", str(folder / "far.toml"), "-o", str(folder / "out.csv")]
 

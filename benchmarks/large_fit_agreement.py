@@ -48,14 +48,14 @@ import numpy as np
 
 import tmakit as tk
 from tmakit.batch import presolve
-from tmakit.scenario_file import scenario_from_dict
+from tmakit.scenario.files import scenario_from_dict
 
 TOL_THETA, TOL_CHI2, TOL_COV = 0.01, 0.01, 0.01
 
 
 def builtin(name):
     """The built-in scenario ``name`` as its parsed TOML dict (to be varied)."""
-    text = importlib.resources.files("tmakit.scenarios").joinpath(f"{name}.toml").read_text()
+    text = (importlib.resources.files("tmakit.scenario") / "builtin" / f"{name}.toml").read_text()
     return tomllib.loads(text)
 
 

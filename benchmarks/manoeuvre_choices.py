@@ -34,7 +34,7 @@ import time
 import numpy as np
 
 from tmakit.batch.curvilinear import estimate_manoeuvres
-from tmakit.scenario_file import load_scenario
+from tmakit.scenario.files import load_scenario
 
 
 def choices(seed: int, max_m: int) -> dict:

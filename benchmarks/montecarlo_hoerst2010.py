@@ -56,7 +56,7 @@ from tmakit.bounds import crlb
 from tmakit.montecarlo import ratio_interval
 from tmakit.motion import PiecewiseCurvilinear
 from tmakit.motion.fixed import FixedParameters
-from tmakit.scenario_file import load_scenario
+from tmakit.scenario.files import load_scenario
 
 
 def scenario(straight: bool):

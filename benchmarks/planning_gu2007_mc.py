@@ -46,6 +46,7 @@ from planning_passive_mc import rmse_interval
 
 import tmakit as tk
 from tmakit.bounds import PosteriorInformation
+from tmakit.core.units import snr_to_sigma_db
 from tmakit.data import MeasurementSet
 from tmakit.filters import FILTERS
 from tmakit.motion.dynamics import NearlyConstantVelocity
@@ -55,7 +56,6 @@ from tmakit.planning.closed_loop import simulate_group
 from tmakit.planning.horizon import Continuation
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState
-from tmakit.units import snr_to_sigma_db
 
 TRUTH0 = np.array([3200.0, 3200.0, -21.65, -12.5])
 DYN = NearlyConstantVelocity(2, 0.0)

@@ -44,13 +44,13 @@ from planning_horizon_warning import (
 
 import tmakit as tk
 from tmakit.bounds import PosteriorInformation
+from tmakit.core.units import snr_to_sigma_db
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.observation import MeasurementGroup
 from tmakit.planning import Belief, Planner, SensorPlan
 from tmakit.planning.horizon import Continuation
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState
-from tmakit.units import snr_to_sigma_db
 
 
 def bound_along(states, times: np.ndarray, prior: np.ndarray, x0: np.ndarray,

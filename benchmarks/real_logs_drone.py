@@ -31,7 +31,7 @@ import numpy as np
 
 import tmakit as tk
 from tmakit.batch.height import choose_height
-from tmakit.geodesy import geodetic_to_enu
+from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io.samples import drone_sample
 
 INSIDE_95 = 5.991  # chi-square, 2 dof, 0.95

@@ -52,9 +52,9 @@ from scipy.stats import beta
 
 import tmakit as tk
 from tmakit.batch.manoeuvre import ManoeuvreSettings
-from tmakit.geodesy import geodetic_to_enu
+from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io.debrief import replay_tracks
-from tmakit.scenario_plan import MeasurementPlan
+from tmakit.scenario.model import MeasurementPlan
 from tmakit.sensors import RecordedTrack
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "debrief" / "ta_dummy"

@@ -253,7 +253,7 @@ def plan_table() -> str:
     """The built-in ``plan-bearings-only`` scenario file's text."""
     from importlib.resources import files
 
-    return (files("tmakit") / "scenarios" / "plan-bearings-only.toml").read_text()
+    return (files("tmakit.scenario") / "builtin" / "plan-bearings-only.toml").read_text()
 
 
 PLAN_EDITS = {

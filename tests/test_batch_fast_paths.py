@@ -24,7 +24,7 @@ from tmakit.batch.gauss_newton import GaussNewtonModel
 from tmakit.batch.ml import solve_without_guess
 from tmakit.batch.solver import information_of, levenberg_marquardt
 from tmakit.batch.varpro import Evaluation, _wrap_own
-from tmakit.frames import wrap_angle
+from tmakit.core.frames import wrap_angle
 from tmakit.results.estimate import assemble_result
 
 

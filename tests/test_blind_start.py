@@ -1,5 +1,5 @@
 """Blind start: random observable geometries reach the global optimum with no initial guess,
-and :mod:`tmakit.studies` draws what it says it draws.
+and :mod:`tmakit.montecarlo.geometries` draws what it says it draws.
 
 The full study (1000 geometries, success rate with its confidence interval) is
 ``benchmarks/blind_start.py``; this is its fast, seeded subset.
@@ -14,7 +14,7 @@ import pytest
 
 from tmakit.batch import estimate
 from tmakit.bounds import crlb
-from tmakit.studies import (
+from tmakit.montecarlo.geometries import (
     BEARING_SIGMA_DEG,
     FREQUENCY_SIGMA_HZ,
     SNR_DB,

@@ -54,7 +54,7 @@ def test_fisher_information_equals_finite_difference_of_predictions():
 
 
 def test_range_difference_noise_is_correlated_and_whitened_exactly():
-    from tmakit.scenario_file import scenario_from_dict
+    from tmakit.scenario.files import scenario_from_dict
 
     base = {"name": "rd", "target": {"motion": "cv3d", "truth": {
         "x": 5e4, "y": 6e4, "z": 1e4, "vx": -300.0, "vy": -300.0, "vz": 0.0}},

@@ -269,7 +269,7 @@ def test_montecarlo_and_reproduce_commands(tmp_path):
 def test_estimate_reports_wgs84_when_the_file_has_an_origin(tmp_path):
     import json
 
-    from tmakit.geodesy import enu_to_geodetic
+    from tmakit.core.geodesy import enu_to_geodetic
 
     scn = tk.load_scenario("hurtado2008")
     scn.origin = (52.0, 4.0, 0.0)

@@ -19,8 +19,8 @@ import tmakit
 # Imported only inside the commands that need them.
 HEAVY = ("scipy", "pandas", "pyarrow", "pandera", "matplotlib", "dask",
          "tmakit.batch", "tmakit.bounds", "tmakit.filters", "tmakit.tracking",
-         "tmakit.montecarlo", "tmakit.reproduce", "tmakit.studies", "tmakit.plot",
-         "tmakit.io", "tmakit.results", "tmakit.scenario_file")
+         "tmakit.montecarlo", "tmakit.reproduce", "tmakit.montecarlo.geometries", "tmakit.plot",
+         "tmakit.io", "tmakit.results", "tmakit.scenario.files")
 
 SCRIPT = """
 import json, sys
@@ -64,10 +64,10 @@ def test_a_command_help_imports_no_numerical_core(args):
 
 
 def test_listing_the_scenarios_needs_no_scenario_parser():
-    # The titles are read with tomllib, without tmakit.scenario_file's pydantic models.
+    # The titles are read with tomllib, without tmakit.scenario.files's pydantic models.
     modules = imported_by("scenarios")
     assert heavy(modules) == []
-    assert "tmakit.scenario_catalog" in modules
+    assert "tmakit.scenario.catalog" in modules
     # Nor pydantic: typer would import it to coerce parameters; the listing has none.
     assert not [m for m in modules if m == "pydantic" or m.startswith("pydantic.")]
 

@@ -67,7 +67,7 @@ def test_the_noise_blocks_are_the_groups_and_whiten_as_the_dense_covariance():
 
 
 def test_a_correlated_fit_summed_by_chunks_equals_the_whole_jacobians(monkeypatch):
-    from tmakit import blas
+    from tmakit.core import blas
 
     meas = shared_reference_set()
     whole = tk.estimate(meas, "cv3d")
@@ -86,8 +86,8 @@ def test_the_command_fits_a_large_set_grouped_by_kind_with_the_same_result(tmp_p
                                                                           monkeypatch):
     from typer.testing import CliRunner
 
-    from tmakit import blas
     from tmakit.cli import app
+    from tmakit.core import blas
     from tmakit.io import write_measurements
 
     cli_estimate = importlib.import_module("tmakit.cli.estimate")  # the module, not the command

@@ -116,7 +116,7 @@ def test_a_manoeuvre_fit_evaluates_alike_with_and_without_the_segment_sums(monke
 def test_chunks_of_rows_add_the_segment_sums(monkeypatch):
     """A problem of more than CHUNKED_ROWS rows sums each chunk's J'J, however the chunk
     gives it (the motion model's sums or the Jacobian's products)."""
-    from tmakit import blas
+    from tmakit.core import blas
 
     problem, theta, y, nu = _hoerst_problem(1, 8, 2)
     whole = problem.evaluate(theta, y, nu)

@@ -114,8 +114,8 @@ def test_evaluations_of_both_forms_are_merged_as_normal_equations(monkeypatch):
     merged as normal equations, the run's own kept, either way round."""
     from bearing_sets import bearings
 
-    from tmakit import blas
     from tmakit.batch.gauss_newton import normal_equations
+    from tmakit.core import blas
 
     motion, theta = tk.ConstantVelocity(2), np.array([8000.0, 12000.0, -4.0, 2.5])
     meas = bearings(motion, theta, 3000, 9, 2, unequal_sigma=True)

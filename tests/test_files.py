@@ -14,8 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.data import MeasurementSet
-from tmakit.geodesy import geodetic_to_enu
 from tmakit.io.measurement_files import (
     COLUMN_ORDER,
     FORMAT_LINE,

@@ -583,7 +583,7 @@ def test_general_plan_skips_an_update_at_a_sensor_as_the_group_path_does():
 def test_particle_filter_limits_blas_threads_and_results_do_not_depend_on_them():
     from threadpoolctl import threadpool_info, threadpool_limits
 
-    from tmakit.blas import one_thread
+    from tmakit.core.blas import one_thread
 
     with one_thread():
         inside = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]

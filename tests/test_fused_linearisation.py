@@ -19,7 +19,7 @@ from bearing_sets import bearings
 import tmakit as tk
 from tmakit.batch import VarProProblem
 from tmakit.batch.varpro import _wrap_own
-from tmakit.frames import wrap_angle
+from tmakit.core.frames import wrap_angle
 from tmakit.observation.fused import fused_linearisation
 
 CASES = [

@@ -24,7 +24,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tmakit.frames import wrap_angle
+from tmakit.core.frames import wrap_angle
+from tmakit.core.units import SPEED_OF_LIGHT
 from tmakit.measurements import (
     AzimuthRate,
     Bearing,
@@ -36,7 +37,6 @@ from tmakit.measurements import (
     RangeDifference,
     RangeRate,
 )
-from tmakit.units import SPEED_OF_LIGHT
 
 EPS = np.finfo(float).eps
 REL_STEP = 1e-3

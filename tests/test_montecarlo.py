@@ -295,7 +295,7 @@ def test_the_library_changes_no_process_wide_setting_unasked():
     import subprocess
     import sys
 
-    code = ("import tmakit as tk, tmakit.montecarlo.memory as m, tmakit.blas as b; "
+    code = ("import tmakit as tk, tmakit.montecarlo.memory as m, tmakit.core.blas as b; "
             "tk.monte_carlo('gu2007', runs=2, progress=False); print(m._done, b._SPLIT)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from tmakit.frames import wrap_angle
+from tmakit.core.frames import wrap_angle
 from tmakit.motion import (
     DEFAULT_MANOEUVRES,
     ConstantVelocity,
@@ -570,7 +570,7 @@ def test_every_caller_reads_a_motion_name_alike(name, hoerst_file, monkeypatch, 
     # a scenario file naming its target's motion so: the built-in file, its motion renamed
     from importlib import resources
 
-    toml = (resources.files("tmakit") / "scenarios" / "hoerst2010.toml").read_text()
+    toml = (resources.files("tmakit.scenario") / "builtin" / "hoerst2010.toml").read_text()
     if want == ("manoeuvres", 2):
         path = tmp_path / "renamed.toml"
         path.write_text(toml.replace('motion = "curvilinear:2"', f'motion = "{name}"'))

@@ -18,9 +18,9 @@ from tmakit.batch.ratios import (
     ratio_method,
 )
 from tmakit.bounds import crlb
+from tmakit.core.units import SPEED_OF_LIGHT
 from tmakit.measurements.range_rate import range_rate_and_gradient
 from tmakit.scenario import MeasurementPlan
-from tmakit.units import SPEED_OF_LIGHT
 
 PAPER_START = (4900.0, 1200.0, 0.0, 0.0)           # Gu et al. (2007), §5, both measurements
 PAPER_DOPPLER_START = (2200.0, 2700.0, -16.0, -8.0)  # Gu et al. (2007), §5, Doppler only

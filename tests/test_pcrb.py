@@ -18,9 +18,9 @@ from tmakit.bounds import (
     predict_information,
 )
 from tmakit.filters import MeasurementGroup, process_noise, transition_matrix
+from tmakit.montecarlo.geometries import final_position_rms
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.observation import group_times
-from tmakit.studies import final_position_rms
 
 P0_2D = np.diag([3000.0**2, 3000.0**2, 10.0**2, 10.0**2])
 P0_3D = np.diag([2000.0**2] * 3 + [50.0**2] * 3)

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 import tmakit as tk
 from tmakit.cli import app
 from tmakit.io.samples import replay_sample
-from tmakit.plot_frame import MapFrame, plot_times
+from tmakit.plot.frame import MapFrame, plot_times
 
 runner = CliRunner()
 

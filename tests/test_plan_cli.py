@@ -17,7 +17,7 @@ import tmakit as tk
 from tmakit.cli import app
 from tmakit.filters import ExtendedKalmanFilter
 from tmakit.planning import MinimumRange, Planner, SensorPlan, recommend
-from tmakit.scenario_file import ScenarioFileError, planning_from_dict
+from tmakit.scenario.files import ScenarioFileError, planning_from_dict
 from tmakit.sensors import PlatformState, platform_configuration
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,7 +26,7 @@ FAST = ["--runs", "1", "--duration", "40", "--particles", "200", "--no-progress"
 
 
 def example() -> dict:
-    text = (resources.files("tmakit") / "scenarios" / "plan-bearings-only.toml").read_text()
+    text = (resources.files("tmakit.scenario") / "builtin" / "plan-bearings-only.toml").read_text()
     return tomllib.loads(text)
 
 
@@ -156,7 +156,7 @@ def test_tma_plan_refuses_bad_outputs_before_running(tmp_path):
         assert result.exception is None or isinstance(result.exception, SystemExit)
     assert existing.read_text() == "keep me\n"
     bad = tmp_path / "bad.toml"
-    data = (resources.files("tmakit") / "scenarios" / "plan-bearings-only.toml").read_text()
+    data = (resources.files("tmakit.scenario") / "builtin" / "plan-bearings-only.toml").read_text()
     bad.write_text(data.replace('gamma = "mean"', 'gamma = "median"'))
     result = runner.invoke(app, ["plan", str(bad), *FAST])
     assert result.exit_code == 2 and "planning.gamma" in result.output

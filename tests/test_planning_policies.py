@@ -24,7 +24,7 @@ from tmakit.planning import Belief, SensorPlan
 from tmakit.planning.closed_loop import FixedPolicy, LoopSetup, run_closed_loop
 from tmakit.planning.policies import MissionPolicy, TrackPolicy, passive, range_hypotheses
 from tmakit.reproduce import hurtado2008
-from tmakit.scenario_file import planning_from_dict
+from tmakit.scenario.files import planning_from_dict
 from tmakit.sensors.platform import HURTADO_NEHORAI_2008 as HN
 from tmakit.sensors.platform_state import PlatformState
 
@@ -33,7 +33,7 @@ RADAR = SensorPlan(("bearing", "range", "range_rate"), [math.radians(2.0), 100.0
 
 
 def example(leg: float = 60.0) -> dict:
-    text = (resources.files("tmakit") / "scenarios" / "plan-bearings-only.toml").read_text()
+    text = (resources.files("tmakit.scenario") / "builtin" / "plan-bearings-only.toml").read_text()
     data = tomllib.loads(text)
     data["planning"]["mission"]["leg_duration"] = leg
     return data

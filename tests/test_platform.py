@@ -1,7 +1,7 @@
 """Steerable sensor platforms: exact constant-turn / constant-acceleration steps, limits,
 vectorisation over candidates, and the flown path as a sensor track.
 
-Conventions (tmakit.frames): ENU metres, headings clockwise from North (``atan2(vE, vN)``),
+Conventions (tmakit.core.frames): ENU metres, headings clockwise from North (``atan2(vE, vN)``),
 a positive turn rate turns clockwise.
 """
 

@@ -113,10 +113,10 @@ def _weak_turn(sigma_deg: float, n: int) -> tk.Scenario:
     import importlib.resources
     import tomllib
 
-    from tmakit.scenario_file import scenario_from_dict
+    from tmakit.scenario.files import scenario_from_dict
 
-    text = importlib.resources.files("tmakit.scenarios").joinpath(
-        "bearings-only-2d.toml").read_text()
+    text = (importlib.resources.files("tmakit.scenario") / "builtin"
+            / "bearings-only-2d.toml").read_text()
     d = tomllib.loads(text)
     d["sensors"][0]["legs"] = [{"duration": 290.0}, {"duration": 20.0, "turn_rate_deg_s": 0.2},
                                {"duration": float("inf")}]

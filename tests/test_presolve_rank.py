@@ -18,7 +18,7 @@ import pytest
 import tmakit as tk
 from tmakit.batch import presolve
 from tmakit.results.observability import full_rank
-from tmakit.scenario_file import scenario_from_dict
+from tmakit.scenario.files import scenario_from_dict
 
 
 def _weak_turn(n: int, sigma: float = 3.0) -> tk.Scenario:

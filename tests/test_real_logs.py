@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.geodesy import geodetic_to_enu
+from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io import MeasurementFileError
 from tmakit.io.debrief import replay_tracks
 from tmakit.io.logs import KNOT, Fixes, local_frame, parse_clock_times, velocity_from_positions

@@ -250,7 +250,7 @@ def test_the_constructor_refuses_what_the_reader_refuses_with_its_words(tmp_path
 
 
 def test_scenario_files_refuse_nan_inf_and_an_origin_off_the_earth(tmp_path):
-    base = (Path(tk.__file__).parent / "scenarios" / "gu2007.toml").read_text()
+    base = (Path(tk.__file__).parent / "scenario" / "builtin" / "gu2007.toml").read_text()
     cases = {
         "truth": base.replace("x = 3200.0", "x = nan", 1),
         "sigma": _replace_first_sigma(base, "inf"),
@@ -342,7 +342,7 @@ def test_runaway_work_is_refused_up_front_with_size_limit_and_option(obs, args, 
 
 
 def test_a_scenario_asking_for_too_many_rows_is_refused(tmp_path):
-    text = (Path(tk.__file__).parent / "scenarios" / "bearings-only-2d.toml").read_text()
+    text = (Path(tk.__file__).parent / "scenario" / "builtin" / "bearings-only-2d.toml").read_text()
     lines = text.splitlines()
     for i, line in enumerate(lines):
         if line.strip().startswith("times") and "step" in line:

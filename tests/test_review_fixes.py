@@ -90,7 +90,7 @@ def test_one_chain_of_too_many_overlapping_range_differences_is_refused():
 
 # -- planning: settings that cannot work are refused before any run ---------------------------
 
-PLAN_TOML = Path(tk.__file__).parent / "scenarios" / "plan-bearings-only.toml"
+PLAN_TOML = Path(tk.__file__).parent / "scenario" / "builtin" / "plan-bearings-only.toml"
 
 
 def _plan_file(tmp_path, edit):

@@ -130,7 +130,7 @@ def test_solution_picture_in_lat_lon_with_residual_panels_per_kind(tmp_path):
     matplotlib.use("Agg")
     from matplotlib import pyplot as plt
 
-    from tmakit.solution_plot import plot_solution
+    from tmakit.plot.solution import plot_solution
 
     scn = tk.load_scenario("gu2007")
     meas = scn.simulate(rng=1)

@@ -13,7 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tmakit.cli import app
-from tmakit.scenario_catalog import builtin_scenario_names
+from tmakit.scenario.catalog import builtin_scenario_names
 
 runner = CliRunner()
 SCENARIOS = builtin_scenario_names()

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import tmakit as tk
+from tmakit.core.units import free_space_constant, snr_to_sigma_db
 from tmakit.observation import ObservationModel
-from tmakit.scenario_file import ScenarioFileError, builtin_scenario_names, scenario_from_dict
-from tmakit.units import free_space_constant, snr_to_sigma_db
+from tmakit.scenario.files import ScenarioFileError, builtin_scenario_names, scenario_from_dict
 
 PAPERS = {"gu2007", "doppler-lecture", "hoerst2010", "chen-sun-1", "chen-sun-2",
           "chen-sun-3", "hurtado2008"}

@@ -1,6 +1,6 @@
 """Sensor tracks and the WGS-84 <-> ENU conversion: what a user relies on.
 
-Conventions (tmakit.frames): ENU metres, headings clockwise from North, a positive turn rate
+Conventions (tmakit.core.frames): ENU metres, headings clockwise from North, a positive turn rate
 turns clockwise.  ``states(t)`` is ``(n, 6)``: ENU position then velocity.
 """
 
@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tmakit.frames import math_angle_to_bearing
-from tmakit.geodesy import enu_to_geodetic, geodetic_to_enu
+from tmakit.core.frames import math_angle_to_bearing
+from tmakit.core.geodesy import enu_to_geodetic, geodetic_to_enu
 from tmakit.sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, WaypointTrack
 
 FD_STEP = 1e-3  # s, central finite-difference step for velocities

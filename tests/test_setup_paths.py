@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.arrays import take_rows
 from tmakit.batch.solver import VarProProblem
+from tmakit.core.arrays import take_rows
 from tmakit.motion import ConstantVelocity
 from tmakit.observation import ObservationModel
 from tmakit.observation import affine_rows as ar

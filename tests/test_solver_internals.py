@@ -24,7 +24,7 @@ import pytest
 import tmakit as tk
 from tmakit.batch import VarProProblem, levenberg_marquardt
 from tmakit.batch.init import GridScorer, Starts, best_starts_many, grid_candidates
-from tmakit.blas import matmul
+from tmakit.core.blas import matmul
 from tmakit.data import MeasurementSet
 from tmakit.motion import PiecewiseCurvilinear, Stationary
 
@@ -204,7 +204,7 @@ def test_simulate_many_is_simulate_run_by_run(name):
 @pytest.mark.parametrize("split", [False, True])
 def test_blocked_matmul_is_the_matrix_product_split_or_not(split):
     """Splitting is opt-in (a process-wide setting) and changes no product."""
-    from tmakit import blas
+    from tmakit.core import blas
 
     rng = np.random.default_rng(1)
     a, b = rng.normal(size=(3000, 40)), rng.normal(size=(40, 70))
@@ -222,7 +222,7 @@ def test_normal_equations_by_dots_are_the_products_and_ignore_the_thread_count()
     from threadpoolctl import threadpool_limits
 
     from tmakit.batch.gauss_newton import gram, normal_equations
-    from tmakit.blas import DOT_ROWS, by_dots, normal_rows
+    from tmakit.core.blas import DOT_ROWS, by_dots, normal_rows
 
     rng = np.random.default_rng(2)
     n = 3 * DOT_ROWS + 17  # (a last block shorter than the others)
@@ -257,7 +257,7 @@ def _former_search_lm(problem, y, theta0, free, max_iter, rtol=1e-3, atol=0.02, 
     ``tmakit.batch.curvilinear._lm``), verbatim but for its Gram helper: the reference that
     ``levenberg_marquardt(..., free=, damping="factors", max_reject=, stall=, dominance=)``
     must reproduce."""
-    from tmakit.blas import SINGLE_THREAD_WORK
+    from tmakit.core.blas import SINGLE_THREAD_WORK
 
     def gram(j):
         n, p = j.shape[-2:]

@@ -15,9 +15,9 @@ import numpy as np
 import tmakit as tk
 from tmakit.batch import presolve
 from tmakit.batch.varpro import VarProProblem
+from tmakit.core.frames import wrap_angle
 from tmakit.filters import ExtendedKalmanFilter
 from tmakit.filters.general import compiled_for
-from tmakit.frames import wrap_angle
 from tmakit.observation import ObservationModel
 
 

@@ -315,7 +315,7 @@ def test_the_command_line_refuses_an_impossible_draw_with_exit_2(tmp_path):
 
 @pytest.mark.parametrize("name", ["bearings-only-2d", "hurtado2008"])
 def test_a_fit_of_many_rows_summed_by_chunks_equals_the_whole_jacobians(name, monkeypatch):
-    from tmakit import blas
+    from tmakit.core import blas
 
     meas = tk.load_scenario(name).simulate(rng=2)
     whole = tk.estimate(meas, meas.metadata["motion"])

@@ -323,7 +323,7 @@ def test_write_track_is_io_and_parquet_carries_the_start(obs, tmp_path):
 
 
 def test_truth_comes_from_the_metadata_in_the_scenario_layer():
-    from tmakit.truth import truth_states
+    from tmakit.scenario.truth import truth_states
 
     assert tracking.truth_states is truth_states
     scn = tk.load_scenario("bearings-only-2d")

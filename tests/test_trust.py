@@ -17,10 +17,10 @@ from typer.testing import CliRunner
 import tmakit as tk
 from tmakit.cli import app
 from tmakit.cli.estimate import print_estimate
-from tmakit.geodesy import geodetic_to_enu
+from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.results import SanityWarning, trust_of
 from tmakit.results.checks import chi2_low_warning, scale_sigma
-from tmakit.scenario_file import scenario_from_dict
+from tmakit.scenario.files import scenario_from_dict
 
 runner = CliRunner()
 INSIDE_95 = 5.991  # chi-square with 2 dof at 0.95
@@ -141,7 +141,7 @@ def _straight_leg(duration: float = 600.0):
     """``bearings-only-2d`` whose observer holds course and speed throughout."""
     import tomllib
 
-    text = (resources.files("tmakit.scenarios") / "bearings-only-2d.toml").read_text()
+    text = (resources.files("tmakit.scenario") / "builtin" / "bearings-only-2d.toml").read_text()
     d = tomllib.loads(text)
     d["sensors"][0]["legs"] = [{"duration": math.inf}]
     d["measurements"][0]["times"]["stop"] = duration
@@ -210,8 +210,8 @@ def test_the_picture_of_an_unobservable_fit_has_no_track_but_the_fan_and_the_wor
         straight, tmp_path):
     import matplotlib
 
+    from tmakit.plot.solution import plot_solution
     from tmakit.results import normalised_residuals
-    from tmakit.solution_plot import plot_solution
 
     _, meas, _ = straight
     res = tk.estimate(meas, "cv2d")

@@ -27,16 +27,16 @@ from .sensors import PlatformKinematics as PlatformKinematics
 from .sensors import PlatformTrack as PlatformTrack
 
 # scenarios
-from .scenario_plan import MeasurementPlan as MeasurementPlan
-from .scenario import Scenario as Scenario
-from .scenario import simulate as simulate
-from .scenario_file import load_scenario as load_scenario
-from .scenario_file import read_scenario_file as read_scenario_file
-from .scenario_file import scenario_from_dict as scenario_from_dict
-from .scenario_file import builtin_scenarios as builtin_scenarios
-from .scenario_file import ScenarioFileError as ScenarioFileError
-from .scenario_file import load_planning as load_planning
-from .scenario_planning import PlanningSetup as PlanningSetup
+from .scenario.model import MeasurementPlan as MeasurementPlan
+from .scenario.model import Scenario as Scenario
+from .scenario.model import simulate as simulate
+from .scenario.files import load_scenario as load_scenario
+from .scenario.files import read_scenario_file as read_scenario_file
+from .scenario.files import scenario_from_dict as scenario_from_dict
+from .scenario.files import builtin_scenarios as builtin_scenarios
+from .scenario.files import ScenarioFileError as ScenarioFileError
+from .scenario.files import load_planning as load_planning
+from .scenario.planning_table import PlanningSetup as PlanningSetup
 
 # results: what each function below returns
 from .results import EstimateResult as EstimateResult
@@ -78,7 +78,7 @@ from .io import read_measurements as read_measurements
 from .io import write_measurements as write_measurements
 from .io import MeasurementFileError as MeasurementFileError
 from .io.track_files import write_track as write_track
-from .geodesy import geodetic_to_enu as geodetic_to_enu
-from .geodesy import enu_to_geodetic as enu_to_geodetic
+from .core.geodesy import geodetic_to_enu as geodetic_to_enu
+from .core.geodesy import enu_to_geodetic as enu_to_geodetic
 
 __version__: str

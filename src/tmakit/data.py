@@ -23,8 +23,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import rules
-from .arrays import broadcast, take_rows
-from .keywords import NOT_GIVEN, NotGiven, renamed_keyword
+from .core.arrays import broadcast, take_rows
+from .core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from .measurements import KINDS
 from .measurements import codes as categorical
 from .measurements.codes import KIND_CODES, KIND_NAMES

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..blas import matmul
+from ..core.blas import matmul
 from ..observation.fused import PlanarUnits, planar_units
 from .solver import VarProProblem
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .varpro_normal import DeferredNormal
 
 __all__ = ["Evaluation", "normal_of"]
@@ -36,7 +36,7 @@ class Evaluation:
         ``(B, n, p)`` whitened, projected Jacobian (per parameter unit).
     normal : (ndarray, ndarray), optional
         ``(B, p, p)`` ``J'J`` and ``(B, p)`` ``J'r`` in place of the Jacobian, summed over
-        row chunks (more than :data:`tmakit.blas.CHUNKED_ROWS` rows).
+        row chunks (more than :data:`tmakit.core.blas.CHUNKED_ROWS` rows).
     """
 
     theta: Array      # (B, p)

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dsyevd as _dsyevd
 
-from ..arrays import Array
-from ..blas import SINGLE_THREAD_WORK, by_dots, normal_rows
+from ..core.arrays import Array
+from ..core.blas import SINGLE_THREAD_WORK, by_dots, normal_rows
 from .varpro import Evaluation, VarProProblem
 
 __all__ = ["POLISH_INFORMATION", "GaussNewtonModel", "gram", "information_of",
@@ -28,7 +28,7 @@ def gram(j: Array) -> Array:
     """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)`` (or ``(p, p)`` of ``(n, p)``).
 
     Summed over row blocks below OpenBLAS's multithreading threshold when one product would
-    pass it (:mod:`tmakit.blas`).
+    pass it (:mod:`tmakit.core.blas`).
 
     Parameters
     ----------

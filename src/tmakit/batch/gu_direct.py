@@ -15,8 +15,8 @@ estimate and iterates ``theta_pf^(i+1) = D_i^-1 N_i`` with ``D_i = A^T Sigma^-1 
 
 Here ``P_k`` is the linear received power in watts, ``10**(P_dBW/10)``; tmakit stores power in
 dBW.  ``C_0`` is the free-space constant ``(lambda/4 pi)^2`` at the carrier
-(:func:`tmakit.units.free_space_constant`).  ``SNR_p`` comes from each power sample's sigma in
-dB: ``SNR = (10 / ln 10 / sigma_dB)^2`` (the inverse of :func:`tmakit.units.snr_to_sigma_db`).
+(:func:`tmakit.core.units.free_space_constant`).  ``SNR_p`` comes from each power sample's sigma in
+dB: ``SNR = (10 / ln 10 / sigma_dB)^2`` (the inverse of :func:`tmakit.core.units.snr_to_sigma_db`).
 
 The paper's point ("It is important to point out that A_f is badly conditioned"): the column
 ``f_k ~ 1.9e9`` dwarfs the others.  Every iteration records the condition number of the
@@ -50,12 +50,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
+from ..core.units import SPEED_OF_LIGHT, free_space_constant
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
 from ..results.estimate import EstimateResult, diverged_result, result_from_covariance
 from ..results.status import DIVERGED, NOT_CONVERGED, Status
-from ..units import SPEED_OF_LIGHT, free_space_constant
 from .estimator import Init, PaperMethod, kinds_tuple
 from .gu_geometry import (
     DIVERGENCE_FACTOR,

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
 from ..results.status import CONVERGED, DIVERGED, Status
@@ -188,7 +188,7 @@ def initial_theta(motion: MotionModel, init: Mapping[str, float] | ArrayLike | N
 def snr_from_sigma_db(sigma_db: ArrayLike) -> Array:
     """Return SNR_p (linear) of a power whose standard deviation is ``sigma_db`` (dB).
 
-    The first-order inverse of :func:`tmakit.units.snr_to_sigma_db`.
+    The first-order inverse of :func:`tmakit.core.units.snr_to_sigma_db`.
 
     Parameters
     ----------

@@ -21,7 +21,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from ..blas import matmul
+from ..core.blas import matmul
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel

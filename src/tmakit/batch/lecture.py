@@ -43,9 +43,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
+from ..core.linalg import normalised_eigh
 from ..data import MeasurementSet
-from ..linalg import normalised_eigh
 from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..frames import wrap_angle_own
+from ..core.frames import wrap_angle_own
 from ..observation.fused import fused_gradient_rows, gradient_of_rows
 from ..results.observability import full_rank
 from .init import GridSettings, Starts, best_starts_many, subsample

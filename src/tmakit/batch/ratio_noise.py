@@ -14,9 +14,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import cho_solve_banded, cholesky_banded, solve_banded
 
-from ..arrays import Array
+from ..core.arrays import Array
+from ..core.units import SPEED_OF_LIGHT
 from ..data import MeasurementSet
-from ..units import SPEED_OF_LIGHT
 
 __all__ = ["COVARIANCES", "Banded", "RatioPairs", "chain", "doppler_bands",
            "doppler_ratio_covariance", "power_bands", "power_ratio_covariance", "ratio_pairs",

@@ -90,13 +90,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
+from ..core.units import SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
 from ..observation import ObservationModel
 from ..results.estimate import EstimateResult, diverged_result, result_from_covariance
 from ..results.status import DIVERGED, NOT_CONVERGED, Status
-from ..units import SPEED_OF_LIGHT
 from .estimator import Init, PaperMethod, kinds_tuple
 from .gu_geometry import (
     DIVERGENCE_FACTOR,

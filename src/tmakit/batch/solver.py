@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .gauss_newton import GaussNewtonModel, information_of, information_steady
 from .varpro import Evaluation, VarProProblem
 

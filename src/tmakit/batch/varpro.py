@@ -22,10 +22,10 @@ from contextlib import contextmanager
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import blas
-from ..arrays import Array
-from ..frames import wrap_angle
-from ..frames import wrap_angle_own as _wrap_own
+from ..core import blas
+from ..core.arrays import Array
+from ..core.frames import wrap_angle
+from ..core.frames import wrap_angle_own as _wrap_own
 from ..observation import Linearisation, ObservationModel
 from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
@@ -307,7 +307,7 @@ class VarProProblem:
         Without nuisance, and with chunks that never split a correlated noise block
         (:meth:`~tmakit.observation.NoiseModel.chunk_bounds`: each chunk whitened alone, by
         its own blocks), each chunk's residuals and Jacobian rows are those of the whole
-        problem (:data:`tmakit.blas.CHUNK_ROWS`).
+        problem (:data:`tmakit.core.blas.CHUNK_ROWS`).
         """
         b, n = u.shape
         r = np.empty((b, n))

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..observation import Linearisation
 
 __all__ = ["DeferredNormal", "motion_normal"]

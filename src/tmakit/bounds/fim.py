@@ -33,7 +33,7 @@ from ..results.bound import Bound, bound_from_information
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..scenario import Scenario
+    from ..scenario.model import Scenario
 
 
 def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike,
@@ -159,7 +159,7 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
     ValueError
         When a measurement set comes without ``motion`` or ``truth``.
     """
-    from ..scenario import Scenario
+    from ..scenario.model import Scenario
 
     if isinstance(source, Scenario):
         meas = source.simulate(noise=False)

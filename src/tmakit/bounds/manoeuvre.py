@@ -43,7 +43,7 @@ from ..results.bound import Bound
 from .fim import bound_source, crlb, truth_vector
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..scenario import Scenario
+    from ..scenario.model import Scenario
 
 _ALIASES = {"azimuth": "bearing", "azimuth_rate": "azimuth_rate", "bearing": "bearing"}
 

@@ -38,12 +38,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..data import MeasurementSet
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..scenario import Scenario
-from ..linalg import check_prior
+    from ..scenario.model import Scenario
+from ..core.linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation import MeasurementGroup, group_times
 from .pcrb_recursion import (
@@ -100,7 +100,7 @@ def _resolve_source(source: object, prior_mean: ArrayLike | None,
                     nuisance: Mapping[str, float] | None
                     ) -> tuple[MeasurementSet, ArrayLike | None, dict[str, Any],
                                dict[str, float], Scenario | None]:
-    from ..scenario import Scenario
+    from ..scenario.model import Scenario
 
     if isinstance(source, Scenario):
         meas = source.simulate(rng=0, noise=False)  # the layout: times, sensors, sigmas

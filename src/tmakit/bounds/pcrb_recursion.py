@@ -33,8 +33,8 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
-from ..linalg import symmetrise
+from ..core.arrays import Array
+from ..core.linalg import symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
 
@@ -116,7 +116,7 @@ def information_inverse(info: Array) -> Array:
     ndarray
         (..., n, n) covariances, SI.
     """
-    # Not tmakit.linalg.normalised_eigh + a pseudo-inverse (results.bound.pseudo_covariance):
+    # Not tmakit.core.linalg.normalised_eigh + a pseudo-inverse (results.bound.pseudo_covariance):
     # the Bayesian information has full rank by its prior, so this is a floored *full*
     # inverse, batched over leading axes, divided (not multiplied) by sqrt(diag); the PCRB
     # figures of tests/test_pcrb.py and the planners' choices depend on these numerics.

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
 from .pcrb_recursion import PosteriorInformation
 

@@ -161,7 +161,7 @@ def load_scenario_or_fail(name: str) -> Any:
     typer.Exit
         Status 2 when the scenario is unknown or its file invalid.
     """
-    from ..scenario_file import ScenarioFileError, load_scenario
+    from ..scenario.files import ScenarioFileError, load_scenario
 
     try:
         return load_scenario(name)

@@ -150,7 +150,7 @@ def grouped_by_kind(meas: Any) -> Any:
 
     The solvers work on the rows grouped by kind (:attr:`ObservationModel.order
     <tmakit.observation.ObservationModel.order>`) and hold a grouped copy of a set whose kinds
-    alternate (about 150 bytes per row).  A set of more than :data:`tmakit.blas.CHUNKED_ROWS`
+    alternate (about 150 bytes per row).  A set of more than :data:`tmakit.core.blas.CHUNKED_ROWS`
     rows is reordered here instead, once, so that no copy is held beside it during the fit;
     the fit is the same (the solver's rows are the same, in the same order).
 
@@ -166,7 +166,7 @@ def grouped_by_kind(meas: Any) -> Any:
     """
     import numpy as np
 
-    from .. import blas
+    from ..core import blas
 
     if len(meas) <= blas.CHUNKED_ROWS:
         return meas
@@ -444,8 +444,8 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
     units : str
         ``si`` or ``nautical``: the units of speed and range in the picture's title.
     """
+    from ..plot.solution import plot_solution
     from ..results import normalised_residuals
-    from ..solution_plot import plot_solution
 
     path, file, options = plot
     assert path is not None

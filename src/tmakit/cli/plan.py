@@ -77,13 +77,13 @@ def plan(
     from .outputs import check_particles
 
     check_particles(particles)
-    from ..scenario_planning import PLANNERS, PLANNING_TRACKERS
+    from ..scenario.planning_table import PLANNERS, PLANNING_TRACKERS
 
     if tracker is not None and tracker not in PLANNING_TRACKERS:
         raise fail(f"--tracker {tracker!r}: expected one of {', '.join(PLANNING_TRACKERS)}")
     if planner is not None and planner not in PLANNERS:
         raise fail(f"--planner {planner!r}: expected one of {', '.join(PLANNERS)}")
-    from ..scenario_file import ScenarioFileError, load_planning
+    from ..scenario.files import ScenarioFileError, load_planning
 
     try:
         setup = load_planning(scenario)
@@ -154,7 +154,7 @@ def start_warnings(setup: Any) -> list[str]:
 
     Parameters
     ----------
-    setup : tmakit.scenario_planning.PlanningSetup
+    setup : tmakit.scenario.planning_table.PlanningSetup
         The loaded planning table.
 
     Returns
@@ -201,7 +201,7 @@ def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bo
         write_table(output, result.table(), force=force, what="the per-step table")
         console.print(f"wrote {output}", highlight=False)
     if plot is not None:
-        from ..plot import plot_plan
+        from ..plot.tracks import plot_plan
         from .outputs import write_picture
 
         write_picture(plot, force, lambda tmp: plot_plan(result, tmp))

@@ -158,7 +158,7 @@ def scenarios() -> None:
     """List the built-in scenarios, one line each."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
-    from ..scenario_catalog import builtin_scenarios
+    from ..scenario.catalog import builtin_scenarios
 
     table = Table(show_header=True, box=None)
     table.add_column("name", style="bold")
@@ -263,7 +263,7 @@ def show(
 
     print_warnings(measurement_warnings(meas))
     if plot is not None:
-        from ..plot import plot_measurements
+        from ..plot.tracks import plot_measurements
 
         write_picture(plot, force, lambda tmp: plot_measurements(meas, tmp, title=title))
         out.print(f"wrote {plot}", highlight=False)

@@ -255,7 +255,7 @@ def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path
             raise fail(f"{output} already exists; use --force to overwrite it") from None
         say.print(f"wrote {output}", highlight=False)
     if plot is not None:
-        from ..plot import plot_track
+        from ..plot.tracks import plot_track
         from .outputs import write_picture
 
         bound, note = (tracking.track_pcrb(meas, tr, truth) if truth is not None

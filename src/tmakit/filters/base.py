@@ -14,10 +14,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
-from ..blas import one_thread
+from ..core.arrays import Array
+from ..core.blas import one_thread
+from ..core.linalg import check_prior
 from ..data import MeasurementSet
-from ..linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .extras import TrackExtras
@@ -73,7 +73,7 @@ class TrackingFilter(ABC):
     #: ``numpy.random.Generator`` or seed): declared, so that no caller inspects a signature.
     takes_particles = False
     takes_rng = False
-    #: Limit BLAS to one thread while working (:func:`tmakit.blas.one_thread`).
+    #: Limit BLAS to one thread while working (:func:`tmakit.core.blas.one_thread`).
     single_blas_thread = False
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,

@@ -50,7 +50,7 @@ def _linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, b
 
 def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array,
                     h_cov: Array | None = None) -> tuple[Array, Array, UpdateInfo]:
-    """Make a Kalman update (Joseph form, then :func:`tmakit.linalg.repair_psd`).
+    """Make a Kalman update (Joseph form, then :func:`tmakit.core.linalg.repair_psd`).
 
     The gain ``K = P H^T (H P H^T + R)^-1``, NIS and log-likelihood come from ``h``; the
     covariance ``(I - K G) P (I - K G)^T + K R K^T`` from ``G = h_cov`` (``h`` when not given;

@@ -34,10 +34,10 @@ from itertools import pairwise
 import numpy as np
 from scipy.linalg.lapack import dposv, dpotrf
 
-from ..arrays import Array, IntArray
+from ..core.arrays import Array, IntArray
+from ..core.frames import wrap_angle
+from ..core.linalg import repair_psd, solve_spd
 from ..data import KIND_CODES, MeasurementSet
-from ..frames import wrap_angle
-from ..linalg import repair_psd, solve_spd
 from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
@@ -239,7 +239,7 @@ Step = tuple
 
 
 def sym(p: Array) -> Array:
-    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.linalg.symmetrise`).
+    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.core.linalg.symmetrise`).
 
     Parameters
     ----------
@@ -257,7 +257,7 @@ def sym(p: Array) -> Array:
 
 
 def checked_psd(p: Array) -> Array:
-    """Give ``p`` symmetrised, repaired (:func:`~tmakit.linalg.repair_psd`) only if not PD.
+    """Give ``p`` symmetrised, repaired (:func:`~tmakit.core.linalg.repair_psd`) only if not PD.
 
     Parameters
     ----------
@@ -280,7 +280,7 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
 
     One and two rows in closed form, more by one Cholesky factorisation (LAPACK ``posv``,
     lower triangle); an ``S`` that is not numerically positive definite goes to
-    :func:`~tmakit.linalg.solve_spd`, which repairs it.
+    :func:`~tmakit.core.linalg.solve_spd`, which repairs it.
 
     Parameters
     ----------

@@ -30,7 +30,7 @@ variance that is not positive, an updated covariance whose LDL^T pivots are not 
 :data:`PIVOT_FLOOR` times its diagonal (numerically indefinite or singular), a predicted
 covariance without a Cholesky factor (UKF), a degenerate circular mean — is not taken here:
 the kernel stops with the state predicted to that step and the filter does it on the general
-path, whose covariance repair (:func:`tmakit.linalg.repair_psd`) always returns a symmetric
+path, whose covariance repair (:func:`tmakit.core.linalg.repair_psd`) always returns a symmetric
 positive semi-definite matrix.
 """
 
@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..observation.groups import TIME_TOLERANCE
 
 TWO_PI = 2.0 * math.pi
@@ -100,7 +100,7 @@ class KernelRun:
 
 
 def wrap(a: float) -> float:
-    """Wrap an angle to (-pi, pi] (the convention of :func:`tmakit.frames.wrap_angle`).
+    """Wrap an angle to (-pi, pi] (the convention of :func:`tmakit.core.frames.wrap_angle`).
 
     Parameters
     ----------

@@ -49,7 +49,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
+from ..core.linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo

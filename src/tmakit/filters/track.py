@@ -13,9 +13,9 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
+from ..core.linalg import symmetrise
 from ..data import MeasurementSet
-from ..linalg import symmetrise
 from ..results.answers import ELLIPSE_LEVEL, Answer, track_answer
 from .extras import TrackExtras
 

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg.lapack import dpotrf
 
-from ..linalg import safe_cholesky
+from ..core.linalg import safe_cholesky
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from ..observation.rows import Index

@@ -16,7 +16,7 @@ from stonesoup.models.measurement.nonlinear import NonLinearGaussianMeasurement
 from stonesoup.types.angle import Bearing
 from stonesoup.types.array import StateVector, StateVectors
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..observation import MeasurementGroup
 

@@ -451,7 +451,7 @@ def _to_enu(state: NDArray[np.float64], origin: tuple[float, float, float],
     str
         The surface rule's text when it flattened the positions, else ``""``.
     """
-    from ..geodesy import geodetic_to_enu
+    from ..core.geodesy import geodetic_to_enu
     from .logs import surface_dim
 
     n, alt0 = state.shape[0], origin[2]

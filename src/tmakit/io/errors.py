@@ -88,9 +88,9 @@ def refuse_unreadable(path: Path, binary: bool = False) -> None:
     Raises
     ------
     MeasurementFileError
-        Naming the file and what it is (:mod:`tmakit.input_files`).
+        Naming the file and what it is (:mod:`tmakit.core.input_files`).
     """
-    from ..input_files import binary_problem, not_regular_problem
+    from ..core.input_files import binary_problem, not_regular_problem
 
     problem = not_regular_problem(path) or (None if binary else binary_problem(path))
     if problem is not None:

@@ -209,7 +209,7 @@ def load_mapping(path: str | os.PathLike[str]) -> LogMapping:
         If the file is missing, not TOML (naming the line) or not a valid mapping (naming
         the key).
     """
-    from ..input_files import binary_problem, not_regular_problem
+    from ..core.input_files import binary_problem, not_regular_problem
 
     path = Path(path)
     problem = not_regular_problem(path) or (path.is_file() and binary_problem(path))

@@ -162,7 +162,7 @@ class LocalFrame:
         numpy.ndarray, shape (n, 3)
             East, north, up (m).
         """
-        from ..geodesy import geodetic_to_enu
+        from ..core.geodesy import geodetic_to_enu
 
         lat = np.asarray(lat, float)
         height = np.full(lat.shape, self.origin[2]) if self.dim == 2 else np.asarray(alt, float)
@@ -257,8 +257,8 @@ def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int
     except (TypeError, ValueError):
         raise ValueError(f"origin {origin!r}: expected (lat, lon, alt) in degrees, degrees, "
                          "metres") from None
+    from ..core.units import REACH_M
     from ..rules import LATITUDE, LONGITUDE, geo_within, state_within_reach
-    from ..units import REACH_M
 
     for value, ok, expected in ((lat0, geo_within(np.array([lat0]), "sensor_lat"), LATITUDE),
                                 (lon0, geo_within(np.array([lon0]), "sensor_lon"), LONGITUDE),

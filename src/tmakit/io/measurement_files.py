@@ -27,8 +27,8 @@ import os
 from collections.abc import Collection, Sequence
 from pathlib import Path
 
+from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..data import MeasurementSet
-from ..keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .contract import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable

@@ -132,7 +132,7 @@ def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
     within its tolerance of the origin's are on a surface (z = 0, no curvature as height),
     unless the file's metadata says ``dim: 3``.
     """
-    from ..geodesy import geodetic_to_enu
+    from ..core.geodesy import geodetic_to_enu
     from .logs import surface_dim
 
     lat, lon = num["sensor_lat"].copy(), num["sensor_lon"].copy()

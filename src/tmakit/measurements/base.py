@@ -1,7 +1,7 @@
 """The measurement-model interface.
 
 A measurement model maps relative states (target minus sensor, ``(..., n, 6)``, see
-:mod:`tmakit.frames`) and its nuisance parameters to predicted values in SI units, and gives
+:mod:`tmakit.core.frames`) and its nuisance parameters to predicted values in SI units, and gives
 the analytic Jacobian with respect to both.  It knows nothing about motion models or sensors.
 Leading axes of ``rel`` are independent problems (particles, Monte Carlo runs).
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .geometry import as_rel, dot3, inverse_range_and_unit, zeros_nuisance
 from .values import Jacobian, ValueRange
 
@@ -459,7 +459,7 @@ class MeasurementModel:
         """
         diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
         if self.is_angle:
-            from ..frames import wrap_angle
+            from ..core.frames import wrap_angle
 
             return wrap_angle(diff)
         return diff

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..units import SPEED_OF_LIGHT
+from ..core.units import SPEED_OF_LIGHT
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 from .range_rate import range_rate_and_gradient, range_rate_row
 

@@ -7,7 +7,7 @@ Inside, power is in dBW so that the nuisance constant enters linearly:
 
 Noise: a file's ``sigma`` is the standard deviation of the power in dB.  Gu et al. (2007)'s
 noise (var(eta/P) = 1/SNR_p) is simulated exactly by the scenario and written with the
-first-order sigma (10 / ln 10) / sqrt(SNR_p), see :func:`tmakit.units.snr_to_sigma_db`.
+first-order sigma (10 / ln 10) / sqrt(SNR_p), see :func:`tmakit.core.units.snr_to_sigma_db`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..units import DBM_MINUS_DBW
+from ..core.units import DBM_MINUS_DBW
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 
 _TEN_OVER_LN10 = 10.0 / np.log(10.0)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..units import REACH_M
+from ..core.units import REACH_M
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 

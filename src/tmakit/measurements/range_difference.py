@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..units import REACH_M
+from ..core.units import REACH_M
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 

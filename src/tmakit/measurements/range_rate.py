@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..units import SPEED_OF_LIGHT
+from ..core.units import SPEED_OF_LIGHT
 from .base import (
     Array,
     Jacobian,

@@ -35,8 +35,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from ..arrays import Array
 from ..bounds.pcrb_runs import MIN_RUNS, pcrb_over_runs, ratio_interval
+from ..core.arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
 from ..planning.closed_loop import LoopRecord, LoopSetup, Policy, run_closed_loop
 from ..planning.measurement_plan import SensorPlan

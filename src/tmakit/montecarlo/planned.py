@@ -1,6 +1,6 @@
 """Run a scenario's ``[planning]`` table: the planned path beside the fixed pattern, many times.
 
-:func:`plan` loads a scenario with a steered sensor (:func:`tmakit.scenario_file.load_planning`)
+:func:`plan` loads a scenario with a steered sensor (:func:`tmakit.scenario.files.load_planning`)
 and runs the closed loop of :mod:`tmakit.planning.closed_loop` (truth, the policy's move, the
 simulated measurements, the tracker's update, replan) ``runs`` times for two cases with the
 same seeds (the same truth, prior and noise draws, run for run):
@@ -27,12 +27,12 @@ from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
-from ..keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
+from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..planning import MissionPlanner
 from ..planning.closed_loop import LoopRecord, LoopSetup
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
-from ..scenario_file import load_planning
-from ..scenario_planning import MAX_DECISIONS, PLANNERS, PlanningSetup
+from ..scenario.files import load_planning
+from ..scenario.planning_table import MAX_DECISIONS, PLANNERS, PlanningSetup
 from .closed_loop import MIN_RUNS_INTERVAL, ClosedLoopStudy, LoopCase, closed_loop_study
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -461,7 +461,7 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
 
     Raises
     ------
-    tmakit.scenario_file.ScenarioFileError
+    tmakit.scenario.files.ScenarioFileError
         If the scenario or its ``[planning]`` table is not valid.
     ValueError
         Naming the option out of range.

@@ -23,10 +23,10 @@ from ..batch.dispatch import is_manoeuvring
 from ..batch.methods import estimate_with
 from ..batch.ml import FIT_ERRORS, MaximumLikelihood
 from ..batch.varpro import compiled_batches
-from ..blas import one_thread
+from ..core.blas import one_thread
 from ..data import MeasurementSet
 from ..results.nuisance import KnownNuisance
-from ..scenario import Scenario
+from ..scenario.model import Scenario
 from .ml_runs import solve_runs, summarise_runs
 
 __all__ = ["FAILED", "RUN_ERRORS", "ChunkOutput", "ChunkTask", "run_chunk"]

@@ -19,9 +19,9 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from ..bounds.fim import crlb
-from ..keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
+from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
-from ..scenario import Scenario
+from ..scenario.model import Scenario
 from .estimators import check_estimator
 from .execution import (
     dask_client,
@@ -92,7 +92,7 @@ def _known(scenario: Scenario, known_nuisance: KnownNuisanceLike) -> KnownNuisan
 def _scenario(scenario: Scenario | str | Path) -> Scenario:
     """Return the scenario itself, or load it by built-in name or TOML path."""
     if isinstance(scenario, str | Path):
-        from ..scenario_file import load_scenario
+        from ..scenario.files import load_scenario
 
         scenario = load_scenario(scenario)
     if not isinstance(scenario, Scenario):

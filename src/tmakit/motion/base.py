@@ -3,7 +3,7 @@
 A motion model knows nothing about sensors or measurements.  It names its parameters and
 maps a parameter vector ``theta`` (shape ``(..., p)``; leading axes are independent problems,
 e.g. Monte Carlo runs or particles) and sample times ``t`` (shape ``(n,)``, seconds) to target
-states of shape ``(..., n, 6)``: ENU position (m) and velocity (m/s), see :mod:`tmakit.frames`.
+states of shape ``(..., n, 6)``: ENU position (m) and velocity (m/s), see :mod:`tmakit.core.frames`.
 :meth:`MotionModel.jacobian` gives ``d state / d theta`` of shape ``(..., n, 6, p)``.
 """
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .base import MotionModel
 from .curvilinear_closed import propagate_with_partials
 

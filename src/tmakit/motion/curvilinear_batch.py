@@ -32,7 +32,7 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .base import MotionModel
 
 NormalMaker = Callable[[NDArray[np.int64] | None], tuple[Array, Array]]

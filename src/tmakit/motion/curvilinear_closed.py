@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 
 _SERIES_BELOW = 1e-3     # |g| + |r| below which F and its derivatives come from the series
 _SERIES_TERMS = 6        # term n is below size^n / (n+1)!: < 1e-20 at the switch

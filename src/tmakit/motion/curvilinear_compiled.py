@@ -40,7 +40,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array, IntArray
+from ..core.arrays import Array, IntArray
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 # Inlined into the loops over the samples (as a call, every array argument's reference count

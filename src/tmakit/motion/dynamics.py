@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
+from ..core.arrays import Array
 
 
 def state_names(dim: int) -> tuple[str, ...]:

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 
 _IN_PLACE_ROWS = 2048  # rows from which :meth:`AffineRows.single` writes in place
 _SENSOR_BLOCK = 4096  # rows of sensor states (192 kB) whose components are made together

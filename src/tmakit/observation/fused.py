@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .affine_rows import AffineRows
 from .linearisation import Linearisation
 

@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..measurements import MeasurementModel
 from ..motion.dynamics import state_names

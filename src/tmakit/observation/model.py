@@ -19,10 +19,10 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
-from ..blas import matmul
+from ..core.arrays import Array
+from ..core.blas import matmul
+from ..core.frames import wrap_angle
 from ..data import MeasurementSet
-from ..frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from ..motion import MotionModel
 from .affine_rows import AffineRows

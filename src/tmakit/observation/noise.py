@@ -15,7 +15,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..measurements import KINDS, MeasurementModel, model_for
 from .noise_blocks import correlated_blocks

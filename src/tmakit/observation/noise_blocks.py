@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..measurements import MeasurementModel
 
 __all__ = ["MAX_GROUP_ROWS", "correlated_blocks", "overlapping_groups"]

@@ -16,8 +16,8 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
-from ..frames import wrap_angle
+from ..core.arrays import Array
+from ..core.frames import wrap_angle
 from ..measurements import MeasurementModel, model_for
 from .noise_blocks import correlated_blocks
 

@@ -38,7 +38,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from ..arrays import Array, BoolArray, IntArray
+from ..core.arrays import Array, BoolArray, IntArray
 from ..measurements.bearing import Bearing
 from ..measurements.elevation import Elevation
 from ..measurements.frequency import Frequency

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
 from ..bounds.pcrb_recursion import PosteriorInformation
+from ..core.arrays import Array
+from ..core.linalg import safe_cholesky
 from ..filters.base import TrackingFilter
-from ..linalg import safe_cholesky
 
 
 def cubature_points(mean: ArrayLike, covariance: ArrayLike) -> tuple[Array, Array]:

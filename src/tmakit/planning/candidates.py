@@ -28,9 +28,9 @@ from typing import Literal
 
 import numpy as np
 
-from ..arrays import Array
 from ..bounds.pcrb_recursion import PosteriorInformation, predict_information
-from ..linalg import symmetrise
+from ..core.arrays import Array
+from ..core.linalg import symmetrise
 from .belief import Belief
 from .fast_information import cloud_information, supports
 from .measurement_plan import SensorPlan

@@ -49,11 +49,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
 from ..bounds.pcrb_recursion import PosteriorInformation, noise_factor
+from ..core.arrays import Array
+from ..core.frames import wrap_angle
 from ..data import MeasurementSet
 from ..filters import FILTERS, TrackingFilter
-from ..frames import wrap_angle
 from ..measurements import KINDS
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup

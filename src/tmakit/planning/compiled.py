@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from ..arrays import Array
-from ..optional_kernels import OptionalKernels
+from ..core.arrays import Array
+from .optional_kernels import OptionalKernels
 
 #: The products of ``1/r`` and the bearing rate ``q`` the kernels sum, in the order of
 #: :data:`tmakit.planning.planar_information._PRODUCTS`.
@@ -41,7 +41,7 @@ PRODUCTS = ("ir2", "irq", "qq", "ir", "q")
 #: ``E[g]``, ``E[g c2]``, ``E[g cs]``.
 ROWS = 2 + 3 * len(PRODUCTS)
 
-#: The module's kernels (:mod:`tmakit.optional_kernels`).
+#: The module's kernels (:mod:`tmakit.planning.optional_kernels`).
 KERNELS = OptionalKernels("planning", lambda: _compile())
 use_compiled = KERNELS.use_compiled
 available = KERNELS.available

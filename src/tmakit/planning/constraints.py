@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 
 #: Default penalty weight (dimensionless, see the module docstring).
 DEFAULT_PENALTY = 10.0

@@ -21,8 +21,8 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
 from ..bounds.pcrb_recursion import information_inverse
+from ..core.arrays import Array
 from . import compiled
 
 Block = Literal["position", "velocity", "state"]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .measurement_plan import SensorPlan
 
 #: Kinds this module writes out (functions of the relative position and velocity only).

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from . import compiled
 from .belief import Belief

@@ -37,8 +37,8 @@ from typing import Literal, Protocol
 
 import numpy as np
 
-from ..arrays import Array
 from ..bounds.pcrb_recursion import predict_information
+from ..core.arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from .belief import Belief
 from .candidates import step_information

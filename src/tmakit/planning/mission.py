@@ -52,8 +52,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
-from ..frames import wrap_angle
+from ..core.arrays import Array
+from ..core.frames import wrap_angle
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..sensors.platform import Actions, PlatformState
 from .constraints import Violation
 from .criteria import Criterion

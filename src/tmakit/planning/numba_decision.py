@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .numba_kernels import assemble_gamma, general_sums, position_sums, spd_inverse_stack
 
 _exact = numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -52,7 +52,7 @@ def _clip(value: float, low: float, high: float) -> float:
 
 @_exact
 def _wrap(angle: float) -> float:
-    """``tmakit.frames.wrap_angle`` of one angle (rad), the same operations."""
+    """``tmakit.core.frames.wrap_angle`` of one angle (rad), the same operations."""
     shifted = angle + np.pi
     out = shifted - np.pi
     if not (shifted >= 0.0 and shifted < _TWO_PI):

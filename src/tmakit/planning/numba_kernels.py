@@ -11,7 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
 
 _sums = numba.njit(cache=True, nogil=True, error_model="numpy",
                    fastmath={"reassoc", "contract", "nsz"})

@@ -30,7 +30,7 @@ import threading
 
 import numpy as np
 
-from ..arrays import Array
+from ..core.arrays import Array
 from . import compiled
 from .measurement_plan import SensorPlan
 

@@ -34,7 +34,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..sensors.platform import PlatformKinematics, Step
 from ..sensors.platform_state import Actions, PlatformState
 from . import compiled, fused

@@ -36,7 +36,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..sensors.platform import PlatformKinematics, Step
 from ..sensors.platform_state import Actions, PlatformState
 from ..sensors.tracks import SensorTrack

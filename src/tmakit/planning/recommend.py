@@ -19,8 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..bounds.pcrb_recursion import PosteriorInformation
+from ..core.linalg import symmetrise
 from ..filters.base import TrackingFilter
-from ..linalg import symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..sensors.platform_state import PlatformState
 from .belief import Belief, cubature_points

@@ -45,7 +45,7 @@ from ..bounds import crlb
 from ..data import MeasurementSet
 from ..filters.mgekf import ModifiedGainEKF, ReflectingEKF
 from ..filters.multilag import DEFAULT_LAGS, multilag_groups
-from ..scenario_file import load_scenario
+from ..scenario.files import load_scenario
 from .common import Reproduction, Section
 
 PATHS = (1, 2, 3)

@@ -6,7 +6,7 @@ import copy
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ..scenario import Scenario
+from ..scenario.model import Scenario
 
 
 @dataclass

@@ -15,8 +15,8 @@ import numpy as np
 
 from ..batch import estimate
 from ..bounds import crlb
-from ..scenario import MeasurementPlan, Scenario
-from ..scenario_file import load_scenario
+from ..scenario.files import load_scenario
+from ..scenario.model import MeasurementPlan, Scenario
 from ..sensors import FixedSensor
 from .common import Reproduction, Section
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..bounds import crlb
-from ..scenario_file import load_scenario
+from ..scenario.files import load_scenario
 from .common import Reproduction, Section, only_kinds, rel_diff, with_noise
 
 PARAMS = ("x", "y", "vx", "vy")

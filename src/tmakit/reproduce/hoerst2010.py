@@ -25,8 +25,8 @@ import numpy as np
 
 from ..bounds.manoeuvre import CrbSequence, curvilinear_crb_sequence
 from ..motion import PiecewiseCurvilinear
-from ..scenario import Scenario
-from ..scenario_file import load_scenario
+from ..scenario.files import load_scenario
+from ..scenario.model import Scenario
 from .common import Reproduction, Section
 
 

@@ -25,8 +25,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2 as chi2_dist
 
+from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
-from ..geodesy import enu_to_geodetic
 from .context import altitude_reference, clock_time, origin_of, sensor_position
 
 KNOT = 1852.0 / 3600.0

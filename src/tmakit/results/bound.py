@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
+from ..core.linalg import normalised_eigh
 from ..data import MeasurementSet
-from ..linalg import normalised_eigh
 from ..motion import MotionModel
 from .answers import parameter_display
 from .nuisance import KnownNuisance, as_known_nuisance

@@ -11,8 +11,8 @@ import datetime as _dt
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
-from ..geodesy import enu_to_geodetic
 
 #: Metadata key of the measurement set's clock-time origin (ISO-8601 UTC of t = 0 s).
 TIME_ORIGIN_KEY = "time_origin"

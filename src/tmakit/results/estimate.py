@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import blas
+from ..core import blas
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel

@@ -26,8 +26,8 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.linalg import normalise
 from ..data import MeasurementSet
-from ..linalg import normalise
 from ..measurements import KINDS
 from ..motion import MotionModel
 from .own_legs import range_words, sensor_legs

@@ -73,7 +73,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
 from .platform_state import Actions, Index, PlatformState, propagate_constant_turn
 from .tracks import SensorTrack
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..arrays import Array
-from ..frames import wrap_angle
+from ..core.arrays import Array
+from ..core.frames import wrap_angle
 
 Index = int | slice | Sequence[int] | NDArray[np.integer] | NDArray[np.bool_]
 

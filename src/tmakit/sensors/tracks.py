@@ -1,9 +1,9 @@
 """Sensor tracks: where the listening platform is, and how fast it moves, at any time.
 
 Every track answers :meth:`SensorTrack.states` with ENU positions (m) and velocities (m/s),
-shape ``(n, 6)``.  Headings and turn rates use the bearing convention of :mod:`tmakit.frames`
+shape ``(n, 6)``.  Headings and turn rates use the bearing convention of :mod:`tmakit.core.frames`
 (clockwise from North; a positive turn rate turns clockwise).  Tracks given in WGS-84
-latitude/longitude/altitude are converted to the local ENU frame with :mod:`tmakit.geodesy`.
+latitude/longitude/altitude are converted to the local ENU frame with :mod:`tmakit.core.geodesy`.
 """
 
 from __future__ import annotations
@@ -431,7 +431,7 @@ class RecordedTrack(SensorTrack):
         ValueError
             If the origin is out of range or the record is not valid (see the class).
         """
-        from ..geodesy import geodetic_to_enu
+        from ..core.geodesy import geodetic_to_enu
 
         e, n, u = geodetic_to_enu(lat, lon, alt, origin)
         return cls(times, np.column_stack([e, n, u]), velocities)

@@ -18,12 +18,13 @@ One job per module:
 * :mod:`.pcrb` — the posterior CRB of a track's start and updates.
 * :mod:`.errors` — :class:`TrackingError`, naming library parameters (never CLI flags).
 
-The true states of a simulated set are :func:`tmakit.truth.truth_states` (re-exported here).
+The true states of a simulated set are :func:`tmakit.scenario.truth_states`
+(re-exported here).
 """
 
 from __future__ import annotations
 
-from ..truth import truth_states
+from ..scenario.truth import truth_states
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim, process_noise, random_filters
 from .initiators import (

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..filters import FILTERS, TrackingFilter, state_names
 from ..motion import motion_from_name

@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..arrays import Array
+from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..filters import Track
 from ..measurements import model_for

@@ -39,7 +39,8 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
     tr : Track
         A track from :func:`tmakit.track`.
     truth : array_like, shape (K, n), optional
-        True states at the track's times (m, m/s), as from :func:`tmakit.truth.truth_states`.
+        True states at the track's times (m, m/s), as from
+        :func:`tmakit.scenario.truth_states`.
     trajectories : int
         Trajectories of the Monte Carlo average (without ``truth``).
     rng : numpy.random.Generator or int, optional

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from ..arrays import Array
+from ..core.arrays import Array
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult

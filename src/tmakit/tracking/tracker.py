@@ -16,9 +16,9 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..data import MeasurementSet
 from ..filters import Track
-from ..keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from .errors import TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim
 from .initiators import DEFAULT_MAX_RELATIVE_STD, BatchInitiator, Initiator, PriorInitiator

@@ -11,8 +11,8 @@ from contextlib import nullcontext
 import numpy as np
 from numpy.typing import NDArray
 
-from ... import blas
-from ...arrays import Array
+from ...core import blas
+from ...core.arrays import Array
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
 

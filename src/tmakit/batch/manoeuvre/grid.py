@@ -10,7 +10,7 @@ import itertools
 import numpy as np
 from numpy.typing import NDArray
 
-from ...arrays import Array
+from ...core.arrays import Array
 
 
 def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:

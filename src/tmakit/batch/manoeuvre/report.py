@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...arrays import Array
+from ...core.arrays import Array
 from ...motion import PiecewiseCurvilinear
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...motion.fixed import FixedParameters

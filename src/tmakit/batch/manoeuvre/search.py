@@ -14,7 +14,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from ...arrays import Array
+from ...core.arrays import Array
 from ...data import MeasurementSet
 from ...motion import ConstantVelocity
 from ...motion.curvilinear_batch import ForwardPiecewise

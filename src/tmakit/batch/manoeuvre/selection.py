@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2 as chi2_dist
 
-from ...arrays import Array
+from ...core.arrays import Array
 from .search import ManoeuvreSearch, lm_fit
 from .settings import CRITERIA, ManoeuvreSettings, OrderFit
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ...arrays import Array
+from ...core.arrays import Array
 
 CRITERIA = ("bic", "lrt")
 """Criteria for the number of manoeuvres and the accelerations held (see

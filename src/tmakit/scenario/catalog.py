@@ -2,7 +2,7 @@
 
 Only the standard library is used (``tomllib``, ``importlib.resources``): listing the
 scenarios (``tma scenarios``) needs neither numpy nor pydantic.  Loading one is
-:func:`tmakit.scenario_file.load_scenario`.
+:func:`tmakit.scenario.files.load_scenario`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ def builtin_scenario_names() -> list[str]:
     list of str
         The names, sorted (``chen-sun-1``, ``gu2007``, ...).
     """
-    folder = resources.files("tmakit") / "scenarios"
+    folder = resources.files("tmakit.scenario") / "builtin"
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
@@ -33,6 +33,6 @@ def builtin_scenarios() -> list[tuple[str, str]]:
     """
     out = []
     for name in builtin_scenario_names():
-        text = (resources.files("tmakit") / "scenarios" / f"{name}.toml").read_text("utf-8")
+        text = (resources.files("tmakit.scenario") / "builtin" / f"{name}.toml").read_text("utf-8")
         out.append((name, str(tomllib.loads(text).get("title", ""))))
     return out

@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from .data import MeasurementSet
-from .plot_frame import MapFrame, format_time_axis, map_legend, plain_ticks, plot_times
-from .results import EstimateResult
-from .results.answers import KNOT, estimate_answer
-from .results.context import clock_time, sensor_position
-from .truth import truth_states
+from ..data import MeasurementSet
+from ..results import EstimateResult
+from ..results.answers import KNOT, estimate_answer
+from ..results.context import clock_time, sensor_position
+from ..scenario.truth import truth_states
+from .frame import MapFrame, format_time_axis, map_legend, plain_ticks, plot_times
 
 #: One nautical mile (m).
 NAUTICAL_MILE = 1852.0

@@ -5,7 +5,7 @@ A scenario file may declare that one of its ``[[sensors]]`` is steered by the pl
 heading, speed, time), the ``[planning]`` table gives the platform's limits, the candidate
 actions, the decision interval, what is measured in each step, the criterion, the constraints,
 the tracker, the prior and how long and how often to run (``docs/planning.md`` lists every
-field).  Validation is pydantic's, inside :class:`~tmakit.scenario_file.ScenarioSpec`, so an
+field).  Validation is pydantic's, inside :class:`~tmakit.scenario.files.ScenarioSpec`, so an
 error names the file and the field (``planning.actions.heading_changes_deg: ...``);
 :func:`build_planning` turns the validated table into a :class:`PlanningSetup`.
 
@@ -23,9 +23,9 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from .arrays import Array
-from .measurements import KINDS
-from .planning import (
+from ..core.arrays import Array
+from ..measurements import KINDS
+from ..planning import (
     KeepOutZones,
     LogDet,
     MaximumRange,
@@ -35,11 +35,11 @@ from .planning import (
     SensorPlan,
     WeightedTrace,
 )
-from .planning.constraints import DEFAULT_PENALTY, Constraint
-from .planning.criteria import Criterion
-from .planning.policies import passive
-from .scenario import Scenario
-from .sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
+from ..planning.constraints import DEFAULT_PENALTY, Constraint
+from ..planning.criteria import Criterion
+from ..planning.policies import passive
+from ..sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
+from .model import Scenario
 
 #: Trackers a ``[planning]`` table may name (keys of :data:`tmakit.filters.FILTERS`).
 PLANNING_TRACKERS = ("pf", "ekf", "ukf")
@@ -376,7 +376,7 @@ class _Build:
         if self.scenario.origin is None:
             raise ValueError(f"{where}: geodetic vertices need the scenario's origin "
                              "= [lat, lon, alt]")
-        from .geodesy import geodetic_to_enu
+        from ..core.geodesy import geodetic_to_enu
 
         g = np.asarray(geo, dtype=float)
         e, n, _ = geodetic_to_enu(g[:, 0], g[:, 1], np.full(len(g), self.scenario.origin[2]),

@@ -3,7 +3,7 @@
 A map is in latitude/longitude (degrees, true scale: the aspect is 1 / cos(latitude)) when the
 measurement set knows its ENU origin, else in East/North (km); it carries a scale bar.  A time
 axis shows UTC clock time when the set records its time origin, else seconds.  Used by
-:mod:`tmakit.plot` (``tma show``/``tma track --plot``) and :mod:`tmakit.solution_plot`
+:mod:`tmakit.plot` (``tma show``/``tma track --plot``) and :mod:`tmakit.plot.solution`
 (``tma estimate --plot``).
 """
 
@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from .data import MeasurementSet
-from .geodesy import enu_to_geodetic
-from .results.context import TIME_ORIGIN_KEY, clock_time, origin_of
+from ..core.geodesy import enu_to_geodetic
+from ..data import MeasurementSet
+from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 
 __all__ = ["MapFrame", "format_time_axis", "map_legend", "plain_ticks", "plot_times"]
 

@@ -11,16 +11,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .data import MeasurementSet
-from .measurements import KINDS
-from .plot_frame import MapFrame, format_time_axis, map_legend, plot_times
-from .results.context import clock_time
-from .truth import truth_states
+from ..data import MeasurementSet
+from ..measurements import KINDS
+from ..results.context import clock_time
+from ..scenario.truth import truth_states
+from .frame import MapFrame, format_time_axis, map_legend, plot_times
 
 if TYPE_CHECKING:  # annotations only: plot is imported without the filters and bounds
-    from .bounds import PosteriorBound
-    from .filters import Track
-    from .montecarlo.planned import PlanRun
+    from ..bounds import PosteriorBound
+    from ..filters import Track
+    from ..montecarlo.planned import PlanRun
 
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
@@ -36,7 +36,7 @@ def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
     Returns
     -------
     ndarray, shape (n, 6), or None
-        True states ``[x, y, z, vx, vy, vz]`` (m, m/s) (:func:`tmakit.truth.truth_states`);
+        True states ``[x, y, z, vx, vy, vz]`` (m, m/s) (:func:`tmakit.scenario.truth.truth_states`);
         ``None`` for an empty set or one without the truth.
     """
     if len(meas) == 0:

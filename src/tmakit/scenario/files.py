@@ -20,16 +20,15 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from .measurements import KINDS
-from .motion import MotionModel, motion_from_name
-from .scenario import Scenario
-from .scenario_catalog import builtin_scenario_names
-from .scenario_catalog import builtin_scenarios as builtin_scenarios  # re-exported
-from .scenario_plan import MeasurementPlan
-from .scenario_planning import PlanningSetup, PlanningSpec, build_planning
-from .scenario_times import TimeRange
-from .sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
-from .units import free_space_constant, linear_to_db
+from ..core.units import free_space_constant, linear_to_db
+from ..measurements import KINDS
+from ..motion import MotionModel, motion_from_name
+from ..sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
+from .catalog import builtin_scenario_names
+from .catalog import builtin_scenarios as builtin_scenarios  # re-exported
+from .model import MeasurementPlan, Scenario
+from .planning_table import PlanningSetup, PlanningSpec, build_planning
+from .times import TimeRange
 
 
 class ScenarioFileError(ValueError):
@@ -183,7 +182,7 @@ class ScenarioSpec(_Strict):
 
     ``angle_convention``: headings, courses and turn rates ``"north_cw"`` (default) or
     ``"east_ccw"``; ``origin``: ``[lat, lon, alt]`` (deg, deg, m), needed by geodetic positions;
-    ``planning``: a steered sensor (:mod:`tmakit.scenario_planning`, ``docs/planning.md``).
+    ``planning``: a steered sensor (:mod:`tmakit.scenario.planning_table`, ``docs/planning.md``).
     """
 
     name: str
@@ -234,7 +233,7 @@ class _Builder:
         if self.spec.origin is None:
             raise ValueError(f"{where}: geodetic positions need the scenario's origin "
                              "= [lat, lon, alt]")
-        from .geodesy import geodetic_to_enu
+        from ..core.geodesy import geodetic_to_enu
 
         g = np.array([[*p, 0.0][:3] for p in geo], dtype=float)
         e, n, u = geodetic_to_enu(g[:, 0], g[:, 1], g[:, 2], tuple(self.spec.origin))
@@ -399,7 +398,7 @@ def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> Planning
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
-    from .input_files import binary_problem, not_regular_problem
+    from ..core.input_files import binary_problem, not_regular_problem
 
     problem = not_regular_problem(path) or (path.is_file() and binary_problem(path))
     if problem:
@@ -451,7 +450,7 @@ def _scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any]
     if text not in names:
         raise ScenarioFileError(f"unknown scenario {text!r}: not a file, and not one of the "
                                 f"built-in scenarios ({', '.join(names)})")
-    with resources.as_file(resources.files("tmakit") / "scenarios" / f"{text}.toml") as p:
+    with resources.as_file(resources.files("tmakit.scenario") / "builtin" / f"{text}.toml") as p:
         return _read_toml(Path(p)), str(p)
 
 

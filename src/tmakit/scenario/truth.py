@@ -13,8 +13,8 @@ import json
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .data import MeasurementSet
-from .motion import motion_from_name
+from ..data import MeasurementSet
+from ..motion import motion_from_name
 
 __all__ = ["truth_states"]
 

@@ -24,7 +24,7 @@ The distribution (all draws independent and uniform unless stated):
   each of the seven subsets equally likely.  Bearing: σ in [0.5, 2]°.  Frequency: carrier
   in [0.5, 10] GHz (no drift), σ in [0.5, 3] Hz.  Power: ``SNR_p`` in [25, 45] dB (the
   multiplicative noise of :class:`~tmakit.scenario.MeasurementPlan` ``snr_db``), the
-  free-space constant at the carrier (:func:`~tmakit.units.free_space_constant`, unit
+  free-space constant at the carrier (:func:`~tmakit.core.units.free_space_constant`, unit
   transmit power and gains) and a known path-loss exponent 2.  A carrier is drawn for
   every geometry (the power constant needs it even without frequency measurements).
 
@@ -41,12 +41,12 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .bounds import crlb, deterministic_pcrb, posterior_crb
-from .motion import ConstantVelocity
-from .scenario import MeasurementPlan, Scenario
-from .scenario_file import load_scenario
-from .sensors import Leg, LegsTrack
-from .units import free_space_constant, linear_to_db
+from ..bounds import crlb, deterministic_pcrb, posterior_crb
+from ..core.units import free_space_constant, linear_to_db
+from ..motion import ConstantVelocity
+from ..scenario.files import load_scenario
+from ..scenario.model import MeasurementPlan, Scenario
+from ..sensors import Leg, LegsTrack
 
 STUDY_KINDS: tuple[str, ...] = ("bearing", "frequency", "power")
 """The measurement kinds a random geometry mixes."""

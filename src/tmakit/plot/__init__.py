@@ -1,0 +1,14 @@
+"""Pictures: measurements, tracks, planned paths and the solution of ``tma estimate --plot``.
+
+* :mod:`.tracks` — :func:`plot_measurements`, :func:`plot_track`, :func:`plot_plan`.
+* :mod:`.solution` — :func:`plot_solution`, the map and residuals of one estimate.
+* :mod:`.frame` — what the pictures share: a lat/lon map at true scale with a scale bar, a UTC
+  time axis.
+
+matplotlib is imported inside the functions that draw.
+"""
+
+from .solution import plot_solution
+from .tracks import plot_measurements, plot_plan, plot_track, truth_track
+
+__all__ = ["plot_measurements", "plot_plan", "plot_solution", "plot_track", "truth_track"]

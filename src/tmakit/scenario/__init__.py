@@ -1,0 +1,20 @@
+"""Scenarios: what happens, how it is observed, and the files that describe it.
+
+* :mod:`.model` — :class:`Scenario`, :class:`MeasurementPlan` and :func:`simulate` (exported
+  here, as is :func:`truth_states`).
+* :mod:`.truth` — the true states a simulated set carries.
+* :mod:`.files` — TOML scenario files and the built-in scenarios (``builtin/*.toml``) by name.
+* :mod:`.planning_table` — a file's ``[planning]`` table: a steered sensor and its planner.
+* :mod:`.times` — a file's sample times, bounded.
+* :mod:`.catalog` — the built-in scenarios' names and titles (standard library only).
+
+``model`` and ``truth`` sit below the estimators (a bound takes a scenario); ``files``,
+``planning_table``, ``times`` and ``catalog`` above them, for applications and the command
+line only (``docs/architecture.md``).  The names exported here are listed in
+``__init__.pyi`` and imported on first use, so the catalogue (``tma scenarios``) loads no
+numerical code.
+"""
+
+import lazy_loader as _lazy
+
+__getattr__, __dir__, __all__ = _lazy.attach_stub(__name__, __file__)
