@@ -17,7 +17,8 @@ import tmakit as tk
 from tmakit.cli import app
 from tmakit.filters import ExtendedKalmanFilter
 from tmakit.planning import MinimumRange, Planner, SensorPlan, recommend
-from tmakit.scenario.files import ScenarioFileError, planning_from_dict
+from tmakit.planning.setup import planning_from_dict
+from tmakit.scenario.files import ScenarioFileError
 from tmakit.sensors import PlatformState, platform_configuration
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -23,8 +23,8 @@ from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.planning import Belief, SensorPlan
 from tmakit.planning.closed_loop import FixedPolicy, LoopSetup, run_closed_loop
 from tmakit.planning.policies import MissionPolicy, TrackPolicy, passive, range_hypotheses
+from tmakit.planning.setup import planning_from_dict
 from tmakit.reproduce import hurtado2008
-from tmakit.scenario.files import planning_from_dict
 from tmakit.sensors.platform import HURTADO_NEHORAI_2008 as HN
 from tmakit.sensors.platform_state import PlatformState
 

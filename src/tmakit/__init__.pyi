@@ -35,8 +35,8 @@ from .scenario.files import read_scenario_file as read_scenario_file
 from .scenario.files import scenario_from_dict as scenario_from_dict
 from .scenario.files import builtin_scenarios as builtin_scenarios
 from .scenario.files import ScenarioFileError as ScenarioFileError
-from .scenario.files import load_planning as load_planning
-from .scenario.planning_table import PlanningSetup as PlanningSetup
+from .planning.setup import load_planning as load_planning
+from .planning.setup import PlanningSetup as PlanningSetup
 
 # results: what each function below returns
 from .results import EstimateResult as EstimateResult

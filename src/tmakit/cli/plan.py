@@ -83,7 +83,8 @@ def plan(
         raise fail(f"--tracker {tracker!r}: expected one of {', '.join(PLANNING_TRACKERS)}")
     if planner is not None and planner not in PLANNERS:
         raise fail(f"--planner {planner!r}: expected one of {', '.join(PLANNERS)}")
-    from ..scenario.files import ScenarioFileError, load_planning
+    from ..planning.setup import load_planning
+    from ..scenario.files import ScenarioFileError
 
     try:
         setup = load_planning(scenario)
@@ -154,7 +155,7 @@ def start_warnings(setup: Any) -> list[str]:
 
     Parameters
     ----------
-    setup : tmakit.scenario.planning_table.PlanningSetup
+    setup : tmakit.planning.setup.PlanningSetup
         The loaded planning table.
 
     Returns

@@ -1,6 +1,6 @@
 """Run a scenario's ``[planning]`` table: the planned path beside the fixed pattern, many times.
 
-:func:`plan` loads a scenario with a steered sensor (:func:`tmakit.scenario.files.load_planning`)
+:func:`plan` loads a scenario with a steered sensor (:func:`tmakit.planning.setup.load_planning`)
 and runs the closed loop of :mod:`tmakit.planning.closed_loop` (truth, the policy's move, the
 simulated measurements, the tracker's update, replan) ``runs`` times for two cases with the
 same seeds (the same truth, prior and noise draws, run for run):
@@ -31,8 +31,8 @@ from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study
 from ..planning import MissionPlanner
 from ..planning.closed_loop import LoopRecord, LoopSetup
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
-from ..scenario.files import load_planning
-from ..scenario.planning_table import MAX_DECISIONS, PLANNERS, PlanningSetup
+from ..planning.setup import PlanningSetup, load_planning
+from ..scenario.planning_table import MAX_DECISIONS, PLANNERS
 from .closed_loop import MIN_RUNS_INTERVAL, ClosedLoopStudy, LoopCase, closed_loop_study
 
 if TYPE_CHECKING:  # pragma: no cover

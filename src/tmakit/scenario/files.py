@@ -27,7 +27,7 @@ from ..sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, W
 from .catalog import builtin_scenario_names
 from .catalog import builtin_scenarios as builtin_scenarios  # re-exported
 from .model import MeasurementPlan, Scenario
-from .planning_table import PlanningSetup, PlanningSpec, build_planning
+from .planning_table import PlanningSpec
 from .times import TimeRange
 
 
@@ -360,8 +360,9 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         raise ScenarioFileError(f"{source}: {err}") from None
 
 
-def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> PlanningSetup:
-    """Validate a scenario with a ``[planning]`` table and build its planning setup.
+def planned_scenario(data: dict[str, Any], source: str = "<dict>"
+                     ) -> tuple[Scenario, PlanningSpec, SensorSpec, bool]:
+    """Validate a scenario with a ``[planning]`` table (built by :mod:`tmakit.planning.setup`).
 
     Parameters
     ----------
@@ -372,14 +373,20 @@ def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> Planning
 
     Returns
     -------
-    PlanningSetup
-        The planner, the steered sensor's start, the target truth, tracker, prior, runs (SI).
+    scenario : Scenario
+        The scenario, in SI.
+    table : PlanningSpec
+        The validated ``[planning]`` table.
+    sensor : SensorSpec
+        The steered sensor's entry.
+    east_ccw : bool
+        Whether the file's angles are counter-clockwise from East.
 
     Raises
     ------
     ScenarioFileError
-        If the scenario is not valid, has no ``[planning]`` table, or the table cannot be
-        built; the message names the file and the field.
+        If the scenario is not valid or has no ``[planning]`` table naming one of its sensors;
+        the message names the file and the field.
     """
     spec = _validate(data, source)
     if spec.planning is None:
@@ -391,11 +398,9 @@ def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> Planning
         if sensor is None:
             raise ValueError(f"planning.sensor: no sensor {spec.planning.sensor!r} "
                              f"(sensors: {', '.join(s.id for s in spec.sensors)})")
-        return build_planning(spec.planning, scenario, sensor,
-                              spec.angle_convention == "east_ccw", source)
     except ValueError as err:
         raise ScenarioFileError(f"{source}: {err}") from None
-
+    return scenario, spec.planning, sensor, spec.angle_convention == "east_ccw"
 
 def _read_toml(path: Path) -> dict[str, Any]:
     from ..core.input_files import binary_problem, not_regular_problem
@@ -440,8 +445,26 @@ def read_scenario_file(path: str | Path) -> Scenario:
     return scenario_from_dict(_read_toml(path), str(path))
 
 
-def _scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
-    """Return the parsed TOML of a built-in scenario name or a file, and its source."""
+def scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
+    """Return the parsed TOML of a built-in scenario name or a file, and its source.
+
+    Parameters
+    ----------
+    name_or_path : str or os.PathLike
+        A built-in name or a path (``.toml`` or existing).
+
+    Returns
+    -------
+    data : dict
+        The parsed TOML.
+    source : str
+        The file read, for messages.
+
+    Raises
+    ------
+    ScenarioFileError
+        If it is neither a file nor a built-in name, or not valid TOML.
+    """
     text = str(name_or_path)
     path = Path(text)
     if path.suffix == ".toml" or path.exists():
@@ -472,25 +495,4 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     ScenarioFileError
         If it is neither a file nor a built-in name, or the file is not valid.
     """
-    return scenario_from_dict(*_scenario_data(name_or_path))
-
-
-def load_planning(name_or_path: str | os.PathLike[str]) -> PlanningSetup:
-    """Load the planning setup of a scenario (built-in name or TOML file) with ``[planning]``.
-
-    Parameters
-    ----------
-    name_or_path : str or pathlib.Path
-        A built-in name (``plan-bearings-only``) or a path.
-
-    Returns
-    -------
-    PlanningSetup
-        See :func:`planning_from_dict`.
-
-    Raises
-    ------
-    ScenarioFileError
-        If the scenario is unknown, invalid, or has no valid ``[planning]`` table.
-    """
-    return planning_from_dict(*_scenario_data(name_or_path))
+    return scenario_from_dict(*scenario_data(name_or_path))
