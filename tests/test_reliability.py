@@ -86,10 +86,10 @@ def test_numerical_failure_names_what_was_computed(tmp_path, monkeypatch):
         raise np.linalg.LinAlgError("SVD did not converge")
 
     monkeypatch.setenv("TMA_LOG_DIR", str(tmp_path))
-    monkeypatch.setattr("tmakit.scenario.ObservationModel", singular)
+    monkeypatch.setattr("tmakit.scenario.model.ObservationModel", singular)
     result = run("simulate", "gu2007", "-o", tmp_path / "x.csv")
     assert result.exit_code == 3
-    assert "while computing tmakit.scenario.simulate_values" in result.output
+    assert "while computing tmakit.scenario.model.simulate_values" in result.output
     assert "LinAlgError: SVD did not converge" in result.output
     assert "Traceback" not in result.output
 
