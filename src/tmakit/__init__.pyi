@@ -67,6 +67,7 @@ from .batch.height import HeightChoice as HeightChoice
 from .bounds import crlb as crlb
 from .bounds import posterior_crb as posterior_crb
 from .tracking import track as track
+from .filters.bearing_prior import BearingPrior as BearingPrior
 from .montecarlo import monte_carlo as monte_carlo
 
 # sensor path planning

@@ -139,14 +139,19 @@ class _Setup:
     nuisance: dict[str, float]
 
 
-def _dynamics(q: float | ArrayLike, dim: int) -> tuple[NearlyConstantVelocity,
-                                                        tuple[float, ...]]:
+def _dynamics(q: float | ArrayLike, dim: int, q_density: float | ArrayLike = 0.0
+              ) -> tuple[NearlyConstantVelocity, tuple[float, ...]]:
     if np.ndim(q) and np.size(q) != dim:
         raise ValueError(f"q must be one value or {dim} values (one per axis) in m/s^2; "
                          f"got {np.size(q)}")
     values = np.ravel(np.asarray(q, dtype=np.float64))
+    if np.ndim(q_density) and np.size(q_density) != dim:
+        raise ValueError(f"q_density must be one value or {dim} values (one per axis) in "
+                         f"m^2/s^3; got {np.size(q_density)}")
+    density = tuple(float(v) for v in np.broadcast_to(np.asarray(q_density, dtype=float),
+                                                      (dim,)))
     dynamics = NearlyConstantVelocity(dim, float(values[0]) if np.ndim(q) == 0 else tuple(
-        float(v) for v in values))
+        float(v) for v in values), density)
     q_axes = tuple(float(v) for v in np.broadcast_to(np.asarray(q, dtype=float), (dim,)))
     return dynamics, q_axes
 
@@ -154,7 +159,8 @@ def _dynamics(q: float | ArrayLike, dim: int) -> tuple[NearlyConstantVelocity,
 def _setup(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
            time0: float | None, q: float | ArrayLike,
            options: Mapping[str, Mapping[str, object]] | None,
-           nuisance: Mapping[str, float] | None) -> _Setup:
+           nuisance: Mapping[str, float] | None, q_density: float | ArrayLike = 0.0
+           ) -> _Setup:
     meas, prior_mean, opts, nu, scn = _resolve_source(source, prior_mean, options, nuisance)
     if len(meas) == 0:
         raise ValueError("the measurement set is empty: nothing to bound")
@@ -173,7 +179,7 @@ def _setup(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
         prior_mean = scn.target_states([t0])[0][keep]
     mean, cov = check_prior(prior_mean, prior_cov, "prior_mean", "prior_cov",
                             require_symmetric=True)
-    dynamics, q_axes = _dynamics(q, mean.shape[0] // 2)
+    dynamics, q_axes = _dynamics(q, mean.shape[0] // 2, q_density)
     return _Setup(meas, groups, times, t0, mean, cov, dynamics, q_axes, opts, nu)
 
 
@@ -261,8 +267,9 @@ def _posterior(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLik
                time0: float | None, q: float | ArrayLike, trajectories: int, sample: bool,
                rng: np.random.Generator | int | None,
                options: Mapping[str, Mapping[str, object]] | None,
-               nuisance: Mapping[str, float] | None) -> PosteriorBound:
-    setup = _setup(source, prior_mean, prior_cov, time0, q, options, nuisance)
+               nuisance: Mapping[str, float] | None, q_density: float | ArrayLike
+               ) -> PosteriorBound:
+    setup = _setup(source, prior_mean, prior_cov, time0, q, options, nuisance, q_density)
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     notes = _correlation_notes(setup)
     infos, share = _recursion(setup, trajectories, sample, gen)
@@ -275,7 +282,8 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
                   q: float | ArrayLike = 0.0, trajectories: int = 200,
                   rng: np.random.Generator | int | None = None,
                   options: Mapping[str, Mapping[str, object]] | None = None,
-                  nuisance: Mapping[str, float] | None = None) -> PosteriorBound:
+                  nuisance: Mapping[str, float] | None = None,
+                  q_density: float | ArrayLike = 0.0) -> PosteriorBound:
     """Compute the posterior CRB of a tracker, ``Gamma_k`` averaged over sampled trajectories.
 
     The tracker starts from the Gaussian prior ``N(prior_mean, prior_cov)`` at ``time0`` and
@@ -302,6 +310,9 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
         Their random source (a Generator or a seed).
     options, nuisance : mapping, optional
         Per-kind model options and known nuisance values, as for the filters.
+    q_density : float or array_like
+        Process noise as a continuous white-noise acceleration density per axis, m^2/s^3
+        (:func:`tmakit.motion.dynamics.process_noise`); adds to ``q``'s.
 
     Returns
     -------
@@ -323,14 +334,15 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
             or trajectories < 1:
         raise ValueError(f"trajectories must be a whole number >= 1; got {trajectories!r}")
     return _posterior(source, prior_mean, prior_cov, time0, q, int(trajectories), True, rng,
-                      options, nuisance)
+                      options, nuisance, q_density)
 
 
 def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
                        prior_cov: ArrayLike, time0: float | None = None, *,
                        q: float | ArrayLike = 0.0,
                        options: Mapping[str, Mapping[str, object]] | None = None,
-                       nuisance: Mapping[str, float] | None = None) -> PosteriorBound:
+                       nuisance: Mapping[str, float] | None = None,
+                       q_density: float | ArrayLike = 0.0) -> PosteriorBound:
     """Compute the deterministic-trajectory bound, ``Gamma_k`` at the prior-mean trajectory.
 
     The recursion of :func:`posterior_crb` without sampling (``q`` still enters the
@@ -342,7 +354,7 @@ def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | 
 
     Parameters
     ----------
-    source, prior_mean, prior_cov, time0, q, options, nuisance
+    source, prior_mean, prior_cov, time0, q, options, nuisance, q_density
         As for :func:`posterior_crb`.
 
     Returns
@@ -360,4 +372,4 @@ def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | 
     Hurtado & Nehorai (2008), eq. 10 and, for ``Xi`` at the predicted state, section 4.2.
     """
     return _posterior(source, prior_mean, prior_cov, time0, q, 1, False, None, options,
-                      nuisance)
+                      nuisance, q_density)

@@ -43,9 +43,21 @@ from .common import (
 )
 from .reading import read_or_fail
 from .track_options import (
+    ComponentOption,
+    HeightPriorOption,
+    LagOption,
+    ParticlesOption,
+    QDensityOption,
+    RangePriorOption,
+    SeedOption,
+    SmoothOption,
+    SpeedPriorOption,
     check_track_options,
+    component_settings,
+    parse_bearing_prior,
     parse_prior,
     parse_q,
+    smoothed_track,
     tracking_failure,
 )
 
@@ -54,15 +66,15 @@ from .track_options import (
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
-        "--filter", help="ekf, ukf, mgekf or pf (the filters of tmakit.filters.FILTERS)")
+        "--filter", help="ekf, ukf, ckf, mgekf, pf or gsf (tmakit.filters.FILTERS)")
     ] = "ekf",
     q: Annotated[str, typer.Option(
         "--q", help="process noise: acceleration std (m/s^2), one value or per axis "
                     "qx,qy[,qz]; 0 = constant velocity")] = "0",
-    particles: Annotated[int | None, typer.Option(
-        help="number of particles (particle filter only)")] = None,
-    seed: Annotated[int | None, typer.Option(
-        help="random seed (particle filter only; same seed, same track)")] = None,
+    q_density: QDensityOption = "0", range_prior: RangePriorOption = None,
+    speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
+    component: ComponentOption = "ekf", smooth: SmoothOption = False, lag: LagOption = None,
+    particles: ParticlesOption = None, seed: SeedOption = None,
     prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "
              "x=4000,y=9000,vx=-6,vy=-3 (m, m/s); needs --prior-std")] = None,
@@ -100,8 +112,8 @@ def track(
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
 
-    No initial guess is needed: the filter starts from a batch estimate over the shortest
-    initial window of the data that determines the position well enough (or from --prior).
+    No initial guess: a batch estimate over the shortest good initial window (or --prior);
+    gsf, or --range-prior / --speed-prior, start at the first bearing from those intervals.
     """
     from .. import tracking
 
@@ -114,23 +126,63 @@ def track(
     try:
         d = tracking.filter_dim(meas, dim)
         q_axes = tracking.process_noise(parse_q(q, d), d)
+        density = tracking.noise_density(parse_q(q_density, d, "--q-density"), d)
     except tracking.TrackingError as e:
         raise tracking_failure(e) from None
     prior_mean, prior_sd, known = parse_prior(prior, prior_std, nuisance, init_window)
-    try:
-        tr = tracking.track(meas, filter_name, q=q_axes, particles=particles,
-                            prior=prior_mean, prior_std=prior_sd, prior_time=prior_time,
-                            init_window=init_window, max_relative_std=start_std, rng=seed,
-                            dim=d, options=model_options(drift, free_exponent),
-                            nuisance=known)
-    except tracking.TrackingError as e:
-        raise tracking_failure(e) from None
-    except ValueError as e:
-        raise fail(str(e)) from None
+    bearing_prior = parse_bearing_prior(range_prior, speed_prior, height_prior,
+                                        prior_mean is not None or init_window is not None)
+    tr = run_track(meas, filter_name, dict(
+        q=q_axes, particles=particles, prior=prior_mean, prior_std=prior_sd,
+        prior_time=prior_time, init_window=init_window, max_relative_std=start_std, rng=seed,
+        dim=d, options=model_options(drift, free_exponent), nuisance=known,
+        q_density=density, bearing_prior=bearing_prior,
+        settings=component_settings(filter_name, component, smooth or lag is not None)),
+        smooth, lag)
     truth = tracking.truth_states(meas, tr.times, d)
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
     write_track_outputs(Path(" + ".join(map(str, files))), meas, tr, truth, output, plot,
                         ellipses, force, err if as_json else out)
+
+
+def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: bool,
+              lag: int | None) -> Any:
+    """Track (:func:`tmakit.track` with ``keywords``), and smooth with ``--smooth``/``--lag``.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    filter_name : str
+        ``--filter``.
+    keywords : dict
+        The keywords of :func:`tmakit.track`.
+    smooth : bool
+        ``--smooth``.
+    lag : int or None
+        ``--lag`` (implies ``--smooth``).
+
+    Returns
+    -------
+    tmakit.filters.Track
+        The track (its smoothed track in ``extra.smoothed``).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 with the library's refusal in the command's words.
+    """
+    from .. import tracking
+
+    try:
+        tr = tracking.track(meas, filter_name, **keywords)
+        if smooth or lag is not None:
+            tr = smoothed_track(tr, lag)
+    except tracking.TrackingError as e:
+        raise tracking_failure(e) from None
+    except ValueError as e:
+        raise fail(str(e)) from None
+    return tr
 
 
 def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,
@@ -285,6 +337,16 @@ def start_sentence(tr: Any) -> str:
     s = tr.extra.start
     if s["method"] == "prior":
         return f"start: the given prior at t = {s['time']:g} s"
+    if s["method"] == "first-bearing":
+        from ..filters import BearingPrior
+
+        p = s["prior"]
+        prior = BearingPrior(*p["range_m"], p["speed_max_m_s"], tuple(p["height_m"]),
+                             tuple(p["given"]))
+        return (f"start: the first bearing ({s['bearing_deg']:.1f} deg at t = "
+                f"{s['time']:g} s) with the prior {prior.describe()}"
+                + ("" if "range" in p["given"] else "; give --range-prior MIN:MAX and "
+                   "--speed-prior MAX for this emitter"))
     text = (f"start: batch ML estimate over the first {s['window']} measurement times "
             f"({s['rows']} rows, t <= {s['time']:g} s), {s['status']}, position std "
             f"{s['relative_position_std']:.1%} of the range")
@@ -332,8 +394,12 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
     dim = len(tr.state_names) // 2
     k_sel = np.unique(np.linspace(0, len(tr) - 1, min(n_rows, len(tr))).round().astype(int))
     q = ", ".join(f"{v:g}" for v in tr.extra.q)
+    if any(tr.extra.q_density or ()):
+        q += " m/s^2, q~ = " + ", ".join(f"{v:g}" for v in tr.extra.q_density) + " m^2/s^3"
+    else:
+        q += " m/s^2"
     table = Table(title=f"{tr.filter_name} track: {len(tr)} rows, t = {tr.times[0]:g} .. "
-                        f"{tr.times[-1]:g} s, q = {q} m/s^2 ({len(k_sel)} rows shown)",
+                        f"{tr.times[-1]:g} s, q = {q} ({len(k_sel)} rows shown)",
                   title_justify="left")
     clock = meas is not None and clock_time(meas, 0.0) is not None
     sp_unit, sp_scale = SPEED_UNITS[units]

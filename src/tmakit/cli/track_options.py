@@ -7,16 +7,43 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import typer
 
 from .common import fail, parse_assignments
 
-__all__ = ["TRACK_FLAGS", "check_track_options", "parse_prior", "parse_q", "tracking_failure"]
+ParticlesOption = Annotated[int | None, typer.Option(
+    help="number of particles (particle filter only)")]
+SeedOption = Annotated[int | None, typer.Option(
+    help="random seed (particle filter only; same seed, same track)")]
+QDensityOption = Annotated[str, typer.Option(
+    "--q-density", help="process noise as continuous white-noise acceleration: spectral "
+                        "density (m^2/s^3), one value or per axis; Q = q~ [[T^3/3, T^2/2], "
+                        "[T^2/2, T]] per axis, added to --q's")]
+RangePriorOption = Annotated[str | None, typer.Option(
+    "--range-prior", help="start at the first bearing: the emitter's range then lies in "
+                          "MIN:MAX (m); default 500:50000 for --filter gsf")]
+SpeedPriorOption = Annotated[float | None, typer.Option(
+    "--speed-prior", help="start at the first bearing: the largest plausible speed (m/s, "
+                          "course unknown); default 20")]
+HeightPriorOption = Annotated[str | None, typer.Option(
+    "--height-prior", help="start at the first bearing, 3-D: the emitter's height interval "
+                           "MIN:MAX (m); default 0:12000")]
+ComponentOption = Annotated[str, typer.Option(
+    help="the Gaussian sum's component filter: ekf, ukf or ckf (cubature)")]
+SmoothOption = Annotated[bool, typer.Option(
+    "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
+                     "filters and the Gaussian sum; backward simulation for pf)")]
+LagOption = Annotated[int | None, typer.Option(
+    help="a fixed-lag smoother (implies --smooth): each state given the data up to N "
+         "updates after it")]
+
+__all__ = ["TRACK_FLAGS", "check_track_options", "component_settings", "parse_bearing_prior",
+           "parse_prior", "parse_q", "smoothed_track", "tracking_failure"]
 
 
-def parse_q(text: str, dim: int) -> list[float]:
+def parse_q(text: str, dim: int, flag: str = "--q") -> list[float]:
     """Parse ``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2).
 
     Parameters
@@ -25,6 +52,8 @@ def parse_q(text: str, dim: int) -> list[float]:
         The option's text.
     dim : int
         Spatial dimension (for the error message).
+    flag : str, optional
+        The option (``--q`` or ``--q-density``), for the error message.
 
     Returns
     -------
@@ -39,9 +68,136 @@ def parse_q(text: str, dim: int) -> list[float]:
     try:
         return [float(p.strip()) for p in text.split(",")]
     except ValueError:
-        raise fail(f"--q {text!r}: expected one number or {dim} numbers separated by commas "
-                   "(m/s^2 per axis, e.g. 0.01 or "
+        unit = "m/s^2" if flag == "--q" else "m^2/s^3"
+        raise fail(f"{flag} {text!r}: expected one number or {dim} numbers separated by "
+                   f"commas ({unit} per axis, e.g. 0.01 or "
                    f"{','.join(['0.01'] * dim)})") from None
+
+
+def _interval(text: str, flag: str) -> tuple[float, float]:
+    parts = text.split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        lo, hi = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise fail(f"{flag} {text!r}: expected MIN:MAX in metres, e.g. 1000:30000") from None
+    return lo, hi
+
+
+def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
+                        height_prior: str | None, other_start: bool) -> Any:
+    """``--range-prior``, ``--speed-prior`` and ``--height-prior`` as a bearing prior.
+
+    Parameters
+    ----------
+    range_prior, height_prior : str or None
+        ``MIN:MAX`` (m).
+    speed_prior : float or None
+        The largest speed (m/s).
+    other_start : bool
+        Whether ``--prior`` or ``--init-window`` chose another start.
+
+    Returns
+    -------
+    tmakit.filters.BearingPrior or None
+        None when none of the three is given.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for a bad interval or speed, or with another start.
+    """
+    if range_prior is None and speed_prior is None and height_prior is None:
+        return None
+    if other_start:
+        raise fail("--range-prior, --speed-prior and --height-prior start the track at the "
+                   "first bearing; they cannot be used with --prior or --init-window")
+    from ..filters import BearingPrior
+    from ..filters.bearing_prior import DEFAULT_HEIGHT, DEFAULT_RANGE, DEFAULT_SPEED
+
+    given = tuple(n for n, v in (("range", range_prior), ("speed", speed_prior),
+                                 ("height", height_prior)) if v is not None)
+    lo, hi = DEFAULT_RANGE if range_prior is None else _interval(range_prior, "--range-prior")
+    height = DEFAULT_HEIGHT if height_prior is None else _interval(height_prior,
+                                                                   "--height-prior")
+    if not (0 < lo < hi):
+        raise fail(f"--range-prior {range_prior!r}: expected 0 < MIN < MAX (m)")
+    if height[0] > height[1]:
+        raise fail(f"--height-prior {height_prior!r}: expected MIN <= MAX (m)")
+    speed = DEFAULT_SPEED if speed_prior is None else float(speed_prior)
+    if not (speed > 0 and speed < 1e4):
+        raise fail(f"--speed-prior {speed_prior}: expected a speed > 0 m/s (and below "
+                   "10 km/s)")
+    return BearingPrior(lo, hi, speed, height, given)
+
+
+def component_settings(filter_name: str, component: str, smooth: bool = False
+                       ) -> dict[str, object]:
+    """Give the filter's settings from ``--component`` and ``--smooth``.
+
+    Parameters
+    ----------
+    filter_name : str
+        ``--filter``.
+    component : str
+        ``--component``: for ``--filter gsf`` only.
+    smooth : bool, optional
+        ``--smooth`` or ``--lag``: the particle filter then keeps its clouds.
+
+    Returns
+    -------
+    dict
+        ``{"component": ...}`` for the Gaussian sum, ``{"history": True}`` for a particle
+        filter to smooth, else empty.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for an unknown component, or one given with another filter.
+    """
+    from ..filters.gaussian_sum import COMPONENTS
+
+    if component not in COMPONENTS:
+        raise fail(f"--component {component!r}: expected one of {', '.join(COMPONENTS)}")
+    if filter_name != "gsf":
+        if component != "ekf":
+            raise fail("--component applies only to --filter gsf (the Gaussian sum's "
+                       "component filter)")
+        return {"history": True} if smooth and filter_name == "pf" else {}
+    return {"component": component}
+
+
+def smoothed_track(tr: Any, lag: int | None) -> Any:
+    """Attach the smoothed track (``--smooth``, ``--lag``) to ``tr.extra.smoothed``.
+
+    Parameters
+    ----------
+    tr : tmakit.filters.Track
+        The filtered track.
+    lag : int or None
+        ``--lag``.
+
+    Returns
+    -------
+    tmakit.filters.Track
+        ``tr`` with its smoothed track.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for a negative lag, or a lag for a particle filter's track.
+    """
+    from ..filters import smooth
+
+    if lag is not None and lag < 0:
+        raise fail(f"--lag {lag}: expected a number of updates >= 0")
+    if lag is not None and tr.filter_name == "pf":
+        raise fail("--lag: the particle filter's smoother is fixed-interval (--smooth); the "
+                   "fixed-lag smoother is for the Gaussian filters (ekf, ukf, ckf, gsf)")
+    tr.extra.smoothed = smooth(tr, lag=lag)
+    tr.extra.history = None
+    return tr
 
 
 #: The flags of `tma track` for the library parameters its errors name.
@@ -50,7 +206,8 @@ def parse_q(text: str, dim: int) -> list[float]:
 MIN_PARTICLES = 7
 
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
-               "max_relative_std": "--start-std", "tracker": "--filter"}
+               "max_relative_std": "--start-std", "tracker": "--filter",
+               "q_density": "--q-density", "bearing_prior": "--range-prior"}
 
 
 def tracking_failure(e: Any) -> typer.Exit:

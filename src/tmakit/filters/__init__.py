@@ -8,25 +8,34 @@ from __future__ import annotations
 from ..motion.dynamics import NearlyConstantVelocity, process_noise, state_names, transition_matrix
 from ..observation.groups import MeasurementGroup, group_times
 from .base import TrackingFilter
+from .bearing_prior import BearingPrior, FirstBearing, first_bearing
 from .ekf import ExtendedKalmanFilter
 from .extras import TrackExtras
+from .gaussian_sum import GaussianSumFilter
 from .mgekf import ModifiedGainEKF
 from .multilag import multilag_groups
 from .particle import ParticleFilter
 from .record import UpdateInfo
+from .smoothing import smooth
 from .track import Track
-from .ukf import UnscentedKalmanFilter
+from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
 
 FILTERS: dict[str, type[TrackingFilter]] = {
     ExtendedKalmanFilter.name: ExtendedKalmanFilter,
     UnscentedKalmanFilter.name: UnscentedKalmanFilter,
     ParticleFilter.name: ParticleFilter,
     ModifiedGainEKF.name: ModifiedGainEKF,
+    CubatureKalmanFilter.name: CubatureKalmanFilter,
+    GaussianSumFilter.name: GaussianSumFilter,
 }
 
 __all__ = [
     "FILTERS",
+    "BearingPrior",
+    "CubatureKalmanFilter",
     "ExtendedKalmanFilter",
+    "FirstBearing",
+    "GaussianSumFilter",
     "MeasurementGroup",
     "ModifiedGainEKF",
     "NearlyConstantVelocity",
@@ -36,9 +45,11 @@ __all__ = [
     "TrackingFilter",
     "UnscentedKalmanFilter",
     "UpdateInfo",
+    "first_bearing",
     "group_times",
     "multilag_groups",
     "process_noise",
+    "smooth",
     "state_names",
     "transition_matrix",
 ]

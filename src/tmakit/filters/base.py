@@ -28,6 +28,7 @@ from .track import Track
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
+    from .bearing_prior import BearingPrior, FirstBearing
 
 
 #: A process-noise acceleration standard deviation, for all axes or per axis (m/s^2).
@@ -172,6 +173,33 @@ class TrackingFilter(ABC):
                              f"{result.status!r}); start the filter from a prior instead")
         kwargs.setdefault("nuisance", {k: v for k, (v, _) in result.nuisance.items()})
         return cls(state6[keep], cov, float(time), **kwargs)
+
+    @classmethod
+    def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
+                           **kwargs: Any) -> TrackingFilter:
+        """Start at the first bearing from a prior in the user's terms.
+
+        A single-Gaussian filter starts from the prior's mean and covariance
+        (:meth:`~tmakit.filters.BearingPrior.gaussian`); the Gaussian sum and the particle
+        filter override this with the sum and with samples.
+
+        Parameters
+        ----------
+        prior : BearingPrior
+            Range, speed (and height) intervals.
+        first : FirstBearing
+            The first bearing (its time is the filter's).
+        dim : int
+            2 or 3.
+        **kwargs
+            Further arguments of the filter class.
+
+        Returns
+        -------
+        TrackingFilter
+        """
+        mean, cov = prior.gaussian(first, dim)
+        return cls(mean, cov, first.time, **kwargs)
 
     def group(self, rows: MeasurementSet | MeasurementGroup) -> MeasurementGroup:
         """Wrap measurement rows (any kinds and sensors) as a group at the filter's time.

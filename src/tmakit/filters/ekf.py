@@ -176,6 +176,40 @@ class ExtendedKalmanFilter(TrackingFilter):
                                                          self._cov)
         return UpdateInfo(nis, m, ll)
 
+    def update_gaussian(self, group: MeasurementGroup, mean: Array, cov: Array
+                        ) -> tuple[Array, Array, Array, Array, float]:
+        """Update a given Gaussian with this filter's arithmetic (for filters of several).
+
+        A Gaussian sum or an interacting-multiple-model filter holds several Gaussians and
+        updates each as this filter would; this filter's own state is left as it is.
+
+        Parameters
+        ----------
+        group : MeasurementGroup
+            The rows, at the Gaussian's time.
+        mean, cov : numpy.ndarray
+            The predicted Gaussian ``(n,)``, ``(n, n)`` (m, m/s).
+
+        Returns
+        -------
+        mean, cov : numpy.ndarray
+            The updated Gaussian (unchanged when the update cannot be made).
+        innovation : numpy.ndarray
+            The wrapped innovation ``(m,)`` (empty when the update cannot be made).
+        innovation_cov : numpy.ndarray
+            Its covariance ``(m, m)``.
+        log_likelihood : float
+            ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).
+        """
+        self._innovation = (np.zeros(0), np.zeros((0, 0)))
+        new, new_cov, _, _, ll = self._gaussian_step(group, mean, cov)
+        y, s = self._innovation
+        return new, new_cov, y, s, ll
+
+    def _gaussian_step(self, group: MeasurementGroup, mean: Array, cov: Array
+                       ) -> tuple[Array, Array, float, int, float]:
+        return self._kalman(_linearise_group, group, group.covariance, mean, cov)
+
     def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
         if type(self)._update is not self._planned()._update:
             return None
@@ -206,6 +240,7 @@ class ExtendedKalmanFilter(TrackingFilter):
         hp = h.dot(cov)
         s = hp.dot(h.T)
         s += r
+        self._innovation = (y, s)
         gain, nis, log_det = innovation_solve(s, hp, y)
         new = mean + gain.dot(y)
         new_cov = updated_covariance(cov, gain, hp, h, r)
@@ -238,9 +273,9 @@ class ExtendedKalmanFilter(TrackingFilter):
                 and type(self.dynamics) is NearlyConstantVelocity
                 and me._update is cls._update and me._predict is cls._predict)
 
-    def _q2(self) -> tuple[float, float]:
-        q = np.broadcast_to(np.asarray(self.dynamics.q, dtype=float), (2,))
-        return float(q[0] ** 2), float(q[1] ** 2)
+    def _q2(self) -> tuple[float, float, float, float]:
+        q, qd = self.dynamics.axes()
+        return float(q[0] ** 2), float(q[1] ** 2), float(qd[0]), float(qd[1])
 
     def _adopt(self, block: KernelRun) -> KernelRun:
         self._mean, self._cov = block.mean, block.covariance

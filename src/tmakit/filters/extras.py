@@ -25,19 +25,32 @@ class TrackExtras:
         The same as a typed record (``tmakit.tracking.records.PriorStart`` or ``BatchStart``;
         typed loosely here because the filters sit below the tracking layer).
     q : list of float or None
-        Process noise intensity per axis (m^2/s^3) the track was run with.
+        Process noise acceleration std per axis (m/s^2) the track was run with.
+    q_density : list of float or None
+        White-noise acceleration density per axis (m^2/s^3) the track was run with.
     dim : int or None
         Spatial dimension of the state (2 or 3).
     options : dict
         The filter's options (``alpha``, ``iterations``, ...).
+    components : list of int or None
+        Components a Gaussian-sum filter held after each update.
+    smoothed : object or None
+        The smoothed track (:func:`tmakit.filters.smooth`), when asked for.
+    history : list or None
+        A particle filter's weighted clouds (``ParticleFilter(history=True)``), for its
+        smoother.
     """
 
     skipped_updates: int = 0
     start: dict[str, Any] | None = None
     start_record: Any = None
     q: list[float] | None = None
+    q_density: list[float] | None = None
     dim: int | None = None
     options: dict[str, Any] = field(default_factory=dict)
+    components: list[int] | None = None
+    smoothed: Any = None
+    history: Any = None
 
     def __getitem__(self, key: str) -> Any:
         """Give field ``key``.

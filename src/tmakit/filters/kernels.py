@@ -165,7 +165,7 @@ def _finish(stop: int, predicted: bool, x: list[float], p: list[float], t: float
 
 
 def ekf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
-                   columns: tuple[list[float], ...], q2: tuple[float, float],
+                   columns: tuple[list[float], ...], q2: tuple[float, ...],
                    iterations: int = 1) -> KernelRun:
     """Run EKF steps from update ``start`` on, one bearing per update, 2-D.
 
@@ -185,7 +185,8 @@ def ekf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
         ``(times (s), bearings (rad), variances (rad^2), sensor x (m), sensor y (m))``, one
         entry per update.
     q2 : tuple of float
-        Per-axis acceleration variances (m^2/s^4).
+        Per-axis acceleration variances (m^2/s^4), then per-axis white-noise acceleration
+        densities (m^2/s^3): ``(qx^2, qy^2, qx~, qy~)``.
     iterations : int, optional
         Linearisations of the iterated EKF (1: the plain EKF; the stopping rule is that of
         :class:`~.ekf.ExtendedKalmanFilter`).
@@ -203,7 +204,7 @@ def ekf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
 
 
 def ukf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
-                   columns: tuple[list[float], ...], q2: tuple[float, float],
+                   columns: tuple[list[float], ...], q2: tuple[float, ...],
                    weights: tuple[float, float, float, float]) -> KernelRun:
     """Run UKF steps from update ``start`` on, one bearing per update, 2-D.
 
@@ -229,7 +230,7 @@ def ukf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
 # Complexity 23 > 15 on purpose: one loop with branches, not per-step helper calls (see the
 # docstring); listed in tests/test_architecture.py's LONG_FUNCTION_EXCEPTIONS.
 def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # noqa: C901
-                columns: tuple[list[float], ...], q2: tuple[float, float], iterations: int,
+                columns: tuple[list[float], ...], q2: tuple[float, ...], iterations: int,
                 weights: tuple[float, float, float, float] | None) -> KernelRun:
     """Run the loop of both kernels.
 
@@ -243,7 +244,7 @@ def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # 
     (3-7 %, measured).
     """
     times, zs, vs, sxs, sys_ = columns
-    qx2, qy2 = q2
+    qx2, qy2, qdx, qdy = q2
     ukf = weights is not None
     if weights is not None:
         gamma, wm0, wc0, wi = weights
@@ -271,15 +272,17 @@ def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # 
             dt2 = dt * dt
             g = 0.25 * dt2 * dt2
             c = 0.5 * dt2 * dt
-            p00 += 2.0 * dt * p02 + dt2 * p22 + g * qx2
+            g3 = dt2 * dt / 3.0
+            c3 = 0.5 * dt2
+            p00 += 2.0 * dt * p02 + dt2 * p22 + g * qx2 + g3 * qdx
             p01 += dt * (p03 + p12) + dt2 * p23
-            p11 += 2.0 * dt * p13 + dt2 * p33 + g * qy2
-            p02 += dt * p22 + c * qx2
+            p11 += 2.0 * dt * p13 + dt2 * p33 + g * qy2 + g3 * qdy
+            p02 += dt * p22 + c * qx2 + c3 * qdx
             p03 += dt * p23
             p12 += dt * p23
-            p13 += dt * p33 + c * qy2
-            p22 += dt2 * qx2
-            p33 += dt2 * qy2
+            p13 += dt * p33 + c * qy2 + c3 * qdy
+            p22 += dt2 * qx2 + dt * qdx
+            p33 += dt2 * qy2 + dt * qdy
         if tk > t:
             t = tk
         if ukf:

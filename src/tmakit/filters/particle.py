@@ -44,7 +44,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import cast
+from dataclasses import dataclass, replace
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,12 +54,44 @@ from ..core.linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
+from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI, skipped
 from .general import CompiledMeasurements
 from .kernels import KernelRun
+from .particle_compiled import move_density
+from .record import Recorder
+from .track import Track
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
 LOG_NEGLIGIBLE = -575.0
+
+
+@dataclass(frozen=True)
+class ParticleStep:
+    """The weighted cloud after one update, and what the resampling after it did.
+
+    Parameters
+    ----------
+    time : float
+        Its time (s).
+    particles : numpy.ndarray
+        ``(n, N)`` (m, m/s).
+    weights : numpy.ndarray
+        ``(N,)``, normalised.
+    shrink : float
+        The regularisation's shrinkage ``a`` (1: not resampled or not regularised).
+    centre : numpy.ndarray or None
+        The cloud's mean the shrinkage pulls towards.
+    jitter : numpy.ndarray or None
+        The regularisation kernel's covariance ``h^2 C`` added after resampling.
+    """
+
+    time: float
+    particles: Array
+    weights: Array
+    shrink: float = 1.0
+    centre: Array | None = None
+    jitter: Array | None = None
 
 
 def optimal_bandwidth(n_particles: int, n_state: int) -> float:
@@ -122,6 +155,10 @@ class ParticleFilter(TrackingFilter):
         filter starts by sampling it.
     particles : int, optional
         Number of particles N (>= 2).
+    history : bool, optional
+        Keep the weighted cloud after each update (:attr:`history`, the track's
+        ``extra.history``) for the particle smoother (:func:`tmakit.filters.smooth`); N x n
+        floats per update.
     rng : numpy.random.Generator, int or None, optional
         Random source or seed; the same seed gives the same track.
     resample_threshold : float, optional
@@ -164,7 +201,13 @@ class ParticleFilter(TrackingFilter):
                  bandwidth: float = 1.0, q: ProcessNoise = 0.0,
                  dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
-                 nuisance: Mapping[str, float] | None = None) -> None:
+                 nuisance: Mapping[str, float] | None = None,
+                 history: bool = False,
+                 _samples: BearingPrior | None = None,
+                 _first: FirstBearing | None = None) -> None:
+        self._start_prior = None if _samples is None or _first is None else (_samples, _first)
+        #: The weighted clouds after each update (with ``history=True``), for the smoother.
+        self.history: list[ParticleStep] | None = [] if history else None
         if isinstance(particles, bool) or not isinstance(particles, (int, np.integer)) \
                 or particles < 2:
             raise ValueError(f"particles must be a whole number >= 2; got {particles!r}")
@@ -186,19 +229,53 @@ class ParticleFilter(TrackingFilter):
             raise ValueError(f"bandwidth {bandwidth} gives a kernel bandwidth h = {self.h:.3g}"
                              " >= 1 (the shrinkage needs h < 1); use a smaller bandwidth or "
                              "more particles")
-        axes = np.broadcast_to(np.asarray(self.dynamics.q, dtype=np.float64), (self.dim,))
+        axes, self._q_density = self.dynamics.axes()
         self._q = axes.copy()
         self._any_q = bool(np.any(axes > 0))
+        self._any_density = bool(np.any(self._q_density > 0))
         self._equal_q = bool(np.all(axes == axes[0]))
         self._ncv = type(self.dynamics) is NearlyConstantVelocity
+
+    @classmethod
+    def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
+                           **kwargs: Any) -> ParticleFilter:
+        """Start from particles drawn from a bearing prior (:meth:`BearingPrior.sample`).
+
+        Parameters
+        ----------
+        prior : BearingPrior
+            Range, speed (and height) intervals.
+        first : FirstBearing
+            The first bearing.
+        dim : int
+            2 or 3.
+        **kwargs
+            The filter's settings (``particles``, ``rng``, ...).
+
+        Returns
+        -------
+        ParticleFilter
+        """
+        mean, cov = prior.gaussian(first, dim)
+        kwargs["_samples"] = prior
+        kwargs["_first"] = first
+        return cls(mean, cov, first.time, **kwargs)
 
     # -- state --------------------------------------------------------------------------------
     def _init_state(self, mean: Array, covariance: Array) -> None:
         n = mean.shape[0]
-        chol = safe_cholesky(covariance)
-        x = chol @ self.rng.standard_normal((n, self.n_particles))
-        x += mean[:, None]
+        if self._start_prior is not None:
+            prior, first = self._start_prior
+            x = np.ascontiguousarray(prior.sample(first, self.n_particles, self.rng,
+                                                  n // 2).T)
+        else:
+            chol = safe_cholesky(covariance)
+            x = chol @ self.rng.standard_normal((n, self.n_particles))
+            x += mean[:, None]
         self._x = np.ascontiguousarray(x)  # (n, N): one row per state component
+        if self.history is not None:
+            self.history.append(ParticleStep(self.time, self._x.copy(),
+                                             np.full(self.n_particles, 1.0 / self.n_particles)))
         self._w = np.full(self.n_particles, 1.0 / self.n_particles)
         self._logw = np.full(self.n_particles, -math.log(self.n_particles))
         self._uniform = True
@@ -253,7 +330,9 @@ class ParticleFilter(TrackingFilter):
         x = self._x
         d = self.dim
         if self._ncv:
-            if self._any_q:
+            if self._any_density:
+                self._predict_density(dt)
+            elif self._any_q:
                 # p += dt v + dt^2/2 w, v += dt w (Chen & Sun §2.1), with v moved in halves so
                 # that p sees v + dt w / 2: five passes over the particles.
                 half = self.rng.standard_normal(out=self._noise)
@@ -275,6 +354,27 @@ class ParticleFilter(TrackingFilter):
                 x += root @ self.rng.standard_normal((x.shape[0], self.n_particles))
             self._x = np.ascontiguousarray(x)
         self._moments = None
+
+    def _predict_density(self, dt: float) -> None:
+        """Move the particles with a white-noise-acceleration density (and any held ``q``).
+
+        Per axis the step's noise ``[[a, b], [b, c]]`` (:func:`~tmakit.motion.dynamics.
+        process_noise`) is drawn through its Cholesky factor from two normals per particle
+        (single precision, :mod:`.particle_compiled`).
+        """
+        q2, qd = self._q**2, self._q_density
+        a = dt**4 / 4 * q2 + dt**3 / 3 * qd
+        b = dt**3 / 2 * q2 + dt**2 / 2 * qd
+        c = dt**2 * q2 + dt * qd
+        l11 = np.sqrt(a)
+        l21 = np.divide(b, l11, out=np.zeros(self.dim), where=l11 > 0)
+        l22 = np.sqrt(np.clip(c - l21**2, 0.0, None))
+        noise = getattr(self, "_density_noise", None)
+        if noise is None:
+            noise = self._density_noise = np.empty((2, self.dim, self.n_particles),
+                                                   dtype=np.float32)
+        self.rng.standard_normal(out=noise, dtype=np.float32)
+        move_density(self._x, noise, float(dt), l11, l21, l22)
 
     # -- update -------------------------------------------------------------------------------
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
@@ -399,6 +499,8 @@ class ParticleFilter(TrackingFilter):
         self._uniform = False
         self._moments = None
         self._compute_moments()
+        if self.history is not None:
+            self.history.append(ParticleStep(self.time, self._x.copy(), w.copy()))
         if 1.0 / float(np.dot(w, w)) < self.resample_threshold * self.n_particles:
             self._resample()
         return UpdateInfo(nis, dof, increment)
@@ -439,6 +541,11 @@ class ParticleFilter(TrackingFilter):
         return self._normalise(np.array(loglik, dtype=float), 0.0, float(nu_bar @ sol),
                                int(nu.shape[1]))
 
+    def _track(self, rec: Recorder) -> Track:
+        track = super()._track(rec)
+        track.extra.history = self.history
+        return track
+
     # -- resampling and regularisation -------------------------------------------------------
     def _resample(self) -> None:
         mean, cov = self._compute_moments()
@@ -451,6 +558,9 @@ class ParticleFilter(TrackingFilter):
             x *= a
             x += ((1.0 - a) * mean)[:, None]
             x += (h * chol) @ self.rng.standard_normal(x.shape)
+            if self.history:
+                self.history[-1] = replace(self.history[-1], shrink=a, centre=mean.copy(),
+                                           jitter=(h * h) * (chol @ chol.T))
         self._x = x
         n = self.n_particles
         self._w = np.full(n, 1.0 / n)

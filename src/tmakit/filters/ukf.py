@@ -160,6 +160,12 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
             _predict_group, group, group.values, angle, group.covariance, self._mean, self._cov)
         return UpdateInfo(nis, m, ll)
 
+    def _gaussian_step(self, group: MeasurementGroup, mean: Array, cov: Array
+                       ) -> tuple[Array, Array, float, int, float]:
+        angle = group.angle if group.angle.any() else None
+        return self._unscented(_predict_group, group, group.values, angle, group.covariance,
+                               mean, cov)
+
     @staticmethod
     def _planned() -> type[ExtendedKalmanFilter]:
         return UnscentedKalmanFilter
@@ -205,6 +211,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         dzw = dz * self._wc_col
         pzz = dzw.T.dot(dz)
         pzz += r
+        self._innovation = (nu, pzz)
         gain, nis, log_det = innovation_solve(pzz, dzw.T.dot(pts - mean), nu)
         m = nu.shape[0]
         return (mean + gain.dot(nu), checked_psd(cov - gain.dot(pzz).dot(gain.T)), nis, m,
@@ -222,3 +229,38 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
 
 def _predict_group(group: MeasurementGroup, points: Array) -> Array:
     return group.predict(points)
+
+
+class CubatureKalmanFilter(UnscentedKalmanFilter):
+    """The cubature Kalman filter: the third-degree spherical-radial rule.
+
+    ``2n`` points at ``x ± sqrt(n) L_j`` with equal weights ``1 / (2n)`` (Arasaratnam &
+    Haykin 2009, "Cubature Kalman filters", IEEE Trans. Autom. Control 54(6), eqs. 33-34):
+    the scaled unscented transform with ``alpha = 1, beta = 0, kappa = 0`` (its centre point
+    then has zero weight), run by the UKF's arithmetic.
+
+    Parameters
+    ----------
+    mean, covariance, time
+        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
+    q, dynamics, options, nuisance
+        As for :class:`~tmakit.filters.TrackingFilter`.
+
+    References
+    ----------
+    Arasaratnam & Haykin (2009); Leong et al. (2014) use it as the component filter of their
+    Gaussian sum.
+    """
+
+    name = "ckf"
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        super().__init__(mean, covariance, time, alpha=1.0, beta=0.0, kappa=0.0, q=q,
+                         dynamics=dynamics, options=options, nuisance=nuisance)
+
+    @staticmethod
+    def _planned() -> type[ExtendedKalmanFilter]:
+        return CubatureKalmanFilter

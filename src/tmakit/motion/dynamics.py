@@ -4,7 +4,10 @@ State order: ``[x, y, vx, vy]`` in 2-D and ``[x, y, z, vx, vy, vz]`` in 3-D (ENU
 metres per second), as in Chen & Sun, §2.1.  Over a step ``T`` the state moves by ``Phi(T)``
 and gains the noise of a white acceleration held constant over the step, with per-axis
 standard deviation ``q`` (m/s^2): ``Q_k`` of Chen & Sun, §2.1,
-``Q = G G^T q^2`` with ``G = [T^2/2, T]`` per axis.
+``Q = G G^T q^2`` with ``G = [T^2/2, T]`` per axis.  Or, as most papers state it, continuous
+white-noise acceleration of spectral density ``q~`` (m^2/s^3, ``q_density``): per axis
+``Q = q~ [[T^3/3, T^2/2], [T^2/2, T]]`` (Bar-Shalom, Li & Kirubarajan 2001, §6.2.2, eq.
+6.2.2-12).  Both may be given; their covariances add.
 """
 
 from __future__ import annotations
@@ -66,7 +69,7 @@ def transition_matrix(dt: float, dim: int) -> Array:
     return phi
 
 
-def process_noise(dt: float, q: ArrayLike, dim: int) -> Array:
+def process_noise(dt: float, q: ArrayLike, dim: int, density: ArrayLike = 0.0) -> Array:
     """Give the process noise covariance ``Q_k`` of one step.
 
     Parameters
@@ -77,6 +80,9 @@ def process_noise(dt: float, q: ArrayLike, dim: int) -> Array:
         Per-axis acceleration standard deviations (m/s^2); a scalar applies to every axis.
     dim : int
         2 or 3.
+    density : array_like, optional
+        Per-axis spectral density of a continuous white-noise acceleration (m^2/s^3); a
+        scalar applies to every axis.
 
     Returns
     -------
@@ -86,22 +92,26 @@ def process_noise(dt: float, q: ArrayLike, dim: int) -> Array:
     Raises
     ------
     ValueError
-        For a negative or non-finite ``q``.
+        For a negative or non-finite ``q`` or ``density``.
 
     References
     ----------
-    Chen & Sun, §2.1.
+    Chen & Sun, §2.1 (``q``); Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.2-12 (``density``).
     """
     q = np.broadcast_to(np.asarray(q, dtype=float), (dim,))
     if np.any(q < 0) or not np.all(np.isfinite(q)):
         raise ValueError(f"process noise q must be finite and >= 0 m/s^2; got {q.tolist()}")
+    qd = np.broadcast_to(np.asarray(density, dtype=float), (dim,))
+    if np.any(qd < 0) or not np.all(np.isfinite(qd)):
+        raise ValueError("process noise density must be finite and >= 0 m^2/s^3; got "
+                         f"{qd.tolist()}")
     dt = abs(float(dt))
     out = np.zeros((2 * dim, 2 * dim))
     q2 = q**2
     idx = np.arange(dim)
-    out[idx, idx] = dt**4 / 4 * q2
-    out[idx, idx + dim] = out[idx + dim, idx] = dt**3 / 2 * q2
-    out[idx + dim, idx + dim] = dt**2 * q2
+    out[idx, idx] = dt**4 / 4 * q2 + dt**3 / 3 * qd
+    out[idx, idx + dim] = out[idx + dim, idx] = dt**3 / 2 * q2 + dt**2 / 2 * qd
+    out[idx + dim, idx + dim] = dt**2 * q2 + dt * qd
     return out
 
 
@@ -115,6 +125,9 @@ class NearlyConstantVelocity:
         2 or 3.
     q : float or tuple of float
         Per-axis acceleration noise (m/s^2), a scalar or one value per axis.
+    q_density : float or tuple of float
+        Per-axis spectral density of continuous white-noise acceleration (m^2/s^3), a scalar
+        or one value per axis (:func:`process_noise`).
 
     Raises
     ------
@@ -128,11 +141,22 @@ class NearlyConstantVelocity:
 
     dim: int = 2
     q: float | tuple[float, ...] = 0.0
+    q_density: float | tuple[float, ...] = 0.0
 
     def __post_init__(self) -> None:
-        """Refuse a bad ``dim`` or ``q``."""
+        """Refuse a bad ``dim``, ``q`` or ``q_density``."""
         state_names(self.dim)
-        process_noise(1.0, self.q, self.dim)  # validates q
+        process_noise(1.0, self.q, self.dim, self.q_density)  # validates both
+
+    def axes(self) -> tuple[Array, Array]:
+        """Give ``q`` (m/s^2) and ``q_density`` (m^2/s^3) per axis.
+
+        Returns
+        -------
+        q, q_density : ndarray, shape (dim,)
+        """
+        return (np.broadcast_to(np.asarray(self.q, dtype=float), (self.dim,)).copy(),
+                np.broadcast_to(np.asarray(self.q_density, dtype=float), (self.dim,)).copy())
 
     @property
     def n_state(self) -> int:
@@ -169,6 +193,7 @@ class NearlyConstantVelocity:
 
         References
         ----------
-        Chen & Sun (1993), §2.1 (the nearly-constant-velocity ``Q_k``).
+        Chen & Sun (1993), §2.1 (the nearly-constant-velocity ``Q_k``); Bar-Shalom, Li &
+        Kirubarajan (2001), eq. 6.2.2-12 (the density form).
         """
-        return process_noise(dt, self.q, self.dim)
+        return process_noise(dt, self.q, self.dim, self.q_density)

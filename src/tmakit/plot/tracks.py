@@ -231,6 +231,10 @@ def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray |
     xs, ys = frame.xy(tr.states[:, 0], tr.states[:, 1])
     ax_map.plot(xs, ys, "-", color=colours[0], lw=1.5, label=f"track ({tr.filter_name})")
     ax_map.plot(xs[0], ys[0], "o", color=colours[0], ms=6, label="track start")
+    sm = tr.extra.smoothed
+    if sm is not None:
+        ax_map.plot(*frame.xy(sm.states[:, 0], sm.states[:, 1]), "-", color=colours[3],
+                    lw=1.5, label=f"smoothed ({sm.extra.options.get('smoother', 'rts')})")
     k_sel = np.unique(np.linspace(0, len(tr) - 1, max(1, ellipses)).round().astype(int)) \
         if ellipses > 0 and len(tr) else np.array([], dtype=int)
     styles = ("-", "--", ":", "-.")
@@ -289,6 +293,13 @@ def _norm_errors(ax_norm: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBoun
                      label="|position error|")
     ax_norm.semilogy(t, sd, "-", color=colours[1], lw=1.2,
                      label="filter position RMS std sqrt(tr P)")
+    sm = tr.extra.smoothed
+    if sm is not None:
+        ax_norm.semilogy(t, np.maximum(np.linalg.norm(sm.states[:, :dim] - truth[:, :dim],
+                                                      axis=1), 1e-3), "-", color=colours[3],
+                         lw=1.0, label="|smoothed position error|")
+        ax_norm.semilogy(t, np.sqrt(np.einsum("kii->k", sm.covariances[:, :dim, :dim])), ":",
+                         color=colours[3], lw=1.2, label="smoothed position RMS std")
     if pcrb is not None:
         how = ("along the true path" if pcrb.mode == "deterministic"
                else f"{pcrb.trajectories} trajectories")

@@ -26,18 +26,26 @@ from __future__ import annotations
 
 from ..scenario.truth import truth_states
 from .errors import MissingNuisanceError, StartError, TrackingError
-from .filter_setup import FilterSetup, filter_class, filter_dim, process_noise, random_filters
+from .filter_setup import (
+    FilterSetup,
+    filter_class,
+    filter_dim,
+    noise_density,
+    process_noise,
+    random_filters,
+)
 from .initiators import (
     CONFIRM_P_VALUE,
     DEFAULT_MAX_RELATIVE_STD,
     BatchInitiator,
+    BearingInitiator,
     Initiation,
     Initiator,
     PriorInitiator,
 )
 from .output import TrackTable, track_dict, track_table
 from .pcrb import track_pcrb
-from .records import BatchStart, Confirmation, PriorStart, Rejection, StartRecord
+from .records import BatchStart, BearingStart, Confirmation, PriorStart, Rejection, StartRecord
 from .tracker import start_record, track
 from .window import MIN_WINDOW, WindowChoice, WindowEstimate, search_window
 
@@ -47,6 +55,8 @@ __all__ = [
     "MIN_WINDOW",
     "BatchInitiator",
     "BatchStart",
+    "BearingInitiator",
+    "BearingStart",
     "Confirmation",
     "FilterSetup",
     "Initiation",
@@ -63,6 +73,7 @@ __all__ = [
     "WindowEstimate",
     "filter_class",
     "filter_dim",
+    "noise_density",
     "process_noise",
     "random_filters",
     "search_window",

@@ -16,15 +16,16 @@ from numpy.typing import ArrayLike
 
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..filters import FILTERS, TrackingFilter, state_names
+from ..filters import FILTERS, NearlyConstantVelocity, TrackingFilter, state_names
 from ..motion import motion_from_name
 from .errors import TrackingError
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..filters import BearingPrior, FirstBearing
     from ..results.estimate import EstimateResult
 
-__all__ = ["FilterSetup", "filter_class", "filter_dim", "process_noise", "random_filters",
-           "state_vector"]
+__all__ = ["FilterSetup", "filter_class", "filter_dim", "noise_density", "process_noise",
+           "random_filters", "state_vector"]
 
 Options = Mapping[str, Mapping[str, object]]
 
@@ -110,6 +111,50 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
         raise TrackingError(f"{{q}}: process noise must be an acceleration std >= 0 and at "
                             f"most {MAX_ACCELERATION:g} m/s^2 (1000 g: beyond any vehicle), "
                             f"got {values}", "q", ["q"])
+    return tuple(float(v) for v in values)
+
+
+def noise_density(q_density: float | ArrayLike, dim: int) -> tuple[float, ...]:
+    """Process noise as ``dim`` per-axis white-noise acceleration spectral densities.
+
+    Parameters
+    ----------
+    q_density : float or array_like
+        One density (m^2/s^3) for every axis, or ``dim`` of them: per axis
+        ``Q = q~ [[T^3/3, T^2/2], [T^2/2, T]]`` (:func:`tmakit.motion.dynamics.process_noise`).
+
+    dim : int
+        The track's spatial dimension, 2 or 3.
+
+    Returns
+    -------
+    tuple of float
+        ``dim`` values (m^2/s^3), finite and >= 0.
+
+    Raises
+    ------
+    TrackingError
+        Text, the wrong number of values, or a negative or non-finite one (parameter
+        ``q_density``).
+    """
+    what = f"a number or {dim} numbers (m^2/s^3 per axis)"
+    if isinstance(q_density, str | bytes):
+        raise TrackingError(f"{{q_density}}: expected {what}, not the text {q_density!r}",
+                            "q_density", ["q_density"])
+    try:
+        values = np.atleast_1d(np.asarray(q_density, dtype=float)).reshape(-1).tolist()
+    except (TypeError, ValueError):
+        raise TrackingError(f"{{q_density}}: expected {what}, got {q_density!r}",
+                            "q_density", ["q_density"]) from None
+    if len(values) == 1:
+        values = values * dim
+    if len(values) != dim:
+        raise TrackingError(f"{{q_density}}: expected one value or {dim} per-axis values for "
+                            f"a {dim}-D track, got {len(values)}", "q_density", ["q_density"])
+    if not all(np.isfinite(v) and 0 <= v <= MAX_ACCELERATION**2 for v in values):
+        raise TrackingError(f"{{q_density}}: a white-noise acceleration density must be >= 0 "
+                            f"and at most {MAX_ACCELERATION**2:g} m^2/s^3, got {values}",
+                            "q_density", ["q_density"])
     return tuple(float(v) for v in values)
 
 
@@ -232,6 +277,8 @@ class FilterSetup:
     kwargs : dict
         Further constructor arguments (particle count, the one random generator that every
         filter built from this setup shares).
+    q_density : tuple of float
+        Per-axis white-noise acceleration densities (m^2/s^3), added to ``q``'s noise.
     """
 
     cls: type[TrackingFilter]
@@ -239,11 +286,13 @@ class FilterSetup:
     q: tuple[float, ...]
     options: dict[str, dict[str, object]] = field(default_factory=dict)
     kwargs: dict[str, Any] = field(default_factory=dict)
+    q_density: tuple[float, ...] = ()
 
     @classmethod
     def create(cls, filter: str, dim: int, q: float | ArrayLike = 0.0,
                particles: int | None = None, rng: np.random.Generator | int | None = None,
-               options: Options | None = None) -> FilterSetup:
+               options: Options | None = None, q_density: float | ArrayLike = 0.0,
+               settings: Mapping[str, object] | None = None) -> FilterSetup:
         """Check and collect the settings of a filter by name.
 
         Parameters
@@ -260,6 +309,10 @@ class FilterSetup:
             Generator or seed, for the filters that draw random numbers.
         options : mapping, optional
             Per-kind measurement-model options.
+        q_density : float or array_like
+            White-noise acceleration density, see :func:`noise_density` (m^2/s^3).
+        settings : mapping, optional
+            Further constructor arguments of the filter (``component``, ``alpha``, ...).
 
         Returns
         -------
@@ -268,13 +321,20 @@ class FilterSetup:
         Raises
         ------
         TrackingError
-            An unknown filter, bad ``q``, or ``particles`` for a filter without them.
+            An unknown filter, bad ``q`` or ``q_density``, or ``particles`` for a filter
+            without them.
         """
         klass = filter_class(filter)
         q_axes = process_noise(q, dim)
-        kwargs = _filter_kwargs(klass, particles, rng)
+        density = noise_density(q_density, dim)
+        kwargs = {**_filter_kwargs(klass, particles, rng), **dict(settings or {})}
         opts = {str(k): dict(v) for k, v in dict(options or {}).items()}
-        return cls(klass, dim, q_axes, opts, kwargs)
+        return cls(klass, dim, q_axes, opts, kwargs, density)
+
+    @property
+    def dynamics(self) -> NearlyConstantVelocity:
+        """The filter's dynamics: ``q`` and ``q_density`` per axis."""
+        return NearlyConstantVelocity(self.dim, self.q, self.q_density or 0.0)
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -303,7 +363,28 @@ class FilterSetup:
         -------
         TrackingFilter
         """
-        return self.cls(mean, covariance, time, q=self.q, nuisance=nuisance, **self._extra())
+        return self.cls(mean, covariance, time, dynamics=self.dynamics, nuisance=nuisance,
+                        **self._extra())
+
+    def from_first_bearing(self, prior: BearingPrior, first: FirstBearing,
+                           nuisance: Mapping[str, float] | None) -> TrackingFilter:
+        """Start a filter at the first bearing (:meth:`TrackingFilter.from_first_bearing`).
+
+        Parameters
+        ----------
+        prior : BearingPrior
+            Range, speed (and height) intervals.
+        first : FirstBearing
+            The first bearing.
+        nuisance : mapping of str to float, optional
+            Known nuisance values (Hz, dBW, ...).
+
+        Returns
+        -------
+        TrackingFilter
+        """
+        return self.cls.from_first_bearing(prior, first, self.dim, dynamics=self.dynamics,
+                                           nuisance=nuisance, **self._extra())
 
     def from_estimate(self, estimate: EstimateResult, time: float) -> TrackingFilter:
         """Start a filter from a batch estimate at ``time`` (s), with its nuisance values.
@@ -321,4 +402,4 @@ class FilterSetup:
         -------
         TrackingFilter
         """
-        return self.cls.from_estimate(estimate, time, q=self.q, **self._extra())
+        return self.cls.from_estimate(estimate, time, dynamics=self.dynamics, **self._extra())

@@ -28,15 +28,15 @@ from numpy.typing import ArrayLike
 
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..filters import Track
+from ..filters import BearingPrior, Track, first_bearing
 from ..measurements import model_for
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
-from .records import BatchStart, Confirmation, PriorStart, Rejection, StartRecord
+from .records import BatchStart, BearingStart, Confirmation, PriorStart, Rejection, StartRecord
 from .window import MIN_WINDOW, search_window
 
-__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "BatchInitiator", "Initiation",
-           "Initiator", "PriorInitiator"]
+__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "BatchInitiator", "BearingInitiator",
+           "Initiation", "Initiator", "PriorInitiator"]
 
 
 #: Default start quality: the position's largest 1-sigma semi-axis over the range.
@@ -150,6 +150,70 @@ class PriorInitiator(Initiator):
         filt = setup.from_prior(mean, cov, t0, self.nuisance)
         start = PriorStart(t0, mean, std, cov, dict(self.nuisance), names)
         return Initiation(start, filt.run(meas))
+
+
+class BearingInitiator(Initiator):
+    """Start at the first bearing from a prior in the user's terms (issue 28).
+
+    The filter starts at the first bearing's time from ``prior`` centred on that bearing
+    (:meth:`TrackingFilter.from_first_bearing
+    <tmakit.filters.TrackingFilter.from_first_bearing>`: the Gaussian sum's range-
+    parameterised components, the particle filter's samples, a single filter's moments),
+    and updates with every other row.  The track's first row is that start (NIS NaN, no
+    degrees of freedom): an estimate with an honest covariance from the first bearing on.
+
+    Parameters
+    ----------
+    prior : BearingPrior, optional
+        Range, speed (and height) intervals; default :class:`~tmakit.filters.BearingPrior`'s
+        defaults (said so in the start record).
+    nuisance : mapping of str to float, optional
+        Known nuisance values, for the kinds that have nuisance parameters.
+    """
+
+    def __init__(self, prior: BearingPrior | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        self.prior = BearingPrior() if prior is None else prior
+        if not isinstance(self.prior, BearingPrior):
+            raise TrackingError(f"prior: expected a BearingPrior, got "
+                                f"{type(self.prior).__name__}", "bearing_prior")
+        self.nuisance = dict(nuisance or {})
+
+    def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
+        """Start at the first bearing and update with every other row.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (with at least one bearing; SI).
+        setup : FilterSetup
+            The filter and its settings.
+
+        Returns
+        -------
+        Initiation
+            The start record and the track (s, m, m/s).
+
+        Raises
+        ------
+        StartError
+            The set has no bearing.
+        MissingNuisanceError
+            Nuisance values the measurement kinds need are not given.
+        """
+        try:
+            first = first_bearing(meas)
+        except ValueError as e:
+            raise StartError(str(e), "bearing_prior") from None
+        _check_nuisance(meas, setup.options, self.nuisance)
+        filt = setup.from_first_bearing(self.prior, first, self.nuisance)
+        mean, cov = filt.state, filt.covariance
+        rest = np.ones(len(meas), dtype=bool)
+        rest[first.row] = False
+        after = filt.run(meas.take(np.flatnonzero(rest)))
+        start = BearingStart(first.time, mean, cov, dict(self.nuisance), setup.state_names,
+                             self.prior, first)
+        return Initiation(start, _prepend(after, first.time, mean, cov, setup.state_names))
 
 
 def _check_nuisance(meas: MeasurementSet, options: Mapping[str, Mapping[str, object]],

@@ -39,12 +39,23 @@ def track_dict(tr: Track) -> dict[str, object]:
     Returns
     -------
     dict
-        :meth:`Track.as_dict` with ``start`` and ``q`` from ``tr.extra``; NaN and infinities
-        as ``None``.
+        :meth:`Track.as_dict` with ``start``, ``q`` and ``q_density`` from ``tr.extra``, the
+        Gaussian sum's ``components`` per update, and with a smoothed track ``smoothed``
+        (beside ``estimate``), ``smoothed_std``, ``smoothed_covariance`` and ``smoother``;
+        NaN and infinities as ``None``.
     """
     data = tr.as_dict()
     data["start"] = tr.extra.start
     data["q"] = tr.extra.q
+    data["q_density"] = tr.extra.q_density
+    if tr.extra.components is not None:
+        data["components"] = tr.extra.components
+    sm = tr.extra.smoothed
+    if sm is not None:
+        data["smoothed"] = sm.states.tolist()
+        data["smoothed_std"] = sm.std.tolist()
+        data["smoothed_covariance"] = sm.covariances.tolist()
+        data["smoother"] = sm.extra.options.get("smoother")
     return _clean(data)  # type: ignore[return-value]
 
 

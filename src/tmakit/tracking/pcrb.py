@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 from ..bounds.pcrb import deterministic_pcrb, posterior_crb
 from ..data import MeasurementSet
 from ..filters import Track
-from .records import BatchStart
+from .records import BatchStart, BearingStart
 from .tracker import start_record
 
 __all__ = ["track_pcrb"]
@@ -60,20 +60,29 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
     if start is None:
         return None, "PCRB not available (the track does not say how it started)"
     t0, cov, nuisance = start.time, start.covariance, start.nuisance
-    rows = meas.take(meas.time > t0 + 1e-9) if isinstance(start, BatchStart) else meas
+    if isinstance(start, BatchStart):
+        rows = meas.take(meas.time > t0 + 1e-9)
+    elif isinstance(start, BearingStart):  # the prior holds the first bearing already
+        keep = np.ones(len(meas), dtype=bool)
+        keep[start.first.row] = False
+        rows = meas.take(np.flatnonzero(keep))
+    else:
+        rows = meas
     if len(rows) == 0:
         return None, "PCRB not available (no measurements after the start)"
     q = tr.extra.q if tr.extra.q is not None else 0.0
+    density = tr.extra.q_density if tr.extra.q_density else 0.0
     options = tr.extra.options or None
     try:
         if truth is not None:
             truth = np.asarray(truth, dtype=float)
             at_start = truth[int(np.argmin(np.abs(tr.times - t0)))]
             bound = deterministic_pcrb(rows, at_start, cov, t0, q=q, options=options,
-                                       nuisance=nuisance)
+                                       nuisance=nuisance, q_density=density)
         else:
             bound = posterior_crb(rows, start.mean, cov, t0, q=q, trajectories=trajectories,
-                                  rng=rng, options=options, nuisance=nuisance)
+                                  rng=rng, options=options, nuisance=nuisance,
+                                  q_density=density)
     except (ValueError, TypeError) as e:
         return None, f"PCRB not available ({e})"
     return bound, ""

@@ -14,9 +14,11 @@ from typing import TYPE_CHECKING, Any, ClassVar
 from ..core.arrays import Array
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..filters import BearingPrior, FirstBearing
     from ..results.estimate import EstimateResult
 
-__all__ = ["BatchStart", "Confirmation", "PriorStart", "Rejection", "StartRecord"]
+__all__ = ["BatchStart", "BearingStart", "Confirmation", "PriorStart", "Rejection",
+           "StartRecord"]
 
 
 
@@ -226,5 +228,59 @@ class BatchStart:
         return out
 
 
+@dataclass(frozen=True)
+class BearingStart:
+    """A start at the first bearing from a prior in the user's terms (range, speed, height).
+
+    The filter begins at the first bearing's time from :class:`~tmakit.filters.BearingPrior`
+    centred on that bearing (which it has then used) and updates with every other row.
+
+    Parameters
+    ----------
+    time : float
+        The first bearing's time (s).
+    mean : ndarray, shape (n,)
+        The filter's state there: the prior's mean (m, m/s).
+    covariance : ndarray, shape (n, n)
+        Its covariance (SI).
+    nuisance : dict of str to float
+        Known nuisance values given with it (Hz, dBW, ...).
+    state_names : tuple of str
+        The state components.
+    prior : BearingPrior
+        The intervals.
+    first : FirstBearing
+        The bearing the prior is centred on (its row is not used again).
+    """
+
+    method: ClassVar[str] = "first-bearing"
+
+    time: float
+    mean: Array
+    covariance: Array
+    nuisance: dict[str, float]
+    state_names: tuple[str, ...]
+    prior: BearingPrior
+    first: FirstBearing
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the JSON form: ``method`` (``"first-bearing"``), ``time``, ``prior``, ...
+
+        Returns
+        -------
+        dict
+            ``time`` (s), ``bearing_deg``, ``sensor_row``, ``prior`` (m, m/s, with the
+            intervals the user gave), ``mean`` and ``std`` by name (m, m/s).
+        """
+        import math
+
+        std = [math.sqrt(max(float(v), 0.0)) for v in self.covariance.diagonal()]
+        return {"method": self.method, "time": self.time,
+                "bearing_deg": math.degrees(self.first.bearing) % 360.0,
+                "row": self.first.row, "prior": self.prior.as_dict(),
+                "mean": dict(zip(self.state_names, self.mean.tolist(), strict=True)),
+                "std": dict(zip(self.state_names, std, strict=True))}
+
+
 #: What an initiator returns.
-StartRecord = PriorStart | BatchStart
+StartRecord = PriorStart | BatchStart | BearingStart

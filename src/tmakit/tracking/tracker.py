@@ -18,11 +18,17 @@ from numpy.typing import ArrayLike
 
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..data import MeasurementSet
-from ..filters import Track
+from ..filters import BearingPrior, GaussianSumFilter, Track
 from .errors import TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim
-from .initiators import DEFAULT_MAX_RELATIVE_STD, BatchInitiator, Initiator, PriorInitiator
-from .records import BatchStart, PriorStart, StartRecord
+from .initiators import (
+    DEFAULT_MAX_RELATIVE_STD,
+    BatchInitiator,
+    BearingInitiator,
+    Initiator,
+    PriorInitiator,
+)
+from .records import BatchStart, BearingStart, PriorStart, StartRecord
 
 __all__ = ["start_record", "track"]
 
@@ -34,16 +40,23 @@ def _initiator(initiator: Initiator | None,
                prior: Mapping[str, float] | ArrayLike | None,
                prior_std: Mapping[str, float] | ArrayLike | None, prior_time: float | None,
                nuisance: Mapping[str, float] | None, init_window: int | None,
-               max_relative_std: float, confirm: bool) -> Initiator:
+               max_relative_std: float, confirm: bool, bearing_prior: BearingPrior | None,
+               tracker: str) -> Initiator:
     """Return the initiator given, or the one the start keywords of :func:`track` describe."""
-    if initiator is not None:
-        if any(v is not None for v in (prior, prior_std, prior_time, nuisance, init_window)) \
-                or max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm:
-            raise TrackingError("initiator: give the start as an initiator or by the start "
-                                "keywords (prior, prior_std, prior_time, nuisance, "
-                                "init_window, max_relative_std, confirm), not both",
-                                "initiator")
-        return initiator
+    if initiator is not None or bearing_prior is not None:
+        if any(v is not None for v in (prior, prior_std, prior_time, init_window)) \
+                or (nuisance and initiator is not None) \
+                or max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm \
+                or (initiator is not None and bearing_prior is not None):
+            raise TrackingError("initiator: give the start as an initiator, as a "
+                                "bearing_prior or by the start keywords (prior, prior_std, "
+                                "prior_time, nuisance, init_window, max_relative_std, "
+                                "confirm): one of them, not both", "initiator")
+        return initiator if initiator is not None else BearingInitiator(bearing_prior,
+                                                                        nuisance)
+    if tracker == GaussianSumFilter.name and prior is None and prior_std is None \
+            and init_window is None:
+        return BearingInitiator(None, nuisance)
     if prior is not None or prior_std is not None:
         if prior is None or prior_std is None:
             raise TrackingError("a prior needs both its mean (prior) and its standard "
@@ -61,13 +74,14 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
           prior: Mapping[str, float] | ArrayLike | None = None,
           prior_std: Mapping[str, float] | ArrayLike | None = None,
           prior_time: float | None = None, init_window: int | None = None,
-          max_relative_std: float = DEFAULT_MAX_RELATIVE_STD,
-          confirm: bool = True,
-          rng: np.random.Generator | int | None = None,
-          dim: int | None = None,
+          max_relative_std: float = DEFAULT_MAX_RELATIVE_STD, confirm: bool = True,
+          rng: np.random.Generator | int | None = None, dim: int | None = None,
           options: Mapping[str, Mapping[str, object]] | None = None,
           nuisance: Mapping[str, float] | None = None, *,
           initiator: Initiator | None = None,
+          q_density: float | ArrayLike = 0.0,
+          bearing_prior: BearingPrior | None = None,
+          settings: Mapping[str, object] | None = None,
           filter: str | NotGiven = NOT_GIVEN) -> Track:
     """Track the emitter through ``meas`` with a recursive filter.
 
@@ -76,19 +90,16 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     meas : MeasurementSet
         The measurements.
     tracker : str
-        The filter: a name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``mgekf``,
-        ``pf``), as ``tk.plan(tracker=)`` and ``tma track --filter``.
+        A name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``ckf``, ``gsf``, ...).
     q : float or array_like
-        Nearly-constant-velocity process noise: one acceleration standard deviation
-        (m/s^2) for every axis, or one per axis (:func:`~.filter_setup.process_noise`).
+        Acceleration std (m/s^2), one or per axis (:func:`~.filter_setup.process_noise`).
     particles : int, optional
-        Particle count, for particle filters only (an error for the others).
+        Particle count, for particle filters only.
     prior, prior_std : mapping or array_like, optional
-        Short form of ``initiator=PriorInitiator(prior, prior_std, prior_time, nuisance)``:
-        the prior mean and standard deviations by state name ``x, y, (z), vx, vy, (vz)``
-        (m, m/s) or as vectors.
+        Short form of ``initiator=PriorInitiator(prior, prior_std, prior_time, nuisance)``
+        (by state name or as vectors; m, m/s).
     prior_time : float, optional
-        The prior's time (s); default the first measurement time.
+        The prior's time (s; default the first measurement time).
     init_window, max_relative_std, confirm
         Short form of ``initiator=BatchInitiator(init_window, max_relative_std, confirm)``
         when no prior is given (the default start).
@@ -101,17 +112,23 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     nuisance : mapping of str to float, optional
         Known nuisance values (Hz, dBW, ...), with a prior only.
     initiator : Initiator, optional
-        The start policy; then none of the start keywords above may be given.
+        The start policy (then none of the start keywords above).
+    bearing_prior : BearingPrior, optional
+        Short form of ``initiator=BearingInitiator(bearing_prior, nuisance)``: start at the
+        first bearing (``gsf`` does by default, with the default intervals).
+    settings : mapping, optional
+        Further filter settings (``{"component": "ckf"}`` for ``gsf``, ...).
+    q_density : float or array_like
+        White-noise acceleration density (m^2/s^3; :func:`~.filter_setup.noise_density`).
     filter : str, optional
         Deprecated (it shadows a builtin): ``tracker``.
 
     Returns
     -------
     Track
-        One row per update (SI); ``extra`` says how it started (``start``, JSON-ready, and
-        ``start_record``) and with which ``q``, ``dim`` and ``options``.  After a batch
-        start the first row is the batch estimate at the window's last time (NIS NaN, no
-        degrees of freedom); the log-likelihood counts the rows after it.
+        One row per update (SI); ``extra`` says how it started (``start``, ``start_record``)
+        and with which ``q``, ``q_density``, ``dim`` and ``options``.  Its first row is the
+        start (NIS NaN) after a batch or first-bearing start.
 
     Raises
     ------
@@ -125,15 +142,21 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
         raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
     tracker = renamed_keyword("track", "filter", filter, "tracker", tracker, "ekf")
     filter_class(tracker)
-    d = filter_dim(meas, dim)
-    setup = FilterSetup.create(tracker, d, q, particles, rng, options)
+    setup = FilterSetup.create(tracker, filter_dim(meas, dim), q, particles, rng, options,
+                               q_density, settings)
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
-    started = _initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
-                         max_relative_std, confirm).initiate(meas, setup)
+    return _run(_initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
+                           max_relative_std, confirm, bearing_prior, tracker), meas, setup)
+
+
+def _run(initiator: Initiator, meas: MeasurementSet, setup: FilterSetup) -> Track:
+    """Start and run the filter; record how in the track's ``extra``."""
+    started = initiator.initiate(meas, setup)
     result = started.track
     result.extra = replace(result.extra, start=started.start.as_dict(),
-                           start_record=started.start, q=list(setup.q), dim=d,
+                           start_record=started.start, q=list(setup.q),
+                           q_density=list(setup.q_density), dim=setup.dim,
                            options=dict(setup.options))
     return result
 
@@ -148,8 +171,8 @@ def start_record(tr: Track) -> StartRecord | None:
 
     Returns
     -------
-    PriorStart or BatchStart or None
+    PriorStart or BatchStart or BearingStart or None
         The typed start record; ``None`` for a track that does not say (made otherwise).
     """
     record = tr.extra.start_record
-    return record if isinstance(record, PriorStart | BatchStart) else None
+    return record if isinstance(record, PriorStart | BatchStart | BearingStart) else None

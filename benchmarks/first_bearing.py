@@ -1,0 +1,274 @@
+"""Tracking from the first bearing: the two scenarios of Ristic et al. (2004, ch. 6).
+
+The scenarios as Leong, Arulampalam, Lamahewa & Abhayapala (2014) coded them in their
+published MATLAB script (:mod:`tmakit.reproduce.leong2014` gives every number and how run i
+of a scenario draws its target path and bearings: ``numpy.random.default_rng([seed, s, i])``).
+
+The filters start **only from the priors** (never from the truth): range interval of Leong
+et al.'s Gaussian sum (the true initial range ± 3 sigma_r, floored at a tenth of it: 499 m
+to 10,990 m and 1,000 m to 22,010 m) and a largest speed (``--speed-max``, default 10 kn
+and 25 kn, the targets doing 4 and 15 kn):
+
+* ``gsf`` (cubature components, ``--component``) and ``pf`` (``--particles``), both from
+  :class:`tmakit.BearingPrior` at the first bearing;
+* ``ekf batch``: today's default start, a batch estimate over the shortest good initial
+  window (no estimate before it);
+* ``stonesoup ekf``: Stone Soup's EKF started as its bearings-only example starts it, from
+  the **true** initial state with covariance ``diag(1, 1, 1, 1)`` (m^2, m^2/s^2; the
+  example's own numbers), its ``ConstantVelocity`` model having the same q~.
+
+Printed per filter and scenario: RMS position error / PCRB averaged over the steps after
+the own-ship manoeuvre has taken effect (from the first sample after the turn on: k >= 17
+and k >= 16; a filter without an estimate at a step, the batch start before its window
+ends, is averaged over the steps where it has one), the same over the last quarter of the
+steps, tracks lost (final error > 5x the final bound), the share of (run, step) pairs
+from the first bearing on with the truth inside the 95 % position ellipse (steps without an
+estimate count as outside), and the RTS-smoothed RMS against the filtered one.  The PCRB is
+the Tichavský recursion (:func:`tmakit.bounds.pcrb.deterministic_pcrb`) along each run's
+true path, with ``J_0`` the inverse of the prior's covariance at the first bearing
+(:meth:`tmakit.BearingPrior.gaussian`) and the same process noise; its RMS over runs.
+
+    PYTHONPATH=src python benchmarks/first_bearing.py [--runs 100] [--seed 0]
+        [--filters gsf pf ekf-batch stonesoup] [--scenarios moderate high] [--speed]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+import warnings
+
+import numpy as np
+
+import tmakit as tk
+from tmakit.bounds.pcrb import deterministic_pcrb
+from tmakit.data import MeasurementSet
+from tmakit.filters import first_bearing, smooth
+from tmakit.reproduce.leong2014 import Q_DENSITY, SCENARIOS, simulate
+from tmakit.tracking import BearingInitiator
+
+CHI2_95_2DOF = 5.991464547107979
+
+
+def bound(meas: MeasurementSet, truth: np.ndarray, prior: tk.BearingPrior) -> np.ndarray:
+    """PCRB position MSE (K+1,) from the first bearing on, along this run's truth."""
+    first = first_bearing(meas)
+    _, cov = prior.gaussian(first, 2)
+    rest = meas.take(np.arange(1, len(meas)))
+    b = deterministic_pcrb(rest, truth[0], cov, first.time, q_density=Q_DENSITY)
+    mse = np.empty(len(meas))
+    mse[0] = cov[0, 0] + cov[1, 1]
+    mse[1:] = b.position_rms**2
+    return mse
+
+
+def stonesoup_ekf(meas: MeasurementSet, truth0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stone Soup's EKF from the true initial state, covariance diag(1, 1, 1, 1)."""
+    import datetime as dt
+
+    from stonesoup.models.measurement.nonlinear import Cartesian2DToBearing
+    from stonesoup.models.transition.linear import (
+        CombinedLinearGaussianTransitionModel,
+        ConstantVelocity,
+    )
+    from stonesoup.predictor.kalman import ExtendedKalmanPredictor
+    from stonesoup.types.array import CovarianceMatrix, StateVector
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    from stonesoup.updater.kalman import ExtendedKalmanUpdater
+
+    epoch = dt.datetime(2000, 1, 1)
+    trans = CombinedLinearGaussianTransitionModel([ConstantVelocity(Q_DENSITY),
+                                                   ConstantVelocity(Q_DENSITY)])
+    predictor, updater = ExtendedKalmanPredictor(trans), ExtendedKalmanUpdater(None)
+    x0 = truth0[[0, 2, 1, 3]]
+    state = GaussianState(StateVector(x0), CovarianceMatrix(np.eye(4)), timestamp=epoch)
+    means, covs = [], []
+    for k in range(len(meas)):
+        t = epoch + dt.timedelta(seconds=float(meas.time[k]))
+        s = meas.sensor_state[k]
+        model = Cartesian2DToBearing(ndim_state=4, mapping=(0, 2),
+                                     noise_covar=CovarianceMatrix([[meas.sigma_si[k] ** 2]]),
+                                     translation_offset=StateVector([s[0], s[1]]))
+        det = Detection(StateVector([[math.pi / 2 - meas.value_si[k]]]), timestamp=t,
+                        measurement_model=model)
+        if k:
+            pred = predictor.predict(state, timestamp=t)
+            state = updater.update(SingleHypothesis(pred, det))
+        v = np.asarray(state.state_vector, dtype=float).ravel()[[0, 2, 1, 3]]
+        p = np.asarray(state.covar, dtype=float)[np.ix_([0, 2, 1, 3], [0, 2, 1, 3])]
+        means.append(v)
+        covs.append(p)
+    return np.array(means), np.array(covs)
+
+
+def run_filter(name: str, meas: MeasurementSet, truth: np.ndarray, prior: tk.BearingPrior,
+               args: argparse.Namespace, i: int) -> dict:
+    """Estimates (K+1, 4) (NaN before a start), covariances, and the smoothed track."""
+    k_all = len(meas)
+    est = np.full((k_all, 4), np.nan)
+    cov = np.full((k_all, 4, 4), np.nan)
+    sm = None
+    if name == "stonesoup":
+        e, c = stonesoup_ekf(meas, truth[0])
+        return {"est": e, "cov": c, "smoothed": None}
+    if name == "ekf-batch":
+        try:
+            tr = tk.track(meas, "ekf", q_density=Q_DENSITY)
+        except tk.tracking.TrackingError:
+            return {"est": est, "cov": cov, "smoothed": None}
+    else:
+        kw = {"particles": args.particles, "rng": [args.seed, 7, i]} if name == "pf" else {}
+        if name != "pf":
+            kw = {"settings": {"component": args.component}}
+        tr = tk.track(meas, "pf" if name == "pf" else "gsf", q_density=Q_DENSITY,
+                      initiator=BearingInitiator(prior), **kw)
+        if name != "pf":
+            sm = smooth(tr)
+    idx = np.searchsorted(meas.time, tr.times)
+    est[idx], cov[idx] = tr.states, tr.covariances
+    return {"est": est, "cov": cov,
+            "smoothed": None if sm is None else sm.states[:, :2]}
+
+
+def evaluate(scenario: str, filters: list[str], args: argparse.Namespace) -> None:
+    sc = SCENARIOS[scenario]
+    prior = sc.prior()
+    after = sc.after
+    k_all = sc.steps + 1
+    err2 = {f: np.full((args.runs, k_all), np.nan) for f in filters}
+    inside = {f: np.zeros((args.runs, k_all), dtype=bool) for f in filters}
+    serr2 = {f: np.full((args.runs, k_all), np.nan) for f in filters}
+    clock = dict.fromkeys(filters, 0.0)
+    mse = np.zeros((args.runs, k_all))
+    s_index = list(SCENARIOS).index(scenario)
+    for i in range(args.runs):
+        meas, truth = simulate(sc, np.random.default_rng([args.seed, s_index, i]))
+        mse[i] = bound(meas, truth, prior)
+        for f in filters:
+            t0 = time.process_time()
+            out = run_filter(f, meas, truth, prior, args, i)
+            clock[f] += time.process_time() - t0
+            d = out["est"][:, :2] - truth[:, :2]
+            err2[f][i] = np.sum(d**2, axis=1)
+            ok = np.all(np.isfinite(d), axis=1)
+            m2 = np.full(k_all, np.inf)
+            m2[ok] = np.einsum("ki,ki->k", d[ok], np.linalg.solve(
+                out["cov"][ok, :2, :2], d[ok, :, None])[..., 0])
+            inside[f][i] = m2 <= CHI2_95_2DOF
+            if out["smoothed"] is not None:
+                serr2[f][i] = np.sum((out["smoothed"] - truth[:, :2]) ** 2, axis=1)
+    pcrb = np.sqrt(mse.mean(axis=0))
+    print(f"\n== {scenario}: {args.runs} runs, seed {args.seed}; prior {prior.describe()}; "
+          f"q~ = {Q_DENSITY:g} m^2/s^3; after the manoeuvre: k >= {after}")
+    print(f"PCRB position RMS (m) at k = 0, {after}, {k_all - 1}: {pcrb[0]:.0f}, "
+          f"{pcrb[after]:.0f}, {pcrb[-1]:.0f}")
+    print("| filter | RMS/PCRB after manoeuvre | RMS/PCRB, last quarter | final RMS (m) | final "
+          "PCRB (m) | lost (> 5x bound) | truth in 95 % ellipse | runs with an estimate at k=0 "
+          "| CPU s/run |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for f in filters:
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # steps without any estimate
+            rms = np.sqrt(np.nanmean(err2[f], axis=0))
+        steps = rms[after:] / pcrb[after:]
+        ratio = float(np.nanmean(steps)) if np.any(np.isfinite(steps)) else math.nan
+        missing = int(np.sum(~np.isfinite(steps)))
+        late = float(np.nanmean((rms / pcrb)[-(k_all // 4):]))
+        final_err = np.sqrt(err2[f][:, -1])
+        lost = int(np.sum(~(final_err <= 5 * np.sqrt(mse[:, -1]))))
+        cover = float(np.mean(inside[f]))
+        started = int(np.sum(np.isfinite(err2[f][:, 0])))
+        note = f" ({missing} steps without any estimate left out)" if missing else ""
+        print(f"| {f} | {ratio:.3f}{note} | {late:.3f} | {rms[-1]:.0f} | {pcrb[-1]:.0f} | "
+              f"{lost} / {args.runs} | {100 * cover:.1f} % | {started} | "
+              f"{clock[f] / args.runs:.3f} |")
+        if args.per_step:
+            print("  per step (k: RMS / PCRB, m): " + ", ".join(
+                f"{k}: {rms[k]:.0f}/{pcrb[k]:.0f}" for k in range(k_all)))
+    for f in filters:
+        if np.all(np.isnan(serr2[f])):
+            continue
+        rms = np.sqrt(np.nanmean(err2[f], axis=0))
+        srms = np.sqrt(np.nanmean(serr2[f], axis=0))
+        print(f"{f} RTS smoother: smoothed <= filtered RMS at {int(np.sum(srms <= rms))} of "
+              f"{k_all} steps; first step {srms[0]:.0f} m against {rms[0]:.0f} m "
+              f"(ratio {srms[0] / rms[0]:.3f}); worst ratio {np.max(srms / rms):.3f}")
+        print("  per step (k: filtered / smoothed RMS, m): " + ", ".join(
+            f"{k}: {rms[k]:.0f}/{srms[k]:.0f}" for k in range(0, k_all, 4)))
+
+
+def speed(args: argparse.Namespace) -> None:
+    """Per-step CPU time: EKF, the Gaussian sum with 8 components, the first-bearing PF."""
+    sc = SCENARIOS["moderate"]
+    meas, _ = simulate(sc, np.random.default_rng([args.seed, 9, 0]))
+    prior = sc.prior()
+    first = first_bearing(meas)
+    rest = meas.take(np.arange(1, len(meas)))
+    steps = len(rest)
+    from tmakit.filters import ExtendedKalmanFilter, GaussianSumFilter, ParticleFilter
+    from tmakit.motion.dynamics import NearlyConstantVelocity
+
+    dyn = NearlyConstantVelocity(2, 0.0, Q_DENSITY)
+    mean, cov = prior.gaussian(first)
+
+    def ekf() -> object:
+        return ExtendedKalmanFilter(mean, cov, first.time, dynamics=dyn).run(rest)
+
+    def gsf8() -> object:  # 8 components throughout: no split, prune or merge
+        w, m, p = prior.mixture(first, 2, components=8)
+        return GaussianSumFilter.from_mixture(w, m, p, first.time, dynamics=dyn,
+                                              component="ekf", split_threshold=0.0,
+                                              prune=0.0, merge=0.0).run(rest)
+
+    def gsf8_ckf() -> object:
+        w, m, p = prior.mixture(first, 2, components=8)
+        return GaussianSumFilter.from_mixture(w, m, p, first.time, dynamics=dyn,
+                                              component="ckf", split_threshold=0.0,
+                                              prune=0.0, merge=0.0).run(rest)
+
+    def pf() -> object:
+        return ParticleFilter.from_first_bearing(prior, first, particles=10_000, rng=1,
+                                                 dynamics=dyn).run(rest)
+
+    cases = {"ekf": ekf, "gsf 8 ekf components": gsf8, "gsf 8 cubature components": gsf8_ckf,
+             "pf 10,000 from the first bearing": pf}
+    for f in cases.values():
+        f()  # compile, warm caches
+    times: dict[str, list[float]] = {k: [] for k in cases}
+    for _ in range(args.repeat):
+        for name, f in cases.items():  # alternating, on a shared machine
+            t0 = time.process_time()
+            f()
+            times[name].append((time.process_time() - t0) / steps * 1e6)
+    print(f"\n== speed: per-step CPU time (us), {steps} steps of the moderate scenario, "
+          f"{args.repeat} alternating repetitions: median [25 %, 75 %]")
+    base = float(np.median(times["ekf"]))
+    for name, t in times.items():
+        q1, med, q3 = np.percentile(t, [25, 50, 75])
+        print(f"| {name} | {med:.1f} [{q1:.1f}, {q3:.1f}] | {med / base:.2f}x ekf |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--runs", type=int, default=100)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--particles", type=int, default=10_000)
+    ap.add_argument("--component", default="ekf", help="the Gaussian sum's: ekf, ukf, ckf")
+    ap.add_argument("--filters", nargs="+", default=["gsf", "pf", "ekf-batch", "stonesoup"])
+    ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
+    ap.add_argument("--speed", action="store_true", help="only the speed comparison")
+    ap.add_argument("--repeat", type=int, default=15)
+    ap.add_argument("--per-step", action="store_true", help="print RMS and PCRB per step")
+    args = ap.parse_args()
+    if args.speed:
+        speed(args)
+        return
+    for s in args.scenarios:
+        evaluate(s, args.filters, args)
+
+
+if __name__ == "__main__":
+    main()

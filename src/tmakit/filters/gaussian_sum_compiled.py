@@ -1,0 +1,484 @@
+"""The Gaussian-sum filter's hot loops, compiled: components moved, split, updated, reduced.
+
+The one implementation of the arithmetic of :class:`tmakit.filters.GaussianSumFilter`.  A
+sum is held in arrays of a fixed capacity: weights ``w (C,)``, means ``m (C, n)``,
+covariances ``P (C, n, n)``, of which the first ``count`` are in use.  The filter's general
+path (any kinds, 3-D) calls :func:`predict_sum`, :func:`split_sum`, :func:`reduce_sum` and
+:func:`sum_moments` from Python around its components' own updates; the closed loop of one
+bearing per update in 2-D (:func:`gsf_bearing_2d`) runs whole tracks in one call, with the
+EKF or the sigma-point (unscented, cubature) update of one bearing inlined.
+
+* **Split** (Leong et al. 2014, §III; the split of a Gaussian along one direction as in
+  DeMars, Bishop & Jah 2013): a component whose position spread is large against its range
+  from the sensor — largest position standard deviation over range above ``threshold`` —
+  is replaced by three along the principal axis ``s`` of its position covariance (``s`` the
+  covariance's column along that axis over its standard deviation, so the state's
+  correlations move with it): weights ``(a, 1 - 2a, a)``, means ``m + mu_j s`` with
+  ``mu = (-u, 0, u)``, covariance ``P - (1 - sigma^2) s s^T``; ``a = 0.2252``,
+  ``u = 1.0575`` (the three-component split of Huber's table used by DeMars et al.) and
+  ``sigma^2 = 1 - 2 a u^2`` so that the mean and covariance are kept exactly.  Heaviest
+  components are split first, while the capacity lasts.
+* **Reduce**: components with weights below ``prune`` of the largest are dropped; then,
+  heaviest first, each remaining component absorbs those within Mahalanobis distance
+  ``sqrt(merge)`` of it (distance in its own covariance), by moment matching (Salmond 1990).
+* **Moments**: the sum's mean and covariance (the law of total covariance).
+
+Every kernel works in float64 on arrays it is given; sums in a fixed order.
+
+References
+----------
+Leong, Arulampalam, Lamahewa & Abhayapala (2014), IEEE SPL 21(5); DeMars, Bishop & Jah
+(2013), J. Guid. Control Dyn. 36(4); Salmond (1990), SPIE 1305; Peach (1995).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..core.arrays import Array
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+
+SPLIT_WEIGHT = 0.2252246249
+SPLIT_OFFSET = 1.0575154615
+SPLIT_VARIANCE = 1.0 - 2.0 * SPLIT_WEIGHT * SPLIT_OFFSET**2
+LOG_2PI = math.log(2.0 * math.pi)
+TWO_PI = 2.0 * math.pi
+
+
+@_jit
+def predict_sum(m: Array, p: Array, count: int, dt: float, dim: int, qa: Array,
+                qd: Array) -> None:  # pragma: no cover - compiled
+    """Move ``count`` components ``dt`` s forward (nearly constant velocity, in place).
+
+    Parameters
+    ----------
+    m, p : numpy.ndarray
+        Means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s), changed in place.
+    count : int
+        Components in use.
+    dt : float
+        The step (s).
+    dim : int
+        2 or 3.
+    qa, qd : numpy.ndarray
+        Per-axis held-acceleration std (m/s^2) and white-noise density (m^2/s^3)
+        (:func:`tmakit.motion.dynamics.process_noise`).
+    """
+    dt2 = dt * dt
+    for i in range(count):
+        for a in range(dim):
+            m[i, a] += dt * m[i, dim + a]
+        n = 2 * dim
+        # P <- Phi P Phi^T: rows then columns (position += dt velocity).
+        for a in range(dim):
+            for c in range(n):
+                p[i, a, c] += dt * p[i, dim + a, c]
+        for a in range(dim):
+            for r in range(n):
+                p[i, r, a] += dt * p[i, r, dim + a]
+        for a in range(dim):
+            q2 = qa[a] * qa[a]
+            p[i, a, a] += 0.25 * dt2 * dt2 * q2 + dt2 * dt / 3.0 * qd[a]
+            cross = 0.5 * dt2 * dt * q2 + 0.5 * dt2 * qd[a]
+            p[i, a, dim + a] += cross
+            p[i, dim + a, a] += cross
+            p[i, dim + a, dim + a] += dt2 * q2 + dt * qd[a]
+
+
+@_inline
+def _principal(p: Array, i: int, dim: int) -> tuple[float, Array]:  # pragma: no cover
+    """Give the largest variance of the position block of ``p[i]`` and its unit axis."""
+    block = np.empty((dim, dim))
+    for a in range(dim):
+        for b in range(dim):
+            block[a, b] = p[i, a, b]
+    vals, vecs = np.linalg.eigh(block)
+    return vals[dim - 1], vecs[:, dim - 1].copy()
+
+
+@_jit
+def split_sum(w: Array, m: Array, p: Array, count: int, sensor: Array, dim: int,
+              threshold: float, capacity: int) -> int:  # pragma: no cover - compiled
+    """Split the components too spread for their range (see the module docstring).
+
+    Parameters
+    ----------
+    w, m, p : numpy.ndarray
+        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
+        of capacity ``C``; changed in place.
+    count : int
+        Components in use (the first ``count``).
+    sensor : numpy.ndarray
+        The position the spread is judged from ``(>= dim,)`` (m).
+    dim : int
+        2 or 3.
+    threshold : float
+        Largest position std over range (0: never split).
+    capacity : int
+        Most components.
+
+    Returns
+    -------
+    int
+        The new count.
+    """
+    if threshold <= 0.0 or count + 2 > capacity:
+        return count
+    order = np.argsort(-w[:count])
+    n = 2 * dim
+    start = count
+    for k in range(start):
+        if count + 2 > capacity:
+            break
+        i = order[k]
+        r2 = 0.0
+        for a in range(dim):
+            d = m[i, a] - sensor[a]
+            r2 += d * d
+        var, axis = _principal(p, i, dim)
+        if not (var > threshold * threshold * r2):
+            continue
+        sd = math.sqrt(var)
+        s = np.zeros(n)
+        for r in range(n):
+            acc = 0.0
+            for a in range(dim):
+                acc += p[i, r, a] * axis[a]
+            s[r] = acc / sd
+        shrink = 1.0 - SPLIT_VARIANCE
+        for r in range(n):
+            for c in range(n):
+                p[i, r, c] -= shrink * s[r] * s[c]
+        wi = w[i]
+        for side in range(2):
+            j = count + side
+            sign = 2.0 * side - 1.0
+            w[j] = SPLIT_WEIGHT * wi
+            for r in range(n):
+                m[j, r] = m[i, r] + sign * SPLIT_OFFSET * s[r]
+                for c in range(n):
+                    p[j, r, c] = p[i, r, c]
+        w[i] = (1.0 - 2.0 * SPLIT_WEIGHT) * wi
+        count += 2
+    return count
+
+
+@_inline
+def _copy_component(w: Array, m: Array, p: Array, src: int, dst: int) -> None:  # pragma: no cover
+    w[dst] = w[src]
+    m[dst, :] = m[src, :]
+    p[dst, :, :] = p[src, :, :]
+
+
+@_inline
+def _prune(w: Array, m: Array, p: Array, count: int, prune: float) -> int:  # pragma: no cover
+    """Drop the components lighter than ``prune`` of the heaviest; give the new count."""
+    top = 0.0
+    for i in range(count):
+        top = max(top, w[i])
+    keep = 0
+    for i in range(count):
+        if w[i] >= prune * top and w[i] > 0.0:
+            if keep != i:
+                _copy_component(w, m, p, i, keep)
+            keep += 1
+    return keep
+
+
+@_inline
+def _merge(w: Array, m: Array, p: Array, count: int, merge: float) -> int:  # pragma: no cover
+    """Merge, heaviest first, the components near each (Salmond 1990); give the new count."""
+    n = m.shape[1]
+    order = np.argsort(-w[:count])
+    used = np.zeros(count, dtype=np.bool_)
+    nw = np.empty(count)
+    nm = np.empty((count, n))
+    npp = np.empty((count, n, n))
+    out = 0
+    for oi in range(count):
+        i = order[oi]
+        if used[i]:
+            continue
+        used[i] = True
+        chol = np.linalg.cholesky(p[i])
+        members = [i]
+        for oj in range(oi + 1, count):
+            j = order[oj]
+            if not used[j]:
+                d = np.linalg.solve(chol, m[j] - m[i])
+                if np.dot(d, d) < merge:
+                    used[j] = True
+                    members.append(j)
+        wt = 0.0
+        mean = np.zeros(n)
+        for j in members:
+            wt += w[j]
+            mean += w[j] * m[j]
+        mean /= wt
+        cov = np.zeros((n, n))
+        for j in members:
+            d = m[j] - mean
+            cov += w[j] * (p[j] + np.outer(d, d))
+        nw[out] = wt
+        nm[out] = mean
+        npp[out] = 0.5 * (cov + cov.T) / wt
+        out += 1
+    for i in range(out):
+        w[i] = nw[i]
+        m[i] = nm[i]
+        p[i] = npp[i]
+    return out
+
+
+@_jit
+def reduce_sum(w: Array, m: Array, p: Array, count: int, prune: float,
+               merge: float) -> int:  # pragma: no cover - compiled
+    """Prune, merge and normalise (see the module docstring).
+
+    Parameters
+    ----------
+    w, m, p : numpy.ndarray
+        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
+        of capacity ``C``; changed in place.
+    count : int
+        Components in use (the first ``count``).
+    prune : float
+        Drop components lighter than this fraction of the heaviest.
+    merge : float
+        Merge within this squared Mahalanobis distance (0: never).
+
+    Returns
+    -------
+    int
+        The new count (0 when no weight is positive).
+    """
+    total = 0.0
+    for i in range(count):
+        total += w[i]
+    if not total > 0.0:
+        return 0
+    count = _prune(w, m, p, count, prune)
+    if merge > 0.0 and count > 1:
+        count = _merge(w, m, p, count, merge)
+    total = 0.0
+    for i in range(count):
+        total += w[i]
+    for i in range(count):
+        w[i] /= total
+    return count
+
+
+@_jit
+def sum_moments(w: Array, m: Array, p: Array, count: int, mean: Array,
+                cov: Array) -> None:  # pragma: no cover - compiled
+    """Write the sum's mean and covariance (the law of total covariance).
+
+    Parameters
+    ----------
+    w, m, p : numpy.ndarray
+        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
+        of capacity ``C``; changed in place.
+    count : int
+        Components in use (the first ``count``).
+    mean, cov : numpy.ndarray
+        Written: ``(n,)`` and ``(n, n)`` (m, m/s).
+    """
+    n = m.shape[1]
+    mean[:] = 0.0
+    for i in range(count):
+        mean += w[i] * m[i]
+    cov[:, :] = 0.0
+    for i in range(count):
+        d = m[i] - mean
+        for r in range(n):
+            for c in range(n):
+                cov[r, c] += w[i] * (p[i, r, c] + d[r] * d[c])
+    for r in range(n):
+        for c in range(r + 1, n):
+            v = 0.5 * (cov[r, c] + cov[c, r])
+            cov[r, c] = v
+            cov[c, r] = v
+
+
+@_inline
+def _wrap(a: float) -> float:  # pragma: no cover - compiled
+    r = a - TWO_PI * math.floor((a + math.pi) / TWO_PI)
+    return math.pi if r == -math.pi else r
+
+
+@_inline
+def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float,
+                 sy: float) -> tuple[float, float, bool]:  # pragma: no cover - compiled
+    """Update component ``i`` with one bearing (EKF); give innovation, its variance, ok."""
+    dx = m[i, 0] - sx
+    dy = m[i, 1] - sy
+    r2 = dx * dx + dy * dy
+    if not (r2 > 0.0 and math.isfinite(r2)):
+        return 0.0, 0.0, False
+    h0 = dy / r2
+    h1 = -dx / r2
+    c = p[i, :, 0] * h0 + p[i, :, 1] * h1
+    s = c[0] * h0 + c[1] * h1 + var
+    if not (s > 0.0 and math.isfinite(s)):
+        return 0.0, 0.0, False
+    nu = _wrap(z - math.atan2(dx, dy))
+    k = c / s
+    m[i] += k * nu
+    for r in range(4):
+        for cc in range(4):
+            p[i, r, cc] -= k[r] * c[cc]
+    return nu, s, True
+
+
+@_inline
+def _sigma_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, sy: float,
+                   sp: Array) -> tuple[float, float, bool]:  # pragma: no cover - compiled
+    """Update component ``i`` with one bearing (sigma points ``sp = (gamma, Wm0, Wc0, Wi)``)."""
+    gamma, wm0, wc0, wi = sp[0], sp[1], sp[2], sp[3]
+    n = 4
+    for a in range(n):
+        if not p[i, a, a] > 0.0:
+            return 0.0, 0.0, False
+    chol = np.linalg.cholesky(p[i])
+    pts = np.empty((2 * n + 1, n))
+    pts[0] = m[i]
+    for j in range(n):
+        pts[1 + j] = m[i] + gamma * chol[:, j]
+        pts[1 + n + j] = m[i] - gamma * chol[:, j]
+    zs = np.empty(2 * n + 1)
+    cs = 0.0
+    sn = 0.0
+    for j in range(2 * n + 1):
+        zs[j] = math.atan2(pts[j, 0] - sx, pts[j, 1] - sy)
+        wj = wm0 if j == 0 else wi
+        cs += wj * math.cos(zs[j])
+        sn += wj * math.sin(zs[j])
+    if not cs * cs + sn * sn > 1e-24:
+        return 0.0, 0.0, False
+    zbar = math.atan2(sn, cs)
+    s = var
+    pxz = np.zeros(n)
+    for j in range(2 * n + 1):
+        e = _wrap(zs[j] - zbar)
+        wj = wc0 if j == 0 else wi
+        s += wj * e * e
+        pxz += wj * e * (pts[j] - m[i])
+    if not (s > 0.0 and math.isfinite(s)):
+        return 0.0, 0.0, False
+    nu = _wrap(z - zbar)
+    k = pxz / s
+    m[i] += k * nu
+    for r in range(n):
+        for c in range(n):
+            p[i, r, c] -= k[r] * pxz[c]
+    for r in range(n):
+        for c in range(r + 1, n):
+            v = 0.5 * (p[i, r, c] + p[i, c, r])
+            p[i, r, c] = v
+            p[i, c, r] = v
+    return nu, s, True
+
+
+@_jit
+def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times: Array,
+                   bearings: Array, variances: Array, sensors: Array, qa: Array, qd: Array,
+                   sigma_points: Array, settings: Array, out_mean: Array, out_cov: Array,
+                   out_nis: Array, out_ll: Array, out_count: Array
+                   ) -> tuple[int, float, int]:  # pragma: no cover - compiled
+    """Run the Gaussian-sum filter over single bearings in 2-D, one call for a whole track.
+
+    A step whose every component fails (a prediction on a sensor) keeps the predicted sum and
+    is counted as skipped.
+
+    Parameters
+    ----------
+    w, m, p : numpy.ndarray
+        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
+        of capacity ``C``; changed in place.
+    count : int
+        Components in use (the first ``count``).
+    time : float
+        The sum's time (s).
+    times, bearings, variances : numpy.ndarray
+        Per update ``(K,)``: time (s), bearing and its variance (rad, rad^2).
+    sensors : numpy.ndarray
+        The sensor's position per update ``(K, 2)`` (m).
+    qa, qd : numpy.ndarray
+        Per-axis held-acceleration std (m/s^2) and white-noise density (m^2/s^3).
+    sigma_points : numpy.ndarray
+        Empty for EKF components, else ``(gamma, Wm0, Wc0, Wi)`` of the sigma points.
+    settings : numpy.ndarray
+        ``(split threshold, prune, merge)``.
+    out_mean, out_cov, out_nis, out_ll, out_count : numpy.ndarray
+        Written per update: the sum's mean ``(K, 4)`` and covariance ``(K, 4, 4)``, the NIS
+        of its moment-matched innovation, the log-likelihood increment
+        ``log sum_i w_i N(nu_i; 0, S_i)`` (nats) and the component count.
+
+    Returns
+    -------
+    tuple
+        ``(count, time, skipped)``.
+    """
+    capacity = w.shape[0]
+    threshold, prune, merge = settings[0], settings[1], settings[2]
+    ekf = sigma_points.shape[0] == 0
+    t = time
+    skipped = 0
+    nus = np.empty(capacity)
+    ss = np.empty(capacity)
+    oks = np.empty(capacity, dtype=np.bool_)
+    sensor = np.zeros(2)
+    for k in range(times.shape[0]):
+        dt = times[k] - t
+        if dt > 0.0:
+            predict_sum(m, p, count, dt, 2, qa, qd)
+            t = times[k]
+        sensor[0] = sensors[k, 0]
+        sensor[1] = sensors[k, 1]
+        count = split_sum(w, m, p, count, sensor, 2, threshold, capacity)
+        z, var = bearings[k], variances[k]
+        for i in range(count):
+            if ekf:
+                nu, s, ok = _ekf_bearing(m, p, i, z, var, sensor[0], sensor[1])
+            else:
+                nu, s, ok = _sigma_bearing(m, p, i, z, var, sensor[0], sensor[1],
+                                           sigma_points)
+            nus[i], ss[i], oks[i] = nu, s, ok
+        # Weights: w_i N(nu_i; 0, S_i), in logs against the largest.
+        top = -np.inf
+        for i in range(count):
+            if oks[i]:
+                top = max(top, math.log(w[i]) - 0.5 * (nus[i] * nus[i] / ss[i]
+                                                       + math.log(ss[i])))
+        if not math.isfinite(top):
+            skipped += 1
+            out_nis[k] = np.nan
+            out_ll[k] = 0.0
+        else:
+            nbar = 0.0
+            for i in range(count):
+                nbar += w[i] * nus[i] if oks[i] else 0.0
+            sbar = 0.0
+            for i in range(count):
+                if oks[i]:
+                    d = nus[i] - nbar
+                    sbar += w[i] * (ss[i] + d * d)
+            total = 0.0
+            for i in range(count):
+                if oks[i]:
+                    w[i] = math.exp(math.log(w[i]) - 0.5 * (nus[i] * nus[i] / ss[i]
+                                                           + math.log(ss[i])) - top)
+                else:
+                    w[i] = 0.0
+                total += w[i]
+            out_ll[k] = top + math.log(total) - 0.5 * LOG_2PI
+            out_nis[k] = nbar * nbar / sbar
+            count = reduce_sum(w, m, p, count, prune, merge)
+        sum_moments(w, m, p, count, out_mean[k], out_cov[k])
+        out_count[k] = count
+    return count, t, skipped

@@ -1,0 +1,151 @@
+"""The two bearings-only scenarios of Ristic et al. (2004, ch. 6), as Leong et al. coded them.
+
+Ristic, Arulampalam & Gordon (2004), *Beyond the Kalman Filter*, ch. 6; Leong, Arulampalam,
+Lamahewa & Abhayapala (2014).  Their published MATLAB script ("Gaussian-sum cubature Kalman
+filter with improved robustness for bearings-only tracking", IEEE SPL 21(5)) gives, in
+kilometres and knots; here in metres:
+
+* ``moderate``: 33 bearings, T = 60 s, sigma 1.5 deg; own ship 5 kn, course 140 deg,
+  turning to 20 deg in four equal steps at samples 13-16; target from (4920, 850) m at 4 kn,
+  course -140 deg.
+* ``high`` (highly nonlinear): 31 bearings, T = 60 s, sigma 2 deg; own ship 5 kn, course -80
+  deg, turning to 146 deg at sample 15; target from (7090.9, 7052.6) m at 15 kn, course
+  -135.4 deg.
+
+Both: the target's continuous white-noise acceleration density q~ = 9e-6 m^2/s^3 per axis
+(their 9e-12 km^2/s^3), 1 kn = 0.514 m/s as they code it.  Their Gaussian sum covers the
+true initial range ± 3 sigma_r (sigma_r 2 km and 4 km), floored at a tenth of it:
+:data:`SCENARIOS` keeps those intervals as the range priors, and a largest speed (10 kn and
+25 kn, the targets doing 4 and 15 kn) as the speed priors.  Used by
+``benchmarks/first_bearing.py`` and the tests; not a ``tma reproduce`` entry.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.arrays import Array
+from ..data import MeasurementSet
+from ..filters import BearingPrior
+
+__all__ = ["KNOT", "Q_DENSITY", "SCENARIOS", "Scenario", "simulate"]
+
+#: The knot as Leong et al. code it (5.14e-4 km/s), m/s.
+KNOT = 0.514
+#: The target's white-noise acceleration density per axis, m^2/s^3.
+Q_DENSITY = 9e-6
+#: Sampling interval, s.
+STEP = 60.0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One of the two scenarios (see the module docstring); lengths m, angles deg.
+
+    Parameters
+    ----------
+    steps : int
+        Samples after the first.
+    sigma_deg : float
+        Bearing noise std.
+    own_course : tuple of float
+        The own ship's course before and after its turn.
+    turn : tuple of int
+        First and last sample of the turn (equal steps of course).
+    target : tuple of float
+        The target's initial position.
+    speed_kn, course : float
+        The target's speed (kn) and course.
+    range_prior : tuple of float
+        The range interval of the start (m).
+    speed_max_kn : float
+        The largest speed of the start (kn).
+    after : int
+        The first sample after the own ship's turn.
+    """
+
+    steps: int
+    sigma_deg: float
+    own_course: tuple[float, float]
+    turn: tuple[int, int]
+    target: tuple[float, float]
+    speed_kn: float
+    course: float
+    range_prior: tuple[float, float]
+    speed_max_kn: float
+    after: int
+
+    def prior(self) -> BearingPrior:
+        """Give the start's prior: the range interval and the largest speed."""
+        lo, hi = self.range_prior
+        return BearingPrior(lo, hi, self.speed_max_kn * KNOT, given=("range", "speed"))
+
+    def own_ship(self) -> Array:
+        """Give the own ship's states ``(K+1, 4)`` ``[x, y, vx, vy]`` (m, m/s)."""
+        c0, c1 = (math.radians(c) for c in self.own_course)
+        a, b = self.turn
+        own = np.zeros((self.steps + 1, 4))
+        own[0, 2:] = 5 * KNOT * np.array([math.sin(c0), math.cos(c0)])
+        course = c0
+        for k in range(1, self.steps + 1):
+            own[k, :2] = own[k - 1, :2] + STEP * own[k - 1, 2:]
+            own[k, 2:] = own[k - 1, 2:]
+            if a <= k <= b:
+                course += (c1 - c0) / (b - a + 1)
+                own[k, 2:] = 5 * KNOT * np.array([math.sin(course), math.cos(course)])
+        return own
+
+
+SCENARIOS = {
+    "moderate": Scenario(32, 1.5, (140.0, 20.0), (13, 16), (4920.0, 850.0), 4.0, -140.0,
+                         (499.0, 10990.0), 10.0, 17),
+    "high": Scenario(30, 2.0, (-80.0, 146.0), (15, 15), (7090.9, 7052.6), 15.0, -135.4,
+                     (1000.0, 22010.0), 25.0, 16),
+}
+
+
+def simulate(scenario: Scenario, rng: np.random.Generator) -> tuple[MeasurementSet, Array]:
+    """Draw one run: the bearings and the target's true states.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    rng : numpy.random.Generator
+        The random source (the target's path, then the bearings' noise).
+
+    Returns
+    -------
+    meas : MeasurementSet
+        ``K+1`` bearings of the sensor ``own ship``.
+    truth : numpy.ndarray
+        The target's states ``(K+1, 4)`` ``[x, y, vx, vy]`` (m, m/s).
+    """
+    steps = scenario.steps
+    own = scenario.own_ship()
+    c = math.radians(scenario.course)
+    tgt = np.zeros((steps + 1, 4))
+    tgt[0] = [*scenario.target, scenario.speed_kn * KNOT * math.sin(c),
+              scenario.speed_kn * KNOT * math.cos(c)]
+    chol = np.linalg.cholesky(Q_DENSITY * np.array([[STEP**3 / 3, STEP**2 / 2],
+                                                    [STEP**2 / 2, STEP]]))
+    for k in range(1, steps + 1):
+        tgt[k, :2] = tgt[k - 1, :2] + STEP * tgt[k - 1, 2:]
+        tgt[k, 2:] = tgt[k - 1, 2:]
+        for ax in range(2):
+            w = chol @ rng.standard_normal(2)
+            tgt[k, ax] += w[0]
+            tgt[k, 2 + ax] += w[1]
+    sigma = math.radians(scenario.sigma_deg)
+    rel = tgt - own
+    z = np.arctan2(rel[:, 0], rel[:, 1]) + sigma * rng.standard_normal(steps + 1)
+    sensor = np.zeros((steps + 1, 6))
+    sensor[:, :2] = own[:, :2]
+    sensor[:, 3:5] = own[:, 2:]
+    meas = MeasurementSet.from_si(np.arange(steps + 1) * STEP, ["own ship"] * (steps + 1),
+                                  ["bearing"] * (steps + 1), z, np.full(steps + 1, sigma),
+                                  sensor)
+    return meas, tgt
