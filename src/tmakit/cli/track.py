@@ -341,8 +341,8 @@ def start_sentence(tr: Any) -> str:
         from ..filters import BearingPrior
 
         p = s["prior"]
-        prior = BearingPrior(*p["range_m"], p["speed_max_m_s"], tuple(p["height_m"]),
-                             tuple(p["given"]))
+        prior = BearingPrior(p["range_m"][0], p["range_m"][1], p["speed_max_m_s"],
+                             (p["height_m"][0], p["height_m"][1]), tuple(p["given"]))
         return (f"start: the first bearing ({s['bearing_deg']:.1f} deg at t = "
                 f"{s['time']:g} s) with the prior {prior.describe()}"
                 + ("" if "range" in p["given"] else "; give --range-prior MIN:MAX and "

@@ -294,7 +294,7 @@ class GaussianSumFilter(TrackingFilter):
             [unit._gamma, unit._wm[0], unit._wc[0], unit._wm[1]]))
         qa, qd = self.dynamics.axes()
         means, covs = np.zeros((k, 4)), np.zeros((k, 4, 4))
-        nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k, dtype=np.int64)
+        nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
         count, t, skipped_now = gsf_bearing_2d(
             self._w, self._m, self._p, self._count, self.time, times, zs, vs,
             np.column_stack((sxs, sys_)), qa, qd, sp, self._settings(), means, covs, nis,
@@ -302,10 +302,10 @@ class GaussianSumFilter(TrackingFilter):
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None
-        self.component_counts.extend(counts.tolist())
+        self.component_counts.extend(int(c) for c in counts)
         cum = self.log_likelihood + np.cumsum(lls)
         self.log_likelihood = float(cum[-1]) if k else self.log_likelihood
-        dof = np.where(np.isfinite(nis), 1, 0).astype(np.int64)
+        dof = np.where(np.isfinite(nis), 1.0, 0.0)  # rows per update (the recorder: int)
         return KernelRun(start + k, False, self.state, self.covariance, self.time,
                          self.log_likelihood, times, means, covs, nis, cum, dof)
 
@@ -319,7 +319,8 @@ class GaussianSumFilter(TrackingFilter):
         """Components held after each update of the compiled path (for the track)."""
         counts: list[int] | None = getattr(self, "_counts", None)
         if counts is None:
-            counts = self._counts = []
+            counts = []
+            self._counts = counts
         return counts
 
 

@@ -38,7 +38,7 @@ import math
 import numba
 import numpy as np
 
-from ..core.arrays import Array
+from ..core.arrays import Array, BoolArray
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -384,6 +384,40 @@ def _sigma_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, 
     return nu, s, True
 
 
+@_inline
+def _reweight(w: Array, nus: Array, ss: Array, oks: BoolArray,
+              count: int) -> tuple[bool, float, float]:  # pragma: no cover - compiled
+    """Multiply the weights by ``N(nu_i; 0, S_i)``; give ok, log-likelihood, NIS of the sum.
+
+    The log-likelihood is ``log sum_i w_i N(nu_i; 0, S_i)`` (the weights before), the NIS
+    that of the sum's moment-matched innovation; not ok (weights kept) when no component
+    could be updated.
+    """
+    top = -np.inf
+    for i in range(count):
+        if oks[i]:
+            top = max(top, math.log(w[i]) - 0.5 * (nus[i] * nus[i] / ss[i] + math.log(ss[i])))
+    if not math.isfinite(top):
+        return False, 0.0, np.nan
+    nbar = 0.0
+    for i in range(count):
+        nbar += w[i] * nus[i] if oks[i] else 0.0
+    sbar = 0.0
+    for i in range(count):
+        if oks[i]:
+            d = nus[i] - nbar
+            sbar += w[i] * (ss[i] + d * d)
+    total = 0.0
+    for i in range(count):
+        if oks[i]:
+            w[i] = math.exp(math.log(w[i]) - 0.5 * (nus[i] * nus[i] / ss[i] + math.log(ss[i]))
+                            - top)
+        else:
+            w[i] = 0.0
+        total += w[i]
+    return True, top + math.log(total) - 0.5 * LOG_2PI, nbar * nbar / sbar
+
+
 @_jit
 def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times: Array,
                    bearings: Array, variances: Array, sensors: Array, qa: Array, qd: Array,
@@ -449,36 +483,12 @@ def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times:
                 nu, s, ok = _sigma_bearing(m, p, i, z, var, sensor[0], sensor[1],
                                            sigma_points)
             nus[i], ss[i], oks[i] = nu, s, ok
-        # Weights: w_i N(nu_i; 0, S_i), in logs against the largest.
-        top = -np.inf
-        for i in range(count):
-            if oks[i]:
-                top = max(top, math.log(w[i]) - 0.5 * (nus[i] * nus[i] / ss[i]
-                                                       + math.log(ss[i])))
-        if not math.isfinite(top):
-            skipped += 1
-            out_nis[k] = np.nan
-            out_ll[k] = 0.0
-        else:
-            nbar = 0.0
-            for i in range(count):
-                nbar += w[i] * nus[i] if oks[i] else 0.0
-            sbar = 0.0
-            for i in range(count):
-                if oks[i]:
-                    d = nus[i] - nbar
-                    sbar += w[i] * (ss[i] + d * d)
-            total = 0.0
-            for i in range(count):
-                if oks[i]:
-                    w[i] = math.exp(math.log(w[i]) - 0.5 * (nus[i] * nus[i] / ss[i]
-                                                           + math.log(ss[i])) - top)
-                else:
-                    w[i] = 0.0
-                total += w[i]
-            out_ll[k] = top + math.log(total) - 0.5 * LOG_2PI
-            out_nis[k] = nbar * nbar / sbar
+        ok, ll, nis = _reweight(w, nus, ss, oks, count)
+        out_ll[k], out_nis[k] = ll, nis
+        if ok:
             count = reduce_sum(w, m, p, count, prune, merge)
+        else:
+            skipped += 1
         sum_moments(w, m, p, count, out_mean[k], out_cov[k])
         out_count[k] = count
     return count, t, skipped

@@ -155,6 +155,9 @@ class ParticleFilter(TrackingFilter):
         filter starts by sampling it.
     particles : int, optional
         Number of particles N (>= 2).
+    bearing_start : tuple of (BearingPrior, FirstBearing), optional
+        Draw the first cloud from this bearing prior (:meth:`from_first_bearing`) instead of
+        the Gaussian ``mean, covariance`` (then the prior's moments).
     history : bool, optional
         Keep the weighted cloud after each update (:attr:`history`, the track's
         ``extra.history``) for the particle smoother (:func:`tmakit.filters.smooth`); N x n
@@ -203,9 +206,8 @@ class ParticleFilter(TrackingFilter):
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None,
                  history: bool = False,
-                 _samples: BearingPrior | None = None,
-                 _first: FirstBearing | None = None) -> None:
-        self._start_prior = None if _samples is None or _first is None else (_samples, _first)
+                 bearing_start: tuple[BearingPrior, FirstBearing] | None = None) -> None:
+        self._start_prior = bearing_start
         #: The weighted clouds after each update (with ``history=True``), for the smoother.
         self.history: list[ParticleStep] | None = [] if history else None
         if isinstance(particles, bool) or not isinstance(particles, (int, np.integer)) \
@@ -257,9 +259,7 @@ class ParticleFilter(TrackingFilter):
         ParticleFilter
         """
         mean, cov = prior.gaussian(first, dim)
-        kwargs["_samples"] = prior
-        kwargs["_first"] = first
-        return cls(mean, cov, first.time, **kwargs)
+        return cls(mean, cov, first.time, bearing_start=(prior, first), **kwargs)
 
     # -- state --------------------------------------------------------------------------------
     def _init_state(self, mean: Array, covariance: Array) -> None:

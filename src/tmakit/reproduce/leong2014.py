@@ -79,12 +79,23 @@ class Scenario:
     after: int
 
     def prior(self) -> BearingPrior:
-        """Give the start's prior: the range interval and the largest speed."""
+        """Give the start's prior: the range interval and the largest speed.
+
+        Returns
+        -------
+        BearingPrior
+        """
         lo, hi = self.range_prior
         return BearingPrior(lo, hi, self.speed_max_kn * KNOT, given=("range", "speed"))
 
     def own_ship(self) -> Array:
-        """Give the own ship's states ``(K+1, 4)`` ``[x, y, vx, vy]`` (m, m/s)."""
+        """Give the own ship's states.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(K+1, 4)`` ``[x, y, vx, vy]`` (m, m/s).
+        """
         c0, c1 = (math.radians(c) for c in self.own_course)
         a, b = self.turn
         own = np.zeros((self.steps + 1, 4))
