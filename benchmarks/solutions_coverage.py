@@ -124,12 +124,23 @@ def ta_dummy() -> tuple[tk.Scenario, dict[str, object]]:
     return scn, {"motion": "curvilinear:4", "settings": ManoeuvreSettings(grid_step=200.0)}
 
 
-SCENARIOS = {"hoerst2010": hoerst2010_bearings, "ta-dummy": ta_dummy}
+def bearings_only_2d() -> tuple[tk.Scenario, dict[str, object]]:
+    """Give the well-determined ``bearings-only-2d`` scenario (cv2d, own-ship zig-zag)."""
+    return tk.load_scenario("bearings-only-2d"), {"motion": "cv2d"}
+
+
+SCENARIOS = {"hoerst2010": hoerst2010_bearings, "ta-dummy": ta_dummy,
+             "bearings-only-2d": bearings_only_2d}
 
 
 @dataclass
 class Run:
-    """One run: truth inside the union and the best's ellipse, at the end and at t0; CPU s."""
+    """One run: truth inside the union and the best's ellipse, at the end and at t0; CPU s.
+
+    ``undetermined[_ref]``: the position was reported undetermined there (a wider model's
+    fit leaves it so, or the answer has no bounded ellipse); ``area[_ref]``: the area (km²)
+    of the reported fit's 95 % ellipse (NaN when undetermined).
+    """
 
     inside: bool
     best_inside: bool
@@ -137,6 +148,17 @@ class Run:
     best_inside_ref: bool
     solutions: int
     cpu: float
+    undetermined: bool = False
+    undetermined_ref: bool = False
+    area: float = math.nan
+    area_ref: float = math.nan
+
+
+def _undetermined(res: tk.EstimateResult, meas: tk.MeasurementSet, t: float) -> bool:
+    """Whether the answer at ``t`` says the position is not determined (no bounded region)."""
+    a = res.answer(meas, t)
+    return (res.wider is not None and t == float(meas.time.max())) or a.ellipse is None \
+        or any(w.startswith("range") for w in a.undetermined)
 
 
 def one_run(scn: tk.Scenario, how: dict[str, object], rng: np.random.Generator) -> Run:
@@ -146,11 +168,17 @@ def one_run(scn: tk.Scenario, how: dict[str, object], rng: np.random.Generator) 
     res = tk.estimate(meas, **how)
     cpu = time.process_time() - start
     best = res.ranked_solutions()[0]
-    found = []
+    found: list[bool] = []
+    flags: list[bool] = []
+    areas: list[float] = []
     for t in (float(meas.time.max()), float(meas.time.min())):
         truth = scn.target_states(np.array([t]))[0, :2]
         found += [res.region_contains(truth, meas, t), best.region_contains(truth, meas, t)]
-    return Run(*found, len(res.ranked_solutions()), cpu)
+        flags.append(_undetermined(res, meas, t))
+        e = res.answer(meas, t).ellipse
+        areas.append(math.nan if flags[-1] or e is None
+                     else math.pi * e.semi_major * e.semi_minor / 1e6)
+    return Run(*found, len(res.ranked_solutions()), cpu, *flags, *areas)
 
 
 def interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
@@ -172,16 +200,25 @@ def report(name: str, out: list[Run]) -> str:
     """Lines: coverage with its interval (answer time, reference time), solutions, time."""
     n = len(out)
     lines = []
-    for what, inside, best in (("at the last measurement (the answer time)", "inside",
-                                "best_inside"),
-                               ("at the first measurement (the reference time)",
-                                "inside_ref", "best_inside_ref")):
-        k = sum(getattr(r, inside) for r in out)
-        kb = sum(getattr(r, best) for r in out)
+    for what, end in (("at the last measurement (the answer time)", ""),
+                      ("at the first measurement (the reference time)", "_ref")):
+        k = sum(getattr(r, "inside" + end) for r in out)
+        kb = sum(getattr(r, "best_inside" + end) for r in out)
         lo, hi = interval(k, n)
+        und = [r for r in out if getattr(r, "undetermined" + end)]
+        det = [r for r in out if not getattr(r, "undetermined" + end)]
+        kd = sum(getattr(r, "inside" + end) for r in det)
+        ku = sum(getattr(r, "inside" + end) for r in und)
+        areas = [getattr(r, "area" + end) for r in det]
         lines.append(f"{name}: {what}: truth inside the reported 95 % region in {k} / {n} "
                      f"runs = {k / n:.1%} (95 % interval {lo:.1%}-{hi:.1%}); inside the best "
                      f"solution's ellipse alone {kb} / {n} = {kb / n:.1%}")
+        lines.append(f"{name}: {what}: position reported undetermined (with the warning; "
+                     f"region not a bounded ellipse) in {len(und)} / {n} runs, the truth inside "
+                     f"its stated region in {ku} of them; determined in {len(det)} runs, the "
+                     f"truth inside the ellipses in {kd} / {len(det)}"
+                     + (f" = {kd / len(det):.1%}; median area of the reported 95 % ellipse "
+                        f"{np.nanmedian(areas):.4g} km²" if det else ""))
     several = sum(r.solutions > 1 for r in out)
     lines.append(f"{name}: several solutions reported in {several} / {n} runs; median CPU "
                  f"{np.median([r.cpu for r in out]):.2f} s per estimate")

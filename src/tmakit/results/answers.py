@@ -422,6 +422,58 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     problem = time_problem(float(time), None if meas is None else meas.time, "time")
     if problem is not None:
         raise ValueError(problem)
+    state, cov, jac, null = _state_at(result, float(time))
+    covers = getattr(result, "covers", ())
+    if covers and null is None:
+        cov = cov * covering_scale(state, cov, [_state_at(r, float(time))[:2] for r in covers])
+    return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
+                             _is_stationary(jac, state), level, null)
+
+
+def covering_scale(state: NDArray[np.float64], cov: NDArray[np.float64],
+                   others: list[tuple[NDArray[np.float64], NDArray[np.float64]]]) -> float:
+    """Give the factor on ``cov`` whose 95 % position ellipse contains the others'.
+
+    The ellipse ``(x - c)' (s P)^-1 (x - c) <= q`` contains ``(x - c_j)' P_j^-1 (x - c_j) <= q``
+    when ``sqrt(s) >= |L^-1 d_j| / sqrt(q) + sigma_max(L^-1 L_j)`` (``P = L L'``, ``d_j = c_j -
+    c``; the triangle inequality), with ``q`` the 95 % quantile (then at every level above).
+
+    Parameters
+    ----------
+    state, cov : ndarray
+        The state (6,) and covariance (6, 6) widened.
+    others : list of (ndarray, ndarray)
+        The states and covariances whose position ellipses must lie inside.
+
+    Returns
+    -------
+    float
+        At least 1; 1 when a covariance is not finite (nothing to compare).
+    """
+    q = float(chi2_dist.ppf(ELLIPSE_LEVEL, 2))
+    scale = 1.0
+    try:
+        low = np.linalg.cholesky(cov[:2, :2])
+    except np.linalg.LinAlgError:
+        return 1.0
+    for st, c in others:
+        if not (np.all(np.isfinite(c[:2, :2])) and np.all(np.isfinite(st[:2]))):
+            continue
+        try:
+            lj = np.linalg.cholesky(c[:2, :2])
+        except np.linalg.LinAlgError:
+            continue
+        d = np.linalg.solve(low, st[:2] - state[:2])
+        spread = float(np.linalg.svd(np.linalg.solve(low, lj), compute_uv=False)[0])
+        scale = max(scale, (float(np.linalg.norm(d)) / np.sqrt(q) + spread) ** 2)
+    return scale
+
+
+def _state_at(result: object, time: float
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                         NDArray[np.float64] | None]:
+    """State, covariance, d state / d theta and null motion of a fit at ``time``."""
+    motion = result.motion  # type: ignore[attr-defined]
     theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     t = np.array([float(time)])
     null = None
@@ -446,8 +498,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
                 cov = np.where(np.isfinite(pseudo), pseudo, cov)
         else:
             cov = jac @ np.asarray(result.covariance) @ jac.T  # type: ignore[attr-defined]
-    return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
-                             _is_stationary(jac, state), level, null)
+    return state, cov, jac, null
 
 
 def track_answer(track: object, meas: MeasurementSet | None = None, index: int = -1,

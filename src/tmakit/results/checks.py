@@ -346,7 +346,67 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
                 f"the times in seconds (the data span {span:.3g} s)? Otherwise the data do "
                 "not determine the motion (try a simpler --motion, or more data)")))
         found.extend(undetermined_warnings(result, meas))
+    wider = wider_model_warning(result, meas)
+    if wider is not None:
+        found.append(wider)
     return found
+
+
+def position_determined(answer: Any) -> bool:
+    """Whether an answer gives a position whose range from the sensor the data determine.
+
+    Parameters
+    ----------
+    answer : Answer
+        An answer (:mod:`tmakit.results.answers`).
+
+    Returns
+    -------
+    bool
+        False when the position is unobservable or its range is undetermined (its 1-sigma
+        above :data:`~tmakit.results.answers.UNDETERMINED_RATIO` times the range).
+    """
+    return (answer.enu[0] is not None and answer.enu[1] is not None
+            and not any(w.startswith("range") for w in answer.undetermined))
+
+
+def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning | None:
+    """Warn that the position holds only under the reported fit's model.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        The estimate; its ``wider`` fit (the widest model asked for, when it leaves the
+        position at the last measurement undetermined).
+    meas : MeasurementSet
+        The measurements fitted.
+
+    Returns
+    -------
+    SanityWarning or None
+        ``position-undetermined`` naming both models, what the wider one leaves undetermined
+        and the bearing interval that the wider model does determine; None without a wider fit.
+    """
+    from .answers import estimate_answer
+
+    wider = getattr(result, "wider", None)
+    if wider is None or not len(meas):
+        return None
+    a = estimate_answer(wider, meas)
+    why = ("its fit is " + str(wider.status) if str(wider.status) != "converged"
+           else "range " + "; ".join(w for w in a.undetermined if w.startswith("range"))
+           if a.enu[0] is not None else "the position is unobservable")
+    bearing = ("bearing not determined either" if a.bearing_deg is None
+               or a.bearing_std_deg is None else
+               f"it determines the bearing from {a.sensor}: {a.bearing_deg:.1f} deg ± "
+               f"{1.96 * a.bearing_std_deg:.2g} deg (95 %)")
+    return SanityWarning("position-undetermined", (
+        f"the position at t = {a.time:g} s holds only if the target made no manoeuvre beyond "
+        f"those of the reported fit ({result.motion.name}): with the model asked for "  # type: ignore[attr-defined]
+        f"({wider.motion.name}, every acceleration fitted) the data do not determine it "
+        f"({why}); {bearing}. A manoeuvre the bearings cannot rule out would move it: the "
+        "ellipse assumes none, and the reported 95 % region is the bearing interval. An "
+        "own-ship manoeuvre after the target's last one would pin the range down"))
 
 
 def undetermined_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.stats import chi2 as chi2_dist
 
 from ..core import blas
 from ..data import MeasurementSet
@@ -36,7 +37,7 @@ from .answers import (
 )
 from .bound import Bound, bound_from_information
 from .checks import SanityWarning, chi2_probability, fit_warnings
-from .context import geodetic_fix, origin_of
+from .context import geodetic_fix, origin_of, sensor_position
 from .nuisance import KnownNuisance, as_known_nuisance
 from .solutions import Solution
 from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
@@ -83,6 +84,16 @@ class EstimateResult:
     solutions : list of Solution, optional
         When the search found separated fits that explain the data about as well
         (:mod:`tmakit.results.solutions`): all of them, this one first; empty otherwise.
+    covers : list of EstimateResult, optional
+        Fits this one stands for (close to it, about as good, :mod:`tmakit.results.solutions`)
+        whose position ellipses do not lie inside its own: its answers' covariance is widened
+        until they do (:func:`tmakit.results.answers.covering_scale`).
+    wider : EstimateResult, optional
+        The fit of the widest model asked for (every manoeuvre and acceleration) when it leaves
+        the position at the last measurement undetermined while this fit does not: this
+        fit's position there holds only under its own, narrower model
+        (:func:`tmakit.results.checks.fit_warnings`; the reported region then includes the
+        wider fit's bearing interval, :meth:`region_contains`).
     """
 
     parameters: tuple[str, ...]
@@ -101,6 +112,8 @@ class EstimateResult:
     message: str = ""
     extra: dict[str, object] = field(default_factory=dict)
     solutions: list[Solution] = field(default_factory=list, repr=False, compare=False)
+    covers: list[EstimateResult] = field(default_factory=list, repr=False, compare=False)
+    wider: EstimateResult | None = field(default=None, repr=False, compare=False)
 
     @property
     def converged(self) -> bool:
@@ -138,10 +151,24 @@ class EstimateResult:
         Returns
         -------
         bool
-            True when inside at least one solution's ellipse.
+            True when inside at least one solution's ellipse, or, when the widest model asked
+            for leaves the position undetermined (:attr:`wider`), inside its bearing interval
+            at ``level`` from the sensor of the last measurement (the whole plane when the
+            bearing is not determined either).
         """
-        return any(s.region_contains(position, meas, time, level)
-                   for s in self.ranked_solutions())
+        if any(s.region_contains(position, meas, time, level)
+               for s in self.ranked_solutions()):
+            return True
+        if self.wider is None:
+            return False
+        a = self.wider.answer(meas, time, level=level)
+        if a.bearing_deg is None or a.bearing_std_deg is None:
+            return True
+        where = sensor_position(meas, a.sensor, a.time) if meas is not None else np.zeros(3)
+        d = np.asarray(position, dtype=float)[:2] - where[:2]
+        seen = np.degrees(np.arctan2(d[0], d[1]))
+        off = (seen - a.bearing_deg + 180.0) % 360.0 - 180.0
+        return bool(abs(off) <= np.sqrt(chi2_dist.ppf(level, 1)) * a.bearing_std_deg)
 
     @property
     def chi2_p_value(self) -> float | None:

@@ -16,8 +16,10 @@ curvature of the likelihood at one minimum, not the other minima.  The rule, sta
   for that alone, and a smaller one need not match the reported χ².
 * **Separated.**  Two fits are the same solution when their states at the answer time
   (position and velocity, East/North) differ by a squared Mahalanobis distance of at most the
-  chi-square(4) quantile ``1 − alpha`` under *each* one's covariance: each lies inside the
-  other's region, so the better-ranked one stands for both without losing any of it.
+  chi-square(4) quantile ``1 − alpha`` under *each* one's covariance: the better-ranked one
+  stands for both.  So that it loses none of the other's region, its covariance is widened
+  until its position ellipse contains the other's (``EstimateResult.covers``,
+  :func:`~tmakit.results.answers.covering_scale`): by the data of the run, not a constant.
 * **The ranking.**  The reported fit first, then the others by ``Λ`` (by χ² for one model).
 
 The **reported region** at a confidence level is the union of the solutions' position
@@ -36,7 +38,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from .answers import ELLIPSE_LEVEL, Answer, estimate_answer
+from .answers import ELLIPSE_LEVEL, Answer, covering_scale, estimate_answer
 from .status import Status
 
 
@@ -52,9 +54,15 @@ class EstimateResult(Protocol):
     dof: int
     motion: MotionModel
     bound: Any
+    covers: list[Any]
+
 
 SOLUTION_ALPHA = 0.05
 """Level of the likelihood-ratio test that keeps a separated solution."""
+
+SAME_MINIMUM = 1.01
+"""A close fit whose ellipse lies inside once the variance is widened by less than 1 % is the
+same minimum reached again (from another start): it widens nothing."""
 
 
 @dataclass(eq=False)
@@ -226,7 +234,13 @@ def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
         if p < alpha:
             continue
         here = _state(r, meas, time)
-        if here is None or any(_close(here, k, same) for k in kept):
+        if here is None:
+            continue
+        near = next((i for i, k in enumerate(kept) if _close(here, k, same)), None)
+        if near is not None:
+            k = kept[near]
+            if k is not None and covering_scale(k[0], k[1], [here]) > SAME_MINIMUM:
+                out[near].result.covers.append(r)
             continue
         kept.append(here)
         out.append(Solution(r, len(out) + 1, lr, p))

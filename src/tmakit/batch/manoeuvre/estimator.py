@@ -15,9 +15,11 @@ from numpy.typing import ArrayLike
 
 from ...data import MeasurementSet
 from ...motion import PiecewiseCurvilinear, default_ref_time, motion_from_name
+from ...results.checks import position_determined
 from ...results.estimate import EstimateResult
 from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
 from ...results.solutions import Solution, separated_solutions
+from ...results.status import DIVERGED
 from .report import ManoeuvreEstimate, report
 from .search import ManoeuvreSearch
 from .selection import OrderSelection, select_order, sparsify, unknown_price
@@ -69,6 +71,23 @@ def _solutions_of(search: ManoeuvreSearch, res: ManoeuvreEstimate, others: list[
     return found if len(found) > 1 else []
 
 
+def _wider(wider: ManoeuvreEstimate, res: ManoeuvreEstimate, meas: MeasurementSet
+           ) -> ManoeuvreEstimate | None:
+    """Give the widest model's fit when it leaves the final position undetermined, not ``res``.
+
+    The widest model (every manoeuvre asked for, every acceleration fitted) contains the
+    reported one; where its fit is unobservable, did not converge or leaves the range at the
+    last measurement undetermined, the data cannot rule out a manoeuvre that moves the final
+    position (a target manoeuvre after the own ship's last one, seen by bearings alone).
+    """
+    if (not res.converged or wider.status == DIVERGED
+            or not position_determined(res.answer(meas))):
+        return None
+    if wider.converged and position_determined(wider.answer(meas)):
+        return None
+    return wider
+
+
 def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
     """Fit every order the data span holds, select the accelerations, choose the order.
 
@@ -97,9 +116,12 @@ def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
         selection = select_order(fits, n, s.criterion, s.alpha)
         chosen = fits[selection.chosen]
     res = report(search, chosen, ref, selection, fits)
-    others = [f for f in (*fits, *full, *(a for f in full for a in f.alternatives))
+    others = [f for f in (*fits, *full, *(a for f in {id(f): f for f in (*full, *fits)}
+                                               .values() for a in f.alternatives))
               if f is not chosen]
     res.solutions = _solutions_of(search, res, others, ref, selection, fits)
+    if full[-1] is not chosen:
+        res.wider = _wider(report(search, full[-1], ref, selection, fits), res, search.meas)
     if selection is not None and top and selection.chosen == top == s.max_manoeuvres:
         more = (f"the largest number of manoeuvres tried ({top}) was chosen: more may fit "
                 f"better (try curvilinear:{top + 1})")

@@ -317,19 +317,62 @@ def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
     price = unknown_price(s, n)
     free = fit.free_mask().copy()
     current, held = fit, False
+    ahead: list[OrderFit] = []
     while True:
-        best = _best_hold(search, current, free, price)
-        if best is None or not best[0] - current.chi2 < price:
+        chain = _hold_chain(search, current, free, price)
+        if not chain:
             break
-        free[best[1]] = False
-        current = OrderFit(m, best[2], best[3], best[0], search.unknowns(m, free), False,
-                           current.iterations, current.starts, free=free.copy())
-        held = True
+        rise = chain[-1].chi2 - current.chi2
+        if not rise < price * len(chain):
+            ahead = chain  # the sparser patterns the data do not pay for: candidates
+            break
+        current, free, held = chain[-1], chain[-1].free_mask().copy(), True
     if not held:
+        fit.alternatives = [*fit.alternatives, *_refit(search, ahead)]
         return fit
     out = search.fit_from(m, current.theta[None], free)
     out.iterations += fit.iterations
     if s.polish_rounds and m:
         out = search.polish(out, reach=2.0 * s.grid_step)
     out.profile_times, out.profile_chi2 = fit.profile_times, fit.profile_chi2
+    out.alternatives = [*out.alternatives, *_refit(search, ahead)]
+    return out
+
+
+LOOK_AHEAD = 2
+"""Holds tried together by :func:`sparsify` when one alone does not pay for itself."""
+
+
+def _hold_chain(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool_],
+                price: float) -> list[OrderFit]:
+    """Hold the cheapest acceleration, then (while the holds do not pay) the next, greedily.
+
+    Up to :data:`LOOK_AHEAD` holds: two accelerations (a spurious tangential and normal one
+    on one leg) can each cost more than the price held alone and less than twice it together.
+    """
+    m = current.manoeuvres
+    chain: list[OrderFit] = []
+    mask = free.copy()
+    at = current
+    for _ in range(LOOK_AHEAD):
+        best = _best_hold(search, at, mask, price)
+        if best is None:
+            break
+        mask = mask.copy()
+        mask[best[1]] = False
+        at = OrderFit(m, best[2], best[3], best[0], search.unknowns(m, mask), False,
+                      at.iterations, at.starts, free=mask.copy())
+        chain.append(at)
+        if at.chi2 - current.chi2 < price * len(chain):
+            break
+    return chain
+
+
+def _refit(search: ManoeuvreSearch, fits: list[OrderFit]) -> list[OrderFit]:
+    """Refit to convergence the sparser patterns the elimination looked at and left."""
+    out = []
+    for f in fits:
+        r = search.fit_from(f.manoeuvres, f.theta[None], f.free_mask())
+        if r.converged and np.isfinite(r.chi2):
+            out.append(r)
     return out
