@@ -157,7 +157,8 @@ class Run:
 def _undetermined(res: tk.EstimateResult, meas: tk.MeasurementSet, t: float) -> bool:
     """Whether the answer at ``t`` says the position is not determined (no bounded region)."""
     a = res.answer(meas, t)
-    return (res.wider is not None and t == float(meas.time.max())) or a.ellipse is None \
+    return (getattr(res, "wider", None) is not None and t == float(meas.time.max())) \
+        or a.ellipse is None \
         or any(w.startswith("range") for w in a.undetermined)
 
 

@@ -147,6 +147,23 @@ def test_crlb_of_a_file_json_keys_and_unobservable_nulls(tmp_path):
     assert {"parameters", "std", "covariance", "rank", "unobservable"} <= set(data)
     assert data["rank"] == 4 and data["std"][:6] == [None] * 6
     assert len(data["unobservable"]) == 3
+    # the trust of estimate and track: a warning naming each unobservable direction in words
+    assert data["trust"] == "warning"
+    reasons = data["trust_reasons"]
+    assert [r["code"] for r in reasons] == ["unobservable"] * 3
+    assert [r["message"].split(": ", 1)[1] for r in reasons] == [
+        d["sentence"] for d in data["unobservable"]]
+
+
+def test_crlb_trust_ok_when_every_parameter_is_bounded():
+    """``tma crlb``: ``trust: ok`` in the table and JSON when the bound is finite throughout."""
+    import json
+
+    data = json.loads(run("crlb", "gu2007", "--json").output)
+    assert data["unobservable"] == []
+    assert data["trust"] == "ok" and data["trust_reasons"] == []
+    text = run("crlb", "gu2007")
+    assert text.exit_code == 0 and "trust: ok" in text.output
 
 
 def test_crlb_refuses_a_bad_truth(tmp_path):

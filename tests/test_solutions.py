@@ -43,8 +43,9 @@ def test_ta_dummy_reports_every_solution_and_warns(ta_dummy):
     assert res.solutions[0].result is res and res.solutions[0].rank == 1
     courses = [s.answer(meas).course_deg for s in res.solutions]
     spread = max(courses) - min(courses)
-    # the solutions disagree by far more than the reported fit's own std
-    assert spread > 5 * res.answer(meas).course_std_deg
+    # the solutions disagree by far more than the reported fit's own std (before it is
+    # widened to contain the close fits it stands for)
+    assert spread > 5 * replace(res, covers=[]).answer(meas).course_std_deg
     assert [s.rank for s in res.solutions] == list(range(1, len(res.solutions) + 1))
     lr = [s.lr_statistic for s in res.solutions[1:]]
     assert lr == sorted(lr)
@@ -105,13 +106,57 @@ def test_the_test_keeps_equal_fits_once_and_drops_improbable_ones(ta_dummy):
     assert len(kept) == 2 and kept[1].result is other
 
 
-@pytest.mark.parametrize(("name", "runs", "least"), [("hoerst2010", 8, 7), ("ta-dummy", 6, 2)])
-def test_coverage_of_the_reported_region_does_not_collapse(name, runs, least):
-    """Seeded runs of the benchmark: the truth inside the reported 95 % region at the end.
+def test_coverage_of_the_reported_region_hoerst2010():
+    """20 seeded runs of the benchmark: the truth inside the reported 95 % region at the end.
 
-    Measured over 200 runs (docs/estimation.md): ``hoerst2010`` bearings only near 100 %,
-    the TA_DUMMY geometry far lower (its last position is barely observable); these counts
-    fail when either collapses.
+    The issue's figure is >= 93 % over 200 runs (``benchmarks/solutions_coverage.py``,
+    docs/estimation.md); over 20 runs at least 18 (90 %: one run of slack below 93 % for the
+    binomial spread of 20 draws), every position determined (a circling observer).
     """
-    out = solutions_coverage.coverage(name, runs, seed=0)
-    assert sum(r.inside for r in out) >= least
+    out = solutions_coverage.coverage("hoerst2010", 20, seed=0)
+    assert sum(r.inside for r in out) >= 18
+    assert not any(r.undetermined for r in out)
+
+
+def test_ta_dummy_final_position_is_covered_or_said_undetermined():
+    """TA_DUMMY geometry, 4 seeded runs: inside the region, and undetermined runs say so.
+
+    The own ship holds its course for the last hour while the contact turns 20 min before the
+    end: with the four manoeuvres asked for the final range is not determined, and the answer
+    must say so (``position-undetermined``) instead of a small ellipse alone.
+    """
+    scn, how = solutions_coverage.ta_dummy()
+    inside = undetermined = 0
+    for r in range(4):
+        meas = scn.simulate(rng=np.random.default_rng([0, r]))
+        res = tk.estimate(meas, **how)
+        truth = scn.target_states(np.array([meas.time.max()]))[0, :2]
+        inside += res.region_contains(truth, meas)
+        if res.wider is not None:
+            undetermined += 1
+            assert "position-undetermined" in [w.code for w in res.warnings(meas)]
+            assert res.trust(meas).level == "warning"
+    assert inside >= 3
+    assert undetermined >= 2
+
+
+def test_covering_scale_contains_the_other_ellipse():
+    """The widened ellipse contains the other's boundary; the same ellipse widens nothing."""
+    from scipy.stats import chi2
+
+    from tmakit.results.answers import covering_scale
+
+    rng = np.random.default_rng(0)
+    q = chi2.ppf(0.95, 2)
+    for _ in range(50):
+        a, b = rng.normal(size=(2, 2)), rng.normal(size=(2, 2))
+        pa, pb = a @ a.T + 0.1 * np.eye(2), b @ b.T + 0.1 * np.eye(2)
+        ca, cb = rng.normal(size=2), rng.normal(size=2)
+        s = covering_scale(ca, pa, [(cb, pb)])
+        u = np.linspace(0, 2 * np.pi, 181)
+        edge = cb[:, None] + np.linalg.cholesky(pb) @ np.vstack([np.cos(u), np.sin(u)]) \
+            * np.sqrt(q)
+        d = edge - ca[:, None]
+        m2 = np.einsum("in,ij,jn->n", d, np.linalg.inv(s * pa), d)
+        assert np.all(m2 <= q * (1 + 1e-9))
+    assert covering_scale(ca, pa, [(ca, pa)]) == pytest.approx(1.0)

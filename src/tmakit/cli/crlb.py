@@ -75,11 +75,11 @@ def crlb(
         raise fail(f"--at {at}: expected a finite time (s)")
     source = sources[0]
     if len(sources) > 1 or is_measurement_file(source) or format is not None:
-        bound = bound_of_file([Path(s) for s in sources], motion, ref_time, truth,
-                              known_nuisance, drift, free_exponent,
+        bound, warnings = bound_of_file([Path(s) for s in sources], motion, ref_time, truth,
+                                        known_nuisance, drift, free_exponent,
                               reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                             range_sigma, frequency_sigma, kinds=kinds,
-                                             ranges=ranges))
+                                                       range_sigma, frequency_sigma,
+                                                       kinds=kinds, ranges=ranges))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
                                           ("--truth", truth)) if value is not None]
@@ -87,17 +87,18 @@ def crlb(
             raise fail(f"{', '.join(given)}: for a measurement file; a scenario's bound is "
                        f"taken at its own truth and motion ({source} is a scenario)")
         bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
+        warnings = []
     derived = None if at is None else derived_at(bound, at)
     if derived is not None and bound.rank == len(bound.parameters) and not all(
             math.isfinite(derived["ellipse_90"][k]) for k in ("east", "north", "major")):
         raise fail(f"--at {at:g}: the bound overflows so far from the measurement times; "
                    "give a time near them (s)")
-    print_bound(bound, derived, as_json, units)
+    print_bound(bound, derived, as_json, units, warnings)
 
 
 def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float | None,
                   truth: str | None, known_nuisance: bool, drift: bool, free_exponent: bool,
-                  options: dict[str, Any] | None = None) -> Any:
+                  options: dict[str, Any] | None = None) -> tuple[Any, list[Any]]:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
 
     It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor
@@ -118,6 +119,8 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
     -------
     tmakit.results.Bound
         The bound.
+    list of tmakit.results.SanityWarning
+        The measurements' warnings (:func:`~tmakit.results.checks.measurement_warnings`).
 
     Raises
     ------
@@ -127,6 +130,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
     import json
 
     from ..bounds import crlb as compute
+    from ..results.checks import measurement_warnings
 
     meas = read_or_fail(file, **(options or {}))
     model = motion_or_fail(motion, ref_time, meas)
@@ -146,8 +150,9 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
     if not values:
         raise fail("--truth is needed to evaluate the bound of a measurement file")
     try:
-        return compute(meas, model, values, known_nuisance=known_nuisance,
-                       options=model_options(drift, free_exponent))
+        return (compute(meas, model, values, known_nuisance=known_nuisance,
+                        options=model_options(drift, free_exponent)),
+                measurement_warnings(meas))
     except ValueError as e:
         msg = str(e)
         if msg.startswith("truth ") and truth is not None:
@@ -219,7 +224,7 @@ def derived_at(bound: Any, at: float) -> dict[str, Any]:
 
 
 def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
-                units: str = "si") -> None:
+                units: str = "si", warnings: list[Any] | None = None) -> None:
     """Print the bound, and what :func:`derived_at` gave, as text or JSON.
 
     Parameters
@@ -232,16 +237,25 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
         Print JSON.
     units : str
         ``--units``: ``nautical`` shows the speeds at ``--at`` in knots (the JSON stays SI).
+    warnings : list of SanityWarning, optional
+        The measurements' warnings; with the unobservable directions they make the trust
+        (:func:`tmakit.results.trust.bound_trust`), ``trust`` and ``trust_reasons`` in JSON.
     """
     import json
 
+    from ..results.trust import bound_trust
+    from .answers_out import print_warnings
+
+    trust = bound_trust(bound, warnings or [])
     if as_json:
-        data = bound.as_dict()
+        data = {**bound.as_dict(), **trust.as_dict()}
         if derived is not None:
             data["at"] = derived
         out.print_json(json.dumps(data, default=lambda x: None))
         return
     out.print(bound.summary(), highlight=False)
+    out.print(f"trust: {trust.level}", highlight=False)
+    print_warnings(list(warnings or []))
     if derived is not None:
         out.print(f"at t = {derived['time']:g} s:", highlight=False)
         from ..results.answers import parameter_display

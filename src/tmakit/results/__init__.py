@@ -26,7 +26,7 @@ from .status import (
     Status,
     fit_status,
 )
-from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, trust_of
+from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, bound_trust, trust_of
 
 __all__ = [
     "CONVERGED",
@@ -54,6 +54,7 @@ __all__ = [
     "as_known_nuisance",
     "assemble_result",
     "bound_from_information",
+    "bound_trust",
     "chi2_warning",
     "diverged_result",
     "estimate_answer",

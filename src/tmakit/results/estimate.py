@@ -164,7 +164,8 @@ class EstimateResult:
         a = self.wider.answer(meas, time, level=level)
         if a.bearing_deg is None or a.bearing_std_deg is None:
             return True
-        where = sensor_position(meas, a.sensor, a.time) if meas is not None else np.zeros(3)
+        where = (sensor_position(meas, a.sensor, a.time)
+                 if meas is not None and a.sensor is not None else np.zeros(3))
         d = np.asarray(position, dtype=float)[:2] - where[:2]
         seen = np.degrees(np.arctan2(d[0], d[1]))
         off = (seen - a.bearing_deg + 180.0) % 360.0 - 180.0

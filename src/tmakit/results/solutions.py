@@ -239,8 +239,10 @@ def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
         near = next((i for i, k in enumerate(kept) if _close(here, k, same)), None)
         if near is not None:
             k = kept[near]
-            if k is not None and covering_scale(k[0], k[1], [here]) > SAME_MINIMUM:
-                out[near].result.covers.append(r)
+            covers = out[near].result.covers
+            if (k is not None and covering_scale(k[0], k[1], [here]) > SAME_MINIMUM
+                    and not any(c is r for c in covers)):
+                covers.append(r)
             continue
         kept.append(here)
         out.append(Solution(r, len(out) + 1, lr, p))

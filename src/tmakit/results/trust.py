@@ -61,8 +61,9 @@ def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
 
     Parameters
     ----------
-    result : EstimateResult
-        The estimate (its ``status``, ``message`` and ``bound``'s unobservable directions).
+    result : EstimateResult or Bound
+        The estimate (its ``status``, ``message`` and ``bound``'s unobservable directions), or
+        a bound (no status: as converged; :func:`bound_trust` gives its reasons).
     warnings : sequence of SanityWarning
         Its warnings (:meth:`EstimateResult.warnings <tmakit.results.EstimateResult.warnings>`
         or more).
@@ -72,7 +73,8 @@ def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
     Trust
         ``none`` unless converged; else ``warning`` with any warning, else ``ok``.
     """
-    status = str(result.status)  # type: ignore[attr-defined]
+    # a bound (``tma crlb``) has no solve, so no status: it stands as computed
+    status = str(getattr(result, "status", "converged"))
     reasons = list(warnings)
     if status != "converged":
         words = [str(result.message)] if result.message else []  # type: ignore[attr-defined]
@@ -83,3 +85,26 @@ def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
                                                         else "")
         return Trust(TRUST_NONE, [SanityWarning(status, why), *reasons])
     return Trust(TRUST_WARNING if reasons else TRUST_OK, reasons)
+
+
+def bound_trust(bound: object, warnings: Sequence[SanityWarning] = ()) -> Trust:
+    """Return the trust of a Cramér-Rao bound (``tma crlb``), by :func:`trust_of`.
+
+    Parameters
+    ----------
+    bound : Bound
+        The bound (its unobservable directions).
+    warnings : sequence of SanityWarning
+        The measurements' warnings (:func:`tmakit.results.checks.measurement_warnings`).
+
+    Returns
+    -------
+    Trust
+        ``warning`` when a direction is unobservable (each one a reason, in words: the bound
+        is infinite along it) or with any warning, else ``ok``.
+    """
+    directions = bound.observability.directions  # type: ignore[attr-defined]
+    unseen = [SanityWarning("unobservable", "no estimator can determine this from these "
+                                            f"measurements (infinite bound): {d.sentence}")
+              for d in directions]
+    return trust_of(bound, [*unseen, *warnings])
