@@ -56,8 +56,9 @@ accelerations), each manoeuvre adds three unknowns ``a_t, a_n, t_m``.  Two crite
 ``a_n`` are unknowns of Hörst & Oispuu's model, but most legs are straight or turn at constant
 speed.  After each order's fit, the components the data do not need are held at zero by backward
 elimination with the same criterion — one unknown fewer must not raise chi2 by ``ln N`` (BIC)
-or by the chi-square(1) quantile (likelihood-ratio test) — and the change-over times are then
-profiled again (:func:`~.selection.sparsify`).  It matters: with every acceleration free, a turn
+or by the chi-square(1) quantile (likelihood-ratio test); two holds are kept together when they
+raise chi2 by less than twice that — and the change-over times are then profiled again
+(:func:`~.selection.sparsify`).  It matters: with every acceleration free, a turn
 that ends earlier and continues as a gentle turn competes with the true one, and in the Hörst &
 Oispuu scenario the ML change-over times missed their CRB (RMSE 1.6x and 2.2x it); with the
 components selected they are at 0.72x and 0.52x it, and within 1.11x of the bound of the

@@ -282,8 +282,11 @@ def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
     starts with the change-over times bounding its segment moved by one ``grid_step`` either
     way), and keeps the hold that raises chi2 least if the rise is below the criterion's price
     of one unknown: ``ln N`` for BIC, the chi-square(1) quantile ``1 - alpha`` for the
-    likelihood-ratio test.  Two neighbouring segments are never both held at zero (their
-    change-over time would not exist).  After any hold, each change-over time is profiled
+    likelihood-ratio test; when the cheapest raises it by more, the next cheapest is tried on
+    top of it and both are kept if together they raise chi2 by less than twice the price
+    (:data:`LOOK_AHEAD`).  The patterns left behind are refitted and returned as the fit's
+    ``alternatives`` (candidates of the separated solutions).  Two neighbouring segments are
+    never both held at zero (their change-over time would not exist).  After any hold, each change-over time is profiled
     again within two grid steps (:meth:`ManoeuvreSearch.polish`): with fewer accelerations the
     likelihood in ``t_m`` has fewer competing basins, and its best one can move.
 
