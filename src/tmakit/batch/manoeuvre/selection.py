@@ -286,9 +286,10 @@ def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
     top of it and both are kept if together they raise chi2 by less than twice the price
     (:data:`LOOK_AHEAD`).  The patterns left behind are refitted and returned as the fit's
     ``alternatives`` (candidates of the separated solutions).  Two neighbouring segments are
-    never both held at zero (their change-over time would not exist).  After any hold, each change-over time is profiled
-    again within two grid steps (:meth:`ManoeuvreSearch.polish`): with fewer accelerations the
-    likelihood in ``t_m`` has fewer competing basins, and its best one can move.
+    never both held at zero (their change-over time would not exist).  After any hold, each
+    change-over time is profiled again within two grid steps (:meth:`ManoeuvreSearch.polish`):
+    with fewer accelerations the likelihood in ``t_m`` has fewer competing basins, and its best
+    one can move.
 
     Why: a turn that ends at ``t_m`` and one that ends earlier and continues as a gentle turn
     fit nearly as well when the last leg's accelerations are free, and in the Hörst & Oispuu
