@@ -32,7 +32,12 @@ from ..rules import (
     time_within_limit,
 )
 from .cells import blank_mask, is_blank, number_text, show, text_column
-from .contract import GEO_COLUMNS, NUMERIC_COLUMNS, reference_kinds_text
+from .contract import (
+    GEO_COLUMNS,
+    NUMERIC_COLUMNS,
+    between_sensor_kinds,
+    reference_kinds_text,
+)
 from .problems import Problems
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -261,6 +266,7 @@ def _time_ref_column(num: Numbers, kind: NDArray[np.object_], is_rd: NDArray[np.
     import pandera.pandas as pa
 
     t = num.get("time", np.full(is_rd.shape[0], np.nan))
+    between = np.isin(kind, between_sensor_kinds())
     return pa.Column("float64", nullable=True, checks=[
         checks.check("time_ref", "required", lambda v, r: ~np.isnan(v) | ~is_rd[r],
                      f"a time_ref (s) before time: {reference_kinds_text()} rows need one",
@@ -271,8 +277,12 @@ def _time_ref_column(num: Numbers, kind: NDArray[np.object_], is_rd: NDArray[np.
                      ignore_na=False),
         checks.finite("time_ref"),
         checks.check("time_ref", "before_time",
-                     lambda v, r: ~(v >= t[r]) | ~is_rd[r],
+                     lambda v, r: ~(v >= t[r]) | ~is_rd[r] | between[r],
                      lambda row: f"a time_ref before time ({number_text(t[row])} s)"),
+        checks.check("time_ref", "at_time",
+                     lambda v, r: (v == t[r]) | ~between[r],
+                     lambda row: f"the row's own time ({number_text(t[row])} s): a "
+                                 f"{kind[row]} is between two sensors at one time"),
     ])
 
 
@@ -281,7 +291,11 @@ def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_
     """Check a ref_sensor_* column: only on range-difference rows, all or none of a row, finite."""
     import pandera.pandas as pa
 
+    between = np.isin(kind, between_sensor_kinds())
     return pa.Column("float64", nullable=True, checks=[
+        checks.check(c, "required", lambda v, r: ~np.isnan(v) | ~between[r],
+                     lambda row: f"a number: a {kind[row]} row gives its reference sensor's "
+                                 "state", ignore_na=False),
         checks.check(c, "unused", lambda v, r: np.isnan(v) | is_rd[r],
                      lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
                                  f"sensor state at time_ref (this row is "

@@ -24,7 +24,7 @@ from .cells import text_column
 from .check_cells import check_cells, read_numbers
 from .check_columns import check_columns
 from .check_rows import check_order
-from .contract import reference_kinds
+from .contract import between_sensor_kinds, reference_kinds
 from .errors import MeasurementFileError
 from .positions import ref_sensor_state, sensor_state
 from .problems import Problems, RawTable
@@ -71,7 +71,9 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     check_order(num, sensor, kind, problems)
     state, origin_metadata = sensor_state(num, layout, origin, problems)
     time_ref = num["time_ref"] if "time_ref" in num else np.full(n, np.nan)
-    ref_state = ref_sensor_state(num, state, sensor, is_rd, ref_given, layout, problems)
+    earlier = is_rd & ~np.isin(kind, between_sensor_kinds())  # tdoa, fdoa: given, checked
+    ref_state = ref_sensor_state(num, state, sensor, earlier, ref_given | (is_rd & ~earlier),
+                                 layout, problems)
 
     problems.file.extend(metadata_problems(raw.metadata))  # the keys the library reads
     found = problems.sorted()

@@ -15,6 +15,7 @@ __all__ = [
     "GEO_COLUMNS",
     "NUMERIC_COLUMNS",
     "PARQUET_METADATA_PREFIX",
+    "between_sensor_kinds",
     "reference_kinds",
     "reference_kinds_text",
 ]
@@ -47,6 +48,20 @@ def reference_kinds() -> tuple[str, ...]:
     return tuple(k for k, cls in KINDS.items() if cls.uses_reference)
 
 
+def between_sensor_kinds() -> tuple[str, ...]:
+    """Name the kinds that are differences between two sensors at one time.
+
+    Returns
+    -------
+    tuple of str
+        The registered kinds with the ``between_sensors`` hook (``tdoa``, ``fdoa``): their
+        ``time_ref`` is their own time and they give ``ref_sensor_*``.
+    """
+    from ..measurements import KINDS
+
+    return tuple(k for k, cls in KINDS.items() if cls.between_sensors)
+
+
 def reference_kinds_text() -> str:
     """Name the reference kinds for messages.
 
@@ -71,7 +86,8 @@ COLUMN_PURPOSE: dict[str, str] = {
     "sensor_lat": "sensor latitude (degrees, WGS-84)",
     "sensor_lon": "sensor longitude (degrees, WGS-84)",
     "sensor_alt": "sensor altitude (m, WGS-84)",
-    "time_ref": "time of the earlier sample of a range difference (s)",
-    **{c: f"sensor {_AXES[c.removeprefix('ref_sensor_')]} at time_ref"
+    "time_ref": "time of the earlier sample of a range difference, or the row's own time "
+                "for a tdoa or fdoa (s)",
+    **{c: f"reference sensor {_AXES[c.removeprefix('ref_sensor_')]} at time_ref"
        for c in REF_STATE_COLUMNS},
 }

@@ -22,6 +22,8 @@ __all__ = ["block_is_valid", "reference_states"]
 
 #: Whether each kind code uses a reference sample (range differences).
 USES_REFERENCE = np.array([KINDS[k].uses_reference for k in KIND_NAMES], dtype=bool)
+#: Whether each kind code is a difference between sensors at one time (tdoa, fdoa).
+BETWEEN_SENSORS = np.array([KINDS[k].between_sensors for k in KIND_NAMES], dtype=bool)
 
 
 def block_is_valid(time: NDArray[np.float64], kind: NDArray[np.int8],
@@ -51,19 +53,24 @@ def block_is_valid(time: NDArray[np.float64], kind: NDArray[np.int8],
         range-difference row only.
     """
     is_rd = USES_REFERENCE[kind]
+    between = BETWEEN_SENSORS[kind]
+    earlier = is_rd & ~between
     if time_ref is None:
         ok = not is_rd.any()
     else:
         with np.errstate(invalid="ignore"):
             ok = bool(np.array_equal(np.isnan(time_ref), ~is_rd)
                       and not np.isinf(time_ref).any()
-                      and np.all(time_ref[is_rd] < time[is_rd]))
+                      and np.all(time_ref[earlier] < time[earlier])
+                      and np.all(time_ref[between] == time[between]))
     if ok and ref is not None:
         cells = ref[:, ref_columns]
         given = ~np.isnan(cells)
         row_given = given.any(axis=1)
         ok = not (np.isinf(cells).any() or (row_given & ~is_rd).any()
-                  or (row_given & ~given.all(axis=1)).any())
+                  or (row_given & ~given.all(axis=1)).any() or (between & ~row_given).any())
+    elif ok:
+        ok = not between.any()
     return ok
 
 
@@ -125,4 +132,5 @@ def reference_states(time: NDArray[np.float64], time_ref: NDArray[np.float64],
 def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[np.bool_]:
     """Flag the range differences without ``ref_sensor_*`` cells of a block from row ``lo``."""
     hi = lo + QUERY_ROWS
-    return USES_REFERENCE[kind[lo:hi]] & np.isnan(ref[lo:hi, 0])
+    return (USES_REFERENCE[kind[lo:hi]] & ~BETWEEN_SENSORS[kind[lo:hi]]
+            & np.isnan(ref[lo:hi, 0]))

@@ -2,22 +2,24 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 from .azimuth_rate import AzimuthRate
 from .base import Jacobian, MeasurementModel, ValueRange
 from .bearing import Bearing
 from .elevation import Elevation
+from .fdoa import Fdoa
 from .frequency import Frequency
 from .power import Power
 from .range import Range
 from .range_difference import RangeDifference, interval_count, range_difference_covariance
 from .range_rate import RangeRate
+from .tdoa import Tdoa, shared_reference_covariance
 
 KINDS: dict[str, type[MeasurementModel]] = {
     cls.kind: cls
     for cls in (Bearing, Elevation, AzimuthRate, Range, RangeRate, Frequency, Power,
-                RangeDifference)
+                RangeDifference, Tdoa, Fdoa)
 }
 """Every measurement kind by its file name: a new kind is one file (a
 :class:`MeasurementModel` subclass with its hooks) plus its entry here."""
@@ -27,6 +29,7 @@ __all__ = [
     "AzimuthRate",
     "Bearing",
     "Elevation",
+    "Fdoa",
     "Frequency",
     "Jacobian",
     "MeasurementModel",
@@ -34,10 +37,13 @@ __all__ = [
     "Range",
     "RangeDifference",
     "RangeRate",
+    "Tdoa",
     "ValueRange",
     "interval_count",
     "model_for",
+    "options_with_metadata",
     "range_difference_covariance",
+    "shared_reference_covariance",
 ]
 
 
@@ -69,3 +75,35 @@ def model_for(kind: str, options: Mapping[str, object] | None = None) -> Measure
         raise ValueError(f"unknown measurement kind {kind!r}; expected one of "
                          f"{', '.join(KINDS)}") from None
     return cls(**dict(options or {}))
+
+
+def options_with_metadata(kinds: Iterable[str], options: Mapping[str, Mapping[str, object]]
+                          | None, metadata: Mapping[str, str]
+                          ) -> dict[str, dict[str, object]]:
+    """Merge the per-kind options a set's metadata states under the options given.
+
+    Parameters
+    ----------
+    kinds : iterable of str
+        The kinds present.
+    options : mapping, optional
+        Per-kind options given by the caller; they win over the metadata.
+    metadata : mapping of str to str
+        The set's metadata (``# tdoa_noise: independent``, ``# fdoa_carrier: 1e9``).
+
+    Returns
+    -------
+    dict
+        Per-kind options.
+
+    Raises
+    ------
+    ValueError
+        If a metadata key a kind reads holds a bad value.
+    """
+    out = {k: dict(v) for k, v in dict(options or {}).items()}
+    for kind in kinds:
+        stated = KINDS[kind].options_from_metadata(metadata) if kind in KINDS else {}
+        if stated:
+            out[kind] = {**stated, **out.get(kind, {})}
+    return out

@@ -14,6 +14,8 @@ differences (:class:`RangeDifference`) also take the relative state at the earli
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -58,6 +60,10 @@ class MeasurementModel:
     value_range: ValueRange | None = None
     #: Rows of one sensor have correlated noise (:meth:`noise_covariance` is not diagonal).
     correlated_noise: bool = False
+    #: A difference between two sensors at one time (``tdoa``, ``fdoa``): the reference
+    #: sample is the reference sensor's at the row's own time, and the rows whose noise is
+    #: correlated are those at one time sharing the reference sensor (not those of one sensor).
+    between_sensors: bool = False
     #: Predictions do not change when the target is mirrored through a horizontal plane of
     #: the sensors (the sensor-plane ambiguity of 3-D tracking; elevation breaks it).
     mirror_symmetric: bool = False
@@ -72,6 +78,22 @@ class MeasurementModel:
     #: Simulated values are written wrapped into ``[0, wrap_period)`` (SI; None: not wrapped),
     #: as files carry bearings in [0, 360) degrees.
     wrap_period: float | None = None
+
+    @classmethod
+    def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
+        """Give the model options a measurement set's metadata states (a file's ``# key:``).
+
+        Parameters
+        ----------
+        metadata : mapping of str to str
+            The set's metadata.
+
+        Returns
+        -------
+        dict
+            Constructor options; empty for kinds that read none (explicit options win).
+        """
+        return {}
 
     @classmethod
     def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:

@@ -23,7 +23,7 @@ from ..core.arrays import Array
 from ..core.blas import matmul
 from ..core.frames import wrap_angle
 from ..data import MeasurementSet
-from ..measurements import MeasurementModel, model_for
+from ..measurements import MeasurementModel, model_for, options_with_metadata
 from ..motion import MotionModel
 from .affine_rows import AffineRows
 from .fused import fused_linearisation, fused_values
@@ -49,8 +49,8 @@ class ObservationModel:
 
     def __init__(self, meas: MeasurementSet, motion: MotionModel,
                  options: Mapping[str, Mapping[str, object]] | None = None) -> None:
-        options = {k: dict(v) for k, v in dict(options or {}).items()}
-        self.options = options  #: the per-kind model options, as given
+        options = options_with_metadata(meas.kinds, options, meas.metadata)
+        self.options = options  #: the per-kind model options, given or stated by the file
         self.meas = meas
         self.motion = motion
         self.models: dict[str, MeasurementModel] = {

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..measurements import KINDS, MeasurementModel, model_for
+from ..measurements import KINDS, MeasurementModel, model_for, options_with_metadata
 from .noise_blocks import correlated_blocks
 from .rows import RowModel
 
@@ -62,10 +62,12 @@ class NoiseModel:
                     if cls.correlated_noise and kind in present else np.zeros(0, np.int64))
             if len(rows):
                 chosen[kind] = (models[kind] if models is not None and kind in models
-                                else model_for(kind))
+                                else model_for(kind, options_with_metadata(
+                                    [kind], None, meas.metadata).get(kind)))
                 index[kind] = rows
         self._setup(meas.sigma_si, correlated_blocks(chosen, index, meas.time, meas.time_ref,
-                                                     meas.sigma_si, meas.sensor_code, False))
+                                                     meas.sigma_si, meas.sensor_code, False,
+                                                     meas.ref_sensor_state))
 
     @classmethod
     def from_rows(cls, rows: RowModel) -> NoiseModel:

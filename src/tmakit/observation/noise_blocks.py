@@ -1,6 +1,8 @@
 """The correlated noise blocks of a set of rows, one per group of overlapping spans.
 
-Range differences of one sensor are correlated when their spans ``(time_ref, time]`` share
+Differences between sensors (TDOA, FDOA) at one time that share a reference sensor are
+correlated through its error (:mod:`tmakit.measurements.tdoa`): one block per time and
+reference.  Range differences of one sensor are correlated when their spans ``(time_ref, time]`` share
 pulse intervals (Chen & Sun, eq. 1): the covariance of two rows is the length of the overlap
 of their spans times the noise density.  Rows whose spans overlap, directly or through other
 rows, form a group; rows of different groups are independent, so the covariance is
@@ -21,7 +23,8 @@ from numpy.typing import NDArray
 from ..core.arrays import Array
 from ..measurements import MeasurementModel
 
-__all__ = ["MAX_GROUP_ROWS", "correlated_blocks", "overlapping_groups"]
+__all__ = ["MAX_GROUP_ROWS", "correlated_blocks", "overlapping_groups",
+           "shared_reference_groups"]
 
 Index = NDArray[np.intp] | slice
 
@@ -61,9 +64,44 @@ def overlapping_groups(rows: NDArray[np.intp], time: Array, time_ref: Array,
             yield np.sort(rows[order[lo:hi]])
 
 
+def shared_reference_groups(rows: NDArray[np.intp], time: Array, ref_state: Array | None,
+                            singletons: bool = True) -> Iterator[NDArray[np.intp]]:
+    """Split differences between sensors into the groups at one time with one reference.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray of int
+        The rows (ascending), of one kind.
+    time : numpy.ndarray
+        Every row's time (s).
+    ref_state : numpy.ndarray or None
+        Every row's reference sensor state (m, m/s): rows at one time whose reference
+        sensor is at the same place share it (None: one reference for every row).
+    singletons : bool, optional
+        Also give the rows that share their reference with no other, each alone.
+
+    Yields
+    ------
+    numpy.ndarray of int
+        The rows of one group, ascending.
+    """
+    if rows.shape[0] == 0:
+        return
+    key = time[rows][:, None]
+    if ref_state is not None:
+        key = np.concatenate([key, ref_state[rows, :3]], axis=1)
+    _, label = np.unique(key, axis=0, return_inverse=True)
+    order = np.argsort(label.ravel(), kind="stable")
+    cuts = np.flatnonzero(np.diff(label.ravel()[order])) + 1
+    for g in np.split(order, cuts):
+        if g.shape[0] > 1 or singletons:
+            yield rows[np.sort(g)]
+
+
 def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
                       time: Array, time_ref: Array, sigma: Array, sensor: NDArray[Any],
-                      singletons: bool = True) -> list[tuple[NDArray[np.intp], Array]]:
+                      singletons: bool = True, ref_state: Array | None = None
+                      ) -> list[tuple[NDArray[np.intp], Array]]:
     """Return the correlated noise blocks of a set of rows.
 
     Parameters
@@ -77,13 +115,17 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
         Also give the rows that share no interval with another row, each as a 1 x 1 block
         (its variance as the kind's hook computes it); without them the blocks are only
         those with correlations, and the other rows keep their sigma.
+    ref_state : numpy.ndarray, optional
+        The rows' reference sensor states (m, 6): the differences between sensors
+        (``between_sensors``) at one time are correlated when they share a reference.
 
     Returns
     -------
     list of (rows, covariance)
         One block per kind with ``correlated_noise``, per sensor and per group of rows whose
-        spans overlap (:func:`overlapping_groups`): its rows (ascending) and their covariance
-        from the kind's ``noise_covariance`` hook (SI units squared).
+        spans overlap (:func:`overlapping_groups`), or for differences between sensors per
+        time and reference sensor (:func:`shared_reference_groups`): its rows (ascending)
+        and their covariance from the kind's ``noise_covariance`` hook (SI units squared).
     """
     blocks: list[tuple[NDArray[np.intp], Array]] = []
     m = time.shape[0]
@@ -91,6 +133,11 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
         if not model.correlated_noise:
             continue
         rows = np.arange(m)[index[kind]]
+        if model.between_sensors:
+            for g in shared_reference_groups(rows, time, ref_state, singletons):
+                _check_group_size(g.shape[0])
+                blocks.append((g, model.noise_covariance(time[g], time_ref[g], sigma[g])))
+            continue
         for s in np.unique(sensor[rows]):
             own = rows[sensor[rows] == s]
             for g in overlapping_groups(own, time, time_ref, singletons):

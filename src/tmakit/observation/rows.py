@@ -466,7 +466,7 @@ class RowModel:
             Row indices and their covariance (SI units squared).
         """
         return correlated_blocks(self.models, self.index, self.time, self.time_ref,
-                                 self.sigma, self.sensor, singletons)
+                                 self.sigma, self.sensor, singletons, self.ref_sensor_state)
 
     def covariance(self) -> Array:
         """Return the noise covariance ``R``.

@@ -1,0 +1,226 @@
+"""Frequency difference of arrival between two sensors at one time (FDOA).
+
+``fdoa = f - f_ref = -(f0 / c) (rdot - rdot_ref)``: the received frequency at the row's
+sensor minus that at its reference sensor, both at the row's time, with ``rdot`` the range
+rate of the target relative to each sensor (the Doppler model of :class:`Frequency`, whose
+carrier cancels but for its scale ``f0``; Ho & Xu (2004), the range-rate difference times
+``-f0 / c``).  The carrier ``f0`` is known (the ``carrier`` option, or the file's
+``# fdoa_carrier: HZ``) or, like the frequency's, an unknown nuisance parameter that enters
+linearly and is eliminated by the estimators.
+
+The noise is that of :mod:`tmakit.measurements.tdoa`: rows at one time that share a
+reference sensor share its error (``# fdoa_noise: independent`` to switch it off).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..units import SPEED_OF_LIGHT
+from .base import Array, Jacobian, MeasurementModel, as_rel
+from .range_rate import range_rate_and_gradient
+from .tdoa import noise_form, shared_reference_covariance
+
+__all__ = ["Fdoa"]
+
+
+class Fdoa(MeasurementModel):
+    """Frequency difference of arrival, Hz (also in files): sensor minus reference sensor.
+
+    Nuisance parameter ``carrier`` (Hz) unless the carrier is known.
+
+    Parameters
+    ----------
+    carrier : float, optional
+        The emitter's carrier ``f0`` (Hz, > 0) when known; None (default): a nuisance
+        parameter.
+    noise : str, optional
+        ``"shared"`` (default) or ``"independent"``, as for :class:`~.tdoa.Tdoa`.
+    speed_of_light : float, optional
+        Propagation speed ``c``, m/s.
+
+    Raises
+    ------
+    ValueError
+        If ``carrier`` is not a positive finite number, or ``noise`` is not a noise form.
+
+    References
+    ----------
+    Ho & Xu (2004) (TDOA and FDOA of a moving source); Gu et al. (2007), eqs. 5-6 (the
+    Doppler-shifted frequency).
+    """
+
+    kind = "fdoa"
+    file_unit = "Hz"
+    mirror_symmetric = True
+    uses_reference = True
+    uses_velocity = True
+    between_sensors = True
+    correlated_noise = True
+
+    def __init__(self, carrier: float | None = None, noise: str = "shared",
+                 speed_of_light: float = SPEED_OF_LIGHT) -> None:
+        if carrier is not None and not (math.isfinite(float(carrier)) and float(carrier) > 0):
+            raise ValueError(f"fdoa: the carrier must be a positive frequency (Hz), found "
+                             f"{carrier!r}")
+        self.carrier = None if carrier is None else float(carrier)
+        self.noise = noise_form(noise, "fdoa noise")
+        self.correlated_noise = self.noise == "shared"
+        self.c = float(speed_of_light)
+
+    @classmethod
+    def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
+        """Give the options a file's metadata states (``fdoa_carrier``, ``fdoa_noise``).
+
+        Parameters
+        ----------
+        metadata : mapping of str to str
+            The set's metadata.
+
+        Returns
+        -------
+        dict
+            ``carrier`` (Hz) and ``noise`` where the file states them.
+
+        Raises
+        ------
+        ValueError
+            If ``fdoa_carrier`` is not a number or ``fdoa_noise`` not a noise form.
+        """
+        out: dict[str, object] = {}
+        if metadata.get("fdoa_carrier", "").strip():
+            try:
+                out["carrier"] = float(metadata["fdoa_carrier"])
+            except ValueError:
+                raise ValueError("metadata fdoa_carrier: expected the carrier in Hz, found "
+                                 f"{metadata['fdoa_carrier']!r}") from None
+        if "fdoa_noise" in metadata:
+            out["noise"] = noise_form(metadata["fdoa_noise"], "metadata fdoa_noise")
+        return out
+
+    @property
+    def nuisance_names(self) -> tuple[str, ...]:
+        """``("carrier",)`` when the carrier is unknown, else none."""
+        return () if self.carrier is not None else ("carrier",)
+
+    def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
+                         sensor: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Give the noise covariance of rows sharing one reference at one time, Hz^2.
+
+        Parameters
+        ----------
+        time, time_ref, sensor : array_like
+            Not used (the rows given share the reference and the time).
+        sigma : array_like
+            Standard deviations (m,), Hz.
+
+        Returns
+        -------
+        ndarray
+            (m, m), as :meth:`tmakit.measurements.Tdoa.noise_covariance`.
+        """
+        if not self.correlated_noise:
+            return np.diag(np.asarray(sigma, dtype=float) ** 2)
+        return shared_reference_covariance(sigma)
+
+    def _scale(self, nuisance: ArrayLike | None) -> Array:
+        if self.carrier is not None:
+            return np.asarray(-self.carrier / self.c)
+        if nuisance is None:
+            raise ValueError("fdoa: the carrier (nuisance parameter) is needed")
+        nu = np.asarray(nuisance, dtype=float)
+        if nu.shape[-1] != 1:
+            raise ValueError(f"fdoa: expected nuisance (carrier,), got shape {nu.shape}")
+        return -nu[..., 0] / self.c
+
+    def _rate_difference(self, rel: Array, rel_ref: Array | None
+                         ) -> tuple[Array, Array, Array]:
+        if rel_ref is None:
+            raise ValueError("fdoa needs the target's state relative to the reference sensor")
+        rdot, grad = range_rate_and_gradient(rel)
+        rdot_ref, grad_ref = range_rate_and_gradient(as_rel(rel_ref))
+        return rdot - rdot_ref, grad, grad_ref
+
+    def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
+                nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
+        """Predict frequency differences, Hz; see :meth:`MeasurementModel.predict`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`MeasurementModel.predict`; ``rel_ref`` (the target relative to
+            the reference sensor) is required, ``nuisance`` (the carrier, Hz) too unless
+            the carrier is known; ``t`` is not used.
+
+        Returns
+        -------
+        ndarray
+            ``-(f0 / c) (rdot - rdot_ref)``, Hz, shape ``rel.shape[:-1]``.
+
+        Raises
+        ------
+        ValueError
+            If ``rel_ref`` or a needed carrier is missing.
+        """
+        diff, _, _ = self._rate_difference(as_rel(rel), rel_ref)
+        return self._scale(nuisance) * diff
+
+    def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
+                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
+                 ) -> Jacobian:
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
+
+        Parameters
+        ----------
+        rel, t, nuisance, rel_ref
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        Jacobian
+            ``rel``: ``-(f0 / c) d rdot / d rel``; ``rel_ref``: ``(f0 / c) d rdot_ref / d
+            rel_ref`` (Hz per m, per m/s); the carrier: ``-(rdot - rdot_ref) / c`` (Hz/Hz).
+
+        Raises
+        ------
+        ValueError
+            As for :meth:`predict`.
+        """
+        rel = as_rel(rel)
+        diff, grad, grad_ref = self._rate_difference(rel, rel_ref)
+        scale = self._scale(nuisance)[..., None]
+        d_nu = (np.zeros((*rel.shape[:-1], 0)) if self.carrier is not None
+                else (-diff / self.c)[..., None])
+        return Jacobian(scale * grad, -scale * grad_ref, d_nu)
+
+    def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
+                     rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
+        """Split the design; see :meth:`MeasurementModel.affine_parts`.
+
+        Parameters
+        ----------
+        rel, t, rel_ref
+            As for :meth:`MeasurementModel.predict`.
+
+        Returns
+        -------
+        h0 : ndarray
+            ``(..., n)``: zeros with an unknown carrier, the prediction with a known one (Hz).
+        A_const, A_var : ndarray
+            ``(..., n, k)``: zeros and ``-(rdot - rdot_ref) / c`` (Hz per Hz of carrier).
+        """
+        rel = as_rel(rel)
+        diff, _, _ = self._rate_difference(rel, rel_ref)
+        if self.carrier is not None:
+            empty = np.zeros((*rel.shape[:-1], 0))
+            return self._scale(None) * diff, empty, empty
+        a = (-diff / self.c)[..., None]
+        return np.zeros(diff.shape), np.zeros(a.shape), a
+
+    def __repr__(self) -> str:
+        """Name the kind with its carrier and noise form."""
+        return f"Fdoa(carrier={self.carrier!r}, noise={self.noise!r})"
