@@ -30,12 +30,14 @@ from tmakit.measurements import (
     AzimuthRate,
     Bearing,
     Elevation,
+    Fdoa,
     Frequency,
     MeasurementModel,
     Power,
     Range,
     RangeDifference,
     RangeRate,
+    Tdoa,
 )
 
 EPS = np.finfo(float).eps
@@ -175,6 +177,9 @@ CASES = [
     Case("power_free_n", Power(exponent=None), (POWER_CONSTANT, EXPONENT),
          (POWER_CONSTANT_SCALE, EXPONENT_SCALE)),
     Case("range_difference", RangeDifference()),
+    Case("tdoa", Tdoa()),
+    Case("fdoa_known_carrier", Fdoa(carrier=2.4e9)),
+    Case("fdoa", Fdoa(), (CARRIER,), (1.0,)),
 ]
 CASE_IDS = [c.name for c in CASES]
 
@@ -256,6 +261,7 @@ FIXED_NUISANCE = {
     "frequency_drift": [9.5e9, -0.07],
     "power_n2": [-35.0],
     "power_free_n": [-12.0, 3.1],
+    "fdoa": [1.2e9],
 }
 
 
@@ -492,3 +498,23 @@ def test_fused_gradients_equal_predict_and_jacobian(model):
     else:
         with pytest.raises(NotImplementedError):
             model.row_gradient(tuple(rel[0]), 0.0, ())
+
+
+def test_tdoa_and_fdoa_values_and_signs():
+    """A tdoa is the arrival at the sensor minus that at the reference (s); an fdoa the
+    received frequency there minus that at the reference, the Doppler model of the
+    frequency kind, so an emitter closing on the sensor and not on the reference is heard
+    higher there (positive fdoa)."""
+    rel = np.array([[3000.0, 4000.0, 0.0, -30.0, -40.0, 0.0]])  # 5 km, closing at 50 m/s
+    rel_ref = np.array([[6000.0, 8000.0, 0.0, 0.0, 0.0, 0.0]])  # 10 km, not moving
+    assert Tdoa().predict(rel, None, None, rel_ref)[0] == pytest.approx(-5000.0 / SPEED_OF_LIGHT)
+    carrier = 1e9
+    want = (Frequency().predict(rel, None, [carrier])[0]
+            - Frequency().predict(rel_ref, None, [carrier])[0])
+    assert want > 0
+    assert Fdoa(carrier=carrier).predict(rel, None, None, rel_ref)[0] == pytest.approx(want)
+    assert Fdoa().predict(rel, None, [carrier], rel_ref)[0] == pytest.approx(want)
+    with pytest.raises(ValueError, match="carrier"):
+        Fdoa(carrier=-1.0)
+    with pytest.raises(ValueError, match="shared, independent"):
+        Tdoa(noise="sometimes")

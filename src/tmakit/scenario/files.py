@@ -158,11 +158,19 @@ class MeasurementSpec(_Strict):
     """One measurement plan in file units (a :class:`~tmakit.scenario.MeasurementPlan`).
 
     ``kind``, ``sensor``, ``times`` (s); ``sigma`` in the kind's file unit (deg, deg/s, dB, Hz,
-    m, m/s) or, for power, ``snr_db`` (dB); range differences: ``pri`` (s) and ``lags``.
+    m, m/s, s) or, for power, ``snr_db`` (dB); range differences: ``pri`` (s) and ``lags``;
+    differences between sensors (``tdoa``, ``fdoa``): ``ref_sensor`` and ``sensor`` (one
+    pair), ``sensors`` (several against the reference) or ``sensor = "all"`` (every other
+    sensor against it), ``noise`` (``shared`` or ``independent``) and, for ``fdoa``,
+    ``known_carrier``.
     """
 
     kind: str
-    sensor: str
+    sensor: str | None = None
+    sensors: list[str] | None = None
+    ref_sensor: str | None = None
+    noise: str = "shared"
+    known_carrier: bool = False
     times: Times
     sigma: float | None = Field(default=None, gt=0, description="in the kind's file unit")
     snr_db: float | None = None
@@ -293,10 +301,28 @@ class _Builder:
         out["path_loss_exponent"] = e.path_loss_exponent
         return out
 
-    def plan(self, m: MeasurementSpec) -> MeasurementPlan:
+    def plans(self, m: MeasurementSpec, sensor_ids: list[str]) -> list[MeasurementPlan]:
         times = m.times.values() if isinstance(m.times, TimeRange) else np.asarray(m.times)
         sigma = None if m.sigma is None else float(KINDS[m.kind]().sigma_to_si(m.sigma))
-        return MeasurementPlan(m.kind, m.sensor, times, sigma, m.snr_db, m.pri, tuple(m.lags))
+        return [MeasurementPlan(m.kind, sensor, times, sigma, m.snr_db, m.pri, tuple(m.lags),
+                                m.ref_sensor, m.noise, m.known_carrier)
+                for sensor in self.plan_sensors(m, sensor_ids)]
+
+    @staticmethod
+    def plan_sensors(m: MeasurementSpec, sensor_ids: list[str]) -> list[str]:
+        """The sensors of one entry: its ``sensor``, its ``sensors``, or all but the reference."""
+        if (m.sensor is None) == (m.sensors is None):
+            raise ValueError(f"measurement of kind {m.kind!r}: give sensor or sensors (a list "
+                             "against one ref_sensor), one of them")
+        if m.sensors is not None:
+            if m.ref_sensor is None:
+                raise ValueError(f"measurement of kind {m.kind!r}: sensors = [...] names "
+                                 "several sensors against one ref_sensor, which is missing")
+            return list(m.sensors)
+        if m.sensor == "all" and m.ref_sensor is not None and "all" not in sensor_ids:
+            return [s for s in sensor_ids if s != m.ref_sensor]
+        assert m.sensor is not None
+        return [m.sensor]
 
     def build(self, source: str) -> Scenario:
         sensors: dict[str, SensorTrack] = {}
@@ -307,7 +333,8 @@ class _Builder:
         motion, truth = self.motion_and_truth()
         return Scenario(
             name=self.spec.name, motion=motion, truth=truth, sensors=sensors,
-            plans=[self.plan(m) for m in self.spec.measurements], nuisance=self.nuisance(),
+            plans=[p for m in self.spec.measurements for p in self.plans(m, list(sensors))],
+            nuisance=self.nuisance(),
             description=self.spec.title or self.spec.description,
             origin=None if self.spec.origin is None else (
                 self.spec.origin[0], self.spec.origin[1], self.spec.origin[2]),

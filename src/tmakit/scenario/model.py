@@ -23,7 +23,8 @@ from .. import rules
 from ..core.keywords import RngLike, as_generator
 from ..core.units import snr_to_sigma_db
 from ..data import MeasurementSet
-from ..measurements import KINDS, interval_count
+from ..measurements import KINDS, interval_count, options_with_metadata
+from ..measurements.tdoa import noise_form
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..sensors import SensorTrack
@@ -55,13 +56,24 @@ class MeasurementPlan:
     lags : tuple of int, optional
         Range differences only: how many intervals back each difference reaches (>= 1);
         the noise accumulates one term per interval (Chen & Sun, eq. 1).
+    ref_sensor : str, optional
+        Differences between sensors (``tdoa``, ``fdoa``) only, and required there: the
+        reference sensor (a key of :attr:`Scenario.sensors`, not ``sensor``).
+    noise : str, optional
+        Differences between sensors only: ``"shared"`` (default; the reference's error is
+        common to the plans that share it at a time, :mod:`tmakit.measurements.tdoa`) or
+        ``"independent"``.
+    known_carrier : bool, optional
+        ``fdoa`` only: the estimators are told the emitter's carrier (the file's
+        ``# fdoa_carrier``); by default it is an unknown nuisance parameter.
 
     Raises
     ------
     ValueError
         If the kind is unknown, the times are empty or not increasing, ``sigma`` is missing
-        or not positive (power: both ``sigma`` and ``snr_db`` given), or a range-difference
-        plan has no positive ``pri`` or a lag below 1.
+        or not positive (power: both ``sigma`` and ``snr_db`` given), a range-difference
+        plan has no positive ``pri`` or a lag below 1, or a difference between sensors has no
+        other ``ref_sensor``.
 
     References
     ----------
@@ -75,6 +87,9 @@ class MeasurementPlan:
     snr_db: float | None = None
     pri: float | None = None
     lags: tuple[int, ...] = (1,)
+    ref_sensor: str | None = None
+    noise: str = "shared"
+    known_carrier: bool = False
 
     def __post_init__(self) -> None:
         """Check the plan and normalise ``times`` (float array) and ``lags`` (ints)."""
@@ -90,7 +105,16 @@ class MeasurementPlan:
                 raise ValueError("power: give either snr_db or sigma, not both")
         elif self.sigma is None or not self.sigma > 0:
             raise ValueError(f"{self.kind} from {self.sensor}: sigma must be positive")
-        if KINDS[self.kind].uses_reference:  # range differences: pulse interval and lags
+        if KINDS[self.kind].between_sensors:
+            if self.ref_sensor is None or self.ref_sensor == self.sensor:
+                raise ValueError(f"{self.kind} from {self.sensor}: name its reference sensor "
+                                 "(ref_sensor), another sensor than the plan's own")
+            self.noise = noise_form(self.noise, f"{self.kind} from {self.sensor}: noise")
+        elif self.ref_sensor is not None:
+            between = ", ".join(k for k, c in KINDS.items() if c.between_sensors)
+            raise ValueError(f"{self.kind} from {self.sensor}: only differences between "
+                             f"sensors ({between}) have a ref_sensor")
+        elif KINDS[self.kind].uses_reference:  # range differences: pulse interval and lags
             if self.pri is None or not self.pri > 0:
                 raise ValueError(f"{self.kind}: the pulse repetition interval pri (s) "
                                  "must be positive")
@@ -100,7 +124,9 @@ class MeasurementPlan:
 
 
 def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
-                 gen: np.random.Generator) -> NDArray[np.float64]:
+                 gen: np.random.Generator,
+                 shared: dict[tuple[str, str, float], float] | None = None
+                 ) -> NDArray[np.float64]:
     """Draw the plan's measurement noise on its noise-free values.
 
     Parameters
@@ -113,6 +139,10 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
         The noise-free values (SI).
     gen : numpy.random.Generator
         The random source.
+    shared : dict, optional
+        One run's draws of the reference sensors' errors by (kind, reference, time), shared
+        by the plans of differences between sensors that have the same reference (filled
+        here as needed, in plan order).
 
     Returns
     -------
@@ -127,7 +157,8 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
 
     References
     ----------
-    Gu et al. (2007), §2 (power noise); Chen & Sun, eq. 1 (range differences from ΔTOA).
+    Gu et al. (2007), §2 (power noise); Chen & Sun, eq. 1 (range differences from ΔTOA);
+    Chan & Ho (1994) (differences against one reference sensor).
     """
     if plan.kind == "power" and plan.snr_db is not None:
         # Gu et al. (2007), §2: P_hat = P + eta with var(eta / P) = 1 / SNR_p.
@@ -137,7 +168,16 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
                              "multiplicative noise model (a power came out negative); "
                              "give sigma in dB instead")
         return cast(NDArray[np.float64], clean + 10.0 * np.log10(1.0 + rel_noise))
-    if KINDS[plan.kind].uses_reference:
+    if KINDS[plan.kind].between_sensors and plan.noise == "shared":
+        # sigma / sqrt(2) (own error - reference's): covariance sigma_i sigma_j (I + 11')/2
+        own = gen.standard_normal(clean.shape)
+        draws = {} if shared is None else shared
+        keys = [(plan.kind, str(plan.ref_sensor), t) for t in rows.time.tolist()]
+        new = [k for k in dict.fromkeys(keys) if k not in draws]
+        draws.update(zip(new, gen.standard_normal(len(new)).tolist(), strict=True))
+        ref = np.array([draws[k] for k in keys])
+        return cast(NDArray[np.float64], clean + rows.sigma_si * (own - ref) / np.sqrt(2.0))
+    if KINDS[plan.kind].uses_reference and not KINDS[plan.kind].between_sensors:
         # One independent noise term per pulse interval, summed over each difference.
         assert plan.pri is not None and plan.sigma is not None
         t0 = float(rows.time_ref.min())
@@ -248,12 +288,19 @@ class Scenario:
         """Set :attr:`theta` and check the plans against the sensors and the nuisance truth."""
         self.theta = self.motion.theta(self.truth)
         for plan in self.plans:
-            if plan.sensor not in self.sensors:
-                raise ValueError(f"{plan.kind} plan uses sensor {plan.sensor!r}, which the "
-                                 f"scenario does not define ({', '.join(self.sensors)})")
+            for name in (plan.sensor, plan.ref_sensor):
+                if name is not None and name not in self.sensors:
+                    raise ValueError(f"{plan.kind} plan uses sensor {name!r}, which the "
+                                     f"scenario does not define ({', '.join(self.sensors)})")
         kinds = {p.kind for p in self.plans}
-        if "frequency" in kinds and "carrier" not in self.nuisance:
-            raise ValueError("frequency measurements need the emitter's carrier (Hz)")
+        for kind in ("frequency", "fdoa"):
+            if kind in kinds and "carrier" not in self.nuisance:
+                raise ValueError(f"{kind} measurements need the emitter's carrier (Hz)")
+        for kind in kinds:
+            forms = {(p.noise, p.known_carrier) for p in self.plans if p.kind == kind}
+            if KINDS[kind].between_sensors and len(forms) > 1:
+                raise ValueError(f"the {kind} plans differ in their noise form or known "
+                                 "carrier: one form per kind")
         if "power" in kinds and "power_constant_db" not in self.nuisance:
             raise ValueError("power measurements need the emitter's power constant")
 
@@ -273,7 +320,18 @@ class Scenario:
             opts["frequency"] = {"drift": self.nuisance.get("carrier_drift", 0.0) != 0.0}
         if "power" in self.kinds:
             opts["power"] = {"exponent": self.nuisance.get("path_loss_exponent", 2.0)}
+        opts.update(options_with_metadata(self.kinds, None, self._between_metadata()))
         return opts
+
+    def _between_metadata(self) -> dict[str, str]:
+        """Give the metadata of the differences between sensors: noise form and known carrier."""
+        meta: dict[str, str] = {}
+        for plan in self.plans:
+            if plan.noise == "independent":
+                meta[f"{plan.kind}_noise"] = "independent"
+            if plan.kind == "fdoa" and plan.known_carrier:
+                meta["fdoa_carrier"] = repr(float(self.nuisance["carrier"]))
+        return meta
 
     def time_span(self) -> tuple[float, float]:
         """Give the first and last sample time of the plans.
@@ -311,7 +369,12 @@ class Scenario:
         """
         track = self.sensors[plan.sensor]
         model = KINDS[plan.kind]
-        if model.uses_reference:  # differences with earlier samples, lags back
+        if model.between_sensors:  # against the reference sensor at the same times
+            assert plan.ref_sensor is not None  # MeasurementPlan refuses one without it
+            times = time_ref = plan.times
+            ref_state = self.sensors[plan.ref_sensor].states(times)
+            sigma_si = np.full(times.shape, float(plan.sigma or 0.0))
+        elif model.uses_reference:  # differences with earlier samples, lags back
             t_all, t_ref_all, lag_all = [], [], []
             assert plan.pri is not None  # MeasurementPlan refuses a difference without it
             pri = plan.pri
@@ -439,7 +502,8 @@ class Scenario:
         values = np.empty((len(rngs) + 1, len(template)))  # the last: noise-free
         for i in range(len(rngs) + 1):
             gen = as_generator(rngs[i]) if noise and i < len(rngs) else None
-            parts = [clean if gen is None else noisy_values(plan, rows, clean, gen)
+            shared: dict[tuple[str, str, float], float] = {}  # the reference sensors' errors
+            parts = [clean if gen is None else noisy_values(plan, rows, clean, gen, shared)
                      for plan, rows, clean, _ in plans]
             for k, (plan, rows, clean, period) in enumerate(plans):
                 if period is not None:  # files carry bearings in [0, 360) deg
@@ -474,6 +538,7 @@ class Scenario:
             meta["ref_time"] = repr(float(ref_time))
         if self.nuisance:
             meta["nuisance"] = json.dumps(self.nuisance, sort_keys=True)
+        meta.update(self._between_metadata())
         if self.origin is not None:
             meta["origin_lat"], meta["origin_lon"], meta["origin_alt"] = (
                 repr(float(v)) for v in self.origin)
