@@ -2,9 +2,9 @@
 
 Differences between sensors (TDOA, FDOA) at one time that share a reference sensor are
 correlated through its error (:mod:`tmakit.measurements.tdoa`): one block per time and
-reference.  Range differences of one sensor are correlated when their spans ``(time_ref, time]`` share
-pulse intervals (Chen & Sun, eq. 1): the covariance of two rows is the length of the overlap
-of their spans times the noise density.  Rows whose spans overlap, directly or through other
+reference.  Range differences of one sensor are correlated when their spans
+``(time_ref, time]`` share pulse intervals (Chen & Sun, eq. 1): the covariance of two rows
+is the length of the overlap of their spans times the noise density.  Rows whose spans overlap, directly or through other
 rows, form a group; rows of different groups are independent, so the covariance is
 block-diagonal by group and each group is one block (found in ``O(m log m)`` by sorting the
 spans by their start).  A row that overlaps no other is independent with its own sigma.  A

@@ -310,7 +310,7 @@ class _Builder:
 
     @staticmethod
     def plan_sensors(m: MeasurementSpec, sensor_ids: list[str]) -> list[str]:
-        """The sensors of one entry: its ``sensor``, its ``sensors``, or all but the reference."""
+        """Name the sensors of one entry: ``sensor``, ``sensors``, or all but the reference."""
         if (m.sensor is None) == (m.sensors is None):
             raise ValueError(f"measurement of kind {m.kind!r}: give sensor or sensors (a list "
                              "against one ref_sensor), one of them")

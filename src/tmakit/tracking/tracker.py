@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..data import MeasurementSet
 from ..filters import BearingPrior, GaussianSumFilter, Track
+from ..measurements import options_with_metadata
 from .errors import TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim
 from .initiators import (
@@ -142,7 +143,8 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
         raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
     tracker = renamed_keyword("track", "filter", filter, "tracker", tracker, "ekf")
     filter_class(tracker)
-    setup = FilterSetup.create(tracker, filter_dim(meas, dim), q, particles, rng, options,
+    setup = FilterSetup.create(tracker, filter_dim(meas, dim), q, particles, rng,
+                               options_with_metadata(meas.kinds, options, meas.metadata),
                                q_density, settings)
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")

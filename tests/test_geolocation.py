@@ -1,0 +1,152 @@
+"""TDOA and FDOA between sensors: the noise shared through the reference sensor, the bound,
+the maximum likelihood, files and scenario files (issue 30, items 1 and 2)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit.data import MeasurementSet
+from tmakit.io import MeasurementFileError
+from tmakit.measurements import shared_reference_covariance
+from tmakit.observation import NoiseModel
+from tmakit.units import SPEED_OF_LIGHT
+
+LAYOUT = Path(__file__).parent / "data" / "geolocation" / "four_sensors.toml"
+SENSORS = np.array([[0.0, 0.0, 0.0], [10e3, 0.0, 0.0], [0.0, 10e3, 0.0], [10e3, 10e3, 0.0]])
+EMITTER = np.array([4e3, 7e3, 0.0])
+SIGMA_M = 10.0  # one difference's std as a range (m)
+
+
+def fixed_tdoa_set(emitter: np.ndarray = EMITTER, times: int = 10,
+                   metadata: dict[str, str] | None = None) -> MeasurementSet:
+    """Sensors 2-4 against sensor 1 at ``times`` times, noise-free, sigma 10 m / c."""
+    rows = [(t, i) for t in range(times) for i in (1, 2, 3)]
+    t = np.array([r[0] for r in rows], float)
+    idx = np.array([r[1] for r in rows])
+    own = np.zeros((len(rows), 6))
+    own[:, :3] = SENSORS[idx]
+    ref = np.zeros((len(rows), 6))
+    ref[:, :3] = SENSORS[0]
+    value = (np.linalg.norm(emitter - SENSORS[idx], axis=1)
+             - np.linalg.norm(emitter - SENSORS[0])) / SPEED_OF_LIGHT
+    return MeasurementSet.from_si(t, [f"S{i + 1}" for i in idx], ["tdoa"] * len(rows), value,
+                                  np.full(len(rows), SIGMA_M / SPEED_OF_LIGHT), own, t, ref,
+                                  metadata)
+
+
+def hand_fisher(times: int, shared: bool) -> np.ndarray:
+    """The Fisher information of the 2-D emitter position, written out by hand."""
+    unit = [(EMITTER - s) / np.linalg.norm(EMITTER - s) for s in SENSORS]
+    h = np.array([(unit[i] - unit[0])[:2] / SPEED_OF_LIGHT for i in (1, 2, 3)])
+    r = (SIGMA_M / SPEED_OF_LIGHT) ** 2 * ((np.eye(3) + np.ones((3, 3))) / 2 if shared
+                                           else np.eye(3))
+    return times * h.T @ np.linalg.solve(r, h)
+
+
+@pytest.mark.parametrize("shared", [True, False])
+def test_bound_equals_the_hand_written_fisher_matrix(shared):
+    meas = fixed_tdoa_set(metadata=None if shared else {"tdoa_noise": "independent"})
+    bound = tk.crlb(meas, tk.motion_from_name("static2d"), truth=EMITTER[:2])
+    want = np.linalg.inv(hand_fisher(10, shared))
+    assert np.allclose(bound.covariance, want, rtol=1e-9)
+
+
+def test_noise_model_whitens_by_blocks_of_one_time_and_reference():
+    meas = fixed_tdoa_set(times=3)
+    noise = NoiseModel(meas)
+    assert noise.correlated and noise.rank == 9
+    sigma = SIGMA_M / SPEED_OF_LIGHT
+    want = np.kron(np.eye(3), sigma**2 * (np.eye(3) + np.ones((3, 3))) / 2)
+    assert np.allclose(shared_reference_covariance(np.full(3, sigma)), want[:3, :3])
+    # whitening by the blocks gives unit covariance: W R W' = I
+    w = noise.whiten(np.eye(9), axis=0)
+    assert np.allclose(w @ want @ w.T, np.eye(9), atol=1e-9)
+    assert np.allclose(noise.covariance(), want, rtol=1e-12)
+
+
+def test_bad_metadata_noise_form_is_refused():
+    with pytest.raises(ValueError, match=r"tdoa_noise.*shared, independent"):
+        tk.crlb(fixed_tdoa_set(metadata={"tdoa_noise": "sometimes"}),
+                tk.motion_from_name("static2d"), truth=EMITTER[:2])
+
+
+def test_simulated_noise_has_the_shared_covariance():
+    scenario = tk.load_scenario(LAYOUT)
+    template, values = scenario.simulate_values(list(range(3000)))
+    err = values - template.value_si
+    tdoa = np.flatnonzero((template.kind == "tdoa") & (template.time == 0.0))
+    sigma = template.sigma_si[tdoa]
+    got = np.cov(err[:, tdoa].T) / np.outer(sigma, sigma)
+    # 3000 draws: the standard error of a sample correlation near 0.5 is about 0.014
+    assert np.allclose(got, (np.eye(3) + np.ones((3, 3))) / 2, atol=0.06)
+    fdoa = np.flatnonzero((template.kind == "fdoa") & (template.time == 0.0))
+    got = np.cov(err[:, fdoa].T)
+    assert np.allclose(got, [[1.0, 0.5], [0.5, 1.0]], atol=0.08)
+    # rows at different times, or against different references, are independent
+    later = np.flatnonzero((template.kind == "tdoa") & (template.time == 10.0))
+    assert abs(np.corrcoef(err[:, tdoa[0]], err[:, later[0]])[0, 1]) < 0.06
+    assert abs(np.corrcoef(err[:, tdoa[0]], err[:, fdoa[0]])[0, 1]) < 0.06
+
+
+def test_maximum_likelihood_reaches_the_bound_over_a_seeded_monte_carlo():
+    """TDOA against S1 and FDOA against S4 (unknown carrier), a moving emitter: the
+    estimate's RMSE over 150 seeded runs within 0.8-1.25 of the CRLB (150 runs: the RMSE's
+    relative standard error is about 6 %), and the errors inside the printed 2-sigma box."""
+    scenario = tk.load_scenario(LAYOUT)
+    bound = tk.crlb(scenario)
+    errors = []
+    for meas in scenario.simulate_many(list(range(150))):
+        fit = tk.estimate(meas, scenario.motion)
+        assert fit.status == "converged"
+        errors.append(fit.estimate - scenario.theta)
+    rmse = np.sqrt(np.mean(np.square(errors), axis=0))
+    ratio = rmse / bound.std[:4]
+    assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
+
+
+def test_filters_take_the_rows(tmp_path):
+    scenario = tk.load_scenario(LAYOUT)
+    meas = scenario.simulate(rng=4)
+    for tracker in ("ekf", "ukf"):
+        track = tk.track(meas, tracker)
+        err = track.states[-1, :2] - scenario.target_states(track.times[-1])[0, :2]
+        assert np.all(np.abs(err) < 5 * np.sqrt(np.diag(track.covariances[-1])[:2]))
+
+
+def test_file_round_trip_and_refusals(tmp_path):
+    meas = fixed_tdoa_set(times=2, metadata={"tdoa_noise": "independent"})
+    path = tmp_path / "tdoa.csv"
+    tk.write_measurements(meas, path)
+    back = tk.read_measurements(path)
+    assert back.equals(meas) and back.metadata["tdoa_noise"] == "independent"
+    lines = path.read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    header = lines[head].split(",")
+    lines = [*lines[:head - 1], *lines[head - 1:]]
+    at = header.index("time_ref")
+    row = lines[head + 1].split(",")
+    row[at] = str(float(row[0]) - 1.0)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join([*lines[:head + 1], ",".join(row), *lines[head + 2:]]) + "\n")
+    with pytest.raises(MeasurementFileError, match=r"time_ref.*own time"):
+        tk.read_measurements(bad)
+    row = lines[head + 1].split(",")
+    for axis in ("x", "y", "z", "vx", "vy", "vz"):
+        row[header.index(f"ref_sensor_{axis}")] = ""
+    bad.write_text("\n".join([*lines[:head + 1], ",".join(row), *lines[head + 2:]]) + "\n")
+    with pytest.raises(MeasurementFileError, match="reference sensor's state"):
+        tk.read_measurements(bad)
+
+
+def test_scenario_file_refuses_a_difference_without_its_reference():
+    data = tk.read_scenario_file(LAYOUT)  # the file is good
+    assert {p.ref_sensor for p in data.plans} == {"S1", "S4"}
+    assert sorted(p.sensor for p in data.plans if p.kind == "tdoa") == ["S2", "S3", "S4"]
+    with pytest.raises(ValueError, match="ref_sensor"):
+        tk.MeasurementPlan("tdoa", "S2", np.arange(3.0), 1e-8)
+    with pytest.raises(ValueError, match="ref_sensor"):
+        tk.MeasurementPlan("bearing", "S2", np.arange(3.0), 0.01, ref_sensor="S1")
