@@ -13,6 +13,9 @@ The short forms are :func:`estimator` and :func:`estimate_with`.
   ``kinds`` power, frequency, or both).
 * ``lecture-gn`` — the Doppler-tracking lecture notes, Gauss–Newton on
   [X_N Y_N Z_N Vx Vy Vz f_o] (:class:`~tmakit.batch.lecture.LectureGaussNewton`).
+* ``chan-ho``, ``ho-xu`` — the closed forms of Chan & Ho (1994) (TDOA, stationary source)
+  and Ho & Xu (2004) (TDOA and FDOA, moving source) on the set's largest snapshot
+  (:mod:`tmakit.batch.hyperbolic`); no start needed.
 
 The papers' methods are local iterations and need a starting point.  When none is given they
 start from tmakit's own no-guess start: the best point of the likelihood grid
@@ -35,6 +38,7 @@ from ..results.estimate import EstimateResult
 from .dispatch import MLByMotion
 from .estimator import BatchEstimator, Init, Options
 from .gu_direct import GuDirect
+from .hyperbolic import ChanHo, HoXu
 from .lecture import LectureGaussNewton
 from .ratios import RatioMethod
 
@@ -102,6 +106,8 @@ METHODS: dict[str, Method] = {
                     "Gu et al. (2007) §4, power and Doppler ratios"),
     "lecture-gn": Method(LectureGaussNewton,
                          summary="the Doppler-tracking lecture's Gauss–Newton"),
+    "chan-ho": Method(ChanHo, summary="Chan & Ho (1994), closed-form TDOA (stationary source)"),
+    "ho-xu": Method(HoXu, summary="Ho & Xu (2004), closed-form TDOA + FDOA (moving source)"),
 }
 """Batch estimators by name; each builds a :class:`~tmakit.batch.estimator.BatchEstimator`
 whose ``fit`` returns an :class:`~tmakit.results.EstimateResult`."""

@@ -28,6 +28,7 @@ from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
 from .estimator import BatchEstimator, Init, Options
+from .hyperbolic import closed_form_starts
 from .init import GridSettings
 from .mirror import mirror_plane, prefer_above
 from .presolve import grid_starts, presolve_subset, solve_all_rows
@@ -376,6 +377,9 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
                         ) -> list[Best | None]:
     """Fit each data set globally, no guess (same times, sensors, noise for all).
 
+    0. With TDOA rows, the closed form (Chan & Ho (1994), or Ho & Xu (2004) with FDOA and a
+       known carrier, :mod:`tmakit.batch.hyperbolic`) is solved first; a set whose fit from
+       it converges with a plausible chi2 needs no grid.
     1. The best grid starts are solved in one batch: only the best one with bearings (the
        grid lies along them), else the best ``grid.starts`` — Doppler and power alone have
        local minima whose chi2 is plausible.
@@ -412,7 +416,6 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     dof = problem.noise.rank - problem.p - (0 if problem.fixed is not None else problem.k)
     has_bearings = "bearing" in problem.obs.models  # (the kinds present)
     subset = presolve_subset(problem)  # many rows: the grid and the presolve on one subset
-    starts = grid_starts(problem, ys, g, subset)
     best: list[Best | None] = [None] * b
 
     def solve(blocks: dict[int, NDArray[np.float64]]) -> None:
@@ -432,9 +435,17 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
         return [r for r, f in enumerate(best) if f is None or not (
             f.converged and plausible_chi2(2.0 * f.cost, dof))]
 
+    closed = closed_form_starts(problem.obs, ys)  # TDOA: Chan & Ho, Ho & Xu
+    solve(closed)
+    todo = unsettled() if closed else list(range(b))
+    if not todo:
+        _prefer_above(problem, best)
+        return best
+    grid = dict(zip(todo, grid_starts(problem, ys if len(todo) == b else ys[todo], g, subset),
+                    strict=True))
     first = 1 if has_bearings else g.starts
-    solve(dict(enumerate(first_of_many(starts, first))))
-    more = first_of_many([starts[r] for r in unsettled()], max(24, g.starts))
+    solve(dict(zip(todo, first_of_many([grid[r] for r in todo], first), strict=True)))
+    more = first_of_many([grid[r] for r in unsettled()], max(24, g.starts))
     solve({r: th[first:] for r, th in zip(unsettled(), more, strict=True)})
     if again := unsettled():
         dense = grid_starts(problem, ys[again], DENSE_GRID, subset)

@@ -1,0 +1,524 @@
+"""Closed-form geolocation from differences between sensors: Chan & Ho (1994), Ho & Xu (2004).
+
+Both are two-stage weighted least squares.  With ``s_i`` the sensors, ``s_1`` the reference,
+``r_i1`` the range differences (``c`` times the TDOAs) and ``u`` the source, squaring
+``r_i = r_i1 + r_1`` makes each TDOA linear in ``phi_1 = [u, r_1]``::
+
+    -2 (s_i - s_1)' u - 2 r_i1 r_1 = r_i1^2 - |s_i|^2 + |s_1|^2            (TDOA)
+
+and its time derivative linear in ``[u, r_1, u_dot, r_1_dot]`` with the range-rate differences
+``rdot_i1`` (``-c / f0`` times the FDOAs) and the sensor velocities (Ho & Xu (2004))::
+
+    -2 (s_dot_i - s_dot_1)' u - 2 rdot_i1 r_1 - 2 (s_i - s_1)' u_dot - 2 r_i1 rdot_1
+        = 2 r_i1 rdot_i1 - 2 s_i' s_dot_i + 2 s_1' s_dot_1                 (FDOA)
+
+Stage 1 solves these by weighted least squares, the weight ``(B Q B')^-1`` with ``Q`` the
+covariance of the differences (shared reference: :mod:`tmakit.measurements.tdoa`) and ``B``
+the first-order map from their noise to the equations' errors (``2 r_i``, ``2 rdot_i``),
+recomputed twice from the estimate.  Stage 2 imposes ``r_1 = |u - s_1|`` (and ``r_1 rdot_1 =
+(u - s_1)' (u_dot - s_dot_1)``) by a second weighted least squares in the squares
+``(u - s_1)^2`` (and products ``(u - s_1)(u_dot - s_dot_1)``) of each coordinate, weighted by
+stage 1's covariance.  At small noise both reach the CRLB (Chan & Ho (1994); Ho & Xu (2004)).
+
+A known source height (a source on the ground, or any known ENU height: the 2-D motion models'
+plane) removes the vertical coordinate from both stages: its terms move to the right-hand side,
+and the vertical velocity is zero.
+
+The rows used are one *snapshot*: the differences against one reference sensor position (for
+a stationary source at every time, the reference's rows stacked; for a moving one, at one
+time), the paper's setting; :func:`snapshot_rows` chooses the largest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..arrays import Array
+from ..data import MeasurementSet
+from ..measurements import model_for, options_with_metadata
+from ..motion import ConstantVelocity, MotionModel, Stationary
+from ..observation import ObservationModel
+from ..observation.noise import NoiseModel
+from ..observation.noise_blocks import correlated_blocks
+from ..results.estimate import EstimateResult, assemble_result
+from ..units import SPEED_OF_LIGHT
+from .estimator import BatchEstimator, Init, Options
+
+__all__ = ["ChanHo", "HoXu", "Snapshot", "closed_form_theta", "snapshot_rows",
+           "two_stage_wls"]
+
+#: Most rows one closed-form solve takes (its weights are a dense square of this size).
+MAX_SNAPSHOT_ROWS = 400
+
+
+def _solve_weighted(g: Array, h: Array, cov: Array) -> tuple[Array, Array]:
+    """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1`` (pseudo-inverses)."""
+    w = np.linalg.pinv(cov, hermitian=True)
+    info = g.T @ w @ g
+    inv = np.linalg.pinv(info, hermitian=True)
+    return inv @ (g.T @ (w @ h)), inv
+
+
+def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
+                  sensor_vel: Array | None = None, ref_vel: Array | None = None,
+                  rrd: Array | None = None, height: float | None = None
+                  ) -> tuple[Array, Array | None]:
+    """Locate a source from range (and range-rate) differences against one reference.
+
+    Parameters
+    ----------
+    sensors : ndarray, shape (m, 3)
+        The sensors' positions (ENU, m), one per difference.
+    ref : ndarray, shape (3,)
+        The reference sensor's position (m).
+    rd : ndarray, shape (m,)
+        Range differences ``|u - s_i| - |u - s_1|`` (m).
+    cov : ndarray
+        Covariance of ``rd`` ``(m, m)`` (m^2), or of ``[rd, rrd]`` ``(2m, 2m)``.
+    sensor_vel, ref_vel : ndarray, optional
+        Velocities of the sensors ``(m, 3)`` and the reference ``(3,)`` (m/s), with ``rrd``.
+    rrd : ndarray, shape (m,), optional
+        Range-rate differences (m/s) of the same pairs: Ho & Xu (2004); without them Chan & Ho
+        (1994), position only.
+    height : float, optional
+        The source's known ENU height (m); its vertical velocity is then zero.
+
+    Returns
+    -------
+    position : ndarray, shape (3,)
+        The source position (m).
+    velocity : ndarray, shape (3,) or None
+        Its velocity (m/s) with ``rrd``, else None.
+
+    Raises
+    ------
+    ValueError
+        If there are fewer differences than stage 1's unknowns.
+
+    References
+    ----------
+    Chan & Ho (1994) (TDOA, two stages); Ho & Xu (2004) (TDOA and FDOA of a moving source).
+    """
+    moving = rrd is not None
+    free = [0, 1] if height is not None else [0, 1, 2]
+    n = len(free)
+    m = rd.shape[0]
+    if m < n + 1:
+        raise ValueError(f"{m} differences for {n + 1} unknowns of stage 1 (the source's "
+                         f"{n} coordinates and its range from the reference): at least "
+                         f"{n + 1} are needed, from {n + 2} sensors")
+    known = np.zeros(3)
+    if height is not None:
+        known[2] = height
+    ds = sensors - ref
+    g_t = np.zeros((m, 2 * (n + 1) if moving else n + 1))
+    g_t[:, :n] = -2.0 * ds[:, free]
+    g_t[:, n] = -2.0 * rd
+    h_t = rd**2 - np.sum(sensors**2, axis=1) + ref @ ref + 2.0 * ds[:, 2] * known[2] * (n == 2)
+    if moving:
+        assert sensor_vel is not None and ref_vel is not None and rrd is not None
+        dv = sensor_vel - ref_vel
+        g_f = np.zeros_like(g_t)
+        g_f[:, :n] = -2.0 * dv[:, free]
+        g_f[:, n] = -2.0 * rrd
+        g_f[:, n + 1:2 * n + 1] = -2.0 * ds[:, free]
+        g_f[:, 2 * n + 1] = -2.0 * rd
+        h_f = (2.0 * rd * rrd - 2.0 * np.sum(sensors * sensor_vel, axis=1) + 2.0 * ref @ ref_vel
+               + 2.0 * dv[:, 2] * known[2] * (n == 2))
+        g, h = np.vstack([g_t, g_f]), np.concatenate([h_t, h_f])
+    else:
+        g, h = g_t, h_t
+    b = np.eye(g.shape[0])
+    phi, cov1 = _solve_weighted(g, h, cov)
+    for _ in range(2):  # the weights from the estimate (Chan & Ho (1994): B = 2 diag(r_i))
+        pos = known.copy()
+        pos[free] = phi[:n]
+        r = np.linalg.norm(pos - sensors, axis=1)
+        b = np.zeros_like(b)
+        b[:m, :m] = 2.0 * np.diag(r)
+        if moving:
+            assert sensor_vel is not None
+            vel = np.zeros(3)
+            vel[free] = phi[n + 1:2 * n + 1]
+            rdot = np.sum((pos - sensors) * (vel - sensor_vel), axis=1) / r
+            b[m:, :m] = 2.0 * np.diag(rdot)
+            b[m:, m:] = 2.0 * np.diag(r)
+        phi, cov1 = _solve_weighted(g, h, b @ cov @ b.T)
+    return _stage_two(phi, cov1, ref, ref_vel, known, free, moving)
+
+
+def _stage_two(phi: Array, cov1: Array, ref: Array, ref_vel: Array | None, known: Array,
+               free: list[int], moving: bool) -> tuple[Array, Array | None]:
+    """Impose ``r_1 = |u - s_1|`` (and its rate) on stage 1 in the squared coordinates."""
+    n = len(free)
+    fixed = [k for k in range(3) if k not in free]
+    d = phi[:n] - ref[free]
+    r1 = phi[n]
+    off = known[fixed] - ref[fixed]
+    size = 2 * (n + 1) if moving else n + 1
+    g2 = np.zeros((size, 2 * n if moving else n))
+    g2[:n, :n] = np.eye(n)
+    g2[n, :n] = 1.0
+    h2 = np.concatenate([d**2, [r1**2 - off @ off]])
+    b2 = np.zeros((size, size))
+    b2[:n, :n] = 2.0 * np.diag(d)
+    b2[n, n] = 2.0 * r1
+    if moving:
+        assert ref_vel is not None
+        dd = phi[n + 1:2 * n + 1] - ref_vel[free]
+        r1dot = phi[2 * n + 1]
+        off_dot = -ref_vel[fixed]
+        g2[n + 1:2 * n + 1, n:] = np.eye(n)
+        g2[2 * n + 1, n:] = 1.0
+        h2 = np.concatenate([h2, d * dd, [r1 * r1dot - off @ off_dot]])
+        b2[n + 1:2 * n + 1, :n] = np.diag(dd)
+        b2[n + 1:2 * n + 1, n + 1:2 * n + 1] = np.diag(d)
+        b2[2 * n + 1, n] = r1dot
+        b2[2 * n + 1, 2 * n + 1] = r1
+    phi2, _ = _solve_weighted(g2, h2, b2 @ cov1 @ b2.T)
+    sign = np.where(d < 0, -1.0, 1.0)
+    root = sign * np.sqrt(np.abs(phi2[:n]))
+    pos = known.copy()
+    pos[free] = ref[free] + root
+    if not moving:
+        return pos, None
+    assert ref_vel is not None
+    vel = np.zeros(3)
+    # (u - s_1)(u_dot - s_dot_1) over (u - s_1); stage 1's velocity where that is near 0
+    tiny = np.abs(root) < 1e-9 * max(1.0, float(np.max(np.abs(root))))
+    vel[free] = np.where(tiny, phi[n + 1:2 * n + 1],
+                         ref_vel[free] + phi2[n:] / np.where(tiny, 1.0, root))
+    return pos, vel
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The rows one closed-form solve takes: TDOAs against one reference, FDOAs beside them.
+
+    Attributes
+    ----------
+    tdoa : ndarray of int
+        The TDOA rows (of the set given to :func:`snapshot_rows`).
+    fdoa : ndarray of int or None
+        The FDOA rows of the same sensors, times and reference, one per TDOA row (None:
+        TDOA only).
+    time : float
+        The snapshot's time (s): the time of a moving source's estimate.
+    """
+
+    tdoa: NDArray[np.intp]
+    fdoa: NDArray[np.intp] | None
+    time: float
+
+
+def snapshot_rows(meas: MeasurementSet, moving: bool, with_fdoa: bool) -> Snapshot | None:
+    """Choose the largest snapshot of a set: TDOAs against one reference position.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The rows.
+    moving : bool
+        The source moves: the rows of one time only (else all times with that reference
+        position).
+    with_fdoa : bool
+        Pair each TDOA with the FDOA of the same sensor, time and reference (rows without
+        one are left out).
+
+    Returns
+    -------
+    Snapshot or None
+        None without TDOA rows (or, ``with_fdoa``, without pairs).
+    """
+    tdoa = np.flatnonzero(meas.kind_mask("tdoa"))
+    if tdoa.size == 0:
+        return None
+    ref = meas.ref_sensor_state[:, :3]
+    key = np.column_stack([ref[tdoa], meas.time[tdoa] if moving else np.zeros(tdoa.size)])
+    fdoa = None
+    if with_fdoa:
+        f_rows = np.flatnonzero(meas.kind_mask("fdoa"))
+        lookup = {(meas.time[i], meas.sensor_code[i], *ref[i].tolist()): i
+                  for i in f_rows.tolist()}
+        match = np.array([lookup.get((meas.time[i], meas.sensor_code[i], *ref[i].tolist()), -1)
+                          for i in tdoa.tolist()], dtype=np.intp)
+        keep = match >= 0
+        tdoa, key, fdoa = tdoa[keep], key[keep], match[keep]
+        if tdoa.size == 0:
+            return None
+    _, label, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    chosen = np.flatnonzero(label.ravel() == int(np.argmax(counts)))
+    if chosen.size > MAX_SNAPSHOT_ROWS:  # spread over the snapshot's times
+        chosen = chosen[np.linspace(0, chosen.size - 1, MAX_SNAPSHOT_ROWS).astype(int)]
+    rows = tdoa[chosen]
+    return Snapshot(rows, None if fdoa is None else fdoa[chosen], float(meas.time[rows[0]]))
+
+
+def _covariance(meas: MeasurementSet, rows: NDArray[np.intp], kind: str) -> Array:
+    """Give the noise covariance of some rows of one kind (SI units squared)."""
+    model = model_for(kind, options_with_metadata([kind], None, meas.metadata).get(kind))
+    sigma = meas.sigma_si[rows]
+    cov = np.diag(sigma**2)
+    local = np.arange(rows.size)
+    for block, c in correlated_blocks({kind: model}, {kind: local}, meas.time[rows],
+                                      meas.time_ref[rows], sigma, meas.sensor_code[rows],
+                                      False, meas.ref_sensor_state[rows]):
+        cov[np.ix_(block, block)] = c
+    return cov
+
+
+def closed_form_state(meas: MeasurementSet, values: Array, snap: Snapshot,
+                      carrier: float | None, height: float | None
+                      ) -> tuple[Array, Array | None]:
+    """Solve one snapshot: the source position (and velocity, with FDOAs) at its time.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The rows (their geometry and sigmas).
+    values : ndarray
+        The rows' values (SI), in the order of ``meas``.
+    snap : Snapshot
+        The rows to use.
+    carrier : float or None
+        The carrier (Hz) that turns FDOAs into range-rate differences (with ``snap.fdoa``).
+    height : float or None
+        The source's known ENU height (m).
+
+    Returns
+    -------
+    position, velocity
+        As :func:`two_stage_wls`.
+
+    Raises
+    ------
+    ValueError
+        As :func:`two_stage_wls`.
+    """
+    t = snap.tdoa
+    rd = SPEED_OF_LIGHT * values[t]
+    cov = SPEED_OF_LIGHT**2 * _covariance(meas, t, "tdoa")
+    ref = meas.ref_sensor_state[t[0]]
+    if snap.fdoa is None or carrier is None:
+        return two_stage_wls(meas.sensor_state[t, :3], ref[:3], rd, cov, height=height)
+    f = snap.fdoa
+    scale = -SPEED_OF_LIGHT / carrier
+    m = t.size
+    full = np.zeros((2 * m, 2 * m))
+    full[:m, :m] = cov
+    full[m:, m:] = scale**2 * _covariance(meas, f, "fdoa")
+    return two_stage_wls(meas.sensor_state[t, :3], ref[:3], rd, full,
+                         meas.sensor_state[t, 3:], ref[3:], scale * values[f], height)
+
+
+def known_carrier(meas: MeasurementSet, options: Options) -> float | None:
+    """Give the FDOA carrier the options or the set's metadata state (Hz), or None."""
+    opts = options_with_metadata(["fdoa"], options, meas.metadata).get("fdoa", {})
+    value = opts.get("carrier")
+    return None if value is None else float(value)  # type: ignore[arg-type]
+
+
+def source_height(motion: MotionModel) -> float | None:
+    """Give the source's known ENU height: 0 for a 2-D motion model, else None."""
+    return 0.0 if motion.dim == 2 else None
+
+
+def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
+                      options: Options = None) -> Array | None:
+    """Give a start of the motion parameters from the set's best closed form, or None.
+
+    Ho & Xu (2004) for a moving source with TDOA and FDOA pairs and a known carrier, else
+    Chan & Ho (1994) (a moving source then starts at rest at the snapshot's position).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The rows (any kinds; the TDOA and FDOA rows are used).
+    values : ndarray
+        The rows' values (SI), in the order of ``meas``.
+    motion : MotionModel
+        The motion model whose parameters are wanted.
+    options : dict, optional
+        Per-kind model options (the FDOA carrier).
+
+    Returns
+    -------
+    ndarray or None
+        ``(p,)`` motion parameters (SI); None without a usable snapshot, a model that cannot
+        start from a state, or a solve that fails.
+    """
+    moving = not isinstance(motion, Stationary)
+    carrier = known_carrier(meas, options)
+    snap = None
+    if moving and carrier is not None:
+        snap = snapshot_rows(meas, True, True)
+    if snap is None:
+        snap = snapshot_rows(meas, moving, False)
+    if snap is None:
+        return None
+    try:
+        pos, vel = closed_form_state(meas, values, snap, carrier, source_height(motion))
+        state = np.concatenate([pos, np.zeros(3) if vel is None else vel])
+        theta = motion.from_state(state, snap.time)
+    except (ValueError, NotImplementedError, np.linalg.LinAlgError):
+        return None
+    return theta if np.all(np.isfinite(theta)) else None
+
+
+@dataclass(frozen=True, eq=False)
+class _ClosedForm(BatchEstimator):
+    """A closed form on the set's largest snapshot, its covariance the bound at the estimate.
+
+    Parameters
+    ----------
+    init : optional
+        Must be None: a closed form takes no start (the common interface of the methods).
+    options : mapping, optional
+        Per-kind model options (``{"fdoa": {"carrier": 1e9}}``).
+
+    Raises
+    ------
+    ValueError
+        If ``init`` is given.
+    """
+
+    init: Init = None
+    options: Options = None
+    moving: ClassVar[bool] = False
+
+    def __post_init__(self) -> None:
+        """Refuse a start: the closed form needs none."""
+        if self.init is not None:
+            raise ValueError(f"{self.name}: a closed form takes no starting point (--init)")
+
+    def check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
+        """Refuse what the paper does not solve; give the carrier (Hz) it uses, if any."""
+        raise NotImplementedError
+
+    def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
+        """Solve the largest snapshot in closed form.
+
+        Parameters
+        ----------
+        meas : MeasurementSet
+            The measurements (TDOA rows, and FDOA rows for ``ho-xu``).
+        motion : MotionModel
+            ``Stationary`` for ``chan-ho``; ``ConstantVelocity`` for ``ho-xu``.
+
+        Returns
+        -------
+        EstimateResult
+            The estimate, on the snapshot's rows: its covariance and chi2 those of the
+            maximum likelihood's linearisation at the estimate.
+
+        Raises
+        ------
+        ValueError
+            If the motion model, kinds or rows do not suit the method.
+        """
+        carrier = self.check(meas, motion)
+        snap = snapshot_rows(meas, self.moving, self.moving)
+        if snap is None:
+            raise ValueError(f"{self.name}: no TDOA rows"
+                             + (" with FDOA rows of the same sensors, times and reference"
+                                if self.moving else ""))
+        pos, vel = closed_form_state(meas, meas.value_si, snap, carrier, source_height(motion))
+        theta = motion.from_state(np.concatenate([pos, np.zeros(3) if vel is None else vel]),
+                                  snap.time)
+        rows = snap.tdoa if snap.fdoa is None else np.concatenate([snap.tdoa, snap.fdoa])
+        used = meas.take(np.sort(rows))
+        opts = ({"fdoa": {"carrier": carrier}} if carrier is not None
+                else {k: dict(v) for k, v in dict(self.options or {}).items()})
+        obs = ObservationModel(used, motion, opts)
+        noise = NoiseModel(used, obs.models)
+        nu = np.zeros(0)
+        cost = 0.5 * float(np.sum(noise.whiten(used.value_si - obs.predict(theta, nu)) ** 2))
+        note = (f"closed form on {rows.size} of {len(meas)} rows (one reference"
+                + (f", t = {snap.time:g} s" if self.moving else "") + ")")
+        return assemble_result(obs, noise, theta, nu, cost, 0, True, self.name, 1, None, note)
+
+
+@dataclass(frozen=True, eq=False)
+class ChanHo(_ClosedForm):
+    """Chan & Ho (1994): a stationary source from TDOAs, two-stage weighted least squares.
+
+    Parameters
+    ----------
+    options : mapping, optional
+        Per-kind model options (not used by the solve; accepted for the common interface).
+
+    References
+    ----------
+    Chan & Ho (1994).
+    """
+
+    name: ClassVar[str] = "chan-ho"
+
+    def check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
+        """Refuse a moving source; no carrier is used."""
+        if not isinstance(motion, Stationary):
+            raise ValueError("chan-ho: Chan & Ho (1994) locate a stationary source (motion "
+                             f"static2d or static3d), got {motion.name}; use ho-xu with FDOA "
+                             "or ml for a moving one")
+        return None
+
+
+@dataclass(frozen=True, eq=False)
+class HoXu(_ClosedForm):
+    """Ho & Xu (2004): a moving source's position and velocity from TDOAs and FDOAs.
+
+    Parameters
+    ----------
+    options : mapping, optional
+        Per-kind model options; the FDOA carrier must be known (``{"fdoa": {"carrier": f0}}``
+        or the file's ``# fdoa_carrier``).
+
+    References
+    ----------
+    Ho & Xu (2004).
+    """
+
+    name: ClassVar[str] = "ho-xu"
+    moving: ClassVar[bool] = True
+
+    def check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
+        """Refuse a model other than constant velocity, or an unknown carrier."""
+        if not isinstance(motion, ConstantVelocity):
+            raise ValueError("ho-xu: Ho & Xu (2004) locate a source at constant velocity "
+                             f"(motion cv2d or cv3d), got {motion.name}")
+        carrier = known_carrier(meas, self.options)
+        if carrier is None:
+            raise ValueError("ho-xu: the FDOA carrier must be known (the file's "
+                             "'# fdoa_carrier: HZ', or options {'fdoa': {'carrier': HZ}}); "
+                             "use ml to estimate it")
+        return carrier
+
+
+def closed_form_starts(obs: ObservationModel, ys: Array) -> dict[int, Array]:
+    """Give the closed-form start of each data set of a problem with TDOA rows.
+
+    Parameters
+    ----------
+    obs : ObservationModel
+        The problem's rows and motion model.
+    ys : ndarray, shape (B, n)
+        The data sets' values (SI, the grouped row order of ``obs``).
+
+    Returns
+    -------
+    dict of int to ndarray
+        ``(1, p)`` starting parameters by data set; empty without TDOA rows, and without
+        the sets whose closed form fails.
+    """
+    if "tdoa" not in obs.models:
+        return {}
+    out = {}
+    for r in range(ys.shape[0]):
+        theta = closed_form_theta(obs.grouped, ys[r], obs.motion, obs.options)
+        if theta is not None:
+            out[r] = theta[None, :]
+    return out
