@@ -434,9 +434,10 @@ class _ClosedForm(BatchEstimator):
         opts = ({"fdoa": {"carrier": carrier}} if carrier is not None
                 else {k: dict(v) for k, v in dict(self.options or {}).items()})
         obs = ObservationModel(used, motion, opts)
-        noise = NoiseModel(used, obs.models)
+        noise = NoiseModel(obs.grouped, obs.models)
         nu = np.zeros(0)
-        cost = 0.5 * float(np.sum(noise.whiten(used.value_si - obs.predict(theta, nu)) ** 2))
+        cost = 0.5 * float(np.sum(noise.whiten(obs.values_grouped
+                                                - obs.predict_grouped(theta, nu)) ** 2))
         note = (f"closed form on {rows.size} of {len(meas)} rows (one reference"
                 + (f", t = {snap.time:g} s" if self.moving else "") + ")")
         return assemble_result(obs, noise, theta, nu, cost, 0, True, self.name, 1, None, note)

@@ -489,7 +489,7 @@ def grid_start(meas: MeasurementSet, motion: MotionModel,
         When no grid point gives finite predictions.
     """
     obs = ObservationModel(meas, motion, options)
-    problem = VarProProblem(obs, NoiseModel(meas))
+    problem = VarProProblem(obs, NoiseModel(obs.grouped, obs.models))
     starts = best_starts(problem, obs.values)
     if starts.shape[0] == 0:
         raise ValueError("no starting point gives finite predictions; check the data")

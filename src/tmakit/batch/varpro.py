@@ -87,7 +87,8 @@ class VarProProblem:
         # kinds with correlated noise (the hook; range differences) need the full model:
         # without them the rows' sigmas are the model.
         if noise is None:
-            noise = (NoiseModel(obs.grouped) if any(m.correlated_noise for m in obs.models.values())
+            correlated = any(m.correlated_noise for m in obs.models.values())
+            noise = (NoiseModel(obs.grouped, obs.models) if correlated
                      else NoiseModel.independent(obs.sigmas_grouped))
         self.noise = noise
         # Independent rows: the fused Jacobian is made whitened (see _evaluate).

@@ -580,7 +580,7 @@ def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.flo
         j_theta, j_nu = part.jacobian_grouped(theta, nu)  # the noise model is grouped too
         jac = j_theta if known or j_nu.shape[-1] == 0 else np.concatenate([j_theta, j_nu], -1)
         if chunks and noise.correlated:  # whole blocks only: whitened by the chunk's own
-            jac = NoiseModel(part.grouped).whiten(jac, axis=-2, overwrite=True)
+            jac = NoiseModel(part.grouped, part.models).whiten(jac, axis=-2, overwrite=True)
         elif chunks:  # jac is this loop's own array: scaled in place
             jac *= noise.inv_sigma[lo:hi, None]
         w = jac if chunks else noise.whiten(jac, axis=-2, overwrite=True)
