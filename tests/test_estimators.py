@@ -77,7 +77,7 @@ def test_every_object_equals_its_short_form(gu, meas):
 
 def test_the_registry_builds_objects_that_carry_their_names(gu, meas):
     assert list(METHODS) == ["ml", "gu-direct", "ratio-power", "ratio-doppler", "ratio",
-                             "lecture-gn"]
+                             "lecture-gn", "chan-ho", "ho-xu"]
     for name, method in METHODS.items():
         est = method()
         assert isinstance(est, BatchEstimator)

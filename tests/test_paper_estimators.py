@@ -267,7 +267,7 @@ def test_lecture_gauss_newton_checks_the_motion_model():
 # -- the registry ----------------------------------------------------------------------------------
 def test_estimate_with_dispatches_by_name(gu):
     assert set(METHODS) == {"ml", "gu-direct", "ratio-power", "ratio-doppler", "ratio",
-                            "lecture-gn"}
+                            "lecture-gn", "chan-ho", "ho-xu"}
     meas = gu.simulate(rng=5)
     ml = estimate_with("ml", meas, gu.motion)
     assert ml.method == "ml" and ml.status == "converged"

@@ -72,7 +72,7 @@ def estimate(
         help="optional starting point, e.g. x=3000,y=3000,vx=-20,vy=-10")] = None,
     method: Annotated[str, typer.Option(
         help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
-             "ratio-doppler, lecture-gn")] = "ml",
+             "ratio-doppler, lecture-gn, chan-ho (TDOA), ho-xu (TDOA + FDOA)")] = "ml",
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
     origin: OriginOption = None,
     format: FormatOption = None,

@@ -14,7 +14,8 @@ from .outputs import check_outputs, check_particles, write_picture
 # `tma reproduce`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def reproduce(
     name: Annotated[str, typer.Argument(
-        help="gu2007, doppler-lecture, hoerst2010, chen-sun or hurtado2008")],
+        help="gu2007, doppler-lecture, hoerst2010, chen-sun, hurtado2008, chan-ho1994 or "
+             "ho-xu2004")],
     runs: Annotated[int | None, typer.Option(
         help="Monte Carlo runs where the paper has them (0 to skip; default: the paper's "
              "number, gu2007 200, chen-sun 30, hurtado2008 100)")] = None,
@@ -22,6 +23,7 @@ def reproduce(
     as_json: JsonOption = False,
     plot: Annotated[Path | None, typer.Option(
         help="draw the paper's figure (PNG, PDF, SVG; hoerst2010, chen-sun: Fig. 2; "
+             "chan-ho1994, ho-xu2004: MSE against noise; "
              "hurtado2008: Figs. 1-3)")] = None,
     force: Annotated[bool, typer.Option(help="overwrite existing --plot / --output files")
                      ] = False,

@@ -171,7 +171,8 @@ def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, 
     for block in result.crlb:
         unit = "m^2" if block == "position" else "(m/s)^2"
         r_ml, r_cf = result.ratio("ml", block), result.ratio("closed", block)
-        rows = [[s, 20 * np.log10(s), c, a, b, ra, rb] for s, c, a, b, ra, rb in zip(
+        rows = [[_g(s), round(float(20 * np.log10(s)), 1), _g(c), _g(a), _g(b), round(ra, 3),
+                 round(rb, 3)] for s, c, a, b, ra, rb in zip(
             result.sigma_m, result.crlb[block], result.ml[block], result.closed[block], r_ml,
             r_cf, strict=True)]
         t_ml = threshold(result.sigma_m, r_ml, ML_TOLERANCE)
@@ -182,13 +183,19 @@ def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, 
                 f"{_level(t_cf)}")
         sections.append(Section(
             f"{title}: {block} MSE against noise",
-            ["sigma (m)", "10 log10 sigma^2 (dB)", f"CRLB ({unit})", f"ML MSE ({unit})",
-             f"closed-form MSE ({unit})", "ML / CRLB", "closed / CRLB"], rows, note))
+            ["sigma (m)", "sigma^2 (dB)", f"CRLB ({unit})", f"ML MSE ({unit})",
+             f"closed MSE ({unit})", "ML/CRLB", "closed/CRLB"], rows,
+            note + f"; ML runs not converged per level: {result.failed}"))
         figures[f"{block}_ml_ratio"] = r_ml
         figures[f"{block}_closed_ratio"] = r_cf
         figures[f"{block}_ml_threshold_m"] = t_ml
         figures[f"{block}_closed_threshold_m"] = t_cf
     return sections, figures
+
+
+def _g(value: float) -> float:
+    """Round to four significant digits (a printed table)."""
+    return float(f"{value:.4g}")
 
 
 def _level(value: float | None) -> str:
