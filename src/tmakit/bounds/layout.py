@@ -1,0 +1,200 @@
+"""The bound of a sensor layout over many emitter positions: TDOA and FDOA of a fixed emitter.
+
+The planning picture of an EW engineer (``tma gdop``) asks the CRLB of a stationary emitter's
+position at every point of a grid, for one layout of sensor pairs; a large layout asks it for
+millions of rows.  Both are the Fisher information of :func:`tmakit.bounds.crlb` for a
+stationary emitter, written for that case: the rows' derivatives by the emitter position come
+from the sensor and reference states directly, and the noise shared through a reference
+(:mod:`tmakit.measurements.tdoa`) is whitened in closed form.  With the rows of a group (one
+kind, time and reference) ``y_i = h_i / sigma_i`` and covariance
+``D (I + 1 1') D / 2``, its inverse is ``2 D^-1 (I - 1 1' / (1 + m)) D^-1``, so::
+
+    F = 2 sum_i y_i y_i'  -  2 sum_groups s_g s_g' / (1 + m_g),    s_g = sum_{i in g} y_i
+
+linear in the rows (no dense block, whatever its size); independent rows give
+``sum_i y_i y_i'``.  ``tests/test_geolocation.py`` pins it to :func:`tmakit.bounds.crlb`.
+
+CEP (the circular error probable): the radius of the circle about the true position that holds
+the estimate with probability 50 % (90 %), from the horizontal position covariance, not the
+``0.59 (s1 + s2)`` rule of thumb: with ``l1 <= l2`` its eigenvalues and ``x2 = r sin(phi)``
+along the major axis, ``P(r) = int N(r sin phi; 0, l2) erf(r cos phi / sqrt(2 l1)) r cos phi
+dphi`` over ``|phi| < pi / 2``; ``r / sqrt(l2)`` depends on ``l1 / l2`` alone, so it is
+tabulated once (Gauss-Legendre and bisection) and interpolated.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..arrays import Array
+from ..data import MeasurementSet
+from ..measurements import options_with_metadata
+from ..units import SPEED_OF_LIGHT
+
+__all__ = ["LayoutRows", "cep", "layout_information"]
+
+#: Rows a block of the computation holds (bounded memory for millions of rows).
+BLOCK_ROWS = 1 << 18
+
+
+class LayoutRows:
+    """The rows of a layout as the bound needs them: states, sigmas, groups, scale.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        Rows of kinds ``tdoa`` and ``fdoa`` only (their values are not used).
+    carrier : float, optional
+        The FDOA carrier (Hz), when the set's options do not state it.
+
+    Raises
+    ------
+    ValueError
+        For another kind, or FDOA rows without a known carrier.
+    """
+
+    def __init__(self, meas: MeasurementSet, carrier: float | None = None) -> None:
+        other = sorted(set(meas.kinds) - {"tdoa", "fdoa"})
+        if other:
+            raise ValueError(f"the layout bound takes tdoa and fdoa rows, not {', '.join(other)}")
+        opts = options_with_metadata(meas.kinds, None, meas.metadata)
+        fdoa = meas.kind_mask("fdoa")
+        given = opts.get("fdoa", {}).get("carrier", carrier)
+        if fdoa.any() and given is None:
+            raise ValueError("fdoa rows: the bound of a layout needs the carrier (Hz)")
+        f0 = float(given) if given is not None else 0.0  # type: ignore[arg-type]
+        # d value / d range (rate) difference: 1 / c (s/m) for tdoa, -f0 / c (Hz s/m) fdoa
+        scale = np.where(fdoa, -f0 / SPEED_OF_LIGHT, 1.0 / SPEED_OF_LIGHT)
+        self.inv_sigma = np.abs(scale) / meas.sigma_si  # in range (rate) units
+        self.fdoa = fdoa
+        self.sensor, self.ref = meas.sensor_state, meas.ref_sensor_state
+        shared = {k: opts.get(k, {}).get("noise", "shared") == "shared" for k in meas.kinds}
+        alone = np.full(len(meas), -1, dtype=np.int64)  # independent rows: a group each
+        for kind, on in shared.items():
+            if not on:
+                rows = np.flatnonzero(meas.kind_mask(kind))
+                alone[rows] = rows
+        ref = meas.ref_sensor_state
+        keys = (alone, ref[:, 2], ref[:, 1], ref[:, 0], meas.time, meas.kind_code)
+        order = np.lexsort(keys)
+        change = np.zeros(len(meas), dtype=bool)
+        for key in keys:
+            col = key[order]
+            change[1:] |= col[1:] != col[:-1]
+        # the rows in group order, held so (contiguous): the bound reads them in blocks
+        self.sensor, self.ref = self.sensor[order], self.ref[order]
+        self.inv_sigma, self.fdoa = self.inv_sigma[order], self.fdoa[order]
+        #: the first row of each group (of one kind, time and reference), in group order
+        self.starts = np.concatenate([[0], np.flatnonzero(change[1:]) + 1])
+        self.n = len(meas)
+
+
+def _gradients(emitters: Array, states: Array, fdoa: NDArray[np.bool_]) -> Array:
+    """d range (rate) / d emitter position of each row: ``(..., n, 3)``."""
+    rel = emitters[..., None, :] - states[:, :3]
+    r = np.sqrt(np.einsum("...i,...i->...", rel, rel))[..., None]
+    if not fdoa.any():
+        rel /= r
+        return rel
+    unit = rel / r
+    v = -states[:, 3:]  # a stationary emitter: relative velocity = - sensor velocity
+    rdot = np.sum(unit * v, axis=-1, keepdims=True)
+    return np.where(fdoa[:, None], (v - rdot * unit) / r, unit)
+
+
+def layout_information(rows: LayoutRows, emitters: Array, dim: int = 2) -> Array:
+    """Give the Fisher information of a stationary emitter's position at many points.
+
+    Parameters
+    ----------
+    rows : LayoutRows
+        The layout's rows.
+    emitters : ndarray, shape (G, 3)
+        Emitter positions (ENU, m); with ``dim = 2`` their height is known.
+    dim : int, optional
+        2 (east, north; the height known) or 3.
+
+    Returns
+    -------
+    ndarray, shape (G, dim, dim)
+        The information (1/m^2), as :func:`tmakit.bounds.crlb` of a ``static2d`` /
+        ``static3d`` motion model on these rows.
+    """
+    emitters = np.atleast_2d(np.asarray(emitters, dtype=float))
+    info = np.zeros((emitters.shape[0], dim, dim))
+    n, starts = rows.n, rows.starts
+    per_block = max(1, BLOCK_ROWS // max(1, emitters.shape[0]))
+    marks = np.unique(starts[np.searchsorted(starts, np.arange(0, n, per_block),
+                                             side="right") - 1])
+    bounds = np.concatenate([marks, [n]]).tolist()
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):  # blocks of whole groups
+        fd = rows.fdoa[lo:hi]
+        first = starts[np.searchsorted(starts, lo):np.searchsorted(starts, hi)] - lo
+        size = np.diff(np.concatenate([first, [hi - lo]]))
+        # the reference's gradient once per group (its rows share it), then row by row
+        at_ref = _gradients(emitters, rows.ref[lo:hi][first], fd[first])[..., :dim]
+        y = _gradients(emitters, rows.sensor[lo:hi], fd)[..., :dim]
+        y -= np.repeat(at_ref, size, axis=-2)
+        y *= rows.inv_sigma[lo:hi][:, None]
+        s = np.add.reduceat(y, first, axis=-2)  # (G, groups, dim)
+        # R^-1 of a group: 2 D^-1 (I - 1 1' / (1 + m)) D^-1 (a singleton: 1 / sigma^2)
+        info += 2.0 * np.matmul(y.swapaxes(-1, -2), y)
+        s *= np.sqrt(2.0 / (1.0 + size))[:, None]
+        info -= np.matmul(s.swapaxes(-1, -2), s)
+    return info
+
+
+def cep(covariance: Array, probability: float) -> Array:
+    """Give the circular error probable of horizontal position covariances.
+
+    Parameters
+    ----------
+    covariance : ndarray, shape (..., 2, 2)
+        East-north covariances (m^2).
+    probability : float
+        The probability the circle holds (0.5 for CEP50, 0.9 for CEP90).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The radius (m); inf where the covariance is not finite.
+    """
+    finite = np.all(np.isfinite(covariance), axis=(-2, -1))
+    lam = np.linalg.eigvalsh(np.where(finite[..., None, None], covariance, np.eye(2)))
+    major = np.maximum(lam[..., 1], 0.0)
+    ratio = np.clip(lam[..., 0] / np.where(major > 0, major, 1.0), _RATIO_LOW, 1.0)
+    grid, radius = _cep_table(float(probability))
+    return np.where(finite, np.sqrt(major) * np.interp(np.log10(ratio), grid, radius), np.inf)
+
+
+#: The smallest minor/major variance ratio tabled (below it: the 1-D limit, to 1e-6).
+_RATIO_LOW = 1e-12
+
+
+@functools.cache
+def _cep_table(probability: float) -> tuple[Array, Array]:
+    """Tabulate the CEP over the major axis's std against log10(minor / major variance).
+
+    ``P(rho) = int N(rho sin phi) erf(rho cos phi / sqrt(2 k)) rho cos phi dphi`` over
+    ``|phi| < pi / 2`` (the major axis at ``rho sin phi``), Gauss-Legendre, solved by
+    bisection for each ratio ``k``; between the 241 tabled ratios the radius is smooth in
+    ``log k`` (linear interpolation: relative error below 1e-4).
+    """
+    from scipy.special import erf
+
+    log_k = np.linspace(np.log10(_RATIO_LOW), 0.0, 241)
+    k = 10.0 ** log_k[:, None]
+    nodes, weights = np.polynomial.legendre.leggauss(400)
+    phi = 0.5 * np.pi * nodes
+    w = 0.5 * np.pi * weights
+    low, high = np.zeros(k.shape[0]), np.full(k.shape[0], 4.0)
+    for _ in range(60):
+        rho = 0.5 * (low + high)[:, None]
+        p = np.sum(w * np.exp(-0.5 * (rho * np.sin(phi)) ** 2) / np.sqrt(2 * np.pi)
+                   * erf(rho * np.cos(phi) / np.sqrt(2.0 * k)) * rho * np.cos(phi), axis=1)
+        below = p < probability
+        low, high = np.where(below, rho[:, 0], low), np.where(below, high, rho[:, 0])
+    return log_k, 0.5 * (low + high)
