@@ -25,6 +25,7 @@ tabulated once (Gauss-Legendre and bisection) and interpolated.
 from __future__ import annotations
 
 import functools
+import itertools
 
 import numpy as np
 from numpy.typing import NDArray
@@ -93,7 +94,7 @@ class LayoutRows:
 
 
 def _gradients(emitters: Array, states: Array, fdoa: NDArray[np.bool_]) -> Array:
-    """d range (rate) / d emitter position of each row: ``(..., n, 3)``."""
+    """Give each row's range (rate) gradient by the emitter position, ``(..., n, 3)``."""
     rel = emitters[..., None, :] - states[:, :3]
     r = np.sqrt(np.einsum("...i,...i->...", rel, rel))[..., None]
     if not fdoa.any():
@@ -130,7 +131,7 @@ def layout_information(rows: LayoutRows, emitters: Array, dim: int = 2) -> Array
     marks = np.unique(starts[np.searchsorted(starts, np.arange(0, n, per_block),
                                              side="right") - 1])
     bounds = np.concatenate([marks, [n]]).tolist()
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):  # blocks of whole groups
+    for lo, hi in itertools.pairwise(bounds):  # blocks of whole groups
         fd = rows.fdoa[lo:hi]
         first = starts[np.searchsorted(starts, lo):np.searchsorted(starts, hi)] - lo
         size = np.diff(np.concatenate([first, [hi - lo]]))
