@@ -221,3 +221,60 @@ def test_ho_xu_method_on_a_file_with_the_carrier_in_its_metadata(tmp_path):
     res = estimate_with("ho-xu", meas, scenario.motion)
     bound = tk.crlb(scenario)
     assert np.all(np.abs(res.estimate - scenario.theta) < 4 * bound.std)
+
+
+# -- the layout bound and tma gdop (issue 30, item 5) ----------------------------------------
+
+def test_layout_bound_equals_the_crlb_with_moving_sensors_and_fdoa():
+    """Ho & Xu's moving sensors, TDOA and FDOA (known carrier) of a stationary emitter at
+    three times: the layout bound at one point equals tk.crlb (static3d), and the 2-D one
+    (height known) the crlb of static2d."""
+    from tmakit.bounds.layout import LayoutRows, layout_information
+    from tmakit.reproduce import ho_xu2004
+
+    scenario = ho_xu2004.scenario_at(1.0)
+    for plan in scenario.plans:
+        plan.times = np.array([-0.5, 0.0, 0.5])
+    meas = scenario.simulate(rng=0, noise=False)
+    emitter = np.array([2000.0, 2500.0, 0.0])
+    rows = LayoutRows(meas)
+    for dim, name in ((3, "static3d"), (2, "static2d")):
+        want = tk.crlb(meas, tk.motion_from_name(name), truth=emitter[:dim]).covariance
+        got = np.linalg.inv(layout_information(rows, emitter[None, :], dim)[0])
+        assert np.allclose(got, want, rtol=1e-8)
+
+
+def test_cep_against_a_seeded_monte_carlo():
+    from tmakit.bounds.layout import cep
+
+    rng = np.random.default_rng(7)
+    for cov in ([[4.0, 1.0], [1.0, 1.0]], [[1e6, 30.0], [30.0, 1.0]], [[1.0, 0.0], [0.0, 1.0]]):
+        cov = np.array(cov)
+        radius = np.linalg.norm(rng.multivariate_normal([0.0, 0.0], cov, 200_000), axis=1)
+        # 200,000 draws: the sample quantiles are good to about 0.4 %
+        assert cep(cov, 0.5) == pytest.approx(np.quantile(radius, 0.5), rel=0.01)
+        assert cep(cov, 0.9) == pytest.approx(np.quantile(radius, 0.9), rel=0.01)
+    assert cep(np.eye(2), 0.5) == pytest.approx(np.sqrt(2 * np.log(2)), rel=1e-6)
+    assert np.isinf(cep(np.full((2, 2), np.inf), 0.5))
+
+
+def test_tma_gdop_prints_the_map_and_refuses_a_layout_without_pairs(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    runner = CliRunner()
+    picture = tmp_path / "cep.png"
+    res = runner.invoke(app, ["gdop", str(LAYOUT), "--points", "20", "--json",
+                              "--plot", str(picture)])
+    assert res.exit_code == 0, res.output
+    summary = json.loads(res.output)
+    assert picture.stat().st_size > 10_000
+    assert 0 < summary["cep50_m"]["min"] < summary["cep50_m"]["median"]
+    assert summary["cep50_m"]["median"] < summary["cep90_m"]["median"]
+    res = runner.invoke(app, ["gdop", str(LAYOUT), "--plot", str(picture)])
+    assert res.exit_code == 2 and "--force" in res.output
+    res = runner.invoke(app, ["gdop", "bearings-only-2d"])
+    assert res.exit_code == 2 and "no tdoa or fdoa" in res.output

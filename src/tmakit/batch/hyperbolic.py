@@ -114,24 +114,7 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
     known = np.zeros(3)
     if height is not None:
         known[2] = height
-    ds = sensors - ref
-    g_t = np.zeros((m, 2 * (n + 1) if moving else n + 1))
-    g_t[:, :n] = -2.0 * ds[:, free]
-    g_t[:, n] = -2.0 * rd
-    h_t = rd**2 - np.sum(sensors**2, axis=1) + ref @ ref + 2.0 * ds[:, 2] * known[2] * (n == 2)
-    if moving:
-        assert sensor_vel is not None and ref_vel is not None and rrd is not None
-        dv = sensor_vel - ref_vel
-        g_f = np.zeros_like(g_t)
-        g_f[:, :n] = -2.0 * dv[:, free]
-        g_f[:, n] = -2.0 * rrd
-        g_f[:, n + 1:2 * n + 1] = -2.0 * ds[:, free]
-        g_f[:, 2 * n + 1] = -2.0 * rd
-        h_f = (2.0 * rd * rrd - 2.0 * np.sum(sensors * sensor_vel, axis=1) + 2.0 * ref @ ref_vel
-               + 2.0 * dv[:, 2] * known[2] * (n == 2))
-        g, h = np.vstack([g_t, g_f]), np.concatenate([h_t, h_f])
-    else:
-        g, h = g_t, h_t
+    g, h = _stage_one(sensors, ref, rd, free, known, sensor_vel, ref_vel, rrd)
     b = np.eye(g.shape[0])
     phi, cov1 = _solve_weighted(g, h, cov)
     for _ in range(2):  # the weights from the estimate (Chan & Ho (1994): B = 2 diag(r_i))
@@ -149,6 +132,30 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
             b[m:, m:] = 2.0 * np.diag(r)
         phi, cov1 = _solve_weighted(g, h, b @ cov @ b.T)
     return _stage_two(phi, cov1, ref, ref_vel, known, free, moving)
+
+
+def _stage_one(sensors: Array, ref: Array, rd: Array, free: list[int], known: Array,
+               sensor_vel: Array | None, ref_vel: Array | None, rrd: Array | None
+               ) -> tuple[Array, Array]:
+    """Give stage 1's ``G`` and ``h`` (the squared TDOA equations and their time derivative)."""
+    n, m, moving = len(free), rd.shape[0], rrd is not None
+    ds = sensors - ref
+    g_t = np.zeros((m, 2 * (n + 1) if moving else n + 1))
+    g_t[:, :n] = -2.0 * ds[:, free]
+    g_t[:, n] = -2.0 * rd
+    h_t = rd**2 - np.sum(sensors**2, axis=1) + ref @ ref + 2.0 * ds[:, 2] * known[2] * (n == 2)
+    if not moving:
+        return g_t, h_t
+    assert sensor_vel is not None and ref_vel is not None and rrd is not None
+    dv = sensor_vel - ref_vel
+    g_f = np.zeros_like(g_t)
+    g_f[:, :n] = -2.0 * dv[:, free]
+    g_f[:, n] = -2.0 * rrd
+    g_f[:, n + 1:2 * n + 1] = -2.0 * ds[:, free]
+    g_f[:, 2 * n + 1] = -2.0 * rd
+    h_f = (2.0 * rd * rrd - 2.0 * np.sum(sensors * sensor_vel, axis=1) + 2.0 * ref @ ref_vel
+           + 2.0 * dv[:, 2] * known[2] * (n == 2))
+    return np.vstack([g_t, g_f]), np.concatenate([h_t, h_f])
 
 
 def _stage_two(phi: Array, cov1: Array, ref: Array, ref_vel: Array | None, known: Array,

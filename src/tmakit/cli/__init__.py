@@ -7,7 +7,8 @@
     tma crlb FILE --motion cv2d --truth x=..,y=.. [--known-nuisance] [--json]
     tma crlb SCENARIO [--known-nuisance] [--at T] [--json]
     tma estimate FILE [--motion cv2d] [--init x=..,y=..] [--method ml] [--json]
-    tma reproduce gu2007|doppler-lecture|hoerst2010|chen-sun [--runs N] [--seed S] [--plot FILE]
+    tma reproduce gu2007|doppler-lecture|hoerst2010|chen-sun|chan-ho1994|ho-xu2004 [--runs N]
+    tma gdop LAYOUT.toml [--plot cep.png] [--points 100] [--half-width M] [--json]
     tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
     tma track FILE [--filter ekf|ukf|mgekf|pf] [--q Q] [--json] [-o track.csv] [--plot out.png]
     tma plan SCENARIO.toml [-o path.csv] [--plot figs.png] [--runs N] [--seed S] [--json]
@@ -31,6 +32,7 @@ import typer
 
 from .crlb import crlb
 from .estimate import estimate
+from .gdop import gdop
 from .guard import WRITE_ERRORS, guarded, install_sigterm, set_debug, write_failed
 from .importing import examples, import_
 from .montecarlo import montecarlo
@@ -77,7 +79,7 @@ def _root(version: Annotated[bool, typer.Option(
 # Registered in this order: ``tma --help`` lists the commands in it.  Each is guarded: no
 # traceback reaches the user (tmakit.cli.guard).
 for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
-                 plan, demo):
+                 plan, gdop, demo):
     app.command(cls=PlainCommand)(guarded(_command))
 app.command(name="import", cls=PlainCommand)(guarded(import_))
 app.command(cls=PlainCommand)(guarded(examples))
