@@ -129,7 +129,8 @@ def test_a_subset_of_correlated_rows_keeps_their_covariance():
 
 
 def test_batched_whiteners_are_each_blocks_own_decomposition_bit_for_bit():
-    """Blocks of one size are decomposed together; each equals its own eigh, singular ones too."""
+    """Blocks of one size are decomposed together; each equals its own eigh (of the block over
+    its rows' sigmas), singular ones too."""
     rng = np.random.default_rng(1)
     blocks, m = [], 0
     for k in range(120):
@@ -149,10 +150,12 @@ def test_batched_whiteners_are_each_blocks_own_decomposition_bit_for_bit():
     for rows, cov in blocks:
         if np.count_nonzero(cov - np.diag(np.diag(cov))) == 0:
             continue
-        evals, evecs = np.linalg.eigh(cov)
+        inv = 1.0 / sigma[rows]  # decomposed over the rows' sigmas (scale-free)
+        evals, evecs = np.linalg.eigh(cov * inv[:, None] * inv[None, :])
         keep = evals > 1e-10 * evals.max()
         w = np.zeros((rows.size, rows.size))
         w[: keep.sum()] = (evecs[:, keep] / np.sqrt(evals[keep])).T
+        w *= inv[None, :]
         expected[int(rows[0])] = w
         rank -= int(rows.size - keep.sum())
     got = {int(rows[0]): w for rows, w in noise.blocks}

@@ -116,7 +116,9 @@ class NoiseModel:
         if not dense.any():
             return None
         rows, cov = rows[dense], cov[dense]
-        evals, evecs = np.linalg.eigh(cov)  # ascending, so the kept ones are the last
+        # decomposed over the rows' sigmas: rows of different units (s, Hz) in one block
+        inv = 1.0 / sigma[rows]
+        evals, evecs = np.linalg.eigh(cov * inv[:, :, None] * inv[:, None, :])  # ascending
         keep = evals > 1e-10 * evals[:, -1:]
         kept = keep.sum(axis=1)
         scaled = np.where(keep[:, None, :], evecs / np.sqrt(np.where(keep, evals, 1.0))[:, None, :],
@@ -124,10 +126,9 @@ class NoiseModel:
         # row i of a block's whitener: its i-th kept eigenvector / sqrt(eigenvalue), then zeros
         order = (np.arange(size)[None, :] + (size - kept)[:, None]) % size
         whitener = np.take_along_axis(np.swapaxes(scaled, 1, 2), order[:, :, None], axis=1)
+        whitener *= inv[:, None, :]
         self.rank -= int(np.sum(size - kept))
-        self._log_det_blocks.append(
-            np.sum(np.log(np.where(keep, evals, 1.0)), axis=1)
-            - 2.0 * np.sum(np.log(sigma[rows]), axis=1))
+        self._log_det_blocks.append(np.sum(np.log(np.where(keep, evals, 1.0)), axis=1))
         return rows, np.ascontiguousarray(whitener)
 
     @property
@@ -301,6 +302,10 @@ def checked_covariance(covariance: object, m: int | None = None) -> NDArray[np.f
     if np.max(np.abs(r - r.T), initial=0.0) > 1e-9 * scale:
         raise ValueError("covariance must be symmetric")
     r = 0.5 * (r + r.T)
-    if size == 0 or np.min(np.linalg.eigvalsh(r)) <= 0.0:
+    diag = np.diagonal(r)
+    if size == 0 or not np.all(diag > 0.0):
+        raise ValueError("covariance must be positive definite")
+    scale_rows = 1.0 / np.sqrt(diag)  # rows of different units (s and Hz): test the correlation
+    if np.min(np.linalg.eigvalsh(r * scale_rows[:, None] * scale_rows[None, :])) <= 0.0:
         raise ValueError("covariance must be positive definite")
     return r

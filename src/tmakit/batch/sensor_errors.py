@@ -1,0 +1,86 @@
+"""Maximum likelihood with sensor position errors: the fit that accounts for navigation error.
+
+The estimator of Ho, Lu & Kovavisaruch (2007)'s setting, by maximum likelihood: the sensors'
+position errors are integrated out, leaving the rows with the effective noise
+``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.sensor_errors`).  The fit starts from the
+ordinary maximum likelihood (positions taken as reported), then refits twice with the
+effective noise linearised at the current estimate (the noise depends on the parameters only
+through ``H_b``, slowly).  Its covariance is the bound with the errors at the estimate
+(:func:`tmakit.bounds.sensor_errors.crlb_with_sensor_errors`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from ..observation import ObservationModel
+from ..observation.sensor_errors import effective_noise
+from ..results.estimate import EstimateResult, assemble_result
+from .ml import MaximumLikelihood
+from .solver import levenberg_marquardt
+from .varpro import VarProProblem
+
+__all__ = ["estimate_with_sensor_errors"]
+
+#: Refits with the effective noise relinearised.
+REFITS = 2
+
+
+def estimate_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
+                                position_sigma: float, velocity_sigma: float = 0.0,
+                                options: Mapping[str, Mapping[str, object]] | None = None
+                                ) -> tuple[EstimateResult, EstimateResult]:
+    """Fit by maximum likelihood with the sensors' positions known to ``position_sigma``.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    motion : MotionModel
+        A motion model without manoeuvres.
+    position_sigma : float
+        Std of each sensor position error per axis (m).
+    velocity_sigma : float, optional
+        Std of each sensor velocity error per axis (m/s).
+    options : mapping, optional
+        Per-kind model options.
+
+    Returns
+    -------
+    accounting, ignoring : EstimateResult
+        The fit with the errors (its covariance the bound with them), and the ordinary fit
+        that takes the positions as reported (its start; its covariance too small by the
+        errors' share).
+
+    Raises
+    ------
+    ValueError
+        As :class:`~tmakit.batch.ml.MaximumLikelihood` and
+        :func:`~tmakit.observation.sensor_errors.effective_noise`.
+
+    References
+    ----------
+    Ho, Lu & Kovavisaruch (2007) (source localisation with receiver position errors).
+    """
+    opts = {k: dict(v) for k, v in dict(options or {}).items()}
+    ignoring = MaximumLikelihood(options=opts).fit(meas, motion)
+    obs = ObservationModel(meas, motion, opts)
+    theta = np.asarray(ignoring.estimate, dtype=float)
+    nu = np.array([ignoring.nuisance[n][0] for n in obs.nuisance_names])
+    converged, iterations, cost = ignoring.status == "converged", 0, np.nan
+    for _ in range(REFITS):
+        noise = effective_noise(obs, theta, nu, position_sigma, velocity_sigma)
+        sol = levenberg_marquardt(VarProProblem(obs, noise), obs.values, theta[None, :])
+        theta, nu = sol.theta[0], sol.nuisance[0]
+        converged, cost = bool(sol.converged[0]), float(sol.cost[0])
+        iterations += int(sol.iterations[0])
+    noise = effective_noise(obs, theta, nu, position_sigma, velocity_sigma)
+    note = (f"sensor positions known to {position_sigma:g} m per axis"
+            + (f", velocities to {velocity_sigma:g} m/s" if velocity_sigma else ""))
+    accounting = assemble_result(obs, noise, theta, nu, cost, iterations, converged,
+                                 "ml-sensor-errors", ignoring.starts, None, note)
+    return accounting, ignoring
