@@ -278,3 +278,78 @@ def test_tma_gdop_prints_the_map_and_refuses_a_layout_without_pairs(tmp_path):
     assert res.exit_code == 2 and "--force" in res.output
     res = runner.invoke(app, ["gdop", "bearings-only-2d"])
     assert res.exit_code == 2 and "no tdoa or fdoa" in res.output
+
+
+# -- sensor positions known to a covariance (issue 30, item 4) -------------------------------
+
+def test_bound_with_sensor_errors_is_the_schur_complement_of_the_joint_information():
+    """Ho & Xu's layout (TDOA + FDOA): the bound equals the inverse of the Schur complement
+    of the joint Fisher information over the source and every sensor position error, with the
+    errors' prior information Q_b^-1 (Ho, Lu & Kovavisaruch 2007), written out here."""
+    from tmakit.bounds.sensor_errors import crlb_with_sensor_errors
+    from tmakit.observation import ObservationModel
+    from tmakit.observation.sensor_errors import sensor_error_design
+    from tmakit.reproduce import ho_xu2004
+
+    scenario = ho_xu2004.scenario_at(0.1)
+    meas = scenario.simulate(rng=0, noise=False)
+    sigma_p = 0.5
+    bound, known = crlb_with_sensor_errors(meas, scenario.motion, scenario.theta, sigma_p)
+    obs = ObservationModel(meas, scenario.motion, scenario.measurement_options)
+    j = obs.jacobian_grouped(scenario.theta, np.zeros(0))[0]
+    h_b = sensor_error_design(obs, scenario.theta, np.zeros(0))
+    r_inv = np.linalg.inv(obs.row_model.covariance())
+    joint = np.block([[j.T @ r_inv @ j, j.T @ r_inv @ h_b],
+                      [h_b.T @ r_inv @ j, h_b.T @ r_inv @ h_b + np.eye(h_b.shape[1]) / sigma_p**2]])
+    want = np.linalg.inv(joint)[:6, :6]
+    assert np.allclose(bound.covariance, want, rtol=1e-6)
+    assert np.all(bound.std > known.std)
+    # five distinct sensor positions, three axes each
+    assert h_b.shape == (len(meas), 15)
+
+
+def test_accounting_fit_reports_an_honest_covariance_and_the_ignoring_one_does_not():
+    """Chan & Ho's ten sensors, sigma 10 m, sensor positions off by 30 m per axis, 60 seeded
+    runs: the accounting fit's mean NEES per parameter within 0.6-1.5 (60 runs x 2 parameters:
+    its standard error is about 0.13), the ignoring fit's above 8 (its covariance leaves the
+    errors out); both fits coincide (TDOA, equal isotropic errors: R_eff is a multiple of R)."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
+    from sensor_errors_ho2007 import reported
+
+    from tmakit.batch.sensor_errors import estimate_with_sensor_errors
+    from tmakit.reproduce import chan_ho1994
+
+    scenario = chan_ho1994.scenario_at(10.0)
+    rng = np.random.default_rng(11)
+    nees_a, nees_i = [], []
+    for run in range(60):
+        meas = reported(scenario.simulate(rng=100 + run), 30.0, rng)
+        accounting, ignoring = estimate_with_sensor_errors(meas, scenario.motion, 30.0)
+        assert np.allclose(accounting.estimate, ignoring.estimate, atol=1e-3)
+        for fit, nees in ((accounting, nees_a), (ignoring, nees_i)):
+            e = fit.estimate - scenario.theta
+            nees.append(e @ np.linalg.solve(fit.covariance, e) / 2)
+    assert 0.6 < np.mean(nees_a) < 1.5
+    assert np.mean(nees_i) > 8
+    assert "std against perfectly known positions" in accounting.message
+
+
+def test_tma_crlb_and_estimate_take_the_sensor_position_sigma(tmp_path):
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+    from tmakit.reproduce import ho_xu2004
+
+    path = tmp_path / "hoxu.csv"
+    tk.write_measurements(ho_xu2004.scenario_at(0.1).simulate(rng=1), path)
+    runner = CliRunner()
+    res = runner.invoke(app, ["crlb", str(path), "--sensor-position-sigma", "1"])
+    assert res.exit_code == 0, res.output
+    assert "std against perfectly known positions" in " ".join(res.output.split())
+    res = runner.invoke(app, ["estimate", str(path), "--sensor-position-sigma", "1"])
+    assert res.exit_code == 0, res.output
+    assert "ml-sensor-errors" in res.output
+    res = runner.invoke(app, ["estimate", str(path), "--sensor-position-sigma", "-1"])
+    assert res.exit_code == 2 and "expected a distance" in res.output

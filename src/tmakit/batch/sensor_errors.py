@@ -83,4 +83,7 @@ def estimate_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
             + (f", velocities to {velocity_sigma:g} m/s" if velocity_sigma else ""))
     accounting = assemble_result(obs, noise, theta, nu, cost, iterations, converged,
                                  "ml-sensor-errors", ignoring.starts, None, note)
+    loss = ", ".join(f"{n} {a / b:.3g}x" for n, a, b in zip(
+        motion.param_names, accounting.std, ignoring.std, strict=True))
+    accounting.message += f"; std against perfectly known positions: {loss}"
     return accounting, ignoring

@@ -63,6 +63,9 @@ def crlb(
     kinds: KindsOption = None,
     ranges: RangesOption = None,
     units: UnitsOption = "si",
+    sensor_position_sigma: Annotated[float | None, typer.Option(
+        help="sensor positions known to this std per axis (m): the bound with their errors "
+             "(Ho, Lu & Kovavisaruch 2007), and its loss against known positions")] = None,
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 
@@ -71,34 +74,89 @@ def crlb(
     --known-nuisance is given.
     """
     check_units(units)
+    if sensor_position_sigma is not None and not (math.isfinite(sensor_position_sigma)
+                                                  and sensor_position_sigma >= 0):
+        raise fail(f"--sensor-position-sigma {sensor_position_sigma}: expected a distance "
+                   ">= 0 (m)")
     if at is not None and not math.isfinite(at):
         raise fail(f"--at {at}: expected a finite time (s)")
     source = sources[0]
     if len(sources) > 1 or is_measurement_file(source) or format is not None:
-        bound, warnings = bound_of_file([Path(s) for s in sources], motion, ref_time, truth,
-                                        known_nuisance, drift, free_exponent,
-                              reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                                       range_sigma, frequency_sigma,
-                                                       kinds=kinds, ranges=ranges))
+        bound, warnings, meas, opts = bound_of_file(
+            [Path(s) for s in sources], motion, ref_time, truth, known_nuisance, drift,
+            free_exponent, reader_options(format, ownship, contact, mapping, bearing_sigma,
+                                          range_sigma, frequency_sigma, kinds=kinds,
+                                          ranges=ranges))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
                                           ("--truth", truth)) if value is not None]
         if given:  # (not silently ignored)
             raise fail(f"{', '.join(given)}: for a measurement file; a scenario's bound is "
                        f"taken at its own truth and motion ({source} is a scenario)")
-        bound = bound_of_scenario(source, known_nuisance, drift, free_exponent)
+        bound, meas, opts = bound_of_scenario(source, known_nuisance, drift, free_exponent)
         warnings = []
+    loss = None
+    if sensor_position_sigma is not None:
+        if known_nuisance:
+            raise fail("--sensor-position-sigma: the bound with sensor errors takes the "
+                       "nuisance as unknown; leave --known-nuisance out")
+        bound, loss = with_sensor_errors(bound, meas, opts, sensor_position_sigma)
     derived = None if at is None else derived_at(bound, at)
     if derived is not None and bound.rank == len(bound.parameters) and not all(
             math.isfinite(derived["ellipse_90"][k]) for k in ("east", "north", "major")):
         raise fail(f"--at {at:g}: the bound overflows so far from the measurement times; "
                    "give a time near them (s)")
     print_bound(bound, derived, as_json, units, warnings)
+    if loss is not None and not as_json:
+        out.print(loss, highlight=False)
+
+
+def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: float
+                       ) -> tuple[Any, str]:
+    """Give the bound with sensor position errors and a sentence on its loss.
+
+    Parameters
+    ----------
+    bound : tmakit.results.Bound
+        The bound with the positions known (its motion and evaluation point are used).
+    meas : tmakit.data.MeasurementSet
+        The rows.
+    options : dict
+        Per-kind model options.
+    sigma : float
+        ``--sensor-position-sigma`` (m).
+
+    Returns
+    -------
+    bound : tmakit.results.Bound
+        The bound with the errors.
+    loss : str
+        Each motion parameter's std with the errors over that with the positions known.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when the bound cannot be formed (too many rows).
+    """
+    from ..bounds.sensor_errors import crlb_with_sensor_errors
+
+    p = bound.motion.n_params
+    try:
+        errors, known = crlb_with_sensor_errors(meas, bound.motion, bound.values[:p], sigma,
+                                                nuisance=bound.nuisance_values,
+                                                options=options)
+    except ValueError as e:
+        raise fail(f"--sensor-position-sigma: {e}") from None
+    parts = [f"{name} {a / b:.3g}x" for name, a, b in zip(
+        errors.parameters[:p], errors.std[:p], known.std[:p], strict=True)]
+    return errors, (f"sensor positions known to {sigma:g} m per axis: std against perfectly "
+                    f"known positions {', '.join(parts)}")
 
 
 def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float | None,
                   truth: str | None, known_nuisance: bool, drift: bool, free_exponent: bool,
-                  options: dict[str, Any] | None = None) -> tuple[Any, list[Any]]:
+                  options: dict[str, Any] | None = None
+                  ) -> tuple[Any, list[Any], Any, dict[str, Any]]:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
 
     It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor
@@ -117,10 +175,14 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
 
     Returns
     -------
-    tmakit.results.Bound
+    bound : tmakit.results.Bound
         The bound.
-    list of tmakit.results.SanityWarning
+    warnings : list of tmakit.results.SanityWarning
         The measurements' warnings (:func:`~tmakit.results.checks.measurement_warnings`).
+    meas : tmakit.data.MeasurementSet
+        The file's rows.
+    options : dict
+        The per-kind model options used.
 
     Raises
     ------
@@ -149,10 +211,10 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
         values = json.loads(meas.metadata["truth"])
     if not values:
         raise fail("--truth is needed to evaluate the bound of a measurement file")
+    opts = model_options(drift, free_exponent)
     try:
-        return (compute(meas, model, values, known_nuisance=known_nuisance,
-                        options=model_options(drift, free_exponent)),
-                measurement_warnings(meas))
+        return (compute(meas, model, values, known_nuisance=known_nuisance, options=opts),
+                measurement_warnings(meas), meas, opts)
     except ValueError as e:
         msg = str(e)
         if msg.startswith("truth ") and truth is not None:
@@ -161,7 +223,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
 
 
 def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
-                      free_exponent: bool) -> Any:
+                      free_exponent: bool) -> tuple[Any, Any, dict[str, Any]]:
     """Compute the bound of a scenario at its truth.
 
     Parameters
@@ -173,8 +235,12 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
 
     Returns
     -------
-    tmakit.results.Bound
+    bound : tmakit.results.Bound
         The bound.
+    meas : tmakit.data.MeasurementSet
+        The scenario's rows (noise-free).
+    options : dict
+        The per-kind model options used.
 
     Raises
     ------
@@ -190,7 +256,8 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
     if free_exponent:
         opts.setdefault("power", {})["exponent"] = None
     try:
-        return compute(scn, known_nuisance=known_nuisance, options=opts)
+        return (compute(scn, known_nuisance=known_nuisance, options=opts),
+                scn.simulate(rng=0, noise=False), opts)
     except ValueError as e:  # e.g. the truth crosses a sensor at a measurement time
         raise fail(f"scenario {source}: {e}") from None
 

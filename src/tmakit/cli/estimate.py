@@ -109,6 +109,9 @@ def estimate(
              "SVG)")] = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
     as_json: JsonOption = False,
+    sensor_position_sigma: Annotated[float | None, typer.Option(
+        help="sensor positions known to this std per axis (m): the ML that accounts for "
+             "their errors (Ho, Lu & Kovavisaruch 2007); the loss is in the message")] = None,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
 
@@ -133,6 +136,9 @@ def estimate(
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations), dim)
+    if sensor_position_sigma is not None:
+        fit = sensor_error_fitter(meas, motion, ref_time, method, model_options(
+            drift, free_exponent), sensor_position_sigma)
     result = fit(meas)
     factors = None
     if scale_sigma:
@@ -238,6 +244,51 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
             return estimate_with(method, m, model, init=start, options=options)
         except ValueError as e:
             raise fail(str(e)) from None
+
+    return fit
+
+
+def sensor_error_fitter(meas: Any, motion: str | None, ref_time: float | None, method: str,
+                        options: dict[str, Any], sigma: float) -> Any:
+    """Return the fit that accounts for sensor position errors (``--sensor-position-sigma``).
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements (their metadata may name the motion).
+    motion, ref_time, method, options
+        ``--motion``, ``--ref-time``, ``--method`` (ml only) and the model options.
+    sigma : float
+        ``--sensor-position-sigma`` (m).
+
+    Returns
+    -------
+    callable
+        ``fit(meas) -> EstimateResult``; errors become ``error: ...`` with status 2.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for a bad sigma, another method or a manoeuvring motion.
+    """
+    import math
+
+    from ..batch.sensor_errors import estimate_with_sensor_errors
+
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise fail(f"--sensor-position-sigma {sigma}: expected a distance >= 0 (m)")
+    if method != "ml":
+        raise fail(f"--sensor-position-sigma: fitted by ml only, not --method {method}")
+    model = motion_or_fail(motion, ref_time, meas)
+    if getattr(model, "manoeuvres", None) is not None:
+        raise fail("--sensor-position-sigma: for a motion without manoeuvres (cv2d, cv3d, "
+                   "static2d, static3d)")
+
+    def fit(m: Any) -> Any:
+        try:
+            return estimate_with_sensor_errors(m, model, sigma, options=options)[0]
+        except ValueError as e:
+            raise fail(f"--sensor-position-sigma: {e}") from None
 
     return fit
 
