@@ -119,8 +119,8 @@ def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: fl
     ----------
     bound : tmakit.results.Bound
         The bound with the positions known (its motion and evaluation point are used).
-    meas : tmakit.data.MeasurementSet
-        The rows.
+    meas : tmakit.data.MeasurementSet or tmakit.scenario.Scenario
+        The rows, or the scenario that lays them out.
     options : dict
         Per-kind model options.
     sigma : float
@@ -139,7 +139,10 @@ def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: fl
         Status 2 when the bound cannot be formed (too many rows).
     """
     from ..bounds.sensor_errors import crlb_with_sensor_errors
+    from ..scenario import Scenario
 
+    if isinstance(meas, Scenario):
+        meas = meas.simulate(rng=0, noise=False)
     p = bound.motion.n_params
     try:
         errors, known = crlb_with_sensor_errors(meas, bound.motion, bound.values[:p], sigma,
@@ -237,8 +240,8 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
     -------
     bound : tmakit.results.Bound
         The bound.
-    meas : tmakit.data.MeasurementSet
-        The scenario's rows (noise-free).
+    scenario : tmakit.scenario.Scenario
+        The scenario (its rows for ``--sensor-position-sigma``).
     options : dict
         The per-kind model options used.
 
@@ -256,8 +259,7 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
     if free_exponent:
         opts.setdefault("power", {})["exponent"] = None
     try:
-        return (compute(scn, known_nuisance=known_nuisance, options=opts),
-                scn.simulate(rng=0, noise=False), opts)
+        return compute(scn, known_nuisance=known_nuisance, options=opts), scn, opts
     except ValueError as e:  # e.g. the truth crosses a sensor at a measurement time
         raise fail(f"scenario {source}: {e}") from None
 
