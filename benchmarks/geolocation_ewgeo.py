@@ -27,6 +27,7 @@ import argparse
 import time
 
 import numpy as np
+from tmakit.units import SPEED_OF_LIGHT
 
 import tmakit as tk
 from tmakit.batch.hyperbolic import two_stage_wls
@@ -34,7 +35,6 @@ from tmakit.batch.ml import MaximumLikelihood
 from tmakit.motion import Stationary
 from tmakit.reproduce import chan_ho1994, ho_xu2004
 from tmakit.scenario import MeasurementPlan, Scenario
-from tmakit.units import SPEED_OF_LIGHT
 
 
 def timed(f: object, *args: object, **kwargs: object) -> tuple[object, float]:

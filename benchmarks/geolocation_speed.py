@@ -18,11 +18,11 @@ import argparse
 import time
 
 import numpy as np
+from tmakit.units import SPEED_OF_LIGHT
 
 from tmakit.bounds.layout import LayoutRows, cep, layout_information
 from tmakit.data import MeasurementSet
 from tmakit.reproduce.chan_ho1994 import SENSORS
-from tmakit.units import SPEED_OF_LIGHT
 
 
 def rows(pairs: int, times: int, refs: int, rng: np.random.Generator) -> MeasurementSet:

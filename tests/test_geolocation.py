@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tmakit.units import SPEED_OF_LIGHT
 
 import tmakit as tk
 from tmakit.data import MeasurementSet
 from tmakit.io import MeasurementFileError
 from tmakit.measurements import shared_reference_covariance
 from tmakit.observation import NoiseModel
-from tmakit.units import SPEED_OF_LIGHT
 
 LAYOUT = Path(__file__).parent / "data" / "geolocation" / "four_sensors.toml"
 SENSORS = np.array([[0.0, 0.0, 0.0], [10e3, 0.0, 0.0], [0.0, 10e3, 0.0], [10e3, 10e3, 0.0]])

@@ -37,7 +37,8 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
+from ..core.units import SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..measurements import model_for, options_with_metadata
 from ..motion import ConstantVelocity, MotionModel, Stationary
@@ -45,7 +46,6 @@ from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
 from ..observation.noise_blocks import correlated_blocks
 from ..results.estimate import EstimateResult, assemble_result
-from ..units import SPEED_OF_LIGHT
 from .estimator import BatchEstimator, Init, Options
 
 __all__ = ["ChanHo", "HoXu", "Snapshot", "closed_form_theta", "snapshot_rows",

@@ -30,10 +30,10 @@ import itertools
 import numpy as np
 from numpy.typing import NDArray
 
-from ..arrays import Array
+from ..core.arrays import Array
+from ..core.units import SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..measurements import options_with_metadata
-from ..units import SPEED_OF_LIGHT
 
 __all__ = ["LayoutRows", "cep", "layout_information"]
 

@@ -32,7 +32,7 @@ def gdop(
     """
     import numpy as np
 
-    from ..gdop_map import cep_map, plot_cep_map
+    from ..plot.gdop import cep_map, plot_cep_map
 
     if points < 2 or points > 2000:
         raise fail(f"--points {points}: expected 2 to 2000 per side")

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..units import SPEED_OF_LIGHT
+from ..core.units import SPEED_OF_LIGHT
 from .base import Array, Jacobian, MeasurementModel, as_rel
 from .range_rate import range_rate_and_gradient
 from .tdoa import noise_form, shared_reference_covariance

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..units import REACH_M, SPEED_OF_LIGHT
+from ..core.units import REACH_M, SPEED_OF_LIGHT
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 __all__ = ["NOISE_FORMS", "Tdoa", "noise_form", "shared_reference_covariance"]

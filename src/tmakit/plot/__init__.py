@@ -2,6 +2,8 @@
 
 * :mod:`.tracks` — :func:`plot_measurements`, :func:`plot_track`, :func:`plot_plan`.
 * :mod:`.solution` — :func:`plot_solution`, the map and residuals of one estimate.
+* :mod:`.gdop` — :func:`~.gdop.cep_map` and :func:`~.gdop.plot_cep_map`, CEP50/CEP90 of a
+  sensor layout over a grid (``tma gdop``).
 * :mod:`.frame` — what the pictures share: a lat/lon map at true scale with a scale bar, a UTC
   time axis.
 

@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.units import SPEED_OF_LIGHT
 from ..motion import Stationary
 from ..scenario import MeasurementPlan, Scenario
 from ..sensors import FixedSensor
-from ..units import SPEED_OF_LIGHT
 from .common import Reproduction
 from .geolocation_sweep import Sweep, plot_sweep, sweep, sweep_sections
 

@@ -16,10 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..arrays import Array
 from ..batch.hyperbolic import closed_form_theta
 from ..batch.ml import MaximumLikelihood
 from ..bounds import crlb
+from ..core.arrays import Array
 from ..scenario import Scenario
 from .common import Section
 

@@ -5,7 +5,8 @@ For a sensor layout and its measurement set (a scenario file's sensors and ``tdo
 ground plane (:func:`tmakit.bounds.layout.layout_information`, the height known) and the
 circle about it that holds the best unbiased estimate with probability 50 % and 90 %
 (:func:`tmakit.bounds.layout.cep`): the classic planning picture of an EW engineer.  The map
-is in latitude/longitude when the layout's origin is known (:class:`tmakit.plot_frame.MapFrame`).
+is in latitude/longitude when the layout's origin is known
+(:class:`tmakit.plot.frame.MapFrame`).
 """
 
 from __future__ import annotations
@@ -15,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .arrays import Array
-from .bounds.layout import LayoutRows, cep, layout_information
-from .data import MeasurementSet
-from .plot_frame import MapFrame
-from .scenario import Scenario
+from ..bounds.layout import LayoutRows, cep, layout_information
+from ..core.arrays import Array
+from ..data import MeasurementSet
+from ..scenario import Scenario
+from .frame import MapFrame
 
 __all__ = ["CepMap", "cep_map", "plot_cep_map"]
 
