@@ -27,11 +27,11 @@ import argparse
 import time
 
 import numpy as np
-from tmakit.units import SPEED_OF_LIGHT
 
 import tmakit as tk
 from tmakit.batch.hyperbolic import two_stage_wls
 from tmakit.batch.ml import MaximumLikelihood
+from tmakit.core.units import SPEED_OF_LIGHT
 from tmakit.motion import Stationary
 from tmakit.reproduce import chan_ho1994, ho_xu2004
 from tmakit.scenario import MeasurementPlan, Scenario

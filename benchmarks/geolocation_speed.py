@@ -18,9 +18,9 @@ import argparse
 import time
 
 import numpy as np
-from tmakit.units import SPEED_OF_LIGHT
 
 from tmakit.bounds.layout import LayoutRows, cep, layout_information
+from tmakit.core.units import SPEED_OF_LIGHT
 from tmakit.data import MeasurementSet
 from tmakit.reproduce.chan_ho1994 import SENSORS
 

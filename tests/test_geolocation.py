@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tmakit.units import SPEED_OF_LIGHT
 
 import tmakit as tk
+from tmakit.core.units import SPEED_OF_LIGHT
 from tmakit.data import MeasurementSet
 from tmakit.io import MeasurementFileError
 from tmakit.measurements import shared_reference_covariance

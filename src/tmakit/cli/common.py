@@ -362,6 +362,9 @@ MotionOption = Annotated[str | None, typer.Option(
 RefTimeOption = Annotated[float | None, typer.Option(
     help="reference time of the motion parameters (s)")]
 DriftOption = Annotated[bool, typer.Option(help="model a linear carrier drift")]
+SensorPositionSigmaOption = Annotated[float | None, typer.Option(
+    help="sensor positions known to this std per axis (m): their errors in the bound and the "
+         "fit (Ho, Lu & Kovavisaruch 2007), and the loss against known positions")]
 FreeExponentOption = Annotated[bool, typer.Option(help="the path-loss exponent is unknown too")]
 OriginOption = Annotated[str | None, typer.Option(
     help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")]

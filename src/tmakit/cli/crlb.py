@@ -24,6 +24,7 @@ from .common import (
     RangeSigmaOption,
     RangesOption,
     RefTimeOption,
+    SensorPositionSigmaOption,
     fail,
     file_ref_time,
     is_measurement_file,
@@ -63,9 +64,7 @@ def crlb(
     kinds: KindsOption = None,
     ranges: RangesOption = None,
     units: UnitsOption = "si",
-    sensor_position_sigma: Annotated[float | None, typer.Option(
-        help="sensor positions known to this std per axis (m): the bound with their errors "
-             "(Ho, Lu & Kovavisaruch 2007), and its loss against known positions")] = None,
+    sensor_position_sigma: SensorPositionSigmaOption = None,
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 

@@ -39,6 +39,7 @@ from .common import (
     RangeSigmaOption,
     RangesOption,
     RefTimeOption,
+    SensorPositionSigmaOption,
     check_ref_time,
     err,
     fail,
@@ -109,9 +110,7 @@ def estimate(
              "SVG)")] = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
     as_json: JsonOption = False,
-    sensor_position_sigma: Annotated[float | None, typer.Option(
-        help="sensor positions known to this std per axis (m): the ML that accounts for "
-             "their errors (Ho, Lu & Kovavisaruch 2007); the loss is in the message")] = None,
+    sensor_position_sigma: SensorPositionSigmaOption = None,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
 
@@ -135,10 +134,7 @@ def estimate(
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
-                 (exact, criterion, alpha, accelerations), dim)
-    if sensor_position_sigma is not None:
-        fit = sensor_error_fitter(meas, motion, ref_time, method, model_options(
-            drift, free_exponent), sensor_position_sigma)
+                 (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
     result = fit(meas)
     factors = None
     if scale_sigma:
@@ -183,7 +179,7 @@ def grouped_by_kind(meas: Any) -> Any:
 def fitter(meas: Any, motion: str | None, ref_time: float | None,
            start: dict[str, float] | None, method: str, options: dict[str, Any],
            manoeuvre: tuple[bool, str | None, float | None, str | None],
-           dim: int | None = None) -> Any:
+           dim: int | None = None, sensor_position_sigma: float | None = None) -> Any:
     """Return the fit the options ask for, as a function of the measurements.
 
     Parameters
@@ -198,6 +194,8 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
     dim : int or None
         ``--dim``: 2 keeps the 2-D fit, 3 fits the 3-D counterpart, None lets the data choose
         (:func:`tmakit.batch.height.choose_height`).
+    sensor_position_sigma : float or None
+        ``--sensor-position-sigma`` (m): the fit that accounts for sensor position errors.
 
     Returns
     -------
@@ -209,6 +207,9 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
     typer.Exit
         Status 2 on bad options.
     """
+    if sensor_position_sigma is not None:
+        return sensor_error_fitter(meas, motion, ref_time, method, options,
+                                   sensor_position_sigma)
     exact, criterion, alpha, accelerations = manoeuvre
     if dim not in (None, 2, 3):
         raise fail(f"--dim {dim}: expected 2 or 3")
