@@ -59,8 +59,9 @@ def _solve_weighted(g: Array, h: Array, cov: Array) -> tuple[Array, Array]:
     """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1`` (pseudo-inverses)."""
     w = np.linalg.pinv(cov, hermitian=True)
     info = g.T @ w @ g
-    inv = np.linalg.pinv(info, hermitian=True)
-    return inv @ (g.T @ (w @ h)), inv
+    inv = np.asarray(np.linalg.pinv(info, hermitian=True), dtype=np.float64)
+    solution: Array = inv @ (g.T @ (w @ h))
+    return solution, inv
 
 
 def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,

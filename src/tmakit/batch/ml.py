@@ -441,11 +441,11 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
     if not todo:
         _prefer_above(problem, best)
         return best
-    grid = dict(zip(todo, grid_starts(problem, ys if len(todo) == b else ys[todo], g, subset),
-                    strict=True))
+    by_set = dict(zip(todo, grid_starts(problem, ys if len(todo) == b else ys[todo], g,
+                                        subset), strict=True))
     first = 1 if has_bearings else g.starts
-    solve(dict(zip(todo, first_of_many([grid[r] for r in todo], first), strict=True)))
-    more = first_of_many([grid[r] for r in unsettled()], max(24, g.starts))
+    solve(dict(zip(todo, first_of_many([by_set[r] for r in todo], first), strict=True)))
+    more = first_of_many([by_set[r] for r in unsettled()], max(24, g.starts))
     solve({r: th[first:] for r, th in zip(unsettled(), more, strict=True)})
     if again := unsettled():
         dense = grid_starts(problem, ys[again], DENSE_GRID, subset)

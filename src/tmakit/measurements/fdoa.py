@@ -137,7 +137,7 @@ class Fdoa(MeasurementModel):
             raise ValueError(f"fdoa: expected nuisance (carrier,), got shape {nu.shape}")
         return -nu[..., 0] / self.c
 
-    def _rate_difference(self, rel: Array, rel_ref: Array | None
+    def _rate_difference(self, rel: Array, rel_ref: ArrayLike | None
                          ) -> tuple[Array, Array, Array]:
         if rel_ref is None:
             raise ValueError("fdoa needs the target's state relative to the reference sensor")

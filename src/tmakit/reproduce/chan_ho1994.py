@@ -21,7 +21,7 @@ import numpy as np
 from ..core.units import SPEED_OF_LIGHT
 from ..motion import Stationary
 from ..scenario import MeasurementPlan, Scenario
-from ..sensors import FixedSensor
+from ..sensors import FixedSensor, SensorTrack
 from .common import Reproduction
 from .geolocation_sweep import Sweep, plot_sweep, sweep, sweep_sections
 
@@ -49,7 +49,8 @@ def scenario_at(sigma_m: float) -> Scenario:
     Scenario
         TDOAs of sensors 2-10 against sensor 1 at t = 0.
     """
-    sensors = {f"s{i + 1}": FixedSensor(p) for i, p in enumerate(SENSORS)}
+    sensors: dict[str, SensorTrack] = {f"s{i + 1}": FixedSensor(p)
+                                       for i, p in enumerate(SENSORS)}
     times = np.array([0.0])
     plans = [MeasurementPlan("tdoa", name, times, sigma_m / SPEED_OF_LIGHT, ref_sensor="s1")
              for name in list(sensors)[1:]]

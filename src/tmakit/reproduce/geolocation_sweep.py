@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -202,7 +203,7 @@ def _level(value: float | None) -> str:
     return "none within the sweep" if value is None else f"sigma = {value:g} m"
 
 
-def plot_sweep(result: Sweep, title: str, path: object) -> None:
+def plot_sweep(result: Sweep, title: str, path: str | Path) -> None:
     """Draw MSE against noise (log-log), both estimators beside the CRLB, one panel a block.
 
     Parameters

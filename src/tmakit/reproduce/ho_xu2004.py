@@ -21,7 +21,7 @@ import numpy as np
 from ..core.units import SPEED_OF_LIGHT
 from ..motion import ConstantVelocity
 from ..scenario import MeasurementPlan, Scenario
-from ..sensors import WaypointTrack
+from ..sensors import SensorTrack, WaypointTrack
 from .common import Reproduction
 from .geolocation_sweep import Sweep, plot_sweep, sweep, sweep_sections
 
@@ -56,8 +56,9 @@ def scenario_at(sigma_m: float, source: dict[str, float] | None = None) -> Scena
     Scenario
         TDOA and FDOA of sensors 2-5 against sensor 1 at t = 0, the carrier known.
     """
-    sensors = {f"s{i + 1}": WaypointTrack(np.stack([p - v, p + v]), times=[-1.0, 1.0])
-               for i, (p, v) in enumerate(zip(SENSORS, VELOCITIES, strict=True))}
+    sensors: dict[str, SensorTrack] = {
+        f"s{i + 1}": WaypointTrack(np.stack([p - v, p + v]), times=[-1.0, 1.0])
+        for i, (p, v) in enumerate(zip(SENSORS, VELOCITIES, strict=True))}
     times = np.array([0.0])
     plans = []
     for name in list(sensors)[1:]:
