@@ -323,14 +323,14 @@ def closed_form_state(meas: MeasurementSet, values: Array, snap: Snapshot,
                          meas.sensor_state[t, 3:], ref[3:], scale * values[f], height)
 
 
-def known_carrier(meas: MeasurementSet, options: Options) -> float | None:
+def _known_carrier(meas: MeasurementSet, options: Options) -> float | None:
     """Give the FDOA carrier the options or the set's metadata state (Hz), or None."""
     opts = options_with_metadata(["fdoa"], options, meas.metadata).get("fdoa", {})
     value = opts.get("carrier")
     return None if value is None else float(value)  # type: ignore[arg-type]
 
 
-def source_height(motion: MotionModel) -> float | None:
+def _source_height(motion: MotionModel) -> float | None:
     """Give the source's known ENU height: 0 for a 2-D motion model, else None."""
     return 0.0 if motion.dim == 2 else None
 
@@ -360,7 +360,7 @@ def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
         start from a state, or a solve that fails.
     """
     moving = not isinstance(motion, Stationary)
-    carrier = known_carrier(meas, options)
+    carrier = _known_carrier(meas, options)
     snap = None
     if moving and carrier is not None:
         snap = snapshot_rows(meas, True, True)
@@ -369,7 +369,7 @@ def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
     if snap is None:
         return None
     try:
-        pos, vel = closed_form_state(meas, values, snap, carrier, source_height(motion))
+        pos, vel = closed_form_state(meas, values, snap, carrier, _source_height(motion))
         state = np.concatenate([pos, np.zeros(3) if vel is None else vel])
         theta = motion.from_state(state, snap.time)
     except (ValueError, NotImplementedError, np.linalg.LinAlgError):
@@ -403,7 +403,7 @@ class _ClosedForm(BatchEstimator):
         if self.init is not None:
             raise ValueError(f"{self.name}: a closed form takes no starting point (--init)")
 
-    def check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
+    def _check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
         """Refuse what the paper does not solve; give the carrier (Hz) it uses, if any."""
         raise NotImplementedError
 
@@ -428,13 +428,13 @@ class _ClosedForm(BatchEstimator):
         ValueError
             If the motion model, kinds or rows do not suit the method.
         """
-        carrier = self.check(meas, motion)
+        carrier = self._check(meas, motion)
         snap = snapshot_rows(meas, self.moving, self.moving)
         if snap is None:
             raise ValueError(f"{self.name}: no TDOA rows"
                              + (" with FDOA rows of the same sensors, times and reference"
                                 if self.moving else ""))
-        pos, vel = closed_form_state(meas, meas.value_si, snap, carrier, source_height(motion))
+        pos, vel = closed_form_state(meas, meas.value_si, snap, carrier, _source_height(motion))
         theta = motion.from_state(np.concatenate([pos, np.zeros(3) if vel is None else vel]),
                                   snap.time)
         rows = snap.tdoa if snap.fdoa is None else np.concatenate([snap.tdoa, snap.fdoa])
@@ -467,7 +467,7 @@ class ChanHo(_ClosedForm):
 
     name: ClassVar[str] = "chan-ho"
 
-    def check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
+    def _check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
         """Refuse a moving source; no carrier is used."""
         if not isinstance(motion, Stationary):
             raise ValueError("chan-ho: Chan & Ho (1994) locate a stationary source (motion "
@@ -494,12 +494,12 @@ class HoXu(_ClosedForm):
     name: ClassVar[str] = "ho-xu"
     moving: ClassVar[bool] = True
 
-    def check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
+    def _check(self, meas: MeasurementSet, motion: MotionModel) -> float | None:
         """Refuse a model other than constant velocity, or an unknown carrier."""
         if not isinstance(motion, ConstantVelocity):
             raise ValueError("ho-xu: Ho & Xu (2004) locate a source at constant velocity "
                              f"(motion cv2d or cv3d), got {motion.name}")
-        carrier = known_carrier(meas, self.options)
+        carrier = _known_carrier(meas, self.options)
         if carrier is None:
             raise ValueError("ho-xu: the FDOA carrier must be known (the file's "
                              "'# fdoa_carrier: HZ', or options {'fdoa': {'carrier': HZ}}); "

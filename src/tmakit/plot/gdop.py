@@ -81,7 +81,7 @@ def layout_rows(scenario: Scenario) -> tuple[MeasurementSet, list[str]]:
     return rows, ignored
 
 
-def default_extent(rows: MeasurementSet) -> tuple[float, float, float]:
+def _default_extent(rows: MeasurementSet) -> tuple[float, float, float]:
     """Give the grid's centre (east, north) and half-width (m): twice the sensors' spread."""
     pos = np.concatenate([rows.sensor_state[:, :2], rows.ref_sensor_state[:, :2]])
     centre = pos.mean(axis=0)
@@ -118,7 +118,7 @@ def cep_map(scenario: Scenario, points: int = 100, half_width: float | None = No
     if points < 2:
         raise ValueError(f"points: expected 2 or more per side, found {points}")
     rows, ignored = layout_rows(scenario)
-    ce, cn, default = default_extent(rows)
+    ce, cn, default = _default_extent(rows)
     half = default if half_width is None else float(half_width)
     if not half > 0:
         raise ValueError(f"half_width: expected a positive distance (m), found {half_width}")

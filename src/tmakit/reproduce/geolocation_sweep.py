@@ -53,7 +53,20 @@ class Sweep:
     failed: list[int] = field(default_factory=list)
 
     def ratio(self, which: str, block: str) -> list[float]:
-        """Give MSE / CRLB of ``which`` (``ml`` or ``closed``) for ``block`` at each level."""
+        """Give an estimator's MSE over the CRLB's trace at each noise level.
+
+        Parameters
+        ----------
+        which : str
+            ``"ml"`` or ``"closed"``.
+        block : str
+            ``"position"`` or ``"velocity"``.
+
+        Returns
+        -------
+        list of float
+            MSE / CRLB per level (dimensionless).
+        """
         mse = getattr(self, which)[block]
         return [float(a / b) for a, b in zip(mse, self.crlb[block], strict=True)]
 
