@@ -34,15 +34,16 @@ SUFFIXES = [".csv", ".parquet", ".pq"]
 
 
 def realistic_set() -> MeasurementSet:
-    """Three sensors (ids that look numeric, or like NA), all 8 kinds, range differences with
-    time_ref and reference states, NaNs where unused, metadata."""
+    """Three sensors (ids that look numeric, or like NA), every kind, range differences, TDOA
+    and FDOA with time_ref and reference states, NaNs where unused, metadata."""
     rng = np.random.default_rng(7)
     cols: dict[str, list] = {k: [] for k in ("t", "s", "k", "v", "sg", "st", "tr", "rs")}
     value_of = {
         "bearing": lambda: rng.uniform(0, 360), "elevation": lambda: rng.uniform(-90, 90),
         "azimuth_rate": lambda: rng.normal(0, 0.3), "range": lambda: rng.uniform(1e3, 5e4),
         "range_rate": lambda: rng.normal(0, 30), "frequency": lambda: 9.4e9 + rng.normal(0, 5e3),
-        "power": lambda: rng.normal(-70, 5), "range_difference": lambda: rng.normal(0, 300)}
+        "power": lambda: rng.normal(-70, 5), "range_difference": lambda: rng.normal(0, 300),
+        "tdoa": lambda: rng.normal(0, 1e-5), "fdoa": lambda: rng.normal(0, 50)}
     for sensor in ("1", "uav-1", "NA"):
         start = rng.normal(0, 5e3, 3)
         vel = rng.normal(0, 50, 3)
@@ -60,6 +61,9 @@ def realistic_set() -> MeasurementSet:
                     tr = t - 0.05 - rng.uniform(0, 1e-3)
                     cols["tr"].append(tr)
                     cols["rs"].append(np.concatenate([start + vel * tr, vel]))
+                elif kind in ("tdoa", "fdoa"):  # against a reference sensor at the same time
+                    cols["tr"].append(t)
+                    cols["rs"].append(np.concatenate([pos + 1e3, vel]))
                 else:
                     cols["tr"].append(np.nan)
                     cols["rs"].append(np.full(6, np.nan))
@@ -110,8 +114,11 @@ def test_round_trip_is_exact(tmp_path, suffix):
     assert back.equals(ms)
     assert back.sensors == ["1", "uav-1", "NA"]
     assert back.metadata == ms.metadata
-    assert np.isnan(back.time_ref[back.kind != "range_difference"]).all()
-    assert np.isnan(back.ref_sensor_state[back.kind != "range_difference"]).all()
+    plain = ~np.isin(back.kind, ["range_difference", "tdoa", "fdoa"])
+    assert np.isnan(back.time_ref[plain]).all()
+    assert np.isnan(back.ref_sensor_state[plain]).all()
+    between = np.isin(back.kind, ["tdoa", "fdoa"])
+    assert np.array_equal(back.time_ref[between], back.time[between])
     # written again from what was read: the same bytes
     again = write_measurements(back, tmp_path / f"again{suffix}")
     if suffix == ".csv":
@@ -129,8 +136,8 @@ def test_csv_layout(tmp_path):
                            "ref_sensor_vy", "ref_sensor_vz"]
     first = lines[9].split(",")
     assert first[1:3] == ["1", "bearing"] and first[11:] == [""] * 7  # time_ref etc. empty
-    # without range differences there are no ref_sensor_* columns
-    no_rd = ms.take(ms.kind != "range_difference")
+    # without range differences (nor tdoa, fdoa) there are no ref_sensor_* columns
+    no_rd = ms.take(~np.isin(ms.kind, ["range_difference", "tdoa", "fdoa"]))
     header = write_measurements(no_rd, tmp_path / "no_rd.csv").read_text().splitlines()[8]
     assert tuple(header.split(",")) == COLUMN_ORDER
     assert read_measurements(tmp_path / "no_rd.csv").equals(no_rd)
