@@ -21,7 +21,7 @@ from tmakit.planning.closed_loop import (
     simulate_group,
 )
 from tmakit.sensors.platform import HURTADO_NEHORAI_2008 as HN
-from tmakit.sensors.platform_state import Actions, PlatformState
+from tmakit.sensors.platform import Actions, PlatformState
 
 PLAN = SensorPlan(("bearing", "range", "range_rate"), [math.radians(2.0), 100.0, 5.0])
 # the radar's sigmas (range rate of no use): the planner goes for the target

@@ -26,7 +26,7 @@ from tmakit.planning.policies import MissionPolicy, TrackPolicy, passive, range_
 from tmakit.planning.setup import planning_from_dict
 from tmakit.reproduce import hurtado2008
 from tmakit.sensors.platform import HURTADO_NEHORAI_2008 as HN
-from tmakit.sensors.platform_state import PlatformState
+from tmakit.sensors.platform import PlatformState
 
 runner = CliRunner()
 RADAR = SensorPlan(("bearing", "range", "range_rate"), [math.radians(2.0), 100.0, 5.0])

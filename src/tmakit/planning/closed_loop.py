@@ -57,7 +57,7 @@ from ..filters import FILTERS, TrackingFilter
 from ..measurements import KINDS
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
-from ..sensors.platform_state import PlatformState
+from ..sensors.platform import PlatformState
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, expected_information, step_information
 from .measurement_plan import SensorPlan

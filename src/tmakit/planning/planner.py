@@ -35,8 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.arrays import Array
-from ..sensors.platform import PlatformKinematics, Step
-from ..sensors.platform_state import Actions, PlatformState
+from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from . import compiled, fused
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information

@@ -37,8 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.arrays import Array
-from ..sensors.platform import PlatformKinematics, Step
-from ..sensors.platform_state import Actions, PlatformState
+from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from ..sensors.tracks import SensorTrack
 from .belief import Belief
 from .candidates import step_information

@@ -22,7 +22,7 @@ from ..bounds.pcrb_recursion import PosteriorInformation
 from ..core.linalg import symmetrise
 from ..filters.base import TrackingFilter
 from ..motion.dynamics import NearlyConstantVelocity
-from ..sensors.platform_state import PlatformState
+from ..sensors.platform import PlatformState
 from .belief import Belief, cubature_points
 from .planner import Planner, Recommendation
 

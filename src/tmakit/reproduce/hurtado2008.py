@@ -64,8 +64,7 @@ from ..planning.closed_loop import TRACKERS, FixedPolicy, LoopSetup
 
 __all__ = ["CASES", "OPTIONS", "RADARS", "SETUP", "TRACKERS", "Hurtado2008Reproduction",
            "Hurtado2008Setup", "cases", "claims", "plot", "radar_plan", "run"]
-from ..sensors.platform import HURTADO_NEHORAI_2008
-from ..sensors.platform_state import PlatformState
+from ..sensors.platform import HURTADO_NEHORAI_2008, PlatformState
 from .common import Reproduction, Section
 
 #: The radar variants (see the module docstring).

@@ -7,13 +7,15 @@ the paper's radar measures.
 from .platform import (
     HURTADO_NEHORAI_2008,
     PLATFORM_CONFIGURATIONS,
+    Actions,
     PlatformConfiguration,
     PlatformKinematics,
+    PlatformState,
     PlatformTrack,
     Step,
     platform_configuration,
+    propagate_constant_turn,
 )
-from .platform_state import Actions, PlatformState, propagate_constant_turn
 from .radar import HURTADO_NEHORAI_2008_RADAR, RadarModel
 from .tracks import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
 
