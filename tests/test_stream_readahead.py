@@ -14,26 +14,26 @@ from test_streaming_and_rules import (
     write_rows,
 )
 
-from tmakit.io import csv_stream, read_measurements
+from tmakit.io import csv_file, read_measurements
 
 
 def test_the_text_held_while_streaming_is_a_few_dozen_blocks_of_a_large_file(tmp_path,
                                                                              monkeypatch):
     block = 1 << 14
-    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", block)
+    monkeypatch.setattr(csv_file, "BLOCK_BYTES", block)
     path = write_rows(tmp_path / "obs.csv", two_sensor_rows(30_000))  # ~4 MB: ~250 blocks
     size = path.stat().st_size
     assert size > 150 * block
     pool = pa.default_memory_pool()
     held = []
-    put = csv_stream._put
+    put = csv_file._put
 
     def spy(cols, name, col):
         held.append(pool.bytes_allocated())
         put(cols, name, col)
 
-    monkeypatch.setattr(csv_stream, "_put", spy)
-    meas = csv_stream.stream_csv(path)
+    monkeypatch.setattr(csv_file, "_put", spy)
+    meas = csv_file.stream_csv(path)
     assert meas is not None and len(meas) == 75_000
     # the reader's input thread queues up to about 32 blocks ahead, whatever the file's size
     assert max(held) <= 48 * block < size / 3
@@ -44,8 +44,8 @@ def test_a_range_difference_file_streams_without_importing_pandas(tmp_path):
     # cells of time_ref through pyarrow's to_numpy
     path = write_rows(tmp_path / "rd.csv", range_difference_rows(40))
     path.write_text(path.read_text().replace(HEADER, RD_HEADER, 1))
-    code = ("import sys; from pathlib import Path; from tmakit.io import csv_stream; "
-            f"m = csv_stream.stream_csv(Path({str(path)!r})); "
+    code = ("import sys; from pathlib import Path; from tmakit.io import csv_file; "
+            f"m = csv_file.stream_csv(Path({str(path)!r})); "
             "print(m is not None, int(m.kind_code.size), 'pandas' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()

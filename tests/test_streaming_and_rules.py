@@ -9,7 +9,7 @@ import pytest
 
 import tmakit as tk
 from tmakit.data import MeasurementSet
-from tmakit.io import MeasurementFileError, csv_stream, read_measurements
+from tmakit.io import MeasurementFileError, csv_file, read_measurements
 from tmakit.io.checker import check_table
 from tmakit.io.csv_file import load_csv
 
@@ -40,9 +40,9 @@ def two_sensor_rows(n):
 
 def test_a_streamed_file_equals_the_full_checkers_set_across_many_blocks(tmp_path,
                                                                           monkeypatch):
-    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks: growth, late sensor
+    monkeypatch.setattr(csv_file, "BLOCK_BYTES", 4096)  # ~20 blocks: growth, late sensor
     path = write_rows(tmp_path / "obs.csv", two_sensor_rows(600))
-    streamed = csv_stream.stream_csv(path)
+    streamed = csv_file.stream_csv(path)
     assert streamed is not None
     full = full_read(path)
     assert streamed.equals(full)
@@ -64,16 +64,16 @@ def test_a_streamed_file_equals_the_full_checkers_set_across_many_blocks(tmp_pat
 def test_odd_valid_files_stream_to_the_full_checkers_set(tmp_path, text):
     path = tmp_path / "odd.csv"
     path.write_text(text, encoding="utf-8", newline="")
-    streamed = csv_stream.stream_csv(path)
+    streamed = csv_file.stream_csv(path)
     assert streamed is not None and streamed.equals(full_read(path))
 
 
 def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
     path = write_rows(tmp_path / "obs.csv", two_sensor_rows(500))
-    meas = csv_stream.stream_csv(path)
+    meas = csv_file.stream_csv(path)
     held = [meas.time, meas.sensor_state, meas.kind_code, meas.sensor_code, meas.value,
             meas.sigma, meas.value_si, meas.sigma_si]
-    assert sum(a.nbytes for a in held) == csv_stream.SET_BYTES_PER_ROW * len(meas)
+    assert sum(a.nbytes for a in held) == csv_file.SET_BYTES_PER_ROW * len(meas)
     # time_ref and the reference state are views of one NaN, not arrays of rows
     assert meas.time_ref.base is not None and meas.time_ref.strides == (0,)
     assert np.isnan(meas.ref_sensor_state).all()
@@ -110,15 +110,15 @@ def geodetic_rows(n, climb):
 ], ids=["2d", "3d", "asked-3d", "origin-argument", "argument-wins", "no-altitude"])
 def test_a_streamed_latlon_file_equals_the_full_checkers_set(tmp_path, monkeypatch, climb,
                                                              preamble, origin, dim):
-    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks
-    monkeypatch.setattr(csv_stream, "_ENU_ROWS", 97)  # converted in many pieces
+    monkeypatch.setattr(csv_file, "BLOCK_BYTES", 4096)  # ~20 blocks
+    monkeypatch.setattr(csv_file, "_ENU_ROWS", 97)  # converted in many pieces
     rows, header = geodetic_rows(300, climb or 0.0), GEO_HEADER
     if climb is None:  # drop the sensor_alt column
         rows = [",".join(r.split(",")[:7] + r.split(",")[8:]) for r in rows]
         header = GEO_HEADER.replace(",sensor_alt", "")
     path = tmp_path / "geo.csv"
     path.write_text("\n".join([*preamble, header, *rows]) + "\n", encoding="utf-8")
-    streamed = csv_stream.stream_csv(path, origin=origin)
+    streamed = csv_file.stream_csv(path, origin=origin)
     assert streamed is not None
     full = check_table(path, load_csv(path), origin)
     assert streamed.equals(full)  # bit for bit, metadata (origin, dim_rule) included
@@ -141,7 +141,7 @@ def test_a_latlon_file_the_stream_cannot_take_goes_to_the_full_checker(tmp_path,
     path = tmp_path / "geo.csv"
     path.write_text("\n".join([*preamble, GEO_HEADER, *(edit(rows) if edit else rows)]) + "\n",
                     encoding="utf-8")
-    assert csv_stream.stream_csv(path) is None
+    assert csv_file.stream_csv(path) is None
     with pytest.raises(MeasurementFileError):
         read_measurements(path)
 
@@ -171,10 +171,10 @@ def range_difference_rows(n):
 
 def test_a_streamed_file_with_range_differences_equals_the_full_checkers_set(tmp_path,
                                                                              monkeypatch):
-    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)  # ~20 blocks
+    monkeypatch.setattr(csv_file, "BLOCK_BYTES", 4096)  # ~20 blocks
     path = write_rows(tmp_path / "rd.csv", range_difference_rows(300))
     path.write_text(path.read_text().replace(HEADER, RD_HEADER, 1))
-    streamed = csv_stream.stream_csv(path)
+    streamed = csv_file.stream_csv(path)
     assert streamed is not None
     full = full_read(path)
     assert streamed.equals(full)
@@ -186,8 +186,8 @@ def test_a_streamed_file_with_range_differences_equals_the_full_checkers_set(tmp
 
 def test_a_streamed_latlon_file_with_range_differences_equals_the_full_checkers_set(
         tmp_path, monkeypatch):
-    monkeypatch.setattr(csv_stream, "BLOCK_BYTES", 4096)
-    monkeypatch.setattr(csv_stream, "_ENU_ROWS", 97)
+    monkeypatch.setattr(csv_file, "BLOCK_BYTES", 4096)
+    monkeypatch.setattr(csv_file, "_ENU_ROWS", 97)
     rows = []
     for row in geodetic_rows(200, 400.0):  # 3-D: the references from the ENU rows
         t = float(row.split(",")[0])
@@ -196,7 +196,7 @@ def test_a_streamed_latlon_file_with_range_differences_equals_the_full_checkers_
             rows.append(row.replace("bearing", "range_difference", 1) + f",{t - 1.5}")
     path = tmp_path / "geo-rd.csv"
     path.write_text("\n".join([*ORIGIN, GEO_HEADER + ",time_ref", *rows]) + "\n")
-    streamed = csv_stream.stream_csv(path)
+    streamed = csv_file.stream_csv(path)
     assert streamed is not None
     full = full_read(path)
     assert streamed.equals(full) and np.ptp(streamed.ref_sensor_state[:, 2][
@@ -216,7 +216,7 @@ def test_a_range_difference_file_with_a_problem_is_not_streamed(tmp_path, edit):
     rows = range_difference_rows(8)
     path = write_rows(tmp_path / "rd.csv", edit(rows))
     path.write_text(path.read_text().replace(HEADER, RD_HEADER, 1))
-    streamed = csv_stream.stream_csv(path)
+    streamed = csv_file.stream_csv(path)
     if edit(rows) == rows:
         assert streamed is not None and streamed.equals(full_read(path))
         return
@@ -238,7 +238,7 @@ def test_a_range_difference_file_with_a_problem_is_not_streamed(tmp_path, edit):
 def test_a_file_with_a_problem_is_not_streamed_and_the_reader_names_row_and_line(
         tmp_path, edit, words):
     path = write_rows(tmp_path / "bad.csv", edit(two_sensor_rows(20)))
-    assert csv_stream.stream_csv(path) is None
+    assert csv_file.stream_csv(path) is None
     with pytest.raises(MeasurementFileError) as err:
         read_measurements(path)
     assert words in str(err.value) and "(line " in str(err.value)
@@ -388,7 +388,7 @@ def test_reading_costs_less_than_three_times_the_bytes_of_each_row(tmp_path, geo
     assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)
     # the measure sees the set (a difference of two peaks whose fixed parts differ: 77-82
     # bytes a row measured against the set's 93)
-    assert per_row_memory >= csv_stream.SET_BYTES_PER_ROW * 0.6, (grown_small, grown_big)
+    assert per_row_memory >= csv_file.SET_BYTES_PER_ROW * 0.6, (grown_small, grown_big)
 
 
 def peak_of_reading_range_differences(tmp_path, n):
@@ -427,4 +427,4 @@ def test_reading_range_differences_costs_less_than_three_times_the_bytes_of_each
     per_row_memory = (grown_big - grown_small) / 300_000
     per_row_file = (size_big - size_small) / 300_000
     assert per_row_memory <= 3 * per_row_file, (per_row_memory, per_row_file)
-    assert per_row_memory >= csv_stream.SET_BYTES_PER_ROW * 0.9, (grown_small, grown_big)
+    assert per_row_memory >= csv_file.SET_BYTES_PER_ROW * 0.9, (grown_small, grown_big)

@@ -1,43 +1,152 @@
 """The CSV measurement file: ``# key: value`` metadata lines, a header, one row per value.
 
-Reading parses numbers as float64 when every cell is a finite number, else keeps every cell
-as text (the checker turns them into numbers and names the line of each problem); writing
-uses pandas' shortest round-trip floats, so files round-trip exactly.
+One parser reads it, pyarrow's CSV reader, in one of two ways:
+
+- **Streamed** (:func:`stream_csv`, the usual large file: valid, with ENU or
+  latitude/longitude sensor positions, with or without range differences).  The text is parsed
+  :data:`BLOCK_BYTES` at a time, each block's columns converted straight into the set's own
+  arrays (float64 numbers; the kind and the sensor as small integer codes with one table of
+  names), so the file's text, an Arrow table of the whole file or a text cell per row are never
+  held.  Latitude, longitude and altitude are held in the place of the ENU position while
+  reading; after the last block the surface rule is decided over every row's altitude and the
+  positions converted to ENU in place (:data:`_ENU_ROWS` rows at a time) about the origin the
+  checker takes.  Range differences are checked per block as the checker does, and the sensor
+  states at ``time_ref`` found after the stream (:mod:`.sensor_record`, the checker's own
+  look-up).  The set is then checked by the one set of rules (:mod:`tmakit.rules`).
+- **As a table of cells for the checker** (:func:`load_csv`), when the stream does not take the
+  file (a problem in any cell, a missing column, a lat/lon file without a known origin, a
+  ragged or quoted-newline record, a preamble longer than 1 MiB): the whole table, numbers as
+  float64 when every cell is a finite number, else every cell as text, with the line of each
+  record; :func:`~.checker.check_table` then builds the set or names every problem by row, line
+  and column.  Both ways give the same set bit for bit (``tests/test_streaming_and_rules.py``).
+
+Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
+with range differences: ``time_ref`` and the reference state), plus up to 5 % spare rows
+while reading, the blocks of text pyarrow reads ahead (its reader's input thread queues up to
+about 32 blocks: ``32 * BLOCK_BYTES``, whatever the file's size) and one block's parsed
+columns, and after reading the rules' transient arrays (about 30 bytes per row).  The
+checker's table is not bounded this way (about 8 times the file).  No pandas is imported by a
+streamed read (39 MB of a process, whatever the file's size).
+
+Writing uses pandas' shortest round-trip floats, so files round-trip exactly.
 """
 
 from __future__ import annotations
 
 import codecs
 import csv
+import ctypes
+import functools
 import io
 from array import array
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..data import MeasurementSet
+from ..data import REF_STATE_COLUMNS, MeasurementSet
+from ..measurements import KINDS
+from ..measurements.codes import KIND_CODES, KIND_NAMES
+from ..rules import GEO_RANGES, geo_within
 from .checker import check_table
 from .columns import file_columns
-from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS
-from .csv_stream import split_metadata, stream_csv
+from .contract import COLUMN_ORDER, FORMAT_LINE, GEO_COLUMNS, NUMERIC_COLUMNS
 from .errors import MeasurementFileError
 from .formats import Format, register_format
-from .problems import RawTable
+from .positions import resolve_origin
+from .problems import Problems, RawTable
+from .sensor_record import QUERY_ROWS, SensorRecord
 from .tables import write_table
+
+__all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load_csv",
+           "read_csv", "stream_csv", "write_csv"]
 
 #: The columns the reader uses; others are ignored (docs/file-format.md) and not even parsed,
 #: so a header of 200,000 columns costs little.
 READ_COLUMNS = frozenset(("sensor", "kind", *NUMERIC_COLUMNS))
-
-if TYPE_CHECKING:  # pragma: no cover
-    import pandas as pd
-
-#: Characters of the file searched for the ``# key: value`` preamble before the whole text.
+#: Bytes of the file searched for the ``# key: value`` preamble before the whole file.
 _PREAMBLE_SCAN = 1 << 20
 
-__all__ = ["CSV", "csv_metadata_line", "load_csv", "read_csv", "write_csv"]
+#: Bytes of CSV text parsed at a time.  pyarrow's streaming reader reads up to about 32
+#: blocks ahead on its input thread (not an option of the reader): with 4 MiB blocks that
+#: queue held 72 MB of a 60 MB file at once (all of it); 1 MiB blocks bound it at about
+#: 37 MB (``tests/test_stream_readahead.py``).
+BLOCK_BYTES = 1 << 20
+#: Blocks between two returns of freed memory to the system
+#: (:func:`_give_back`): every 4 MiB of text (each return walks the heap: after
+#: every 1 MiB block the read took 15 % longer).
+_GIVE_BACK_EVERY = 4
+#: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
+#: sensor state (48), the sensor code (4) and the kind code (1); without range differences
+#: ``time_ref`` and the reference state are all-NaN views that take no memory.
+SET_BYTES_PER_ROW = 93
+#: Columns a streamed file must have, and those of its positions (ENU or geodetic).
+_REQUIRED = ("time", "sensor", "kind", "value", "sigma")
+_ENU_REQUIRED = ("sensor_x", "sensor_y")
+_ENU_COLUMNS = ("sensor_x", "sensor_y", "sensor_z")
+_GEO_REQUIRED = ("sensor_lat", "sensor_lon")
+_REF_REQUIRED = ("time_ref", "ref_sensor_x", "ref_sensor_y")
+#: Column of the sensor state each numeric column is stored in (latitude, longitude and
+#: altitude are held in the position's place until :func:`_to_enu` converts them).
+_STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "sensor_vy": 4,
+                 "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
+#: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
+_ENU_ROWS = 1 << 16
+#: Columns of range differences (empty on other rows).
+_REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
+#: Whether each kind code uses a reference sample (range differences).
+_USES_REFERENCE = np.array([KINDS[k].uses_reference for k in KIND_NAMES], dtype=bool)
+#: Whether each kind code is a difference between sensors at one time (tdoa, fdoa).
+_BETWEEN_SENSORS = np.array([KINDS[k].between_sensors for k in KIND_NAMES], dtype=bool)
+
+
+def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
+    """Split off the leading ``# key: value`` comment lines (and blank lines) of a CSV text.
+
+    Parameters
+    ----------
+    text : str
+        The start of the file's text.
+
+    Returns
+    -------
+    metadata : dict of str to str
+        The ``key: value`` pairs.
+    chars, lines : int
+        The characters and the lines the comment and blank lines take.
+    """
+    metadata: dict[str, str] = {}
+    consumed = pre_lines = 0
+    for line in io.StringIO(text, newline=""):
+        stripped = line.strip()
+        if stripped and not stripped.startswith("#"):
+            break
+        consumed += len(line)
+        pre_lines += 1
+        if stripped.startswith("#"):
+            key, sep, value = stripped[1:].partition(":")
+            if sep and key.strip():
+                metadata[key.strip()] = value.strip()
+    return metadata, consumed, pre_lines
+
+
+def _preamble(data: bytes, complete: bool) -> tuple[dict[str, str], int, int] | None:
+    """Split the ``# key: value`` lines off the start of a file: metadata, header byte, lines.
+
+    None when ``data`` is not UTF-8, or (unless ``complete``: the whole file) when the
+    preamble runs to its end.
+    """
+    try:
+        text = codecs.getincrementaldecoder("utf-8-sig")().decode(data, final=complete)
+    except UnicodeDecodeError:
+        return None
+    metadata, consumed, lines = split_metadata(text)
+    if consumed >= len(text) and not complete:
+        return None
+    bom = 3 if data.startswith(codecs.BOM_UTF8) else 0
+    return metadata, bom + len(text[:consumed].encode("utf-8")), lines
 
 
 def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], NDArray[np.int64]]:
@@ -143,40 +252,473 @@ def _plain_records(body: bytes, pre_lines: int
     return header, pre_lines + 1, lines.astype(np.int64), problems
 
 
-def _read_frame(body: bytes, names: list[str], as_text: bool) -> pd.DataFrame:
-    """Read the columns the reader uses: numbers as float64 when every cell is a finite number.
+def _give_back() -> None:
+    """Return the memory of dropped blocks to the system (pyarrow's pool and the C library's).
+
+    Without this, pyarrow's allocator and the C library's keep freed blocks (their sum grows
+    with the file: about 130 bytes per row at 3 million rows), and the peak is theirs.
+    """
+    import pyarrow as pa
+
+    pa.default_memory_pool().release_unused()
+    trim = _malloc_trim()
+    if trim is not None:
+        trim(0)
+
+
+@functools.cache
+def _malloc_trim() -> Any:
+    """Find the C library's ``malloc_trim(pad)`` (glibc); None where there is none."""
+    try:
+        return ctypes.CDLL(None).malloc_trim
+    except (OSError, AttributeError):
+        return None
+
+
+def _with_nan(col: Any) -> NDArray[np.float64]:
+    """Return a pyarrow float64 array as numpy, NaN where null (a view when it has none).
+
+    From its buffers: ``col.to_numpy(zero_copy_only=False)`` and ``pyarrow.compute.fill_null``
+    import pandas (39 MB more memory, half a second).
+    """
+    values = _numbers(col, np.float64)
+    if not col.null_count:
+        return values
+    bits = np.frombuffer(col.buffers()[0], dtype=np.uint8)
+    valid = np.unpackbits(bits, bitorder="little")[col.offset:col.offset + len(col)]
+    return np.where(valid.view(bool), values, np.nan)
+
+
+def _numbers(col: Any, dtype: type) -> NDArray[Any]:
+    """View a pyarrow array of fixed-width numbers without nulls as numpy (read-only)."""
+    return np.frombuffer(col.buffers()[1], dtype=dtype, count=len(col),
+                         offset=col.offset * np.dtype(dtype).itemsize)
+
+
+class _Fallback(Exception):
+    """The file is not for the stream: the full checker reads it."""
+
+
+def _stream_header(path: Path, start: int) -> list[str] | None:
+    """Return the header names as written (from byte ``start``), None if not streamable."""
+    with open(path, "rb") as f:
+        f.seek(start)
+        text = io.TextIOWrapper(f, encoding="utf-8", newline="")
+        try:
+            names = next(csv.reader(text), None)
+        except (UnicodeDecodeError, csv.Error):
+            return None
+    if not names or any("\n" in n or "\r" in n for n in names):
+        return None
+    stripped = [n.strip() for n in names]
+    if "" in stripped or len(set(stripped)) != len(stripped):
+        return None
+    has = set(stripped).__contains__
+    geodetic = any(has(c) for c in GEO_COLUMNS)
+    position = (_GEO_REQUIRED, _ENU_COLUMNS) if geodetic else (_ENU_REQUIRED, GEO_COLUMNS)
+    refs = any(has(c) for c in REF_STATE_COLUMNS)
+    if not all(has(c) for c in (*_REQUIRED, *position[0], *(_REF_REQUIRED if refs else ()))
+               ) or any(has(c) for c in position[1]) or has("sensor_vx") != has("sensor_vy"):
+        return None
+    return names
+
+
+class _Columns:
+    """The set's arrays, filled block by block (grown in place when the estimate is short)."""
+
+    def __init__(self, rows: int) -> None:
+        self.n = 0
+        self.num = {c: np.zeros(rows) for c in ("time", "value", "sigma")}
+        self.state = np.zeros((rows, 6))
+        self.sensor = np.zeros(rows, dtype=np.int32)
+        self.kind = np.zeros(rows, dtype=np.int8)
+        self.sensor_names: dict[str, int] = {}
+        # range differences: allocated at the first cell given (NaN for empty cells)
+        self.time_ref: NDArray[np.float64] | None = None
+        self.ref: NDArray[np.float64] | None = None
+        self.ref_columns: list[int] = []
+
+    def _arrays(self) -> list[NDArray[Any]]:
+        """List the per-row arrays (the 1-D ones)."""
+        return [*self.num.values(), self.sensor, self.kind,
+                *(() if self.time_ref is None else (self.time_ref,))]
+
+    def reserve(self, rows: int) -> None:
+        """Make room for ``rows`` more rows (grown by a quarter at least)."""
+        need = self.n + rows
+        if need <= self.kind.shape[0]:
+            return
+        size = max(need, int(self.kind.shape[0] * 1.25))
+        for a in self._arrays():
+            a.resize(size, refcheck=False)
+        for b in (self.state, self.ref):
+            if b is not None:
+                b.resize((size, 6), refcheck=False)
+
+    def trim(self) -> None:
+        """Drop the spare rows."""
+        for a in self._arrays():
+            a.resize(self.n, refcheck=False)
+        for b in (self.state, self.ref):
+            if b is not None:
+                b.resize((self.n, 6), refcheck=False)
+
+    def put_reference(self, name: str, values: NDArray[np.float64]) -> None:
+        """Store a block of ``time_ref`` or a ``ref_sensor_*`` column (NaN for empty)."""
+        lo, hi = self.n, self.n + values.shape[0]
+        if name == "time_ref":
+            if self.time_ref is None and np.isnan(values).all():
+                return
+            if self.time_ref is None:  # the first one given: the rows before had none
+                self.time_ref = np.full(self.kind.shape[0], np.nan)
+            self.time_ref[lo:hi] = values
+            return
+        i = REF_STATE_COLUMNS.index(name)
+        if i not in self.ref_columns:
+            self.ref_columns.append(i)
+        if self.ref is None and np.isnan(values).all():
+            return
+        if self.ref is None:
+            self.ref = np.full((self.kind.shape[0], 6), np.nan)
+        self.ref[lo:hi, i] = values
+
+    def block_is_valid(self, k: int) -> bool:
+        """Check the range-difference cells of the block of ``k`` rows just stored.
+
+        As the checker does: a ``time_ref`` on exactly the rows with a reference, finite, before
+        ``time`` (at ``time`` for a difference between sensors, which gives its reference
+        state); all or none of a row's ``ref_sensor_*`` cells, on those rows only.
+        """
+        lo, hi = self.n, self.n + k
+        is_rd = _USES_REFERENCE[self.kind[lo:hi]]
+        between = _BETWEEN_SENSORS[self.kind[lo:hi]]
+        earlier = is_rd & ~between
+        if self.time_ref is None:
+            ok = not is_rd.any()
+        else:
+            time, time_ref = self.num["time"][lo:hi], self.time_ref[lo:hi]
+            with np.errstate(invalid="ignore"):
+                ok = bool(np.array_equal(np.isnan(time_ref), ~is_rd)
+                          and not np.isinf(time_ref).any()
+                          and np.all(time_ref[earlier] < time[earlier])
+                          and np.all(time_ref[between] == time[between]))
+        if ok and self.ref is not None:
+            cells = self.ref[lo:hi, self.ref_columns]
+            given = ~np.isnan(cells)
+            row_given = given.any(axis=1)
+            ok = not (np.isinf(cells).any() or (row_given & ~is_rd).any()
+                      or (row_given & ~given.all(axis=1)).any() or (between & ~row_given).any())
+        elif ok:
+            ok = not between.any()
+        return ok
+
+    def put_number(self, name: str, values: NDArray[np.float64]) -> None:
+        """Store a block of a numeric column (finite numbers only)."""
+        if not np.isfinite(values).all():
+            raise _Fallback
+        if name in GEO_RANGES and not geo_within(values, name).all():
+            raise _Fallback
+        lo, hi = self.n, self.n + values.shape[0]
+        if name in self.num:
+            self.num[name][lo:hi] = values
+        else:
+            self.state[lo:hi, _STATE_COLUMN[name]] = values
+
+    def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
+        """Store a block of kind codes from its dictionary (known kinds only)."""
+        table = np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
+        if np.any(table < 0):
+            raise _Fallback
+        self.kind[self.n:self.n + indices.shape[0]] = table[indices]
+
+    def put_sensor(self, indices: NDArray[np.integer], names: list[str]) -> None:
+        """Store a block of sensor codes, new ids numbered in order of first appearance."""
+        present, first = np.unique(indices, return_index=True)
+        table = np.zeros(len(names), dtype=np.int32)
+        for i in present[np.argsort(first, kind="stable")].tolist():
+            name = names[i]
+            if not name.strip():
+                raise _Fallback
+            table[i] = self.sensor_names.setdefault(name, len(self.sensor_names))
+        self.sensor[self.n:self.n + indices.shape[0]] = table[indices]
+
+
+def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
+    """Parse the file's records block by block into :class:`_Columns`."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    text_type = pa.dictionary(pa.int32(), pa.string())
+    read, parse, convert = _parse_options(
+        names, lambda c: text_type if c in ("sensor", "kind") else pa.float64(), stream=True)
+    cols: _Columns | None = None
+    # The C library's allocator: the text and parsed blocks are then given back with the
+    # rules' arrays (:func:`_give_back`), where pyarrow's own pool kept about 10 MB.
+    pool = pa.system_memory_pool()
+    with pa.OSFile(str(path), memory_pool=pool) as f:
+        f.seek(start)
+        reader = pcsv.open_csv(f, read_options=read, parse_options=parse,
+                               convert_options=convert, memory_pool=pool)
+        for blocks, batch in enumerate(reader):
+            k = batch.num_rows
+            if cols is None:  # the rows per byte of the first block, 5 % spare
+                left = max(1, path.stat().st_size - start)
+                cols = _Columns(max(k, int(1.05 * k * left / min(left, BLOCK_BYTES))))
+            cols.reserve(k)
+            for name, col in zip(batch.schema.names, batch.columns, strict=True):
+                _put(cols, name.strip(), col)
+            if not cols.block_is_valid(k):
+                raise _Fallback
+            cols.n += k
+            del batch
+            if blocks % _GIVE_BACK_EVERY == 0:
+                _give_back()
+    _give_back()
+    if cols is None or cols.n == 0:
+        raise _Fallback
+    cols.trim()
+    return cols
+
+
+def _put(cols: _Columns, name: str, col: Any) -> None:
+    """Store one block of one column."""
+    if name in _REFERENCE:  # empty cells are NaN
+        values = _with_nan(col)
+        if np.count_nonzero(np.isnan(values)) != col.null_count:  # a cell "nan"
+            raise _Fallback
+        cols.put_reference(name, values)
+        return
+    if col.null_count:
+        raise _Fallback
+    if name in ("sensor", "kind"):
+        indices = _numbers(col.indices, np.int32)
+        put: Callable[[NDArray[np.integer], list[str]], None] = (
+            cols.put_sensor if name == "sensor" else cols.put_kind)
+        put(indices, col.dictionary.to_pylist())
+    else:
+        cols.put_number(name, _numbers(col, np.float64))
+
+
+def _build(cols: _Columns, metadata: dict[str, str],
+           ref: NDArray[np.float64] | None = None) -> MeasurementSet:
+    """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds).
+
+    ``ref``: the sensor states at ``time_ref`` of a file with range differences.  Raises
+    ``ValueError`` (a rule of :mod:`tmakit.rules`) like the constructor.
+    """
+    from .. import rules
+
+    n = cols.n
+    out = object.__new__(MeasurementSet)
+    out.time, out.sensor_state = cols.num["time"], cols.state
+    out.kind_code, out.sensor_code = cols.kind, cols.sensor
+    out.sensor_names = tuple(cols.sensor_names)
+    nan = np.float64(np.nan)  # without range differences: views of one NaN
+    out.time_ref = (np.broadcast_to(nan, (n,)) if ref is None or cols.time_ref is None
+                    else cols.time_ref)
+    out.ref_sensor_state = np.broadcast_to(nan, (n, 6)) if ref is None else ref
+    out.metadata = dict(metadata)
+    out._kind = out._sensor = out._kinds = None
+    out._sensors = out.sensor_names
+    out._set_file_values(cols.num["value"], cols.num["sigma"])
+    rules.check_set(out)
+    return out
+
+
+def stream_csv(path: Path, scan: int = 1 << 20,
+               origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
+    """Read a valid CSV measurement file in bounded memory.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    scan : int, optional
+        Bytes searched for the ``# key: value`` preamble.
+    origin : (lat, lon, alt), optional
+        ENU origin (degrees, degrees, metres) for a file with ``sensor_lat`` and
+        ``sensor_lon``; wins over its ``origin_*`` metadata, as for
+        :func:`~.checker.check_table`.
+
+    Returns
+    -------
+    MeasurementSet or None
+        The checked set, equal to what the full checker builds (:meth:`MeasurementSet.equals`);
+        None when the file is not of that kind or breaks a rule (the full checker then
+        reads it and names each problem).
+    """
+    with open(path, "rb") as f:
+        head = f.read(scan)
+    found = _preamble(head, complete=len(head) < scan)
+    if found is None:
+        return None
+    metadata, start, _ = found
+    names = _stream_header(path, start)
+    if names is None:
+        return None
+    stripped = {n.strip() for n in names}
+    enu_origin: tuple[float, float, float] | None = None
+    if "sensor_lat" in stripped:
+        enu_origin, origin_metadata = _origin(origin, metadata)
+        if enu_origin is None:
+            return None
+        metadata = {**metadata, **origin_metadata}
+    try:
+        cols = _read_blocks(path, start, names)
+        present = np.bincount(cols.kind, minlength=len(KIND_NAMES)) > 0
+        if "sensor_vx" not in stripped and any(
+                KINDS[k].uses_velocity for k, p in zip(KIND_NAMES, present, strict=True) if p):
+            return None
+        if enu_origin is not None:
+            if "sensor_alt" not in stripped:  # as the full reader: the origin's altitude
+                cols.state[:, 2] = enu_origin[2]
+            rule = _to_enu(cols.state, enu_origin, metadata.get("dim", "").strip() == "3")
+            if rule:
+                metadata["dim_rule"] = rule
+        meas = _build(cols, metadata, _reference_states(cols, "sensor_vx" in stripped))
+    except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
+        return None
+    # The rules' and the duplicate check's arrays came from the C library's heap (its mmap
+    # threshold grows as large blocks are freed) and stay resident when freed below live
+    # arrays: 47 MiB of a 1e6-row file with range differences, until given back here.
+    _give_back()
+    return meas
+
+
+def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64] | None:
+    """Each row's sensor state at ``time_ref`` ``(n, 6)``, NaN on other kinds; None without any.
+
+    From the row's ``ref_sensor_*`` cells (absent velocities and ``ref_sensor_z`` 0 where a
+    row gives the others), else the sensor's own rows (:class:`.sensor_record.SensorRecord`,
+    the checker's look-up), :data:`~.sensor_record.QUERY_ROWS` rows at a time.  Falls back
+    when a ``time_ref`` has no known sensor position.
+    """
+    if cols.time_ref is None:
+        return None
+    time, time_ref, kind, sensor, n = (cols.num["time"], cols.time_ref, cols.kind, cols.sensor,
+                                       cols.n)
+    names = len(cols.sensor_names)
+    ref = np.full((n, 6), np.nan) if cols.ref is None else cols.ref
+    absent = [i for i in range(2, len(REF_STATE_COLUMNS)) if i not in cols.ref_columns]
+    counts = np.zeros(names, dtype=np.int64)
+    for lo in range(0, n, QUERY_ROWS):  # block by block: no temporary of every row
+        block = ref[lo:lo + QUERY_ROWS]
+        given = ~np.isnan(block[:, 0])
+        for i in absent:
+            block[given, i] = 0.0
+        counts += np.bincount(sensor[lo:lo + QUERY_ROWS][_need(kind, ref, lo)],
+                              minlength=names)
+    for code in np.flatnonzero(counts).tolist():
+        mine = None if names == 1 else np.flatnonzero(sensor == code)
+        record = SensorRecord(time, cols.state, mine, has_velocity)
+        for lo in range(0, n, QUERY_ROWS):
+            need = _need(kind, ref, lo)
+            if names > 1:
+                need &= sensor[lo:lo + QUERY_ROWS] == code
+            if np.any(record.fill(lo + np.flatnonzero(need), time_ref, ref)):
+                raise _Fallback
+    return ref
+
+
+def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[np.bool_]:
+    """Flag the range differences without ``ref_sensor_*`` cells of a block from row ``lo``."""
+    hi = lo + QUERY_ROWS
+    return (_USES_REFERENCE[kind[lo:hi]] & ~_BETWEEN_SENSORS[kind[lo:hi]]
+            & np.isnan(ref[lo:hi, 0]))
+
+
+def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
+            ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
+    """Pick the ENU origin as the full reader does (:func:`.positions.resolve_origin`).
+
+    The argument, else the file's ``origin_lat``, ``origin_lon`` (and ``origin_alt``, 0 m
+    when absent) metadata; ``(None, {})`` when there is none or it is unreadable.
+    """
+    problems = Problems(RawTable(None, metadata, None))
+    found, origin_metadata = resolve_origin(origin, metadata, problems)
+    return (None, {}) if problems.file else (found, origin_metadata)
+
+
+def _to_enu(state: NDArray[np.float64], origin: tuple[float, float, float],
+            dim3: bool) -> str:
+    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU in place.
+
+    As the full reader does (:func:`.positions.sensor_state`): the surface rule of
+    :func:`tmakit.io.logs.surface_dim` over every row's altitude decides 2-D (altitude the
+    origin's, up 0) or 3-D, unless ``dim3`` (metadata ``dim: 3``).  Converted
+    :data:`_ENU_ROWS` rows at a time, so the conversion's arrays stay small.
+
+    Returns
+    -------
+    str
+        The surface rule's text when it flattened the positions, else ``""``.
+    """
+    from ..core.geodesy import geodetic_to_enu
+    from .logs import surface_dim
+
+    n, alt0 = state.shape[0], origin[2]
+    worst, spread = alt0, -1.0  # the altitude farthest from the origin's
+    for lo in range(0, n, _ENU_ROWS):
+        off = np.abs(state[lo:lo + _ENU_ROWS, 2] - alt0)
+        i = int(np.argmax(off))
+        if off[i] > spread:
+            worst, spread = float(state[lo + i, 2]), float(off[i])
+    dim, rule = surface_dim(np.array([worst]), alt0, 3 if dim3 else None)
+    for lo in range(0, n, _ENU_ROWS):
+        block = state[lo:lo + _ENU_ROWS]
+        alt = np.full(block.shape[0], alt0) if dim == 2 else block[:, 2]
+        with np.errstate(invalid="ignore"):
+            e, nn, u = geodetic_to_enu(block[:, 0], block[:, 1], alt, origin)
+        block[:, 0], block[:, 1], block[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
+    return rule if dim == 2 else ""
+
+
+def _parse_options(names: list[str], types: Callable[[str], Any], *,
+                   stream: bool) -> tuple[Any, Any, Any]:
+    """Make pyarrow's read, parse and convert options for the columns the reader uses.
+
+    ``types(name)`` gives each used column's Arrow type (from its stripped name).  Empty cells
+    are null in the stream (numbers: NaN) and empty text for the checker; a streamed block
+    is parsed on one thread (no blocks parsed ahead of the consumer, so the peak does not
+    depend on the machine's load) and refuses a quoted line end (the checker reads it).
+    """
+    import pyarrow.csv as pcsv
+
+    used = [n for n in names if n.strip() in READ_COLUMNS]
+    convert = pcsv.ConvertOptions(column_types={n: types(n.strip()) for n in used},
+                                  include_columns=used, null_values=[""] if stream else [],
+                                  strings_can_be_null=False, quoted_strings_can_be_null=False)
+    read = pcsv.ReadOptions(block_size=BLOCK_BYTES, use_threads=not stream)
+    return read, pcsv.ParseOptions(newlines_in_values=not stream), convert
+
+
+def _read_table(body: bytes, names: list[str], as_text: bool) -> Any:
+    """Read the columns the reader uses as a pandas frame of cells.
 
     A text cell costs about 60 bytes, a float64 8; so unless ``as_text``, numeric columns are
-    parsed as float64 (pandas reads round-trip text exactly), and only if a cell is not a
+    parsed as float64 (exactly as Python's ``float`` reads them), and only if a cell is not a
     finite number (an empty cell, ``nan``, a word) is the table read as text.
     """
-    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
 
-    used = [n for n in names if n in READ_COLUMNS]
-    options: dict[str, Any] = {"na_filter": False, "keep_default_na": False,
-                               "index_col": False, "skip_blank_lines": True,
-                               "usecols": lambda c: c.strip() in READ_COLUMNS}
-    numeric = {c for c in used if c in NUMERIC_COLUMNS}
-    if not as_text and len(set(used)) == len(used) and numeric:
-        dtypes = {c: (np.float64 if c.strip() in numeric else str)
-                  for c in _raw_header(body) if c.strip() in READ_COLUMNS}
+    def read(types: Callable[[str], Any]) -> Any:
+        options = _parse_options(names, types, stream=False)
+        return pcsv.read_csv(pa.BufferReader(body), read_options=options[0],
+                             parse_options=options[1], convert_options=options[2])
+
+    numeric = [n for n in names if n.strip() in NUMERIC_COLUMNS]
+    if not as_text and numeric:
         try:
-            frame = pd.read_csv(io.BytesIO(body), dtype=dtypes,
-                                **options)
-        except (pd.errors.ParserError, ValueError, TypeError):
-            frame = None
-        cols = [] if frame is None else [c for c in frame.columns if c.strip() in numeric]
-        if frame is not None and all(frame[c].dtype == np.float64 for c in cols) and all(
-                np.isfinite(frame[c].to_numpy()).all() for c in cols):
-            return frame
-        del frame
-    return pd.read_csv(io.BytesIO(body), dtype=str, **options)
-
-
-def _raw_header(body: bytes) -> list[str]:
-    """Return the header names as written (not stripped), as pandas will see them."""
-    first = io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline="")
-    return next(csv.reader(first), [])
+            table = read(lambda c: pa.float64() if c in NUMERIC_COLUMNS else pa.string())
+        except pa.ArrowInvalid:
+            table = None
+        if table is not None and all(
+                np.isfinite(_numbers(chunk, np.float64)).all()
+                for n in numeric for chunk in table.column(n).chunks):
+            return table.to_pandas()
+        del table
+    return read(lambda c: pa.string()).to_pandas()
 
 
 def load_csv(path: Path, as_text: bool = False) -> RawTable:
@@ -205,32 +747,34 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
     MeasurementFileError
         If the file is not UTF-8 text, has no header, or a record cannot be read.
     """
-    import pandas as pd
+    import pyarrow as pa
 
     with open(path, "rb") as f:
         data = f.read()
     try:
-        text = data.decode("utf-8-sig")
+        data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise MeasurementFileError(path, [f"not a UTF-8 text file ({e})"]) from None
-    metadata, consumed, pre_lines = split_metadata(text[:_PREAMBLE_SCAN]
-                                                    if len(text) > _PREAMBLE_SCAN else text)
-    if consumed == _PREAMBLE_SCAN:  # a preamble longer than the scan: read it all
-        metadata, consumed, pre_lines = split_metadata(text)
-    start = len(text[:consumed].encode("utf-8")) + (3 if data.startswith(codecs.BOM_UTF8)
-                                                     else 0)
-    del text
+    found = (_preamble(data[:_PREAMBLE_SCAN], complete=len(data) <= _PREAMBLE_SCAN)
+             or _preamble(data, complete=True))
+    assert found is not None  # UTF-8 and complete: always split
+    metadata, start, pre_lines = found
     body = data[start:] if start else data
     del data
     names, lines = _record_lines(path, body, pre_lines)
     try:
-        frame = _read_frame(body, names, as_text)
-    except (pd.errors.ParserError, ValueError) as e:
+        frame = _read_table(body, _raw_header(body), as_text)
+    except (pa.ArrowException, ValueError) as e:
         raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
     frame.columns = [n for n in names if n in READ_COLUMNS]  # others are ignored: not read
-    frame = frame.reset_index(drop=True)
     line_numbers = lines if len(lines) == len(frame) else None
     return RawTable(frame, metadata, line_numbers)
+
+
+def _raw_header(body: bytes) -> list[str]:
+    """Return the header names as written (not stripped), as the parser sees them."""
+    first = io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline="")
+    return next(csv.reader(first), [])
 
 
 def csv_metadata_line(path: Path, key: str, value: str) -> str:
@@ -293,9 +837,10 @@ def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
              **options: Any) -> MeasurementSet:
     """Read and check a CSV measurement file (the :data:`CSV` format's reader).
 
-    The file is read with numbers as float64 (:func:`load_csv`); if the checker finds a
-    problem, it is read again with every cell as text and checked again, so each message
-    quotes the cells as written.
+    A valid file is streamed (:func:`stream_csv`); any other is read as a table of cells with
+    numbers as float64 (:func:`load_csv`) and checked; if the checker finds a problem, it is
+    read again with every cell as text and checked again, so each message quotes the cells as
+    written.
 
     Parameters
     ----------
