@@ -23,8 +23,7 @@ from .constraints import KeepOutZones, MaximumRange, MinimumRange, OperatingArea
 from .criteria import CustomCriterion, LogDet, WeightedTrace, criterion_from_name
 from .horizon import Continuation, SearchResult
 from .measurement_plan import SensorPlan
-from .mission import MissionPlanner
-from .mission_paths import MissionPlan
+from .mission import MissionPlan, MissionPlanner
 from .planner import Planner, Recommendation, position_bound
 from .recommend import recommend
 

@@ -43,8 +43,7 @@ from .belief import Belief
 from .candidates import step_information
 from .constraints import Constraint
 from .measurement_plan import SensorPlan
-from .mission import MissionPlanner
-from .mission_paths import MissionPlan
+from .mission import MissionPlan, MissionPlanner
 from .planner import position_bound, step_violations
 
 __all__ = ["RANGE_KINDS", "Choice", "FixedChoice", "FixedPolicy", "MissionPolicy", "Policy",
