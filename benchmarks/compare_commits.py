@@ -82,6 +82,27 @@ d = tempfile.mkdtemp(); p = os.path.join(d, "big.csv"); tk.write_measurements(bi
 t = time.process_time()
 tk.read_measurements(p)
 """,
+    "read 100k-row csv, one bad cell": """
+import numpy as np
+from tmakit.io import MeasurementFileError
+scn = tk.load_scenario("bearings-only-2d")
+parts = []
+for s in range(167):  # the file of "read 100k-row csv", one sigma negative: the checker reads it
+    m = scn.simulate(rng=s)
+    parts.append(tk.MeasurementSet(m.time + 1000.0 * s, m.sensor, m.kind, m.value, m.sigma,
+                                   m.sensor_state, m.time_ref, m.ref_sensor_state,
+                                   dict(m.metadata)))
+big = tk.MeasurementSet.concatenate(parts)
+import tempfile, os
+d = tempfile.mkdtemp(); p = os.path.join(d, "big.csv"); tk.write_measurements(big, p)
+lines = open(p).read().split(chr(10)); cells = lines[50_000].split(","); cells[4] = "-1"
+lines[50_000] = ",".join(cells); open(p, "w").write(chr(10).join(lines))
+t = time.process_time()
+try:
+    tk.read_measurements(p)
+except MeasurementFileError as e:
+    assert "column 'sigma'" in str(e)
+""",
     "manoeuvres hoerst2010 curvilinear:2": """
 m = tk.load_scenario("hoerst2010").simulate(rng=2)
 t = time.process_time()

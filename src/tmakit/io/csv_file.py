@@ -716,9 +716,10 @@ def _read_table(body: bytes, names: list[str], as_text: bool) -> Any:
         if table is not None and all(
                 np.isfinite(_numbers(chunk, np.float64)).all()
                 for n in numeric for chunk in table.column(n).chunks):
-            return table.to_pandas()
+            return table.to_pandas(split_blocks=True, self_destruct=True)
         del table
-    return read(lambda c: pa.string()).to_pandas()
+    # each column freed as it is converted: the Arrow table and the frame are not both held
+    return read(lambda c: pa.string()).to_pandas(split_blocks=True, self_destruct=True)
 
 
 def load_csv(path: Path, as_text: bool = False) -> RawTable:

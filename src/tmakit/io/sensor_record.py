@@ -3,8 +3,8 @@
 The state of a range difference's reference sample at ``time_ref``: the sensor's own row at
 that time (the first one), else interpolated between its rows as
 :class:`tmakit.sensors.RecordedTrack` does.  Used by the full reader
-(:func:`.positions.ref_of_sensor`) and by the stream (:mod:`.stream_refs`), so both give the
-same states bit for bit.
+(:func:`.positions.ref_of_sensor`) and by the stream (:func:`.csv_file.stream_csv`), so both
+give the same states bit for bit.
 
 Memory is bounded: a sensor's rows already in time order (the rule of a valid set) are not
 sorted nor copied (their times are searched in place), the times asked for are answered
