@@ -12,7 +12,7 @@ from bearing_sets import bearings
 
 import tmakit as tk
 from tmakit.batch import init, presolve
-from tmakit.batch.grid import _median, grid_candidates_for
+from tmakit.batch.init import _median, grid_candidates_for
 from tmakit.batch.solver import VarProProblem
 from tmakit.measurements.bearing import Bearing
 from tmakit.observation import ObservationModel

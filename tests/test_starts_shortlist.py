@@ -1,9 +1,9 @@
-"""The shortlist of :class:`tmakit.batch.starts.Starts` chooses what the plain greedy scan does."""
+"""The shortlist of :class:`tmakit.batch.init.Starts` chooses what the plain greedy scan does."""
 
 import numpy as np
 import pytest
 
-from tmakit.batch.starts import SHORTLIST, Starts, first_of_many, starts_of
+from tmakit.batch.init import SHORTLIST, Starts, first_of_many, starts_of
 
 
 def _greedy(candidates, cost, m):

@@ -7,15 +7,18 @@ Bearings alone under an affine motion model are scored by
 :class:`~tmakit.batch.chord.ChordScorer` on the rows of the problem itself (sines and cosines
 from the relative positions, no subset problem); the others by :class:`GridScorer` on the
 problem restricted to the rows.
-The grid itself is :mod:`tmakit.batch.grid`: positions along the measured bearings or on a
-polar grid around the sensors, velocities on a grid of speeds and courses; 3-D models add a few
-elevation angles above the sensors' plane (emitters below the sensors are not searched: with
-no elevation data, z and its mirror fit equally).
+The grid (:func:`grid_candidates`, at the median measurement time): positions along the
+measured bearings or on a polar grid around the sensors at geometrically spaced ranges,
+velocities on a grid of speeds and courses; 3-D models add a few elevation angles above the
+sensors' plane (emitters below the sensors are not searched: with no elevation data, z and its
+mirror fit equally).  The distinct starting points, best first, are :class:`Starts`
+(:func:`first_of_many` chooses them for many sets of values at once).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -27,13 +30,218 @@ from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
 from .chord import ChordScorer, chord_units
-from .grid import GridSettings, grid_candidates, grid_candidates_for
 from .solver import VarProProblem
-from .starts import Starts, starts_of
 
-__all__ = ["ChordScorer", "GridScorer", "GridSettings", "Starts", "best_starts",
-           "best_starts_many", "chord_units", "grid_candidates", "grid_start",
-           "orthonormal_columns", "subsample"]
+__all__ = ["SHORTLIST", "ChordScorer", "GridScorer", "GridSettings", "Starts", "best_starts",
+           "best_starts_many", "chord_units", "first_of_many", "grid_candidates",
+           "grid_candidates_for", "grid_start", "orthonormal_columns", "starts_of", "subsample"]
+
+
+@dataclass(frozen=True)
+class GridSettings:
+    """Extent and density of the initial search (SI units).
+
+    Every grid point is scored on ``coarse_rows`` evenly spread rows, the ``refine`` best on
+    ``max_rows``; ``starts`` distinct points start the solve.
+
+    Parameters
+    ----------
+    min_range, max_range : float
+        Extent of the geometrically spaced ranges (m).
+    n_ranges : int
+        Ranges per ray.
+    n_bearings : int
+        Bearings of the fan around the sensors when no bearing is measured.
+    speeds : tuple of float
+        Speeds of the velocity grid (m/s); 0 is the target at rest.
+    n_courses : int
+        Courses per positive speed.
+    elevations_deg : tuple of float
+        Elevations above the sensors' plane for 3-D models (degrees).
+    max_rows, coarse_rows : int
+        Rows the ``refine`` best points and every point are scored on.
+    starts : int
+        Distinct points that start the solve.
+    refine : int
+        Points of the coarse stage scored again on ``max_rows``.
+    """
+
+    min_range: float = 100.0
+    max_range: float = 50_000.0
+    n_ranges: int = 10
+    n_bearings: int = 12
+    speeds: tuple[float, ...] = (0.0, 10.0, 40.0, 150.0, 450.0)
+    n_courses: int = 8
+    elevations_deg: tuple[float, ...] = (0.0, 3.0, 10.0, 25.0, 50.0)
+    max_rows: int = 30
+    starts: int = 6
+    coarse_rows: int = 8
+    refine: int = 256
+
+
+def _reference_point(meas: MeasurementSet, t_mid: float) -> NDArray[np.float64]:
+    near = [np.argmin(np.abs(meas.time - t_mid) + 1e9 * ~meas.sensor_mask(s))
+            for s in meas.sensors]
+    return meas.sensor_state[near, :3].mean(axis=0)
+
+
+def _positions(meas: MeasurementSet, rows: NDArray[np.intp] | None,
+               values: NDArray[np.float64] | None, t_mid: float, dim: int, g: GridSettings
+               ) -> NDArray[np.float64]:
+    """Return candidate positions ``(m, 3)``: rays x elevations x ranges, in that order.
+
+    The rays go from each bearing sensor along its bearing nearest ``t_mid``, or fan out
+    around the sensors.  Of the rows ``rows`` of the set (None: all), whose values are
+    ``values`` (None: the set's).
+    """
+    ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
+    kind = meas.kind_mask("bearing")
+    at = np.flatnonzero(kind if rows is None else kind[rows])  # bearings among the rows
+    if at.size:
+        own = at if rows is None else rows[at]  # (their rows in the set)
+        codes, time = meas.sensor_code[own], meas.time[own]
+        if codes.min() == codes.max():  # one sensor
+            ends = [at[np.argmin(np.abs(time - t_mid))]]
+        else:  # the sensors in the order of their ids
+            ends = []
+            for c in sorted(np.unique(codes).tolist(), key=meas.sensor_names.__getitem__):
+                mine = codes == c
+                ends.append(at[mine][np.argmin(np.abs(time[mine] - t_mid))])
+        ends_set = ends if rows is None else rows[ends]
+        origins = meas.sensor_state[ends_set, :3]
+        bearings = meas.value_si[ends_set] if values is None else values[ends]
+        dirs = _directions(bearings, _elevations(dim, tuple(g.elevations_deg)))
+    else:
+        dirs = _fan(g.n_bearings, dim, tuple(g.elevations_deg))
+        origins = np.broadcast_to(
+            _reference_point(meas if rows is None else meas.take(rows), t_mid),
+            (dirs.shape[0], 3))
+    pts = (origins[:, None, None, :]
+           + ranges[None, None, :, None] * dirs[:, :, None, :]).reshape(-1, 3)
+    if dim == 2:
+        pts[:, 2] = 0.0
+    return pts
+
+
+def _median(x: NDArray[np.float64]) -> float:
+    """Return ``np.median(x)`` of a 1-D array, the same bits, without its overhead for few rows.
+
+    The middle element of the sorted rows, or the mean ``(a + b) / 2`` of the middle two (as
+    :func:`numpy.median` forms it).
+    """
+    n = x.shape[0]
+    if not 0 < n <= 256:
+        return float(np.median(x))
+    s = np.sort(x)
+    if s[-1] != s[-1]:  # NaN (sorted last): median's NaN
+        return float(np.median(x))
+    return float(s[n // 2] if n % 2 else (s[n // 2 - 1] + s[n // 2]) / 2.0)
+
+
+def _elevations(dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
+    """Return candidate elevation angles (rad): the given ones in 3-D, 0 in 2-D."""
+    return np.radians(elevations_deg) if dim == 3 else np.zeros(1)
+
+
+def _directions(bearings: NDArray[np.float64], elev: NDArray[np.float64]
+                ) -> NDArray[np.float64]:
+    """Return unit vectors ``(rays, elevations, 3)`` at each bearing and elevation (rad)."""
+    b, e = bearings[:, None], elev[None, :]
+    out = np.empty((bearings.shape[0], elev.shape[0], 3))
+    cos_e = np.cos(e)
+    np.multiply(cos_e, np.sin(b), out=out[..., 0])
+    np.multiply(cos_e, np.cos(b), out=out[..., 1])
+    out[..., 2] = np.sin(e)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _fan(n_bearings: int, dim: int, elevations_deg: tuple[float, ...]) -> NDArray[np.float64]:
+    """Return :func:`_directions` of ``n_bearings`` even bearings (read-only, cached)."""
+    dirs = _directions(np.linspace(0.0, 2 * np.pi, n_bearings, endpoint=False),
+                       _elevations(dim, elevations_deg))
+    dirs.flags.writeable = False
+    return dirs
+
+
+@lru_cache(maxsize=16)
+def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.float64]:
+    """Return candidate ranges (m), geometrically spaced; read-only, made once per settings."""
+    ranges = np.geomspace(min_range, max_range, n_ranges)
+    ranges.flags.writeable = False
+    return ranges
+
+
+@lru_cache(maxsize=16)
+def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
+    """Return candidate velocities ``(m, 3)`` (m/s): at rest, then each speed and course.
+
+    Read-only, made once per settings.
+    """
+    moves = np.array([v for v in speeds if v > 0], dtype=np.float64)
+    courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
+    moving = np.stack(np.broadcast_arrays(moves[:, None] * np.sin(courses),
+                                          moves[:, None] * np.cos(courses), 0.0), axis=-1)
+    vel = np.concatenate([np.zeros((1, 3)), moving.reshape(-1, 3)])
+    vel.flags.writeable = False
+    return vel
+
+
+def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
+                    ) -> NDArray[np.float64]:
+    """Return the candidate parameter vectors for the problem's motion model.
+
+    Parameters
+    ----------
+    problem : VarProProblem
+        The problem (its measurements place the grid; its motion model converts it).
+    settings : GridSettings, optional
+        Extent and density (default :class:`GridSettings()`).
+
+    Returns
+    -------
+    ndarray, shape (m, p)
+        Motion parameters (SI) of the grid's states at the median measurement time.
+    """
+    return grid_candidates_for(problem.obs.meas, problem.obs.motion, settings)
+
+
+def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
+                        settings: GridSettings | None = None,
+                        rows: NDArray[np.intp] | None = None,
+                        values: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Return :func:`grid_candidates` from the measurements and motion model themselves.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements that place the grid (times, sensors, measured bearings).
+    motion : MotionModel
+        The motion model that converts it.
+    settings : GridSettings, optional
+        Extent and density (default :class:`GridSettings()`).
+    rows : ndarray of int, optional
+        The rows of ``meas`` that place it (its row order; default all): the grid of
+        ``meas.take(rows)``.
+    values : ndarray, optional
+        The values of those rows (SI; default the set's), e.g. another data set's bearings.
+
+    Returns
+    -------
+    ndarray, shape (m, p)
+        Motion parameters (SI) of the grid's states at the median measurement time.
+    """
+    g = settings or GridSettings()
+    t_mid = _median(meas.time if rows is None else meas.time[rows])
+    pos = _positions(meas, rows, values, t_mid, motion.dim, g)
+    moving = "vx" in motion.param_names or "speed" in motion.param_names
+    vel = _velocities(tuple(g.speeds), g.n_courses) if moving else np.zeros((1, 3))
+    # Component-major (each component of every state contiguous): the conversion then runs
+    # along long rows instead of across rows of 6.
+    states = np.empty((6, pos.shape[0], vel.shape[0]))
+    states[:3] = pos.T[:, :, None]
+    states[3:] = vel.T[:, None, :]
+    return motion.from_state(states.reshape(6, -1).T, t_mid)
 
 
 def _subsample(problem: VarProProblem, max_rows: int
@@ -494,3 +702,212 @@ def grid_start(meas: MeasurementSet, motion: MotionModel,
     if starts.shape[0] == 0:
         raise ValueError("no starting point gives finite predictions; check the data")
     return starts[0]
+
+
+#: A shortlist: candidate indices, their costs, whether each is still available.
+Shortlist = tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]
+
+
+class Starts:
+    """The mutually distinct candidates of one data set, best first, chosen when asked for.
+
+    Greedily in order of cost, each candidate not within 5 % of each parameter's spread of one
+    already chosen.
+
+    Parameters
+    ----------
+    candidates : ndarray, shape (C, p)
+        Motion parameters (SI).
+    cost : ndarray, shape (C,)
+        Their grid costs (non-finite: never chosen).
+    scaled : ndarray, shape (p, C), optional
+        The candidates over that spread, transposed; may be shared by data sets with the
+        same candidates.
+    shortlist : ndarray of int, optional
+        The indices of the :data:`SHORTLIST` cheapest candidates in order of (cost, index)
+        (made by :func:`starts_of` for many data sets at once), else made on first use.
+    """
+
+    def __init__(self, candidates: NDArray[np.float64], cost: NDArray[np.float64],
+                 scaled: NDArray[np.float64] | None = None,
+                 shortlist: NDArray[np.int64] | None = None) -> None:
+        self.candidates = candidates
+        self.scaled = _scaled(candidates) if scaled is None else scaled
+        self.left = np.where(np.isfinite(cost), cost, np.inf)
+        self.chosen: list[int] = []
+        # The shortlist walked first (see _from_shortlist): indices, their scaled candidates
+        # (p, K), whether each is near one chosen; None until made, False once left behind.
+        #: The shortlist's candidates, costs and availability; None before it is made, False
+        #: once the full set has taken over.
+        self._short: Shortlist | bool | None
+        self._short = None if shortlist is None else self._shortlist(shortlist)
+        self._at = 0  # the shortlist's next position
+
+    def _shortlist(self, idx: NDArray[np.int64]
+                   ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
+        """Give the shortlist state of candidates ``idx`` (in order)."""
+        return idx, self.scaled[:, idx], np.zeros(idx.shape[0], dtype=bool)
+
+    def first(self, m: int) -> NDArray[np.float64]:
+        """Return the ``m`` best distinct candidates.
+
+        Parameters
+        ----------
+        m : int
+            How many.
+
+        Returns
+        -------
+        ndarray, shape (<= m, p)
+            Motion parameters (SI), best first; fewer when no more are finite.
+        """
+        if len(self.chosen) < m and self._short is not False:
+            self._from_shortlist(m)
+        while len(self.chosen) < m:
+            i = int(np.argmin(self.left))
+            if not np.isfinite(self.left[i]):
+                break
+            self._choose(i)
+        return self.candidates[self.chosen[:m]]
+
+    def _choose(self, i: int) -> None:
+        """Choose candidate ``i``: no candidate near it is chosen later."""
+        self.chosen.append(i)
+        self._drop_near(i)
+
+    def _drop_near(self, i: int) -> None:
+        """Leave out every candidate near candidate ``i`` (within 5 % of each spread)."""
+        near = np.max(np.abs(self.scaled - self.scaled[:, i:i + 1]), axis=0) <= 0.05
+        self.left[near] = np.inf
+
+    def _from_shortlist(self, m: int) -> None:
+        """Choose as :meth:`first` does, among the cheapest candidates alone, while that is exact.
+
+        The greedy choice takes candidates in order of (cost, index), each one not near one
+        chosen before: the same choices are made walking the cheapest :data:`SHORTLIST` in
+        that order (:func:`_walk_together`), up to the first whose cost ties the shortlist's
+        last (a tie at the cut may have left out a candidate of lower index).  Then the full
+        set takes over, the shortlist's choices applied to it.
+        """
+        if self._short is None:
+            self._short = self._shortlist(_cheapest(self.left[None, :])[0])
+        _walk_together([self], m)
+        if len(self.chosen) < m:  # the full set takes over from here
+            self._short = False
+            for i in self.chosen:
+                self._drop_near(i)
+
+
+SHORTLIST = 64
+"""Cheapest candidates among which :meth:`Starts.first` chooses before it scans them all."""
+
+
+def _cheapest(left: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Give the :data:`SHORTLIST` cheapest columns of each row of ``left`` ``(B, C)``.
+
+    In order of (cost, index); all of them when there are no more.
+    """
+    count = left.shape[1]
+    if count > SHORTLIST:
+        idx = np.argpartition(left, SHORTLIST - 1, axis=1)[:, :SHORTLIST]
+    else:
+        idx = np.broadcast_to(np.arange(count), left.shape)
+    order = np.lexsort((idx, np.take_along_axis(left, idx, axis=1)), axis=-1)
+    return np.take_along_axis(idx, order, axis=1)
+
+
+def first_of_many(starts: list[Starts], m: int) -> list[NDArray[np.float64]]:
+    """Give ``s.first(m)`` for every ``s`` of ``starts``, their shortlists walked together.
+
+    The same choices as one by one (each data set's greedy walk, :meth:`Starts.first`),
+    in a few array operations per choice for all data sets with a full shortlist.
+
+    Parameters
+    ----------
+    starts : list of Starts
+        The data sets' starts.
+    m : int
+        How many each.
+
+    Returns
+    -------
+    list of ndarray
+        ``(<= m, p)`` motion parameters (SI) per data set, best first.
+    """
+    group = [s for s in starts if len(s.chosen) < m and isinstance(s._short, tuple)
+             and s._short[0].shape[0] == SHORTLIST]
+    if len(group) > 1:
+        _walk_together(group, m)
+    return [s.first(m) for s in starts]
+
+
+def _walk_together(group: list[Starts], m: int) -> None:
+    """Walk the shortlists of ``group`` (all of one length) to ``m`` choices each, in place.
+
+    Each data set's next choice is its first candidate at or after its position that is not
+    near one chosen; the walk of a set stops at a candidate whose cost is not below the cut
+    (the shortlist's last cost when it is a full :data:`SHORTLIST`, else none) or not finite.
+    """
+    shorts = [s._short for s in group]
+    idx = np.stack([sh[0] for sh in shorts])  # type: ignore[index]
+    scaled = np.stack([sh[1] for sh in shorts])  # type: ignore[index]  # (R, p, K)
+    out = np.stack([sh[2] for sh in shorts])  # type: ignore[index]
+    cost = np.stack([s.left[i] for s, i in zip(group, idx, strict=True)])
+    at = np.array([s._at for s in group])
+    need = np.array([m - len(s.chosen) for s in group])
+    k = idx.shape[1]
+    cut = cost[:, -1] if k == SHORTLIST else np.full(len(group), np.inf)
+    pos, rows = np.arange(k), np.arange(len(group))
+    live = need > 0
+    while live.any():
+        avail = ~out & (pos >= at[:, None])
+        has = np.asarray(avail.any(axis=1))
+        nxt = np.argmax(avail, axis=1)  # the first candidate not near one chosen
+        c = cost[rows, nxt]
+        ok = has & (c < cut) & np.isfinite(c)
+        stop = live & ~ok  # a tie with the cut, or none left: the walk stops there
+        at[stop] = np.where(has[stop], nxt[stop], k)
+        live &= ok
+        r = np.flatnonzero(live)
+        if not r.size:
+            break
+        nr = nxt[r]
+        out[r] |= np.max(np.abs(scaled[r] - scaled[r, :, nr][:, :, None]), axis=1) <= 0.05
+        at[r] = nr + 1
+        for i, j in zip(r.tolist(), idx[r, nr].tolist(), strict=True):
+            group[i].chosen.append(j)
+        need[r] -= 1
+        live &= need > 0
+    for i, s in enumerate(group):
+        s._at = int(at[i])
+        s._short[2][:] = out[i]  # type: ignore[index]
+
+
+def _scaled(candidates: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Candidates over each parameter's spread, transposed ``(p, C)`` for fast distances."""
+    scaled = np.array(candidates.T, order="C")  # a copy; reductions along rows: fast
+    scaled /= np.maximum(np.abs(scaled).max(axis=1), 1.0)[:, None]
+    return scaled
+
+
+def starts_of(candidates: NDArray[np.float64], costs: NDArray[np.float64]) -> list[Starts]:
+    """Return the :class:`Starts` of several data sets scored on the same candidates.
+
+    They share the scaled candidates (made once).
+
+    Parameters
+    ----------
+    candidates : ndarray, shape (C, p)
+        Motion parameters (SI).
+    costs : ndarray, shape (B, C)
+        The grid costs of each data set (non-finite: never chosen).
+
+    Returns
+    -------
+    list of Starts
+        One per data set.
+    """
+    scaled = _scaled(candidates)
+    left = np.where(np.isfinite(costs), costs, np.inf)
+    short = _cheapest(left) if costs.shape[0] > 1 else [None] * costs.shape[0]
+    return [Starts(candidates, cost, scaled, s) for cost, s in zip(costs, short, strict=True)]

@@ -29,11 +29,10 @@ from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisan
 from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
 from .estimator import BatchEstimator, Init, Options
 from .hyperbolic import closed_form_starts
-from .init import GridSettings
+from .init import GridSettings, first_of_many
 from .mirror import mirror_plane, prefer_above
 from .presolve import grid_starts, presolve_subset, solve_all_rows
 from .solver import SolveResult, VarProProblem, information_of, levenberg_marquardt
-from .starts import first_of_many
 from .subset_first import solve_on_subset_first, subset_first
 
 
