@@ -33,11 +33,11 @@ Stone Soup (``pip install stonesoup``, the ``bench`` extra):
   one decision (each candidate: a deep copy of platform and sensor, the move, an EKF prediction,
   a noiseless detection, an EKF update, the drop in the Frobenius norm of the covariance).
 
-With ``numba`` installed (the ``fast`` extra) a one-step decision over a planar plan is one
-compiled call (:mod:`tmakit.planning.fused`: the candidates' kinematics with every limit
+A one-step decision over a planar plan is one compiled call
+(:mod:`tmakit.planning.decision`: the candidates' kinematics with every limit
 checked, ``J`` predicted, ``Gamma``, ``J^{-1}``, the criterion fully computed); the rows
-``mean-np`` and ``cloud-np`` are the same decisions with the compiled kernels switched off
-(the NumPy fallback, ``TMAKIT_NO_NUMBA=1``), to show what they gain.
+``mean-general`` and ``cloud-general`` are the same decisions on the planner's general path (the
+compiled decision set aside), to show what it gains.
 
 Timing: both ``time.perf_counter`` (wall) and ``time.process_time`` (the process's CPU time,
 which other jobs on a shared machine inflate less) around each call; the cases are
@@ -70,10 +70,10 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.planning import Belief, Planner, SensorPlan, compiled
+from tmakit.planning import Belief, Planner, SensorPlan
 from tmakit.sensors import PlatformState, platform_configuration
 
-GOALS_MS = {"mean": 1.0, "mean-np": 1.0, "cloud": 1.0, "cloud-np": 1.0, "H=3": 20.0}
+GOALS_MS = {"mean": 1.0, "mean-general": 1.0, "cloud": 1.0, "cloud-general": 1.0, "H=3": 20.0}
 #: The case held to the 100x ratio: Gamma at the mean is the like-for-like comparison with
 #: Stone Soup's reward on an EKF track (both linearise the measurement at the mean).
 RATIO_CASE = "mean"
@@ -105,25 +105,18 @@ def tmakit_cases(q: float, particles: int, seed: int) -> dict[str, tuple[object,
                 interval=config.interval, plan=plan)
     return {
         "mean": (Planner(**base, gamma="mean"), START, Belief(posterior, TARGET)),
-        "mean-np": (Planner(**base, gamma="mean"), START, Belief(posterior, TARGET)),
+        "mean-general": (Planner(**base, gamma="mean"), START, Belief(posterior, TARGET)),
         "cloud": (Planner(**base, gamma="cloud"), START, belief),
-        "cloud-np": (Planner(**base, gamma="cloud"), START, belief),
+        "cloud-general": (Planner(**base, gamma="cloud"), START, belief),
         "H=3": (Planner(**base, gamma="cloud", horizon=3), START, belief),
     }
 
 
 def decision(name: str, planner: Planner, start: PlatformState, belief: Belief):
-    """One tmakit decision as a callable (``*-np``: the compiled kernels switched off)."""
-    if not name.endswith("-np"):
-        return lambda: planner.recommend(start, belief)
-
-    def numpy_only():
-        before = compiled.use_compiled(False)
-        try:
-            return planner.recommend(start, belief)
-        finally:
-            compiled.use_compiled(before)
-    return numpy_only
+    """One tmakit decision as a callable (``*-general``: the compiled decision set aside)."""
+    if name.endswith("-general"):
+        planner._fast["setup"] = None
+    return lambda: planner.recommend(start, belief)
 
 
 def stonesoup_case(q: float, positions: np.ndarray, interval: float):
@@ -312,10 +305,9 @@ def run(args: argparse.Namespace) -> None:
         call()
 
     times, after = time_rounds(calls, args.repeat, np.random.default_rng(args.seed))
-    kernel = "compiled (numba)" if compiled.available() else "NumPy (numba not installed)"
     print(f"one decision over {n_cand} candidates (HURTADO_NEHORAI_2008, one 0.5 s step); "
           f"azimuth 1 deg + range 30 m; {args.repeat} interleaved rounds; "
-          f"cloud = {args.particles} particles; cloud sums {kernel}; BLAS {blas_note()}")
+          f"cloud = {args.particles} particles; BLAS {blas_note()}")
     for clock in ("wall", "cpu"):
         print_table(times, clock, n_cand, list(cases))
     h3 = summary(times[args.clock]["H=3"])[0]

@@ -236,3 +236,24 @@ def test_planar_closed_form_equals_the_general_path(kinds):
         expect = np.einsum("cnmi,mk,cnkj,n->cij", h, rinv, h, w)
         np.testing.assert_allclose(planar_information(plan, states, w, sensors), expect,
                                    rtol=1e-9, atol=1e-12 * np.abs(expect).max())
+
+
+def test_bound_covariance_is_the_inverse_and_floors_an_indefinite_matrix():
+    from tmakit.bounds.pcrb_recursion import information_inverse
+    from tmakit.planning.criteria import bound_covariance
+
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(200, 4, 4))
+    scales = np.array([1e-6, 1e-6, 1e-2, 1e-2])   # SI units: position and velocity information
+    info = (a @ np.swapaxes(a, -1, -2) + 0.01 * np.eye(4)) * np.sqrt(np.outer(scales, scales))
+    info[:50] += np.diag(scales) * 1e4              # some well determined, some barely
+    inv = bound_covariance(info)
+    d = np.sqrt(np.einsum("kii->ki", info))
+    cond = np.linalg.cond(info / (d[:, :, None] * d[:, None, :]))
+    err = np.abs(np.einsum("kij,kjl->kil", info, inv) - np.eye(4)).max(axis=(1, 2))
+    assert np.all(err <= 1e-13 * cond)              # J J^{-1} = I to cond * eps
+    np.testing.assert_allclose(bound_covariance(info[0]), np.linalg.inv(info[0]), rtol=1e-9)
+    bad = info[:3].copy()
+    bad[1] = np.eye(4)
+    bad[1, 0, 1] = bad[1, 1, 0] = 2.0             # indefinite, positive diagonal
+    np.testing.assert_array_equal(bound_covariance(bad), information_inverse(bad))

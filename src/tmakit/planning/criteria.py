@@ -29,11 +29,12 @@ Block = Literal["position", "velocity", "state"]
 
 
 def bound_covariance(information: Array) -> Array:
-    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices, fast.
+    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices.
 
-    In coordinates normalised by the diagonal, by a Cholesky factor (one small LAPACK call
-    per stack); a stack with a matrix that is not numerically positive definite goes
-    through :func:`~tmakit.bounds.pcrb_recursion.information_inverse` (eigenvalues floored).
+    In coordinates normalised by the diagonal, by a Cholesky factor (compiled,
+    :func:`tmakit.planning.compiled.spd_inverse`); a stack with a matrix that is not
+    numerically positive definite goes through
+    :func:`~tmakit.bounds.pcrb_recursion.information_inverse` (eigenvalues floored).
 
     Parameters
     ----------
@@ -46,44 +47,8 @@ def bound_covariance(information: Array) -> Array:
         (..., n, n), SI.
     """
     info = np.asarray(information, dtype=float)
-    if info.ndim > 2:
-        fast = compiled.spd_inverse(info)
-        if fast is not None:
-            return fast
-    d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
-    scale = d[..., :, None] * d[..., None, :]
-    try:
-        low = np.linalg.cholesky(info / scale)
-    except np.linalg.LinAlgError:
-        return information_inverse(info)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        low_inv = (_lower_inverse(low) if low.ndim > 2 and low[..., 0, 0].size >= BATCHED_FROM
-                   else np.linalg.inv(low))
-    inv = np.swapaxes(low_inv, -1, -2) @ low_inv
-    if not np.all(np.isfinite(inv)):
-        return information_inverse(info)
-    return inv / scale
-
-
-#: Stacks of at least this many matrices are inverted by :func:`_lower_inverse` (forward
-#: substitution vectorised over the stack: one array operation per entry, far fewer calls
-#: than one small LAPACK inversion per matrix); smaller ones by ``numpy.linalg.inv``.
-BATCHED_FROM = 64
-
-
-def _lower_inverse(low: Array) -> Array:
-    """Return the inverses (..., n, n) of lower-triangular matrices by forward substitution."""
-    n = low.shape[-1]
-    out = np.zeros_like(low)
-    diag = 1.0 / np.einsum("...ii->...i", low)
-    for i in range(n):   # the n (<= 6) rows of one small matrix, not the stack
-        out[..., i, i] = diag[..., i]
-        for j in range(i):
-            acc = low[..., i, j] * out[..., j, j]
-            for k in range(j + 1, i):
-                acc += low[..., i, k] * out[..., k, j]
-            out[..., i, j] = -acc * diag[..., i]
-    return out
+    inv = compiled.spd_inverse(info)
+    return information_inverse(info) if inv is None else inv
 
 
 class Criterion(Protocol):

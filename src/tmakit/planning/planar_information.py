@@ -19,14 +19,12 @@ with scalar fields ``A = a^T W a``, ``B = a^T W b``, ``D = b^T W b``, ``E = a^T 
 ``G = b^T W c``, ``F = c^T W c`` (``a_j`` is ``1 / r`` or ``q``, the others constants).  The
 entries of ``e e^T`` and ``e_perp e^T`` are ``c2 = e_x^2``, ``cs = e_x e_y`` and ``1 - c2``,
 so the cloud average needs only the eleven weighted sums ``E[A]``, ``E[A c2]``, ``E[A cs]``,
-the same for ``B`` and ``E``, and ``E[c2]``, ``E[cs]``: one matrix product over the cloud.
-That is about a third of the arithmetic of :mod:`tmakit.planning.fast_information` (which
-``tests/test_planning.py`` checks it against, and which handles 3-D and altitude).
+the same for ``B`` and ``E``, and ``E[c2]``, ``E[cs]``: one compiled pass over the cloud
+(:func:`tmakit.planning.compiled.planar_gamma`).  ``tests/test_planning.py`` checks it
+against :mod:`tmakit.planning.fast_information`, which handles 3-D and altitude.
 """
 
 from __future__ import annotations
-
-import threading
 
 import numpy as np
 
@@ -35,8 +33,6 @@ from . import compiled
 from .measurement_plan import SensorPlan
 
 PLANAR_KINDS = frozenset({"bearing", "range", "range_rate"})
-#: Cloud members times candidates per block (see :data:`fast_information.BLOCK_ELEMENTS`).
-BLOCK_ELEMENTS = 1 << 14
 
 
 def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
@@ -133,22 +129,18 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
     -----
     The fields ``A``, ``B``, ``E`` are linear in the products ``1/r^2``, ``q/r``, ``q^2``,
     ``1/r`` and ``q``: only the products the plan needs are formed per cloud member (times
-    ``1``, ``c2`` and ``cs``), summed by one matrix-vector product per block, and combined
-    with the constant coefficients afterwards (on ``C`` numbers, not ``C N``).
+    ``1``, ``c2`` and ``cs``), summed in one compiled pass over the cloud per candidate, and
+    combined with the constant coefficients afterwards (on ``C`` numbers, not ``C N``).
 
     References
     ----------
     Hurtado & Nehorai (2008), eqs. 11 and 13.
     """
-    k, basis, packed = _coefficients(plan)
+    packed = _coefficients(plan)[2]
     batch = sensor_states.shape[:-1]
     s = sensor_states.reshape(-1, 6)
     cols = np.ascontiguousarray(states.T)
-    if compiled.available():
-        gamma = compiled.planar_gamma(*packed, cols, weights, s)
-    else:
-        gamma = _assemble(k, _field_sums(basis, numpy_sums(basis, cols, weights, s)))
-    return gamma.reshape(*batch, 4, 4)
+    return compiled.planar_gamma(*packed, cols, weights, s).reshape(*batch, 4, 4)
 
 
 def compiled_basis(plan: SensorPlan) -> Packed:
@@ -178,33 +170,6 @@ def _compiled_basis(k: dict[str, float], basis: Basis) -> Packed:
     return [n for n, _ in basis], coef, np.array([k["D"], k["G"], k["F"]])
 
 
-def numpy_sums(basis: list[tuple[str, tuple[float, float, float]]], cols: Array,
-               weights: Array, s: Array) -> Array:
-    """Return the weighted cloud sums (2 + 3 P, C) in NumPy, block by block of the cloud.
-
-    Parameters
-    ----------
-    basis : list
-        The products needed and their coefficients (``_basis``).
-    cols : ndarray, shape (4, N)
-        The cloud by rows (m, m/s).
-    weights : ndarray, shape (N,)
-        Normalised weights.
-    s : ndarray, shape (C, 6)
-        Candidate sensor states (m, m/s).
-
-    Returns
-    -------
-    ndarray, shape (2 + 3 P, C)
-        The rows of :func:`tmakit.planning.compiled.cloud_sums` (SI).
-    """
-    block = max(1, BLOCK_ELEMENTS // s.shape[0])
-    sums = np.zeros((2 + 3 * len(basis), s.shape[0]))
-    for lo in range(0, cols.shape[1], block):   # blocks of the cloud, not members
-        sums += _block_sums(basis, cols[:, lo:lo + block], weights[lo:lo + block], s)
-    return sums
-
-
 #: The products of ``1/r`` and ``q`` the fields are made of, and their coefficients in
 #: ``(A, B, E)`` (names of :func:`_coefficients`, None for none).
 _PRODUCTS = (("ir2", ("A_rr", None, None)), ("irq", ("A_rq", None, None)),
@@ -220,105 +185,3 @@ def _basis(k: dict[str, float]) -> list[tuple[str, tuple[float, float, float]]]:
         if any(coef):
             out.append((name, coef))
     return out   # type: ignore[return-value]
-
-
-def _field_sums(basis: list[tuple[str, tuple[float, float, float]]], sums: Array) -> Array:
-    """Return the eleven weighted sums (11, C) of the fields from the sums of the products."""
-    out = np.zeros((11, sums.shape[1]))
-    out[9:] = sums[:2]
-    for j, (_, coef) in enumerate(basis):
-        for f, c in enumerate(coef):
-            if c:
-                out[3 * f:3 * f + 3] += c * sums[2 + 3 * j:5 + 3 * j]
-    return out
-
-
-class _Workspace(threading.local):
-    """Work arrays of one block shape, kept between calls (one set per thread).
-
-    Fresh block-sized temporaries are returned to the system after every call and fault back
-    in on the next (page faults cost more than the arithmetic here); reused ones do not.
-    """
-
-    def __init__(self) -> None:
-        self.sets: dict[tuple[int, int, int], dict[str, Array]] = {}
-
-    def get(self, c: int, b: int, rows: int) -> dict[str, Array]:
-        if (c, b, rows) not in self.sets:
-            if len(self.sets) >= 4:   # a few shapes (mean and cloud, last block) at most
-                self.sets.pop(next(iter(self.sets)))
-            names = ("dx", "dy", "dx2", "ir2", "ir", "q", "ux", "uy", "tmp")
-            arrays = {n: np.empty((c, b)) for n in names}
-            arrays["f"] = np.empty((rows, c, b))
-            self.sets[(c, b, rows)] = arrays
-        return self.sets[(c, b, rows)]
-
-
-_WORK = _Workspace()
-
-
-def _block_sums(basis: list[tuple[str, tuple[float, float, float]]], cols: Array,
-                weights: Array, s: Array) -> Array:
-    """Return the weighted sums (2 + 3 P, C) over one block of the cloud.
-
-    Rows: ``E[c2]``, ``E[cs]``, then per product ``g`` of ``basis``: ``E[g]``, ``E[g c2]``,
-    ``E[g cs]``.
-    """
-    c, b = s.shape[0], cols.shape[1]
-    names = [name for name, _ in basis]
-    w = _WORK.get(c, b, 2 + 3 * len(names))
-    f = w["f"]
-    slot = {name: f[2 + 3 * j] for j, name in enumerate(names)}
-    dx, dy, dx2, tmp = w["dx"], w["dy"], w["dx2"], w["tmp"]
-    ir2 = slot.get("ir2", w["ir2"])
-    np.subtract(cols[0][None, :], s[:, 0, None], out=dx)
-    np.subtract(cols[1][None, :], s[:, 1, None], out=dy)
-    np.multiply(dx, dx, out=dx2)
-    np.multiply(dy, dy, out=ir2)
-    ir2 += dx2
-    np.reciprocal(ir2, out=ir2)
-    c2, cs = f[0], f[1]
-    np.multiply(dx2, ir2, out=c2)
-    np.multiply(dx, dy, out=cs)
-    cs *= ir2
-    ir = q = None
-    if {"irq", "ir"} & set(names):
-        ir = np.sqrt(ir2, out=slot.get("ir", w["ir"]))
-    if {"irq", "qq", "q"} & set(names):
-        ux, uy, q = w["ux"], w["uy"], slot.get("q", w["q"])
-        np.subtract(cols[2][None, :], s[:, 3, None], out=ux)
-        np.subtract(cols[3][None, :], s[:, 4, None], out=uy)
-        np.multiply(ux, dy, out=q)
-        q -= np.multiply(uy, dx, out=tmp)
-        q *= ir2
-    if "irq" in slot:
-        assert ir is not None and q is not None  # (made above for these names)
-        np.multiply(ir, q, out=slot["irq"])
-    if "qq" in slot:
-        assert q is not None
-        np.multiply(q, q, out=slot["qq"])
-    for j in range(len(names)):
-        np.multiply(f[2 + 3 * j], c2, out=f[3 + 3 * j])
-        np.multiply(f[2 + 3 * j], cs, out=f[4 + 3 * j])
-    return (f.reshape(-1, b) @ weights).reshape(-1, c)
-
-
-def _assemble(k: dict[str, float], sums: Array) -> Array:
-    """``Gamma`` (C, 4, 4) from the eleven weighted sums."""
-    ea, eac2, eacs, eb, ebc2, ebcs, ee, eec2, eecs, ec2, ecs = sums
-    d, g, f = k["D"], k["G"], k["F"]
-    out = np.empty((sums.shape[1], 4, 4))
-    out[:, 0, 0] = ea - eac2 + 2.0 * ebcs + d * ec2
-    out[:, 0, 1] = out[:, 1, 0] = -eacs + eb - 2.0 * ebc2 + d * ecs
-    out[:, 1, 1] = eac2 - 2.0 * ebcs + d * (1.0 - ec2)
-    pv = np.empty((sums.shape[1], 2, 2))
-    pv[:, 0, 0] = eecs + g * ec2
-    pv[:, 0, 1] = ee - eec2 + g * ecs
-    pv[:, 1, 0] = -eec2 + g * ecs
-    pv[:, 1, 1] = -eecs + g * (1.0 - ec2)
-    out[:, :2, 2:] = pv
-    out[:, 2:, :2] = np.swapaxes(pv, -1, -2)
-    out[:, 2, 2] = f * ec2
-    out[:, 2, 3] = out[:, 3, 2] = f * ecs
-    out[:, 3, 3] = f * (1.0 - ec2)
-    return out

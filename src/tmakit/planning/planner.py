@@ -18,11 +18,10 @@ feasible only if every step is.  Beyond the first step ``Gamma`` is formed at th
 mean (the cloud expectation over ``A^H`` sequences would multiply the work by the cloud size
 for a second-order change).
 
-With ``numba`` the first step of a planar plan measured once per step is one compiled call
-(:func:`tmakit.planning.fused.decide`: kinematics, information, criterion, bound and — with
-no constraint or horizon to apply — the choice), and every candidate's kinematics are
-compiled (:func:`tmakit.planning.fused.fly`); without it the NumPy path gives the same numbers
-to rounding.
+The first step of a planar plan measured once per step is one compiled call
+(:func:`tmakit.planning.decision.decide`: kinematics, information, criterion, bound and — with
+no constraint or horizon to apply — the choice); every other plan takes the general path
+above, with the candidates' kinematics compiled (:func:`tmakit.planning.decision.fly`).
 """
 
 from __future__ import annotations
@@ -36,7 +35,7 @@ from numpy.typing import NDArray
 
 from ..core.arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
-from . import compiled, fused
+from . import compiled, decision
 from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
@@ -202,7 +201,7 @@ class Planner:
                 f"decision, more than {MAX_SEQUENCES:,} (memory and time grow with them): "
                 "lower the horizon, offer fewer actions or search with Planner(beam=N)")
         object.__setattr__(self, "constraints", tuple(self.constraints))
-        compiled.available()   # load numba's cached kernels now, not in the first decision
+        compiled.kernels()   # load numba's cached kernels now, not in the first decision
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
@@ -229,8 +228,8 @@ class Planner:
         violations : list of Violation
             One per constraint, amounts of shape ``(*B * A,)`` flattened.
         """
-        steps = fused.fly(self.kinematics, platform, self.actions, self.interval)
-        if steps is None:   # no numba, or limits that raise: the NumPy step
+        steps = decision.fly(self.kinematics, platform, self.actions, self.interval)
+        if steps is None:   # limits that raise: the NumPy step
             start = PlatformState.trusted(
                 platform.position[..., None, :], platform.heading[..., None],
                 platform.speed[..., None], platform.climb_rate[..., None], platform.time)
@@ -275,7 +274,7 @@ class Planner:
         if abs(platform.time - belief.time) > 1e-6:
             raise ValueError(f"the platform is at t = {platform.time:g} s and the belief at "
                              f"t = {belief.time:g} s")
-        fast = fused.decide(self, self._fast, platform, belief)
+        fast = decision.decide(self, self._fast, platform, belief)
         if (fast is not None and fast.best is not None and not self.constraints
                 and self.horizon == 1 and self.continuation is None):
             n_act = len(self.actions)   # nothing to penalise or search: the kernel's choice

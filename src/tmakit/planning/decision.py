@@ -1,4 +1,4 @@
-"""The planner's fast path: a whole decision, or every candidate's kinematics, in one call.
+"""The planner's compiled decision: a whole decision, or every candidate's kinematics, at once.
 
 :meth:`~tmakit.planning.Planner.recommend` spends most of a one-step decision around the
 arrays, not in them: flying 15 candidates through :meth:`~tmakit.sensors.PlatformKinematics.step`
@@ -10,14 +10,13 @@ and carrying ``J`` through the step is a few hundred NumPy calls on arrays of 15
 * :func:`decide` — for a planar plan (2-D target, bearing / range / range-rate rows, no model
   options) measured once at the end of the step: the kinematics, the prediction of ``J``, ``Gamma``
   at the moved mean or over the moved cloud, ``J^{-1}``, the criterion and the position bound of
-  every candidate in one compiled call (:func:`tmakit.planning.numba_decision.decide_planar`).
+  every candidate in one compiled call (:func:`tmakit.planning.compiled_decision.decide_planar`).
 
-Both return None when they do not apply (no ``numba`` or ``TMAKIT_NO_NUMBA``, limits that
-raise, a 3-D plan, a sensor off the plane, a ``J`` not numerically positive definite): the
-planner then takes its NumPy path, which computes the same numbers.  The settings that do not
-change between decisions (packed actions and limits, the planar basis, ``Pi``) are kept per
-planner.  ``tests/test_planning_fused.py`` checks both paths agree to 1e-12 relative and choose
-the same action.
+Both return None when they do not apply (limits that raise, a 3-D plan, a sensor off the
+plane, a ``J`` not numerically positive definite): the planner then takes its general path.
+The settings that do not change between decisions (packed actions and limits, the planar
+basis, ``Pi``) are kept per planner.  ``tests/test_planning_decision.py`` checks it against
+the general path (1e-12 relative, the same action).
 """
 
 from __future__ import annotations
@@ -183,10 +182,9 @@ def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Action
     -------
     Step or None
         Batch shape ``(*B, A)``: ``kinematics.step`` of every state with every action, to
-        rounding; None when the kernels are not available or the limits raise (then use
-        ``kinematics.step``).
+        rounding; None when the limits raise (then use ``kinematics.step``).
     """
-    if (not compiled.available() or kinematics.on_limit != "clip"
+    if (kinematics.on_limit != "clip"
             or len(actions.shape) != 1 or not interval > 0):
         return None
     packed, own_climb = pack_actions(actions)
@@ -198,7 +196,7 @@ def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Action
 
 @dataclass(frozen=True, eq=False)
 class Decision:
-    """Every candidate of one decision, as the fused kernel computed it.
+    """Every candidate of one decision, as the compiled kernel computed it.
 
     Attributes
     ----------
@@ -283,9 +281,7 @@ def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
     ----------
     Hurtado & Nehorai (2008), eqs. 10-13.
     """
-    kernel = compiled.kernel("decide_planar")
-    if kernel is None:
-        return None
+    kernel = compiled.kernels()["decide_planar"]
     if "setup" not in cache:
         cache["setup"] = _setup(planner)
     setup = cache["setup"]

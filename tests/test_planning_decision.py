@@ -1,4 +1,4 @@
-"""The compiled decision (kinematics and one fused call) equals the NumPy path it replaces."""
+"""The compiled decision (kinematics, one call for the whole decision) equals the general path."""
 
 from __future__ import annotations
 
@@ -16,12 +16,9 @@ from tmakit.planning import (
     Planner,
     SensorPlan,
     WeightedTrace,
-    compiled,
-    fused,
+    decision,
 )
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
-
-pytest.importorskip("numba")
 
 TARGET = np.array([-2000.0, 15000.0, 25.0, 0.0])
 SPREAD = np.array([500.0, 500.0, 10.0, 10.0])
@@ -53,7 +50,7 @@ def test_compiled_kinematics_equal_the_step_of_the_paper_platform():
     config = platform_configuration("hurtado_nehorai_2008")
     for speed in (50.0, 120.0, 200.0):   # the floor, free, the ceiling: speed range acts
         start = PlatformState(position=(100.0, -30.0), heading=3.1, speed=speed, time=4.0)
-        fast = fused.fly(config.kinematics, start, config.actions, config.interval)
+        fast = decision.fly(config.kinematics, start, config.actions, config.interval)
         slow = config.kinematics.step(start, config.actions, config.interval)
         _same_step(fast, slow)
         assert fast.speed_limited.any() == (speed in (50.0, 200.0))
@@ -74,7 +71,7 @@ def test_compiled_kinematics_3d_with_every_limit_hit():
     start = PlatformState.trusted(starts.position[:, None, :], starts.heading[:, None],
                                   starts.speed[:, None], starts.climb_rate[:, None], 12.5)
     for interval in (0.5, 10.0, 60.0):   # straight-ish steps and long turns (closed form)
-        fast = fused.fly(kin, starts, actions, interval)
+        fast = decision.fly(kin, starts, actions, interval)
         slow = kin.step(start, actions, interval)
         _same_step(fast, slow)
         every = ("speed_limited", "turn_limited", "acceleration_limited", "climb_limited")
@@ -84,14 +81,14 @@ def test_compiled_kinematics_3d_with_every_limit_hit():
     # the climb rate of the platform kept when the actions give none, altitude band clipped
     keep = Actions(np.radians([0.0, 10.0]), speed_factor=[1.0, 1.2])
     high = PlatformState(position=(0.0, 0.0, 299.0), heading=0.0, speed=30.0, climb_rate=4.0)
-    _same_step(fused.fly(kin, high, keep, 1.0), kin.step(high, keep, 1.0))
-    assert fused.fly(kin, high, keep, 1.0).climb_limited.all()
+    _same_step(decision.fly(kin, high, keep, 1.0), kin.step(high, keep, 1.0))
+    assert decision.fly(kin, high, keep, 1.0).climb_limited.all()
 
 
-def test_raise_on_limit_is_left_to_the_numpy_step():
+def test_raise_on_limit_is_left_to_the_platform_step():
     kin = PlatformKinematics(max_speed=10.0, on_limit="raise")
     start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=10.0)
-    assert fused.fly(kin, start, Actions([0.0], speed_factor=[1.5]), 1.0) is None
+    assert decision.fly(kin, start, Actions([0.0], speed_factor=[1.5]), 1.0) is None
 
 
 def _belief(rng, n, q=0.1):
@@ -100,14 +97,14 @@ def _belief(rng, n, q=0.1):
     return Belief(post, TARGET + rng.standard_normal((n, 4)) * SPREAD)
 
 
-def _both(fn):
-    assert compiled.available()
+def _both(planner, fn):
+    """Run ``fn`` on the compiled decision, then on the planner's general path."""
     fast = fn()
-    before = compiled.use_compiled(False)
+    planner._fast["setup"] = None    # the decision steps aside: step_information and the rest
     try:
         slow = fn()
     finally:
-        compiled.use_compiled(before)
+        planner._fast.clear()
     return fast, slow
 
 
@@ -119,7 +116,7 @@ def _both(fn):
     (["bearing", "range", "range_rate"], [0.02, 20.0, 0.5], "mean", 1.0, 50),
     (["bearing", "range", "range_rate"], [0.02, 20.0, 0.5], "cloud", 1.0, 800),
 ])
-def test_fused_decision_equals_the_numpy_path(kinds, sigmas, gamma, q, n):
+def test_compiled_decision_equals_the_general_path(kinds, sigmas, gamma, q, n):
     config = platform_configuration("hurtado_nehorai_2008")
     rng = np.random.default_rng(len(kinds) * 100 + n)
     for trial in range(4):
@@ -128,8 +125,8 @@ def test_fused_decision_equals_the_numpy_path(kinds, sigmas, gamma, q, n):
                               speed=rng.choice([50.0, 100.0, 200.0]), time=3.0)
         planner = Planner(config.kinematics, config.actions, config.interval,
                           SensorPlan(kinds, sigmas), gamma=gamma)
-        assert fused.decide(planner, {}, start, belief) is not None   # the fast path ran
-        fast, slow = _both(lambda p=planner, s=start, b=belief: p.recommend(s, b))
+        assert decision.decide(planner, {}, start, belief) is not None   # compiled decision ran
+        fast, slow = _both(planner, lambda p=planner, s=start, b=belief: p.recommend(s, b))
         assert fast.index == slow.index, trial
         np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)
         np.testing.assert_allclose(fast.bound, slow.bound, rtol=1e-12)
@@ -139,7 +136,7 @@ def test_fused_decision_equals_the_numpy_path(kinds, sigmas, gamma, q, n):
 
 
 @pytest.mark.parametrize("criterion", [LogDet(), WeightedTrace(np.diag([1.0, 2.0, 25.0, 25.0]))])
-def test_fused_decision_with_other_criteria_and_constraints(criterion):
+def test_compiled_decision_with_other_criteria_and_constraints(criterion):
     config = platform_configuration("hurtado_nehorai_2008")
     rng = np.random.default_rng(9)
     belief = _belief(rng, 200)
@@ -147,7 +144,7 @@ def test_fused_decision_with_other_criteria_and_constraints(criterion):
     planner = Planner(config.kinematics, config.actions, config.interval,
                       SensorPlan(["bearing", "range"], [0.02, 30.0]), criterion=criterion,
                       constraints=[MinimumRange(5902.0, hard=True)], gamma="cloud")
-    fast, slow = _both(lambda: planner.recommend(start, belief))
+    fast, slow = _both(planner, lambda: planner.recommend(start, belief))
     assert fast.index == slow.index
     np.testing.assert_array_equal(fast.feasible, slow.feasible)
     assert not slow.feasible.all() and slow.feasible.any()   # the constraint acts
@@ -156,35 +153,35 @@ def test_fused_decision_with_other_criteria_and_constraints(criterion):
         np.testing.assert_allclose(fast.violations[name], amount, rtol=1e-9, atol=1e-9)
 
 
-def test_fast_path_steps_aside_where_it_does_not_apply():
+def test_compiled_decision_steps_aside_where_it_does_not_apply():
     rng = np.random.default_rng(3)
     belief = _belief(rng, 10)
     start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=50.0, time=3.0)
     config = platform_configuration("hurtado_nehorai_2008")
     base = dict(kinematics=config.kinematics, actions=config.actions, interval=config.interval)
     two_pulses = Planner(**base, plan=SensorPlan(["bearing"], [0.01], times=(0.25, 0.5)))
-    assert fused.decide(two_pulses, {}, start, belief) is None
+    assert decision.decide(two_pulses, {}, start, belief) is None
     climbing = Planner(config.kinematics, Actions.grid([0.0, 0.1], climb_rates=[0.0, 5.0]),
                        1.0, SensorPlan(["bearing", "range"], [0.01, 10.0]))
-    assert fused.decide(climbing, {}, start, belief) is None   # a sensor leaves z = 0
-    fast, slow = _both(lambda: climbing.recommend(start, belief))
+    assert decision.decide(climbing, {}, start, belief) is None   # a sensor leaves z = 0
+    fast, slow = _both(climbing, lambda: climbing.recommend(start, belief))
     assert fast.index == slow.index
     np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)
 
 
-def test_horizon_search_on_compiled_kinematics_chooses_as_numpy():
+def test_horizon_search_after_the_compiled_decision_chooses_as_the_general_path():
     config = platform_configuration("hurtado_nehorai_2008")
     rng = np.random.default_rng(21)
     belief = _belief(rng, 400)
     start = PlatformState(position=(500.0, 2000.0), heading=-0.4, speed=120.0, time=3.0)
     planner = Planner(config.kinematics, config.actions, config.interval,
                       SensorPlan(["bearing", "range"], [0.02, 30.0]), gamma="cloud", horizon=2)
-    fast, slow = _both(lambda: planner.recommend(start, belief))
+    fast, slow = _both(planner, lambda: planner.recommend(start, belief))
     assert fast.index == slow.index
     np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)
 
 
-def test_the_recommendation_of_the_fast_path_reads_as_the_numpy_one():
+def test_the_recommendation_of_the_compiled_decision_reads_as_the_general_one():
     import pickle
 
     config = platform_configuration("hurtado_nehorai_2008")
@@ -192,8 +189,8 @@ def test_the_recommendation_of_the_fast_path_reads_as_the_numpy_one():
     start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=50.0, time=3.0)
     planner = Planner(config.kinematics, config.actions, config.interval,
                       SensorPlan(["bearing", "range"], [0.02, 30.0]))
-    fast, slow = _both(lambda: planner.recommend(start, belief))
-    assert isinstance(fast.steps, fused.LazyStep)
+    fast, slow = _both(planner, lambda: planner.recommend(start, belief))
+    assert isinstance(fast.steps, decision.LazyStep)
     again = pickle.loads(pickle.dumps(fast.steps))
     _same_step(again, slow.steps)                     # before any field was read
     _same_step(fast.step, slow.step)                  # one candidate: Step.__getitem__
@@ -203,7 +200,7 @@ def test_the_recommendation_of_the_fast_path_reads_as_the_numpy_one():
     np.testing.assert_allclose(fast.action.heading_change, slow.action.heading_change)
 
 
-def test_fast_path_takes_views_and_fortran_ordered_clouds():
+def test_compiled_decision_takes_views_and_fortran_ordered_clouds():
     config = platform_configuration("hurtado_nehorai_2008")
     rng = np.random.default_rng(8)
     cloud = np.asfortranarray(TARGET + rng.standard_normal((300, 4)) * SPREAD)
@@ -213,7 +210,7 @@ def test_fast_path_takes_views_and_fortran_ordered_clouds():
     start = PlatformState(position=(10.0, 20.0), heading=1.0, speed=80.0, time=3.0)
     planner = Planner(config.kinematics, config.actions, config.interval,
                       SensorPlan(["bearing", "range"], [0.02, 30.0]), gamma="cloud")
-    assert fused.decide(planner, {}, start, belief) is not None
-    fast, slow = _both(lambda: planner.recommend(start, belief))
+    assert decision.decide(planner, {}, start, belief) is not None
+    fast, slow = _both(planner, lambda: planner.recommend(start, belief))
     assert fast.index == slow.index
     np.testing.assert_allclose(fast.cost, slow.cost, rtol=1e-12)

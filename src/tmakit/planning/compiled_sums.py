@@ -1,9 +1,8 @@
-"""The ``numba`` kernels behind :mod:`tmakit.planning.compiled` (imported only from there).
+"""The compiled cloud sums and small inverses of :mod:`tmakit.planning.compiled`.
 
-Importing this module imports ``numba`` (an optional extra); :mod:`tmakit.planning.compiled`
-does so at the first call, never at ``import tmakit``.  Every kernel works in float64 and
-writes into arrays it is given.  ``error_model="numpy"``: no zero-division check per element
-(the check would keep the loops scalar); the cloud sums may be reassociated into SIMD lanes.
+Every kernel works in float64 and writes into arrays it is given.  ``error_model="numpy"``: no
+zero-division check per element (it would keep the loops scalar); the cloud sums may be
+reassociated into SIMD lanes.
 """
 
 from __future__ import annotations

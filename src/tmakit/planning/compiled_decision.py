@@ -1,4 +1,4 @@
-"""The ``numba`` kernels of one whole planning decision (imported only by ``compiled``).
+"""The compiled kernels of one whole planning decision (imported only by ``compiled``).
 
 * :func:`fly` — :meth:`tmakit.sensors.PlatformKinematics.step` for ``M`` start states times
   ``A`` actions in one loop: the limits (speed range, acceleration, turn rate, altitude band,
@@ -8,11 +8,11 @@
 * :func:`decide_planar` — one decision of :meth:`tmakit.planning.Planner.recommend` for a
   planar plan measured once at the end of the step: :func:`fly`, the prediction of ``J``
   through the step (Woodbury form of :func:`tmakit.bounds.pcrb_recursion.predict_information`),
-  ``Gamma`` at the moved mean or over the moved cloud (the sums of :mod:`.numba_kernels`),
+  ``Gamma`` at the moved mean or over the moved cloud (the sums of :mod:`.compiled_sums`),
   ``J^{-1}``, the weighted trace and the position bound of every candidate.
 
-The arithmetic follows the NumPy code it replaces operation by operation, so the results agree
-to rounding (``tests/test_planning_fused.py`` checks 1e-12 relative and the same choice).
+``tests/test_planning_decision.py`` checks both against the planner's general path (1e-12
+relative, the same choice).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from ..core.arrays import Array
-from .numba_kernels import assemble_gamma, general_sums, position_sums, spd_inverse_stack
+from .compiled_sums import assemble_gamma, general_sums, position_sums, spd_inverse_stack
 
 _exact = numba.njit(cache=True, nogil=True, error_model="numpy")
 
