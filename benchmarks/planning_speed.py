@@ -115,7 +115,7 @@ def tmakit_cases(q: float, particles: int, seed: int) -> dict[str, tuple[object,
 def decision(name: str, planner: Planner, start: PlatformState, belief: Belief):
     """One tmakit decision as a callable (``*-general``: the compiled decision set aside)."""
     if name.endswith("-general"):
-        planner._fast["setup"] = None
+        planner._decision["setup"] = None
     return lambda: planner.recommend(start, belief)
 
 

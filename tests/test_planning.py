@@ -185,7 +185,7 @@ def test_bad_planner_settings_are_refused():
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_fused_cloud_information_equals_the_general_path(dim):
-    from tmakit.planning.fast_information import cloud_information, supports
+    from tmakit.planning.cloud_information import cloud_information, supports
 
     kinds = ["bearing", "range", "range_rate"] + (["elevation"] if dim == 3 else [])
     sig = [0.02, 30.0, 0.5, 0.03][:len(kinds)]

@@ -100,11 +100,11 @@ def _belief(rng, n, q=0.1):
 def _both(planner, fn):
     """Run ``fn`` on the compiled decision, then on the planner's general path."""
     fast = fn()
-    planner._fast["setup"] = None    # the decision steps aside: step_information and the rest
+    planner._decision["setup"] = None    # the decision steps aside: step_information and the rest
     try:
         slow = fn()
     finally:
-        planner._fast.clear()
+        planner._decision.clear()
     return fast, slow
 
 

@@ -32,7 +32,7 @@ from ..bounds.pcrb_recursion import PosteriorInformation, predict_information
 from ..core.arrays import Array
 from ..core.linalg import symmetrise
 from .belief import Belief
-from .fast_information import cloud_information, supports
+from .cloud_information import cloud_information, supports
 from .measurement_plan import SensorPlan
 from .planar_information import planar_information, supports_planar
 

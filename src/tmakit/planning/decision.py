@@ -222,7 +222,7 @@ class Decision:
 
 
 def _setup(planner: Any) -> tuple[Any, ...] | None:
-    """Return the decision's constant arguments for ``planner`` (None: no fast path)."""
+    """Return the decision's constant arguments for ``planner`` (None: it does not apply)."""
     plan, kin = planner.plan, planner.kinematics
     times = plan.measurement_times(planner.interval)
     if (kin.on_limit != "clip" or plan.dim != 2 or not set(plan.kinds) <= PLANAR_KINDS
@@ -275,7 +275,7 @@ def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
     Returns
     -------
     Decision or None
-        None when the fast path does not apply (module docstring).
+        None when the compiled decision does not apply (module docstring).
 
     References
     ----------

@@ -21,7 +21,7 @@ entries of ``e e^T`` and ``e_perp e^T`` are ``c2 = e_x^2``, ``cs = e_x e_y`` and
 so the cloud average needs only the eleven weighted sums ``E[A]``, ``E[A c2]``, ``E[A cs]``,
 the same for ``B`` and ``E``, and ``E[c2]``, ``E[cs]``: one compiled pass over the cloud
 (:func:`tmakit.planning.compiled.planar_gamma`).  ``tests/test_planning.py`` checks it
-against :mod:`tmakit.planning.fast_information`, which handles 3-D and altitude.
+against :mod:`tmakit.planning.cloud_information`, which handles 3-D and altitude.
 """
 
 from __future__ import annotations

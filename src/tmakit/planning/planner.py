@@ -174,8 +174,8 @@ class Planner:
     horizon: int = 1
     beam: int | None = None
     continuation: Continuation | None = None
-    _fast: dict[str, object] = field(default_factory=dict, init=False, repr=False,
-                                     compare=False)
+    _decision: dict[str, object] = field(default_factory=dict, init=False, repr=False,
+                                         compare=False)
 
     def __post_init__(self) -> None:
         """Check the settings."""
@@ -274,7 +274,7 @@ class Planner:
         if abs(platform.time - belief.time) > 1e-6:
             raise ValueError(f"the platform is at t = {platform.time:g} s and the belief at "
                              f"t = {belief.time:g} s")
-        fast = decision.decide(self, self._fast, platform, belief)
+        fast = decision.decide(self, self._decision, platform, belief)
         if (fast is not None and fast.best is not None and not self.constraints
                 and self.horizon == 1 and self.continuation is None):
             n_act = len(self.actions)   # nothing to penalise or search: the kernel's choice

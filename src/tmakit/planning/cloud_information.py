@@ -1,4 +1,4 @@
-"""``Gamma`` over a whole particle cloud for every candidate, fused for the geometric kinds.
+"""``Gamma`` over a whole particle cloud for every candidate, written out for the geometric kinds.
 
 :func:`~tmakit.planning.candidates.expected_information` with ``gamma="cloud"`` asks for
 ``sum_i w_i H_i^T R^{-1} H_i`` for ``C`` candidates and ``N`` particles: ``C N`` Jacobians.
