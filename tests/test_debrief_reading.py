@@ -86,18 +86,22 @@ def test_a_track_file_alone_is_refused_naming_its_tracks_and_how_to_pair_it(tmp_
         tk.read_measurements(write(tmp_path, "empty.rep", ";; a comment\n"))
 
 
-def test_one_sensor_s_cuts_in_two_files_merge_when_equal_and_are_refused_naming_the_files(
+def test_one_sensor_s_cuts_in_two_files_merge_when_equal_and_are_two_runs_otherwise(
         tmp_path):
     """A sensor file given with a replay that holds the same sensor's cuts (Debrief's S2R
-    hover-north sample): the same cut twice is one; other values at one time are refused,
-    naming the sensor and both files."""
+    hover-north sample): the same cut twice is one; other values at one time are another run
+    of the sensor, as Debrief reads it (two sensors of one name): the sensor file's run is
+    fitted, in any order of the files, and a note names the run left out and how to fit it."""
     track, cuts = write(tmp_path, "own.rep", OWN + CUTS), write(tmp_path, "s.dsf", CUTS)
     assert len(tk.read_measurements([track, cuts])) == 5
     other = write(tmp_path, "o.dsf", CUTS.replace(" 41.0 NULL", " 45.0 NULL"))
-    with pytest.raises(MeasurementFileError, match=r"own.rep and o.dsf both hold cuts of sensor "
-                       r"'TA' of own ship 'OWN', 1 of them at one time with other values "
-                       r"\(o.dsf line 1 and own.rep line 4\)"):
-        tk.read_measurements([track, other])
+    for files in ([track, other], [other, track]):
+        meas = tk.read_measurements(files)
+        assert 45.0 in meas.value and 41.0 not in meas.value and len(meas) == 5
+        assert ("own.rep holds another run of sensor 'TA' of 'OWN' than o.dsf (1 of its 5 cuts "
+                "at the times of o.dsf's have other values): Debrief reads them as two sensors "
+                "named 'TA'") in notes(meas)
+        assert "the 5 cuts of own.rep are not used (give own.rep without o.dsf" in notes(meas)
 
 
 def test_cuts_outside_the_track_are_left_out_with_a_warning_the_window_first(tmp_path):
@@ -135,7 +139,8 @@ def test_names_with_stray_spaces_are_one_sensor_and_ambiguous_bearings_are_noted
     meas = tk.read_measurements(write(tmp_path, "n.rep", OWN + cuts), contact=" Optic5")
     assert len(meas.select(kind="bearing")) == 3
     assert "3 cut(s) carry a second, ambiguous bearing" in notes(meas)
-    assert meas.metadata["ambiguous_bearings_unused"] == "3"
+    assert meas.metadata["ambiguous_bearings"] == "3"
+    assert np.allclose(np.degrees(meas.select(kind="bearing").ambiguous_si), 200.0)
 
 
 def test_clock_times_of_the_day_are_read_on_one_day_and_refused_over_two():

@@ -14,7 +14,9 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+import tmakit as tk
 from tmakit.cli import app
+from tmakit.io.errors import reader_notes
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
 import debrief_samples as bench  # the benchmark's own definitions
@@ -25,19 +27,26 @@ def samples(tmp_path_factory):
     return bench.unpacked(tmp_path_factory.mktemp("debrief"))
 
 
-def test_every_sample_file_is_read_but_a_second_run_of_a_sensor_beside_the_first(samples):
+def test_every_sample_file_is_read(samples):
     files = sorted(str(p.relative_to(samples)) for p in samples.rglob("*") if p.is_file())
-    assert len(files) == 19
+    assert len(files) == len(list(bench.DATA.rglob("*.rep")) + list(bench.DATA.rglob("*.dsf"))
+                             + list(bench.DATA.rglob("*.xz")))
     refused = {rel: [why for _, why in bench.readings(samples, rel) if why is not None]
                for rel in files}
-    refused = {rel: why for rel, why in refused.items() if why}
-    # The S2R hover-north TA file's own ship is only in the replay beside it, which holds
-    # another run of the same sensor TA: 41 cuts agree (read once), 10 do not. Not read: a
-    # way to choose one file's cuts of a sensor is missing (see the README).
-    assert list(refused) == ["s2r_hover_north/Ambig_tracks_hover_north_TA.dsf"]
-    assert "Ambig_tracks_hover_north_TA.dsf and Ambig_tracks_hover_north.rep both hold cuts of " \
-        "sensor 'TA' of own ship 'SENSOR', 10 of them at one time with other values" in (
-            refused["s2r_hover_north/Ambig_tracks_hover_north_TA.dsf"][0])
+    assert {rel: why for rel, why in refused.items() if why} == {}
+
+
+def test_a_second_run_of_a_sensor_is_read_as_debrief_reads_it_one_run_fitted(samples):
+    """The S2R hover-north TA file's own ship is only in the replay beside it, which holds
+    another run of the same sensor TA (41 cuts agree, 10 do not): the sensor file's run is
+    fitted and the replay's run is named in a note, as two sensors of one name in Debrief."""
+    folder = samples / "s2r_hover_north"
+    meas = tk.read_measurements([folder / "Ambig_tracks_hover_north.rep",
+                                 folder / "Ambig_tracks_hover_north_TA.dsf"], contact="TA")
+    assert len(meas) == 51 and meas.ambiguous_si is not None
+    assert ("Ambig_tracks_hover_north.rep holds another run of sensor 'TA' of 'SENSOR' than "
+            "Ambig_tracks_hover_north_TA.dsf (10 of its 51 cuts") in "\n".join(
+                reader_notes(meas.metadata))
 
 
 def test_bulk_data_answers_with_its_60_second_positions_read_as_a_carry(samples):
@@ -74,8 +83,8 @@ def test_a_sensor_file_with_null_positions_and_gaps_is_read_with_its_track_file(
 def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable_never_off(samples):
     results = bench.leg_results(samples)
     verdicts = {(r.sample, round(r.course, 2)): r.verdict for r in results}
-    assert len(verdicts) == len(results) == 34
-    assert [r.verdict for r in results].count("within") == 15
+    assert len(verdicts) == len(results) == 38
+    assert [r.verdict for r in results].count("within") == 16
     assert "off" not in verdicts.values(), [r for r in results if r.verdict == "off"]
     # The own ship holds its course all through these legs: said unobservable, with the reason.
     assert {k for k, v in verdicts.items() if v == "unobservable"} == {
@@ -86,10 +95,10 @@ def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable_never_off(samp
     assert "uncertain" not in verdicts.values()
     assert {k for k, v in verdicts.items() if v == "undetermined"} == {
         *((f"S2R hover north {c}", course) for c in ("HM", "TA") for course in (273.51, 86.18)),
-        ("sen_ssk New_SSK_BB", 119.1), ("TA_DUMMY NoPos", 320.0)}
+        ("sen_ssk New_SSK_BB", 119.1), ("TA_DUMMY NoPos", 320.0), ("AssetData Ambig TA", 86.18)}
     assert {r.sample for r in results if r.verdict == "too few cuts"} == {
         "bulk_data MER/GreenFV1_006", "bulk_data MER/GreenFV1_011", "bulk_data MER/GreenFV1_012",
-        "sen_frig Frigate_Optic", "sen_ssk New_SSK_BB"}
+        "sen_frig Frigate_Optic", "sen_ssk New_SSK_BB", "AssetData Ambig TA"}
     # Debrief's S2R/2553 folder: its sensor file's bearings are not those of its red track
     # seen from its blue track (a bug-reproduction set): no truth to compare with.
     assert {r.sample for r in results if r.verdict == "not the truth"} == {"S2R 2553 narrowband"}

@@ -76,7 +76,7 @@ def test_replay_sensor2_ranges_frequencies_quotes_and_negative_bearings(tmp_path
     assert ms.select(kind="range").value_si[0] == pytest.approx(914.4)
     assert ms.select(kind="range").sigma_si[0] == 50.0
     assert ms.select(kind="frequency").value_si[0] == 150.5
-    assert ms.metadata["ambiguous_bearings_unused"] == "1"
+    assert ms.metadata["ambiguous_bearings"] == "1"
     # the second track line is 48" of longitude east of the first (the origin): the NULL
     # position at 30 s is halfway, the given one 30" east
     origin = [float(ms.metadata[k]) for k in ("origin_lat", "origin_lon", "origin_alt")]

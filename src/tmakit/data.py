@@ -79,7 +79,15 @@ class MeasurementSet:
     -----
     The constructor takes file units (the reader's edge); SI (``value * file_scale +
     file_offset``) is stored.  Library code uses :meth:`from_si`.  Arrays are read-only.
+
+    A towed array's bearing has a mirror twin (port and starboard of the array's axis):
+    :attr:`ambiguous_si` holds each bearing row's second, ambiguous bearing (rad; NaN for rows
+    without one), or is None when no row has one (:meth:`with_ambiguous`,
+    :mod:`tmakit.batch.ambiguity`).
     """
+
+    #: Each row's ambiguous twin bearing (rad, NaN where none), or None: no row has one.
+    ambiguous_si: NDArray[np.float64] | None = None
 
     def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike,
                  value_file: ArrayLike | None = None, sigma_file: ArrayLike | None = None,
@@ -376,6 +384,42 @@ class MeasurementSet:
         out.sensor_state = np.take(self.sensor_state, ix, 0)
         out.ref_sensor_state = take_rows(self.ref_sensor_state, ix)
         out._kind = out._sensor = out._kinds = out._sensors = None
+        if self.ambiguous_si is not None:
+            out.ambiguous_si = _frozen(self.ambiguous_si[idx])
+        return out
+
+    def with_ambiguous(self, ambiguous_si: ArrayLike | None) -> MeasurementSet:
+        """Return the set with each bearing row's ambiguous twin bearing (a towed array's).
+
+        Parameters
+        ----------
+        ambiguous_si : array_like, shape (n,), or None
+            The second bearing of each row (rad; NaN for rows without one); None removes them.
+
+        Returns
+        -------
+        MeasurementSet
+            The same rows (shared, read-only) with :attr:`ambiguous_si`.
+
+        Raises
+        ------
+        ValueError
+            A value on a row that is no bearing, a length other than the set's, or a value
+            that is not finite and not NaN.
+        """
+        out = self.take(np.arange(len(self)))
+        if ambiguous_si is None:
+            out.ambiguous_si = None
+            return out
+        values = np.array(ambiguous_si, dtype=float).reshape(-1)
+        if values.shape != (len(self),):
+            raise ValueError(f"ambiguous bearings: {values.size} values for {len(self)} rows")
+        given = ~np.isnan(values)
+        if np.any(given & ~self.kind_mask("bearing")):
+            raise ValueError("ambiguous bearings are given on rows that are not bearings")
+        if np.any(np.isinf(values)):
+            raise ValueError("ambiguous bearings: expected finite angles (rad) or NaN")
+        out.ambiguous_si = _frozen(values) if given.any() else None
         return out
 
     def select(self, kind: str | None = None, sensor: str | None = None) -> MeasurementSet:
@@ -437,6 +481,10 @@ class MeasurementSet:
             cat._value = _frozen(np.concatenate([p.value for p in parts]))
         if all(p._sigma is not None for p in parts):
             cat._sigma = _frozen(np.concatenate([p.sigma for p in parts]))
+        if any(p.ambiguous_si is not None for p in parts):
+            cat.ambiguous_si = _frozen(np.concatenate([
+                np.full(len(p), np.nan) if p.ambiguous_si is None else p.ambiguous_si
+                for p in parts]))
         return cat.sorted()
 
     def sorted(self) -> MeasurementSet:
@@ -476,6 +524,10 @@ class MeasurementSet:
                      "ref_sensor_state"):
             same = same and np.array_equal(getattr(self, name), getattr(other, name),
                                            equal_nan=True)
+        mine, theirs = self.ambiguous_si, other.ambiguous_si
+        same = same and ((mine is None and theirs is None) or (
+            mine is not None and theirs is not None
+            and np.array_equal(mine, theirs, equal_nan=True)))
         return bool(same)
 
     def summary_rows(self) -> list[dict[str, object]]:

@@ -291,7 +291,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
         the frame (``origin_*``, ``altitude_reference``, ``dim_rule``), ``source``,
         ``bearing_sigma_deg``, ``range_sigma_m``, ``frequency_sigma_hz`` (the defaults used
         where a line states no accuracy), ``sigma_from_file`` (lines that state one),
-        ``ambiguous_bearings_unused`` and ``reader_notes`` (:func:`~.errors.reader_notes`).
+        ``ambiguous_bearings`` (cuts with a twin) and ``reader_notes`` (:func:`~.errors.reader_notes`).
 
     Raises
     ------
@@ -312,33 +312,59 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines = cut_rows(cuts.rows, cuts.states, t, si, asked,
-                                                        wanted, no_range)
+    times, kinds_, values, sigmas, st, lines, twins = cut_rows(
+        cuts.rows, cuts.states, t, si, asked, wanted, no_range)
     if not times:
         raise MeasurementFileError(where, [
             f"the sensor lines of {cuts.host!r} measure nothing of {', '.join(sorted(wanted))} "
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
-    metadata = _metadata(paths, cuts, contact, sig, "bearing" in wanted, notes)
-    return _checked(where, MeasurementSet.from_si(
+    metadata = _metadata(paths, cuts, contact, sig, int(np.isfinite(twins).sum()), notes)
+    raw = MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
-        np.array(sigmas), np.array(st), metadata=metadata, check=False), lines, cuts.rows)
+        np.array(sigmas), np.array(st), metadata=metadata, check=False)
+    return _checked(where, raw.with_ambiguous(np.array(twins)), lines, cuts.rows)
 
 
-def _two_files_of_one_sensor(rows: list[SensorLine]) -> tuple[str, str, str, int] | None:
-    """Return (sensor, file, other file, count) of one sensor's cuts at one time in two files."""
-    seen: dict[tuple[str, int], SensorLine] = {}
-    clashes: list[tuple[SensorLine, SensorLine]] = []
+def _one_run_per_sensor(rows: list[SensorLine], parsed: ParsedReplay, host: str,
+                        files: list[str], notes: list[str]) -> list[SensorLine]:
+    """Keep one run of each sensor whose cuts come from several files with other values.
+
+    Debrief reads each file's sensor lines into a sensor of their own (two files of sensor
+    ``TA`` of one track give that track two sensors named ``TA``): two runs of one sensor, not
+    one.  One fit takes one of them: the run of a sensor file (a file without the host's track
+    lines), else of the file named first; the other is said in a note.  Files that repeat the
+    same cuts hold one run (the repeats are merged later).
+    """
+    by_sensor: dict[str, dict[str, list[SensorLine]]] = {}
     for s in rows:
-        first = seen.setdefault((s.sensor, s.time_ns), s)
-        if first is not s and first.file != s.file and (
-                (first.bearing, first.frequency, first.range_yd)
-                != (s.bearing, s.frequency, s.range_yd)):
-            clashes.append((first, s))
-    if not clashes:
-        return None
-    a, b = clashes[0]
-    return a.sensor, a.file, b.file, len(clashes)
+        by_sensor.setdefault(s.sensor, {}).setdefault(s.file, []).append(s)
+    with_track = {t.file for t in parsed.tracks if t.name == host}
+    dropped: set[tuple[str, str]] = set()
+    for sensor, runs in by_sensor.items():
+        if len(runs) < 2:
+            continue
+        ranked = sorted(runs, key=lambda f: (f in with_track,
+                                             files.index(f) if f in files else len(files)))
+        chosen = {(s.time_ns, s.bearing, s.ambiguous, s.frequency, s.range_yd)
+                  for s in runs[ranked[0]]}
+        times = {c[0] for c in chosen}
+        for other in ranked[1:]:
+            mine = runs[other]
+            differ = sum(s.time_ns in times and (s.time_ns, s.bearing, s.ambiguous,
+                                                   s.frequency, s.range_yd) not in chosen
+                         for s in mine)
+            if not differ:
+                continue
+            dropped.add((sensor, other))
+            notes.append(
+                f"note: {other} holds another run of sensor {sensor!r} of {host!r} than "
+                f"{ranked[0]} ({differ} of its {len(mine)} cuts at the times of "
+                f"{ranked[0]}'s have other values): Debrief reads them as two sensors named "
+                f"{sensor!r}; one fit takes one, the run of {ranked[0]} (a sensor file is "
+                f"preferred to a replay that holds the own ship's track); the {len(mine)} cuts "
+                f"of {other} are not used (give {other} without {ranked[0]} to fit that run)")
+    return [s for s in rows if (s.sensor, s.file) not in dropped]
 
 
 def _checked(path: Path, raw: MeasurementSet, lines: list[str],
@@ -349,18 +375,9 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
     except MeasurementFileError as e:
         twice = [p for p in e.problems if "two values at one time" in p]
         contacts = list(dict.fromkeys(s.label.split()[0] for s in rows if s.label.split()))
-        clash = _two_files_of_one_sensor(rows) if twice else None
-        if not twice or (len(contacts) < 2 and clash is None):
+        if not twice or len(contacts) < 2:
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
-        if clash is not None:
-            sensor, one, two, n = clash
-            raise MeasurementFileError(path, [  # one sensor's cuts of two runs
-                f"{one} and {two} both hold cuts of sensor {sensor!r} of own ship "
-                f"{rows[0].host!r}, {n} of them at one time with other values "
-                f"({twice[0].split(':')[0]} and {other}): the files hold two runs of one "
-                "sensor, which one fit cannot take; give one of them (the same cut in both "
-                "files is read once)"]) from None
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
             f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
@@ -368,6 +385,8 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
             "labels)"]) from None
     bearing = meas.kind_mask("bearing")
     meas.value_si = np.where(bearing, np.mod(meas.value_si, 2 * np.pi), meas.value_si)
+    if meas.ambiguous_si is not None:
+        meas = meas.with_ambiguous(np.mod(meas.ambiguous_si, 2 * np.pi))
     if merged:
         meas.metadata["duplicates_merged"] = str(merged)
     rules.check_set(meas)  # the file rules, once the rows are in time order
@@ -404,6 +423,7 @@ def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | No
     origin_ns = time_origin_ns(every)
     rows = _in_window(where, sorted(rows, key=lambda s: s.time_ns), window, origin_ns,
                       (int(every.min()), int(every.max())))
+    rows = _one_run_per_sensor(rows, parsed, host, [p.name for p in paths], notes)
     fixes = host_fixes(where, parsed.tracks, host, rows, notes)
     try:
         frame = local_frame([fixes], origin, dim, "msl")
@@ -414,13 +434,13 @@ def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | No
 
 
 def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str, float],
-              bearings: bool, notes: list[str]) -> dict[str, str]:
+              ambiguous: int, notes: list[str]) -> dict[str, str]:
     """Return the set's metadata (the ambiguous bearings' note joins the notes)."""
-    ambiguous = sum(s.ambiguous is not None for s in cuts.rows) if bearings else 0
     if ambiguous:
         notes.append(f"note: {ambiguous} cut(s) carry a second, ambiguous bearing (;SENSOR2:, "
-                     "the mirror of a towed array), not used: the first bearing of each cut is "
-                     "fitted")
+                     "the mirror of a towed array's bearing about its axis): both are read; "
+                     "tma estimate chooses the side of each own-ship leg by likelihood (Python: "
+                     "tk.resolve_ambiguity), a fit of the set as it is takes the first bearing")
     names = " + ".join(p.name for p in paths)
     metadata = {"source": f"Debrief replay {names}, own ship {cuts.host}"
                 + (f", contact {contact.strip()}" if contact else ""),
@@ -433,7 +453,7 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
                 "sigma_from_file": str(sum(s.bearing_accuracy is not None
                                            or s.frequency_accuracy is not None
                                            for s in cuts.rows)),
-                "ambiguous_bearings_unused": str(ambiguous)}
+                "ambiguous_bearings": str(ambiguous)}
     if notes:
         metadata[READER_NOTES_KEY] = NOTES_SEPARATOR.join(notes)
     return metadata

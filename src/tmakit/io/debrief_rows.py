@@ -68,8 +68,12 @@ def placeholder_ranges(rows: list[SensorLine], ranges: str | None,
 
 def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
              sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
-             no_range: NDArray[np.bool_]) -> tuple[list, list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state, line) of each measured value used.
+             no_range: NDArray[np.bool_]
+             ) -> tuple[list, list, list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state, line, twin) of each value used.
+
+    ``twin`` is a ``;SENSOR2:`` bearing's ambiguous twin (rad, the mirror about a towed
+    array's axis), NaN for every other row.
 
     Bearings are not wrapped yet: the file's rules see them as written.
 
@@ -92,10 +96,11 @@ def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.
 
     Returns
     -------
-    tuple of six lists
-        Times, kinds, values, sigmas, states, and each value's line (for messages).
+    tuple of seven lists
+        Times, kinds, values, sigmas, states, each value's line (for messages) and each
+        bearing's ambiguous twin (rad, NaN where none).
     """
-    out: tuple[list, list, list, list, list, list] = ([], [], [], [], [], [])
+    out: tuple[list, list, list, list, list, list, list] = ([], [], [], [], [], [], [])
     for k, s in enumerate(rows):
         stated = {"bearing": None if s.bearing_accuracy is None
                   else float(np.deg2rad(s.bearing_accuracy)),
@@ -108,7 +113,9 @@ def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.
                   else value * YARD if kind == "range" else value)
             line_sigma = stated.get(kind)
             sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
-            for col, item in zip(out, (t[k], kind, si, sigma, states[k], at_line(s)),
+            twin = (float(np.deg2rad(s.ambiguous)) if kind == "bearing"
+                    and s.ambiguous is not None else np.nan)
+            for col, item in zip(out, (t[k], kind, si, sigma, states[k], at_line(s), twin),
                                  strict=True):
                 col.append(item)
     return out
