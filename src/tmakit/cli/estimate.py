@@ -51,6 +51,18 @@ from .common import (
     parse_origin,
     reader_options,
 )
+from .legs_out import (
+    KeepTurnCutsOption,
+    LegOption,
+    SettleOption,
+    SnapOption,
+    TurnRateOption,
+    contact_legs_lines,
+    fit_with_ambiguity,
+    leg_window,
+    legs_lines,
+    legs_of,
+)
 from .outputs import check_output
 from .reading import read_or_fail
 
@@ -105,6 +117,11 @@ def estimate(
     stop: Annotated[str | None, typer.Option(
         "--to", help="solve one leg: last time (seconds, a UTC clock time, or HH:MM[:SS] on "
                      "the data's day)")] = None,
+    leg: LegOption = None,
+    snap: SnapOption = False,
+    keep_turn_cuts: KeepTurnCutsOption = False,
+    turn_rate: TurnRateOption = None,
+    settle: SettleOption = None,
     plot: Annotated[Path | None, typer.Option(
         help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, "
              "SVG)")] = None,
@@ -124,18 +141,28 @@ def estimate(
 
     Exit status 0: an answer (trust ok or warning); 4: no answer (unobservable, not converged,
     diverged), in words, no number as an answer; 2: bad input (docs/reliability.md).
+
+    The own ship's legs (turns from its heading rate) are printed with the estimate; --leg N
+    solves one.  Towed-array bearings with a mirror twin (Debrief ;SENSOR2:) are resolved
+    port/starboard leg by leg by likelihood, cuts in turns left out (docs/analyst.md).
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
     options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
                              frequency_sigma, kinds=kinds, ranges=ranges)
-    meas = select_window(read_or_fail(files, parse_origin(origin), window=(start, stop),
-                                      **options), start, stop)
+    by_legs = leg is not None or snap
+    meas = read_or_fail(files, parse_origin(origin),
+                        window=(None, None) if by_legs else (start, stop), **options)
+    if by_legs:
+        start, stop = leg_window(meas, leg, start, stop, snap, turn_rate)
+    meas = select_window(meas, start, stop)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
-    result = fit(meas)
+    navigation = meas  # every cut's own-ship state: the legs' navigation
+    result, meas = fit_with_ambiguity(meas, fit, keep_turn_cuts, settle, turn_rate, as_json)
+    show_legs(navigation, meas, result, turn_rate, units, as_json)
     factors = None
     if scale_sigma:
         meas, result, factors = refit_scaled(meas, result, fit, model_options(drift,
@@ -145,6 +172,40 @@ def estimate(
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, " + ".join(map(str, files)),
                                          model_options(drift, free_exponent)))
+
+
+def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, units: str,
+              as_json: bool) -> None:
+    """Print the own ship's legs and a manoeuvre fit's contact legs; keep them in the JSON.
+
+    Parameters
+    ----------
+    navigation : tmakit.data.MeasurementSet
+        The measurements read (turn cuts included): the own ship's states at every cut.
+    meas : tmakit.data.MeasurementSet
+        The measurements fitted.
+    result : tmakit.results.EstimateResult
+        The fit (``extra["legs"]``, ``extra["contact_legs"]`` are set).
+    turn_rate : float or None
+        ``--turn-rate``.
+    units : str
+        ``si`` or ``nautical``.
+    as_json : bool
+        Print on standard error (the JSON carries them).
+    """
+    from ..results.own_legs import contact_legs
+
+    say = err if as_json else out
+    legs = legs_of(navigation, turn_rate)
+    if legs is not None:
+        result.extra["legs"] = legs.as_dict()
+        for line in legs_lines(navigation, legs, units):
+            say.print(line, highlight=False, soft_wrap=True)
+    target = contact_legs(result, meas)
+    if target is not None:
+        result.extra["contact_legs"] = target
+        for line in contact_legs_lines(meas, target, units):
+            say.print(line, highlight=False, soft_wrap=True)
 
 
 def grouped_by_kind(meas: Any) -> Any:

@@ -291,7 +291,8 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
         the frame (``origin_*``, ``altitude_reference``, ``dim_rule``), ``source``,
         ``bearing_sigma_deg``, ``range_sigma_m``, ``frequency_sigma_hz`` (the defaults used
         where a line states no accuracy), ``sigma_from_file`` (lines that state one),
-        ``ambiguous_bearings`` (cuts with a twin) and ``reader_notes`` (:func:`~.errors.reader_notes`).
+        ``ambiguous_bearings`` (cuts with a twin) and ``reader_notes``
+        (:func:`~.errors.reader_notes`).
 
     Raises
     ------

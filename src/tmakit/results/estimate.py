@@ -219,6 +219,9 @@ class EstimateResult:
                 "warnings": None if warnings is None else [w.as_dict() for w in warnings],
                 "sigma_scale": None if sigma_scale is None else dict(sigma_scale),
                 "height": self.extra.get("height"),
+                "legs": self.extra.get("legs"),
+                "contact_legs": self.extra.get("contact_legs"),
+                "ambiguity": self.extra.get("ambiguity"),
                 "solutions": [sol.as_dict(meas) for sol in self.ranked_solutions()]}
 
     def _geodetic(self, meas: MeasurementSet) -> dict[str, object] | None:

@@ -9,7 +9,9 @@ says, naming those legs, why range is unseen and which manoeuvre would give it.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -142,3 +144,291 @@ def range_words(meas: MeasurementSet, sensor: str, manoeuvring_model: bool = Fal
         how += ("; the manoeuvres the motion model allows the target are no information about "
                 "range: a fit that puts one in would choose a range by the shape assumed")
     return f"range is not observable: {how}"
+
+
+# ---------------------------------------------------------------------------------------------
+# Legs and turns from navigation with noise: the heading rate
+# ---------------------------------------------------------------------------------------------
+
+TURN_RATE_DEG_S = 0.1
+"""A heading rate (deg/s) above which the own ship is turning (6°/min; ships turn at 0.3-3°/s)."""
+
+RATE_WINDOW_S = 60.0
+"""The heading rate is the slope of a least-squares line through the headings within this many
+seconds (centred), at least the fixes either side: navigation noise of 1° on 1 s fixes gives a
+rate noise of 0.008°/s."""
+
+MIN_TURN_DEG = 10.0
+"""A turn changes the heading by at least this much (deg) from one leg to the next: a run of
+high rate that does not is noise, and its legs are one."""
+
+
+@dataclass(frozen=True)
+class Turn:
+    """One own-ship turn between two legs.
+
+    Parameters
+    ----------
+    start, stop : float
+        The last fix of the leg before and the first fix of the leg after (s), refined to where
+        the heading leaves and joins a straight line.
+    change_deg : float
+        The heading change (deg, positive to starboard), leg after minus leg before.
+    """
+
+    start: float
+    stop: float
+    change_deg: float
+
+
+@dataclass(frozen=True)
+class LegsAndTurns:
+    """Own-ship legs and the turns between them, with the thresholds that found them.
+
+    Parameters
+    ----------
+    legs : list of Leg
+        The straight legs in time order (each from its first to its last fix).
+    turns : list of Turn
+        The turns, ``turns[k]`` between ``legs[k]`` and ``legs[k + 1]``.
+    turn_rate_deg_s, window_s, min_turn_deg : float
+        The thresholds (:data:`TURN_RATE_DEG_S`, :data:`RATE_WINDOW_S`, :data:`MIN_TURN_DEG`).
+    """
+
+    legs: list[Leg]
+    turns: list[Turn]
+    turn_rate_deg_s: float
+    window_s: float
+    min_turn_deg: float
+
+    def leg_of(self, time: NDArray[np.float64]) -> NDArray[np.intp]:
+        """Return the leg index of each time, -1 for times in a turn (or outside every leg).
+
+        Parameters
+        ----------
+        time : ndarray
+            Times (s).
+
+        Returns
+        -------
+        ndarray of int
+            Index into :attr:`legs`, or -1.
+        """
+        t = np.asarray(time, dtype=float)
+        out = np.full(t.shape, -1, dtype=np.intp)
+        for k, leg in enumerate(self.legs):
+            out[(t >= leg.start) & (t <= leg.stop)] = k
+        return out
+
+    def thresholds(self) -> str:
+        """Return the thresholds in words (for every output that shows the legs)."""
+        return (f"a turn: heading rate above {self.turn_rate_deg_s:g} deg/s (slope over "
+                f"{self.window_s:g} s), changing the heading by {self.min_turn_deg:g} deg or more")
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON form: the legs, the turns and the thresholds."""
+        return {"legs": [{"start": leg.start, "stop": leg.stop, "course_deg": leg.course_deg,
+                          "speed": leg.speed} for leg in self.legs],
+                "turns": [{"start": u.start, "stop": u.stop, "change_deg": u.change_deg}
+                          for u in self.turns],
+                "turn_rate_deg_s": self.turn_rate_deg_s, "window_s": self.window_s,
+                "min_turn_deg": self.min_turn_deg}
+
+
+def heading_rate(time: NDArray[np.float64], heading: NDArray[np.float64],
+                 window_s: float = RATE_WINDOW_S) -> NDArray[np.float64]:
+    """Return the heading rate at each fix: the slope of a line through the nearby headings.
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,)
+        Fix times (s), increasing.
+    heading : ndarray, shape (n,)
+        Headings (rad), unwrapped or not (they are unwrapped here).
+    window_s : float
+        The line is fitted to the fixes within ``window_s / 2`` of each, and at least its
+        neighbours.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        rad/s (0 for a single fix).
+    """
+    t = np.asarray(time, dtype=float)
+    n = t.size
+    if n < 2:
+        return np.zeros(n)
+    h = np.unwrap(np.asarray(heading, dtype=float))
+    idx = np.arange(n)
+    lo = np.minimum(np.searchsorted(t, t - window_s / 2, "left"), np.maximum(idx - 1, 0))
+    hi = np.maximum(np.searchsorted(t, t + window_s / 2, "right"), np.minimum(idx + 2, n))
+    tc = t - t.mean()
+    sums = [np.concatenate([[0.0], np.cumsum(v)]) for v in (np.ones(n), tc, h, tc * tc, tc * h)]
+    s0, st, sh, stt, sth = (c[hi] - c[lo] for c in sums)
+    return (sth - st * sh / s0) / np.maximum(stt - st * st / s0, 1e-300)
+
+
+def _hinge(t: NDArray[np.float64], h: NDArray[np.float64], level: float,
+           before: bool) -> int:
+    """Index of the fix where the heading leaves a level (``before``: the level precedes)."""
+    best, at = np.inf, 0
+    for k in range(t.size):
+        ramp = np.maximum(t - t[k], 0.0) if before else np.maximum(t[k] - t, 0.0)
+        if not ramp.any():
+            continue
+        rate = float(ramp @ (h - level) / (ramp @ ramp))
+        cost = float(np.sum((h - level - rate * ramp) ** 2))
+        if cost < best:
+            best, at = cost, k
+    return at
+
+
+def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
+                turn_rate_deg_s: float = TURN_RATE_DEG_S, window_s: float = RATE_WINDOW_S,
+                min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
+    """Cut an own ship's navigation into straight legs and turns, from its heading rate.
+
+    A fix is *turning* where the heading rate (:func:`heading_rate`, the heading being the
+    course over the ground from the velocity) exceeds ``turn_rate_deg_s``; a run of turning
+    fixes is a turn when the median headings of the legs either side differ by at least
+    ``min_turn_deg`` (else the run is navigation noise and the legs are one).  Each turn's ends
+    are refined to the fix where the heading leaves the leg's median heading (a hinge: a level
+    then a ramp, least squares), so that a turn is found to within one fix of where it starts.
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,)
+        Fix times (s); repeated times are read once.
+    state : ndarray, shape (n, 6)
+        ENU states (m, m/s) at those times.
+    turn_rate_deg_s, window_s, min_turn_deg : float
+        The thresholds (module constants by default).
+
+    Returns
+    -------
+    LegsAndTurns
+        The legs, the turns and the thresholds.
+    """
+    t_all = np.asarray(time, dtype=float)
+    t, first = np.unique(t_all, return_index=True)
+    v = np.asarray(state, dtype=float)[first, 3:5]
+    speed = np.hypot(v[:, 0], v[:, 1])
+    heading = np.unwrap(np.arctan2(v[:, 0], v[:, 1]))
+    turning = np.abs(heading_rate(t, heading, window_s)) > np.deg2rad(turn_rate_deg_s)
+    turning &= speed > 0.05
+    bounds = _straight_runs(turning)
+    legs, turns = _merge_small_turns(t, heading, speed, bounds, np.deg2rad(min_turn_deg))
+    return LegsAndTurns(legs, turns, turn_rate_deg_s, window_s, min_turn_deg)
+
+
+def _straight_runs(turning: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """Return (first, last) indices of the runs of fixes that are not turning."""
+    runs, start = [], None
+    for k, turn in enumerate([*turning.tolist(), True]):
+        if not turn and start is None:
+            start = k
+        elif turn and start is not None:
+            runs.append((start, k - 1))
+            start = None
+    return runs
+
+
+def _merge_small_turns(t: NDArray[np.float64], h: NDArray[np.float64],
+                       speed: NDArray[np.float64], runs: list[tuple[int, int]],
+                       min_turn: float) -> tuple[list[Leg], list[Turn]]:
+    """Join runs across turns smaller than ``min_turn``; refine the turns' ends; make legs."""
+    merged: list[list[int]] = []
+    for a, b in runs:
+        if merged and abs(np.median(h[a:b + 1]) - np.median(h[merged[-1][0]:merged[-1][1] + 1])
+                          ) < min_turn:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    for k in range(len(merged) - 1):  # refine: where the heading leaves / joins each leg
+        (a, b), (c, d) = merged[k], merged[k + 1]
+        span = slice(a, c + 1)
+        leave = a + _hinge(t[span], h[span], float(np.median(h[a:b + 1])), True)
+        span = slice(leave + 1, d + 1)
+        join = leave + 1 + _hinge(t[span], h[span], float(np.median(h[c:d + 1])), False)
+        merged[k][1], merged[k + 1][0] = max(leave, a), min(max(join, leave + 1), d)
+    legs = [Leg(float(t[a]), float(t[b]), float(np.degrees(np.median(h[a:b + 1])) % 360.0),
+                float(np.median(speed[a:b + 1]))) for a, b in merged]
+    turns = [Turn(legs[k].stop, legs[k + 1].start,
+                  float(np.degrees(np.median(h[merged[k + 1][0]:merged[k + 1][1] + 1])
+                                   - np.median(h[merged[k][0]:merged[k][1] + 1]))))
+             for k in range(len(legs) - 1)]
+    return legs, turns
+
+
+def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
+                     turn_rate_deg_s: float = TURN_RATE_DEG_S, window_s: float = RATE_WINDOW_S,
+                     min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
+    """Return the own-ship legs and turns of one sensor of a measurement set (:func:`detect_legs`).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (their sensor states are the navigation).
+    sensor : str, optional
+        The sensor; default the set's only one.
+    turn_rate_deg_s, window_s, min_turn_deg : float
+        The thresholds (:func:`detect_legs`).
+
+    Returns
+    -------
+    LegsAndTurns
+        Its legs and turns.
+
+    Raises
+    ------
+    ValueError
+        Several sensors and none named.
+    """
+    if sensor is None:
+        if len(meas.sensors) != 1:
+            raise ValueError(f"the set has several sensors ({', '.join(meas.sensors)}): name "
+                             "the own ship whose legs are wanted")
+        sensor = meas.sensors[0]
+    rows = meas.sensor_mask(sensor)
+    return detect_legs(meas.time[rows], meas.sensor_state[rows],
+                       turn_rate_deg_s=turn_rate_deg_s, window_s=window_s,
+                       min_turn_deg=min_turn_deg)
+
+
+def contact_legs(result: Any, meas: MeasurementSet) -> list[dict[str, float | None]] | None:
+    """Return a manoeuvre fit's segments as the contact's legs: times, course and speed.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        A fit of :class:`~tmakit.motion.PiecewiseCurvilinear` (None for other motions).
+    meas : MeasurementSet
+        The measurements fitted (the legs are clipped to their span).
+
+    Returns
+    -------
+    list of dict or None
+        Per segment: ``start``, ``stop`` (s), ``course_start_deg``, ``course_deg`` (at its
+        end), ``turn_deg`` (their difference), ``speed`` (m/s, at its end); None when the
+        motion has no segments or the fit gave no estimate.
+    """
+    motion = result.motion
+    if getattr(motion, "manoeuvres", None) is None or not len(meas) or \
+            not np.all(np.isfinite(result.estimate)):
+        return None
+    theta = np.asarray(result.estimate, dtype=float)
+    lo, hi = float(meas.time.min()), float(meas.time.max())
+    cuts = sorted(min(max(float(theta[motion.time_index(m)]), lo), hi)
+                  for m in range(1, motion.manoeuvres + 1))
+    ends = [lo, *cuts, hi]
+    out: list[dict[str, float | None]] = []
+    for a, b in itertools.pairwise(ends):
+        if b <= a:
+            continue
+        states = motion.states(theta, np.array([a, b]))
+        course = np.degrees(np.arctan2(states[:, 3], states[:, 4])) % 360.0
+        turn = float((course[1] - course[0] + 180.0) % 360.0 - 180.0)
+        out.append({"start": a, "stop": b, "course_start_deg": float(course[0]),
+                    "course_deg": float(course[1]), "turn_deg": turn,
+                    "speed": float(np.hypot(states[1, 3], states[1, 4]))})
+    return out

@@ -1,0 +1,463 @@
+"""A towed array's port/starboard ambiguity, resolved leg by leg inside the batch fit.
+
+A line array cannot tell the two sides of its axis apart: each cut gives a bearing and its
+mirror about the array's heading (Debrief's ``;SENSOR2:`` lines, a wide log's second bearing
+column; :attr:`MeasurementSet.ambiguous_si <tmakit.data.MeasurementSet.ambiguous_si>`).  On a
+straight own-ship leg the two are equally likely for any target motion (the mirror image of a
+constant-velocity track about the own ship's straight path is one too), so no fit of one leg
+can choose; an own-ship turn turns the axis, and the mirror images of the legs before and
+after no longer join into one track.  The rule (Debrief's workflow: "delete any cuts during
+turn, resolve ambiguity leg by leg, generate TMA track"):
+
+1. **Legs and turn cuts.**  The own ship's legs and turns come from its navigation
+   (:func:`tmakit.results.own_legs.own_ship_legs`: heading rate above a threshold).  A cut
+   taken in a turn, or within the array's settling time after one (:data:`SETTLE_S`), is a
+   *turn cut*: the array is not straight and its bearing is biased.  Turn cuts are left out
+   unless kept (``keep_turn_cuts``); each decision is reported.
+2. **Sides by likelihood.**  Each leg's cuts take one side (port or starboard of the array,
+   the axis being the pair's own mirror line nearest the own ship's heading).  Every
+   assignment of sides to the legs is fitted (by coordinate search above
+   :data:`MAX_EXHAUSTIVE_LEGS` legs) with the same maximum likelihood, and the one of least
+   chi-square is chosen.
+3. **Resolved or not.**  A leg's likelihood ratio is ``exp(Δχ²/2)``, ``Δχ²`` the chi-square
+   of the best assignment with that leg on the other side minus the best's.  Before the first
+   turn (one leg) no leg is resolved, whatever the ratio (the mirror fits by symmetry); after
+   it, a leg is resolved when its ratio is at least :data:`RESOLVED_RATIO`.  For an unresolved
+   leg the fit with the leg on the other side is kept beside the chosen one: both are
+   reported (the result's separated solutions), never one picked silently.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import MeasurementSet
+from ..motion import MotionModel
+from ..results.context import clock_time
+from ..results.estimate import EstimateResult
+from ..results.own_legs import (
+    MIN_TURN_DEG,
+    RATE_WINDOW_S,
+    TURN_RATE_DEG_S,
+    LegsAndTurns,
+    heading_rate,
+    own_ship_legs,
+)
+from ..results.solutions import Solution, separated_solutions
+
+__all__ = ["MAX_EXHAUSTIVE_LEGS", "RESOLVED_RATIO", "SETTLE_S", "AmbiguityResult", "LegSide",
+           "TurnCut", "resolve_ambiguity"]
+
+SETTLE_S = 180.0
+"""The array's settling time after a turn (s): cuts this soon after a turn ends are turn cuts."""
+
+RESOLVED_RATIO = 100.0
+"""The likelihood ratio (the chosen side against the other) at which a leg is resolved."""
+
+MAX_EXHAUSTIVE_LEGS = 8
+"""Up to this many legs every assignment of sides is fitted (2**8 fits); above, a coordinate
+search from the best uniform assignment."""
+
+PORT, STARBOARD = "port", "starboard"
+
+
+@dataclass(frozen=True)
+class TurnCut:
+    """A cut taken while the own ship turned, or while its array settled after a turn.
+
+    Parameters
+    ----------
+    time : float
+        The cut's time (s).
+    reason : str
+        Why it is a turn cut (the heading rate, or the turn it follows), in words.
+    kept : bool
+        True when it is fitted anyway (``keep_turn_cuts``).
+    """
+
+    time: float
+    reason: str
+    kept: bool
+
+
+@dataclass(frozen=True)
+class LegSide:
+    """The side chosen for one own-ship leg's ambiguous cuts.
+
+    Parameters
+    ----------
+    leg : int
+        The leg's index in the own ship's legs (0-based).
+    start, stop : float
+        Its first and last cut (s).
+    course_deg : float
+        The own ship's course on the leg (deg).
+    cuts : int
+        Its ambiguous cuts fitted.
+    side : str
+        ``port`` or ``starboard`` of the array: the side of the best fit.
+    delta_chi2 : float
+        The chi-square of the best fit with this leg on the other side minus the best's.
+    resolved : bool
+        True when the side is resolved (after a turn, ratio at least :data:`RESOLVED_RATIO`).
+    reason : str
+        Why it is resolved or not, in words.
+    """
+
+    leg: int
+    start: float
+    stop: float
+    course_deg: float
+    cuts: int
+    side: str
+    delta_chi2: float
+    resolved: bool
+    reason: str
+
+    @property
+    def likelihood_ratio(self) -> float:
+        """``exp(delta_chi2 / 2)``: how much likelier the chosen side is (inf past 1e300)."""
+        return float(np.exp(min(self.delta_chi2, 1381.0) / 2.0)) if self.delta_chi2 < 1381.0 \
+            else float("inf")
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON form (``likelihood_ratio`` null past 1e300)."""
+        lr = self.likelihood_ratio
+        return {"leg": self.leg + 1, "start": self.start, "stop": self.stop,
+                "course_deg": self.course_deg, "cuts": self.cuts, "side": self.side,
+                "delta_chi2": self.delta_chi2,
+                "likelihood_ratio": lr if np.isfinite(lr) else None,
+                "status": "resolved" if self.resolved else "unresolved", "reason": self.reason}
+
+
+@dataclass
+class AmbiguityResult:
+    """The ambiguity resolved (or not) leg by leg, and the fit of the sides chosen.
+
+    Parameters
+    ----------
+    result : EstimateResult
+        The fit of the chosen sides; its separated solutions hold the fits with unresolved
+        legs on the other side (:attr:`EstimateResult.solutions`).
+    measurements : MeasurementSet
+        The measurements fitted: each ambiguous cut's bearing on its leg's side, turn cuts left
+        out (unless kept).
+    legs : LegsAndTurns
+        The own ship's legs and turns.
+    sides : list of LegSide
+        One per leg with ambiguous cuts.
+    turn_cuts : list of TurnCut
+        Every turn cut, with its decision.
+    alternatives : list of (tuple of str, EstimateResult)
+        For each unresolved leg, the sides of the best fit with that leg on the other side, and
+        that fit.
+    settle_s : float
+        The settling time used.
+    """
+
+    result: EstimateResult
+    measurements: MeasurementSet
+    legs: LegsAndTurns
+    sides: list[LegSide]
+    turn_cuts: list[TurnCut]
+    alternatives: list[tuple[tuple[str, ...], EstimateResult]] = field(default_factory=list)
+    settle_s: float = SETTLE_S
+
+    @property
+    def resolved(self) -> bool:
+        """True when every leg's side is resolved."""
+        return all(s.resolved for s in self.sides)
+
+    def lines(self, meas: MeasurementSet | None = None) -> list[str]:
+        """Return the decisions in words: each turn cut, each leg's side, the other solutions.
+
+        Parameters
+        ----------
+        meas : MeasurementSet, optional
+            For clock times (its time origin); default :attr:`measurements`.
+
+        Returns
+        -------
+        list of str
+            One line per decision.
+        """
+        meas = self.measurements if meas is None else meas
+        out = [f"towed-array ambiguity: {sum(s.cuts for s in self.sides)} cuts with two "
+               f"bearings on {len(self.sides)} own-ship leg(s); {self.legs.thresholds()}; turn "
+               f"cuts: in a turn or within {self.settle_s:g} s after one"]
+        for c in self.turn_cuts:
+            out.append(f"  turn cut at {_when(meas, c.time)}: {c.reason}: "
+                       + ("kept (--keep-turn-cuts)" if c.kept else "left out"))
+        for s in self.sides:
+            lr = _ratio_words(s.delta_chi2)
+            out.append(f"  leg {s.leg + 1} ({_when(meas, s.start)} to {_when(meas, s.stop)}, own "
+                       f"course {s.course_deg:.1f} deg, {s.cuts} cuts): "
+                       + (f"{s.side}, likelihood ratio {lr} against {_other(s.side)}: "
+                          "resolved" if s.resolved else
+                          f"unresolved ({s.reason}); best fit {s.side}, likelihood ratio "
+                          f"{lr}: both sides are reported"))
+        for sides, alt in self.alternatives:
+            a = alt.answer(meas)
+            out.append(f"  the other solution (sides {', '.join(sides)}): chi2 {alt.chi2:.4g} "
+                       f"against {self.result.chi2:.4g}; "
+                       + (f"course {a.course_deg:.1f} deg, speed {a.speed:.3g} m/s"
+                          if a.course_deg is not None and a.speed is not None
+                          else f"status {alt.status}"))
+        return out
+
+    def as_dict(self, meas: MeasurementSet | None = None) -> dict[str, object]:
+        """Return the JSON form: legs' sides, turn cuts, the other solutions (answers)."""
+        meas = self.measurements if meas is None else meas
+        return {"resolved": self.resolved, "settle_s": self.settle_s,
+                "resolved_ratio": RESOLVED_RATIO,
+                "sides": [s.as_dict() for s in self.sides],
+                "turn_cuts": [{"time": c.time, "reason": c.reason, "kept": c.kept}
+                              for c in self.turn_cuts],
+                "other_solutions": [{"sides": list(sides), "chi2": float(alt.chi2),
+                                     "status": alt.status,
+                                     "answer": alt.answer(meas).as_dict()}
+                                    for sides, alt in self.alternatives]}
+
+
+def _ratio_words(delta_chi2: float) -> str:
+    """``3.2e+05``, or ``exp(Δχ²/2), Δχ² = 2468`` past what a float holds."""
+    if not np.isfinite(delta_chi2):
+        return "infinite (the other side's fit failed)"
+    if delta_chi2 / 2.0 > 690.0:
+        return f"exp({delta_chi2:.6g}/2)"
+    return f"{np.exp(delta_chi2 / 2.0):.3g}"
+
+
+def _other(side: str) -> str:
+    return PORT if side == STARBOARD else STARBOARD
+
+
+def _when(meas: MeasurementSet, t: float) -> str:
+    clock = clock_time(meas, t)
+    return f"t = {t:g} s" if clock is None else f"{clock[11:19]} (t = {t:g} s)"
+
+
+def side_bearings(meas: MeasurementSet) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Return each row's starboard and port bearing (rad; NaN for rows without a twin).
+
+    The array's axis is the pair's mirror line (the mean of the two bearings, or its
+    opposite) nearest the own ship's heading (the course of its velocity).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        A set with :attr:`~tmakit.data.MeasurementSet.ambiguous_si`.
+
+    Returns
+    -------
+    starboard, port : ndarray
+        Bearings (rad) to starboard and to port of the axis.
+    """
+    twin = (np.full(len(meas), np.nan) if meas.ambiguous_si is None
+            else np.asarray(meas.ambiguous_si))
+    b = np.where(np.isnan(twin), np.nan, meas.value_si)
+    heading = np.arctan2(meas.sensor_state[:, 3], meas.sensor_state[:, 4])
+    axis = np.angle(np.exp(1j * b) + np.exp(1j * twin))
+    axis = np.where(np.cos(axis - heading) < 0, axis + np.pi, axis)
+    first_starboard = np.sin(b - axis) >= 0
+    return np.where(first_starboard, b, twin), np.where(first_starboard, twin, b)
+
+
+def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", *,
+                      fit: Callable[[MeasurementSet], EstimateResult] | None = None,
+                      keep_turn_cuts: bool = False, settle_s: float = SETTLE_S,
+                      turn_rate_deg_s: float = TURN_RATE_DEG_S,
+                      window_s: float = RATE_WINDOW_S,
+                      min_turn_deg: float = MIN_TURN_DEG) -> AmbiguityResult:
+    """Choose each own-ship leg's side of a towed array by likelihood (module text).
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        Measurements with ambiguous bearings (:meth:`MeasurementSet.with_ambiguous
+        <tmakit.data.MeasurementSet.with_ambiguous>`; the Debrief reader and wide logs give
+        them), of one own ship.
+    motion : MotionModel or str
+        The target's motion (default ``cv2d``), fitted by :func:`tmakit.estimate`.
+    fit : callable, optional
+        ``fit(meas) -> EstimateResult`` instead of ``tk.estimate(meas, motion)`` (the same fit
+        for every assignment of sides: ``tma estimate`` passes its own).
+    keep_turn_cuts : bool
+        Fit the cuts taken in a turn or while the array settles (default: left out).
+    settle_s : float
+        The array's settling time after a turn (s, default :data:`SETTLE_S`).
+    turn_rate_deg_s, window_s, min_turn_deg : float
+        The own ship's turns (:func:`tmakit.results.own_legs.detect_legs`).
+
+    Returns
+    -------
+    AmbiguityResult
+        The chosen fit, each leg's side with its likelihood ratio and status, the turn cuts
+        and the other solutions.
+
+    Raises
+    ------
+    ValueError
+        No ambiguous bearing, several own ships carry them, or every cut is a turn cut.
+    """
+    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+        raise ValueError("no cut carries a second, ambiguous bearing: nothing to resolve")
+    if not settle_s >= 0:
+        raise ValueError(f"settle_s {settle_s!r}: expected a time >= 0 (s)")
+    twin = ~np.isnan(meas.ambiguous_si)
+    hosts = sorted(set(meas.sensor[twin].tolist()))
+    if len(hosts) > 1:
+        raise ValueError(f"ambiguous bearings from several sensors ({', '.join(hosts)}): "
+                         "resolve one own ship's at a time")
+    if fit is None:
+        from .dispatch import estimate
+
+        def fit(m: MeasurementSet) -> EstimateResult:
+            return estimate(m, motion)
+
+    legs = own_ship_legs(meas, hosts[0], turn_rate_deg_s=turn_rate_deg_s, window_s=window_s,
+                         min_turn_deg=min_turn_deg)
+    keep, group, turn_cuts = _turn_cuts(meas, twin, legs, settle_s, keep_turn_cuts)
+    if not np.any(keep & twin):
+        raise ValueError("every ambiguous cut was taken in an own-ship turn or while the array "
+                         "settled: keep them (keep_turn_cuts, --keep-turn-cuts) or give more data")
+    kept = meas.take(keep)
+    group = group[keep]
+    starboard, port = side_bearings(kept)
+    groups = [g for g in np.unique(group[group >= 0]).tolist()]
+    fits = _fit_assignments(kept, group, groups, starboard, port, fit)
+    best_sides = min(fits, key=lambda s: fits[s][0])
+    best_chi2, best, best_meas = fits[best_sides]
+    sides, alternatives = [], []
+    turned = len(legs.legs) > 1 and len(groups) > 0 and (
+        min(kept.time[twin[keep]]) < legs.turns[-1].start if legs.turns else False)
+    for k, g in enumerate(groups):
+        flipped = [(c, s) for s, (c, _, _) in fits.items() if s[k] != best_sides[k]]
+        other_chi2, other_sides = min(flipped) if flipped else (np.inf, best_sides)
+        delta = float(other_chi2 - best_chi2)
+        rows = group == g
+        leg = legs.legs[g]
+        if not turned:
+            ok, why = False, "no own-ship turn yet: the mirror track fits as well"
+        elif delta >= 2.0 * np.log(RESOLVED_RATIO):
+            ok, why = True, "after a turn"
+        else:
+            ok, why = False, (f"likelihood ratio below {RESOLVED_RATIO:g}: the other side "
+                              "fits about as well")
+        sides.append(LegSide(g, float(kept.time[rows].min()), float(kept.time[rows].max()),
+                             leg.course_deg, int(np.count_nonzero(rows & twin[keep])),
+                             best_sides[k], delta, ok, why))
+        if not ok and np.isfinite(other_chi2):
+            alternatives.append((other_sides, fits[other_sides][1]))
+    if alternatives:
+        _report_both(best, [a for _, a in alternatives], best_meas)
+    out = AmbiguityResult(best, best_meas, legs, sides, turn_cuts, alternatives, settle_s)
+    best.extra["ambiguity"] = out.as_dict()
+    return out
+
+
+def _report_both(best: EstimateResult, others: list[EstimateResult],
+                 meas: MeasurementSet) -> None:
+    """Put the unresolved legs' other-side fits among the best fit's separated solutions.
+
+    Each is shown whatever the separation test says (an unresolved side is never dropped):
+    those the test keeps come ranked by it, the rest after them with their chi-square.
+    """
+    earlier = [s.result for s in best.solutions[1:]]
+    ranked = separated_solutions(best, [*others, *earlier], meas)
+    shown = {id(s.result) for s in ranked}
+    ranked += [Solution(a, len(ranked) + i + 1, max(float(a.chi2 - best.chi2), 0.0),
+                        float("nan")) for i, a in enumerate(
+                            [a for a in others if id(a) not in shown])]
+    best.solutions = ranked
+
+
+def _turn_cuts(meas: MeasurementSet, twin: NDArray[np.bool_], legs: LegsAndTurns,
+               settle_s: float, keep_all: bool
+               ) -> tuple[NDArray[np.bool_], NDArray[np.intp], list[TurnCut]]:
+    """Flag the ambiguous cuts in turns or settling; return kept rows, leg of each, decisions."""
+    group = legs.leg_of(meas.time)
+    settling = np.zeros(len(meas), bool)
+    after: dict[int, float] = {}
+    for turn in legs.turns:
+        near = (meas.time >= turn.stop) & (meas.time <= turn.stop + settle_s)
+        settling |= near
+        for k in np.flatnonzero(near):
+            after.setdefault(int(k), turn.stop)
+    t_fix, first = np.unique(meas.time, return_index=True)
+    v = meas.sensor_state[first, 3:5]
+    rate = np.degrees(heading_rate(t_fix, np.arctan2(v[:, 0], v[:, 1]), legs.window_s))
+    flagged = twin & ((group < 0) | settling)
+    cuts = []
+    seen: set[float] = set()
+    for k in np.flatnonzero(flagged):
+        t = float(meas.time[k])
+        if t in seen:
+            continue
+        seen.add(t)
+        r = float(rate[np.searchsorted(t_fix, t)])
+        why = (f"within {settle_s:g} s after the turn ending at t = {after[int(k)]:g} s "
+               f"(heading rate {abs(r):.2g} deg/s)" if group[k] >= 0 else
+               f"in a turn (heading rate {abs(r):.2g} deg/s, threshold "
+               f"{legs.turn_rate_deg_s:g} deg/s)")
+        cuts.append(TurnCut(t, why, keep_all))
+    if keep_all:  # a kept turn cut goes with the leg after it (the array settles into it)
+        nxt = np.searchsorted([leg.start for leg in legs.legs], meas.time)
+        group = np.where(group < 0, np.minimum(nxt, len(legs.legs) - 1), group)
+        return np.ones(len(meas), bool), group, cuts
+    return ~flagged, group, cuts
+
+
+def _with_sides(meas: MeasurementSet, group: NDArray[np.intp], groups: list[int],
+                sides: tuple[str, ...], starboard: NDArray[np.float64],
+                port: NDArray[np.float64]) -> MeasurementSet:
+    """Give the set with each leg's ambiguous bearings on its side (twins swapped)."""
+    value = np.array(meas.value_si)
+    twin = np.array(meas.ambiguous_si)
+    for g, side in zip(groups, sides, strict=True):
+        rows = (group == g) & ~np.isnan(twin)
+        chosen, other = (starboard, port) if side == STARBOARD else (port, starboard)
+        value[rows], twin[rows] = chosen[rows], other[rows]
+    out = MeasurementSet.from_si(meas.time, meas.sensor, meas.kind, value, meas.sigma_si,
+                                 meas.sensor_state, meas.time_ref, meas.ref_sensor_state,
+                                 meas.metadata, check=False)
+    return out.with_ambiguous(twin)
+
+
+def _fit_assignments(meas: MeasurementSet, group: NDArray[np.intp], groups: list[int],
+                     starboard: NDArray[np.float64], port: NDArray[np.float64],
+                     fit: Callable[[MeasurementSet], EstimateResult]
+                     ) -> dict[tuple[str, ...], tuple[float, EstimateResult, MeasurementSet]]:
+    """Fit assignments of sides: all of them, or a coordinate search for many legs."""
+    done: dict[tuple[str, ...], tuple[float, Any, MeasurementSet]] = {}
+
+    def run(sides: tuple[str, ...]) -> float:
+        if sides not in done:
+            m = _with_sides(meas, group, groups, sides, starboard, port)
+            r = fit(m)
+            chi2 = float(r.chi2) if r.status in ("converged", "unobservable") and np.isfinite(
+                r.chi2) else np.inf
+            done[sides] = (chi2, r, m)
+        return done[sides][0]
+
+    if len(groups) <= MAX_EXHAUSTIVE_LEGS:
+        for sides in itertools.product((PORT, STARBOARD), repeat=len(groups)):
+            run(sides)
+        return done
+    current = min(((PORT,) * len(groups), (STARBOARD,) * len(groups)), key=run)
+    improved = True
+    while improved:
+        improved = False
+        for k in range(len(groups)):
+            trial = (*current[:k], _other(current[k]), *current[k + 1:])
+            if run(trial) < run(current):
+                current, improved = trial, True
+    for k in range(len(groups)):  # each leg's flip of the end point, for its ratio
+        run((*current[:k], _other(current[k]), *current[k + 1:]))
+    return done

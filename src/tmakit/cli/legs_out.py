@@ -1,0 +1,243 @@
+"""The analyst's options of ``tma estimate``: own-ship legs, ``--leg N``, turn cuts, ambiguity.
+
+- **Legs.**  The own ship's legs and turns, from its navigation (heading rate above
+  ``--turn-rate``; :func:`tmakit.results.own_legs.own_ship_legs`), are printed with every
+  estimate of one moving own ship and kept in the JSON (``legs``); the contact's legs of a
+  manoeuvre fit (its segments' course and speed) too (``contact_legs``).
+- **One leg.**  ``--leg N`` solves the own ship's leg N (its first to last fix);
+  ``--snap`` moves ``--from`` to the start and ``--to`` to the end of the leg each falls in
+  (or the nearest leg end when it falls in a turn).
+- **Ambiguity.**  A set whose bearings carry a towed array's mirror twin is fitted by
+  :func:`tmakit.batch.ambiguity.resolve_ambiguity` (turn cuts left out unless
+  ``--keep-turn-cuts``), every decision printed.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+import typer
+
+from .answers_out import SPEED_UNITS, parse_time
+from .common import err, fail, out
+
+LegOption = Annotated[int | None, typer.Option(
+    "--leg", help="solve the own ship's leg N (1 = the first; the legs are printed with every "
+                  "estimate)")]
+SnapOption = Annotated[bool, typer.Option(
+    "--snap", help="move --from to the start and --to to the end of the own-ship leg each "
+                   "falls in")]
+KeepTurnCutsOption = Annotated[bool, typer.Option(
+    "--keep-turn-cuts", help="towed-array cuts taken in an own-ship turn or while the array "
+                             "settles: fit them (default: left out, each named)")]
+TurnRateOption = Annotated[float | None, typer.Option(
+    "--turn-rate", help="own-ship turns: a heading rate above this (deg/s, default 0.1)")]
+SettleOption = Annotated[float | None, typer.Option(
+    "--settle", help="the towed array's settling time after a turn (s, default 180)")]
+
+
+def legs_of(meas: Any, turn_rate: float | None) -> Any:
+    """Return the own ship's legs (None when the set has several sensors or one that is still).
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    turn_rate : float or None
+        ``--turn-rate`` (deg/s).
+
+    Returns
+    -------
+    tmakit.results.own_legs.LegsAndTurns or None
+        The legs and turns.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for a turn rate that is not positive.
+    """
+    import numpy as np
+
+    from ..results.own_legs import TURN_RATE_DEG_S, own_ship_legs
+
+    rate = TURN_RATE_DEG_S if turn_rate is None else turn_rate
+    if not rate > 0:
+        raise fail(f"--turn-rate {turn_rate!r}: expected a heading rate > 0 (deg/s)")
+    if len(meas.sensors) != 1 or not np.any(np.hypot(meas.sensor_state[:, 3],
+                                                     meas.sensor_state[:, 4]) > 0.05):
+        return None
+    return own_ship_legs(meas, turn_rate_deg_s=rate)
+
+
+def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, snap: bool,
+               turn_rate: float | None) -> tuple[str | None, str | None]:
+    """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        Every measurement read (before any window).
+    leg : int or None
+        ``--leg``.
+    start, stop : str or None
+        ``--from``, ``--to``.
+    snap : bool
+        ``--snap``.
+    turn_rate : float or None
+        ``--turn-rate``.
+
+    Returns
+    -------
+    tuple
+        The window's ends, seconds as text (or None).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2: ``--leg`` with ``--from``/``--to``, a leg that does not exist, no own-ship
+        legs (several sensors, or a still one).
+    """
+    legs = legs_of(meas, turn_rate)
+    if legs is None:
+        raise fail("--leg/--snap: own-ship legs need one moving sensor (the own ship); the "
+                   f"set has {len(meas.sensors)} sensor(s): {', '.join(meas.sensors)}")
+    if leg is not None:
+        if start is not None or stop is not None:
+            raise fail("--leg N sets the window: give it without --from/--to (or --from/--to "
+                       "with --snap)")
+        if not 1 <= leg <= len(legs.legs):
+            raise fail(f"--leg {leg}: the own ship has {len(legs.legs)} leg(s) "
+                       f"({legs.thresholds()})")
+        chosen = legs.legs[leg - 1]
+        return repr(chosen.start), repr(chosen.stop)
+    ends_start = [g.start for g in legs.legs]
+    ends_stop = [g.stop for g in legs.legs]
+
+    def snapped(text: str | None, option: str, ends: list[float], other: list[float]
+                ) -> str | None:
+        t = parse_time(text, meas, option)
+        if t is None:
+            return None
+        inside = [k for k, g in enumerate(legs.legs) if g.start <= t <= g.stop]
+        if inside:
+            return repr(ends[inside[0]])
+        return repr(min(ends + other, key=lambda e: abs(e - t)))
+
+    return (snapped(start, "--from", ends_start, ends_stop),
+            snapped(stop, "--to", ends_stop, ends_start))
+
+
+def legs_lines(meas: Any, legs: Any, units: str) -> list[str]:
+    """Return the own-ship legs and turns in words, with the thresholds.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements (clock times).
+    legs : tmakit.results.own_legs.LegsAndTurns
+        The legs.
+    units : str
+        ``si`` or ``nautical``.
+
+    Returns
+    -------
+    list of str
+        A heading line, then one line per leg and turn.
+    """
+    from ..results.context import clock_time
+
+    def when(t: float) -> str:
+        clock = clock_time(meas, t)
+        return f"{t:g} s" if clock is None else clock[11:19]
+
+    unit, scale = SPEED_UNITS[units]
+    lines = [f"own-ship legs of {meas.sensors[0]} ({legs.thresholds()}):"]
+    for k, leg in enumerate(legs.legs):
+        lines.append(f"  leg {k + 1}: {when(leg.start)} to {when(leg.stop)}, course "
+                     f"{leg.course_deg:.1f} deg, speed {leg.speed / scale:.3g} {unit}")
+        if k < len(legs.turns):
+            u = legs.turns[k]
+            lines.append(f"  turn: {when(u.start)} to {when(u.stop)}, {u.change_deg:+.0f} deg")
+    return lines
+
+
+def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:
+    """Return the contact's legs of a manoeuvre fit in words.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements (clock times).
+    legs : list of dict
+        :func:`tmakit.results.own_legs.contact_legs`.
+    units : str
+        ``si`` or ``nautical``.
+
+    Returns
+    -------
+    list of str
+        A heading line and one line per leg.
+    """
+    from ..results.context import clock_time
+
+    def when(t: float) -> str:
+        clock = clock_time(meas, t)
+        return f"{t:g} s" if clock is None else clock[11:19]
+
+    unit, scale = SPEED_UNITS[units]
+    lines = ["contact legs (the manoeuvre fit's segments):"]
+    for k, leg in enumerate(legs):
+        course = (f"course {leg['course_deg']:.1f} deg" if leg["turn_deg"] is None
+                  or abs(leg["turn_deg"]) < 1.0 else
+                  f"turning {leg['course_start_deg']:.1f} to {leg['course_deg']:.1f} deg")
+        lines.append(f"  leg {k + 1}: {when(leg['start'])} to {when(leg['stop'])}, {course}, "
+                     f"speed {leg['speed'] / scale:.3g} {unit}")
+    return lines
+
+
+def fit_with_ambiguity(meas: Any, fit: Any, keep_turn_cuts: bool, settle: float | None,
+                       turn_rate: float | None, as_json: bool) -> tuple[Any, Any]:
+    """Fit, resolving a towed array's ambiguity when the bearings carry twins.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    fit : callable
+        ``fit(meas) -> EstimateResult``.
+    keep_turn_cuts, settle, turn_rate
+        ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
+    as_json : bool
+        Print the decisions on standard error (the JSON carries them too).
+
+    Returns
+    -------
+    tuple
+        The result and the measurements fitted (each ambiguous cut on its chosen side).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for bad options or nothing left to fit.
+    """
+    import numpy as np
+
+    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+        if keep_turn_cuts or settle is not None:
+            err.print("note: --keep-turn-cuts/--settle apply to towed-array cuts with a second, "
+                      "ambiguous bearing; these data have none", highlight=False)
+        return fit(meas), meas
+    from ..batch.ambiguity import SETTLE_S, resolve_ambiguity
+    from ..results.own_legs import TURN_RATE_DEG_S
+
+    try:
+        amb = resolve_ambiguity(meas, fit=fit, keep_turn_cuts=keep_turn_cuts,
+                                settle_s=SETTLE_S if settle is None else settle,
+                                turn_rate_deg_s=TURN_RATE_DEG_S if turn_rate is None
+                                else turn_rate)
+    except ValueError as e:
+        raise fail(str(e)) from None
+    say = err if as_json else out
+    for line in amb.lines(meas):
+        say.print(line, highlight=False, soft_wrap=True)
+    return amb.result, amb.measurements
