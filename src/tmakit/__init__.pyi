@@ -64,6 +64,10 @@ from .planning import Recommendation as Recommendation
 from .batch import estimate as estimate
 from .batch.height import choose_height as choose_height
 from .batch.height import HeightChoice as HeightChoice
+from .batch.ambiguity import resolve_ambiguity as resolve_ambiguity
+from .batch.ambiguity import AmbiguityResult as AmbiguityResult
+from .results.own_legs import own_ship_legs as own_ship_legs
+from .results.own_legs import LegsAndTurns as LegsAndTurns
 from .bounds import crlb as crlb
 from .bounds import posterior_crb as posterior_crb
 from .tracking import track as track

@@ -265,7 +265,8 @@ def heading_rate(time: NDArray[np.float64], heading: NDArray[np.float64],
     tc = t - t.mean()
     sums = [np.concatenate([[0.0], np.cumsum(v)]) for v in (np.ones(n), tc, h, tc * tc, tc * h)]
     s0, st, sh, stt, sth = (c[hi] - c[lo] for c in sums)
-    return (sth - st * sh / s0) / np.maximum(stt - st * st / s0, 1e-300)
+    rate: NDArray[np.float64] = (sth - st * sh / s0) / np.maximum(stt - st * st / s0, 1e-300)
+    return rate
 
 
 def _hinge(t: NDArray[np.float64], h: NDArray[np.float64], level: float,
