@@ -61,10 +61,23 @@ RESOLVED_RATIO = 100.0
 """The likelihood ratio (the chosen side against the other) at which a leg is resolved."""
 
 MAX_EXHAUSTIVE_LEGS = 8
-"""Up to this many legs every assignment of sides is fitted (2**8 fits); above, a coordinate
-search from the best uniform assignment."""
+"""Up to this many legs (and parts) every assignment of sides is fitted (2**8 fits); above, a
+coordinate search from the best of the uniform and the alternating assignments."""
+
+ENDFIRE_DEG = 15.0
+"""Where the contact passes within this angle (deg) of the array's axis it may cross to the
+other side: a leg's cuts are split into parts at each such pass (a local minimum of the angle
+from the axis), each part taking its own side."""
+
+ENDFIRE_RISE_DEG = 5.0
+"""A pass near the axis ends when the angle from the axis has risen this much (deg) above its
+least value (navigation and bearing noise make smaller wiggles)."""
+
+IMPROBABLE_P = 0.001
+"""A best fit whose chi-square has a smaller p-value resolves no leg."""
 
 PORT, STARBOARD = "port", "starboard"
+_PARTS = 1000  # group id = leg * _PARTS + part
 
 
 @dataclass(frozen=True)
@@ -108,6 +121,9 @@ class LegSide:
         True when the side is resolved (after a turn, ratio at least :data:`RESOLVED_RATIO`).
     reason : str
         Why it is resolved or not, in words.
+    part : int
+        0, or the number of times the contact crossed the array's axis earlier on this leg
+        (each crossing starts a part that takes its own side).
     """
 
     leg: int
@@ -119,6 +135,7 @@ class LegSide:
     delta_chi2: float
     resolved: bool
     reason: str
+    part: int = 0
 
     @property
     def likelihood_ratio(self) -> float:
@@ -129,7 +146,7 @@ class LegSide:
     def as_dict(self) -> dict[str, object]:
         """Return the JSON form (``likelihood_ratio`` null past 1e300)."""
         lr = self.likelihood_ratio
-        return {"leg": self.leg + 1, "start": self.start, "stop": self.stop,
+        return {"leg": self.leg + 1, "part": self.part + 1, "start": self.start, "stop": self.stop,
                 "course_deg": self.course_deg, "cuts": self.cuts, "side": self.side,
                 "delta_chi2": self.delta_chi2,
                 "likelihood_ratio": lr if np.isfinite(lr) else None,
@@ -196,8 +213,9 @@ class AmbiguityResult:
                        + ("kept (--keep-turn-cuts)" if c.kept else "left out"))
         for s in self.sides:
             lr = _ratio_words(s.delta_chi2)
-            out.append(f"  leg {s.leg + 1} ({_when(meas, s.start)} to {_when(meas, s.stop)}, own "
-                       f"course {s.course_deg:.1f} deg, {s.cuts} cuts): "
+            part = f", part {s.part + 1} (the contact crossed the axis)" if s.part else ""
+            out.append(f"  leg {s.leg + 1}{part} ({_when(meas, s.start)} to "
+                       f"{_when(meas, s.stop)}, own course {s.course_deg:.1f} deg, {s.cuts} cuts): "
                        + (f"{s.side}, likelihood ratio {lr} against {_other(s.side)}: "
                           "resolved" if s.resolved else
                           f"unresolved ({s.reason}); best fit {s.side}, likelihood ratio "
@@ -328,31 +346,37 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
         raise ValueError("every ambiguous cut was taken in an own-ship turn or while the array "
                          "settled: keep them (keep_turn_cuts, --keep-turn-cuts) or give more data")
     kept = meas.take(keep)
-    group = group[keep]
+    leg_of_row = group[keep]
     starboard, port = side_bearings(kept)
-    groups = [g for g in np.unique(group[group >= 0]).tolist()]
+    group = _split_at_axis(leg_of_row, starboard, port)
+    groups = np.unique(group[group >= 0]).tolist()
     fits = _fit_assignments(kept, group, groups, starboard, port, fit)
     best_sides = min(fits, key=lambda s: fits[s][0])
     best_chi2, best, best_meas = fits[best_sides]
+    improbable = best.chi2_p_value is not None and best.chi2_p_value < IMPROBABLE_P
+    turned = np.unique(leg_of_row[leg_of_row >= 0]).size > 1
     sides, alternatives = [], []
-    turned = len(legs.legs) > 1 and len(groups) > 0 and (
-        min(kept.time[twin[keep]]) < legs.turns[-1].start if legs.turns else False)
     for k, g in enumerate(groups):
         flipped = [(c, s) for s, (c, _, _) in fits.items() if s[k] != best_sides[k]]
         other_chi2, other_sides = min(flipped) if flipped else (np.inf, best_sides)
         delta = float(other_chi2 - best_chi2)
         rows = group == g
-        leg = legs.legs[g]
+        leg = legs.legs[g // _PARTS]
         if not turned:
             ok, why = False, "no own-ship turn yet: the mirror track fits as well"
+        elif improbable:
+            ok, why = False, (f"the best fit is improbable (chi2 {best_chi2:.4g} on {best.dof} "
+                              "dof): the contact may manoeuvre or change sides in a way the "
+                              "motion model does not follow")
         elif delta >= 2.0 * np.log(RESOLVED_RATIO):
             ok, why = True, "after a turn"
         else:
             ok, why = False, (f"likelihood ratio below {RESOLVED_RATIO:g}: the other side "
                               "fits about as well")
-        sides.append(LegSide(g, float(kept.time[rows].min()), float(kept.time[rows].max()),
-                             leg.course_deg, int(np.count_nonzero(rows & twin[keep])),
-                             best_sides[k], delta, ok, why))
+        sides.append(LegSide(g // _PARTS, float(kept.time[rows].min()),
+                             float(kept.time[rows].max()), leg.course_deg,
+                             int(np.count_nonzero(rows & twin[keep])), best_sides[k], delta, ok,
+                             why, g % _PARTS))
         if not ok and np.isfinite(other_chi2):
             alternatives.append((other_sides, fits[other_sides][1]))
     if alternatives:
@@ -360,6 +384,34 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
     out = AmbiguityResult(best, best_meas, legs, sides, turn_cuts, alternatives, settle_s)
     best.extra["ambiguity"] = out.as_dict()
     return out
+
+
+def _split_at_axis(leg: NDArray[np.intp], starboard: NDArray[np.float64],
+                   port: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Give each ambiguous cut its group (leg, part): a new part after each pass near endfire.
+
+    Near endfire the two bearings meet and the contact may cross to the other side of the
+    array: a part ends at the least angle from the axis of each pass below
+    :data:`ENDFIRE_DEG` (once the angle has risen :data:`ENDFIRE_RISE_DEG` above it), and
+    each part chooses its side.  Rows without a twin keep their leg's first group (-1 in
+    turns).
+    """
+    group = np.where(leg >= 0, leg * _PARTS, -1)
+    twin = ~np.isnan(starboard)
+    half = np.abs(np.angle(np.exp(1j * (starboard - port)))) / 2.0  # from the nearer end
+    limit, rise = np.deg2rad(ENDFIRE_DEG), np.deg2rad(ENDFIRE_RISE_DEG)
+    for g in np.unique(leg[leg >= 0]).tolist():
+        rows = np.flatnonzero((leg == g) & twin)
+        part, low, low_at = 0, np.inf, -1
+        for i, r in enumerate(rows):
+            e = half[r]
+            if e < low:
+                low, low_at = e, i
+            elif low < limit and e > low + rise:  # passed near the axis and left it
+                group[rows[low_at + 1:i]] = g * _PARTS + part + 1
+                part, low, low_at = part + 1, e, i
+            group[r] = g * _PARTS + part
+    return group
 
 
 def _report_both(best: EstimateResult, others: list[EstimateResult],
@@ -450,7 +502,10 @@ def _fit_assignments(meas: MeasurementSet, group: NDArray[np.intp], groups: list
         for sides in itertools.product((PORT, STARBOARD), repeat=len(groups)):
             run(sides)
         return done
-    current = min(((PORT,) * len(groups), (STARBOARD,) * len(groups)), key=run)
+    n = len(groups)
+    alternate = tuple(PORT if k % 2 else STARBOARD for k in range(n))  # a crossing flips sides
+    current = min(((PORT,) * n, (STARBOARD,) * n, alternate,
+                   tuple(_other(s) for s in alternate)), key=run)
     improved = True
     while improved:
         improved = False
