@@ -170,8 +170,9 @@ class Turn:
     Parameters
     ----------
     start, stop : float
-        The last fix of the leg before and the first fix of the leg after (s), refined to where
-        the heading leaves and joins a straight line.
+        Where the heading leaves the leg before and reaches the leg after (s): the knots of a
+        level, constant-rate, level least-squares fit, at or between the fixes (the legs end
+        and start at the fixes either side).
     change_deg : float
         The heading change (deg, positive to starboard), leg after minus leg before.
     """
@@ -269,19 +270,23 @@ def heading_rate(time: NDArray[np.float64], heading: NDArray[np.float64],
     return rate
 
 
-def _hinge(t: NDArray[np.float64], h: NDArray[np.float64], level: float,
-           before: bool) -> int:
-    """Index of the fix where the heading leaves a level (``before``: the level precedes)."""
-    best, at = np.inf, 0
-    for k in range(t.size):
-        ramp = np.maximum(t - t[k], 0.0) if before else np.maximum(t[k] - t, 0.0)
-        if not ramp.any():
-            continue
-        rate = float(ramp @ (h - level) / (ramp @ ramp))
-        cost = float(np.sum((h - level - rate * ramp) ** 2))
-        if cost < best:
-            best, at = cost, k
-    return at
+def _turn_knots(t: NDArray[np.float64], h: NDArray[np.float64], before: float,
+                after: float) -> tuple[float, float]:
+    """Where a turn leaves the heading ``before`` and reaches ``after`` (s): least squares.
+
+    The model: the heading ``before`` until ``t1``, a constant rate to ``after`` at ``t2``,
+    then ``after``; the knots are searched at the fixes and, where the fixes are few, at a
+    tenth of a fix between them.
+    """
+    knots = t if t.size > 20 else np.unique(np.concatenate(
+        [t, *(t[:-1] + f * np.diff(t) for f in np.arange(0.1, 1.0, 0.1))]))
+    t1, t2 = knots[:, None, None], knots[None, :, None]
+    frac = np.clip((t[None, None, :] - t1) / np.maximum(t2 - t1, 1e-9), 0.0, 1.0)
+    frac = np.where(t[None, None, :] >= t2, 1.0, frac)
+    cost = np.sum((h - before - (after - before) * frac) ** 2, axis=2)
+    cost[t1[:, :, 0] > t2[:, :, 0]] = np.inf
+    i, j = np.unravel_index(int(np.argmin(cost)), cost.shape)
+    return float(knots[i]), float(knots[j])
 
 
 def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
@@ -290,11 +295,14 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
     """Cut an own ship's navigation into straight legs and turns, from its heading rate.
 
     A fix is *turning* where the heading rate (:func:`heading_rate`, the heading being the
-    course over the ground from the velocity) exceeds ``turn_rate_deg_s``; a run of turning
+    course over the ground from the velocity) exceeds ``turn_rate_deg_s``, and a turn made
+    between two fixes (the heading changes by ``min_turn_deg`` or more from one to the next:
+    fixes too sparse to show the rate) ends a leg too; a run of turning
     fixes is a turn when the median headings of the legs either side differ by at least
     ``min_turn_deg`` (else the run is navigation noise and the legs are one).  Each turn's ends
-    are refined to the fix where the heading leaves the leg's median heading (a hinge: a level
-    then a ramp, least squares), so that a turn is found to within one fix of where it starts.
+    are refined to where the heading leaves the leg's median heading and reaches the next's (a
+    level, a constant rate, a level: least squares), so that a turn is found to within one
+    fix of where it starts.
 
     Parameters
     ----------
@@ -317,19 +325,28 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
     heading = np.unwrap(np.arctan2(v[:, 0], v[:, 1]))
     turning = np.abs(heading_rate(t, heading, window_s)) > np.deg2rad(turn_rate_deg_s)
     turning &= speed > 0.05
-    bounds = _straight_runs(turning)
+    jump = np.abs(np.diff(heading)) >= np.deg2rad(min_turn_deg)  # a turn between two fixes
+    bounds = _straight_runs(turning, jump)
     legs, turns = _merge_small_turns(t, heading, speed, bounds, np.deg2rad(min_turn_deg))
     return LegsAndTurns(legs, turns, turn_rate_deg_s, window_s, min_turn_deg)
 
 
-def _straight_runs(turning: NDArray[np.bool_]) -> list[tuple[int, int]]:
-    """Return (first, last) indices of the runs of fixes that are not turning."""
+def _straight_runs(turning: NDArray[np.bool_], jump: NDArray[np.bool_]
+                   ) -> list[tuple[int, int]]:
+    """Return (first, last) indices of the runs of fixes that are not turning.
+
+    A run also ends where the heading jumps between two fixes (``jump[k]``: from fix k to
+    k + 1), a turn made between fixes too sparse to show it as a rate.
+    """
     runs, start = [], None
     for k, turn in enumerate([*turning.tolist(), True]):
         if not turn and start is None:
             start = k
         elif turn and start is not None:
             runs.append((start, k - 1))
+            start = None
+        if start is not None and k < jump.size and jump[k]:
+            runs.append((start, k))
             start = None
     return runs
 
@@ -345,16 +362,20 @@ def _merge_small_turns(t: NDArray[np.float64], h: NDArray[np.float64],
             merged[-1][1] = b
         else:
             merged.append([a, b])
+    knots: list[tuple[float, float]] = []
     for k in range(len(merged) - 1):  # refine: where the heading leaves / joins each leg
         (a, b), (c, d) = merged[k], merged[k + 1]
-        span = slice(a, c + 1)
-        leave = a + _hinge(t[span], h[span], float(np.median(h[a:b + 1])), True)
-        span = slice(leave + 1, d + 1)
-        join = leave + 1 + _hinge(t[span], h[span], float(np.median(h[c:d + 1])), False)
-        merged[k][1], merged[k + 1][0] = max(leave, a), min(max(join, leave + 1), d)
+        margin = max(3, int(np.count_nonzero(np.abs(t - t[b]) <= 60.0)))
+        lo, hi = max(a, b - margin), min(d, c + margin)
+        t1, t2 = _turn_knots(t[lo:hi + 1], h[lo:hi + 1], float(np.median(h[a:b + 1])),
+                             float(np.median(h[c:d + 1])))
+        leave = max(int(np.searchsorted(t, t1, "right")) - 1, a)
+        join = min(max(int(np.searchsorted(t, t2, "left")), leave + 1), d)
+        merged[k][1], merged[k + 1][0] = leave, join
+        knots.append((t1, t2))
     legs = [Leg(float(t[a]), float(t[b]), float(np.degrees(np.median(h[a:b + 1])) % 360.0),
                 float(np.median(speed[a:b + 1]))) for a, b in merged]
-    turns = [Turn(legs[k].stop, legs[k + 1].start,
+    turns = [Turn(knots[k][0], knots[k][1],
                   float(np.degrees(np.median(h[merged[k + 1][0]:merged[k + 1][1] + 1])
                                    - np.median(h[merged[k][0]:merged[k][1] + 1]))))
              for k in range(len(legs) - 1)]
