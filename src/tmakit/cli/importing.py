@@ -41,7 +41,8 @@ IMPORT_FORMATS = {"rep": 0, "dsf": 0, "wide": 1, "gpx": 2, "nmea": 2}
 #: tracks, with their source and licence in ``debrief-samples.txt``).
 EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea",
                  "bearings.csv", "bearings.toml", "truth.json", "Freq_BlueSensor.rep",
-                 "Freq_BlueTrack.rep", "Freq_RedTrack.rep", "debrief-samples.txt")
+                 "Freq_BlueTrack.rep", "Freq_RedTrack.rep", "Ambig_cuts_TA.rep",
+                 "Ambig_tracks2.rep", "debrief-samples.txt")
 
 
 def _check_output(output: Path, force: bool, inputs: list[Path]) -> None:
@@ -208,6 +209,14 @@ def print_import(meas: Any, output: Path | None) -> None:
             out.print(f"  {label}: {meta[key]}", highlight=False, soft_wrap=True)
     if "bearing_sigma_deg" in meta:
         out.print("  " + _replay_sigmas(meta, set(meas.kinds)), highlight=False, soft_wrap=True)
+    if output is not None and meas.ambiguous_si is not None:
+        import numpy as np
+
+        out.print(f"  note: the {int((~np.isnan(meas.ambiguous_si)).sum())} ambiguous twin "
+                  "bearings (a towed array's mirror) are not written: a measurement file has "
+                  "no column for them, and the first bearing of each cut is kept; resolve the "
+                  "side from the log itself (tma estimate LOG...)", highlight=False,
+                  soft_wrap=True)
 
 
 def _replay_sigmas(meta: dict[str, str], kinds: set[str]) -> str:
@@ -231,8 +240,10 @@ def examples(
     contact.rep (Debrief), drone.csv + drone.toml (wide log), own.gpx, own.nmea,
     bearings.csv + bearings.toml (own track + bearings), truth.json (what the simulation
     put in them), and Debrief's public TA_DUMMY sample: Freq_BlueSensor.rep (sensor file),
-    Freq_BlueTrack.rep (own ship), Freq_RedTrack.rep (the subject's truth), with their source
-    and licence in debrief-samples.txt; see docs/your-own-data.md.
+    Freq_BlueTrack.rep (own ship), Freq_RedTrack.rep (the subject's truth), and its AssetData
+    towed-array pair: Ambig_cuts_TA.rep (ambiguous cuts), Ambig_tracks2.rep (own ship and
+    subject), with their source and licence in debrief-samples.txt; see docs/your-own-data.md
+    and docs/analyst.md.
     """
     from importlib import resources
 

@@ -126,6 +126,7 @@ class MeasurementMap(_Strict):
     sigma: float | None = Field(default=None, gt=0)
     sigma_column: str | None = None
     reference: Literal["true", "relative"] = "true"
+    ambiguous: str | None = None
 
     @model_validator(mode="after")
     def _kind_unit(self) -> MeasurementMap:
@@ -136,6 +137,9 @@ class MeasurementMap(_Strict):
                              f"{', '.join(UNITS[self.kind])}")
         if self.reference == "relative" and self.kind != "bearing":
             raise ValueError("reference 'relative' (to the heading) applies to bearings only")
+        if self.ambiguous is not None and self.kind != "bearing":
+            raise ValueError("ambiguous (a towed array's second bearing column) applies to "
+                             "bearings only")
         if (self.sigma is None) == (self.sigma_column is None):
             raise ValueError("give sigma (in the unit; dB for power) or sigma_column")
         return self

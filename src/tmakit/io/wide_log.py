@@ -291,6 +291,7 @@ def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
     for spec in m.measurement:
         tab.need(spec.column, f"{spec.kind} in {spec.unit}")
         tab.need(spec.sigma_column, f"sigma of {spec.column}")
+        tab.need(spec.ambiguous, f"the ambiguous twin of {spec.column}")
     if m.heading and tab.need(m.heading, "heading (deg true)"):
         tab.heading = tab.numbers(m.heading, "a heading (deg)", required=False)
     tab.fail()
@@ -324,6 +325,21 @@ def _headings(tab: _Table, column: str, rows: NDArray[np.intp]) -> NDArray[np.fl
     return heading
 
 
+def _twins(tab: _Table, column: str, unit: str, rows: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Return the ambiguous twin (in the unit) of each bearing row; refuse a missing one."""
+    twin = tab.numbers(column, f"an ambiguous bearing in {unit}", required=False)[rows]
+    degrees = twin if unit == "deg" else np.degrees(twin)
+    for k in rows[~np.isfinite(twin)][:25]:
+        tab.problems.append(f"{tab.where(int(k), column)}: the bearing in this row has no "
+                            "ambiguous twin (a towed array gives both; leave the bearing empty "
+                            "too, or map the column without ambiguous)")
+    bad = np.flatnonzero(np.isfinite(twin) & ~KINDS["bearing"].check_values(degrees))
+    for i in bad[:25]:
+        tab.problems.append(f"{tab.where(int(rows[i]), column)}: expected "
+                            f"{KINDS['bearing'].describe_values()}, found {float(twin[i]):.6g}")
+    return twin
+
+
 def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArray[np.float64],
               metadata: dict[str, str]) -> MeasurementSet:
     """Make the set: the cells checked as read by the file's rules, then made true and wrapped."""
@@ -338,11 +354,14 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
                  if spec.sigma_column else np.full(value.shape, spec.sigma))
         rows = np.flatnonzero(np.isfinite(value))
         scale, offset = UNITS[spec.kind][spec.unit]
+        twin = (_twins(tab, spec.ambiguous, spec.unit, rows) * scale if spec.ambiguous
+                else np.full(rows.size, np.nan))
         parts.append((t[rows], ids[rows], np.full(rows.size, spec.kind),
-                      value[rows] * scale + offset, sigma[rows] * scale, states[rows], rows))
+                      value[rows] * scale + offset, sigma[rows] * scale, states[rows], rows,
+                      twin))
         where += [tab.where(int(k), spec.column) for k in rows]
     tab.fail()
-    cols = [np.concatenate([p[i] for p in parts]) for i in range(7)]
+    cols = [np.concatenate([p[i] for p in parts]) for i in range(8)]
     if cols[0].size == 0:
         raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing "
                                               "measured"])
@@ -351,15 +370,22 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
                                  check=False)
     meas, kept, merged = checked_rows(tab.path, raw, where)  # the cells as read
     true = np.array(meas.value_si)
+    twin = cols[7][kept]
     spec_of = np.concatenate([np.full(p[0].size, i) for i, p in enumerate(parts)])[kept]
     for i, spec in enumerate(m.measurement):
         mine = np.flatnonzero(spec_of == i)
         if spec.reference == "relative":
-            true[mine] += np.deg2rad(_headings(tab, spec.column, cols[6][kept[mine]]))
+            heading = np.deg2rad(_headings(tab, spec.column, cols[6][kept[mine]]))
+            true[mine] += heading
+            twin[mine] += heading
         if spec.kind == "bearing":
             true[mine] = np.mod(true[mine], 2 * np.pi)
+            twin[mine] = np.mod(twin[mine], 2 * np.pi)
     tab.fail()
     meas.value_si = true
+    if np.any(~np.isnan(twin)):
+        meas = meas.with_ambiguous(twin)
+        meas.metadata["ambiguous_bearings"] = str(int(np.count_nonzero(~np.isnan(twin))))
     if merged:
         meas.metadata["duplicates_merged"] = str(merged)
     rules.check_set(meas)  # the file rules on the set as written
