@@ -22,9 +22,10 @@ turn, resolve ambiguity leg by leg, generate TMA track"):
 3. **Resolved or not.**  A leg's likelihood ratio is ``exp(Δχ²/2)``, ``Δχ²`` the chi-square
    of the best assignment with that leg on the other side minus the best's.  Before the first
    turn (one leg) no leg is resolved, whatever the ratio (the mirror fits by symmetry); after
-   it, a leg is resolved when its ratio is at least :data:`RESOLVED_RATIO`.  For an unresolved
-   leg the fit with the leg on the other side is kept beside the chosen one: both are
-   reported (the result's separated solutions), never one picked silently.
+   it, a leg is resolved when its ratio is at least :data:`RESOLVED_RATIO` (and the best fit
+   is not improbable).  For an unresolved leg the fit with the leg on the other side is kept
+   beside the chosen one: both are reported (:attr:`AmbiguityResult.alternatives`, and the
+   result's separated solutions when they fit about as well), never one picked silently.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from ..results.own_legs import (
     heading_rate,
     own_ship_legs,
 )
-from ..results.solutions import Solution, separated_solutions
+from ..results.solutions import separated_solutions
 
 __all__ = ["MAX_EXHAUSTIVE_LEGS", "RESOLVED_RATIO", "SETTLE_S", "AmbiguityResult", "LegSide",
            "TurnCut", "resolve_ambiguity"]
@@ -161,7 +162,7 @@ class AmbiguityResult:
     ----------
     result : EstimateResult
         The fit of the chosen sides; its separated solutions hold the fits with unresolved
-        legs on the other side (:attr:`EstimateResult.solutions`).
+        legs on the other side that fit about as well (:attr:`EstimateResult.solutions`).
     measurements : MeasurementSet
         The measurements fitted: each ambiguous cut's bearing on its leg's side, turn cuts left
         out (unless kept).
@@ -292,7 +293,8 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
                       keep_turn_cuts: bool = False, settle_s: float = SETTLE_S,
                       turn_rate_deg_s: float = TURN_RATE_DEG_S,
                       window_s: float = RATE_WINDOW_S,
-                      min_turn_deg: float = MIN_TURN_DEG) -> AmbiguityResult:
+                      min_turn_deg: float = MIN_TURN_DEG,
+                      legs: LegsAndTurns | None = None) -> AmbiguityResult:
     """Choose each own-ship leg's side of a towed array by likelihood (module text).
 
     Parameters
@@ -312,6 +314,10 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
         The array's settling time after a turn (s, default :data:`SETTLE_S`).
     turn_rate_deg_s, window_s, min_turn_deg : float
         The own ship's turns (:func:`tmakit.results.own_legs.detect_legs`).
+    legs : LegsAndTurns, optional
+        The own ship's legs and turns found over more navigation than ``meas`` holds (a window
+        of a longer record: a cut just after a turn outside the window is still a turn cut);
+        default those of ``meas`` (the thresholds above are then not used).
 
     Returns
     -------
@@ -339,8 +345,9 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
         def fit(m: MeasurementSet) -> EstimateResult:
             return estimate(m, motion)
 
-    legs = own_ship_legs(meas, hosts[0], turn_rate_deg_s=turn_rate_deg_s, window_s=window_s,
-                         min_turn_deg=min_turn_deg)
+    if legs is None:
+        legs = own_ship_legs(meas, hosts[0], turn_rate_deg_s=turn_rate_deg_s,
+                             window_s=window_s, min_turn_deg=min_turn_deg)
     keep, group, turn_cuts = _turn_cuts(meas, twin, legs, settle_s, keep_turn_cuts)
     if not np.any(keep & twin):
         raise ValueError("every ambiguous cut was taken in an own-ship turn or while the array "
@@ -363,7 +370,7 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
         rows = group == g
         leg = legs.legs[g // _PARTS]
         if not turned:
-            ok, why = False, "no own-ship turn yet: the mirror track fits as well"
+            ok, why = False, "no own-ship turn within these cuts: the mirror track fits as well"
         elif improbable:
             ok, why = False, (f"the best fit is improbable (chi2 {best_chi2:.4g} on {best.dof} "
                               "dof): the contact may manoeuvre or change sides in a way the "
@@ -377,7 +384,7 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
                              float(kept.time[rows].max()), leg.course_deg,
                              int(np.count_nonzero(rows & twin[keep])), best_sides[k], delta, ok,
                              why, g % _PARTS))
-        if not ok and np.isfinite(other_chi2):
+        if not ok and np.isfinite(other_chi2) and all(other_sides != a for a, _ in alternatives):
             alternatives.append((other_sides, fits[other_sides][1]))
     if alternatives:
         _report_both(best, [a for _, a in alternatives], best_meas)
@@ -416,18 +423,13 @@ def _split_at_axis(leg: NDArray[np.intp], starboard: NDArray[np.float64],
 
 def _report_both(best: EstimateResult, others: list[EstimateResult],
                  meas: MeasurementSet) -> None:
-    """Put the unresolved legs' other-side fits among the best fit's separated solutions.
+    """Rank the unresolved legs' other-side fits among the best fit's separated solutions.
 
-    Each is shown whatever the separation test says (an unresolved side is never dropped):
-    those the test keeps come ranked by it, the rest after them with their chi-square.
+    Those the separation test keeps (:func:`~tmakit.results.solutions.separated_solutions`)
+    join the result's solutions; every one is in the ambiguity report whatever the test says.
     """
     earlier = [s.result for s in best.solutions[1:]]
-    ranked = separated_solutions(best, [*others, *earlier], meas)
-    shown = {id(s.result) for s in ranked}
-    ranked += [Solution(a, len(ranked) + i + 1, max(float(a.chi2 - best.chi2), 0.0),
-                        float("nan")) for i, a in enumerate(
-                            [a for a in others if id(a) not in shown])]
-    best.solutions = ranked
+    best.solutions = separated_solutions(best, [*others, *earlier], meas)
 
 
 def _turn_cuts(meas: MeasurementSet, twin: NDArray[np.bool_], legs: LegsAndTurns,

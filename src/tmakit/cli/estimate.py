@@ -153,16 +153,18 @@ def estimate(
     by_legs = leg is not None or snap
     meas = read_or_fail(files, parse_origin(origin),
                         window=(None, None) if by_legs else (start, stop), **options)
+    record_legs = None  # the legs of the whole record, for --leg and --snap
     if by_legs:
-        start, stop = leg_window(meas, leg, start, stop, snap, turn_rate)
+        start, stop, record_legs = leg_window(meas, leg, start, stop, snap, turn_rate)
     meas = select_window(meas, start, stop)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
     navigation = meas  # every cut's own-ship state: the legs' navigation
-    result, meas = fit_with_ambiguity(meas, fit, keep_turn_cuts, settle, turn_rate, as_json)
-    show_legs(navigation, meas, result, turn_rate, units, as_json)
+    result, meas = fit_with_ambiguity(meas, fit, keep_turn_cuts, settle, turn_rate, as_json,
+                                      record_legs)
+    show_legs(navigation, meas, result, turn_rate, units, as_json, record_legs)
     factors = None
     if scale_sigma:
         meas, result, factors = refit_scaled(meas, result, fit, model_options(drift,
@@ -175,7 +177,7 @@ def estimate(
 
 
 def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, units: str,
-              as_json: bool) -> None:
+              as_json: bool, legs: Any = None) -> None:
     """Print the own ship's legs and a manoeuvre fit's contact legs; keep them in the JSON.
 
     Parameters
@@ -192,11 +194,13 @@ def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, 
         ``si`` or ``nautical``.
     as_json : bool
         Print on standard error (the JSON carries them).
+    legs : LegsAndTurns, optional
+        The legs of the whole record (``--leg``, ``--snap``); default those of ``navigation``.
     """
     from ..results.own_legs import contact_legs
 
     say = err if as_json else out
-    legs = legs_of(navigation, turn_rate)
+    legs = legs_of(navigation, turn_rate) if legs is None else legs
     if legs is not None:
         result.extra["legs"] = legs.as_dict()
         for line in legs_lines(navigation, legs, units):

@@ -70,7 +70,7 @@ def legs_of(meas: Any, turn_rate: float | None) -> Any:
 
 
 def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, snap: bool,
-               turn_rate: float | None) -> tuple[str | None, str | None]:
+               turn_rate: float | None) -> tuple[str | None, str | None, Any]:
     """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``.
 
     Parameters
@@ -89,7 +89,7 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
     Returns
     -------
     tuple
-        The window's ends, seconds as text (or None).
+        The window's ends, seconds as text (or None), and the legs of the whole record.
 
     Raises
     ------
@@ -109,7 +109,7 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
             raise fail(f"--leg {leg}: the own ship has {len(legs.legs)} leg(s) "
                        f"({legs.thresholds()})")
         chosen = legs.legs[leg - 1]
-        return repr(chosen.start), repr(chosen.stop)
+        return repr(chosen.start), repr(chosen.stop), legs
     ends_start = [g.start for g in legs.legs]
     ends_stop = [g.stop for g in legs.legs]
 
@@ -124,7 +124,7 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
         return repr(min(ends + other, key=lambda e: abs(e - t)))
 
     return (snapped(start, "--from", ends_start, ends_stop),
-            snapped(stop, "--to", ends_stop, ends_start))
+            snapped(stop, "--to", ends_stop, ends_start), legs)
 
 
 def legs_lines(meas: Any, legs: Any, units: str) -> list[str]:
@@ -196,7 +196,8 @@ def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> lis
 
 
 def fit_with_ambiguity(meas: Any, fit: Any, keep_turn_cuts: bool, settle: float | None,
-                       turn_rate: float | None, as_json: bool) -> tuple[Any, Any]:
+                       turn_rate: float | None, as_json: bool, legs: Any = None
+                       ) -> tuple[Any, Any]:
     """Fit, resolving a towed array's ambiguity when the bearings carry twins.
 
     Parameters
@@ -209,6 +210,9 @@ def fit_with_ambiguity(meas: Any, fit: Any, keep_turn_cuts: bool, settle: float 
         ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
     as_json : bool
         Print the decisions on standard error (the JSON carries them too).
+    legs : LegsAndTurns, optional
+        The own ship's legs over the whole record (``--leg``, ``--snap``); default those of
+        ``meas``.
 
     Returns
     -------
@@ -234,7 +238,7 @@ def fit_with_ambiguity(meas: Any, fit: Any, keep_turn_cuts: bool, settle: float 
         amb = resolve_ambiguity(meas, fit=fit, keep_turn_cuts=keep_turn_cuts,
                                 settle_s=SETTLE_S if settle is None else settle,
                                 turn_rate_deg_s=TURN_RATE_DEG_S if turn_rate is None
-                                else turn_rate)
+                                else turn_rate, legs=legs)
     except ValueError as e:
         raise fail(str(e)) from None
     say = err if as_json else out
