@@ -158,8 +158,8 @@ def _fill_panel(ax: Any, frame: MapFrame, ratio: float = 1.15) -> None:
 
 
 def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: int,
-              level: float) -> None:
-    """Draw the geometry panel."""
+              level: float, legs: dict[str, Any] | None = None) -> None:
+    """Draw the geometry panel (the own ship's turns and legs when ``legs`` are given)."""
     frame = MapFrame(meas)
     for s in meas.sensors:
         t = np.unique(meas.time[meas.sensor == s])
@@ -171,6 +171,8 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
                     textcoords="offset points", xytext=(-6, -12), fontsize=8,
                     color="tab:blue")
     ax.plot([], [], color="tab:blue", lw=1.5, label="sensor track (▲ start)")
+    if legs is not None and len(meas.sensors) == 1:
+        _draw_legs(ax, meas, frame, legs)
     finite = _position_determined(result, meas)
     truth = truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), 100), 3)
     if truth is not None:
@@ -231,6 +233,33 @@ def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray
     format_time_axis(axes[-1], when)
 
 
+def _draw_legs(ax: Any, meas: MeasurementSet, frame: MapFrame, legs: dict[str, Any]) -> None:
+    """Mark the own ship's turns on its track and number its legs (L1, L2, ...)."""
+    sensor = meas.sensors[0]
+    for k, turn in enumerate(legs["turns"]):
+        t = np.linspace(max(turn["start"], meas.time.min()), min(turn["stop"], meas.time.max()),
+                        12)
+        if t[-1] >= t[0]:
+            pos = np.array([sensor_position(meas, sensor, float(tt)) for tt in t])
+            xs, ys = frame.xy(pos[:, 0], pos[:, 1])
+            ax.plot(xs, ys, color="0.25", lw=3.5, zorder=4, solid_capstyle="butt",
+                    label="own-ship turns (legs L1, L2, ...)" if k == 0 else None)
+    for k, leg in enumerate(legs["legs"]):
+        mid = 0.5 * (leg["start"] + leg["stop"])
+        if meas.time.min() <= mid <= meas.time.max():
+            x, y = frame.xy(*sensor_position(meas, sensor, mid)[:2])
+            ax.annotate(f"L{k + 1}", (float(x), float(y)), textcoords="offset points",
+                        xytext=(4, 4), fontsize=8, color="0.25", zorder=5)
+
+
+def _mark_turn_times(axes: list[Any], meas: MeasurementSet, legs: dict[str, Any]) -> None:
+    """Shade the own ship's turns on the residuals' time axes."""
+    for turn in legs["turns"]:
+        when, _ = plot_times(meas, np.array([turn["start"], turn["stop"]], dtype=float))
+        for ax in axes:
+            ax.axvspan(when[0], when[1], color="0.5", alpha=0.18, lw=0)
+
+
 def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,
                   residuals: np.ndarray, answer: Any = None, title: str | None = None,
                   labels: int = 5, level: float = 0.95, units: str = "si") -> Path:
@@ -275,8 +304,12 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     res_axes = [fig.add_subplot(grid[i, 1]) for i in range(len(kinds))]
     for ax in res_axes[1:]:
         ax.sharex(res_axes[0])
-    _draw_map(ax_map, result, meas, labels, level)
+    legs = result.extra.get("legs")
+    legs = legs if isinstance(legs, dict) and legs.get("turns") else None
+    _draw_map(ax_map, result, meas, labels, level, legs)
     _draw_residuals(res_axes, meas, np.asarray(residuals, dtype=float))
+    if legs is not None:
+        _mark_turn_times(res_axes, meas, legs)
     lines = [title or f"{result.method} estimate"]
     if answer is not None:
         lines.append(_answer_line(answer, result, units))
