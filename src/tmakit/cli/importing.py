@@ -42,7 +42,7 @@ IMPORT_FORMATS = {"rep": 0, "dsf": 0, "wide": 1, "gpx": 2, "nmea": 2}
 EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea",
                  "bearings.csv", "bearings.toml", "truth.json", "Freq_BlueSensor.rep",
                  "Freq_BlueTrack.rep", "Freq_RedTrack.rep", "Ambig_cuts_TA.rep",
-                 "Ambig_tracks2.rep", "debrief-samples.txt")
+                 "Ambig_tracks2.rep", "debrief-samples.txt", "EPL-1.0.txt")
 
 
 def _check_output(output: Path, force: bool, inputs: list[Path]) -> None:
@@ -242,8 +242,8 @@ def examples(
     put in them), and Debrief's public TA_DUMMY sample: Freq_BlueSensor.rep (sensor file),
     Freq_BlueTrack.rep (own ship), Freq_RedTrack.rep (the subject's truth), and its AssetData
     towed-array pair: Ambig_cuts_TA.rep (ambiguous cuts), Ambig_tracks2.rep (own ship and
-    subject), with their source and licence in debrief-samples.txt; see docs/your-own-data.md
-    and docs/analyst.md.
+    subject), with their source in debrief-samples.txt and their licence in EPL-1.0.txt; see
+    docs/your-own-data.md and docs/analyst.md.
     """
     from importlib import resources
 
