@@ -359,33 +359,9 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
     groups = np.unique(group[group >= 0]).tolist()
     fits = _fit_assignments(kept, group, groups, starboard, port, fit)
     best_sides = min(fits, key=lambda s: fits[s][0])
-    best_chi2, best, best_meas = fits[best_sides]
-    improbable = best.chi2_p_value is not None and best.chi2_p_value < IMPROBABLE_P
-    turned = np.unique(leg_of_row[leg_of_row >= 0]).size > 1
-    sides, alternatives = [], []
-    for k, g in enumerate(groups):
-        flipped = [(c, s) for s, (c, _, _) in fits.items() if s[k] != best_sides[k]]
-        other_chi2, other_sides = min(flipped) if flipped else (np.inf, best_sides)
-        delta = float(other_chi2 - best_chi2)
-        rows = group == g
-        leg = legs.legs[g // _PARTS]
-        if not turned:
-            ok, why = False, "no own-ship turn within these cuts: the mirror track fits as well"
-        elif improbable:
-            ok, why = False, (f"the best fit is improbable (chi2 {best_chi2:.4g} on {best.dof} "
-                              "dof): the contact may manoeuvre or change sides in a way the "
-                              "motion model does not follow")
-        elif delta >= 2.0 * np.log(RESOLVED_RATIO):
-            ok, why = True, "after a turn"
-        else:
-            ok, why = False, (f"likelihood ratio below {RESOLVED_RATIO:g}: the other side "
-                              "fits about as well")
-        sides.append(LegSide(g // _PARTS, float(kept.time[rows].min()),
-                             float(kept.time[rows].max()), leg.course_deg,
-                             int(np.count_nonzero(rows & twin[keep])), best_sides[k], delta, ok,
-                             why, g % _PARTS))
-        if not ok and np.isfinite(other_chi2) and all(other_sides != a for a, _ in alternatives):
-            alternatives.append((other_sides, fits[other_sides][1]))
+    _, best, best_meas = fits[best_sides]
+    sides, alternatives = _judge_sides(kept, twin[keep], legs, group, groups, fits,
+                                       np.unique(leg_of_row[leg_of_row >= 0]).size > 1)
     if alternatives:
         _report_both(best, [a for _, a in alternatives], best_meas)
     out = AmbiguityResult(best, best_meas, legs, sides, turn_cuts, alternatives, settle_s)
@@ -419,6 +395,42 @@ def _split_at_axis(leg: NDArray[np.intp], starboard: NDArray[np.float64],
                 part, low, low_at = part + 1, e, i
             group[r] = g * _PARTS + part
     return group
+
+
+def _judge_sides(kept: MeasurementSet, twin: NDArray[np.bool_], legs: LegsAndTurns,
+                 group: NDArray[np.intp], groups: list[int],
+                 fits: dict[tuple[str, ...], tuple[float, EstimateResult, MeasurementSet]],
+                 turned: bool
+                 ) -> tuple[list[LegSide], list[tuple[tuple[str, ...], EstimateResult]]]:
+    """Each group's side, ratio and status; the other-side fits of the unresolved ones."""
+    best_sides = min(fits, key=lambda s: fits[s][0])
+    best_chi2, best, _ = fits[best_sides]
+    improbable = best.chi2_p_value is not None and best.chi2_p_value < IMPROBABLE_P
+    sides: list[LegSide] = []
+    alternatives: list[tuple[tuple[str, ...], EstimateResult]] = []
+    for k, g in enumerate(groups):
+        flipped = [(c, s) for s, (c, _, _) in fits.items() if s[k] != best_sides[k]]
+        other_chi2, other_sides = min(flipped) if flipped else (np.inf, best_sides)
+        delta = float(other_chi2 - best_chi2)
+        rows = group == g
+        if not turned:
+            ok, why = False, "no own-ship turn within these cuts: the mirror track fits as well"
+        elif improbable:
+            ok, why = False, (f"the best fit is improbable (chi2 {best_chi2:.4g} on {best.dof} "
+                              "dof): the contact may manoeuvre or change sides in a way the "
+                              "motion model does not follow")
+        elif delta >= 2.0 * np.log(RESOLVED_RATIO):
+            ok, why = True, "after a turn"
+        else:
+            ok, why = False, (f"likelihood ratio below {RESOLVED_RATIO:g}: the other side "
+                              "fits about as well")
+        sides.append(LegSide(g // _PARTS, float(kept.time[rows].min()),
+                             float(kept.time[rows].max()), legs.legs[g // _PARTS].course_deg,
+                             int(np.count_nonzero(rows & twin)), best_sides[k], delta, ok, why,
+                             g % _PARTS))
+        if not ok and np.isfinite(other_chi2) and all(other_sides != a for a, _ in alternatives):
+            alternatives.append((other_sides, fits[other_sides][1]))
+    return sides, alternatives
 
 
 def _report_both(best: EstimateResult, others: list[EstimateResult],

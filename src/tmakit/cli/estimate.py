@@ -87,13 +87,10 @@ def estimate(
         help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
              "ratio-doppler, lecture-gn, chan-ho (TDOA), ho-xu (TDOA + FDOA)")] = "ml",
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
-    origin: OriginOption = None,
-    format: FormatOption = None,
-    ownship: OwnshipOption = None,
-    contact: ContactOption = None,
+    origin: OriginOption = None, format: FormatOption = None,
+    ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None,
-    range_sigma: RangeSigmaOption = None,
+    bearing_sigma: BearingSigmaOption = None, range_sigma: RangeSigmaOption = None,
     frequency_sigma: FrequencySigmaOption = None,
     kinds: KindsOption = None, ranges: RangesOption = None,
     exact: ExactOption = False,
@@ -107,8 +104,7 @@ def estimate(
         help="curvilinear: select (default: hold at zero the accelerations the data do not "
              "need, by the same criterion) or all")] = None,
     dim: DimOption = None,
-    at: AtOption = None,
-    sensor: SensorOption = None,
+    at: AtOption = None, sensor: SensorOption = None,
     units: UnitsOption = "si",
     scale_sigma: ScaleSigmaOption = False,
     start: Annotated[str | None, typer.Option(
@@ -117,10 +113,8 @@ def estimate(
     stop: Annotated[str | None, typer.Option(
         "--to", help="solve one leg: last time (seconds, a UTC clock time, or HH:MM[:SS] on "
                      "the data's day)")] = None,
-    leg: LegOption = None,
-    snap: SnapOption = False,
-    keep_turn_cuts: KeepTurnCutsOption = False,
-    turn_rate: TurnRateOption = None,
+    leg: LegOption = None, snap: SnapOption = False,
+    keep_turn_cuts: KeepTurnCutsOption = False, turn_rate: TurnRateOption = None,
     settle: SettleOption = None,
     plot: Annotated[Path | None, typer.Option(
         help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, "
@@ -141,30 +135,20 @@ def estimate(
 
     Exit status 0: an answer (trust ok or warning); 4: no answer (unobservable, not converged,
     diverged), in words, no number as an answer; 2: bad input (docs/reliability.md).
-
-    The own ship's legs (turns from its heading rate) are printed with the estimate; --leg N
-    solves one.  Towed-array bearings with a mirror twin (Debrief ;SENSOR2:) are resolved
-    port/starboard leg by leg by likelihood, cuts in turns left out (docs/analyst.md).
+    Own-ship legs, turn cuts and towed-array ambiguity: docs/analyst.md.
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
     options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
                              frequency_sigma, kinds=kinds, ranges=ranges)
-    by_legs = leg is not None or snap
-    meas = read_or_fail(files, parse_origin(origin),
-                        window=(None, None) if by_legs else (start, stop), **options)
-    record_legs = None  # the legs of the whole record, for --leg and --snap
-    if by_legs:
-        start, stop, record_legs = leg_window(meas, leg, start, stop, snap, turn_rate)
-    meas = select_window(meas, start, stop)
+    meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
+                                        leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
-    navigation = meas  # every cut's own-ship state: the legs' navigation
-    result, meas = fit_with_ambiguity(meas, fit, keep_turn_cuts, settle, turn_rate, as_json,
-                                      record_legs)
-    show_legs(navigation, meas, result, turn_rate, units, as_json, record_legs)
+    result, meas = fit_leg_by_leg(meas, fit, (keep_turn_cuts, settle, turn_rate), as_json,
+                                  (record_legs, units))
     factors = None
     if scale_sigma:
         meas, result, factors = refit_scaled(meas, result, fit, model_options(drift,
@@ -174,6 +158,67 @@ def estimate(
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, " + ".join(map(str, files)),
                                          model_options(drift, free_exponent)))
+
+
+def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
+                    window: tuple[str | None, str | None], leg: int | None, snap: bool,
+                    turn_rate: float | None) -> tuple[Any, Any]:
+    """Read the files and keep ``--from``/``--to``, ``--leg N`` or the snapped window.
+
+    Parameters
+    ----------
+    files : list of Path
+        The files.
+    origin : tuple or None
+        ``--origin``.
+    options : dict
+        The reader's options.
+    window : tuple
+        ``--from``, ``--to``.
+    leg, snap, turn_rate
+        ``--leg``, ``--snap``, ``--turn-rate``.
+
+    Returns
+    -------
+    tuple
+        The measurements in the window, and the own ship's legs over the whole record (None
+        without ``--leg``/``--snap``).
+    """
+    start, stop = window
+    if leg is None and not snap:  # a replay's window is applied before its reader's checks
+        return select_window(read_or_fail(files, origin, window=window, **options), start,
+                             stop), None
+    meas = read_or_fail(files, origin, window=(None, None), **options)
+    start, stop, legs = leg_window(meas, leg, start, stop, snap, turn_rate)
+    return select_window(meas, start, stop), legs
+
+
+def fit_leg_by_leg(meas: Any, fit: Any, turns: tuple[bool, float | None, float | None],
+                   as_json: bool, shown: tuple[Any, str]) -> tuple[Any, Any]:
+    """Fit (the ambiguity resolved where the bearings have twins), then print the legs.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    fit : callable
+        ``fit(meas) -> EstimateResult``.
+    turns : tuple
+        ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
+    as_json : bool
+        ``--json``.
+    shown : tuple
+        The legs of the whole record (or None) and ``--units``.
+
+    Returns
+    -------
+    tuple
+        The result and the measurements fitted.
+    """
+    legs, units = shown
+    result, fitted = fit_with_ambiguity(meas, fit, turns, as_json, legs)
+    show_legs(meas, fitted, result, turns[2], units, as_json, legs)
+    return result, fitted
 
 
 def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, units: str,

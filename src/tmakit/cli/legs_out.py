@@ -195,9 +195,9 @@ def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> lis
     return lines
 
 
-def fit_with_ambiguity(meas: Any, fit: Any, keep_turn_cuts: bool, settle: float | None,
-                       turn_rate: float | None, as_json: bool, legs: Any = None
-                       ) -> tuple[Any, Any]:
+def fit_with_ambiguity(meas: Any, fit: Any,
+                       turns: tuple[bool, float | None, float | None], as_json: bool,
+                       legs: Any = None) -> tuple[Any, Any]:
     """Fit, resolving a towed array's ambiguity when the bearings carry twins.
 
     Parameters
@@ -206,7 +206,7 @@ def fit_with_ambiguity(meas: Any, fit: Any, keep_turn_cuts: bool, settle: float 
         The measurements.
     fit : callable
         ``fit(meas) -> EstimateResult``.
-    keep_turn_cuts, settle, turn_rate
+    turns : tuple
         ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
     as_json : bool
         Print the decisions on standard error (the JSON carries them too).
@@ -226,6 +226,7 @@ def fit_with_ambiguity(meas: Any, fit: Any, keep_turn_cuts: bool, settle: float 
     """
     import numpy as np
 
+    keep_turn_cuts, settle, turn_rate = turns
     if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
         if keep_turn_cuts or settle is not None:
             err.print("note: --keep-turn-cuts/--settle apply to towed-array cuts with a second, "
