@@ -76,7 +76,8 @@ COMPANIONS = {"satc/BlueSensor_sparse.rep": ["satc/BlueTrack.rep"],
               "sen/sen_ssk_sensor.dsf": ["pepys/sen_tracks.rep"],
               "s2r_hover_north/Ambig_tracks_hover_north_TA.dsf": [
                   "s2r_hover_north/Ambig_tracks_hover_north.rep"],
-              "asset_ambig/Ambig_cuts_TA.rep": ["asset_ambig/Ambig_tracks2.rep"]}
+              "asset_ambig/Ambig_cuts_TA.rep": ["asset_ambig/Ambig_tracks2.rep"],
+              "asset_ambig/Ambig_cuts_HM.rep": ["asset_ambig/Ambig_tracks2.rep"]}
 
 
 @dataclass(frozen=True)
@@ -105,6 +106,9 @@ SETS = [SampleSet("SATC Force Protection", ("satc/BlueSensor_sparse.rep", "satc/
                     "s2r_hover_north/Ambig_tracks_hover_north.rep", "SUBJECT", "SENSOR", c)
           for c in ("HM", "TA")),
         SampleSet("AssetData Ambig TA", ("asset_ambig/Ambig_cuts_TA.rep",
+                                         "asset_ambig/Ambig_tracks2.rep"),
+                  "asset_ambig/Ambig_tracks2.rep", "SUBJECT"),
+        SampleSet("AssetData Ambig HM", ("asset_ambig/Ambig_cuts_HM.rep",
                                          "asset_ambig/Ambig_tracks2.rep"),
                   "asset_ambig/Ambig_tracks2.rep", "SUBJECT"),
         # Of the Frigate's five sensors, only Frigate_Optic holds New_SSK on a straight leg.
