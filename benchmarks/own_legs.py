@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import tmakit as tk
-from tmakit.geodesy import geodetic_to_enu
+from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io.debrief import replay_tracks
 from tmakit.io.logs import KNOT, course_speed_velocity
 

@@ -34,7 +34,7 @@ import numpy as np
 
 import tmakit as tk
 from tmakit.batch.ambiguity import PORT, STARBOARD
-from tmakit.geodesy import geodetic_to_enu
+from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io.debrief import replay_tracks
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "debrief"
