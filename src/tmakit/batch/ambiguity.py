@@ -145,7 +145,15 @@ class LegSide:
             else float("inf")
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form (``likelihood_ratio`` null past 1e300)."""
+        """Return the JSON form.
+
+        Returns
+        -------
+        dict
+            ``leg`` and ``part`` (1-based), ``start``, ``stop``, ``course_deg``, ``cuts``,
+            ``side``, ``delta_chi2``, ``likelihood_ratio`` (null past 1e300), ``status``
+            (``resolved`` or ``unresolved``) and ``reason``.
+        """
         lr = self.likelihood_ratio
         return {"leg": self.leg + 1, "part": self.part + 1, "start": self.start, "stop": self.stop,
                 "course_deg": self.course_deg, "cuts": self.cuts, "side": self.side,
@@ -231,7 +239,19 @@ class AmbiguityResult:
         return out
 
     def as_dict(self, meas: MeasurementSet | None = None) -> dict[str, object]:
-        """Return the JSON form: legs' sides, turn cuts, the other solutions (answers)."""
+        """Return the JSON form: legs' sides, turn cuts, the other solutions (answers).
+
+        Parameters
+        ----------
+        meas : MeasurementSet, optional
+            For the other solutions' answers; default :attr:`measurements`.
+
+        Returns
+        -------
+        dict
+            ``resolved``, ``settle_s``, ``resolved_ratio``, ``sides`` (:meth:`LegSide.as_dict`),
+            ``turn_cuts`` and ``other_solutions`` (sides, chi2, status, answer).
+        """
         meas = self.measurements if meas is None else meas
         return {"resolved": self.resolved, "settle_s": self.settle_s,
                 "resolved_ratio": RESOLVED_RATIO,

@@ -238,23 +238,24 @@ def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, 
     units : str
         ``si`` or ``nautical``.
     as_json : bool
-        Print on standard error (the JSON carries them).
+        Print nothing (the JSON carries them).
     legs : LegsAndTurns, optional
         The legs of the whole record (``--leg``, ``--snap``); default those of ``navigation``.
     """
     from ..results.own_legs import contact_legs
 
-    say = err if as_json else out
     legs = legs_of(navigation, turn_rate) if legs is None else legs
     if legs is not None:
         result.extra["legs"] = legs.as_dict()
-        for line in legs_lines(navigation, legs, units):
-            say.print(line, highlight=False, soft_wrap=True)
+        if not as_json:
+            for line in legs_lines(navigation, legs, units):
+                out.print(line, highlight=False, soft_wrap=True)
     target = contact_legs(result, meas)
     if target is not None:
         result.extra["contact_legs"] = target
-        for line in contact_legs_lines(meas, target, units):
-            say.print(line, highlight=False, soft_wrap=True)
+        if not as_json:
+            for line in contact_legs_lines(meas, target, units):
+                out.print(line, highlight=False, soft_wrap=True)
 
 
 def grouped_by_kind(meas: Any) -> Any:

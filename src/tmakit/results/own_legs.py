@@ -222,12 +222,26 @@ class LegsAndTurns:
         return out
 
     def thresholds(self) -> str:
-        """Return the thresholds in words (for every output that shows the legs)."""
+        """Return the thresholds in words (for every output that shows the legs).
+
+        Returns
+        -------
+        str
+            ``a turn: heading rate above ... deg/s (slope over ... s), changing the heading
+            by ... deg or more``.
+        """
         return (f"a turn: heading rate above {self.turn_rate_deg_s:g} deg/s (slope over "
                 f"{self.window_s:g} s), changing the heading by {self.min_turn_deg:g} deg or more")
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form: the legs, the turns and the thresholds."""
+        """Return the JSON form: the legs, the turns and the thresholds.
+
+        Returns
+        -------
+        dict
+            ``legs`` (start, stop, course_deg, speed), ``turns`` (start, stop, change_deg),
+            ``turn_rate_deg_s``, ``window_s``, ``min_turn_deg``.
+        """
         return {"legs": [{"start": leg.start, "stop": leg.stop, "course_deg": leg.course_deg,
                           "speed": leg.speed} for leg in self.legs],
                 "turns": [{"start": u.start, "stop": u.stop, "change_deg": u.change_deg}
