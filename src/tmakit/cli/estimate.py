@@ -57,11 +57,10 @@ from .legs_out import (
     SettleOption,
     SnapOption,
     TurnRateOption,
-    contact_legs_lines,
     fit_with_ambiguity,
     leg_window,
-    legs_lines,
     legs_of,
+    print_legs,
 )
 from .outputs import check_output
 from .reading import read_or_fail
@@ -148,7 +147,7 @@ def estimate(
                  model_options(drift, free_exponent),
                  (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
     result, meas = fit_leg_by_leg(meas, fit, (keep_turn_cuts, settle, turn_rate), as_json,
-                                  (record_legs, units))
+                                  record_legs)
     factors = None
     if scale_sigma:
         meas, result, factors = refit_scaled(meas, result, fit, model_options(drift,
@@ -194,8 +193,8 @@ def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
 
 
 def fit_leg_by_leg(meas: Any, fit: Any, turns: tuple[bool, float | None, float | None],
-                   as_json: bool, shown: tuple[Any, str]) -> tuple[Any, Any]:
-    """Fit (the ambiguity resolved where the bearings have twins), then print the legs.
+                   as_json: bool, legs: Any) -> tuple[Any, Any]:
+    """Fit (the ambiguity resolved where the bearings have twins); keep the legs in the result.
 
     Parameters
     ----------
@@ -207,23 +206,24 @@ def fit_leg_by_leg(meas: Any, fit: Any, turns: tuple[bool, float | None, float |
         ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
     as_json : bool
         ``--json``.
-    shown : tuple
-        The legs of the whole record (or None) and ``--units``.
+    legs : LegsAndTurns or None
+        The legs of the whole record (``--leg``, ``--snap``).
 
     Returns
     -------
     tuple
         The result and the measurements fitted.
     """
-    legs, units = shown
     result, fitted = fit_with_ambiguity(meas, fit, turns, as_json, legs)
-    show_legs(meas, fitted, result, turns[2], units, as_json, legs)
+    keep_legs(meas, fitted, result, turns[2], legs)
     return result, fitted
 
 
-def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, units: str,
-              as_json: bool, legs: Any = None) -> None:
-    """Print the own ship's legs and a manoeuvre fit's contact legs; keep them in the JSON.
+def keep_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None,
+              legs: Any = None) -> None:
+    """Keep the own ship's legs and a manoeuvre fit's contact legs in the result (``extra``).
+
+    They are printed after the estimate (:func:`~.legs_out.print_legs`) and are in the JSON.
 
     Parameters
     ----------
@@ -235,10 +235,6 @@ def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, 
         The fit (``extra["legs"]``, ``extra["contact_legs"]`` are set).
     turn_rate : float or None
         ``--turn-rate``.
-    units : str
-        ``si`` or ``nautical``.
-    as_json : bool
-        Print nothing (the JSON carries them).
     legs : LegsAndTurns, optional
         The legs of the whole record (``--leg``, ``--snap``); default those of ``navigation``.
     """
@@ -246,16 +242,10 @@ def show_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None, 
 
     legs = legs_of(navigation, turn_rate) if legs is None else legs
     if legs is not None:
-        result.extra["legs"] = legs.as_dict()
-        if not as_json:
-            for line in legs_lines(navigation, legs, units):
-                out.print(line, highlight=False, soft_wrap=True)
+        result.extra["legs"] = {"sensor": navigation.sensors[0], **legs.as_dict()}
     target = contact_legs(result, meas)
     if target is not None:
         result.extra["contact_legs"] = target
-        if not as_json:
-            for line in contact_legs_lines(meas, target, units):
-                out.print(line, highlight=False, soft_wrap=True)
 
 
 def grouped_by_kind(meas: Any) -> Any:
@@ -581,6 +571,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                                              + ", ".join(r.code for r in trust.reasons) + ")"),
                   highlight=False)
         print_solutions(result, meas, units)
+        print_legs(meas, result, units)
     print_warnings(warnings)
     if plot is not None and plot[0] is not None:
         draw_solution(meas, result, answer, plot, err if as_json else out, units)

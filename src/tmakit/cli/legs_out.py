@@ -127,15 +127,17 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
             snapped(stop, "--to", ends_stop, ends_start), legs)
 
 
-def legs_lines(meas: Any, legs: Any, units: str) -> list[str]:
+def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
     """Return the own-ship legs and turns in words, with the thresholds.
 
     Parameters
     ----------
     meas : tmakit.data.MeasurementSet
         The measurements (clock times).
-    legs : tmakit.results.own_legs.LegsAndTurns
-        The legs.
+    legs : dict
+        The legs' JSON form (:meth:`LegsAndTurns.as_dict
+        <tmakit.results.own_legs.LegsAndTurns.as_dict>`) with the own ship's name
+        (``sensor``).
     units : str
         ``si`` or ``nautical``.
 
@@ -151,14 +153,34 @@ def legs_lines(meas: Any, legs: Any, units: str) -> list[str]:
         return f"{t:g} s" if clock is None else clock[11:19]
 
     unit, scale = SPEED_UNITS[units]
-    lines = [f"own-ship legs of {meas.sensors[0]} ({legs.thresholds()}):"]
-    for k, leg in enumerate(legs.legs):
-        lines.append(f"  leg {k + 1}: {when(leg.start)} to {when(leg.stop)}, course "
-                     f"{leg.course_deg:.1f} deg, speed {leg.speed / scale:.3g} {unit}")
-        if k < len(legs.turns):
-            u = legs.turns[k]
-            lines.append(f"  turn: {when(u.start)} to {when(u.stop)}, {u.change_deg:+.0f} deg")
+    lines = [f"own-ship legs of {legs['sensor']} ({legs['thresholds']}):"]
+    for k, leg in enumerate(legs["legs"]):
+        lines.append(f"  leg {k + 1}: {when(leg['start'])} to {when(leg['stop'])}, heading "
+                     f"{leg['course_deg']:.1f} deg at {leg['speed'] / scale:.3g} {unit}")
+        if k < len(legs["turns"]):
+            u = legs["turns"][k]
+            lines.append(f"  turn: {when(u['start'])} to {when(u['stop'])}, "
+                         f"{u['change_deg']:+.0f} deg")
     return lines
+
+
+def print_legs(meas: Any, result: Any, units: str) -> None:
+    """Print the own-ship legs and the contact's legs a fit carries (``extra``).
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements fitted (clock times).
+    result : tmakit.results.EstimateResult
+        The fit (``extra["legs"]``, ``extra["contact_legs"]``).
+    units : str
+        ``si`` or ``nautical``.
+    """
+    legs, target = result.extra.get("legs"), result.extra.get("contact_legs")
+    lines = (legs_lines(meas, legs, units) if legs else []) + (
+        contact_legs_lines(meas, target, units) if target else [])
+    for line in lines:
+        out.print(line, highlight=False, soft_wrap=True)
 
 
 def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:

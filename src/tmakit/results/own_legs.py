@@ -240,14 +240,14 @@ class LegsAndTurns:
         -------
         dict
             ``legs`` (start, stop, course_deg, speed), ``turns`` (start, stop, change_deg),
-            ``turn_rate_deg_s``, ``window_s``, ``min_turn_deg``.
+            ``turn_rate_deg_s``, ``window_s``, ``min_turn_deg`` and ``thresholds`` (in words).
         """
         return {"legs": [{"start": leg.start, "stop": leg.stop, "course_deg": leg.course_deg,
                           "speed": leg.speed} for leg in self.legs],
                 "turns": [{"start": u.start, "stop": u.stop, "change_deg": u.change_deg}
                           for u in self.turns],
                 "turn_rate_deg_s": self.turn_rate_deg_s, "window_s": self.window_s,
-                "min_turn_deg": self.min_turn_deg}
+                "min_turn_deg": self.min_turn_deg, "thresholds": self.thresholds()}
 
 
 def heading_rate(time: NDArray[np.float64], heading: NDArray[np.float64],
