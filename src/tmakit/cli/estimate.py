@@ -119,8 +119,7 @@ def estimate(
         help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, "
              "SVG)")] = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
-    as_json: JsonOption = False,
-    sensor_position_sigma: SensorPositionSigmaOption = None,
+    as_json: JsonOption = False, sensor_position_sigma: SensorPositionSigmaOption = None,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
 
