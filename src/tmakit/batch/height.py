@@ -122,9 +122,8 @@ def height_matters(meas: MeasurementSet, result: EstimateResult) -> bool:
         True for a 2-D set, a 2-D motion model with a 3-D counterpart, a finite estimate and
         at least one kind that is not ``height_blind`` (ranges, powers, Doppler, ...).
     """
-    return (meas.dim == 2 and result.motion.name in RAISED
-            and bool(np.all(np.isfinite(result.estimate)))
-            and not all(KINDS[k].height_blind for k in meas.kinds))
+    return (result.motion.name in RAISED and bool(np.all(np.isfinite(result.estimate)))
+            and not all(KINDS[k].height_blind for k in meas.kinds) and meas.dim == 2)
 
 
 def choose_height(meas: MeasurementSet, flat: EstimateResult, options: Options = None, *,

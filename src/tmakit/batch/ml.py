@@ -189,7 +189,9 @@ class MaximumLikelihood(BatchEstimator):
             sol = levenberg_marquardt(problem, ys, np.repeat(theta0, ys.shape[0], 0),
                                       max_iter=self.max_iter)
             return [Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
-                         int(sol.iterations[i]), bool(sol.converged[i]), 1)
+                         int(sol.iterations[i]), bool(sol.converged[i]), 1,
+                         information=information_of(problem, sol.evaluation, i,
+                                                    sol.information))
                     for i in range(ys.shape[0])]
         try:
             found: list[Best | Exception | None] = list(

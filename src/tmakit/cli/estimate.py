@@ -270,7 +270,7 @@ def grouped_by_kind(meas: Any) -> Any:
 
     from ..core import blas
 
-    if len(meas) <= blas.CHUNKED_ROWS:
+    if len(meas) <= blas.CHUNKED_ROWS or len(meas.kinds) == 1:
         return meas
     order = np.concatenate([np.flatnonzero(meas.kind_mask(k)) for k in meas.kinds])
     return meas if np.array_equal(order, np.arange(order.size)) else meas.take(order)

@@ -342,7 +342,7 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
             lat, lon, alt = enu_to_geodetic(state[0], state[1], up, origin)
             geo = (float(lat), float(lon), float(alt) if enu[2] is not None or dim == 2 else None)
     if meas is not None and len(meas) and sensor is None:
-        sensor = str(meas.sensor[int(np.argmax(meas.time))])
+        sensor = meas.sensor_names[int(meas.sensor_code[int(np.argmax(meas.time))])]
     rng = rng_sd = brg = brg_sd = None
     if meas is not None and sensor is not None and np.all(np.isfinite(state[:2])):
         where = sensor_position(meas, sensor, t)

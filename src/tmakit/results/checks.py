@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2 as chi2_dist
 
-from ..data import MeasurementSet
+from ..data import KIND_CODES, MeasurementSet
 from ..measurements import model_for
 from ..observation import ObservationModel
 
@@ -189,9 +189,10 @@ def radian_warnings(meas: MeasurementSet) -> list[SanityWarning]:
     for kind in meas.kinds:
         if model_for(kind).file_unit != "deg":
             continue
-        values = meas.value[meas.kind_mask(kind)]
-        if values.size < RADIAN_MIN_ROWS or np.max(np.abs(values)) > 2 * np.pi:
+        rows, largest = _kind_extent(meas, kind)
+        if rows < RADIAN_MIN_ROWS or largest > 2 * np.pi:
             continue
+        values = meas.value[meas.kind_mask(kind)]
         found.append(SanityWarning(
             "radians",
             f"every {kind} value lies within ±2π ({np.min(values):.3g} .. {np.max(values):.3g}) "
@@ -201,13 +202,50 @@ def radian_warnings(meas: MeasurementSet) -> list[SanityWarning]:
     return found
 
 
-def sensor_distance_warnings(meas: MeasurementSet) -> list[SanityWarning]:
+_BLOCK = 1 << 16  # rows read at a time by the checks of a whole set (no temporary of every row)
+
+
+def _kind_extent(meas: MeasurementSet, kind: str) -> tuple[int, float]:
+    """Give the number of rows of ``kind`` and their largest magnitude in file units."""
+    one = len(meas.kinds) == 1
+    code = KIND_CODES[kind]
+    rows, largest = (len(meas), 0.0) if one else (0, 0.0)
+    value = meas.value
+    for lo in range(0, len(meas), _BLOCK):
+        block = np.abs(value[lo:lo + _BLOCK])
+        if not one:
+            mine = meas.kind_code[lo:lo + _BLOCK] == code
+            rows += int(np.count_nonzero(mine))
+            block = block[mine]
+        if block.size:
+            largest = max(largest, float(np.max(block)))
+    return rows, largest
+
+
+def _farthest_sensor(meas: MeasurementSet) -> tuple[int, float]:
+    """Give the row whose sensor is farthest from the ENU origin horizontally, and how far (m)."""
+    k, far2 = 0, -1.0
+    for lo in range(0, len(meas), _BLOCK):
+        east, north = meas.sensor_state[lo:lo + _BLOCK, 0], meas.sensor_state[lo:lo + _BLOCK, 1]
+        d2 = east * east
+        d2 += north * north
+        i = int(np.argmax(d2))
+        if d2[i] > far2:
+            k, far2 = lo + i, float(d2[i])
+    return k, float(np.sqrt(far2)) if far2 >= 0 else -1.0
+
+
+def sensor_distance_warnings(meas: MeasurementSet, farthest: tuple[int, float] | None = None
+                             ) -> list[SanityWarning]:
     """Warn about sensors far from the ENU origin.
 
     Parameters
     ----------
     meas : MeasurementSet
         The measurements (sensor states, m).
+    farthest : (int, float), optional
+        The row of the sensor farthest from the origin and its horizontal distance (m),
+        when the caller has them.
 
     Returns
     -------
@@ -216,12 +254,7 @@ def sensor_distance_warnings(meas: MeasurementSet) -> list[SanityWarning]:
     """
     if not len(meas):
         return []
-    k, far = 0, -1.0  # the farthest row, 65,536 rows at a time (no temporary of every row)
-    for lo in range(0, len(meas), 1 << 16):
-        d = np.linalg.norm(meas.sensor_state[lo:lo + (1 << 16), :2], axis=1)
-        i = int(np.argmax(d))
-        if d[i] > far:
-            k, far = lo + i, float(d[i])
+    k, far = _farthest_sensor(meas) if farthest is None else farthest
     if far <= FAR_FROM_ORIGIN:
         return []
     return [SanityWarning(
@@ -232,24 +265,27 @@ def sensor_distance_warnings(meas: MeasurementSet) -> list[SanityWarning]:
         "sensors, or check the positions' unit")]
 
 
-def measurement_warnings(meas: MeasurementSet) -> list[SanityWarning]:
+def measurement_warnings(meas: MeasurementSet, farthest: tuple[int, float] | None = None
+                         ) -> list[SanityWarning]:
     """Return the warnings about a measurement set (radians, sensors far from the origin).
 
     Parameters
     ----------
     meas : MeasurementSet
         The measurements.
+    farthest : (int, float), optional
+        As for :func:`sensor_distance_warnings`.
 
     Returns
     -------
     list of SanityWarning
         Empty when nothing looks wrong.
     """
-    return [*radian_warnings(meas), *sensor_distance_warnings(meas)]
+    return [*radian_warnings(meas), *sensor_distance_warnings(meas, farthest)]
 
 
-def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSet
-                              ) -> SanityWarning | None:
+def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSet,
+                              reach: float | None = None) -> SanityWarning | None:
     """Warn about an estimated position far from the origin and from every sensor.
 
     Parameters
@@ -258,6 +294,9 @@ def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSe
         The estimated position, East and North first (m).
     meas : MeasurementSet
         The measurements (sensor positions, m).
+    reach : float, optional
+        The largest horizontal distance of a sensor from the origin (m), when the caller
+        has it.
 
     Returns
     -------
@@ -268,7 +307,7 @@ def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSe
     if not np.all(np.isfinite(position[:2])) or not len(meas):
         return None
     d = float(np.linalg.norm(position[:2]))
-    reach = float(np.max(np.linalg.norm(meas.sensor_state[:, :2], axis=1)))
+    reach = _farthest_sensor(meas)[1] if reach is None else reach
     if d <= max(FAR_FROM_ORIGIN, FAR_FACTOR * reach):
         return None
     return SanityWarning(
@@ -322,7 +361,8 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
         Improbable chi-square (either tail), radians, far sensors, far estimate, implausible
         speed, several solutions; empty when all is well.
     """
-    found = measurement_warnings(meas)
+    farthest = _farthest_sensor(meas) if len(meas) else None
+    found = measurement_warnings(meas, farthest)
     chi2, dof = float(result.chi2), int(result.dof)  # type: ignore[attr-defined]
     for w in (chi2_warning(chi2, dof), chi2_low_warning(chi2, dof)):
         if w is not None:
@@ -334,7 +374,8 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     if np.all(np.isfinite(theta)) and len(meas):
         motion = result.motion  # type: ignore[attr-defined]
         state = motion.states(theta, np.array([float(np.max(meas.time))]))[0]
-        far = estimate_distance_warning(state[:3], meas)
+        far = estimate_distance_warning(state[:3], meas, None if farthest is None
+                                        else farthest[1])
         if far is not None:
             found.append(far)
         speed = float(np.linalg.norm(state[3:6]))

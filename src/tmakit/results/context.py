@@ -90,17 +90,33 @@ def sensor_position(meas: MeasurementSet, sensor: str, t: float) -> NDArray[np.f
     ValueError
         If the set has no row of ``sensor``.
     """
-    sel = meas.sensor == sensor
-    if not np.any(sel):
+    if sensor not in meas.sensors:
         raise ValueError(f"no measurement of sensor {sensor!r} (sensors: "
                          f"{', '.join(meas.sensors)})")
-    times, states = meas.time[sel], meas.sensor_state[sel]
+    sel = None if len(meas.sensors) == 1 else meas.sensor_mask(sensor)
+    rows = _bracketing_rows(meas.time, sel, t)
+    times, states = meas.time[rows], meas.sensor_state[rows]
     order = np.argsort(times, kind="stable")
     times, states = times[order], states[order]
     if t <= times[0] or t >= times[-1] or times.size == 1:
         k = 0 if t <= times[0] else times.size - 1
         return states[k, :3] + states[k, 3:6] * (t - times[k])
     return np.array([np.interp(t, times, states[:, i]) for i in range(3)])
+
+
+def _bracketing_rows(time: NDArray[np.float64], sel: NDArray[np.bool_] | None, t: float
+                     ) -> NDArray[np.intp]:
+    """Give, in file order, the selected rows at ``t`` and at the nearest times either side.
+
+    All that the interpolation at ``t`` reads, found without copying the rows (a large
+    file's states are not gathered to interpolate one position).
+    """
+    def mask(side: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        return side if sel is None else side & sel
+
+    before = np.max(time, where=mask(time < t), initial=-np.inf)
+    after = np.min(time, where=mask(time > t), initial=np.inf)
+    return np.flatnonzero(mask((time == before) | (time == t) | (time == after)))
 
 
 #: The altitude references a measurement set's metadata names, in words.

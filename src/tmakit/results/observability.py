@@ -30,7 +30,7 @@ from ..core.linalg import normalise
 from ..data import MeasurementSet
 from ..measurements import KINDS
 from ..motion import MotionModel
-from .own_legs import range_words, sensor_legs
+from .own_legs import one_leg, range_words
 
 RANK_TOL = 1e-10
 """Eigenvalues of the normalised information below this fraction of the largest are zero."""
@@ -129,7 +129,7 @@ class Observability:
 def _fixed_sensors(meas: MeasurementSet) -> dict[str, NDArray[np.float64]]:
     out = {}
     for s in meas.sensors:
-        st = meas.sensor_state[meas.sensor == s]
+        st = meas.sensor_state[meas.sensor_mask(s)]
         if np.allclose(st, st[0], rtol=0, atol=1e-9) and np.allclose(st[0, 3:], 0.0):
             out[s] = st[0, :3]
     return out
@@ -183,22 +183,39 @@ def _angles_only(meas: MeasurementSet) -> bool:
 def _straight_path(meas: MeasurementSet, sensor: str, t: NDArray[np.float64]
                    ) -> NDArray[np.float64] | None:
     """Give the sensor's states at ``t`` when its rows lie on one straight leg, else None."""
-    if len(sensor_legs(meas, sensor)) != 1:
+    rows = meas.sensor_mask(sensor)
+    st = meas.sensor_state[rows]
+    if not one_leg(st):
         return None
-    rows = meas.sensor == sensor
-    tr, st = meas.time[rows], meas.sensor_state[rows]
+    tr = meas.time[rows]
     design = np.column_stack([np.ones_like(tr), tr - tr[0]])
     coef = np.linalg.lstsq(design, st[:, :3], rcond=None)[0]  # position = a + b (t - t0)
     pos = np.column_stack([np.ones_like(t), t - tr[0]]) @ coef
     return np.column_stack([pos, np.broadcast_to(coef[1], pos.shape)])
 
 
-def _one_leg_sensor(meas: MeasurementSet) -> str | None:
-    """Give the one sensor of an angles-only set whose rows lie on one straight leg, else None."""
-    if len(meas.sensors) != 1 or not _angles_only(meas):
-        return None
-    name = meas.sensors[0]
-    return name if len(sensor_legs(meas, name)) == 1 else None
+def _velocity_constant_by_form(motion: MotionModel) -> bool:
+    """Tell from an affine model's terms alone that its velocity's derivatives are constant."""
+    terms = motion.component_terms(np.zeros(1)) if motion.affine else None
+    return terms is not None and all(coef is None for _, component, coef in terms[0]
+                                     if component >= 3)
+
+
+def _velocity_fixed(motion: MotionModel, theta: NDArray[np.float64],
+                    t: NDArray[np.float64]) -> bool:
+    """Tell whether the velocity's derivatives by ``theta`` are the same at every time ``t``.
+
+    Read in blocks of times, so that many rows need no ``(n, 6, p)`` Jacobian at once.
+    """
+    first = motion.jacobian(theta, t[:1])[0, 3:6]
+    for lo in range(0, len(t), _TIME_BLOCK):
+        velocity = motion.jacobian(theta, t[lo:lo + _TIME_BLOCK])[:, 3:6]
+        if not np.allclose(velocity, first, rtol=1e-9, atol=1e-12):
+            return False
+    return True
+
+
+_TIME_BLOCK = 65_536
 
 
 def _to_theta(motion: MotionModel, theta: NDArray[np.float64], t: NDArray[np.float64],
@@ -277,17 +294,19 @@ def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np
     taken to the nearest parameter change (least squares on the motion's Jacobian); None when
     the rule does not apply or the data already leave that direction unseen.
     """
-    sensor = _one_leg_sensor(meas)
-    if sensor is None or not np.all(np.isfinite(theta)):
+    # a stationary emitter (a moving sensor's bearings do give its range) or constant
+    # velocity (the rank says whether range is seen): no manoeuvre to take it from
+    if (len(meas.sensors) != 1 or not _angles_only(meas) or _velocity_constant_by_form(motion)
+            or not np.all(np.isfinite(theta))):
+        return None
+    sensor = meas.sensors[0]
+    if not one_leg(meas.sensor_state[meas.sensor_mask(sensor)]):
         return None
     t = np.unique(meas.time)
     own = _straight_path(meas, sensor, t)
-    jac = motion.jacobian(theta, t)
-    velocity = jac[:, 3:6]
-    if own is None or np.allclose(velocity, velocity[:1], rtol=1e-9, atol=1e-12):
-        # a stationary emitter (a moving sensor's bearings do give its range) or constant
-        # velocity (the rank says whether range is seen): no manoeuvre to take it from
+    if own is None or _velocity_fixed(motion, theta, t):
         return None
+    jac = motion.jacobian(theta, t)
     d = motion.states(theta, t) - own
     dtheta = np.linalg.lstsq(jac.reshape(-1, motion.n_params), d.reshape(-1), rcond=None)[0]
     full = np.zeros(size)

@@ -76,20 +76,57 @@ def straight_legs(time: NDArray[np.float64], state: NDArray[np.float64]) -> list
         the leg's first speed.
     """
     v = np.asarray(state, dtype=float)[:, 3:5]
-    speed = np.hypot(v[:, 0], v[:, 1])
-    course = np.degrees(np.arctan2(v[:, 0], v[:, 1])) % 360.0
     legs, first = [], 0
-    for k in range(1, len(time) + 1):
-        if k < len(time):
-            turn = abs((course[k] - course[first] + 180.0) % 360.0 - 180.0)
-            moving = max(speed[k], speed[first]) >= 0.05
-            change = abs(speed[k] - speed[first]) > max(0.5, LEG_SPEED_CHANGE * speed[first])
-            if not ((moving and turn > LEG_TURN_DEG) or change):
-                continue
-        legs.append(Leg(float(time[first]), float(time[k - 1]), float(course[first]),
-                        float(np.mean(speed[first:k]))))
-        first = k
+    while first < len(time):
+        stop = _leg_end(v, first)
+        course = _course_speed(v[first:first + 1])[0]
+        legs.append(Leg(float(time[first]), float(time[stop - 1]), float(course[0]),
+                        float(np.mean(_course_speed(v[first:stop])[1]))))
+        first = stop
     return legs
+
+
+def one_leg(state: NDArray[np.float64]) -> bool:
+    """Tell whether a sensor's path is one straight leg (:func:`straight_legs` gives one).
+
+    Parameters
+    ----------
+    state : ndarray, shape (n, 6)
+        The sensor's ENU states (m, m/s), in time order.
+
+    Returns
+    -------
+    bool
+        True when no row leaves the first row's leg; a path that manoeuvres early is
+        answered after reading its first rows only.
+    """
+    v = np.asarray(state, dtype=float)[:, 3:5]
+    return len(v) > 0 and _leg_end(v, 0) == len(v)
+
+
+def _course_speed(v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    return np.degrees(np.arctan2(v[:, 0], v[:, 1])) % 360.0, np.hypot(v[:, 0], v[:, 1])
+
+
+def _leg_end(v: NDArray[np.float64], first: int) -> int:
+    """Give the first row after ``first`` that leaves its leg (``len(v)`` if none).
+
+    The rows are read in windows that double, so a path of n rows costs O(n) however many
+    legs it has, and finding the end of a short leg reads little beyond it.
+    """
+    n, lo, width = len(v), first + 1, 64
+    (c0,), (s0,) = _course_speed(v[first:first + 1])
+    while lo < n:
+        hi = min(n, lo + width)
+        c, s = _course_speed(v[lo:hi])
+        turn = np.abs((c - c0 + 180.0) % 360.0 - 180.0)
+        moving = np.maximum(s, s0) >= 0.05
+        change = np.abs(s - s0) > max(0.5, LEG_SPEED_CHANGE * s0)
+        new = (moving & (turn > LEG_TURN_DEG)) | change
+        if new.any():
+            return lo + int(np.argmax(new))
+        lo, width = hi, 2 * width
+    return n
 
 
 def sensor_legs(meas: MeasurementSet, sensor: str) -> list[Leg]:
@@ -107,7 +144,7 @@ def sensor_legs(meas: MeasurementSet, sensor: str) -> list[Leg]:
     list of Leg
         Its legs over its rows' times (:func:`straight_legs`).
     """
-    rows = meas.sensor == sensor
+    rows = meas.sensor_mask(sensor)
     return straight_legs(meas.time[rows], meas.sensor_state[rows])
 
 
