@@ -21,7 +21,8 @@ Sections (``--only`` picks some):
   hand-written NumPy Fisher matrix, and the log-log slopes (``batch_speed.py``);
 * ``lm``: batch Levenberg-Marquardt from the same start beside
   ``scipy.optimize.least_squares(method="lm")`` at equal tolerance, N = 10^2 ... 10^5,
-  bearings-only-2d and gu2007 (``batch_speed.py``);
+  bearings-only-2d and gu2007, and ``tk.estimate(..., init=)`` at N = 10^2 beside scipy's LM
+  with a hand-written Jacobian (``batch_speed.py``);
 * ``threads``: the particle filter with 10^5 particles, default BLAS threads beside one
   (``threads_speed.py``);
 * ``montecarlo``: the no-guess Monte Carlo of gu2007 in one process, in two worker processes
@@ -210,9 +211,9 @@ def _crlb(sizes, repeat):
 
 
 def _lm(sizes, repeat):
-    from batch_speed import lm_rows
+    from batch_speed import init_rows, lm_rows
 
-    return lm_rows(sizes, repeat, 1e-10)
+    return lm_rows(sizes, repeat, 1e-10) + init_rows(100, repeat)
 
 
 def _threads(steps, repeat):

@@ -35,6 +35,8 @@ from .own_legs import one_leg, range_words
 RANK_TOL = 1e-10
 """Eigenvalues of the normalised information below this fraction of the largest are zero."""
 
+_TINY = float(np.finfo(float).tiny)
+
 def full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Tell whether each of a batch of information matrices has full rank (as :func:`analyse`).
 
@@ -266,7 +268,10 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
         norm = norm - np.outer(norm @ unseen, unseen) - np.outer(unseen, unseen @ norm) + (
             float(unseen @ norm @ unseen) * np.outer(unseen, unseen))
     evals, evecs = np.linalg.eigh(norm)
-    top = max(float(evals[-1]), np.finfo(float).tiny)
+    top = max(float(evals[-1]), _TINY)
+    if float(evals[0]) > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
+        return Observability(size, size, top / float(evals[0]), np.zeros((size, 0)), [],
+                             np.ones(size, dtype=bool), (evals, evecs, scale))
     null = evals <= RANK_TOL * top
     rank = int(size - null.sum())
     positive = evals[~null]
