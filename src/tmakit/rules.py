@@ -226,11 +226,11 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     found += _where(bad, "time", TIME, time[bad])
     for j, name in enumerate(STATE_COLUMNS):
         col = sensor_state[:, j]
-        bad = np.flatnonzero(~np.isfinite(col))
-        found += _where(bad, name, FINITE, col[bad])
-        bad = np.flatnonzero(np.isfinite(col) & ~_by_blocks(
-            lambda c, j=j: state_within_reach(c, j), col))
-        found += _where(bad, name, POSITION if j < 3 else VELOCITY, col[bad])
+        # one pass: a cell out of reach is non-finite or too large, told apart on those rows
+        bad = np.flatnonzero(~_by_blocks(lambda c, j=j: state_within_reach(c, j), col))
+        finite = np.isfinite(col[bad])
+        found += _where(bad[~finite], name, FINITE, col[bad[~finite]])
+        found += _where(bad[finite], name, POSITION if j < 3 else VELOCITY, col[bad[finite]])
     bad = np.flatnonzero(np.isfinite(sigma) & ~(sigma > 0))
     found += _where(bad, "sigma", SIGMA_POSITIVE, sigma[bad])
     out_of_range = np.zeros(value.shape, dtype=bool)
