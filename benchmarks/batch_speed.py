@@ -219,7 +219,7 @@ def init_rows(n, repeat, tol=1e-10, clock="cpu"):
     the ObservationModel's, from the same start (the truth shifted by three std)."""
     from scipy.optimize import least_squares
 
-    _, _, start, obs_fun, obs_jac, x0, scale, bound, k = lm_problem("bearings-only-2d", n)
+    _, _, start, obs_fun, obs_jac, x0, _, bound, k = lm_problem("bearings-only-2d", n)
     scn, meas = scaled("bearings-only-2d", n)
     fun, jac = bearings_by_hand(meas, scn.motion.ref_time)
     ours = tk.estimate(meas, scn.motion, init=start)

@@ -82,7 +82,7 @@ def main() -> None:
                     "library": [sys.executable, "-c", LIBRARY, str(path)]}
         print(f"load average before: {os.getloadavg()[0]:.2f}", flush=True)
         got: dict[str, list[tuple[float, float, float, int]]] = {k: [] for k in commands}
-        for name, cmd in commands.items():
+        for cmd in commands.values():
             run(cmd)  # warm-up: the file in the page cache, the byte code compiled
         for _ in range(args.repeat):
             for name, cmd in commands.items():
