@@ -1,0 +1,424 @@
+"""The interactive solution page: one self-contained HTML file (``tma estimate --html``).
+
+Left, the geography in latitude/longitude (East/North in km without an origin): the sensors'
+tracks with their straight legs, the bearing fan, the estimated track with its position
+ellipses and, at the reference time, the solution's handles.  Right, the stacked dots: one
+panel per measurement kind, the residuals in units of sigma against clock time.  The analyst
+drags the solution's position (the square) and its velocity (the circle at the end of the
+course-and-speed stick, ``tau`` seconds ahead); the dots, the chi-square and the answers
+follow at once, computed in the page by ``solution_page.js`` (the point kinds' measurement
+model: bearing, range, frequency with its carrier eliminated); "back to ML" restores the fit.
+
+Drawn with Bokeh, its JavaScript embedded (no network needed to open the page).  Every text
+that comes from a file (sensor and file names, metadata) reaches the page as canvas text or
+HTML-escaped: none of it is markup.
+"""
+
+from __future__ import annotations
+
+import html
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .data import MeasurementSet
+from .observation import ObservationModel
+from .plot_frame import MapFrame
+from .results import EstimateResult, normalised_residuals
+from .results.answers import estimate_answer
+from .results.context import TIME_ORIGIN_KEY, clock_time, origin_of
+from .results.own_legs import sensor_legs
+from .solution_plot import _ellipse
+
+__all__ = ["DRAG_KINDS", "MAX_FAN_LINES", "solution_page_html", "write_solution_page"]
+
+#: The kinds whose residuals the page recomputes as the solution is dragged, by their code in
+#: the page's model (``solution_page.js``).
+DRAG_KINDS = {"bearing": 0, "range": 1, "frequency": 2}
+#: At most this many bearing lines are drawn in the fan (evenly spread over the cuts).
+MAX_FAN_LINES = 300
+_COLOURS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+
+
+def _drag_refusal(meas: MeasurementSet, result: EstimateResult, obs: ObservationModel) -> str:
+    """Why the solution cannot be dragged in the page ('' when it can)."""
+    motion = type(result.motion).__name__
+    if result.status != "converged" or not np.all(np.isfinite(result.estimate)):
+        return f"the estimate is {result.status}: no solution to drag"
+    if motion not in ("ConstantVelocity", "Stationary"):
+        return (f"dragging is for constant-velocity and stationary solutions, not "
+                f"{result.motion.name}")
+    other = [k for k in meas.kinds if k not in DRAG_KINDS]
+    if other:
+        return ("dragging recomputes bearing, range and frequency rows; this set also has "
+                + ", ".join(other))
+    freq = obs.models.get("frequency")
+    if freq is not None and getattr(freq, "drift", False):
+        return "dragging recomputes frequencies without carrier drift"
+    if getattr(obs, "has_reference", False):
+        return "dragging recomputes rows without an earlier reference sample"
+    return ""
+
+
+def _state6(result: EstimateResult) -> list[float]:
+    """The solution's ENU state ``[x y z vx vy vz]`` at the motion's reference time."""
+    ref = float(getattr(result.motion, "ref_time", 0.0))
+    return [float(v) for v in result.motion.states(result.estimate, np.array([ref]))[0]]
+
+
+def _reach(frame: MapFrame, xs: list[np.ndarray], ys: list[np.ndarray]) -> float:
+    """A bearing line's length (m): 1.3 times the larger side of what else is drawn."""
+    x = np.concatenate([np.ravel(v) for v in xs])
+    y = np.concatenate([np.ravel(v) for v in ys])
+    x, y = x[np.isfinite(x)], y[np.isfinite(y)]
+    if x.size == 0:
+        return 10_000.0
+    span = max(float(np.ptp(x)) * frame.metres_per_x(),
+               float(np.ptp(y)) * frame.metres_per_x() * frame.aspect())
+    return max(1.3 * span, 5_000.0)
+
+
+class _Page:
+    """Everything the page draws, in map and clock coordinates (built once, then laid out)."""
+
+    def __init__(self, meas: MeasurementSet, result: EstimateResult,
+                 options: dict[str, Any] | None, level: float, labels: int) -> None:
+        self.meas, self.result, self.level = meas, result, level
+        self.frame = MapFrame(meas)
+        self.obs = ObservationModel(meas, result.motion, options)
+        self.refusal = _drag_refusal(meas, result, self.obs)
+        self.has_track = (result.status in ("converged", "unobservable")
+                          and np.all(np.isfinite(result.estimate)))
+        self.z = (normalised_residuals(result, meas, options) if self.has_track
+                  else np.full(len(meas), np.nan))
+        t0 = clock_time(meas, 0.0)
+        self.clock = t0 is not None and TIME_ORIGIN_KEY in meas.metadata
+        self.t0_ms = (float(np.datetime64(t0.rstrip("Z"), "ms").astype("int64"))
+                      if self.clock and t0 else 0.0)
+        self.ref_time = float(getattr(result.motion, "ref_time", meas.time.min()))
+        self.labels = labels
+
+    def when(self, t: np.ndarray) -> np.ndarray:
+        """Plot times: ms since 1970 (Bokeh's datetime axis) or seconds."""
+        return self.t0_ms + 1000.0 * np.asarray(t, float) if self.clock else np.asarray(t, float)
+
+    def label(self, t: float) -> str:
+        """A time in words: UTC clock time or seconds."""
+        c = clock_time(self.meas, t)
+        return c[11:19] + " UTC" if c else f"t = {t:.0f} s"
+
+    def sensor_tracks(self) -> list[dict[str, Any]]:
+        """Each sensor's track on the map, and its leg starts."""
+        out = []
+        for k, s in enumerate(self.meas.sensors):
+            rows = self.meas.sensor == s
+            t, idx = np.unique(self.meas.time[rows], return_index=True)
+            st = self.meas.sensor_state[rows][idx]
+            x, y = self.frame.xy(st[:, 0], st[:, 1])
+            legs = sensor_legs(self.meas, s) if np.ptp(st[:, 3:5]) > 0 else []
+            starts = [int(np.searchsorted(t, leg.start)) for leg in legs]
+            out.append({"name": str(s), "x": x, "y": y, "colour": _COLOURS[k % len(_COLOURS)],
+                        "leg_x": x[starts], "leg_y": y[starts],
+                        "leg_n": [str(i + 1) for i in range(len(starts))]})
+        return out
+
+    def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int]:
+        """The bearing lines (map coordinates), at most :data:`MAX_FAN_LINES`, and the cuts."""
+        rows = np.flatnonzero(self.meas.kind == "bearing")
+        if rows.size == 0:
+            return [], [], 0
+        pick = rows[np.unique(np.linspace(0, rows.size - 1, min(rows.size, MAX_FAN_LINES))
+                              .round().astype(int))]
+        b = self.meas.value_si[pick]
+        start = self.meas.sensor_state[pick, :2]
+        u = np.linspace(0.0, 1.0, 12)
+        xs, ys = [], []
+        for (e0, n0), bb in zip(start, b, strict=True):
+            x, y = self.frame.xy(e0 + reach * u * np.sin(bb), n0 + reach * u * np.cos(bb))
+            xs.append(x)
+            ys.append(y)
+        return xs, ys, int(rows.size)
+
+    def track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The estimated track: times (s) and map coordinates over the data's span."""
+        t = np.linspace(self.meas.time.min(), self.meas.time.max(), 200)
+        t = np.union1d(t, [self.ref_time])
+        st = self.result.motion.states(self.result.estimate, t)
+        x, y = self.frame.xy(st[:, 0], st[:, 1])
+        return t, x, y
+
+    def ellipses(self) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+        """The position ellipses at labelled times (map coordinates) and their labels."""
+        xs, ys, words = [], [], []
+        times = np.linspace(self.meas.time.min(), self.meas.time.max(), self.labels)
+        if type(self.result.motion).__name__ == "Stationary":
+            times = times[:1]
+        for tk in times:
+            a = estimate_answer(self.result, self.meas, time=float(tk), level=self.level)
+            cov = a.covariance[:2, :2]
+            if a.ellipse is None or not np.all(np.isfinite(cov)):
+                continue
+            s = self.result.motion.states(self.result.estimate, np.array([tk]))[0]
+            pts = _ellipse(cov, self.level) + s[:2]
+            x, y = self.frame.xy(pts[:, 0], pts[:, 1])
+            xs.append(x)
+            ys.append(y)
+            words.append(self.label(float(tk)))
+        return xs, ys, words
+
+    def rows(self) -> dict[str, np.ndarray]:
+        """The rows the page's model needs (set order; SI)."""
+        m = self.meas
+        kind = np.full(len(m), -1, dtype=np.int32)
+        for k, code in DRAG_KINDS.items():
+            kind[m.kind_mask(k)] = code
+        st = m.sensor_state
+        return {"t": m.time.astype(float), "kind": kind, "value": m.value_si.astype(float),
+                "sigma": m.sigma_si.astype(float), "se": st[:, 0], "sn": st[:, 1],
+                "su": st[:, 2], "sve": st[:, 3], "svn": st[:, 4], "svu": st[:, 5]}
+
+    def config(self, tau: float) -> dict[str, Any]:
+        """The page model's constants."""
+        freq = self.obs.models.get("frequency")
+        fr = self.meas.kind_mask("frequency") if freq is not None else None
+        ref = float(np.mean(self.meas.value_si[fr])) if fr is not None and fr.any() else 0.0
+        n_par = len(self.result.estimate) + self.obs.n_nuisance
+        origin = origin_of(self.meas)
+        return {
+            "origin": list(origin) if origin is not None else None,
+            "ref_time": self.ref_time, "ref_label": self.label(self.ref_time),
+            "ml": _state6(self.result) if self.has_track else [0.0] * 6,
+            "moving": type(self.result.motion).__name__ == "ConstantVelocity",
+            "draggable": not self.refusal, "tau": tau,
+            "c": float(getattr(freq, "c", 1.0)), "carrier_ref": ref,
+            "ml_chi2": float(self.result.chi2), "n_used": len(self.meas),
+            "dof": max(len(self.meas) - n_par, 1),
+            "all_kinds": list(self.meas.kinds),
+            "kinds": [{"name": k, "code": DRAG_KINDS[k]} for k in self.meas.kinds
+                      if k in DRAG_KINDS],
+        }
+
+    def tau(self, x: np.ndarray, y: np.ndarray) -> float:
+        """Seconds ahead of the velocity handle: its stick a sixth of the map's width."""
+        s = _state6(self.result) if self.has_track else [0.0] * 6
+        speed = float(np.hypot(s[3], s[4]))
+        width = (max(float(np.ptp(x)) * self.frame.metres_per_x(),
+                     float(np.ptp(y)) * self.frame.metres_per_x() * self.frame.aspect())
+                 if x.size else 10_000.0)
+        span = float(np.ptp(self.meas.time)) or 600.0
+        if speed <= 0:
+            return span / 4
+        return float(np.clip(width / 6 / speed, 60.0, 4 * span))
+
+
+def _escaped(text: object) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _header(page: _Page, title: str) -> str:
+    """The page's heading and the data it shows, escaped (file names and sensor names)."""
+    m, r = page.meas, page.result
+    counts = ", ".join(f"{int(m.kind_mask(k).sum())} {_escaped(k)}" for k in m.kinds)
+    sensors = ", ".join(_escaped(s) for s in m.sensors)
+    lines = [f"<h3 style='margin:4px 0'>{_escaped(title)}</h3>",
+             f"<div>{counts} rows from sensor(s) {sensors}; {_escaped(r.method)} estimate, "
+             f"{_escaped(r.motion.name)}, {_escaped(r.status)}; reference time "
+             f"{_escaped(page.label(page.ref_time))}</div>"]
+    how = ("Drag the square (position at the reference time) or the circle (course and speed)"
+           " on the map: the stacked dots and χ² follow; <i>back to ML</i> restores the fit."
+           if not page.refusal else f"Not draggable: {_escaped(page.refusal)}.")
+    lines.append(f"<div style='color:#444'>{how}</div>")
+    return "\n".join(lines)
+
+
+def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
+    """The geography: sensor tracks and legs, bearing fan, track, ellipses, handles."""
+    from bokeh.models import ColumnDataSource, PointDrawTool
+    from bokeh.plotting import figure
+
+    f = page.frame
+    fig = figure(width=640, height=600, match_aspect=True, aspect_scale=f.aspect(),
+                 x_axis_label=f.labels[0], y_axis_label=f.labels[1],
+                 tools="pan,wheel_zoom,box_zoom,reset,save", title="geography", name="map")
+    tracks = page.sensor_tracks()
+    xs = [t["x"] for t in tracks]
+    ys = [t["y"] for t in tracks]
+    parts: dict[str, Any] = {"figure": fig}
+    t, tx, ty = (page.track() if page.has_track else (np.zeros(0), np.zeros(0), np.zeros(0)))
+    ex, ey, _ = (page.ellipses() if page.has_track and page.result.status == "converged"
+                 else ([], [], []))
+    fan_x, fan_y, cuts = page.fan(_reach(f, [*xs, tx, *ex], [*ys, ty, *ey]))
+    if fan_x:
+        fig.multi_line(fan_x, fan_y, color="#ff7f0e", alpha=0.35, line_width=0.7,
+                       legend_label=f"bearings ({len(fan_x)} of {cuts} cuts drawn)")
+    for tr in tracks:
+        fig.line(tr["x"], tr["y"], color=tr["colour"], line_width=2, legend_label=tr["name"])
+        fig.scatter(tr["x"][:1], tr["y"][:1], marker="triangle", size=9, color=tr["colour"])
+        if len(tr["leg_x"]) > 1:
+            legs = ColumnDataSource({"x": tr["leg_x"], "y": tr["leg_y"], "n": tr["leg_n"]})
+            fig.scatter("x", "y", source=legs, marker="diamond", size=8, color="black",
+                        legend_label="own-ship leg starts")
+            fig.text("x", "y", text="n", source=legs, x_offset=5, y_offset=-5,
+                     text_font_size="9pt")
+    if ex:
+        fig.multi_line(ex, ey, color="#d62728", line_width=1, alpha=0.8,
+                       legend_label=f"{page.level:.0%} position ellipses (ML)")
+    if page.has_track:
+        fig.line(tx, ty, color="#d62728", line_width=2, alpha=0.45, line_dash="dashed",
+                 legend_label="ML solution")
+        track = ColumnDataSource({"t": t, "x": tx.copy(), "y": ty.copy()})
+        fig.line("x", "y", source=track, color="#d62728", line_width=2.5,
+                 legend_label="solution shown")
+        parts["track"] = track
+        stick = ColumnDataSource({"x": [], "y": []})
+        fig.line("x", "y", source=stick, color="black", line_width=1.5)
+        handles = ColumnDataSource({"x": [], "y": [], "m": []}, name="handles")
+        r = fig.scatter("x", "y", source=handles, size=14, fill_color="white",
+                        line_color="black", line_width=2, marker="m")
+        if not page.refusal:
+            tool = PointDrawTool(renderers=[r], add=False, drag=True,
+                                 description="drag the solution")
+            fig.add_tools(tool)
+            fig.toolbar.active_drag = tool
+        parts.update(stick=stick, handles=handles,
+                     tau=page.tau(np.concatenate([*xs, tx]), np.concatenate([*ys, ty])))
+    fig.legend.location = "top_left"
+    fig.legend.click_policy = "hide"
+    fig.legend.label_text_font_size = "8pt"
+    return fig, parts
+
+
+def _dots_figures(page: _Page, width: int) -> tuple[list[Any], dict[str, Any], dict[str, Any]]:
+    """One panel of stacked dots per kind, the bands at ±1σ and ±3σ."""
+    from bokeh.models import BoxAnnotation, ColumnDataSource, Range1d, Span
+    from bokeh.plotting import figure
+
+    m = page.meas
+    figs, sources, ranges = [], {}, {}
+    height = max(180, min(300, 600 // max(len(m.kinds), 1)))
+    shared = None
+    for kind in m.kinds:
+        rows = np.flatnonzero(m.kind_mask(kind))
+        z = page.z[rows]
+        big = max(4.0, 1.1 * float(np.nanmax(np.abs(z)))) if np.any(np.isfinite(z)) else 4.0
+        yr = Range1d(-big, big)
+        fig = figure(width=width, height=height, y_range=yr,
+                     x_axis_type="datetime" if page.clock else "linear",
+                     x_axis_label="time (UTC)" if page.clock else "time (s)",
+                     y_axis_label=f"{kind} residual (σ)", title=f"{kind}: stacked dots",
+                     tools="xpan,xwheel_zoom,box_zoom,reset,save")
+        if shared is not None:
+            fig.x_range = shared
+        shared = fig.x_range
+        fig.add_layout(BoxAnnotation(bottom=-1, top=1, fill_color="green", fill_alpha=0.1))
+        for y in (-3, 3):
+            fig.add_layout(Span(location=y, dimension="width", line_color="red",
+                                line_dash="dotted"))
+        sensors = m.sensor[rows]
+        colour = np.empty(rows.size, dtype=object)
+        for k, s in enumerate(m.sensors):
+            colour[sensors == s] = _COLOURS[k % len(_COLOURS)]
+        src = ColumnDataSource({"x": page.when(m.time[rows]), "z": z.astype(float),
+                                "row": rows.astype(np.int32), "c": list(colour)})
+        fig.scatter("x", "z", source=src, size=4, color="c")
+        figs.append(fig)
+        sources[kind] = src
+        ranges[kind] = yr
+    return figs, sources, ranges
+
+
+def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
+                       options: dict[str, Any] | None = None, title: str | None = None,
+                       level: float = 0.95, labels: int = 5) -> str:
+    """Give the solution page of a batch estimate as one self-contained HTML document.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements fitted.
+    result : EstimateResult
+        The estimate.
+    options : dict, optional
+        The measurement-model options of the fit (drift, path-loss exponent).
+    title : str, optional
+        The heading (escaped: it may name files).
+    level : float
+        Probability inside the position ellipses.
+    labels : int
+        Times along the track with an ellipse.
+
+    Returns
+    -------
+    str
+        The page: Bokeh's JavaScript inline, no network needed to open it.
+    """
+    from bokeh.embed import file_html
+    from bokeh.layouts import column, row
+    from bokeh.models import Button, CustomJS, Div
+    from bokeh.resources import INLINE
+
+    page = _Page(meas, result, options, level, labels)
+    header = Div(text=_header(page, title or f"{result.method} estimate"), width=1200)
+    fig, parts = _map_figure(page)
+    dots, sources, ranges = _dots_figures(page, 560)
+    stats = Div(text="", width=560)
+    button = Button(label="back to ML solution", button_type="primary", width=200,
+                    disabled=bool(page.refusal))
+    widgets = [*dots, stats, button]
+    if "handles" in parts:
+        from bokeh.models import ColumnDataSource
+
+        config = page.config(parts["tau"])
+        rows = ColumnDataSource(page.rows())
+        script = resources.files("tmakit").joinpath("solution_page.js").read_text("utf-8")
+        args = {"config": config, "rows": rows, "handles": parts["handles"],
+                "stick": parts["stick"], "track": parts["track"], "dots": sources,
+                "ranges": ranges, "stats": stats}
+        ready = CustomJS(args=args, code=script + "\nwindow.tmaPage = tmaSolutionPage({"
+                         + ", ".join(f"{k}: {k}" for k in args) + "});")
+        parts["handles"].js_on_change("change", CustomJS(
+            code="if (window.tmaPage) window.tmaPage.onHandles();"))
+        button.js_on_event("button_click", CustomJS(code="window.tmaPage.reset();"))
+    else:
+        ready = CustomJS(code="window.tmaPage = {ready: true, timings: [], "
+                              "readyAt: performance.now()};")
+    layout = column(header, row(fig, column(*widgets)))
+    from bokeh.document import Document
+
+    doc = Document()
+    doc.add_root(layout)
+    doc.js_on_event("document_ready", ready)
+    return file_html(doc, INLINE, title="tmakit solution page")
+
+
+def write_solution_page(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,
+                        options: dict[str, Any] | None = None, title: str | None = None,
+                        level: float = 0.95) -> Path:
+    """Write the solution page (:func:`solution_page_html`) to ``path``.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements fitted.
+    result : EstimateResult
+        The estimate.
+    path : str or Path
+        The HTML file (overwritten: the caller checks it first).
+    options : dict, optional
+        The measurement-model options of the fit.
+    title : str, optional
+        The heading.
+    level : float
+        Probability inside the position ellipses.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    path.write_text(solution_page_html(meas, result, options=options, title=title, level=level),
+                    encoding="utf-8")
+    return path

@@ -1,0 +1,200 @@
+"""The interactive solution page, in a real headless Chromium (issue 29 item 4).
+
+The page's stacked dots at the ML solution equal Python's residuals; after a drag (scripted
+through the page, and by the mouse on the map) the page's chi-square equals Python's for the
+solution the page shows; names from a file are text, never markup.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tmakit as tk
+from tmakit.batch.varpro import VarProProblem
+from tmakit.observation import ObservationModel
+from tmakit.results import normalised_residuals
+from tmakit.solution_page import write_solution_page
+
+from browser import chromium, console_errors, needs_browser, open_page
+
+pytestmark = needs_browser
+
+XSS = "<img src=x onerror=alert(1)>"
+SCRIPT = "</script><script>window.__pwned=1</script>"
+SONAR = {"frequency": {"speed_of_light": 1500.0}}
+
+
+def _rows(n: int, seed: int, names: tuple[str, str]) -> tk.MeasurementSet:
+    """Bearings, ranges and narrowband frequencies of a CV contact from two ships, seeded."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.0, 3600.0, n))
+    sensor = rng.integers(0, 2, n)
+    state = np.zeros((n, 6))
+    state[:, 0] = np.where(sensor == 0, 2000.0 * np.sin(t / 600.0), 8000.0)
+    state[:, 1] = np.where(sensor == 0, 3.0 * t, -2000.0 + 2.0 * t)
+    state[:, 3] = np.where(sensor == 0, 2000.0 / 600.0 * np.cos(t / 600.0), 0.0)
+    state[:, 4] = np.where(sensor == 0, 3.0, 2.0)
+    truth = tk.ConstantVelocity(2, ref_time=1800.0).states(
+        np.array([6000.0, 15000.0, -2.0, -4.0]), t)
+    rel = truth - state
+    kind = rng.choice(["bearing", "range", "frequency"], n, p=[0.6, 0.2, 0.2])
+    rdot = np.sum(rel[:, :3] * rel[:, 3:], axis=1) / np.linalg.norm(rel[:, :3], axis=1)
+    exact = {"bearing": np.arctan2(rel[:, 0], rel[:, 1]),
+             "range": np.linalg.norm(rel[:, :3], axis=1),
+             "frequency": 300.0 * (1.0 - rdot / 1500.0)}
+    sig = {"bearing": np.radians(1.0), "range": 150.0, "frequency": 0.05}
+    value = np.choose([["bearing", "range", "frequency"].index(k) for k in kind],
+                      [exact["bearing"], exact["range"], exact["frequency"]])
+    sigma = np.array([sig[k] for k in kind])
+    meta = {"origin_lat": "50.1", "origin_lon": "-4.2", "origin_alt": "0.0",
+            "time_origin": "2026-05-04T09:30:00Z"}
+    return tk.MeasurementSet.from_si(t, np.array(names)[sensor], kind,
+                                     value + sigma * rng.normal(size=n), sigma, state,
+                                     metadata=meta)
+
+
+def python_chi2(meas: tk.MeasurementSet, motion: tk.MotionModel, state: list[float],
+                options: dict) -> float:
+    """Python's chi-square at a CV state (x, y, z, vx, vy, vz), the carrier eliminated."""
+    problem = VarProProblem(ObservationModel(meas, motion, options))
+    y = problem.group(meas.value_si)[None]
+    theta = np.array([[state[0], state[1], state[3], state[4]]])
+    ev = problem.evaluate(theta, y, problem.reference_nuisance(y), with_jacobian=False)
+    return float(2.0 * np.ravel(ev.cost)[0])
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with chromium() as driver:
+        yield driver
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    meas = _rows(400, 7, ("OWN " + XSS, SCRIPT))
+    result = tk.estimate(meas, tk.ConstantVelocity(2, ref_time=1800.0), options=SONAR)
+    assert result.status == "converged"
+    return meas, result
+
+
+@pytest.fixture(scope="module")
+def page(tmp_path_factory, fitted, browser):
+    meas, result = fitted
+    path = write_solution_page(meas, result, tmp_path_factory.mktemp("page") / "p.html",
+                               options=SONAR, title=f"file {XSS}.rep")
+    open_page(browser, path)
+    return browser
+
+
+def test_page_loads_without_console_errors_and_offline(page, fitted, tmp_path_factory):
+    assert console_errors(page) == []
+    sources = page.execute_script(
+        "return [...document.querySelectorAll('script[src], link[href]')].map(e => e.src || e.href)")
+    assert sources == []  # every script inline: nothing to fetch
+
+
+def test_ml_residuals_shown_equal_python(page, fitted):
+    meas, result = fitted
+    shown = np.array(page.execute_script("return window.tmaPage.shown()"), dtype=float)
+    python = normalised_residuals(result, meas, SONAR)
+    assert np.all(np.isfinite(shown))
+    np.testing.assert_allclose(shown, python, rtol=0, atol=1e-6)
+    chi2 = page.execute_script("return window.tmaPage.chi2()")
+    assert chi2 == pytest.approx(result.chi2, rel=1e-9)
+    carrier = page.execute_script("return window.tmaPage.carrier()")
+    assert carrier == pytest.approx(result.nuisance["carrier"][0], abs=1e-6)
+
+
+def test_scripted_drag_chi2_equals_python(page, fitted):
+    meas, result = fitted
+    page.execute_script("window.tmaPage.reset()")
+    ml = page.execute_script("return window.tmaPage.state()")
+    offset = (1500.0, -800.0, 1.5, -0.5)
+    page.execute_script("window.tmaPage.moveBy(...arguments)", *offset)
+    state = page.execute_script("return window.tmaPage.state()")
+    np.testing.assert_allclose(np.subtract(state, ml), [*offset[:2], 0.0, *offset[2:], 0.0],
+                               atol=1e-9)
+    chi2 = page.execute_script("return window.tmaPage.chi2()")
+    expected = python_chi2(meas, result.motion, state, SONAR)
+    assert expected > 2 * result.chi2  # the offset moves the solution off the data
+    assert chi2 == pytest.approx(expected, rel=1e-8)
+    shown = np.array(page.execute_script("return window.tmaPage.shown()"), dtype=float)
+    assert float(np.sum(shown ** 2)) == pytest.approx(expected, rel=1e-8)
+    page.execute_script("window.tmaPage.reset()")
+    assert page.execute_script("return window.tmaPage.chi2()") == pytest.approx(result.chi2,
+                                                                               rel=1e-9)
+
+
+def _screen(page, x: float, y: float) -> tuple[float, float]:
+    """The browser's viewport coordinates of a point of the map (Bokeh's view of the map)."""
+    return tuple(page.execute_script("""
+        const fig = Bokeh.documents[0].get_model_by_name('map');
+        const find = (views) => {
+          for (const w of views) {
+            if (w.model === fig) return w;
+            const c = find(w.child_views || []);
+            if (c) return c;
+          }
+          return null;
+        };
+        const v = find([...Bokeh.index.roots]);
+        const r = v.el.getBoundingClientRect();
+        return [r.left + v.frame.x_scale.compute(arguments[0]),
+                r.top + v.frame.y_scale.compute(arguments[1])];""", x, y))
+
+
+def _drag(page, start: tuple[float, float], steps: list[tuple[float, float]]) -> None:
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    ab = ActionBuilder(page, duration=20)
+    ab.pointer_action.move_to_location(round(start[0]), round(start[1]))
+    ab.pointer_action.pointer_down()
+    for x, y in steps:
+        ab.pointer_action.move_to_location(round(x), round(y))
+    ab.pointer_action.pointer_up()
+    ab.perform()
+
+
+def test_mouse_drag_of_the_handles(page, fitted):
+    """A drag of the position square by the mouse moves the solution; dots and chi-square follow."""
+    meas, result = fitted
+    page.execute_script("window.tmaPage.reset()")
+    ml = page.execute_script("return window.tmaPage.state()")
+    hx, hy = page.execute_script(
+        "const d = Bokeh.documents[0].get_model_by_name('handles').data;"
+        "return [[d.x[0], d.x[1]], [d.y[0], d.y[1]]]")
+    x0, y0 = _screen(page, hx[0], hy[0])
+    _drag(page, (x0, y0), [(x0 + 6 * k, y0 + 4 * k) for k in range(1, 11)])
+    moved = page.execute_script("return window.tmaPage.state()")
+    assert np.hypot(moved[0] - ml[0], moved[1] - ml[1]) > 100.0  # the position moved ...
+    np.testing.assert_allclose(moved[3:5], ml[3:5], atol=1e-9)  # ... the velocity did not
+    east = moved[0] > ml[0]
+    south = moved[1] < ml[1]
+    assert east and south  # right and down on the map
+    chi2 = page.execute_script("return window.tmaPage.chi2()")
+    assert chi2 == pytest.approx(python_chi2(meas, result.motion, moved, SONAR), rel=1e-8)
+    timings = page.execute_script("return window.tmaPage.timings")
+    assert len(timings) >= 5  # the dots followed during the drag, not only at its end
+    # the velocity handle: course and speed change, the position stays
+    page.execute_script("window.tmaPage.reset()")
+    x1, y1 = _screen(page, hx[1], hy[1])
+    _drag(page, (x1, y1), [(x1 - 5 * k, y1) for k in range(1, 9)])
+    turned = page.execute_script("return window.tmaPage.state()")
+    np.testing.assert_allclose(turned[:2], ml[:2], atol=1e-6)
+    assert abs(turned[3] - ml[3]) > 0.1
+    assert page.execute_script("return window.tmaPage.chi2()") == pytest.approx(
+        python_chi2(meas, result.motion, turned, SONAR), rel=1e-8)
+    page.execute_script("window.tmaPage.reset()")
+    assert console_errors(page) == []
+
+
+def test_names_from_a_file_are_text(page):
+    """A track named like markup shows as text and runs nothing (no alert, no script)."""
+    text = page.find_element("tag name", "body").text
+    assert XSS in text
+    assert "OWN " + XSS in text
+    assert page.execute_script("return window.__pwned === undefined")
+    assert page.execute_script("return document.querySelectorAll('img[src=x]').length") == 0
+    page.switch_to.window(page.current_window_handle)  # an open alert would raise here
+    assert console_errors(page) == []
