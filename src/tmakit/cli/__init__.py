@@ -7,6 +7,8 @@
     tma crlb FILE --motion cv2d --truth x=..,y=.. [--known-nuisance] [--json]
     tma crlb SCENARIO [--known-nuisance] [--at T] [--json]
     tma estimate FILE [--motion cv2d] [--init x=..,y=..] [--method ml] [--json]
+                      [--html page.html] [--export solution.rep|.geojson|.kml]
+    tma report FILE -o page.html [the options of tma estimate]
     tma reproduce gu2007|doppler-lecture|hoerst2010|chen-sun|chan-ho1994|ho-xu2004 [--runs N]
     tma gdop LAYOUT.toml [--plot cep.png] [--points 100] [--half-width M] [--json]
     tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
@@ -38,6 +40,7 @@ from .importing import examples, import_
 from .montecarlo import montecarlo
 from .plain_help import PlainCommand
 from .plan import plan
+from .report import report
 from .reproduce import reproduce
 from .scenarios import demo, scenarios, show, simulate
 from .track import track
@@ -78,8 +81,8 @@ def _root(version: Annotated[bool, typer.Option(
 
 # Registered in this order: ``tma --help`` lists the commands in it.  Each is guarded: no
 # traceback reaches the user (tmakit.cli.guard).
-for _command in (scenarios, simulate, show, crlb, estimate, reproduce, montecarlo, track,
-                 plan, gdop, demo):
+for _command in (scenarios, simulate, show, crlb, estimate, report, reproduce, montecarlo,
+                 track, plan, gdop, demo):
     app.command(cls=PlainCommand)(guarded(_command))
 app.command(name="import", cls=PlainCommand)(guarded(import_))
 app.command(cls=PlainCommand)(guarded(examples))

@@ -64,6 +64,16 @@ from .legs_out import (
 )
 from .outputs import check_output
 from .reading import read_or_fail
+from .solution_out import (
+    ExportEveryOption,
+    ExportNameOption,
+    ExportOption,
+    ExportRbOption,
+    HtmlOption,
+    SolutionOutputs,
+    check_solution_outputs,
+    write_solution_outputs,
+)
 
 ExactOption = Annotated[bool, typer.Option(
     "--exact", help="curvilinear with M manoeuvres: fit exactly M (default: 0 to M)")]
@@ -73,6 +83,22 @@ ScaleSigmaOption = Annotated[bool, typer.Option(
 DimOption = Annotated[int | None, typer.Option(
     help="2 or 3: fit in 2-D, or in 3-D (the emitter off the sensors' plane); default: 3-D "
          "where the sensors fly or the data need the height (docs/estimation.md)")]
+
+CriterionOption = Annotated[str | None, typer.Option(
+    help="curvilinear: how the number of manoeuvres is chosen, bic (default) or lrt")]
+AlphaOption = Annotated[float | None, typer.Option(
+    help="curvilinear, --criterion lrt: level of the likelihood-ratio tests (default 0.01)")]
+AccelerationsOption = Annotated[str | None, typer.Option(
+    help="curvilinear: select (default: hold at zero the accelerations the data do not need, "
+         "by the same criterion) or all")]
+FromOption = Annotated[str | None, typer.Option(
+    "--from", help="solve one leg: first time (seconds, a UTC clock time, or HH:MM[:SS] on "
+                   "the data's day)")]
+ToOption = Annotated[str | None, typer.Option(
+    "--to", help="solve one leg: last time (seconds, a UTC clock time, or HH:MM[:SS] on "
+                 "the data's day)")]
+PlotOption = Annotated[Path | None, typer.Option(
+    help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, SVG)")]
 
 
 # `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -93,32 +119,21 @@ def estimate(
     frequency_sigma: FrequencySigmaOption = None,
     kinds: KindsOption = None, ranges: RangesOption = None,
     exact: ExactOption = False,
-    criterion: Annotated[str | None, typer.Option(
-        help="curvilinear: how the number of manoeuvres is chosen, bic (default) or lrt")
-    ] = None,
-    alpha: Annotated[float | None, typer.Option(
-        help="curvilinear, --criterion lrt: level of the likelihood-ratio tests "
-             "(default 0.01)")] = None,
-    accelerations: Annotated[str | None, typer.Option(
-        help="curvilinear: select (default: hold at zero the accelerations the data do not "
-             "need, by the same criterion) or all")] = None,
+    criterion: CriterionOption = None, alpha: AlphaOption = None,
+    accelerations: AccelerationsOption = None,
     dim: DimOption = None,
     at: AtOption = None, sensor: SensorOption = None,
     units: UnitsOption = "si",
     scale_sigma: ScaleSigmaOption = False,
-    start: Annotated[str | None, typer.Option(
-        "--from", help="solve one leg: first time (seconds, a UTC clock time, or HH:MM[:SS] on "
-                       "the data's day)")] = None,
-    stop: Annotated[str | None, typer.Option(
-        "--to", help="solve one leg: last time (seconds, a UTC clock time, or HH:MM[:SS] on "
-                     "the data's day)")] = None,
+    start: FromOption = None, stop: ToOption = None,
     leg: LegOption = None, snap: SnapOption = False,
     keep_turn_cuts: KeepTurnCutsOption = False, turn_rate: TurnRateOption = None,
     settle: SettleOption = None,
-    plot: Annotated[Path | None, typer.Option(
-        help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, "
-             "SVG)")] = None,
-    force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
+    plot: PlotOption = None,
+    html: HtmlOption = None, export: ExportOption = None,
+    export_every: ExportEveryOption = 60.0, export_rb: ExportRbOption = False,
+    export_name: ExportNameOption = None,
+    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
     as_json: JsonOption = False, sensor_position_sigma: SensorPositionSigmaOption = None,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
@@ -137,6 +152,8 @@ def estimate(
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
+    more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
+                                  export_name, taken=[plot])
     options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
                              frequency_sigma, kinds=kinds, ranges=ranges)
     meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
@@ -153,9 +170,11 @@ def estimate(
                                                                               free_exponent))
     answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
     warnings = result.warnings(meas)
+    more.options = model_options(drift, free_exponent)
+    more.title = f"{' + '.join(map(str, files))}: {result.method} estimate, {result.motion.name}"
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, " + ".join(map(str, files)),
-                                         model_options(drift, free_exponent)))
+                                         model_options(drift, free_exponent)), more=more)
 
 
 def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
@@ -514,7 +533,8 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
 def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                    units: str = "si", warnings: list[Any] | None = None,
                    factors: dict[str, float] | None = None,
-                   plot: tuple[Path | None, Path | str, Any] | None = None) -> None:
+                   plot: tuple[Path | None, Path | str, Any] | None = None,
+                   more: SolutionOutputs | None = None) -> None:
     """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer.
 
     Parameters
@@ -535,6 +555,8 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         ``--scale-sigma``'s factor per kind.
     plot : tuple, optional
         ``(picture path or None, measurement file, model options)``.
+    more : SolutionOutputs, optional
+        The solution page and exports (``--html``, ``--export``).
 
     Raises
     ------
@@ -574,6 +596,8 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
     print_warnings(warnings)
     if plot is not None and plot[0] is not None:
         draw_solution(meas, result, answer, plot, err if as_json else out, units)
+    if more:
+        write_solution_outputs(meas, result, more, trust.answer, err if as_json else out)
     if not trust.answer:
         raise typer.Exit(EXIT_NO_ANSWER)
 

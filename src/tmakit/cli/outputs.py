@@ -19,16 +19,21 @@ from typing import Any
 
 from .common import fail
 
-__all__ = ["PICTURE_SUFFIXES", "TABLE_SUFFIXES", "check_output", "check_outputs",
+__all__ = ["PAGE_SUFFIXES", "PICTURE_SUFFIXES", "SOLUTION_SUFFIXES", "TABLE_SUFFIXES",
+           "check_output", "check_outputs",
            "claim_outputs", "write_picture"]
 
 #: Suffixes of pictures (matplotlib's formats that tmakit promises).
 PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
 #: Suffixes of tables and measurement files (CSV, Parquet).
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
+#: Suffixes of the solution page (``--html``).
+PAGE_SUFFIXES = (".html", ".htm")
+#: Suffixes of an exported solution (``--export``: Debrief lines, GeoJSON, KML).
+SOLUTION_SUFFIXES = (".rep", ".geojson", ".kml")
 
 _FORMATS = {"picture": PICTURE_SUFFIXES, "table": TABLE_SUFFIXES, "json": None,
-            "measurements": None}
+            "measurements": None, "page": PAGE_SUFFIXES, "solution": SOLUTION_SUFFIXES}
 
 
 def check_output(path: Path | None, option: str, force: bool, kind: str = "table",
@@ -43,9 +48,10 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
         The option's name (``-o``, ``--plot``, ``--json``) for the messages.
     force : bool
         ``--force``: an existing file may be replaced.
-    kind : {"table", "measurements", "picture", "json"}
+    kind : {"table", "measurements", "picture", "json", "page", "solution"}
         What is written: tables take .csv/.parquet/.pq, measurement files a writable format
-        of the registry; pictures .png/.pdf/.svg (none given: .png); JSON any suffix.
+        of the registry; pictures .png/.pdf/.svg (none given: .png); JSON any suffix; the
+        solution page .html/.htm; an exported solution .rep/.geojson/.kml.
     inputs : iterable of Path, optional
         The files the command reads: never written over, even with ``--force`` (the
         command would destroy its own input, and a failure halfway would lose both).
@@ -77,7 +83,8 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
             raise fail(f"{option} {path}: unknown format {path.suffix or '(no suffix)'!r}; "
                        f"expected {', '.join(known)}")
     elif suffixes is not None and path.suffix.lower() not in suffixes:
-        said = ".csv or .parquet" if kind == "table" else ".png, .pdf or .svg"
+        said = {"table": ".csv or .parquet", "picture": ".png, .pdf or .svg",
+                "page": ".html", "solution": ".rep, .geojson or .kml"}[kind]
         raise fail(f"{option} {path}: unknown format {path.suffix or '(no suffix)'!r}; "
                    f"written as {said}")
     parent = path.parent

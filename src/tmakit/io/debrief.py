@@ -52,7 +52,7 @@ from .. import rules
 from ..data import MeasurementSet
 from .clock_text import seconds_of_time_text
 from .debrief_fixes import at_line, host_fixes, sensor_states
-from .debrief_lines import LineProblem, ParsedReplay, SensorLine, parse_replay_text
+from .debrief_lines import LineProblem, ParsedReplay, SensorLine, SolutionLine, parse_replay_text
 from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
@@ -60,7 +60,7 @@ from .log_rules import checked_rows
 from .logs import Fixes, LocalFrame, iso_utc, local_frame, relative_seconds, time_origin_ns
 
 __all__ = ["DEFAULT_BEARING_SIGMA_DEG", "DEFAULT_FREQUENCY_SIGMA_HZ", "DEFAULT_RANGE_SIGMA_M",
-           "REPLAY", "read_replay", "replay_tracks"]
+           "REPLAY", "read_replay", "replay_solutions", "replay_tracks"]
 
 #: Bearing noise standard deviation (deg) when none is given: replay files carry no sigma.
 DEFAULT_BEARING_SIGMA_DEG = 1.0
@@ -96,6 +96,7 @@ def _load(paths: list[Path]) -> ParsedReplay:
         merged.sensors += one.sensors
         merged.problems += one.problems
         merged.carries += one.carries
+        merged.solutions += one.solutions
     return merged
 
 
@@ -132,6 +133,32 @@ def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
                      "speed": np.array([t.speed_kn for t in mine]),
                      "line": np.array([t.line for t in mine], np.int64)}
     return out
+
+
+def replay_solutions(path: ReplayPaths) -> list[SolutionLine]:
+    """Read the TMA solution points of a replay file (``;TMA_POS:`` and ``;TMA_RB:`` lines).
+
+    Parameters
+    ----------
+    path : str or os.PathLike, or a sequence of them
+        The ``.rep`` or ``.dsf`` file(s).
+
+    Returns
+    -------
+    list of SolutionLine
+        In file order (positions in degrees, ellipse semi-axes and ranges in yards, speeds in
+        knots, as the file writes them).
+
+    Raises
+    ------
+    MeasurementFileError
+        If a line breaks the format (naming its line).
+    """
+    paths, where = _paths(path)
+    parsed = _load(paths)
+    if parsed.problems:
+        raise MeasurementFileError(where, [_problem(p) for p in parsed.problems])
+    return parsed.solutions
 
 
 def _problem(p: LineProblem) -> str:

@@ -16,6 +16,14 @@ SENSOR [label]``
 FREQUENCY_ACCURACY RANGE SENSOR [label]``
     a contact with its accuracies: the bearing's (degrees) and the frequency's (Hz), each or
     ``NULL``; tmakit takes an accuracy as the standard deviation of its value.
+``;TMA_POS: YYMMDD HHMMSS[.SSS] VESSEL SYMBOLOGY LAT LON SOLUTION ELLIPSE COURSE SPEED DEPTH
+[label]``
+    a TMA solution point (Debrief's ``ImportTMA_Pos``): ``ELLIPSE`` is ``ORIENTATION MAXIMA
+    MINIMA`` (degrees true of the major axis; semi-axes in yards) or ``NULL``.
+``;TMA_RB: YYMMDD HHMMSS[.SSS] VESSEL SYMBOLOGY BEARING RANGE SOLUTION ELLIPSE COURSE SPEED
+DEPTH [label]``
+    the same point by its bearing (degrees true) and range (yards) from the vessel
+    (``ImportTMA_RngBrg``).
 
 Fields are separated by spaces or tabs; names with spaces are in double quotes (spaces
 around a name are not part of it: ``" Frigate Optic5 "`` is ``Frigate Optic5``). Other lines
@@ -30,13 +38,15 @@ that a reader can tell a problem in the data it uses from one in a track it does
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
-__all__ = ["LineProblem", "ParsedReplay", "SensorLine", "TrackLine", "parse_replay_text"]
+__all__ = ["LineProblem", "ParsedReplay", "SensorLine", "SolutionLine", "TrackLine",
+           "parse_replay_text"]
 
 _TOKEN = re.compile(r'"[^"]*"|\S+')
 _NS = 1_000_000_000
 _VERSIONS = {";SENSOR:": 1, ";SENSOR2:": 2, ";SENSOR3:": 3}
+_SOLUTIONS = (";TMA_POS:", ";TMA_RB:")
 
 
 @dataclass(frozen=True)
@@ -111,6 +121,52 @@ class SensorLine:
     label: str
     bearing_accuracy: float | None = None
     frequency_accuracy: float | None = None
+    file: str = ""
+
+
+@dataclass(frozen=True)
+class SolutionLine:
+    """A ``;TMA_POS:`` or ``;TMA_RB:`` solution point (None where the line does not say).
+
+    Attributes
+    ----------
+    line : int
+        Line number in the file (1-based).
+    vessel : str
+        The track the solution belongs to (Debrief's "ownship name").
+    time_ns : int
+        Time, ns since the Unix epoch (UTC).
+    lat, lon : float or None
+        The solution's position, degrees (``;TMA_POS:``).
+    bearing, range_yd : float or None
+        Its bearing (degrees true) and range (yards) from the vessel (``;TMA_RB:``).
+    solution : str
+        The solution's name.
+    orientation, maxima_yd, minima_yd : float or None
+        The ellipse: its major axis (degrees true) and semi-axes (yards); None for ``NULL``.
+    course, speed_kn, depth : float
+        Course (degrees true), speed (knots), depth (m).
+    label : str
+        The rest of the line.
+    file : str
+        The file's name.
+    """
+
+    line: int
+    vessel: str
+    time_ns: int
+    lat: float | None
+    lon: float | None
+    bearing: float | None
+    range_yd: float | None
+    solution: str
+    orientation: float | None
+    maxima_yd: float | None
+    minima_yd: float | None
+    course: float
+    speed_kn: float
+    depth: float
+    label: str
     file: str = ""
 
 
@@ -257,6 +313,46 @@ def _sensor(tokens: list[str], line: int, version: int, carries: list[str]) -> S
                       values.get("bearing_accuracy"), values.get("frequency_accuracy"))
 
 
+def _solution(tokens: list[str], line: int, head: str, carries: list[str]) -> SolutionLine:
+    if len(tokens) < 4:
+        raise LineError("a solution line starts with date, time, vessel and symbology")
+    time_ns = _clock(tokens[0], tokens[1])
+    lat = lon = bearing = range_yd = None
+    if head == ";TMA_POS:":
+        lat, lon = _position(tokens, 4, carries)
+        at = 12
+    else:
+        if len(tokens) < 6:
+            raise LineError("expected a bearing (degrees) and a range (yards), found the end "
+                            "of the line")
+        bearing = _number(tokens[4], "a bearing (degrees)")
+        range_yd = _number(tokens[5], "a range (yards)")
+        at = 6
+    if len(tokens) < at + 2:
+        raise LineError("expected the solution's name and its ellipse (or NULL)")
+    solution = _name(tokens[at])
+    ellipse: list[float | None] = [None, None, None]
+    at += 1
+    if not tokens[at].upper().startswith("N"):
+        if len(tokens) < at + 3:
+            raise LineError("expected the ellipse's orientation, maxima and minima")
+        ellipse = [_number(t, w) for t, w in zip(
+            tokens[at:at + 3], ("an orientation (degrees)", "a maxima (yards)",
+                                "a minima (yards)"), strict=True)]
+        at += 3
+    else:
+        at += 1
+    if len(tokens) < at + 3:
+        raise LineError("expected course, speed and depth after the ellipse")
+    course, speed, depth = (_number(t, w) for t, w in zip(
+        tokens[at:at + 3], ("a course (degrees)", "a speed (knots)", "a depth (m)"),
+        strict=True))
+    assert course is not None and speed is not None and depth is not None
+    return SolutionLine(line, _name(tokens[2]), time_ns, lat, lon, bearing, range_yd, solution,
+                        ellipse[0], ellipse[1], ellipse[2], course, speed, depth,
+                        " ".join(_name(t) for t in tokens[at + 3:]))
+
+
 @dataclass
 class ParsedReplay:
     """The lines of one or more replay files, parsed.
@@ -271,17 +367,20 @@ class ParsedReplay:
         Every line that breaks the format.
     carries : list of LineProblem
         Each position written with a minute or second of 60 (a carry), as written.
+    solutions : list of SolutionLine
+        The ``;TMA_POS:`` and ``;TMA_RB:`` solution points, in file order.
     """
 
     tracks: list[TrackLine]
     sensors: list[SensorLine]
     problems: list[LineProblem]
     carries: list[LineProblem]
+    solutions: list[SolutionLine] = field(default_factory=list)
 
 
 def _owner(tokens: list[str], head: str) -> str | None:
     """Return the track a line belongs to, if the line has that field (for problems)."""
-    at = 3 if head in _VERSIONS else 2
+    at = 3 if head in _VERSIONS or head in _SOLUTIONS else 2
     return _name(tokens[at]) if len(tokens) > at else None
 
 
@@ -312,6 +411,9 @@ def parse_replay_text(text: str, file: str = "") -> ParsedReplay:
             if head in _VERSIONS:
                 s = _sensor(tokens[1:], number, _VERSIONS[head], carries)
                 out.sensors.append(replace(s, file=file))
+            elif head in _SOLUTIONS:
+                out.solutions.append(replace(_solution(tokens[1:], number, head, carries),
+                                             file=file))
             elif not line.startswith(";"):
                 out.tracks.append(replace(_track(tokens, number, carries), file=file))
         except LineError as e:
