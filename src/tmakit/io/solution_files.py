@@ -295,6 +295,8 @@ def write_solution(path: str | Path, meas: MeasurementSet, result: EstimateResul
     if suffix not in SOLUTION_SUFFIXES:
         raise ValueError(f"{path}: unknown solution format {suffix or '(no suffix)'!r}; "
                          f"expected {', '.join(SOLUTION_SUFFIXES)}")
+    if result.status != "converged" or not np.all(np.isfinite(result.estimate)):
+        raise ValueError(f"{path}: not written: the estimate is {result.status}, no solution")
     origin = origin_of(meas)
     if origin is None:
         raise ValueError(f"{path}: the measurements have no ENU origin (latitude/longitude): "
@@ -302,8 +304,6 @@ def write_solution(path: str | Path, meas: MeasurementSet, result: EstimateResul
     if suffix == ".rep" and clock_time(meas, 0.0) is None:
         raise ValueError(f"{path}: Debrief lines need clock times and the measurements have "
                          "no time origin")
-    if result.status != "converged" or not np.all(np.isfinite(result.estimate)):
-        raise ValueError(f"{path}: not written: the estimate is {result.status}, no solution")
     answers = solution_answers(meas, result, every, sensor, level)
     if any(a.geodetic is None or None in a.geodetic[:2] for a in answers):
         raise ValueError(f"{path}: not written: the data do not determine the position")
