@@ -124,7 +124,7 @@ def _check_geojson(doc):
 
 
 def test_geojson_is_a_valid_feature_collection(contact, tmp_path):
-    folder, meas, result = contact
+    _, meas, result = contact
     out = write_solution(tmp_path / "s.geojson", meas, result, every=600.0)
     text = out.read_text()
     doc = json.loads(text)
@@ -147,7 +147,7 @@ def test_geojson_is_a_valid_feature_collection(contact, tmp_path):
 
 
 def test_kml_names_are_text(contact, tmp_path):
-    folder, meas, result = contact
+    _, meas, result = contact
     out = write_solution(tmp_path / "s.kml", meas, result, every=900.0, name=XSS)
     root = ET.parse(out).getroot()
     ns = {"k": "http://www.opengis.net/kml/2.2"}
@@ -175,7 +175,7 @@ def test_never_overwritten_without_force(contact, tmp_path):
 
 
 def test_refusals_name_the_option(contact, tmp_path):
-    folder, meas, result = contact
+    folder = contact[0]
     base = ["estimate", str(folder / "contact.rep"), "--motion", "cv2d"]
     r = runner.invoke(app, [*base, "--export", str(tmp_path / "s.txt")])
     assert r.exit_code == 2 and "--export" in r.output and ".rep, .geojson or .kml" in r.output
@@ -204,7 +204,7 @@ def test_no_origin_or_no_answer_is_said(tmp_path):
 
 
 def test_estimate_html_writes_the_page(contact, tmp_path):
-    folder, meas, result = contact
+    folder = contact[0]
     out = tmp_path / "page.html"
     r = runner.invoke(app, ["report", str(folder / "contact.rep"), "--motion", "cv2d",
                             "-o", str(out)])

@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from browser import chromium, console_errors, needs_browser, open_page
 
 import tmakit as tk
 from tmakit.batch.varpro import VarProProblem
 from tmakit.observation import ObservationModel
 from tmakit.results import normalised_residuals
 from tmakit.solution_page import write_solution_page
-
-from browser import chromium, console_errors, needs_browser, open_page
 
 pytestmark = needs_browser
 
@@ -89,8 +88,8 @@ def page(tmp_path_factory, fitted, browser):
 
 def test_page_loads_without_console_errors_and_offline(page, fitted, tmp_path_factory):
     assert console_errors(page) == []
-    sources = page.execute_script(
-        "return [...document.querySelectorAll('script[src], link[href]')].map(e => e.src || e.href)")
+    sources = page.execute_script("return [...document.querySelectorAll('script[src], "
+                                  "link[href]')].map(e => e.src || e.href)")
     assert sources == []  # every script inline: nothing to fetch
 
 

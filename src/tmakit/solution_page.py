@@ -30,7 +30,7 @@ from .results import EstimateResult, normalised_residuals
 from .results.answers import estimate_answer
 from .results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 from .results.own_legs import sensor_legs
-from .solution_plot import _ellipse
+from .solution_plot import ellipse_points
 
 __all__ = ["DRAG_KINDS", "MAX_FAN_LINES", "solution_page_html", "write_solution_page"]
 
@@ -63,13 +63,13 @@ def _drag_refusal(meas: MeasurementSet, result: EstimateResult, obs: Observation
 
 
 def _state6(result: EstimateResult) -> list[float]:
-    """The solution's ENU state ``[x y z vx vy vz]`` at the motion's reference time."""
+    """Give the solution's ENU state ``[x y z vx vy vz]`` at its reference time."""
     ref = float(getattr(result.motion, "ref_time", 0.0))
     return [float(v) for v in result.motion.states(result.estimate, np.array([ref]))[0]]
 
 
 def _reach(frame: MapFrame, xs: list[np.ndarray], ys: list[np.ndarray]) -> float:
-    """A bearing line's length (m): 1.3 times the larger side of what else is drawn."""
+    """Give a bearing line's length (m): 1.3 times the larger side of the rest."""
     x = np.concatenate([np.ravel(v) for v in xs])
     y = np.concatenate([np.ravel(v) for v in ys])
     x, y = x[np.isfinite(x)], y[np.isfinite(y)]
@@ -105,7 +105,7 @@ class _Page:
         return self.t0_ms + 1000.0 * np.asarray(t, float) if self.clock else np.asarray(t, float)
 
     def label(self, t: float) -> str:
-        """A time in words: UTC clock time or seconds."""
+        """Give a time in words: UTC clock time or seconds."""
         c = clock_time(self.meas, t)
         return c[11:19] + " UTC" if c else f"t = {t:.0f} s"
 
@@ -125,7 +125,7 @@ class _Page:
         return out
 
     def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int]:
-        """The bearing lines (map coordinates), at most :data:`MAX_FAN_LINES`, and the cuts."""
+        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`) and the cuts."""
         rows = np.flatnonzero(self.meas.kind == "bearing")
         if rows.size == 0:
             return [], [], 0
@@ -142,7 +142,7 @@ class _Page:
         return xs, ys, int(rows.size)
 
     def track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The estimated track: times (s) and map coordinates over the data's span."""
+        """Give the estimated track: times (s) and map coordinates over the data's span."""
         t = np.linspace(self.meas.time.min(), self.meas.time.max(), 200)
         t = np.union1d(t, [self.ref_time])
         st = self.result.motion.states(self.result.estimate, t)
@@ -150,7 +150,7 @@ class _Page:
         return t, x, y
 
     def ellipses(self) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
-        """The position ellipses at labelled times (map coordinates) and their labels."""
+        """Give the position ellipses at labelled times (map coordinates), labelled."""
         xs, ys, words = [], [], []
         times = np.linspace(self.meas.time.min(), self.meas.time.max(), self.labels)
         if type(self.result.motion).__name__ == "Stationary":
@@ -161,7 +161,7 @@ class _Page:
             if a.ellipse is None or not np.all(np.isfinite(cov)):
                 continue
             s = self.result.motion.states(self.result.estimate, np.array([tk]))[0]
-            pts = _ellipse(cov, self.level) + s[:2]
+            pts = ellipse_points(cov, self.level) + s[:2]
             x, y = self.frame.xy(pts[:, 0], pts[:, 1])
             xs.append(x)
             ys.append(y)
@@ -169,7 +169,7 @@ class _Page:
         return xs, ys, words
 
     def rows(self) -> dict[str, np.ndarray]:
-        """The rows the page's model needs (set order; SI)."""
+        """Give the rows the page's model needs (set order; SI)."""
         m = self.meas
         kind = np.full(len(m), -1, dtype=np.int32)
         for k, code in DRAG_KINDS.items():
@@ -180,7 +180,7 @@ class _Page:
                 "su": st[:, 2], "sve": st[:, 3], "svn": st[:, 4], "svu": st[:, 5]}
 
     def config(self, tau: float) -> dict[str, Any]:
-        """The page model's constants."""
+        """Give the page model's constants."""
         freq = self.obs.models.get("frequency")
         fr = self.meas.kind_mask("frequency") if freq is not None else None
         ref = float(np.mean(self.meas.value_si[fr])) if fr is not None and fr.any() else 0.0
@@ -218,7 +218,7 @@ def _escaped(text: object) -> str:
 
 
 def _header(page: _Page, title: str) -> str:
-    """The page's heading and the data it shows, escaped (file names and sensor names)."""
+    """Give the page's heading and the data it shows, escaped (file and sensor names)."""
     m, r = page.meas, page.result
     counts = ", ".join(f"{int(m.kind_mask(k).sum())} {_escaped(k)}" for k in m.kinds)
     sensors = ", ".join(_escaped(s) for s in m.sensors)
@@ -234,7 +234,7 @@ def _header(page: _Page, title: str) -> str:
 
 
 def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
-    """The geography: sensor tracks and legs, bearing fan, track, ellipses, handles."""
+    """Draw the geography: sensor tracks and legs, bearing fan, track, ellipses, handles."""
     from bokeh.models import ColumnDataSource, PointDrawTool
     from bokeh.plotting import figure
 
@@ -291,7 +291,7 @@ def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
 
 
 def _dots_figures(page: _Page, width: int) -> tuple[list[Any], dict[str, Any], dict[str, Any]]:
-    """One panel of stacked dots per kind, the bands at ±1σ and ±3σ."""
+    """Draw one panel of stacked dots per kind, the bands at ±1σ and ±3σ."""
     from bokeh.models import BoxAnnotation, ColumnDataSource, Range1d, Span
     from bokeh.plotting import figure
 

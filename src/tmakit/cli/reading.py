@@ -16,7 +16,7 @@ __all__ = ["log_options", "only_kinds", "parse_kinds", "read_or_fail"]
 
 
 def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | None = None,
-                 **options: Any) -> Any:
+                 notes: bool = True, **options: Any) -> Any:
     """Read a measurement file (or several read as one), errors as ``error: ...``.
 
     The reader's notes and warnings (a position's 60 seconds read as a carry, cuts left out,
@@ -29,6 +29,8 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
         Debrief files read as one replay (a sensor file and the own ship's track file).
     origin : tuple of float, optional
         ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
+    notes : bool
+        Print the reader's notes (a live watch prints them on its first read only).
     **options
         The reader's options (:func:`reader_options`): ``format``, ``ownship``,
         ``contact``, ``mapping``, ``bearing_sigma``, ``range_sigma``, ``frequency_sigma``,
@@ -70,7 +72,8 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
 
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
     for note in reader_notes(meas.metadata, pop=True):
-        err.print(note, highlight=False, markup=False, soft_wrap=True)
+        if notes:
+            err.print(note, highlight=False, markup=False, soft_wrap=True)
     if origin is not None and "origin_lat" not in meas.metadata:
         err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
                   "gives ENU positions, so it is not used", highlight=False)

@@ -16,11 +16,13 @@ import typer
 from .common import fail
 
 HtmlOption = Annotated[Path | None, typer.Option(
-    "--html", metavar="FILE", help="write the interactive solution page (one self-contained .html file): map, "
-                   "bearing fan, ellipses and stacked dots; drag the solution in the page")]
+    "--html", metavar="FILE",
+    help="write the interactive solution page (one self-contained .html file): map, bearing "
+         "fan, ellipses and stacked dots; drag the solution in the page")]
 ExportOption = Annotated[list[Path] | None, typer.Option(
-    "--export", metavar="FILE", help="write the solution as Debrief ;TMA_POS: lines (.rep), GeoJSON "
-                     "(.geojson) or KML (.kml); may be given several times")]
+    "--export", metavar="FILE",
+    help="write the solution as Debrief ;TMA_POS: lines (.rep), GeoJSON (.geojson) or KML "
+         "(.kml); may be given several times")]
 ExportEveryOption = Annotated[float, typer.Option(
     "--export-every", metavar="SECONDS", help="seconds between the exported solution points")]
 ExportRbOption = Annotated[bool, typer.Option(
@@ -123,7 +125,7 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
         write_picture(outputs.html, outputs.force, lambda tmp: write_solution_page(
             meas, result, tmp, options=outputs.options, title=outputs.title))
         say.print(f"wrote {outputs.html} (open it in a browser: no network needed)",
-                  highlight=False)
+                  highlight=False, soft_wrap=True)
     if not outputs.exports:
         return
     if not answers:
@@ -141,4 +143,4 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
             raise fail(f"{path} already exists; use --force to overwrite it") from None
         except ValueError as e:
             raise fail(f"--export {e}") from None
-        say.print(f"wrote {path}", highlight=False)
+        say.print(f"wrote {path}", highlight=False, soft_wrap=True)

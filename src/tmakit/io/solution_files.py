@@ -94,13 +94,13 @@ def _dms(value: float, hemispheres: str, width: int) -> str:
 
 
 def _token(name: str) -> str:
-    """A name as one token of a replay line (quoted where it has spaces; no quote inside)."""
+    """Give a name as one token of a replay line (quoted where it has spaces; no quote inside)."""
     name = name.replace('"', "'").strip() or "-"
     return f'"{name}"' if re.search(r"\s", name) else name
 
 
 def _solution_token(name: str) -> str:
-    """A solution's name as Debrief reads it: one token, unquoted (spaces become ``_``)."""
+    """Give a solution's name as Debrief reads it: one token, unquoted (spaces become ``_``)."""
     return re.sub(r"\s+", "_", name.strip()).replace('"', "'") or "TMAKIT"
 
 
@@ -128,7 +128,7 @@ def _motion_tokens(a: Answer) -> str:
 
 def rep_lines(answers: list[Answer], solution: str, label: str,
               range_bearing: bool = False) -> list[str]:
-    """The Debrief lines of a solution (``;TMA_POS:``, and ``;TMA_RB:`` when asked).
+    """Give the Debrief lines of a solution (``;TMA_POS:``; ``;TMA_RB:`` when asked).
 
     Parameters
     ----------
@@ -162,7 +162,7 @@ def rep_lines(answers: list[Answer], solution: str, label: str,
 
 def _ellipse_ring(a: Answer, origin: tuple[float, float, float], n: int = 72
                   ) -> list[list[float]] | None:
-    """The ellipse as a closed counter-clockwise ring of [lon, lat] (None without one)."""
+    """Give the ellipse as a closed counter-clockwise ring of [lon, lat] (None: none)."""
     e = a.ellipse
     if e is None or None in a.enu[:2]:
         return None
@@ -191,7 +191,7 @@ def _point_properties(a: Answer) -> dict[str, Any]:
 
 def geojson_document(answers: list[Answer], origin: tuple[float, float, float],
                      properties: dict[str, Any]) -> dict[str, Any]:
-    """The solution as an RFC 7946 FeatureCollection.
+    """Give the solution as an RFC 7946 FeatureCollection.
 
     Parameters
     ----------

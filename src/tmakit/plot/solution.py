@@ -27,8 +27,23 @@ NAUTICAL_MILE = 1852.0
 MAX_BEARING_LINES = 40
 
 
-def _ellipse(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
-    """Points ``(n, 2)`` (m, relative) of the confidence ellipse of a 2x2 covariance."""
+def ellipse_points(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
+    """Give the points of the confidence ellipse of a 2x2 position covariance.
+
+    Parameters
+    ----------
+    cov2 : ndarray, shape (2, 2)
+        The covariance (m^2).
+    level : float
+        The probability inside the ellipse (chi-square, 2 dof).
+    n : int
+        The number of points.
+
+    Returns
+    -------
+    ndarray, shape (n, 2)
+        East and North (m) relative to the centre; the last point is the first.
+    """
     from scipy.stats import chi2
 
     evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
@@ -81,7 +96,7 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
                     bbox={"fc": "white", "alpha": 0.7, "lw": 0, "pad": 1})
         cov2 = a.covariance[:2, :2]
         if a.ellipse is not None and np.all(np.isfinite(cov2)):
-            pts = _ellipse(cov2, level) + s[:2]
+            pts = ellipse_points(cov2, level) + s[:2]
             ex, ey = frame.xy(pts[:, 0], pts[:, 1])
             ax.plot(ex, ey, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
@@ -129,7 +144,7 @@ def _draw_other_solutions(ax: Any, result: EstimateResult, meas: MeasurementSet,
         a = sol.answer(meas, time=float(t[-1]), level=level)
         ax.plot(*frame.xy(states[-1:, 0], states[-1:, 1]), "o", color=colour, ms=4, zorder=5)
         if a.ellipse is not None and np.all(np.isfinite(a.covariance[:2, :2])):
-            pts = _ellipse(a.covariance[:2, :2], level) + states[-1, :2]
+            pts = ellipse_points(a.covariance[:2, :2], level) + states[-1, :2]
             ax.plot(*frame.xy(pts[:, 0], pts[:, 1]), color=colour, lw=0.9, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
     return largest
