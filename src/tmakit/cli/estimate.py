@@ -152,29 +152,25 @@ def estimate(
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
+    model = model_options(drift, free_exponent)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
-                                  export_name, taken=[plot])
+                                  export_name, taken=[plot], options=model, files=files)
     options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
                              frequency_sigma, kinds=kinds, ranges=ranges)
     meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
-                 model_options(drift, free_exponent),
-                 (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
+                 model, (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
     result, meas = fit_leg_by_leg(meas, fit, (keep_turn_cuts, settle, turn_rate), as_json,
                                   record_legs)
     factors = None
     if scale_sigma:
-        meas, result, factors = refit_scaled(meas, result, fit, model_options(drift,
-                                                                              free_exponent))
+        meas, result, factors = refit_scaled(meas, result, fit, model)
     answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
     warnings = result.warnings(meas)
-    more.options = model_options(drift, free_exponent)
-    more.title = f"{' + '.join(map(str, files))}: {result.method} estimate, {result.motion.name}"
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
-                   factors=factors, plot=(plot, " + ".join(map(str, files)),
-                                         model_options(drift, free_exponent)), more=more)
+                   factors=factors, plot=(plot, " + ".join(map(str, files)), model), more=more)
 
 
 def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],

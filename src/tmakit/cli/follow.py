@@ -12,7 +12,6 @@ written is kept whole.
 
 from __future__ import annotations
 
-import os
 import queue
 import sys
 import tempfile
@@ -203,7 +202,3 @@ def follow(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bo
             raise
     return updates
 
-
-def pid_note() -> str:
-    """``(process N)``: how to stop a watch from another terminal."""
-    return f"(process {os.getpid()}: Ctrl-C or kill -TERM {os.getpid()} stops it)"

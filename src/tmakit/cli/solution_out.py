@@ -34,7 +34,23 @@ ExportNameOption = Annotated[str | None, typer.Option(
 
 @dataclass
 class SolutionOutputs:
-    """The page and exports asked for, checked (see :func:`check_solution_outputs`)."""
+    """The page and exports asked for, checked (see :func:`check_solution_outputs`).
+
+    Attributes
+    ----------
+    html : Path or None
+        ``--html``.
+    exports : list of Path
+        ``--export``.
+    every, range_bearing, name
+        ``--export-every``, ``--export-rb``, ``--export-name``.
+    force : bool
+        ``--force``.
+    title : str
+        The page's heading (the files read; the method and motion are added).
+    options : dict
+        The measurement-model options of the fit.
+    """
 
     html: Path | None = None
     exports: list[Path] = field(default_factory=list)
@@ -53,7 +69,9 @@ class SolutionOutputs:
 def check_solution_outputs(html: Path | None, exports: list[Path] | None, force: bool,
                            inputs: list[Path], every: float = 60.0,
                            range_bearing: bool = False, name: str | None = None,
-                           taken: list[Path | None] | None = None) -> SolutionOutputs:
+                           taken: list[Path | None] | None = None,
+                           options: dict[str, Any] | None = None,
+                           files: list[Path] | None = None) -> SolutionOutputs:
     """Check ``--html`` and ``--export`` before any work.
 
     Parameters
@@ -70,6 +88,10 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
         ``--export-every``, ``--export-rb``, ``--export-name``.
     taken : list of Path or None, optional
         The command's other outputs: none of these may name the same file.
+    options : dict, optional
+        The measurement-model options of the fit.
+    files : list of Path, optional
+        The files read, for the page's heading.
 
     Returns
     -------
@@ -92,7 +114,32 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
                              *(("--export", p, "solution") for p in exports or [])],
                             force, inputs)[len(others):]
     return SolutionOutputs(html=checked[0], exports=[p for p in checked[1:] if p is not None],
-                           every=every, range_bearing=range_bearing, name=name, force=force)
+                           every=every, range_bearing=range_bearing, name=name, force=force,
+                           title=" + ".join(map(str, files or inputs)),
+                           options=dict(options or {}))
+
+
+def check_page(html: Path | None, force: bool, inputs: list[Path], plot: Path | None
+               ) -> Path | None:
+    """Check ``--html`` alone (``tma track``): :func:`check_solution_outputs` without exports.
+
+    Parameters
+    ----------
+    html : Path or None
+        ``--html``.
+    force : bool
+        ``--force``.
+    inputs : list of Path
+        The files read.
+    plot : Path or None
+        ``--plot``: not the same file.
+
+    Returns
+    -------
+    Path or None
+        The page to write.
+    """
+    return check_solution_outputs(html, None, force, inputs, taken=[plot]).html
 
 
 def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, answers: bool,
@@ -122,8 +169,9 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
     if outputs.html is not None:
         from ..solution_page import write_solution_page
 
+        title = f"{outputs.title}: {result.method} estimate, {result.motion.name}"
         write_picture(outputs.html, outputs.force, lambda tmp: write_solution_page(
-            meas, result, tmp, options=outputs.options, title=outputs.title))
+            meas, result, tmp, options=outputs.options, title=title))
         say.print(f"wrote {outputs.html} (open it in a browser: no network needed)",
                   highlight=False, soft_wrap=True)
     if not outputs.exports:
