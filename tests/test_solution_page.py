@@ -94,10 +94,16 @@ def test_page_loads_without_console_errors_and_offline(page, fitted, tmp_path_fa
 
 
 def test_ml_residuals_shown_equal_python(page, fitted):
+    """The dots drawn at the ML solution, as the page opens and as its model recomputes them."""
     meas, result = fitted
-    shown = np.array(page.execute_script("return window.tmaPage.shown()"), dtype=float)
     python = normalised_residuals(result, meas, SONAR)
+    shown = np.array(page.execute_script("return window.tmaPage.shown()"), dtype=float)
     assert np.all(np.isfinite(shown))
+    np.testing.assert_allclose(shown, python, rtol=0, atol=1e-6)
+    page.execute_script("window.tmaPage.moveBy(500, 500, 0, 0); window.tmaPage.reset()")
+    model = np.array(page.execute_script("return window.tmaPage.residuals()"), dtype=float)
+    np.testing.assert_allclose(model, python, rtol=0, atol=1e-6)
+    shown = np.array(page.execute_script("return window.tmaPage.shown()"), dtype=float)
     np.testing.assert_allclose(shown, python, rtol=0, atol=1e-6)
     chi2 = page.execute_script("return window.tmaPage.chi2()")
     assert chi2 == pytest.approx(result.chi2, rel=1e-9)
@@ -143,7 +149,9 @@ def _screen(page, x: float, y: float) -> tuple[float, float]:
                 r.top + v.frame.y_scale.compute(arguments[1])];""", x, y))
 
 
-def _drag(page, start: tuple[float, float], steps: list[tuple[float, float]]) -> None:
+def _drag(page, start: tuple[float, float], steps: list[tuple[float, float]],
+          release: bool = True) -> None:
+    """Drag by the mouse, then wait for the page's last update (made at the next frame)."""
     from selenium.webdriver.common.actions.action_builder import ActionBuilder
 
     ab = ActionBuilder(page, duration=20)
@@ -151,8 +159,30 @@ def _drag(page, start: tuple[float, float], steps: list[tuple[float, float]]) ->
     ab.pointer_action.pointer_down()
     for x, y in steps:
         ab.pointer_action.move_to_location(round(x), round(y))
+    if release:
+        ab.pointer_action.pointer_up()
+    ab.perform()
+    _settled(page)
+
+
+def _move_and_release(page, steps: list[tuple[float, float]]) -> None:
+    """Go on with a drag begun by :func:`_drag` (``release=False``), and let go."""
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    ab = ActionBuilder(page, duration=20)
+    for x, y in steps:
+        ab.pointer_action.move_to_location(round(x), round(y))
     ab.pointer_action.pointer_up()
     ab.perform()
+    _settled(page)
+
+
+def _settled(page) -> None:
+    page.execute_async_script("""
+        const done = arguments[arguments.length - 1];
+        (function wait() {
+          window.tmaPage.pending() ? requestAnimationFrame(wait) : done();
+        })();""")
 
 
 def test_mouse_drag_of_the_handles(page, fitted):
@@ -163,8 +193,14 @@ def test_mouse_drag_of_the_handles(page, fitted):
     hx, hy = page.execute_script(
         "const d = Bokeh.documents[0].get_model_by_name('handles').data;"
         "return [[d.x[0], d.x[1]], [d.y[0], d.y[1]]]")
+    assert page.execute_script("return window.tmaPage.toMap(...arguments)", ml[0], ml[1]) == (
+        pytest.approx([hx[0], hy[0]], abs=1e-9))  # the handle is the ML solution
     x0, y0 = _screen(page, hx[0], hy[0])
-    _drag(page, (x0, y0), [(x0 + 6 * k, y0 + 4 * k) for k in range(1, 11)])
+    _drag(page, (x0, y0), [(x0 + 6 * k, y0 + 4 * k) for k in range(1, 6)], release=False)
+    half = page.execute_script("return [window.tmaPage.state(), window.tmaPage.chi2()]")
+    assert half[0][0] > ml[0] + 50.0  # the dots follow during the drag, not at its end only
+    assert half[1] == pytest.approx(python_chi2(meas, result.motion, half[0], SONAR), rel=1e-8)
+    _move_and_release(page, [(x0 + 6 * k, y0 + 4 * k) for k in range(6, 11)])
     moved = page.execute_script("return window.tmaPage.state()")
     assert np.hypot(moved[0] - ml[0], moved[1] - ml[1]) > 100.0  # the position moved ...
     np.testing.assert_allclose(moved[3:5], ml[3:5], atol=1e-9)  # ... the velocity did not
@@ -173,8 +209,6 @@ def test_mouse_drag_of_the_handles(page, fitted):
     assert east and south  # right and down on the map
     chi2 = page.execute_script("return window.tmaPage.chi2()")
     assert chi2 == pytest.approx(python_chi2(meas, result.motion, moved, SONAR), rel=1e-8)
-    timings = page.execute_script("return window.tmaPage.timings")
-    assert len(timings) >= 5  # the dots followed during the drag, not only at its end
     # the velocity handle: course and speed change, the position stays
     page.execute_script("window.tmaPage.reset()")
     x1, y1 = _screen(page, hx[1], hy[1])
@@ -191,7 +225,7 @@ def test_mouse_drag_of_the_handles(page, fitted):
 def test_names_from_a_file_are_text(page):
     """A track named like markup shows as text and runs nothing (no alert, no script)."""
     text = page.find_element("tag name", "body").text
-    assert XSS in text
+    assert f"file {XSS}.rep" in text
     assert "OWN " + XSS in text
     assert page.execute_script("return window.__pwned === undefined")
     assert page.execute_script("return document.querySelectorAll('img[src=x]').length") == 0

@@ -108,6 +108,7 @@ function tmaSolutionPage(a) {
     return chi2;
   }
 
+  const stats = document.getElementById("tma-stats");
   const ml = cfg.ml.slice();
   const cur = ml.slice();
   const tau = cfg.tau;  // s: the velocity handle sits at position + velocity * tau
@@ -152,20 +153,29 @@ function tmaSolutionPage(a) {
     return s + "<br>" + per.join("; ");
   }
 
-  function update() {
-    const t0 = performance.now();
+  // a.dots: one source per kind and sensor ({kind: name, source}); a.ranges[kind]: its y range
+  function update(since) {
+    const t0 = since === undefined ? performance.now() : since;
+    const tStart = performance.now();
     chi2 = residuals(cur);
-    for (const k of cfg.kinds) {  // the stacked dots of each kind
-      const src = a.dots[k.name], idx = src.data.row, zz = src.data.z;
-      let big = 4;
+    const tModel = performance.now();
+    const big = {};
+    for (const d of a.dots) {  // the stacked dots
+      const idx = d.source.data.row, zz = d.source.data.z;
+      let m = big[d.kind] || 4;
       for (let j = 0; j < idx.length; j++) {
         zz[j] = z[idx[j]];
-        if (Math.abs(zz[j]) * 1.1 > big) big = Math.abs(zz[j]) * 1.1;
+        const v = Math.abs(zz[j]) * 1.1;
+        if (v > m) m = v;
       }
-      src.change.emit();
-      const yr = a.ranges[k.name];
-      yr.start = -big; yr.end = big;
+      big[d.kind] = m;
+      d.source.change.emit();
     }
+    for (const kind in big) {  // a new scale only when the dots leave it or shrink well inside
+      const yr = a.ranges[kind];
+      if (big[kind] > yr.end || big[kind] < 0.5 * yr.end) { yr.start = -big[kind]; yr.end = big[kind]; }
+    }
+    const tDots = performance.now();
     const tt = a.track.data.t, tx = a.track.data.x, ty = a.track.data.y;
     for (let j = 0; j < tt.length; j++) {
       const dt = tt[j] - cfg.ref_time;
@@ -173,14 +183,19 @@ function tmaSolutionPage(a) {
       tx[j] = p[0]; ty[j] = p[1];
     }
     a.track.change.emit();
-    a.stats.text = words();
+    const tTrack = performance.now();
+    stats.innerHTML = words();  // numbers and fixed words only
     const t1 = performance.now();
     requestAnimationFrame(() => {
-      timings.push({compute_ms: t1 - t0, painted_ms: performance.now() - t0});
+      timings.push({model_ms: tModel - tStart, dots_ms: tDots - tModel,
+                    track_ms: tTrack - tDots, stats_ms: t1 - tTrack, compute_ms: t1 - tStart,
+                    painted_ms: performance.now() - t0});
     });
   }
 
-  // A drag of the handles (Bokeh's PointDrawTool edits their data in place).
+  // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution
+  // follows at once, its dots and chi-square at the next frame (one update per frame).
+  let pending = null;
   function onHandles() {
     if (busy || !cfg.draggable) return;
     const d = a.handles.data;
@@ -200,7 +215,10 @@ function tmaSolutionPage(a) {
       for (let j = 0; j < xy[0].length; j++) { d.x[j] = xy[0][j]; d.y[j] = xy[1][j]; }
       last = [xy[0].slice(), xy[1].slice()];
       a.stick.data = {x: xy[0], y: xy[1]};
-      update();
+      if (pending === null) {
+        pending = performance.now();
+        requestAnimationFrame(() => { const t = pending; pending = null; update(t); });
+      }
     } finally {
       busy = false;
     }
@@ -215,6 +233,8 @@ function tmaSolutionPage(a) {
   const api = {
     ready: true,
     onHandles: onHandles,
+    // whether a drag's update is still to come (at the next frame)
+    pending: () => pending !== null,
     reset: () => { if (cfg.draggable) setState(ml); },
     // for scripted use and tests: move the solution at the reference time by (dE, dN) m and
     // its velocity by (dvE, dvN) m/s
@@ -225,9 +245,9 @@ function tmaSolutionPage(a) {
     // the residuals drawn, per row of the set (NaN for a row not drawn)
     shown: () => {
       const out = new Array(n).fill(NaN);
-      for (const name of cfg.all_kinds) {
-        const d = a.dots[name].data;
-        for (let j = 0; j < d.row.length; j++) out[d.row[j]] = d.z[j];
+      for (const d of a.dots) {
+        const dd = d.source.data;
+        for (let j = 0; j < dd.row.length; j++) out[dd.row[j]] = dd.z[j];
       }
       return out;
     },
@@ -237,8 +257,11 @@ function tmaSolutionPage(a) {
     toMap: toMap,
     fromMap: fromMap,
   };
-  placeHandles();
-  if (cfg.draggable) update();  // (else the dots stay those Python drew)
+  // The handles and the dots are drawn from Python at the ML solution (the same numbers);
+  // only the words are made here.
+  last = [a.handles.data.x.slice(), a.handles.data.y.slice()];
+  if (cfg.draggable) { chi2 = residuals(cur); stats.innerHTML = words(); }
   api.readyAt = performance.now();
+  requestAnimationFrame(() => { api.paintedAt = performance.now(); });
   return api;
 }

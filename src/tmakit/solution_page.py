@@ -200,6 +200,17 @@ class _Page:
                       if k in DRAG_KINDS],
         }
 
+    def handles(self, config: dict[str, Any]) -> dict[str, list[Any]]:
+        """Give the handles' data: the position at the reference time, the velocity's end."""
+        s, tau = config["ml"], config["tau"]
+        east, north = [s[0]], [s[1]]
+        if config["moving"]:
+            east.append(s[0] + s[3] * tau)
+            north.append(s[1] + s[4] * tau)
+        x, y = self.frame.xy(np.array(east), np.array(north))
+        return {"x": [float(v) for v in x], "y": [float(v) for v in y],
+                "m": ["square", "circle"][:len(east)]}
+
     def tau(self, x: np.ndarray, y: np.ndarray) -> float:
         """Seconds ahead of the velocity handle: its stick a sixth of the map's width."""
         s = _state6(self.result) if self.has_track else [0.0] * 6
@@ -290,13 +301,16 @@ def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
     return fig, parts
 
 
-def _dots_figures(page: _Page, width: int) -> tuple[list[Any], dict[str, Any], dict[str, Any]]:
+def _dots_figures(page: _Page, width: int) -> tuple[list[Any], list[dict[str, Any]],
+                                                   dict[str, Any]]:
     """Draw one panel of stacked dots per kind, the bands at ±1σ and ±3σ."""
     from bokeh.models import BoxAnnotation, ColumnDataSource, Range1d, Span
     from bokeh.plotting import figure
 
     m = page.meas
-    figs, sources, ranges = [], {}, {}
+    figs: list[Any] = []
+    sources: list[dict[str, Any]] = []
+    ranges: dict[str, Any] = {}
     height = max(180, min(300, 600 // max(len(m.kinds), 1)))
     shared = None
     for kind in m.kinds:
@@ -317,14 +331,16 @@ def _dots_figures(page: _Page, width: int) -> tuple[list[Any], dict[str, Any], d
             fig.add_layout(Span(location=y, dimension="width", line_color="red",
                                 line_dash="dotted"))
         sensors = m.sensor[rows]
-        colour = np.empty(rows.size, dtype=object)
-        for k, s in enumerate(m.sensors):
-            colour[sensors == s] = _COLOURS[k % len(_COLOURS)]
-        src = ColumnDataSource({"x": page.when(m.time[rows]), "z": z.astype(float),
-                                "row": rows.astype(np.int32), "c": list(colour)})
-        fig.scatter("x", "z", source=src, size=4, color="c")
+        for k, name in enumerate(m.sensors):
+            mine = sensors == name
+            if not mine.any():
+                continue
+            src = ColumnDataSource({"x": page.when(m.time[rows[mine]]),
+                                    "z": z[mine].astype(float),
+                                    "row": rows[mine].astype(np.int32)})
+            fig.scatter("x", "z", source=src, size=4, color=_COLOURS[k % len(_COLOURS)])
+            sources.append({"kind": kind, "source": src})
         figs.append(fig)
-        sources[kind] = src
         ranges[kind] = yr
     return figs, sources, ranges
 
@@ -354,43 +370,51 @@ def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
     str
         The page: Bokeh's JavaScript inline, no network needed to open it.
     """
+    from bokeh.document import Document
     from bokeh.embed import file_html
     from bokeh.layouts import column, row
-    from bokeh.models import Button, CustomJS, Div
+    from bokeh.models import Button, ColumnDataSource, CustomJS
     from bokeh.resources import INLINE
 
     page = _Page(meas, result, options, level, labels)
-    header = Div(text=_header(page, title or f"{result.method} estimate"), width=1200)
     fig, parts = _map_figure(page)
     dots, sources, ranges = _dots_figures(page, 560)
-    stats = Div(text="", width=560)
     button = Button(label="back to ML solution", button_type="primary", width=200,
                     disabled=bool(page.refusal))
-    widgets = [*dots, stats, button]
     if "handles" in parts:
-        from bokeh.models import ColumnDataSource
-
         config = page.config(parts["tau"])
-        rows = ColumnDataSource(page.rows())
+        parts["handles"].data = page.handles(config)
+        parts["stick"].data = {k: parts["handles"].data[k] for k in ("x", "y")}
         script = resources.files("tmakit").joinpath("solution_page.js").read_text("utf-8")
-        args = {"config": config, "rows": rows, "handles": parts["handles"],
-                "stick": parts["stick"], "track": parts["track"], "dots": sources,
-                "ranges": ranges, "stats": stats}
-        ready = CustomJS(args=args, code=script + "\nwindow.tmaPage = tmaSolutionPage({"
-                         + ", ".join(f"{k}: {k}" for k in args) + "});")
+        args = {"config": config, "rows": ColumnDataSource(page.rows()),
+                "handles": parts["handles"], "stick": parts["stick"], "track": parts["track"],
+                "dots": sources, "ranges": ranges}
+        ready = CustomJS(args=args, code="const entered = performance.now();\n" + script
+                         + "\nwindow.tmaPage = tmaSolutionPage({"
+                         + ", ".join(f"{k}: {k}" for k in args) + "});"
+                         + "\nwindow.tmaPage.enteredAt = entered;")
         parts["handles"].js_on_change("change", CustomJS(
             code="if (window.tmaPage) window.tmaPage.onHandles();"))
         button.js_on_event("button_click", CustomJS(code="window.tmaPage.reset();"))
     else:
         ready = CustomJS(code="window.tmaPage = {ready: true, timings: [], "
-                              "readyAt: performance.now()};")
-    layout = column(header, row(fig, column(*widgets)))
-    from bokeh.document import Document
-
+                              "readyAt: performance.now()}; requestAnimationFrame(() => "
+                              "{ window.tmaPage.paintedAt = performance.now(); });")
     doc = Document()
-    doc.add_root(layout)
+    doc.add_root(row(fig, column(*dots, button)))
     doc.js_on_event("document_ready", ready)
-    return file_html(doc, INLINE, title="tmakit solution page")
+    # The heading and the live numbers are plain HTML above the plots (escaped here: file
+    # names and sensor names are text); Bokeh's layout is not redone when the numbers change.
+    return file_html(doc, INLINE, title="tmakit solution page", template=_TEMPLATE,
+                     template_variables={"tma_head": _header(page, title or
+                                                             f"{result.method} estimate")})
+
+
+_TEMPLATE = """{% block contents %}
+<div style="font-family: sans-serif; font-size: 13px; margin: 6px 10px">{{ tma_head | safe }}
+<div id="tma-stats" style="margin-top: 4px"></div></div>
+{{ super() }}
+{% endblock %}"""
 
 
 def write_solution_page(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,

@@ -1,0 +1,123 @@
+"""The solution page's figures in a real headless Chromium (issue 29: the page).
+
+* open: from navigation start to the page ready and painted (``performance.now()`` in the page
+  at the first animation frame after the page's model has drawn the ML solution's dots), for a
+  page of ``--cuts`` bearings (10,000 by default), over ``--repeat`` fresh loads;
+* drag: a real mouse drag of the solution's position handle (selenium's pointer actions, 20
+  moves); for each move the page records, with ``performance.now()``, the time from the drag
+  event to the next animation frame after the dots, the track and the chi-square were
+  updated (``painted_ms``), and the computation alone (``compute_ms``).
+
+Needs Debian's ``chromium`` and ``chromium-driver`` (``.ci/run`` installs them) and selenium
+(the test extra).  Medians and maxima; the machine's load is printed beside them.
+
+    PYTHONPATH=src python benchmarks/solution_page.py [--cuts 10000] [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+import tmakit as tk
+from tmakit.solution_page import write_solution_page
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from browser import CHROMIUM, chromium, console_errors, open_page
+
+
+def cuts(n: int, seed: int = 1) -> tk.MeasurementSet:
+    """``n`` bearings (1 deg) of a CV contact from a weaving own ship over 6 h, seeded."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 6 * 3600.0, n)
+    state = np.zeros((n, 6))
+    state[:, 0] = 3000.0 * np.sin(t / 900.0)
+    state[:, 1] = 4.0 * t
+    state[:, 3] = 3000.0 / 900.0 * np.cos(t / 900.0)
+    state[:, 4] = 4.0
+    truth = tk.ConstantVelocity(2).states(np.array([20000.0, 30000.0, -3.0, 1.0]), t)
+    b = np.arctan2(truth[:, 0] - state[:, 0], truth[:, 1] - state[:, 1])
+    sigma = np.full(n, np.radians(1.0))
+    meta = {"origin_lat": "50.0", "origin_lon": "-4.0", "origin_alt": "0.0",
+            "time_origin": "2026-05-04T06:00:00Z"}
+    return tk.MeasurementSet.from_si(t, np.full(n, "OWNSHIP"), np.full(n, "bearing"),
+                                     b + sigma * rng.normal(size=n), sigma, state,
+                                     metadata=meta)
+
+
+def drag_timings(driver) -> list[dict[str, float]]:
+    """Drag the position handle by the mouse (20 moves); the page's timings of each update."""
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    x0, y0 = driver.execute_script("""
+        const fig = Bokeh.documents[0].get_model_by_name('map');
+        const d = Bokeh.documents[0].get_model_by_name('handles').data;
+        const find = (views) => {
+          for (const w of views) {
+            if (w.model === fig) return w;
+            const c = find(w.child_views || []);
+            if (c) return c;
+          }
+          return null;
+        };
+        const v = find([...Bokeh.index.roots]);
+        const r = v.el.getBoundingClientRect();
+        return [r.left + v.frame.x_scale.compute(d.x[0]), r.top + v.frame.y_scale.compute(d.y[0])];
+    """)
+    driver.execute_script("window.tmaPage.timings.length = 0")
+    ab = ActionBuilder(driver, duration=30)
+    ab.pointer_action.move_to_location(round(x0), round(y0))
+    ab.pointer_action.pointer_down()
+    for k in range(1, 21):
+        ab.pointer_action.move_to_location(round(x0 + 4 * k), round(y0 + 3 * k))
+    ab.pointer_action.pointer_up()
+    ab.perform()
+    driver.execute_async_script("requestAnimationFrame(() => requestAnimationFrame("
+                                "arguments[arguments.length - 1]))")
+    return driver.execute_script("return window.tmaPage.timings")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--cuts", type=int, default=10_000)
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    if CHROMIUM is None:
+        raise SystemExit("no chromium binary: apt-get install -y chromium chromium-driver")
+    meas = cuts(args.cuts)
+    result = tk.estimate(meas, tk.ConstantVelocity(2, ref_time=3 * 3600.0))
+    with tempfile.TemporaryDirectory() as folder:
+        path = write_solution_page(meas, result, Path(folder) / "page.html")
+        size = path.stat().st_size
+        opened, drags, computes = [], [], []
+        with chromium() as driver:
+            for _ in range(args.repeat):
+                open_page(driver, path)
+                driver.execute_async_script(
+                    "const done = arguments[arguments.length - 1];"
+                    "(function wait() { window.tmaPage.paintedAt ? done() : "
+                    "requestAnimationFrame(wait); })()")
+                opened.append(driver.execute_script("return window.tmaPage.paintedAt"))
+                t = drag_timings(driver)
+                drags += [x["painted_ms"] for x in t]
+                computes += [x["compute_ms"] for x in t]
+            errors = console_errors(driver)
+    print(f"page: {args.cuts} cuts ({result.status}, chi2/dof {result.chi2 / result.dof:.2f}), "
+          f"{size / 1e6:.2f} MB, Chromium {CHROMIUM}; load average "
+          f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    print(f"open (navigation start to ready and painted): median {np.median(opened):.0f} ms, "
+          f"max {np.max(opened):.0f} ms over {len(opened)} loads (goal <= 1000 ms)")
+    print(f"drag (mouse event to dots, track and chi2 painted): median {np.median(drags):.1f} "
+          f"ms, 95th percentile {np.percentile(drags, 95):.1f} ms, max {np.max(drags):.1f} ms "
+          f"over {len(drags)} updates (goal <= 50 ms); computation alone median "
+          f"{np.median(computes):.2f} ms")
+    print(f"console errors: {len(errors)}")
+
+
+if __name__ == "__main__":
+    main()
