@@ -28,7 +28,14 @@ import tmakit as tk
 from tmakit.solution_page import write_solution_page
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from browser import CHROMIUM, chromium, console_errors, open_page
+from browser import (
+    CHROMIUM,
+    chromium,
+    console_errors,
+    drag_handle,
+    open_page,
+    painted,
+)
 
 
 def cuts(n: int, seed: int = 1) -> tk.MeasurementSet:
@@ -50,38 +57,6 @@ def cuts(n: int, seed: int = 1) -> tk.MeasurementSet:
                                      metadata=meta)
 
 
-def drag_timings(driver) -> list[dict[str, float]]:
-    """Drag the position handle by the mouse (20 moves); the page's timings of each update."""
-    from selenium.webdriver.common.actions.action_builder import ActionBuilder
-
-    x0, y0 = driver.execute_script("""
-        const fig = Bokeh.documents[0].get_model_by_name('map');
-        const d = Bokeh.documents[0].get_model_by_name('handles').data;
-        const find = (views) => {
-          for (const w of views) {
-            if (w.model === fig) return w;
-            const c = find(w.child_views || []);
-            if (c) return c;
-          }
-          return null;
-        };
-        const v = find([...Bokeh.index.roots]);
-        const r = v.el.getBoundingClientRect();
-        return [r.left + v.frame.x_scale.compute(d.x[0]), r.top + v.frame.y_scale.compute(d.y[0])];
-    """)
-    driver.execute_script("window.tmaPage.timings.length = 0")
-    ab = ActionBuilder(driver, duration=30)
-    ab.pointer_action.move_to_location(round(x0), round(y0))
-    ab.pointer_action.pointer_down()
-    for k in range(1, 21):
-        ab.pointer_action.move_to_location(round(x0 + 4 * k), round(y0 + 3 * k))
-    ab.pointer_action.pointer_up()
-    ab.perform()
-    driver.execute_async_script("requestAnimationFrame(() => requestAnimationFrame("
-                                "arguments[arguments.length - 1]))")
-    return driver.execute_script("return window.tmaPage.timings")
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cuts", type=int, default=10_000)
@@ -98,12 +73,8 @@ def main() -> None:
         with chromium() as driver:
             for _ in range(args.repeat):
                 open_page(driver, path)
-                driver.execute_async_script(
-                    "const done = arguments[arguments.length - 1];"
-                    "(function wait() { window.tmaPage.paintedAt ? done() : "
-                    "requestAnimationFrame(wait); })()")
-                opened.append(driver.execute_script("return window.tmaPage.paintedAt"))
-                t = drag_timings(driver)
+                opened.append(painted(driver))
+                t = drag_handle(driver)
                 drags += [x["painted_ms"] for x in t]
                 computes += [x["compute_ms"] for x in t]
             errors = console_errors(driver)

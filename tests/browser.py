@@ -58,3 +58,69 @@ def open_page(driver: Any, path: Path, timeout: float = 60.0) -> float:
 def console_errors(driver: Any) -> list[dict[str, Any]]:
     """The browser console's errors (and severe messages) since the last call."""
     return [e for e in driver.get_log("browser") if e["level"] in ("SEVERE", "ERROR")]
+
+
+#: The viewport position of a point of the page's map (Bokeh's view of the figure ``map``).
+SCREEN_OF = """
+    const fig = Bokeh.documents[0].get_model_by_name('map');
+    const find = (views) => {
+      for (const w of views) {
+        if (w.model === fig) return w;
+        const c = find(w.child_views || []);
+        if (c) return c;
+      }
+      return null;
+    };
+    const v = find([...Bokeh.index.roots]);
+    const r = v.el.getBoundingClientRect();
+    return [r.left + v.frame.x_scale.compute(arguments[0]),
+            r.top + v.frame.y_scale.compute(arguments[1])];"""
+
+
+def screen_of(driver: Any, x: float, y: float) -> tuple[float, float]:
+    """The browser's viewport coordinates of a point of the map (lon, lat or km)."""
+    sx, sy = driver.execute_script(SCREEN_OF, x, y)
+    return float(sx), float(sy)
+
+
+def settled(driver: Any) -> None:
+    """Wait until the page has made the update a drag asked for (at the next frame)."""
+    driver.execute_async_script("""
+        const done = arguments[arguments.length - 1];
+        (function wait() {
+          window.tmaPage.pending() ? requestAnimationFrame(wait) : done();
+        })();""")
+
+
+def painted(driver: Any) -> float:
+    """Wait for the page's first frame after it was ready; give its time (ms since navigation)."""
+    driver.execute_async_script(
+        "const done = arguments[arguments.length - 1];"
+        "(function wait() { window.tmaPage.paintedAt ? done() : requestAnimationFrame(wait); })()")
+    return float(driver.execute_script("return window.tmaPage.paintedAt"))
+
+
+def drag_handle(driver: Any, moves: int = 20, step: tuple[float, float] = (4.0, 3.0)
+                ) -> list[dict[str, float]]:
+    """Drag the solution's position handle by the mouse; give the page's timings of the drag.
+
+    Each timing is one update of the dots: ``painted_ms`` from the drag event to the next
+    animation frame after the update, ``compute_ms`` the update's own work.
+    """
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+
+    hx, hy = driver.execute_script(
+        "const d = Bokeh.documents[0].get_model_by_name('handles').data; return [d.x[0], d.y[0]]")
+    x0, y0 = screen_of(driver, hx, hy)
+    driver.execute_script("window.tmaPage.timings.length = 0")
+    ab = ActionBuilder(driver, duration=30)
+    ab.pointer_action.move_to_location(round(x0), round(y0))
+    ab.pointer_action.pointer_down()
+    for k in range(1, moves + 1):
+        ab.pointer_action.move_to_location(round(x0 + step[0] * k), round(y0 + step[1] * k))
+    ab.pointer_action.pointer_up()
+    ab.perform()
+    settled(driver)
+    driver.execute_async_script("requestAnimationFrame(() => requestAnimationFrame("
+                                "arguments[arguments.length - 1]))")
+    return list(driver.execute_script("return window.tmaPage.timings"))

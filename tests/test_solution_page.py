@@ -7,9 +7,20 @@ solution the page shows; names from a file are text, never markup.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
-from browser import chromium, console_errors, needs_browser, open_page
+from browser import (
+    chromium,
+    console_errors,
+    drag_handle,
+    needs_browser,
+    open_page,
+    painted,
+    screen_of,
+    settled,
+)
 
 import tmakit as tk
 from tmakit.batch.varpro import VarProProblem
@@ -131,24 +142,6 @@ def test_scripted_drag_chi2_equals_python(page, fitted):
                                                                                rel=1e-9)
 
 
-def _screen(page, x: float, y: float) -> tuple[float, float]:
-    """The browser's viewport coordinates of a point of the map (Bokeh's view of the map)."""
-    return tuple(page.execute_script("""
-        const fig = Bokeh.documents[0].get_model_by_name('map');
-        const find = (views) => {
-          for (const w of views) {
-            if (w.model === fig) return w;
-            const c = find(w.child_views || []);
-            if (c) return c;
-          }
-          return null;
-        };
-        const v = find([...Bokeh.index.roots]);
-        const r = v.el.getBoundingClientRect();
-        return [r.left + v.frame.x_scale.compute(arguments[0]),
-                r.top + v.frame.y_scale.compute(arguments[1])];""", x, y))
-
-
 def _drag(page, start: tuple[float, float], steps: list[tuple[float, float]],
           release: bool = True) -> None:
     """Drag by the mouse, then wait for the page's last update (made at the next frame)."""
@@ -162,7 +155,7 @@ def _drag(page, start: tuple[float, float], steps: list[tuple[float, float]],
     if release:
         ab.pointer_action.pointer_up()
     ab.perform()
-    _settled(page)
+    settled(page)
 
 
 def _move_and_release(page, steps: list[tuple[float, float]]) -> None:
@@ -174,15 +167,7 @@ def _move_and_release(page, steps: list[tuple[float, float]]) -> None:
         ab.pointer_action.move_to_location(round(x), round(y))
     ab.pointer_action.pointer_up()
     ab.perform()
-    _settled(page)
-
-
-def _settled(page) -> None:
-    page.execute_async_script("""
-        const done = arguments[arguments.length - 1];
-        (function wait() {
-          window.tmaPage.pending() ? requestAnimationFrame(wait) : done();
-        })();""")
+    settled(page)
 
 
 def test_mouse_drag_of_the_handles(page, fitted):
@@ -195,7 +180,7 @@ def test_mouse_drag_of_the_handles(page, fitted):
         "return [[d.x[0], d.x[1]], [d.y[0], d.y[1]]]")
     assert page.execute_script("return window.tmaPage.toMap(...arguments)", ml[0], ml[1]) == (
         pytest.approx([hx[0], hy[0]], abs=1e-9))  # the handle is the ML solution
-    x0, y0 = _screen(page, hx[0], hy[0])
+    x0, y0 = screen_of(page, hx[0], hy[0])
     _drag(page, (x0, y0), [(x0 + 6 * k, y0 + 4 * k) for k in range(1, 6)], release=False)
     half = page.execute_script("return [window.tmaPage.state(), window.tmaPage.chi2()]")
     assert half[0][0] > ml[0] + 50.0  # the dots follow during the drag, not at its end only
@@ -211,7 +196,7 @@ def test_mouse_drag_of_the_handles(page, fitted):
     assert chi2 == pytest.approx(python_chi2(meas, result.motion, moved, SONAR), rel=1e-8)
     # the velocity handle: course and speed change, the position stays
     page.execute_script("window.tmaPage.reset()")
-    x1, y1 = _screen(page, hx[1], hy[1])
+    x1, y1 = screen_of(page, hx[1], hy[1])
     _drag(page, (x1, y1), [(x1 - 5 * k, y1) for k in range(1, 9)])
     turned = page.execute_script("return window.tmaPage.state()")
     np.testing.assert_allclose(turned[:2], ml[:2], atol=1e-6)
@@ -231,3 +216,30 @@ def test_names_from_a_file_are_text(page):
     assert page.execute_script("return document.querySelectorAll('img[src=x]').length") == 0
     page.switch_to.window(page.current_window_handle)  # an open alert would raise here
     assert console_errors(page) == []
+
+
+def test_the_page_figures_are_measured_for_10000_cuts(tmp_path, browser, capsys):
+    """Open time and drag latency of a 10,000-cut page, as measured in the page (printed, not
+    asserted: wall-clock time depends on the machine; benchmarks/solution_page.py reports)."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from solution_page import cuts
+
+    meas = cuts(10_000)
+    result = tk.estimate(meas, tk.ConstantVelocity(2, ref_time=3 * 3600.0))
+    path = write_solution_page(meas, result, tmp_path / "big.html")
+    open_page(browser, path)
+    opened = painted(browser)
+    timings = drag_handle(browser)
+    assert console_errors(browser) == []
+    assert opened > 0 and timings
+    assert all(t["painted_ms"] >= t["compute_ms"] >= 0 for t in timings)
+    moved = browser.execute_script("return window.tmaPage.state()")
+    assert browser.execute_script("return window.tmaPage.chi2()") == pytest.approx(
+        python_chi2(meas, result.motion, moved, {}), rel=1e-8)
+    with capsys.disabled():
+        drags = sorted(t["painted_ms"] for t in timings)
+        print(f"\n10,000 cuts: opened in {opened:.0f} ms; drag updates painted in "
+              f"{drags[len(drags) // 2]:.1f} ms (median of {len(drags)}), "
+              f"max {drags[-1]:.1f} ms")
