@@ -243,3 +243,21 @@ def test_the_page_figures_are_measured_for_10000_cuts(tmp_path, browser, capsys)
         print(f"\n10,000 cuts: opened in {opened:.0f} ms; drag updates painted in "
               f"{drags[len(drags) // 2]:.1f} ms (median of {len(drags)}), "
               f"max {drags[-1]:.1f} ms")
+
+
+def test_ambiguous_cuts_are_drawn_on_both_sides(tmp_path, fitted, browser):
+    """A towed array's cuts: the side fitted and its mirror twin, both in the fan."""
+    meas, result = fitted
+    if not hasattr(meas, "with_ambiguous"):
+        pytest.skip("ambiguous cuts (MeasurementSet.with_ambiguous) are not in this tree yet")
+    bearing = meas.kind_mask("bearing")
+    twin = np.where(bearing, np.pi / 3 - meas.value_si, np.nan)  # mirrored about 30 deg
+    twinned = meas.with_ambiguous(twin)
+    path = write_solution_page(twinned, result, tmp_path / "ambiguous.html", options=SONAR)
+    open_page(browser, path)
+    assert console_errors(browser) == []
+    legends = browser.execute_script(
+        "return Bokeh.documents[0].get_model_by_name('map').legend[0].items"
+        ".map(i => i.label.value)")
+    assert "ambiguous cuts: the other side" in legends
+    assert any("the side fitted" in x for x in legends)

@@ -124,22 +124,30 @@ class _Page:
                         "leg_n": [str(i + 1) for i in range(len(starts))]})
         return out
 
-    def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int]:
-        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`) and the cuts."""
+    def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int,
+                                         list[np.ndarray], list[np.ndarray]]:
+        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`) and the cuts.
+
+        Ambiguous cuts (a towed array's, ``MeasurementSet.ambiguous_si``) give their other
+        side too: the last two lists, the twins of the lines drawn (empty without any).
+        """
         rows = np.flatnonzero(self.meas.kind == "bearing")
         if rows.size == 0:
-            return [], [], 0
+            return [], [], 0, [], []
         pick = rows[np.unique(np.linspace(0, rows.size - 1, min(rows.size, MAX_FAN_LINES))
                               .round().astype(int))]
-        b = self.meas.value_si[pick]
-        start = self.meas.sensor_state[pick, :2]
+        twins = getattr(self.meas, "ambiguous_si", None)
         u = np.linspace(0.0, 1.0, 12)
-        xs, ys = [], []
-        for (e0, n0), bb in zip(start, b, strict=True):
-            x, y = self.frame.xy(e0 + reach * u * np.sin(bb), n0 + reach * u * np.cos(bb))
-            xs.append(x)
-            ys.append(y)
-        return xs, ys, int(rows.size)
+        xs, ys, tx, ty = [], [], [], []
+        for r in pick:
+            e0, n0 = self.meas.sensor_state[r, :2]
+            for b, (lx, ly) in ((self.meas.value_si[r], (xs, ys)),
+                                (np.nan if twins is None else twins[r], (tx, ty))):
+                if np.isfinite(b):
+                    x, y = self.frame.xy(e0 + reach * u * np.sin(b), n0 + reach * u * np.cos(b))
+                    lx.append(x)
+                    ly.append(y)
+        return xs, ys, int(rows.size), tx, ty
 
     def track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Give the estimated track: times (s) and map coordinates over the data's span."""
@@ -260,10 +268,14 @@ def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
     t, tx, ty = (page.track() if page.has_track else (np.zeros(0), np.zeros(0), np.zeros(0)))
     ex, ey, _ = (page.ellipses() if page.has_track and page.result.status == "converged"
                  else ([], [], []))
-    fan_x, fan_y, cuts = page.fan(_reach(f, [*xs, tx, *ex], [*ys, ty, *ey]))
+    fan_x, fan_y, cuts, twin_x, twin_y = page.fan(_reach(f, [*xs, tx, *ex], [*ys, ty, *ey]))
+    if twin_x:
+        fig.multi_line(twin_x, twin_y, color="#7f7f7f", alpha=0.35, line_width=0.7,
+                       line_dash="dashed", legend_label="ambiguous cuts: the other side")
     if fan_x:
+        side = ", the side fitted" if twin_x else ""
         fig.multi_line(fan_x, fan_y, color="#ff7f0e", alpha=0.35, line_width=0.7,
-                       legend_label=f"bearings ({len(fan_x)} of {cuts} cuts drawn)")
+                       legend_label=f"bearings ({len(fan_x)} of {cuts} cuts drawn{side})")
     for tr in tracks:
         fig.line(tr["x"], tr["y"], color=tr["colour"], line_width=2, legend_label=tr["name"])
         fig.scatter(tr["x"][:1], tr["y"][:1], marker="triangle", size=9, color=tr["colour"])
