@@ -144,3 +144,22 @@ def test_follow_refusals(contact, tmp_path):
     grow.write_text("".join(contact))
     r = runner.invoke(app, ["track", "--follow", str(grow), "--max-updates", "0"])
     assert r.exit_code == 2 and "--max-updates" in r.output
+
+
+def test_follow_a_growing_csv_file(tmp_path):
+    """A CSV file written row by row (a recorder's log): the header first, then the rows."""
+    full = tmp_path / "obs.csv"
+    r = CliRunner().invoke(app, ["simulate", "bearings-only-2d", "--seed", "2", "-o", str(full)])
+    assert r.exit_code == 0, r.output
+    lines = full.read_text().splitlines(keepends=True)
+    head = [x for x in lines if x.startswith("#")]
+    body = [x for x in lines if not x.startswith("#")]
+    grow = tmp_path / "grow.csv"
+    grow.write_text("".join(head + body[:301]))  # the header row and 300 rows
+    w = Watch(str(grow), "--interval", "0.05", "--max-updates", "2")
+    first = w.next_update()
+    with open(grow, "a") as f:
+        f.write("".join(body[301:]))
+    second = w.next_update()
+    assert w.proc.wait(timeout=HANG) == 0
+    assert _rows(first) == 300 and _rows(second) == len(body) - 1

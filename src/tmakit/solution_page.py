@@ -202,7 +202,7 @@ class _Page:
             "draggable": not self.refusal, "tau": tau,
             "c": float(getattr(freq, "c", 1.0)), "carrier_ref": ref,
             "ml_chi2": float(self.result.chi2), "n_used": len(self.meas),
-            "dof": max(len(self.meas) - n_par, 1),
+            "dof": self.result.dof if self.result.dof > 0 else max(len(self.meas) - n_par, 1),
             "all_kinds": list(self.meas.kinds),
             "kinds": [{"name": k, "code": DRAG_KINDS[k]} for k in self.meas.kinds
                       if k in DRAG_KINDS],
