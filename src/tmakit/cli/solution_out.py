@@ -109,10 +109,13 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
         raise fail(f"--export-every {every:g}: expected seconds > 0")
     if range_bearing and not any(Path(p).suffix.lower() == ".rep" for p in exports or []):
         raise fail("--export-rb adds ;TMA_RB: lines to a .rep export: give --export FILE.rep")
-    others = [("--plot", p, "picture") for p in (taken or []) if p is not None]
-    checked = check_outputs([*others, ("--html", html, "page"),
+    checked = check_outputs([("--html", html, "page"),
                              *(("--export", p, "solution") for p in exports or [])],
-                            force, inputs)[len(others):]
+                            force, inputs)
+    plots = {Path(p).resolve() for p in taken or [] if p is not None}
+    for option, p in zip(["--html", *["--export"] * len(exports or [])], checked, strict=True):
+        if p is not None and p.resolve() in plots:
+            raise fail(f"{option} {p}: the same file as --plot")
     return SolutionOutputs(html=checked[0], exports=[p for p in checked[1:] if p is not None],
                            every=every, range_bearing=range_bearing, name=name, force=force,
                            title=" + ".join(map(str, files or inputs)),
