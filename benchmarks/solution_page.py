@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import tmakit as tk
-from tmakit.solution_page import write_solution_page
+from tmakit.plot.page import write_solution_page
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from browser import (

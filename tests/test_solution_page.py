@@ -25,8 +25,8 @@ from browser import (
 import tmakit as tk
 from tmakit.batch.varpro import VarProProblem
 from tmakit.observation import ObservationModel
+from tmakit.plot.page import write_solution_page
 from tmakit.results import normalised_residuals
-from tmakit.solution_page import write_solution_page
 
 pytestmark = needs_browser
 

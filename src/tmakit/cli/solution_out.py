@@ -170,7 +170,7 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
     from .outputs import write_picture
 
     if outputs.html is not None:
-        from ..solution_page import write_solution_page
+        from ..plot.page import write_solution_page
 
         title = f"{outputs.title}: {result.method} estimate, {result.motion.name}"
         write_picture(outputs.html, outputs.force, lambda tmp: write_solution_page(

@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
-from ..geodesy import enu_to_geodetic
 from ..results import EstimateResult
 from ..results.answers import KNOT, Answer, estimate_answer
 from ..results.context import clock_time, origin_of

@@ -4,6 +4,8 @@
 * :mod:`.solution` — :func:`plot_solution`, the map and residuals of one estimate.
 * :mod:`.gdop` — :func:`~.gdop.cep_map` and :func:`~.gdop.plot_cep_map`, CEP50/CEP90 of a
   sensor layout over a grid (``tma gdop``).
+* :mod:`.page` — :func:`~tmakit.plot.page.write_solution_page`, the interactive solution page
+  of ``tma estimate --html`` (Bokeh; imported on use, not here).
 * :mod:`.frame` — what the pictures share: a lat/lon map at true scale with a scale bar, a UTC
   time axis.
 

@@ -6,7 +6,7 @@ ellipses and, at the reference time, the solution's handles.  Right, the stacked
 panel per measurement kind, the residuals in units of sigma against clock time.  The analyst
 drags the solution's position (the square) and its velocity (the circle at the end of the
 course-and-speed stick, ``tau`` seconds ahead); the dots, the chi-square and the answers
-follow at once, computed in the page by ``solution_page.js`` (the point kinds' measurement
+follow at once, computed in the page by ``page.js`` (the point kinds' measurement
 model: bearing, range, frequency with its carrier eliminated); "back to ML" restores the fit.
 
 Drawn with Bokeh, its JavaScript embedded (no network needed to open the page).  Every text
@@ -23,19 +23,19 @@ from typing import Any
 
 import numpy as np
 
-from .data import MeasurementSet
-from .observation import ObservationModel
-from .plot_frame import MapFrame
-from .results import EstimateResult, normalised_residuals
-from .results.answers import estimate_answer
-from .results.context import TIME_ORIGIN_KEY, clock_time, origin_of
-from .results.own_legs import sensor_legs
-from .solution_plot import ellipse_points
+from ..data import MeasurementSet
+from ..observation import ObservationModel
+from ..results import EstimateResult, normalised_residuals
+from ..results.answers import estimate_answer
+from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
+from ..results.own_legs import sensor_legs
+from .frame import MapFrame
+from .solution import ellipse_points
 
 __all__ = ["DRAG_KINDS", "MAX_FAN_LINES", "solution_page_html", "write_solution_page"]
 
 #: The kinds whose residuals the page recomputes as the solution is dragged, by their code in
-#: the page's model (``solution_page.js``).
+#: the page's model (``page.js``).
 DRAG_KINDS = {"bearing": 0, "range": 1, "frequency": 2}
 #: At most this many bearing lines are drawn in the fan (evenly spread over the cuts).
 MAX_FAN_LINES = 300
@@ -138,7 +138,10 @@ class _Page:
                               .round().astype(int))]
         twins = getattr(self.meas, "ambiguous_si", None)
         u = np.linspace(0.0, 1.0, 12)
-        xs, ys, tx, ty = [], [], [], []
+        xs: list[np.ndarray] = []
+        ys: list[np.ndarray] = []
+        tx: list[np.ndarray] = []
+        ty: list[np.ndarray] = []
         for r in pick:
             e0, n0 = self.meas.sensor_state[r, :2]
             for b, (lx, ly) in ((self.meas.value_si[r], (xs, ys)),
@@ -397,7 +400,7 @@ def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
         config = page.config(parts["tau"])
         parts["handles"].data = page.handles(config)
         parts["stick"].data = {k: parts["handles"].data[k] for k in ("x", "y")}
-        script = resources.files("tmakit").joinpath("solution_page.js").read_text("utf-8")
+        script = resources.files("tmakit.plot").joinpath("page.js").read_text("utf-8")
         args = {"config": config, "rows": ColumnDataSource(page.rows()),
                 "handles": parts["handles"], "stick": parts["stick"], "track": parts["track"],
                 "dots": sources, "ranges": ranges}
