@@ -69,7 +69,8 @@ def python_chi2(meas: tk.MeasurementSet, motion: tk.MotionModel, state: list[flo
     """Python's chi-square at a CV state (x, y, z, vx, vy, vz), the carrier eliminated."""
     problem = VarProProblem(ObservationModel(meas, motion, options))
     y = problem.group(meas.value_si)[None]
-    theta = np.array([[state[0], state[1], state[3], state[4]]])
+    theta = np.array([[state[0], state[1], state[3], state[4]] if motion.n_params == 4
+                      else state[:motion.n_params]])
     ev = problem.evaluate(theta, y, problem.reference_nuisance(y), with_jacobian=False)
     return float(2.0 * np.ravel(ev.cost)[0])
 
@@ -261,3 +262,22 @@ def test_ambiguous_cuts_are_drawn_on_both_sides(tmp_path, fitted, browser):
         ".map(i => i.label.value)")
     assert "ambiguous cuts: the other side" in legends
     assert any("the side fitted" in x for x in legends)
+
+
+def test_a_stationary_solution_drags_by_its_position(tmp_path, browser):
+    """static2d: one handle (the position), the chi-square Python's for the position dragged."""
+    from bearing_sets import bearings
+
+    meas = bearings(tk.Stationary(2), np.array([6000.0, 9000.0]), 300, 4)
+    result = tk.estimate(meas, tk.Stationary(2))
+    assert result.status == "converged"
+    path = write_solution_page(meas, result, tmp_path / "static.html")
+    open_page(browser, path)
+    assert browser.execute_script(
+        "return Bokeh.documents[0].get_model_by_name('handles').data.x.length") == 1
+    browser.execute_script("window.tmaPage.moveBy(-700, 400, 0, 0)")
+    state = browser.execute_script("return window.tmaPage.state()")
+    assert state[3:] == [0, 0, 0]
+    assert browser.execute_script("return window.tmaPage.chi2()") == pytest.approx(
+        python_chi2(meas, result.motion, state, {}), rel=1e-8)
+    assert console_errors(browser) == []
