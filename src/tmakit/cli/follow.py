@@ -151,7 +151,7 @@ class GrowingFiles:
 
 
 def follow(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bool],
-           interval: float, max_updates: int | None, say: Any) -> int:
+           interval: float, max_updates: int | None, say: Any) -> None:
     """Run ``update`` on the snapshots each time the files grow, until told to stop.
 
     Parameters
@@ -169,11 +169,6 @@ def follow(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bo
         Stop after this many updates.
     say : rich.console.Console
         Where to report the stop.
-
-    Returns
-    -------
-    int
-        The number of updates made.
     """
     from .guard import Terminated
 
@@ -200,5 +195,4 @@ def follow(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bo
             say.print(f"stopped after {updates} complete update(s); the files written are "
                       "kept", highlight=False)
             raise
-    return updates
 

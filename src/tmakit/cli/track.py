@@ -5,6 +5,7 @@ Its table, JSON, file and picture.
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -42,10 +43,14 @@ from .common import (
     reader_options,
 )
 from .reading import read_or_fail
+from .solution_out import HtmlOption, check_page
 from .track_options import (
     ComponentOption,
+    FollowOption,
     HeightPriorOption,
+    IntervalOption,
     LagOption,
+    MaxUpdatesOption,
     ParticlesOption,
     QDensityOption,
     RangePriorOption,
@@ -108,41 +113,265 @@ def track(
         help="number of 90 %/95 % position ellipses drawn along the track")] = 8,
     rows: Annotated[int, typer.Option(help="rows of the summary table")] = 12,
     sensor: SensorOption = None, units: UnitsOption = "si",
+    html: HtmlOption = None, follow: FollowOption = False,
+    interval: IntervalOption = 1.0, max_updates: MaxUpdatesOption = None,
     force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
 
     No initial guess: a batch estimate over the shortest good initial window (or --prior);
     gsf, or --range-prior / --speed-prior, start at the first bearing from those intervals.
+    With --html, the solution page of the batch estimate (constant velocity) of the data.
     """
-    from .. import tracking
-
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
                                        ellipses, rows, (*files, mapping))
     check_units(units)
-    meas = read_or_fail(files, parse_origin(origin), dim=dim, **reader_options(
-        format, ownship, contact, mapping, bearing_sigma, range_sigma, frequency_sigma,
-        kinds=kinds, ranges=ranges))
+    page = check_page(html, force, [*files], plot)
+    reading = (parse_origin(origin), dim, reader_options(format, ownship, contact, mapping,
+               bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges))
+    options = model_options(drift, free_exponent)
+    tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
+                      smooth=(smooth, lag), keywords=start_keywords(
+                          (prior, prior_std, nuisance, prior_time),
+                          (range_prior, speed_prior, height_prior), init_window, start_std,
+                          (particles, seed, component, smooth or lag is not None),
+                          filter_name, options))
+    name, say = Path(" + ".join(map(str, files))), err if as_json else out
+    if follow:
+        from .follow import follow as watch
+
+        return watch(list(files), format, Watch(tracked, name, output, plot, page, ellipses,
+                                                force, as_json, sensor, units, options),
+                     interval, max_updates, say)
+    meas, tr, truth = tracked(list(files))
+    report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
+    write_track_outputs(name, meas, tr, truth, output, plot, ellipses, force, say)
+    if page is not None:
+        write_track_page(meas, tr, page, force, options, name, say)
+
+
+def start_keywords(prior: tuple[str | None, str | None, str | None, float | None],
+                   bearing: tuple[str | None, float | None, str | None], init_window: int | None,
+                   start_std: float, filter_settings: tuple[int | None, int | None, str, bool],
+                   filter_name: str, options: dict[str, Any]) -> dict[str, Any]:
+    """Give the keywords of :func:`tmakit.tracking.track` that ``tma track``'s options set.
+
+    Parameters
+    ----------
+    prior : tuple
+        ``--prior``, ``--prior-std``, ``--nuisance``, ``--prior-time``.
+    bearing : tuple
+        ``--range-prior``, ``--speed-prior``, ``--height-prior``.
+    init_window, start_std
+        ``--init-window``, ``--start-std``.
+    filter_settings : tuple
+        ``--particles``, ``--seed``, ``--component`` and whether a smoother is asked for.
+    filter_name : str
+        ``--filter``.
+    options : dict
+        The measurement-model options.
+
+    Returns
+    -------
+    dict
+        The keywords (all but ``q``, ``q_density`` and ``dim``, which depend on the data).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 for a bad prior.
+    """
+    mean, sd, known = parse_prior(prior[0], prior[1], prior[2], init_window)
+    particles, seed, component, smoothing = filter_settings
+    return dict(particles=particles, prior=mean, prior_std=sd, prior_time=prior[3],
+                init_window=init_window, max_relative_std=start_std, rng=seed,
+                options=options, nuisance=known,
+                bearing_prior=parse_bearing_prior(*bearing, mean is not None
+                                                  or init_window is not None),
+                settings=component_settings(filter_name, component, smoothing))
+
+
+def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],
+                q: tuple[str, str], filter_name: str, smooth: tuple[bool, int | None],
+                keywords: dict[str, Any], notes: bool = True) -> tuple[Any, Any, Any]:
+    """Read the files and track the emitter: the command's work on the data.
+
+    Parameters
+    ----------
+    paths : list of Path
+        The measurement files.
+    reading : tuple
+        ``(origin, --dim, the reader's options)``.
+    q : tuple of str
+        ``--q`` and ``--q-density``.
+    filter_name : str
+        ``--filter``.
+    smooth : tuple
+        ``--smooth`` and ``--lag``.
+    keywords : dict
+        The keywords of :func:`tmakit.tracking.track` from the options (all but ``q``,
+        ``q_density`` and ``dim``, which depend on the data).
+    notes : bool
+        Print the reader's notes.
+
+    Returns
+    -------
+    tuple
+        The measurements, the track and the true states at its times (or None).
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 on bad input or when the filter cannot start.
+    """
+    from .. import tracking
+
+    origin, dim, options = reading
+    meas = read_or_fail(paths, origin, dim=dim, notes=notes, **options)
     try:
         d = tracking.filter_dim(meas, dim)
-        q_axes = tracking.process_noise(parse_q(q, d), d)
-        density = tracking.noise_density(parse_q(q_density, d, "--q-density"), d)
+        q_axes = tracking.process_noise(parse_q(q[0], d), d)
+        density = tracking.noise_density(parse_q(q[1], d, "--q-density"), d)
     except tracking.TrackingError as e:
         raise tracking_failure(e) from None
-    prior_mean, prior_sd, known = parse_prior(prior, prior_std, nuisance, init_window)
-    bearing_prior = parse_bearing_prior(range_prior, speed_prior, height_prior,
-                                        prior_mean is not None or init_window is not None)
-    tr = run_track(meas, filter_name, dict(
-        q=q_axes, particles=particles, prior=prior_mean, prior_std=prior_sd,
-        prior_time=prior_time, init_window=init_window, max_relative_std=start_std, rng=seed,
-        dim=d, options=model_options(drift, free_exponent), nuisance=known,
-        q_density=density, bearing_prior=bearing_prior,
-        settings=component_settings(filter_name, component, smooth or lag is not None)),
-        smooth, lag)
-    truth = tracking.truth_states(meas, tr.times, d)
-    report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
-    write_track_outputs(Path(" + ".join(map(str, files))), meas, tr, truth, output, plot,
-                        ellipses, force, err if as_json else out)
+    tr = run_track(meas, filter_name, {**keywords, "q": q_axes, "q_density": density, "dim": d},
+                   *smooth)
+    return meas, tr, tracking.truth_states(meas, tr.times, d)
+
+
+def write_track_page(meas: Any, tr: Any, path: Path, force: bool, options: dict[str, Any],
+                     name: Path, say: Any) -> None:
+    """``--html``: the solution page of the batch estimate (constant velocity) of the data.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements tracked.
+    tr : tmakit.filters.Track
+        The track (its dimension chooses cv2d or cv3d).
+    path : Path
+        The page.
+    force : bool
+        Overwrite it.
+    options : dict
+        The measurement-model options.
+    name : Path
+        The measurement file(s), for the title.
+    say : rich.console.Console
+        Where to report.
+    """
+    from ..batch import estimate as run
+    from ..motion import ConstantVelocity
+    from .solution_out import SolutionOutputs, write_solution_outputs
+
+    dim = len(tr.state_names) // 2
+    try:
+        result = run(meas, ConstantVelocity(dim, ref_time=float(meas.time.max())),
+                     options=options)
+    except ValueError as e:
+        say.print(f"--html: not written: the batch estimate failed ({e})", highlight=False)
+        return
+    write_solution_outputs(meas, result, SolutionOutputs(
+        html=path, force=force, options=options,
+        title=f"{name} (tma track)"),
+        True, say)
+
+
+class Watch:
+    """One update of ``tma track --follow``: track the data so far, say it, rewrite outputs.
+
+    Parameters
+    ----------
+    tracked : callable
+        ``tracked(paths, notes) -> (meas, track, truth)``; errors as ``typer.Exit``.
+    name : Path
+        The files followed (for titles).
+    output, plot, page : Path or None
+        ``-o``, ``--plot``, ``--html``.
+    ellipses : int
+        ``--ellipses``.
+    force : bool
+        ``--force`` (after the first write, the watch rewrites its own files).
+    as_json : bool
+        One JSON line per update.
+    sensor, units : str or None, str
+        ``--sensor``, ``--units``.
+    options : dict
+        The measurement-model options.
+    """
+
+    def __init__(self, tracked: Any, name: Path, output: Path | None, plot: Path | None,
+                 page: Path | None, ellipses: int, force: bool, as_json: bool,
+                 sensor: str | None, units: str, options: dict[str, Any]) -> None:
+        self.tracked, self.name = tracked, name
+        self.output, self.plot, self.page, self.ellipses = output, plot, page, ellipses
+        self.force, self.as_json, self.sensor, self.units = force, as_json, sensor, units
+        self.options = options
+        self.count = 0
+        self.say = err if as_json else out
+
+    def __call__(self, paths: list[Path]) -> bool:
+        """Make one update; False (and why, on standard error) when the data give none yet."""
+        try:
+            meas, tr, truth = self.tracked(paths, notes=self.count == 0)
+        except typer.Exit as e:
+            if e.exit_code != 2:
+                raise
+            err.print("waiting for more data", highlight=False)
+            return False
+        self.count += 1
+        answer = answer_or_fail(tr, meas, self.sensor)
+        trust = track_trust(tr, measurement_warnings(meas))
+        if self.as_json:
+            import json
+
+            typer.echo(json.dumps({"update": self.count, "rows": len(meas),
+                                   "answer": answer.as_dict(), **trust.as_dict()}))
+        else:
+            out.print(update_line(self.count, len(meas), answer, trust.level, self.units),
+                      highlight=False, soft_wrap=True)
+        write_track_outputs(self.name, meas, tr, truth, self.output, self.plot,
+                            self.ellipses, self.force or self.count > 1, self.say)
+        if self.page is not None:
+            write_track_page(meas, tr, self.page, self.force or self.count > 1, self.options,
+                             self.name, self.say)
+        return True
+
+
+def update_line(count: int, rows: int, a: Any, trust: str, units: str) -> str:
+    """One line of a live watch: the latest position, course and speed, and the trust.
+
+    Parameters
+    ----------
+    count : int
+        The update's number.
+    rows : int
+        The rows tracked.
+    a : tmakit.results.answers.Answer
+        The latest state in the user's terms.
+    trust : str
+        ``ok`` or ``warning``.
+    units : str
+        ``si`` or ``nautical``.
+
+    Returns
+    -------
+    str
+        The line.
+    """
+    when = a.clock[11:19] + " UTC" if a.clock else f"t = {a.time:g} s"
+    if a.geodetic is not None and None not in a.geodetic[:2]:
+        where = f"lat {a.geodetic[0]:.5f}, lon {a.geodetic[1]:.5f}"
+    else:
+        where = f"E {a.enu[0]:.0f} m, N {a.enu[1]:.0f} m"
+    sd = [v for v in a.enu_std[:2] if v is not None]
+    spread = f" (± {max(sd):.0f} m)" if sd else ""
+    unit, scale = SPEED_UNITS[units]
+    motion = ""
+    if a.course_deg is not None and a.speed is not None:
+        motion = (f", course {a.course_deg:.1f}° ± {a.course_std_deg:.1f}°, speed "
+                  f"{a.speed / scale:.2f} ± {a.speed_std / scale:.2f} {unit}")
+    return f"update {count}: {when}, {rows} rows, {where}{spread}{motion}, trust {trust}"
 
 
 def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: bool,

@@ -39,8 +39,18 @@ LagOption = Annotated[int | None, typer.Option(
     help="a fixed-lag smoother (implies --smooth): each state given the data up to N "
          "updates after it")]
 
-__all__ = ["TRACK_FLAGS", "check_track_options", "component_settings", "parse_bearing_prior",
-           "parse_prior", "parse_q", "smoothed_track", "tracking_failure"]
+__all__ = ["TRACK_FLAGS", "FollowOption", "IntervalOption", "MaxUpdatesOption",
+           "check_track_options", "component_settings", "parse_bearing_prior", "parse_prior",
+           "parse_q", "smoothed_track", "tracking_failure"]
+
+FollowOption = Annotated[bool, typer.Option(
+    "--follow", help="keep tracking as the file grows (REP, NMEA, CSV; FILE - reads standard "
+                     "input, with --format): one line per update, the outputs rewritten; "
+                     "Ctrl-C or SIGTERM stops it")]
+IntervalOption = Annotated[float, typer.Option(
+    metavar="SECONDS", help="--follow: seconds between looks at the file")]
+MaxUpdatesOption = Annotated[int | None, typer.Option(
+    metavar="N", help="--follow: stop after N updates")]
 
 
 def parse_q(text: str, dim: int, flag: str = "--q") -> list[float]:
