@@ -258,8 +258,8 @@ def test_ambiguous_cuts_are_drawn_on_both_sides(tmp_path, fitted, browser):
     open_page(browser, path)
     assert console_errors(browser) == []
     legends = browser.execute_script(
-        "return Bokeh.documents[0].get_model_by_name('map').legend[0].items"
-        ".map(i => i.label.value)")
+        "return Bokeh.documents[0].get_model_by_name('map').center"
+        ".filter(m => m.items !== undefined)[0].items.map(i => i.label.value)")
     assert "ambiguous cuts: the other side" in legends
     assert any("the side fitted" in x for x in legends)
 
