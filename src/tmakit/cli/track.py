@@ -46,12 +46,14 @@ from .track_options import (
     ComponentOption,
     HeightPriorOption,
     LagOption,
+    ModelQOption,
     ParticlesOption,
     QDensityOption,
     RangePriorOption,
     SeedOption,
     SmoothOption,
     SpeedPriorOption,
+    TransitionOption,
     check_track_options,
     component_settings,
     parse_bearing_prior,
@@ -66,14 +68,15 @@ from .track_options import (
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
-        "--filter", help="ekf, ukf, ckf, mgekf, pf or gsf (tmakit.filters.FILTERS)")
+        "--filter", help="ekf, ukf, ckf, mgekf, pf, gsf or imm (tmakit.filters.FILTERS)")
     ] = "ekf",
     q: Annotated[str, typer.Option(
         "--q", help="process noise: acceleration std (m/s^2), one value or per axis "
                     "qx,qy[,qz]; 0 = constant velocity")] = "0",
     q_density: QDensityOption = "0", range_prior: RangePriorOption = None,
     speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
-    component: ComponentOption = "ekf", smooth: SmoothOption = False, lag: LagOption = None,
+    component: ComponentOption = "ekf", model_q: ModelQOption = None,
+    transition: TransitionOption = None, smooth: SmoothOption = False, lag: LagOption = None,
     particles: ParticlesOption = None, seed: SeedOption = None,
     prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "
@@ -137,7 +140,8 @@ def track(
         prior_time=prior_time, init_window=init_window, max_relative_std=start_std, rng=seed,
         dim=d, options=model_options(drift, free_exponent), nuisance=known,
         q_density=density, bearing_prior=bearing_prior,
-        settings=component_settings(filter_name, component, smooth or lag is not None)),
+        settings=component_settings(filter_name, component, smooth or lag is not None,
+                                    model_q, transition)),
         smooth, lag)
     truth = tracking.truth_states(meas, tr.times, d)
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
