@@ -36,7 +36,7 @@ ComponentOption = Annotated[str, typer.Option(
 ModelQOption = Annotated[str | None, typer.Option(
     "--model-q", help="--filter imm: acceleration std (m/s^2) of the manoeuvre models, "
                       "one value per model (comma-separated) beside the --q model; default "
-                      "0.3")]
+                      "1.0")]
 TransitionOption = Annotated[str | None, typer.Option(
     "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
                          "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]

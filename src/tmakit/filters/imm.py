@@ -41,9 +41,10 @@ from .gaussian_sum import COMPONENTS
 from .record import Recorder
 from .track import Track
 
-#: Acceleration std of the default manoeuvre model (m/s^2): a ship's turn of 3 deg/s at
-#: 5 m/s needs 0.26 m/s^2.
-MANOEUVRE_Q = 0.3
+#: Acceleration std of the default manoeuvre model (m/s^2): twice the 0.5 m/s^2 of an
+#: aircraft's or fast vessel's standard-rate turn at 50 m/s (Hoerst & Oispuu 2010, sec. 4),
+#: the setting with no divergence on ``benchmarks/imm_hoerst.py``'s runs.
+MANOEUVRE_Q = 1.0
 #: Probability per step of switching model (the default two-model Markov matrix).
 SWITCH = 0.01
 
