@@ -25,8 +25,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=100)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--model-q", type=float, nargs="*", default=None,
+                        help="the IMM's manoeuvre models (m/s^2; default the filter's)")
+    parser.add_argument("--turn-rate", type=float, nargs="*", default=(),
+                        help="the IMM's coordinated-turn models (deg/s)")
     parser.add_argument("--no-batch", action="store_true", help="skip the batch ML fits")
     args = parser.parse_args()
+    settings: dict[str, object] = {"turn_rates": np.radians(args.turn_rate).tolist()}
+    if args.model_q is not None:
+        settings["model_q"] = args.model_q
     scn = tk.load_scenario("hoerst2010")
     seeds = np.random.SeedSequence(args.seed).spawn(args.runs)
     sq: dict[str, list[np.ndarray]] = {"ekf": [], "imm": []}
@@ -36,7 +43,7 @@ def main() -> None:
         sim = scn.simulate(np.random.default_rng(ss))
         meas = sim.take(np.flatnonzero(sim.kind == "bearing"))
         for name in ("ekf", "imm"):
-            tr = tk.track(meas, name)
+            tr = tk.track(meas, name, settings=settings if name == "imm" else None)
             truth = truth_states(meas, tr.times, 2)
             e = np.linalg.norm(tr.states[:, :2] - truth[:, :2], axis=1)
             sq[name].append(e**2)
@@ -52,7 +59,7 @@ def main() -> None:
                                                ** 2)))
     rms = {k: float(np.sqrt(np.mean(np.concatenate(v)))) for k, v in sq.items()}
     fin = {k: float(np.sqrt(np.mean(v))) for k, v in final.items() if v}
-    print(f"hoerst2010, bearings only, {args.runs} runs, seed {args.seed}")
+    print(f"hoerst2010, bearings only, {args.runs} runs, seed {args.seed}, IMM {settings}")
     print(f"RMS position error over the track: CV EKF {rms['ekf']:.0f} m, IMM "
           f"{rms['imm']:.0f} m; ratio IMM/EKF {rms['imm'] / rms['ekf']:.3f} (target <= 0.5)")
     line = f"final-time RMS: CV EKF {fin['ekf']:.0f} m, IMM {fin['imm']:.0f} m"

@@ -54,6 +54,7 @@ from .track_options import (
     SmoothOption,
     SpeedPriorOption,
     TransitionOption,
+    TurnRateOption,
     check_track_options,
     component_settings,
     parse_bearing_prior,
@@ -76,7 +77,7 @@ def track(
     q_density: QDensityOption = "0", range_prior: RangePriorOption = None,
     speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
     component: ComponentOption = "ekf", model_q: ModelQOption = None,
-    transition: TransitionOption = None, smooth: SmoothOption = False, lag: LagOption = None,
+    transition: TransitionOption = None, turn_rate: TurnRateOption = None, smooth: SmoothOption = False, lag: LagOption = None,
     particles: ParticlesOption = None, seed: SeedOption = None,
     prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "
@@ -141,7 +142,7 @@ def track(
         dim=d, options=model_options(drift, free_exponent), nuisance=known,
         q_density=density, bearing_prior=bearing_prior,
         settings=component_settings(filter_name, component, smooth or lag is not None,
-                                    model_q, transition)),
+                                    model_q, transition, turn_rate)),
         smooth, lag)
     truth = tracking.truth_states(meas, tr.times, d)
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)

@@ -5,6 +5,7 @@ Its library errors are translated here into the flags that would fix them.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
@@ -37,6 +38,10 @@ ModelQOption = Annotated[str | None, typer.Option(
     "--model-q", help="--filter imm: acceleration std (m/s^2) of the manoeuvre models, "
                       "one value per model (comma-separated) beside the --q model; default "
                       "1.0")]
+TurnRateOption = Annotated[str | None, typer.Option(
+    "--turn-rate", help="--filter imm: turn rates (deg/s, comma-separated; counter-clockwise "
+                        "positive, a right turn negative) of coordinated-turn models added "
+                        "after the --model-q ones")]
 TransitionOption = Annotated[str | None, typer.Option(
     "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
                          "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
@@ -141,8 +146,8 @@ def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
 
 
 def component_settings(filter_name: str, component: str, smooth: bool = False,
-                       model_q: str | None = None, transition: str | None = None
-                       ) -> dict[str, object]:
+                       model_q: str | None = None, transition: str | None = None,
+                       turn_rate: str | None = None) -> dict[str, object]:
     """Give the filter's settings from ``--component``, ``--smooth`` and the IMM's options.
 
     Parameters
@@ -153,8 +158,8 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
         ``--component``: for ``--filter gsf`` and ``imm`` only.
     smooth : bool, optional
         ``--smooth`` or ``--lag``: the particle filter then keeps its clouds.
-    model_q, transition : str, optional
-        ``--model-q`` and ``--transition``: for ``--filter imm`` only.
+    model_q, transition, turn_rate : str, optional
+        ``--model-q``, ``--transition`` and ``--turn-rate``: for ``--filter imm`` only.
 
     Returns
     -------
@@ -173,8 +178,8 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
 
     if component not in COMPONENTS:
         raise fail(f"--component {component!r}: expected one of {', '.join(COMPONENTS)}")
-    if filter_name != "imm" and (model_q is not None or transition is not None):
-        raise fail("--model-q and --transition apply only to --filter imm")
+    if filter_name != "imm" and (model_q, transition, turn_rate) != (None, None, None):
+        raise fail("--model-q, --transition and --turn-rate apply only to --filter imm")
     if filter_name not in ("gsf", "imm"):
         if component != "ekf":
             raise fail("--component applies only to --filter gsf and imm (their component "
@@ -186,6 +191,12 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
             out["model_q"] = [float(v) for v in model_q.split(",")]
         except ValueError:
             raise fail(f"--model-q {model_q!r}: expected accelerations (m/s^2) separated by "
+                       "commas") from None
+    if turn_rate is not None:
+        try:
+            out["turn_rates"] = [math.radians(float(v)) for v in turn_rate.split(",")]
+        except ValueError:
+            raise fail(f"--turn-rate {turn_rate!r}: expected turn rates (deg/s) separated by "
                        "commas") from None
     if transition is not None:
         try:

@@ -1,8 +1,8 @@
 """The interacting multiple model (IMM) filter: a bank of motion models with Markov switching.
 
-Each model ``j`` is a nearly-constant-velocity model with its own process noise; the
-first is the filter's own dynamics (the quiet, straight-running target), the others carry
-the larger noise of a manoeuvre.  One cycle (Blom & Bar-Shalom 1988; Bar-Shalom, Li &
+The first model is the filter's own nearly-constant-velocity dynamics (the quiet,
+straight-running target); the others carry the larger noise of a manoeuvre (``model_q``) or
+turn at a known rate (``turn_rates``, :class:`~tmakit.motion.dynamics.CoordinatedTurn`).  One cycle (Blom & Bar-Shalom 1988; Bar-Shalom, Li &
 Kirubarajan 2001, §11.6.6):
 
 1. mixing: ``c_j = sum_i p_ij mu_i``, ``mu_{i|j} = p_ij mu_i / c_j`` and each model starts
@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.linalg import solve_spd
-from ..motion.dynamics import NearlyConstantVelocity
+from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .ekf import ExtendedKalmanFilter, skipped
@@ -45,6 +45,8 @@ from .track import Track
 #: aircraft's or fast vessel's standard-rate turn at 50 m/s (Hoerst & Oispuu 2010, sec. 4),
 #: the setting with no divergence on ``benchmarks/imm_hoerst.py``'s runs.
 MANOEUVRE_Q = 1.0
+#: Acceleration std of the coordinated-turn models (m/s^2).
+TURN_Q = 0.05
 #: Probability per step of switching model (the default two-model Markov matrix).
 SWITCH = 0.01
 
@@ -73,6 +75,11 @@ class InteractingMultipleModel(TrackingFilter):
         ``(M, M)`` Markov matrix, ``p_ij`` the probability per predict of going from model
         ``i`` to model ``j``; rows sum to 1.  Default ``1 - SWITCH`` on the diagonal and
         ``SWITCH / (M - 1)`` elsewhere.
+    turn_rates : sequence of float, optional
+        Turn rates (rad/s, counter-clockwise positive; a right turn is negative) of further
+        coordinated-turn models, after the ``model_q`` models (default none).
+    turn_q : float, optional
+        Acceleration std of the turn models (m/s^2).
     probabilities : array_like, optional
         The models' prior probabilities ``(M,)`` (default equal).
     q, dynamics, options, nuisance
@@ -94,6 +101,7 @@ class InteractingMultipleModel(TrackingFilter):
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  component: str = "ekf", model_q: Sequence[float] = (MANOEUVRE_Q,),
                  transition: ArrayLike | None = None,
+                 turn_rates: Sequence[float] = (), turn_q: float = TURN_Q,
                  probabilities: ArrayLike | None = None,
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
@@ -104,7 +112,12 @@ class InteractingMultipleModel(TrackingFilter):
         extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
         if not all(math.isfinite(v) and v >= 0 for v in extra):
             raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
-        count = 1 + len(extra)
+        rates = [float(v) for v in np.atleast_1d(np.asarray(turn_rates, dtype=float))]
+        if not all(math.isfinite(v) and v != 0 for v in rates):
+            raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
+        if not (math.isfinite(turn_q) and turn_q >= 0):
+            raise ValueError(f"turn_q must be an acceleration >= 0 (m/s^2); got {turn_q}")
+        count = 1 + len(extra) + len(rates)
         if transition is None:
             off = SWITCH / max(count - 1, 1)
             matrix = np.full((count, count), off)
@@ -131,9 +144,11 @@ class InteractingMultipleModel(TrackingFilter):
         if type(self.dynamics) is not NearlyConstantVelocity:
             raise ValueError("the IMM filter's models are NearlyConstantVelocity dynamics")
         base_q, density = self.dynamics.axes()
-        self.models = [self.dynamics] + [
+        self.models: list[NearlyConstantVelocity] = [self.dynamics] + [
             NearlyConstantVelocity(self.dim, tuple(float(max(v, b)) for b in base_q),
-                                   tuple(density)) for v in extra]
+                                   tuple(density)) for v in extra] + [
+            CoordinatedTurn(self.dim, tuple(float(max(turn_q, b)) for b in base_q),
+                            tuple(density), turn_rate=w) for w in rates]
         self._unit: ExtendedKalmanFilter = COMPONENTS[component](
             np.asarray(mean, dtype=float), np.asarray(covariance, dtype=float), time,
             dynamics=self.dynamics, options=self.options, nuisance=self.nuisance)
@@ -214,10 +229,11 @@ class InteractingMultipleModel(TrackingFilter):
         track.extra.model_probabilities = [list(p) for p in self.probability_history]
         track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
                                "q_density": [float(v) for v in m.axes()[1]],
+                               "turn_rate": float(getattr(m, "turn_rate", 0.0)),
                                "prior": float(p)} for m, p in zip(self.models, self._mu0,
                                                                   strict=True)]
         track.extra.transition = self.transition.tolist()
         return track
 
 
-__all__ = ["MANOEUVRE_Q", "SWITCH", "InteractingMultipleModel"]
+__all__ = ["MANOEUVRE_Q", "SWITCH", "TURN_Q", "InteractingMultipleModel"]

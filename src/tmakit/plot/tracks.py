@@ -265,8 +265,10 @@ def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list
     t, label = plot_times(meas, tr.times)
     for j, model in enumerate(tr.extra.models or [{}] * mu.shape[1]):
         q = model.get("q", [float("nan")])
+        turn = model.get("turn_rate", 0.0)
+        what = f", turn {np.degrees(turn):+.3g} deg/s" if turn else ""
         ax.plot(t, mu[:, j], "-", color=colours[j % len(colours)], lw=1.2,
-                label=f"model {j + 1} (q = {max(q):g} m/s^2)")
+                label=f"model {j + 1} (q = {max(q):g} m/s^2{what})")
     ax.set_ylim(-0.02, 1.02)
     ax.set_ylabel("probability")
     ax.set_xlabel(label)
