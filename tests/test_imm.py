@@ -92,3 +92,26 @@ def test_tma_track_imm_refusals(obs, args, words):
 def test_model_q_only_with_imm(obs):
     result = runner.invoke(app, ["track", str(obs), "--model-q", "0.5"])
     assert result.exit_code == 2 and "only to --filter imm" in result.output
+
+
+def test_coordinated_turn_moves_along_the_circle():
+    from tmakit.motion.dynamics import CoordinatedTurn
+
+    w, speed = -0.01, 50.0  # a right turn: 0.5 m/s^2 at 50 m/s, as hoerst2010's target
+    x0 = np.array([0.0, 0.0, speed, 0.0])
+    x = CoordinatedTurn(2, 0.0, turn_rate=w).transition(100.0) @ x0
+    centre = np.array([0.0, speed / w])  # to the right of an eastward course
+    assert np.hypot(*x[2:]) == pytest.approx(speed)
+    assert np.hypot(*(x[:2] - centre)) == pytest.approx(abs(speed / w))
+    assert np.degrees(np.arctan2(x[3], x[2])) == pytest.approx(np.degrees(w * 100.0))
+    with pytest.raises(ValueError, match="turn rate"):
+        CoordinatedTurn(2, 0.0, turn_rate=0.0)
+
+
+def test_tma_track_imm_turn_models(obs):
+    result = runner.invoke(app, ["track", str(obs), "--filter", "imm", "--model-q", "1",
+                                 "--turn-rate", "-0.5,0.5", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert [round(np.degrees(m["turn_rate"]), 6) for m in data["models"]] == [0, 0, -0.5, 0.5]
+    assert len(data["model_probabilities"][0]) == 4
