@@ -77,7 +77,8 @@ def track(
     q_density: QDensityOption = "0", range_prior: RangePriorOption = None,
     speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
     component: ComponentOption = "ekf", model_q: ModelQOption = None,
-    transition: TransitionOption = None, turn_rate: TurnRateOption = None, smooth: SmoothOption = False, lag: LagOption = None,
+    transition: TransitionOption = None, turn_rate: TurnRateOption = None,
+    smooth: SmoothOption = False, lag: LagOption = None,
     particles: ParticlesOption = None, seed: SeedOption = None,
     prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "

@@ -2,8 +2,8 @@
 
 The first model is the filter's own nearly-constant-velocity dynamics (the quiet,
 straight-running target); the others carry the larger noise of a manoeuvre (``model_q``) or
-turn at a known rate (``turn_rates``, :class:`~tmakit.motion.dynamics.CoordinatedTurn`).  One cycle (Blom & Bar-Shalom 1988; Bar-Shalom, Li &
-Kirubarajan 2001, §11.6.6):
+turn at a known rate (``turn_rates``, :class:`~tmakit.motion.dynamics.CoordinatedTurn`).
+One cycle (Blom & Bar-Shalom 1988; Bar-Shalom, Li & Kirubarajan 2001, §11.6.6):
 
 1. mixing: ``c_j = sum_i p_ij mu_i``, ``mu_{i|j} = p_ij mu_i / c_j`` and each model starts
    its prediction from the mixture ``sum_i mu_{i|j} N(m_i, P_i)`` moment-matched

@@ -260,7 +260,7 @@ def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray |
 
 def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list[str]
                          ) -> None:
-    """An IMM filter's model probabilities against time."""
+    """Draw an IMM filter's model probabilities against time."""
     mu = np.asarray(tr.extra.model_probabilities, dtype=float)
     t, label = plot_times(meas, tr.times)
     for j, model in enumerate(tr.extra.models or [{}] * mu.shape[1]):

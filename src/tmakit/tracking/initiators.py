@@ -344,8 +344,8 @@ def _prepend(tr: Track, time: float, state: Array, cov: Array, names: tuple[str,
     """Return the track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
     extra = replace(tr.extra)
     if extra.model_probabilities is not None and extra.models is not None:
-        extra.model_probabilities = ([[m["prior"] for m in extra.models]]
-                                     + extra.model_probabilities)
+        extra.model_probabilities = [[m["prior"] for m in extra.models],
+                                     *extra.model_probabilities]
     return Track(tr.filter_name or "", names,
                  np.concatenate([[time], tr.times]),
                  np.concatenate([state[None], tr.states]),

@@ -41,9 +41,9 @@ def track_dict(tr: Track) -> dict[str, object]:
     dict
         :meth:`Track.as_dict` with ``start``, ``q`` and ``q_density`` from ``tr.extra``, the
         Gaussian sum's ``components`` per update, an IMM filter's ``model_probabilities``
-        per row (with its ``models`` and Markov ``transition``), and with a smoothed track ``smoothed``
-        (beside ``estimate``), ``smoothed_std``, ``smoothed_covariance`` and ``smoother``;
-        NaN and infinities as ``None``.
+        per row (with its ``models`` and Markov ``transition``), and with a smoothed track
+        ``smoothed`` (beside ``estimate``), ``smoothed_std``, ``smoothed_covariance`` and
+        ``smoother``; NaN and infinities as ``None``.
     """
     data = tr.as_dict()
     data["start"] = tr.extra.start
