@@ -47,7 +47,9 @@ from .track_options import (
     HeightPriorOption,
     LagOption,
     ModelQOption,
+    NuisanceOption,
     ParticlesOption,
+    PriorTimeOption,
     QDensityOption,
     RangePriorOption,
     SeedOption,
@@ -76,19 +78,15 @@ def track(
                     "qx,qy[,qz]; 0 = constant velocity")] = "0",
     q_density: QDensityOption = "0", range_prior: RangePriorOption = None,
     speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
-    component: ComponentOption = "ekf", model_q: ModelQOption = None,
-    transition: TransitionOption = None, turn_rate: TurnRateOption = None,
-    smooth: SmoothOption = False, lag: LagOption = None,
-    particles: ParticlesOption = None, seed: SeedOption = None,
+    component: ComponentOption = "ekf", model_q: ModelQOption = None, transition:
+    TransitionOption = None, turn_rate: TurnRateOption = None, smooth: SmoothOption = False,
+    lag: LagOption = None, particles: ParticlesOption = None, seed: SeedOption = None,
     prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "
              "x=4000,y=9000,vx=-6,vy=-3 (m, m/s); needs --prior-std")] = None,
     prior_std: Annotated[str | None, typer.Option(
         help="the prior's standard deviations, e.g. x=3000,y=3000,vx=10,vy=10")] = None,
-    prior_time: Annotated[float | None, typer.Option(
-        help="time of the prior (s); default: the first measurement time")] = None,
-    nuisance: Annotated[str | None, typer.Option(
-        help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")] = None,
+    prior_time: PriorTimeOption = None, nuisance: NuisanceOption = None,
     init_window: Annotated[int | None, typer.Option(
         help="start from a batch estimate over this many first measurement times "
              "(default: the shortest window good enough, see --start-std)")] = None,
@@ -141,10 +139,9 @@ def track(
         q=q_axes, particles=particles, prior=prior_mean, prior_std=prior_sd,
         prior_time=prior_time, init_window=init_window, max_relative_std=start_std, rng=seed,
         dim=d, options=model_options(drift, free_exponent), nuisance=known,
-        q_density=density, bearing_prior=bearing_prior,
-        settings=component_settings(filter_name, component, smooth or lag is not None,
-                                    model_q, transition, turn_rate)),
-        smooth, lag)
+        q_density=density, bearing_prior=bearing_prior, settings=component_settings(
+            filter_name, component, smooth or lag is not None, model_q, transition,
+            turn_rate)), smooth, lag)
     truth = tracking.truth_states(meas, tr.times, d)
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
     write_track_outputs(Path(" + ".join(map(str, files))), meas, tr, truth, output, plot,

@@ -42,6 +42,10 @@ TurnRateOption = Annotated[str | None, typer.Option(
     "--turn-rate", help="--filter imm: turn rates (deg/s, comma-separated; counter-clockwise "
                         "positive, a right turn negative) of coordinated-turn models added "
                         "after the --model-q ones")]
+PriorTimeOption = Annotated[float | None, typer.Option(
+    help="time of the prior (s); default: the first measurement time")]
+NuisanceOption = Annotated[str | None, typer.Option(
+    help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
 TransitionOption = Annotated[str | None, typer.Option(
     "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
                          "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
