@@ -51,12 +51,17 @@ from .track_options import (
     IntervalOption,
     LagOption,
     MaxUpdatesOption,
+    ModelQOption,
+    NuisanceOption,
     ParticlesOption,
+    PriorTimeOption,
     QDensityOption,
     RangePriorOption,
     SeedOption,
     SmoothOption,
     SpeedPriorOption,
+    TransitionOption,
+    TurnRateOption,
     check_track_options,
     component_settings,
     parse_bearing_prior,
@@ -71,24 +76,22 @@ from .track_options import (
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
-        "--filter", help="ekf, ukf, ckf, mgekf, pf or gsf (tmakit.filters.FILTERS)")
+        "--filter", help="ekf, ukf, ckf, mgekf, pf, gsf or imm (tmakit.filters.FILTERS)")
     ] = "ekf",
     q: Annotated[str, typer.Option(
         "--q", help="process noise: acceleration std (m/s^2), one value or per axis "
                     "qx,qy[,qz]; 0 = constant velocity")] = "0",
     q_density: QDensityOption = "0", range_prior: RangePriorOption = None,
     speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
-    component: ComponentOption = "ekf", smooth: SmoothOption = False, lag: LagOption = None,
-    particles: ParticlesOption = None, seed: SeedOption = None,
+    component: ComponentOption = "ekf", model_q: ModelQOption = None, transition:
+    TransitionOption = None, turn_rate: TurnRateOption = None, smooth: SmoothOption = False,
+    lag: LagOption = None, particles: ParticlesOption = None, seed: SeedOption = None,
     prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "
              "x=4000,y=9000,vx=-6,vy=-3 (m, m/s); needs --prior-std")] = None,
     prior_std: Annotated[str | None, typer.Option(
         help="the prior's standard deviations, e.g. x=3000,y=3000,vx=10,vy=10")] = None,
-    prior_time: Annotated[float | None, typer.Option(
-        help="time of the prior (s); default: the first measurement time")] = None,
-    nuisance: Annotated[str | None, typer.Option(
-        help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")] = None,
+    prior_time: PriorTimeOption = None, nuisance: NuisanceOption = None,
     init_window: Annotated[int | None, typer.Option(
         help="start from a batch estimate over this many first measurement times "
              "(default: the shortest window good enough, see --start-std)")] = None,
@@ -134,7 +137,8 @@ def track(
                       smooth=(smooth, lag), keywords=start_keywords(
                           (prior, prior_std, nuisance, prior_time),
                           (range_prior, speed_prior, height_prior), init_window, start_std,
-                          (particles, seed, component, smooth or lag is not None),
+                          (particles, seed, component, smooth or lag is not None,
+                           (model_q, transition, turn_rate)),
                           filter_name, options))
     name, say = Path(" + ".join(map(str, files))), err if as_json else out
     if follow:
@@ -152,7 +156,7 @@ def track(
 
 def start_keywords(prior: tuple[str | None, str | None, str | None, float | None],
                    bearing: tuple[str | None, float | None, str | None], init_window: int | None,
-                   start_std: float, filter_settings: tuple[int | None, int | None, str, bool],
+                   start_std: float, filter_settings: tuple[Any, ...],
                    filter_name: str, options: dict[str, Any]) -> dict[str, Any]:
     """Give the keywords of :func:`tmakit.tracking.track` that ``tma track``'s options set.
 
@@ -165,7 +169,8 @@ def start_keywords(prior: tuple[str | None, str | None, str | None, float | None
     init_window, start_std
         ``--init-window``, ``--start-std``.
     filter_settings : tuple
-        ``--particles``, ``--seed``, ``--component`` and whether a smoother is asked for.
+        ``--particles``, ``--seed``, ``--component``, whether a smoother is asked for, and
+        the IMM's ``(--model-q, --transition, --turn-rate)``.
     filter_name : str
         ``--filter``.
     options : dict
@@ -182,13 +187,13 @@ def start_keywords(prior: tuple[str | None, str | None, str | None, float | None
         Status 2 for a bad prior.
     """
     mean, sd, known = parse_prior(prior[0], prior[1], prior[2], init_window)
-    particles, seed, component, smoothing = filter_settings
+    particles, seed, component, smoothing, imm = filter_settings
     return dict(particles=particles, prior=mean, prior_std=sd, prior_time=prior[3],
                 init_window=init_window, max_relative_std=start_std, rng=seed,
                 options=options, nuisance=known,
                 bearing_prior=parse_bearing_prior(*bearing, mean is not None
                                                   or init_window is not None),
-                settings=component_settings(filter_name, component, smoothing))
+                settings=component_settings(filter_name, component, smoothing, *imm))
 
 
 def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],

@@ -5,6 +5,7 @@ Its library errors are translated here into the flags that would fix them.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
@@ -31,7 +32,23 @@ HeightPriorOption = Annotated[str | None, typer.Option(
     "--height-prior", help="start at the first bearing, 3-D: the emitter's height interval "
                            "MIN:MAX (m); default 0:12000")]
 ComponentOption = Annotated[str, typer.Option(
-    help="the Gaussian sum's component filter: ekf, ukf or ckf (cubature)")]
+    help="the component filter of gsf (the Gaussian sum) or imm: ekf, ukf or ckf "
+         "(cubature)")]
+ModelQOption = Annotated[str | None, typer.Option(
+    "--model-q", help="--filter imm: acceleration std (m/s^2) of the manoeuvre models, "
+                      "one value per model (comma-separated) beside the --q model; default "
+                      "1.0")]
+TurnRateOption = Annotated[str | None, typer.Option(
+    "--turn-rate", help="--filter imm: turn rates (deg/s, comma-separated; counter-clockwise "
+                        "positive, a right turn negative) of coordinated-turn models added "
+                        "after the --model-q ones")]
+PriorTimeOption = Annotated[float | None, typer.Option(
+    help="time of the prior (s); default: the first measurement time")]
+NuisanceOption = Annotated[str | None, typer.Option(
+    help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
+TransitionOption = Annotated[str | None, typer.Option(
+    "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
+                         "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
 SmoothOption = Annotated[bool, typer.Option(
     "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
                      "filters and the Gaussian sum; backward simulation for pf)")]
@@ -142,40 +159,67 @@ def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
     return BearingPrior(lo, hi, speed, height, given)
 
 
-def component_settings(filter_name: str, component: str, smooth: bool = False
-                       ) -> dict[str, object]:
-    """Give the filter's settings from ``--component`` and ``--smooth``.
+def component_settings(filter_name: str, component: str, smooth: bool = False,
+                       model_q: str | None = None, transition: str | None = None,
+                       turn_rate: str | None = None) -> dict[str, object]:
+    """Give the filter's settings from ``--component``, ``--smooth`` and the IMM's options.
 
     Parameters
     ----------
     filter_name : str
         ``--filter``.
     component : str
-        ``--component``: for ``--filter gsf`` only.
+        ``--component``: for ``--filter gsf`` and ``imm`` only.
     smooth : bool, optional
         ``--smooth`` or ``--lag``: the particle filter then keeps its clouds.
+    model_q, transition, turn_rate : str, optional
+        ``--model-q``, ``--transition`` and ``--turn-rate``: for ``--filter imm`` only.
 
     Returns
     -------
     dict
-        ``{"component": ...}`` for the Gaussian sum, ``{"history": True}`` for a particle
-        filter to smooth, else empty.
+        ``{"component": ...}`` for the Gaussian sum and the IMM (with ``model_q`` and
+        ``transition`` when given), ``{"history": True}`` for a particle filter to smooth,
+        else empty.
 
     Raises
     ------
     typer.Exit
-        Status 2 for an unknown component, or one given with another filter.
+        Status 2 for an unknown component, an option given with another filter, or a
+        ``--model-q`` or ``--transition`` that does not parse.
     """
     from ..filters.gaussian_sum import COMPONENTS
 
     if component not in COMPONENTS:
         raise fail(f"--component {component!r}: expected one of {', '.join(COMPONENTS)}")
-    if filter_name != "gsf":
+    if filter_name != "imm" and (model_q, transition, turn_rate) != (None, None, None):
+        raise fail("--model-q, --transition and --turn-rate apply only to --filter imm")
+    if filter_name not in ("gsf", "imm"):
         if component != "ekf":
-            raise fail("--component applies only to --filter gsf (the Gaussian sum's "
-                       "component filter)")
+            raise fail("--component applies only to --filter gsf and imm (their component "
+                       "filter)")
         return {"history": True} if smooth and filter_name == "pf" else {}
-    return {"component": component}
+    out: dict[str, object] = {"component": component}
+    if model_q is not None:
+        try:
+            out["model_q"] = [float(v) for v in model_q.split(",")]
+        except ValueError:
+            raise fail(f"--model-q {model_q!r}: expected accelerations (m/s^2) separated by "
+                       "commas") from None
+    if turn_rate is not None:
+        try:
+            out["turn_rates"] = [math.radians(float(v)) for v in turn_rate.split(",")]
+        except ValueError:
+            raise fail(f"--turn-rate {turn_rate!r}: expected turn rates (deg/s) separated by "
+                       "commas") from None
+    if transition is not None:
+        try:
+            out["transition"] = [[float(v) for v in row.split(",")]
+                                 for row in transition.split(";")]
+        except ValueError:
+            raise fail(f"--transition {transition!r}: expected rows of probabilities, "
+                       "e.g. 0.95,0.05;0.05,0.95") from None
+    return out
 
 
 def smoothed_track(tr: Any, lag: int | None) -> Any:
@@ -205,6 +249,9 @@ def smoothed_track(tr: Any, lag: int | None) -> Any:
     if lag is not None and tr.filter_name == "pf":
         raise fail("--lag: the particle filter's smoother is fixed-interval (--smooth); the "
                    "fixed-lag smoother is for the Gaussian filters (ekf, ukf, ckf, gsf)")
+    if tr.filter_name == "imm":
+        raise fail("--smooth/--lag: there is no smoother for --filter imm (its combined "
+                   "estimate is not one Gaussian model's); smooth ekf, ukf, ckf, gsf or pf")
     tr.extra.smoothed = smooth(tr, lag=lag)
     tr.extra.history = None
     return tr

@@ -12,6 +12,7 @@ from .bearing_prior import BearingPrior, FirstBearing, first_bearing
 from .ekf import ExtendedKalmanFilter
 from .extras import TrackExtras
 from .gaussian_sum import GaussianSumFilter
+from .imm import InteractingMultipleModel
 from .mgekf import ModifiedGainEKF
 from .multilag import multilag_groups
 from .particle import ParticleFilter
@@ -27,6 +28,7 @@ FILTERS: dict[str, type[TrackingFilter]] = {
     ModifiedGainEKF.name: ModifiedGainEKF,
     CubatureKalmanFilter.name: CubatureKalmanFilter,
     GaussianSumFilter.name: GaussianSumFilter,
+    InteractingMultipleModel.name: InteractingMultipleModel,
 }
 
 __all__ = [
@@ -36,6 +38,7 @@ __all__ = [
     "ExtendedKalmanFilter",
     "FirstBearing",
     "GaussianSumFilter",
+    "InteractingMultipleModel",
     "MeasurementGroup",
     "ModifiedGainEKF",
     "NearlyConstantVelocity",

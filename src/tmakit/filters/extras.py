@@ -39,6 +39,12 @@ class TrackExtras:
     history : list or None
         A particle filter's weighted clouds (``ParticleFilter(history=True)``), for its
         smoother.
+    model_probabilities : list of list of float or None
+        An IMM filter's model probabilities after each update.
+    models : list of dict or None
+        An IMM filter's models (``q``, ``q_density`` per axis, ``prior`` probability).
+    transition : list of list of float or None
+        An IMM filter's Markov matrix (row: from, column: to).
     """
 
     skipped_updates: int = 0
@@ -51,6 +57,9 @@ class TrackExtras:
     components: list[int] | None = None
     smoothed: Any = None
     history: Any = None
+    model_probabilities: list[list[float]] | None = None
+    models: list[dict[str, Any]] | None = None
+    transition: list[list[float]] | None = None
 
     def __getitem__(self, key: str) -> Any:
         """Give field ``key``.

@@ -154,10 +154,14 @@ def smooth(track: Track, *, lag: int | None = None,
     Raises
     ------
     ValueError
-        A negative lag, a lag for a particle track, or clouds that do not match the rows.
+        A negative lag, a lag for a particle track, clouds that do not match the rows, or
+        an IMM filter's track.
     """
     if lag is not None and (isinstance(lag, bool) or int(lag) != lag or lag < 0):
         raise ValueError(f"lag must be a whole number of updates >= 0; got {lag!r}")
+    if track.extra.model_probabilities is not None:
+        raise ValueError("no smoother for the IMM filter's track: its combined estimate is "
+                         "not one Gaussian model's (the IMM smoother is not built)")
     dyn = _dynamics_of(track) if dynamics is None else dynamics
     times, states, covs = track.times, track.states, track.covariances
     n = len(track)

@@ -197,3 +197,53 @@ class NearlyConstantVelocity:
         Kirubarajan (2001), eq. 6.2.2-12 (the density form).
         """
         return process_noise(dt, self.q, self.dim, self.q_density)
+
+
+@dataclass(frozen=True)
+class CoordinatedTurn(NearlyConstantVelocity):
+    """Nearly-coordinated-turn dynamics at a known turn rate, for the IMM filter's models.
+
+    The horizontal velocity turns at ``turn_rate`` (rad/s, counter-clockwise positive in ENU:
+    a right turn is negative); height (3-D) moves at constant velocity; the noise is that of
+    :class:`NearlyConstantVelocity` with ``q`` and ``q_density``.
+
+    Parameters
+    ----------
+    dim, q, q_density
+        As for :class:`NearlyConstantVelocity`.
+    turn_rate : float
+        rad/s, not 0.
+
+    References
+    ----------
+    Bar-Shalom, Li & Kirubarajan (2001), §11.7.1, eq. 11.7.1-4 (the known-rate turn).
+    """
+
+    turn_rate: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Refuse a zero or non-finite turn rate, and what the parent refuses."""
+        super().__post_init__()
+        if not (np.isfinite(self.turn_rate) and self.turn_rate != 0):
+            raise ValueError(f"a coordinated turn needs a finite turn rate != 0 rad/s; got "
+                             f"{self.turn_rate}")
+
+    def transition(self, dt: float) -> Array:
+        """Give ``Phi(dt)`` of the turn (eq. 11.7.1-4; height at constant velocity in 3-D).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (2 dim, 2 dim)
+        """
+        d, w = self.dim, float(self.turn_rate)
+        s, c = np.sin(w * dt), np.cos(w * dt)
+        phi = transition_matrix(dt, d)
+        phi[0, d:d + 2] = (s / w, -(1.0 - c) / w)
+        phi[1, d:d + 2] = ((1.0 - c) / w, s / w)
+        phi[d:d + 2, d:d + 2] = ((c, -s), (s, c))
+        return phi

@@ -191,16 +191,23 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
     import matplotlib.pyplot as plt
 
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    modes = tr.extra.model_probabilities
+    rows = 1 if modes is None else 2
+    ratios = [1.0] if modes is None else [3.0, 1.0]
     if truth is not None:
-        fig = plt.figure(figsize=(14, 7), layout="constrained")
-        grid = fig.add_gridspec(2, 2, width_ratios=[1.1, 1.3])
-        ax_map = fig.add_subplot(grid[:, 0])
-        ax_axes = fig.add_subplot(grid[0, 1])
-        ax_norm = fig.add_subplot(grid[1, 1], sharex=ax_axes)
+        fig = plt.figure(figsize=(14, 7 + 2 * (rows - 1)), layout="constrained")
+        grid = fig.add_gridspec(rows, 2, width_ratios=[1.1, 1.3], height_ratios=ratios)
+        sub = grid[0, 1].subgridspec(2, 1)
+        ax_map = fig.add_subplot(grid[0, 0])
+        ax_axes = fig.add_subplot(sub[0])
+        ax_norm = fig.add_subplot(sub[1], sharex=ax_axes)
     else:
-        fig = plt.figure(figsize=(8, 7), layout="constrained")
-        ax_map = fig.add_subplot(1, 1, 1)
+        fig = plt.figure(figsize=(8, 7 + 2 * (rows - 1)), layout="constrained")
+        grid = fig.add_gridspec(rows, 1, height_ratios=ratios)
+        ax_map = fig.add_subplot(grid[0, 0])
     _track_map(ax_map, tr, meas, truth, ellipses, probabilities, colours)
+    if modes is not None:
+        _model_probabilities(fig.add_subplot(grid[1, :]), tr, meas, colours)
     if truth is not None:
         def axis(t: np.ndarray) -> np.ndarray:
             return plot_times(meas, t)[0]
@@ -249,6 +256,26 @@ def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray |
         1, len(k_sel) // 4)])
     ax_map.set_title(f"track and position ellipses at {len(k_sel)} times ({times}, ...)"
                      if len(k_sel) else "track", fontsize=10)
+
+
+def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list[str]
+                         ) -> None:
+    """Draw an IMM filter's model probabilities against time."""
+    mu = np.asarray(tr.extra.model_probabilities, dtype=float)
+    t, label = plot_times(meas, tr.times)
+    for j, model in enumerate(tr.extra.models or [{}] * mu.shape[1]):
+        q = model.get("q", [float("nan")])
+        turn = model.get("turn_rate", 0.0)
+        what = f", turn {np.degrees(turn):+.3g} deg/s" if turn else ""
+        ax.plot(t, mu[:, j], "-", color=colours[j % len(colours)], lw=1.2,
+                label=f"model {j + 1} (q = {max(q):g} m/s^2{what})")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel("probability")
+    ax.set_xlabel(label)
+    ax.set_title("IMM model probabilities", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    format_time_axis(ax, t)
 
 
 def _axis_errors(ax_axes: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBound | None,

@@ -342,10 +342,14 @@ def _confirmation(after: Track, window: int) -> Confirmation:
 def _prepend(tr: Track, time: float, state: Array, cov: Array, names: tuple[str, ...]
              ) -> Track:
     """Return the track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
+    extra = replace(tr.extra)
+    if extra.model_probabilities is not None and extra.models is not None:
+        extra.model_probabilities = [[m["prior"] for m in extra.models],
+                                     *extra.model_probabilities]
     return Track(tr.filter_name or "", names,
                  np.concatenate([[time], tr.times]),
                  np.concatenate([state[None], tr.states]),
                  np.concatenate([cov[None], tr.covariances]),
                  np.concatenate([[np.nan], tr.nis]),
                  np.concatenate([np.zeros(1, dtype=np.int64), tr.dof]),
-                 np.concatenate([[0.0], tr.log_likelihood]), replace(tr.extra))
+                 np.concatenate([[0.0], tr.log_likelihood]), extra)

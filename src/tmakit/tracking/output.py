@@ -40,9 +40,10 @@ def track_dict(tr: Track) -> dict[str, object]:
     -------
     dict
         :meth:`Track.as_dict` with ``start``, ``q`` and ``q_density`` from ``tr.extra``, the
-        Gaussian sum's ``components`` per update, and with a smoothed track ``smoothed``
-        (beside ``estimate``), ``smoothed_std``, ``smoothed_covariance`` and ``smoother``;
-        NaN and infinities as ``None``.
+        Gaussian sum's ``components`` per update, an IMM filter's ``model_probabilities``
+        per row (with its ``models`` and Markov ``transition``), and with a smoothed track
+        ``smoothed`` (beside ``estimate``), ``smoothed_std``, ``smoothed_covariance`` and
+        ``smoother``; NaN and infinities as ``None``.
     """
     data = tr.as_dict()
     data["start"] = tr.extra.start
@@ -50,6 +51,10 @@ def track_dict(tr: Track) -> dict[str, object]:
     data["q_density"] = tr.extra.q_density
     if tr.extra.components is not None:
         data["components"] = tr.extra.components
+    if tr.extra.model_probabilities is not None:
+        data["model_probabilities"] = tr.extra.model_probabilities
+        data["models"] = tr.extra.models
+        data["transition"] = tr.extra.transition
     sm = tr.extra.smoothed
     if sm is not None:
         data["smoothed"] = sm.states.tolist()

@@ -1,0 +1,75 @@
+"""IMM against the constant-velocity EKF and the batch curvilinear ML on ``hoerst2010``.
+
+Bearings only (the scenario's azimuth rows), each filter started by ``tma track``'s batch
+window.  Prints, over seeded runs, the ratio of the IMM's RMS position error over the whole
+track to the CV EKF's (issue 28: <= 0.5) and, at the final time, the ratio of the IMM's RMS
+error to the batch piecewise-curvilinear ML estimate's (issue 28: <= 1.5).
+
+    python benchmarks/imm_hoerst.py --runs 100 --seed 1
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+import tmakit as tk
+from tmakit.cli.track import nis_verdict
+from tmakit.tracking import truth_states
+
+LARGER = "the innovations are larger"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=100)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--model-q", type=float, nargs="*", default=None,
+                        help="the IMM's manoeuvre models (m/s^2; default the filter's)")
+    parser.add_argument("--turn-rate", type=float, nargs="*", default=(),
+                        help="the IMM's coordinated-turn models (deg/s)")
+    parser.add_argument("--no-batch", action="store_true", help="skip the batch ML fits")
+    args = parser.parse_args()
+    settings: dict[str, object] = {"turn_rates": np.radians(args.turn_rate).tolist()}
+    if args.model_q is not None:
+        settings["model_q"] = args.model_q
+    scn = tk.load_scenario("hoerst2010")
+    seeds = np.random.SeedSequence(args.seed).spawn(args.runs)
+    sq: dict[str, list[np.ndarray]] = {"ekf": [], "imm": []}
+    final: dict[str, list[float]] = {"ekf": [], "imm": [], "batch": []}
+    diverged = {"ekf": 0, "imm": 0}
+    for ss in seeds:
+        sim = scn.simulate(np.random.default_rng(ss))
+        meas = sim.take(np.flatnonzero(sim.kind == "bearing"))
+        for name in ("ekf", "imm"):
+            tr = tk.track(meas, name, settings=settings if name == "imm" else None)
+            truth = truth_states(meas, tr.times, 2)
+            e = np.linalg.norm(tr.states[:, :2] - truth[:, :2], axis=1)
+            sq[name].append(e**2)
+            final[name].append(e[-1] ** 2)
+            ok = np.isfinite(tr.nis)
+            diverged[name] += nis_verdict(float(np.sum(tr.nis[ok])),
+                                          int(np.sum(tr.dof[ok]))).startswith(LARGER)
+        if not args.no_batch:
+            fit = tk.estimate(meas, "curvilinear:2")
+            t_end = np.array([meas.time.max()])
+            st = fit.motion.states(np.asarray(fit.estimate), t_end)[0]
+            final["batch"].append(float(np.sum((st[:2] - truth_states(meas, t_end, 2)[0, :2])
+                                               ** 2)))
+    rms = {k: float(np.sqrt(np.mean(np.concatenate(v)))) for k, v in sq.items()}
+    fin = {k: float(np.sqrt(np.mean(v))) for k, v in final.items() if v}
+    print(f"hoerst2010, bearings only, {args.runs} runs, seed {args.seed}, IMM {settings}")
+    print(f"RMS position error over the track: CV EKF {rms['ekf']:.0f} m, IMM "
+          f"{rms['imm']:.0f} m; ratio IMM/EKF {rms['imm'] / rms['ekf']:.3f} (target <= 0.5)")
+    line = f"final-time RMS: CV EKF {fin['ekf']:.0f} m, IMM {fin['imm']:.0f} m"
+    if "batch" in fin:
+        line += (f", batch curvilinear ML {fin['batch']:.0f} m; ratio IMM/batch "
+                 f"{fin['imm'] / fin['batch']:.3f} (target <= 1.5)")
+    print(line)
+    print(f"runs whose NIS says diverged (tma track's check): CV EKF {diverged['ekf']}, "
+          f"IMM {diverged['imm']}")
+
+
+if __name__ == "__main__":
+    main()

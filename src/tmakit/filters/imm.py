@@ -1,0 +1,239 @@
+"""The interacting multiple model (IMM) filter: a bank of motion models with Markov switching.
+
+The first model is the filter's own nearly-constant-velocity dynamics (the quiet,
+straight-running target); the others carry the larger noise of a manoeuvre (``model_q``) or
+turn at a known rate (``turn_rates``, :class:`~tmakit.motion.dynamics.CoordinatedTurn`).
+One cycle (Blom & Bar-Shalom 1988; Bar-Shalom, Li & Kirubarajan 2001, §11.6.6):
+
+1. mixing: ``c_j = sum_i p_ij mu_i``, ``mu_{i|j} = p_ij mu_i / c_j`` and each model starts
+   its prediction from the mixture ``sum_i mu_{i|j} N(m_i, P_i)`` moment-matched
+   (eqs. 11.6.6-6 to -9);
+2. each model predicted under its dynamics and updated as its component filter would
+   (:meth:`ExtendedKalmanFilter.update_gaussian
+   <tmakit.filters.ExtendedKalmanFilter.update_gaussian>`);
+3. ``mu_j <- c_j L_j / sum_k c_k L_k`` with ``L_j`` the likelihood of model ``j``'s
+   innovation (eq. 11.6.6-15), and the estimate the moments of ``sum_j mu_j N(m_j, P_j)``
+   (eqs. 11.6.6-17, -18).
+
+The Markov matrix ``p_ij`` (from model i to model j) applies once per predict; its default
+:data:`SWITCH` gives a mean sojourn of 1/0.01 = 100 steps in each model.
+
+References
+----------
+Blom & Bar-Shalom (1988), IEEE Trans. Autom. Control 33(8); Bar-Shalom, Li & Kirubarajan
+(2001), *Estimation with Applications to Tracking and Navigation*, §11.6.6.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..core.linalg import solve_spd
+from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity
+from ..observation.groups import MeasurementGroup
+from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
+from .ekf import ExtendedKalmanFilter, skipped
+from .gaussian_sum import COMPONENTS
+from .record import Recorder
+from .track import Track
+
+#: Acceleration std of the default manoeuvre model (m/s^2): twice the 0.5 m/s^2 of an
+#: aircraft's or fast vessel's standard-rate turn at 50 m/s (Hoerst & Oispuu 2010, sec. 4),
+#: the setting with no divergence on ``benchmarks/imm_hoerst.py``'s runs.
+MANOEUVRE_Q = 1.0
+#: Acceleration std of the coordinated-turn models (m/s^2).
+TURN_Q = 0.05
+#: Probability per step of switching model (the default two-model Markov matrix).
+SWITCH = 0.01
+
+
+def _moments(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
+    """Mean and covariance of ``sum_i w_i N(m_i, P_i)``."""
+    mean = weights @ means
+    d = means - mean
+    cov = np.einsum("i,ijk->jk", weights, covs + d[:, :, None] * d[:, None, :])
+    return mean, 0.5 * (cov + cov.T)
+
+
+class InteractingMultipleModel(TrackingFilter):
+    """Interacting multiple model filter of EKF, UKF or cubature components (module docstring).
+
+    Parameters
+    ----------
+    mean, covariance, time
+        The Gaussian prior, given to every model (m, m/s; s).
+    component : str, optional
+        ``"ekf"``, ``"ukf"`` or ``"ckf"``: the update of each model.
+    model_q : sequence of float, optional
+        Acceleration std (m/s^2, all axes) of the models after the first; the first model is
+        the filter's own ``q``/``dynamics``.  Default ``(MANOEUVRE_Q,)``.
+    transition : array_like, optional
+        ``(M, M)`` Markov matrix, ``p_ij`` the probability per predict of going from model
+        ``i`` to model ``j``; rows sum to 1.  Default ``1 - SWITCH`` on the diagonal and
+        ``SWITCH / (M - 1)`` elsewhere.
+    turn_rates : sequence of float, optional
+        Turn rates (rad/s, counter-clockwise positive; a right turn is negative) of further
+        coordinated-turn models, after the ``model_q`` models (default none).
+    turn_q : float, optional
+        Acceleration std of the turn models (m/s^2).
+    probabilities : array_like, optional
+        The models' prior probabilities ``(M,)`` (default equal).
+    q, dynamics, options, nuisance
+        As for :class:`~tmakit.filters.TrackingFilter` (the first model).
+
+    Raises
+    ------
+    ValueError
+        An unknown component, a negative ``model_q``, a matrix that is not stochastic, or
+        probabilities that are not.
+
+    References
+    ----------
+    Blom & Bar-Shalom (1988); Bar-Shalom, Li & Kirubarajan (2001), §11.6.6.
+    """
+
+    name = "imm"
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 component: str = "ekf", model_q: Sequence[float] = (MANOEUVRE_Q,),
+                 transition: ArrayLike | None = None,
+                 turn_rates: Sequence[float] = (), turn_q: float = TURN_Q,
+                 probabilities: ArrayLike | None = None,
+                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
+        if component not in COMPONENTS:
+            raise ValueError(f"component must be one of {', '.join(COMPONENTS)}; got "
+                             f"{component!r}")
+        extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
+        if not all(math.isfinite(v) and v >= 0 for v in extra):
+            raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
+        rates = [float(v) for v in np.atleast_1d(np.asarray(turn_rates, dtype=float))]
+        if not all(math.isfinite(v) and v != 0 for v in rates):
+            raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
+        if not (math.isfinite(turn_q) and turn_q >= 0):
+            raise ValueError(f"turn_q must be an acceleration >= 0 (m/s^2); got {turn_q}")
+        count = 1 + len(extra) + len(rates)
+        if transition is None:
+            off = SWITCH / max(count - 1, 1)
+            matrix = np.full((count, count), off)
+            np.fill_diagonal(matrix, 1.0 - SWITCH if count > 1 else 1.0)
+        else:
+            matrix = np.asarray(transition, dtype=float)
+        if matrix.shape != (count, count) or not np.all(np.isfinite(matrix)) \
+                or np.any(matrix < 0) or not np.allclose(matrix.sum(axis=1), 1.0, atol=1e-9):
+            raise ValueError(f"transition must be a {count}x{count} matrix of probabilities "
+                             f">= 0 whose rows sum to 1 ({count} models); got "
+                             f"{matrix.tolist()}")
+        mu = (np.full(count, 1.0 / count) if probabilities is None
+              else np.asarray(probabilities, dtype=float).reshape(-1))
+        if mu.shape != (count,) or not np.all(np.isfinite(mu)) or np.any(mu < 0) \
+                or not mu.sum() > 0:
+            raise ValueError(f"probabilities must be {count} values >= 0, not all 0; got "
+                             f"{mu.tolist()}")
+        self.component = component
+        self.model_q = tuple(extra)
+        self.transition = matrix
+        self._mu0 = mu / mu.sum()
+        super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
+                         nuisance=nuisance)
+        if type(self.dynamics) is not NearlyConstantVelocity:
+            raise ValueError("the IMM filter's models are NearlyConstantVelocity dynamics")
+        base_q, density = self.dynamics.axes()
+        self.models: list[NearlyConstantVelocity] = [self.dynamics] + [
+            NearlyConstantVelocity(self.dim, tuple(float(max(v, b)) for b in base_q),
+                                   tuple(density)) for v in extra] + [
+            CoordinatedTurn(self.dim, tuple(float(max(turn_q, b)) for b in base_q),
+                            tuple(density), turn_rate=w) for w in rates]
+        self._unit: ExtendedKalmanFilter = COMPONENTS[component](
+            np.asarray(mean, dtype=float), np.asarray(covariance, dtype=float), time,
+            dynamics=self.dynamics, options=self.options, nuisance=self.nuisance)
+        self.probability_history: list[list[float]] = []
+
+    def _init_state(self, mean: Array, covariance: Array) -> None:
+        count = self._mu0.shape[0]
+        self._mu = self._mu0.copy()
+        self._m = np.repeat(mean[None], count, axis=0)
+        self._p = np.repeat(covariance[None], count, axis=0)
+
+    @property
+    def probabilities(self) -> Array:
+        """The models' probabilities now ``(M,)`` (a copy)."""
+        return self._mu.copy()
+
+    @property
+    def model_states(self) -> tuple[Array, Array]:
+        """Each model's mean ``(M, n)`` and covariance ``(M, n, n)`` (copies)."""
+        return self._m.copy(), self._p.copy()
+
+    @property
+    def state(self) -> Array:
+        """The combined mean ``(n,)`` (m, m/s)."""
+        return self._mu @ self._m
+
+    @property
+    def covariance(self) -> Array:
+        """The combined covariance ``(n, n)``."""
+        return _moments(self._mu, self._m, self._p)[1]
+
+    def _predict(self, dt: float) -> None:
+        pij = self.transition
+        c = self._mu @ pij  # c_j
+        mixed_m, mixed_p = np.empty_like(self._m), np.empty_like(self._p)
+        for j, model in enumerate(self.models):
+            w = pij[:, j] * self._mu
+            total = float(w.sum())
+            w = w / total if total > 0 else np.full_like(w, 1.0 / w.shape[0])
+            mean, cov = _moments(w, self._m, self._p)
+            phi = model.transition(dt)
+            mixed_m[j] = phi @ mean
+            mixed_p[j] = phi @ cov @ phi.T + model.noise(dt)
+            mixed_p[j] = 0.5 * (mixed_p[j] + mixed_p[j].T)
+        self._m, self._p = mixed_m, mixed_p
+        self._mu = c / c.sum()
+
+    def _update(self, group: MeasurementGroup) -> UpdateInfo:
+        count = self._mu.shape[0]
+        log_l = np.full(count, -np.inf)
+        nus, covs = [], []
+        for j in range(count):
+            m, p, nu, s, ll = self._unit.update_gaussian(group, self._m[j], self._p[j])
+            if nu.shape[0]:
+                self._m[j], self._p[j] = m, p
+                log_l[j] = ll
+            nus.append(nu)
+            covs.append(s)
+        ok = np.flatnonzero(np.isfinite(log_l))
+        if ok.shape[0] == 0:
+            self.skipped_updates += 1
+            self.probability_history.append(self._mu.tolist())
+            return skipped()
+        prior = self._mu[ok] / self._mu[ok].sum()
+        nbar, sbar = _moments(prior, np.array([nus[i] for i in ok]),
+                              np.array([covs[i] for i in ok]))
+        nis = float(nbar @ solve_spd(sbar, nbar)[0])
+        top = float(np.max(log_l[ok]))
+        post = np.zeros(count)
+        post[ok] = self._mu[ok] * np.exp(log_l[ok] - top)
+        total = float(post.sum())
+        self._mu = post / total
+        self.probability_history.append(self._mu.tolist())
+        return UpdateInfo(nis, int(nbar.shape[0]), top + math.log(total))
+
+    def _track(self, rec: Recorder) -> Track:
+        track = super()._track(rec)
+        track.extra.model_probabilities = [list(p) for p in self.probability_history]
+        track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
+                               "q_density": [float(v) for v in m.axes()[1]],
+                               "turn_rate": float(getattr(m, "turn_rate", 0.0)),
+                               "prior": float(p)} for m, p in zip(self.models, self._mu0,
+                                                                  strict=True)]
+        track.extra.transition = self.transition.tolist()
+        return track
+
+
+__all__ = ["MANOEUVRE_Q", "SWITCH", "TURN_Q", "InteractingMultipleModel"]

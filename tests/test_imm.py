@@ -1,0 +1,117 @@
+"""The interacting multiple model filter (``imm``): the manoeuvring target, its outputs, its
+refusals."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import tmakit as tk
+from tmakit.cli import app
+from tmakit.cli.track import nis_verdict
+from tmakit.filters import InteractingMultipleModel
+from tmakit.tracking import truth_states
+
+runner = CliRunner()
+
+
+def hoerst_bearings(seed: int) -> tk.MeasurementSet:
+    """hoerst2010's azimuths only (the target turns from 400 to 600 s)."""
+    sim = tk.load_scenario("hoerst2010").simulate(np.random.default_rng(seed))
+    return sim.take(np.flatnonzero(sim.kind == "bearing"))
+
+
+def final_error_and_verdict(meas, name):
+    tr = tk.track(meas, name)
+    truth = truth_states(meas, tr.times, 2)
+    ok = np.isfinite(tr.nis)
+    verdict = nis_verdict(float(np.sum(tr.nis[ok])), int(np.sum(tr.dof[ok])))
+    return float(np.linalg.norm(tr.states[-1, :2] - truth[-1, :2])), verdict, tr
+
+
+@pytest.mark.parametrize("seed", [5, 11])
+def test_imm_beats_the_cv_ekf_through_the_turn_and_does_not_diverge(seed):
+    meas = hoerst_bearings(seed)
+    e_ekf, v_ekf, _ = final_error_and_verdict(meas, "ekf")
+    e_imm, v_imm, tr = final_error_and_verdict(meas, "imm")
+    assert v_ekf.startswith("the innovations are larger"), v_ekf  # the CV EKF diverges
+    assert v_imm == "", v_imm
+    assert e_imm < 0.6 * e_ekf, (e_imm, e_ekf)
+    mu = np.asarray(tr.extra.model_probabilities)
+    assert mu.shape == (len(tr), 2)
+    np.testing.assert_allclose(mu.sum(axis=1), 1.0)
+    turning = (tr.times > 450) & (tr.times < 650)
+    assert mu[turning, 1].mean() > mu[tr.times < 350, 1].mean()  # the manoeuvre model wins
+
+
+def test_transition_and_model_q_refused_with_their_names():
+    with pytest.raises(ValueError, match="transition must be a 2x2"):
+        InteractingMultipleModel(np.zeros(4), np.eye(4), transition=[[0.9, 0.2], [0.1, 0.9]])
+    with pytest.raises(ValueError, match="model_q"):
+        InteractingMultipleModel(np.zeros(4), np.eye(4), model_q=[-1.0])
+    with pytest.raises(ValueError, match="component"):
+        InteractingMultipleModel(np.zeros(4), np.eye(4), component="pf")
+
+
+@pytest.fixture(scope="module")
+def obs(tmp_path_factory):
+    path = tmp_path_factory.mktemp("imm") / "obs.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=7), path)
+    return path
+
+
+def test_tma_track_imm_json_and_picture(obs, tmp_path):
+    png = tmp_path / "imm.png"
+    result = runner.invoke(app, ["track", str(obs), "--filter", "imm", "--component", "ckf",
+                                 "--model-q", "0.5", "--transition", "0.98,0.02;0.05,0.95",
+                                 "--json", "--plot", str(png)])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert len(data["model_probabilities"]) == len(data["time"])
+    assert data["transition"] == [[0.98, 0.02], [0.05, 0.95]]
+    assert [m["q"][0] for m in data["models"]] == [0.0, 0.5]
+    assert png.stat().st_size > 0
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--transition", "0.9,0.2;0.1,0.9"], "transition must be"),
+    (["--transition", "a,b"], "--transition"),
+    (["--model-q", "x"], "--model-q"),
+    (["--smooth"], "no smoother for --filter imm"),
+])
+def test_tma_track_imm_refusals(obs, args, words):
+    result = runner.invoke(app, ["track", str(obs), "--filter", "imm", *args])
+    assert result.exit_code == 2, result.output
+    assert words in result.output
+    assert "Traceback" not in result.output
+
+
+def test_model_q_only_with_imm(obs):
+    result = runner.invoke(app, ["track", str(obs), "--model-q", "0.5"])
+    assert result.exit_code == 2 and "only to --filter imm" in result.output
+
+
+def test_coordinated_turn_moves_along_the_circle():
+    from tmakit.motion.dynamics import CoordinatedTurn
+
+    w, speed = -0.01, 50.0  # a right turn: 0.5 m/s^2 at 50 m/s, as hoerst2010's target
+    x0 = np.array([0.0, 0.0, speed, 0.0])
+    x = CoordinatedTurn(2, 0.0, turn_rate=w).transition(100.0) @ x0
+    centre = np.array([0.0, speed / w])  # to the right of an eastward course
+    assert np.hypot(*x[2:]) == pytest.approx(speed)
+    assert np.hypot(*(x[:2] - centre)) == pytest.approx(abs(speed / w))
+    assert np.degrees(np.arctan2(x[3], x[2])) == pytest.approx(np.degrees(w * 100.0))
+    with pytest.raises(ValueError, match="turn rate"):
+        CoordinatedTurn(2, 0.0, turn_rate=0.0)
+
+
+def test_tma_track_imm_turn_models(obs):
+    result = runner.invoke(app, ["track", str(obs), "--filter", "imm", "--model-q", "1",
+                                 "--turn-rate", "-0.5,0.5", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert [round(np.degrees(m["turn_rate"]), 6) for m in data["models"]] == [0, 0, -0.5, 0.5]
+    assert len(data["model_probabilities"][0]) == 4
