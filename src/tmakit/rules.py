@@ -38,41 +38,12 @@ _MIN_SPAN_S = 100.0
 
 
 def time_within_limit(time: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Tell where times (s) lie within :data:`tmakit.core.units.TIME_LIMIT_S` of the origin.
-
-    Parameters
-    ----------
-    time : ndarray
-        Times (s).
-
-    Returns
-    -------
-    ndarray of bool
-        False for a time beyond the limit (or NaN).
-    """
+    """Tell where times (s) lie within :data:`tmakit.core.units.TIME_LIMIT_S` of the origin."""
     return np.abs(time) <= TIME_LIMIT_S
 
 
 def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
-    """Find the times that lie far outside the span of the others (a typo, another unit).
-
-    The bulk of the times is their central half (from the first to the third quartile, in
-    row counts); a time more than :data:`OUTLIER_SPANS` times the bulk's span (at least
-    100 s) before or after it is far.  Sessions of a log a day apart are not far from each
-    other; one time in milliseconds among seconds, or a 1e9 typed for a 1e3, is.
-
-    Parameters
-    ----------
-    time : ndarray
-        Times (s); non-finite ones are left out (another rule names them).
-
-    Returns
-    -------
-    far : ndarray of bool
-        The far rows.
-    expected : str
-        What a time was expected to be (for messages), empty when none is far.
-    """
+    """Find the times that lie far outside the span of the others (a typo, another unit)."""
     with np.errstate(invalid="ignore"):
         finite = np.isfinite(time)
         t = time if finite.all() else time[finite]
@@ -95,22 +66,7 @@ def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
 
 
 def time_reach(times: NDArray[np.float64]) -> tuple[float, float, float] | None:
-    """Give the data's first and last time and how far from them a time may be asked for.
-
-    A reference time or an answer's time more than :data:`OUTLIER_SPANS` spans of the data
-    (at least 100 s) from them is refused: the positions there depend on the velocities that
-    many times over (an answer at 1e12 s would be 1e12 s of extrapolation).
-
-    Parameters
-    ----------
-    times : array_like
-        The measurement times (s).
-
-    Returns
-    -------
-    (low, high, reach) or None
-        The first and last finite time and the reach (s); None without a finite time.
-    """
+    """Give the data's first and last time and how far from them a time may be asked for."""
     t = np.asarray(times, dtype=float)
     t = t[np.isfinite(t)]
     if not t.size:
@@ -120,22 +76,7 @@ def time_reach(times: NDArray[np.float64]) -> tuple[float, float, float] | None:
 
 
 def time_problem(time: float, times: NDArray[np.float64] | None, what: str) -> str | None:
-    """Say why a time asked for (an answer's, a reference time) cannot be used, or None.
-
-    Parameters
-    ----------
-    time : float
-        The time (s).
-    times : array_like or None
-        The measurement times (s); None: only finiteness is checked.
-    what : str
-        What the time is, for the message (``--at``, ``time``).
-
-    Returns
-    -------
-    str or None
-        The problem (not finite, or beyond :func:`time_reach` of the data), None when fine.
-    """
+    """Say why a time asked for (an answer's, a reference time) cannot be used, or None."""
     if not math.isfinite(time):
         return f"{what} {time}: expected a finite time (s)"
     found = None if times is None else time_reach(times)
@@ -186,37 +127,7 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                     sigma: NDArray[np.float64], sensor_state: NDArray[np.float64],
                     time_ref: NDArray[np.float64], order: bool = True, ranges: bool = True
                     ) -> list[str]:
-    """Check the columns of a measurement set against the rules of the file format.
-
-    Every check is vectorised: linear in the rows, with boolean masks (1 byte per row) as
-    its only full-size temporaries, plus one sort of the sensor codes for the time order
-    when there are several sensors.
-
-    Parameters
-    ----------
-    time : ndarray, shape (n,)
-        Times (s).
-    sensor_code : ndarray of int, shape (n,)
-        Sensor of each row (codes).
-    kind : ndarray of int, shape (n,)
-        Kind of each row: an index into :data:`tmakit.measurements.KINDS`.
-    value, sigma : ndarray, shape (n,)
-        Values and standard deviations in file units (deg, m, Hz, dBm, ...).
-    sensor_state : ndarray, shape (n, 6)
-        Sensor ENU states (m, m/s).
-    time_ref : ndarray, shape (n,)
-        Reference times (s) of range differences; NaN elsewhere.
-    order : bool, optional
-        Check that time does not decrease within a sensor (default).
-    ranges : bool, optional
-        Check each kind's value range (default).
-
-    Returns
-    -------
-    list of str
-        One message per failing cell (at most ten per rule), ``row N, column 'c': expected
-        ..., found ...``; empty when the set obeys every rule.
-    """
+    """Check the columns of a measurement set against the rules of the file format."""
     found: list[str] = []
     cols = {"time": time, "value": value, "sigma": sigma}
     for name, col in cols.items():
@@ -268,57 +179,19 @@ STATE_COLUMNS = ("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor_vy", "
 
 
 def state_within_reach(values: NDArray[np.float64], column: int) -> NDArray[np.bool_]:
-    """Tell where a sensor state column lies within reach: positions, velocities.
-
-    Parameters
-    ----------
-    values : ndarray
-        One column of sensor states (m for columns 0-2, m/s for 3-5).
-    column : int
-        Its index in the state (``x, y, z, vx, vy, vz``).
-
-    Returns
-    -------
-    ndarray of bool
-        False beyond :data:`tmakit.core.units.REACH_M` (positions) or the speed of light
-        (velocities), or NaN.
-    """
+    """Tell where a sensor state column lies within reach: positions, velocities."""
     return np.abs(values) <= (REACH_M if column < 3 else SPEED_OF_LIGHT)
 
 
 def geo_within(values: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
-    """Tell where latitudes (``sensor_lat``) or longitudes (``sensor_lon``) are in range.
-
-    Parameters
-    ----------
-    values : ndarray
-        Degrees.
-    column : str
-        ``sensor_lat`` or ``sensor_lon`` (:data:`GEO_RANGES`).
-
-    Returns
-    -------
-    ndarray of bool
-        False outside the range (or NaN).
-    """
+    """Tell where latitudes (``sensor_lat``) or longitudes (``sensor_lon``) are in range."""
     low, high = GEO_RANGES[column]
     return (values >= low) & (values <= high)
 
 
 def sigma_resolved(value: NDArray[np.float64], sigma: NDArray[np.float64]
                    ) -> NDArray[np.bool_]:
-    """Tell where a sigma is at least :data:`SIGMA_FLOOR` of its value's size.
-
-    Parameters
-    ----------
-    value, sigma : ndarray
-        Values and their standard deviations, in the same (file) unit.
-
-    Returns
-    -------
-    ndarray of bool
-        False where the sigma is finer than the value can carry (or NaN).
-    """
+    """Tell where a sigma is at least :data:`SIGMA_FLOOR` of its value's size."""
     return sigma >= SIGMA_FLOOR * np.maximum(np.abs(value), 1.0)
 
 
@@ -331,24 +204,7 @@ def _far_time_problems(time: NDArray[np.float64]) -> list[str]:
 def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                    kind_code: NDArray[np.integer], time_ref: NDArray[np.float64]
                    ) -> list[tuple[int, int]]:
-    """Find the rows that repeat an earlier row's (sensor, kind, time, time_ref).
-
-    Linear in the rows when no two rows of a sensor share a time (one comparison pass for
-    one sensor, a stable sort of the sensor codes for several); the rows that share a time
-    are then sorted by the four.
-
-    Parameters
-    ----------
-    time, time_ref : ndarray
-        Each row's times (s); empty ``time_ref`` cells (NaN) are equal.
-    sensor_code, kind_code : ndarray of int
-        Sensor and kind codes.
-
-    Returns
-    -------
-    list of (int, int)
-        ``(row, first)``: a row and the first row it repeats, in row order.
-    """
+    """Find the rows that repeat an earlier row's (sensor, kind, time, time_ref)."""
     n = sensor_code.shape[0]
     if n < 2:
         return []
@@ -390,10 +246,7 @@ def _duplicate_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integ
 
 def _order_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
                     ) -> list[str]:
-    """List the times that decrease within a sensor (file order kept).
-
-    One sensor costs a comparison pass; several, one stable sort of the sensor codes.
-    """
+    """List the times that decrease within a sensor (file order kept)."""
     n = time.shape[0]
     if n < 2:
         return []
@@ -436,21 +289,7 @@ def _number(text: str, key: str, low: float = -math.inf, high: float = math.inf,
 
 
 def metadata_problems(metadata: Mapping[str, str]) -> list[str]:
-    """Check the metadata keys the library reads; other keys are free text.
-
-    Parameters
-    ----------
-    metadata : mapping of str to str
-        The set's (or file's) metadata.
-
-    Returns
-    -------
-    list of str
-        One message per bad key (``truth`` and ``nuisance``: a JSON object of finite
-        numbers; ``ref_time``: finite (s); ``origin_lat`` in [-90, 90] deg, ``origin_lon`` in
-        [-180, 360] deg, ``origin_alt`` finite (m); ``seed`` a whole number >= 0;
-        ``motion`` a motion name).
-    """
+    """Check the metadata keys the library reads; other keys are free text."""
     json_found, motion_found = _parsed_problems(tuple(metadata.get(key) for key in _PARSED))
     found: list[str | None] = list(json_found)
     checks = {"ref_time": (-math.inf, math.inf, " (s)"), "origin_lat": (-90, 90, " deg"),
@@ -470,11 +309,7 @@ _PARSED = ("truth", "nuisance", "motion")  # the keys whose check parses text (J
 
 @lru_cache(maxsize=256)
 def _parsed_problems(texts: tuple[str | None, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """Check the metadata of :data:`_PARSED` (None: absent), once per distinct text.
-
-    Many sets carry the same truth and motion (a Monte Carlo study's runs).  Returns the
-    problems of ``truth`` and ``nuisance``, and those of ``motion``.
-    """
+    """Check the metadata of :data:`_PARSED` (None: absent), once per distinct text."""
     truth, nuisance, motion = texts
     json_found = tuple(p for key, text in (("truth", truth), ("nuisance", nuisance))
                        if text is not None and (p := _json_numbers(text, key)))
@@ -490,40 +325,14 @@ def _parsed_problems(texts: tuple[str | None, ...]) -> tuple[tuple[str, ...], tu
 
 
 def raise_problems(found: list[str], what: str = "measurement set") -> None:
-    """Raise one ``ValueError`` listing ``found`` (nothing when it is empty).
-
-    Parameters
-    ----------
-    found : list of str
-        Problems (:func:`column_problems`, :func:`metadata_problems`).
-    what : str
-        What was checked, for the first line.
-
-    Raises
-    ------
-    ValueError
-        When ``found`` is not empty.
-    """
+    """Raise one ``ValueError`` listing ``found`` (nothing when it is empty)."""
     if found:
         more = f"\n  ... and {len(found) - 3 * _SHOWN} more" if len(found) > 3 * _SHOWN else ""
         raise ValueError(f"invalid {what}: " + "\n  ".join(found[:3 * _SHOWN]) + more)
 
 
 def check_set(meas: Any, order: bool = True, ranges: bool = True) -> None:
-    """Refuse a measurement set that breaks a rule (columns and metadata).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The set (its file-unit values are checked, as in a file).
-    order, ranges : bool, optional
-        Check the time order within each sensor and each kind's value range (default).
-
-    Raises
-    ------
-    ValueError
-        Listing every problem (row, column, what was expected and found).
-    """
+    """Refuse a measurement set that breaks a rule (columns and metadata)."""
     if not ranges and _si_cells_plainly_valid(meas):  # no cell rule can fail: skip them
         found = _order_problems(meas.time, meas.sensor_code) if order else []
     else:  # the rules on the file-unit cells, whose values the messages quote
@@ -536,15 +345,7 @@ _PLAIN = 1e300  # SI magnitudes whose file-unit twins are finite (and non-zero) 
 
 
 def _si_cells_plainly_valid(meas: Any) -> bool:
-    """Tell whether every cell rule but the value ranges and the order surely holds.
-
-    From the SI columns, without making the file-unit ones (a set built in SI has none yet):
-    times within the limit, sensor states within reach, values within +-1e300 and sigmas
-    within (1e-300, 1e300) and at least 100 times :data:`SIGMA_FLOOR` of their value's size
-    (so their file-unit twins, scaled by factors near 1 to 60 or shifted by 30 dB, are finite,
-    positive and resolved), no infinite reference time.  False sends the set to
-    :func:`column_problems`, which names each failing cell.
-    """
+    """Tell whether every cell rule but the value ranges and the order surely holds."""
     v, s = meas.value_si, meas.sigma_si
     st = meas.sensor_state
     with np.errstate(invalid="ignore"):

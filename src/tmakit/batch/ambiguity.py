@@ -145,15 +145,7 @@ class LegSide:
             else float("inf")
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form.
-
-        Returns
-        -------
-        dict
-            ``leg`` and ``part`` (1-based), ``start``, ``stop``, ``course_deg``, ``cuts``,
-            ``side``, ``delta_chi2``, ``likelihood_ratio`` (null past 1e300), ``status``
-            (``resolved`` or ``unresolved``) and ``reason``.
-        """
+        """Return the JSON form."""
         lr = self.likelihood_ratio
         return {"leg": self.leg + 1, "part": self.part + 1, "start": self.start, "stop": self.stop,
                 "course_deg": self.course_deg, "cuts": self.cuts, "side": self.side,
@@ -283,21 +275,7 @@ def _when(meas: MeasurementSet, t: float) -> str:
 
 
 def side_bearings(meas: MeasurementSet) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Return each row's starboard and port bearing (rad; NaN for rows without a twin).
-
-    The array's axis is the pair's mirror line (the mean of the two bearings, or its
-    opposite) nearest the own ship's heading (the course of its velocity).
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        A set with :attr:`~tmakit.data.MeasurementSet.ambiguous_si`.
-
-    Returns
-    -------
-    starboard, port : ndarray
-        Bearings (rad) to starboard and to port of the axis.
-    """
+    """Return each row's starboard and port bearing (rad; NaN for rows without a twin)."""
     twin = (np.full(len(meas), np.nan) if meas.ambiguous_si is None
             else np.asarray(meas.ambiguous_si))
     b = np.where(np.isnan(twin), np.nan, meas.value_si)
@@ -391,14 +369,7 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
 
 def _split_at_axis(leg: NDArray[np.intp], starboard: NDArray[np.float64],
                    port: NDArray[np.float64]) -> NDArray[np.intp]:
-    """Give each ambiguous cut its group (leg, part): a new part after each pass near endfire.
-
-    Near endfire the two bearings meet and the contact may cross to the other side of the
-    array: a part ends at the least angle from the axis of each pass below
-    :data:`ENDFIRE_DEG` (once the angle has risen :data:`ENDFIRE_RISE_DEG` above it), and
-    each part chooses its side.  Rows without a twin keep their leg's first group (-1 in
-    turns).
-    """
+    """Give each ambiguous cut its group (leg, part): a new part after each pass near endfire."""
     group = np.where(leg >= 0, leg * _PARTS, -1)
     twin = ~np.isnan(starboard)
     half = np.abs(np.angle(np.exp(1j * (starboard - port)))) / 2.0  # from the nearer end
@@ -455,11 +426,7 @@ def _judge_sides(kept: MeasurementSet, twin: NDArray[np.bool_], legs: LegsAndTur
 
 def _report_both(best: EstimateResult, others: list[EstimateResult],
                  meas: MeasurementSet) -> None:
-    """Rank the unresolved legs' other-side fits among the best fit's separated solutions.
-
-    Those the separation test keeps (:func:`~tmakit.results.solutions.separated_solutions`)
-    join the result's solutions; every one is in the ambiguity report whatever the test says.
-    """
+    """Rank the unresolved legs' other-side fits among the best fit's separated solutions."""
     earlier = [s.result for s in best.solutions[1:]]
     best.solutions = separated_solutions(best, [*others, *earlier], meas)
 

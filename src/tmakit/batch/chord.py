@@ -22,25 +22,7 @@ __all__ = ["ChordScorer", "chord_units"]
 
 def chord_units(problem: VarProProblem, rows: NDArray[np.int64] | None = None
                 ) -> PlanarUnits | None:
-    """Give the predicted angles' sines and cosines of a problem's rows, or None.
-
-    For problems whose every row is an angle of one planar kind (the bearing), without
-    correlated noise, under an affine motion model
-    (:func:`~tmakit.observation.fused.planar_units`); the grid (:mod:`tmakit.batch.init`)
-    scores them by :class:`ChordScorer`.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem.
-    rows : ndarray of int, optional
-        Its rows (set order; default all).
-
-    Returns
-    -------
-    PlanarUnits or None
-        None when the problem is not of that form.
-    """
+    """Give the predicted angles' sines and cosines of a problem's rows, or None."""
     obs = problem.obs
     if not problem.all_angle or problem.noise.correlated or not obs.in_set_order:
         return None
@@ -77,19 +59,7 @@ class ChordScorer:
         self.blocks = [slice(lo, lo + step) for lo in range(0, candidates.shape[0], step)]
 
     def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Return the chord costs of every candidate for each data set.
-
-        Parameters
-        ----------
-        y : ndarray, shape (B, m) or (m,)
-            Data sets on the rows (rad).
-
-        Returns
-        -------
-        ndarray, shape (B, C)
-            Half the weighted sum of squares for small residuals (dimensionless); inf
-            without predictions.
-        """
+        """Return the chord costs of every candidate for each data set."""
         y = np.atleast_2d(np.asarray(y, dtype=float))
         w2 = self.weight2
         sin_w, cos_w = (np.sin(y) * w2).T, (np.cos(y) * w2).T  # (m, B)

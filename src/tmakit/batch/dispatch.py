@@ -26,48 +26,13 @@ __all__ = ["MLByMotion", "estimate", "model_of"]
 
 
 def is_manoeuvring(motion: MotionModel) -> bool:
-    """Tell whether ``motion`` is a manoeuvring target's.
-
-    Parameters
-    ----------
-    motion : MotionModel
-        A motion model (a name is read first by :func:`model_of`).
-
-    Returns
-    -------
-    bool
-        True for a model with a number of manoeuvres
-        (a :class:`~tmakit.motion.PiecewiseCurvilinear`).
-    """
+    """Tell whether ``motion`` is a manoeuvring target's."""
     return getattr(motion, "manoeuvres", None) is not None
 
 
 def model_of(motion: MotionModel | str, meas: MeasurementSet,
              ref_time: float | None) -> MotionModel:
-    """Read a motion name once, into the model it stands for; give a model back as it is.
-
-    Parameters
-    ----------
-    motion : MotionModel or str
-        A model, or a name of :func:`tmakit.motion.motion_from_name`.
-    meas : MeasurementSet
-        The measurements (their first time is a manoeuvring model's default reference).
-    ref_time : float or None
-        The reference time (s) of a model made from a name; default the first measurement
-        time for a manoeuvring target, and for the others a time inside the data
-        (:func:`tmakit.motion.default_ref_time`: 0 when the data span it), so that the fit
-        does not depend on the time origin.
-
-    Returns
-    -------
-    MotionModel
-        The model.
-
-    Raises
-    ------
-    ValueError
-        For an unknown name (the message of :func:`~tmakit.motion.motion_from_name`).
-    """
+    """Read a motion name once, into the model it stands for; give a model back as it is."""
     if not isinstance(motion, str):
         return motion
     model = motion_from_name(motion, default_ref_time(meas.time) if ref_time is None

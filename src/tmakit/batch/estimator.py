@@ -68,20 +68,7 @@ class BatchEstimator(ABC):
 
 
 def check_paper_options(method: str, options: Options) -> None:
-    """Refuse nuisance models the papers do not have: carrier drift, path-loss exponent ≠ 2.
-
-    Parameters
-    ----------
-    method : str
-        The method's name (for the message).
-    options : Mapping or None
-        The nuisance model per kind asked for.
-
-    Raises
-    ------
-    ValueError
-        When ``options`` asks for drift or for another or an unknown exponent.
-    """
+    """Refuse nuisance models the papers do not have: carrier drift, path-loss exponent ≠ 2."""
     opts = dict(options or {})
     if opts.get("frequency", {}).get("drift", False):
         raise ValueError(f"{method}: the paper's model has no carrier drift; use method 'ml' "
@@ -93,18 +80,7 @@ def check_paper_options(method: str, options: Options) -> None:
 
 
 def kinds_tuple(kinds: str | Sequence[str] | None) -> tuple[str, ...] | None:
-    """Convert ``kinds`` to a tuple (a single name as a 1-tuple), or None.
-
-    Parameters
-    ----------
-    kinds : str, sequence of str or None
-        Measurement kind names.
-
-    Returns
-    -------
-    tuple of str or None
-        The kinds, or None when none were given.
-    """
+    """Convert ``kinds`` to a tuple (a single name as a 1-tuple), or None."""
     if kinds is None:
         return None
     return (kinds,) if isinstance(kinds, str) else tuple(kinds)

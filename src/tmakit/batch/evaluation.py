@@ -48,18 +48,7 @@ class Evaluation:
     normal: tuple[Array, Array] | DeferredNormal | None = None
 
     def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
-        """Copy the evaluations of ``rows``.
-
-        Parameters
-        ----------
-        rows : ndarray of bool or int
-            The rows kept.
-
-        Returns
-        -------
-        Evaluation
-            A copy of those rows.
-        """
+        """Copy the evaluations of ``rows``."""
         normal = self.normal
         if isinstance(normal, DeferredNormal):
             normal = normal.take(rows)  # (still deferred unless already summed)
@@ -71,17 +60,7 @@ class Evaluation:
 
     def put(self, rows: NDArray[np.bool_] | NDArray[np.int64], other: Evaluation,
             which: NDArray[np.bool_] | NDArray[np.int64] | slice = slice(None)) -> None:
-        """Overwrite ``rows`` with ``other``'s evaluations ``which``, in place.
-
-        Parameters
-        ----------
-        rows : ndarray of bool or int
-            The rows written.
-        other : Evaluation
-            The source.
-        which : ndarray of bool or int, or slice
-            Its rows read (default: all).
-        """
+        """Overwrite ``rows`` with ``other``'s evaluations ``which``, in place."""
         if isinstance(self.normal, DeferredNormal):  # written into: summed first, as it was
             self.normal = (self.normal[0], self.normal[1])
         if (self.jacobian is None) != (other.jacobian is None):
@@ -103,18 +82,7 @@ class Evaluation:
 
 
 def normal_of(ev: Evaluation) -> tuple[Array, Array] | DeferredNormal | None:
-    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` of ``ev`` (its own when it has them).
-
-    Parameters
-    ----------
-    ev : Evaluation
-        The evaluated points.
-
-    Returns
-    -------
-    (ndarray, ndarray), DeferredNormal or None
-        The sums (per parameter unit squared, per parameter unit); None without derivatives.
-    """
+    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` of ``ev`` (its own when it has them)."""
     if ev.normal is not None or ev.jacobian is None:
         return ev.normal
     jt = ev.jacobian.swapaxes(1, 2)

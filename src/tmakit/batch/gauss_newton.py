@@ -25,21 +25,7 @@ __all__ = ["POLISH_INFORMATION", "GaussNewtonModel", "gram", "information_of",
 
 
 def gram(j: Array) -> Array:
-    """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)`` (or ``(p, p)`` of ``(n, p)``).
-
-    Summed over row blocks below OpenBLAS's multithreading threshold when one product would
-    pass it (:mod:`tmakit.core.blas`).
-
-    Parameters
-    ----------
-    j : ndarray
-        The Jacobian (per parameter unit).
-
-    Returns
-    -------
-    ndarray
-        ``J^T J`` (per parameter unit squared).
-    """
+    """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)`` (or ``(p, p)`` of ``(n, p)``)."""
     n, p = j.shape[-2:]
     if j.ndim == 2 and by_dots(j):
         return normal_rows(j.T)[0]
@@ -55,27 +41,7 @@ def gram(j: Array) -> Array:
 
 def information_of(problem: VarProProblem, ev: Evaluation, run: int,
                    known: Array | None = None) -> Array | None:
-    """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it.
-
-    The evaluation's whitened Jacobian (or chunked ``J'J``) when no nuisance is eliminated
-    (none, or known): a fit's last evaluation gives it without evaluating the model again.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem evaluated.
-    ev, run : Evaluation, int
-        The evaluations (e.g. :attr:`SolveResult.evaluation`) and the run (row of the batch).
-    known : ndarray, optional
-        ``(B, p, p)`` ``J'J`` already formed at the evaluated points, NaN where not
-        (:attr:`SolveResult.information`): used where finite.
-
-    Returns
-    -------
-    ndarray or None
-        ``(p, p)`` (per parameter unit squared); None when the nuisance is eliminated (the
-        projected Jacobian is not that information) or there are no derivatives.
-    """
+    """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it."""
     if problem.eliminates:
         return None
     if known is not None and np.all(np.isfinite(known[run])):
@@ -98,21 +64,7 @@ def _selected_layout(jac: Array) -> bool:
 
 
 def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Array, Array]:
-    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` at ``ev`` over the ``free`` columns.
-
-    Parameters
-    ----------
-    ev : Evaluation
-        The evaluated points (whitened Jacobian, or its chunked normal equations); a
-        Jacobian of ``free``'s columns only is taken as it is.
-    free : ndarray of bool, optional
-        ``(p,)`` the fitted parameters (default all).
-
-    Returns
-    -------
-    (ndarray, ndarray)
-        ``J'J`` and ``J'r`` (per parameter unit squared, per parameter unit).
-    """
+    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` at ``ev`` over the ``free`` columns."""
     if ev.normal is not None:  # summed over row chunks (large problems)
         jtj, grad = ev.normal
         if free is not None:
@@ -169,22 +121,7 @@ class GaussNewtonModel:
 
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> GaussNewtonModel:
-        """Build the model at the evaluated points ``ev`` (over the ``free`` columns).
-
-        Parameters
-        ----------
-        ev : Evaluation
-            The evaluated points.
-        gtol : float
-            The gradient test's tolerance (see :func:`levenberg_marquardt`).
-        free : ndarray of bool, optional
-            ``(p,)`` the fitted parameters (default all).
-
-        Returns
-        -------
-        GaussNewtonModel
-            The model of every run of ``ev``.
-        """
+        """Build the model at the evaluated points ``ev`` (over the ``free`` columns)."""
         jtj, grad = normal_equations(ev, free)
         if jtj.shape[0] == 1 and jtj.shape[1] <= _DIRECT_EIGH:
             one = cls._one(jtj[0], grad[0], float(ev.cost[0]), gtol)
@@ -201,11 +138,7 @@ class GaussNewtonModel:
 
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
-        """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls).
-
-        LAPACK's ``dsyevd`` directly (NumPy's batched ``eigh`` costs several times the
-        decomposition of a small matrix); None where it fails.
-        """
+        """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
         scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
         w, v, info = _dsyevd(jtj / np.multiply.outer(scale, scale), compute_v=1, lower=1)
         if info != 0:
@@ -217,38 +150,13 @@ class GaussNewtonModel:
                    np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
-        """Keep the runs ``rows``.
-
-        Parameters
-        ----------
-        rows : ndarray of bool
-            The runs kept.
-
-        Returns
-        -------
-        GaussNewtonModel
-            Their models.
-        """
+        """Keep the runs ``rows``."""
         return GaussNewtonModel(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
                                 self.decrement[rows], self.small_grad[rows],
                                 None if self.jtj is None else self.jtj[rows])
 
     def step(self, lam: Array) -> tuple[Array, Array]:
-        """Give the step at damping ``lam`` and the decrease the model predicts for it.
-
-        The damping is ``lam * I`` in the scaled variables.
-
-        Parameters
-        ----------
-        lam : ndarray
-            ``(B,)`` the damping of each run.
-
-        Returns
-        -------
-        (ndarray, ndarray)
-            ``(B, p)`` the steps (parameter units) and ``(B,)`` the predicted decreases of
-            half chi2.
-        """
+        """Give the step at damping ``lam`` and the decrease the model predicts for it."""
         if self.w.shape[0] == 1:  # one run: 2-D products (fewer, cheaper calls)
             w, vg, lam1 = self.w[0], self.vg[0], float(lam[0])
             lw = w + lam1
@@ -270,33 +178,7 @@ left, is then that of the end point to this order."""
 def information_steady(model: GaussNewtonModel, theta: Array,
                        previous: tuple[Array, Array] | None, decrement: float,
                        free: NDArray[np.bool_] | None) -> bool:
-    """Tell whether ``J'J`` changes little enough over a polishing step of ``decrement``.
-
-    The change of ``J'J`` from the run's previous point to the current one, relative to the
-    current one in every direction (the Frobenius norm of ``L^-1 (H - H_prev) L^-T``, ``H =
-    L L'``), per standard deviation moved, times the polishing step's ``sqrt(2 decrement)``
-    standard deviations, is at most :data:`POLISH_INFORMATION`.  Without a previous point
-    (or with a singular ``J'J``) it is not.  On weakly observed geometry ``J'J`` changes by
-    tens of per cent per standard deviation: there the covariance must come from the end
-    point itself (``benchmarks/large_fit_agreement.py``).
-
-    Parameters
-    ----------
-    model : GaussNewtonModel
-        A single run's model at its current point (its ``jtj``).
-    theta : ndarray
-        ``(p,)`` the current point (SI).
-    previous : (ndarray, ndarray) or None
-        ``(p,)`` the previous point and ``J'J`` there (over the ``free`` columns).
-    decrement : float
-        The polishing step's predicted decrease (half chi2).
-    free : ndarray of bool, optional
-        ``(p,)`` the fitted parameters (default all).
-
-    Returns
-    -------
-    bool
-    """
+    """Tell whether ``J'J`` changes little enough over a polishing step of ``decrement``."""
     if previous is None or model.jtj is None:
         return False
     theta_prev, jtj_prev = previous

@@ -289,28 +289,6 @@ def gu_direct(meas: MeasurementSet, motion: MotionModel, init: Init, max_iter: i
               tol: float = 1e-8, normal_equations: bool = False) -> EstimateResult:
     """Run Gu et al. (2007) §3 from ``init``: the short form of :class:`GuDirect`.
 
-    Parameters
-    ----------
-    meas : MeasurementSet
-        Power and/or frequency measurements.
-    motion : MotionModel
-        ``ConstantVelocity(2)``.
-    init : Mapping[str, float] or array_like
-        The starting theta (m, m/s); required (``GuDirect()`` without it starts from
-        tmakit's grid point).
-    max_iter, kinds, c0, tol, normal_equations
-        As for :class:`GuDirect`.
-
-    Returns
-    -------
-    EstimateResult
-        As :meth:`GuDirect.iterate`.
-
-    Raises
-    ------
-    ValueError
-        Without ``init``, for another motion model, or data of other kinds.
-
     References
     ----------
     Gu et al. (2007), §3, eqs. 9-16.
@@ -322,10 +300,7 @@ def gu_direct(meas: MeasurementSet, motion: MotionModel, init: Init, max_iter: i
 def _direct_result(system: _DirectSystem, motion: MotionModel, theta: Array, x: Array,
                    fs: float, status: Status, message: str, iterations: int,
                    history: dict[str, list[float]]) -> EstimateResult:
-    """Build the result: covariance ``D^-1`` at the last iterate, nuisance values, conditions.
-
-    The nuisance values come with delta-method std.
-    """
+    """Build the result: covariance ``D^-1`` at the last iterate, nuisance values, conditions."""
     c = SPEED_OF_LIGHT
     j_c, j_f, c0 = system.j_c, system.j_f, system.c0
     names_nu = [NUISANCE_NAMES[k] for k in system.kinds]

@@ -36,25 +36,6 @@ def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
                    ) -> tuple[Status, str] | None:
     """Decide how an iteration of the papers' fixed-point methods ends after an update.
 
-    Parameters
-    ----------
-    theta : ndarray, shape (4,)
-        The updated iterate (m, m/s).
-    step : ndarray, shape (4,)
-        The update (m, m/s).
-    range2 : ndarray, shape (n,)
-        Squared ranges at the iterate (m²).
-    far : float
-        The largest range allowed (m).
-    tol : float
-        Relative size of the update below which it has converged.
-
-    Returns
-    -------
-    tuple of (str, str) or None
-        ``(DIVERGED, why)`` when a range is non-positive or beyond ``far``, ``(CONVERGED,
-        "")`` when the update is small, ``None`` to go on.
-
     References
     ----------
     Gu et al. (2007), §3 and §4.
@@ -76,23 +57,6 @@ DEFAULT_CARRIER = 1.9e9
 def check_planar_cv(motion: MotionModel, method: str) -> ConstantVelocity:
     """Refuse a motion model other than 2-D constant velocity; give it back as one.
 
-    Parameters
-    ----------
-    motion : MotionModel
-        The motion model asked for.
-    method : str
-        The method's name (for the message).
-
-    Returns
-    -------
-    ConstantVelocity
-        ``motion``.
-
-    Raises
-    ------
-    ValueError
-        When ``motion`` is not a 2-D :class:`~tmakit.motion.ConstantVelocity`.
-
     References
     ----------
     Gu et al. (2007), eq. 1.
@@ -105,30 +69,7 @@ def check_planar_cv(motion: MotionModel, method: str) -> ConstantVelocity:
 
 def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method: str
                  ) -> tuple[tuple[str, ...], MeasurementSet]:
-    """Choose the kinds to use (in :data:`PAPER_KINDS` order) and the rows of those kinds.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-    kinds : str, sequence of str or None
-        ``"power"`` and/or ``"frequency"``; None takes every power and frequency row and
-        refuses data of other kinds.
-    method : str
-        The method's name (for the message).
-
-    Returns
-    -------
-    kinds : tuple of str
-        The kinds chosen.
-    rows : MeasurementSet
-        The rows of those kinds.
-
-    Raises
-    ------
-    ValueError
-        For an unusable or absent kind, or other kinds with ``kinds=None``.
-    """
+    """Choose the kinds to use (in :data:`PAPER_KINDS` order) and the rows of those kinds."""
     if kinds is None:
         other = sorted(set(meas.kinds) - set(PAPER_KINDS))
         if other:
@@ -151,27 +92,7 @@ def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method
 
 def initial_theta(motion: MotionModel, init: Mapping[str, float] | ArrayLike | None,
                   method: str) -> Array:
-    """Return a starting parameter vector from a mapping by name or a vector.
-
-    Parameters
-    ----------
-    motion : MotionModel
-        The motion model.
-    init : Mapping[str, float], array_like or None
-        The start (m, m/s).
-    method : str
-        The method's name (for the message).
-
-    Returns
-    -------
-    ndarray, shape (p,)
-        The starting parameters (m, m/s).
-
-    Raises
-    ------
-    ValueError
-        Without a start, or for a vector of the wrong length.
-    """
+    """Return a starting parameter vector from a mapping by name or a vector."""
     if init is None:
         raise ValueError(f"{method}: a local method, it needs a starting point (init=...); "
                          "its estimator object without init (tmakit.batch.METHODS) starts "
@@ -186,36 +107,12 @@ def initial_theta(motion: MotionModel, init: Mapping[str, float] | ArrayLike | N
 
 
 def snr_from_sigma_db(sigma_db: ArrayLike) -> Array:
-    """Return SNR_p (linear) of a power whose standard deviation is ``sigma_db`` (dB).
-
-    The first-order inverse of :func:`tmakit.core.units.snr_to_sigma_db`.
-
-    Parameters
-    ----------
-    sigma_db : array_like
-        Standard deviation of the power (dB).
-
-    Returns
-    -------
-    ndarray
-        ``(10 / ln 10 / sigma)^2`` (dimensionless).
-    """
+    """Return SNR_p (linear) of a power whose standard deviation is ``sigma_db`` (dB)."""
     return (TEN_OVER_LN10 / np.asarray(sigma_db, dtype=float)) ** 2
 
 
 def power_watts(meas: MeasurementSet) -> Array:
-    """Return the linear received power of the power rows, in row order.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-
-    Returns
-    -------
-    ndarray
-        ``P = 10**(P_dBW / 10)`` (W).
-    """
+    """Return the linear received power of the power rows, in row order."""
     return 10.0 ** (meas.value_si[meas.kind == "power"] / 10.0)
 
 
@@ -249,37 +146,13 @@ class PlanarGeometry:
 
     @classmethod
     def from_rows(cls, meas: MeasurementSet, motion: ConstantVelocity) -> PlanarGeometry:
-        """Build the geometry of the rows of ``meas``, times relative to ``motion.ref_time``.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (their sensor states, m and m/s).
-        motion : ConstantVelocity
-            The motion model (its reference time, s).
-
-        Returns
-        -------
-        PlanarGeometry
-            One sample per row.
-        """
+        """Build the geometry of the rows of ``meas``, times relative to ``motion.ref_time``."""
         s = meas.sensor_state
         return cls(meas.time - motion.ref_time, s[:, 0:2].copy(), s[:, 3:5].copy(),
                    s[:, 2].copy(), s[:, 5].copy())
 
     def take(self, idx: ArrayLike) -> PlanarGeometry:
-        """Return the geometry of the samples ``idx``.
-
-        Parameters
-        ----------
-        idx : array_like of int or bool
-            Which samples.
-
-        Returns
-        -------
-        PlanarGeometry
-            Those samples.
-        """
+        """Return the geometry of the samples ``idx``."""
         i = np.asarray(idx)
         return PlanarGeometry(self.t[i], self.u[i], self.udot[i], self.uz[i], self.uzdot[i])
 
@@ -315,13 +188,7 @@ class PlanarGeometry:
 
     @staticmethod
     def S_f() -> Array:
-        """Return ``S_f`` (4, 4) of eq. 12 (dimensionless).
-
-        Returns
-        -------
-        ndarray, shape (4, 4)
-            ``S_f``.
-        """
+        """Return ``S_f`` (4, 4) of eq. 12 (dimensionless)."""
         s = np.zeros((4, 4))
         s[0, 2] = s[2, 0] = s[1, 3] = s[3, 1] = 0.5
         return s
@@ -337,49 +204,16 @@ class PlanarGeometry:
         return 0.5 * np.einsum("nij,nj->ni", self.Qf + self.S_f(), self.phi)
 
     def range2(self, theta: Array) -> Array:
-        """Return ``R_k^2 = theta^T Q_k theta - 2 L_k^T theta + rho_k^2`` (eq. 8).
-
-        Parameters
-        ----------
-        theta : ndarray, shape (4,)
-            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            Squared ranges (m²).
-        """
+        """Return ``R_k^2 = theta^T Q_k theta - 2 L_k^T theta + rho_k^2`` (eq. 8)."""
         return (np.einsum("i,nij,j->n", theta, self.Q, theta) - 2.0 * self.L @ theta
                 + self.rho2)
 
     def q_minus_l(self, theta: Array) -> Array:
-        """Return ``Q_k theta - L_k``, half the gradient of ``R_k^2``.
-
-        Parameters
-        ----------
-        theta : ndarray, shape (4,)
-            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
-
-        Returns
-        -------
-        ndarray, shape (n, 4)
-            ``Q_k theta - L_k`` (m, m s).
-        """
+        """Return ``Q_k theta - L_k``, half the gradient of ``R_k^2``."""
         return np.einsum("nij,j->ni", self.Q, theta) - self.L
 
     def radial_velocity(self, theta: Array) -> Array:
-        """Return ``v_k`` of eq. 12 (= eq. 6), positive when the target recedes.
-
-        Parameters
-        ----------
-        theta : ndarray, shape (4,)
-            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            The range rate (m/s), tmakit's convention.
-        """
+        """Return ``v_k`` of eq. 12 (= eq. 6), positive when the target recedes."""
         qf = self.Qf
         phi = self.phi
         num = (np.einsum("i,nij,j->n", theta, qf, theta)
@@ -388,18 +222,7 @@ class PlanarGeometry:
         return num / np.sqrt(self.range2(theta))
 
     def grad_radial_velocity(self, theta: Array) -> Array:
-        """Return ``dh_k/dtheta = dv_k/dtheta`` of eq. 16.
-
-        Parameters
-        ----------
-        theta : ndarray, shape (4,)
-            ``[x_0, y_0, v_x, v_y]`` (m, m/s).
-
-        Returns
-        -------
-        ndarray, shape (n, 4)
-            The gradient (1/s for position, dimensionless for velocity).
-        """
+        """Return ``dh_k/dtheta = dv_k/dtheta`` of eq. 16."""
         r2 = self.range2(theta)
         r = np.sqrt(r2)
         v = self.radial_velocity(theta)
@@ -410,16 +233,6 @@ class PlanarGeometry:
 
 def carrier_guess(meas: MeasurementSet) -> float:
     """Return the carrier implied by the data.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-
-    Returns
-    -------
-    float
-        Median received frequency (Hz), or 1.9 GHz without any (Gu et al. (2007), §5).
 
     References
     ----------

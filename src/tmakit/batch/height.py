@@ -107,21 +107,7 @@ class HeightChoice:
 
 
 def height_matters(meas: MeasurementSet, result: EstimateResult) -> bool:
-    """Tell whether a 2-D fit could be wrong for want of the emitter's height.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements fitted.
-    result : EstimateResult
-        The 2-D fit.
-
-    Returns
-    -------
-    bool
-        True for a 2-D set, a 2-D motion model with a 3-D counterpart, a finite estimate and
-        at least one kind that is not ``height_blind`` (ranges, powers, Doppler, ...).
-    """
+    """Tell whether a 2-D fit could be wrong for want of the emitter's height."""
     return (result.motion.name in RAISED and bool(np.all(np.isfinite(result.estimate)))
             and not all(KINDS[k].height_blind for k in meas.kinds) and meas.dim == 2)
 
@@ -179,20 +165,7 @@ def choose_height(meas: MeasurementSet, flat: EstimateResult, options: Options =
 
 
 def airborne(meas: MeasurementSet) -> bool:
-    """Tell whether a set's sensors fly: their plane is well above mean sea level.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements; their ``origin_alt`` and ``altitude_reference`` metadata give the
-        altitude of the sensors' plane (a set without them is not known to fly).
-
-    Returns
-    -------
-    bool
-        True when the plane is more than :data:`AIRBORNE_ALTITUDE` above mean sea level, or
-        more than that plus :data:`GEOID_REACH` above the ellipsoid.
-    """
+    """Tell whether a set's sensors fly: their plane is well above mean sea level."""
     if "origin_alt" not in meas.metadata:
         return False
     margin = 0.0 if meas.metadata.get("altitude_reference") == "msl" else GEOID_REACH

@@ -70,36 +70,6 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
                   ) -> tuple[Array, Array | None]:
     """Locate a source from range (and range-rate) differences against one reference.
 
-    Parameters
-    ----------
-    sensors : ndarray, shape (m, 3)
-        The sensors' positions (ENU, m), one per difference.
-    ref : ndarray, shape (3,)
-        The reference sensor's position (m).
-    rd : ndarray, shape (m,)
-        Range differences ``|u - s_i| - |u - s_1|`` (m).
-    cov : ndarray
-        Covariance of ``rd`` ``(m, m)`` (m^2), or of ``[rd, rrd]`` ``(2m, 2m)``.
-    sensor_vel, ref_vel : ndarray, optional
-        Velocities of the sensors ``(m, 3)`` and the reference ``(3,)`` (m/s), with ``rrd``.
-    rrd : ndarray, shape (m,), optional
-        Range-rate differences (m/s) of the same pairs: Ho & Xu (2004); without them Chan & Ho
-        (1994), position only.
-    height : float, optional
-        The source's known ENU height (m); its vertical velocity is then zero.
-
-    Returns
-    -------
-    position : ndarray, shape (3,)
-        The source position (m).
-    velocity : ndarray, shape (3,) or None
-        Its velocity (m/s) with ``rrd``, else None.
-
-    Raises
-    ------
-    ValueError
-        If there are fewer differences than stage 1's unknowns.
-
     References
     ----------
     Chan & Ho (1994) (TDOA, two stages); Ho & Xu (2004) (TDOA and FDOA of a moving source).
@@ -224,24 +194,7 @@ class Snapshot:
 
 
 def snapshot_rows(meas: MeasurementSet, moving: bool, with_fdoa: bool) -> Snapshot | None:
-    """Choose the largest snapshot of a set: TDOAs against one reference position.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The rows.
-    moving : bool
-        The source moves: the rows of one time only (else all times with that reference
-        position).
-    with_fdoa : bool
-        Pair each TDOA with the FDOA of the same sensor, time and reference (rows without
-        one are left out).
-
-    Returns
-    -------
-    Snapshot or None
-        None without TDOA rows (or, ``with_fdoa``, without pairs).
-    """
+    """Choose the largest snapshot of a set: TDOAs against one reference position."""
     tdoa = np.flatnonzero(meas.kind_mask("tdoa"))
     if tdoa.size == 0:
         return None
@@ -282,31 +235,7 @@ def _covariance(meas: MeasurementSet, rows: NDArray[np.intp], kind: str) -> Arra
 def closed_form_state(meas: MeasurementSet, values: Array, snap: Snapshot,
                       carrier: float | None, height: float | None
                       ) -> tuple[Array, Array | None]:
-    """Solve one snapshot: the source position (and velocity, with FDOAs) at its time.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The rows (their geometry and sigmas).
-    values : ndarray
-        The rows' values (SI), in the order of ``meas``.
-    snap : Snapshot
-        The rows to use.
-    carrier : float or None
-        The carrier (Hz) that turns FDOAs into range-rate differences (with ``snap.fdoa``).
-    height : float or None
-        The source's known ENU height (m).
-
-    Returns
-    -------
-    position, velocity
-        As :func:`two_stage_wls`.
-
-    Raises
-    ------
-    ValueError
-        As :func:`two_stage_wls`.
-    """
+    """Solve one snapshot: the source position (and velocity, with FDOAs) at its time."""
     t = snap.tdoa
     rd = SPEED_OF_LIGHT * values[t]
     cov = SPEED_OF_LIGHT**2 * _covariance(meas, t, "tdoa")
@@ -337,28 +266,7 @@ def _source_height(motion: MotionModel) -> float | None:
 
 def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
                       options: Options = None) -> Array | None:
-    """Give a start of the motion parameters from the set's best closed form, or None.
-
-    Ho & Xu (2004) for a moving source with TDOA and FDOA pairs and a known carrier, else
-    Chan & Ho (1994) (a moving source then starts at rest at the snapshot's position).
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The rows (any kinds; the TDOA and FDOA rows are used).
-    values : ndarray
-        The rows' values (SI), in the order of ``meas``.
-    motion : MotionModel
-        The motion model whose parameters are wanted.
-    options : dict, optional
-        Per-kind model options (the FDOA carrier).
-
-    Returns
-    -------
-    ndarray or None
-        ``(p,)`` motion parameters (SI); None without a usable snapshot, a model that cannot
-        start from a state, or a solve that fails.
-    """
+    """Give a start of the motion parameters from the set's best closed form, or None."""
     moving = not isinstance(motion, Stationary)
     carrier = _known_carrier(meas, options)
     snap = None
@@ -408,26 +316,7 @@ class _ClosedForm(BatchEstimator):
         raise NotImplementedError
 
     def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
-        """Solve the largest snapshot in closed form.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (TDOA rows, and FDOA rows for ``ho-xu``).
-        motion : MotionModel
-            ``Stationary`` for ``chan-ho``; ``ConstantVelocity`` for ``ho-xu``.
-
-        Returns
-        -------
-        EstimateResult
-            The estimate, on the snapshot's rows: its covariance and chi2 those of the
-            maximum likelihood's linearisation at the estimate.
-
-        Raises
-        ------
-        ValueError
-            If the motion model, kinds or rows do not suit the method.
-        """
+        """Solve the largest snapshot in closed form."""
         carrier = self._check(meas, motion)
         snap = snapshot_rows(meas, self.moving, self.moving)
         if snap is None:
@@ -508,21 +397,7 @@ class HoXu(_ClosedForm):
 
 
 def closed_form_starts(obs: ObservationModel, ys: Array) -> dict[int, Array]:
-    """Give the closed-form start of each data set of a problem with TDOA rows.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The problem's rows and motion model.
-    ys : ndarray, shape (B, n)
-        The data sets' values (SI, the grouped row order of ``obs``).
-
-    Returns
-    -------
-    dict of int to ndarray
-        ``(1, p)`` starting parameters by data set; empty without TDOA rows, and without
-        the sets whose closed form fails.
-    """
+    """Give the closed-form start of each data set of a problem with TDOA rows."""
     if "tdoa" not in obs.models:
         return {}
     out = {}

@@ -88,12 +88,7 @@ def _reference_point(meas: MeasurementSet, t_mid: float) -> NDArray[np.float64]:
 def _positions(meas: MeasurementSet, rows: NDArray[np.intp] | None,
                values: NDArray[np.float64] | None, t_mid: float, dim: int, g: GridSettings
                ) -> NDArray[np.float64]:
-    """Return candidate positions ``(m, 3)``: rays x elevations x ranges, in that order.
-
-    The rays go from each bearing sensor along its bearing nearest ``t_mid``, or fan out
-    around the sensors.  Of the rows ``rows`` of the set (None: all), whose values are
-    ``values`` (None: the set's).
-    """
+    """Return candidate positions ``(m, 3)``: rays x elevations x ranges, in that order."""
     ranges = _ranges(g.min_range, g.max_range, g.n_ranges)
     kind = meas.kind_mask("bearing")
     at = np.flatnonzero(kind if rows is None else kind[rows])  # bearings among the rows
@@ -124,11 +119,7 @@ def _positions(meas: MeasurementSet, rows: NDArray[np.intp] | None,
 
 
 def _median(x: NDArray[np.float64]) -> float:
-    """Return ``np.median(x)`` of a 1-D array, the same bits, without its overhead for few rows.
-
-    The middle element of the sorted rows, or the mean ``(a + b) / 2`` of the middle two (as
-    :func:`numpy.median` forms it).
-    """
+    """Return ``np.median(x)`` of a 1-D array, the same bits, without its overhead for few rows."""
     n = x.shape[0]
     if not 0 < n <= 256:
         return float(np.median(x))
@@ -174,10 +165,7 @@ def _ranges(min_range: float, max_range: float, n_ranges: int) -> NDArray[np.flo
 
 @lru_cache(maxsize=16)
 def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64]:
-    """Return candidate velocities ``(m, 3)`` (m/s): at rest, then each speed and course.
-
-    Read-only, made once per settings.
-    """
+    """Return candidate velocities ``(m, 3)`` (m/s): at rest, then each speed and course."""
     moves = np.array([v for v in speeds if v > 0], dtype=np.float64)
     courses = np.linspace(0.0, 2 * np.pi, n_courses, endpoint=False)
     moving = np.stack(np.broadcast_arrays(moves[:, None] * np.sin(courses),
@@ -210,27 +198,7 @@ def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
                         settings: GridSettings | None = None,
                         rows: NDArray[np.intp] | None = None,
                         values: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-    """Return :func:`grid_candidates` from the measurements and motion model themselves.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements that place the grid (times, sensors, measured bearings).
-    motion : MotionModel
-        The motion model that converts it.
-    settings : GridSettings, optional
-        Extent and density (default :class:`GridSettings()`).
-    rows : ndarray of int, optional
-        The rows of ``meas`` that place it (its row order; default all): the grid of
-        ``meas.take(rows)``.
-    values : ndarray, optional
-        The values of those rows (SI; default the set's), e.g. another data set's bearings.
-
-    Returns
-    -------
-    ndarray, shape (m, p)
-        Motion parameters (SI) of the grid's states at the median measurement time.
-    """
+    """Return :func:`grid_candidates` from the measurements and motion model themselves."""
     g = settings or GridSettings()
     t_mid = _median(meas.time if rows is None else meas.time[rows])
     pos = _positions(meas, rows, values, t_mid, motion.dim, g)
@@ -246,10 +214,7 @@ def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
 
 def _subsample(problem: VarProProblem, max_rows: int
                ) -> tuple[VarProProblem, NDArray[np.int64]]:
-    """Return the problem on an evenly spread subset of rows per kind, and the rows kept.
-
-    The grid needs no more rows.
-    """
+    """Return the problem on an evenly spread subset of rows per kind, and the rows kept."""
     idx = _spread_rows(problem, max_rows)
     if idx is None:  # correlated rows: the subset's noise is its own block
         return problem, np.arange(len(problem.obs.meas))
@@ -273,33 +238,13 @@ def _spread_rows(problem: VarProProblem, max_rows: int) -> NDArray[np.int64] | N
 
 def subsample(problem: VarProProblem, max_rows: int
               ) -> tuple[VarProProblem, NDArray[np.int64]]:
-    """Return the problem on about ``max_rows`` evenly spread rows per kind, and the rows kept.
-
-    The whole problem (and every row) when it has no more rows.  With correlated noise
-    (range differences whose spans overlap) the subset's noise model is made for its own rows:
-    their covariance is the whole one's block on them.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem.
-    max_rows : int
-        Rows wanted in all (shared among the kinds by their counts).
-
-    Returns
-    -------
-    (VarProProblem, ndarray of int)
-        The smaller problem and its rows in the measurement set's order.
-    """
+    """Return the problem on about ``max_rows`` evenly spread rows per kind, and the rows kept."""
     return _subsample(problem, max_rows)
 
 
 @lru_cache(maxsize=64)
 def _evenly_spread(size: int, take: int) -> NDArray[np.int64]:
-    """Return about ``take`` evenly spread indices into ``size`` rows, first and last included.
-
-    Read-only, made once per pair.
-    """
+    """Return about ``take`` evenly spread indices into ``size`` rows, first and last included."""
     idx = np.unique(np.linspace(0, size - 1, take).round().astype(int))
     idx.flags.writeable = False
     return idx
@@ -355,10 +300,7 @@ class GridScorer:
             self.shared = orthonormal_columns(aw[None])[0]
 
     def _predict(self, i: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Return ``h0`` ``(c, n)`` and ``A_var`` ``(c, n, k)`` of the candidates of block ``i``.
-
-        Those made by :meth:`_reference_design` are handed over once.
-        """
+        """Return ``h0`` ``(c, n)`` and ``A_var`` ``(c, n, k)`` of the candidates of block ``i``."""
         if i in self._made:
             return self._made.pop(i)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -367,10 +309,7 @@ class GridScorer:
         return lin.h0, lin.a_var
 
     def _reference_design(self) -> NDArray[np.float64]:
-        """Return ``A_var`` ``(n, k)`` of the first candidate with finite predictions.
-
-        It is the design the shared basis is made from (zero if none).
-        """
+        """Return ``A_var`` ``(n, k)`` of the first candidate with finite predictions."""
         for i in range(len(self.blocks)):
             h0, a_var = self._made[i] = self._predict(i)
             good = np.flatnonzero(~_bad(h0, a_var))
@@ -379,27 +318,13 @@ class GridScorer:
         return np.zeros((len(self.problem.obs.meas), self.problem.k))
 
     def _reference(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Return a nuisance value near the data's, about which residuals do not cancel.
-
-        Least squares on the geometry-free design of the median data set.
-        """
+        """Return a nuisance value near the data's, about which residuals do not cancel."""
         # (the median of one data set is that data set)
         return self.problem.reference_nuisance(y[0] if y.shape[0] == 1
                                                else np.median(y, axis=0))[0]
 
     def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Return the reduced costs of every candidate for each data set.
-
-        Parameters
-        ----------
-        y : ndarray, shape (B, n) or (n,)
-            Data sets in grouped row order (SI).
-
-        Returns
-        -------
-        ndarray, shape (B, C)
-            Half the weighted sum of squares (dimensionless); inf without predictions.
-        """
+        """Return the reduced costs of every candidate for each data set."""
         y = np.atleast_2d(np.asarray(y, dtype=float))
         star = self._reference(y)
         u = self.problem.noise.whiten(y - self.a_const @ star)
@@ -416,11 +341,7 @@ class GridScorer:
     def _score_block(self, i: int, y: NDArray[np.float64], star: NDArray[np.float64],
                      data: dict[bool, tuple[NDArray[np.float64], NDArray[np.float64]]]
                      ) -> NDArray[np.float64]:
-        """Return costs ``(B, c)`` of the candidates of block ``i``.
-
-        ``data`` holds the whitened data (and half its squared norm), unprojected (False) and
-        projected on :attr:`shared` (True).
-        """
+        """Return costs ``(B, c)`` of the candidates of block ``i``."""
         noise, angle = self.problem.noise, self.angle
         h0, a_var = self._predict(i)
         bad = _bad(h0, a_var)
@@ -475,13 +396,7 @@ the next (~300 page faults, ~1 ms)."""
 
 
 def _block_size(n_rows: int) -> int:
-    """Return candidates per block for ``n_rows`` rows.
-
-    About :data:`CANDIDATE_ROWS` / ``n_rows`` but at least 128 (each block costs some fixed
-    work), kept off multiples of 512.  The candidates are the innermost axis, so the rows of
-    a block's arrays would otherwise be a multiple of 4 KiB apart and share cache sets: a
-    (48 x 4) @ (4 x 1024) product took three times as long as a (48 x 4) @ (4 x 1016) one.
-    """
+    """Return candidates per block for ``n_rows`` rows."""
     step = max(128, CANDIDATE_ROWS // max(1, n_rows))
     if step >= 512 and abs(step - 512 * round(step / 512)) <= 8:
         step -= 16
@@ -495,29 +410,14 @@ def _bad(h0: NDArray[np.float64], a_var: NDArray[np.float64]) -> NDArray[np.bool
 
 def _same_design(a_var: NDArray[np.float64], ref: NDArray[np.float64],
                  tolerance: NDArray[np.float64]) -> bool:
-    """Tell whether every candidate's design ``A_const + a_var`` is ``A_const + ref``.
-
-    To ``tolerance`` per column (:data:`GEOMETRY_FREE` of the column's size).
-    """
+    """Tell whether every candidate's design ``A_const + a_var`` is ``A_const + ref``."""
     # reductions over the leading axis first: elementwise and fast
     spread = np.maximum(a_var.max(axis=0) - ref, ref - a_var.min(axis=0)).max(axis=0)
     return bool(np.all(spread <= tolerance))
 
 
 def orthonormal_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Return an orthonormal basis of the columns of each matrix (modified Gram-Schmidt).
-
-    Parameters
-    ----------
-    a : ndarray, shape (C, n, k)
-        The matrices (any unit).
-
-    Returns
-    -------
-    ndarray, shape (C, n, k)
-        Orthonormal columns (dimensionless); a column that depends on the previous ones, or
-        is zero, is zero.
-    """
+    """Return an orthonormal basis of the columns of each matrix (modified Gram-Schmidt)."""
     q = np.zeros(a.shape)
     for j in range(a.shape[-1]):
         v = a[..., j].copy()
@@ -559,24 +459,7 @@ def _data_dependent(problem: VarProProblem) -> bool:
 
 def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
                      settings: GridSettings | None = None) -> list[Starts]:
-    """Rank the grid's candidates for several data sets sharing times, sensors and noise.
-
-    When the candidates do not depend on the data they are predicted once for all.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The observation and noise model.
-    ys : ndarray, shape (B, n)
-        The data sets in grouped row order (SI), e.g. Monte Carlo runs.
-    settings : GridSettings, optional
-        The grid (default :class:`GridSettings()`).
-
-    Returns
-    -------
-    list of Starts
-        One per data set: ``starts[b].first(m)``.
-    """
+    """Rank the grid's candidates for several data sets sharing times, sensors and noise."""
     g = settings or GridSettings()
     ys = np.atleast_2d(np.asarray(ys, dtype=float))
     small = _Stage(problem, _spread_rows(problem, g.max_rows), ys)
@@ -649,11 +532,7 @@ class _Stage:
 
 def _scores(coarse: _Stage, small: _Stage, cand: NDArray[np.float64], refine: int,
             run: int | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Return grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages.
-
-    Every candidate on a few rows (``coarse``), then the ``refine`` best of each data set
-    (their union) on more rows (``small``).  ``run`` scores that data set only.
-    """
+    """Return grid costs ``(B, C')`` of candidates ``(C, p)`` in two stages."""
     y_coarse, y_small = coarse.y, small.y
     if run is not None:
         y_coarse, y_small = y_coarse[run:run + 1], y_small[run:run + 1]
@@ -749,18 +628,7 @@ class Starts:
         return idx, self.scaled[:, idx], np.zeros(idx.shape[0], dtype=bool)
 
     def first(self, m: int) -> NDArray[np.float64]:
-        """Return the ``m`` best distinct candidates.
-
-        Parameters
-        ----------
-        m : int
-            How many.
-
-        Returns
-        -------
-        ndarray, shape (<= m, p)
-            Motion parameters (SI), best first; fewer when no more are finite.
-        """
+        """Return the ``m`` best distinct candidates."""
         if len(self.chosen) < m and self._short is not False:
             self._from_shortlist(m)
         while len(self.chosen) < m:
@@ -803,10 +671,7 @@ SHORTLIST = 64
 
 
 def _cheapest(left: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Give the :data:`SHORTLIST` cheapest columns of each row of ``left`` ``(B, C)``.
-
-    In order of (cost, index); all of them when there are no more.
-    """
+    """Give the :data:`SHORTLIST` cheapest columns of each row of ``left`` ``(B, C)``."""
     count = left.shape[1]
     if count > SHORTLIST:
         idx = np.argpartition(left, SHORTLIST - 1, axis=1)[:, :SHORTLIST]
@@ -817,23 +682,7 @@ def _cheapest(left: NDArray[np.float64]) -> NDArray[np.int64]:
 
 
 def first_of_many(starts: list[Starts], m: int) -> list[NDArray[np.float64]]:
-    """Give ``s.first(m)`` for every ``s`` of ``starts``, their shortlists walked together.
-
-    The same choices as one by one (each data set's greedy walk, :meth:`Starts.first`),
-    in a few array operations per choice for all data sets with a full shortlist.
-
-    Parameters
-    ----------
-    starts : list of Starts
-        The data sets' starts.
-    m : int
-        How many each.
-
-    Returns
-    -------
-    list of ndarray
-        ``(<= m, p)`` motion parameters (SI) per data set, best first.
-    """
+    """Give ``s.first(m)`` for every ``s`` of ``starts``, their shortlists walked together."""
     group = [s for s in starts if len(s.chosen) < m and isinstance(s._short, tuple)
              and s._short[0].shape[0] == SHORTLIST]
     if len(group) > 1:
@@ -842,12 +691,7 @@ def first_of_many(starts: list[Starts], m: int) -> list[NDArray[np.float64]]:
 
 
 def _walk_together(group: list[Starts], m: int) -> None:
-    """Walk the shortlists of ``group`` (all of one length) to ``m`` choices each, in place.
-
-    Each data set's next choice is its first candidate at or after its position that is not
-    near one chosen; the walk of a set stops at a candidate whose cost is not below the cut
-    (the shortlist's last cost when it is a full :data:`SHORTLIST`, else none) or not finite.
-    """
+    """Walk the shortlists of ``group`` (all of one length) to ``m`` choices each, in place."""
     shorts = [s._short for s in group]
     idx = np.stack([sh[0] for sh in shorts])  # type: ignore[index]
     scaled = np.stack([sh[1] for sh in shorts])  # type: ignore[index]  # (R, p, K)
@@ -891,22 +735,7 @@ def _scaled(candidates: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def starts_of(candidates: NDArray[np.float64], costs: NDArray[np.float64]) -> list[Starts]:
-    """Return the :class:`Starts` of several data sets scored on the same candidates.
-
-    They share the scaled candidates (made once).
-
-    Parameters
-    ----------
-    candidates : ndarray, shape (C, p)
-        Motion parameters (SI).
-    costs : ndarray, shape (B, C)
-        The grid costs of each data set (non-finite: never chosen).
-
-    Returns
-    -------
-    list of Starts
-        One per data set.
-    """
+    """Return the :class:`Starts` of several data sets scored on the same candidates."""
     scaled = _scaled(candidates)
     left = np.where(np.isfinite(costs), costs, np.inf)
     short = _cheapest(left) if costs.shape[0] > 1 else [None] * costs.shape[0]

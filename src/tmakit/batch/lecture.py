@@ -93,11 +93,7 @@ def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
 
 
 def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
-    """Return the starting ``x = [theta, f_o]``.
-
-    Theta comes from ``init``, f_o from ``init["carrier"]`` or its linear least-squares value
-    given the starting trajectory.
-    """
+    """Return the starting ``x = [theta, f_o]``."""
     motion = obs.motion
     if init is None:
         raise ValueError("lecture-gn: a local method, it needs a starting point (init=...); "
@@ -204,10 +200,7 @@ class LectureGaussNewton(PaperMethod):
 
     def _gauss_newton(self, obs: ObservationModel, noise: NoiseModel, x: Array
                       ) -> tuple[Array, int, bool, str, list[int], list[float]]:
-        """Iterate; return the last ``x``, iterations, converged, why diverged, ranks, sizes.
-
-        The update sizes are in standard deviations.
-        """
+        """Iterate; return the last ``x``, iterations, converged, why diverged, ranks, sizes."""
         p = obs.motion.n_params
         y = obs.values
         ranks: list[int] = []
@@ -246,28 +239,6 @@ class LectureGaussNewton(PaperMethod):
 def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel, init: Init,
                          max_iter: int = 50, tol: float = 1e-4) -> EstimateResult:
     """Run the notes' Gauss–Newton from ``init``: the short form of :class:`LectureGaussNewton`.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        Received frequencies only.
-    motion : MotionModel
-        ``ConstantVelocity(3, ref_time=t_N)``.
-    init : Mapping[str, float] or array_like
-        The starting point; required (``LectureGaussNewton()`` without it starts from
-        tmakit's grid point).
-    max_iter, tol
-        As for :class:`LectureGaussNewton`.
-
-    Returns
-    -------
-    EstimateResult
-        As :meth:`LectureGaussNewton.iterate`.
-
-    Raises
-    ------
-    ValueError
-        Without ``init``, for another motion model or other kinds.
 
     References
     ----------

@@ -17,22 +17,7 @@ __all__ = ["mirror_plane", "prefer_above"]
 
 
 def mirror_plane(problem: VarProProblem) -> float | None:
-    """Return the height of a plane through every sensor that mirrors the track unseen.
-
-    Reflecting the track through it leaves every measurement unchanged when all sensors are at
-    one height, none moves vertically, every kind is ``mirror_symmetric`` (elevation is not)
-    and the motion is 3-D.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem (its measurements and motion model).
-
-    Returns
-    -------
-    float or None
-        The plane's height (m), or None when there is no such plane.
-    """
+    """Return the height of a plane through every sensor that mirrors the track unseen."""
     meas, motion = problem.obs.meas, problem.obs.motion
     if (motion.dim != 3 or "z" not in motion.param_names
             or not np.all(meas.kind_flag("mirror_symmetric"))):
@@ -47,24 +32,7 @@ def mirror_plane(problem: VarProProblem) -> float | None:
 
 def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
                  ) -> tuple[NDArray[np.float64], str]:
-    """Choose, of a track and its mirror image through the sensors' plane, the one above.
-
-    Parameters
-    ----------
-    motion : MotionModel
-        The motion model (with parameters ``z`` and maybe ``vz``).
-    theta : ndarray, shape (p,)
-        The fitted motion parameters (SI).
-    plane : float
-        Height of the sensors' plane (m).
-
-    Returns
-    -------
-    theta : ndarray, shape (p,)
-        The track above the plane.
-    note : str
-        A sentence saying so.
-    """
+    """Choose, of a track and its mirror image through the sensors' plane, the one above."""
     names = motion.param_names
     theta = np.array(theta, dtype=float)
     iz = names.index("z")

@@ -206,11 +206,7 @@ class MaximumLikelihood(BatchEstimator):
 
 def _solutions(problem: VarProProblem, res: EstimateResult, best: Best,
                known: KnownNuisance | None, meas: MeasurementSet) -> list[Solution]:
-    """Give the separated solutions among the starts' other ends (empty: ``res`` alone).
-
-    Ends whose chi2 fails the likelihood-ratio test against ``res`` are left out before any
-    result is made for them, and so are ends within a tenth of ``res``'s std of one taken.
-    """
+    """Give the separated solutions among the starts' other ends (empty: ``res`` alone)."""
     if not res.converged or not best.others:
         return []
     limit = float(chi2_dist.isf(SOLUTION_ALPHA, max(res.bound.rank if res.bound else 1, 1)))
@@ -233,11 +229,7 @@ def _solutions(problem: VarProProblem, res: EstimateResult, best: Best,
 
 def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
                ) -> dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]:
-    """Return the grouped Jacobians at several finite fits in one evaluation, by ``id(fit)``.
-
-    Each equal bit for bit to the one of its fit alone.  Empty for fewer than two such fits
-    (:func:`assemble_result` then makes its own).
-    """
+    """Return the grouped Jacobians at several finite fits in one evaluation, by ``id(fit)``."""
     fits = [b for b in bests if isinstance(b, Best) and b.information is None
             and np.all(np.isfinite(b.theta)) and np.isfinite(b.cost)]
     if len(fits) < 2:
@@ -254,19 +246,7 @@ them per set."""
 
 
 def same_rows(sets: Sequence[MeasurementSet]) -> bool:
-    """Tell whether every set has the rows of the first, so that one problem serves them all.
-
-    Parameters
-    ----------
-    sets : Sequence[MeasurementSet]
-        The data sets.
-
-    Returns
-    -------
-    bool
-        True when times, sensors, kinds, sigmas, sensor states and reference samples are
-        equal: the sets differ only in their values.
-    """
+    """Tell whether every set has the rows of the first, so that one problem serves them all."""
     a = sets[0]
     for b in sets[1:]:
         if len(b) != len(a) or a.sensor_names != b.sensor_names or not (  # codes: no text
@@ -284,32 +264,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
              options: Options = None, known_nuisance: KnownNuisanceLike = None,
              grid: GridSettings | None = None, max_iter: int = 100,
              **manoeuvre_options: object) -> EstimateResult:
-    """Fit by maximum likelihood: ``MaximumLikelihood(...).fit(meas, motion)``, short form.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-    motion : MotionModel
-        A motion model without manoeuvres.
-    init, options, known_nuisance, grid, max_iter
-        As for :class:`MaximumLikelihood`.
-    **manoeuvre_options
-        Refused (they belong to manoeuvring targets; :func:`tmakit.batch.estimate` takes
-        them).
-
-    Returns
-    -------
-    EstimateResult
-        As :meth:`MaximumLikelihood.fit`.
-
-    Raises
-    ------
-    TypeError
-        For options of manoeuvring targets, a manoeuvring motion model or a motion name.
-    ValueError
-        As :meth:`MaximumLikelihood.fit`.
-    """
+    """Fit by maximum likelihood: ``MaximumLikelihood(...).fit(meas, motion)``, short form."""
     if manoeuvre_options:
         raise TypeError(f"estimate() got options for manoeuvring targets "
                         f"({', '.join(manoeuvre_options)}) with motion "
@@ -363,51 +318,14 @@ class Best:
         default_factory=list)
 
     def end(self) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-        """Give this fit as one of the ends :attr:`others` lists.
-
-        Returns
-        -------
-        tuple
-            ``(theta, nuisance, cost)``, copies.
-        """
+        """Give this fit as one of the ends :attr:`others` lists."""
         return self.theta.copy(), self.nuisance.copy(), self.cost
 
 
 def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
                         grid: GridSettings | None = None, max_iter: int = 100
                         ) -> list[Best | None]:
-    """Fit each data set globally, no guess (same times, sensors, noise for all).
-
-    0. With TDOA rows, the closed form (Chan & Ho (1994), or Ho & Xu (2004) with FDOA and a
-       known carrier, :mod:`tmakit.batch.hyperbolic`) is solved first; a set whose fit from
-       it converges with a plausible chi2 needs no grid.
-    1. The best grid starts are solved in one batch: only the best one with bearings (the
-       grid lies along them), else the best ``grid.starts`` — Doppler and power alone have
-       local minima whose chi2 is plausible.
-    2. A data set whose best fit is not converged with a plausible chi2 is solved from its
-       next distinct grid points (up to 24 in all),
-    3. then from the best points of a denser grid (:data:`DENSE_GRID`).
-    A start bound for a worse minimum than one already reached stops early; the lowest cost
-    wins.  On 2000 random observable geometries every fit reached the fit started at the
-    truth (``benchmarks/blind_start.py``).  With correlated noise and many rows all this runs
-    on a subset, and the best fit alone on every row (:mod:`tmakit.batch.subset_first`).
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The observation and noise model, nuisance fixed or eliminated.
-    ys : ndarray, shape (B, n)
-        The data sets (SI, grouped row order).
-    grid : GridSettings, optional
-        The grid of starting points (default :class:`GridSettings()`).
-    max_iter : int, optional
-        Levenberg–Marquardt iterations per start at most.
-
-    Returns
-    -------
-    list of Best or None
-        The best fit per data set; None where no start gave finite predictions.
-    """
+    """Fit each data set globally, no guess (same times, sensors, noise for all)."""
     g = grid or GridSettings()
     ys = np.ascontiguousarray(np.atleast_2d(np.asarray(ys, dtype=float)))  # (read, not written)
     if subset_first(problem):  # correlated and many rows: every start on a subset only
@@ -492,19 +410,6 @@ def _prefer_above(problem: VarProProblem, best: list[Best | None]) -> None:
 
 
 def plausible_chi2(chi2: float, dof: int) -> bool:
-    """Tell whether a weighted sum of squares is consistent with its degrees of freedom.
-
-    Parameters
-    ----------
-    chi2 : float
-        The weighted sum of squares.
-    dof : int
-        Its degrees of freedom (at least 1 is used).
-
-    Returns
-    -------
-    bool
-        True within about five standard deviations of the chi-square distribution.
-    """
+    """Tell whether a weighted sum of squares is consistent with its degrees of freedom."""
     dof = max(dof, 1)
     return bool(np.isfinite(chi2) and chi2 <= dof + 5.0 * np.sqrt(2.0 * dof) + 5.0)

@@ -41,19 +41,7 @@ most 0.13)."""
 
 def presolve_subset(problem: VarProProblem
                     ) -> tuple[VarProProblem, NDArray[np.int64]] | None:
-    """Give the subset :func:`presolve` fits on and its rows, or None for few rows.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-
-    Returns
-    -------
-    (VarProProblem, ndarray of int) or None
-        :data:`PRESOLVE_SUBSET` evenly spread rows (:func:`~tmakit.batch.init.subsample`) of
-        a problem of more than :data:`PRESOLVE_ROWS` rows; None otherwise.
-    """
+    """Give the subset :func:`presolve` fits on and its rows, or None for few rows."""
     if len(problem.obs.meas) <= PRESOLVE_ROWS:
         return None
     small, rows = subsample(problem, PRESOLVE_SUBSET)
@@ -62,27 +50,7 @@ def presolve_subset(problem: VarProProblem
 
 def grid_starts(problem: VarProProblem, ys: NDArray[np.float64], settings: GridSettings,
                 subset: tuple[VarProProblem, NDArray[np.int64]] | None) -> list[Starts]:
-    """Rank the grid's starting points, on the presolve's subset when there is one.
-
-    The grid needs a few tens of rows (:class:`~tmakit.batch.init.GridSettings`); taken from
-    the subset (just made, in the caches) rather than from every row.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    ys : ndarray
-        ``(B, n)`` data sets (SI, the measurement set's order).
-    settings : GridSettings
-        The grid.
-    subset : (VarProProblem, ndarray of int) or None
-        :func:`presolve_subset` of ``problem``.
-
-    Returns
-    -------
-    list of Starts
-        As :func:`~tmakit.batch.init.best_starts_many`.
-    """
+    """Rank the grid's starting points, on the presolve's subset when there is one."""
     if subset is None:
         return best_starts_many(problem, ys, settings)
     return best_starts_many(subset[0], ys[:, subset[1]], settings)
@@ -91,33 +59,7 @@ def grid_starts(problem: VarProProblem, ys: NDArray[np.float64], settings: GridS
 def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
              max_iter: int, subset: tuple[VarProProblem, NDArray[np.int64]] | None = None
              ) -> tuple[NDArray[np.float64], bool]:
-    """Move starting points to their optimum on a subset of rows, for problems of many rows.
-
-    Below :data:`PRESOLVE_ROWS` rows (or with correlated noise) the starts come back as they
-    are.  Otherwise each is fitted by Levenberg–Marquardt on :data:`PRESOLVE_SUBSET` evenly
-    spread rows; a fit that converged to a finite cost, where the subset's information has
-    full rank (:func:`~tmakit.results.observability.full_rank`), replaces its start.  Every
-    full-size evaluation costs as much as the subset's whole fit.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    ys : ndarray
-        ``(B, n)`` data, one row per start (SI, the measurement set's order).
-    theta : ndarray
-        ``(B, p)`` starting points (SI).
-    max_iter : int
-        Levenberg–Marquardt iterations at most on the subset.
-    subset : (VarProProblem, ndarray of int), optional
-        :func:`presolve_subset` of ``problem``, already taken.
-
-    Returns
-    -------
-    (ndarray, bool)
-        ``(B, p)`` the starting points for the whole problem, and whether every one is a
-        subset's optimum (near the whole set's: its solve may start lightly damped).
-    """
+    """Move starting points to their optimum on a subset of rows, for problems of many rows."""
     theta, near, _ = _presolve(problem, ys, theta, max_iter, subset)
     return theta, near
 
@@ -125,12 +67,7 @@ def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.
 def _presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
               max_iter: int, subset: tuple[VarProProblem, NDArray[np.int64]] | None
               ) -> tuple[NDArray[np.float64], bool, NDArray[np.float64] | None]:
-    """:func:`presolve`, and the subset's ``J'J`` at its optima scaled to every row.
-
-    The scaled ``J'J`` is ``(B, p, p)`` (NaN for a start the subset left unconverged), or
-    None without a subset or for fits that eliminate nuisance (their projected ``J'J`` is
-    not formed).
-    """
+    """:func:`presolve`, and the subset's ``J'J`` at its optima scaled to every row."""
     subset = subset or presolve_subset(problem)
     if subset is None:
         return theta, False, None
@@ -156,29 +93,7 @@ def _presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np
 
 def gradient_at(problem: VarProProblem, theta: NDArray[np.float64], u: NDArray[np.float64]
                 ) -> tuple[float, NDArray[np.float64]] | None:
-    """Give half chi2 and ``J'r`` at one point without forming the Jacobian, or None.
-
-    For bearings (the fused linearisation: one kind, no nuisance,
-    independent rows, affine motion): the whitened derivatives by east and north and the
-    residual, and ``J'r`` through the affine map's terms
-    (:func:`~tmakit.observation.fused.gradient_of_rows`); no ``(p, n)`` Jacobian and no
-    ``J'J`` (:func:`subset_step` brings its own).  None elsewhere.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    theta : ndarray
-        ``(1, p)`` motion parameters (SI units).
-    u : ndarray
-        ``(1, n)`` the data part (:meth:`~tmakit.batch.varpro.VarProProblem.data_part`, SI
-        units).
-
-    Returns
-    -------
-    (float, ndarray) or None
-        Half chi2 and ``(p,)`` ``J'r`` (per parameter unit).
-    """
+    """Give half chi2 and ``J'r`` at one point without forming the Jacobian, or None."""
     theta = np.asarray(theta, dtype=float)
     weights = problem._weights
     if (problem.k or weights is None or not problem.all_angle or u.shape[0] != 1
@@ -197,38 +112,7 @@ def gradient_at(problem: VarProProblem, theta: NDArray[np.float64], u: NDArray[n
 def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
                 information: NDArray[np.float64] | None
                 ) -> tuple[NDArray[np.float64], float] | None:
-    """Take the first Gauss–Newton step on every row with the subset's ``J'J``, or None.
-
-    From a subset's optimum, a few of the whole set's standard deviations away, the solve's
-    first step needs the whole set's gradient ``J'r`` but only an approximation of its ``J'J``:
-    the subset's, scaled to every row (:func:`_presolve`; within 1e-3 of the whole set's on 10^5
-    rows of ``bearings-only-2d``), gives the step to about 1e-3 of its length.  The gradient
-    alone (:func:`gradient_at`) costs less than an evaluation with the Jacobian.  The solve
-    then starts at the point reached, where its first
-    evaluation checks the step against the cost at ``theta`` (``fallback`` of
-    :func:`~tmakit.batch.solver.levenberg_marquardt`): nothing of the approximation reaches
-    the result.  The check matters where the subset barely determines the parameters (an
-    observer that hardly turns): there the full Gauss–Newton step itself may raise the cost
-    a thousandfold.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    ys : ndarray
-        ``(1, n)`` the data (SI, the measurement set's order).
-    theta : ndarray
-        ``(1, p)`` the subset's optimum (SI).
-    information : ndarray or None
-        ``(1, p, p)`` the subset's ``J'J`` scaled to every row (per parameter unit squared).
-
-    Returns
-    -------
-    (ndarray, float) or None
-        ``(1, p)`` the point reached (SI) and the cost (half chi2) at ``theta``; None for
-        several starts, without a finite ``information``, where the gradient alone cannot be
-        had (see ``gradient_at``), or when the step is not finite.
-    """
+    """Take the first Gauss–Newton step on every row with the subset's ``J'J``, or None."""
     if (theta.shape[0] != 1 or information is None
             or not np.all(np.isfinite(information))):
         return None
@@ -261,32 +145,7 @@ the full solve after a presolve ends with a step checked by its residuals alone
 def solve_all_rows(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
                    max_iter: int, groups: NDArray[np.int64], ceiling: NDArray[np.float64],
                    subset: tuple[VarProProblem, NDArray[np.int64]] | None) -> SolveResult:
-    """Solve every row from starts first converged on the subset (:func:`presolve`).
-
-    From the subset's optima the solve starts lightly damped and ends with a step checked by
-    its residuals alone (:data:`POLISH_DECREMENT`); without a subset it is a plain solve.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    ys : ndarray
-        ``(B, n)`` data, one row per start (SI, the measurement set's order).
-    theta : ndarray
-        ``(B, p)`` starting points (SI).
-    max_iter : int
-        Levenberg–Marquardt iterations at most, on the subset and on every row.
-    groups, ceiling : ndarray
-        ``(B,)`` data set of each start and the cost it must beat (the dominance test of
-        :func:`~tmakit.batch.solver.levenberg_marquardt`).
-    subset : (VarProProblem, ndarray of int) or None
-        :func:`presolve_subset` of ``problem``.
-
-    Returns
-    -------
-    SolveResult
-        The final state of every start.
-    """
+    """Solve every row from starts first converged on the subset (:func:`presolve`)."""
     theta, near, information = _presolve(problem, ys, theta, max_iter, subset)
     stepped = subset_step(problem, ys, theta, information) if near else None
     sol = levenberg_marquardt(problem, ys, theta if stepped is None else stepped[0],

@@ -139,25 +139,7 @@ class RatioPairs:
 
 
 def ratio_pairs(meas: MeasurementSet, kind: str) -> RatioPairs:
-    """Form the pairs of consecutive samples of ``kind`` per sensor, in time order.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-    kind : str
-        The measurement kind (``"power"`` or ``"frequency"``).
-
-    Returns
-    -------
-    RatioPairs
-        The pairs (empty when no sensor has two samples).
-
-    Raises
-    ------
-    ValueError
-        When two samples of one sensor share a time.
-    """
+    """Form the pairs of consecutive samples of ``kind`` per sensor, in time order."""
     prev, cur, linked = [], [], []
     for s in meas.sensors:
         rows = np.flatnonzero((meas.kind == kind) & (meas.sensor == s))
@@ -179,20 +161,7 @@ def ratio_pairs(meas: MeasurementSet, kind: str) -> RatioPairs:
 
 
 def tridiagonal(diag: Array, off: Array) -> Array:
-    """Build the dense symmetric tri-diagonal matrix of two bands.
-
-    Parameters
-    ----------
-    diag : ndarray, shape (m,)
-        The diagonal.
-    off : ndarray, shape (m,)
-        ``off[j]`` goes to (j, j+1) and (j+1, j); the last entry is unused.
-
-    Returns
-    -------
-    ndarray, shape (m, m)
-        The matrix (units of ``diag``).
-    """
+    """Build the dense symmetric tri-diagonal matrix of two bands."""
     out = np.diag(diag)
     idx = np.arange(diag.size - 1)
     out[idx, idx + 1] = off[:-1]
@@ -203,16 +172,6 @@ def tridiagonal(diag: Array, off: Array) -> Array:
 def power_bands(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array, s_cur: Array,
                 linked: NDArray[np.bool_], covariance: str) -> tuple[Array, Array]:
     """Return the diagonal and off-diagonal of the power-ratio covariance.
-
-    Parameters
-    ----------
-    mu, r2_prev, r2_cur, s_prev, s_cur, linked, covariance
-        As for :func:`power_ratio_covariance`.
-
-    Returns
-    -------
-    diag, off : ndarray, shape (m,)
-        The bands (m⁴); ``off`` is 0 where pairs are not linked.
 
     References
     ----------
@@ -231,21 +190,6 @@ def doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArra
                   carrier: float, v_prev: Array | None, v_cur: Array | None,
                   covariance: str) -> tuple[Array, Array]:
     """Return the diagonal and off-diagonal of the Doppler-ratio covariance.
-
-    Parameters
-    ----------
-    nu, sigma_prev, sigma_cur, linked, carrier, v_prev, v_cur, covariance
-        As for :func:`doppler_ratio_covariance`.
-
-    Returns
-    -------
-    diag, off : ndarray, shape (m,)
-        The bands (m²/s²); ``off`` is 0 where pairs are not linked.
-
-    Raises
-    ------
-    ValueError
-        For the paper's covariance without the radial velocities.
 
     References
     ----------
@@ -273,27 +217,6 @@ def power_ratio_covariance(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Arr
                            covariance: str = "derived") -> Array:
     """Return the dense covariance of the power-ratio noise terms of consecutive pairs.
 
-    Diagonal ``mu_k^2 R_k^4 s_{k-1} + R_{k-1}^4 s_k``; off-diagonal
-    ``-mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k`` (derived) or the paper's ``+mu_{k+1} ...``.
-
-    Parameters
-    ----------
-    mu : ndarray, shape (m,)
-        The measured power ratios (dimensionless).
-    r2_prev, r2_cur : ndarray, shape (m,)
-        Squared ranges ``R^2`` of each pair's earlier and later sample (m²).
-    s_prev, s_cur : ndarray, shape (m,)
-        Their relative noise variances ``1/SNR_p`` (dimensionless).
-    linked : ndarray of bool, shape (m,), optional
-        Pair j+1's earlier sample is pair j's later one where ``linked[j]``; default one chain.
-    covariance : str, optional
-        ``"derived"`` (default) or ``"paper"``.
-
-    Returns
-    -------
-    ndarray, shape (m, m)
-        The covariance (m⁴).
-
     References
     ----------
     Gu et al. (2007), §4, eq. 21 and the text after eq. 25.
@@ -308,35 +231,6 @@ def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
                              v_cur: Array | None = None, covariance: str = "derived") -> Array:
     """Return the dense covariance of the noise terms of ``c h_k`` (eq. 27 times c).
 
-    Derived: ``(c/f_s)^2`` times diagonal ``sigma_k^2 + nu_k^2 sigma_{k-1}^2``, off-diagonal
-    ``-nu_{k+1} sigma_k^2``.  Paper: diagonal ``(1 - v_k/c)^2 sigma_k^2 + nu_k^2
-    (1 - v_{k-1}/c)^2 sigma_{k-1}^2``, off-diagonal ``-nu_{k+1} (1 - v_{k+1}/c)^2 sigma_k^2``.
-
-    Parameters
-    ----------
-    nu : ndarray, shape (m,)
-        The measured frequency ratios (dimensionless).
-    sigma_prev, sigma_cur : ndarray, shape (m,)
-        Frequency noise std of each pair's earlier and later sample (Hz).
-    linked : ndarray of bool, shape (m,), optional
-        Which neighbouring pairs share a sample; default one chain.
-    carrier : float, optional
-        The carrier f_s (Hz); default 1.
-    v_prev, v_cur : ndarray, shape (m,), optional
-        Radial velocities (m/s); needed by the paper's covariance.
-    covariance : str, optional
-        ``"derived"`` (default) or ``"paper"``.
-
-    Returns
-    -------
-    ndarray, shape (m, m)
-        The covariance (m²/s² for ``carrier`` in Hz).
-
-    Raises
-    ------
-    ValueError
-        For the paper's covariance without the radial velocities.
-
     References
     ----------
     Gu et al. (2007), §4, eq. 27 and the text after eq. 32.
@@ -347,18 +241,7 @@ def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
 
 
 def chain(n: int) -> NDArray[np.bool_]:
-    """Return ``linked`` of one chain of ``n`` pairs: each linked to the next, the last not.
-
-    Parameters
-    ----------
-    n : int
-        Number of pairs.
-
-    Returns
-    -------
-    ndarray of bool, shape (n,)
-        True except the last entry.
-    """
+    """Return ``linked`` of one chain of ``n`` pairs: each linked to the next, the last not."""
     linked = np.ones(n, dtype=bool)
     if n:
         linked[-1] = False
@@ -389,43 +272,15 @@ class Banded:
         self.factor = cholesky_banded(ab, lower=True)   # raises LinAlgError if not PD
 
     def whiten(self, x: Array) -> Array:
-        """Return ``C^-1 x`` with ``Sigma = C C^T``.
-
-        Parameters
-        ----------
-        x : ndarray, shape (m,) or (m, k)
-            What to whiten.
-
-        Returns
-        -------
-        ndarray
-            ``C^-1 x``, same shape.
-        """
+        """Return ``C^-1 x`` with ``Sigma = C C^T``."""
         return solve_banded((1, 0), self.factor, x)
 
     def solve(self, x: Array) -> Array:
-        """Return ``Sigma^-1 x``.
-
-        Parameters
-        ----------
-        x : ndarray, shape (m,) or (m, k)
-            The right-hand side.
-
-        Returns
-        -------
-        ndarray
-            ``Sigma^-1 x``, same shape.
-        """
+        """Return ``Sigma^-1 x``."""
         return cho_solve_banded((self.factor, True), x)
 
     def dense(self) -> Array:
-        """Return ``Sigma`` as a dense matrix.
-
-        Returns
-        -------
-        ndarray, shape (m, m)
-            ``Sigma``.
-        """
+        """Return ``Sigma`` as a dense matrix."""
         return tridiagonal(self.diag, self.off)
 
 
@@ -464,10 +319,7 @@ class _RatioSystem:
 
     def build(self, theta: Array, covariance: str | None = None
               ) -> tuple[Array, Array, Array, Array]:
-        """Return ``L (n, 4)``, ``psi (n,)`` and the bands of ``Sigma`` at ``theta``.
-
-        ``Sigma`` is tri-diagonal: its diagonal and off-diagonal (eqs. 25, 32, 33).
-        """
+        """Return ``L (n, 4)``, ``psi (n,)`` and the bands of ``Sigma`` at ``theta``."""
         cov_kind = covariance or self.covariance
         blocks_l, blocks_psi, blocks_d, blocks_o = [], [], [], []
         if self.power is not None:
@@ -641,11 +493,7 @@ class RatioMethod(PaperMethod):
 
 def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, status: Status,
                   message: str, iterations: int, extra: dict[str, object]) -> EstimateResult:
-    """Build the result at the last iterate.
-
-    The covariance is ``D^-1`` (derived) or the sandwich (paper); chi2 is that of the whitened
-    ratios; the nuisance values are given theta.
-    """
+    """Build the result at the last iterate."""
     method = RATIO_NAMES.get(system.kinds, "ratio")
     p = motion.n_params
     if status == DIVERGED:
@@ -678,29 +526,6 @@ def ratio_method(meas: MeasurementSet, motion: MotionModel, init: Init,
                  covariance: str = "derived", tol: float = 1e-9) -> EstimateResult:
     """Run Gu et al. (2007) §4 from ``init``: the short form of :class:`RatioMethod`.
 
-    Parameters
-    ----------
-    meas : MeasurementSet
-        Power and/or frequency measurements.
-    motion : MotionModel
-        ``ConstantVelocity(2)``.
-    init : Mapping[str, float] or array_like
-        The starting theta (m, m/s); required (``RatioMethod()`` without it starts from
-        tmakit's grid point).
-    kinds, max_iter, covariance, tol
-        As for :class:`RatioMethod`.
-
-    Returns
-    -------
-    EstimateResult
-        As :meth:`RatioMethod.iterate`.
-
-    Raises
-    ------
-    ValueError
-        Without ``init``, for an unknown ``covariance``, another motion model, or data of
-        other kinds.
-
     References
     ----------
     Gu et al. (2007), §4, eqs. 19-34.
@@ -711,25 +536,7 @@ def ratio_method(meas: MeasurementSet, motion: MotionModel, init: Init,
 
 def nuisance_given_theta(meas: MeasurementSet, motion: MotionModel, theta: Array,
                          cov_theta: Array) -> dict[str, tuple[float, float]]:
-    """Estimate power constant and carrier by weighted linear least squares given ``theta``.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        Power and/or frequency measurements.
-    motion : MotionModel
-        The motion model of ``theta``.
-    theta : ndarray, shape (p,)
-        Motion parameters (m, m/s).
-    cov_theta : ndarray, shape (p, p)
-        Their covariance (m², m²/s, m²/s²).
-
-    Returns
-    -------
-    dict of str to (float, float)
-        ``{name: (value, std)}``: ``power_constant_db`` (dB), ``carrier`` (Hz); std from
-        ``(A^T W A)^-1 + G cov_theta G^T`` (see the module docstring).
-    """
+    """Estimate power constant and carrier by weighted linear least squares given ``theta``."""
     options: dict[str, dict[str, object]] = {"power": {"exponent": 2.0},
                                              "frequency": {"drift": False}}
     obs = ObservationModel(meas, motion, {k: v for k, v in options.items() if k in meas.kinds})

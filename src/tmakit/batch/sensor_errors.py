@@ -36,32 +36,6 @@ def estimate_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
                                 ) -> tuple[EstimateResult, EstimateResult]:
     """Fit by maximum likelihood with the sensors' positions known to ``position_sigma``.
 
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-    motion : MotionModel
-        A motion model without manoeuvres.
-    position_sigma : float
-        Std of each sensor position error per axis (m).
-    velocity_sigma : float, optional
-        Std of each sensor velocity error per axis (m/s).
-    options : mapping, optional
-        Per-kind model options.
-
-    Returns
-    -------
-    accounting, ignoring : EstimateResult
-        The fit with the errors (its covariance the bound with them), and the ordinary fit
-        that takes the positions as reported (its start; its covariance too small by the
-        errors' share).
-
-    Raises
-    ------
-    ValueError
-        As :class:`~tmakit.batch.ml.MaximumLikelihood` and
-        :func:`~tmakit.observation.sensor_errors.effective_noise`.
-
     References
     ----------
     Ho, Lu & Kovavisaruch (2007) (source localisation with receiver position errors).

@@ -140,10 +140,7 @@ class _Runs:
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
              dominated: NDArray[np.bool_] | None = None) -> None:
-        """Record the runs ``mask`` as stopped and drop them from the live arrays.
-
-        ``converged`` and ``dominated`` are set where given.
-        """
+        """Record the runs ``mask`` as stopped and drop them from the live arrays."""
         if not mask.any():
             return
         ids = self.ids[mask]
@@ -175,11 +172,7 @@ class _Runs:
             self.model = self.model.take(keep)
 
     def stalled(self, iteration: int, stall: float) -> NDArray[np.bool_]:
-        """Record the live runs' costs after ``iteration`` (1, 2, ...) steps; flag the stalled.
-
-        A run stalls when it lowered its cost by less than ``stall`` over the last
-        :data:`_STALL_WINDOW` iterations.
-        """
+        """Record the live runs' costs after ``iteration`` (1, 2, ...) steps; flag the stalled."""
         if self.history is None:
             return np.zeros(self.ids.size, dtype=bool)
         slots = _STALL_WINDOW + 1
@@ -359,10 +352,7 @@ def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: f
 
 def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: float,
                     rules: _Rules) -> None:
-    """Accept or reject a single run's step, as :func:`_iterate` does for a batch (floats).
-
-    For :attr:`_Rules.plain` rules: Nielsen's damping, no ``max_reject``, no ``stall``.
-    """
+    """Accept or reject a single run's step, as :func:`_iterate` does for a batch (floats)."""
     cost, new = float(runs.cur.cost[0]), float(trial.cost[0])
     better, lam = new < cost, float(runs.lam[0])
     _damp_one(runs, better, cost, new, predicted)
@@ -382,22 +372,7 @@ POLISH_AGREEMENT = 0.01
 Gauss-Newton model predicted (see :func:`_polished`)."""
 
 def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
-    """End a single run with a Gauss–Newton step checked by its residuals alone.
-
-    Near the minimum, once the decrement ``d`` (the decrease the model predicts) is at most
-    ``rules.polish``, the lightly damped step is taken and only the residuals are evaluated
-    there (no Jacobian: on many rows that is most of an evaluation).  When the cost fell by
-    ``d`` to within :data:`POLISH_AGREEMENT` the model is exact to that order, so what is
-    left at the new point is of order ``d**2`` (Gauss–Newton converges quadratically where the
-    model holds): the run stops there, converged, its information ``J'J`` that of the point
-    the step left (it moves by at most ``sqrt(2 d)`` standard deviations).  Otherwise the
-    trial is dropped and the iterations go on as without ``polish``.
-
-    Returns
-    -------
-    bool
-        Whether the run stopped.
-    """
+    """End a single run with a Gauss–Newton step checked by its residuals alone."""
     model, cur = runs.model, runs.cur
     assert model is not None
     predicted = float(model.decrement[0])

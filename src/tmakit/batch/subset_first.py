@@ -30,19 +30,7 @@ SUBSET_ROWS = 5_000
 
 
 def subset_first(problem: VarProProblem) -> bool:
-    """Tell whether ``problem`` chooses its start on a subset (correlated noise, many rows).
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-
-    Returns
-    -------
-    bool
-        True with correlated noise and more than :data:`SUBSET_FIRST_ROWS` rows (and more
-        than twice :data:`SUBSET_ROWS`: a subset is never solved on a subset again).
-    """
+    """Tell whether ``problem`` chooses its start on a subset (correlated noise, many rows)."""
     rows = len(problem.obs.meas)
     return bool(problem.noise.correlated) and rows > max(SUBSET_FIRST_ROWS, 2 * SUBSET_ROWS)
 
@@ -51,26 +39,7 @@ def solve_on_subset_first(problem: VarProProblem, ys: NDArray[np.float64],
                           solve_all: Callable[[VarProProblem, NDArray[np.float64]],
                                               Sequence[Any]],
                           max_iter: int) -> list[Any]:
-    """Fit each data set on a subset with every start, then its best fit on every row.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    ys : ndarray, shape (B, n)
-        The data sets (SI, the measurement set's order).
-    solve_all : callable
-        ``solve_all(small, ys_small)``: the multi-start fit of a (smaller) problem, one
-        :class:`tmakit.batch.ml.Best` or None per data set.
-    max_iter : int
-        Levenberg–Marquardt iterations of the whole-set solve at most.
-
-    Returns
-    -------
-    list of Best or None
-        The fits on every row (their ``starts`` count the starts solved on the subset); None
-        where no start gave finite predictions.
-    """
+    """Fit each data set on a subset with every start, then its best fit on every row."""
     small, rows = subsample(problem, SUBSET_ROWS)
     found = list(solve_all(small, ys[:, rows]))
     runs = [r for r, fit in enumerate(found) if fit is not None]

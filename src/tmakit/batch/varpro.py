@@ -38,22 +38,7 @@ _compiled_batches = [False]  # inside compiled_batches(True)
 
 @contextmanager
 def compiled_batches(wanted: bool) -> Iterator[None]:
-    """Evaluate by the compiled kernel wherever it applies (True), or never, for a while.
-
-    The kernel (:mod:`tmakit.observation.varpro_compiled`: the point kinds under affine
-    motion, independent noise) costs about 0.2 s to load once per process; a Monte Carlo study
-    large enough to repay it asks for it in every chunk, so that every executor (this process,
-    a pool, a Dask cluster) evaluates the same way.  Outside, the NumPy path.
-
-    Parameters
-    ----------
-    wanted : bool
-        Whether the batches are evaluated by the kernel where it applies.
-
-    Yields
-    ------
-    None
-    """
+    """Evaluate by the compiled kernel wherever it applies (True), or never, for a while."""
     before = _compiled_batches[0]
     _compiled_batches[0] = bool(wanted)
     try:
@@ -280,11 +265,7 @@ class VarProProblem:
 
     def _evaluate_batch_compiled(self, theta: Array, u: Array, nu_star: Array,
                                  with_jacobian: bool) -> Evaluation | None:
-        """Evaluate by the compiled kernel of :mod:`tmakit.observation.varpro_compiled`.
-
-        None where it does not apply (its plan is made once per problem); the Evaluation
-        holds ``J'J`` and ``J'r`` of the projected Jacobian, not the Jacobian.
-        """
+        """Evaluate by the compiled kernel of :mod:`tmakit.observation.varpro_compiled`."""
         from ..observation.varpro_compiled import evaluate_batch, plan_for
 
         if self._batch_plan is None:
@@ -303,13 +284,7 @@ class VarProProblem:
 
     def _evaluate_chunked(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                           ) -> Evaluation:
-        """Evaluate in chunks of rows, summing J'J and J'r (no Jacobian held).
-
-        Without nuisance, and with chunks that never split a correlated noise block
-        (:meth:`~tmakit.observation.NoiseModel.chunk_bounds`: each chunk whitened alone, by
-        its own blocks), each chunk's residuals and Jacobian rows are those of the whole
-        problem (:data:`tmakit.core.blas.CHUNK_ROWS`).
-        """
+        """Evaluate in chunks of rows, summing J'J and J'r (no Jacobian held)."""
         b, n = u.shape
         r = np.empty((b, n))
         gram, grad = np.zeros((b, self.p, self.p)), np.zeros((b, self.p))
@@ -363,15 +338,7 @@ class VarProProblem:
 
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
                  with_jacobian: bool) -> tuple[Array, Array, Array | None]:
-        """Eliminate the nuisance: give ``nu``, the projected residual and Jacobian.
-
-        The Jacobian is ``(B, p, n)``, for the whitened residual ``r`` about ``nu_star`` and
-        the design ``at`` (B, k, n).
-
-        The design's columns are scaled to unit norm, so the Gram matrix is well conditioned
-        and its explicit (k x k) inverse accurate (it is the identity when the columns are
-        orthogonal).  A column without weight (all zero) gets coefficient 0.
-        """
+        """Eliminate the nuisance: give ``nu``, the projected residual and Jacobian."""
         q = self._const_w_t + self.noise.whiten(at)
         norm = np.sqrt(np.einsum("bkn,bkn->bk", q, q))
         empty = norm == 0

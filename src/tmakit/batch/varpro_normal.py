@@ -68,18 +68,7 @@ class DeferredNormal:
         return 2
 
     def runs(self, which: NDArray[np.bool_] | NDArray[np.int64] | slice) -> tuple[Array, Array]:
-        """Give the sums of the runs ``which`` (indices into this object's runs).
-
-        Parameters
-        ----------
-        which : ndarray of bool or int, or slice
-            The runs.
-
-        Returns
-        -------
-        (ndarray, ndarray)
-            ``J'J`` ``(R, p, p)`` and ``J'r`` ``(R, p)``.
-        """
+        """Give the sums of the runs ``which`` (indices into this object's runs)."""
         if self._value is not None:
             return self._value[0][which], self._value[1][which]
         own = np.arange(self._size) if self._rows is None else self._rows
@@ -87,18 +76,7 @@ class DeferredNormal:
 
     def take(self, which: NDArray[np.bool_] | NDArray[np.int64] | slice
              ) -> DeferredNormal | tuple[Array, Array]:
-        """Stand for the runs ``which`` only (their sums still deferred, or copied if made).
-
-        Parameters
-        ----------
-        which : ndarray of bool or int, or slice
-            The runs kept (indices into this object's runs).
-
-        Returns
-        -------
-        DeferredNormal or (ndarray, ndarray)
-            The deferred sums of those runs, or a copy of them once summed.
-        """
+        """Stand for the runs ``which`` only (their sums still deferred, or copied if made)."""
         if self._value is not None:
             return self._value[0][which], self._value[1][which]
         own = np.arange(self._size) if self._rows is None else self._rows
@@ -107,25 +85,7 @@ class DeferredNormal:
 
 def motion_normal(obs: Any, lin: Linearisation, residual: Array, weights: Array | None
                   ) -> DeferredNormal | None:
-    """Give ``J'J`` and ``J'r`` of the whitened Jacobian from the motion model, or None.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The observation model linearised.
-    lin : Linearisation
-        Its linearisation at the batch's parameters, with derivatives.
-    residual : ndarray
-        ``(B, n)`` whitened residuals.
-    weights : ndarray or None
-        ``(n,)`` inverse standard deviations of independent rows (None: correlated noise).
-
-    Returns
-    -------
-    DeferredNormal or None
-        ``(B, p, p)`` and ``(B, p)``, summed when read; None where the motion model cannot, or
-        something besides the relative states enters the Jacobian (the caller forms it).
-    """
+    """Give ``J'J`` and ``J'r`` of the whitened Jacobian from the motion model, or None."""
     normal = getattr(obs.motion, "normal_equations_later", None)
     if (normal is None or weights is None or lin.fused is not None or lin.d_h0 is None
             or lin.d_a or lin.d_h0_ref is not None or lin.theta.ndim != 2):

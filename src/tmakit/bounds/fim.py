@@ -39,27 +39,7 @@ if TYPE_CHECKING:  # pragma: no cover
 def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike,
                       nuisance: ArrayLike, known_nuisance: KnownNuisanceLike = None
                       ) -> NDArray[np.float64]:
-    """Return ``R^{-1/2} J`` with respect to the unknowns (motion, then nuisance).
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The measurements' observation model.
-    noise : NoiseModel
-        Their noise model (``R``), in the row order of ``obs.meas``.
-    theta : array_like, shape (p,)
-        Motion parameters (SI units of each).
-    nuisance : array_like, shape (k,)
-        Nuisance parameters.
-    known_nuisance : KnownNuisance, Mapping, bool or None, optional
-        Known nuisance parameters are no unknowns: their columns are left out.  Default:
-        unknown.
-
-    Returns
-    -------
-    ndarray, shape (n, p) or (n, p + k)
-        The whitened Jacobian.
-    """
+    """Return ``R^{-1/2} J`` with respect to the unknowns (motion, then nuisance)."""
     j_theta, j_nu = obs.jacobian(theta, nuisance)
     known = as_known_nuisance(known_nuisance) is not None
     jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
@@ -129,36 +109,7 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
                  ) -> tuple[MeasurementSet, MotionModel, Mapping[str, float] | ArrayLike,
                             Mapping[str, float] | None,
                             Mapping[str, Mapping[str, object]] | None]:
-    """Return what a bound is evaluated on, from its ``source``.
-
-    Parameters
-    ----------
-    source : Scenario or MeasurementSet
-        A scenario (its noise-free simulation; its motion, truth and options unless given;
-        its nuisance values updated by ``nuisance``) or a measurement set.
-    motion : MotionModel or None
-        The motion model (required for a measurement set).
-    truth : Mapping[str, float], array_like or None
-        The evaluation point (SI; required for a measurement set).
-    nuisance : Mapping[str, float] or None
-        Nuisance values (Hz, Hz/s, dB, dimensionless).
-    options : Mapping or None
-        The nuisance model per kind.
-    caller : str
-        The function named in the error for any other type.
-
-    Returns
-    -------
-    tuple
-        ``(meas, motion, truth, nuisance, options)``.
-
-    Raises
-    ------
-    TypeError
-        When ``source`` is neither a scenario nor a measurement set.
-    ValueError
-        When a measurement set comes without ``motion`` or ``truth``.
-    """
+    """Return what a bound is evaluated on, from its ``source``."""
     from ..scenario.model import Scenario
 
     if isinstance(source, Scenario):
@@ -180,25 +131,7 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
 
 def truth_vector(motion: MotionModel, truth: Mapping[str, float] | ArrayLike
                  ) -> NDArray[np.float64]:
-    """Convert ``truth`` to the parameter vector of ``motion``.
-
-    Parameters
-    ----------
-    motion : MotionModel
-        The motion model.
-    truth : Mapping[str, float] or array_like
-        A mapping by parameter name, or a vector (SI units of each parameter).
-
-    Returns
-    -------
-    ndarray, shape (p,)
-        The parameter vector.
-
-    Raises
-    ------
-    ValueError
-        Naming the expected parameters when its length is wrong.
-    """
+    """Convert ``truth`` to the parameter vector of ``motion``."""
     theta = (motion.theta(truth) if isinstance(truth, Mapping)
              else np.asarray(truth, dtype=float))
     if theta.shape != (motion.n_params,):
@@ -277,29 +210,7 @@ ON_SENSOR_M = 1e-3
 
 def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLike,
                       obs: ObservationModel | None = None) -> None:
-    """Refuse a truth that puts the target on a sensor at one of the measurement times.
-
-    There a bearing or elevation has no value, a range no derivative and a power is
-    infinite: the Fisher information, hence the bound, is undefined.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (their times and sensor positions, m).
-    motion : MotionModel
-        The motion model.
-    theta : array_like
-        The truth's motion parameters (SI).
-    obs : ObservationModel, optional
-        The observation model of ``meas`` and ``motion``, when there is one: its relative
-        positions are used (no state array is made).
-
-    Raises
-    ------
-    ValueError
-        Naming the sensor, the time and the distance, when the target is within
-        :data:`ON_SENSOR_M` of a sensor.
-    """
+    """Refuse a truth that puts the target on a sensor at one of the measurement times."""
     if len(meas) == 0:
         return
     if obs is not None:  # squared distances (no square root per row), grouped order

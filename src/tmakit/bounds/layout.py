@@ -107,23 +107,7 @@ def _gradients(emitters: Array, states: Array, fdoa: NDArray[np.bool_]) -> Array
 
 
 def layout_information(rows: LayoutRows, emitters: Array, dim: int = 2) -> Array:
-    """Give the Fisher information of a stationary emitter's position at many points.
-
-    Parameters
-    ----------
-    rows : LayoutRows
-        The layout's rows.
-    emitters : ndarray, shape (G, 3)
-        Emitter positions (ENU, m); with ``dim = 2`` their height is known.
-    dim : int, optional
-        2 (east, north; the height known) or 3.
-
-    Returns
-    -------
-    ndarray, shape (G, dim, dim)
-        The information (1/m^2), as :func:`tmakit.bounds.crlb` of a ``static2d`` /
-        ``static3d`` motion model on these rows.
-    """
+    """Give the Fisher information of a stationary emitter's position at many points."""
     emitters = np.atleast_2d(np.asarray(emitters, dtype=float))
     info = np.zeros((emitters.shape[0], dim, dim))
     n, starts = rows.n, rows.starts
@@ -149,20 +133,7 @@ def layout_information(rows: LayoutRows, emitters: Array, dim: int = 2) -> Array
 
 
 def cep(covariance: Array, probability: float) -> Array:
-    """Give the circular error probable of horizontal position covariances.
-
-    Parameters
-    ----------
-    covariance : ndarray, shape (..., 2, 2)
-        East-north covariances (m^2).
-    probability : float
-        The probability the circle holds (0.5 for CEP50, 0.9 for CEP90).
-
-    Returns
-    -------
-    ndarray, shape (...)
-        The radius (m); inf where the covariance is not finite.
-    """
+    """Give the circular error probable of horizontal position covariances."""
     finite = np.all(np.isfinite(covariance), axis=(-2, -1))
     lam = np.linalg.eigvalsh(np.where(finite[..., None, None], covariance, np.eye(2)))
     major = np.maximum(lam[..., 1], 0.0)
@@ -177,13 +148,7 @@ _RATIO_LOW = 1e-12
 
 @functools.cache
 def _cep_table(probability: float) -> tuple[Array, Array]:
-    """Tabulate the CEP over the major axis's std against log10(minor / major variance).
-
-    ``P(rho) = int N(rho sin phi) erf(rho cos phi / sqrt(2 k)) rho cos phi dphi`` over
-    ``|phi| < pi / 2`` (the major axis at ``rho sin phi``), Gauss-Legendre, solved by
-    bisection for each ratio ``k``; between the 241 tabled ratios the radius is smooth in
-    ``log k`` (linear interpolation: relative error below 1e-4).
-    """
+    """Tabulate the CEP over the major axis's std against log10(minor / major variance)."""
     from scipy.special import erf
 
     log_k = np.linspace(np.log10(_RATIO_LOW), 0.0, 241)

@@ -354,10 +354,7 @@ def _checked_ref_times(meas: MeasurementSet, ref_times: ArrayLike) -> NDArray[np
 def _point(meas: MeasurementSet, motion: PiecewiseCurvilinear, theta: NDArray[np.float64],
            t_ref: float, started: int, known_manoeuvres: bool, level: float,
            crlb_options: dict[str, object]) -> CrbPoint:
-    """Compute the bound at ``t_ref`` (s) from the data up to it.
-
-    The ``started`` manoeuvres' parameters are unknown (or, ``known_manoeuvres``, known).
-    """
+    """Compute the bound at ``t_ref`` (s) from the data up to it."""
     model, theta_ref = motion.rereferenced(theta, t_ref, started)
     used: MotionModel = model
     values = theta_ref

@@ -46,18 +46,7 @@ TIME_MATCH = 1e-6
 
 
 def noise_factor(q_mat: Array) -> Array:
-    """Return ``G`` (n, r) with ``G G^T = Q`` (eigen-decomposition; rounding negatives dropped).
-
-    Parameters
-    ----------
-    q_mat : ndarray
-        A process-noise covariance (n, n), SI.
-
-    Returns
-    -------
-    ndarray
-        (n, r), ``r`` the number of eigenvalues above ``1e-14`` of the largest (may be 0).
-    """
+    """Return ``G`` (n, r) with ``G G^T = Q`` (eigen-decomposition; rounding negatives dropped)."""
     evals, evecs = np.linalg.eigh(symmetrise(q_mat))
     top = float(evals.max()) if evals.size else 0.0
     if top <= 0.0:

@@ -87,41 +87,7 @@ RESAMPLES = 2000
 
 def ratio_interval(errors: ArrayLike, bound: ArrayLike, level: float = 0.95,
                    seed: int = 0) -> tuple[float, float | None, float | None]:
-    """Return the RMSE over the bound and its Monte Carlo interval, from the runs' errors.
-
-    The interval is the union of two, each blind where the other sees:
-
-    * **chi-square** — if the errors were Gaussian with a covariance shaped as the bound's
-      ``P`` (an efficient tracker), their summed squares would be ``c chi^2_m`` with
-      ``c = tr(P^2) / tr P`` and ``m = R (tr P)^2 / tr(P^2)`` degrees of freedom
-      (Satterthwaite's approximation: ``2 R`` for a round 2-D error, ``R`` for a thin one).
-      It holds for few runs, where ten runs that happen to have no large error look precise
-      to a bootstrap;
-    * **bootstrap** over the runs (percentiles of ``RESAMPLES`` resamples) — it holds for a
-      heavy-tailed error (a track whose range is still unknown), where the chi-square does
-      not.
-
-    The bound is held fixed: its own Monte Carlo error (the runs' information averaged) is
-    far smaller than that of the squared errors.
-
-    Parameters
-    ----------
-    errors : array_like, shape (R,)
-        Each run's position error (m).
-    bound : array_like, shape (d, d)
-        The bound's position block, m^2.
-    level : float, optional
-        The interval's coverage.
-    seed : int, optional
-        The bootstrap's seed.
-
-    Returns
-    -------
-    ratio : float
-        ``RMSE / sqrt(tr P)``.
-    low, high : float or None
-        The interval; None with fewer than :data:`MIN_RUNS` runs.
-    """
+    """Return the RMSE over the bound and its Monte Carlo interval, from the runs' errors."""
     from scipy.stats import chi2
 
     e2 = np.asarray(errors, dtype=float) ** 2

@@ -31,34 +31,6 @@ def crlb_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
                             ) -> tuple[Bound, Bound]:
     """Give the CRLB with sensor position errors, and the one with positions known.
 
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The rows (their values are not used).
-    motion : MotionModel
-        The motion model.
-    truth : mapping or array_like
-        Where the bound is evaluated (SI).
-    position_sigma : float
-        Std of each sensor position error per axis (m).
-    velocity_sigma : float, optional
-        Std of each sensor velocity error per axis (m/s).
-    nuisance : mapping, optional
-        Nuisance values at the evaluation point (the nuisance is unknown).
-    options : mapping, optional
-        Per-kind model options.
-
-    Returns
-    -------
-    with_errors, known : Bound
-        The bound with the errors, and :func:`tmakit.bounds.crlb`'s with the positions known.
-
-    Raises
-    ------
-    ValueError
-        As :func:`tmakit.bounds.crlb` and
-        :func:`tmakit.observation.sensor_errors.effective_noise`.
-
     References
     ----------
     Ho, Lu & Kovavisaruch (2007) (the CRLB with receiver position errors).

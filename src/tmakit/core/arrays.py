@@ -22,35 +22,12 @@ BoolArray = NDArray[np.bool_]
 
 
 def broadcast(column: NDArray[np.generic]) -> bool:
-    """Tell whether ``column`` holds one value for every row (a zero-stride broadcast).
-
-    Parameters
-    ----------
-    column : ndarray
-        ``(n, ...)`` a column of a table.
-
-    Returns
-    -------
-    bool
-    """
+    """Tell whether ``column`` holds one value for every row (a zero-stride broadcast)."""
     return column.ndim > 0 and column.strides[0] == 0
 
 
 def take_rows(column: Array, rows: NDArray[np.intp]) -> Array:
-    """Give ``column``'s ``rows``; a broadcast column stays one (no memory per row).
-
-    Parameters
-    ----------
-    column : ndarray
-        ``(n, ...)`` the column.
-    rows : ndarray of int
-        ``(m,)`` row indices.
-
-    Returns
-    -------
-    ndarray
-        ``(m, ...)``; read-only when ``column`` is a broadcast.
-    """
+    """Give ``column``'s ``rows``; a broadcast column stays one (no memory per row)."""
     if broadcast(column):
         m = rows.shape[0]
         if m <= column.shape[0] and not column.flags.writeable:

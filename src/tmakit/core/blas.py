@@ -38,40 +38,13 @@ _SPLIT = os.environ.get("TMAKIT_SPLIT_PRODUCTS", "") == "1"
 
 
 def split_products(active: bool = True) -> None:
-    """Have :func:`matmul` split large products into single-threaded row blocks (or not).
-
-    A setting of the whole process, off by default (``TMAKIT_SPLIT_PRODUCTS=1`` turns it on
-    at import); results do not depend on it.
-
-    Parameters
-    ----------
-    active : bool, optional
-        Split (default) or not.
-    """
+    """Have :func:`matmul` split large products into single-threaded row blocks (or not)."""
     global _SPLIT
     _SPLIT = bool(active)
 
 
 def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Multiply ``a @ b``, in single-threaded row blocks when :func:`split_products` asks.
-
-    Splitting rows does not change any sum.
-
-    Parameters
-    ----------
-    a : numpy.ndarray
-        Left factor ``(..., m, k)`` (any units).
-    b : numpy.ndarray
-        Right factor: 2-D ``(k, n)`` (the rows of every leading index of ``a`` are then split
-        together), or a batch ``(..., k, n)`` matching ``a``'s leading axes (the ``m`` rows
-        of each are split) (any units).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``a @ b``, shape ``(..., m, n)``; equal to numpy's product (the blocks only split
-        the rows).
-    """
+    """Multiply ``a @ b``, in single-threaded row blocks when :func:`split_products` asks."""
     if not _SPLIT:
         return a @ b
     k, n = b.shape[-2:]
@@ -99,28 +72,7 @@ DOT_MOST_ROWS = 6
 
 def normal_rows(rows: NDArray[np.float64], r: NDArray[np.float64] | None = None
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-    """Form ``J'J`` and ``J'r`` of a thin Jacobian held by rows, by dot products on one thread.
-
-    OpenBLAS forms ``(p, n) @ (n, p)`` for small ``p`` and large ``n`` slowly (its kernels are
-    made for wide outputs): ``J'J`` and ``J'r`` of ``4 x 10^5`` took 0.64 ms by two products
-    and 0.44 ms by the fourteen distinct dot products of the rows, block by block (one core
-    of this project's 2-core test machine); for ``8 x 10^5`` the products win (0.90 ms
-    against 1.23 ms: :data:`DOT_MOST_ROWS`).  The dot
-    products run on one thread (:func:`one_thread`): OpenBLAS splits a long one over threads
-    and sums the parts, so its value would depend on the thread count.
-
-    Parameters
-    ----------
-    rows : numpy.ndarray
-        ``(p, n)`` the Jacobian's columns as rows, each contiguous (per parameter unit).
-    r : numpy.ndarray, optional
-        ``(n,)`` the residuals (dimensionless).
-
-    Returns
-    -------
-    (numpy.ndarray, numpy.ndarray or None)
-        ``(p, p)`` ``J'J`` (symmetric) and ``(p,)`` ``J'r`` (None without ``r``).
-    """
+    """Form ``J'J`` and ``J'r`` of a thin Jacobian held by rows, by dot products on one thread."""
     p, n = rows.shape
     jtj = np.zeros((p, p))
     jtr = None if r is None else np.zeros(p)
@@ -140,19 +92,7 @@ def normal_rows(rows: NDArray[np.float64], r: NDArray[np.float64] | None = None
 
 
 def by_dots(jacobian: NDArray[np.float64]) -> bool:
-    """Tell whether :func:`normal_rows` forms the normal equations of ``jacobian`` ``(n, p)``.
-
-    Parameters
-    ----------
-    jacobian : numpy.ndarray
-        One Jacobian ``(n, p)`` (any units).
-
-    Returns
-    -------
-    bool
-        True for at least :data:`DOT_ROWS` rows, at most :data:`DOT_MOST_ROWS` columns, each
-        column contiguous in memory (the transpose of a row-major ``(p, n)`` array).
-    """
+    """Tell whether :func:`normal_rows` forms the normal equations of ``jacobian`` ``(n, p)``."""
     n, p = jacobian.shape
     return (n >= DOT_ROWS and p <= DOT_MOST_ROWS and jacobian.dtype == np.float64
             and jacobian.T.flags.c_contiguous)
@@ -162,21 +102,7 @@ _CONTROLLER: Any = None
 
 
 def one_thread(active: bool = True) -> AbstractContextManager[object]:
-    """Give a context in which BLAS runs on one thread (``threadpoolctl``).
-
-    The controller is made on first use, when NumPy's and SciPy's BLAS libraries are loaded;
-    entering the context then costs about 10 µs.
-
-    Parameters
-    ----------
-    active : bool, optional
-        False gives a context that does nothing.
-
-    Returns
-    -------
-    contextlib.AbstractContextManager
-        The limit, restored on exit.
-    """
+    """Give a context in which BLAS runs on one thread (``threadpoolctl``)."""
     global _CONTROLLER
     if not active:
         return nullcontext()

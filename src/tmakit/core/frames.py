@@ -26,23 +26,7 @@ TWO_PI = 2.0 * np.pi
 
 
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles to the interval (-pi, pi].
-
-    An angle in the interval is returned as it is; one within a turn of it is shifted by a
-    turn, exactly (Sterbenz: ``a - 2 pi`` has no rounding for ``a`` in ``[pi, 4 pi]``);
-    any other is ``mod(a + pi, 2 pi) - pi``, with ``-pi`` taken as ``+pi``.
-
-    Parameters
-    ----------
-    angle : array_like
-        Angles (rad).
-
-    Returns
-    -------
-    numpy.ndarray
-        The angles wrapped to (-pi, pi] (rad), a new array; ``+pi`` stays ``+pi``; NaN stays
-        NaN.
-    """
+    """Wrap angles to the interval (-pi, pi]."""
     out = np.array(angle, dtype=float)
     if out.ndim == 0:
         return np.array(_wrap_moved(out.reshape(1))[0])
@@ -65,25 +49,7 @@ def _wrap_moved(v: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np.float64]:
-    """Return :func:`wrap_angle` of ``e``, the same bits, in place where it can.
-
-    For the solvers' residuals of angles: ``e`` itself overwritten with ``in_place``, else a
-    new array.  Residuals of angles lie in (-pi, pi], or within a turn of it where the data
-    cross +-pi: two reductions tell, and the rows out are shifted by a turn in place, exactly
-    as :func:`wrap_angle` does, no copy made.  Otherwise (or with NaN) :func:`wrap_angle` itself.
-
-    Parameters
-    ----------
-    e : numpy.ndarray
-        Angles (rad), float.
-    in_place : bool
-        Whether ``e`` (the caller's own array) may be overwritten.
-
-    Returns
-    -------
-    numpy.ndarray
-        The angles wrapped to (-pi, pi] (rad).
-    """
+    """Return :func:`wrap_angle` of ``e``, the same bits, in place where it can."""
     if not e.size:
         return wrap_angle(e)
     low, high = e.min(), e.max()
@@ -100,33 +66,12 @@ def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np
 
 
 def wrap_to_2pi(angle: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles to the interval [0, 2 pi).
-
-    Parameters
-    ----------
-    angle : array_like
-        Angles (rad).
-
-    Returns
-    -------
-    numpy.ndarray
-        The angles wrapped to [0, 2 pi) (rad).
-    """
+    """Wrap angles to the interval [0, 2 pi)."""
     return np.mod(np.asarray(angle, dtype=float), 2.0 * np.pi)
 
 
 def bearing(d_east: ArrayLike, d_north: ArrayLike) -> NDArray[np.float64]:
     """Give the bearing of the horizontal vector ``(d_east, d_north)``.
-
-    Parameters
-    ----------
-    d_east, d_north : array_like
-        East and North components (m, or any common unit), broadcast together.
-
-    Returns
-    -------
-    numpy.ndarray
-        Bearing ``atan2(d_east, d_north)`` (rad, clockwise from North, in (-pi, pi]).
 
     References
     ----------
@@ -136,20 +81,7 @@ def bearing(d_east: ArrayLike, d_north: ArrayLike) -> NDArray[np.float64]:
 
 
 def math_angle_to_bearing(angle: ArrayLike) -> NDArray[np.float64]:
-    """Convert an angle counter-clockwise from East (x-axis) to a bearing clockwise from North.
-
-    The map is its own inverse (:data:`bearing_to_math_angle` is the same function).
-
-    Parameters
-    ----------
-    angle : array_like
-        Angles counter-clockwise from East (rad).
-
-    Returns
-    -------
-    numpy.ndarray
-        Bearings ``pi/2 - angle`` wrapped to (-pi, pi] (rad, clockwise from North).
-    """
+    """Convert an angle counter-clockwise from East (x-axis) to a bearing clockwise from North."""
     return wrap_angle(np.pi / 2.0 - np.asarray(angle, dtype=float))
 
 
@@ -157,17 +89,6 @@ bearing_to_math_angle = math_angle_to_bearing
 
 
 def unit_vector_from_bearing(bearing_rad: ArrayLike) -> NDArray[np.float64]:
-    """Give the horizontal unit vector(s) pointing along a bearing.
-
-    Parameters
-    ----------
-    bearing_rad : array_like
-        Bearings (rad, clockwise from North).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``[east, north] = [sin b, cos b]``, shape ``(..., 2)`` (dimensionless).
-    """
+    """Give the horizontal unit vector(s) pointing along a bearing."""
     b = np.asarray(bearing_rad, dtype=float)
     return np.stack([np.sin(b), np.cos(b)], axis=-1)

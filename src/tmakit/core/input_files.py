@@ -19,19 +19,7 @@ SNIFF_BYTES = 1 << 16
 
 
 def not_regular_problem(path: str | os.PathLike[str]) -> str | None:
-    """Say why an existing path cannot be read as a file, or None.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The path (not opened: a FIFO is never opened here).
-
-    Returns
-    -------
-    str or None
-        ``is a folder``, ``is a FIFO (named pipe)``, ... with what to do; None for a regular
-        file or a path that does not exist (the reader says so).
-    """
+    """Say why an existing path cannot be read as a file, or None."""
     try:
         mode = os.stat(path).st_mode
     except OSError:
@@ -45,18 +33,7 @@ def not_regular_problem(path: str | os.PathLike[str]) -> str | None:
 
 
 def binary_problem(path: str | os.PathLike[str]) -> str | None:
-    """Say why a regular file is not text (a NUL byte near its start), or None.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        A regular file.
-
-    Returns
-    -------
-    str or None
-        The problem, naming the byte, or None when the first :data:`SNIFF_BYTES` hold no NUL.
-    """
+    """Say why a regular file is not text (a NUL byte near its start), or None."""
     with open(Path(path), "rb") as f:
         head = f.read(SNIFF_BYTES)
     at = head.find(b"\x00")

@@ -24,18 +24,7 @@ T = TypeVar("T")
 
 
 def as_generator(rng: RngLike) -> np.random.Generator:
-    """Give a Generator for a Generator (as is), a seed, or None (fresh entropy).
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator, int or None
-        The random source.
-
-    Returns
-    -------
-    numpy.random.Generator
-        The generator; the same seed gives the same numbers.
-    """
+    """Give a Generator for a Generator (as is), a seed, or None (fresh entropy)."""
     if isinstance(rng, np.random.Generator):
         return rng
     return np.random.default_rng(rng)
@@ -52,29 +41,7 @@ NOT_GIVEN = NotGiven.NOT_GIVEN
 
 def renamed_keyword(where: str, old: str, old_value: T | NotGiven, new: str, new_value: T,
                     default: T) -> T:
-    """Give the value of a renamed keyword: the new one's, or the old one's with a warning.
-
-    Parameters
-    ----------
-    where : str
-        The function's name, for the messages.
-    old, new : str
-        The keyword's old and new names.
-    old_value : object or NOT_GIVEN
-        The value given under the old name.
-    new_value, default : object
-        The value under the new name, and its default.
-
-    Returns
-    -------
-    object
-        ``old_value`` when given (a ``DeprecationWarning`` is issued), else ``new_value``.
-
-    Raises
-    ------
-    TypeError
-        If both names are given (the new one not at its default).
-    """
+    """Give the value of a renamed keyword: the new one's, or the old one's with a warning."""
     if isinstance(old_value, NotGiven):
         return new_value
     warnings.warn(f"{where}({old}=...) is deprecated; use {new}=", DeprecationWarning,
@@ -86,24 +53,7 @@ def renamed_keyword(where: str, old: str, old_value: T | NotGiven, new: str, new
 
 
 def study_seed(rng: RngLike) -> int | None:
-    """Give the integer seed of a study from ``rng``.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator, int or None
-        A Generator (one integer is drawn from it), a seed, or None (fresh entropy, which the
-        study records).
-
-    Returns
-    -------
-    int or None
-        The seed (>= 0), or None.
-
-    Raises
-    ------
-    ValueError
-        If the seed is not a whole number >= 0.
-    """
+    """Give the integer seed of a study from ``rng``."""
     if isinstance(rng, np.random.Generator):
         return int(rng.integers(0, 2**63))
     if rng is not None and (isinstance(rng, bool) or not isinstance(rng, int | np.integer)

@@ -28,116 +28,37 @@ DBM_MINUS_DBW = 30.0
 
 
 def deg2rad(x: ArrayLike) -> NDArray[np.float64]:
-    """Convert degrees to radians.
-
-    Parameters
-    ----------
-    x : array_like
-        Angles (deg).
-
-    Returns
-    -------
-    numpy.ndarray
-        The same angles (rad), as floats.
-    """
+    """Convert degrees to radians."""
     return np.deg2rad(np.asarray(x, dtype=float))
 
 
 def rad2deg(x: ArrayLike) -> NDArray[np.float64]:
-    """Convert radians to degrees.
-
-    Parameters
-    ----------
-    x : array_like
-        Angles (rad).
-
-    Returns
-    -------
-    numpy.ndarray
-        The same angles (deg), as floats.
-    """
+    """Convert radians to degrees."""
     return np.rad2deg(np.asarray(x, dtype=float))
 
 
 def db_to_linear(db: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power ratio in decibels to a linear ratio.
-
-    Parameters
-    ----------
-    db : array_like
-        Power ratios (dB).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``10^(db / 10)`` (dimensionless).
-    """
+    """Convert a power ratio in decibels to a linear ratio."""
     return 10.0 ** (np.asarray(db, dtype=float) / 10.0)
 
 
 def linear_to_db(ratio: ArrayLike) -> NDArray[np.float64]:
-    """Convert a (positive) linear power ratio to decibels.
-
-    Parameters
-    ----------
-    ratio : array_like
-        Linear power ratios (dimensionless, > 0).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``10 log10(ratio)`` (dB); ``-inf`` for 0 and NaN for negative ratios (numpy's rules).
-    """
+    """Convert a (positive) linear power ratio to decibels."""
     return 10.0 * np.log10(np.asarray(ratio, dtype=float))
 
 
 def dbm_to_dbw(dbm: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power in dBm to dBW.
-
-    Parameters
-    ----------
-    dbm : array_like
-        Powers (dBm, decibels relative to one milliwatt).
-
-    Returns
-    -------
-    numpy.ndarray
-        The same powers (dBW), ``dbm - 30``.
-    """
+    """Convert a power in dBm to dBW."""
     return np.asarray(dbm, dtype=float) - DBM_MINUS_DBW
 
 
 def dbw_to_dbm(dbw: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power in dBW to dBm.
-
-    Parameters
-    ----------
-    dbw : array_like
-        Powers (dBW, decibels relative to one watt).
-
-    Returns
-    -------
-    numpy.ndarray
-        The same powers (dBm), ``dbw + 30``.
-    """
+    """Convert a power in dBW to dBm."""
     return np.asarray(dbw, dtype=float) + DBM_MINUS_DBW
 
 
 def snr_to_sigma_db(snr_db: float) -> float:
     """Give the standard deviation (dB) of a power whose relative noise has variance 1/SNR.
-
-    Gu et al. (2007), §2, take var(eta/P) = 1/SNR_p.  To first order the power in dB then has
-    standard deviation (10/ln 10)/sqrt(SNR_p); this is the sigma written to files.
-
-    Parameters
-    ----------
-    snr_db : float
-        The signal-to-noise ratio SNR_p (dB).
-
-    Returns
-    -------
-    float
-        Standard deviation of the received power (dB).
 
     References
     ----------
@@ -148,35 +69,12 @@ def snr_to_sigma_db(snr_db: float) -> float:
 
 
 def wavelength(frequency_hz: float) -> float:
-    """Give the wavelength of a carrier.
-
-    Parameters
-    ----------
-    frequency_hz : float
-        Carrier frequency (Hz, > 0).
-
-    Returns
-    -------
-    float
-        Wavelength ``c / f`` (m).
-    """
+    """Give the wavelength of a carrier."""
     return SPEED_OF_LIGHT / frequency_hz
 
 
 def free_space_constant(frequency_hz: float) -> float:
     """Give C_0 = (lambda / 4 pi)^2, the free-space power constant of Gu et al. (2007), §5.
-
-    With unit transmit power and unit gains the received power is C_0 / R^2 watts.
-
-    Parameters
-    ----------
-    frequency_hz : float
-        Carrier frequency (Hz, > 0).
-
-    Returns
-    -------
-    float
-        C_0 (W m^2 for unit transmit power and gains).
 
     References
     ----------

@@ -50,36 +50,7 @@ def _linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, b
 
 def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array,
                     h_cov: Array | None = None) -> tuple[Array, Array, UpdateInfo]:
-    """Make a Kalman update (Joseph form, then :func:`tmakit.core.linalg.repair_psd`).
-
-    The gain ``K = P H^T (H P H^T + R)^-1``, NIS and log-likelihood come from ``h``; the
-    covariance ``(I - K G) P (I - K G)^T + K R K^T`` from ``G = h_cov`` (``h`` when not given;
-    Song & Speyer's MGEKF passes its modified rows, :func:`tmakit.filters.mgekf.split_update`).
-
-    Parameters
-    ----------
-    mean : numpy.ndarray
-        Prior mean ``(n,)`` (m, m/s).
-    cov : numpy.ndarray
-        Prior covariance ``(n, n)``.
-    residual : numpy.ndarray
-        Innovation ``z - h(x)`` ``(m,)``, angles wrapped (measurement units, SI).
-    h : numpy.ndarray
-        Measurement matrix ``(m, n)``.
-    r : numpy.ndarray
-        Measurement noise covariance ``(m, m)``.
-    h_cov : numpy.ndarray, optional
-        Rows ``G`` ``(m, n)`` of the covariance update; ``h`` when ``None``.
-
-    Returns
-    -------
-    mean : numpy.ndarray
-        Updated mean ``(n,)``.
-    cov : numpy.ndarray
-        Updated covariance ``(n, n)``, symmetric positive definite.
-    info : UpdateInfo
-        NIS, degrees of freedom (m) and log-likelihood (nats) of the update.
-    """
+    """Make a Kalman update (Joseph form, then :func:`tmakit.core.linalg.repair_psd`)."""
     gain, nis, log_det = kalman_gain(cov, h, r, residual)
     m = residual.shape[0]
     loglik = -0.5 * (nis + log_det + m * LOG_2PI)
@@ -88,13 +59,7 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
 
 
 def skipped() -> UpdateInfo:
-    """Report an update that could not be made.
-
-    Returns
-    -------
-    UpdateInfo
-        NIS NaN, no degrees of freedom, log-likelihood 0.
-    """
+    """Report an update that could not be made."""
     return UpdateInfo(float("nan"), 0, 0.0)
 
 
@@ -226,13 +191,7 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     def _kalman(self, lin: Callable, arg: MeasurementGroup | Step, r: Array, mean: Array, cov: Array
                 ) -> tuple[Array, Array, float, int, float]:
-        """One (iterated) EKF update: mean, covariance, NIS, rows, log-likelihood.
-
-        ``lin(arg, x)`` gives the wrapped residual, the Jacobian at ``x`` and whether both are
-        finite (a plan's step or a group).  The covariance is ``P - K H P`` when that is
-        positive definite, else the Joseph form (:func:`~.general.updated_covariance`).  An
-        update whose linearisation is not finite is skipped and counted.
-        """
+        """One (iterated) EKF update: mean, covariance, NIS, rows, log-likelihood."""
         y, h, ok = lin(arg, mean)
         if not ok:
             self.skipped_updates += 1
@@ -263,11 +222,7 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     # -- the closed-form path ----------------------------------------------------------------
     def _kernel_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]) -> bool:
-        """Tell whether the kernel of ``cls`` applies.
-
-        It does for one bearing per update, 2-D, plain NCV dynamics, when this class does not
-        change the predict/update of ``cls``.
-        """
+        """Tell whether the kernel of ``cls`` applies."""
         me = type(self)
         return (compiled.single_bearing and self.dim == 2
                 and type(self.dynamics) is NearlyConstantVelocity

@@ -53,22 +53,7 @@ TWO_PI = 2.0 * math.pi
 @_jit
 def predict_sum(m: Array, p: Array, count: int, dt: float, dim: int, qa: Array,
                 qd: Array) -> None:  # pragma: no cover - compiled
-    """Move ``count`` components ``dt`` s forward (nearly constant velocity, in place).
-
-    Parameters
-    ----------
-    m, p : numpy.ndarray
-        Means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s), changed in place.
-    count : int
-        Components in use.
-    dt : float
-        The step (s).
-    dim : int
-        2 or 3.
-    qa, qd : numpy.ndarray
-        Per-axis held-acceleration std (m/s^2) and white-noise density (m^2/s^3)
-        (:func:`tmakit.motion.dynamics.process_noise`).
-    """
+    """Move ``count`` components ``dt`` s forward (nearly constant velocity, in place)."""
     dt2 = dt * dt
     for i in range(count):
         for a in range(dim):
@@ -104,29 +89,7 @@ def _principal(p: Array, i: int, dim: int) -> tuple[float, Array]:  # pragma: no
 @_jit
 def split_sum(w: Array, m: Array, p: Array, count: int, sensor: Array, dim: int,
               threshold: float, capacity: int) -> int:  # pragma: no cover - compiled
-    """Split the components too spread for their range (see the module docstring).
-
-    Parameters
-    ----------
-    w, m, p : numpy.ndarray
-        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
-        of capacity ``C``; changed in place.
-    count : int
-        Components in use (the first ``count``).
-    sensor : numpy.ndarray
-        The position the spread is judged from ``(>= dim,)`` (m).
-    dim : int
-        2 or 3.
-    threshold : float
-        Largest position std over range (0: never split).
-    capacity : int
-        Most components.
-
-    Returns
-    -------
-    int
-        The new count.
-    """
+    """Split the components too spread for their range (see the module docstring)."""
     if threshold <= 0.0 or count + 2 > capacity:
         return count
     order = np.argsort(-w[:count])
@@ -238,25 +201,7 @@ def _merge(w: Array, m: Array, p: Array, count: int, merge: float) -> int:  # pr
 @_jit
 def reduce_sum(w: Array, m: Array, p: Array, count: int, prune: float,
                merge: float) -> int:  # pragma: no cover - compiled
-    """Prune, merge and normalise (see the module docstring).
-
-    Parameters
-    ----------
-    w, m, p : numpy.ndarray
-        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
-        of capacity ``C``; changed in place.
-    count : int
-        Components in use (the first ``count``).
-    prune : float
-        Drop components lighter than this fraction of the heaviest.
-    merge : float
-        Merge within this squared Mahalanobis distance (0: never).
-
-    Returns
-    -------
-    int
-        The new count (0 when no weight is positive).
-    """
+    """Prune, merge and normalise (see the module docstring)."""
     total = 0.0
     for i in range(count):
         total += w[i]
@@ -276,18 +221,7 @@ def reduce_sum(w: Array, m: Array, p: Array, count: int, prune: float,
 @_jit
 def sum_moments(w: Array, m: Array, p: Array, count: int, mean: Array,
                 cov: Array) -> None:  # pragma: no cover - compiled
-    """Write the sum's mean and covariance (the law of total covariance).
-
-    Parameters
-    ----------
-    w, m, p : numpy.ndarray
-        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
-        of capacity ``C``; changed in place.
-    count : int
-        Components in use (the first ``count``).
-    mean, cov : numpy.ndarray
-        Written: ``(n,)`` and ``(n, n)`` (m, m/s).
-    """
+    """Write the sum's mean and covariance (the law of total covariance)."""
     n = m.shape[1]
     mean[:] = 0.0
     for i in range(count):
@@ -387,12 +321,7 @@ def _sigma_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, 
 @_inline
 def _reweight(w: Array, nus: Array, ss: Array, oks: BoolArray,
               count: int) -> tuple[bool, float, float]:  # pragma: no cover - compiled
-    """Multiply the weights by ``N(nu_i; 0, S_i)``; give ok, log-likelihood, NIS of the sum.
-
-    The log-likelihood is ``log sum_i w_i N(nu_i; 0, S_i)`` (the weights before), the NIS
-    that of the sum's moment-matched innovation; not ok (weights kept) when no component
-    could be updated.
-    """
+    """Multiply the weights by ``N(nu_i; 0, S_i)``; give ok, log-likelihood, NIS of the sum."""
     top = -np.inf
     for i in range(count):
         if oks[i]:
@@ -424,40 +353,7 @@ def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times:
                    sigma_points: Array, settings: Array, out_mean: Array, out_cov: Array,
                    out_nis: Array, out_ll: Array, out_count: Array
                    ) -> tuple[int, float, int]:  # pragma: no cover - compiled
-    """Run the Gaussian-sum filter over single bearings in 2-D, one call for a whole track.
-
-    A step whose every component fails (a prediction on a sensor) keeps the predicted sum and
-    is counted as skipped.
-
-    Parameters
-    ----------
-    w, m, p : numpy.ndarray
-        The sum's weights ``(C,)``, means ``(C, n)`` and covariances ``(C, n, n)`` (m, m/s),
-        of capacity ``C``; changed in place.
-    count : int
-        Components in use (the first ``count``).
-    time : float
-        The sum's time (s).
-    times, bearings, variances : numpy.ndarray
-        Per update ``(K,)``: time (s), bearing and its variance (rad, rad^2).
-    sensors : numpy.ndarray
-        The sensor's position per update ``(K, 2)`` (m).
-    qa, qd : numpy.ndarray
-        Per-axis held-acceleration std (m/s^2) and white-noise density (m^2/s^3).
-    sigma_points : numpy.ndarray
-        Empty for EKF components, else ``(gamma, Wm0, Wc0, Wi)`` of the sigma points.
-    settings : numpy.ndarray
-        ``(split threshold, prune, merge)``.
-    out_mean, out_cov, out_nis, out_ll, out_count : numpy.ndarray
-        Written per update: the sum's mean ``(K, 4)`` and covariance ``(K, 4, 4)``, the NIS
-        of its moment-matched innovation, the log-likelihood increment
-        ``log sum_i w_i N(nu_i; 0, S_i)`` (nats) and the component count.
-
-    Returns
-    -------
-    tuple
-        ``(count, time, skipped)``.
-    """
+    """Run the Gaussian-sum filter over single bearings in 2-D, one call for a whole track."""
     capacity = w.shape[0]
     threshold, prune, merge = settings[0], settings[1], settings[2]
     ekf = sigma_points.shape[0] == 0

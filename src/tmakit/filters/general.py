@@ -117,18 +117,7 @@ class CompiledMeasurements:
         return int(self.times.shape[0])
 
     def bearing_lists(self) -> tuple[list[float], ...]:
-        """Give the bearing kernels' columns, as lists made once.
-
-        Returns
-        -------
-        tuple of list of float
-            ``(time s, bearing rad, variance rad^2, sensor x m, sensor y m)``.
-
-        Raises
-        ------
-        ValueError
-            When the updates are not all single bearings.
-        """
+        """Give the bearing kernels' columns, as lists made once."""
         if not self.single_bearing:
             raise ValueError("bearing_lists: the updates are not all single bearings")
         if self._lists is None:
@@ -137,33 +126,11 @@ class CompiledMeasurements:
         return self._lists
 
     def rows(self, k: int) -> MeasurementSet:
-        """Return the rows of update ``k`` as a MeasurementSet (the slow, general path).
-
-        Parameters
-        ----------
-        k : int
-            Update index.
-
-        Returns
-        -------
-        MeasurementSet
-        """
+        """Return the rows of update ``k`` as a MeasurementSet (the slow, general path)."""
         return self.meas.take(self.order[self.bounds[k]:self.bounds[k + 1]])
 
     def group(self, k: int, t: float) -> MeasurementGroup:
-        """Return update ``k`` as a :class:`MeasurementGroup`, from views of the columns.
-
-        Parameters
-        ----------
-        k : int
-            Update index.
-        t : float
-            Filter time, s.
-
-        Returns
-        -------
-        MeasurementGroup
-        """
+        """Return update ``k`` as a :class:`MeasurementGroup`, from views of the columns."""
         a, b = int(self.bounds[k]), int(self.bounds[k + 1])
         codes = self._codes[a:b]
         key = codes.tobytes()
@@ -195,22 +162,7 @@ _COMPILED: weakref.WeakKeyDictionary[MeasurementSet, dict[str, CompiledMeasureme
 def compiled_for(meas: MeasurementSet, dim: int,
                  options: Mapping[str, Mapping[str, object]] | None = None,
                  nuisance: Mapping[str, float] | None = None) -> CompiledMeasurements:
-    """Give ``meas`` compiled for a filter, made once per set and settings.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-    dim : int
-        Filter dimension, 2 or 3.
-    options, nuisance : mapping, optional
-        As for :class:`CompiledMeasurements`.
-
-    Returns
-    -------
-    CompiledMeasurements
-        The same object for the same set, dimension, options and nuisance values.
-    """
+    """Give ``meas`` compiled for a filter, made once per set and settings."""
     key = repr((int(dim), sorted((str(k), sorted(dict(v).items()))
                                  for k, v in dict(options or {}).items()),
                 sorted(dict(nuisance or {}).items())))
@@ -239,36 +191,14 @@ Step = tuple
 
 
 def sym(p: Array) -> Array:
-    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.core.linalg.symmetrise`).
-
-    Parameters
-    ----------
-    p : numpy.ndarray
-        ``(n, n)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        A new symmetric matrix.
-    """
+    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.core.linalg.symmetrise`)."""
     out = p + p.T
     out *= 0.5
     return out
 
 
 def checked_psd(p: Array) -> Array:
-    """Give ``p`` symmetrised, repaired (:func:`~tmakit.core.linalg.repair_psd`) only if not PD.
-
-    Parameters
-    ----------
-    p : numpy.ndarray
-        Covariance ``(n, n)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        Symmetric, numerically positive definite ``(n, n)``.
-    """
+    """Give ``p`` symmetrised, repaired (:func:`~tmakit.core.linalg.repair_psd`) only if not PD."""
     p = sym(p)
     if dpotrf(p, lower=1, clean=0)[1] == 0:
         return p
@@ -276,26 +206,7 @@ def checked_psd(p: Array) -> Array:
 
 
 def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float, float]:
-    """Give the gain ``(S^-1 HP)^T``, the NIS ``r^T S^-1 r`` and ``log det S``.
-
-    One and two rows in closed form, more by one Cholesky factorisation (LAPACK ``posv``,
-    lower triangle); an ``S`` that is not numerically positive definite goes to
-    :func:`~tmakit.core.linalg.solve_spd`, which repairs it.
-
-    Parameters
-    ----------
-    s : numpy.ndarray
-        Innovation covariance ``(m, m)``, symmetric to rounding.
-    hp : numpy.ndarray
-        ``H P`` ``(m, n)``.
-    residual : numpy.ndarray
-        Innovation ``(m,)`` (SI).
-
-    Returns
-    -------
-    gain, nis, log_det
-        ``(n, m)``, float, float (natural logarithm).
-    """
+    """Give the gain ``(S^-1 HP)^T``, the NIS ``r^T S^-1 r`` and ``log det S``."""
     m = s.shape[0]
     if m == 1:
         s00 = float(s[0, 0])
@@ -320,20 +231,7 @@ def innovation_solve(s: Array, hp: Array, residual: Array) -> tuple[Array, float
 
 def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
                 ) -> tuple[Array, float, float]:
-    """Give the gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``.
-
-    Parameters
-    ----------
-    cov, h, r : numpy.ndarray
-        ``P`` ``(n, n)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
-    residual : numpy.ndarray
-        Innovation ``(m,)`` (SI).
-
-    Returns
-    -------
-    gain, nis, log_det
-        As for :func:`innovation_solve`.
-    """
+    """Give the gain ``P H^T S^-1``, the NIS and ``log det S``, ``S = H P H^T + R``."""
     hp = h.dot(cov)
     s = hp.dot(h.T)
     s += r
@@ -341,18 +239,7 @@ def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
 
 
 def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -> Array:
-    """Give ``P - K H P`` symmetrised, or the Joseph form when that fails its Cholesky check.
-
-    Parameters
-    ----------
-    cov, gain, hp, h, r : numpy.ndarray
-        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H P`` ``(m, n)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        The updated covariance ``(n, n)``, symmetric, numerically PD.
-    """
+    """Give ``P - K H P`` symmetrised, or the Joseph form when that fails its Cholesky check."""
     p = cov - gain.dot(hp)
     p = p + p.T
     p *= 0.5
@@ -362,18 +249,7 @@ def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -
 
 
 def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
-    """Give the Joseph form ``(I - K H) P (I - K H)^T + K R K^T``, checked (:func:`checked_psd`).
-
-    Parameters
-    ----------
-    cov, gain, h, r : numpy.ndarray
-        ``P`` ``(n, n)``, ``K`` ``(n, m)``, ``H`` ``(m, n)``, ``R`` ``(m, m)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        The covariance ``(n, n)``.
-    """
+    """Give the Joseph form ``(I - K H) P (I - K H)^T + K R K^T``, checked (:func:`checked_psd`)."""
     i_kh = np.eye(cov.shape[0]) - gain.dot(h)
     p = i_kh.dot(cov).dot(i_kh.T)
     p += gain.dot(r).dot(gain.T)
@@ -398,18 +274,7 @@ class DynamicsCache:
         self._cache: dict[float, tuple[Array, Array, Array]] = {}
 
     def get(self, dt: float) -> tuple[Array, Array, Array]:
-        """Give the transition and process noise of one step, cached by step size.
-
-        Parameters
-        ----------
-        dt : float
-            The step, s (> 0).
-
-        Returns
-        -------
-        phi, phi_t, q : numpy.ndarray
-            ``Phi(dt)``, its transpose (contiguous), ``Q(dt)``.
-        """
+        """Give the transition and process noise of one step, cached by step size."""
         out = self._cache.get(dt)
         if out is None:
             if len(self._cache) > 256:  # irregular times: keep the cache small
@@ -421,20 +286,7 @@ class DynamicsCache:
 
 
 def predict_rows(step: Step, x: Array) -> Array:
-    """Give the predictions of a plan's step at filter states.
-
-    Parameters
-    ----------
-    step : Step
-        One update of a :class:`StepPlan` or :class:`RowSteps`.
-    x : numpy.ndarray
-        Filter states ``(..., n)`` (m, m/s).
-
-    Returns
-    -------
-    numpy.ndarray
-        Predicted values ``(..., m)`` (SI).
-    """
+    """Give the predictions of a plan's step at filter states."""
     _, _, sens, parts, tmap, _, _, _, times, _ = step
     xt = x.dot(tmap.T) if x.ndim <= 2 else x @ tmap.T
     rel = (xt - sens).reshape(*x.shape[:-1], -1, 6)
@@ -448,18 +300,7 @@ def predict_rows(step: Step, x: Array) -> Array:
 
 
 def wrap_small(a: Array) -> Array:
-    """Give ``wrap_angle(a)``, or ``a`` itself (no copy) when every entry is in (-pi, pi].
-
-    Parameters
-    ----------
-    a : numpy.ndarray
-        Angle differences (rad).
-
-    Returns
-    -------
-    numpy.ndarray
-        The wrapped angles (rad).
-    """
+    """Give ``wrap_angle(a)``, or ``a`` itself (no copy) when every entry is in (-pi, pi]."""
     flat = a.ravel().tolist()
     if flat and -math.pi < min(flat) and max(flat) <= math.pi:
         return a
@@ -467,22 +308,7 @@ def wrap_small(a: Array) -> Array:
 
 
 def linearise(step: Step, x: Array) -> tuple[Array, Array, bool]:
-    """Give the wrapped residual ``z - h(x)`` (m,) and the Jacobian ``H`` (m, n) at ``x``.
-
-    Parameters
-    ----------
-    step : Step
-        One update of a :class:`StepPlan`.
-    x : numpy.ndarray
-        Filter state ``(n,)`` (m, m/s).
-
-    Returns
-    -------
-    residual, h : numpy.ndarray
-        Innovation (SI, angles wrapped to (-pi, pi]) and ``d h / d x``.
-    ok : bool
-        Whether both are finite.
-    """
+    """Give the wrapped residual ``z - h(x)`` (m,) and the Jacobian ``H`` (m, n) at ``x``."""
     _, z, sens, parts, tmap, t3, _, angle, times, rows = step
     if rows is not None:
         return _linearise_rows(rows, x, x.shape[0] // 2)
@@ -503,11 +329,7 @@ def linearise(step: Step, x: Array) -> tuple[Array, Array, bool]:
 
 
 def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array, bool]:
-    """:func:`linearise` in plain floats, row by row (``row_gradient`` of each kind).
-
-    A row whose arithmetic divides by zero (the state on a sensor) gives NaN, as NumPy's
-    inf/NaN would, so that the update is skipped.
-    """
+    """:func:`linearise` in plain floats, row by row (``row_gradient`` of each kind)."""
     xs = x.tolist()
     if dim == 2:
         px, py, vx, vy = xs
@@ -550,18 +372,7 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
 
 
 def finite(y: Array, h: Array) -> bool:
-    """Tell whether a residual and a Jacobian are finite (two dot products decide most cases).
-
-    Parameters
-    ----------
-    y, h : numpy.ndarray
-        A residual ``(m,)`` and a Jacobian ``(m, n)``.
-
-    Returns
-    -------
-    bool
-        True when every entry of both is finite.
-    """
+    """Tell whether a residual and a Jacobian are finite (two dot products decide most cases)."""
     flat = h.reshape(-1)
     total = float(y.dot(y)) + float(flat.dot(flat))
     if total - total == 0.0:
@@ -571,24 +382,7 @@ def finite(y: Array, h: Array) -> bool:
 
 def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll: float
                 ) -> KernelRun:
-    """Give a plan run's per-update rows as a :class:`~.kernels.KernelRun`.
-
-    Parameters
-    ----------
-    rows : list of tuple
-        ``(time s, state, covariance, NIS, rows, cumulative log-likelihood)``.
-    n : int
-        State size.
-    mean, cov : numpy.ndarray
-        The final state ``(n,)`` and covariance ``(n, n)``.
-    t, ll : float
-        Their time (s) and the cumulative log-likelihood (nats).
-
-    Returns
-    -------
-    KernelRun
-        The run, every update stacked.
-    """
+    """Give a plan run's per-update rows as a :class:`~.kernels.KernelRun`."""
     if not rows:
         return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
                          np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
@@ -653,10 +447,7 @@ def _diagonal_noise(var: Array, bounds: IntArray) -> list[Array]:
 
 
 def _views(arr: Array, bounds: list[int], width: int = 1) -> list[Array]:
-    """Give ``arr[width a:width b]`` for each update's rows ``a:b`` (views).
-
-    When every update has as many rows, the rows of one reshape (made at once).
-    """
+    """Give ``arr[width a:width b]`` for each update's rows ``a:b`` (views)."""
     sizes = {b - a for a, b in pairwise(bounds)}
     if len(sizes) == 1 and arr.shape[0] == width * bounds[-1]:
         return list(arr.reshape(len(bounds) - 1, -1))
@@ -750,17 +541,7 @@ class StepPlan:
 
 
 def plan_for(compiled: CompiledMeasurements) -> StepPlan:
-    """Give the plan of a compiled set, made on first use and kept in its cache.
-
-    Parameters
-    ----------
-    compiled : CompiledMeasurements
-        The set compiled for the filter.
-
-    Returns
-    -------
-    StepPlan
-    """
+    """Give the plan of a compiled set, made on first use and kept in its cache."""
     plan = compiled.cache.get("step_plan")
     if not isinstance(plan, StepPlan):
         plan = compiled.cache["step_plan"] = StepPlan(compiled)
@@ -791,25 +572,7 @@ class RowSteps:
         self._patterns: dict[bytes, tuple | None] = {}
 
     def step(self, rows: MeasurementSet, t: float) -> Step | None:
-        """Give the step of ``rows`` at filter time ``t``, or None where a group is needed.
-
-        Parameters
-        ----------
-        rows : MeasurementSet
-            The update's rows (any times: predicted from the state).
-        t : float
-            Filter time, s.
-
-        Returns
-        -------
-        Step or None
-            None for kinds with a reference sample or correlated noise.
-
-        Raises
-        ------
-        ValueError
-            When a kind needs a nuisance value that was not given.
-        """
+        """Give the step of ``rows`` at filter time ``t``, or None where a group is needed."""
         dt = rows.time - t
         key = rows.kind_code.tobytes() + dt.tobytes()
         if key not in self._patterns:

@@ -100,28 +100,14 @@ class KernelRun:
 
 
 def wrap(a: float) -> float:
-    """Wrap an angle to (-pi, pi] (the convention of :func:`tmakit.core.frames.wrap_angle`).
-
-    Parameters
-    ----------
-    a : float
-        Angle (rad).
-
-    Returns
-    -------
-    float
-        The wrapped angle (rad); ``+pi`` stays ``+pi``.
-    """
+    """Wrap an angle to (-pi, pi] (the convention of :func:`tmakit.core.frames.wrap_angle`)."""
     r = math.remainder(a, TWO_PI)
     return math.pi if r == -math.pi else r
 
 
 def _pd4(m00: float, m01: float, m02: float, m03: float, m11: float, m12: float, m13: float,
          m22: float, m23: float, m33: float) -> bool:
-    """Tell whether a symmetric 4x4 matrix is clearly positive definite.
-
-    True when every LDL^T pivot is above :data:`PIVOT_FLOOR` times its diagonal entry.
-    """
+    """Tell whether a symmetric 4x4 matrix is clearly positive definite."""
     f = PIVOT_FLOOR
     if not m00 > f * abs(m00) or not math.isfinite(m00):
         return False
@@ -169,33 +155,6 @@ def ekf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
                    iterations: int = 1) -> KernelRun:
     """Run EKF steps from update ``start`` on, one bearing per update, 2-D.
 
-    Parameters
-    ----------
-    mean : numpy.ndarray
-        State ``[x, y, vx, vy]`` at ``time`` (m, m/s).
-    cov : numpy.ndarray
-        Its covariance ``(4, 4)``.
-    time : float
-        Time of the state (s).
-    ll : float
-        Cumulative log-likelihood so far (nats).
-    start : int
-        Index of the first update to do.
-    columns : tuple of list of float
-        ``(times (s), bearings (rad), variances (rad^2), sensor x (m), sensor y (m))``, one
-        entry per update.
-    q2 : tuple of float
-        Per-axis acceleration variances (m^2/s^4), then per-axis white-noise acceleration
-        densities (m^2/s^3): ``(qx^2, qy^2, qx~, qy~)``.
-    iterations : int, optional
-        Linearisations of the iterated EKF (1: the plain EKF; the stopping rule is that of
-        :class:`~.ekf.ExtendedKalmanFilter`).
-
-    Returns
-    -------
-    KernelRun
-        What the kernel did (it stops at the first step it cannot take safely).
-
     References
     ----------
     Chen & Sun, §2.1 (the dynamics).
@@ -207,18 +166,6 @@ def ukf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
                    columns: tuple[list[float], ...], q2: tuple[float, ...],
                    weights: tuple[float, float, float, float]) -> KernelRun:
     """Run UKF steps from update ``start`` on, one bearing per update, 2-D.
-
-    Parameters
-    ----------
-    mean, cov, time, ll, start, columns, q2
-        As for :func:`ekf_bearing_2d`.
-    weights : tuple of float
-        ``(gamma, Wm0, Wc0, Wi)`` of the scaled unscented transform (:mod:`.ukf`).
-
-    Returns
-    -------
-    KernelRun
-        What the kernel did (it stops at the first step it cannot take safely).
 
     References
     ----------
@@ -232,17 +179,7 @@ def ukf_bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,
 def _bearing_2d(mean: Array, cov: Array, time: float, ll: float, start: int,  # noqa: C901
                 columns: tuple[list[float], ...], q2: tuple[float, ...], iterations: int,
                 weights: tuple[float, float, float, float] | None) -> KernelRun:
-    """Run the loop of both kernels.
-
-    Each step: the predict, then the EKF update (``weights`` None) or the UKF one, each giving
-    the updated state ``y``, the column ``c`` (EKF ``P h``, UKF ``P_xz``) with ``inv`` =
-    1 / innovation variance, the NIS and the log-likelihood term; then the shared covariance
-    downdate ``P - c c^T inv`` and its definiteness check.
-
-    The two filters share one loop with a branch, not helper functions called per step: a
-    step is ~4 us of plain float arithmetic, and each Python call in it would add 0.1-0.3 us
-    (3-7 %, measured).
-    """
+    """Run the loop of both kernels."""
     times, zs, vs, sxs, sys_ = columns
     qx2, qy2, qdx, qdy = q2
     ukf = weights is not None

@@ -109,21 +109,6 @@ class ModifiedRows:
 def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
     """Give the pseudo-linear rows ``H_i(Z^m)`` for measured bearings.
 
-    Parameters
-    ----------
-    measured : array_like
-        Measured bearings ``b`` ``(m,)`` (rad, clockwise from North).
-    dt : array_like
-        Row time minus filter time ``(m,)`` (s).
-    dim : int
-        Spatial dimension of the filter state (2 or 3).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``[cos b, -sin b, (0), dt cos b, -dt sin b, (0)]`` ``(m, 2 dim)`` with respect to the
-        state ``[x, y, (z), vx, vy, (vz)]`` (dimensionless; s in the velocity columns).
-
     References
     ----------
     Chen & Sun, §2.3, eq. 2 (in tmakit's bearing convention, see the module docstring).
@@ -140,27 +125,6 @@ def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
 def modified_gain_rows(measured: ArrayLike, rel: ArrayLike, dt: ArrayLike, dim: int,
                        residual: ArrayLike, mu: ArrayLike | None = None) -> ModifiedRows:
     """Compute the WMEKF bearing rows of Chen & Sun, §2.3, in tmakit's bearing convention.
-
-    Parameters
-    ----------
-    measured : array_like
-        Measured bearings ``b_m`` ``(m,)`` (rad).
-    rel : array_like
-        Predicted target-minus-sensor states at the rows' times ``(m, 6)`` (m, m/s).
-    dt : array_like
-        Row time minus filter time ``(m,)`` (s).
-    dim : int
-        Spatial dimension of the filter state (2 or 3).
-    residual : array_like
-        ``b_m - h_i(X^)`` wrapped to (-pi, pi] ``(m,)`` (rad).
-    mu : array_like, optional
-        The ``mu_i`` of Chen & Sun, §2.3 (default 0, see the module docstring).
-
-    Returns
-    -------
-    ModifiedRows
-        ``g' = U g`` with ``g = -(r / H_i(Z^m) X^') H_i(Z^m)`` and ``U = diag(1 / (1 - mu))``,
-        rows that fall back to the EKF flagged in ``ok``.
 
     References
     ----------
@@ -189,34 +153,6 @@ def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov:
                  r: Array) -> tuple[Array, Array, UpdateInfo]:
     """Make Song & Speyer's MGEKF update.
 
-    The gain ``K = P H^T (H P H^T + R)^-1`` comes from the EKF rows ``h_gain``, the
-    covariance ``(I - K G) P (I - K G)^T + K R K^T`` from the modified rows ``h_cov``; NIS and
-    log-likelihood from ``H P H^T + R``.
-
-    Parameters
-    ----------
-    mean : numpy.ndarray
-        Prior mean ``(n,)`` (m, m/s).
-    cov : numpy.ndarray
-        Prior covariance ``(n, n)``.
-    residual : numpy.ndarray
-        Innovation ``(m,)`` (SI, angles wrapped).
-    h_gain : numpy.ndarray
-        EKF Jacobian rows ``H`` ``(m, n)``.
-    h_cov : numpy.ndarray
-        Modified rows ``G`` ``(m, n)``.
-    r : numpy.ndarray
-        Measurement noise covariance ``(m, m)``.
-
-    Returns
-    -------
-    mean : numpy.ndarray
-        Updated mean ``(n,)``.
-    cov : numpy.ndarray
-        Updated covariance ``(n, n)``, repaired to be positive definite.
-    info : UpdateInfo
-        NIS, degrees of freedom and log-likelihood (nats).
-
     References
     ----------
     Song & Speyer (1985) (gain from the EKF rows, modified rows in the covariance); with
@@ -226,23 +162,7 @@ def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov:
 
 
 def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
-    """Find the horizontal plane the predictions of ``rows`` are mirror-symmetric about.
-
-    They are when all sensors, and reference sensors of range differences, are at one
-    height with zero vertical velocity and every kind is ``mirror_symmetric`` (a hook of the kind).
-
-    Parameters
-    ----------
-    rows : MeasurementSet
-        The rows of one update.
-    tol : float, optional
-        Tolerance on the heights' spread (m) and the vertical velocities (m/s).
-
-    Returns
-    -------
-    float or None
-        Height of the plane (m), or None if the rows are not symmetric.
-    """
+    """Find the horizontal plane the predictions of ``rows`` are mirror-symmetric about."""
     if len(rows) == 0 or not np.all(rows.kind_flag("mirror_symmetric")):
         return None
     states = [rows.sensor_state]
@@ -283,18 +203,7 @@ class MirrorReflectMixin:
         self._symmetric = True
 
     def update(self, rows: MeasurementSet | MeasurementGroup) -> UpdateInfo:
-        """Update as the filter does, then reflect the estimate if the mirror rule says so.
-
-        Parameters
-        ----------
-        rows : MeasurementSet or MeasurementGroup
-            The rows of the update (a group is not reflected: its rows are not at hand).
-
-        Returns
-        -------
-        UpdateInfo
-            That of the filter's update.
-        """
+        """Update as the filter does, then reflect the estimate if the mirror rule says so."""
         info: UpdateInfo = super().update(rows)  # type: ignore[misc]
         if not (self.reflect and self._symmetric) or isinstance(rows, MeasurementGroup):
             return info

@@ -187,11 +187,7 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
 def _sensor_plan(d: _SensorData, offsets: NDArray[np.int64], start: int
                  ) -> tuple[list[tuple[int, NDArray[np.int64]]], NDArray[np.float64],
                             NDArray[np.float64]]:
-    """Plan one sensor's updates ``(k, samples)`` from sample ``start`` on.
-
-    Also counts how many updates use each bearing sample and each lag-1 interval (``[j]``:
-    the interval ``(j-1, j]``).
-    """
+    """Plan one sensor's updates ``(k, samples)`` from sample ``start`` on."""
     m = d.times.size
     plan = []
     nb = np.zeros(m)
@@ -208,11 +204,7 @@ def _sensor_plan(d: _SensorData, offsets: NDArray[np.int64], start: int
 def _vector_rows(meas: MeasurementSet, s: str, d: _SensorData, pts: NDArray[np.int64],
                  inflation: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
                  value_si: NDArray[np.float64], sigma_si: NDArray[np.float64]) -> list[tuple]:
-    """Build the rows of one sensor's multi-lag vector over samples ``pts`` (descending).
-
-    Its bearings, then the range differences between consecutive samples; ``inflation`` is
-    the use counts of :func:`_sensor_plan` when reused data are to be down-weighted.
-    """
+    """Build the rows of one sensor's multi-lag vector over samples ``pts`` (descending)."""
     nan6 = np.full(6, np.nan)
     rows: list[tuple] = []
     for p in pts:
@@ -237,11 +229,7 @@ def _vector_rows(meas: MeasurementSet, s: str, d: _SensorData, pts: NDArray[np.i
 
 
 def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
-    """Build a measurement set from rows in SI.
-
-    Each row is ``(time, sensor, kind, value, sigma, sensor state, time_ref, reference
-    state)``.
-    """
+    """Build a measurement set from rows in SI."""
     cols = list(zip(*rows, strict=True))
     n = len(rows)
     out = MeasurementSet.from_si(
@@ -255,25 +243,6 @@ def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
 
 def multilag_layout(lags: Sequence[int], k: int) -> list[tuple[str, int, int]]:
     """Give the layout of update ``k``'s multi-lag vector.
-
-    Parameters
-    ----------
-    lags : sequence of int
-        ``N1 < N2 < ...`` (samples).
-    k : int
-        Index of the update's sample.
-
-    Returns
-    -------
-    list of tuple of (str, int, int)
-        ``("bearing", i, i)`` for the bearing at sample ``i`` and
-        ``("range_difference", a, b)`` for ``dr_{a,b}`` (sample indices, ``a > b``), in the
-        order :func:`multilag_groups` emits them for one sensor.
-
-    Raises
-    ------
-    ValueError
-        If the lags are not increasing whole numbers >= 1.
 
     References
     ----------

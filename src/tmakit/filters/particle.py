@@ -97,18 +97,6 @@ class ParticleStep:
 def optimal_bandwidth(n_particles: int, n_state: int) -> float:
     """Give the optimal Gaussian-kernel bandwidth ``h_opt = (4 / (N (n + 2)))^(1 / (n + 4))``.
 
-    Parameters
-    ----------
-    n_particles : int
-        Number of particles N.
-    n_state : int
-        State dimension n.
-
-    Returns
-    -------
-    float
-        ``h_opt`` (dimensionless, a fraction of the particle spread).
-
     References
     ----------
     Musso, Oudjane & Le Gland (2001) (see the module docstring).
@@ -117,23 +105,7 @@ def optimal_bandwidth(n_particles: int, n_state: int) -> float:
 
 
 def systematic_resample(weights: Array, u: float) -> NDArray[np.int64]:
-    """Draw a systematic resample of normalised weights.
-
-    Particle ``i`` is drawn once for every point ``(u + j) / N`` (j = 0..N-1) in
-    ``(C_{i-1}, C_i]``, ``C`` the cumulative weights; counted without a search.
-
-    Parameters
-    ----------
-    weights : numpy.ndarray
-        Normalised weights ``(N,)``.
-    u : float
-        The one uniform offset, in [0, 1).
-
-    Returns
-    -------
-    numpy.ndarray
-        Indices of the drawn particles ``(N,)``, in increasing order.
-    """
+    """Draw a systematic resample of normalised weights."""
     n = weights.shape[0]
     cdf = np.cumsum(weights)
     cdf *= n / cdf[-1]
@@ -356,12 +328,7 @@ class ParticleFilter(TrackingFilter):
         self._moments = None
 
     def _predict_density(self, dt: float) -> None:
-        """Move the particles with a white-noise-acceleration density (and any held ``q``).
-
-        Per axis the step's noise ``[[a, b], [b, c]]`` (:func:`~tmakit.motion.dynamics.
-        process_noise`) is drawn through its Cholesky factor from two normals per particle
-        (single precision, :mod:`.particle_compiled`).
-        """
+        """Move the particles with a white-noise-acceleration density (and any held ``q``)."""
         q2, qd = self._q**2, self._q_density
         a = dt**4 / 4 * q2 + dt**3 / 3 * qd
         b = dt**3 / 2 * q2 + dt**2 / 2 * qd
@@ -386,24 +353,13 @@ class ParticleFilter(TrackingFilter):
         return self._weigh(loglik, nu, group.covariance)
 
     def _update_bearing(self, group: MeasurementGroup) -> UpdateInfo | None:
-        """Update with one bearing at the update time in closed form.
-
-        Returns None if some particle sits on the sensor (the general path handles that).
-        The residual of particle ``i`` is ``atan2(s, c)`` with ``(s, c)`` its offset from the
-        sensor rotated by the measured bearing ``z`` (``s = sin z dy - cos z dx``,
-        ``c = cos z dy + sin z dx``), wrapped to (-pi, pi] by construction; computed as
-        ``atan(s / c)`` plus ``±pi`` where ``c < 0``.
-        """
+        """Update with one bearing at the update time in closed form."""
         sx, sy = (float(v) for v in group.sensor_state[0, :2])
         return self._bearing_update(float(group.values[0]), float(group.sigmas[0]), sx, sy)
 
     def _bearing_update(self, z: float, sigma: float, sx: float, sy: float
                         ) -> UpdateInfo | None:
-        """Make :meth:`_update_bearing` from plain floats.
-
-        ``z`` and ``sigma`` are the bearing and its std (rad), ``(sx, sy)`` the sensor
-        position (m).
-        """
+        """Make :meth:`_update_bearing` from plain floats."""
         sz, cz = math.sin(z), math.cos(z)
         x, y = self._x[0], self._x[1]
         s, c, r = self._work
@@ -432,12 +388,7 @@ class ParticleFilter(TrackingFilter):
         return self._normalise(r, const, nu_bar * nu_bar / var, 1)
 
     def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        """Run the updates of single bearings in 2-D from ``start`` without building groups.
-
-        The same arithmetic as :meth:`_update` on each update's group (and the same draws);
-        it stops before an update the closed form cannot take (a particle on the sensor),
-        predicted to it, which the caller then makes on the general path.
-        """
+        """Run the updates of single bearings in 2-D from ``start`` without building groups."""
         me = type(self)
         if not (compiled.single_bearing and self.dim == 2 and self._ncv
                 and me._update is ParticleFilter._update
@@ -469,11 +420,7 @@ class ParticleFilter(TrackingFilter):
                          np.array(nis), np.array(ll), np.array(dof, dtype=np.int64))
 
     def _normalise(self, total: Array, const: float, nis: float, dof: int) -> UpdateInfo:
-        """Multiply the weights by the likelihoods ``exp(total + const)`` and normalise.
-
-        ``total`` (N,) is overwritten; the moments are recorded and the particles resampled
-        if needed.
-        """
+        """Multiply the weights by the likelihoods ``exp(total + const)`` and normalise."""
         uniform = self._uniform
         if not uniform:
             total += self._logw
@@ -572,10 +519,7 @@ class ParticleFilter(TrackingFilter):
 
 
 def _kernel_factor(cov: Array) -> Array:
-    """Give a square-root factor of the particle covariance for the regularisation kernel.
-
-    A singular covariance (all particles on a line) gets a PSD eigen-factor instead of failing.
-    """
+    """Give a square-root factor of the particle covariance for the regularisation kernel."""
     try:
         return cast(Array, np.linalg.cholesky(cov))
     except np.linalg.LinAlgError:

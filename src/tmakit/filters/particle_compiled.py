@@ -18,20 +18,7 @@ _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 @_jit
 def move_density(x: Array, noise: Array, dt: float, l11: Array, l21: Array,
                  l22: Array) -> None:  # pragma: no cover - compiled
-    """Move the particles one step (in place).
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        Particles ``(2 dim, N)``: positions then velocities (m, m/s).
-    noise : numpy.ndarray
-        Standard normal draws ``(2, dim, N)`` (float32 or float64).
-    dt : float
-        The step (s).
-    l11, l21, l22 : numpy.ndarray
-        Per axis ``(dim,)``, the Cholesky factor ``[[l11, 0], [l21, l22]]`` of the step's
-        position-velocity noise covariance (:func:`tmakit.motion.dynamics.process_noise`).
-    """
+    """Move the particles one step (in place)."""
     dim = l11.shape[0]
     n = x.shape[1]
     for a in range(dim):

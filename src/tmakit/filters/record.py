@@ -48,19 +48,7 @@ class Recorder:
 
     def add(self, time: float, state: Array, cov: Array, info: UpdateInfo,
             loglik: float) -> None:
-        """Record one update.
-
-        Parameters
-        ----------
-        time : float
-            Its time, s.
-        state, cov : ndarray
-            The updated state ``(n,)`` and covariance ``(n, n)``, SI.
-        info : UpdateInfo
-            What the update saw (its NIS and rows are kept).
-        loglik : float
-            Cumulative log-likelihood, nats.
-        """
+        """Record one update."""
         self.rows.append((time, state, cov, info.nis, info.dof, loglik))
 
     def _flush(self) -> None:
@@ -72,13 +60,7 @@ class Recorder:
             self.rows = []
 
     def add_block(self, block: KernelRun) -> None:
-        """Record the updates of a kernel or general-path run.
-
-        Parameters
-        ----------
-        block : KernelRun
-            The run; its per-update outputs are appended after the rows recorded so far.
-        """
+        """Record the updates of a kernel or general-path run."""
         self._flush()
         k = block.states.shape[0]
         dof = np.ones(k, dtype=np.int64) if block.dof is None else block.dof
@@ -86,14 +68,7 @@ class Recorder:
                             block.log_likelihoods))
 
     def parts(self) -> list[NDArray[Any]]:
-        """Give the stacked outputs of every update recorded.
-
-        Returns
-        -------
-        list of ndarray
-            Times ``(K,)`` s, states ``(K, n)``, covariances ``(K, n, n)`` (SI), NIS ``(K,)``,
-            rows per update ``(K,)`` and cumulative log-likelihoods ``(K,)`` nats.
-        """
+        """Give the stacked outputs of every update recorded."""
         self._flush()
         n = self.n
         if not self.blocks:

@@ -56,31 +56,6 @@ def unscented_weights(n: int, alpha: float, beta: float, kappa: float
                       ) -> tuple[float, Array, Array]:
     """Give the scaled unscented transform's spread and weights for an ``n``-state.
 
-    Parameters
-    ----------
-    n : int
-        State dimension.
-    alpha : float
-        Spread of the sigma points (> 0, finite).
-    beta : float
-        Prior-distribution parameter (2 for a Gaussian), finite.
-    kappa : float
-        Secondary scaling parameter, finite.
-
-    Returns
-    -------
-    gamma : float
-        ``sqrt(n + lambda)``, ``lambda = alpha^2 (n + kappa) - n``.
-    wm : numpy.ndarray
-        Mean weights ``(2n+1,)``.
-    wc : numpy.ndarray
-        Covariance weights ``(2n+1,)``.
-
-    Raises
-    ------
-    ValueError
-        If a parameter is not finite, ``alpha <= 0`` or ``n + lambda <= 0``.
-
     References
     ----------
     Wan & van der Merwe (2000), the weights of the scaled unscented transform (Julier 2002).
@@ -186,13 +161,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
     def _unscented(self, predict: Callable, arg: object, values: Array,
                    angle: Index | None,
                    r: Array, mean: Array, cov: Array) -> tuple[Array, Array, float, int, float]:
-        """One UKF update: mean, covariance, NIS, rows, log-likelihood.
-
-        ``predict(arg, points)`` gives the rows' predictions at the sigma points (a plan's step
-        or a group); ``angle`` indexes the angle rows (None: none).  Angle differences already
-        in (-pi, pi] are not wrapped (:func:`~.general.wrap_small`).  An update whose
-        predictions are not finite is skipped and counted.
-        """
+        """One UKF update: mean, covariance, NIS, rows, log-likelihood."""
         pts = self._plan_points(mean, cov)
         z = predict(arg, pts)
         total = float(z.sum())

@@ -32,27 +32,7 @@ def to_detections(meas: MeasurementSet, dim: int | None = None, *,
                   nuisance: Mapping[str, float] | None = None,
                   ndim_state: int | None = None, mapping: Sequence[int] | None = None,
                   velocity_mapping: Sequence[int] | None = None) -> list[Detection]:
-    """Turn a measurement set into Stone Soup detections, in time order.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements.
-    dim : int, optional
-        2 or 3 (default: the set's own, :attr:`MeasurementSet.dim`).
-    epoch : datetime
-        The timestamp of time 0 s (default :data:`EPOCH`).
-    per_sensor : bool
-        One detection per time and sensor (default: one per time, every row of that time).
-    options, nuisance, ndim_state, mapping, velocity_mapping
-        As for :meth:`TmakitMeasurementModel.from_rows`.
-
-    Returns
-    -------
-    list of Detection
-        Values in SI (angle rows as ``Bearing``); ``metadata`` holds ``sensor`` (the sensor
-        ids, comma-separated) and ``kinds``.
-    """
+    """Turn a measurement set into Stone Soup detections, in time order."""
     dim = int(meas.dim if dim is None else dim)
     out = []
     for index in group_times(meas):
@@ -72,18 +52,7 @@ def to_detections(meas: MeasurementSet, dim: int | None = None, *,
 
 
 def detection_feed(detections: Iterable[Detection]) -> list[tuple[dt.datetime, set[Detection]]]:
-    """Group detections by timestamp for a Stone Soup tracker's ``detector``.
-
-    Parameters
-    ----------
-    detections : iterable of Detection
-        Any order.
-
-    Returns
-    -------
-    list of (datetime, set of Detection)
-        Ascending time.
-    """
+    """Group detections by timestamp for a Stone Soup tracker's ``detector``."""
     by_time: dict[dt.datetime, set[Detection]] = {}
     for d in detections:
         by_time.setdefault(d.timestamp, set()).add(d)
@@ -93,32 +62,7 @@ def detection_feed(detections: Iterable[Detection]) -> list[tuple[dt.datetime, s
 def from_detections(detections: Iterable[Detection], *, epoch: dt.datetime = EPOCH,
                     sensor: str = "stonesoup",
                     metadata: Mapping[str, str] | None = None) -> MeasurementSet:
-    """Turn Stone Soup detections into a measurement set.
-
-    Parameters
-    ----------
-    detections : iterable of Detection
-        Detections made with :class:`TmakitMeasurementModel` (their rows, with the detection's
-        values) or with one of :data:`NATIVE_MODELS` (no rotation offset, a diagonal noise
-        covariance; the sensor at ``translation_offset``, at rest; Stone Soup's bearing
-        ``phi``, counter-clockwise from East, becomes tmakit's ``pi/2 - phi``).
-    epoch : datetime
-        The timestamp of time 0 s.
-    sensor : str
-        The sensor id of native detections without a ``"sensor"`` entry in their metadata.
-    metadata : mapping, optional
-        The set's metadata.
-
-    Returns
-    -------
-    MeasurementSet
-
-    Raises
-    ------
-    ValueError
-        No detections, or a detection (named by its index in time order) whose model is
-        neither, or has a rotation offset or correlated noise.
-    """
+    """Turn Stone Soup detections into a measurement set."""
     parts = []
     ordered = sorted(detections, key=lambda d: d.timestamp)
     for i, d in enumerate(ordered):

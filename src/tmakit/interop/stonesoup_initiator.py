@@ -78,22 +78,7 @@ class BatchInitiator(GaussianInitiator):
 
     def initiate(self, detections: Iterable[Detection], timestamp: dt.datetime,
                  **kwargs: object) -> set[Track]:
-        """Collect detections; return one track once the batch estimate is a good start.
-
-        Parameters
-        ----------
-        detections : iterable of Detection
-            The detections of this time step (those no track took).
-        timestamp : datetime
-            The current time.
-        **kwargs
-            Unused (Stone Soup's interface).
-
-        Returns
-        -------
-        set of Track
-            Empty until the start rule holds, then one track (and the collection restarts).
-        """
+        """Collect detections; return one track once the batch estimate is a good start."""
         self.detections.extend(detections)
         if len({d.timestamp for d in self.detections}) < self._next_try:
             return set()

@@ -27,23 +27,7 @@ EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
 
 
 def cartesian_mapping(dim: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
-    """Return Stone Soup's position and velocity indices of a constant-velocity state.
-
-    Parameters
-    ----------
-    dim : int
-        2 (``[x, vx, y, vy]``) or 3 (``[x, vx, y, vy, z, vz]``).
-
-    Returns
-    -------
-    mapping, velocity_mapping : tuple of int
-        ``(0, 2(, 4))`` and ``(1, 3(, 5))``.
-
-    Raises
-    ------
-    ValueError
-        When ``dim`` is not 2 or 3.
-    """
+    """Return Stone Soup's position and velocity indices of a constant-velocity state."""
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim}")
     return tuple(range(0, 2 * dim, 2)), tuple(range(1, 2 * dim, 2))
@@ -68,31 +52,7 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
                   velocity_mapping: Sequence[int] | None = None,
                   options: Mapping[str, Mapping[str, object]] | None = None,
                   nuisance: Mapping[str, float] | None = None) -> TmakitMeasurementModel:
-        """Build the model of measurement rows taken at one time.
-
-        Parameters
-        ----------
-        rows : MeasurementSet
-            The rows (one time; any kinds and sensors).
-        dim : int
-            2 or 3: the target's spatial dimension.
-        ndim_state, mapping, velocity_mapping : optional
-            The Stone Soup state's size and the indices of position and velocity (default:
-            :func:`cartesian_mapping`, ``ndim_state = 2 dim``).
-        options, nuisance : mapping, optional
-            Per-kind model options and the known nuisance values (carrier in Hz, power
-            constant in dBW, ...), as for the filters.
-
-        Returns
-        -------
-        TmakitMeasurementModel
-
-        Raises
-        ------
-        ValueError
-            Rows at more than one time, a missing nuisance value, or a mapping that does not
-            fit the state.
-        """
+        """Build the model of measurement rows taken at one time."""
         if len(rows) and np.ptp(rows.time) > 1e-9:
             raise ValueError("a measurement model holds rows of one time; got times "
                              f"{rows.time.min():g} to {rows.time.max():g} s")
@@ -113,33 +73,7 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
                   options: Mapping[str, Mapping[str, object]] | None = None,
                   nuisance: Mapping[str, float] | None = None,
                   **mappings: object) -> TmakitMeasurementModel:
-        """Build a model of tmakit kinds made from one sensor state, for Stone Soup's own loops.
-
-        A row per kind (no earlier sample, so not ``range_difference``), like Stone Soup's
-        models with a ``translation_offset`` (and ``velocity``): use it in a Stone Soup
-        detection simulator or updater.
-
-        Parameters
-        ----------
-        kinds : str or sequence of str
-            The kind of each row (``"bearing"``, ``"frequency"``, ...).
-        sigmas : array_like
-            Noise standard deviation per row, SI (rad, m, m/s, Hz, dB).
-        sensor_state : array_like
-            The sensor's ``[x, y, z, vx, vy, vz]`` (m, m/s, East-North-Up).
-        dim : int
-            2 or 3: the target's spatial dimension.
-        sensor : str
-            The sensor id (kept by :func:`from_detections`).
-        options, nuisance
-            As for :meth:`from_rows`.
-        **mappings
-            ``ndim_state``, ``mapping``, ``velocity_mapping`` as for :meth:`from_rows`.
-
-        Returns
-        -------
-        TmakitMeasurementModel
-        """
+        """Build a model of tmakit kinds made from one sensor state, for Stone Soup's own loops."""
         names = [kinds] if isinstance(kinds, str) else list(kinds)
         n = len(names)
         rows = MeasurementSet.from_si(np.zeros(n), [sensor] * n, names, np.zeros(n),
@@ -154,13 +88,7 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
         return len(self.group)
 
     def typed_vector(self) -> Array:
-        """Return a column with Bearing(0) on the angle rows, 0.0 elsewhere.
-
-        Returns
-        -------
-        numpy.ndarray of object, shape (m, 1)
-            Stone Soup's typed zero vector of the rows (angles wrap as ``Bearing``).
-        """
+        """Return a column with Bearing(0) on the angle rows, 0.0 elsewhere."""
         return np.array([[Bearing(0.0)] if a else [0.0] for a in self.group.angle],
                         dtype=object)
 
@@ -171,21 +99,7 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
 
     def function(self, state: object, noise: bool | ArrayLike = False,
                  **kwargs: object) -> StateVector | StateVectors:
-        """Return the predicted rows (m, N), SI, angle rows as Bearing values.
-
-        Parameters
-        ----------
-        state : State
-            A Stone Soup state (one vector or N of them).
-        noise : bool or array_like
-            ``True`` adds a sample of the noise, an array adds that array.
-        **kwargs
-            Passed to :meth:`rvs` when sampling noise.
-
-        Returns
-        -------
-        StateVector or StateVectors
-        """
+        """Return the predicted rows (m, N), SI, angle rows as Bearing values."""
         x = self._tmakit_states(state)
         values = self.group.predict(x).T  # (m, N)
         if noise is True:
@@ -196,19 +110,7 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
         return StateVector(typed) if typed.shape[1] == 1 else StateVectors(typed)
 
     def jacobian(self, state: object, **kwargs: object) -> Array:
-        """Return the analytic Jacobian ``d function / d state`` (m, ndim_state), SI.
-
-        Parameters
-        ----------
-        state : State
-            One Stone Soup state.
-        **kwargs
-            Unused (Stone Soup's interface).
-
-        Returns
-        -------
-        ndarray
-        """
+        """Return the analytic Jacobian ``d function / d state`` (m, ndim_state), SI."""
         h = self.group.jacobian(self._tmakit_states(state)[0])
         out = np.zeros((len(self.group), self.ndim_state))
         out[:, list(self.mapping) + list(self.velocity_mapping)] = h
@@ -216,40 +118,14 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
 
     def rvs(self, num_samples: int = 1, random_state: object = None,
             **kwargs: object) -> StateVector | StateVectors:
-        """Draw noise samples (m, num_samples) from the rows' covariance, angle rows typed.
-
-        Parameters
-        ----------
-        num_samples : int
-            Number of samples.
-        random_state : optional
-            A numpy Generator or seed (Stone Soup's argument).
-        **kwargs
-            Unused (Stone Soup's interface).
-
-        Returns
-        -------
-        StateVector or StateVectors
-        """
+        """Draw noise samples (m, num_samples) from the rows' covariance, angle rows typed."""
         rng = np.random.default_rng(random_state)  # type: ignore[arg-type]
         draws = rng.multivariate_normal(np.zeros(len(self.group)), self.covar(), num_samples).T
         typed = self.typed_vector() + draws
         return StateVector(typed) if num_samples == 1 else StateVectors(typed)
 
     def logpdf(self, state1: object, state2: object, **kwargs: object) -> float | Array:
-        """Return the log likelihood of measurement ``state1`` given state ``state2``.
-
-        Parameters
-        ----------
-        state1, state2 : State
-            The measurement and the target state(s).
-        **kwargs
-            Unused (Stone Soup's interface).
-
-        Returns
-        -------
-        float or ndarray
-        """
+        """Return the log likelihood of measurement ``state1`` given state ``state2``."""
         z = np.asarray(state1.state_vector, dtype=np.float64)[:, 0]  # type: ignore[attr-defined]
         r = self.group.residual(self.group.predict(self._tmakit_states(state2)), z)
         w = self.group.noise.whiten(r, axis=-1)
@@ -258,16 +134,5 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
         return float(ll[0]) if ll.shape[0] == 1 else ll
 
     def pdf(self, state1: object, state2: object, **kwargs: object) -> float | Array:
-        """Return the likelihood, ``exp(logpdf)``.
-
-        Parameters
-        ----------
-        state1, state2, **kwargs
-            As for :meth:`logpdf`: the measurement and the state(s).
-
-        Returns
-        -------
-        float or numpy.ndarray
-            The Gaussian likelihood of the measurement given each state.
-        """
+        """Return the likelihood, ``exp(logpdf)``."""
         return np.exp(self.logpdf(state1, state2, **kwargs))

@@ -48,23 +48,7 @@ def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
 
 
 def clean_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
-    """Remove tmakit's temporary files in ``folder`` that no live writer holds.
-
-    A writer holds an exclusive advisory lock (``flock``) on its temporary file until the
-    file is moved into place; the lock dies with the process, so a file of
-    :data:`TEMP_PATTERN` that can be locked is left over from a killed writer.  Without
-    ``fcntl`` (Windows) nothing is removed.
-
-    Parameters
-    ----------
-    folder : str or os.PathLike
-        The folder.
-
-    Returns
-    -------
-    list of pathlib.Path
-        The files removed.
-    """
+    """Remove tmakit's temporary files in ``folder`` that no live writer holds."""
     removed: list[Path] = []
     if fcntl is None:
         return removed
@@ -177,12 +161,6 @@ def _move_into_place(tmp: Path, path: Path, force: bool) -> None:
 
 
 def fsync_file(path: str | os.PathLike[str]) -> None:
-    """Flush a written file to disk (before it is moved into place).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file.
-    """
+    """Flush a written file to disk (before it is moved into place)."""
     with open(path, "rb+") as f:
         os.fsync(f.fileno())

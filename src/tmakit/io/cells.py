@@ -15,35 +15,13 @@ __all__ = ["blank_mask", "is_blank", "number_text", "show", "text_column"]
 
 
 def number_text(x: float) -> str:
-    """Format a number for messages: shortest exact representation, no trailing '.0'.
-
-    Parameters
-    ----------
-    x : float
-        The number.
-
-    Returns
-    -------
-    str
-        ``repr(float(x))`` without a trailing ``.0``.
-    """
+    """Format a number for messages: shortest exact representation, no trailing '.0'."""
     text = repr(float(x))
     return text[:-2] if text.endswith(".0") else text
 
 
 def is_blank(v: Any) -> bool:
-    """Whether a cell is empty: ``None``, NaN or NA, or text that is only spaces.
-
-    Parameters
-    ----------
-    v : object
-        The cell.
-
-    Returns
-    -------
-    bool
-        True for an empty cell.
-    """
+    """Whether a cell is empty: ``None``, NaN or NA, or text that is only spaces."""
     if v is None:
         return True
     if isinstance(v, str):
@@ -55,18 +33,7 @@ def is_blank(v: Any) -> bool:
 
 
 def show(v: Any) -> str:
-    """Format a cell value for "found ..." in messages.
-
-    Parameters
-    ----------
-    v : object
-        The cell as read (text for CSV, typed for Parquet).
-
-    Returns
-    -------
-    str
-        ``an empty cell``, a number in its shortest form, or the quoted text.
-    """
+    """Format a cell value for "found ..." in messages."""
     if v is None or (isinstance(v, str) and v.strip() == ""):
         return "an empty cell"
     if isinstance(v, str):
@@ -90,18 +57,7 @@ def show(v: Any) -> str:
 
 
 def blank_mask(series: pd.Series) -> NDArray[np.bool_]:
-    """Empty cells of a column: NaN/None/NA, or text that is only spaces.
-
-    Parameters
-    ----------
-    series : pandas.Series
-        The column.
-
-    Returns
-    -------
-    numpy.ndarray of bool
-        True where the cell is empty.
-    """
+    """Empty cells of a column: NaN/None/NA, or text that is only spaces."""
     import pandas as pd
 
     if isinstance(series.dtype, pd.StringDtype):
@@ -110,18 +66,7 @@ def blank_mask(series: pd.Series) -> NDArray[np.bool_]:
 
 
 def text_column(series: pd.Series) -> NDArray[np.object_]:
-    """Cells of a text column as Python str ('' for empty), ids like 1 kept as '1'.
-
-    Parameters
-    ----------
-    series : pandas.Series
-        The column.
-
-    Returns
-    -------
-    numpy.ndarray of object
-        One str per cell.
-    """
+    """Cells of a text column as Python str ('' for empty), ids like 1 kept as '1'."""
     import pandas as pd
 
     if isinstance(series.dtype, pd.StringDtype):  # one str object per distinct id, shared

@@ -54,34 +54,14 @@ Numbers = dict[str, NDArray[np.float64]]
 RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
 
 def value_ranges() -> list[tuple[str, Callable[[ArrayLike], NDArray[np.bool_]], str]]:
-    """Return the value ranges checked per kind, from each kind's hook (``value_range``).
-
-    Returns
-    -------
-    list of tuple
-        ``(kind, accepts the file value, what is expected)`` for every registered kind that
-        limits its values (:meth:`tmakit.measurements.MeasurementModel.check_values`).
-    """
+    """Return the value ranges checked per kind, from each kind's hook (``value_range``)."""
     from ..measurements import KINDS
 
     return [(k, cls.check_values, cls.value_range.describe(cls.file_unit))
             for k, cls in KINDS.items() if cls.value_range is not None]
 
 def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
-    """Numeric columns as float64 (NaN for empty cells), via pandera's coercion.
-
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        The raw cells.
-    problems : Problems
-        Cells that are not numbers are recorded here (and read as NaN).
-
-    Returns
-    -------
-    dict of str to numpy.ndarray
-        The numeric columns present in the file.
-    """
+    """Numeric columns as float64 (NaN for empty cells), via pandera's coercion."""
     import pandas as pd
     import pandera.pandas as pa
 
@@ -144,26 +124,7 @@ class _Checks:
 
 def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
                 is_rd: NDArray[np.bool_], problems: Problems) -> NDArray[np.bool_]:
-    """Check every cell against the per-cell rules; record one problem per failing cell.
-
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        The raw cells.
-    num : dict of str to numpy.ndarray
-        The numeric columns (:func:`read_numbers`).
-    kind : numpy.ndarray of object
-        Each row's kind as text (stripped).
-    is_rd : numpy.ndarray of bool
-        Rows that are range differences.
-    problems : Problems
-        Where the problems go.
-
-    Returns
-    -------
-    numpy.ndarray of bool
-        Range-difference rows that give their reference state in ``ref_sensor_*`` columns.
-    """
+    """Check every cell against the per-cell rules; record one problem per failing cell."""
     import pandas as pd
     import pandera.pandas as pa
 

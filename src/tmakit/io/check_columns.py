@@ -33,22 +33,7 @@ class Layout:
 
 
 def check_columns(columns: Collection[str], kinds: list[str], problems: Problems) -> Layout:
-    """Record missing or conflicting columns, given the kinds present in the file.
-
-    Parameters
-    ----------
-    columns : collection of str
-        The header names.
-    kinds : list of str
-        The (known) kinds of the file's rows.
-    problems : Problems
-        Where the problems go.
-
-    Returns
-    -------
-    Layout
-        How the file gives the sensor state.
-    """
+    """Record missing or conflicting columns, given the kinds present in the file."""
     has = set(columns).__contains__
     for c in ("time", "sensor", "kind", "value", "sigma"):
         if not has(c):

@@ -16,18 +16,7 @@ __all__ = ["check_order"]
 
 def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_],
                 kind: NDArray[np.object_], problems: Problems) -> None:
-    """Time order within each sensor, no far time, no (sensor, kind, time, time_ref) twice.
-
-    Parameters
-    ----------
-    num : dict of str to numpy.ndarray
-        The numeric columns (``time`` in s, ``time_ref`` in s).
-    sensor, kind : numpy.ndarray of object
-        Each row's sensor id and kind as text.
-    problems : Problems
-        Where the problems go; rows with a bad time or sensor (or kind, time_ref for the
-        duplicates) are left out.
-    """
+    """Time order within each sensor, no far time, no (sensor, kind, time, time_ref) twice."""
     import pandas as pd
 
     if "time" not in num or "sensor" not in problems.raw.frame.columns:

@@ -34,28 +34,7 @@ __all__ = ["check_table", "table_reader"]
 
 def check_table(path: str | os.PathLike[str], raw: RawTable,
                 origin: tuple[float, float, float] | None = None) -> MeasurementSet:
-    """Check a raw table against the contract of ``docs/file-format.md`` and build the set.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file the table was read from (named in the error).
-    raw : RawTable
-        The table as read (text cells for CSV, typed cells for Parquet).
-    origin : (lat, lon, alt), optional
-        ENU origin (degrees, degrees, metres) for files that give ``sensor_lat`` and
-        ``sensor_lon``; wins over ``origin_*`` metadata and is recorded in the set's metadata.
-
-    Returns
-    -------
-    MeasurementSet
-        The rows in file order, values in file units (SI computed once by the set).
-
-    Raises
-    ------
-    MeasurementFileError
-        With every problem found (row, line and column of each).
-    """
+    """Check a raw table against the contract of ``docs/file-format.md`` and build the set."""
     frame, n = raw.frame, len(raw.frame)
     problems = Problems(raw)
     has = set(frame.columns).__contains__
@@ -96,22 +75,7 @@ def _stripped(text: NDArray[np.object_]) -> NDArray[np.object_]:
 
 def table_reader(load: Callable[[Path], RawTable], label: str
                  ) -> Callable[..., MeasurementSet]:
-    """Make a format's reader: load the raw table with ``load``, then :func:`check_table` it.
-
-    Parameters
-    ----------
-    load : callable
-        ``load(path) -> RawTable`` (raises :class:`MeasurementFileError` for an unreadable
-        file).
-    label : str
-        The format's name for messages ("CSV").
-
-    Returns
-    -------
-    callable
-        ``read(path, *, origin=None) -> MeasurementSet``; other keyword options are refused
-        with a ``TypeError`` naming them.
-    """
+    """Make a format's reader: load the raw table with ``load``, then :func:`check_table` it."""
 
     def read(path: Path, *, origin: tuple[float, float, float] | None = None,
              **options: Any) -> MeasurementSet:

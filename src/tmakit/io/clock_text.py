@@ -40,30 +40,7 @@ def _clock_seconds(text: str, match: re.Match[str], option: str) -> float:
 
 def seconds_of_time_text(text: str, option: str, origin_ns: int | None,
                          span_ns: tuple[int, int] | None) -> float:
-    """Read a time option as seconds since the set's time origin.
-
-    Parameters
-    ----------
-    text : str
-        The option's text: seconds, an ISO-8601 clock time, or ``HH:MM[:SS[.f]]`` (UTC).
-    option : str
-        The option's name, for messages (``--from``).
-    origin_ns : int or None
-        The set's time origin (UTC ns since 1970), None when the set has none.
-    span_ns : (int, int) or None
-        The first and last time of the data (UTC ns), for clock times without a date.
-
-    Returns
-    -------
-    float
-        Seconds since the time origin.
-
-    Raises
-    ------
-    ValueError
-        For text that is none of these, a clock time without a time origin, or a clock time
-        without a date where the data span more than one UTC day (naming the span).
-    """
+    """Read a time option as seconds since the set's time origin."""
     try:
         seconds = float(text)
     except ValueError:

@@ -14,20 +14,7 @@ __all__ = ["file_columns"]
 
 
 def file_columns(ms: MeasurementSet) -> dict[str, NDArray[Any]]:
-    """Return the columns to write, in :data:`~tmakit.io.contract.COLUMN_ORDER` (file units).
-
-    The ``ref_sensor_*`` columns follow when the set has range differences.
-
-    Parameters
-    ----------
-    ms : MeasurementSet
-        The set.
-
-    Returns
-    -------
-    dict of str to numpy.ndarray
-        Column name to values.
-    """
+    """Return the columns to write, in :data:`~tmakit.io.contract.COLUMN_ORDER` (file units)."""
     cols: dict[str, NDArray[Any]] = {
         "time": ms.time, "sensor": ms.sensor, "kind": ms.kind, "value": ms.value,
         "sigma": ms.sigma}

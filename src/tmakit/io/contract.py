@@ -36,40 +36,21 @@ NUMERIC_COLUMNS = ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS
 
 
 def reference_kinds() -> tuple[str, ...]:
-    """Name the kinds whose rows carry ``time_ref`` and a reference sensor state.
-
-    Returns
-    -------
-    tuple of str
-        The registered kinds with the ``uses_reference`` hook (today ``range_difference``).
-    """
+    """Name the kinds whose rows carry ``time_ref`` and a reference sensor state."""
     from ..measurements import KINDS
 
     return tuple(k for k, cls in KINDS.items() if cls.uses_reference)
 
 
 def between_sensor_kinds() -> tuple[str, ...]:
-    """Name the kinds that are differences between two sensors at one time.
-
-    Returns
-    -------
-    tuple of str
-        The registered kinds with the ``between_sensors`` hook (``tdoa``, ``fdoa``): their
-        ``time_ref`` is their own time and they give ``ref_sensor_*``.
-    """
+    """Name the kinds that are differences between two sensors at one time."""
     from ..measurements import KINDS
 
     return tuple(k for k, cls in KINDS.items() if cls.between_sensors)
 
 
 def reference_kinds_text() -> str:
-    """Name the reference kinds for messages.
-
-    Returns
-    -------
-    str
-        ``range_difference``, or ``a / b`` for several.
-    """
+    """Name the reference kinds for messages."""
     return " / ".join(reference_kinds())
 
 _AXES = {"x": "east (m, ENU)", "y": "north (m, ENU)", "z": "up (m, ENU)",

@@ -103,20 +103,7 @@ _BETWEEN_SENSORS = np.array([KINDS[k].between_sensors for k in KIND_NAMES], dtyp
 
 
 def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
-    """Split off the leading ``# key: value`` comment lines (and blank lines) of a CSV text.
-
-    Parameters
-    ----------
-    text : str
-        The start of the file's text.
-
-    Returns
-    -------
-    metadata : dict of str to str
-        The ``key: value`` pairs.
-    chars, lines : int
-        The characters and the lines the comment and blank lines take.
-    """
+    """Split off the leading ``# key: value`` comment lines (and blank lines) of a CSV text."""
     metadata: dict[str, str] = {}
     consumed = pre_lines = 0
     for line in io.StringIO(text, newline=""):
@@ -133,11 +120,7 @@ def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
 
 
 def _preamble(data: bytes, complete: bool) -> tuple[dict[str, str], int, int] | None:
-    """Split the ``# key: value`` lines off the start of a file: metadata, header byte, lines.
-
-    None when ``data`` is not UTF-8, or (unless ``complete``: the whole file) when the
-    preamble runs to its end.
-    """
+    """Split the ``# key: value`` lines off the start of a file: metadata, header byte, lines."""
     try:
         text = codecs.getincrementaldecoder("utf-8-sig")().decode(data, final=complete)
     except UnicodeDecodeError:
@@ -150,14 +133,7 @@ def _preamble(data: bytes, complete: bool) -> tuple[dict[str, str], int, int] | 
 
 
 def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], NDArray[np.int64]]:
-    """Read the header names and the line of each data record.
-
-    The csv module knows quoted fields that span lines; the body is decoded line by line
-    (never held as one str).  A body without quotes, carriage returns or NUL bytes (what
-    tmakit writes) has one record per line: it is split with NumPy instead
-    (:func:`_plain_records`, the same names, lines and problems).  A missing or bad header
-    and unreadable or ragged records are refused (:class:`MeasurementFileError`).
-    """
+    """Read the header names and the line of each data record."""
     plain = _plain_records(body, pre_lines)
     if plain is not None:
         header, header_line, lines, problems = plain
@@ -216,13 +192,7 @@ _SCAN_BYTES = 1 << 22
 
 def _plain_records(body: bytes, pre_lines: int
                    ) -> tuple[list[str], int, NDArray[np.int64], list[str]] | None:
-    """Split a body without quotes, carriage returns or NUL bytes into its records, in NumPy.
-
-    Each line is then one record of ``commas + 1`` fields and an empty line is skipped, as
-    the csv module reads it.  Returns the header fields, the header's line, each record's
-    line and the ragged-record problems; None when the body needs the csv module (quotes,
-    carriage returns, NUL, an empty first line, a line longer than the csv module's field limit).
-    """
+    """Split a body without quotes, carriage returns or NUL bytes into its records, in NumPy."""
     if not body or b'"' in body or b"\r" in body or b"\0" in body:
         return None
     arr = np.frombuffer(body, dtype=np.uint8)
@@ -253,11 +223,7 @@ def _plain_records(body: bytes, pre_lines: int
 
 
 def _give_back() -> None:
-    """Return the memory of dropped blocks to the system (pyarrow's pool and the C library's).
-
-    Without this, pyarrow's allocator and the C library's keep freed blocks (their sum grows
-    with the file: about 130 bytes per row at 3 million rows), and the peak is theirs.
-    """
+    """Return the memory of dropped blocks to the system (pyarrow's pool and the C library's)."""
     import pyarrow as pa
 
     pa.default_memory_pool().release_unused()
@@ -276,11 +242,7 @@ def _malloc_trim() -> Any:
 
 
 def _with_nan(col: Any) -> NDArray[np.float64]:
-    """Return a pyarrow float64 array as numpy, NaN where null (a view when it has none).
-
-    From its buffers: ``col.to_numpy(zero_copy_only=False)`` and ``pyarrow.compute.fill_null``
-    import pandas (39 MB more memory, half a second).
-    """
+    """Return a pyarrow float64 array as numpy, NaN where null (a view when it has none)."""
     values = _numbers(col, np.float64)
     if not col.null_count:
         return values
@@ -383,12 +345,7 @@ class _Columns:
         self.ref[lo:hi, i] = values
 
     def block_is_valid(self, k: int) -> bool:
-        """Check the range-difference cells of the block of ``k`` rows just stored.
-
-        As the checker does: a ``time_ref`` on exactly the rows with a reference, finite, before
-        ``time`` (at ``time`` for a difference between sensors, which gives its reference
-        state); all or none of a row's ``ref_sensor_*`` cells, on those rows only.
-        """
+        """Check the range-difference cells of the block of ``k`` rows just stored."""
         lo, hi = self.n, self.n + k
         is_rd = _USES_REFERENCE[self.kind[lo:hi]]
         between = _BETWEEN_SENSORS[self.kind[lo:hi]]
@@ -501,11 +458,7 @@ def _put(cols: _Columns, name: str, col: Any) -> None:
 
 def _build(cols: _Columns, metadata: dict[str, str],
            ref: NDArray[np.float64] | None = None) -> MeasurementSet:
-    """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds).
-
-    ``ref``: the sensor states at ``time_ref`` of a file with range differences.  Raises
-    ``ValueError`` (a rule of :mod:`tmakit.rules`) like the constructor.
-    """
+    """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds)."""
     from .. import rules
 
     n = cols.n
@@ -527,26 +480,7 @@ def _build(cols: _Columns, metadata: dict[str, str],
 
 def stream_csv(path: Path, scan: int = 1 << 20,
                origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
-    """Read a valid CSV measurement file in bounded memory.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The file.
-    scan : int, optional
-        Bytes searched for the ``# key: value`` preamble.
-    origin : (lat, lon, alt), optional
-        ENU origin (degrees, degrees, metres) for a file with ``sensor_lat`` and
-        ``sensor_lon``; wins over its ``origin_*`` metadata, as for
-        :func:`~.checker.check_table`.
-
-    Returns
-    -------
-    MeasurementSet or None
-        The checked set, equal to what the full checker builds (:meth:`MeasurementSet.equals`);
-        None when the file is not of that kind or breaks a rule (the full checker then
-        reads it and names each problem).
-    """
+    """Read a valid CSV measurement file in bounded memory."""
     with open(path, "rb") as f:
         head = f.read(scan)
     found = _preamble(head, complete=len(head) < scan)
@@ -586,13 +520,7 @@ def stream_csv(path: Path, scan: int = 1 << 20,
 
 
 def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64] | None:
-    """Each row's sensor state at ``time_ref`` ``(n, 6)``, NaN on other kinds; None without any.
-
-    From the row's ``ref_sensor_*`` cells (absent velocities and ``ref_sensor_z`` 0 where a
-    row gives the others), else the sensor's own rows (:class:`.sensor_record.SensorRecord`,
-    the checker's look-up), :data:`~.sensor_record.QUERY_ROWS` rows at a time.  Falls back
-    when a ``time_ref`` has no known sensor position.
-    """
+    """Each row's sensor state at ``time_ref`` ``(n, 6)``, NaN on other kinds; None without any."""
     if cols.time_ref is None:
         return None
     time, time_ref, kind, sensor, n = (cols.num["time"], cols.time_ref, cols.kind, cols.sensor,
@@ -629,11 +557,7 @@ def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[
 
 def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
             ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
-    """Pick the ENU origin as the full reader does (:func:`.positions.resolve_origin`).
-
-    The argument, else the file's ``origin_lat``, ``origin_lon`` (and ``origin_alt``, 0 m
-    when absent) metadata; ``(None, {})`` when there is none or it is unreadable.
-    """
+    """Pick the ENU origin as the full reader does (:func:`.positions.resolve_origin`)."""
     problems = Problems(RawTable(None, metadata, None))
     found, origin_metadata = resolve_origin(origin, metadata, problems)
     return (None, {}) if problems.file else (found, origin_metadata)
@@ -641,18 +565,7 @@ def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
 
 def _to_enu(state: NDArray[np.float64], origin: tuple[float, float, float],
             dim3: bool) -> str:
-    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU in place.
-
-    As the full reader does (:func:`.positions.sensor_state`): the surface rule of
-    :func:`tmakit.io.logs.surface_dim` over every row's altitude decides 2-D (altitude the
-    origin's, up 0) or 3-D, unless ``dim3`` (metadata ``dim: 3``).  Converted
-    :data:`_ENU_ROWS` rows at a time, so the conversion's arrays stay small.
-
-    Returns
-    -------
-    str
-        The surface rule's text when it flattened the positions, else ``""``.
-    """
+    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU in place."""
     from ..core.geodesy import geodetic_to_enu
     from .logs import surface_dim
 
@@ -675,13 +588,7 @@ def _to_enu(state: NDArray[np.float64], origin: tuple[float, float, float],
 
 def _parse_options(names: list[str], types: Callable[[str], Any], *,
                    stream: bool) -> tuple[Any, Any, Any]:
-    """Make pyarrow's read, parse and convert options for the columns the reader uses.
-
-    ``types(name)`` gives each used column's Arrow type (from its stripped name).  Empty cells
-    are null in the stream (numbers: NaN) and empty text for the checker; a streamed block
-    is parsed on one thread (no blocks parsed ahead of the consumer, so the peak does not
-    depend on the machine's load) and refuses a quoted line end (the checker reads it).
-    """
+    """Make pyarrow's read, parse and convert options for the columns the reader uses."""
     import pyarrow.csv as pcsv
 
     used = [n for n in names if n.strip() in READ_COLUMNS]
@@ -693,12 +600,7 @@ def _parse_options(names: list[str], types: Callable[[str], Any], *,
 
 
 def _read_table(body: bytes, names: list[str], as_text: bool) -> Any:
-    """Read the columns the reader uses as a pandas frame of cells.
-
-    A text cell costs about 60 bytes, a float64 8; so unless ``as_text``, numeric columns are
-    parsed as float64 (exactly as Python's ``float`` reads them), and only if a cell is not a
-    finite number (an empty cell, ``nan``, a word) is the table read as text.
-    """
+    """Read the columns the reader uses as a pandas frame of cells."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
@@ -723,31 +625,7 @@ def _read_table(body: bytes, names: list[str], as_text: bool) -> Any:
 
 
 def load_csv(path: Path, as_text: bool = False) -> RawTable:
-    """Read a CSV measurement file as a raw table of cells, with the line of each row.
-
-    Numeric columns are read as float64 when all their cells are finite numbers (exactly
-    as Python's ``float`` reads them), else (or if ``as_text``) every cell is kept as text.
-    Memory: the file's bytes once, plus about 8 bytes per numeric column and row, 8 bytes
-    per row for the line numbers and 8 per text column and row (repeated sensor ids and
-    kinds are shared).
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The file (UTF-8, with or without a byte-order mark).
-    as_text : bool
-        Keep every cell as text (as written), for messages that quote cells.
-
-    Returns
-    -------
-    RawTable
-        Cells, metadata from the leading ``# key: value`` lines, line numbers.
-
-    Raises
-    ------
-    MeasurementFileError
-        If the file is not UTF-8 text, has no header, or a record cannot be read.
-    """
+    """Read a CSV measurement file as a raw table of cells, with the line of each row."""
     import pyarrow as pa
 
     with open(path, "rb") as f:
@@ -779,25 +657,7 @@ def _raw_header(body: bytes) -> list[str]:
 
 
 def csv_metadata_line(path: Path, key: str, value: str) -> str:
-    """One metadata line ``# key: value`` (without its line end).
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The file being written (named in the error).
-    key, value : str
-        The metadata entry.
-
-    Returns
-    -------
-    str
-        The line.
-
-    Raises
-    ------
-    ValueError
-        If the key or value cannot be written on one comment line and read back equal.
-    """
+    """One metadata line ``# key: value`` (without its line end)."""
     if not key or key != key.strip() or any(ch in key for ch in ":\r\n"):
         raise ValueError(f"{path}: metadata key {key!r} cannot be written to a CSV comment "
                          "line (keys are non-empty, without ':', line breaks or surrounding "
@@ -812,58 +672,14 @@ def csv_metadata_line(path: Path, key: str, value: str) -> str:
 
 
 def write_csv(ms: MeasurementSet, path: Path, force: bool) -> None:
-    """Write a set as a CSV measurement file, atomically (the :data:`CSV` format's writer).
-
-    Parameters
-    ----------
-    ms : MeasurementSet
-        The set (values in file units).
-    path : pathlib.Path
-        The file.
-    force : bool
-        Overwrite an existing file.
-
-    Raises
-    ------
-    ValueError
-        If a metadata entry cannot be written on a comment line.
-    FileExistsError
-        If ``path`` exists and not ``force``.
-    """
+    """Write a set as a CSV measurement file, atomically (the :data:`CSV` format's writer)."""
     preamble = [FORMAT_LINE, *(csv_metadata_line(path, k, v) for k, v in ms.metadata.items())]
     write_table(path, file_columns(ms), format="csv", force=force, csv_preamble=preamble)
 
 
 def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
              **options: Any) -> MeasurementSet:
-    """Read and check a CSV measurement file (the :data:`CSV` format's reader).
-
-    A valid file is streamed (:func:`stream_csv`); any other is read as a table of cells with
-    numbers as float64 (:func:`load_csv`) and checked; if the checker finds a problem, it is
-    read again with every cell as text and checked again, so each message quotes the cells as
-    written.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The file.
-    origin : (lat, lon, alt), optional
-        ENU origin (degrees, degrees, metres), as for :func:`~.checker.check_table`.
-    **options
-        None are taken; any is refused with a ``TypeError`` naming it.
-
-    Returns
-    -------
-    MeasurementSet
-        The rows in file order.
-
-    Raises
-    ------
-    MeasurementFileError
-        With every problem found (row, line and column of each).
-    TypeError
-        When given reader options (tmakit's own CSV files take none).
-    """
+    """Read and check a CSV measurement file (the :data:`CSV` format's reader)."""
     if options:
         raise TypeError(f"CSV files take no options {', '.join(sorted(options))}")
     streamed = stream_csv(path, _PREAMBLE_SCAN, origin)  # a valid file, bounded memory

@@ -101,24 +101,7 @@ def _load(paths: list[Path]) -> ParsedReplay:
 
 
 def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
-    """Read the track lines of a replay file (or of several, as one replay), by track name.
-
-    Parameters
-    ----------
-    path : str or os.PathLike, or a sequence of them
-        The ``.rep`` or ``.dsf`` file(s).
-
-    Returns
-    -------
-    dict
-        For each track: ``time_ns`` (UTC ns, int64), ``lat``, ``lon`` (deg), ``course``
-        (deg true), ``speed`` (knots), ``line`` (line numbers), in time order.
-
-    Raises
-    ------
-    MeasurementFileError
-        If a line breaks the format (naming its line).
-    """
+    """Read the track lines of a replay file (or of several, as one replay), by track name."""
     paths, where = _paths(path)
     parsed = _load(paths)
     if parsed.problems:
@@ -136,24 +119,7 @@ def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
 
 
 def replay_solutions(path: ReplayPaths) -> list[SolutionLine]:
-    """Read the TMA solution points of a replay file (``;TMA_POS:`` and ``;TMA_RB:`` lines).
-
-    Parameters
-    ----------
-    path : str or os.PathLike, or a sequence of them
-        The ``.rep`` or ``.dsf`` file(s).
-
-    Returns
-    -------
-    list of SolutionLine
-        In file order (positions in degrees, ellipse semi-axes and ranges in yards, speeds in
-        knots, as the file writes them).
-
-    Raises
-    ------
-    MeasurementFileError
-        If a line breaks the format (naming its line).
-    """
+    """Read the TMA solution points of a replay file (``;TMA_POS:`` and ``;TMA_RB:`` lines)."""
     paths, where = _paths(path)
     parsed = _load(paths)
     if parsed.problems:
@@ -278,56 +244,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
                 frequency_sigma: float | None = None, dim: int | None = None,
                 ranges: str | None = None, kinds: Collection[str] | None = None,
                 window: Sequence[str | None] | None = None, **_: object) -> MeasurementSet:
-    """Read Debrief replay files (REP or DSF) as a measurement set (mapping: module text).
-
-    Parameters
-    ----------
-    path : str or os.PathLike, or a sequence of them
-        The file, or several files read as one replay (a sensor file and the own ship's
-        track file, in any order).
-    origin : (lat, lon, alt), optional
-        ENU origin (deg, deg, m); default the own ship's first fix.
-    ownship, contact : str, optional
-        The own ship's track name and the contact (sensor name or first word of the labels);
-        needed when the files hold several.  Spaces around a name are not part of it.
-    bearing_sigma : float, optional
-        Bearing noise (deg); default a ``;SENSOR3:`` line's bearing accuracy, else
-        :data:`DEFAULT_BEARING_SIGMA_DEG`.
-    range_sigma : float, optional
-        Range noise (m), default :data:`DEFAULT_RANGE_SIGMA_M`.
-    frequency_sigma : float, optional
-        Frequency noise (Hz); default a ``;SENSOR3:`` line's frequency accuracy, else
-        :data:`DEFAULT_FREQUENCY_SIGMA_HZ`.
-    dim : int, optional
-        3 to keep the set 3-D (default 2: the sea surface).
-    ranges : {None, "use", "ignore"}, optional
-        None: placeholder ranges (0, or the same on every cut) are left out with a note;
-        ``use``: every range is fitted; ``ignore``: no range is.
-    kinds : collection of str, optional
-        Keep only these kinds (``bearing``, ``range``, ``frequency``).
-    window : (from, to), optional
-        Keep only the cuts in this time window, before any other check: seconds since the
-        time origin, ISO-8601 clock times or clock times of the data's day (``19:30``).
-    **_
-        Options of other readers, ignored.
-
-    Returns
-    -------
-    MeasurementSet
-        Rows of the own ship's sensor (id: the own ship's name); metadata ``time_origin``,
-        the frame (``origin_*``, ``altitude_reference``, ``dim_rule``), ``source``,
-        ``bearing_sigma_deg``, ``range_sigma_m``, ``frequency_sigma_hz`` (the defaults used
-        where a line states no accuracy), ``sigma_from_file`` (lines that state one),
-        ``ambiguous_bearings`` (cuts with a twin) and ``reader_notes``
-        (:func:`~.errors.reader_notes`).
-
-    Raises
-    ------
-    MeasurementFileError
-        For a line of the own ship that breaks the format, an own ship or contact that is
-        ambiguous or absent (listing the names present), two different own-ship fixes at one
-        time, or no cut with a position.
-    """
+    """Read Debrief replay files (REP or DSF) as a measurement set (mapping: module text)."""
     paths, where = _paths(path)
     if ranges not in (None, *RANGES_CHOICES):
         raise MeasurementFileError(where, [f"ranges {ranges!r}: expected use or ignore"])
@@ -356,14 +273,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
 
 def _one_run_per_sensor(rows: list[SensorLine], parsed: ParsedReplay, host: str,
                         files: list[str], notes: list[str]) -> list[SensorLine]:
-    """Keep one run of each sensor whose cuts come from several files with other values.
-
-    Debrief reads each file's sensor lines into a sensor of their own (two files of sensor
-    ``TA`` of one track give that track two sensors named ``TA``): two runs of one sensor, not
-    one.  One fit takes one of them: the run of a sensor file (a file without the host's track
-    lines), else of the file named first; the other is said in a note.  Files that repeat the
-    same cuts hold one run (the repeats are merged later).
-    """
+    """Keep one run of each sensor whose cuts come from several files with other values."""
     by_sensor: dict[str, dict[str, list[SensorLine]]] = {}
     for s in rows:
         by_sensor.setdefault(s.sensor, {}).setdefault(s.file, []).append(s)

@@ -42,18 +42,7 @@ _SAME_DEG = 0.011 / 3600.0  # the files' 0.01" of arc (0.3 m)
 
 
 def at_line(item: TrackLine | SensorLine | LineProblem) -> str:
-    """Name a line: ``line N``, or ``FILE line N`` when several files are read.
-
-    Parameters
-    ----------
-    item : TrackLine, SensorLine or LineProblem
-        A parsed line (its ``file`` is empty when one file is read).
-
-    Returns
-    -------
-    str
-        The line's name for messages.
-    """
+    """Name a line: ``line N``, or ``FILE line N`` when several files are read."""
     return f"{item.file} line {item.line}" if item.file else f"line {item.line}"
 
 
@@ -102,31 +91,7 @@ def _unique(path: Path, lines: Sequence[TrackLine | SensorLine], host: str,
 
 def host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[SensorLine],
                notes: list[str]) -> Fixes:
-    """Return the host's fixes: its track lines, else the positions its sensor lines state.
-
-    Parameters
-    ----------
-    path : Path
-        The file (or files) for messages.
-    tracks : list of TrackLine
-        Every track line read.
-    host : str
-        The own ship.
-    rows : list of SensorLine
-        The cuts used.
-    notes : list of str
-        Notes are appended here (fixes written twice).
-
-    Returns
-    -------
-    Fixes
-        In time order, one per time.
-
-    Raises
-    ------
-    MeasurementFileError
-        Two different fixes at one time, or cuts without a position and no fix to take it from.
-    """
+    """Return the host's fixes: its track lines, else the positions its sensor lines state."""
     mine = [t for t in tracks if t.name == host]
     if not mine:
         stated = [s for s in rows if s.lat is not None]
@@ -155,38 +120,7 @@ def host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[Sensor
 def sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: LocalFrame,
                   origin_ns: int, notes: list[str]
                   ) -> tuple[list[SensorLine], NDArray[np.float64]]:
-    """Return the cuts kept and each one's sensor state (m, m/s).
-
-    A cut keeps the position it states; a ``NULL`` one takes the host's, interpolated.  Cuts
-    with a ``NULL`` position outside the host's fixes are left out with a warning.
-
-    Parameters
-    ----------
-    path : Path
-        The file (or files) for messages.
-    rows : list of SensorLine
-        The cuts, in time order.
-    fixes : Fixes
-        The host's fixes (:func:`host_fixes`).
-    frame : LocalFrame
-        The local frame.
-    origin_ns : int
-        The time origin (UTC ns).
-    notes : list of str
-        Warnings are appended here.
-
-    Returns
-    -------
-    rows : list of SensorLine
-        The cuts kept.
-    states : numpy.ndarray, shape (n, 6)
-        Their sensor states.
-
-    Raises
-    ------
-    MeasurementFileError
-        When no cut is left.
-    """
+    """Return the cuts kept and each one's sensor state (m, m/s)."""
     t_fix = relative_seconds(fixes.time_ns, origin_ns)
     positions = frame.enu(fixes.lat, fixes.lon, fixes.alt)
     velocity = (fixes.velocity if fixes.velocity is not None

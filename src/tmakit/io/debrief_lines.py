@@ -385,20 +385,7 @@ def _owner(tokens: list[str], head: str) -> str | None:
 
 
 def parse_replay_text(text: str, file: str = "") -> ParsedReplay:
-    """Parse the text of a replay file.
-
-    Parameters
-    ----------
-    text : str
-        The file's text.
-    file : str, optional
-        The file's name, kept on every line (for messages).
-
-    Returns
-    -------
-    ParsedReplay
-        Track fixes, sensor contacts, problems and carries.
-    """
+    """Parse the text of a replay file."""
     out = ParsedReplay([], [], [], [])
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()

@@ -30,22 +30,7 @@ RANGES_CHOICES = ("use", "ignore")
 
 def placeholder_ranges(rows: list[SensorLine], ranges: str | None,
                        notes: list[str]) -> NDArray[np.bool_]:
-    """Mark the cuts whose range is left out (a placeholder, or ``ranges="ignore"``).
-
-    Parameters
-    ----------
-    rows : list of SensorLine
-        The cuts used.
-    ranges : {None, "use", "ignore"}
-        None: leave placeholders out; ``use``: keep every range; ``ignore``: none.
-    notes : list of str
-        A note is appended for each kind of range left out.
-
-    Returns
-    -------
-    numpy.ndarray of bool
-        True where the cut's range is not used.
-    """
+    """Mark the cuts whose range is left out (a placeholder, or ``ranges="ignore"``)."""
     value = np.array([np.nan if s.range_yd is None else s.range_yd for s in rows], float)
     stated = np.isfinite(value)
     if ranges == "use" or not stated.any():
@@ -70,36 +55,7 @@ def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.
              sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
              no_range: NDArray[np.bool_]
              ) -> tuple[list, list, list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state, line, twin) of each value used.
-
-    ``twin`` is a ``;SENSOR2:`` bearing's ambiguous twin (rad, the mirror about a towed
-    array's axis), NaN for every other row.
-
-    Bearings are not wrapped yet: the file's rules see them as written.
-
-    Parameters
-    ----------
-    rows : list of SensorLine
-        The cuts.
-    states : numpy.ndarray, shape (n, 6)
-        Their sensor states.
-    t : numpy.ndarray, shape (n,)
-        Their times (s).
-    sigmas : dict
-        The default sigma of each kind (SI).
-    asked : set of str
-        The kinds whose sigma the user gave (a ``;SENSOR3:`` accuracy does not replace it).
-    kinds : collection of str
-        The kinds kept.
-    no_range : numpy.ndarray of bool
-        Cuts whose range is not used (:func:`placeholder_ranges`).
-
-    Returns
-    -------
-    tuple of seven lists
-        Times, kinds, values, sigmas, states, each value's line (for messages) and each
-        bearing's ambiguous twin (rad, NaN where none).
-    """
+    """Return the (time, kind, SI value, SI sigma, state, line, twin) of each value used."""
     out: tuple[list, list, list, list, list, list, list] = ([], [], [], [], [], [], [])
     for k, s in enumerate(rows):
         stated = {"bearing": None if s.bearing_accuracy is None

@@ -29,27 +29,7 @@ LATEST_NS = int((np.datetime64(f"{PLAUSIBLE_YEARS[1]}-01-01", "ns")
 
 def parse_clock_times(values: Sequence[object], unit: str = "s"
                       ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """Read clock times: ISO-8601 text (UTC unless it names a zone) or epoch numbers.
-
-    Every time must fall within :data:`PLAUSIBLE_YEARS`; one outside (an overflow, a number
-    in another unit than ``unit``) is unreadable, never wrapped or clipped.
-
-    Parameters
-    ----------
-    values : sequence
-        The cells: text such as ``2026-05-04T10:00:00.5Z`` or ``2026-05-04 10:00:00+02:00``,
-        or numbers since 1970-01-01 UTC in ``unit``.
-    unit : str, optional
-        The unit of the numbers: ``s`` (default), ``ms``, ``us`` or ``ns``
-        (:data:`EPOCH_UNITS`).
-
-    Returns
-    -------
-    time_ns : numpy.ndarray of int64
-        UTC nanoseconds since 1970-01-01 (0 where unreadable).
-    bad : numpy.ndarray of bool
-        The unreadable or implausible cells (:func:`clock_time_problem` says why).
-    """
+    """Read clock times: ISO-8601 text (UTC unless it names a zone) or epoch numbers."""
     import pandas as pd
 
     per = EPOCH_UNITS[unit]
@@ -83,21 +63,7 @@ def parse_clock_times(values: Sequence[object], unit: str = "s"
 
 
 def clock_time_problem(cell: object, unit: str = "s") -> str:
-    """Say what a clock time cell should have been, and what it seems to be.
-
-    Parameters
-    ----------
-    cell : object
-        The cell :func:`parse_clock_times` refused.
-    unit : str, optional
-        The unit stated for epoch numbers.
-
-    Returns
-    -------
-    str
-        ``expected ..., found ...`` with, for a number, the unit that would make it a
-        plausible date.
-    """
+    """Say what a clock time cell should have been, and what it seems to be."""
     low, high = PLAUSIBLE_YEARS
     expected = (f"expected an ISO-8601 time or epoch {_UNIT_NAMES[unit]} (since 1970-01-01 "
                 f"UTC) between {low} and {high}")

@@ -57,39 +57,13 @@ NOTES_SEPARATOR = " || "
 
 
 def reader_notes(metadata: dict[str, str], pop: bool = False) -> list[str]:
-    """Return a set's reader notes (``note: ...`` or ``warning: ...``), optionally removing them.
-
-    Parameters
-    ----------
-    metadata : dict of str to str
-        A measurement set's metadata.
-    pop : bool, optional
-        Remove them from the metadata (they are about reading that file, not about the data).
-
-    Returns
-    -------
-    list of str
-        The notes, in the order the reader made them.
-    """
+    """Return a set's reader notes (``note: ...`` or ``warning: ...``), optionally removing them."""
     text = metadata.pop(READER_NOTES_KEY, "") if pop else metadata.get(READER_NOTES_KEY, "")
     return [n for n in text.split(NOTES_SEPARATOR) if n]
 
 
 def refuse_unreadable(path: Path, binary: bool = False) -> None:
-    """Refuse, before reading, a path that is no regular file, or binary where text is due.
-
-    Parameters
-    ----------
-    path : Path
-        An existing path.
-    binary : bool, optional
-        The format is binary (Parquet): only the regular-file rule applies.
-
-    Raises
-    ------
-    MeasurementFileError
-        Naming the file and what it is (:mod:`tmakit.core.input_files`).
-    """
+    """Refuse, before reading, a path that is no regular file, or binary where text is due."""
     from ..core.input_files import binary_problem, not_regular_problem
 
     problem = not_regular_problem(path) or (None if binary else binary_problem(path))

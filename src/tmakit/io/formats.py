@@ -163,20 +163,7 @@ def find_format(path: str | os.PathLike[str], name: str | None = None,
 
 
 def suffix_text(candidates: tuple[Format, ...]) -> str:
-    """Name the suffixes and labels of formats for messages.
-
-    For CSV and Parquet: ``.csv, .parquet, .pq (CSV or Parquet)``.
-
-    Parameters
-    ----------
-    candidates : tuple of Format
-        The formats (those without a suffix, read by name only, are left out).
-
-    Returns
-    -------
-    str
-        Their suffixes, then their labels in parentheses.
-    """
+    """Name the suffixes and labels of formats for messages."""
     candidates = tuple(f for f in candidates if f.suffixes)  # "wide": read by name only
     suffixes = [s for f in candidates for s in f.suffixes]
     labels = [f.label for f in candidates]

@@ -88,18 +88,7 @@ class MappingGuess:
     unused: list[str] = field(default_factory=list)
 
     def toml(self, source: str) -> str:
-        """Return the proposal as a mapping file (TOML, every choice commented).
-
-        Parameters
-        ----------
-        source : str
-            The log's name, for the first comment.
-
-        Returns
-        -------
-        str
-            The TOML text; :func:`tmakit.io.log_mapping.load_mapping` reads it.
-        """
+        """Return the proposal as a mapping file (TOML, every choice commented)."""
         c, lines = self.columns, [f"# Proposed by `tma import wide {source} --guess`: check "
                                   "every line, then --mapping THIS_FILE."]
         lines.append(f'time = "{c["time"]}"')
@@ -173,24 +162,7 @@ def _time_unit(name: str, first: str) -> tuple[str | None, str | None]:
 
 
 def guess_mapping(path: str | os.PathLike[str]) -> MappingGuess:
-    """Propose a column mapping for a wide CSV or Parquet log from its header.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The log.
-
-    Returns
-    -------
-    MappingGuess
-        The columns chosen by role, the units and the notes; ``toml()`` gives the file.
-
-    Raises
-    ------
-    ValueError
-        If no time column, or no measurement column, matches a known name (listing the
-        columns and the names looked for).
-    """
+    """Propose a column mapping for a wide CSV or Parquet log from its header."""
     import pandas as pd
 
     path = Path(path)

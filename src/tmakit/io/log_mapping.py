@@ -169,18 +169,7 @@ class LogMapping(_Strict):
         return self
 
     def resolve_track(self, base: Path | None) -> LogMapping:
-        """Return the mapping with a relative ``track`` path taken relative to ``base``.
-
-        Parameters
-        ----------
-        base : Path or None
-            The mapping file's folder (None: leave ``track`` as given).
-
-        Returns
-        -------
-        LogMapping
-            ``self`` when nothing changes, else a copy with the resolved ``track``.
-        """
+        """Return the mapping with a relative ``track`` path taken relative to ``base``."""
         if self.track is None or base is None or Path(self.track).is_absolute():
             return self
         return self.model_copy(update={"track": str(base / self.track)})
@@ -195,24 +184,7 @@ def _explain(source: str, err: ValidationError) -> MappingError:
 
 
 def load_mapping(path: str | os.PathLike[str]) -> LogMapping:
-    """Read a mapping TOML file (``track`` is taken relative to its folder).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The ``.toml`` file.
-
-    Returns
-    -------
-    LogMapping
-        The mapping.
-
-    Raises
-    ------
-    MappingError
-        If the file is missing, not TOML (naming the line) or not a valid mapping (naming
-        the key).
-    """
+    """Read a mapping TOML file (``track`` is taken relative to its folder)."""
     from ..core.input_files import binary_problem, not_regular_problem
 
     path = Path(path)
@@ -239,29 +211,7 @@ _VELOCITY_KEYS = {"vn": "north", "ve": "east", "vd": "down", "vu": "up"}
 
 
 def mapping_from_text(text: str, measures: list[str]) -> LogMapping:
-    """Build a mapping from command-line text.
-
-    Parameters
-    ----------
-    text : str
-        ``key=value`` pairs separated by commas: ``time``, ``time_unit`` (``s``, ``ms``,
-        ``us``, ``ns``), ``sensor``, ``track``, the position
-        columns ``lat``, ``lon``, ``alt`` (or ``east``, ``north``, ``up``), ``altitude``
-        (``ellipsoid`` or ``msl``), velocity columns ``vn``, ``ve``, ``vd`` (NED) or ``ve``,
-        ``vn``, ``vu`` (ENU), ``velocity_window`` (s).
-    measures : list of str
-        One ``COLUMN=KIND:UNIT:SIGMA`` per measurement column.
-
-    Returns
-    -------
-    LogMapping
-        The mapping.
-
-    Raises
-    ------
-    MappingError
-        If a part is not ``key=value``, a key is unknown or the mapping is not valid.
-    """
+    """Build a mapping from command-line text."""
     data: dict[str, Any] = {}
     position: dict[str, str] = {}
     velocity: dict[str, str] = {}

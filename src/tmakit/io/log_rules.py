@@ -35,25 +35,7 @@ _ROW = re.compile(r"^row (\d+), column '(\w+)': ")
 
 
 def fix_problems(fixes: Fixes, where: Callable[[int, str], str]) -> list[str]:
-    """Check a track's fixes by the rules of a measurement file (:mod:`tmakit.rules`).
-
-    Latitude and longitude in range, altitude finite and within reach, velocity below the
-    speed of light, heading a bearing, time a plausible date.
-
-    Parameters
-    ----------
-    fixes : Fixes
-        The fixes.
-    where : callable
-        ``where(k, quantity)`` names a value of fix ``k`` in its file (``line 12,
-        latitude``); the quantities are ``latitude``, ``longitude``, ``altitude``,
-        ``velocity``, ``heading`` and ``time``.
-
-    Returns
-    -------
-    list of str
-        One problem per bad value (at most 25 per rule).
-    """
+    """Check a track's fixes by the rules of a measurement file (:mod:`tmakit.rules`)."""
     from .. import rules
     from ..measurements import KINDS
 
@@ -85,38 +67,7 @@ def fix_problems(fixes: Fixes, where: Callable[[int, str], str]) -> list[str]:
 
 def checked_rows(path: object, meas: MeasurementSet, where: Sequence[str]
                  ) -> tuple[MeasurementSet, NDArray[np.intp], int]:
-    """Check a log's rows by the rules of a measurement file, and merge repeated rows.
-
-    The one set of rules (:func:`tmakit.rules.column_problems`: finite, each kind's range,
-    sigma, positions, far times) is applied to the rows as read (bearings not yet wrapped),
-    each problem named by its place in the log.  Rows that repeat an earlier row's (sensor,
-    kind, time) are merged when they also repeat its value and sigma (the same measurement
-    written twice: one is kept, the count returned); with another value they are refused,
-    naming both places (two values at one time cannot both be measurements).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The log (named in the error).
-    meas : MeasurementSet
-        The rows, built with ``check=False``, in any order.
-    where : sequence of str
-        Each row's place in the log (``line 12``, ``row 3 (line 4), column 'rssi'``).
-
-    Returns
-    -------
-    meas : MeasurementSet
-        The rows grouped by sensor in time order, repeats merged.
-    rows : ndarray of int
-        The index in the input of each row kept.
-    merged : int
-        The rows merged into an earlier one.
-
-    Raises
-    ------
-    MeasurementFileError
-        Listing every problem.
-    """
+    """Check a log's rows by the rules of a measurement file, and merge repeated rows."""
     from .. import rules
     from .errors import MeasurementFileError
 

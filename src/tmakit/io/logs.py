@@ -93,13 +93,7 @@ class Fixes:
     heading: NDArray[np.float64] | None = None
 
     def sorted(self) -> Fixes:
-        """Return the fixes in time order (stable).
-
-        Returns
-        -------
-        Fixes
-            A new set of fixes, every column reordered alike.
-        """
+        """Return the fixes in time order (stable)."""
         order = np.argsort(self.time_ns, kind="stable")
         return Fixes(self.time_ns[order], self.lat[order], self.lon[order], self.alt[order],
                      None if self.velocity is None else self.velocity[order],
@@ -132,14 +126,7 @@ class LocalFrame:
     origin_source: str = "given"
 
     def metadata(self) -> dict[str, str]:
-        """Return the frame as metadata of a measurement set.
-
-        Returns
-        -------
-        dict of str
-            ``origin_lat``, ``origin_lon`` (deg), ``origin_alt`` (m), ``altitude_reference``
-            and ``dim_rule``, as text.
-        """
+        """Return the frame as metadata of a measurement set."""
         lat, lon, alt = self.origin
         return {"origin_lat": repr(lat), "origin_lon": repr(lon), "origin_alt": repr(alt),
                 "altitude_reference": self.altitude_reference, "dim_rule": self.rule,
@@ -147,21 +134,7 @@ class LocalFrame:
 
     def enu(self, lat: NDArray[np.float64], lon: NDArray[np.float64],
             alt: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Convert fixes to ENU positions ``(n, 3)`` (m); ``up`` is 0 in a 2-D frame.
-
-        In a 2-D frame the points are taken at the origin's altitude (on the surface), so
-        neither their altitude noise nor the Earth's curvature becomes height.
-
-        Parameters
-        ----------
-        lat, lon, alt : numpy.ndarray
-            Latitude, longitude (deg) and altitude (m).
-
-        Returns
-        -------
-        numpy.ndarray, shape (n, 3)
-            East, north, up (m).
-        """
+        """Convert fixes to ENU positions ``(n, 3)`` (m); ``up`` is 0 in a 2-D frame."""
         from ..core.geodesy import geodetic_to_enu
 
         lat = np.asarray(lat, float)
@@ -175,31 +148,7 @@ class LocalFrame:
 
 def surface_dim(alt: NDArray[np.float64], origin_alt: float, dim: int | None,
                 tolerance: float = SURFACE_TOLERANCE_M) -> tuple[int, str]:
-    """Decide whether sensors are on a surface (2-D) or not (3-D): the surface rule.
-
-    Parameters
-    ----------
-    alt : numpy.ndarray
-        The sensors' altitudes (m).
-    origin_alt : float
-        The origin's altitude (m).
-    dim : int or None
-        2 or 3 to force the answer; None applies the rule.
-    tolerance : float, optional
-        Altitudes within this many metres of the origin's are on the surface.
-
-    Returns
-    -------
-    dim : int
-        2 or 3.
-    rule : str
-        Why, in one sentence (recorded as ``dim_rule`` metadata).
-
-    Raises
-    ------
-    ValueError
-        If ``dim`` is not None, 2 or 3.
-    """
+    """Decide whether sensors are on a surface (2-D) or not (3-D): the surface rule."""
     if dim not in (None, 2, 3):
         raise ValueError(f"dim must be 2 or 3, not {dim!r}")
     spread = float(np.max(np.abs(np.asarray(alt, float) - origin_alt))) if len(alt) else 0.0
@@ -215,32 +164,7 @@ def surface_dim(alt: NDArray[np.float64], origin_alt: float, dim: int | None,
 def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int | None,
                 altitude_reference: str = "ellipsoid",
                 tolerance: float = SURFACE_TOLERANCE_M) -> LocalFrame:
-    """Build a log's frame: the origin (default the first fix) and the surface rule.
-
-    Parameters
-    ----------
-    fixes : sequence of Fixes
-        The sensors' fixes; the first fix of the first is the default origin.
-    origin : (lat, lon, alt) or None
-        The origin (deg, deg, m), or None for the first fix.
-    dim : int or None
-        2 or 3 to force; None applies :func:`surface_dim`.
-    altitude_reference : str, optional
-        ``ellipsoid`` (default) or ``msl``.
-    tolerance : float, optional
-        The surface rule's tolerance (m).
-
-    Returns
-    -------
-    LocalFrame
-        The frame.
-
-    Raises
-    ------
-    ValueError
-        If the altitude reference is unknown, there is no fix, or ``origin`` is not three
-        numbers.
-    """
+    """Build a log's frame: the origin (default the first fix) and the surface rule."""
     if altitude_reference not in ALTITUDE_REFERENCES:
         raise ValueError(f"altitude reference {altitude_reference!r}: expected one of "
                          f"{', '.join(ALTITUDE_REFERENCES)}")
@@ -272,53 +196,18 @@ def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int
 
 
 def time_origin_ns(*times: NDArray[np.int64]) -> int:
-    """Return the time origin: the earliest time given, floored to the whole second.
-
-    Parameters
-    ----------
-    *times : ndarray of int64
-        Times, ns since the Unix epoch (UTC); empty arrays are skipped.
-
-    Returns
-    -------
-    int
-        The origin, ns since the Unix epoch.
-    """
+    """Return the time origin: the earliest time given, floored to the whole second."""
     first = min(int(np.min(t)) for t in times if len(t))
     return (first // _NS) * _NS
 
 
 def relative_seconds(time_ns: NDArray[np.int64], origin_ns: int) -> NDArray[np.float64]:
-    """Give seconds since the time origin (the difference is taken in integers, then scaled).
-
-    Parameters
-    ----------
-    time_ns : ndarray of int64
-        Times, ns since the Unix epoch.
-    origin_ns : int
-        The origin, ns since the Unix epoch (:func:`time_origin_ns`).
-
-    Returns
-    -------
-    ndarray
-        Seconds since the origin.
-    """
+    """Give seconds since the time origin (the difference is taken in integers, then scaled)."""
     return (np.asarray(time_ns, np.int64) - np.int64(origin_ns)).astype(float) / _NS
 
 
 def iso_utc(time_ns: int) -> str:
-    """Return a UTC time as ISO-8601 text with a ``Z`` (fractions of a second when present).
-
-    Parameters
-    ----------
-    time_ns : int
-        ns since the Unix epoch.
-
-    Returns
-    -------
-    str
-        E.g. ``2024-05-01T12:00:00.5Z``.
-    """
+    """Return a UTC time as ISO-8601 text with a ``Z`` (fractions of a second when present)."""
     secs, frac = divmod(int(time_ns), _NS)
     stamp = np.datetime64(secs, "s").astype(str)
     if frac:
@@ -328,20 +217,7 @@ def iso_utc(time_ns: int) -> str:
 
 def clock_times(metadata: dict[str, str], t: NDArray[np.float64]
                 ) -> NDArray[np.datetime64] | None:
-    """Return the UTC clock times of set times ``t`` (s), from the ``time_origin`` metadata.
-
-    Parameters
-    ----------
-    metadata : dict of str to str
-        A measurement set's metadata.
-    t : numpy.ndarray
-        Times (s since the origin).
-
-    Returns
-    -------
-    numpy.ndarray of datetime64[ns], or None
-        The clock times (UTC), None when the set has no (readable) ``time_origin``.
-    """
+    """Return the UTC clock times of set times ``t`` (s), from the ``time_origin`` metadata."""
     text = metadata.get("time_origin")
     if not text:
         return None
@@ -354,25 +230,7 @@ def clock_times(metadata: dict[str, str], t: NDArray[np.float64]
 
 def velocity_from_positions(t: NDArray[np.float64], pos: NDArray[np.float64],
                             window: float = VELOCITY_WINDOW_S) -> NDArray[np.float64]:
-    """Estimate velocities from positions: a local straight-line fit per fix.
-
-    The velocity at each fix is the slope of the least-squares line through the fixes within
-    ``window / 2`` seconds of it (at least its two nearest neighbours in time).
-
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Times (s), increasing.
-    pos : numpy.ndarray, shape (n, d)
-        Positions (m).
-    window : float, optional
-        Width of the centred window (s).
-
-    Returns
-    -------
-    numpy.ndarray, shape (n, d)
-        Velocities (m/s); zero when there are fewer than two fixes.
-    """
+    """Estimate velocities from positions: a local straight-line fit per fix."""
     n = t.shape[0]
     out = np.zeros_like(pos, dtype=float)
     if n < 2:
@@ -394,24 +252,7 @@ def velocity_from_positions(t: NDArray[np.float64], pos: NDArray[np.float64],
 
 def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
                        t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Interpolate platform states linearly in time (each component), and mark times outside.
-
-    Parameters
-    ----------
-    t_fix : numpy.ndarray, shape (m,)
-        Times of the fixes (s), increasing.
-    states : numpy.ndarray, shape (m, k)
-        States at the fixes.
-    t : numpy.ndarray, shape (n,)
-        Times wanted (s).
-
-    Returns
-    -------
-    states : numpy.ndarray, shape (n, k)
-        The interpolated states (the end states outside the fixes' span).
-    outside : numpy.ndarray of bool, shape (n,)
-        Times before the first fix or after the last.
-    """
+    """Interpolate platform states linearly in time (each component), and mark times outside."""
     out = np.column_stack([np.interp(t, t_fix, states[:, j]) for j in range(states.shape[1])])
     eps = 1e-9 * max(1.0, float(np.max(np.abs(t_fix)))) if len(t_fix) else 0.0
     outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(
@@ -421,22 +262,7 @@ def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
 
 def interpolate_heading(t_fix: NDArray[np.float64], heading_deg: NDArray[np.float64],
                         t: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Interpolate headings (deg) at times ``t`` along the shorter turn; NaN headings skipped.
-
-    Parameters
-    ----------
-    t_fix : numpy.ndarray, shape (m,)
-        Times of the headings (s), increasing.
-    heading_deg : numpy.ndarray, shape (m,)
-        True headings (deg); NaN where unknown.
-    t : numpy.ndarray, shape (n,)
-        Times wanted (s).
-
-    Returns
-    -------
-    numpy.ndarray, shape (n,)
-        Headings in [0, 360) deg; NaN everywhere when no heading is known.
-    """
+    """Interpolate headings (deg) at times ``t`` along the shorter turn; NaN headings skipped."""
     known = np.isfinite(heading_deg)
     if not known.any():
         return np.full(np.shape(t), np.nan)
@@ -446,20 +272,7 @@ def interpolate_heading(t_fix: NDArray[np.float64], heading_deg: NDArray[np.floa
 
 def course_speed_velocity(course_deg: NDArray[np.float64], speed: NDArray[np.float64]
                           ) -> NDArray[np.float64]:
-    """Give the ENU velocity from course and speed over the ground (vertical 0).
-
-    Parameters
-    ----------
-    course_deg : ndarray
-        ``(n,)`` course over the ground, degrees clockwise from true North.
-    speed : ndarray
-        ``(n,)`` speed over the ground, m/s.
-
-    Returns
-    -------
-    ndarray
-        ``(n, 3)`` velocity East, North, Up, m/s.
-    """
+    """Give the ENU velocity from course and speed over the ground (vertical 0)."""
     c = np.deg2rad(np.asarray(course_deg, float))
     s = np.asarray(speed, float)
     return np.column_stack([s * np.sin(c), s * np.cos(c), np.zeros_like(s)])

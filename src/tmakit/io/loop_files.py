@@ -28,29 +28,7 @@ LOOP_SUFFIXES = tuple(TABLE_SUFFIXES)
 
 def write_loop_table(study: ClosedLoopStudy, path: str | os.PathLike[str],
                      force: bool = False) -> Path:
-    """Write the per-step table of a closed-loop study.
-
-    Parameters
-    ----------
-    study : ClosedLoopStudy
-        The study.
-    path : str or path-like
-        ``.parquet``, ``.pq`` or ``.csv``.
-    force : bool, optional
-        Overwrite an existing file.
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-
-    Raises
-    ------
-    ValueError
-        Another suffix.
-    FileExistsError
-        ``path`` exists and not ``force``.
-    """
+    """Write the per-step table of a closed-loop study."""
     return write_table(path, study.table(), force=force, what="the per-step table")
 
 
@@ -94,31 +72,14 @@ class LoopCheckpoint:
         self.saved: list[Path] = []
 
     def __call__(self, chunk: LoopChunk) -> None:
-        """Save one finished chunk (atomically) in the parts folder.
-
-        Parameters
-        ----------
-        chunk : LoopChunk
-            The chunk's runs.
-        """
+        """Save one finished chunk (atomically) in the parts folder."""
         self.parts.mkdir(parents=True, exist_ok=True)
         name = f"{_slug(chunk.case)}-{chunk.first_run:06d}.parquet"
         self.saved.append(write_table(self.parts / name, chunk.table(), force=True,
                                       what="a chunk of the per-step table"))
 
     def finish(self, study: ClosedLoopStudy) -> Path:
-        """Write the whole table, then remove the parts folder.
-
-        Parameters
-        ----------
-        study : ClosedLoopStudy
-            The finished study.
-
-        Returns
-        -------
-        pathlib.Path
-            The table written.
-        """
+        """Write the whole table, then remove the parts folder."""
         out = write_loop_table(study, self.path, force=self.force)
         if self.parts.is_dir():
             shutil.rmtree(self.parts)

@@ -43,24 +43,7 @@ def _ns(stamp: dt.datetime) -> int:
 
 
 def read_gpx_fixes(path: str | os.PathLike[str]) -> Fixes:
-    """Read the timed points of a GPX file.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The ``.gpx`` file.
-
-    Returns
-    -------
-    Fixes
-        Times (UTC), latitude, longitude, elevation (m); no velocity; in time order.
-
-    Raises
-    ------
-    MeasurementFileError
-        If the file is not GPX (naming the line when the parser knows it) or has no point
-        with a time.
-    """
+    """Read the timed points of a GPX file."""
     import gpxpy
     import gpxpy.gpx
 
@@ -149,25 +132,7 @@ def _nmea_fixes(path: Path, lines: list[str]) -> tuple[dict[int, dict], list[str
 
 
 def read_nmea_fixes(path: str | os.PathLike[str]) -> Fixes:
-    """Read the fixes of an NMEA 0183 log (RMC, GGA, VTG, HDT; see the module text).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The log (one sentence per line).
-
-    Returns
-    -------
-    Fixes
-        Times (UTC), latitude, longitude, altitude (m above the ellipsoid; 0 without GGA),
-        velocity ENU (m/s) from speed and course over the ground when every fix has them.
-
-    Raises
-    ------
-    MeasurementFileError
-        If a sentence is unreadable or fails its checksum (naming the line), or no fix has a
-        date and time.
-    """
+    """Read the fixes of an NMEA 0183 log (RMC, GGA, VTG, HDT; see the module text)."""
     from .logs import course_speed_velocity
 
     path = Path(path)
@@ -192,24 +157,7 @@ def read_nmea_fixes(path: str | os.PathLike[str]) -> Fixes:
 
 
 def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:
-    """Read a sensor track by its suffix: ``.gpx`` (GPX), else NMEA 0183.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The track file.
-
-    Returns
-    -------
-    Fixes
-        The fixes in time order.
-
-    Raises
-    ------
-    MeasurementFileError
-        If the file is missing or breaks its format, or a value breaks the rules of a
-        measurement file (a latitude beyond 90 deg, an altitude beyond reach: naming it).
-    """
+    """Read a sensor track by its suffix: ``.gpx`` (GPX), else NMEA 0183."""
     path = Path(path)
     if not path.exists():
         raise MeasurementFileError(path, ["no such track file"])

@@ -20,23 +20,7 @@ __all__ = ["PARQUET", "load_parquet", "read_parquet", "write_parquet"]
 
 
 def load_parquet(path: Path) -> RawTable:
-    """Read a Parquet measurement file as a raw table of typed cells (no line numbers).
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The file.
-
-    Returns
-    -------
-    RawTable
-        The cells and the metadata of the ``tmakit:`` schema keys.
-
-    Raises
-    ------
-    MeasurementFileError
-        If the file cannot be read as Parquet or a column appears twice.
-    """
+    """Read a Parquet measurement file as a raw table of typed cells (no line numbers)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -60,25 +44,7 @@ def load_parquet(path: Path) -> RawTable:
 
 
 def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
-    """Write a set as a Parquet measurement file, atomically (the :data:`PARQUET` writer).
-
-    Text columns are non-null strings, the others float64; the schema metadata holds
-    ``tmakit: measurements v1`` and the set's metadata under ``tmakit:`` keys.
-
-    Parameters
-    ----------
-    ms : MeasurementSet
-        The set (values in file units).
-    path : pathlib.Path
-        The file.
-    force : bool
-        Overwrite an existing file.
-
-    Raises
-    ------
-    FileExistsError
-        If ``path`` exists and not ``force``.
-    """
+    """Write a set as a Parquet measurement file, atomically (the :data:`PARQUET` writer)."""
     import pyarrow as pa
 
     columns = file_columns(ms)

@@ -31,24 +31,7 @@ ORIGIN_KEYS = ("origin_lat", "origin_lon", "origin_alt")
 
 def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
                    ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
-    """Return the ENU origin (lat, lon in deg, alt in m): the argument, else the file's.
-
-    Parameters
-    ----------
-    origin : (lat, lon, alt) or None
-        The origin passed to the reader; it wins over the file's metadata.
-    metadata : mapping of str to str
-        The file's metadata (``origin_lat``, ``origin_lon``, ``origin_alt``).
-    problems : Problems
-        Where a missing or unreadable origin is recorded.
-
-    Returns
-    -------
-    origin : tuple of float or None
-        The origin, None if it is missing or unreadable.
-    metadata : dict of str to str
-        The origin as metadata for the returned set (empty unless the argument gave it).
-    """
+    """Return the ENU origin (lat, lon in deg, alt in m): the argument, else the file's."""
     if origin is not None:
         try:
             lat, lon, alt = (float(v) for v in origin)
@@ -84,26 +67,7 @@ def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
 
 def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
                  ) -> tuple[NDArray[np.float64], dict[str, str]]:
-    """Each row's sensor ENU state ``(n, 6)`` (m, m/s), NaN where unknown.
-
-    Parameters
-    ----------
-    num : dict of str to numpy.ndarray
-        The numeric columns.
-    layout : Layout
-        How the file gives positions.
-    origin : (lat, lon, alt) or None
-        The ENU origin argument (for latitude/longitude files).
-    problems : Problems
-        Where problems go.
-
-    Returns
-    -------
-    state : numpy.ndarray, shape (n, 6)
-        Position (m) and velocity (m/s); missing velocities are 0.
-    metadata : dict of str to str
-        The origin as metadata, when the argument gave it.
-    """
+    """Each row's sensor ENU state ``(n, 6)`` (m, m/s), NaN where unknown."""
     n = len(problems.raw.frame)
     zeros = np.zeros(n)
     state = np.full((n, 6), np.nan)
@@ -126,12 +90,7 @@ def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
 
 def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
                         state: NDArray[np.float64], problems: Problems) -> str:
-    """Fill ENU positions from lat/lon/alt; return the surface rule's text if it flattened.
-
-    The surface rule of :func:`tmakit.io.logs.surface_dim`: sensors whose altitudes all lie
-    within its tolerance of the origin's are on a surface (z = 0, no curvature as height),
-    unless the file's metadata says ``dim: 3``.
-    """
+    """Fill ENU positions from lat/lon/alt; return the surface rule's text if it flattened."""
     from ..core.geodesy import geodetic_to_enu
     from .logs import surface_dim
 
@@ -154,31 +113,7 @@ def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
 def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[np.object_],
                      is_rd: NDArray[np.bool_], ref_given: NDArray[np.bool_], layout: Layout,
                      problems: Problems) -> NDArray[np.float64]:
-    """Sensor state at time_ref ``(n, 6)`` of the range-difference rows (NaN on others).
-
-    From the ref_sensor_* columns, else from the sensor's row at that time, else
-    interpolated along the sensor's rows (:class:`tmakit.sensors.RecordedTrack`).
-
-    Parameters
-    ----------
-    num : dict of str to numpy.ndarray
-        The numeric columns.
-    state : numpy.ndarray, shape (n, 6)
-        Each row's sensor state (:func:`sensor_state`).
-    sensor : numpy.ndarray of object
-        Each row's sensor id.
-    is_rd, ref_given : numpy.ndarray of bool
-        Range-difference rows, and those that give ref_sensor_* cells.
-    layout : Layout
-        How the file gives the sensor state.
-    problems : Problems
-        Where a time_ref without a known sensor position is recorded.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n, 6)
-        Position (m) and velocity (m/s) at time_ref.
-    """
+    """Sensor state at time_ref ``(n, 6)`` of the range-difference rows (NaN on others)."""
     n = state.shape[0]
     ref = np.full((n, 6), np.nan)
     for i, c in enumerate(REF_STATE_COLUMNS):
@@ -207,29 +142,7 @@ def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp] | 
                   t: NDArray[np.float64], time_ref: NDArray[np.float64],
                   state: NDArray[np.float64], ref: NDArray[np.float64], has_velocity: bool,
                   problems: Problems) -> None:
-    """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else interpolated).
-
-    The look-up of :class:`.sensor_record.SensorRecord` (bounded memory).
-
-    Parameters
-    ----------
-    sensor : str
-        The sensor's id (for messages).
-    rows : numpy.ndarray of int
-        The range-difference rows whose state at ``time_ref`` is wanted.
-    mine : numpy.ndarray of int or None
-        The sensor's usable rows, in file order; None for every row.
-    t, time_ref : numpy.ndarray
-        Each row's time and ``time_ref`` (s).
-    state : numpy.ndarray, shape (n, 6)
-        Each row's sensor state (ENU m, m/s).
-    ref : numpy.ndarray, shape (n, 6)
-        Filled in place at ``rows`` (m, m/s).
-    has_velocity : bool
-        The file gives velocities (else the interpolated ones are 0).
-    problems : Problems
-        Where a ``time_ref`` without a known sensor position is recorded.
-    """
+    """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else interpolated)."""
     from .sensor_record import SensorRecord
 
     record = SensorRecord(t, state, mine, has_velocity)

@@ -59,37 +59,14 @@ class Problems:
     cells: dict[tuple[int, str], str] = field(default_factory=dict)
 
     def where(self, row: int) -> str:
-        """Say where a row is: ``row R (line L)`` (``row R`` without line numbers).
-
-        Parameters
-        ----------
-        row : int
-            The 0-based row.
-
-        Returns
-        -------
-        str
-            The 1-based row and, for CSV, its line.
-        """
+        """Say where a row is: ``row R (line L)`` (``row R`` without line numbers)."""
         lines = self.raw.lines
         if lines is None:
             return f"row {row + 1}"
         return f"row {row + 1} (line {lines[row]})"
 
     def cell(self, row: int, column: str, expected: str, found: str | None = None) -> None:
-        """Record a problem at one cell (the first problem of a cell wins).
-
-        Parameters
-        ----------
-        row : int
-            The 0-based row.
-        column : str
-            The cell's column.
-        expected : str
-            What the cell should hold (for the message).
-        found : str, optional
-            What it holds; default the cell as read (:func:`tmakit.io.cells.show`).
-        """
+        """Record a problem at one cell (the first problem of a cell wins)."""
         if (row, column) in self.cells:
             return
         frame = self.raw.frame
@@ -99,30 +76,11 @@ class Problems:
             f"{self.where(row)}, column '{column}': expected {expected}, found {found}")
 
     def missing(self, column: str, extra: str = "") -> None:
-        """Record that a column of the contract is missing.
-
-        Parameters
-        ----------
-        column : str
-            The missing column.
-        extra : str
-            Appended to the message: why this file needs it.
-        """
+        """Record that a column of the contract is missing."""
         self.file.append(f"column '{column}' is missing: {COLUMN_PURPOSE[column]}{extra}")
 
     def bad_rows(self, *columns: str) -> NDArray[np.bool_]:
-        """Mark the rows with a problem in one of ``columns``.
-
-        Parameters
-        ----------
-        *columns : str
-            The columns.
-
-        Returns
-        -------
-        numpy.ndarray of bool, shape (rows,)
-            True where a row has a problem in one of them.
-        """
+        """Mark the rows with a problem in one of ``columns``."""
         mask = np.zeros(len(self.raw.frame), dtype=bool)
         wanted = set(columns)
         for row, column in self.cells:
@@ -131,13 +89,7 @@ class Problems:
         return mask
 
     def sorted(self) -> list[str]:
-        """List the problems: file-wide first, then cells by row and column order.
-
-        Returns
-        -------
-        list of str
-            The messages.
-        """
+        """List the problems: file-wide first, then cells by row and column order."""
         order = {c: i for i, c in enumerate(self.raw.frame.columns)}
         cells = sorted(self.cells.items(),
                        key=lambda item: (item[0][0], order.get(item[0][1], len(order))))

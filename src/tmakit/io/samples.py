@@ -84,25 +84,7 @@ def _replay_scenario(seed_rng: np.random.Generator) -> Any:
 
 
 def replay_sample(seed: int = 0) -> tuple[str, dict[str, float]]:
-    """Make a Debrief replay file: own ship, a contact's bearings, the contact's true track.
-
-    The own ship (``OWNSHIP``, 8 m/s) zig-zags (legs of 590 s, 90-degree turns; a track line
-    every 30 s); the contact (``CONTACT``, a track line a minute) holds a random course at
-    8-14 kn, 6-9 km away; 720 bearings (one per 5 s, noise 0.5 deg, ``NULL`` positions,
-    sensor ``sonar``, labels starting ``CONTACT``) over one hour.
-
-    Parameters
-    ----------
-    seed : int, optional
-        Seed of the geometry and the noise.
-
-    Returns
-    -------
-    text : str
-        The file's text.
-    truth : dict
-        ``course`` (deg true) and ``speed`` (knots) of the contact.
-    """
+    """Make a Debrief replay file: own ship, a contact's bearings, the contact's true track."""
     rng = np.random.default_rng(seed)
     scn, course, speed_kn = _replay_scenario(rng)
     meas = scn.simulate(rng=rng)
@@ -196,28 +178,7 @@ sigma = 1.0
 
 
 def drone_sample(seed: int = 0) -> tuple[str, str, dict[str, float]]:
-    """Make a drone receiver log and its mapping (a stationary 433.92 MHz transmitter).
-
-    The drone flies 60 s straight then circles (15 m/s, 3 deg/s, a circle of 286 m radius)
-    at 120 m above mean sea level (GPS noise: 0.5 m horizontal, 2 m vertical, 0.03 m/s); the
-    transmitter stands on the ground at 30 m, 90 m below the drone, somewhere inside the
-    circle.  One row per second for 180 s: RSSI (dBm, noise 2 dB, path-loss exponent 2) and
-    received frequency (Hz, noise 1 Hz).
-
-    Parameters
-    ----------
-    seed : int, optional
-        Seed of the geometry and the noise.
-
-    Returns
-    -------
-    csv_text : str
-        The log (columns ``utc, lat, lon, alt_m, vn, ve, vd, rssi_dbm, freq_hz``).
-    mapping : str
-        Its mapping TOML (:data:`DRONE_MAPPING`).
-    truth : dict
-        ``lat``, ``lon`` (deg) and ``alt`` (m above mean sea level) of the transmitter.
-    """
+    """Make a drone receiver log and its mapping (a stationary 433.92 MHz transmitter)."""
     rng = np.random.default_rng(seed)
     scn = _drone_scenario(rng)
     meas = scn.simulate(rng=rng)
@@ -282,23 +243,7 @@ def _nmea_lines(t: NDArray[np.float64], states: NDArray[np.float64]) -> list[str
 
 
 def gpx_nmea_sample(seed: int = 0) -> tuple[str, str, str, str, dict[str, float]]:
-    """Make a boat's own track (GPX and NMEA) and a CSV of bearings to a fixed beacon.
-
-    The boat (5 m/s) zig-zags for 20 minutes (fixes every 5 s); one bearing every 10 s
-    (noise 1 deg) to a beacon 3-5 km away.
-
-    Parameters
-    ----------
-    seed : int, optional
-        Seed of the geometry and the noise.
-
-    Returns
-    -------
-    gpx, nmea, bearings_csv, mapping : str
-        The files' texts (the mapping is :data:`BEARINGS_MAPPING`).
-    truth : dict
-        ``lat``, ``lon`` (deg) of the beacon.
-    """
+    """Make a boat's own track (GPX and NMEA) and a CSV of bearings to a fixed beacon."""
     import gpxpy.gpx
 
     from ..scenario.files import scenario_from_dict

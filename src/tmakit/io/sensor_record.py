@@ -72,22 +72,7 @@ class SensorRecord:
 
     def fill(self, rows: NDArray[np.intp], time_ref: NDArray[np.float64],
              ref: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """Fill ``ref[rows]`` with the state at ``time_ref[rows]``; flag rows without one.
-
-        Parameters
-        ----------
-        rows : numpy.ndarray of int
-            The rows whose reference state is wanted.
-        time_ref : numpy.ndarray
-            Every row's reference time (s).
-        ref : numpy.ndarray, shape (n, 6)
-            Filled in place at ``rows`` (m, m/s).
-
-        Returns
-        -------
-        numpy.ndarray of bool
-            For each of ``rows``: its ``time_ref`` is outside the sensor's rows (not filled).
-        """
+        """Fill ``ref[rows]`` with the state at ``time_ref[rows]``; flag rows without one."""
         missing = np.ones(rows.shape[0], dtype=bool)
         m = self.times.shape[0]
         if m == 0:

@@ -48,31 +48,7 @@ MAX_POINTS = 10_000
 
 def solution_answers(meas: MeasurementSet, result: EstimateResult, every: float = 60.0,
                      sensor: str | None = None, level: float = 0.95) -> list[Answer]:
-    """Give the solution's answers every ``every`` seconds over the data's span.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements fitted.
-    result : EstimateResult
-        The estimate.
-    every : float
-        Seconds between points (the last time is always written).
-    sensor : str, optional
-        The sensor the ranges and bearings are from (default: the answers' default).
-    level : float
-        Probability inside the ellipses.
-
-    Returns
-    -------
-    list of Answer
-        One per time.
-
-    Raises
-    ------
-    ValueError
-        For ``every`` not positive, or more than :data:`MAX_POINTS` points.
-    """
+    """Give the solution's answers every ``every`` seconds over the data's span."""
     if not every > 0:
         raise ValueError(f"the step between solution points must be > 0 s, got {every:g}")
     t0, t1 = float(meas.time.min()), float(meas.time.max())
@@ -128,24 +104,7 @@ def _motion_tokens(a: Answer) -> str:
 
 def rep_lines(answers: list[Answer], solution: str, label: str,
               range_bearing: bool = False) -> list[str]:
-    """Give the Debrief lines of a solution (``;TMA_POS:``; ``;TMA_RB:`` when asked).
-
-    Parameters
-    ----------
-    answers : list of Answer
-        The solution's points (with clock times and positions).
-    solution : str
-        The solution's name (one token).
-    label : str
-        The label ending each line.
-    range_bearing : bool
-        Write a ``;TMA_RB:`` line after each ``;TMA_POS:`` line.
-
-    Returns
-    -------
-    list of str
-        The lines.
-    """
+    """Give the Debrief lines of a solution (``;TMA_POS:``; ``;TMA_RB:`` when asked)."""
     lines = []
     for a in answers:
         assert a.clock is not None and a.geodetic is not None
@@ -191,22 +150,7 @@ def _point_properties(a: Answer) -> dict[str, Any]:
 
 def geojson_document(answers: list[Answer], origin: tuple[float, float, float],
                      properties: dict[str, Any]) -> dict[str, Any]:
-    """Give the solution as an RFC 7946 FeatureCollection.
-
-    Parameters
-    ----------
-    answers : list of Answer
-        The solution's points.
-    origin : tuple
-        The ENU origin (lat, lon, alt).
-    properties : dict
-        The track's properties (method, motion, status, chi-square).
-
-    Returns
-    -------
-    dict
-        The GeoJSON object.
-    """
+    """Give the solution as an RFC 7946 FeatureCollection."""
     coords = [[float(a.geodetic[1]), float(a.geodetic[0])]  # type: ignore[index,arg-type]
               for a in answers]
     features: list[dict[str, Any]] = [{"type": "Feature", "properties": {**properties,
@@ -254,42 +198,7 @@ def _write_kml(path: Path, answers: list[Answer], origin: tuple[float, float, fl
 def write_solution(path: str | Path, meas: MeasurementSet, result: EstimateResult, *,
                    every: float = 60.0, sensor: str | None = None, range_bearing: bool = False,
                    name: str | None = None, level: float = 0.95, force: bool = False) -> Path:
-    """Write a batch solution as Debrief lines (``.rep``), GeoJSON (``.geojson``) or KML.
-
-    Parameters
-    ----------
-    path : str or Path
-        The file; its suffix names the format (:data:`SOLUTION_SUFFIXES`).
-    meas : MeasurementSet
-        The measurements fitted (their ENU origin and clock time).
-    result : EstimateResult
-        The estimate.
-    every : float
-        Seconds between points.
-    sensor : str, optional
-        The vessel of Debrief's lines and the sensor of ranges and bearings.
-    range_bearing : bool
-        ``.rep``: add ``;TMA_RB:`` lines.
-    name : str, optional
-        The solution's name (default ``TMAKIT``).
-    level : float
-        Probability inside the ellipses.
-    force : bool
-        Overwrite an existing file.
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    ValueError
-        For an unknown suffix, a set without ENU origin (or, for ``.rep``, clock time), or a
-        fit that is no answer.
-    FileExistsError
-        If ``path`` exists and not ``force``.
-    """
+    """Write a batch solution as Debrief lines (``.rep``), GeoJSON (``.geojson``) or KML."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SOLUTION_SUFFIXES:

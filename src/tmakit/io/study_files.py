@@ -20,28 +20,6 @@ STUDY_SUFFIXES = tuple(TABLE_SUFFIXES)
 
 def write_study_table(res: MonteCarloResult, path: str | os.PathLike[str],
                       force: bool = False) -> Path:
-    """Write the per-run table of a Monte Carlo study.
-
-    Parameters
-    ----------
-    res : MonteCarloResult
-        The study (from :func:`tmakit.monte_carlo`).
-    path : str or path-like
-        ``.csv``, ``.parquet`` or ``.pq``.
-    force : bool
-        Overwrite an existing file.
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-
-    Raises
-    ------
-    ValueError
-        Another suffix.
-    FileExistsError
-        ``path`` exists and not ``force``.
-    """
+    """Write the per-run table of a Monte Carlo study."""
     # write_table refuses another suffix, naming "the per-run table".
     return write_table(path, res.table, force=force, what="the per-run table")

@@ -245,35 +245,7 @@ def _track_states(tab: _Table, track: Fixes, frame: LocalFrame, t: NDArray[np.fl
 def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
                   origin: Any = None, dim: int | None = None, track: str | None = None,
                   **_: object) -> MeasurementSet:
-    """Read a wide CSV/Parquet log through a column mapping (see the module text).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The log (``.csv``, ``.parquet``, ``.pq``).
-    mapping : LogMapping or str or os.PathLike
-        The mapping, or the path of its TOML file.
-    origin : (lat, lon, alt), optional
-        ENU origin (deg, deg, m); default the mapping's, else the first fix.
-    dim : int, optional
-        2 or 3 to override the surface rule.
-    track : str, optional
-        A GPX or NMEA own track, instead of the mapping's ``track``.
-    **_
-        Options of other readers, ignored.
-
-    Returns
-    -------
-    MeasurementSet
-        One row per measurement cell; metadata ``time_origin``, the frame, ``source``,
-        ``velocity_source``.
-
-    Raises
-    ------
-    MeasurementFileError
-        If the mapping is missing or invalid, a column is missing, or a cell is unreadable
-        (naming row, line and column).
-    """
+    """Read a wide CSV/Parquet log through a column mapping (see the module text)."""
     from .log_mapping import LogMapping, MappingError, load_mapping
 
     path = Path(path)
@@ -394,29 +366,7 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
 
 def read_track_log(path: str | os.PathLike[str], *, measurements: Any = None,
                    mapping: Any = None, **options: Any) -> MeasurementSet:
-    """Read a GPX or NMEA own track joined by time to a wide measurement log.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The own track (``.gpx``, ``.nmea``).
-    measurements : str or os.PathLike
-        The wide log of measurements (CSV or Parquet).
-    mapping : LogMapping or str or os.PathLike
-        The log's mapping (its ``track`` is replaced by ``path``).
-    **options
-        As :func:`read_wide_log` (``origin``, ``dim``).
-
-    Returns
-    -------
-    MeasurementSet
-        As :func:`read_wide_log`.
-
-    Raises
-    ------
-    MeasurementFileError
-        If the measurement log is not given, or as :func:`read_wide_log`.
-    """
+    """Read a GPX or NMEA own track joined by time to a wide measurement log."""
     if measurements is None:
         raise MeasurementFileError(path, [
             "an own track gives the sensor's positions only: give the measurement log too "

@@ -23,56 +23,18 @@ FILE_OFFSET = np.array([float(KINDS[k].file_offset) for k in KIND_NAMES])
 
 @functools.cache
 def kind_table(width: int) -> NDArray[np.str_]:
-    """Give :data:`KIND_NAMES` as a numpy string array (cached).
-
-    Parameters
-    ----------
-    width : int
-        Characters per string (``<U{width}``).
-
-    Returns
-    -------
-    ndarray of str
-        The kind names, indexed by kind code.
-    """
+    """Give :data:`KIND_NAMES` as a numpy string array (cached)."""
     return np.array(KIND_NAMES, dtype=f"<U{width}")
 
 
 @functools.cache
 def kind_flags(hook: str) -> NDArray[np.bool_]:
-    """Give the boolean hook ``hook`` of every kind, by kind code (cached).
-
-    Parameters
-    ----------
-    hook : str
-        A boolean attribute of :class:`~tmakit.measurements.MeasurementModel`.
-
-    Returns
-    -------
-    ndarray of bool
-        The attribute of each kind, indexed by kind code.
-    """
+    """Give the boolean hook ``hook`` of every kind, by kind code (cached)."""
     return np.array([bool(getattr(KINDS[k], hook)) for k in KIND_NAMES], dtype=bool)
 
 
 def kind_codes(kind: NDArray[np.str_]) -> NDArray[np.int8]:
-    """Give the kind codes (:data:`KIND_CODES`) of a string column.
-
-    Parameters
-    ----------
-    kind : ndarray of str
-        ``(n,)`` kind names.
-
-    Returns
-    -------
-    ndarray of int8
-        ``(n,)`` codes.
-
-    Raises
-    ------
-    ValueError
-        For an unknown kind, naming it and the known ones.
-    """
+    """Give the kind codes (:data:`KIND_CODES`) of a string column."""
     codes = np.full(kind.shape[0], -1, dtype=np.int8)
     for code, name in enumerate(KIND_NAMES):
         codes[kind == name] = code
@@ -84,41 +46,14 @@ def kind_codes(kind: NDArray[np.str_]) -> NDArray[np.int8]:
 
 
 def run_starts(column: NDArray[Any]) -> NDArray[np.intp]:
-    """Return the indices where a new run of equal values starts (a sensor's rows come in runs).
-
-    Parameters
-    ----------
-    column : ndarray
-        ``(n,)`` values.
-
-    Returns
-    -------
-    ndarray of int
-        Increasing indices, the first 0 (empty for an empty column).
-    """
+    """Return the indices where a new run of equal values starts (a sensor's rows come in runs)."""
     if column.shape[0] == 0:
         return np.zeros(0, dtype=np.intp)
     return np.flatnonzero(np.concatenate(([True], column[1:] != column[:-1])))
 
 
 def first_appearance(values: NDArray[Any]) -> tuple[NDArray[Any], NDArray[np.intp]]:
-    """Distinct ``values`` in order of first appearance, and each value's rank in that order.
-
-    Vectorised: only the starts of runs of equal values are sorted, so a column whose rows come
-    grouped (as sensors do) costs one comparison pass.
-
-    Parameters
-    ----------
-    values : ndarray
-        ``(n,)`` values (e.g. sensor names).
-
-    Returns
-    -------
-    distinct : ndarray
-        The distinct values in order of first appearance.
-    rank : ndarray of int
-        ``(n,)`` each value's index into ``distinct``.
-    """
+    """Distinct ``values`` in order of first appearance, and each value's rank in that order."""
     starts = run_starts(values)
     if starts.shape[0] == 1:  # one run (one sensor): nothing to sort
         return values[:1], np.zeros(values.shape[0], dtype=np.intp)

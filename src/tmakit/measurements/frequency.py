@@ -107,11 +107,7 @@ class Frequency(MeasurementModel):
         return self._carrier(t, nuisance, rdot.shape) * (1.0 - rdot / self.c)
 
     def _design(self, small: Array, t: ArrayLike | None) -> tuple[Array, Array, Array]:
-        """Give ``(h0, A_const, A_var)`` from ``small = -rdot / c``.
-
-        The constant part of the design is ``(1, t)``, the geometry enters only through the
-        small ``-rdot / c``.
-        """
+        """Give ``(h0, A_const, A_var)`` from ``small = -rdot / c``."""
         ones = np.ones((*small.shape, 1))
         if not self.drift:
             return np.zeros(small.shape), ones, small[..., None]

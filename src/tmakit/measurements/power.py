@@ -117,11 +117,7 @@ class Power(MeasurementModel):
         return h0, const + var
 
     def _design(self, r2: Array) -> tuple[Array, Array, Array]:
-        """Give ``(h0, A_const, A_var)`` from the squared range ``r2``.
-
-        The constant's column is 1, the exponent's (when unknown) ``-10 log10 R``; with a
-        known exponent ``-10 n log10 R`` is ``h0``.
-        """
+        """Give ``(h0, A_const, A_var)`` from the squared range ``r2``."""
         minus_10_log_r = np.log(r2) * (-0.5 * _TEN_OVER_LN10)
         ones = np.ones((*r2.shape, 1))
         if self.exponent is None:

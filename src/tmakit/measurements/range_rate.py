@@ -28,21 +28,6 @@ def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
                             ) -> tuple[np.ndarray, np.ndarray]:
     """Give the range rate and its gradient with respect to the relative state.
 
-    Parameters
-    ----------
-    rel : ndarray
-        Relative states ``(..., n, 6)``: position m, velocity m/s.
-    scale : float, optional
-        Factor applied to both outputs (e.g. ``-1 / c`` for a Doppler shift), default 1.
-
-    Returns
-    -------
-    rdot : ndarray
-        ``scale * p.v / |p|``, ``(..., n)``, m/s times the units of ``scale``.
-    grad : ndarray
-        ``(..., n, 6)`` in ``rel``'s memory layout: 1/s (position part) and dimensionless
-        (velocity part), times the units of ``scale``.
-
     References
     ----------
     Gu et al. (2007), eq. 6 (the combined radial velocity ``v_k``).
@@ -59,18 +44,7 @@ def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
 
 
 def range_rate_row(rel: tuple[float, ...]) -> tuple[float, ...]:
-    """Give :func:`range_rate_and_gradient` (scale 1) for one row in plain floats.
-
-    Parameters
-    ----------
-    rel : tuple of float
-        The relative state ``(x, y, z, vx, vy, vz)`` (m, m/s).
-
-    Returns
-    -------
-    tuple of float
-        The range rate (m/s) and its six derivatives (1/s, dimensionless).
-    """
+    """Give :func:`range_rate_and_gradient` (scale 1) for one row in plain floats."""
     px, py, pz, vx, vy, vz = rel
     inv_r = 1.0 / math.sqrt(px * px + py * py + pz * pz)
     ux, uy, uz = px * inv_r, py * inv_r, pz * inv_r

@@ -31,25 +31,7 @@ NOISE_FORMS = ("shared", "independent")
 
 
 def noise_form(text: str, where: str) -> str:
-    """Check a noise form (``shared`` or ``independent``).
-
-    Parameters
-    ----------
-    text : str
-        The form as given.
-    where : str
-        What gave it, for the message (an option, a file's metadata key).
-
-    Returns
-    -------
-    str
-        The form, stripped and lower-case.
-
-    Raises
-    ------
-    ValueError
-        If it is not one of :data:`NOISE_FORMS`.
-    """
+    """Check a noise form (``shared`` or ``independent``)."""
     form = str(text).strip().lower()
     if form not in NOISE_FORMS:
         raise ValueError(f"{where}: expected one of {', '.join(NOISE_FORMS)}, found {text!r}")

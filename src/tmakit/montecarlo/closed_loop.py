@@ -118,12 +118,7 @@ class LoopChunk:
         return len(self.records)
 
     def table(self) -> pd.DataFrame:
-        """Return the chunk's rows of the per-step table (module docstring).
-
-        Returns
-        -------
-        pandas.DataFrame
-        """
+        """Return the chunk's rows of the per-step table (module docstring)."""
         frames = []
         for i, rec in enumerate(self.records):
             cols = rec.columns()
@@ -135,17 +130,7 @@ class LoopChunk:
 
 
 def run_loop_chunk(task: LoopTask) -> LoopChunk:
-    """Run a task's closed loops (in this process or on a Dask worker).
-
-    Parameters
-    ----------
-    task : LoopTask
-        The task.
-
-    Returns
-    -------
-    LoopChunk
-    """
+    """Run a task's closed loops (in this process or on a Dask worker)."""
     c = task.case
     return LoopChunk(c.name, task.first_run,
                      [run_closed_loop(c.policy, c.plan, c.setup, s) for s in task.seeds])

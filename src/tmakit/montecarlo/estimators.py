@@ -25,20 +25,7 @@ def available_estimators() -> tuple[str, ...]:
 
 
 def check_estimator(estimator: str, known_nuisance: bool) -> None:
-    """Refuse an estimator the study cannot run.
-
-    Parameters
-    ----------
-    estimator : str
-        A name of :func:`available_estimators`.
-    known_nuisance : bool
-        Whether the estimator is to be given the true nuisance values.
-
-    Raises
-    ------
-    ValueError
-        An unknown name, or known nuisance values for an estimator that cannot take them.
-    """
+    """Refuse an estimator the study cannot run."""
     names = available_estimators()
     if not isinstance(estimator, str) or estimator not in names:
         raise ValueError(f"unknown estimator {estimator!r}; expected one of {', '.join(names)}")

@@ -52,22 +52,7 @@ class _NoBar:
 
 
 def progress_bar(total: int, enabled: bool, desc: str) -> Any:
-    """Open a tqdm progress bar over ``total`` runs, or a silent stand-in.
-
-    Parameters
-    ----------
-    total : int
-        Runs.
-    enabled : bool
-        Show a bar (warns and goes without when tqdm is not installed).
-    desc : str
-        The bar's label.
-
-    Returns
-    -------
-    object
-        Something with ``update(n)`` and ``close()``.
-    """
+    """Open a tqdm progress bar over ``total`` runs, or a silent stand-in."""
     if not enabled:
         return _NoBar()
     try:
@@ -81,25 +66,7 @@ def progress_bar(total: int, enabled: bool, desc: str) -> Any:
 
 def run_local(tasks: Sequence[Any], bar: Any, fn: Callable[[Any], Any] = run_chunk,
               on_done: Callable[[Any], None] | None = None) -> list[Any]:
-    """Run the chunks one after the other in this process.
-
-    Parameters
-    ----------
-    tasks : sequence of ChunkTask
-        The chunks (or the tasks ``fn`` takes).
-    bar : object
-        Progress bar (:func:`progress_bar`).
-    fn : callable, optional
-        What computes one chunk (default :func:`~.runs.run_chunk`); its output has ``len()``,
-        the number of runs done.
-    on_done : callable, optional
-        Called with each chunk's output as soon as it is finished (to save it).
-
-    Returns
-    -------
-    list of ChunkOutput
-        In the order of ``tasks`` (outputs of ``fn``).
-    """
+    """Run the chunks one after the other in this process."""
     outputs = []
     for task in tasks:
         res = fn(task)
@@ -111,11 +78,7 @@ def run_local(tasks: Sequence[Any], bar: Any, fn: Callable[[Any], Any] = run_chu
 
 
 def _single_threaded_worker() -> None:
-    """Set up a pool worker, a process of tmakit's own: BLAS on one thread, freed memory kept.
-
-    The cores go to the workers; the allocator keeps the temporaries a chunk frees
-    (:func:`~.memory.keep_freed_memory`).  The user's own process is never changed.
-    """
+    """Set up a pool worker, a process of tmakit's own: BLAS on one thread, freed memory kept."""
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1, user_api="blas")
@@ -123,11 +86,7 @@ def _single_threaded_worker() -> None:
 
 
 def _pool_context() -> Any:
-    """Give the start method of the pool's workers.
-
-    Fork on Linux (a worker starts in milliseconds, tmakit already imported); else the
-    platform's default (spawn: each worker imports tmakit once).
-    """
+    """Give the start method of the pool's workers."""
     methods = multiprocessing.get_all_start_methods()
     if sys.platform.startswith("linux") and "fork" in methods:
         return multiprocessing.get_context("fork")
@@ -136,31 +95,7 @@ def _pool_context() -> Any:
 
 def run_pool(tasks: Sequence[Any], workers: int, bar: Any, fn: Callable[[Any], Any] = run_chunk,
              on_done: Callable[[Any], None] | None = None) -> list[Any]:
-    """Run the chunks in ``workers`` processes of this machine.
-
-    Each worker keeps BLAS to one thread; the chunks are handed out as workers free up, so
-    start-up (one process per worker, not per chunk) is paid once per study.
-
-    Parameters
-    ----------
-    tasks : sequence of ChunkTask
-        The chunks (or the tasks ``fn`` takes; picklable).
-    workers : int
-        Worker processes (>= 1).
-    bar : object
-        Progress bar (:func:`progress_bar`).
-    fn : callable, optional
-        What computes one chunk (default :func:`~.runs.run_chunk`), importable by the
-        workers; its output has ``len()``.
-    on_done : callable, optional
-        Called here with each chunk's output as soon as it arrives (to save it).
-
-    Returns
-    -------
-    list of ChunkOutput
-        In the order they finished (outputs of ``fn``).  An error or an interrupt cancels
-        the chunks not started and waits for the running ones.
-    """
+    """Run the chunks in ``workers`` processes of this machine."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     outputs = []
@@ -185,25 +120,7 @@ def run_pool(tasks: Sequence[Any], workers: int, bar: Any, fn: Callable[[Any], A
 
 
 def dask_client(dask: Any) -> tuple[Client, bool]:
-    """Return a Dask client for ``dask`` and whether it was opened here (then close it).
-
-    Parameters
-    ----------
-    dask : str or distributed.Client
-        A scheduler address (``"tcp://host:8786"``) or a client.
-
-    Returns
-    -------
-    tuple
-        ``(client, opened)``.
-
-    Raises
-    ------
-    ImportError
-        Dask's distributed scheduler is not installed.
-    ValueError
-        ``dask`` is neither an address nor a client.
-    """
+    """Return a Dask client for ``dask`` and whether it was opened here (then close it)."""
     try:
         from distributed import Client
     except ImportError:
@@ -218,11 +135,7 @@ def dask_client(dask: Any) -> tuple[Client, bool]:
 
 
 def _keep_freed_memory_on(client: Client) -> None:
-    """Have the cluster's worker processes keep freed memory (:mod:`.memory`), not this one.
-
-    Workers are compute processes (Dask's nanny tunes their allocator too); a worker that
-    runs in this process (a threads-only local cluster) is the user's process: left alone.
-    """
+    """Have the cluster's worker processes keep freed memory (:mod:`.memory`), not this one."""
     pids = client.run(os.getpid)
     if os.getpid() not in set(pids.values()):
         client.run(keep_freed_memory)
@@ -231,28 +144,7 @@ def _keep_freed_memory_on(client: Client) -> None:
 def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
              fn: Callable[[Any], Any] = run_chunk,
              on_done: Callable[[Any], None] | None = None) -> list[Any]:
-    """Run the chunks on a Dask cluster (workers must be able to import tmakit).
-
-    Parameters
-    ----------
-    tasks : sequence of ChunkTask
-        The chunks (or the tasks ``fn`` takes).
-    client : distributed.Client
-        The cluster's client.
-    bar : object
-        Progress bar (:func:`progress_bar`).
-    fn : callable, optional
-        What computes one chunk (default :func:`~.runs.run_chunk`), importable by the
-        workers; its output has ``len()``.
-    on_done : callable, optional
-        Called here with each chunk's output as soon as it arrives (to save it).
-
-    Returns
-    -------
-    list of ChunkOutput
-        In the order they finished (outputs of ``fn``).  An error or an interrupt cancels
-        the rest.
-    """
+    """Run the chunks on a Dask cluster (workers must be able to import tmakit)."""
     from distributed import as_completed
 
     _keep_freed_memory_on(client)
@@ -274,27 +166,7 @@ def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
 
 def default_chunk(runs: int, estimator: str, client: Client | None,
                   compiled: bool = False) -> int:
-    """Return the runs per chunk when none is asked for.
-
-    Parameters
-    ----------
-    runs : int
-        Runs of the study.
-    estimator : str
-        ``"ml"`` (batched: larger chunks) or another.
-    client : distributed.Client or None
-        The Dask client, or ``None`` in this process.
-    compiled : bool
-        Whether the fits evaluate by the compiled kernel (its batches cost no memory of
-        their size: larger chunks pay).
-
-    Returns
-    -------
-    int
-        :data:`LOCAL_CHUNK` (:data:`COMPILED_CHUNK` compiled) or :data:`LOOP_CHUNK` in this
-        process; on Dask about four chunks per worker thread (to balance the load), at most
-        that.
-    """
+    """Return the runs per chunk when none is asked for."""
     most = COMPILED_CHUNK if compiled and estimator == "ml" else LOCAL_CHUNK
     if client is None:
         return most if estimator == "ml" else LOOP_CHUNK

@@ -101,22 +101,7 @@ def _leg_durations(rng: np.random.Generator, total: float, n: int) -> NDArray[np
 
 
 def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
-    """Draw a manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin.
-
-    See the module docstring for the distribution.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-        The random generator.
-
-    Returns
-    -------
-    track : LegsTrack
-        The sensor's legs (m, m/s, rad/s).
-    duration : float
-        The observation time ``T`` its legs fill (s).
-    """
+    """Draw a manoeuvring :class:`~tmakit.sensors.LegsTrack` from the origin."""
     total = _uniform(rng, OBSERVATION_TIME)
     lo, hi = LEG_DURATION
     counts = [n for n in LEG_COUNTS if n * lo <= total <= n * hi]
@@ -137,29 +122,7 @@ def random_sensor(rng: np.random.Generator) -> tuple[LegsTrack, float]:
 
 def random_geometry(rng: np.random.Generator, kinds: Sequence[str] | None = None
                     ) -> Scenario:
-    """Draw a random 2-D constant-velocity target heard by one manoeuvring sensor.
-
-    The distribution is described in the module docstring; the same generator state gives
-    the same scenario.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-        The random generator.
-    kinds : sequence of str, optional
-        A non-empty subset of ``("bearing", "frequency", "power")`` fixing the measurement
-        mix; by default it is drawn too.
-
-    Returns
-    -------
-    Scenario
-        The scenario: ``cv2d`` truth (m, m/s), one sensor, nuisance values (Hz, dBW).
-
-    Raises
-    ------
-    ValueError
-        If ``kinds`` is empty or holds another kind.
-    """
+    """Draw a random 2-D constant-velocity target heard by one manoeuvring sensor."""
     if kinds is not None:
         kinds = tuple(kinds)
         unknown = [k for k in kinds if k not in STUDY_KINDS]
@@ -210,21 +173,6 @@ def random_geometry(rng: np.random.Generator, kinds: Sequence[str] | None = None
 def position_std(scenario: Scenario, t: float | None = None) -> float:
     """Return the CRB on the horizontal position error (nuisance parameters unknown).
 
-    The error is ``sqrt(var x + var y)`` in metres at time ``t`` (default: the middle of the
-    observation).
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The scenario, bounded at its truth (:func:`tmakit.bounds.crlb`).
-    t : float, optional
-        The time (s).
-
-    Returns
-    -------
-    float
-        The standard deviation (m); ``inf`` when the bound is rank deficient.
-
     References
     ----------
     Gu et al. (2007), eqs. 17–18: the Fisher information of power and Doppler rows, of which
@@ -243,34 +191,7 @@ def position_std(scenario: Scenario, t: float | None = None) -> float:
 def observable_geometry(rng: np.random.Generator, max_position_std: float = 2000.0,
                         max_tries: int = 100, kinds: Sequence[str] | None = None
                         ) -> Scenario:
-    """Draw a :func:`random_geometry` that is *observable*, redrawn until it is.
-
-    "Observable" means exactly: the Cramér–Rao bound with the nuisance parameters unknown
-    (:func:`tmakit.bounds.crlb` of the scenario at its truth) has full rank, **and** its
-    horizontal position standard deviation ``sqrt(var x + var y)`` at the middle of the
-    observation is below ``max_position_std`` metres (see :func:`position_std`).
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-        The random generator.
-    max_position_std : float
-        The position standard deviation to beat (m).
-    max_tries : int
-        Draws before giving up.
-    kinds : sequence of str, optional
-        As for :func:`random_geometry`.
-
-    Returns
-    -------
-    Scenario
-        The first observable draw.
-
-    Raises
-    ------
-    RuntimeError
-        After ``max_tries`` draws without an observable one.
-    """
+    """Draw a :func:`random_geometry` that is *observable*, redrawn until it is."""
     best = float("inf")
     for _ in range(max_tries):
         scenario = random_geometry(rng, kinds)
@@ -288,39 +209,6 @@ def final_position_rms(source: str | Scenario = "bearings-only-2d",
                        q: float | ArrayLike = 0.0, trajectories: int | None = 200,
                        rng: np.random.Generator | int | None = None) -> float:
     """Return the posterior-CRB bound on the RMS position error (m) after the last update.
-
-    A one-number figure for benchmarks: by default on ``bearings-only-2d`` with the prior
-    centred on the truth at ``time0``.
-
-    Parameters
-    ----------
-    source : str or Scenario
-        A built-in scenario name (or file, as :func:`tmakit.load_scenario` takes) or a
-        scenario.
-    prior_mean : array_like, optional
-        (n,) m, m/s; default: the scenario's true state at ``time0``.
-    prior_cov : array_like
-        (n, n), SI; required.
-    time0 : float, optional
-        The prior's time, s (default: the first measurement time).
-    q : float or array_like
-        Process noise, m/s^2 (one value or one per axis).
-    trajectories : int or None
-        None: the deterministic-trajectory bound (:func:`tmakit.bounds.deterministic_pcrb`);
-        otherwise the Monte Carlo expectation of :func:`tmakit.bounds.posterior_crb` over
-        that many trajectories.
-    rng : Generator or int, optional
-        For the Monte Carlo trajectories.
-
-    Returns
-    -------
-    float
-        The bound on the final RMS position error, m.
-
-    Raises
-    ------
-    ValueError
-        Without ``prior_cov``.
 
     References
     ----------

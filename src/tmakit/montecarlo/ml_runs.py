@@ -65,27 +65,7 @@ class RunSummaries:
 
 def solve_runs(ml: MaximumLikelihood, meas: MeasurementSet, values: NDArray[np.float64],
                motion: MotionModel) -> tuple[VarProProblem, list[Best | Exception]]:
-    """Solve every run's values on the shared rows, as :meth:`MaximumLikelihood.fit_many`.
-
-    Parameters
-    ----------
-    ml : MaximumLikelihood
-        The estimator (its ``init``, ``options``, ``known_nuisance``, ``grid``,
-        ``max_iter``).
-    meas : MeasurementSet
-        The rows the runs share (their values are not used).
-    values : ndarray, shape (runs, n)
-        Each run's values (SI), in the rows of ``meas``.
-    motion : MotionModel
-        A motion model without manoeuvres.
-
-    Returns
-    -------
-    problem : VarProProblem
-        The problem solved (observation and noise model, nuisance fixed or eliminated).
-    bests : list of Best or Exception
-        Per run: its best fit, or the error a fit of it alone raises.
-    """
+    """Solve every run's values on the shared rows, as :meth:`MaximumLikelihood.fit_many`."""
     known = as_known_nuisance(ml.known_nuisance)  # (one already: as it is)
     obs = ObservationModel(meas, motion, ml.options)
     fixed = None if known is None else obs.nuisance_vector(known.values)
@@ -118,24 +98,7 @@ def _without_guess(ml: MaximumLikelihood, problem: VarProProblem,
 
 def summarise_runs(problem: VarProProblem, bests: list[Best | Exception],
                    known: KnownNuisance | None) -> RunSummaries:
-    """Summarise each run's fit as :func:`~tmakit.results.estimate.assemble_result` would.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The problem solved (:func:`solve_runs`).
-    bests : list of Best or Exception
-        Per run its best fit or its error.
-    known : KnownNuisance or None
-        The nuisance values the runs were given (then not among the unknowns); None:
-        estimated.
-
-    Returns
-    -------
-    RunSummaries
-        Status (the information's rank at the estimate decides ``unobservable``),
-        iterations, chi-square, starts and estimate of every run.
-    """
+    """Summarise each run's fit as :func:`~tmakit.results.estimate.assemble_result` would."""
     obs = problem.obs
     m, p = len(bests), obs.motion.n_params
     out = RunSummaries([None] * m, np.zeros(m, np.int64), np.full(m, np.nan),

@@ -65,38 +65,14 @@ RESAMPLES = 2000
 
 
 def leg_duration(setup: PlanningSetup) -> float:
-    """Return the mission planner's leg, s: the table's, or a tenth of the duration.
-
-    Parameters
-    ----------
-    setup : PlanningSetup
-        The planning table.
-
-    Returns
-    -------
-    float
-        A whole number of decision intervals.
-    """
+    """Return the mission planner's leg, s: the table's, or a tenth of the duration."""
     if setup.leg_duration is not None:
         return float(setup.leg_duration)
     return max(1, round(setup.steps / DEFAULT_LEGS)) * setup.interval
 
 
 def mission_planner(setup: PlanningSetup) -> MissionPlanner:
-    """Return the mission planner of a planning table, for its whole duration.
-
-    Parameters
-    ----------
-    setup : PlanningSetup
-        The planning table.
-
-    Returns
-    -------
-    MissionPlanner
-        The table's kinematics, measurements, criterion, gamma and constraints; legs of
-        :func:`leg_duration` to the end of the duration; range hypotheses if the table asks
-        for more than one.
-    """
+    """Return the mission planner of a planning table, for its whole duration."""
     p = setup.planner
     return MissionPlanner(p.kinematics, p.plan, p.interval, leg_duration(setup),
                           setup.start.time + setup.duration, p.criterion, gamma=p.gamma,
@@ -105,20 +81,7 @@ def mission_planner(setup: PlanningSetup) -> MissionPlanner:
 
 
 def fixed_policy(setup: PlanningSetup) -> TrackPolicy | str:
-    """Return the scenario's fixed pattern as a policy, or why there is none.
-
-    Parameters
-    ----------
-    setup : PlanningSetup
-        The planning table.
-
-    Returns
-    -------
-    TrackPolicy or str
-        The steered sensor's own ``[[sensors]]`` path over the duration (the table's
-        constraints checked along it, not acted on); a sentence when the path does not
-        cover it.
-    """
+    """Return the scenario's fixed pattern as a policy, or why there is none."""
     track = setup.scenario.sensors[setup.sensor]
     times = setup.start.time + setup.interval * np.arange(setup.steps + 1)
     try:
@@ -132,19 +95,7 @@ def fixed_policy(setup: PlanningSetup) -> TrackPolicy | str:
 
 
 def policy(setup: PlanningSetup) -> Policy:
-    """Return what steers the sensor: the mission policy or the horizon planner.
-
-    Parameters
-    ----------
-    setup : PlanningSetup
-        The planning table.
-
-    Returns
-    -------
-    Policy
-        :class:`~tmakit.planning.policies.MissionPolicy` (the fixed pattern one start of its
-        search, when it covers the run) or the table's :class:`~tmakit.planning.Planner`.
-    """
+    """Return what steers the sensor: the mission policy or the horizon planner."""
     if setup.kind != "mission":
         return setup.planner
     k = setup.hypotheses
@@ -154,17 +105,7 @@ def policy(setup: PlanningSetup) -> Policy:
 
 
 def describe(setup: PlanningSetup) -> str:
-    """Say in words which planner steers and how.
-
-    Parameters
-    ----------
-    setup : PlanningSetup
-        The planning table.
-
-    Returns
-    -------
-    str
-    """
+    """Say in words which planner steers and how."""
     p = setup.planner
     if setup.kind == "mission":
         hyp = (f"{setup.hypotheses} range hypotheses, each with its own information"
@@ -177,21 +118,7 @@ def describe(setup: PlanningSetup) -> str:
 
 
 def loop_case(setup: PlanningSetup, name: str = CASE, steer: Policy | None = None) -> LoopCase:
-    """Return a closed-loop case of a planning setup.
-
-    Parameters
-    ----------
-    setup : PlanningSetup
-        From a scenario's ``[planning]`` table.
-    name : str, optional
-        The case's name.
-    steer : Policy, optional
-        What steers (default :func:`policy` of the setup).
-
-    Returns
-    -------
-    LoopCase
-    """
+    """Return a closed-loop case of a planning setup."""
     loop = LoopSetup(setup.target, setup.start, setup.steps, setup.interval, setup.q,
                      setup.prior_std, setup.tracker, setup.particles)
     return LoopCase(name, policy(setup) if steer is None else steer, setup.planner.plan, loop)

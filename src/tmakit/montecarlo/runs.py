@@ -105,33 +105,12 @@ class ChunkOutput:
 
     @classmethod
     def empty(cls, first_run: int, m: int, p: int) -> ChunkOutput:
-        """Make ``m`` failed runs of ``p`` parameters, to be filled in.
-
-        Parameters
-        ----------
-        first_run : int
-            Index of the chunk's first run in the study.
-        m, p : int
-            Number of runs and of motion parameters.
-
-        Returns
-        -------
-        ChunkOutput
-            Every run :data:`FAILED`, estimates NaN.
-        """
+        """Make ``m`` failed runs of ``p`` parameters, to be filled in."""
         return cls(first_run, [FAILED] * m, np.zeros(m, dtype=np.int64), np.full(m, np.nan),
                    np.zeros(m, dtype=np.int64), np.full((m, p), np.nan))
 
     def record(self, i: int, res: Any) -> None:
-        """Store estimate result ``res`` as run ``i`` of the chunk.
-
-        Parameters
-        ----------
-        i : int
-            The run's index in the chunk.
-        res : tmakit.results.EstimateResult
-            Its estimate (SI).
-        """
+        """Store estimate result ``res`` as run ``i`` of the chunk."""
         self.status[i] = str(res.status)
         self.iterations[i] = int(res.iterations)
         self.chi2[i] = float(res.chi2)
@@ -140,18 +119,7 @@ class ChunkOutput:
 
 
 def run_chunk(task: ChunkTask) -> ChunkOutput:
-    """Simulate and estimate the runs of one chunk.
-
-    Parameters
-    ----------
-    task : ChunkTask
-        The chunk.
-
-    Returns
-    -------
-    ChunkOutput
-        Its runs' results.
-    """
+    """Simulate and estimate the runs of one chunk."""
     # One BLAS thread: a chunk's products are many and mid-sized, and the cores are shared
     # with the other chunks (workers or processes), where BLAS threads spin against them.
     with one_thread(), compiled_batches(task.compiled):
@@ -180,10 +148,7 @@ def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
 
 def _ml_batched(task: ChunkTask, meas: MeasurementSet, values: NDArray[np.float64]
                 ) -> ChunkOutput:
-    """:func:`tmakit.batch.ml.estimate` for every run of the chunk, the solves batched.
-
-    ``meas`` holds the rows the runs share, ``values`` each run's values (SI).
-    """
+    """:func:`tmakit.batch.ml.estimate` for every run of the chunk, the solves batched."""
     motion = task.scenario.motion
     ml = MaximumLikelihood(task.init, task.options, task.known_nuisance)
     problem, bests = solve_runs(ml, meas, values, motion)

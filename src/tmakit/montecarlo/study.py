@@ -49,10 +49,7 @@ less than it saves (about 5 us per run and row, measured on gu2007).  Below, the
 
 
 def _compiled(scenario: Scenario, runs: int) -> bool:
-    """Tell whether a study of ``runs`` runs asks for the compiled kernel.
-
-    See :data:`COMPILED_WORK`; the rows of a run are its plans' samples.
-    """
+    """Tell whether a study of ``runs`` runs asks for the compiled kernel."""
     return runs * sum(len(plan.times) for plan in scenario.plans) >= COMPILED_WORK
 
 
@@ -115,11 +112,7 @@ def _cpus() -> int:
 def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
              progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None,
              workers: int = 1) -> tuple[list[ChunkOutput], float, str]:
-    """Run the chunks here, in worker processes or on Dask.
-
-    At most one process per chunk and per CPU is started (more would only wait).  Their
-    outputs in run order, the wall time (s) and the executor's description.
-    """
+    """Run the chunks here, in worker processes or on Dask."""
     processes = min(workers, len(tasks), _cpus())
     bar = progress_bar(runs, progress, bar_label)
     start = time.perf_counter()
@@ -168,11 +161,7 @@ def finished_runs_table(outputs: Sequence[ChunkOutput], names: Sequence[str]
 
 def _table(outputs: Sequence[ChunkOutput], runs: int, names: tuple[str, ...]
            ) -> tuple[pd.DataFrame, dict[int, str]]:
-    """Build the per-run table and the failures.
-
-    The table has ``run``, ``status``, ``iterations``, ``chi2``, ``starts``,
-    ``est_<param>``; both, from the chunks' outputs in run order.
-    """
+    """Build the per-run table and the failures."""
     table = pd.DataFrame({
         "run": np.arange(sum(len(o) for o in outputs), dtype=np.int64),
         "status": np.concatenate([np.asarray(o.status, dtype=object) for o in outputs]),

@@ -40,10 +40,7 @@ from .curvilinear_closed import propagate_with_partials
 def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike, derivatives: bool = False
                ) -> tuple[tuple[Array, ...], Array | None]:
-    """Call :func:`propagate_with_partials`; give ``((x, y, speed, course, vx, vy), D)``.
-
-    ``D`` (``(..., 4, 7)`` or None) holds the derivatives of ``(x, y, speed, course)``.
-    """
+    """Call :func:`propagate_with_partials`; give ``((x, y, speed, course, vx, vy), D)``."""
     values, par = propagate_with_partials(x, y, speed, course, a_t, a_n, dt, derivatives)
     return tuple(np.moveaxis(values, -1, 0)), None if par is None else par[..., :4, :]
 
@@ -77,22 +74,7 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
                                       dt: ArrayLike
                                       ) -> tuple[tuple[NDArray[np.float64], ...],
                                                  NDArray[np.float64]]:
-    """Propagate as :func:`propagate_curvilinear`, with analytic derivatives.
-
-    Parameters
-    ----------
-    x, y, speed, course, a_t, a_n, dt : array_like
-        As for :func:`propagate_curvilinear` (m, m, m/s, rad, m/s^2, m/s^2, s).
-
-    Returns
-    -------
-    states : tuple of ndarray
-        As :func:`propagate_curvilinear`.
-    D : ndarray
-        ``(..., 4, 7)`` with ``D[..., i, j] = d out_i / d in_j`` for outputs
-        ``(x, y, speed, course)`` and inputs ``(x, y, speed, course, a_t, a_n, dt)`` (SI
-        units); NaN where the propagation is undefined.
-    """
+    """Propagate as :func:`propagate_curvilinear`, with analytic derivatives."""
     values, D = _propagate(x, y, speed, course, a_t, a_n, dt, derivatives=True)
     assert D is not None
     return values, D
@@ -183,11 +165,7 @@ class PiecewiseCurvilinear(MotionModel):
     # -- evaluation ------------------------------------------------------------------------
     def _evaluate(self, theta: Array, t: Array, derivatives: bool
                   ) -> tuple[Array, Array, Array | None]:
-        """Evaluate ``theta`` ``(B, p)`` at times ``t``, with derivatives if asked.
-
-        Give Cartesian states ``(B, n, 6)``, intrinsic states ``(B, n, 4)`` (x, y, speed,
-        course) and ``d state / d theta`` ``(B, n, 6, p)`` or None.
-        """
+        """Evaluate ``theta`` ``(B, p)`` at times ``t``, with derivatives if asked."""
         M, p = self.manoeuvres, self.n_params
         B, n = theta.shape[0], t.shape[0]
         acc = theta[:, 4:6 + 2 * M].reshape(B, M + 1, 2)

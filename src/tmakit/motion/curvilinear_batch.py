@@ -96,22 +96,7 @@ class ForwardPiecewise(MotionModel):
 
     @contextmanager
     def derivatives_for(self, free: NDArray[np.bool_] | None) -> Iterator[None]:
-        """Make :meth:`chain` give, within the block, the derivatives for ``free`` only.
-
-        Its columns are then those of the parameters ``free`` (the same values as in the
-        whole Jacobian), the others not formed: for a fit that holds them (a solver given the
-        same ``free`` reads such a Jacobian as its fitted columns).
-
-        Parameters
-        ----------
-        free : ndarray of bool, optional
-            ``(p,)`` the parameters whose derivatives are wanted (None: all).
-
-        Yields
-        ------
-        None
-            Inside the block, :meth:`chain` gives ``(..., n, q)``, ``q`` the number free.
-        """
+        """Make :meth:`chain` give, within the block, the derivatives for ``free`` only."""
         before = self._columns
         self._columns = (None if free is None or np.all(free)
                          else np.flatnonzero(np.asarray(free, dtype=bool)))
@@ -132,20 +117,11 @@ class ForwardPiecewise(MotionModel):
 
     # -- the MotionModel interface -----------------------------------------------------------
     def states(self, theta: ArrayLike, t: ArrayLike) -> Array:
-        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
-
-        Parameters and returns as :meth:`MotionModel.states`; NaN for parameters outside the
-        model's domain (see the class docstring).  The derivatives at the same parameters and
-        times are computed in the same pass and kept for :meth:`chain` (an observation model
-        asks for them next).
-        """
+        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s)."""
         return self._rows_states(theta, t, None)
 
     def states_minus(self, theta: ArrayLike, t: ArrayLike, sensor: Array) -> Array:
-        """Give :meth:`states` minus the sensor's states ``(n, 6)``, in one pass.
-
-        Parameters and returns as :meth:`MotionModel.states_minus` (the same bits).
-        """
+        """Give :meth:`states` minus the sensor's states ``(n, 6)``, in one pass."""
         sensor = np.asarray(sensor, dtype=float)
         t = np.asarray(t, dtype=float)
         if sensor.shape != (t.shape[0], 6):
@@ -171,16 +147,7 @@ class ForwardPiecewise(MotionModel):
 
     def _theta_partials(self, flat: Array, t: Array
                         ) -> tuple[Array, Array, Array, NDArray[np.int64] | None]:
-        """Give the per-segment partials at the unique times ``tu`` of ``t``, cached.
-
-        The segment of every sample ``(B, nu)``, ``d (x, y, vx, vy) / d inputs``
-        ``(B, nu, 4, 7)`` — the inputs being a segment's start state, its accelerations and the
-        time since its start — and the segment start states' derivatives ``(B, M+1, 4, p)``;
-        plus the index of every ``t`` into ``tu`` (None when ``t`` is ``tu``).
-
-        The last result is kept (:meth:`states` makes it): an observation model asks for the
-        states at all its rows and then for the derivatives at the same parameters and times.
-        """
+        """Give the per-segment partials at the unique times ``tu`` of ``t``, cached."""
         key = (flat.tobytes(), flat.shape)
         cache = self._cache
         last_t, last_idx = self._rows
@@ -201,10 +168,7 @@ class ForwardPiecewise(MotionModel):
         return seg_u, par_u, d_anchor, idx
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> Array:
-        """Give the analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s).
-
-        Parameters and returns as :meth:`MotionModel.jacobian`.
-        """
+        """Give the analytic ``d state / d theta`` ``(..., n, 6, p)`` at times ``t`` (s)."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         jac = np.zeros((flat.shape[0], t.shape[0], 6, self.n_params))
@@ -216,19 +180,12 @@ class ForwardPiecewise(MotionModel):
 
     def _chain_flat(self, ds: Array, flat: Array, t: Array,
                     cols: NDArray[np.int64] | None = None) -> Array:
-        """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``.
-
-        With ``cols``, only those columns ``(B, n, q)`` (:func:`.curvilinear_compiled.chain`).
-        """
+        """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``."""
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
         return _compiled().chain(ds, par_u, seg_u, idx, d_anchor, self.manoeuvres, cols)
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
-        """Apply the chain rule, contracting the state axis before the parameter axis.
-
-        No ``(B, n, 6, p)`` array is formed.  Parameters and returns as
-        :meth:`MotionModel.chain`.
-        """
+        """Apply the chain rule, contracting the state axis before the parameter axis."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         cols = self._columns
@@ -240,51 +197,12 @@ class ForwardPiecewise(MotionModel):
 
     def normal_equations(self, d_state: Array, residual: Array, weights: Array,
                          theta: ArrayLike, t: ArrayLike) -> tuple[Array, Array]:
-        """Give ``J'J`` and ``J'r`` of the whitened Jacobian without forming it.
-
-        ``J`` is :meth:`chain` of ``d_state`` with every parameter (``derivatives_for`` not
-        applied: a solver selects its free rows and columns), its rows whitened by
-        ``weights``; summed by segments (:func:`.curvilinear_compiled.segment_normal`).
-
-        Parameters
-        ----------
-        d_state : ndarray
-            ``(B, n, 6)`` derivatives of the predictions by the ENU state.
-        residual : ndarray
-            ``(B, n)`` whitened residuals.
-        weights : ndarray
-            ``(n,)`` inverse standard deviations of the rows.
-        theta : array_like
-            ``(B, p)`` parameters (SI units).
-        t : array_like
-            ``(n,)`` the rows' times (s).
-
-        Returns
-        -------
-        (ndarray, ndarray)
-            ``(B, p, p)`` and ``(B, p)``.
-        """
+        """Give ``J'J`` and ``J'r`` of the whitened Jacobian without forming it."""
         return self.normal_equations_later(d_state, residual, weights, theta, t)(None)
 
     def normal_equations_later(self, d_state: Array, residual: Array, weights: Array,
                                theta: ArrayLike, t: ArrayLike) -> NormalMaker:
-        """Hold what :meth:`normal_equations` needs; sum it later, for the runs asked.
-
-        A solver rejects about a third of its trial points; their ``J'J`` is never summed.
-        The arrays are held as they are (none is written again: the sample partials are
-        those of this ``theta``, made by :meth:`states`).
-
-        Parameters
-        ----------
-        d_state, residual, weights, theta, t
-            As for :meth:`normal_equations`.
-
-        Returns
-        -------
-        callable
-            ``make(runs)``: ``J'J`` ``(R, p, p)`` and ``J'r`` ``(R, p)`` of the rows ``runs``
-            of the batch (None: all), each the same bits as in the whole.
-        """
+        """Hold what :meth:`normal_equations` needs; sum it later, for the runs asked."""
         flat, _ = self._flat(theta)
         t = np.asarray(t, dtype=float)
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
@@ -296,23 +214,7 @@ class ForwardPiecewise(MotionModel):
         return make
 
     def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
-        """Give ``(x, y, speed, course)`` at times ``t``, the course unwrapped.
-
-        These are the parameters of the same trajectory referenced at another time.
-
-        Parameters
-        ----------
-        theta : array_like
-            ``(..., p)`` parameters (SI units).
-        t : array_like
-            ``(n,)`` times (s).
-
-        Returns
-        -------
-        ndarray
-            ``(..., n, 4)`` (m, m, m/s, rad clockwise from North, continuous from the
-            reference course).
-        """
+        """Give ``(x, y, speed, course)`` at times ``t``, the course unwrapped."""
         flat, lead = self._flat(theta)
         t = np.asarray(t, dtype=float)
         _, val, _, _ = self._segments(flat, t, partials=False)

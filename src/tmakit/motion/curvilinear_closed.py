@@ -26,10 +26,7 @@ _L_TERMS = 6
 
 
 def _log1p_over(r: Array) -> tuple[Array, Array]:
-    """Compute ``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1``.
-
-    The closed form of ``L'`` loses ``eps / |r|`` relative, 1e-13 at the switch to the series.
-    """
+    """Compute ``L(r) = log1p(r) / r`` and ``L'(r)``, accurate for all ``r > -1``."""
     if not r.any():  # no tangential acceleration (often held at zero): the series' first terms
         return np.ones_like(r), np.full_like(r, -0.5)
     small = np.abs(r) < _L_SERIES_BELOW
@@ -75,24 +72,7 @@ def _f_series(g: NDArray[np.complex128], r: Array
 
 def segment_terms(v0: Array, a_t: Array, a_n: Array, s: Array, partials: bool
                   ) -> tuple[NDArray[np.bool_], dict[str, Array]]:
-    """Compute the intermediate terms of the closed form for flat inputs.
-
-    Parameters
-    ----------
-    v0, a_t, a_n, s : ndarray
-        ``(n,)`` start speed (m/s), accelerations (m/s^2) and propagation time (s).
-    partials : bool
-        Whether the terms of the derivatives (``Fg``, ``Fr``) are needed.
-
-    Returns
-    -------
-    valid : ndarray of bool
-        ``(n,)`` where the speed stays positive (elsewhere the terms are those of a dummy
-        segment, to be replaced by NaN).
-    terms : dict of str to ndarray
-        ``v0, a_t, a_n, s`` (dummies where invalid) and ``sv, r, c, g, L, dL, E, F`` (and
-        ``Fg, Fr``), in the notation of :mod:`tmakit.motion.curvilinear`.
-    """
+    """Compute the intermediate terms of the closed form for flat inputs."""
     with np.errstate(invalid="ignore"):
         valid = (v0 > 0) & (v0 + a_t * s > 0)
     if not valid.all():
@@ -132,30 +112,6 @@ def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course
                             a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
                             partials: bool = True) -> tuple[Array, Array | None]:
     """Propagate one curvilinear segment by ``dt`` seconds (any sign), with derivatives.
-
-    Parameters
-    ----------
-    x, y : array_like
-        Start position (m, East and North); all inputs broadcast.
-    speed : array_like
-        Start speed (m/s).
-    course : array_like
-        Start course (rad, clockwise from North).
-    a_t, a_n : array_like
-        Tangential and normal acceleration (m/s^2; positive ``a_n`` turns to starboard).
-    dt : array_like
-        Propagation time (s, any sign).
-    partials : bool
-        Whether to compute the derivatives.
-
-    Returns
-    -------
-    values : ndarray
-        ``(..., 6)``: ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad unwrapped, m/s, m/s).
-    partials : ndarray or None
-        ``(..., 6, 7)``: derivatives of ``values`` with respect to
-        ``(x, y, speed, course, a_t, a_n, dt)``; None unless asked for.  Where the speed
-        would reach zero before ``dt`` values and derivatives are NaN.
 
     References
     ----------
@@ -207,11 +163,7 @@ def _complex_partials(parts: dict[str, Array]) -> tuple[Array, Array]:
 
 
 def _partials(parts: dict[str, Array]) -> Array:
-    """Assemble the ``(n, 6, 7)`` derivatives of one segment.
-
-    ``d (x, y, speed, course, vx, vy) / d (x0, y0, v0, phi0, a_t, a_n, s)``, from the
-    intermediate values ``parts`` of :func:`segment_terms` and :func:`_values`.
-    """
+    """Assemble the ``(n, 6, 7)`` derivatives of one segment."""
     dZ, dV = _complex_partials(parts)
     v0, a_t, a_n, s, sv, L, dL = (parts[k] for k in ("v0", "a_t", "a_n", "s", "sv", "L", "dL"))
     inv1r = 1.0 / (1.0 + parts["r"])

@@ -105,23 +105,14 @@ _NAN_C = complex(np.nan, np.nan)
 
 @_inline
 def _over(z: complex, d: float) -> complex:  # pragma: no cover - compiled
-    """Give ``z / d`` for a real ``d > 0``: complex division's result with two divisions.
-
-    Complex division (CPython's algorithm, numba's too) by ``d + 0i`` forms ``(Re z + Im z *
-    0) / d`` and ``(Im z - Re z * 0) / d``: the same values for finite ``z``.
-    """
+    """Give ``z / d`` for a real ``d > 0``: complex division's result with two divisions."""
     return complex(z.real / d, z.imag / d)
 
 
 @_inline
 def _straight(x: float, y: float, v0: float, phi0: float, V0: complex, s: float
               ) -> tuple:  # pragma: no cover - compiled
-    """Give :func:`_segment`'s result for a straight segment (``a_t = a_n = 0``).
-
-    The closed form with ``F = E = 1``, ``dF/dg = 1/2``, ``dF/dr = 0``, every product that
-    is left formed as there: the same values without the logarithm, the exponential and the
-    division (held accelerations are common in the selection's fits).
-    """
+    """Give :func:`_segment`'s result for a straight segment (``a_t = a_n = 0``)."""
     sv = s / v0
     disp = V0 * s
     q = V0 * sv
@@ -133,16 +124,7 @@ def _straight(x: float, y: float, v0: float, phi0: float, V0: complex, s: float
 @_inline
 def _segment(x: float, y: float, v0: float, phi0: float, V0: complex, a_t: float,
              a_n: float, s: float, state_rows: bool) -> tuple:  # pragma: no cover - compiled
-    """Propagate one segment (``ok`` False, NaN everywhere, if the speed dies).
-
-    Give ``(ok, vals, dz, dv, st)``: ``vals`` is ``(x, y, speed, course, vx, vy)``; ``dz``
-    and ``dv`` the derivatives of the position and of the velocity, each as the complex
-    ``North + i East``, with respect to ``(v0, phi0, a_t, a_n, s)`` (with respect to the
-    start position they are the unit matrix and zero); ``st`` (with ``state_rows``) the
-    course's derivatives with respect to ``(v0, a_t, a_n, s)``.  ``V0`` is the start
-    velocity ``v0 exp(i phi0)``.  Scalars are returned, not written into arrays: an array
-    handed to an inner function costs numba more per sample than the closed form itself.
-    """
+    """Propagate one segment (``ok`` False, NaN everywhere, if the speed dies)."""
     if not (v0 > 0.0 and v0 + a_t * s > 0.0):
         nan, nc = np.nan, _NAN_C
         return (False, (nan, nan, nan, nan, nan, nan), (nc, nc, nc, nc, nc),
@@ -175,11 +157,7 @@ def _segment(x: float, y: float, v0: float, phi0: float, V0: complex, a_t: float
 @_inline
 def _write(out: tuple, vals: Array, par: Array, b: int, i: int, partials: bool,
            state_rows: bool, s: float, a_t: float) -> None:  # pragma: no cover - compiled
-    """Write :func:`_segment`'s result into ``vals[b, i]`` (6,) and ``par[b, i]`` (4, 7).
-
-    ``par`` (if ``partials``): the derivatives with respect to ``(x0, y0, v0, phi0, a_t,
-    a_n, s)`` of ``x, y, speed, course`` (``state_rows``) or of ``x, y, vx, vy``.
-    """
+    """Write :func:`_segment`'s result into ``vals[b, i]`` (6,) and ``par[b, i]`` (4, 7)."""
     ok, v6, dz, dv, st = out
     for k in range(6):
         vals[b, i, k] = v6[k]
@@ -214,10 +192,7 @@ def _write(out: tuple, vals: Array, par: Array, b: int, i: int, partials: bool,
 
 @_jit
 def _derive_anchor(p47: Array, prev: Array, m: int, k0: int, d: Array) -> None:  # pragma: no cover
-    """Write into ``d`` (4, p) the derivatives of segment ``m``'s start state.
-
-    From the previous start state's ``prev`` (4, p) and the segment partials ``p47``.
-    """
+    """Write into ``d`` (4, p) the derivatives of segment ``m``'s start state."""
     for i in range(4):
         for c in range(d.shape[1]):
             acc = 0.0
@@ -235,11 +210,7 @@ def _derive_anchor(p47: Array, prev: Array, m: int, k0: int, d: Array) -> None: 
 def _anchors(theta: Array, M: int, ref_time: float, end_time: float, partials: bool,
              anchors: Array, v_start: NDArray[np.complex128], starts: Array,
              d_anchor: Array) -> None:  # pragma: no cover - compiled
-    """Chain one parameter vector's segment start states forwards (NaN outside the domain).
-
-    Writes ``anchors`` (M + 1, 4), their start velocities ``v_start`` (complex), the start
-    times ``starts`` (M + 1,) and, if ``partials``, ``d_anchor`` (M + 1, 4, p).
-    """
+    """Chain one parameter vector's segment start states forwards (NaN outside the domain)."""
     k0 = 6 + 2 * M
     v6 = np.empty((1, 1, 6))
     p47 = np.empty((1, 1, 4, 7))
@@ -339,12 +310,7 @@ def _chain_kernel(ds: Array, par: Array, seg: IntArray, idx: IntArray, d_anchor:
 
 @_jit
 def _column_runs(cols: IntArray, M: int) -> tuple:  # pragma: no cover - compiled
-    """Give, per segment of a row, where :func:`_chain_columns_kernel` writes what.
-
-    ``cols`` increase, so the output columns of the parameters a segment's start state
-    depends on are two runs, ``[0, lo)`` and ``[mid, hi)``, the others are 0; ``own`` are the
-    columns of the segment's own ``a_t``, ``a_n`` and change-over time (-1: not wanted).
-    """
+    """Give, per segment of a row, where :func:`_chain_columns_kernel` writes what."""
     k0 = 6 + 2 * M
     lo = np.zeros(M + 1, dtype=np.int64)
     mid = np.zeros(M + 1, dtype=np.int64)
@@ -447,13 +413,7 @@ def _scatter_relative_kernel(vals: Array, inv: Array, sensor: Array, out: Array
 @_inline
 def _inputs(ds: Array, par: Array, d_anchor: Array, b: int, i: int, u: int, sg: int,
             own: int, w: float, v: Array) -> None:  # pragma: no cover - compiled
-    """Write row ``i``'s whitened derivatives by its segment's inputs into ``v``.
-
-    ``v[6]`` is the row's whole derivative by the segment's own change-over time ``own``
-    (column of the parameters; -1 for the first segment): through the start state and, with a
-    minus sign, the time since the start.  The two nearly cancel (the trajectory is continuous
-    through a change-over), so they are subtracted here, row by row, not in the sums.
-    """
+    """Write row ``i``'s whitened derivatives by its segment's inputs into ``v``."""
     d0, d1, d3, d4 = ds[b, i, 0] * w, ds[b, i, 1] * w, ds[b, i, 3] * w, ds[b, i, 4] * w
     v[0] = d0
     v[1] = d1
@@ -545,35 +505,7 @@ def _add_segment(s: Array, g: Array, d: Array, dv: Array, jtj: Array, jtr: Array
 # -- the calls ------------------------------------------------------------------------------
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
               partials: bool) -> tuple[IntArray, Array, Array | None, Array | None]:
-    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``.
-
-    Parameters
-    ----------
-    theta : ndarray
-        ``(B, p)`` parameters of :class:`~tmakit.motion.curvilinear_batch.ForwardPiecewise`
-        (SI).
-    t : ndarray
-        ``(n,)`` times (s).
-    manoeuvres : int
-        The number of manoeuvres ``M``.
-    ref_time, end_time : float
-        Reference time and end of the admissible change-over times (s).
-    partials : bool
-        Whether the derivatives are wanted.
-
-    Returns
-    -------
-    seg : ndarray of int
-        ``(B, n)`` every sample's segment.
-    values : ndarray
-        ``(B, n, 6)`` ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad, m/s, m/s; NaN
-        outside the model's domain).
-    par : ndarray or None
-        ``(B, n, 4, 7)`` ``d (x, y, vx, vy) / d (segment start x, y, speed, course, a_t, a_n,
-        time since its start)``.
-    d_anchor : ndarray or None
-        ``(B, M + 1, 4, p)`` the derivatives of every segment's start state.
-    """
+    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``."""
     theta = np.ascontiguousarray(theta, dtype=float)
     t = np.ascontiguousarray(t, dtype=float)
     b, p = theta.shape
@@ -594,31 +526,7 @@ def _rows(ds: Array, idx: IntArray | None) -> tuple[int, int, IntArray]:
 
 def chain(ds: Array, par: Array, seg: IntArray, idx: IntArray | None, d_anchor: Array,
           manoeuvres: int, columns: NDArray[np.int64] | None = None) -> Array:
-    """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``.
-
-    Per sample, ``ds`` times ``d state / d (segment inputs)``; then the derivatives of that
-    segment's inputs (its start state's, unit rows for its accelerations, minus one for its
-    change-over time).
-
-    Parameters
-    ----------
-    ds : ndarray
-        ``(B, n, 6)`` derivatives of some values with respect to the ENU state.
-    par, seg, d_anchor : ndarray
-        As :func:`piecewise` gives them at the unique times.
-    idx : ndarray of int or None
-        ``(n,)`` every row's unique time (None: the rows are the unique times).
-    manoeuvres : int
-        The number of manoeuvres ``M``.
-    columns : ndarray of int, optional
-        ``(q,)`` increasing: the derivatives with respect to these parameters only (the same
-        values as those columns of the whole).
-
-    Returns
-    -------
-    ndarray
-        ``(B, n, p)``, or ``(B, n, q)`` with ``columns`` (each column contiguous in memory).
-    """
+    """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``."""
     b, n, rows = _rows(ds, idx)
     ds = np.asarray(ds, dtype=float)
     if columns is not None:
@@ -637,27 +545,7 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray,
                    idx: IntArray | None, d_anchor: Array, manoeuvres: int,
                    runs: NDArray[np.int64] | None = None
                    ) -> tuple[Array, Array]:
-    """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, the Jacobian not formed.
-
-    ``J`` is the :func:`chain` of ``ds``, whitened by ``w`` (see the module docstring).
-
-    Parameters
-    ----------
-    ds : ndarray
-        ``(B, n, 6)`` derivatives of the predictions by the ENU state.
-    r, w : ndarray
-        ``(B, n)`` whitened residuals, ``(n,)`` inverse standard deviations.
-    par, seg, idx, d_anchor, manoeuvres
-        As for :func:`chain`.
-    runs : ndarray of int, optional
-        ``(R,)`` rows of the batch: the sums of these parameter vectors only, in this order
-        (each the same bits as in the whole batch; default all).
-
-    Returns
-    -------
-    (ndarray, ndarray)
-        ``(R, p, p)`` and ``(R, p)`` (per parameter unit squared, per parameter unit).
-    """
+    """Give ``J'J`` and ``J'r`` of the whitened Jacobian by segments, the Jacobian not formed."""
     b, _, rows = _rows(ds, idx)
     runs = np.arange(b) if runs is None else np.ascontiguousarray(runs, dtype=np.int64)
     p = d_anchor.shape[-1]
@@ -670,24 +558,7 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray,
 
 
 def scatter_states(vals: Array, inv: Array, sensor: Array | None = None) -> Array:
-    """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times.
-
-    Parameters
-    ----------
-    vals : ndarray
-        ``(B, nu, 6)`` ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad, m/s, m/s) as
-        :func:`piecewise` gives them.
-    inv : ndarray of int
-        ``(n,)`` every row's unique time.
-    sensor : ndarray, optional
-        ``(n, 6)`` sensor states subtracted in the same pass (the same bits as after).
-
-    Returns
-    -------
-    ndarray
-        ``(B, n, 6)`` ``(x, y, 0, vx, vy, 0)`` (m, m/s; NaN outside the model's domain), minus
-        ``sensor`` if given.
-    """
+    """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times."""
     out = np.empty((vals.shape[0], inv.shape[0], 6))
     inv = np.ascontiguousarray(inv, dtype=np.int64)
     if sensor is None:

@@ -229,17 +229,7 @@ class CoordinatedTurn(NearlyConstantVelocity):
                              f"{self.turn_rate}")
 
     def transition(self, dt: float) -> Array:
-        """Give ``Phi(dt)`` of the turn (eq. 11.7.1-4; height at constant velocity in 3-D).
-
-        Parameters
-        ----------
-        dt : float
-            Step, s.
-
-        Returns
-        -------
-        ndarray, shape (2 dim, 2 dim)
-        """
+        """Give ``Phi(dt)`` of the turn (eq. 11.7.1-4; height at constant velocity in 3-D)."""
         d, w = self.dim, float(self.turn_rate)
         s, c = np.sin(w * dt), np.cos(w * dt)
         phi = transition_matrix(dt, d)

@@ -78,24 +78,7 @@ class AffineRows:
         return self._matrix
 
     def leading_map(self, components: int, rows: NDArray[np.intp] | None = None) -> Array:
-        """Give the map of the first ``components`` relative state components at some rows.
-
-        The offset is a last parameter, always 1 (:meth:`leading_states`): no pass of its
-        own.  Made from this map's terms and offset at those rows alone (no taken map).
-
-        Parameters
-        ----------
-        components : int
-            How many leading state components (e.g. 2: the relative east and north
-            positions).
-        rows : numpy.ndarray of int, optional
-            The rows (default all: made once).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(components, p + 1, m')`` (SI), read only by the caller.
-        """
+        """Give the map of the first ``components`` relative state components at some rows."""
         n_c = int(components)
         if rows is None and n_c in self._head_maps:
             return self._head_maps[n_c]
@@ -118,41 +101,12 @@ class AffineRows:
         return head
 
     def leading_many(self, theta: Array, components: int) -> Array:
-        """Give the first ``components`` relative state components of many parameter vectors.
-
-        :meth:`leading_states` of :meth:`leading_map`.
-
-        Parameters
-        ----------
-        theta : numpy.ndarray
-            ``(c, p)`` parameter vectors, SI.
-        components : int
-            How many leading state components.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(components, c, m)`` (m, m/s).
-        """
+        """Give the first ``components`` relative state components of many parameter vectors."""
         return self.leading_states(theta, self.leading_map(components))
 
     @staticmethod
     def leading_states(theta: Array, head: Array) -> Array:
-        """Give leading relative state components of many parameter vectors from their map.
-
-        Parameters
-        ----------
-        theta : numpy.ndarray
-            ``(c, p)`` parameter vectors, SI.
-        head : numpy.ndarray
-            ``(n_c, p + 1, m)`` :meth:`leading_map`.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(n_c, c, m)``, a new array, component-major: each component of every vector
-            contiguous (m, m/s).
-        """
+        """Give leading relative state components of many parameter vectors from their map."""
         p = head.shape[1] - 1
         with_one = np.empty((theta.shape[0], p + 1))
         with_one[:, :p] = theta
@@ -171,18 +125,7 @@ class AffineRows:
         return self._offset
 
     def position_source(self) -> tuple[Array, Array, bool]:
-        """Give what the relative east and north positions are made from, without a pass.
-
-        The relative position is ``base[c] - sensor[:, c]`` (``lazy``) or ``base[c]``: the
-        offset (or its head) once made, else the target's part and the sensor states, so
-        that a compiled pass subtracts them on the fly instead of making the head first.
-
-        Returns
-        -------
-        (numpy.ndarray, numpy.ndarray, bool)
-            ``base`` ``(>= 2, m)`` (m), ``sensor`` ``(m, >= 2)`` (m; ``base.T`` when not
-            lazy) and ``lazy``; read only by the caller.
-        """
+        """Give what the relative east and north positions are made from, without a pass."""
         made = self._offset if self._offset is not None else self._head
         if made is not None and made.shape[0] >= 2:
             return made, made.T, False
@@ -193,13 +136,7 @@ class AffineRows:
         return base, self._sensor, True
 
     def keep_head(self, head: Array) -> None:
-        """Keep ``head`` as the first components of :attr:`offset` (made by a compiled pass).
-
-        Parameters
-        ----------
-        head : numpy.ndarray
-            ``(n_c, m)`` ``base[:n_c] - sensor[:, :n_c].T`` (m), the same bits as made here.
-        """
+        """Keep ``head`` as the first components of :attr:`offset` (made by a compiled pass)."""
         if self._offset is None and (self._head is None or self._head.shape[0] < head.shape[0]):
             self._head = head
 
@@ -219,21 +156,7 @@ class AffineRows:
         return self.offset.reshape(6 * self.m)
 
     def single(self, theta: Array, components: int | None = None) -> Array:
-        """Give the relative states of one parameter vector from the non-zero terms.
-
-        Parameters
-        ----------
-        theta : numpy.ndarray
-            ``(p,)`` or ``(1, p)``, SI.
-        components : int, optional
-            Only the first ``components`` state components, returned component-major
-            ``(components, m)`` (e.g. 3: the relative positions, m).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(m, 6)`` or ``(1, m, 6)``: a view of a component-major ``(6, m)`` array.
-        """
+        """Give the relative states of one parameter vector from the non-zero terms."""
         th = theta.reshape(-1).tolist()
         n_c = 6 if components is None else int(components)
         # Each component sums its terms in parameter order, then the offset: the order of
@@ -277,20 +200,7 @@ class AffineRows:
                 row += th[j] * coef_j
 
     def take(self, rows: NDArray[np.intp], sensor: Array | None = None) -> AffineRows:
-        """Give the map of some rows.
-
-        Parameters
-        ----------
-        rows : numpy.ndarray
-            Row indices.
-        sensor : numpy.ndarray, optional
-            ``(len(rows), 6)`` the sensor states of those rows, if the caller holds them
-            already (m, m/s): not gathered again.
-
-        Returns
-        -------
-        AffineRows
-        """
+        """Give the map of some rows."""
         taken: dict[int, Array] = {}  # a coefficient array shared by terms, gathered once
         terms = []
         for i, c, coef in self.terms:
@@ -306,12 +216,7 @@ class AffineRows:
 
 
 def _minus_sensor(base: Array, sensor: Array, n_c: int, out: Array | None = None) -> Array:
-    """Give ``base[:n_c] - sensor[:, :n_c].T`` component-major ``(n_c, m)`` (into ``out``).
-
-    By blocks of :data:`_SENSOR_BLOCK` rows: each block of the ``(m, 6)`` sensor states is
-    read from memory once for all its components (a component at a time over every row
-    would read the whole array ``n_c`` times); elementwise, so the same bits.
-    """
+    """Give ``base[:n_c] - sensor[:, :n_c].T`` component-major ``(n_c, m)`` (into ``out``)."""
     m = sensor.shape[0]
     out = np.empty((n_c, m)) if out is None else out
     for lo in range(0, m, _SENSOR_BLOCK):

@@ -31,29 +31,7 @@ __all__ = ["PlanarUnits", "fused_gradient_rows", "fused_linearisation",
 
 def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
                         ) -> Linearisation | None:
-    """Give the linearisation of ``obs`` at one ``theta`` by the fused path, or None.
-
-    The fused path applies to one kind with a planar fused gradient (the bearing: the model's
-    ``planar_gradient``), without nuisance or reference samples, an affine motion model and
-    one parameter vector ``(p,)`` or ``(1, p)``.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The observation model.
-    theta : numpy.ndarray
-        Motion parameters, SI.
-    weights : numpy.ndarray, optional
-        ``(n,)`` inverse standard deviations of independent rows (1/rad): the Jacobian is
-        then made whitened (:attr:`Linearisation.whitened`), saving a pass over it.
-
-    Returns
-    -------
-    Linearisation or None
-        ``h0`` (rad) and the Jacobian ``(..., n, p)`` (rad/m, rad s/m; per m, per m/s
-        whitened) set; None when the fused path does not apply (the caller uses the general
-        one).
-    """
+    """Give the linearisation of ``obs`` at one ``theta`` by the fused path, or None."""
     found = _fused_kind(obs, theta, "planar_gradient")
     if found is None:
         return None
@@ -74,24 +52,7 @@ def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
 
 
 def fused_values(obs: Any, theta: Array) -> Linearisation | None:
-    """Give the predictions of ``obs`` at one ``theta`` alone by the fused path, or None.
-
-    Where :func:`fused_linearisation` applies (the model's ``planar_value`` giving the same
-    bits as its ``planar_gradient``): the relative east and north positions and the values,
-    nothing else of size ``n``.  A solver checking a step by its cost alone needs no more.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The observation model.
-    theta : numpy.ndarray
-        Motion parameters, SI.
-
-    Returns
-    -------
-    Linearisation or None
-        ``h0`` (rad) set, no derivatives; None when the fused path does not apply.
-    """
+    """Give the predictions of ``obs`` at one ``theta`` alone by the fused path, or None."""
     found = _fused_kind(obs, theta, "planar_value")
     if found is None:
         return None
@@ -104,28 +65,7 @@ def fused_values(obs: Any, theta: Array) -> Linearisation | None:
 
 def fused_gradient_rows(obs: Any, theta: Array, weights: Array
                         ) -> tuple[Array, Array] | None:
-    """Give the predictions and the whitened derivatives by east and north, or None.
-
-    The part of :func:`fused_linearisation` before its chain rule: enough for the gradient
-    ``J'r`` (:func:`gradient_of_rows`) without writing the ``(p, n)`` Jacobian.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The observation model.
-    theta : numpy.ndarray
-        Motion parameters ``(p,)`` or ``(1, p)``, SI.
-    weights : numpy.ndarray
-        ``(n,)`` inverse standard deviations of independent rows (1/rad).
-
-    Returns
-    -------
-    (ndarray, ndarray) or None
-        ``(n,)`` predictions (rad) and ``(2, n)`` their whitened derivatives by the relative
-        east and north positions (1/m), the north one's sign flipped (what
-        :func:`gradient_of_rows` reads: one pass fewer); None where
-        :func:`fused_linearisation` does not apply.
-    """
+    """Give the predictions and the whitened derivatives by east and north, or None."""
     found = _fused_kind(obs, theta, "planar_gradient")
     if found is None:
         return None
@@ -137,27 +77,7 @@ def fused_gradient_rows(obs: Any, theta: Array, weights: Array
 
 
 def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
-    """Give ``J'r`` ``(p,)`` from :func:`fused_gradient_rows`' derivatives, the chain unwritten.
-
-    ``(J'r)_i = sum_c rows[c] . (coef_ic r)`` over the affine map's terms of components 0
-    and 1: one product per distinct coefficient array, then dot products (NumPy's own loops,
-    no BLAS threads).
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The observation model of :func:`fused_gradient_rows`.
-    rows : numpy.ndarray
-        ``(2, n)`` whitened derivatives by east and north (1/m), the north one's sign
-        flipped (as :func:`fused_gradient_rows` gives them).
-    r : numpy.ndarray
-        ``(n,)`` whitened residuals (dimensionless).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(p,)`` the gradient of half chi2 with the sign of ``J'r`` (per parameter unit).
-    """
+    """Give ``J'r`` ``(p,)`` from :func:`fused_gradient_rows`' derivatives, the chain unwritten."""
     rel_map = obs._rel_map
     weighted: dict[int, Array] = {}
     out = np.zeros(rel_map.p)
@@ -200,41 +120,14 @@ class PlanarUnits:
         self.m = int(head.shape[2])  #: rows
 
     def __call__(self, theta: Array) -> Array:
-        """Give ``sin h`` and ``cos h`` of the predictions at each parameter vector.
-
-        Parameters
-        ----------
-        theta : numpy.ndarray
-            ``(c, p)`` motion parameters, SI.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(2, c, m)``: ``[0]`` the sines, ``[1]`` the cosines (dimensionless).
-        """
+        """Give ``sin h`` and ``cos h`` of the predictions at each parameter vector."""
         east_north = AffineRows.leading_states(theta, self.head)
         self.unit(east_north[0], east_north[1])
         return east_north
 
 
 def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits | None:
-    """Give :class:`PlanarUnits` of the rows ``rows`` of ``obs`` (grouped order), or None.
-
-    It applies where :func:`fused_values` does (one kind, no nuisance or reference samples,
-    an affine motion model) for a kind with a ``planar_unit`` (the bearing).
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The observation model.
-    rows : numpy.ndarray of int, optional
-        Its rows in grouped order (default: all).
-
-    Returns
-    -------
-    PlanarUnits or None
-        None when it does not apply.
-    """
+    """Give :class:`PlanarUnits` of the rows ``rows`` of ``obs`` (grouped order), or None."""
     rel_map = obs._rel_map
     if (rel_map is None or obs.n_nuisance or obs._ref is not None
             or len(obs.models) != 1):
@@ -246,10 +139,7 @@ def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits
 
 
 def _fused_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
-    """Give the affine row map, the one kind's fused ``method`` and the checked ``theta``.
-
-    None when the fused path does not apply (see :func:`fused_linearisation`).
-    """
+    """Give the affine row map, the one kind's fused ``method`` and the checked ``theta``."""
     rel_map = obs._rel_map
     if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
             or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
@@ -269,13 +159,7 @@ def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
 
 def _chain_terms(planar_terms: list[list[tuple[int, Array | None]]], g: tuple[Array, Array],
                  jac: Array, in_place: bool) -> None:
-    """Write ``jac[i] = sum_c g[c] coef[i, c]`` over the terms of components 0 and 1.
-
-    ``planar_terms`` are the affine map's (:attr:`AffineRows.planar_terms`): in parameter
-    order and term order, the order of the general chain rule's sums; a parameter without
-    such a term gets zeros.  With ``in_place``, rows 0 and 1 already hold ``g``
-    (:attr:`AffineRows.planar_positions`).
-    """
+    """Write ``jac[i] = sum_c g[c] coef[i, c]`` over the terms of components 0 and 1."""
     for i, own in enumerate(planar_terms):
         row = jac[i]
         if not own:

@@ -36,22 +36,7 @@ TIME_TOLERANCE = 1e-9
 
 
 def target_states(x: Array, dt: Array, dim: int) -> Array:
-    """Move filter states at constant velocity to target 6-vectors at the rows.
-
-    Parameters
-    ----------
-    x : ndarray
-        Filter states ``(..., 2 dim)``, m and m/s.
-    dt : ndarray
-        Row times minus the filter time (m,), s.
-    dim : int
-        2 or 3 (a 2-D state has z = vz = 0).
-
-    Returns
-    -------
-    ndarray
-        Target states ``[x, y, z, vx, vy, vz]`` ``(..., m, 6)``, m and m/s.
-    """
+    """Move filter states at constant velocity to target 6-vectors at the rows."""
     pos, vel = x[..., None, :dim], x[..., None, dim:]
     out = np.zeros((*x.shape[:-1], dt.shape[0], 6))
     out[..., :dim] = pos + dt[:, None] * vel
@@ -60,25 +45,7 @@ def target_states(x: Array, dt: Array, dim: int) -> Array:
 
 
 def chain_state(d: Array, dt: Array, dim: int) -> Array:
-    """Chain ``d value / d target6`` through ``target6 = [pos + dt vel, vel]``.
-
-    Position columns stay as they are, velocity columns become ``dt d_pos + d_vel``; a 2-D
-    state has no z columns.
-
-    Parameters
-    ----------
-    d : ndarray
-        ``d value / d target6`` ``(..., m, 6)``, SI.
-    dt : ndarray
-        Row times minus the filter time (m,), s.
-    dim : int
-        2 or 3.
-
-    Returns
-    -------
-    ndarray
-        ``d value / d x`` ``(..., m, 2 dim)``, SI.
-    """
+    """Chain ``d value / d target6`` through ``target6 = [pos + dt vel, vel]``."""
     out = np.empty((*d.shape[:-1], 2 * dim))
     out[..., :dim] = d[..., :dim]
     out[..., dim:] = d[..., :dim] * dt[:, None] + d[..., 3:3 + dim]

@@ -19,25 +19,7 @@ from ..measurements import MeasurementModel
 
 def group_by_kind(meas: MeasurementSet, kinds: list[str]
                   ) -> tuple[dict[str, slice], NDArray[np.intp] | None]:
-    """Group the rows of a set by kind: each kind's slice of the grouped order, and that order.
-
-    Rows keep the set's order within a kind.  From the kind codes alone: no pass for one kind,
-    one comparison pass when the kinds come in blocks already, else a stable sort of the codes.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The set.
-    kinds : list of str
-        The kinds present, in kind code order (:attr:`~tmakit.data.MeasurementSet.kinds`).
-
-    Returns
-    -------
-    slices : dict of str to slice
-        Each kind's rows in the grouped order, in the order of ``kinds``.
-    order : ndarray of int or None
-        ``(n,)`` the set's rows in grouped order; None when that is the set's own order.
-    """
+    """Group the rows of a set by kind: each kind's slice of the grouped order, and that order."""
     n = len(meas)
     if len(kinds) <= 1:
         return {k: slice(0, n) for k in kinds}, None
@@ -52,21 +34,7 @@ def group_by_kind(meas: MeasurementSet, kinds: list[str]
 
 def angle_runs(models: Mapping[str, MeasurementModel], slices: Mapping[str, slice], m: int
                ) -> tuple[bool, bool, slice | None]:
-    """Tell whether some and all of ``m`` rows grouped by kind are angles, and where.
-
-    Parameters
-    ----------
-    models, slices : mapping
-        Each kind's measurement model and rows (slices of the rows grouped by kind).
-    m : int
-        The number of rows.
-
-    Returns
-    -------
-    (bool, bool, slice or None)
-        Whether some rows are angles, whether all are, and the angle rows as one slice when
-        they form one run (None otherwise, or without angle rows).
-    """
+    """Tell whether some and all of ``m`` rows grouped by kind are angles, and where."""
     runs = sorted((sl.start, sl.stop) for kind, sl in slices.items()
                   if models[kind].is_angle and sl.stop > sl.start)
     count = sum(stop - start for start, stop in runs)

@@ -233,15 +233,7 @@ class ObservationModel:
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
                       rel_map: AffineRows | None, batch_inner: bool = False,
                       each: bool = False) -> Array:
-        """Relative states ``(..., m, 6)`` of the target at ``times`` seen from ``sensor``.
-
-        With an affine motion model one matrix product gives them, component-major in memory
-        (``rel[..., i]`` is contiguous), which the measurement models' formulas prefer; with
-        ``batch_inner`` (a 2-D ``theta`` of many rows, such as a grid of candidates) the batch
-        axis is the fastest in memory, so that the formulas run over long contiguous rows
-        even when ``m`` is small; with ``each``, those of each row of a 2-D ``theta`` as for
-        it alone (bit for bit).
-        """
+        """Relative states ``(..., m, 6)`` of the target at ``times`` seen from ``sensor``."""
         if rel_map is None:
             return self.motion.states_minus(theta, times, sensor)
         m = times.shape[0]

@@ -271,26 +271,7 @@ class NoiseModel:
 
 
 def checked_covariance(covariance: object, m: int | None = None) -> NDArray[np.float64]:
-    """Return a noise covariance as a float array, checked.
-
-    Parameters
-    ----------
-    covariance : array_like
-        ``R`` (m, m), SI units squared.
-    m : int, optional
-        The number of rows it must have.
-
-    Returns
-    -------
-    ndarray
-        ``R``, symmetrised (mean of ``R`` and its transpose).
-
-    Raises
-    ------
-    ValueError
-        If ``R`` is not a finite, symmetric (to 1e-9 relative), positive definite (m, m)
-        matrix.
-    """
+    """Return a noise covariance as a float array, checked."""
     r = np.array(covariance, dtype=float)
     size = r.shape[0] if r.ndim == 2 else -1
     if r.ndim != 2 or r.shape[1] != size or (m is not None and size != m):

@@ -36,22 +36,7 @@ MAX_GROUP_ROWS = 4096
 
 def overlapping_groups(rows: NDArray[np.intp], time: Array, time_ref: Array,
                        singletons: bool = True) -> Iterator[NDArray[np.intp]]:
-    """Split rows into groups whose spans ``(time_ref, time]`` overlap (transitively).
-
-    Parameters
-    ----------
-    rows : numpy.ndarray of int
-        The rows (ascending), of one sensor.
-    time, time_ref : numpy.ndarray
-        Every row's time and reference time (s).
-    singletons : bool, optional
-        Also give the rows that overlap no other, each alone.
-
-    Yields
-    ------
-    numpy.ndarray of int
-        The rows of one group, ascending; groups in order of their earliest span start.
-    """
+    """Split rows into groups whose spans ``(time_ref, time]`` overlap (transitively)."""
     if rows.shape[0] == 0:
         return
     order = np.argsort(time_ref[rows], kind="stable")
@@ -67,25 +52,7 @@ def overlapping_groups(rows: NDArray[np.intp], time: Array, time_ref: Array,
 
 def shared_reference_groups(rows: NDArray[np.intp], time: Array, ref_state: Array | None,
                             singletons: bool = True) -> Iterator[NDArray[np.intp]]:
-    """Split differences between sensors into the groups at one time with one reference.
-
-    Parameters
-    ----------
-    rows : numpy.ndarray of int
-        The rows (ascending), of one kind.
-    time : numpy.ndarray
-        Every row's time (s).
-    ref_state : numpy.ndarray or None
-        Every row's reference sensor state (m, m/s): rows at one time whose reference
-        sensor is at the same place share it (None: one reference for every row).
-    singletons : bool, optional
-        Also give the rows that share their reference with no other, each alone.
-
-    Yields
-    ------
-    numpy.ndarray of int
-        The rows of one group, ascending.
-    """
+    """Split differences between sensors into the groups at one time with one reference."""
     if rows.shape[0] == 0:
         return
     key = time[rows][:, None]
@@ -103,31 +70,7 @@ def correlated_blocks(models: Mapping[str, MeasurementModel], index: Mapping[str
                       time: Array, time_ref: Array, sigma: Array, sensor: NDArray[Any],
                       singletons: bool = True, ref_state: Array | None = None
                       ) -> list[tuple[NDArray[np.intp], Array]]:
-    """Return the correlated noise blocks of a set of rows.
-
-    Parameters
-    ----------
-    models, index
-        Each kind's model and rows (ascending indices or a slice).
-    time, time_ref, sigma, sensor
-        The rows' columns (m,): s, s, SI, sensor ids or codes (rows of one sensor are
-        correlated).
-    singletons : bool, optional
-        Also give the rows that share no interval with another row, each as a 1 x 1 block
-        (its variance as the kind's hook computes it); without them the blocks are only
-        those with correlations, and the other rows keep their sigma.
-    ref_state : numpy.ndarray, optional
-        The rows' reference sensor states (m, 6): the differences between sensors
-        (``between_sensors``) at one time are correlated when they share a reference.
-
-    Returns
-    -------
-    list of (rows, covariance)
-        One block per kind with ``correlated_noise``, per sensor and per group of rows whose
-        spans overlap (:func:`overlapping_groups`), or for differences between sensors per
-        time and reference sensor (:func:`shared_reference_groups`): its rows (ascending)
-        and their covariance from the kind's ``noise_covariance`` hook (SI units squared).
-    """
+    """Return the correlated noise blocks of a set of rows."""
     blocks: list[tuple[NDArray[np.intp], Array]] = []
     m = time.shape[0]
     for kind, model in models.items():

@@ -92,18 +92,7 @@ def nuisance_layout(models: Mapping[str, MeasurementModel]
 
 
 def as_slice(index: Index) -> Index:
-    """Return an index that is a run of consecutive rows as the equal slice (a view).
-
-    Parameters
-    ----------
-    index : ndarray or slice
-        Ascending integer row indices, or a slice.
-
-    Returns
-    -------
-    ndarray or slice
-        The equal slice for a run of consecutive rows; anything else unchanged.
-    """
+    """Return an index that is a run of consecutive rows as the equal slice (a view)."""
     if isinstance(index, slice):
         return index
     idx = np.asarray(index)
@@ -114,18 +103,7 @@ def as_slice(index: Index) -> Index:
 
 def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, slice]
                    ) -> slice | None:
-    """Return the slice covering every kind that uses an earlier reference sample.
-
-    Parameters
-    ----------
-    models, slices : mapping
-        Each kind's measurement model and rows (grouped by kind, each a slice).
-
-    Returns
-    -------
-    slice or None
-        None when no kind uses a reference sample.
-    """
+    """Return the slice covering every kind that uses an earlier reference sample."""
     spans = [slices[k] for k, m in models.items() if m.uses_reference]
     if not spans:
         return None

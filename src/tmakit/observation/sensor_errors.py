@@ -30,23 +30,7 @@ MAX_ROWS = 4096
 
 def sensor_error_design(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayLike,
                         velocity: bool = False) -> Array:
-    """Give ``H_b``: the rows' derivatives by the errors of the distinct sensor positions.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The rows and motion model.
-    theta, nuisance : array_like
-        The parameter point (SI).
-    velocity : bool, optional
-        Also the velocity errors' columns.
-
-    Returns
-    -------
-    ndarray, shape (m, 3 s) or (m, 6 s)
-        In the grouped row order of ``obs``: for each distinct sensor position its x, y, z
-        error columns (then vx, vy, vz), SI per m (per m/s).
-    """
+    """Give ``H_b``: the rows' derivatives by the errors of the distinct sensor positions."""
     g = obs.grouped
     rows = obs.row_model
     theta = np.asarray(theta, dtype=float)
@@ -73,27 +57,6 @@ def sensor_error_design(obs: ObservationModel, theta: ArrayLike, nuisance: Array
 def effective_noise(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayLike,
                     position_sigma: float, velocity_sigma: float = 0.0) -> NoiseModel:
     """Give the noise model of the rows with the sensors' navigation errors folded in.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The rows and motion model.
-    theta, nuisance : array_like
-        Where the errors' effect is linearised (SI).
-    position_sigma : float
-        Std of each sensor position error, per axis (m, >= 0).
-    velocity_sigma : float, optional
-        Std of each sensor velocity error, per axis (m/s, >= 0).
-
-    Returns
-    -------
-    NoiseModel
-        ``R + H_b Q_b H_b'`` in the grouped row order of ``obs``.
-
-    Raises
-    ------
-    ValueError
-        If a sigma is negative or not finite, or the set has more than :data:`MAX_ROWS` rows.
 
     References
     ----------

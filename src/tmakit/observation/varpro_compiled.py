@@ -61,10 +61,7 @@ _TEN_OVER_LN10 = 10.0 / math.log(10.0)
 @_jit
 def _values(code: int, param: float, lo: int, hi: int, rel: Array, h: Array, a: Array
             ) -> None:  # pragma: no cover - compiled
-    """Write ``h0`` and the design ``a`` of rows ``lo:hi`` of one kind.
-
-    ``param`` is the speed of propagation (frequency, m/s) or the path-loss exponent (power).
-    """
+    """Write ``h0`` and the design ``a`` of rows ``lo:hi`` of one kind."""
     if code == BEARING:  # atan2(dx, dy), clockwise from north
         for j in range(lo, hi):
             h[j] = math.atan2(rel[0, j], rel[1, j])
@@ -98,11 +95,7 @@ def _values(code: int, param: float, lo: int, hi: int, rel: Array, h: Array, a: 
 @_jit
 def _gradient(code: int, param: float, lo: int, hi: int, rel: Array, w: Array, nu: float,
               g: Array) -> None:  # pragma: no cover - compiled
-    """Write the whitened derivatives of rows ``lo:hi``'s predictions by the relative state.
-
-    ``g`` ``(6, n)``: only the components the kind depends on are written (the others stay
-    zero); for a frequency the derivative of ``a nu``, the carrier ``nu`` eliminated.
-    """
+    """Write the whitened derivatives of rows ``lo:hi``'s predictions by the relative state."""
     if code == BEARING:
         for j in range(lo, hi):
             x, y = rel[0, j], rel[1, j]
@@ -216,13 +209,7 @@ def _residuals(u: Array, nu_star: Array, blocks: IntArray, block_param: Array, c
 
 @_jit
 def _dot(x: Array, y: Array, lo: int, hi: int) -> float:  # pragma: no cover - compiled
-    """Give ``x[lo:hi] . y[lo:hi]`` in four interleaved partial sums (fixed order, no BLAS).
-
-    Four independent chains run in parallel on the core; the order of the sums is fixed, so
-    the result does not depend on where the arrays lie in memory (with ``fastmath``'s
-    reassociation the compiler vectorised it from an alignment-dependent start: 1 ulp apart
-    from call to call).
-    """
+    """Give ``x[lo:hi] . y[lo:hi]`` in four interleaved partial sums (fixed order, no BLAS)."""
     s0 = s1 = s2 = s3 = 0.0
     j = lo
     while j + 4 <= hi:
@@ -327,22 +314,7 @@ class BatchPlan:
 
 
 def plan_for(obs: Any, inv_sigma: Array | None, const_design: Array) -> BatchPlan | None:
-    """Give the kernel's plan of an observation model, or None where the kernel does not apply.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-        The model (grouped rows).
-    inv_sigma : ndarray or None
-        ``(n,)`` inverse standard deviations of independent rows; None (correlated noise):
-        the kernel does not apply.
-    const_design : ndarray
-        ``(n, k)`` the constant part of the nuisance design (grouped rows).
-
-    Returns
-    -------
-    BatchPlan or None
-    """
+    """Give the kernel's plan of an observation model, or None where the kernel does not apply."""
     rel_map = obs._rel_map
     if inv_sigma is None or rel_map is None or obs._ref is not None:
         return None
@@ -379,25 +351,7 @@ def plan_for(obs: Any, inv_sigma: Array | None, const_design: Array) -> BatchPla
 
 def evaluate_batch(plan: BatchPlan, theta: Array, u: Array, nu_star: Array, eliminate: bool,
                    derivatives: bool) -> tuple[Array, Array, Array, Array, Array] | None:
-    """Evaluate a batch by the kernel: residuals, nuisance, cost, ``J'J`` and ``J'r``.
-
-    Parameters
-    ----------
-    plan : BatchPlan
-        :func:`plan_for` of the problem.
-    theta, u, nu_star : ndarray
-        ``(B, p)`` motion parameters, ``(B, n)`` data part, ``(B, k)`` reference nuisance (SI).
-    eliminate, derivatives : bool
-        Whether the nuisance is eliminated, and whether the normal equations are formed.
-
-    Returns
-    -------
-    tuple of ndarray or None
-        ``(B, n)`` whitened projected residuals, ``(B, k)`` nuisance, ``(B,)`` half chi2
-        (NaN where a point has no prediction), ``(B, p, p)`` ``J'J`` and ``(B, p)`` ``J'r``
-        (undefined without ``derivatives``); None when an angle residual is more than a turn
-        out (the NumPy path wraps it).
-    """
+    """Evaluate a batch by the kernel: residuals, nuisance, cost, ``J'J`` and ``J'r``."""
     b, n = u.shape
     p, k = theta.shape[1], nu_star.shape[1]
     r, nu, cost = np.empty((b, n)), np.empty((b, k)), np.empty(b)

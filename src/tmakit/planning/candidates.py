@@ -41,23 +41,7 @@ GAMMA_FORMS: tuple[str, ...] = ("mean", "cloud")
 
 
 def check_gamma(gamma: str) -> GammaForm:
-    """Return ``gamma`` if it names a form of ``Gamma``.
-
-    Parameters
-    ----------
-    gamma : str
-        ``"mean"`` or ``"cloud"``.
-
-    Returns
-    -------
-    str
-        ``gamma``.
-
-    Raises
-    ------
-    ValueError
-        For another value.
-    """
+    """Return ``gamma`` if it names a form of ``Gamma``."""
     if gamma not in GAMMA_FORMS:
         raise ValueError(f"gamma must be 'mean' (Xi at the predicted mean, Hurtado & Nehorai "
                          f"(2008), section 4.2) or 'cloud' (the expectation over the cloud); "

@@ -210,16 +210,7 @@ class LoopRecord:
         return int(self.times.shape[0])
 
     def columns(self) -> dict[str, Array]:
-        """Return the per-step columns of the run table (without ``run`` and ``case``).
-
-        Returns
-        -------
-        dict of str to ndarray
-            ``step``, ``time`` (s), ``sensor_x``, ``sensor_y`` (m), ``action``,
-            ``criterion_m``, ``predicted_criterion_m``, ``error_m``, ``range_m`` (m),
-            ``decision_ms`` (ms),
-            ``violation_m`` (largest over constraints, m) and ``violation_<name>_m``.
-        """
+        """Return the per-step columns of the run table (without ``run`` and ``case``)."""
         d = len(self)
         cols: dict[str, NDArray[Any]] = {
             "step": np.arange(1, d + 1, dtype=np.int64), "time": self.times,
@@ -237,30 +228,7 @@ class LoopRecord:
 def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: ArrayLike,
                    rng: np.random.Generator, time: float | None = None,
                    sensor: str = "radar") -> MeasurementSet:
-    """Draw the group's measurements of a target: ``h(x) + L n``, ``L L^T = R`` (full ``R``).
-
-    Parameters
-    ----------
-    group : MeasurementGroup
-        Planned measurements at one time (e.g. :attr:`SensorPlan.group`); its rows are
-        predicted from the target state as given (at the rows' time).
-    target : array_like, shape (2 dim,)
-        True target state at the measurement time (m, m/s).
-    sensor_state : array_like, shape (6,)
-        Sensor state ``[x, y, z, vx, vy, vz]`` (m, m/s) at that time.
-    rng : numpy.random.Generator
-        Noise source.
-    time : float, optional
-        Time of the rows (s; default the group's).
-    sensor : str, optional
-        Sensor id of the rows.
-
-    Returns
-    -------
-    MeasurementSet
-        The rows (values with noise; sigmas the square roots of ``R``'s diagonal), angles
-        wrapped to (-pi, pi].
-    """
+    """Draw the group's measurements of a target: ``h(x) + L n``, ``L L^T = R`` (full ``R``)."""
     s = np.asarray(sensor_state, dtype=float).reshape(1, 6)
     value = group.predict(np.asarray(target, dtype=float), s)
     r = group.covariance
@@ -303,10 +271,7 @@ def _tracker(setup: LoopSetup, mean: Array, rng: np.random.Generator) -> Trackin
 
 def _with_covariance(rows: MeasurementSet, plan: SensorPlan, t: float
                      ) -> MeasurementSet | MeasurementGroup:
-    """Give the rows as the tracker updates with them: with the plan's full ``R`` if any.
-
-    The rows are in the plan's group order (:func:`simulate_group`), the order of ``R``.
-    """
+    """Give the rows as the tracker updates with them: with the plan's full ``R`` if any."""
     if plan.covariance is None:
         return rows
     return MeasurementGroup(rows, t, plan.dim, plan.options, plan.nuisance, plan.covariance)
@@ -319,11 +284,7 @@ def _six(x: Array, dim: int) -> Array:
 
 
 def _streams(seed: int | np.random.SeedSequence | None) -> list[np.random.SeedSequence]:
-    """Return the run's four child seeds, as ``seed.spawn(4)`` of a fresh sequence.
-
-    Made from the entropy and spawn key, so a sequence used before (by another case of a
-    study, or pickled to a Dask worker) gives the same children.
-    """
+    """Return the run's four child seeds, as ``seed.spawn(4)`` of a fresh sequence."""
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     return [np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, i),
                                    pool_size=ss.pool_size) for i in range(_STREAMS)]
@@ -345,30 +306,6 @@ def _column_name(name: str) -> str:
 def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
                     seed: int | np.random.SeedSequence | None = None) -> LoopRecord:
     """Run the closed loop of the module docstring for ``setup.steps`` decisions.
-
-    Parameters
-    ----------
-    policy : Policy
-        A :class:`~tmakit.planning.Planner` or a :class:`FixedPolicy`.
-    plan : SensorPlan
-        What the sensor measures at each decision (the planner's own), once per decision at
-        the end of the step.
-    setup : LoopSetup
-        Truth, sensor start, tracker.
-    seed : int or numpy.random.SeedSequence, optional
-        The run's seed (its four streams are spawned from it).
-
-    Returns
-    -------
-    LoopRecord
-        Per decision: sensor, truth, estimate, criterion, error, range, action, time,
-        violations and the information at the truth.
-
-    Raises
-    ------
-    ValueError
-        If the plan's dimension differs from the target's, or it measures other than once
-        at the end of each step.
 
     References
     ----------

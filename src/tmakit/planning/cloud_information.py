@@ -31,18 +31,7 @@ GEOMETRIC_KINDS = frozenset({"bearing", "elevation", "range", "range_rate"})
 
 
 def supports(plan: SensorPlan) -> bool:
-    """Tell whether the plan's kinds are all geometric, with no options or nuisance.
-
-    Parameters
-    ----------
-    plan : SensorPlan
-        What is measured.
-
-    Returns
-    -------
-    bool
-        True when :func:`cloud_information` applies.
-    """
+    """Tell whether the plan's kinds are all geometric, with no options or nuisance."""
     return (set(plan.kinds) <= GEOMETRIC_KINDS and not plan.options and not plan.nuisance)
 
 
@@ -75,22 +64,6 @@ BLOCK_ELEMENTS = 1 << 15
 def cloud_information(plan: SensorPlan, states: Array, weights: Array,
                       sensor_states: Array) -> Array:
     """Return ``sum_i w_i Xi(x_i, s_c)`` (C, n, n) for candidate sensor states ``s_c``.
-
-    Parameters
-    ----------
-    plan : SensorPlan
-        Geometric kinds only (:func:`supports`).
-    states : ndarray, shape (N, n)
-        Target cloud at the measurement time (SI).
-    weights : ndarray, shape (N,)
-        Normalised weights.
-    sensor_states : ndarray, shape (*B, 6)
-        Candidate sensor states at the same time.
-
-    Returns
-    -------
-    ndarray, shape (*B, n, n)
-        SI.
 
     References
     ----------

@@ -45,18 +45,7 @@ def kernels() -> dict[str, Callable[..., Any]]:
 
 
 def spd_inverse(information: Array) -> Array | None:
-    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices.
-
-    Parameters
-    ----------
-    information : ndarray, shape (..., n, n)
-        ``J``, SI.
-
-    Returns
-    -------
-    ndarray or None
-        The inverses (SI); None when a matrix is not numerically positive definite.
-    """
+    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices."""
     info = np.ascontiguousarray(information, dtype=float)
     n = info.shape[-1]
     flat = info.reshape(-1, n, n)
@@ -67,25 +56,7 @@ def spd_inverse(information: Array) -> Array | None:
 
 
 def cloud_sums(names: list[str], cols: Array, weights: Array, sensors: Array) -> Array:
-    """Return the weighted cloud sums (2 + 3 P, C) of the products ``names``.
-
-    Parameters
-    ----------
-    names : list of str
-        The products needed (a subsequence of :data:`PRODUCTS`), ``P`` of them.
-    cols : ndarray, shape (4, N)
-        The cloud ``[x, y, vx, vy]`` by rows (m, m/s).
-    weights : ndarray, shape (N,)
-        Normalised weights.
-    sensors : ndarray, shape (C, 6)
-        Candidate sensor states (m, m/s).
-
-    Returns
-    -------
-    ndarray, shape (2 + 3 P, C)
-        Rows ``E[c2]``, ``E[cs]``, then per product ``g`` of ``names``: ``E[g]``,
-        ``E[g c2]``, ``E[g cs]`` (SI).
-    """
+    """Return the weighted cloud sums (2 + 3 P, C) of the products ``names``."""
     c = sensors.shape[0]
     w = np.ascontiguousarray(weights, dtype=float)
     x = np.ascontiguousarray(cols[0])
@@ -107,24 +78,7 @@ def cloud_sums(names: list[str], cols: Array, weights: Array, sensors: Array) ->
 
 def planar_gamma(names: list[str], coefficients: Array, constants: Array, cols: Array,
                  weights: Array, sensors: Array) -> Array:
-    """Return ``Gamma`` (C, 4, 4) of the planar closed form.
-
-    Parameters
-    ----------
-    names : list of str
-        The products needed (a subsequence of :data:`PRODUCTS`), ``P`` of them.
-    coefficients : ndarray, shape (P, 3)
-        Each product's coefficients in the fields ``A``, ``B``, ``E``.
-    constants : ndarray, shape (3,)
-        The constant fields ``D``, ``G``, ``F``.
-    cols, weights, sensors
-        As for :func:`cloud_sums`.
-
-    Returns
-    -------
-    ndarray, shape (C, 4, 4)
-        SI.
-    """
+    """Return ``Gamma`` (C, 4, 4) of the planar closed form."""
     sums = cloud_sums(names, cols, weights, sensors)
     out = np.empty((sensors.shape[0], 4, 4))
     kernels()["assemble"](sums, coefficients, constants, out)
@@ -133,29 +87,7 @@ def planar_gamma(names: list[str], coefficients: Array, constants: Array, cols: 
 
 def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval: float
         ) -> tuple[Array, Array]:
-    """Fly every action from every start for one step (rows of ``compiled_decision``).
-
-    Parameters
-    ----------
-    starts : ndarray, shape (M, 6)
-        ``[x, y, z, heading, speed, climb rate]`` (m, rad, m/s).
-    actions : ndarray, shape (4, A)
-        Heading change (rad), speed factor, speed change (m/s), climb rate (m/s).
-    own_climb : bool
-        Each start keeps its climb rate (the actions give none).
-    limits : ndarray, shape (7,)
-        Speed range (m/s), turn rate (rad/s), acceleration (m/s^2), climb rate (m/s) and
-        altitude band (m) limits.
-    interval : float
-        The step, s.
-
-    Returns
-    -------
-    fields : ndarray, shape (20, M A)
-        Rows of :mod:`tmakit.planning.compiled_decision` (SI).
-    flags : ndarray of bool, shape (4, M A)
-        Speed range, turn-rate, acceleration, climb-rate/altitude limit acted.
-    """
+    """Fly every action from every start for one step (rows of ``compiled_decision``)."""
     size = starts.shape[0] * actions.shape[1]
     fields, flags = np.empty((20, size)), np.empty((4, size), dtype=np.bool_)
     kernels()["fly"](starts, actions, own_climb, limits, float(interval), fields, flags)

@@ -121,26 +121,7 @@ def _fly_one(st: Array, hc: float, target: float, c_cmd: float, lim: Array, t: f
 @_exact
 def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval: float,
         out: Array, flags: Array) -> None:
-    """Fly every action from every start state for one step; write ``(20, M A)`` fields.
-
-    Parameters
-    ----------
-    starts : ndarray, shape (M, 6)
-        ``[x, y, z, heading, speed, climb rate]`` (m, rad, m/s).
-    actions : ndarray, shape (4, A)
-        Heading change (rad), speed factor, speed change (m/s), climb rate (m/s).
-    own_climb : bool
-        True: each start keeps its own climb rate (the actions' climb rate is None).
-    limits : ndarray, shape (7,)
-        Min and max speed (m/s), max turn rate (rad/s), max acceleration (m/s^2), max climb
-        rate (m/s), min and max altitude (m).
-    interval : float
-        The step, s.
-    out : ndarray, shape (20, M A)
-        Written, column ``m A + a``, one row per field (the module constants).
-    flags : ndarray of bool, shape (4, M A)
-        Written: speed range, turn-rate, acceleration, climb/altitude limit acted.
-    """
+    """Fly every action from every start state for one step; write ``(20, M A)`` fields."""
     n_act = actions.shape[1]
     for m in range(starts.shape[0]):
         st = starts[m]
@@ -209,12 +190,7 @@ def _cholesky_solve(s: Array, ag: Array) -> Array:
 
 @_exact
 def _predict(info: Array, f_inv: Array, g: Array) -> Array:
-    """``predict_information`` of one (n, n) matrix: the same Woodbury form, in plain loops.
-
-    ``A = sym(F^-T J F^-1)``; ``S = I + G^T A G = L L^T``; ``H = L^{-1} (A G)^T``;
-    ``J' = sym(A - H^T H)``.  Small matrices: loops, not BLAS and LAPACK calls (whose code
-    is large and cold in a decision).
-    """
+    """``predict_information`` of one (n, n) matrix: the same Woodbury form, in plain loops."""
     n, r = info.shape[0], g.shape[1]
     a = np.empty((n, n))
     _symmetric_product(f_inv, info, a)
@@ -248,10 +224,7 @@ def _predict(info: Array, f_inv: Array, g: Array) -> Array:
 @_exact
 def _moved_cloud(states: Array, weights: Array, transition: Array, at_mean: bool,
                  rows: int) -> Array:
-    """Return the cloud ``F x_i`` by rows (4, N) (the first ``rows`` written), or its mean.
-
-    With ``at_mean``: the moved weighted mean (4, 1), every row.
-    """
+    """Return the cloud ``F x_i`` by rows (4, N) (the first ``rows`` written), or its mean."""
     n = states.shape[1]
     if at_mean:
         mean = np.zeros(n)
@@ -286,10 +259,7 @@ def _add_symmetric(pred: Array, info: Array) -> None:
 
 @_exact
 def _score(cov: Array, weighting: Array, cost: Array, bound: Array) -> int:
-    """Write ``Tr{Pi C}`` and the position bound (m) per candidate; return the least cost's.
-
-    Ties: the first; NaN costs last (as ``numpy.lexsort``); all NaN: 0.
-    """
+    """Write ``Tr{Pi C}`` and the position bound (m) per candidate; return the least cost's."""
     n = cov.shape[1]
     best = -1
     for c in range(cov.shape[0]):
@@ -312,47 +282,7 @@ def decide_planar(position: Array, heading: float, speed: float, climb: float,
                   coef: Array, dgf: Array, position_only: bool, weighting: Array,
                   out: Array, flags: Array, info: Array, cov: Array, cost: Array,
                   bound: Array) -> int:
-    """One decision over ``A`` candidates (module docstring); return the best, or why not.
-
-    Parameters
-    ----------
-    position : ndarray, shape (3,)
-        The platform's ENU position, m.
-    heading, speed, climb : float
-        Its heading (rad), speed and climb rate (m/s).
-    actions, own_climb, limits, interval
-        As for :func:`fly`.
-    information : ndarray, shape (4, 4)
-        ``J_k`` at the decision time, SI.
-    f_inv, g : ndarray
-        ``F^{-1}`` (4, 4) and ``G`` (4, r) of the step (``G G^T = Q``).
-    transition : ndarray, shape (4, 4)
-        ``F`` of the step.
-    states, weights : ndarray, shapes (N, 4), (N,)
-        The belief's cloud at the decision time.
-    at_mean : bool
-        ``Gamma`` at the moved mean (the paper's), else over the moved cloud.
-    coef, dgf : ndarray
-        The planar basis: the products' coefficients (P, 3) (P = 1 with ``position_only``,
-        else 5 in the order of ``compiled.PRODUCTS``) and ``D``, ``G``, ``F``.
-    position_only : bool
-        Only ``1/r^2`` is needed (bearing and range rows, no range rate).
-    weighting : ndarray, shape (4, 4)
-        ``Pi`` of the weighted trace.
-    out, flags
-        As for :func:`fly` (``A`` columns).
-    info, cov : ndarray, shape (A, 4, 4)
-        Written with ``J_{k+1}`` and ``J_{k+1}^{-1}``, SI.
-    cost, bound : ndarray, shape (A,)
-        Written with ``Tr{Pi J^{-1}}`` and the position RMS bound (m).
-
-    Returns
-    -------
-    int
-        The candidate of least cost (the first of equal ones; NaN costs last, as
-        ``numpy.lexsort``); -1 if a candidate sensor leaves the plane ``z = 0`` (the planar
-        form does not apply); -2 if a ``J`` is not numerically positive definite.
-    """
+    """One decision over ``A`` candidates (module docstring); return the best, or why not."""
     start = np.empty((1, 6))
     start[0, :3] = position
     start[0, 3] = heading

@@ -19,19 +19,7 @@ _exact = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 @_sums
 def position_sums(x: Array, y: Array, w: Array, sx: Array, sy: Array, out: Array) -> None:
-    """Write (5, C): E[c2], E[cs], E[1/r^2], E[c2/r^2], E[cs/r^2] (no velocity terms).
-
-    Parameters
-    ----------
-    x, y : ndarray, shape (N,)
-        The cloud's east and north positions, m.
-    w : ndarray, shape (N,)
-        Its normalised weights.
-    sx, sy : ndarray, shape (C,)
-        The candidate sensor positions, m.
-    out : ndarray, shape (5, C)
-        Written with the sums (m^-2 for the last three rows).
-    """
+    """Write (5, C): E[c2], E[cs], E[1/r^2], E[c2/r^2], E[cs/r^2] (no velocity terms)."""
     for c in range(sx.shape[0]):
         a0 = a1 = a2 = a3 = a4 = 0.0
         px = sx[c]
@@ -60,19 +48,7 @@ def position_sums(x: Array, y: Array, w: Array, sx: Array, sy: Array, out: Array
 @_sums
 def general_sums(x: Array, y: Array, vx: Array, vy: Array, w: Array, s: Array,
                  out: Array) -> None:
-    """Write (17, C): E[c2], E[cs], then E[g], E[g c2], E[g cs] for g in ir2, irq, qq, ir, q.
-
-    Parameters
-    ----------
-    x, y, vx, vy : ndarray, shape (N,)
-        The cloud's positions (m) and velocities (m/s).
-    w : ndarray, shape (N,)
-        Its normalised weights.
-    s : ndarray, shape (C, 6)
-        Candidate sensor states, m and m/s.
-    out : ndarray, shape (17, C)
-        Written with the sums (SI).
-    """
+    """Write (17, C): E[c2], E[cs], then E[g], E[g c2], E[g cs] for g in ir2, irq, qq, ir, q."""
     for c in range(s.shape[0]):
         px, py, pvx, pvy = s[c, 0], s[c, 1], s[c, 3], s[c, 4]
         a0 = a1 = b0 = b1 = b2 = d0 = d1 = d2 = e0 = e1 = e2 = 0.0
@@ -165,22 +141,7 @@ def _gram(inv: Array, d: Array, out: Array) -> bool:
 
 @_exact
 def spd_inverse_stack(info: Array, out: Array) -> bool:
-    """Write ``J^{-1}`` of every (n, n) matrix of ``info`` to ``out``.
-
-    Normalised by the diagonal, as :func:`tmakit.planning.criteria.bound_covariance`.
-
-    Parameters
-    ----------
-    info : ndarray, shape (M, n, n)
-        Information matrices ``J``, SI.
-    out : ndarray, shape (M, n, n)
-        Written with the inverses, SI.
-
-    Returns
-    -------
-    bool
-        False (``out`` then partly written) if a matrix is not numerically positive definite.
-    """
+    """Write ``J^{-1}`` of every (n, n) matrix of ``info`` to ``out``."""
     n = info.shape[1]
     low = np.zeros((n, n))
     inv = np.zeros((n, n))
@@ -198,22 +159,7 @@ def spd_inverse_stack(info: Array, out: Array) -> bool:
 
 @_exact
 def assemble_gamma(sums: Array, coef: Array, dgf: Array, out: Array) -> None:
-    """Write ``Gamma`` (C, 4, 4) from the cloud sums, as NumPy does it.
-
-    The arithmetic of ``planar_information._field_sums`` and ``_assemble`` in the same order
-    (no reassociation, so the same numbers).
-
-    Parameters
-    ----------
-    sums : ndarray, shape (2 + 3 P, C)
-        The cloud sums (:func:`position_sums` rows, or the rows of the ``P`` products used).
-    coef : ndarray, shape (P, 3)
-        Each product's coefficients in the fields ``A``, ``B``, ``E``.
-    dgf : ndarray, shape (3,)
-        The constant fields ``D``, ``G``, ``F``.
-    out : ndarray, shape (C, 4, 4)
-        Written with ``Gamma``, SI.
-    """
+    """Write ``Gamma`` (C, 4, 4) from the cloud sums, as NumPy does it."""
     d, g, f = dgf[0], dgf[1], dgf[2]
     fields = np.empty(11)
     for c in range(sums.shape[1]):

@@ -29,23 +29,7 @@ Block = Literal["position", "velocity", "state"]
 
 
 def bound_covariance(information: Array) -> Array:
-    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices.
-
-    In coordinates normalised by the diagonal, by a Cholesky factor (compiled,
-    :func:`tmakit.planning.compiled.spd_inverse`); a stack with a matrix that is not
-    numerically positive definite goes through
-    :func:`~tmakit.bounds.pcrb_recursion.information_inverse` (eigenvalues floored).
-
-    Parameters
-    ----------
-    information : ndarray
-        ``J`` (..., n, n), SI.
-
-    Returns
-    -------
-    ndarray
-        (..., n, n), SI.
-    """
+    """Return ``J^{-1}`` (..., n, n) of positive-definite information matrices."""
     info = np.asarray(information, dtype=float)
     inv = compiled.spd_inverse(info)
     return information_inverse(info) if inv is None else inv
@@ -69,22 +53,7 @@ class Criterion(Protocol):
 
 
 def evaluate(criterion: Criterion, information: Array, covariance: Array | None = None) -> Array:
-    """Return ``criterion(information)``, from ``covariance`` when the criterion can.
-
-    Parameters
-    ----------
-    criterion : Criterion
-        The cost.
-    information : ndarray, shape (..., n, n)
-        ``J``, SI.
-    covariance : ndarray, shape (..., n, n), optional
-        ``bound_covariance(information)`` if the caller has it (SI): criteria with an
-        ``of_covariance`` method are evaluated on it (the same numbers, one inversion fewer).
-
-    Returns
-    -------
-    ndarray, shape (...,)
-    """
+    """Return ``criterion(information)``, from ``covariance`` when the criterion can."""
     of_covariance = getattr(criterion, "of_covariance", None)
     if covariance is None or of_covariance is None:
         return criterion(information)
@@ -92,24 +61,7 @@ def evaluate(criterion: Criterion, information: Array, covariance: Array | None 
 
 
 def block_indices(block: Block, n: int) -> NDArray[np.intp]:
-    """Return the state indices of ``block`` for an ``n``-component state.
-
-    Parameters
-    ----------
-    block : {"position", "velocity", "state"}
-        Which part of ``[x, y, (z), vx, vy, (vz)]``.
-    n : int
-        State size (4 or 6).
-
-    Returns
-    -------
-    ndarray of int
-
-    Raises
-    ------
-    ValueError
-        For an unknown ``block``.
-    """
+    """Return the state indices of ``block`` for an ``n``-component state."""
     dim = n // 2
     if block == "position":
         return np.arange(dim)

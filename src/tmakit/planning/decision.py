@@ -36,20 +36,7 @@ from .planar_information import PLANAR_KINDS, compiled_basis
 
 
 def pack_actions(actions: Actions) -> tuple[Array, bool]:
-    """Return the actions as rows (4, A) and whether each platform keeps its climb rate.
-
-    Parameters
-    ----------
-    actions : Actions, shape (A,)
-        Candidate actions.
-
-    Returns
-    -------
-    rows : ndarray, shape (4, A)
-        Heading change (rad), speed factor, speed change (m/s), climb rate (m/s; 0 if none).
-    own_climb : bool
-        True when the actions give no climb rate.
-    """
+    """Return the actions as rows (4, A) and whether each platform keeps its climb rate."""
     climb = actions.climb_rate
     rows = np.stack([actions.heading_change, actions.speed_factor, actions.speed_change,
                      np.zeros(actions.shape) if climb is None else climb]).astype(float)
@@ -57,36 +44,14 @@ def pack_actions(actions: Actions) -> tuple[Array, bool]:
 
 
 def pack_limits(kinematics: PlatformKinematics) -> Array:
-    """Return the limits (7,): speed range, turn rate, acceleration, climb rate, altitude band.
-
-    Parameters
-    ----------
-    kinematics : PlatformKinematics
-        The platform.
-
-    Returns
-    -------
-    ndarray, shape (7,)
-        m/s, m/s, rad/s, m/s^2, m/s, m, m.
-    """
+    """Return the limits (7,): speed range, turn rate, acceleration, climb rate, altitude band."""
     k = kinematics
     return np.array([k.min_speed, k.max_speed, k.max_turn_rate, k.max_acceleration,
                      k.max_climb_rate, k.min_altitude, k.max_altitude], dtype=float)
 
 
 def pack_starts(platform: PlatformState) -> Array:
-    """Return the start states by rows (M, 6): ``[x, y, z, heading, speed, climb rate]``.
-
-    Parameters
-    ----------
-    platform : PlatformState
-        Any batch shape (flattened, C order).
-
-    Returns
-    -------
-    ndarray, shape (M, 6)
-        m, rad, m/s.
-    """
+    """Return the start states by rows (M, 6): ``[x, y, z, heading, speed, climb rate]``."""
     out = np.empty((platform.speed.size, 6))
     out[:, :3] = platform.position.reshape(-1, 3)
     out[:, 3] = platform.heading.ravel()
@@ -97,23 +62,7 @@ def pack_starts(platform: PlatformState) -> Array:
 
 def step_from_rows(fields: Array, flags: Array, shape: tuple[int, ...], interval: float,
                    time: float) -> Step:
-    """Return the :class:`Step` whose fields are views of the compiled kernel's output.
-
-    Parameters
-    ----------
-    fields : ndarray, shape (20, size)
-        Written by :func:`tmakit.planning.compiled.fly`, one row per field.
-    flags : ndarray of bool, shape (4, size)
-        Its limit flags.
-    shape : tuple of int
-        The batch shape of the step (``size`` elements).
-    interval, time : float
-        The step's length and start time, s.
-
-    Returns
-    -------
-    Step
-    """
+    """Return the :class:`Step` whose fields are views of the compiled kernel's output."""
     if len(shape) != 1:
         fields = fields.reshape(fields.shape[0], *shape)
         flags = flags.reshape(4, *shape)
@@ -138,17 +87,7 @@ class LazyStep(Step):
     @classmethod
     def of(cls, fields: Array, flags: Array, shape: tuple[int, ...], interval: float,
            time: float) -> LazyStep:
-        """Return the lazy step over the kernel's output (arguments of :func:`step_from_rows`).
-
-        Parameters
-        ----------
-        fields, flags, shape, interval, time
-            As for :func:`step_from_rows`.
-
-        Returns
-        -------
-        LazyStep
-        """
+        """Return the lazy step over the kernel's output (arguments of :func:`step_from_rows`)."""
         step = object.__new__(cls)
         object.__setattr__(step, "_source", (fields, flags, shape, interval, time))
         return step
@@ -165,25 +104,7 @@ class LazyStep(Step):
 
 def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Actions,
         interval: float) -> Step | None:
-    """Fly every action from every state of ``platform`` for one step, compiled.
-
-    Parameters
-    ----------
-    kinematics : PlatformKinematics
-        The platform's limits.
-    platform : PlatformState
-        Start states, batch shape ``B``.
-    actions : Actions, shape (A,)
-        Candidate actions.
-    interval : float
-        The step, s (> 0).
-
-    Returns
-    -------
-    Step or None
-        Batch shape ``(*B, A)``: ``kinematics.step`` of every state with every action, to
-        rounding; None when the limits raise (then use ``kinematics.step``).
-    """
+    """Fly every action from every state of ``platform`` for one step, compiled."""
     if (kinematics.on_limit != "clip"
             or len(actions.shape) != 1 or not interval > 0):
         return None
@@ -260,22 +181,6 @@ def _step_factors(cache: dict[str, Any], post: Any, interval: float
 def decide(planner: Any, cache: dict[str, Any], platform: PlatformState,
            belief: Belief) -> Decision | None:
     """One step of every candidate of ``planner`` from ``platform``, in one compiled call.
-
-    Parameters
-    ----------
-    planner : Planner
-        Its kinematics, actions, interval, plan, criterion and ``gamma`` are used.
-    cache : dict
-        The planner's own store for the settings that do not change between decisions.
-    platform : PlatformState
-        One state, at ``belief.time``.
-    belief : Belief
-        ``J_k`` (4, 4) and the target cloud.
-
-    Returns
-    -------
-    Decision or None
-        None when the compiled decision does not apply (module docstring).
 
     References
     ----------

@@ -77,30 +77,7 @@ class Planner(Protocol):
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: Literal["mean", "cloud"]
                ) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from each of a batch of states for one step.
-
-        Parameters
-        ----------
-        platform : PlatformState
-            States of batch shape ``B``, ``depth`` steps after the decision time.
-        information : ndarray, shape (*B, n, n)
-            The posterior information ``J`` at that time (SI), per state.
-        belief : Belief
-            The decision's belief.
-        depth : int
-            Steps after the decision time (0 for the first).
-        gamma : {"mean", "cloud"}
-            How the expected measurement information ``Gamma`` is formed.
-
-        Returns
-        -------
-        steps : Step, shape (*B, A)
-            The flown steps, one per action.
-        information : ndarray, shape (*B, A, n, n)
-            ``J`` after the step.
-        violations : list of Violation
-            One per constraint.
-        """
+        """Fly every action from each of a batch of states for one step."""
         ...
 
 
@@ -109,22 +86,7 @@ CONTINUATION_MODES: tuple[str, ...] = ("straight", "hold", "coast")
 
 
 def penalties(violations: Sequence[Violation], size: int) -> tuple[Array, Array]:
-    """Return the cost factor and the total hard violation (m) per candidate.
-
-    Parameters
-    ----------
-    violations : sequence of Violation
-        One per constraint, amounts (size,).
-    size : int
-        Number of candidates.
-
-    Returns
-    -------
-    factor : ndarray, shape (size,)
-        Product of the soft constraints' penalty factors (1 without them).
-    bad : ndarray, shape (size,)
-        Sum of the hard constraints' violations, m (0 where all hold).
-    """
+    """Return the cost factor and the total hard violation (m) per candidate."""
     factor = np.ones(size)
     bad = np.zeros(size)
     for v in violations:
@@ -268,34 +230,6 @@ def search(planner: Planner, ends: PlatformState, turn_rate: Array, information:
            belief: Belief, factor: Array, bad: Array, beam: int | None = None,
            continuation: Continuation | None = None) -> SearchResult:
     """Search the action tree of ``planner.horizon`` steps from the first step's candidates.
-
-    Parameters
-    ----------
-    planner : Planner
-        Supplies ``expand``, the criterion, the horizon and the actions (``A``).
-    ends : PlatformState, shape (A,)
-        The platform after each first action.
-    turn_rate : ndarray, shape (A,)
-        The first actions' turn rates, rad/s.
-    information : ndarray, shape (A, n, n)
-        ``J`` after each first action.
-    belief : Belief
-        The decision's belief.
-    factor, bad : ndarray, shape (A,)
-        Penalty factors and hard violations (m) of the first step (:func:`penalties`).
-    beam : int, optional
-        Nodes kept per depth (None: all, the exhaustive search).
-    continuation : Continuation, optional
-        Score nodes at the mission end (module docstring); None: at their own depth.
-
-    Returns
-    -------
-    SearchResult
-
-    Raises
-    ------
-    ValueError
-        If ``beam < 1``.
 
     References
     ----------

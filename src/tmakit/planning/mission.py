@@ -141,82 +141,26 @@ class Rollout:
     weights: Array | None = None
 
     def ranked_cost(self, criterion: Criterion) -> tuple[Array, Array]:
-        """Return the cost with penalties and the summed hard violation per path.
-
-        With hypotheses, the cost of a path is the weighted mean of the criterion over them.
-
-        Parameters
-        ----------
-        criterion : Criterion
-            Cost of one ``J``.
-
-        Returns
-        -------
-        cost : ndarray, shape (C,)
-            The criterion times the penalty factors.
-        hard : ndarray, shape (C,)
-            Summed hard violation, m.
-        """
+        """Return the cost with penalties and the summed hard violation per path."""
         factor, _ = penalties(self.violations, self.information.shape[0])
         return path_cost(criterion, self.information, self.weights) * factor, self.hard
 
 
 def path_cost(criterion: Criterion, information: Array, weights: Array | None) -> Array:
-    """Return the criterion of each path's information (C,).
-
-    Parameters
-    ----------
-    criterion : Criterion
-        Cost of one ``J``.
-    information : ndarray, shape (C, n, n) or (C, K, n, n)
-        ``J`` of each path, or of each path under each of ``K`` target hypotheses, SI.
-    weights : ndarray, shape (K,), optional
-        The hypotheses' weights (sum 1); required with ``K``.
-
-    Returns
-    -------
-    ndarray, shape (C,)
-        The criterion, or its weighted mean over the hypotheses (the expected bound).
-    """
+    """Return the criterion of each path's information (C,)."""
     cost = criterion(information)
     return cost if weights is None else cost @ weights
 
 
 def repeat_state(platform: PlatformState, c: int) -> PlatformState:
-    """Return ``c`` copies of one platform state.
-
-    Parameters
-    ----------
-    platform : PlatformState
-        Batch shape ``()``.
-    c : int
-        Copies.
-
-    Returns
-    -------
-    PlatformState
-        Batch shape (c,).
-    """
+    """Return ``c`` copies of one platform state."""
     return PlatformState(np.repeat(platform.position[None, :], c, 0),
                          np.full(c, float(platform.heading)), np.full(c, float(platform.speed)),
                          np.full(c, float(platform.climb_rate)), platform.time)
 
 
 def repeat_batch(state: PlatformState, g: int) -> PlatformState:
-    """Return each of a batch of states repeated ``g`` times.
-
-    Parameters
-    ----------
-    state : PlatformState
-        Batch shape (M,).
-    g : int
-        Repeats of each.
-
-    Returns
-    -------
-    PlatformState
-        Batch shape (M g,), each state's copies together.
-    """
+    """Return each of a batch of states repeated ``g`` times."""
     return PlatformState(np.repeat(state.position, g, 0), np.repeat(state.heading, g),
                          np.repeat(state.speed, g), np.repeat(state.climb_rate, g), state.time)
 
@@ -441,11 +385,7 @@ class MissionPlanner:
 
     def _sweep_leg(self, belief: Belief, base: Rollout, headings: Array, speeds: Array,
                    counts: Array, leg: int, round_: int) -> tuple[Array, Array, Rollout]:
-        """Try the grid on one leg of every start path; keep the best of each.
-
-        ``base`` holds the start paths' states and information at the start of every leg;
-        the returned one those of the kept paths (the legs before ``leg`` unchanged).
-        """
+        """Try the grid on one leg of every start path; keep the best of each."""
         m = headings.shape[0]
         heads, vs = self._grid(round_, headings[:, leg], speeds[:, leg])
         g = heads.shape[1]

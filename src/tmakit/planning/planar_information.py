@@ -36,20 +36,7 @@ PLANAR_KINDS = frozenset({"bearing", "range", "range_rate"})
 
 
 def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
-    """Tell whether the closed form applies: 2-D, planar kinds, every sensor at ``z = 0``.
-
-    Parameters
-    ----------
-    plan : SensorPlan
-        What is measured.
-    sensor_states : ndarray, shape (*B, 6)
-        Candidate sensor states (m, m/s).
-
-    Returns
-    -------
-    bool
-        True when :func:`planar_information` applies.
-    """
+    """Tell whether the closed form applies: 2-D, planar kinds, every sensor at ``z = 0``."""
     return (plan.dim == 2 and set(plan.kinds) <= PLANAR_KINDS and not plan.options
             and not plan.nuisance and not np.any(sensor_states[..., 2]))
 
@@ -61,10 +48,7 @@ Basis = list[tuple[str, tuple[float, float, float]]]
 
 
 def _coefficients(plan: SensorPlan) -> tuple[dict[str, float], Basis, Packed]:
-    """Return the constant coefficients of the scalar fields (from ``W = R^{-1}``), the basis.
-
-    Kept per content of the plan (kinds, sigmas, covariance), not per object.
-    """
+    """Return the constant coefficients of the scalar fields (from ``W = R^{-1}``), the basis."""
     sigmas = np.asarray(plan.sigmas, dtype=float)
     cov = None if plan.covariance is None else np.asarray(plan.covariance, dtype=float)
     key = (tuple(plan.kinds), sigmas.tobytes(), None if cov is None else cov.tobytes())
@@ -109,29 +93,6 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
                        sensor_states: Array) -> Array:
     """Return ``sum_i w_i Xi(x_i, s_c)`` (*B, 4, 4) in the closed form of the module.
 
-    Parameters
-    ----------
-    plan : SensorPlan
-        2-D, kinds among bearing, range, range rate (:func:`supports_planar`).
-    states : ndarray, shape (N, 4)
-        Target cloud ``[x, y, vx, vy]`` at the measurement time (m, m/s).
-    weights : ndarray, shape (N,)
-        Normalised weights.
-    sensor_states : ndarray, shape (*B, 6)
-        Candidate sensor states (``z = 0``).
-
-    Returns
-    -------
-    ndarray, shape (*B, 4, 4)
-        SI.
-
-    Notes
-    -----
-    The fields ``A``, ``B``, ``E`` are linear in the products ``1/r^2``, ``q/r``, ``q^2``,
-    ``1/r`` and ``q``: only the products the plan needs are formed per cloud member (times
-    ``1``, ``c2`` and ``cs``), summed in one compiled pass over the cloud per candidate, and
-    combined with the constant coefficients afterwards (on ``C`` numbers, not ``C N``).
-
     References
     ----------
     Hurtado & Nehorai (2008), eqs. 11 and 13.
@@ -144,23 +105,7 @@ def planar_information(plan: SensorPlan, states: Array, weights: Array,
 
 
 def compiled_basis(plan: SensorPlan) -> Packed:
-    """Return the plan's planar basis packed for the compiled kernels.
-
-    Parameters
-    ----------
-    plan : SensorPlan
-        2-D, kinds among bearing, range, range rate.
-
-    Returns
-    -------
-    names : list of str
-        The products of ``1/r`` and ``q`` needed (a subsequence of
-        :data:`tmakit.planning.compiled.PRODUCTS`).
-    coefficients : ndarray, shape (P, 3)
-        Their coefficients in the fields ``A``, ``B``, ``E`` (SI).
-    constants : ndarray, shape (3,)
-        The constant fields ``D``, ``G``, ``F`` (SI).
-    """
+    """Return the plan's planar basis packed for the compiled kernels."""
     return _coefficients(plan)[2]
 
 

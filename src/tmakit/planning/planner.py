@@ -324,25 +324,7 @@ class Planner:
 
 def step_violations(constraints: Sequence[Constraint], steps: Step, belief: Belief,
                     interval: float) -> list[Violation]:
-    """Check every constraint along candidate steps against the estimated target.
-
-    Parameters
-    ----------
-    constraints : sequence of Constraint
-        The tactical constraints (:mod:`tmakit.planning.constraints`).
-    steps : Step
-        Candidate steps of any batch shape, all from one start time.
-    belief : Belief
-        Its mean, predicted by its dynamics, is the estimated target.
-    interval : float
-        The steps' length, s: they are checked at :data:`CHECK_POINTS` equally spaced times
-        after their start, the end included.
-
-    Returns
-    -------
-    list of Violation
-        One per constraint, amounts (m) of shape ``(steps.size,)`` (batch flattened).
-    """
+    """Check every constraint along candidate steps against the estimated target."""
     if not constraints:
         return []
     times = steps.start.time + interval * np.arange(1, CHECK_POINTS + 1) / CHECK_POINTS

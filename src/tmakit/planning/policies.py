@@ -54,20 +54,7 @@ RANGE_KINDS = ("range",)
 
 
 def passive(plan: SensorPlan) -> bool:
-    """Tell whether a sensor plan measures no range (its range comes from the path's geometry).
-
-    For such a sensor a planner that looks a few steps ahead gives away what a later turn
-    would bring (``docs/planning.md``): ``tma plan`` steers it with the mission planner.
-
-    Parameters
-    ----------
-    plan : SensorPlan
-        What the sensor measures.
-
-    Returns
-    -------
-    bool
-    """
+    """Tell whether a sensor plan measures no range (its range comes from the path's geometry)."""
     return not any(k in RANGE_KINDS for k in plan.kinds)
 
 
@@ -98,32 +85,11 @@ class Policy(Protocol):
     """What chooses the next step (module docstring)."""
 
     def recommend(self, platform: PlatformState, belief: Belief) -> Choice:
-        """Choose the next action from ``platform`` given ``belief``.
-
-        Parameters
-        ----------
-        platform, belief : PlatformState, Belief
-            The platform now (one state) and the belief at the same time.
-
-        Returns
-        -------
-        Choice
-            The chosen action's index, its step, bound and constraint violations.
-        """
+        """Choose the next action from ``platform`` given ``belief``."""
 
 
 def for_run(policy: Policy) -> Policy:
-    """Return the policy to use for one run: a fresh copy of a policy with state, else itself.
-
-    Parameters
-    ----------
-    policy : Policy
-        A policy (one with a ``for_run()`` method keeps state between decisions).
-
-    Returns
-    -------
-    Policy
-    """
+    """Return the policy to use for one run: a fresh copy of a policy with state, else itself."""
     fresh = getattr(policy, "for_run", None)
     return fresh() if callable(fresh) else policy
 
@@ -182,19 +148,7 @@ class FixedPolicy:
     action: Actions = field(default_factory=lambda: Actions([0.0]))
 
     def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
-        """Fly :attr:`action`; the bound is the mean-state prediction of eq. 10.
-
-        Parameters
-        ----------
-        platform : PlatformState
-            Where the platform is (one state).
-        belief : Belief
-            ``J_k`` and the tracker's cloud.
-
-        Returns
-        -------
-        FixedChoice
-        """
+        """Fly :attr:`action`; the bound is the mean-state prediction of eq. 10."""
         step = self.kinematics.step(platform, self.action[:1], self.interval)[0]
         return FixedChoice(0, step, _bound_after(belief, self.plan, step, self.interval))
 
@@ -233,24 +187,7 @@ class TrackPolicy:
     constraints: Sequence[Constraint] = ()
 
     def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
-        """Fly the track for one interval.
-
-        Parameters
-        ----------
-        platform : PlatformState
-            Where the platform is (one state).
-        belief : Belief
-            ``J_k`` and the tracker's cloud.
-
-        Returns
-        -------
-        FixedChoice
-
-        Raises
-        ------
-        ValueError
-            If the track does not cover the end of the step.
-        """
+        """Fly the track for one interval."""
         end = _state_on(self.track, platform.time + self.interval)
         turn = float(np.angle(np.exp(1j * (end.heading - platform.heading)))) / self.interval
         no = np.zeros((), dtype=bool)
@@ -263,22 +200,7 @@ class TrackPolicy:
 
 
 def range_hypotheses(belief: Belief, position: ArrayLike, quantiles: ArrayLike) -> Belief:
-    """Return the members of the belief's cloud at weighted quantiles of range, equally weighted.
-
-    Parameters
-    ----------
-    belief : Belief
-        The tracker's cloud (particles, or sigma points).
-    position : array_like, shape (3,)
-        The sensor's position (m, ENU); range is horizontal.
-    quantiles : array_like, shape (K,)
-        In (0, 1).
-
-    Returns
-    -------
-    Belief
-        ``J`` of ``belief`` and the ``K`` members.
-    """
+    """Return the members of the belief's cloud at weighted quantiles of range, equally weighted."""
     rel = belief.states[:, :2] - np.asarray(position, dtype=float)[:2]
     order = np.argsort(np.hypot(rel[:, 0], rel[:, 1]), kind="stable")
     cum = np.cumsum(belief.weights[order])
@@ -318,31 +240,11 @@ class MissionPolicy:
         object.__setattr__(self, "quantiles", q)
 
     def for_run(self) -> _MissionRun:
-        """Return the policy's state for one run (the loop calls it).
-
-        Returns
-        -------
-        _MissionRun
-        """
+        """Return the policy's state for one run (the loop calls it)."""
         return _MissionRun(self)
 
     def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
-        """Refuse: a mission policy keeps state, use ``for_run().recommend``.
-
-        Parameters
-        ----------
-        platform, belief
-            As for :class:`Policy`.
-
-        Returns
-        -------
-        FixedChoice
-
-        Raises
-        ------
-        TypeError
-            Always.
-        """
+        """Refuse: a mission policy keeps state, use ``for_run().recommend``."""
         raise TypeError("a MissionPolicy keeps the plan between decisions: call "
                         "for_run() once per run and recommend() on what it returns")
 

@@ -320,30 +320,7 @@ class _Build:
 
 def build_planning(spec: PlanningSpec, scenario: Scenario, sensor_spec: Any,
                    ccw: bool = False, source: str = "") -> PlanningSetup:
-    """Build the :class:`PlanningSetup` of a validated ``[planning]`` table.
-
-    Parameters
-    ----------
-    spec : PlanningSpec
-        The validated table.
-    scenario : Scenario
-        The scenario built from the same file (SI).
-    sensor_spec : object
-        The steered sensor's validated ``[[sensors]]`` entry (its type and start time).
-    ccw : bool, optional
-        The file gives angles counter-clockwise from East (``angle_convention``).
-    source : str, optional
-        The file, for messages.
-
-    Returns
-    -------
-    PlanningSetup
-
-    Raises
-    ------
-    ValueError
-        Naming the ``planning.`` field at fault.
-    """
+    """Build the :class:`PlanningSetup` of a validated ``[planning]`` table."""
     b = _Build(spec, scenario, ccw)
     interval = b.interval()
     start = b.start(sensor_spec)
@@ -371,26 +348,7 @@ def build_planning(spec: PlanningSpec, scenario: Scenario, sensor_spec: Any,
 
 
 def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> PlanningSetup:
-    """Validate a scenario with a ``[planning]`` table and build its planning setup.
-
-    Parameters
-    ----------
-    data : dict
-        The scenario in file form and file units (``docs/planning.md``).
-    source : str, optional
-        Where it came from, for messages.
-
-    Returns
-    -------
-    PlanningSetup
-        The planner, the steered sensor's start, the target truth, tracker, prior, runs (SI).
-
-    Raises
-    ------
-    ScenarioFileError
-        If the scenario is not valid, has no ``[planning]`` table, or the table cannot be
-        built; the message names the file and the field.
-    """
+    """Validate a scenario with a ``[planning]`` table and build its planning setup."""
     scenario, table, sensor, ccw = planned_scenario(data, source)
     try:
         return build_planning(table, scenario, sensor, ccw, source)

@@ -36,18 +36,7 @@ class MapFrame:
                        else ("East (km)", "North (km)"))
 
     def xy(self, east: Any, north: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Return map coordinates of ENU positions (m).
-
-        Parameters
-        ----------
-        east, north : array_like
-            ENU positions (m).
-
-        Returns
-        -------
-        tuple of ndarray
-            (lon, lat) in degrees, or (East, North) in km.
-        """
+        """Return map coordinates of ENU positions (m)."""
         east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
         if self.origin is None:
             return east / 1000.0, north / 1000.0
@@ -60,37 +49,18 @@ class MapFrame:
         return 1000.0 / float(lon[1] - lon[0]), 1000.0 / float(lat[2] - lat[0])
 
     def metres_per_x(self) -> float:
-        """Give the metres per unit of the horizontal map coordinate (at the origin).
-
-        Returns
-        -------
-        float
-            1000 for km, else the metres per degree of longitude at the origin.
-        """
+        """Give the metres per unit of the horizontal map coordinate (at the origin)."""
         return self._metres_per_degree()[0] if self.geodetic else 1000.0
 
     def aspect(self) -> float:
-        """Give the axis aspect ratio that keeps distances true.
-
-        Returns
-        -------
-        float
-            1 for km; in lon/lat the metres per degree of latitude over those of longitude
-            (about ``1 / cos(latitude)``).
-        """
+        """Give the axis aspect ratio that keeps distances true."""
         if not self.geodetic:
             return 1.0
         per_lon, per_lat = self._metres_per_degree()
         return per_lat / per_lon
 
     def decorate(self, ax: Any) -> None:
-        """Label the axes, keep distances true, draw a grid and a scale bar (lower right).
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes
-            The map, its data drawn.
-        """
+        """Label the axes, keep distances true, draw a grid and a scale bar (lower right)."""
         ax.set_xlabel(self.labels[0])
         ax.set_ylabel(self.labels[1])
         ax.set_aspect(self.aspect(), adjustable="datalim")
@@ -100,13 +70,7 @@ class MapFrame:
         self.scale_bar(ax)
 
     def scale_bar(self, ax: Any) -> None:
-        """Draw a scale bar of a round length, about a fifth of the map's width.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes
-            The map, its limits set.
-        """
+        """Draw a scale bar of a round length, about a fifth of the map's width."""
         from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
         x0, x1 = ax.get_xlim()
@@ -121,22 +85,7 @@ class MapFrame:
 
 
 def plot_times(meas: MeasurementSet, t: Any) -> tuple[np.ndarray, str]:
-    """Return times for a plot's axis and the axis label: UTC clock time when known.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements; their ``time_origin`` metadata is the clock time of t = 0 s.
-    t : array_like
-        Times (s since the time origin).
-
-    Returns
-    -------
-    values : ndarray
-        ``datetime64[ms]`` UTC times when the set records its time origin, else ``t`` (s).
-    label : str
-        ``time (UTC, YYYY-MM-DD)`` or ``time (s)``.
-    """
+    """Return times for a plot's axis and the axis label: UTC clock time when known."""
     t = np.asarray(t, dtype=float)
     start = clock_time(meas, 0.0)
     if start is None or TIME_ORIGIN_KEY not in meas.metadata:
@@ -148,15 +97,7 @@ def plot_times(meas: MeasurementSet, t: Any) -> tuple[np.ndarray, str]:
 
 
 def format_time_axis(ax: Any, values: np.ndarray) -> None:
-    """Show clock times as ``HH:MM`` (``HH:MM:SS`` over spans under 10 min); seconds unchanged.
-
-    Parameters
-    ----------
-    ax : matplotlib.axes.Axes
-        The axes whose x axis is time.
-    values : ndarray
-        The times plotted (:func:`plot_times`): ``datetime64`` or seconds.
-    """
+    """Show clock times as ``HH:MM`` (``HH:MM:SS`` over spans under 10 min); seconds unchanged."""
     if not np.issubdtype(np.asarray(values).dtype, np.datetime64) or not np.size(values):
         return
     import matplotlib.dates as mdates
@@ -166,15 +107,7 @@ def format_time_axis(ax: Any, values: np.ndarray) -> None:
 
 
 def map_legend(ax: Any, columns: int = 3) -> None:
-    """Put a map's legend under the figure, outside the map: it hides no data, no scale bar.
-
-    Parameters
-    ----------
-    ax : matplotlib.axes.Axes
-        The map (its artists labelled).
-    columns : int
-        Entries per row.
-    """
+    """Put a map's legend under the figure, outside the map: it hides no data, no scale bar."""
     handles, labels = ax.get_legend_handles_labels()
     if handles:
         ax.figure.legend(handles, labels, loc="outside lower left", ncol=columns, fontsize=8,
@@ -182,13 +115,7 @@ def map_legend(ax: Any, columns: int = 3) -> None:
 
 
 def plain_ticks(ax: Any) -> None:
-    """Write a map's tick labels in full (47.955, not an offset +4.795e1), at most 6 per axis.
-
-    Parameters
-    ----------
-    ax : matplotlib.axes.Axes
-        The map.
-    """
+    """Write a map's tick labels in full (47.955, not an offset +4.795e1), at most 6 per axis."""
     from matplotlib.ticker import MaxNLocator, ScalarFormatter
 
     for axis in (ax.xaxis, ax.yaxis):

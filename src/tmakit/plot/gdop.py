@@ -50,25 +50,7 @@ class CepMap:
 
 
 def layout_rows(scenario: Scenario) -> tuple[MeasurementSet, list[str]]:
-    """Give a layout's TDOA and FDOA rows (noise-free) and the kinds left out.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The layout: its sensors and measurement plans (its target is not used).
-
-    Returns
-    -------
-    rows : MeasurementSet
-        The ``tdoa`` and ``fdoa`` rows.
-    ignored : list of str
-        The other kinds of its plans.
-
-    Raises
-    ------
-    ValueError
-        If the layout has no ``tdoa`` or ``fdoa`` plan.
-    """
+    """Give a layout's TDOA and FDOA rows (noise-free) and the kinds left out."""
     meas = scenario.simulate(rng=0, noise=False)
     keep = np.isin(meas.kind, ["tdoa", "fdoa"])
     if not keep.any():
@@ -91,30 +73,7 @@ def _default_extent(rows: MeasurementSet) -> tuple[float, float, float]:
 
 def cep_map(scenario: Scenario, points: int = 100, half_width: float | None = None,
             height: float = 0.0) -> CepMap:
-    """Compute CEP50 and CEP90 over a square grid about the layout.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The layout (sensors and ``tdoa`` / ``fdoa`` plans).
-    points : int, optional
-        Grid points per side (>= 2).
-    half_width : float, optional
-        Half the grid's side (m); default twice the sensors' spread about their centre.
-    height : float, optional
-        The emitter's ENU height (m), known.
-
-    Returns
-    -------
-    CepMap
-        The radii over the grid.
-
-    Raises
-    ------
-    ValueError
-        If ``points`` is below 2, ``half_width`` not positive, or the layout has no TDOA or
-        FDOA rows.
-    """
+    """Compute CEP50 and CEP90 over a square grid about the layout."""
     if points < 2:
         raise ValueError(f"points: expected 2 or more per side, found {points}")
     rows, ignored = layout_rows(scenario)
@@ -137,22 +96,7 @@ def cep_map(scenario: Scenario, points: int = 100, half_width: float | None = No
 
 
 def plot_cep_map(result: CepMap, path: str | Path, title: str | None = None) -> Path:
-    """Draw CEP50 and CEP90 as filled contours (log scale) with the sensors.
-
-    Parameters
-    ----------
-    result : CepMap
-        The map.
-    path : str or pathlib.Path
-        Image file (format from the suffix).
-    title : str, optional
-        The figure's title.
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-    """
+    """Draw CEP50 and CEP90 as filled contours (log scale) with the sensors."""
     import matplotlib
 
     matplotlib.use("Agg")

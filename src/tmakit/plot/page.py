@@ -126,11 +126,7 @@ class _Page:
 
     def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int,
                                          list[np.ndarray], list[np.ndarray]]:
-        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`) and the cuts.
-
-        Ambiguous cuts (a towed array's, ``MeasurementSet.ambiguous_si``) give their other
-        side too: the last two lists, the twins of the lines drawn (empty without any).
-        """
+        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`) and the cuts."""
         rows = np.flatnonzero(self.meas.kind == "bearing")
         if rows.size == 0:
             return [], [], 0, [], []
@@ -363,28 +359,7 @@ def _dots_figures(page: _Page, width: int) -> tuple[list[Any], list[dict[str, An
 def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
                        options: dict[str, Any] | None = None, title: str | None = None,
                        level: float = 0.95, labels: int = 5) -> str:
-    """Give the solution page of a batch estimate as one self-contained HTML document.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements fitted.
-    result : EstimateResult
-        The estimate.
-    options : dict, optional
-        The measurement-model options of the fit (drift, path-loss exponent).
-    title : str, optional
-        The heading (escaped: it may name files).
-    level : float
-        Probability inside the position ellipses.
-    labels : int
-        Times along the track with an ellipse.
-
-    Returns
-    -------
-    str
-        The page: Bokeh's JavaScript inline, no network needed to open it.
-    """
+    """Give the solution page of a batch estimate as one self-contained HTML document."""
     from bokeh.document import Document
     from bokeh.embed import file_html
     from bokeh.layouts import column, row
@@ -435,28 +410,7 @@ _TEMPLATE = """{% block contents %}
 def write_solution_page(meas: MeasurementSet, result: EstimateResult, path: str | Path, *,
                         options: dict[str, Any] | None = None, title: str | None = None,
                         level: float = 0.95) -> Path:
-    """Write the solution page (:func:`solution_page_html`) to ``path``.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements fitted.
-    result : EstimateResult
-        The estimate.
-    path : str or Path
-        The HTML file (overwritten: the caller checks it first).
-    options : dict, optional
-        The measurement-model options of the fit.
-    title : str, optional
-        The heading.
-    level : float
-        Probability inside the position ellipses.
-
-    Returns
-    -------
-    Path
-        ``path``.
-    """
+    """Write the solution page (:func:`solution_page_html`) to ``path``."""
     path = Path(path)
     path.write_text(solution_page_html(meas, result, options=options, title=title, level=level),
                     encoding="utf-8")

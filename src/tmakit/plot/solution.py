@@ -28,22 +28,7 @@ MAX_BEARING_LINES = 40
 
 
 def ellipse_points(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
-    """Give the points of the confidence ellipse of a 2x2 position covariance.
-
-    Parameters
-    ----------
-    cov2 : ndarray, shape (2, 2)
-        The covariance (m^2).
-    level : float
-        The probability inside the ellipse (chi-square, 2 dof).
-    n : int
-        The number of points.
-
-    Returns
-    -------
-    ndarray, shape (n, 2)
-        East and North (m) relative to the centre; the last point is the first.
-    """
+    """Give the points of the confidence ellipse of a 2x2 position covariance."""
     from scipy.stats import chi2
 
     evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
@@ -128,10 +113,7 @@ SOLUTION_COLOURS = ("tab:purple", "tab:green", "tab:brown", "tab:pink", "tab:oli
 
 def _draw_other_solutions(ax: Any, result: EstimateResult, meas: MeasurementSet,
                           frame: MapFrame, level: float) -> float:
-    """Draw each separated solution after the first: its track and its ellipse at the end.
-
-    Give the largest semi-axis drawn (0 when the fit is the only solution).
-    """
+    """Draw each separated solution after the first: its track and its ellipse at the end."""
     largest = 0.0
     t = np.linspace(meas.time.min(), meas.time.max(), 200)
     for k, sol in enumerate(result.solutions[1:]):

@@ -141,10 +141,7 @@ def _save(fig: Any, path: str | Path, title: str | None) -> Path:
 
 def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, probability: float, n: int = 90
                 ) -> np.ndarray:
-    """Return points (n, 2) of the ``probability`` confidence ellipse of a 2-D Gaussian.
-
-    The Mahalanobis radius is ``sqrt(-2 ln(1 - p))`` (chi-square, 2 degrees of freedom).
-    """
+    """Return points (n, 2) of the ``probability`` confidence ellipse of a 2-D Gaussian."""
     evals, evecs = np.linalg.eigh(0.5 * (cov + cov.T))
     radius = np.sqrt(-2.0 * np.log1p(-probability))
     angle = np.linspace(0.0, 2.0 * np.pi, n)
@@ -280,10 +277,7 @@ def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list
 
 def _axis_errors(ax_axes: Any, tr: Track, truth: np.ndarray, pcrb: PosteriorBound | None,
                  colours: list[str], axis: Any) -> None:
-    """Estimate minus truth per axis, within the filter's ±1 std and the PCRB's.
-
-    ``axis`` maps times (s) to the time axis's values (clock time when known).
-    """
+    """Estimate minus truth per axis, within the filter's ±1 std and the PCRB's."""
     dim = len(tr.state_names) // 2
     t = axis(tr.times)
     err = tr.states[:, :dim] - truth[:, :dim]

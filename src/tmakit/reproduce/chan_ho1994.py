@@ -37,18 +37,7 @@ RUNS = 1000
 
 
 def scenario_at(sigma_m: float) -> Scenario:
-    """Build the layout with range-difference noise ``sigma_m`` (m).
-
-    Parameters
-    ----------
-    sigma_m : float
-        The std of one range difference (m).
-
-    Returns
-    -------
-    Scenario
-        TDOAs of sensors 2-10 against sensor 1 at t = 0.
-    """
+    """Build the layout with range-difference noise ``sigma_m`` (m)."""
     sensors: dict[str, SensorTrack] = {f"s{i + 1}": FixedSensor(p)
                                        for i, p in enumerate(SENSORS)}
     times = np.array([0.0])
@@ -67,25 +56,6 @@ class ChanHoReproduction(Reproduction):
 def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> ChanHoReproduction:
     """Reproduce the position MSE against noise.
 
-    Parameters
-    ----------
-    runs : int, optional
-        Monte Carlo runs per noise level (at least 1).
-    seed : int, optional
-        First seed.
-    progress : bool, optional
-        Not used.
-
-    Returns
-    -------
-    ChanHoReproduction
-        The table, the thresholds and the MSE / CRLB ratios as figures.
-
-    Raises
-    ------
-    ValueError
-        If ``runs`` is below 1.
-
     References
     ----------
     Chan & Ho (1994) (the two-stage estimator and its MSE against noise).
@@ -102,20 +72,7 @@ def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> ChanHoReprodu
 
 
 def plot(rep: ChanHoReproduction, path: str | Path) -> Path:
-    """Draw the position MSE against noise beside the CRLB.
-
-    Parameters
-    ----------
-    rep : ChanHoReproduction
-        The result of :func:`run`.
-    path : str or pathlib.Path
-        Image file (format from the suffix).
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-    """
+    """Draw the position MSE against noise beside the CRLB."""
     assert rep.result is not None
     plot_sweep(rep.result, "Chan & Ho (1994): TDOA, 10 sensors", path)
     return Path(path)

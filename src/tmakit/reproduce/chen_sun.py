@@ -104,27 +104,6 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Give the initial state of Chen & Sun, §2.5 (its evident intent, see the module docstring).
 
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements; the emitter is put along the first bearing.
-    range_guess, height_guess : float, optional
-        Assumed slant range ``R_o`` (m, > ``|height_guess|``) and height above the receiver (m).
-    velocity : sequence of float or None, optional
-        Initial velocity (m/s; default ``0.5 v_max`` of §3.1).
-    position_var, velocity_var : float, optional
-        Prior variances per axis (m^2; m^2/s^2).
-
-    Returns
-    -------
-    tuple
-        ``(mean (6,) (m, m/s), covariance (6, 6), time of the first bearing (s))``.
-
-    Raises
-    ------
-    ValueError
-        If ``range_guess <= |height_guess|`` or there is no bearing.
-
     References
     ----------
     Chen & Sun, §2.5 (the initial guess and ``P_0``), §3.1 (``R_o``, ``z``, ``v_max``).
@@ -146,19 +125,7 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
 
 
 def observability(path: int) -> dict[str, float | bool]:
-    """Compute the batch CRLB of one path (its data only, no prior, motion cv3d at the truth).
-
-    Parameters
-    ----------
-    path : int
-        Path number, 1-3 (scenario ``chen-sun-<path>``).
-
-    Returns
-    -------
-    dict
-        Std (m) of height, horizontal position and slant range at the first and last sample
-        (``z_std_start``, ...), true ranges and heights (m), condition, rank, ``poorly_observable``.
-    """
+    """Compute the batch CRLB of one path (its data only, no prior, motion cv3d at the truth)."""
     scn = load_scenario(f"chen-sun-{path}")
     bound = crlb(scn)
     t0, t1 = scn.time_span()
@@ -192,28 +159,7 @@ def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
                      filters: Sequence[str] = tuple(FILTER_SETS),
                      progress: Callable[[], object] | None = None
                      ) -> dict[str, dict[str, NDArray[np.float64]]]:
-    """Track one path in ``runs`` seeded runs; run ``i`` uses ``default_rng([seed, path, i])``.
-
-    Parameters
-    ----------
-    path, runs, seed : int
-        Path number (1-3), number of runs, base seed.
-    lags, filters : sequence, optional
-        Lags of the multi-lag vectors (samples); keys of :data:`FILTER_SETS`.
-    progress : callable or None, optional
-        Called with no argument after each run.
-
-    Returns
-    -------
-    dict
-        Per filter key: ``errors`` (runs, K, 5) (x, y, z, R, rho; m), ``nees`` (runs, K),
-        ``time`` (K,) (s), ``reflections`` and ``fallbacks`` (runs,).
-
-    Raises
-    ------
-    ValueError
-        If a filter key is unknown.
-    """
+    """Track one path in ``runs`` seeded runs; run ``i`` uses ``default_rng([seed, path, i])``."""
     unknown = [f for f in filters if f not in FILTER_SETS]
     if unknown:
         raise ValueError(f"unknown filter set(s) {unknown}; expected {list(FILTER_SETS)}")
@@ -244,20 +190,7 @@ def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
 
 
 def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, float]:
-    """Give the two-sided ``level`` band of the mean NEES over ``runs`` consistent runs.
-
-    Parameters
-    ----------
-    runs, dof : int
-        Runs averaged; degrees of freedom of one NEES (default 6).
-    level : float, optional
-        Probability inside the band.
-
-    Returns
-    -------
-    tuple of float
-        ``(low, high)``, chi-square quantiles (``dof * runs`` dof) over ``runs``.
-    """
+    """Give the two-sided ``level`` band of the mean NEES over ``runs`` consistent runs."""
     from scipy.stats import chi2
 
     lo, hi = chi2.ppf([(1 - level) / 2, (1 + level) / 2], dof * runs)
@@ -266,22 +199,7 @@ def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, floa
 
 def run(runs: int = RUNS, seed: int = 1, progress: bool = True,
         lags: Sequence[int] = DEFAULT_LAGS) -> ChenSunReproduction:
-    """Reproduce §3: the paths' observability and, with ``runs > 0``, Fig. 2's errors.
-
-    Parameters
-    ----------
-    runs, seed : int, optional
-        Monte Carlo runs per path (0: setup and observability only) and base seed.
-    progress : bool, optional
-        Show a progress bar during the runs.
-    lags : sequence of int, optional
-        Lags of the multi-lag vectors (samples).
-
-    Returns
-    -------
-    ChenSunReproduction
-        Setup, observability and, with runs, Fig. 2's RMS errors (m), NEES and §3.2's claims.
-    """
+    """Reproduce §3: the paths' observability and, with ``runs > 0``, Fig. 2's errors."""
     lags = tuple(int(v) for v in lags)
     rep = ChenSunReproduction("chen-sun", lags=lags)
     rho = np.sqrt(RANGE_GUESS**2 - HEIGHT_GUESS**2)
@@ -446,28 +364,7 @@ def _compare(rep: ChenSunReproduction,
 
 
 def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
-    """Draw Fig. 2 of Chen & Sun: RMS error over time for the three paths.
-
-    x, y, z and slant range (km, log), EKF dashed, MGEKF solid; top row as in the paper, bottom
-    row with reuse-inflated R.
-
-    Parameters
-    ----------
-    rep : ChenSunReproduction
-        The result of :func:`run` with ``runs > 0``.
-    path : str or pathlib.Path
-        Image file to write (format from the suffix).
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-
-    Raises
-    ------
-    ValueError
-        If ``rep`` has no time series (``runs = 0``).
-    """
+    """Draw Fig. 2 of Chen & Sun: RMS error over time for the three paths."""
     if not rep.series:
         raise ValueError("plot() needs chen_sun.run() with runs > 0")
     import matplotlib

@@ -58,37 +58,14 @@ class Reproduction:
     print_figures: bool = True
 
     def as_dict(self) -> dict[str, object]:
-        """Give the reproduction as JSON-ready data.
-
-        Returns
-        -------
-        dict
-            ``name``, ``figures`` and ``sections`` (each with ``title``, ``header``, ``rows``
-            and ``note``).
-        """
+        """Give the reproduction as JSON-ready data."""
         return {"name": self.name, "figures": self.figures,
                 "sections": [{"title": s.title, "header": s.header, "rows": s.rows,
                               "note": s.note} for s in self.sections]}
 
 
 def with_noise(scn: Scenario, **by_kind: dict[str, float]) -> Scenario:
-    """Copy a scenario, giving the measurement plans of the named kinds new noise values.
-
-    E.g. ``with_noise(scn, power={"snr_db": 20.0}, frequency={"sigma": 19.0})``.
-
-    Parameters
-    ----------
-    scn : Scenario
-        The scenario (not changed).
-    **by_kind : dict of str to float
-        Per kind, the :class:`~tmakit.scenario.MeasurementPlan` attributes to set (SI:
-        ``sigma`` in rad, Hz, ...; ``snr_db`` in dB).
-
-    Returns
-    -------
-    Scenario
-        A deep copy with the new values.
-    """
+    """Copy a scenario, giving the measurement plans of the named kinds new noise values."""
     new = copy.deepcopy(scn)
     for plan in new.plans:
         for key, value in by_kind.get(plan.kind, {}).items():
@@ -97,36 +74,12 @@ def with_noise(scn: Scenario, **by_kind: dict[str, float]) -> Scenario:
 
 
 def only_kinds(scn: Scenario, kinds: tuple[str, ...]) -> Scenario:
-    """Copy a scenario, keeping only the measurement plans of the given kinds.
-
-    Parameters
-    ----------
-    scn : Scenario
-        The scenario (not changed).
-    kinds : tuple of str
-        Measurement kinds to keep.
-
-    Returns
-    -------
-    Scenario
-        A deep copy with only those plans.
-    """
+    """Copy a scenario, keeping only the measurement plans of the given kinds."""
     new = copy.deepcopy(scn)
     new.plans = [p for p in new.plans if p.kind in kinds]
     return new
 
 
 def rel_diff(ours: float, paper: float) -> float:
-    """Give the relative difference ``|ours - paper| / |paper|``.
-
-    Parameters
-    ----------
-    ours, paper : float
-        tmakit's and the paper's value (same units).
-
-    Returns
-    -------
-    float
-        The relative difference (dimensionless).
-    """
+    """Give the relative difference ``|ours - paper| / |paper|``."""
     return abs(ours - paper) / abs(paper)

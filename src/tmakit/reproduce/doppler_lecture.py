@@ -26,17 +26,6 @@ EXTRA_RECEIVERS = {"rx2": (15_000.0, -5_000.0, 10.0), "rx3": (-12_000.0, 9_000.0
 def with_receivers(n: int) -> Scenario:
     """Build the doppler-lecture scenario heard by ``n`` fixed receivers.
 
-    Parameters
-    ----------
-    n : int
-        Number of receivers, 1-3 (the lecture's receiver plus those of
-        :data:`EXTRA_RECEIVERS`, positions in m).
-
-    Returns
-    -------
-    Scenario
-        The scenario with one frequency plan per receiver (the first plan's times and sigma).
-
     References
     ----------
     The Doppler-tracking lecture notes (the worked example's receiver).
@@ -51,22 +40,6 @@ def with_receivers(n: int) -> Scenario:
 
 def run(runs: int = 0, seed: int = 1, progress: bool = True) -> Reproduction:
     """Reproduce the lecture's problem: observability by receiver count, then one estimate.
-
-    Parameters
-    ----------
-    runs : int, optional
-        Accepted for the common ``tma reproduce`` interface; not used.
-    seed : int, optional
-        Seed of the one simulated data set of the three-receiver estimate.
-    progress : bool, optional
-        Accepted for the common interface; not used.
-
-    Returns
-    -------
-    Reproduction
-        Sections: rank and unobservable directions for 1-3 receivers; the three-receiver
-        ML estimate of ``[X_N Y_N Z_N Vx Vy Vz f_o]`` (m, m/s, Hz) against the truth and the
-        CRLB.
 
     References
     ----------

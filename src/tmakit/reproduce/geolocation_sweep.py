@@ -53,43 +53,14 @@ class Sweep:
     failed: list[int] = field(default_factory=list)
 
     def ratio(self, which: str, block: str) -> list[float]:
-        """Give an estimator's MSE over the CRLB's trace at each noise level.
-
-        Parameters
-        ----------
-        which : str
-            ``"ml"`` or ``"closed"``.
-        block : str
-            ``"position"`` or ``"velocity"``.
-
-        Returns
-        -------
-        list of float
-            MSE / CRLB per level (dimensionless).
-        """
+        """Give an estimator's MSE over the CRLB's trace at each noise level."""
         mse = getattr(self, which)[block]
         return [float(a / b) for a, b in zip(mse, self.crlb[block], strict=True)]
 
 
 def threshold(sigma: Sequence[float], ratio: Sequence[float], tolerance: float
               ) -> float | None:
-    """Give the lowest noise level from which on MSE / CRLB exceeds ``tolerance``.
-
-    Parameters
-    ----------
-    sigma : sequence of float
-        Noise levels, ascending.
-    ratio : sequence of float
-        MSE / CRLB at each.
-    tolerance : float
-        The efficiency tolerance.
-
-    Returns
-    -------
-    float or None
-        The first level of the run of levels past the tolerance that ends the sweep; None
-        when the last level is within it.
-    """
+    """Give the lowest noise level from which on MSE / CRLB exceeds ``tolerance``."""
     past = None
     for s, r in zip(sigma, ratio, strict=True):
         if r <= tolerance:
@@ -106,26 +77,7 @@ def _blocks(dim: int, moving: bool) -> dict[str, slice]:
 
 def sweep(scenario_at: Callable[[float], Scenario], sigma_m: Sequence[float], runs: int,
           seed: int, progress: Callable[[int], None] | None = None) -> Sweep:
-    """Run the MSE-against-noise study of a layout.
-
-    Parameters
-    ----------
-    scenario_at : callable
-        The layout's scenario for a range-difference noise std (m).
-    sigma_m : sequence of float
-        The noise levels (m), ascending.
-    runs : int
-        Monte Carlo runs per level.
-    seed : int
-        Seed of the first run; level ``k`` uses seeds ``seed + k * runs + i``.
-    progress : callable, optional
-        Called with the number of levels done.
-
-    Returns
-    -------
-    Sweep
-        MSE of the maximum likelihood and the closed form, and the CRLB, per level.
-    """
+    """Run the MSE-against-noise study of a layout."""
     out = Sweep([float(s) for s in sigma_m])
     ml = MaximumLikelihood()
     for k, sigma in enumerate(out.sigma_m):
@@ -163,23 +115,7 @@ def _mse(err: Array) -> float:
 
 
 def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, object]]:
-    """Give a sweep as the report's tables and its key figures.
-
-    Parameters
-    ----------
-    result : Sweep
-        The study.
-    title : str
-        The layout's name, for the table titles.
-
-    Returns
-    -------
-    sections : list of Section
-        One table per block: noise, CRLB, MSE and MSE / CRLB of both estimators.
-    figures : dict
-        ``{block}_ml_ratio``, ``{block}_closed_ratio`` (lists), ``{block}_ml_threshold_m``,
-        ``{block}_closed_threshold_m`` (None: past the sweep), ``sigma_m``, ``ml_failed``.
-    """
+    """Give a sweep as the report's tables and its key figures."""
     sections: list[Section] = []
     figures: dict[str, object] = {"sigma_m": result.sigma_m, "ml_failed": result.failed}
     for block in result.crlb:
@@ -217,17 +153,7 @@ def _level(value: float | None) -> str:
 
 
 def plot_sweep(result: Sweep, title: str, path: str | Path) -> None:
-    """Draw MSE against noise (log-log), both estimators beside the CRLB, one panel a block.
-
-    Parameters
-    ----------
-    result : Sweep
-        The study.
-    title : str
-        The figure's title.
-    path : str or pathlib.Path
-        Image file to write (format from the suffix).
-    """
+    """Draw MSE against noise (log-log), both estimators beside the CRLB, one panel a block."""
     import matplotlib
 
     matplotlib.use("Agg")

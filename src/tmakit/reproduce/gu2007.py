@@ -39,12 +39,6 @@ _KINDS = {"power": ("power",), "frequency": ("frequency",), "both": ("power", "f
 def crlb_tables() -> dict[tuple[float, float], dict[str, np.ndarray]]:
     """Compute tmakit's values for the paper's Tables 1-3.
 
-    Returns
-    -------
-    dict
-        ``{(snr_db, sigma_f_hz): {"power" | "frequency" | "both": CRLB std of
-        (x, y, vx, vy)}}`` (m, m, m/s, m/s), C and f_s known.
-
     References
     ----------
     Gu et al. (2007), eqs. 17-18 and Tables 1-3.
@@ -62,21 +56,6 @@ def crlb_tables() -> dict[tuple[float, float], dict[str, np.ndarray]]:
 
 def run(runs: int = 200, seed: int = 1, progress: bool = True) -> Reproduction:
     """Reproduce Tables 1-3 and, with ``runs > 0``, the Monte Carlo study of §5.
-
-    Parameters
-    ----------
-    runs : int, optional
-        Monte Carlo runs per estimator (0: the tables only).
-    seed : int, optional
-        Seed of the Monte Carlo runs.
-    progress : bool, optional
-        Show a progress bar during the Monte Carlo runs.
-
-    Returns
-    -------
-    Reproduction
-        Tables 1-3 (paper, tmakit, relative difference) and the §5 RMS errors (m, m/s) of
-        tmakit's ML and ratio estimators next to the paper's and the CRLBs.
 
     References
     ----------

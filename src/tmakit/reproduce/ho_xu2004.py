@@ -41,21 +41,7 @@ RUNS = 1000
 
 
 def scenario_at(sigma_m: float, source: dict[str, float] | None = None) -> Scenario:
-    """Build the layout with range-difference noise ``sigma_m`` (m).
-
-    Parameters
-    ----------
-    sigma_m : float
-        The std of one range difference (m); the range-rate differences' is
-        :data:`RATE_RATIO` times it (m/s).
-    source : dict, optional
-        The source's truth (default :data:`SOURCE`).
-
-    Returns
-    -------
-    Scenario
-        TDOA and FDOA of sensors 2-5 against sensor 1 at t = 0, the carrier known.
-    """
+    """Build the layout with range-difference noise ``sigma_m`` (m)."""
     sensors: dict[str, SensorTrack] = {
         f"s{i + 1}": WaypointTrack(np.stack([p - v, p + v]), times=[-1.0, 1.0])
         for i, (p, v) in enumerate(zip(SENSORS, VELOCITIES, strict=True))}
@@ -80,25 +66,6 @@ class HoXuReproduction(Reproduction):
 def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> HoXuReproduction:
     """Reproduce the position and velocity MSE against noise.
 
-    Parameters
-    ----------
-    runs : int, optional
-        Monte Carlo runs per noise level (0: the CRLB only is not offered; at least 1).
-    seed : int, optional
-        First seed.
-    progress : bool, optional
-        Not used (the sweep is a few seconds a level).
-
-    Returns
-    -------
-    HoXuReproduction
-        Tables per block, the thresholds and the MSE / CRLB ratios as figures.
-
-    Raises
-    ------
-    ValueError
-        If ``runs`` is below 1.
-
     References
     ----------
     Ho & Xu (2004) (the closed form and its MSE figure).
@@ -115,20 +82,7 @@ def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> HoXuReproduct
 
 
 def plot(rep: HoXuReproduction, path: str | Path) -> Path:
-    """Draw position and velocity MSE against noise beside the CRLB.
-
-    Parameters
-    ----------
-    rep : HoXuReproduction
-        The result of :func:`run`.
-    path : str or pathlib.Path
-        Image file (format from the suffix).
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-    """
+    """Draw position and velocity MSE against noise beside the CRLB."""
     assert rep.result is not None
     plot_sweep(rep.result, "Ho & Xu (2004): TDOA + FDOA, 5 moving sensors", path)
     return Path(path)

@@ -68,39 +68,13 @@ class Hoerst2010Reproduction(Reproduction):
 
 
 def reference_times(scn: Scenario, step: float = STEP) -> np.ndarray:
-    """Give the reference times ``t0 + step, t0 + 2 step, ...`` up to the last sample.
-
-    Parameters
-    ----------
-    scn : Scenario
-        The scenario; ``t0`` is its first sample time.
-    step : float, optional
-        Spacing (s).
-
-    Returns
-    -------
-    numpy.ndarray
-        The reference times (s).
-    """
+    """Give the reference times ``t0 + step, t0 + 2 step, ...`` up to the last sample."""
     t0, t1 = scn.time_span()
     return t0 + step * np.arange(1, int(np.floor((t1 - t0) / step + 1e-9)) + 1)
 
 
 def sequences(step: float = STEP, scn: Scenario | None = None) -> dict[str, CrbSequence]:
     """Compute the bound sequence of every case of :data:`CASES`, every ``step`` seconds.
-
-    Parameters
-    ----------
-    step : float, optional
-        Spacing of the reference times (s).
-    scn : Scenario or None, optional
-        The scenario (default: the built-in ``hoerst2010``).
-
-    Returns
-    -------
-    dict of str to CrbSequence
-        Per case, the position CRB at each reference time from the data so far, with
-        :data:`LEVEL` confidence ellipses.
 
     References
     ----------
@@ -127,22 +101,6 @@ def _num(v: float) -> float | None:
 def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
         ) -> Hoerst2010Reproduction:
     """Compute the bounds and check the paper's statements about Fig. 2.
-
-    Parameters
-    ----------
-    runs, seed : int, optional
-        Accepted for the common ``tma reproduce`` interface and not used: the paper has no
-        Monte Carlo study.
-    progress : bool, optional
-        Accepted for the common interface; not used.
-    step : float, optional
-        Spacing of the reference times (s).
-
-    Returns
-    -------
-    Hoerst2010Reproduction
-        Sections: position RMS bounds (m) at the table times, the paper's statements
-        checked, the ellipse counts; the scenario and the bound sequences for :func:`plot`.
 
     References
     ----------
@@ -259,29 +217,7 @@ def _ellipse_counts(s: CrbSequence) -> tuple[int, int, int]:
 
 
 def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
-    """Draw Fig. 2 of Hörst & Oispuu (2010).
-
-    Observer path (green, start square), target path (blue, start square, change-over points
-    circles) and the 90 % position ellipses (red) every 10 s, left azimuth only, right
-    azimuth + azimuth rate; ellipses over 30 km or unobservable left out.  Axes in km.
-
-    Parameters
-    ----------
-    rep : Hoerst2010Reproduction
-        The result of :func:`run`.
-    path : str or pathlib.Path
-        Image file to write (format from the suffix).
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-
-    Raises
-    ------
-    ValueError
-        If ``rep`` lacks the scenario or the bound sequences.
-    """
+    """Draw Fig. 2 of Hörst & Oispuu (2010)."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -122,23 +122,7 @@ SETUP = Hurtado2008Setup()
 
 
 def radar_plan(radar: str = "derived") -> SensorPlan:
-    """Return what the radar measures at each pulse: azimuth, range, range rate.
-
-    Parameters
-    ----------
-    radar : {"derived", "resolution", "scenario", "derived-correlated"}
-        The noise model (module docstring).
-
-    Returns
-    -------
-    SensorPlan
-        Kinds ``bearing``, ``range``, ``range_rate`` with their noise (SI).
-
-    Raises
-    ------
-    ValueError
-        For another name.
-    """
+    """Return what the radar measures at each pulse: azimuth, range, range rate."""
     if radar not in RADARS:
         raise ValueError(f"radar must be one of {', '.join(RADARS)}, got {radar!r}")
     kinds = ("bearing", "range", "range_rate")
@@ -159,24 +143,6 @@ def radar_plan(radar: str = "derived") -> SensorPlan:
 def cases(radar: str = "derived", particles: int = 2000, steps: int | None = None,
           tracker: str = "pf", setup: Hurtado2008Setup = SETUP) -> list[LoopCase]:
     """Build the four cases of the reproduction.
-
-    Parameters
-    ----------
-    radar : str, optional
-        The radar variant (:func:`radar_plan`).
-    particles : int, optional
-        Particles of the particle filter.
-    steps : int, optional
-        Decisions (default the 600 of 300 s).
-    tracker : {"pf", "ekf", "ukf"}, optional
-        The tracker.
-    setup : Hurtado2008Setup, optional
-        The scenario.
-
-    Returns
-    -------
-    list of LoopCase
-        ``fixed``, ``adaptive``, ``min-range hard``, ``min-range penalty``.
 
     References
     ----------
@@ -228,18 +194,6 @@ def _turns(study: ClosedLoopStudy, case: str, start: int) -> float:
 def claims(study: ClosedLoopStudy, setup: Hurtado2008Setup = SETUP) -> list[list[object]]:
     """Check the paper's qualitative claims on the runs.
 
-    Parameters
-    ----------
-    study : ClosedLoopStudy
-        The four cases.
-    setup : Hurtado2008Setup, optional
-        The scenario (for the 5 km limit).
-
-    Returns
-    -------
-    list of list
-        ``[claim, what was measured, holds (bool)]`` rows.
-
     References
     ----------
     Hurtado & Nehorai (2008), section 5, Examples 1 and 2.
@@ -279,40 +233,6 @@ def run(runs: int = 100, seed: int = 1, progress: bool = True, *, particles: int
         chunk: int | None = None, dask: Any = None,
         on_chunk: Callable[[LoopChunk], None] | None = None) -> Hurtado2008Reproduction:
     """Run the four cases and check the paper's claims.
-
-    Parameters
-    ----------
-    runs : int, optional
-        Monte Carlo runs per case (>= 1).
-    seed : int, optional
-        Seed (run ``r`` of every case uses the same draws).
-    progress : bool, optional
-        Show a progress bar.
-    particles : int, optional
-        Particles of the particle filter (>= 2).
-    steps : int, optional
-        Decisions per run (default 600: 300 s at 0.5 s).
-    radar : {"derived", "resolution", "scenario", "derived-correlated"}, optional
-        The radar noise model (:func:`radar_plan`).
-    tracker : {"pf", "ekf", "ukf"}, optional
-        The tracker.
-    chunk, dask
-        As for :func:`~tmakit.montecarlo.closed_loop.closed_loop_study`.
-    on_chunk : callable, optional
-        Called with each finished chunk (to save it).
-
-    Returns
-    -------
-    Hurtado2008Reproduction
-        Figures ``cases`` (per case: ``final_rmse_m``, ``final_pcrb_m`` (the posterior CRB
-        at the truth), ``rmse_over_pcrb`` with its 95 % interval ``rmse_over_pcrb_low``,
-        ``rmse_over_pcrb_high``, ``final_criterion_m`` (the planning criterion),
-        ``min_range_m``, ``mean_decision_ms``, ``runs``), ``claims`` and ``settings``.
-
-    Raises
-    ------
-    ValueError
-        On an option out of range (named).
 
     References
     ----------
@@ -370,11 +290,7 @@ PATHS_NOTE = (
 
 
 def _figure(summary: Mapping[str, float | int | None], key: str) -> float:
-    """Give a figure of :meth:`ClosedLoopStudy.summary` that is always a number.
-
-    Only the RMSE/bound interval's ends may be None there (too few runs); the others are
-    numbers whatever the runs.
-    """
+    """Give a figure of :meth:`ClosedLoopStudy.summary` that is always a number."""
     value = summary[key]
     if value is None:
         raise ValueError(f"the closed-loop study gives no {key}")
@@ -390,23 +306,6 @@ def _row(case: str, s: dict[str, Any]) -> list[object]:
 
 def plot(rep: Hurtado2008Reproduction, path: str | Path) -> Path:
     """Draw example paths, RMSE against the bound, and the range to the target over time.
-
-    Parameters
-    ----------
-    rep : Hurtado2008Reproduction
-        The result of :func:`run`.
-    path : str or pathlib.Path
-        Image file (format from the suffix).
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-
-    Raises
-    ------
-    ValueError
-        If ``rep`` holds no study.
 
     References
     ----------

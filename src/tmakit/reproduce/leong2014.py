@@ -79,23 +79,12 @@ class Scenario:
     after: int
 
     def prior(self) -> BearingPrior:
-        """Give the start's prior: the range interval and the largest speed.
-
-        Returns
-        -------
-        BearingPrior
-        """
+        """Give the start's prior: the range interval and the largest speed."""
         lo, hi = self.range_prior
         return BearingPrior(lo, hi, self.speed_max_kn * KNOT, given=("range", "speed"))
 
     def own_ship(self) -> Array:
-        """Give the own ship's states.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(K+1, 4)`` ``[x, y, vx, vy]`` (m, m/s).
-        """
+        """Give the own ship's states."""
         c0, c1 = (math.radians(c) for c in self.own_course)
         a, b = self.turn
         own = np.zeros((self.steps + 1, 4))
@@ -119,22 +108,7 @@ SCENARIOS = {
 
 
 def simulate(scenario: Scenario, rng: np.random.Generator) -> tuple[MeasurementSet, Array]:
-    """Draw one run: the bearings and the target's true states.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The scenario.
-    rng : numpy.random.Generator
-        The random source (the target's path, then the bearings' noise).
-
-    Returns
-    -------
-    meas : MeasurementSet
-        ``K+1`` bearings of the sensor ``own ship``.
-    truth : numpy.ndarray
-        The target's states ``(K+1, 4)`` ``[x, y, vx, vy]`` (m, m/s).
-    """
+    """Draw one run: the bearings and the target's true states."""
     steps = scenario.steps
     own = scenario.own_ship()
     c = math.radians(scenario.course)

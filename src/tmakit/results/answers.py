@@ -51,11 +51,7 @@ UNDETERMINED_RATIO = 3.0
 
 def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
          null: NDArray[np.float64] | None = None) -> float | None:
-    """Return the linearised std ``sqrt(g^T P g)``; None when unobservable.
-
-    ``null`` (6, r) holds how the state moves along the fit's unobservable directions; a
-    quantity that moves with them is unobservable whatever its computed variance.
-    """
+    """Return the linearised std ``sqrt(g^T P g)``; None when unobservable."""
     used = grad != 0
     if not np.any(used):
         return 0.0
@@ -97,20 +93,7 @@ class Ellipse:
 
 def position_ellipse(cov2: NDArray[np.float64], level: float = ELLIPSE_LEVEL
                      ) -> Ellipse | None:
-    """Return the confidence ellipse of an East/North position covariance.
-
-    Parameters
-    ----------
-    cov2 : ndarray, shape (2, 2)
-        Covariance of East and North (m²).
-    level : float
-        Probability inside the ellipse (0 to 1).
-
-    Returns
-    -------
-    Ellipse or None
-        None when the covariance is not finite (the position is unobservable).
-    """
+    """Return the confidence ellipse of an East/North position covariance."""
     if not np.all(np.isfinite(cov2)):
         return None
     k = float(np.sqrt(chi2_dist.ppf(level, 2)))
@@ -432,24 +415,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
 
 def covering_scale(state: NDArray[np.float64], cov: NDArray[np.float64],
                    others: list[tuple[NDArray[np.float64], NDArray[np.float64]]]) -> float:
-    """Give the factor on ``cov`` whose 95 % position ellipse contains the others'.
-
-    The ellipse ``(x - c)' (s P)^-1 (x - c) <= q`` contains ``(x - c_j)' P_j^-1 (x - c_j) <= q``
-    when ``sqrt(s) >= |L^-1 d_j| / sqrt(q) + sigma_max(L^-1 L_j)`` (``P = L L'``, ``d_j = c_j -
-    c``; the triangle inequality), with ``q`` the 95 % quantile (then at every level above).
-
-    Parameters
-    ----------
-    state, cov : ndarray
-        The state (6,) and covariance (6, 6) widened.
-    others : list of (ndarray, ndarray)
-        The states and covariances whose position ellipses must lie inside.
-
-    Returns
-    -------
-    float
-        At least 1; 1 when a covariance is not finite (nothing to compare).
-    """
+    """Give the factor on ``cov`` whose 95 % position ellipse contains the others'."""
     q = float(chi2_dist.ppf(ELLIPSE_LEVEL, 2))
     scale = 1.0
     try:
@@ -541,23 +507,7 @@ _PARAM_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m
 
 
 def parameter_display(name: str, value: float, std: float) -> tuple[float, float, str]:
-    """Return a parameter's value and std in the unit shown to the user, and that unit.
-
-    Angles (rad inside) are shown in degrees (a course from 0 to 360); accelerations
-    ``at_*``/``an_*`` in m/s², change-over times ``t_*`` in s; everything else in SI.
-
-    Parameters
-    ----------
-    name : str
-        The parameter's name.
-    value, std : float
-        Its value and std in SI.
-
-    Returns
-    -------
-    tuple
-        ``(value, std, unit)``; the unit is ``""`` when dimensionless or unknown.
-    """
+    """Return a parameter's value and std in the unit shown to the user, and that unit."""
     unit = _PARAM_UNITS.get(name)
     if unit is None:
         unit = ("m/s^2" if name.startswith(("at_", "an_"))

@@ -27,22 +27,7 @@ from .observability import Observability, analyse
 
 
 def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
-    """Invert the information on its observable subspace (Moore–Penrose).
-
-    Computed in normalised coordinates, reusing the eigen-decomposition in ``obsv``.
-
-    Parameters
-    ----------
-    info : ndarray, shape (q, q)
-        Fisher information (SI units of the parameters, inverse squared).
-    obsv : Observability
-        :func:`~tmakit.results.observability.analyse` of ``info``.
-
-    Returns
-    -------
-    ndarray, shape (q, q)
-        The pseudo-inverse (SI units of the parameters, squared).
-    """
+    """Invert the information on its observable subspace (Moore–Penrose)."""
     if obsv.decomposition is None:
         evals, evecs, scale = normalised_eigh(info)
     else:

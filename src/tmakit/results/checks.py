@@ -88,20 +88,7 @@ class SanityWarning:
 
 
 def chi2_probability(chi2: float, dof: int) -> float | None:
-    """Return the upper-tail probability of a chi-square value, ``P(chi2_dof >= chi2)``.
-
-    Parameters
-    ----------
-    chi2 : float
-        The weighted sum of squares.
-    dof : int
-        Its degrees of freedom.
-
-    Returns
-    -------
-    float or None
-        The probability, or None without degrees of freedom or a finite chi2.
-    """
+    """Return the upper-tail probability of a chi-square value, ``P(chi2_dof >= chi2)``."""
     if dof <= 0 or not np.isfinite(chi2):
         return None
     return float(chi2_dist.sf(chi2, dof))
@@ -138,22 +125,7 @@ def chi2_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT) -> SanityWa
 
 def chi2_low_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT
                      ) -> SanityWarning | None:
-    """Flag a fit whose chi-square is improbably small (``P(chi2_dof <= chi2) < limit``).
-
-    Parameters
-    ----------
-    chi2 : float
-        The weighted sum of squares at the fit.
-    dof : int
-        Its degrees of freedom.
-    limit : float
-        The low-tail probability below which the fit is flagged (default 0.001).
-
-    Returns
-    -------
-    SanityWarning or None
-        The warning (with the factor by which the sigma look too large), or None.
-    """
+    """Flag a fit whose chi-square is improbably small (``P(chi2_dof <= chi2) < limit``)."""
     if dof <= 0 or not np.isfinite(chi2):
         return None
     p = float(chi2_dist.cdf(chi2, dof))
@@ -173,18 +145,7 @@ def chi2_low_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT
 
 
 def radian_warnings(meas: MeasurementSet) -> list[SanityWarning]:
-    """Warn about angle kinds in degrees whose values all look like radians.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (values in file units).
-
-    Returns
-    -------
-    list of SanityWarning
-        One per suspicious kind.
-    """
+    """Warn about angle kinds in degrees whose values all look like radians."""
     found = []
     for kind in meas.kinds:
         if model_for(kind).file_unit != "deg":
@@ -237,21 +198,7 @@ def _farthest_sensor(meas: MeasurementSet) -> tuple[int, float]:
 
 def sensor_distance_warnings(meas: MeasurementSet, farthest: tuple[int, float] | None = None
                              ) -> list[SanityWarning]:
-    """Warn about sensors far from the ENU origin.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (sensor states, m).
-    farthest : (int, float), optional
-        The row of the sensor farthest from the origin and its horizontal distance (m),
-        when the caller has them.
-
-    Returns
-    -------
-    list of SanityWarning
-        At most one.
-    """
+    """Warn about sensors far from the ENU origin."""
     if not len(meas):
         return []
     k, far = _farthest_sensor(meas) if farthest is None else farthest
@@ -286,23 +233,7 @@ def measurement_warnings(meas: MeasurementSet, farthest: tuple[int, float] | Non
 
 def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSet,
                               reach: float | None = None) -> SanityWarning | None:
-    """Warn about an estimated position far from the origin and from every sensor.
-
-    Parameters
-    ----------
-    position : ndarray, shape (2,) or (3,)
-        The estimated position, East and North first (m).
-    meas : MeasurementSet
-        The measurements (sensor positions, m).
-    reach : float, optional
-        The largest horizontal distance of a sensor from the origin (m), when the caller
-        has it.
-
-    Returns
-    -------
-    SanityWarning or None
-        The warning, or None.
-    """
+    """Warn about an estimated position far from the origin and from every sensor."""
     position = np.asarray(position, dtype=float)
     if not np.all(np.isfinite(position[:2])) or not len(meas):
         return None
@@ -318,18 +249,7 @@ def estimate_distance_warning(position: NDArray[np.float64], meas: MeasurementSe
 
 
 def solutions_warning(solutions: list[Any]) -> SanityWarning | None:
-    """Warn that separated solutions fit the data about as well as the reported one.
-
-    Parameters
-    ----------
-    solutions : list of Solution
-        The reported solutions (:attr:`EstimateResult.solutions`), the reported fit first.
-
-    Returns
-    -------
-    SanityWarning or None
-        The warning when there are two or more, naming their chi2 and test; else None.
-    """
+    """Warn that separated solutions fit the data about as well as the reported one."""
     if len(solutions) < 2:
         return None
     best = solutions[0].result
@@ -394,40 +314,13 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
 
 
 def position_determined(answer: Any) -> bool:
-    """Whether an answer gives a position whose range from the sensor the data determine.
-
-    Parameters
-    ----------
-    answer : Answer
-        An answer (:mod:`tmakit.results.answers`).
-
-    Returns
-    -------
-    bool
-        False when the position is unobservable or its range is undetermined (its 1-sigma
-        above :data:`~tmakit.results.answers.UNDETERMINED_RATIO` times the range).
-    """
+    """Whether an answer gives a position whose range from the sensor the data determine."""
     return (answer.enu[0] is not None and answer.enu[1] is not None
             and not any(w.startswith("range") for w in answer.undetermined))
 
 
 def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning | None:
-    """Warn that the position holds only under the reported fit's model.
-
-    Parameters
-    ----------
-    result : EstimateResult
-        The estimate; its ``wider`` fit (the widest model asked for, when it leaves the
-        position at the last measurement undetermined).
-    meas : MeasurementSet
-        The measurements fitted.
-
-    Returns
-    -------
-    SanityWarning or None
-        ``position-undetermined`` naming both models, what the wider one leaves undetermined
-        and the bearing interval that the wider model does determine; None without a wider fit.
-    """
+    """Warn that the position holds only under the reported fit's model."""
     from .answers import estimate_answer
 
     wider = getattr(result, "wider", None)
@@ -451,21 +344,7 @@ def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning |
 
 
 def undetermined_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
-    """Return a warning when the answer leaves out quantities the data do not determine.
-
-    Parameters
-    ----------
-    result : EstimateResult
-        A converged estimate.
-    meas : MeasurementSet
-        The measurements fitted.
-
-    Returns
-    -------
-    list of SanityWarning
-        One ``undetermined`` warning naming each quantity and its 1-sigma (course, speed,
-        range or bearing at the last measurement time), or none.
-    """
+    """Return a warning when the answer leaves out quantities the data do not determine."""
     from .answers import estimate_answer
 
     weak = estimate_answer(result, meas).undetermined

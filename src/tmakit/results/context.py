@@ -19,21 +19,7 @@ TIME_ORIGIN_KEY = "time_origin"
 
 
 def clock_time(meas: MeasurementSet | None, t: float) -> str | None:
-    """Return the UTC clock time of ``t`` seconds when the set records its time origin.
-
-    Parameters
-    ----------
-    meas : MeasurementSet or None
-        The measurements; their metadata ``time_origin`` (ISO-8601, UTC when no zone is given)
-        is the clock time of t = 0 s.
-    t : float
-        Time (s since the time origin).
-
-    Returns
-    -------
-    str or None
-        ``YYYY-MM-DDTHH:MM:SS.sssZ``, or None when no time origin is known.
-    """
+    """Return the UTC clock time of ``t`` seconds when the set records its time origin."""
     if meas is None or TIME_ORIGIN_KEY not in meas.metadata or not np.isfinite(t):
         return None
     try:
@@ -47,18 +33,7 @@ def clock_time(meas: MeasurementSet | None, t: float) -> str | None:
 
 
 def origin_of(meas: MeasurementSet | None) -> tuple[float, float, float] | None:
-    """Return the ENU origin ``(lat_deg, lon_deg, alt_m)`` recorded in the metadata, if any.
-
-    Parameters
-    ----------
-    meas : MeasurementSet or None
-        The measurements (metadata ``origin_lat``, ``origin_lon``, ``origin_alt``).
-
-    Returns
-    -------
-    tuple of float or None
-        The origin, or None when the file gives none.
-    """
+    """Return the ENU origin ``(lat_deg, lon_deg, alt_m)`` recorded in the metadata, if any."""
     if meas is None or not {"origin_lat", "origin_lon"} <= set(meas.metadata):
         return None
     m = meas.metadata
@@ -66,30 +41,7 @@ def origin_of(meas: MeasurementSet | None) -> tuple[float, float, float] | None:
 
 
 def sensor_position(meas: MeasurementSet, sensor: str, t: float) -> NDArray[np.float64]:
-    """Return a sensor's ENU position at time ``t`` from its rows.
-
-    Linear interpolation between the sensor's two nearest recorded positions; outside the
-    recorded times, the nearest position moved on by its recorded velocity.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (their sensor states).
-    sensor : str
-        The sensor's name.
-    t : float
-        Time (s).
-
-    Returns
-    -------
-    ndarray, shape (3,)
-        East, North, Up (m).
-
-    Raises
-    ------
-    ValueError
-        If the set has no row of ``sensor``.
-    """
+    """Return a sensor's ENU position at time ``t`` from its rows."""
     if sensor not in meas.sensors:
         raise ValueError(f"no measurement of sensor {sensor!r} (sensors: "
                          f"{', '.join(meas.sensors)})")
@@ -106,11 +58,7 @@ def sensor_position(meas: MeasurementSet, sensor: str, t: float) -> NDArray[np.f
 
 def _bracketing_rows(time: NDArray[np.float64], sel: NDArray[np.bool_] | None, t: float
                      ) -> NDArray[np.intp]:
-    """Give, in file order, the selected rows at ``t`` and at the nearest times either side.
-
-    All that the interpolation at ``t`` reads, found without copying the rows (a large
-    file's states are not gathered to interpolate one position).
-    """
+    """Give, in file order, the selected rows at ``t`` and at the nearest times either side."""
     def mask(side: NDArray[np.bool_]) -> NDArray[np.bool_]:
         return side if sel is None else side & sel
 
@@ -124,42 +72,14 @@ ALTITUDE_REFERENCES = {"ellipsoid": "WGS-84 ellipsoid", "msl": "mean sea level"}
 
 
 def altitude_reference(meas: MeasurementSet | None) -> str:
-    """Return what a measurement set's altitudes are measured from, in words.
-
-    Parameters
-    ----------
-    meas : MeasurementSet or None
-        The measurements; their ``altitude_reference`` metadata (``ellipsoid``, the default,
-        or ``msl``) says it.
-
-    Returns
-    -------
-    str
-        ``WGS-84 ellipsoid`` or ``mean sea level``.
-    """
+    """Return what a measurement set's altitudes are measured from, in words."""
     ref = "ellipsoid" if meas is None else meas.metadata.get("altitude_reference", "ellipsoid")
     return ALTITUDE_REFERENCES.get(ref, ref)
 
 
 def geodetic_fix(meas: MeasurementSet, t: float, state: NDArray[np.float64]
                  ) -> dict[str, object] | None:
-    """Give an ENU position in lat/lon/alt, when the set records its ENU origin.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (their :func:`origin_of` and :func:`altitude_reference`).
-    t : float
-        The time of the state (s).
-    state : ndarray
-        ``[x, y, z, ...]`` at ``t`` (m).
-
-    Returns
-    -------
-    dict or None
-        ``{"time" (s), "lat" (deg), "lon" (deg), "alt" (m), "altitude_reference"}``, or None
-        without an origin or a finite position.
-    """
+    """Give an ENU position in lat/lon/alt, when the set records its ENU origin."""
     origin = origin_of(meas)
     if origin is None or not np.all(np.isfinite(state[:3])):
         return None

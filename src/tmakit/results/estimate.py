@@ -564,12 +564,7 @@ def _information(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.flo
                  nu: NDArray[np.float64], known: bool,
                  jacobian: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
                  ) -> NDArray[np.float64]:
-    """Fisher information ``J'WJ`` at the fit; chunk by chunk for many rows.
-
-    (Chunks without nuisance only: a chunk's model has the nuisance of its own kinds; chunks
-    hold whole correlated noise blocks, each whitened by its own.)
-    ``jacobian``, the grouped Jacobians already computed at the fit, is used when given.
-    """
+    """Fisher information ``J'WJ`` at the fit; chunk by chunk for many rows."""
     n = len(obs.meas)
     chunks = n > blas.CHUNKED_ROWS and obs.n_nuisance == 0
     if jacobian is not None and not chunks:

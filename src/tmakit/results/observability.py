@@ -38,19 +38,7 @@ RANK_TOL = 1e-10
 _TINY = float(np.finfo(float).tiny)
 
 def full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Tell whether each of a batch of information matrices has full rank (as :func:`analyse`).
-
-    Parameters
-    ----------
-    info : ndarray, shape (B, q, q)
-        Finite Fisher information matrices (SI units of the parameters, inverse squared).
-
-    Returns
-    -------
-    ndarray of bool, shape (B,)
-        True where no eigenvalue of the normalised matrix (``D F D``, ``D = diag(F)^-1/2``) is
-        at most :data:`RANK_TOL` times the largest.
-    """
+    """Tell whether each of a batch of information matrices has full rank (as :func:`analyse`)."""
     d = np.diagonal(info, axis1=-2, axis2=-1)
     scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
     evals = np.linalg.eigh(info * scale[:, :, None] * scale[:, None, :])[0]
@@ -205,10 +193,7 @@ def _velocity_constant_by_form(motion: MotionModel) -> bool:
 
 def _velocity_fixed(motion: MotionModel, theta: NDArray[np.float64],
                     t: NDArray[np.float64]) -> bool:
-    """Tell whether the velocity's derivatives by ``theta`` are the same at every time ``t``.
-
-    Read in blocks of times, so that many rows need no ``(n, 6, p)`` Jacobian at once.
-    """
+    """Tell whether the velocity's derivatives by ``theta`` are the same at every time ``t``."""
     first = motion.jacobian(theta, t[:1])[0, 3:6]
     for lo in range(0, len(t), _TIME_BLOCK):
         velocity = motion.jacobian(theta, t[lo:lo + _TIME_BLOCK])[:, 3:6]
@@ -293,12 +278,7 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
 def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.float64],
                     norm: NDArray[np.float64], scale: NDArray[np.float64], size: int
                     ) -> NDArray[np.float64] | None:
-    """Give the range direction (normalised unit vector) only a manoeuvre model's shape sees.
-
-    Angles from one sensor on one straight leg: the track scaled about the sensor's path is
-    taken to the nearest parameter change (least squares on the motion's Jacobian); None when
-    the rule does not apply or the data already leave that direction unseen.
-    """
+    """Give the range direction (normalised unit vector) only a manoeuvre model's shape sees."""
     # a stationary emitter (a moving sensor's bearings do give its range) or constant
     # velocity (the rank says whether range is seen): no manoeuvre to take it from
     if (len(meas.sensors) != 1 or not _angles_only(meas) or _velocity_constant_by_form(motion)

@@ -45,13 +45,7 @@ class Leg:
     speed: float
 
     def words(self) -> str:
-        """Return the leg in words.
-
-        Returns
-        -------
-        str
-            ``t = START .. STOP s, course C° at S m/s`` (or ``stationary``).
-        """
+        """Return the leg in words."""
         if self.speed < 0.05:
             return f"t = {self.start:g} .. {self.stop:g} s, stationary"
         return (f"t = {self.start:g} .. {self.stop:g} s, course {self.course_deg:.0f}° at "
@@ -59,22 +53,7 @@ class Leg:
 
 
 def straight_legs(time: NDArray[np.float64], state: NDArray[np.float64]) -> list[Leg]:
-    """Cut a sensor's path into straight legs (constant course and speed).
-
-    Parameters
-    ----------
-    time : ndarray, shape (n,)
-        Times (s), not decreasing.
-    state : ndarray, shape (n, 6)
-        The sensor's ENU states (m, m/s) at those times.
-
-    Returns
-    -------
-    list of Leg
-        In time order; a new leg starts where the course turns by more than
-        :data:`LEG_TURN_DEG` or the speed changes by more than :data:`LEG_SPEED_CHANGE` of
-        the leg's first speed.
-    """
+    """Cut a sensor's path into straight legs (constant course and speed)."""
     v = np.asarray(state, dtype=float)[:, 3:5]
     legs, first = [], 0
     while first < len(time):
@@ -87,19 +66,7 @@ def straight_legs(time: NDArray[np.float64], state: NDArray[np.float64]) -> list
 
 
 def one_leg(state: NDArray[np.float64]) -> bool:
-    """Tell whether a sensor's path is one straight leg (:func:`straight_legs` gives one).
-
-    Parameters
-    ----------
-    state : ndarray, shape (n, 6)
-        The sensor's ENU states (m, m/s), in time order.
-
-    Returns
-    -------
-    bool
-        True when no row leaves the first row's leg; a path that manoeuvres early is
-        answered after reading its first rows only.
-    """
+    """Tell whether a sensor's path is one straight leg (:func:`straight_legs` gives one)."""
     v = np.asarray(state, dtype=float)[:, 3:5]
     return len(v) > 0 and _leg_end(v, 0) == len(v)
 
@@ -109,11 +76,7 @@ def _course_speed(v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[
 
 
 def _leg_end(v: NDArray[np.float64], first: int) -> int:
-    """Give the first row after ``first`` that leaves its leg (``len(v)`` if none).
-
-    The rows are read in windows that double, so a path of n rows costs O(n) however many
-    legs it has, and finding the end of a short leg reads little beyond it.
-    """
+    """Give the first row after ``first`` that leaves its leg (``len(v)`` if none)."""
     n, lo, width = len(v), first + 1, 64
     (c0,), (s0,) = _course_speed(v[first:first + 1])
     while lo < n:
@@ -130,42 +93,13 @@ def _leg_end(v: NDArray[np.float64], first: int) -> int:
 
 
 def sensor_legs(meas: MeasurementSet, sensor: str) -> list[Leg]:
-    """Return the straight legs of one sensor of a measurement set.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (their sensor states).
-    sensor : str
-        The sensor's name.
-
-    Returns
-    -------
-    list of Leg
-        Its legs over its rows' times (:func:`straight_legs`).
-    """
+    """Return the straight legs of one sensor of a measurement set."""
     rows = meas.sensor_mask(sensor)
     return straight_legs(meas.time[rows], meas.sensor_state[rows])
 
 
 def range_words(meas: MeasurementSet, sensor: str, manoeuvring_model: bool = False) -> str:
-    """Say why range is not observable from a sensor's angles, and which manoeuvre would help.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (angles only).
-    sensor : str
-        The sensor they come from.
-    manoeuvring_model : bool
-        The motion model lets the target manoeuvre: say that its manoeuvres are no source of
-        range.
-
-    Returns
-    -------
-    str
-        The sentence.
-    """
+    """Say why range is not observable from a sensor's angles, and which manoeuvre would help."""
     legs = sensor_legs(meas, sensor)
     spans = "; ".join(leg.words() for leg in legs)
     if all(leg.speed < 0.05 for leg in legs):
@@ -289,23 +223,7 @@ class LegsAndTurns:
 
 def heading_rate(time: NDArray[np.float64], heading: NDArray[np.float64],
                  window_s: float = RATE_WINDOW_S) -> NDArray[np.float64]:
-    """Return the heading rate at each fix: the slope of a line through the nearby headings.
-
-    Parameters
-    ----------
-    time : ndarray, shape (n,)
-        Fix times (s), increasing.
-    heading : ndarray, shape (n,)
-        Headings (rad), unwrapped or not (they are unwrapped here).
-    window_s : float
-        The line is fitted to the fixes within ``window_s / 2`` of each, and at least its
-        neighbours.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        rad/s (0 for a single fix).
-    """
+    """Return the heading rate at each fix: the slope of a line through the nearby headings."""
     t = np.asarray(time, dtype=float)
     n = t.size
     if n < 2:
@@ -323,12 +241,7 @@ def heading_rate(time: NDArray[np.float64], heading: NDArray[np.float64],
 
 def _turn_knots(t: NDArray[np.float64], h: NDArray[np.float64], before: float,
                 after: float) -> tuple[float, float]:
-    """Where a turn leaves the heading ``before`` and reaches ``after`` (s): least squares.
-
-    The model: the heading ``before`` until ``t1``, a constant rate to ``after`` at ``t2``,
-    then ``after``; the knots are searched at the fixes and, where the fixes are few, at a
-    tenth of a fix between them.
-    """
+    """Where a turn leaves the heading ``before`` and reaches ``after`` (s): least squares."""
     knots = t if t.size > 20 else np.unique(np.concatenate(
         [t, *(t[:-1] + f * np.diff(t) for f in np.arange(0.1, 1.0, 0.1))]))
     t1, t2 = knots[:, None, None], knots[None, :, None]
@@ -343,32 +256,7 @@ def _turn_knots(t: NDArray[np.float64], h: NDArray[np.float64], before: float,
 def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
                 turn_rate_deg_s: float = TURN_RATE_DEG_S, window_s: float = RATE_WINDOW_S,
                 min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
-    """Cut an own ship's navigation into straight legs and turns, from its heading rate.
-
-    A fix is *turning* where the heading rate (:func:`heading_rate`, the heading being the
-    course over the ground from the velocity) exceeds ``turn_rate_deg_s``, and a turn made
-    between two fixes (the heading changes by ``min_turn_deg`` or more from one to the next:
-    fixes too sparse to show the rate) ends a leg too; a run of turning
-    fixes is a turn when the median headings of the legs either side differ by at least
-    ``min_turn_deg`` (else the run is navigation noise and the legs are one).  Each turn's ends
-    are refined to where the heading leaves the leg's median heading and reaches the next's (a
-    level, a constant rate, a level: least squares), so that a turn is found to within one
-    fix of where it starts.
-
-    Parameters
-    ----------
-    time : ndarray, shape (n,)
-        Fix times (s); repeated times are read once.
-    state : ndarray, shape (n, 6)
-        ENU states (m, m/s) at those times.
-    turn_rate_deg_s, window_s, min_turn_deg : float
-        The thresholds (module constants by default).
-
-    Returns
-    -------
-    LegsAndTurns
-        The legs, the turns and the thresholds.
-    """
+    """Cut an own ship's navigation into straight legs and turns, from its heading rate."""
     t_all = np.asarray(time, dtype=float)
     t, first = np.unique(t_all, return_index=True)
     v = np.asarray(state, dtype=float)[first, 3:5]
@@ -384,11 +272,7 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
 
 def _straight_runs(turning: NDArray[np.bool_], jump: NDArray[np.bool_]
                    ) -> list[tuple[int, int]]:
-    """Return (first, last) indices of the runs of fixes that are not turning.
-
-    A run also ends where the heading jumps between two fixes (``jump[k]``: from fix k to
-    k + 1), a turn made between fixes too sparse to show it as a rate.
-    """
+    """Return (first, last) indices of the runs of fixes that are not turning."""
     runs, start = [], None
     for k, turn in enumerate([*turning.tolist(), True]):
         if not turn and start is None:
@@ -469,22 +353,7 @@ def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
 
 
 def contact_legs(result: Any, meas: MeasurementSet) -> list[dict[str, float | None]] | None:
-    """Return a manoeuvre fit's segments as the contact's legs: times, course and speed.
-
-    Parameters
-    ----------
-    result : EstimateResult
-        A fit of :class:`~tmakit.motion.PiecewiseCurvilinear` (None for other motions).
-    meas : MeasurementSet
-        The measurements fitted (the legs are clipped to their span).
-
-    Returns
-    -------
-    list of dict or None
-        Per segment: ``start``, ``stop`` (s), ``course_start_deg``, ``course_deg`` (at its
-        end), ``turn_deg`` (their difference), ``speed`` (m/s, at its end); None when the
-        motion has no segments or the fit gave no estimate.
-    """
+    """Return a manoeuvre fit's segments as the contact's legs: times, course and speed."""
     motion = result.motion
     if getattr(motion, "manoeuvres", None) is None or not len(meas) or \
             not np.all(np.isfinite(result.estimate)):

@@ -12,13 +12,7 @@ from importlib import resources
 
 
 def builtin_scenario_names() -> list[str]:
-    """Names of the scenarios that ship with tmakit.
-
-    Returns
-    -------
-    list of str
-        The names, sorted (``chen-sun-1``, ``gu2007``, ...).
-    """
+    """Names of the scenarios that ship with tmakit."""
     folder = resources.files("tmakit.scenario") / "builtin"
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 

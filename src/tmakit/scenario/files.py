@@ -389,32 +389,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
 
 def planned_scenario(data: dict[str, Any], source: str = "<dict>"
                      ) -> tuple[Scenario, PlanningSpec, SensorSpec, bool]:
-    """Validate a scenario with a ``[planning]`` table (built by :mod:`tmakit.planning.setup`).
-
-    Parameters
-    ----------
-    data : dict
-        The scenario in file form and file units (``docs/planning.md``).
-    source : str, optional
-        Where it came from, for messages.
-
-    Returns
-    -------
-    scenario : Scenario
-        The scenario, in SI.
-    table : PlanningSpec
-        The validated ``[planning]`` table.
-    sensor : SensorSpec
-        The steered sensor's entry.
-    east_ccw : bool
-        Whether the file's angles are counter-clockwise from East.
-
-    Raises
-    ------
-    ScenarioFileError
-        If the scenario is not valid or has no ``[planning]`` table naming one of its sensors;
-        the message names the file and the field.
-    """
+    """Validate a scenario with a ``[planning]`` table (built by :mod:`tmakit.planning.setup`)."""
     spec = _validate(data, source)
     if spec.planning is None:
         raise ScenarioFileError(f"{source}: no [planning] table: the file declares no "
@@ -473,25 +448,7 @@ def read_scenario_file(path: str | Path) -> Scenario:
 
 
 def scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
-    """Return the parsed TOML of a built-in scenario name or a file, and its source.
-
-    Parameters
-    ----------
-    name_or_path : str or os.PathLike
-        A built-in name or a path (``.toml`` or existing).
-
-    Returns
-    -------
-    data : dict
-        The parsed TOML.
-    source : str
-        The file read, for messages.
-
-    Raises
-    ------
-    ScenarioFileError
-        If it is neither a file nor a built-in name, or not valid TOML.
-    """
+    """Return the parsed TOML of a built-in scenario name or a file, and its source."""
     text = str(name_or_path)
     path = Path(text)
     if path.suffix == ".toml" or path.exists():

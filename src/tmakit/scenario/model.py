@@ -362,11 +362,7 @@ class Scenario:
     # -- simulation ------------------------------------------------------------------------
     def _layout(self, plan: MeasurementPlan,
                 states: dict[tuple[str, bytes], NDArray[np.float64]]) -> MeasurementSet:
-        """Lay out the rows of one plan with noise-free placeholders for value and sigma.
-
-        ``states`` keeps the sensor states by (sensor, sample times) between the plans of one
-        simulation: plans of one sensor at the same times (power and frequency) share them.
-        """
+        """Lay out the rows of one plan with noise-free placeholders for value and sigma."""
         track = self.sensors[plan.sensor]
         model = KINDS[plan.kind]
         if model.between_sensors:  # against the reference sensor at the same times
@@ -523,10 +519,7 @@ class Scenario:
 
     def _template(self, parts: list[MeasurementSet], noise: bool
                   ) -> tuple[MeasurementSet, NDArray[np.int64]]:
-        """Join the plans' rows in one set (by sensor, in time order); give the order too.
-
-        ``order[j]`` is the index, in the plans' rows one after the other, of the set's row j.
-        """
+        """Join the plans' rows in one set (by sensor, in time order); give the order too."""
         meta = {
             "scenario": self.name,
             "motion": self.motion.name,

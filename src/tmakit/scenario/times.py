@@ -30,18 +30,7 @@ class TimeRange(_Strict):
     step: float = Field(gt=0)
 
     def values(self) -> np.ndarray:
-        """Give the sample times (s).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``start + step * [0, 1, ..., n - 1]`` (s).
-
-        Raises
-        ------
-        ValueError
-            If ``stop`` is before ``start``, or more than :func:`max_samples` times.
-        """
+        """Give the sample times (s)."""
         n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
         if n < 1:
             raise ValueError("stop is before start")
@@ -53,13 +42,7 @@ class TimeRange(_Strict):
 
 
 def max_samples() -> int:
-    """Give the most sample times one ``times`` range may ask for (``TMA_MAX_SAMPLES``).
-
-    Returns
-    -------
-    int
-        The limit (default 2,000,000: about 0.2 GB per simulated set).
-    """
+    """Give the most sample times one ``times`` range may ask for (``TMA_MAX_SAMPLES``)."""
     try:
         return max(1, int(os.environ.get("TMA_MAX_SAMPLES", "2000000")))
     except ValueError:

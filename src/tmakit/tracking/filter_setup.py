@@ -165,27 +165,7 @@ MAX_ACCELERATION = 1e4
 
 def state_vector(values: Mapping[str, float] | ArrayLike, names: tuple[str, ...],
                  what: str) -> Array:
-    """Read a state-sized vector given by state name or in state order.
-
-    Parameters
-    ----------
-    values : mapping of str to float, or array_like
-        By name (every one of ``names``, no other) or as ``len(names)`` values in order.
-    names : tuple of str
-        The state components, e.g. ``("x", "y", "vx", "vy")``.
-    what : str
-        The library parameter the values belong to (``prior``, ``prior_std``), for errors.
-
-    Returns
-    -------
-    ndarray, shape (len(names),)
-        The finite values, in the order of ``names``.
-
-    Raises
-    ------
-    TrackingError
-        Missing, unknown or non-finite components, or the wrong number (parameter ``what``).
-    """
+    """Read a state-sized vector given by state name or in state order."""
     if isinstance(values, Mapping):
         unknown = sorted(set(values) - set(names))
         missing = [n for n in names if n not in values]

@@ -324,11 +324,7 @@ class BatchInitiator(Initiator):
 
 
 def _confirmation(after: Track, window: int) -> Confirmation:
-    """Run the innovation test of a start.
-
-    The NIS summed over the next ``max(window, MIN_WINDOW)`` updates against chi-square with their
-    degrees of freedom.
-    """
+    """Run the innovation test of a start."""
     from scipy.stats import chi2
 
     m = min(len(after), max(window, MIN_WINDOW))

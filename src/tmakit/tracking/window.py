@@ -78,12 +78,7 @@ class WindowChoice:
 
 def _relative_std(result: EstimateResult, rows: MeasurementSet, time: float, dim: int
                   ) -> float | None:
-    """Return the position's largest 1-sigma semi-axis over the range to the nearest sensor.
-
-    The semi-axis is at ``time``, the range to the nearest sensor at the window's last time
-    (``inf`` at zero range); ``None`` when the position covariance is not finite (then the estimate
-    is no start).
-    """
+    """Return the position's largest 1-sigma semi-axis over the range to the nearest sensor."""
     theta = result.estimate
     motion = result.motion
     state = motion.states(theta, np.array([time]))[0]

@@ -54,14 +54,7 @@ def _fit_from_start(search: ManoeuvreSearch, ref: float,
 def _solutions_of(search: ManoeuvreSearch, res: ManoeuvreEstimate, others: list[OrderFit],
                  ref: float, selection: OrderSelection | None, fits: list[OrderFit]
                  ) -> list[Solution]:
-    """Give the separated solutions among the search's fits (empty when ``res`` is the one).
-
-    Every order's fit, with its accelerations selected and with all of them fitted, and the
-    other minima its refinement's starts ended in, is a candidate;
-    :func:`~tmakit.results.solutions.separated_solutions` keeps those that fit about as well
-    as ``res``, each unknown charged the price the order criterion charges
-    (:func:`~.selection.unknown_price`), and lie apart from it.
-    """
+    """Give the separated solutions among the search's fits (empty when ``res`` is the one)."""
     if not res.converged:
         return []
     alternatives = [report(search, f, ref, selection, fits) for f in others
@@ -73,13 +66,7 @@ def _solutions_of(search: ManoeuvreSearch, res: ManoeuvreEstimate, others: list[
 
 def _wider(wider: ManoeuvreEstimate, res: ManoeuvreEstimate, meas: MeasurementSet
            ) -> ManoeuvreEstimate | None:
-    """Give the widest model's fit when it leaves the final position undetermined, not ``res``.
-
-    The widest model (every manoeuvre asked for, every acceleration fitted) contains the
-    reported one; where its fit is unobservable, did not converge or leaves the range at the
-    last measurement undetermined, the data cannot rule out a manoeuvre that moves the final
-    position (a target manoeuvre after the own ship's last one, seen by bearings alone).
-    """
+    """Give the widest model's fit when it leaves the final position undetermined, not ``res``."""
     if (not res.converged or wider.status == DIVERGED
             or not position_determined(res.answer(meas))):
         return None
@@ -89,10 +76,7 @@ def _wider(wider: ManoeuvreEstimate, res: ManoeuvreEstimate, meas: MeasurementSe
 
 
 def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:
-    """Fit every order the data span holds, select the accelerations, choose the order.
-
-    The orders are ``0 .. max_manoeuvres`` (only the last with ``exact``).
-    """
+    """Fit every order the data span holds, select the accelerations, choose the order."""
     s = search.s
     n = search.problem(0).noise.rank
     top = search.max_order()

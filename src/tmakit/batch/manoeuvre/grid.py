@@ -14,22 +14,7 @@ from ...core.arrays import Array
 
 
 def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:
-    """Index tuples ``i_1 < ... < i_m`` into ``grid`` whose times are ``min_gap`` apart.
-
-    Parameters
-    ----------
-    grid : ndarray
-        Grid times (s), increasing.
-    m : int
-        Tuple length (the number of manoeuvres).
-    min_gap : float
-        Least spacing of neighbouring times in a tuple (s).
-
-    Returns
-    -------
-    ndarray of int
-        ``(T, m)`` index tuples; one empty tuple for ``m = 0``.
-    """
+    """Index tuples ``i_1 < ... < i_m`` into ``grid`` whose times are ``min_gap`` apart."""
     if m == 0:
         return np.zeros((1, 0), dtype=np.int64)
     out = [c for c in itertools.combinations(range(grid.size), m)
@@ -38,27 +23,7 @@ def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:
 
 
 def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
-    """Insert a change-over time into fits, splitting a segment in two.
-
-    ``t_new`` becomes the ``j``-th (0-based) change-over time of fits with ``m_prev``
-    manoeuvres; both halves of segment ``j`` keep its accelerations.
-
-    Parameters
-    ----------
-    theta : ndarray
-        ``(B, p)`` internal parameters with ``m_prev`` manoeuvres.
-    m_prev : int
-        Their number of manoeuvres.
-    j : int
-        Index (0-based) of the segment split, and of the new change-over time.
-    t_new : ndarray
-        ``(B,)`` the new change-over times (s), inside segment ``j``.
-
-    Returns
-    -------
-    ndarray
-        ``(B, p + 3)`` parameters with ``m_prev + 1`` manoeuvres: the same trajectory.
-    """
+    """Insert a change-over time into fits, splitting a segment in two."""
     b = theta.shape[0]
     acc = theta[:, 4:6 + 2 * m_prev].reshape(b, m_prev + 1, 2)
     acc = np.concatenate([acc[:, :j + 1], acc[:, j:j + 1], acc[:, j + 1:]], axis=1)
@@ -67,22 +32,7 @@ def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
 
 
 def local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
-    """Find the rows of ``tuples`` that are local minima of the cost, best first.
-
-    A local minimum costs at most as much as every grid neighbour (one index moved by one).
-
-    Parameters
-    ----------
-    tuples : ndarray of int
-        ``(T, m)`` grid index tuples.
-    cost : ndarray
-        ``(T,)`` their costs; non-finite ones are never minima.
-
-    Returns
-    -------
-    ndarray of int
-        Row indices into ``tuples``, lowest cost first.
-    """
+    """Find the rows of ``tuples`` that are local minima of the cost, best first."""
     where = {tuple(t): i for i, t in enumerate(tuples)}
     keep = []
     for i, t in enumerate(tuples):

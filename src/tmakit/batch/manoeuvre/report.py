@@ -114,24 +114,7 @@ class ManoeuvreEstimate(EstimateResult):
 
 
 def reference(model: ForwardPiecewise, theta: Array, ref_time: float) -> Array:
-    """Give the same trajectory in :class:`PiecewiseCurvilinear` parameters at ``ref_time``.
-
-    The course is wrapped to (-pi, pi].
-
-    Parameters
-    ----------
-    model : ForwardPiecewise
-        The internal model of the fit.
-    theta : ndarray
-        ``(p,)`` its parameters (SI units).
-    ref_time : float
-        The reference time of the result (s).
-
-    Returns
-    -------
-    ndarray
-        ``(p,)`` parameters (SI).
-    """
+    """Give the same trajectory in :class:`PiecewiseCurvilinear` parameters at ``ref_time``."""
     state = model.segment_states(theta, np.array([ref_time]))[0]
     out = np.array(theta, dtype=float)
     out[:4] = state
@@ -144,26 +127,6 @@ def reference(model: ForwardPiecewise, theta: Array, ref_time: float) -> Array:
 def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
            selection: OrderSelection | None, fits: list[OrderFit]) -> ManoeuvreEstimate:
     """Report the chosen fit in the user's parameterisation, with its covariance.
-
-    Parameters
-    ----------
-    search : ManoeuvreSearch
-        The search that made the fits.
-    fit : OrderFit
-        The chosen fit.
-    ref_time : float
-        Reference time of the reported position, speed and course (s).
-    selection : OrderSelection, optional
-        The order selection.
-    fits : list of OrderFit
-        Every order's fit.
-
-    Returns
-    -------
-    ManoeuvreEstimate
-        Held accelerations have value and std 0 and are no unknowns; the covariance is the
-        inverse Fisher information of the fitted parameters at the estimate (nuisance
-        parameters included when unknown, :func:`~tmakit.results.estimate.assemble_result`).
 
     References
     ----------

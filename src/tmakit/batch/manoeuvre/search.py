@@ -164,12 +164,7 @@ class ManoeuvreSearch:
                         self.unknowns(0), bool(sol.converged[0]), int(sol.iterations[0]), 1)
 
     def _profile_starts(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
-        """Choose the grid tuples of order ``m`` to profile and their warm starts.
-
-        A start is the order ``m - 1`` profile fit at the tuple with one time removed (the
-        best of the ``m`` such tuples), the removed segment split in two; given with the cost
-        of that fit (inf: no start).
-        """
+        """Choose the grid tuples of order ``m`` to profile and their warm starts."""
         tuples = grid_tuples(self.grid, m, self.min_gap)
         prev_idx, prev_theta, prev_cost = self.profiles[m - 1]
         if tuples.shape[0] > self.s.max_tuples:
@@ -273,10 +268,7 @@ class ManoeuvreSearch:
         return fit
 
     def _polish_starts(self, fit: OrderFit, offsets: Array) -> tuple[Array, NDArray[np.int64]]:
-        """Make the starts of the finer profiles, and say which time each start moves.
-
-        Each change-over time is moved by ``offsets`` (s), kept between its neighbours.
-        """
+        """Make the starts of the finer profiles, and say which time each start moves."""
         m, k0 = fit.manoeuvres, 6 + 2 * fit.manoeuvres
         starts, held = [], []
         times = fit.theta[k0:]
@@ -385,11 +377,7 @@ class ManoeuvreSearch:
         return fit
 
     def _probes(self, theta: Array, m: int) -> Array:
-        """Make the held starts of the corner test.
-
-        Each change-over time of ``theta`` is moved by :data:`PROBES` and onto the
-        measurement time either side.
-        """
+        """Make the held starts of the corner test."""
         k0 = 6 + 2 * m
         samples = np.unique(self.meas.time)
         probes = []

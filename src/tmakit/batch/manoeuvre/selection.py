@@ -147,38 +147,14 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
 
 
 def fit_criterion(s: ManoeuvreSettings) -> str:
-    """Say in words the rule that holds an acceleration at zero (for result messages).
-
-    Parameters
-    ----------
-    s : ManoeuvreSettings
-        The settings (their criterion and level).
-
-    Returns
-    -------
-    str
-        The rule.
-    """
+    """Say in words the rule that holds an acceleration at zero (for result messages)."""
     return ("BIC: holding one raised chi2 by less than ln N" if s.criterion == "bic" else
             f"holding one raised chi2 by less than the chi-square(1) quantile "
             f"{1 - s.alpha:g}")
 
 
 def unknown_price(s: ManoeuvreSettings, n: int) -> float:
-    """Give what one unknown must lower chi2 by to be kept, by the settings' criterion.
-
-    Parameters
-    ----------
-    s : ManoeuvreSettings
-        The settings (criterion and level).
-    n : int
-        ``N``, the number of independent measurements.
-
-    Returns
-    -------
-    float
-        ``ln N`` for BIC, the chi-square(1) quantile ``1 - alpha`` for the tests.
-    """
+    """Give what one unknown must lower chi2 by to be kept, by the settings' criterion."""
     return math.log(n) if s.criterion == "bic" else float(chi2_dist.ppf(1.0 - s.alpha, 1))
 
 
@@ -208,27 +184,7 @@ def may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:
 
 
 def hold_starts(search: ManoeuvreSearch, theta: Array, i: int, m: int) -> Array:
-    """Make starts for a fit with acceleration ``i`` held at zero.
-
-    ``theta`` with it zeroed, and with each change-over time bounding its segment moved by one
-    grid step either way (kept in order and inside the data span).
-
-    Parameters
-    ----------
-    search : ManoeuvreSearch
-        The search (its grid and data span).
-    theta : ndarray
-        ``(p,)`` internal parameters of the current fit (SI units).
-    i : int
-        Internal index of the acceleration.
-    m : int
-        The number of manoeuvres.
-
-    Returns
-    -------
-    ndarray
-        ``(S, p)`` starting points (internal parameters).
-    """
+    """Make starts for a fit with acceleration ``i`` held at zero."""
     s = search.s
     base = theta.copy()
     base[i] = 0.0
@@ -251,10 +207,7 @@ def hold_starts(search: ManoeuvreSearch, theta: Array, i: int, m: int) -> Array:
 
 def _best_hold(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool_],
                price: float) -> tuple[float, int, Array, Array] | None:
-    """Find the acceleration whose hold raises chi2 least.
-
-    Give ``(chi2, index, theta, nuisance)``, or None when none may be held.
-    """
+    """Find the acceleration whose hold raises chi2 least."""
     m = current.manoeuvres
     pr = search.problem(m)
     best: tuple[float, int, Array, Array] | None = None
@@ -349,11 +302,7 @@ LOOK_AHEAD = 2
 
 def _hold_chain(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool_],
                 price: float) -> list[OrderFit]:
-    """Hold the cheapest acceleration, then (while the holds do not pay) the next, greedily.
-
-    Up to :data:`LOOK_AHEAD` holds: two accelerations (a spurious tangential and normal one
-    on one leg) can each cost more than the price held alone and less than twice it together.
-    """
+    """Hold the cheapest acceleration, then (while the holds do not pay) the next, greedily."""
     m = current.manoeuvres
     chain: list[OrderFit] = []
     mask = free.copy()
