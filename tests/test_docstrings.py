@@ -126,6 +126,7 @@ def exported() -> set[str]:
     packages = ["tmakit"] + [m.name for m in pkgutil.walk_packages(tmakit.__path__, "tmakit.")
                              if m.ispkg]
     out: set[str] = set()
+    installed = Path(tmakit.__file__).resolve().parent
     for name in packages:
         try:
             package = importlib.import_module(name)
@@ -135,8 +136,9 @@ def exported() -> set[str]:
             obj = getattr(package, attr, None)
             module, qual = getattr(obj, "__module__", None), getattr(obj, "__qualname__", None)
             if isinstance(module, str) and module.startswith("tmakit") and isinstance(qual, str):
-                origin = importlib.util.find_spec(module).origin
-                out.add(f"{Path(origin).relative_to(SRC).as_posix()}:{qual}")
+                origin = Path(importlib.util.find_spec(module).origin)
+                # relative to the package imported: an installed copy, or src/ itself
+                out.add(f"{origin.relative_to(installed).as_posix()}:{qual}")
     return out
 
 
