@@ -88,12 +88,7 @@ class RangeDifference(MeasurementModel):
         ValueError
             If ``rel_ref`` is missing.
         """
-        rel = as_rel(rel)
-        if rel_ref is None:
-            raise ValueError("range_difference needs the relative state at the earlier sample")
-        rel_ref = as_rel(rel_ref)
-        return (np.linalg.norm(rel[..., :3], axis=-1)
-                - np.linalg.norm(rel_ref[..., :3], axis=-1))
+        return path_difference(rel, rel_ref, _NEEDS)
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
@@ -116,16 +111,34 @@ class RangeDifference(MeasurementModel):
         ValueError
             If ``rel_ref`` is missing.
         """
-        rel = as_rel(rel)
-        if rel_ref is None:
-            raise ValueError("range_difference needs the relative state at the earlier sample")
-        rel_ref = as_rel(rel_ref)
-        d = np.zeros(rel.shape)
-        d_ref = np.zeros(rel_ref.shape)
-        d[..., :3] = rel[..., :3] / np.linalg.norm(rel[..., :3], axis=-1, keepdims=True)
-        d_ref[..., :3] = -rel_ref[..., :3] / np.linalg.norm(rel_ref[..., :3], axis=-1,
-                                                            keepdims=True)
-        return Jacobian(d, d_ref, zeros_nuisance(rel))
+        return path_difference_jacobian(rel, rel_ref, _NEEDS)
+
+
+_NEEDS = "range_difference needs the relative state at the earlier sample"
+
+
+def path_difference(rel: ArrayLike, rel_ref: ArrayLike | None, needs: str) -> Array:
+    """Give ``|p| - |p_ref|`` (m); ``needs`` is the error without ``rel_ref``."""
+    rel = as_rel(rel)
+    if rel_ref is None:
+        raise ValueError(needs)
+    rel_ref = as_rel(rel_ref)
+    return np.linalg.norm(rel[..., :3], axis=-1) - np.linalg.norm(rel_ref[..., :3], axis=-1)
+
+
+def path_difference_jacobian(rel: ArrayLike, rel_ref: ArrayLike | None, needs: str,
+                             scale: float = 1.0) -> Jacobian:
+    """Give the derivatives of ``scale (|p| - |p_ref|)``: ``±scale p/|p|``."""
+    rel = as_rel(rel)
+    if rel_ref is None:
+        raise ValueError(needs)
+    rel_ref = as_rel(rel_ref)
+    d = np.zeros(rel.shape)
+    d_ref = np.zeros(rel_ref.shape)
+    d[..., :3] = rel[..., :3] / np.linalg.norm(rel[..., :3], axis=-1, keepdims=True) * scale
+    d_ref[..., :3] = -rel_ref[..., :3] / np.linalg.norm(rel_ref[..., :3], axis=-1,
+                                                        keepdims=True) * scale
+    return Jacobian(d, d_ref, zeros_nuisance(rel))
 
 
 def interval_count(t: ArrayLike, t_ref: ArrayLike, pri: float) -> NDArray[np.int64]:

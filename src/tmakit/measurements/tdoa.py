@@ -21,7 +21,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.units import REACH_M, SPEED_OF_LIGHT
-from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Array, Jacobian, MeasurementModel, ValueRange
+from .range_difference import path_difference, path_difference_jacobian
 
 __all__ = ["NOISE_FORMS", "Tdoa", "noise_form", "shared_reference_covariance"]
 
@@ -63,6 +64,9 @@ def shared_reference_covariance(sigma: ArrayLike) -> NDArray[np.float64]:
     cov = 0.5 * s[:, None] * s[None, :]
     cov[np.diag_indices_from(cov)] = s**2
     return cov
+
+
+_NEEDS = "tdoa needs the target's state relative to the reference sensor"
 
 
 class Tdoa(MeasurementModel):
@@ -161,12 +165,7 @@ class Tdoa(MeasurementModel):
         ValueError
             If ``rel_ref`` is missing.
         """
-        rel = as_rel(rel)
-        if rel_ref is None:
-            raise ValueError("tdoa needs the target's state relative to the reference sensor")
-        rel_ref = as_rel(rel_ref)
-        return (np.linalg.norm(rel[..., :3], axis=-1)
-                - np.linalg.norm(rel_ref[..., :3], axis=-1)) / self.c
+        return path_difference(rel, rel_ref, _NEEDS) / self.c
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
@@ -189,17 +188,7 @@ class Tdoa(MeasurementModel):
         ValueError
             If ``rel_ref`` is missing.
         """
-        rel = as_rel(rel)
-        if rel_ref is None:
-            raise ValueError("tdoa needs the target's state relative to the reference sensor")
-        rel_ref = as_rel(rel_ref)
-        d = np.zeros(rel.shape)
-        d_ref = np.zeros(rel_ref.shape)
-        d[..., :3] = rel[..., :3] / (self.c * np.linalg.norm(rel[..., :3], axis=-1,
-                                                             keepdims=True))
-        d_ref[..., :3] = -rel_ref[..., :3] / (self.c * np.linalg.norm(
-            rel_ref[..., :3], axis=-1, keepdims=True))
-        return Jacobian(d, d_ref, zeros_nuisance(rel))
+        return path_difference_jacobian(rel, rel_ref, _NEEDS, 1.0 / self.c)
 
     def __repr__(self) -> str:
         """Name the kind with its noise form."""
