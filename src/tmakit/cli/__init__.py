@@ -1,29 +1,4 @@
-"""The ``tma`` command.
-
-    tma scenarios                                  list the built-in scenarios
-    tma simulate SCENARIO [--seed N] [--no-noise] -o FILE [--force]
-    tma show FILE [--plot out.png] [--origin LAT,LON,ALT] [--force]
-    tma demo [--out-dir DIR] [--seed N] [--force]
-    tma crlb FILE --motion cv2d --truth x=..,y=.. [--known-nuisance] [--json]
-    tma crlb SCENARIO [--known-nuisance] [--at T] [--json]
-    tma estimate FILE [--motion cv2d] [--init x=..,y=..] [--method ml] [--json]
-                      [--html page.html] [--export solution.rep|.geojson|.kml]
-    tma report FILE -o page.html [the options of tma estimate]
-    tma reproduce gu2007|doppler-lecture|hoerst2010|chen-sun|chan-ho1994|ho-xu2004 [--runs N]
-    tma gdop LAYOUT.toml [--plot cep.png] [--points 100] [--half-width M] [--json]
-    tma montecarlo SCENARIO [--runs N] [--seed S] [--estimator ml] [--dask ADDR] [-o FILE]
-    tma track FILE [--filter ekf|ukf|mgekf|pf] [--q Q] [--json] [-o track.csv] [--plot out.png]
-    tma plan SCENARIO.toml [-o path.csv] [--plot figs.png] [--runs N] [--seed S] [--json]
-    tma import rep|wide|gpx|nmea FILE... -o obs.parquet [--ownship N] [--contact N] [--mapping M]
-    tma examples DIR                               write the sample logs (docs/your-own-data.md)
-
-Every command refuses to overwrite an existing output unless ``--force`` is given, and
-reports bad input as ``error: ...`` naming the file, row and field, with exit status 2.
-Exit statuses: 0 an answer (read its warnings), 1 output that could not be written, 2 bad
-input, 3 internal error (traceback in a log file, or on the terminal with ``tma --debug``),
-4 no answer (unobservable, diverged, not converged), 130 interrupted, 143 terminated (see
-:mod:`tmakit.cli.guard`).
-"""
+"""The ``tma`` command."""
 
 from __future__ import annotations
 

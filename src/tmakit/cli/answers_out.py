@@ -340,8 +340,7 @@ def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> 
     sensor : str or None
         ``--sensor``; None for the sensor of the last measurement.
     **where
-        Passed on: ``time`` (s, ``--at``) for an estimate; a track answers after its last
-        update.
+        Passed on: ``time`` (s, ``--at``) for an estimate; a track answers after its last update.
 
     Returns
     -------

@@ -3,9 +3,6 @@
 The consoles, the error exit, the refusal to overwrite, parsing of ``--origin`` and ``name=value``
 options, reading and writing measurement files, and the typer option aliases of the commands that
 fit or bound a motion model.
-
-Nothing numerical is imported here at module level: ``tma --help`` and ``tma scenarios``
-must start without numpy's heavy users (scipy, the estimators) or pydantic.
 """
 
 from __future__ import annotations

@@ -267,9 +267,7 @@ def grouped_by_kind(meas: Any) -> Any:
 
     The solvers work on the rows grouped by kind (:attr:`ObservationModel.order
     <tmakit.observation.ObservationModel.order>`) and hold a grouped copy of a set whose kinds
-    alternate (about 150 bytes per row).  A set of more than :data:`tmakit.core.blas.CHUNKED_ROWS`
-    rows is reordered here instead, once, so that no copy is held beside it during the fit;
-    the fit is the same (the solver's rows are the same, in the same order).
+    alternate (about 150 bytes per row).
 
     Parameters
     ----------
@@ -502,8 +500,7 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
     ref_time : float or None
         Reference time of the motion parameters (s).
     exact, criterion, alpha, accelerations
-        ``--exact``, ``--criterion`` (default bic), ``--alpha`` (default 0.01),
-        ``--accelerations``.
+        ``--exact``, ``--criterion`` (default bic), ``--alpha`` (default 0.01), ``--accelerations``.
 
     Returns
     -------

@@ -1,14 +1,4 @@
-"""``tma track --follow``: keep tracking as the measurement files grow (a live watch).
-
-The files (or standard input, ``-``) are read as they grow: their complete lines so far are
-copied into snapshots in a temporary folder, under the files' own names (so that the readers
-see the same suffixes and Debrief pairs), and every time a snapshot gains complete lines the
-whole command's work is done again on them: read, track, print one line, rewrite the outputs.
-A line being written (no newline yet) waits for the next look.  A file that shrinks (rotated,
-rewritten) is read again from its start.  The watch stops after ``--max-updates`` updates, when
-standard input ends, or on Ctrl-C / SIGTERM; every output is written atomically, so what was
-written is kept whole.
-"""
+"""``tma track --follow``: keep tracking as the measurement files grow (a live watch)."""
 
 from __future__ import annotations
 

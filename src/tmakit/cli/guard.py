@@ -1,29 +1,10 @@
 """No traceback reaches a user of ``tma``: the guard around every command.
 
-Every command runs inside :func:`guarded`.  An exception the command did not turn into an
-``error: ...`` message (a bug, or a numerical failure nobody foresaw) becomes one line
-
-    error: internal error in `tma estimate` while computing tmakit.batch.ml.fit:
-    LinAlgError: SVD did not converge (please report; traceback in /tmp/tma-error-....log)
-
-with exit status :data:`EXIT_INTERNAL`; the traceback goes to a log file.  Under
-``tma --debug`` (or ``TMA_DEBUG=1``) the exception is not caught: Python prints its
-traceback.  Ctrl-C ends a command with status 130 and SIGTERM with 143, after the files being
-written are cleaned up.  Numerical ``RuntimeWarning`` s (an overflow in an exponential, a
-division by zero that the code handles) are not printed (``--debug`` shows them); they are
-listed in the log of an internal error.
-
-Output that cannot be written (a full disk, a read-only or failing device: ``tma scenarios >
-/dev/full``) ends the command with one line naming the failure, status 1, never a traceback
+An exception a command did not turn into an ``error: ...`` message becomes one line naming the
+command and the failure, with exit status :data:`EXIT_INTERNAL`, its traceback in a log file
+(``tma --debug`` or ``TMA_DEBUG=1`` lets it through).  Ctrl-C exits with 130, SIGTERM with 143,
+after the files being written are cleaned up; unwritable output ends with status 1
 (:func:`write_failed`).
-
-Exit statuses of ``tma``: 0 an answer (with its warnings, if any); 1 output that could not be
-written; 2 bad input or options (the message names the file, row, column or option); 3 an
-internal error (please report); 4 no answer (the estimate is unobservable, did not converge or
-diverged: no number is printed as an answer); 130 interrupted (Ctrl-C); 143 terminated
-(SIGTERM).
-
-Nothing numerical is imported here: ``tma --help`` stays light.
 """
 
 from __future__ import annotations

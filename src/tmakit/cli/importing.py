@@ -1,9 +1,8 @@
 """``tma import`` and ``tma examples``: real logs into tmakit's own file, and the sample logs.
 
-``tma import FORMAT FILE... -o obs.parquet`` reads a Debrief replay file, a wide CSV/Parquet
-log with its column mapping, or a GPX/NMEA own track with a measurement log, and writes
-tmakit's measurement file (its metadata keeps the clock time of t = 0 and the ENU origin).
-``tma examples DIR`` writes the sample logs shipped with tmakit (made by its simulation).
+``tma import FORMAT FILE... -o obs.parquet`` reads a Debrief replay file, a wide CSV/Parquet log
+with its column mapping, or a GPX/NMEA own track with a measurement log, and writes tmakit's
+measurement file (its metadata keeps the clock time of t = 0 and the ENU origin).
 """
 
 from __future__ import annotations

@@ -1,16 +1,4 @@
-"""The analyst's options of ``tma estimate``: own-ship legs, ``--leg N``, turn cuts, ambiguity.
-
-- **Legs.**  The own ship's legs and turns, from its navigation (heading rate above
-  ``--turn-rate``; :func:`tmakit.results.own_legs.own_ship_legs`), are printed with every
-  estimate of one moving own ship and kept in the JSON (``legs``); the contact's legs of a
-  manoeuvre fit (its segments' course and speed) too (``contact_legs``).
-- **One leg.**  ``--leg N`` solves the own ship's leg N (its first to last fix);
-  ``--snap`` moves ``--from`` to the start and ``--to`` to the end of the leg each falls in
-  (or the nearest leg end when it falls in a turn).
-- **Ambiguity.**  A set whose bearings carry a towed array's mirror twin is fitted by
-  :func:`tmakit.batch.ambiguity.resolve_ambiguity` (turn cuts left out unless
-  ``--keep-turn-cuts``), every decision printed.
-"""
+"""The analyst's options of ``tma estimate``: own-ship legs, ``--leg N``, turn cuts, ambiguity."""
 
 from __future__ import annotations
 
@@ -136,8 +124,7 @@ def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
         The measurements (clock times).
     legs : dict
         The legs' JSON form (:meth:`LegsAndTurns.as_dict
-        <tmakit.results.own_legs.LegsAndTurns.as_dict>`) with the own ship's name
-        (``sensor``).
+        <tmakit.results.own_legs.LegsAndTurns.as_dict>`) with the own ship's name (``sensor``).
     units : str
         ``si`` or ``nautical``.
 

@@ -1,13 +1,4 @@
-"""Output paths checked before any work starts, and pictures written atomically.
-
-Every file a command will write (``-o``, ``--json FILE``, ``--plot``) goes through
-:func:`check_output` first: it is resolved to the exact file that will be written (a picture
-without a suffix gets ``.png``, as matplotlib would add), and refused (exit 2, naming the
-option) when it exists without ``--force``, is a folder, lies in a folder that does not exist
-or cannot be written, or has a suffix the writer does not know.
-
-Nothing numerical is imported here.
-"""
+"""Output paths checked before any work starts, and pictures written atomically."""
 
 from __future__ import annotations
 
@@ -128,11 +119,7 @@ def note_arguments(arguments: dict[str, Any]) -> None:
 
 
 def _command_inputs(given: object) -> list[Path]:
-    """Every file named by the running command's arguments other than the output ``given``.
-
-    Whatever a command declares as its inputs, a file named anywhere else on its command
-    line is not written over; names that are not existing files are skipped.
-    """
+    """Every file named by the running command's arguments other than the output ``given``."""
     named: list[Path] = []
     for values in _ARGUMENTS.values():
         for value in values if isinstance(values, list | tuple) else [values]:
@@ -201,10 +188,8 @@ def _alive(pid: int) -> bool:
 def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
     """Hold the outputs of a long command for it alone while it runs (a lock file beside each).
 
-    A second ``tma`` run writing to the same file is refused at its start, naming the run
-    that holds it, instead of failing after its work (its finished runs lost).  The lock is
-    ``.NAME.tma-lock`` beside the output, holding the process id; a lock whose process has
-    ended is taken over.
+    A second ``tma`` run writing to the same file is refused at its start, naming the run that holds
+    it, instead of failing after its work (its finished runs lost).
 
     Parameters
     ----------

@@ -1,9 +1,7 @@
 """Plain ``-h`` help for every ``tma`` command: each valued option shows the value it takes.
 
 Typer labels a valued option with its Python type (``--seed <int>``, ``--origin <str>``) and a
-required argument as ``{file}``. An analyst reads ``--seed N``, ``--origin LAT,LON,ALT`` and
-``FILE`` instead: :class:`PlainCommand` names every value by what it is, flags stay bare
-(``--json``, ``--drift / --no-drift``), and the usage line reads ``tma estimate [OPTIONS] FILE``.
+required argument as ``{file}``.
 """
 
 from __future__ import annotations

@@ -161,9 +161,8 @@ def start_warnings(setup: Any) -> list[str]:
     Returns
     -------
     list of str
-        One sentence per constraint broken at the start (by the true target's position for
-        the range limits): the planner steers out of it, and the steps until then are counted
-        as violated.
+        One sentence per constraint broken at the start (by the true target's position for the range
+        limits): the planner steers out of it, and the steps until then are counted as violated.
     """
     import numpy as np
 

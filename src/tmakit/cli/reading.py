@@ -25,18 +25,17 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     Parameters
     ----------
     path : Path or list of Path
-        The file (``.csv``, ``.parquet``, ``.rep``, ...; any registered format), or several
-        Debrief files read as one replay (a sensor file and the own ship's track file).
+        The file (``.csv``, ``.parquet``, ``.rep``, ...; any registered format), or several Debrief
+        files read as one replay (a sensor file and the own ship's track file).
     origin : tuple of float, optional
         ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
     notes : bool
         Print the reader's notes (a live watch prints them on its first read only).
     **options
-        The reader's options (:func:`reader_options`): ``format``, ``ownship``,
-        ``contact``, ``mapping``, ``bearing_sigma``, ``range_sigma``, ``frequency_sigma``,
-        ``dim``, ``kinds`` (``--kinds`` text), ``ranges``, ``window`` (``--from``, ``--to``
-        texts: Debrief files keep the cuts in it before their checks); None values are
-        dropped.
+        The reader's options (:func:`reader_options`): ``format``, ``ownship``, ``contact``,
+        ``mapping``, ``bearing_sigma``, ``range_sigma``, ``frequency_sigma``, ``dim``, ``kinds``
+        (``--kinds`` text), ``ranges``, ``window`` (``--from``, ``--to`` texts: Debrief files keep
+        the cuts in it before their checks); None values are dropped.
 
     Returns
     -------

@@ -178,15 +178,14 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
     Returns
     -------
     dict
-        ``{"component": ...}`` for the Gaussian sum and the IMM (with ``model_q`` and
-        ``transition`` when given), ``{"history": True}`` for a particle filter to smooth,
-        else empty.
+        ``{"component": ...}`` for the Gaussian sum and the IMM (with ``model_q`` and ``transition``
+        when given), ``{"history": True}`` for a particle filter to smooth, else empty.
 
     Raises
     ------
     typer.Exit
-        Status 2 for an unknown component, an option given with another filter, or a
-        ``--model-q`` or ``--transition`` that does not parse.
+        Status 2 for an unknown component, an option given with another filter, or a ``--model-q``
+        or ``--transition`` that does not parse.
     """
     from ..filters.gaussian_sum import COMPONENTS
 
