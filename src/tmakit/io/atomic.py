@@ -1,10 +1,6 @@
 """One way to write a file safely: a temporary file in the same folder, moved into place.
 
-A failure never leaves a partial file nor damages an existing one.  The temporary file is
-``.NAME.<12 hex>.tmp`` (with the target's suffix added when asked, for writers that take the
-format from it); its writer holds an advisory lock on it, so a temporary file nobody holds is
-left over from a killed writer, and the next write into the same folder removes it
-(:func:`clean_stale_temporaries`).
+A failure never leaves a partial file nor damages an existing one.
 """
 
 from __future__ import annotations
@@ -31,8 +27,7 @@ TEMP_PATTERN = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp(\.[A-Za-z0-9]{1,8})?$")
 def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
     """Build the error for refusing to overwrite ``path``.
 
-    It names the parameter ``force=True``; the command line says ``--force`` in its own
-    message.
+    It names the parameter ``force=True``; the command line says ``--force`` in its own message.
 
     Parameters
     ----------
@@ -99,10 +94,7 @@ def atomic_write(path: str | os.PathLike[str], force: bool = False,
                  keep_suffix: bool = False) -> Iterator[Path]:
     """Write ``path`` atomically: yield a new empty temporary file, then move it into place.
 
-    Use as ``with atomic_write(path, force) as tmp: write(tmp)``.  The temporary file lies in
-    the folder of ``path`` (so the final move is one :func:`os.replace`, or a hard link when
-    ``force`` is false so that a file created meanwhile is never overwritten).  On any failure
-    inside the block the temporary file is removed and ``path`` is left as it was.
+    Use as ``with atomic_write(path, force) as tmp: write(tmp)``.
 
     Parameters
     ----------
@@ -111,8 +103,8 @@ def atomic_write(path: str | os.PathLike[str], force: bool = False,
     force : bool, optional
         Overwrite an existing file (default: refuse).
     keep_suffix : bool, optional
-        End the temporary file's name with the suffix of ``path`` (for writers, such as
-        matplotlib, that choose the format by the suffix).
+        End the temporary file's name with the suffix of ``path`` (for writers, such as matplotlib,
+        that choose the format by the suffix).
 
     Yields
     ------

@@ -1,10 +1,4 @@
-"""The per-cell rules of a measurement file, as a pandera schema validated lazily.
-
-Numbers are coerced by pandera (:func:`read_numbers`); the rules (finite, value ranges per
-kind, positive sigma, latitude/longitude ranges, ``time_ref`` and reference states only on
-range-difference rows) are pandera checks whose failure cases become one problem per cell
-(:func:`check_cells`).
-"""
+"""The per-cell rules of a measurement file, as a pandera schema validated lazily."""
 
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
 """From a raw table to a checked :class:`~tmakit.data.MeasurementSet`.
 
 Every rule of the contract is checked and all problems are reported together.
-
-The steps, each in its own module: columns present (:mod:`.check_columns`), numbers and the
-per-cell rules (:mod:`.check_cells`), rules across rows (:mod:`.check_rows`), sensor states
-and the ENU origin (:mod:`.positions`).
 """
 
 from __future__ import annotations

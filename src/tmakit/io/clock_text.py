@@ -1,15 +1,4 @@
-"""A time typed by a user: seconds, an ISO-8601 UTC clock time, or a clock time of the day.
-
-One reading for every option that takes a time (``--from``, ``--to``, ``--at``) and for the
-readers that apply a time window before their checks (:mod:`.debrief`):
-
-- ``1200`` or ``1200.5``: seconds since the set's time origin (``time_origin``);
-- ``2016-11-05T19:30:00Z`` (or without the ``Z``, or with another zone): that instant, UTC
-  unless a zone is named;
-- ``19:30``, ``19:30:15`` or ``19:30:15.5``: that clock time (UTC) on the day of the data,
-  accepted only where the data lie within one UTC day (otherwise which day is meant is not
-  known, and the message says to give the date).
-"""
+"""A time typed by a user: seconds, an ISO-8601 UTC clock time, or a clock time of the day."""
 
 from __future__ import annotations
 

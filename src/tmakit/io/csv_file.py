@@ -1,35 +1,4 @@
-"""The CSV measurement file: ``# key: value`` metadata lines, a header, one row per value.
-
-One parser reads it, pyarrow's CSV reader, in one of two ways:
-
-- **Streamed** (:func:`stream_csv`, the usual large file: valid, with ENU or
-  latitude/longitude sensor positions, with or without range differences).  The text is parsed
-  :data:`BLOCK_BYTES` at a time, each block's columns converted straight into the set's own
-  arrays (float64 numbers; the kind and the sensor as small integer codes with one table of
-  names), so the file's text, an Arrow table of the whole file or a text cell per row are never
-  held.  Latitude, longitude and altitude are held in the place of the ENU position while
-  reading; after the last block the surface rule is decided over every row's altitude and the
-  positions converted to ENU in place (:data:`_ENU_ROWS` rows at a time) about the origin the
-  checker takes.  Range differences are checked per block as the checker does, and the sensor
-  states at ``time_ref`` found after the stream (:mod:`.sensor_record`, the checker's own
-  look-up).  The set is then checked by the one set of rules (:mod:`tmakit.rules`).
-- **As a table of cells for the checker** (:func:`load_csv`), when the stream does not take the
-  file (a problem in any cell, a missing column, a lat/lon file without a known origin, a
-  ragged or quoted-newline record, a preamble longer than 1 MiB): the whole table, numbers as
-  float64 when every cell is a finite number, else every cell as text, with the line of each
-  record; :func:`~.checker.check_table` then builds the set or names every problem by row, line
-  and column.  Both ways give the same set bit for bit (``tests/test_streaming_and_rules.py``).
-
-Memory of a streamed read: the set's 93 bytes per row (:data:`SET_BYTES_PER_ROW`; 56 more
-with range differences: ``time_ref`` and the reference state), plus up to 5 % spare rows
-while reading, the blocks of text pyarrow reads ahead (its reader's input thread queues up to
-about 32 blocks: ``32 * BLOCK_BYTES``, whatever the file's size) and one block's parsed
-columns, and after reading the rules' transient arrays (about 30 bytes per row).  The
-checker's table is not bounded this way (about 8 times the file).  No pandas is imported by a
-streamed read (39 MB of a process, whatever the file's size).
-
-Writing uses pandas' shortest round-trip floats, so files round-trip exactly.
-"""
+"""The CSV measurement file: ``# key: value`` metadata lines, a header, one row per value."""
 
 from __future__ import annotations
 

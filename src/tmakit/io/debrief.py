@@ -1,42 +1,4 @@
-"""Debrief replay files (``.rep``, ``.dsf``) as measurement sets.
-
-The mapping (lines: :mod:`.debrief_lines`; frame and clock: :mod:`.logs`):
-
-- **Files.** One file, or several read as one replay in any order (the usual pair: a sensor
-  file, ``.dsf`` or ``.rep`` of ``;SENSOR:`` lines, and the own ship's track file).
-- **Own ship** (``ownship=``): the host track of the sensor lines used; needed when several
-  tracks carry sensor lines.  Its track lines give the sensor's position and velocity
-  (course and speed over the ground); a sensor line whose position is ``NULL`` takes the
-  host track's position interpolated linearly at its time.  Without track lines (DSF files
-  often have none) the positions the sensor lines state are the track, and the velocity is
-  derived from them (:func:`~.logs.velocity_from_positions`).  Fixes written twice, cuts
-  outside the track: :mod:`.debrief_fixes`.
-- **Contact** (``contact=``): the sensor lines whose sensor name is the name, or whose label
-  starts with it (Debrief labels usually name the contact first); needed when the own
-  ship's sensor lines come from several sensors, unless every label names the same contact
-  first (a bearing sensor and a frequency sensor on one contact: both are read).
-- **What is used.** A line that breaks the format refuses the file when it belongs to the own
-  ship (or its track cannot be told); on another track it is a warning.  ``window=(from,
-  to)`` keeps the cuts in that time window before any other check (times as in
-  :func:`~.clock_text.seconds_of_time_text`); ``kinds=`` keeps only those kinds.
-- **Placeholder ranges.** A range field of 0, or the same on every cut (``12000`` yd: a
-  plotting default), is not a measurement: left out with a note, unless ``ranges="use"``;
-  ``ranges="ignore"`` leaves every range out.
-- **Notes.** What was read in another way than written (a position's 60 seconds as a carry),
-  merged or left out is said in the set's ``reader_notes`` metadata (``note: ...``,
-  ``warning: ...``; :func:`~.errors.reader_notes`), which ``tma`` prints.
-- **Rows.** Each bearing becomes a ``bearing`` row (degrees true, wrapped to [0, 360)) with
-  sigma ``bearing_sigma`` (default :data:`DEFAULT_BEARING_SIGMA_DEG`: replay files carry no
-  sigma); each range (yards) a ``range`` row (m) with ``range_sigma``; each ``;SENSOR2:``
-  frequency a ``frequency`` row (Hz) with ``frequency_sigma``.  A ``;SENSOR3:`` line states
-  its bearing's and frequency's accuracy: that is the row's sigma, unless ``bearing_sigma`` or
-  ``frequency_sigma`` is given (the user's word wins).  The second, ambiguous bearing of a
-  ``;SENSOR2:`` cut is not used (tmakit has no two-valued bearing): a note says how many.
-- **Frame.** Positions are on the sea surface (depth is not used: bearings are horizontal),
-  so the set is 2-D unless ``dim=3``; the origin defaults to the own ship's first fix.
-- **Clock.** Times are seconds since the file's first time (floored to the second),
-  recorded as ``time_origin`` (UTC).
-"""
+"""Debrief replay files (``.rep``, ``.dsf``) as measurement sets."""
 
 from __future__ import annotations
 

@@ -1,16 +1,4 @@
-"""The own ship's fixes of a Debrief replay, and the sensor's state at each cut.
-
-- **Fixes.** The host track's lines (course and speed give the velocity); without track lines,
-  the positions its sensor lines state (velocity derived from them).  The same fix written
-  twice (the same time, position, course and speed: a simulator's first fix, or a track file
-  and a sensor file that both carry it) is one fix; two different fixes at one time are
-  refused, naming both lines.
-- **States.** A cut that states its position keeps it; a cut with a ``NULL`` position takes
-  the host's position interpolated at its time.  Cuts with a ``NULL`` position outside the
-  host's fixes are left out with a warning naming them (never a refusal of the file); only
-  when no cut is left, or the host has no fix at all, is the file refused, and the message
-  says how to supply the own ship's track.
-"""
+"""The own ship's fixes of a Debrief replay, and the sensor's state at each cut."""
 
 from __future__ import annotations
 

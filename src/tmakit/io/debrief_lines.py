@@ -1,39 +1,4 @@
-"""The lines of a Debrief replay file (REP, and DSF: the same lines), parsed one by one.
-
-Written from Debrief's documentation of the replay format; the lines tmakit reads:
-
-``YYMMDD HHMMSS[.SSS] NAME SYMBOLOGY LAT LON COURSE SPEED DEPTH [label]``
-    a track fix: ``LAT`` is ``DD MM SS.SS H`` (H = N or S), ``LON`` is ``DDD MM SS.SS H``
-    (E or W), course in degrees true, speed in knots, depth in metres.
-``;SENSOR: YYMMDD HHMMSS[.SSS] HOST SYMBOLOGY POSITION BEARING RANGE SENSOR [label]``
-    a sensor contact: ``POSITION`` is ``LAT LON`` or ``NULL`` (the host track's position at
-    that time); bearing in degrees true (may be negative) or ``NULL``; range in yards or
-    ``NULL``.
-``;SENSOR2: YYMMDD HHMMSS[.SSS] HOST SYMBOLOGY POSITION BEARING AMBIGUOUS FREQUENCY RANGE
-SENSOR [label]``
-    the same with an ambiguous bearing (degrees) and a frequency (Hz), each or ``NULL``.
-``;SENSOR3: YYMMDD HHMMSS[.SSS] HOST SYMBOLOGY POSITION BEARING BEARING_ACCURACY FREQUENCY
-FREQUENCY_ACCURACY RANGE SENSOR [label]``
-    a contact with its accuracies: the bearing's (degrees) and the frequency's (Hz), each or
-    ``NULL``; tmakit takes an accuracy as the standard deviation of its value.
-``;TMA_POS: YYMMDD HHMMSS[.SSS] VESSEL SYMBOLOGY LAT LON SOLUTION ELLIPSE COURSE SPEED DEPTH
-[label]``
-    a TMA solution point (Debrief's ``ImportTMA_Pos``): ``ELLIPSE`` is ``ORIENTATION MAXIMA
-    MINIMA`` (degrees true of the major axis; semi-axes in yards) or ``NULL``.
-``;TMA_RB: YYMMDD HHMMSS[.SSS] VESSEL SYMBOLOGY BEARING RANGE SOLUTION ELLIPSE COURSE SPEED
-DEPTH [label]``
-    the same point by its bearing (degrees true) and range (yards) from the vessel
-    (``ImportTMA_RngBrg``).
-
-Fields are separated by spaces or tabs; names with spaces are in double quotes (spaces
-around a name are not part of it: ``" Frigate Optic5 "`` is ``Frigate Optic5``). Other lines
-starting with ``;`` (comments ``;;``, narratives, shapes) and blank lines are skipped.
-``YYMMDD`` years 00-49 are 2000-2049 and 50-99 are 1950-1999; ``YYYYMMDD`` is read too.
-Minutes or seconds of a position written ``60`` (``010 15 60.00 E``, a rounding of 59.995 and
-up) are a carry, as Debrief reads them (``010 16 00.00 E``); each is reported as a note.
-Every problem names the line and, where the line gets that far, the track it belongs to (so
-that a reader can tell a problem in the data it uses from one in a track it does not use).
-"""
+"""The lines of a Debrief replay file (REP, and DSF: the same lines), parsed one by one."""
 
 from __future__ import annotations
 

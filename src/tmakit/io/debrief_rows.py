@@ -3,12 +3,6 @@
 Each cut gives a ``bearing`` row (degrees true, wrapped), a ``range`` row (yards to m) and a
 ``frequency`` row (Hz) where its field is not ``NULL``.  A ``;SENSOR3:`` line's accuracy is the
 sigma of its bearing or frequency unless the user gave that kind's sigma.
-
-**Placeholder ranges.**  Debrief sensor lines carry a range field that is often a plotting
-default, not a measurement: ``0000`` on every line, or the same value (``12000`` yd) on every
-cut.  Fitted as ranges they pull the answer far off with small stds, so by default a range of
-0 is left out, and so are the ranges of cuts that all state the same value; each with a note.
-``ranges="use"`` keeps them all, ``ranges="ignore"`` leaves every range out.
 """
 
 from __future__ import annotations

@@ -1,10 +1,4 @@
-"""Clock times of a log's cells: ISO-8601 text or epoch numbers in a stated unit.
-
-A time is read as UTC nanoseconds (integers) and must fall within :data:`PLAUSIBLE_YEARS`:
-an epoch number in another unit than the one stated (milliseconds read as seconds: the year
-58000), or one that would overflow, is refused, never wrapped or clipped; the refusal names
-the unit that would make it a date (:func:`clock_time_problem`).
-"""
+"""Clock times of a log's cells: ISO-8601 text or epoch numbers in a stated unit."""
 
 from __future__ import annotations
 

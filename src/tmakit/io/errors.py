@@ -17,9 +17,8 @@ MAX_LISTED_PROBLEMS = 25
 class MeasurementFileError(ValueError):
     """A measurement file that breaks the contract of ``docs/file-format.md``.
 
-    ``path`` is the file, ``problems`` one line per problem (``row R (line L), column 'C':
-    expected ..., found ...``).  The message starts with the path and lists the problems
-    (at most :data:`MAX_LISTED_PROBLEMS` of them).
+    ``path`` is the file, ``problems`` one line per problem
+    (``row R (line L), column 'C': expected ..., found ...``).
 
     Parameters
     ----------

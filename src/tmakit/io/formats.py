@@ -1,10 +1,4 @@
-"""The registry of measurement-file formats: each format's name, suffixes, reader, writer.
-
-:func:`tmakit.io.read_measurements` and :func:`tmakit.io.write_measurements` find the format
-here (by name, or by the file's suffix), so a new format (Debrief, GPX, NMEA, ...) is one
-module that builds a :class:`Format` and calls :func:`register_format`, plus one import line
-in :mod:`tmakit.io.measurement_files`.
-"""
+"""The registry of measurement-file formats: each format's name, suffixes, reader, writer."""
 
 from __future__ import annotations
 

@@ -1,17 +1,4 @@
-"""Propose a column mapping for a wide log from its header (``tma import wide FILE --guess``).
-
-The column names of real drone and flight logs are matched against what tmakit knows of
-them: PX4 (``vel_n_m_s``, ``latitude_deg``, ``altitude_msl_m``, ``time_utc_usec``),
-ArduPilot (``Lat``, ``Lng``, ``Alt``, ``TimeUS``), DJI-style exports (``datetime(utc)``),
-and the usual spellings (``lat``/``latitude``, ``lon``/``lng``/``longitude``,
-``alt``/``altitude``/``height``, ``vel_n``/``vn``/``v_north``, ``timestamp``/``utc``/
-``epoch``, ``rssi``/``rssi_dbm``, ``freq``/``frequency_mhz``, ``bearing``/``azimuth``/
-``doa``).  Units come from a name's suffix (``_hz``, ``_mhz``, ``_dbm``, ``_deg``, ``_m``,
-``usec``, ``_ms``), the time's unit also from its first value (the unit that makes it a
-plausible date).  The proposal is TOML (:mod:`.log_mapping`'s keys) with a comment on every
-choice and the columns left out; sigmas are placeholders to be replaced by the receiver's.
-Nothing is guessed silently: a column that matches no known name is listed, not used.
-"""
+"""Propose a column mapping for a wide log from its header (``tma import wide FILE --guess``)."""
 
 from __future__ import annotations
 

@@ -1,37 +1,7 @@
 """The column mapping of a wide log: a small TOML file, or command-line text.
 
-It says which column holds the time, the position, the velocity and each measurement, with
-its kind, unit and sigma.
-
-A mapping file (every key is described in ``docs/your-own-data.md``)::
-
-    time = "utc"            # ISO-8601 text (UTC unless a zone is given) or epoch numbers
-    time_unit = "s"         # epoch numbers in s (default), ms, us or ns since 1970 UTC
-    sensor = "drone"        # the sensor id (or sensor_column = "...": one per row)
-    track = "own.gpx"       # optional: positions from a GPX or NMEA file, joined by time
-    velocity_window = 10.0  # s: the fit that derives velocities when none are given
-
-    [position]              # lat/lon/alt (deg, deg, m) or east/north/up (m)
-    lat = "lat"
-    lon = "lon"
-    alt = "alt_m"
-    altitude = "msl"        # or "ellipsoid" (the default)
-
-    [velocity]              # optional; frame "ned" (north, east, down) or "enu"
-    frame = "ned"
-    north = "vn"
-    east = "ve"
-    down = "vd"
-
-    [[measurement]]         # one table per measurement column
-    column = "rssi_dbm"
-    kind = "power"
-    unit = "dBm"
-    sigma = 2.0             # in the unit (dB for power), or sigma_column = "..."
-    # reference = "relative": a bearing clockwise from the heading (column `heading = "..."`
-    # at the top, or the HDT sentences of an NMEA track), made true by adding it
-
-On the command line the same mapping is ``key=value`` pairs (:func:`mapping_from_text`).
+It says which column holds the time, the position, the velocity and each measurement, with its kind,
+unit and sigma.
 """
 
 from __future__ import annotations

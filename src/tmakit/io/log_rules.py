@@ -1,11 +1,4 @@
-"""The rules of a measurement file on a log's values, named by their place in the log.
-
-The importers (Debrief, wide CSV/Parquet logs, GPX and NMEA tracks) apply the one set of
-rules (:mod:`tmakit.rules`) to the values as they read them, before any conversion that could
-hide a bad value (a bearing of 1e300 degrees wrapped to 0), and name each problem by its line
-or row and column: :func:`fix_problems` for a track's fixes, :func:`checked_rows` for the
-measurement rows, which also merges a row written twice and refuses two values at one time.
-"""
+"""The rules of a measurement file on a log's values, named by their place in the log."""
 
 from __future__ import annotations
 

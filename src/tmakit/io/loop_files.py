@@ -1,10 +1,8 @@
 """Closed-loop study files: the per-step table of a closed-loop Monte Carlo study.
 
-The table (:meth:`tmakit.montecarlo.closed_loop.ClosedLoopStudy.table`) is written with the
-one table writer (:func:`~.tables.write_table`), atomically, never over an existing file
-without ``force``.  :class:`LoopCheckpoint` saves each chunk of runs as soon as it is finished
-(``<file>.parts/<case>-<first run>.parquet``), so an interrupted study loses no finished
-chunk; :meth:`LoopCheckpoint.finish` writes the whole table and removes the parts.
+The table (:meth:`tmakit.montecarlo.closed_loop.ClosedLoopStudy.table`) is written with the one
+table writer (:func:`~.tables.write_table`), atomically, never over an existing file without
+``force``.
 """
 
 from __future__ import annotations
@@ -39,9 +37,6 @@ def _slug(text: str) -> str:
 class LoopCheckpoint:
     """Save each finished chunk of a closed-loop study at once; the whole table at the end.
 
-    Pass the object as ``on_chunk`` of :func:`~tmakit.montecarlo.closed_loop.closed_loop_study`
-    and call :meth:`finish` with the study.
-
     Parameters
     ----------
     path : str or path-like
@@ -49,14 +44,6 @@ class LoopCheckpoint:
         ``<path>.parts`` (Parquet).
     force : bool, optional
         Overwrite an existing table or parts folder.
-
-    Raises
-    ------
-    ValueError
-        If the suffix names no table format.
-    FileExistsError
-        If the table or the parts folder (the finished chunks of an interrupted study) exists
-        and not ``force``.
     """
 
     def __init__(self, path: str | os.PathLike[str], force: bool = False) -> None:

@@ -1,24 +1,6 @@
 """Measurement files: a :class:`~tmakit.data.MeasurementSet` read from or written to a file.
 
 Any registered format is used (CSV and Parquet today; :mod:`tmakit.io.formats`).
-
-The contract (columns, units, rules) is in ``docs/file-format.md``.  Reading checks every
-cell and reports *all* problems at once in a :class:`MeasurementFileError` whose lines name
-the row, the line of the CSV file and the column::
-
-    obs.csv: 2 problems in the measurement file:
-      - row 3 (line 6), column 'sigma': expected a noise standard deviation > 0, found -1
-      - row 7 (line 10), column 'kind': expected one of the kinds bearing, ..., found 'bearng'
-
-The column checks are a `pandera <https://pandera.readthedocs.io>`_ schema (validated lazily,
-its failure cases turned into the messages above, :mod:`tmakit.io.check_cells`); the checks
-that need several rows (time order per sensor, duplicates, the sensor position at
-``time_ref``) are plain pandas/numpy (:mod:`tmakit.io.check_rows`, :mod:`tmakit.io.positions`).
-pandas, pyarrow and pandera are imported on first use, so ``import tmakit`` stays light.
-
-Writing is atomic (:func:`tmakit.io.atomic.atomic_write`) and refuses to overwrite an existing
-file unless ``force=True``.  Floats are written with the shortest representation that parses
-back to the same number, so files round-trip exactly.
 """
 
 from __future__ import annotations
@@ -59,19 +41,18 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
                       bearing_sigma: float | NotGiven | None = NOT_GIVEN) -> MeasurementSet:
     """Read a measurement file into a MeasurementSet, by its format.
 
-    Every cell is checked against the contract of ``docs/file-format.md``; all problems are
-    reported together in one :class:`MeasurementFileError` naming row, line and column.
-    Rows stay in file order.
+    Every cell is checked against the contract of ``docs/file-format.md``; all problems are reported
+    together in one :class:`MeasurementFileError` naming row, line and column.
 
     Parameters
     ----------
     path : str or os.PathLike, or a sequence of them
-        The file (``.csv``, ``.parquet`` or ``.pq``, or any registered format's suffix), or
-        several files of a format whose reader reads them as one (Debrief replays).
+        The file (``.csv``, ``.parquet`` or ``.pq``, or any registered format's suffix), or several
+        files of a format whose reader reads them as one (Debrief replays).
     origin : (lat, lon, alt), optional
-        ENU origin (degrees, degrees, metres) for files that give ``sensor_lat`` and
-        ``sensor_lon``; it wins over ``origin_*`` metadata in the file and is recorded in
-        the returned set's metadata.
+        ENU origin (degrees, degrees, metres) for files that give ``sensor_lat`` and ``sensor_lon``;
+        it wins over ``origin_*`` metadata in the file and is recorded in the returned set's
+        metadata.
     format : str, optional
         A registered format name ("csv", "parquet"); by default from the suffix of ``path``.
     mapping : LogMapping or str or os.PathLike, optional
@@ -97,9 +78,6 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         Debrief replays: keep only the cuts in this time window, before any other check.
     bearing_sigma : float, optional
         Deprecated: ``bearing_sigma_deg`` (the unit in the name; a warning).
-
-    Options left at None are not passed to the reader; a format refuses options it does not
-    take (tmakit's CSV and Parquet files take none) with a ``TypeError`` naming them.
 
     Returns
     -------
@@ -165,9 +143,8 @@ def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],
                        force: bool = False, *, format: str | None = None) -> Path:
     """Write a MeasurementSet in a registered format (by the suffix of ``path``).
 
-    The file is written to a temporary file in the same folder and then moved into place, so
-    a failure never leaves a partial file nor damages an existing one.  Reading the file back
-    gives an equal set (:meth:`MeasurementSet.equals`).
+    The file is written to a temporary file in the same folder and then moved into place, so a
+    failure never leaves a partial file nor damages an existing one.
 
     Parameters
     ----------
@@ -188,8 +165,8 @@ def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],
     Raises
     ------
     ValueError
-        If the suffix (or ``format``) names no writable format, or the metadata cannot be
-        written in the format.
+        If the suffix (or ``format``) names no writable format, or the metadata cannot be written in
+        the format.
     FileExistsError
         If ``path`` exists and not ``force``.
     """

@@ -1,21 +1,4 @@
-"""A sensor's own track from GPX (gpxpy) or NMEA 0183 (pynmea2), as :class:`~.logs.Fixes`.
-
-- **GPX**: every track point (then route and way points if there are no tracks) with a time:
-  latitude, longitude, elevation (``ele``, m; 0 when absent).  GPX has no velocity: it is
-  derived from the positions (:func:`~.logs.velocity_from_positions`).
-- **NMEA 0183**: ``RMC`` (date, time, position, speed and course over the ground), ``GGA``
-  (time, position, altitude above the ellipsoid: above mean sea level plus the geoid
-  separation the sentence gives), ``VTG`` (course and speed, for the fix of
-  the sentence before it) and ``HDT`` (true heading, for bearings measured relative to the
-  heading: a mapping's ``reference = "relative"``).  Fixes are
-  merged by time: the position of a time's ``GGA`` (with its altitude) or else its ``RMC``,
-  the velocity of its ``RMC`` or ``VTG``.  A ``GGA`` takes its date from the last ``RMC``
-  before it.  A sentence with a bad checksum or unreadable is refused (naming its line); RMC
-  fixes marked void (status ``V``) and GGA sentences without a fix are skipped; other
-  sentences, and text before the ``$`` of a line (a logger's time stamp), are ignored.
-
-The fixes are joined to a measurement log by :mod:`.wide_log` (the log's ``track`` key).
-"""
+"""A sensor's own track from GPX (gpxpy) or NMEA 0183 (pynmea2), as :class:`~.logs.Fixes`."""
 
 from __future__ import annotations
 

@@ -1,18 +1,4 @@
-"""Sample logs made by tmakit's own simulation, in real formats (for the docs and the figures).
-
-- :func:`replay_sample`: a Debrief replay file: the own ship's track (zig-zag legs), a
-  contact's bearings (``;SENSOR:`` lines with ``NULL`` positions) and the contact's true
-  track (track lines).
-- :func:`drone_sample`: a drone receiver log (ISO-8601 UTC, lat/lon/alt, north-east-down
-  velocity, RSSI in dBm, frequency in Hz, one wide row per sample) and its mapping TOML,
-  around a stationary transmitter.
-- :func:`gpx_nmea_sample`: a boat's own track as GPX and as NMEA 0183 (RMC, GGA, VTG, HDT)
-  with a CSV of bearings and its mapping TOML.
-
-Positions are simulated in a local plane (:class:`~tmakit.scenario.Scenario`) and written as
-latitude/longitude about :data:`SAMPLE_ORIGIN`; clock times start at :data:`SAMPLE_START`.
-``benchmarks/make_sample_logs.py`` writes the shipped files (``tmakit/examples``).
-"""
+"""Sample logs made by tmakit's own simulation, in real formats (for the docs and the figures)."""
 
 from __future__ import annotations
 

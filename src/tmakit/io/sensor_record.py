@@ -1,19 +1,8 @@
 """A sensor's state at given times, looked up along its rows of a measurement file.
 
-The state of a range difference's reference sample at ``time_ref``: the sensor's own row at
-that time (the first one), else interpolated between its rows as
-:class:`tmakit.sensors.RecordedTrack` does.  Used by the full reader
-(:func:`.positions.ref_of_sensor`) and by the stream (:func:`.csv_file.stream_csv`), so both
-give the same states bit for bit.
-
-Memory is bounded: a sensor's rows already in time order (the rule of a valid set) are not
-sorted nor copied (their times are searched in place), the times asked for are answered
-:data:`QUERY_ROWS` at a time, and a time between two rows of a file with sensor velocities
-is interpolated on the two rows around it only (the cubic Hermite piece of those two rows,
-which is the whole track's piece there, bit for bit).  Without velocities the track is a cubic
-spline through every time of the sensor (each piece depends on every row), built once when a
-time falls between two rows: about 250 bytes per distinct time of the sensor while it is
-built.  Rows out of time order (a file the rules refuse) are sorted first, as before.
+The state of a range difference's reference sample at ``time_ref``: the sensor's own row at that
+time (the first one), else interpolated between its rows as :class:`tmakit.sensors.RecordedTrack`
+does.
 """
 
 from __future__ import annotations

@@ -1,20 +1,8 @@
 """A batch solution written out: Debrief replay lines, GeoJSON or KML (``tma estimate --export``).
 
-The solution is written as points along the estimated track, every ``every`` seconds over the
-data's span (and at its last time), each with its position, course, speed and position ellipse
+The solution is written as points along the estimated track, every ``every`` seconds over the data's
+span (and at its last time), each with its position, course, speed and position ellipse
 (:func:`tmakit.results.answers.estimate_answer`), so that the file shows what tmakit printed.
-
-- ``.rep``: Debrief's ``;TMA_POS:`` lines (``ImportTMA_Pos``: date, time, vessel, symbology,
-  latitude and longitude as ``DD MM SS.SSS H``, solution name, ellipse orientation (degrees
-  true of the major axis) and semi-axes maxima, minima (yards), course (degrees), speed (knots),
-  depth (m), label), and with ``range_bearing`` also ``;TMA_RB:`` lines (``ImportTMA_RngBrg``:
-  bearing (degrees true) and range (yards) from the vessel in place of the position).  The
-  vessel is the sensor the solution is reported from.
-- ``.geojson``: an RFC 7946 FeatureCollection: the track (LineString), the points (Point, with
-  their answers as properties) and the ellipses (Polygon, counter-clockwise rings).
-- ``.kml``: the same as placemarks (simplekml), each point with its time stamp.
-
-Every writer needs the ENU origin (latitude/longitude); Debrief lines need the clock time too.
 """
 
 from __future__ import annotations

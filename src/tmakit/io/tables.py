@@ -1,10 +1,4 @@
-"""The one table writer: a table of columns as CSV or Parquet, written atomically.
-
-Measurement files (:mod:`tmakit.io.csv_file`, :mod:`tmakit.io.parquet_file`), track tables and
-Monte Carlo run tables all go through :func:`write_table`, so that every table tmakit writes
-has the same CSV dialect (no index, newline line ends, empty cells for NaN, pandas' shortest
-round-trip floats), the same Parquet layout and the same refusal to overwrite.
-"""
+"""The one table writer: a table of columns as CSV or Parquet, written atomically."""
 
 from __future__ import annotations
 
@@ -68,9 +62,7 @@ def write_table(path: str | os.PathLike[str], table: pd.DataFrame | Mapping[str,
         Keys and values added to the Arrow schema metadata of a Parquet file.
     parquet_schema : pyarrow.Schema, optional
         The Arrow schema of a Parquet file; when given, the file carries only this schema and
-        ``parquet_metadata`` (no pandas metadata).  By default the types come from pandas and
-        pandas' metadata is kept.  With a schema, ``table`` is read column by column (NaN is
-        written as NaN, not as a null).
+        ``parquet_metadata`` (no pandas metadata).
 
     Returns
     -------

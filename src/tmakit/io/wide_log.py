@@ -1,19 +1,4 @@
-"""Wide logs (one row per sample, one column per quantity) as measurement sets.
-
-A CSV or Parquet table whose columns a mapping names (:mod:`.log_mapping`): the time
-(ISO-8601 or epoch seconds), the sensor's position (lat/lon/alt or east/north/up, or a GPX /
-NMEA own track joined by time: :mod:`.nav_tracks`), its velocity (ENU or NED columns, or
-derived from the positions) and measurement columns with their kind, unit and sigma.
-
-The mapping to a :class:`~tmakit.data.MeasurementSet`: one row per non-empty measurement
-cell; value and sigma converted from the column's unit to SI once (a bearing relative to the
-heading made true by adding the heading: a column, or the NMEA track's HDT interpolated
-along the shorter turn); the sensor's state from the position (and velocity) of the same
-row, or interpolated linearly in the own track at the row's time (refused outside it). An
-empty measurement cell is a sample without that measurement, not an error. Clock time,
-origin and the surface rule as in :mod:`.logs`. Every refused cell names the row, the line
-(CSV) and the column.
-"""
+"""Wide logs (one row per sample, one column per quantity) as measurement sets."""
 
 from __future__ import annotations
 
