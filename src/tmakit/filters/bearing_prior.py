@@ -1,21 +1,5 @@
 """What a single bearing says about an emitter, with the user's range and speed intervals.
 
-:class:`BearingPrior` is the prior of a track started at the first bearing (issue 28): the
-emitter lies on the measured line of sight (the bearing's noise across it), at a range
-between ``range_min`` and ``range_max`` uniform in log-range (scale-free: every factor of
-range is equally likely), and moves at any course with a speed of at most ``speed_max``
-(its velocity uniform over that disc).  In 3-D its height is uniform over ``height``.
-
-Three forms of the same density serve the three kinds of filter:
-
-* :meth:`BearingPrior.mixture` — a range-parameterised Gaussian sum (Peach 1995): the range
-  interval cut into sub-intervals of equal ratio (geometric spacing), one Gaussian per
-  sub-interval with the sub-interval's range mean and spread along the line of sight and the
-  bearing's spread across it, equal weights (equal probability under log-uniform range);
-* :meth:`BearingPrior.sample` — particles drawn from it exactly;
-* :meth:`BearingPrior.gaussian` — its mean and covariance (a single Gaussian filter's start,
-  and ``J_0`` of the posterior CRB).
-
 References
 ----------
 Peach (1995), "Bearings-only tracking using a set of range-parameterised extended Kalman

@@ -66,20 +66,7 @@ def skipped() -> UpdateInfo:
 class ExtendedKalmanFilter(TrackingFilter):
     """EKF with nearly-constant-velocity dynamics.
 
-    Chen & Sun, §2.1 (dynamics) and §2.5 with the plain Jacobian in place of the modified
-    gain.
-
-    ``iterations`` > 1 makes it the iterated EKF (Bell & Cathey 1993, "The iterated Kalman
-    filter update as a Gauss-Newton method", IEEE Trans. Autom. Control 38(2)): the update is
-    relinearised at the updated state, ``x_{i+1} = x^- + K_i (z - h(x_i) - H_i (x^- - x_i))``
-    with ``K_i`` from ``H_i = dh/dx(x_i)``, until the change is below :data:`IEKF_TOL` of the
-    range to the sensor or ``iterations`` linearisations were used; the covariance takes the
-    last ``H_i``.  NIS and log-likelihood are those of the first linearisation (the predicted
-    state).
-
-    An update whose prediction or Jacobian is not finite (the estimate on top of a sensor) is
-    skipped and counted in :attr:`skipped_updates`.  One bearing per update in 2-D runs on
-    the closed-form kernel :func:`~.kernels.ekf_bearing_2d`.
+    Chen & Sun, §2.1 (dynamics) and §2.5 with the plain Jacobian in place of the modified gain.
 
     Parameters
     ----------

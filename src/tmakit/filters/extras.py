@@ -12,8 +12,8 @@ __all__ = ["TrackExtras"]
 class TrackExtras:
     """What a track records beside its rows (:attr:`Track.extra`).
 
-    Read as attributes; ``extra["q"]`` and ``extra.get("q")`` read the same fields (the form
-    of the JSON output and of older code).
+    Read as attributes; ``extra["q"]`` and ``extra.get("q")`` read the same fields (the form of the
+    JSON output and of older code).
 
     Parameters
     ----------
@@ -22,8 +22,8 @@ class TrackExtras:
     start : dict or None
         How the track started, in JSON form (``tmakit.tracking.track`` sets it).
     start_record : object or None
-        The same as a typed record (``tmakit.tracking.records.PriorStart`` or ``BatchStart``;
-        typed loosely here because the filters sit below the tracking layer).
+        The same as a typed record (``tmakit.tracking.records.PriorStart`` or ``BatchStart``; typed
+        loosely here because the filters sit below the tracking layer).
     q : list of float or None
         Process noise acceleration std per axis (m/s^2) the track was run with.
     q_density : list of float or None
@@ -37,8 +37,7 @@ class TrackExtras:
     smoothed : object or None
         The smoothed track (:func:`tmakit.filters.smooth`), when asked for.
     history : list or None
-        A particle filter's weighted clouds (``ParticleFilter(history=True)``), for its
-        smoother.
+        A particle filter's weighted clouds (``ParticleFilter(history=True)``), for its smoother.
     model_probabilities : list of list of float or None
         An IMM filter's model probabilities after each update.
     models : list of dict or None

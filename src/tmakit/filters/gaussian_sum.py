@@ -1,18 +1,6 @@
 """The Gaussian-sum filter: a bank of EKF, UKF or cubature components with weights.
 
-The posterior is ``sum_i w_i N(x; m_i, P_i)``.  Each component is predicted and updated as
-its component filter would (:meth:`ExtendedKalmanFilter.update_gaussian
-<tmakit.filters.ExtendedKalmanFilter.update_gaussian>`), and its weight multiplied by the
-likelihood of the update's innovation, ``w_i <- w_i N(nu_i; 0, S_i)`` (Alspach & Sorenson
-1972).  Started from :meth:`BearingPrior.mixture <tmakit.filters.BearingPrior.mixture>` it
-is the range-parameterised filter of Peach (1995); with splitting of components that grow
-too nonlinear, pruning and merging, the Gaussian-sum filter of Leong et al. (2014)
-(:mod:`.gaussian_sum_compiled` says how each is done).
-
-The filter's ``state`` and ``covariance`` are the sum's moments (what a track and the JSON
-report); :attr:`GaussianSumFilter.components` gives the sum itself.  One bearing per update
-in 2-D runs in one compiled call (:func:`~.gaussian_sum_compiled.gsf_bearing_2d`); any other
-rows take the general path, the same arithmetic per component in Python.
+The posterior is ``sum_i w_i N(x; m_i, P_i)``.
 
 References
 ----------

@@ -1,29 +1,6 @@
 """The Gaussian-sum filter's hot loops, compiled: components moved, split, updated, reduced.
 
-The one implementation of the arithmetic of :class:`tmakit.filters.GaussianSumFilter`.  A
-sum is held in arrays of a fixed capacity: weights ``w (C,)``, means ``m (C, n)``,
-covariances ``P (C, n, n)``, of which the first ``count`` are in use.  The filter's general
-path (any kinds, 3-D) calls :func:`predict_sum`, :func:`split_sum`, :func:`reduce_sum` and
-:func:`sum_moments` from Python around its components' own updates; the closed loop of one
-bearing per update in 2-D (:func:`gsf_bearing_2d`) runs whole tracks in one call, with the
-EKF or the sigma-point (unscented, cubature) update of one bearing inlined.
-
-* **Split** (Leong et al. 2014, §III; the split of a Gaussian along one direction as in
-  DeMars, Bishop & Jah 2013): a component whose position spread is large against its range
-  from the sensor — largest position standard deviation over range above ``threshold`` —
-  is replaced by three along the principal axis ``s`` of its position covariance (``s`` the
-  covariance's column along that axis over its standard deviation, so the state's
-  correlations move with it): weights ``(a, 1 - 2a, a)``, means ``m + mu_j s`` with
-  ``mu = (-u, 0, u)``, covariance ``P - (1 - sigma^2) s s^T``; ``a = 0.2252``,
-  ``u = 1.0575`` (the three-component split of Huber's table used by DeMars et al.) and
-  ``sigma^2 = 1 - 2 a u^2`` so that the mean and covariance are kept exactly.  Heaviest
-  components are split first, while the capacity lasts.
-* **Reduce**: components with weights below ``prune`` of the largest are dropped; then,
-  heaviest first, each remaining component absorbs those within Mahalanobis distance
-  ``sqrt(merge)`` of it (distance in its own covariance), by moment matching (Salmond 1990).
-* **Moments**: the sum's mean and covariance (the law of total covariance).
-
-Every kernel works in float64 on arrays it is given; sums in a fixed order.
+The one implementation of the arithmetic of :class:`tmakit.filters.GaussianSumFilter`.
 
 References
 ----------

@@ -1,27 +1,7 @@
 """The general filter path: a measurement set prepared once per file, its plan, and the step.
 
-:meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct
-measurement time.  Cutting the :class:`~tmakit.data.MeasurementSet` into one small set per update
-and building a :class:`~tmakit.observation.MeasurementGroup` from each costs more than the
-arithmetic of a filter step, so the set is prepared once, vectorised
-(:class:`CompiledMeasurements`: rows sorted by time, update boundaries, SI values and sigmas, the
-kinds' models and nuisance vectors), and so is everything of each update that does not depend
-on the state (:class:`StepPlan`): its rows sorted by kind (every kind's rows a slice), the linear
-map from the filter state to the target states at the rows (one per pattern of row-time
-offsets), its noise covariance, its angle rows, and plain-float row records for updates of at
-most :data:`SCALAR_ROWS` rows.  A step is then one product for the relative states, one fused
-``predict_gradient`` per kind, one product for the chained Jacobian, and
-:func:`innovation_solve` (closed form for one and two rows, one Cholesky factorisation
-otherwise).  ``Phi`` and ``Q`` are made once per step size (:class:`DynamicsCache`); the EKF's
-posterior covariance is ``P - K H P``, the Joseph form only when that fails its Cholesky check
-(:func:`updated_covariance`), repaired only when that fails too (:func:`checked_psd`).  Small
-products use ``ndarray.dot``, cheaper per call than NumPy 2's ``@`` on a few entries.
-
-Rows handed over one update at a time (``predict`` then ``update``, as a live tracker calls a
-filter) get the same step (:class:`RowSteps`), made per pattern of kinds and row times.  Kinds
-with an earlier reference sample (range differences), and groups given whole, are linearised by
-the :class:`~tmakit.observation.MeasurementGroup` instead, into the same update arithmetic; the
-results equal to rounding (``tests/test_filters.py::test_general_plan_equals_the_group_path``).
+:meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct measurement
+time.
 """
 
 from __future__ import annotations
@@ -58,12 +38,6 @@ class CompiledMeasurements:
         Per-kind model options (``{"frequency": {"drift": True}}``).
     nuisance : mapping, optional
         Known nuisance values by name (Hz, dB, ...).
-
-    Raises
-    ------
-    ValueError
-        The same clear errors as :class:`~tmakit.observation.MeasurementGroup` (e.g. a
-        missing nuisance value), once, up front.
     """
 
     def __init__(self, meas: MeasurementSet, dim: int,
@@ -554,9 +528,6 @@ EYE_MAPS = {2 * d: _state_map(np.zeros(1), d)[0] for d in (2, 3)}
 
 class RowSteps:
     """Steps, as a plan's, for rows handed over one update at a time (the step-by-step API).
-
-    What depends only on the rows' kinds and their times relative to the update (models, kind
-    slices, the state-to-row map, angle rows) is made once per such pattern.
 
     Parameters
     ----------

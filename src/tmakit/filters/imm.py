@@ -1,23 +1,5 @@
 """The interacting multiple model (IMM) filter: a bank of motion models with Markov switching.
 
-The first model is the filter's own nearly-constant-velocity dynamics (the quiet,
-straight-running target); the others carry the larger noise of a manoeuvre (``model_q``) or
-turn at a known rate (``turn_rates``, :class:`~tmakit.motion.dynamics.CoordinatedTurn`).
-One cycle (Blom & Bar-Shalom 1988; Bar-Shalom, Li & Kirubarajan 2001, §11.6.6):
-
-1. mixing: ``c_j = sum_i p_ij mu_i``, ``mu_{i|j} = p_ij mu_i / c_j`` and each model starts
-   its prediction from the mixture ``sum_i mu_{i|j} N(m_i, P_i)`` moment-matched
-   (eqs. 11.6.6-6 to -9);
-2. each model predicted under its dynamics and updated as its component filter would
-   (:meth:`ExtendedKalmanFilter.update_gaussian
-   <tmakit.filters.ExtendedKalmanFilter.update_gaussian>`);
-3. ``mu_j <- c_j L_j / sum_k c_k L_k`` with ``L_j`` the likelihood of model ``j``'s
-   innovation (eq. 11.6.6-15), and the estimate the moments of ``sum_j mu_j N(m_j, P_j)``
-   (eqs. 11.6.6-17, -18).
-
-The Markov matrix ``p_ij`` (from model i to model j) applies once per predict; its default
-:data:`SWITCH` gives a mean sojourn of 1/0.01 = 100 steps in each model.
-
 References
 ----------
 Blom & Bar-Shalom (1988), IEEE Trans. Autom. Control 33(8); Bar-Shalom, Li & Kirubarajan
@@ -69,12 +51,11 @@ class InteractingMultipleModel(TrackingFilter):
     component : str, optional
         ``"ekf"``, ``"ukf"`` or ``"ckf"``: the update of each model.
     model_q : sequence of float, optional
-        Acceleration std (m/s^2, all axes) of the models after the first; the first model is
-        the filter's own ``q``/``dynamics``.  Default ``(MANOEUVRE_Q,)``.
+        Acceleration std (m/s^2, all axes) of the models after the first; the first model is the
+        filter's own ``q``/``dynamics``.
     transition : array_like, optional
-        ``(M, M)`` Markov matrix, ``p_ij`` the probability per predict of going from model
-        ``i`` to model ``j``; rows sum to 1.  Default ``1 - SWITCH`` on the diagonal and
-        ``SWITCH / (M - 1)`` elsewhere.
+        ``(M, M)`` Markov matrix, ``p_ij`` the probability per predict of going from model ``i`` to
+        model ``j``; rows sum to 1.
     turn_rates : sequence of float, optional
         Turn rates (rad/s, counter-clockwise positive; a right turn is negative) of further
         coordinated-turn models, after the ``model_q`` models (default none).

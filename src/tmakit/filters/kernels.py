@@ -1,37 +1,9 @@
 """Closed-form step kernels for the commonest tracking problem.
 
-That problem is one bearing per update and a 2-D nearly-constant-velocity state
-``[x, y, vx, vy]``.  The general path (:mod:`.general`) takes any rows; each step then costs
-a few dozen small NumPy operations (about 12 us for the EKF, 28 us for the UKF on
-``bearings-only-2d``).  For a single bearing the algebra is a handful of scalars, so these
-kernels run whole sequences of steps in plain Python floats (3.2 and 3.5 us a step): the same
-equations, the same results to rounding
-(``tests/test_filters.py::test_bearing_kernels_equal_the_general_path`` pins every kernel, the
-iterated EKF included, to the general path: ``ExtendedKalmanFilter._kalman`` and
-``UnscentedKalmanFilter._unscented``).
+That problem is one bearing per update and a 2-D nearly-constant-velocity state ``[x, y, vx, vy]``.
 
-Predict (both filters): ``x <- Phi x``, ``P <- Phi P Phi^T + Q`` with ``Phi`` and ``Q`` of
-Chen & Sun, §2.1, written out entry by entry (``q`` per axis).
-
-Update, bearing ``b = atan2(x - x_s, y - y_s)`` (clockwise from North), residual wrapped to
-(-pi, pi]:
-
-* EKF: ``h = [dy, -dx, 0, 0] / r^2``, ``a = P h``, ``S = h^T a + sigma^2``, ``K = a / S``,
-  ``P <- P - a a^T / S`` (for the optimal gain this equals the Joseph form of the general
-  path; the result is checked positive definite, see below).
-* UKF: the scaled sigma points ``x ± gamma L_j`` with ``L`` the lower Cholesky factor of ``P``
-  (:mod:`.ukf`).  Column ``j`` of ``L`` has zero position entries for ``j >= 2`` (``L`` is
-  lower triangular and the positions come first), so those points see the centre's bearing:
-  only five bearings are computed.  Circular weighted mean of the predicted bearings, wrapped
-  deviations, ``P_zz``, ``P_xz``, ``K = P_xz / P_zz``, ``P <- P - P_xz P_xz^T / P_zz``.
-
-Safety: a step whose numbers are not clearly valid — target at the sensor, an innovation
-variance that is not positive, an updated covariance whose LDL^T pivots are not all above
-:data:`PIVOT_FLOOR` times its diagonal (numerically indefinite or singular), a predicted
-covariance without a Cholesky factor (UKF), a degenerate circular mean — is not taken here:
-the kernel stops with the state predicted to that step and the filter does it on the general
-path, whose covariance repair (:func:`tmakit.core.linalg.repair_psd`) always returns a symmetric
-positive semi-definite matrix.
+Predict (both filters): ``x <- Phi x``, ``P <- Phi P Phi^T + Q`` with ``Phi`` and ``Q`` of Chen &
+Sun, §2.1, written out entry by entry (``q`` per axis).
 """
 
 from __future__ import annotations

@@ -1,65 +1,11 @@
 """The modified-gain extended Kalman filter of Chen & Sun, §2.3-2.5.
 
-Bearing rows: the pseudo-linear modified gain (Song & Speyer's MGEKF, the "WMEKF" of Chen &
-Sun).  In tmakit's convention the bearing of the (back-propagated) line of sight is clockwise
-from North, ``b = atan2(dx, dy)`` (Chen & Sun measure it from the x-axis, ``atan(dy / dx)``),
-so the noise-free bearing satisfies ``dx cos b - dy sin b = 0``: for a row taken ``dt``
-seconds after the filter time (``dt = -N T`` for the sample ``k - N`` of a multi-lag vector,
-§2.3 eq. 2)
-
-    H_i(Z) X' = 0,   H_i(Z) = [cos b, -sin b, 0, dt cos b, -dt sin b, 0]          (tmakit)
-
-on the state relative to the sensor at the row's time ``X' = [x - x_s, y - y_s, z - z_s, vx,
-vy, vz]`` (Chen & Sun print ``[sin b, -cos b, 0, -NT sin b, NT cos b, 0]`` for their x-axis
-angle; the two are the same line of sight).  With the measured bearing ``b_m`` in place of
-the true one, ``H_i(Z^m) X' = T_i`` where ``T_i = -rho_i sin(eta_i)`` (``rho_i`` the true
-horizontal range, ``eta_i`` the bearing noise).  The modified gain row of Chen & Sun, §2.3, is
-
-    g_i = -(b_m - h_i(X^)) / (H_i(Z^m) X^') H_i(Z^m)
-
-and it satisfies ``g_i (X - X^) = (b_m - h_i(X^)) (1 - mu_i)`` exactly, with
-``mu_i = T_i / (H_i(Z^m) X^')``.  Since ``H_i(Z^m) X^' = -rho^_i sin(r_i)`` (``r_i`` the
-wrapped residual, ``rho^_i`` the predicted horizontal range), the row is computed in the
-equivalent, numerically stable form ``g_i = r_i / (rho^_i sin r_i) H_i(Z^m)``, which tends to
-the EKF Jacobian row ``[cos b^, -sin b^, ...] / rho^`` as the residual vanishes.
-
-What ``mu`` is in practice: ``T_i`` needs the true range and the noise itself, so ``mu_i`` is
-not computable.  Substituting the estimate for the truth gives ``T_i = H_i(Z^m) X^'``, i.e.
-``mu_i = 1`` identically (a singular ``U``); the noise is zero-mean and independent of the
-past, so the expected ``T_i`` given the past is 0.  The filter therefore uses ``mu_i = 0``:
-``U = I``, ``g' = g`` and ``R' = R``: the modified gain of Song & Speyer with the measured
-bearing in ``H_i``.  :func:`modified_gain_rows` implements the general ``g' = U g``,
-``R' = U R U^T`` (Chen & Sun, §2.3) for a given ``mu``; note that for independent rows that
-scaling leaves the covariance update unchanged and multiplies row ``i``'s share of the
-state correction by ``1 - mu_i``.
-
-Range-difference rows (and every other kind) use the plain EKF Jacobian rows (Chen & Sun,
-§2.4, eqs. 3-4; :class:`~tmakit.filters.MeasurementGroup` gives them for back-propagated
-states).
-
-The gain: Chen & Sun, §2.5, use the modified rows in the gain as well as in the covariance
-update, ``K = P g'^T [g' P g'^T + R']^-1`` (``gain="paper"``).  Song & Speyer's original MGEKF takes
-the gain from the EKF rows and uses the modified rows only in the covariance update
-(``gain="song-speyer"``, the default: the paper's form is biased, as follows, and
-``tma reproduce chen-sun`` runs it as printed to show it).  The paper's form puts the
-measured, noisy line of sight into the gain: at every bearing it moves the estimate by about
-``P_par r^2 / (rho^ S)`` towards the sensor (``P_par`` the variance along the line of sight,
-``S`` the innovation variance), the range bias of pseudo-linear estimators, which is large
-when the range is uncertain (see docs/tracking.md for measurements).
-
-Numerical safety: a bearing row falls back to its EKF row when ``|1 - mu|`` is below
-:data:`MU_FLOOR`, when the predicted horizontal range is zero (so the denominator
-``H_i(Z^m) X^'`` vanishes for a reason other than a zero residual), or when the measured and
-predicted lines of sight are 90 degrees or more apart (``cos r <= 0``: the pseudo-linear relation
-no longer describes the same half-line).  Fallbacks are counted in :attr:`fallbacks`.
-
-Mirror ambiguity: sensors all at one height, none climbing, no elevation measured — every
-prediction is the same for a target at height ``z`` and at its mirror image.  With
-``reflect=True``, as long as every update so far was mirror-symmetric about one horizontal
-plane, an estimate that ends an update below that plane is replaced by its mirror image
-(``z -> 2 z_s - z``, ``vz -> -vz``, covariance ``M P M``), which fits the data exactly as well
-and lies on the side where the user says the emitter is (above the sensors).
-:class:`ReflectingEKF` is the plain EKF with the same rule.
+Bearing rows use the pseudo-linear modified gain of Song & Speyer (``g_i = r_i / (rho_i sin r_i)
+H_i(Z^m)``, ``mu_i = 0``: :func:`modified_gain_rows` takes any ``mu``); other rows the EKF
+Jacobian (§2.4).  ``gain="paper"`` puts the modified rows in the gain as Chen & Sun print (biased
+towards the sensor, docs/tracking.md); ``"song-speyer"`` (default) only in the covariance.  A row
+falls back to its EKF row near ``|1 - mu| < MU_FLOOR`` (counted in :attr:`fallbacks`);
+``reflect=True`` mirrors an estimate that ends below the sensors' plane.
 """
 
 from __future__ import annotations
@@ -180,9 +126,6 @@ def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
 class MirrorReflectMixin:
     """Keep a 3-D Gaussian estimate above the sensors' plane while the data cannot tell.
 
-    Mixed into a Gaussian filter (``_mean``, ``_cov``), whose constructor calls
-    :meth:`_start_reflecting`; see the :mod:`.mgekf` docstring.
-
     Attributes
     ----------
     reflections : int
@@ -226,23 +169,21 @@ class MirrorReflectMixin:
 class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
     """The modified-gain EKF (WMEKF) of Chen & Sun, §2.3-2.5.
 
-    Modified-gain rows for bearings (with ``mu = 0``, see the module docstring), EKF rows for
-    range differences and every other kind, Joseph-form covariance update with the modified
-    rows.
+    Modified-gain rows for bearings (with ``mu = 0``, see the module docstring), EKF rows for range
+    differences and every other kind, Joseph-form covariance update with the modified rows.
 
     Parameters
     ----------
     mean, covariance, time
         The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     gain : {"song-speyer", "paper"}, optional
-        ``"paper"`` (Chen & Sun, §2.5: the modified rows in the gain and in the covariance
-        update) or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF: the gain
-        from the EKF rows, the covariance update with the modified rows, which keeps the
-        noise-dependent rows out of the state correction and so avoids the bias of
-        pseudo-linear gains).
+        ``"paper"`` (Chen & Sun, §2.5: the modified rows in the gain and in the covariance update)
+        or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF: the gain from the EKF
+        rows, the covariance update with the modified rows, which keeps the noise-dependent rows out
+        of the state correction and so avoids the bias of pseudo-linear gains).
     reflect : bool, optional
-        Mirror an estimate that falls below the sensors' plane while the data cannot tell
-        the two sides apart (default off).
+        Mirror an estimate that falls below the sensors' plane while the data cannot tell the two
+        sides apart (default off).
     iterations, q, dynamics, options, nuisance
         As for :class:`ExtendedKalmanFilter`.
 
@@ -309,8 +250,6 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
 class ReflectingEKF(MirrorReflectMixin, ExtendedKalmanFilter):
     """The plain EKF with the mirror rule of :class:`ModifiedGainEKF` on by default.
-
-    For like-for-like comparisons on mirror-ambiguous data.
 
     Parameters
     ----------

@@ -1,31 +1,7 @@
 """Multi-lag measurement vectors (Chen & Sun, §2.2).
 
-Chen & Sun do not update their filter with the measurements of one pulse only.  Update ``k``
-uses the bearings at samples ``k, k - N1, k - N2, k - N3`` and the range differences between
-consecutive ones,
-
-    Z_k = [b_k, b_{k-N1}, b_{k-N2}, b_{k-N3}, dr_{k,k-N1}, dr_{k-N1,k-N2}, dr_{k-N2,k-N3}],
-
-    R_k = diag[s_b^2 x 4, N s_dr^2, I s_dr^2, J s_dr^2],   N1 = N, N2 = N + I, N3 = N + I + J,
-
-with ``s_dr`` the noise of one pulse interval.  From a :class:`~tmakit.data.MeasurementSet` that
-holds per-pulse bearings and lag-1 range differences (``time_ref`` one sample back) this module
-forms those vectors: a range difference over several intervals is the sum of the lag-1
-differences it spans, so its noise is the sum of theirs (variance ``N s_dr^2`` for ``N`` equal
-intervals, exactly the paper's ``R_k``), and differences over disjoint spans stay independent.
-The paper's simulation uses "eight" measurement functions, read here as eight sample times:
-``lags`` may be any increasing list (default :data:`DEFAULT_LAGS`, seven lags, eight bearings
-and seven range differences per update).
-
-Early updates (``k`` smaller than some lags): samples ``k - N_j`` before the first are clipped
-to the first sample (and duplicates dropped), so update ``k`` uses the samples ``k - N_j`` that
-exist and, if some do not, the first sample ("use what is available").
-
-Consecutive vectors share data: a bearing is used in up to ``len(lags) + 1`` updates and a
-lag-1 range difference in every update whose window covers it.  A filter that treats the
-vectors as independent (as the paper does) counts that information several times, so its
-covariance is optimistic; ``reuse_inflation=True`` divides each row's weight by the number of
-vectors that use its data (an approximate correction, not part of the paper).
+Update ``k`` uses the bearings at samples ``k, k - N1, k - N2, k - N3`` and the range differences
+between consecutive ones, each predicted from the state at ``k`` propagated back to its sample.
 """
 
 from __future__ import annotations

@@ -1,43 +1,8 @@
 """A regularised SIR particle filter, vectorised over particles.
 
-Sampling importance resampling with the **transitional prior** as importance density, as in
-Hurtado & Nehorai (2008), §3.1: the particles are moved by the dynamics and their weights
-multiplied by the likelihood of the new measurements (eq. 8 with ``q = p(x_k | x_{k-1})``),
-
-    w_k^i ∝ w_{k-1}^i p(y_k | x_k^i),   x_k^i ~ p(x_k | x_{k-1}^i),
-
-and the posterior is ``sum_i w_k^i delta(x - x_k^i)`` (eq. 7).
-
-* **Predict**: one transition of all particles (``Phi X``; for the nearly-constant-velocity
-  dynamics of Chen & Sun, §2.1, done in place as ``p += dt v``) plus the process
-  noise ``G w`` with ``w ~ N(0, q^2 I)`` per axis (``G = [T^2/2, T]``, so ``Q = G G^T q^2``).
-* **Likelihood**: :meth:`MeasurementGroup.predict <tmakit.filters.MeasurementGroup.predict>`
-  on the ``(N, n)`` particles, wrapped residuals, whitened by the Cholesky factor of the
-  group's ``R`` (correlated range differences included); log-weights, normalised with
-  log-sum-exp.  Bearings at the update time take a closed form: the residual
-  ``z - b_i = atan2(sin z dy - cos z dx, cos z dy + sin z dx)`` is wrapped by construction
-  (tested equal to the general path).
-* **Log-likelihood** of the update: ``log sum_i w_{k-1}^i p(y_k | x_k^i)`` (log-sum-exp).
-* **Resampling**: systematic (one uniform offset, ``N`` evenly spaced points on the weight
-  CDF), when the effective sample size ``1 / sum w^2`` falls below ``resample_threshold N``.
-* **Regularisation** after each resampling (a regularised particle filter, Musso, Oudjane &
-  Le Gland 2001, "Improving regularised particle filters", in Doucet, de Freitas & Gordon
-  (eds.), *Sequential Monte Carlo Methods in Practice*, Springer, ch. 12): every particle is
-  moved by a Gaussian kernel shaped like the weighted particle covariance ``C = L L^T``, with
-  the kernel shrinkage of Liu & West (2001, same book, ch. 10) so that the mean and
-  covariance of the cloud are kept:
-
-      x_i <- a x_i + (1 - a) m + h L e_i,   e_i ~ N(0, I),   a = sqrt(1 - h^2),
-
-  ``h = bandwidth * h_opt`` with ``h_opt = (4 / (N (n + 2)))^(1 / (n + 4))`` (the optimal
-  Gaussian-kernel bandwidth of Musso et al.).  Without it a filter with little or no process
-  noise collapses onto a few distinct particles (impoverishment).
-* **Estimate**: the weighted mean and covariance (symmetric) of the particles after each
-  update, before resampling.  The NIS of an update is computed from the particles' predicted
-  measurement mean and covariance before the update (a Gaussian approximation).
-
-The filter starts by sampling the Gaussian prior.  Every random draw comes from ``rng`` (a
-``numpy.random.Generator`` or a seed): the same seed gives the same track.
+Sampling importance resampling with the transitional prior as importance density (Hurtado &
+Nehorai (2008), §3.1, eq. 8 with ``q = p(x_k | x_{k-1})``), resampled when the effective sample
+size falls, and regularised (Musso, Oudjane & Le Gland (2001)).
 """
 
 from __future__ import annotations
@@ -123,17 +88,16 @@ class ParticleFilter(TrackingFilter):
     Parameters
     ----------
     mean, covariance, time
-        The Gaussian prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s); the
-        filter starts by sampling it.
+        The Gaussian prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s); the filter
+        starts by sampling it.
     particles : int, optional
         Number of particles N (>= 2).
     bearing_start : tuple of (BearingPrior, FirstBearing), optional
-        Draw the first cloud from this bearing prior (:meth:`from_first_bearing`) instead of
-        the Gaussian ``mean, covariance`` (then the prior's moments).
+        Draw the first cloud from this bearing prior (:meth:`from_first_bearing`) instead of the
+        Gaussian ``mean, covariance`` (then the prior's moments).
     history : bool, optional
-        Keep the weighted cloud after each update (:attr:`history`, the track's
-        ``extra.history``) for the particle smoother (:func:`tmakit.filters.smooth`); N x n
-        floats per update.
+        Keep the weighted cloud after each update (:attr:`history`, the track's ``extra.history``)
+        for the particle smoother (:func:`tmakit.filters.smooth`); N x n floats per update.
     rng : numpy.random.Generator, int or None, optional
         Random source or seed; the same seed gives the same track.
     resample_threshold : float, optional
@@ -155,9 +119,9 @@ class ParticleFilter(TrackingFilter):
     Raises
     ------
     ValueError
-        If ``particles`` is not a whole number >= 2, ``resample_threshold`` is outside
-        (0, 1], ``bandwidth`` is not positive and finite, the regularised kernel bandwidth
-        ``h`` is >= 1, or the prior is not valid.
+        If ``particles`` is not a whole number >= 2, ``resample_threshold`` is outside (0, 1],
+        ``bandwidth`` is not positive and finite, the regularised kernel bandwidth ``h`` is >= 1, or
+        the prior is not valid.
 
     References
     ----------

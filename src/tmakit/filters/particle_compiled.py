@@ -1,10 +1,4 @@
-"""The particle filter's move under white-noise acceleration, compiled.
-
-One pass over the particles (:func:`move_density`) does ``p += dt v + l11 w0``,
-``v += l21 w0 + l22 w1`` per axis, the noise drawn beforehand by the filter's
-``numpy.random.Generator`` (in single precision: the draws cost more than the arithmetic, and
-single-precision normals are half the cost).  NumPy would make five passes with temporaries.
-"""
+"""The particle filter's move under white-noise acceleration, compiled."""
 
 from __future__ import annotations
 

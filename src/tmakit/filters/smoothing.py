@@ -1,29 +1,4 @@
-"""Smoothers: every state of a track conditioned on the data after it too.
-
-* :func:`smooth` — the Rauch–Tung–Striebel smoother (Rauch, Tung & Striebel 1965; Särkkä
-  2013, *Bayesian Filtering and Smoothing*, Theorem 8.2) on a Gaussian track:
-
-      P^-_{k+1} = Phi P_k Phi^T + Q,   C_k = P_k Phi^T (P^-_{k+1})^-1,
-      x^s_k = x_k + C_k (x^s_{k+1} - Phi x_k),   P^s_k = P_k + C_k (P^s_{k+1} - P^-_{k+1}) C_k^T.
-
-  The dynamics are linear (nearly constant velocity), so the backward pass needs only the
-  filter's updated means and covariances, whatever its update (EKF, UKF, cubature: the
-  extended and sigma-point RTS smoothers of Särkkä 2013, §9, coincide here).  For the
-  Gaussian sum it runs on the sum's moments (an approximation: the backward pass of each
-  component is not kept).  The state is Cartesian, so no angle needs wrapping in it; the
-  measurement angles were wrapped by the filter.
-* ``lag=N``: the fixed-lag smoother for live use — state ``k`` given the data up to update
-  ``k + N`` (the same backward pass, from ``k + N`` down to ``k``), available ``N`` updates
-  after the state's time.
-* A particle filter's track that kept its clouds (``ParticleFilter(history=True)``): forward
-  filtering–backward simulation (Godsill, Doucet & West 2004, "Monte Carlo smoothing for
-  nonlinear time series", JASA 99(465), Algorithm 1): ``trajectories`` paths drawn backwards,
-  step ``k``'s particle ``i`` chosen for a path at ``x_{k+1}`` with probability
-  ``w_k^i p(x_{k+1} | x_k^i)``; the transition density is the filter's own move, the
-  regularisation after a resampling included (its shrinkage towards the cloud's mean and its
-  kernel covariance ``h^2 C``, added to ``Q``).  The smoothed state and covariance are the
-  paths' mean and covariance.
-"""
+"""Smoothers: every state of a track conditioned on the data after it too."""
 
 from __future__ import annotations
 
@@ -137,7 +112,6 @@ def smooth(track: Track, *, lag: int | None = None,
         :func:`tmakit.track` or a filter's ``run``.
     lag : int, optional
         Fixed lag N >= 0 (updates): each state given the data up to N updates after it.
-        Default: the whole track (fixed-interval RTS).
     dynamics : NearlyConstantVelocity, optional
         The filter's dynamics; default from the track's ``extra`` (``q``, ``q_density``).
     trajectories : int, optional
@@ -148,14 +122,14 @@ def smooth(track: Track, *, lag: int | None = None,
     Returns
     -------
     Track
-        The smoothed states and covariances at the track's times (NIS, degrees of freedom
-        and log-likelihood as filtered); ``extra.options["smoother"]`` says which.
+        The smoothed states and covariances at the track's times (NIS, degrees of freedom and
+        log-likelihood as filtered); ``extra.options["smoother"]`` says which.
 
     Raises
     ------
     ValueError
-        A negative lag, a lag for a particle track, clouds that do not match the rows, or
-        an IMM filter's track.
+        A negative lag, a lag for a particle track, clouds that do not match the rows, or an IMM
+        filter's track.
     """
     if lag is not None and (isinstance(lag, bool) or int(lag) != lag or lag < 0):
         raise ValueError(f"lag must be a whole number of updates >= 0; got {lag!r}")

@@ -1,29 +1,7 @@
 """The unscented Kalman filter, wrap-aware.
 
-Sigma points: the scaled unscented transform (Julier 2002; the weights as in Wan & van der
-Merwe 2000, "The unscented Kalman filter for nonlinear estimation", IEEE AS-SPCC):
-``lambda = alpha^2 (n + kappa) - n``, points ``x`` and ``x ± gamma L_j`` with
-``gamma = sqrt(n + lambda)`` and ``L`` the lower Cholesky factor of ``P``
-(:func:`~.linalg.safe_cholesky`); mean weights ``Wm_0 = lambda / (n + lambda)``, covariance
-weight ``Wc_0 = Wm_0 + 1 - alpha^2 + beta``, all others ``1 / (2 (n + lambda))``.
-
-Defaults ``alpha = 1, beta = 2, kappa = 0``: ``lambda = 0``, points at ``± sqrt(n)`` standard
-deviations, and every weight is non-negative, so ``P_zz`` and the updated covariance are
-positive semi-definite by construction (a negative ``Wc_0``, as with ``alpha = 1e-3``, can
-break that).
-
-Angles (bearing, elevation, ...): the predicted mean of an angle row is the weighted
-**circular** mean ``atan2(sum W sin z_i, sum W cos z_i)``, and every deviation ``z_i - z``
-and the innovation are wrapped to (-pi, pi], so a target near bearing ±180° is handled like
-any other.
-
-Predict: the dynamics are linear (Chen & Sun, §2.1), for which the unscented
-transform is exact, so the predict is the Kalman predict ``Phi x``, ``Phi P Phi^T + Q``.
-
-Update: ``K = P_xz P_zz^-1``, ``x += K nu``, ``P -= K P_zz K^T`` (symmetrised, repaired by
-:func:`~.linalg.repair_psd` if rounding made it indefinite); the log-likelihood increment is
-that of ``nu ~ N(0, P_zz)``.  One bearing per update in 2-D runs on the closed-form kernel
-:func:`~.kernels.ukf_bearing_2d`.
+Predict: the dynamics are linear (Chen & Sun, §2.1), for which the unscented transform is exact, so
+the predict is the Kalman predict ``Phi x``, ``Phi P Phi^T + Q``.
 """
 
 from __future__ import annotations
@@ -95,8 +73,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
     Raises
     ------
     ValueError
-        If the sigma-point parameters are not valid (:func:`unscented_weights`) or the prior
-        is not.
+        If the sigma-point parameters are not valid (:func:`unscented_weights`) or the prior is not.
 
     References
     ----------
@@ -203,10 +180,8 @@ def _predict_group(group: MeasurementGroup, points: Array) -> Array:
 class CubatureKalmanFilter(UnscentedKalmanFilter):
     """The cubature Kalman filter: the third-degree spherical-radial rule.
 
-    ``2n`` points at ``x ± sqrt(n) L_j`` with equal weights ``1 / (2n)`` (Arasaratnam &
-    Haykin 2009, "Cubature Kalman filters", IEEE Trans. Autom. Control 54(6), eqs. 33-34):
-    the scaled unscented transform with ``alpha = 1, beta = 0, kappa = 0`` (its centre point
-    then has zero weight), run by the UKF's arithmetic.
+    ``2n`` points at ``x ± sqrt(n) L_j`` with equal weights ``1 / (2n)`` (Arasaratnam & Haykin 2009,
+    "Cubature Kalman filters", IEEE Trans.
 
     Parameters
     ----------
