@@ -1,11 +1,10 @@
 """What the planner knows at a decision: the bound so far and the tracker's target cloud.
 
 A :class:`Belief` pairs the Bayesian information ``J_k`` along the path flown so far (a
-:class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`: the recursion of Hurtado &
-Nehorai (2008), eq. 10, run on the chosen steps) with the tracker's description of the target
-at the same time: particles and weights (the paper's particle filter), sigma points of a
-Gaussian (EKF/UKF), or the mean alone.  The cloud is what ``Gamma_{k+1}`` of eq. 11 is
-averaged over (:mod:`tmakit.planning.candidates`).
+:class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`: the recursion of Hurtado & Nehorai
+(2008), eq. 10, run on the chosen steps) with the tracker's description of the target at the same
+time: particles and weights (the paper's particle filter), sigma points of a Gaussian (EKF/UKF), or
+the mean alone.
 """
 
 from __future__ import annotations
@@ -24,10 +23,9 @@ from ..filters.base import TrackingFilter
 def cubature_points(mean: ArrayLike, covariance: ArrayLike) -> tuple[Array, Array]:
     """Return the ``2 n`` equally weighted cubature points of a Gaussian.
 
-    ``mean +- sqrt(n) L e_j`` with ``L L^T = covariance``: they match its mean and
-    covariance exactly and, unlike the unscented set with ``kappa = 3 - n``, have no
-    negative weight (so an average of information matrices over them stays positive
-    semi-definite).
+    ``mean +- sqrt(n) L e_j`` with ``L L^T = covariance``: they match its mean and covariance
+    exactly and, unlike the unscented set with ``kappa = 3 - n``, have no negative weight (so an
+    average of information matrices over them stays positive semi-definite).
 
     Parameters
     ----------
@@ -65,8 +63,7 @@ class Belief:
     Raises
     ------
     ValueError
-        If the states do not have ``n`` components, or the weights do not match or do not
-        sum to 1.
+        If the states do not have ``n`` components, or the weights do not match or do not sum to 1.
     """
 
     posterior: PosteriorInformation

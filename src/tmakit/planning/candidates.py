@@ -1,25 +1,9 @@
 """The predicted information of every candidate step at once (the heart of the planner).
 
-For one decision interval ``T`` from time ``t_k``, with measurements at the plan's times
-``t_k + s_1 < ... <= t_k + T``, each candidate's Bayesian information is carried forward by
-the recursion of Hurtado & Nehorai (2008), eq. 10,
-
-    J <- (Q + F J^{-1} F^T)^{-1}   (to each measurement time),
-    J <- J + Gamma(s_j),           Gamma = E_x[ Xi(x, sensor state of the candidate) ],
-
-and, if the last measurement is before ``t_k + T``, predicted to the end of the step, so every
-candidate is scored at the same time ``t_{k+1}`` (eq. 12).  ``Gamma`` is formed one of two
-ways (eq. 13 and section 4.2):
-
-* ``"mean"`` — the paper's suboptimal choice: ``Xi`` at the weighted mean of the predicted
-  cloud, ``x_hat_{k+1} = sum_i w_i F x_i``;
-* ``"cloud"`` — the expectation the paper calls too expensive: the weighted mean of ``Xi``
-  over every particle (or cubature point) of the predicted cloud.
-
-The cloud moves with the deterministic part of the dynamics (``F x``): its process-noise
-spread over one decision interval is the ``Q`` that the first line already accounts for.
-Everything is vectorised over candidates (any batch shape ``B``) and cloud members; there is no
-Python loop over either (``tests/test_planning.py`` checks it equals a plain loop).
+Each candidate's Bayesian information is carried over one decision interval by the recursion of
+Hurtado & Nehorai (2008), eq. 10, ``J <- (Q + F J^{-1} F^T)^{-1}``, ``J <- J + Gamma``, with
+``Gamma`` the information ``Xi`` at the predicted cloud's mean (``"mean"``, the paper's choice,
+eq. 13) or averaged over the cloud (``"cloud"``, section 4.2); vectorised over candidates and cloud.
 """
 
 from __future__ import annotations

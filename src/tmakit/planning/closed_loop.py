@@ -1,42 +1,7 @@
 """The closed loop: target truth, the planner's move, a measurement, the tracker, replan.
 
-One run of Hurtado & Nehorai (2008), §4-5, for ``D`` decisions of one interval ``T`` each
-(the radar's pulse repetition interval, 0.5 s).  At decision ``k`` (time ``t_k``):
-
-1. the policy (:mod:`tmakit.planning.policies`: a :class:`~tmakit.planning.Planner`, the
-   mission planner, a fixed action or a given path) is given the platform state and the
-   :class:`Belief` — ``J_k`` and the tracker's cloud
-   (particles and weights of the particle filter, the mean of an EKF or UKF) — and chooses
-   an action; the time it takes is recorded (ms, a measurement, never tested);
-2. the platform flies the chosen :class:`~tmakit.sensors.Step`; the target moves by the
-   nearly-constant-velocity dynamics of eq. 2 (process noise drawn from the run's stream);
-3. at ``t_{k+1}`` the sensor measures what its measurement plan (``plan.group(t, dim)``, a
-   :class:`~tmakit.observation.MeasurementGroup` with its full covariance ``R``) says,
-   simulated as ``h(x) + L n``, ``L L^T = R``;
-4. the tracker predicts to ``t_{k+1}`` and updates with those rows;
-5. the planning criterion along the flown path is carried forward: ``J_{k+1} = (Q + F J_k^{-1}
-   F^T)^{-1} + Gamma_{k+1}`` (eq. 10) with ``Gamma_{k+1}`` averaged over the tracker's cloud
-   at ``t_k`` moved to ``t_{k+1}`` (``criterion_gamma="cloud"``), or taken at its mean
-   (``"mean"``, the paper's suboptimal form, eq. 13): what the planner believes of the path
-   it flew.  It is not a bound: its ``Gamma`` is the tracker's, not the truth's;
-6. the Fisher information ``Xi`` of the step's measurements at the *true* target state and
-   the flown sensor state is recorded: averaged over the runs of a study it is ``Gamma`` of
-   the posterior CRB (:func:`tmakit.bounds.pcrb_over_runs`), the bound that the tracker's
-   error is held to.
-
-**Random streams.**  A run's seed spawns four independent streams: the target's process
-noise, the prior's offset from the truth, the measurement noise, the tracker (particle
-filter).  None depends on the policy, so two policies that choose the same steps give
-identical runs, estimate for estimate (a one-candidate planner and the fixed path).
-
-**The prior.**  The tracker and ``J_0`` start from ``N(m_0, P_0)`` with ``P_0`` diagonal
-(``prior_std`` in position and velocity) and ``m_0`` the truth plus a draw from ``P_0``, so
-the tracker's error about the truth is distributed as the prior the bound assumes.
-
-A measurement plan with a full ``R`` (correlated rows: the radar's range and range rate) is
-used whole by the simulation, the bound and the tracker (it updates with a
-:class:`~tmakit.observation.MeasurementGroup` carrying ``R``; a
-:class:`~tmakit.data.MeasurementSet` alone holds no correlations).
+One run of Hurtado & Nehorai (2008), §4-5, for ``D`` decisions of one interval ``T`` each (the
+radar's pulse repetition interval, 0.5 s).
 """
 
 from __future__ import annotations
@@ -87,22 +52,17 @@ class LoopSetup:
     interval : float, optional
         Decision interval ``T`` (s), one measurement group per decision.
     q : float, optional
-        Process-noise acceleration standard deviation (m/s^2) of the target's nearly
-        constant velocity motion, of the truth and of the tracker.
+        Process-noise acceleration standard deviation (m/s^2) of the target's nearly constant
+        velocity motion, of the truth and of the tracker.
     prior_std : tuple of float, optional
         Prior standard deviations of position (m) and velocity (m/s) per axis.
     tracker : {"pf", "ekf", "ukf"}, optional
-        The tracker: the particle filter with the transitional prior (Hurtado & Nehorai
-        (2008), §3.1), an EKF or a UKF.
+        The tracker: the particle filter with the transitional prior (Hurtado & Nehorai (2008),
+        §3.1), an EKF or a UKF.
     particles : int, optional
         Particles of the particle filter.
     criterion_gamma : {"cloud", "mean"}, optional
         How ``Gamma`` of the recorded planning criterion is formed (module docstring).
-
-    Raises
-    ------
-    ValueError
-        Naming the option that is out of range.
     """
 
     target: Array

@@ -1,19 +1,4 @@
-"""The planner's compiled kernels (``numba``), imported and loaded at their first call.
-
-* :func:`planar_gamma` — ``Gamma`` of :mod:`tmakit.planning.planar_information` over a cloud
-  of ``N`` members for ``C`` candidate sensors: the weighted sums over the cloud of ``c2``,
-  ``cs`` and the products ``1/r^2``, ``q/r``, ``q^2``, ``1/r``, ``q`` (times ``1``, ``c2``,
-  ``cs``), one loop per candidate that keeps every sum in a register (reassociated into SIMD
-  lanes), then assembled;
-* :func:`fly` — :meth:`~tmakit.sensors.PlatformKinematics.step` of every candidate action from
-  a batch of start states in one loop (:mod:`tmakit.planning.compiled_decision`);
-* ``kernel("decide_planar")`` — a whole one-step decision for a planar plan measured at the end
-  of the step (:mod:`tmakit.planning.decision`);
-* :func:`spd_inverse` — ``J^{-1}`` of a stack of small positive-definite matrices.
-
-``numba`` is imported, and the kernels loaded from its disk cache, at the first call only,
-never at ``import tmakit``.
-"""
+"""The planner's compiled kernels (``numba``), imported and loaded at their first call."""
 
 from __future__ import annotations
 

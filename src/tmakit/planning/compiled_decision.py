@@ -1,19 +1,4 @@
-"""The compiled kernels of one whole planning decision (imported only by ``compiled``).
-
-* :func:`fly` — :meth:`tmakit.sensors.PlatformKinematics.step` for ``M`` start states times
-  ``A`` actions in one loop: the limits (speed range, acceleration, turn rate, altitude band,
-  climb rate) clipped and flagged as there, the exact constant-turn, constant-acceleration
-  end position (the power series of ``E1``, ``E2`` near a straight step, the closed form
-  beyond), the wrapped end heading and the sensor state at the end of the step.
-* :func:`decide_planar` — one decision of :meth:`tmakit.planning.Planner.recommend` for a
-  planar plan measured once at the end of the step: :func:`fly`, the prediction of ``J``
-  through the step (Woodbury form of :func:`tmakit.bounds.pcrb_recursion.predict_information`),
-  ``Gamma`` at the moved mean or over the moved cloud (the sums of :mod:`.compiled_sums`),
-  ``J^{-1}``, the weighted trace and the position bound of every candidate.
-
-``tests/test_planning_decision.py`` checks both against the planner's general path (1e-12
-relative, the same choice).
-"""
+"""The compiled kernels of one whole planning decision (imported only by ``compiled``)."""
 
 from __future__ import annotations
 

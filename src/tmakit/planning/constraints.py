@@ -1,20 +1,13 @@
 """Tactical constraints on a planned sensor path, each reported per candidate and step.
 
 Every constraint looks at the candidate sensor positions at the times a step is checked
-(``(C, k, 3)`` ENU, m) and, for the range constraints, at the *estimated* target position at
-those times (``(k, 3)``, the tracker's predicted mean).  It returns a :class:`Violation`: how
-far each candidate goes past the limit (m, 0 when it keeps it) over the checked times.
+(``(C, k, 3)`` ENU, m) and, for the range constraints, at the *estimated* target position at those
+times (``(k, 3)``, the tracker's predicted mean).
 
-A constraint is either **hard** (a violating candidate is infeasible; if every candidate
-violates, the planner takes the one that violates least and says so) or a **penalty**
-(Hurtado & Nehorai (2008), section 5, example 2: "we penalize those radar actions which do not
-satisfy the range condition").  The penalty multiplies the cost by ``1 + weight * amount /
-scale`` (``scale`` the constraint's own length, e.g. the minimum range), dimensionless so that
-it means the same for any criterion: with ``weight = 10`` a candidate 10 % inside a 5 km
-minimum range costs twice as much.
-
-Polygons (keep-out zones, the operating area) are ``shapely`` geometries in local East-North
-metres; their tests are vectorised (``shapely.contains_xy``, ``shapely.distance``).
+A constraint is either **hard** (a violating candidate is infeasible; if every candidate violates,
+the planner takes the one that violates least and says so) or a **penalty** (Hurtado & Nehorai
+(2008), section 5, example 2: "we penalize those radar actions which do not satisfy the range
+condition").
 """
 
 from __future__ import annotations
@@ -220,12 +213,7 @@ class KeepOutZones:
     zones : sequence of polygons
         shapely polygons or (k, 2) vertex arrays, local (east, north) m.
     hard, weight
-        As for :class:`MinimumRange`; the penalty scale is the square root of the zones'
-        area.
-
-    Notes
-    -----
-    The violation is the depth inside a zone (the distance to its boundary, m).
+        As for :class:`MinimumRange`; the penalty scale is the square root of the zones' area.
     """
 
     zones: Sequence[object]
@@ -280,10 +268,6 @@ class OperatingArea:
         A shapely polygon or (k, 2) vertex array, local (east, north) m.
     hard, weight
         As for :class:`MinimumRange`; the penalty scale is the square root of the area.
-
-    Notes
-    -----
-    The violation is the distance outside the area (m).
     """
 
     area: object

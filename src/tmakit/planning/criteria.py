@@ -1,15 +1,8 @@
 """Planning criteria: scalar costs of a predicted Bayesian information matrix.
 
-A criterion maps Bayesian information ``J`` (..., n, n) (the inverse of the posterior CRB) to a
-cost (...,) that the planner minimises.  All are vectorised over leading axes, so a stack of
-``C`` candidate informations is scored in one call.
-
-* :class:`WeightedTrace` — ``Tr{Pi J^{-1}}``, the criterion of Hurtado & Nehorai (2008),
-  eq. 12 (A-optimal); by default ``Pi`` selects the position block, so the cost is the bound
-  on the mean-square position error (m^2).
-* :class:`LogDet` — ``log det`` of a block of ``J^{-1}`` (D-optimal: the log-volume of the
-  error ellipsoid).
-* :class:`CustomCriterion` — any user function of ``J``.
+A criterion maps ``J`` (..., n, n) to a cost (...,) the planner minimises, vectorised over leading
+axes: :class:`WeightedTrace` (``Tr{Pi J^{-1}}``, Hurtado & Nehorai (2008), eq. 12, m^2),
+:class:`LogDet` (``log det`` of a block of ``J^{-1}``) or :class:`CustomCriterion`.
 """
 
 from __future__ import annotations
@@ -36,12 +29,7 @@ def bound_covariance(information: Array) -> Array:
 
 
 class Criterion(Protocol):
-    """A scalar cost of Bayesian information, smaller is better (vectorised).
-
-    A criterion that is a function of ``J^{-1}`` may also define ``of_covariance(cov)``, the
-    same cost from :func:`bound_covariance` of ``J`` (already computed by the caller);
-    :func:`evaluate` uses it when present.
-    """
+    """A scalar cost of Bayesian information, smaller is better (vectorised)."""
 
     @property
     def name(self) -> str:
@@ -79,11 +67,9 @@ class WeightedTrace:
     Parameters
     ----------
     weights : array_like, optional
-        ``Pi`` (n, n), symmetric positive semi-definite, in units that make the terms
-        comparable (e.g. ``diag(1, 1, tau^2, tau^2)`` weighs velocity errors as the position
-        error they cause after ``tau`` seconds).  Default: the position block (ones on the
-        position diagonal, zeros elsewhere), so the cost is the bound on the mean-square
-        position error, m^2.
+        ``Pi`` (n, n), symmetric positive semi-definite, in units that make the terms comparable
+        (e.g. ``diag(1, 1, tau^2, tau^2)`` weighs velocity errors as the position error they cause
+        after ``tau`` seconds).
 
     References
     ----------
@@ -158,13 +144,8 @@ class LogDet:
     Parameters
     ----------
     block : {"position", "velocity", "state"}, optional
-        Which block of ``J^{-1}`` (default the position block: ``log det`` of the position
-        error covariance bound, log m^(2 dim)).
-
-    Notes
-    -----
-    The log-volume of the error ellipsoid; unlike the trace it is indifferent to how the
-    error is shared between axes (a long thin ellipse can score as well as a round one).
+        Which block of ``J^{-1}`` (default the position block: ``log det`` of the position error
+        covariance bound, log m^(2 dim)).
     """
 
     block: Block = "position"
@@ -200,7 +181,6 @@ class CustomCriterion:
     ----------
     function : callable
         ``function(J)`` with ``J`` (..., n, n) (SI) returning a cost (...,), smaller better.
-        It must be vectorised over the leading axes.
     name : str, optional
         A label for reports.
 

@@ -1,23 +1,4 @@
-"""The planner's compiled decision: a whole decision, or every candidate's kinematics, at once.
-
-:meth:`~tmakit.planning.Planner.recommend` spends most of a one-step decision around the
-arrays, not in them: flying 15 candidates through :meth:`~tmakit.sensors.PlatformKinematics.step`
-and carrying ``J`` through the step is a few hundred NumPy calls on arrays of 15.  Here:
-
-* :func:`fly` — the candidates' kinematics in one compiled loop
-  (:func:`tmakit.planning.compiled.fly`), returned as the same :class:`~tmakit.sensors.Step`
-  (its fields are views of the kernel's one output buffer);
-* :func:`decide` — for a planar plan (2-D target, bearing / range / range-rate rows, no model
-  options) measured once at the end of the step: the kinematics, the prediction of ``J``, ``Gamma``
-  at the moved mean or over the moved cloud, ``J^{-1}``, the criterion and the position bound of
-  every candidate in one compiled call (:func:`tmakit.planning.compiled_decision.decide_planar`).
-
-Both return None when they do not apply (limits that raise, a 3-D plan, a sensor off the
-plane, a ``J`` not numerically positive definite): the planner then takes its general path.
-The settings that do not change between decisions (packed actions and limits, the planar
-basis, ``Pi``) are kept per planner.  ``tests/test_planning_decision.py`` checks it against
-the general path (1e-12 relative, the same action).
-"""
+"""The planner's compiled decision: a whole decision, or every candidate's kinematics, at once."""
 
 from __future__ import annotations
 
@@ -76,13 +57,7 @@ def step_from_rows(fields: Array, flags: Array, shape: tuple[int, ...], interval
 
 
 class LazyStep(Step):
-    """A :class:`Step` whose fields are made from the compiled kernel's output when first read.
-
-    The kernel has computed every field; only the Python views on its buffer are put off
-    (a decision that reads nothing of the candidates' steps does not pay for them).  Reading
-    any field makes them all, once; the object then behaves as the :class:`Step` of
-    :func:`step_from_rows`.
-    """
+    """A :class:`Step` whose fields are made from the compiled kernel's output when first read."""
 
     @classmethod
     def of(cls, fields: Array, flags: Array, shape: tuple[int, ...], interval: float,

@@ -1,32 +1,7 @@
 """Receding-horizon search over ``H`` decision steps: a beam over the action tree.
 
-A planner with ``A`` actions and a horizon of ``H`` steps has ``A^H`` action sequences (15^3 =
-3375 for the paper's actions at ``H = 3``).  :func:`search` walks the tree depth by depth,
-every node of a depth expanded at once (:meth:`~tmakit.planning.Planner.expand`: all ``A``
-actions of each kept node in one vectorised call), and keeps at most ``beam`` nodes per depth:
-those with the smallest score, feasible ones (no hard violation) first.  The score of a node is
-the criterion of its predicted information (Hurtado & Nehorai (2008), eq. 12) at its own depth
-or — with a :class:`Continuation` — at the mission end after the default continuation.  With
-``beam >= A^(H-1)`` nothing is pruned and the search is the exhaustive one.
-
-**Why a beam.**  Branch-and-bound needs a lower bound on the cost of every leaf below a node,
-i.e. an upper bound on the information the remaining steps can bring; for bearings that
-bound is loose (a candidate can always come closer), so little is pruned.  The beam keeps the
-cost per decision at ``A + (H - 1) B A`` nodes instead of ``A^H`` (at ``B = 15``, ``A = 15``,
-``H = 3``: 465 against 3375), trades optimality for it, and its loss against exhaustive search
-is measured in ``benchmarks/planning_horizon.py``.
-
-**Why a continuation.**  A passive sensor's information comes from the geometry of the whole
-path: a planner that scores the bound ``H`` steps ahead prefers paths that pay off within the
-horizon and gives away what a later turn would have brought (``benchmarks/
-planning_horizon_warning.py`` measures it).  :class:`Continuation` scores every node instead
-by the criterion at the mission end, the path continued beyond the horizon by a default
-(``"straight"``: hold heading and speed; ``"hold"``: keep the last turn rate; ``"coast"``: no
-more measurements — only the prediction to the end time).  The continued path is one constant
-turn, flown exactly (:meth:`~tmakit.sensors.PlatformKinematics.step`); its measurements are
-those of the plan, thinned to at most ``samples`` instants each carrying the information of
-the measurements it stands for (noise variance divided by their number): an approximation of
-the continuation's information only, exact when no more than ``samples`` remain.
+A planner with ``A`` actions and a horizon of ``H`` steps has ``A^H`` action sequences (15^3 = 3375
+for the paper's actions at ``H = 3``).
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
 """What a steered sensor will measure at each decision step.
 
-A :class:`SensorPlan` names the kinds, their noise (independent sigmas or a full covariance,
-e.g. the radar's correlated range and range rate) and when in a decision step they are made.
-It builds one planned :class:`~tmakit.observation.MeasurementGroup` (values not yet known);
-the planner evaluates its Fisher information at candidate sensor states.
+A :class:`SensorPlan` names the kinds, their noise (independent sigmas or a full covariance, e.g.
+the radar's correlated range and range rate) and when in a decision step they are made.
 """
 
 from __future__ import annotations
@@ -33,9 +31,8 @@ class SensorPlan:
     dim : int, optional
         Target state dimension, 2 or 3.
     times : sequence of float, optional
-        When the rows are made, s after the start of a step, in ``(0, interval]``; default
-        once, at the end of the step (one pulse per decision, as in Hurtado & Nehorai
-        (2008), section 5).
+        When the rows are made, s after the start of a step, in ``(0, interval]``; default once, at
+        the end of the step (one pulse per decision, as in Hurtado & Nehorai (2008), section 5).
     covariance : array_like, optional
         A full noise covariance (m, m) SI, overriding ``sigmas`` (correlated rows).
     options : mapping, optional
@@ -47,8 +44,8 @@ class SensorPlan:
     Raises
     ------
     ValueError
-        On empty or unknown kinds, sigmas that are not one or one per kind, positive and
-        finite, or times that are not increasing and positive.
+        On empty or unknown kinds, sigmas that are not one or one per kind, positive and finite, or
+        times that are not increasing and positive.
     """
 
     kinds: tuple[str, ...]

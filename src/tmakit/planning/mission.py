@@ -1,47 +1,8 @@
 """Mission-level planning: the sensor's remaining path as legs, optimised for the final bound.
 
-A passive sensor's (bearings-only) information comes from the geometry of the whole path, so
-a planner that looks a few steps ahead gives away what a later turn would bring
-(``benchmarks/planning_horizon_warning.py``).  :class:`MissionPlanner` instead plans the whole
-rest of the mission: from the decision time to :attr:`~MissionPlanner.end_time`, ``L`` legs of
-:attr:`~MissionPlanner.leg_duration` seconds, each a commanded heading (and optionally a
-speed) that the platform turns to within its limits and then holds.  Legs are flown in
-sub-steps of :attr:`~MissionPlanner.step` seconds by
-:meth:`~tmakit.sensors.PlatformKinematics.step` (each sub-step commands the remaining heading
-change, clipped to the turn-rate limit: the path never turns faster than the platform may),
-and the Bayesian information is carried along every candidate path at once by the recursion
-of Hurtado & Nehorai (2008), eq. 10 (:func:`~tmakit.planning.candidates.step_information`).
-A path is scored by the criterion of ``J`` at the mission end (by default the weighted trace of
-eq. 12, the final mean-square position bound).
-
-**Search: coordinate descent over leg headings, vectorised over a heading grid and over
-several starts.**  For one leg at a time every heading of a grid (``headings`` values around
-the compass in the first sweeps; then finer offsets around the current one) is tried for
-every start path at once (``starts x grid`` candidate paths flown from the start of that
-leg, the earlier legs shared), and the best is kept: the cost never increases.  The starts are
-the straight path, the operator's pattern if given, and the previous plan (re-planned each leg
-from the current belief: receding over legs).  Why: the cost is smooth in each heading but has
-many local minima over the path (which way to turn first, and when); a coarse grid per leg
-finds the basin that a gradient method (scipy, finite differences) would miss from a poor
-start, and every candidate of a sweep is one vectorised rollout.  The evaluations are counted
-(:attr:`MissionPlan.evaluations`).
-
-**Target hypotheses** (``hypotheses=True``).  Early in a bearings-only track the range is not
-known, and the first legs are flown before it is: a path planned at the estimate (or on the
-information averaged over a cloud, which the nearest members dominate through their ``1/r^2``)
-is planned for one range.  With hypotheses the belief's members (say the range quantiles of the
-tracker's particles) are each carried through their own recursion, every path at once, and a
-path's cost is the weighted mean of the criterion over them: a path good for every plausible
-range (the classic range-parameterised answer to "when and where to turn").
-
-**Tactical constraints** (:mod:`tmakit.planning.constraints`) are checked along every
-candidate path, each sub-step at :data:`~tmakit.planning.planner.CHECK_POINTS` times, against
-the estimated target (the belief's mean, predicted).  A path's violation of a constraint is
-its largest along the path (m): a hard constraint makes the path infeasible, a penalty
-multiplies its cost by ``1 + weight * amount / scale`` once.  Paths are ranked feasible
-first (then by cost); among infeasible ones the least hard violation summed over the
-sub-steps wins (the path that leaves the violation soonest), and the plan says so
-(:attr:`MissionPlan.feasible`).
+A passive sensor's (bearings-only) information comes from the geometry of the whole path, so a
+planner that looks a few steps ahead gives away what a later turn would bring
+(``benchmarks/planning_horizon_warning.py``).
 """
 
 
@@ -184,8 +145,8 @@ class MissionPlanner:
     end_time : float
         The mission end, s.
     criterion : Criterion, optional
-        Cost of the final ``J`` (default :class:`WeightedTrace`: the final mean-square
-        position bound, m^2).
+        Cost of the final ``J`` (default :class:`WeightedTrace`: the final mean-square position
+        bound, m^2).
     headings : int, optional
         Size of the heading grid of the first sweeps (module docstring).
     speeds : sequence of float, optional
@@ -199,17 +160,16 @@ class MissionPlanner:
     constraints : sequence of Constraint, optional
         Tactical constraints along the path (module docstring).
     hypotheses : bool, optional
-        Take each member of the belief's cloud as a hypothesis of the target (for example a
-        few ranges along the measured bearing) and score a path by the weighted mean over
-        them of the criterion of ``J`` computed with ``Gamma`` at that member: the expected
-        bound, not the bound of the expected information (module docstring).  ``J`` now is
-        the belief's for every hypothesis; :meth:`advance` carries it with ``gamma``.
+        Take each member of the belief's cloud as a hypothesis of the target (for example a few
+        ranges along the measured bearing) and score a path by the weighted mean over them of the
+        criterion of ``J`` computed with ``Gamma`` at that member: the expected bound, not the bound
+        of the expected information (module docstring).
 
     Raises
     ------
     ValueError
-        On a non-positive step, a leg that is not a whole number of steps, a grid below 4
-        headings, or bad speeds.
+        On a non-positive step, a leg that is not a whole number of steps, a grid below 4 headings,
+        or bad speeds.
 
     References
     ----------
@@ -416,8 +376,8 @@ class MissionPlanner:
         belief : Belief
             ``J`` along the path so far and the target cloud, now.
         initial : array_like, shape (M, L) or (L,), optional
-            Start paths (leg headings, rad) besides the straight one: the operator's
-            pattern, the previous plan.
+            Start paths (leg headings, rad) besides the straight one: the operator's pattern, the
+            previous plan.
         information : array_like, shape (K, n, n), optional
             With :attr:`hypotheses`: ``J`` now under each hypothesis (the path flown so far
             evaluated at it); default the belief's ``J`` for every one.
@@ -429,9 +389,8 @@ class MissionPlanner:
         Raises
         ------
         ValueError
-            If the platform is not one state at the belief's time, no leg is left,
-            ``initial`` does not have one heading per leg, or ``information`` is not one ``J``
-            per hypothesis.
+            If the platform is not one state at the belief's time, no leg is left, ``initial`` does
+            not have one heading per leg, or ``information`` is not one ``J`` per hypothesis.
         """
         if platform.shape != () or abs(platform.time - belief.time) > 1e-6:
             raise ValueError("optimise() takes one platform state at the belief's time")

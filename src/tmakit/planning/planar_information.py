@@ -1,28 +1,4 @@
-"""``Gamma`` over a cloud in closed form for planar bearing, range and range-rate plans.
-
-When the target state is 2-D and every candidate sensor is in the target's plane (``z = 0``),
-the Jacobians of the three kinds are combinations of two unit vectors, the line of sight
-``e = d / r`` and its normal ``e_perp = (e_y, -e_x)`` (``d`` the relative position,
-``r = |d|``, ``q = (u_x d_y - u_y d_x) / r^2`` the bearing rate for relative velocity ``u``):
-
-* bearing ``atan2(d_x, d_y)``: position part ``e_perp / r``;
-* range: position part ``e``;
-* range rate ``u.e``: position part ``(u - (u.e) e) / r = q e_perp``, velocity part ``e``.
-
-With the rows' position parts ``a_j e_perp + b_j e`` and velocity parts ``c_j e``, and
-``W = R^{-1}``, the information ``sum_jk W_jk h_j h_k^T`` is
-
-    position-position  A (I - e e^T) + B (e_perp e^T + e e_perp^T) + D e e^T,
-    position-velocity  E (e_perp e^T) + G e e^T,      velocity-velocity  F e e^T,
-
-with scalar fields ``A = a^T W a``, ``B = a^T W b``, ``D = b^T W b``, ``E = a^T W c``,
-``G = b^T W c``, ``F = c^T W c`` (``a_j`` is ``1 / r`` or ``q``, the others constants).  The
-entries of ``e e^T`` and ``e_perp e^T`` are ``c2 = e_x^2``, ``cs = e_x e_y`` and ``1 - c2``,
-so the cloud average needs only the eleven weighted sums ``E[A]``, ``E[A c2]``, ``E[A cs]``,
-the same for ``B`` and ``E``, and ``E[c2]``, ``E[cs]``: one compiled pass over the cloud
-(:func:`tmakit.planning.compiled.planar_gamma`).  ``tests/test_planning.py`` checks it
-against :mod:`tmakit.planning.cloud_information`, which handles 3-D and altitude.
-"""
+"""``Gamma`` over a cloud in closed form for planar bearing, range and range-rate plans."""
 
 from __future__ import annotations
 

@@ -1,28 +1,4 @@
-"""Choose the sensor's next action by the predicted posterior CRB (Hurtado & Nehorai 2008).
-
-At each decision the :class:`Planner` flies every candidate action of the platform for one
-decision interval (:meth:`~tmakit.sensors.PlatformKinematics.step`, all at once), carries the
-Bayesian information along each candidate (:func:`~tmakit.planning.candidates.step_information`,
-eqs. 10-13), scores ``J_{k+1}`` with the criterion (eq. 12: ``Tr{Pi J^{-1}}`` by default),
-checks the tactical constraints along each candidate step against the estimated target, and
-returns a :class:`Recommendation`: the chosen action with the cost, the predicted position
-bound, the feasibility and the violations of every candidate.
-
-With ``horizon = H > 1`` the candidates are sequences of ``H`` actions (receding horizon: only
-the first is flown, then the planner decides again), searched by
-:func:`tmakit.planning.horizon.search`: depth by depth, vectorised level by level, exhaustive
-over the ``A^H`` sequences unless ``beam`` keeps only the best nodes of each depth; a
-sequence is scored by the criterion at the end of the horizon (or, with a ``continuation``,
-at the mission end after a default path), its penalties multiplied along the way, and it is
-feasible only if every step is.  Beyond the first step ``Gamma`` is formed at the predicted
-mean (the cloud expectation over ``A^H`` sequences would multiply the work by the cloud size
-for a second-order change).
-
-The first step of a planar plan measured once per step is one compiled call
-(:func:`tmakit.planning.decision.decide`: kinematics, information, criterion, bound and — with
-no constraint or horizon to apply — the choice); every other plan takes the general path
-above, with the candidates' kinematics compiled (:func:`tmakit.planning.decision.fly`).
-"""
+"""Choose the sensor's next action by the predicted posterior CRB (Hurtado & Nehorai 2008)."""
 
 from __future__ import annotations
 

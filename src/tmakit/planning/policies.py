@@ -1,29 +1,9 @@
 """What steers the sensor in the closed loop: a fixed action, a given path, the mission planner.
 
-A *policy* is given the platform state and the :class:`~tmakit.planning.Belief` at each
-decision of :func:`~tmakit.planning.closed_loop.run_closed_loop` and returns a
-:class:`Choice`: the step to fly for one decision interval.  Four kinds:
-
-* :class:`~tmakit.planning.Planner` — the one-step (or ``H``-step) planner of Hurtado &
-  Nehorai (2008), choosing among the platform's actions;
-* :class:`FixedPolicy` — one action at every decision (the paper's straight fixed path);
-* :class:`TrackPolicy` — a given sensor track, such as the fixed pattern of a scenario's
-  ``[[sensors]]`` entry (the operator's zig-zag), flown step by step;
-* :class:`MissionPolicy` — the :class:`~tmakit.planning.MissionPlanner` re-planned at the start
-  of every leg, over range hypotheses drawn from the tracker (below).
-
-**Range hypotheses** (``MissionPolicy``).  For a passive sensor the range is what the first
-legs do not know, and a path planned at the tracker's estimate is planned for one range.  At
-each leg the policy takes the ranges from the platform at the weighted quantiles
-:attr:`MissionPolicy.quantiles` of the tracker's cloud (particles, or the cubature points of
-an EKF or UKF), gives each hypothesis its own Bayesian information along the path flown so far
-(the flown legs evaluated at it, from the prior), and plans the rest of the mission for the
-mean of their final bounds.  ``benchmarks/planning_passive_mc.py`` (case ``ranges``) measured
-it at 0.71x the zig-zag's final error where the planner at the estimate gave 1.55x
-(``docs/planning.md``).
-
-A policy that keeps state between the decisions of one run (the mission plan, the legs flown)
-has a ``for_run()`` method that returns a fresh copy for each run; the loop calls it.
+:class:`~tmakit.planning.Planner` (Hurtado & Nehorai (2008)), :class:`FixedPolicy` (one action
+every decision), :class:`TrackPolicy` (a given sensor track, flown step by step) and
+:class:`MissionPolicy` (the :class:`~tmakit.planning.MissionPlanner` re-planned every leg over
+range hypotheses drawn from the tracker).
 """
 
 from __future__ import annotations
@@ -59,10 +39,7 @@ def passive(plan: SensorPlan) -> bool:
 
 
 class Choice(Protocol):
-    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one).
-
-    Its members are read (a frozen dataclass's fields, or properties), never assigned.
-    """
+    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one)."""
 
     @property
     def index(self) -> int:
@@ -105,11 +82,10 @@ class FixedChoice:
     step : Step
         The flown step.
     bound : ndarray, shape (1,)
-        The policy's predicted position RMS bound (m): after the step, or at the mission end
-        for :class:`MissionPolicy`.
+        The policy's predicted position RMS bound (m): after the step, or at the mission end for
+        :class:`MissionPolicy`.
     violations : dict
-        Per constraint, the amount (m) of the flown step, shape (1,); empty without
-        constraints.
+        Per constraint, the amount (m) of the flown step, shape (1,); empty without constraints.
     """
 
     index: int
@@ -163,11 +139,6 @@ def _state_on(track: SensorTrack, t: float) -> PlatformState:
 class TrackPolicy:
     """Fly a given sensor track: the scenario's fixed pattern, step by step.
 
-    Each step goes from the platform's state to the track's state one interval later; the
-    sensor is where the track says at the end of the step (where the closed loop measures).
-    Between the two the step is the constant turn that joins the headings (exact for legs
-    that turn at a constant rate and change at the decision times, as a zig-zag's do).
-
     Parameters
     ----------
     track : SensorTrack
@@ -177,8 +148,8 @@ class TrackPolicy:
     interval : float
         Decision interval (s).
     constraints : sequence of Constraint, optional
-        Checked along each step against the estimated target and reported (never acted on:
-        the path is fixed).
+        Checked along each step against the estimated target and reported (never acted on: the path
+        is fixed).
     """
 
     track: SensorTrack
@@ -215,13 +186,12 @@ class MissionPolicy:
     Parameters
     ----------
     planner : MissionPlanner
-        Its ``step`` must be the loop's decision interval.  With ``hypotheses=True`` it plans
-        over range hypotheses (module docstring); otherwise at the tracker's cloud as given.
+        Its ``step`` must be the loop's decision interval.
     quantiles : tuple of float, optional
         The range quantiles of the hypotheses (default the 1/6, 1/2 and 5/6 quantiles).
     pattern : SensorTrack, optional
-        An operator's path (the scenario's fixed pattern): its heading at the middle of every
-        leg left is one more start of the search, so the plan is never scored worse than it.
+        An operator's path (the scenario's fixed pattern): its heading at the middle of every leg
+        left is one more start of the search, so the plan is never scored worse than it.
 
     References
     ----------

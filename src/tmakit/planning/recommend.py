@@ -1,14 +1,7 @@
 """One planning step from the user's own loop: their tracker and platform in, the next action out.
 
-:func:`recommend` is for a user who runs their own tracker and steers their own platform: give
-it the tracker (a :class:`~tmakit.filters.TrackingFilter`, or a mean and covariance), the
-platform's :class:`~tmakit.sensors.PlatformState` and a :class:`~tmakit.planning.Planner`, and
-it returns the :class:`~tmakit.planning.Recommendation`: the action to fly next, the predicted
-position bound of every candidate, their feasibility and their constraint violations.
-
-Without ``posterior`` the Bayesian information ``J_k`` is the inverse of the tracker's
-covariance (the tracker's own view of what it knows).  A caller who carries the bound along the
-flown path (Hurtado & Nehorai (2008), eq. 10; :meth:`Planner.advance`) passes it instead.
+A caller who carries the bound along the flown path (Hurtado & Nehorai (2008), eq. 10;
+:meth:`Planner.advance`) passes it instead.
 """
 
 from __future__ import annotations
@@ -76,46 +69,32 @@ def recommend(track: Estimate, platform: PlatformState, planner: Planner,
     planner : Planner
         Kinematics, actions, interval, sensor plan, criterion, constraints.
     posterior : PosteriorInformation, optional
-        ``J_k`` at the platform's time (default: the inverse of the tracker's covariance,
-        with the tracker's dynamics, or ``NearlyConstantVelocity(dim, q)`` for a pair).
+        ``J_k`` at the platform's time (default: the inverse of the tracker's covariance, with the
+        tracker's dynamics, or ``NearlyConstantVelocity(dim, q)`` for a pair).
     q : float, optional
-        Process-noise acceleration std (m/s^2) of the target, for a (mean, covariance) pair
-        without ``posterior``.
+        Process-noise acceleration std (m/s^2) of the target, for a (mean, covariance) pair without
+        ``posterior``.
     cloud : {"auto", "particles", "sigma", "mean"}, optional
         The target cloud ``Gamma`` is averaged over with ``planner.gamma = "cloud"``
-        (:meth:`Belief.from_filter`); a pair gives its cubature points (``"auto"``,
-        ``"sigma"``) or its mean.
+        (:meth:`Belief.from_filter`); a pair gives its cubature points (``"auto"``, ``"sigma"``) or
+        its mean.
 
     Returns
     -------
     Recommendation
-        ``index`` and ``action`` (what to fly), ``bound`` (m, predicted position RMS bound of
-        every candidate after one step), ``feasible``, ``violations`` (m), ``cost``.
+        ``index`` and ``action`` (what to fly), ``bound`` (m, predicted position RMS bound of every
+        candidate after one step), ``feasible``, ``violations`` (m), ``cost``.
 
     Raises
     ------
     ValueError, TypeError
-        On a bad estimate or cloud, a tracker or posterior not at the platform's time; a
-        platform, planner or posterior not of its type.
+        On a bad estimate or cloud, a tracker or posterior not at the platform's time; a platform,
+        planner or posterior not of its type.
 
     References
     ----------
     Hurtado & Nehorai (2008), eqs. 10-13 (the predicted posterior CRB), eq. 12 (the
     criterion ``Tr{Pi J^{-1}}``).
-
-    Examples
-    --------
-    >>> import math
-    >>> import numpy as np
-    >>> from tmakit.planning import Planner, SensorPlan, recommend
-    >>> from tmakit.sensors import PlatformState, platform_configuration
-    >>> cfg = platform_configuration("hurtado_nehorai_2008")
-    >>> radar = SensorPlan(["bearing", "range"], [math.radians(1.0), 30.0])
-    >>> planner = Planner(cfg.kinematics, cfg.actions, cfg.interval, radar)
-    >>> estimate = (np.array([0.0, 15000.0, 25.0, 0.0]), np.diag([500.0**2] * 2 + [10.0**2] * 2))
-    >>> rec = recommend(estimate, PlatformState((0.0, 0.0), 0.0, 50.0), planner)
-    >>> rec.bound.shape, bool(rec.bound[rec.index] == rec.bound[rec.feasible].min())
-    ((15,), True)
     """
     _check_types(platform, planner, posterior)
     if isinstance(track, TrackingFilter):

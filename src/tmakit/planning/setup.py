@@ -1,12 +1,4 @@
-"""A planned scenario's setup: the ``[planning]`` table of a scenario file built into a planner.
-
-:func:`load_planning` (``tk.load_planning``) and :func:`planning_from_dict` read a scenario
-with a ``[planning]`` table (validated by :mod:`tmakit.scenario.files` against the schema of
-:mod:`tmakit.scenario.planning_table`) and build its :class:`PlanningSetup`: the
-:class:`~tmakit.planning.Planner` (kinematics, actions, sensor plan, criterion, constraints),
-the steered sensor's start, the target truth, tracker, prior and runs, in SI
-(``docs/planning.md``).  :func:`tmakit.plan` runs it.
-"""
+"""A planned scenario's setup: the ``[planning]`` table of a scenario file built into a planner."""
 
 from __future__ import annotations
 
