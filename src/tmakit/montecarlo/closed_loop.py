@@ -1,28 +1,10 @@
 """Monte Carlo over closed-loop runs: planner choices, bound along the path and errors per step.
 
-Each *case* is a policy (a :class:`~tmakit.planning.Planner` or a fixed path), a sensor plan
-and a :class:`~tmakit.planning.closed_loop.LoopSetup`.  Run ``r`` of every case uses child
-``r`` of ``np.random.SeedSequence(seed)`` (spawned for ``runs`` runs), so that
-
-* the table is the same, run for run, whatever the chunking and wherever the chunks run (this
-  process or a Dask cluster: :mod:`.execution`), and run ``r`` does not depend on ``runs``;
-* the cases meet the same truth, prior and measurement noise draws run for run (common random
-  numbers: their differences are the policies', not the draws').
-
-The per-step table (:meth:`ClosedLoopStudy.table`) has one row per case, run and decision:
-``case``, ``run``, ``step``, ``time`` (s), ``sensor_x``, ``sensor_y`` (m), ``action``,
-``criterion_m``, ``predicted_criterion_m``, ``error_m``, ``range_m`` (m), ``decision_ms``
-(ms), ``violation_m`` and one ``violation_<constraint>_m`` per constraint of the case (m).
-
-**The bound and the criterion.**  :meth:`ClosedLoopStudy.pcrb` is the posterior CRB of the
-case (:func:`tmakit.bounds.pcrb_over_runs`: ``Gamma`` the mean over the runs of the
-information at the true target along each flown path, with the tracker's prior and process
-noise): the bound that the RMSE is held to.  :meth:`ClosedLoopStudy.criterion` is the RMS over
-runs of the planning criterion along each flown path (``Gamma`` over the tracker's cloud):
-what the planner believed, which a tracker may beat.  :meth:`ClosedLoopStudy.efficiency`
-gives the final RMSE over the bound with its Monte Carlo interval.
-A caller that must not lose finished work passes ``on_chunk`` (each chunk's
-:class:`LoopChunk` as soon as it is done; :mod:`tmakit.io.study_files` saves them).
+Each case is a policy, a sensor plan and a :class:`~tmakit.planning.closed_loop.LoopSetup`.  Run
+``r`` of every case uses child ``r`` of ``np.random.SeedSequence(seed)``, so the table does not
+depend on chunking or executor and every case meets the same draws (common random numbers).
+:meth:`ClosedLoopStudy.pcrb` is the posterior CRB the RMSE is held to;
+:meth:`ClosedLoopStudy.criterion` is what the planner believed.
 """
 
 from __future__ import annotations
@@ -350,11 +332,10 @@ class ClosedLoopStudy:
         Returns
         -------
         dict
-            ``final_rmse_m`` (last step, m), the :meth:`efficiency` figures
-            (``final_pcrb_m``, ``rmse_over_pcrb`` and its 95 % interval, where the study has
-            the case's setup), ``final_criterion_m`` (the planning criterion, m),
-            ``min_range_m`` (true range over every run and step, m), ``mean_decision_ms``
-            (ms), ``runs``.
+            ``final_rmse_m`` (last step, m), the :meth:`efficiency` figures (``final_pcrb_m``,
+            ``rmse_over_pcrb`` and its 95 % interval, where the study has the case's setup),
+            ``final_criterion_m`` (the planning criterion, m), ``min_range_m`` (true range over
+            every run and step, m), ``mean_decision_ms`` (ms), ``runs``.
         """
         bound = self.efficiency(case) if case in self.setups else {}
         return {"final_rmse_m": float(self.rmse(case)[-1]), **bound,

@@ -1,9 +1,8 @@
 """The estimators a Monte Carlo study can run, by name.
 
-They are the method registry :data:`tmakit.batch.methods.METHODS`; ``"ml"`` is batched across
-runs by :mod:`.runs`, the others are called run by run through
-:func:`tmakit.batch.methods.estimate_with`.  Whether a method can be given known nuisance
-values is declared by its class (``takes_known_nuisance``), not found out by inspection.
+They are the method registry :data:`tmakit.batch.methods.METHODS`; ``"ml"`` is batched across runs
+by :mod:`.runs`, the others are called run by run through
+:func:`tmakit.batch.methods.estimate_with`.
 """
 
 from __future__ import annotations

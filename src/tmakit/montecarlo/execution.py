@@ -1,9 +1,8 @@
 """Where the chunks of a Monte Carlo study run.
 
 In this process, in a pool of worker processes on this machine, or on a Dask cluster, with a
-progress bar.  Every chunk computes the same runs wherever it runs, so the table does not
-depend on the executor or the number of workers.  Dask, distributed and tqdm are imported only
-when used.
+progress bar.  Every chunk computes the same runs wherever it runs, so the table does not depend on
+the executor or the number of workers.  Dask, distributed and tqdm are imported only when used.
 """
 
 from __future__ import annotations

@@ -1,37 +1,8 @@
 """Random scenarios for statistical studies of the estimators.
 
-:func:`random_geometry` draws one two-dimensional constant-velocity target heard by one
-manoeuvring sensor with a random mix of bearing, frequency and power measurements;
-:func:`observable_geometry` redraws until the Cramér–Rao bound says the geometry can be
-localised.  Everything comes from the ``numpy.random.Generator`` passed in, so a seed
-reproduces the scenario (and, given the same generator afterwards, its simulated data).
-
-The distribution (all draws independent and uniform unless stated):
-
-- **target**: :class:`~tmakit.motion.ConstantVelocity` ``(2, ref_time=0)``; position at
-  time 0 uniform over the annulus 500 m ≤ distance ≤ 20 km around the sensor's start
-  (uniform in area, not in range); speed in [0, 40] m/s; course in [0, 360)°.
-- **sensor** ``"sensor"``: a :class:`~tmakit.sensors.LegsTrack` from the origin at time 0,
-  speed in [30, 80] m/s, heading in [0, 360)°.  The observation lasts ``T`` in
-  [120, 300] s, split into 3–5 legs (the number drawn among those for which legs of
-  20–60 s can fill ``T``) with durations in [20, 60] s summing to ``T`` (uniform on that
-  set), alternating straight legs and turns (which comes first is drawn); each turn has a
-  rate of ±(1–4) °/s with a random sign.  Every track has at least one turn of at least
-  20°, so the heading always changes by more than 20°.
-- **sampling**: every kind is sampled at the same times ``0, dt, 2 dt, ... ≤ T`` with
-  ``dt`` 1 s or 2 s (equally likely).
-- **kinds**: unless ``kinds`` is given, a non-empty subset of {bearing, frequency, power},
-  each of the seven subsets equally likely.  Bearing: σ in [0.5, 2]°.  Frequency: carrier
-  in [0.5, 10] GHz (no drift), σ in [0.5, 3] Hz.  Power: ``SNR_p`` in [25, 45] dB (the
-  multiplicative noise of :class:`~tmakit.scenario.MeasurementPlan` ``snr_db``), the
-  free-space constant at the carrier (:func:`~tmakit.core.units.free_space_constant`, unit
-  transmit power and gains) and a known path-loss exponent 2.  A carrier is drawn for
-  every geometry (the power constant needs it even without frequency measurements).
-
-Nothing stops the sensor from passing close to the target later on: only the *start* is
-at least 500 m away.
-
-:func:`final_position_rms` is the benchmarks' one-number posterior CRB of a built-in scenario.
+:func:`random_geometry` draws one two-dimensional constant-velocity target heard by one manoeuvring
+sensor with a random mix of bearing, frequency and power measurements; :func:`observable_geometry`
+redraws until the Cramér–Rao bound says the geometry can be localised.
 """
 
 from __future__ import annotations

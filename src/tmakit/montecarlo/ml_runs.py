@@ -1,16 +1,4 @@
-"""The maximum-likelihood runs of a Monte Carlo chunk, solved and summarised as one batch.
-
-The runs share their rows (times, sensors, kinds, noise): one observation model serves them
-all, their values are one ``(runs, n)`` array (:meth:`tmakit.scenario.Scenario.simulate_values`)
-and every Levenberg–Marquardt solve is one batch, as in
-:meth:`tmakit.batch.ml.MaximumLikelihood.fit_many`.  What a study keeps of each run (status,
-iterations, chi-square, starts, estimate) is then computed for all runs at once: the Fisher
-information at every estimate in one product and its rank in one batched eigen-decomposition,
-with the test of :func:`tmakit.results.observability.analyse`, instead of a full
-:class:`~tmakit.results.EstimateResult` per run (its covariance, observability directions and
-messages, which a study does not keep).  ``tests/test_montecarlo.py`` pins the runs to
-:func:`tmakit.batch.estimate` run by run.
-"""
+"""The maximum-likelihood runs of a Monte Carlo chunk, solved and summarised as one batch."""
 
 from __future__ import annotations
 

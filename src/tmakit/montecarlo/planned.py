@@ -1,22 +1,8 @@
 """Run a scenario's ``[planning]`` table: the planned path beside the fixed pattern, many times.
 
-:func:`plan` loads a scenario with a steered sensor (:func:`tmakit.planning.setup.load_planning`)
-and runs the closed loop of :mod:`tmakit.planning.closed_loop` (truth, the policy's move, the
-simulated measurements, the tracker's update, replan) ``runs`` times for two cases with the
-same seeds (the same truth, prior and noise draws, run for run):
-
-* ``planned`` — the sensor steered by the table's planner: for a passive sensor (no range
-  measured) by default the mission planner over range hypotheses
-  (:class:`~tmakit.planning.policies.MissionPolicy`), otherwise the horizon planner of Hurtado
-  & Nehorai (2008);
-* ``fixed`` — the steered sensor's own ``[[sensors]]`` path (the operator's pattern, e.g. a
-  zig-zag), when it covers the run.
-
-:class:`PlanRun` holds both: the per-step table, each case's final RMSE beside its posterior
-CRB (:meth:`~tmakit.montecarlo.closed_loop.ClosedLoopStudy.pcrb`) and planning criterion, and
-the planned path's RMSE over the fixed pattern's with a paired bootstrap interval
-(:meth:`PlanRun.comparison`), so that a planned path worse than the pattern is said, never
-recommended silently.
+``planned`` steers the sensor by the table's planner (the mission planner over range hypotheses
+for a passive sensor, else the horizon planner of Hurtado & Nehorai (2008)); ``fixed`` flies the
+sensor's own ``[[sensors]]`` path.
 """
 
 from __future__ import annotations
@@ -371,8 +357,8 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
     tracker : {"pf", "ekf", "ukf"}, optional
         The tracker (default the table's).
     planner : {"auto", "mission", "horizon"}, optional
-        The planner (default the table's ``planner``; ``"auto"``: the mission planner for a
-        passive sensor).
+        The planner (default the table's ``planner``; ``"auto"``: the mission planner for a passive
+        sensor).
     fixed : bool, optional
         Also fly the scenario's fixed pattern with the same seeds.
     dask : str or distributed.Client, optional
@@ -393,15 +379,8 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
     ValueError
         Naming the option out of range.
     TypeError
-        If ``scenario`` is none of the types above (a ``Scenario`` object has no planning
-        table: use its TOML file).
-
-    Examples
-    --------
-    >>> import tmakit as tk
-    >>> run = tk.plan("plan-bearings-only", runs=1, duration=60.0, particles=300)
-    >>> run.summary()["steps"], len(run.table())
-    (6, 12)
+        If ``scenario`` is none of the types above (a ``Scenario`` object has no planning table: use
+        its TOML file).
     """
     if not isinstance(scenario, PlanningSetup | str | os.PathLike):
         raise TypeError(f"plan() takes a scenario name, a TOML file with a [planning] table or "

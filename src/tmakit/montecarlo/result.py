@@ -1,12 +1,7 @@
 """The result of a Monte Carlo study: the per-run table and its comparison with the CRLB.
 
-The summary compares the root-mean-square error over the converged runs with the CRLB of the
-same nuisance convention.  The 95 % interval of RMSE/CRLB assumes independent, unbiased,
-Gaussian errors of one parameter over ``n`` runs: then ``n RMSE² / σ²`` is chi-square with
-``n`` degrees of freedom, ``σ`` the true RMS error, so ``σ / CRLB`` lies in
-``ratio·sqrt(n/χ²_{n,0.975}) .. ratio·sqrt(n/χ²_{n,0.025})`` with 95 % probability.  An
-interval above 1 says the estimator is not efficient there (or is biased, or its errors are
-heavy-tailed); an interval that contains 1 says the runs cannot tell it from an efficient one.
+The summary compares the root-mean-square error over the converged runs with the CRLB of the same
+nuisance convention.
 """
 
 from __future__ import annotations
@@ -42,12 +37,8 @@ def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, fl
     Returns
     -------
     tuple of float
-        ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``; NaN for
-        ``n < 1`` or a non-finite ratio.
-
-    Notes
-    -----
-    Assumes independent, unbiased, Gaussian errors (then ``n RMSE²/σ²`` is ``χ²_n``).
+        ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``; NaN for ``n < 1``
+        or a non-finite ratio.
     """
     if n < 1 or not np.isfinite(ratio):
         return float("nan"), float("nan")

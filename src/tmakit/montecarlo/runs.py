@@ -1,13 +1,6 @@
 """One chunk of Monte Carlo runs: simulate, estimate, record.
 
 In this process or on a Dask worker.
-
-The maximum-likelihood estimator of a motion model without manoeuvres is batched across the
-runs of a chunk (:mod:`.ml_runs`: the runs share times, sensors and noise, so their rows are
-simulated and checked once and only their values differ,
-:meth:`~tmakit.scenario.Scenario.simulate_values`), which gives each run the result of
-:func:`~tmakit.batch.ml.estimate`.  Other estimators (the registry of :mod:`.estimators`), and
-``"ml"`` on a manoeuvring target, are called run by run.
 """
 
 from __future__ import annotations

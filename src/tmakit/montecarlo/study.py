@@ -1,10 +1,4 @@
-"""The entry point of a Monte Carlo study: :func:`monte_carlo`.
-
-Run ``r`` simulates the scenario with its own generator,
-``np.random.default_rng(np.random.SeedSequence(seed).spawn(runs)[r])``, so that one seed gives
-one table whatever the chunking and wherever the chunks run (in this process or on a Dask
-cluster): run ``r``'s data do not depend on the number of runs either.
-"""
+"""The entry point of a Monte Carlo study: :func:`monte_carlo`."""
 
 from __future__ import annotations
 
@@ -198,13 +192,13 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs : int
         Number of runs (>= 1).
     rng : int, numpy.random.Generator or None
-        The study's seed, which fixes every run's data (module docstring; a Generator gives
-        one, None fresh entropy), recorded in the result's ``seed``.
+        The study's seed, which fixes every run's data (module docstring; a Generator gives one,
+        None fresh entropy), recorded in the result's ``seed``.
     options : mapping, optional
         The nuisance model per kind (default :attr:`Scenario.measurement_options`), CRLB too.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None
-        Known to the estimator and the CRLB: the values named, the scenario's (true) for the
-        others (``True``: all the scenario's); default estimated.
+        Known to the estimator and the CRLB: the values named, the scenario's (true) for the others
+        (``True``: all the scenario's); default estimated.
     init : mapping or array_like, optional
         A starting point given to every run (default: the estimator's own initialisation).
     progress : bool
@@ -212,13 +206,12 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     dask : str or distributed.Client, optional
         Send the chunks to a Dask cluster (its workers must import tmakit).
     chunk : int, optional
-        Runs per task (default :func:`~.execution.default_chunk`).  The table is the same,
-        run for run, for any ``chunk``, ``workers`` and ``dask``.
+        Runs per task (default :func:`~.execution.default_chunk`).
     on_chunk : callable, optional
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
     workers : int, optional
-        Worker processes here (default 1: this one), BLAS on one thread, at most one per chunk
-        and per CPU (:func:`~.execution.run_pool`; ``executor`` says how many); not with dask.
+        Worker processes here (default 1: this one), BLAS on one thread, at most one per chunk and
+        per CPU (:func:`~.execution.run_pool`; ``executor`` says how many); not with dask.
     seed : int or None, optional
         Deprecated: ``rng``.
 
