@@ -1,62 +1,8 @@
 """Steerable sensor platforms: a platform state, actions, and exact turn-and-accelerate steps.
 
-A :class:`PlatformState` holds ENU position (m), heading (rad, clockwise from North as every
-bearing in tmakit: ``atan2(v_east, v_north)``), horizontal speed (m/s), climb rate (m/s, up)
-and time (s); a 2-D platform is a 3-D one at constant altitude (``z = 0``, climb rate 0).
-
-An action (:class:`Actions`, vectorised: ``C`` candidates at once) asks for a heading change
-and a new speed by the end of a decision interval ``T``.  :class:`PlatformKinematics` flies
-it as a **constant turn rate** ``w = dpsi / T`` and a **constant tangential acceleration**
-``a = (v1 - v0) / T`` over the step, with a constant climb rate for 3-D platforms (set at
-the start of the step, so only the vertical velocity may jump between steps).  With the
-horizontal velocity written as ``V = v e^{i psi}`` (real part North, imaginary part East),
-``V(s) = (v0 + a s) e^{i (psi0 + w s)}`` and the displacement after ``s`` seconds is exact::
-
-    P(s) - P0 = e^{i psi0} s (v0 E1(i w s) + a s E2(i w s)),
-    E1(z) = (e^z - 1) / z,    E2(z) = (e^z (z - 1) + 1) / z^2,
-
-with the power series ``E1 = sum z^n / (n + 1)!`` and ``E2 = sum z^n / (n! (n + 2))`` near
-``z = 0`` (a straight step), so there is no Euler step and no cancellation.  For ``a = 0``
-this is the circular arc of :func:`tmakit.motion.propagate_curvilinear` (which keeps the
-*normal acceleration*, not the turn rate, constant when the speed changes).
-
-Limits (speed range, turn-rate, acceleration and climb-rate limits, altitude band) are applied
-by **clipping**, each clip reported: :class:`Step` has one boolean mask per limit
-(``speed_limited``, ``turn_limited``, ``acceleration_limited``, ``climb_limited`` for the
-climb-rate limit or altitude band) and their union ``clipped``; ``on_limit="raise"`` refuses
-instead.  Clipping, the default, keeps the candidate array shape fixed (a planner scores all
-``C`` candidates; it may drop the clipped ones).
-
-Everything is vectorised: one state (or ``C`` states) and ``C`` actions give ``(C, ...)``
-results by broadcasting; :meth:`Step.sensor_states` gives every candidate's sensor states
-``[x, y, z, vx, vy, vz]`` at times inside the step, shape ``(C, n, 6)``.  Steps chosen one
-after another make a :class:`PlatformTrack`, a :class:`~tmakit.sensors.SensorTrack` exact at
-every time, used by scenarios, simulation and bounds like any recorded or scripted track (a
-:class:`~tmakit.sensors.RecordedTrack`'s cubic Hermite pieces are not arcs).
-
-:data:`HURTADO_NEHORAI_2008` is the 15-action set of Hurtado & Nehorai (2008), section 5,
-example 1 (the paper selects a velocity vector per step; the turn inside it is tmakit's).
-
-Examples
---------
->>> import numpy as np
->>> from tmakit.sensors import PlatformState, platform_configuration
->>> config = platform_configuration("hurtado_nehorai_2008")
->>> start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=50.0)   # North, 50 m/s
->>> step = config.kinematics.step(start, config.actions, config.interval)
->>> step.shape, len(config.actions)
-((15,), 15)
->>> float(step.end.speed[0]), bool(step.clipped[0]), bool(step.clipped[5])  # x0.9: floor
-(50.0, True, False)
->>> step.sensor_states([0.25, 0.5]).shape              # candidates x times x state
-(15, 2, 6)
->>> path = config.kinematics.fly(start, config.actions[[13, 7, 7]], config.interval)
->>> path.start_time, path.end_time                     # x1.1 and +5 deg, then x1 twice
-(0.0, 1.5)
->>> np.allclose(path.states([0.5])[0], step[13].end.sensor_state)
-True
->>> round(float(path.end.speed), 6)
-55.0
+A :class:`PlatformState` holds ENU position (m), heading (rad, clockwise from North as every bearing
+in tmakit: ``atan2(v_east, v_north)``), horizontal speed (m/s), climb rate (m/s, up) and time (s); a
+2-D platform is a 3-D one at constant altitude (``z = 0``, climb rate 0).
 
 References
 ----------
@@ -201,10 +147,6 @@ class PlatformState:
     ------
     ValueError
         If a value is not finite, a speed is negative or the shapes do not broadcast.
-
-    Notes
-    -----
-    All fields broadcast to one batch shape :attr:`shape`; ``position`` is ``(*shape, 3)``.
     """
 
     position: Array
@@ -536,25 +478,18 @@ class PlatformKinematics:
     min_speed, max_speed : float, optional
         Horizontal speed range (m/s) at the end of every step.
     max_turn_rate, max_acceleration, max_climb_rate : float, optional
-        Largest turn rate (rad/s), tangential acceleration or deceleration (m/s^2), and
-        climb or descent rate (m/s).
+        Largest turn rate (rad/s), tangential acceleration or deceleration (m/s^2), and climb or
+        descent rate (m/s).
     min_altitude, max_altitude : float, optional
         Altitude band (m, ENU up) the platform may not leave at the end of a step.
     on_limit : {"clip", "raise"}, optional
-        ``"clip"``: clip to the limits and report it in the :class:`Step` masks;
-        ``"raise"``: raise ``ValueError`` when an action would need clipping.
+        ``"clip"``: clip to the limits and report it in the :class:`Step` masks; ``"raise"``: raise
+        ``ValueError`` when an action would need clipping.
 
     Raises
     ------
     ValueError
         If the limits are inconsistent (negative, or a minimum above its maximum).
-
-    Notes
-    -----
-    Order of the limits: the commanded end speed is clipped to the speed range, then the
-    acceleration it needs to the acceleration limit; the heading change divided by the
-    interval to the turn-rate limit; the climb rate to the altitude band, then to the
-    climb-rate limit (so a platform outside the band returns at most at that rate).
     """
 
     min_speed: float = 0.0
@@ -700,11 +635,6 @@ class PlatformTrack(SensorTrack):
     ------
     ValueError
         If there is no step, a step holds several candidates, or the steps do not join.
-
-    Notes
-    -----
-    At a step boundary the later step is used: horizontal velocity is continuous there, the
-    climb rate may change.  Times outside the path are refused, as by ``RecordedTrack``.
     """
 
     def __init__(self, steps: Sequence[Step]) -> None:

@@ -1,9 +1,7 @@
 """Sensor tracks: where the listening platform is, and how fast it moves, at any time.
 
-Every track answers :meth:`SensorTrack.states` with ENU positions (m) and velocities (m/s),
-shape ``(n, 6)``.  Headings and turn rates use the bearing convention of :mod:`tmakit.core.frames`
-(clockwise from North; a positive turn rate turns clockwise).  Tracks given in WGS-84
-latitude/longitude/altitude are converted to the local ENU frame with :mod:`tmakit.core.geodesy`.
+Every track answers :meth:`SensorTrack.states` with ENU positions (m) and velocities (m/s), shape
+``(n, 6)``.
 """
 
 from __future__ import annotations
@@ -142,10 +140,8 @@ class Leg:
 class LegsTrack(SensorTrack):
     """Straight legs and constant-rate turns (arcs) flown at constant altitude.
 
-    Starts at ``start`` (ENU, m) at ``start_time`` with ``heading`` (rad, clockwise from
-    North) and ``speed`` (m/s).  Each :class:`Leg` keeps the speed (or sets a new one) and
-    turns at a constant rate.  Before ``start_time`` the first leg is extended backwards; after
-    the last leg ends the track continues on it (straight or turning).
+    Starts at ``start`` (ENU, m) at ``start_time`` with ``heading`` (rad, clockwise from North) and
+    ``speed`` (m/s).
 
     Parameters
     ----------
@@ -163,9 +159,8 @@ class LegsTrack(SensorTrack):
     Raises
     ------
     ValueError
-        If there is no leg, the speed, heading, start time or a leg's turn rate is not
-        finite, a speed or duration is not positive, or a leg other than the last lasts
-        forever.
+        If there is no leg, the speed, heading, start time or a leg's turn rate is not finite, a
+        speed or duration is not positive, or a leg other than the last lasts forever.
     """
 
     def __init__(self, start: ArrayLike, heading: float, speed: float,
@@ -325,8 +320,7 @@ class RecordedTrack(SensorTrack):
 
     With velocities the interpolation is cubic Hermite (position and velocity both match the
     record); without, a cubic spline whose derivative gives the velocity (linear with only two
-    samples).  Asking for a time outside the record is an error: tmakit does not guess where
-    the sensor was.
+    samples).
 
     Parameters
     ----------
@@ -389,8 +383,7 @@ class RecordedTrack(SensorTrack):
         Raises
         ------
         ValueError
-            If ``t`` is not 1-D or a time is outside the record (beyond a 1e-9 relative
-            tolerance).
+            If ``t`` is not 1-D or a time is outside the record (beyond a 1e-9 relative tolerance).
         """
         t = _as_times(t)
         tol = 1e-9 * max(1.0, float(np.abs(self.times).max()))

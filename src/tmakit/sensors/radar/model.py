@@ -45,60 +45,54 @@ def _choice(name: str, value: str, allowed: Sequence[str]) -> None:
 class RadarModel:
     """A mono-static pulse radar with a uniform circular array (Hurtado & Nehorai (2008)).
 
-    The defaults are :data:`HURTADO_NEHORAI_2008_RADAR`: the paper's section 5 and, where the
-    paper is silent, the values chosen here.
+    The defaults are :data:`HURTADO_NEHORAI_2008_RADAR`: the paper's section 5 and, where the paper
+    is silent, the values chosen here.
 
     Parameters
     ----------
     carrier_frequency : float
         Carrier, Hz (paper: 10 GHz; wavelength 29.98 mm).
     bandwidth : float
-        Bandwidth of the transmitted pulse, Hz (paper: 1 MHz), taken as the full width at
-        half maximum (-3 dB) of its power spectrum ``|S(f)|^2`` (Gaussian for a Gaussian LFM
-        pulse): the engineering meaning of a quoted bandwidth.  The RMS bandwidth
-        ``sigma_f = B / 2.355`` (425 kHz) enters the bound.  *Chosen* (the paper gives no
-        definition).
+        Bandwidth of the transmitted pulse, Hz (paper: 1 MHz), taken as the full width at half
+        maximum (-3 dB) of its power spectrum ``|S(f)|^2`` (Gaussian for a Gaussian LFM pulse): the
+        engineering meaning of a quoted bandwidth.
     pulse_length : float
-        Full width at half maximum of ``|s(t)|^2``, s.  *Chosen*: 10 us, a time-bandwidth
-        product of 10 (a modest pulse compression); the envelope's RMS duration is
-        ``sigma_t = T / 2.355`` (4.25 us).  It must be at least ``2 ln 2 / (pi B)`` (0.44 us,
-        the unchirped Gaussian); the chirp supplies the rest of the bandwidth.
+        Full width at half maximum of ``|s(t)|^2``, s. *Chosen*: 10 us, a time-bandwidth product of
+        10 (a modest pulse compression); the envelope's RMS duration is ``sigma_t = T / 2.355``
+        (4.25 us).
     chirp : {"up", "down"}
-        Sign of the chirp rate ``kappa = +- sqrt(sigma_f^2 - 1 / (16 pi^2 sigma_t^2)) /
-        sigma_t`` (Hz/s; 99.9 GHz/s by default).  *Chosen*: "up".  It sets the sign of the
-        range / range-rate correlation (negative for "up").
+        Sign of the chirp rate ``kappa = +- sqrt(sigma_f^2 - 1 / (16 pi^2 sigma_t^2)) / sigma_t``
+        (Hz/s; 99.9 GHz/s by default). *Chosen*: "up".
     pri : float
         Pulse repetition interval, s (paper: 0.5 s): one measurement per PRI.
     elements : int
         Number of array elements M, at least 3 (paper: 6).
     spacing : float
         Distance between neighbouring elements, wavelengths (paper: 0.5); the radius is
-        ``spacing lambda / (2 sin(pi / M))`` (lambda / 2 = 14.99 mm for six elements).  The
-        array lies in the horizontal plane, element 0 on the East axis (*chosen*).
+        ``spacing lambda / (2 sin(pi / M))`` (lambda / 2 = 14.99 mm for six elements).
     snr_db : float
         SNR at the receiver, dB (paper: 10 dB, independent of range).
     snr_per : {"pulse", "sample"}
-        How the SNR is counted.  "pulse" (*chosen*, the default): per element, after
-        integration over the pulse, ``|b|^2 sum_n |s(t_n)|^2 / sigma^2`` (the matched-filter
-        output SNR ``E / N0`` of the radar equation, which the paper's "independent of the
-        target range" refers to); the bound then does not depend on the sampling.  "sample":
-        per element and per sample at the envelope's peak, ``|b|^2 / sigma^2`` (the
-        integrated SNR is then ~ ``fs sigma_t sqrt(2 pi)`` = 42.6 times larger).
+        How the SNR is counted. "pulse" (*chosen*, the default): per element, after integration over
+        the pulse, ``|b|^2 sum_n |s(t_n)|^2 / sigma^2`` (the matched-filter output SNR ``E / N0`` of
+        the radar equation, which the paper's "independent of the target range" refers to); the
+        bound then does not depend on the sampling. "sample": per element and per sample at the
+        envelope's peak, ``|b|^2 / sigma^2`` (the integrated SNR is then ~ ``fs sigma_t sqrt(2 pi)``
+        = 42.6 times larger).
     sampling_rate : float
-        Complex baseband sampling rate fs, Hz, at least ``2 B``.  *Chosen*: 4 MHz.  The pulse
-        is sampled over ``+- 8 sigma_t``: :attr:`samples_per_pulse` (273 by default) samples N.
+        Complex baseband sampling rate fs, Hz, at least ``2 B``. *Chosen*: 4 MHz.
     range_accuracy : {"derived", "resolution"}
-        "derived": the CRB of the signal model; "resolution": range sigma ``c / (2 B)``
-        (150 m), uncorrelated (see the module docstring).
+        "derived": the CRB of the signal model; "resolution": range sigma ``c / (2 B)`` (150 m),
+        uncorrelated (see the module docstring).
     speed_of_light : float
         Propagation speed c, m/s.
 
     Raises
     ------
     ValueError
-        On a non-positive or non-finite number, fewer than 3 elements, an unknown option, a
-        pulse shorter than the Gaussian limit, a sampling rate below ``2 B`` or a bandwidth
-        above a tenth of the carrier (the model is narrow band).
+        On a non-positive or non-finite number, fewer than 3 elements, an unknown option, a pulse
+        shorter than the Gaussian limit, a sampling rate below ``2 B`` or a bandwidth above a tenth
+        of the carrier (the model is narrow band).
     """
 
     carrier_frequency: float = 10e9
@@ -298,10 +292,7 @@ class RadarModel:
 
     @property
     def measurement_scale(self) -> Array:
-        """``d [bearing, elevation, range, range_rate] / d [phi, psi, tau, omega_D]`` (4,).
-
-        The diagonal ``(-1, 1, c / 2, -lambda / (4 pi))``: rad/rad, rad/rad, m/s, m.
-        """
+        """``d [bearing, elevation, range, range_rate] / d [phi, psi, tau, omega_D]`` (4,)."""
         return np.array([-1.0, 1.0, self.speed_of_light / 2.0,
                          -self.wavelength / (4.0 * np.pi)])
 
