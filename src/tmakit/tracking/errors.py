@@ -1,11 +1,4 @@
-"""The errors of tracking: they name the library's parameters, never a command-line flag.
-
-A :class:`TrackingError` message may name parameters through placeholders (``{prior}``,
-``{max_relative_std}``, ...): ``str(error)`` spells them as the library does, and a caller
-with other names for them (the ``tma track`` command and its flags) renders the same message
-with its own spellings through :meth:`TrackingError.render`.  The parameter the error is
-about is :attr:`TrackingError.parameter`.
-"""
+"""The errors of tracking: they name the library's parameters, never a command-line flag."""
 
 from __future__ import annotations
 
@@ -24,12 +17,11 @@ class TrackingError(ValueError):
     ----------
     template : str
         The message; ``{name}`` marks where parameter ``name`` of ``spellings`` is named.
-        Other text (braces included) is kept as it is.
     parameter : str or None
         The library parameter the error is about (its value is wrong, or it is the way out).
     spellings : mapping of str to str, or sequence of str
-        The placeholders of ``template`` and how the library spells each (a sequence: each
-        by its own name).  Default: none, the message is plain text.
+        The placeholders of ``template`` and how the library spells each (a sequence: each by its
+        own name).
 
     Attributes
     ----------
@@ -94,9 +86,8 @@ class TrackingError(ValueError):
 class StartError(TrackingError):
     """The data cannot start the filter.
 
-    No initial window gives a good enough batch estimate, or the chosen window does not;
-    the message says which parameters offer a way out (a prior, a looser start quality, a
-    longer window).
+    No initial window gives a good enough batch estimate, or the chosen window does not; the message
+    says which parameters offer a way out (a prior, a looser start quality, a longer window).
     """
 
 

@@ -74,8 +74,7 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
     Parameters
     ----------
     q : float or array_like
-        One acceleration standard deviation (m/s^2) for every axis, or ``dim`` of them
-        (x, y[, z]).  Text is refused: the command line parses ``"qx,qy"`` itself.
+        One acceleration standard deviation (m/s^2) for every axis, or ``dim`` of them (x, y[, z]).
     dim : int
         The track's spatial dimension, 2 or 3.
 
@@ -122,7 +121,6 @@ def noise_density(q_density: float | ArrayLike, dim: int) -> tuple[float, ...]:
     q_density : float or array_like
         One density (m^2/s^3) for every axis, or ``dim`` of them: per axis
         ``Q = q~ [[T^3/3, T^2/2], [T^2/2, T]]`` (:func:`tmakit.motion.dynamics.process_noise`).
-
     dim : int
         The track's spatial dimension, 2 or 3.
 
@@ -134,8 +132,7 @@ def noise_density(q_density: float | ArrayLike, dim: int) -> tuple[float, ...]:
     Raises
     ------
     TrackingError
-        Text, the wrong number of values, or a negative or non-finite one (parameter
-        ``q_density``).
+        Text, the wrong number of values, or a negative or non-finite one (parameter ``q_density``).
     """
     what = f"a number or {dim} numbers (m^2/s^3 per axis)"
     if isinstance(q_density, str | bytes):

@@ -1,21 +1,4 @@
-"""How a track starts: initiators, objects with their settings in ``__init__``.
-
-An initiator's :meth:`~Initiator.initiate` starts the filter of a
-:class:`~.filter_setup.FilterSetup` on a measurement set and returns an
-:class:`Initiation`: the typed record of the start (:class:`~.records.PriorStart` or
-:class:`~.records.BatchStart`) and the track.
-
-* :class:`PriorInitiator` starts from a given Gaussian prior (mean and standard deviations by
-  state name) at the first measurement time or a given time, with known nuisance values when
-  the measurement kinds need them; the filter updates with every row.
-* :class:`BatchInitiator` (the default of :func:`tmakit.track`) needs no guess: a batch
-  maximum-likelihood estimate over the shortest initial window good enough to linearise
-  around (:func:`.window.search_window`), confirmed by the innovations of the updates that
-  follow it.  A start whose next updates' summed NIS is improbable under chi-square (p below
-  ``confirm_p_value``) is replaced by one from a window at least twice as long.  The filter
-  runs over the rows after the window; the track's first row is the batch estimate at the
-  window's end (NIS NaN, no degrees of freedom).
-"""
+"""How a track starts: initiators, objects with their settings in ``__init__``."""
 
 from __future__ import annotations
 
@@ -55,8 +38,7 @@ class Initiation:
     start : PriorStart or BatchStart
         How it started.
     track : Track
-        The filter's track from the start on (after a batch start, its first row is the
-        start).
+        The filter's track from the start on (after a batch start, its first row is the start).
     """
 
     start: StartRecord
@@ -155,13 +137,6 @@ class PriorInitiator(Initiator):
 class BearingInitiator(Initiator):
     """Start at the first bearing from a prior in the user's terms (issue 28).
 
-    The filter starts at the first bearing's time from ``prior`` centred on that bearing
-    (:meth:`TrackingFilter.from_first_bearing
-    <tmakit.filters.TrackingFilter.from_first_bearing>`: the Gaussian sum's range-
-    parameterised components, the particle filter's samples, a single filter's moments),
-    and updates with every other row.  The track's first row is that start (NIS NaN, no
-    degrees of freedom): an estimate with an honest covariance from the first bearing on.
-
     Parameters
     ----------
     prior : BearingPrior, optional
@@ -235,15 +210,14 @@ class BatchInitiator(Initiator):
     Parameters
     ----------
     init_window : int, optional
-        Use the first ``init_window`` distinct measurement times (the estimate must converge
-        and be observable; no innovation test).  Default: search the shortest window that
-        meets ``max_relative_std``.
+        Use the first ``init_window`` distinct measurement times (the estimate must converge and be
+        observable; no innovation test).
     max_relative_std : float
-        Start quality: the position's largest 1-sigma semi-axis must be below this fraction
-        of the range to the nearest sensor (> 0).
+        Start quality: the position's largest 1-sigma semi-axis must be below this fraction of the
+        range to the nearest sensor (> 0).
     confirm : bool
-        Test each start by the innovations of the updates that follow it, and replace a
-        rejected one by a start from a window at least twice as long.
+        Test each start by the innovations of the updates that follow it, and replace a rejected one
+        by a start from a window at least twice as long.
     min_window : int
         The first window the search tries (distinct measurement times).
     confirm_p_value : float
@@ -252,8 +226,7 @@ class BatchInitiator(Initiator):
     Raises
     ------
     TrackingError
-        ``max_relative_std`` <= 0 (without ``init_window``), ``confirm_p_value`` outside
-        0 .. 1.
+        ``max_relative_std`` <= 0 (without ``init_window``), ``confirm_p_value`` outside 0 .. 1.
     """
 
     def __init__(self, init_window: int | None = None,

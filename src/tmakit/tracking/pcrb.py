@@ -21,16 +21,8 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
                ) -> tuple[Any | None, str]:
     """Compute the posterior CRB of a tracker that starts where ``tr`` started.
 
-    The bound (:mod:`tmakit.bounds.pcrb`; Hurtado & Nehorai (2008), eqs. 10-11, after
-    Tichavský et al. (1998)) has the same prior covariance, q, options and nuisance values as
-    the track, over the same updates.  With ``truth`` the measurement information is
-    evaluated along the true trajectory (:func:`~tmakit.bounds.pcrb.deterministic_pcrb` from
-    the true state at the start): the bound for this run's geometry, which with q = 0 equals
-    the batch CRLB of the same data plus the start's information.  Without it,
-    :func:`~tmakit.bounds.pcrb.posterior_crb` averages over ``trajectories`` drawn from the
-    start prior (``rng``).  The average is dominated by the draws that pass closest to the
-    sensors when the prior is wide (bearing information grows as 1/range^2), which is why the
-    picture of a known-truth run uses the former.
+    The bound (:mod:`tmakit.bounds.pcrb`; Hurtado & Nehorai (2008), eqs. 10-11, after Tichavský et
+    al.
 
     Parameters
     ----------
@@ -39,8 +31,7 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
     tr : Track
         A track from :func:`tmakit.track`.
     truth : array_like, shape (K, n), optional
-        True states at the track's times (m, m/s), as from
-        :func:`tmakit.scenario.truth_states`.
+        True states at the track's times (m, m/s), as from :func:`tmakit.scenario.truth_states`.
     trajectories : int
         Trajectories of the Monte Carlo average (without ``truth``).
     rng : numpy.random.Generator or int, optional
@@ -49,8 +40,8 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
     Returns
     -------
     tuple
-        ``(bound, note)``: the :class:`~tmakit.bounds.pcrb.PosteriorBound`, or ``None`` and a
-        note that says why it cannot be computed.
+        ``(bound, note)``: the :class:`~tmakit.bounds.pcrb.PosteriorBound`, or ``None`` and a note
+        that says why it cannot be computed.
 
     References
     ----------

@@ -1,9 +1,8 @@
 """Typed records of how a track started.
 
-An initiator (:mod:`.initiators`) returns one of :class:`PriorStart` and :class:`BatchStart`:
-the Gaussian the filter began from (time, mean, covariance, nuisance values) and why.  Their
-:meth:`as_dict` is the JSON-ready ``start`` of ``tma track --json`` and of
-``Track.extra["start"]``.
+An initiator (:mod:`.initiators`) returns one of :class:`PriorStart` and :class:`BatchStart`: the
+Gaussian the filter began from (time, mean, covariance, nuisance values) and why.  Their
+:meth:`as_dict` is the JSON-ready ``start`` of ``tma track --json`` and of ``Track.extra["start"]``.
 """
 
 from __future__ import annotations

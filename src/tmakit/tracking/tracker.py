@@ -1,12 +1,4 @@
-"""Tracking a measurement set with a recursive filter, in one call: :func:`track`.
-
-:func:`track` needs no initial guess: by default a :class:`~.initiators.BatchInitiator`
-starts the filter from a batch estimate over the shortest initial window of the data that
-is good enough to linearise around; a :class:`~.initiators.PriorInitiator` (or ``prior`` and
-``prior_std``) starts it from a given Gaussian.  The nuisance parameters (carrier, power
-constant, ...) a filter must know come from the batch estimate, or are given with the prior.
-Everything is SI (m, m/s, s).
-"""
+"""Tracking a measurement set with a recursive filter, in one call: :func:`track`."""
 
 from __future__ import annotations
 
@@ -97,13 +89,13 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     particles : int, optional
         Particle count, for particle filters only.
     prior, prior_std : mapping or array_like, optional
-        Short form of ``initiator=PriorInitiator(prior, prior_std, prior_time, nuisance)``
-        (by state name or as vectors; m, m/s).
+        Short form of ``initiator=PriorInitiator(prior, prior_std, prior_time, nuisance)`` (by state
+        name or as vectors; m, m/s).
     prior_time : float, optional
         The prior's time (s; default the first measurement time).
     init_window, max_relative_std, confirm
-        Short form of ``initiator=BatchInitiator(init_window, max_relative_std, confirm)``
-        when no prior is given (the default start).
+        Short form of ``initiator=BatchInitiator(init_window, max_relative_std, confirm)`` when no
+        prior is given (the default start).
     rng : numpy.random.Generator or int, optional
         Generator or seed, for the filters that draw random numbers.
     dim : int, optional
@@ -115,8 +107,8 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     initiator : Initiator, optional
         The start policy (then none of the start keywords above).
     bearing_prior : BearingPrior, optional
-        Short form of ``initiator=BearingInitiator(bearing_prior, nuisance)``: start at the
-        first bearing (``gsf`` does by default, with the default intervals).
+        Short form of ``initiator=BearingInitiator(bearing_prior, nuisance)``: start at the first
+        bearing (``gsf`` does by default, with the default intervals).
     settings : mapping, optional
         Further filter settings (``{"component": "ckf"}`` for ``gsf``, ...).
     q_density : float or array_like
@@ -127,17 +119,16 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     Returns
     -------
     Track
-        One row per update (SI); ``extra`` says how it started (``start``, ``start_record``)
-        and with which ``q``, ``q_density``, ``dim`` and ``options``.  Its first row is the
-        start (NIS NaN) after a batch or first-bearing start.
+        One row per update (SI); ``extra`` says how it started (``start``, ``start_record``) and
+        with which ``q``, ``q_density``, ``dim`` and ``options``.
 
     Raises
     ------
     TypeError
         ``meas`` is not a MeasurementSet.
     TrackingError
-        A refused argument or data that cannot start the filter; the error names the
-        library parameter (:attr:`TrackingError.parameter`).
+        A refused argument or data that cannot start the filter; the error names the library
+        parameter (:attr:`TrackingError.parameter`).
     """
     if not isinstance(meas, MeasurementSet):
         raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")

@@ -1,15 +1,4 @@
-"""The initial window a batch start is estimated over.
-
-The batch maximum-likelihood estimate (:func:`tmakit.batch.estimate`, constant velocity
-referenced at the window's last time) over the first ``k`` distinct measurement times is a
-good start when it converged, the window's data make every state component observable, and
-the position's largest 1-sigma semi-axis is below ``max_relative_std`` times the estimated
-range to the nearest sensor.  The last condition matters: a bearings-only EKF started from an
-estimate that is merely observable (range known to 70 %) diverges; one started below 25 %
-stays consistent (``docs/tracking.md`` gives the numbers).  :func:`search_window` doubles
-the window from ``min_window`` times until it qualifies, then bisects down to the shortest
-window that does (the quality improves with the window length, if not strictly).
-"""
+"""The initial window a batch start is estimated over."""
 
 from __future__ import annotations
 
