@@ -2,14 +2,7 @@
 
 Ten fixed sensors on the ground and a source on the ground (a 2-D problem, the source's height
 known); TDOAs of sensors 2-10 against sensor 1 at one time, their noise shared through it
-(range-difference covariance ``sigma^2 (I + 1 1') / 2``, Chan & Ho's noise model).  The
-position MSE of tmakit's maximum likelihood and of Chan & Ho's two-stage closed form
-(:func:`tmakit.batch.hyperbolic.two_stage_wls`) against the noise, beside the CRLB.
-
-The paper's text is not among tmakit's shared papers: the ten-sensor layout here is tmakit's
-own (sensors spread over about 20 km, the source 12 km beyond them), chosen so that both
-estimators meet their threshold within the sweep; the noise model and the method are the
-paper's.
+(range-difference covariance ``sigma^2 (I + 1 1') / 2``, Chan & Ho's noise model).
 """
 
 from __future__ import annotations

@@ -1,35 +1,4 @@
-"""Reproduce Chen & Sun (§3, Fig. 2): 3-D emitter tracking from azimuth and range differences.
-
-Setup as §3.1 gives it: one fixed receiver without elevation at (30, 0, 0) km, emitter from
-(50, 60, 10) km at constant velocity, path 1 (-300, -300, 0) m/s, path 2 (-450, 0, 0) m/s,
-path 3 (0, -450, 0) m/s (scenarios ``chen-sun-1/2/3``, 1-s pulses over 100 s: the paper does
-not give the duration); azimuth sigma 2 mrad, range difference sigma 5 m per pulse interval;
-process noise q_x = q_y = 20 m/s^2, q_z = 10 m/s^2 (§2.1's Q_k); 30 Monte Carlo runs; the EKF
-and the modified-gain EKF (:class:`~tmakit.filters.mgekf.ModifiedGainEKF`) updated with the
-multi-lag vectors of §2.2 (:func:`~tmakit.filters.multilag.multilag_groups`, lags
-:data:`~tmakit.filters.multilag.DEFAULT_LAGS`: the paper uses "eight" measurement functions and
-gives no lags).
-
-Initial guess (§2.5): the printed formula ``x_o = sqrt(R_o^2 - z^2 cos^2 b_o) + x_r`` is not a
-polar conversion (it ignores the sign of the bearing and gives x and y both larger than the
-range); its evident intent is implemented: the emitter at the assumed slant range ``R_o`` along
-the first measured bearing at the assumed height ``z``, i.e. horizontal range
-``rho = sqrt(R_o^2 - z^2)``, ``x = x_r + rho sin b``, ``y = y_r + rho cos b`` (tmakit bearings
-are clockwise from North), ``z = z_r + z``, velocity ``0.5 v_max`` and
-``P_0 = diag[3 km^2 x 3, (100 m/s)^2 x 3]`` as printed (3 km^2 read as a variance).  §3.1
-gives ``R_o = 70 km``, ``z = 15 km`` and ``v_max = (-500, -500, 0) m/s``.
-
-Mirror ambiguity: the receiver is on the ground (z = 0) and measures no elevation, so a target
-at height z and one at -z give the same data.  Both filters start above the ground and use
-the mirror rule of :mod:`tmakit.filters.mgekf` (an estimate that falls below the receiver's
-plane is reflected back: the data cannot tell the two apart, the emitter is airborne);
-heights are reported as ``±|z|`` with the sign taken from that assumption.
-
-Consecutive multi-lag vectors reuse data, so a filter that treats them as independent (the
-paper) counts the information several times; the reproduction reports that filter's NEES and
-the same filters with ``reuse_inflation`` (each row's variance multiplied by how many updates
-use its data; not in the paper).
-"""
+"""Reproduce Chen & Sun (§3, Fig. 2): 3-D emitter tracking from azimuth and range differences."""
 
 from __future__ import annotations
 

@@ -1,11 +1,4 @@
-"""Reproduce the Doppler-tracking lecture notes: frequency-only tracking of an airborne radar.
-
-The notes admit that one stationary receiver leaves the 7-parameter problem
-[X_N Y_N Z_N Vx Vy Vz f_o] rank deficient.  tmakit shows how much: rank 4 of 7 (rotations of
-the track about any axis through the receiver leave every range history, hence every Doppler
-shift, unchanged); a second receiver leaves one rotation (about the line through both); a third
-makes it observable, and then the estimate reaches the bound.
-"""
+"""Reproduce the Doppler-tracking lecture notes: frequency-only tracking of an airborne radar."""
 
 from __future__ import annotations
 

@@ -1,10 +1,7 @@
 """Reproduce Gu et al. (2007) (Gu, Pachter, Chandler, Schumacher): Tables 1-3 and §5.
 
 Tables 1-3 are the CRLB RMS values with C and f_s known, as the paper computes them (eqs. 17-18);
-tmakit evaluates the same bound on the ``gu2007`` scenario.  The Monte Carlo part compares the
-RMS errors of tmakit's ML (no initial guess, C and f_s unknown) and of the paper's ratio method
-with the paper's §5 figures and with the CRLB that matches an estimator that does not know C and
-f_s.
+tmakit evaluates the same bound on the ``gu2007`` scenario.
 """
 
 from __future__ import annotations

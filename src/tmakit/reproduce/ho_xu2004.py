@@ -1,15 +1,8 @@
 """Reproduce Ho & Xu (2004): a moving source from TDOA and FDOA of five moving sensors.
 
-Five sensors moving in 3-D, a source at constant velocity near them; TDOAs and FDOAs against
-the first sensor at one time, their noise shared through it (range-difference covariance
+Five sensors moving in 3-D, a source at constant velocity near them; TDOAs and FDOAs against the
+first sensor at one time, their noise shared through it (range-difference covariance
 ``sigma^2 (I + 1 1') / 2``, range-rate differences ten times finer, ``0.1 sigma`` in m/s).
-The position and velocity MSE of tmakit's maximum likelihood and of Ho & Xu's closed form
-(:func:`tmakit.batch.hyperbolic.two_stage_wls`) against the noise, beside the CRLB.
-
-The layout (sensor positions and velocities, source) is the one commonly used with Ho & Xu
-(2004) and Ho, Lu & Kovavisaruch (2007); the papers' text is not among tmakit's shared papers,
-so it is tmakit's statement of it, not checked against the paper's table.  The carrier (1 GHz)
-only converts range rates to hertz and back: it is known.
 """
 
 from __future__ import annotations

@@ -1,19 +1,8 @@
 """Reproduce Hörst & Oispuu (2010): the Cramér–Rao analysis of §4, Fig. 2.
 
-The scenario is ``hoerst2010`` (§4: target from (-9 km, 12 km) at 50 m/s heading East, a turn
-with a_n = 0.5 m/s^2 from 400 s to 600 s; observer circling counter-clockwise at 50 m/s; one
-azimuth (sigma 2 deg) and one azimuth rate (sigma 1 mrad/s) per second, to 900 s).  Every
-10 s the bound on the current position is computed from the data so far, with the
-accelerations and the change-over times of the manoeuvres that have started unknown
-(:func:`tmakit.bounds.curvilinear_crb_sequence`), for azimuth only (Fig. 2 left) and azimuth +
-azimuth rate (Fig. 2 right), and again with the manoeuvres known.
-
-The paper prints no numbers for Fig. 2, only the picture and four statements about it (§4):
-azimuth + rate is more accurate on all three legs, it converges faster, the turn leg is
-reasonable with azimuth + rate and inferior with azimuth only, and accuracy decreases after
-each manoeuvre.  The reproduction checks each statement with numbers and draws the figure
-(90 % ellipses every 10 s; an ellipse is left out when its extent — its major axis, twice the
-major semi-axis — exceeds 30 km, or when the position is not observable).
+The scenario is ``hoerst2010`` (§4: target from (-9 km, 12 km) at 50 m/s heading East, a turn with
+a_n = 0.5 m/s^2 from 400 s to 600 s; observer circling counter-clockwise at 50 m/s; one azimuth
+(sigma 2 deg) and one azimuth rate (sigma 1 mrad/s) per second, to 900 s).
 """
 
 from __future__ import annotations

@@ -1,24 +1,4 @@
-"""The two bearings-only scenarios of Ristic et al. (2004, ch. 6), as Leong et al. coded them.
-
-Ristic, Arulampalam & Gordon (2004), *Beyond the Kalman Filter*, ch. 6; Leong, Arulampalam,
-Lamahewa & Abhayapala (2014).  Their published MATLAB script ("Gaussian-sum cubature Kalman
-filter with improved robustness for bearings-only tracking", IEEE SPL 21(5)) gives, in
-kilometres and knots; here in metres:
-
-* ``moderate``: 33 bearings, T = 60 s, sigma 1.5 deg; own ship 5 kn, course 140 deg,
-  turning to 20 deg in four equal steps at samples 13-16; target from (4920, 850) m at 4 kn,
-  course -140 deg.
-* ``high`` (highly nonlinear): 31 bearings, T = 60 s, sigma 2 deg; own ship 5 kn, course -80
-  deg, turning to 146 deg at sample 15; target from (7090.9, 7052.6) m at 15 kn, course
-  -135.4 deg.
-
-Both: the target's continuous white-noise acceleration density q~ = 9e-6 m^2/s^3 per axis
-(their 9e-12 km^2/s^3), 1 kn = 0.514 m/s as they code it.  Their Gaussian sum covers the
-true initial range ± 3 sigma_r (sigma_r 2 km and 4 km), floored at a tenth of it:
-:data:`SCENARIOS` keeps those intervals as the range priors, and a largest speed (10 kn and
-25 kn, the targets doing 4 and 15 kn) as the speed priors.  Used by
-``benchmarks/first_bearing.py`` and the tests; not a ``tma reproduce`` entry.
-"""
+"""The two bearings-only scenarios of Ristic et al. (2004, ch. 6), as Leong et al. coded them."""
 
 from __future__ import annotations
 
