@@ -1,10 +1,7 @@
 """What every tmakit picture shares: the map's coordinates and the time axis.
 
 A map is in latitude/longitude (degrees, true scale: the aspect is 1 / cos(latitude)) when the
-measurement set knows its ENU origin, else in East/North (km); it carries a scale bar.  A time
-axis shows UTC clock time when the set records its time origin, else seconds.  Used by
-:mod:`tmakit.plot` (``tma show``/``tma track --plot``) and :mod:`tmakit.plot.solution`
-(``tma estimate --plot``).
+measurement set knows its ENU origin, else in East/North (km); it carries a scale bar.
 """
 
 from __future__ import annotations

@@ -1,13 +1,4 @@
-"""The geolocation picture: CEP50 and CEP90 of a stationary emitter over a grid (``tma gdop``).
-
-For a sensor layout and its measurement set (a scenario file's sensors and ``tdoa`` /
-``fdoa`` plans), the CRLB of a stationary emitter's position at each point of a grid on the
-ground plane (:func:`tmakit.bounds.layout.layout_information`, the height known) and the
-circle about it that holds the best unbiased estimate with probability 50 % and 90 %
-(:func:`tmakit.bounds.layout.cep`): the classic planning picture of an EW engineer.  The map
-is in latitude/longitude when the layout's origin is known
-(:class:`tmakit.plot.frame.MapFrame`).
-"""
+"""The geolocation picture: CEP50 and CEP90 of a stationary emitter over a grid (``tma gdop``)."""
 
 from __future__ import annotations
 

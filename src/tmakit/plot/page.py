@@ -1,17 +1,8 @@
 """The interactive solution page: one self-contained HTML file (``tma estimate --html``).
 
-Left, the geography in latitude/longitude (East/North in km without an origin): the sensors'
-tracks with their straight legs, the bearing fan, the estimated track with its position
-ellipses and, at the reference time, the solution's handles.  Right, the stacked dots: one
-panel per measurement kind, the residuals in units of sigma against clock time.  The analyst
-drags the solution's position (the square) and its velocity (the circle at the end of the
-course-and-speed stick, ``tau`` seconds ahead); the dots, the chi-square and the answers
-follow at once, computed in the page by ``page.js`` (the point kinds' measurement
-model: bearing, range, frequency with its carrier eliminated); "back to ML" restores the fit.
-
-Drawn with Bokeh, its JavaScript embedded (no network needed to open the page).  Every text
-that comes from a file (sensor and file names, metadata) reaches the page as canvas text or
-HTML-escaped: none of it is markup.
+Left, the geography in latitude/longitude (East/North in km without an origin): the sensors' tracks
+with their straight legs, the bearing fan, the estimated track with its position ellipses and, at
+the reference time, the solution's handles.
 """
 
 from __future__ import annotations

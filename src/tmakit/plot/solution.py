@@ -1,10 +1,8 @@
 """The solution picture of a batch estimate: the analyst's geometry and residuals.
 
-Left, the geometry: the sensor tracks, the bearing lines, the estimated track with its
-position ellipses at labelled times (the truth too when the file knows it), on a map in
-latitude/longitude when the ENU origin is known (else East/North in km), with a scale bar.
-Right, one panel per measurement kind: the residuals against time in units of sigma
-("stacked dots"), with the ±1σ and ±3σ bands.  Written with matplotlib's Agg backend.
+Left, the geometry: the sensor tracks, the bearing lines, the estimated track with its position
+ellipses at labelled times (the truth too when the file knows it), on a map in latitude/longitude
+when the ENU origin is known (else East/North in km), with a scale bar.
 """
 
 from __future__ import annotations
@@ -271,8 +269,7 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     path : str or Path
         The picture (PNG, PDF, SVG).
     residuals : ndarray, shape (n,)
-        Each row's residual in units of its sigma
-        (:func:`tmakit.results.normalised_residuals`).
+        Each row's residual in units of its sigma (:func:`tmakit.results.normalised_residuals`).
     answer : tmakit.results.answers.Answer, optional
         The answers shown under the title (course, speed, position ellipse).
     title : str, optional

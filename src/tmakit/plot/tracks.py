@@ -339,12 +339,6 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
               ) -> Path:
     """Write a picture of planned closed-loop runs (:func:`tmakit.plan`).
 
-    Left, the paths of the first ``paths`` runs (km): the planned sensor path (and the fixed
-    pattern, dotted) from its start, the target's truth and the tracker's estimate; right,
-    the true range to the target over time (km, every run) and, for the planned path and the
-    fixed pattern, the position RMSE over the runs against the posterior CRB at the truth
-    (m, log scale).
-
     Parameters
     ----------
     run : tmakit.montecarlo.planned.PlanRun
