@@ -25,32 +25,11 @@ __all__ = ["BatchInitiator"]
 class BatchInitiator(GaussianInitiator):
     """Start a Stone Soup track from tmakit's batch estimate, with no initial guess.
 
-    Every call adds the detections it is given to those collected so far.  Once they span
-    ``min_window`` distinct times, the constant-velocity maximum-likelihood estimate over all
-    of them, referenced at the latest time (:func:`tmakit.batch.estimate`, grid start, nuisance
-    parameters eliminated), is tried; it starts a track when it converged, every state
-    component is observable and the position's largest 1-sigma semi-axis is below
-    ``max_relative_std`` times the range to the nearest sensor — the start rule of
-    :func:`tmakit.tracking.window.search_window` and :func:`tmakit.track`.  Otherwise it is
-    tried again once the number of times has grown by the factor ``growth``.  The track's
-    first state is a ``GaussianState`` (Stone Soup's state order, :func:`cartesian_mapping`)
-    at the latest detection time; :attr:`estimate` keeps tmakit's result.
-
-    Detections are read by :func:`from_detections` (tmakit's own models or Stone Soup's
-    bearing, elevation and range models).  One target: every detection it is given is taken
-    to be of the target it starts (use it where association has removed clutter, or with a
-    single-target tracker).
-
     Parameters
     ----------
     *args, **kwargs
-        Stone Soup properties, by position or name: ``dim``, ``max_relative_std``,
-        ``min_window``, ``growth``, ``options`` and ``epoch`` (documented with each below).
-
-    Raises
-    ------
-    ValueError
-        For a ``dim`` other than 2 or 3, or a start rule that cannot be met.
+        Stone Soup properties, by position or name: ``dim``, ``max_relative_std``, ``min_window``,
+        ``growth``, ``options`` and ``epoch`` (documented with each below).
     """
 
     dim: int = Property(default=2, doc="Spatial dimension of the target, 2 or 3.")

@@ -34,14 +34,7 @@ def cartesian_mapping(dim: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
 
 
 class TmakitMeasurementModel(NonLinearGaussianMeasurement):
-    """tmakit measurement rows at one time as a Stone Soup measurement model.
-
-    Build it with :meth:`from_rows`.  ``function`` and ``jacobian`` evaluate the rows' tmakit
-    models (:class:`~tmakit.observation.MeasurementGroup`) at the Stone Soup state's position
-    and velocity (picked by ``mapping`` and ``velocity_mapping``): SI values (rad, m, m/s,
-    Hz, dBW), analytic Jacobians ``(m, ndim_state)``; angle rows are Stone Soup ``Bearing``
-    values, so innovations wrap to (-pi, pi].
-    """
+    """tmakit measurement rows at one time as a Stone Soup measurement model."""
 
     group: MeasurementGroup = Property(doc="The rows, their models, sensor states and noise.")
     velocity_mapping: tuple[int, ...] = Property(doc="State indices of vx, vy(, vz).")
