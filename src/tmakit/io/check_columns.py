@@ -15,21 +15,11 @@ __all__ = ["Layout", "check_columns"]
 
 @dataclass(frozen=True)
 class Layout:
-    """How a file gives the sensor state.
+    """How a file gives the sensor state."""
 
-    Parameters
-    ----------
-    geodetic : bool
-        Positions as ``sensor_lat``/``sensor_lon`` (degrees) instead of ENU metres.
-    has_velocity : bool
-        The file has both ``sensor_vx`` and ``sensor_vy``.
-    has_ref : bool
-        The file has ``ref_sensor_*`` columns.
-    """
-
-    geodetic: bool
-    has_velocity: bool
-    has_ref: bool
+    geodetic: bool  # Positions as ``sensor_lat``/``sensor_lon`` (degrees) instead of ENU metres
+    has_velocity: bool  # The file has both ``sensor_vx`` and ``sensor_vy``
+    has_ref: bool  # The file has ``ref_sensor_*`` columns
 
 
 def check_columns(columns: Collection[str], kinds: list[str], problems: Problems) -> Layout:

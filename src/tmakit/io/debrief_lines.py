@@ -16,146 +16,84 @@ _SOLUTIONS = (";TMA_POS:", ";TMA_RB:")
 
 @dataclass(frozen=True)
 class TrackLine:
-    """A track fix of a replay file.
+    """A track fix of a replay file."""
 
-    Attributes
-    ----------
-    line : int
-        Line number in the file (1-based).
-    name : str
-        The track's name.
-    time_ns : int
-        Time, ns since the Unix epoch (UTC).
-    lat, lon : float
-        Position, degrees.
-    course, speed_kn, depth : float
-        Course (degrees true), speed (knots) and depth (m).
-    file : str
-        The file's name (for messages when several files are read as one replay).
-    """
-
-    line: int
-    name: str
-    time_ns: int
+    line: int  # Line number in the file (1-based)
+    name: str  # The track's name
+    time_ns: int  # Time, ns since the Unix epoch (UTC)
+    #: lat, lon: Position, degrees
     lat: float
     lon: float
+    #: course, speed_kn, depth: Course (degrees true), speed (knots) and depth (m)
     course: float
     speed_kn: float
     depth: float
-    file: str = ""
+    file: str = ""  # The file's name (for messages when several files are read as one replay)
 
 
 @dataclass(frozen=True)
 class SensorLine:
-    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact (None where the file says ``NULL``).
+    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact (None: ``NULL`` in the file)."""
 
-    Attributes
-    ----------
-    line : int
-        Line number in the file (1-based).
-    host : str
-        The track that holds the sensor.
-    time_ns : int
-        Time, ns since the Unix epoch (UTC).
-    lat, lon : float or None
-        The sensor's position, degrees (None: the host track's position at ``time_ns``).
-    bearing, ambiguous : float or None
-        Bearing and its ambiguous twin, degrees true.
-    frequency : float or None
-        Frequency, Hz.
-    range_yd : float or None
-        Range, yards.
-    bearing_accuracy, frequency_accuracy : float or None
-        The standard deviations a ``;SENSOR3:`` line states (deg, Hz); None elsewhere.
-    sensor, label : str
-        The sensor's name and the contact's label.
-    file : str
-        The file's name (for messages when several files are read as one replay).
-    """
-
-    line: int
-    host: str
-    time_ns: int
+    line: int  # Line number in the file (1-based)
+    host: str  # The track that holds the sensor
+    time_ns: int  # Time, ns since the Unix epoch (UTC)
+    #: lat, lon: The sensor's position, degrees (None: the host track's position at ``time_ns``)
     lat: float | None
     lon: float | None
+    #: bearing, ambiguous: Bearing and its ambiguous twin, degrees true
     bearing: float | None
     ambiguous: float | None
-    frequency: float | None
-    range_yd: float | None
+    frequency: float | None  # Frequency, Hz
+    range_yd: float | None  # Range, yards
+    #: sensor, label: The sensor's name and the contact's label
     sensor: str
     label: str
+    #: bearing_accuracy, frequency_accuracy: The standard deviations a ``;SENSOR3:`` line states
+    #: (deg, Hz); None elsewhere
     bearing_accuracy: float | None = None
     frequency_accuracy: float | None = None
-    file: str = ""
+    file: str = ""  # The file's name (for messages when several files are read as one replay)
 
 
 @dataclass(frozen=True)
 class SolutionLine:
-    """A ``;TMA_POS:`` or ``;TMA_RB:`` solution point (None where the line does not say).
+    """A ``;TMA_POS:`` or ``;TMA_RB:`` solution point (None where the line does not say)."""
 
-    Attributes
-    ----------
-    line : int
-        Line number in the file (1-based).
-    vessel : str
-        The track the solution belongs to (Debrief's "ownship name").
-    time_ns : int
-        Time, ns since the Unix epoch (UTC).
-    lat, lon : float or None
-        The solution's position, degrees (``;TMA_POS:``).
-    bearing, range_yd : float or None
-        Its bearing (degrees true) and range (yards) from the vessel (``;TMA_RB:``).
-    solution : str
-        The solution's name.
-    orientation, maxima_yd, minima_yd : float or None
-        The ellipse: its major axis (degrees true) and semi-axes (yards); None for ``NULL``.
-    course, speed_kn, depth : float
-        Course (degrees true), speed (knots), depth (m).
-    label : str
-        The rest of the line.
-    file : str
-        The file's name.
-    """
-
-    line: int
-    vessel: str
-    time_ns: int
+    line: int  # Line number in the file (1-based)
+    vessel: str  # The track the solution belongs to (Debrief's "ownship name")
+    time_ns: int  # Time, ns since the Unix epoch (UTC)
+    #: lat, lon: The solution's position, degrees (``;TMA_POS:``)
     lat: float | None
     lon: float | None
+    #: bearing, range_yd: Its bearing (degrees true) and range (yards) from the vessel
+    #: (``;TMA_RB:``)
     bearing: float | None
     range_yd: float | None
-    solution: str
+    solution: str  # The solution's name
+    #: orientation, maxima_yd, minima_yd: The ellipse: its major axis (degrees true) and semi-axes
+    #: (yards); None for ``NULL``
     orientation: float | None
     maxima_yd: float | None
     minima_yd: float | None
+    #: course, speed_kn, depth: Course (degrees true), speed (knots), depth (m)
     course: float
     speed_kn: float
     depth: float
-    label: str
-    file: str = ""
+    label: str  # The rest of the line
+    file: str = ""  # The file's name
 
 
 @dataclass(frozen=True)
 class LineProblem:
-    """A line that breaks the replay format.
+    """A line that breaks the replay format."""
 
-    Attributes
-    ----------
-    line : int
-        Line number in the file (1-based).
-    owner : str or None
-        The track the line belongs to (a track line's name, a sensor line's host), None when
-        the line does not get that far.
-    message : str
-        What is wrong (``expected ..., found ...``).
-    file : str
-        The file's name.
-    """
-
-    line: int
+    line: int  # Line number in the file (1-based)
+    #: The track the line belongs to (a track line's name, a sensor line's host), None when the line
+    #: does not get that far
     owner: str | None
-    message: str
-    file: str = ""
+    message: str  # What is wrong (``expected ..., found ...``)
+    file: str = ""  # The file's name
 
 
 class LineError(ValueError):
@@ -320,26 +258,15 @@ def _solution(tokens: list[str], line: int, head: str, carries: list[str]) -> So
 
 @dataclass
 class ParsedReplay:
-    """The lines of one or more replay files, parsed.
+    """The lines of one or more replay files, parsed."""
 
-    Attributes
-    ----------
-    tracks : list of TrackLine
-        The track fixes, in file order.
-    sensors : list of SensorLine
-        The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order.
-    problems : list of LineProblem
-        Every line that breaks the format.
-    carries : list of LineProblem
-        Each position written with a minute or second of 60 (a carry), as written.
-    solutions : list of SolutionLine
-        The ``;TMA_POS:`` and ``;TMA_RB:`` solution points, in file order.
-    """
-
-    tracks: list[TrackLine]
+    tracks: list[TrackLine]  # The track fixes, in file order
+    #: The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order
     sensors: list[SensorLine]
-    problems: list[LineProblem]
+    problems: list[LineProblem]  # Every line that breaks the format
+    #: Each position written with a minute or second of 60 (a carry), as written
     carries: list[LineProblem]
+    #: The ``;TMA_POS:`` and ``;TMA_RB:`` solution points, in file order
     solutions: list[SolutionLine] = field(default_factory=list)
 
 

@@ -52,27 +52,16 @@ _SIGMA_IN = {"MHz": 1e-6, "kHz": 1e-3, "GHz": 1e-9, "rad": 0.0349066, "km": 0.01
 
 @dataclass
 class MappingGuess:
-    """A proposed mapping: the TOML text and what was chosen or left out.
+    """A proposed mapping: the TOML text and what was chosen or left out."""
 
-    Attributes
-    ----------
-    columns : dict of str to str
-        The column chosen for each role (``time``, ``lat``, ``north``, ``power``, ...).
-    units : dict of str to str
-        The unit of each measurement kind found (from the column's name).
-    time_unit : str or None
-        The unit of epoch numbers (None: ISO-8601 text).
-    notes : list of str
-        Each choice that needs the user's eye (a placeholder sigma, a time since boot).
-    unused : list of str
-        The columns no role took.
-    """
-
+    #: The column chosen for each role (``time``, ``lat``, ``north``, ``power``, ...)
     columns: dict[str, str] = field(default_factory=dict)
+    #: The unit of each measurement kind found (from the column's name)
     units: dict[str, str] = field(default_factory=dict)
-    time_unit: str | None = None
+    time_unit: str | None = None  # The unit of epoch numbers (None: ISO-8601 text)
+    #: Each choice that needs the user's eye (a placeholder sigma, a time since boot)
     notes: list[str] = field(default_factory=list)
-    unused: list[str] = field(default_factory=list)
+    unused: list[str] = field(default_factory=list)  # The columns no role took
 
     def toml(self, source: str) -> str:
         """Return the proposal as a mapping file (TOML, every choice commented)."""

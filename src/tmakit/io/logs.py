@@ -66,30 +66,18 @@ _NS = 1_000_000_000
 
 @dataclass
 class Fixes:
-    """A platform's navigation fixes.
+    """A platform's navigation fixes."""
 
-    Parameters
-    ----------
-    time_ns : numpy.ndarray of int64, shape (n,)
-        UTC time of each fix (ns since 1970-01-01).
-    lat, lon : numpy.ndarray, shape (n,)
-        Latitude and longitude (deg, WGS-84).
-    alt : numpy.ndarray, shape (n,)
-        Altitude (m, in the frame's altitude reference).
-    velocity : numpy.ndarray, shape (n, 3), optional
-        Velocity east, north, up (m/s); None when the log gives none.
-    lines : numpy.ndarray of int, shape (n,), optional
-        Line of each fix in its file (for messages).
-    heading : numpy.ndarray, shape (n,), optional
-        True heading (deg; NaN where unknown), for bearings relative to the heading.
-    """
-
-    time_ns: NDArray[np.int64]
+    time_ns: NDArray[np.int64]  # UTC time of each fix (ns since 1970-01-01); shape (n,)
+    #: lat, lon: Latitude and longitude (deg, WGS-84); shape (n,)
     lat: NDArray[np.float64]
     lon: NDArray[np.float64]
-    alt: NDArray[np.float64]
+    alt: NDArray[np.float64]  # Altitude (m, in the frame's altitude reference); shape (n,)
+    #: Velocity east, north, up (m/s); None when the log gives none; shape (n, 3)
     velocity: NDArray[np.float64] | None = None
+    #: Line of each fix in its file (for messages); shape (n,)
     lines: NDArray[np.int64] | None = None
+    #: True heading (deg; NaN where unknown), for bearings relative to the heading; shape (n,)
     heading: NDArray[np.float64] | None = None
 
     def sorted(self) -> Fixes:
@@ -103,26 +91,13 @@ class Fixes:
 
 @dataclass(frozen=True)
 class LocalFrame:
-    """The local ENU frame of a log, and its dimension.
+    """The local ENU frame of a log, and its dimension."""
 
-    Parameters
-    ----------
-    origin : (lat, lon, alt)
-        The frame's origin (deg, deg, m).
-    altitude_reference : str
-        ``ellipsoid`` or ``msl``: what the altitudes mean.
-    dim : int
-        2 (sensors on a surface: z = 0) or 3.
-    rule : str
-        One sentence saying why the frame is 2-D or 3-D.
-    origin_source : str
-        Where the origin comes from: ``the first fix`` (the default) or ``given``.
-    """
-
-    origin: tuple[float, float, float]
-    altitude_reference: str
-    dim: int
-    rule: str
+    origin: tuple[float, float, float]  # The frame's origin (deg, deg, m)
+    altitude_reference: str  # ``ellipsoid`` or ``msl``: what the altitudes mean
+    dim: int  # 2 (sensors on a surface: z = 0) or 3
+    rule: str  # One sentence saying why the frame is 2-D or 3-D
+    #: Where the origin comes from: ``the first fix`` (the default) or ``given``
     origin_source: str = "given"
 
     def metadata(self) -> dict[str, str]:

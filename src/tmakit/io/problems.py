@@ -19,43 +19,23 @@ __all__ = ["Problems", "RawTable"]
 
 @dataclass
 class RawTable:
-    """A file's table as read, before checking: text cells for CSV, typed for Parquet.
+    """A file's table as read, before checking: text cells for CSV, typed for Parquet."""
 
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        The cells, one column per header name.
-    metadata : dict of str to str
-        The file's metadata (``# key: value`` lines of a CSV file, ``tmakit:`` keys of the
-        Parquet schema).
-    lines : numpy.ndarray of int or None
-        Line of each data row in the CSV file (1-based), or None (Parquet).
-    """
-
-    frame: pd.DataFrame
+    frame: pd.DataFrame  # The cells, one column per header name
+    #: The file's metadata (``# key: value`` lines of a CSV file, ``tmakit:`` keys of the Parquet
+    #: schema)
     metadata: dict[str, str]
+    #: Line of each data row in the CSV file (1-based), or None (Parquet)
     lines: NDArray[np.int64] | None
 
 
 @dataclass
 class Problems:
-    """The problems found in one raw table: file-wide ones, and one per cell at most.
-
-    Parameters
-    ----------
-    raw : RawTable
-        The table the problems are about (for row numbers, lines and cell values).
-
-    Attributes
-    ----------
-    file : list of str
-        The file-wide problems.
-    cells : dict of (int, str) to str
-        The problem of each (0-based row, column) cell.
-    """
+    """The problems found in one raw table: file-wide ones, and one per cell at most."""
 
     raw: RawTable
-    file: list[str] = field(default_factory=list)
+    file: list[str] = field(default_factory=list)  # The file-wide problems
+    #: The problem of each (0-based row, column) cell
     cells: dict[tuple[int, str], str] = field(default_factory=dict)
 
     def where(self, row: int) -> str:
