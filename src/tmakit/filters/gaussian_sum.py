@@ -176,23 +176,7 @@ class GaussianSumFilter(TrackingFilter):
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
                            **kwargs: object) -> GaussianSumFilter:
-        """Start from the range-parameterised sum of a bearing prior (Peach 1995).
-
-        Parameters
-        ----------
-        prior : BearingPrior
-            Range, speed (and height) intervals.
-        first : FirstBearing
-            The first bearing.
-        dim : int
-            2 or 3.
-        **kwargs
-            The filter's settings.
-
-        Returns
-        -------
-        GaussianSumFilter
-        """
+        """Start from the range-parameterised sum of a bearing prior (Peach 1995)."""
         w, m, p = prior.mixture(first, dim)
         return cls.from_mixture(w, m, p, first.time, **kwargs)
 

@@ -30,44 +30,26 @@ _IU = np.triu_indices(4)
 
 @dataclass
 class KernelRun:
-    """What a kernel did.
+    """What a kernel did."""
 
-    Parameters
-    ----------
-    stop : int
-        Index of the first update it did not do (the number of updates when it finished).
-    predicted : bool
-        True when it stopped after predicting to update ``stop`` (the caller then updates on
-        the general path).
-    mean : numpy.ndarray
-        Final state ``(4,)`` (m, m/s).
-    covariance : numpy.ndarray
-        Final covariance ``(4, 4)``.
-    time : float
-        Final time (s).
-    log_likelihood : float
-        Final cumulative log-likelihood (nats).
-    times, states, covariances, nis, log_likelihoods : numpy.ndarray
-        Per-update outputs of the updates it did: times ``(k,)`` (s), states ``(k, 4)``,
-        covariances ``(k, 4, 4)``, NIS ``(k,)`` and cumulative log-likelihoods ``(k,)``.
-    dof : numpy.ndarray, optional
-        Degrees of freedom of each update ``(k,)`` (None: one row each).
-    general : bool, optional
-        True for a run of the general path (:mod:`.general`), not a closed-form kernel.
-    """
-
-    stop: int
+    stop: int  # Index of the first update it did not do (the number of updates when it finished)
+    #: True when it stopped after predicting to update ``stop`` (the caller then updates on the
+    #: general path)
     predicted: bool
-    mean: Array
-    covariance: Array
-    time: float
-    log_likelihood: float
+    mean: Array  # Final state ``(4,)`` (m, m/s)
+    covariance: Array  # Final covariance ``(4, 4)``
+    time: float  # Final time (s)
+    log_likelihood: float  # Final cumulative log-likelihood (nats)
+    #: times, states, covariances, nis, log_likelihoods: Per-update outputs of the updates it did:
+    #: times ``(k,)`` (s), states ``(k, 4)``, covariances ``(k, 4, 4)``, NIS ``(k,)`` and cumulative
+    #: log-likelihoods ``(k,)``
     times: Array
     states: Array
     covariances: Array
     nis: Array
     log_likelihoods: Array
-    dof: Array | None = None
+    dof: Array | None = None  # Degrees of freedom of each update ``(k,)`` (None: one row each)
+    #: True for a run of the general path (:mod:`.general`), not a closed-form kernel
     general: bool = False
 
 

@@ -33,29 +33,15 @@ LOG_NEGLIGIBLE = -575.0
 
 @dataclass(frozen=True)
 class ParticleStep:
-    """The weighted cloud after one update, and what the resampling after it did.
+    """The weighted cloud after one update, and what the resampling after it did."""
 
-    Parameters
-    ----------
-    time : float
-        Its time (s).
-    particles : numpy.ndarray
-        ``(n, N)`` (m, m/s).
-    weights : numpy.ndarray
-        ``(N,)``, normalised.
-    shrink : float
-        The regularisation's shrinkage ``a`` (1: not resampled or not regularised).
-    centre : numpy.ndarray or None
-        The cloud's mean the shrinkage pulls towards.
-    jitter : numpy.ndarray or None
-        The regularisation kernel's covariance ``h^2 C`` added after resampling.
-    """
-
-    time: float
-    particles: Array
-    weights: Array
+    time: float  # Its time (s)
+    particles: Array  # ``(n, N)`` (m, m/s)
+    weights: Array  # ``(N,)``, normalised
+    #: The regularisation's shrinkage ``a`` (1: not resampled or not regularised)
     shrink: float = 1.0
-    centre: Array | None = None
+    centre: Array | None = None  # The cloud's mean the shrinkage pulls towards
+    #: The regularisation kernel's covariance ``h^2 C`` added after resampling
     jitter: Array | None = None
 
 
@@ -177,23 +163,7 @@ class ParticleFilter(TrackingFilter):
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
                            **kwargs: Any) -> ParticleFilter:
-        """Start from particles drawn from a bearing prior (:meth:`BearingPrior.sample`).
-
-        Parameters
-        ----------
-        prior : BearingPrior
-            Range, speed (and height) intervals.
-        first : FirstBearing
-            The first bearing.
-        dim : int
-            2 or 3.
-        **kwargs
-            The filter's settings (``particles``, ``rng``, ...).
-
-        Returns
-        -------
-        ParticleFilter
-        """
+        """Start from particles drawn from a bearing prior (:meth:`BearingPrior.sample`)."""
         mean, cov = prior.gaussian(first, dim)
         return cls(mean, cov, first.time, bearing_start=(prior, first), **kwargs)
 
