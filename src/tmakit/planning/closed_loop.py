@@ -39,40 +39,23 @@ _ONE = np.ones(1)
 
 @dataclass(frozen=True)
 class LoopSetup:
-    """One closed-loop run's fixed inputs (the truth's start, the sensor's, the tracker).
+    """One closed-loop run's fixed inputs (the truth's start, the sensor's, the tracker)."""
 
-    Parameters
-    ----------
-    target : array_like, shape (2 dim,)
-        True target state at ``time`` (m, m/s), ``[x, y, vx, vy]`` in 2-D.
-    platform : PlatformState
-        The sensor's start (one state, its time the start time).
-    steps : int
-        Decisions ``D`` (>= 1).
-    interval : float, optional
-        Decision interval ``T`` (s), one measurement group per decision.
-    q : float, optional
-        Process-noise acceleration standard deviation (m/s^2) of the target's nearly constant
-        velocity motion, of the truth and of the tracker.
-    prior_std : tuple of float, optional
-        Prior standard deviations of position (m) and velocity (m/s) per axis.
-    tracker : {"pf", "ekf", "ukf"}, optional
-        The tracker: the particle filter with the transitional prior (Hurtado & Nehorai (2008),
-        §3.1), an EKF or a UKF.
-    particles : int, optional
-        Particles of the particle filter.
-    criterion_gamma : {"cloud", "mean"}, optional
-        How ``Gamma`` of the recorded planning criterion is formed (module docstring).
-    """
-
+    #: True target state at ``time`` (m, m/s), ``[x, y, vx, vy]`` in 2-D; shape (2 dim,)
     target: Array
-    platform: PlatformState
-    steps: int
-    interval: float = 0.5
+    platform: PlatformState  # The sensor's start (one state, its time the start time)
+    steps: int  # Decisions ``D`` (>= 1)
+    interval: float = 0.5  # Decision interval ``T`` (s), one measurement group per decision
+    #: Process-noise acceleration standard deviation (m/s^2) of the target's nearly constant
+    #: velocity motion, of the truth and of the tracker
     q: float = 0.1
+    #: Prior standard deviations of position (m) and velocity (m/s) per axis
     prior_std: tuple[float, float] = (100.0, 5.0)
+    #: The tracker: the particle filter with the transitional prior (Hurtado & Nehorai (2008),
+    #: §3.1), an EKF or a UKF
     tracker: str = "pf"
-    particles: int = 2000
+    particles: int = 2000  # Particles of the particle filter
+    #: How ``Gamma`` of the recorded planning criterion is formed (module docstring)
     criterion_gamma: str = "cloud"
 
     def __post_init__(self) -> None:
@@ -119,50 +102,31 @@ class LoopSetup:
 
 @dataclass
 class LoopRecord:
-    """One closed-loop run, one entry per decision (at the time after it, ``t_{k+1}``).
+    """One closed-loop run, one entry per decision (at the time after it, ``t_{k+1}``)."""
 
-    Attributes
-    ----------
-    times : ndarray, shape (D,)
-        Measurement times (s).
-    sensor : ndarray, shape (D, 6)
-        Sensor state ``[x, y, z, vx, vy, vz]`` (m, m/s).
-    truth, estimate : ndarray, shape (D, n)
-        True and estimated target state (m, m/s).
-    covariance : ndarray, shape (D, n, n)
-        The tracker's covariance (SI).
-    action : ndarray of int, shape (D,)
-        Chosen action index among a planner's actions (0 for a policy of one candidate: a
-        fixed action or path, the mission planner's leg).
-    decision_ms : ndarray, shape (D,)
-        Wall time of each decision (ms; a measurement of this machine).
-    criterion_m : ndarray, shape (D,)
-        The planning criterion along the flown path (m): the position RMS of ``J`` carried
-        with ``Gamma`` over the tracker's cloud (module docstring, step 5; not a bound).
-    predicted_criterion_m : ndarray, shape (D,)
-        The policy's prediction for its choice (m): a planner's bound after the step, the
-        mission planner's at the mission end.
-    error_m, range_m : ndarray, shape (D,)
-        Position error of the estimate and true sensor-target range (m).
-    violations : dict of str to ndarray
-        Per constraint, the violation amount of the chosen step (m, >= 0).
-    information : ndarray, shape (D, n, n)
-        Fisher information ``Xi`` of each step's measurements at the true target state and
-        the flown sensor state (SI): the runs' mean is the posterior CRB's ``Gamma``.
-    """
-
-    times: Array
-    sensor: Array
+    times: Array  # Measurement times (s); shape (D,)
+    sensor: Array  # Sensor state ``[x, y, z, vx, vy, vz]`` (m, m/s); shape (D, 6)
+    #: truth, estimate: True and estimated target state (m, m/s); shape (D, n)
     truth: Array
     estimate: Array
-    covariance: Array
+    covariance: Array  # The tracker's covariance (SI); shape (D, n, n)
+    #: Chosen action index among a planner's actions (0 for a policy of one candidate: a fixed
+    #: action or path, the mission planner's leg); shape (D,)
     action: Array
-    decision_ms: Array
+    decision_ms: Array  # Wall time of each decision (ms; a measurement of this machine); shape (D,)
+    #: The planning criterion along the flown path (m): the position RMS of ``J`` carried with
+    #: ``Gamma`` over the tracker's cloud (module docstring, step 5; not a bound); shape (D,)
     criterion_m: Array
+    #: The policy's prediction for its choice (m): a planner's bound after the step, the mission
+    #: planner's at the mission end; shape (D,)
     predicted_criterion_m: Array
+    #: error_m, range_m: Position error of the estimate and true sensor-target range (m); shape (D,)
     error_m: Array
     range_m: Array
+    #: Per constraint, the violation amount of the chosen step (m, >= 0)
     violations: dict[str, Array]
+    #: Fisher information ``Xi`` of each step's measurements at the true target state and the flown
+    #: sensor state (SI): the runs' mean is the posterior CRB's ``Gamma``; shape (D, n, n)
     information: Array
 
     def __len__(self) -> int:

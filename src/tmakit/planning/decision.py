@@ -92,28 +92,16 @@ def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Action
 
 @dataclass(frozen=True, eq=False)
 class Decision:
-    """Every candidate of one decision, as the compiled kernel computed it.
+    """Every candidate of one decision, as the compiled kernel computed it."""
 
-    Attributes
-    ----------
-    steps : Step, shape (A,)
-        The candidates flown for one step.
-    information, covariance : ndarray, shape (A, 4, 4)
-        ``J_{k+1}`` and ``J_{k+1}^{-1}``, SI.
-    cost : ndarray, shape (A,)
-        The criterion (no penalties).
-    bound : ndarray, shape (A,)
-        Position RMS bound, m.
-    best : int or None
-        The candidate of least cost (ties: the first; NaN last), or None when the cost was
-        computed outside the kernel.
-    """
-
-    steps: Step
+    steps: Step  # The candidates flown for one step; shape (A,)
+    #: information, covariance: ``J_{k+1}`` and ``J_{k+1}^{-1}``, SI; shape (A, 4, 4)
     information: Array
     covariance: Array
-    cost: Array
-    bound: Array
+    cost: Array  # The criterion (no penalties); shape (A,)
+    bound: Array  # Position RMS bound, m; shape (A,)
+    #: The candidate of least cost (ties: the first; NaN last), or None when the cost was computed
+    #: outside the kernel
     best: int | None
 
 

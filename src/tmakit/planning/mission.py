@@ -70,35 +70,17 @@ class MissionPlan:
 
 @dataclass(frozen=True, eq=False)
 class Rollout:
-    """Candidate paths (C,) flown from one leg to the mission end.
+    """Candidate paths (C,) flown from one leg to the mission end."""
 
-    Attributes
-    ----------
-    information : ndarray, shape (C, n, n) or (C, K, n, n)
-        ``J`` at the end (per target hypothesis when 4-D), SI.
-    leg_states : list of PlatformState
-        Batch (C,) at the start of each leg flown.
-    leg_info : list of ndarray
-        ``J`` (as ``information``) at the start of each leg flown, SI.
-    actions : list of Actions
-        Batch (C,) per sub-step.
-    end : PlatformState
-        Batch (C,) at the end.
-    violations : list of Violation
-        Per constraint, the largest along each path (C,), m.
-    hard : ndarray, shape (C,)
-        Hard violations summed over the sub-steps, m.
-    weights : ndarray, shape (K,), optional
-        Weights of the hypotheses, when ``information`` has them.
-    """
-
+    #: ``J`` at the end (per target hypothesis when 4-D), SI; shape (C, n, n) or (C, K, n, n)
     information: Array
-    leg_states: list[PlatformState]
-    leg_info: list[Array]
-    actions: list[Actions]
-    end: PlatformState
-    violations: list[Violation]
-    hard: Array
+    leg_states: list[PlatformState]  # Batch (C,) at the start of each leg flown
+    leg_info: list[Array]  # ``J`` (as ``information``) at the start of each leg flown, SI
+    actions: list[Actions]  # Batch (C,) per sub-step
+    end: PlatformState  # Batch (C,) at the end
+    violations: list[Violation]  # Per constraint, the largest along each path (C,), m
+    hard: Array  # Hard violations summed over the sub-steps, m; shape (C,)
+    #: Weights of the hypotheses, when ``information`` has them; shape (K,)
     weights: Array | None = None
 
     def ranked_cost(self, criterion: Criterion) -> tuple[Array, Array]:

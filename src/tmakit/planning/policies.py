@@ -73,24 +73,14 @@ def for_run(policy: Policy) -> Policy:
 
 @dataclass(frozen=True)
 class FixedChoice:
-    """The choice of a policy with one candidate (fields as a planner's recommendation).
+    """The choice of a policy with one candidate (fields as a planner's recommendation)."""
 
-    Parameters
-    ----------
-    index : int
-        Always 0.
-    step : Step
-        The flown step.
-    bound : ndarray, shape (1,)
-        The policy's predicted position RMS bound (m): after the step, or at the mission end for
-        :class:`MissionPolicy`.
-    violations : dict
-        Per constraint, the amount (m) of the flown step, shape (1,); empty without constraints.
-    """
-
-    index: int
-    step: Step
+    index: int  # Always 0
+    step: Step  # The flown step
+    #: The policy's predicted position RMS bound (m): after the step, or at the mission end for
+    #: :class:`MissionPolicy`; shape (1,)
     bound: Array
+    #: Per constraint, the amount (m) of the flown step, shape (1,); empty without constraints
     violations: Mapping[str, Array] = field(default_factory=dict)
 
 
@@ -104,23 +94,12 @@ def _bound_after(belief: Belief, plan: SensorPlan, step: Step, interval: float) 
 
 @dataclass(frozen=True)
 class FixedPolicy:
-    """Fly one action at every decision (the straight fixed path: heading change 0).
+    """Fly one action at every decision (the straight fixed path: heading change 0)."""
 
-    Parameters
-    ----------
-    kinematics : PlatformKinematics
-        The platform's limits.
-    plan : SensorPlan
-        The measurements, for the predicted bound of the step.
-    interval : float, optional
-        Decision interval (s).
-    action : Actions, optional
-        One action (default: straight on, speed unchanged).
-    """
-
-    kinematics: PlatformKinematics
-    plan: SensorPlan
-    interval: float = 0.5
+    kinematics: PlatformKinematics  # The platform's limits
+    plan: SensorPlan  # The measurements, for the predicted bound of the step
+    interval: float = 0.5  # Decision interval (s)
+    #: One action (default: straight on, speed unchanged)
     action: Actions = field(default_factory=lambda: Actions([0.0]))
 
     def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
@@ -137,24 +116,14 @@ def _state_on(track: SensorTrack, t: float) -> PlatformState:
 
 @dataclass(frozen=True, eq=False)
 class TrackPolicy:
-    """Fly a given sensor track: the scenario's fixed pattern, step by step.
+    """Fly a given sensor track: the scenario's fixed pattern, step by step."""
 
-    Parameters
-    ----------
-    track : SensorTrack
-        The path (for example ``scenario.sensors["observer"]``); it must cover the run.
-    plan : SensorPlan
-        The measurements, for the predicted bound of the step.
-    interval : float
-        Decision interval (s).
-    constraints : sequence of Constraint, optional
-        Checked along each step against the estimated target and reported (never acted on: the path
-        is fixed).
-    """
-
+    #: The path (for example ``scenario.sensors["observer"]``); it must cover the run
     track: SensorTrack
-    plan: SensorPlan
-    interval: float
+    plan: SensorPlan  # The measurements, for the predicted bound of the step
+    interval: float  # Decision interval (s)
+    #: Checked along each step against the estimated target and reported (never acted on: the path
+    #: is fixed)
     constraints: Sequence[Constraint] = ()
 
     def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
