@@ -60,40 +60,20 @@ class LoopCase:
 
 @dataclass(frozen=True, eq=False)
 class LoopTask:
-    """Runs ``first_run .. first_run + len(seeds) - 1`` of one case.
+    """Runs ``first_run .. first_run + len(seeds) - 1`` of one case."""
 
-    Parameters
-    ----------
-    case : LoopCase
-        The case.
-    first_run : int
-        Index of the first run.
-    seeds : tuple of numpy.random.SeedSequence
-        One per run.
-    """
-
-    case: LoopCase
-    first_run: int
-    seeds: tuple[np.random.SeedSequence, ...]
+    case: LoopCase  # The case
+    first_run: int  # Index of the first run
+    seeds: tuple[np.random.SeedSequence, ...]  # One per run
 
 
 @dataclass
 class LoopChunk:
-    """The records of one task's runs, in run order.
+    """The records of one task's runs, in run order."""
 
-    Parameters
-    ----------
-    case : str
-        The case's name.
-    first_run : int
-        Index of the first run.
-    records : list of LoopRecord
-        One per run.
-    """
-
-    case: str
-    first_run: int
-    records: list[LoopRecord] = field(default_factory=list)
+    case: str  # The case's name
+    first_run: int  # Index of the first run
+    records: list[LoopRecord] = field(default_factory=list)  # One per run
 
     def __len__(self) -> int:
         """Return the number of runs."""

@@ -26,28 +26,18 @@ BLOCK_ROWS = 200_000
 
 @dataclass
 class RunSummaries:
-    """What a study keeps of each run, in run order.
+    """What a study keeps of each run, in run order."""
 
-    Parameters
-    ----------
-    status : list of str
-        ``converged``, ``did not converge``, ``unobservable`` or ``diverged``; ``None`` for a
-        run whose fit raised (its message in ``failures``).
-    iterations, starts : ndarray of int
-        Iterations of the solve that found the estimate; starting points solved.
-    chi2 : ndarray
-        Twice the final cost (inf for a diverged run, NaN for a failed one).
-    estimates : ndarray, shape (runs, p)
-        The motion parameters (SI; NaN for a diverged or failed run).
-    failures : dict of int to Exception
-        Index of the run (in the batch) to its error.
-    """
-
+    #: ``converged``, ``did not converge``, ``unobservable`` or ``diverged``; ``None`` for a run
+    #: whose fit raised (its message in ``failures``)
     status: list[str | None]
+    #: iterations, starts: Iterations of the solve that found the estimate; starting points solved
     iterations: NDArray[np.int64]
-    chi2: NDArray[np.float64]
+    chi2: NDArray[np.float64]  # Twice the final cost (inf for a diverged run, NaN for a failed one)
     starts: NDArray[np.int64]
+    #: The motion parameters (SI; NaN for a diverged or failed run); shape (runs, p)
     estimates: NDArray[np.float64]
+    #: Index of the run (in the batch) to its error
     failures: dict[int, Exception] = field(default_factory=dict)
 
 

@@ -32,64 +32,34 @@ RUN_ERRORS = FIT_ERRORS
 
 @dataclass(frozen=True)
 class ChunkTask:
-    """What a worker needs to compute runs ``first_run .. first_run + len(seeds) - 1``.
+    """What a worker needs to compute runs ``first_run .. first_run + len(seeds) - 1``."""
 
-    Parameters
-    ----------
-    scenario : Scenario
-        The scenario simulated.
-    estimator : str
-        ``"ml"`` or a name of the registry (:mod:`.estimators`).
-    options : dict
-        Per-kind measurement-model options.
-    known_nuisance : KnownNuisance or None
-        The nuisance values given to the estimator (None: estimated).
-    init : object
-        The starting point given to every run (``None``: the estimator's own).
-    first_run : int
-        Index of the chunk's first run.
-    seeds : tuple of numpy.random.SeedSequence
-        One seed sequence per run.
-    compiled : bool
-        Whether the batched fits evaluate by the compiled kernel where it applies
-        (:func:`tmakit.batch.varpro.compiled_batches`): decided once per study, so that every
-        executor evaluates the same way.
-    """
-
-    scenario: Scenario
-    estimator: str
-    options: dict[str, dict[str, object]]
+    scenario: Scenario  # The scenario simulated
+    estimator: str  # ``"ml"`` or a name of the registry (:mod:`.estimators`)
+    options: dict[str, dict[str, object]]  # Per-kind measurement-model options
+    #: The nuisance values given to the estimator (None: estimated)
     known_nuisance: KnownNuisance | None
-    init: Any
-    first_run: int
-    seeds: tuple[np.random.SeedSequence, ...]
+    init: Any  # The starting point given to every run (``None``: the estimator's own)
+    first_run: int  # Index of the chunk's first run
+    seeds: tuple[np.random.SeedSequence, ...]  # One seed sequence per run
+    #: Whether the batched fits evaluate by the compiled kernel where it applies
+    #: (:func:`tmakit.batch.varpro.compiled_batches`): decided once per study, so that every
+    #: executor evaluates the same way
     compiled: bool = False
 
 
 @dataclass
 class ChunkOutput:
-    """Per-run results of one chunk, in run order.
+    """Per-run results of one chunk, in run order."""
 
-    Parameters
-    ----------
-    first_run : int
-        Index of the chunk's first run.
-    status : list of str
-        Estimator status per run (:data:`FAILED` when it raised).
-    iterations, chi2, starts : ndarray
-        Iterations, chi-square and starting points solved from, per run.
-    estimates : ndarray, shape (runs, p)
-        The estimates (NaN for failed runs).
-    failures : dict of int to str
-        Run index to the error message, for failed runs.
-    """
-
-    first_run: int
-    status: list[str]
+    first_run: int  # Index of the chunk's first run
+    status: list[str]  # Estimator status per run (:data:`FAILED` when it raised)
+    #: iterations, chi2, starts: Iterations, chi-square and starting points solved from, per run
     iterations: NDArray[np.int64]
     chi2: NDArray[np.float64]
     starts: NDArray[np.int64]
-    estimates: NDArray[np.float64]
+    estimates: NDArray[np.float64]  # The estimates (NaN for failed runs); shape (runs, p)
+    #: Run index to the error message, for failed runs
     failures: dict[int, str] = field(default_factory=dict)
 
     def __len__(self) -> int:
