@@ -44,18 +44,11 @@ POOR_HORIZONTAL_FRACTION = 0.05
 
 @dataclass
 class ChenSunReproduction(Reproduction):
-    """The report plus the time series that :func:`plot` draws.
-
-    Attributes
-    ----------
-    series : dict
-        ``series[key][path]``: ``time`` (K,) s, ``rms`` (K, 5) x, y, z, R, rho (m), ``nees`` (K,).
-    lags : tuple of int
-        Lags (samples back) of the multi-lag vectors, Chen & Sun §2.2.
-    """
+    """The report plus the time series that :func:`plot` draws."""
 
     series: dict[str, dict[int, dict[str, NDArray[np.float64]]]] = field(
         default_factory=dict, repr=False)
+    #: Lags (samples back) of the multi-lag vectors, Chen & Sun §2.2
     lags: tuple[int, ...] = DEFAULT_LAGS
 
     def as_dict(self) -> dict[str, object]:

@@ -11,50 +11,27 @@ from ..scenario.model import Scenario
 
 @dataclass
 class Section:
-    """One titled table of a reproduction's report.
+    """One titled table of a reproduction's report."""
 
-    Parameters
-    ----------
-    title : str
-        Section title.
-    header : list of str
-        Column headings (with units where they have them).
-    rows : list of list
-        The table's rows, one value per column.
-    note : str, optional
-        A paragraph printed under the table.
-    """
-
-    title: str
-    header: list[str]
-    rows: Sequence[Sequence[object]]
-    note: str = ""
+    title: str  # Section title
+    header: list[str]  # Column headings (with units where they have them)
+    rows: Sequence[Sequence[object]]  # The table's rows, one value per column
+    note: str = ""  # A paragraph printed under the table
 
 
 @dataclass
 class Reproduction:
-    """What a reproduction computed, as titled tables, plus its key numbers for tests.
+    """What a reproduction computed, as titled tables, plus its key numbers for tests."""
 
-    Parameters
-    ----------
-    name : str
-        Reproduction name (``gu2007``, ``hoerst2010``, ...).
-    sections : list of Section, optional
-        The report's tables, in order.
-    figures : dict, optional
-        Key numbers by name (units in the names, e.g. ``rms_m``), JSON-ready.
-    labels : dict, optional
-        For a figure that is a list, the name and unit of each entry (``("x", "m")``), for
-        the printed report (not in the JSON).
-    print_figures : bool, optional
-        Print the figures under the tables (False where the tables already show them; the
-        JSON has them always).
-    """
-
-    name: str
-    sections: list[Section] = field(default_factory=list)
+    name: str  # Reproduction name (``gu2007``, ``hoerst2010``, ...)
+    sections: list[Section] = field(default_factory=list)  # The report's tables, in order
+    #: Key numbers by name (units in the names, e.g. ``rms_m``), JSON-ready
     figures: dict[str, object] = field(default_factory=dict)
+    #: For a figure that is a list, the name and unit of each entry (``("x", "m")``), for the
+    #: printed report (not in the JSON)
     labels: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
+    #: Print the figures under the tables (False where the tables already show them; the JSON has
+    #: them always)
     print_figures: bool = True
 
     def as_dict(self) -> dict[str, object]:

@@ -33,23 +33,15 @@ CLOSED_TOLERANCE = 1.2
 
 @dataclass
 class Sweep:
-    """One layout's MSE against noise.
+    """One layout's MSE against noise."""
 
-    Attributes
-    ----------
-    sigma_m : list of float
-        The noise levels: the std of one range difference (m).
-    crlb, ml, closed : dict of str to list of float
-        By block (``position`` m^2, ``velocity`` (m/s)^2): the CRLB trace and the two
-        estimators' MSE at each level.
-    failed : list of int
-        Runs per level whose maximum likelihood did not converge (counted in its MSE).
-    """
-
-    sigma_m: list[float]
+    sigma_m: list[float]  # The noise levels: the std of one range difference (m)
+    #: crlb, ml, closed: By block (``position`` m^2, ``velocity`` (m/s)^2): the CRLB trace and the
+    #: two estimators' MSE at each level
     crlb: dict[str, list[float]] = field(default_factory=dict)
     ml: dict[str, list[float]] = field(default_factory=dict)
     closed: dict[str, list[float]] = field(default_factory=dict)
+    #: Runs per level whose maximum likelihood did not converge (counted in its MSE)
     failed: list[int] = field(default_factory=list)
 
     def ratio(self, which: str, block: str) -> list[float]:

@@ -30,33 +30,20 @@ OPTIONS = ("particles", "steps", "radar", "tracker", "chunk", "dask", "on_chunk"
 
 @dataclass(frozen=True)
 class Hurtado2008Setup:
-    """The section 5 scenario with tmakit's choices (module docstring).
+    """The section 5 scenario with tmakit's choices (module docstring)."""
 
-    Attributes
-    ----------
-    radar_start, target_start : tuple of float
-        ENU start positions (m).
-    radar_speed, target_velocity
-        50 m/s North; (25, 0) m/s.
-    duration, interval : float
-        300 s; PRI 0.5 s.
-    min_range : float
-        Example 2's limit (m).
-    q : float
-        Target process noise (m/s^2).
-    prior_std : tuple of float
-        Prior standard deviations (m, m/s).
-    """
-
+    #: radar_start, target_start: ENU start positions (m)
     radar_start: tuple[float, float] = (0.0, 0.0)
     target_start: tuple[float, float] = (5000.0, 15000.0)
+    #: radar_speed, target_velocity: 50 m/s North; (25, 0) m/s
     radar_speed: float = 50.0
     target_velocity: tuple[float, float] = (25.0, 0.0)
+    #: duration, interval: 300 s; PRI 0.5 s
     duration: float = 300.0
     interval: float = 0.5
-    min_range: float = 5000.0
-    q: float = 0.1
-    prior_std: tuple[float, float] = (100.0, 5.0)
+    min_range: float = 5000.0  # Example 2's limit (m)
+    q: float = 0.1  # Target process noise (m/s^2)
+    prior_std: tuple[float, float] = (100.0, 5.0)  # Prior standard deviations (m, m/s)
 
     @property
     def steps(self) -> int:
@@ -123,15 +110,9 @@ def cases(radar: str = "derived", particles: int = 2000, steps: int | None = Non
 
 @dataclass
 class Hurtado2008Reproduction(Reproduction):
-    """The report, with the study kept for the figure.
+    """The report, with the study kept for the figure."""
 
-    Attributes
-    ----------
-    study : ClosedLoopStudy or None
-        The runs.
-    """
-
-    study: ClosedLoopStudy | None = field(default=None, repr=False)
+    study: ClosedLoopStudy | None = field(default=None, repr=False)  # The runs
 
 
 def _turns(study: ClosedLoopStudy, case: str, start: int) -> float:

@@ -23,40 +23,19 @@ STEP = 60.0
 
 @dataclass(frozen=True)
 class Scenario:
-    """One of the two scenarios (see the module docstring); lengths m, angles deg.
+    """One of the two scenarios (see the module docstring); lengths m, angles deg."""
 
-    Parameters
-    ----------
-    steps : int
-        Samples after the first.
-    sigma_deg : float
-        Bearing noise std.
-    own_course : tuple of float
-        The own ship's course before and after its turn.
-    turn : tuple of int
-        First and last sample of the turn (equal steps of course).
-    target : tuple of float
-        The target's initial position.
-    speed_kn, course : float
-        The target's speed (kn) and course.
-    range_prior : tuple of float
-        The range interval of the start (m).
-    speed_max_kn : float
-        The largest speed of the start (kn).
-    after : int
-        The first sample after the own ship's turn.
-    """
-
-    steps: int
-    sigma_deg: float
-    own_course: tuple[float, float]
-    turn: tuple[int, int]
-    target: tuple[float, float]
+    steps: int  # Samples after the first
+    sigma_deg: float  # Bearing noise std
+    own_course: tuple[float, float]  # The own ship's course before and after its turn
+    turn: tuple[int, int]  # First and last sample of the turn (equal steps of course)
+    target: tuple[float, float]  # The target's initial position
+    #: speed_kn, course: The target's speed (kn) and course
     speed_kn: float
     course: float
-    range_prior: tuple[float, float]
-    speed_max_kn: float
-    after: int
+    range_prior: tuple[float, float]  # The range interval of the start (m)
+    speed_max_kn: float  # The largest speed of the start (kn)
+    after: int  # The first sample after the own ship's turn
 
     def prior(self) -> BearingPrior:
         """Give the start's prior: the range interval and the largest speed."""
