@@ -18,26 +18,17 @@ __all__ = ["CepMap", "cep_map", "plot_cep_map"]
 
 @dataclass
 class CepMap:
-    """CEP50 and CEP90 over a grid of emitter positions.
+    """CEP50 and CEP90 over a grid of emitter positions."""
 
-    Attributes
-    ----------
-    east, north : ndarray, shape (n,)
-        The grid's axes (ENU, m).
-    cep50, cep90 : ndarray, shape (n, n)
-        The radii (m), ``[north, east]``; inf where the position is not observable.
-    rows : MeasurementSet
-        The layout's rows (sensor states, reference states, sigmas).
-    ignored : list of str
-        The kinds of the layout not in the bound (it takes ``tdoa`` and ``fdoa``).
-    """
-
+    #: east, north: The grid's axes (ENU, m); shape (n,)
     east: Array
     north: Array
+    #: cep50, cep90: The radii (m), ``[north, east]``; inf where the position is not observable;
+    #: shape (n, n)
     cep50: Array
     cep90: Array
-    rows: MeasurementSet
-    ignored: list[str]
+    rows: MeasurementSet  # The layout's rows (sensor states, reference states, sigmas)
+    ignored: list[str]  # The kinds of the layout not in the bound (it takes ``tdoa`` and ``fdoa``)
 
 
 def layout_rows(scenario: Scenario) -> tuple[MeasurementSet, list[str]]:
