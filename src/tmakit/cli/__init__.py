@@ -1,4 +1,9 @@
-"""The ``tma`` command."""
+"""The ``tma`` command.
+
+Every command refuses to overwrite an output unless ``--force`` is given and reports bad input as
+``error: ...`` naming the file, row and field; the exit statuses are the ``EXIT_*`` constants of
+:mod:`tmakit.cli.guard`.
+"""
 
 from __future__ import annotations
 
