@@ -1,4 +1,10 @@
-"""A time typed by a user: seconds, an ISO-8601 UTC clock time, or a clock time of the day."""
+"""A time typed by a user: seconds, an ISO-8601 UTC clock time, or a clock time of the day.
+
+``1200.5`` is seconds since the set's ``time_origin``; ``2016-11-05T19:30:00Z`` an instant (UTC
+unless a zone is named); ``19:30[:15[.5]]`` that UTC clock time on the day of the data, only
+where the data lie within one UTC day.  Used by ``--from``, ``--to``, ``--at`` and the readers'
+time windows.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,8 @@
-"""Debrief replay files (``.rep``, ``.dsf``) as measurement sets."""
+"""Debrief replay files (``.rep``, ``.dsf``) as measurement sets.
+
+Own ship, contact, placeholder ranges, sigmas and frame are read as ``docs/your-own-data.md``
+tabulates; what was read otherwise than written is said in the set's ``reader_notes``.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,9 @@
-"""The lines of a Debrief replay file (REP, and DSF: the same lines), parsed one by one."""
+"""The lines of a Debrief replay file (REP, and DSF: the same lines), parsed one by one.
+
+Written from Debrief's documentation of the replay format: track fixes, ``;SENSOR:``,
+``;SENSOR2:``, ``;SENSOR3:``, ``;TMA_POS:`` and ``;TMA_RB:`` lines; other ``;`` lines are skipped.
+A position's ``60`` minutes or seconds is read as a carry, as Debrief does, with a note.
+"""
 
 from __future__ import annotations
 
