@@ -95,7 +95,7 @@ def _interval(value: tuple[float, float], name: str, low: float) -> tuple[float,
 
 @dataclass(frozen=True)
 class BearingPrior:
-    """The prior of a track started at its first bearing (see the module docstring).
+    """The prior of a track started at its first bearing.
 
     Parameters
     ----------

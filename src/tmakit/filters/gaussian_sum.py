@@ -49,7 +49,7 @@ CAPACITY = 48
 
 
 class GaussianSumFilter(TrackingFilter):
-    """Gaussian-sum filter of EKF, UKF or cubature components (see the module docstring).
+    """Gaussian-sum filter of EKF, UKF or cubature components.
 
     Parameters
     ----------

@@ -66,7 +66,7 @@ def _principal(p: Array, i: int, dim: int) -> tuple[float, Array]:  # pragma: no
 @_jit
 def split_sum(w: Array, m: Array, p: Array, count: int, sensor: Array, dim: int,
               threshold: float, capacity: int) -> int:  # pragma: no cover - compiled
-    """Split the components too spread for their range (see the module docstring)."""
+    """Split the components too spread for their range."""
     if threshold <= 0.0 or count + 2 > capacity:
         return count
     order = np.argsort(-w[:count])
@@ -178,7 +178,7 @@ def _merge(w: Array, m: Array, p: Array, count: int, merge: float) -> int:  # pr
 @_jit
 def reduce_sum(w: Array, m: Array, p: Array, count: int, prune: float,
                merge: float) -> int:  # pragma: no cover - compiled
-    """Prune, merge and normalise (see the module docstring)."""
+    """Prune, merge and normalise."""
     total = 0.0
     for i in range(count):
         total += w[i]

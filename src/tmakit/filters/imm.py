@@ -42,7 +42,7 @@ def _moments(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
 
 
 class InteractingMultipleModel(TrackingFilter):
-    """Interacting multiple model filter of EKF, UKF or cubature components (module docstring).
+    """Interacting multiple model filter of EKF, UKF or cubature components.
 
     Parameters
     ----------

@@ -57,7 +57,7 @@ def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
 
     References
     ----------
-    Chen & Sun, §2.3, eq. 2 (in tmakit's bearing convention, see the module docstring).
+    Chen & Sun, §2.3, eq. 2 (in tmakit's bearing convention).
     """
     b = np.asarray(measured, dtype=float)
     dt = np.asarray(dt, dtype=float)
@@ -169,7 +169,7 @@ class MirrorReflectMixin:
 class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
     """The modified-gain EKF (WMEKF) of Chen & Sun, §2.3-2.5.
 
-    Modified-gain rows for bearings (with ``mu = 0``, see the module docstring), EKF rows for range
+    Modified-gain rows for bearings (with ``mu = 0``), EKF rows for range
     differences and every other kind, Joseph-form covariance update with the modified rows.
 
     Parameters

@@ -50,7 +50,7 @@ def optimal_bandwidth(n_particles: int, n_state: int) -> float:
 
     References
     ----------
-    Musso, Oudjane & Le Gland (2001) (see the module docstring).
+    Musso, Oudjane & Le Gland (2001).
     """
     return float((4.0 / (n_particles * (n_state + 2))) ** (1.0 / (n_state + 4)))
 
@@ -69,7 +69,7 @@ def systematic_resample(weights: Array, u: float) -> NDArray[np.int64]:
 
 
 class ParticleFilter(TrackingFilter):
-    """Regularised SIR particle filter (see the module docstring).
+    """Regularised SIR particle filter.
 
     Parameters
     ----------

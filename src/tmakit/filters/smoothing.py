@@ -1,4 +1,15 @@
-"""Smoothers: every state of a track conditioned on the data after it too."""
+"""Smoothers: every state of a track conditioned on the data after it too.
+
+:func:`smooth` runs the Rauch-Tung-Striebel smoother on a Gaussian track (on the moments of a
+Gaussian sum), or with ``lag=N`` the fixed-lag smoother; on a particle track that kept its clouds,
+forward filtering-backward simulation with the filter's own move as transition density.
+
+References
+----------
+Rauch, Tung & Striebel (1965); Särkkä (2013), *Bayesian Filtering and Smoothing*, Theorem 8.2
+and §9; Godsill, Doucet & West (2004), "Monte Carlo smoothing for nonlinear time series", JASA
+99(465), Algorithm 1.
+"""
 
 from __future__ import annotations
 
@@ -103,7 +114,7 @@ def _backward_simulation(history: list, dynamics: NearlyConstantVelocity, trajec
 def smooth(track: Track, *, lag: int | None = None,
            dynamics: NearlyConstantVelocity | None = None, trajectories: int = 200,
            rng: np.random.Generator | int | None = 0) -> Track:
-    """Smooth a Gaussian track (RTS; fixed-lag with ``lag``), see the module docstring.
+    """Smooth a Gaussian track (RTS; fixed-lag with ``lag``).
 
     Parameters
     ----------

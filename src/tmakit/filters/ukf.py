@@ -55,7 +55,7 @@ def unscented_weights(n: int, alpha: float, beta: float, kappa: float
 
 
 class UnscentedKalmanFilter(ExtendedKalmanFilter):
-    """UKF with wrap-aware means and residuals (see the module docstring).
+    """UKF with wrap-aware means and residuals.
 
     Parameters
     ----------
@@ -77,7 +77,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
 
     References
     ----------
-    Wan & van der Merwe (2000); Julier (2002) (see the module docstring); Chen & Sun, §2.1
+    Wan & van der Merwe (2000); Julier (2002); Chen & Sun, §2.1
     (the dynamics).
     """
 
