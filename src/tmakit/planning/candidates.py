@@ -48,7 +48,7 @@ def expected_information(plan: SensorPlan, states: Array, weights: Array,
     sensor_states : ndarray, shape (*B, 6)
         Candidate sensor states at that time.
     gamma : {"mean", "cloud"}
-        How ``Gamma`` is formed (module docstring).
+        How ``Gamma`` is formed.
 
     Returns
     -------

@@ -55,7 +55,7 @@ class LoopSetup:
     #: §3.1), an EKF or a UKF
     tracker: str = "pf"
     particles: int = 2000  # Particles of the particle filter
-    #: How ``Gamma`` of the recorded planning criterion is formed (module docstring)
+    #: How ``Gamma`` of the recorded planning criterion is formed
     criterion_gamma: str = "cloud"
 
     def __post_init__(self) -> None:
@@ -115,7 +115,7 @@ class LoopRecord:
     action: Array
     decision_ms: Array  # Wall time of each decision (ms; a measurement of this machine); shape (D,)
     #: The planning criterion along the flown path (m): the position RMS of ``J`` carried with
-    #: ``Gamma`` over the tracker's cloud (module docstring, step 5; not a bound); shape (D,)
+    #: ``Gamma`` over the tracker's cloud (not a bound); shape (D,)
     criterion_m: Array
     #: The policy's prediction for its choice (m): a planner's bound after the step, the mission
     #: planner's at the mission end; shape (D,)
@@ -229,7 +229,7 @@ def _column_name(name: str) -> str:
 
 def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
                     seed: int | np.random.SeedSequence | None = None) -> LoopRecord:
-    """Run the closed loop of the module docstring for ``setup.steps`` decisions.
+    """Run the closed loop for ``setup.steps`` decisions.
 
     References
     ----------

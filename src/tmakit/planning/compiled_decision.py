@@ -267,7 +267,7 @@ def decide_planar(position: Array, heading: float, speed: float, climb: float,
                   coef: Array, dgf: Array, position_only: bool, weighting: Array,
                   out: Array, flags: Array, info: Array, cov: Array, cost: Array,
                   bound: Array) -> int:
-    """One decision over ``A`` candidates (module docstring); return the best, or why not."""
+    """One decision over ``A`` candidates; return the best, or why not."""
     start = np.empty((1, 6))
     start[0, :3] = position
     start[0, 3] = heading

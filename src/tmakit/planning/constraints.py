@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 
-#: Default penalty weight (dimensionless, see the module docstring).
+#: Default penalty weight (dimensionless).
 DEFAULT_PENALTY = 10.0
 
 

@@ -1,4 +1,9 @@
-"""The planner's compiled decision: a whole decision, or every candidate's kinematics, at once."""
+"""The planner's compiled decision: a whole decision, or every candidate's kinematics, at once.
+
+:func:`fly` flies the candidates in one compiled loop; :func:`decide` makes a whole planar
+decision (kinematics, ``J``, criterion, bound) in one compiled call.  Both return None where they
+do not apply, and the planner takes its general path.
+"""
 
 from __future__ import annotations
 

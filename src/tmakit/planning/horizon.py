@@ -84,7 +84,7 @@ class Continuation:
         ``"straight"``: hold heading and speed; ``"hold"``: keep the node's last turn rate
         (circles); ``"coast"``: predict ``J`` to ``end_time`` without measurements.
     samples : int, optional
-        Most measurement instants used for the continuation (module docstring).
+        Most measurement instants used for the continuation.
 
     Raises
     ------

@@ -130,7 +130,7 @@ class MissionPlanner:
         Cost of the final ``J`` (default :class:`WeightedTrace`: the final mean-square position
         bound, m^2).
     headings : int, optional
-        Size of the heading grid of the first sweeps (module docstring).
+        Size of the heading grid of the first sweeps.
     speeds : sequence of float, optional
         Allowed leg speeds, m/s (default: hold the current speed).
     sweeps : int, optional
@@ -140,12 +140,12 @@ class MissionPlanner:
     gamma : {"mean", "cloud"}, optional
         How ``Gamma`` is formed (:mod:`tmakit.planning.candidates`).
     constraints : sequence of Constraint, optional
-        Tactical constraints along the path (module docstring).
+        Tactical constraints along the path.
     hypotheses : bool, optional
         Take each member of the belief's cloud as a hypothesis of the target (for example a few
         ranges along the measured bearing) and score a path by the weighted mean over them of the
         criterion of ``J`` computed with ``Gamma`` at that member: the expected bound, not the bound
-        of the expected information (module docstring).
+        of the expected information.
 
     Raises
     ------

@@ -1,4 +1,10 @@
-"""Choose the sensor's next action by the predicted posterior CRB (Hurtado & Nehorai 2008)."""
+"""Choose the sensor's next action by the predicted posterior CRB (Hurtado & Nehorai 2008).
+
+The :class:`Planner` flies every candidate action for one decision interval, carries the
+Bayesian information along each (eqs. 10-13), scores it by the criterion (eq. 12), checks the
+constraints and returns a :class:`Recommendation`.  With ``horizon > 1`` candidates are action
+sequences searched by :func:`tmakit.planning.horizon.search` (receding horizon).
+"""
 
 from __future__ import annotations
 
@@ -116,8 +122,7 @@ class Planner:
     constraints : sequence, optional
         Tactical constraints (:mod:`tmakit.planning.constraints`).
     gamma : {"mean", "cloud"}, optional
-        How ``Gamma`` is formed in the first step (module docstring of
-        :mod:`tmakit.planning.candidates`).
+        How ``Gamma`` is formed in the first step (:mod:`tmakit.planning.candidates`).
     horizon : int, optional
         Decision steps looked ahead (1 = Hurtado & Nehorai (2008)).
     beam : int, optional

@@ -59,7 +59,7 @@ class Choice(Protocol):
 
 
 class Policy(Protocol):
-    """What chooses the next step (module docstring)."""
+    """What chooses the next step."""
 
     def recommend(self, platform: PlatformState, belief: Belief) -> Choice:
         """Choose the next action from ``platform`` given ``belief``."""
