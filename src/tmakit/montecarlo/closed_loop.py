@@ -80,7 +80,7 @@ class LoopChunk:
         return len(self.records)
 
     def table(self) -> pd.DataFrame:
-        """Return the chunk's rows of the per-step table (module docstring)."""
+        """Return the chunk's rows of the per-step table."""
         frames = []
         for i, rec in enumerate(self.records):
             cols = rec.columns()
@@ -231,7 +231,7 @@ class ClosedLoopStudy:
         return np.sqrt(np.mean(self.stack(case, "criterion_m") ** 2, axis=0))
 
     def pcrb_covariance(self, case: str) -> Array:
-        """Return the posterior CRB of ``case`` at each step (module docstring), SI.
+        """Return the posterior CRB of ``case`` at each step, SI.
 
         Parameters
         ----------
@@ -325,12 +325,15 @@ class ClosedLoopStudy:
                 "runs": self.runs(case)}
 
     def table(self) -> pd.DataFrame:
-        """Return the per-step table of every case and run (module docstring).
+        """Return the per-step table of every case and run.
 
         Returns
         -------
         pandas.DataFrame
-            Violation columns a case lacks are 0 (no such constraint, nothing violated).
+            One row per case, run and decision: ``case``, ``run``, ``step``, ``time`` (s),
+            ``sensor_x``, ``sensor_y``, ``action``, ``criterion_m``, ``predicted_criterion_m``,
+            ``error_m``, ``range_m`` (m), ``decision_ms`` (ms), ``violation_m`` and one
+            ``violation_<constraint>_m`` per constraint (m; 0 where a case lacks it).
         """
         frames = [LoopChunk(case, 0, recs).table() for case, recs in self.records.items()]
         out = pd.concat(frames, ignore_index=True)
@@ -350,7 +353,7 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
                       progress: bool = True,
                       on_chunk: Callable[[LoopChunk], None] | None = None
                       ) -> ClosedLoopStudy:
-    """Run every case ``runs`` times (module docstring for the seeds).
+    """Run every case ``runs`` times.
 
     Parameters
     ----------

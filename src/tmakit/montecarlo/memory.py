@@ -1,4 +1,10 @@
-"""Keep freed memory for the next run: the allocator settings of a Monte Carlo process."""
+"""Keep freed memory for the next run: the allocator settings of a Monte Carlo process.
+
+Raising glibc's mmap and trim thresholds to 32 MiB keeps a chunk's freed temporaries in the heap
+instead of paying page faults for them again.  It is a process-wide setting, so the library makes
+it only in processes of its own (``tma``, its worker processes, Dask workers it sends chunks to);
+a Python user calls :func:`keep_freed_memory`.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +25,7 @@ _done = False
 def keep_freed_memory() -> bool:
     """Raise glibc's trim and mmap thresholds to :data:`HEAP_KEEP`, once per process.
 
-    Opt-in: tmakit calls it only in processes of its own (module docstring).
+    Opt-in: tmakit calls it only in processes of its own.
 
     Returns
     -------

@@ -192,7 +192,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     runs : int
         Number of runs (>= 1).
     rng : int, numpy.random.Generator or None
-        The study's seed, which fixes every run's data (module docstring; a Generator gives one,
+        The study's seed, which fixes every run's data (a Generator gives one,
         None fresh entropy), recorded in the result's ``seed``.
     options : mapping, optional
         The nuisance model per kind (default :attr:`Scenario.measurement_options`), CRLB too.
