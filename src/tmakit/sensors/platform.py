@@ -74,7 +74,7 @@ def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: Arra
                             acceleration: ArrayLike, dt: ArrayLike) -> Array:
     """Sensor states after ``dt`` seconds of constant turn rate and constant acceleration.
 
-    The closed form of the module docstring (exact, no time stepping); all inputs broadcast.
+    The closed form (exact, no time stepping); all inputs broadcast.
 
     Parameters
     ----------

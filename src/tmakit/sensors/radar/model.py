@@ -83,7 +83,7 @@ class RadarModel:
         Complex baseband sampling rate fs, Hz, at least ``2 B``. *Chosen*: 4 MHz.
     range_accuracy : {"derived", "resolution"}
         "derived": the CRB of the signal model; "resolution": range sigma ``c / (2 B)`` (150 m),
-        uncorrelated (see the module docstring).
+        uncorrelated.
     speed_of_light : float
         Propagation speed c, m/s.
 
@@ -248,7 +248,7 @@ class RadarModel:
     def signal_information(self, elevation: ArrayLike = 0.0, dim: int = 3) -> Array:
         """Return the Fisher information of one pulse about the paper's parameters.
 
-        Closed form (module docstring) with the echo's complex amplitude an unknown nuisance;
+        Closed form with the echo's complex amplitude an unknown nuisance;
         it does not depend on the azimuth, the delay or the Doppler shift.
 
         Parameters
