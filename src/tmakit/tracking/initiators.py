@@ -1,4 +1,11 @@
-"""How a track starts: initiators, objects with their settings in ``__init__``."""
+"""How a track starts: initiators, objects with their settings in ``__init__``.
+
+:meth:`Initiator.initiate` starts a :class:`~.filter_setup.FilterSetup`'s filter and returns an
+:class:`Initiation` (the typed start record and the track).  :class:`PriorInitiator` starts from a
+given Gaussian; :class:`BatchInitiator` (the default) from a batch estimate over the shortest
+good window (:func:`.window.search_window`), replaced by one from a window at least twice as long
+when the next updates' summed NIS is improbable (p below ``confirm_p_value``).
+"""
 
 from __future__ import annotations
 

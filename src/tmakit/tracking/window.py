@@ -1,4 +1,11 @@
-"""The initial window a batch start is estimated over."""
+"""The initial window a batch start is estimated over.
+
+A batch estimate over the first ``k`` distinct times is a good start when it converged, every
+state component is observable and the position's largest 1-sigma semi-axis is below
+``max_relative_std`` times the range (a bearings-only EKF started at 70 % diverges, at 25 % it
+stays consistent: ``docs/tracking.md``).  :func:`search_window` doubles the window from
+``min_window`` until it qualifies, then bisects down to the shortest that does.
+"""
 
 from __future__ import annotations
 
@@ -150,7 +157,7 @@ def search_window(meas: MeasurementSet, dim: int,
         Per-kind measurement-model options.
     init_window : int, optional
         Use exactly this many distinct measurement times (the estimate must then converge
-        and be observable); by default search as the module docstring says.
+        and be observable); by default the shortest that is good enough.
     max_relative_std : float
         The start quality: position std over range must be below it (used in the search).
     min_window : int
