@@ -1,4 +1,14 @@
-"""The two bearings-only scenarios of Ristic et al. (2004, ch. 6), as Leong et al. coded them."""
+"""The two bearings-only scenarios of Ristic et al. (2004, ch. 6), as Leong et al. coded them.
+
+``moderate`` and ``high`` (highly nonlinear) from their published MATLAB script, in metres,
+with their range intervals as range priors.  Used by ``benchmarks/first_bearing.py`` and the
+tests.
+
+References
+----------
+Ristic, Arulampalam & Gordon (2004), *Beyond the Kalman Filter*, ch. 6; Leong, Arulampalam,
+Lamahewa & Abhayapala (2014), IEEE SPL 21(5).
+"""
 
 from __future__ import annotations
 
@@ -23,7 +33,7 @@ STEP = 60.0
 
 @dataclass(frozen=True)
 class Scenario:
-    """One of the two scenarios (see the module docstring); lengths m, angles deg."""
+    """One of the two scenarios; lengths m, angles deg."""
 
     steps: int  # Samples after the first
     sigma_deg: float  # Bearing noise std
