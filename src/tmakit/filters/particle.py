@@ -1,8 +1,9 @@
 """A regularised SIR particle filter, vectorised over particles.
 
 Sampling importance resampling with the transitional prior as importance density (Hurtado &
-Nehorai (2008), §3.1, eq. 8 with ``q = p(x_k | x_{k-1})``), resampled when the effective sample
-size falls, and regularised (Musso, Oudjane & Le Gland (2001)).
+Nehorai (2008), §3.1, eq. 8 with ``q = p(x_k | x_{k-1})``), systematic resampling when the
+effective sample size falls below a fraction of ``N``, then regularisation (Musso, Oudjane & Le
+Gland (2001); Liu & West (2001)).
 """
 
 from __future__ import annotations

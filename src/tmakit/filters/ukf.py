@@ -1,7 +1,9 @@
 """The unscented Kalman filter, wrap-aware.
 
-Predict: the dynamics are linear (Chen & Sun, §2.1), for which the unscented transform is exact, so
-the predict is the Kalman predict ``Phi x``, ``Phi P Phi^T + Q``.
+The scaled unscented transform (Julier 2002; weights of Wan & van der Merwe 2000), by default
+``alpha = 1, beta = 2, kappa = 0`` so every weight is non-negative; angle rows take the circular
+mean and wrapped deviations.  The dynamics are linear (Chen & Sun, §2.1), so the predict is the
+Kalman predict.
 """
 
 from __future__ import annotations

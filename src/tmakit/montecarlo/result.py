@@ -39,6 +39,10 @@ def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, fl
     tuple of float
         ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``; NaN for ``n < 1``
         or a non-finite ratio.
+
+    Notes
+    -----
+    Assumes independent, unbiased, Gaussian errors (then ``n RMSE²/σ²`` is ``χ²_n``).
     """
     if n < 1 or not np.isfinite(ratio):
         return float("nan"), float("nan")

@@ -214,6 +214,10 @@ class KeepOutZones:
         shapely polygons or (k, 2) vertex arrays, local (east, north) m.
     hard, weight
         As for :class:`MinimumRange`; the penalty scale is the square root of the zones' area.
+
+    Notes
+    -----
+    The violation is the depth inside a zone (the distance to its boundary, m).
     """
 
     zones: Sequence[object]
@@ -268,6 +272,10 @@ class OperatingArea:
         A shapely polygon or (k, 2) vertex array, local (east, north) m.
     hard, weight
         As for :class:`MinimumRange`; the penalty scale is the square root of the area.
+
+    Notes
+    -----
+    The violation is the distance outside the area (m).
     """
 
     area: object

@@ -146,6 +146,11 @@ class LogDet:
     block : {"position", "velocity", "state"}, optional
         Which block of ``J^{-1}`` (default the position block: ``log det`` of the position error
         covariance bound, log m^(2 dim)).
+
+    Notes
+    -----
+    The log-volume of the error ellipsoid; unlike the trace it is indifferent to how the
+    error is shared between axes (a long thin ellipse can score as well as a round one).
     """
 
     block: Block = "position"

@@ -1,7 +1,8 @@
 """Receding-horizon search over ``H`` decision steps: a beam over the action tree.
 
-A planner with ``A`` actions and a horizon of ``H`` steps has ``A^H`` action sequences (15^3 = 3375
-for the paper's actions at ``H = 3``).
+A node is scored by the criterion of its predicted information (Hurtado & Nehorai (2008),
+eq. 12) at its depth, or at the mission end with a :class:`Continuation`; ``beam`` keeps the best
+nodes of each depth (``A^H`` sequences otherwise: 3375 for the paper's 15 actions at ``H = 3``).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Mission-level planning: the sensor's remaining path as legs, optimised for the final bound.
 
-A passive sensor's (bearings-only) information comes from the geometry of the whole path, so a
-planner that looks a few steps ahead gives away what a later turn would bring
-(``benchmarks/planning_horizon_warning.py``).
+A passive sensor's information comes from the geometry of the whole path, so the path is planned
+as legs to the mission end, the Bayesian information carried along every candidate at once by the
+recursion of Hurtado & Nehorai (2008), eq. 10, and scored by the criterion of the final ``J``.
 """
 
 

@@ -2,7 +2,9 @@
 
 Five sensors moving in 3-D, a source at constant velocity near them; TDOAs and FDOAs against the
 first sensor at one time, their noise shared through it (range-difference covariance
-``sigma^2 (I + 1 1') / 2``, range-rate differences ten times finer, ``0.1 sigma`` in m/s).
+``sigma^2 (I + 1 1') / 2``, range-rate differences ten times finer, ``0.1 sigma`` in m/s).  The
+layout is the one commonly used with Ho & Xu (2004) and Ho, Lu & Kovavisaruch (2007), stated by
+tmakit, not checked against the paper's table.
 """
 
 from __future__ import annotations

@@ -147,6 +147,10 @@ class PlatformState:
     ------
     ValueError
         If a value is not finite, a speed is negative or the shapes do not broadcast.
+
+    Notes
+    -----
+    All fields broadcast to one batch shape :attr:`shape`; ``position`` is ``(*shape, 3)``.
     """
 
     position: Array
@@ -490,6 +494,13 @@ class PlatformKinematics:
     ------
     ValueError
         If the limits are inconsistent (negative, or a minimum above its maximum).
+
+    Notes
+    -----
+    Order of the limits: the commanded end speed is clipped to the speed range, then the
+    acceleration it needs to the acceleration limit; the heading change divided by the
+    interval to the turn-rate limit; the climb rate to the altitude band, then to the
+    climb-rate limit (so a platform outside the band returns at most at that rate).
     """
 
     min_speed: float = 0.0
@@ -635,6 +646,11 @@ class PlatformTrack(SensorTrack):
     ------
     ValueError
         If there is no step, a step holds several candidates, or the steps do not join.
+
+    Notes
+    -----
+    At a step boundary the later step is used: horizontal velocity is continuous there, the
+    climb rate may change.  Times outside the path are refused, as by ``RecordedTrack``.
     """
 
     def __init__(self, steps: Sequence[Step]) -> None:
