@@ -67,6 +67,10 @@ class ExtendedKalmanFilter(TrackingFilter):
     """EKF with nearly-constant-velocity dynamics.
 
     Chen & Sun, §2.1 (dynamics) and §2.5 with the plain Jacobian in place of the modified gain.
+    ``iterations`` > 1 makes it the iterated EKF (Bell & Cathey 1993), relinearised at the updated
+    state until the change is below :data:`IEKF_TOL` of the range; NIS and log-likelihood are those
+    of the first linearisation.  An update whose prediction or Jacobian is not finite is skipped and
+    counted in :attr:`skipped_updates`.
 
     Parameters
     ----------

@@ -183,7 +183,7 @@ class CubatureKalmanFilter(UnscentedKalmanFilter):
     """The cubature Kalman filter: the third-degree spherical-radial rule.
 
     ``2n`` points at ``x ± sqrt(n) L_j`` with equal weights ``1 / (2n)`` (Arasaratnam & Haykin 2009,
-    "Cubature Kalman filters", IEEE Trans.
+    eqs. 33-34): the UKF's arithmetic with ``alpha = 1, beta = 0, kappa = 0``.
 
     Parameters
     ----------

@@ -25,6 +25,12 @@ __all__ = ["BatchInitiator"]
 class BatchInitiator(GaussianInitiator):
     """Start a Stone Soup track from tmakit's batch estimate, with no initial guess.
 
+    Detections accumulate over calls; once they span ``min_window`` distinct times the
+    constant-velocity estimate over all of them is tried, and starts a track by the start rule of
+    :func:`tmakit.tracking.window.search_window` (else it is retried when the times have grown by
+    ``growth``).  The track's first state is a ``GaussianState`` at the latest detection time.  One
+    target: every detection is taken to be of it (use it after association).
+
     Parameters
     ----------
     *args, **kwargs

@@ -34,7 +34,12 @@ def cartesian_mapping(dim: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
 
 
 class TmakitMeasurementModel(NonLinearGaussianMeasurement):
-    """tmakit measurement rows at one time as a Stone Soup measurement model."""
+    """tmakit measurement rows at one time as a Stone Soup measurement model.
+
+    Build it with :meth:`from_rows`.  ``function`` and ``jacobian`` evaluate tmakit's models at the
+    state's position and velocity (``mapping``, ``velocity_mapping``) in SI; angle rows are Stone
+    Soup ``Bearing`` values, so innovations wrap to (-pi, pi].
+    """
 
     group: MeasurementGroup = Property(doc="The rows, their models, sensor states and noise.")
     velocity_mapping: tuple[int, ...] = Property(doc="State indices of vx, vy(, vz).")

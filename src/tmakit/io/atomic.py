@@ -94,7 +94,9 @@ def atomic_write(path: str | os.PathLike[str], force: bool = False,
                  keep_suffix: bool = False) -> Iterator[Path]:
     """Write ``path`` atomically: yield a new empty temporary file, then move it into place.
 
-    Use as ``with atomic_write(path, force) as tmp: write(tmp)``.
+    Use as ``with atomic_write(path, force) as tmp: write(tmp)``.  Without ``force`` the move is
+    a hard link, so a file created meanwhile is never overwritten; on any failure the temporary
+    file is removed and ``path`` left as it was.
 
     Parameters
     ----------

@@ -116,7 +116,11 @@ def _state_on(track: SensorTrack, t: float) -> PlatformState:
 
 @dataclass(frozen=True, eq=False)
 class TrackPolicy:
-    """Fly a given sensor track: the scenario's fixed pattern, step by step."""
+    """Fly a given sensor track: the scenario's fixed pattern, step by step.
+
+    Each step ends where the track is one interval later, joined by the constant turn between the
+    headings (exact for a zig-zag's legs).
+    """
 
     #: The path (for example ``scenario.sensors["observer"]``); it must cover the run
     track: SensorTrack

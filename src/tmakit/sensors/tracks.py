@@ -140,8 +140,8 @@ class Leg:
 class LegsTrack(SensorTrack):
     """Straight legs and constant-rate turns (arcs) flown at constant altitude.
 
-    Starts at ``start`` (ENU, m) at ``start_time`` with ``heading`` (rad, clockwise from North) and
-    ``speed`` (m/s).
+    Before ``start_time`` the first leg is extended backwards; after the last leg ends the track
+    continues on it.
 
     Parameters
     ----------

@@ -142,7 +142,11 @@ class PriorInitiator(Initiator):
 
 
 class BearingInitiator(Initiator):
-    """Start at the first bearing from a prior in the user's terms (issue 28).
+    """Start at the first bearing from a prior in the user's terms.
+
+    The filter starts at the first bearing's time from ``prior`` centred on that bearing
+    (:meth:`TrackingFilter.from_first_bearing <tmakit.filters.TrackingFilter.from_first_bearing>`)
+    and updates with every other row; the track's first row is that start (NIS NaN).
 
     Parameters
     ----------
