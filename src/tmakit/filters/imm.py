@@ -52,10 +52,11 @@ class InteractingMultipleModel(TrackingFilter):
         ``"ekf"``, ``"ukf"`` or ``"ckf"``: the update of each model.
     model_q : sequence of float, optional
         Acceleration std (m/s^2, all axes) of the models after the first; the first model is the
-        filter's own ``q``/``dynamics``.
+        filter's own ``q``/``dynamics``. Default ``(MANOEUVRE_Q,)``.
     transition : array_like, optional
         ``(M, M)`` Markov matrix, ``p_ij`` the probability per predict of going from model ``i`` to
-        model ``j``; rows sum to 1.
+        model ``j``; rows sum to 1. Default ``1 - SWITCH`` on the diagonal and ``SWITCH / (M - 1)``
+        elsewhere.
     turn_rates : sequence of float, optional
         Turn rates (rad/s, counter-clockwise positive; a right turn is negative) of further
         coordinated-turn models, after the ``model_q`` models (default none).

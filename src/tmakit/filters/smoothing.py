@@ -122,7 +122,8 @@ def smooth(track: Track, *, lag: int | None = None,
         A track of a Gaussian filter (EKF, UKF, cubature, the Gaussian sum's moments), from
         :func:`tmakit.track` or a filter's ``run``.
     lag : int, optional
-        Fixed lag N >= 0 (updates): each state given the data up to N updates after it.
+        Fixed lag N >= 0 (updates): each state given the data up to N updates after it. Default: the
+        whole track (fixed-interval RTS).
     dynamics : NearlyConstantVelocity, optional
         The filter's dynamics; default from the track's ``extra`` (``q``, ``q_density``).
     trajectories : int, optional

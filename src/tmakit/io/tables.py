@@ -62,7 +62,9 @@ def write_table(path: str | os.PathLike[str], table: pd.DataFrame | Mapping[str,
         Keys and values added to the Arrow schema metadata of a Parquet file.
     parquet_schema : pyarrow.Schema, optional
         The Arrow schema of a Parquet file; when given, the file carries only this schema and
-        ``parquet_metadata`` (no pandas metadata).
+        ``parquet_metadata`` (no pandas metadata). By default the types come from pandas and pandas'
+        metadata is kept. With a schema, ``table`` is read column by column (NaN is written as NaN,
+        not as a null).
 
     Returns
     -------

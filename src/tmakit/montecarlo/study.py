@@ -206,7 +206,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     dask : str or distributed.Client, optional
         Send the chunks to a Dask cluster (its workers must import tmakit).
     chunk : int, optional
-        Runs per task (default :func:`~.execution.default_chunk`).
+        Runs per task (default :func:`~.execution.default_chunk`). The table is the same, run for
+        run, for any ``chunk``, ``workers`` and ``dask``.
     on_chunk : callable, optional
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
     workers : int, optional

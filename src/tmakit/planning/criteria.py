@@ -69,7 +69,8 @@ class WeightedTrace:
     weights : array_like, optional
         ``Pi`` (n, n), symmetric positive semi-definite, in units that make the terms comparable
         (e.g. ``diag(1, 1, tau^2, tau^2)`` weighs velocity errors as the position error they cause
-        after ``tau`` seconds).
+        after ``tau`` seconds). Default: the position block (ones on the position diagonal, zeros
+        elsewhere), so the cost is the bound on the mean-square position error, m^2.
 
     References
     ----------
@@ -185,7 +186,8 @@ class CustomCriterion:
     Parameters
     ----------
     function : callable
-        ``function(J)`` with ``J`` (..., n, n) (SI) returning a cost (...,), smaller better.
+        ``function(J)`` with ``J`` (..., n, n) (SI) returning a cost (...,), smaller better. It must
+        be vectorised over the leading axes.
     name : str, optional
         A label for reports.
 

@@ -145,7 +145,8 @@ class MissionPlanner:
         Take each member of the belief's cloud as a hypothesis of the target (for example a few
         ranges along the measured bearing) and score a path by the weighted mean over them of the
         criterion of ``J`` computed with ``Gamma`` at that member: the expected bound, not the bound
-        of the expected information.
+        of the expected information. ``J`` now is the belief's for every hypothesis; :meth:`advance`
+        carries it with ``gamma``.
 
     Raises
     ------

@@ -16,12 +16,13 @@ class TrackingError(ValueError):
     Parameters
     ----------
     template : str
-        The message; ``{name}`` marks where parameter ``name`` of ``spellings`` is named.
+        The message; ``{name}`` marks where parameter ``name`` of ``spellings`` is named. Other text
+        (braces included) is kept as it is.
     parameter : str or None
         The library parameter the error is about (its value is wrong, or it is the way out).
     spellings : mapping of str to str, or sequence of str
         The placeholders of ``template`` and how the library spells each (a sequence: each by its
-        own name).
+        own name). Default: none, the message is plain text.
 
     Attributes
     ----------

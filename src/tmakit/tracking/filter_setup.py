@@ -75,6 +75,7 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
     ----------
     q : float or array_like
         One acceleration standard deviation (m/s^2) for every axis, or ``dim`` of them (x, y[, z]).
+        Text is refused: the command line parses ``"qx,qy"`` itself.
     dim : int
         The track's spatial dimension, 2 or 3.
 

@@ -222,7 +222,8 @@ class BatchInitiator(Initiator):
     ----------
     init_window : int, optional
         Use the first ``init_window`` distinct measurement times (the estimate must converge and be
-        observable; no innovation test).
+        observable; no innovation test). Default: search the shortest window that meets
+        ``max_relative_std``.
     max_relative_std : float
         Start quality: the position's largest 1-sigma semi-axis must be below this fraction of the
         range to the nearest sensor (> 0).

@@ -120,7 +120,8 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     -------
     Track
         One row per update (SI); ``extra`` says how it started (``start``, ``start_record``) and
-        with which ``q``, ``q_density``, ``dim`` and ``options``.
+        with which ``q``, ``q_density``, ``dim`` and ``options``. Its first row is the start (NIS
+        NaN) after a batch or first-bearing start.
 
     Raises
     ------

@@ -55,21 +55,25 @@ class RadarModel:
     bandwidth : float
         Bandwidth of the transmitted pulse, Hz (paper: 1 MHz), taken as the full width at half
         maximum (-3 dB) of its power spectrum ``|S(f)|^2`` (Gaussian for a Gaussian LFM pulse): the
-        engineering meaning of a quoted bandwidth.
+        engineering meaning of a quoted bandwidth. The RMS bandwidth ``sigma_f = B / 2.355`` (425
+        kHz) enters the bound. *Chosen* (the paper gives no definition).
     pulse_length : float
         Full width at half maximum of ``|s(t)|^2``, s. *Chosen*: 10 us, a time-bandwidth product of
         10 (a modest pulse compression); the envelope's RMS duration is ``sigma_t = T / 2.355``
-        (4.25 us).
+        (4.25 us). It must be at least ``2 ln 2 / (pi B)`` (0.44 us, the unchirped Gaussian); the
+        chirp supplies the rest of the bandwidth.
     chirp : {"up", "down"}
         Sign of the chirp rate ``kappa = +- sqrt(sigma_f^2 - 1 / (16 pi^2 sigma_t^2)) / sigma_t``
-        (Hz/s; 99.9 GHz/s by default). *Chosen*: "up".
+        (Hz/s; 99.9 GHz/s by default). *Chosen*: "up". It sets the sign of the range / range-rate
+        correlation (negative for "up").
     pri : float
         Pulse repetition interval, s (paper: 0.5 s): one measurement per PRI.
     elements : int
         Number of array elements M, at least 3 (paper: 6).
     spacing : float
-        Distance between neighbouring elements, wavelengths (paper: 0.5); the radius is
-        ``spacing lambda / (2 sin(pi / M))`` (lambda / 2 = 14.99 mm for six elements).
+        Distance between neighbouring elements, wavelengths (paper: 0.5); the radius is ``spacing
+        lambda / (2 sin(pi / M))`` (lambda / 2 = 14.99 mm for six elements). The array lies in the
+        horizontal plane, element 0 on the East axis (*chosen*).
     snr_db : float
         SNR at the receiver, dB (paper: 10 dB, independent of range).
     snr_per : {"pulse", "sample"}
@@ -80,7 +84,8 @@ class RadarModel:
         envelope's peak, ``|b|^2 / sigma^2`` (the integrated SNR is then ~ ``fs sigma_t sqrt(2 pi)``
         = 42.6 times larger).
     sampling_rate : float
-        Complex baseband sampling rate fs, Hz, at least ``2 B``. *Chosen*: 4 MHz.
+        Complex baseband sampling rate fs, Hz, at least ``2 B``. *Chosen*: 4 MHz. The pulse is
+        sampled over ``+- 8 sigma_t``: :attr:`samples_per_pulse` (273 by default) samples N.
     range_accuracy : {"derived", "resolution"}
         "derived": the CRB of the signal model; "resolution": range sigma ``c / (2 B)`` (150 m),
         uncorrelated.
