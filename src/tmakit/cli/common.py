@@ -2,7 +2,8 @@
 
 The consoles, the error exit, the refusal to overwrite, parsing of ``--origin`` and ``name=value``
 options, reading and writing measurement files, and the typer option aliases of the commands that
-fit or bound a motion model.
+fit or bound a motion model.  Nothing numerical is imported here at module level (``tma --help``
+stays light).
 """
 
 from __future__ import annotations

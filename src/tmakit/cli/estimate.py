@@ -267,7 +267,8 @@ def grouped_by_kind(meas: Any) -> Any:
 
     The solvers work on the rows grouped by kind (:attr:`ObservationModel.order
     <tmakit.observation.ObservationModel.order>`) and hold a grouped copy of a set whose kinds
-    alternate (about 150 bytes per row).
+    alternate (about 150 bytes per row); above :data:`tmakit.core.blas.CHUNKED_ROWS` rows the set
+    is reordered here, once, so no copy is held beside it (the fit is the same).
 
     Parameters
     ----------

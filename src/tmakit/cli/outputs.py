@@ -1,4 +1,9 @@
-"""Output paths checked before any work starts, and pictures written atomically."""
+"""Output paths checked before any work starts, and pictures written atomically.
+
+:func:`check_output` resolves each output to the exact file (a picture without a suffix gets
+``.png``) and refuses it, naming the option, when it exists without ``--force``, is a folder, or
+cannot be written.  Nothing numerical is imported here.
+"""
 
 from __future__ import annotations
 
@@ -189,7 +194,8 @@ def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
     """Hold the outputs of a long command for it alone while it runs (a lock file beside each).
 
     A second ``tma`` run writing to the same file is refused at its start, naming the run that holds
-    it, instead of failing after its work (its finished runs lost).
+    it.  The lock is ``.NAME.tma-lock`` beside the output (the process id; a dead process's lock
+    is taken over).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Plain ``-h`` help for every ``tma`` command: each valued option shows the value it takes.
 
-Typer labels a valued option with its Python type (``--seed <int>``, ``--origin <str>``) and a
-required argument as ``{file}``.
+Typer labels a valued option with its Python type (``--seed <int>``) and a required argument as
+``{file}``; :class:`PlainCommand` names each value by what it is (``--seed N``, ``FILE``).
 """
 
 from __future__ import annotations

@@ -1,7 +1,10 @@
 """The general filter path: a measurement set prepared once per file, its plan, and the step.
 
-:meth:`TrackingFilter.run <tmakit.filters.TrackingFilter.run>` updates once per distinct measurement
-time.
+The set is prepared once (:class:`CompiledMeasurements`) and so is everything of an update that
+does not depend on the state (:class:`StepPlan`; :class:`RowSteps` for rows handed over one update
+at a time), because cutting the set per update costs more than a filter step.  The EKF's
+posterior covariance is ``P - K H P``, the Joseph form only when that fails its Cholesky check
+(:func:`updated_covariance`), repaired only when that fails too (:func:`checked_psd`).
 """
 
 from __future__ import annotations

@@ -1,9 +1,10 @@
 """Closed-form step kernels for the commonest tracking problem.
 
-That problem is one bearing per update and a 2-D nearly-constant-velocity state ``[x, y, vx, vy]``.
-
-Predict (both filters): ``x <- Phi x``, ``P <- Phi P Phi^T + Q`` with ``Phi`` and ``Q`` of Chen &
-Sun, §2.1, written out entry by entry (``q`` per axis).
+That problem is one bearing per update and a 2-D nearly-constant-velocity state ``[x, y, vx, vy]``
+(predict of Chen & Sun, §2.1, written out entry by entry).  A step whose numbers are not clearly
+valid (target at the sensor, a non-positive innovation variance, LDL^T pivots below
+:data:`PIVOT_FLOOR`, ...) is not taken here: the kernel stops and the filter does that step on
+the general path, whose covariance repair always returns a positive semi-definite matrix.
 """
 
 from __future__ import annotations
