@@ -2,7 +2,9 @@
 
 :func:`random_geometry` draws one two-dimensional constant-velocity target heard by one manoeuvring
 sensor with a random mix of bearing, frequency and power measurements; :func:`observable_geometry`
-redraws until the Cramér–Rao bound says the geometry can be localised.
+redraws until the Cramér–Rao bound says the geometry can be localised.  Every draw is uniform
+over the ranges of the constants below (the target's start uniform in area over the annulus
+:data:`MIN_DISTANCE`-:data:`MAX_DISTANCE`) and comes from the Generator passed in.
 """
 
 from __future__ import annotations
