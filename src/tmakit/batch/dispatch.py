@@ -94,27 +94,7 @@ class MLByMotion(BatchEstimator):
                 f"max_iter={self.max_iter!r}{extra})")
 
     def fit(self, meas: MeasurementSet, motion: MotionModel | str) -> EstimateResult:
-        """Return the maximum-likelihood estimate for ``motion``.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements.
-        motion : MotionModel or str
-            A motion model, or a motion name (``"cv2d"``, ``"curvilinear:2"``, ...).
-
-        Returns
-        -------
-        EstimateResult
-            A :class:`~tmakit.batch.curvilinear.ManoeuvreEstimate` for a manoeuvring target.
-
-        Raises
-        ------
-        TypeError
-            For manoeuvre settings with a motion model without manoeuvres.
-        ValueError
-            As the chosen estimator.
-        """
+        """Return the maximum-likelihood estimate for ``motion``."""
         chosen = self.manoeuvre
         if isinstance(motion, str):  # the name is read here, once; its ref_time is used up
             motion = model_of(motion, meas, self.ref_time)

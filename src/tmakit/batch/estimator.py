@@ -159,26 +159,7 @@ class PaperMethod(BatchEstimator):
         return meas.take(np.isin(meas.kind, kinds)) if kinds else meas
 
     def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
-        """Run the paper's iteration from ``init``, or from tmakit's grid point without one.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements.
-        motion : MotionModel
-            The motion model.
-
-        Returns
-        -------
-        EstimateResult
-            With ``extra["start"] = "grid"`` and ``extra["start_point"]`` (SI) and a
-            sentence in the message when the grid gave the start.
-
-        Raises
-        ------
-        ValueError
-            When the data or the motion model do not suit the method.
-        """
+        """Run the paper's iteration from ``init``, or from tmakit's grid point without one."""
         if self.init is not None:
             return self.iterate(meas, motion, self.init)
         start = grid_start(self.start_rows(meas), motion)

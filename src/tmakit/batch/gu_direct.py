@@ -210,25 +210,6 @@ class GuDirect(PaperMethod):
                 ) -> EstimateResult:
         """Run the iteration of Gu et al. (2007) §3 from ``init``.
 
-        Parameters
-        ----------
-        meas : MeasurementSet
-            Power and/or frequency measurements.
-        motion : MotionModel
-            ``ConstantVelocity(2)``.
-        init : Mapping[str, float] or array_like
-            The starting theta (m, m/s).
-
-        Returns
-        -------
-        EstimateResult
-            With the method's own covariance ``D^-1`` and its diagnostics in ``extra``.
-
-        Raises
-        ------
-        ValueError
-            Without ``init``, for another motion model, or data of other kinds.
-
         References
         ----------
         Gu et al. (2007), §3, eqs. 7, 8, 12 and 16.

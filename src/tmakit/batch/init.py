@@ -649,14 +649,7 @@ class Starts:
         self.left[near] = np.inf
 
     def _from_shortlist(self, m: int) -> None:
-        """Choose as :meth:`first` does, among the cheapest candidates alone, while that is exact.
-
-        The greedy choice takes candidates in order of (cost, index), each one not near one
-        chosen before: the same choices are made walking the cheapest :data:`SHORTLIST` in
-        that order (:func:`_walk_together`), up to the first whose cost ties the shortlist's
-        last (a tie at the cut may have left out a candidate of lower index).  Then the full
-        set takes over, the shortlist's choices applied to it.
-        """
+        """Choose as :meth:`first` does, among the cheapest candidates alone (while exact)."""
         if self._short is None:
             self._short = self._shortlist(_cheapest(self.left[None, :])[0])
         _walk_together([self], m)

@@ -155,28 +155,7 @@ class LectureGaussNewton(PaperMethod):
 
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
-        """Run the notes' Gauss–Newton iteration from ``init``.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            Received frequencies only.
-        motion : MotionModel
-            ``ConstantVelocity(3, ref_time=t_N)``.
-        init : Mapping[str, float] or array_like
-            The starting point (m, m/s; ``carrier`` in Hz).
-
-        Returns
-        -------
-        EstimateResult
-            Assembled by :func:`tmakit.results.assemble_result`, with the ranks and update
-            sizes per iteration in ``extra``.
-
-        Raises
-        ------
-        ValueError
-            Without ``init``, for another motion model or other kinds.
-        """
+        """Run the notes' Gauss–Newton iteration from ``init``."""
         _check(meas, motion)
         obs = ObservationModel(meas, motion, {"frequency": {"drift": False}})
         noise = NoiseModel(meas)

@@ -69,25 +69,7 @@ class Method:
         return self.cls.takes_known_nuisance
 
     def __call__(self, **settings: object) -> BatchEstimator:
-        """Build the estimator with these settings (and the ones the name fixes).
-
-        Parameters
-        ----------
-        **settings
-            Constructor parameters of :attr:`cls`.
-
-        Returns
-        -------
-        BatchEstimator
-            Ready to :meth:`~tmakit.batch.estimator.BatchEstimator.fit`.
-
-        Raises
-        ------
-        TypeError
-            For a setting the class does not take or the name already fixes.
-        ValueError
-            For a setting the class refuses.
-        """
+        """Build the estimator with these settings (and the ones the name fixes)."""
         clash = sorted(set(settings) & set(self.fixed))
         if clash:
             raise TypeError(f"{self.cls.__name__}: {', '.join(clash)} fixed by the method's "

@@ -79,28 +79,7 @@ class MaximumLikelihood(BatchEstimator):
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
-        """Estimate the motion parameters from a measurement set by maximum likelihood.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (any mix of kinds and sensors).
-        motion : MotionModel
-            A motion model without manoeuvres.
-
-        Returns
-        -------
-        EstimateResult
-            Covariance the inverse Fisher information at the estimate, over the motion and
-            (unless known) nuisance parameters; status never hidden.
-
-        Raises
-        ------
-        TypeError
-            For a manoeuvring motion model or a motion name (see the class notes).
-        ValueError
-            When ``init`` has the wrong length or no grid point gives finite predictions.
-        """
+        """Estimate the motion parameters from a measurement set by maximum likelihood."""
         res = self.fit_many([meas], motion)[0]
         if isinstance(res, Exception):
             raise res

@@ -423,26 +423,6 @@ class RatioMethod(PaperMethod):
                 ) -> EstimateResult:
         """Run the iteration of Gu et al. (2007) §4 from ``init``.
 
-        Parameters
-        ----------
-        meas : MeasurementSet
-            Power and/or frequency measurements.
-        motion : MotionModel
-            ``ConstantVelocity(2)``.
-        init : Mapping[str, float] or array_like
-            The starting theta (m, m/s).
-
-        Returns
-        -------
-        EstimateResult
-            With the derived (or sandwich) covariance and ``extra`` diagnostics.
-
-        Raises
-        ------
-        ValueError
-            Without ``init``, for another motion model, data of other kinds, or fewer
-            ratios than parameters.
-
         References
         ----------
         Gu et al. (2007), §4, eqs. 19-34.

@@ -31,18 +31,7 @@ class AzimuthRate(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict azimuth rates, rad/s; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        ndarray
-            Azimuth rates, rad/s, shape ``rel.shape[:-1]``.
-        """
+        """Predict azimuth rates, rad/s; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
         dx, dy, dvx, dvy = rel[..., 0], rel[..., 1], rel[..., 3], rel[..., 4]
         return (dvx * dy - dx * dvy) / (dx * dx + dy * dy)
@@ -50,18 +39,7 @@ class AzimuthRate(MeasurementModel):
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: rad/(s m) for positions, rad/m for velocities; no reference, no nuisance.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         dx, dy, dvx, dvy = rel[..., 0], rel[..., 1], rel[..., 3], rel[..., 4]
         rho2 = dx * dx + dy * dy
@@ -75,13 +53,7 @@ class AzimuthRate(MeasurementModel):
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write azimuth rates and their derivatives (the operations of :meth:`jacobian`).
-
-        Parameters
-        ----------
-        rel, t, values, d_rel
-            As for :meth:`MeasurementModel.values_and_derivatives_into`.
-        """
+        """Write azimuth rates and their derivatives (the operations of :meth:`jacobian`)."""
         # The operations of jacobian in its order, on contiguous copies of the four components
         # and one scratch array (1.5x faster on the manoeuvre search's batches of rows).
         dx, dy, dvx, dvy = (np.ascontiguousarray(rel[..., c]) for c in (0, 1, 3, 4))

@@ -1,15 +1,8 @@
 """The measurement-model interface.
 
-A measurement model maps relative states (target minus sensor, ``(..., n, 6)``, see
-:mod:`tmakit.core.frames`) and its nuisance parameters to predicted values in SI units, and gives
-the analytic Jacobian with respect to both.  It knows nothing about motion models or sensors.
-Leading axes of ``rel`` are independent problems (particles, Monte Carlo runs).
-
-``nuisance`` is an array broadcastable to ``(..., n, k)`` for ``k`` nuisance parameters: a
-plain ``(k,)`` vector for one problem, ``(B, 1, k)`` for a batch of ``B`` problems.
-
-Time enters only where the physics needs it: the carrier drift of :class:`Frequency`.  Range
-differences (:class:`RangeDifference`) also take the relative state at the earlier sample.
+A model maps relative states (target minus sensor, ``(..., n, 6)``, m and m/s) and its nuisance
+parameters (broadcastable to ``(..., n, k)``) to predicted values in SI units, with the analytic
+Jacobian of both.  Leading axes of ``rel`` are independent problems.
 """
 
 from __future__ import annotations
@@ -30,17 +23,8 @@ __all__ = ["Jacobian", "MeasurementModel", "ValueRange", "as_rel", "dot3",
 class MeasurementModel:
     """One kind of measurement.
 
-    Subclasses set the class attributes and implement :meth:`predict` and :meth:`jacobian`.
-
-    Per-kind special cases are hooks here, so that a new kind is one file plus its
-    registration in :data:`tmakit.measurements.KINDS`: :attr:`value_range` (checked by the
-    file reader, :meth:`check_values`), :attr:`uses_reference` (an earlier sample),
-    :attr:`correlated_noise` and :meth:`noise_covariance` (the noise of rows of one sensor),
-    :attr:`nuisance_names` and :meth:`affine_parts` (the nuisance structure),
-    :attr:`mirror_symmetric` and :attr:`gives_height` (the sensor-plane ambiguity),
-    :attr:`scale_free` and :attr:`height_blind` (what the observability words and the height
-    check of :mod:`tmakit.batch.height` need),
-    :attr:`wrap_period` (how simulated values are written).
+    Subclasses set the class attributes and implement :meth:`predict` and :meth:`jacobian`; a new
+    kind is one file plus its entry in :data:`tmakit.measurements.KINDS`.
     """
 
     #: Name used in files (the ``kind`` column).
@@ -81,23 +65,22 @@ class MeasurementModel:
 
     @classmethod
     def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
-        """Give the model options a measurement set's metadata states (a file's ``# key:``).
+        """Give the constructor options a set's metadata (a file's ``# key:``) states.
 
         Parameters
         ----------
         metadata : mapping of str to str
-            The set's metadata.
 
         Returns
         -------
         dict
-            Constructor options; empty for kinds that read none (explicit options win).
+            Constructor options; empty for kinds that read none.
         """
         return {}
 
     @classmethod
     def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:
-        """Tell where file values (file units, e.g. degrees) are valid for this kind.
+        """Tell where file values (file units) are valid for this kind.
 
         Parameters
         ----------
@@ -107,7 +90,7 @@ class MeasurementModel:
         Returns
         -------
         ndarray of bool
-            Same shape as ``values``; all True when the kind has no :attr:`value_range`.
+            All True when the kind has no :attr:`value_range`.
         """
         if cls.value_range is None:
             return np.ones(np.shape(values), dtype=bool)
@@ -115,12 +98,12 @@ class MeasurementModel:
 
     @classmethod
     def describe_values(cls) -> str | None:
-        """Say what a valid file value of this kind is, for error messages.
+        """Say what a valid file value is, for error messages.
 
         Returns
         -------
         str or None
-            E.g. "a frequency > 0 Hz"; None when any finite value is valid.
+            None when any finite value is valid.
         """
         return None if cls.value_range is None else cls.value_range.describe(cls.file_unit)
 
@@ -131,27 +114,26 @@ class MeasurementModel:
         Parameters
         ----------
         time, time_ref : array_like
-            Row times and reference times (m,), s (``time_ref``: if :attr:`uses_reference`).
+            Row and reference times (m,), s.
         sigma : array_like
             Standard deviations (m,), SI.
         sensor : array_like, optional
-            Sensor ids (m,): rows of different sensors are independent.
+            Sensor ids (m,); rows of different sensors are independent.
 
         Returns
         -------
         ndarray
-            (m, m); ``diag(sigma^2)`` unless the kind has :attr:`correlated_noise`.
+            (m, m); ``diag(sigma^2)`` unless :attr:`correlated_noise`.
         """
         return np.diag(np.asarray(sigma, dtype=float) ** 2)
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:
-        """Names of this model's nuisance parameters (shared by all its samples).
+        """Names of the nuisance parameters (shared by all samples).
 
         Returns
         -------
         tuple of str
-            Empty for kinds without nuisance parameters.
         """
         return ()
 
@@ -161,7 +143,7 @@ class MeasurementModel:
         Returns
         -------
         dict of str to float
-            Default values by nuisance name, in the nuisance parameters' SI units.
+            SI values by nuisance name.
         """
         return {}
 
@@ -171,12 +153,12 @@ class MeasurementModel:
         Parameters
         ----------
         values : dict of str to float or None
-            Nuisance values by name, SI; missing ones come from :meth:`default_nuisance`.
+            Nuisance values by name, SI.
 
         Returns
         -------
         ndarray
-            ``(k,)`` nuisance vector, SI units.
+            ``(k,)``, SI.
 
         Raises
         ------
@@ -197,23 +179,23 @@ class MeasurementModel:
         Parameters
         ----------
         rel : array_like
-            Relative states (target minus sensor) ``(..., n, 6)``: position m, velocity m/s.
+            Relative states ``(..., n, 6)``, m and m/s.
         t : array_like, optional
-            Sample times ``(n,)``, s (only kinds whose values depend on time use them).
+            Sample times ``(n,)``, s (kinds whose values depend on time).
         nuisance : array_like, optional
-            Nuisance parameters broadcastable to ``(..., n, k)``, SI (if the kind has any).
+            Broadcastable to ``(..., n, k)``, SI.
         rel_ref : array_like, optional
-            Relative states at the earlier samples, like ``rel`` (if :attr:`uses_reference`).
+            Relative states at the earlier samples (if :attr:`uses_reference`).
 
         Returns
         -------
         ndarray
-            Predicted values ``rel.shape[:-1]``, SI units (rad, m, m/s, Hz, dBW).
+            ``rel.shape[:-1]``, SI (rad, m, m/s, Hz, dBW).
 
         Raises
         ------
         NotImplementedError
-            Always, in the base class; kinds raise ValueError for bad or missing inputs.
+            In the base class; kinds raise ValueError for bad or missing inputs.
         """
         raise NotImplementedError
 
@@ -230,12 +212,12 @@ class MeasurementModel:
         Returns
         -------
         Jacobian
-            Derivatives with respect to ``rel``, ``rel_ref`` and the nuisance parameters.
+            Derivatives with respect to ``rel``, ``rel_ref`` and the nuisance.
 
         Raises
         ------
         NotImplementedError
-            As for :meth:`predict`.
+            In the base class.
         """
         raise NotImplementedError
 
@@ -244,30 +226,26 @@ class MeasurementModel:
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give one row's prediction and its derivatives in plain floats.
-
-        Filters with a handful of rows per update (:mod:`tmakit.filters.general`) call it in
-        place of :meth:`predict_gradient`, whose NumPy calls cost more than the arithmetic on
-        so few numbers; kinds that have it set :attr:`has_row_gradient`.
+        """Give one row's prediction and its derivatives in plain floats (for small updates).
 
         Parameters
         ----------
         rel : tuple of float
-            The relative state ``(x, y, z, vx, vy, vz)`` (m, m/s).
+            ``(x, y, z, vx, vy, vz)``, m and m/s.
         t : float
-            Sample time (s).
+            Sample time, s.
         nuisance : tuple of float
-            The kind's nuisance values (SI), in :attr:`nuisance_names` order.
+            Nuisance values, SI, in :attr:`nuisance_names` order.
 
         Returns
         -------
         tuple of float
-            The value (SI) followed by its six derivatives with respect to ``rel``.
+            The value (SI) then its six derivatives with respect to ``rel``.
 
         Raises
         ------
         NotImplementedError
-            Unless the kind implements it.
+            Unless the kind implements it (:attr:`has_row_gradient`).
         """
         raise NotImplementedError(f"{self.kind}: no plain-float row_gradient")
 
@@ -275,28 +253,24 @@ class MeasurementModel:
                          nuisance: Array | None = None) -> tuple[Array, Array]:
         """Give the predictions and their derivatives with respect to ``rel`` in one pass.
 
-        The filters' step (:mod:`tmakit.filters.general`) calls it once per kind and update;
-        kinds override it to share the work of :meth:`predict` and :meth:`jacobian`.  Not for
-        kinds that :attr:`uses_reference`.
-
         Parameters
         ----------
         rel, t, nuisance
-            As for :meth:`predict` (``rel`` an array ``(..., n, 6)``, m and m/s).
+            As for :meth:`predict`.
 
         Returns
         -------
         values : ndarray
-            ``rel.shape[:-1]``, SI units (rad, m, m/s, Hz, dBW).
+            ``rel.shape[:-1]``, SI.
         d_rel : ndarray
-            ``rel.shape``: d value / d relative state (SI per m, per m/s).
+            ``rel.shape``, SI per m and per m/s.
         """
         return (self.predict(rel, t, nuisance, None),
                 self.jacobian(rel, t, nuisance, None).rel)
 
     def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
                rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
-        """Split the prediction as ``h0 + A @ nuisance`` (every nuisance enters linearly).
+        """Split the prediction as ``h0 + A @ nuisance``.
 
         Parameters
         ----------
@@ -306,7 +280,7 @@ class MeasurementModel:
         Returns
         -------
         h0 : ndarray
-            ``(..., n)``, SI units of the value.
+            ``(..., n)``, SI.
         A : ndarray
             ``(..., n, k)``, value units per nuisance unit.
         """
@@ -320,10 +294,9 @@ class MeasurementModel:
 
     def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
                      rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
-        """Split :meth:`affine`'s design into a part fixed by the geometry and the rest.
+        """Split :meth:`affine`'s design as ``A = A_const + A_var`` (fixed by geometry, the rest).
 
-        ``A = A_const + A_var``.  Solvers subtract ``A_const @ nuisance`` from the data once,
-        so that large nuisance values (a GHz carrier) do not swamp the residuals in rounding.
+        Solvers subtract ``A_const @ nuisance`` once, so a GHz carrier does not swamp the residuals.
 
         Parameters
         ----------
@@ -333,21 +306,16 @@ class MeasurementModel:
         Returns
         -------
         h0 : ndarray
-            ``(..., n)``, SI units of the value.
+            ``(..., n)``, SI.
         A_const, A_var : ndarray
-            ``(..., n, k)`` each, value units per nuisance unit.
+            ``(..., n, k)``, value units per nuisance unit.
         """
         h0, a = self.affine(rel, t, rel_ref)
         return h0, np.zeros(a.shape), a
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write :meth:`predict` and :meth:`jacobian`'s ``rel`` into given arrays (no nuisance).
-
-        For kinds without nuisance parameters or reference samples: the solvers' linearisation
-        writes each kind's rows straight into its own arrays (no temporaries, no copies).
-        Kinds override it to share work between the two, with the same operations (the same
-        bits).
+        """Write :meth:`predict` and d value / d ``rel`` into given arrays (kinds without nuisance).
 
         Parameters
         ----------
@@ -356,8 +324,7 @@ class MeasurementModel:
         values : ndarray
             ``rel.shape[:-1]``, written (SI).
         d_rel : ndarray
-            ``rel.shape``, zeros on entry; written where the derivatives are not zero (SI per
-            m, per m/s).
+            ``rel.shape``, zeros on entry, written (SI per m, per m/s).
         """
         values[...] = self.predict(rel, t, None, None)
         d_rel[...] = self.jacobian(rel, t, None, None).rel
@@ -367,9 +334,6 @@ class MeasurementModel:
                            ) -> tuple[Array, Array, Array, Array | None, Array | None,
                                       Array | None, Array | None]:
         """Give the affine parts and their derivatives in one pass.
-
-        Since the predictions are affine in the nuisance,
-        ``d predict / d rel = dh0 + sum_j nu_j dA[..., j, :]``.
 
         Parameters
         ----------
@@ -381,11 +345,9 @@ class MeasurementModel:
         h0, A_const, A_var : ndarray
             As for :meth:`affine_parts`.
         dh0, dh0_ref : ndarray or None
-            ``(..., n, 6)``: d ``h0`` / d relative state (at the reference sample), per m, m/s.
+            ``(..., n, 6)``: d ``h0`` / d relative state (now, at the reference), per m and m/s.
         dA, dA_ref : ndarray or None
-            ``(..., n, k, 6)``: d ``A_var`` likewise.  None where it vanishes identically
-            (``dh0`` of a frequency, ``dA`` of a design that does not depend on the geometry,
-            every ``*_ref`` of a kind without reference).
+            ``(..., n, k, 6)``: d ``A_var`` likewise; None where it vanishes identically.
         """
         rel = as_rel(rel)
         k = len(self.nuisance_names)
@@ -417,22 +379,19 @@ class MeasurementModel:
         Returns
         -------
         ndarray
-            Values in SI units (rad, m, m/s, Hz, dBW).
         """
         return np.asarray(value, dtype=float) * self.file_scale + self.file_offset
 
     def value_from_si(self, value: ArrayLike) -> Array:
-        """Convert SI values to :attr:`file_unit`, inverting :meth:`value_to_si`.
+        """Convert SI values to :attr:`file_unit`.
 
         Parameters
         ----------
         value : array_like
-            Values in SI units (rad, m, m/s, Hz, dBW).
 
         Returns
         -------
         ndarray
-            Values in :attr:`file_unit`.
         """
         return (np.asarray(value, dtype=float) - self.file_offset) / self.file_scale
 
@@ -442,27 +401,23 @@ class MeasurementModel:
         Parameters
         ----------
         sigma : array_like
-            Standard deviations in :attr:`file_unit`.
 
         Returns
         -------
         ndarray
-            Standard deviations in SI units.
         """
         return np.asarray(sigma, dtype=float) * self.file_scale
 
     def sigma_from_si(self, sigma: ArrayLike) -> Array:
-        """Convert SI standard deviations to :attr:`file_unit`, inverting :meth:`sigma_to_si`.
+        """Convert SI standard deviations to :attr:`file_unit`.
 
         Parameters
         ----------
         sigma : array_like
-            Standard deviations in SI units.
 
         Returns
         -------
         ndarray
-            Standard deviations in :attr:`file_unit`.
         """
         return np.asarray(sigma, dtype=float) / self.file_scale
 
@@ -472,12 +427,11 @@ class MeasurementModel:
         Parameters
         ----------
         measured, predicted : array_like
-            Values in SI units, broadcastable.
+            SI values, broadcastable.
 
         Returns
         -------
         ndarray
-            Residuals, SI units (rad for angles).
         """
         diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
         if self.is_angle:

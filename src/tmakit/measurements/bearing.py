@@ -35,36 +35,14 @@ class Bearing(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict bearings, rad; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        ndarray
-            ``atan2(dx, dy)``, rad in (-pi, pi], shape ``rel.shape[:-1]``.
-        """
+        """Predict bearings, rad; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
         return np.arctan2(rel[..., 0], rel[..., 1])
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: ``(dy, -dx, 0, 0, 0, 0) / rho^2``, rad/m; no reference, no nuisance.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         dx, dy = rel[..., 0], rel[..., 1]
         rho2 = dx * dx
@@ -78,13 +56,7 @@ class Bearing(MeasurementModel):
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write bearings and their derivatives (the operations of :meth:`jacobian`).
-
-        Parameters
-        ----------
-        rel, t, values, d_rel
-            As for :meth:`MeasurementModel.values_and_derivatives_into`.
-        """
+        """Write bearings and their derivatives (the operations of :meth:`jacobian`)."""
         # (the components read once, strided, then contiguous: 1.5x faster on the batches of
         # the manoeuvre search, 23 x 901 rows)
         dx, dy = np.ascontiguousarray(rel[..., 0]), np.ascontiguousarray(rel[..., 1])
@@ -97,10 +69,7 @@ class Bearing(MeasurementModel):
 
     def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
                         weight: Array | None = None, negate: bool = True) -> Array:
-        """Give bearings and write their derivatives by the relative east and north (fused).
-
-        The same operations as :meth:`jacobian` (the same bits), for the fused linearisation
-        (:mod:`tmakit.observation.fused`): only the two components used are read or written.
+        """Give bearings and write their derivatives by relative east and north.
 
         Parameters
         ----------
@@ -109,18 +78,14 @@ class Bearing(MeasurementModel):
         out_x, out_y : ndarray
             ``(m,)`` written with ``dy / r^2`` and ``-dx / r^2``, rad/m (times ``weight``).
         weight : ndarray, optional
-            ``(m,)`` factors of the derivatives (the inverse standard deviations, 1/rad:
-            the whitened derivatives, 1/m, in the passes that make them; equal to the
-            derivatives scaled afterwards to rounding).
+            ``(m,)`` factors of the derivatives (e.g. ``1 / sigma``).
         negate : bool, optional
-            False leaves ``out_y`` holding ``dx / r^2`` (times ``weight``), the derivative's
-            negative, for a caller that flips the sign of what it sums from it (one pass
-            over the rows fewer; negation is exact).
+            False leaves ``out_y`` holding the derivative's negative.
 
         Returns
         -------
         ndarray
-            ``atan2(dx, dy)``, rad in (-pi, pi], ``(m,)``.
+            ``atan2(dx, dy)``, rad, ``(m,)``.
         """
         rho2 = dx * dx
         rho2 += dy * dy
@@ -136,42 +101,32 @@ class Bearing(MeasurementModel):
         return np.arctan2(dx, dy)
 
     def planar_value(self, dx: Array, dy: Array) -> Array:
-        """Give bearings from the relative east and north positions (fused values alone).
-
-        The values of :meth:`planar_gradient` (the same bits), for a solver that checks a
-        step by its cost alone (:func:`tmakit.observation.fused.fused_values`).
+        """Give bearings from the relative east and north positions.
 
         Parameters
         ----------
         dx, dy : ndarray
-            Relative east and north positions ``(m,)``, m.
+            ``(m,)``, m.
 
         Returns
         -------
         ndarray
-            ``atan2(dx, dy)``, rad in (-pi, pi], ``(m,)``.
+            ``atan2(dx, dy)``, rad, ``(m,)``.
         """
         return np.arctan2(dx, dy)
 
     def planar_unit(self, dx: Array, dy: Array) -> tuple[Array, Array]:
-        """Give the sines and cosines of bearings from relative east and north positions.
-
-        The bearing ``h = atan2(dx, dy)`` has ``sin h = dx / r`` and ``cos h = dy / r`` with
-        ``r = sqrt(dx^2 + dy^2)``: no arctangent, sine or cosine (a grid scores many
-        candidates by these alone, :class:`~tmakit.batch.chord.ChordScorer`).  The same values
-        as ``sin``/``cos`` of :meth:`planar_value` up to rounding; where ``r`` is 0 or not
-        finite (or ``r^2`` under- or overflows) they are those of :meth:`planar_value`
-        itself.
+        """Give ``sin h = dx / r`` and ``cos h = dy / r`` of bearings, without trigonometry.
 
         Parameters
         ----------
         dx, dy : ndarray
-            Relative east and north positions, one shape (m); overwritten.
+            Relative east and north positions, m; overwritten.
 
         Returns
         -------
         (ndarray, ndarray)
-            ``dx`` holding ``sin h`` and ``dy`` holding ``cos h`` (dimensionless).
+            ``dx`` holding ``sin h`` and ``dy`` holding ``cos h``.
         """
         inv = dx * dx  # (not hypot: three times as long)
         inv += dy * dy
@@ -197,18 +152,7 @@ class Bearing(MeasurementModel):
 
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:
-        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m).
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.predict_gradient`; only ``rel`` is used.
-
-        Returns
-        -------
-        values, d_rel : ndarray
-            Bearings ``rel.shape[:-1]`` and their derivatives ``rel.shape``.
-        """
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m)."""
         dx, dy = rel[..., 0], rel[..., 1]
         inv = 1.0 / (dx * dx + dy * dy)
         d = np.zeros(rel.shape)
@@ -220,18 +164,7 @@ class Bearing(MeasurementModel):
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give :meth:`predict_gradient` for one row in plain floats (rad, rad/m).
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
-
-        Returns
-        -------
-        tuple of float
-            The bearing and its six derivatives.
-        """
+        """Give :meth:`predict_gradient` for one row in plain floats (rad, rad/m)."""
         dx, dy = rel[0], rel[1]
         inv = 1.0 / (dx * dx + dy * dy)
         return math.atan2(dx, dy), dy * inv, -dx * inv, 0.0, 0.0, 0.0, 0.0

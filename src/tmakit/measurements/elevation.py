@@ -29,36 +29,14 @@ class Elevation(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict elevations, rad; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        ndarray
-            ``atan2(dz, rho)``, rad in [-pi/2, pi/2], shape ``rel.shape[:-1]``.
-        """
+        """Predict elevations, rad; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
         return np.arctan2(rel[..., 2], np.hypot(rel[..., 0], rel[..., 1]))
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: position part only, rad/m; no reference, no nuisance.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         dx, dy, dz = rel[..., 0], rel[..., 1], rel[..., 2]
         rho = np.hypot(dx, dy)
@@ -71,18 +49,7 @@ class Elevation(MeasurementModel):
 
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:
-        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m).
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.predict_gradient`; only ``rel`` is used.
-
-        Returns
-        -------
-        values, d_rel : ndarray
-            Elevations ``rel.shape[:-1]`` and their derivatives ``rel.shape``.
-        """
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m)."""
         dx, dy, dz = rel[..., 0], rel[..., 1], rel[..., 2]
         rho = np.hypot(dx, dy)
         inv_r2 = 1.0 / (rho * rho + dz * dz)
@@ -97,18 +64,7 @@ class Elevation(MeasurementModel):
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give :meth:`predict_gradient` for one row in plain floats (rad, rad/m).
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
-
-        Returns
-        -------
-        tuple of float
-            The elevation and its six derivatives.
-        """
+        """Give :meth:`predict_gradient` for one row in plain floats (rad, rad/m)."""
         dx, dy, dz = rel[0], rel[1], rel[2]
         rho = math.hypot(dx, dy)
         inv_r2 = 1.0 / (rho * rho + dz * dz)

@@ -1,15 +1,7 @@
 """Frequency difference of arrival between two sensors at one time (FDOA).
 
-``fdoa = f - f_ref = -(f0 / c) (rdot - rdot_ref)``: the received frequency at the row's
-sensor minus that at its reference sensor, both at the row's time, with ``rdot`` the range
-rate of the target relative to each sensor (the Doppler model of :class:`Frequency`, whose
-carrier cancels but for its scale ``f0``; Ho & Xu (2004), the range-rate difference times
-``-f0 / c``).  The carrier ``f0`` is known (the ``carrier`` option, or the file's
-``# fdoa_carrier: HZ``) or, like the frequency's, an unknown nuisance parameter that enters
-linearly and is eliminated by the estimators.
-
-The noise is that of :mod:`tmakit.measurements.tdoa`: rows at one time that share a
-reference sensor share its error (``# fdoa_noise: independent`` to switch it off).
+``fdoa = -(f0 / c) (rdot - rdot_ref)``, Ho & Xu (2004); the carrier ``f0`` is known or a linear
+nuisance parameter.  The noise is that of :mod:`tmakit.measurements.tdoa`.
 """
 
 from __future__ import annotations
@@ -31,13 +23,10 @@ __all__ = ["Fdoa"]
 class Fdoa(MeasurementModel):
     """Frequency difference of arrival, Hz (also in files): sensor minus reference sensor.
 
-    Nuisance parameter ``carrier`` (Hz) unless the carrier is known.
-
     Parameters
     ----------
     carrier : float, optional
-        The emitter's carrier ``f0`` (Hz, > 0) when known; None (default): a nuisance
-        parameter.
+        The known carrier ``f0``, Hz; None (default): the nuisance parameter ``carrier``.
     noise : str, optional
         ``"shared"`` (default) or ``"independent"``, as for :class:`~.tdoa.Tdoa`.
     speed_of_light : float, optional
@@ -50,8 +39,7 @@ class Fdoa(MeasurementModel):
 
     References
     ----------
-    Ho & Xu (2004) (TDOA and FDOA of a moving source); Gu et al. (2007), eqs. 5-6 (the
-    Doppler-shifted frequency).
+    Ho & Xu (2004) (TDOA and FDOA of a moving source); Gu et al. (2007), eqs. 5-6.
     """
 
     kind = "fdoa"
@@ -74,23 +62,7 @@ class Fdoa(MeasurementModel):
 
     @classmethod
     def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
-        """Give the options a file's metadata states (``fdoa_carrier``, ``fdoa_noise``).
-
-        Parameters
-        ----------
-        metadata : mapping of str to str
-            The set's metadata.
-
-        Returns
-        -------
-        dict
-            ``carrier`` (Hz) and ``noise`` where the file states them.
-
-        Raises
-        ------
-        ValueError
-            If ``fdoa_carrier`` is not a number or ``fdoa_noise`` not a noise form.
-        """
+        """Give the options a file's metadata states (``fdoa_carrier``, ``fdoa_noise``)."""
         out: dict[str, object] = {}
         if metadata.get("fdoa_carrier", "").strip():
             try:
@@ -109,20 +81,7 @@ class Fdoa(MeasurementModel):
 
     def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
                          sensor: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Give the noise covariance of rows sharing one reference at one time, Hz^2.
-
-        Parameters
-        ----------
-        time, time_ref, sensor : array_like
-            Not used (the rows given share the reference and the time).
-        sigma : array_like
-            Standard deviations (m,), Hz.
-
-        Returns
-        -------
-        ndarray
-            (m, m), as :meth:`tmakit.measurements.Tdoa.noise_covariance`.
-        """
+        """Give the noise covariance of rows sharing one reference at one time, Hz^2."""
         if not self.correlated_noise:
             return np.diag(np.asarray(sigma, dtype=float) ** 2)
         return shared_reference_covariance(sigma)
@@ -147,49 +106,14 @@ class Fdoa(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict frequency differences, Hz; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; ``rel_ref`` (the target relative to
-            the reference sensor) is required, ``nuisance`` (the carrier, Hz) too unless
-            the carrier is known; ``t`` is not used.
-
-        Returns
-        -------
-        ndarray
-            ``-(f0 / c) (rdot - rdot_ref)``, Hz, shape ``rel.shape[:-1]``.
-
-        Raises
-        ------
-        ValueError
-            If ``rel_ref`` or a needed carrier is missing.
-        """
+        """Predict frequency differences, Hz; see :meth:`MeasurementModel.predict`."""
         diff, _, _ = self._rate_difference(as_rel(rel), rel_ref)
         return self._scale(nuisance) * diff
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`predict`.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: ``-(f0 / c) d rdot / d rel``; ``rel_ref``: ``(f0 / c) d rdot_ref / d
-            rel_ref`` (Hz per m, per m/s); the carrier: ``-(rdot - rdot_ref) / c`` (Hz/Hz).
-
-        Raises
-        ------
-        ValueError
-            As for :meth:`predict`.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         diff, grad, grad_ref = self._rate_difference(rel, rel_ref)
         scale = self._scale(nuisance)[..., None]
@@ -199,20 +123,7 @@ class Fdoa(MeasurementModel):
 
     def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
                      rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
-        """Split the design; see :meth:`MeasurementModel.affine_parts`.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`MeasurementModel.predict`.
-
-        Returns
-        -------
-        h0 : ndarray
-            ``(..., n)``: zeros with an unknown carrier, the prediction with a known one (Hz).
-        A_const, A_var : ndarray
-            ``(..., n, k)``: zeros and ``-(rdot - rdot_ref) / c`` (Hz per Hz of carrier).
-        """
+        """Split the design; see :meth:`MeasurementModel.affine_parts`."""
         rel = as_rel(rel)
         diff, _, _ = self._rate_difference(rel, rel_ref)
         if self.carrier is not None:

@@ -1,17 +1,8 @@
-"""Doppler-shifted frequency with an unknown carrier.
+"""Doppler-shifted frequency with an unknown carrier, ``f = f_c(t) (1 - rdot / c)``.
 
-Gu et al. (2007), eqs. 5-6; the Doppler-tracking lecture notes.
-
-``f = f_c(t) (1 - rdot / c)`` with ``rdot`` the range rate of the target relative to the
-(moving) sensor, so the sensor's own velocity is included.  The carrier is a nuisance
-parameter, optionally drifting linearly: ``f_c(t) = carrier + carrier_drift * t`` (Hz, Hz/s; t in
-seconds on the measurement time axis).  Gu et al. (2007), §5, mentions a drift of
-about 2.5 Hz over two minutes.  Both nuisance parameters enter linearly, which the estimators
-exploit.
-
-Note: the Doppler-tracking lecture notes write the shift with the opposite sign (f_o minus the
-velocity component *towards* the receiver); tmakit uses the physical sign: an approaching emitter is
-heard at a higher frequency.
+The carrier (optionally drifting linearly, Hz and Hz/s) is a linear nuisance parameter.  Gu et
+al. (2007), eqs. 5-6 and §5; the Doppler-tracking lecture notes use the opposite sign, tmakit
+the physical one (an approaching emitter is heard higher).
 """
 
 from __future__ import annotations
@@ -27,19 +18,16 @@ from .range_rate import range_rate_and_gradient, range_rate_row
 class Frequency(MeasurementModel):
     """Received carrier frequency ``f_c(t) (1 - rdot / c)``, Hz (also in files).
 
-    Nuisance parameters: ``carrier`` (Hz) and, with ``drift``, ``carrier_drift`` (Hz/s).
-
     Parameters
     ----------
     drift : bool, optional
-        Add the nuisance parameter ``carrier_drift``: ``f_c(t) = carrier + carrier_drift t``.
+        Add the nuisance ``carrier_drift`` (Hz/s) to ``carrier`` (Hz).
     speed_of_light : float, optional
         Propagation speed ``c``, m/s.
 
     References
     ----------
-    Gu et al. (2007), eqs. 5-6 (the Doppler-shifted frequency) and §5 (the carrier drift);
-    the Doppler-tracking lecture notes (the frequency-only model, opposite sign convention).
+    Gu et al. (2007), eqs. 5-6 and §5 (the carrier drift); the Doppler-tracking lecture notes.
     """
 
     kind = "frequency"
@@ -58,13 +46,7 @@ class Frequency(MeasurementModel):
         return ("carrier", "carrier_drift") if self.drift else ("carrier",)
 
     def default_nuisance(self) -> dict[str, float]:
-        """Give the default nuisance: a drift of 0 Hz/s; the carrier has none.
-
-        Returns
-        -------
-        dict of str to float
-            ``{"carrier_drift": 0.0}``.
-        """
+        """Give the default nuisance: a drift of 0 Hz/s; the carrier has none."""
         return {"carrier_drift": 0.0}
 
     def _carrier(self, t: ArrayLike | None, nuisance: ArrayLike,
@@ -82,24 +64,7 @@ class Frequency(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict received frequencies, Hz; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; ``nuisance`` (Hz, Hz/s) is required,
-            ``t`` (s) too with drift; ``rel_ref`` is not used.
-
-        Returns
-        -------
-        ndarray
-            ``f_c(t) (1 - rdot / c)``, Hz, shape ``rel.shape[:-1]``.
-
-        Raises
-        ------
-        ValueError
-            If ``nuisance`` is missing or of the wrong length, or ``t`` is missing with drift.
-        """
+        """Predict received frequencies, Hz; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
         if nuisance is None:
             raise ValueError("frequency: the carrier (nuisance parameter) is needed")
@@ -117,20 +82,7 @@ class Frequency(MeasurementModel):
 
     def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
                      rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
-        """Split the design; see :meth:`MeasurementModel.affine_parts`.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`MeasurementModel.predict`; ``t`` (s) is required with drift.
-
-        Returns
-        -------
-        h0 : ndarray
-            Zeros ``(..., n)``, Hz.
-        A_const, A_var : ndarray
-            ``(..., n, k)``: ``(1, t)`` (dimensionless, s) and ``-rdot / c`` times the same.
-        """
+        """Split the design; see :meth:`MeasurementModel.affine_parts`."""
         # f = carrier (1 - rdot/c) [+ drift t (1 - rdot/c)]
         rel = as_rel(rel)
         p = rel[..., :3]
@@ -139,19 +91,7 @@ class Frequency(MeasurementModel):
 
     def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
                rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
-        """Give ``(h0, A_const + A_var)``; see :meth:`MeasurementModel.affine`.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`affine_parts`.
-
-        Returns
-        -------
-        h0, A : ndarray
-            ``(..., n)`` zeros, Hz, and ``(..., n, k)`` with columns ``1 - rdot / c`` (and
-            ``t (1 - rdot / c)``, s).
-        """
+        """Give ``(h0, A_const + A_var)``; see :meth:`MeasurementModel.affine`."""
         h0, const, var = self.affine_parts(rel, t, rel_ref)
         return h0, const + var
 
@@ -159,20 +99,7 @@ class Frequency(MeasurementModel):
                            rel_ref: ArrayLike | None = None
                            ) -> tuple[Array, Array, Array, Array | None, Array | None,
                                       Array | None, Array | None]:
-        """Give the affine parts and derivatives; see :meth:`MeasurementModel.affine_derivatives`.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`affine_parts`.
-
-        Returns
-        -------
-        tuple
-            ``(h0, A_const, A_var, None, None, dA, None)``: ``h0`` is zero, so ``dh0`` is
-            None; ``dA`` ``(..., n, k, 6)`` is ``d(-rdot / c) / d rel`` (1/m for positions,
-            s/m for velocities) times ``(1, t)``.
-        """
+        """Give the affine parts and their derivatives in one pass."""
         # h0 = 0 (no derivative); A_var = (small, small t) with small = -rdot / c.
         rel = as_rel(rel)
         small, d_small = range_rate_and_gradient(rel, -1.0 / self.c)
@@ -185,24 +112,7 @@ class Frequency(MeasurementModel):
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`predict`.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: Hz/m and Hz/(m/s); ``nuisance``: ``1 - rdot / c`` (Hz/Hz) and, with
-            drift, ``t (1 - rdot / c)`` (Hz per Hz/s); no reference.
-
-        Raises
-        ------
-        ValueError
-            As for :meth:`predict`.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         if nuisance is None:
             raise ValueError("frequency: the carrier (nuisance parameter) is needed")
@@ -217,23 +127,7 @@ class Frequency(MeasurementModel):
 
     def predict_gradient(self, rel: Array, t: Array | None = None,
                          nuisance: Array | None = None) -> tuple[Array, Array]:
-        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (Hz, Hz/m, Hz s/m).
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.predict_gradient`; ``nuisance`` is required.
-
-        Returns
-        -------
-        values, d_rel : ndarray
-            Frequencies ``rel.shape[:-1]`` and their derivatives ``rel.shape``.
-
-        Raises
-        ------
-        ValueError
-            As for :meth:`predict`.
-        """
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (Hz, Hz/m, Hz s/m)."""
         if nuisance is None:
             raise ValueError("frequency: the carrier (nuisance parameter) is needed")
         rdot, grad = range_rate_and_gradient(rel)
@@ -249,18 +143,7 @@ class Frequency(MeasurementModel):
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give :meth:`predict_gradient` for one row in plain floats (Hz, Hz/m, Hz s/m).
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.row_gradient`.
-
-        Returns
-        -------
-        tuple of float
-            The frequency and its six derivatives.
-        """
+        """Give :meth:`predict_gradient` for one row in plain floats (Hz, Hz/m, Hz s/m)."""
         rdot, g0, g1, g2, g3, g4, g5 = range_rate_row(rel)
         carrier = nuisance[0] + nuisance[1] * t if self.drift else nuisance[0]
         k = carrier / -self.c

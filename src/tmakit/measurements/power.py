@@ -1,13 +1,8 @@
 """Received power with an unknown constant: ``P = C / R^n`` (Gu et al. (2007), eq. 3).
 
-Inside, power is in dBW so that the nuisance constant enters linearly:
-``P_dBW = power_constant_db - 10 n log10 R`` with ``power_constant_db = 10 log10 C``
-(C in W m^n).  Files carry dBm.  The path-loss exponent ``n`` is 2 by default and known; with
-``exponent=None`` it becomes the nuisance parameter ``path_loss_exponent``.
-
-Noise: a file's ``sigma`` is the standard deviation of the power in dB.  Gu et al. (2007)'s
-noise (var(eta/P) = 1/SNR_p) is simulated exactly by the scenario and written with the
-first-order sigma (10 / ln 10) / sqrt(SNR_p), see :func:`tmakit.core.units.snr_to_sigma_db`.
+dBW inside (so the constant enters linearly), dBm in files, sigma in dB; the exponent ``n`` is
+known (2) or a nuisance parameter.  Simulated noise follows Gu et al. (2007), §2
+(:func:`tmakit.core.units.snr_to_sigma_db`).
 """
 
 from __future__ import annotations
@@ -24,14 +19,13 @@ _TEN_OVER_LN10 = 10.0 / np.log(10.0)
 class Power(MeasurementModel):
     """Received power ``power_constant_db - 10 n log10 R``; dBW inside, dBm in files.
 
-    A file's sigma is in dB.  Nuisance parameters: ``power_constant_db`` (dB re W m^n) and,
-    with an unknown exponent, ``path_loss_exponent`` (dimensionless).
+    Nuisance parameters: ``power_constant_db`` (dB re W m^n) and, with an unknown exponent,
+    ``path_loss_exponent``.
 
     Parameters
     ----------
     exponent : float or None, optional
-        The known path-loss exponent ``n`` (default 2, free space); None makes it the
-        nuisance parameter ``path_loss_exponent``.
+        The known path-loss exponent (default 2); None makes it a nuisance parameter.
 
     References
     ----------
@@ -55,13 +49,7 @@ class Power(MeasurementModel):
         return ("power_constant_db",)
 
     def default_nuisance(self) -> dict[str, float]:
-        """Give the default nuisance: the exponent (2 if unknown); the constant has none.
-
-        Returns
-        -------
-        dict of str to float
-            ``{"path_loss_exponent": n}``, dimensionless.
-        """
+        """Give the default nuisance: the exponent (2 if unknown); the constant has none."""
         return {"path_loss_exponent": 2.0 if self.exponent is None else self.exponent}
 
     def _split(self, nuisance: ArrayLike | None) -> tuple[Array, Array | float]:
@@ -76,24 +64,7 @@ class Power(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict received powers, dBW; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; ``nuisance`` (dB re W m^n, and the
-            exponent if unknown) is required; ``t`` and ``rel_ref`` are not used.
-
-        Returns
-        -------
-        ndarray
-            ``power_constant_db - 10 n log10 R``, dBW, shape ``rel.shape[:-1]``.
-
-        Raises
-        ------
-        ValueError
-            If ``nuisance`` is missing or of the wrong length.
-        """
+        """Predict received powers, dBW; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
         const_db, n = self._split(nuisance)
         r = np.linalg.norm(rel[..., :3], axis=-1)
@@ -101,18 +72,7 @@ class Power(MeasurementModel):
 
     def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
                rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
-        """Give ``(h0, A_const + A_var)``; see :meth:`MeasurementModel.affine`.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`affine_parts`.
-
-        Returns
-        -------
-        h0, A : ndarray
-            As for :meth:`affine_parts`, with ``A = A_const + A_var``.
-        """
+        """Give ``(h0, A_const + A_var)``; see :meth:`MeasurementModel.affine`."""
         h0, const, var = self.affine_parts(rel, t, rel_ref)
         return h0, const + var
 
@@ -128,21 +88,7 @@ class Power(MeasurementModel):
 
     def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
                      rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
-        """Split the design; see :meth:`MeasurementModel.affine_parts`.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        h0 : ndarray
-            ``(..., n)``: ``-10 n log10 R`` dB with a known exponent, else zeros.
-        A_const, A_var : ndarray
-            ``(..., n, k)``: ``A_const`` is zero; ``A_var`` has the columns 1 (dB per dB) and,
-            with an unknown exponent, ``-10 log10 R`` (dB).
-        """
+        """Split the design; see :meth:`MeasurementModel.affine_parts`."""
         # P_dB = C_dB + n (-10 log10 R)
         p = as_rel(rel)[..., :3]
         return self._design(dot3(p, p))
@@ -151,20 +97,7 @@ class Power(MeasurementModel):
                            rel_ref: ArrayLike | None = None
                            ) -> tuple[Array, Array, Array, Array | None, Array | None,
                                       Array | None, Array | None]:
-        """Give the affine parts and derivatives; see :meth:`MeasurementModel.affine_derivatives`.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`affine_parts`.
-
-        Returns
-        -------
-        tuple
-            ``(h0, A_const, A_var, dh0, None, dA, None)`` with ``d(-10 n log10 R) / d p =
-            -(10 n / ln 10) p / R^2`` (dB/m, position part only) as ``dh0`` when the exponent
-            is known (``dA`` None), else in ``dA[..., 1, :]`` with ``n = 1`` (``dh0`` None).
-        """
+        """Give the affine parts and their derivatives in one pass."""
         rel = as_rel(rel)
         p = rel[..., :3]
         r2 = dot3(p, p)
@@ -182,24 +115,7 @@ class Power(MeasurementModel):
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`predict`.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: ``-(10 n / ln 10) p / R^2``, dB/m (position part only); ``nuisance``: 1
-            (dB/dB) and, with an unknown exponent, ``-10 log10 R`` (dB); no reference.
-
-        Raises
-        ------
-        ValueError
-            As for :meth:`predict`.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         _, n = self._split(nuisance)
         p = rel[..., :3]

@@ -21,37 +21,14 @@ class Range(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict ranges, m; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        ndarray
-            ``|rel[..., :3]|``, m, shape ``rel.shape[:-1]``.
-        """
+        """Predict ranges, m; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
         return np.linalg.norm(rel[..., :3], axis=-1)
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: the unit line of sight ``p / |p|`` (m/m) and zeros; no reference, no
-            nuisance.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         r = np.linalg.norm(rel[..., :3], axis=-1, keepdims=True)
         d = np.zeros(rel.shape)
@@ -62,18 +39,7 @@ class Range(MeasurementModel):
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give the range and its derivatives for one row in plain floats (m, 1).
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
-
-        Returns
-        -------
-        tuple of float
-            The range and its six derivatives.
-        """
+        """Give the range and its derivatives for one row in plain floats (m, 1)."""
         px, py, pz = rel[0], rel[1], rel[2]
         r = math.sqrt(px * px + py * py + pz * pz)
         return r, px / r, py / r, pz / r, 0.0, 0.0, 0.0

@@ -1,12 +1,7 @@
-"""Range difference from the difference of pulse arrival times.
+"""Range difference from the difference of pulse arrival times (Chen & Sun, eq. 1).
 
-Chen & Sun, eq. 1: with a known pulse repetition interval T,
-``dr = c (dTOA - j T) = r(t) - r(t_ref)`` for a sample at ``t`` and an earlier one at
-``t_ref = t - j T``.  The noise of each one-interval difference is independent with
-standard deviation ``sigma_interval``; over ``j`` intervals it accumulates one term per
-interval (Chen & Sun, the text after eq. 1), so the variance is
-``j sigma_interval^2`` and differences that share intervals are correlated:
-:func:`range_difference_covariance` gives that covariance.
+``dr = c (dTOA - j T) = r(t) - r(t_ref)``; the noise adds one independent term per pulse
+interval, so differences sharing intervals are correlated (:func:`range_difference_covariance`).
 """
 
 from __future__ import annotations
@@ -20,9 +15,6 @@ from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_n
 
 class RangeDifference(MeasurementModel):
     """Range difference ``r(t) - r(t_ref)``, m (also in files), against an earlier sample.
-
-    No nuisance parameters.  Rows of one sensor that share pulse intervals have correlated
-    noise (:meth:`noise_covariance`).
 
     References
     ----------
@@ -40,28 +32,6 @@ class RangeDifference(MeasurementModel):
                          sensor: ArrayLike | None = None) -> NDArray[np.float64]:
         """Give the noise covariance of range differences, m^2.
 
-        Differences of one sensor that share pulse intervals are correlated: see
-        :func:`range_difference_covariance`.
-
-        Parameters
-        ----------
-        time, time_ref : array_like
-            Times of the later and earlier samples (m,), s.
-        sigma : array_like
-            Standard deviations (m,), m.
-        sensor : array_like, optional
-            Sensor ids (m,); differences of different sensors are independent.
-
-        Returns
-        -------
-        ndarray
-            (m, m) covariance, m^2.
-
-        Raises
-        ------
-        ValueError
-            If a row has ``time_ref >= time``.
-
         References
         ----------
         Chen & Sun, eq. 1 and the text after it.
@@ -70,47 +40,13 @@ class RangeDifference(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict range differences, m; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; ``rel_ref`` (the relative states at
-            ``t_ref``) is required; ``t`` and ``nuisance`` are not used.
-
-        Returns
-        -------
-        ndarray
-            ``|p| - |p_ref|``, m, shape ``rel.shape[:-1]``.
-
-        Raises
-        ------
-        ValueError
-            If ``rel_ref`` is missing.
-        """
+        """Predict range differences, m; see :meth:`MeasurementModel.predict`."""
         return path_difference(rel, rel_ref, _NEEDS)
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`predict`.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: ``p / |p|``; ``rel_ref``: ``-p_ref / |p_ref|`` (m/m, position part only);
-            no nuisance.
-
-        Raises
-        ------
-        ValueError
-            If ``rel_ref`` is missing.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         return path_difference_jacobian(rel, rel_ref, _NEEDS)
 
 
@@ -167,24 +103,22 @@ def range_difference_covariance(t: ArrayLike, t_ref: ArrayLike, sigma: ArrayLike
                                 sensor: ArrayLike | None = None) -> NDArray[np.float64]:
     """Covariance of range differences that share pulse intervals.
 
-    Each difference spans ``(t_ref, t]`` with variance ``sigma^2``, i.e. a noise density of
-    ``sigma^2 / (t - t_ref)`` per second of span.  Two differences of the same sensor are
-    correlated by the length of the overlap of their spans times that density (the interval
-    noises are independent and each is counted once per difference it lies in).
+    Two differences of one sensor covary by the overlap of their spans times the noise density
+    ``sigma^2 / (t - t_ref)``.
 
     Parameters
     ----------
     t, t_ref : array_like
         Times of the later and earlier samples (m,), s.
     sigma : array_like
-        Standard deviations of the differences (m,), m.
+        Standard deviations (m,), m.
     sensor : array_like, optional
         Sensor ids (m,); differences of different sensors are independent.
 
     Returns
     -------
     ndarray
-        (m, m) covariance, m^2.
+        (m, m), m^2.
 
     Raises
     ------

@@ -71,35 +71,13 @@ class RangeRate(MeasurementModel):
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict range rates, m/s; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        ndarray
-            Range rates, m/s, shape ``rel.shape[:-1]``.
-        """
+        """Predict range rates, m/s; see :meth:`MeasurementModel.predict`."""
         return range_rate_and_gradient(as_rel(rel))[0]
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; only ``rel`` is used.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: see :func:`range_rate_and_gradient`; no reference, no nuisance.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
         return Jacobian(range_rate_and_gradient(rel)[1], None, zeros_nuisance(rel))
 
@@ -107,16 +85,5 @@ class RangeRate(MeasurementModel):
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give the range rate and its derivatives for one row in plain floats.
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`MeasurementModel.row_gradient`; only ``rel`` is used.
-
-        Returns
-        -------
-        tuple of float
-            The range rate (m/s) and its six derivatives.
-        """
+        """Give the range rate and its derivatives for one row in plain floats."""
         return range_rate_row(rel)

@@ -1,16 +1,8 @@
 """Time difference of arrival between two sensors at one time (TDOA).
 
-``tdoa = (|p - s| - |p - s_ref|) / c``: the arrival time at the row's sensor ``s`` minus that
-at its reference sensor ``s_ref``, both at the row's time (Chan & Ho (1994), the
-range difference ``r_i,1`` divided by ``c``).  The reference sensor's state is the row's
-``ref_sensor_state`` and its time the row's own (``time_ref = time``).
-
-Noise (:func:`shared_reference_covariance`): with independent arrival-time errors at every
-sensor, the differences at one time that share a reference sensor share its error, so their
-covariance is ``sigma^2 (I + 1 1') / 2`` for the std ``sigma`` of one difference (Chan & Ho
-(1994), with equal arrival-time variances); ``noise="independent"`` (the file's
-``# tdoa_noise: independent``) is for differences measured independently (a correlator per
-pair).
+``tdoa = (|p - s| - |p - s_ref|) / c`` (Chan & Ho (1994)).  Differences at one time sharing a
+reference sensor share its error: covariance ``sigma^2 (I + 1 1') / 2``
+(:func:`shared_reference_covariance`), unless ``noise="independent"``.
 """
 
 from __future__ import annotations
@@ -42,9 +34,7 @@ def noise_form(text: str, where: str) -> str:
 def shared_reference_covariance(sigma: ArrayLike) -> NDArray[np.float64]:
     """Covariance of differences that share one reference measurement.
 
-    Each difference ``i`` is ``sigma_i / sqrt(2)`` times (its own unit error minus the
-    reference's), so ``R_ii = sigma_i^2`` and ``R_ij = sigma_i sigma_j / 2``: with one
-    ``sigma``, ``sigma^2 (I + 1 1') / 2``.
+    ``R_ii = sigma_i^2``, ``R_ij = sigma_i sigma_j / 2``.
 
     Parameters
     ----------
@@ -54,7 +44,7 @@ def shared_reference_covariance(sigma: ArrayLike) -> NDArray[np.float64]:
     Returns
     -------
     ndarray
-        (m, m) covariance, SI units squared.
+        (m, m), SI units squared.
 
     References
     ----------
@@ -71,9 +61,6 @@ _NEEDS = "tdoa needs the target's state relative to the reference sensor"
 
 class Tdoa(MeasurementModel):
     """Time difference of arrival, s (also in files): sensor minus reference sensor.
-
-    No nuisance parameters.  Rows at one time that share a reference sensor are correlated
-    (:func:`shared_reference_covariance`) unless ``noise="independent"``.
 
     Parameters
     ----------
@@ -103,91 +90,27 @@ class Tdoa(MeasurementModel):
 
     @classmethod
     def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
-        """Give the options a file's metadata states (``# tdoa_noise: independent``).
-
-        Parameters
-        ----------
-        metadata : mapping of str to str
-            The set's metadata.
-
-        Returns
-        -------
-        dict
-            ``{"noise": ...}`` when the file states it, else empty.
-
-        Raises
-        ------
-        ValueError
-            If ``tdoa_noise`` is not a noise form.
-        """
+        """Give the options a file's metadata states (``# tdoa_noise: independent``)."""
         if "tdoa_noise" not in metadata:
             return {}
         return {"noise": noise_form(metadata["tdoa_noise"], "metadata tdoa_noise")}
 
     def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
                          sensor: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Give the noise covariance of rows sharing one reference at one time, s^2.
-
-        Parameters
-        ----------
-        time, time_ref, sensor : array_like
-            Not used (the rows given share the reference and the time).
-        sigma : array_like
-            Standard deviations (m,), s.
-
-        Returns
-        -------
-        ndarray
-            (m, m): :func:`shared_reference_covariance`, or ``diag(sigma^2)`` with
-            ``noise="independent"``.
-        """
+        """Give the noise covariance of rows sharing one reference at one time, s^2."""
         if not self.correlated_noise:
             return np.diag(np.asarray(sigma, dtype=float) ** 2)
         return shared_reference_covariance(sigma)
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
-        """Predict time differences, s; see :meth:`MeasurementModel.predict`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`MeasurementModel.predict`; ``rel_ref`` (the target relative to
-            the reference sensor) is required; ``t`` and ``nuisance`` are not used.
-
-        Returns
-        -------
-        ndarray
-            ``(|p| - |p_ref|) / c``, s, shape ``rel.shape[:-1]``.
-
-        Raises
-        ------
-        ValueError
-            If ``rel_ref`` is missing.
-        """
+        """Predict time differences, s; see :meth:`MeasurementModel.predict`."""
         return path_difference(rel, rel_ref, _NEEDS) / self.c
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
-        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`.
-
-        Parameters
-        ----------
-        rel, t, nuisance, rel_ref
-            As for :meth:`predict`.
-
-        Returns
-        -------
-        Jacobian
-            ``rel``: ``p / (c |p|)``; ``rel_ref``: ``-p_ref / (c |p_ref|)`` (s/m, position
-            part only); no nuisance.
-
-        Raises
-        ------
-        ValueError
-            If ``rel_ref`` is missing.
-        """
+        """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         return path_difference_jacobian(rel, rel_ref, _NEEDS, 1.0 / self.c)
 
     def __repr__(self) -> str:

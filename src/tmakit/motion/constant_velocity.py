@@ -49,10 +49,7 @@ class ConstantVelocity(MotionModel):
         self.name = f"cv{dim}d"
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
-
-        Parameters and returns as :meth:`MotionModel.states`.
-        """
+        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s)."""
         theta = self.check_theta(theta)
         dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
@@ -64,10 +61,7 @@ class ConstantVelocity(MotionModel):
         return out
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give ``d state / d theta`` ``(..., n, 6, p)``: ``[[I, dt I], [0, I]]``.
-
-        Parameters and returns as :meth:`MotionModel.jacobian`.
-        """
+        """Give ``d state / d theta`` ``(..., n, 6, p)``: ``[[I, dt I], [0, I]]``."""
         theta = self.check_theta(theta)
         dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
@@ -80,10 +74,7 @@ class ConstantVelocity(MotionModel):
 
     def component_map(self, t: ArrayLike
                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        """Give the affine map component-major, built directly (no ``(n, 6, p)`` tensor).
-
-        Parameters and returns as :meth:`MotionModel.component_map`.
-        """
+        """Give the affine map component-major, built directly (no ``(n, 6, p)`` tensor)."""
         dt = np.asarray(t, dtype=float) - self.ref_time
         d = self.dim
         matrix = np.zeros((2 * d, 6, dt.shape[0]))
@@ -96,10 +87,7 @@ class ConstantVelocity(MotionModel):
     def component_terms(self, t: ArrayLike
                         ) -> tuple[list[tuple[int, int, NDArray[np.float64] | None]],
                                    NDArray[np.float64]] | None:
-        """Give the non-zero terms of the affine map: position ``i`` from ``i`` and ``dt v_i``.
-
-        Parameters and returns as :meth:`MotionModel.component_terms`.
-        """
+        """Give the non-zero terms of the affine map: position ``i`` from ``i`` and ``dt v_i``."""
         dt = np.asarray(t, dtype=float)
         if self.ref_time != 0.0:  # (t - 0 is t: no pass over the rows)
             dt = dt - self.ref_time
@@ -112,10 +100,7 @@ class ConstantVelocity(MotionModel):
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
-        """Apply the chain rule through ``[[I, dt I], [0, I]]`` without a tensor product.
-
-        Parameters and returns as :meth:`MotionModel.chain`.
-        """
+        """Apply the chain rule through ``[[I, dt I], [0, I]]`` without a tensor product."""
         # d state / d theta is [[I, dt I], [0, I]]: no tensor contraction needed.  Worked
         # parameter by parameter along the rows; the result is a (..., n, p) view whose rows
         # are contiguous for each parameter.
@@ -129,10 +114,7 @@ class ConstantVelocity(MotionModel):
         return out.swapaxes(-1, -2)
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
-        """Give the parameters ``(..., p)`` of the straight line through ``state`` at ``t``.
-
-        Parameters and returns as :meth:`MotionModel.from_state`.
-        """
+        """Give the parameters ``(..., p)`` of the straight line through ``state`` at ``t``."""
         state = np.asarray(state, dtype=float)
         d = self.dim
         vel = state[..., 3:3 + d]
@@ -188,10 +170,7 @@ class Stationary(MotionModel):
         self.name = f"static{dim}d"
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give ENU states ``(..., n, 6)`` (m; velocity 0) at times ``t`` (s).
-
-        Parameters and returns as :meth:`MotionModel.states`.
-        """
+        """Give ENU states ``(..., n, 6)`` (m; velocity 0) at times ``t`` (s)."""
         theta = self.check_theta(theta)
         n = np.asarray(t, dtype=float).shape[0]
         out = np.zeros((*theta.shape[:-1], n, 6))
@@ -199,10 +178,7 @@ class Stationary(MotionModel):
         return out
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give ``d state / d theta`` ``(..., n, 6, p)``: the identity on the position.
-
-        Parameters and returns as :meth:`MotionModel.jacobian`.
-        """
+        """Give ``d state / d theta`` ``(..., n, 6, p)``: the identity on the position."""
         theta = self.check_theta(theta)
         n = np.asarray(t, dtype=float).shape[0]
         jac = np.zeros((n, 6, self.dim))
@@ -212,17 +188,11 @@ class Stationary(MotionModel):
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
-        """Apply the chain rule: the position columns of ``d_state``.
-
-        Parameters and returns as :meth:`MotionModel.chain`.
-        """
+        """Apply the chain rule: the position columns of ``d_state``."""
         return d_state[..., : self.dim].copy()
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
-        """Give the position ``(..., dim)`` (m) of ``state``.
-
-        Parameters and returns as :meth:`MotionModel.from_state`.
-        """
+        """Give the position ``(..., dim)`` (m) of ``state``."""
         return np.asarray(state, dtype=float)[..., : self.dim].copy()
 
     def __repr__(self) -> str:

@@ -248,11 +248,7 @@ class PiecewiseCurvilinear(MotionModel):
         return theta.reshape(-1, self.n_params), t, theta.shape[:-1]
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
-
-        Parameters and returns as :meth:`MotionModel.states`; times must be one-dimensional
-        (else ValueError).
-        """
+        """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s)."""
         flat, t, lead = self._flat(theta, t)
         cart = self._evaluate(flat, t, derivatives=False)[0]
         return cart.reshape(*lead, t.shape[0], 6)

@@ -73,17 +73,11 @@ class FixedParameters(MotionModel):
         return out
 
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the wrapped model's states ``(..., n, 6)`` (m, m/s) at times ``t`` (s).
-
-        Parameters and returns as :meth:`MotionModel.states`; ``theta`` holds the unknowns.
-        """
+        """Give the wrapped model's states ``(..., n, 6)`` (m, m/s) at times ``t`` (s)."""
         return self.model.states(self.full(theta), t)
 
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give ``d state / d theta`` ``(..., n, 6, p)`` over the unknowns only.
-
-        Parameters and returns as :meth:`MotionModel.jacobian`.
-        """
+        """Give ``d state / d theta`` ``(..., n, 6, p)`` over the unknowns only."""
         return self.model.jacobian(self.full(theta), t)[..., self.free]
 
     def __repr__(self) -> str:

@@ -166,10 +166,7 @@ def _relative(theta: Array, offset: Array, t_par: IntArray, t_comp: IntArray, t_
 def _residuals(u: Array, nu_star: Array, blocks: IntArray, block_param: Array, const: Array,
                angle: BoolArray, w: Array, eliminate: bool, rel: Array, h: Array, a: Array,
                q: Array, r: Array, nu: Array) -> float:  # pragma: no cover - compiled
-    """Write one parameter vector's projected residuals ``r``, nuisance ``nu``, unit columns ``q``.
-
-    Gives half chi2 (NaN: no prediction; inf: an angle more than a turn out).
-    """
+    """Write one parameter vector's projected residuals, nuisance and unit columns."""
     two_pi = 2.0 * math.pi
     half = 0.0
     for blk in range(blocks.shape[0]):

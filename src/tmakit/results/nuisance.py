@@ -52,13 +52,7 @@ class KnownNuisance:
                            {str(k): float(v) for k, v in dict(self.values).items()})
 
     def __bool__(self) -> bool:
-        """Return True: the nuisance parameters are known.
-
-        Returns
-        -------
-        bool
-            Always ``True``.
-        """
+        """Return True: the nuisance parameters are known."""
         return True
 
     def over(self, context: Mapping[str, float]) -> dict[str, float]:

@@ -100,29 +100,7 @@ class ManoeuvreEstimator(BatchEstimator):
 
     def fit(self, meas: MeasurementSet, motion: PiecewiseCurvilinear | str  # type: ignore[override]
             ) -> EstimateResult:
-        """Estimate the manoeuvring target's motion.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements.
-        motion : PiecewiseCurvilinear or str
-            A model with ``M`` manoeuvres (``0..M`` searched), or a motion name
-            (``"curvilinear"``, ``"curvilinear:M"``, or another name of
-            :func:`tmakit.motion.motion_from_name`, fitted by maximum likelihood).
-
-        Returns
-        -------
-        EstimateResult
-            A :class:`~tmakit.batch.curvilinear.ManoeuvreEstimate` for a manoeuvring model.
-
-        Raises
-        ------
-        ValueError
-            For a bad motion name, an empty set or a start outside the data span.
-        TypeError
-            For manoeuvre settings with a motion name that has no manoeuvres.
-        """
+        """Estimate the manoeuvring target's motion."""
         return estimate_for(meas, motion, init=self.init, options=self.options,
                             known_nuisance=self.known_nuisance,
                             max_iter=self.max_iter, exact=self.exact,

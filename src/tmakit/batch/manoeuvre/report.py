@@ -87,18 +87,7 @@ class ManoeuvreEstimate(EstimateResult):
         return data
 
     def summary(self, units: str = "si") -> str:
-        """Describe the estimate, the order selection and the final position (m), as text.
-
-        Parameters
-        ----------
-        units : str, optional
-            ``si`` or ``nautical`` (speeds in knots), as for the estimate's table.
-
-        Returns
-        -------
-        str
-            Several lines.
-        """
+        """Describe the estimate, the order selection and the final position (m), as text."""
         parts = [super().summary(units)]
         if self.selection is not None:
             parts.append(self.selection.summary())
