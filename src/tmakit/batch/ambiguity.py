@@ -1,31 +1,10 @@
 """A towed array's port/starboard ambiguity, resolved leg by leg inside the batch fit.
 
-A line array cannot tell the two sides of its axis apart: each cut gives a bearing and its
-mirror about the array's heading (Debrief's ``;SENSOR2:`` lines, a wide log's second bearing
-column; :attr:`MeasurementSet.ambiguous_si <tmakit.data.MeasurementSet.ambiguous_si>`).  On a
-straight own-ship leg the two are equally likely for any target motion (the mirror image of a
-constant-velocity track about the own ship's straight path is one too), so no fit of one leg
-can choose; an own-ship turn turns the axis, and the mirror images of the legs before and
-after no longer join into one track.  The rule (Debrief's workflow: "delete any cuts during
-turn, resolve ambiguity leg by leg, generate TMA track"):
-
-1. **Legs and turn cuts.**  The own ship's legs and turns come from its navigation
-   (:func:`tmakit.results.own_legs.own_ship_legs`: heading rate above a threshold).  A cut
-   taken in a turn, or within the array's settling time after one (:data:`SETTLE_S`), is a
-   *turn cut*: the array is not straight and its bearing is biased.  Turn cuts are left out
-   unless kept (``keep_turn_cuts``); each decision is reported.
-2. **Sides by likelihood.**  Each leg's cuts take one side (port or starboard of the array,
-   the axis being the pair's own mirror line nearest the own ship's heading).  Every
-   assignment of sides to the legs is fitted (by coordinate search above
-   :data:`MAX_EXHAUSTIVE_LEGS` legs) with the same maximum likelihood, and the one of least
-   chi-square is chosen.
-3. **Resolved or not.**  A leg's likelihood ratio is ``exp(Δχ²/2)``, ``Δχ²`` the chi-square
-   of the best assignment with that leg on the other side minus the best's.  Before the first
-   turn (one leg) no leg is resolved, whatever the ratio (the mirror fits by symmetry); after
-   it, a leg is resolved when its ratio is at least :data:`RESOLVED_RATIO` (and the best fit
-   is not improbable).  For an unresolved leg the fit with the leg on the other side is kept
-   beside the chosen one: both are reported (:attr:`AmbiguityResult.alternatives`, and the
-   result's separated solutions when they fit about as well), never one picked silently.
+Following Debrief's workflow: cuts taken in an own-ship turn or within :data:`SETTLE_S` after
+it are left out unless kept; each leg's cuts take one side, every assignment of sides is
+fitted (coordinate search above :data:`MAX_EXHAUSTIVE_LEGS` legs) and the least chi-square
+chosen.  A leg is resolved after the first turn when its likelihood ratio ``exp(Δχ²/2)`` is at
+least :data:`RESOLVED_RATIO`; an unresolved leg's other side is reported beside the choice.
 """
 
 from __future__ import annotations

@@ -1,45 +1,10 @@
 """The direct iterative least squares of Gu et al. (2007) §3.
 
-The nuisance parameters C/C_0 and c/f_s are in the parameter vector.  The paper linearises
-the power equation (eqs. 9-11) and the Doppler equation (eqs. 14-16) about the current
-estimate and iterates ``theta_pf^(i+1) = D_i^-1 N_i`` with ``D_i = A^T Sigma^-1 A`` and
-``N_i = A^T Sigma^-1 B`` where
-
-* power rows (eq. 11): ``[2 (L_k - Q_k theta)^T, C_0 / P_k]``, right-hand side
-  ``rho_k^2 - theta^T Q_k theta``, variance ``R_k^4 / SNR_p``;
-* Doppler rows (eqs. 15-16 and the A_f, B_f of §3): ``[(dh_k/dtheta)^T, f_k]``, right-hand
-  side ``(dh_k/dtheta)^T theta + c - v_k``, variance ``c^2 sigma_f^2 / f_s^2``;
-* both (§3 "TMA estimation based on both measurements"):
-  ``theta_pf = [x_0, y_0, v_x, v_y, C/C_0, c/f_s]``, the two row blocks stacked with zeros in
-  the other kind's nuisance column.
-
-Here ``P_k`` is the linear received power in watts, ``10**(P_dBW/10)``; tmakit stores power in
-dBW.  ``C_0`` is the free-space constant ``(lambda/4 pi)^2`` at the carrier
-(:func:`tmakit.core.units.free_space_constant`).  ``SNR_p`` comes from each power sample's sigma in
-dB: ``SNR = (10 / ln 10 / sigma_dB)^2`` (the inverse of :func:`tmakit.core.units.snr_to_sigma_db`).
-
-The paper's point ("It is important to point out that A_f is badly conditioned"): the column
-``f_k ~ 1.9e9`` dwarfs the others.  Every iteration records the condition number of the
-weighted A (``extra["condition_numbers"]``), of its Doppler and power parts separately, and of
-A with its columns scaled to unit norm (``condition_numbers_equilibrated``): the conditioning
-problem is largely a matter of column scaling.  The solve itself uses the equilibrated columns
-and an SVD least-squares solution (mathematically ``D^-1 N``); ``normal_equations=True`` forms
-and solves ``D_i theta = N_i`` literally, as printed, to show what the conditioning does to
-that.
-
-Measured on gu2007 (200 seeded runs from the paper's start (4900, 1200, 0, 0), both kinds):
-every run converges; RMSE / CRLB (C and f_s unknown) = 1.00, 1.14, 1.18, 0.99 for x_0, y_0,
-v_x, v_y, with a mean error of about (-1.8 m, +4.5 m, +0.074 m/s, 0) — a bias of up to 0.7 std
-that tmakit's ML (dB domain) does not have.  Power only at SNR_p = 40 dB the iteration settles
-about 1.1 km from the truth in x_0 and 0.75 km in y_0, near the same point for every noise
-draw, though noise-free data give the truth: the paper's "fails to compute meaningful
-estimates".  A plausible cause (not proven here) is that the noisy P_k sits inside A (errors
-in variables), which matters where power alone observes the track weakly (CRLB with C unknown:
-140 m in x_0); at SNR_p = 60 dB the offset falls to ~14 m.
-
-The geometry helpers (:class:`PlanarGeometry`: ``Q_k``, ``L_k``, ``rho_k`` of eq. 7-8,
-``Q_fk``, ``S_f``, ``phi_k`` of eq. 12, the derivatives of eq. 16) are shared with the ratio
-method (:mod:`tmakit.batch.ratios`).
+The nuisance C/C_0 and c/f_s join the parameter vector; power rows (eqs. 9-11) and Doppler rows
+(eqs. 14-16) are linearised about the estimate and iterated, ``theta = D^-1 N``.  The columns
+are equilibrated and solved by SVD (``normal_equations=True`` solves ``D theta = N`` as
+printed); each iteration's condition numbers are in ``extra``.  :class:`PlanarGeometry` (eqs.
+7-8, 12, 16) is shared with :mod:`tmakit.batch.ratios`.
 """
 
 from __future__ import annotations

@@ -1,30 +1,9 @@
 """The emitter's height, chosen by the data: a 2-D fit against its 3-D counterpart.
 
-A log whose sensors stay within 25 m of one altitude is read as 2-D (the surface rule of
-:mod:`tmakit.io.logs`): the sensors are put in the plane z = 0 and a 2-D motion model puts the
-emitter in that plane too.  For a drone flying 90 m above a transmitter on the ground, ranges,
-received powers and Doppler shifts then belong to a point 90 m too close, and the 2-D fit is
-confidently wrong: 20 m off with an ellipse of a few metres.  Bearings do not care (their kinds
-are ``height_blind``).
-
-:func:`choose_height` fits the 3-D counterpart of the motion model (``static2d`` ->
-``static3d``, ``cv2d`` -> ``cv3d``) from the 2-D estimate, the emitter started at a quarter,
-a half and the whole of its median horizontal range off the sensors' plane, and keeps it
-
-* when the sensors fly: their plane is more than :data:`AIRBORNE_ALTITUDE` above mean sea
-  level (more than that plus :data:`GEOID_REACH` above the WGS-84 ellipsoid, which the geoid
-  departs from by up to 106 m), above any emitter on the ground.  There the 2-D fit is biased
-  by many of its own standard deviations even where its chi-square looks fine (on the drone
-  logs of :func:`tmakit.io.samples.drone_sample`, a likelihood-ratio test at 0.001 let a third
-  of them through, with the truth outside the 2-D ellipse in all but 4 %);
-* or when the likelihood-ratio test says the data need the height: ``chi2_2D - chi2_3D``
-  against a chi-square with as many degrees of freedom as parameters added, ``p <``
-  :data:`HEIGHT_LEVEL` (Wilks 1938; conservative here, as the 2-D model is the boundary
-  ``z = 0`` and the height's sign is not identified).
-
-With sensors in one plane, a point above and its mirror below give the same data: the emitter
-is put below the plane when the sensors fly, above it otherwise (a fit that ends on the other
-side is taken to its mirror), and the note says that this side is assumed.
+:func:`choose_height` fits the 3-D counterpart of a 2-D motion model and keeps it when the
+sensors fly (above :data:`AIRBORNE_ALTITUDE`, with :data:`GEOID_REACH`) or when the
+likelihood-ratio test (Wilks 1938) rejects the 2-D model at :data:`HEIGHT_LEVEL`.  The side of
+the sensors' plane is assumed (below flying sensors) and said.  docs/estimation.md explains why.
 """
 
 from __future__ import annotations

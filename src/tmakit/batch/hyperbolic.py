@@ -1,32 +1,9 @@
 """Closed-form geolocation from differences between sensors: Chan & Ho (1994), Ho & Xu (2004).
 
-Both are two-stage weighted least squares.  With ``s_i`` the sensors, ``s_1`` the reference,
-``r_i1`` the range differences (``c`` times the TDOAs) and ``u`` the source, squaring
-``r_i = r_i1 + r_1`` makes each TDOA linear in ``phi_1 = [u, r_1]``::
-
-    -2 (s_i - s_1)' u - 2 r_i1 r_1 = r_i1^2 - |s_i|^2 + |s_1|^2            (TDOA)
-
-and its time derivative linear in ``[u, r_1, u_dot, r_1_dot]`` with the range-rate differences
-``rdot_i1`` (``-c / f0`` times the FDOAs) and the sensor velocities (Ho & Xu (2004))::
-
-    -2 (s_dot_i - s_dot_1)' u - 2 rdot_i1 r_1 - 2 (s_i - s_1)' u_dot - 2 r_i1 rdot_1
-        = 2 r_i1 rdot_i1 - 2 s_i' s_dot_i + 2 s_1' s_dot_1                 (FDOA)
-
-Stage 1 solves these by weighted least squares, the weight ``(B Q B')^-1`` with ``Q`` the
-covariance of the differences (shared reference: :mod:`tmakit.measurements.tdoa`) and ``B``
-the first-order map from their noise to the equations' errors (``2 r_i``, ``2 rdot_i``),
-recomputed twice from the estimate.  Stage 2 imposes ``r_1 = |u - s_1|`` (and ``r_1 rdot_1 =
-(u - s_1)' (u_dot - s_dot_1)``) by a second weighted least squares in the squares
-``(u - s_1)^2`` (and products ``(u - s_1)(u_dot - s_dot_1)``) of each coordinate, weighted by
-stage 1's covariance.  At small noise both reach the CRLB (Chan & Ho (1994); Ho & Xu (2004)).
-
-A known source height (a source on the ground, or any known ENU height: the 2-D motion models'
-plane) removes the vertical coordinate from both stages: its terms move to the right-hand side,
-and the vertical velocity is zero.
-
-The rows used are one *snapshot*: the differences against one reference sensor position (for
-a stationary source at every time, the reference's rows stacked; for a moving one, at one
-time), the paper's setting; :func:`snapshot_rows` chooses the largest.
+Two-stage weighted least squares: squaring ``r_i = r_i1 + r_1`` makes each TDOA (and its time
+derivative, each FDOA) linear in ``[u, r_1]`` (``[u, r_1, u_dot, r_1_dot]``); stage 2 imposes
+``r_1 = |u - s_1|``.  A known source height removes the vertical coordinate.  The rows are one
+snapshot against one reference sensor position (:func:`snapshot_rows`, the largest).
 """
 
 from __future__ import annotations

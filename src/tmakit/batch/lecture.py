@@ -1,38 +1,10 @@
 """Gauss–Newton on the 7-parameter vector of the Doppler-tracking lecture notes.
 
-The notes are "Doppler Tracking: Passive Tracking of an Airborne Radar".
-
-The notes estimate ``x = [X_N Y_N Z_N V_x V_y V_z f_o]`` — the emitter's position at the
-final sample time ``t_N``, its constant velocity, and the transmitted carrier — from received
-frequencies by linearising about the current estimate ("Linearize the Nonlinear Model") and
-iterating ("Iterating to the Solution")::
-
-    dx_n = (H^T R^-1 H)^-1 H^T R^-1 df(x_n),    x_{n+1} = x_n + dx_n
-
-with ``H`` the N x 7 Jacobian, ``df`` the measured minus predicted frequencies and ``R`` the
-measurement covariance, until the update is small.
-
-tmakit's conventions differ from the notes' printed formulas in two places, both sign
-conventions, neither affecting observability: the notes write the trajectory as
-``X(t) = V_x (t_N - t) + X_N`` (so their ``V`` is minus the velocity); tmakit's
-``ConstantVelocity(3, ref_time=t_N)`` uses ``p(t) = p_N + v (t - t_N)`` with the physical
-velocity.  The notes' Doppler formula has the opposite sign of the shift; tmakit's
-:class:`~tmakit.measurements.Frequency` uses the physical one (``f = f_o (1 - rdot/c)``).
-
-The notes admit the problem is "rigged": with one receiver ``H`` is "likely to be less than
-full rank".  tmakit measures it — ``H^T R^-1 H`` has rank 4 of 7 (any rotation of the track
-about an axis through the receiver leaves every range history unchanged).  The iteration does
-not crash on it: the update is the minimum-norm (pseudo-inverse) solution on the observable
-subspace (in coordinates normalised by ``diag(H^T R^-1 H)``, rank threshold
-:data:`tmakit.results.observability.RANK_TOL`), and the result reports ``unobservable`` with
-the rank and the named unobservable directions (:func:`tmakit.results.observability.analyse`).
-With full rank the update is exactly the notes' one.
-
-"Small" is measured in standard deviations: the iteration stops when
-``sqrt(dx^T H^T R^-1 H dx) < tol`` (the update is a negligible fraction of the estimate's own
-uncertainty), or when no parameter moves by more than 1e-12 relative.  Plain Gauss–Newton has
-no step control: when the ranges grow more than 1e4-fold from the start the result is
-``diverged``.
+``x = [X_N Y_N Z_N V_x V_y V_z f_o]`` from received frequencies ("Linearize the Nonlinear
+Model", "Iterating to the Solution"), with tmakit's sign conventions (physical velocity and
+Doppler sign).  With one receiver ``H^T R^-1 H`` has rank 4 of 7: the update is the
+minimum-norm solution on the observable subspace and the result says ``unobservable``.  It
+stops when ``sqrt(dx^T H^T R^-1 H dx) < tol``; ranges growing 1e4-fold mean ``diverged``.
 """
 
 from __future__ import annotations

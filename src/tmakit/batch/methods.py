@@ -1,30 +1,10 @@
 """Every batch estimator by name (:data:`METHODS`), and the short forms that build and fit.
 
-The short forms are :func:`estimator` and :func:`estimate_with`.
-
-* ``ml`` — tmakit's maximum likelihood (:class:`~tmakit.batch.dispatch.MLByMotion`:
-  :class:`~tmakit.batch.ml.MaximumLikelihood`, or
-  :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator` for a manoeuvring target): nuisance
-  parameters eliminated exactly, no initial guess needed.
-* ``gu-direct`` — Gu et al. (2007) §3, iterative LS with C/C_0 and c/f_s in the parameter
-  vector (:class:`~tmakit.batch.gu_direct.GuDirect`).
-* ``ratio-power``, ``ratio-doppler``, ``ratio`` — Gu et al. (2007) §4, ratios of neighbouring
-  power and/or Doppler measurements (:class:`~tmakit.batch.ratios.RatioMethod` with
-  ``kinds`` power, frequency, or both).
-* ``lecture-gn`` — the Doppler-tracking lecture notes, Gauss–Newton on
-  [X_N Y_N Z_N Vx Vy Vz f_o] (:class:`~tmakit.batch.lecture.LectureGaussNewton`).
-* ``chan-ho``, ``ho-xu`` — the closed forms of Chan & Ho (1994) (TDOA, stationary source)
-  and Ho & Xu (2004) (TDOA and FDOA, moving source) on the set's largest snapshot
-  (:mod:`tmakit.batch.hyperbolic`); no start needed.
-
-The papers' methods are local iterations and need a starting point.  When none is given they
-start from tmakit's own no-guess start: the best point of the likelihood grid
-(:func:`tmakit.batch.init.grid_start`, the same grid ``ml`` starts from).  That start is
-tmakit's, not the papers'; the result says so in its message and in ``extra["start"]``.
-
-What an estimator accepts is declared, not inspected: its settings are its class's
-constructor parameters, and ``takes_known_nuisance`` says whether it can hold the nuisance
-parameters at known values.
+``ml`` (tmakit's maximum likelihood), ``gu-direct`` (Gu et al. (2007) §3), ``ratio-power``,
+``ratio-doppler``, ``ratio`` (§4), ``lecture-gn`` (the Doppler-tracking lecture notes),
+``chan-ho`` and ``ho-xu`` (Chan & Ho (1994), Ho & Xu (2004)).  The papers' local iterations
+start, when given no start, from tmakit's likelihood grid (:func:`tmakit.batch.init.grid_start`),
+which the result says in ``extra["start"]``.
 """
 
 from __future__ import annotations

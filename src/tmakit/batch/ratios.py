@@ -1,85 +1,12 @@
 """The ratio method of Gu et al. (2007) §4: ratios of neighbouring measurements.
 
-The ratios remove the nuisance parameters C (power) and f_s (Doppler).
-
-Power (eqs. 19-25).  ``mu_k = P_k / P_{k-1}`` (linear watts; tmakit stores dBW, so
-``mu_k = 10**((P_dBW,k - P_dBW,k-1)/10)``).  With ``e_k = eta_k / P_k`` (variance 1/SNR_p),
-eq. 21 holds exactly::
-
-    g_k(theta) = R_{k-1}^2 - mu_k R_k^2 = mu_k R_k^2 e_{k-1} - R_{k-1}^2 e_k.
-
-It is linearised about the current estimate (eqs. 22-24) and packed as
-``L_p(theta_i) theta ~ psi_p(theta_i)`` (eq. 25): rows ``2 (dL_k - dQ_k theta_i)^T`` and
-``d rho_k - theta_i^T dQ_k theta_i`` with ``dQ_k = Q_{k-1} - mu_k Q_k`` etc. (eq. 23).
-
-Doppler (eqs. 26-32).  ``nu_k = f_k / f_{k-1}`` and, with ``d_k = zeta_k / f_k``, eq. 27::
-
-    h_k(theta) = nu_k (1 - v_{k-1}/c) - (1 - v_k/c) = (1 - v_k/c) d_k - nu_k (1 - v_{k-1}/c) d_{k-1}
-
-whose scaled Jacobian is eq. 28, ``c dh_k/dtheta = dv_k/dtheta - nu_k dv_{k-1}/dtheta``
-(``dv/dtheta`` of eq. 16), and ``c h_k = v_k - nu_k v_{k-1} - (1 - nu_k) c``.  Eq. 31 prints
-this with the opposite overall sign, ``(1 - nu_k) c + nu_k v_{k-1} - v_k``, which contradicts
-eqs. 27-28; the sign of a whole equation does not change a least-squares solution, and eqs.
-27-28 are used.  ``L_f theta ~ psi_f = L_f theta_i - c h(theta_i)`` (eq. 32).
-
-Both (eqs. 33-34): the two blocks stacked, ``Sigma = diag(Sigma_p, Sigma_f)``; the iteration
-is ``theta_{i+1} = D_i^-1 N_i`` with ``D_i = L^T Sigma^-1 L`` and ``N_i = L^T Sigma^-1 psi``.
-
-**The tri-diagonal covariances.**  What the paper prints, and what a first-order derivation
-from eqs. 21 and 27 gives (``s_k = 1/SNR_p`` of sample k; sigma_k the frequency noise):
-
-* power, diagonal: ``(mu_k^2 R_k^4 + R_{k-1}^4) s`` — the paper's, correct (§4 omits the
-  factor ``1/SNR_p`` that §3's Sigma_p has; it must be there for eq. 34 to weigh power against
-  Doppler, and both versions here include it);
-* power, off-diagonal (k, k+1): the two terms share ``e_k`` with coefficients ``-R_{k-1}^2``
-  (in g_k) and ``mu_{k+1} R_{k+1}^2`` (in g_{k+1}), so the covariance is
-  ``-mu_{k+1} R_{k-1}^2 R_{k+1}^2 s_k``.  **The paper prints it without the minus sign** — a
-  misprint that changes the correlation of neighbouring terms from -1/2 (a differencing
-  pattern, since ``mu_{k+1} R_{k+1}^2 ~ R_k^2``) to +1/2.  The index pattern is right.
-  ``-R_{k-1}^2 R_k^2`` is an equivalent first-order form; ``-mu_{k+1} R_k^4`` is not exact
-  (it differs by the factor ``R_k^4 / (R_{k-1}^2 R_{k+1}^2)``, within 0.3 % on gu2007).
-* Doppler: ``(1 - v_k/c) d_k = zeta_k / f_s`` exactly, so the noise of ``c h_k`` is
-  ``(c/f_s)(zeta_k - nu_k zeta_{k-1})``: diagonal ``(c/f_s)^2 (sigma_k^2 + nu_k^2
-  sigma_{k-1}^2)`` and off-diagonal ``-(c/f_s)^2 nu_{k+1} sigma_k^2``.  The paper's diagonal
-  ``(1 - v_k/c)^2 + nu_k^2 (1 - v_{k-1}/c)^2`` comes from approximating var(d_k) by
-  sigma^2/f_s^2 (its factors are 1 within ~1e-6); its off-diagonal
-  ``-nu_{k+1} (1 - v_{k+1}/c)^2`` should read ``(1 - v_k/c)^2`` under that approximation (an
-  index misprint, numerically immaterial).  The sign is right here.
-
-``covariance="derived"`` (default) uses the derived matrices, ``"paper"`` the printed ones
-(with the 1/SNR_p factor).  With ``"derived"`` the estimate's covariance is the final
-``D^-1`` (Sigma carries the noise scale, so std is in metres and m/s); with ``"paper"``,
-whose Sigma is not the noise covariance, it is the sandwich
-``D^-1 L^T Sigma^-1 Sigma_derived Sigma^-1 L D^-1``.  The derived weighting makes the method
-efficient to first order: the ratios keep all the information except C and f_s, so the bound
-to compare with is the CRLB with C and f_s unknown (:func:`tmakit.bounds.crlb`, the default).
-
-Pairs are formed from consecutive samples of one kind from one sensor, in time order; the
-terms of different sensors or kinds are independent.
-
-Measured on gu2007 (SNR_p 40 dB, sigma_f 1.9 Hz; CRLB with C and f_s unknown 6.04 m, 7.77 m,
-0.109 m/s, 0.134 m/s):
-
-* both kinds, derived covariance, 200 runs from (4900, 1200, 0, 0): all converge; RMSE
-  (6.04, 8.88, 0.129, 0.133), i.e. 1.00, 1.14, 1.18, 0.99 x the CRLB (the paper: 6.30, 7.69,
-  0.119, 0.130); mean reported std within 1 % of the CRLB.  The mean error (-1.8 m, +4.5 m,
-  +0.074 m/s, 0) is the same as that of the direct method of §3 — it comes from the power
-  ratios with the noisy mu_k inside L_p, not from the ratios as such;
-* both kinds, the paper's printed covariance: from the paper's start 21 of 30 runs diverge and
-  7 do not converge in 50 iterations; even from the truth the errors are ~1 km.  The paper's
-  own results (close to the CRLB) cannot have used the printed sign;
-* Doppler only from (2200, 2700, -16, -8), 100 runs: all converge, RMSE (35.2, 16.2, 0.408,
-  0.591) = 0.98-1.01 x the CRLB (the paper: 36.2, 16.1, 0.417, 0.594);
-* power only: at 40 dB the iteration settles ~1.1 km (x_0) and ~0.75 km (y_0) from the truth,
-  near the same point for every noise draw (CRLB with C unknown: 140 m, 21 m); without noise it
-  recovers the truth from nearby but can stop at a spurious fixed point from the paper's start.
-  See :mod:`tmakit.batch.gu_direct` for the same behaviour of §3.
-
-The nuisance values reported (``power_constant_db``, ``carrier``) are estimated afterwards by
-weighted linear least squares given theta (both enter tmakit's models linearly); their std
-adds the propagated uncertainty of theta: ``(A^T W A)^-1 + G cov(theta) G^T`` with ``G`` the
-derivative of that solution with respect to theta (exact to first order for an efficient
-theta, whose error is uncorrelated with the fit of the nuisance).
+Ratios of consecutive power (eqs. 19-25) and Doppler (eqs. 26-32) samples of one sensor remove
+the nuisance C and f_s; both blocks stack (eqs. 33-34) and iterate ``theta = D^-1 N``.  Eqs.
+27-28 are used where eq. 31 prints the opposite overall sign.  ``covariance="derived"``
+(default) weights by the first-order tri-diagonal covariance, ``"paper"`` by the printed one
+(whose power off-diagonal lacks a minus sign) with a sandwich covariance; docs/references.md
+lists the misprints.  The nuisance values are fitted afterwards by weighted linear least
+squares given theta, their std including theta's propagated uncertainty.
 """
 
 

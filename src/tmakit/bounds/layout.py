@@ -1,25 +1,9 @@
 """The bound of a sensor layout over many emitter positions: TDOA and FDOA of a fixed emitter.
 
-The planning picture of an EW engineer (``tma gdop``) asks the CRLB of a stationary emitter's
-position at every point of a grid, for one layout of sensor pairs; a large layout asks it for
-millions of rows.  Both are the Fisher information of :func:`tmakit.bounds.crlb` for a
-stationary emitter, written for that case: the rows' derivatives by the emitter position come
-from the sensor and reference states directly, and the noise shared through a reference
-(:mod:`tmakit.measurements.tdoa`) is whitened in closed form.  With the rows of a group (one
-kind, time and reference) ``y_i = h_i / sigma_i`` and covariance
-``D (I + 1 1') D / 2``, its inverse is ``2 D^-1 (I - 1 1' / (1 + m)) D^-1``, so::
-
-    F = 2 sum_i y_i y_i'  -  2 sum_groups s_g s_g' / (1 + m_g),    s_g = sum_{i in g} y_i
-
-linear in the rows (no dense block, whatever its size); independent rows give
-``sum_i y_i y_i'``.  ``tests/test_geolocation.py`` pins it to :func:`tmakit.bounds.crlb`.
-
-CEP (the circular error probable): the radius of the circle about the true position that holds
-the estimate with probability 50 % (90 %), from the horizontal position covariance, not the
-``0.59 (s1 + s2)`` rule of thumb: with ``l1 <= l2`` its eigenvalues and ``x2 = r sin(phi)``
-along the major axis, ``P(r) = int N(r sin phi; 0, l2) erf(r cos phi / sqrt(2 l1)) r cos phi
-dphi`` over ``|phi| < pi / 2``; ``r / sqrt(l2)`` depends on ``l1 / l2`` alone, so it is
-tabulated once (Gauss-Legendre and bisection) and interpolated.
+The Fisher information of :func:`tmakit.bounds.crlb` for a stationary emitter, written for a
+grid of positions (``tma gdop``): shared-reference noise is whitened in closed form,
+``F = 2 sum_i y_i y_i' - 2 sum_g s_g s_g' / (1 + m_g)``.  The CEP (50 %, 90 %) comes from the
+horizontal covariance by a tabulated integral, not the ``0.59 (s1 + s2)`` rule of thumb.
 """
 
 from __future__ import annotations

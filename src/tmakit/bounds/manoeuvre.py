@@ -1,31 +1,10 @@
 """Cramér–Rao bounds for a piecewise curvilinearly moving target at a sequence of times.
 
-Hörst & Oispuu (2010), §3, eqs. 7-9, and the Cramér–Rao analysis of §4 / Fig. 2.
-
-At each reference time ``t_ref`` the unknowns are the target state at ``t_ref`` — position,
-speed and course, ``x_r`` of the paper — together with the accelerations of every segment and
-the change-over times of the manoeuvres that have started, and the data are all measurements
-taken up to and including ``t_ref``.  This is the bound of the paper's Fig. 2: the "current"
-state estimated from everything heard so far (§2.1: "the reference state is commonly the
-current state"; eq. 3 covers the interval ``[t_0, t_r]``).
-
-Conventions (stated in :func:`curvilinear_crb_sequence` as well):
-
-* a manoeuvre's parameters (``at_m, an_m, t_m``) join the unknowns only once it has started:
-  manoeuvre ``m`` is a parameter at ``t_ref`` if and only if ``t_m < t_ref``; a manoeuvre
-  starting exactly at ``t_ref`` or later is not;
-* a sample exactly at a change-over time belongs to the earlier segment, and so does a
-  reference time exactly at one;
-* accelerations are indexed as in the paper's simulation section: ``at_m, an_m`` act from
-  ``t_m`` on (``at_0, an_0`` from the start);
-* ``known_manoeuvres=True`` holds all accelerations and change-over times at their true values
-  (the assumption of Ristic & Arulampalam (2003) and Ristic, Arulampalam & Gordon (2004), which
-  Hörst & Oispuu (2010), §1, contrast themselves with): only the state at ``t_ref`` is unknown.
-
-The position bound at ``t_ref`` is reported as the 2x2 covariance of ``(x, y)``, the standard
-deviations, the RMS ``sqrt(var x + var y)`` and the confidence ellipse.  Where the data cannot
-determine the unknowns the standard deviations are infinite (never a number from a blind
-inverse), and :attr:`CrbPoint.bound` names the unobservable directions.
+Hörst & Oispuu (2010), §3, eqs. 7-9, and Fig. 2: at each ``t_ref`` the unknowns are the state
+at ``t_ref``, every segment's accelerations and the change-over times of the manoeuvres started
+(``t_m < t_ref``), from all measurements up to ``t_ref``.  ``known_manoeuvres=True`` holds the
+manoeuvres at their truth (Ristic & Arulampalam (2003)).  Unobservable directions give infinite
+std, named in :attr:`CrbPoint.bound`.
 """
 
 from __future__ import annotations

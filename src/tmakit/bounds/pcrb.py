@@ -1,30 +1,10 @@
-"""The posterior (Bayesian) Cramér–Rao bound of a recursive tracker.
+"""The posterior (Bayesian) Cramér–Rao bound of a recursive tracker on a measurement set.
 
-For nearly-constant-velocity dynamics ``x_{k+1} = F x_k + w_k``, ``w_k ~ N(0, Q_k)``
-(Chen & Sun, §2.1) and measurements ``z_k = h_k(x_k) + v_k``, ``v_k ~ N(0, R_k)``, the
-information about ``x_k`` obeys the recursion of Tichavský, Muravchik & Nehorai (1998), as
-Hurtado & Nehorai (2008), eqs. 10-11 write it:
-
-    J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1},
-    Gamma_{k+1} = E_x[ H_{k+1}(x)^T R_{k+1}^{-1} H_{k+1}(x) ],
-
-from ``J_0 = P_0^{-1}``, ``H`` the Jacobian of the predictions (Gaussian noise: ``Xi`` of
-eq. 13 in closed form).  :class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation` runs it;
-this module applies it to a measurement set.  ``J_k^{-1}`` bounds the MSE matrix of any
-estimator of ``x_k`` from the measurements up to ``k``, averaged over prior and noise.
-
-**Expectation.**  ``Gamma`` is averaged over trajectories sampled from the prior and the
-dynamics.  :func:`deterministic_pcrb` evaluates ``H`` along the prior-mean trajectory instead
-(for ``q = 0`` the batch CRLB plus the prior's information); with a wide prior the two differ a
-lot.  The expectation can be heavy-tailed (a bearing's information grows as ``1/r^2``), so each
-Monte Carlo bound carries a standard error (batch means over 10 sets of trajectories) and the
-largest share of one trajectory in ``Gamma_k``, with a note when one dominates.
-
-**Measurements.**  One update per distinct time (as :meth:`tmakit.filters.TrackingFilter.run`),
-predicted by :class:`tmakit.observation.MeasurementGroup` (any kinds and sensors; range
-differences with their correlated ``R``); nuisance parameters are known values.  Range
-differences whose pulse intervals overlap across groups break the assumed independence: a note
-in :attr:`PosteriorBound.notes` and a warning say so.
+The recursion of Tichavský, Muravchik & Nehorai (1998) in the form of Hurtado & Nehorai (2008),
+eqs. 10-11, for nearly-constant-velocity dynamics (Chen & Sun, §2.1), run by
+:class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`.  ``Gamma`` is averaged over
+trajectories from the prior (with a standard error), or taken along the prior mean
+(:func:`deterministic_pcrb`).  One update per distinct time; nuisance parameters are known.
 """
 
 from __future__ import annotations

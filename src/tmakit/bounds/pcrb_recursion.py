@@ -1,29 +1,10 @@
 """The posterior CRB as a recursion object, one step at a time.
 
-Bayesian information is predicted through the dynamics and updated with measurement
-information.
-
-For nearly-constant-velocity dynamics ``x_{k+1} = F x_k + w_k``, ``w_k ~ N(0, Q_k)`` and
-measurements ``z_k = h_k(x_k) + v_k``, ``v_k ~ N(0, R_k)``, the Bayesian information about
-the state obeys the recursion of Tichavský, Muravchik & Nehorai (1998), in the form of
-Hurtado & Nehorai (2008), eqs. 10-11 (linear dynamics, additive Gaussian noise):
-
-    J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1},
-    Gamma_{k+1} = E_x[ H_{k+1}(x)^T R_{k+1}^{-1} H_{k+1}(x) ].
-
-:class:`PosteriorInformation` holds ``J`` (any leading axes: the Monte Carlo batches of
-:func:`~tmakit.bounds.posterior_crb`) and the target-state sample (or the mean) over which
-``Gamma`` is averaged; :meth:`~PosteriorInformation.predict` is the first term,
-:meth:`~PosteriorInformation.update` adds the second, and
-:meth:`~PosteriorInformation.expected_information` gives ``Gamma`` for many candidate sensor
-states at once, so that a planner can ask "what would the bound be if the sensor were here
-next" without a loop over candidates.
-
-**Numerics.**  The prediction is computed in information form: with ``A = F^{-T} J F^{-1}``
-(``F^{-1}`` is the transition backwards in time, exact) and ``Q = G G^T``,
-``(Q + A^{-1})^{-1} = A - A G (I + G^T A G)^{-1} G^T A`` (Woodbury).  ``I + G^T A G >= I`` is
-always invertible, so there is no inverse of ``J`` or of ``Q`` (singular for NCV) and the step
-reduces exactly to ``F^{-T} J F^{-1}`` when ``Q = 0``; nothing can raise a ``LinAlgError``.
+``J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1}``, ``Gamma = E[H^T R^-1 H]``
+(Tichavský, Muravchik & Nehorai (1998); Hurtado & Nehorai (2008), eqs. 10-11).  The prediction
+is in information form by Woodbury, so no inverse of ``J`` or ``Q`` is taken.
+:meth:`PosteriorInformation.expected_information` gives ``Gamma`` for many candidate sensor
+states at once (for a planner).
 """
 
 from __future__ import annotations

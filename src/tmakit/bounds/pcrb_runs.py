@@ -1,22 +1,9 @@
 """The posterior CRB of a Monte Carlo of runs: ``Gamma_k`` averaged over the runs' true states.
 
-Each run of a closed-loop study (:mod:`tmakit.planning.closed_loop`) records, at every update
-``k``, the Fisher information ``Xi(x_k, s_k)`` of its measurements at the run's *true* target
-state ``x_k`` and its flown sensor state ``s_k``.  The posterior CRB of Tichavský, Muravchik &
-Nehorai (1998) (Hurtado & Nehorai (2008), eqs. 10-11) is the recursion
-
-    J_0 = P_0^{-1},    J_{k+1} = (Q + F J_k^{-1} F^T)^{-1} + Gamma_{k+1},
-    Gamma_{k+1} = E[ Xi(x_{k+1}, s_{k+1}) ],
-
-with the expectation over the joint distribution of the truth, the noise and — for a path
-steered by the measurements — the sensor states.  Steering does not change the recursion: the
-sensor state ``s_k`` is a function of the measurements before ``k`` only, so the log-likelihood
-of the ``k``-th measurement is differentiated with ``s_k`` held, and its expected Hessian is
-still ``E[Xi(x_k, s_k)]``.  The mean over ``R`` runs estimates it; ``J_k^{-1}`` then bounds
-the mean-square error matrix of any tracker that uses the same prior ``P_0``, process noise
-``Q`` and measurement model as the bound, averaged over the runs.
-
-The Monte Carlo uncertainty of a RMSE held to this bound: :func:`ratio_interval`.
+The recursion of Tichavský, Muravchik & Nehorai (1998) (Hurtado & Nehorai (2008), eqs. 10-11)
+with ``Gamma_k`` the mean over runs of the Fisher information at each run's true state and
+flown sensor state; a path steered by past measurements does not change it.
+:func:`ratio_interval` gives the Monte Carlo uncertainty of a RMSE held to it.
 """
 
 from __future__ import annotations

@@ -1,30 +1,10 @@
 """Exact curvilinear motion (Hörst & Oispuu (2010), §2.1, eq. 1) and its pieces (eqs. 2-4).
 
-State ``(x, y, v, phi)``: ENU position (m), speed (m/s), course phi (rad, clockwise from North).
-``a_t`` changes the speed, ``a_n`` turns the course at rate ``a_n / v`` (positive: starboard).
-
-Closed form (the one copy in tmakit: :mod:`tmakit.motion.curvilinear_closed`,
-:func:`propagate_with_partials` and its variants; the batched model of
-:mod:`tmakit.motion.curvilinear_batch` calls them too).  Write the complex position
-``Z = y + i x`` and velocity ``V = v e^{i phi}`` (real part North, imaginary part East).  Then
-``dV/ds = (a_t + i a_n) V / v`` with ``v(s) = v0 + a_t s``, so with ``g = (a_t + i a_n) s / v0``,
-``r = a_t s / v0`` and ``L(r) = log1p(r) / r``::
-
-    V(s) = V0 E,  E = exp(g L(r));   Z(s) = Z0 + V0 s F(g, r),  F = ((1 + r) E - 1) / (g + r)
-    speed(s) = v0 (1 + r);           course(s) = phi0 + a_n s L(r) / v0
-
-and near zero acceleration ``F = sum_n prod_{j<n} (g - j r) / (n + 1)!``, which avoids the
-cancellation in the closed form.  Both a_t = 0 (circular arc) and a_t != 0 are covered, and
-propagation works backwards in time (s < 0) as well.  No ODE solver is involved.
-
-Derivatives with respect to ``(x0, y0, v0, phi0, a_t, a_n, s)`` follow from ``dE/dg = L E``,
-``dE/dr = g L'(r) E``, ``dF/dg = ((1 + r) L E - F) / (g + r)`` and
-``dF/dr = (E + (1 + r) g L'(r) E - F) / (g + r)``, with ``L + r L' = 1 / (1 + r)``; near zero
-acceleration ``F`` and its derivatives come from the series differentiated term by term.
-:class:`PiecewiseCurvilinear` chains these one-segment derivatives from the reference state
-through the change-over times, so its Jacobian is analytic for every parameter, the change-over
-times included, and never differences across a change-over time.  Reference: Hörst & Oispuu
-(2010), §2, eqs. 1-4.
+State ``(x, y, v, phi)``: ENU position (m), speed (m/s), course (rad, clockwise from North);
+``a_t`` changes the speed, ``a_n`` turns the course at ``a_n / v`` (positive: starboard).  The
+closed form and its analytic derivatives are in :mod:`tmakit.motion.curvilinear_closed`;
+:class:`PiecewiseCurvilinear` chains them through the change-over times.  Reference: Hörst &
+Oispuu (2010), §2, eqs. 1-4.
 """
 
 from __future__ import annotations

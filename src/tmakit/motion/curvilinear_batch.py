@@ -1,22 +1,9 @@
 """Piecewise curvilinear trajectories for many parameter vectors at once, with derivatives.
 
-The work-horse of the manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`).
-
-The motion is that of :class:`tmakit.motion.PiecewiseCurvilinear`
-(Hörst & Oispuu (2010), eqs. 1-4), in the same parameters ``x, y, speed, course, at_0, an_0,
-..., at_M, an_M, t_1, ..., t_M`` (m, m, m/s, rad clockwise from North, m/s², s), restricted to
-a reference time **before every change-over time** (``ref_time < t_1 < ... < t_M``; other
-parameter vectors give NaN states, which a least-squares solver treats as an infinite cost, a
-barrier).  The estimator references its internal fits at the first measurement time, so the
-restriction costs nothing; results are reported in the user's own parameterisation.
-
-Everything is vectorised over a leading batch axis (grid points of a profile likelihood, or
-starting points), which the general model's per-vector evaluation is not.  The closed form of
-a segment, the chaining of segments forwards from the reference state through the change-over
-states (Hörst & Oispuu (2010), eq. 4) and the chain rule run as the compiled loops of
-:mod:`tmakit.motion.curvilinear_compiled`, imported at the first propagation (``numba``).  One
-pass per parameter batch gives the states and, kept for :meth:`ForwardPiecewise.chain`, the
-derivatives (an observation model asks for both at the same point).
+The motion of :class:`tmakit.motion.PiecewiseCurvilinear` (Hörst & Oispuu (2010), eqs. 1-4)
+vectorised over a leading batch axis for the manoeuvre estimator, with a reference time before
+every change-over time (other vectors give NaN states).  The loops are compiled in
+:mod:`tmakit.motion.curvilinear_compiled`.
 
 References
 ----------

@@ -1,30 +1,9 @@
 """Piecewise-curvilinear propagation, its chain rule and its normal equations, compiled.
 
-The one implementation of the hot loops of
-:class:`tmakit.motion.curvilinear_batch.ForwardPiecewise`, the manoeuvre estimator's motion
-model (:mod:`tmakit.batch.manoeuvre`): the closed form of one curvilinear segment and its
-derivatives written out per sample (the formulas, branches and series that
-:mod:`tmakit.motion.curvilinear_closed` derives), the forward chaining of the change-over
-states with their derivatives, the chain rule to the parameters, and ``J'J``, ``J'r`` summed
-by segments.  One compiled loop keeps every intermediate term in registers (NumPy would write
-each to memory and read it back: 5x slower on the manoeuvre estimate).
-
-``numba`` is imported, and the kernels loaded from its on-disk cache (compiled on a first
-run), when this module is first imported: ``ForwardPiecewise`` imports it at its first
-propagation.  Every kernel works in float64 and writes into arrays it is given; no
-``fastmath``, sums in a fixed order (the same inputs give the same bits).
-
-Normal equations by segments: a row in segment ``s`` depends on the parameters through seven
-inputs of that segment: its start state ``(x, y, speed, course)``, its two accelerations and
-its start time.  Its Jacobian row is ``J_i = D_s' v_i``: ``v_i`` the row's derivatives by
-those inputs (from the sample's partials), ``D_s`` ``(7, p)`` the inputs' derivatives by the
-parameters (the start state's, unit rows for the accelerations, minus one for the change-over
-time).  So
-
-    J'J = sum_s D_s' (sum_{i in s} v_i v_i') D_s,    J'r = sum_s D_s' (sum_{i in s} v_i r_i)
-
-and only ``7 x 7`` sums are made per row, not the ``p`` columns of the Jacobian and their
-``p (p + 1) / 2`` products.
+The hot loops of :class:`tmakit.motion.curvilinear_batch.ForwardPiecewise`: one segment's
+closed form and derivatives (as :mod:`tmakit.motion.curvilinear_closed` derives them), the
+forward chaining of change-over states, and ``J'J = sum_s D_s' (sum_i v_i v_i') D_s`` by
+segments (7 inputs per segment).  float64, no ``fastmath``, sums in a fixed order.
 
 References
 ----------

@@ -1,24 +1,8 @@
 """Motion models by name: the one parser of the motion names tmakit accepts.
 
-The CLI, scenario files, measurement-file metadata and ``tk.estimate`` all read them here.
-
-==================  =======================================================================
-name                model
-==================  =======================================================================
-``cv2d`` (``cv``)   :class:`~tmakit.motion.ConstantVelocity` in the plane: x, y, vx, vy
-``cv3d``            :class:`~tmakit.motion.ConstantVelocity` in space: x, y, z, vx, vy, vz
-``static2d``        :class:`~tmakit.motion.Stationary` in the plane (``static`` too): x, y
-``static3d``        :class:`~tmakit.motion.Stationary` in space: x, y, z
-``curvilinear:M``   :class:`~tmakit.motion.PiecewiseCurvilinear` with ``M`` manoeuvres
-``curvilinear``     the same as ``curvilinear:2`` (:data:`DEFAULT_MANOEUVRES`)
-==================  =======================================================================
-
-One meaning per name.  ``curvilinear`` is short for ``curvilinear:2`` everywhere: the model
-with two manoeuvres (the Hörst & Oispuu (2010) scenario's), so a bound or a simulation of
-``curvilinear`` has twelve parameters, and the manoeuvre estimator, which searches ``0..M``
-manoeuvres for a model with ``M`` (unless told ``exact``), searches 0, 1 or 2 — what
-``tma estimate --motion curvilinear`` has always done.  A single curvilinear segment is
-``curvilinear:0``.  Names are case-insensitive and may carry surrounding blanks.
+``cv2d`` (``cv``), ``cv3d``, ``static2d`` (``static``), ``static3d``, ``curvilinear:M`` (M
+manoeuvres) and ``curvilinear`` (``curvilinear:2``, :data:`DEFAULT_MANOEUVRES`);
+case-insensitive.
 """
 
 from __future__ import annotations

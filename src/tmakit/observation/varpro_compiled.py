@@ -1,33 +1,9 @@
 """Compiled batch evaluation of the point kinds under affine motion (``numba``).
 
-The NumPy evaluation of :class:`tmakit.batch.varpro.VarProProblem` makes the relative states,
-each kind's predictions and derivatives, the design, the whitened Jacobian and its
-projection as arrays of the batch's size ``(B, n, ...)``: a dozen passes over memory per
-evaluation.  For rows of the point kinds (bearing, elevation, range, range rate, frequency
-without drift, power with a known exponent) under an affine motion model (constant velocity,
-stationary), with independent noise and at most one nuisance parameter per kind, one compiled
-call gives the residuals, the eliminated nuisance, the cost and ``J'J``, ``J'r`` of the
-projected Jacobian, row by row, the Jacobian never written (a 1,000-run no-guess study of
-gu2007: 2.9x faster).  The rows are grouped by kind (contiguous blocks).  For each parameter
-vector, in scratch arrays of the rows' size that stay in cache:
-
-1. the relative states ``offset + sum_t theta[i_t] coef_t`` (the affine map's non-zero terms);
-2. per kind block, the prediction's geometric part ``h0`` and nuisance design ``a`` (the
-   formulas of :mod:`tmakit.measurements`);
-3. the whitened residual ``r = w (u - h0 - a nu*)`` (angles wrapped to one turn) and the
-   whitened design column ``q = w (a_const + a)``; the nuisance eliminated in closed form (the
-   columns of different kinds touch disjoint rows, so they are orthogonal:
-   ``nu = nu* + q.r / q.q``, Golub & Pereyra (1973)) and ``r`` projected;
-4. the whitened derivatives by the relative state at the eliminated nuisance, the Jacobian
-   rows through the affine map (chain rule), and ``J'J``, ``J'r`` with the projection of
-   Kaufman (1975) applied to the sums: ``J_p'J_p = J'J - (QJ)'(QJ)`` and
-   ``J_p'r_p = J'r_p - (QJ)'(Q r_p)`` for the unit design columns ``Q``.
-
-Every loop runs along the rows of one kind, branch-free.  Sums are in a fixed order (no
-``fastmath``): the same inputs give the same bits, wherever the arrays lie.  It agrees with
-the NumPy path to rounding (``tests/test_varpro_kernel.py``).  Importing this module imports
-``numba`` (about 0.1 s), the first call loads the kernel from its cache (0.08 s): a Monte
-Carlo study large enough to repay it asks for it (:func:`tmakit.batch.varpro.compiled_batches`).
+For point-kind rows under constant-velocity or stationary motion, with independent noise and
+at most one nuisance per kind, one call gives per parameter vector the residuals, the nuisance
+eliminated in closed form (Golub & Pereyra (1973)), the cost and the projected ``J'J``, ``J'r``
+(Kaufman (1975)), without writing the Jacobian.  Sums in a fixed order, no ``fastmath``.
 """
 
 from __future__ import annotations

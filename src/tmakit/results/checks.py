@@ -1,31 +1,11 @@
 """Sanity checks that speak: an improbable fit, angles that look like radians, far positions.
 
-Each check returns :class:`SanityWarning` objects (a code and a sentence) rather than printing,
-so the command line prints them and a Python user reads them from
-:meth:`tmakit.results.EstimateResult.warnings` or :func:`measurement_warnings`.
-
-The rules, stated once:
-
-* **improbable chi-square** (``improbable-chi2``): the fit's weighted sum of squares has
-  probability ``p = P(chi2_dof >= chi2) < 0.001`` under the stated noise;
-* **too good to be true** (``chi2-too-small``): ``P(chi2_dof <= chi2) < 0.001``, the low tail
-  (a chi-square of 0.00 on 26 degrees of freedom): the stated sigma are larger than the
-  residuals say (by about ``1 / sqrt(chi2 / dof)``), so every std and ellipse printed is too
-  large by that factor (or the data are noise-free, synthetic); ``--scale-sigma`` rescales;
-* **radians** (``radians``): every value of an angle kind whose file unit is degrees (bearing,
-  elevation) lies within ``[-2 pi, 2 pi]`` — at least :data:`RADIAN_MIN_ROWS` rows, spread over
-  less than ``4 pi`` — which is what angles written in radians look like;
-* **several solutions** (``several-solutions``): the search found separated fits that explain
-  the data about as well as the reported one (:mod:`tmakit.results.solutions`): one fit's std
-  is not the whole uncertainty;
-* **far from the origin** (``far-sensor``, ``far-estimate``): a sensor more than
-  :data:`FAR_FROM_ORIGIN` metres from the ENU origin (the flat local frame then departs from the
-  Earth: the ground drops ``d^2 / 2R``, 785 m at 100 km, and North turns by the meridians'
-  convergence), or an estimated position farther than that and farther than
-  :data:`FAR_FACTOR` times the farthest sensor (a sign of an unobservable or mis-specified fit);
-* **implausible speed** (``implausible-speed``): an estimated speed above :data:`FAST_SPEED`
-  (faster than any craft near the Earth): times in another unit (1e-12 s apart), or a fit the
-  data do not determine.
+Each check returns :class:`SanityWarning` objects (a code and a sentence): ``improbable-chi2``
+(``P(chi2_dof >= chi2) < 0.001``), ``chi2-too-small`` (the low tail: the stated sigma are too
+large), ``radians`` (every angle within ``[-2 pi, 2 pi]``, at least :data:`RADIAN_MIN_ROWS`
+rows), ``several-solutions``, ``far-sensor`` / ``far-estimate`` (beyond
+:data:`FAR_FROM_ORIGIN`, where the flat ENU frame departs from the Earth) and
+``implausible-speed`` (above :data:`FAST_SPEED`).
 """
 
 from __future__ import annotations

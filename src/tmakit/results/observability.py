@@ -1,21 +1,9 @@
 """Observability: the rank of the Fisher information and what the data cannot see.
 
-When the rank is deficient, the directions in parameter space that the data cannot see are
-named in words.
-
-The information is first normalised (``D F D`` with ``D = diag(F)^-1/2``) so that its rank does
-not depend on units.  Unobservable directions are recognised by testing candidate motions of
-the whole trajectory that leave measurements unchanged for some geometries: rotations about
-an axis through a fixed sensor or through two fixed sensors (range-only kinds: Doppler,
-power, range), translations (a frequency-only static problem), and scalings about a sensor
-(bearings from a non-manoeuvring observer).  A candidate is turned into a parameter change by
-least squares on the motion model's own Jacobian, so this works for every motion model.
-
-Angles alone from one sensor on one straight leg cannot give range whatever the motion model
-(:mod:`tmakit.results.own_legs`): a manoeuvring target's model (its velocity's dependence on
-the parameters changes with time) can make the information formally full rank, but only
-through the shape it assumes, so that direction (the scaling of the track about the sensor's
-path) is taken out of the information and named in words.
+The rank is that of the normalised information ``D F D``.  Unobservable directions are named
+by testing candidate motions that leave the measurements unchanged (rotations about sensors,
+translations, scalings about a sensor); angles alone from one straight leg never give range,
+whatever the motion model assumes.
 """
 
 from __future__ import annotations

@@ -1,29 +1,11 @@
 """Separated solutions: the fits that explain the data about as well as the one reported.
 
-A search started from many points (the order search of a manoeuvring target, its profile
-minima) ends in several fits.  When some of them lie far apart and fit the data about equally
-well, reporting one with its linearised std would be confidently wrong: the std describes the
-curvature of the likelihood at one minimum, not the other minima.  The rule, stated once:
-
-* **The test.**  A fit ``k`` is kept when the likelihood-ratio statistic against the reported
-  fit, ``Λ_k = (χ²_k + c u_k) − (χ²_best + c u_best)`` (at least 0), has
-  ``p_k = P(χ²_d ≥ Λ_k) ≥ alpha`` (default 0.05), with ``u`` the fits' unknowns, ``d`` the
-  reported fit's and ``c`` the price of one unknown.  With ``c = 0`` (fits of one model) ``k``
-  lies inside the likelihood-ratio confidence region of the reported fit at level
-  ``1 − alpha`` (Wilks' theorem).  Fits of other models (the orders of a manoeuvre search,
-  with more or fewer accelerations) are charged the price their search charges (``ln N`` for
-  BIC): a larger model whose lower χ² does not pay for its unknowns is not another solution
-  for that alone, and a smaller one need not match the reported χ².
-* **Separated.**  Two fits are the same solution when their states at the answer time
-  (position and velocity, East/North) differ by a squared Mahalanobis distance of at most the
-  chi-square(4) quantile ``1 − alpha`` under *each* one's covariance: the better-ranked one
-  stands for both.  So that it loses none of the other's region, its covariance is widened
-  until its position ellipse contains the other's (``EstimateResult.covers``,
-  :func:`~tmakit.results.answers.covering_scale`): by the data of the run, not a constant.
-* **The ranking.**  The reported fit first, then the others by ``Λ`` (by χ² for one model).
-
-The **reported region** at a confidence level is the union of the solutions' position
-ellipses at that level (:meth:`Solution.region_contains`).
+A fit is kept when its likelihood-ratio statistic against the reported fit,
+``Λ = (χ²_k + c u_k) − (χ²_best + c u_best)``, has ``P(χ²_d ≥ Λ) ≥ alpha`` (Wilks; ``c`` the
+price of one unknown, ``ln N`` for BIC).  Fits within the chi-square(4) quantile of each other
+at the answer time are one solution, the better one's covariance widened to cover the other
+(:func:`~tmakit.results.answers.covering_scale`).  The reported region is the union of the
+solutions' ellipses.
 """
 
 from __future__ import annotations
