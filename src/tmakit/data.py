@@ -1,17 +1,8 @@
 """MeasurementSet: the columnar table of observations, from simulation or files to estimators.
 
-One row per observed value; the columns and their rules are those of a measurement file
-(``docs/file-format.md``, :mod:`tmakit.rules`), values in the kind's file unit.
-
-How the set holds its columns (SI inside, converted once at the edge):
-- SI is the stored form (:attr:`~MeasurementSet.value_si`, :attr:`~MeasurementSet.sigma_si`:
-  rad, rad/s, m, m/s, Hz, dBW).  Library code builds sets with :meth:`MeasurementSet.from_si`;
-  the constructor takes file units and is the reader's edge (:mod:`tmakit.io`).  ``value`` and
-  ``sigma`` (file units) are the file's numbers exactly for a set read from a file, derived
-  from SI on first use otherwise (writers, printing).  All four arrays are read-only.
-- ``kind`` and ``sensor`` are categorical: integer codes (``kind_code`` into
-  :data:`KIND_NAMES`, ``sensor_code`` into ``sensor_names``); the text arrays, ``kinds`` and
-  ``sensors`` are built once from the codes, O(1) afterwards.
+One row per observed value (``docs/file-format.md``, :mod:`tmakit.rules`).  SI is stored
+(:meth:`MeasurementSet.from_si`); the constructor takes file units (the readers' edge).
+``kind`` and ``sensor`` are categorical codes.
 """
 
 from __future__ import annotations

@@ -1,17 +1,9 @@
 """Batch estimators, each an object with its settings in the constructor.
 
-Maximum likelihood with nuisance parameters eliminated (no initial guess needed) and the
-papers' own methods (Gu et al. (2007) §3-4: ratio method, direct iterative LS; the
-Gauss-Newton of the Doppler-tracking lecture notes), each an object with its settings in the
-constructor and a ``fit(measurements, motion)`` that returns an :class:`EstimateResult`::
-
-    from tmakit.batch import METHODS, MaximumLikelihood, RatioMethod
-    res = MaximumLikelihood(options={"frequency": {"drift": True}}).fit(meas, motion)
-    res = RatioMethod(kinds="frequency").fit(meas, motion)     # tmakit's grid start
-    res = METHODS["gu-direct"](init=start).fit(meas, motion)   # by name
-
-:func:`estimate` (``tk.estimate``) and :func:`estimate_with` are the short forms.  Which
-nuisance parameters are known is said with :class:`~tmakit.results.KnownNuisance`.
+Maximum likelihood with nuisance eliminated (no initial guess needed) and the papers' methods
+(Gu et al. (2007) §3-4; the Doppler-tracking lecture notes), each with ``fit(meas, motion)``
+returning an :class:`EstimateResult`; :func:`estimate` and :func:`estimate_with` are the short
+forms.
 """
 
 from ..results.estimate import EstimateResult

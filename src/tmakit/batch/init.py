@@ -1,18 +1,9 @@
 """Automatic global initialisation: no initial guess needed.
 
-A coarse grid of trajectories is scored by the reduced (nuisance-eliminated) likelihood in two
-vectorised stages (every point on a few rows, the best of them on more), and the best few,
-mutually distinct, become the starting points of the batched Levenberg–Marquardt solve.
-Bearings alone under an affine motion model are scored by
-:class:`~tmakit.batch.chord.ChordScorer` on the rows of the problem itself (sines and cosines
-from the relative positions, no subset problem); the others by :class:`GridScorer` on the
-problem restricted to the rows.
-The grid (:func:`grid_candidates`, at the median measurement time): positions along the
-measured bearings or on a polar grid around the sensors at geometrically spaced ranges,
-velocities on a grid of speeds and courses; 3-D models add a few elevation angles above the
-sensors' plane (emitters below the sensors are not searched: with no elevation data, z and its
-mirror fit equally).  The distinct starting points, best first, are :class:`Starts`
-(:func:`first_of_many` chooses them for many sets of values at once).
+A coarse grid of trajectories (:func:`grid_candidates`) is scored by the nuisance-eliminated
+likelihood in two vectorised stages (:class:`GridScorer`, or
+:class:`~tmakit.batch.chord.ChordScorer` for bearings under affine motion); the best distinct
+points (:class:`Starts`) start the batched Levenberg–Marquardt solve.
 """
 
 from __future__ import annotations

@@ -1,17 +1,8 @@
 """Batched weighted least squares with the linear nuisance parameters projected out.
 
-Every nuisance parameter of tmakit enters the predictions linearly — carrier and drift
-(``f = (f_s + d t)(1 - rdot/c)``), power constant and path-loss exponent
-(``P_dB = C_dB - 10 n log10 R``) — so for fixed motion parameters ``theta`` they have a closed-form
-weighted least-squares value.  Eliminating them exactly (variable projection, Golub & Pereyra
-(1973); the Kaufman (1975) approximation of the projected Jacobian) leaves a small,
-well-conditioned problem in ``theta`` alone, solved by Levenberg–Marquardt
-(:mod:`tmakit.batch.solver`).  This sidesteps the conditioning problem that Gu et al. (2007),
-§3, show for C/C_0 and c/f_s in the parameter vector.
-
-Everything is vectorised over a leading batch axis ``B``: several starting points of one
-problem, or many Monte Carlo runs that share times, sensors and noise (each with its own data
-``y``).
+Every nuisance enters linearly, so it is eliminated exactly (variable projection, Golub &
+Pereyra (1973); Kaufman (1975)'s projected Jacobian), avoiding the conditioning problem of Gu et
+al. (2007), §3.  Vectorised over a leading batch axis (starting points or Monte Carlo runs).
 """
 
 from __future__ import annotations

@@ -1,16 +1,7 @@
 """``J'J`` and ``J'r`` from the motion model itself, where it can sum them without ``J``.
 
-For a motion model that is not affine (piecewise curvilinear motion), the general
-linearisation gives the predictions' derivatives by the ENU state ``(B, n, 6)`` and the motion
-model's chain rule makes the Jacobian ``(B, n, p)``; the solver then whitens it and forms
-``J'J``.  A model with ``normal_equations`` (:meth:`tmakit.motion.curvilinear_batch.
-ForwardPiecewise.normal_equations`) sums ``J'J`` and ``J'r`` by segments instead, the Jacobian
-never written.  Used by :class:`tmakit.batch.varpro.VarProProblem` where nothing else enters
-the Jacobian: no nuisance, no reference samples, independent noise.
-
-The sums are made when first read (:class:`DeferredNormal`): a Levenberg–Marquardt trial
-point that is rejected — about a third of them in the manoeuvre search — never needs them,
-and of a batch only the runs whose step was accepted do.
+For a model with ``normal_equations`` (piecewise curvilinear) and no nuisance, reference
+samples or correlated noise; the sums are made when first read (:class:`DeferredNormal`).
 """
 
 from __future__ import annotations

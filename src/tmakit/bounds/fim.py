@@ -1,19 +1,9 @@
 """Fisher information and the Cramér–Rao lower bound for any measurements and motion.
 
-Any mix of measurement kinds, sensors and motion models is allowed.
-
-For Gaussian noise with covariance R the information about the unknowns ``u`` is
-``F = J^T R^-1 J`` with ``J = d predictions / d u`` (Gu et al. (2007), eqs. 17-18 are the
-special cases for power and Doppler; Hörst & Oispuu (2010), eq. 9 for azimuth and azimuth
-rate).  The unknowns are the motion parameters and, unless they are declared known, the
-nuisance parameters (carrier and drift, power constant, path-loss exponent).
-**Default: nuisance parameters unknown** — the bound that matches an estimator that does not
-know them.  Which are known is said with :class:`~tmakit.results.nuisance.KnownNuisance`
-(``True`` and a mapping of values are accepted and converted once).
-
-Where the information is singular nothing is inverted blindly: the unobservable directions are
-named (:mod:`tmakit.results.observability`) and every parameter or derived quantity that depends
-on them has an infinite standard deviation.
+``F = J^T R^-1 J`` over the motion parameters and, unless known
+(:class:`~tmakit.results.nuisance.KnownNuisance`), the nuisance parameters (Gu et al. (2007),
+eqs. 17-18; Hörst & Oispuu (2010), eq. 9).  A singular information is never inverted blindly:
+unobservable directions are named and their std are infinite.
 """
 
 from __future__ import annotations

@@ -1,16 +1,8 @@
 """Matrix products that keep OpenBLAS on one thread.
 
-OpenBLAS splits a product over threads once ``m * n * k`` passes about 2.6e5; its threads then
-busy-wait for the next call.  The products of tmakit's solvers are many and mid-sized, so on a
-machine whose cores are already busy (Monte Carlo workers, other processes) the threads cost
-far more than they gain: a 4e3 x 4 x 180 product took 5 ms with two threads on a loaded
-two-core machine and 0.4 ms on one.  :func:`matmul` cuts a large product into row blocks below
-that threshold when asked (:func:`split_products`, or ``TMAKIT_SPLIT_PRODUCTS=1`` in the
-environment): it suits loaded machines, and costs a little where the cores are free, so it is
-off by default.  :func:`one_thread` limits BLAS to one thread (``threadpoolctl``) around code
-whose products are few and large but thin (the particle filter's ``4 x 4`` times
-``4 x 10^5``): there two threads cost 3x the time of one on a loaded machine.  Results do not
-depend on the thread count (threads split the output, not the sums).
+:func:`matmul` cuts a large product into row blocks when asked (:func:`split_products` or
+``TMAKIT_SPLIT_PRODUCTS=1``; off by default); :func:`one_thread` limits BLAS to one thread
+around thin, large products.  Results do not depend on the thread count.
 """
 
 from __future__ import annotations

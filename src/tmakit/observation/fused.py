@@ -1,17 +1,8 @@
 """Fused prediction and Jacobian for one kind of planar measurement under affine motion.
 
-The general linearisation (:meth:`tmakit.observation.ObservationModel.linearisation`) writes
-the relative states ``(n, 6)`` and their derivatives ``(n, 6)``, then applies the motion's
-chain rule.  A bearing depends on two of the six components, and under an affine motion
-model (constant velocity, stationary) each component is ``offset + sum_i theta_i coef_i``
-(:class:`~tmakit.observation.affine_rows.AffineRows`), so
-
-    d h / d theta_i = sum_c (d h / d rel_c) coef[i, c]
-
-over the components the kind uses.  For the bearing ``atan2(dx, dy)`` under 2-D constant
-velocity this is ``(dy, -dx, dy dt, -dx dt) / r^2`` (rad/m, rad s/m): the four rows of the
-Jacobian are written directly, component-major, with the same operations as the general path
-(the same bits), and nothing else of size ``n``.
+Under affine motion each relative component is ``offset + sum_i theta_i coef_i``, so the
+Jacobian ``d h / d theta_i = sum_c (d h / d rel_c) coef[i, c]`` is written directly over the
+components the kind uses, with the same operations as the general path.
 """
 
 from __future__ import annotations

@@ -1,17 +1,9 @@
 """A group of measurement rows predicted from a filter state.
 
-The filters hold the target state ``[position, velocity]`` (see :mod:`tmakit.motion.dynamics`)
-at one time ``t``.  A row taken at another time ``t_i`` (a group may mix times, sensors and
-kinds) is predicted from the state moved there at constant velocity,
-``x(t_i) = Phi(t_i - t) x(t)``; a kind with an earlier reference sample (a range difference)
-also needs the state at that sample, moved back the same way (the back-propagated trajectory of
-Chen & Sun, §2.3-2.4).  The rows' own models do the rest, through the observation core
-:class:`~tmakit.observation.rows.RowModel`: predictions, analytic Jacobians and the noise
-covariance, vectorised over any leading axes of the states (particles, sigma points, sampled
-trajectories) and of the sensor states (candidate sensor poses).
-
-Nuisance parameters (carrier, power constant, ...) must be known to a filter: pass their values
-(``{"carrier": 9.4e9}``); a batch estimate gives them.
+Rows at times ``t_i`` are predicted from the state moved at constant velocity,
+``x(t_i) = Phi(t_i - t) x(t)`` (and back to a reference sample: Chen & Sun, §2.3-2.4), by
+:class:`~tmakit.observation.rows.RowModel`, vectorised over states and sensor states.  Nuisance
+values must be given.
 """
 
 from __future__ import annotations

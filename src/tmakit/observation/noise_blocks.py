@@ -1,16 +1,8 @@
 """The correlated noise blocks of a set of rows, one per group of overlapping spans.
 
-Differences between sensors (TDOA, FDOA) at one time that share a reference sensor are
-correlated through its error (:mod:`tmakit.measurements.tdoa`): one block per time and
-reference.  Range differences of one sensor are correlated when their spans
-``(time_ref, time]`` share pulse intervals (Chen & Sun, eq. 1): the covariance of two rows
-is the length of the overlap of their spans times the noise density.  Rows whose spans
-overlap, directly or through other rows, form a group; rows of different groups are
-independent, so the covariance is block-diagonal by group and each group is one block (found
-in ``O(m log m)`` by sorting the spans by their start).  A row that overlaps no other is
-independent with its own sigma.  A large set of range differences is then whitened group by
-group (and can be fitted in chunks of rows that never split a group:
-:meth:`tmakit.observation.NoiseModel.chunk_bounds`).
+TDOA/FDOA rows sharing a reference at one time form a block; range differences whose spans
+share pulse intervals (Chen & Sun, eq. 1) form a group, found in ``O(m log m)``.  The
+covariance is block-diagonal by group.
 """
 
 from __future__ import annotations

@@ -1,16 +1,7 @@
 """Sensor positions known to a covariance: the rows' noise with the navigation error folded in.
 
-A sensor's reported position is off by an error ``b`` (navigation), Gaussian with covariance
-``sigma_p^2 I`` per axis (and ``sigma_v^2 I`` on its velocity, which FDOA and frequency rows
-see); the rows that use the same sensor position share it (as its own or as their
-reference sensor).  Linearised at a parameter point, ``y = h(theta) + H_b b + e``, so the rows'
-noise is ``R + H_b Q_b H_b'``: the effective covariance of Ho, Lu & Kovavisaruch (2007),
-whose Fisher information ``J' (R + H_b Q_b H_b')^-1 J`` is their CRLB with sensor position
-errors (the Schur complement of the joint information over ``theta`` and ``b``).
-
-Sensors are told apart by their reported position (and velocity): rows at one reported
-position share one error, rows at different ones (another sensor, or the same sensor at
-another time) have independent errors -- the snapshot of the paper.
+Rows sharing a reported sensor position share its error, so the noise is
+``R + H_b Q_b H_b'`` (Ho, Lu & Kovavisaruch (2007): their CRLB with sensor position errors).
 """
 
 from __future__ import annotations

@@ -1,20 +1,9 @@
 """Answers in the user's terms: where the emitter is, where it goes, how far and in which direction.
 
-Computed once here from a state and its covariance, and used by the command line, the JSON
-output and the pictures alike:
-
-* position East/North/Up (m) from the ENU origin and, when the origin is known, latitude,
-  longitude and altitude (WGS-84 ellipsoid);
-* course (degrees true, clockwise from North) and speed (m/s; knots on request), omitted for a
-  stationary emitter;
-* range (m) and bearing (degrees true) from a chosen sensor at a chosen time;
-* the horizontal position's uncertainty ellipse (semi-axes in metres, major-axis orientation in
-  degrees true) at a stated confidence level.
-
-Every standard deviation is linearised: the gradient of the quantity with respect to the state,
-``g``, gives ``std = sqrt(g^T P g)`` (the delta method) with ``P`` the state covariance.  A
-quantity whose variance is infinite or not a number is unobservable and reported as ``None``
-(never as a number).
+Position (ENU, m; latitude/longitude when the origin is known), course (deg true) and speed,
+range and bearing from a sensor, and the position ellipse, computed once for the command line,
+the JSON and the pictures.  Standard deviations are linearised (the delta method); an
+unobservable quantity is ``None``, never a number.
 """
 
 from __future__ import annotations

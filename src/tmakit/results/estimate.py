@@ -1,16 +1,9 @@
 """A batch estimate as a result.
 
-Named parameters with standard deviations and covariance, nuisance values, chi2, and a status
-that is never hidden (``converged``, ``did not converge``, ``unobservable``, ``diverged``).
-Every batch estimator returns an :class:`EstimateResult`,
-built by one of three functions:
-
-* :func:`assemble_result` — a weighted least-squares fit of the observation model: covariance
-  and bound from the Fisher information at the fit (tmakit's maximum likelihood, the
-  Gauss–Newton of the Doppler-tracking lecture notes);
-* :func:`result_from_covariance` — a fit whose method computes its own covariance (the
-  papers' linearised systems: Gu et al. (2007) §3 and §4);
-* :func:`diverged_result` — a solve that left the region where the model is defined.
+:class:`EstimateResult` holds the named parameters, covariance, nuisance, chi2 and a status
+that is never hidden.  :func:`assemble_result` builds it from a weighted least-squares fit
+(the Gauss–Newton of the Doppler-tracking lecture notes), :func:`result_from_covariance` from a
+method's own covariance (Gu et al. (2007) §3-4), :func:`diverged_result` for a divergence.
 """
 
 from __future__ import annotations

@@ -1,18 +1,8 @@
 """Which nuisance parameters are known: one type, :class:`KnownNuisance`, for all.
 
-Every estimator and bound uses it.
-
-The nuisance parameters (carrier and carrier drift, power constant, path-loss exponent) are
-either all unknown — estimated jointly with the motion, the default everywhere — or all known,
-held fixed at given values.  ``None`` says "unknown"; a :class:`KnownNuisance` says "known"
-and carries the values it knows.  Values it does not name come from the context: the model
-defaults (``carrier_drift = 0``, ``path_loss_exponent = 2``) for an estimator, the evaluation
-point (the ``nuisance`` argument, the data's metadata, the defaults) for a bound.
-
-Public functions also accept the two older spellings and convert them once, on entry, with
-:func:`as_known_nuisance`: ``True``/``False`` (known at the context's values / unknown) and a
-mapping ``{name: value}`` (known at these values; an empty mapping is "known", not
-"unknown").
+``None`` means all unknown (the default); a :class:`KnownNuisance` holds them at its values,
+the others from the context.  :func:`as_known_nuisance` also accepts ``True``/``False`` and a
+mapping ``{name: value}``.
 """
 
 from __future__ import annotations

@@ -1,18 +1,8 @@
 """The ``[planning]`` table of a scenario file: a steerable sensor, its limits and its planner.
 
-A scenario file may declare that one of its ``[[sensors]]`` is steered by the planner of
-:mod:`tmakit.planning` (Hurtado & Nehorai (2008)): that sensor's entry gives the start (position,
-heading, speed, time), the ``[planning]`` table gives the platform's limits, the candidate
-actions, the decision interval, what is measured in each step, the criterion, the constraints,
-the tracker, the prior and how long and how often to run (``docs/planning.md`` lists every
-field).  This module is the table's schema: validation is pydantic's, inside
-:class:`~tmakit.scenario.files.ScenarioSpec`, so an error names the file and the field
-(``planning.actions.heading_changes_deg: ...``); :mod:`tmakit.planning.setup` turns the
-validated table into a :class:`~tmakit.planning.setup.PlanningSetup`.
-
-Units as in the rest of the file: metres, seconds, degrees in keys ending ``_deg``, degrees per
-second in ``_deg_s``, measurement ``sigma`` in the kind's file unit; heading changes follow the
-file's ``angle_convention``.
+The table's pydantic schema (Hurtado & Nehorai (2008) planning; ``docs/planning.md`` lists every
+field), validated inside :class:`~tmakit.scenario.files.ScenarioSpec`;
+:mod:`tmakit.planning.setup` builds the planner from it.  Units as in the rest of the file.
 """
 
 from __future__ import annotations
