@@ -1,9 +1,4 @@
-"""The built-in scenarios that ship with tmakit, listed by name and title.
-
-Only the standard library is used (``tomllib``, ``importlib.resources``): listing the
-scenarios (``tma scenarios``) needs neither numpy nor pydantic.  Loading one is
-:func:`tmakit.scenario.files.load_scenario`.
-"""
+"""The built-in scenarios that ship with tmakit, listed by name and title (standard library only)."""
 
 from __future__ import annotations
 
@@ -23,7 +18,7 @@ def builtin_scenarios() -> list[tuple[str, str]]:
     Returns
     -------
     list of tuple of str
-        ``(name, title)`` sorted by name; the title is the file's ``title`` ("" if none).
+        Sorted by name; the title is "" if none.
     """
     out = []
     for name in builtin_scenario_names():

@@ -1,10 +1,7 @@
 """Scenario files: TOML, validated with pydantic, turned into a :class:`~tmakit.scenario.Scenario`.
 
-Units in files: metres, seconds, degrees (``*_deg``), degrees per second (``*_deg_s``), hertz;
-measurement ``sigma`` in the file unit of its kind (see ``docs/scenarios.md``).  A file may
-declare ``angle_convention = "east_ccw"`` to give headings, courses and turn rates as its paper
-does (counter-clockwise from East); they are converted here, once, to tmakit's clockwise-from-
-North convention.
+Units: m, s, degrees (``*_deg``), deg/s (``*_deg_s``), Hz; ``sigma`` in its kind's file unit
+(``docs/scenarios.md``).  ``angle_convention = "east_ccw"`` angles are converted here once.
 """
 
 from __future__ import annotations
@@ -366,19 +363,18 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     Parameters
     ----------
     data : dict
-        The scenario in file form and file units (``docs/scenarios.md``).
+        The scenario in file form and file units.
     source : str, optional
         Where it came from, for messages.
 
     Returns
     -------
     Scenario
-        The scenario, in SI.
 
     Raises
     ------
     ScenarioFileError
-        If it is not valid or cannot be built; the message lists every problem by field.
+        If it is not valid; the message lists every problem by field.
     """
     spec = _validate(data, source)
     try:
@@ -431,12 +427,10 @@ def read_scenario_file(path: str | Path) -> Scenario:
     Parameters
     ----------
     path : str or pathlib.Path
-        The file.
 
     Returns
     -------
     Scenario
-        The scenario, in SI.
 
     Raises
     ------
@@ -467,12 +461,11 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     Parameters
     ----------
     name_or_path : str or pathlib.Path
-        A built-in name (``gu2007``, ``chen-sun-1``, ...) or a path (``.toml`` or existing).
+        A built-in name (``gu2007``, ...) or a path.
 
     Returns
     -------
     Scenario
-        The scenario, in SI.
 
     Raises
     ------

@@ -1,12 +1,7 @@
 """Scenario: what happens, and :meth:`Scenario.simulate` to observe it.
 
-A scenario is the target motion and its true parameters, the sensors' tracks, and the
-measurement plans with their noise: :class:`MeasurementPlan` says what is measured and with
-what noise, :func:`noisy_values` draws that noise on the noise-free values and
-:func:`refuse_impossible` refuses a draw no sensor could report.
-
-Scenarios are built in code or loaded from TOML files (:mod:`tmakit.scenario.files`); the
-papers' scenarios ship with tmakit (``tma scenarios`` lists them).
+A scenario is the target motion and truth, the sensors' tracks and the measurement plans with
+their noise; built in code or loaded from TOML (:mod:`tmakit.scenario.files`).
 """
 
 from __future__ import annotations
@@ -39,41 +34,31 @@ class MeasurementPlan:
     Parameters
     ----------
     kind : str
-        Measurement kind, a key of :data:`tmakit.measurements.KINDS` (``"bearing"``,
-        ``"frequency"``, ``"power"``, ``"range_difference"``, ...).
+        A key of :data:`tmakit.measurements.KINDS`.
     sensor : str
-        Id of the sensor (a key of :attr:`Scenario.sensors`).
+        A key of :attr:`Scenario.sensors`.
     times : array_like
-        Sample times (s), non-empty and increasing.
+        Sample times, s, non-empty and increasing.
     sigma : float, optional
-        Noise standard deviation in SI (rad for angles, rad/s for azimuth rate, dB for
-        power, Hz, m, m/s).  For range differences: that of one pulse interval's difference.
+        Noise std, SI; for range differences that of one pulse interval.
     snr_db : float, optional
-        Power only, instead of ``sigma``: SNR_p (dB) of the multiplicative noise
-        ``P_measured = P (1 + e)``, ``var(e) = 1/SNR_p`` (Gu et al. (2007), §2).
+        Power only, instead of ``sigma``: SNR_p (dB) of ``P (1 + e)``, ``var(e) = 1/SNR_p``.
     pri : float, optional
-        Range differences only: the pulse repetition interval (s, > 0).
+        Range differences only: the pulse repetition interval, s.
     lags : tuple of int, optional
-        Range differences only: how many intervals back each difference reaches (>= 1);
-        the noise accumulates one term per interval (Chen & Sun, eq. 1).
+        Range differences only: intervals each difference reaches back (>= 1).
     ref_sensor : str, optional
-        Differences between sensors (``tdoa``, ``fdoa``) only, and required there: the
-        reference sensor (a key of :attr:`Scenario.sensors`, not ``sensor``).
+        ``tdoa``/``fdoa`` only, required: the reference sensor (not ``sensor``).
     noise : str, optional
-        Differences between sensors only: ``"shared"`` (default; the reference's error is
-        common to the plans that share it at a time, :mod:`tmakit.measurements.tdoa`) or
-        ``"independent"``.
+        ``tdoa``/``fdoa`` only: ``"shared"`` (default) or ``"independent"``.
     known_carrier : bool, optional
-        ``fdoa`` only: the estimators are told the emitter's carrier (the file's
-        ``# fdoa_carrier``); by default it is an unknown nuisance parameter.
+        ``fdoa`` only: the estimators are told the carrier.
 
     Raises
     ------
     ValueError
-        If the kind is unknown, the times are empty or not increasing, ``sigma`` is missing
-        or not positive (power: both ``sigma`` and ``snr_db`` given), a range-difference
-        plan has no positive ``pri`` or a lag below 1, or a difference between sensors has no
-        other ``ref_sensor``.
+        If the kind is unknown, the times are empty or not increasing, the noise is missing or
+        not positive, or a range-difference or between-sensor plan lacks what it needs.
 
     References
     ----------
@@ -132,28 +117,23 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
     Parameters
     ----------
     plan : MeasurementPlan
-        The plan whose noise is drawn (``sigma``, ``snr_db`` or ``pri``).
     rows : MeasurementSet
-        The plan's rows (times, reference times, SI sigmas).
+        The plan's rows.
     clean : ndarray, shape (n,)
-        The noise-free values (SI).
+        Noise-free values, SI.
     gen : numpy.random.Generator
-        The random source.
     shared : dict, optional
-        One run's draws of the reference sensors' errors by (kind, reference, time), shared
-        by the plans of differences between sensors that have the same reference (filled
-        here as needed, in plan order).
+        One run's draws of the reference sensors' errors by (kind, reference, time), filled here.
 
     Returns
     -------
     ndarray, shape (n,)
-        The noisy values (SI).
+        Noisy values, SI.
 
     Raises
     ------
     ValueError
-        If a power plan's SNR_p is so low that the multiplicative noise makes a power
-        negative.
+        If a power plan's SNR_p is so low that a power becomes negative.
 
     References
     ----------
@@ -191,29 +171,22 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
 
 def refuse_impossible(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
                       value_si: NDArray[np.float64], rng: object) -> None:
-    """Refuse a noisy draw that no sensor can report: a negative range, ... (see docs).
-
-    The noise is not reflected nor drawn again: either would change the Gaussian noise
-    that the estimators and the bounds assume, without a word.
+    """Refuse a noisy draw no sensor can report (a negative range, ...); noise is never redrawn.
 
     Parameters
     ----------
     plan : MeasurementPlan
-        The plan the values were drawn for.
     rows : MeasurementSet
-        The plan's rows (times, SI sigmas).
-    clean : ndarray, shape (n,)
-        The noise-free values (SI).
-    value_si : ndarray, shape (n,)
-        The noisy values (SI).
+        The plan's rows.
+    clean, value_si : ndarray, shape (n,)
+        Noise-free and noisy values, SI.
     rng : object
-        The random source or seed (an int seed is named in the message).
+        The random source or seed (a seed is named in the message).
 
     Raises
     ------
     ValueError
-        If a finite noisy value is outside the kind's range (a negative range, an
-        elevation past 90 deg, a frequency <= 0, ...), naming sensor, time and seed.
+        If a noisy value is outside the kind's range, naming sensor, time and seed.
     """
     cls = KINDS[plan.kind]
     if cls.value_range is None:
@@ -237,41 +210,36 @@ def refuse_impossible(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArra
 
 @dataclass
 class Scenario:
-    """Motion model + true parameters + sensors + measurement plan (+ nuisance truth).
+    """Motion model + true parameters + sensors + measurement plans (+ nuisance truth).
 
     Parameters
     ----------
     name : str
-        Scenario name (``gu2007``, ``chen-sun-1``, ...).
     motion : MotionModel
-        The target's motion model.
     truth : dict of str to float
-        True motion parameters by name, SI (m, m/s, rad, s, m/s^2).
+        True motion parameters by name, SI.
     sensors : dict of str to SensorTrack
-        The sensors' tracks by id.
     plans : list of MeasurementPlan
-        What is measured; every plan's sensor must be in ``sensors``.
     nuisance : dict of str to float, optional
-        The emitter's true nuisance values by name: ``carrier`` (Hz), ``carrier_drift``
-        (Hz/s), ``power_constant_db`` (10 log10 of C in W m^n), ``path_loss_exponent``.
+        True nuisance values: ``carrier`` (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db``,
+        ``path_loss_exponent``.
     description : str, optional
         One-line title.
     origin : tuple of float, optional
-        ``(lat, lon, alt)`` (deg, deg, m) of the ENU frame's origin, if known.
+        ``(lat, lon, alt)`` (deg, deg, m) of the ENU origin.
     source : str, optional
-        Where the scenario came from (a file path), for messages.
+        Where it came from (a file path), for messages.
 
     Attributes
     ----------
     theta : numpy.ndarray
-        The true parameter vector of ``motion`` (SI), from ``truth``.
+        The true parameter vector (SI).
 
     Raises
     ------
     ValueError
-        If a plan names an unknown sensor, frequency plans lack the ``carrier`` or power
-        plans the ``power_constant_db`` in ``nuisance``, or ``truth`` does not name the
-        motion model's parameters.
+        If a plan names an unknown sensor, a needed nuisance truth is missing, or ``truth`` does
+        not name the motion's parameters.
     """
 
     name: str
@@ -311,10 +279,7 @@ class Scenario:
 
     @property
     def measurement_options(self) -> dict[str, dict[str, object]]:
-        """Model options that reproduce the truth, by kind.
-
-        Carrier drift on if the truth drifts; the path-loss exponent fixed at its true value.
-        """
+        """Model options that reproduce the truth, by kind."""
         opts: dict[str, dict[str, object]] = {}
         if "frequency" in self.kinds:
             opts["frequency"] = {"drift": self.nuisance.get("carrier_drift", 0.0) != 0.0}
@@ -339,7 +304,7 @@ class Scenario:
         Returns
         -------
         tuple of float
-            ``(t_first, t_last)`` (s).
+            ``(t_first, t_last)``, s.
         """
         return (min(float(p.times[0]) for p in self.plans),
                 max(float(p.times[-1]) for p in self.plans))
@@ -350,12 +315,12 @@ class Scenario:
         Parameters
         ----------
         t : array_like
-            Times (s), shape ``(n,)`` or scalar.
+            Times, s.
 
         Returns
         -------
         numpy.ndarray
-            ENU states ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+            ENU states ``(n, 6)``, m and m/s.
         """
         return self.motion.states(self.theta, np.atleast_1d(np.asarray(t, dtype=float)))
 
@@ -405,43 +370,35 @@ class Scenario:
         Parameters
         ----------
         rng : numpy.random.Generator, int or None, optional
-            Random source or seed; the same seed gives the same numbers.
+            Random source or seed.
         noise : bool, optional
-            Add the plans' measurement noise (``False``: the exact predictions).
+            Add the plans' noise (False: exact predictions).
 
         Returns
         -------
         MeasurementSet
-            The measurements (SI), rows grouped by sensor and in time order, with
-            metadata (scenario, motion, truth, noise, seed if ``rng`` is an int, ...).
+            Rows grouped by sensor, in time order, with metadata (the seed if ``rng`` is an int).
 
         Raises
         ------
         ValueError
-            If a power plan's SNR_p is so low that the multiplicative noise makes a power
-            negative, or a simulated row breaks a rule of the file format
-            (:mod:`tmakit.rules`: a NaN truth, an infinite sigma, ...).
+            If a power becomes negative, or a row breaks a rule of :mod:`tmakit.rules`.
         """
         return self.simulate_many([rng], noise)[0]
 
     def simulate_many(self, rngs: Sequence[RngLike], noise: bool = True
                       ) -> list[MeasurementSet]:
-        """Observe the scenario once per random source, the noise-free rows computed once.
-
-        Equal to ``[simulate(rng, noise) for rng in rngs]`` (Monte Carlo runs): each set is
-        exactly what :meth:`simulate` gives for its ``rng``.
+        """Observe the scenario once per random source (``[simulate(r) for r in rngs]``).
 
         Parameters
         ----------
         rngs : sequence of numpy.random.Generator, int or None
-            One random source or seed per set.
         noise : bool, optional
-            Add the plans' measurement noise.
+            Add the plans' noise.
 
         Returns
         -------
         list of MeasurementSet
-            One set per entry of ``rngs`` (see :meth:`simulate`).
 
         Raises
         ------
@@ -460,26 +417,20 @@ class Scenario:
 
     def simulate_values(self, rngs: Sequence[RngLike], noise: bool = True
                         ) -> tuple[MeasurementSet, NDArray[np.float64]]:
-        """Observe the scenario once per random source: the shared rows and each set's values.
-
-        Row ``i`` of ``values`` in the rows of ``template`` is what :meth:`simulate` gives for
-        ``rngs[i]`` (the same draws): Monte Carlo runs, without a set per run.  The rows are
-        checked once; each run's values for being finite and possible (the rules noise can
-        break: see :func:`~tmakit.scenario.model.refuse_impossible`).
+        """Observe the scenario once per random source: the shared rows and each run's values.
 
         Parameters
         ----------
         rngs : sequence of numpy.random.Generator, int or None
-            One random source or seed per set.
         noise : bool, optional
-            Add the plans' measurement noise.
+            Add the plans' noise.
 
         Returns
         -------
         template : MeasurementSet
-            The rows (times, sensors, kinds, sigmas, metadata), their noise-free values.
+            The rows with their noise-free values.
         values : ndarray, shape (len(rngs), n)
-            Each set's values (SI: rad, m, m/s, Hz, dBW), in the template's row order.
+            Each run's values, SI, as :meth:`simulate` draws them.
 
         Raises
         ------
@@ -563,8 +514,6 @@ class Scenario:
         Returns
         -------
         str
-            Name and title, target motion and truth, sensors and time span, and one line per
-            plan with its sample count and noise (in the kind's file unit).
         """
         t0, t1 = self.time_span()
         truth = ", ".join(f"{k}={v:g}" for k, v in self.truth.items())
@@ -585,7 +534,6 @@ def simulate(scenario: Scenario, rng: RngLike = None, noise: bool = True) -> Mea
     Parameters
     ----------
     scenario : Scenario
-        What to observe.
     rng : numpy.random.Generator, int or None, optional
         Random source or seed.
     noise : bool, optional
@@ -594,7 +542,6 @@ def simulate(scenario: Scenario, rng: RngLike = None, noise: bool = True) -> Mea
     Returns
     -------
     MeasurementSet
-        As :meth:`Scenario.simulate`.
 
     Raises
     ------

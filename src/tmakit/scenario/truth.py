@@ -1,9 +1,7 @@
 """The true target states a simulated measurement set carries in its metadata.
 
-A set simulated by tmakit (and its CSV/Parquet file) names the motion model (``motion``), its
-true parameters (``truth``, JSON by parameter name) and the reference time (``ref_time``, s).
-:func:`truth_states` turns them into true states at any times; sets without them (real logs)
-have no truth.  Tracking, plots and the command line use it to compare with the truth.
+:func:`truth_states` turns the metadata's ``motion``, ``truth`` and ``ref_time`` into true
+states at any times; sets without them (real logs) have no truth.
 """
 
 from __future__ import annotations
@@ -29,18 +27,16 @@ def truth_states(meas: MeasurementSet, times: ArrayLike, dim: int
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements; their ``metadata`` must carry ``motion`` and ``truth`` (and
-        optionally ``ref_time``, s), as simulated sets and files do.
+        Its ``metadata`` carries ``motion``, ``truth`` and optionally ``ref_time``.
     times : array_like, shape (K,)
-        Times (s) at which the states are wanted.
+        Times, s.
     dim : int
-        3 for states ``[x, y, z, vx, vy, vz]``; otherwise 2, ``[x, y, vx, vy]``.
+        3 for ``[x, y, z, vx, vy, vz]``; otherwise 2, ``[x, y, vx, vy]``.
 
     Returns
     -------
     ndarray, shape (K, 2 dim), or None
-        The true states (ENU m, m/s); ``None`` when the metadata carry no usable truth
-        (missing, unknown motion name, malformed JSON or parameters).
+        ENU states, m and m/s; None when the metadata carry no usable truth.
     """
     meta = meas.metadata
     if "motion" not in meta or "truth" not in meta:
