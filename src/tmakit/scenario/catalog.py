@@ -1,4 +1,4 @@
-"""The built-in scenarios that ship with tmakit, listed by name and title (standard library only)."""
+"""The built-in scenarios that ship with tmakit, by name and title (standard library only)."""
 
 from __future__ import annotations
 
