@@ -37,10 +37,7 @@ def noise_factor(q_mat: Array) -> Array:
 
 
 def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
-    """Return the information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}``.
-
-    With ``Q = G G^T``, in the Woodbury form that never inverts ``J`` or ``Q`` (see the
-    module docstring).
+    """Return the information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}`` (Woodbury).
 
     Parameters
     ----------
@@ -49,12 +46,12 @@ def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
     f_inv : ndarray
         ``F^{-1}`` (n, n).
     g : ndarray
-        ``G`` (n, r) with ``G G^T = Q``; ``r`` may be 0.
+        ``G`` (n, r), ``G G^T = Q``; ``r`` may be 0.
 
     Returns
     -------
     ndarray
-        The predicted information (..., n, n), SI.
+        (..., n, n), SI.
 
     References
     ----------
@@ -71,10 +68,7 @@ def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
 
 
 def information_inverse(info: Array) -> Array:
-    """Invert symmetric positive-definite information matrices ``(..., n, n)``.
-
-    Computed in coordinates normalised by the diagonal (units do not matter); eigenvalues
-    that rounding pushed to or below zero are floored at ``n * eps`` of the largest.
+    """Invert symmetric positive-definite information matrices ``(..., n, n)``, diagonal-normalised.
 
     Parameters
     ----------
@@ -84,7 +78,7 @@ def information_inverse(info: Array) -> Array:
     Returns
     -------
     ndarray
-        (..., n, n) covariances, SI.
+        Covariances, SI.
     """
     # Not tmakit.core.linalg.normalised_eigh + a pseudo-inverse (results.bound.pseudo_covariance):
     # the Bayesian information has full rank by its prior, so this is a floored *full*
@@ -100,31 +94,20 @@ def information_inverse(info: Array) -> Array:
 
 
 class PosteriorInformation:
-    """One state of the Tichavský recursion: Bayesian information and target states.
-
-    The information ``J`` is about the target state ``[x, y, (z), vx, vy, (vz)]`` at
-    :attr:`time`; the target states are those over which the measurement information is
-    averaged.
-
-    Objects are immutable: :meth:`predict` and :meth:`update` return new ones (a planner can
-    branch from one state).
+    """One immutable state of the Tichavský recursion: Bayesian information and target states.
 
     Parameters
     ----------
     information : array_like
-        ``J`` (..., n, n), SI (1/m^2, s^2/m^2); leading axes are independent recursions over
-        the same states (the Monte Carlo batches of :func:`~tmakit.bounds.posterior_crb`).
+        ``J`` (..., n, n) about ``[x, y, (z), vx, vy, (vz)]``, SI; leading axes are independent
+        recursions.
     dynamics : NearlyConstantVelocity
-        The target dynamics (``dim`` and ``q``).
     time : float
         The time of ``information`` and ``states``, s.
     states : array_like, optional
-        Target states (N, n) at ``time`` (a sample drawn from the prior, or the mean as
-        (1, n)); moved by :meth:`predict`.  Needed by :meth:`state_information` and
-        :meth:`expected_information` unless given there.
+        Target states (N, n) to average over (a prior sample, or the mean as (1, n)).
     rng : numpy.random.Generator, optional
-        When given, :meth:`predict` adds process noise drawn from it to ``states`` (sampled
-        trajectories); otherwise the states move deterministically.
+        When given, :meth:`predict` adds process noise to ``states``.
 
     Raises
     ------
@@ -160,7 +143,7 @@ class PosteriorInformation:
         Parameters
         ----------
         prior_cov : array_like
-            ``P_0`` (n, n), SI, symmetric positive definite.
+            ``P_0`` (n, n), SI.
         dynamics, time, states, rng
             As for the constructor.
 
@@ -191,31 +174,25 @@ class PosteriorInformation:
     def step_factors(self, dt: float) -> tuple[Array, Array]:
         """Return ``(F^{-1}, G)`` of a ``dt``-second step (cached), ``G G^T = Q``.
 
-        For :func:`predict_information` on stacks of candidate informations.
-
         Parameters
         ----------
         dt : float
-            Time step, s.
+            s.
 
         Returns
         -------
         tuple of ndarray
-            ``F^{-1}`` (n, n) and ``G`` (n, r).
         """
         _, f_inv, g = self._step(float(dt))
         return f_inv, g
 
     def predict(self, dt: float) -> PosteriorInformation:
-        """Predict the information ``dt`` seconds later, ``(Q + F J^{-1} F^T)^{-1}``.
-
-        The states move with the dynamics (plus process noise when sampling).  A step below
-        :data:`MIN_STEP` s changes nothing.
+        """Predict the information ``dt`` seconds later (below :data:`MIN_STEP`: unchanged).
 
         Parameters
         ----------
         dt : float
-            Time step, s (> 0).
+            s, >= 0.
 
         Returns
         -------
@@ -234,7 +211,7 @@ class PosteriorInformation:
         Parameters
         ----------
         time : float
-            Target time, s (not before :attr:`time`).
+            Not before :attr:`time`.
 
         Returns
         -------
@@ -265,8 +242,7 @@ class PosteriorInformation:
         Parameters
         ----------
         information : array_like
-            ``Gamma`` (..., n, n), broadcastable to :attr:`information` (e.g. from
-            :meth:`expected_information`; a (C, n, n) stack gives C candidate updates).
+            ``Gamma`` (..., n, n), broadcastable; a (C, n, n) stack gives C candidate updates.
 
         Returns
         -------
@@ -312,14 +288,14 @@ class PosteriorInformation:
         Parameters
         ----------
         group : MeasurementGroup
-            The measurements of the next update, at :attr:`time`.
+            At :attr:`time`.
         states : array_like, optional
-            Target states (N, n) (default: :attr:`states`).
+            (N, n); default :attr:`states`.
 
         Returns
         -------
         ndarray
-            (N, n, n); their mean is ``Gamma``.
+            Their mean is ``Gamma``.
 
         Raises
         ------
@@ -335,29 +311,20 @@ class PosteriorInformation:
     def expected_information(self, candidate_sensor_states: ArrayLike,
                              group: MeasurementGroup, states: ArrayLike | None = None
                              ) -> Array:
-        """Return ``Gamma`` for each candidate sensor state.
-
-        That is the expected measurement information the group's measurements would bring
-        if they were made from there.
-
-        Vectorised over candidates and states (no Python loop over either).
+        """Return ``Gamma`` (C, n, n), SI, for each candidate sensor state, vectorised.
 
         Parameters
         ----------
         candidate_sensor_states : array_like
-            (C, 6) sensor states ``[x, y, z, vx, vy, vz]`` (m, m/s, ENU) at the group's
-            time, one per candidate, used for every row of the group; or (C, m, 6), one per
-            row.  Reference samples (range differences) keep their recorded sensor states.
+            (C, 6) or (C, m, 6) ENU sensor states, m and m/s, at the group's time.
         group : MeasurementGroup
-            The measurements to plan (e.g. :meth:`MeasurementGroup.planned`), at
-            :attr:`time`.
+            The measurements to plan, at :attr:`time`.
         states : array_like, optional
-            Target states (N, n) or (n,) to average over (default: :attr:`states`).
+            Target states (N, n) or (n,); default :attr:`states`.
 
         Returns
         -------
         ndarray
-            (C, n, n), SI.
 
         Raises
         ------

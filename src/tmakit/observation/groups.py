@@ -47,56 +47,50 @@ def chain_state(d: Array, dt: Array, dim: int) -> Array:
 class MeasurementGroup:
     """Rows of a :class:`~tmakit.data.MeasurementSet` for one filter update at time ``t``.
 
+    :meth:`from_arrays` builds one from SI columns (the filters' fast path); :meth:`planned` for
+    measurements not yet made (a planner's candidates).
+
     Parameters
     ----------
     rows : MeasurementSet
-        The rows (at least one).
+        At least one row.
     t : float
         The filter time, s.
     dim : int
-        2 or 3 (filter state ``[x, y, (z), vx, vy, (vz)]``, ``2 dim`` long).
+        2 or 3 (state ``[x, y, (z), vx, vy, (vz)]``).
     options : mapping, optional
-        Per-kind model options as for :class:`~tmakit.observation.ObservationModel`.
+        Per-kind model options.
     nuisance : mapping, optional
-        Known values of the nuisance parameters of the kinds present.
+        Known nuisance values of the kinds present.
     covariance : array_like, optional
-        A full noise covariance ``R`` (m, m), SI units squared, in place of the rows' own
-        (independent sigmas and the kinds' correlated blocks): correlated rows of different
-        kinds, a radar's range and range rate (:class:`~tmakit.sensors.RadarModel`).  The
-        sigmas become ``sqrt(diag R)``.
+        A full noise covariance (m, m), SI squared, in place of the rows' own (a radar's range
+        and range rate).
 
     Attributes
     ----------
     rows, time, dim
-        The MeasurementSet, the filter time and the dimension.
+        The set, the filter time (s) and the dimension.
     values, sigmas : ndarray
-        Measured values and standard deviations (m,), SI.
+        Measured values and std (m,), SI.
     models, index, nuisance : dict
-        Per kind: the model, its rows (ascending indices), its nuisance vector.
+        Per kind: the model, its rows, its nuisance vector.
     angle : ndarray of bool
         Rows whose residuals wrap.
     dt, dt_ref : ndarray
-        Row times and reference times minus ``t`` (m,), s.
+        Row and reference times minus ``t`` (m,), s.
     sensor_state : ndarray
-        The rows' sensor states (m, 6), m and m/s.
+        (m, 6), m and m/s.
     row_model : RowModel
-        The observation core that predicts the rows.
     covariance : ndarray
         R (m, m), SI.
     full_covariance : ndarray or None
-        The full covariance the group was given (None: the rows' own).
+        The full covariance given, if any.
 
     Raises
     ------
     ValueError
-        Without rows, when a nuisance value is missing, or on a covariance that is not a
-        symmetric positive definite (m, m) matrix.
-
-    Notes
-    -----
-    :meth:`from_arrays` builds one from precomputed columns without a MeasurementSet (the
-    filters' fast path, :mod:`tmakit.filters.general`); ``rows`` is then made on first use.
-    :meth:`planned` builds one for measurements not yet made (a planner's candidates).
+        Without rows, when a nuisance value is missing, or on a covariance that is not
+        symmetric positive definite (m, m).
 
     References
     ----------
@@ -128,21 +122,18 @@ class MeasurementGroup:
 
         Parameters
         ----------
-        t, dim
+        t, dim, covariance
             As for the constructor.
         models, nuisance : mapping
             From :func:`resolve_models`.
         index : mapping
-            The rows of each kind (ascending indices).
+            The rows of each kind.
         values, sigmas, time, time_ref, sensor_state, ref_sensor_state, sensor
             The rows' columns (SI, s, m, m/s).
         rows : callable
-            Makes the MeasurementSet when someone asks for it.
+            Makes the MeasurementSet on demand.
         layout : RowLayout, optional
-            The layout of ``models`` and ``index`` if already made (a filter run reuses one
-            per pattern of kinds).
-        covariance : array_like, optional
-            A full noise covariance (m, m), as for the constructor.
+            The layout of ``models`` and ``index``, if made.
 
         Returns
         -------
@@ -168,26 +159,20 @@ class MeasurementGroup:
                 nuisance: Mapping[str, float] | None = None,
                 time_ref: ArrayLike | None = None,
                 covariance: ArrayLike | None = None) -> MeasurementGroup:
-        """Build measurements not yet made, at the filter time ``t`` (s): a row per kind.
+        """Build measurements not yet made at filter time ``t`` (s): a row per kind, values NaN.
 
-        Their sensor states are zero placeholders, to be given to :meth:`predict`,
-        :meth:`jacobian` or :meth:`information` (``sensor_state``, e.g. candidate poses);
-        their values are NaN.
+        Their sensor states are zeros, to be given to :meth:`predict`, :meth:`jacobian` or
+        :meth:`information` (``sensor_state``).
 
         Parameters
         ----------
         kinds : str or sequence of str
-            The kind of each row.
         sigmas : array_like or None
-            Noise standard deviations (SI: rad, m, m/s, Hz, dB), one per row; None with
-            ``covariance``.
-        t, dim, options, nuisance
+            Noise std per row, SI; None with ``covariance``.
+        t, dim, options, nuisance, covariance
             As for the constructor.
         time_ref : array_like, optional
-            Reference times (s) of rows whose kind uses an earlier sample.
-        covariance : array_like, optional
-            A full noise covariance ``R`` (m, m), SI units squared, overriding ``sigmas`` (the
-            radar's correlated range and range rate).
+            Reference times, s, of kinds that use an earlier sample.
 
         Returns
         -------
@@ -196,8 +181,8 @@ class MeasurementGroup:
         Raises
         ------
         ValueError
-            When a nuisance value is missing, without ``sigmas`` or ``covariance``, or on a
-            covariance that is not a symmetric positive definite (m, m) matrix.
+            When a nuisance value is missing, without ``sigmas`` or ``covariance``, or on a bad
+            covariance.
         """
         names = [kinds] if isinstance(kinds, str) else list(kinds)
         m = len(names)
@@ -248,14 +233,12 @@ class MeasurementGroup:
                                           else NoiseModel.from_covariance(full))
 
     def at(self, t: float, dim: int) -> MeasurementGroup:
-        """Return this group, checked to be at filter time ``t`` in ``dim`` dimensions.
+        """Return this group, checked to be at filter time ``t`` (s) in ``dim`` dimensions.
 
         Parameters
         ----------
         t : float
-            The filter's time, s.
         dim : int
-            The filter's dimension, 2 or 3.
 
         Returns
         -------
@@ -286,12 +269,7 @@ class MeasurementGroup:
 
     @property
     def covariance(self) -> Array:
-        """Noise covariance ``R`` (m, m), SI units squared.
-
-        Independent rows, except those of kinds with correlated noise (range differences of
-        one sensor that share pulse intervals, Chen & Sun, eq. 1), or the full covariance the
-        group was given.
-        """
+        """Noise covariance ``R`` (m, m), SI units squared."""
         if self._cov is None:
             self._cov = self.row_model.covariance()
         return self._cov
@@ -319,13 +297,12 @@ class MeasurementGroup:
         x : array_like
             Filter states ``(..., 2 dim)``, m and m/s.
         sensor_state : array_like, optional
-            Replaces the rows' sensor states; broadcastable to ``(..., m, 6)``, m and m/s.
+            Replaces the rows' sensor states; broadcastable to ``(..., m, 6)``.
 
         Returns
         -------
         rel, rel_ref : ndarray, ndarray or None
-            At the rows ``(..., m, 6)`` and at the reference samples of the
-            :attr:`RowModel.reference` rows (None without them), m and m/s.
+            At the rows and at the reference samples (None without them), m and m/s.
 
         Raises
         ------
@@ -339,7 +316,7 @@ class MeasurementGroup:
                                        sensor_state)
 
     def predict(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
-        """Return predicted values for states (particles, sigma points).
+        """Return predicted values ``(..., m)``, SI, for states (particles, sigma points).
 
         Parameters
         ----------
@@ -349,13 +326,12 @@ class MeasurementGroup:
         Returns
         -------
         ndarray
-            ``(..., m)``, SI (rad, m, m/s, Hz, dBW).
         """
         rel, rel_ref = self.relative(x, sensor_state)
         return self.row_model.predict(rel, rel_ref, self.nuisance)
 
     def jacobian(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
-        """Return ``d predict / d x`` at states ``x``.
+        """Return ``d predict / d x`` ``(..., m, 2 dim)`` at states ``x``.
 
         Parameters
         ----------
@@ -365,7 +341,6 @@ class MeasurementGroup:
         Returns
         -------
         ndarray
-            ``(..., m, 2 dim)``, SI per m and per m/s.
         """
         rel, rel_ref = self.relative(x, sensor_state)
         d, d_ref, _ = self.row_model.jacobian(rel, rel_ref, self.nuisance)
@@ -376,7 +351,7 @@ class MeasurementGroup:
         return h
 
     def information(self, x: ArrayLike, sensor_state: ArrayLike | None = None) -> Array:
-        """Return the Fisher information ``H^T R^{-1} H`` of the group about the state.
+        """Return the Fisher information ``H^T R^{-1} H`` ``(..., 2 dim, 2 dim)`` about the state.
 
         Parameters
         ----------
@@ -386,7 +361,6 @@ class MeasurementGroup:
         Returns
         -------
         ndarray
-            ``(..., 2 dim, 2 dim)``, SI (1/m^2, s^2/m^2).
 
         References
         ----------
@@ -396,28 +370,25 @@ class MeasurementGroup:
         return np.einsum("...mi,...mj->...ij", w, w)
 
     def residual(self, predicted: ArrayLike, measured: ArrayLike | None = None) -> Array:
-        """Return ``measured - predicted``, angles wrapped to (-pi, pi].
+        """Return ``measured - predicted`` ``(..., m)``, angles wrapped to (-pi, pi].
 
         Parameters
         ----------
         predicted : array_like
-            Predictions ``(..., m)``, SI; leading axes broadcast.
+            ``(..., m)``, SI.
         measured : array_like, optional
-            Measured values (m,), SI (default: the group's values).
+            (m,), SI; default the group's values.
 
         Returns
         -------
         ndarray
-            ``(..., m)``, SI.
         """
         z = self.values if measured is None else measured
         return self.row_model.residual(z, predicted)
 
 
 def time_blocks(time: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
-    """Group rows by time.
-
-    Times within :data:`TIME_TOLERANCE` s of the previous row are one time.
+    """Group rows by time (within :data:`TIME_TOLERANCE` s of the previous row).
 
     Parameters
     ----------
@@ -429,7 +400,7 @@ def time_blocks(time: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
     order : ndarray
         The rows sorted by time (stable).
     bounds : ndarray
-        Update ``k`` is the rows ``order[bounds[k]:bounds[k + 1]]``.
+        Update ``k`` is ``order[bounds[k]:bounds[k + 1]]``.
     """
     t = np.asarray(time, dtype=float)
     order = np.argsort(t, kind="stable")
@@ -443,12 +414,10 @@ def group_times(meas: MeasurementSet) -> list[NDArray[np.int64]]:
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements.
 
     Returns
     -------
     list of ndarray
-        One array of row indices per distinct time (see :func:`time_blocks`).
     """
     order, bounds = time_blocks(meas.time)
     return np.split(order, bounds[1:-1])

@@ -1,14 +1,8 @@
 """The observation model: a measurement set's rows predicted from motion parameters.
 
-Joins a :class:`~tmakit.motion.MotionModel`, the sensor states recorded in a
-:class:`~tmakit.data.MeasurementSet` and one :class:`~tmakit.measurements.MeasurementModel` per
-kind.  The batch Jacobian is the chain ``d value / d rel  x  d state / d theta`` (the sensor is
-known, so ``d rel / d state`` is the identity), plus ``d value / d nuisance``.  Nuisance
-parameters are shared by all rows of a kind; their vector is the concatenation of each kind's
-:attr:`~tmakit.measurements.MeasurementModel.nuisance_names` in kind order.  Internally the
-rows are grouped by kind (:attr:`ObservationModel.order`), each kind a contiguous slice; the
-``*_grouped`` methods work in that order (solvers use them: row order does not matter to a
-fit) and the public methods return the set's own row order.
+The Jacobian is ``d value / d rel x d state / d theta`` plus ``d value / d nuisance`` (nuisance
+shared by a kind's rows).  Rows are grouped by kind (:attr:`ObservationModel.order`); the
+``*_grouped`` methods work in that order, the others in the set's own.
 """
 
 from __future__ import annotations
@@ -35,16 +29,13 @@ from .rows import RowModel, nuisance_layout
 class ObservationModel:
     """Predict every row of ``meas`` from motion parameters ``theta`` and nuisance ``nu``.
 
-    ``options`` maps a kind to its model's constructor options, e.g.
-    ``{"frequency": {"drift": True}, "power": {"exponent": None}}``.  ``theta`` may carry
-    leading batch axes ``(..., p)``; ``nuisance`` then has the same leading axes ``(..., k)``.
+    ``theta`` may carry leading batch axes ``(..., p)``, the nuisance the same ``(..., k)``.
 
     Parameters
     ----------
     meas, motion : MeasurementSet, MotionModel
-        The measurements (SI) and the target motion model, ``p`` parameters ``theta`` (SI).
     options : mapping, optional
-        Per-kind model options.
+        Per-kind model options, e.g. ``{"frequency": {"drift": True}}``.
     """
 
     def __init__(self, meas: MeasurementSet, motion: MotionModel,
@@ -121,10 +112,7 @@ class ObservationModel:
         return x[..., self.inverse] if axis == -1 else x[..., self.inverse, :]
 
     def squared_ranges(self, theta: ArrayLike) -> Array:
-        """Return the squared distance from each row's sensor to the target, grouped order.
-
-        Only the rows' own sensor positions at their times (not the reference samples of
-        range differences).
+        """Return the squared distance (n,), m^2, from each row's sensor to the target (grouped).
 
         Parameters
         ----------
@@ -134,7 +122,6 @@ class ObservationModel:
         Returns
         -------
         ndarray
-            ``(n,)``, m^2.
         """
         theta = self.motion.check_theta(np.asarray(theta, dtype=float))
         if self._rel_map is not None and theta.ndim == 1:  # the positions alone
@@ -148,16 +135,12 @@ class ObservationModel:
         return cast(Array, out)
 
     def take(self, index: ArrayLike) -> ObservationModel:
-        """Return the model of the rows ``index`` of the set.
-
-        Equal to ``ObservationModel(meas.take(index), motion, options)``, but its per-row
-        arrays are this model's rows instead of being computed again (the grid
-        initialisation subsamples the set on every solve).
+        """Return the model of the rows ``index``, reusing this model's per-row arrays.
 
         Parameters
         ----------
         index : array_like
-            Integer indices or a boolean mask, as for :meth:`MeasurementSet.take`.
+            Integer indices or a boolean mask.
 
         Returns
         -------
@@ -200,18 +183,16 @@ class ObservationModel:
         return len(self.nuisance_names)
 
     def nuisance_vector(self, values: Mapping[str, float] | None) -> Array:
-        """Return the nuisance vector from a mapping.
+        """Return the nuisance vector ``(k,)`` from a mapping, defaults filled in.
 
         Parameters
         ----------
         values : mapping or None
-            Nuisance values by name (Hz, dB, ...); defaults such as ``carrier_drift = 0``
-            are filled in.
+            Nuisance values by name, SI.
 
         Returns
         -------
         ndarray
-            (k,), in :attr:`nuisance_names` order.
 
         Raises
         ------
@@ -277,10 +258,6 @@ class ObservationModel:
                       weights: Array | None = None) -> Linearisation:
         """Linearise the predictions ``h0 + (A_const + A_var) @ nu`` in grouped order.
 
-        ``A_const`` is :attr:`const_design`; the derivatives with respect to the relative
-        states let :meth:`Linearisation.jacobian` form ``d predictions / d theta`` at any
-        nuisance value.
-
         Parameters
         ----------
         theta : array_like
@@ -288,10 +265,9 @@ class ObservationModel:
         derivatives : bool
             Also compute the derivatives.
         each : bool
-            Each row of a 2-D ``theta`` as for it alone, bit for bit (not one matrix product).
+            Each row of a 2-D ``theta`` bit for bit as for it alone.
         weights : ndarray, optional
-            ``(n,)`` inverse standard deviations of independent rows: where the fused path
-            makes the Jacobian it makes it whitened (:attr:`Linearisation.whitened`).
+            ``(n,)`` inverse std of independent rows, to whiten the Jacobian.
 
         Returns
         -------
@@ -333,11 +309,6 @@ class ObservationModel:
                           ) -> tuple[Array, Array, Array, Array | None, Array | None]:
         """Return the affine parts and their ``theta`` derivatives in grouped order, one pass.
 
-        Predictions are ``h0 + (A_const + A_var) @ nu`` (see
-        :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`) and
-        ``d predictions / d theta = dh0 + dA @ nu`` for any ``nu``.  Solvers use the cheaper
-        :meth:`linearisation`.
-
         Parameters
         ----------
         theta : array_like
@@ -348,8 +319,7 @@ class ObservationModel:
         Returns
         -------
         tuple of ndarray
-            ``(h0 (..., n), A_const (..., n, k), A_var (..., n, k), dh0 (..., n, p),
-            dA (..., n, k, p))``, SI.
+            h0 (..., n), A_const and A_var (..., n, k), dh0 (..., n, p), dA (..., n, k, p).
         """
         lin = self.linearisation(theta, derivatives)
         a_const = np.broadcast_to(self.const_design, lin.a_var.shape).copy()
@@ -436,10 +406,7 @@ class ObservationModel:
         return self._to_set_order(j_theta, -2), self._to_set_order(j_nu, -2)
 
     def affine_parts(self, theta: ArrayLike) -> tuple[Array, Array, Array]:
-        """Return ``(h0, A_const, A_var)`` with predictions ``h0 + (A_const + A_var) @ nu``.
-
-        ``A_const`` is independent of the geometry (see
-        :meth:`~tmakit.measurements.MeasurementModel.affine_parts`).
+        """Return ``(h0, A_const, A_var)``: predictions ``h0 + (A_const + A_var) @ nu``.
 
         Parameters
         ----------

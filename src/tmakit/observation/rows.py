@@ -1,12 +1,8 @@
 """Rows of several kinds, each predicted by its measurement model (the observation core).
 
-A :class:`RowModel` holds the SI columns of a block of rows and each kind's
-:class:`~tmakit.measurements.MeasurementModel`.  From relative states (target minus sensor) it
-gives predictions and Jacobians (vectorised over rows and any leading batch axes), the noise
-covariance with the correlated blocks a kind declares through its ``noise_covariance`` hook
-(range differences that share pulse intervals, Chen & Sun, eq. 1), and the nuisance structure.
-Nothing here names a kind (hooks ``uses_reference``, ``is_angle``, ``correlated_noise``): a
-new kind needs no change here.  ``MeasurementGroup`` and ``ObservationModel`` build on it.
+:class:`RowModel` gives predictions, Jacobians, the noise covariance with the correlated blocks
+kinds declare (Chen & Sun, eq. 1) and the nuisance structure, through the kinds' hooks only: a
+new kind needs no change here.
 """
 
 from __future__ import annotations
@@ -29,20 +25,18 @@ def resolve_models(kinds: Iterable[str],
                    options: Mapping[str, Mapping[str, object]] | None = None,
                    nuisance: Mapping[str, float] | None = None
                    ) -> tuple[dict[str, MeasurementModel], dict[str, Array]]:
-    """Make the measurement model of each kind and its nuisance vector (known values).
+    """Make the measurement model of each kind and its known nuisance vector.
 
     Parameters
     ----------
     kinds : iterable of str
-        The kinds present.
     options, nuisance : mapping, optional
-        Per-kind model options (``{"frequency": {"drift": True}}``); known nuisance values
-        by name (Hz, dB, ...).
+        Per-kind model options; known nuisance values by name, SI.
 
     Returns
     -------
     models, values : dict, dict
-        The model and the nuisance vector (in its ``nuisance_names`` order) of each kind.
+        Each kind's model and nuisance vector.
 
     Raises
     ------
@@ -73,12 +67,12 @@ def nuisance_layout(models: Mapping[str, MeasurementModel]
     Parameters
     ----------
     models : mapping
-        The measurement model of each kind, in kind order.
+        Each kind's model, in kind order.
 
     Returns
     -------
     names : tuple of str
-        The names of the concatenated nuisance vector (each kind's ``nuisance_names``).
+        The names of the concatenated nuisance vector.
     slices : dict
         Each kind's slice of it.
     """
@@ -111,18 +105,14 @@ def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, 
 
 
 class RowLayout:
-    """Where each kind's rows sit in a block of ``m`` rows, and what follows from the kinds.
-
-    That is the rows whose residuals wrap, the reference rows and the nuisance structure.  It
-    depends only on the kinds and their rows, not on the values, so blocks with the same
-    pattern (the updates of a filter run) share one (treat its arrays as read-only).
+    """Where each kind's rows sit in a block of ``m`` rows, shared by blocks of one pattern.
 
     Parameters
     ----------
     models : mapping
-        The measurement model of each kind present.
+        Each kind's model.
     index : mapping
-        The rows of each kind (ascending integer indices, or slices).
+        The rows of each kind (ascending indices or slices).
     m : int
         The number of rows.
     """
@@ -170,28 +160,24 @@ class RowModel:
     Parameters
     ----------
     models : mapping
-        The measurement model of each kind present.
+        Each kind's model.
     index : mapping
-        The rows of each kind (integer indices, ascending, or a slice); together they cover
-        the ``m`` rows once.
+        The rows of each kind (ascending indices or a slice), covering the ``m`` rows once.
     time, time_ref : array_like
-        Row times and reference times (m,), s (the latter for kinds ``uses_reference``).
+        Row and reference times (m,), s.
     sigma, sensor : array_like
-        Noise standard deviations (m,), SI, and sensor ids or codes (m,).
+        Noise std (m,), SI, and sensor ids (m,).
     sensor_state, ref_sensor_state : array_like
-        Sensor states ``[x, y, z, vx, vy, vz]`` (m, 6), m and m/s, at the rows' times and at
-        their reference times.
+        Sensor states (m, 6), m and m/s, at the rows' and the reference times.
     layout : RowLayout, optional
-        The layout of ``models`` and ``index`` if already made (shared by blocks with the
-        same pattern; ``models`` and ``index`` are then not used).
+        A layout already made (``models`` and ``index`` then unused).
 
     Attributes
     ----------
     angle : ndarray of bool
-        Rows whose residuals wrap to (-pi, pi].
+        Rows whose residuals wrap.
     reference : ndarray of int or None
-        The rows of kinds with ``uses_reference``, in kind order (None without such rows);
-        arrays "at the reference samples" have one entry per element of it.
+        The rows of kinds that use a reference sample.
     nuisance_names, nuisance_slices
         The nuisance structure (:func:`nuisance_layout`).
     """
@@ -230,22 +216,20 @@ class RowModel:
     # -- relative states ---------------------------------------------------------------------
     def relative(self, target: Array, target_ref: Array | None = None,
                  sensor_state: ArrayLike | None = None) -> tuple[Array, Array | None]:
-        """Return relative states from target states.
+        """Return relative states (target minus sensor) from target states.
 
         Parameters
         ----------
         target : ndarray
-            Target states (..., m, 6) at the rows' times, m and m/s.
+            (..., m, 6) at the rows' times, m and m/s.
         target_ref : ndarray, optional
-            Target states (..., len(reference), 6) at the :attr:`reference` rows' samples.
+            (..., len(reference), 6) at the reference samples.
         sensor_state : array_like, optional
-            Sensor states (m, m/s) broadcastable to (..., m, 6) in place of the recorded
-            ones (e.g. candidate poses); reference samples keep their recorded ones.
+            Replaces the recorded sensor states (broadcastable to (..., m, 6)).
 
         Returns
         -------
         rel, rel_ref : ndarray, ndarray or None
-            Target minus sensor at the rows and at the reference samples.
         """
         sensor = self.sensor_state if sensor_state is None else np.asarray(sensor_state, float)
         rel = target - sensor
@@ -257,21 +241,20 @@ class RowModel:
     # -- predictions and Jacobians -----------------------------------------------------------
     def predict(self, rel: Array, rel_ref: Array | None = None,
                 nuisance: Mapping[str, Array] | Array | None = None) -> Array:
-        """Return predicted values (SI), (..., m).
+        """Return predicted values (..., m), SI.
 
         Parameters
         ----------
         rel : ndarray
-            Relative states (..., m, 6), m and m/s.
+            (..., m, 6), m and m/s.
         rel_ref : ndarray, optional
-            Relative states at the reference samples (..., len(reference), 6).
+            (..., len(reference), 6).
         nuisance : dict or ndarray, optional
-            Nuisance values: a vector per kind (a dict), or the concatenated vector (..., k).
+            A vector per kind, or the concatenated vector (..., k).
 
         Returns
         -------
         ndarray
-            (..., m) predictions in SI units (rad, m, m/s, Hz, dBW).
         """
         if len(self.models) == 1:  # one kind: its (new, writeable) predictions are the block's
             ((kind, model),) = self.models.items()
@@ -302,16 +285,16 @@ class RowModel:
         rel, rel_ref, nuisance
             As for :meth:`predict`.
         with_nuisance : bool
-            Also return the derivatives with respect to the concatenated nuisance vector.
+            Also the derivatives by the nuisance vector.
 
         Returns
         -------
         d_rel : ndarray
-            (..., m, 6): d value / d relative state.
+            (..., m, 6).
         d_ref : ndarray or None
-            (..., len(reference), 6): d value / d relative state at the reference samples.
+            (..., len(reference), 6).
         d_nuisance : ndarray or None
-            (..., m, k) when ``with_nuisance``.
+            (..., m, k).
         """
         d = np.empty(rel.shape)
         d_ref = None if rel_ref is None else np.empty(rel_ref.shape)
@@ -332,29 +315,25 @@ class RowModel:
         return d, d_ref, d_nu
 
     def reference_rows(self, kind: str) -> slice | None:
-        """Return where a kind's rows sit in arrays at the reference samples.
+        """Return where a kind's rows sit in arrays at the reference samples (None without).
 
         Parameters
         ----------
         kind : str
-            The measurement kind.
 
         Returns
         -------
         slice or None
-            The rows; None for a kind without reference.
         """
         return self._ref_take.get(kind)
 
     # -- nuisance structure: predictions affine in the nuisance ------------------------------
     def const_design(self) -> Array:
-        """Return ``A_const``, the part of the nuisance design that ignores the geometry.
+        """Return ``A_const`` (m, k), the part of the nuisance design that ignores the geometry.
 
         Returns
         -------
         ndarray
-            (m, k), e.g. a carrier's columns ``1``, ``t`` (see
-            :meth:`~tmakit.measurements.MeasurementModel.affine_parts`).
         """
         m, k = len(self), len(self.nuisance_names)
         out = np.zeros((m, k))
@@ -374,19 +353,16 @@ class RowModel:
         Parameters
         ----------
         rel, rel_ref
-            Relative states, as for :meth:`predict`.
+            As for :meth:`predict`.
         h0, a_var : ndarray
-            Outputs (..., m), SI, and (..., m, k), the geometry-dependent design.
+            Outputs (..., m) and (..., m, k), SI.
         d_h0, d_h0_ref : ndarray, optional
-            Outputs (..., m, 6) and (..., len(reference), 6): derivatives of ``h0`` with
-            respect to the relative states (at the rows, at the reference samples).
+            Outputs (..., m, 6) and (..., len(reference), 6): derivatives of ``h0``.
 
         Returns
         -------
         list of (kind, dA, dA_ref)
-            Per kind with nuisance parameters whose design depends on the geometry:
-            ``dA`` (..., m_kind, k_kind, 6) and ``dA_ref`` (or None), see
-            :meth:`~tmakit.measurements.MeasurementModel.affine_derivatives`.
+            Per kind whose design depends on the geometry (``affine_derivatives``).
         """
         d_a: list[tuple[str, Array | None, Array | None]] = []
         for kind, model in self.models.items():
@@ -413,17 +389,16 @@ class RowModel:
         return d_a
 
     def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
-        """Return ``measured - predicted``, angle rows wrapped to (-pi, pi].
+        """Return ``measured - predicted`` (..., m), angle rows wrapped to (-pi, pi].
 
         Parameters
         ----------
         measured, predicted : array_like
-            (..., m), SI; leading axes broadcast.
+            (..., m), SI.
 
         Returns
         -------
         ndarray
-            (..., m), SI.
         """
         diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
         return np.where(self.angle, wrap_angle(diff), diff)
@@ -431,29 +406,27 @@ class RowModel:
     # -- noise -------------------------------------------------------------------------------
     def correlated_blocks(self, singletons: bool = True
                           ) -> list[tuple[NDArray[np.intp], Array]]:
-        """Return the noise blocks that are not diagonal (see :func:`correlated_blocks`).
+        """Return the noise blocks that are not diagonal.
 
         Parameters
         ----------
         singletons : bool, optional
-            Also give each row that shares no interval with another as a 1 x 1 block.
+            Also give each independent row as a 1 x 1 block.
 
         Returns
         -------
         list of (rows, covariance)
-            Row indices and their covariance (SI units squared).
+            Row indices and their covariance, SI squared.
         """
         return correlated_blocks(self.models, self.index, self.time, self.time_ref,
                                  self.sigma, self.sensor, singletons, self.ref_sensor_state)
 
     def covariance(self) -> Array:
-        """Return the noise covariance ``R``.
+        """Return the noise covariance ``R`` (m, m), SI squared, with the kinds' correlated blocks.
 
         Returns
         -------
         ndarray
-            (m, m), SI units squared: ``diag(sigma^2)`` with the blocks of the kinds whose
-            rows are correlated (their ``noise_covariance`` hook).
         """
         r = np.diag(self.sigma**2)
         for rows, cov in self.correlated_blocks():
