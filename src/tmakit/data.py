@@ -34,47 +34,38 @@ def _frozen(values: NDArray[np.float64]) -> NDArray[np.float64]:
 class MeasurementSet:
     """Observations in time order per sensor, with everything needed to predict them.
 
+    The constructor takes file units (the readers' edge) and stores SI; library code uses
+    :meth:`from_si`.  Arrays are read-only.  :attr:`ambiguous_si` holds a towed array's mirror
+    bearing per row (rad, NaN where none), or None.
+
     Parameters
     ----------
     time : array_like, shape (n,)
-        Time of each measurement (s).
+        s.
     sensor : array_like of str, shape (n,)
-        Id of the sensor that made it.
     kind : array_like of str, shape (n,)
-        Measurement kind, a key of :data:`tmakit.measurements.KINDS`.
+        Keys of :data:`tmakit.measurements.KINDS`.
     value_file, sigma_file : array_like, shape (n,)
-        Measured value and noise standard deviation in the file unit of the kind (deg, deg/s,
-        m, m/s, Hz, dBm; ``sigma_file`` in dB for power); :meth:`from_si` takes SI.
+        Value and noise std in the kind's file unit (deg, deg/s, m, m/s, Hz, dBm; dB).
     sensor_state : array_like, shape (n, 6)
-        Sensor ENU position (m) and velocity (m/s) at ``time`` (required).
+        Sensor ENU position (m) and velocity (m/s) at ``time``.
     time_ref : array_like, shape (n,), optional
-        Time of the earlier sample of a range difference (s); NaN elsewhere (the default).
+        Earlier sample time of a range difference, s; NaN elsewhere.
     ref_sensor_state : array_like, shape (n, 6), optional
-        Sensor state at ``time_ref`` (ENU m, m/s; NaN where unused, the default).
+        Sensor state at ``time_ref``; NaN where unused.
     metadata : mapping of str to str, optional
-        Free text: scenario name, seed, ENU origin, truth (the keys the library reads are
-        checked).
+        Scenario name, seed, ENU origin, truth, ...
     check : bool, optional
-        Refuse what the file reader refuses, with its messages (:mod:`tmakit.rules`; default).
+        Refuse what the file reader refuses (:mod:`tmakit.rules`; default).
     value, sigma : array_like, optional
-        Deprecated names of ``value_file`` and ``sigma_file`` (a warning).
+        Deprecated names of ``value_file`` and ``sigma_file``.
 
     Raises
     ------
     ValueError
-        A column's length differs from that of ``time``, a kind is unknown, or a rule fails.
+        A column's length differs from ``time``'s, a kind is unknown, or a rule fails.
     TypeError
         A required column is missing.
-
-    Notes
-    -----
-    The constructor takes file units (the reader's edge); SI (``value * file_scale +
-    file_offset``) is stored.  Library code uses :meth:`from_si`.  Arrays are read-only.
-
-    A towed array's bearing has a mirror twin (port and starboard of the array's axis):
-    :attr:`ambiguous_si` holds each bearing row's second, ambiguous bearing (rad; NaN for rows
-    without one), or is None when no row has one (:meth:`with_ambiguous`,
-    :mod:`tmakit.batch.ambiguity`).
     """
 
     #: Each row's ambiguous twin bearing (rad, NaN where none), or None: no row has one.
@@ -121,19 +112,18 @@ class MeasurementSet:
                 ref_sensor_state: ArrayLike | None = None,
                 metadata: Mapping[str, str] | None = None, check: bool = True
                 ) -> MeasurementSet:
-        """Build a set from SI values (how library code builds sets; file units on first use).
+        """Build a set from SI values (how library code builds sets).
 
         Parameters
         ----------
         time, sensor, kind, sensor_state, time_ref, ref_sensor_state, metadata, check
             As for :class:`MeasurementSet`.
         value_si, sigma_si : array_like, shape (n,)
-            Values and noise standard deviations in SI (rad, rad/s, m, m/s, Hz, dBW; dB).
+            Values and noise std in SI (rad, rad/s, m, m/s, Hz, dBW; dB).
 
         Returns
         -------
         MeasurementSet
-            The set, holding exactly ``value_si`` and ``sigma_si``.
 
         Raises
         ------
@@ -194,12 +184,7 @@ class MeasurementSet:
 
     @property
     def value(self) -> NDArray[np.float64]:
-        """Measured values in the file unit of each row's kind (deg, deg/s, m, m/s, Hz, dBm).
-
-        Read-only; assigning a new array recomputes :attr:`value_si`.  Exactly the file's
-        numbers for a set read from a file; derived from :attr:`value_si` on first use for a
-        set built in SI (:meth:`from_si`).
-        """
+        """Measured values in the file unit of each row's kind (read-only; assigning sets SI too)."""
         if self._value is None:
             self._value = _frozen((self._value_si - categorical.FILE_OFFSET[self.kind_code])
                                   / categorical.FILE_SCALE[self.kind_code])
@@ -265,17 +250,15 @@ class MeasurementSet:
         self._set_sensors(self._new_column("sensor", sensors, str))
 
     def kind_mask(self, kind: str) -> NDArray[np.bool_]:
-        """Mark the rows of ``kind`` (an integer comparison).
+        """Mark the rows of ``kind``.
 
         Parameters
         ----------
         kind : str
-            A measurement kind name.
 
         Returns
         -------
         ndarray of bool, shape (n,)
-            True on its rows; all False for a kind not in the set.
         """
         code = KIND_CODES.get(kind)
         if code is None:
@@ -283,17 +266,15 @@ class MeasurementSet:
         return cast(NDArray[np.bool_], self.kind_code == code)
 
     def sensor_mask(self, sensor: str) -> NDArray[np.bool_]:
-        """Mark the rows of the sensor ``sensor`` (an integer comparison).
+        """Mark the rows of the sensor ``sensor``.
 
         Parameters
         ----------
         sensor : str
-            A sensor id.
 
         Returns
         -------
         ndarray of bool, shape (n,)
-            True on its rows; all False for a sensor not in the set.
         """
         try:
             code = self.sensor_names.index(sensor)
@@ -322,18 +303,16 @@ class MeasurementSet:
         return list(self._sensors)
 
     def kind_flag(self, hook: str) -> NDArray[np.bool_]:
-        """Mark the rows whose kind sets the boolean hook ``hook`` (an integer lookup).
+        """Mark the rows whose kind sets the boolean hook ``hook``.
 
         Parameters
         ----------
         hook : str
-            A boolean class attribute of :class:`tmakit.measurements.MeasurementModel`
-            (``"mirror_symmetric"``, ``"gives_height"``, ``"uses_reference"``, ...).
+            A boolean attribute of :class:`~tmakit.measurements.MeasurementModel`.
 
         Returns
         -------
         ndarray of bool, shape (n,)
-            True on the rows of kinds that set it.
         """
         return categorical.kind_flags(hook)[self.kind_code]
 
@@ -344,7 +323,7 @@ class MeasurementSet:
             self.sensor_state[:, 2] != 0) or np.any(self.sensor_state[:, 5] != 0) else 2
 
     def take(self, index: ArrayLike) -> MeasurementSet:
-        """Return the rows at ``index`` (integer indices or a boolean mask), metadata kept.
+        """Return the rows at ``index``, metadata kept, nothing checked again.
 
         Parameters
         ----------
@@ -354,7 +333,6 @@ class MeasurementSet:
         Returns
         -------
         MeasurementSet
-            The rows, codes and values indexed (nothing converted or checked again).
 
         Raises
         ------
@@ -385,18 +363,16 @@ class MeasurementSet:
         Parameters
         ----------
         ambiguous_si : array_like, shape (n,), or None
-            The second bearing of each row (rad; NaN for rows without one); None removes them.
+            The second bearing per row, rad (NaN where none); None removes them.
 
         Returns
         -------
         MeasurementSet
-            The same rows (shared, read-only) with :attr:`ambiguous_si`.
 
         Raises
         ------
         ValueError
-            A value on a row that is no bearing, a length other than the set's, or a value
-            that is not finite and not NaN.
+            A value on a row that is no bearing, a wrong length, or an infinite value.
         """
         out = self.take(np.arange(len(self)))
         if ambiguous_si is None:
@@ -414,17 +390,15 @@ class MeasurementSet:
         return out
 
     def select(self, kind: str | None = None, sensor: str | None = None) -> MeasurementSet:
-        """Return the rows of one kind and/or one sensor.
+        """Return the rows of one kind and/or one sensor (None keeps all).
 
         Parameters
         ----------
         kind, sensor : str, optional
-            The kind and the sensor id; None keeps all.
 
         Returns
         -------
         MeasurementSet
-            The rows, metadata kept.
         """
         mask = np.ones(len(self), dtype=bool)
         if kind is not None:
@@ -441,14 +415,13 @@ class MeasurementSet:
         Parameters
         ----------
         parts : list of MeasurementSet
-            The sets (not empty).
+            Not empty.
         metadata : mapping of str to str, optional
-            The result's metadata; default that of ``parts[0]``.
+            Default that of ``parts[0]``.
 
         Returns
         -------
         MeasurementSet
-            The rows (:meth:`sorted`).
 
         Raises
         ------
@@ -479,14 +452,11 @@ class MeasurementSet:
         return cat.sorted()
 
     def sorted(self) -> MeasurementSet:
-        """Rows grouped by sensor, in time order within each sensor.
-
-        Sensors come in order of first appearance; simultaneous rows keep their order.
+        """Rows grouped by sensor (first appearance), in stable time order within each.
 
         Returns
         -------
         MeasurementSet
-            The rows, reordered.
         """
         rank_of_code = np.zeros(len(self.sensor_names), dtype=np.intp)
         for rank, name in enumerate(self.sensors):
@@ -499,12 +469,10 @@ class MeasurementSet:
         Parameters
         ----------
         other : MeasurementSet
-            The set compared.
 
         Returns
         -------
         bool
-            True when equal.
         """
         if len(self) != len(other):
             return False
@@ -527,8 +495,8 @@ class MeasurementSet:
         Returns
         -------
         list of dict
-            ``sensor``, ``kind``, ``unit``, ``count``, ``t_first``, ``t_last`` (s),
-            ``value_min``, ``value_max``, ``sigma_median`` (in ``unit``, the file unit).
+            ``sensor``, ``kind``, ``unit``, ``count``, ``t_first``, ``t_last`` (s), ``value_min``,
+            ``value_max``, ``sigma_median`` (file unit).
         """
         rows = []
         for s in self.sensors:

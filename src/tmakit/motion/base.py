@@ -1,10 +1,7 @@
 """The motion-model interface: parameters theta -> target states at given times.
 
-A motion model knows nothing about sensors or measurements.  It names its parameters and
-maps a parameter vector ``theta`` (shape ``(..., p)``; leading axes are independent problems,
-e.g. Monte Carlo runs or particles) and sample times ``t`` (shape ``(n,)``, seconds) to target
-states of shape ``(..., n, 6)``: ENU position (m) and velocity (m/s), see :mod:`tmakit.core.frames`.
-:meth:`MotionModel.jacobian` gives ``d state / d theta`` of shape ``(..., n, 6, p)``.
+``theta`` ``(..., p)`` (leading axes independent problems) and times ``t`` ``(n,)``, s, map to
+ENU states ``(..., n, 6)``, m and m/s; :meth:`MotionModel.jacobian` gives ``(..., n, 6, p)``.
 """
 
 from __future__ import annotations
@@ -34,55 +31,52 @@ class MotionModel(ABC):
 
     @abstractmethod
     def states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Compute the target states at times ``t``.
+        """Compute the target states ``(..., n, 6)``, m and m/s, at times ``t``.
 
         Parameters
         ----------
         theta : array_like
-            ``(..., p)`` parameters (SI units, in :attr:`param_names` order).
+            ``(..., p)``, SI, in :attr:`param_names` order.
         t : array_like
-            ``(n,)`` sample times (s).
+            ``(n,)``, s.
 
         Returns
         -------
         ndarray
-            ``(..., n, 6)`` ENU position (m) and velocity (m/s).
         """
 
     def states_minus(self, theta: ArrayLike, t: ArrayLike, sensor: NDArray[np.float64]
                      ) -> NDArray[np.float64]:
-        """Compute the target states at times ``t`` relative to ``sensor``'s.
+        """Compute :meth:`states` minus ``sensor``'s states.
 
         Parameters
         ----------
         theta, t : array_like
             As for :meth:`states`.
         sensor : ndarray
-            ``(n, 6)`` the sensor's ENU states at ``t`` (m, m/s).
+            ``(n, 6)`` ENU sensor states, m and m/s.
 
         Returns
         -------
         ndarray
-            ``(..., n, 6)`` :meth:`states` minus ``sensor`` (models may do it in one pass,
-            the same bits).
+            ``(..., n, 6)``.
         """
         return self.states(theta, t) - sensor
 
     @abstractmethod
     def jacobian(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Compute ``d state / d theta`` at times ``t``.
+        """Compute ``d state / d theta`` ``(..., n, 6, p)`` at times ``t``.
 
         Parameters
         ----------
         theta : array_like
-            ``(..., p)`` parameters (SI units).
+            ``(..., p)``, SI.
         t : array_like
-            ``(n,)`` sample times (s).
+            ``(n,)``, s.
 
         Returns
         -------
         ndarray
-            ``(..., n, 6, p)``, in state units (m, m/s) per parameter unit.
         """
 
     #: Whether the states are affine in ``theta`` (then :meth:`affine_map` is exact).
@@ -90,20 +84,17 @@ class MotionModel(ABC):
 
     def affine_map(self, t: ArrayLike
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        """Give the affine map ``states(theta, t) = offset + matrix @ theta``, if exact.
-
-        Solvers precompute it once for their sample times.
+        """Give ``states(theta, t) = offset + matrix @ theta`` when the model is :attr:`affine`.
 
         Parameters
         ----------
         t : array_like
-            ``(n,)`` sample times (s).
+            ``(n,)``, s.
 
         Returns
         -------
         tuple of ndarray or None
-            ``(offset (n, 6), matrix (n, 6, p))`` (m, m/s) when the model is :attr:`affine`
-            (constant velocity, stationary), else None.
+            ``(offset (n, 6), matrix (n, 6, p))``, or None.
         """
         if not self.affine:
             return None
@@ -115,19 +106,15 @@ class MotionModel(ABC):
                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         """Give :meth:`affine_map` component-major: ``(matrix (p, 6, n), offset (6, n))``.
 
-        ``states(theta, t)[j, c] = offset[c, j] + theta @ matrix[:, c, j]``: the layout the
-        observation layer multiplies by (one product for all rows); models with a simple
-        structure build it directly.
-
         Parameters
         ----------
         t : array_like
-            ``(n,)`` sample times (s).
+            ``(n,)``, s.
 
         Returns
         -------
         tuple of ndarray or None
-            C-contiguous ``(matrix, offset)`` (m, m/s), None when the model is not affine.
+            None when the model is not affine.
         """
         amap = self.affine_map(t)
         if amap is None:
@@ -144,14 +131,13 @@ class MotionModel(ABC):
         Parameters
         ----------
         t : array_like
-            ``(n,)`` sample times (s).
+            ``(n,)``, s.
 
         Returns
         -------
         tuple or None
-            ``(terms, offset (6, n))``: each term ``(parameter, component, coefficients (n,)
-            or None for all ones)``; None when the model is not affine.  The offset may be a
-            read-only broadcast (a constant velocity model's zeros).
+            ``(terms, offset (6, n))``, each term ``(parameter, component, coefficients or None)``;
+            None when the model is not affine.
         """
         cmap = self.component_map(t)
         if cmap is None:
@@ -167,24 +153,20 @@ class MotionModel(ABC):
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:
-        """Apply the chain rule: ``d value / d theta`` from ``d value / d state``.
-
-        Models with a simple structure override it.
+        """Apply the chain rule: ``d value / d theta`` ``(..., n, p)`` from ``d value / d state``.
 
         Parameters
         ----------
         d_state : ndarray
-            ``(..., n, 6)`` derivatives with respect to the state (per m, per m/s); it may
-            carry extra axes between the batch axes of ``theta`` and the rows.
+            ``(..., n, 6)``, per m and per m/s.
         theta : array_like
-            ``(..., p)`` parameters (SI units).
+            ``(..., p)``, SI.
         t : array_like
-            ``(n,)`` sample times (s).
+            ``(n,)``, s.
 
         Returns
         -------
         ndarray
-            ``(..., n, p)`` derivatives with respect to the parameters.
         """
         jac = self.jacobian(theta, t)  # (*batch, n, 6, p)
         extra = d_state.ndim - (jac.ndim - 1)
@@ -194,21 +176,18 @@ class MotionModel(ABC):
         return cast(NDArray[np.float64], np.einsum("...ni,...nip->...np", d_state, jac))
 
     def from_state(self, state: ArrayLike, t: float) -> NDArray[np.float64]:
-        """Give the parameters of the simplest trajectory through given states.
-
-        Used to turn grid points into starting values.
+        """Give the parameters ``(..., p)`` of the simplest trajectory through given states.
 
         Parameters
         ----------
         state : array_like
-            ``(..., 6)`` ENU position (m) and velocity (m/s).
+            ``(..., 6)`` ENU, m and m/s.
         t : float
-            Time of ``state`` (s).
+            Time of ``state``, s.
 
         Returns
         -------
         ndarray
-            ``(..., p)`` parameters (SI units).
 
         Raises
         ------
@@ -218,17 +197,15 @@ class MotionModel(ABC):
         raise NotImplementedError(f"{self.name} cannot be started from a state")
 
     def theta(self, values: Mapping[str, float]) -> NDArray[np.float64]:
-        """Build a parameter vector from a mapping of names to values.
+        """Build a parameter vector ``(p,)`` from a mapping of names to SI values.
 
         Parameters
         ----------
         values : Mapping[str, float]
-            Every parameter by name (SI units).
 
         Returns
         -------
         ndarray
-            ``(p,)`` in :attr:`param_names` order.
 
         Raises
         ------
@@ -255,12 +232,11 @@ class MotionModel(ABC):
         Parameters
         ----------
         theta : array_like
-            ``(p,)`` parameters (SI units).
+            ``(p,)``, SI.
 
         Returns
         -------
         dict of str to float
-            ``{name: value}`` in :attr:`param_names` order.
 
         Raises
         ------
@@ -276,17 +252,16 @@ class MotionModel(ABC):
         return {name: float(v) for name, v in zip(self.param_names, theta, strict=True)}
 
     def check_theta(self, theta: ArrayLike) -> NDArray[np.float64]:
-        """Return ``theta`` as a float array, refusing one with the wrong number of parameters.
+        """Return ``theta`` as float64, refusing a wrong number of parameters.
 
         Parameters
         ----------
         theta : array_like
-            ``(..., n_params)`` motion parameters (SI, in :attr:`param_names` order).
+            ``(..., n_params)``, SI.
 
         Returns
         -------
         numpy.ndarray
-            The parameters as float64.
 
         Raises
         ------
@@ -308,26 +283,21 @@ class MotionModel(ABC):
 
 def numerical_jacobian(model: MotionModel, theta: ArrayLike, t: ArrayLike,
                        rel_step: float = 1e-6) -> NDArray[np.float64]:
-    """Compute ``d state / d theta`` by central differences.
-
-    Used where a closed form would be long.  The step for parameter j is
-    ``rel_step * max(1, |theta_j|)``.
+    """Compute ``d state / d theta`` ``(..., n, 6, p)`` by central differences.
 
     Parameters
     ----------
     model : MotionModel
-        The model differentiated.
     theta : array_like
-        ``(..., p)`` parameters (SI units).
+        ``(..., p)``, SI.
     t : array_like
-        ``(n,)`` sample times (s).
+        ``(n,)``, s.
     rel_step : float
-        Relative step (dimensionless).
+        Step ``rel_step * max(1, |theta_j|)``.
 
     Returns
     -------
     ndarray
-        ``(..., n, 6, p)`` as :meth:`MotionModel.jacobian`.
     """
     theta = model.check_theta(theta)
     t = np.asarray(t, dtype=float)
