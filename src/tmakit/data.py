@@ -184,7 +184,7 @@ class MeasurementSet:
 
     @property
     def value(self) -> NDArray[np.float64]:
-        """Measured values in the file unit of each row's kind (read-only; assigning sets SI too)."""
+        """Measured values in the file unit of each row's kind (read-only)."""
         if self._value is None:
             self._value = _frozen((self._value_si - categorical.FILE_OFFSET[self.kind_code])
                                   / categorical.FILE_SCALE[self.kind_code])

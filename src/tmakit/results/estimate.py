@@ -44,49 +44,39 @@ class EstimateResult:
     Parameters
     ----------
     parameters : tuple of str
-        The motion parameters' names (``motion.param_names``).
+        The motion parameters' names.
     estimate : ndarray, shape (p,)
-        Their estimated values, SI (m, m/s, rad, s).
+        Their values, SI (m, m/s, rad, s).
     std : ndarray, shape (p,)
-        Their standard deviations (infinite where unobservable, 0 where held fixed).
+        Their std (inf where unobservable, 0 where held).
     covariance : ndarray, shape (p, p)
-        Their covariance.
     nuisance : dict
-        ``{name: (value, std)}`` of the nuisance parameters (std 0 when known).
+        ``{name: (value, std)}`` (std 0 when known).
     status : Status
-        ``"converged"`` (:data:`CONVERGED`), ``"did not converge"`` (:data:`NOT_CONVERGED`),
-        ``"unobservable"`` (:data:`UNOBSERVABLE`) or ``"diverged"`` (:data:`DIVERGED`).
+        ``converged``, ``did not converge``, ``unobservable`` or ``diverged``.
     iterations : int
-        Iterations of the solve that gave the estimate.
     chi2 : float
         The weighted sum of squares at the estimate.
     dof : int
         Its degrees of freedom.
     method : str
-        The estimator's name (a key of :data:`tmakit.batch.METHODS`).
+        A key of :data:`tmakit.batch.METHODS`.
     motion : MotionModel
-        The motion model of the parameters.
     bound : Bound, optional
         The information at the estimate (None for the papers' own covariances).
     starts : int, optional
         Starting points solved (default 1).
     message : str, optional
-        What the user should know: why not converged, what is unobservable, how it started.
+        What the user should know.
     extra : dict, optional
-        Method-specific diagnostics (condition numbers, update norms, ...).
+        Method-specific diagnostics.
     solutions : list of Solution, optional
-        When the search found separated fits that explain the data about as well
-        (:mod:`tmakit.results.solutions`): all of them, this one first; empty otherwise.
+        Separated fits about as good (:mod:`tmakit.results.solutions`), this one first.
     covers : list of EstimateResult, optional
-        Fits this one stands for (close to it, about as good, :mod:`tmakit.results.solutions`)
-        whose position ellipses do not lie inside its own: its answers' covariance is widened
-        until they do (:func:`tmakit.results.answers.covering_scale`).
+        Close fits this one stands for; its covariance is widened to contain them.
     wider : EstimateResult, optional
-        The fit of the widest model asked for (every manoeuvre and acceleration) when it leaves
-        the position at the last measurement undetermined while this fit does not: this
-        fit's position there holds only under its own, narrower model
-        (:func:`tmakit.results.checks.fit_warnings`; the reported region then includes the
-        wider fit's bearing interval, :meth:`region_contains`).
+        The widest model's fit when it leaves the last position undetermined and this one does
+        not (:meth:`region_contains` then includes its bearing interval).
     """
 
     parameters: tuple[str, ...]
@@ -119,35 +109,30 @@ class EstimateResult:
         Returns
         -------
         list of Solution
-            :attr:`solutions`, or this fit as the one solution.
         """
         return self.solutions or [Solution(self, 1, 0.0, 1.0)]
 
     def region_contains(self, position: ArrayLike, meas: MeasurementSet | None = None,
                         time: float | None = None, level: float = ELLIPSE_LEVEL) -> bool:
-        """Tell whether a horizontal position lies inside the reported region.
+        """Tell whether a horizontal position lies inside the reported region at ``time``.
 
-        The region is the union of the position ellipses of every reported solution
-        (:meth:`ranked_solutions`) at ``time``.
+        The region is the union of every solution's position ellipse, or with :attr:`wider` also its
+        bearing interval from the last measurement's sensor.
 
         Parameters
         ----------
         position : array_like
-            East, North (m).
+            East, North, m.
         meas : MeasurementSet, optional
-            The measurements fitted (the default time is their last).
+            The measurements fitted (default time: their last).
         time : float, optional
-            Time (s) of the ellipses.
+            s.
         level : float
             Probability inside each ellipse (default 0.95).
 
         Returns
         -------
         bool
-            True when inside at least one solution's ellipse, or, when the widest model asked
-            for leaves the position undetermined (:attr:`wider`), inside its bearing interval
-            at ``level`` from the sensor of the last measurement (the whole plane when the
-            bearing is not determined either).
         """
         if any(s.region_contains(position, meas, time, level)
                for s in self.ranked_solutions()):
@@ -166,35 +151,29 @@ class EstimateResult:
 
     @property
     def chi2_p_value(self) -> float | None:
-        """The upper-tail probability of :attr:`chi2` on :attr:`dof` degrees of freedom.
-
-        None without degrees of freedom or a finite chi2 (:func:`.checks.chi2_probability`).
-        """
+        """The upper-tail probability of :attr:`chi2` on :attr:`dof` degrees of freedom, or None."""
         return chi2_probability(self.chi2, self.dof)
 
     def as_dict(self, meas: MeasurementSet | None = None, *, answer: Answer | None = None,
                 warnings: Sequence[SanityWarning] | None = None,
                 sigma_scale: Mapping[str, float] | None = None) -> dict[str, object]:
-        """Return the JSON form: the keys of ``tma estimate --json``, which prints it.
+        """Return the JSON form: the keys of ``tma estimate --json``.
 
         Parameters
         ----------
         meas : MeasurementSet, optional
-            The measurements fitted: with them ``answer`` (at the last measurement),
-            ``warnings`` and ``geodetic`` (when the set has an ENU origin) are filled in.
+            The measurements fitted: with them ``answer``, ``warnings`` and ``geodetic`` are filled.
         answer : Answer, optional
-            The answer to report (default :meth:`answer` of ``meas``).
+            Default :meth:`answer` of ``meas``.
         warnings : sequence of SanityWarning, optional
-            The warnings to report (default :meth:`warnings` of ``meas``).
+            Default :meth:`warnings` of ``meas``.
         sigma_scale : mapping of str to float, optional
-            The factor on each kind's sigma when the measurements were rescaled
-            (``tma estimate --scale-sigma``).
+            Each kind's sigma factor when rescaled (``--scale-sigma``).
 
         Returns
         -------
         dict of str to object
-            JSON-ready values (SI units); non-finite numbers as ``None``.  ``answer``,
-            ``warnings`` and ``geodetic`` are None without the measurements.
+            JSON-ready values, SI; non-finite numbers as ``None``.
         """
         if meas is not None:
             answer = self.answer(meas) if answer is None else answer
@@ -262,19 +241,17 @@ class EstimateResult:
         Parameters
         ----------
         meas : MeasurementSet, optional
-            The measurements fitted: ENU and clock-time origins, the sensor's track.
+            The measurements fitted (origins, the sensor's track).
         time : float, optional
-            Time (s); default the last measurement time.
+            s; default the last measurement time.
         sensor : str, optional
-            Sensor for range and bearing; default the sensor of the last measurement.
+            For range and bearing; default the last measurement's.
         level : float
             Probability inside the position ellipse (default 0.95).
 
         Returns
         -------
         Answer
-            Position (E/N, lat/lon), course, speed, range and bearing, each with its
-            linearised std, and the position ellipse; None for what is unobservable.
         """
         return estimate_answer(self, meas, time, sensor, level)
 
@@ -289,8 +266,7 @@ class EstimateResult:
         Returns
         -------
         list of SanityWarning
-            Improbable chi-square (p < 0.001 in either tail), angles that look like
-            radians, positions far from the origin; empty when nothing looks wrong.
+            Empty when nothing looks wrong.
         """
         return fit_warnings(self, meas)
 
@@ -300,12 +276,11 @@ class EstimateResult:
         Parameters
         ----------
         meas : MeasurementSet
-            The measurements fitted (for the warnings).
+            The measurements fitted.
 
         Returns
         -------
         Trust
-            ``ok``, ``warning`` (with the warnings) or ``none`` (no answer: the status).
         """
         return trust_of(self, self.warnings(meas))
 
@@ -319,29 +294,26 @@ class EstimateResult:
         meas, answer, warnings, sigma_scale : optional
             As for :meth:`as_dict`.
         indent : int or None
-            Spaces of indentation (``None``: one line).
+            Spaces of indentation (None: one line).
 
         Returns
         -------
         str
-            The JSON text.
         """
         return json.dumps(self.as_dict(meas, answer=answer, warnings=warnings,
                                        sigma_scale=sigma_scale), indent=indent)
 
     def summary(self, units: str = "si") -> str:
-        """Return a readable table: status, chi2, each parameter with its std, what is unseen.
+        """Return a readable table: status, chi2, each parameter with its std and unit.
 
         Parameters
         ----------
         units : str, optional
-            ``si`` (default: SI units, angles in degrees) or ``nautical`` (velocities and
-            speeds in knots, the rest as with ``si``).
+            ``si`` (default; angles in degrees) or ``nautical`` (speeds in knots).
 
         Returns
         -------
         str
-            The table, with each parameter's unit.
         """
         lines = [f"{self.method} estimate, motion {self.motion.name}: {self.status}"
                  f" after {self.iterations} iterations"
@@ -398,26 +370,20 @@ def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iteratio
     Parameters
     ----------
     motion : MotionModel
-        The motion model whose parameters were sought.
     nuisance_names : sequence of str
-        The nuisance parameters reported (each ``(nan, nan)``).
+        Reported as ``(nan, nan)``.
     iterations : int
-        Iterations run before the divergence.
     dof : int
         Degrees of freedom the fit would have had.
     method : str
-        The estimator's name.
     message : str
-        Why the solve is declared diverged.
+        Why it diverged.
     starts : int, optional
-        Starting points solved (default 1).
     extra : dict, optional
-        Method-specific diagnostics.
 
     Returns
     -------
     EstimateResult
-        Status ``diverged``, no bound.
     """
     p = motion.n_params
     nan = np.full(p, np.nan)
@@ -438,33 +404,24 @@ def result_from_covariance(motion: MotionModel, theta: NDArray[np.float64],
     Parameters
     ----------
     motion : MotionModel
-        The motion model of ``theta``.
     theta : ndarray, shape (p,)
-        The estimate (SI units of each parameter).
+        The estimate, SI.
     covariance : ndarray, shape (q, q), q >= p
-        The method's covariance of its unknowns, the motion parameters first; the std are
-        the square roots of its diagonal (negative rounding clipped to 0).
+        The method's covariance, the motion parameters first.
     nuisance : dict
-        ``{name: (value, std)}`` of the nuisance parameters.
+        ``{name: (value, std)}``.
     status : Status
-        ``converged``, ``did not converge`` or ``unobservable``.
     iterations : int
-        Iterations run.
     chi2 : float
         The weighted sum of squares of the method's residuals.
     dof : int
-        Its degrees of freedom.
     method : str
-        The estimator's name.
     message : str, optional
-        What the user should know about the fit.
     extra : dict, optional
-        Method-specific diagnostics.
 
     Returns
     -------
     EstimateResult
-        With ``bound`` None and one starting point.
     """
     p = motion.n_params
     std = np.sqrt(np.clip(np.diag(covariance), 0.0, None))[:p]
@@ -481,44 +438,36 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
                     information: NDArray[np.float64] | None = None) -> EstimateResult:
     """Return the result of a weighted least-squares fit of an observation model.
 
+    The covariance comes from the Fisher information at the fit, chi2 is ``2 cost``.
+
     Parameters
     ----------
     obs : ObservationModel
-        The model fitted (its motion model names the parameters).
     noise : NoiseModel
-        The noise model of the measurements, in the grouped row order of ``obs``.
+        In the grouped row order of ``obs``.
     theta : ndarray, shape (p,)
-        Motion parameters at the fit (SI units of each parameter).
+        Motion parameters at the fit, SI.
     nu : ndarray, shape (k,)
-        Nuisance parameters at the fit (or the known values).
+        Nuisance at the fit (or the known values).
     cost : float
-        Half the weighted sum of squares at the fit.
+        Half the weighted sum of squares.
     iterations : int
-        Iterations run.
     converged : bool
         Whether the solver's convergence tests were met.
     method : str
-        The estimator's name.
     starts : int
-        Starting points solved.
     known_nuisance : KnownNuisance or None
-        ``None`` when the nuisance parameters were estimated; a :class:`KnownNuisance` when
-        they were held at ``nu`` (their std are then 0).
+        None when the nuisance was estimated.
     note : str, optional
         A sentence appended to the message.
     jacobian : (ndarray, ndarray), optional
-        ``obs.jacobian_grouped(theta, nu)`` when the caller has it (computed for many fits
-        at once); default: computed here.
+        ``obs.jacobian_grouped(theta, nu)`` if the caller has it.
     information : ndarray, optional
-        The Fisher information at the fit when the solver has it (its last evaluation's
-        ``J' R^-1 J``, over the motion parameters, and over the nuisance too when it is
-        estimated); default: computed here.
+        The Fisher information at the fit if the solver has it.
 
     Returns
     -------
     EstimateResult
-        Covariance from the Fisher information at the fit, chi2 ``2 cost``, and the status
-        ``converged``, ``did not converge``, ``unobservable`` or ``diverged``.
     """
     known = as_known_nuisance(known_nuisance) is not None
     motion = obs.motion

@@ -1,9 +1,6 @@
-"""The change-over-time search of the manoeuvre estimator.
+"""The change-over-time search of the manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`).
 
-Profile likelihood on a grid, refinement with every parameter free, a finer profile around
-the result, and the corner test (see :mod:`tmakit.batch.manoeuvre` for the method). Every fit
-is a run of :func:`tmakit.batch.solver.levenberg_marquardt` with the search's settings
-(:func:`lm_fit`).
+Every fit is a run of :func:`tmakit.batch.solver.levenberg_marquardt` (:func:`lm_fit`).
 """
 
 from __future__ import annotations
@@ -33,22 +30,16 @@ PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 class ManoeuvreSearch:
     """The fits of every order for one data set (shared grid, warm starts between orders).
 
+    Internal parameters are those of ``ForwardPiecewise`` referenced at the first measurement time.
+
     Parameters
     ----------
     meas : MeasurementSet
-        The data.
     options : mapping, optional
-        Nuisance model per kind, as for :func:`tmakit.batch.ml.estimate`.
+        Nuisance model per kind.
     known_nuisance : KnownNuisance or None
-        The nuisance held at known values (others: model defaults); None: estimated.
+        None: the nuisance is estimated.
     settings : ManoeuvreSettings
-        How to search.
-
-    Notes
-    -----
-    Internal parameters are those of :class:`~tmakit.motion.curvilinear_batch.
-    ForwardPiecewise` referenced at the first measurement time ``t0`` (s); the grid of
-    change-over times (``grid``, s) is centred in the data span ``(t0, t_end)``.
 
     References
     ----------
@@ -75,17 +66,15 @@ class ManoeuvreSearch:
         self.profiles: dict[int, tuple[NDArray[np.int64], Array, Array]] = {}
 
     def problem(self, m: int) -> VarProProblem:
-        """Give the least-squares problem with ``m`` manoeuvres (internal parameters), cached.
+        """Give the least-squares problem with ``m`` manoeuvres (cached).
 
         Parameters
         ----------
         m : int
-            The number of manoeuvres.
 
         Returns
         -------
         VarProProblem
-            The problem (nuisance eliminated, or fixed when known).
         """
         if m not in self._problems:
             model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
@@ -100,7 +89,6 @@ class ManoeuvreSearch:
         Returns
         -------
         int
-            The largest order with a grid tuple.
         """
         m = 0
         while m < self.s.max_manoeuvres and grid_tuples(self.grid, m + 1,
@@ -109,19 +97,17 @@ class ManoeuvreSearch:
         return m
 
     def unknowns(self, m: int, free: NDArray[np.bool_] | None = None) -> int:
-        """Count the unknowns of the order ``m`` model.
+        """Count the unknowns of the order ``m`` model (fitted motion parameters plus free nuisance).
 
         Parameters
         ----------
         m : int
-            The number of manoeuvres.
         free : ndarray of bool, optional
-            The motion parameters fitted (default: all).
+            The motion parameters fitted (default all).
 
         Returns
         -------
         int
-            The fitted motion parameters plus the nuisance parameters unless known.
         """
         pr = self.problem(m)
         p = pr.p if free is None else int(np.count_nonzero(free))
@@ -133,12 +119,11 @@ class ManoeuvreSearch:
         Parameters
         ----------
         init : ndarray, optional
-            ``(6,)`` start (SI; default: the no-guess constant-velocity fit at ``t0``).
+            ``(6,)`` start, SI; default the no-guess constant-velocity fit.
 
         Returns
         -------
         OrderFit
-            The fit; its profile is recorded for the order above.
 
         Raises
         ------
@@ -191,22 +176,17 @@ class ManoeuvreSearch:
         return tuples, start, best_cost
 
     def profile(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
-        """Fit with the change-over times held on the grid tuples of order ``m``.
-
-        All tuples, or, beyond ``max_tuples``, those extending the best ``refine`` minima of
-        order ``m - 1`` by one grid time; each warm-started from the order ``m - 1`` profile
-        (needed; the start reproduces that fit, so the held fit can only improve on it).
+        """Fit with the change-over times held on the grid tuples of order ``m``, warm-started.
 
         Parameters
         ----------
         m : int
-            Number of change-over times, ``m >= 1``.
+            ``m >= 1``.
 
         Returns
         -------
         tuples, theta, cost : ndarray
-            ``(T, m)`` grid index tuples (int); ``(T, p)`` the held fits (NaN: no start);
-            ``(T,)`` their costs (half chi2; inf: no start).
+            ``(T, m)`` grid index tuples, ``(T, p)`` held fits (NaN: no start), ``(T,)`` half chi2.
         """
         tuples, start, best_cost = self._profile_starts(m)
         ok = np.flatnonzero(np.isfinite(best_cost))
@@ -226,22 +206,19 @@ class ManoeuvreSearch:
         return tuples, theta, cost
 
     def fit(self, m: int, below: OrderFit | None = None) -> OrderFit:
-        """Fit order ``m``: profile, then refine its best minima.
-
-        The order ``m - 1`` fit ``below``, its longest segment split in two (the same
-        trajectory), is refined too, so that chi2 never grows with the order.
+        """Fit order ``m``: profile, then refine its best minima and ``below`` split in two.
 
         Parameters
         ----------
         m : int
-            The number of manoeuvres (>= 1).
+            >= 1.
         below : OrderFit, optional
             The order ``m - 1`` fit.
 
         Returns
         -------
         OrderFit
-            The best fit, with its profile (``profile_times`` in s, ``profile_chi2``).
+            With its profile (``profile_times`` in s, ``profile_chi2``).
 
         Raises
         ------
@@ -285,26 +262,18 @@ class ManoeuvreSearch:
         return np.array(starts), np.array(held, dtype=np.int64)
 
     def polish(self, fit: OrderFit, reach: float | None = None) -> OrderFit:
-        """Profile each change-over time finely around the refined fit.
-
-        The likelihood has a corner at every measurement time (:meth:`settle`), so near its
-        minimum it is bumpy and the refinement can stop in a dip next to the deepest one.
-        Each ``t_m`` in turn is held on a ``polish_step`` grid within ``reach`` of its estimate,
-        every other parameter free (held fits that cannot beat the best so far stop early); if
-        one beats the fit, everything is refined again from it.  At most ``polish_rounds``.
+        """Profile each change-over time finely (``polish_step``) around the refined fit.
 
         Parameters
         ----------
         fit : OrderFit
-            The refined fit.
         reach : float, optional
-            Half-width of the held grid (s; default ``grid_step``).  Parameters the fit holds
-            stay held.
+            Half-width of the held grid, s (default ``grid_step``).
 
         Returns
         -------
         OrderFit
-            The polished fit (``fit`` itself when nothing beats it).
+            ``fit`` itself when nothing beats it.
         """
         m = fit.manoeuvres
         if m == 0 or not np.isfinite(fit.chi2):
@@ -342,21 +311,17 @@ class ManoeuvreSearch:
                  ) -> OrderFit:
         """Fit from the starts ``theta0``; the lowest cost wins, settled on a corner if at one.
 
-        See :meth:`settle` for the corners of the likelihood.
-
         Parameters
         ----------
         m : int
-            The number of manoeuvres.
         theta0 : ndarray
-            ``(B, p)`` or ``(p,)`` starts (internal parameters, SI units).
+            ``(B, p)`` or ``(p,)`` internal parameters, SI.
         free : ndarray of bool, optional
-            ``(p,)`` the parameters fitted (default: all).
+            ``(p,)`` the parameters fitted (default all).
 
         Returns
         -------
         OrderFit
-            The best of the fits.
         """
         pr = self.problem(m)
         mask = np.ones(pr.p, dtype=bool) if free is None else free
@@ -393,25 +358,18 @@ class ManoeuvreSearch:
         return np.array(probes)
 
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
-        """Settle, in place, a refinement that stopped short of the smooth convergence tests.
+        """Settle, in place, a refinement stopped on a corner of the likelihood (at a measurement time).
 
-        The likelihood has a corner at every measurement time: a sample's predicted velocity
-        (hence azimuth rate) follows the old or the new acceleration by the side of ``t_m`` it
-        lies on, so the derivative in ``t_m`` jumps there and Levenberg–Marquardt stops on or
-        next to a corner, its tests unmet.  The fit is accepted as converged when, the
-        change-over times held, the other parameters converge and no held fit with one
-        change-over time moved by :data:`PROBES` or onto the measurement time either side
-        lowers chi2 by more than ``tol`` (probes that cannot are stopped early).  Otherwise
-        everything is refined again from the best such fit, at most ``rounds`` times.
+        Accepted as converged when no held fit with a change-over time moved by :data:`PROBES` lowers
+        chi2 by more than ``tol``; otherwise refined again from the best, at most ``rounds`` times.
 
         Parameters
         ----------
         fit : OrderFit
-            The refined fit, updated in place.
+            Updated in place.
         rounds : int
-            Most rounds of probing and refitting.
         tol : float
-            Decrease of chi2 below which a probe does not count (dimensionless).
+            Decrease of chi2 that counts.
         """
         m = fit.manoeuvres
         pr = self.problem(m)
