@@ -97,7 +97,7 @@ class ManoeuvreSearch:
         return m
 
     def unknowns(self, m: int, free: NDArray[np.bool_] | None = None) -> int:
-        """Count the unknowns of the order ``m`` model (fitted motion parameters plus free nuisance).
+        """Count the unknowns of the order ``m`` model (fitted motion and free nuisance).
 
         Parameters
         ----------
@@ -358,9 +358,9 @@ class ManoeuvreSearch:
         return np.array(probes)
 
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
-        """Settle, in place, a refinement stopped on a corner of the likelihood (at a measurement time).
+        """Settle, in place, a refinement stopped on a corner of the likelihood (a measurement time).
 
-        Accepted as converged when no held fit with a change-over time moved by :data:`PROBES` lowers
+        Converged when no held fit with a change-over time moved by :data:`PROBES` lowers
         chi2 by more than ``tol``; otherwise refined again from the best, at most ``rounds`` times.
 
         Parameters
