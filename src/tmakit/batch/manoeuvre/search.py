@@ -358,7 +358,7 @@ class ManoeuvreSearch:
         return np.array(probes)
 
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
-        """Settle, in place, a refinement stopped on a corner of the likelihood (a measurement time).
+        """Settle in place a refinement stopped on a corner of the likelihood (a sample time).
 
         Converged when no held fit with a change-over time moved by :data:`PROBES` lowers
         chi2 by more than ``tol``; otherwise refined again from the best, at most ``rounds`` times.
