@@ -67,11 +67,11 @@ class Ellipse:
     Parameters
     ----------
     semi_major, semi_minor : float
-        Semi-axes (m).
+        m.
     orientation_deg : float
-        Direction of the major axis, degrees true (clockwise from North, 0 to 180).
+        Major axis, degrees true (0 to 180).
     level : float
-        Probability inside the ellipse (a chi-square with 2 degrees of freedom).
+        Probability inside (chi-square, 2 degrees of freedom).
     """
 
     semi_major: float
@@ -99,42 +99,37 @@ class Answer:
     Parameters
     ----------
     time : float
-        Time (s since the measurement set's time origin).
+        s since the set's time origin.
     clock : str or None
-        The same time in UTC when the time origin is known.
+        The same time in UTC, when the origin is known.
     dim : int
-        2 or 3: whether the height is part of the motion.
+        2 or 3.
     stationary : bool
-        The emitter does not move (course and speed are then None).
+        Course and speed are then None.
     enu, enu_std : tuple of (float or None)
-        Position East, North, Up (m) and their std (m).
+        East, North, Up and std, m.
     geodetic : tuple of (float or None) or None
-        Latitude, longitude (deg) and altitude (m, above :attr:`altitude_reference`); None
-        without an origin.  Their std are those of North, East and Up.
+        Latitude, longitude (deg), altitude (m); None without an origin.
     velocity, velocity_std : tuple of (float or None)
-        Velocity East, North, Up (m/s) and std.
+        East, North, Up and std, m/s.
     course_deg, course_std_deg : float or None
-        Course, degrees true, and its std (deg).
+        Degrees true.
     speed, speed_std : float or None
-        Speed (m/s) and its std (m/s).
+        m/s.
     sensor : str or None
-        The sensor that range and bearing are taken from.
+        The sensor range and bearing are from.
     range_m, range_std : float or None
-        Range from the sensor (m, slant range in three dimensions) and its std.
+        Slant range, m.
     bearing_deg, bearing_std_deg : float or None
-        Bearing from the sensor, degrees true, and its std (deg).
+        Degrees true.
     ellipse : Ellipse or None
-        The horizontal position's confidence ellipse.
     covariance : ndarray, shape (6, 6)
-        State covariance (ENU position m, velocity m/s), infinite where unobservable.
+        ENU state covariance, m and m/s; infinite where unobservable.
     altitude_reference : str
-        What the altitude is measured from, as words: ``WGS-84 ellipsoid`` or ``mean sea level``
-        (the measurement set's ``altitude_reference`` metadata, ``ellipsoid`` or ``msl``).
+        ``WGS-84 ellipsoid`` or ``mean sea level``.
     undetermined : tuple of str
-        The quantities left out (None) because the data do not determine them although the
-        fit is observable: an angle with a 1-sigma above :data:`UNDETERMINED_ANGLE_DEG`, a speed
-        or range with a 1-sigma above :data:`UNDETERMINED_RATIO` times its value; each as words
-        with its 1-sigma.
+        Quantities left out because their 1-sigma is too large (:data:`UNDETERMINED_ANGLE_DEG`,
+        :data:`UNDETERMINED_RATIO`), in words.
     """
 
     time: float
@@ -171,11 +166,6 @@ class Answer:
         Returns
         -------
         dict
-            ``time`` (s), ``clock`` (UTC), ``stationary``, ``position`` (east, north, up m,
-            with std; lat, lon deg and alt m when the origin is known), ``velocity`` (m/s),
-            ``course_deg``, ``speed_mps``, ``speed_kn`` (with std), ``from_sensor`` (range m,
-            bearing deg), ``ellipse`` (semi-axes m, orientation deg true, level) and
-            ``state_covariance`` (6 x 6, m and m/s; None where unobservable).
         """
         def pair(v: float | None, s: float | None) -> dict[str, float | None]:
             return {"value": v, "std": s}
@@ -266,29 +256,26 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     Parameters
     ----------
     state : ndarray, shape (6,)
-        ENU position (m) and velocity (m/s) at ``t``.
+        ENU position (m) and velocity (m/s).
     cov : ndarray, shape (6, 6)
-        Its covariance; infinite or NaN entries mark unobservable directions.
+        Infinite or NaN entries mark unobservable directions.
     t : float
-        Time (s).
+        s.
     meas : MeasurementSet, optional
-        The measurements: ENU origin and time origin (metadata) and the sensor's track.
+        Origins and the sensor's track.
     sensor : str, optional
-        The sensor for range and bearing; default the sensor of the last measurement.
+        Default the last measurement's.
     dim : int
-        2 or 3: with 2 the height is not reported (Up and altitude are None).
+        2 or 3 (2: no height reported).
     stationary : bool
-        The emitter does not move: no course or speed.
     level : float
-        Probability inside the position ellipse (default 0.95).
+        Probability inside the ellipse (default 0.95).
     null : ndarray, shape (6, r), optional
-        How the state moves along the fit's unobservable directions (an unobservable fit);
-        every quantity that moves with them is reported as None.
+        The state's unobservable directions; what moves with them is None.
 
     Returns
     -------
     Answer
-        The emitter in the user's terms.
     """
     state = np.asarray(state, dtype=float)
     cov = np.where(np.isnan(cov), np.inf, np.asarray(cov, dtype=float))
@@ -362,28 +349,23 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     Parameters
     ----------
     result : EstimateResult
-        The estimate (its motion model maps the parameters to states; its bound, when there
-        is one, marks the unobservable directions).
     meas : MeasurementSet, optional
-        The measurements fitted (origins and the sensor's track).
+        The measurements fitted.
     time : float, optional
-        Time (s); default the last measurement time (the motion's reference time without
-        measurements).
+        s; default the last measurement time.
     sensor : str, optional
-        Sensor for range and bearing; default the sensor of the last measurement.
+        Default the last measurement's.
     level : float
-        Probability inside the position ellipse (default 0.95).
+        Probability inside the ellipse (default 0.95).
 
     Returns
     -------
     Answer
-        The emitter at ``time``.
 
     Raises
     ------
     ValueError
-        If ``time`` is not finite, or farther from the measurements than 100 spans of them
-        (:func:`tmakit.rules.time_problem`).
+        If ``time`` is not finite or far from the measurements (:func:`~tmakit.rules.time_problem`).
     """
     from ..rules import time_problem
 
@@ -463,20 +445,18 @@ def track_answer(track: object, meas: MeasurementSet | None = None, index: int =
     Parameters
     ----------
     track : tmakit.filters.Track
-        The track (``state_names`` x, y[, z], vx, vy[, vz]; states and covariances per update).
     meas : MeasurementSet, optional
-        The measurements tracked (origins and the sensor's track).
+        The measurements tracked.
     index : int
         The update (default the last).
     sensor : str, optional
-        Sensor for range and bearing; default the sensor of the last measurement.
+        Default the last measurement's.
     level : float
-        Probability inside the position ellipse (default 0.95).
+        Probability inside the ellipse (default 0.95).
 
     Returns
     -------
     Answer
-        The emitter at the update's time.
     """
     names = tuple(track.state_names)  # type: ignore[attr-defined]
     dim = len(names) // 2

@@ -1,11 +1,7 @@
 """A Cramér–Rao bound as a result: information, pseudo-inverse, std and ellipses.
 
-The result holds the information matrix, its pseudo-inverse, standard deviations,
-observability, confidence ellipses and derived quantities.
-
-Built by :func:`bound_from_information` from any information matrix, so batch estimators
-(their covariance at the estimate) and :mod:`tmakit.bounds` (the bound at the truth) report the
-same object.
+:func:`bound_from_information` builds it from any information matrix, so estimators (their
+covariance at the fit) and :mod:`tmakit.bounds` (the bound at the truth) report one object.
 """
 
 from __future__ import annotations
@@ -46,25 +42,20 @@ class Bound:
     parameters : tuple of str
         The unknowns, motion parameters first.
     values : ndarray, shape (q,)
-        Where the bound is evaluated (SI units of each parameter).
+        SI.
     information : ndarray, shape (q, q)
-        Fisher information (SI units of the parameters, inverse squared).
+        Fisher information, SI.
     covariance : ndarray, shape (q, q)
-        Inverse information restricted to the observable subspace (its rows for unobservable
-        parameters are meaningless: use ``std``).
+        Inverse information on the observable subspace (use ``std`` for the rest).
     std : ndarray, shape (q,)
-        Standard deviations (SI); infinite for any parameter that cannot be observed.
+        SI; infinite where unobservable.
     observability : Observability
-        Rank and unobservable directions of ``information``.
     known_nuisance : KnownNuisance or None
-        ``None`` when the nuisance parameters are unknowns (then among ``parameters``), else
-        the values they were known at.
+        None when the nuisance parameters are unknowns.
     nuisance_values : dict of str to float
-        Nuisance values at the evaluation point (Hz, Hz/s, dB, dimensionless).
+        At the evaluation point (Hz, Hz/s, dB).
     motion : MotionModel
-        The motion model of the first parameters.
     n_measurements : int
-        Number of measurements.
 
     References
     ----------
@@ -93,17 +84,15 @@ class Bound:
         return self.motion.param_names
 
     def std_of(self, name: str) -> float:
-        """Return the standard deviation of the parameter ``name``.
+        """Return the std of the parameter ``name`` (SI; inf if unobservable).
 
         Parameters
         ----------
         name : str
-            One of :attr:`parameters`.
 
         Returns
         -------
         float
-            The std in the parameter's SI unit; inf if it cannot be observed.
 
         Raises
         ------
@@ -130,19 +119,18 @@ class Bound:
         return float(full @ self.covariance @ full)
 
     def state_covariance(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Return the target state at time ``t`` and its covariance (delta method).
+        """Return the ENU target state at time ``t`` (s) and its covariance (delta method).
 
         Parameters
         ----------
         t : float
-            Time (s).
 
         Returns
         -------
         state : ndarray, shape (6,)
-            Position (m) and velocity (m/s), East-North-Up.
+            m and m/s.
         cov : ndarray, shape (6, 6)
-            Its covariance (m², m²/s, m²/s²); infinite where it cannot be observed.
+            Infinite where unobservable.
         """
         theta = self.values[: self.motion.n_params]
         state = self.motion.states(theta, np.array([float(t)]))[0]
@@ -162,16 +150,14 @@ class Bound:
         Parameters
         ----------
         t : float
-            Time (s).
+            s.
         level : float
-            Probability inside the ellipse (0 to 1).
+            Probability inside (0 to 1).
 
         Returns
         -------
         dict of str to float
-            ``east``, ``north`` (centre, m), ``major``, ``minor`` (semi-axes, m; infinite when
-            the position cannot be observed), ``bearing_deg`` (major axis, degrees clockwise
-            from North) and ``level``.
+            ``east``, ``north``, ``major``, ``minor`` (m), ``bearing_deg`` and ``level``.
         """
         state, cov = self.state_covariance(t)
         c2 = cov[:2, :2]
@@ -189,20 +175,18 @@ class Bound:
 
     def derived(self, t: float, sensor_position: ArrayLike | None = None
                 ) -> dict[str, tuple[float, float]]:
-        """Return derived quantities at time ``t`` with their std.
+        """Return derived quantities at time ``t`` (s) with their std.
 
         Parameters
         ----------
         t : float
-            Time (s).
         sensor_position : array_like, shape (3,), optional
-            Sensor position (m, East-North-Up); adds ``range``.
+            ENU, m; adds ``range``.
 
         Returns
         -------
         dict of str to (float, float)
-            ``{name: (value, std)}`` for the position (m) and velocity (m/s) components,
-            ``speed`` (m/s), ``course`` (rad, clockwise from North) and ``range`` (m).
+            Position (m), velocity (m/s), ``speed``, ``course`` (rad) and ``range`` (m).
         """
         state, cov = self.state_covariance(t)
         out: dict[str, tuple[float, float]] = {}
@@ -236,12 +220,11 @@ class Bound:
         return out
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form: parameters, std, covariance, rank, unobservable, context.
+        """Return the JSON form (SI; non-finite numbers as ``None``).
 
         Returns
         -------
         dict of str to object
-            JSON-ready values (SI units); non-finite numbers as ``None``.
         """
         def clean(x: float) -> float | None:
             return None if not np.isfinite(x) else float(x)
@@ -270,22 +253,20 @@ class Bound:
         Parameters
         ----------
         indent : int or None
-            Spaces of indentation (``None``: one line).
+            None: one line.
 
         Returns
         -------
         str
-            The JSON text.
         """
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self) -> str:
-        """Return a readable table of the bound and, when rank deficient, what is unseen.
+        """Return a readable table of the bound and what is unseen.
 
         Returns
         -------
         str
-            The table, one line per parameter (SI units).
         """
         lines = [f"Cramér–Rao bound, motion {self.motion.name}, {self.n_measurements} "
                  f"measurements, nuisance parameters "
@@ -314,26 +295,20 @@ def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
     Parameters
     ----------
     info : ndarray, shape (q, q)
-        Fisher information about the unknowns ``names`` (SI units of each parameter).
+        Fisher information about ``names``, SI.
     names : tuple of str
-        The unknowns: the motion parameters first, then the nuisance parameters unless known.
+        Motion parameters first, then the nuisance unless known.
     values : ndarray, shape (q,)
-        Where the information was evaluated (the truth for a bound, the fit for an estimate).
+        Where it was evaluated (truth or fit).
     meas : MeasurementSet
-        The measurements (for the observability analysis and the count).
     motion : MotionModel
-        The motion model of the first ``motion.n_params`` unknowns.
     known_nuisance : KnownNuisance or None
-        ``None`` when the nuisance parameters are among the unknowns; otherwise they are
-        known, at ``nuisance_values`` (recorded in the bound's ``known_nuisance``).
+        None when the nuisance is among the unknowns.
     nuisance_values : Mapping[str, float]
-        The nuisance values at the evaluation point.
 
     Returns
     -------
     Bound
-        Covariance as the pseudo-inverse on the observable subspace, infinite std for what
-        cannot be observed.
     """
     known = as_known_nuisance(known_nuisance)
     if known is not None:
