@@ -67,11 +67,11 @@ class TurnCut:
     Parameters
     ----------
     time : float
-        The cut's time (s).
+        s.
     reason : str
-        Why it is a turn cut (the heading rate, or the turn it follows), in words.
+        Why it is a turn cut, in words.
     kept : bool
-        True when it is fitted anyway (``keep_turn_cuts``).
+        Fitted anyway (``keep_turn_cuts``).
     """
 
     time: float
@@ -86,24 +86,23 @@ class LegSide:
     Parameters
     ----------
     leg : int
-        The leg's index in the own ship's legs (0-based).
+        The leg's index (0-based).
     start, stop : float
-        Its first and last cut (s).
+        Its first and last cut, s.
     course_deg : float
-        The own ship's course on the leg (deg).
+        The own ship's course on the leg, deg.
     cuts : int
         Its ambiguous cuts fitted.
     side : str
-        ``port`` or ``starboard`` of the array: the side of the best fit.
+        ``port`` or ``starboard``: the best fit's.
     delta_chi2 : float
-        The chi-square of the best fit with this leg on the other side minus the best's.
+        Chi-square with the leg on the other side minus the best's.
     resolved : bool
-        True when the side is resolved (after a turn, ratio at least :data:`RESOLVED_RATIO`).
+        After a turn, ratio at least :data:`RESOLVED_RATIO`.
     reason : str
-        Why it is resolved or not, in words.
+        Why, in words.
     part : int
-        0, or the number of times the contact crossed the array's axis earlier on this leg
-        (each crossing starts a part that takes its own side).
+        0, or the number of earlier crossings of the array's axis on this leg.
     """
 
     leg: int
@@ -140,22 +139,16 @@ class AmbiguityResult:
     Parameters
     ----------
     result : EstimateResult
-        The fit of the chosen sides; its separated solutions hold the fits with unresolved
-        legs on the other side that fit about as well (:attr:`EstimateResult.solutions`).
+        The fit of the chosen sides (unresolved alternatives among its solutions).
     measurements : MeasurementSet
-        The measurements fitted: each ambiguous cut's bearing on its leg's side, turn cuts left
-        out (unless kept).
+        The cuts fitted, each on its leg's side.
     legs : LegsAndTurns
-        The own ship's legs and turns.
     sides : list of LegSide
-        One per leg with ambiguous cuts.
     turn_cuts : list of TurnCut
-        Every turn cut, with its decision.
     alternatives : list of (tuple of str, EstimateResult)
-        For each unresolved leg, the sides of the best fit with that leg on the other side, and
-        that fit.
+        Per unresolved leg, the best fit with it on the other side.
     settle_s : float
-        The settling time used.
+        s.
     """
 
     result: EstimateResult
@@ -172,17 +165,16 @@ class AmbiguityResult:
         return all(s.resolved for s in self.sides)
 
     def lines(self, meas: MeasurementSet | None = None) -> list[str]:
-        """Return the decisions in words: each turn cut, each leg's side, the other solutions.
+        """Return the decisions in words, one line each.
 
         Parameters
         ----------
         meas : MeasurementSet, optional
-            For clock times (its time origin); default :attr:`measurements`.
+            For clock times; default :attr:`measurements`.
 
         Returns
         -------
         list of str
-            One line per decision.
         """
         meas = self.measurements if meas is None else meas
         out = [f"towed-array ambiguity: {sum(s.cuts for s in self.sides)} cuts with two "
@@ -210,7 +202,7 @@ class AmbiguityResult:
         return out
 
     def as_dict(self, meas: MeasurementSet | None = None) -> dict[str, object]:
-        """Return the JSON form: legs' sides, turn cuts, the other solutions (answers).
+        """Return the JSON form: legs' sides, turn cuts, the other solutions.
 
         Parameters
         ----------
@@ -220,8 +212,6 @@ class AmbiguityResult:
         Returns
         -------
         dict
-            ``resolved``, ``settle_s``, ``resolved_ratio``, ``sides`` (:meth:`LegSide.as_dict`),
-            ``turn_cuts`` and ``other_solutions`` (sides, chi2, status, answer).
         """
         meas = self.measurements if meas is None else meas
         return {"resolved": self.resolved, "settle_s": self.settle_s,
@@ -272,35 +262,28 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
                       window_s: float = RATE_WINDOW_S,
                       min_turn_deg: float = MIN_TURN_DEG,
                       legs: LegsAndTurns | None = None) -> AmbiguityResult:
-    """Choose each own-ship leg's side of a towed array by likelihood (module text).
+    """Choose each own-ship leg's side of a towed array by likelihood.
 
     Parameters
     ----------
     meas : MeasurementSet
-        Measurements with ambiguous bearings (:meth:`MeasurementSet.with_ambiguous
-        <tmakit.data.MeasurementSet.with_ambiguous>`; the Debrief reader and wide logs give
-        them), of one own ship.
+        With ambiguous bearings (:meth:`~tmakit.data.MeasurementSet.with_ambiguous`), one own ship.
     motion : MotionModel or str
-        The target's motion (default ``cv2d``), fitted by :func:`tmakit.estimate`.
+        Default ``cv2d``.
     fit : callable, optional
-        ``fit(meas) -> EstimateResult`` instead of ``tk.estimate(meas, motion)`` (the same fit
-        for every assignment of sides: ``tma estimate`` passes its own).
+        ``fit(meas) -> EstimateResult`` instead of ``tk.estimate(meas, motion)``.
     keep_turn_cuts : bool
-        Fit the cuts taken in a turn or while the array settles (default: left out).
+        Fit the cuts taken in a turn or while the array settles.
     settle_s : float
-        The array's settling time after a turn (s, default :data:`SETTLE_S`).
+        s, default :data:`SETTLE_S`.
     turn_rate_deg_s, window_s, min_turn_deg : float
         The own ship's turns (:func:`tmakit.results.own_legs.detect_legs`).
     legs : LegsAndTurns, optional
-        The own ship's legs and turns found over more navigation than ``meas`` holds (a window
-        of a longer record: a cut just after a turn outside the window is still a turn cut);
-        default those of ``meas`` (the thresholds above are then not used).
+        Legs found over a longer record than ``meas``.
 
     Returns
     -------
     AmbiguityResult
-        The chosen fit, each leg's side with its likelihood ratio and status, the turn cuts
-        and the other solutions.
 
     Raises
     ------

@@ -41,19 +41,17 @@ def compiled_batches(wanted: bool) -> Iterator[None]:
 class VarProProblem:
     """Weighted least squares for ``theta`` with linear nuisance parameters eliminated.
 
-    The nuisance is eliminated by variable projection (Golub & Pereyra (1973)) with the
-    projected-Jacobian approximation of Kaufman (1975).
-
     Parameters
     ----------
     obs : ObservationModel
-        The measurements and the motion model.
     noise : NoiseModel, optional
-        The noise covariance (default: from the observation model's sigmas, correlated
-        within range differences).
+        Default from the observation model's sigmas and correlated blocks.
     fixed_nuisance : ndarray, optional
-        ``(k,)`` known nuisance values in ``obs.nuisance_names`` order (SI units): known
-        instead of estimated.
+        ``(k,)`` known nuisance values, SI, instead of estimated.
+
+    References
+    ----------
+    Golub & Pereyra (1973) (variable projection); Kaufman (1975) (the projected Jacobian).
     """
 
     def __init__(self, obs: ObservationModel, noise: NoiseModel | None = None,
@@ -94,12 +92,10 @@ class VarProProblem:
         Parameters
         ----------
         index : ndarray of int or bool
-            Rows of the measurement set (see :meth:`ObservationModel.take`).
 
         Returns
         -------
         VarProProblem
-            The same problem on those rows, its noise model made for them.
         """
         obs = self.obs.take(index)
         # Rows of independent rows are independent: no need to look for correlated blocks.
@@ -107,38 +103,30 @@ class VarProProblem:
         return VarProProblem(obs, noise, self.fixed)
 
     def group(self, y: Array) -> Array:
-        """Reorder data from the set's row order to the grouped order the solver works in.
+        """Reorder data ``(..., n)`` from the set's row order to the solver's grouped order.
 
         Parameters
         ----------
         y : ndarray
-            ``(..., n)`` data in the measurement set's row order (SI units).
 
         Returns
         -------
         ndarray
-            ``(..., n)`` the same data, grouped by kind (``y`` itself as floats, not a copy,
-            when the set's rows are grouped already).
         """
         y = np.asarray(y, dtype=float)
         return y if self.obs.in_set_order else y[..., self.obs.order]
 
     def reference_nuisance(self, y: Array) -> Array:
-        """Give a nuisance value close to the data's, per data row.
-
-        Least squares of the geometry-free part of the design on the data (a carrier near the
-        mean received frequency), or the fixed values.  Residuals are formed about it, so that
-        a GHz carrier never meets the data in rounding.
+        """Give a nuisance ``(B, k)`` close to the data's, about which residuals are formed.
 
         Parameters
         ----------
         y : ndarray
-            ``(B, n)`` or ``(n,)`` grouped data (SI units).
+            ``(B, n)`` or ``(n,)`` grouped data, SI.
 
         Returns
         -------
         ndarray
-            ``(B, k)`` nuisance values (SI units).
         """
         y = np.atleast_2d(y)
         b = y.shape[0]
@@ -162,23 +150,18 @@ class VarProProblem:
         return out
 
     def data_part(self, y: Array, nu_star: Array) -> Array:
-        """Form ``y - A_const nu*``, the part of the residual that does not depend on ``theta``.
-
-        Formed once per solve: the first, exact subtraction of two large numbers when the
-        carrier is in GHz.
+        """Form ``y - A_const nu*`` ``(B, n)``, the part of the residual independent of ``theta``.
 
         Parameters
         ----------
         y : ndarray
-            ``(B, n)`` grouped data (SI units).
+            ``(B, n)`` grouped data, SI.
         nu_star : ndarray
-            ``(B, k)`` reference nuisance (:meth:`reference_nuisance`).
+            ``(B, k)`` reference nuisance.
 
         Returns
         -------
         ndarray
-            ``(B, n)`` (SI units); without nuisance ``y`` itself when it is a writeable float
-            array (read only by the solver), else a copy.
         """
         if self.k == 0:
             y_float = isinstance(y, np.ndarray) and y.dtype == np.float64 and y.flags.writeable
@@ -189,23 +172,20 @@ class VarProProblem:
                  with_jacobian: bool = True) -> Evaluation:
         """Eliminate the nuisance at ``theta``; give the reduced residual, cost and Jacobian.
 
-        The projected Jacobian is exact at the eliminated nuisance.
-
         Parameters
         ----------
         theta : ndarray
-            ``(B, p)`` motion parameters (SI units).
+            ``(B, p)``, SI.
         y : ndarray
-            ``(B, n)`` grouped data (SI units).
+            ``(B, n)`` grouped data, SI.
         nu_star : ndarray
-            ``(B, k)`` nuisance the residuals are formed about (:meth:`reference_nuisance`).
+            ``(B, k)`` reference nuisance.
         with_jacobian : bool
-            Whether to compute the projected Jacobian.
 
         Returns
         -------
         Evaluation
-            Residuals, cost (half chi2; inf where a point has no prediction) and Jacobian.
+            Cost is half chi2 (inf where a point has no prediction).
 
         References
         ----------
@@ -219,22 +199,16 @@ class VarProProblem:
 
         Parameters
         ----------
-        theta : ndarray
-            ``(B, p)`` motion parameters (SI units).
+        theta, nu_star, with_jacobian
+            As for :meth:`evaluate`.
         u : ndarray
-            ``(B, n)`` the data part (SI units).
-        nu_star : ndarray
-            ``(B, k)`` the reference nuisance.
-        with_jacobian : bool
-            Whether to compute the projected Jacobian.
+            ``(B, n)``, SI.
         quiet : bool
-            True when the caller already ignores invalid and divide floating-point errors
-            (``np.errstate``; the solver's loop): not set again.
+            The caller already ignores floating-point errors.
 
         Returns
         -------
         Evaluation
-            As :meth:`evaluate`.
         """
         theta = np.asarray(theta, dtype=float)
         if quiet:
@@ -357,19 +331,18 @@ class VarProProblem:
         return nu, r, jt
 
     def initial_nuisance(self, theta: Array, y: Array) -> Array:
-        """Give the nuisance values eliminated at ``theta``.
+        """Give the nuisance values ``(B, k)`` eliminated at ``theta``.
 
         Parameters
         ----------
         theta : ndarray
-            ``(B, p)`` motion parameters (SI units).
+            ``(B, p)``, SI.
         y : ndarray
-            ``(n,)`` or ``(B, n)`` grouped data (SI units).
+            ``(n,)`` or ``(B, n)`` grouped data, SI.
 
         Returns
         -------
         ndarray
-            ``(B, k)`` nuisance values (SI units).
         """
         y = np.broadcast_to(y, (theta.shape[0], y.shape[-1]))
         return self.evaluate(theta, y, self.reference_nuisance(y), with_jacobian=False).nuisance

@@ -34,25 +34,23 @@ class CrbPoint:
     Parameters
     ----------
     ref_time : float
-        The reference time (s).
+        s.
     manoeuvres : int
-        Manoeuvres started by ``ref_time`` (their parameters unknown unless
-        ``known_manoeuvres``).
+        Manoeuvres started by ``ref_time``.
     n_measurements : int
         Measurements up to ``ref_time``.
     position : ndarray
-        ``(2,)`` the true ENU position at ``ref_time`` (m).
+        ``(2,)`` true ENU position, m.
     covariance : ndarray
-        ``(2, 2)`` the bound on its covariance (m^2).
+        ``(2, 2)`` its bound, m^2.
     std : ndarray
-        ``(2,)`` the bounds on the standard deviations of x and y (m).
+        ``(2,)`` std bounds of x and y, m.
     rms : float
-        ``sqrt(var x + var y)`` (m).
+        ``sqrt(var x + var y)``, m.
     ellipse : dict of str to float
-        The confidence ellipse of :meth:`tmakit.bounds.Bound.ellipse` (centre and semi-axes
-        in m, bearing of the major axis in degrees).
+        As :meth:`tmakit.bounds.Bound.ellipse`.
     bound : Bound
-        The full bound over ``bound.parameters``.
+        The full bound.
 
     References
     ----------
@@ -92,13 +90,10 @@ class CrbSequence:
     Parameters
     ----------
     kinds : tuple of str
-        The measurement kinds used.
     known_manoeuvres : bool
-        Whether the accelerations and change-over times were known.
     level : float
-        The confidence ellipses' probability.
+        The ellipses' probability.
     points : list of CrbPoint
-        One per reference time.
     """
 
     kinds: tuple[str, ...]
@@ -127,17 +122,15 @@ class CrbSequence:
         return np.array([p.position for p in self.points])
 
     def at(self, ref_time: float) -> CrbPoint:
-        """Give the point at a reference time.
+        """Give the point at a reference time (one of :attr:`ref_times`, s).
 
         Parameters
         ----------
         ref_time : float
-            One of :attr:`ref_times` (s).
 
         Returns
         -------
         CrbPoint
-            The bound at that time.
 
         Raises
         ------
@@ -239,46 +232,37 @@ def curvilinear_crb_sequence(
 ) -> CrbSequence:
     """Bound the target position at each reference time, from the data up to that time.
 
+    Manoeuvre ``m`` is unknown at ``t_ref`` only once started (``t_m < t_ref``); a sample at a
+    change-over time belongs to the earlier segment.
+
     Parameters
     ----------
     source : Scenario or MeasurementSet
-        A :class:`~tmakit.scenario.Scenario` with a piecewise curvilinear target (its
-        noise-free simulation supplies times, sensor states and sigmas), or a
-        :class:`~tmakit.data.MeasurementSet` together with ``motion`` and ``truth``.
+        A scenario with a piecewise curvilinear target, or a set with ``motion`` and ``truth``.
     ref_times : array_like
-        The reference times (s), inside the span of the data.
+        s, inside the data's span.
     kinds : sequence of str, optional
-        Measurement kinds used (``"azimuth"`` is accepted for ``"bearing"``); default all
-        kinds of the data.
+        Kinds used (``"azimuth"`` means ``"bearing"``); default all.
     known_manoeuvres : bool
-        Every acceleration and change-over time known: only the state at ``t_ref``
-        (x, y, speed, course) is unknown.
+        Only the state at ``t_ref`` is unknown.
     motion : MotionModel, optional
-        A :class:`~tmakit.motion.PiecewiseCurvilinear`, with a measurement set.
+        A :class:`~tmakit.motion.PiecewiseCurvilinear`, with a set.
     truth : mapping or array_like, optional
-        Its parameters (SI), by name or as a vector, with a measurement set.
+        Its parameters, SI, with a set.
     level : float
-        The confidence ellipses' probability.
+        The ellipses' probability.
     nuisance, known_nuisance, options
         As for :func:`tmakit.bounds.crlb`.
 
     Returns
     -------
     CrbSequence
-        One :class:`CrbPoint` per reference time (m, m^2).
 
     Raises
     ------
     ValueError
-        For a target that is not piecewise curvilinear, change-over times out of order, a
-        reference time outside the span of the data, a kind the data do not have, or a
-        ``level`` outside (0, 1).
-
-    Notes
-    -----
-    Manoeuvre ``m`` (``at_m, an_m, t_m``) is an unknown at ``t_ref`` only if it has started,
-    ``t_m < t_ref``; a sample (or reference time) exactly at a change-over time belongs to the
-    earlier segment; ``at_m, an_m`` act from ``t_m`` on, as in the paper's §4.
+        For a target that is not piecewise curvilinear, change-over times out of order, a time
+        outside the data, a kind the data lack, or ``level`` outside (0, 1).
 
     References
     ----------

@@ -1,13 +1,8 @@
 """Nearly-constant-velocity target dynamics for the recursive filters.
 
-State order: ``[x, y, vx, vy]`` in 2-D and ``[x, y, z, vx, vy, vz]`` in 3-D (ENU metres and
-metres per second), as in Chen & Sun, §2.1.  Over a step ``T`` the state moves by ``Phi(T)``
-and gains the noise of a white acceleration held constant over the step, with per-axis
-standard deviation ``q`` (m/s^2): ``Q_k`` of Chen & Sun, §2.1,
-``Q = G G^T q^2`` with ``G = [T^2/2, T]`` per axis.  Or, as most papers state it, continuous
-white-noise acceleration of spectral density ``q~`` (m^2/s^3, ``q_density``): per axis
-``Q = q~ [[T^3/3, T^2/2], [T^2/2, T]]`` (Bar-Shalom, Li & Kirubarajan 2001, §6.2.2, eq.
-6.2.2-12).  Both may be given; their covariances add.
+State ``[x, y, (z), vx, vy, (vz)]``, ENU m and m/s (Chen & Sun, §2.1).  Process noise: a white
+acceleration held over each step, std ``q`` (m/s^2, Chen & Sun, §2.1), and/or a continuous one
+of density ``q_density`` (m^2/s^3, Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.2-12); they add.
 """
 
 from __future__ import annotations
@@ -31,7 +26,6 @@ def state_names(dim: int) -> tuple[str, ...]:
     Returns
     -------
     tuple of str
-        ``("x", "y", "vx", "vy")`` or ``("x", "y", "z", "vx", "vy", "vz")``.
 
     Raises
     ------
@@ -46,19 +40,19 @@ def state_names(dim: int) -> tuple[str, ...]:
 
 
 def transition_matrix(dt: float, dim: int) -> Array:
-    """Give the transition matrix ``Phi(dt)``.
+    """Give the transition matrix ``Phi(dt) = [[I, dt I], [0, I]]``.
 
     Parameters
     ----------
     dt : float
-        Step (s); any sign (back-propagation too).
+        s, any sign.
     dim : int
         2 or 3.
 
     Returns
     -------
     ndarray
-        ``(2 dim, 2 dim)``: ``[[I, dt I], [0, I]]``.
+        ``(2 dim, 2 dim)``.
 
     References
     ----------
@@ -70,24 +64,23 @@ def transition_matrix(dt: float, dim: int) -> Array:
 
 
 def process_noise(dt: float, q: ArrayLike, dim: int, density: ArrayLike = 0.0) -> Array:
-    """Give the process noise covariance ``Q_k`` of one step.
+    """Give the process noise covariance ``Q_k`` of one step (m^2, m^2/s, m^2/s^2).
 
     Parameters
     ----------
     dt : float
-        Step (s); its sign does not matter.
+        s; its sign does not matter.
     q : array_like
-        Per-axis acceleration standard deviations (m/s^2); a scalar applies to every axis.
+        Per-axis acceleration std, m/s^2 (a scalar for every axis).
     dim : int
         2 or 3.
     density : array_like, optional
-        Per-axis spectral density of a continuous white-noise acceleration (m^2/s^3); a
-        scalar applies to every axis.
+        Per-axis spectral density, m^2/s^3.
 
     Returns
     -------
     ndarray
-        ``(2 dim, 2 dim)`` covariance (m^2, m^2/s, m^2/s^2).
+        ``(2 dim, 2 dim)``.
 
     Raises
     ------
@@ -124,10 +117,9 @@ class NearlyConstantVelocity:
     dim : int
         2 or 3.
     q : float or tuple of float
-        Per-axis acceleration noise (m/s^2), a scalar or one value per axis.
+        Per-axis acceleration noise, m/s^2.
     q_density : float or tuple of float
-        Per-axis spectral density of continuous white-noise acceleration (m^2/s^3), a scalar
-        or one value per axis (:func:`process_noise`).
+        Per-axis spectral density, m^2/s^3.
 
     Raises
     ------
@@ -164,37 +156,32 @@ class NearlyConstantVelocity:
         return 2 * self.dim
 
     def transition(self, dt: float) -> Array:
-        """Give ``Phi(dt)`` for a step ``dt`` (see :func:`transition_matrix`).
+        """Give ``Phi(dt)`` for a step ``dt`` (s, any sign).
 
         Parameters
         ----------
         dt : float
-            Step, s (any sign).
 
         Returns
         -------
         ndarray, shape (2 dim, 2 dim)
-            Dimensionless and s (position from velocity).
         """
         return transition_matrix(dt, self.dim)
 
     def noise(self, dt: float) -> Array:
-        """Give ``Q_k`` for a step ``dt`` (see :func:`process_noise`).
+        """Give ``Q_k`` for a step ``dt`` (s): m^2, m^2/s, m^2/s^2.
 
         Parameters
         ----------
         dt : float
-            Step, s.
 
         Returns
         -------
         ndarray, shape (2 dim, 2 dim)
-            m^2, m^2/s, m^2/s^2.
 
         References
         ----------
-        Chen & Sun (1993), §2.1 (the nearly-constant-velocity ``Q_k``); Bar-Shalom, Li &
-        Kirubarajan (2001), eq. 6.2.2-12 (the density form).
+        Chen & Sun (1993), §2.1; Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.2-12 (density form).
         """
         return process_noise(dt, self.q, self.dim, self.q_density)
 
@@ -203,9 +190,8 @@ class NearlyConstantVelocity:
 class CoordinatedTurn(NearlyConstantVelocity):
     """Nearly-coordinated-turn dynamics at a known turn rate, for the IMM filter's models.
 
-    The horizontal velocity turns at ``turn_rate`` (rad/s, counter-clockwise positive in ENU:
-    a right turn is negative); height (3-D) moves at constant velocity; the noise is that of
-    :class:`NearlyConstantVelocity` with ``q`` and ``q_density``.
+    The horizontal velocity turns counter-clockwise positive in ENU (a right turn is negative);
+    height moves at constant velocity.
 
     Parameters
     ----------
