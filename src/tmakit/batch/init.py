@@ -32,29 +32,26 @@ __all__ = ["SHORTLIST", "ChordScorer", "GridScorer", "GridSettings", "Starts", "
 class GridSettings:
     """Extent and density of the initial search (SI units).
 
-    Every grid point is scored on ``coarse_rows`` evenly spread rows, the ``refine`` best on
-    ``max_rows``; ``starts`` distinct points start the solve.
-
     Parameters
     ----------
     min_range, max_range : float
-        Extent of the geometrically spaced ranges (m).
+        Extent of the geometrically spaced ranges, m.
     n_ranges : int
         Ranges per ray.
     n_bearings : int
-        Bearings of the fan around the sensors when no bearing is measured.
+        Bearings of the fan when no bearing is measured.
     speeds : tuple of float
-        Speeds of the velocity grid (m/s); 0 is the target at rest.
+        m/s; 0 is the target at rest.
     n_courses : int
         Courses per positive speed.
     elevations_deg : tuple of float
-        Elevations above the sensors' plane for 3-D models (degrees).
+        Above the sensors' plane, for 3-D models, deg.
     max_rows, coarse_rows : int
         Rows the ``refine`` best points and every point are scored on.
     starts : int
         Distinct points that start the solve.
     refine : int
-        Points of the coarse stage scored again on ``max_rows``.
+        Points of the coarse stage scored again.
     """
 
     min_range: float = 100.0
@@ -168,19 +165,16 @@ def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64
 
 def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
                     ) -> NDArray[np.float64]:
-    """Return the candidate parameter vectors for the problem's motion model.
+    """Return the candidate parameter vectors ``(m, p)``, SI, at the median measurement time.
 
     Parameters
     ----------
     problem : VarProProblem
-        The problem (its measurements place the grid; its motion model converts it).
     settings : GridSettings, optional
-        Extent and density (default :class:`GridSettings()`).
 
     Returns
     -------
-    ndarray, shape (m, p)
-        Motion parameters (SI) of the grid's states at the median measurement time.
+    ndarray
     """
     return grid_candidates_for(problem.obs.meas, problem.obs.motion, settings)
 
@@ -251,25 +245,14 @@ the projection is then shared."""
 class GridScorer:
     """Reduced cost of a fixed set of candidate trajectories for many data sets at once.
 
+    The projected cost is ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2``; angle rows use the chord
+    form ``w^2 (1 - cos(y - h))``.  Candidates are scored block by block (:data:`CANDIDATE_ROWS`).
+
     Parameters
     ----------
     problem : VarProProblem
-        The observation and noise model (nuisance eliminated or fixed).
     candidates : ndarray, shape (C, p)
-        Motion parameters of the candidates (SI).
-
-    Notes
-    -----
-    With ``u`` the whitened data and ``g`` the whitened predictions about a reference nuisance
-    ``nu*`` and ``Q`` an orthonormal basis of the whitened nuisance design of a candidate, the
-    projected cost is ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2``; where the design is the
-    same for every candidate of a block (see :data:`GEOMETRY_FREE`) ``u`` and ``g`` are
-    projected on one shared basis (:attr:`shared`) and the last term drops.  Angle rows (which
-    carry no nuisance) use the chord form ``w^2 (1 - cos(y - h))``: equal to the squared
-    residual for small residuals, free of wrapping, and bilinear in (cos y, sin y).
-
-    The candidates are predicted and scored block by block (:data:`CANDIDATE_ROWS`), every
-    data set at once: no array ever holds the predictions of every candidate.
+        SI.
     """
 
     def __init__(self, problem: VarProProblem, candidates: NDArray[np.float64]) -> None:
@@ -542,24 +525,19 @@ def _scores(coarse: _Stage, small: _Stage, cand: NDArray[np.float64], refine: in
 def grid_start(meas: MeasurementSet, motion: MotionModel,
                options: Mapping[str, Mapping[str, object]] | None = None
                ) -> NDArray[np.float64]:
-    """Return the no-guess starting point of tmakit: the best point of the likelihood grid.
-
-    The starting point the papers' local methods get when none is given (the same grid the
-    maximum likelihood starts from).
+    """Return tmakit's no-guess starting point: the best point of the likelihood grid.
 
     Parameters
     ----------
     meas : MeasurementSet
-        The rows to score the grid on.
     motion : MotionModel
-        The motion model of the point.
     options : Mapping, optional
-        The nuisance model per kind (default: each kind's default model).
+        The nuisance model per kind.
 
     Returns
     -------
     ndarray, shape (p,)
-        The motion parameters of the best grid point (SI).
+        SI.
 
     Raises
     ------
@@ -579,23 +557,18 @@ Shortlist = tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]
 
 
 class Starts:
-    """The mutually distinct candidates of one data set, best first, chosen when asked for.
-
-    Greedily in order of cost, each candidate not within 5 % of each parameter's spread of one
-    already chosen.
+    """The mutually distinct candidates of one data set, best first (5 % of each spread apart).
 
     Parameters
     ----------
     candidates : ndarray, shape (C, p)
-        Motion parameters (SI).
+        SI.
     cost : ndarray, shape (C,)
-        Their grid costs (non-finite: never chosen).
+        Non-finite: never chosen.
     scaled : ndarray, shape (p, C), optional
-        The candidates over that spread, transposed; may be shared by data sets with the
-        same candidates.
+        The candidates over the spread, transposed.
     shortlist : ndarray of int, optional
-        The indices of the :data:`SHORTLIST` cheapest candidates in order of (cost, index)
-        (made by :func:`starts_of` for many data sets at once), else made on first use.
+        The :data:`SHORTLIST` cheapest candidates, else made on first use.
     """
 
     def __init__(self, candidates: NDArray[np.float64], cost: NDArray[np.float64],

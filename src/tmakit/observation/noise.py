@@ -23,29 +23,25 @@ from .rows import RowModel
 
 
 class NoiseModel:
-    """Whitening ``x -> W x`` with ``W^T W = R^+`` for the noise covariance ``R`` (SI units).
+    """Whitening ``x -> W x`` with ``W^T W = R^+`` for the noise covariance ``R`` (SI).
 
-    Correlated rows (range differences that share pulse intervals) have a dense covariance
-    block, whitened with its eigen-decomposition.  Sets that repeat information (a lag-2
-    difference next to the two lag-1 differences it is the sum of) have a singular block: the
-    repeated combinations get zero weight and :attr:`rank` counts the independent rows (use it
-    for degrees of freedom).
+    Dense blocks (correlated range differences) are whitened by eigen-decomposition; repeated
+    information gets zero weight and :attr:`rank` counts the independent rows.
 
     Parameters
     ----------
     meas : MeasurementSet
-        The rows (their sigmas, kinds, sensors, times and reference times are used).
     models : mapping, optional
-        The kinds' models (default: each correlated kind's model with default options).
+        The kinds' models (default options otherwise).
 
     Attributes
     ----------
     n, rank : int
-        Number of rows, and of independent rows (degrees of freedom).
+        Rows, and independent rows (degrees of freedom).
     log_det : float
-        ``log det R`` over the kept eigenvalues (SI units squared).
+        ``log det R`` over the kept eigenvalues.
     correlated : bool
-        True when some block is dense.
+        Some block is dense.
 
     References
     ----------
@@ -76,7 +72,6 @@ class NoiseModel:
         Parameters
         ----------
         rows : RowModel
-            The rows (their sigmas, SI, and correlated blocks are used).
 
         Returns
         -------
@@ -153,12 +148,11 @@ class NoiseModel:
 
     @classmethod
     def from_covariance(cls, covariance: NDArray[np.float64]) -> NoiseModel:
-        """Build the model of rows with a full noise covariance (a radar's range and range rate).
+        """Build the model of rows with a full noise covariance ``R`` (m, m), SI squared.
 
         Parameters
         ----------
         covariance : ndarray
-            ``R`` (m, m), SI units squared: symmetric positive definite.
 
         Returns
         -------
@@ -176,15 +170,11 @@ class NoiseModel:
 
     @classmethod
     def independent(cls, sigma: NDArray[np.float64]) -> NoiseModel:
-        """Build the model of independent rows with standard deviations ``sigma``.
-
-        What the constructor makes for a set without correlated range differences, without
-        the set.
+        """Build the model of independent rows with std ``sigma`` (m,), SI.
 
         Parameters
         ----------
         sigma : ndarray
-            Standard deviations (m,), SI.
 
         Returns
         -------
@@ -201,17 +191,14 @@ class NoiseModel:
         Parameters
         ----------
         x : ndarray
-            Values in SI units, ``m`` long along ``axis``.
+            SI, ``m`` long along ``axis``.
         axis : int
-            The measurement axis.
         overwrite : bool
-            ``x`` (a float array the caller owns) may be scaled in place when the rows are
-            independent (no new array of its size).
+            ``x`` may be scaled in place when the rows are independent.
 
         Returns
         -------
         ndarray
-            Whitened values (dimensionless), the shape of ``x``.
         """
         if not self._stacks:  # independent rows: a scaling (the common, hot case)
             x = np.asarray(x, dtype=float)
@@ -230,18 +217,14 @@ class NoiseModel:
     def chunk_bounds(self, size: int) -> list[tuple[int, int]]:
         """Cut the rows into ranges of about ``size`` that never split a correlated block.
 
-        Each range then holds whole blocks: whitening it alone gives its rows of the whole
-        whitening, so sums over the ranges (``J'J``, ``J'r``) are those of the whole set.
-
         Parameters
         ----------
         size : int
-            Rows of a range (at least; more where a block straddles the cut).
 
         Returns
         -------
         list of (int, int)
-            ``(lo, hi)`` row ranges covering ``0 .. n`` in order.
+            ``(lo, hi)`` ranges covering ``0 .. n`` in order.
         """
         n = self.n
         inside = np.zeros(n + 1, dtype=np.int64)  # blocks straddling a cut before row c
@@ -257,14 +240,11 @@ class NoiseModel:
         return bounds
 
     def covariance(self) -> NDArray[np.float64]:
-        """Return the dense covariance matrix, the pseudo-inverse of ``W^T W``.
-
-        For small sets and tests.
+        """Return ``R`` (m, m), SI squared, the pseudo-inverse of ``W^T W``.
 
         Returns
         -------
         ndarray
-            ``R`` (m, m), SI units squared.
         """
         w = self.whiten(np.eye(self.n), axis=0)
         return cast(Array, np.linalg.pinv(w.T @ w, rcond=1e-10, hermitian=True))

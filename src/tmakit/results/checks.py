@@ -50,7 +50,7 @@ class SanityWarning:
         ``improbable-chi2``, ``chi2-too-small``, ``several-solutions``, ``radians``,
         ``far-sensor``, ``far-estimate`` or ``implausible-speed``.
     message : str
-        The sentence for the user: what was seen, the rule, and what to do.
+        What was seen, the rule, and what to do.
     """
 
     code: str
@@ -80,16 +80,13 @@ def chi2_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT) -> SanityWa
     Parameters
     ----------
     chi2 : float
-        The weighted sum of squares at the fit.
     dof : int
-        Its degrees of freedom.
     limit : float
-        The probability below which the fit is flagged (default 0.001).
+        Default 0.001.
 
     Returns
     -------
     SanityWarning or None
-        The warning, or None when the fit is plausible (or has no degrees of freedom).
     """
     p = chi2_probability(chi2, dof)
     if p is None or p >= limit:
@@ -199,14 +196,12 @@ def measurement_warnings(meas: MeasurementSet, farthest: tuple[int, float] | Non
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements.
     farthest : (int, float), optional
         As for :func:`sensor_distance_warnings`.
 
     Returns
     -------
     list of SanityWarning
-        Empty when nothing looks wrong.
     """
     return [*radian_warnings(meas), *sensor_distance_warnings(meas, farthest)]
 
@@ -251,15 +246,12 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     Parameters
     ----------
     result : EstimateResult
-        The estimate (chi2, dof, motion, parameters).
     meas : MeasurementSet
         The measurements fitted.
 
     Returns
     -------
     list of SanityWarning
-        Improbable chi-square (either tail), radians, far sensors, far estimate, implausible
-        speed, several solutions; empty when all is well.
     """
     farthest = _farthest_sensor(meas) if len(meas) else None
     found = measurement_warnings(meas, farthest)
@@ -340,21 +332,19 @@ def undetermined_warnings(result: object, meas: MeasurementSet) -> list[SanityWa
 def normalised_residuals(result: object, meas: MeasurementSet,
                          options: Mapping[str, Mapping[str, object]] | None = None
                          ) -> NDArray[np.float64]:
-    """Return each row's residual (measured minus predicted at the fit) in units of its sigma.
+    """Return each row's residual at the fit in units of its sigma (NaN for a diverged fit).
 
     Parameters
     ----------
     result : EstimateResult
-        The estimate (motion, parameters and nuisance values).
     meas : MeasurementSet
-        The measurements fitted, in their own row order.
+        The measurements fitted.
     options : mapping, optional
-        The measurement-model options of the fit (drift, path-loss exponent).
+        The fit's measurement-model options.
 
     Returns
     -------
     ndarray, shape (n,)
-        ``(value - prediction) / sigma`` per row, angles wrapped; NaN for a diverged fit.
     """
     theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     if not np.all(np.isfinite(theta)):
@@ -369,25 +359,18 @@ def scale_sigma(meas: MeasurementSet, residuals: NDArray[np.float64], dof: int
                 ) -> tuple[MeasurementSet, dict[str, float]]:
     """Rescale each kind's sigma so that the fit's chi-square per degree of freedom becomes 1.
 
-    Each kind ``k`` gets the factor ``s_k = sqrt(sum z_k^2 / (n_k dof / n))`` with ``z`` the
-    residuals in units of sigma, ``n_k`` the kind's rows and ``dof / n`` the share of degrees
-    of freedom per row (the fit's parameters charged to every row alike).  Refitting the
-    rescaled set gives the estimate weighted by the observed noise, and a covariance scaled
-    accordingly.
+    Kind ``k`` gets ``s_k = sqrt(sum z_k^2 / (n_k dof / n))``, ``z`` the normalised residuals.
 
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements.
     residuals : ndarray, shape (n,)
-        Their residuals at a fit, in units of sigma (:func:`normalised_residuals`).
+        In units of sigma (:func:`normalised_residuals`).
     dof : int
-        The fit's degrees of freedom.
 
     Returns
     -------
     scaled : MeasurementSet
-        The same rows with sigma multiplied by their kind's factor.
     factors : dict of str to float
         The factor per kind.
 

@@ -26,14 +26,13 @@ class OrderSelection:
     Parameters
     ----------
     criterion : {"bic", "lrt"}
-        The criterion used.
     alpha : float
-        Level of the likelihood-ratio tests (reported for ``"lrt"`` only).
+        Level of the likelihood-ratio tests.
     n_measurements : int
-        ``N``, the number of independent measurements (the noise covariance's rank).
+        ``N``, the noise covariance's rank.
     orders : list of dict
-        Per order: ``manoeuvres``, ``chi2``, ``unknowns``, ``bic``, ``lr_statistic`` and
-        ``p_value`` (against the order below; None for the first), ``converged``.
+        Per order: ``manoeuvres``, ``chi2``, ``unknowns``, ``bic``, ``lr_statistic``, ``p_value``
+        (None for the first), ``converged``.
     chosen : int
         The number of manoeuvres chosen.
 
@@ -94,20 +93,17 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
     Parameters
     ----------
     fits : list of OrderFit
-        Fits of orders ``0, 1, ...`` (consecutive).
+        Orders ``0, 1, ...``.
     n : int
-        ``N``, the number of independent measurements.
+        ``N``, independent measurements.
     criterion : {"bic", "lrt"}
         ``"bic"`` minimises ``chi2 + k ln N``; ``"lrt"`` adds a manoeuvre while the
-        likelihood-ratio statistic exceeds the chi-square quantile ``1 - alpha`` (degrees of
-        freedom: the unknowns added).
+        likelihood-ratio test rejects at ``alpha``.
     alpha : float
-        Level of the likelihood-ratio tests.
 
     Returns
     -------
     OrderSelection
-        Every order's criteria and the order chosen.
 
     Raises
     ------
@@ -159,22 +155,20 @@ def unknown_price(s: ManoeuvreSettings, n: int) -> float:
 
 
 def may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:
-    """Whether acceleration ``i`` may be held at zero.
+    """Whether acceleration ``i`` may be held at zero (not leaving two straight legs side by side).
 
     Parameters
     ----------
     free : ndarray of bool
         The internal parameters fitted now.
     i : int
-        Internal index of the acceleration: ``4 + 2 * segment + {0: a_t, 1: a_n}``.
+        Internal index ``4 + 2 * segment + {0: a_t, 1: a_n}``.
     m : int
         The number of manoeuvres.
 
     Returns
     -------
     bool
-        False if a neighbouring segment would then also have both components held — a
-        change-over between two straight legs is no manoeuvre.
     """
     mask = free.copy()
     mask[i] = False
@@ -230,37 +224,21 @@ def _best_hold(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool
 def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
     """Hold at zero the accelerations the data do not need (``accelerations="select"``).
 
-    Backward elimination: each step holds at zero, in turn, every acceleration component still
-    fitted (every other parameter refitted, change-over times included, from the fit and from
-    starts with the change-over times bounding its segment moved by one ``grid_step`` either
-    way), and keeps the hold that raises chi2 least if the rise is below the criterion's price
-    of one unknown: ``ln N`` for BIC, the chi-square(1) quantile ``1 - alpha`` for the
-    likelihood-ratio test; when the cheapest raises it by more, the next cheapest is tried on
-    top of it and both are kept if together they raise chi2 by less than twice the price
-    (:data:`LOOK_AHEAD`).  The patterns left behind are refitted and returned as the fit's
-    ``alternatives`` (candidates of the separated solutions).  Two neighbouring segments are
-    never both held at zero (their change-over time would not exist).  After any hold, each
-    change-over time is profiled again within two grid steps (:meth:`ManoeuvreSearch.polish`):
-    with fewer accelerations the likelihood in ``t_m`` has fewer competing basins, and its best
-    one can move.
-
-    Why: a turn that ends at ``t_m`` and one that ends earlier and continues as a gentle turn
-    fit nearly as well when the last leg's accelerations are free, and in the Hörst & Oispuu
-    (2010) scenario the ML change-over time picks the wrong one in ~1 run in 5 (see
-    ``docs/estimation.md``).
+    Backward elimination: the hold that raises chi2 least is kept while the rise is below the
+    price of one unknown (``ln N`` for BIC, the chi-square(1) quantile for the test; two together
+    below twice it, :data:`LOOK_AHEAD`); the change-over times are then profiled again.
+    ``docs/estimation.md`` says why.
 
     Parameters
     ----------
     search : ManoeuvreSearch
         The search that made ``fit``.
     fit : OrderFit
-        A fit of one order.
 
     Returns
     -------
     OrderFit
-        The fit with the accelerations the data do not need held at zero (``free``), or
-        ``fit`` itself when none may go.
+        With the unneeded accelerations held (``free``), or ``fit`` itself.
 
     References
     ----------
