@@ -1,14 +1,8 @@
 """Maximum-likelihood batch estimation: ``tk.estimate(meas, motion)`` with no initial guess.
 
-Gaussian noise makes the ML estimate the weighted least-squares fit.  The nuisance parameters
-(carrier and drift, power constant, path-loss exponent) are eliminated exactly at every step
-(:mod:`tmakit.batch.solver`); the starting points come from a coarse likelihood grid
-(:mod:`tmakit.batch.init`) unless ``init`` is given.  The covariance is the inverse Fisher
-information at the estimate, over the motion and nuisance parameters together.  The status is
-never hidden: ``converged``, ``did not converge``, ``unobservable`` or ``diverged``.
-:class:`MaximumLikelihood` fits one motion model; a manoeuvring target has its own estimator
-(:mod:`tmakit.batch.manoeuvre`), and :func:`tmakit.batch.estimate` chooses by the motion.  This
-module imports neither.
+The weighted least-squares fit, nuisance eliminated exactly (:mod:`tmakit.batch.solver`),
+started from the likelihood grid (:mod:`tmakit.batch.init`) unless ``init`` is given; the
+covariance is the inverse Fisher information at the estimate.
 """
 
 from __future__ import annotations
@@ -38,31 +32,22 @@ from .subset_first import solve_on_subset_first, subset_first
 
 @dataclass(frozen=True, eq=False)
 class MaximumLikelihood(BatchEstimator):
-    """Maximum likelihood of tmakit for one motion model, no initial guess needed.
+    """Maximum likelihood of tmakit for one fixed motion model, no initial guess needed.
+
+    A manoeuvring target has :class:`tmakit.batch.manoeuvre.ManoeuvreEstimator`;
+    :func:`tmakit.batch.estimate` chooses.
 
     Parameters
     ----------
     init : Mapping[str, float] or array_like, optional
-        A starting point (SI) by name or as a vector; default: the starting points of the
-        likelihood grid (:mod:`tmakit.batch.init`, then :func:`solve_without_guess`).
+        A start, SI; default the likelihood grid's.
     options : Mapping, optional
-        The nuisance model per kind, e.g. ``{"frequency": {"drift": True},
-        "power": {"exponent": None}}``.
+        The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-        Hold the nuisance parameters at known values instead of estimating them (see
-        :mod:`tmakit.results.nuisance`; names left out take the model defaults).  Default:
-        estimated.
+        Hold the nuisance at known values (default estimated).
     grid : GridSettings, optional
-        The grid of starting points (default :class:`GridSettings()`).
     max_iter : int, optional
-        Levenberg–Marquardt iterations per start at most (default 100).
-
-    Notes
-    -----
-    The motion model is a fixed one (constant velocity, stationary, ...).  A manoeuvring
-    target (a :class:`~tmakit.motion.PiecewiseCurvilinear`, a motion name) has its own
-    estimator, :class:`tmakit.batch.manoeuvre.ManoeuvreEstimator`; :func:`tmakit.batch.estimate`
-    chooses between the two.
+        Iterations per start (default 100).
     """
 
     init: Init = None
@@ -89,31 +74,21 @@ class MaximumLikelihood(BatchEstimator):
                  ) -> list[EstimateResult | Exception]:
         """Fit many data sets, batched where they share their rows: :meth:`fit` of each.
 
-        Sets with the rows of the first (times, sensors, kinds, sigmas; :func:`same_rows`)
-        differ only in their values, so one problem serves them all: the grid's predictions
-        are computed once (:func:`~tmakit.batch.init.best_starts_many`) and every
-        Levenberg–Marquardt solve is one batch (:func:`solve_without_guess`).  Each row of a
-        batched solve is independent of the others, so each result is the one :meth:`fit`
-        gives; :meth:`fit` is this method on one set, and ``tests/test_estimators.py`` pins
-        the batch to one-by-one fits.  Sets of other rows are fitted one by one.
-
         Parameters
         ----------
         sets : Sequence[MeasurementSet]
-            The data sets (a Monte Carlo study's runs).
         motion : MotionModel
-            A motion model without manoeuvres.
+            Without manoeuvres.
 
         Returns
         -------
         list of EstimateResult or Exception
-            Per set, in order: its result, or the error (of :data:`FIT_ERRORS`) that
-            :meth:`fit` raises for it alone.
+            Per set: its result, or the error (of :data:`FIT_ERRORS`) :meth:`fit` raises for it.
 
         Raises
         ------
         TypeError
-            For a manoeuvring motion model or a motion name (see the class notes).
+            For a manoeuvring motion model or a motion name.
         ValueError
             When ``init`` has the wrong length.
         """
@@ -264,25 +239,20 @@ class Best:
     Parameters
     ----------
     theta : ndarray, shape (p,)
-        Motion parameters (SI).
+        SI.
     nuisance : ndarray, shape (k,)
-        Nuisance parameters (Hz, Hz/s, dB, dimensionless).
+        SI.
     cost : float
         Half the weighted sum of squares.
     iterations : int
-        Iterations of the solve that found it.
     converged : bool
-        Whether that solve converged.
     starts : int
-        Starting points solved for the data set.
     note : str, optional
-        A sentence for the result's message.
+        A sentence for the message.
     information : ndarray, shape (p, p), optional
-        The Fisher information at ``theta`` from the solve's last evaluation
-        (:func:`~tmakit.batch.solver.information_of`), when it has it.
+        The Fisher information at ``theta`` from the solve.
     others : list of tuple, optional
-        The other converged ends of the starts solved for the data set, ``(theta, nuisance,
-        cost)``: the candidates of :func:`~tmakit.results.solutions.separated_solutions`.
+        Other converged ends ``(theta, nuisance, cost)``.
     """
 
     theta: NDArray[np.float64]

@@ -1,11 +1,7 @@
 """Batched Levenberg–Marquardt on the reduced problems of :mod:`tmakit.batch.varpro`.
 
-One solver for every batch estimator of tmakit: the no-guess ML fit and its multi-start
-(:mod:`tmakit.batch.ml`), the Monte Carlo runs (:mod:`tmakit.montecarlo`) and the manoeuvre
-search (:mod:`tmakit.batch.manoeuvre`), which holds some parameters fixed (``free``), damps
-by fixed factors (``damping="factors"``) and stops early on rejected or stalled steps
-(``max_reject``, ``stall``).  Everything is vectorised over a leading batch axis ``B``: several
-starting points of one problem, or many data sets that share times, sensors and noise.
+The one solver of every batch estimator (ML and its multi-start, Monte Carlo runs, the
+manoeuvre search), vectorised over a leading batch axis.
 
 References
 ----------
@@ -61,22 +57,21 @@ class SolveResult:
     Parameters
     ----------
     theta : ndarray
-        ``(B, p)`` final parameters (SI units; held ones at their starting values).
+        ``(B, p)``, SI.
     nuisance : ndarray
-        ``(B, k)`` nuisance parameters eliminated at ``theta`` (SI units).
+        ``(B, k)`` eliminated at ``theta``, SI.
     cost : ndarray
-        ``(B,)`` half the whitened chi2 (dimensionless).
+        ``(B,)`` half the whitened chi2.
     iterations : ndarray of int
         ``(B,)`` steps tried.
     converged : ndarray of bool
-        ``(B,)`` whether a convergence test was met.
+        ``(B,)``.
     evaluation : Evaluation
-        The final evaluation of every run.
+        The final evaluation.
     dominated : ndarray of bool, optional
-        ``(B,)`` stopped as bound for a worse minimum; None without groups.
+        ``(B,)`` stopped as bound for a worse minimum.
     information : ndarray, optional
-        ``(B, q, q)`` ``J'J`` over the fitted columns at each run's final point, where the
-        solver formed it there (its convergence test), NaN elsewhere; None if nowhere.
+        ``(B, q, q)`` ``J'J`` at the final points where formed, NaN elsewhere.
     """
 
     theta: Array        # (B, p)
@@ -202,60 +197,46 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                         damping0: float = 1e-3, fallback: Fallback | None = None) -> SolveResult:
     """Fit a batch by Levenberg–Marquardt (Marquardt's diagonal scaling), nuisance reduced.
 
+    Convergence tests precede each step; damping past 1e12 stops a run unconverged.  With
+    ``groups`` or ``ceiling`` a run heading for a worse minimum than one found stops as
+    ``dominated``.
+
     Parameters
     ----------
     problem : VarProProblem
-        The weighted least-squares problem, nuisance parameters eliminated.
     y : ndarray
-        Data in the measurement set's own row order, ``(n,)`` or ``(B, n)`` (SI units).
+        ``(n,)`` or ``(B, n)`` data in the set's row order, SI.
     theta0 : ndarray
-        Starting points ``(B, p)`` (or ``(p,)``).
+        ``(B, p)`` or ``(p,)`` starts.
     max_iter : int
-        Most steps tried per run.
     ftol, dtol : float
-        Converged when the Gauss–Newton decrement (the decrease of half chi2 an undamped step
-        predicts) is below ``ftol * cost + dtol``.
+        Converged when the Gauss–Newton decrement is below ``ftol * cost + dtol``.
     xtol : float
-        Converged after an accepted lightly damped step (damping at most 1e-2) that moves
-        every fitted parameter by less than ``xtol`` relative (0: no such test).
+        Converged after a lightly damped step moving every parameter less than ``xtol`` relative.
     gtol : float
-        Converged when the gradient's cosine with every Jacobian column is below ``gtol``
-        (0: only an exactly zero gradient).
+        Converged when the gradient's cosine with every Jacobian column is below ``gtol``.
     groups, ceiling : ndarray, optional
-        ``(B,)`` labels of the runs that fit the same data (int), and a cost each must beat
-        (reached by an earlier solve), for the dominance test.
+        ``(B,)`` labels of runs fitting the same data, and a cost each must beat.
     free : ndarray of bool, optional
-        ``(p,)`` the parameters fitted, the others held at their start (default: all).
+        ``(p,)`` the parameters fitted (default all).
     damping, damping0 : {"nielsen", "factors"}, float
-        The damping schedule (:data:`DAMPING`) and its start (small from a start near the
-        optimum, where Gauss–Newton steps converge fast), floored at 1e-12.
+        The damping schedule (:data:`DAMPING`) and its start.
     max_reject, stall : int or None, float
-        A run stops, not converged, after ``max_reject`` rejected steps in a row, or (``stall >
-        0``) once six steps in a row lowered its cost by less than ``stall`` in all.
+        Stop after ``max_reject`` rejections in a row, or six steps lowering the cost by less
+        than ``stall`` in all.
     dominance : (float, float)
-        ``(factor, margin)`` of the dominance test (half chi2; default the module constants).
+        ``(factor, margin)`` of the dominance test.
     polish, fallback : float, (ndarray, ndarray) or None
-        A single run whose decrement is at most ``polish > 0`` ends with a step checked by
-        its residuals alone (:func:`_polished`).  A run whose start costs no less than its
-        ``fallback`` (``(B, p)`` points, ``(B,)`` half chi2) starts from that point instead.
+        A last step checked by residuals alone below ``polish``; per-run fallback starts.
 
     Returns
     -------
     SolveResult
-        The final state of every run; ``iterations`` counts the steps tried.
 
     Raises
     ------
     ValueError
         For an unknown ``damping``.
-
-    Notes
-    -----
-    The convergence tests precede each step: a converged run costs no further evaluation.
-    Runs whose damping passes 1e12 without meeting a test stop, not converged.  With
-    ``groups`` or ``ceiling``, a run whose cost exceeds the lowest cost reached in its group
-    (or its ceiling) by more than ``factor`` times its Gauss–Newton decrement plus ``margin``
-    heads for a worse minimum than one already found: it stops, marked ``dominated``.
 
     References
     ----------

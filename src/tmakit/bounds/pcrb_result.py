@@ -21,42 +21,33 @@ __all__ = ["PosteriorBound"]
 class PosteriorBound:
     """The posterior CRB after each update (``K`` updates, ``n`` state components, SI units).
 
-    Built by :func:`~tmakit.bounds.posterior_crb` and :func:`~tmakit.bounds.deterministic_pcrb`.
-
     Attributes
     ----------
     state_names : tuple of str
-        The state components, ``x, y[, z], vx, vy[, vz]``.
+        ``x, y[, z], vx, vy[, vz]``.
     times : ndarray, shape (K,)
-        The update times, s.
+        s.
     information, covariance : ndarray, shape (K, n, n)
-        The Bayesian information ``J_k`` and its inverse, the bound on the state's
-        mean-square error matrix (covariance in m², m²/s, m²/s²).
+        ``J_k`` and its inverse, the MSE bound (m², m²/s, m²/s²).
     std : ndarray, shape (K, n)
-        Square roots of the diagonal of ``covariance`` (m, m/s).
+        m, m/s.
     position_rms : ndarray, shape (K,)
-        Square root of the trace of the position block, m: the bound on the RMS position
-        error.
+        The RMS position error bound, m.
     prior_time : float
-        Time of the prior ``J_0 = P_0^{-1}``, s.
+        Time of ``J_0 = P_0^{-1}``, s.
     q : tuple of float
-        Process noise: acceleration standard deviation per axis, m/s² (Chen & Sun, §2.1).
+        Acceleration noise std per axis, m/s² (Chen & Sun, §2.1).
     trajectories : int
-        Trajectories sampled for the expectation (Monte Carlo mode).
+        Trajectories sampled (Monte Carlo mode).
     mode : str
-        ``"monte-carlo"`` (``trajectories`` sampled from the prior and dynamics) or
-        ``"deterministic"`` (along the prior-mean trajectory).
+        ``"monte-carlo"`` or ``"deterministic"`` (along the prior mean).
     n_measurements : int
-        Measurements used.
     notes : list of str
-        Warnings, e.g. when single trajectories dominate the expectation.
+        Warnings, e.g. single trajectories dominating.
     position_rms_se : ndarray, shape (K,), or None
-        Monte Carlo only: approximate standard error of ``position_rms``, m, from the spread
-        of the same recursion on 10 disjoint sets of the trajectories (batch means).
+        Monte Carlo standard error of ``position_rms`` (10 batch means), m.
     max_share : ndarray, shape (K,), or None
-        Monte Carlo only: the largest share of one trajectory in ``Gamma_k`` (each weighted
-        by the predicted information): ``1/trajectories`` when all see alike, near 1 when one
-        close pass to a sensor dominates.
+        Largest share of one trajectory in ``Gamma_k``.
 
     References
     ----------
@@ -89,17 +80,15 @@ class PosteriorBound:
         return len(self.state_names) // 2
 
     def index_at(self, time: float) -> int:
-        """Return the index of the last update at or before ``time``.
+        """Return the index of the last update at or before ``time`` (s).
 
         Parameters
         ----------
         time : float
-            Time, s.
 
         Returns
         -------
         int
-            Index into :attr:`times`.
 
         Raises
         ------
@@ -113,18 +102,16 @@ class PosteriorBound:
         return k
 
     def at(self, time: float) -> dict[str, object]:
-        """Return the bound after the last update at or before ``time``.
+        """Return the bound after the last update at or before ``time`` (s).
 
         Parameters
         ----------
         time : float
-            Time, s.
 
         Returns
         -------
         dict
-            ``time`` (s), ``std`` per state component (m, m/s), ``position_rms`` (m) and,
-            for Monte Carlo, ``position_rms_se`` (m).
+            ``time``, ``std`` per component, ``position_rms`` (and ``position_rms_se``).
 
         Raises
         ------
@@ -172,28 +159,25 @@ class PosteriorBound:
         Parameters
         ----------
         indent : int or None, optional
-            Indentation of the JSON text (None: one line).
+            None: one line.
 
         Returns
         -------
         str
-            The JSON text.
         """
         return json.dumps(self.as_dict(), indent=indent)
 
     def summary(self, times: ArrayLike | None = None) -> str:
-        """Return a table of the bound's standard deviations and position RMS.
+        """Return a table of the std and position RMS (m, m/s) at some times, and the notes.
 
         Parameters
         ----------
         times : array_like, optional
-            Times, s (default: five spread over the track); each shows the last update at
-            or before it.
+            s; default five spread over the track.
 
         Returns
         -------
         str
-            The table (m, m/s), one line per time, and the notes.
         """
         if times is None:
             idx = np.unique(np.linspace(0, len(self) - 1, min(5, len(self))).round().astype(int))
