@@ -1,11 +1,7 @@
 """tmakit's maximum likelihood for any motion: ``tk.estimate(meas, motion)``.
 
-The motion decides the estimator: a manoeuvring target (a
-:class:`~tmakit.motion.PiecewiseCurvilinear`, or a motion given by name) goes to
-:class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, any other motion model to
-:class:`~tmakit.batch.ml.MaximumLikelihood`.  This module sits above both, so neither imports
-the other (:mod:`tmakit.batch.curvilinear` uses :mod:`tmakit.batch.ml` for its constant-velocity
-start; :mod:`tmakit.batch.ml` imports no manoeuvre code).
+A manoeuvring target goes to :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, any other
+motion to :class:`~tmakit.batch.ml.MaximumLikelihood`; this module sits above both.
 """
 
 from __future__ import annotations
@@ -43,27 +39,21 @@ def model_of(motion: MotionModel | str, meas: MeasurementSet,
 
 
 class MLByMotion(BatchEstimator):
-    """Maximum likelihood of tmakit, the estimator chosen by the motion at :meth:`fit`.
-
-    This is the ``"ml"`` entry of :data:`tmakit.batch.METHODS`.
+    """Maximum likelihood of tmakit, the estimator chosen by the motion (``"ml"`` of METHODS).
 
     Parameters
     ----------
     init : Mapping[str, float] or array_like, optional
-        A starting point (SI); default: none needed.
+        A start, SI.
     options : Mapping, optional
         The nuisance model per kind.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-        Hold the nuisance parameters at known values (:mod:`tmakit.results.nuisance`).
     grid : GridSettings, optional
-        The grid of starting points of :class:`~tmakit.batch.ml.MaximumLikelihood` (not used
-        for a manoeuvring target, whose search has its own grid).
+        For motions without manoeuvres.
     max_iter : int, optional
-        Iterations per start at most (default 100).
+        Default 100.
     exact, criterion, alpha, accelerations, ref_time, settings : optional
-        Settings of :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, for manoeuvring
-        targets; refused with a motion model that has no manoeuvres (``ref_time`` also sets
-        the reference time of a motion given by name).
+        For manoeuvring targets (:class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`).
     """
 
     name: ClassVar[str] = "ml"
@@ -122,52 +112,41 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
              settings: ManoeuvreSettings | None = None) -> EstimateResult:
     """Estimate the motion parameters by maximum likelihood, no initial guess needed.
 
-    The short form of :class:`MLByMotion` (``tk.estimate``).
-
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements.
     motion : MotionModel or str
-        The motion model, or its name.  A :class:`~tmakit.motion.PiecewiseCurvilinear` with
-        ``M`` manoeuvres, or ``"curvilinear:M"``, searches ``0..M`` manoeuvres, the number
-        chosen by a stated criterion.
+        ``M`` manoeuvres (or ``"curvilinear:M"``) searches ``0..M``.
     init : Mapping[str, float] or array_like, optional
-        A starting point by name or as a vector (SI); without it the grid of
-        :mod:`tmakit.batch.init` finds the starting points.
+        A start, SI; default the likelihood grid.
     options : Mapping, optional
-        The nuisance model per kind (``{"frequency": {"drift": True}, "power": {"exponent":
-        None}}``).
+        The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-        Fix the nuisance parameters at the given values instead of estimating them.
+        Fix the nuisance at these values.
     grid : GridSettings, optional
-        The grid of starting points (motion models without manoeuvres).
     max_iter : int, optional
-        Iterations per start at most (default 100).
+        Per start (default 100).
     exact : bool, optional
-        For a manoeuvring target: fit exactly ``M`` manoeuvres (default: search ``0..M``).
+        Manoeuvring target: fit exactly ``M``.
     criterion : {"bic", "lrt"}, optional
-        For a manoeuvring target: how the number of manoeuvres is chosen (default "bic").
+        Manoeuvring target: how ``M`` is chosen (default "bic").
     alpha : float, optional
-        For a manoeuvring target: level of the likelihood-ratio tests (default 0.01).
+        Manoeuvring target: level of the tests (default 0.01).
     accelerations : {"select", "all"}, optional
-        For a manoeuvring target: hold unneeded accelerations at zero, or fit them all.
+        Manoeuvring target: hold unneeded accelerations at zero, or fit all.
     ref_time : float, optional
-        Reference time (s) of a motion given by name, and of a manoeuvring target's
-        reported parameters.
+        Reference time, s, of a named motion and of the reported parameters.
     settings : ManoeuvreSettings, optional
-        For a manoeuvring target: the search's grid and limits.
+        Manoeuvring target: the search's grid and limits.
 
     Returns
     -------
     EstimateResult
-        The estimate, its covariance (inverse Fisher information at the estimate) and a
-        status that is never hidden.
 
     Raises
     ------
     TypeError
-        For manoeuvre options with a motion model without manoeuvres.
+        For manoeuvre options with a motion without manoeuvres.
     ValueError
         For a bad ``init``, a bad motion name, or data no grid point fits.
 

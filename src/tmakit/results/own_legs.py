@@ -1,10 +1,8 @@
 """A sensor's path cut into straight legs, and in words: what bearings-only range needs.
 
-Bearings (and any angle) from a sensor that holds course and speed are the same for every
-target trajectory scaled about the sensor's own path: range is not observable until the sensor
-manoeuvres (Nardone & Aidala 1981; Fogel & Gavish 1988).  :func:`straight_legs` finds the legs
-of a sensor in the data (a new leg where its course or speed changes), and :func:`range_words`
-says, naming those legs, why range is unseen and which manoeuvre would give it.
+Angles from a sensor holding course and speed do not give range until it manoeuvres (Nardone &
+Aidala 1981; Fogel & Gavish 1988).  :func:`straight_legs` finds the legs, :func:`range_words`
+says why range is unseen and which manoeuvre would give it.
 """
 
 from __future__ import annotations
@@ -32,11 +30,11 @@ class Leg:
     Parameters
     ----------
     start, stop : float
-        Its first and last times (s).
+        First and last times, s.
     course_deg : float
-        Its course (degrees true).
+        Degrees true.
     speed : float
-        Its mean speed (m/s).
+        Mean speed, m/s.
     """
 
     start: float
@@ -141,11 +139,9 @@ class Turn:
     Parameters
     ----------
     start, stop : float
-        Where the heading leaves the leg before and reaches the leg after (s): the knots of a
-        level, constant-rate, level least-squares fit, at or between the fixes (the legs end
-        and start at the fixes either side).
+        Where the heading leaves the leg before and reaches the leg after, s.
     change_deg : float
-        The heading change (deg, positive to starboard), leg after minus leg before.
+        Heading change, deg, positive to starboard.
     """
 
     start: float
@@ -160,11 +156,11 @@ class LegsAndTurns:
     Parameters
     ----------
     legs : list of Leg
-        The straight legs in time order (each from its first to its last fix).
+        In time order.
     turns : list of Turn
-        The turns, ``turns[k]`` between ``legs[k]`` and ``legs[k + 1]``.
+        ``turns[k]`` between ``legs[k]`` and ``legs[k + 1]``.
     turn_rate_deg_s, window_s, min_turn_deg : float
-        The thresholds (:data:`TURN_RATE_DEG_S`, :data:`RATE_WINDOW_S`, :data:`MIN_TURN_DEG`).
+        The thresholds.
     """
 
     legs: list[Leg]
@@ -174,17 +170,15 @@ class LegsAndTurns:
     min_turn_deg: float
 
     def leg_of(self, time: NDArray[np.float64]) -> NDArray[np.intp]:
-        """Return the leg index of each time, -1 for times in a turn (or outside every leg).
+        """Return the leg index of each time (s), -1 in a turn or outside every leg.
 
         Parameters
         ----------
         time : ndarray
-            Times (s).
 
         Returns
         -------
         ndarray of int
-            Index into :attr:`legs`, or -1.
         """
         t = np.asarray(time, dtype=float)
         out = np.full(t.shape, -1, dtype=np.intp)
@@ -193,13 +187,11 @@ class LegsAndTurns:
         return out
 
     def thresholds(self) -> str:
-        """Return the thresholds in words (for every output that shows the legs).
+        """Return the thresholds in words.
 
         Returns
         -------
         str
-            ``a turn: heading rate above ... deg/s (slope over ... s), changing the heading
-            by ... deg or more``.
         """
         return (f"a turn: heading rate above {self.turn_rate_deg_s:g} deg/s (slope over "
                 f"{self.window_s:g} s), changing the heading by {self.min_turn_deg:g} deg or more")
@@ -210,8 +202,6 @@ class LegsAndTurns:
         Returns
         -------
         dict
-            ``legs`` (start, stop, course_deg, speed), ``turns`` (start, stop, change_deg),
-            ``turn_rate_deg_s``, ``window_s``, ``min_turn_deg`` and ``thresholds`` (in words).
         """
         return {"legs": [{"start": leg.start, "stop": leg.stop, "course_deg": leg.course_deg,
                           "speed": leg.speed} for leg in self.legs],
@@ -320,21 +310,19 @@ def _merge_small_turns(t: NDArray[np.float64], h: NDArray[np.float64],
 def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
                      turn_rate_deg_s: float = TURN_RATE_DEG_S, window_s: float = RATE_WINDOW_S,
                      min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
-    """Return the own-ship legs and turns of one sensor of a measurement set (:func:`detect_legs`).
+    """Return the own-ship legs and turns of one sensor of a set (:func:`detect_legs`).
 
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements (their sensor states are the navigation).
     sensor : str, optional
-        The sensor; default the set's only one.
+        Default the set's only one.
     turn_rate_deg_s, window_s, min_turn_deg : float
-        The thresholds (:func:`detect_legs`).
+        The thresholds.
 
     Returns
     -------
     LegsAndTurns
-        Its legs and turns.
 
     Raises
     ------

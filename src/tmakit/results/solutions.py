@@ -54,13 +54,12 @@ class Solution:
     Parameters
     ----------
     result : EstimateResult
-        The fit (its estimate, covariance, chi2, motion model).
     rank : int
-        1 for the reported fit, then by the test's statistic.
+        1 for the reported fit.
     lr_statistic : float
-        ``Λ_k``, the test's statistic (:mod:`tmakit.results.solutions`), at least 0.
+        ``Λ_k``, at least 0.
     p_value : float
-        ``P(χ²_d ≥ lr_statistic)``, ``d`` the reported fit's unknowns (1 for the reported fit).
+        ``P(χ²_d ≥ lr_statistic)``.
     """
 
     result: EstimateResult
@@ -75,18 +74,15 @@ class Solution:
         Parameters
         ----------
         meas : MeasurementSet, optional
-            The measurements fitted.
         time : float, optional
-            Time (s); default the last measurement time.
+            s; default the last measurement time.
         sensor : str, optional
-            Sensor for range and bearing.
         level : float
-            Probability inside the position ellipse.
+            Probability inside the ellipse.
 
         Returns
         -------
         Answer
-            Position, course, speed, range and bearing with their std, and the ellipse.
         """
         return estimate_answer(self.result, meas, time, sensor, level)
 
@@ -97,19 +93,18 @@ class Solution:
         Parameters
         ----------
         position : array_like
-            East, North (m).
+            East, North, m.
         meas : MeasurementSet, optional
-            The measurements fitted (the default time is their last).
+            Default time: their last.
         time : float, optional
-            Time (s) of the ellipse.
+            s.
         level : float
-            Probability inside the ellipse (default 0.95).
+            Default 0.95.
 
         Returns
         -------
         bool
-            True when the squared Mahalanobis distance is at most the chi-square(2) quantile;
-            False for a position that is unobservable or not finite.
+            False for an unobservable or non-finite position.
         """
         a = self.answer(meas, time, level=level)
         if a.enu[0] is None or a.enu[1] is None:
@@ -125,19 +120,16 @@ class Solution:
         return m2 <= float(chi2_dist.ppf(level, 2))
 
     def as_dict(self, meas: MeasurementSet | None = None) -> dict[str, object]:
-        """Return the JSON form: rank, chi2, the test, estimate, covariance, answers.
+        """Return the JSON form: rank, chi2, the test, estimate, covariance, answer.
 
         Parameters
         ----------
         meas : MeasurementSet, optional
-            The measurements fitted; with them the answers at the last measurement time.
+            With it, the answer at the last measurement time.
 
         Returns
         -------
         dict
-            ``rank``, ``chi2``, ``dof``, ``lr_statistic``, ``p_value``, ``status``, ``motion``,
-            ``parameters``, ``estimate``, ``std``, ``covariance`` (SI; null where not finite)
-            and ``answer`` (:meth:`Answer.as_dict`, with ``meas``).
         """
         r = self.result
 
@@ -180,23 +172,20 @@ def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
     Parameters
     ----------
     best : EstimateResult
-        The reported fit (rank 1 whatever its chi2).
+        The reported fit (rank 1).
     others : sequence of EstimateResult
-        Other fits the search ended in (other orders, other local minima).
+        Other fits the search ended in.
     meas : MeasurementSet
-        The measurements fitted: the answer time is their last.
+        The answer time is their last.
     alpha : float
-        Level of the likelihood-ratio test (default 0.05).
+        Level of the test (default 0.05).
     price : float
-        What each unknown adds to a fit's chi2 in the test (default 0: fits of one model).
+        Chi2 per unknown (default 0: fits of one model).
 
     Returns
     -------
     list of Solution
-        The reported fit first, then the separated fits kept by the test, by its statistic.
-        Fits that are unobservable or diverged, have no finite state or lie within another's
-        region are left out (a fit whose solve stopped before its convergence tests is kept:
-        the search ended there, and its status says so).
+        The reported fit first, then those kept, by statistic.
     """
     d = _unknowns(best)
     out = [Solution(best, 1, 0.0, 1.0)]

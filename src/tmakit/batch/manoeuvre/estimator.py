@@ -124,50 +124,38 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
                         settings: ManoeuvreSettings | None = None) -> ManoeuvreEstimate:
     """Estimate piecewise curvilinear motion by maximum likelihood, no initial guess needed.
 
-    Orders ``0 .. max_manoeuvres`` are fitted (or exactly ``max_manoeuvres``).
-
     Parameters
     ----------
     meas : MeasurementSet
-        The data.
     max_manoeuvres : int
-        The largest number of manoeuvres tried.
+        The most manoeuvres tried (orders ``0 .. max_manoeuvres``).
     exact : bool
         Fit exactly ``max_manoeuvres``.
     criterion : {"bic", "lrt"}
-        How the order is chosen (see :mod:`tmakit.batch.manoeuvre`).
+        How the order is chosen.
     alpha : float
         Level of the likelihood-ratio tests.
     accelerations : {"select", "all"}, optional
-        ``"select"`` holds at zero the acceleration components the data do not need, by the
-        same criterion, ``"all"`` fits them all (default: ``settings``', which is
-        ``"select"``); held ones are listed in the result's ``held``.
+        Hold unneeded accelerations at zero (default ``settings``', ``"select"``).
     ref_time : float, optional
-        Reference time of the reported position, speed and course (s; default: the first
-        measurement time).
+        Reference time of the reported state, s; default the first measurement time.
     init : mapping or array_like, optional
-        ``curvilinear:max_manoeuvres`` parameters referenced at ``ref_time`` (by name or as a
-        vector, SI): exactly that order is fitted from that start, no search; its change-over
-        times must lie inside the data span.
+        Parameters at ``ref_time``, SI: that order alone is fitted from it.
     options : mapping, optional
-        As for :func:`tmakit.batch.ml.estimate`.
+        The nuisance model per kind.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-        Hold the nuisance parameters at known values (:mod:`tmakit.results.nuisance`;
-        converted once, here).
     settings : ManoeuvreSettings, optional
-        Overrides the search (grid spacing, shortest segment, ...); its order and criterion
-        fields are replaced by the arguments.
+        The search's grid and limits.
 
     Returns
     -------
     ManoeuvreEstimate
-        The chosen fit, the order selection and every order's fit.
 
     Raises
     ------
     ValueError
-        For an empty set, bad settings, a bad ``init``, or ``exact`` with more manoeuvres
-        than the data span holds.
+        For an empty set, bad settings, a bad ``init``, or ``exact`` with more manoeuvres than
+        the span holds.
 
     References
     ----------
@@ -195,36 +183,25 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
                  settings: ManoeuvreSettings | None = None) -> EstimateResult:
     """Estimate motion given by name or as a piecewise curvilinear model.
 
-    The hook of :func:`tmakit.batch.ml.estimate` for a name or a
-    :class:`~tmakit.motion.PiecewiseCurvilinear`.
-
     Parameters
     ----------
     meas : MeasurementSet
-        The data.
     motion : PiecewiseCurvilinear or str
-        A model with ``M`` manoeuvres searches ``0..M`` (parameters referenced at its
-        reference time).  A name is read by :func:`tmakit.motion.motion_from_name`:
-        ``"curvilinear:M"`` likewise searches ``0..M`` (at ``ref_time`` if given, else the
-        first measurement time) and ``"curvilinear"``, which is ``"curvilinear:2"``, searches
-        ``0..2``; any other name (``"cv2d"``, ...) is estimated by
+        ``M`` manoeuvres (or ``"curvilinear:M"``) searches ``0..M``; other names go to
         :func:`tmakit.batch.ml.estimate`.
     init, options, known_nuisance, max_iter : optional
-        As for :func:`tmakit.batch.ml.estimate` (SI units); with ``init`` exactly ``M`` is
-        fitted from it.
+        As for :func:`tmakit.batch.ml.estimate`.
     exact, criterion, alpha, accelerations, ref_time, settings : optional
-        As for :func:`estimate_manoeuvres` (None: its default); ``exact=True`` fits exactly
-        ``M``.  Refused, but for ``ref_time``, with a name of a motion without manoeuvres.
+        As for :func:`estimate_manoeuvres`; refused (but ``ref_time``) without manoeuvres.
 
     Returns
     -------
     EstimateResult
-        A :class:`ManoeuvreEstimate` for a manoeuvring target.
 
     Raises
     ------
     TypeError
-        For manoeuvre settings with the name of a motion without manoeuvres.
+        For manoeuvre settings with a motion without manoeuvres.
     ValueError
         For an unknown motion name, and as :func:`estimate_manoeuvres`.
 
