@@ -1,13 +1,8 @@
 """What every batch estimator is: settings in its constructor, :meth:`~BatchEstimator.fit`.
 
-Its settings are given once, in the constructor, and its :meth:`~BatchEstimator.fit` turns a
-measurement set and a motion model into an :class:`~tmakit.results.EstimateResult`.
-
-:class:`PaperMethod` is the common part of the papers' local iterations (Gu et al. (2007) §3
-and §4, the Doppler-tracking lecture notes' Gauss–Newton): their own nuisance model only (no carrier
-drift, path-loss exponent 2), and, without a starting point, tmakit's no-guess start — the
-best point of the likelihood grid (:func:`tmakit.batch.init.grid_start`).  That start is
-tmakit's, not the papers'; the result says so in its message and in ``extra["start"]``.
+:class:`PaperMethod` is the common part of the papers' local iterations (Gu et al. (2007) §3-4,
+the Doppler-tracking lecture notes): their own nuisance model, and tmakit's grid start when
+given none (said in ``extra["start"]``).
 """
 
 from __future__ import annotations
@@ -39,11 +34,9 @@ class BatchEstimator(ABC):
     Attributes
     ----------
     name : str
-        The name its results carry (``result.method``) and its key in
-        :data:`tmakit.batch.METHODS`.
+        Its key in :data:`tmakit.batch.METHODS` and ``result.method``.
     takes_known_nuisance : bool
-        Whether it can hold the nuisance parameters at known values (a ``known_nuisance``
-        setting).  Declared by each class, so that no caller has to inspect a signature.
+        Whether it takes a ``known_nuisance`` setting.
     """
 
     name: ClassVar[str] = ""
@@ -56,14 +49,11 @@ class BatchEstimator(ABC):
         Parameters
         ----------
         meas : MeasurementSet
-            The measurements (SI inside).
         motion : MotionModel
-            The motion model whose parameters are estimated.
 
         Returns
         -------
         EstimateResult
-            The estimate, its covariance and status.
         """
 
 
@@ -93,10 +83,9 @@ class PaperMethod(BatchEstimator):
     Parameters
     ----------
     init : Mapping[str, float] or array_like, optional
-        The starting motion parameters (SI).  Default: the best point of the likelihood grid
-        on the rows of the kinds the method uses (:func:`tmakit.batch.init.grid_start`).
+        The start, SI; default :func:`tmakit.batch.init.grid_start` on the method's kinds.
     options : Mapping, optional
-        Accepted only when it asks for the papers' own model (no drift, exponent 2).
+        Only the papers' own model (no drift, exponent 2).
 
     Raises
     ------
@@ -127,30 +116,26 @@ class PaperMethod(BatchEstimator):
         Parameters
         ----------
         meas : MeasurementSet
-            The measurements.
         motion : MotionModel
-            The motion model (the papers': 2-D or 3-D constant velocity).
+            2-D or 3-D constant velocity.
         init : Mapping[str, float] or array_like
-            The starting point; None raises ``ValueError`` (a local method needs one).
+            The start (None raises ``ValueError``).
 
         Returns
         -------
         EstimateResult
-            The estimate with the method's own covariance and diagnostics.
         """
 
     def start_rows(self, meas: MeasurementSet) -> MeasurementSet:
-        """Return the rows the grid start is scored on: those of the kinds the method uses.
+        """Return the rows of the kinds the method uses (all when none), to score the grid start on.
 
         Parameters
         ----------
         meas : MeasurementSet
-            The measurements.
 
         Returns
         -------
         MeasurementSet
-            The rows of the usable kinds (all rows when there are none).
         """
         kinds = [k for k in self.start_kinds if k in meas.kinds]
         wanted = self.kinds_wanted

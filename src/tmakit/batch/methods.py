@@ -34,9 +34,9 @@ class Method:
     cls : type
         A :class:`~tmakit.batch.estimator.BatchEstimator` subclass.
     fixed : Mapping[str, object], optional
-        Settings the name fixes (``ratio-power`` fixes ``kinds=("power",)``).
+        Settings the name fixes (``ratio-power``: ``kinds=("power",)``).
     summary : str, optional
-        What the method is, in one line.
+        One line.
     """
 
     cls: type[BatchEstimator]
@@ -81,28 +81,24 @@ def estimator(method: str, **settings: object) -> BatchEstimator:
     Parameters
     ----------
     method : str
-        A key of :data:`METHODS`.
     **settings
-        Its class's constructor parameters (``init``, ``options``, ``max_iter``, ...).
+        Its class's constructor parameters.
 
     Returns
     -------
     BatchEstimator
-        Ready to fit.
 
     Raises
     ------
     ValueError
-        For an unknown method, or settings it refuses (the papers' methods accept only their
-        own nuisance model: no drift, path-loss exponent 2).
+        For an unknown method, or settings it refuses.
     TypeError
         For a setting it does not take.
 
     References
     ----------
     Gu et al. (2007), §3 (``gu-direct``), eqs. 19-25 (``ratio-power``), 26-32
-    (``ratio-doppler``), 33-34 (``ratio``); the Doppler-tracking lecture notes
-    (``lecture-gn``, Gauss-Newton on the 7-parameter vector).
+    (``ratio-doppler``), 33-34 (``ratio``); the Doppler-tracking lecture notes (``lecture-gn``).
     """
     if method not in METHODS:
         raise ValueError(f"unknown estimation method {method!r}; expected one of "
@@ -115,29 +111,23 @@ def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
                   **settings: object) -> EstimateResult:
     """Run the batch estimator ``method`` on the data.
 
-    ``estimator(method, init=init, options=options, **settings).fit(meas, motion)``.
-
     Parameters
     ----------
     method : str
         A key of :data:`METHODS`.
     meas : MeasurementSet
-        The measurements.
     motion : MotionModel
-        The motion model (for ``ml`` also a motion name).
+        For ``ml`` also a motion name.
     init : Mapping[str, float] or array_like, optional
-        The starting point (SI); ``None`` gives ``ml`` its own grid search and the papers'
-        local methods the best grid point (tmakit's start, not the papers').
+        The start, SI; None: ``ml``'s grid search, or the best grid point.
     options : Mapping, optional
-        The nuisance model per kind for ``ml``; the papers' methods accept only their own
-        model (no drift, path-loss exponent 2).
+        The nuisance model per kind (papers' methods: their own only).
     **settings
         Other settings of the method's class.
 
     Returns
     -------
     EstimateResult
-        The method's result.
 
     Raises
     ------

@@ -39,27 +39,23 @@ def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike
 def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayLike,
                        known_nuisance: KnownNuisanceLike = None,
                        noise: NoiseModel | None = None) -> NDArray[np.float64]:
-    """Return the Fisher information about the motion (and unknown nuisance) parameters.
-
-    It is evaluated at ``theta``, ``nuisance``.
+    """Return the Fisher information ``J^T R^-1 J`` about the motion (and unknown nuisance).
 
     Parameters
     ----------
     obs : ObservationModel
-        The measurements' observation model.
     theta : array_like, shape (p,)
-        Motion parameters (SI units of each).
+        SI.
     nuisance : array_like, shape (k,)
-        Nuisance parameters.
     known_nuisance : KnownNuisance, Mapping, bool or None, optional
-        Whether the nuisance parameters are known (then no unknowns).  Default: unknown.
+        Default unknown.
     noise : NoiseModel, optional
-        The noise model; default ``NoiseModel(obs.meas)``.
+        Default ``NoiseModel(obs.meas)``.
 
     Returns
     -------
     ndarray, shape (q, q)
-        ``J^T R^-1 J`` over the unknowns, in the units of the parameters (inverse squared).
+        SI.
 
     References
     ----------
@@ -135,43 +131,35 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
          nuisance: Mapping[str, float] | None = None,
          known_nuisance: KnownNuisanceLike = None,
          options: Mapping[str, Mapping[str, object]] | None = None) -> Bound:
-    """Return the Cramér–Rao bound of a scenario or of a measurement set.
+    """Return the Cramér–Rao bound of a scenario (at its truth) or of a measurement set.
 
-    A scenario's is at its truth, a measurement set's at the given ``truth`` (its measured
-    values are not used, only times, sensors, kinds and sigmas).
+    A set's measured values are not used, only times, sensors, kinds and sigmas.
 
     Parameters
     ----------
     source : Scenario or MeasurementSet
-        What the bound is of (a scenario's noise-free simulation).
     motion : MotionModel, optional
-        The motion model; default the scenario's (required for a measurement set).
+        Default the scenario's; required for a set.
     truth : Mapping[str, float] or array_like, optional
-        Where the bound is evaluated (SI); default the scenario's truth (required for a
-        measurement set).
+        Where evaluated, SI; default the scenario's; required for a set.
     nuisance : Mapping[str, float], optional
-        Nuisance values at the evaluation point (update the scenario's, or the data's
-        metadata; defaults fill the rest).
+        Nuisance values at the evaluation point.
     known_nuisance : KnownNuisance, Mapping, bool or None, optional
-        ``None``/``False`` (default): carrier, drift, power constant and path-loss exponent
-        are unknowns.  ``True`` or a :class:`~tmakit.results.nuisance.KnownNuisance`: they
-        are known, at the values it names, the evaluation point's for the others.
+        Default: the nuisance parameters are unknowns.
     options : Mapping, optional
-        The nuisance model per kind (``{"frequency": {"drift": True}}``); default the
-        scenario's.
+        The nuisance model per kind; default the scenario's.
 
     Returns
     -------
     Bound
-        The bound, its observability and the values it was evaluated at.
 
     Raises
     ------
     TypeError
         When ``source`` is neither a scenario nor a measurement set.
     ValueError
-        When a measurement set comes without ``motion`` or ``truth``, ``truth`` has the
-        wrong length, or it puts the target on a sensor at a measurement time.
+        When a set comes without ``motion`` or ``truth``, ``truth`` has the wrong length, or
+        it puts the target on a sensor.
 
     References
     ----------

@@ -266,38 +266,32 @@ def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
                   q_density: float | ArrayLike = 0.0) -> PosteriorBound:
     """Compute the posterior CRB of a tracker, ``Gamma_k`` averaged over sampled trajectories.
 
-    The tracker starts from the Gaussian prior ``N(prior_mean, prior_cov)`` at ``time0`` and
-    updates once per distinct measurement time.  A thin user of
-    :class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`.
+    The tracker starts from ``N(prior_mean, prior_cov)`` at ``time0`` and updates once per distinct
+    measurement time.
 
     Parameters
     ----------
     source : MeasurementSet or Scenario
-        A measurement set (only times, sensors, kinds and sigmas are used) or a scenario
-        (its layout; ``prior_mean=None`` then means its true state at ``time0``).  Load a
-        built-in scenario by name with :func:`tmakit.load_scenario` first.
+        Times, sensors, kinds and sigmas (a scenario: ``prior_mean=None`` is its truth).
     prior_mean : array_like or None
-        (n,) m, m/s in state order ``[x, y, (z), vx, vy, (vz)]``.
+        (n,) ``[x, y, (z), vx, vy, (vz)]``, m and m/s.
     prior_cov : array_like
         (n, n), SI.
     time0 : float, optional
-        The prior's time, s (default: the first measurement time).
+        s; default the first measurement time.
     q : float or array_like
-        Process noise, acceleration standard deviation per axis, m/s^2 (Chen & Sun, §2.1).
+        Acceleration noise std per axis, m/s^2 (Chen & Sun, §2.1).
     trajectories : int
-        Number of trajectories drawn from the prior and the process noise.
+        Trajectories drawn from the prior and process noise.
     rng : Generator or int, optional
-        Their random source (a Generator or a seed).
     options, nuisance : mapping, optional
-        Per-kind model options and known nuisance values, as for the filters.
+        Per-kind model options and known nuisance values.
     q_density : float or array_like
-        Process noise as a continuous white-noise acceleration density per axis, m^2/s^3
-        (:func:`tmakit.motion.dynamics.process_noise`); adds to ``q``'s.
+        White-noise acceleration density per axis, m^2/s^3; adds to ``q``'s.
 
     Returns
     -------
     PosteriorBound
-        The bound after each update (SI: m, m/s).
 
     Raises
     ------
@@ -323,14 +317,9 @@ def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | 
                        options: Mapping[str, Mapping[str, object]] | None = None,
                        nuisance: Mapping[str, float] | None = None,
                        q_density: float | ArrayLike = 0.0) -> PosteriorBound:
-    """Compute the deterministic-trajectory bound, ``Gamma_k`` at the prior-mean trajectory.
+    """Compute the bound with ``Gamma_k`` at the prior-mean trajectory (no sampling).
 
-    The recursion of :func:`posterior_crb` without sampling (``q`` still enters the
-    prediction).
-
-    With ``q = 0`` it equals the batch CRLB of the same data at that trajectory plus the
-    prior's information mapped to each time.  For a fixed true trajectory (filters started at
-    the truth with a random error) pass the true state as ``prior_mean``.
+    With ``q = 0`` it is the batch CRLB plus the prior's information.
 
     Parameters
     ----------
@@ -340,7 +329,6 @@ def deterministic_pcrb(source: MeasurementSet | object, prior_mean: ArrayLike | 
     Returns
     -------
     PosteriorBound
-        The bound after each update (SI: m, m/s).
 
     Raises
     ------

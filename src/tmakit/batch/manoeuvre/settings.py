@@ -27,42 +27,36 @@ class ManoeuvreSettings:
     Parameters
     ----------
     max_manoeuvres : int
-        The largest order tried (0, 1, ..., max).
+        The largest order tried.
     exact : bool
         Fit only ``max_manoeuvres``.
     criterion : {"bic", "lrt"}
-        How the order (and the accelerations held) is chosen (see
-        :mod:`tmakit.batch.manoeuvre`); ``alpha`` is the level of the likelihood-ratio tests.
+        How the order and the held accelerations are chosen.
     alpha : float
         Level of the likelihood-ratio tests, in (0, 1).
     grid_step : float
-        Spacing of the profile grid (s).
+        Spacing of the profile grid, s.
     min_segment : float
-        Shortest segment on the grid, and the grid's distance from the ends of the data (s).
+        Shortest segment, and the grid's distance from the data's ends, s.
     refine : int
         Profile minima refined per order.
     profile_iter : int
-        Iterations of each held fit on the grid.
+        Iterations of each held fit.
     max_tuples : int
-        An order whose grid holds more tuples than this is searched only on the tuples that
-        add one grid time to one of the best ``refine`` profile minima of the order below.
+        Beyond this many grid tuples only those extending the order below's best minima are fitted.
     prune : float
-        Held fits on the grid stop once they cannot come within this much (half chi2) of the
-        best grid point (see :func:`tmakit.batch.manoeuvre.search.lm_fit`).
+        Held fits stop once they cannot come within this (half chi2) of the best.
     polish_step, polish_rounds : float, int
-        The finer profile of each change-over time after the refinement (s; rounds, 0: none;
-        :meth:`~tmakit.batch.manoeuvre.search.ManoeuvreSearch.polish`).
+        The finer profile after refinement (s; 0 rounds: none).
     max_iter : int
         Iterations of a refinement with every parameter free.
     accelerations : {"select", "all"}
-        ``"select"`` (default) holds at zero every acceleration component the data do not
-        need, by the order criterion (:func:`tmakit.batch.manoeuvre.selection.sparsify`);
-        ``"all"`` fits every component of every segment.
+        Hold unneeded accelerations at zero (default), or fit all.
 
     Raises
     ------
     ValueError
-        For a setting out of its range; the message names it.
+        For a setting out of its range, named.
     """
 
     max_manoeuvres: int = 2
@@ -110,30 +104,24 @@ class OrderFit:
     Parameters
     ----------
     manoeuvres : int
-        The order ``M``.
     theta : ndarray
-        Internal parameters (``curvilinear:M``, referenced at the first measurement time; SI).
+        Internal parameters (at the first measurement time), SI.
     nuisance : ndarray
-        Nuisance parameters eliminated at ``theta``.
     chi2 : float
-        The fit's chi2.
     unknowns : int
-        Parameters fitted (motion and nuisance).
+        Motion and nuisance parameters fitted.
     converged : bool
-        Whether the convergence tests were met.
     iterations : int
-        Solver steps taken.
     starts : int
-        Starting points of the final refinement.
+        Starts of the final refinement.
     note : str
         How the fit was settled, when it matters.
     profile_times, profile_chi2 : ndarray
-        The profile grid's change-over times ``(G, M)`` (s) and chi2 ``(G,)``.
+        The profile grid's change-over times ``(G, M)``, s, and chi2 ``(G,)``.
     free : ndarray of bool, optional
-        The internal parameters fitted; None: all (the others are accelerations held at 0).
+        The internal parameters fitted; None: all.
     alternatives : list of OrderFit
-        The other converged ends of the refinement's starts (other local minima of this
-        order), candidates of the separated solutions (:mod:`tmakit.results.solutions`).
+        Other local minima of this order.
     """
 
     manoeuvres: int
