@@ -115,42 +115,26 @@ class _DirectSystem:
 class GuDirect(PaperMethod):
     """Gu et al. (2007) §3: iterative LS on ``theta_pf = [theta, C/C_0, c/f_s]``.
 
+    Diverged when the iterate is non-finite, a range non-positive, or the ranges grow 1e4-fold.
+    The covariance is ``D^-1`` at the last iterate; ``extra`` holds the condition numbers and
+    update norms.
+
     Parameters
     ----------
     init : Mapping[str, float] or array_like, optional
-        The starting ``theta = [x_0, y_0, v_x, v_y]`` (m, m/s), by name or as a vector; the
-        nuisance entries need no start (A and B depend on theta alone; Sigma_f takes f_s from
-        the latest ``c/f_s``, at first from the median received frequency).  Default:
-        tmakit's grid point (:class:`~tmakit.batch.estimator.PaperMethod`).
+        The start ``[x_0, y_0, v_x, v_y]`` (m, m/s); default tmakit's grid point.
     options : Mapping, optional
-        Only the paper's model (no drift, path-loss exponent 2) is accepted.
+        Only the paper's model (no drift, exponent 2).
     max_iter : int, optional
-        Iterations at most (default 50).
+        Default 50.
     kinds : str or sequence of str, optional
-        ``"power"`` (``theta_p = [theta, C/C_0]``, eq. 11), ``"frequency"``
-        (``theta_f = [theta, c/f_s]``, eqs. 14-16) or both (default: whatever the data hold).
+        ``"power"`` (eq. 11), ``"frequency"`` (eqs. 14-16) or both (default: what the data hold).
     c0 : float, optional
-        ``C_0``; default the free-space constant at the carrier (1.9 GHz without frequency
-        data).
+        ``C_0``; default the free-space constant at the carrier.
     tol : float, optional
-        Converged when the update of theta is below ``tol * (1 + |theta|)`` (default 1e-8,
-        about 5e-5 m on gu2007).
+        Converged when the update is below ``tol * (1 + |theta|)`` (default 1e-8).
     normal_equations : bool, optional
-        Form and solve ``D_i theta = N_i`` literally, as printed (default: SVD least squares
-        on the equilibrated columns, mathematically ``D^-1 N``).
-
-    Notes
-    -----
-    Diverged when the iterate becomes non-finite, a range non-positive, or the ranges grow
-    more than 1e4-fold.  The conditioning sets a floor under the update in double precision:
-    on gu2007 it stalls at ~1e-5 m (equilibrated least squares) and at ~5e-4 m with
-    ``normal_equations=True``, so a tighter ``tol`` reports "did not converge" although the
-    estimate is settled far below its std (``extra["update_norms"]``).
-
-    The covariance is ``D^-1`` at the last iterate (Sigma scaled with the actual noise, so std
-    is in metres and m/s); the nuisance values are ``power_constant_db = 10 log10(C_0 C/C_0)``
-    and ``carrier = c / (c/f_s)`` with delta-method std.  ``extra`` holds the condition numbers
-    per iteration (see the module docstring) and the update norms.
+        Solve ``D_i theta = N_i`` as printed (default SVD on equilibrated columns).
 
     References
     ----------

@@ -157,12 +157,11 @@ class Snapshot:
     Attributes
     ----------
     tdoa : ndarray of int
-        The TDOA rows (of the set given to :func:`snapshot_rows`).
+        The TDOA rows.
     fdoa : ndarray of int or None
-        The FDOA rows of the same sensors, times and reference, one per TDOA row (None:
-        TDOA only).
+        The matching FDOA rows, one per TDOA row (None: TDOA only).
     time : float
-        The snapshot's time (s): the time of a moving source's estimate.
+        The snapshot's time, s.
     """
 
     tdoa: NDArray[np.intp]
@@ -264,20 +263,7 @@ def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
 
 @dataclass(frozen=True, eq=False)
 class _ClosedForm(BatchEstimator):
-    """A closed form on the set's largest snapshot, its covariance the bound at the estimate.
-
-    Parameters
-    ----------
-    init : optional
-        Must be None: a closed form takes no start (the common interface of the methods).
-    options : mapping, optional
-        Per-kind model options (``{"fdoa": {"carrier": 1e9}}``).
-
-    Raises
-    ------
-    ValueError
-        If ``init`` is given.
-    """
+    """A closed form on the set's largest snapshot, its covariance the bound at the estimate."""
 
     init: Init = None
     options: Options = None
@@ -324,7 +310,7 @@ class ChanHo(_ClosedForm):
     Parameters
     ----------
     options : mapping, optional
-        Per-kind model options (not used by the solve; accepted for the common interface).
+        Per-kind model options (unused by the solve).
 
     References
     ----------
@@ -349,8 +335,7 @@ class HoXu(_ClosedForm):
     Parameters
     ----------
     options : mapping, optional
-        Per-kind model options; the FDOA carrier must be known (``{"fdoa": {"carrier": f0}}``
-        or the file's ``# fdoa_carrier``).
+        Per-kind options; the FDOA carrier must be known (``{"fdoa": {"carrier": f0}}``).
 
     References
     ----------

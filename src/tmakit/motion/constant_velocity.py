@@ -15,17 +15,14 @@ from .base import MotionModel
 
 
 class ConstantVelocity(MotionModel):
-    """Straight-line motion at constant velocity in 2-D (z = 0) or 3-D.
-
-    The model's parameters are ``(x, y, vx, vy)`` or ``(x, y, z, vx, vy, vz)``: the ENU
-    position (m) at ``ref_time`` (s) and the velocity (m/s).
+    """Straight-line motion at constant velocity: ``(x, y, (z), vx, vy, (vz))`` at ``ref_time``.
 
     Parameters
     ----------
     dim : int
-        2 (motion in the plane z = 0) or 3.
+        2 (plane z = 0) or 3.
     ref_time : float
-        Reference time of the position (s).
+        s.
 
     Raises
     ------
@@ -127,14 +124,13 @@ class ConstantVelocity(MotionModel):
         Parameters
         ----------
         theta : array_like
-            ``(..., p)`` parameters referenced at :attr:`ref_time` (m, m/s).
+            ``(..., p)`` at :attr:`ref_time`.
         new_ref_time : float
-            The new reference time (s).
+            s.
 
         Returns
         -------
         ndarray
-            ``(..., p)`` parameters referenced at ``new_ref_time`` (m, m/s).
         """
         theta = self.check_theta(theta).copy()
         d = self.dim
@@ -152,7 +148,7 @@ class Stationary(MotionModel):
     Parameters
     ----------
     dim : int
-        2 (in the plane z = 0) or 3.
+        2 (plane z = 0) or 3.
 
     Raises
     ------

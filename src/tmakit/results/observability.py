@@ -45,10 +45,8 @@ class Direction:
     Parameters
     ----------
     sentence : str
-        The direction in words.
     weights : dict of str to float
-        The parameter change that leaves the data unchanged, in each parameter's own unit,
-        scaled so the largest magnitude is 1.
+        The change in each parameter's unit, largest magnitude 1.
     """
 
     sentence: str
@@ -72,19 +70,16 @@ class Observability:
     Parameters
     ----------
     rank : int
-        Rank of the information among ``size`` unknowns.
     size : int
         Number of unknowns.
     condition : float
-        Condition number of the normalised information (dimensionless).
+        Of the normalised information.
     null_basis : ndarray, shape (size, size - rank)
-        Unit basis of what it cannot see, in physical units.
+        Unit basis of the null space, physical units.
     directions : list of Direction
-        That null space in words.
     observable : ndarray of bool, shape (size,)
-        Whether each parameter is observable.
     decomposition : tuple of ndarray, optional
-        Eigenvalues, eigenvectors and normalisation ``D`` the rank came from.
+        Eigenvalues, eigenvectors and normalisation ``D``.
     """
 
     rank: int
@@ -219,20 +214,17 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     Parameters
     ----------
     info : ndarray, shape (q, q)
-        Fisher information (SI units of the parameters, inverse squared).
+        SI.
     names : tuple of str
-        The unknowns: the motion parameters first, then any unknown nuisance parameters.
+        Motion parameters first, then unknown nuisance.
     meas : MeasurementSet
-        The measurements (their sensors suggest the candidate directions).
     motion : MotionModel
-        The motion model of the first ``motion.n_params`` unknowns.
     theta : ndarray, shape (p,)
-        Motion parameters where ``info`` was evaluated (SI).
+        Where ``info`` was evaluated, SI.
 
     Returns
     -------
     Observability
-        Rank, condition number, null space and its directions in words.
     """
     size = info.shape[0]
     norm, scale = normalise(info)

@@ -1,14 +1,7 @@
 """How far to trust an estimate: ``ok``, ``warning`` or ``none``, with the reasons.
 
-Derived in one place (:func:`trust_of`) from the result's status and its warnings, so that
-every warning any check adds (:func:`tmakit.results.checks.fit_warnings` and whatever extends
-it) moves the trust without further code:
-
-* ``none`` — no answer: the status is not ``converged`` (``unobservable``, ``did not
-  converge``, ``diverged``).  No number is an answer; ``tma`` exits with status 4;
-* ``warning`` — an answer with at least one warning (an improbable or too-small chi-square,
-  angles that look like radians, far positions, ...): read the reasons before using it;
-* ``ok`` — converged without a warning.
+``none``: not converged (no answer, ``tma`` exits 4); ``warning``: at least one warning;
+``ok``: converged without one.  :func:`trust_of` is the one rule.
 """
 
 from __future__ import annotations
@@ -32,9 +25,7 @@ class Trust:
     level : str
         :data:`TRUST_OK`, :data:`TRUST_WARNING` or :data:`TRUST_NONE`.
     reasons : list of SanityWarning
-        Why not ``ok``: the status (code ``unobservable``, ``did not converge`` or
-        ``diverged``, with the result's message and the unobservable directions in words) for
-        ``none``, and every warning.
+        The status (for ``none``) and every warning.
     """
 
     level: str
@@ -62,16 +53,12 @@ def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
     Parameters
     ----------
     result : EstimateResult or Bound
-        The estimate (its ``status``, ``message`` and ``bound``'s unobservable directions), or
-        a bound (no status: as converged; :func:`bound_trust` gives its reasons).
+        A bound counts as converged.
     warnings : sequence of SanityWarning
-        Its warnings (:meth:`EstimateResult.warnings <tmakit.results.EstimateResult.warnings>`
-        or more).
 
     Returns
     -------
     Trust
-        ``none`` unless converged; else ``warning`` with any warning, else ``ok``.
     """
     # a bound (``tma crlb``) has no solve, so no status: it stands as computed
     status = str(getattr(result, "status", "converged"))
@@ -88,20 +75,17 @@ def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
 
 
 def bound_trust(bound: object, warnings: Sequence[SanityWarning] = ()) -> Trust:
-    """Return the trust of a Cramér-Rao bound (``tma crlb``), by :func:`trust_of`.
+    """Return the trust of a Cramér-Rao bound (``tma crlb``): a warning per unobservable direction.
 
     Parameters
     ----------
     bound : Bound
-        The bound (its unobservable directions).
     warnings : sequence of SanityWarning
-        The measurements' warnings (:func:`tmakit.results.checks.measurement_warnings`).
+        The measurements' warnings.
 
     Returns
     -------
     Trust
-        ``warning`` when a direction is unobservable (each one a reason, in words: the bound
-        is infinite along it) or with any warning, else ``ok``.
     """
     directions = bound.observability.directions  # type: ignore[attr-defined]
     unseen = [SanityWarning("unobservable", "no estimator can determine this from these "
