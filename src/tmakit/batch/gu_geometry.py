@@ -120,18 +120,16 @@ def power_watts(meas: MeasurementSet) -> Array:
 class PlanarGeometry:
     """The sensor side of Gu et al. (2007), eqs. 7, 8, 12 and 16 for a set of samples.
 
-    A sensor off the plane z = 0 (or moving vertically) is handled exactly by adding
-    ``U_z^2`` to ``rho_k^2`` and ``U_z dU_z/dt`` to the numerator of eq. 12; the target stays
-    at z = 0.
+    A sensor off the plane z = 0 adds ``U_z^2`` to ``rho_k^2`` and ``U_z dU_z/dt`` to eq. 12.
 
     Parameters
     ----------
     t : ndarray, shape (n,)
-        Sample times relative to the motion's reference time (s; the paper's t_0 = 0).
+        s from the motion's reference time.
     u, udot : ndarray, shape (n, 2)
-        The sensor's horizontal position (m) and velocity (m/s).
+        Horizontal position (m) and velocity (m/s).
     uz, uzdot : ndarray, shape (n,)
-        The sensor's height (m) and vertical velocity (m/s).
+        Height (m) and vertical velocity (m/s).
 
     References
     ----------

@@ -33,14 +33,12 @@ def propagate_curvilinear(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: 
     Parameters
     ----------
     x, y, speed, course, a_t, a_n, dt : array_like
-        As for :func:`propagate_with_partials` (m, m, m/s, rad, m/s^2, m/s^2, s).
+        m, m, m/s, rad, m/s^2, m/s^2, s.
 
     Returns
     -------
     tuple of ndarray
-        ``(x, y, speed, course, vx, vy)`` (m, m, m/s, rad clockwise from North, m/s, m/s).
-        Where the speed would reach zero or below before ``dt`` the result is NaN (the model
-        does not describe a target that stops).
+        ``(x, y, speed, course, vx, vy)``; NaN where the speed would reach zero.
 
     References
     ----------
@@ -63,29 +61,18 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
 class PiecewiseCurvilinear(MotionModel):
     """Piecewise curvilinear motion with ``M`` manoeuvres (Hörst & Oispuu (2010), eqs. 1-4).
 
-    Its parameters: ``x, y, speed, course`` (m, m, m/s, rad clockwise from North) at
-    ``ref_time`` (s); the accelerations ``at_0, an_0, ..., at_M, an_M`` (m/s^2) of the ``M + 1``
-    segments; the change-over times ``t_1 < ... < t_M`` (s).  Indexing follows the paper's
-    simulation section (§4): ``at_m, an_m`` act from ``t_m`` on, so segment ``m`` covers
-    ``(t_m, t_{m+1}]``; segment 0 extends to -infinity and segment M to +infinity.
-
-    Conventions: a sample exactly at a change-over time belongs to the earlier segment (and so
-    does a reference time exactly at one).  The trajectory is chained outwards from the
-    reference state, forwards through later change-over times and backwards through earlier
-    ones (eqs. 3-4).  Change-over times out of order (or equal) give NaN states, as does a
-    segment whose speed would reach zero.  Motion is planar (z = 0).
-
-    :meth:`jacobian` is analytic (see the module docstring).  At a sample exactly at a
-    change-over time ``t_m`` the velocity is not differentiable in ``t_m``; the Jacobian gives
-    the derivative for ``t_m`` increasing, the side on which the sample stays in the earlier
-    segment (position is differentiable there).  Vectorised over leading axes of ``theta``.
+    Parameters ``x, y, speed, course`` (m, m, m/s, rad) at ``ref_time``, the accelerations
+    ``at_0, an_0, ..., at_M, an_M`` (m/s^2; ``at_m, an_m`` act from ``t_m`` on, §4) and the
+    change-over times ``t_1 < ... < t_M`` (s).  A sample at a change-over time belongs to the
+    earlier segment; times out of order or a speed reaching zero give NaN states.  Planar (z = 0);
+    the Jacobian is analytic.
 
     Parameters
     ----------
     manoeuvres : int
-        The number of manoeuvres ``M`` (>= 0).
+        ``M`` >= 0.
     ref_time : float
-        Reference time of the state parameters (s).
+        s.
 
     Raises
     ------
@@ -118,12 +105,11 @@ class PiecewiseCurvilinear(MotionModel):
         Parameters
         ----------
         segment : int
-            Segment number (0..M).
+            0..M.
 
         Returns
         -------
         tuple of int
-            The two indices.
         """
         return 4 + 2 * segment, 5 + 2 * segment
 
@@ -133,12 +119,11 @@ class PiecewiseCurvilinear(MotionModel):
         Parameters
         ----------
         m : int
-            Manoeuvre number (1..M).
+            1..M.
 
         Returns
         -------
         int
-            The index into ``theta``.
         """
         return 5 + 2 * self.manoeuvres + m
 
@@ -234,18 +219,17 @@ class PiecewiseCurvilinear(MotionModel):
         return cart.reshape(*lead, t.shape[0], 6)
 
     def intrinsic_states(self, theta: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the intrinsic states ``(x, y, speed, course)`` at times ``t``.
+        """Give the intrinsic states ``(x, y, speed, course)`` ``(..., n, 4)`` at times ``t``.
 
         Parameters
         ----------
         theta, t : array_like
-            ``(..., p)`` parameters (SI) and ``(n,)`` times (s), as :meth:`states`.
+            As for :meth:`states`.
 
         Returns
         -------
         ndarray
-            ``(..., n, 4)`` (m, m, m/s, rad clockwise from North; the course is continuous
-            along the track, not wrapped).
+            m, m, m/s, rad (the course unwrapped).
         """
         flat, t, lead = self._flat(theta, t)
         intrinsic = self._evaluate(flat, t, derivatives=False)[1]
@@ -262,23 +246,20 @@ class PiecewiseCurvilinear(MotionModel):
                      ) -> tuple[PiecewiseCurvilinear, NDArray[np.float64]]:
         """Give the same trajectory as a model referenced at another time.
 
-        With fewer manoeuvres it agrees only up to the first dropped change-over time.
-
         Parameters
         ----------
         theta : array_like
-            ``(p,)`` parameters of this model (SI units).
+            ``(p,)``, SI.
         ref_time : float
-            The new reference time (s).
+            s.
         manoeuvres : int, optional
-            Change-over times kept, the first ones (default: all).
+            The first change-over times kept (default all).
 
         Returns
         -------
         model : PiecewiseCurvilinear
-            The model referenced at ``ref_time``.
         theta : ndarray
-            Its parameters (SI units).
+            SI.
 
         Raises
         ------

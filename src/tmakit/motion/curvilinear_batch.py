@@ -29,28 +29,18 @@ NormalMaker = Callable[[NDArray[np.int64] | None], tuple[Array, Array]]
 class ForwardPiecewise(MotionModel):
     """Piecewise curvilinear motion, change-over times after the reference time, in batches.
 
-    :class:`~tmakit.motion.PiecewiseCurvilinear`, evaluated in batches with analytic
-    derivatives.
-
-    Same parameter names and meaning.  Segment ``m`` covers ``(t_m, t_{m+1}]`` (a sample at a
-    change-over time belongs to the earlier segment), segment 0 also everything before the
-    reference time.  Parameter vectors with ``t_1 <= ref_time`` or change-over times out of
-    order give NaN states, and so do change-over times at or after ``end_time`` if given (the
-    estimator keeps them inside the data span this way).
-
-    The derivatives of the last parameters and times asked for are cached (an observation
-    model asks for states, then derivatives, at the same point): one instance should not be
-    shared between threads.  Within :meth:`derivatives_for`, :meth:`chain` gives the
-    derivatives with respect to some parameters only (a fit holding the others).
+    Like :class:`~tmakit.motion.PiecewiseCurvilinear` with analytic derivatives; vectors with
+    ``t_1 <= ref_time``, times out of order or at or after ``end_time`` give NaN states.  The last
+    derivatives are cached: do not share an instance between threads.
 
     Parameters
     ----------
     manoeuvres : int
-        The number of manoeuvres ``M`` (>= 0).
+        ``M`` >= 0.
     ref_time : float
-        Reference time of the state parameters (s), before every change-over time.
+        s, before every change-over time.
     end_time : float
-        Change-over times at or after it give NaN states (s; default: none).
+        s; default none.
 
     Raises
     ------

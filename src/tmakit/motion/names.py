@@ -29,28 +29,25 @@ _FIXED = {
 
 
 def motion_from_name(name: str, ref_time: float = 0.0) -> MotionModel:
-    """Make the motion model a name stands for (see the module docstring for the names).
+    """Make the motion model a name stands for (case-insensitive).
 
     Parameters
     ----------
     name : str
-        ``cv2d``, ``cv3d``, ``static2d``, ``static3d`` (``cv``, ``static``: the 2-D ones),
-        ``curvilinear:M`` (``M`` a whole number of manoeuvres) or ``curvilinear``
-        (= ``curvilinear:2``); case-insensitive.
+        ``cv2d``, ``cv3d``, ``static2d``, ``static3d``, ``cv``, ``static``, ``curvilinear:M``
+        or ``curvilinear``.
     ref_time : float
-        Reference time of the model's parameters (s); unused by stationary models.
+        s; unused by stationary models.
 
     Returns
     -------
     MotionModel
-        A new model; ``model.name`` is the canonical name (``curvilinear:2`` for
-        ``curvilinear``).
+        ``model.name`` is the canonical name.
 
     Raises
     ------
     ValueError
-        For an unknown name, or a manoeuvre count that is not a whole number; the message
-        names the accepted forms.
+        For an unknown name or a bad manoeuvre count.
 
     References
     ----------
@@ -74,23 +71,16 @@ def motion_from_name(name: str, ref_time: float = 0.0) -> MotionModel:
 
 
 def default_ref_time(times: ArrayLike) -> float:
-    """Give the reference time of a motion model fitted to data at ``times``: near the data.
-
-    0 when the data lie within one time span of it (as before: files that start at or near
-    0 keep their parameters), else the first time.  Parameters referred to a time far from
-    the data (an absolute clock, 1.7e9 s since 1970) would make the positions at the
-    reference time depend on the velocities 1e9 times over and the fit ill-conditioned; so
-    data shifted far from 0 give the same estimate and bound as data starting at 0.
+    """Give the reference time for data at ``times``: 0 when within one span of it, else the first.
 
     Parameters
     ----------
     times : array_like
-        The measurement times (s).
+        s.
 
     Returns
     -------
     float
-        The reference time (s); 0 for no finite times.
     """
     t = np.asarray(times, dtype=float)
     t = t[np.isfinite(t)]

@@ -19,19 +19,13 @@ __all__ = ["KnownNuisance", "KnownNuisanceLike", "as_known_nuisance"]
 class KnownNuisance:
     """The nuisance parameters are known (held fixed, not estimated), at ``values``.
 
+    Always true in a boolean test, even with no values.
+
     Parameters
     ----------
     values : Mapping[str, float], optional
-        ``{name: value}`` of the known nuisance parameters, each in its own unit: ``carrier``
-        (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db`` (dB), ``path_loss_exponent``
-        (dimensionless).  Names left out take their value from the context (see the module
-        docstring).  Default: none named.
-
-    Notes
-    -----
-    An instance is always true in a boolean test (``bool(KnownNuisance())`` is ``True``, even
-    with no values), so ``if known:`` reads "if the nuisance parameters are known" for a
-    ``KnownNuisance | None``.
+        ``carrier`` (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db`` (dB),
+        ``path_loss_exponent``; names left out come from the context.
     """
 
     values: Mapping[str, float] = field(default_factory=dict, hash=False)
@@ -46,17 +40,15 @@ class KnownNuisance:
         return True
 
     def over(self, context: Mapping[str, float]) -> dict[str, float]:
-        """Return the known values with the context's filling the names left out.
+        """Return ``{**context, **self.values}``.
 
         Parameters
         ----------
         context : Mapping[str, float]
-            Values from the context (a bound's evaluation point, a file's metadata).
 
         Returns
         -------
         dict[str, float]
-            ``{**context, **self.values}``.
         """
         return {**dict(context), **self.values}
 
@@ -71,13 +63,11 @@ def as_known_nuisance(value: KnownNuisanceLike) -> KnownNuisance | None:
     Parameters
     ----------
     value : KnownNuisance, Mapping[str, float], bool or None
-        ``None`` or ``False``: unknown.  ``True``: known at the context's values.  A mapping:
-        known at these values (an empty mapping too).  A :class:`KnownNuisance`: itself.
+        None/False: unknown; True: known at the context's values; a mapping: at these values.
 
     Returns
     -------
     KnownNuisance or None
-        ``None`` when the nuisance parameters are unknown.
 
     Raises
     ------

@@ -1,12 +1,4 @@
-"""The manoeuvre estimator as an object.
-
-Maximum likelihood for a piecewise curvilinear target with the number of manoeuvres chosen by
-a stated criterion (Hörst & Oispuu (2010)).
-
-The search, the order selection and the reporting are in :mod:`tmakit.batch.curvilinear`;
-:class:`ManoeuvreEstimator` holds their settings and calls
-:func:`~tmakit.batch.curvilinear.estimate_for`.
-"""
+"""The manoeuvre estimator as an object (Hörst & Oispuu (2010)): settings for ``estimate_for``."""
 
 from __future__ import annotations
 
@@ -28,37 +20,28 @@ __all__ = ["ManoeuvreEstimator"]
 class ManoeuvreEstimator(BatchEstimator):
     """Maximum likelihood for a manoeuvring target, ``0..M`` manoeuvres, no initial guess.
 
+    Settings left at None take :func:`~tmakit.batch.curvilinear.estimate_for`'s defaults.
+
     Parameters
     ----------
     init : Mapping[str, float] or array_like, optional
-        Fit exactly ``M`` manoeuvres from this start (``curvilinear:M`` parameters, SI,
-        referenced at ``ref_time``), no search.
+        Fit exactly ``M`` from this start (SI, at ``ref_time``).
     options : Mapping, optional
-        The nuisance model per kind, as for :class:`~tmakit.batch.ml.MaximumLikelihood`.
+        The nuisance model per kind.
     known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-        Hold the nuisance parameters at known values (:mod:`tmakit.results.nuisance`).
     max_iter : int, optional
-        Levenberg–Marquardt iterations per fit at most (default 100).
+        Per fit (default 100).
     exact : bool, optional
-        Fit only ``M`` manoeuvres (default: search ``0..M``).
+        Fit only ``M``.
     criterion : str, optional
-        ``"bic"`` (default) or ``"lrt"``: how the number of manoeuvres is chosen.
+        ``"bic"`` (default) or ``"lrt"``.
     alpha : float, optional
-        Level of the likelihood-ratio tests (default 0.01).
+        Level of the tests (default 0.01).
     accelerations : str, optional
-        ``"select"`` (default) holds at zero the accelerations the data do not need;
-        ``"all"`` fits them all.
+        ``"select"`` (default) or ``"all"``.
     ref_time : float, optional
-        Reference time (s) of the reported parameters; default the motion model's, or the
-        first measurement time for a motion name.
+        s, of the reported parameters.
     settings : ManoeuvreSettings, optional
-        The search's grid and limits.
-
-    Notes
-    -----
-    Settings left at None are not passed on, so that
-    :func:`~tmakit.batch.curvilinear.estimate_for` applies its own defaults (and refuses
-    manoeuvre settings for a motion name without manoeuvres, such as ``"cv2d"``).
 
     References
     ----------
@@ -85,13 +68,11 @@ class ManoeuvreEstimator(BatchEstimator):
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def manoeuvre_options(self) -> dict[str, object]:
-        """Collect the manoeuvre settings that were given.
+        """Collect the manoeuvre settings given (not None), by keyword.
 
         Returns
         -------
         dict of str to object
-            The settings not left at None, by keyword of
-            :func:`~tmakit.batch.curvilinear.estimate_for`.
         """
         given = {"exact": self.exact, "criterion": self.criterion, "alpha": self.alpha,
                  "accelerations": self.accelerations, "ref_time": self.ref_time,
