@@ -87,28 +87,22 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
 
 @dataclass
 class GaussNewtonModel:
-    """The Gauss-Newton model of a batch at its current points.
-
-    For :func:`levenberg_marquardt`: ``J'J`` (over the ``free`` columns) in variables scaled by the
-    square roots of its diagonal (``scale``) as ``v diag(w) v'``, the scaled gradient ``vg`` in
-    that basis, the Gauss-Newton decrement (the decrease an undamped step predicts) and whether
-    the gradient is orthogonal to every Jacobian column (``gtol``).
+    """The Gauss-Newton model of a batch at its current points, in diagonally scaled variables.
 
     Parameters
     ----------
     w, v : ndarray
-        ``(B, p)`` eigenvalues (floored at 1e-12 of the largest) and ``(B, p, p)``
-        eigenvectors of the scaled ``J'J``.
+        ``(B, p)`` eigenvalues and ``(B, p, p)`` eigenvectors of the scaled ``J'J``.
     vg : ndarray
-        ``(B, p)`` the scaled gradient in the eigenvector basis.
+        ``(B, p)`` the scaled gradient in that basis.
     scale : ndarray
-        ``(B, p)`` square roots of the diagonal of ``J'J`` (per parameter unit).
+        ``(B, p)`` square roots of the diagonal of ``J'J``.
     decrement : ndarray
         ``(B,)`` the Gauss-Newton decrement (half chi2).
     small_grad : ndarray of bool
-        ``(B,)`` whether the gradient test is met.
+        ``(B,)`` the gradient test met.
     jtj : ndarray, optional
-        ``(B, p, p)`` ``J'J`` itself (the Fisher information at the points).
+        ``(B, p, p)`` ``J'J`` itself.
     """
 
     w: Array

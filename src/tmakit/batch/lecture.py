@@ -90,28 +90,19 @@ def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
 class LectureGaussNewton(PaperMethod):
     """The Doppler-tracking lecture notes: Gauss–Newton on ``[X_N Y_N Z_N V_x V_y V_z f_o]``.
 
+    ``motion`` must be ``ConstantVelocity(3, ref_time=t_N)``, ``t_N`` the last sample time.
+
     Parameters
     ----------
     init : Mapping[str, float] or array_like, optional
-        The six motion parameters (m, m/s) by name or as a vector; a mapping may also give
-        ``carrier`` (f_o, Hz), otherwise f_o starts at its linear least-squares value given
-        the starting trajectory.  Default: tmakit's grid point on the frequency rows
-        (:class:`~tmakit.batch.estimator.PaperMethod`).
+        The six motion parameters (m, m/s), a mapping may add ``carrier`` (Hz); default tmakit's
+        grid point on the frequency rows.
     options : Mapping, optional
-        Only the notes' model (no drift) is accepted.
+        Only the notes' model (no drift).
     max_iter : int, optional
-        Iterations at most (default 50).
+        Default 50.
     tol : float, optional
-        Converged when the update is below ``tol`` standard deviations,
-        ``sqrt(dx^T H^T R^-1 H dx) < tol`` (default 1e-4).
-
-    Notes
-    -----
-    ``motion`` must be ``ConstantVelocity(3, ref_time=t_N)`` with ``t_N`` the last sample
-    time.  ``H`` is :meth:`tmakit.observation.ObservationModel.jacobian` with the carrier as
-    the nuisance column; ``R = diag(sigma^2)``.  The result's std and bound are the inverse
-    information at the estimate; a rank-deficient ``H^T R^-1 H`` gives status
-    ``unobservable`` with the rank in the message (see the module docstring).
+        Converged when ``sqrt(dx^T H^T R^-1 H dx) < tol`` (default 1e-4).
 
     References
     ----------

@@ -48,21 +48,18 @@ __all__ = [
 
 
 def model_for(kind: str, options: Mapping[str, object] | None = None) -> MeasurementModel:
-    """Build the measurement model of a kind.
+    """Build the measurement model of a kind (SI inside).
 
     Parameters
     ----------
     kind : str
-        A key of :data:`KINDS` ("bearing", "frequency", ...).
+        A key of :data:`KINDS`.
     options : mapping, optional
-        The kind's options, as in the per-kind ``options=`` of the estimators
-        (``{"drift": True}`` for a frequency, ``{"exponent": None}`` for a power); an
-        option the kind does not take is a ``TypeError`` naming it.
+        The kind's options (``{"drift": True}``); one it does not take is a ``TypeError``.
 
     Returns
     -------
     MeasurementModel
-        The model, working in SI units.
 
     Raises
     ------
@@ -85,16 +82,14 @@ def options_with_metadata(kinds: Iterable[str], options: Mapping[str, Mapping[st
     Parameters
     ----------
     kinds : iterable of str
-        The kinds present.
     options : mapping, optional
-        Per-kind options given by the caller; they win over the metadata.
+        Per-kind options; they win over the metadata.
     metadata : mapping of str to str
-        The set's metadata (``# tdoa_noise: independent``, ``# fdoa_carrier: 1e9``).
+        E.g. ``tdoa_noise``, ``fdoa_carrier``.
 
     Returns
     -------
     dict
-        Per-kind options.
 
     Raises
     ------

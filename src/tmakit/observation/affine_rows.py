@@ -1,11 +1,7 @@
 """Relative states of an affine motion model at many rows, for one or many parameter vectors.
 
-For an affine motion model (constant velocity, stationary) the relative state of the target at
-row ``j``, component ``c``, is ``offset[c, j] + sum_i theta_i coef[i, c, j]``.  Most
-coefficients are zero and many are one (a position component depends on its position and
-velocity parameters only), so one parameter vector is evaluated from the non-zero terms, a few
-passes over the rows (:meth:`AffineRows.single`), and a batch of them by one matrix product
-with the dense map (:attr:`AffineRows.matrix`, made on first use).
+Component ``c`` at row ``j`` is ``offset[c, j] + sum_i theta_i coef[i, c, j]``: one vector from
+the non-zero terms (:meth:`AffineRows.single`), a batch by one product (:attr:`AffineRows.matrix`).
 """
 
 from __future__ import annotations
@@ -30,17 +26,13 @@ class AffineRows:
     Parameters
     ----------
     terms : sequence of Term
-        The non-zero terms of the map, in any order.
+        The non-zero terms.
     offset : numpy.ndarray
-        ``(6, m)``: the relative states at ``theta = 0`` (target offset minus sensor state);
-        with ``sensor``, the target's offset alone (this object's to overwrite, or a
-        read-only broadcast such as a constant velocity model's zeros: no memory per row).
+        ``(6, m)`` relative states at ``theta = 0`` (with ``sensor``: the target's offset alone).
     p : int
         Number of parameters.
     sensor : numpy.ndarray, optional
-        ``(m, 6)`` sensor states subtracted from ``offset`` on first use: the whole
-        component-major :attr:`offset` (a transposing pass) only when needed, single
-        components (:meth:`single` with ``components``) alone.
+        ``(m, 6)`` sensor states subtracted from ``offset`` on first use.
     """
 
     def __init__(self, terms: Sequence[Term], offset: Array, p: int,

@@ -17,19 +17,16 @@ __all__ = ["Linearisation"]
 
 
 class Linearisation:
-    """The predictions of an :class:`ObservationModel` at a batch of ``theta``, linearised.
+    """The predictions ``h0 + (A_const + A_var) @ nu`` of an :class:`ObservationModel`, linearised.
 
-    In grouped order, ``h0 + (A_const + A_var) @ nu``, and their derivatives with respect to
-    the relative states: ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at the range differences'
-    reference samples) and, per kind whose design depends on the geometry,
-    ``(kind, dA, dA_ref)`` with ``dA`` ``(..., n_kind, k_kind, 6)``.
+    Grouped order, with ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at reference samples) and per
+    geometry-dependent kind ``(kind, dA, dA_ref)``.
 
     Parameters
     ----------
     obs : ObservationModel
-        The model linearised.
     theta : ndarray
-        Motion parameters ``(..., p)``, SI.
+        ``(..., p)``, SI.
     h0, a_var : ndarray
         ``(..., n)`` and ``(..., n, k)``, SI.
     """
@@ -52,24 +49,23 @@ class Linearisation:
         self.whitened = False
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
-        """Return ``d predictions / d theta`` at nuisance values.
+        """Return ``d predictions / d theta`` ``(..., n, p)`` at nuisance values.
 
         Parameters
         ----------
         nuisance : ndarray
-            ``(..., k)``: one vector per row of the batch, or one for all.
+            ``(..., k)``.
         with_h0 : bool
-            False leaves out the derivative of ``h0`` (the nuisance part alone).
+            False leaves out the derivative of ``h0``.
 
         Returns
         -------
         ndarray
-            ``(..., n, p)``, SI.
 
         Raises
         ------
         ValueError
-            When the linearisation was made without derivatives.
+            When made without derivatives.
         """
         if self.fused is not None:  # no nuisance: the Jacobian itself, a new array once
             if not with_h0:
