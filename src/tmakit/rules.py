@@ -1,11 +1,8 @@
 """The one set of rules a measurement set obeys, wherever it comes from.
 
-The file reader (:mod:`tmakit.io`), the :class:`~tmakit.data.MeasurementSet` constructor, the
-scenario simulator and the writers all refuse what these rules refuse, with the same words:
-each cell rule is a ``(column, expected, test)`` triple here, and the metadata keys the
-library reads (``truth``, ``nuisance``, ``ref_time``, ``origin_*``, ``seed``, ``motion``) are
-checked by :func:`metadata_problems`.  The reader reports a failing cell by file row, line and
-column; the constructor by row and column (:func:`column_problems`).
+Reader, constructor, simulator and writers refuse with the same words: each cell rule is a
+``(column, expected, test)`` triple; the metadata keys the library reads are checked by
+:func:`metadata_problems`.
 """
 
 from __future__ import annotations

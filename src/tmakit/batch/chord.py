@@ -1,11 +1,7 @@
-"""The grid's chord cost for bearings alone under affine motion, without forming the angles.
+"""The grid's chord cost ``sum w^2 (1 - cos(y - h))`` for bearings alone under affine motion.
 
-The grid start (:mod:`tmakit.batch.init`) scores a problem whose every row is an angle by the
-chord ``sum w^2 (1 - cos(y - h))``.  For one planar kind (the bearing) under an affine motion
-model (constant velocity, at rest) ``cos h`` and ``sin h`` come from the relative east and
-north positions of the rows (:class:`~tmakit.observation.fused.PlanarUnits`), on the rows of
-the problem itself: no arctangent, sine or cosine per candidate and row, and no smaller
-problem built for the rows.
+``cos h`` and ``sin h`` come from the relative positions
+(:class:`~tmakit.observation.fused.PlanarUnits`): no trigonometry per candidate and row.
 """
 
 from __future__ import annotations

@@ -1,12 +1,6 @@
-"""Maximum likelihood for a manoeuvring target: the estimator's stable public path.
+"""Maximum likelihood for a manoeuvring target (Hörst & Oispuu (2010)): the stable public path.
 
-Piecewise curvilinear motion, Hörst & Oispuu (2010); the path is kept for ``tk.estimate`` and
-for users.
-
-The estimator itself is the package :mod:`tmakit.batch.manoeuvre` (the method is described
-there): its search (:mod:`~tmakit.batch.manoeuvre.search`), order and acceleration selection
-(:mod:`~tmakit.batch.manoeuvre.selection`) and result (:mod:`~tmakit.batch.manoeuvre.report`).
-Motion names are read by :func:`tmakit.motion.motion_from_name` only.
+The estimator itself is the package :mod:`tmakit.batch.manoeuvre`.
 """
 
 from .manoeuvre import (

@@ -1,11 +1,8 @@
 """Many rows: the no-guess fit first converges its starts on a subset of rows.
 
-Above :data:`PRESOLVE_ROWS` rows (independent noise) :func:`~tmakit.batch.ml.solve_without_guess`
-scores its grid and fits its starts on :data:`PRESOLVE_SUBSET` evenly spread rows; the subset's
-optimum lies a few of the whole set's standard deviations from the whole set's optimum, so the
-solve on every row then takes two Gauss–Newton steps and ends with a third checked by its
-residuals alone (:data:`POLISH_DECREMENT`).  Every full-size evaluation costs more than the
-subset's whole fit.
+Above :data:`PRESOLVE_ROWS` independent rows the grid and starts run on :data:`PRESOLVE_SUBSET`
+rows; the full solve then takes two Gauss–Newton steps and a polished third
+(:data:`POLISH_DECREMENT`).
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
-"""Maximum likelihood with sensor position errors: the fit that accounts for navigation error.
+"""Maximum likelihood with sensor position errors (Ho, Lu & Kovavisaruch (2007)'s setting).
 
-The estimator of Ho, Lu & Kovavisaruch (2007)'s setting, by maximum likelihood: the sensors'
-position errors are integrated out, leaving the rows with the effective noise
-``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.sensor_errors`).  The fit starts from the
-ordinary maximum likelihood (positions taken as reported), then refits twice with the
-effective noise linearised at the current estimate (the noise depends on the parameters only
-through ``H_b``, slowly).  Its covariance is the bound with the errors at the estimate
-(:func:`tmakit.bounds.sensor_errors.crlb_with_sensor_errors`).
+The errors are integrated out into the noise ``R + H_b Q_b H_b'``
+(:mod:`tmakit.observation.sensor_errors`); the fit starts from the ordinary ML and refits twice
+with that noise linearised at the estimate.
 """
 
 from __future__ import annotations

@@ -1,12 +1,7 @@
 """Fits of many correlated rows: every starting point solved on a subset, one carried to all.
 
-A set with independent noise carries one grid start over all its rows when its fit is settled
-(converged with a plausible chi2); a set of range differences with correlated noise often is
-not on its first start, and the multi-start strategy of :func:`tmakit.batch.ml.solve_without_guess`
-then carried 12-23 starts over every row (7 GB and 117 s at 1e6 rows).  Here the whole
-strategy (grid, first start, next starts, dense grid) runs on :data:`SUBSET_ROWS` evenly spread
-rows, whose noise is their own block of the covariance, and only the subset's best fit per
-data set is then solved on every row (chunked by the solver above ``blas.CHUNKED_ROWS``).
+For correlated range differences the whole multi-start strategy runs on :data:`SUBSET_ROWS`
+evenly spread rows; only the subset's best fit per data set is then solved on every row.
 """
 
 from __future__ import annotations

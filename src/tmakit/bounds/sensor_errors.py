@@ -1,9 +1,7 @@
 """The CRLB with sensor position errors (Ho, Lu & Kovavisaruch (2007)).
 
-:func:`crlb_with_sensor_errors` is :func:`tmakit.bounds.crlb` with the rows' noise
-``R + H_b Q_b H_b'`` (:func:`tmakit.observation.sensor_errors.effective_noise`): the bound of
-an estimator that knows the sensors' positions only to ``position_sigma`` per axis.  The loss
-against perfectly known positions is the ratio of the two bounds' standard deviations.
+:func:`tmakit.bounds.crlb` with the rows' noise ``R + H_b Q_b H_b'``
+(:func:`tmakit.observation.sensor_errors.effective_noise`).
 """
 
 from __future__ import annotations

@@ -1,13 +1,10 @@
 """Frame and angle conventions, written once.
 
-- Local East-North-Up (ENU) Cartesian frame, metres.  A 2-D problem lives in the plane z = 0.
-- Bearing (azimuth) is measured clockwise from North: ``atan2(d_east, d_north)``
-  (Hörst & Oispuu (2010), eq. 6).  Elevation is measured up from the horizontal plane.
-- Headings/courses are bearings too (clockwise from North).  A paper that measures angles
-  counter-clockwise from East (the sensor path of Gu et al. (2007), the bearings of Chen &
-  Sun) is converted with :func:`math_angle_to_bearing` in its scenario, never in the models.
-- Relative state = target minus sensor, ``[dx, dy, dz, dvx, dvy, dvz]``.
-- Angle residuals are wrapped to (-pi, pi].
+Local ENU frame in metres (2-D: z = 0); bearings and courses clockwise from North,
+``atan2(d_east, d_north)`` (Hörst & Oispuu (2010), eq. 6); papers' counter-clockwise-from-East
+angles (Gu et al. (2007), Chen & Sun) are converted in their scenarios by
+:func:`math_angle_to_bearing`.  Relative state = target minus sensor; angle residuals wrap to
+(-pi, pi].
 """
 
 from __future__ import annotations

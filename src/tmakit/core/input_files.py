@@ -1,9 +1,7 @@
 """What any file tmakit reads must be before it is read: a regular file, and text if text.
 
-A FIFO with no writer, a terminal or a device would block the reader forever (or read
-without end); a binary file given where text is expected (2 GB of NUL bytes as a CSV) would
-be parsed for minutes before failing.  Both are refused at once, naming the file: the first
-:data:`SNIFF_BYTES` of a text file are read and a NUL byte in them ends the read.
+FIFOs, terminals and devices are refused, and a NUL byte in the first :data:`SNIFF_BYTES` of a
+text file, naming the file.
 """
 
 from __future__ import annotations

@@ -1,10 +1,7 @@
 """The conventions of public keywords: random sources, and renamed keywords kept for a release.
 
-``rng=`` takes a ``numpy.random.Generator`` or a seed.  A study that spawns one stream per run
-(the Monte Carlo, the planner's closed loop) needs an integer seed it can record;
-:func:`study_seed` gives it.  A keyword renamed (``seed`` to ``rng``, ``filter`` to
-``tracker``) keeps working for one release with a ``DeprecationWarning``
-(:func:`renamed_keyword`).
+``rng=`` takes a Generator or a seed (:func:`study_seed`); a renamed keyword warns for one
+release (:func:`renamed_keyword`).
 """
 
 from __future__ import annotations

@@ -1,10 +1,4 @@
-"""Units and physical constants.
-
-tmakit works in SI inside: metres, seconds, radians, hertz, watts (power measurements in
-decibels relative to one watt, dBW, because the nuisance constant enters linearly there).
-Degrees, deg/s and dBm appear only at the edges (files, the command line, plots) and are
-converted once, here.
-"""
+"""Units and physical constants: SI inside (power in dBW); degrees and dBm only at the edges."""
 
 from __future__ import annotations
 

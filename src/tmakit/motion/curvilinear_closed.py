@@ -1,9 +1,7 @@
-"""The closed form of one curvilinear segment and its derivatives (Hörst & Oispuu (2010), eq. 1).
+"""The closed form of one curvilinear segment and its derivatives, vectorised.
 
-The formulas stated in :mod:`tmakit.motion.curvilinear` (its module docstring derives them),
-vectorised: :func:`propagate_with_partials` gives every value and derivative of a segment.
-The manoeuvre estimator's batched model writes the same formulas out per sample, compiled
-(:mod:`tmakit.motion.curvilinear_compiled`).
+:func:`propagate_with_partials` gives every value and derivative of a segment; the compiled
+twin per sample is :mod:`tmakit.motion.curvilinear_compiled`.
 
 References
 ----------

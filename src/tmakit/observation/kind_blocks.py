@@ -1,10 +1,4 @@
-"""Rows grouped by kind: each kind's block of rows, and what follows from the blocks.
-
-The observation model works on a set's rows grouped by kind, each kind a contiguous slice
-(:class:`~tmakit.observation.ObservationModel`).  The grouping comes from the categorical kind
-codes (:attr:`~tmakit.data.MeasurementSet.kind_code`) and the facts solvers need from the
-slices alone, without a pass over the rows.
-"""
+"""Rows grouped by kind: each kind's contiguous block, from the categorical kind codes."""
 
 from __future__ import annotations
 
