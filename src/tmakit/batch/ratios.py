@@ -54,10 +54,9 @@ class RatioPairs:
     Parameters
     ----------
     prev, cur : ndarray of int, shape (m,)
-        Row indices of each pair's earlier and later sample.
+        Rows of each pair's earlier and later sample.
     linked : ndarray of bool, shape (m,)
-        True when pair ``j`` and pair ``j + 1`` share a sample (same sensor), i.e. are
-        correlated.
+        Pairs ``j`` and ``j + 1`` share a sample (correlated).
     """
 
     prev: NDArray[np.int64]
@@ -181,9 +180,8 @@ class Banded:
     Parameters
     ----------
     diag : ndarray, shape (m,)
-        Diagonal of ``Sigma``.
     off : ndarray, shape (m,)
-        Its off-diagonal (``off[j]`` at (j, j+1); the last entry unused).
+        ``off[j]`` at (j, j+1); the last entry unused.
 
     Raises
     ------
@@ -285,21 +283,20 @@ RATIO_NAMES: dict[tuple[str, ...], str] = {("power",): "ratio-power",
 class RatioMethod(PaperMethod):
     """Gu et al. (2007) §4: iterative LS on ratios of neighbouring measurements.
 
+    Diverged when theta becomes non-finite, a range non-positive, or the ranges grow 1e4-fold.
+
     Parameters
     ----------
     init : Mapping[str, float] or array_like, optional
-        The starting ``theta = [x_0, y_0, v_x, v_y]`` (m, m/s), by name or as a vector; the
-        method is local.  Default: tmakit's grid point
-        (:class:`~tmakit.batch.estimator.PaperMethod`).
+        The start ``[x_0, y_0, v_x, v_y]`` (m, m/s); default tmakit's grid point.
     options : Mapping, optional
-        Only the paper's model (no drift, path-loss exponent 2) is accepted.
+        Only the paper's model (no drift, exponent 2).
     kinds : str or sequence of str, optional
-        ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34, the
-        default).
+        ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34, default).
     max_iter : int, optional
-        Iterations at most (default 50).
+        Default 50.
     covariance : str, optional
-        ``"derived"`` (default) or ``"paper"``, see the module docstring.
+        ``"derived"`` (default) or ``"paper"``.
     tol : float, optional
         Converged when the update is below ``tol * (1 + |theta|)`` (default 1e-9).
 
@@ -307,12 +304,6 @@ class RatioMethod(PaperMethod):
     ------
     ValueError
         For an unknown ``covariance`` or a nuisance model other than the paper's.
-
-    Notes
-    -----
-    Iterates ``theta_{i+1} = D_i^-1 N_i`` (solved as the equivalent whitened least squares
-    with equilibrated columns) until the update is small (``converged``); ``diverged`` when
-    theta becomes non-finite, a range non-positive, or the ranges grow more than 1e4-fold.
 
     References
     ----------

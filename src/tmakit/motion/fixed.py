@@ -17,16 +17,13 @@ from .base import MotionModel
 class FixedParameters(MotionModel):
     """``model`` with the parameters named in ``known`` held at the given values (SI).
 
-    ``param_names`` are the remaining parameters, in ``model``'s order; :meth:`states` and
-    :meth:`jacobian` take those only.  :meth:`full` gives the wrapped model's parameter
-    vector.
+    ``param_names`` are the rest, in ``model``'s order; :meth:`full` gives the wrapped vector.
 
     Parameters
     ----------
     model : MotionModel
-        The wrapped model.
     known : Mapping[str, float]
-        The known parameters by name (SI units).
+        SI.
 
     Raises
     ------
@@ -54,17 +51,15 @@ class FixedParameters(MotionModel):
         self._fixed_values = np.array(list(self.known.values()))
 
     def full(self, theta: ArrayLike) -> NDArray[np.float64]:
-        """Give the wrapped model's parameters from the unknowns.
+        """Give the wrapped model's parameters ``(..., P)`` from the unknowns ``(..., p)``.
 
         Parameters
         ----------
         theta : array_like
-            ``(..., p)`` the unknowns (SI units).
 
         Returns
         -------
         ndarray
-            ``(..., P)`` the wrapped model's parameters, the known ones filled in.
         """
         theta = self.check_theta(theta)
         out = np.empty((*theta.shape[:-1], self.model.n_params))
