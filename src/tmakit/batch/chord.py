@@ -26,25 +26,18 @@ def chord_units(problem: VarProProblem, rows: NDArray[np.int64] | None = None
 
 
 class ChordScorer:
-    """Chord cost of candidates for an all-angle problem, from the angles' sines and cosines.
-
-    The cost of :class:`~tmakit.batch.init.GridScorer` for such problems,
-    ``sum w^2 (1 - cos(y - h))`` with ``cos(y - h) = cos y cos h + sin y sin h``, but with
-    ``sin h`` and ``cos h`` made from the relative positions
-    (:class:`~tmakit.observation.fused.PlanarUnits`) instead of the angles ``h``: equal up
-    to rounding.
+    """Chord cost ``sum w^2 (1 - cos(y - h))`` of candidates from the rows' sines and cosines.
 
     Parameters
     ----------
     units : PlanarUnits
         The rows' ``theta -> (sin h, cos h)``.
     weight2 : ndarray, shape (m,)
-        The rows' weights ``1 / sigma^2`` (rad^-2).
+        ``1 / sigma^2``, rad^-2.
     candidates : ndarray, shape (C, p)
-        Motion parameters of the candidates (SI).
+        SI.
     step : int
-        Candidates per block: no array holds the predictions of more (see
-        :data:`~tmakit.batch.init.CANDIDATE_ROWS`).
+        Candidates per block.
     """
 
     def __init__(self, units: PlanarUnits, weight2: NDArray[np.float64],

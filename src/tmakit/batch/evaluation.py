@@ -25,18 +25,17 @@ class Evaluation:
     Parameters
     ----------
     theta : ndarray
-        ``(B, p)`` motion parameters (SI units).
+        ``(B, p)``, SI.
     nuisance : ndarray
-        ``(B, k)`` eliminated (or fixed) nuisance values (SI units).
+        ``(B, k)`` eliminated or fixed, SI.
     residual : ndarray
-        ``(B, n)`` whitened residuals, nuisance projected out (dimensionless).
+        ``(B, n)`` whitened, nuisance projected out.
     cost : ndarray
-        ``(B,)`` half the squared whitened residual (inf where there is no prediction).
+        ``(B,)`` half the squared residual (inf: no prediction).
     jacobian : ndarray, optional
-        ``(B, n, p)`` whitened, projected Jacobian (per parameter unit).
+        ``(B, n, p)`` whitened, projected.
     normal : (ndarray, ndarray), optional
-        ``(B, p, p)`` ``J'J`` and ``(B, p)`` ``J'r`` in place of the Jacobian, summed over
-        row chunks (more than :data:`tmakit.core.blas.CHUNKED_ROWS` rows).
+        ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` in place of the Jacobian.
     """
 
     theta: Array      # (B, p)

@@ -20,26 +20,23 @@ __all__ = ["MIN_RUNS", "pcrb_over_runs", "ratio_interval"]
 
 def pcrb_over_runs(information: ArrayLike, times: ArrayLike, prior_cov: ArrayLike,
                    dynamics: NearlyConstantVelocity, time0: float) -> Array:
-    """Return the posterior CRB after each update, ``Gamma`` the mean over the runs.
+    """Return the posterior CRB ``J_k^{-1}`` (D, n, n), SI, per update, ``Gamma`` the runs' mean.
 
     Parameters
     ----------
     information : array_like, shape (R, D, n, n)
-        ``Xi`` of run ``r``'s measurements at update ``k``, at its true target state and its
-        sensor state, SI.
+        ``Xi`` of run ``r`` at update ``k``, at its true target and sensor states, SI.
     times : array_like, shape (D,)
-        The update times, s (increasing, not before ``time0``).
+        s, increasing, not before ``time0``.
     prior_cov : array_like, shape (n, n)
-        ``P_0``, the trackers' prior covariance at ``time0``, SI.
+        ``P_0`` at ``time0``, SI.
     dynamics : NearlyConstantVelocity
-        The target dynamics (``Q``) the trackers assume and the truth follows.
     time0 : float
-        The prior's time, s.
+        s.
 
     Returns
     -------
-    ndarray, shape (D, n, n)
-        ``J_k^{-1}``, the bound on the mean-square error matrix after each update, SI.
+    ndarray
 
     Raises
     ------

@@ -25,17 +25,13 @@ def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[Status, st
     Parameters
     ----------
     converged : bool
-        Whether the solver's convergence tests were met.
     bound : Bound
-        The information at the fit (its observability decides ``unobservable``).
+        The information at the fit (rank deficient: ``unobservable``).
     unknowns : int
-        The number of unknowns fitted.
 
     Returns
     -------
     status : Status
-        ``unobservable`` when the information is rank deficient, else ``converged`` or
-        ``did not converge``.
     message : str
         Empty for a converged, observable fit.
     """
