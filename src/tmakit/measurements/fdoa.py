@@ -10,17 +10,17 @@ import math
 from collections.abc import Mapping
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ..core.units import SPEED_OF_LIGHT
-from .base import Array, Jacobian, MeasurementModel, as_rel
+from .base import Array, Jacobian, as_rel
 from .range_rate import range_rate_and_gradient
-from .tdoa import noise_form, shared_reference_covariance
+from .tdoa import BetweenSensors
 
 __all__ = ["Fdoa"]
 
 
-class Fdoa(MeasurementModel):
+class Fdoa(BetweenSensors):
     """Frequency difference of arrival, Hz (also in files): sensor minus reference sensor.
 
     Parameters
@@ -44,47 +44,32 @@ class Fdoa(MeasurementModel):
 
     kind = "fdoa"
     file_unit = "Hz"
-    mirror_symmetric = True
-    uses_reference = True
     uses_velocity = True
-    between_sensors = True
-    correlated_noise = True
 
     def __init__(self, carrier: float | None = None, noise: str = "shared",
                  speed_of_light: float = SPEED_OF_LIGHT) -> None:
         if carrier is not None and not (math.isfinite(float(carrier)) and float(carrier) > 0):
             raise ValueError(f"fdoa: the carrier must be a positive frequency (Hz), found "
                              f"{carrier!r}")
+        super().__init__(noise, speed_of_light)
         self.carrier = None if carrier is None else float(carrier)
-        self.noise = noise_form(noise, "fdoa noise")
-        self.correlated_noise = self.noise == "shared"
-        self.c = float(speed_of_light)
 
     @classmethod
     def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
-        """Give the options a file's metadata states (``fdoa_carrier``, ``fdoa_noise``)."""
-        out: dict[str, object] = {}
+        """Give the carrier (``# fdoa_carrier: HZ``) and noise form a file's metadata states."""
+        out = super().options_from_metadata(metadata)
         if metadata.get("fdoa_carrier", "").strip():
             try:
                 out["carrier"] = float(metadata["fdoa_carrier"])
             except ValueError:
                 raise ValueError("metadata fdoa_carrier: expected the carrier in Hz, found "
                                  f"{metadata['fdoa_carrier']!r}") from None
-        if "fdoa_noise" in metadata:
-            out["noise"] = noise_form(metadata["fdoa_noise"], "metadata fdoa_noise")
         return out
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:
         """``("carrier",)`` when the carrier is unknown, else none."""
         return () if self.carrier is not None else ("carrier",)
-
-    def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
-                         sensor: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Give the noise covariance of rows sharing one reference at one time, Hz^2."""
-        if not self.correlated_noise:
-            return np.diag(np.asarray(sigma, dtype=float) ** 2)
-        return shared_reference_covariance(sigma)
 
     def _scale(self, nuisance: ArrayLike | None) -> Array:
         if self.carrier is not None:
@@ -99,7 +84,7 @@ class Fdoa(MeasurementModel):
     def _rate_difference(self, rel: Array, rel_ref: ArrayLike | None
                          ) -> tuple[Array, Array, Array]:
         if rel_ref is None:
-            raise ValueError("fdoa needs the target's state relative to the reference sensor")
+            raise ValueError(self._needs())
         rdot, grad = range_rate_and_gradient(rel)
         rdot_ref, grad_ref = range_rate_and_gradient(as_rel(rel_ref))
         return rdot - rdot_ref, grad, grad_ref

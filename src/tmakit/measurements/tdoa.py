@@ -16,7 +16,7 @@ from ..core.units import REACH_M, SPEED_OF_LIGHT
 from .base import Array, Jacobian, MeasurementModel, ValueRange
 from .range_difference import path_difference, path_difference_jacobian
 
-__all__ = ["NOISE_FORMS", "Tdoa", "noise_form", "shared_reference_covariance"]
+__all__ = ["NOISE_FORMS", "BetweenSensors", "Tdoa", "noise_form", "shared_reference_covariance"]
 
 #: The noise forms of differences between sensors: ``shared`` (the reference's arrival
 #: error is common to the rows that share it, the default) or ``independent``.
@@ -56,10 +56,42 @@ def shared_reference_covariance(sigma: ArrayLike) -> NDArray[np.float64]:
     return cov
 
 
-_NEEDS = "tdoa needs the target's state relative to the reference sensor"
+class BetweenSensors(MeasurementModel):
+    """A difference between a sensor and its reference sensor at one time (tdoa, fdoa).
+
+    Rows at one time that share a reference sensor are correlated
+    (:func:`shared_reference_covariance`) unless ``noise="independent"``.
+    """
+
+    mirror_symmetric = True
+    uses_reference = True
+    between_sensors = True
+    correlated_noise = True
+
+    def __init__(self, noise: str = "shared", speed_of_light: float = SPEED_OF_LIGHT) -> None:
+        self.noise = noise_form(noise, f"{self.kind} noise")
+        self.correlated_noise = self.noise == "shared"
+        self.c = float(speed_of_light)
+
+    @classmethod
+    def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
+        """Give the noise form a file's metadata states (``# tdoa_noise: independent``)."""
+        key = f"{cls.kind}_noise"
+        return {"noise": noise_form(metadata[key], f"metadata {key}")} if key in metadata else {}
+
+    def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
+                         sensor: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Give the covariance of rows sharing one reference at one time (SI squared)."""
+        if not self.correlated_noise:
+            return np.diag(np.asarray(sigma, dtype=float) ** 2)
+        return shared_reference_covariance(sigma)
+
+    def _needs(self) -> str:
+        """Give the error for a row without the reference sensor's state."""
+        return f"{self.kind} needs the target's state relative to the reference sensor"
 
 
-class Tdoa(MeasurementModel):
+class Tdoa(BetweenSensors):
     """Time difference of arrival, s (also in files): sensor minus reference sensor.
 
     Parameters
@@ -78,40 +110,17 @@ class Tdoa(MeasurementModel):
     file_unit = "s"
     value_range = ValueRange("a time difference", -REACH_M / SPEED_OF_LIGHT,
                              REACH_M / SPEED_OF_LIGHT)
-    mirror_symmetric = True
-    uses_reference = True
-    between_sensors = True
-    correlated_noise = True
-
-    def __init__(self, noise: str = "shared", speed_of_light: float = SPEED_OF_LIGHT) -> None:
-        self.noise = noise_form(noise, "tdoa noise")
-        self.correlated_noise = self.noise == "shared"
-        self.c = float(speed_of_light)
-
-    @classmethod
-    def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
-        """Give the options a file's metadata states (``# tdoa_noise: independent``)."""
-        if "tdoa_noise" not in metadata:
-            return {}
-        return {"noise": noise_form(metadata["tdoa_noise"], "metadata tdoa_noise")}
-
-    def noise_covariance(self, time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike,
-                         sensor: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Give the noise covariance of rows sharing one reference at one time, s^2."""
-        if not self.correlated_noise:
-            return np.diag(np.asarray(sigma, dtype=float) ** 2)
-        return shared_reference_covariance(sigma)
 
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
         """Predict time differences, s; see :meth:`MeasurementModel.predict`."""
-        return path_difference(rel, rel_ref, _NEEDS) / self.c
+        return path_difference(rel, rel_ref, self._needs()) / self.c
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
         """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
-        return path_difference_jacobian(rel, rel_ref, _NEEDS, 1.0 / self.c)
+        return path_difference_jacobian(rel, rel_ref, self._needs(), 1.0 / self.c)
 
     def __repr__(self) -> str:
         """Name the kind with its noise form."""

@@ -22,9 +22,10 @@ from ..batch.ml import MaximumLikelihood
 from ..bounds import crlb
 from ..core.arrays import Array
 from ..scenario import Scenario
-from .common import Section
+from .common import Reproduction, Section
 
-__all__ = ["CLOSED_TOLERANCE", "ML_TOLERANCE", "Sweep", "sweep", "threshold"]
+__all__ = ["CLOSED_TOLERANCE", "ML_TOLERANCE", "Sweep", "SweepReproduction", "plot",
+           "reproduce", "sweep", "threshold"]
 
 #: MSE / CRLB above which an estimator is past its threshold.
 ML_TOLERANCE = 1.1
@@ -48,6 +49,33 @@ class Sweep:
         """Give an estimator's MSE over the CRLB's trace at each noise level."""
         mse = getattr(self, which)[block]
         return [float(a / b) for a, b in zip(mse, self.crlb[block], strict=True)]
+
+
+@dataclass
+class SweepReproduction(Reproduction):
+    """A reproduction's report with its sweep (for :func:`plot`) and title."""
+
+    result: Sweep | None = None
+    title: str = ""
+
+
+def reproduce(name: str, title: str, scenario_at: Callable[[float], Scenario],
+              sigma_m: Sequence[float], runs: int, seed: int) -> SweepReproduction:
+    """Run a paper's sweep (:func:`sweep`) and give it as its report."""
+    if runs < 1:
+        raise ValueError(f"{name}: --runs must be 1 or more (Monte Carlo runs per level)")
+    result = sweep(scenario_at, sigma_m, runs, seed)
+    rep = SweepReproduction(name, result=result, title=title, print_figures=False)
+    rep.sections, rep.figures = sweep_sections(result, title)
+    rep.figures["runs"] = runs
+    return rep
+
+
+def plot(rep: SweepReproduction, path: str | Path) -> Path:
+    """Draw a reproduction's MSE against noise beside the CRLB."""
+    assert rep.result is not None
+    plot_sweep(rep.result, rep.title, path)
+    return Path(path)
 
 
 def threshold(sigma: Sequence[float], ratio: Sequence[float], tolerance: float
