@@ -142,6 +142,88 @@ def test_file_round_trip_and_refusals(tmp_path):
         tk.read_measurements(bad)
 
 
+def _rewrite(path: Path, out: Path, edit) -> None:
+    """Rewrite a written CSV file's table through ``edit(frame)`` (metadata kept)."""
+    import pandas as pd
+
+    lines = path.read_text().splitlines()
+    frame = pd.read_csv(path, comment="#", keep_default_na=False, dtype=str)
+    out.write_text("\n".join(x for x in lines if x.startswith("#")) + "\n"
+                   + edit(frame).to_csv(index=False))
+
+
+def test_ref_sensor_named_takes_its_state_from_its_own_rows(tmp_path):
+    """A tdoa row naming its reference (``ref_sensor``) without its state reads as the one
+    giving it: the state comes from the reference's own rows (here S1's bearings)."""
+    scenario = tk.load_scenario(LAYOUT)
+    scenario.plans.append(tk.MeasurementPlan("bearing", "S1", np.arange(0.0, 61.0, 10.0), 0.01))
+    scenario.plans = [p for p in scenario.plans if p.kind == "bearing"
+                      or p.ref_sensor == "S1"]
+    meas = scenario.simulate(rng=2)
+    path, named = tmp_path / "given.csv", tmp_path / "named.csv"
+    tk.write_measurements(meas, path)
+    refs = [c for c in meas_columns(path) if c.startswith("ref_sensor_")]
+
+    def name_it(frame):
+        frame["ref_sensor"] = np.where(frame["kind"] == "tdoa", "S1", "")
+        return frame.drop(columns=refs)
+
+    _rewrite(path, named, name_it)
+    back = tk.read_measurements(named)
+    assert np.array_equal(back.ref_sensor_state, tk.read_measurements(path).ref_sensor_state,
+                          equal_nan=True)
+    for edit, match in [
+            (lambda f: f.assign(ref_sensor=np.where(f["kind"] == "tdoa", "S9", "")),
+             "'S9': it has no other usable rows"),
+            (lambda f: f.assign(ref_sensor="S1"), "only tdoa and fdoa rows name"),
+            (lambda f: f.assign(ref_sensor=np.where(f["kind"] == "tdoa", f["sensor"], "")),
+             "another sensor than the row's own"),
+            (lambda f: f.assign(ref_sensor=""), "name it in a ref_sensor column")]:
+        _rewrite(named, tmp_path / "bad.csv", edit)
+        with pytest.raises(MeasurementFileError, match=match):
+            tk.read_measurements(tmp_path / "bad.csv")
+
+
+def meas_columns(path: Path) -> list[str]:
+    """The header of a written CSV file."""
+    return next(x for x in path.read_text().splitlines() if not x.startswith("#")).split(",")
+
+
+def test_fdoa_rows_with_their_own_carrier_read_as_at_the_files_carrier(tmp_path):
+    """Rows of a hopping emitter (carrier per row) are the rows the file's carrier would give
+    times F / f: read back, they equal the set simulated at one carrier."""
+    from tmakit.reproduce import ho_xu2004
+
+    meas = ho_xu2004.scenario_at(1.0).simulate(rng=5)
+    path = tmp_path / "one.csv"
+    tk.write_measurements(meas, path)
+    hops = np.array([0.8e9, 1.2e9, 2.5e9, 0.9e9])
+
+    def hop(frame):
+        f = frame["kind"] == "fdoa"
+        own = np.resize(hops, int(f.sum()))
+        for c in ("value", "sigma"):
+            frame.loc[f, c] = [str(float(v) * h / ho_xu2004.CARRIER_HZ)
+                               for v, h in zip(frame.loc[f, c], own, strict=True)]
+        frame["carrier"] = ""
+        frame.loc[f, "carrier"] = [str(h) for h in own]
+        return frame
+
+    _rewrite(path, tmp_path / "hops.csv", hop)
+    back = tk.read_measurements(tmp_path / "hops.csv")
+    assert float(back.metadata["fdoa_carrier"]) == ho_xu2004.CARRIER_HZ
+    assert np.allclose(back.value_si, meas.value_si, rtol=1e-12, atol=0)
+    assert np.allclose(back.sigma_si, meas.sigma_si, rtol=1e-12, atol=0)
+    _rewrite(tmp_path / "hops.csv", tmp_path / "bad.csv",
+             lambda f: f.assign(carrier=np.where(f["kind"] == "fdoa", "-1", "")))
+    with pytest.raises(MeasurementFileError, match="carrier frequency > 0"):
+        tk.read_measurements(tmp_path / "bad.csv")
+    _rewrite(tmp_path / "hops.csv", tmp_path / "bad.csv",
+             lambda f: f.assign(carrier=np.where(f["kind"] == "tdoa", "1e9", "")))
+    with pytest.raises(MeasurementFileError, match="only fdoa rows have a carrier"):
+        tk.read_measurements(tmp_path / "bad.csv")
+
+
 def test_scenario_file_refuses_a_difference_without_its_reference():
     data = tk.read_scenario_file(LAYOUT)  # the file is good
     assert {p.ref_sensor for p in data.plans} == {"S1", "S4"}

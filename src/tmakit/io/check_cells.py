@@ -117,7 +117,8 @@ class _Checks:
 
 
 def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
-                is_rd: NDArray[np.bool_], problems: Problems) -> NDArray[np.bool_]:
+                is_rd: NDArray[np.bool_], problems: Problems,
+                ref_name: NDArray[np.object_] | None = None) -> NDArray[np.bool_]:
     """Check every cell against the per-cell rules; record one problem per failing cell."""
     import pandas as pd
     import pandera.pandas as pa
@@ -131,9 +132,19 @@ def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
         if c in num:
             ref_given |= ~np.isnan(num[c])
     ref_given &= is_rd
+    named = np.zeros(len(frame), dtype=bool) if ref_name is None else ref_name != ""
     for c in REF_STATE_COLUMNS:
         if c in num and "kind" in frame.columns:
-            columns[c] = _ref_state_column(c, kind, is_rd, ref_given, checks)
+            columns[c] = _ref_state_column(c, kind, is_rd, ref_given, named, checks)
+    if ref_name is not None and "kind" in frame.columns:
+        columns["ref_sensor"] = _ref_name_column(frame, kind, checks)
+    if "carrier" in num and "kind" in frame.columns:
+        columns["carrier"] = pa.Column("float64", nullable=True, checks=[
+            checks.check("carrier", "positive", lambda v, r: (v > 0) & np.isfinite(v),
+                         "a carrier frequency > 0 (Hz)"),
+            checks.check("carrier", "unused", lambda v, r: np.isnan(v) | (kind[r] == "fdoa"),
+                         lambda row: "an empty cell: only fdoa rows have a carrier (this row "
+                                     f"is {kind[row] or 'of no kind'})", ignore_na=False)])
     schema = pa.DataFrameSchema(columns)
     text = {c: text_column(frame[c]) for c in columns if c not in num}
     for lo in range(0, max(len(frame), 1), CHUNK_ROWS):  # bounded memory; rows keep their index
@@ -242,15 +253,16 @@ def _time_ref_column(num: Numbers, kind: NDArray[np.object_], is_rd: NDArray[np.
 
 
 def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_],
-                      ref_given: NDArray[np.bool_], checks: _Checks) -> pa.Column:
+                      ref_given: NDArray[np.bool_], named: NDArray[np.bool_], checks: _Checks
+                      ) -> pa.Column:
     """Check a ref_sensor_* column: only on range-difference rows, all or none of a row, finite."""
     import pandera.pandas as pa
 
     between = np.isin(kind, between_sensor_kinds())
     return pa.Column("float64", nullable=True, checks=[
-        checks.check(c, "required", lambda v, r: ~np.isnan(v) | ~between[r],
+        checks.check(c, "required", lambda v, r: ~np.isnan(v) | ~between[r] | named[r],
                      lambda row: f"a number: a {kind[row]} row gives its reference sensor's "
-                                 "state", ignore_na=False),
+                                 "state (or names it in ref_sensor)", ignore_na=False),
         checks.check(c, "unused", lambda v, r: np.isnan(v) | is_rd[r],
                      lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
                                  f"sensor state at time_ref (this row is "
@@ -260,6 +272,25 @@ def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_
                      "give all or none)", ignore_na=False),
         checks.finite(c),
     ])
+
+
+def _ref_name_column(frame: pd.DataFrame, kind: NDArray[np.object_], checks: _Checks
+                     ) -> pa.Column:
+    """Check a ref_sensor name: only on tdoa/fdoa rows, another sensor than the row's."""
+    import pandera.pandas as pa
+
+    between = np.isin(kind, between_sensor_kinds())
+    own = (text_column(frame["sensor"]) if "sensor" in frame.columns
+           else np.full(len(frame), "", dtype=object))
+    return pa.Column(None, checks=[
+        checks.check("ref_sensor", "unused",
+                     lambda v, r: np.array([x.strip() == "" for x in v]) | between[r],
+                     lambda row: "an empty cell: only tdoa and fdoa rows name a reference "
+                                 f"sensor (this row is {kind[row] or 'of no kind'})"),
+        checks.check("ref_sensor", "other",
+                     lambda v, r: np.array([x.strip() != str(o).strip()
+                                            for x, o in zip(v, own[r], strict=True)]),
+                     lambda row: f"another sensor than the row's own ({own[row]!r})")])
 
 
 def _record_failures(fc: pd.DataFrame, checks: _Checks, problems: Problems) -> None:

@@ -22,7 +22,7 @@ from .check_columns import check_columns
 from .check_rows import check_order
 from .contract import between_sensor_kinds, reference_kinds
 from .errors import MeasurementFileError
-from .positions import ref_sensor_state, sensor_state
+from .positions import fdoa_carriers, ref_sensor_state, sensor_state
 from .problems import Problems, RawTable
 
 __all__ = ["check_table", "table_reader"]
@@ -42,13 +42,20 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
 
     layout = check_columns(frame.columns, [k for k in KINDS if np.any(kind == k)], problems)
     num = read_numbers(frame, problems)
-    ref_given = check_cells(frame, num, kind, is_rd, problems)
+    ref_name = (_stripped(text_column(frame["ref_sensor"])) if has("ref_sensor") else None)
+    ref_given = check_cells(frame, num, kind, is_rd, problems, ref_name)
     check_order(num, sensor, kind, problems)
     state, origin_metadata = sensor_state(num, layout, origin, problems)
     time_ref = num["time_ref"] if "time_ref" in num else np.full(n, np.nan)
     earlier = is_rd & ~np.isin(kind, between_sensor_kinds())  # tdoa, fdoa: given, checked
+    named = (is_rd & ~earlier & ~ref_given & (ref_name != "") if ref_name is not None
+             else np.zeros(n, dtype=bool))
     ref_state = ref_sensor_state(num, state, sensor, earlier, ref_given | (is_rd & ~earlier),
-                                 layout, problems)
+                                 layout, problems, ref_name, named)
+    meta_carrier = fdoa_carriers(num, kind, raw.metadata, problems)
+    if not layout.has_ref and np.any(is_rd & ~earlier & ~named):
+        problems.missing("ref_sensor_x", "; tdoa and fdoa rows give their reference sensor's "
+                                         "state, or name it in a ref_sensor column")
 
     problems.file.extend(metadata_problems(raw.metadata))  # the keys the library reads
     found = problems.sorted()
@@ -56,6 +63,7 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
         raise MeasurementFileError(Path(path), found)
     meta: dict[str, Any] = dict(raw.metadata)
     meta.update(origin_metadata)
+    meta.update(meta_carrier)
     return MeasurementSet(num["time"], np.asarray(sensor.tolist(), dtype=str),
                           np.asarray(kind.tolist(), dtype=str), num["value"],
                           num["sigma"], state, time_ref, ref_state, meta)

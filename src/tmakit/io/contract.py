@@ -32,7 +32,7 @@ COLUMN_ORDER = ("time", "sensor", "kind", "value", "sigma", *SENSOR_STATE_COLUMN
 GEO_COLUMNS = ("sensor_lat", "sensor_lon", "sensor_alt")
 #: Columns read as numbers (float64, NaN for an empty cell).
 NUMERIC_COLUMNS = ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS,
-                   "time_ref", *REF_STATE_COLUMNS)
+                   "time_ref", *REF_STATE_COLUMNS, "carrier")
 
 
 def reference_kinds() -> tuple[str, ...]:
@@ -71,4 +71,6 @@ COLUMN_PURPOSE: dict[str, str] = {
                 "for a tdoa or fdoa (s)",
     **{c: f"reference sensor {_AXES[c.removeprefix('ref_sensor_')]} at time_ref"
        for c in REF_STATE_COLUMNS},
+    "ref_sensor": "the reference sensor of a tdoa or fdoa row (a sensor id)",
+    "carrier": "an fdoa row's carrier (Hz)",
 }

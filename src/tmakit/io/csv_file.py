@@ -41,7 +41,7 @@ __all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load
 
 #: The columns the reader uses; others are ignored (docs/file-format.md) and not even parsed,
 #: so a header of 200,000 columns costs little.
-READ_COLUMNS = frozenset(("sensor", "kind", *NUMERIC_COLUMNS))
+READ_COLUMNS = frozenset(("sensor", "kind", "ref_sensor", *NUMERIC_COLUMNS))
 #: Bytes of the file searched for the ``# key: value`` preamble before the whole file.
 _PREAMBLE_SCAN = 1 << 20
 
@@ -252,6 +252,8 @@ def _stream_header(path: Path, start: int) -> list[str] | None:
     if "" in stripped or len(set(stripped)) != len(stripped):
         return None
     has = set(stripped).__contains__
+    if has("ref_sensor") or has("carrier"):  # looked up and scaled by the checker
+        return None
     geodetic = any(has(c) for c in GEO_COLUMNS)
     position = (_GEO_REQUIRED, _ENU_COLUMNS) if geodetic else (_ENU_REQUIRED, GEO_COLUMNS)
     refs = any(has(c) for c in REF_STATE_COLUMNS)

@@ -21,7 +21,7 @@ from .problems import Problems
 #: How a caller of the library gives the ENU origin (the command line replaces it with its flag).
 ORIGIN_HINT = "origin=(lat, lon, alt) to read_measurements"
 
-__all__ = ["ORIGIN_KEYS", "ref_of_sensor", "ref_sensor_state", "resolve_origin",
+__all__ = ["ORIGIN_KEYS", "fdoa_carriers", "ref_of_sensor", "ref_sensor_state", "resolve_origin",
            "sensor_state"]
 
 Numbers = dict[str, NDArray[np.float64]]
@@ -112,19 +112,27 @@ def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
 
 def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[np.object_],
                      is_rd: NDArray[np.bool_], ref_given: NDArray[np.bool_], layout: Layout,
-                     problems: Problems) -> NDArray[np.float64]:
-    """Sensor state at time_ref ``(n, 6)`` of the range-difference rows (NaN on others)."""
+                     problems: Problems, ref_name: NDArray[np.object_] | None = None,
+                     named: NDArray[np.bool_] | None = None) -> NDArray[np.float64]:
+    """Sensor state at time_ref ``(n, 6)`` of the range-difference rows (NaN on others).
+
+    ``named`` rows (tdoa/fdoa naming their ``ref_name`` without its state) take the named
+    sensor's state at their time from that sensor's rows, as range differences take their own.
+    """
     n = state.shape[0]
     ref = np.full((n, 6), np.nan)
     for i, c in enumerate(REF_STATE_COLUMNS):
         col = num.get(c, np.zeros(n) if i >= 2 else np.full(n, np.nan))
-        ref[ref_given, i] = col[ref_given]
-    if "time" not in num or "time_ref" not in num:
+        given = ref_given if named is None else ref_given & ~named
+        ref[given, i] = col[given]
+    if "time" not in num or ("time_ref" not in num and named is None):
         return ref
-    time_ref = num["time_ref"]
+    time_ref = num.get("time_ref", num["time"])
     need = (is_rd & ~ref_given & np.isfinite(time_ref)
             & ~problems.bad_rows("time", "sensor", "time_ref"))
-    if not np.any(need):
+    if named is not None:
+        named = named & ~problems.bad_rows("time", "ref_sensor")
+    if not np.any(need) and (named is None or not np.any(named)):
         return ref
     state_cols = [c for c in (*SENSOR_STATE_COLUMNS, *GEO_COLUMNS) if c in num]
     usable = (~problems.bad_rows("time", "sensor", *state_cols)
@@ -135,13 +143,48 @@ def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[n
         ref_of_sensor(s, np.flatnonzero(need & (sensor == s)),
                        np.flatnonzero(usable & (sensor == s)), num["time"], time_ref, state,
                        ref, layout.has_velocity, problems)
+    if named is not None and ref_name is not None:
+        for s in dict.fromkeys(ref_name[named]):
+            ref_of_sensor(s, np.flatnonzero(named & (ref_name == s)),
+                           np.flatnonzero(usable & (sensor == s)), num["time"], num["time"],
+                           state, ref, layout.has_velocity, problems, "ref_sensor")
     return ref
+
+
+def fdoa_carriers(num: Numbers, kind: NDArray[np.object_], metadata: Mapping[str, str],
+                  problems: Problems) -> dict[str, str]:
+    """Bring fdoa rows with their own ``carrier`` to the file's one carrier (metadata).
+
+    A row measured at carrier ``f`` is the row that carrier ``F`` would give times ``F / f``
+    (value and sigma: the FDOA is ``-(f / c)`` times the range-rate difference), so rows of
+    several carriers (a frequency-hopping emitter) become one set at the file's carrier
+    (its ``fdoa_carrier`` metadata, else the first row's).  Returns the metadata to add.
+    """
+    if "carrier" not in num:
+        return {}
+    own = num["carrier"]
+    rows = np.flatnonzero((kind == "fdoa") & np.isfinite(own) & (own > 0))
+    stated = metadata.get("fdoa_carrier", "").strip()
+    try:
+        common = float(stated) if stated else (float(own[rows[0]]) if rows.size else None)
+    except ValueError:
+        return {}  # refused by the metadata's own check
+    if common is None:
+        return {}
+    for row in np.flatnonzero((kind == "fdoa") & np.isnan(own)) if not stated else ():
+        problems.cell(int(row), "carrier", "a carrier (Hz): other fdoa rows give theirs and "
+                      "the file states no fdoa_carrier")
+    scale = common / own[rows]
+    for c in ("value", "sigma"):
+        if c in num:
+            num[c][rows] *= scale
+    return {"fdoa_carrier": repr(common)}
 
 
 def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp] | None,
                   t: NDArray[np.float64], time_ref: NDArray[np.float64],
                   state: NDArray[np.float64], ref: NDArray[np.float64], has_velocity: bool,
-                  problems: Problems) -> None:
+                  problems: Problems, column: str = "time_ref") -> None:
     """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else interpolated)."""
     from .sensor_record import SensorRecord
 
@@ -153,8 +196,13 @@ def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp] | 
     known = (f"its rows span {number_text(times[0])} to {number_text(times[-1])} s"
              if times.shape[0] > 0 else "it has no other usable rows")
     for row in rows[missing]:
-        problems.cell(int(row), "time_ref",
-                      f"a time at which sensor '{sensor}' has a known position ({known}; "
-                      "or give the ref_sensor_* columns)",
-                      f"{number_text(time_ref[row])} (no sensor position known at time_ref "
-                      f"{number_text(time_ref[row])} s)")
+        at = number_text(time_ref[row])
+        if column == "ref_sensor":
+            problems.cell(int(row), column, f"a sensor whose position at the row's time is "
+                          f"known ('{sensor}': {known}; or give the ref_sensor_* columns)",
+                          f"{sensor} (no position of it known at {at} s)")
+        else:
+            problems.cell(int(row), column,
+                          f"a time at which sensor '{sensor}' has a known position ({known}; "
+                          "or give the ref_sensor_* columns)",
+                          f"{at} (no sensor position known at time_ref {at} s)")
