@@ -43,14 +43,15 @@ def realistic_set() -> MeasurementSet:
         "azimuth_rate": lambda: rng.normal(0, 0.3), "range": lambda: rng.uniform(1e3, 5e4),
         "range_rate": lambda: rng.normal(0, 30), "frequency": lambda: 9.4e9 + rng.normal(0, 5e3),
         "power": lambda: rng.normal(-70, 5), "range_difference": lambda: rng.normal(0, 300),
-        "tdoa": lambda: rng.normal(0, 1e-5), "fdoa": lambda: rng.normal(0, 50)}
+        "tdoa": lambda: rng.normal(0, 1e-5), "fdoa": lambda: rng.normal(0, 50),
+        "altitude": lambda: rng.uniform(-50, 3000)}
     for sensor in ("1", "uav-1", "NA"):
         start = rng.normal(0, 5e3, 3)
         vel = rng.normal(0, 50, 3)
         for i in range(6):
             t = 0.1 * i + rng.uniform(0, 1e-3) / 3
             for kind in KINDS:
-                pos = start + vel * t
+                pos = start + vel * t if kind != "altitude" else np.zeros(3)
                 cols["t"].append(t)
                 cols["s"].append(sensor)
                 cols["k"].append(kind)

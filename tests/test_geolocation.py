@@ -435,3 +435,55 @@ def test_tma_crlb_and_estimate_take_the_sensor_position_sigma(tmp_path):
     assert "ml-sensor-errors" in res.output
     res = runner.invoke(app, ["estimate", str(path), "--sensor-position-sigma", "-1"])
     assert res.exit_code == 2 and "expected a distance" in res.output
+
+
+# -- known altitude on the WGS-84 ellipsoid (issue 30, item 3) --------------------------------
+
+def airborne_layout(sigma_m: float = 3.0) -> tk.Scenario:
+    """Four aircraft near 10 km, a ground emitter 200 km away (3.2 km below the ENU plane)."""
+    from tmakit.core.geodesy import enu_to_geodetic, geodetic_to_enu
+    from tmakit.motion import Stationary
+    from tmakit.sensors import FixedSensor
+
+    origin = (52.0, 4.0, 0.0)
+    lat, lon, _ = enu_to_geodetic(180e3, 90e3, 0.0, origin)
+    x, y, z = (float(v) for v in geodetic_to_enu(lat, lon, 0.0, origin))
+    sensors = {k: FixedSensor(np.array(p)) for k, p in {
+        "A1": [0.0, 0.0, 10e3], "A2": [60e3, 0.0, 10.5e3], "A3": [0.0, 60e3, 9.5e3],
+        "A4": [60e3, 60e3, 10e3], "ground": [0.0, 0.0, 0.0]}.items()}
+    times = np.arange(5.0)
+    plans = [tk.MeasurementPlan("tdoa", k, times, sigma_m / SPEED_OF_LIGHT, ref_sensor="A1")
+             for k in ("A2", "A3", "A4")]
+    plans.append(tk.MeasurementPlan("altitude", "ground", times[:1], 10.0))
+    return tk.Scenario("airborne", Stationary(3), {"x": x, "y": y, "z": z}, sensors, plans,
+                       origin=origin)
+
+
+def test_known_altitude_on_the_ellipsoid_reaches_the_bound_where_the_plane_is_biased():
+    """ML and Chan & Ho with the altitude row reach the bound; the flat plane is off."""
+    from tmakit.batch.ml import MaximumLikelihood
+
+    scn = airborne_layout()
+    bound = tk.crlb(scn)
+    fits = MaximumLikelihood().fit_many(scn.simulate_many(list(range(200))), scn.motion)
+    err = np.array([f.estimate - scn.theta for f in fits])
+    assert all(f.status == "converged" for f in fits)
+    nees = np.einsum("ij,jk,ik->i", err, np.linalg.inv(bound.covariance), err) / 3
+    assert 0.8 < nees.mean() < 1.25  # chi2(600)/600 within ~3.5 sigma
+    from tmakit.batch.methods import estimate_with
+
+    closed = np.array([estimate_with("chan-ho", m, scn.motion).estimate - scn.theta
+                       for m in scn.simulate_many(list(range(100)))])
+    assert np.mean(np.sum(closed**2, axis=1)) < 1.2 * np.trace(bound.covariance)
+    meas = scn.simulate(rng=0)
+    flat = tk.estimate(meas.take(np.flatnonzero(meas.kind != "altitude")), "static2d")
+    assert np.hypot(*(flat.estimate - scn.theta[:2])) > 10 * np.hypot(*flat.std)
+    columns = (meas.time, meas.sensor, meas.kind, meas.value_si, meas.sigma_si)
+    with pytest.raises(ValueError, match="altitude needs the ENU origin"):
+        tk.crlb(MeasurementSet.from_si(*columns, meas.sensor_state, meas.time_ref,
+                                       meas.ref_sensor_state), scn.motion, scn.theta)
+    moved = meas.sensor_state.copy()
+    moved[meas.kind == "altitude", 0] = 5.0
+    with pytest.raises(ValueError, match="ENU origin"):
+        MeasurementSet.from_si(*columns, moved, meas.time_ref, meas.ref_sensor_state,
+                               dict(meas.metadata))

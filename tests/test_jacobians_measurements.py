@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 from tmakit.core.frames import wrap_angle
 from tmakit.core.units import SPEED_OF_LIGHT
 from tmakit.measurements import (
+    Altitude,
     AzimuthRate,
     Bearing,
     Elevation,
@@ -180,6 +181,7 @@ CASES = [
     Case("tdoa", Tdoa()),
     Case("fdoa_known_carrier", Fdoa(carrier=2.4e9)),
     Case("fdoa", Fdoa(), (CARRIER,), (1.0,)),
+    Case("altitude", Altitude(origin=(52.0, 4.0, 30.0))),
 ]
 CASE_IDS = [c.name for c in CASES]
 

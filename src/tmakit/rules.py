@@ -143,6 +143,11 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     found += _where(bad, "sigma", SIGMA_POSITIVE, sigma[bad])
     out_of_range = np.zeros(value.shape, dtype=bool)
     for code, cls in enumerate(KINDS.values()):
+        if cls.sensor_at_origin and np.any(mine := kind == code):
+            rows = np.flatnonzero(mine)
+            bad = rows[np.any(np.abs(sensor_state[rows, :3]) > 1e-3, axis=1)]
+            found += [f"row {int(r) + 1}: expected the ENU origin (0, 0, 0) as the sensor "
+                      f"position of an {cls.kind} row" for r in bad[:_SHOWN]]
         if cls.value_range is None or not ranges:
             continue
         # masks only (1 byte per row), no index or value copies of the kind's rows
@@ -352,4 +357,6 @@ def _si_cells_plainly_valid(meas: Any) -> bool:
                     and (np.abs(v) < _PLAIN).all() and (s > 1.0 / _PLAIN).all()
                     and (s < _PLAIN).all()
                     and (s >= 100 * SIGMA_FLOOR * np.maximum(np.abs(v), 1.0)).all()
-                    and not np.isinf(meas.time_ref).any())
+                    and not np.isinf(meas.time_ref).any()
+                    and not np.isin(meas.kind_code, [c for c, k in enumerate(KINDS.values())
+                                                     if k.sensor_at_origin]).any())

@@ -2,7 +2,8 @@
 
 Two-stage weighted least squares: squaring ``r_i = r_i1 + r_1`` makes each TDOA (and its time
 derivative, each FDOA) linear in ``[u, r_1]`` (``[u, r_1, u_dot, r_1_dot]``); stage 2 imposes
-``r_1 = |u - s_1|``.  A known source height removes the vertical coordinate.  The rows are one
+``r_1 = |u - s_1|``.  A known source height (the 2-D plane, or a height on the WGS-84 ellipsoid:
+:func:`solve_snapshot`) removes the vertical coordinate.  The rows are one
 snapshot against one reference sensor position (:func:`snapshot_rows`, the largest).
 """
 
@@ -15,9 +16,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.arrays import Array
+from ..core.geodesy import enu_to_geodetic, geodetic_to_enu
 from ..core.units import SPEED_OF_LIGHT
 from ..data import MeasurementSet
-from ..measurements import model_for, options_with_metadata
+from ..measurements import Altitude, model_for, options_with_metadata
 from ..motion import ConstantVelocity, MotionModel, Stationary
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
@@ -235,9 +237,28 @@ def _known_carrier(meas: MeasurementSet, options: Options) -> float | None:
     return None if value is None else float(value)  # type: ignore[arg-type]
 
 
-def _source_height(motion: MotionModel) -> float | None:
-    """Give the source's known ENU height: 0 for a 2-D motion model, else None."""
-    return 0.0 if motion.dim == 2 else None
+def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier: float | None,
+                   motion: MotionModel) -> tuple[Array, Array | None]:
+    """Solve a snapshot with what is known of the source's height.
+
+    A 2-D motion model: the ENU plane (height 0).  A 3-D one with ``altitude`` rows: the
+    stated height on the WGS-84 ellipsoid, as the plane through the ellipsoid below the
+    previous solution (four passes: the plane's error shrinks with the square of the
+    solution's).  Else the height is free.
+    """
+    if motion.dim == 2:
+        return closed_form_state(meas, values, snap, carrier, 0.0)
+    rows = np.flatnonzero(meas.kind_mask("altitude"))
+    origin = Altitude.options_from_metadata(meas.metadata).get("origin")
+    if rows.size == 0 or origin is None:
+        return closed_form_state(meas, values, snap, carrier, None)
+    height = float(np.average(values[rows], weights=meas.sigma_si[rows] ** -2.0))
+    up = height - float(origin[2])  # type: ignore[index]
+    for _ in range(4):
+        pos, vel = closed_form_state(meas, values, snap, carrier, up)
+        lat, lon, _ = enu_to_geodetic(*pos, origin)
+        up = float(geodetic_to_enu(lat, lon, height, origin)[2])
+    return pos, vel
 
 
 def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
@@ -253,7 +274,7 @@ def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
     if snap is None:
         return None
     try:
-        pos, vel = closed_form_state(meas, values, snap, carrier, _source_height(motion))
+        pos, vel = solve_snapshot(meas, values, snap, carrier, motion)
         state = np.concatenate([pos, np.zeros(3) if vel is None else vel])
         theta = motion.from_state(state, snap.time)
     except (ValueError, NotImplementedError, np.linalg.LinAlgError):
@@ -286,7 +307,7 @@ class _ClosedForm(BatchEstimator):
             raise ValueError(f"{self.name}: no TDOA rows"
                              + (" with FDOA rows of the same sensors, times and reference"
                                 if self.moving else ""))
-        pos, vel = closed_form_state(meas, meas.value_si, snap, carrier, _source_height(motion))
+        pos, vel = solve_snapshot(meas, meas.value_si, snap, carrier, motion)
         theta = motion.from_state(np.concatenate([pos, np.zeros(3) if vel is None else vel]),
                                   snap.time)
         rows = snap.tdoa if snap.fdoa is None else np.concatenate([snap.tdoa, snap.fdoa])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 
+from .altitude import Altitude
 from .azimuth_rate import AzimuthRate
 from .base import Jacobian, MeasurementModel, ValueRange
 from .bearing import Bearing
@@ -19,13 +20,14 @@ from .tdoa import Tdoa, shared_reference_covariance
 KINDS: dict[str, type[MeasurementModel]] = {
     cls.kind: cls
     for cls in (Bearing, Elevation, AzimuthRate, Range, RangeRate, Frequency, Power,
-                RangeDifference, Tdoa, Fdoa)
+                RangeDifference, Tdoa, Fdoa, Altitude)
 }
 """Every measurement kind by its file name: a new kind is one file (a
 :class:`MeasurementModel` subclass with its hooks) plus its entry here."""
 
 __all__ = [
     "KINDS",
+    "Altitude",
     "AzimuthRate",
     "Bearing",
     "Elevation",

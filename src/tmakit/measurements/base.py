@@ -48,6 +48,9 @@ class MeasurementModel:
     #: sample is the reference sensor's at the row's own time, and the rows whose noise is
     #: correlated are those at one time sharing the reference sensor (not those of one sensor).
     between_sensors: bool = False
+    #: The row's sensor is the ENU frame's origin (``altitude``: ``rel`` is the target's
+    #: position); the rules refuse a row of it elsewhere.
+    sensor_at_origin: bool = False
     #: Predictions do not change when the target is mirrored through a horizontal plane of
     #: the sensors (the sensor-plane ambiguity of 3-D tracking; elevation breaks it).
     mirror_symmetric: bool = False

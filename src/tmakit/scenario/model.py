@@ -289,13 +289,16 @@ class Scenario:
         return opts
 
     def _between_metadata(self) -> dict[str, str]:
-        """Give the metadata of the differences between sensors: noise form and known carrier."""
+        """Give the metadata the kinds read: noise form, known carrier, the ENU origin."""
         meta: dict[str, str] = {}
         for plan in self.plans:
             if plan.noise == "independent":
                 meta[f"{plan.kind}_noise"] = "independent"
             if plan.kind == "fdoa" and plan.known_carrier:
                 meta["fdoa_carrier"] = repr(float(self.nuisance["carrier"]))
+        if self.origin is not None:
+            meta.update(zip(("origin_lat", "origin_lon", "origin_alt"),
+                            (repr(float(v)) for v in self.origin), strict=True))
         return meta
 
     def time_span(self) -> tuple[float, float]:
@@ -483,9 +486,6 @@ class Scenario:
         if self.nuisance:
             meta["nuisance"] = json.dumps(self.nuisance, sort_keys=True)
         meta.update(self._between_metadata())
-        if self.origin is not None:
-            meta["origin_lat"], meta["origin_lon"], meta["origin_alt"] = (
-                repr(float(v)) for v in self.origin)
         n = [rows.time.shape[0] for rows in parts]
         for rows, start in zip(parts, np.cumsum([0, *n[:-1]]), strict=True):
             rows.value_si = start + np.arange(rows.time.shape[0], dtype=float)
