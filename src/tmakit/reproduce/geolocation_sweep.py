@@ -42,12 +42,15 @@ class Sweep:
     crlb: dict[str, list[float]] = field(default_factory=dict)
     ml: dict[str, list[float]] = field(default_factory=dict)
     closed: dict[str, list[float]] = field(default_factory=dict)
+    #: ml_se, closed_se: the Monte Carlo standard error of each MSE (same units)
+    ml_se: dict[str, list[float]] = field(default_factory=dict)
+    closed_se: dict[str, list[float]] = field(default_factory=dict)
     #: Runs per level whose maximum likelihood did not converge (counted in its MSE)
     failed: list[int] = field(default_factory=list)
 
-    def ratio(self, which: str, block: str) -> list[float]:
-        """Give an estimator's MSE over the CRLB's trace at each noise level."""
-        mse = getattr(self, which)[block]
+    def ratio(self, which: str, block: str, of: str = "") -> list[float]:
+        """Give an estimator's MSE (``of="_se"``: its standard error) over the CRLB's trace."""
+        mse = getattr(self, which + of)[block]
         return [float(a / b) for a, b in zip(mse, self.crlb[block], strict=True)]
 
 
@@ -115,8 +118,10 @@ def sweep(scenario_at: Callable[[float], Scenario], sigma_m: Sequence[float], ru
         closed_err = np.array([_closed(m.value_si, scn, m) for m in sets])
         for name, sl in blocks.items():
             out.crlb.setdefault(name, []).append(float(np.trace(bound.covariance[sl, sl])))
-            out.ml.setdefault(name, []).append(_mse(ml_err[:, sl]))
-            out.closed.setdefault(name, []).append(_mse(closed_err[:, sl]))
+            for which, err in (("ml", ml_err), ("closed", closed_err)):
+                mse, se = _mse(err[:, sl])
+                getattr(out, which).setdefault(name, []).append(mse)
+                getattr(out, which + "_se").setdefault(name, []).append(se)
         if progress is not None:
             progress(k + 1)
     return out
@@ -128,10 +133,13 @@ def _closed(values: Array, scn: Scenario, meas: object) -> Array:
     return (np.full(scn.motion.n_params, np.nan) if theta is None else theta) - scn.theta
 
 
-def _mse(err: Array) -> float:
-    """Mean over runs of the squared error summed over the block (inf if a run failed)."""
+def _mse(err: Array) -> tuple[float, float]:
+    """Mean over runs of the squared error summed over the block, and its standard error."""
     sq = np.sum(np.square(err), axis=1)
-    return float(np.mean(sq)) if np.all(np.isfinite(sq)) else float("inf")
+    if not np.all(np.isfinite(sq)):  # a run failed
+        return float("inf"), float("inf")
+    se = np.std(sq, ddof=1) / np.sqrt(sq.size) if sq.size > 1 else np.nan
+    return float(np.mean(sq)), float(se)
 
 
 def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, object]]:
@@ -141,10 +149,12 @@ def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, 
     for block in result.crlb:
         unit = "m^2" if block == "position" else "(m/s)^2"
         r_ml, r_cf = result.ratio("ml", block), result.ratio("closed", block)
-        rows = [[_g(s), round(float(20 * np.log10(s)), 1), _g(c), _g(a), _g(b), round(ra, 3),
-                 round(rb, 3)] for s, c, a, b, ra, rb in zip(
+        se_ml, se_cf = result.ratio("ml", block, "_se"), result.ratio("closed", block, "_se")
+        rows = [[_g(s), round(float(20 * np.log10(s)), 1), _g(c), _g(a), _g(b),
+                 f"{ra:.3f} ± {ea:.3f}", f"{rb:.3f} ± {eb:.3f}"]
+                for s, c, a, b, ra, ea, rb, eb in zip(
             result.sigma_m, result.crlb[block], result.ml[block], result.closed[block], r_ml,
-            r_cf, strict=True)]
+            se_ml, r_cf, se_cf, strict=True)]
         t_ml = threshold(result.sigma_m, r_ml, ML_TOLERANCE)
         t_cf = threshold(result.sigma_m, r_cf, CLOSED_TOLERANCE)
         note = ("threshold (the noise level from which on MSE/CRLB stays past the "
@@ -155,9 +165,11 @@ def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, 
             f"{title}: {block} MSE against noise",
             ["sigma (m)", "sigma^2 (dB)", f"CRLB ({unit})", f"ML MSE ({unit})",
              f"closed MSE ({unit})", "ML/CRLB", "closed/CRLB"], rows,
-            note + f"; ML runs not converged per level: {result.failed}"))
+            note + f"; ML runs not converged per level: {result.failed}; ±SE: the ratio's "
+            "Monte Carlo standard error"))
         figures[f"{block}_ml_ratio"] = r_ml
         figures[f"{block}_closed_ratio"] = r_cf
+        figures[f"{block}_ml_ratio_se"] = se_ml
         figures[f"{block}_ml_threshold_m"] = t_ml
         figures[f"{block}_closed_threshold_m"] = t_cf
     return sections, figures
