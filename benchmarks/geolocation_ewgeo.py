@@ -14,8 +14,10 @@ at several noise levels, the same seeded measurements given to both libraries:
    (``MaximumLikelihood.fit_many``, as its Monte Carlo runs it: the time per solve is the
    batch's over the runs).
 2. TDOA + FDOA, a stationary emitter heard by Ho & Xu's five moving sensors
-   (``tmakit.reproduce.ho_xu2004``; 3-D, carrier known): tmakit's ML alone (ewgeo's hybrid
-   system is not wired here yet).
+   (``tmakit.reproduce.ho_xu2004``; 3-D, carrier known, one snapshot against the first
+   sensor): tmakit's ML beside ewgeo's hybrid system (its TDOA and FDOA systems joined), its
+   ML (the zoomed grid, 21 points a dimension from a 16 km cube about the sensors) and its
+   least squares started there.  ewgeo's range-rate differences are tmakit's negated.
 
 Prints, per problem and noise level, each solver's position RMSE over the CRLB's (root of
 its trace) and its wall time per solve (the median over the runs).
@@ -55,11 +57,10 @@ def ewgeo_tdoa(sensors: np.ndarray, sigma_m: float) -> object:
 
 
 def zoomed_ml(pss: object, zeta: np.ndarray, centre: np.ndarray, half: float,
-              finest: float) -> np.ndarray:
+              finest: float, points: int = 41) -> np.ndarray:
     """ewgeo's grid ML, zoomed by 4 per level until the mesh is finer than ``finest``."""
     from ewgeo.utils.search_space import SearchSpace
 
-    points = 41
     levels = 1
     while 2 * half / (points - 1) / 4 ** (levels - 1) > finest:
         levels += 1
@@ -121,23 +122,45 @@ def fdoa_scenario(sigma: float) -> Scenario:
                     moving.sensors, plans, {"carrier": ho_xu2004.CARRIER_HZ})
 
 
+def ewgeo_hybrid(sigma_m: float) -> object:
+    """ewgeo's TDOA + FDOA system on Ho & Xu's sensors, the noise as tmakit's."""
+    from ewgeo.fdoa import FDOAPassiveSurveillanceSystem
+    from ewgeo.hybrid import HybridPassiveSurveillanceSystem
+
+    x, v = ho_xu2004.SENSORS.T, ho_xu2004.VELOCITIES.T
+    rate = ho_xu2004.RATE_RATIO * sigma_m
+    fdoa = FDOAPassiveSurveillanceSystem(x=x, vel=v, cov=np.eye(5) * rate**2 / 2, ref_idx=0,
+                                         do_resample=True)
+    return HybridPassiveSurveillanceSystem(tdoa=ewgeo_tdoa(x.T, sigma_m), fdoa=fdoa)
+
+
 def fdoa_problem(runs: int, seed: int) -> None:
     """Problem 2: TDOA + FDOA, five moving sensors, a stationary emitter (3-D)."""
-    from ewgeo.hybrid import HybridPassiveSurveillanceSystem  # noqa: F401  (presence check)
-
     print(f"TDOA + FDOA, 5 moving sensors (3-D), {runs} runs a level: RMSE / CRLB "
-          "[time per solve] (tmakit ML only: see the report for ewgeo's hybrid system)")
+          "[time per solve]")
+    centre = ho_xu2004.SENSORS.mean(axis=0)
     for k, sigma in enumerate((0.1, 1.0, 10.0)):
         scn = fdoa_scenario(sigma)
         crlb = float(np.sqrt(np.trace(tk.crlb(scn).covariance)))
-        err, times = [], []
+        pss = ewgeo_hybrid(sigma)
+        out: dict[str, tuple[list[float], list[float]]] = {}
         for run in range(runs):
             meas = scn.simulate(rng=seed + 1000 * k + run)
-            fit, took = timed(tk.estimate, meas, scn.motion)
-            err.append(float(np.sum((fit.estimate - scn.theta) ** 2)))  # type: ignore[attr-defined]
-            times.append(took)
-        print(f"  sigma {sigma:g} m: tmakit ML {np.sqrt(np.mean(err)) / crlb:.3f} "
-              f"[{np.median(times) * 1e3:.2f} ms]")
+            tdoa, fdoa = meas.kind_mask("tdoa"), meas.kind_mask("fdoa")
+            zeta = np.concatenate([SPEED_OF_LIGHT * meas.value_si[tdoa],  # rows s2..s5, in order
+                                   SPEED_OF_LIGHT / ho_xu2004.CARRIER_HZ * meas.value_si[fdoa]])
+            fit, t_ml = timed(tk.estimate, meas, scn.motion)
+            ml, t_eml = timed(zoomed_ml, pss, zeta, centre, 8e3, sigma / 20, 21)
+            ls, t_ls = timed(pss.least_square, zeta, x_init=ml)  # type: ignore[attr-defined]
+            for name, est, took in (("tmakit ML", fit.estimate, t_ml),  # type: ignore[attr-defined]
+                                    ("ewgeo ML (zoomed grid)", ml, t_eml),
+                                    ("ewgeo LS (from its ML)", np.ravel(ls[0]), t_ls)):  # type: ignore[index]
+                err, times = out.setdefault(name, ([], []))
+                err.append(float(np.sum((np.asarray(est, dtype=float) - scn.theta) ** 2)))
+                times.append(took)
+        cells = [f"{name} {np.sqrt(np.mean(err)) / crlb:.3f} [{np.median(t) * 1e3:.2f} ms]"
+                 for name, (err, t) in out.items()]
+        print(f"  sigma {sigma:g} m (CRLB {crlb:.4g} m): " + "; ".join(cells))
 
 
 def main() -> None:

@@ -14,7 +14,8 @@ ordinary fit of the reported positions), each with its mean NEES per parameter (
 against the covariance it reports: 1 when that covariance is honest), and the bound's loss
 against known positions.  With TDOA alone and equal isotropic errors the effective noise is a
 multiple of R (each row's own sensor adds sigma_p^2, the shared reference sigma_p^2 to every
-pair), so the two fits coincide: the difference is the covariance they claim.
+pair), so the two fits coincide: the difference is the covariance they claim.  Each ratio is
+followed by its Monte Carlo standard error (± one).
 """
 
 from __future__ import annotations
@@ -77,9 +78,9 @@ def main() -> None:
         row = [f"{sigma:11.3g}", " ".join(
             f"{np.sqrt(np.trace(cov[b, b]) / np.trace(base[b, b])):.3g}x" for b in blocks)]
         for errs, nees in ((np.array(err_a), nees_a), (np.array(err_i), nees_i)):
-            row.append(" ".join(
-                f"{np.sum(np.mean(errs[:, b] ** 2, 0)) / np.trace(cov[b, b]):.3f}"
-                for b in blocks) + f" (NEES/dim {np.mean(nees):.3g})")
+            sq = [np.sum(errs[:, b] ** 2, 1) / np.trace(cov[b, b]) for b in blocks]
+            row.append(" ".join(f"{q.mean():.3f}±{q.std(ddof=1) / np.sqrt(q.size):.3f}"
+                                for q in sq) + f" (NEES/dim {np.mean(nees):.3g})")
         print(" | ".join(row))
 
 

@@ -319,11 +319,13 @@ def test_layout_bound_equals_the_crlb_with_moving_sensors_and_fdoa():
         plan.times = np.array([-0.5, 0.0, 0.5])
     meas = scenario.simulate(rng=0, noise=False)
     emitter = np.array([2000.0, 2500.0, 0.0])
-    rows = LayoutRows(meas)
-    for dim, name in ((3, "static3d"), (2, "static2d")):
-        want = tk.crlb(meas, tk.motion_from_name(name), truth=emitter[:dim]).covariance
-        got = np.linalg.inv(layout_information(rows, emitter[None, :], dim)[0])
-        assert np.allclose(got, want, rtol=1e-8)
+    for noise in ("shared", "independent"):
+        meas.metadata.update({"tdoa_noise": noise, "fdoa_noise": noise})
+        rows = LayoutRows(meas)
+        for dim, name in ((3, "static3d"), (2, "static2d")):
+            want = tk.crlb(meas, tk.motion_from_name(name), truth=emitter[:dim]).covariance
+            got = np.linalg.inv(layout_information(rows, emitter[None, :], dim)[0])
+            assert np.allclose(got, want, rtol=1e-8)
 
 
 def test_cep_against_a_seeded_monte_carlo():

@@ -9,10 +9,8 @@ horizontal covariance by a tabulated integral, not the ``0.59 (s1 + s2)`` rule o
 from __future__ import annotations
 
 import functools
-import itertools
 
 import numpy as np
-from numpy.typing import NDArray
 
 from ..core.arrays import Array
 from ..core.units import SPEED_OF_LIGHT
@@ -20,10 +18,6 @@ from ..data import MeasurementSet
 from ..measurements import options_with_metadata
 
 __all__ = ["LayoutRows", "cep", "layout_information"]
-
-#: Rows a block of the computation holds (bounded memory for millions of rows).
-BLOCK_ROWS = 1 << 18
-
 
 class LayoutRows:
     """The rows of a layout as the bound needs them: states, sigmas, groups, scale.
@@ -69,7 +63,7 @@ class LayoutRows:
         for key in keys:
             col = key[order]
             change[1:] |= col[1:] != col[:-1]
-        # the rows in group order, held so (contiguous): the bound reads them in blocks
+        # the rows in group order, held so (contiguous): the bound reads them in one pass
         self.sensor, self.ref = self.sensor[order], self.ref[order]
         self.inv_sigma, self.fdoa = self.inv_sigma[order], self.fdoa[order]
         #: the first row of each group (of one kind, time and reference), in group order
@@ -77,43 +71,13 @@ class LayoutRows:
         self.n = len(meas)
 
 
-def _gradients(emitters: Array, states: Array, fdoa: NDArray[np.bool_]) -> Array:
-    """Give each row's range (rate) gradient by the emitter position, ``(..., n, 3)``."""
-    rel = emitters[..., None, :] - states[:, :3]
-    r = np.sqrt(np.einsum("...i,...i->...", rel, rel))[..., None]
-    if not fdoa.any():
-        rel /= r
-        return rel
-    unit = rel / r
-    v = -states[:, 3:]  # a stationary emitter: relative velocity = - sensor velocity
-    rdot = np.sum(unit * v, axis=-1, keepdims=True)
-    return np.where(fdoa[:, None], (v - rdot * unit) / r, unit)
-
-
 def layout_information(rows: LayoutRows, emitters: Array, dim: int = 2) -> Array:
     """Give the Fisher information of a stationary emitter's position at many points."""
-    emitters = np.atleast_2d(np.asarray(emitters, dtype=float))
-    info = np.zeros((emitters.shape[0], dim, dim))
-    n, starts = rows.n, rows.starts
-    per_block = max(1, BLOCK_ROWS // max(1, emitters.shape[0]))
-    marks = np.unique(starts[np.searchsorted(starts, np.arange(0, n, per_block),
-                                             side="right") - 1])
-    bounds = np.concatenate([marks, [n]]).tolist()
-    for lo, hi in itertools.pairwise(bounds):  # blocks of whole groups
-        fd = rows.fdoa[lo:hi]
-        first = starts[np.searchsorted(starts, lo):np.searchsorted(starts, hi)] - lo
-        size = np.diff(np.concatenate([first, [hi - lo]]))
-        # the reference's gradient once per group (its rows share it), then row by row
-        at_ref = _gradients(emitters, rows.ref[lo:hi][first], fd[first])[..., :dim]
-        y = _gradients(emitters, rows.sensor[lo:hi], fd)[..., :dim]
-        y -= np.repeat(at_ref, size, axis=-2)
-        y *= rows.inv_sigma[lo:hi][:, None]
-        s = np.add.reduceat(y, first, axis=-2)  # (G, groups, dim)
-        # R^-1 of a group: 2 D^-1 (I - 1 1' / (1 + m)) D^-1 (a singleton: 1 / sigma^2)
-        info += 2.0 * np.matmul(y.swapaxes(-1, -2), y)
-        s *= np.sqrt(2.0 / (1.0 + size))[:, None]
-        info -= np.matmul(s.swapaxes(-1, -2), s)
-    return info
+    from .layout_compiled import information
+
+    emitters = np.ascontiguousarray(np.atleast_2d(np.asarray(emitters, dtype=float)))
+    return information(emitters, rows.sensor, rows.ref, rows.fdoa, rows.inv_sigma,
+                       rows.starts, dim)
 
 
 def cep(covariance: Array, probability: float) -> Array:
