@@ -249,14 +249,15 @@ def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier:
     if motion.dim == 2:
         return closed_form_state(meas, values, snap, carrier, 0.0)
     rows = np.flatnonzero(meas.kind_mask("altitude"))
-    origin = Altitude.options_from_metadata(meas.metadata).get("origin")
-    if rows.size == 0 or origin is None:
+    stated = Altitude.options_from_metadata(meas.metadata).get("origin")
+    if rows.size == 0 or stated is None:
         return closed_form_state(meas, values, snap, carrier, None)
+    origin = np.asarray(stated, dtype=float)
     height = float(np.average(values[rows], weights=meas.sigma_si[rows] ** -2.0))
-    up = height - float(origin[2])  # type: ignore[index]
+    up = height - float(origin[2])
     for _ in range(4):
         pos, vel = closed_form_state(meas, values, snap, carrier, up)
-        lat, lon, _ = enu_to_geodetic(*pos, origin)
+        lat, lon, _ = enu_to_geodetic(pos[0], pos[1], pos[2], origin)
         up = float(geodetic_to_enu(lat, lon, height, origin)[2])
     return pos, vel
 
