@@ -477,6 +477,8 @@ def test_known_altitude_on_the_ellipsoid_reaches_the_bound_where_the_plane_is_bi
     closed = np.array([estimate_with("chan-ho", m, scn.motion).estimate - scn.theta
                        for m in scn.simulate_many(list(range(100)))])
     assert np.mean(np.sum(closed**2, axis=1)) < 1.2 * np.trace(bound.covariance)
+    one = estimate_with("chan-ho", scn.simulate(rng=7), scn.motion)
+    assert np.allclose(one.std, bound.std, rtol=0.05)  # its bound takes the altitude row
     meas = scn.simulate(rng=0)
     flat = tk.estimate(meas.take(np.flatnonzero(meas.kind != "altitude")), "static2d")
     assert np.hypot(*(flat.estimate - scn.theta[:2])) > 10 * np.hypot(*flat.std)

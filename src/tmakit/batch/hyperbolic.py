@@ -312,6 +312,8 @@ class _ClosedForm(BatchEstimator):
         theta = motion.from_state(np.concatenate([pos, np.zeros(3) if vel is None else vel]),
                                   snap.time)
         rows = snap.tdoa if snap.fdoa is None else np.concatenate([snap.tdoa, snap.fdoa])
+        if motion.dim == 3:  # the stated altitude took part (solve_snapshot)
+            rows = np.concatenate([rows, np.flatnonzero(meas.kind_mask("altitude"))])
         used = meas.take(np.sort(rows))
         opts = ({"fdoa": {"carrier": carrier}} if carrier is not None
                 else {k: dict(v) for k, v in dict(self.options or {}).items()})
