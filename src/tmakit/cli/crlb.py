@@ -16,6 +16,7 @@ from .common import (
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
+    PropagationSpeedOption,
     JsonOption,
     KindsOption,
     MappingOption,
@@ -50,6 +51,7 @@ def crlb(
     known_nuisance: Annotated[bool, typer.Option(
         help="treat carrier, drift, power constant and exponent as known")] = False,
     drift: DriftOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     free_exponent: FreeExponentOption = False,
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
@@ -82,13 +84,15 @@ def crlb(
     source = sources[0]
     if len(sources) > 1 or is_measurement_file(source) or format is not None:
         bound, warnings, meas, opts = bound_of_file(
-            [Path(s) for s in sources], motion, ref_time, truth, known_nuisance, drift,
-            free_exponent, reader_options(format, ownship, contact, mapping, bearing_sigma,
+            [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
+            model_options(drift, free_exponent, propagation_speed), reader_options(format, ownship, contact, mapping, bearing_sigma,
                                           range_sigma, frequency_sigma, kinds=kinds,
                                           ranges=ranges))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
-                                          ("--truth", truth)) if value is not None]
+                                          ("--truth", truth),
+                                          ("--propagation-speed", propagation_speed))
+                 if value is not None]
         if given:  # (not silently ignored)
             raise fail(f"{', '.join(given)}: for a measurement file; a scenario's bound is "
                        f"taken at its own truth and motion ({source} is a scenario)")
@@ -156,7 +160,7 @@ def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: fl
 
 
 def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float | None,
-                  truth: str | None, known_nuisance: bool, drift: bool, free_exponent: bool,
+                  truth: str | None, known_nuisance: bool, model: dict[str, dict[str, Any]],
                   options: dict[str, Any] | None = None
                   ) -> tuple[Any, list[Any], Any, dict[str, Any]]:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
@@ -170,8 +174,10 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
         The measurement file (or several Debrief files read as one replay).
     motion, ref_time, truth : str, float (s), str or None
         ``--motion``, ``--ref-time``, ``--truth``.
-    known_nuisance, drift, free_exponent : bool
-        ``--known-nuisance``, ``--drift``, ``--free-exponent``.
+    known_nuisance : bool
+        ``--known-nuisance``.
+    model : dict
+        The per-kind model options (:func:`~tmakit.cli.common.model_options`).
     options : dict, optional
         The reader's options (:func:`~tmakit.cli.common.reader_options`).
 
@@ -213,7 +219,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
         values = json.loads(meas.metadata["truth"])
     if not values:
         raise fail("--truth is needed to evaluate the bound of a measurement file")
-    opts = model_options(drift, free_exponent)
+    opts = model
     try:
         return (compute(meas, model, values, known_nuisance=known_nuisance, options=opts),
                 measurement_warnings(meas), meas, opts)

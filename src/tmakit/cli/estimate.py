@@ -30,6 +30,7 @@ from .common import (
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
+    PropagationSpeedOption,
     JsonOption,
     KindsOption,
     MappingOption,
@@ -112,6 +113,7 @@ def estimate(
         help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
              "ratio-doppler, lecture-gn, chan-ho (TDOA), ho-xu (TDOA + FDOA)")] = "ml",
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None, format: FormatOption = None,
     ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None,
@@ -152,7 +154,7 @@ def estimate(
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
-    model = model_options(drift, free_exponent)
+    model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
                                   export_name, taken=[plot], options=model, files=files)
     options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,

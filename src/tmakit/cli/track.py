@@ -28,6 +28,7 @@ from .common import (
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
+    PropagationSpeedOption,
     KindsOption,
     MappingOption,
     OriginOption,
@@ -101,6 +102,7 @@ def track(
     dim: Annotated[int | None, typer.Option(
         help="2 or 3 (default: 3 when the data or the file's motion need it)")] = None,
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None,
     format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
@@ -132,7 +134,7 @@ def track(
     page = check_page(html, force, [*files], plot)
     reading = (parse_origin(origin), dim, reader_options(format, ownship, contact, mapping,
                bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges))
-    options = model_options(drift, free_exponent)
+    options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
                       smooth=(smooth, lag), keywords=start_keywords(
                           (prior, prior_std, nuisance, prior_time),

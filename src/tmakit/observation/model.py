@@ -23,7 +23,7 @@ from .affine_rows import AffineRows
 from .fused import fused_linearisation, fused_values
 from .kind_blocks import group_by_kind
 from .linearisation import Linearisation
-from .rows import RowModel, nuisance_layout
+from .rows import RowModel
 
 
 class ObservationModel:
@@ -47,7 +47,6 @@ class ObservationModel:
         self.models: dict[str, MeasurementModel] = {
             k: model_for(k, options.get(k)) for k in meas.kinds
         }
-        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
         #: Each kind's rows, a contiguous slice of the grouped order.
         self.slices, order = group_by_kind(meas, list(self.models))
         #: Grouped order is the set's own (one kind, or kinds already in blocks).
@@ -95,7 +94,9 @@ class ObservationModel:
         g = self.grouped
         self.row_model = RowModel(self.models, self.slices, self._time, g.time_ref,
                                   self.sigmas_grouped, g.sensor_code, self._sensor,
-                                  g.ref_sensor_state)
+                                  g.ref_sensor_state, tonal=g.tonal)
+        self.nuisance_names = self.row_model.nuisance_names
+        self.nuisance_slices = self.row_model.nuisance_slices
         #: The rows of kinds with an earlier reference sample (a slice of the grouped order).
         self._ref = self.row_model.reference_slice
         self.has_reference = self._ref is not None
@@ -150,15 +151,13 @@ class ObservationModel:
         idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
         meas = self.meas.take(idx)
         slices, order = group_by_kind(meas, list(self.models))
-        if any(sl.stop == sl.start for sl in slices.values()):  # a kind left out, and its
-            return ObservationModel(meas, self.motion, self.options)  # nuisance with it
+        if any(sl.stop == sl.start for sl in slices.values()) or self.row_model.layout.tonals:
+            return ObservationModel(meas, self.motion, self.options)  # (its nuisance anew)
         grouped_idx = idx if order is None else idx[order]  # the new grouped rows, set rows
         pick = grouped_idx if self._inverse is None else self._inverse[grouped_idx]  # ours
         sub = object.__new__(ObservationModel)
         sub.options = {k: dict(v) for k, v in self.options.items()}
         sub.meas, sub.motion, sub.models = meas, self.motion, self.models
-        sub.nuisance_names = self.nuisance_names
-        sub.nuisance_slices = dict(self.nuisance_slices)
         sub.slices, sub.in_set_order, sub._order = slices, order is None, order
         sub._inverse = None if order is None else np.argsort(order)
         sub.grouped = meas if order is None else meas.take(order)
@@ -199,7 +198,13 @@ class ObservationModel:
         ValueError
             When a value without default is missing.
         """
-        parts = [m.nuisance_vector(dict(values or {})) for m in self.models.values()]
+        values = dict(values or {})
+        parts = []
+        for kind, m in self.models.items():
+            for label in self.row_model.layout.tonals.get(kind, (None, (None,)))[1]:
+                given = {n: values[f"{n}[{label}]"] for n in m.nuisance_names
+                         if f"{n}[{label}]" in values}
+                parts.append(m.nuisance_vector({**values, **given}))
         return np.concatenate(parts) if parts else np.zeros(0)
 
     # -- grouped order (for solvers) ---------------------------------------------------------
