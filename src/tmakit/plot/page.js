@@ -65,13 +65,16 @@ function tmaSolutionPage(a) {
 
   // The residuals (in sigma) and chi-square of the rows at a state [x y z vx vy vz] at tref.
   const z = new Float64Array(n);
-  let carrier = NaN;
+  const refs = cfg.carrier_ref, nt = refs.length;  // one carrier per tonal
+  const sAA = new Float64Array(nt), sAU = new Float64Array(nt), delta = new Float64Array(nt);
+  const carrier = new Array(nt).fill(NaN);
   function residuals(s) {
-    const t = rows.t, kind = rows.kind, val = rows.value, sig = rows.sigma;
+    const t = rows.t, kind = rows.kind, val = rows.value, sig = rows.sigma, tonal = rows.tonal;
     const se = rows.se, sn = rows.sn, su = rows.su, sve = rows.sve, svn = rows.svn,
           svu = rows.svu;
-    const c = cfg.c, ref = cfg.carrier_ref;
-    let sAA = 0, sAU = 0;
+    const c = cfg.c;
+    sAA.fill(0);
+    sAU.fill(0);
     const small = new Float64Array(n);
     for (let i = 0; i < n; i++) {
       const dt = t[i] - cfg.ref_time;
@@ -88,20 +91,23 @@ function tmaSolutionPage(a) {
         const rng = Math.sqrt(dx * dx + dy * dy + dz * dz);
         const rdot = (dx * (s[3] - sve[i]) + dy * (s[4] - svn[i]) + dz * (s[5] - svu[i])) / rng;
         small[i] = -rdot / c;
-        const w = 1 / (sig[i] * sig[i]), av = 1 + small[i];
+        const w = 1 / (sig[i] * sig[i]), av = 1 + small[i], g = tonal[i], ref = refs[g];
         const u = (val[i] - ref) - ref * small[i];  // formed about the reference carrier
-        sAA += w * av * av;
-        sAU += w * av * u;
+        sAA[g] += w * av * av;
+        sAU[g] += w * av * u;
       } else {
         z[i] = NaN;
       }
     }
-    const delta = sAA > 0 ? sAU / sAA : 0;
-    carrier = sAA > 0 ? ref + delta : NaN;
+    for (let g = 0; g < nt; g++) {
+      delta[g] = sAA[g] > 0 ? sAU[g] / sAA[g] : 0;
+      carrier[g] = sAA[g] > 0 ? refs[g] + delta[g] : NaN;
+    }
     let chi2 = 0;
     for (let i = 0; i < n; i++) {
-      if (rows.kind[i] === 2) {
-        z[i] = ((rows.value[i] - ref) - ref * small[i] - delta * (1 + small[i])) / rows.sigma[i];
+      if (kind[i] === 2) {
+        const g = tonal[i], ref = refs[g];
+        z[i] = ((val[i] - ref) - ref * small[i] - delta[g] * (1 + small[i])) / sig[i];
       }
       chi2 += z[i] * z[i];
     }
@@ -141,7 +147,8 @@ function tmaSolutionPage(a) {
       s += ", course " + fmt(course, 1) + "°, speed " + fmt(speed, 2) + " m/s (" +
         fmt(speed / 0.514444, 1) + " kn)";
     }
-    if (Number.isFinite(carrier)) s += ", f0 " + fmt(carrier, 3) + " Hz";
+    const f0 = carrier.filter(Number.isFinite).map((f) => fmt(f, 3));
+    if (f0.length) s += ", f0 " + f0.join(", ") + " Hz";
     const per = [];
     for (const k of cfg.kinds) {
       let ss = 0, m = 0, out = 0;
@@ -252,7 +259,7 @@ function tmaSolutionPage(a) {
       return out;
     },
     chi2: () => chi2,
-    carrier: () => carrier,
+    carrier: () => (nt === 1 ? carrier[0] : carrier.slice()),  // Hz, one per tonal
     timings: timings,
     toMap: toMap,
     fromMap: fromMap,
