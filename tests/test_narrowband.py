@@ -1,0 +1,160 @@
+"""Narrowband frequency TMA (issue 29 item 2): tonals, each with its own f0, carried by sound.
+
+Several tonals of one contact are fitted together, each f0 eliminated; f0 and the position at
+closest approach reach their CRLB; frequencies alone pin the track down after an own-ship turn
+and are unobservable, in words, on one straight leg; Debrief replays' frequencies are sonar
+tonals (1500 m/s), and Debrief's public narrowband sample then gives the subject's true course
+and speed.  The figure is ``benchmarks/narrowband.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import tmakit as tk
+from tmakit.cli import app
+from tmakit.io.errors import reader_notes
+from tmakit.measurements.frequency import Frequency
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
+import narrowband as bench  # the benchmark's own geometry
+
+TA = Path(__file__).parent / "data" / "debrief" / "ta_dummy"
+PAIR = [str(TA / "Freq_BlueSensor.rep"), str(TA / "Freq_BlueTrack.rep")]
+LEG = ["--from", "12:38:20", "--to", "13:40:50"]  # the subject's second leg: 350.17 deg, 9 kn
+runner = CliRunner()
+
+
+def _noisy(frame: tk.MeasurementSet, clean: np.ndarray, rng: np.random.Generator
+           ) -> tk.MeasurementSet:
+    return tk.MeasurementSet.from_si(frame.time, frame.sensor, frame.kind,
+                                     clean + rng.normal(size=clean.size) * frame.sigma_si,
+                                     frame.sigma_si, frame.sensor_state, tonal=frame.tonal)
+
+
+@pytest.mark.parametrize(("tonals", "bearings"), [("AB", True), ("AB", False)])
+def test_two_tonals_reach_their_crlb(tonals, bearings):
+    """f0 of each tonal and the position at closest approach: RMSE within 1.3 CRLB over 40
+    seeded runs; without bearings the ghost is reported beside the truth's solution."""
+    own, t, t_cpa, theta = bench.geometry()
+    motion = tk.ConstantVelocity(2, ref_time=t_cpa)
+    r = bench.study(bench.rows(own, t, tonals, bearings), motion, theta, tonals, 40, 3)
+    assert r["failed"] == 0
+    assert r["pos"] < 1.3
+    assert r["carrier[A]"] < 1.3 and r["carrier[B]"] < 1.3
+    assert r["several"] == (0 if bearings else 40)  # frequencies alone: never one silently
+
+
+def test_several_tonals_beat_each_alone_as_the_crlb_says():
+    own, t, t_cpa, theta = bench.geometry()
+    motion = tk.ConstantVelocity(2, ref_time=t_cpa)
+    std = {}
+    for tonals in ("A", "B", "AB"):
+        b = tk.crlb(bench.rows(own, t, tonals, False), motion, theta,
+                    nuisance=bench.nuisance_of(tonals), options=bench.OPTIONS)
+        std[tonals] = float(np.hypot(*b.std[:2]))
+        assert tuple(b.parameters[4:]) == tuple(bench.nuisance_of(tonals))  # one f0 per tonal
+    assert std["AB"] < min(std["A"], std["B"])
+
+
+def test_one_straight_leg_of_frequencies_is_unobservable_in_words():
+    own, t, t_cpa, theta = bench.geometry()
+    motion = tk.ConstantVelocity(2, ref_time=t_cpa)
+    frame = bench.rows(own, t, "A", False)
+    frame = frame.take(frame.time < t.max() / 2)  # before the own ship's turn
+    obs = tk.ObservationModel(frame, motion, bench.OPTIONS)
+    clean = obs.predict(theta, obs.nuisance_vector(bench.nuisance_of("A")))
+    res = tk.estimate(_noisy(frame, clean, np.random.default_rng(2)), motion,
+                      options=bench.OPTIONS)
+    assert res.status == "unobservable"
+    assert np.isnan(res.std[:4]).all() or not np.isfinite(res.std[:4]).any()
+    assert "rotation of the track seen from sensor own about it" in str(res)
+    assert res.nuisance["carrier"][0] == pytest.approx(150.0, abs=5 * res.nuisance["carrier"][1])
+
+
+def test_tonal_labels_are_checked_and_key_the_one_value_per_time_rule():
+    own, t, _, _ = bench.geometry()
+    frame = bench.rows(own, t[:3], "AB", True)
+    assert list(frame.tonal[:3]) == ["", "A", "B"]  # two tonals at one time: two rows
+    with pytest.raises(ValueError, match="a duplicate of row 2"):
+        tk.MeasurementSet.from_si(frame.time, frame.sensor, frame.kind, frame.value_si,
+                                  frame.sigma_si, frame.sensor_state,
+                                  tonal=np.where(frame.tonal == "B", "A", frame.tonal))
+    with pytest.raises(ValueError, match="a label on every frequency row and on no other"):
+        frame.with_tonal(np.where(frame.kind == "bearing", "A", frame.tonal))
+    assert frame.take(np.arange(3)).tonal.tolist() == ["", "A", "B"]
+    assert not frame.equals(frame.with_tonal(None))
+
+
+def test_propagation_speed_is_a_stated_parameter():
+    assert Frequency().c == 299_792_458.0  # radio by default
+    assert Frequency(propagation_speed=1500.0).c == 1500.0
+    with pytest.warns(DeprecationWarning):
+        assert Frequency(speed_of_light=1480.0).c == 1480.0
+    assert Frequency.options_from_metadata({"frequency_propagation_speed": "1500"}) == {
+        "propagation_speed": 1500.0}
+    with pytest.raises(ValueError, match="frequency_propagation_speed: expected a speed > 0"):
+        Frequency.options_from_metadata({"frequency_propagation_speed": "-1"})
+
+
+def test_debrief_frequencies_are_sonar_tonals():
+    meas = tk.read_measurements(PAIR)
+    assert meas.metadata["frequency_propagation_speed"] == "1500.0"
+    assert set(meas.tonal[meas.kind_mask("frequency")]) == {"NB_FREQ"}
+    assert any("frequencies are sonar tonals carried by sound at 1500 m/s" in n
+               for n in reader_notes(meas.metadata))
+
+
+def _second_tonal(tmp_path: Path) -> list[str]:
+    """The public sample with a second tonal at twice the frequency (f0 300 Hz), as NB_FREQ2."""
+    lines = Path(PAIR[0]).read_text().splitlines()
+    more = []
+    for line in lines:
+        if "NB_FREQ" in line:
+            f = line.split()
+            f[8], f[10] = f"{2 * float(f[8]):.3f}", "NB_FREQ2"
+            more.append(" ".join(f))
+    (tmp_path / "two.rep").write_text("\n".join(lines + more) + "\n")
+    return [str(tmp_path / "two.rep"), PAIR[1]]
+
+
+def test_debrief_sample_gives_the_subjects_true_course_and_speed(tmp_path):
+    """Freq_BlueSensor.rep on the subject's second leg (truth 350.17 deg, 9 kn): with the
+    speed of sound; at light's speed (the old default) the frequencies cannot fit; a second tonal
+    gets its own f0, twice the first."""
+    out = {}
+    for name, files, more in (("one", PAIR, []), ("two", _second_tonal(tmp_path), []),
+                              ("light", PAIR, ["--propagation-speed", "299792458"])):
+        result = runner.invoke(app, ["estimate", *files, "--motion", "cv2d", "--dim", "2",
+                                     "--kinds", "bearing,frequency", *LEG, "--json", *more])
+        assert result.exit_code in (0, 4), result.output
+        out[name] = json.loads(result.stdout)
+    for name in ("one", "two"):
+        course, speed = out[name]["answer"]["course_deg"], out[name]["answer"]["speed_kn"]
+        assert course["value"] == pytest.approx(350.17, abs=2 * course["std"])
+        assert speed["value"] == pytest.approx(9.0, abs=min(0.3, 2 * speed["std"]))
+    f0 = out["two"]["nuisance"]
+    assert f0["carrier[NB_FREQ2]"]["value"] == pytest.approx(2 * f0["carrier[NB_FREQ]"]["value"],
+                                                             abs=3 * f0["carrier[NB_FREQ2]"]["std"])
+    assert f0["carrier[NB_FREQ]"]["std"] > 0
+    assert "improbable-chi2" in out["light"]["trust_reasons"]  # light's speed cannot fit them
+    assert "improbable-chi2" not in out["one"]["trust_reasons"]
+
+
+def test_track_refuses_several_tonals_in_words(tmp_path):
+    result = runner.invoke(app, ["track", *_second_tonal(tmp_path)])
+    assert result.exit_code == 2, result.output
+    assert "the frequencies are 2 tonals (NB_FREQ, NB_FREQ2)" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_bad_propagation_speed_is_refused():
+    result = runner.invoke(app, ["estimate", *PAIR, "--propagation-speed", "0"])
+    assert result.exit_code == 2
+    assert "--propagation-speed 0: expected a speed > 0 (m/s)" in result.output
