@@ -320,7 +320,7 @@ def max_manoeuvres() -> int:
 
 def model_options(drift: bool, free_exponent: bool, propagation_speed: float | None = None
                   ) -> dict[str, dict[str, object]]:
-    """Return the measurement-model options of ``--drift``, ``--free-exponent`` and ``--propagation-speed``.
+    """Return the model options of ``--drift``, ``--free-exponent``, ``--propagation-speed``.
 
     Parameters
     ----------

@@ -16,16 +16,17 @@ from .common import (
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
-    PropagationSpeedOption,
     JsonOption,
     KindsOption,
     MappingOption,
     MotionOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     RefTimeOption,
     SensorPositionSigmaOption,
+    err,
     fail,
     file_ref_time,
     is_measurement_file,
@@ -160,7 +161,7 @@ def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: fl
 
 
 def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float | None,
-                  truth: str | None, known_nuisance: bool, model: dict[str, dict[str, Any]],
+                  truth: str | None, known_nuisance: bool, kind_options: dict[str, dict[str, Any]],
                   options: dict[str, Any] | None = None
                   ) -> tuple[Any, list[Any], Any, dict[str, Any]]:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
@@ -176,7 +177,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
         ``--motion``, ``--ref-time``, ``--truth``.
     known_nuisance : bool
         ``--known-nuisance``.
-    model : dict
+    kind_options : dict
         The per-kind model options (:func:`~tmakit.cli.common.model_options`).
     options : dict, optional
         The reader's options (:func:`~tmakit.cli.common.reader_options`).
@@ -203,6 +204,10 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
     from ..results.checks import measurement_warnings
 
     meas = read_or_fail(file, **(options or {}))
+    if meas.ambiguous_si is not None:  # a bound reads times and sigmas, not values
+        err.print(f"note: the bound takes the side of the {int(meas.kind_mask('bearing').sum())}"
+                  " towed-array cuts as known (resolved), turn cuts included; tma estimate "
+                  "resolves the sides", highlight=False, soft_wrap=True)
     model = motion_or_fail(motion, ref_time, meas)
     values = parse_assignments(truth, "--truth")
     if not values and "truth" in meas.metadata and motion is None:
@@ -219,7 +224,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
         values = json.loads(meas.metadata["truth"])
     if not values:
         raise fail("--truth is needed to evaluate the bound of a measurement file")
-    opts = model
+    opts = kind_options
     try:
         return (compute(meas, model, values, known_nuisance=known_nuisance, options=opts),
                 measurement_warnings(meas), meas, opts)

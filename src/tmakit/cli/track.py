@@ -28,11 +28,11 @@ from .common import (
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
-    PropagationSpeedOption,
     KindsOption,
     MappingOption,
     OriginOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     err,
@@ -43,6 +43,7 @@ from .common import (
     print_wide,
     reader_options,
 )
+from .legs_out import sides_for_filter
 from .reading import read_or_fail
 from .solution_out import HtmlOption, check_page
 from .track_options import (
@@ -237,6 +238,7 @@ def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any
     meas = read_or_fail(paths, origin, dim=dim, notes=notes, **options)
     try:
         d = tracking.filter_dim(meas, dim)
+        meas = sides_for_filter(meas, d)
         q_axes = tracking.process_noise(parse_q(q[0], d), d)
         density = tracking.noise_density(parse_q(q[1], d, "--q-density"), d)
     except tracking.TrackingError as e:

@@ -360,8 +360,9 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
     if ambiguous:
         notes.append(f"note: {ambiguous} cut(s) carry a second, ambiguous bearing (;SENSOR2:, "
                      "the mirror of a towed array's bearing about its axis): both are read; "
-                     "tma estimate chooses the side of each own-ship leg by likelihood (Python: "
-                     "tk.resolve_ambiguity), a fit of the set as it is takes the first bearing")
+                     "tma estimate and tma track choose the side of each own-ship leg by "
+                     "likelihood (Python: tk.resolve_ambiguity), a fit of the set as it is takes "
+                     "the first bearing; tma crlb takes the side as known")
     names = " + ".join(p.name for p in paths)
     metadata = {"source": f"Debrief replay {names}, own ship {cuts.host}"
                 + (f", contact {contact.strip()}" if contact else ""),

@@ -8,10 +8,10 @@ tmakit the physical one (an approaching emitter is heard higher).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike
-
-from collections.abc import Mapping
 
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..core.units import SPEED_OF_LIGHT
@@ -55,7 +55,7 @@ class Frequency(MeasurementModel):
 
     @classmethod
     def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
-        """Give ``propagation_speed`` (m/s) where metadata ``frequency_propagation_speed`` states it.
+        """Give ``propagation_speed`` (m/s) where metadata ``frequency_propagation_speed`` says.
 
         Parameters
         ----------
@@ -195,5 +195,5 @@ class Frequency(MeasurementModel):
                 g5 * k)
 
     def __repr__(self) -> str:
-        """Name the kind with its options, e.g. ``Frequency(drift=False, propagation_speed=1500)``."""
+        """Name the kind with its options: ``Frequency(drift=False, propagation_speed=1500)``."""
         return f"Frequency(drift={self.drift}, propagation_speed={self.c:g})"

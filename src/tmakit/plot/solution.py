@@ -211,8 +211,7 @@ def series_names(meas: MeasurementSet) -> np.ndarray:
 
 
 def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray) -> None:
-    """One panel per kind: residuals in units of sigma against time (a series per sensor and
-    tonal: the frequency stacked dots), ±1σ and ±3σ bands."""
+    """One panel per kind: residuals (σ) against time, a series per sensor and tonal."""
     when, label = plot_times(meas, meas.time)
     series = series_names(meas)
     for ax, kind in zip(axes, meas.kinds, strict=True):
