@@ -86,9 +86,9 @@ def crlb(
     if len(sources) > 1 or is_measurement_file(source) or format is not None:
         bound, warnings, meas, opts = bound_of_file(
             [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
-            model_options(drift, free_exponent, propagation_speed), reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                          range_sigma, frequency_sigma, kinds=kinds,
-                                          ranges=ranges))
+            model_options(drift, free_exponent, propagation_speed),
+            reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
+                           frequency_sigma, kinds=kinds, ranges=ranges))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
                                           ("--truth", truth),
