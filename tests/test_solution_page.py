@@ -244,6 +244,15 @@ def test_the_page_figures_are_measured_for_10000_cuts(tmp_path, browser, capsys)
     moved = browser.execute_script("return window.tmaPage.state()")
     assert browser.execute_script("return window.tmaPage.chi2()") == pytest.approx(
         python_chi2(meas, result.motion, moved, {}), rel=1e-8)
+    # while dragging, at most about DRAG_DOTS dots drawn; once the drag stops, every one
+    assert [t["drag"] for t in timings][-1] is False and any(t["drag"] for t in timings)
+    shown = np.array(browser.execute_script("return window.tmaPage.shown()"), dtype=float)
+    np.testing.assert_allclose(shown, browser.execute_script(
+        "return window.tmaPage.residuals()"), rtol=0, atol=1e-12)
+    assert browser.execute_script(
+        "return [...Bokeh.documents[0].all_models].filter(m => m.type === 'GlyphRenderer' && "
+        "m.data_source && m.data_source.data.row && m.visible)"
+        ".map(m => m.data_source.data.row.length)") == [10_000]
     with capsys.disabled():
         drags = sorted(t["painted_ms"] for t in timings)
         print(f"\n10,000 cuts: opened in {opened:.0f} ms; drag updates painted in "

@@ -160,15 +160,23 @@ function tmaSolutionPage(a) {
     return s + "<br>" + per.join("; ");
   }
 
-  // a.dots: one source per kind and sensor ({kind: name, source}); a.ranges[kind]: its y range
-  function update(since) {
+  // a.dots: one source per kind and series ({kind, source, renderer}, and on a large panel a
+  // light_source of every few dots drawn instead while the mouse drags); a.ranges[kind]: its
+  // y range.  `light`: a drag's update (the light dots; all of them once the drag stops).
+  let lightShown = false;
+  function update(since, light) {
     const t0 = since === undefined ? performance.now() : since;
     const tStart = performance.now();
     chi2 = residuals(cur);
     const tModel = performance.now();
     const big = {};
     for (const d of a.dots) {  // the stacked dots
-      const idx = d.source.data.row, zz = d.source.data.z;
+      const src = light && d.light_source ? d.light_source : d.source;
+      if (d.light_source && lightShown !== Boolean(light)) {
+        d.renderer.visible = !light;
+        d.light_renderer.visible = Boolean(light);
+      }
+      const idx = src.data.row, zz = src.data.z;
       let m = big[d.kind] || 4;
       for (let j = 0; j < idx.length; j++) {
         zz[j] = z[idx[j]];
@@ -176,8 +184,9 @@ function tmaSolutionPage(a) {
         if (v > m) m = v;
       }
       big[d.kind] = m;
-      d.source.change.emit();
+      src.change.emit();
     }
+    lightShown = Boolean(light);
     for (const kind in big) {  // a new scale only when the dots leave it or shrink well inside
       const yr = a.ranges[kind];
       if (big[kind] > yr.end || big[kind] < 0.5 * yr.end) { yr.start = -big[kind]; yr.end = big[kind]; }
@@ -196,13 +205,14 @@ function tmaSolutionPage(a) {
     requestAnimationFrame(() => {
       timings.push({model_ms: tModel - tStart, dots_ms: tDots - tModel,
                     track_ms: tTrack - tDots, stats_ms: t1 - tTrack, compute_ms: t1 - tStart,
-                    painted_ms: performance.now() - t0});
+                    painted_ms: performance.now() - t0, drag: Boolean(light)});
     });
   }
 
   // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution
   // follows at once, its dots and chi-square at the next frame (one update per frame).
-  let pending = null;
+  let pending = null, idle = null;
+  const DRAG_STOP_MS = 200;
   function onHandles() {
     if (busy || !cfg.draggable) return;
     const d = a.handles.data;
@@ -224,8 +234,10 @@ function tmaSolutionPage(a) {
       a.stick.data = {x: xy[0], y: xy[1]};
       if (pending === null) {
         pending = performance.now();
-        requestAnimationFrame(() => { const t = pending; pending = null; update(t); });
+        requestAnimationFrame(() => { const t = pending; pending = null; update(t, true); });
       }
+      clearTimeout(idle);  // every dot again once the drag has stopped
+      idle = setTimeout(() => { idle = null; update(); }, DRAG_STOP_MS);
     } finally {
       busy = false;
     }
@@ -241,7 +253,7 @@ function tmaSolutionPage(a) {
     ready: true,
     onHandles: onHandles,
     // whether a drag's update is still to come (at the next frame)
-    pending: () => pending !== null,
+    pending: () => pending !== null || idle !== null,
     reset: () => { if (cfg.draggable) setState(ml); },
     // for scripted use and tests: move the solution at the reference time by (dE, dN) m and
     // its velocity by (dvE, dvN) m/s
