@@ -397,7 +397,13 @@ class MeasurementSet:
         return out
 
     def stream_code(self) -> NDArray[np.int64]:
-        """Each row's sensor code, told apart by tonal (rules: one value per stream and time)."""
+        """Give each row's sensor code, told apart by tonal (the rule of one value per time).
+
+        Returns
+        -------
+        ndarray of int
+            ``(n,)``, the sensor code when the set has no tonals.
+        """
         if self.tonal is None:
             return self.sensor_code.astype(np.int64)
         _, tonal_code = np.unique(self.tonal, return_inverse=True)

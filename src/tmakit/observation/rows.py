@@ -177,7 +177,7 @@ class RowLayout:
         self.nuisance_names, self.nuisance_slices = nuisance_layout(
             self.models, {k: labels for k, (_, labels) in self.tonals.items()})
 
-    def spread(self, kind: str, x: Array, axis: int = -1) -> Array:
+    def _spread(self, kind: str, x: Array, axis: int = -1) -> Array:
         """Put a kind's per-row nuisance columns (``axis``, ``k``) in its rows' tonal's columns."""
         if kind not in self.tonals:
             return x
@@ -191,7 +191,7 @@ class RowLayout:
         np.put_along_axis(out, np.broadcast_to(cols, x.shape), x, axis=-1)
         return np.moveaxis(out, -1, axis)
 
-    def per_row(self, kind: str, nu: Array) -> Array:
+    def _per_row(self, kind: str, nu: Array) -> Array:
         """Give a kind's nuisance ``(..., k)`` or, with tonals, each row's ``(..., m_kind, k)``."""
         if kind not in self.tonals:
             return nu[..., None, :]
@@ -258,9 +258,9 @@ class RowModel:
             return None
         if isinstance(nuisance, dict):  # (dict, not Mapping: this runs once per kind and step)
             nu = nuisance[kind]
-            return nu if kind not in self.layout.tonals else self.layout.per_row(kind, nu)
+            return nu if kind not in self.layout.tonals else self.layout._per_row(kind, nu)
         assert isinstance(nuisance, np.ndarray)  # (a mapping is a dict here)
-        return self.layout.per_row(kind, nuisance[..., self.nuisance_slices[kind]])
+        return self.layout._per_row(kind, nuisance[..., self.nuisance_slices[kind]])
 
     # -- relative states ---------------------------------------------------------------------
     def relative(self, target: Array, target_ref: Array | None = None,
@@ -360,7 +360,7 @@ class RowModel:
             if ref_rows is not None and d_ref is not None:
                 d_ref[..., ref_rows, :] = jac.rel_ref
             if d_nu is not None:
-                d_nu[..., rows, self.nuisance_slices[kind]] = self.layout.spread(kind,
+                d_nu[..., rows, self.nuisance_slices[kind]] = self.layout._spread(kind,
                                                                                  jac.nuisance)
         return d, d_ref, d_nu
 
@@ -392,7 +392,7 @@ class RowModel:
             rows, ns = self._take[kind], self.nuisance_slices[kind]
             if ns.stop > ns.start:
                 ref = rel[rows] if model.uses_reference else None
-                out[rows, ns] = self.layout.spread(
+                out[rows, ns] = self.layout._spread(
                     kind, model.affine_parts(rel[rows], self.time[rows], ref)[1])
         return out
 
@@ -422,7 +422,7 @@ class RowModel:
             r_k = rel[..., rows, :]
             ref_k = None if ref_rows is None or rel_ref is None else rel_ref[..., ref_rows, :]
             t = self.time[rows]
-            spread = self.layout.spread
+            spread = self.layout._spread
             if d_h0 is None:
                 h0[..., rows], _, v = model.affine_parts(r_k, t, ref_k)
                 a_var[..., rows, ns] = spread(kind, v)

@@ -140,6 +140,13 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
                                q_density, settings)
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
+    _one_tonal(meas)
+    return _run(_initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
+                           max_relative_std, confirm, bearing_prior, tracker), meas, setup)
+
+
+def _one_tonal(meas: MeasurementSet) -> None:
+    """Refuse several tonals: a filter takes one carrier per kind."""
     tonals = [] if meas.tonal is None else list(dict.fromkeys(meas.tonal[meas.tonal != ""]))
     if len(tonals) > 1:
         raise TrackingError(
@@ -147,8 +154,6 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
             "f0: a filter takes one carrier, so track one tonal (tma: --kinds bearing, or a "
             "file of one tonal; Python: meas.take(...)) or fit them together with the batch "
             "estimate (tma estimate, tk.estimate)")
-    return _run(_initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
-                           max_relative_std, confirm, bearing_prior, tracker), meas, setup)
 
 
 def _run(initiator: Initiator, meas: MeasurementSet, setup: FilterSetup) -> Track:
