@@ -159,3 +159,23 @@ def test_bad_propagation_speed_is_refused():
     result = runner.invoke(app, ["estimate", *PAIR, "--propagation-speed", "0"])
     assert result.exit_code == 2
     assert "--propagation-speed 0: expected a speed > 0 (m/s)" in result.output
+
+
+def test_each_frequency_column_of_a_wide_log_is_a_tonal(tmp_path):
+    """A drone log with a second line (twice the first): two tonals, each its own f0."""
+    runner.invoke(app, ["examples", str(tmp_path / "s")])
+    log = (tmp_path / "s" / "drone.csv").read_text().splitlines()
+    rows = [log[0] + ",harmonic_hz"] + [
+        f"{line},{2 * float(line.split(',')[-1]):.2f}" for line in log[1:]]
+    (tmp_path / "two.csv").write_text("\n".join(rows) + "\n")
+    mapping = (tmp_path / "s" / "drone.toml").read_text() + (
+        '\n[[measurement]]\ncolumn = "harmonic_hz"\nkind = "frequency"\nunit = "Hz"\n'
+        "sigma = 2.0\n")
+    (tmp_path / "two.toml").write_text(mapping)
+    meas = tk.read_measurements(tmp_path / "two.csv", format="wide",
+                                mapping=tmp_path / "two.toml")
+    fr = meas.kind_mask("frequency")
+    assert sorted(set(meas.tonal[fr].tolist())) == ["freq_hz", "harmonic_hz"]
+    res = tk.estimate(meas, "static3d")
+    f1, f2 = res.nuisance["carrier[freq_hz]"], res.nuisance["carrier[harmonic_hz]"]
+    assert f2[0] == pytest.approx(2 * f1[0], abs=3 * f2[1] + 6 * f1[1])
