@@ -179,3 +179,22 @@ def test_each_frequency_column_of_a_wide_log_is_a_tonal(tmp_path):
     res = tk.estimate(meas, "static3d")
     f1, f2 = res.nuisance["carrier[freq_hz]"], res.nuisance["carrier[harmonic_hz]"]
     assert f2[0] == pytest.approx(2 * f1[0], abs=3 * f2[1] + 6 * f1[1])
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_tonals_go_through_a_measurement_file(tmp_path, suffix):
+    """Written and read back: the tonal column keeps each row's tonal (a file of two tonals at
+    one time is readable); a label on a row that is no frequency is refused by row."""
+    meas = tk.read_measurements(_second_tonal(tmp_path))
+    path = tmp_path / f"two{suffix}"
+    tk.write_measurements(meas, path)
+    back = tk.read_measurements(path)
+    assert back.equals(meas) and set(back.tonal.tolist()) == {"", "NB_FREQ", "NB_FREQ2"}
+    if suffix == ".csv":
+        text = path.read_text().splitlines()
+        first = next(i for i, line in enumerate(text) if ",bearing," in line)
+        text[first] = text[first] + "NB_FREQ"
+        path.write_text("\n".join(text) + "\n")
+        with pytest.raises(tk.MeasurementFileError, match="column 'tonal': expected a tonal "
+                                                          "label on a frequency row"):
+            tk.read_measurements(path)
