@@ -67,7 +67,7 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
 
 
 def _tonal(frame: Any, kind: NDArray[np.object_], problems: Problems) -> NDArray[np.str_]:
-    """The ``tonal`` column: a label on each frequency row, empty on the others."""
+    """Read the ``tonal`` column: a label on each frequency row, empty on the others."""
     text = np.array([("" if c is None or c != c else str(c)).strip()
                      for c in frame["tonal"].tolist()], dtype=str)
     for row in np.flatnonzero((text != "") != (kind == "frequency"))[:20].tolist():
