@@ -198,3 +198,17 @@ def test_tonals_go_through_a_measurement_file(tmp_path, suffix):
         with pytest.raises(tk.MeasurementFileError, match="column 'tonal': expected a tonal "
                                                           "label on a frequency row"):
             tk.read_measurements(path)
+
+
+def test_frequency_stacked_dots_are_drawn_per_tonal(tmp_path):
+    from tmakit.plot.solution import series_names
+
+    files = _second_tonal(tmp_path)
+    meas = tk.read_measurements(files)
+    fr = meas.kind_mask("frequency")
+    assert set(series_names(meas)[fr].tolist()) == {"NB_FREQ", "NB_FREQ2"}
+    assert set(series_names(meas)[~fr].tolist()) == {"SENSOR"}
+    result = runner.invoke(app, ["estimate", *files, "--motion", "cv2d", "--dim", "2", *LEG,
+                                 "--plot", str(tmp_path / "dots.png")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "dots.png").stat().st_size > 10_000
