@@ -1,8 +1,9 @@
 """The observation model: a measurement set's rows predicted from motion parameters.
 
 The Jacobian is ``d value / d rel x d state / d theta`` plus ``d value / d nuisance`` (nuisance
-shared by a kind's rows).  Rows are grouped by kind (:attr:`ObservationModel.order`); the
-``*_grouped`` methods work in that order, the others in the set's own.
+shared by a kind's rows, or by a tonal's: ``carrier[LABEL]``).  Rows are grouped by kind
+(:attr:`ObservationModel.order`); the ``*_grouped`` methods work in that order, the others in
+the set's own.
 """
 
 from __future__ import annotations
