@@ -148,11 +148,11 @@ def test_debrief_sample_gives_the_subjects_true_course_and_speed(tmp_path):
     assert "improbable-chi2" not in reasons["one"]
 
 
-def test_track_refuses_several_tonals_in_words(tmp_path):
-    result = runner.invoke(app, ["track", *_second_tonal(tmp_path)])
-    assert result.exit_code == 2, result.output
-    assert "the frequencies are 2 tonals (NB_FREQ, NB_FREQ2)" in result.output
-    assert "Traceback" not in result.output
+def test_track_follows_several_tonals_from_the_command(tmp_path):
+    result = runner.invoke(app, ["track", *_second_tonal(tmp_path), "--json"])
+    assert result.exit_code == 0, result.output
+    start = json.loads(result.stdout)["start"]
+    assert {"carrier[NB_FREQ]", "carrier[NB_FREQ2]"} <= set(start["nuisance"])
 
 
 def test_bad_propagation_speed_is_refused():
@@ -212,3 +212,30 @@ def test_frequency_stacked_dots_are_drawn_per_tonal(tmp_path):
                                  "--plot", str(tmp_path / "dots.png")])
     assert result.exit_code == 0, result.output
     assert (tmp_path / "dots.png").stat().st_size > 10_000
+
+
+def test_a_filter_follows_several_tonals_by_their_known_f0():
+    """Each tonal's rows divided by its f0 are one tonal of carrier 1 (exactly): the track of
+    two tonals equals that of the same rows with tonal B rescaled onto tonal A's f0 (as if
+    heard by a second sensor at the same place)."""
+    own, t, t_cpa, theta = bench.geometry()
+    motion = tk.ConstantVelocity(2, ref_time=t_cpa)
+    frame = bench.rows(own, t, "AB", True)
+    obs = tk.ObservationModel(frame, motion, bench.OPTIONS)
+    clean = obs.predict(theta, obs.nuisance_vector(bench.nuisance_of("AB")))
+    two = _noisy(frame, clean, np.random.default_rng(4))
+    b = two.tonal == "B"
+    scale = np.where(b, bench.F0["A"] / bench.F0["B"], 1.0)
+    one = tk.MeasurementSet.from_si(two.time, np.where(b, "own 2", two.sensor), two.kind,
+                                    two.value_si * scale, two.sigma_si * scale,
+                                    two.sensor_state, check=False).sorted()
+    at_0 = motion.states(theta, np.zeros(1))[0, [0, 1, 3, 4]]
+    start = {"prior": dict(zip(("x", "y", "vx", "vy"), at_0 + [300, -200, 0.5, 0.2],
+                               strict=True)),
+             "prior_std": {"x": 2000.0, "y": 2000.0, "vx": 3.0, "vy": 3.0},
+             "prior_time": 0.0, "options": bench.OPTIONS}
+    with_two = tk.track(two, nuisance=bench.nuisance_of("AB"), **start)
+    with_one = tk.track(one, nuisance={"carrier": bench.F0["A"]}, **start)
+    np.testing.assert_allclose(with_two.states, with_one.states, rtol=0, atol=1e-6)
+    with pytest.raises(ValueError, match=r"carrier\[B\]"):
+        tk.track(two, nuisance={"carrier[A]": 150.0}, **start)

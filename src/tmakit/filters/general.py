@@ -23,7 +23,13 @@ from ..core.linalg import repair_psd, solve_spd
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
-from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
+from ..observation import (
+    MeasurementGroup,
+    RowLayout,
+    resolve_models,
+    time_blocks,
+    tonals_scaled,
+)
 from ..observation.rows import Index, as_slice, correlated_blocks
 from .kernels import TWO_PI, KernelRun
 
@@ -46,6 +52,7 @@ class CompiledMeasurements:
     def __init__(self, meas: MeasurementSet, dim: int,
                  options: Mapping[str, Mapping[str, object]] | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
+        meas, nuisance = tonals_scaled(meas, options, nuisance)  # several tonals: as one
         self.meas = meas
         self.dim = int(dim)
         n = len(meas)

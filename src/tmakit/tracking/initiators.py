@@ -208,7 +208,10 @@ def _check_nuisance(meas: MeasurementSet, options: Mapping[str, Mapping[str, obj
     missing: dict[str, list[str]] = {}
     for kind in meas.kinds:
         model = model_for(kind, options.get(kind))
-        names = [n for n in model.nuisance_names if n not in nuisance]
+        tonals = ([] if meas.tonal is None or not model.nuisance_by_tonal
+                  else sorted(set(meas.tonal[meas.kind_mask(kind)].tolist())))
+        names = [n for n in (model.nuisance_names if len(tonals) < 2 else [
+            f"{n}[{t}]" for t in tonals for n in model.nuisance_names]) if n not in nuisance]
         if names:
             missing[kind] = names
     if missing:

@@ -144,16 +144,9 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
 
 
 def _trackable(meas: MeasurementSet) -> None:
-    """Refuse an empty set, and several tonals (a filter takes one carrier per kind)."""
+    """Refuse an empty set."""
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
-    tonals = [] if meas.tonal is None else list(dict.fromkeys(meas.tonal[meas.tonal != ""]))
-    if len(tonals) > 1:
-        raise TrackingError(
-            f"the frequencies are {len(tonals)} tonals ({', '.join(tonals)}), each with its own "
-            "f0: a filter takes one carrier, so track one tonal (tma: --kinds bearing, or a "
-            "file of one tonal; Python: meas.take(...)) or fit them together with the batch "
-            "estimate (tma estimate, tk.estimate)")
 
 
 def _run(initiator: Initiator, meas: MeasurementSet, setup: FilterSetup) -> Track:
