@@ -230,7 +230,7 @@ def test_a_filter_follows_several_tonals_by_their_known_f0():
                                     two.value_si * scale, two.sigma_si * scale,
                                     two.sensor_state, check=False).sorted()
     at_0 = motion.states(theta, np.zeros(1))[0, [0, 1, 3, 4]]
-    start = {"prior": dict(zip(("x", "y", "vx", "vy"), at_0 + [300, -200, 0.5, 0.2],
+    start = {"prior": dict(zip(("x", "y", "vx", "vy"), at_0 + np.array([300, -200, 0.5, 0.2]),
                                strict=True)),
              "prior_std": {"x": 2000.0, "y": 2000.0, "vx": 3.0, "vy": 3.0},
              "prior_time": 0.0, "options": bench.OPTIONS}
