@@ -41,7 +41,6 @@ class Frequency(MeasurementModel):
     mirror_symmetric = True
     uses_velocity = True
     value_range = ValueRange("a frequency", 0.0, 1e15, low_inclusive=False)
-
     nuisance_by_tonal = True
 
     def __init__(self, drift: bool = False, propagation_speed: float = SPEED_OF_LIGHT, *,
