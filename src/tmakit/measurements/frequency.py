@@ -54,23 +54,7 @@ class Frequency(MeasurementModel):
 
     @classmethod
     def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
-        """Give ``propagation_speed`` (m/s) where metadata ``frequency_propagation_speed`` says.
-
-        Parameters
-        ----------
-        metadata : mapping of str to str
-            The set's metadata.
-
-        Returns
-        -------
-        dict
-            ``{"propagation_speed": c}`` or empty.
-
-        Raises
-        ------
-        ValueError
-            If the value is not a speed > 0.
-        """
+        """Give ``propagation_speed`` (m/s) where metadata ``frequency_propagation_speed`` says."""
         text = metadata.get("frequency_propagation_speed", "").strip()
         if not text:
             return {}
