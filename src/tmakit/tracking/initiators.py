@@ -228,8 +228,9 @@ class BatchInitiator(Initiator):
         Start quality: the position's largest 1-sigma semi-axis must be below this fraction of the
         range to the nearest sensor (> 0).
     confirm : bool
-        Test each start by the innovations of the updates that follow it, and replace a rejected one
-        by a start from a window at least twice as long.
+        Test each start by its window's fit (chi-square p-value) and by the innovations of the
+        updates that follow it; replace a rejected one by a start from a window at least twice as
+        long.
     min_window : int
         The first window the search tries (distinct measurement times).
     confirm_p_value : float
@@ -283,7 +284,8 @@ class BatchInitiator(Initiator):
             try:
                 found = search_window(meas, setup.dim, setup.options or None,
                                       self.init_window, self.max_relative_std,
-                                      min_window=first)
+                                      min_window=first, fit_p_value=self.confirm_p_value
+                                      if self.confirm else 0.0)
             except StartError as e:
                 if not rejected:
                     raise
