@@ -15,7 +15,11 @@ and 25 kn, the targets doing 4 and 15 kn):
   window (no estimate before it);
 * ``stonesoup ekf``: Stone Soup's EKF started as its bearings-only example starts it, from
   the **true** initial state with covariance ``diag(1, 1, 1, 1)`` (m^2, m^2/s^2; the
-  example's own numbers), its ``ConstantVelocity`` model having the same q~.
+  example's own numbers), its ``ConstantVelocity`` model having the same q~;
+* ``bayes`` (not by default): the exact posterior mean and covariance from the same prior
+  for q~ = 0 (resample-move over the initial state, ``--draws``; run with
+  ``--q-density 0``), the best any filter from this prior can do: where the filters sit
+  well above the PCRB and ``bayes`` sits with them, the bound is what is out of reach.
 
 Printed per filter and scenario: RMS position error / PCRB averaged over the steps after
 the own-ship manoeuvre has taken effect (from the first sample after the turn on: k >= 17
@@ -29,7 +33,8 @@ true path, with ``J_0`` the inverse of the prior's covariance at the first beari
 (:meth:`tmakit.BearingPrior.gaussian`) and the same process noise; its RMS over runs.
 
     PYTHONPATH=src python benchmarks/first_bearing.py [--runs 100] [--seed 0]
-        [--filters gsf pf ekf-batch stonesoup] [--scenarios moderate high] [--speed]
+        [--filters gsf pf ekf-batch stonesoup bayes] [--scenarios moderate high] [--speed]
+        [--q-density Q] [--draws N]
 """
 
 from __future__ import annotations

@@ -118,13 +118,14 @@ def test_bearing_prior_forms_have_the_same_moments():
             BearingPrior(*bad)
 
 
-@pytest.mark.parametrize("component", ["ekf", "ckf"])
-def test_gaussian_sum_compiled_path_equals_its_general_path(component):
+@pytest.mark.parametrize("component, iterations", [("ekf", 1), ("ekf", 5), ("ckf", None)])
+def test_gaussian_sum_compiled_path_equals_its_general_path(component, iterations):
     meas, _ = moderate_run(4)
     prior = MODERATE.prior()
     first = first_bearing(meas)
     rest = meas.take(np.arange(1, len(meas)))
-    kw = {"component": component, "dynamics": NearlyConstantVelocity(2, 0.0, Q_DENSITY)}
+    kw = {"component": component, "dynamics": NearlyConstantVelocity(2, 0.0, Q_DENSITY),
+          "iterations": iterations}
     fast_filter = GaussianSumFilter.from_first_bearing(prior, first, **kw)
     fast = fast_filter.run(rest)
     slow_filter = GaussianSumFilter.from_first_bearing(prior, first, **kw)
@@ -136,6 +137,9 @@ def test_gaussian_sum_compiled_path_equals_its_general_path(component):
     assert np.allclose(fast.nis, slow.nis, rtol=1e-6, atol=1e-9)
     w, m, p = fast_filter.components
     assert np.isclose(w.sum(), 1.0) and m.shape == (len(w), 4) and p.shape == (len(w), 4, 4)
+    if component != "ekf":
+        with pytest.raises(ValueError, match="iterations apply to EKF components"):
+            GaussianSumFilter.from_first_bearing(prior, first, **{**kw, "iterations": 3})
 
 
 def _monte_carlo(runs: int) -> dict[str, np.ndarray]:
