@@ -7,6 +7,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.linalg import solve_spd
 from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
@@ -155,11 +156,16 @@ class ExtendedKalmanFilter(TrackingFilter):
         innovation_cov : numpy.ndarray
             Its covariance ``(m, m)``.
         log_likelihood : float
-            ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).
+            ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).  The iterated
+            EKF gives the last linearisation's innovation ``z - h(x_i) - H_i (x^- - x_i)``:
+            the likelihood linearised at the updated state (a Laplace approximation).
         """
         self._innovation = (np.zeros(0), np.zeros((0, 0)))
         new, new_cov, _, _, ll = self._gaussian_step(group, mean, cov)
         y, s = self._innovation
+        if self.iterations > 1 and y.shape[0]:  # the last linearisation's (Laplace)
+            ll = -0.5 * (float(y @ solve_spd(s, y)[0]) + np.linalg.slogdet(s)[1]
+                         + y.shape[0] * LOG_2PI)
         return new, new_cov, y, s, ll
 
     def _gaussian_step(self, group: MeasurementGroup, mean: Array, cov: Array
@@ -202,6 +208,7 @@ class ExtendedKalmanFilter(TrackingFilter):
             s = hp.dot(h_i.T)
             s += r
             y_i = y_i - h_i.dot(mean - new)
+            self._innovation = (y_i, s)
             g_i = innovation_solve(s, hp, y_i)[0]
             nxt = mean + g_i.dot(y_i)
             size = float(np.linalg.norm((nxt - new)[:self.dim]))

@@ -46,9 +46,8 @@ PRUNE = 1e-5
 MERGE = 0.25
 #: Most components held at once.
 CAPACITY = 48
-#: Linearisations per update of EKF components: the iterated update brings the Gaussian sum
-#: within 1.00 and 2.17 of the PCRB after the turn on the two scenarios of Ristic et al.
-#: (2004), against 1.11 and 2.65 for the plain EKF's (docs/tracking.md).
+#: Linearisations per update of EKF components (the iterated EKF; docs/tracking.md gives
+#: what it gains on the scenarios of Ristic et al. 2004).
 ITERATIONS = 5
 
 

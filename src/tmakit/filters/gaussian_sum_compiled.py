@@ -229,11 +229,12 @@ def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, sy
     """Update component ``i`` with one bearing (EKF, iterated as the filter's ``iterations``).
 
     The iterated update of Bell & Cathey (1993) as :class:`~tmakit.filters.ExtendedKalmanFilter`
-    makes it; innovation and variance (the weight's likelihood) are the first linearisation's.
+    makes it; innovation and variance (the weight's likelihood) are the last linearisation's,
+    as its ``update_gaussian`` gives them.
     """
     prior = m[i].copy()
     x = prior.copy()
-    nu0, s0 = 0.0, 0.0
+    nu0, s0 = 0.0, 0.0  # the last linearisation's
     k = np.zeros(4)
     c = np.zeros(4)
     for it in range(iterations):
@@ -253,8 +254,7 @@ def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, sy
                 return 0.0, 0.0, False
             break
         nu = _wrap(z - math.atan2(dx, dy)) - h0 * (prior[0] - x[0]) - h1 * (prior[1] - x[1])
-        if it == 0:
-            nu0, s0 = nu, s
+        nu0, s0 = nu, s
         c = ci
         k = c / s
         new = prior + k * nu
