@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 import tmakit as tk
 from tmakit.bounds.pcrb import deterministic_pcrb
 from tmakit.cli import app
+from tmakit.data import MeasurementSet
 from tmakit.filters import (
     BearingPrior,
     ExtendedKalmanFilter,
@@ -283,3 +284,20 @@ def test_command_refuses_bad_first_bearing_options(obs, args, message):
     result = runner.invoke(app, ["track", str(obs), *args])
     assert result.exit_code == 2, result.output
     assert message in " ".join(result.output.split())
+
+
+@pytest.mark.parametrize("name", ["gsf", "ekf"])
+def test_a_clutter_first_bearing_is_rejected_by_the_innovations_after_it(name):
+    meas, _ = moderate_run(6)
+    bad = MeasurementSet.from_si(np.array([-30.0]), ["own ship"], ["bearing"],
+                                 meas.value_si[:1] + 1.5, meas.sigma_si[:1],
+                                 meas.sensor_state[:1])
+    tr = tk.track(MeasurementSet.concatenate([bad, meas]), name, q_density=Q_DENSITY,
+                  bearing_prior=MODERATE.prior())
+    start = tr.extra.start
+    assert tr.times[0] == meas.time[0] and start["confirmation"]["p_value"] >= 1e-3
+    assert [r["time"] for r in start["rejected"]] == [-30.0]
+    # the last bearing has no innovations to test it: accepted, as a batch window of all data
+    last = tk.track(meas.take(np.arange(3)), name, initiator=BearingInitiator(
+        MODERATE.prior(), confirm_p_value=1.0))
+    assert last.times[0] == meas.time[2] and len(last.extra.start["rejected"]) == 2

@@ -291,10 +291,13 @@ def test_stone_soup_ekf_started_at_the_first_bearing_by_the_gaussian_sum():
     for state, x in zip(track.states, truth, strict=True):
         err = np.asarray(state.state_vector, float)[:, 0] - x[[0, 3, 1, 4]]
         assert err @ np.linalg.solve(np.asarray(state.covar, float), err) < 18.47
-    # clutter: the first bearing's innovations fail, it is dropped and said so
-    clutter = _with_clutter(meas)
+    # a clutter bearing first: the innovations after it reject it, the next bearing starts
+    bad = MeasurementSet.from_si(np.array([0.5]), ["own ship"], ["bearing"],
+                                 meas.value_si[:1] + 1.5, meas.sigma_si[:1], meas.sensor_state[:1])
     other = BearingInitiator(prior=tk.BearingPrior(1_000, 30_000, 15.0))
-    assert _feed(other, clutter.take(np.arange(40))) is None
-    assert "innovations after the bearing" in other.problem
+    track = _feed(other, MeasurementSet.concatenate([bad, meas]))
+    assert (track.states[0].timestamp - EPOCH).total_seconds() == meas.time[0]
+    (rejected,) = other.track.extra.start["rejected"]
+    assert rejected["time"] == 0.5 and rejected["p_value"] < 1e-3
     with pytest.raises(ValueError, match="BearingPrior"):
         BearingInitiator(prior=(1_000, 30_000))

@@ -580,7 +580,10 @@ def start_sentence(tr: Any) -> str:
         return (f"start: the first bearing ({s['bearing_deg']:.1f} deg at t = "
                 f"{s['time']:g} s) with the prior {prior.describe()}"
                 + ("" if "range" in p["given"] else "; give --range-prior MIN:MAX and "
-                   "--speed-prior MAX for this emitter"))
+                   "--speed-prior MAX for this emitter")
+                + (f"; {len(s['rejected'])} earlier bearings rejected by the innovations "
+                   f"that followed them (from t = {s['rejected'][0]['time']:g} s)"
+                   if s.get("rejected") else ""))
     text = (f"start: batch ML estimate over the first {s['window']} measurement times "
             f"({s['rows']} rows, t <= {s['time']:g} s), {s['status']}, position std "
             f"{s['relative_position_std']:.1%} of the range")

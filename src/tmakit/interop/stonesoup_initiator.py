@@ -14,7 +14,6 @@ from stonesoup.types.track import Track
 
 from ..filters import BearingPrior
 from ..filters.track import Track as TmakitTrack
-from ..results.checks import chi2_probability
 from ..results.estimate import EstimateResult
 from ..tracking import BearingInitiator as _FirstBearingStart
 from ..tracking import track as tmakit_track
@@ -116,12 +115,10 @@ class BearingInitiator(GaussianInitiator):
 
     Every call adds the detections it is given to those collected so far and runs tmakit's
     Gaussian-sum filter over them from the first bearing (:class:`tmakit.BearingPrior`:
-    range interval, largest speed; :class:`tmakit.tracking.BearingInitiator`).  It starts a
-    track when the filter's innovations are probable (the sum of their NIS, chi-square on
-    their degrees of freedom, has a p-value of at least ``confirm_p_value``) and its
-    position's largest 1-sigma semi-axis is below ``max_relative_std`` of the range to the
-    sensor.  Innovations that fail drop the first time's detections (a clutter bearing
-    started it) and the next call starts from the next bearing.  The track holds one
+    range interval, largest speed; :class:`tmakit.tracking.BearingInitiator`, whose start
+    the innovations confirm as ``tma track``'s: a bearing they reject, clutter, is dropped and
+    the next starts).  It starts a track when the filter's position's largest 1-sigma
+    semi-axis is below ``max_relative_std`` of the range to the sensor.  The track holds one
     ``GaussianState`` per detection time from the first bearing on (the sum's moments, Stone
     Soup's state order); :attr:`track` keeps tmakit's track (``tmakit.filters.smooth`` smooths
     it), :attr:`problem` says why the last call did not start one.  One target, as
@@ -149,7 +146,7 @@ class BearingInitiator(GaussianInitiator):
         default=DEFAULT_MAX_RELATIVE_STD,
         doc="Start quality: largest position std (1 sigma) over range to the sensor.")
     confirm_p_value: float = Property(
-        default=CONFIRM_P_VALUE, doc="Innovations whose chi-square p-value is below it fail.")
+        default=CONFIRM_P_VALUE, doc="A start whose innovations' p-value is below it fails.")
     options: Mapping[str, Mapping[str, object]] | None = Property(
         default=None, doc="Per-kind model options, as for tmakit.track.")
     epoch: dt.datetime = Property(default=EPOCH, doc="The timestamp of time 0 s.")
@@ -177,16 +174,10 @@ class BearingInitiator(GaussianInitiator):
         meas = from_detections(self.detections, epoch=self.epoch)
         try:
             tr = tmakit_track(meas, "gsf", q_density=self.q_density, dim=self.dim,
-                              options=self.options, initiator=_FirstBearingStart(self.prior))
+                              options=self.options, initiator=_FirstBearingStart(
+                                  self.prior, confirm_p_value=self.confirm_p_value))
         except TrackingError as e:
             self.problem, self.detections = str(e), []
-            return set()
-        p = chi2_probability(float(np.nansum(tr.nis)), int(np.sum(tr.dof)))
-        if p is not None and p < self.confirm_p_value:
-            self.problem = (f"the innovations after the bearing at {tr.times[0]:g} s fail "
-                            f"(p = {p:.2g}): dropped it")
-            first = min(d.timestamp for d in self.detections)
-            self.detections = [d for d in self.detections if d.timestamp != first]
             return set()
         cov = tr.covariances[-1, :self.dim, :self.dim]
         last = np.abs(meas.time - meas.time.max()) < 1e-9
