@@ -113,16 +113,11 @@ def _stonesoup_state(mean: np.ndarray, cov: np.ndarray, dim: int, when: dt.datet
 class BearingInitiator(GaussianInitiator):
     """Start a Stone Soup track at its first bearing: tmakit's Gaussian sum from a prior.
 
-    Every call adds the detections it is given to those collected so far and runs tmakit's
-    Gaussian-sum filter over them from the first bearing (:class:`tmakit.BearingPrior`:
-    range interval, largest speed; :class:`tmakit.tracking.BearingInitiator`, whose start
-    the innovations confirm as ``tma track``'s: a bearing they reject, clutter, is dropped and
-    the next starts).  It starts a track when the filter's position's largest 1-sigma
-    semi-axis is below ``max_relative_std`` of the range to the sensor.  The track holds one
-    ``GaussianState`` per detection time from the first bearing on (the sum's moments, Stone
-    Soup's state order); :attr:`track` keeps tmakit's track (``tmakit.filters.smooth`` smooths
-    it), :attr:`problem` says why the last call did not start one.  One target, as
-    :class:`BatchInitiator`.
+    Each call runs tmakit's Gaussian sum over the detections so far from the first bearing
+    (:class:`tmakit.tracking.BearingInitiator`: its innovations reject a clutter bearing) and
+    starts a track once the position's largest 1-sigma semi-axis is below ``max_relative_std``
+    of the range: one ``GaussianState`` per detection time from the first bearing on.
+    :attr:`track` keeps tmakit's track, :attr:`problem` says why no track yet.  One target.
 
     Parameters
     ----------
