@@ -189,7 +189,7 @@ def run_filter(name: str, meas: MeasurementSet, truth: np.ndarray, prior: tk.Bea
     else:
         kw = {"particles": args.particles, "rng": [args.seed, 7, i]} if name == "pf" else {}
         if name != "pf":
-            kw = {"settings": {"component": args.component}}
+            kw = {"settings": {"component": args.component, "iterations": args.iterations}}
         tr = tk.track(meas, "pf" if name == "pf" else "gsf", q_density=args.q_density,
                       initiator=BearingInitiator(prior), **kw)
         if name != "pf":
@@ -331,6 +331,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--particles", type=int, default=10_000)
     ap.add_argument("--component", default="ekf", help="the Gaussian sum's: ekf, ukf, ckf")
+    ap.add_argument("--iterations", type=int, default=None,
+                    help="linearisations per update of EKF components (default the filter's)")
     ap.add_argument("--filters", nargs="+", default=["gsf", "pf", "ekf-batch", "stonesoup"])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
     ap.add_argument("--speed", action="store_true", help="only the speed comparison")
