@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2 as chi2_dist
 
 from ..core.geodesy import enu_to_geodetic
@@ -154,6 +154,12 @@ class Answer:
     covariance: NDArray[np.float64] = field(repr=False)
     altitude_reference: str = "WGS-84 ellipsoid"
     undetermined: tuple[str, ...] = ()
+
+    @property
+    def position_determined(self) -> bool:
+        """Whether the position is given and its range from the sensor is determined."""
+        return (self.enu[0] is not None and self.enu[1] is not None
+                and not any(w.startswith("range") for w in self.undetermined))
 
     @property
     def speed_knots(self) -> float | None:
@@ -334,6 +340,65 @@ def _determined_size(name: str, v: float | None, s: float | None, unit: str, wea
         return v, s
     weak.append(f"{name} (1-sigma {s:.3g} {unit} against {v:.3g} {unit})")
     return None, None
+
+
+def bearing_interval(answer: Answer, meas: MeasurementSet | None,
+                     level: float = ELLIPSE_LEVEL) -> tuple[float, float] | None:
+    """Give the bearing interval from the answer's sensor at its time, whatever the range.
+
+    The hull of the answer's linearised interval and of every bearing the sensor measured at
+    that time (the side nearer the answer's for a towed array's twin) ± ``z`` sigma: a
+    measured bearing holds the truth at ``level`` whatever motion model the fit assumed.
+
+    Parameters
+    ----------
+    answer : Answer
+        The answer (its time, sensor and bearing).
+    meas : MeasurementSet, optional
+        The measurements fitted.
+    level : float
+        Probability inside the interval.
+
+    Returns
+    -------
+    tuple of float or None
+        Centre and half-width (deg); None when neither the answer nor a measurement gives a
+        bearing then.
+    """
+    z = float(np.sqrt(chi2_dist.ppf(level, 1)))
+    spans = []
+    if answer.bearing_deg is not None and answer.bearing_std_deg is not None:
+        spans.append((answer.bearing_deg, z * answer.bearing_std_deg))
+    if meas is not None and answer.sensor in meas.sensors:
+        rows = np.flatnonzero(meas.kind_mask("bearing") & meas.sensor_mask(answer.sensor)
+                              & (meas.time == answer.time))
+        for i in rows:
+            seen = np.degrees([meas.value_si[i]] if meas.ambiguous_si is None or not spans
+                              else [meas.value_si[i], meas.ambiguous_si[i]])
+            seen = seen[np.nanargmin(np.abs(_wrap_deg(seen - spans[0][0])))] if spans else seen[0]
+            spans.append((float(seen), z * float(np.degrees(meas.sigma_si[i]))))
+    if not spans:
+        return None
+    offs = [_wrap_deg(c - spans[0][0]) for c, _ in spans]
+    lo = min(o - h for o, (_, h) in zip(offs, spans, strict=True))
+    hi = max(o + h for o, (_, h) in zip(offs, spans, strict=True))
+    return float((spans[0][0] + (lo + hi) / 2.0) % 360.0), float((hi - lo) / 2.0)
+
+
+def in_bearing_interval(position: ArrayLike, answer: Answer,
+                        meas: MeasurementSet | None, level: float = ELLIPSE_LEVEL) -> bool:
+    """Whether a horizontal position (East, North, m) lies in :func:`bearing_interval`."""
+    span = bearing_interval(answer, meas, level)
+    if span is None:
+        return False
+    where = (sensor_position(meas, answer.sensor, answer.time)
+             if meas is not None and answer.sensor is not None else np.zeros(3))
+    d = np.asarray(position, dtype=float)[:2] - where[:2]
+    return bool(abs(_wrap_deg(np.degrees(np.arctan2(d[0], d[1])) - span[0])) <= span[1])
+
+
+def _wrap_deg(a: ArrayLike) -> NDArray[np.float64]:
+    return (np.asarray(a, dtype=float) + 180.0) % 360.0 - 180.0
 
 
 def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:
