@@ -142,8 +142,9 @@ SCENARIOS = {"hoerst2010": hoerst2010_bearings, "ta-dummy": ta_dummy,
 class Run:
     """One run: truth inside the union and the best's ellipse, at the end and at t0; CPU s.
 
-    ``undetermined[_ref]``: the position was reported undetermined there (a wider model's
-    fit leaves it so, or the answer has no bounded ellipse); ``area[_ref]``: the area (km²)
+    ``undetermined[_ref]``: the position was reported undetermined there (the widest model's
+    fit leaves it so, the solutions' ranges disagree, or the answer's range is undetermined);
+    ``area[_ref]``: the area (km²)
     of the reported fit's 95 % ellipse (NaN when undetermined).
     """
 

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2 as chi2_dist
 
+from ..core.frames import wrap_angle
 from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
 from .context import altitude_reference, clock_time, origin_of, sensor_position
@@ -344,45 +345,31 @@ def _determined_size(name: str, v: float | None, s: float | None, unit: str, wea
 
 def bearing_interval(answer: Answer, meas: MeasurementSet | None,
                      level: float = ELLIPSE_LEVEL) -> tuple[float, float] | None:
-    """Give the bearing interval from the answer's sensor at its time, whatever the range.
+    """Give the bearing interval (centre, half-width; deg) at ``level``, or None if unknown.
 
-    The hull of the answer's linearised interval and of every bearing the sensor measured at
-    that time (the side nearer the answer's for a towed array's twin) ± ``z`` sigma: a
-    measured bearing holds the truth at ``level`` whatever motion model the fit assumed.
-
-    Parameters
-    ----------
-    answer : Answer
-        The answer (its time, sensor and bearing).
-    meas : MeasurementSet, optional
-        The measurements fitted.
-    level : float
-        Probability inside the interval.
-
-    Returns
-    -------
-    tuple of float or None
-        Centre and half-width (deg); None when neither the answer nor a measurement gives a
-        bearing then.
+    The hull of the answer's linearised interval and of each bearing its sensor measured at
+    its time ± z sigma (a towed array's twin: the side nearer the answer's): a measured
+    bearing holds the truth whatever motion model the fit assumed.
     """
     z = float(np.sqrt(chi2_dist.ppf(level, 1)))
-    spans = []
+    spans = []  # (centre, half-width), rad
     if answer.bearing_deg is not None and answer.bearing_std_deg is not None:
-        spans.append((answer.bearing_deg, z * answer.bearing_std_deg))
+        spans.append((np.radians(answer.bearing_deg), z * np.radians(answer.bearing_std_deg)))
     if meas is not None and answer.sensor in meas.sensors:
         rows = np.flatnonzero(meas.kind_mask("bearing") & meas.sensor_mask(answer.sensor)
                               & (meas.time == answer.time))
         for i in rows:
-            seen = np.degrees([meas.value_si[i]] if meas.ambiguous_si is None or not spans
-                              else [meas.value_si[i], meas.ambiguous_si[i]])
-            seen = seen[np.nanargmin(np.abs(_wrap_deg(seen - spans[0][0])))] if spans else seen[0]
-            spans.append((float(seen), z * float(np.degrees(meas.sigma_si[i]))))
+            seen = np.array([meas.value_si[i]] if meas.ambiguous_si is None or not spans
+                            else [meas.value_si[i], meas.ambiguous_si[i]])
+            near = np.nanargmin(np.abs(wrap_angle(seen - spans[0][0]))) if spans else 0
+            spans.append((float(seen[near]), z * float(meas.sigma_si[i])))
     if not spans:
         return None
-    offs = [_wrap_deg(c - spans[0][0]) for c, _ in spans]
+    offs = wrap_angle([c - spans[0][0] for c, _ in spans])
     lo = min(o - h for o, (_, h) in zip(offs, spans, strict=True))
     hi = max(o + h for o, (_, h) in zip(offs, spans, strict=True))
-    return float((spans[0][0] + (lo + hi) / 2.0) % 360.0), float((hi - lo) / 2.0)
+    return (float(np.degrees(spans[0][0] + (lo + hi) / 2.0) % 360.0),
+            float(np.degrees(hi - lo) / 2.0))
 
 
 def in_bearing_interval(position: ArrayLike, answer: Answer,
@@ -394,11 +381,8 @@ def in_bearing_interval(position: ArrayLike, answer: Answer,
     where = (sensor_position(meas, answer.sensor, answer.time)
              if meas is not None and answer.sensor is not None else np.zeros(3))
     d = np.asarray(position, dtype=float)[:2] - where[:2]
-    return bool(abs(_wrap_deg(np.degrees(np.arctan2(d[0], d[1])) - span[0])) <= span[1])
-
-
-def _wrap_deg(a: ArrayLike) -> NDArray[np.float64]:
-    return (np.asarray(a, dtype=float) + 180.0) % 360.0 - 180.0
+    return bool(np.degrees(abs(wrap_angle(np.arctan2(d[0], d[1]) - np.radians(span[0]))))
+                <= span[1])
 
 
 def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:

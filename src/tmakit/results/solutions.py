@@ -170,23 +170,9 @@ def _unknowns(result: EstimateResult) -> int:
 def range_spread(solutions: Sequence[Solution], meas: MeasurementSet | None,
                  time: float | None = None, level: float = ELLIPSE_LEVEL
                  ) -> tuple[float, float] | None:
-    """Give the nearest and farthest solutions' ranges when two range intervals are disjoint.
+    """Give the smallest and largest range (m) when two solutions' range intervals disjoin.
 
-    Parameters
-    ----------
-    solutions : sequence of Solution
-        The reported solutions.
-    meas : MeasurementSet, optional
-        The measurements fitted (the sensor of the last one gives the range).
-    time : float, optional
-        Time (s); default the last measurement time.
-    level : float
-        Probability inside each range interval (the range ± its normal quantile times std).
-
-    Returns
-    -------
-    tuple of float or None
-        The smallest and largest range (m); None when every two intervals overlap.
+    The intervals at ``level`` from the answers' sensor at ``time``; None when all overlap.
     """
     z = float(np.sqrt(chi2_dist.ppf(level, 1)))
     ranges = [(a.range_m, a.range_std) for a in (s.answer(meas, time, level=level)
