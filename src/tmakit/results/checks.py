@@ -252,8 +252,9 @@ def range_spread_warning(solutions: list[Any], meas: MeasurementSet) -> SanityWa
     span = bearing_interval(a, meas)
     return SanityWarning("position-undetermined", (
         f"the separated solutions' ranges from {a.sensor} at t = {a.time:g} s, "
-        f"{spread[0]:.4g} m to {spread[1]:.4g} m, lie outside one another's 95 % intervals: the "
-        "minima lie along the line of sight and the data do not determine the range. The "
+        f"{spread[0] / 1000:.4g} km to {spread[1] / 1000:.4g} km, lie outside one another's 95 "
+        "% intervals: the minima lie along the line of sight and the data do not determine the "
+        "range. The "
         "reported 95 % region is the bearing interval"
         + ("" if span is None else f", {span[0]:.1f} deg ± {span[1]:.2g} deg")
         + ". An own-ship manoeuvre across the line of sight would pin the range down"))
