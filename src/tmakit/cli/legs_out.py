@@ -25,25 +25,7 @@ SettleOption = Annotated[float | None, typer.Option(
 
 
 def legs_of(meas: Any, turn_rate: float | None) -> Any:
-    """Return the own ship's legs (None when the set has several sensors or one that is still).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    turn_rate : float or None
-        ``--turn-rate`` (deg/s).
-
-    Returns
-    -------
-    tmakit.results.own_legs.LegsAndTurns or None
-        The legs and turns.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a turn rate that is not positive.
-    """
+    """Return the own ship's legs (None when the set has several sensors or one that is still)."""
     import numpy as np
 
     from ..results.own_legs import TURN_RATE_DEG_S, own_ship_legs
@@ -59,32 +41,7 @@ def legs_of(meas: Any, turn_rate: float | None) -> Any:
 
 def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, snap: bool,
                turn_rate: float | None) -> tuple[str | None, str | None, Any]:
-    """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        Every measurement read (before any window).
-    leg : int or None
-        ``--leg``.
-    start, stop : str or None
-        ``--from``, ``--to``.
-    snap : bool
-        ``--snap``.
-    turn_rate : float or None
-        ``--turn-rate``.
-
-    Returns
-    -------
-    tuple
-        The window's ends, seconds as text (or None), and the legs of the whole record.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2: ``--leg`` with ``--from``/``--to``, a leg that does not exist, no own-ship
-        legs (several sensors, or a still one).
-    """
+    """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``."""
     legs = legs_of(meas, turn_rate)
     if legs is None:
         raise fail("--leg/--snap: own-ship legs need one moving sensor (the own ship); the "
@@ -116,23 +73,7 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
 
 
 def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
-    """Return the own-ship legs and turns in words, with the thresholds.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements (clock times).
-    legs : dict
-        The legs' JSON form (:meth:`LegsAndTurns.as_dict
-        <tmakit.results.own_legs.LegsAndTurns.as_dict>`) with the own ship's name (``sensor``).
-    units : str
-        ``si`` or ``nautical``.
-
-    Returns
-    -------
-    list of str
-        A heading line, then one line per leg and turn.
-    """
+    """Return the own-ship legs and turns in words, with the thresholds."""
     from ..results.context import clock_time
 
     def when(t: float) -> str:
@@ -152,17 +93,7 @@ def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
 
 
 def print_legs(meas: Any, result: Any, units: str) -> None:
-    """Print the own-ship legs and the contact's legs a fit carries (``extra``).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements fitted (clock times).
-    result : tmakit.results.EstimateResult
-        The fit (``extra["legs"]``, ``extra["contact_legs"]``).
-    units : str
-        ``si`` or ``nautical``.
-    """
+    """Print the own-ship legs and the contact's legs a fit carries (``extra``)."""
     legs, target = result.extra.get("legs"), result.extra.get("contact_legs")
     lines = (legs_lines(meas, legs, units) if legs else []) + (
         contact_legs_lines(meas, target, units) if target else [])
@@ -171,22 +102,7 @@ def print_legs(meas: Any, result: Any, units: str) -> None:
 
 
 def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:
-    """Return the contact's legs of a manoeuvre fit in words.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements (clock times).
-    legs : list of dict
-        :func:`tmakit.results.own_legs.contact_legs`.
-    units : str
-        ``si`` or ``nautical``.
-
-    Returns
-    -------
-    list of str
-        A heading line and one line per leg.
-    """
+    """Return the contact's legs of a manoeuvre fit in words."""
     from ..results.context import clock_time
 
     def when(t: float) -> str:
@@ -207,32 +123,7 @@ def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> lis
 def fit_with_ambiguity(meas: Any, fit: Any,
                        turns: tuple[bool, float | None, float | None], as_json: bool,
                        legs: Any = None) -> tuple[Any, Any]:
-    """Fit, resolving a towed array's ambiguity when the bearings carry twins.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    fit : callable
-        ``fit(meas) -> EstimateResult``.
-    turns : tuple
-        ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
-    as_json : bool
-        Print the decisions on standard error (the JSON carries them too).
-    legs : LegsAndTurns, optional
-        The own ship's legs over the whole record (``--leg``, ``--snap``); default those of
-        ``meas``.
-
-    Returns
-    -------
-    tuple
-        The result and the measurements fitted (each ambiguous cut on its chosen side).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for bad options or nothing left to fit.
-    """
+    """Fit, resolving a towed array's ambiguity when the bearings carry twins."""
     import numpy as np
 
     keep_turn_cuts, settle, turn_rate = turns

@@ -112,17 +112,7 @@ def _write_results(res: Any, output: Path | None, json_file: Path | None,
 
 
 def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
-    """Write the finished runs of a study that did not end (``NAME.partial.csv``).
-
-    Parameters
-    ----------
-    finished : list of ChunkOutput
-        The chunks finished so far.
-    scn : tmakit.scenario.Scenario
-        The scenario (its parameter names).
-    partial : Path or None
-        Where to write them (checked before the study started); None: nowhere.
-    """
+    """Write the finished runs of a study that did not end (``NAME.partial.csv``)."""
     if partial is None or not finished:
         return
     from ..io.tables import write_table
@@ -134,15 +124,7 @@ def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
 
 
 def print_summary(res: Any) -> None:
-    """Print the Monte Carlo summary table and the convergence and speed line.
-
-    Per parameter: bias, RMSE, CRLB, their ratio with its 95 % interval.
-
-    Parameters
-    ----------
-    res : tmakit.montecarlo.MonteCarloResult
-        The Monte Carlo result.
-    """
+    """Print the Monte Carlo summary table and the convergence and speed line."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     counts = ", ".join(f"{k} {v}" for k, v in res.status_counts.items())

@@ -18,25 +18,7 @@ from .outputs import check_outputs as _check_paths
 
 
 def check_outputs(paths: list[tuple[str, Path | None]], force: bool) -> list[Path | None]:
-    """Refuse bad output paths before running (:func:`tmakit.cli.outputs.check_outputs`).
-
-    Parameters
-    ----------
-    paths : list of (str, Path or None)
-        ``("-o", path)`` and ``("--plot", path)``.
-    force : bool
-        ``--force``.
-
-    Returns
-    -------
-    list of Path or None
-        The exact files that will be written.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for the first bad path.
-    """
+    """Refuse bad output paths before running (:func:`tmakit.cli.outputs.check_outputs`)."""
     return _check_paths([(option, path, "picture" if option == "--plot" else "table")
                          for option, path in paths], force)
 
@@ -119,25 +101,7 @@ def plan(
 
 
 def json_summary(result: Any, seed: int) -> dict[str, Any]:
-    """Return what ``tma plan --json`` prints.
-
-    Parameters
-    ----------
-    result : tmakit.montecarlo.planned.PlanRun
-        The runs.
-    seed : int
-        The seed.
-
-    Returns
-    -------
-    dict
-        ``scenario``, ``seed``, ``runs``, ``steps``, ``planner`` (``mission`` or
-        ``horizon``) and ``planner_description``; ``planned`` and ``fixed`` (each the
-        case's summary: ``final_rmse_m``, ``final_pcrb_m``, ``rmse_over_pcrb`` and its
-        interval, ``final_criterion_m``, ...; ``fixed`` null without a fixed pattern, and
-        ``fixed_note`` says why); ``comparison`` (``planned_over_fixed``, ``low``, ``high``,
-        ``verdict``) and ``warnings``.
-    """
+    """Return what ``tma plan --json`` prints."""
     from ..montecarlo.planned import CASE, FIXED, describe
 
     has_fixed = FIXED in result.study.cases
@@ -151,19 +115,7 @@ def json_summary(result: Any, seed: int) -> dict[str, Any]:
 
 
 def start_warnings(setup: Any) -> list[str]:
-    """Say which constraints the steered sensor already breaks where it starts.
-
-    Parameters
-    ----------
-    setup : tmakit.planning.setup.PlanningSetup
-        The loaded planning table.
-
-    Returns
-    -------
-    list of str
-        One sentence per constraint broken at the start (by the true target's position for the range
-        limits): the planner steers out of it, and the steps until then are counted as violated.
-    """
+    """Say which constraints the steered sensor already breaks where it starts."""
     import numpy as np
 
     start = np.asarray(setup.start.position, dtype=float)[None, :]
@@ -182,19 +134,7 @@ def start_warnings(setup: Any) -> list[str]:
 
 def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bool,
                   console: Any) -> None:
-    """Write the per-step table and the picture, saying so on ``console``.
-
-    Parameters
-    ----------
-    result : tmakit.montecarlo.planned.PlanRun
-        The runs.
-    output, plot : Path or None
-        ``-o`` and ``--plot``.
-    force : bool
-        Overwrite existing files.
-    console : rich.console.Console
-        Where the "wrote" lines go (standard error with --json).
-    """
+    """Write the per-step table and the picture, saying so on ``console``."""
     if output is not None:
         from ..io.tables import write_table
 
@@ -209,15 +149,7 @@ def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bo
 
 
 def print_summary(result: Any, seed: int) -> None:
-    """Print the planned path's figures beside the fixed pattern's.
-
-    Parameters
-    ----------
-    result : tmakit.montecarlo.planned.PlanRun
-        The runs.
-    seed : int
-        The seed, for the title.
-    """
+    """Print the planned path's figures beside the fixed pattern's."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     from ..montecarlo.planned import CASE, FIXED, describe
@@ -269,17 +201,7 @@ def print_summary(result: Any, seed: int) -> None:
 
 
 def interval(low: float | None, high: float | None) -> str:
-    """Return `` (95 %: low-high)``, or that the runs are too few for an interval.
-
-    Parameters
-    ----------
-    low, high : float or None
-        The interval (None: too few runs).
-
-    Returns
-    -------
-    str
-    """
+    """Return `` (95 %: low-high)``, or that the runs are too few for an interval."""
     from ..montecarlo.closed_loop import MIN_RUNS_INTERVAL
 
     if low is None or high is None:
