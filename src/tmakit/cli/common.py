@@ -188,6 +188,7 @@ FreeExponentOption = Annotated[bool, typer.Option(help="the path-loss exponent i
 OriginOption = Annotated[str | None, typer.Option(
     help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")]
 ForceOption = Annotated[bool, typer.Option(help="overwrite existing output files")]
+NoProgressOption = Annotated[bool, typer.Option("--no-progress", help="no progress bar")]
 JsonOption = Annotated[bool, typer.Option("--json", help="print JSON")]
 # Options of the readers of real logs (docs/your-own-data.md).
 FormatOption = Annotated[str | None, typer.Option(

@@ -27,6 +27,7 @@ from .common import (
     ContactOption,
     DriftOption,
     FilesArgument,
+    ForceOption,
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
@@ -133,7 +134,7 @@ def estimate(
     html: HtmlOption = None, export: ExportOption = None,
     export_every: ExportEveryOption = 60.0, export_rb: ExportRbOption = False,
     export_name: ExportNameOption = None,
-    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+    force: ForceOption = False,
     as_json: JsonOption = False, sensor_position_sigma: SensorPositionSigmaOption = None,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .common import err, fail, load_scenario_or_fail, out, print_wide
+from .common import ForceOption, NoProgressOption, err, fail, load_scenario_or_fail, out, print_wide
 from .outputs import check_outputs, claim_outputs
 
 #: Default limit of ``--runs`` (raise with ``--max-runs``).
@@ -36,9 +36,7 @@ def montecarlo(
         "interrupted or fails, the finished runs go to NAME.partial.csv")] = None,
     json_file: Annotated[Path | None, typer.Option(
         "--json", help="write the summary as JSON")] = None,
-    no_progress: Annotated[bool, typer.Option("--no-progress",
-                                              help="no progress bar")] = False,
-    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+    no_progress: NoProgressOption = False, force: ForceOption = False,
     max_runs: Annotated[int, typer.Option(
         min=1, help="refuse more runs than this (each run holds its seed and table row; "
         "raise it for a larger study)")] = MAX_RUNS,

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 import typer
 from rich.markup import escape
 
-from .common import ForceOption, err, fail, out
+from .common import ForceOption, NoProgressOption, err, fail, out
 from .outputs import check_outputs as _check_paths
 
 
@@ -47,7 +47,7 @@ def plan(
         help="auto (the mission planner for a sensor that measures no range, else the "
              "horizon planner), mission or horizon (default: the table's, auto)")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
-    no_progress: Annotated[bool, typer.Option("--no-progress", help="no progress bar")] = False,
+    no_progress: NoProgressOption = False,
     force: ForceOption = False,
 ) -> None:
     """Steer the scenario's sensor by the predicted posterior CRB, beside its fixed pattern."""

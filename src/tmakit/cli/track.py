@@ -25,6 +25,7 @@ from .common import (
     ContactOption,
     DriftOption,
     FilesArgument,
+    ForceOption,
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
@@ -118,7 +119,7 @@ def track(
     sensor: SensorOption = None, units: UnitsOption = "si",
     html: HtmlOption = None, follow: FollowOption = False,
     interval: IntervalOption = 1.0, max_updates: MaxUpdatesOption = None,
-    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+    force: ForceOption = False,
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
 
