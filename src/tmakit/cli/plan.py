@@ -14,13 +14,7 @@ import typer
 from rich.markup import escape
 
 from .common import ForceOption, NoProgressOption, err, fail, out
-from .outputs import check_outputs as _check_paths
-
-
-def check_outputs(paths: list[tuple[str, Path | None]], force: bool) -> list[Path | None]:
-    """Refuse bad output paths before running (:func:`tmakit.cli.outputs.check_outputs`)."""
-    return _check_paths([(option, path, "picture" if option == "--plot" else "table")
-                         for option, path in paths], force)
+from .outputs import check_outputs
 
 
 # `tma plan`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -51,7 +45,7 @@ def plan(
     force: ForceOption = False,
 ) -> None:
     """Steer the scenario's sensor by the predicted posterior CRB, beside its fixed pattern."""
-    output, plot = check_outputs([("-o", output), ("--plot", plot)], force)
+    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if runs is not None and runs < 1:
         raise fail("--runs must be 1 or more")
     if particles is not None and particles < 2:
