@@ -72,23 +72,24 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
             snapped(stop, "--to", ends_stop, ends_start), legs)
 
 
-def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
-    """Return the own-ship legs and turns in words, with the thresholds."""
+def _span(meas: Any, part: dict[str, Any]) -> str:
+    """Give a leg's or turn's ``start to stop``: UTC clock times (HH:MM:SS), else seconds."""
     from ..results.context import clock_time
 
-    def when(t: float) -> str:
-        clock = clock_time(meas, t)
-        return f"{t:g} s" if clock is None else clock[11:19]
+    clocks = [(t, clock_time(meas, t)) for t in (part["start"], part["stop"])]
+    return " to ".join(f"{t:g} s" if c is None else c[11:19] for t, c in clocks)
 
+
+def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
+    """Return the own-ship legs and turns in words, with the thresholds."""
     unit, scale = SPEED_UNITS[units]
     lines = [f"own-ship legs of {legs['sensor']} ({legs['thresholds']}):"]
     for k, leg in enumerate(legs["legs"]):
-        lines.append(f"  leg {k + 1}: {when(leg['start'])} to {when(leg['stop'])}, heading "
+        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, heading "
                      f"{leg['course_deg']:.1f} deg at {leg['speed'] / scale:.3g} {unit}")
         if k < len(legs["turns"]):
             u = legs["turns"][k]
-            lines.append(f"  turn: {when(u['start'])} to {when(u['stop'])}, "
-                         f"{u['change_deg']:+.0f} deg")
+            lines.append(f"  turn: {_span(meas, u)}, {u['change_deg']:+.0f} deg")
     return lines
 
 
@@ -103,20 +104,14 @@ def print_legs(meas: Any, result: Any, units: str) -> None:
 
 def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:
     """Return the contact's legs of a manoeuvre fit in words."""
-    from ..results.context import clock_time
-
-    def when(t: float) -> str:
-        clock = clock_time(meas, t)
-        return f"{t:g} s" if clock is None else clock[11:19]
-
     unit, scale = SPEED_UNITS[units]
     lines = ["contact legs (the manoeuvre fit's segments):"]
     for k, leg in enumerate(legs):
         course = (f"course {leg['course_deg']:.1f} deg" if leg["turn_deg"] is None
                   or abs(leg["turn_deg"]) < 1.0 else
                   f"turning {leg['course_start_deg']:.1f} to {leg['course_deg']:.1f} deg")
-        lines.append(f"  leg {k + 1}: {when(leg['start'])} to {when(leg['stop'])}, {course}, "
-                     f"speed {leg['speed'] / scale:.3g} {unit}")
+        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, {course}, speed "
+                     f"{leg['speed'] / scale:.3g} {unit}")
     return lines
 
 
