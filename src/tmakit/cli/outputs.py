@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from .common import fail
+from .common import fail, refuse_existing
 
 __all__ = ["PAGE_SUFFIXES", "PICTURE_SUFFIXES", "SOLUTION_SUFFIXES", "TABLE_SUFFIXES",
            "check_output", "check_outputs",
@@ -68,8 +68,7 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
             if Path(source).is_file() and _same_file(Path(source), path):
                 raise fail(f"{option} {path}: is the input file {source} of this command; it "
                            "is never written over, --force or not: write to another file")
-        if not force:
-            raise fail(f"{path} already exists; use --force to overwrite it")
+        refuse_existing(path, force)
     return path
 
 
