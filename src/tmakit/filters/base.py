@@ -22,8 +22,7 @@ from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .extras import TrackExtras
 from .general import CompiledMeasurements, compiled_for
-from .kernels import KernelRun
-from .record import Recorder, UpdateInfo
+from .record import Recorder, RunBlock, UpdateInfo
 from .track import Track
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -92,9 +91,7 @@ class TrackingFilter(ABC):
         self.nuisance = dict(nuisance or {})
         self.time = float(time)
         self.log_likelihood = 0.0
-        #: Updates done by a closed-form kernel (:mod:`.kernels`), and updates skipped
-        #: because the prediction was not finite (the target at a sensor).
-        self.kernel_updates = 0
+        #: Updates skipped because the prediction was not finite (the target at a sensor).
         self.skipped_updates = 0
         with one_thread(self.single_blas_thread):
             self._init_state(mean, cov)
@@ -269,8 +266,7 @@ class TrackingFilter(ABC):
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
         The set is compiled once (:class:`~.general.CompiledMeasurements`, kept for the
-        set's next runs with the same dimension, options and nuisance); a filter with a
-        closed-form kernel for the case (:mod:`.kernels`) uses it.
+        set's next runs with the same dimension, options and nuisance).
 
         Parameters
         ----------
@@ -302,8 +298,8 @@ class TrackingFilter(ABC):
         return (cls.predict is TrackingFilter.predict and cls.update is TrackingFilter.update
                 and cls.group is TrackingFilter.group)
 
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        """Run a closed-form kernel from update ``start`` (None: none for ``compiled``)."""
+    def _run_block(self, compiled: CompiledMeasurements, start: int) -> RunBlock | None:
+        """Run updates ``start`` on in one go where the filter can (None: one at a time)."""
         return None
 
     def run_compiled(self, compiled: CompiledMeasurements) -> Track:
@@ -337,10 +333,9 @@ class TrackingFilter(ABC):
         rec = Recorder(2 * self.dim)
         k, total = 0, len(compiled)
         while k < total:
-            block = self._run_kernel(compiled, k)
+            block = self._run_block(compiled, k)
             if block is not None:
                 rec.add_block(block)
-                self.kernel_updates += 0 if block.general else block.stop - k
                 k = block.stop
                 if k >= total:
                     break

@@ -25,7 +25,7 @@ from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
 from ..observation.rows import Index, as_slice, correlated_blocks
-from .kernels import TWO_PI, KernelRun
+from .record import RunBlock
 
 
 class CompiledMeasurements:
@@ -73,14 +73,13 @@ class CompiledMeasurements:
         for k, i in self._kind_codes.items():
             lookup[KIND_CODES[k]] = i
         self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
-        self._lists: tuple[list[float], ...] | None = None
         #: What the filters derive from the set once per run (e.g. the general path's plan).
         self.cache: dict[str, object] = {}
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
         #: row layout, made once and shared by the updates with that pattern.
         self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
         sizes = np.diff(self.bounds)
-        #: Every update is one bearing row (the closed-form kernels apply).
+        #: Every update is one bearing row (the Gaussian sum's compiled run applies).
         self.single_bearing = bool(n > 0 and np.all(sizes == 1)
                                    and set(self.models) == {"bearing"})
 
@@ -92,15 +91,6 @@ class CompiledMeasurements:
     def __len__(self) -> int:
         """Return the number of updates."""
         return int(self.times.shape[0])
-
-    def bearing_lists(self) -> tuple[list[float], ...]:
-        """Give the bearing kernels' columns, as lists made once."""
-        if not self.single_bearing:
-            raise ValueError("bearing_lists: the updates are not all single bearings")
-        if self._lists is None:
-            self._lists = (self.time.tolist(), self.values.tolist(), (self.sigmas**2).tolist(),
-                           self.sensor_state[:, 0].tolist(), self.sensor_state[:, 1].tolist())
-        return self._lists
 
     def rows(self, k: int) -> MeasurementSet:
         """Return the rows of update ``k`` as a MeasurementSet (the slow, general path)."""
@@ -328,7 +318,7 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
         except (ZeroDivisionError, OverflowError, ValueError):
             v = g0 = g1 = g2 = g3 = g4 = g5 = nan
         if ang:
-            y = math.remainder(z - v, TWO_PI)
+            y = math.remainder(z - v, math.tau)
             ys.append(math.pi if y == -math.pi else y)
         else:
             ys.append(z - v)
@@ -358,17 +348,17 @@ def finite(y: Array, h: Array) -> bool:
 
 
 def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll: float
-                ) -> KernelRun:
-    """Give a plan run's per-update rows as a :class:`~.kernels.KernelRun`."""
+                ) -> RunBlock:
+    """Give a run's per-update rows ``(time, state, cov, nis, dof, ll)`` as a block."""
     if not rows:
-        return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
-                         np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
-                         np.zeros(0, dtype=np.int64), True)
+        return RunBlock(0, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
+                        np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
+                        np.zeros(0, dtype=np.int64))
     times, states, covs, nis, dof, lls = zip(*rows, strict=True)
-    return KernelRun(len(rows), False, mean, cov, t, ll, np.array(times),
-                     np.concatenate(states).reshape(-1, n),
-                     np.concatenate(covs).reshape(-1, n, n), np.array(nis), np.array(lls),
-                     np.array(dof, dtype=np.int64), True)
+    return RunBlock(len(rows), mean, cov, t, ll, np.array(times),
+                    np.concatenate(states).reshape(-1, n),
+                    np.concatenate(covs).reshape(-1, n, n), np.array(nis), np.array(lls),
+                    np.array(dof, dtype=np.int64))
 
 
 # -- the plan ---------------------------------------------------------------------------------
