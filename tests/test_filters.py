@@ -19,7 +19,7 @@ from tmakit.filters import (
     process_noise,
     transition_matrix,
 )
-from tmakit.filters.general import SCALAR_ROWS, CompiledMeasurements, plan_for
+from tmakit.filters.general import SCALAR_ROWS, PreparedMeasurements, plan_for
 from tmakit.filters.particle import systematic_resample
 
 NUISANCE = {"carrier": 9.4e9, "power_constant_db": -30.0}
@@ -103,8 +103,8 @@ def test_group_jacobian_equals_finite_differences_for_every_kind(dim):
     # Range differences depend on the state at both samples: velocity columns are non-zero.
     rd = group.index["range_difference"]
     assert np.all(np.abs(jac[rd][:, dim:]).max(axis=1) > 0)
-    # The compiled (view-based) group is the same group.
-    cm = CompiledMeasurements(rows, dim, {"frequency": {"drift": True}}, NUISANCE)
+    # The prepared (view-based) group is the same group.
+    cm = PreparedMeasurements(rows, dim, {"frequency": {"drift": True}}, NUISANCE)
     assert len(cm) == len(np.unique(rows.time))
     whole = MeasurementGroup(rows.take(cm.order), t, dim, {"frequency": {"drift": True}},
                              NUISANCE)
@@ -473,16 +473,16 @@ def test_updated_covariance_is_the_short_form_unless_that_is_not_positive_defini
 @pytest.mark.parametrize(("dim", "scalar"), [(2, False), (3, False), (2, True), (3, True)])
 def test_general_plan_equals_the_group_path(dim, scalar):
     meas, mean0, p0 = several_kinds_run(dim, scalar=scalar)
-    compiled = CompiledMeasurements(meas, dim, None, NUISANCE)
-    plan = plan_for(compiled)
-    assert plan.ok and not compiled.single_bearing
+    prepared = PreparedMeasurements(meas, dim, None, NUISANCE)
+    plan = plan_for(prepared)
+    assert plan.ok and not prepared.single_bearing
     # Plain-float rows for updates of at most SCALAR_ROWS rows of such kinds, arrays otherwise.
     assert [step[9] is not None for step in plan.steps] == \
         [scalar and step[1].size <= SCALAR_ROWS for step in plan.steps]
     # The plan takes each update's rows grouped by kind; the UKF's sigma-point sums are
     # sensitive to that order at 1e-6 std here (9.4 GHz carrier), so the group path is given
     # the rows in the same order.
-    rank = {kind: i for i, kind in enumerate(compiled.models)}
+    rank = {kind: i for i, kind in enumerate(prepared.models)}
     meas = meas.take(np.lexsort(([rank[k] for k in meas.kind], meas.time)))
     for cls, kw in ((ExtendedKalmanFilter, {}), (ExtendedKalmanFilter, {"iterations": 3}),
                     (UnscentedKalmanFilter, {})):

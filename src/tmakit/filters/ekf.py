@@ -13,8 +13,8 @@ from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .general import (
-    CompiledMeasurements,
     DynamicsCache,
+    PreparedMeasurements,
     RowSteps,
     Step,
     StepPlan,
@@ -219,14 +219,14 @@ class ExtendedKalmanFilter(TrackingFilter):
         return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
 
     # -- the run of a plan ---------------------------------------------------------------------
-    def _plan_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]
+    def _plan_ok(self, prepared: PreparedMeasurements, cls: type[TrackingFilter]
                  ) -> StepPlan | None:
-        """Give the general plan of ``compiled`` if this filter can run on it (else None)."""
+        """Give the general plan of ``prepared`` if this filter can run on it (else None)."""
         me = type(self)
         if (type(self.dynamics) is not NearlyConstantVelocity
                 or me._update is not cls._update or me._predict is not cls._predict):
             return None
-        plan = plan_for(compiled)
+        plan = plan_for(prepared)
         return plan if plan.ok else None
 
     def _dynamics_cache(self) -> DynamicsCache:
@@ -247,7 +247,7 @@ class ExtendedKalmanFilter(TrackingFilter):
         return steps
 
     def _run_plan(self, plan: StepPlan, start: int) -> RunBlock:
-        """Run updates ``start`` on of a plan (the general path compiled once per file)."""
+        """Run updates ``start`` on of a plan (the general path prepared once per file)."""
         steps = plan.steps[start:]
         rows: list[tuple] = []
         put = rows.append
@@ -273,6 +273,6 @@ class ExtendedKalmanFilter(TrackingFilter):
         self._mean, self._cov, self.time, self.log_likelihood = mean, cov, t, ll
         return stacked_run(rows, 2 * self.dim, mean, cov, t, ll)
 
-    def _run_block(self, compiled: CompiledMeasurements, start: int) -> RunBlock | None:
-        plan = self._plan_ok(compiled, self._planned())
+    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
+        plan = self._plan_ok(prepared, self._planned())
         return None if plan is None else self._run_plan(plan, start)

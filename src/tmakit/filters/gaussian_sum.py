@@ -29,7 +29,7 @@ from .gaussian_sum_compiled import (
     split_sum,
     sum_moments,
 )
-from .general import CompiledMeasurements
+from .general import PreparedMeasurements
 from .record import Recorder, RunBlock
 from .track import Track
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
@@ -263,13 +263,13 @@ class GaussianSumFilter(TrackingFilter):
         return UpdateInfo(nis, int(nbar.shape[0]), top + math.log(total))
 
     # -- the compiled run of single bearings in 2-D -------------------------------------------
-    def _run_block(self, compiled: CompiledMeasurements, start: int) -> RunBlock | None:
+    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
         me = type(self)
-        if not (compiled.single_bearing and self.dim == 2
+        if not (prepared.single_bearing and self.dim == 2
                 and me._update is GaussianSumFilter._update
                 and me._predict is GaussianSumFilter._predict):
             return None
-        times, zs = compiled.time[start:], compiled.values[start:]
+        times, zs = prepared.time[start:], prepared.values[start:]
         k = times.shape[0]
         if times.shape[0] and times[0] < self.time - 1e-9:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
@@ -282,7 +282,7 @@ class GaussianSumFilter(TrackingFilter):
         nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
         count, t, skipped_now = gsf_bearing_2d(
             self._w, self._m, self._p, self._count, self.time, times, zs,
-            compiled.sigmas[start:] ** 2, np.ascontiguousarray(compiled.sensor_state[start:, :2]),
+            prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
             qa, qd, sp, self._settings(), means, covs, nis, lls, counts)
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
