@@ -15,7 +15,8 @@ from ..core.units import SPEED_OF_LIGHT
 from ..motion import Stationary
 from ..scenario import MeasurementPlan, Scenario
 from ..sensors import FixedSensor, SensorTrack
-from .geolocation_sweep import SweepReproduction, plot_sweep, sweep_report
+from .common import Reproduction
+from .geolocation_sweep import Sweep, plot_sweep, sweep, sweep_sections
 
 #: Sensor positions (ENU, m), the first the reference.
 SENSORS = np.array([[0.0, 0.0], [8000.0, 1500.0], [-6000.0, 4000.0], [3000.0, 9000.0],
@@ -39,17 +40,32 @@ def scenario_at(sigma_m: float) -> Scenario:
                     description="Chan & Ho (1994): 10 sensors, TDOA")
 
 
-def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> SweepReproduction:
+class ChanHoReproduction(Reproduction):
+    """The report, with the sweep for :func:`plot`."""
+
+    result: Sweep | None = None
+
+
+def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> ChanHoReproduction:
     """Reproduce the position MSE against noise.
 
     References
     ----------
     Chan & Ho (1994) (the two-stage estimator and its MSE against noise).
     """
-    return sweep_report("chan-ho1994", "Chan & Ho (1994), 10 sensors", scenario_at, SIGMA_M, runs,
-                        seed)
+    if runs < 1:
+        raise ValueError("chan-ho1994: --runs must be 1 or more (Monte Carlo runs per level)")
+    result = sweep(scenario_at, SIGMA_M, runs, seed)
+    rep = ChanHoReproduction("chan-ho1994")
+    rep.result = result
+    rep.sections, rep.figures = sweep_sections(result, "Chan & Ho (1994), 10 sensors")
+    rep.figures["runs"] = runs
+    rep.print_figures = False  # the tables and their notes say it all
+    return rep
 
 
-def plot(rep: SweepReproduction, path: str | Path) -> Path:
+def plot(rep: ChanHoReproduction, path: str | Path) -> Path:
     """Draw the position MSE against noise beside the CRLB."""
-    return plot_sweep(rep, "Chan & Ho (1994): TDOA, 10 sensors", path)
+    assert rep.result is not None
+    plot_sweep(rep.result, "Chan & Ho (1994): TDOA, 10 sensors", path)
+    return Path(path)

@@ -22,10 +22,9 @@ from ..batch.ml import MaximumLikelihood
 from ..bounds import crlb
 from ..core.arrays import Array
 from ..scenario import Scenario
-from .common import Reproduction, Section
+from .common import Section
 
-__all__ = ["CLOSED_TOLERANCE", "ML_TOLERANCE", "Sweep", "SweepReproduction", "sweep",
-           "sweep_report", "threshold"]
+__all__ = ["CLOSED_TOLERANCE", "ML_TOLERANCE", "Sweep", "sweep", "threshold"]
 
 #: MSE / CRLB above which an estimator is past its threshold.
 ML_TOLERANCE = 1.1
@@ -95,25 +94,6 @@ def sweep(scenario_at: Callable[[float], Scenario], sigma_m: Sequence[float], ru
     return out
 
 
-class SweepReproduction(Reproduction):
-    """The report of a sweep, with the sweep for :func:`plot_sweep`."""
-
-    result: Sweep | None = None
-
-
-def sweep_report(name: str, title: str, scenario_at: Callable[[float], Scenario],
-                 sigma_m: Sequence[float], runs: int, seed: int) -> SweepReproduction:
-    """Run :func:`sweep` and give its report (tables and figures) under ``title``."""
-    if runs < 1:
-        raise ValueError(f"{name}: --runs must be 1 or more (Monte Carlo runs per level)")
-    rep = SweepReproduction(name)
-    rep.result = sweep(scenario_at, sigma_m, runs, seed)
-    rep.sections, rep.figures = sweep_sections(rep.result, title)
-    rep.figures["runs"] = runs
-    rep.print_figures = False  # the tables and their notes say it all
-    return rep
-
-
 def _closed(values: Array, scn: Scenario, meas: object) -> Array:
     theta = closed_form_theta(meas, values, scn.motion,  # type: ignore[arg-type]
                               scn.measurement_options)
@@ -164,10 +144,8 @@ def _level(value: float | None) -> str:
     return "none within the sweep" if value is None else f"sigma = {value:g} m"
 
 
-def plot_sweep(rep: SweepReproduction, title: str, path: str | Path) -> Path:
+def plot_sweep(result: Sweep, title: str, path: str | Path) -> None:
     """Draw MSE against noise (log-log), both estimators beside the CRLB, one panel a block."""
-    result = rep.result
-    assert result is not None
     import matplotlib
 
     matplotlib.use("Agg")
@@ -187,5 +165,4 @@ def plot_sweep(rep: SweepReproduction, title: str, path: str | Path) -> Path:
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path)
-    return Path(path)
     plt.close(fig)

@@ -17,7 +17,8 @@ from ..core.units import SPEED_OF_LIGHT
 from ..motion import ConstantVelocity
 from ..scenario import MeasurementPlan, Scenario
 from ..sensors import SensorTrack, WaypointTrack
-from .geolocation_sweep import SweepReproduction, plot_sweep, sweep_report
+from .common import Reproduction
+from .geolocation_sweep import Sweep, plot_sweep, sweep, sweep_sections
 
 #: Sensor positions (m) and velocities (m/s), the first the reference.
 SENSORS = np.array([[300.0, 100.0, 150.0], [400.0, 150.0, 100.0], [300.0, 500.0, 200.0],
@@ -51,17 +52,32 @@ def scenario_at(sigma_m: float, source: dict[str, float] | None = None) -> Scena
                     plans, {"carrier": CARRIER_HZ}, "Ho & Xu (2004): 5 moving sensors")
 
 
-def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> SweepReproduction:
+class HoXuReproduction(Reproduction):
+    """The report, with the sweep for :func:`plot`."""
+
+    result: Sweep | None = None
+
+
+def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> HoXuReproduction:
     """Reproduce the position and velocity MSE against noise.
 
     References
     ----------
     Ho & Xu (2004) (the closed form and its MSE figure).
     """
-    return sweep_report("ho-xu2004", "Ho & Xu (2004), 5 moving sensors", scenario_at, SIGMA_M,
-                        runs, seed)
+    if runs < 1:
+        raise ValueError("ho-xu2004: --runs must be 1 or more (Monte Carlo runs per level)")
+    result = sweep(scenario_at, SIGMA_M, runs, seed)
+    rep = HoXuReproduction("ho-xu2004")
+    rep.result = result
+    rep.sections, rep.figures = sweep_sections(result, "Ho & Xu (2004), 5 moving sensors")
+    rep.figures["runs"] = runs
+    rep.print_figures = False  # the tables and their notes say it all
+    return rep
 
 
-def plot(rep: SweepReproduction, path: str | Path) -> Path:
+def plot(rep: HoXuReproduction, path: str | Path) -> Path:
     """Draw position and velocity MSE against noise beside the CRLB."""
-    return plot_sweep(rep, "Ho & Xu (2004): TDOA + FDOA, 5 moving sensors", path)
+    assert rep.result is not None
+    plot_sweep(rep.result, "Ho & Xu (2004): TDOA + FDOA, 5 moving sensors", path)
+    return Path(path)
