@@ -538,11 +538,10 @@ def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course
     args = np.broadcast_arrays(*(np.asarray(a, dtype=float)
                                  for a in (x, y, speed, course, a_t, a_n, dt)))
     shape = args[0].shape
-    flat = [np.ascontiguousarray(a.reshape(-1)) for a in args]
-    n = flat[0].shape[0]
-    vals = np.empty((n, 6))
-    par = np.empty((n, 6, 7)) if partials else np.empty((1, 6, 7))
-    _segments_kernel(*flat, partials, vals, par)
+    x0, y0, v0, phi0, at, an, s = (np.ascontiguousarray(a.reshape(-1)) for a in args)
+    vals = np.empty((s.shape[0], 6))
+    par = np.empty((s.shape[0], 6, 7)) if partials else np.empty((1, 6, 7))
+    _segments_kernel(x0, y0, v0, phi0, at, an, s, partials, vals, par)
     return vals.reshape(*shape, 6), (par.reshape(*shape, 6, 7) if partials else None)
 
 
