@@ -288,11 +288,7 @@ class ParticleFilter(TrackingFilter):
     def _update_bearing(self, group: MeasurementGroup) -> UpdateInfo | None:
         """Update with one bearing at the update time in closed form."""
         sx, sy = (float(v) for v in group.sensor_state[0, :2])
-        return self._bearing_update(float(group.values[0]), float(group.sigmas[0]), sx, sy)
-
-    def _bearing_update(self, z: float, sigma: float, sx: float, sy: float
-                        ) -> UpdateInfo | None:
-        """Make :meth:`_update_bearing` from plain floats."""
+        z, sigma = float(group.values[0]), float(group.sigmas[0])
         sz, cz = math.sin(z), math.cos(z)
         x, y = self._x[0], self._x[1]
         s, c, r = self._work
