@@ -69,7 +69,7 @@ class Initiator(ABC):
         Returns
         -------
         Initiation
-            The start record and the track.
+            The start record and the track (s, m, m/s).
         """
 
 
@@ -107,18 +107,6 @@ class PriorInitiator(Initiator):
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Start at the prior and update with every row (see :meth:`Initiator.initiate`).
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (not empty; SI).
-        setup : FilterSetup
-            The filter and its settings.
-
-        Returns
-        -------
-        Initiation
-            The start record and the track (s, m, m/s).
 
         Raises
         ------
@@ -277,18 +265,6 @@ class BatchInitiator(Initiator):
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Search the window, start, test, and run (see :meth:`Initiator.initiate`).
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (not empty; SI).
-        setup : FilterSetup
-            The filter and its settings.
-
-        Returns
-        -------
-        Initiation
-            The start record and the track (s, m, m/s).
 
         Raises
         ------
