@@ -5,8 +5,8 @@ Two problems (``bench_problems.filter_problem``), 600 updates each, four rows pe
 * ``bf2``: bearing + frequency from two moving sensors, 2-D (carrier known, 1 GHz);
 * ``be3``: bearing + elevation from two moving sensors, 3-D.
 
-tmakit runs its general path (any kinds, any sensors).  The peers get the same data, prior and nearly-constant-velocity
-``Phi``/``Q`` (Chen & Sun, §2.1):
+tmakit runs its general path (any kinds, any sensors).  The peers get the same data, prior and
+nearly-constant-velocity ``Phi``/``Q`` (Chen & Sun, §2.1):
 
 * FilterPy's ``ExtendedKalmanFilter`` (``predict``; ``update`` with the analytic Jacobian and
   a wrapping residual) and ``UnscentedKalmanFilter`` (``MerweScaledSigmaPoints`` with tmakit's
