@@ -21,9 +21,9 @@ from ..data import MeasurementSet
 from ..measurements import MeasurementModel, model_for, options_with_metadata
 from ..motion import MotionModel
 from .affine_rows import AffineRows
-from .fused import fused_linearisation, fused_values
 from .kind_blocks import group_by_kind
 from .linearisation import Linearisation
+from .planar import planar_linearisation, planar_values
 from .rows import RowModel
 
 
@@ -214,7 +214,7 @@ class ObservationModel:
         terms = self.motion.component_terms(times)
         if terms is None:
             return None
-        # The offset minus the sensor states made when used (fused bearings: two components).
+        # The offset minus the sensor states made when used (planar bearings: two components).
         return AffineRows(terms[0], terms[1], self.motion.n_params, sensor)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
@@ -280,8 +280,8 @@ class ObservationModel:
         Linearisation
         """
         theta = np.asarray(theta, dtype=float)
-        if (lin := (fused_linearisation(self, theta, weights) if derivatives
-                    else fused_values(self, theta))) is not None:
+        if (lin := (planar_linearisation(self, theta, weights) if derivatives
+                    else planar_values(self, theta))) is not None:
             return lin  # one planar kind, affine motion, one theta: only what it needs
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.
