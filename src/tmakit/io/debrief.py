@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 from .clock_text import seconds_of_time_text
-from .debrief_fixes import at_line, host_fixes, sensor_states
+from .debrief_fixes import at_line, host_fixes, listed, sensor_states
 from .debrief_lines import LineProblem, ParsedReplay, SensorLine, SolutionLine, parse_replay_text
 from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
@@ -99,11 +99,6 @@ def _problem(p: LineProblem) -> str:
     return f"{at_line(p)}: {p.message}"
 
 
-def _listed(items: list[str], most: int = 5) -> str:
-    return "; ".join(items[:most]) + (f"; and {len(items) - most} more" if len(items) > most
-                                      else "")
-
-
 def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[str]) -> None:
     """Refuse the problems in the own ship's lines (or lines of no known track); warn of others."""
     used = [p for p in parsed.problems if p.owner is None or p.owner == host]
@@ -112,11 +107,11 @@ def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[st
     other = [f"{_problem(p)} (track {p.owner!r})" for p in parsed.problems]
     if other:
         notes.append(f"warning: {len(other)} line(s) of tracks not used break the format and "
-                     f"are skipped: {_listed(other)}")
+                     f"are skipped: {listed(other)}")
     if parsed.carries:
         carried = [f"{at_line(c)} {c.message}" for c in parsed.carries]
         notes.append(f"note: {len(carried)} position(s) written with 60 minutes or seconds read "
-                     f"as a carry, as Debrief reads them: {_listed(carried)}")
+                     f"as a carry, as Debrief reads them: {listed(carried)}")
 
 
 def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
@@ -128,7 +123,7 @@ def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
         tracks = list(dict.fromkeys(t.name for t in parsed.tracks))
         raise MeasurementFileError(path, [
             "no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing measured" + (
-                f"; the tracks read ({_listed(tracks)}) are positions: give an own ship's "
+                f"; the tracks read ({listed(tracks)}) are positions: give an own ship's "
                 f"track with its sensor file in one command (tma show SENSOR.dsf OWN.rep)"
                 if tracks else "")])
     ownship = None if ownship is None else ownship.strip()
@@ -300,7 +295,7 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
-            f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
+            f"the cuts read name {len(contacts)} contacts ({listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
             "two contacts' cuts; choose one with --contact NAME (the first word of the "
             "labels)"]) from None
