@@ -249,7 +249,8 @@ def test_bad_answer_options_are_refused_naming_the_option(tmp_path, bo, option, 
 
 def test_altitude_is_labelled_by_the_files_altitude_reference(tmp_path):
     """A Debrief file's altitudes are above mean sea level: no output calls them WGS-84."""
-    from tmakit.io.samples import replay_sample
+    from sample_logs import replay_sample
+
     from tmakit.results.answers import answer_from_state
 
     rep = tmp_path / "s.rep"
@@ -274,7 +275,7 @@ def test_altitude_is_labelled_by_the_files_altitude_reference(tmp_path):
 
 def test_estimate_states_the_origin_it_defaulted_to_and_the_clock(tmp_path):
     """Issue 12: the origin defaults to the first fix, stated in the output."""
-    from tmakit.io.samples import replay_sample
+    from sample_logs import replay_sample
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])
@@ -289,7 +290,7 @@ def test_estimate_states_the_origin_it_defaulted_to_and_the_clock(tmp_path):
 
 def test_an_unobservable_height_leaves_the_horizontal_answers(tmp_path):
     """A 3-D bearings-only fit: Up is unobservable, East/North, lat/lon and course are not."""
-    from tmakit.io.samples import replay_sample
+    from sample_logs import replay_sample
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])
