@@ -233,7 +233,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
         tonal_names = list(dict.fromkeys(t for t in tonals if t))
         _note(metadata, f"note: frequencies are sonar tonals carried by sound at "
               f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to change); "
-              f"{len(tonal_names)} tonal(s) ({_listed(tonal_names)}), each with its own "
+              f"{len(tonal_names)} tonal(s) ({listed(tonal_names)}), each with its own "
               "unknown base frequency f0")
     raw = MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
