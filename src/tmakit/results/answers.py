@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..core.frames import wrap_angle
 from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2
 
+from ..core import chi2
 from ..core.linalg import normalised_eigh
 from ..data import MeasurementSet
 from ..motion import MotionModel

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import model_for
 from ..observation import ObservationModel

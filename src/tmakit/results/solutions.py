@@ -18,8 +18,8 @@ from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from .answers import ELLIPSE_LEVEL, Answer, covering_scale, estimate_answer, in_bearing_interval
