@@ -89,8 +89,8 @@ def repair_psd(p: Array) -> Array:
 
 def normalise(info: Array) -> tuple[Array, Array]:
     """Normalise an information matrix to unit diagonal."""
-    d = np.diag(info).copy()
-    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
+    d = info.diagonal()
+    scale = 1.0 / np.sqrt(np.where(d > 0, d, 1.0))
     return info * scale[:, None] * scale[None, :], scale
 
 
