@@ -167,13 +167,6 @@ def _straight_path(meas: MeasurementSet, sensor: str, t: NDArray[np.float64]
     return np.column_stack([pos, np.broadcast_to(coef[1], pos.shape)])
 
 
-def _velocity_constant_by_form(motion: MotionModel) -> bool:
-    """Tell from an affine model's terms alone that its velocity's derivatives are constant."""
-    terms = motion.component_terms(np.zeros(1)) if motion.affine else None
-    return terms is not None and all(coef is None for _, component, coef in terms[0]
-                                     if component >= 3)
-
-
 def _velocity_fixed(motion: MotionModel, theta: NDArray[np.float64],
                     t: NDArray[np.float64]) -> bool:
     """Tell whether the velocity's derivatives by ``theta`` are the same at every time ``t``."""
@@ -261,7 +254,7 @@ def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np
     """Give the range direction (normalised unit vector) only a manoeuvre model's shape sees."""
     # a stationary emitter (a moving sensor's bearings do give its range) or constant
     # velocity (the rank says whether range is seen): no manoeuvre to take it from
-    if (len(meas.sensors) != 1 or not _angles_only(meas) or _velocity_constant_by_form(motion)
+    if (len(meas.sensors) != 1 or not _angles_only(meas) or motion.velocity_fixed
             or not np.all(np.isfinite(theta))):
         return None
     sensor = meas.sensors[0]
