@@ -14,7 +14,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.linalg import normalise
+from ..core.linalg import eigh, normalise
 from ..data import MeasurementSet
 from ..measurements import KINDS
 from ..motion import MotionModel
@@ -225,7 +225,7 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     if unseen is not None:
         norm = norm - np.outer(norm @ unseen, unseen) - np.outer(unseen, unseen @ norm) + (
             float(unseen @ norm @ unseen) * np.outer(unseen, unseen))
-    evals, evecs = np.linalg.eigh(norm)
+    evals, evecs = eigh(norm)
     top = max(float(evals[-1]), _TINY)
     if float(evals[0]) > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
         return Observability(size, size, top / float(evals[0]), np.zeros((size, 0)), [],
