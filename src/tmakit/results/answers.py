@@ -455,22 +455,7 @@ def covering_scale(state: NDArray[np.float64], cov: NDArray[np.float64],
 def fit_state(result: object, time: float
               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                          NDArray[np.float64] | None]:
-    """Give a fit's state at ``time`` and its covariance, as its answer has them.
-
-    Parameters
-    ----------
-    result : EstimateResult
-        The fit.
-    time : float
-        Time (s).
-
-    Returns
-    -------
-    state, cov, jac, null : ndarray
-        ENU state ``(6,)`` (m, m/s), its covariance ``(6, 6)`` widened to cover
-        ``result.covers``, ``d state / d theta`` ``(6, p)``, and how the state moves along
-        the fit's unobservable directions ``(6, r)`` (None when it has none).
-    """
+    """Give :func:`_state_at` with the covariance widened to cover ``result.covers``."""
     state, cov, jac, null = _state_at(result, time)
     covers = getattr(result, "covers", ())
     if covers and null is None:
