@@ -82,6 +82,9 @@ def _nuisance_values(meas: MeasurementSet, given: Mapping[str, float] | None
         # The bound depends on the carrier only through its scale; the median received
         # frequency gives it to ~1e-6, far below anything that matters here.
         values["carrier"] = float(np.median(meas.value_si[meas.kind == "frequency"]))
+        for label in [] if meas.tonal is None else np.unique(meas.tonal[meas.tonal != ""]):
+            values.setdefault(f"carrier[{label}]",
+                              float(np.median(meas.value_si[meas.tonal == label])))
     values.setdefault("power_constant_db", 0.0)  # the bound does not depend on it
     values.setdefault("carrier_drift", 0.0)
     values.setdefault("path_loss_exponent", 2.0)

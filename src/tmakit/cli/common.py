@@ -163,9 +163,14 @@ def max_manoeuvres() -> int:
         return 5
 
 
-def model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, object]]:
-    """Return the measurement-model options of ``--drift`` and ``--free-exponent``."""
-    return {"frequency": {"drift": drift}, "power": {"exponent": None if free_exponent else 2.0}}
+def model_options(drift: bool, free_exponent: bool, propagation_speed: float | None = None
+                  ) -> dict[str, dict[str, object]]:
+    """Return the model options of ``--drift``, ``--free-exponent`` and ``--propagation-speed``."""
+    if propagation_speed is not None and not propagation_speed > 0:
+        raise fail(f"--propagation-speed {propagation_speed:g}: expected a speed > 0 (m/s)")
+    speed = {} if propagation_speed is None else {"propagation_speed": propagation_speed}
+    return {"frequency": {"drift": drift, **speed},
+            "power": {"exponent": None if free_exponent else 2.0}}
 
 
 def is_measurement_file(text: str) -> bool:
@@ -181,6 +186,10 @@ MotionOption = Annotated[str | None, typer.Option(
 RefTimeOption = Annotated[float | None, typer.Option(
     help="reference time of the motion parameters (s)")]
 DriftOption = Annotated[bool, typer.Option(help="model a linear carrier drift")]
+PropagationSpeedOption = Annotated[float | None, typer.Option(
+    metavar="M/S", help="speed that carries the frequencies: 1500 for sonar tonals (sound in "
+                        "sea water), 299792458 for radio; default the file's (Debrief "
+                        "replays: 1500), else light's")]
 SensorPositionSigmaOption = Annotated[float | None, typer.Option(
     help="sensor positions known to this std per axis (m): their errors in the bound and the "
          "fit (Ho, Lu & Kovavisaruch 2007), and the loss against known positions")]

@@ -21,10 +21,12 @@ from .common import (
     MappingOption,
     MotionOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     RefTimeOption,
     SensorPositionSigmaOption,
+    err,
     fail,
     file_ref_time,
     is_measurement_file,
@@ -50,6 +52,7 @@ def crlb(
     known_nuisance: Annotated[bool, typer.Option(
         help="treat carrier, drift, power constant and exponent as known")] = False,
     drift: DriftOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     free_exponent: FreeExponentOption = False,
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
@@ -82,13 +85,15 @@ def crlb(
     source = sources[0]
     if len(sources) > 1 or is_measurement_file(source) or format is not None:
         bound, warnings, meas, opts = bound_of_file(
-            [Path(s) for s in sources], motion, ref_time, truth, known_nuisance, drift,
-            free_exponent, reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                          range_sigma, frequency_sigma, kinds=kinds,
-                                          ranges=ranges))
+            [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
+            model_options(drift, free_exponent, propagation_speed),
+            reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
+                           frequency_sigma, kinds=kinds, ranges=ranges))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
-                                          ("--truth", truth)) if value is not None]
+                                          ("--truth", truth),
+                                          ("--propagation-speed", propagation_speed))
+                 if value is not None]
         if given:  # (not silently ignored)
             raise fail(f"{', '.join(given)}: for a measurement file; a scenario's bound is "
                        f"taken at its own truth and motion ({source} is a scenario)")
@@ -132,7 +137,7 @@ def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: fl
 
 
 def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float | None,
-                  truth: str | None, known_nuisance: bool, drift: bool, free_exponent: bool,
+                  truth: str | None, known_nuisance: bool, kind_options: dict[str, dict[str, Any]],
                   options: dict[str, Any] | None = None
                   ) -> tuple[Any, list[Any], Any, dict[str, Any]]:
     """Compute the bound of a measurement file's times, sensors, kinds and sigmas."""
@@ -142,6 +147,10 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
     from ..results.checks import measurement_warnings
 
     meas = read_or_fail(file, **(options or {}))
+    if meas.ambiguous_si is not None:  # a bound reads times and sigmas, not values
+        err.print(f"note: the bound takes the side of the {int(meas.kind_mask('bearing').sum())}"
+                  " towed-array cuts as known (resolved), turn cuts included; tma estimate "
+                  "resolves the sides", highlight=False, soft_wrap=True)
     model = motion_or_fail(motion, ref_time, meas)
     values = parse_assignments(truth, "--truth")
     if not values and "truth" in meas.metadata and motion is None:
@@ -158,7 +167,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
         values = json.loads(meas.metadata["truth"])
     if not values:
         raise fail("--truth is needed to evaluate the bound of a measurement file")
-    opts = model_options(drift, free_exponent)
+    opts = kind_options
     try:
         return (compute(meas, model, values, known_nuisance=known_nuisance, options=opts),
                 measurement_warnings(meas), meas, opts)

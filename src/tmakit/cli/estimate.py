@@ -37,6 +37,7 @@ from .common import (
     MotionOption,
     OriginOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     RefTimeOption,
@@ -113,6 +114,7 @@ def estimate(
         help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
              "ratio-doppler, lecture-gn, chan-ho (TDOA), ho-xu (TDOA + FDOA)")] = "ml",
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None, format: FormatOption = None,
     ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None,
@@ -153,7 +155,7 @@ def estimate(
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
-    model = model_options(drift, free_exponent)
+    model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
                                   export_name, taken=[plot], options=model, files=files)
     options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,

@@ -141,3 +141,43 @@ def fit_with_ambiguity(meas: Any, fit: Any,
     for line in amb.lines(meas):
         say.print(line, highlight=False, soft_wrap=True)
     return amb.result, amb.measurements
+
+
+def sides_for_filter(meas: Any, dim: int) -> Any:
+    """``tma track``: each ambiguous cut on the side the batch fit chooses, decisions printed.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    dim : int
+        The filter's dimension (the batch fit is cv2d or cv3d).
+
+    Returns
+    -------
+    tmakit.data.MeasurementSet
+        ``meas`` without twins as it is; else the cuts on their legs' sides, turn cuts out.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when nothing is left to track.
+    """
+    import numpy as np
+
+    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+        return meas
+    from ..batch.ambiguity import resolve_ambiguity
+
+    try:
+        amb = resolve_ambiguity(meas, f"cv{dim}d")
+    except ValueError as e:
+        raise fail(str(e)) from None
+    for line in amb.lines(meas):
+        err.print(line, highlight=False, soft_wrap=True)
+    if not amb.resolved:
+        err.print("note: a filter follows one bearing per cut: the track takes the best fit's "
+                  "side of each unresolved leg, and the mirror track fits about as well (tma "
+                  "estimate reports both)", highlight=False, soft_wrap=True)
+    return amb.measurements
+

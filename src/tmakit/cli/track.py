@@ -33,6 +33,7 @@ from .common import (
     MappingOption,
     OriginOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     err,
@@ -43,6 +44,7 @@ from .common import (
     print_wide,
     reader_options,
 )
+from .legs_out import sides_for_filter
 from .reading import read_or_fail
 from .solution_out import HtmlOption, check_page
 from .track_options import (
@@ -102,6 +104,7 @@ def track(
     dim: Annotated[int | None, typer.Option(
         help="2 or 3 (default: 3 when the data or the file's motion need it)")] = None,
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None,
     format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
@@ -133,7 +136,7 @@ def track(
     page = check_page(html, force, [*files], plot)
     reading = (parse_origin(origin), dim, reader_options(format, ownship, contact, mapping,
                bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges))
-    options = model_options(drift, free_exponent)
+    options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
                       smooth=(smooth, lag), keywords=start_keywords(
                           (prior, prior_std, nuisance, prior_time),
@@ -180,6 +183,7 @@ def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any
     meas = read_or_fail(paths, origin, dim=dim, notes=notes, **options)
     try:
         d = tracking.filter_dim(meas, dim)
+        meas = sides_for_filter(meas, d)
         q_axes = tracking.process_noise(parse_q(q[0], d), d)
         density = tracking.noise_density(parse_q(q[1], d, "--q-density"), d)
     except tracking.TrackingError as e:

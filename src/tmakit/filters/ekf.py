@@ -13,8 +13,8 @@ from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .general import (
-    CompiledMeasurements,
     DynamicsCache,
+    PreparedMeasurements,
     RowSteps,
     Step,
     StepPlan,
@@ -28,7 +28,7 @@ from .general import (
     sym,
     updated_covariance,
 )
-from .kernels import KernelRun, ekf_bearing_2d
+from .record import RunBlock
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of
@@ -218,31 +218,15 @@ class ExtendedKalmanFilter(TrackingFilter):
         m = y.shape[0]
         return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
 
-    # -- the closed-form path ----------------------------------------------------------------
-    def _kernel_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]) -> bool:
-        """Tell whether the kernel of ``cls`` applies."""
-        me = type(self)
-        return (compiled.single_bearing and self.dim == 2
-                and type(self.dynamics) is NearlyConstantVelocity
-                and me._update is cls._update and me._predict is cls._predict)
-
-    def _q2(self) -> tuple[float, float, float, float]:
-        q, qd = self.dynamics.axes()
-        return float(q[0] ** 2), float(q[1] ** 2), float(qd[0]), float(qd[1])
-
-    def _adopt(self, block: KernelRun) -> KernelRun:
-        self._mean, self._cov = block.mean, block.covariance
-        self.time, self.log_likelihood = block.time, block.log_likelihood
-        return block
-
-    def _plan_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]
+    # -- the run of a plan ---------------------------------------------------------------------
+    def _plan_ok(self, prepared: PreparedMeasurements, cls: type[TrackingFilter]
                  ) -> StepPlan | None:
-        """Give the general plan of ``compiled`` if this filter can run on it (else None)."""
+        """Give the general plan of ``prepared`` if this filter can run on it (else None)."""
         me = type(self)
-        if (compiled.single_bearing or type(self.dynamics) is not NearlyConstantVelocity
+        if (type(self.dynamics) is not NearlyConstantVelocity
                 or me._update is not cls._update or me._predict is not cls._predict):
             return None
-        plan = plan_for(compiled)
+        plan = plan_for(prepared)
         return plan if plan.ok else None
 
     def _dynamics_cache(self) -> DynamicsCache:
@@ -262,8 +246,8 @@ class ExtendedKalmanFilter(TrackingFilter):
             steps = self._steps = RowSteps(self.dim, self.options, self.nuisance)
         return steps
 
-    def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
-        """Run updates ``start`` on of a plan (the general path compiled once per file)."""
+    def _run_plan(self, plan: StepPlan, start: int) -> RunBlock:
+        """Run updates ``start`` on of a plan (the general path prepared once per file)."""
         steps = plan.steps[start:]
         rows: list[tuple] = []
         put = rows.append
@@ -286,12 +270,9 @@ class ExtendedKalmanFilter(TrackingFilter):
             mean, cov, nis, m, lli = update(step, mean, cov)
             ll += lli
             put((t, mean, cov, nis, m, ll))
-        return self._adopt(stacked_run(rows, 2 * self.dim, mean, cov, t, ll))
+        self._mean, self._cov, self.time, self.log_likelihood = mean, cov, t, ll
+        return stacked_run(rows, 2 * self.dim, mean, cov, t, ll)
 
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        if not self._kernel_ok(compiled, self._planned()):
-            plan = self._plan_ok(compiled, self._planned())
-            return None if plan is None else self._run_plan(plan, start)
-        return self._adopt(ekf_bearing_2d(self._mean, self._cov, self.time,
-                                          self.log_likelihood, start, compiled.bearing_lists(),
-                                          self._q2(), self.iterations))
+    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
+        plan = self._plan_ok(prepared, self._planned())
+        return None if plan is None else self._run_plan(plan, start)

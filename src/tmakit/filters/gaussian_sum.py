@@ -23,9 +23,8 @@ from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter, skipped
-from .general import CompiledMeasurements
-from .kernels import KernelRun
-from .record import Recorder
+from .general import PreparedMeasurements
+from .record import Recorder, RunBlock
 from .track import Track
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
 
@@ -264,15 +263,14 @@ class GaussianSumFilter(TrackingFilter):
         self.component_counts.append(self._count)
         return UpdateInfo(nis, int(nbar.shape[0]), top + math.log(total))
 
-    # -- the compiled path --------------------------------------------------------------------
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
+    # -- the compiled run of single bearings in 2-D -------------------------------------------
+    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
         me = type(self)
-        if not (compiled.single_bearing and self.dim == 2
+        if not (prepared.single_bearing and self.dim == 2
                 and me._update is GaussianSumFilter._update
                 and me._predict is GaussianSumFilter._predict):
             return None
-        times, zs, vs, sxs, sys_ = (np.asarray(c, dtype=float)[start:]
-                                    for c in compiled.bearing_lists())
+        times, zs = prepared.time[start:], prepared.values[start:]
         k = times.shape[0]
         if times.shape[0] and times[0] < self.time - 1e-9:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
@@ -284,9 +282,9 @@ class GaussianSumFilter(TrackingFilter):
         means, covs = np.zeros((k, 4)), np.zeros((k, 4, 4))
         nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
         count, t, skipped_now = _sums().gsf_bearing_2d(
-            self._w, self._m, self._p, self._count, self.time, times, zs, vs,
-            np.column_stack((sxs, sys_)), qa, qd, sp, self._settings(), means, covs, nis,
-            lls, counts)
+            self._w, self._m, self._p, self._count, self.time, times, zs,
+            prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
+            qa, qd, sp, self._settings(), means, covs, nis, lls, counts)
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None
@@ -294,8 +292,8 @@ class GaussianSumFilter(TrackingFilter):
         cum = self.log_likelihood + np.cumsum(lls)
         self.log_likelihood = float(cum[-1]) if k else self.log_likelihood
         dof = np.where(np.isfinite(nis), 1.0, 0.0)  # rows per update (the recorder: int)
-        return KernelRun(start + k, False, self.state, self.covariance, self.time,
-                         self.log_likelihood, times, means, covs, nis, cum, dof)
+        return RunBlock(start + k, self.state, self.covariance, self.time,
+                        self.log_likelihood, times, means, covs, nis, cum, dof)
 
     def _track(self, rec: Recorder) -> Track:
         track = super()._track(rec)

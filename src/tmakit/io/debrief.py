@@ -34,6 +34,8 @@ DEFAULT_BEARING_SIGMA_DEG = 1.0
 DEFAULT_RANGE_SIGMA_M = 100.0
 #: Frequency noise standard deviation (Hz) when none is given.
 DEFAULT_FREQUENCY_SIGMA_HZ = 0.1
+#: Speed of sound in sea water (m/s) that carries a replay's tonals, unless told otherwise.
+SOUND_SPEED_SEA_M_S = 1500.0
 
 
 ReplayPaths = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
@@ -223,7 +225,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines, twins = cut_rows(
+    times, kinds_, values, sigmas, st, lines, twins, tonals = cut_rows(
         cuts.rows, cuts.states, t, si, asked, wanted, no_range)
     if not times:
         raise MeasurementFileError(where, [
@@ -231,10 +233,25 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
     metadata = _metadata(paths, cuts, contact, sig, int(np.isfinite(twins).sum()), notes)
+    if "frequency" in kinds_:  # Debrief's frequencies are sonar tonals
+        metadata["frequency_propagation_speed"] = repr(SOUND_SPEED_SEA_M_S)
+        tonal_names = list(dict.fromkeys(t for t in tonals if t))
+        _note(metadata, f"note: frequencies are sonar tonals carried by sound at "
+              f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to change); "
+              f"{len(tonal_names)} tonal(s) ({_listed(tonal_names)}), each with its own "
+              "unknown base frequency f0")
     raw = MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
         np.array(sigmas), np.array(st), metadata=metadata, check=False)
-    return _checked(where, raw.with_ambiguous(np.array(twins)), lines, cuts.rows)
+    raw = raw.with_ambiguous(np.array(twins))
+    return _checked(where, raw.with_tonal(tonals) if "frequency" in kinds_ else raw, lines,
+                    cuts.rows)
+
+
+def _note(metadata: dict[str, str], note: str) -> None:
+    """Add a note to the set's reader notes."""
+    old = metadata.get(READER_NOTES_KEY)
+    metadata[READER_NOTES_KEY] = note if not old else NOTES_SEPARATOR.join((old, note))
 
 
 def _one_run_per_sensor(rows: list[SensorLine], parsed: ParsedReplay, host: str,
@@ -343,8 +360,9 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
     if ambiguous:
         notes.append(f"note: {ambiguous} cut(s) carry a second, ambiguous bearing (;SENSOR2:, "
                      "the mirror of a towed array's bearing about its axis): both are read; "
-                     "tma estimate chooses the side of each own-ship leg by likelihood (Python: "
-                     "tk.resolve_ambiguity), a fit of the set as it is takes the first bearing")
+                     "tma estimate and tma track choose the side of each own-ship leg by "
+                     "likelihood (Python: tk.resolve_ambiguity), a fit of the set as it is takes "
+                     "the first bearing; tma crlb takes the side as known")
     names = " + ".join(p.name for p in paths)
     metadata = {"source": f"Debrief replay {names}, own ship {cuts.host}"
                 + (f", contact {contact.strip()}" if contact else ""),

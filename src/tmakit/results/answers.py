@@ -534,7 +534,7 @@ _PARAM_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m
 
 def parameter_display(name: str, value: float, std: float) -> tuple[float, float, str]:
     """Return a parameter's value and std in the unit shown to the user, and that unit."""
-    unit = _PARAM_UNITS.get(name)
+    unit = _PARAM_UNITS.get(name.partition("[")[0])  # carrier[TONAL]: a tonal's carrier
     if unit is None:
         unit = ("m/s^2" if name.startswith(("at_", "an_"))
                 else "s" if name.startswith("t_") else "")

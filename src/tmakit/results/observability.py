@@ -146,6 +146,14 @@ def _candidates(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.flo
             cands.append((range_words(meas, name) if angles else
                           f"scaling of the track about sensor {name} (range is not observable)",
                           states - own, t))
+            if not angles:  # Doppler on one leg: the relative track's shape, not its heading
+                up = _AXES["Up"]
+                cands.append((f"rotation of the track seen from sensor {name} about it: on its "
+                              "one straight leg the frequencies give the contact's speed "
+                              "relative to it and its closest approach, not the direction; an "
+                              "own-ship turn, or bearings, would pin it down",
+                              np.column_stack([np.cross(up, p - own[:, :3]),
+                                               np.cross(up, v - own[:, 3:])]), t))
     return [(s, _to_theta(motion, theta, tt, d)) for s, d, tt in cands]
 
 

@@ -69,7 +69,7 @@ class Initiator(ABC):
         Returns
         -------
         Initiation
-            The start record and the track.
+            The start record and the track (s, m, m/s).
         """
 
 
@@ -107,18 +107,6 @@ class PriorInitiator(Initiator):
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Start at the prior and update with every row (see :meth:`Initiator.initiate`).
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (not empty; SI).
-        setup : FilterSetup
-            The filter and its settings.
-
-        Returns
-        -------
-        Initiation
-            The start record and the track (s, m, m/s).
 
         Raises
         ------
@@ -225,7 +213,10 @@ def _check_nuisance(meas: MeasurementSet, options: Mapping[str, Mapping[str, obj
     missing: dict[str, list[str]] = {}
     for kind in meas.kinds:
         model = model_for(kind, options.get(kind))
-        names = [n for n in model.nuisance_names if n not in nuisance]
+        tonals = ([] if meas.tonal is None or not model.nuisance_by_tonal
+                  else sorted(set(meas.tonal[meas.kind_mask(kind)].tolist())))
+        names = [n for n in (model.nuisance_names if len(tonals) < 2 else [
+            f"{n}[{t}]" for t in tonals for n in model.nuisance_names]) if n not in nuisance]
         if names:
             missing[kind] = names
     if missing:
@@ -277,18 +268,6 @@ class BatchInitiator(Initiator):
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Search the window, start, test, and run (see :meth:`Initiator.initiate`).
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (not empty; SI).
-        setup : FilterSetup
-            The filter and its settings.
-
-        Returns
-        -------
-        Initiation
-            The start record and the track (s, m, m/s).
 
         Raises
         ------
