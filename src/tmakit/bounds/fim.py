@@ -99,22 +99,21 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
                             Mapping[str, float] | None,
                             Mapping[str, Mapping[str, object]] | None]:
     """Return what a bound is evaluated on, from its ``source``."""
-    from ..scenario.model import Scenario
-
-    if isinstance(source, Scenario):
-        meas = source.simulate(noise=False)
-        motion = motion or source.motion
-        truth = source.truth if truth is None else truth
-        nuisance = {**source.nuisance, **dict(nuisance or {})}
-        options = source.measurement_options if options is None else options
-    elif isinstance(source, MeasurementSet):
-        meas = source
+    if isinstance(source, MeasurementSet):
         if motion is None or truth is None:
             raise ValueError("the bound of a measurement set needs the motion model and the "
                              "truth at which to evaluate it")
-    else:
+        return source, motion, truth, nuisance, options
+    from ..scenario.model import Scenario  # (a set's bound needs no scenario code)
+
+    if not isinstance(source, Scenario):
         raise TypeError(f"{caller} takes a Scenario or a MeasurementSet; "
                         f"got {type(source).__name__}")
+    meas = source.simulate(noise=False)
+    motion = motion or source.motion
+    truth = source.truth if truth is None else truth
+    nuisance = {**source.nuisance, **dict(nuisance or {})}
+    options = source.measurement_options if options is None else options
     return meas, motion, truth, nuisance, options
 
 

@@ -441,7 +441,7 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
 
 def nis_verdict(nis: float, dof: int, level: float = 1e-3) -> str:
     """Say when the innovations contradict the filter's covariances (chi-square test)."""
-    from scipy.stats import chi2
+    from ..core import chi2
 
     upper, lower = float(chi2.sf(nis, dof)), float(chi2.cdf(nis, dof))
     if upper < level:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -22,17 +23,17 @@ from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter, skipped
-from .gaussian_sum_compiled import (
-    gsf_bearing_2d,
-    predict_sum,
-    reduce_sum,
-    split_sum,
-    sum_moments,
-)
 from .general import PreparedMeasurements
 from .record import Recorder, RunBlock
 from .track import Track
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
+
+
+def _sums() -> ModuleType:
+    """Give the compiled sums (numba is imported when a Gaussian sum first runs)."""
+    from . import gaussian_sum_compiled
+    return gaussian_sum_compiled
+
 
 #: Component filters by name.
 COMPONENTS: dict[str, type[ExtendedKalmanFilter]] = {
@@ -204,7 +205,7 @@ class GaussianSumFilter(TrackingFilter):
         if self._moments is None:
             n = self._m.shape[1]
             mean, cov = np.zeros(n), np.zeros((n, n))
-            sum_moments(self._w, self._m, self._p, self._count, mean, cov)
+            _sums().sum_moments(self._w, self._m, self._p, self._count, mean, cov)
             self._moments = (mean, cov)
         return self._moments
 
@@ -224,14 +225,14 @@ class GaussianSumFilter(TrackingFilter):
     # -- predict and update (the general path) ------------------------------------------------
     def _predict(self, dt: float) -> None:
         qa, qd = self.dynamics.axes()
-        predict_sum(self._m, self._p, self._count, float(dt), self.dim, qa, qd)
+        _sums().predict_sum(self._m, self._p, self._count, float(dt), self.dim, qa, qd)
         self._moments = None
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         sensor = np.zeros(3)
         sensor[:self.dim] = group.sensor_state[0, :self.dim]
-        self._count = split_sum(self._w, self._m, self._p, self._count, sensor, self.dim,
-                                self.split_threshold, self._w.shape[0])
+        self._count = _sums().split_sum(self._w, self._m, self._p, self._count, sensor, self.dim,
+                                        self.split_threshold, self._w.shape[0])
         c = self._count
         log_w = np.full(c, -np.inf)
         nus, covs = [], []
@@ -257,7 +258,7 @@ class GaussianSumFilter(TrackingFilter):
         w = np.exp(log_w - top)
         total = float(np.sum(w))
         self._w[:c] = w
-        self._count = reduce_sum(self._w, self._m, self._p, c, self.prune, self.merge)
+        self._count = _sums().reduce_sum(self._w, self._m, self._p, c, self.prune, self.merge)
         self._moments = None
         self.component_counts.append(self._count)
         return UpdateInfo(nis, int(nbar.shape[0]), top + math.log(total))
@@ -280,7 +281,7 @@ class GaussianSumFilter(TrackingFilter):
         qa, qd = self.dynamics.axes()
         means, covs = np.zeros((k, 4)), np.zeros((k, 4, 4))
         nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
-        count, t, skipped_now = gsf_bearing_2d(
+        count, t, skipped_now = _sums().gsf_bearing_2d(
             self._w, self._m, self._p, self._count, self.time, times, zs,
             prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
             qa, qd, sp, self._settings(), means, covs, nis, lls, counts)

@@ -22,7 +22,6 @@ from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI, skipped
-from .particle_compiled import move_density
 from .record import Recorder
 from .track import Track
 
@@ -274,6 +273,8 @@ class ParticleFilter(TrackingFilter):
             noise = self._density_noise = np.empty((2, self.dim, self.n_particles),
                                                    dtype=np.float32)
         self.rng.standard_normal(out=noise, dtype=np.float32)
+        from .particle_compiled import move_density  # numba, imported when first used
+
         move_density(self._x, noise, float(dt), l11, l21, l22)
 
     # -- update -------------------------------------------------------------------------------

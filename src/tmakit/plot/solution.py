@@ -27,7 +27,7 @@ MAX_BEARING_LINES = 40
 
 def ellipse_points(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
     """Give the points of the confidence ellipse of a 2x2 position covariance."""
-    from scipy.stats import chi2
+    from ..core import chi2
 
     evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
     k = np.sqrt(chi2.ppf(level, 2))

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..core.frames import wrap_angle
 from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
@@ -425,10 +425,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     problem = time_problem(float(time), None if meas is None else meas.time, "time")
     if problem is not None:
         raise ValueError(problem)
-    state, cov, jac, null = _state_at(result, float(time))
-    covers = getattr(result, "covers", ())
-    if covers and null is None:
-        cov = cov * covering_scale(state, cov, [_state_at(r, float(time))[:2] for r in covers])
+    state, cov, jac, null = fit_state(result, float(time))
     return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
                              _is_stationary(jac, state), level, null)
 
@@ -453,6 +450,17 @@ def covering_scale(state: NDArray[np.float64], cov: NDArray[np.float64],
         spread = float(np.linalg.svd(np.linalg.solve(low, lj), compute_uv=False)[0])
         scale = max(scale, (float(np.linalg.norm(d)) / np.sqrt(q) + spread) ** 2)
     return scale
+
+
+def fit_state(result: object, time: float
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                         NDArray[np.float64] | None]:
+    """Give :func:`_state_at` with the covariance widened to cover ``result.covers``."""
+    state, cov, jac, null = _state_at(result, time)
+    covers = getattr(result, "covers", ())
+    if covers and null is None:
+        cov = cov * covering_scale(state, cov, [_state_at(r, time)[:2] for r in covers])
+    return state, cov, jac, null
 
 
 def _state_at(result: object, time: float

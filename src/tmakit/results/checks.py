@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import model_for
 from ..observation import ObservationModel
@@ -306,7 +306,7 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     return found
 
 
-def wider_undetermined(wider: Any, meas: MeasurementSet, time: float | None = None) -> bool:
+def wider_undetermined(wider: Any, meas: MeasurementSet | None, time: float | None = None) -> bool:
     """Whether the widest model's fit leaves the position at ``time`` undetermined."""
     return not wider.converged or not wider.answer(meas, time).position_determined
 

@@ -18,11 +18,18 @@ from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from .answers import ELLIPSE_LEVEL, Answer, covering_scale, estimate_answer, in_bearing_interval
+from .answers import (
+    ELLIPSE_LEVEL,
+    Answer,
+    covering_scale,
+    estimate_answer,
+    fit_state,
+    in_bearing_interval,
+)
 from .status import Status
 
 
@@ -151,10 +158,14 @@ class Solution:
 def _state(result: EstimateResult, meas: MeasurementSet, time: float
            ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """East/North position and velocity at ``time`` and their covariance; None if not finite."""
-    a = estimate_answer(result, meas, time)
     idx = [0, 1, 3, 4]
-    state = np.array([a.enu[0], a.enu[1], a.velocity[0], a.velocity[1]], dtype=float)
-    cov = a.covariance[np.ix_(idx, idx)]
+    full, cov, jac, null = fit_state(result, time)
+    state = full[idx]
+    if null is not None or not np.any(jac[3:6]):  # what the answer leaves out is not finite
+        a = estimate_answer(result, meas, time)
+        state = np.array([a.enu[0], a.enu[1], a.velocity[0], a.velocity[1]], dtype=float)
+        cov = a.covariance
+    cov = cov[np.ix_(idx, idx)]
     if not (np.all(np.isfinite(state)) and np.all(np.isfinite(cov))):
         return None
     return state, cov

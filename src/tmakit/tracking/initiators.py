@@ -308,7 +308,7 @@ class BatchInitiator(Initiator):
 
 def _confirmation(after: Track, window: int) -> Confirmation:
     """Run the innovation test of a start."""
-    from scipy.stats import chi2
+    from ..core import chi2
 
     m = min(len(after), max(window, MIN_WINDOW))
     nis = float(np.sum(after.nis[:m]))
