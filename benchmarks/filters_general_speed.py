@@ -5,9 +5,8 @@ Two problems (``bench_problems.filter_problem``), 600 updates each, four rows pe
 * ``bf2``: bearing + frequency from two moving sensors, 2-D (carrier known, 1 GHz);
 * ``be3``: bearing + elevation from two moving sensors, 3-D.
 
-Neither is the single-bearing 2-D case of the compiled kernel: tmakit runs its general path
-(any kinds, any sensors).  The peers get the same data, prior and nearly-constant-velocity
-``Phi``/``Q`` (Chen & Sun, §2.1):
+tmakit runs its general path (any kinds, any sensors).  The peers get the same data, prior and
+nearly-constant-velocity ``Phi``/``Q`` (Chen & Sun, §2.1):
 
 * FilterPy's ``ExtendedKalmanFilter`` (``predict``; ``update`` with the analytic Jacobian and
   a wrapping residual) and ``UnscentedKalmanFilter`` (``MerweScaledSigmaPoints`` with tmakit's
@@ -17,7 +16,7 @@ Neither is the single-bearing 2-D case of the compiled kernel: tmakit runs its g
   Joseph-form covariance.
 
 Timing: ``filter.run(meas)`` whole for tmakit (the track's arrays included); each peer's loop
-over updates with arrays prepared beforehand.  A set is compiled for the filters on its first
+over updates with arrays prepared beforehand.  A set is prepared for the filters on its first
 run and the compiled plan kept with it; the rows ``first run`` time tmakit on a new copy of the
 set each time (compilation and plan included).  Per step = total / updates; interleaved
 repeats, median [interquartile range]; ``--clock cpu`` (default) is the process CPU time, less

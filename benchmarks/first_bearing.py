@@ -15,7 +15,11 @@ and 25 kn, the targets doing 4 and 15 kn):
   window (no estimate before it);
 * ``stonesoup ekf``: Stone Soup's EKF started as its bearings-only example starts it, from
   the **true** initial state with covariance ``diag(1, 1, 1, 1)`` (m^2, m^2/s^2; the
-  example's own numbers), its ``ConstantVelocity`` model having the same q~.
+  example's own numbers), its ``ConstantVelocity`` model having the same q~;
+* ``bayes`` (not by default): the exact posterior mean and covariance from the same prior
+  for q~ = 0 (resample-move over the initial state, ``--draws``; run with
+  ``--q-density 0``), the best any filter from this prior can do: where the filters sit
+  well above the PCRB and ``bayes`` sits with them, the bound is what is out of reach.
 
 Printed per filter and scenario: RMS position error / PCRB averaged over the steps after
 the own-ship manoeuvre has taken effect (from the first sample after the turn on: k >= 17
@@ -29,7 +33,8 @@ true path, with ``J_0`` the inverse of the prior's covariance at the first beari
 (:meth:`tmakit.BearingPrior.gaussian`) and the same process noise; its RMS over runs.
 
     PYTHONPATH=src python benchmarks/first_bearing.py [--runs 100] [--seed 0]
-        [--filters gsf pf ekf-batch stonesoup] [--scenarios moderate high] [--speed]
+        [--filters gsf pf ekf-batch stonesoup bayes] [--scenarios moderate high] [--speed]
+        [--q-density Q] [--draws N]
 """
 
 from __future__ import annotations
@@ -51,19 +56,21 @@ from tmakit.tracking import BearingInitiator
 CHI2_95_2DOF = 5.991464547107979
 
 
-def bound(meas: MeasurementSet, truth: np.ndarray, prior: tk.BearingPrior) -> np.ndarray:
+def bound(meas: MeasurementSet, truth: np.ndarray, prior: tk.BearingPrior,
+          q_density: float = Q_DENSITY) -> np.ndarray:
     """PCRB position MSE (K+1,) from the first bearing on, along this run's truth."""
     first = first_bearing(meas)
     _, cov = prior.gaussian(first, 2)
     rest = meas.take(np.arange(1, len(meas)))
-    b = deterministic_pcrb(rest, truth[0], cov, first.time, q_density=Q_DENSITY)
+    b = deterministic_pcrb(rest, truth[0], cov, first.time, q_density=q_density)
     mse = np.empty(len(meas))
     mse[0] = cov[0, 0] + cov[1, 1]
     mse[1:] = b.position_rms**2
     return mse
 
 
-def stonesoup_ekf(meas: MeasurementSet, truth0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def stonesoup_ekf(meas: MeasurementSet, truth0: np.ndarray, q_density: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Stone Soup's EKF from the true initial state, covariance diag(1, 1, 1, 1)."""
     import datetime as dt
 
@@ -80,8 +87,8 @@ def stonesoup_ekf(meas: MeasurementSet, truth0: np.ndarray) -> tuple[np.ndarray,
     from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
     epoch = dt.datetime(2000, 1, 1)
-    trans = CombinedLinearGaussianTransitionModel([ConstantVelocity(Q_DENSITY),
-                                                   ConstantVelocity(Q_DENSITY)])
+    trans = CombinedLinearGaussianTransitionModel([ConstantVelocity(q_density),
+                                                   ConstantVelocity(q_density)])
     predictor, updater = ExtendedKalmanPredictor(trans), ExtendedKalmanUpdater(None)
     x0 = truth0[[0, 2, 1, 3]]
     state = GaussianState(StateVector(x0), CovarianceMatrix(np.eye(4)), timestamp=epoch)
@@ -104,6 +111,64 @@ def stonesoup_ekf(meas: MeasurementSet, truth0: np.ndarray) -> tuple[np.ndarray,
     return np.array(means), np.array(covs)
 
 
+def bayes_reference(meas: MeasurementSet, prior: tk.BearingPrior, draws: int,
+                    rng: np.random.Generator, moves: int = 8) -> dict:
+    """The exact posterior for q~ = 0 (a function of the initial state x0): resample-move.
+
+    ``draws`` initial states from the prior at the first bearing, weighted by the likelihood
+    of the bearings so far; when the effective sample size falls below half, resampled and
+    moved by ``moves`` random-walk Metropolis steps on prior x likelihood (Gilks & Berzuini
+    2001), so the cloud stays exact after the data collapse the prior.  Gives the weighted
+    mean and covariance at each step and the effective sample size.
+    """
+    first = first_bearing(meas)
+    sensor, z, sigma = meas.sensor_state[:, :2], meas.value_si, meas.sigma_si
+    dt = meas.time - first.time
+    rows = np.flatnonzero(np.arange(len(meas)) != first.row)
+
+    def log_target(x0: np.ndarray, upto: int) -> np.ndarray:
+        r = np.hypot(*(x0[:, :2] - first.sensor[:2]).T)
+        b = np.arctan2(*(x0[:, :2] - first.sensor[:2]).T)
+        out = -2.0 * np.log(r) - 0.5 * (np.angle(np.exp(1j * (b - first.bearing)))
+                                        / first.sigma) ** 2
+        out[(r < prior.range_min) | (r > prior.range_max)
+            | (np.hypot(x0[:, 2], x0[:, 3]) > prior.speed_max)] = -np.inf
+        for k in rows[rows <= upto]:
+            rel = x0[:, :2] + dt[k] * x0[:, 2:] - sensor[k]
+            d = np.angle(np.exp(1j * (z[k] - np.arctan2(rel[:, 0], rel[:, 1]))))
+            out -= 0.5 * (d / sigma[k]) ** 2
+        return out
+
+    x0 = prior.sample(first, draws, rng)
+    logw = np.zeros(draws)
+    k_all = len(meas)
+    est, cov, ess = np.zeros((k_all, 4)), np.zeros((k_all, 4, 4)), np.zeros(k_all)
+    for k in range(k_all):
+        if k != first.row:
+            rel = x0[:, :2] + dt[k] * x0[:, 2:] - sensor[k]
+            d = np.angle(np.exp(1j * (z[k] - np.arctan2(rel[:, 0], rel[:, 1]))))
+            logw -= 0.5 * (d / sigma[k]) ** 2
+        w = np.exp(logw - logw.max())
+        w /= w.sum()
+        x = x0.copy()
+        x[:, :2] += dt[k] * x0[:, 2:]
+        est[k] = w @ x
+        dev = x - est[k]
+        cov[k] = (dev * w[:, None]).T @ dev
+        ess[k] = 1.0 / np.sum(w**2)
+        if ess[k] < draws / 2:
+            x0 = x0[np.minimum(np.searchsorted(np.cumsum(w), rng.random(draws)), draws - 1)]
+            logw[:] = 0.0
+            chol = np.linalg.cholesky(0.3 * np.cov(x0.T) + 1e-9 * np.eye(4))
+            lt = log_target(x0, k)
+            for _ in range(moves):
+                prop = x0 + rng.standard_normal((draws, 4)) @ chol.T
+                lp = log_target(prop, k)
+                take = np.log(rng.random(draws)) < lp - lt
+                x0[take], lt[take] = prop[take], lp[take]
+    return {"est": est, "cov": cov, "smoothed": None, "ess": ess}
+
+
 def run_filter(name: str, meas: MeasurementSet, truth: np.ndarray, prior: tk.BearingPrior,
                args: argparse.Namespace, i: int) -> dict:
     """Estimates (K+1, 4) (NaN before a start), covariances, and the smoothed track."""
@@ -112,18 +177,20 @@ def run_filter(name: str, meas: MeasurementSet, truth: np.ndarray, prior: tk.Bea
     cov = np.full((k_all, 4, 4), np.nan)
     sm = None
     if name == "stonesoup":
-        e, c = stonesoup_ekf(meas, truth[0])
+        e, c = stonesoup_ekf(meas, truth[0], args.q_density)
         return {"est": e, "cov": c, "smoothed": None}
+    if name == "bayes":
+        return bayes_reference(meas, prior, args.draws, np.random.default_rng([args.seed, 8, i]))
     if name == "ekf-batch":
         try:
-            tr = tk.track(meas, "ekf", q_density=Q_DENSITY)
+            tr = tk.track(meas, "ekf", q_density=args.q_density)
         except tk.tracking.TrackingError:
             return {"est": est, "cov": cov, "smoothed": None}
     else:
         kw = {"particles": args.particles, "rng": [args.seed, 7, i]} if name == "pf" else {}
         if name != "pf":
-            kw = {"settings": {"component": args.component}}
-        tr = tk.track(meas, "pf" if name == "pf" else "gsf", q_density=Q_DENSITY,
+            kw = {"settings": {"component": args.component, "iterations": args.iterations}}
+        tr = tk.track(meas, "pf" if name == "pf" else "gsf", q_density=args.q_density,
                       initiator=BearingInitiator(prior), **kw)
         if name != "pf":
             sm = smooth(tr)
@@ -142,11 +209,13 @@ def evaluate(scenario: str, filters: list[str], args: argparse.Namespace) -> Non
     inside = {f: np.zeros((args.runs, k_all), dtype=bool) for f in filters}
     serr2 = {f: np.full((args.runs, k_all), np.nan) for f in filters}
     clock = dict.fromkeys(filters, 0.0)
+    ess = {f: np.full(k_all, np.inf) for f in filters}
     mse = np.zeros((args.runs, k_all))
     s_index = list(SCENARIOS).index(scenario)
     for i in range(args.runs):
-        meas, truth = simulate(sc, np.random.default_rng([args.seed, s_index, i]))
-        mse[i] = bound(meas, truth, prior)
+        meas, truth = simulate(sc, np.random.default_rng([args.seed, s_index, i]),
+                               args.q_density)
+        mse[i] = bound(meas, truth, prior, args.q_density)
         for f in filters:
             t0 = time.process_time()
             out = run_filter(f, meas, truth, prior, args, i)
@@ -158,11 +227,13 @@ def evaluate(scenario: str, filters: list[str], args: argparse.Namespace) -> Non
             m2[ok] = np.einsum("ki,ki->k", d[ok], np.linalg.solve(
                 out["cov"][ok, :2, :2], d[ok, :, None])[..., 0])
             inside[f][i] = m2 <= CHI2_95_2DOF
+            if "ess" in out:
+                ess[f] = np.minimum(ess[f], out["ess"])
             if out["smoothed"] is not None:
                 serr2[f][i] = np.sum((out["smoothed"] - truth[:, :2]) ** 2, axis=1)
     pcrb = np.sqrt(mse.mean(axis=0))
     print(f"\n== {scenario}: {args.runs} runs, seed {args.seed}; prior {prior.describe()}; "
-          f"q~ = {Q_DENSITY:g} m^2/s^3; after the manoeuvre: k >= {after}")
+          f"q~ = {args.q_density:g} m^2/s^3; after the manoeuvre: k >= {after}")
     print(f"PCRB position RMS (m) at k = 0, {after}, {k_all - 1}: {pcrb[0]:.0f}, "
           f"{pcrb[after]:.0f}, {pcrb[-1]:.0f}")
     print("| filter | RMS/PCRB after manoeuvre | RMS/PCRB, last quarter | final RMS (m) | final "
@@ -185,6 +256,9 @@ def evaluate(scenario: str, filters: list[str], args: argparse.Namespace) -> Non
         print(f"| {f} | {ratio:.3f}{note} | {late:.3f} | {rms[-1]:.0f} | {pcrb[-1]:.0f} | "
               f"{lost} / {args.runs} | {100 * cover:.1f} % | {started} | "
               f"{clock[f] / args.runs:.3f} |")
+        if np.isfinite(ess[f][0]):
+            print(f"  smallest effective sample size over the runs, k = 0..{k_all - 1}: "
+                  + ", ".join(f"{e:.0f}" for e in ess[f]))
         if args.per_step:
             print("  per step (k: RMS / PCRB, m): " + ", ".join(
                 f"{k}: {rms[k]:.0f}/{pcrb[k]:.0f}" for k in range(k_all)))
@@ -211,7 +285,7 @@ def speed(args: argparse.Namespace) -> None:
     from tmakit.filters import ExtendedKalmanFilter, GaussianSumFilter, ParticleFilter
     from tmakit.motion.dynamics import NearlyConstantVelocity
 
-    dyn = NearlyConstantVelocity(2, 0.0, Q_DENSITY)
+    dyn = NearlyConstantVelocity(2, 0.0, args.q_density)
     mean, cov = prior.gaussian(first)
 
     def ekf() -> object:
@@ -257,11 +331,17 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--particles", type=int, default=10_000)
     ap.add_argument("--component", default="ekf", help="the Gaussian sum's: ekf, ukf, ckf")
+    ap.add_argument("--iterations", type=int, default=None,
+                    help="linearisations per update of EKF components (default the filter's)")
     ap.add_argument("--filters", nargs="+", default=["gsf", "pf", "ekf-batch", "stonesoup"])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
     ap.add_argument("--speed", action="store_true", help="only the speed comparison")
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--per-step", action="store_true", help="print RMS and PCRB per step")
+    ap.add_argument("--q-density", type=float, default=Q_DENSITY,
+                    help="the target's q~ (m^2/s^3): truth, filters and bound")
+    ap.add_argument("--draws", type=int, default=100_000,
+                    help="prior draws of the bayes reference")
     args = ap.parse_args()
     if args.speed:
         speed(args)

@@ -1,7 +1,7 @@
 """Write the sample logs shipped with tmakit (``src/tmakit/examples``) from its own simulation.
 
 ``tma examples DIR`` copies them out; ``docs/your-own-data.md`` walks through them.  The
-files are made by :mod:`tmakit.io.samples` (seed 0 unless ``--seed``; the drone log seed 6
+files are made by ``sample_logs.py`` (seed 0 unless ``--seed``; the drone log seed 6
 unless ``--drone-seed``):
 
 - ``contact.rep``: a Debrief replay file (own ship ``OWNSHIP``, bearings of ``CONTACT`` and
@@ -23,7 +23,7 @@ import argparse
 import json
 from pathlib import Path
 
-from tmakit.io.samples import drone_sample, gpx_nmea_sample, replay_sample
+from sample_logs import drone_sample, gpx_nmea_sample, replay_sample
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,6 +1,6 @@
 """Issues 12 and 26 figures: a drone receiver log gives the transmitter's lat/lon with its ellipse.
 
-Each seeded log (``tmakit.io.samples.drone_sample``: ISO-8601 UTC, lat/lon/alt with GPS
+Each seeded log (``sample_logs.drone_sample``: ISO-8601 UTC, lat/lon/alt with GPS
 noise, north-east-down velocity, RSSI in dBm with 2 dB noise, frequency in Hz with 1 Hz
 noise, one wide row per second for 180 s; the drone flies at 120 m, a stationary 433.92 MHz
 transmitter stands on the ground 90 m below it, inside the circle the drone flies) is read
@@ -28,11 +28,11 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
+from sample_logs import drone_sample
 
 import tmakit as tk
 from tmakit.batch.height import choose_height
 from tmakit.core.geodesy import geodetic_to_enu
-from tmakit.io.samples import drone_sample
 
 INSIDE_95 = 5.991  # chi-square, 2 dof, 0.95
 

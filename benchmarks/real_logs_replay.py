@@ -1,6 +1,6 @@
 """Issue 12 figure: a Debrief replay file in one command recovers the contact's course and speed.
 
-Each seeded replay file (``tmakit.io.samples.replay_sample``: own ship zig-zagging at 8 m/s,
+Each seeded replay file (``sample_logs.replay_sample``: own ship zig-zagging at 8 m/s,
 a constant-velocity contact at 8-14 kn 6-9 km away, 720 bearings with 0.5 deg noise over one
 hour, ``NULL`` sensor positions taken from the own ship's track) is read by the Debrief
 reader and fitted by maximum likelihood (cv2d), exactly as
@@ -24,11 +24,11 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from sample_logs import replay_sample
 from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.io.samples import replay_sample
 
 COMMAND = ["--ownship", "OWNSHIP", "--contact", "CONTACT", "--motion", "cv2d",
            "--bearing-sigma", "0.5", "--units", "nautical"]

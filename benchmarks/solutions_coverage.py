@@ -10,10 +10,13 @@ likelihood-ratio test keeps, :mod:`tmakit.results.solutions`), of each solution'
 of the horizontal position at one time.  The truth is *inside* when its squared Mahalanobis
 distance to at least one solution's position, under that solution's linearised position
 covariance, is at most the chi-square(2) 95 % quantile (5.991) —
-:meth:`tmakit.results.EstimateResult.region_contains`.  A solution with no finite position
-(unobservable) covers nothing.  Two times are checked: the last measurement time, where
-``tma estimate`` gives its answers, and the first, the motion's reference time (where the
-issue's example puts it).
+:meth:`tmakit.results.EstimateResult.region_contains`.  A bearing interval (the fit's hulled
+with the bearing measured then) counts only where the answer says the range is undetermined:
+a solution whose range is undetermined, solutions whose range intervals are disjoint
+(``range_spread``), or the widest model's fit leaving the position undetermined (each with the
+``position-undetermined`` warning at the answer time).  Two times are checked: the last
+measurement time, where ``tma estimate`` gives its answers, and the first, the motion's
+reference time (where the issue's example puts it).
 
 Scenarios:
 
@@ -54,6 +57,8 @@ import tmakit as tk
 from tmakit.batch.manoeuvre import ManoeuvreSettings
 from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io.debrief import replay_tracks
+from tmakit.results.checks import wider_undetermined
+from tmakit.results.solutions import range_spread
 from tmakit.scenario.model import MeasurementPlan
 from tmakit.sensors import RecordedTrack
 
@@ -137,8 +142,9 @@ SCENARIOS = {"hoerst2010": hoerst2010_bearings, "ta-dummy": ta_dummy,
 class Run:
     """One run: truth inside the union and the best's ellipse, at the end and at t0; CPU s.
 
-    ``undetermined[_ref]``: the position was reported undetermined there (a wider model's
-    fit leaves it so, or the answer has no bounded ellipse); ``area[_ref]``: the area (km²)
+    ``undetermined[_ref]``: the position was reported undetermined there (the widest model's
+    fit leaves it so, the solutions' ranges disagree, or the answer's range is undetermined);
+    ``area[_ref]``: the area (km²)
     of the reported fit's 95 % ellipse (NaN when undetermined).
     """
 
@@ -156,10 +162,9 @@ class Run:
 
 def _undetermined(res: tk.EstimateResult, meas: tk.MeasurementSet, t: float) -> bool:
     """Whether the answer at ``t`` says the position is not determined (no bounded region)."""
-    a = res.answer(meas, t)
-    return (getattr(res, "wider", None) is not None and t == float(meas.time.max())) \
-        or a.ellipse is None \
-        or any(w.startswith("range") for w in a.undetermined)
+    return (res.wider is not None and wider_undetermined(res.wider, meas, t)) \
+        or range_spread(res.ranked_solutions(), meas, t) is not None \
+        or not res.answer(meas, t).position_determined
 
 
 def one_run(scn: tk.Scenario, how: dict[str, object], rng: np.random.Generator) -> Run:

@@ -165,3 +165,20 @@ def test_a_wide_log_s_second_bearing_column_is_the_twin(tmp_path):
         (tmp_path / "log.csv").read_text().replace("32.0,\n", ",\n"))
     meas = tk.read_measurements(tmp_path / "log.csv", format="wide", mapping=tmp_path / "m.toml")
     assert np.allclose(np.degrees(meas.ambiguous_si), [150.0, 149.0])
+
+
+def test_track_takes_the_sides_the_batch_fit_resolves_and_crlb_says_what_it_assumes():
+    """tma track reads both bearings: each leg's side as tma estimate chooses it (the truth's),
+    the decisions printed; tma crlb says it takes the side as known."""
+    result = CliRunner().invoke(app, ["track", *PAIR, "--json"])
+    assert result.exit_code == 0, result.output
+    sides = [line for line in result.output.splitlines() if line.startswith("  leg ")
+             and "cuts):" in line]
+    assert [line.split("cuts): ")[1].split(",")[0] for line in sides] == (
+        ["starboard"] * 3 + ["port"] * 3)
+    assert all(line.endswith("resolved") for line in sides)
+    assert result.output.count("turn cut at") == 15  # from 13:40: two more than from 13:58
+    bound = CliRunner().invoke(app, ["crlb", *PAIR, "--motion", "cv2d", "--truth",
+                                     "x=-20000,y=-20000,vx=1,vy=-3"])
+    assert bound.exit_code == 0, bound.output
+    assert "the bound takes the side of the 50 towed-array cuts as known" in bound.output

@@ -249,7 +249,8 @@ def test_bad_answer_options_are_refused_naming_the_option(tmp_path, bo, option, 
 
 def test_altitude_is_labelled_by_the_files_altitude_reference(tmp_path):
     """A Debrief file's altitudes are above mean sea level: no output calls them WGS-84."""
-    from tmakit.io.samples import replay_sample
+    from sample_logs import replay_sample
+
     from tmakit.results.answers import answer_from_state
 
     rep = tmp_path / "s.rep"
@@ -274,7 +275,7 @@ def test_altitude_is_labelled_by_the_files_altitude_reference(tmp_path):
 
 def test_estimate_states_the_origin_it_defaulted_to_and_the_clock(tmp_path):
     """Issue 12: the origin defaults to the first fix, stated in the output."""
-    from tmakit.io.samples import replay_sample
+    from sample_logs import replay_sample
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])
@@ -289,7 +290,7 @@ def test_estimate_states_the_origin_it_defaulted_to_and_the_clock(tmp_path):
 
 def test_an_unobservable_height_leaves_the_horizontal_answers(tmp_path):
     """A 3-D bearings-only fit: Up is unobservable, East/North, lat/lon and course are not."""
-    from tmakit.io.samples import replay_sample
+    from sample_logs import replay_sample
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])
@@ -364,3 +365,22 @@ def test_a_course_the_data_do_not_determine_is_left_out_and_said():
     assert a.speed is None
     assert [w.split(" ")[0] for w in a.undetermined] == ["course", "speed"]
     assert a.enu[0] == 1000.0  # the position stays, with its (wide) ellipse
+
+
+def test_bearing_interval_holds_the_fit_and_the_bearing_measured_then(bo):
+    """At a measurement time the interval is the hull of the fit's and the measured bearing's."""
+    from tmakit.results.answers import bearing_interval
+
+    _, meas, res = bo
+    a = res.answer(meas)
+    k = int(np.argmax(meas.time))
+    centre, half = bearing_interval(a, meas)
+    z = 1.959963984540054  # the normal 97.5 % quantile
+    for b, h in ((a.bearing_deg, z * a.bearing_std_deg),
+                 (np.degrees(meas.value_si[k]), z * np.degrees(meas.sigma_si[k]))):
+        off = (b - centre + 180.0) % 360.0 - 180.0
+        assert abs(off) + h <= half + 1e-6
+    assert half < z * np.degrees(meas.sigma_si[k]) + 2 * z * a.bearing_std_deg
+    between = res.answer(meas, time=float(meas.time[k]) - 0.5)  # no bearing measured then
+    assert bearing_interval(between, meas) == pytest.approx(
+        (between.bearing_deg, z * between.bearing_std_deg))

@@ -20,12 +20,7 @@ SRC = ROOT / "src" / "tmakit"
 MAX_FUNCTION_LINES = 80
 
 #: Functions allowed over the limit, each with the reason.
-LONG_FUNCTION_EXCEPTIONS: dict[str, str] = {
-    # Compiled-path kernels: straight-line scalar code for one filter step, kept in one body
-    # on purpose (splitting costs a Python call per step); tests/test_filters.py pins them
-    # equal to the general path.
-    "filters/kernels.py:_bearing_2d": "compiled EKF/UKF/IEKF kernel (one bearing, 2-D)",
-}
+LONG_FUNCTION_EXCEPTIONS: dict[str, str] = {}
 
 
 def module_name(path: Path) -> str:

@@ -7,9 +7,10 @@ return is not ``None``. The walk is over the source with :mod:`ast`, so a new un
 public function fails here before review.
 
 Public means (issue 27 item 2): exported by the ``__all__`` of ``tmakit`` or of one of its
-packages, or a method without a leading underscore of an exported class, or defined in
-``cli/`` (the command's modules); functions nested in functions are locals and not public.
-Everything else is a private helper, whose docstring may be its one-line summary. Properties are
+packages, or a method without a leading underscore of an exported class; functions nested in
+functions are locals and not public.  The CLI's public face is the ``tma`` command (its help and
+docs/), so ``cli/``'s helpers are private too.  Everything else is a private helper, whose
+docstring may be its one-line summary. Properties are
 documented as attributes (their one-line summary), so they need no ``Returns``; setters and
 ``@overload`` stubs are documented on the property / the implementation.  Private ``_name``
 parameters and ``init=False`` / ``ClassVar`` fields are not part of the public signature.
@@ -42,10 +43,6 @@ SRC = ROOT / "src" / "tmakit"
 
 #: Explicit exemptions, ``"path:qualname"`` → reason. Keep it short.
 EXEMPT: dict[str, str] = {}
-
-#: Reason the registered ``tma`` command functions are exempt (filled from cli/__init__.py).
-CLI_REASON = ("Typer command: its docstring is the `tma CMD -h` summary and each parameter's "
-              "help is its typer.Option/Argument help text")
 
 SECTION_RE = re.compile(r"^(\s*)([A-Z][A-Za-z ]+)\n\1-{3,}\s*$", re.MULTILINE)
 
@@ -154,7 +151,7 @@ def walk(path: Path, tree: ast.Module, public: set[str]) -> list[Item]:
             if node.name.startswith("_"):
                 continue
             where = f"{rel}:{prefix}{node.name}"
-            if cls is None and where not in public and not rel.startswith("cli/"):
+            if cls is None and where not in public:
                 continue
             items.append(Item(where, node, cls))
             if isinstance(node, ast.ClassDef):
@@ -162,26 +159,6 @@ def walk(path: Path, tree: ast.Module, public: set[str]) -> list[Item]:
 
     visit(tree.body, "", None)
     return items
-
-
-def cli_commands() -> set[str]:
-    """``path:name`` of every function registered as a ``tma`` command in cli/__init__.py."""
-    tree = ast.parse((SRC / "cli" / "__init__.py").read_text())
-    origin: dict[str, str] = {}
-    for node in tree.body:
-        if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
-            for alias in node.names:
-                origin[alias.asname or alias.name] = f"cli/{node.module}.py"
-    registered: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.For) and isinstance(node.iter, ast.Tuple):
-            registered |= {e.id for e in node.iter.elts if isinstance(e, ast.Name)}
-        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Call)
-                and ast.unparse(node.func.func) == "app.command"):
-            for a in node.args:  # app.command()(f) or app.command()(guarded(f))
-                wrapped = a.args if isinstance(a, ast.Call) else [a]
-                registered |= {w.id for w in wrapped if isinstance(w, ast.Name)}
-    return {f"{origin[name]}:{name}" for name in registered if name in origin}
 
 
 def load() -> tuple[list[Item], dict[str, list[ast.ClassDef]]]:
@@ -322,11 +299,9 @@ def base_documents(item: Item, classes: dict[str, list[ast.ClassDef]], seen: set
 def audit() -> list[str]:
     """Every problem found, as ``path:qualname: problem`` lines."""
     items, classes = load()
-    commands = cli_commands()
     out = []
-    exempt = {**EXEMPT, **dict.fromkeys(commands, CLI_REASON)}
     for item in items:
-        if item.where in exempt:
+        if item.where in EXEMPT:
             continue
         if isinstance(item.node, ast.ClassDef):
             problems = class_problems(item.node)
@@ -349,8 +324,8 @@ def test_the_walk_sees_the_public_api():
     wheres = {i.where for i in items}
     assert len(items) > 400
     assert {"bounds/fim.py:crlb", "filters/ekf.py:ExtendedKalmanFilter",
-            "data.py:MeasurementSet.take", "cli/track_options.py:parse_q"} <= wheres
-    assert "cli/track_options.py:parse_q" not in cli_commands()  # CLI helpers are checked
+            "data.py:MeasurementSet.take", "cli/__init__.py:main"} <= wheres
+    assert "cli/track_options.py:parse_q" not in wheres  # a CLI helper is private
     assert not any(":_" in w or "._" in w for w in wheres)
     assert all(public_module(SRC / w.split(":")[0]) for w in wheres)
 
@@ -382,13 +357,6 @@ def test_paper_modules_carry_references_sections():
     assert len(modules) > 25  # the table was read
     missing = sorted(modules - cited)
     assert not missing, f"no citation of the paper in: {missing}"
-
-
-def test_cli_commands_are_found():
-    # the exemption must track the registered commands, not a stale list
-    commands = cli_commands()
-    assert {"cli/track.py:track", "cli/importing.py:import_", "cli/plan.py:plan"} <= commands
-    assert len(commands) == 14
 
 
 def test_exemptions_still_exist():

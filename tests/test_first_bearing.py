@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 import tmakit as tk
 from tmakit.bounds.pcrb import deterministic_pcrb
 from tmakit.cli import app
+from tmakit.data import MeasurementSet
 from tmakit.filters import (
     BearingPrior,
     ExtendedKalmanFilter,
@@ -118,13 +119,14 @@ def test_bearing_prior_forms_have_the_same_moments():
             BearingPrior(*bad)
 
 
-@pytest.mark.parametrize("component", ["ekf", "ckf"])
-def test_gaussian_sum_compiled_path_equals_its_general_path(component):
+@pytest.mark.parametrize("component, iterations", [("ekf", 1), ("ekf", 5), ("ckf", None)])
+def test_gaussian_sum_compiled_path_equals_its_general_path(component, iterations):
     meas, _ = moderate_run(4)
     prior = MODERATE.prior()
     first = first_bearing(meas)
     rest = meas.take(np.arange(1, len(meas)))
-    kw = {"component": component, "dynamics": NearlyConstantVelocity(2, 0.0, Q_DENSITY)}
+    kw = {"component": component, "dynamics": NearlyConstantVelocity(2, 0.0, Q_DENSITY),
+          "iterations": iterations}
     fast_filter = GaussianSumFilter.from_first_bearing(prior, first, **kw)
     fast = fast_filter.run(rest)
     slow_filter = GaussianSumFilter.from_first_bearing(prior, first, **kw)
@@ -136,6 +138,9 @@ def test_gaussian_sum_compiled_path_equals_its_general_path(component):
     assert np.allclose(fast.nis, slow.nis, rtol=1e-6, atol=1e-9)
     w, m, p = fast_filter.components
     assert np.isclose(w.sum(), 1.0) and m.shape == (len(w), 4) and p.shape == (len(w), 4, 4)
+    if component != "ekf":
+        with pytest.raises(ValueError, match="iterations apply to EKF components"):
+            GaussianSumFilter.from_first_bearing(prior, first, **{**kw, "iterations": 3})
 
 
 def _monte_carlo(runs: int) -> dict[str, np.ndarray]:
@@ -279,3 +284,20 @@ def test_command_refuses_bad_first_bearing_options(obs, args, message):
     result = runner.invoke(app, ["track", str(obs), *args])
     assert result.exit_code == 2, result.output
     assert message in " ".join(result.output.split())
+
+
+@pytest.mark.parametrize("name", ["gsf", "ekf"])
+def test_a_clutter_first_bearing_is_rejected_by_the_innovations_after_it(name):
+    meas, _ = moderate_run(6)
+    bad = MeasurementSet.from_si(np.array([-30.0]), ["own ship"], ["bearing"],
+                                 meas.value_si[:1] + 1.5, meas.sigma_si[:1],
+                                 meas.sensor_state[:1])
+    tr = tk.track(MeasurementSet.concatenate([bad, meas]), name, q_density=Q_DENSITY,
+                  bearing_prior=MODERATE.prior())
+    start = tr.extra.start
+    assert tr.times[0] == meas.time[0] and start["confirmation"]["p_value"] >= 1e-3
+    assert [r["time"] for r in start["rejected"]] == [-30.0]
+    # the last bearing has no innovations to test it: accepted, as a batch window of all data
+    last = tk.track(meas.take(np.arange(3)), name, initiator=BearingInitiator(
+        MODERATE.prior(), confirm_p_value=1.0))
+    assert last.times[0] == meas.time[2] and len(last.extra.start["rejected"]) == 2

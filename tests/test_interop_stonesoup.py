@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import tmakit as tk
+from tmakit.data import MeasurementSet
 
 pytest.importorskip("stonesoup")
 
@@ -32,6 +33,7 @@ from stonesoup.updater.kalman import ExtendedKalmanUpdater
 from tmakit.interop.stonesoup import (
     EPOCH,
     BatchInitiator,
+    BearingInitiator,
     TmakitMeasurementModel,
     detection_feed,
     from_detections,
@@ -242,3 +244,60 @@ def test_a_model_for_kinds_agrees_with_stone_soups_own_bearing_range_rate_model(
     np.testing.assert_allclose(ours.covar(), theirs.covar())
     det = Detection(ours.function(target), timestamp=EPOCH, measurement_model=ours)
     assert from_detections([det]).sensors == ["ship"]
+
+
+def _with_clutter(meas, seed=3):
+    """The set with one uniform clutter bearing half a second after each true one."""
+    n = len(meas)
+    clutter = MeasurementSet.from_si(
+        meas.time + 0.5, ["own ship"] * n, ["bearing"] * n,
+        np.random.default_rng(seed).uniform(-np.pi, np.pi, n), meas.sigma_si, meas.sensor_state)
+    both = MeasurementSet.concatenate([meas, clutter])
+    return both.take(np.argsort(both.time, kind="stable"))
+
+
+def _feed(initiator, meas):
+    """Give the initiator the detections time by time; return its track, or None."""
+    for time, dets in detection_feed(to_detections(meas)):
+        tracks = initiator.initiate(dets, time)
+        if tracks:
+            return next(iter(tracks))
+    return None
+
+
+@pytest.mark.parametrize("min_window", [8, 1])
+def test_batch_initiators_refuse_a_start_from_an_improbable_fit(min_window):
+    # Before the chi-square test both started from fits with chi2 ~ 1.7e6 on ~340 dof, 8 km
+    # off; every tmakit initiator now refuses, and says why.
+    meas = _with_clutter(tk.load_scenario("bearings-only-2d").simulate(rng=1))
+    initiator = BatchInitiator(dim=2, min_window=min_window)
+    assert _feed(initiator, meas) is None
+    assert "improbable fit" in initiator.problem and initiator.tries > 5
+    with pytest.raises(tk.tracking.StartError, match=r"improbable fit.*clutter or a manoeuvre"):
+        tk.track(meas, "ekf", initiator=tk.tracking.BatchInitiator(min_window=min_window))
+
+
+def test_stone_soup_ekf_started_at_the_first_bearing_by_the_gaussian_sum():
+    scn = tk.load_scenario("bearings-only-2d")
+    meas = scn.simulate(rng=1)
+    initiator = BearingInitiator(prior=tk.BearingPrior(1_000, 30_000, 15.0))
+    track = _feed(initiator, meas)
+    times = [(s.timestamp - EPOCH).total_seconds() for s in track.states]
+    handover = initiator.track.times[-1]
+    assert times[0] == meas.time[0] and times[-1] == handover < 300  # batch start: 184 s
+    assert len(track.states) == np.sum(meas.time <= handover)
+    # the truth inside each state's 99.9 % ellipse, from the first bearing to the handover
+    truth = scn.target_states(np.asarray(times))
+    for state, x in zip(track.states, truth, strict=True):
+        err = np.asarray(state.state_vector, float)[:, 0] - x[[0, 3, 1, 4]]
+        assert err @ np.linalg.solve(np.asarray(state.covar, float), err) < 18.47
+    # a clutter bearing first: the innovations after it reject it, the next bearing starts
+    bad = MeasurementSet.from_si(np.array([0.5]), ["own ship"], ["bearing"],
+                                 meas.value_si[:1] + 1.5, meas.sigma_si[:1], meas.sensor_state[:1])
+    other = BearingInitiator(prior=tk.BearingPrior(1_000, 30_000, 15.0))
+    track = _feed(other, MeasurementSet.concatenate([bad, meas]))
+    assert (track.states[0].timestamp - EPOCH).total_seconds() == meas.time[0]
+    (rejected,) = other.track.extra.start["rejected"]
+    assert rejected["time"] == 0.5 and rejected["p_value"] < 1e-3
+    with pytest.raises(ValueError, match="BearingPrior"):
+        BearingInitiator(prior=(1_000, 30_000))

@@ -477,7 +477,7 @@ FUSED = [Bearing(), Elevation(), Range(), RangeRate(), Frequency(), Frequency(dr
 
 
 @pytest.mark.parametrize("model", FUSED, ids=repr)
-def test_fused_gradients_equal_predict_and_jacobian(model):
+def test_planar_gradients_equal_predict_and_jacobian(model):
     """predict_gradient (the filters' general path) and, where a kind has it, the plain-float
     row_gradient give predict and jacobian's rel part."""
     rng = np.random.default_rng(3)

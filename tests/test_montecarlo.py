@@ -249,8 +249,9 @@ def test_simulated_values_are_the_sets_simulate_gives(gu2007):
 def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
     """Unobservable (a 3-D bearings-only fit), diverged and failed runs, summarised in one
     batch, read as estimate() and a failed run do."""
+    from sample_logs import replay_sample
+
     from tmakit.batch.ml import Best, MaximumLikelihood
-    from tmakit.io.samples import replay_sample
     from tmakit.montecarlo.ml_runs import solve_runs, summarise_runs
 
     rep = tmp_path / "c.rep"

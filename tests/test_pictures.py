@@ -5,11 +5,11 @@ from __future__ import annotations
 import matplotlib.figure
 import numpy as np
 import pytest
+from sample_logs import replay_sample
 from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.io.samples import replay_sample
 from tmakit.plot.frame import MapFrame, plot_times
 
 runner = CliRunner()
@@ -109,7 +109,7 @@ def test_solution_title_speaks_the_users_units(tmp_path, rep, figures):
 
 
 def test_show_of_a_drone_log_plain_ticks_and_power_sigma_in_db(tmp_path, figures):
-    from tmakit.io.samples import drone_sample
+    from sample_logs import drone_sample
 
     text, mapping, _ = drone_sample(0)
     log, toml = tmp_path / "drone.csv", tmp_path / "drone.toml"

@@ -184,7 +184,7 @@ def test_bad_planner_settings_are_refused():
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-def test_fused_cloud_information_equals_the_general_path(dim):
+def test_planar_cloud_information_equals_the_general_path(dim):
     from tmakit.planning.cloud_information import cloud_information, supports
 
     kinds = ["bearing", "range", "range_rate"] + (["elevation"] if dim == 3 else [])

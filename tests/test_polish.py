@@ -20,7 +20,7 @@ from tmakit.batch import presolve, solver
 from tmakit.batch.gauss_newton import GaussNewtonModel, information_steady
 from tmakit.batch.varpro import VarProProblem
 from tmakit.observation import ObservationModel
-from tmakit.observation.fused import fused_linearisation, fused_values
+from tmakit.observation.planar import planar_linearisation, planar_values
 
 
 @pytest.fixture(scope="module")
@@ -87,12 +87,12 @@ def test_a_step_the_model_does_not_predict_does_not_stop_the_run(large, monkeypa
     assert dropped.chi2 == full.chi2
 
 
-def test_fused_values_are_the_fused_linearisation_values_bit_for_bit() -> None:
+def test_planar_values_are_the_planar_linearisation_values_bit_for_bit() -> None:
     scn, meas = scenario_rows(500, 1)
     obs = ObservationModel(meas, scn.motion)
     theta = scn.theta + np.array([100.0, -50.0, 0.5, -0.2])
-    lin = fused_linearisation(obs, theta)
-    values = fused_values(obs, theta)
+    lin = planar_linearisation(obs, theta)
+    values = planar_values(obs, theta)
     assert lin is not None and values is not None
     assert np.array_equal(values.h0, lin.h0)
     each = obs.linearisation(np.stack([theta, theta]), derivatives=False, each=True)

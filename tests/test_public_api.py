@@ -134,7 +134,7 @@ def test_the_namespace_exports_every_result_type():
 def test_names_say_the_unit_and_the_old_names_warn(tmp_path):
     """MeasurementSet takes file units (value_file, sigma_file: degrees for a bearing),
     MeasurementSet.from_si and MeasurementPlan SI; the old names warn for one release."""
-    from tmakit.io.samples import replay_sample
+    from sample_logs import replay_sample
 
     states = np.zeros((2, 6))
     new = tk.MeasurementSet([0.0, 1.0], ["s", "s"], ["bearing"] * 2, value_file=[10.0, 20.0],

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sample_logs import drone_sample, gpx_nmea_sample, replay_sample
 
 import tmakit as tk
 from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io import MeasurementFileError
 from tmakit.io.debrief import replay_tracks
 from tmakit.io.logs import KNOT, Fixes, local_frame, parse_clock_times, velocity_from_positions
-from tmakit.io.samples import drone_sample, gpx_nmea_sample, replay_sample
 
 HEAD = ";; test\n"
 OWN = ("260504 093000 OWN @A 47 57 00.00 N 005 15 00.00 W 90.0 10.0 0.0\n"

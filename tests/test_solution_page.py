@@ -32,11 +32,12 @@ pytestmark = needs_browser
 
 XSS = "<img src=x onerror=alert(1)>"
 SCRIPT = "</script><script>window.__pwned=1</script>"
-SONAR = {"frequency": {"speed_of_light": 1500.0}}
+SONAR = {"frequency": {"propagation_speed": 1500.0}}
+F0 = {"A": 300.0, "B": 520.0}  # two tonals of the contact, each with its own carrier
 
 
 def _rows(n: int, seed: int, names: tuple[str, str]) -> tk.MeasurementSet:
-    """Bearings, ranges and narrowband frequencies of a CV contact from two ships, seeded."""
+    """Bearings, ranges and two tonals' frequencies of a CV contact from two ships, seeded."""
     rng = np.random.default_rng(seed)
     t = np.sort(rng.uniform(0.0, 3600.0, n))
     sensor = rng.integers(0, 2, n)
@@ -52,7 +53,9 @@ def _rows(n: int, seed: int, names: tuple[str, str]) -> tk.MeasurementSet:
     rdot = np.sum(rel[:, :3] * rel[:, 3:], axis=1) / np.linalg.norm(rel[:, :3], axis=1)
     exact = {"bearing": np.arctan2(rel[:, 0], rel[:, 1]),
              "range": np.linalg.norm(rel[:, :3], axis=1),
-             "frequency": 300.0 * (1.0 - rdot / 1500.0)}
+             "frequency": (1.0 - rdot / 1500.0)}
+    tonal = np.where(kind == "frequency", rng.choice(["A", "B"], n), "")
+    exact["frequency"] = exact["frequency"] * np.where(tonal == "A", F0["A"], F0["B"])
     sig = {"bearing": np.radians(1.0), "range": 150.0, "frequency": 0.05}
     value = np.choose([["bearing", "range", "frequency"].index(k) for k in kind],
                       [exact["bearing"], exact["range"], exact["frequency"]])
@@ -61,7 +64,7 @@ def _rows(n: int, seed: int, names: tuple[str, str]) -> tk.MeasurementSet:
             "time_origin": "2026-05-04T09:30:00Z"}
     return tk.MeasurementSet.from_si(t, np.array(names)[sensor], kind,
                                      value + sigma * rng.normal(size=n), sigma, state,
-                                     metadata=meta)
+                                     metadata=meta, tonal=tonal)
 
 
 def python_chi2(meas: tk.MeasurementSet, motion: tk.MotionModel, state: list[float],
@@ -119,8 +122,10 @@ def test_ml_residuals_shown_equal_python(page, fitted):
     np.testing.assert_allclose(shown, python, rtol=0, atol=1e-6)
     chi2 = page.execute_script("return window.tmaPage.chi2()")
     assert chi2 == pytest.approx(result.chi2, rel=1e-9)
-    carrier = page.execute_script("return window.tmaPage.carrier()")
-    assert carrier == pytest.approx(result.nuisance["carrier"][0], abs=1e-6)
+    carrier = page.execute_script("return window.tmaPage.carrier()")  # one per tonal
+    assert carrier == pytest.approx([result.nuisance[f"carrier[{t}]"][0] for t in "AB"],
+                                    abs=1e-6)
+    assert carrier == pytest.approx(list(F0.values()), abs=0.05)
 
 
 def test_scripted_drag_chi2_equals_python(page, fitted):
@@ -239,6 +244,15 @@ def test_the_page_figures_are_measured_for_10000_cuts(tmp_path, browser, capsys)
     moved = browser.execute_script("return window.tmaPage.state()")
     assert browser.execute_script("return window.tmaPage.chi2()") == pytest.approx(
         python_chi2(meas, result.motion, moved, {}), rel=1e-8)
+    # while dragging, at most about DRAG_DOTS dots drawn; once the drag stops, every one
+    assert [t["drag"] for t in timings][-1] is False and any(t["drag"] for t in timings)
+    shown = np.array(browser.execute_script("return window.tmaPage.shown()"), dtype=float)
+    np.testing.assert_allclose(shown, browser.execute_script(
+        "return window.tmaPage.residuals()"), rtol=0, atol=1e-12)
+    assert browser.execute_script(
+        "return [...Bokeh.documents[0].all_models].filter(m => m.type === 'GlyphRenderer' && "
+        "m.data_source && m.data_source.data.row && m.visible)"
+        ".map(m => m.data_source.data.row.length)") == [10_000]
     with capsys.disabled():
         drags = sorted(t["painted_ms"] for t in timings)
         print(f"\n10,000 cuts: opened in {opened:.0f} ms; drag updates painted in "

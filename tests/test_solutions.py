@@ -119,25 +119,50 @@ def test_coverage_of_the_reported_region_hoerst2010():
 
 
 def test_ta_dummy_final_position_is_covered_or_said_undetermined():
-    """TA_DUMMY geometry, 4 seeded runs: inside the region, and undetermined runs say so.
+    """TA_DUMMY geometry, 4 seeded runs: the truth inside the region, and undetermined said.
 
     The own ship holds its course for the last hour while the contact turns 20 min before the
-    end: with the four manoeuvres asked for the final range is not determined, and the answer
-    must say so (``position-undetermined``) instead of a small ellipse alone.
+    end: the final range is not determined, and the answer must say so
+    (``position-undetermined``: the widest model leaves it undetermined, or the solutions'
+    ranges disagree) instead of small ellipses alone.  Run 1 is one where the solutions' range
+    intervals are disjoint (14.3 and 25.0 km, the truth at 33.8 km between no ellipse).
     """
+    from tmakit.results.solutions import range_spread
+
     scn, how = solutions_coverage.ta_dummy()
-    inside = undetermined = 0
     for r in range(4):
         meas = scn.simulate(rng=np.random.default_rng([0, r]))
         res = tk.estimate(meas, **how)
         truth = scn.target_states(np.array([meas.time.max()]))[0, :2]
-        inside += res.region_contains(truth, meas)
-        if res.wider is not None:
-            undetermined += 1
+        assert res.region_contains(truth, meas)
+        if not any(s.answer(meas).position_determined and s.region_contains(truth, meas)
+                   for s in res.ranked_solutions()):  # covered by a bearing interval alone
             assert "position-undetermined" in [w.code for w in res.warnings(meas)]
             assert res.trust(meas).level == "warning"
-    assert inside >= 3
-    assert undetermined >= 2
+        if r == 1:
+            assert res.wider is None and range_spread(res.ranked_solutions(), meas) is not None
+
+
+def test_a_range_left_undetermined_reports_the_bearing_interval():
+    """One straight own-ship leg, cv2d: range unobservable, the region is the bearing interval.
+
+    Over 20 seeded runs the truth lies in it in at least 18; a point 6 deg off (sigma 1 deg)
+    does not.
+    """
+    scn = tk.load_scenario("bearings-only-2d")
+    inside = 0
+    for r in range(20):
+        meas = scn.simulate(rng=np.random.default_rng([0, r]))
+        meas = meas.take(meas.time <= 100.0)
+        res = tk.estimate(meas, "cv2d")
+        a = res.answer(meas)
+        assert res.status == "unobservable" and not a.position_determined
+        truth = scn.target_states(np.array([a.time]))[0, :2]
+        inside += res.region_contains(truth, meas)
+        where = meas.sensor_state[int(np.argmax(meas.time)), :2]
+        off = np.radians(a.bearing_deg + 6.0)
+        assert not res.region_contains(where + 1e4 * np.array([np.sin(off), np.cos(off)]), meas)
+    assert inside >= 18
 
 
 def test_covering_scale_contains_the_other_ellipse():

@@ -2,7 +2,7 @@
 
 * A no-guess estimate on many rows first converges on a subset (``batch.presolve``): its
   optimum is the whole set's, as reached by the solver started at the truth.
-* A filter run on a set already filtered reuses its compiled form (``compiled_for``): tracks
+* A filter run on a set already filtered reuses its prepared form (``prepared_for``): tracks
   are identical, and other settings get their own.
 """
 
@@ -17,7 +17,7 @@ from tmakit.batch import presolve
 from tmakit.batch.varpro import VarProProblem
 from tmakit.core.frames import wrap_angle
 from tmakit.filters import ExtendedKalmanFilter
-from tmakit.filters.general import compiled_for
+from tmakit.filters.general import prepared_for
 from tmakit.observation import ObservationModel
 
 
@@ -52,10 +52,10 @@ def test_presolve_leaves_small_problems_alone() -> None:
 def test_a_set_filtered_again_is_compiled_once() -> None:
     scn = tk.load_scenario("bearings-only-2d")
     meas = scn.simulate(np.random.default_rng(1))
-    a = compiled_for(meas, 2)
-    assert compiled_for(meas, 2) is a
-    assert compiled_for(meas, 2, nuisance={"carrier": 1e9}) is not a
-    assert compiled_for(meas, 3) is not a
+    a = prepared_for(meas, 2)
+    assert prepared_for(meas, 2) is a
+    assert prepared_for(meas, 2, nuisance={"carrier": 1e9}) is not a
+    assert prepared_for(meas, 3) is not a
     prior = np.array([3000.0, 8000.0, 0.0, 0.0])
     cov = np.diag([1e3, 1e3, 10.0, 10.0]) ** 2
     first = ExtendedKalmanFilter(prior, cov, 0.0, q=0.01).run(meas)

@@ -96,7 +96,7 @@ def test_the_defaults_of_tma_estimate_on_the_drone_log_put_the_truth_inside_the_
 
 
 def test_over_seeded_drone_logs_the_defaults_cover_the_truth_and_2d_alone_does_not(tmp_path):
-    from tmakit.io.samples import drone_sample
+    from sample_logs import drone_sample
 
     inside = inside_2d = 0
     for seed in range(20):

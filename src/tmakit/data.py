@@ -70,6 +70,8 @@ class MeasurementSet:
 
     #: Each row's ambiguous twin bearing (rad, NaN where none), or None: no row has one.
     ambiguous_si: NDArray[np.float64] | None = None
+    #: Each frequency row's tonal label ("" elsewhere), or None: one tonal (:meth:`with_tonal`).
+    tonal: NDArray[np.str_] | None = None
 
     def __init__(self, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike,
                  value_file: ArrayLike | None = None, sigma_file: ArrayLike | None = None,
@@ -110,8 +112,8 @@ class MeasurementSet:
     def from_si(cls, time: ArrayLike, sensor: ArrayLike, kind: ArrayLike, value_si: ArrayLike,
                 sigma_si: ArrayLike, sensor_state: ArrayLike, time_ref: ArrayLike | None = None,
                 ref_sensor_state: ArrayLike | None = None,
-                metadata: Mapping[str, str] | None = None, check: bool = True
-                ) -> MeasurementSet:
+                metadata: Mapping[str, str] | None = None, check: bool = True,
+                tonal: ArrayLike | None = None) -> MeasurementSet:
         """Build a set from SI values (how library code builds sets).
 
         Parameters
@@ -120,6 +122,8 @@ class MeasurementSet:
             As for :class:`MeasurementSet`.
         value_si, sigma_si : array_like, shape (n,)
             Values and noise std in SI (rad, rad/s, m, m/s, Hz, dBW; dB).
+        tonal : array_like of str, shape (n,), optional
+            Each frequency row's tonal label (:meth:`with_tonal`).
 
         Returns
         -------
@@ -135,6 +139,8 @@ class MeasurementSet:
                   ref_sensor_state, metadata, check=False)
         out._set_si_values(out._new_column("value", value_si),
                            out._new_column("sigma", sigma_si))
+        if tonal is not None:
+            out = out.with_tonal(tonal)
         if check:  # the file's rules: build out-of-order rows with check=False, then sort
             rules.check_set(out)
         return out
@@ -355,7 +361,53 @@ class MeasurementSet:
         out._kind = out._sensor = out._kinds = out._sensors = None
         if self.ambiguous_si is not None:
             out.ambiguous_si = _frozen(self.ambiguous_si[idx])
+        if self.tonal is not None:
+            out.tonal = self.tonal[idx]
         return out
+
+    def with_tonal(self, labels: ArrayLike | None) -> MeasurementSet:
+        """Return the set with each frequency row's tonal label (one unknown carrier each).
+
+        Parameters
+        ----------
+        labels : array_like of str, shape (n,), or None
+            The tonal of each frequency row ("" on other rows); None removes them.
+
+        Returns
+        -------
+        MeasurementSet
+            The same rows with :attr:`tonal`.
+
+        Raises
+        ------
+        ValueError
+            A length other than the set's, a label on a row that is no frequency, or a
+            frequency row without one.
+        """
+        out = self.take(np.arange(len(self)))
+        text = None if labels is None else np.array(labels, dtype=str).reshape(-1)
+        if text is not None:
+            if text.shape != (len(self),):
+                raise ValueError(f"tonal labels: {text.size} labels for {len(self)} rows")
+            if np.any((text != "") != self.kind_mask("frequency")):
+                raise ValueError("tonal labels: expected a label on every frequency row and on "
+                                 "no other row")
+            text.flags.writeable = False
+        out.tonal = text
+        return out
+
+    def stream_code(self) -> NDArray[np.int64]:
+        """Give each row's sensor code, told apart by tonal (the rule of one value per time).
+
+        Returns
+        -------
+        ndarray of int
+            ``(n,)``, the sensor code when the set has no tonals.
+        """
+        if self.tonal is None:
+            return self.sensor_code.astype(np.int64)
+        _, tonal_code = np.unique(self.tonal, return_inverse=True)
+        return self.sensor_code + tonal_code.reshape(-1) * (int(self.sensor_code.max()) + 1)
 
     def with_ambiguous(self, ambiguous_si: ArrayLike | None) -> MeasurementSet:
         """Return the set with each bearing row's ambiguous twin bearing (a towed array's).
@@ -449,6 +501,10 @@ class MeasurementSet:
             cat.ambiguous_si = _frozen(np.concatenate([
                 np.full(len(p), np.nan) if p.ambiguous_si is None else p.ambiguous_si
                 for p in parts]))
+        if any(p.tonal is not None for p in parts):
+            cat = cat.with_tonal(np.concatenate([
+                np.where(p.kind_mask("frequency"), "frequency", "") if p.tonal is None
+                else p.tonal for p in parts]))
         return cat.sorted()
 
     def sorted(self) -> MeasurementSet:
@@ -487,7 +543,9 @@ class MeasurementSet:
         same = same and ((mine is None and theirs is None) or (
             mine is not None and theirs is not None
             and np.array_equal(mine, theirs, equal_nan=True)))
-        return bool(same)
+        a, b = self.tonal, other.tonal
+        return bool(same) and ((a is None and b is None) or (
+            a is not None and b is not None and np.array_equal(a, b)))
 
     def summary_rows(self) -> list[dict[str, object]]:
         """Summarise the set: one row per (sensor, kind).

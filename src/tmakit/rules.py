@@ -122,8 +122,8 @@ def _where(rows: NDArray[np.intp], column: str, expected: str,
 def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                     kind: NDArray[np.integer], value: NDArray[np.float64],
                     sigma: NDArray[np.float64], sensor_state: NDArray[np.float64],
-                    time_ref: NDArray[np.float64], order: bool = True, ranges: bool = True
-                    ) -> list[str]:
+                    time_ref: NDArray[np.float64], order: bool = True, ranges: bool = True,
+                    stream_code: NDArray[np.integer] | None = None) -> list[str]:
     """Check the columns of a measurement set against the rules of the file format."""
     found: list[str] = []
     cols = {"time": time, "value": value, "sigma": sigma}
@@ -164,7 +164,8 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     if order:
         found += _order_problems(time, sensor_code)
         found += _far_time_problems(time)
-        found += _duplicate_problems(time, sensor_code, kind, time_ref)
+        found += _duplicate_problems(time, sensor_code if stream_code is None else stream_code,
+                                     kind, time_ref)
     return found
 
 
@@ -339,7 +340,8 @@ def check_set(meas: Any, order: bool = True, ranges: bool = True) -> None:
         found = _order_problems(meas.time, meas.sensor_code) if order else []
     else:  # the rules on the file-unit cells, whose values the messages quote
         found = column_problems(meas.time, meas.sensor_code, meas.kind_code, meas.value,
-                                meas.sigma, meas.sensor_state, meas.time_ref, order, ranges)
+                                meas.sigma, meas.sensor_state, meas.time_ref, order, ranges,
+                                getattr(meas, "stream_code", lambda: None)())
     raise_problems(found + metadata_problems(meas.metadata))
 
 

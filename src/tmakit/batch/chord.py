@@ -1,7 +1,7 @@
 """The grid's chord cost ``sum w^2 (1 - cos(y - h))`` for bearings alone under affine motion.
 
 ``cos h`` and ``sin h`` come from the relative positions
-(:class:`~tmakit.observation.fused.PlanarUnits`): no trigonometry per candidate and row.
+(:class:`~tmakit.observation.planar.PlanarUnits`): no trigonometry per candidate and row.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.blas import matmul
-from ..observation.fused import PlanarUnits, planar_units
+from ..observation.planar import PlanarUnits, planar_units
 from .solver import VarProProblem
 
 __all__ = ["ChordScorer", "chord_units"]

@@ -3,8 +3,8 @@
 ``J'J`` and ``J'r`` of the whitened, projected Jacobian, the eigen-decomposition of ``J'J`` in
 variables scaled by the square roots of its diagonal (Marquardt (1963)), and from it the
 Gauss-Newton decrement and the step at any damping.  A single run (the commonest solve) is
-built in 2-D arrays with LAPACK's ``dsyevd`` called directly: NumPy's batched ``eigh`` costs
-several times the decomposition of a small matrix.
+built in 2-D arrays with LAPACK's ``dsyevd`` called directly (:func:`tmakit.core.linalg.eigh`):
+NumPy's batched ``eigh`` costs several times the decomposition of a small matrix.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dsyevd as _dsyevd
 
 from ..core.arrays import Array
 from ..core.blas import SINGLE_THREAD_WORK, by_dots, normal_rows
+from ..core.linalg import eigh
 from .varpro import Evaluation, VarProProblem
 
 __all__ = ["POLISH_INFORMATION", "GaussNewtonModel", "gram", "information_of",
@@ -134,8 +134,9 @@ class GaussNewtonModel:
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
         """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
         scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
-        w, v, info = _dsyevd(jtj / np.multiply.outer(scale, scale), compute_v=1, lower=1)
-        if info != 0:
+        try:
+            w, v = eigh(jtj / np.multiply.outer(scale, scale))
+        except np.linalg.LinAlgError:
             return None
         w = np.maximum(w, 1e-12 * w[-1])  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)

@@ -12,8 +12,8 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..measurements import KINDS
 from ..motion import MotionModel, motion_from_name

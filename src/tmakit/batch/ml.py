@@ -13,8 +13,8 @@ from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel

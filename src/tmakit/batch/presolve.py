@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.frames import wrap_angle_own
-from ..observation.fused import fused_gradient_rows, gradient_of_rows
+from ..observation.planar import gradient_of_rows, planar_gradient_rows
 from ..results.observability import full_rank
 from .init import GridSettings, Starts, best_starts_many, subsample
 from .solver import Fallback, SolveResult, VarProProblem, levenberg_marquardt
@@ -97,7 +97,7 @@ def gradient_at(problem: VarProProblem, theta: NDArray[np.float64], u: NDArray[n
             or theta.shape[0] != 1):
         return None
     with np.errstate(invalid="ignore", divide="ignore"):
-        found = fused_gradient_rows(problem.obs, theta, weights)
+        found = planar_gradient_rows(problem.obs, theta, weights)
         if found is None:
             return None
         h0, rows = found

@@ -65,7 +65,7 @@ class VarProProblem:
             noise = (NoiseModel(obs.grouped, obs.models) if correlated
                      else NoiseModel.independent(obs.sigmas_grouped))
         self.noise = noise
-        # Independent rows: the fused Jacobian is made whitened (see _evaluate).
+        # Independent rows: the planar Jacobian is made whitened (see _evaluate).
         self._weights = None if noise.correlated else noise.inv_sigma
         self.k = obs.n_nuisance
         self.p = obs.motion.n_params
@@ -272,8 +272,8 @@ class VarProProblem:
         lin = self.obs.linearisation(theta, with_jacobian, weights=self._weights)
         at = lin.a_var.swapaxes(-1, -2) if self.k else None
         # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
-        # The fused path's h0 is its own fresh array, read only here: the residual takes it.
-        own = lin.fused is not None and lin.h0.shape == u.shape
+        # The planar path's h0 is its own fresh array, read only here: the residual takes it.
+        own = lin.planar_jacobian is not None and lin.h0.shape == u.shape
         e = np.subtract(u, lin.h0, out=lin.h0) if own else u - lin.h0
         if at is not None:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]

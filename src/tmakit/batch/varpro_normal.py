@@ -78,7 +78,7 @@ def motion_normal(obs: Any, lin: Linearisation, residual: Array, weights: Array 
                   ) -> DeferredNormal | None:
     """Give ``J'J`` and ``J'r`` of the whitened Jacobian from the motion model, or None."""
     normal = getattr(obs.motion, "normal_equations_later", None)
-    if (normal is None or weights is None or lin.fused is not None or lin.d_h0 is None
+    if (normal is None or weights is None or lin.planar_jacobian is not None or lin.d_h0 is None
             or lin.d_a or lin.d_h0_ref is not None or lin.theta.ndim != 2):
         return None
     make = normal(lin.d_h0, residual, weights, lin.theta, obs._time)

@@ -82,6 +82,9 @@ def _nuisance_values(meas: MeasurementSet, given: Mapping[str, float] | None
         # The bound depends on the carrier only through its scale; the median received
         # frequency gives it to ~1e-6, far below anything that matters here.
         values["carrier"] = float(np.median(meas.value_si[meas.kind == "frequency"]))
+        for label in [] if meas.tonal is None else np.unique(meas.tonal[meas.tonal != ""]):
+            values.setdefault(f"carrier[{label}]",
+                              float(np.median(meas.value_si[meas.tonal == label])))
     values.setdefault("power_constant_db", 0.0)  # the bound does not depend on it
     values.setdefault("carrier_drift", 0.0)
     values.setdefault("path_loss_exponent", 2.0)
@@ -96,22 +99,21 @@ def bound_source(source: Scenario | MeasurementSet, motion: MotionModel | None,
                             Mapping[str, float] | None,
                             Mapping[str, Mapping[str, object]] | None]:
     """Return what a bound is evaluated on, from its ``source``."""
-    from ..scenario.model import Scenario
-
-    if isinstance(source, Scenario):
-        meas = source.simulate(noise=False)
-        motion = motion or source.motion
-        truth = source.truth if truth is None else truth
-        nuisance = {**source.nuisance, **dict(nuisance or {})}
-        options = source.measurement_options if options is None else options
-    elif isinstance(source, MeasurementSet):
-        meas = source
+    if isinstance(source, MeasurementSet):
         if motion is None or truth is None:
             raise ValueError("the bound of a measurement set needs the motion model and the "
                              "truth at which to evaluate it")
-    else:
+        return source, motion, truth, nuisance, options
+    from ..scenario.model import Scenario  # (a set's bound needs no scenario code)
+
+    if not isinstance(source, Scenario):
         raise TypeError(f"{caller} takes a Scenario or a MeasurementSet; "
                         f"got {type(source).__name__}")
+    meas = source.simulate(noise=False)
+    motion = motion or source.motion
+    truth = source.truth if truth is None else truth
+    nuisance = {**source.nuisance, **dict(nuisance or {})}
+    options = source.measurement_options if options is None else options
     return meas, motion, truth, nuisance, options
 
 

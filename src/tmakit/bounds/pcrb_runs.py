@@ -72,7 +72,7 @@ RESAMPLES = 2000
 def ratio_interval(errors: ArrayLike, bound: ArrayLike, level: float = 0.95,
                    seed: int = 0) -> tuple[float, float | None, float | None]:
     """Return the RMSE over the bound and its Monte Carlo interval, from the runs' errors."""
-    from scipy.stats import chi2
+    from ..core import chi2
 
     e2 = np.asarray(errors, dtype=float) ** 2
     p = np.asarray(bound, dtype=float)

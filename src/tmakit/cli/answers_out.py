@@ -29,48 +29,13 @@ if TYPE_CHECKING:
 
 
 def check_units(units: str) -> None:
-    """Refuse an unknown ``--units``.
-
-    Parameters
-    ----------
-    units : str
-        ``si`` or ``nautical``.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for anything else.
-    """
+    """Refuse an unknown ``--units``."""
     if units not in SPEED_UNITS:
         raise fail(f"--units {units!r}: expected si or nautical")
 
 
 def parse_time(text: str | None, meas: Any, option: str) -> float | None:
-    """Return a time option in seconds: seconds, an ISO-8601 clock time, or ``HH:MM[:SS]``.
-
-    A clock time without a date is taken on the data's day, where the data lie within one UTC
-    day (:func:`tmakit.io.clock_text.seconds_of_time_text`).
-
-    Parameters
-    ----------
-    text : str or None
-        The option's text.
-    meas : tmakit.data.MeasurementSet
-        The measurements (metadata ``time_origin`` for clock times).
-    option : str
-        The option's name for the error message.
-
-    Returns
-    -------
-    float or None
-        Seconds since the measurement set's time origin; None when not given.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the text is none of these, a clock time is given without a time origin,
-        or a clock time without a date where the data span several days.
-    """
+    """Return a time option in seconds: seconds, an ISO-8601 clock time, or ``HH:MM[:SS]``."""
     if text is None:
         return None
     from ..io.clock_text import seconds_of_time_text
@@ -95,25 +60,7 @@ def parse_time(text: str | None, meas: Any, option: str) -> float | None:
 
 
 def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
-    """Return the rows with ``--from <= time <= --to`` (one leg), refusing an empty window.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    start, stop : str or None
-        ``--from`` and ``--to``: seconds or ISO-8601 clock times.
-
-    Returns
-    -------
-    tmakit.data.MeasurementSet
-        The rows in the window (all rows when neither is given).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a bad time or a window without measurements.
-    """
+    """Return the rows with ``--from <= time <= --to`` (one leg), refusing an empty window."""
     t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
     if t_from is None and t_to is None:
         return meas
@@ -131,22 +78,7 @@ def _num(v: float | None, fmt: str, scale: float = 1.0) -> str:
 
 
 def answers_table(a: Any, units: str, title: str) -> Table:
-    """Lay out an :class:`~tmakit.results.answers.Answer` as a table with units in its header.
-
-    Parameters
-    ----------
-    a : tmakit.results.answers.Answer
-        The answers.
-    units : str
-        ``si`` or ``nautical``.
-    title : str
-        The table's title.
-
-    Returns
-    -------
-    rich.table.Table
-        Quantity, value, std, unit.
-    """
+    """Lay out an :class:`~tmakit.results.answers.Answer` as a table with units in its header."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     sp_unit, sp = SPEED_UNITS[units]
@@ -187,20 +119,7 @@ def answers_table(a: Any, units: str, title: str) -> Table:
 
 
 def answer_title(a: Any, what: str) -> str:
-    """Return the answers table's title: what, at which time (seconds and UTC when known).
-
-    Parameters
-    ----------
-    a : tmakit.results.answers.Answer
-        The answers.
-    what : str
-        ``emitter position`` or ``emitter``.
-
-    Returns
-    -------
-    str
-        The title.
-    """
+    """Return the answers table's title: what, at which time (seconds and UTC when known)."""
     when = f"t = {a.time:g} s" + (f" ({a.clock})" if a.clock else "")
     if not a.stationary:
         return f"{what} at {when}"
@@ -208,20 +127,7 @@ def answer_title(a: Any, what: str) -> str:
 
 
 def frame_note(meas: Any) -> str | None:
-    """Say where lat/lon and clock times come from: the ENU origin and the time origin.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet or None
-        The measurements (their ``origin_*``, ``origin_source``, ``altitude_reference`` and
-        ``time_origin`` metadata).
-
-    Returns
-    -------
-    str or None
-        ``frame: ENU origin lat .. deg, lon .. deg, alt .. m (the first fix), altitudes above
-        mean sea level; t = 0 s is ...``, or None when the set records neither origin.
-    """
+    """Say where lat/lon and clock times come from: the ENU origin and the time origin."""
     from ..results.answers import altitude_reference
 
     meta = {} if meas is None else meas.metadata
@@ -239,19 +145,7 @@ def frame_note(meas: Any) -> str | None:
 
 
 def print_answers(a: Any, units: str, meas: Any = None, title: str | None = None) -> None:
-    """Print the answers table, how its std were computed and the frame of lat/lon and clock.
-
-    Parameters
-    ----------
-    a : tmakit.results.answers.Answer
-        The answers.
-    units : str
-        ``si`` or ``nautical``.
-    meas : tmakit.data.MeasurementSet, optional
-        The measurements: their ENU and time origins are stated (:func:`frame_note`).
-    title : str, optional
-        What the table shows instead of ``emitter`` (an unobservable fit's determined part).
-    """
+    """Print the answers table, how its std were computed and the frame of lat/lon and clock."""
     what = title or ("emitter position" if a.stationary else "emitter")
     print_wide(answers_table(a, units, answer_title(a, what)))
     note = ("std: linearised (delta method) from the covariance; position ellipse: "
@@ -265,19 +159,7 @@ def print_answers(a: Any, units: str, meas: Any = None, title: str | None = None
 
 
 def print_solutions(result: Any, meas: Any, units: str) -> None:
-    """Print the separated solutions, ranked, each with its chi2, test and answers.
-
-    Nothing when the fit is the only solution (:attr:`EstimateResult.solutions` empty).
-
-    Parameters
-    ----------
-    result : tmakit.results.EstimateResult
-        The estimate.
-    meas : tmakit.data.MeasurementSet
-        The measurements fitted (the answers are at their last time).
-    units : str
-        ``si`` or ``nautical``.
-    """
+    """Print the separated solutions, ranked, each with its chi2, test and answers."""
     if len(result.solutions) < 2:
         return
     from rich.table import Table
@@ -317,41 +199,13 @@ def print_solutions(result: Any, meas: Any, units: str) -> None:
 
 
 def print_warnings(warnings: list[Any]) -> None:
-    """Print each sanity warning on standard error as ``warning: ...``.
-
-    Parameters
-    ----------
-    warnings : list of tmakit.results.checks.SanityWarning
-        The warnings.
-    """
+    """Print each sanity warning on standard error as ``warning: ...``."""
     for w in warnings:
         err.print(f"[bold yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
 
 
 def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> Any:
-    """Return an estimate's or a track's answers (``--sensor``), errors as ``error: ...``.
-
-    Parameters
-    ----------
-    source : tmakit.results.EstimateResult or tmakit.filters.Track
-        What answers: its ``answer(meas, sensor=..., ...)`` method.
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    sensor : str or None
-        ``--sensor``; None for the sensor of the last measurement.
-    **where
-        Passed on: ``time`` (s, ``--at``) for an estimate; a track answers after its last update.
-
-    Returns
-    -------
-    tmakit.results.answers.Answer
-        The answers.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for an unknown sensor.
-    """
+    """Return an estimate's or a track's answers (``--sensor``), errors as ``error: ...``."""
     if sensor is not None and sensor not in meas.sensors:
         raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
                    f"{', '.join(meas.sensors)})")

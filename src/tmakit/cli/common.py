@@ -20,72 +20,24 @@ err = Console(stderr=True)
 
 
 def print_wide(renderable: object) -> None:
-    """Print a table at the terminal's width, or 160 columns when output is not a terminal.
-
-    Piped output is otherwise narrowed to 80 columns, which cuts numbers and wraps headers.
-
-    Parameters
-    ----------
-    renderable : rich renderable
-        The table.
-    """
+    """Print a table at the terminal's width, or 160 columns when output is not a terminal."""
     (out if out.is_terminal else Console(width=160)).print(renderable)
 
 
 def fail(message: str) -> typer.Exit:
-    """Print ``error: message`` on standard error and return the exit (status 2) to raise.
-
-    Parameters
-    ----------
-    message : str
-        What is wrong, naming the file, row and field where there is one.
-
-    Returns
-    -------
-    typer.Exit
-        The exception to raise (``raise fail(...)``), exit status 2.
-    """
+    """Print ``error: message`` on standard error and return the exit (status 2) to raise."""
     err.print(f"[bold red]error:[/] {message}", highlight=False, markup=True, soft_wrap=True)
     return typer.Exit(2)
 
 
 def refuse_existing(path: Path, force: bool) -> None:
-    """Refuse to overwrite an existing output file unless ``--force`` was given.
-
-    Parameters
-    ----------
-    path : Path
-        The output file.
-    force : bool
-        Overwrite it anyway.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when ``path`` exists and ``force`` is false.
-    """
+    """Refuse to overwrite an existing output file unless ``--force`` was given."""
     if path.exists() and not force:
         raise fail(f"{path} already exists; use --force to overwrite it")
 
 
 def parse_origin(text: str | None) -> tuple[float, float, float] | None:
-    """``--origin LAT,LON,ALT`` as ``(lat_deg, lon_deg, alt_m)``, or None when not given.
-
-    Parameters
-    ----------
-    text : str or None
-        The option's text: latitude (deg), longitude (deg), altitude (m), comma-separated.
-
-    Returns
-    -------
-    tuple of float or None
-        ``(lat, lon, alt)`` in degrees, degrees, metres.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the text is not three numbers.
-    """
+    """``--origin LAT,LON,ALT`` as ``(lat_deg, lon_deg, alt_m)``, or None when not given."""
     if text is None:
         return None
     try:
@@ -100,25 +52,7 @@ def parse_origin(text: str | None) -> tuple[float, float, float] | None:
 
 
 def parse_assignments(text: str | None, option: str) -> dict[str, float]:
-    """``"x=1,y=2"`` -> ``{"x": 1.0, "y": 2.0}``, with a clear error for anything else.
-
-    Parameters
-    ----------
-    text : str or None
-        The option's text; None gives an empty dict.
-    option : str
-        The option's name (``--truth``, ``--init``, ...) for the error message.
-
-    Returns
-    -------
-    dict of str to float
-        The values by name, in the units of the named parameters (m, m/s, Hz, dBW, ...).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when a part is not ``name=number``.
-    """
+    """``"x=1,y=2"`` -> ``{"x": 1.0, "y": 2.0}``, with a clear error for anything else."""
     if text is None:
         return {}
     values: dict[str, float] = {}
@@ -142,23 +76,7 @@ def parse_assignments(text: str | None, option: str) -> dict[str, float]:
 
 
 def load_scenario_or_fail(name: str) -> Any:
-    """Load a built-in scenario by name or a TOML scenario file, errors as ``error: ...``.
-
-    Parameters
-    ----------
-    name : str
-        Built-in scenario name or path of a TOML file.
-
-    Returns
-    -------
-    tmakit.scenario.Scenario
-        The scenario.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the scenario is unknown or its file invalid.
-    """
+    """Load a built-in scenario by name or a TOML scenario file, errors as ``error: ...``."""
     from ..scenario.files import ScenarioFileError, load_scenario
 
     try:
@@ -168,22 +86,7 @@ def load_scenario_or_fail(name: str) -> Any:
 
 
 def write_or_fail(meas: Any, path: Path, force: bool) -> None:
-    """Write a measurement file, errors as ``error: ...``.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    path : Path
-        The ``.csv`` or ``.parquet`` file to write.
-    force : bool
-        Overwrite an existing file.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the file exists (without ``force``) or cannot be written.
-    """
+    """Write a measurement file, errors as ``error: ...``."""
     from ..io.measurement_files import write_measurements
 
     try:
@@ -195,42 +98,13 @@ def write_or_fail(meas: Any, path: Path, force: bool) -> None:
 
 
 def file_ref_time(meas: Any) -> float | None:
-    """Give the reference time a file's metadata states (s), or None (absent or empty).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements read (their metadata checked by the reader).
-
-    Returns
-    -------
-    float or None
-    """
+    """Give the reference time a file's metadata states (s), or None (absent or empty)."""
     text = meas.metadata.get("ref_time", "")
     return None if text == "" else float(text)
 
 
 def check_ref_time(ref_time: float, times: Any, source: str) -> None:
-    """Refuse a reference time far from the data (:func:`tmakit.rules.time_problem`).
-
-    Farther than 100 spans of the data (at least 1 s each) the positions depend on the
-    velocities that many times over, and the fit loses digits (a manoeuvring target's was
-    rank deficient at 900 spans).
-
-    Parameters
-    ----------
-    ref_time : float
-        The reference time (s).
-    times : array_like
-        The measurement times (s).
-    source : str
-        Where it came from, for the message: ``--ref-time`` or ``the file's ref_time``.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2, naming the time, the data's times and the reach.
-    """
+    """Refuse a reference time far from the data (:func:`tmakit.rules.time_problem`)."""
     from ..rules import time_problem  # (not at import: ``tma --help`` loads no numpy)
 
     problem = time_problem(ref_time, times, source)
@@ -244,29 +118,7 @@ def check_ref_time(ref_time: float, times: Any, source: str) -> None:
 
 
 def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -> Any:
-    """Return the motion model named by ``--motion``, errors as ``error: ...``.
-
-    Without ``--motion`` the file's metadata may name it.
-
-    Parameters
-    ----------
-    name : str or None
-        ``cv2d``, ``cv3d``, ``static2d``, ``static3d``, ...; None takes the file's.
-    ref_time : float or None
-        Reference time of the motion parameters (s); None takes the file's, else 0.
-    meas : tmakit.data.MeasurementSet, optional
-        The measurements whose metadata may name the motion.
-
-    Returns
-    -------
-    tmakit.motion.MotionModel
-        The motion model.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when no motion is named or the name is unknown.
-    """
+    """Return the motion model named by ``--motion``, errors as ``error: ...``."""
     from ..motion import Stationary, default_ref_time, motion_from_name
 
     if ref_time is not None and not math.isfinite(ref_time):
@@ -302,14 +154,7 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
 
 
 def max_manoeuvres() -> int:
-    """Give the most manoeuvres ``--motion curvilinear:M`` may search (``TMA_MAX_MANOEUVRES``).
-
-    Returns
-    -------
-    int
-        The limit (default 5; the search time grows with every manoeuvre, about 8 s each on
-        the 1,802 rows of ``hoerst2010``).
-    """
+    """Give the most manoeuvres ``--motion curvilinear:M`` may search (``TMA_MAX_MANOEUVRES``)."""
     import os
 
     try:
@@ -318,37 +163,18 @@ def max_manoeuvres() -> int:
         return 5
 
 
-def model_options(drift: bool, free_exponent: bool) -> dict[str, dict[str, object]]:
-    """Return the measurement-model options of ``--drift`` and ``--free-exponent``.
-
-    Parameters
-    ----------
-    drift : bool
-        Model a linear carrier drift (Hz/s).
-    free_exponent : bool
-        The path-loss exponent is unknown too (else fixed at 2, free space).
-
-    Returns
-    -------
-    dict
-        ``{"frequency": {"drift": ...}, "power": {"exponent": ...}}``.
-    """
-    return {"frequency": {"drift": drift}, "power": {"exponent": None if free_exponent else 2.0}}
+def model_options(drift: bool, free_exponent: bool, propagation_speed: float | None = None
+                  ) -> dict[str, dict[str, object]]:
+    """Return the model options of ``--drift``, ``--free-exponent`` and ``--propagation-speed``."""
+    if propagation_speed is not None and not propagation_speed > 0:
+        raise fail(f"--propagation-speed {propagation_speed:g}: expected a speed > 0 (m/s)")
+    speed = {} if propagation_speed is None else {"propagation_speed": propagation_speed}
+    return {"frequency": {"drift": drift, **speed},
+            "power": {"exponent": None if free_exponent else 2.0}}
 
 
 def is_measurement_file(text: str) -> bool:
-    """Whether a command argument names a measurement file (``.csv``, ``.parquet``, ``.pq``).
-
-    Parameters
-    ----------
-    text : str
-        The argument.
-
-    Returns
-    -------
-    bool
-        True for a measurement file, False for a scenario name or TOML file.
-    """
+    """Whether a command argument names a measurement file (``.csv``, ``.parquet``, ``.pq``)."""
     from ..io import find_format  # the registry, so that a new format is recognised here too
 
     return find_format(text, reading=True) is not None
@@ -360,6 +186,10 @@ MotionOption = Annotated[str | None, typer.Option(
 RefTimeOption = Annotated[float | None, typer.Option(
     help="reference time of the motion parameters (s)")]
 DriftOption = Annotated[bool, typer.Option(help="model a linear carrier drift")]
+PropagationSpeedOption = Annotated[float | None, typer.Option(
+    metavar="M/S", help="speed that carries the frequencies: 1500 for sonar tonals (sound in "
+                        "sea water), 299792458 for radio; default the file's (Debrief "
+                        "replays: 1500), else light's")]
 SensorPositionSigmaOption = Annotated[float | None, typer.Option(
     help="sensor positions known to this std per axis (m): their errors in the bound and the "
          "fit (Ho, Lu & Kovavisaruch 2007), and the loss against known positions")]
@@ -367,6 +197,7 @@ FreeExponentOption = Annotated[bool, typer.Option(help="the path-loss exponent i
 OriginOption = Annotated[str | None, typer.Option(
     help="ENU origin LAT,LON,ALT for files with sensor_lat/sensor_lon")]
 ForceOption = Annotated[bool, typer.Option(help="overwrite existing output files")]
+NoProgressOption = Annotated[bool, typer.Option("--no-progress", help="no progress bar")]
 JsonOption = Annotated[bool, typer.Option("--json", help="print JSON")]
 # Options of the readers of real logs (docs/your-own-data.md).
 FormatOption = Annotated[str | None, typer.Option(
@@ -402,22 +233,7 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
                    range_sigma: float | None = None,
                    frequency_sigma: float | None = None, *, kinds: str | None = None,
                    ranges: str | None = None) -> dict[str, Any]:
-    """Collect the reader options of a command (None when not given).
-
-    Parameters
-    ----------
-    format, ownship, contact, mapping, bearing_sigma
-        ``--format``, ``--ownship``, ``--contact``, ``--mapping``, ``--bearing-sigma``.
-    range_sigma, frequency_sigma
-        ``--range-sigma`` (m) and ``--frequency-sigma`` (Hz).
-    kinds, ranges
-        ``--kinds`` (text) and ``--ranges`` (``use`` or ``ignore``).
-
-    Returns
-    -------
-    dict
-        Keyword arguments of :func:`tmakit.cli.reading.read_or_fail`.
-    """
+    """Collect the reader options of a command (None when not given)."""
     if ranges is not None and ranges not in ("use", "ignore"):
         raise fail(f"--ranges {ranges!r}: expected use or ignore")
     return {"format": format, "ownship": ownship, "contact": contact, "mapping": mapping,

@@ -21,10 +21,12 @@ from .common import (
     MappingOption,
     MotionOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     RefTimeOption,
     SensorPositionSigmaOption,
+    err,
     fail,
     file_ref_time,
     is_measurement_file,
@@ -50,6 +52,7 @@ def crlb(
     known_nuisance: Annotated[bool, typer.Option(
         help="treat carrier, drift, power constant and exponent as known")] = False,
     drift: DriftOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     free_exponent: FreeExponentOption = False,
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
@@ -82,13 +85,15 @@ def crlb(
     source = sources[0]
     if len(sources) > 1 or is_measurement_file(source) or format is not None:
         bound, warnings, meas, opts = bound_of_file(
-            [Path(s) for s in sources], motion, ref_time, truth, known_nuisance, drift,
-            free_exponent, reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                          range_sigma, frequency_sigma, kinds=kinds,
-                                          ranges=ranges))
+            [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
+            model_options(drift, free_exponent, propagation_speed),
+            reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
+                           frequency_sigma, kinds=kinds, ranges=ranges))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
-                                          ("--truth", truth)) if value is not None]
+                                          ("--truth", truth),
+                                          ("--propagation-speed", propagation_speed))
+                 if value is not None]
         if given:  # (not silently ignored)
             raise fail(f"{', '.join(given)}: for a measurement file; a scenario's bound is "
                        f"taken at its own truth and motion ({source} is a scenario)")
@@ -112,31 +117,7 @@ def crlb(
 
 def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: float
                        ) -> tuple[Any, str]:
-    """Give the bound with sensor position errors and a sentence on its loss.
-
-    Parameters
-    ----------
-    bound : tmakit.results.Bound
-        The bound with the positions known (its motion and evaluation point are used).
-    meas : tmakit.data.MeasurementSet or tmakit.scenario.Scenario
-        The rows, or the scenario that lays them out.
-    options : dict
-        Per-kind model options.
-    sigma : float
-        ``--sensor-position-sigma`` (m).
-
-    Returns
-    -------
-    bound : tmakit.results.Bound
-        The bound with the errors.
-    loss : str
-        Each motion parameter's std with the errors over that with the positions known.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the bound cannot be formed (too many rows).
-    """
+    """Give the bound with sensor position errors and a sentence on its loss."""
     from ..bounds.sensor_errors import crlb_with_sensor_errors
     from ..scenario import Scenario
 
@@ -156,47 +137,20 @@ def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: fl
 
 
 def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float | None,
-                  truth: str | None, known_nuisance: bool, drift: bool, free_exponent: bool,
+                  truth: str | None, known_nuisance: bool, kind_options: dict[str, dict[str, Any]],
                   options: dict[str, Any] | None = None
                   ) -> tuple[Any, list[Any], Any, dict[str, Any]]:
-    """Compute the bound of a measurement file's times, sensors, kinds and sigmas.
-
-    It is taken at ``--truth`` (or at the file's own truth when neither ``--truth`` nor
-    ``--motion`` is given).
-
-    Parameters
-    ----------
-    file : Path or list of Path
-        The measurement file (or several Debrief files read as one replay).
-    motion, ref_time, truth : str, float (s), str or None
-        ``--motion``, ``--ref-time``, ``--truth``.
-    known_nuisance, drift, free_exponent : bool
-        ``--known-nuisance``, ``--drift``, ``--free-exponent``.
-    options : dict, optional
-        The reader's options (:func:`~tmakit.cli.common.reader_options`).
-
-    Returns
-    -------
-    bound : tmakit.results.Bound
-        The bound.
-    warnings : list of tmakit.results.SanityWarning
-        The measurements' warnings (:func:`~tmakit.results.checks.measurement_warnings`).
-    meas : tmakit.data.MeasurementSet
-        The file's rows.
-    options : dict
-        The per-kind model options used.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 on bad input or when no truth is known.
-    """
+    """Compute the bound of a measurement file's times, sensors, kinds and sigmas."""
     import json
 
     from ..bounds import crlb as compute
     from ..results.checks import measurement_warnings
 
     meas = read_or_fail(file, **(options or {}))
+    if meas.ambiguous_si is not None:  # a bound reads times and sigmas, not values
+        err.print(f"note: the bound takes the side of the {int(meas.kind_mask('bearing').sum())}"
+                  " towed-array cuts as known (resolved), turn cuts included; tma estimate "
+                  "resolves the sides", highlight=False, soft_wrap=True)
     model = motion_or_fail(motion, ref_time, meas)
     values = parse_assignments(truth, "--truth")
     if not values and "truth" in meas.metadata and motion is None:
@@ -213,7 +167,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
         values = json.loads(meas.metadata["truth"])
     if not values:
         raise fail("--truth is needed to evaluate the bound of a measurement file")
-    opts = model_options(drift, free_exponent)
+    opts = kind_options
     try:
         return (compute(meas, model, values, known_nuisance=known_nuisance, options=opts),
                 measurement_warnings(meas), meas, opts)
@@ -226,29 +180,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
 
 def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
                       free_exponent: bool) -> tuple[Any, Any, dict[str, Any]]:
-    """Compute the bound of a scenario at its truth.
-
-    Parameters
-    ----------
-    source : str
-        Built-in scenario name or TOML file.
-    known_nuisance, drift, free_exponent : bool
-        ``--known-nuisance``, ``--drift``, ``--free-exponent``.
-
-    Returns
-    -------
-    bound : tmakit.results.Bound
-        The bound.
-    scenario : tmakit.scenario.Scenario
-        The scenario (its rows for ``--sensor-position-sigma``).
-    options : dict
-        The per-kind model options used.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the scenario's bound is undefined (its target on a sensor).
-    """
+    """Compute the bound of a scenario at its truth."""
     from ..bounds import crlb as compute
 
     scn = load_scenario_or_fail(source)
@@ -264,21 +196,7 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
 
 
 def derived_at(bound: Any, at: float) -> dict[str, Any]:
-    """Position, speed, course with their standard deviations, and the 90 % ellipse, at a time.
-
-    Parameters
-    ----------
-    bound : tmakit.results.Bound
-        The bound.
-    at : float
-        The time (s).
-
-    Returns
-    -------
-    dict
-        ``{"time": at, name: {"value", "std"}, ..., "ellipse_90": {...}}``; a std is None
-        where the quantity is unobservable.
-    """
+    """Position, speed, course with their standard deviations, and the 90 % ellipse, at a time."""
     data = {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
         "inf") else None} for k, (v, sd) in bound.derived(at).items()},
         "ellipse_90": bound.ellipse(at, 0.9)}
@@ -293,22 +211,7 @@ def derived_at(bound: Any, at: float) -> dict[str, Any]:
 
 def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
                 units: str = "si", warnings: list[Any] | None = None) -> None:
-    """Print the bound, and what :func:`derived_at` gave, as text or JSON.
-
-    Parameters
-    ----------
-    bound : tmakit.results.Bound
-        The bound.
-    derived : dict or None
-        The output of :func:`derived_at`, or None without ``--at``.
-    as_json : bool
-        Print JSON.
-    units : str
-        ``--units``: ``nautical`` shows the speeds at ``--at`` in knots (the JSON stays SI).
-    warnings : list of SanityWarning, optional
-        The measurements' warnings; with the unobservable directions they make the trust
-        (:func:`tmakit.results.trust.bound_trust`), ``trust`` and ``trust_reasons`` in JSON.
-    """
+    """Print the bound, and what :func:`derived_at` gave, as text or JSON."""
     import json
 
     from ..results.trust import bound_trust

@@ -27,6 +27,7 @@ from .common import (
     ContactOption,
     DriftOption,
     FilesArgument,
+    ForceOption,
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
@@ -36,6 +37,7 @@ from .common import (
     MotionOption,
     OriginOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     RefTimeOption,
@@ -112,6 +114,7 @@ def estimate(
         help="ml (default), or a paper's method: gu-direct, ratio, ratio-power, "
              "ratio-doppler, lecture-gn, chan-ho (TDOA), ho-xu (TDOA + FDOA)")] = "ml",
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None, format: FormatOption = None,
     ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None,
@@ -133,7 +136,7 @@ def estimate(
     html: HtmlOption = None, export: ExportOption = None,
     export_every: ExportEveryOption = 60.0, export_rb: ExportRbOption = False,
     export_name: ExportNameOption = None,
-    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+    force: ForceOption = False,
     as_json: JsonOption = False, sensor_position_sigma: SensorPositionSigmaOption = None,
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
@@ -152,7 +155,7 @@ def estimate(
     """
     check_units(units)
     plot = check_output(plot, "--plot", force, "picture", files)
-    model = model_options(drift, free_exponent)
+    model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
                                   export_name, taken=[plot], options=model, files=files)
     options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
@@ -176,27 +179,7 @@ def estimate(
 def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
                     window: tuple[str | None, str | None], leg: int | None, snap: bool,
                     turn_rate: float | None) -> tuple[Any, Any]:
-    """Read the files and keep ``--from``/``--to``, ``--leg N`` or the snapped window.
-
-    Parameters
-    ----------
-    files : list of Path
-        The files.
-    origin : tuple or None
-        ``--origin``.
-    options : dict
-        The reader's options.
-    window : tuple
-        ``--from``, ``--to``.
-    leg, snap, turn_rate
-        ``--leg``, ``--snap``, ``--turn-rate``.
-
-    Returns
-    -------
-    tuple
-        The measurements in the window, and the own ship's legs over the whole record (None
-        without ``--leg``/``--snap``).
-    """
+    """Read the files and keep ``--from``/``--to``, ``--leg N`` or the snapped window."""
     start, stop = window
     if leg is None and not snap:  # a replay's window is applied before its reader's checks
         return select_window(read_or_fail(files, origin, window=window, **options), start,
@@ -208,26 +191,7 @@ def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
 
 def fit_leg_by_leg(meas: Any, fit: Any, turns: tuple[bool, float | None, float | None],
                    as_json: bool, legs: Any) -> tuple[Any, Any]:
-    """Fit (the ambiguity resolved where the bearings have twins); keep the legs in the result.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    fit : callable
-        ``fit(meas) -> EstimateResult``.
-    turns : tuple
-        ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
-    as_json : bool
-        ``--json``.
-    legs : LegsAndTurns or None
-        The legs of the whole record (``--leg``, ``--snap``).
-
-    Returns
-    -------
-    tuple
-        The result and the measurements fitted.
-    """
+    """Fit (the ambiguity resolved where the bearings have twins); keep the legs in the result."""
     result, fitted = fit_with_ambiguity(meas, fit, turns, as_json, legs)
     keep_legs(meas, fitted, result, turns[2], legs)
     return result, fitted
@@ -235,23 +199,7 @@ def fit_leg_by_leg(meas: Any, fit: Any, turns: tuple[bool, float | None, float |
 
 def keep_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None,
               legs: Any = None) -> None:
-    """Keep the own ship's legs and a manoeuvre fit's contact legs in the result (``extra``).
-
-    They are printed after the estimate (:func:`~.legs_out.print_legs`) and are in the JSON.
-
-    Parameters
-    ----------
-    navigation : tmakit.data.MeasurementSet
-        The measurements read (turn cuts included): the own ship's states at every cut.
-    meas : tmakit.data.MeasurementSet
-        The measurements fitted.
-    result : tmakit.results.EstimateResult
-        The fit (``extra["legs"]``, ``extra["contact_legs"]`` are set).
-    turn_rate : float or None
-        ``--turn-rate``.
-    legs : LegsAndTurns, optional
-        The legs of the whole record (``--leg``, ``--snap``); default those of ``navigation``.
-    """
+    """Keep the own ship's legs and a manoeuvre fit's contact legs in the result (``extra``)."""
     from ..results.own_legs import contact_legs
 
     legs = legs_of(navigation, turn_rate) if legs is None else legs
@@ -263,27 +211,12 @@ def keep_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None,
 
 
 def grouped_by_kind(meas: Any) -> Any:
-    """Reorder a set of many rows by kind (file order within a kind), the order of the fit.
-
-    The solvers work on the rows grouped by kind (:attr:`ObservationModel.order
-    <tmakit.observation.ObservationModel.order>`) and hold a grouped copy of a set whose kinds
-    alternate (about 150 bytes per row); above :data:`tmakit.core.blas.CHUNKED_ROWS` rows the set
-    is reordered here, once, so no copy is held beside it (the fit is the same).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-
-    Returns
-    -------
-    tmakit.data.MeasurementSet
-        ``meas`` itself when it is small or already grouped, else its rows grouped by kind.
-    """
+    """Reorder a set of many rows by kind (file order within a kind), the order of the fit."""
     import numpy as np
 
     from ..core import blas
 
+    # (the solvers hold a grouped copy, ~150 bytes a row, of a set whose kinds alternate)
     if len(meas) <= blas.CHUNKED_ROWS or len(meas.kinds) == 1:
         return meas
     order = np.concatenate([np.flatnonzero(meas.kind_mask(k)) for k in meas.kinds])
@@ -294,33 +227,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
            start: dict[str, float] | None, method: str, options: dict[str, Any],
            manoeuvre: tuple[bool, str | None, float | None, str | None],
            dim: int | None = None, sensor_position_sigma: float | None = None) -> Any:
-    """Return the fit the options ask for, as a function of the measurements.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements (their metadata may name the motion).
-    motion, ref_time, start, method, options
-        ``--motion``, ``--ref-time``, ``--init`` by name, ``--method`` and the measurement
-        model options.
-    manoeuvre : tuple
-        ``--exact``, ``--criterion``, ``--alpha``, ``--accelerations``.
-    dim : int or None
-        ``--dim``: 2 keeps the 2-D fit, 3 fits the 3-D counterpart, None lets the data choose
-        (:func:`tmakit.batch.height.choose_height`).
-    sensor_position_sigma : float or None
-        ``--sensor-position-sigma`` (m): the fit that accounts for sensor position errors.
-
-    Returns
-    -------
-    callable
-        ``fit(meas) -> EstimateResult``; errors become ``error: ...`` with status 2.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 on bad options.
-    """
+    """Return the fit the options ask for, as a function of the measurements."""
     if sensor_position_sigma is not None:
         return sensor_error_fitter(meas, motion, ref_time, method, options,
                                    sensor_position_sigma)
@@ -365,27 +272,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
 
 def sensor_error_fitter(meas: Any, motion: str | None, ref_time: float | None, method: str,
                         options: dict[str, Any], sigma: float) -> Any:
-    """Return the fit that accounts for sensor position errors (``--sensor-position-sigma``).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements (their metadata may name the motion).
-    motion, ref_time, method, options
-        ``--motion``, ``--ref-time``, ``--method`` (ml only) and the model options.
-    sigma : float
-        ``--sensor-position-sigma`` (m).
-
-    Returns
-    -------
-    callable
-        ``fit(meas) -> EstimateResult``; errors become ``error: ...`` with status 2.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a bad sigma, another method or a manoeuvring motion.
-    """
+    """Return the fit that accounts for sensor position errors (``--sensor-position-sigma``)."""
     import math
 
     from ..batch.sensor_errors import estimate_with_sensor_errors
@@ -409,29 +296,7 @@ def sensor_error_fitter(meas: Any, motion: str | None, ref_time: float | None, m
 
 
 def with_height(meas: Any, result: Any, options: dict[str, Any], dim: int | None) -> Any:
-    """Return the 2-D fit or its 3-D counterpart, as the data (or ``--dim``) choose.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    result : tmakit.results.EstimateResult
-        Their fit.
-    options : dict
-        Measurement-model options.
-    dim : int or None
-        ``--dim``.
-
-    Returns
-    -------
-    tmakit.results.EstimateResult
-        The fit chosen; the test's numbers in ``extra["height"]``.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for ``--dim 3`` where no height can be fitted.
-    """
+    """Return the 2-D fit or its 3-D counterpart, as the data (or ``--dim``) choose."""
     from ..batch.height import choose_height, height_matters
 
     if dim == 2:
@@ -449,29 +314,7 @@ def with_height(meas: Any, result: Any, options: dict[str, Any], dim: int | None
 
 def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
                  ) -> tuple[Any, Any, dict[str, float]]:
-    """``--scale-sigma``: rescale each kind's sigma from the residuals and fit again.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    result : tmakit.results.EstimateResult
-        The first fit.
-    fit : callable
-        The fit (:func:`fitter`).
-    options : dict
-        Measurement-model options (for the residuals).
-
-    Returns
-    -------
-    tuple
-        The rescaled measurements, the new fit and the factor per kind.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the first fit leaves nothing to rescale from.
-    """
+    """``--scale-sigma``: rescale each kind's sigma from the residuals and fit again."""
     from ..results import normalised_residuals, scale_sigma
 
     try:
@@ -486,33 +329,7 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
                          options: dict[str, Any], ref_time: float | None, exact: bool,
                          criterion: str | None, alpha: float | None,
                          accelerations: str | None) -> Any:
-    """Compute the ML estimate of a manoeuvring target (``--motion curvilinear[:M]``).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    name : str
-        ``curvilinear`` or ``curvilinear:M``.
-    start : dict or None
-        ``--init`` values by name (m, m/s, ...).
-    options : dict
-        Measurement-model options.
-    ref_time : float or None
-        Reference time of the motion parameters (s).
-    exact, criterion, alpha, accelerations
-        ``--exact``, ``--criterion`` (default bic), ``--alpha`` (default 0.01), ``--accelerations``.
-
-    Returns
-    -------
-    tmakit.results.EstimateResult
-        The estimate.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 on bad input.
-    """
+    """Compute the ML estimate of a manoeuvring target (``--motion curvilinear[:M]``)."""
     from ..batch.curvilinear import estimate_for
 
     try:
@@ -529,34 +346,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                    factors: dict[str, float] | None = None,
                    plot: tuple[Path | None, Path | str, Any] | None = None,
                    more: SolutionOutputs | None = None) -> None:
-    """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements (their metadata may give the ENU origin).
-    result : tmakit.results.EstimateResult
-        The estimate.
-    as_json : bool
-        Print JSON.
-    answer : tmakit.results.answers.Answer, optional
-        The estimate in the user's terms (default: at the last measurement).
-    units : str
-        ``si`` or ``nautical``.
-    warnings : list of tmakit.results.checks.SanityWarning, optional
-        Printed on standard error, and in the JSON.
-    factors : dict, optional
-        ``--scale-sigma``'s factor per kind.
-    plot : tuple, optional
-        ``(picture path or None, measurement file, model options)``.
-    more : SolutionOutputs, optional
-        The solution page and exports (``--html``, ``--export``).
-
-    Raises
-    ------
-    typer.Exit
-        Status 4 (:data:`~tmakit.cli.guard.EXIT_NO_ANSWER`) when the trust is ``none``.
-    """
+    """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer."""
     from ..results.trust import trust_of
     from .guard import EXIT_NO_ANSWER
 
@@ -598,23 +388,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
 
 def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, Path | str, Any],
                   say: Any, units: str = "si") -> None:
-    """Draw the solution picture (``--plot``) and say so.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements fitted.
-    result : tmakit.results.EstimateResult
-        The estimate.
-    answer : tmakit.results.answers.Answer
-        The estimate in the user's terms.
-    plot : tuple
-        ``(picture path, measurement file, model options)``.
-    say : rich.console.Console
-        Where to report.
-    units : str
-        ``si`` or ``nautical``: the units of speed and range in the picture's title.
-    """
+    """Draw the solution picture (``--plot``) and say so."""
     from ..plot.solution import plot_solution
     from ..results import normalised_residuals
 

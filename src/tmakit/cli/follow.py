@@ -85,17 +85,7 @@ class _Source:
 
 
 class GrowingFiles:
-    """Snapshots of growing text files (their complete lines), in a folder.
-
-    Parameters
-    ----------
-    paths : list of Path
-        The files; ``-`` is standard input (its format from ``fmt``).
-    fmt : str or None
-        ``--format``.
-    folder : Path
-        Where the snapshots are kept.
-    """
+    """Snapshots of growing text files (their complete lines), in a folder."""
 
     def __init__(self, paths: list[Path], fmt: str | None, folder: Path) -> None:
         names: set[str] = set()
@@ -129,37 +119,14 @@ class GrowingFiles:
         return any(s.ended for s in self.sources if s.lines is not None)
 
     def poll(self) -> bool:
-        """Take in what arrived; whether any snapshot gained complete lines.
-
-        Returns
-        -------
-        bool
-            True when there is new data to work on.
-        """
+        """Take in what arrived; whether any snapshot gained complete lines."""
         grew = [s.poll() for s in self.sources]
         return any(grew)
 
 
 def follow(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bool],
            interval: float, max_updates: int | None, say: Any) -> None:
-    """Run ``update`` on the snapshots each time the files grow, until told to stop.
-
-    Parameters
-    ----------
-    paths : list of Path
-        The files followed (``-``: standard input).
-    fmt : str or None
-        ``--format``.
-    update : callable
-        ``update(snapshots) -> bool``: one update of the command's work; False when the data
-        do not yet give one (it has said why).
-    interval : float
-        Seconds between looks at the files when nothing arrived.
-    max_updates : int or None
-        Stop after this many updates.
-    say : rich.console.Console
-        Where to report the stop.
-    """
+    """Run ``update`` on the snapshots each time the files grow, until told to stop."""
     from .guard import Terminated
 
     if not interval > 0:

@@ -42,20 +42,7 @@ WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO, er
 
 
 def write_failed(exc: OSError, command: str) -> int:
-    """Say in one line that output could not be written; give the exit status (1).
-
-    Parameters
-    ----------
-    exc : OSError
-        The error (one of :data:`WRITE_ERRORS`).
-    command : str
-        The command, as typed after ``tma`` (``""`` for ``tma`` itself).
-
-    Returns
-    -------
-    int
-        :data:`EXIT_STATUS`.
-    """
+    """Say in one line that output could not be written; give the exit status (1)."""
     where = f" {exc.filename}" if exc.filename else " its output"
     name = f"tma {command}".strip()
     try:
@@ -71,21 +58,12 @@ class Terminated(BaseException):
 
 
 def set_debug(on: bool) -> None:
-    """Show tracebacks and RuntimeWarnings on the terminal (``tma --debug``).
-
-    Parameters
-    ----------
-    on : bool
-        Debug output on.
-    """
+    """Show tracebacks and RuntimeWarnings on the terminal (``tma --debug``)."""
     _state["debug"] = bool(on) or bool(os.environ.get("TMA_DEBUG"))
 
 
 def install_sigterm() -> None:
-    """Turn SIGTERM into :class:`Terminated` so that temporary files are removed.
-
-    Only from the main thread of the ``tma`` process (the console script).
-    """
+    """Turn SIGTERM into :class:`Terminated` so that temporary files are removed."""
     import signal
     import threading
 
@@ -158,21 +136,7 @@ def _refuse_non_finite(options: dict[str, Any]) -> None:
 
 
 def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Wrap a ``tma`` command: unexpected exceptions become ``error: ...`` (exit 3).
-
-    ``typer.Exit`` (the commands' own ``error: ...`` exits and successes) and click's usage
-    errors pass through unchanged.
-
-    Parameters
-    ----------
-    command : callable
-        The command function (its signature defines the options).
-
-    Returns
-    -------
-    callable
-        The same command, guarded.
-    """
+    """Wrap a ``tma`` command: unexpected exceptions become ``error: ...`` (exit 3)."""
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:

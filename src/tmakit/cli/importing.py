@@ -141,21 +141,7 @@ def import_(
 
 
 def print_guess(fmt: str, files: list[Path]) -> None:
-    """Print the mapping proposed for a wide log's header (``--guess``).
-
-    Parameters
-    ----------
-    fmt : str
-        The format asked for (``wide`` only).
-    files : list of Path
-        The log (one file).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for another format, a missing or unreadable file, or a header with no
-        known time or measurement column.
-    """
+    """Print the mapping proposed for a wide log's header (``--guess``)."""
     if fmt != "wide" or len(files) != 1:
         raise fail("--guess proposes the mapping of one wide log: tma import wide FILE --guess")
     from ..io.errors import MeasurementFileError, refuse_unreadable
@@ -173,15 +159,7 @@ def print_guess(fmt: str, files: list[Path]) -> None:
 
 
 def print_import(meas: Any, output: Path | None) -> None:
-    """Print what was imported: rows, clock time, frame, and the choices made.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The set written.
-    output : Path or None
-        The file written (None: only the clock time, frame and choices are printed).
-    """
+    """Print what was imported: rows, clock time, frame, and the choices made."""
     meta = meas.metadata
     counts = ", ".join(f"{r['count']} {r['kind']} ({r['unit']}) from {r['sensor']}"
                        for r in meas.summary_rows())

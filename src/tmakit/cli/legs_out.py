@@ -25,25 +25,7 @@ SettleOption = Annotated[float | None, typer.Option(
 
 
 def legs_of(meas: Any, turn_rate: float | None) -> Any:
-    """Return the own ship's legs (None when the set has several sensors or one that is still).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    turn_rate : float or None
-        ``--turn-rate`` (deg/s).
-
-    Returns
-    -------
-    tmakit.results.own_legs.LegsAndTurns or None
-        The legs and turns.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a turn rate that is not positive.
-    """
+    """Return the own ship's legs (None when the set has several sensors or one that is still)."""
     import numpy as np
 
     from ..results.own_legs import TURN_RATE_DEG_S, own_ship_legs
@@ -59,32 +41,7 @@ def legs_of(meas: Any, turn_rate: float | None) -> Any:
 
 def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, snap: bool,
                turn_rate: float | None) -> tuple[str | None, str | None, Any]:
-    """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        Every measurement read (before any window).
-    leg : int or None
-        ``--leg``.
-    start, stop : str or None
-        ``--from``, ``--to``.
-    snap : bool
-        ``--snap``.
-    turn_rate : float or None
-        ``--turn-rate``.
-
-    Returns
-    -------
-    tuple
-        The window's ends, seconds as text (or None), and the legs of the whole record.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2: ``--leg`` with ``--from``/``--to``, a leg that does not exist, no own-ship
-        legs (several sensors, or a still one).
-    """
+    """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``."""
     legs = legs_of(meas, turn_rate)
     if legs is None:
         raise fail("--leg/--snap: own-ship legs need one moving sensor (the own ship); the "
@@ -115,54 +72,29 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
             snapped(stop, "--to", ends_stop, ends_start), legs)
 
 
-def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
-    """Return the own-ship legs and turns in words, with the thresholds.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements (clock times).
-    legs : dict
-        The legs' JSON form (:meth:`LegsAndTurns.as_dict
-        <tmakit.results.own_legs.LegsAndTurns.as_dict>`) with the own ship's name (``sensor``).
-    units : str
-        ``si`` or ``nautical``.
-
-    Returns
-    -------
-    list of str
-        A heading line, then one line per leg and turn.
-    """
+def _span(meas: Any, part: dict[str, Any]) -> str:
+    """Give a leg's or turn's ``start to stop``: UTC clock times (HH:MM:SS), else seconds."""
     from ..results.context import clock_time
 
-    def when(t: float) -> str:
-        clock = clock_time(meas, t)
-        return f"{t:g} s" if clock is None else clock[11:19]
+    clocks = [(t, clock_time(meas, t)) for t in (part["start"], part["stop"])]
+    return " to ".join(f"{t:g} s" if c is None else c[11:19] for t, c in clocks)
 
+
+def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
+    """Return the own-ship legs and turns in words, with the thresholds."""
     unit, scale = SPEED_UNITS[units]
     lines = [f"own-ship legs of {legs['sensor']} ({legs['thresholds']}):"]
     for k, leg in enumerate(legs["legs"]):
-        lines.append(f"  leg {k + 1}: {when(leg['start'])} to {when(leg['stop'])}, heading "
+        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, heading "
                      f"{leg['course_deg']:.1f} deg at {leg['speed'] / scale:.3g} {unit}")
         if k < len(legs["turns"]):
             u = legs["turns"][k]
-            lines.append(f"  turn: {when(u['start'])} to {when(u['stop'])}, "
-                         f"{u['change_deg']:+.0f} deg")
+            lines.append(f"  turn: {_span(meas, u)}, {u['change_deg']:+.0f} deg")
     return lines
 
 
 def print_legs(meas: Any, result: Any, units: str) -> None:
-    """Print the own-ship legs and the contact's legs a fit carries (``extra``).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements fitted (clock times).
-    result : tmakit.results.EstimateResult
-        The fit (``extra["legs"]``, ``extra["contact_legs"]``).
-    units : str
-        ``si`` or ``nautical``.
-    """
+    """Print the own-ship legs and the contact's legs a fit carries (``extra``)."""
     legs, target = result.extra.get("legs"), result.extra.get("contact_legs")
     lines = (legs_lines(meas, legs, units) if legs else []) + (
         contact_legs_lines(meas, target, units) if target else [])
@@ -171,68 +103,22 @@ def print_legs(meas: Any, result: Any, units: str) -> None:
 
 
 def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:
-    """Return the contact's legs of a manoeuvre fit in words.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements (clock times).
-    legs : list of dict
-        :func:`tmakit.results.own_legs.contact_legs`.
-    units : str
-        ``si`` or ``nautical``.
-
-    Returns
-    -------
-    list of str
-        A heading line and one line per leg.
-    """
-    from ..results.context import clock_time
-
-    def when(t: float) -> str:
-        clock = clock_time(meas, t)
-        return f"{t:g} s" if clock is None else clock[11:19]
-
+    """Return the contact's legs of a manoeuvre fit in words."""
     unit, scale = SPEED_UNITS[units]
     lines = ["contact legs (the manoeuvre fit's segments):"]
     for k, leg in enumerate(legs):
         course = (f"course {leg['course_deg']:.1f} deg" if leg["turn_deg"] is None
                   or abs(leg["turn_deg"]) < 1.0 else
                   f"turning {leg['course_start_deg']:.1f} to {leg['course_deg']:.1f} deg")
-        lines.append(f"  leg {k + 1}: {when(leg['start'])} to {when(leg['stop'])}, {course}, "
-                     f"speed {leg['speed'] / scale:.3g} {unit}")
+        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, {course}, speed "
+                     f"{leg['speed'] / scale:.3g} {unit}")
     return lines
 
 
 def fit_with_ambiguity(meas: Any, fit: Any,
                        turns: tuple[bool, float | None, float | None], as_json: bool,
                        legs: Any = None) -> tuple[Any, Any]:
-    """Fit, resolving a towed array's ambiguity when the bearings carry twins.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    fit : callable
-        ``fit(meas) -> EstimateResult``.
-    turns : tuple
-        ``--keep-turn-cuts``, ``--settle``, ``--turn-rate``.
-    as_json : bool
-        Print the decisions on standard error (the JSON carries them too).
-    legs : LegsAndTurns, optional
-        The own ship's legs over the whole record (``--leg``, ``--snap``); default those of
-        ``meas``.
-
-    Returns
-    -------
-    tuple
-        The result and the measurements fitted (each ambiguous cut on its chosen side).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for bad options or nothing left to fit.
-    """
+    """Fit, resolving a towed array's ambiguity when the bearings carry twins."""
     import numpy as np
 
     keep_turn_cuts, settle, turn_rate = turns
@@ -255,3 +141,43 @@ def fit_with_ambiguity(meas: Any, fit: Any,
     for line in amb.lines(meas):
         say.print(line, highlight=False, soft_wrap=True)
     return amb.result, amb.measurements
+
+
+def sides_for_filter(meas: Any, dim: int) -> Any:
+    """``tma track``: each ambiguous cut on the side the batch fit chooses, decisions printed.
+
+    Parameters
+    ----------
+    meas : tmakit.data.MeasurementSet
+        The measurements.
+    dim : int
+        The filter's dimension (the batch fit is cv2d or cv3d).
+
+    Returns
+    -------
+    tmakit.data.MeasurementSet
+        ``meas`` without twins as it is; else the cuts on their legs' sides, turn cuts out.
+
+    Raises
+    ------
+    typer.Exit
+        Status 2 when nothing is left to track.
+    """
+    import numpy as np
+
+    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+        return meas
+    from ..batch.ambiguity import resolve_ambiguity
+
+    try:
+        amb = resolve_ambiguity(meas, f"cv{dim}d")
+    except ValueError as e:
+        raise fail(str(e)) from None
+    for line in amb.lines(meas):
+        err.print(line, highlight=False, soft_wrap=True)
+    if not amb.resolved:
+        err.print("note: a filter follows one bearing per cut: the track takes the best fit's "
+                  "side of each unresolved leg, and the mirror track fits about as well (tma "
+                  "estimate reports both)", highlight=False, soft_wrap=True)
+    return amb.measurements
+

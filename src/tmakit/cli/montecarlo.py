@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .common import err, fail, load_scenario_or_fail, out, print_wide
+from .common import ForceOption, NoProgressOption, err, fail, load_scenario_or_fail, out, print_wide
 from .outputs import check_outputs, claim_outputs
 
 #: Default limit of ``--runs`` (raise with ``--max-runs``).
@@ -36,9 +36,7 @@ def montecarlo(
         "interrupted or fails, the finished runs go to NAME.partial.csv")] = None,
     json_file: Annotated[Path | None, typer.Option(
         "--json", help="write the summary as JSON")] = None,
-    no_progress: Annotated[bool, typer.Option("--no-progress",
-                                              help="no progress bar")] = False,
-    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+    no_progress: NoProgressOption = False, force: ForceOption = False,
     max_runs: Annotated[int, typer.Option(
         min=1, help="refuse more runs than this (each run holds its seed and table row; "
         "raise it for a larger study)")] = MAX_RUNS,
@@ -112,17 +110,7 @@ def _write_results(res: Any, output: Path | None, json_file: Path | None,
 
 
 def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
-    """Write the finished runs of a study that did not end (``NAME.partial.csv``).
-
-    Parameters
-    ----------
-    finished : list of ChunkOutput
-        The chunks finished so far.
-    scn : tmakit.scenario.Scenario
-        The scenario (its parameter names).
-    partial : Path or None
-        Where to write them (checked before the study started); None: nowhere.
-    """
+    """Write the finished runs of a study that did not end (``NAME.partial.csv``)."""
     if partial is None or not finished:
         return
     from ..io.tables import write_table
@@ -134,15 +122,7 @@ def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
 
 
 def print_summary(res: Any) -> None:
-    """Print the Monte Carlo summary table and the convergence and speed line.
-
-    Per parameter: bias, RMSE, CRLB, their ratio with its 95 % interval.
-
-    Parameters
-    ----------
-    res : tmakit.montecarlo.MonteCarloResult
-        The Monte Carlo result.
-    """
+    """Print the Monte Carlo summary table and the convergence and speed line."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     counts = ", ".join(f"{k} {v}" for k, v in res.status_counts.items())

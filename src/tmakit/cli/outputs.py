@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from .common import fail
+from .common import fail, refuse_existing
 
 __all__ = ["PAGE_SUFFIXES", "PICTURE_SUFFIXES", "SOLUTION_SUFFIXES", "TABLE_SUFFIXES",
            "check_output", "check_outputs",
@@ -34,34 +34,7 @@ _FORMATS = {"picture": PICTURE_SUFFIXES, "table": TABLE_SUFFIXES, "json": None,
 
 def check_output(path: Path | None, option: str, force: bool, kind: str = "table",
                  inputs: Iterable[Path] = ()) -> Path | None:
-    """Resolve and check one output path before any computation.
-
-    Parameters
-    ----------
-    path : Path or None
-        The path given (None: no such output).
-    option : str
-        The option's name (``-o``, ``--plot``, ``--json``) for the messages.
-    force : bool
-        ``--force``: an existing file may be replaced.
-    kind : {"table", "measurements", "picture", "json", "page", "solution"}
-        What is written: tables take .csv/.parquet/.pq, measurement files a writable format
-        of the registry; pictures .png/.pdf/.svg (none given: .png); JSON any suffix; the
-        solution page .html/.htm; an exported solution .rep/.geojson/.kml.
-    inputs : iterable of Path, optional
-        The files the command reads: never written over, even with ``--force`` (the
-        command would destroy its own input, and a failure halfway would lose both).
-
-    Returns
-    -------
-    Path or None
-        The exact file that will be written.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2, naming the option, for the first problem found.
-    """
+    """Resolve and check one output path before any computation."""
     if path is None:
         return None
     given, path = path, Path(path)
@@ -95,8 +68,7 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
             if Path(source).is_file() and _same_file(Path(source), path):
                 raise fail(f"{option} {path}: is the input file {source} of this command; it "
                            "is never written over, --force or not: write to another file")
-        if not force:
-            raise fail(f"{path} already exists; use --force to overwrite it")
+        refuse_existing(path, force)
     return path
 
 
@@ -112,13 +84,7 @@ _ARGUMENTS: dict[str, Any] = {}
 
 
 def note_arguments(arguments: dict[str, Any]) -> None:
-    """Remember the running command's arguments: the files they name are its inputs.
-
-    Parameters
-    ----------
-    arguments : dict
-        The command's parameters by name, as it was called.
-    """
+    """Remember the running command's arguments: the files they name are its inputs."""
     _ARGUMENTS.clear()
     _ARGUMENTS.update(arguments)
 
@@ -140,27 +106,7 @@ def _command_inputs(given: object) -> list[Path]:
 
 def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool,
                   inputs: Iterable[Path] = ()) -> list[Path | None]:
-    """Check several outputs (:func:`check_output`) and refuse two options naming one file.
-
-    Parameters
-    ----------
-    outputs : iterable of (str, Path or None, str)
-        ``(option, path, kind)`` for each output.
-    force : bool
-        ``--force``.
-    inputs : iterable of Path, optional
-        The files the command reads (never written over; :func:`check_output`).
-
-    Returns
-    -------
-    list of Path or None
-        The resolved paths, in order.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for the first problem.
-    """
+    """Check several outputs (:func:`check_output`) and refuse two options naming one file."""
     resolved: list[Path | None] = []
     seen: dict[Path, str] = {}
     inputs = list(inputs)
@@ -193,24 +139,7 @@ def _alive(pid: int) -> bool:
 def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
     """Hold the outputs of a long command for it alone while it runs (a lock file beside each).
 
-    A second ``tma`` run writing to the same file is refused at its start, naming the run that holds
-    it.  The lock is ``.NAME.tma-lock`` beside the output (the process id; a dead process's lock
-    is taken over).
-
-    Parameters
-    ----------
-    paths : iterable of Path or None
-        The outputs (checked by :func:`check_output`); None entries are skipped.
-
-    Yields
-    ------
-    None
-        While the outputs are held.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when another running process holds one of them.
+    The lock is ``.NAME.tma-lock`` (the process id; a dead process's lock is taken over).
     """
     held: list[Path] = []
     try:
@@ -240,22 +169,7 @@ def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
 
 
 def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
-    """Draw a picture into a temporary file and move it into place (never a partial file).
-
-    Parameters
-    ----------
-    path : Path
-        The picture (resolved by :func:`check_output`).
-    force : bool
-        Replace an existing file.
-    draw : callable
-        Writes the picture to the path it is given (whose suffix names the format).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the file appeared meanwhile (without ``force``).
-    """
+    """Draw a picture into a temporary file and move it into place (never a partial file)."""
     from ..io import atomic_write
 
     try:
@@ -266,13 +180,7 @@ def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
 
 
 def memory_limit() -> int:
-    """Give the memory a command may plan to use (bytes): ``TMA_MAX_MEMORY_GB``, default 2.
-
-    Returns
-    -------
-    int
-        The limit in bytes.
-    """
+    """Give the memory a command may plan to use (bytes): ``TMA_MAX_MEMORY_GB``, default 2."""
     try:
         gb = float(os.environ.get("TMA_MAX_MEMORY_GB", "2"))
     except ValueError:
@@ -282,25 +190,7 @@ def memory_limit() -> int:
 
 def check_particles(particles: int | None, option: str = "--particles",
                     bytes_per_particle: int = 8 * 8 * 8) -> None:
-    """Refuse a particle count whose working arrays would not fit the memory limit.
-
-    A particle filter holds a few arrays of (particles, state + nuisance) doubles; about
-    ``bytes_per_particle`` bytes per particle in all (default 8 values x 8 bytes x 8 copies).
-
-    Parameters
-    ----------
-    particles : int or None
-        The count asked for (None: the default).
-    option : str
-        The option's name, for the message.
-    bytes_per_particle : int
-        Estimated working memory per particle (bytes).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 naming the size, the limit and how to raise it.
-    """
+    """Refuse a particle count whose working arrays would not fit the memory limit."""
     if particles is None:
         return
     need = particles * bytes_per_particle

@@ -28,19 +28,7 @@ VALUE_NAMES = {
 
 
 def value_name(param: Any) -> str:
-    """Name the value a parameter takes, for help: ``FILE``, ``N``, ``LAT,LON,ALT``.
-
-    Parameters
-    ----------
-    param : Parameter
-        An option or argument of a ``tma`` command (typer's own click ``Parameter``).
-
-    Returns
-    -------
-    str
-        The parameter's own metavar when it sets one, else the name in :data:`VALUE_NAMES`,
-        else the parameter's name in capitals.
-    """
+    """Name the value a parameter takes, for help: ``FILE``, ``N``, ``LAT,LON,ALT``."""
     if param.metavar:
         return param.metavar
     name = param.name or ""
@@ -48,18 +36,7 @@ def value_name(param: Any) -> str:
 
 
 def option_label(option: Any) -> str:
-    """Label an option for help: ``-o, --output FILE`` or ``--drift / --no-drift``.
-
-    Parameters
-    ----------
-    option : Option
-        The option.
-
-    Returns
-    -------
-    str
-        Its names, then the name of its value unless it is a flag.
-    """
+    """Label an option for help: ``-o, --output FILE`` or ``--drift / --no-drift``."""
     names = ", ".join(sorted(option.opts, key=len))
     if option.secondary_opts:
         names += " / " + ", ".join(option.secondary_opts)
@@ -70,20 +47,7 @@ def option_label(option: Any) -> str:
 
 
 def argument_label(argument: Any, usage: bool) -> str:
-    """Label an argument as the help shows it: ``FILE``, ``FILE...``; ``[DIR]`` when optional.
-
-    Parameters
-    ----------
-    argument : Argument
-        The argument.
-    usage : bool
-        For the usage line (optional arguments in brackets) rather than the argument list.
-
-    Returns
-    -------
-    str
-        The argument's label.
-    """
+    """Label an argument as the help shows it: ``FILE``, ``FILE...``; ``[DIR]`` when optional."""
     label = value_name(argument) + ("..." if argument.nargs != 1 else "")
     return f"[{label}]" if usage and not argument.required else label
 
@@ -92,32 +56,13 @@ class PlainCommand(TyperCommand):
     """A typer command whose help names values (``--seed N``) instead of types (``<int>``)."""
 
     def collect_usage_pieces(self, ctx: Any) -> list[str]:
-        """Usage line pieces: ``[OPTIONS]`` then the arguments by name.
-
-        Parameters
-        ----------
-        ctx : Context
-            The command's context.
-
-        Returns
-        -------
-        list of str
-            The pieces after the command's name.
-        """
+        """Usage line pieces: ``[OPTIONS]`` then the arguments by name."""
         pieces = [self.options_metavar] if self.options_metavar else []
         return pieces + [argument_label(p, usage=True) for p in self.get_params(ctx)
                          if p.param_type_name == "argument"]
 
     def format_options(self, ctx: Any, formatter: Any) -> None:
-        """Write the ``Arguments`` and ``Options`` sections with values named, not typed.
-
-        Parameters
-        ----------
-        ctx : Context
-            The command's context.
-        formatter : HelpFormatter
-            Where the help is written.
-        """
+        """Write the ``Arguments`` and ``Options`` sections with values named, not typed."""
         sections: dict[str, list[tuple[str, str]]] = {"Arguments": [], "Options": []}
         for param in self.get_params(ctx):
             record: Any = param.get_help_record(ctx)

@@ -13,32 +13,8 @@ from typing import Annotated, Any
 import typer
 from rich.markup import escape
 
-from .common import ForceOption, err, fail, out
-from .outputs import check_outputs as _check_paths
-
-
-def check_outputs(paths: list[tuple[str, Path | None]], force: bool) -> list[Path | None]:
-    """Refuse bad output paths before running (:func:`tmakit.cli.outputs.check_outputs`).
-
-    Parameters
-    ----------
-    paths : list of (str, Path or None)
-        ``("-o", path)`` and ``("--plot", path)``.
-    force : bool
-        ``--force``.
-
-    Returns
-    -------
-    list of Path or None
-        The exact files that will be written.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for the first bad path.
-    """
-    return _check_paths([(option, path, "picture" if option == "--plot" else "table")
-                         for option, path in paths], force)
+from .common import ForceOption, NoProgressOption, err, fail, out
+from .outputs import check_outputs
 
 
 # `tma plan`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -65,11 +41,11 @@ def plan(
         help="auto (the mission planner for a sensor that measures no range, else the "
              "horizon planner), mission or horizon (default: the table's, auto)")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
-    no_progress: Annotated[bool, typer.Option("--no-progress", help="no progress bar")] = False,
+    no_progress: NoProgressOption = False,
     force: ForceOption = False,
 ) -> None:
     """Steer the scenario's sensor by the predicted posterior CRB, beside its fixed pattern."""
-    output, plot = check_outputs([("-o", output), ("--plot", plot)], force)
+    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if runs is not None and runs < 1:
         raise fail("--runs must be 1 or more")
     if particles is not None and particles < 2:
@@ -119,25 +95,7 @@ def plan(
 
 
 def json_summary(result: Any, seed: int) -> dict[str, Any]:
-    """Return what ``tma plan --json`` prints.
-
-    Parameters
-    ----------
-    result : tmakit.montecarlo.planned.PlanRun
-        The runs.
-    seed : int
-        The seed.
-
-    Returns
-    -------
-    dict
-        ``scenario``, ``seed``, ``runs``, ``steps``, ``planner`` (``mission`` or
-        ``horizon``) and ``planner_description``; ``planned`` and ``fixed`` (each the
-        case's summary: ``final_rmse_m``, ``final_pcrb_m``, ``rmse_over_pcrb`` and its
-        interval, ``final_criterion_m``, ...; ``fixed`` null without a fixed pattern, and
-        ``fixed_note`` says why); ``comparison`` (``planned_over_fixed``, ``low``, ``high``,
-        ``verdict``) and ``warnings``.
-    """
+    """Return what ``tma plan --json`` prints."""
     from ..montecarlo.planned import CASE, FIXED, describe
 
     has_fixed = FIXED in result.study.cases
@@ -151,19 +109,7 @@ def json_summary(result: Any, seed: int) -> dict[str, Any]:
 
 
 def start_warnings(setup: Any) -> list[str]:
-    """Say which constraints the steered sensor already breaks where it starts.
-
-    Parameters
-    ----------
-    setup : tmakit.planning.setup.PlanningSetup
-        The loaded planning table.
-
-    Returns
-    -------
-    list of str
-        One sentence per constraint broken at the start (by the true target's position for the range
-        limits): the planner steers out of it, and the steps until then are counted as violated.
-    """
+    """Say which constraints the steered sensor already breaks where it starts."""
     import numpy as np
 
     start = np.asarray(setup.start.position, dtype=float)[None, :]
@@ -182,19 +128,7 @@ def start_warnings(setup: Any) -> list[str]:
 
 def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bool,
                   console: Any) -> None:
-    """Write the per-step table and the picture, saying so on ``console``.
-
-    Parameters
-    ----------
-    result : tmakit.montecarlo.planned.PlanRun
-        The runs.
-    output, plot : Path or None
-        ``-o`` and ``--plot``.
-    force : bool
-        Overwrite existing files.
-    console : rich.console.Console
-        Where the "wrote" lines go (standard error with --json).
-    """
+    """Write the per-step table and the picture, saying so on ``console``."""
     if output is not None:
         from ..io.tables import write_table
 
@@ -209,15 +143,7 @@ def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bo
 
 
 def print_summary(result: Any, seed: int) -> None:
-    """Print the planned path's figures beside the fixed pattern's.
-
-    Parameters
-    ----------
-    result : tmakit.montecarlo.planned.PlanRun
-        The runs.
-    seed : int
-        The seed, for the title.
-    """
+    """Print the planned path's figures beside the fixed pattern's."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     from ..montecarlo.planned import CASE, FIXED, describe
@@ -269,17 +195,7 @@ def print_summary(result: Any, seed: int) -> None:
 
 
 def interval(low: float | None, high: float | None) -> str:
-    """Return `` (95 %: low-high)``, or that the runs are too few for an interval.
-
-    Parameters
-    ----------
-    low, high : float or None
-        The interval (None: too few runs).
-
-    Returns
-    -------
-    str
-    """
+    """Return `` (95 %: low-high)``, or that the runs are too few for an interval."""
     from ..montecarlo.closed_loop import MIN_RUNS_INTERVAL
 
     if low is None or high is None:

@@ -17,36 +17,7 @@ __all__ = ["log_options", "only_kinds", "parse_kinds", "read_or_fail"]
 
 def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | None = None,
                  notes: bool = True, **options: Any) -> Any:
-    """Read a measurement file (or several read as one), errors as ``error: ...``.
-
-    The reader's notes and warnings (a position's 60 seconds read as a carry, cuts left out,
-    placeholder ranges, ...) are printed on standard error as ``note: ...`` / ``warning: ...``.
-
-    Parameters
-    ----------
-    path : Path or list of Path
-        The file (``.csv``, ``.parquet``, ``.rep``, ...; any registered format), or several Debrief
-        files read as one replay (a sensor file and the own ship's track file).
-    origin : tuple of float, optional
-        ENU origin ``(lat_deg, lon_deg, alt_m)`` for files with sensor_lat/sensor_lon.
-    notes : bool
-        Print the reader's notes (a live watch prints them on its first read only).
-    **options
-        The reader's options (:func:`reader_options`): ``format``, ``ownship``, ``contact``,
-        ``mapping``, ``bearing_sigma``, ``range_sigma``, ``frequency_sigma``, ``dim``, ``kinds``
-        (``--kinds`` text), ``ranges``, ``window`` (``--from``, ``--to`` texts: Debrief files keep
-        the cuts in it before their checks); None values are dropped.
-
-    Returns
-    -------
-    tmakit.data.MeasurementSet
-        The measurements (of the kinds asked for).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when a file is missing or invalid.
-    """
+    """Read a measurement file (or several read as one), errors as ``error: ...``."""
     from ..io.errors import reader_notes
     from ..io.measurement_files import MeasurementFileError, read_measurements
 
@@ -80,23 +51,7 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
 
 
 def parse_kinds(text: str | None) -> list[str] | None:
-    """Read ``--kinds bearing,frequency``: the measurement kinds to keep (None: all).
-
-    Parameters
-    ----------
-    text : str or None
-        Kind names separated by commas.
-
-    Returns
-    -------
-    list of str or None
-        The kinds, None when not given.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a name that is no measurement kind.
-    """
+    """Read ``--kinds bearing,frequency``: the measurement kinds to keep (None: all)."""
     if text is None:
         return None
     from ..measurements import KINDS
@@ -110,27 +65,7 @@ def parse_kinds(text: str | None) -> list[str] | None:
 
 
 def only_kinds(meas: Any, kinds: list[str] | None, paths: list[Path]) -> Any:
-    """Keep the rows of the kinds asked for (``--kinds``); refuse when none is left.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The set read.
-    kinds : list of str or None
-        The kinds kept (None: all).
-    paths : list of Path
-        The files, for the message.
-
-    Returns
-    -------
-    tmakit.data.MeasurementSet
-        The rows of those kinds.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when no row is of those kinds.
-    """
+    """Keep the rows of the kinds asked for (``--kinds``); refuse when none is left."""
     if kinds is None:
         return meas
     import numpy as np
@@ -145,30 +80,7 @@ def only_kinds(meas: Any, kinds: list[str] | None, paths: list[Path]) -> Any:
 
 def log_options(paths: list[Path], options: dict[str, Any],
                  kinds: list[str] | None) -> dict[str, Any]:
-    """Keep the reader options of real logs for real logs; refuse them for tmakit's files.
-
-    Debrief files also take ``kinds``, ``ranges`` and the time ``window`` (their checks come
-    after it); other files get the window and the kinds applied once read.
-
-    Parameters
-    ----------
-    paths : list of Path
-        The files (the first one's format decides).
-    options : dict
-        The reader options given (None values dropped).
-    kinds : list of str or None
-        ``--kinds``, parsed.
-
-    Returns
-    -------
-    dict
-        The options for the reader.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for an option that does not apply to the file's format.
-    """
+    """Keep the reader options of real logs for real logs; refuse them for tmakit's files."""
     from ..io import find_format
 
     path = paths[0]

@@ -127,13 +127,7 @@ def _checkpoint(output: Path, force: bool) -> Any:
 
 
 def print_report(rep: Any) -> None:
-    """Print a reproduction's sections as tables (with their notes) and its figures.
-
-    Parameters
-    ----------
-    rep : tmakit.reproduce.common.Reproduction
-        The reproduction's report.
-    """
+    """Print a reproduction's sections as tables (with their notes) and its figures."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     for section in rep.sections:
@@ -158,24 +152,7 @@ def print_report(rep: Any) -> None:
 
 def with_unit_column(header: list[str], rows: list[list[Any]]
                      ) -> tuple[list[str], list[list[Any]]]:
-    """Add a ``unit`` column after a ``parameter`` column that has none (printed tables only).
-
-    The JSON keeps the section as it is (its layout is pinned); the printed table says each
-    parameter's unit (m, m/s, Hz, ...), from the same table as ``tma estimate``'s.
-
-    Parameters
-    ----------
-    header : list of str
-        The section's column names.
-    rows : list of list
-        Its rows.
-
-    Returns
-    -------
-    tuple
-        ``(header, rows)``, with the unit column when there is a ``parameter`` column and no
-        ``unit`` column, unchanged otherwise.
-    """
+    """Add a ``unit`` column after a ``parameter`` column that has none (printed tables only)."""
     from ..results.answers import parameter_display
 
     if "parameter" not in header or any("unit" in h for h in header):
@@ -187,18 +164,7 @@ def with_unit_column(header: list[str], rows: list[list[Any]]
 
 
 def plain(value: Any) -> str:
-    """Return a figure as plain words: numbers to 6 digits, lists and mappings unbracketed.
-
-    Parameters
-    ----------
-    value : Any
-        A number, text, list or mapping (nested).
-
-    Returns
-    -------
-    str
-        ``a = 1, b = 2`` for a mapping, ``1, 2, 3`` for a list, no Python brackets.
-    """
+    """Return a figure as plain words: numbers to 6 digits, lists and mappings unbracketed."""
     if isinstance(value, bool) or value is None:
         return str(value).lower() if value is not None else "none"
     if isinstance(value, float):

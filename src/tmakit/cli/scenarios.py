@@ -38,20 +38,7 @@ if TYPE_CHECKING:
 
 
 def summary_table(meas: Any, title: str) -> Table:
-    """One row per sensor and kind: count, time span (s; UTC when known), values, median sigma.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    title : str
-        The table's title.
-
-    Returns
-    -------
-    rich.table.Table
-        The table.
-    """
+    """One row per sensor and kind: count, time span (s; UTC when known), values, median sigma."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     from ..results.context import clock_time
@@ -75,36 +62,12 @@ def summary_table(meas: Any, title: str) -> Table:
 
 
 def sigma_unit(unit: str) -> str:
-    """Return the unit of a standard deviation of values in ``unit``.
-
-    A power's sigma is a ratio, so dB (not dBm or dBW); other units are their own.
-
-    Parameters
-    ----------
-    unit : str
-        The values' unit.
-
-    Returns
-    -------
-    str
-        The sigma's unit.
-    """
+    """Return the unit of a standard deviation of values in ``unit``."""
     return "dB" if unit.startswith("dB") else unit
 
 
 def truth_text(meta: dict[str, str]) -> str:
-    """Return the file's true motion parameters as ``name = value unit`` text.
-
-    Parameters
-    ----------
-    meta : dict
-        The file's metadata (``truth`` as JSON, ``motion``).
-
-    Returns
-    -------
-    str
-        One line, angles in degrees.
-    """
+    """Return the file's true motion parameters as ``name = value unit`` text."""
     import json
 
     from ..results.answers import parameter_display
@@ -121,18 +84,7 @@ def truth_text(meta: dict[str, str]) -> str:
 
 
 def describe_sensors(meas: Any) -> Table:
-    """One row per sensor: first and last position (ENU, m) and mean speed (m/s).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-
-    Returns
-    -------
-    rich.table.Table
-        The table.
-    """
+    """One row per sensor: first and last position (ENU, m) and mean speed (m/s)."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
     table = Table(title="sensors", title_justify="left")
@@ -191,27 +143,7 @@ def simulate(
 
 
 def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
-    """Simulate a scenario, errors of its values (``ValueError``) as ``error: ...``.
-
-    Parameters
-    ----------
-    scn : tmakit.scenario.Scenario
-        The scenario.
-    seed : int or None
-        Random seed.
-    noise : bool
-        Add the measurement noise.
-
-    Returns
-    -------
-    tmakit.data.MeasurementSet
-        The simulated measurements.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the scenario cannot be simulated (the message says why).
-    """
+    """Simulate a scenario, errors of its values (``ValueError``) as ``error: ...``."""
     from numpy.linalg import LinAlgError
 
     try:
@@ -298,20 +230,7 @@ def demo(
 
 
 def prepare_demo_folder(folder: Path, force: bool) -> None:
-    """Make ``folder`` an empty demo folder, replacing an earlier demo's.
-
-    Parameters
-    ----------
-    folder : Path
-        The demo's folder.
-    force : bool
-        Replace it even when it is not an earlier demo's (nor empty).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the folder holds other files and ``force`` is false, or is a file.
-    """
+    """Make ``folder`` an empty demo folder, replacing an earlier demo's."""
     import shutil
 
     if folder.exists() and not folder.is_dir():

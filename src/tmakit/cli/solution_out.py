@@ -34,23 +34,7 @@ ExportNameOption = Annotated[str | None, typer.Option(
 
 @dataclass
 class SolutionOutputs:
-    """The page and exports asked for, checked (see :func:`check_solution_outputs`).
-
-    Attributes
-    ----------
-    html : Path or None
-        ``--html``.
-    exports : list of Path
-        ``--export``.
-    every, range_bearing, name
-        ``--export-every``, ``--export-rb``, ``--export-name``.
-    force : bool
-        ``--force``.
-    title : str
-        The page's heading (the files read; the method and motion are added).
-    options : dict
-        The measurement-model options of the fit.
-    """
+    """The page and exports asked for, checked (see :func:`check_solution_outputs`)."""
 
     html: Path | None = None
     exports: list[Path] = field(default_factory=list)
@@ -72,37 +56,7 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
                            taken: list[Path | None] | None = None,
                            options: dict[str, Any] | None = None,
                            files: list[Path] | None = None) -> SolutionOutputs:
-    """Check ``--html`` and ``--export`` before any work.
-
-    Parameters
-    ----------
-    html : Path or None
-        ``--html``.
-    exports : list of Path or None
-        ``--export`` (each .rep, .geojson or .kml).
-    force : bool
-        ``--force``.
-    inputs : list of Path
-        The files read: never written over.
-    every, range_bearing, name
-        ``--export-every``, ``--export-rb``, ``--export-name``.
-    taken : list of Path or None, optional
-        The command's other outputs: none of these may name the same file.
-    options : dict, optional
-        The measurement-model options of the fit.
-    files : list of Path, optional
-        The files read, for the page's heading.
-
-    Returns
-    -------
-    SolutionOutputs
-        The resolved outputs.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 naming the option.
-    """
+    """Check ``--html`` and ``--export`` before any work."""
     from .outputs import check_outputs
 
     if not every > 0:
@@ -124,49 +78,13 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
 
 def check_page(html: Path | None, force: bool, inputs: list[Path], plot: Path | None
                ) -> Path | None:
-    """Check ``--html`` alone (``tma track``): :func:`check_solution_outputs` without exports.
-
-    Parameters
-    ----------
-    html : Path or None
-        ``--html``.
-    force : bool
-        ``--force``.
-    inputs : list of Path
-        The files read.
-    plot : Path or None
-        ``--plot``: not the same file.
-
-    Returns
-    -------
-    Path or None
-        The page to write.
-    """
+    """Check ``--html`` alone (``tma track``): :func:`check_solution_outputs` without exports."""
     return check_solution_outputs(html, None, force, inputs, taken=[plot]).html
 
 
 def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, answers: bool,
                            say: Any) -> None:
-    """Write the page and the exports; say what was written (or why an export was not).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements fitted.
-    result : tmakit.results.EstimateResult
-        The estimate.
-    outputs : SolutionOutputs
-        What to write.
-    answers : bool
-        Whether the estimate is an answer (its trust is not ``none``): exports need one.
-    say : rich.console.Console
-        Where to report.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when an export cannot be written (no origin, no clock time).
-    """
+    """Write the page and the exports; say what was written (or why an export was not)."""
     from .outputs import write_picture
 
     if outputs.html is not None:

@@ -25,6 +25,7 @@ from .common import (
     ContactOption,
     DriftOption,
     FilesArgument,
+    ForceOption,
     FormatOption,
     FreeExponentOption,
     FrequencySigmaOption,
@@ -32,6 +33,7 @@ from .common import (
     MappingOption,
     OriginOption,
     OwnshipOption,
+    PropagationSpeedOption,
     RangeSigmaOption,
     RangesOption,
     err,
@@ -42,6 +44,7 @@ from .common import (
     print_wide,
     reader_options,
 )
+from .legs_out import sides_for_filter
 from .reading import read_or_fail
 from .solution_out import HtmlOption, check_page
 from .track_options import (
@@ -101,6 +104,7 @@ def track(
     dim: Annotated[int | None, typer.Option(
         help="2 or 3 (default: 3 when the data or the file's motion need it)")] = None,
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
+    propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None,
     format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
     mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
@@ -118,7 +122,7 @@ def track(
     sensor: SensorOption = None, units: UnitsOption = "si",
     html: HtmlOption = None, follow: FollowOption = False,
     interval: IntervalOption = 1.0, max_updates: MaxUpdatesOption = None,
-    force: Annotated[bool, typer.Option(help="overwrite existing output files")] = False,
+    force: ForceOption = False,
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
 
@@ -132,7 +136,7 @@ def track(
     page = check_page(html, force, [*files], plot)
     reading = (parse_origin(origin), dim, reader_options(format, ownship, contact, mapping,
                bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges))
-    options = model_options(drift, free_exponent)
+    options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
                       smooth=(smooth, lag), keywords=start_keywords(
                           (prior, prior_std, nuisance, prior_time),
@@ -158,34 +162,7 @@ def start_keywords(prior: tuple[str | None, str | None, str | None, float | None
                    bearing: tuple[str | None, float | None, str | None], init_window: int | None,
                    start_std: float, filter_settings: tuple[Any, ...],
                    filter_name: str, options: dict[str, Any]) -> dict[str, Any]:
-    """Give the keywords of :func:`tmakit.tracking.track` that ``tma track``'s options set.
-
-    Parameters
-    ----------
-    prior : tuple
-        ``--prior``, ``--prior-std``, ``--nuisance``, ``--prior-time``.
-    bearing : tuple
-        ``--range-prior``, ``--speed-prior``, ``--height-prior``.
-    init_window, start_std
-        ``--init-window``, ``--start-std``.
-    filter_settings : tuple
-        ``--particles``, ``--seed``, ``--component``, whether a smoother is asked for, and
-        the IMM's ``(--model-q, --transition, --turn-rate)``.
-    filter_name : str
-        ``--filter``.
-    options : dict
-        The measurement-model options.
-
-    Returns
-    -------
-    dict
-        The keywords (all but ``q``, ``q_density`` and ``dim``, which depend on the data).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a bad prior.
-    """
+    """Give the keywords of :func:`tmakit.tracking.track` that ``tma track``'s options set."""
     mean, sd, known = parse_prior(prior[0], prior[1], prior[2], init_window)
     particles, seed, component, smoothing, imm = filter_settings
     return dict(particles=particles, prior=mean, prior_std=sd, prior_time=prior[3],
@@ -199,42 +176,14 @@ def start_keywords(prior: tuple[str | None, str | None, str | None, float | None
 def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],
                 q: tuple[str, str], filter_name: str, smooth: tuple[bool, int | None],
                 keywords: dict[str, Any], notes: bool = True) -> tuple[Any, Any, Any]:
-    """Read the files and track the emitter: the command's work on the data.
-
-    Parameters
-    ----------
-    paths : list of Path
-        The measurement files.
-    reading : tuple
-        ``(origin, --dim, the reader's options)``.
-    q : tuple of str
-        ``--q`` and ``--q-density``.
-    filter_name : str
-        ``--filter``.
-    smooth : tuple
-        ``--smooth`` and ``--lag``.
-    keywords : dict
-        The keywords of :func:`tmakit.tracking.track` from the options (all but ``q``,
-        ``q_density`` and ``dim``, which depend on the data).
-    notes : bool
-        Print the reader's notes.
-
-    Returns
-    -------
-    tuple
-        The measurements, the track and the true states at its times (or None).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 on bad input or when the filter cannot start.
-    """
+    """Read the files and track the emitter: the command's work on the data."""
     from .. import tracking
 
     origin, dim, options = reading
     meas = read_or_fail(paths, origin, dim=dim, notes=notes, **options)
     try:
         d = tracking.filter_dim(meas, dim)
+        meas = sides_for_filter(meas, d)
         q_axes = tracking.process_noise(parse_q(q[0], d), d)
         density = tracking.noise_density(parse_q(q[1], d, "--q-density"), d)
     except tracking.TrackingError as e:
@@ -246,25 +195,7 @@ def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any
 
 def write_track_page(meas: Any, tr: Any, path: Path, force: bool, options: dict[str, Any],
                      name: Path, say: Any) -> None:
-    """``--html``: the solution page of the batch estimate (constant velocity) of the data.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements tracked.
-    tr : tmakit.filters.Track
-        The track (its dimension chooses cv2d or cv3d).
-    path : Path
-        The page.
-    force : bool
-        Overwrite it.
-    options : dict
-        The measurement-model options.
-    name : Path
-        The measurement file(s), for the title.
-    say : rich.console.Console
-        Where to report.
-    """
+    """``--html``: the solution page of the batch estimate (constant velocity) of the data."""
     from ..batch import estimate as run
     from ..motion import ConstantVelocity
     from .solution_out import SolutionOutputs, write_solution_outputs
@@ -283,27 +214,7 @@ def write_track_page(meas: Any, tr: Any, path: Path, force: bool, options: dict[
 
 
 class Watch:
-    """One update of ``tma track --follow``: track the data so far, say it, rewrite outputs.
-
-    Parameters
-    ----------
-    tracked : callable
-        ``tracked(paths, notes) -> (meas, track, truth)``; errors as ``typer.Exit``.
-    name : Path
-        The files followed (for titles).
-    output, plot, page : Path or None
-        ``-o``, ``--plot``, ``--html``.
-    ellipses : int
-        ``--ellipses``.
-    force : bool
-        ``--force`` (after the first write, the watch rewrites its own files).
-    as_json : bool
-        One JSON line per update.
-    sensor, units : str or None, str
-        ``--sensor``, ``--units``.
-    options : dict
-        The measurement-model options.
-    """
+    """One update of ``tma track --follow``: track the data so far, say it, rewrite outputs."""
 
     def __init__(self, tracked: Any, name: Path, output: Path | None, plot: Path | None,
                  page: Path | None, ellipses: int, force: bool, as_json: bool,
@@ -344,26 +255,7 @@ class Watch:
 
 
 def update_line(count: int, rows: int, a: Any, trust: str, units: str) -> str:
-    """One line of a live watch: the latest position, course and speed, and the trust.
-
-    Parameters
-    ----------
-    count : int
-        The update's number.
-    rows : int
-        The rows tracked.
-    a : tmakit.results.answers.Answer
-        The latest state in the user's terms.
-    trust : str
-        ``ok`` or ``warning``.
-    units : str
-        ``si`` or ``nautical``.
-
-    Returns
-    -------
-    str
-        The line.
-    """
+    """One line of a live watch: the latest position, course and speed, and the trust."""
     when = a.clock[11:19] + " UTC" if a.clock else f"t = {a.time:g} s"
     if a.geodetic is not None and None not in a.geodetic[:2]:
         where = f"lat {a.geodetic[0]:.5f}, lon {a.geodetic[1]:.5f}"
@@ -381,31 +273,7 @@ def update_line(count: int, rows: int, a: Any, trust: str, units: str) -> str:
 
 def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: bool,
               lag: int | None) -> Any:
-    """Track (:func:`tmakit.track` with ``keywords``), and smooth with ``--smooth``/``--lag``.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    filter_name : str
-        ``--filter``.
-    keywords : dict
-        The keywords of :func:`tmakit.track`.
-    smooth : bool
-        ``--smooth``.
-    lag : int or None
-        ``--lag`` (implies ``--smooth``).
-
-    Returns
-    -------
-    tmakit.filters.Track
-        The track (its smoothed track in ``extra.smoothed``).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 with the library's refusal in the command's words.
-    """
+    """Track (:func:`tmakit.track` with ``keywords``), and smooth with ``--smooth``/``--lag``."""
     from .. import tracking
 
     try:
@@ -421,25 +289,7 @@ def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: boo
 
 def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,
                  units: str) -> None:
-    """Print the track (table or one line of JSON), its final answers and the warnings.
-
-    Parameters
-    ----------
-    tr : tmakit.filters.Track
-        The track.
-    meas : tmakit.data.MeasurementSet
-        The measurements tracked.
-    truth : numpy.ndarray or None
-        True states at the track's times.
-    rows : int
-        Rows of the table.
-    as_json : bool
-        ``--json``.
-    answer : tmakit.results.answers.Answer
-        The last state in the user's terms.
-    units : str
-        ``--units``.
-    """
+    """Print the track (table or one line of JSON), its final answers and the warnings."""
     import json
 
     from .. import tracking
@@ -457,21 +307,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
 
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
-    """Return how far to trust a track: ``warning`` when its innovations are inconsistent.
-
-    Parameters
-    ----------
-    tr : tmakit.filters.Track
-        The track.
-    warnings : list of tmakit.results.checks.SanityWarning
-        The measurements' warnings.
-
-    Returns
-    -------
-    tmakit.results.Trust
-        ``warning`` with the reasons (the NIS test of :func:`nis_verdict`, the measurements'
-        warnings), else ``ok``.
-    """
+    """Return how far to trust a track: ``warning`` when its innovations are inconsistent."""
     import numpy as np
 
     from ..results import TRUST_OK, TRUST_WARNING, SanityWarning, Trust
@@ -486,18 +322,7 @@ def track_trust(tr: Any, warnings: list[Any]) -> Any:
 
 
 def measurement_warnings(meas: Any) -> list[Any]:
-    """Return the sanity warnings about the measurements (radians, far sensors).
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-
-    Returns
-    -------
-    list of tmakit.results.checks.SanityWarning
-        The warnings.
-    """
+    """Return the sanity warnings about the measurements (radians, far sensors)."""
     from ..results import measurement_warnings as check
 
     return check(meas)
@@ -505,32 +330,7 @@ def measurement_warnings(meas: Any) -> list[Any]:
 
 def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path | None,
                         plot: Path | None, ellipses: int, force: bool, say: Any) -> None:
-    """Write the track table (``-o``) and picture (``--plot``), and say so.
-
-    Parameters
-    ----------
-    file : Path
-        The measurement file (for the picture's title).
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    tr : tmakit.filters.base.Track
-        The track.
-    truth : numpy.ndarray or None
-        True states at the track's times (m, m/s), from the file's metadata.
-    output, plot : Path or None
-        Where to write the table and the picture.
-    ellipses : int
-        Number of position ellipses drawn.
-    force : bool
-        Overwrite existing files.
-    say : rich.console.Console
-        Where to report (standard error when the track went to standard output as JSON).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the table exists (without ``force``).
-    """
+    """Write the track table (``-o``) and picture (``--plot``), and say so."""
     from .. import tracking
     from ..io.track_files import write_track
 
@@ -556,18 +356,7 @@ def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path
 
 
 def start_sentence(tr: Any) -> str:
-    """How the filter started: the prior, or the batch window, its quality and its checks.
-
-    Parameters
-    ----------
-    tr : tmakit.filters.base.Track
-        The track (``tr.extra.start`` describes the start).
-
-    Returns
-    -------
-    str
-        One sentence.
-    """
+    """How the filter started: the prior, or the batch window, its quality and its checks."""
     s = tr.extra.start
     if s["method"] == "prior":
         return f"start: the given prior at t = {s['time']:g} s"
@@ -580,7 +369,10 @@ def start_sentence(tr: Any) -> str:
         return (f"start: the first bearing ({s['bearing_deg']:.1f} deg at t = "
                 f"{s['time']:g} s) with the prior {prior.describe()}"
                 + ("" if "range" in p["given"] else "; give --range-prior MIN:MAX and "
-                   "--speed-prior MAX for this emitter"))
+                   "--speed-prior MAX for this emitter")
+                + (f"; {len(s['rejected'])} earlier bearings rejected by the innovations "
+                   f"that followed them (from t = {s['rejected'][0]['time']:g} s)"
+                   if s.get("rejected") else ""))
     text = (f"start: batch ML estimate over the first {s['window']} measurement times "
             f"({s['rows']} rows, t <= {s['time']:g} s), {s['status']}, position std "
             f"{s['relative_position_std']:.1%} of the range")
@@ -603,23 +395,7 @@ def start_sentence(tr: Any) -> str:
 
 def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
                 units: str = "si") -> None:
-    """Print the track's summary table (``n_rows`` rows spread over it) and its checks.
-
-    Parameters
-    ----------
-    tr : tmakit.filters.base.Track
-        The track.
-    truth : numpy.ndarray or None
-        True states at the track's times (m, m/s); adds an error column and the final
-        Mahalanobis distance.
-    n_rows : int
-        Rows of the table.
-    meas : tmakit.data.MeasurementSet, optional
-        The measurements: with a time origin, the table shows UTC clock times too.
-    units : str
-        ``--units``: ``si`` (speed in m/s) or ``nautical`` (speed in knots); positions, their
-        std and the error stay in metres (local East/North/Up), as in the answers table.
-    """
+    """Print the track's summary table (``n_rows`` rows spread over it) and its checks."""
     import numpy as np
     from rich.table import Table  # (loaded where a table is made: not for --help)
 
@@ -664,24 +440,8 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
 
 
 def nis_verdict(nis: float, dof: int, level: float = 1e-3) -> str:
-    """Say when the innovations contradict the filter's covariances (chi-square test).
-
-    Parameters
-    ----------
-    nis : float
-        The sum of the normalised innovations squared over the updates.
-    dof : int
-        Its degrees of freedom (the rows of the updates).
-    level : float, optional
-        Two-sided significance: a tail probability below it is reported.
-
-    Returns
-    -------
-    str
-        Empty when the sum is within the chi-square's central range; otherwise the
-        sentence, with the tail probability.
-    """
-    from scipy.stats import chi2
+    """Say when the innovations contradict the filter's covariances (chi-square test)."""
+    from ..core import chi2
 
     upper, lower = float(chi2.sf(nis, dof)), float(chi2.cdf(nis, dof))
     if upper < level:
@@ -696,17 +456,7 @@ def nis_verdict(nis: float, dof: int, level: float = 1e-3) -> str:
 
 
 def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
-    """Print the mean NIS per degree of freedom and, with the truth, the final error.
-
-    Parameters
-    ----------
-    tr : tmakit.filters.base.Track
-        The track.
-    truth : numpy.ndarray or None
-        True states at the track's times (m, m/s).
-    dim : int
-        2 or 3, the position's dimension.
-    """
+    """Print the mean NIS per degree of freedom and, with the truth, the final error."""
     import numpy as np
 
     used = tr.dof > 0

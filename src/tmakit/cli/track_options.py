@@ -71,27 +71,7 @@ MaxUpdatesOption = Annotated[int | None, typer.Option(
 
 
 def parse_q(text: str, dim: int, flag: str = "--q") -> list[float]:
-    """Parse ``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2).
-
-    Parameters
-    ----------
-    text : str
-        The option's text.
-    dim : int
-        Spatial dimension (for the error message).
-    flag : str, optional
-        The option (``--q`` or ``--q-density``), for the error message.
-
-    Returns
-    -------
-    list of float
-        The acceleration standard deviations (m/s^2).
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when a part is not a number.
-    """
+    """Parse ``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2)."""
     try:
         return [float(p.strip()) for p in text.split(",")]
     except ValueError:
@@ -114,27 +94,7 @@ def _interval(text: str, flag: str) -> tuple[float, float]:
 
 def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
                         height_prior: str | None, other_start: bool) -> Any:
-    """``--range-prior``, ``--speed-prior`` and ``--height-prior`` as a bearing prior.
-
-    Parameters
-    ----------
-    range_prior, height_prior : str or None
-        ``MIN:MAX`` (m).
-    speed_prior : float or None
-        The largest speed (m/s).
-    other_start : bool
-        Whether ``--prior`` or ``--init-window`` chose another start.
-
-    Returns
-    -------
-    tmakit.filters.BearingPrior or None
-        None when none of the three is given.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a bad interval or speed, or with another start.
-    """
+    """``--range-prior``, ``--speed-prior`` and ``--height-prior`` as a bearing prior."""
     if range_prior is None and speed_prior is None and height_prior is None:
         return None
     if other_start:
@@ -162,31 +122,7 @@ def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
 def component_settings(filter_name: str, component: str, smooth: bool = False,
                        model_q: str | None = None, transition: str | None = None,
                        turn_rate: str | None = None) -> dict[str, object]:
-    """Give the filter's settings from ``--component``, ``--smooth`` and the IMM's options.
-
-    Parameters
-    ----------
-    filter_name : str
-        ``--filter``.
-    component : str
-        ``--component``: for ``--filter gsf`` and ``imm`` only.
-    smooth : bool, optional
-        ``--smooth`` or ``--lag``: the particle filter then keeps its clouds.
-    model_q, transition, turn_rate : str, optional
-        ``--model-q``, ``--transition`` and ``--turn-rate``: for ``--filter imm`` only.
-
-    Returns
-    -------
-    dict
-        ``{"component": ...}`` for the Gaussian sum and the IMM (with ``model_q`` and ``transition``
-        when given), ``{"history": True}`` for a particle filter to smooth, else empty.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for an unknown component, an option given with another filter, or a ``--model-q``
-        or ``--transition`` that does not parse.
-    """
+    """Give the filter's settings from ``--component``, ``--smooth`` and the IMM's options."""
     from ..filters.gaussian_sum import COMPONENTS
 
     if component not in COMPONENTS:
@@ -222,25 +158,7 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
 
 
 def smoothed_track(tr: Any, lag: int | None) -> Any:
-    """Attach the smoothed track (``--smooth``, ``--lag``) to ``tr.extra.smoothed``.
-
-    Parameters
-    ----------
-    tr : tmakit.filters.Track
-        The filtered track.
-    lag : int or None
-        ``--lag``.
-
-    Returns
-    -------
-    tmakit.filters.Track
-        ``tr`` with its smoothed track.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for a negative lag, or a lag for a particle filter's track.
-    """
+    """Attach the smoothed track (``--smooth``, ``--lag``) to ``tr.extra.smoothed``."""
     from ..filters import smooth
 
     if lag is not None and lag < 0:
@@ -267,18 +185,7 @@ TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--p
 
 
 def tracking_failure(e: Any) -> typer.Exit:
-    """Translate a :class:`tmakit.tracking.TrackingError` into `tma track`'s words (its flags).
-
-    Parameters
-    ----------
-    e : tmakit.tracking.TrackingError
-        The library's error.
-
-    Returns
-    -------
-    typer.Exit
-        The exit (status 2) after printing the message with the flags named.
-    """
+    """Translate a :class:`tmakit.tracking.TrackingError` into `tma track`'s words (its flags)."""
     from ..tracking import MissingNuisanceError
 
     names = dict(TRACK_FLAGS)
@@ -292,33 +199,7 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
                         ellipses: int, rows: int, inputs: Sequence[object] = ()
                         ) -> tuple[Path | None, Path | None]:
-    """Refuse bad ``tma track`` options before reading the file.
-
-    Parameters
-    ----------
-    output, plot : Path or None
-        ``-o`` and ``--plot``: not overwritten without ``force``; ``-o`` .csv or .parquet.
-    force : bool
-        ``--force``.
-    filter_name : str
-        ``--filter``: a name of :data:`tmakit.filters.FILTERS`.
-    particles, seed : int or None
-        ``--particles`` and ``--seed``: for the random (particle) filters only.
-    ellipses, rows : int
-        ``--ellipses`` (0 or more) and ``--rows`` (1 or more).
-    inputs : sequence of Path or None, optional
-        The files read (None: not given): never written over, even with ``force``.
-
-    Returns
-    -------
-    tuple of (Path or None)
-        The exact files ``-o`` and ``--plot`` will write.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 for the first bad option.
-    """
+    """Refuse bad ``tma track`` options before reading the file."""
     from .. import tracking
     from ..filters import FILTERS
     from .outputs import check_outputs, check_particles
@@ -346,25 +227,7 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
 
 def parse_prior(prior: str | None, prior_std: str | None, nuisance: str | None,
                 init_window: int | None) -> tuple[dict[str, float] | None, ...]:
-    """``--prior``, ``--prior-std`` and ``--nuisance`` by name, checked to go together.
-
-    Parameters
-    ----------
-    prior, prior_std, nuisance : str or None
-        The options' ``name=value`` texts (m, m/s; Hz, dBW).
-    init_window : int or None
-        ``--init-window``, which cannot be combined with ``--prior``.
-
-    Returns
-    -------
-    tuple of (dict or None)
-        ``(prior_mean, prior_std, known_nuisance)``.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when the options do not go together.
-    """
+    """``--prior``, ``--prior-std`` and ``--nuisance`` by name, checked to go together."""
     prior_mean = parse_assignments(prior, "--prior") or None
     prior_sd = parse_assignments(prior_std, "--prior-std") or None
     known = parse_assignments(nuisance, "--nuisance") or None

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import os
 import stat
+import tomllib
 from pathlib import Path
+from typing import Any
 
-__all__ = ["SNIFF_BYTES", "binary_problem", "not_regular_problem"]
+__all__ = ["SNIFF_BYTES", "binary_problem", "not_regular_problem", "read_toml"]
 
 #: Bytes read from the start of a text file to tell it from a binary one.
 SNIFF_BYTES = 1 << 16
@@ -39,3 +41,21 @@ def binary_problem(path: str | os.PathLike[str]) -> str | None:
         return None
     return (f"is not a text file (a NUL byte at byte {at}): a binary file where text (CSV, "
             "TOML, NMEA, GPX, Debrief) was expected")
+
+
+def read_toml(path: Path, what: str, error: type[ValueError] = ValueError) -> dict[str, Any]:
+    """Read a TOML file; raise ``error`` naming ``path`` (the ``what`` file) and its problem."""
+    problem = not_regular_problem(path) or (path.is_file() and binary_problem(path))
+    if problem:
+        raise error(f"{path}: {problem}")
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise error(f"{path}: no such {what} file") from None
+    except UnicodeDecodeError as e:
+        raise error(f"{path}: not a UTF-8 text (TOML) file ({e.reason} at byte "
+                    f"{e.start})") from None
+    except OSError as e:  # a folder, no permission
+        raise error(f"{path}: cannot be read ({e.strerror or e})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise error(f"{path}: not valid TOML: {e}") from None

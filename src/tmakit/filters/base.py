@@ -21,9 +21,8 @@ from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .extras import TrackExtras
-from .general import CompiledMeasurements, compiled_for
-from .kernels import KernelRun
-from .record import Recorder, UpdateInfo
+from .general import PreparedMeasurements, prepared_for
+from .record import Recorder, RunBlock, UpdateInfo
 from .track import Track
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -92,9 +91,7 @@ class TrackingFilter(ABC):
         self.nuisance = dict(nuisance or {})
         self.time = float(time)
         self.log_likelihood = 0.0
-        #: Updates done by a closed-form kernel (:mod:`.kernels`), and updates skipped
-        #: because the prediction was not finite (the target at a sensor).
-        self.kernel_updates = 0
+        #: Updates skipped because the prediction was not finite (the target at a sensor).
         self.skipped_updates = 0
         with one_thread(self.single_blas_thread):
             self._init_state(mean, cov)
@@ -268,9 +265,8 @@ class TrackingFilter(ABC):
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
-        The set is compiled once (:class:`~.general.CompiledMeasurements`, kept for the
-        set's next runs with the same dimension, options and nuisance); a filter with a
-        closed-form kernel for the case (:mod:`.kernels`) uses it.
+        The set is prepared once (:class:`~.general.PreparedMeasurements`, kept for the
+        set's next runs with the same dimension, options and nuisance).
 
         Parameters
         ----------
@@ -294,7 +290,7 @@ class TrackingFilter(ABC):
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
             raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
                              f"filter's prior time t={self.time} s")
-        return self.run_compiled(compiled_for(meas, self.dim, self.options, self.nuisance))
+        return self.run_prepared(prepared_for(meas, self.dim, self.options, self.nuisance))
 
     def _plain_interface(self) -> bool:
         """Tell whether predict, update and group are the base class's (else run uses them)."""
@@ -302,17 +298,17 @@ class TrackingFilter(ABC):
         return (cls.predict is TrackingFilter.predict and cls.update is TrackingFilter.update
                 and cls.group is TrackingFilter.group)
 
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        """Run a closed-form kernel from update ``start`` (None: none for ``compiled``)."""
+    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
+        """Run updates ``start`` on in one go where the filter can (None: one at a time)."""
         return None
 
-    def run_compiled(self, compiled: CompiledMeasurements) -> Track:
-        """Run the filter (as :meth:`run`) on a set compiled for it.
+    def run_prepared(self, prepared: PreparedMeasurements) -> Track:
+        """Run the filter (as :meth:`run`) on a set prepared for it.
 
         Parameters
         ----------
-        compiled : CompiledMeasurements
-            Measurements compiled for this filter's ``dim``, options and nuisance values.
+        prepared : PreparedMeasurements
+            Measurements prepared for this filter's ``dim``, options and nuisance values.
 
         Returns
         -------
@@ -322,30 +318,29 @@ class TrackingFilter(ABC):
         Raises
         ------
         ValueError
-            If ``compiled`` was made for another dimension.
+            If ``prepared`` was made for another dimension.
         """
-        if compiled.dim != self.dim:
-            raise ValueError(f"the measurements were compiled for a {compiled.dim}-D filter; "
+        if prepared.dim != self.dim:
+            raise ValueError(f"the measurements were prepared for a {prepared.dim}-D filter; "
                              f"this one is {self.dim}-D")
         with one_thread(self.single_blas_thread):
-            return self._run_compiled(compiled)
+            return self._run_prepared(prepared)
 
-    def _run_compiled(self, compiled: CompiledMeasurements) -> Track:
+    def _run_prepared(self, prepared: PreparedMeasurements) -> Track:
         if not self._plain_interface():
-            return self.run_groups((float(compiled.times[k]), compiled.rows(k))
-                                   for k in range(len(compiled)))
+            return self.run_groups((float(prepared.times[k]), prepared.rows(k))
+                                   for k in range(len(prepared)))
         rec = Recorder(2 * self.dim)
-        k, total = 0, len(compiled)
+        k, total = 0, len(prepared)
         while k < total:
-            block = self._run_kernel(compiled, k)
+            block = self._run_block(prepared, k)
             if block is not None:
                 rec.add_block(block)
-                self.kernel_updates += 0 if block.general else block.stop - k
                 k = block.stop
                 if k >= total:
                     break
-            self._advance(float(compiled.times[k]))
-            info = self._update(compiled.group(k, self.time))
+            self._advance(float(prepared.times[k]))
+            info = self._update(prepared.group(k, self.time))
             self.log_likelihood += info.log_likelihood
             rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
             k += 1

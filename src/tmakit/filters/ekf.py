@@ -7,13 +7,14 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.linalg import solve_spd
 from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .general import (
-    CompiledMeasurements,
     DynamicsCache,
+    PreparedMeasurements,
     RowSteps,
     Step,
     StepPlan,
@@ -27,7 +28,7 @@ from .general import (
     sym,
     updated_covariance,
 )
-from .kernels import KernelRun, ekf_bearing_2d
+from .record import RunBlock
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of
@@ -155,11 +156,16 @@ class ExtendedKalmanFilter(TrackingFilter):
         innovation_cov : numpy.ndarray
             Its covariance ``(m, m)``.
         log_likelihood : float
-            ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).
+            ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).  The iterated
+            EKF gives the last linearisation's innovation ``z - h(x_i) - H_i (x^- - x_i)``:
+            the likelihood linearised at the updated state (a Laplace approximation).
         """
         self._innovation = (np.zeros(0), np.zeros((0, 0)))
         new, new_cov, _, _, ll = self._gaussian_step(group, mean, cov)
         y, s = self._innovation
+        if self.iterations > 1 and y.shape[0]:  # the last linearisation's (Laplace)
+            ll = -0.5 * (float(y @ solve_spd(s, y)[0]) + np.linalg.slogdet(s)[1]
+                         + y.shape[0] * LOG_2PI)
         return new, new_cov, y, s, ll
 
     def _gaussian_step(self, group: MeasurementGroup, mean: Array, cov: Array
@@ -202,6 +208,7 @@ class ExtendedKalmanFilter(TrackingFilter):
             s = hp.dot(h_i.T)
             s += r
             y_i = y_i - h_i.dot(mean - new)
+            self._innovation = (y_i, s)
             g_i = innovation_solve(s, hp, y_i)[0]
             nxt = mean + g_i.dot(y_i)
             size = float(np.linalg.norm((nxt - new)[:self.dim]))
@@ -211,31 +218,15 @@ class ExtendedKalmanFilter(TrackingFilter):
         m = y.shape[0]
         return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
 
-    # -- the closed-form path ----------------------------------------------------------------
-    def _kernel_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]) -> bool:
-        """Tell whether the kernel of ``cls`` applies."""
-        me = type(self)
-        return (compiled.single_bearing and self.dim == 2
-                and type(self.dynamics) is NearlyConstantVelocity
-                and me._update is cls._update and me._predict is cls._predict)
-
-    def _q2(self) -> tuple[float, float, float, float]:
-        q, qd = self.dynamics.axes()
-        return float(q[0] ** 2), float(q[1] ** 2), float(qd[0]), float(qd[1])
-
-    def _adopt(self, block: KernelRun) -> KernelRun:
-        self._mean, self._cov = block.mean, block.covariance
-        self.time, self.log_likelihood = block.time, block.log_likelihood
-        return block
-
-    def _plan_ok(self, compiled: CompiledMeasurements, cls: type[TrackingFilter]
+    # -- the run of a plan ---------------------------------------------------------------------
+    def _plan_ok(self, prepared: PreparedMeasurements, cls: type[TrackingFilter]
                  ) -> StepPlan | None:
-        """Give the general plan of ``compiled`` if this filter can run on it (else None)."""
+        """Give the general plan of ``prepared`` if this filter can run on it (else None)."""
         me = type(self)
-        if (compiled.single_bearing or type(self.dynamics) is not NearlyConstantVelocity
+        if (type(self.dynamics) is not NearlyConstantVelocity
                 or me._update is not cls._update or me._predict is not cls._predict):
             return None
-        plan = plan_for(compiled)
+        plan = plan_for(prepared)
         return plan if plan.ok else None
 
     def _dynamics_cache(self) -> DynamicsCache:
@@ -255,8 +246,8 @@ class ExtendedKalmanFilter(TrackingFilter):
             steps = self._steps = RowSteps(self.dim, self.options, self.nuisance)
         return steps
 
-    def _run_plan(self, plan: StepPlan, start: int) -> KernelRun:
-        """Run updates ``start`` on of a plan (the general path compiled once per file)."""
+    def _run_plan(self, plan: StepPlan, start: int) -> RunBlock:
+        """Run updates ``start`` on of a plan (the general path prepared once per file)."""
         steps = plan.steps[start:]
         rows: list[tuple] = []
         put = rows.append
@@ -279,12 +270,9 @@ class ExtendedKalmanFilter(TrackingFilter):
             mean, cov, nis, m, lli = update(step, mean, cov)
             ll += lli
             put((t, mean, cov, nis, m, ll))
-        return self._adopt(stacked_run(rows, 2 * self.dim, mean, cov, t, ll))
+        self._mean, self._cov, self.time, self.log_likelihood = mean, cov, t, ll
+        return stacked_run(rows, 2 * self.dim, mean, cov, t, ll)
 
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        if not self._kernel_ok(compiled, self._planned()):
-            plan = self._plan_ok(compiled, self._planned())
-            return None if plan is None else self._run_plan(plan, start)
-        return self._adopt(ekf_bearing_2d(self._mean, self._cov, self.time,
-                                          self.log_likelihood, start, compiled.bearing_lists(),
-                                          self._q2(), self.iterations))
+    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
+        plan = self._plan_ok(prepared, self._planned())
+        return None if plan is None else self._run_plan(plan, start)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -22,18 +23,17 @@ from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter, skipped
-from .gaussian_sum_compiled import (
-    gsf_bearing_2d,
-    predict_sum,
-    reduce_sum,
-    split_sum,
-    sum_moments,
-)
-from .general import CompiledMeasurements
-from .kernels import KernelRun
-from .record import Recorder
+from .general import PreparedMeasurements
+from .record import Recorder, RunBlock
 from .track import Track
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
+
+
+def _sums() -> ModuleType:
+    """Give the compiled sums (numba is imported when a Gaussian sum first runs)."""
+    from . import gaussian_sum_compiled
+    return gaussian_sum_compiled
+
 
 #: Component filters by name.
 COMPONENTS: dict[str, type[ExtendedKalmanFilter]] = {
@@ -46,6 +46,9 @@ PRUNE = 1e-5
 MERGE = 0.25
 #: Most components held at once.
 CAPACITY = 48
+#: Linearisations per update of EKF components (the iterated EKF; docs/tracking.md gives
+#: what it gains on the scenarios of Ristic et al. 2004).
+ITERATIONS = 5
 
 
 class GaussianSumFilter(TrackingFilter):
@@ -58,6 +61,9 @@ class GaussianSumFilter(TrackingFilter):
         :meth:`from_mixture` and :meth:`from_first_bearing` start from a sum.
     component : str, optional
         ``"ekf"``, ``"ukf"`` or ``"ckf"`` (cubature): the update of each component.
+    iterations : int, optional
+        Linearisations per update of EKF components (the iterated EKF, Bell & Cathey 1993;
+        1 the plain EKF).  Default :data:`ITERATIONS` for EKF components, else 1.
     split_threshold : float, optional
         Split a component when its largest position std exceeds this fraction of its range
         from the sensor (0: never split).
@@ -77,13 +83,14 @@ class GaussianSumFilter(TrackingFilter):
 
     References
     ----------
-    Alspach & Sorenson (1972); Peach (1995); Leong et al. (2014).
+    Alspach & Sorenson (1972); Peach (1995); Leong et al. (2014); Bell & Cathey (1993).
     """
 
     name = "gsf"
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
-                 component: str = "ekf", split_threshold: float = SPLIT_THRESHOLD,
+                 component: str = "ekf", iterations: int | None = None,
+                 split_threshold: float = SPLIT_THRESHOLD,
                  prune: float = PRUNE, merge: float = MERGE, capacity: int = CAPACITY,
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
@@ -107,10 +114,18 @@ class GaussianSumFilter(TrackingFilter):
         if type(self.dynamics) is not NearlyConstantVelocity:
             raise ValueError("the Gaussian-sum filter moves its components with "
                              "NearlyConstantVelocity dynamics")
+        if iterations is None:
+            iterations = ITERATIONS if component == "ekf" else 1
+        if component != "ekf" and iterations != 1:
+            raise ValueError(f"iterations apply to EKF components; got {iterations} with "
+                             f"{component!r}")
         self._unit = COMPONENTS[component](np.asarray(mean, dtype=float),
                                            np.asarray(covariance, dtype=float), time,
                                            dynamics=self.dynamics, options=self.options,
-                                           nuisance=self.nuisance)
+                                           nuisance=self.nuisance,
+                                           **({"iterations": iterations} if component == "ekf"
+                                              else {}))
+        self.iterations = self._unit.iterations
 
     # -- the sum ------------------------------------------------------------------------------
     def _init_state(self, mean: Array, covariance: Array) -> None:
@@ -190,7 +205,7 @@ class GaussianSumFilter(TrackingFilter):
         if self._moments is None:
             n = self._m.shape[1]
             mean, cov = np.zeros(n), np.zeros((n, n))
-            sum_moments(self._w, self._m, self._p, self._count, mean, cov)
+            _sums().sum_moments(self._w, self._m, self._p, self._count, mean, cov)
             self._moments = (mean, cov)
         return self._moments
 
@@ -205,19 +220,19 @@ class GaussianSumFilter(TrackingFilter):
         return self._compute_moments()[1].copy()
 
     def _settings(self) -> Array:
-        return np.array([self.split_threshold, self.prune, self.merge])
+        return np.array([self.split_threshold, self.prune, self.merge, self.iterations])
 
     # -- predict and update (the general path) ------------------------------------------------
     def _predict(self, dt: float) -> None:
         qa, qd = self.dynamics.axes()
-        predict_sum(self._m, self._p, self._count, float(dt), self.dim, qa, qd)
+        _sums().predict_sum(self._m, self._p, self._count, float(dt), self.dim, qa, qd)
         self._moments = None
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         sensor = np.zeros(3)
         sensor[:self.dim] = group.sensor_state[0, :self.dim]
-        self._count = split_sum(self._w, self._m, self._p, self._count, sensor, self.dim,
-                                self.split_threshold, self._w.shape[0])
+        self._count = _sums().split_sum(self._w, self._m, self._p, self._count, sensor, self.dim,
+                                        self.split_threshold, self._w.shape[0])
         c = self._count
         log_w = np.full(c, -np.inf)
         nus, covs = [], []
@@ -243,20 +258,19 @@ class GaussianSumFilter(TrackingFilter):
         w = np.exp(log_w - top)
         total = float(np.sum(w))
         self._w[:c] = w
-        self._count = reduce_sum(self._w, self._m, self._p, c, self.prune, self.merge)
+        self._count = _sums().reduce_sum(self._w, self._m, self._p, c, self.prune, self.merge)
         self._moments = None
         self.component_counts.append(self._count)
         return UpdateInfo(nis, int(nbar.shape[0]), top + math.log(total))
 
-    # -- the compiled path --------------------------------------------------------------------
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
+    # -- the compiled run of single bearings in 2-D -------------------------------------------
+    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
         me = type(self)
-        if not (compiled.single_bearing and self.dim == 2
+        if not (prepared.single_bearing and self.dim == 2
                 and me._update is GaussianSumFilter._update
                 and me._predict is GaussianSumFilter._predict):
             return None
-        times, zs, vs, sxs, sys_ = (np.asarray(c, dtype=float)[start:]
-                                    for c in compiled.bearing_lists())
+        times, zs = prepared.time[start:], prepared.values[start:]
         k = times.shape[0]
         if times.shape[0] and times[0] < self.time - 1e-9:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
@@ -267,10 +281,10 @@ class GaussianSumFilter(TrackingFilter):
         qa, qd = self.dynamics.axes()
         means, covs = np.zeros((k, 4)), np.zeros((k, 4, 4))
         nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
-        count, t, skipped_now = gsf_bearing_2d(
-            self._w, self._m, self._p, self._count, self.time, times, zs, vs,
-            np.column_stack((sxs, sys_)), qa, qd, sp, self._settings(), means, covs, nis,
-            lls, counts)
+        count, t, skipped_now = _sums().gsf_bearing_2d(
+            self._w, self._m, self._p, self._count, self.time, times, zs,
+            prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
+            qa, qd, sp, self._settings(), means, covs, nis, lls, counts)
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None
@@ -278,8 +292,8 @@ class GaussianSumFilter(TrackingFilter):
         cum = self.log_likelihood + np.cumsum(lls)
         self.log_likelihood = float(cum[-1]) if k else self.log_likelihood
         dof = np.where(np.isfinite(nis), 1.0, 0.0)  # rows per update (the recorder: int)
-        return KernelRun(start + k, False, self.state, self.covariance, self.time,
-                         self.log_likelihood, times, means, covs, nis, cum, dof)
+        return RunBlock(start + k, self.state, self.covariance, self.time,
+                        self.log_likelihood, times, means, covs, nis, cum, dof)
 
     def _track(self, rec: Recorder) -> Track:
         track = super()._track(rec)
@@ -296,4 +310,5 @@ class GaussianSumFilter(TrackingFilter):
         return counts
 
 
-__all__ = ["CAPACITY", "COMPONENTS", "MERGE", "PRUNE", "SPLIT_THRESHOLD", "GaussianSumFilter"]
+__all__ = ["CAPACITY", "COMPONENTS", "ITERATIONS", "MERGE", "PRUNE", "SPLIT_THRESHOLD",
+           "GaussianSumFilter"]

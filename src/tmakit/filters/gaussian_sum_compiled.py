@@ -24,6 +24,7 @@ SPLIT_WEIGHT = 0.2252246249
 SPLIT_OFFSET = 1.0575154615
 SPLIT_VARIANCE = 1.0 - 2.0 * SPLIT_WEIGHT * SPLIT_OFFSET**2
 LOG_2PI = math.log(2.0 * math.pi)
+IEKF_TOL = 1e-10  # as tmakit.filters.ekf.IEKF_TOL
 TWO_PI = 2.0 * math.pi
 
 
@@ -223,27 +224,49 @@ def _wrap(a: float) -> float:  # pragma: no cover - compiled
 
 
 @_inline
-def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float,
-                 sy: float) -> tuple[float, float, bool]:  # pragma: no cover - compiled
-    """Update component ``i`` with one bearing (EKF); give innovation, its variance, ok."""
-    dx = m[i, 0] - sx
-    dy = m[i, 1] - sy
-    r2 = dx * dx + dy * dy
-    if not (r2 > 0.0 and math.isfinite(r2)):
-        return 0.0, 0.0, False
-    h0 = dy / r2
-    h1 = -dx / r2
-    c = p[i, :, 0] * h0 + p[i, :, 1] * h1
-    s = c[0] * h0 + c[1] * h1 + var
-    if not (s > 0.0 and math.isfinite(s)):
-        return 0.0, 0.0, False
-    nu = _wrap(z - math.atan2(dx, dy))
-    k = c / s
-    m[i] += k * nu
+def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, sy: float,
+                 iterations: int) -> tuple[float, float, bool]:  # pragma: no cover - compiled
+    """Update component ``i`` with one bearing (EKF, iterated as the filter's ``iterations``).
+
+    The iterated update of Bell & Cathey (1993) as :class:`~tmakit.filters.ExtendedKalmanFilter`
+    makes it; innovation and variance (the weight's likelihood) are the last linearisation's,
+    as its ``update_gaussian`` gives them.
+    """
+    prior = m[i].copy()
+    x = prior.copy()
+    nu0, s0 = 0.0, 0.0  # the last linearisation's
+    k = np.zeros(4)
+    c = np.zeros(4)
+    for it in range(iterations):
+        dx = x[0] - sx
+        dy = x[1] - sy
+        r2 = dx * dx + dy * dy
+        if not (r2 > 0.0 and math.isfinite(r2)):
+            if it == 0:
+                return 0.0, 0.0, False
+            break
+        h0 = dy / r2
+        h1 = -dx / r2
+        ci = p[i, :, 0] * h0 + p[i, :, 1] * h1
+        s = ci[0] * h0 + ci[1] * h1 + var
+        if not (s > 0.0 and math.isfinite(s)):
+            if it == 0:
+                return 0.0, 0.0, False
+            break
+        nu = _wrap(z - math.atan2(dx, dy)) - h0 * (prior[0] - x[0]) - h1 * (prior[1] - x[1])
+        nu0, s0 = nu, s
+        c = ci
+        k = c / s
+        new = prior + k * nu
+        move = math.hypot(new[0] - x[0], new[1] - x[1])
+        x = new
+        if move < IEKF_TOL * math.sqrt(r2):
+            break
+    m[i] = x
     for r in range(4):
         for cc in range(4):
             p[i, r, cc] -= k[r] * c[cc]
-    return nu, s, True
+    return nu0, s0, True
 
 
 @_inline
@@ -332,7 +355,7 @@ def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times:
                    ) -> tuple[int, float, int]:  # pragma: no cover - compiled
     """Run the Gaussian-sum filter over single bearings in 2-D, one call for a whole track."""
     capacity = w.shape[0]
-    threshold, prune, merge = settings[0], settings[1], settings[2]
+    threshold, prune, merge, iterations = settings[0], settings[1], settings[2], int(settings[3])
     ekf = sigma_points.shape[0] == 0
     t = time
     skipped = 0
@@ -351,7 +374,7 @@ def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times:
         z, var = bearings[k], variances[k]
         for i in range(count):
             if ekf:
-                nu, s, ok = _ekf_bearing(m, p, i, z, var, sensor[0], sensor[1])
+                nu, s, ok = _ekf_bearing(m, p, i, z, var, sensor[0], sensor[1], iterations)
             else:
                 nu, s, ok = _sigma_bearing(m, p, i, z, var, sensor[0], sensor[1],
                                            sigma_points)

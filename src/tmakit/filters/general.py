@@ -1,6 +1,6 @@
 """The general filter path: a measurement set prepared once per file, its plan, and the step.
 
-The set is prepared once (:class:`CompiledMeasurements`) and so is everything of an update that
+The set is prepared once (:class:`PreparedMeasurements`) and so is everything of an update that
 does not depend on the state (:class:`StepPlan`; :class:`RowSteps` for rows handed over one update
 at a time), because cutting the set per update costs more than a filter step.  The EKF's
 posterior covariance is ``P - K H P``, the Joseph form only when that fails its Cholesky check
@@ -23,12 +23,18 @@ from ..core.linalg import repair_psd, solve_spd
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
-from ..observation import MeasurementGroup, RowLayout, resolve_models, time_blocks
+from ..observation import (
+    MeasurementGroup,
+    RowLayout,
+    resolve_models,
+    time_blocks,
+    tonals_scaled,
+)
 from ..observation.rows import Index, as_slice, correlated_blocks
-from .kernels import TWO_PI, KernelRun
+from .record import RunBlock
 
 
-class CompiledMeasurements:
+class PreparedMeasurements:
     """A measurement set prepared once for a filter run.
 
     Parameters
@@ -46,6 +52,7 @@ class CompiledMeasurements:
     def __init__(self, meas: MeasurementSet, dim: int,
                  options: Mapping[str, Mapping[str, object]] | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
+        meas, nuisance = tonals_scaled(meas, options, nuisance)  # several tonals: as one
         self.meas = meas
         self.dim = int(dim)
         n = len(meas)
@@ -73,14 +80,13 @@ class CompiledMeasurements:
         for k, i in self._kind_codes.items():
             lookup[KIND_CODES[k]] = i
         self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
-        self._lists: tuple[list[float], ...] | None = None
         #: What the filters derive from the set once per run (e.g. the general path's plan).
         self.cache: dict[str, object] = {}
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
         #: row layout, made once and shared by the updates with that pattern.
         self._layouts: dict[bytes, tuple[dict, dict, dict, RowLayout]] = {}
         sizes = np.diff(self.bounds)
-        #: Every update is one bearing row (the closed-form kernels apply).
+        #: Every update is one bearing row (the Gaussian sum's compiled run applies).
         self.single_bearing = bool(n > 0 and np.all(sizes == 1)
                                    and set(self.models) == {"bearing"})
 
@@ -92,15 +98,6 @@ class CompiledMeasurements:
     def __len__(self) -> int:
         """Return the number of updates."""
         return int(self.times.shape[0])
-
-    def bearing_lists(self) -> tuple[list[float], ...]:
-        """Give the bearing kernels' columns, as lists made once."""
-        if not self.single_bearing:
-            raise ValueError("bearing_lists: the updates are not all single bearings")
-        if self._lists is None:
-            self._lists = (self.time.tolist(), self.values.tolist(), (self.sigmas**2).tolist(),
-                           self.sensor_state[:, 0].tolist(), self.sensor_state[:, 1].tolist())
-        return self._lists
 
     def rows(self, k: int) -> MeasurementSet:
         """Return the rows of update ``k`` as a MeasurementSet (the slow, general path)."""
@@ -129,31 +126,31 @@ class CompiledMeasurements:
             self.ref_sensor_state[a:b], self.sensor[a:b], lambda: self.rows(k), layout)
 
 
-#: The sets compiled so far, per measurement set (whose arrays are read-only) and per
+#: The sets prepared so far, per measurement set (whose arrays are read-only) and per
 #: (dimension, options, nuisance values): a set filtered again (another filter, another prior,
-#: the same filter once more) is compiled once.  Kept while the set lives.
-_COMPILED: weakref.WeakKeyDictionary[MeasurementSet, dict[str, CompiledMeasurements]] = \
+#: the same filter once more) is prepared once.  Kept while the set lives.
+_PREPARED: weakref.WeakKeyDictionary[MeasurementSet, dict[str, PreparedMeasurements]] = \
     weakref.WeakKeyDictionary()
 
 
-def compiled_for(meas: MeasurementSet, dim: int,
+def prepared_for(meas: MeasurementSet, dim: int,
                  options: Mapping[str, Mapping[str, object]] | None = None,
-                 nuisance: Mapping[str, float] | None = None) -> CompiledMeasurements:
-    """Give ``meas`` compiled for a filter, made once per set and settings."""
+                 nuisance: Mapping[str, float] | None = None) -> PreparedMeasurements:
+    """Give ``meas`` prepared for a filter, made once per set and settings."""
     key = repr((int(dim), sorted((str(k), sorted(dict(v).items()))
                                  for k, v in dict(options or {}).items()),
                 sorted(dict(nuisance or {}).items())))
     try:
-        per_set = _COMPILED.get(meas)
+        per_set = _PREPARED.get(meas)
         if per_set is None:
-            per_set = _COMPILED[meas] = {}
-    except TypeError:  # a set that cannot be weakly referenced or hashed: compiled each time
-        return CompiledMeasurements(meas, dim, options, nuisance)
+            per_set = _PREPARED[meas] = {}
+    except TypeError:  # a set that cannot be weakly referenced or hashed: prepared each time
+        return PreparedMeasurements(meas, dim, options, nuisance)
     out = per_set.get(key)
     if out is None:
         if len(per_set) >= 8:  # many settings on one set: keep the cache small
             per_set.clear()
-        out = per_set[key] = CompiledMeasurements(meas, dim, options, nuisance)
+        out = per_set[key] = PreparedMeasurements(meas, dim, options, nuisance)
     return out
 
 
@@ -328,7 +325,7 @@ def _linearise_rows(rows: list[tuple], x: Array, dim: int) -> tuple[Array, Array
         except (ZeroDivisionError, OverflowError, ValueError):
             v = g0 = g1 = g2 = g3 = g4 = g5 = nan
         if ang:
-            y = math.remainder(z - v, TWO_PI)
+            y = math.remainder(z - v, math.tau)
             ys.append(math.pi if y == -math.pi else y)
         else:
             ys.append(z - v)
@@ -358,17 +355,17 @@ def finite(y: Array, h: Array) -> bool:
 
 
 def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll: float
-                ) -> KernelRun:
-    """Give a plan run's per-update rows as a :class:`~.kernels.KernelRun`."""
+                ) -> RunBlock:
+    """Give a run's per-update rows ``(time, state, cov, nis, dof, ll)`` as a block."""
     if not rows:
-        return KernelRun(0, False, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
-                         np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
-                         np.zeros(0, dtype=np.int64), True)
+        return RunBlock(0, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
+                        np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
+                        np.zeros(0, dtype=np.int64))
     times, states, covs, nis, dof, lls = zip(*rows, strict=True)
-    return KernelRun(len(rows), False, mean, cov, t, ll, np.array(times),
-                     np.concatenate(states).reshape(-1, n),
-                     np.concatenate(covs).reshape(-1, n, n), np.array(nis), np.array(lls),
-                     np.array(dof, dtype=np.int64), True)
+    return RunBlock(len(rows), mean, cov, t, ll, np.array(times),
+                    np.concatenate(states).reshape(-1, n),
+                    np.concatenate(covs).reshape(-1, n, n), np.array(nis), np.array(lls),
+                    np.array(dof, dtype=np.int64))
 
 
 # -- the plan ---------------------------------------------------------------------------------
@@ -432,12 +429,12 @@ def _views(arr: Array, bounds: list[int], width: int = 1) -> list[Array]:
 
 
 class StepPlan:
-    """Every update of a compiled set, prepared for the general path (see the module text).
+    """Every update of a prepared set, made ready for the general path (see the module text).
 
     Parameters
     ----------
-    compiled : CompiledMeasurements
-        The set compiled for the filter (its ``dim``, options and nuisance values).
+    prepared : PreparedMeasurements
+        The set prepared for the filter (its ``dim``, options and nuisance values).
 
     Attributes
     ----------
@@ -449,45 +446,45 @@ class StepPlan:
         Rows per update (K,).
     """
 
-    def __init__(self, compiled: CompiledMeasurements) -> None:
-        self.dim = compiled.dim
-        self.ok = not any(m.uses_reference for m in compiled.models.values())
+    def __init__(self, prepared: PreparedMeasurements) -> None:
+        self.dim = prepared.dim
+        self.ok = not any(m.uses_reference for m in prepared.models.values())
         self.steps: list[Step] = []
-        self.sizes = np.diff(compiled.bounds)
-        if not self.ok or len(compiled) == 0:
+        self.sizes = np.diff(prepared.bounds)
+        if not self.ok or len(prepared) == 0:
             return
-        names = list(compiled.models)
-        codes = compiled.model_index
-        update = np.repeat(np.arange(len(compiled)), self.sizes)
+        names = list(prepared.models)
+        codes = prepared.model_index
+        update = np.repeat(np.arange(len(prepared)), self.sizes)
         # Rows of each update sorted by kind: every kind's rows become one slice.
         perm = np.lexsort((codes, update))
         codes = codes[perm]
-        dt = compiled.time[perm] - compiled.times[update]
-        values = compiled.values[perm]
-        sens = compiled.sensor_state[perm]
-        var = compiled.sigmas[perm] ** 2
-        time, time_ref = compiled.time[perm], compiled.time_ref[perm]
-        sensor, sigmas = compiled.sensor[perm], compiled.sigmas[perm]
-        correlated = any(m.correlated_noise for m in compiled.models.values())
-        scalar = all(m.has_row_gradient for m in compiled.models.values())
-        recs = self._records(compiled, names, codes, values, sens, dt, time) if scalar else None
+        dt = prepared.time[perm] - prepared.times[update]
+        values = prepared.values[perm]
+        sens = prepared.sensor_state[perm]
+        var = prepared.sigmas[perm] ** 2
+        time, time_ref = prepared.time[perm], prepared.time_ref[perm]
+        sensor, sigmas = prepared.sensor[perm], prepared.sigmas[perm]
+        correlated = any(m.correlated_noise for m in prepared.models.values())
+        scalar = all(m.has_row_gradient for m in prepared.models.values())
+        recs = self._records(prepared, names, codes, values, sens, dt, time) if scalar else None
         patterns: dict[bytes, tuple[list, object, dict]] = {}
         maps: dict[bytes, tuple[Array, Array | None]] = {}
-        bounds = compiled.bounds.tolist()
+        bounds = prepared.bounds.tolist()
         code_bytes, width = codes.tobytes(), codes.itemsize
-        moved = (np.add.reduceat(dt != 0.0, compiled.bounds[:-1]) > 0).tolist()
+        moved = (np.add.reduceat(dt != 0.0, prepared.bounds[:-1]) > 0).tolist()
         flat_sens = sens.reshape(-1)
-        noise = _diagonal_noise(var, compiled.bounds)
-        update_times = compiled.times.tolist()
+        noise = _diagonal_noise(var, prepared.bounds)
+        update_times = prepared.times.tolist()
         value_k, sens_k, time_k = (_views(values, bounds), _views(flat_sens, bounds, 6),
                                    _views(time, bounds))
-        for k in range(len(compiled)):
+        for k in range(len(prepared)):
             a, b = bounds[k], bounds[k + 1]
             key = code_bytes[a * width:b * width]
             pat = patterns.get(key)
             if pat is None:
-                pat = patterns[key] = _pattern(codes[a:b], names, compiled.models,
-                                                compiled.nuisance)
+                pat = patterns[key] = _pattern(codes[a:b], names, prepared.models,
+                                                prepared.nuisance)
             parts, angle, index = pat
             dkey = dt[a:b].tobytes() if moved[k] else b - a
             tm = maps.get(dkey)
@@ -496,7 +493,7 @@ class StepPlan:
                 tm = maps[dkey] = (t3.reshape(-1, 2 * self.dim), t3 if moved[k] else None)
             r = noise[k]
             if correlated:
-                for rows, cov in correlated_blocks(compiled.models, index, time[a:b],
+                for rows, cov in correlated_blocks(prepared.models, index, time[a:b],
                                                    time_ref[a:b], sigmas[a:b], sensor[a:b]):
                     r[np.ix_(rows, rows)] = cov
             self.steps.append((update_times[k], value_k[k], sens_k[k], parts,
@@ -505,11 +502,11 @@ class StepPlan:
                                else None))
 
     @staticmethod
-    def _records(compiled: CompiledMeasurements, names: list[str], codes: IntArray,
+    def _records(prepared: PreparedMeasurements, names: list[str], codes: IntArray,
                  values: Array, sens: Array, dt: Array, time: Array) -> list[tuple]:
         """Give every row as a plain-float record for :func:`linearise` (kinds in order)."""
-        info = [(compiled.models[k].row_gradient, tuple(compiled.nuisance[k].tolist()),
-                 compiled.models[k].is_angle) for k in names]
+        info = [(prepared.models[k].row_gradient, tuple(prepared.nuisance[k].tolist()),
+                 prepared.models[k].is_angle) for k in names]
         per_row = [info[c] for c in codes.tolist()]
         return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
                 zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
@@ -517,11 +514,11 @@ class StepPlan:
 
 
 
-def plan_for(compiled: CompiledMeasurements) -> StepPlan:
-    """Give the plan of a compiled set, made on first use and kept in its cache."""
-    plan = compiled.cache.get("step_plan")
+def plan_for(prepared: PreparedMeasurements) -> StepPlan:
+    """Give the plan of a prepared set, made on first use and kept in its cache."""
+    plan = prepared.cache.get("step_plan")
     if not isinstance(plan, StepPlan):
-        plan = compiled.cache["step_plan"] = StepPlan(compiled)
+        plan = prepared.cache["step_plan"] = StepPlan(prepared)
     return plan
 
 
@@ -537,7 +534,7 @@ class RowSteps:
     dim : int
         Filter dimension, 2 or 3.
     options, nuisance : mapping, optional
-        As for :class:`CompiledMeasurements`.
+        As for :class:`PreparedMeasurements`.
     """
 
     def __init__(self, dim: int, options: Mapping[str, Mapping[str, object]] | None = None,

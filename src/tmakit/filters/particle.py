@@ -22,9 +22,6 @@ from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI, skipped
-from .general import CompiledMeasurements
-from .kernels import KernelRun
-from .particle_compiled import move_density
 from .record import Recorder
 from .track import Track
 
@@ -276,6 +273,8 @@ class ParticleFilter(TrackingFilter):
             noise = self._density_noise = np.empty((2, self.dim, self.n_particles),
                                                    dtype=np.float32)
         self.rng.standard_normal(out=noise, dtype=np.float32)
+        from .particle_compiled import move_density  # numba, imported when first used
+
         move_density(self._x, noise, float(dt), l11, l21, l22)
 
     # -- update -------------------------------------------------------------------------------
@@ -290,11 +289,7 @@ class ParticleFilter(TrackingFilter):
     def _update_bearing(self, group: MeasurementGroup) -> UpdateInfo | None:
         """Update with one bearing at the update time in closed form."""
         sx, sy = (float(v) for v in group.sensor_state[0, :2])
-        return self._bearing_update(float(group.values[0]), float(group.sigmas[0]), sx, sy)
-
-    def _bearing_update(self, z: float, sigma: float, sx: float, sy: float
-                        ) -> UpdateInfo | None:
-        """Make :meth:`_update_bearing` from plain floats."""
+        z, sigma = float(group.values[0]), float(group.sigmas[0])
         sz, cz = math.sin(z), math.cos(z)
         x, y = self._x[0], self._x[1]
         s, c, r = self._work
@@ -321,38 +316,6 @@ class ParticleFilter(TrackingFilter):
         r *= -0.5 / (sigma * sigma)
         const = -math.log(sigma) - 0.5 * LOG_2PI
         return self._normalise(r, const, nu_bar * nu_bar / var, 1)
-
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        """Run the updates of single bearings in 2-D from ``start`` without building groups."""
-        me = type(self)
-        if not (compiled.single_bearing and self.dim == 2 and self._ncv
-                and me._update is ParticleFilter._update
-                and me._predict is ParticleFilter._predict):
-            return None
-        times, values, sigmas = compiled.times.tolist(), compiled.values.tolist(), \
-            compiled.sigmas.tolist()
-        sensors = compiled.sensor_state[:, :2].tolist()
-        rows = []
-        k, total = start, len(times)
-        while k < total:
-            self._advance(times[k])
-            sx, sy = sensors[k]
-            info = self._bearing_update(values[k], sigmas[k], sx, sy)
-            if info is None:
-                break
-            self.log_likelihood += info.log_likelihood
-            mean, cov = self._compute_moments()
-            rows.append((self.time, mean.copy(), cov.copy(), info.nis, info.dof,
-                         self.log_likelihood))
-            k += 1
-        if not rows:
-            return None
-        t, x, p, nis, dof, ll = zip(*rows, strict=True)
-        n = 2 * self.dim
-        return KernelRun(k, k < total, self.state, self.covariance, self.time,
-                         self.log_likelihood, np.array(t),
-                         np.concatenate(x).reshape(-1, n), np.concatenate(p).reshape(-1, n, n),
-                         np.array(nis), np.array(ll), np.array(dof, dtype=np.int64))
 
     def _normalise(self, total: Array, const: float, nis: float, dof: int) -> UpdateInfo:
         """Multiply the weights by the likelihoods ``exp(total + const)`` and normalise."""

@@ -9,7 +9,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.arrays import Array
-from .kernels import KernelRun
 
 
 @dataclass(frozen=True)
@@ -31,9 +30,40 @@ class UpdateInfo:
     log_likelihood: float
 
 
+@dataclass
+class RunBlock:
+    """Updates a filter ran in one go: the final estimate and each update's outputs.
+
+    Parameters
+    ----------
+    stop : int
+        Index of the first update not run (the number of updates when all were).
+    mean, covariance : numpy.ndarray
+        Final state ``(n,)`` (m, m/s) and covariance ``(n, n)``.
+    time : float
+        Final time (s).
+    log_likelihood : float
+        Final cumulative log-likelihood (nats).
+    times, states, covariances, nis, log_likelihoods, dof : numpy.ndarray
+        Per update: times ``(k,)`` (s), states ``(k, n)``, covariances ``(k, n, n)``, NIS
+        ``(k,)``, cumulative log-likelihoods ``(k,)`` and degrees of freedom ``(k,)``.
+    """
+
+    stop: int
+    mean: Array
+    covariance: Array
+    time: float
+    log_likelihood: float
+    times: Array
+    states: Array
+    covariances: Array
+    nis: Array
+    log_likelihoods: Array
+    dof: Array
+
 
 class Recorder:
-    """Collects a filter's per-update outputs (single updates and kernel blocks).
+    """Collects a filter's per-update outputs (single updates and blocks).
 
     Parameters
     ----------
@@ -59,13 +89,11 @@ class Recorder:
                                 np.array(dof, dtype=np.int64), np.array(ll, dtype=float)))
             self.rows = []
 
-    def add_block(self, block: KernelRun) -> None:
-        """Record the updates of a kernel or general-path run."""
+    def add_block(self, block: RunBlock) -> None:
+        """Record the updates of a block."""
         self._flush()
-        k = block.states.shape[0]
-        dof = np.ones(k, dtype=np.int64) if block.dof is None else block.dof
-        self.blocks.append((block.times, block.states, block.covariances, block.nis, dof,
-                            block.log_likelihoods))
+        self.blocks.append((block.times, block.states, block.covariances, block.nis,
+                            block.dof, block.log_likelihoods))
 
     def parts(self) -> list[NDArray[Any]]:
         """Give the stacked outputs of every update recorded."""

@@ -22,14 +22,12 @@ from ..observation.rows import Index
 from .base import Array, KindOptions, ProcessNoise, UpdateInfo
 from .ekf import LOG_2PI, ExtendedKalmanFilter
 from .general import (
-    CompiledMeasurements,
     Step,
     checked_psd,
     innovation_solve,
     predict_rows,
     wrap_small,
 )
-from .kernels import KernelRun, ukf_bearing_2d
 
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float
@@ -164,15 +162,6 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         m = nu.shape[0]
         return (mean + gain.dot(nu), checked_psd(cov - gain.dot(pzz).dot(gain.T)), nis, m,
                 -0.5 * (nis + log_det + m * LOG_2PI))
-
-    def _run_kernel(self, compiled: CompiledMeasurements, start: int) -> KernelRun | None:
-        if not self._kernel_ok(compiled, self._planned()):
-            plan = self._plan_ok(compiled, self._planned())
-            return None if plan is None else self._run_plan(plan, start)
-        weights = (self._gamma, float(self._wm[0]), float(self._wc[0]), float(self._wm[1]))
-        return self._adopt(ukf_bearing_2d(self._mean, self._cov, self.time,
-                                          self.log_likelihood, start, compiled.bearing_lists(),
-                                          self._q2(), weights))
 
 
 def _predict_group(group: MeasurementGroup, points: Array) -> Array:

@@ -1,4 +1,4 @@
-"""Stone Soup interoperability: detections, measurement models and a no-guess initiator.
+"""Stone Soup interoperability: detections, measurement models and two initiators.
 
 Install with ``pip install "tmakit[stonesoup]"`` (Stone Soup ≥ 1.0).
 """
@@ -13,8 +13,9 @@ if importlib.util.find_spec("stonesoup") is None:  # pragma: no cover - the extr
                               name="stonesoup")
 
 from .stonesoup_detections import NATIVE_MODELS, detection_feed, from_detections, to_detections
-from .stonesoup_initiator import BatchInitiator
+from .stonesoup_initiator import BatchInitiator, BearingInitiator
 from .stonesoup_models import EPOCH, TmakitMeasurementModel, cartesian_mapping
 
-__all__ = ["EPOCH", "NATIVE_MODELS", "BatchInitiator", "TmakitMeasurementModel",
-           "cartesian_mapping", "detection_feed", "from_detections", "to_detections"]
+__all__ = ["EPOCH", "NATIVE_MODELS", "BatchInitiator", "BearingInitiator",
+           "TmakitMeasurementModel", "cartesian_mapping", "detection_feed", "from_detections",
+           "to_detections"]

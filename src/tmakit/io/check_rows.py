@@ -15,7 +15,8 @@ __all__ = ["check_order"]
 
 
 def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_],
-                kind: NDArray[np.object_], problems: Problems) -> None:
+                kind: NDArray[np.object_], problems: Problems,
+                tonal: NDArray[np.str_] | None = None) -> None:
     """Time order within each sensor, no far time, no (sensor, kind, time, time_ref) twice."""
     import pandas as pd
 
@@ -30,7 +31,8 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
     # codes, not text: equal ids give equal codes, and groupby on integers is light
     table = pd.DataFrame({"sensor": pd.factorize(sensor[rows])[0],
                           "kind": pd.factorize(kind[rows])[0],
-                          "time": t[rows], "time_ref": tr[rows], "row": rows})
+                          "time": t[rows], "time_ref": tr[rows], "row": rows,
+                          "tonal": 0 if tonal is None else pd.factorize(tonal[rows])[0]})
     by_sensor = table.groupby("sensor", sort=False)
     prev_row = by_sensor["row"].shift().to_numpy()
     prev_time = by_sensor["time"].shift().to_numpy()
@@ -42,7 +44,7 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
                       f"{number_text(t[row])} (time decreases for sensor '{s}')")
 
     table = table[~problems.bad_rows("kind", "time_ref")[rows]]
-    key = ["sensor", "kind", "time", "time_ref"]
+    key = ["sensor", "kind", "time", "time_ref", "tonal"]
     first = table.groupby(key, sort=False, dropna=False)["row"].transform("first")
     for row, prev in zip(table["row"].to_numpy(), first.to_numpy(), strict=True):
         if row == prev:

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from ..data import MeasurementSet
 from ..measurements import KINDS
-from ..rules import metadata_problems
+from ..rules import check_set, metadata_problems
 from .cells import text_column
 from .check_cells import check_cells, read_numbers
 from .check_columns import check_columns
@@ -44,7 +44,8 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     num = read_numbers(frame, problems)
     ref_name = (_stripped(text_column(frame["ref_sensor"])) if has("ref_sensor") else None)
     ref_given = check_cells(frame, num, kind, is_rd, problems, ref_name)
-    check_order(num, sensor, kind, problems)
+    tonal = _tonal(frame, kind, problems) if has("tonal") else None
+    check_order(num, sensor, kind, problems, tonal)
     state, origin_metadata = sensor_state(num, layout, origin, problems)
     time_ref = num["time_ref"] if "time_ref" in num else np.full(n, np.nan)
     earlier = is_rd & ~np.isin(kind, between_sensor_kinds())  # tdoa, fdoa: given, checked
@@ -64,9 +65,23 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     meta: dict[str, Any] = dict(raw.metadata)
     meta.update(origin_metadata)
     meta.update(meta_carrier)
-    return MeasurementSet(num["time"], np.asarray(sensor.tolist(), dtype=str),
-                          np.asarray(kind.tolist(), dtype=str), num["value"],
-                          num["sigma"], state, time_ref, ref_state, meta)
+    out = MeasurementSet(num["time"], np.asarray(sensor.tolist(), dtype=str),
+                         np.asarray(kind.tolist(), dtype=str), num["value"],
+                         num["sigma"], state, time_ref, ref_state, meta, check=tonal is None)
+    if tonal is not None:
+        out = out.with_tonal(tonal)
+        check_set(out)
+    return out
+
+
+def _tonal(frame: Any, kind: NDArray[np.object_], problems: Problems) -> NDArray[np.str_]:
+    """Read the ``tonal`` column: a label on each frequency row, empty on the others."""
+    text = np.array([("" if c is None or c != c else str(c)).strip()
+                     for c in frame["tonal"].tolist()], dtype=str)
+    for row in np.flatnonzero((text != "") != (kind == "frequency"))[:20].tolist():
+        problems.cell(row, "tonal", "a tonal label on a frequency row, empty on any other",
+                      repr(text[row]))
+    return text
 
 
 def _stripped(text: NDArray[np.object_]) -> NDArray[np.object_]:

@@ -24,4 +24,6 @@ def file_columns(ms: MeasurementSet) -> dict[str, NDArray[Any]]:
     if any(np.any(ms.kind_mask(k)) for k in reference_kinds()):
         for i, c in enumerate(REF_STATE_COLUMNS):
             cols[c] = ms.ref_sensor_state[:, i]
+    if ms.tonal is not None:  # each frequency row's tonal (its own f0)
+        cols["tonal"] = ms.tonal
     return cols

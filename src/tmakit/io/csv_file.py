@@ -41,7 +41,7 @@ __all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load
 
 #: The columns the reader uses; others are ignored (docs/file-format.md) and not even parsed,
 #: so a header of 200,000 columns costs little.
-READ_COLUMNS = frozenset(("sensor", "kind", "ref_sensor", *NUMERIC_COLUMNS))
+READ_COLUMNS = frozenset(("sensor", "kind", "ref_sensor", "tonal", *NUMERIC_COLUMNS))
 #: Bytes of the file searched for the ``# key: value`` preamble before the whole file.
 _PREAMBLE_SCAN = 1 << 20
 
@@ -469,6 +469,8 @@ def stream_csv(path: Path, scan: int = 1 << 20,
     if names is None:
         return None
     stripped = {n.strip() for n in names}
+    if "tonal" in stripped:  # (tonals: the full reader)
+        return None
     enu_origin: tuple[float, float, float] | None = None
     if "sensor_lat" in stripped:
         enu_origin, origin_metadata = _origin(origin, metadata)

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 from .clock_text import seconds_of_time_text
-from .debrief_fixes import at_line, host_fixes, sensor_states
+from .debrief_fixes import at_line, host_fixes, listed, sensor_states
 from .debrief_lines import LineProblem, ParsedReplay, SensorLine, SolutionLine, parse_replay_text
 from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
@@ -34,6 +34,8 @@ DEFAULT_BEARING_SIGMA_DEG = 1.0
 DEFAULT_RANGE_SIGMA_M = 100.0
 #: Frequency noise standard deviation (Hz) when none is given.
 DEFAULT_FREQUENCY_SIGMA_HZ = 0.1
+#: Speed of sound in sea water (m/s) that carries a replay's tonals, unless told otherwise.
+SOUND_SPEED_SEA_M_S = 1500.0
 
 
 ReplayPaths = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
@@ -97,11 +99,6 @@ def _problem(p: LineProblem) -> str:
     return f"{at_line(p)}: {p.message}"
 
 
-def _listed(items: list[str], most: int = 5) -> str:
-    return "; ".join(items[:most]) + (f"; and {len(items) - most} more" if len(items) > most
-                                      else "")
-
-
 def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[str]) -> None:
     """Refuse the problems in the own ship's lines (or lines of no known track); warn of others."""
     used = [p for p in parsed.problems if p.owner is None or p.owner == host]
@@ -110,11 +107,11 @@ def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[st
     other = [f"{_problem(p)} (track {p.owner!r})" for p in parsed.problems]
     if other:
         notes.append(f"warning: {len(other)} line(s) of tracks not used break the format and "
-                     f"are skipped: {_listed(other)}")
+                     f"are skipped: {listed(other)}")
     if parsed.carries:
         carried = [f"{at_line(c)} {c.message}" for c in parsed.carries]
         notes.append(f"note: {len(carried)} position(s) written with 60 minutes or seconds read "
-                     f"as a carry, as Debrief reads them: {_listed(carried)}")
+                     f"as a carry, as Debrief reads them: {listed(carried)}")
 
 
 def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
@@ -126,7 +123,7 @@ def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
         tracks = list(dict.fromkeys(t.name for t in parsed.tracks))
         raise MeasurementFileError(path, [
             "no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing measured" + (
-                f"; the tracks read ({_listed(tracks)}) are positions: give an own ship's "
+                f"; the tracks read ({listed(tracks)}) are positions: give an own ship's "
                 f"track with its sensor file in one command (tma show SENSOR.dsf OWN.rep)"
                 if tracks else "")])
     ownship = None if ownship is None else ownship.strip()
@@ -223,7 +220,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines, twins = cut_rows(
+    times, kinds_, values, sigmas, st, lines, twins, tonals = cut_rows(
         cuts.rows, cuts.states, t, si, asked, wanted, no_range)
     if not times:
         raise MeasurementFileError(where, [
@@ -231,10 +228,25 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
     metadata = _metadata(paths, cuts, contact, sig, int(np.isfinite(twins).sum()), notes)
+    if "frequency" in kinds_:  # Debrief's frequencies are sonar tonals
+        metadata["frequency_propagation_speed"] = repr(SOUND_SPEED_SEA_M_S)
+        tonal_names = list(dict.fromkeys(t for t in tonals if t))
+        _note(metadata, f"note: frequencies are sonar tonals carried by sound at "
+              f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to change); "
+              f"{len(tonal_names)} tonal(s) ({listed(tonal_names)}), each with its own "
+              "unknown base frequency f0")
     raw = MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
         np.array(sigmas), np.array(st), metadata=metadata, check=False)
-    return _checked(where, raw.with_ambiguous(np.array(twins)), lines, cuts.rows)
+    raw = raw.with_ambiguous(np.array(twins))
+    return _checked(where, raw.with_tonal(tonals) if "frequency" in kinds_ else raw, lines,
+                    cuts.rows)
+
+
+def _note(metadata: dict[str, str], note: str) -> None:
+    """Add a note to the set's reader notes."""
+    old = metadata.get(READER_NOTES_KEY)
+    metadata[READER_NOTES_KEY] = note if not old else NOTES_SEPARATOR.join((old, note))
 
 
 def _one_run_per_sensor(rows: list[SensorLine], parsed: ParsedReplay, host: str,
@@ -283,7 +295,7 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
-            f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
+            f"the cuts read name {len(contacts)} contacts ({listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
             "two contacts' cuts; choose one with --contact NAME (the first word of the "
             "labels)"]) from None
@@ -343,8 +355,9 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
     if ambiguous:
         notes.append(f"note: {ambiguous} cut(s) carry a second, ambiguous bearing (;SENSOR2:, "
                      "the mirror of a towed array's bearing about its axis): both are read; "
-                     "tma estimate chooses the side of each own-ship leg by likelihood (Python: "
-                     "tk.resolve_ambiguity), a fit of the set as it is takes the first bearing")
+                     "tma estimate and tma track choose the side of each own-ship leg by "
+                     "likelihood (Python: tk.resolve_ambiguity), a fit of the set as it is takes "
+                     "the first bearing; tma crlb takes the side as known")
     names = " + ".join(p.name for p in paths)
     metadata = {"source": f"Debrief replay {names}, own ship {cuts.host}"
                 + (f", contact {contact.strip()}" if contact else ""),

@@ -21,7 +21,7 @@ from .logs import (
     velocity_from_positions,
 )
 
-__all__ = ["PAIR_HINT", "at_line", "host_fixes", "sensor_states"]
+__all__ = ["PAIR_HINT", "at_line", "host_fixes", "listed", "sensor_states"]
 
 #: How to give a sensor file its own ship's positions (the end of the refusals that need it).
 PAIR_HINT = ("give the own ship's track file in the same command, e.g. tma import rep OWN.rep "
@@ -32,6 +32,12 @@ _SAME_DEG = 0.011 / 3600.0  # the files' 0.01" of arc (0.3 m)
 def at_line(item: TrackLine | SensorLine | LineProblem) -> str:
     """Name a line: ``line N``, or ``FILE line N`` when several files are read."""
     return f"{item.file} line {item.line}" if item.file else f"line {item.line}"
+
+
+def listed(items: Sequence[str], most: int = 5, sep: str = "; ") -> str:
+    """Join the first ``most`` items, then say how many more there are."""
+    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most
+                                     else "")
 
 
 def _values(item: TrackLine | SensorLine) -> str:
@@ -70,10 +76,8 @@ def _unique(path: Path, lines: Sequence[TrackLine | SensorLine], host: str,
     if problems:
         raise MeasurementFileError(path, problems)
     if repeats:
-        shown = "; ".join(repeats[:5]) + (f"; and {len(repeats) - 5} more" if len(repeats) > 5
-                                          else "")
         notes.append(f"note: own ship {host!r}: {len(repeats)} fix(es) written twice (same time "
-                     f"and values) read once: {shown}")
+                     f"and values) read once: {listed(repeats)}")
     return kept
 
 
@@ -86,8 +90,7 @@ def host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[Sensor
         null = [s for s in rows if s.lat is None]
         if null and not stated:
             named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
-            lines = ", ".join(at_line(s) for s in null[:5]) + (
-                f" and {len(null) - 5} more" if len(null) > 5 else "")
+            lines = listed([at_line(s) for s in null], sep=", ")
             raise MeasurementFileError(path, [
                 f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
                 f"(tracks read: {named}): {PAIR_HINT}"])
@@ -123,8 +126,7 @@ def sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: Local
     bad = np.flatnonzero(outside & ~given)
     if bad.size:
         span = f"{iso_utc(int(fixes.time_ns[0]))} to {iso_utc(int(fixes.time_ns[-1]))}"
-        named = ", ".join(at_line(rows[k]) for k in bad[:5]) + (
-            f" and {bad.size - 5} more" if bad.size > 5 else "")
+        named = listed([at_line(rows[k]) for k in bad.tolist()], sep=", ")
         message = (f"{bad.size} cut(s) with a NULL position fall outside the own ship's track "
                    f"{rows[bad[0]].host!r} ({span}) and are left out: {named}")
         if bad.size == len(rows):

@@ -48,9 +48,9 @@ def placeholder_ranges(rows: list[SensorLine], ranges: str | None,
 def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
              sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
              no_range: NDArray[np.bool_]
-             ) -> tuple[list, list, list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state, line, twin) of each value used."""
-    out: tuple[list, list, list, list, list, list, list] = ([], [], [], [], [], [], [])
+             ) -> tuple[list, list, list, list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal) of each value used."""
+    out: tuple[list, ...] = ([], [], [], [], [], [], [], [])
     for k, s in enumerate(rows):
         stated = {"bearing": None if s.bearing_accuracy is None
                   else float(np.deg2rad(s.bearing_accuracy)),
@@ -65,7 +65,8 @@ def cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.
             sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
             twin = (float(np.deg2rad(s.ambiguous)) if kind == "bearing"
                     and s.ambiguous is not None else np.nan)
-            for col, item in zip(out, (t[k], kind, si, sigma, states[k], at_line(s), twin),
-                                 strict=True):
+            tonal = s.sensor if kind == "frequency" else ""  # a sensor's tonal line
+            for col, item in zip(out, (t[k], kind, si, sigma, states[k], at_line(s), twin,
+                                       tonal), strict=True):
                 col.append(item)
-    return out
+    return out  # type: ignore[return-value]

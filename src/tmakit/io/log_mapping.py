@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from ..core.input_files import read_toml
 from .logs import KNOT, YARD
 
 __all__ = ["UNITS", "LogMapping", "MappingError", "load_mapping", "mapping_from_text"]
@@ -155,21 +155,8 @@ def _explain(source: str, err: ValidationError) -> MappingError:
 
 def load_mapping(path: str | os.PathLike[str]) -> LogMapping:
     """Read a mapping TOML file (``track`` is taken relative to its folder)."""
-    from ..core.input_files import binary_problem, not_regular_problem
-
     path = Path(path)
-    problem = not_regular_problem(path) or (path.is_file() and binary_problem(path))
-    if problem:
-        raise MappingError(f"{path}: {problem}")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise MappingError(f"{path}: no such mapping file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise MappingError(f"{path}: not valid TOML ({e})") from None
-    except UnicodeDecodeError as e:
-        raise MappingError(f"{path}: not a UTF-8 text (TOML) file ({e.reason} at byte "
-                           f"{e.start})") from None
+    data = read_toml(path, "mapping", MappingError)
     try:
         return LogMapping.model_validate(data).resolve_track(path.parent)
     except ValidationError as e:

@@ -76,7 +76,7 @@ def checked_rows(path: object, meas: MeasurementSet, where: Sequence[str]
     found += [f"{where[order[k]]}: time: expected {expected}, found {ordered.time[k]:.10g} s"
               for k in np.flatnonzero(far)[:_LISTED]]
     drop = []
-    for row, first in rules.duplicate_rows(ordered.time, ordered.sensor_code,
+    for row, first in rules.duplicate_rows(ordered.time, ordered.stream_code(),
                                           ordered.kind_code, ordered.time_ref):
         if (ordered.value[row] == ordered.value[first]
                 and ordered.sigma[row] == ordered.sigma[first]):

@@ -48,7 +48,7 @@ def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
     import pyarrow as pa
 
     columns = file_columns(ms)
-    fields = [pa.field(name, pa.string(), nullable=False) if name in ("sensor", "kind")
+    fields = [pa.field(name, pa.string(), nullable=False) if name in ("sensor", "kind", "tonal")
               else pa.field(name, pa.float64()) for name in columns]
     metadata = {"tmakit": "measurements v1"}
     # (text, as MeasurementSet keeps it; a value assigned into .metadata since is made so)

@@ -315,16 +315,16 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
                 else np.full(rows.size, np.nan))
         parts.append((t[rows], ids[rows], np.full(rows.size, spec.kind),
                       value[rows] * scale + offset, sigma[rows] * scale, states[rows], rows,
-                      twin))
+                      twin, np.full(rows.size, spec.column if spec.kind == "frequency" else "")))
         where += [tab.where(int(k), spec.column) for k in rows]
     tab.fail()
-    cols = [np.concatenate([p[i] for p in parts]) for i in range(8)]
+    cols = [np.concatenate([p[i] for p in parts]) for i in range(9)]  # (a column: a tonal)
     if cols[0].size == 0:
         raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing "
                                               "measured"])
     time, sensor, kind, value, sigma, state = cols[:6]
     raw = MeasurementSet.from_si(time, sensor, kind, value, sigma, state, metadata=metadata,
-                                 check=False)
+                                 check=False, tonal=cols[8] if "frequency" in kind else None)
     meas, kept, merged = checked_rows(tab.path, raw, where)  # the cells as read
     true = np.array(meas.value_si)
     twin = cols[7][kept]

@@ -65,6 +65,8 @@ class MeasurementModel:
     #: Simulated values are written wrapped into ``[0, wrap_period)`` (SI; None: not wrapped),
     #: as files carry bearings in [0, 360) degrees.
     wrap_period: float | None = None
+    #: The nuisance is one per tonal (the set's ``tonal`` labels): a contact's several tonals.
+    nuisance_by_tonal: bool = False
 
     @classmethod
     def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:

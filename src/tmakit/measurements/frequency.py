@@ -1,15 +1,19 @@
 """Doppler-shifted frequency with an unknown carrier, ``f = f_c(t) (1 - rdot / c)``.
 
-The carrier (optionally drifting linearly, Hz and Hz/s) is a linear nuisance parameter.  Gu et
-al. (2007), eqs. 5-6 and §5; the Doppler-tracking lecture notes use the opposite sign, tmakit
-the physical one (an approaching emitter is heard higher).
+The carrier (optionally drifting linearly, Hz and Hz/s) is a linear nuisance parameter; ``c``
+is light's speed for a radio emitter, sound's for a sonar tonal (about 1500 m/s in sea water).
+Gu et al. (2007), eqs. 5-6 and §5; the Doppler-tracking lecture notes use the opposite sign,
+tmakit the physical one (an approaching emitter is heard higher).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..core.units import SPEED_OF_LIGHT
 from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 from .range_rate import range_rate_and_gradient, range_rate_row
@@ -22,8 +26,10 @@ class Frequency(MeasurementModel):
     ----------
     drift : bool, optional
         Add the nuisance ``carrier_drift`` (Hz/s) to ``carrier`` (Hz).
+    propagation_speed : float, optional
+        Propagation speed ``c``, m/s: light (default) for radio, about 1500 for sonar.
     speed_of_light : float, optional
-        Propagation speed ``c``, m/s.
+        Deprecated name of ``propagation_speed``.
 
     References
     ----------
@@ -35,10 +41,31 @@ class Frequency(MeasurementModel):
     mirror_symmetric = True
     uses_velocity = True
     value_range = ValueRange("a frequency", 0.0, 1e15, low_inclusive=False)
+    nuisance_by_tonal = True
 
-    def __init__(self, drift: bool = False, speed_of_light: float = SPEED_OF_LIGHT) -> None:
+    def __init__(self, drift: bool = False, propagation_speed: float = SPEED_OF_LIGHT, *,
+                 speed_of_light: float | NotGiven = NOT_GIVEN) -> None:
+        c = renamed_keyword("Frequency", "speed_of_light", speed_of_light, "propagation_speed",
+                            propagation_speed, SPEED_OF_LIGHT)
+        if not (np.isfinite(c) and c > 0):
+            raise ValueError(f"frequency: propagation speed {c!r}: expected a speed > 0 (m/s)")
         self.drift = bool(drift)
-        self.c = float(speed_of_light)
+        self.c = float(c)
+
+    @classmethod
+    def options_from_metadata(cls, metadata: Mapping[str, str]) -> dict[str, object]:
+        """Give ``propagation_speed`` (m/s) where metadata ``frequency_propagation_speed`` says."""
+        text = metadata.get("frequency_propagation_speed", "").strip()
+        if not text:
+            return {}
+        try:
+            c = float(text)
+        except ValueError:
+            c = float("nan")
+        if not (np.isfinite(c) and c > 0):
+            raise ValueError("metadata frequency_propagation_speed: expected a speed > 0 (m/s),"
+                             f" found {text!r}")
+        return {"propagation_speed": c}
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:
@@ -151,5 +178,5 @@ class Frequency(MeasurementModel):
                 g5 * k)
 
     def __repr__(self) -> str:
-        """Name the kind with its drift option, e.g. ``Frequency(drift=False)``."""
-        return f"Frequency(drift={self.drift})"
+        """Name the kind with its options: ``Frequency(drift=False, propagation_speed=1500)``."""
+        return f"Frequency(drift={self.drift}, propagation_speed={self.c:g})"

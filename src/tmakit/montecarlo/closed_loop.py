@@ -112,6 +112,8 @@ class ClosedLoopStudy:
         Wall time of the study (s).
     setups : dict of str to LoopSetup
         Per case, its loop setup (the prior and the process noise of the bound).
+
+    Every method that takes a ``case`` raises ValueError for a case the study does not have.
     """
 
     records: dict[str, list[LoopRecord]]
@@ -137,11 +139,6 @@ class ClosedLoopStudy:
         Returns
         -------
         int
-
-        Raises
-        ------
-        ValueError
-            For a case the study does not have.
         """
         return len(self._of(case))
 
@@ -162,11 +159,6 @@ class ClosedLoopStudy:
         -------
         ndarray, shape (D,)
             s.
-
-        Raises
-        ------
-        ValueError
-            For a case the study does not have.
         """
         return self._of(case)[0].times
 
@@ -199,11 +191,6 @@ class ClosedLoopStudy:
         -------
         ndarray, shape (D,)
             m.
-
-        Raises
-        ------
-        ValueError
-            For a case the study does not have.
         """
         return np.sqrt(np.mean(self.stack(case, "error_m") ** 2, axis=0))
 
@@ -222,11 +209,6 @@ class ClosedLoopStudy:
         -------
         ndarray, shape (D,)
             m.
-
-        Raises
-        ------
-        ValueError
-            For a case the study does not have.
         """
         return np.sqrt(np.mean(self.stack(case, "criterion_m") ** 2, axis=0))
 

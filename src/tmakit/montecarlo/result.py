@@ -46,7 +46,7 @@ def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, fl
     """
     if n < 1 or not np.isfinite(ratio):
         return float("nan"), float("nan")
-    from scipy.stats import chi2
+    from ..core import chi2
 
     hi_q = chi2.ppf(0.5 + level / 2.0, n)
     lo_q = chi2.ppf(0.5 - level / 2.0, n)

@@ -81,6 +81,8 @@ class MotionModel(ABC):
 
     #: Whether the states are affine in ``theta`` (then :meth:`affine_map` is exact).
     affine: bool = False
+    #: Whether the velocity's derivatives by ``theta`` are the same at every time.
+    velocity_fixed: bool = False
 
     def affine_map(self, t: ArrayLike
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:

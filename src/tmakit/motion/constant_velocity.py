@@ -34,7 +34,7 @@ class ConstantVelocity(MotionModel):
     Gu et al. (2007), eq. 1; Doppler-tracking lecture notes (the trajectory model).
     """
 
-    affine = True
+    affine = velocity_fixed = True
 
     def __init__(self, dim: int = 2, ref_time: float = 0.0) -> None:
         if dim not in (2, 3):
@@ -156,7 +156,7 @@ class Stationary(MotionModel):
         For ``dim`` other than 2 or 3.
     """
 
-    affine = True
+    affine = velocity_fixed = True
 
     def __init__(self, dim: int = 2) -> None:
         if dim not in (2, 3):

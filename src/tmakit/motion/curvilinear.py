@@ -2,7 +2,8 @@
 
 State ``(x, y, v, phi)``: ENU position (m), speed (m/s), course (rad, clockwise from North);
 ``a_t`` changes the speed, ``a_n`` turns the course at ``a_n / v`` (positive: starboard).  The
-closed form and its analytic derivatives are in :mod:`tmakit.motion.curvilinear_closed`;
+closed form and its analytic derivatives are compiled
+(:func:`tmakit.motion.curvilinear_compiled.propagate_with_partials`);
 :class:`PiecewiseCurvilinear` chains them through the change-over times.  Reference: Hörst &
 Oispuu (2010), §2, eqs. 1-4.
 """
@@ -14,13 +15,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from .base import MotionModel
-from .curvilinear_closed import propagate_with_partials
 
 
 def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike, derivatives: bool = False
                ) -> tuple[tuple[Array, ...], Array | None]:
-    """Call :func:`propagate_with_partials`; give ``((x, y, speed, course, vx, vy), D)``."""
+    """Propagate (compiled, ``numba`` imported at the first call); give ``(values, D)``."""
+    from .curvilinear_compiled import propagate_with_partials
     values, par = propagate_with_partials(x, y, speed, course, a_t, a_n, dt, derivatives)
     return tuple(np.moveaxis(values, -1, 0)), None if par is None else par[..., :4, :]
 

@@ -1,8 +1,9 @@
-"""Piecewise-curvilinear propagation, its chain rule and its normal equations, compiled.
+"""Curvilinear propagation, its chain rule and its normal equations, compiled.
 
-The hot loops of :class:`tmakit.motion.curvilinear_batch.ForwardPiecewise`: one segment's
-closed form and derivatives (as :mod:`tmakit.motion.curvilinear_closed` derives them), the
-forward chaining of change-over states, and ``J'J = sum_s D_s' (sum_i v_i v_i') D_s`` by
+The closed form of one curvilinear segment and its derivatives, the one implementation
+(:func:`propagate_with_partials`: :class:`~tmakit.motion.PiecewiseCurvilinear`, sensor turns,
+the bounds), and the hot loops of :class:`tmakit.motion.curvilinear_batch.ForwardPiecewise`:
+the forward chaining of change-over states, and ``J'J = sum_s D_s' (sum_i v_i v_i') D_s`` by
 segments (7 inputs per segment).  float64, no ``fastmath``, sums in a fixed order.
 
 References
@@ -17,7 +18,7 @@ import math
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array, IntArray
 
@@ -481,7 +482,69 @@ def _add_segment(s: Array, g: Array, d: Array, dv: Array, jtj: Array, jtr: Array
                     jtj[c, e] += dkc * dv[k, e]
 
 
+@_jit
+def _segments_kernel(x: Array, y: Array, v0: Array, phi0: Array, a_t: Array, a_n: Array,
+                     s: Array, partials: bool, vals: Array,
+                     par: Array) -> None:  # pragma: no cover - compiled
+    """Write each sample's values ``(6,)`` and, with ``partials``, its derivatives ``(6, 7)``."""
+    for i in range(x.shape[0]):
+        V0 = v0[i] * cmath.exp(1j * phi0[i])
+        ok, v6, dz, dv, _ = _segment(x[i], y[i], v0[i], phi0[i], V0, a_t[i], a_n[i], s[i],
+                                     False)
+        for k in range(6):
+            vals[i, k] = v6[k]
+        if not partials:
+            continue
+        if not ok:
+            par[i, :, :] = np.nan
+            continue
+        par[i, :, :] = 0.0
+        par[i, 0, 0] = par[i, 1, 1] = 1.0
+        for k in range(5):
+            par[i, 0, 2 + k] = dz[k].imag
+            par[i, 1, 2 + k] = dz[k].real
+            par[i, 4, 2 + k] = dv[k].imag
+            par[i, 5, 2 + k] = dv[k].real
+        sv = s[i] / v0[i]
+        L, dL = _log1p_over(a_t[i] * sv)
+        an_v = a_n[i] / v0[i] / (1.0 + a_t[i] * sv)
+        par[i, 2, 2] = 1.0
+        par[i, 2, 4] = s[i]
+        par[i, 2, 6] = a_t[i]
+        par[i, 3, 2] = -an_v * sv
+        par[i, 3, 3] = 1.0
+        par[i, 3, 4] = a_n[i] * sv * sv * dL
+        par[i, 3, 5] = sv * L
+        par[i, 3, 6] = an_v
+
+
 # -- the calls ------------------------------------------------------------------------------
+def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
+                            a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
+                            partials: bool = True) -> tuple[Array, Array | None]:
+    """Propagate one curvilinear segment by ``dt`` seconds (any sign); inputs broadcast.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        ``(..., 6)``: ``x, y, speed, course, vx, vy`` (NaN where the speed would reach zero).
+    partials : numpy.ndarray or None
+        ``(..., 6, 7)``: their derivatives by ``x, y, speed, course, a_t, a_n, dt``.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), eq. 1 (the closed form: see :mod:`tmakit.motion.curvilinear`).
+    """
+    args = np.broadcast_arrays(*(np.asarray(a, dtype=float)
+                                 for a in (x, y, speed, course, a_t, a_n, dt)))
+    shape = args[0].shape
+    x0, y0, v0, phi0, at, an, s = (np.ascontiguousarray(a.reshape(-1)) for a in args)
+    vals = np.empty((s.shape[0], 6))
+    par = np.empty((s.shape[0], 6, 7)) if partials else np.empty((1, 6, 7))
+    _segments_kernel(x0, y0, v0, phi0, at, an, s, partials, vals, par)
+    return vals.reshape(*shape, 6), (par.reshape(*shape, 6, 7) if partials else None)
+
+
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
               partials: bool) -> tuple[IntArray, Array, Array | None, Array | None]:
     """Propagate a batch of piecewise curvilinear trajectories to the times ``t``."""

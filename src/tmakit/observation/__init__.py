@@ -5,7 +5,7 @@
 :func:`radar_group`.
 """
 
-from .groups import MeasurementGroup, group_times, time_blocks
+from .groups import MeasurementGroup, group_times, time_blocks, tonals_scaled
 from .linearisation import Linearisation
 from .model import ObservationModel
 from .noise import NoiseModel
@@ -14,4 +14,4 @@ from .rows import RowLayout, RowModel, nuisance_layout, resolve_models
 
 __all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout",
            "RowModel", "group_times", "nuisance_layout", "radar_group", "radar_rows",
-           "resolve_models", "time_blocks"]
+           "resolve_models", "time_blocks", "tonals_scaled"]

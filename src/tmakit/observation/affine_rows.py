@@ -50,7 +50,7 @@ class AffineRows:
         for i, c, coef in self.terms:
             self._by_component[c].append((i, coef))
         #: Per parameter, its terms ``(component, coefficient)`` of east and north (components
-        #: 0 and 1) in term order: the chain rule of the fused planar linearisation.
+        #: 0 and 1) in term order: the chain rule of the planar linearisation.
         self.planar_terms: list[list[tuple[int, Array | None]]] = [
             [(c, coef) for j, c, coef in self.terms if j == i and c < 2] for i in range(self.p)]
         #: Whether parameters 0 and 1 are the east and north positions alone (``(c, c, 1)``):

@@ -44,6 +44,55 @@ def chain_state(d: Array, dt: Array, dim: int) -> Array:
     return out
 
 
+def tonals_scaled(meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
+                  nuisance: Mapping[str, float] | None
+                  ) -> tuple[MeasurementSet, Mapping[str, float] | None]:
+    """Give the rows of several tonals as one: each frequency divided by its tonal's known f0.
+
+    ``f / f0 = 1 - rdot / c`` exactly, so a filter, which takes one known carrier per kind,
+    follows every tonal with the carrier 1 (Hz/Hz); sigmas are divided alike.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The rows (:attr:`~tmakit.data.MeasurementSet.tonal`).
+    options : mapping, optional
+        Per-kind model options.
+    nuisance : mapping, optional
+        Known nuisance values: ``carrier[LABEL]`` (Hz) for each tonal.
+
+    Returns
+    -------
+    meas, nuisance
+        As given with one tonal or none; else the scaled rows and ``carrier = 1``.
+
+    Raises
+    ------
+    ValueError
+        A tonal's f0 missing, or a carrier drift (not shared by tonals once scaled).
+    """
+    if meas.tonal is None:
+        return meas, nuisance
+    labels = list(dict.fromkeys(meas.tonal[meas.kind_mask("frequency")].tolist()))
+    if len(labels) < 2:
+        return meas, nuisance
+    if dict((options or {}).get("frequency", {})).get("drift"):
+        raise ValueError("a filter with a carrier drift follows one tonal: these frequencies "
+                         f"are {len(labels)} tonals ({', '.join(labels)})")
+    values = dict(nuisance or {})
+    missing = [f"carrier[{lab}]" for lab in labels if f"carrier[{lab}]" not in values]
+    if missing:
+        raise ValueError(f"a filter needs each tonal's f0 as a known value ({', '.join(missing)}"
+                         " Hz), e.g. from a batch estimate (nuisance={...})")
+    f0 = np.ones(len(meas))
+    for lab in labels:
+        f0[meas.tonal == lab] = values[f"carrier[{lab}]"]
+    scaled = MeasurementSet.from_si(meas.time, meas.sensor, meas.kind, meas.value_si / f0,
+                                    meas.sigma_si / f0, meas.sensor_state, meas.time_ref,
+                                    meas.ref_sensor_state, meas.metadata, check=False)
+    return scaled.with_ambiguous(meas.ambiguous_si), {**values, "carrier": 1.0}
+
+
 class MeasurementGroup:
     """Rows of a :class:`~tmakit.data.MeasurementSet` for one filter update at time ``t``.
 
@@ -103,6 +152,7 @@ class MeasurementGroup:
                  covariance: ArrayLike | None = None) -> None:
         if len(rows) == 0:
             raise ValueError("a measurement group needs at least one row")
+        rows, nuisance = tonals_scaled(rows, options, nuisance)
         models, nus = resolve_models(rows.kinds, options, nuisance)
         index = {kind: np.flatnonzero(rows.kind == kind) for kind in models}
         self._setup(t, dim, models, nus, index, rows.value_si, rows.sigma_si, rows.time,

@@ -39,13 +39,13 @@ class Linearisation:
         self.d_h0: Array | None = None
         self.d_h0_ref: Array | None = None
         self.d_a: list[tuple[str, Array | None, Array | None]] = []
-        #: The Jacobian ``(..., n, p)`` made by the fused path (:mod:`.fused`), or None,
+        #: The Jacobian ``(..., n, p)`` made by the planar path (:mod:`.planar`), or None,
         #: handed over on the first call of :meth:`jacobian` (the caller may scale it), then
-        #: made again by ``fused_again``.
-        self.fused: Array | None = None
-        self.fused_again: Callable[[], Array] | None = None
-        self._fused_given = False
-        #: Whether the fused Jacobian is already whitened (made with the noise's weights).
+        #: made again by ``planar_again``.
+        self.planar_jacobian: Array | None = None
+        self.planar_again: Callable[[], Array] | None = None
+        self._planar_given = False
+        #: Whether the planar Jacobian is already whitened (made with the noise's weights).
         self.whitened = False
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
@@ -67,13 +67,13 @@ class Linearisation:
         ValueError
             When made without derivatives.
         """
-        if self.fused is not None:  # no nuisance: the Jacobian itself, a new array once
+        if self.planar_jacobian is not None:  # no nuisance: the Jacobian itself, a new array once
             if not with_h0:
-                return np.zeros_like(self.fused)
-            if self._fused_given and self.fused_again is not None:
-                return self.fused_again()
-            self._fused_given = True
-            return self.fused
+                return np.zeros_like(self.planar_jacobian)
+            if self._planar_given and self.planar_again is not None:
+                return self.planar_again()
+            self._planar_given = True
+            return self.planar_jacobian
         if self.d_h0 is None:
             raise ValueError("this linearisation was made without derivatives")
         obs = self.obs

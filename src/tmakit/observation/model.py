@@ -1,8 +1,9 @@
 """The observation model: a measurement set's rows predicted from motion parameters.
 
 The Jacobian is ``d value / d rel x d state / d theta`` plus ``d value / d nuisance`` (nuisance
-shared by a kind's rows).  Rows are grouped by kind (:attr:`ObservationModel.order`); the
-``*_grouped`` methods work in that order, the others in the set's own.
+shared by a kind's rows, or by a tonal's: ``carrier[LABEL]``).  Rows are grouped by kind
+(:attr:`ObservationModel.order`); the ``*_grouped`` methods work in that order, the others in
+the set's own.
 """
 
 from __future__ import annotations
@@ -20,10 +21,10 @@ from ..data import MeasurementSet
 from ..measurements import MeasurementModel, model_for, options_with_metadata
 from ..motion import MotionModel
 from .affine_rows import AffineRows
-from .fused import fused_linearisation, fused_values
 from .kind_blocks import group_by_kind
 from .linearisation import Linearisation
-from .rows import RowModel, nuisance_layout
+from .planar import planar_linearisation, planar_values
+from .rows import RowModel
 
 
 class ObservationModel:
@@ -47,7 +48,6 @@ class ObservationModel:
         self.models: dict[str, MeasurementModel] = {
             k: model_for(k, options.get(k)) for k in meas.kinds
         }
-        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
         #: Each kind's rows, a contiguous slice of the grouped order.
         self.slices, order = group_by_kind(meas, list(self.models))
         #: Grouped order is the set's own (one kind, or kinds already in blocks).
@@ -95,7 +95,9 @@ class ObservationModel:
         g = self.grouped
         self.row_model = RowModel(self.models, self.slices, self._time, g.time_ref,
                                   self.sigmas_grouped, g.sensor_code, self._sensor,
-                                  g.ref_sensor_state)
+                                  g.ref_sensor_state, tonal=g.tonal)
+        self.nuisance_names = self.row_model.nuisance_names
+        self.nuisance_slices = self.row_model.nuisance_slices
         #: The rows of kinds with an earlier reference sample (a slice of the grouped order).
         self._ref = self.row_model.reference_slice
         self.has_reference = self._ref is not None
@@ -150,15 +152,13 @@ class ObservationModel:
         idx = np.flatnonzero(idx) if idx.dtype == bool else idx.astype(np.intp, copy=False)
         meas = self.meas.take(idx)
         slices, order = group_by_kind(meas, list(self.models))
-        if any(sl.stop == sl.start for sl in slices.values()):  # a kind left out, and its
-            return ObservationModel(meas, self.motion, self.options)  # nuisance with it
+        if any(sl.stop == sl.start for sl in slices.values()) or self.row_model.layout.tonals:
+            return ObservationModel(meas, self.motion, self.options)  # (its nuisance anew)
         grouped_idx = idx if order is None else idx[order]  # the new grouped rows, set rows
         pick = grouped_idx if self._inverse is None else self._inverse[grouped_idx]  # ours
         sub = object.__new__(ObservationModel)
         sub.options = {k: dict(v) for k, v in self.options.items()}
         sub.meas, sub.motion, sub.models = meas, self.motion, self.models
-        sub.nuisance_names = self.nuisance_names
-        sub.nuisance_slices = dict(self.nuisance_slices)
         sub.slices, sub.in_set_order, sub._order = slices, order is None, order
         sub._inverse = None if order is None else np.argsort(order)
         sub.grouped = meas if order is None else meas.take(order)
@@ -199,7 +199,13 @@ class ObservationModel:
         ValueError
             When a value without default is missing.
         """
-        parts = [m.nuisance_vector(dict(values or {})) for m in self.models.values()]
+        values = dict(values or {})
+        parts = []
+        for kind, m in self.models.items():
+            for label in self.row_model.layout.tonals.get(kind, (None, (None,)))[1]:
+                given = {n: values[f"{n}[{label}]"] for n in m.nuisance_names
+                         if f"{n}[{label}]" in values}
+                parts.append(m.nuisance_vector({**values, **given}))
         return np.concatenate(parts) if parts else np.zeros(0)
 
     # -- grouped order (for solvers) ---------------------------------------------------------
@@ -208,7 +214,7 @@ class ObservationModel:
         terms = self.motion.component_terms(times)
         if terms is None:
             return None
-        # The offset minus the sensor states made when used (fused bearings: two components).
+        # The offset minus the sensor states made when used (planar bearings: two components).
         return AffineRows(terms[0], terms[1], self.motion.n_params, sensor)
 
     def _states_minus(self, theta: Array, times: Array, sensor: Array,
@@ -274,8 +280,8 @@ class ObservationModel:
         Linearisation
         """
         theta = np.asarray(theta, dtype=float)
-        if (lin := (fused_linearisation(self, theta, weights) if derivatives
-                    else fused_values(self, theta))) is not None:
+        if (lin := (planar_linearisation(self, theta, weights) if derivatives
+                    else planar_values(self, theta))) is not None:
             return lin  # one planar kind, affine motion, one theta: only what it needs
         n, k = len(self.meas), self.n_nuisance
         # Values only, for many parameter vectors (a grid): batch axis innermost in memory.

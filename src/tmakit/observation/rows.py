@@ -60,7 +60,8 @@ def resolve_models(kinds: Iterable[str],
     return models, values
 
 
-def nuisance_layout(models: Mapping[str, MeasurementModel]
+def nuisance_layout(models: Mapping[str, MeasurementModel],
+                    tonals: Mapping[str, tuple[str, ...]] | None = None
                     ) -> tuple[tuple[str, ...], dict[str, slice]]:
     """Return the nuisance structure of several kinds.
 
@@ -68,11 +69,13 @@ def nuisance_layout(models: Mapping[str, MeasurementModel]
     ----------
     models : mapping
         Each kind's model, in kind order.
+    tonals : mapping, optional
+        The tonal labels of the kinds with one nuisance per tonal (two or more).
 
     Returns
     -------
     names : tuple of str
-        The names of the concatenated nuisance vector.
+        The names of the concatenated nuisance vector (``carrier[LABEL]`` per tonal).
     slices : dict
         Each kind's slice of it.
     """
@@ -80,9 +83,25 @@ def nuisance_layout(models: Mapping[str, MeasurementModel]
     slices: dict[str, slice] = {}
     for kind, model in models.items():
         start = len(names)
-        names.extend(model.nuisance_names)
+        labels = (tonals or {}).get(kind)
+        names.extend(model.nuisance_names if labels is None else
+                     [f"{n}[{lab}]" for lab in labels for n in model.nuisance_names])
         slices[kind] = slice(start, len(names))
     return tuple(names), slices
+
+
+def tonal_groups(models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
+                 tonal: NDArray[np.str_] | None
+                 ) -> dict[str, tuple[NDArray[np.intp], tuple[str, ...]]]:
+    """Give each kind of two tonals or more its rows' tonal numbers and the tonal labels."""
+    out: dict[str, tuple[NDArray[np.intp], tuple[str, ...]]] = {}
+    for kind, model in models.items():
+        if model.nuisance_by_tonal and tonal is not None and model.nuisance_names:
+            labels, code = np.unique(tonal[index[kind]], return_inverse=True)
+            if labels.size > 1:
+                order = np.argsort(np.unique(code, return_index=True)[1])  # first appearance
+                out[kind] = (np.argsort(order)[code.reshape(-1)], tuple(labels[order].tolist()))
+    return out
 
 
 def as_slice(index: Index) -> Index:
@@ -115,10 +134,12 @@ class RowLayout:
         The rows of each kind (ascending indices or slices).
     m : int
         The number of rows.
+    tonal : ndarray of str, optional
+        Each row's tonal label (:attr:`.MeasurementSet.tonal`): one nuisance per tonal.
     """
 
     def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
-                 m: int) -> None:
+                 m: int, tonal: NDArray[np.str_] | None = None) -> None:
         self.models = dict(models)
         self.index = dict(index)
         # A kind's rows: all (one kind), or its index, contiguous ones as a slice (a view).
@@ -151,7 +172,31 @@ class RowLayout:
                     self.ref_take[kind] = slice(start, start + rows.size)
                     refs.append(rows)
             self.reference = np.concatenate(refs) if refs else None
-        self.nuisance_names, self.nuisance_slices = nuisance_layout(self.models)
+        #: The kinds of several tonals: their rows' tonal numbers and labels.
+        self.tonals = tonal_groups(self.models, self.index, tonal)
+        self.nuisance_names, self.nuisance_slices = nuisance_layout(
+            self.models, {k: labels for k, (_, labels) in self.tonals.items()})
+
+    def _spread(self, kind: str, x: Array, axis: int = -1) -> Array:
+        """Put a kind's per-row nuisance columns (``axis``, ``k``) in its rows' tonal's columns."""
+        if kind not in self.tonals:
+            return x
+        code, labels = self.tonals[kind]
+        x = np.moveaxis(x, axis, -1)
+        k = x.shape[-1]
+        shape = [1] * x.ndim
+        shape[x.ndim - 2 if axis == -1 else x.ndim - 3] = code.size
+        cols = (code[:, None] * k + np.arange(k)).reshape(*shape[:-1], k)
+        out = np.zeros((*x.shape[:-1], k * len(labels)))
+        np.put_along_axis(out, np.broadcast_to(cols, x.shape), x, axis=-1)
+        return np.moveaxis(out, -1, axis)
+
+    def _per_row(self, kind: str, nu: Array) -> Array:
+        """Give a kind's nuisance ``(..., k)`` or, with tonals, each row's ``(..., m_kind, k)``."""
+        if kind not in self.tonals:
+            return nu[..., None, :]
+        code, labels = self.tonals[kind]
+        return nu.reshape(*nu.shape[:-1], len(labels), -1)[..., code, :]
 
 
 class RowModel:
@@ -171,6 +216,8 @@ class RowModel:
         Sensor states (m, 6), m and m/s, at the rows' and the reference times.
     layout : RowLayout, optional
         A layout already made (``models`` and ``index`` then unused).
+    tonal : ndarray of str, optional
+        Each row's tonal label (:class:`RowLayout`).
 
     Attributes
     ----------
@@ -185,14 +232,15 @@ class RowModel:
     def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
                  time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike, sensor: ArrayLike,
                  sensor_state: ArrayLike, ref_sensor_state: ArrayLike,
-                 layout: RowLayout | None = None) -> None:
+                 layout: RowLayout | None = None, tonal: NDArray[np.str_] | None = None
+                 ) -> None:
         self.time, self.time_ref = np.asarray(time, float), np.asarray(time_ref, float)
         self.sigma = np.asarray(sigma, dtype=float)
         self.sensor = np.asarray(sensor)
         self.sensor_state = np.asarray(sensor_state, dtype=float)
         self.ref_sensor_state = np.asarray(ref_sensor_state, dtype=float)
         if layout is None:
-            layout = RowLayout(models, index, self.time.shape[0])
+            layout = RowLayout(models, index, self.time.shape[0], tonal)
         self.layout = layout
         self.models, self.index = layout.models, layout.index
         self._take, self._ref_take = layout.take, layout.ref_take
@@ -209,9 +257,10 @@ class RowModel:
         if nuisance is None:
             return None
         if isinstance(nuisance, dict):  # (dict, not Mapping: this runs once per kind and step)
-            return nuisance[kind]
+            nu = nuisance[kind]
+            return nu if kind not in self.layout.tonals else self.layout._per_row(kind, nu)
         assert isinstance(nuisance, np.ndarray)  # (a mapping is a dict here)
-        return nuisance[..., self.nuisance_slices[kind]][..., None, :]
+        return self.layout._per_row(kind, nuisance[..., self.nuisance_slices[kind]])
 
     # -- relative states ---------------------------------------------------------------------
     def relative(self, target: Array, target_ref: Array | None = None,
@@ -311,7 +360,8 @@ class RowModel:
             if ref_rows is not None and d_ref is not None:
                 d_ref[..., ref_rows, :] = jac.rel_ref
             if d_nu is not None:
-                d_nu[..., rows, self.nuisance_slices[kind]] = jac.nuisance
+                d_nu[..., rows, self.nuisance_slices[kind]] = self.layout._spread(kind,
+                                                                                 jac.nuisance)
         return d, d_ref, d_nu
 
     def reference_rows(self, kind: str) -> slice | None:
@@ -342,7 +392,8 @@ class RowModel:
             rows, ns = self._take[kind], self.nuisance_slices[kind]
             if ns.stop > ns.start:
                 ref = rel[rows] if model.uses_reference else None
-                out[rows, ns] = model.affine_parts(rel[rows], self.time[rows], ref)[1]
+                out[rows, ns] = self.layout._spread(
+                    kind, model.affine_parts(rel[rows], self.time[rows], ref)[1])
         return out
 
     def linearise_into(self, rel: Array, rel_ref: Array | None, h0: Array, a_var: Array,
@@ -371,21 +422,24 @@ class RowModel:
             r_k = rel[..., rows, :]
             ref_k = None if ref_rows is None or rel_ref is None else rel_ref[..., ref_rows, :]
             t = self.time[rows]
+            spread = self.layout._spread
             if d_h0 is None:
-                h0[..., rows], _, a_var[..., rows, ns] = model.affine_parts(r_k, t, ref_k)
+                h0[..., rows], _, v = model.affine_parts(r_k, t, ref_k)
+                a_var[..., rows, ns] = spread(kind, v)
                 continue
             if (ns.stop == ns.start and ref_k is None and not model.uses_reference
                     and isinstance(rows, slice)):  # (views: written in place)
                 model.values_and_derivatives_into(r_k, t, h0[..., rows], d_h0[..., rows, :])
                 continue  # no nuisance, no reference: written in place
             base, _, v, d0, d0_ref, da, da_ref = model.affine_derivatives(r_k, t, ref_k)
-            h0[..., rows], a_var[..., rows, ns] = base, v
+            h0[..., rows], a_var[..., rows, ns] = base, spread(kind, v)
             if d0 is not None:
                 d_h0[..., rows, :] = d0
             if d0_ref is not None and d_h0_ref is not None and ref_rows is not None:
                 d_h0_ref[..., ref_rows, :] = d0_ref
             if ns.stop > ns.start and (da is not None or da_ref is not None):
-                d_a.append((kind, da, da_ref))
+                d_a.append((kind, None if da is None else spread(kind, da, -2),
+                             None if da_ref is None else spread(kind, da_ref, -2)))
         return d_a
 
     def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:

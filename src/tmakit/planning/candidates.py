@@ -119,7 +119,7 @@ def step_information(belief: Belief, information: Array, plan: SensorPlan,
     for j, s in enumerate(times):   # a few measurement times per step, not candidates
         info = _predict(posterior, info, s - done)
         f = posterior.dynamics.transition(s)
-        # (F X^T)^T: the moved cloud with contiguous columns (what the fused sums read)
+        # (F X^T)^T: the moved cloud with contiguous columns (what the compiled sums read)
         info = info + expected_information(plan, (f @ states.T).T, weights,
                                            sensor_states[..., j, :], gamma)
         done = s

@@ -201,12 +201,6 @@ def _with_covariance(rows: MeasurementSet, plan: SensorPlan, t: float
     return MeasurementGroup(rows, t, plan.dim, plan.options, plan.nuisance, plan.covariance)
 
 
-def _six(x: Array, dim: int) -> Array:
-    out = np.zeros(6)
-    out[:dim], out[3:3 + dim] = x[:dim], x[dim:]
-    return out
-
-
 def _streams(seed: int | np.random.SeedSequence | None) -> list[np.random.SeedSequence]:
     """Return the run's four child seeds, as ``seed.spawn(4)`` of a fresh sequence."""
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)

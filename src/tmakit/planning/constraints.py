@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -91,7 +92,42 @@ def _check_limit(name: str, value: float, weight: float) -> None:
 
 
 @dataclass(frozen=True)
-class MinimumRange:
+class _RangeLimit:
+    """A limit on the horizontal range (m) to the estimated target."""
+
+    distance: float
+    hard: bool = True
+    weight: float = DEFAULT_PENALTY
+    name: str = field(default="range limit", init=False)
+    #: +1 for a minimum range (broken below it), -1 for a maximum range.
+    _sign: ClassVar[float] = 1.0
+
+    def __post_init__(self) -> None:
+        """Check the distance and weight."""
+        _check_limit(f"the {self.name}", self.distance, self.weight)
+
+    def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike) -> Violation:
+        """Return the violation (m) per candidate: how far the range is past the limit.
+
+        Parameters
+        ----------
+        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
+            Candidate sensor positions at the checked times, ENU m.
+        target_positions : array_like, shape (k, 3) or (3,)
+            The estimated target position at those times, ENU m.
+
+        Returns
+        -------
+        Violation
+            Its amounts (C,), m: the largest over the checked times.
+        """
+        r = _horizontal_range(sensor_positions, target_positions)
+        amount = np.clip(self._sign * (self.distance - r), 0.0, None).max(axis=-1)
+        return Violation(self.name, amount, self.hard, self.distance, self.weight)
+
+
+@dataclass(frozen=True)
+class MinimumRange(_RangeLimit):
     """Stay at least ``distance`` (m, horizontal) from the estimated target.
 
     Parameters
@@ -108,37 +144,11 @@ class MinimumRange:
     Hurtado & Nehorai (2008), section 5, example 2 (5 km, as a penalty).
     """
 
-    distance: float
-    hard: bool = True
-    weight: float = DEFAULT_PENALTY
     name: str = field(default="minimum range", init=False)
-
-    def __post_init__(self) -> None:
-        """Check the distance and weight."""
-        _check_limit("the minimum range", self.distance, self.weight)
-
-    def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike) -> Violation:
-        """Return the violation (m) per candidate, ``max(distance - range, 0)``.
-
-        Parameters
-        ----------
-        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
-            Candidate sensor positions at the checked times, ENU m.
-        target_positions : array_like, shape (k, 3) or (3,)
-            The estimated target position at those times, ENU m.
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
-        """
-        r = _horizontal_range(sensor_positions, target_positions)
-        amount = np.clip(self.distance - r, 0.0, None).max(axis=-1)
-        return Violation(self.name, amount, self.hard, self.distance, self.weight)
 
 
 @dataclass(frozen=True)
-class MaximumRange:
+class MaximumRange(_RangeLimit):
     """Stay within ``distance`` (m, horizontal) of the estimated target (detection range).
 
     Parameters
@@ -151,33 +161,8 @@ class MaximumRange:
         Penalty weight (dimensionless), when not hard.
     """
 
-    distance: float
-    hard: bool = True
-    weight: float = DEFAULT_PENALTY
     name: str = field(default="maximum range", init=False)
-
-    def __post_init__(self) -> None:
-        """Check the distance and weight."""
-        _check_limit("the maximum range", self.distance, self.weight)
-
-    def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike) -> Violation:
-        """Return the violation (m) per candidate, ``max(range - distance, 0)``.
-
-        Parameters
-        ----------
-        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
-            Candidate sensor positions at the checked times, ENU m.
-        target_positions : array_like, shape (k, 3) or (3,)
-            The estimated target position at those times, ENU m.
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
-        """
-        r = _horizontal_range(sensor_positions, target_positions)
-        amount = np.clip(r - self.distance, 0.0, None).max(axis=-1)
-        return Violation(self.name, amount, self.hard, self.distance, self.weight)
+    _sign: ClassVar[float] = -1.0
 
 
 def _polygon(shape: object, what: str) -> object:
@@ -204,8 +189,45 @@ def _scale(geom: object) -> float:
     return float(max(np.sqrt(shapely.area(geom)), 1.0))
 
 
+class _Region:
+    """A fixed region of the plane: kept out of (``_keep_out``) or kept in."""
+
+    name: str
+    hard: bool
+    weight: float
+    _keep_out: ClassVar[bool] = True
+
+    def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike | None = None
+              ) -> Violation:
+        """Return how far (m) each candidate is on the wrong side of the boundary (0 if none).
+
+        Parameters
+        ----------
+        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
+            Candidate sensor positions at the checked times, ENU m.
+        target_positions : array_like, shape (k, 3) or (3,), optional
+            The estimated target position at those times, ENU m (not used: the region is fixed).
+
+        Returns
+        -------
+        Violation
+            Its amounts (C,), m: the largest over the checked times.
+        """
+        import shapely
+
+        pos = _positions(sensor_positions)
+        geom = self._geometry  # type: ignore[attr-defined]
+        inside = shapely.contains_xy(geom, pos[..., 0], pos[..., 1])
+        wrong = inside if self._keep_out else ~inside  # on the boundary: inside
+        dist = np.zeros(pos.shape[:-1])
+        if wrong.any():
+            pts = shapely.points(pos[wrong][:, 0], pos[wrong][:, 1])
+            dist[wrong] = shapely.distance(geom.boundary if self._keep_out else geom, pts)
+        return Violation(self.name, dist.max(axis=-1), self.hard, _scale(geom), self.weight)
+
+
 @dataclass(frozen=True)
-class KeepOutZones:
+class KeepOutZones(_Region):
     """Never enter any of the given polygons (e.g. a no-fly zone, shallow water, a coast).
 
     Parameters
@@ -234,36 +256,9 @@ class KeepOutZones:
         polys = [_polygon(z, f"keep-out zone {i}") for i, z in enumerate(self.zones)]
         object.__setattr__(self, "_geometry", shapely.union_all(polys))
 
-    def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike | None = None
-              ) -> Violation:
-        """Return the depth (m) of each candidate inside a zone (0 outside).
-
-        Parameters
-        ----------
-        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
-            Candidate sensor positions at the checked times, ENU m.
-        target_positions : array_like, shape (k, 3) or (3,), optional
-            The estimated target position at those times, ENU m (not used: the zones are fixed).
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
-        """
-        import shapely
-
-        pos = _positions(sensor_positions)
-        geom = self._geometry  # type: ignore[attr-defined]
-        inside = shapely.contains_xy(geom, pos[..., 0], pos[..., 1])
-        depth = np.zeros(pos.shape[:-1])
-        if inside.any():
-            pts = shapely.points(pos[inside][:, 0], pos[inside][:, 1])
-            depth[inside] = shapely.distance(geom.boundary, pts)
-        return Violation(self.name, depth.max(axis=-1), self.hard, _scale(geom), self.weight)
-
 
 @dataclass(frozen=True)
-class OperatingArea:
+class OperatingArea(_Region):
     """Stay inside one polygon (the area the platform may use).
 
     Parameters
@@ -282,37 +277,11 @@ class OperatingArea:
     hard: bool = True
     weight: float = DEFAULT_PENALTY
     name: str = field(default="operating area", init=False)
+    _keep_out: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         """Turn the area into a shapely geometry."""
         object.__setattr__(self, "_geometry", _polygon(self.area, "the operating area"))
-
-    def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike | None = None
-              ) -> Violation:
-        """Return the distance (m) of each candidate outside the area (0 inside).
-
-        Parameters
-        ----------
-        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
-            Candidate sensor positions at the checked times, ENU m.
-        target_positions : array_like, shape (k, 3) or (3,), optional
-            The estimated target position at those times, ENU m (not used: the area is fixed).
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
-        """
-        import shapely
-
-        pos = _positions(sensor_positions)
-        geom = self._geometry  # type: ignore[attr-defined]
-        outside = ~shapely.contains_xy(geom, pos[..., 0], pos[..., 1])
-        dist = np.zeros(pos.shape[:-1])
-        if outside.any():  # a point on the boundary is at distance 0: inside
-            pts = shapely.points(pos[outside][:, 0], pos[outside][:, 1])
-            dist[outside] = shapely.distance(geom, pts)
-        return Violation(self.name, dist.max(axis=-1), self.hard, _scale(geom), self.weight)
 
 
 Constraint = MinimumRange | MaximumRange | KeepOutZones | OperatingArea

@@ -65,13 +65,16 @@ function tmaSolutionPage(a) {
 
   // The residuals (in sigma) and chi-square of the rows at a state [x y z vx vy vz] at tref.
   const z = new Float64Array(n);
-  let carrier = NaN;
+  const refs = cfg.carrier_ref, nt = refs.length;  // one carrier per tonal
+  const sAA = new Float64Array(nt), sAU = new Float64Array(nt), delta = new Float64Array(nt);
+  const carrier = new Array(nt).fill(NaN);
   function residuals(s) {
-    const t = rows.t, kind = rows.kind, val = rows.value, sig = rows.sigma;
+    const t = rows.t, kind = rows.kind, val = rows.value, sig = rows.sigma, tonal = rows.tonal;
     const se = rows.se, sn = rows.sn, su = rows.su, sve = rows.sve, svn = rows.svn,
           svu = rows.svu;
-    const c = cfg.c, ref = cfg.carrier_ref;
-    let sAA = 0, sAU = 0;
+    const c = cfg.c;
+    sAA.fill(0);
+    sAU.fill(0);
     const small = new Float64Array(n);
     for (let i = 0; i < n; i++) {
       const dt = t[i] - cfg.ref_time;
@@ -88,20 +91,23 @@ function tmaSolutionPage(a) {
         const rng = Math.sqrt(dx * dx + dy * dy + dz * dz);
         const rdot = (dx * (s[3] - sve[i]) + dy * (s[4] - svn[i]) + dz * (s[5] - svu[i])) / rng;
         small[i] = -rdot / c;
-        const w = 1 / (sig[i] * sig[i]), av = 1 + small[i];
+        const w = 1 / (sig[i] * sig[i]), av = 1 + small[i], g = tonal[i], ref = refs[g];
         const u = (val[i] - ref) - ref * small[i];  // formed about the reference carrier
-        sAA += w * av * av;
-        sAU += w * av * u;
+        sAA[g] += w * av * av;
+        sAU[g] += w * av * u;
       } else {
         z[i] = NaN;
       }
     }
-    const delta = sAA > 0 ? sAU / sAA : 0;
-    carrier = sAA > 0 ? ref + delta : NaN;
+    for (let g = 0; g < nt; g++) {
+      delta[g] = sAA[g] > 0 ? sAU[g] / sAA[g] : 0;
+      carrier[g] = sAA[g] > 0 ? refs[g] + delta[g] : NaN;
+    }
     let chi2 = 0;
     for (let i = 0; i < n; i++) {
-      if (rows.kind[i] === 2) {
-        z[i] = ((rows.value[i] - ref) - ref * small[i] - delta * (1 + small[i])) / rows.sigma[i];
+      if (kind[i] === 2) {
+        const g = tonal[i], ref = refs[g];
+        z[i] = ((val[i] - ref) - ref * small[i] - delta[g] * (1 + small[i])) / sig[i];
       }
       chi2 += z[i] * z[i];
     }
@@ -141,7 +147,8 @@ function tmaSolutionPage(a) {
       s += ", course " + fmt(course, 1) + "°, speed " + fmt(speed, 2) + " m/s (" +
         fmt(speed / 0.514444, 1) + " kn)";
     }
-    if (Number.isFinite(carrier)) s += ", f0 " + fmt(carrier, 3) + " Hz";
+    const f0 = carrier.filter(Number.isFinite).map((f) => fmt(f, 3));
+    if (f0.length) s += ", f0 " + f0.join(", ") + " Hz";
     const per = [];
     for (const k of cfg.kinds) {
       let ss = 0, m = 0, out = 0;
@@ -153,15 +160,23 @@ function tmaSolutionPage(a) {
     return s + "<br>" + per.join("; ");
   }
 
-  // a.dots: one source per kind and sensor ({kind: name, source}); a.ranges[kind]: its y range
-  function update(since) {
+  // a.dots: one source per kind and series ({kind, source, renderer}, and on a large panel a
+  // light_source of every few dots drawn instead while the mouse drags); a.ranges[kind]: its
+  // y range.  `light`: a drag's update (the light dots; all of them once the drag stops).
+  let lightShown = false;
+  function update(since, light) {
     const t0 = since === undefined ? performance.now() : since;
     const tStart = performance.now();
     chi2 = residuals(cur);
     const tModel = performance.now();
     const big = {};
     for (const d of a.dots) {  // the stacked dots
-      const idx = d.source.data.row, zz = d.source.data.z;
+      const src = light && d.light_source ? d.light_source : d.source;
+      if (d.light_source && lightShown !== Boolean(light)) {
+        d.renderer.visible = !light;
+        d.light_renderer.visible = Boolean(light);
+      }
+      const idx = src.data.row, zz = src.data.z;
       let m = big[d.kind] || 4;
       for (let j = 0; j < idx.length; j++) {
         zz[j] = z[idx[j]];
@@ -169,8 +184,9 @@ function tmaSolutionPage(a) {
         if (v > m) m = v;
       }
       big[d.kind] = m;
-      d.source.change.emit();
+      src.change.emit();
     }
+    lightShown = Boolean(light);
     for (const kind in big) {  // a new scale only when the dots leave it or shrink well inside
       const yr = a.ranges[kind];
       if (big[kind] > yr.end || big[kind] < 0.5 * yr.end) { yr.start = -big[kind]; yr.end = big[kind]; }
@@ -189,13 +205,14 @@ function tmaSolutionPage(a) {
     requestAnimationFrame(() => {
       timings.push({model_ms: tModel - tStart, dots_ms: tDots - tModel,
                     track_ms: tTrack - tDots, stats_ms: t1 - tTrack, compute_ms: t1 - tStart,
-                    painted_ms: performance.now() - t0});
+                    painted_ms: performance.now() - t0, drag: Boolean(light)});
     });
   }
 
   // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution
   // follows at once, its dots and chi-square at the next frame (one update per frame).
-  let pending = null;
+  let pending = null, idle = null;
+  const DRAG_STOP_MS = 200;
   function onHandles() {
     if (busy || !cfg.draggable) return;
     const d = a.handles.data;
@@ -217,8 +234,10 @@ function tmaSolutionPage(a) {
       a.stick.data = {x: xy[0], y: xy[1]};
       if (pending === null) {
         pending = performance.now();
-        requestAnimationFrame(() => { const t = pending; pending = null; update(t); });
+        requestAnimationFrame(() => { const t = pending; pending = null; update(t, true); });
       }
+      clearTimeout(idle);  // every dot again once the drag has stopped
+      idle = setTimeout(() => { idle = null; update(); }, DRAG_STOP_MS);
     } finally {
       busy = false;
     }
@@ -234,7 +253,7 @@ function tmaSolutionPage(a) {
     ready: true,
     onHandles: onHandles,
     // whether a drag's update is still to come (at the next frame)
-    pending: () => pending !== null,
+    pending: () => pending !== null || idle !== null,
     reset: () => { if (cfg.draggable) setState(ml); },
     // for scripted use and tests: move the solution at the reference time by (dE, dN) m and
     // its velocity by (dvE, dvN) m/s
@@ -252,7 +271,7 @@ function tmaSolutionPage(a) {
       return out;
     },
     chi2: () => chi2,
-    carrier: () => carrier,
+    carrier: () => (nt === 1 ? carrier[0] : carrier.slice()),  // Hz, one per tonal
     timings: timings,
     toMap: toMap,
     fromMap: fromMap,

@@ -21,13 +21,16 @@ from ..results.answers import estimate_answer
 from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 from ..results.own_legs import sensor_legs
 from .frame import MapFrame
-from .solution import ellipse_points
+from .solution import ellipse_points, series_names
 
 __all__ = ["DRAG_KINDS", "MAX_FAN_LINES", "solution_page_html", "write_solution_page"]
 
 #: The kinds whose residuals the page recomputes as the solution is dragged, by their code in
 #: the page's model (``page.js``).
 DRAG_KINDS = {"bearing": 0, "range": 1, "frequency": 2}
+#: While the mouse drags, each panel of stacked dots draws at most about this many (evenly
+#: spread; all of them once the drag stops): repainting 10,000 dots takes Bokeh ~150 ms a frame.
+DRAG_DOTS = 1000
 #: At most this many bearing lines are drawn in the fan (evenly spread over the cuts).
 MAX_FAN_LINES = 300
 _COLOURS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
@@ -175,13 +178,23 @@ class _Page:
         st = m.sensor_state
         return {"t": m.time.astype(float), "kind": kind, "value": m.value_si.astype(float),
                 "sigma": m.sigma_si.astype(float), "se": st[:, 0], "sn": st[:, 1],
-                "su": st[:, 2], "sve": st[:, 3], "svn": st[:, 4], "svu": st[:, 5]}
+                "su": st[:, 2], "sve": st[:, 3], "svn": st[:, 4], "svu": st[:, 5],
+                "tonal": self.tonals()[1]}
+
+    def tonals(self) -> tuple[list[float], np.ndarray]:
+        """Each tonal's reference carrier (mean frequency, Hz) and each row's tonal number."""
+        m = self.meas
+        fr = m.kind_mask("frequency")
+        labels = np.where(fr, "", "-") if m.tonal is None else np.where(fr, m.tonal, "-")
+        names, code = np.unique(labels, return_inverse=True)
+        keep = names != "-"
+        number = np.cumsum(keep) - 1
+        refs = [float(np.mean(m.value_si[labels == lab])) for lab in names[keep]]
+        return refs or [0.0], np.maximum(number[code.reshape(-1)], 0).astype(np.int32)
 
     def config(self, tau: float) -> dict[str, Any]:
         """Give the page model's constants."""
         freq = self.obs.models.get("frequency")
-        fr = self.meas.kind_mask("frequency") if freq is not None else None
-        ref = float(np.mean(self.meas.value_si[fr])) if fr is not None and fr.any() else 0.0
         n_par = len(self.result.estimate) + self.obs.n_nuisance
         origin = origin_of(self.meas)
         return {
@@ -190,7 +203,7 @@ class _Page:
             "ml": _state6(self.result) if self.has_track else [0.0] * 6,
             "moving": type(self.result.motion).__name__ == "ConstantVelocity",
             "draggable": not self.refusal, "tau": tau,
-            "c": float(getattr(freq, "c", 1.0)), "carrier_ref": ref,
+            "c": float(getattr(freq, "c", 1.0)), "carrier_ref": self.tonals()[0],
             "ml_chi2": float(self.result.chi2), "n_used": len(self.meas),
             "dof": self.result.dof if self.result.dof > 0 else max(len(self.meas) - n_par, 1),
             "all_kinds": list(self.meas.kinds),
@@ -332,16 +345,23 @@ def _dots_figures(page: _Page, width: int) -> tuple[list[Any], list[dict[str, An
         for y in (-3, 3):
             fig.add_layout(Span(location=y, dimension="width", line_color="red",
                                 line_dash="dotted"))
-        sensors = m.sensor[rows]
-        for k, name in enumerate(m.sensors):
-            mine = sensors == name
-            if not mine.any():
-                continue
-            src = ColumnDataSource({"x": page.when(m.time[rows[mine]]),
-                                    "z": z[mine].astype(float),
-                                    "row": rows[mine].astype(np.int32)})
-            fig.scatter("x", "z", source=src, size=4, color=_COLOURS[k % len(_COLOURS)])
-            sources.append({"kind": kind, "source": src})
+        sensors = series_names(m)[rows]
+        step = -(-rows.size // DRAG_DOTS)  # while dragging: every step-th dot
+        for k, name in enumerate(dict.fromkeys(sensors)):
+            mine = np.flatnonzero(sensors == name)
+            named = {"legend_label": str(name)} if len(set(sensors)) > 1 else {}
+            entry: dict[str, Any] = {"kind": kind}
+            for key, pick in (("", mine), ("light_", mine[::step] if step > 1 else None)):
+                if pick is None:
+                    continue
+                src = ColumnDataSource({"x": page.when(m.time[rows[pick]]),
+                                        "z": z[pick].astype(float),
+                                        "row": rows[pick].astype(np.int32)})
+                entry[key + "source"] = src
+                entry[key + "renderer"] = fig.scatter(
+                    "x", "z", source=src, size=4, color=_COLOURS[k % len(_COLOURS)],
+                    visible=not key, **(named if not key else {}))
+            sources.append(entry)
         figs.append(fig)
         ranges[kind] = yr
     return figs, sources, ranges

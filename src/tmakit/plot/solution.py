@@ -27,7 +27,7 @@ MAX_BEARING_LINES = 40
 
 def ellipse_points(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
     """Give the points of the confidence ellipse of a 2x2 position covariance."""
-    from scipy.stats import chi2
+    from ..core import chi2
 
     evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
     k = np.sqrt(chi2.ppf(level, 2))
@@ -201,16 +201,26 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     frame.scale_bar(ax)
 
 
+def series_names(meas: MeasurementSet) -> np.ndarray:
+    """Each row's series of stacked dots: its sensor, and its tonal on frequency rows."""
+    if meas.tonal is None:
+        return meas.sensor
+    tonal = np.char.add(" " if len(meas.sensors) > 1 else "", meas.tonal)
+    return np.where(meas.tonal != "", np.char.add(
+        meas.sensor if len(meas.sensors) > 1 else "", tonal), meas.sensor)
+
+
 def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray) -> None:
-    """One panel per kind: residuals in units of sigma against time, ±1σ and ±3σ bands."""
+    """One panel per kind: residuals (σ) against time, a series per sensor and tonal."""
     when, label = plot_times(meas, meas.time)
+    series = series_names(meas)
     for ax, kind in zip(axes, meas.kinds, strict=True):
         rows = meas.kind_mask(kind)
         z = residuals[rows]
-        for s in meas.sensors:
-            sel = meas.sensor[rows] == s
-            if np.any(sel):
-                ax.plot(when[rows][sel], z[sel], ".", ms=4, label=s)
+        names = list(dict.fromkeys(series[rows]))
+        for s in names:
+            sel = series[rows] == s
+            ax.plot(when[rows][sel], z[sel], ".", ms=4, label=s)
         ax.axhspan(-1, 1, color="tab:green", alpha=0.12)
         for y in (-3, 3):
             ax.axhline(y, color="tab:red", lw=0.8, ls=":")
@@ -222,7 +232,7 @@ def _draw_residuals(axes: list[Any], meas: MeasurementSet, residuals: np.ndarray
         lim = max(4.0, float(np.nanmax(np.abs(z))) * 1.1) if np.any(np.isfinite(z)) else 4.0
         ax.set_ylim(-lim, lim)
         ax.grid(True, alpha=0.3)
-        if len(meas.sensors) > 1:
+        if len(names) > 1:
             ax.legend(fontsize=7, loc="upper right")
     axes[-1].set_xlabel(label)
     format_time_axis(axes[-1], when)

@@ -160,7 +160,7 @@ def monte_carlo_path(path: int, runs: int = RUNS, seed: int = 1,
 
 def nees_band(runs: int, dof: int = 6, level: float = 0.95) -> tuple[float, float]:
     """Give the two-sided ``level`` band of the mean NEES over ``runs`` consistent runs."""
-    from scipy.stats import chi2
+    from ..core import chi2
 
     lo, hi = chi2.ppf([(1 - level) / 2, (1 + level) / 2], dof * runs)
     return float(lo / runs), float(hi / runs)

@@ -76,16 +76,17 @@ SCENARIOS = {
 }
 
 
-def simulate(scenario: Scenario, rng: np.random.Generator) -> tuple[MeasurementSet, Array]:
-    """Draw one run: the bearings and the target's true states."""
+def simulate(scenario: Scenario, rng: np.random.Generator, q_density: float = Q_DENSITY
+             ) -> tuple[MeasurementSet, Array]:
+    """Draw one run: the bearings and the target's true states (``q_density`` m^2/s^3)."""
     steps = scenario.steps
     own = scenario.own_ship()
     c = math.radians(scenario.course)
     tgt = np.zeros((steps + 1, 4))
     tgt[0] = [*scenario.target, scenario.speed_kn * KNOT * math.sin(c),
               scenario.speed_kn * KNOT * math.cos(c)]
-    chol = np.linalg.cholesky(Q_DENSITY * np.array([[STEP**3 / 3, STEP**2 / 2],
-                                                    [STEP**2 / 2, STEP]]))
+    chol = math.sqrt(q_density) * np.linalg.cholesky(np.array([[STEP**3 / 3, STEP**2 / 2],
+                                                                 [STEP**2 / 2, STEP]]))
     for k in range(1, steps + 1):
         tgt[k, :2] = tgt[k - 1, :2] + STEP * tgt[k - 1, 2:]
         tgt[k, 2:] = tgt[k - 1, 2:]

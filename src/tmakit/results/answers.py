@@ -11,9 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_dist
+from numpy.typing import ArrayLike, NDArray
 
+from ..core import chi2 as chi2_dist
+from ..core.frames import wrap_angle
 from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
 from .context import altitude_reference, clock_time, origin_of, sensor_position
@@ -154,6 +155,12 @@ class Answer:
     covariance: NDArray[np.float64] = field(repr=False)
     altitude_reference: str = "WGS-84 ellipsoid"
     undetermined: tuple[str, ...] = ()
+
+    @property
+    def position_determined(self) -> bool:
+        """Whether the position is given and its range from the sensor is determined."""
+        return (self.enu[0] is not None and self.enu[1] is not None
+                and not any(w.startswith("range") for w in self.undetermined))
 
     @property
     def speed_knots(self) -> float | None:
@@ -336,6 +343,48 @@ def _determined_size(name: str, v: float | None, s: float | None, unit: str, wea
     return None, None
 
 
+def bearing_interval(answer: Answer, meas: MeasurementSet | None,
+                     level: float = ELLIPSE_LEVEL) -> tuple[float, float] | None:
+    """Give the bearing interval (centre, half-width; deg) at ``level``, or None if unknown.
+
+    The hull of the answer's linearised interval and of each bearing its sensor measured at
+    its time ± z sigma (a towed array's twin: the side nearer the answer's): a measured
+    bearing holds the truth whatever motion model the fit assumed.
+    """
+    z = float(np.sqrt(chi2_dist.ppf(level, 1)))
+    spans = []  # (centre, half-width), rad
+    if answer.bearing_deg is not None and answer.bearing_std_deg is not None:
+        spans.append((np.radians(answer.bearing_deg), z * np.radians(answer.bearing_std_deg)))
+    if meas is not None and answer.sensor in meas.sensors:
+        rows = np.flatnonzero(meas.kind_mask("bearing") & meas.sensor_mask(answer.sensor)
+                              & (meas.time == answer.time))
+        for i in rows:
+            seen = np.array([meas.value_si[i]] if meas.ambiguous_si is None or not spans
+                            else [meas.value_si[i], meas.ambiguous_si[i]])
+            near = np.nanargmin(np.abs(wrap_angle(seen - spans[0][0]))) if spans else 0
+            spans.append((float(seen[near]), z * float(meas.sigma_si[i])))
+    if not spans:
+        return None
+    offs = wrap_angle([c - spans[0][0] for c, _ in spans])
+    lo = min(o - h for o, (_, h) in zip(offs, spans, strict=True))
+    hi = max(o + h for o, (_, h) in zip(offs, spans, strict=True))
+    return (float(np.degrees(spans[0][0] + (lo + hi) / 2.0) % 360.0),
+            float(np.degrees(hi - lo) / 2.0))
+
+
+def in_bearing_interval(position: ArrayLike, answer: Answer,
+                        meas: MeasurementSet | None, level: float = ELLIPSE_LEVEL) -> bool:
+    """Whether a horizontal position (East, North, m) lies in :func:`bearing_interval`."""
+    span = bearing_interval(answer, meas, level)
+    if span is None:
+        return False
+    where = (sensor_position(meas, answer.sensor, answer.time)
+             if meas is not None and answer.sensor is not None else np.zeros(3))
+    d = np.asarray(position, dtype=float)[:2] - where[:2]
+    return bool(np.degrees(abs(wrap_angle(np.arctan2(d[0], d[1]) - np.radians(span[0]))))
+                <= span[1])
+
+
 def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:
     """Whether no parameter moves the emitter (velocity zero with zero derivatives)."""
     return bool(not np.any(jac[3:6]) and not np.any(state[3:6]))
@@ -376,10 +425,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     problem = time_problem(float(time), None if meas is None else meas.time, "time")
     if problem is not None:
         raise ValueError(problem)
-    state, cov, jac, null = _state_at(result, float(time))
-    covers = getattr(result, "covers", ())
-    if covers and null is None:
-        cov = cov * covering_scale(state, cov, [_state_at(r, float(time))[:2] for r in covers])
+    state, cov, jac, null = fit_state(result, float(time))
     return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
                              _is_stationary(jac, state), level, null)
 
@@ -404,6 +450,17 @@ def covering_scale(state: NDArray[np.float64], cov: NDArray[np.float64],
         spread = float(np.linalg.svd(np.linalg.solve(low, lj), compute_uv=False)[0])
         scale = max(scale, (float(np.linalg.norm(d)) / np.sqrt(q) + spread) ** 2)
     return scale
+
+
+def fit_state(result: object, time: float
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                         NDArray[np.float64] | None]:
+    """Give :func:`_state_at` with the covariance widened to cover ``result.covers``."""
+    state, cov, jac, null = _state_at(result, time)
+    covers = getattr(result, "covers", ())
+    if covers and null is None:
+        cov = cov * covering_scale(state, cov, [_state_at(r, time)[:2] for r in covers])
+    return state, cov, jac, null
 
 
 def _state_at(result: object, time: float
@@ -477,7 +534,7 @@ _PARAM_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m
 
 def parameter_display(name: str, value: float, std: float) -> tuple[float, float, str]:
     """Return a parameter's value and std in the unit shown to the user, and that unit."""
-    unit = _PARAM_UNITS.get(name)
+    unit = _PARAM_UNITS.get(name.partition("[")[0])  # carrier[TONAL]: a tonal's carrier
     if unit is None:
         unit = ("m/s^2" if name.startswith(("at_", "an_"))
                 else "s" if name.startswith("t_") else "")

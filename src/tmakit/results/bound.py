@@ -12,9 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2
 
-from ..core.linalg import normalised_eigh
+from ..core import chi2
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from .answers import parameter_display
@@ -22,15 +21,12 @@ from .nuisance import KnownNuisance, as_known_nuisance
 from .observability import Observability, analyse
 
 
-def pseudo_covariance(info: NDArray[np.float64], obsv: Observability) -> NDArray[np.float64]:
+def pseudo_covariance(obsv: Observability) -> NDArray[np.float64]:
     """Invert the information on its observable subspace (Moore–Penrose)."""
-    if obsv.decomposition is None:
-        evals, evecs, scale = normalised_eigh(info)
-    else:
-        evals, evecs, scale = obsv.decomposition
-    keep = np.argsort(evals)[::-1][: obsv.rank]
-    inv = (evecs[:, keep] / evals[keep]) @ evecs[:, keep].T
-    return inv * scale[:, None] * scale[None, :]
+    assert obsv.decomposition is not None  # (made by analyse)
+    evals, evecs, scale = obsv.decomposition  # eigenvalues ascending: the rank's are the last
+    seen = evecs[:, obsv.size - obsv.rank:]
+    return (seen / evals[obsv.size - obsv.rank:]) @ seen.T * scale[:, None] * scale[None, :]
 
 
 @dataclass
@@ -315,8 +311,9 @@ def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
         known = KnownNuisance(nuisance_values)
     theta = values[: motion.n_params]
     obsv = analyse(info, names, meas, motion, theta)
-    cov = pseudo_covariance(info, obsv)
-    std = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    std = np.where(obsv.observable, std, np.inf)
+    cov = pseudo_covariance(obsv)
+    std = np.sqrt(np.maximum(cov.diagonal(), 0.0))
+    if not obsv.full_rank:
+        std = np.where(obsv.observable, std, np.inf)
     return Bound(names, values, info, cov, std, obsv, known,
                  dict(nuisance_values), motion, len(meas))

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import model_for
 from ..observation import ObservationModel
@@ -240,6 +240,26 @@ def solutions_warning(solutions: list[Any]) -> SanityWarning | None:
         "motion model that can follow the contact, or sigma from the residuals (--scale-sigma)")
 
 
+def range_spread_warning(solutions: list[Any], meas: MeasurementSet) -> SanityWarning | None:
+    """Warn that the solutions' ranges disagree: the range is not determined, only the bearing."""
+    from .answers import bearing_interval
+    from .solutions import range_spread
+
+    spread = range_spread(solutions, meas) if len(meas) else None
+    if spread is None:
+        return None
+    a = solutions[0].answer(meas)
+    span = bearing_interval(a, meas)
+    return SanityWarning("position-undetermined", (
+        f"the separated solutions' ranges from {a.sensor} at t = {a.time:g} s, "
+        f"{spread[0] / 1000:.4g} km to {spread[1] / 1000:.4g} km, lie outside one another's 95 "
+        "% intervals: the minima lie along the line of sight and the data do not determine the "
+        "range. The "
+        "reported 95 % region is the bearing interval"
+        + ("" if span is None else f", {span[0]:.1f} deg ± {span[1]:.2g} deg")
+        + ". An own-ship manoeuvre across the line of sight would pin the range down"))
+
+
 def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     """Return every warning about a batch estimate and its measurements.
 
@@ -259,9 +279,10 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     for w in (chi2_warning(chi2, dof), chi2_low_warning(chi2, dof)):
         if w is not None:
             found.append(w)
-    several = solutions_warning(getattr(result, "solutions", []))
-    if several is not None:
-        found.append(several)
+    solutions = getattr(result, "solutions", [])
+    for w in (solutions_warning(solutions), range_spread_warning(solutions, meas)):
+        if w is not None:
+            found.append(w)
     theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     if np.all(np.isfinite(theta)) and len(meas):
         motion = result.motion  # type: ignore[attr-defined]
@@ -285,15 +306,14 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     return found
 
 
-def position_determined(answer: Any) -> bool:
-    """Whether an answer gives a position whose range from the sensor the data determine."""
-    return (answer.enu[0] is not None and answer.enu[1] is not None
-            and not any(w.startswith("range") for w in answer.undetermined))
+def wider_undetermined(wider: Any, meas: MeasurementSet | None, time: float | None = None) -> bool:
+    """Whether the widest model's fit leaves the position at ``time`` undetermined."""
+    return not wider.converged or not wider.answer(meas, time).position_determined
 
 
 def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning | None:
     """Warn that the position holds only under the reported fit's model."""
-    from .answers import estimate_answer
+    from .answers import bearing_interval, estimate_answer
 
     wider = getattr(result, "wider", None)
     if wider is None or not len(meas):
@@ -302,10 +322,9 @@ def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning |
     why = ("its fit is " + str(wider.status) if str(wider.status) != "converged"
            else "range " + "; ".join(w for w in a.undetermined if w.startswith("range"))
            if a.enu[0] is not None else "the position is unobservable")
-    bearing = ("bearing not determined either" if a.bearing_deg is None
-               or a.bearing_std_deg is None else
-               f"it determines the bearing from {a.sensor}: {a.bearing_deg:.1f} deg ± "
-               f"{1.96 * a.bearing_std_deg:.2g} deg (95 %)")
+    span = bearing_interval(a, meas)
+    bearing = ("bearing not determined either" if span is None else
+               f"the bearing from {a.sensor} is {span[0]:.1f} deg ± {span[1]:.2g} deg (95 %)")
     return SanityWarning("position-undetermined", (
         f"the position at t = {a.time:g} s holds only if the target made no manoeuvre beyond "
         f"those of the reported fit ({result.motion.name}): with the model asked for "  # type: ignore[attr-defined]

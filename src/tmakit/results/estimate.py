@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2 as chi2_dist
 
 from ..core import blas
 from ..data import MeasurementSet
@@ -26,13 +25,14 @@ from .answers import (
     KNOT,
     Answer,
     estimate_answer,
+    in_bearing_interval,
     parameter_display,
 )
 from .bound import Bound, bound_from_information
-from .checks import SanityWarning, chi2_probability, fit_warnings
-from .context import geodetic_fix, origin_of, sensor_position
+from .checks import SanityWarning, chi2_probability, fit_warnings, wider_undetermined
+from .context import geodetic_fix, origin_of
 from .nuisance import KnownNuisance, as_known_nuisance
-from .solutions import Solution
+from .solutions import Solution, range_spread
 from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
 from .trust import Trust, trust_of
 
@@ -133,21 +133,21 @@ class EstimateResult:
         Returns
         -------
         bool
+            True inside a solution's region, or inside a bearing interval where the answer says
+            the range is undetermined: the solutions' ranges disagree
+            (:func:`~tmakit.results.solutions.range_spread`) or :attr:`wider` leaves it so.
         """
-        if any(s.region_contains(position, meas, time, level)
-               for s in self.ranked_solutions()):
+        sols = self.ranked_solutions()
+        if any(s.region_contains(position, meas, time, level) for s in sols):
+            return True
+        if range_spread(sols, meas, time, level) is not None and in_bearing_interval(
+                position, self.answer(meas, time, level=level), meas, level):
             return True
         if self.wider is None:
             return False
-        a = self.wider.answer(meas, time, level=level)
-        if a.bearing_deg is None or a.bearing_std_deg is None:
-            return True
-        where = (sensor_position(meas, a.sensor, a.time)
-                 if meas is not None and a.sensor is not None else np.zeros(3))
-        d = np.asarray(position, dtype=float)[:2] - where[:2]
-        seen = np.degrees(np.arctan2(d[0], d[1]))
-        off = (seen - a.bearing_deg + 180.0) % 360.0 - 180.0
-        return bool(abs(off) <= np.sqrt(chi2_dist.ppf(level, 1)) * a.bearing_std_deg)
+        return (wider_undetermined(self.wider, meas, time)
+                and in_bearing_interval(position, self.wider.answer(meas, time, level=level),
+                                        meas, level))
 
     @property
     def chi2_p_value(self) -> float | None:

@@ -14,7 +14,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.linalg import normalise
+from ..core.linalg import eigh, normalise
 from ..data import MeasurementSet
 from ..measurements import KINDS
 from ..motion import MotionModel
@@ -146,6 +146,14 @@ def _candidates(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.flo
             cands.append((range_words(meas, name) if angles else
                           f"scaling of the track about sensor {name} (range is not observable)",
                           states - own, t))
+            if not angles:  # Doppler on one leg: the relative track's shape, not its heading
+                up = _AXES["Up"]
+                cands.append((f"rotation of the track seen from sensor {name} about it: on its "
+                              "one straight leg the frequencies give the contact's speed "
+                              "relative to it and its closest approach, not the direction; an "
+                              "own-ship turn, or bearings, would pin it down",
+                              np.column_stack([np.cross(up, p - own[:, :3]),
+                                               np.cross(up, v - own[:, 3:])]), t))
     return [(s, _to_theta(motion, theta, tt, d)) for s, d, tt in cands]
 
 
@@ -165,13 +173,6 @@ def _straight_path(meas: MeasurementSet, sensor: str, t: NDArray[np.float64]
     coef = np.linalg.lstsq(design, st[:, :3], rcond=None)[0]  # position = a + b (t - t0)
     pos = np.column_stack([np.ones_like(t), t - tr[0]]) @ coef
     return np.column_stack([pos, np.broadcast_to(coef[1], pos.shape)])
-
-
-def _velocity_constant_by_form(motion: MotionModel) -> bool:
-    """Tell from an affine model's terms alone that its velocity's derivatives are constant."""
-    terms = motion.component_terms(np.zeros(1)) if motion.affine else None
-    return terms is not None and all(coef is None for _, component, coef in terms[0]
-                                     if component >= 3)
 
 
 def _velocity_fixed(motion: MotionModel, theta: NDArray[np.float64],
@@ -232,7 +233,7 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     if unseen is not None:
         norm = norm - np.outer(norm @ unseen, unseen) - np.outer(unseen, unseen @ norm) + (
             float(unseen @ norm @ unseen) * np.outer(unseen, unseen))
-    evals, evecs = np.linalg.eigh(norm)
+    evals, evecs = eigh(norm)
     top = max(float(evals[-1]), _TINY)
     if float(evals[0]) > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
         return Observability(size, size, top / float(evals[0]), np.zeros((size, 0)), [],
@@ -261,7 +262,7 @@ def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np
     """Give the range direction (normalised unit vector) only a manoeuvre model's shape sees."""
     # a stationary emitter (a moving sensor's bearings do give its range) or constant
     # velocity (the rank says whether range is seen): no manoeuvre to take it from
-    if (len(meas.sensors) != 1 or not _angles_only(meas) or _velocity_constant_by_form(motion)
+    if (len(meas.sensors) != 1 or not _angles_only(meas) or motion.velocity_fixed
             or not np.all(np.isfinite(theta))):
         return None
     sensor = meas.sensors[0]

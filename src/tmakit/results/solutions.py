@@ -5,7 +5,9 @@ A fit is kept when its likelihood-ratio statistic against the reported fit,
 price of one unknown, ``ln N`` for BIC).  Fits within the chi-square(4) quantile of each other
 at the answer time are one solution, the better one's covariance widened to cover the other
 (:func:`~tmakit.results.answers.covering_scale`).  The reported region is the union of the
-solutions' ellipses.
+solutions' ellipses, or of a solution's bearing interval where its range is undetermined;
+where two solutions' range intervals are disjoint (:func:`range_spread`, minima along the line
+of sight) the range is not determined and the reported fit's bearing interval joins it.
 """
 
 from __future__ import annotations
@@ -16,11 +18,18 @@ from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ..core import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from .answers import ELLIPSE_LEVEL, Answer, covering_scale, estimate_answer
+from .answers import (
+    ELLIPSE_LEVEL,
+    Answer,
+    covering_scale,
+    estimate_answer,
+    fit_state,
+    in_bearing_interval,
+)
 from .status import Status
 
 
@@ -104,11 +113,12 @@ class Solution:
         Returns
         -------
         bool
-            False for an unobservable or non-finite position.
+            False outside; a position whose range the answer leaves undetermined: whether
+            its bearing lies in :func:`~tmakit.results.answers.bearing_interval`.
         """
         a = self.answer(meas, time, level=level)
-        if a.enu[0] is None or a.enu[1] is None:
-            return False
+        if not a.position_determined:
+            return in_bearing_interval(np.asarray(position, dtype=float), a, meas, level)
         d = np.asarray(position, dtype=float)[:2] - np.array([a.enu[0], a.enu[1]])
         cov = a.covariance[:2, :2]
         if not np.all(np.isfinite(cov)) or not np.all(np.isfinite(d)):
@@ -148,10 +158,14 @@ class Solution:
 def _state(result: EstimateResult, meas: MeasurementSet, time: float
            ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """East/North position and velocity at ``time`` and their covariance; None if not finite."""
-    a = estimate_answer(result, meas, time)
     idx = [0, 1, 3, 4]
-    state = np.array([a.enu[0], a.enu[1], a.velocity[0], a.velocity[1]], dtype=float)
-    cov = a.covariance[np.ix_(idx, idx)]
+    full, cov, jac, null = fit_state(result, time)
+    state = full[idx]
+    if null is not None or not np.any(jac[3:6]):  # what the answer leaves out is not finite
+        a = estimate_answer(result, meas, time)
+        state = np.array([a.enu[0], a.enu[1], a.velocity[0], a.velocity[1]], dtype=float)
+        cov = a.covariance
+    cov = cov[np.ix_(idx, idx)]
     if not (np.all(np.isfinite(state)) and np.all(np.isfinite(cov))):
         return None
     return state, cov
@@ -162,6 +176,23 @@ def _unknowns(result: EstimateResult) -> int:
     if result.bound is not None:
         return max(int(result.bound.rank), 1)
     return max(int(np.count_nonzero(np.asarray(result.std) > 0)), 1)
+
+
+def range_spread(solutions: Sequence[Solution], meas: MeasurementSet | None,
+                 time: float | None = None, level: float = ELLIPSE_LEVEL
+                 ) -> tuple[float, float] | None:
+    """Give the smallest and largest range (m) when two solutions' range intervals disjoin.
+
+    The intervals at ``level`` from the answers' sensor at ``time``; None when all overlap.
+    """
+    z = float(np.sqrt(chi2_dist.ppf(level, 1)))
+    ranges = [(a.range_m, a.range_std) for a in (s.answer(meas, time, level=level)
+                                                 for s in solutions)
+              if a.range_m is not None and a.range_std is not None]
+    if len(ranges) < 2 or (max(r - z * sd for r, sd in ranges)
+                           <= min(r + z * sd for r, sd in ranges)):
+        return None
+    return min(r for r, _ in ranges), max(r for r, _ in ranges)
 
 
 def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal, cast
@@ -17,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from ..core.input_files import read_toml
 from ..core.units import free_space_constant, linear_to_db
 from ..measurements import KINDS
 from ..motion import MotionModel, motion_from_name
@@ -400,27 +400,6 @@ def planned_scenario(data: dict[str, Any], source: str = "<dict>"
         raise ScenarioFileError(f"{source}: {err}") from None
     return scenario, spec.planning, sensor, spec.angle_convention == "east_ccw"
 
-def _read_toml(path: Path) -> dict[str, Any]:
-    from ..core.input_files import binary_problem, not_regular_problem
-
-    problem = not_regular_problem(path) or (path.is_file() and binary_problem(path))
-    if problem:
-        raise ScenarioFileError(f"{path}: {problem}")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScenarioFileError(f"{path}: no such scenario file") from None
-    except UnicodeDecodeError as e:
-        raise ScenarioFileError(f"{path}: not a UTF-8 text (TOML) file ({e.reason} at byte "
-                                f"{e.start})") from None
-    except OSError as e:  # a folder, no permission
-        raise ScenarioFileError(f"{path}: cannot be read ({e.strerror or e})") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise ScenarioFileError(f"{path}: not valid TOML: {err}") from None
-
-
 def read_scenario_file(path: str | Path) -> Scenario:
     """Load and validate a TOML scenario file.
 
@@ -438,7 +417,7 @@ def read_scenario_file(path: str | Path) -> Scenario:
         If the file does not exist, is not TOML, or is not a valid scenario.
     """
     path = Path(path)
-    return scenario_from_dict(_read_toml(path), str(path))
+    return scenario_from_dict(read_toml(path, "scenario", ScenarioFileError), str(path))
 
 
 def scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
@@ -446,13 +425,13 @@ def scenario_data(name_or_path: str | os.PathLike[str]) -> tuple[dict[str, Any],
     text = str(name_or_path)
     path = Path(text)
     if path.suffix == ".toml" or path.exists():
-        return _read_toml(path), str(path)
+        return read_toml(path, "scenario", ScenarioFileError), str(path)
     names = builtin_scenario_names()
     if text not in names:
         raise ScenarioFileError(f"unknown scenario {text!r}: not a file, and not one of the "
                                 f"built-in scenarios ({', '.join(names)})")
     with resources.as_file(resources.files("tmakit.scenario") / "builtin" / f"{text}.toml") as p:
-        return _read_toml(Path(p)), str(p)
+        return read_toml(Path(p), "scenario", ScenarioFileError), str(p)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:

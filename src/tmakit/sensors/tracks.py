@@ -95,23 +95,7 @@ class FixedSensor(SensorTrack):
         object.__setattr__(self, "position", tuple(_as_point(position, "sensor position")))
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the fixed position and zero velocity at times ``t``.
-
-        Parameters
-        ----------
-        t : array_like
-            Times (s), scalar or 1-D.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
-
-        Raises
-        ------
-        ValueError
-            If ``t`` is not 1-D.
-        """
+        """Give the fixed position and zero velocity at times ``t``."""
         t = _as_times(t)
         out = np.zeros((t.shape[0], 6))
         out[:, :3] = self.position
@@ -208,23 +192,7 @@ class LegsTrack(SensorTrack):
         return self._starts[:, 0].copy()
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the ENU states on the legs at times ``t``.
-
-        Parameters
-        ----------
-        t : array_like
-            Times (s), scalar or 1-D.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
-
-        Raises
-        ------
-        ValueError
-            If ``t`` is not 1-D.
-        """
+        """Give the ENU states on the legs at times ``t``."""
         t = _as_times(t)
         idx = np.clip(np.searchsorted(self._starts[:, 0], t, side="right") - 1, 0, None)
         t0, x0, y0, v, c = self._starts[idx].T
@@ -286,23 +254,7 @@ class WaypointTrack(SensorTrack):
         self.times = times
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the ENU states between the waypoints at times ``t``.
-
-        Parameters
-        ----------
-        t : array_like
-            Times (s), scalar or 1-D.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
-
-        Raises
-        ------
-        ValueError
-            If ``t`` is not 1-D.
-        """
+        """Give the ENU states between the waypoints at times ``t``."""
         t = _as_times(t)
         out = np.zeros((t.shape[0], 6))
         for axis in range(3):
@@ -368,17 +320,7 @@ class RecordedTrack(SensorTrack):
         self._velocity = self._spline.derivative()
 
     def states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the interpolated ENU states at times ``t``.
-
-        Parameters
-        ----------
-        t : array_like
-            Times (s), scalar or 1-D.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``[x, y, z, vx, vy, vz]`` ``(n, 6)`` (m, m/s).
+        """Give the interpolated ENU states at times ``t`` (as :meth:`SensorTrack.states`).
 
         Raises
         ------

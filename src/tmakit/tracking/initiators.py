@@ -69,7 +69,7 @@ class Initiator(ABC):
         Returns
         -------
         Initiation
-            The start record and the track.
+            The start record and the track (s, m, m/s).
         """
 
 
@@ -108,18 +108,6 @@ class PriorInitiator(Initiator):
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Start at the prior and update with every row (see :meth:`Initiator.initiate`).
 
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (not empty; SI).
-        setup : FilterSetup
-            The filter and its settings.
-
-        Returns
-        -------
-        Initiation
-            The start record and the track (s, m, m/s).
-
         Raises
         ------
         TrackingError
@@ -147,6 +135,8 @@ class BearingInitiator(Initiator):
     The filter starts at the first bearing's time from ``prior`` centred on that bearing
     (:meth:`TrackingFilter.from_first_bearing <tmakit.filters.TrackingFilter.from_first_bearing>`)
     and updates with every other row; the track's first row is that start (NIS NaN).
+    With ``confirm`` the start is tested as a batch start is (NIS of the next ``MIN_WINDOW``
+    updates); a rejected bearing (clutter) is dropped and the next one starts.
 
     Parameters
     ----------
@@ -155,15 +145,21 @@ class BearingInitiator(Initiator):
         defaults (said so in the start record).
     nuisance : mapping of str to float, optional
         Known nuisance values, for the kinds that have nuisance parameters.
+    confirm : bool
+        Test the start by the innovations that follow it.
+    confirm_p_value : float
+        A start whose test has a smaller p-value is rejected.
     """
 
     def __init__(self, prior: BearingPrior | None = None,
-                 nuisance: Mapping[str, float] | None = None) -> None:
+                 nuisance: Mapping[str, float] | None = None, confirm: bool = True,
+                 confirm_p_value: float = CONFIRM_P_VALUE) -> None:
         self.prior = BearingPrior() if prior is None else prior
         if not isinstance(self.prior, BearingPrior):
             raise TrackingError(f"prior: expected a BearingPrior, got "
                                 f"{type(self.prior).__name__}", "bearing_prior")
         self.nuisance = dict(nuisance or {})
+        self.confirm, self.confirm_p_value = bool(confirm), float(confirm_p_value)
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Start at the first bearing and update with every other row.
@@ -183,22 +179,31 @@ class BearingInitiator(Initiator):
         Raises
         ------
         StartError
-            The set has no bearing.
+            The set has no bearing, or every bearing's start was rejected.
         MissingNuisanceError
             Nuisance values the measurement kinds need are not given.
         """
-        try:
-            first = first_bearing(meas)
-        except ValueError as e:
-            raise StartError(str(e), "bearing_prior") from None
         _check_nuisance(meas, setup.options, self.nuisance)
-        filt = setup.from_first_bearing(self.prior, first, self.nuisance)
-        mean, cov = filt.state, filt.covariance
-        rest = np.ones(len(meas), dtype=bool)
-        rest[first.row] = False
-        after = filt.run(meas.take(np.flatnonzero(rest)))
+        rejected: list[Rejection] = []
+        while True:
+            try:
+                first = first_bearing(meas)
+            except ValueError as e:
+                raise StartError(str(e) if not rejected else "every bearing's start was "
+                                 "rejected by the innovations that followed it: " + "; ".join(
+                                     r.describe() for r in rejected[:3]), "bearing_prior"
+                                 ) from None
+            filt = setup.from_first_bearing(self.prior, first, self.nuisance)
+            mean, cov = filt.state, filt.covariance
+            rest = np.flatnonzero(np.arange(len(meas)) != first.row)
+            after = filt.run(meas.take(rest))
+            check = _confirmation(after, MIN_WINDOW)
+            if not self.confirm or check.p_value >= self.confirm_p_value:
+                break
+            rejected.append(Rejection(1, first.time, check))
+            meas = meas.take(rest)
         start = BearingStart(first.time, mean, cov, dict(self.nuisance), setup.state_names,
-                             self.prior, first)
+                             self.prior, first, check, tuple(rejected))
         return Initiation(start, _prepend(after, first.time, mean, cov, setup.state_names))
 
 
@@ -208,7 +213,10 @@ def _check_nuisance(meas: MeasurementSet, options: Mapping[str, Mapping[str, obj
     missing: dict[str, list[str]] = {}
     for kind in meas.kinds:
         model = model_for(kind, options.get(kind))
-        names = [n for n in model.nuisance_names if n not in nuisance]
+        tonals = ([] if meas.tonal is None or not model.nuisance_by_tonal
+                  else sorted(set(meas.tonal[meas.kind_mask(kind)].tolist())))
+        names = [n for n in (model.nuisance_names if len(tonals) < 2 else [
+            f"{n}[{t}]" for t in tonals for n in model.nuisance_names]) if n not in nuisance]
         if names:
             missing[kind] = names
     if missing:
@@ -228,8 +236,9 @@ class BatchInitiator(Initiator):
         Start quality: the position's largest 1-sigma semi-axis must be below this fraction of the
         range to the nearest sensor (> 0).
     confirm : bool
-        Test each start by the innovations of the updates that follow it, and replace a rejected one
-        by a start from a window at least twice as long.
+        Test each start by its window's fit (chi-square p-value) and by the innovations of the
+        updates that follow it; replace a rejected one by a start from a window at least twice as
+        long.
     min_window : int
         The first window the search tries (distinct measurement times).
     confirm_p_value : float
@@ -260,18 +269,6 @@ class BatchInitiator(Initiator):
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Search the window, start, test, and run (see :meth:`Initiator.initiate`).
 
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (not empty; SI).
-        setup : FilterSetup
-            The filter and its settings.
-
-        Returns
-        -------
-        Initiation
-            The start record and the track (s, m, m/s).
-
         Raises
         ------
         StartError
@@ -283,7 +280,8 @@ class BatchInitiator(Initiator):
             try:
                 found = search_window(meas, setup.dim, setup.options or None,
                                       self.init_window, self.max_relative_std,
-                                      min_window=first)
+                                      min_window=first, fit_p_value=self.confirm_p_value
+                                      if self.confirm else 0.0)
             except StartError as e:
                 if not rejected:
                     raise
@@ -310,7 +308,7 @@ class BatchInitiator(Initiator):
 
 def _confirmation(after: Track, window: int) -> Confirmation:
     """Run the innovation test of a start."""
-    from scipy.stats import chi2
+    from ..core import chi2
 
     m = min(len(after), max(window, MIN_WINDOW))
     nis = float(np.sum(after.nis[:m]))

@@ -250,6 +250,10 @@ class BearingStart:
         The intervals.
     first : FirstBearing
         The bearing the prior is centred on (its row is not used again).
+    confirmation : Confirmation, optional
+        The innovation test of the start.
+    rejected : tuple of Rejection
+        Earlier bearings whose starts the test rejected (window 1: one bearing).
     """
 
     method: ClassVar[str] = "first-bearing"
@@ -261,6 +265,8 @@ class BearingStart:
     state_names: tuple[str, ...]
     prior: BearingPrior
     first: FirstBearing
+    confirmation: Confirmation | None = None
+    rejected: tuple[Rejection, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form: ``method`` (``"first-bearing"``), ``time``, ``prior``, ...
@@ -278,7 +284,10 @@ class BearingStart:
                 "bearing_deg": math.degrees(self.first.bearing) % 360.0,
                 "row": self.first.row, "prior": self.prior.as_dict(),
                 "mean": dict(zip(self.state_names, self.mean.tolist(), strict=True)),
-                "std": dict(zip(self.state_names, std, strict=True))}
+                "std": dict(zip(self.state_names, std, strict=True)),
+                "confirmation": None if self.confirmation is None
+                else self.confirmation.as_dict(),
+                "rejected": [r.as_dict() for r in self.rejected]}
 
 
 #: What an initiator returns.

@@ -4,7 +4,8 @@ A batch estimate over the first ``k`` distinct times is a good start when it con
 state component is observable and the position's largest 1-sigma semi-axis is below
 ``max_relative_std`` times the range (a bearings-only EKF started at 70 % diverges, at 25 % it
 stays consistent: ``docs/tracking.md``).  :func:`search_window` doubles the window from
-``min_window`` until it qualifies, then bisects down to the shortest that does.
+``min_window`` until it qualifies, then bisects down to the shortest that does.  With
+``fit_p_value`` > 0 a window whose fit's chi-square p-value is below it is no start either.
 """
 
 from __future__ import annotations
@@ -93,8 +94,9 @@ class _Windows:
     """The batch estimates of the initial windows of one set, each computed once."""
 
     def __init__(self, meas: MeasurementSet, dim: int,
-                 options: Mapping[str, Mapping[str, object]] | None) -> None:
-        self.meas, self.dim, self.options = meas, dim, options
+                 options: Mapping[str, Mapping[str, object]] | None, fit_p_value: float = 0.0
+                 ) -> None:
+        self.meas, self.dim, self.options, self.fit_p_value = meas, dim, options, fit_p_value
         self.groups = group_times(meas)
         self.tried: dict[int, WindowEstimate] = {}
 
@@ -114,6 +116,10 @@ class _Windows:
                        if result.status == "converged" else None)
                 problem = "" if rel is not None else result.status + (
                     f": {result.message}" if result.message else "")
+                p = result.chi2_p_value
+                if not problem and p is not None and p < self.fit_p_value:
+                    rel, problem = None, (f"an improbable fit (chi2 {result.chi2:.4g} on "
+                                          f"{result.dof} dof, p = {p:.2g})")
                 self.tried[k] = WindowEstimate(k, time, len(rows), result,
                                                np.inf if rel is None else rel, problem)
         return self.tried[k]
@@ -125,6 +131,14 @@ class _Windows:
         """Build the error when no window qualifies: the best one, and the ways out."""
         usable = [(w.relative_position_std, k) for k, w in self.tried.items()
                   if np.isfinite(w.relative_position_std)]
+        fits = [w.problem for w in self.tried.values() if w.problem.startswith("an impr")]
+        tried = f"{len(self.tried)} windows of up to {len(self)} measurement times tried"
+        if fits and not usable:
+            return StartError(
+                f"cannot start the filter from the data: every converged window's estimate is "
+                f"{fits[-1]} ({tried}): the data are not one target in constant velocity with "
+                "the stated sigmas; look for clutter or a manoeuvre, check the sigmas, or "
+                "give a prior ({prior}/{prior_std})", "prior", ["prior", "prior_std"])
         if usable:
             rel, kk = min(usable)
             detail = (f"the best converged, observable window ({kk} measurement times) "
@@ -135,16 +149,16 @@ class _Windows:
                 "observable, track in 2-D ({dim} 2)" if self.dim == 3 else "")
         return StartError(
             f"cannot start the filter from the data: {detail}, and the start needs less "
-            f"than {max_relative_std:.0%} ({len(self.tried)} windows of up to {len(self)} "
-            "measurement times tried); give a prior ({prior}/{prior_std}) or relax the start "
-            "quality ({max_relative_std})" + flat, "prior",
+            f"than {max_relative_std:.0%} ({tried}); "
+            "give a prior ({prior}/{prior_std}) or relax the start quality "
+            "({max_relative_std})" + flat, "prior",
             ["prior", "prior_std", "max_relative_std", *(["dim"] if flat else [])])
 
 
 def search_window(meas: MeasurementSet, dim: int,
                   options: Mapping[str, Mapping[str, object]] | None = None,
                   init_window: int | None = None, max_relative_std: float = 0.25, *,
-                  min_window: int = MIN_WINDOW) -> WindowChoice:
+                  min_window: int = MIN_WINDOW, fit_p_value: float = 0.0) -> WindowChoice:
     """Return the initial window a batch start uses.
 
     Parameters
@@ -162,6 +176,8 @@ def search_window(meas: MeasurementSet, dim: int,
         The start quality: position std over range must be below it (used in the search).
     min_window : int
         The first window tried by the search (distinct measurement times).
+    fit_p_value : float
+        A window whose fit's chi-square p-value is below it is no start (0: no test).
 
     Returns
     -------
@@ -175,7 +191,7 @@ def search_window(meas: MeasurementSet, dim: int,
     StartError
         The chosen window's estimate is no start, or no window qualifies.
     """
-    windows = _Windows(meas, dim, options)
+    windows = _Windows(meas, dim, options, fit_p_value)
     n = len(windows)
     if n == 0:
         raise TrackingError("the measurement set is empty: nothing to track")

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from ...data import MeasurementSet
 from ...motion import PiecewiseCurvilinear, default_ref_time, motion_from_name
-from ...results.checks import position_determined
+from ...results.checks import wider_undetermined
 from ...results.estimate import EstimateResult
 from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
 from ...results.solutions import Solution, separated_solutions
@@ -68,11 +68,9 @@ def _wider(wider: ManoeuvreEstimate, res: ManoeuvreEstimate, meas: MeasurementSe
            ) -> ManoeuvreEstimate | None:
     """Give the widest model's fit when it leaves the final position undetermined, not ``res``."""
     if (not res.converged or wider.status == DIVERGED
-            or not position_determined(res.answer(meas))):
+            or not res.answer(meas).position_determined):
         return None
-    if wider.converged and position_determined(wider.answer(meas)):
-        return None
-    return wider
+    return wider if wider_undetermined(wider, meas) else None
 
 
 def _search_orders(search: ManoeuvreSearch, ref: float) -> ManoeuvreEstimate:

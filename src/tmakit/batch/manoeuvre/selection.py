@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_dist
 
+from ...core import chi2 as chi2_dist
 from ...core.arrays import Array
 from .search import ManoeuvreSearch, lm_fit
 from .settings import CRITERIA, ManoeuvreSettings, OrderFit

@@ -1,4 +1,4 @@
-"""The fused bearing linearisation (``tmakit.observation.fused``) is the general one.
+"""The planar bearing linearisation (``tmakit.observation.planar``) is the general one.
 
 For one kind of bearings under an affine motion model and one parameter vector, the
 observation model writes the predictions and the Jacobian directly from the two relative
@@ -20,7 +20,7 @@ import tmakit as tk
 from tmakit.batch import VarProProblem
 from tmakit.batch.varpro import _wrap_own
 from tmakit.core.frames import wrap_angle
-from tmakit.observation.fused import fused_linearisation
+from tmakit.observation.planar import planar_linearisation
 
 CASES = [
     (tk.ConstantVelocity(2), np.array([8000.0, 12000.0, -4.0, 2.5]), 2),
@@ -32,16 +32,16 @@ CASES = [
 
 @pytest.mark.parametrize("n", [50, 5000])  # both ways of AffineRows.single
 @pytest.mark.parametrize(("motion", "theta", "dim"), CASES)
-def test_fused_equals_the_general_path(motion, theta, dim, n):
+def test_planar_equals_the_general_path(motion, theta, dim, n):
     meas = bearings(motion, theta, n, seed=n, dim=dim)
     obs = tk.ObservationModel(meas, motion)
     trial = theta * 1.01 + 3.0
     for point in (trial, trial[None]):
         lin = obs.linearisation(point)
-        assert lin.fused is not None  # the fused path was taken
-        # the general path: a batch of two parameter vectors is not fused
+        assert lin.planar_jacobian is not None  # the planar path was taken
+        # the general path: a batch of two parameter vectors is not planar
         both = obs.linearisation(np.stack([trial, trial]))
-        assert both.fused is None
+        assert both.planar_jacobian is None
         jac = lin.jacobian(np.zeros(0))
         assert jac.shape == (*point.shape[:-1], n, theta.size)
         assert lin.h0.shape == (*point.shape[:-1], n)
@@ -53,7 +53,7 @@ def test_fused_equals_the_general_path(motion, theta, dim, n):
 
 
 @pytest.mark.parametrize(("motion", "theta", "dim"), CASES)
-def test_fused_jacobian_is_the_finite_difference_of_thebearings(motion, theta, dim):
+def test_planar_jacobian_is_the_finite_difference_of_thebearings(motion, theta, dim):
     meas = bearings(motion, theta, 300, seed=1, dim=dim)
     obs = tk.ObservationModel(meas, motion)
     jac = obs.linearisation(theta).jacobian(np.zeros(0))
@@ -71,7 +71,7 @@ def test_fused_jacobian_is_the_finite_difference_of_thebearings(motion, theta, d
         assert not jac[:, 2].any() and not jac[:, 5].any()
 
 
-def test_fused_jacobian_handed_over_once_then_copied():
+def test_planar_jacobian_handed_over_once_then_copied():
     motion, theta, _ = CASES[0]
     obs = tk.ObservationModel(bearings(motion, theta, 100, seed=2), motion)
     lin = obs.linearisation(theta)
@@ -82,14 +82,14 @@ def test_fused_jacobian_handed_over_once_then_copied():
     assert not lin.jacobian(np.zeros(0), with_h0=False).any()
 
 
-def test_fused_path_declines_other_problems():
+def test_planar_path_declines_other_problems():
     motion, theta, _ = CASES[0]
     meas = bearings(motion, theta, 100, seed=3)
     obs = tk.ObservationModel(meas, motion)
-    assert fused_linearisation(obs, np.stack([theta, theta])) is None  # a batch
+    assert planar_linearisation(obs, np.stack([theta, theta])) is None  # a batch
     gu = tk.load_scenario("gu2007")  # bearing and frequency, with a carrier nuisance
     obs_gu = tk.ObservationModel(gu.simulate(0), gu.motion, gu.measurement_options)
-    assert fused_linearisation(obs_gu, gu.theta) is None
+    assert planar_linearisation(obs_gu, gu.theta) is None
 
 
 @pytest.mark.parametrize("scale", [1e-9, 1.0, 3.0, 6.0, 9.0, 30.0])
@@ -110,12 +110,12 @@ def test_residual_wrapping_in_place_is_wrap_angle_bit_for_bit(scale):
         np.testing.assert_array_equal(_wrap_own(e, in_place=True), want)
 
 
-def test_solver_evaluation_with_the_fused_path_equals_the_general_one():
+def test_solver_evaluation_with_the_planar_path_equals_the_general_one():
     motion, theta, _ = CASES[0]
     meas = bearings(motion, theta, 3000, seed=4)
     problem = VarProProblem(tk.ObservationModel(meas, motion))
     u = problem.group(meas.value_si)[None]
-    one = problem.evaluate_part(theta[None] * 1.02, u, np.zeros((1, 0)))  # fused
+    one = problem.evaluate_part(theta[None] * 1.02, u, np.zeros((1, 0)))  # planar
     two = problem.evaluate_part(np.stack([theta * 1.02] * 2), np.vstack([u, u]),
                                 np.zeros((2, 0)))  # general (a batch)
     np.testing.assert_allclose(one.residual[0], two.residual[0], rtol=0, atol=1e-12)

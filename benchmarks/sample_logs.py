@@ -1,4 +1,4 @@
-"""Sample logs made by tmakit's own simulation, in real formats (for the docs and the figures)."""
+"""Sample logs made by tmakit's own simulation, in real formats (docs, tests, figures)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.geodesy import enu_to_geodetic
-from .logs import KNOT
+from tmakit.core.geodesy import enu_to_geodetic
+from tmakit.io.logs import KNOT
 
 __all__ = ["SAMPLE_ORIGIN", "SAMPLE_START", "drone_sample", "gpx_nmea_sample",
            "replay_sample"]
@@ -51,7 +51,7 @@ def _course_speed(v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[
 
 
 def _replay_scenario(seed_rng: np.random.Generator) -> Any:
-    from ..scenario.files import scenario_from_dict
+    from tmakit.scenario.files import scenario_from_dict
 
     course = seed_rng.uniform(0.0, 360.0)
     speed = seed_rng.uniform(8.0, 14.0) * KNOT
@@ -105,7 +105,7 @@ DRONE_ALTITUDE, TRANSMITTER_ALTITUDE = 120.0, 30.0
 
 
 def _drone_scenario(rng: np.random.Generator) -> Any:
-    from ..scenario.files import scenario_from_dict
+    from tmakit.scenario.files import scenario_from_dict
 
     heading, speed, rate = float(rng.uniform(0.0, 360.0)), 15.0, 3.0
     radius = speed / math.radians(rate)  # of the circle flown after the first minute
@@ -232,7 +232,7 @@ def gpx_nmea_sample(seed: int = 0) -> tuple[str, str, str, str, dict[str, float]
     """Make a boat's own track (GPX and NMEA) and a CSV of bearings to a fixed beacon."""
     import gpxpy.gpx
 
-    from ..scenario.files import scenario_from_dict
+    from tmakit.scenario.files import scenario_from_dict
 
     rng = np.random.default_rng(seed)
     b, r = rng.uniform(0, 2 * np.pi), rng.uniform(3000.0, 5000.0)

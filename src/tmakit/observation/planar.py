@@ -1,4 +1,4 @@
-"""Fused prediction and Jacobian for one kind of planar measurement under affine motion.
+"""The planar linearisation: prediction and Jacobian of one two-component kind under affine motion.
 
 Under affine motion each relative component is ``offset + sum_i theta_i coef_i``, so the
 Jacobian ``d h / d theta_i = sum_c (d h / d rel_c) coef[i, c]`` is written directly over the
@@ -16,14 +16,20 @@ from ..core.arrays import Array
 from .affine_rows import AffineRows
 from .linearisation import Linearisation
 
-__all__ = ["PlanarUnits", "fused_gradient_rows", "fused_linearisation",
-           "fused_values", "gradient_of_rows", "planar_units"]
+__all__ = [
+    "PlanarUnits",
+    "gradient_of_rows",
+    "planar_gradient_rows",
+    "planar_linearisation",
+    "planar_units",
+    "planar_values",
+]
 
 
-def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
+def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
                         ) -> Linearisation | None:
-    """Give the linearisation of ``obs`` at one ``theta`` by the fused path, or None."""
-    found = _fused_kind(obs, theta, "planar_gradient")
+    """Give the linearisation of ``obs`` at one ``theta`` by the planar path, or None."""
+    found = _planar_kind(obs, theta, "planar_gradient")
     if found is None:
         return None
     rel_map, gradient, theta = found
@@ -36,15 +42,15 @@ def fused_linearisation(obs: Any, theta: Array, weights: Array | None = None
     batch = theta.shape[:-1]
     lin = Linearisation(obs, theta, h0.reshape(*batch, rel_map.m),
                         np.zeros((*batch, rel_map.m, 0)))
-    lin.fused = jac.T.reshape(*batch, rel_map.m, rel_map.p)
-    lin.fused_again = lambda: _jacobian_again(obs, theta, weights)
+    lin.planar_jacobian = jac.T.reshape(*batch, rel_map.m, rel_map.p)
+    lin.planar_again = lambda: _jacobian_again(obs, theta, weights)
     lin.whitened = weights is not None
     return lin
 
 
-def fused_values(obs: Any, theta: Array) -> Linearisation | None:
-    """Give the predictions of ``obs`` at one ``theta`` alone by the fused path, or None."""
-    found = _fused_kind(obs, theta, "planar_value")
+def planar_values(obs: Any, theta: Array) -> Linearisation | None:
+    """Give the predictions of ``obs`` at one ``theta`` alone by the planar path, or None."""
+    found = _planar_kind(obs, theta, "planar_value")
     if found is None:
         return None
     rel_map, value, theta = found
@@ -54,10 +60,10 @@ def fused_values(obs: Any, theta: Array) -> Linearisation | None:
                          np.zeros((*batch, rel_map.m, 0)))
 
 
-def fused_gradient_rows(obs: Any, theta: Array, weights: Array
+def planar_gradient_rows(obs: Any, theta: Array, weights: Array
                         ) -> tuple[Array, Array] | None:
     """Give the predictions and the whitened derivatives by east and north, or None."""
-    found = _fused_kind(obs, theta, "planar_gradient")
+    found = _planar_kind(obs, theta, "planar_gradient")
     if found is None:
         return None
     rel_map, gradient, theta = found
@@ -68,7 +74,7 @@ def fused_gradient_rows(obs: Any, theta: Array, weights: Array
 
 
 def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
-    """Give ``J'r`` ``(p,)`` from :func:`fused_gradient_rows`' derivatives, the chain unwritten."""
+    """Give ``J'r`` ``(p,)`` from :func:`planar_gradient_rows`' derivatives, the chain unwritten."""
     rel_map = obs._rel_map
     weighted: dict[int, Array] = {}
     out = np.zeros(rel_map.p)
@@ -129,23 +135,23 @@ def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits
     return PlanarUnits(rel_map.leading_map(2, rows), unit)
 
 
-def _fused_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
-    """Give the affine row map, the one kind's fused ``method`` and the checked ``theta``."""
+def _planar_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
+    """Give the affine row map, the one kind's planar ``method`` and the checked ``theta``."""
     rel_map = obs._rel_map
     if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
             or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
         return None
-    fused = getattr(next(iter(obs.models.values())), method, None)
-    if fused is None or theta.shape[-1] != rel_map.p:
+    planar = getattr(next(iter(obs.models.values())), method, None)
+    if planar is None or theta.shape[-1] != rel_map.p:
         return None
-    return rel_map, fused, obs.motion.check_theta(theta)
+    return rel_map, planar, obs.motion.check_theta(theta)
 
 
 def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
-    """Make the fused Jacobian at ``theta`` again (the first one was handed over)."""
-    lin = fused_linearisation(obs, theta, weights)
-    assert lin is not None and lin.fused is not None  # (it was fused before)
-    return lin.fused
+    """Make the planar Jacobian at ``theta`` again (the first one was handed over)."""
+    lin = planar_linearisation(obs, theta, weights)
+    assert lin is not None and lin.planar_jacobian is not None  # (it was planar before)
+    return lin.planar_jacobian
 
 
 def _chain_terms(planar_terms: list[list[tuple[int, Array | None]]], g: tuple[Array, Array],
