@@ -185,3 +185,31 @@ def test_covering_scale_contains_the_other_ellipse():
         m2 = np.einsum("in,ij,jn->n", d, np.linalg.inv(s * pa), d)
         assert np.all(m2 <= q * (1 + 1e-9))
     assert covering_scale(ca, pa, [(ca, pa)]) == pytest.approx(1.0)
+
+
+def test_the_picture_of_an_undetermined_range_shades_the_bearing_interval():
+    """TA_DUMMY run 1 (the solutions' ranges disagree): the map shades the 95 % bearing fan.
+
+    The fan is the reported region, so the truth at the answer time must lie inside the shaded
+    polygon, and the words box must say that the position is undetermined.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tmakit.plot.frame import MapFrame
+    from tmakit.plot.solution import _draw_map
+
+    scn, how = solutions_coverage.ta_dummy()
+    meas = scn.simulate(rng=np.random.default_rng([0, 1]))
+    res = tk.estimate(meas, **how)
+    fig, ax = plt.subplots()
+    _draw_map(ax, res, meas, 3, 0.95)
+    fans = [p for p in ax.patches if "range undetermined" in str(p.get_label())]
+    assert len(fans) == 1
+    truth = scn.target_states(np.array([meas.time.max()]))[0, :2]
+    xy = np.array(MapFrame(meas).xy(truth[:1], truth[1:2])).ravel()
+    assert fans[0].get_path().contains_point(xy, transform=None)
+    assert any("position undetermined" in t.get_text() for t in ax.texts)
+    plt.close(fig)

@@ -58,6 +58,31 @@ def _draw_bearings(ax: Any, meas: MeasurementSet, frame: MapFrame, reach: float)
     ax.plot([], [], color="tab:orange", lw=0.8, label=f"bearings ({rows.size} drawn)")
 
 
+def _undetermined_words(result: EstimateResult, meas: MeasurementSet) -> str | None:
+    """The position-undetermined warning of a fit with a track, if any (its region is a fan)."""
+    from ..results.checks import range_spread_warning, wider_model_warning
+
+    found = [w for w in (range_spread_warning(result.solutions, meas),
+                         wider_model_warning(result, meas)) if w is not None]
+    return None if not found else "position undetermined: " + found[0].message
+
+
+def _draw_bearing_interval(ax: Any, result: EstimateResult, meas: MeasurementSet,
+                           frame: MapFrame, reach: float, level: float) -> None:
+    """Shade the reported region of an undetermined position: the bearing interval's fan."""
+    from ..results.answers import bearing_interval
+
+    a = estimate_answer(result, meas, level=level)
+    span = bearing_interval(a, meas, level)
+    if span is None:
+        return
+    origin = sensor_position(meas, a.sensor, a.time)[:2]
+    b = np.radians(np.linspace(span[0] - span[1], span[0] + span[1], 30))
+    pts = np.vstack([origin, origin + reach * np.stack([np.sin(b), np.cos(b)], axis=1), origin])
+    ax.fill(*frame.xy(pts[:, 0], pts[:, 1]), color="tab:red", alpha=0.12, lw=0, zorder=1,
+            label=f"{level:.0%} region: bearing {span[0]:.1f}° ± {span[1]:.2g}° (range undetermined)")
+
+
 def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame: MapFrame,
                    n_labels: int, level: float) -> float:
     """Draw the estimated track, its ellipses and labelled times; give the largest semi-axis."""
@@ -93,6 +118,15 @@ def _position_determined(result: EstimateResult, meas: MeasurementSet) -> bool:
     if result.status != "converged" or not np.all(np.isfinite(result.estimate)):
         return False
     return None not in estimate_answer(result, meas).enu[:2]
+
+
+def _words_box(ax: Any, words: str) -> None:
+    """Write ``words`` in a box at the map panel's top left."""
+    import textwrap
+
+    ax.text(0.02, 0.98, "\n".join(textwrap.fill(w, 70) for w in words.split("\n")),
+            transform=ax.transAxes, fontsize=8, va="top", ha="left", zorder=6,
+            bbox={"fc": "white", "alpha": 0.85, "lw": 0.5, "pad": 4})
 
 
 def _no_track_words(result: EstimateResult) -> str:
@@ -188,11 +222,13 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
         ax.set_autoscale_on(False)
         _ellipse_legend(ax, frame, level, largest)
         _draw_bearings(ax, meas, frame, reach)
+        words = _undetermined_words(result, meas)
+        if words is not None:
+            _draw_bearing_interval(ax, result, meas, frame, reach, level)
+            _words_box(ax, words)
     else:
         _draw_bearings(ax, meas, frame, max(reach, 10_000.0))
-        ax.text(0.02, 0.98, _no_track_words(result), transform=ax.transAxes, fontsize=8,
-                va="top", ha="left", zorder=6,
-                bbox={"fc": "white", "alpha": 0.85, "lw": 0.5, "pad": 4})
+        _words_box(ax, _no_track_words(result))
     ax.set_xlabel(frame.labels[0])
     ax.set_ylabel(frame.labels[1])
     ax.grid(True, alpha=0.3)
