@@ -59,7 +59,7 @@ def _draw_bearings(ax: Any, meas: MeasurementSet, frame: MapFrame, reach: float)
 
 
 def _undetermined_words(result: EstimateResult, meas: MeasurementSet) -> str | None:
-    """The position-undetermined warning of a fit with a track, if any (its region is a fan)."""
+    """Give the position-undetermined warning of a fit with a track, if any."""
     from ..results.checks import range_spread_warning, wider_model_warning
 
     found = [w for w in (range_spread_warning(result.solutions, meas),
@@ -80,7 +80,8 @@ def _draw_bearing_interval(ax: Any, result: EstimateResult, meas: MeasurementSet
     b = np.radians(np.linspace(span[0] - span[1], span[0] + span[1], 30))
     pts = np.vstack([origin, origin + reach * np.stack([np.sin(b), np.cos(b)], axis=1), origin])
     ax.fill(*frame.xy(pts[:, 0], pts[:, 1]), color="tab:red", alpha=0.12, lw=0, zorder=1,
-            label=f"{level:.0%} region: bearing {span[0]:.1f}° ± {span[1]:.2g}° (range undetermined)")
+            label=f"{level:.0%} region: bearing {span[0]:.1f}° ± {span[1]:.2g}° "
+                  "(range undetermined)")
 
 
 def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame: MapFrame,
