@@ -27,7 +27,7 @@ def _rel(rng: np.random.Generator, component_major: bool) -> np.ndarray:
 @pytest.mark.parametrize("component_major", [False, True])
 @pytest.mark.parametrize("kind", PLAIN)
 def test_values_and_derivatives_into_are_predict_and_jacobian(kind, component_major):
-    model = KINDS[kind]()
+    model = KINDS[kind](**({"origin": (52.0, 4.0, 10.0)} if kind == "altitude" else {}))
     rel = _rel(np.random.default_rng(7), component_major)
     t = np.linspace(0.0, 100.0, 50)
     values = np.empty(rel.shape[:-1])

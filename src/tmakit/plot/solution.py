@@ -74,7 +74,7 @@ def _draw_bearing_interval(ax: Any, result: EstimateResult, meas: MeasurementSet
 
     a = estimate_answer(result, meas, level=level)
     span = bearing_interval(a, meas, level)
-    if span is None:
+    if span is None or a.sensor is None:
         return
     origin = sensor_position(meas, a.sensor, a.time)[:2]
     b = np.radians(np.linspace(span[0] - span[1], span[0] + span[1], 30))
