@@ -10,7 +10,8 @@ to 10,990 m and 1,000 m to 22,010 m) and a largest speed (``--speed-max``, defau
 and 25 kn, the targets doing 4 and 15 kn):
 
 * ``gsf`` (cubature components, ``--component``) and ``pf`` (``--particles``), both from
-  :class:`tmakit.BearingPrior` at the first bearing;
+  :class:`tmakit.BearingPrior` at the first bearing, and ``mpekf`` (the modified polar EKF,
+  Aidala & Hammel 1983) from its moments;
 * ``ekf batch``: today's default start, a batch estimate over the shortest good initial
   window (no estimate before it);
 * ``stonesoup ekf``: Stone Soup's EKF started as its bearings-only example starts it, from
@@ -33,7 +34,7 @@ true path, with ``J_0`` the inverse of the prior's covariance at the first beari
 (:meth:`tmakit.BearingPrior.gaussian`) and the same process noise; its RMS over runs.
 
     PYTHONPATH=src python benchmarks/first_bearing.py [--runs 100] [--seed 0]
-        [--filters gsf pf ekf-batch stonesoup bayes] [--scenarios moderate high] [--speed]
+        [--filters gsf pf mpekf ekf-batch stonesoup bayes] [--scenarios moderate high] [--speed]
         [--q-density Q] [--draws N]
 """
 
@@ -190,9 +191,11 @@ def run_filter(name: str, meas: MeasurementSet, truth: np.ndarray, prior: tk.Bea
         kw = {"particles": args.particles, "rng": [args.seed, 7, i]} if name == "pf" else {}
         if name != "pf":
             kw = {"settings": {"component": args.component, "iterations": args.iterations}}
-        tr = tk.track(meas, "pf" if name == "pf" else "gsf", q_density=args.q_density,
+        if name == "mpekf":
+            kw = {}
+        tr = tk.track(meas, name, q_density=args.q_density,
                       initiator=BearingInitiator(prior), **kw)
-        if name != "pf":
+        if name == "gsf":
             sm = smooth(tr)
     idx = np.searchsorted(meas.time, tr.times)
     est[idx], cov[idx] = tr.states, tr.covariances
@@ -333,7 +336,8 @@ def main() -> None:
     ap.add_argument("--component", default="ekf", help="the Gaussian sum's: ekf, ukf, ckf")
     ap.add_argument("--iterations", type=int, default=None,
                     help="linearisations per update of EKF components (default the filter's)")
-    ap.add_argument("--filters", nargs="+", default=["gsf", "pf", "ekf-batch", "stonesoup"])
+    ap.add_argument("--filters", nargs="+", default=["gsf", "pf", "mpekf", "ekf-batch",
+                                                         "stonesoup"])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
     ap.add_argument("--speed", action="store_true", help="only the speed comparison")
     ap.add_argument("--repeat", type=int, default=15)

@@ -79,7 +79,7 @@ from .track_options import (
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
-        "--filter", help="ekf, ukf, ckf, mgekf, pf, gsf or imm (tmakit.filters.FILTERS)")
+        "--filter", help="ekf, ukf, ckf, mgekf, mpekf, pf, gsf or imm (tmakit.filters.FILTERS)")
     ] = "ekf",
     q: Annotated[str, typer.Option(
         "--q", help="process noise: acceleration std (m/s^2), one value or per axis "

@@ -14,6 +14,7 @@ from .extras import TrackExtras
 from .gaussian_sum import GaussianSumFilter
 from .imm import InteractingMultipleModel
 from .mgekf import ModifiedGainEKF
+from .modified_polar import ModifiedPolarEKF
 from .multilag import multilag_groups
 from .particle import ParticleFilter
 from .record import UpdateInfo
@@ -29,6 +30,7 @@ FILTERS: dict[str, type[TrackingFilter]] = {
     CubatureKalmanFilter.name: CubatureKalmanFilter,
     GaussianSumFilter.name: GaussianSumFilter,
     InteractingMultipleModel.name: InteractingMultipleModel,
+    ModifiedPolarEKF.name: ModifiedPolarEKF,
 }
 
 __all__ = [
@@ -41,6 +43,7 @@ __all__ = [
     "InteractingMultipleModel",
     "MeasurementGroup",
     "ModifiedGainEKF",
+    "ModifiedPolarEKF",
     "NearlyConstantVelocity",
     "ParticleFilter",
     "Track",

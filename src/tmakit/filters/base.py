@@ -73,6 +73,8 @@ class TrackingFilter(ABC):
     #: ``numpy.random.Generator`` or seed): declared, so that no caller inspects a signature.
     takes_particles = False
     takes_rng = False
+    #: The spatial dimensions the filter tracks in.
+    dims: tuple[int, ...] = (2, 3)
     #: Limit BLAS to one thread while working (:func:`tmakit.core.blas.one_thread`).
     single_blas_thread = False
 

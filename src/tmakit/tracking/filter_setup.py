@@ -299,10 +299,13 @@ class FilterSetup:
         Raises
         ------
         TrackingError
-            An unknown filter, bad ``q`` or ``q_density``, or ``particles`` for a filter
-            without them.
+            An unknown filter or one not for ``dim``, bad ``q`` or ``q_density``, or
+            ``particles`` for a filter without them.
         """
         klass = filter_class(filter)
+        if dim not in klass.dims:
+            raise TrackingError(f"filter {filter!r} tracks in 2-D only; the data are "
+                                f"{dim}-D: use ekf, ukf, ckf, gsf or pf", "tracker")
         q_axes = process_noise(q, dim)
         density = noise_density(q_density, dim)
         kwargs = {**_filter_kwargs(klass, particles, rng), **dict(settings or {})}

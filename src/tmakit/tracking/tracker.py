@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..data import MeasurementSet
-from ..filters import BearingPrior, GaussianSumFilter, Track
+from ..filters import BearingPrior, GaussianSumFilter, ModifiedPolarEKF, Track
 from ..measurements import options_with_metadata
 from .errors import TrackingError
 from .filter_setup import FilterSetup, filter_class, filter_dim
@@ -47,8 +47,8 @@ def _initiator(initiator: Initiator | None,
                                 "confirm): one of them, not both", "initiator")
         return initiator if initiator is not None else BearingInitiator(bearing_prior,
                                                                         nuisance)
-    if tracker == GaussianSumFilter.name and prior is None and prior_std is None \
-            and init_window is None:
+    if tracker in (GaussianSumFilter.name, ModifiedPolarEKF.name) and prior is None \
+            and prior_std is None and init_window is None:
         return BearingInitiator(None, nuisance)
     if prior is not None or prior_std is not None:
         if prior is None or prior_std is None:
