@@ -69,13 +69,15 @@ def test_track_json_ends_within_its_own_uncertainty_of_the_truth(obs, name):
     assert len(data["estimate"]) == len(t) == len(data["covariance"]) == len(data["nis"])
     assert np.all(np.diff(t) > 0) and t[-1] == 600.0
     start = data["start"]
-    if name == "gsf":  # the Gaussian sum starts at the first bearing
+    if name in ("gsf", "mpekf"):  # these start at the first bearing
         assert start["method"] == "first-bearing" and start["time"] == t[0] == 1.0
     else:
         assert start["method"] == "batch" and start["time"] == t[0]
         assert start["status"] == "converged"
         assert start["relative_position_std"] < tracking.DEFAULT_MAX_RELATIVE_STD
-    assert data["nis"][0] is None and all(v is not None for v in data["nis"][1:])
+    # mpekf skips (and counts) the few early updates that would put 1/range <= 0
+    missed = sum(v is None for v in data["nis"][1:])
+    assert data["nis"][0] is None and missed <= (0.01 * len(t) if name == "mpekf" else 0)
     truth = tk.load_scenario("bearings-only-2d").target_states([600.0])[0][[0, 1, 3, 4]]
     assert final_sigmas(data["estimate"][-1], data["covariance"][-1], truth) < SIGMAS
     # The filter learnt something: the final position std is far below the start's.
