@@ -46,7 +46,7 @@ def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
     ----------
     Aidala & Hammel (1983), eq. 12.
     """
-    b, bd, rr, ir = (float(v) for v in mp)
+    b, bd, rr, ir = (float(v) for v in np.asarray(mp, dtype=float))
     s, c = math.sin(b), math.cos(b)
     rel = np.array([s, c, rr * s + bd * c, rr * c - bd * s]) / ir
     jac = np.array([[c, 0.0, 0.0, 0.0], [-s, 0.0, 0.0, 0.0],
@@ -68,7 +68,7 @@ def to_modified_polar(rel: ArrayLike) -> Array:
     numpy.ndarray
         ``[beta, beta_dot, r_dot / r, 1 / r]`` (rad, rad/s, 1/s, 1/m).
     """
-    x, y, vx, vy = (float(v) for v in rel)
+    x, y, vx, vy = (float(v) for v in np.asarray(rel, dtype=float))
     r2 = x * x + y * y
     return np.array([math.atan2(x, y), (vx * y - vy * x) / r2, (x * vx + y * vy) / r2,
                      1.0 / math.sqrt(r2)])
