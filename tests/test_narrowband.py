@@ -239,3 +239,17 @@ def test_a_filter_follows_several_tonals_by_their_known_f0():
     np.testing.assert_allclose(with_two.states, with_one.states, rtol=0, atol=1e-6)
     with pytest.raises(ValueError, match=r"carrier\[B\]"):
         tk.track(two, nuisance={"carrier[A]": 150.0}, **start)
+
+
+def test_sonar_tonals_keep_the_fit_in_the_sea_plane():
+    """Without --dim, the whole Debrief tonal file (sound, 1500 m/s) is fitted in 2-D.
+
+    Before, the 2-D fit of the three-leg subject was improbable and a 3-D fit put the contact
+    19 km above the sea. A ship's tonal travels through the water the sensor listens in, so the
+    emitter's depth is small beside the ranges, and the height choice says so.
+    """
+    result = runner.invoke(app, ["estimate", *PAIR, "--motion", "cv2d", "--json"])
+    assert result.exit_code in (0, 4), result.output
+    out = json.loads(result.stdout)
+    assert out["height"]["dim"] == 2 and len(out["estimate"]) == 4, out["height"]
+    assert "as sound" in out["height"]["note"]

@@ -32,6 +32,10 @@ GEOID_REACH = 85.0
 """The geoid's greatest height above the WGS-84 ellipsoid (m): an ellipsoidal altitude is
 at least this much more than the height above mean sea level it may stand for."""
 
+SOUND_LIMIT = 1.0e4
+"""Frequencies carried slower than this (m/s) travel as sound: the emitter is in the sensors'
+medium (a ship's tonal in the sea), whose depth is small beside the ranges."""
+
 RAISED = {"static2d": "static3d", "cv2d": "cv3d"}
 """The 3-D counterpart of each 2-D motion model."""
 
@@ -115,6 +119,12 @@ def choose_height(meas: MeasurementSet, flat: EstimateResult, options: Options =
     """
     if not height_matters(meas, flat):
         return HeightChoice(flat, flat, None, None, None, 2, "")
+    sound = _sound_speed(meas, options)
+    if sound is not None and not force:
+        return HeightChoice(flat, flat, None, None, None, 2, (
+            f"height: the frequencies travel at {sound:g} m/s, as sound: the emitter is in the "
+            "sensors' medium, whose depth is small beside the ranges; the 2-D fit is kept "
+            "(--dim 3 fits in 3-D)"))
     raised = _best_raised(meas, flat, options)
     if raised is None:
         return HeightChoice(flat, flat, None, None, None, 2,
@@ -149,6 +159,16 @@ def airborne(meas: MeasurementSet) -> bool:
         return False
     margin = 0.0 if meas.metadata.get("altitude_reference") == "msl" else GEOID_REACH
     return float(meas.metadata["origin_alt"]) > AIRBORNE_ALTITUDE + margin
+
+
+def _sound_speed(meas: MeasurementSet, options: Options) -> float | None:
+    """Give the frequencies' propagation speed (m/s) when it is sound's, else None."""
+    if "frequency" not in meas.kinds:
+        return None
+    speed = dict((options or {}).get("frequency", {})).get("propagation_speed")
+    if speed is None:
+        speed = KINDS["frequency"].options_from_metadata(meas.metadata).get("propagation_speed")
+    return None if speed is None or not float(speed) < SOUND_LIMIT else float(speed)  # type: ignore[arg-type]
 
 
 def _side_reason(meas: MeasurementSet) -> str:
