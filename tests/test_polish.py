@@ -17,7 +17,7 @@ from bearing_sets import scenario_rows
 
 import tmakit as tk
 from tmakit.batch import presolve, solver
-from tmakit.batch.gauss_newton import GaussNewtonModel, information_steady
+from tmakit.batch.solver import GaussNewtonModel, information_steady
 from tmakit.batch.varpro import VarProProblem
 from tmakit.observation import ObservationModel
 from tmakit.observation.planar import planar_linearisation, planar_values

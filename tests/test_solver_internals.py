@@ -221,7 +221,7 @@ def test_blocked_matmul_is_the_matrix_product_split_or_not(split):
 def test_normal_equations_by_dots_are_the_products_and_ignore_the_thread_count():
     from threadpoolctl import threadpool_limits
 
-    from tmakit.batch.gauss_newton import gram, normal_equations
+    from tmakit.batch.solver import gram, normal_equations
     from tmakit.core.blas import DOT_ROWS, by_dots, normal_rows
 
     rng = np.random.default_rng(2)

@@ -18,7 +18,7 @@ from bearing_sets import scenario_rows
 
 import tmakit as tk
 from tmakit.batch import presolve
-from tmakit.batch.gauss_newton import normal_equations
+from tmakit.batch.solver import normal_equations
 from tmakit.batch.init import GridSettings
 from tmakit.batch.varpro import VarProProblem
 
