@@ -7,7 +7,7 @@ import pytest
 from test_correlated_chunks import shared_reference_set
 
 import tmakit as tk
-from tmakit.batch import subset_first
+from tmakit.batch import ml as subset_first
 
 
 def test_a_large_correlated_fit_carries_one_start_and_finds_the_same_estimate(monkeypatch):

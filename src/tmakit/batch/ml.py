@@ -2,14 +2,18 @@
 
 The weighted least-squares fit, nuisance eliminated exactly (:mod:`tmakit.batch.solver`),
 started from the likelihood grid (:mod:`tmakit.batch.init`) unless ``init`` is given; the
-covariance is the inverse Fisher information at the estimate.
+covariance is the inverse Fisher information at the estimate.  For correlated range
+differences of many rows every start is solved on :data:`SUBSET_ROWS` evenly spread rows and
+only the best carried to all (:func:`solve_on_subset_first`).  When every sensor is at one
+height, none moves vertically and no elevation is measured, a 3-D track and its mirror image
+through the sensors' plane fit alike: the one above is reported (:func:`prefer_above`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,11 +27,9 @@ from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisan
 from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
 from .estimator import BatchEstimator, Init, Options
 from .hyperbolic import closed_form_starts
-from .init import GridSettings, first_of_many
-from .mirror import mirror_plane, prefer_above
+from .init import GridSettings, first_of_many, subsample
 from .presolve import grid_starts, presolve_subset, solve_all_rows
 from .solver import SolveResult, VarProProblem, information_of, levenberg_marquardt
-from .subset_first import solve_on_subset_first, subset_first
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,8 +197,7 @@ def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
 
 
 FIT_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
-"""Errors a fit may raise on one unlucky data set; :meth:`MaximumLikelihood.fit_many` returns
-them per set."""
+"""Errors a fit may raise on one data set; :meth:`MaximumLikelihood.fit_many` returns them."""
 
 
 def same_rows(sets: Sequence[MeasurementSet]) -> bool:
@@ -234,37 +235,18 @@ DENSE_GRID = GridSettings(n_ranges=20, n_bearings=24,
 
 @dataclass
 class Best:
-    """The best fit found for one data set, and how many starting points were solved.
-
-    Parameters
-    ----------
-    theta : ndarray, shape (p,)
-        SI.
-    nuisance : ndarray, shape (k,)
-        SI.
-    cost : float
-        Half the weighted sum of squares.
-    iterations : int
-    converged : bool
-    starts : int
-    note : str, optional
-        A sentence for the message.
-    information : ndarray, shape (p, p), optional
-        The Fisher information at ``theta`` from the solve.
-    others : list of tuple, optional
-        Other converged ends ``(theta, nuisance, cost)``.
-    """
+    """The best fit found for one data set (SI), and how many starting points were solved."""
 
     theta: NDArray[np.float64]
     nuisance: NDArray[np.float64]
-    cost: float
+    cost: float  # half the weighted sum of squares
     iterations: int
     converged: bool
     starts: int
-    note: str = ""
-    information: NDArray[np.float64] | None = None
+    note: str = ""  # a sentence for the message
+    information: NDArray[np.float64] | None = None  # the Fisher information from the solve
     others: list[tuple[NDArray[np.float64], NDArray[np.float64], float]] = field(
-        default_factory=list)
+        default_factory=list)  # other converged ends (theta, nuisance, cost)
 
     def end(self) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
         """Give this fit as one of the ends :attr:`others` lists."""
@@ -362,3 +344,67 @@ def plausible_chi2(chi2: float, dof: int) -> bool:
     """Tell whether a weighted sum of squares is consistent with its degrees of freedom."""
     dof = max(dof, 1)
     return bool(np.isfinite(chi2) and chi2 <= dof + 5.0 * np.sqrt(2.0 * dof) + 5.0)
+
+
+SUBSET_FIRST_ROWS = 20_000
+"""Rows above which a problem with correlated noise is solved on a subset first."""
+SUBSET_ROWS = 5_000
+"""Evenly spread rows of that subset (every start is solved there)."""
+
+
+def subset_first(problem: VarProProblem) -> bool:
+    """Tell whether ``problem`` chooses its start on a subset (correlated noise, many rows)."""
+    rows = len(problem.obs.meas)
+    return bool(problem.noise.correlated) and rows > max(SUBSET_FIRST_ROWS, 2 * SUBSET_ROWS)
+
+
+def solve_on_subset_first(problem: VarProProblem, ys: NDArray[np.float64],
+                          solve_all: Callable[[VarProProblem, NDArray[np.float64]],
+                                              Sequence[Any]],
+                          max_iter: int) -> list[Any]:
+    """Fit each data set on a subset with every start, then its best fit on every row."""
+    small, rows = subsample(problem, SUBSET_ROWS)
+    found = list(solve_all(small, ys[:, rows]))
+    runs = [r for r, fit in enumerate(found) if fit is not None]
+    if not runs or small is problem:
+        return found
+    theta = np.stack([found[r].theta for r in runs])
+    # The subset's optimum is within a few standard deviations of the whole set's: one or
+    # two lightly damped steps.
+    sol = levenberg_marquardt(problem, ys[runs], theta, max_iter=max_iter, damping0=1e-8)
+    for i, r in enumerate(runs):
+        fit = found[r]
+        fit.theta, fit.nuisance = sol.theta[i], sol.nuisance[i]
+        fit.cost, fit.iterations = float(sol.cost[i]), int(sol.iterations[i])
+        fit.converged = bool(sol.converged[i])
+        fit.information = information_of(problem, sol.evaluation, i, sol.information)
+    return found
+
+
+def mirror_plane(problem: VarProProblem) -> float | None:
+    """Return the height of a plane through every sensor that mirrors the track unseen."""
+    meas, motion = problem.obs.meas, problem.obs.motion
+    if (motion.dim != 3 or "z" not in motion.param_names
+            or not np.all(meas.kind_flag("mirror_symmetric"))):
+        return None
+    z = np.concatenate([meas.sensor_state[:, 2], meas.ref_sensor_state[:, 2]])
+    z = z[np.isfinite(z)]
+    vz = meas.sensor_state[:, 5]
+    if z.size == 0 or np.ptp(z) > 1e-9 * max(1.0, np.abs(z).max()) or np.any(vz != 0):
+        return None
+    return float(z[0])
+
+
+def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
+                 ) -> tuple[NDArray[np.float64], str]:
+    """Choose, of a track and its mirror image through the sensors' plane, the one above."""
+    names = motion.param_names
+    theta = np.array(theta, dtype=float)
+    iz = names.index("z")
+    note = (f"z is ambiguous: the mirror image through the sensors' plane z = {plane:g} m fits "
+            "exactly as well (no elevation is measured); the solution above it is reported")
+    if theta[iz] < plane:
+        theta[iz] = 2.0 * plane - theta[iz]
+        if "vz" in names:
+            theta[names.index("vz")] *= -1.0
+    return theta, note

@@ -23,17 +23,12 @@ PRESOLVE_ROWS = 20_000
 """Rows above which the no-guess fit (:func:`~tmakit.batch.ml.solve_without_guess`) first
 converges its starts on a subset."""
 PRESOLVE_SUBSET = 2_000
-"""Evenly spread rows of that subset (its optimum lies a few standard deviations of the whole
-set's from the whole set's: the full solve then needs two steps, not five or six; on 10^5
-rows of ``bearings-only-2d`` 2,000 rows cost less in all than 5,000)."""
+"""Evenly spread rows of that subset (its optimum a few of the whole set's standard deviations
+from the whole set's: the full solve then needs two steps; docs/estimation.md)."""
 
 PRESOLVE_DTOL = 0.5
 """Decrement (half chi2 of the subset) at which the presolve stops: within one of the subset's
-standard deviations of its optimum, which itself lies about one of them (several of the whole
-set's) from the whole set's; :func:`subset_step` takes the whole way from there in one step.
-On 30 seeded sets of 10^5 rows of ``bearings-only-2d`` 0.5 saved 0.7 subset iterations against
-1e-2, and every fit still needed one full-size Jacobian (decrement after the subset step at
-most 0.13)."""
+standard deviations of its optimum; :func:`subset_step` takes the whole way from there."""
 
 
 def presolve_subset(problem: VarProProblem
@@ -72,16 +67,13 @@ def _presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np
     pre = levenberg_marquardt(small, ys[:, rows], theta, max_iter=max_iter, dtol=PRESOLVE_DTOL)
     ok = pre.converged & np.isfinite(pre.cost)
     if pre.information is not None:
-        # A subset that cannot see every parameter (the library's own rank test) has no
-        # optimum near the whole set's: bearings from a barely turning observer fit at 10^7 m
-        # and more, where the whole set's solve stays on the plateau.  Such a start stays as
-        # it was.
+        # A subset that cannot see every parameter has no optimum near the whole set's
+        # (bearings from a barely turning observer fit at 10^7 m): such a start stays.
         sound = ok & np.isfinite(pre.information).all(axis=(1, 2))
         ok[sound] = full_rank(pre.information[sound])
     information = None
     if pre.information is not None and not problem.eliminates:
-        # Evenly spread rows: each row of the subset stands for a share of the whole set's
-        # weight (n / m rows of equal noise).
+        # each evenly spread row of the subset stands for n / m rows of the whole set
         whole, part = problem.noise.inv_sigma, small.noise.inv_sigma
         information = np.where(ok[:, None, None], pre.information, np.nan) * (
             np.einsum("n,n->", whole, whole) / np.einsum("n,n->", part, part))
@@ -134,9 +126,8 @@ def _fallback(theta: NDArray[np.float64], stepped: tuple[NDArray[np.float64], fl
 
 
 POLISH_DECREMENT = 0.5
-"""Gauss–Newton decrement (half chi2: a step of at most one standard deviation) from which
-the full solve after a presolve ends with a step checked by its residuals alone
-(``polish`` of :func:`~tmakit.batch.solver.levenberg_marquardt`)."""
+"""Decrement (half chi2) from which the full solve after a presolve ends with a step checked
+by its residuals alone (``polish`` of :func:`~tmakit.batch.solver.levenberg_marquardt`)."""
 
 
 def solve_all_rows(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
