@@ -18,8 +18,8 @@ from bearing_sets import scenario_rows
 
 import tmakit as tk
 from tmakit.batch import presolve
-from tmakit.batch.solver import normal_equations
 from tmakit.batch.init import GridSettings
+from tmakit.batch.solver import normal_equations
 from tmakit.batch.varpro import VarProProblem
 
 

@@ -25,7 +25,7 @@ from ..results.estimate import EstimateResult, assemble_result
 from ..results.observability import RANK_TOL
 from ..results.status import UNOBSERVABLE
 from .estimator import Init, PaperMethod
-from .gu_geometry import DIVERGENCE_FACTOR
+from .gu_direct import DIVERGENCE_FACTOR, initial_theta
 from .solver import VarProProblem
 
 
@@ -70,15 +70,8 @@ def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
     if init is None:
         raise ValueError("lecture-gn: a local method, it needs a starting point (init=...); "
                          "LectureGaussNewton() without init starts from tmakit's grid point")
-    if isinstance(init, Mapping):
-        theta = motion.theta({k: v for k, v in init.items() if k in motion.param_names})
-        carrier = init.get("carrier")
-    else:
-        theta = np.asarray(init, dtype=float).reshape(-1)
-        carrier = None
-        if theta.shape != (motion.n_params,):
-            raise ValueError(f"lecture-gn: init must give {motion.n_params} values "
-                             f"({', '.join(motion.param_names)})")
+    theta = initial_theta(motion, init, "lecture-gn")
+    carrier = init.get("carrier") if isinstance(init, Mapping) else None
     if carrier is None:
         h0, a = obs.affine(theta)
         w = noise.whiten(a[:, 0])
@@ -177,13 +170,3 @@ class LectureGaussNewton(PaperMethod):
                 break
         return x, iterations, converged, diverged, ranks, norms
 
-
-def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel, init: Init,
-                         max_iter: int = 50, tol: float = 1e-4) -> EstimateResult:
-    """Run the notes' Gauss–Newton from ``init``: the short form of :class:`LectureGaussNewton`.
-
-    References
-    ----------
-    The Doppler-tracking lecture notes, "Iterating to the Solution".
-    """
-    return LectureGaussNewton(max_iter=max_iter, tol=tol).iterate(meas, motion, init)
