@@ -192,7 +192,7 @@ def test_known_nuisance_runs_through_the_manoeuvre_estimator_as_one_type(monkeyp
 def test_ml_by_motion_reads_a_name_once_and_sends_fixed_models_straight_to_ml(gu, meas,
                                                                             monkeypatch):
     import tmakit.batch.dispatch as dispatch
-    import tmakit.batch.manoeuvre.method as method
+    import tmakit.batch.manoeuvre.estimator as method
 
     calls = []
     parse = dispatch.motion_from_name

@@ -15,7 +15,7 @@ import pytest
 
 import tmakit as tk
 from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings, selection
-from tmakit.batch.manoeuvre.grid import split_segment
+from tmakit.batch.manoeuvre.search import split_segment
 from tmakit.batch.manoeuvre.search import lm_fit
 from tmakit.batch.manoeuvre.selection import hold_starts, may_hold
 from tmakit.motion import PiecewiseCurvilinear

@@ -1,14 +1,15 @@
-"""The entry points of the manoeuvre estimator.
+"""The entry points of the manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`).
 
-:func:`estimate_manoeuvres` and the hook :func:`estimate_for` of ``tk.estimate`` (see
-:mod:`tmakit.batch.manoeuvre` for the method).
+:func:`estimate_manoeuvres`, the hook :func:`estimate_for` of ``tk.estimate``, and the
+estimator as an object (:class:`ManoeuvreEstimator`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -20,10 +21,10 @@ from ...results.estimate import EstimateResult
 from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
 from ...results.solutions import Solution, separated_solutions
 from ...results.status import DIVERGED
+from ..estimator import BatchEstimator, Init, Options
 from .report import ManoeuvreEstimate, report
-from .search import ManoeuvreSearch
+from .search import ManoeuvreSearch, ManoeuvreSettings, OrderFit
 from .selection import OrderSelection, select_order, sparsify, unknown_price
-from .settings import ManoeuvreSettings, OrderFit
 
 
 def _fit_from_start(search: ManoeuvreSearch, ref: float,
@@ -230,3 +231,77 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
         meas, m, exact=bool(exact), criterion="bic" if criterion is None else criterion,
         alpha=0.01 if alpha is None else alpha, accelerations=accelerations, ref_time=ref,
         init=init, options=options, known_nuisance=known_nuisance, settings=search)
+
+
+@dataclass(frozen=True, eq=False)
+class ManoeuvreEstimator(BatchEstimator):
+    """Maximum likelihood for a manoeuvring target, ``0..M`` manoeuvres, no initial guess.
+
+    Settings left at None take :func:`~tmakit.batch.curvilinear.estimate_for`'s defaults.
+
+    Parameters
+    ----------
+    init : Mapping[str, float] or array_like, optional
+        Fit exactly ``M`` from this start (SI, at ``ref_time``).
+    options : Mapping, optional
+        The nuisance model per kind.
+    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
+    max_iter : int, optional
+        Per fit (default 100).
+    exact : bool, optional
+        Fit only ``M``.
+    criterion : str, optional
+        ``"bic"`` (default) or ``"lrt"``.
+    alpha : float, optional
+        Level of the tests (default 0.01).
+    accelerations : str, optional
+        ``"select"`` (default) or ``"all"``.
+    ref_time : float, optional
+        s, of the reported parameters.
+    settings : ManoeuvreSettings, optional
+
+    References
+    ----------
+    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9: piecewise curvilinear motion, azimuth and
+    azimuth rate.
+    """
+
+    init: Init = None
+    options: Options = None
+    known_nuisance: KnownNuisanceLike = None
+    max_iter: int = 100
+    exact: bool | None = None
+    criterion: str | None = None
+    alpha: float | None = None
+    accelerations: str | None = None
+    ref_time: float | None = None
+    settings: ManoeuvreSettings | None = None
+
+    name: ClassVar[str] = "ml"
+    takes_known_nuisance: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        """``known_nuisance`` as a :class:`KnownNuisance` or None."""
+        object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
+
+    def manoeuvre_options(self) -> dict[str, object]:
+        """Collect the manoeuvre settings given (not None), by keyword.
+
+        Returns
+        -------
+        dict of str to object
+        """
+        given = {"exact": self.exact, "criterion": self.criterion, "alpha": self.alpha,
+                 "accelerations": self.accelerations, "ref_time": self.ref_time,
+                 "settings": self.settings}
+        return {k: v for k, v in given.items() if v is not None}
+
+    def fit(self, meas: MeasurementSet, motion: PiecewiseCurvilinear | str  # type: ignore[override]
+            ) -> EstimateResult:
+        """Estimate the manoeuvring target's motion."""
+        return estimate_for(meas, motion, init=self.init, options=self.options,
+                            known_nuisance=self.known_nuisance,
+                            max_iter=self.max_iter, exact=self.exact,
+                            criterion=self.criterion, alpha=self.alpha,
+                            accelerations=self.accelerations, ref_time=self.ref_time,
+                            settings=self.settings)

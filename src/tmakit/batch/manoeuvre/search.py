@@ -1,26 +1,223 @@
 """The change-over-time search of the manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`).
 
-Every fit is a run of :func:`tmakit.batch.solver.levenberg_marquardt` (:func:`lm_fit`).
+Its settings (:class:`ManoeuvreSettings`) and each order's fit (:class:`OrderFit`); the profile
+grid of the change-over times (tuples of grid times, their local minima, the warm start that
+splits a segment in two); every fit a run of :func:`tmakit.batch.solver.levenberg_marquardt`
+with the search's damping and stopping rules (:func:`lm_fit`).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
+from contextlib import nullcontext
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ...core import blas
 from ...core.arrays import Array
 from ...data import MeasurementSet
 from ...motion import ConstantVelocity
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...observation import ObservationModel
 from ...results.nuisance import KnownNuisance
-from ..solver import VarProProblem, levenberg_marquardt
-from .fitting import lm_fit
-from .grid import grid_tuples, local_minima, split_segment
-from .settings import ManoeuvreSettings, OrderFit
+from ..solver import SolveResult, VarProProblem, levenberg_marquardt
+
+CRITERIA = ("bic", "lrt")
+"""Criteria for the number of manoeuvres and the accelerations held (see
+:mod:`tmakit.batch.manoeuvre`)."""
+ACCELERATIONS = ("select", "all")
+"""How the accelerations are fitted (see :class:`ManoeuvreSettings`)."""
+
+
+@dataclass(frozen=True)
+class ManoeuvreSettings:
+    """How the manoeuvre estimator searches (times in seconds).
+
+    Parameters
+    ----------
+    max_manoeuvres : int
+        The largest order tried.
+    exact : bool
+        Fit only ``max_manoeuvres``.
+    criterion : {"bic", "lrt"}
+        How the order and the held accelerations are chosen.
+    alpha : float
+        Level of the likelihood-ratio tests, in (0, 1).
+    grid_step : float
+        Spacing of the profile grid, s.
+    min_segment : float
+        Shortest segment, and the grid's distance from the data's ends, s.
+    refine : int
+        Profile minima refined per order.
+    profile_iter : int
+        Iterations of each held fit.
+    max_tuples : int
+        Beyond this many grid tuples only those extending the order below's best minima are fitted.
+    prune : float
+        Held fits stop once they cannot come within this (half chi2) of the best.
+    polish_step, polish_rounds : float, int
+        The finer profile after refinement (s; 0 rounds: none).
+    max_iter : int
+        Iterations of a refinement with every parameter free.
+    accelerations : {"select", "all"}
+        Hold unneeded accelerations at zero (default), or fit all.
+
+    Raises
+    ------
+    ValueError
+        For a setting out of its range, named.
+    """
+
+    max_manoeuvres: int = 2
+    exact: bool = False
+    criterion: str = "bic"
+    alpha: float = 0.01
+    grid_step: float = 40.0
+    min_segment: float = 20.0
+    refine: int = 3
+    profile_iter: int = 12
+    max_tuples: int = 400
+    prune: float = 25.0
+    polish_step: float = 4.0
+    polish_rounds: int = 2
+    max_iter: int = 100
+    accelerations: str = "select"
+
+    def __post_init__(self) -> None:
+        """Refuse settings out of range."""
+        if self.max_manoeuvres < 0 or int(self.max_manoeuvres) != self.max_manoeuvres:
+            raise ValueError(f"max_manoeuvres must be a whole number >= 0, got "
+                             f"{self.max_manoeuvres!r}")
+        if self.criterion not in CRITERIA:
+            raise ValueError(f"criterion must be one of {', '.join(CRITERIA)}, got "
+                             f"{self.criterion!r}")
+        if not 0.0 < self.alpha < 1.0:
+            raise ValueError(f"alpha must lie in (0, 1), got {self.alpha!r}")
+        if not self.grid_step > 0 or not self.min_segment > 0:
+            raise ValueError("grid_step and min_segment must be positive (seconds)")
+        if self.refine < 1 or self.profile_iter < 1 or self.max_iter < 1:
+            raise ValueError("refine, profile_iter and max_iter must be at least 1")
+        if self.polish_rounds < 0 or not self.polish_step > 0:
+            raise ValueError("polish_rounds must be >= 0 and polish_step positive (seconds)")
+        if self.max_tuples < 1:
+            raise ValueError("max_tuples must be at least 1")
+        if self.accelerations not in ACCELERATIONS:
+            raise ValueError(f"accelerations must be one of {', '.join(ACCELERATIONS)}, got "
+                             f"{self.accelerations!r}")
+
+
+@dataclass
+class OrderFit:
+    """The best fit with ``manoeuvres`` manoeuvres.
+
+    Parameters
+    ----------
+    manoeuvres : int
+    theta : ndarray
+        Internal parameters (at the first measurement time), SI.
+    nuisance : ndarray
+    chi2 : float
+    unknowns : int
+        Motion and nuisance parameters fitted.
+    converged : bool
+    iterations : int
+    starts : int
+        Starts of the final refinement.
+    note : str
+        How the fit was settled, when it matters.
+    profile_times, profile_chi2 : ndarray
+        The profile grid's change-over times ``(G, M)``, s, and chi2 ``(G,)``.
+    free : ndarray of bool, optional
+        The internal parameters fitted; None: all.
+    alternatives : list of OrderFit
+        Other local minima of this order.
+    """
+
+    manoeuvres: int
+    theta: Array
+    nuisance: Array
+    chi2: float
+    unknowns: int
+    converged: bool
+    iterations: int
+    starts: int
+    note: str = ""
+    profile_times: Array = field(default_factory=lambda: np.zeros((0, 0)))
+    profile_chi2: Array = field(default_factory=lambda: np.zeros(0))
+    free: NDArray[np.bool_] | None = None  # internal parameters fitted; None: all
+    alternatives: list[OrderFit] = field(default_factory=list)
+
+    def free_mask(self) -> NDArray[np.bool_]:
+        """Which internal parameters are fitted (the others are accelerations held at 0).
+
+        Returns
+        -------
+        ndarray of bool
+            ``(p,)``, True where fitted.
+        """
+        return np.ones(self.theta.shape[0], dtype=bool) if self.free is None else self.free
+
+
+def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:
+    """Index tuples ``i_1 < ... < i_m`` into ``grid`` whose times are ``min_gap`` apart."""
+    if m == 0:
+        return np.zeros((1, 0), dtype=np.int64)
+    out = [c for c in itertools.combinations(range(grid.size), m)
+           if m == 1 or np.all(np.diff(grid[list(c)]) >= min_gap - 1e-9)]
+    return np.array(out, dtype=np.int64).reshape(-1, m)
+
+
+def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
+    """Insert a change-over time into fits, splitting a segment in two."""
+    b = theta.shape[0]
+    acc = theta[:, 4:6 + 2 * m_prev].reshape(b, m_prev + 1, 2)
+    acc = np.concatenate([acc[:, :j + 1], acc[:, j:j + 1], acc[:, j + 1:]], axis=1)
+    times = np.insert(theta[:, 6 + 2 * m_prev:], j, t_new, axis=1)
+    return np.concatenate([theta[:, :4], acc.reshape(b, -1), times], axis=1)
+
+
+def local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
+    """Find the rows of ``tuples`` that are local minima of the cost, best first."""
+    where = {tuple(t): i for i, t in enumerate(tuples)}
+    keep = []
+    for i, t in enumerate(tuples):
+        if not np.isfinite(cost[i]):
+            continue
+        ok = True
+        for k in range(tuples.shape[1]):
+            for d in (-1, 1):
+                nb = list(t)
+                nb[k] += d
+                other = where.get(tuple(nb))
+                if other is not None and cost[other] < cost[i]:
+                    ok = False
+        if ok:
+            keep.append(i)
+    keep_arr = np.array(keep, dtype=np.int64)
+    return keep_arr[np.argsort(cost[keep_arr])] if keep_arr.size else keep_arr
+
+
+def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
+           rtol: float = 1e-3, atol: float = 0.02, prune: float | None = None,
+           best: float = np.inf, max_reject: int = 40, stall: float = 0.0) -> SolveResult:
+    """Fit by Levenberg–Marquardt with the search's damping and stopping rules."""
+    motion = problem.obs.motion
+    # the held parameters' derivatives are not formed (ForwardPiecewise.derivatives_for),
+    # unless the rows are summed in chunks (J'J formed over every column)
+    held = (isinstance(motion, ForwardPiecewise) and len(problem.obs.meas) <= blas.CHUNKED_ROWS
+            and not np.all(free))
+    with (motion.derivatives_for(free) if held and isinstance(motion, ForwardPiecewise)
+          else nullcontext()):
+        return levenberg_marquardt(
+            problem, problem.obs.values, theta0, max_iter, ftol=rtol, xtol=0.0, gtol=0.0,
+            dtol=atol, ceiling=None if prune is None else np.asarray(best), free=free,
+            damping="factors", max_reject=max_reject, stall=stall,
+            dominance=(2.0, 0.0 if prune is None else prune))
+
 
 _CHUNK = 256  # held fits per batch on the profile grid
 PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)

@@ -15,8 +15,7 @@ from numpy.typing import NDArray
 
 from ...core import chi2 as chi2_dist
 from ...core.arrays import Array
-from .search import ManoeuvreSearch, lm_fit
-from .settings import CRITERIA, ManoeuvreSettings, OrderFit
+from .search import CRITERIA, ManoeuvreSearch, ManoeuvreSettings, OrderFit, lm_fit
 
 
 @dataclass
