@@ -333,7 +333,8 @@ def _former_search_lm(problem, y, theta0, free, max_iter, rtol=1e-3, atol=0.02, 
 def manoeuvre_problem():
     """One manoeuvre on the first 700 s of the Hörst & Oispuu (2010) data, and starts with the
     change-over time spread around the truth's (internal parameters of the search)."""
-    from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
+    from tmakit.batch.manoeuvre import ManoeuvreSettings
+    from tmakit.batch.manoeuvre.search import ManoeuvreSearch
 
     scn = tk.load_scenario("hoerst2010")
     meas = scn.simulate(rng=5)

@@ -25,6 +25,7 @@ from ..observation import Linearisation, ObservationModel
 from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
 
+
 class DeferredNormal:
     """``(J'J, J'r)`` of a batch, summed when first read (``make(runs)``; the same bits).
 
@@ -43,12 +44,15 @@ class DeferredNormal:
         return self._value
 
     def __getitem__(self, i: int) -> Array:
+        """Give ``J'J`` (0) or ``J'r`` (1) of every run."""
         return self._whole()[i]
 
     def __iter__(self) -> Iterator[Array]:
+        """Give ``J'J`` then ``J'r``."""
         return iter(self._whole())
 
     def __len__(self) -> int:
+        """Two: ``J'J`` and ``J'r``."""
         return 2
 
     def runs(self, which: NDArray[np.bool_] | NDArray[np.int64] | slice) -> tuple[Array, Array]:

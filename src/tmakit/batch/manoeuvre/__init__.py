@@ -15,9 +15,9 @@ model (BIC).
 
 from .estimator import ManoeuvreEstimator, estimate_for, estimate_manoeuvres
 from .report import ManoeuvreEstimate
-from .search import ACCELERATIONS, CRITERIA, ManoeuvreSearch, ManoeuvreSettings, OrderFit
-from .selection import OrderSelection, may_hold, select_order, sparsify
+from .search import ACCELERATIONS, CRITERIA, ManoeuvreSettings, OrderFit
+from .selection import OrderSelection, may_hold, select_order
 
 __all__ = ["ACCELERATIONS", "CRITERIA", "ManoeuvreEstimate", "ManoeuvreEstimator",
-           "ManoeuvreSearch", "ManoeuvreSettings", "OrderFit", "OrderSelection", "estimate_for",
-           "estimate_manoeuvres", "may_hold", "select_order", "sparsify"]
+           "ManoeuvreSettings", "OrderFit", "OrderSelection", "estimate_for",
+           "estimate_manoeuvres", "may_hold", "select_order"]

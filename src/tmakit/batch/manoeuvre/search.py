@@ -27,8 +27,7 @@ from ...results.nuisance import KnownNuisance
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
 
 CRITERIA = ("bic", "lrt")
-"""Criteria for the number of manoeuvres and the accelerations held (see
-:mod:`tmakit.batch.manoeuvre`)."""
+"""Criteria for the number of manoeuvres and the accelerations held."""
 ACCELERATIONS = ("select", "all")
 """How the accelerations are fitted (see :class:`ManoeuvreSettings`)."""
 
@@ -157,7 +156,6 @@ class OrderFit:
         Returns
         -------
         ndarray of bool
-            ``(p,)``, True where fitted.
         """
         return np.ones(self.theta.shape[0], dtype=bool) if self.free is None else self.free
 
@@ -227,20 +225,8 @@ PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 class ManoeuvreSearch:
     """The fits of every order for one data set (shared grid, warm starts between orders).
 
-    Internal parameters are those of ``ForwardPiecewise`` referenced at the first measurement time.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-    options : mapping, optional
-        Nuisance model per kind.
-    known_nuisance : KnownNuisance or None
-        None: the nuisance is estimated.
-    settings : ManoeuvreSettings
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 8 (the weighted least-squares fit of each order).
+    Internal parameters are those of ``ForwardPiecewise`` referenced at the first measurement
+    time; each order is the weighted least-squares fit of Hörst & Oispuu (2010), eq. 8.
     """
 
     def __init__(self, meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
@@ -263,16 +249,7 @@ class ManoeuvreSearch:
         self.profiles: dict[int, tuple[NDArray[np.int64], Array, Array]] = {}
 
     def problem(self, m: int) -> VarProProblem:
-        """Give the least-squares problem with ``m`` manoeuvres (cached).
-
-        Parameters
-        ----------
-        m : int
-
-        Returns
-        -------
-        VarProProblem
-        """
+        """Give the least-squares problem with ``m`` manoeuvres (cached)."""
         if m not in self._problems:
             model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
             obs = ObservationModel(self.meas, model, self.options)
@@ -281,12 +258,7 @@ class ManoeuvreSearch:
         return self._problems[m]
 
     def max_order(self) -> int:
-        """Count the most manoeuvres the grid can hold (at most ``max_manoeuvres``).
-
-        Returns
-        -------
-        int
-        """
+        """Count the most manoeuvres the grid can hold (at most ``max_manoeuvres``)."""
         m = 0
         while m < self.s.max_manoeuvres and grid_tuples(self.grid, m + 1,
                                                         self.min_gap).shape[0] > 0:
@@ -294,39 +266,13 @@ class ManoeuvreSearch:
         return m
 
     def unknowns(self, m: int, free: NDArray[np.bool_] | None = None) -> int:
-        """Count the unknowns of the order ``m`` model (fitted motion and free nuisance).
-
-        Parameters
-        ----------
-        m : int
-        free : ndarray of bool, optional
-            The motion parameters fitted (default all).
-
-        Returns
-        -------
-        int
-        """
+        """Count the unknowns of the order ``m`` model (fitted motion and free nuisance)."""
         pr = self.problem(m)
         p = pr.p if free is None else int(np.count_nonzero(free))
         return p + (0 if pr.fixed is not None else pr.k)
 
     def fit_zero(self, init: Array | None = None) -> OrderFit:
-        """Fit order 0 (one curvilinear segment).
-
-        Parameters
-        ----------
-        init : ndarray, optional
-            ``(6,)`` start, SI; default the no-guess constant-velocity fit.
-
-        Returns
-        -------
-        OrderFit
-
-        Raises
-        ------
-        ValueError
-            When the start gives no finite fit.
-        """
+        """Fit order 0 (one curvilinear segment)."""
         pr = self.problem(0)
         if init is None:
             from ..ml import estimate as estimate_cv
@@ -373,18 +319,7 @@ class ManoeuvreSearch:
         return tuples, start, best_cost
 
     def profile(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
-        """Fit with the change-over times held on the grid tuples of order ``m``, warm-started.
-
-        Parameters
-        ----------
-        m : int
-            ``m >= 1``.
-
-        Returns
-        -------
-        tuples, theta, cost : ndarray
-            ``(T, m)`` grid index tuples, ``(T, p)`` held fits (NaN: no start), ``(T,)`` half chi2.
-        """
+        """Fit with the change-over times held on the grid tuples of order ``m``, warm-started."""
         tuples, start, best_cost = self._profile_starts(m)
         ok = np.flatnonzero(np.isfinite(best_cost))
         pr = self.problem(m)
@@ -403,25 +338,7 @@ class ManoeuvreSearch:
         return tuples, theta, cost
 
     def fit(self, m: int, below: OrderFit | None = None) -> OrderFit:
-        """Fit order ``m``: profile, then refine its best minima and ``below`` split in two.
-
-        Parameters
-        ----------
-        m : int
-            >= 1.
-        below : OrderFit, optional
-            The order ``m - 1`` fit.
-
-        Returns
-        -------
-        OrderFit
-            With its profile (``profile_times`` in s, ``profile_chi2``).
-
-        Raises
-        ------
-        ValueError
-            When no grid point gives a finite fit.
-        """
+        """Fit order ``m``: profile, then refine its best minima and ``below`` split in two."""
         tuples, theta, cost = self.profile(m)
         minima = local_minima(tuples, cost)[: self.s.refine]
         if minima.size == 0:
@@ -459,19 +376,7 @@ class ManoeuvreSearch:
         return np.array(starts), np.array(held, dtype=np.int64)
 
     def polish(self, fit: OrderFit, reach: float | None = None) -> OrderFit:
-        """Profile each change-over time finely (``polish_step``) around the refined fit.
-
-        Parameters
-        ----------
-        fit : OrderFit
-        reach : float, optional
-            Half-width of the held grid, s (default ``grid_step``).
-
-        Returns
-        -------
-        OrderFit
-            ``fit`` itself when nothing beats it.
-        """
+        """Profile each change-over time finely (``polish_step``) around the refined fit."""
         m = fit.manoeuvres
         if m == 0 or not np.isfinite(fit.chi2):
             return fit
@@ -506,20 +411,7 @@ class ManoeuvreSearch:
 
     def fit_from(self, m: int, theta0: Array, free: NDArray[np.bool_] | None = None
                  ) -> OrderFit:
-        """Fit from the starts ``theta0``; the lowest cost wins, settled on a corner if at one.
-
-        Parameters
-        ----------
-        m : int
-        theta0 : ndarray
-            ``(B, p)`` or ``(p,)`` internal parameters, SI.
-        free : ndarray of bool, optional
-            ``(p,)`` the parameters fitted (default all).
-
-        Returns
-        -------
-        OrderFit
-        """
+        """Fit from the starts ``theta0``; the lowest cost wins, settled on a corner if at one."""
         pr = self.problem(m)
         mask = np.ones(pr.p, dtype=bool) if free is None else free
         sol = lm_fit(pr, np.atleast_2d(theta0), mask, self.s.max_iter, rtol=1e-10, atol=1e-7,
@@ -555,19 +447,7 @@ class ManoeuvreSearch:
         return np.array(probes)
 
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
-        """Settle in place a refinement stopped on a corner of the likelihood (a sample time).
-
-        Converged when no held fit with a change-over time moved by :data:`PROBES` lowers
-        chi2 by more than ``tol``; otherwise refined again from the best, at most ``rounds`` times.
-
-        Parameters
-        ----------
-        fit : OrderFit
-            Updated in place.
-        rounds : int
-        tol : float
-            Decrease of chi2 that counts.
-        """
+        """Settle in place a refinement stopped on a corner of the likelihood (a sample time)."""
         m = fit.manoeuvres
         pr = self.problem(m)
         held_free = fit.free_mask().copy()
