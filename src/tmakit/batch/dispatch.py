@@ -13,7 +13,7 @@ from ..data import MeasurementSet
 from ..motion import MotionModel, PiecewiseCurvilinear, default_ref_time, motion_from_name
 from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
-from .estimator import BatchEstimator, Init, Options
+from .estimator import BatchEstimator, Init, Options, refuse_manoeuvre_options
 from .init import GridSettings
 from .manoeuvre import ManoeuvreEstimator, ManoeuvreSettings
 from .ml import estimate as estimate_ml
@@ -93,11 +93,7 @@ class MLByMotion(BatchEstimator):
             return replace(chosen, init=self.init, options=self.options,
                            known_nuisance=self.known_nuisance,
                            max_iter=self.max_iter).fit(meas, motion)
-        given = chosen.manoeuvre_options()
-        if given:
-            raise TypeError(f"estimate() got options for manoeuvring targets "
-                            f"({', '.join(given)}) with motion "
-                            f"{getattr(motion, 'name', motion)!r}")
+        refuse_manoeuvre_options(chosen.manoeuvre_options(), motion)
         return estimate_ml(meas, motion, init=self.init, options=self.options,
                            known_nuisance=self.known_nuisance, grid=self.grid,
                            max_iter=self.max_iter)

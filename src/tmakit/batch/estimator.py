@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
@@ -55,6 +55,26 @@ class BatchEstimator(ABC):
         -------
         EstimateResult
         """
+
+
+def theta_from_init(motion: MotionModel, init: Mapping[str, float] | ArrayLike, prefix: str = "",
+                    named_only: bool = False) -> NDArray[np.float64]:
+    """Give a start ``(p,)`` from names (``named_only``: others ignored) or a vector, checked."""
+    if isinstance(init, Mapping):
+        return motion.theta({k: v for k, v in init.items() if k in motion.param_names}
+                            if named_only else init)
+    theta = np.asarray(init, dtype=float).reshape(-1)
+    if theta.shape != (motion.n_params,):
+        raise ValueError(f"{prefix}init must give {motion.n_params} values "
+                         f"({', '.join(motion.param_names)})")
+    return theta
+
+
+def refuse_manoeuvre_options(given: Mapping[str, object], motion: object) -> None:
+    """Refuse settings of the manoeuvre search for a motion without manoeuvres."""
+    if given:
+        raise TypeError(f"estimate() got options for manoeuvring targets "
+                        f"({', '.join(given)}) with motion {getattr(motion, 'name', motion)!r}")
 
 
 def check_paper_options(method: str, options: Options) -> None:

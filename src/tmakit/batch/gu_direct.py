@@ -23,7 +23,7 @@ from ..data import MeasurementSet
 from ..motion import ConstantVelocity, MotionModel
 from ..results.estimate import EstimateResult, diverged_result, result_from_covariance
 from ..results.status import CONVERGED, DIVERGED, NOT_CONVERGED, Status
-from .estimator import Init, PaperMethod, kinds_tuple
+from .estimator import Init, PaperMethod, kinds_tuple, theta_from_init
 
 __all__ = ["GuDirect", "PlanarGeometry"]
 
@@ -91,13 +91,7 @@ def initial_theta(motion: MotionModel, init: Mapping[str, float] | ArrayLike | N
         raise ValueError(f"{method}: a local method, it needs a starting point (init=...); "
                          "its estimator object without init (tmakit.batch.METHODS) starts "
                          "from tmakit's grid point")
-    if isinstance(init, Mapping):
-        return motion.theta({k: v for k, v in init.items() if k in motion.param_names})
-    theta = np.asarray(init, dtype=float).reshape(-1)
-    if theta.shape != (motion.n_params,):
-        raise ValueError(f"{method}: init must give {motion.n_params} values "
-                         f"({', '.join(motion.param_names)})")
-    return theta
+    return theta_from_init(motion, init, f"{method}: ", named_only=True)
 
 
 def snr_from_sigma_db(sigma_db: ArrayLike) -> Array:

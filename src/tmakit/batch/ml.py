@@ -11,7 +11,7 @@ through the sensors' plane fit alike: the one above is reported (:func:`prefer_a
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -25,7 +25,7 @@ from ..observation import ObservationModel
 from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
-from .estimator import BatchEstimator, Init, Options
+from .estimator import BatchEstimator, Init, Options, refuse_manoeuvre_options, theta_from_init
 from .hyperbolic import closed_form_starts
 from .init import GridSettings, first_of_many, subsample
 from .presolve import grid_starts, presolve_subset, solve_all_rows
@@ -130,13 +130,7 @@ class MaximumLikelihood(BatchEstimator):
 
     def _start(self, motion: MotionModel) -> NDArray[np.float64]:
         """``init`` as a ``(1, p)`` parameter vector (SI); refuse a wrong length."""
-        init = self.init
-        theta0 = (motion.theta(init) if isinstance(init, Mapping)
-                  else np.asarray(init, dtype=float)).reshape(1, -1)
-        if theta0.shape[1] != motion.n_params:
-            raise ValueError(f"init must give {motion.n_params} values "
-                             f"({', '.join(motion.param_names)})")
-        return theta0
+        return theta_from_init(motion, self.init)[None]  # type: ignore[arg-type]
 
     def _solve(self, problem: VarProProblem, ys: NDArray[np.float64],
                theta0: NDArray[np.float64] | None) -> list[Best | Exception]:
@@ -220,10 +214,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
              grid: GridSettings | None = None, max_iter: int = 100,
              **manoeuvre_options: object) -> EstimateResult:
     """Fit by maximum likelihood: ``MaximumLikelihood(...).fit(meas, motion)``, short form."""
-    if manoeuvre_options:
-        raise TypeError(f"estimate() got options for manoeuvring targets "
-                        f"({', '.join(manoeuvre_options)}) with motion "
-                        f"{getattr(motion, 'name', motion)!r}")
+    refuse_manoeuvre_options(manoeuvre_options, motion)
     return MaximumLikelihood(init, options, known_nuisance, grid, max_iter).fit(meas, motion)
 
 

@@ -21,7 +21,13 @@ from ...results.estimate import EstimateResult
 from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
 from ...results.solutions import Solution, separated_solutions
 from ...results.status import DIVERGED
-from ..estimator import BatchEstimator, Init, Options
+from ..estimator import (
+    BatchEstimator,
+    Init,
+    Options,
+    refuse_manoeuvre_options,
+    theta_from_init,
+)
 from .report import ManoeuvreEstimate, report
 from .search import ManoeuvreSearch, ManoeuvreSettings, OrderFit
 from .selection import OrderSelection, select_order, sparsify, unknown_price
@@ -33,11 +39,7 @@ def _fit_from_start(search: ManoeuvreSearch, ref: float,
     s = search.s
     m = s.max_manoeuvres
     user = PiecewiseCurvilinear(m, ref)
-    theta0 = (user.theta(init) if isinstance(init, Mapping)
-              else np.asarray(init, dtype=float).reshape(-1))
-    if theta0.shape != (user.n_params,):
-        raise ValueError(f"init must give {user.n_params} values "
-                         f"({', '.join(user.param_names)})")
+    theta0 = theta_from_init(user, init)
     if m and (np.any(np.diff(theta0[6 + 2 * m:]) <= 0)
               or theta0[6 + 2 * m] <= search.t0 or theta0[-1] >= search.t_end):
         raise ValueError("init: the change-over times must increase and lie inside the "
@@ -216,9 +218,7 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
         model = motion_from_name(motion, default_ref_time(meas.time) if ref is None
                                  else float(ref))
         if not isinstance(model, PiecewiseCurvilinear):
-            if given:
-                raise TypeError(f"estimate() got options for manoeuvring targets "
-                                f"({', '.join(given)}) with motion {motion!r}")
+            refuse_manoeuvre_options(given, motion)
             from ..ml import estimate
 
             return estimate(meas, model, init=init, options=options,
