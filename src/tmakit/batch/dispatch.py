@@ -1,7 +1,7 @@
 """tmakit's maximum likelihood for any motion: ``tk.estimate(meas, motion)``.
 
 A manoeuvring target goes to :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, any other
-motion to :class:`~tmakit.batch.ml.MaximumLikelihood`; this module sits above both.
+motion to :class:`~tmakit.batch.ml.MaximumLikelihood`.
 """
 
 from __future__ import annotations
@@ -43,17 +43,10 @@ class MLByMotion(BatchEstimator):
 
     Parameters
     ----------
-    init : Mapping[str, float] or array_like, optional
-        A start, SI.
-    options : Mapping, optional
-        The nuisance model per kind.
-    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-    grid : GridSettings, optional
-        For motions without manoeuvres.
-    max_iter : int, optional
-        Default 100.
+    init, options, known_nuisance, grid, max_iter : optional
+        As for :func:`estimate`.
     exact, criterion, alpha, accelerations, ref_time, settings : optional
-        For manoeuvring targets (:class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`).
+        As for :func:`estimate`.
     """
 
     name: ClassVar[str] = "ml"

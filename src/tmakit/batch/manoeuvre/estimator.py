@@ -190,10 +190,10 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
     motion : PiecewiseCurvilinear or str
         ``M`` manoeuvres (or ``"curvilinear:M"``) searches ``0..M``; other names go to
         :func:`tmakit.batch.ml.estimate`.
-    init, options, known_nuisance, max_iter : optional
-        As for :func:`tmakit.batch.ml.estimate`.
-    exact, criterion, alpha, accelerations, ref_time, settings : optional
-        As for :func:`estimate_manoeuvres`; refused (but ``ref_time``) without manoeuvres.
+    init, options, known_nuisance, max_iter, exact, criterion, alpha : optional
+        As for :func:`tmakit.batch.estimate`.
+    accelerations, ref_time, settings : optional
+        As for :func:`tmakit.batch.estimate`.
 
     Returns
     -------
@@ -237,33 +237,16 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
 class ManoeuvreEstimator(BatchEstimator):
     """Maximum likelihood for a manoeuvring target, ``0..M`` manoeuvres, no initial guess.
 
-    Settings left at None take :func:`~tmakit.batch.curvilinear.estimate_for`'s defaults.
-
     Parameters
     ----------
-    init : Mapping[str, float] or array_like, optional
-        Fit exactly ``M`` from this start (SI, at ``ref_time``).
-    options : Mapping, optional
-        The nuisance model per kind.
-    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-    max_iter : int, optional
-        Per fit (default 100).
-    exact : bool, optional
-        Fit only ``M``.
-    criterion : str, optional
-        ``"bic"`` (default) or ``"lrt"``.
-    alpha : float, optional
-        Level of the tests (default 0.01).
-    accelerations : str, optional
-        ``"select"`` (default) or ``"all"``.
-    ref_time : float, optional
-        s, of the reported parameters.
-    settings : ManoeuvreSettings, optional
+    init, options, known_nuisance, max_iter, exact, criterion, alpha : optional
+        As for :func:`tmakit.batch.estimate`.
+    accelerations, ref_time, settings : optional
+        As for :func:`tmakit.batch.estimate`.
 
     References
     ----------
-    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9: piecewise curvilinear motion, azimuth and
-    azimuth rate.
+    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
     """
 
     init: Init = None
@@ -289,7 +272,7 @@ class ManoeuvreEstimator(BatchEstimator):
 
         Returns
         -------
-        dict of str to object
+        dict
         """
         given = {"exact": self.exact, "criterion": self.criterion, "alpha": self.alpha,
                  "accelerations": self.accelerations, "ref_time": self.ref_time,
