@@ -1,8 +1,7 @@
 """What every batch estimator is: settings in its constructor, :meth:`~BatchEstimator.fit`.
 
 :class:`PaperMethod` is the common part of the papers' local iterations (Gu et al. (2007) §3-4,
-the Doppler-tracking lecture notes): their own nuisance model, and tmakit's grid start when
-given none (said in ``extra["start"]``).
+the Doppler-tracking lecture notes): their own nuisance model, and tmakit's grid start.
 """
 
 from __future__ import annotations
@@ -20,10 +19,10 @@ from ..motion import MotionModel
 from ..results.estimate import EstimateResult
 from .init import grid_start
 
+#: A starting point: motion parameters by name, a vector in ``param_names`` order, or None.
 Init = Mapping[str, float] | ArrayLike | None
-"""A starting point: motion parameters by name, a vector in ``param_names`` order, or None."""
+#: The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``.
 Options = Mapping[str, Mapping[str, object]] | None
-"""The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``."""
 
 GRID_START_NOTE = "started from tmakit's likelihood-grid point (the papers' methods are local)"
 
@@ -116,8 +115,7 @@ class PaperMethod(BatchEstimator):
     init: Init = None
     options: Options = None
 
-    start_kinds: ClassVar[tuple[str, ...]] = ()
-    """The kinds the method can use: the rows its grid start is scored on."""
+    start_kinds: ClassVar[tuple[str, ...]] = ()  # the kinds its grid start is scored on
 
     def __post_init__(self) -> None:
         """Refuse a nuisance model the papers do not have."""
@@ -147,7 +145,7 @@ class PaperMethod(BatchEstimator):
         """
 
     def start_rows(self, meas: MeasurementSet) -> MeasurementSet:
-        """Return the rows of the kinds the method uses (all when none), to score the grid start on.
+        """Return the rows of the kinds the method uses (all when none), to score the start on.
 
         Parameters
         ----------

@@ -287,10 +287,8 @@ class GuDirect(PaperMethod):
 
     Parameters
     ----------
-    init : Mapping[str, float] or array_like, optional
-        The start ``[x_0, y_0, v_x, v_y]`` (m, m/s); default tmakit's grid point.
-    options : Mapping, optional
-        Only the paper's model (no drift, exponent 2).
+    init, options : optional
+        As for :class:`~tmakit.batch.estimator.PaperMethod`: ``[x_0, y_0, v_x, v_y]`` (m, m/s).
     max_iter : int, optional
         Default 50.
     kinds : str or sequence of str, optional

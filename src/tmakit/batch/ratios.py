@@ -237,10 +237,8 @@ class RatioMethod(PaperMethod):
 
     Parameters
     ----------
-    init : Mapping[str, float] or array_like, optional
-        The start ``[x_0, y_0, v_x, v_y]`` (m, m/s); default tmakit's grid point.
-    options : Mapping, optional
-        Only the paper's model (no drift, exponent 2).
+    init, options : optional
+        As for :class:`~tmakit.batch.estimator.PaperMethod`: ``[x_0, y_0, v_x, v_y]`` (m, m/s).
     kinds : str or sequence of str, optional
         ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34, default).
     max_iter : int, optional
