@@ -7,6 +7,10 @@ differences of many rows every start is solved on :data:`SUBSET_ROWS` evenly spr
 only the best carried to all (:func:`solve_on_subset_first`).  When every sensor is at one
 height, none moves vertically and no elevation is measured, a 3-D track and its mirror image
 through the sensors' plane fit alike: the one above is reported (:func:`prefer_above`).
+With sensor position errors (Ho, Lu & Kovavisaruch (2007)'s setting) the errors are integrated
+out into the noise ``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.sensor_errors`): the fit starts
+from the ordinary ML and refits twice with that noise linearised at the estimate
+(:func:`estimate_with_sensor_errors`).
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from ..core import chi2 as chi2_dist
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..observation.sensor_errors import effective_noise
 from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
@@ -399,3 +404,39 @@ def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
         if "vz" in names:
             theta[names.index("vz")] *= -1.0
     return theta, note
+
+
+REFITS = 2  # refits with the effective noise relinearised
+
+
+def estimate_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
+                                position_sigma: float, velocity_sigma: float = 0.0,
+                                options: Options = None
+                                ) -> tuple[EstimateResult, EstimateResult]:
+    """Fit by maximum likelihood with the sensors' positions known to ``position_sigma``.
+
+    References
+    ----------
+    Ho, Lu & Kovavisaruch (2007) (source localisation with receiver position errors).
+    """
+    opts = {k: dict(v) for k, v in dict(options or {}).items()}
+    ignoring = MaximumLikelihood(options=opts).fit(meas, motion)
+    obs = ObservationModel(meas, motion, opts)
+    theta = np.asarray(ignoring.estimate, dtype=float)
+    nu = np.array([ignoring.nuisance[n][0] for n in obs.nuisance_names])
+    converged, iterations, cost = ignoring.status == "converged", 0, np.nan
+    for _ in range(REFITS):
+        noise = effective_noise(obs, theta, nu, position_sigma, velocity_sigma)
+        sol = levenberg_marquardt(VarProProblem(obs, noise), obs.values, theta[None, :])
+        theta, nu = sol.theta[0], sol.nuisance[0]
+        converged, cost = bool(sol.converged[0]), float(sol.cost[0])
+        iterations += int(sol.iterations[0])
+    noise = effective_noise(obs, theta, nu, position_sigma, velocity_sigma)
+    note = (f"sensor positions known to {position_sigma:g} m per axis"
+            + (f", velocities to {velocity_sigma:g} m/s" if velocity_sigma else ""))
+    accounting = assemble_result(obs, noise, theta, nu, cost, iterations, converged,
+                                 "ml-sensor-errors", ignoring.starts, None, note)
+    loss = ", ".join(f"{n} {a / b:.3g}x" for n, a, b in zip(
+        motion.param_names, accounting.std, ignoring.std, strict=True))
+    accounting.message += f"; std against perfectly known positions: {loss}"
+    return accounting, ignoring
