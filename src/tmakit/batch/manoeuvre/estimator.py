@@ -130,23 +130,12 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
     meas : MeasurementSet
     max_manoeuvres : int
         The most manoeuvres tried (orders ``0 .. max_manoeuvres``).
-    exact : bool
-        Fit exactly ``max_manoeuvres``.
-    criterion : {"bic", "lrt"}
-        How the order is chosen.
-    alpha : float
-        Level of the likelihood-ratio tests.
-    accelerations : {"select", "all"}, optional
-        Hold unneeded accelerations at zero (default ``settings``', ``"select"``).
+    exact, criterion, alpha, accelerations, options, known_nuisance, settings : optional
+        As for :func:`tmakit.batch.estimate` (``accelerations``: default ``settings``').
     ref_time : float, optional
         Reference time of the reported state, s; default the first measurement time.
     init : mapping or array_like, optional
         Parameters at ``ref_time``, SI: that order alone is fitted from it.
-    options : mapping, optional
-        The nuisance model per kind.
-    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-    settings : ManoeuvreSettings, optional
-        The search's grid and limits.
 
     Returns
     -------
