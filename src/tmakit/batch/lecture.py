@@ -26,7 +26,6 @@ from ..results.observability import RANK_TOL
 from ..results.status import UNOBSERVABLE
 from .estimator import Init, PaperMethod
 from .gu_direct import DIVERGENCE_FACTOR, initial_theta
-from .solver import VarProProblem
 
 
 def _check(meas: MeasurementSet, motion: MotionModel) -> float:
@@ -115,14 +114,13 @@ class LectureGaussNewton(PaperMethod):
         _check(meas, motion)
         obs = ObservationModel(meas, motion, {"frequency": {"drift": False}})
         noise = NoiseModel(meas)
-        problem = VarProProblem(obs, noise)
         x = _start(obs, noise, init)
         x, iterations, converged, diverged, ranks, norms = self._gauss_newton(obs, noise, x)
         p = motion.n_params
         th, nu = x[:p], x[p:]
         cost = (0.5 * float(np.sum(noise.whiten(obs.values - obs.predict(th, nu)) ** 2))
                 if np.all(np.isfinite(x)) else np.inf)
-        res = assemble_result(problem.obs, problem.noise, th, nu, cost, iterations, converged,
+        res = assemble_result(obs, noise, th, nu, cost, iterations, converged,
                               self.name, 1, None)
         res.extra.update({"ranks": ranks, "update_norms_sigma": norms})
         if diverged:
