@@ -10,16 +10,14 @@ from ..observation.groups import MeasurementGroup, group_times
 from .base import TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing, first_bearing
 from .ekf import ExtendedKalmanFilter
-from .extras import TrackExtras
 from .gaussian_sum import GaussianSumFilter
 from .imm import InteractingMultipleModel
 from .mgekf import ModifiedGainEKF
 from .modified_polar import ModifiedPolarEKF
 from .multilag import multilag_groups
 from .particle import ParticleFilter
-from .record import UpdateInfo
 from .smoothing import smooth
-from .track import Track
+from .track import Track, TrackExtras, UpdateInfo
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
 
 FILTERS: dict[str, type[TrackingFilter]] = {

@@ -20,10 +20,8 @@ from ..core.linalg import check_prior
 from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .extras import TrackExtras
 from .general import PreparedMeasurements, prepared_for
-from .record import Recorder, RunBlock, UpdateInfo
-from .track import Track
+from .track import SKIPPED, Recorder, Track, TrackExtras, UpdateInfo
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results.estimate import EstimateResult
@@ -69,8 +67,7 @@ class TrackingFilter(ABC):
     """
 
     name = ""
-    #: Whether the constructor takes ``particles`` (a particle count) and ``rng`` (a
-    #: ``numpy.random.Generator`` or seed): declared, so that no caller inspects a signature.
+    #: Whether the constructor takes ``particles`` and ``rng`` (no caller inspects a signature).
     takes_particles = False
     takes_rng = False
     #: The spatial dimensions the filter tracks in.
@@ -98,7 +95,6 @@ class TrackingFilter(ABC):
         with one_thread(self.single_blas_thread):
             self._init_state(mean, cov)
 
-    # -- what subclasses provide -------------------------------------------------------------
     @abstractmethod
     def _init_state(self, mean: Array, covariance: Array) -> None:
         """Set the internal representation from a Gaussian prior."""
@@ -121,11 +117,14 @@ class TrackingFilter(ABC):
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         """Condition on one group of measurements at :attr:`time`."""
 
+    def _skip(self) -> UpdateInfo:
+        self.skipped_updates += 1
+        return SKIPPED
+
     def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
         """Condition on rows without a group, where the filter can (None: use a group)."""
         return None
 
-    # -- the interface -----------------------------------------------------------------------
     @property
     def state_names(self) -> tuple[str, ...]:
         """Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``)."""
@@ -134,10 +133,7 @@ class TrackingFilter(ABC):
     @classmethod
     def from_estimate(cls, result: EstimateResult, time: float, *, inflate: float = 1.0,
                       **kwargs: Any) -> TrackingFilter:
-        """Start a filter from a batch estimate.
-
-        The prior: the estimate's state at ``time``, its covariance mapped through the motion
-        model's Jacobian (times ``inflate``); its nuisance values unless ``nuisance=`` is given.
+        """Start a filter from a batch estimate's state, covariance and nuisance values at ``time``.
 
         Parameters
         ----------
@@ -176,11 +172,7 @@ class TrackingFilter(ABC):
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
                            **kwargs: Any) -> TrackingFilter:
-        """Start at the first bearing from a prior in the user's terms.
-
-        A single-Gaussian filter starts from the prior's mean and covariance
-        (:meth:`~tmakit.filters.BearingPrior.gaussian`); the Gaussian sum and the particle
-        filter override this with the sum and with samples.
+        """Start at the first bearing from the prior's mean and covariance (Gaussian filters).
 
         Parameters
         ----------
@@ -233,7 +225,6 @@ class TrackingFilter(ABC):
             self._advance(time)
 
     def _advance(self, time: float) -> None:
-        """:meth:`predict` inside a run, whose BLAS thread limit is already set."""
         dt = float(time) - self.time
         if dt < -TIME_TOLERANCE:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
@@ -267,9 +258,6 @@ class TrackingFilter(ABC):
     def run(self, meas: MeasurementSet) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
-        The set is prepared once (:class:`~.general.PreparedMeasurements`, kept for the
-        set's next runs with the same dimension, options and nuisance).
-
         Parameters
         ----------
         meas : MeasurementSet
@@ -295,13 +283,13 @@ class TrackingFilter(ABC):
         return self.run_prepared(prepared_for(meas, self.dim, self.options, self.nuisance))
 
     def _plain_interface(self) -> bool:
-        """Tell whether predict, update and group are the base class's (else run uses them)."""
         cls = type(self)
         return (cls.predict is TrackingFilter.predict and cls.update is TrackingFilter.update
                 and cls.group is TrackingFilter.group)
 
-    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
-        """Run updates ``start`` on in one go where the filter can (None: one at a time)."""
+    def _run_block(self, prepared: PreparedMeasurements, start: int, rec: Recorder
+                   ) -> int | None:
+        """Run and record updates ``start`` on in one go where the filter can; give the stop."""
         return None
 
     def run_prepared(self, prepared: PreparedMeasurements) -> Track:
@@ -335,10 +323,9 @@ class TrackingFilter(ABC):
         rec = Recorder(2 * self.dim)
         k, total = 0, len(prepared)
         while k < total:
-            block = self._run_block(prepared, k)
-            if block is not None:
-                rec.add_block(block)
-                k = block.stop
+            stop = self._run_block(prepared, k, rec)
+            if stop is not None:
+                k = stop
                 if k >= total:
                     break
             self._advance(float(prepared.times[k]))
@@ -349,9 +336,7 @@ class TrackingFilter(ABC):
         return self._track(rec)
 
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
-        """Predict to each ``time`` and update with its rows, in the order given.
-
-        Rows at other times (multi-lag vectors, Chen & Sun, §2.2) are predicted from the state.
+        """Predict to each ``time`` and update with its rows (at any times), in the order given.
 
         Parameters
         ----------
@@ -376,7 +361,6 @@ class TrackingFilter(ABC):
         return self._track(rec)
 
     def _track(self, rec: Recorder) -> Track:
-        """Make the track of the updates ``rec`` collected."""
         t, x, p, nis, dof, ll = rec.parts()
         return Track(self.name, self.state_names, t, x, p, nis, dof, ll,
                      extra=TrackExtras(skipped_updates=int(self.skipped_updates)))

@@ -17,23 +17,23 @@ from .general import (
     PreparedMeasurements,
     RowSteps,
     Step,
-    StepPlan,
     finite,
     innovation_solve,
     joseph,
     kalman_gain,
     linearise,
     plan_for,
-    stacked_run,
     sym,
     updated_covariance,
 )
-from .record import RunBlock
+from .track import Recorder
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of
 #: the smallest distance to a sensor of the group.
 IEKF_TOL = 1e-10
+#: What an update gives: mean, covariance, NIS, rows, log-likelihood.
+Updated = tuple[Array, Array, float, int, float]
 
 
 def _range_scale(rows: MeasurementGroup | Step, x: Array, dim: int) -> float:
@@ -43,7 +43,6 @@ def _range_scale(rows: MeasurementGroup | Step, x: Array, dim: int) -> float:
 
 
 def _linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, bool]:
-    """Give the wrapped residual, the Jacobian at ``x`` and whether both are finite."""
     y = group.residual(group.predict(x))
     h = group.jacobian(x)
     return y, h, finite(y, h)
@@ -51,7 +50,7 @@ def _linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, b
 
 def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array,
                     h_cov: Array | None = None) -> tuple[Array, Array, UpdateInfo]:
-    """Make a Kalman update (Joseph form, then :func:`tmakit.core.linalg.repair_psd`)."""
+    """Make a Kalman update (Joseph form with ``h_cov`` if given, checked PSD)."""
     gain, nis, log_det = kalman_gain(cov, h, r, residual)
     m = residual.shape[0]
     loglik = -0.5 * (nis + log_det + m * LOG_2PI)
@@ -59,19 +58,13 @@ def gaussian_update(mean: Array, cov: Array, residual: Array, h: Array, r: Array
     return mean + gain @ residual, joseph(cov, gain, g, r), UpdateInfo(nis, m, loglik)
 
 
-def skipped() -> UpdateInfo:
-    """Report an update that could not be made."""
-    return UpdateInfo(float("nan"), 0, 0.0)
-
-
 class ExtendedKalmanFilter(TrackingFilter):
     """EKF with nearly-constant-velocity dynamics.
 
-    Chen & Sun, §2.1 (dynamics) and §2.5 with the plain Jacobian in place of the modified gain.
-    ``iterations`` > 1 makes it the iterated EKF (Bell & Cathey 1993), relinearised at the updated
-    state until the change is below :data:`IEKF_TOL` of the range; NIS and log-likelihood are those
-    of the first linearisation.  An update whose prediction or Jacobian is not finite is skipped and
-    counted in :attr:`skipped_updates`.
+    ``iterations`` > 1 makes it the iterated EKF, relinearised at the updated state until the
+    change is below :data:`IEKF_TOL` of the range; NIS and log-likelihood are those of the first
+    linearisation.  An update whose prediction or Jacobian is not finite is skipped and counted in
+    :attr:`skipped_updates`.
 
     Parameters
     ----------
@@ -89,7 +82,7 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     References
     ----------
-    Chen & Sun, §2.1 and §2.5; Bell & Cathey (1993) for the iterated update.
+    Chen & Sun, §2.1 and §2.5 (with the plain Jacobian); Bell & Cathey (1993), the iterated update.
     """
 
     name = "ekf"
@@ -109,6 +102,8 @@ class ExtendedKalmanFilter(TrackingFilter):
     def _init_state(self, mean: Array, covariance: Array) -> None:
         self._mean = mean
         self._cov = covariance
+        self._dyn_cache = DynamicsCache(self.dynamics)
+        self._steps = RowSteps(self.dim, self.options, self.nuisance)
 
     @property
     def state(self) -> Array:
@@ -121,24 +116,21 @@ class ExtendedKalmanFilter(TrackingFilter):
         return self._cov.copy()
 
     def _predict(self, dt: float) -> None:
-        phi, phit, q = self._dynamics_cache().get(dt)
+        phi, phit, q = self._dyn_cache.get(dt)
         self._mean = phi.dot(self._mean)
         cov = phi.dot(self._cov).dot(phit)
         cov += q
         self._cov = sym(cov)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        self._mean, self._cov, nis, m, ll = self._kalman(_linearise_group, group,
-                                                         group.covariance, self._mean,
-                                                         self._cov)
+        self._mean, self._cov, nis, m, ll = self._gaussian_step(group, self._mean, self._cov)
         return UpdateInfo(nis, m, ll)
 
     def update_gaussian(self, group: MeasurementGroup, mean: Array, cov: Array
                         ) -> tuple[Array, Array, Array, Array, float]:
         """Update a given Gaussian with this filter's arithmetic (for filters of several).
 
-        A Gaussian sum or an interacting-multiple-model filter holds several Gaussians and
-        updates each as this filter would; this filter's own state is left as it is.
+        This filter's own state is left as it is.
 
         Parameters
         ----------
@@ -157,8 +149,8 @@ class ExtendedKalmanFilter(TrackingFilter):
             Its covariance ``(m, m)``.
         log_likelihood : float
             ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).  The iterated
-            EKF gives the last linearisation's innovation ``z - h(x_i) - H_i (x^- - x_i)``:
-            the likelihood linearised at the updated state (a Laplace approximation).
+            EKF gives the last linearisation's innovation ``z - h(x_i) - H_i (x^- - x_i)``
+            (a Laplace approximation).
         """
         self._innovation = (np.zeros(0), np.zeros((0, 0)))
         new, new_cov, _, _, ll = self._gaussian_step(group, mean, cov)
@@ -168,93 +160,65 @@ class ExtendedKalmanFilter(TrackingFilter):
                          + y.shape[0] * LOG_2PI)
         return new, new_cov, y, s, ll
 
-    def _gaussian_step(self, group: MeasurementGroup, mean: Array, cov: Array
-                       ) -> tuple[Array, Array, float, int, float]:
-        return self._kalman(_linearise_group, group, group.covariance, mean, cov)
+    def _gaussian_step(self, rows: MeasurementGroup | Step, mean: Array, cov: Array
+                       ) -> Updated:
+        """Update with a group or a plan's step."""
+        if isinstance(rows, tuple):
+            return self._kalman(linearise, rows, rows[6], mean, cov)
+        return self._kalman(_linearise_group, rows, rows.covariance, mean, cov)
 
     def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
-        if type(self)._update is not self._planned()._update:
+        if type(self)._update is not ExtendedKalmanFilter._update:
             return None
-        step = self._row_steps().step(rows, self.time)
+        step = self._steps.step(rows, self.time)
         if step is None:
             return None
-        self._mean, self._cov, nis, m, ll = self._plan_update(step, self._mean, self._cov)
+        self._mean, self._cov, nis, m, ll = self._gaussian_step(step, self._mean, self._cov)
         return UpdateInfo(nis, m, ll)
 
-    @staticmethod
-    def _planned() -> type[ExtendedKalmanFilter]:
-        """Give the class whose ``_update`` :meth:`_plan_update` computes (else groups)."""
-        return ExtendedKalmanFilter
-
-    def _kalman(self, lin: Callable, arg: MeasurementGroup | Step, r: Array, mean: Array, cov: Array
-                ) -> tuple[Array, Array, float, int, float]:
-        """One (iterated) EKF update: mean, covariance, NIS, rows, log-likelihood."""
+    def _kalman(self, lin: Callable, arg: MeasurementGroup | Step, r: Array, mean: Array,
+                cov: Array) -> Updated:
         y, h, ok = lin(arg, mean)
         if not ok:
             self.skipped_updates += 1
             return mean, cov, float("nan"), 0, 0.0
-        hp = h.dot(cov)
-        s = hp.dot(h.T)
-        s += r
-        self._innovation = (y, s)
-        gain, nis, log_det = innovation_solve(s, hp, y)
-        new = mean + gain.dot(y)
-        new_cov = updated_covariance(cov, gain, hp, h, r)
-        for _ in range(self.iterations - 1):
-            y_i, h_i, ok = lin(arg, new)
-            if not ok:
-                break
-            hp = h_i.dot(cov)
-            s = hp.dot(h_i.T)
+        new = mean
+        for i in range(self.iterations):
+            if i:
+                y, h, ok = lin(arg, new)
+                if not ok:
+                    break
+                y = y - h.dot(mean - new)
+            hp = h.dot(cov)
+            s = hp.dot(h.T)
             s += r
-            y_i = y_i - h_i.dot(mean - new)
-            self._innovation = (y_i, s)
-            g_i = innovation_solve(s, hp, y_i)[0]
-            nxt = mean + g_i.dot(y_i)
-            size = float(np.linalg.norm((nxt - new)[:self.dim]))
-            new, new_cov = nxt, updated_covariance(cov, g_i, hp, h_i, r)
-            if size <= IEKF_TOL * _range_scale(arg, new, self.dim):
+            self._innovation = (y, s)
+            gain, nis_i, log_det_i = innovation_solve(s, hp, y)
+            nxt = mean + gain.dot(y)
+            size = float(np.linalg.norm((nxt - new)[:self.dim])) if i else 0.0
+            new, new_cov = nxt, updated_covariance(cov, gain, hp, h, r)
+            if not i:
+                nis, log_det, m = nis_i, log_det_i, y.shape[0]
+            elif size <= IEKF_TOL * _range_scale(arg, new, self.dim):
                 break
-        m = y.shape[0]
         return new, new_cov, nis, m, -0.5 * (nis + log_det + m * LOG_2PI)
 
-    # -- the run of a plan ---------------------------------------------------------------------
-    def _plan_ok(self, prepared: PreparedMeasurements, cls: type[TrackingFilter]
-                 ) -> StepPlan | None:
-        """Give the general plan of ``prepared`` if this filter can run on it (else None)."""
+    def _run_block(self, prepared: PreparedMeasurements, start: int, rec: Recorder
+                   ) -> int | None:
+        """Run updates ``start`` on of the set's plan (when neither step is overridden)."""
         me = type(self)
         if (type(self.dynamics) is not NearlyConstantVelocity
-                or me._update is not cls._update or me._predict is not cls._predict):
+                or me._update is not ExtendedKalmanFilter._update
+                or me._predict is not ExtendedKalmanFilter._predict):
             return None
         plan = plan_for(prepared)
-        return plan if plan.ok else None
-
-    def _dynamics_cache(self) -> DynamicsCache:
-        cache = getattr(self, "_dyn_cache", None)
-        if cache is None or cache.dynamics is not self.dynamics:
-            cache = self._dyn_cache = DynamicsCache(self.dynamics)
-        return cache
-
-    def _plan_update(self, step: Step, mean: Array, cov: Array
-                     ) -> tuple[Array, Array, float, int, float]:
-        """One update of the general path (:meth:`_kalman` on the step)."""
-        return self._kalman(linearise, step, step[6], mean, cov)
-
-    def _row_steps(self) -> RowSteps:
-        steps = getattr(self, "_steps", None)
-        if steps is None:
-            steps = self._steps = RowSteps(self.dim, self.options, self.nuisance)
-        return steps
-
-    def _run_plan(self, plan: StepPlan, start: int) -> RunBlock:
-        """Run updates ``start`` on of a plan (the general path prepared once per file)."""
-        steps = plan.steps[start:]
-        rows: list[tuple] = []
-        put = rows.append
-        get = self._dynamics_cache().get
-        update = self._plan_update
+        if not plan.ok:
+            return None
+        put = rec.rows.append
+        get = self._dyn_cache.get
+        update = self._gaussian_step
         mean, cov, t, ll = self._mean, self._cov, self.time, self.log_likelihood
-        for step in steps:
+        for step in plan.steps[start:]:
             tk = step[0]
             dt = tk - t
             if dt > TIME_TOLERANCE:
@@ -271,8 +235,4 @@ class ExtendedKalmanFilter(TrackingFilter):
             ll += lli
             put((t, mean, cov, nis, m, ll))
         self._mean, self._cov, self.time, self.log_likelihood = mean, cov, t, ll
-        return stacked_run(rows, 2 * self.dim, mean, cov, t, ll)
-
-    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
-        plan = self._plan_ok(prepared, self._planned())
-        return None if plan is None else self._run_plan(plan, start)
+        return len(prepared)

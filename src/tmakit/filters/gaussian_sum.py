@@ -22,10 +22,9 @@ from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
-from .ekf import ExtendedKalmanFilter, skipped
+from .ekf import ExtendedKalmanFilter
 from .general import PreparedMeasurements
-from .record import Recorder, RunBlock
-from .track import Track
+from .track import Recorder, Track
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
 
 
@@ -46,9 +45,57 @@ PRUNE = 1e-5
 MERGE = 0.25
 #: Most components held at once.
 CAPACITY = 48
-#: Linearisations per update of EKF components (the iterated EKF; docs/tracking.md gives
-#: what it gains on the scenarios of Ristic et al. 2004).
+#: Linearisations per update of EKF components (the iterated EKF; docs/tracking.md).
 ITERATIONS = 5
+
+
+def check_component(component: str) -> None:
+    """Refuse a component filter not in :data:`COMPONENTS`."""
+    if component not in COMPONENTS:
+        raise ValueError(f"component must be one of {', '.join(COMPONENTS)}; got "
+                         f"{component!r}")
+
+
+def component_filter(filt: TrackingFilter, component: str, mean: ArrayLike,
+                     covariance: ArrayLike, **settings: int) -> ExtendedKalmanFilter:
+    """Give the filter whose arithmetic updates each Gaussian of ``filt``."""
+    return COMPONENTS[component](np.asarray(mean, dtype=float),
+                                 np.asarray(covariance, dtype=float), filt.time,
+                                 dynamics=filt.dynamics, options=filt.options,
+                                 nuisance=filt.nuisance, **settings)
+
+
+def mixture_moments(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
+    """Mean and covariance of ``sum_i w_i N(m_i, P_i)`` (normalised weights)."""
+    mean = weights @ means
+    d = means - mean
+    cov = np.einsum("i,ijk->jk", weights, covs + d[:, :, None] * d[:, None, :])
+    return mean, 0.5 * (cov + cov.T)
+
+
+def update_components(unit: ExtendedKalmanFilter, group: MeasurementGroup, means: Array,
+                      covs: Array, weights: Array) -> tuple[Array, float, int]:
+    """Update each Gaussian in place; give their log-likelihoods (-inf: not made), NIS, dof.
+
+    The NIS is that of the innovations' mixture under the prior ``weights``.
+    """
+    count = weights.shape[0]
+    log_l = np.full(count, -np.inf)
+    nus, innovation_covs = [], []
+    for i in range(count):
+        m, p, nu, s, ll = unit.update_gaussian(group, means[i], covs[i])
+        if nu.shape[0]:
+            means[i], covs[i] = m, p
+            log_l[i] = ll
+        nus.append(nu)
+        innovation_covs.append(s)
+    ok = np.flatnonzero(np.isfinite(log_l))
+    if ok.shape[0] == 0:
+        return log_l, float("nan"), 0
+    prior = weights[ok] / weights[ok].sum()
+    nbar, sbar = mixture_moments(prior, np.array([nus[i] for i in ok]),
+                                 np.array([innovation_covs[i] for i in ok]))
+    return log_l, float(nbar @ solve_spd(sbar, nbar)[0]), int(nbar.shape[0])
 
 
 class GaussianSumFilter(TrackingFilter):
@@ -95,9 +142,7 @@ class GaussianSumFilter(TrackingFilter):
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        if component not in COMPONENTS:
-            raise ValueError(f"component must be one of {', '.join(COMPONENTS)}; got "
-                             f"{component!r}")
+        check_component(component)
         for label, value in (("split_threshold", split_threshold), ("prune", prune),
                              ("merge", merge)):
             if not (math.isfinite(value) and value >= 0):
@@ -119,17 +164,15 @@ class GaussianSumFilter(TrackingFilter):
         if component != "ekf" and iterations != 1:
             raise ValueError(f"iterations apply to EKF components; got {iterations} with "
                              f"{component!r}")
-        self._unit = COMPONENTS[component](np.asarray(mean, dtype=float),
-                                           np.asarray(covariance, dtype=float), time,
-                                           dynamics=self.dynamics, options=self.options,
-                                           nuisance=self.nuisance,
-                                           **({"iterations": iterations} if component == "ekf"
-                                              else {}))
+        self._unit = component_filter(self, component, mean, covariance,
+                                      **({"iterations": iterations} if component == "ekf"
+                                         else {}))
         self.iterations = self._unit.iterations
 
-    # -- the sum ------------------------------------------------------------------------------
     def _init_state(self, mean: Array, covariance: Array) -> None:
         self._set_sum(np.ones(1), mean[None], covariance[None])
+        #: Components held after each update.
+        self.component_counts: list[int] = []
 
     def _set_sum(self, weights: Array, means: Array, covs: Array) -> None:
         n = means.shape[1]
@@ -180,11 +223,7 @@ class GaussianSumFilter(TrackingFilter):
                              f"covariances (M, n, n); got {w.shape}, {m.shape}, {p.shape}")
         if not (np.all(w > 0) and np.all(np.isfinite(w))):
             raise ValueError("the weights of a Gaussian sum must be finite and > 0")
-        total_w = w / w.sum()
-        mean = total_w @ m
-        d = m - mean
-        cov = np.einsum("i,ijk->jk", total_w, p + d[:, :, None] * d[:, None, :])
-        out = cls(mean, 0.5 * (cov + cov.T), time, **kwargs)  # type: ignore[arg-type]
+        out = cls(*mixture_moments(w / w.sum(), m, p), time, **kwargs)  # type: ignore[arg-type]
         out._set_sum(w, m, p)
         return out
 
@@ -222,7 +261,6 @@ class GaussianSumFilter(TrackingFilter):
     def _settings(self) -> Array:
         return np.array([self.split_threshold, self.prune, self.merge, self.iterations])
 
-    # -- predict and update (the general path) ------------------------------------------------
     def _predict(self, dt: float) -> None:
         qa, qd = self.dynamics.axes()
         _sums().predict_sum(self._m, self._p, self._count, float(dt), self.dim, qa, qd)
@@ -234,37 +272,24 @@ class GaussianSumFilter(TrackingFilter):
         self._count = _sums().split_sum(self._w, self._m, self._p, self._count, sensor, self.dim,
                                         self.split_threshold, self._w.shape[0])
         c = self._count
+        log_l, nis, dof = update_components(self._unit, group, self._m, self._p, self._w[:c])
         log_w = np.full(c, -np.inf)
-        nus, covs = [], []
-        for i in range(c):
-            m, p, nu, s, ll = self._unit.update_gaussian(group, self._m[i], self._p[i])
-            if nu.shape[0]:
-                self._m[i], self._p[i] = m, p
-                log_w[i] = math.log(self._w[i]) + ll
-            nus.append(nu)
-            covs.append(s)
+        for i in np.flatnonzero(np.isfinite(log_l)).tolist():
+            log_w[i] = math.log(self._w[i]) + log_l[i]
         top = float(np.max(log_w)) if c else -np.inf
         if not math.isfinite(top):
-            self.skipped_updates += 1
-            return skipped()
-        ok = np.flatnonzero(np.isfinite(log_w))
-        w_prior = self._w[ok] / np.sum(self._w[ok])
-        nu_ok = np.array([nus[i] for i in ok])
-        nbar = w_prior @ nu_ok
-        dev = nu_ok - nbar
-        sbar = np.einsum("i,ijk->jk", w_prior, np.array([covs[i] for i in ok])
-                         + dev[:, :, None] * dev[:, None, :])
-        nis = float(nbar @ solve_spd(sbar, nbar)[0])
+            return self._skip()
         w = np.exp(log_w - top)
         total = float(np.sum(w))
         self._w[:c] = w
         self._count = _sums().reduce_sum(self._w, self._m, self._p, c, self.prune, self.merge)
         self._moments = None
         self.component_counts.append(self._count)
-        return UpdateInfo(nis, int(nbar.shape[0]), top + math.log(total))
+        return UpdateInfo(nis, dof, top + math.log(total))
 
-    # -- the compiled run of single bearings in 2-D -------------------------------------------
-    def _run_block(self, prepared: PreparedMeasurements, start: int) -> RunBlock | None:
+    def _run_block(self, prepared: PreparedMeasurements, start: int, rec: Recorder
+                   ) -> int | None:
+        """Run single bearings in 2-D in one compiled call."""
         me = type(self)
         if not (prepared.single_bearing and self.dim == 2
                 and me._update is GaussianSumFilter._update
@@ -291,23 +316,13 @@ class GaussianSumFilter(TrackingFilter):
         self.component_counts.extend(int(c) for c in counts)
         cum = self.log_likelihood + np.cumsum(lls)
         self.log_likelihood = float(cum[-1]) if k else self.log_likelihood
-        dof = np.where(np.isfinite(nis), 1.0, 0.0)  # rows per update (the recorder: int)
-        return RunBlock(start + k, self.state, self.covariance, self.time,
-                        self.log_likelihood, times, means, covs, nis, cum, dof)
+        rec.add_block(times, means, covs, nis, np.where(np.isfinite(nis), 1, 0), cum)
+        return start + k
 
     def _track(self, rec: Recorder) -> Track:
         track = super()._track(rec)
         track.extra.components = list(self.component_counts)
         return track
-
-    @property
-    def component_counts(self) -> list[int]:
-        """Components held after each update of the compiled path (for the track)."""
-        counts: list[int] | None = getattr(self, "_counts", None)
-        if counts is None:
-            counts = []
-            self._counts = counts
-        return counts
 
 
 __all__ = ["CAPACITY", "COMPONENTS", "ITERATIONS", "MERGE", "PRUNE", "SPLIT_THRESHOLD",

@@ -4,7 +4,8 @@ The set is prepared once (:class:`PreparedMeasurements`) and so is everything of
 does not depend on the state (:class:`StepPlan`; :class:`RowSteps` for rows handed over one update
 at a time), because cutting the set per update costs more than a filter step.  The EKF's
 posterior covariance is ``P - K H P``, the Joseph form only when that fails its Cholesky check
-(:func:`updated_covariance`), repaired only when that fails too (:func:`checked_psd`).
+(:func:`updated_covariance`), repaired only when that fails too (:func:`checked_psd`).  The
+dynamics' ``Phi(T)`` and ``Q_k`` are Chen & Sun's, §2.1.
 """
 
 from __future__ import annotations
@@ -31,23 +32,10 @@ from ..observation import (
     tonals_scaled,
 )
 from ..observation.rows import Index, as_slice, correlated_blocks
-from .record import RunBlock
 
 
 class PreparedMeasurements:
-    """A measurement set prepared once for a filter run.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (SI columns are taken from it).
-    dim : int
-        Filter dimension, 2 or 3.
-    options : mapping, optional
-        Per-kind model options (``{"frequency": {"drift": True}}``).
-    nuisance : mapping, optional
-        Known nuisance values by name (Hz, dB, ...).
-    """
+    """A measurement set prepared once for a filter run of dimension ``dim``, options, nuisance."""
 
     def __init__(self, meas: MeasurementSet, dim: int,
                  options: Mapping[str, Mapping[str, object]] | None = None,
@@ -74,12 +62,8 @@ class PreparedMeasurements:
         self.ref_sensor_state = meas.ref_sensor_state[order]
         self.sensor = meas.sensor[order]
         self._kind_codes = {k: i for i, k in enumerate(self.models)}
-        # The set's kind codes (data.KIND_CODES) mapped to this file's model order: no per-row
-        # Python.
-        lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
-        for k, i in self._kind_codes.items():
-            lookup[KIND_CODES[k]] = i
-        self._codes = lookup[meas.kind_code[order]] if n else np.zeros(0, dtype=np.int64)
+        self._codes = (model_codes(meas.kind_code[order], list(self.models)) if n
+                       else np.zeros(0, dtype=np.int64))
         #: What the filters derive from the set once per run (e.g. the general path's plan).
         self.cache: dict[str, object] = {}
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
@@ -96,15 +80,15 @@ class PreparedMeasurements:
         return self._codes
 
     def __len__(self) -> int:
-        """Return the number of updates."""
+        """Give the number of updates."""
         return int(self.times.shape[0])
 
     def rows(self, k: int) -> MeasurementSet:
-        """Return the rows of update ``k`` as a MeasurementSet (the slow, general path)."""
+        """Give the rows of update ``k`` as a MeasurementSet (the slow, general path)."""
         return self.meas.take(self.order[self.bounds[k]:self.bounds[k + 1]])
 
     def group(self, k: int, t: float) -> MeasurementGroup:
-        """Return update ``k`` as a :class:`MeasurementGroup`, from views of the columns."""
+        """Give update ``k`` as a :class:`MeasurementGroup`, from views of the columns."""
         a, b = int(self.bounds[k]), int(self.bounds[k + 1])
         codes = self._codes[a:b]
         key = codes.tobytes()
@@ -131,6 +115,14 @@ class PreparedMeasurements:
 #: the same filter once more) is prepared once.  Kept while the set lives.
 _PREPARED: weakref.WeakKeyDictionary[MeasurementSet, dict[str, PreparedMeasurements]] = \
     weakref.WeakKeyDictionary()
+
+
+def model_codes(kind_code: IntArray, names: list[str]) -> IntArray:
+    """Map the set's kind codes (``data.KIND_CODES``) to positions in ``names``."""
+    lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
+    for i, k in enumerate(names):
+        lookup[KIND_CODES[k]] = i
+    return lookup[kind_code]
 
 
 def prepared_for(meas: MeasurementSet, dim: int,
@@ -165,7 +157,7 @@ Step = tuple
 
 
 def sym(p: Array) -> Array:
-    """Give ``(P + P^T) / 2`` of one square matrix (as :func:`~tmakit.core.linalg.symmetrise`)."""
+    """Give ``(P + P^T) / 2`` of one square matrix."""
     out = p + p.T
     out *= 0.5
     return out
@@ -231,24 +223,14 @@ def joseph(cov: Array, gain: Array, h: Array, r: Array) -> Array:
 
 
 class DynamicsCache:
-    """``Phi(dt)`` and ``Q(dt)`` of nearly-constant-velocity dynamics, made once per step size.
-
-    Parameters
-    ----------
-    dynamics : NearlyConstantVelocity
-        The dynamics.
-
-    References
-    ----------
-    Chen & Sun, §2.1 (``Phi(T)`` and ``Q_k``).
-    """
+    """``Phi(dt)``, ``Phi^T`` and ``Q(dt)`` of the dynamics, made once per step size."""
 
     def __init__(self, dynamics: NearlyConstantVelocity) -> None:
         self.dynamics = dynamics
         self._cache: dict[float, tuple[Array, Array, Array]] = {}
 
     def get(self, dt: float) -> tuple[Array, Array, Array]:
-        """Give the transition and process noise of one step, cached by step size."""
+        """Give the transition, its transpose and the process noise of a step ``dt``."""
         out = self._cache.get(dt)
         if out is None:
             if len(self._cache) > 256:  # irregular times: keep the cache small
@@ -354,20 +336,6 @@ def finite(y: Array, h: Array) -> bool:
     return bool(np.isfinite(y).all() and np.isfinite(h).all())
 
 
-def stacked_run(rows: list[tuple], n: int, mean: Array, cov: Array, t: float, ll: float
-                ) -> RunBlock:
-    """Give a run's per-update rows ``(time, state, cov, nis, dof, ll)`` as a block."""
-    if not rows:
-        return RunBlock(0, mean, cov, t, ll, np.zeros(0), np.zeros((0, n)),
-                        np.zeros((0, n, n)), np.zeros(0), np.zeros(0),
-                        np.zeros(0, dtype=np.int64))
-    times, states, covs, nis, dof, lls = zip(*rows, strict=True)
-    return RunBlock(len(rows), mean, cov, t, ll, np.array(times),
-                    np.concatenate(states).reshape(-1, n),
-                    np.concatenate(covs).reshape(-1, n, n), np.array(nis), np.array(lls),
-                    np.array(dof, dtype=np.int64))
-
-
 # -- the plan ---------------------------------------------------------------------------------
 
 #: Updates of at most this many rows, all of kinds with a plain-float ``row_gradient``, are
@@ -429,33 +397,18 @@ def _views(arr: Array, bounds: list[int], width: int = 1) -> list[Array]:
 
 
 class StepPlan:
-    """Every update of a prepared set, made ready for the general path (see the module text).
-
-    Parameters
-    ----------
-    prepared : PreparedMeasurements
-        The set prepared for the filter (its ``dim``, options and nuisance values).
-
-    Attributes
-    ----------
-    ok : bool
-        False when a kind uses an earlier reference sample (the group path is used).
-    steps : list
-        One :data:`Step` per update.
-    sizes : numpy.ndarray
-        Rows per update (K,).
-    """
+    """Every update of a prepared set as a :data:`Step` (``ok`` False: a kind uses a reference)."""
 
     def __init__(self, prepared: PreparedMeasurements) -> None:
         self.dim = prepared.dim
         self.ok = not any(m.uses_reference for m in prepared.models.values())
         self.steps: list[Step] = []
-        self.sizes = np.diff(prepared.bounds)
+        sizes = np.diff(prepared.bounds)
         if not self.ok or len(prepared) == 0:
             return
         names = list(prepared.models)
         codes = prepared.model_index
-        update = np.repeat(np.arange(len(prepared)), self.sizes)
+        update = np.repeat(np.arange(len(prepared)), sizes)
         # Rows of each update sorted by kind: every kind's rows become one slice.
         perm = np.lexsort((codes, update))
         codes = codes[perm]
@@ -527,15 +480,7 @@ EYE_MAPS = {2 * d: _state_map(np.zeros(1), d)[0] for d in (2, 3)}
 
 
 class RowSteps:
-    """Steps, as a plan's, for rows handed over one update at a time (the step-by-step API).
-
-    Parameters
-    ----------
-    dim : int
-        Filter dimension, 2 or 3.
-    options, nuisance : mapping, optional
-        As for :class:`PreparedMeasurements`.
-    """
+    """Steps, as a plan's, for rows handed over one update at a time (the step-by-step API)."""
 
     def __init__(self, dim: int, options: Mapping[str, Mapping[str, object]] | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
@@ -568,10 +513,7 @@ class RowSteps:
         if any(m.uses_reference or m.correlated_noise for m in models.values()):
             return None
         names = list(models)
-        lookup = np.full(len(KIND_CODES), -1, dtype=np.int64)
-        for i, k in enumerate(names):
-            lookup[KIND_CODES[k]] = i
-        codes = lookup[rows.kind_code]
+        codes = model_codes(rows.kind_code, names)
         perm = np.argsort(codes, kind="stable")
         codes, dt = codes[perm], dt[perm]
         parts, angle, _ = _pattern(codes, names, models, nus)

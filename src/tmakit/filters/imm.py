@@ -14,14 +14,12 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..core.linalg import solve_spd
 from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
-from .ekf import ExtendedKalmanFilter, skipped
-from .gaussian_sum import COMPONENTS
-from .record import Recorder
-from .track import Track
+from .ekf import ExtendedKalmanFilter
+from .gaussian_sum import check_component, component_filter, mixture_moments, update_components
+from .track import Recorder, Track
 
 #: Acceleration std of the default manoeuvre model (m/s^2): twice the 0.5 m/s^2 of an
 #: aircraft's or fast vessel's standard-rate turn at 50 m/s (Hoerst & Oispuu 2010, sec. 4),
@@ -31,14 +29,6 @@ MANOEUVRE_Q = 1.0
 TURN_Q = 0.05
 #: Probability per step of switching model (the default two-model Markov matrix).
 SWITCH = 0.01
-
-
-def _moments(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
-    """Mean and covariance of ``sum_i w_i N(m_i, P_i)``."""
-    mean = weights @ means
-    d = means - mean
-    cov = np.einsum("i,ijk->jk", weights, covs + d[:, :, None] * d[:, None, :])
-    return mean, 0.5 * (cov + cov.T)
 
 
 class InteractingMultipleModel(TrackingFilter):
@@ -88,9 +78,7 @@ class InteractingMultipleModel(TrackingFilter):
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        if component not in COMPONENTS:
-            raise ValueError(f"component must be one of {', '.join(COMPONENTS)}; got "
-                             f"{component!r}")
+        check_component(component)
         extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
         if not all(math.isfinite(v) and v >= 0 for v in extra):
             raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
@@ -131,9 +119,7 @@ class InteractingMultipleModel(TrackingFilter):
                                    tuple(density)) for v in extra] + [
             CoordinatedTurn(self.dim, tuple(float(max(turn_q, b)) for b in base_q),
                             tuple(density), turn_rate=w) for w in rates]
-        self._unit: ExtendedKalmanFilter = COMPONENTS[component](
-            np.asarray(mean, dtype=float), np.asarray(covariance, dtype=float), time,
-            dynamics=self.dynamics, options=self.options, nuisance=self.nuisance)
+        self._unit: ExtendedKalmanFilter = component_filter(self, component, mean, covariance)
         self.probability_history: list[list[float]] = []
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
@@ -160,7 +146,7 @@ class InteractingMultipleModel(TrackingFilter):
     @property
     def covariance(self) -> Array:
         """The combined covariance ``(n, n)``."""
-        return _moments(self._mu, self._m, self._p)[1]
+        return mixture_moments(self._mu, self._m, self._p)[1]
 
     def _predict(self, dt: float) -> None:
         pij = self.transition
@@ -170,7 +156,7 @@ class InteractingMultipleModel(TrackingFilter):
             w = pij[:, j] * self._mu
             total = float(w.sum())
             w = w / total if total > 0 else np.full_like(w, 1.0 / w.shape[0])
-            mean, cov = _moments(w, self._m, self._p)
+            mean, cov = mixture_moments(w, self._m, self._p)
             phi = model.transition(dt)
             mixed_m[j] = phi @ mean
             mixed_p[j] = phi @ cov @ phi.T + model.noise(dt)
@@ -179,32 +165,18 @@ class InteractingMultipleModel(TrackingFilter):
         self._mu = c / c.sum()
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        count = self._mu.shape[0]
-        log_l = np.full(count, -np.inf)
-        nus, covs = [], []
-        for j in range(count):
-            m, p, nu, s, ll = self._unit.update_gaussian(group, self._m[j], self._p[j])
-            if nu.shape[0]:
-                self._m[j], self._p[j] = m, p
-                log_l[j] = ll
-            nus.append(nu)
-            covs.append(s)
+        log_l, nis, dof = update_components(self._unit, group, self._m, self._p, self._mu)
         ok = np.flatnonzero(np.isfinite(log_l))
         if ok.shape[0] == 0:
-            self.skipped_updates += 1
             self.probability_history.append(self._mu.tolist())
-            return skipped()
-        prior = self._mu[ok] / self._mu[ok].sum()
-        nbar, sbar = _moments(prior, np.array([nus[i] for i in ok]),
-                              np.array([covs[i] for i in ok]))
-        nis = float(nbar @ solve_spd(sbar, nbar)[0])
+            return self._skip()
         top = float(np.max(log_l[ok]))
-        post = np.zeros(count)
+        post = np.zeros(log_l.shape[0])
         post[ok] = self._mu[ok] * np.exp(log_l[ok] - top)
         total = float(post.sum())
         self._mu = post / total
         self.probability_history.append(self._mu.tolist())
-        return UpdateInfo(nis, int(nbar.shape[0]), top + math.log(total))
+        return UpdateInfo(nis, dof, top + math.log(total))
 
     def _track(self, rec: Recorder) -> Track:
         track = super()._track(rec)

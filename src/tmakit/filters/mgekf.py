@@ -25,40 +25,19 @@ from .ekf import ExtendedKalmanFilter, gaussian_update
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
 MU_FLOOR = 1e-3
 
+
 @dataclass(frozen=True)
 class ModifiedRows:
-    """Modified-gain bearing rows of Chen & Sun, §2.3.
+    """Modified-gain bearing rows of Chen & Sun, §2.3 (``(m, ...)``; unfilled where not ``ok``)."""
 
-    Parameters
-    ----------
-    g : numpy.ndarray
-        ``(m, n)`` the modified-gain rows ``g' = U g`` (rad per state unit); rows where
-        ``ok`` is False are not filled (callers keep their EKF rows).
-    u : numpy.ndarray
-        ``(m,)`` the diagonal of ``U`` (1 where not ok).
-    denominator : numpy.ndarray
-        ``(m,)`` ``H_i(Z^m) X^'`` (m).
-    ok : numpy.ndarray
-        ``(m,)`` bool: the row is a modified one.
-
-    References
-    ----------
-    Chen & Sun, §2.3.
-    """
-
-    g: Array
-    u: Array
-    denominator: Array
-    ok: NDArray[np.bool_]
+    g: Array  # the rows g' = U g (rad per state unit)
+    u: Array  # the diagonal of U (1 where not ok)
+    denominator: Array  # H_i(Z^m) X' (m)
+    ok: NDArray[np.bool_]  # the row is a modified one
 
 
 def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
-    """Give the pseudo-linear rows ``H_i(Z^m)`` for measured bearings.
-
-    References
-    ----------
-    Chen & Sun, §2.3, eq. 2 (in tmakit's bearing convention).
-    """
+    """Give the pseudo-linear rows ``H_i(Z^m)`` of measured bearings (Chen & Sun, §2.3, eq. 2)."""
     b = np.asarray(measured, dtype=float)
     dt = np.asarray(dt, dtype=float)
     out = np.zeros((b.shape[0], 2 * dim))
@@ -70,12 +49,7 @@ def pseudo_linear_rows(measured: ArrayLike, dt: ArrayLike, dim: int) -> Array:
 
 def modified_gain_rows(measured: ArrayLike, rel: ArrayLike, dt: ArrayLike, dim: int,
                        residual: ArrayLike, mu: ArrayLike | None = None) -> ModifiedRows:
-    """Compute the WMEKF bearing rows of Chen & Sun, §2.3, in tmakit's bearing convention.
-
-    References
-    ----------
-    Chen & Sun, §2.3.
-    """
+    """Compute the WMEKF bearing rows of Chen & Sun, §2.3, in tmakit's bearing convention."""
     b = np.asarray(measured, dtype=float)
     rel = np.asarray(rel, dtype=float).reshape(b.shape[0], 6)
     r = np.asarray(residual, dtype=float)
@@ -95,18 +69,6 @@ def modified_gain_rows(measured: ArrayLike, rel: ArrayLike, dt: ArrayLike, dim: 
     return ModifiedRows(g, u, denom, ok)
 
 
-def split_update(mean: Array, cov: Array, residual: Array, h_gain: Array, h_cov: Array,
-                 r: Array) -> tuple[Array, Array, UpdateInfo]:
-    """Make Song & Speyer's MGEKF update.
-
-    References
-    ----------
-    Song & Speyer (1985) (gain from the EKF rows, modified rows in the covariance); with
-    ``h_gain = h_cov`` the gain of Chen & Sun, §2.5.
-    """
-    return gaussian_update(mean, cov, residual, h_gain, r, h_cov=h_cov)
-
-
 def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
     """Find the horizontal plane the predictions of ``rows`` are mirror-symmetric about."""
     if len(rows) == 0 or not np.all(rows.kind_flag("mirror_symmetric")):
@@ -124,22 +86,14 @@ def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
 
 
 class MirrorReflectMixin:
-    """Keep a 3-D Gaussian estimate above the sensors' plane while the data cannot tell.
-
-    Attributes
-    ----------
-    reflections : int
-        Reflections made.
-    """
+    """Keep a 3-D Gaussian estimate above the sensors' plane while the data cannot tell."""
 
     reflect_default = False
-    # The filter's (it is mixed into a Gaussian filter):
     dim: int
     _mean: Array
     _cov: Array
 
     def _start_reflecting(self, reflect: bool | None) -> None:
-        """Reflection on or off; None takes :attr:`reflect_default`."""
         self.reflect = self.reflect_default if reflect is None else bool(reflect)
         self.reflections = 0
         self._plane: float | None = None
@@ -167,20 +121,15 @@ class MirrorReflectMixin:
 
 
 class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
-    """The modified-gain EKF (WMEKF) of Chen & Sun, §2.3-2.5.
-
-    Modified-gain rows for bearings (with ``mu = 0``), EKF rows for range
-    differences and every other kind, Joseph-form covariance update with the modified rows.
+    """The modified-gain EKF (WMEKF) of Chen & Sun, §2.3-2.5 (module text).
 
     Parameters
     ----------
     mean, covariance, time
         The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     gain : {"song-speyer", "paper"}, optional
-        ``"paper"`` (Chen & Sun, §2.5: the modified rows in the gain and in the covariance update)
-        or ``"song-speyer"`` (the default; Song & Speyer's original MGEKF: the gain from the EKF
-        rows, the covariance update with the modified rows, which keeps the noise-dependent rows out
-        of the state correction and so avoids the bias of pseudo-linear gains).
+        ``"paper"`` (Chen & Sun, §2.5: the modified rows in the gain and the covariance update)
+        or ``"song-speyer"`` (Song & Speyer's MGEKF: the gain from the EKF rows).
     reflect : bool, optional
         Mirror an estimate that falls below the sensors' plane while the data cannot tell the two
         sides apart (default off).
@@ -228,9 +177,7 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
         h_ekf = group.jacobian(x)
         h = h_ekf.copy()
         if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(h))):
-            # the estimate on top of a sensor: no update (as the EKF does)
-            self.skipped_updates = getattr(self, "skipped_updates", 0) + 1
-            return UpdateInfo(float("nan"), 0, 0.0)
+            return self._skip()  # the estimate on top of a sensor (as the EKF does)
         r = group.covariance
         where = group.index.get("bearing")
         idx = None if where is None else np.arange(residual.shape[0])[where]
@@ -244,22 +191,13 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
         if self.gain == "paper" or idx is None:
             self._mean, self._cov, info = gaussian_update(x, self._cov, residual, h, r)
             return info
-        self._mean, self._cov, info = split_update(x, self._cov, residual, h_ekf, h, r)
+        # Song & Speyer (1985): the gain from the EKF rows, the modified rows in the covariance.
+        self._mean, self._cov, info = gaussian_update(x, self._cov, residual, h_ekf, r, h_cov=h)
         return info
 
 
 class ReflectingEKF(MirrorReflectMixin, ExtendedKalmanFilter):
-    """The plain EKF with the mirror rule of :class:`ModifiedGainEKF` on by default.
-
-    Parameters
-    ----------
-    mean, covariance, time
-        The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
-    reflect : bool or None, optional
-        The mirror rule (default on).
-    iterations, q, dynamics, options, nuisance
-        As for :class:`ExtendedKalmanFilter`.
-    """
+    """The plain EKF with the mirror rule of :class:`ModifiedGainEKF` on by default."""
 
     name = "ekf"
     reflect_default = True

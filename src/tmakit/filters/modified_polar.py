@@ -23,29 +23,12 @@ from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
-from .ekf import gaussian_update, skipped
+from .ekf import gaussian_update
 from .general import DynamicsCache, finite
 
 
 def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
-    """Give the relative Cartesian state of a modified polar state, and its Jacobian.
-
-    Parameters
-    ----------
-    mp : array_like
-        ``[beta, beta_dot, r_dot / r, 1 / r]`` (rad, rad/s, 1/s, 1/m; ``1 / r > 0``).
-
-    Returns
-    -------
-    rel : numpy.ndarray
-        ``[x, y, vx, vy]`` of the target less the sensor (m, m/s; ENU).
-    jacobian : numpy.ndarray
-        ``d rel / d mp`` ``(4, 4)``; its inverse is ``d mp / d rel``.
-
-    References
-    ----------
-    Aidala & Hammel (1983), eq. 12.
-    """
+    """Give the relative Cartesian state of a modified polar state and ``d rel / d mp`` (eq. 12)."""
     b, bd, rr, ir = (float(v) for v in np.asarray(mp, dtype=float))
     s, c = math.sin(b), math.cos(b)
     rel = np.array([s, c, rr * s + bd * c, rr * c - bd * s]) / ir
@@ -56,18 +39,7 @@ def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
 
 
 def to_modified_polar(rel: ArrayLike) -> Array:
-    """Give the modified polar state of a relative Cartesian state.
-
-    Parameters
-    ----------
-    rel : array_like
-        ``[x, y, vx, vy]`` of the target less the sensor (m, m/s; ENU), not at the sensor.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``[beta, beta_dot, r_dot / r, 1 / r]`` (rad, rad/s, 1/s, 1/m).
-    """
+    """Give the modified polar state of a relative Cartesian state ``[x, y, vx, vy]``."""
     x, y, vx, vy = (float(v) for v in np.asarray(rel, dtype=float))
     r2 = x * x + y * y
     return np.array([math.atan2(x, y), (vx * y - vy * x) / r2, (x * vx + y * vy) / r2,
@@ -133,23 +105,7 @@ class ModifiedPolarEKF(TrackingFilter):
         """Start at the first bearing with the prior's exact modified polar moments.
 
         ``1 / r`` has the moments of the log-uniform range; ``beta_dot`` and ``r_dot / r``
-        those of the relative velocity (target's uniform over the speed disc, less the
-        sensor's) over the range.
-
-        Parameters
-        ----------
-        prior : BearingPrior
-            Range and speed intervals.
-        first : FirstBearing
-            The first bearing (its time and sensor are the filter's).
-        dim : int
-            Must be 2.
-        **kwargs
-            Further arguments of the filter class.
-
-        Returns
-        -------
-        ModifiedPolarEKF
+        those of the relative velocity over the range.
 
         Raises
         ------
@@ -192,7 +148,7 @@ class ModifiedPolarEKF(TrackingFilter):
         return self._mp.copy(), self._p.copy()
 
     def _move(self, rel: Array, a_pre: Array, q: Array | None = None) -> None:
-        """Set the estimate to ``rel``, its error ``a_pre`` times the MP one, plus noise ``q``."""
+        """Set the estimate to ``rel``, its error ``a_pre`` times the old one, plus noise ``q``."""
         self._mp = to_modified_polar(rel)
         g = np.linalg.inv(from_modified_polar(self._mp)[1])
         a = g @ a_pre
@@ -217,12 +173,10 @@ class ModifiedPolarEKF(TrackingFilter):
         y = group.residual(group.predict(x))
         h = group.jacobian(x) @ j
         if not finite(y, h):
-            self.skipped_updates += 1
-            return skipped()
+            return self._skip()
         mp, p, info = gaussian_update(self._mp, self._p, y, h, group.covariance)
         if not mp[3] > 0:  # 1/r <= 0: past the sensor; keep the prediction
-            self.skipped_updates += 1
-            return skipped()
+            return self._skip()
         mp[0] = math.remainder(mp[0], 2 * math.pi)
         self._mp, self._p = mp, p
         return info

@@ -21,9 +21,8 @@ from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .bearing_prior import BearingPrior, FirstBearing
-from .ekf import LOG_2PI, skipped
-from .record import Recorder
-from .track import Track
+from .ekf import LOG_2PI
+from .track import Recorder, Track
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
 LOG_NEGLIGIBLE = -575.0
@@ -324,8 +323,7 @@ class ParticleFilter(TrackingFilter):
             total += self._logw
         top = float(total.max())
         if not math.isfinite(top):
-            self.skipped_updates += 1
-            return skipped()
+            return self._skip()
         total -= top
         w = np.exp(total, out=self._w_spare)
         # Weights below e^-575 (1e-250) of the largest are set to zero: they carry no mass,

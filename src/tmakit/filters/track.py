@@ -1,14 +1,13 @@
-"""A filter's output, :class:`Track`: one row per update.
+"""A filter's output, :class:`Track` (one row per update), and what its run collects.
 
-A track's :meth:`Track.answer` gives the emitter after any update in the user's terms (position
-in E/N and lat/lon, course, speed, range and bearing, each with its std, and the ellipse), the
-same answer :meth:`tmakit.results.EstimateResult.answer` gives for a batch estimate.
+:meth:`Track.answer` gives the emitter after any update in the user's terms, as
+:meth:`tmakit.results.EstimateResult.answer` does for a batch estimate.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,7 +16,157 @@ from ..core.arrays import Array
 from ..core.linalg import symmetrise
 from ..data import MeasurementSet
 from ..results.answers import ELLIPSE_LEVEL, Answer, track_answer
-from .extras import TrackExtras
+
+
+@dataclass(frozen=True)
+class UpdateInfo:
+    """What one update saw.
+
+    Parameters
+    ----------
+    nis : float
+        Normalised innovation squared (NaN for a skipped update).
+    dof : int
+        Its degrees of freedom (measurement rows; 0 when skipped).
+    log_likelihood : float
+        Log-likelihood of the group given the past (nats).
+    """
+
+    nis: float
+    dof: int
+    log_likelihood: float
+
+
+SKIPPED = UpdateInfo(float("nan"), 0, 0.0)
+
+
+@dataclass
+class TrackExtras:
+    """What a track records beside its rows (:attr:`Track.extra`).
+
+    Read as attributes; ``extra["q"]`` and ``extra.get("q")`` read the same fields.
+
+    Parameters
+    ----------
+    skipped_updates : int
+        Updates the filter could not make (a degenerate group).
+    start : dict or None
+        How the track started, in JSON form (``tmakit.tracking.track`` sets it).
+    start_record : object or None
+        The same as a typed record (``tmakit.tracking.PriorStart``, ``BatchStart``, ...).
+    q : list of float or None
+        Process noise acceleration std per axis (m/s^2).
+    q_density : list of float or None
+        White-noise acceleration density per axis (m^2/s^3).
+    dim : int or None
+        Spatial dimension of the state (2 or 3).
+    options : dict
+        The filter's options (``alpha``, ``iterations``, ...).
+    components : list of int or None
+        Components a Gaussian-sum filter held after each update.
+    smoothed : object or None
+        The smoothed track (:func:`tmakit.filters.smooth`), when asked for.
+    history : list or None
+        A particle filter's weighted clouds (``ParticleFilter(history=True)``).
+    model_probabilities : list of list of float or None
+        An IMM filter's model probabilities after each update.
+    models : list of dict or None
+        An IMM filter's models (``q``, ``q_density`` per axis, ``prior`` probability).
+    transition : list of list of float or None
+        An IMM filter's Markov matrix (row: from, column: to).
+    """
+
+    skipped_updates: int = 0
+    start: dict[str, Any] | None = None
+    start_record: Any = None
+    q: list[float] | None = None
+    q_density: list[float] | None = None
+    dim: int | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+    components: list[int] | None = None
+    smoothed: Any = None
+    history: Any = None
+    model_probabilities: list[list[float]] | None = None
+    models: list[dict[str, Any]] | None = None
+    transition: list[list[float]] | None = None
+
+    def __getitem__(self, key: str) -> Any:
+        """Give field ``key``.
+
+        Parameters
+        ----------
+        key : str
+            A field name.
+
+        Returns
+        -------
+        object
+            Its value.
+
+        Raises
+        ------
+        KeyError
+            If ``key`` is not a field.
+        """
+        if key not in self.__dataclass_fields__:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """Give field ``key``, or ``default`` when it is not a field or is ``None``.
+
+        Parameters
+        ----------
+        key : str
+            A field name.
+        default : object, optional
+            What to give otherwise.
+
+        Returns
+        -------
+        object
+            The value or ``default``.
+        """
+        value = getattr(self, key, None) if key in self.__dataclass_fields__ else None
+        return default if value is None else value
+
+
+class Recorder:
+    """Collects a run's per-update rows ``(time, state, cov, nis, dof, ll)`` and blocks."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.blocks: list[tuple[NDArray[Any], ...]] = []
+        self.rows: list[tuple[float, Array, Array, float, int, float]] = []
+
+    def add(self, time: float, state: Array, cov: Array, info: UpdateInfo,
+            loglik: float) -> None:
+        """Record one update."""
+        self.rows.append((time, state, cov, info.nis, info.dof, loglik))
+
+    def _flush(self) -> None:
+        if self.rows:
+            t, x, p, nis, dof, ll = zip(*self.rows, strict=True)
+            self.blocks.append((np.array(t, dtype=float), np.array(x, dtype=float),
+                                np.array(p, dtype=float), np.array(nis, dtype=float),
+                                np.array(dof, dtype=np.int64), np.array(ll, dtype=float)))
+            self.rows = []
+
+    def add_block(self, *columns: NDArray[Any]) -> None:
+        """Record updates run in one go: times, states, covariances, NIS, dof, log-likelihoods."""
+        self._flush()
+        self.blocks.append(columns)
+
+    def parts(self) -> list[NDArray[Any]]:
+        """Give the stacked outputs of every update recorded."""
+        self._flush()
+        n = self.n
+        if not self.blocks:
+            return [np.zeros(0), np.zeros((0, n)), np.zeros((0, n, n)), np.zeros(0),
+                    np.zeros(0, dtype=np.int64), np.zeros(0)]
+        parts = [np.concatenate([b[i] for b in self.blocks]) for i in range(6)]
+        return [parts[0], parts[1].reshape(-1, n), parts[2].reshape(-1, n, n), parts[3],
+                parts[4].astype(np.int64), parts[5]]
 
 
 @dataclass
@@ -27,7 +176,7 @@ class Track:
     Parameters
     ----------
     filter_name : str
-        Name of the filter (``"ekf"``, ``"ukf"``, ``"pf"``, ``"mgekf"``).
+        Name of the filter (``"ekf"``, ``"ukf"``, ``"pf"``, ...).
     state_names : tuple of str
         Names of the state components (``x, y, vx, vy`` or ``x, y, z, vx, vy, vz``).
     times, nis, dof, log_likelihood : numpy.ndarray
@@ -137,8 +286,8 @@ class Track:
         Returns
         -------
         Answer
-            Position (E/N, lat/lon), course (deg true), speed, range and bearing at the update's
-            time, each with its std, and the position ellipse.
+            Position, course, speed, range and bearing at the update's time, each with its std,
+            and the position ellipse.
         """
         return track_answer(self, meas, index, sensor, level)
 

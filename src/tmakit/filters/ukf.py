@@ -19,8 +19,8 @@ from ..core.linalg import safe_cholesky
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from ..observation.rows import Index
-from .base import Array, KindOptions, ProcessNoise, UpdateInfo
-from .ekf import LOG_2PI, ExtendedKalmanFilter
+from .base import Array, KindOptions, ProcessNoise
+from .ekf import LOG_2PI, ExtendedKalmanFilter, Updated
 from .general import (
     Step,
     checked_psd,
@@ -32,12 +32,7 @@ from .general import (
 
 def unscented_weights(n: int, alpha: float, beta: float, kappa: float
                       ) -> tuple[float, Array, Array]:
-    """Give the scaled unscented transform's spread and weights for an ``n``-state.
-
-    References
-    ----------
-    Wan & van der Merwe (2000), the weights of the scaled unscented transform (Julier 2002).
-    """
+    """Give the spread and weights of the scaled unscented transform (Wan & van der Merwe 2000)."""
     for name, value in (("alpha", alpha), ("beta", beta), ("kappa", kappa)):
         if not math.isfinite(value):
             raise ValueError(f"{name} must be finite; got {value}")
@@ -106,39 +101,23 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         """
         return self._plan_points(self._mean, self._cov)
 
-    def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        angle = group.angle if group.angle.any() else None
-        self._mean, self._cov, nis, m, ll = self._unscented(
-            _predict_group, group, group.values, angle, group.covariance, self._mean, self._cov)
-        return UpdateInfo(nis, m, ll)
-
-    def _gaussian_step(self, group: MeasurementGroup, mean: Array, cov: Array
-                       ) -> tuple[Array, Array, float, int, float]:
-        angle = group.angle if group.angle.any() else None
-        return self._unscented(_predict_group, group, group.values, angle, group.covariance,
+    def _gaussian_step(self, rows: MeasurementGroup | Step, mean: Array, cov: Array
+                       ) -> Updated:
+        if isinstance(rows, tuple):
+            return self._unscented(predict_rows, rows, rows[1], rows[7], rows[6], mean, cov)
+        angle = rows.angle if rows.angle.any() else None
+        return self._unscented(MeasurementGroup.predict, rows, rows.values, angle, rows.covariance,
                                mean, cov)
 
-    @staticmethod
-    def _planned() -> type[ExtendedKalmanFilter]:
-        return UnscentedKalmanFilter
-
     def _plan_points(self, mean: Array, cov: Array) -> Array:
-        """Give the sigma points of ``(mean, cov)`` (``safe_cholesky`` if LAPACK's fails)."""
         chol, info = dpotrf(cov, lower=1, clean=1)
         if info != 0:
             chol = safe_cholesky(cov)
         dev = self._gamma * chol.T
         return np.concatenate((mean[None, :], mean + dev, mean - dev))
 
-    def _plan_update(self, step: Step, mean: Array, cov: Array
-                     ) -> tuple[Array, Array, float, int, float]:
-        """One update of the general path (:meth:`_unscented` on the step)."""
-        return self._unscented(predict_rows, step, step[1], step[7], step[6], mean, cov)
-
-    def _unscented(self, predict: Callable, arg: object, values: Array,
-                   angle: Index | None,
-                   r: Array, mean: Array, cov: Array) -> tuple[Array, Array, float, int, float]:
-        """One UKF update: mean, covariance, NIS, rows, log-likelihood."""
+    def _unscented(self, predict: Callable, arg: object, values: Array, angle: Index | None,
+                   r: Array, mean: Array, cov: Array) -> Updated:
         pts = self._plan_points(mean, cov)
         z = predict(arg, pts)
         total = float(z.sum())
@@ -162,10 +141,6 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         m = nu.shape[0]
         return (mean + gain.dot(nu), checked_psd(cov - gain.dot(pzz).dot(gain.T)), nis, m,
                 -0.5 * (nis + log_det + m * LOG_2PI))
-
-
-def _predict_group(group: MeasurementGroup, points: Array) -> Array:
-    return group.predict(points)
 
 
 class CubatureKalmanFilter(UnscentedKalmanFilter):
@@ -195,7 +170,3 @@ class CubatureKalmanFilter(UnscentedKalmanFilter):
                  nuisance: Mapping[str, float] | None = None) -> None:
         super().__init__(mean, covariance, time, alpha=1.0, beta=0.0, kappa=0.0, q=q,
                          dynamics=dynamics, options=options, nuisance=nuisance)
-
-    @staticmethod
-    def _planned() -> type[ExtendedKalmanFilter]:
-        return CubatureKalmanFilter
