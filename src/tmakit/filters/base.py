@@ -280,7 +280,12 @@ class TrackingFilter(ABC):
         if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
             raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
                              f"filter's prior time t={self.time} s")
-        return self.run_prepared(prepared_for(meas, self.dim, self.options, self.nuisance))
+        prepared = prepared_for(meas, self.dim, self.options, self.nuisance)
+        with one_thread(self.single_blas_thread):
+            if not self._plain_interface():
+                return self.run_groups((float(prepared.times[k]), prepared.rows(k))
+                                       for k in range(len(prepared)))
+            return self._run_prepared(prepared)
 
     def _plain_interface(self) -> bool:
         cls = type(self)
@@ -292,34 +297,7 @@ class TrackingFilter(ABC):
         """Run and record updates ``start`` on in one go where the filter can; give the stop."""
         return None
 
-    def run_prepared(self, prepared: PreparedMeasurements) -> Track:
-        """Run the filter (as :meth:`run`) on a set prepared for it.
-
-        Parameters
-        ----------
-        prepared : PreparedMeasurements
-            Measurements prepared for this filter's ``dim``, options and nuisance values.
-
-        Returns
-        -------
-        Track
-            One row per update.
-
-        Raises
-        ------
-        ValueError
-            If ``prepared`` was made for another dimension.
-        """
-        if prepared.dim != self.dim:
-            raise ValueError(f"the measurements were prepared for a {prepared.dim}-D filter; "
-                             f"this one is {self.dim}-D")
-        with one_thread(self.single_blas_thread):
-            return self._run_prepared(prepared)
-
     def _run_prepared(self, prepared: PreparedMeasurements) -> Track:
-        if not self._plain_interface():
-            return self.run_groups((float(prepared.times[k]), prepared.rows(k))
-                                   for k in range(len(prepared)))
         rec = Recorder(2 * self.dim)
         k, total = 0, len(prepared)
         while k < total:

@@ -215,17 +215,3 @@ def _rows_to_set(rows: list[tuple], metadata: dict[str, str]) -> MeasurementSet:
         np.array(cols[7], dtype=float).reshape(n, 6), dict(metadata), check=False)
     rules.check_set(out, order=False)  # the rows of an update, not in a file's time order
     return out
-
-
-def multilag_layout(lags: Sequence[int], k: int) -> list[tuple[str, int, int]]:
-    """Give the layout of update ``k``'s multi-lag vector.
-
-    References
-    ----------
-    Chen & Sun, §2.2.
-    """
-    lags = _check_lags(lags)
-    pts = np.unique(np.clip(k - np.array((0, *lags)), 0, None))[::-1]
-    out = [("bearing", int(p), int(p)) for p in pts]
-    out += [("range_difference", int(a), int(b)) for a, b in pairwise(pts)]
-    return out

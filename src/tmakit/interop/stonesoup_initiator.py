@@ -15,11 +15,11 @@ from stonesoup.types.track import Track
 from ..filters import BearingPrior
 from ..filters.track import Track as TmakitTrack
 from ..results.estimate import EstimateResult
+from ..tracking import MIN_WINDOW, search_window
 from ..tracking import BearingInitiator as _FirstBearingStart
 from ..tracking import track as tmakit_track
 from ..tracking.errors import StartError, TrackingError
 from ..tracking.initiators import CONFIRM_P_VALUE, DEFAULT_MAX_RELATIVE_STD
-from ..tracking.window import MIN_WINDOW, search_window
 from .stonesoup_detections import from_detections
 from .stonesoup_models import EPOCH, cartesian_mapping
 

@@ -15,17 +15,25 @@ from .filter_setup import (
 from .initiators import (
     CONFIRM_P_VALUE,
     DEFAULT_MAX_RELATIVE_STD,
+    MIN_WINDOW,
     BatchInitiator,
+    BatchStart,
     BearingInitiator,
+    BearingStart,
+    Confirmation,
     Initiation,
     Initiator,
     PriorInitiator,
+    PriorStart,
+    Rejection,
+    StartRecord,
+    WindowChoice,
+    WindowEstimate,
+    search_window,
 )
 from .output import TrackTable, track_dict, track_table
 from .pcrb import track_pcrb
-from .records import BatchStart, BearingStart, Confirmation, PriorStart, Rejection, StartRecord
 from .tracker import start_record, track
-from .window import MIN_WINDOW, WindowChoice, WindowEstimate, search_window
 
 __all__ = [
     "CONFIRM_P_VALUE",

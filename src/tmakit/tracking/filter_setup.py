@@ -1,8 +1,6 @@
 """What the filter of a track is made of: its class, dimension, process noise and settings.
 
-Every value here is typed (numbers, sequences, mappings by state name): text from a command
-line is parsed by the command line.  Errors are :class:`~.errors.TrackingError` and name the
-library parameter (``q``, ``dim``, ``prior``, ``particles``, ...).
+Values are typed (the command line parses its text); errors name the library parameter.
 """
 
 from __future__ import annotations
@@ -30,7 +28,6 @@ __all__ = ["FilterSetup", "filter_class", "filter_dim", "noise_density", "proces
 Options = Mapping[str, Mapping[str, object]]
 
 
-
 def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
     """Return the filter's spatial dimension.
 
@@ -44,9 +41,8 @@ def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
     Returns
     -------
     int
-        ``dim`` if given, else 3 when the data need it (:attr:`MeasurementSet.dim`:
-        elevation, or a sensor off the plane z = 0) or the set's metadata names a 3-D motion
-        model (``cv3d``, ``static3d``), else 2.
+        ``dim`` if given, else 3 when the data need it (:attr:`MeasurementSet.dim`) or the
+        set's metadata names a 3-D motion model, else 2.
 
     Raises
     ------
@@ -68,14 +64,42 @@ def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
         return 2
 
 
+#: The largest process noise (acceleration std, m/s^2) a track takes: 1000 g.  Beyond it
+#: the filter ignores its own motion model and the number is a unit mistake or garbage.
+MAX_ACCELERATION = 1e4
+
+
+def _per_axis(value: float | ArrayLike, dim: int, name: str, unit: str, axes: str,
+              limit: float, too_big: str) -> tuple[float, ...]:
+    """Read one value for every axis or ``dim`` of them, finite and from 0 to ``limit``."""
+    what = f"a number or {dim} numbers ({unit} per axis)"
+
+    def error(text: str) -> TrackingError:
+        return TrackingError(f"{{{name}}}: {text}", name, [name])
+
+    if isinstance(value, str | bytes):
+        raise error(f"expected {what}, not the text {value!r}")
+    try:
+        values = np.atleast_1d(np.asarray(value, dtype=float)).reshape(-1).tolist()
+    except (TypeError, ValueError):
+        raise error(f"expected {what}, got {value!r}") from None
+    if len(values) == 1:
+        values = values * dim
+    if len(values) != dim:
+        raise error(f"expected one value or {dim} per-axis values{axes} for a {dim}-D track, "
+                    f"got {len(values)}")
+    if not all(np.isfinite(v) and 0 <= v <= limit for v in values):
+        raise error(f"{too_big}, got {values}")
+    return tuple(float(v) for v in values)
+
+
 def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
-    """Process noise as ``dim`` per-axis acceleration standard deviations.
+    """Process noise as ``dim`` per-axis acceleration standard deviations (Chen & Sun, §2.1).
 
     Parameters
     ----------
     q : float or array_like
-        One acceleration standard deviation (m/s^2) for every axis, or ``dim`` of them (x, y[, z]).
-        Text is refused: the command line parses ``"qx,qy"`` itself.
+        One acceleration std (m/s^2) for every axis, or ``dim`` of them (x, y[, z]); not text.
     dim : int
         The track's spatial dimension, 2 or 3.
 
@@ -88,30 +112,10 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
     ------
     TrackingError
         Text, the wrong number of values, or a negative or non-finite one (parameter ``q``).
-
-    References
-    ----------
-    Chen & Sun, §2.1: ``Q_k`` of the nearly-constant-velocity model these scale.
     """
-    if isinstance(q, str | bytes):
-        raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
-                            f"not the text {q!r}", "q", ["q"])
-    try:
-        values = np.atleast_1d(np.asarray(q, dtype=float)).reshape(-1).tolist()
-    except (TypeError, ValueError):
-        raise TrackingError(f"{{q}}: expected a number or {dim} numbers (m/s^2 per axis), "
-                            f"got {q!r}", "q", ["q"]) from None
-    if len(values) == 1:
-        values = values * dim
-    if len(values) != dim:
-        axes = "qx,qy" if dim == 2 else "qx,qy,qz"
-        raise TrackingError(f"{{q}}: expected one value or {dim} per-axis values ({axes}) for "
-                            f"a {dim}-D track, got {len(values)}", "q", ["q"])
-    if not all(np.isfinite(v) and 0 <= v <= MAX_ACCELERATION for v in values):
-        raise TrackingError(f"{{q}}: process noise must be an acceleration std >= 0 and at "
-                            f"most {MAX_ACCELERATION:g} m/s^2 (1000 g: beyond any vehicle), "
-                            f"got {values}", "q", ["q"])
-    return tuple(float(v) for v in values)
+    return _per_axis(q, dim, "q", "m/s^2", f" ({'qx,qy' if dim == 2 else 'qx,qy,qz'})",
+                     MAX_ACCELERATION, "process noise must be an acceleration std >= 0 and at "
+                     f"most {MAX_ACCELERATION:g} m/s^2 (1000 g: beyond any vehicle)")
 
 
 def noise_density(q_density: float | ArrayLike, dim: int) -> tuple[float, ...]:
@@ -120,8 +124,8 @@ def noise_density(q_density: float | ArrayLike, dim: int) -> tuple[float, ...]:
     Parameters
     ----------
     q_density : float or array_like
-        One density (m^2/s^3) for every axis, or ``dim`` of them: per axis
-        ``Q = q~ [[T^3/3, T^2/2], [T^2/2, T]]`` (:func:`tmakit.motion.dynamics.process_noise`).
+        One density (m^2/s^3) for every axis, or ``dim`` of them
+        (:func:`tmakit.motion.dynamics.process_noise`).
     dim : int
         The track's spatial dimension, 2 or 3.
 
@@ -135,30 +139,9 @@ def noise_density(q_density: float | ArrayLike, dim: int) -> tuple[float, ...]:
     TrackingError
         Text, the wrong number of values, or a negative or non-finite one (parameter ``q_density``).
     """
-    what = f"a number or {dim} numbers (m^2/s^3 per axis)"
-    if isinstance(q_density, str | bytes):
-        raise TrackingError(f"{{q_density}}: expected {what}, not the text {q_density!r}",
-                            "q_density", ["q_density"])
-    try:
-        values = np.atleast_1d(np.asarray(q_density, dtype=float)).reshape(-1).tolist()
-    except (TypeError, ValueError):
-        raise TrackingError(f"{{q_density}}: expected {what}, got {q_density!r}",
-                            "q_density", ["q_density"]) from None
-    if len(values) == 1:
-        values = values * dim
-    if len(values) != dim:
-        raise TrackingError(f"{{q_density}}: expected one value or {dim} per-axis values for "
-                            f"a {dim}-D track, got {len(values)}", "q_density", ["q_density"])
-    if not all(np.isfinite(v) and 0 <= v <= MAX_ACCELERATION**2 for v in values):
-        raise TrackingError(f"{{q_density}}: a white-noise acceleration density must be >= 0 "
-                            f"and at most {MAX_ACCELERATION**2:g} m^2/s^3, got {values}",
-                            "q_density", ["q_density"])
-    return tuple(float(v) for v in values)
-
-
-#: The largest process noise (acceleration std, m/s^2) a track takes: 1000 g.  Beyond it
-#: the filter ignores its own motion model and the number is a unit mistake or garbage.
-MAX_ACCELERATION = 1e4
+    return _per_axis(q_density, dim, "q_density", "m^2/s^3", "", MAX_ACCELERATION**2,
+                     "a white-noise acceleration density must be >= 0 and at most "
+                     f"{MAX_ACCELERATION**2:g} m^2/s^3")
 
 
 def state_vector(values: Mapping[str, float] | ArrayLike, names: tuple[str, ...],
@@ -214,14 +197,13 @@ def random_filters() -> list[str]:
     Returns
     -------
     list of str
-        The names (sorted) of the filters whose constructor takes ``rng`` or ``seed``.
+        The names (sorted) of the filters whose constructor takes ``rng``.
     """
     return [n for n, c in sorted(FILTERS.items()) if c.takes_rng]
 
 
 def _filter_kwargs(cls: type[TrackingFilter], particles: int | None,
                    rng: np.random.Generator | int | None) -> dict[str, Any]:
-    """Return the particle count and random generator, for the filters that take them."""
     kwargs: dict[str, Any] = {}
     if particles is not None:
         if not cls.takes_particles:
@@ -251,10 +233,9 @@ class FilterSetup:
     q : tuple of float
         Per-axis acceleration standard deviations (m/s^2).
     options : dict
-        Per-kind measurement-model options (as for :func:`tmakit.batch.estimate`).
+        Per-kind measurement-model options.
     kwargs : dict
-        Further constructor arguments (particle count, the one random generator that every
-        filter built from this setup shares).
+        Further constructor arguments (particle count, the one random generator shared).
     q_density : tuple of float
         Per-axis white-noise acceleration densities (m^2/s^3), added to ``q``'s noise.
     """
@@ -279,16 +260,14 @@ class FilterSetup:
             A name of :data:`tmakit.filters.FILTERS`.
         dim : int
             2 or 3.
-        q : float or array_like
-            Process noise, see :func:`process_noise` (m/s^2).
+        q, q_density : float or array_like
+            See :func:`process_noise` (m/s^2) and :func:`noise_density` (m^2/s^3).
         particles : int, optional
             Particle count, for particle filters only.
         rng : numpy.random.Generator or int, optional
             Generator or seed, for the filters that draw random numbers.
         options : mapping, optional
             Per-kind measurement-model options.
-        q_density : float or array_like
-            White-noise acceleration density, see :func:`noise_density` (m^2/s^3).
         settings : mapping, optional
             Further constructor arguments of the filter (``component``, ``alpha``, ...).
 
@@ -331,10 +310,8 @@ class FilterSetup:
 
         Parameters
         ----------
-        mean : ndarray, shape (2 dim,)
-            Prior mean (m, m/s).
-        covariance : ndarray, shape (2 dim, 2 dim)
-            Prior covariance (SI).
+        mean, covariance : ndarray
+            Prior mean ``(2 dim,)`` (m, m/s) and covariance ``(2 dim, 2 dim)``.
         time : float
             Prior time (s).
         nuisance : mapping of str to float, optional
@@ -369,8 +346,6 @@ class FilterSetup:
 
     def from_estimate(self, estimate: EstimateResult, time: float) -> TrackingFilter:
         """Start a filter from a batch estimate at ``time`` (s), with its nuisance values.
-
-        See :meth:`~tmakit.filters.TrackingFilter.from_estimate`.
 
         Parameters
         ----------

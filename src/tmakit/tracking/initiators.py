@@ -1,39 +1,525 @@
-"""How a track starts: initiators, objects with their settings in ``__init__``.
+"""How a track starts: initiators, the initial window of a batch start, and the start records.
 
 :meth:`Initiator.initiate` starts a :class:`~.filter_setup.FilterSetup`'s filter and returns an
 :class:`Initiation` (the typed start record and the track).  :class:`PriorInitiator` starts from a
-given Gaussian; :class:`BatchInitiator` (the default) from a batch estimate over the shortest
-good window (:func:`.window.search_window`), replaced by one from a window at least twice as long
-when the next updates' summed NIS is improbable (p below ``confirm_p_value``).
+given Gaussian; :class:`BearingInitiator` at the first bearing; :class:`BatchInitiator` (the
+default) from a batch estimate over the shortest good window, replaced by one from a window at
+least twice as long when the next updates' summed NIS is improbable (p below
+``confirm_p_value``).  A window's estimate is a good start when it converged, every state
+component is observable and the position's largest 1-sigma semi-axis is below
+``max_relative_std`` times the range (``docs/tracking.md``): :func:`search_window` doubles the
+window from ``min_window`` until it qualifies, then bisects down to the shortest that does.  The
+records' :meth:`as_dict` is the ``start`` of ``tma track --json``.
 """
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..batch import estimate
+from ..core import chi2
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..filters import BearingPrior, Track, first_bearing
+from ..filters import BearingPrior, FirstBearing, Track, first_bearing, group_times
 from ..measurements import model_for
+from ..motion import ConstantVelocity
+from ..results.estimate import EstimateResult
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
-from .records import BatchStart, BearingStart, Confirmation, PriorStart, Rejection, StartRecord
-from .window import MIN_WINDOW, search_window
 
-__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "BatchInitiator", "BearingInitiator",
-           "Initiation", "Initiator", "PriorInitiator"]
-
+__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "MIN_WINDOW", "BatchInitiator",
+           "BatchStart", "BearingInitiator", "BearingStart", "Confirmation", "Initiation",
+           "Initiator", "PriorInitiator", "PriorStart", "Rejection", "StartRecord",
+           "WindowChoice", "WindowEstimate", "search_window"]
 
 #: Default start quality: the position's largest 1-sigma semi-axis over the range.
 DEFAULT_MAX_RELATIVE_STD = 0.25
 #: A batch start is rejected (and a longer window tried) when the innovations of the updates
 #: that follow it are this improbable (chi-square test of their summed NIS).
 CONFIRM_P_VALUE = 1e-3
+#: The smallest initial window tried (distinct measurement times).
+MIN_WINDOW = 8
+
+
+@dataclass(frozen=True)
+class Confirmation:
+    """The innovation test of a batch start.
+
+    The normalised innovation squared (NIS) summed over the first ``updates`` updates after it,
+    against chi-square with ``dof`` degrees of freedom.
+
+    Parameters
+    ----------
+    updates : int
+        Updates tested.
+    nis : float
+        Their summed NIS.
+    dof : int
+        Their summed degrees of freedom.
+    p_value : float
+        Chi-square survival probability of ``nis`` (1 when there are no degrees of freedom).
+    """
+
+    updates: int
+    nis: float
+    dof: int
+    p_value: float
+
+    def as_dict(self) -> dict[str, float | int]:
+        """Return the JSON form: ``updates``, ``nis``, ``dof``, ``p_value``.
+
+        Returns
+        -------
+        dict
+            The test's figures by key (NIS and p-value dimensionless).
+        """
+        return {"updates": self.updates, "nis": self.nis, "dof": self.dof,
+                "p_value": self.p_value}
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """A batch start that its innovation test rejected.
+
+    Parameters
+    ----------
+    window : int
+        Its initial window (distinct measurement times).
+    time : float
+        The window's last time (s).
+    confirmation : Confirmation
+        The failed test.
+    """
+
+    window: int
+    time: float
+    confirmation: Confirmation
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the JSON form: ``window``, ``time`` and the test's keys.
+
+        Returns
+        -------
+        dict
+            The window (distinct times), its last time (s) and the test's figures.
+        """
+        return {"window": self.window, "time": self.time, **self.confirmation.as_dict()}
+
+    def describe(self) -> str:
+        """Describe the rejection in one sentence: the window and its test.
+
+        Returns
+        -------
+        str
+            The sentence (time in s).
+        """
+        c = self.confirmation
+        return (f"window of {self.window} times (t <= {float(self.time):g} s): NIS "
+                f"{float(c.nis):.4g} on {c.dof} degrees of freedom over the next "
+                f"{c.updates} updates (p = {float(c.p_value):.2g})")
+
+
+@dataclass(frozen=True)
+class PriorStart:
+    """A start from a given Gaussian prior; the filter updates with every row.
+
+    Parameters
+    ----------
+    time : float
+        Prior time (s).
+    mean : ndarray, shape (n,)
+        Prior mean (m, m/s).
+    std : ndarray, shape (n,)
+        Its standard deviations as given (m, m/s).
+    covariance : ndarray, shape (n, n)
+        ``diag(std**2)`` (m^2, m^2/s^2).
+    nuisance : dict of str to float
+        The known nuisance values given with it (Hz, dBW, ...).
+    state_names : tuple of str
+        The state components.
+    """
+
+    method: ClassVar[str] = "prior"
+
+    time: float
+    mean: Array
+    std: Array
+    covariance: Array
+    nuisance: dict[str, float]
+    state_names: tuple[str, ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the JSON form: ``method`` (``"prior"``), ``time``, ``mean``, ``std`` by name.
+
+        Returns
+        -------
+        dict
+            The start; time in s, mean and std in SI state units (m, m/s).
+        """
+        return {"method": self.method, "time": self.time,
+                "mean": dict(zip(self.state_names, self.mean.tolist(), strict=True)),
+                "std": dict(zip(self.state_names, self.std.tolist(), strict=True))}
+
+
+@dataclass(frozen=True)
+class BatchStart:
+    """A start from a batch estimate over the first ``window`` measurement times.
+
+    The filter begins at the window's last time with the estimate's state and covariance
+    (as the filter holds them) and its nuisance values, and updates with the later rows.
+
+    Parameters
+    ----------
+    time : float
+        The window's last time (s).
+    mean : ndarray, shape (n,)
+        The filter's state at ``time`` (m, m/s).
+    covariance : ndarray, shape (n, n)
+        Its covariance (SI).
+    nuisance : dict of str to float
+        The nuisance values the filter holds, from the estimate (Hz, dBW, ...).
+    state_names : tuple of str
+        The state components.
+    estimate : EstimateResult
+        The batch estimate (constant velocity referenced at ``time``).
+    window : int
+        Distinct measurement times in the window.
+    rows : int
+        Rows in the window.
+    relative_position_std : float
+        The position's largest 1-sigma semi-axis over the range to the nearest sensor.
+    max_relative_std : float or None
+        The start quality required (``None`` when the window was chosen).
+    windows_tried : int
+        Windows estimated by the search that found this one.
+    confirmation : Confirmation or None
+        The innovation test of this start.
+    rejected : tuple of Rejection
+        Earlier starts that their innovation tests rejected.
+    """
+
+    method: ClassVar[str] = "batch"
+
+    time: float
+    mean: Array
+    covariance: Array
+    nuisance: dict[str, float]
+    state_names: tuple[str, ...]
+    estimate: EstimateResult
+    window: int
+    rows: int
+    relative_position_std: float
+    max_relative_std: float | None
+    windows_tried: int
+    confirmation: Confirmation | None = None
+    rejected: tuple[Rejection, ...] = field(default_factory=tuple)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the JSON form.
+
+        Keys ``method`` (``"batch"``), ``window``, ``rows``, ``time``, ``status``, ``chi2``,
+        ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``, ``nuisance``
+        (value and std by name), ``confirmation`` and ``rejected``.
+
+        Returns
+        -------
+        dict
+            The start; times in s, nuisance values in their SI units (Hz, dBW, ...).
+        """
+        est = self.estimate
+        out: dict[str, Any] = {
+            "method": self.method,
+            "window": self.window,
+            "rows": self.rows,
+            "time": self.time,
+            "status": est.status,
+            "chi2": float(est.chi2),
+            "dof": int(est.dof),
+            "relative_position_std": float(self.relative_position_std),
+            "max_relative_std": self.max_relative_std,
+            "windows_tried": self.windows_tried,
+            "nuisance": {name: {"value": v, "std": sd}
+                         for name, (v, sd) in est.nuisance.items()},
+        }
+        if self.confirmation is not None:
+            out["confirmation"] = self.confirmation.as_dict()
+        out["rejected"] = [r.as_dict() for r in self.rejected]
+        return out
+
+
+@dataclass(frozen=True)
+class BearingStart:
+    """A start at the first bearing from a prior in the user's terms (range, speed, height).
+
+    The filter begins at the first bearing's time from :class:`~tmakit.filters.BearingPrior`
+    centred on that bearing (which it has then used) and updates with every other row.
+
+    Parameters
+    ----------
+    time : float
+        The first bearing's time (s).
+    mean : ndarray, shape (n,)
+        The filter's state there: the prior's mean (m, m/s).
+    covariance : ndarray, shape (n, n)
+        Its covariance (SI).
+    nuisance : dict of str to float
+        Known nuisance values given with it (Hz, dBW, ...).
+    state_names : tuple of str
+        The state components.
+    prior : BearingPrior
+        The intervals.
+    first : FirstBearing
+        The bearing the prior is centred on (its row is not used again).
+    confirmation : Confirmation, optional
+        The innovation test of the start.
+    rejected : tuple of Rejection
+        Earlier bearings whose starts the test rejected (window 1: one bearing).
+    """
+
+    method: ClassVar[str] = "first-bearing"
+
+    time: float
+    mean: Array
+    covariance: Array
+    nuisance: dict[str, float]
+    state_names: tuple[str, ...]
+    prior: BearingPrior
+    first: FirstBearing
+    confirmation: Confirmation | None = None
+    rejected: tuple[Rejection, ...] = ()
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the JSON form: ``method`` (``"first-bearing"``), ``time``, ``prior``, ...
+
+        Returns
+        -------
+        dict
+            ``time`` (s), ``bearing_deg``, ``sensor_row``, ``prior`` (m, m/s, with the
+            intervals the user gave), ``mean`` and ``std`` by name (m, m/s).
+        """
+        std = [math.sqrt(max(float(v), 0.0)) for v in self.covariance.diagonal()]
+        return {"method": self.method, "time": self.time,
+                "bearing_deg": math.degrees(self.first.bearing) % 360.0,
+                "row": self.first.row, "prior": self.prior.as_dict(),
+                "mean": dict(zip(self.state_names, self.mean.tolist(), strict=True)),
+                "std": dict(zip(self.state_names, std, strict=True)),
+                "confirmation": None if self.confirmation is None
+                else self.confirmation.as_dict(),
+                "rejected": [r.as_dict() for r in self.rejected]}
+
+
+#: What an initiator returns.
+StartRecord = PriorStart | BatchStart | BearingStart
+
+
+@dataclass(frozen=True)
+class WindowEstimate:
+    """The batch estimate over one initial window.
+
+    Parameters
+    ----------
+    window : int
+        Distinct measurement times in the window.
+    time : float
+        Its last time (s), the estimate's reference time.
+    rows : int
+        Rows in the window.
+    estimate : EstimateResult or None
+        The estimate; ``None`` when the estimator refused the window.
+    relative_position_std : float
+        Largest 1-sigma position semi-axis over the range to the nearest sensor (``inf``
+        when the estimate is not a start).
+    problem : str
+        Why the estimate is not a start ("" when it is converged and observable).
+    """
+
+    window: int
+    time: float
+    rows: int
+    estimate: EstimateResult | None
+    relative_position_std: float
+    problem: str
+
+
+@dataclass(frozen=True)
+class WindowChoice:
+    """The window a search chose, and how many it estimated.
+
+    Parameters
+    ----------
+    chosen : WindowEstimate
+        The window (its estimate is converged and observable).
+    windows_tried : int
+        Windows estimated by the search.
+    """
+
+    chosen: WindowEstimate
+    windows_tried: int
+
+
+def _relative_std(result: EstimateResult, rows: MeasurementSet, time: float, dim: int
+                  ) -> float | None:
+    """Return the position's largest 1-sigma semi-axis over the range to the nearest sensor."""
+    theta = result.estimate
+    motion = result.motion
+    state = motion.states(theta, np.array([time]))[0]
+    jac = motion.jacobian(theta, np.array([time]))[0][list(range(dim))]
+    cov = jac @ result.covariance @ jac.T
+    if not np.all(np.isfinite(cov)):
+        return None
+    last = np.abs(rows.time - rows.time.max()) < 1e-9
+    ranges = np.linalg.norm(state[None, :dim] - rows.sensor_state[last][:, :dim], axis=1)
+    rng = float(np.min(ranges))
+    major = float(np.sqrt(max(np.max(np.linalg.eigvalsh(cov)), 0.0)))
+    return major / rng if rng > 0 else np.inf
+
+
+class _Windows:
+    """The batch estimates of the initial windows of one set, each computed once."""
+
+    def __init__(self, meas: MeasurementSet, dim: int,
+                 options: Mapping[str, Mapping[str, object]] | None, fit_p_value: float = 0.0
+                 ) -> None:
+        self.meas, self.dim, self.options, self.fit_p_value = meas, dim, options, fit_p_value
+        self.groups = group_times(meas)
+        self.tried: dict[int, WindowEstimate] = {}
+
+    def __len__(self) -> int:
+        return len(self.groups)
+
+    def __call__(self, k: int) -> WindowEstimate:
+        if k not in self.tried:
+            rows = self.meas.take(np.concatenate(self.groups[:k]))
+            time = float(rows.time.max())
+            try:
+                result = estimate(rows, ConstantVelocity(self.dim, time), options=self.options)
+            except ValueError as e:  # e.g. no finite starting point on a tiny window
+                self.tried[k] = WindowEstimate(k, time, len(rows), None, np.inf, f"failed: {e}")
+            else:
+                rel = (_relative_std(result, rows, time, self.dim)
+                       if result.status == "converged" else None)
+                problem = "" if rel is not None else result.status + (
+                    f": {result.message}" if result.message else "")
+                p = result.chi2_p_value
+                if not problem and p is not None and p < self.fit_p_value:
+                    rel, problem = None, (f"an improbable fit (chi2 {result.chi2:.4g} on "
+                                          f"{result.dof} dof, p = {p:.2g})")
+                self.tried[k] = WindowEstimate(k, time, len(rows), result,
+                                               np.inf if rel is None else rel, problem)
+        return self.tried[k]
+
+    def choice(self, k: int) -> WindowChoice:
+        return WindowChoice(self(k), len(self.tried))
+
+    def no_start(self, max_relative_std: float) -> StartError:
+        """Build the error when no window qualifies: the best one, and the ways out."""
+        usable = [(w.relative_position_std, k) for k, w in self.tried.items()
+                  if np.isfinite(w.relative_position_std)]
+        fits = [w.problem for w in self.tried.values() if w.problem.startswith("an impr")]
+        tried = f"{len(self.tried)} windows of up to {len(self)} measurement times tried"
+        if fits and not usable:
+            return StartError(
+                f"cannot start the filter from the data: every converged window's estimate is "
+                f"{fits[-1]} ({tried}): the data are not one target in constant velocity with "
+                "the stated sigmas; look for clutter or a manoeuvre, check the sigmas, or "
+                "give a prior ({prior}/{prior_std})", "prior", ["prior", "prior_std"])
+        if usable:
+            rel, kk = min(usable)
+            detail = (f"the best converged, observable window ({kk} measurement times) "
+                      f"has a position std of {rel:.0%} of the range")
+        else:
+            detail = "no window gave a converged, observable estimate"
+        flat = ("; the track is 3-D: if the sensors move on a surface the height is not "
+                "observable, track in 2-D ({dim} 2)" if self.dim == 3 else "")
+        return StartError(
+            f"cannot start the filter from the data: {detail}, and the start needs less "
+            f"than {max_relative_std:.0%} ({tried}); "
+            "give a prior ({prior}/{prior_std}) or relax the start quality "
+            "({max_relative_std})" + flat, "prior",
+            ["prior", "prior_std", "max_relative_std", *(["dim"] if flat else [])])
+
+
+def search_window(meas: MeasurementSet, dim: int,
+                  options: Mapping[str, Mapping[str, object]] | None = None,
+                  init_window: int | None = None, max_relative_std: float = 0.25, *,
+                  min_window: int = MIN_WINDOW, fit_p_value: float = 0.0) -> WindowChoice:
+    """Return the initial window a batch start uses.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements.
+    dim : int
+        Spatial dimension, 2 or 3.
+    options : mapping, optional
+        Per-kind measurement-model options.
+    init_window : int, optional
+        Use exactly this many distinct measurement times (the estimate must then converge
+        and be observable); by default the shortest that is good enough.
+    max_relative_std : float
+        The start quality: position std over range must be below it (used in the search).
+    min_window : int
+        The first window tried by the search (distinct measurement times).
+    fit_p_value : float
+        A window whose fit's chi-square p-value is below it is no start (0: no test).
+
+    Returns
+    -------
+    WindowChoice
+        The window and its estimate.
+
+    Raises
+    ------
+    TrackingError
+        An empty set, or ``init_window`` outside 1 .. the number of times.
+    StartError
+        The chosen window's estimate is no start, or no window qualifies.
+    """
+    windows = _Windows(meas, dim, options, fit_p_value)
+    n = len(windows)
+    if n == 0:
+        raise TrackingError("the measurement set is empty: nothing to track")
+    if init_window is not None:
+        if int(init_window) != init_window or not 1 <= init_window <= n:
+            raise TrackingError(f"init_window: expected a whole number of measurement times "
+                                f"from 1 to {n}, got {init_window}", "init_window")
+        k = int(init_window)
+        w = windows(k)
+        if w.problem:
+            verb = "" if w.problem.startswith("failed") else "is "
+            raise StartError(f"the batch estimate over the first {k} measurement times "
+                             f"(t <= {w.time:g} s) {verb}{w.problem}; use a longer window or "
+                             "give a prior", "init_window")
+        return windows.choice(k)
+    if not max_relative_std > 0:
+        raise TrackingError(f"max_relative_std must be > 0, got {max_relative_std}",
+                            "max_relative_std")
+
+    def good(k: int) -> bool:
+        return windows(k).relative_position_std < max_relative_std
+
+    # Double the window until it qualifies, then bisect down to the shortest that does.
+    k = min(max(int(min_window), 1), n)
+    bad = k - 1
+    while not good(k):
+        if k == n:
+            raise windows.no_start(max_relative_std)
+        bad = k
+        k = min(2 * k, n)
+    while k - bad > 1:
+        mid = (k + bad) // 2
+        if good(mid):
+            k = mid
+        else:
+            bad = mid
+    return windows.choice(k)
 
 
 @dataclass(frozen=True)
@@ -308,8 +794,6 @@ class BatchInitiator(Initiator):
 
 def _confirmation(after: Track, window: int) -> Confirmation:
     """Run the innovation test of a start."""
-    from ..core import chi2
-
     m = min(len(after), max(window, MIN_WINDOW))
     nis = float(np.sum(after.nis[:m]))
     dof = int(np.sum(after.dof[:m]))

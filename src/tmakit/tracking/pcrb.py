@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 from ..bounds.pcrb import deterministic_pcrb, posterior_crb
 from ..data import MeasurementSet
 from ..filters import Track
-from .records import BatchStart, BearingStart
+from .initiators import BatchStart, BearingStart
 from .tracker import start_record
 
 __all__ = ["track_pcrb"]

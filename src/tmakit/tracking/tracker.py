@@ -17,11 +17,14 @@ from .filter_setup import FilterSetup, filter_class, filter_dim
 from .initiators import (
     DEFAULT_MAX_RELATIVE_STD,
     BatchInitiator,
+    BatchStart,
     BearingInitiator,
+    BearingStart,
     Initiator,
     PriorInitiator,
+    PriorStart,
+    StartRecord,
 )
-from .records import BatchStart, BearingStart, PriorStart, StartRecord
 
 __all__ = ["start_record", "track"]
 
