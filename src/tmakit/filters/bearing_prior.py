@@ -22,10 +22,9 @@ from ..motion.dynamics import state_names
 __all__ = ["DEFAULT_HEIGHT", "DEFAULT_RANGE", "DEFAULT_SPEED", "MAX_RANGE_CV", "BearingPrior",
            "FirstBearing", "first_bearing"]
 
-#: Default range interval (m) when the user gives none: from 500 m to 50 km, the span of a
-#: surface or air contact held by passive sonar or ESM.
+#: Default range interval (m): a surface or air contact held by passive sonar or ESM.
 DEFAULT_RANGE = (500.0, 50_000.0)
-#: Default largest speed (m/s): 20 m/s (about 39 kn), a fast surface vessel.
+#: Default largest speed (m/s, about 39 kn): a fast surface vessel.
 DEFAULT_SPEED = 20.0
 #: Default height interval (m, ENU z) of a 3-D track: from the surface to 12 km.
 DEFAULT_HEIGHT = (0.0, 12_000.0)
@@ -47,7 +46,7 @@ class FirstBearing:
     bearing, sigma : float
         Its value and standard deviation (rad, clockwise from North).
     sensor : numpy.ndarray
-        The sensor's state ``(6,)`` at that time (m, m/s).
+        The sensor's state ``(6,)`` (m, m/s).
     row : int
         Its row in the set.
     """
@@ -100,16 +99,15 @@ class BearingPrior:
     Parameters
     ----------
     range_min, range_max : float
-        The emitter's range from the sensor at the first bearing lies in this interval (m,
-        horizontal; ``0 < range_min < range_max``), uniform in log-range.
+        The horizontal range interval at the first bearing (m, ``0 < range_min < range_max``),
+        uniform in log-range.
     speed_max : float
-        Largest plausible speed (m/s, > 0); course unknown: the velocity is uniform over the
-        disc of this radius (3-D: ``vz`` with the same spread as one horizontal axis).
+        Largest plausible speed (m/s, > 0): the velocity is uniform over the disc of this radius
+        (3-D: ``vz`` with the spread of one horizontal axis).
     height : tuple of float, optional
         The emitter's height interval (m, ENU z) of a 3-D track, uniform.
     given : tuple of str, optional
-        Which of ``range``, ``speed``, ``height`` the user gave (the others are defaults,
-        said so in the outputs).
+        Which of ``range``, ``speed``, ``height`` the user gave (the others are defaults).
 
     Raises
     ------
@@ -158,10 +156,9 @@ class BearingPrior:
                 "height_m": list(self.height), "given": list(self.given)}
 
     def component_count(self, max_cv: float = MAX_RANGE_CV) -> int:
-        """Give the fewest components whose range spread is at most ``max_cv`` of their range.
+        """Give the fewest components whose range std is at most ``max_cv`` of their range.
 
-        A sub-interval ``[a, rho a]`` has the range mean ``a (1 + rho) / 2`` and std
-        ``a (rho - 1) / sqrt(12)``, so its coefficient of variation is
+        A sub-interval ``[a, rho a]`` has the coefficient of variation
         ``(rho - 1) / (sqrt(3) (rho + 1))`` (Peach 1995, §3).
 
         Parameters
@@ -181,6 +178,14 @@ class BearingPrior:
 
     def _velocity_var(self) -> float:
         return self.speed_max**2 / 4.0  # per axis, uniform over the disc
+
+    def _height_and_velocity(self, mean: Array, cov: Array, dim: int) -> None:
+        """Fill the height (3-D) and velocity moments of a mean ``(..., n)`` and covariance."""
+        if dim == 3:
+            lo, hi = self.height
+            mean[..., 2] = 0.5 * (lo + hi)
+            cov[..., 2, 2] = max((hi - lo) ** 2 / 12.0, 1e-6)
+        cov[..., dim:, dim:] = self._velocity_var() * np.eye(dim)
 
     def _frame(self, first: FirstBearing, dim: int) -> tuple[Array, Array]:
         """Give the unit line of sight and its normal (horizontal), as ``dim``-vectors."""
@@ -235,11 +240,7 @@ class BearingPrior:
         cross = (r**2 + sd_r**2) * first.sigma**2
         covs[:, :dim, :dim] = (sd_r**2)[:, None, None] * np.outer(u, u) \
             + cross[:, None, None] * np.outer(e, e)
-        if dim == 3:
-            lo, hi = self.height
-            means[:, 2] = 0.5 * (lo + hi)
-            covs[:, 2, 2] = max((hi - lo) ** 2 / 12.0, 1e-6)
-        covs[:, dim:, dim:] = self._velocity_var() * np.eye(dim)
+        self._height_and_velocity(means, covs, dim)
         return np.full(m, 1.0 / m), means, covs
 
     def gaussian(self, first: FirstBearing, dim: int = 2) -> tuple[Array, Array]:
@@ -270,20 +271,12 @@ class BearingPrior:
         cov = np.zeros((n, n))
         cov[:dim, :dim] = (er2 - er * er) * np.outer(u, u) \
             + er2 * first.sigma**2 * np.outer(e, e)
-        if dim == 3:
-            lo, hi = self.height
-            mean[2] = 0.5 * (lo + hi)
-            cov[2, 2] = max((hi - lo) ** 2 / 12.0, 1e-6)
-        cov[dim:, dim:] = self._velocity_var() * np.eye(dim)
+        self._height_and_velocity(mean, cov, dim)
         return mean, cov
 
     def sample(self, first: FirstBearing, count: int, rng: np.random.Generator,
                dim: int = 2) -> Array:
-        """Draw states from the prior.
-
-        Range uniform in log-range, bearing normal about the measured one, velocity uniform
-        over the disc of radius ``speed_max`` (3-D: height uniform over ``height``, ``vz``
-        normal with one horizontal axis's variance).
+        """Draw states from the prior (bearing normal about the measured one).
 
         Parameters
         ----------

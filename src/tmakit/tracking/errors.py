@@ -16,18 +16,15 @@ class TrackingError(ValueError):
     Parameters
     ----------
     template : str
-        The message; ``{name}`` marks where parameter ``name`` of ``spellings`` is named. Other text
-        (braces included) is kept as it is.
+        The message; ``{name}`` marks where parameter ``name`` of ``spellings`` is named.
     parameter : str or None
         The library parameter the error is about (its value is wrong, or it is the way out).
     spellings : mapping of str to str, or sequence of str
         The placeholders of ``template`` and how the library spells each (a sequence: each by its
-        own name). Default: none, the message is plain text.
+        own name).
 
     Attributes
     ----------
-    parameter : str or None
-        As given.
     parameters : tuple of str
         The placeholders of the message, in the order of ``spellings``.
     """
@@ -42,9 +39,7 @@ class TrackingError(ValueError):
         super().__init__(self.render())
 
     def render(self, names: Mapping[str, str] | None = None) -> str:
-        """Return the message with the parameters spelt as ``names`` says.
-
-        Parameters that ``names`` leaves out keep the library's spelling.
+        """Return the message with the parameters spelt as ``names`` says (else the library's).
 
         Parameters
         ----------
@@ -69,8 +64,7 @@ class TrackingError(ValueError):
         Parameters
         ----------
         text : str
-            Literal text (its braces are kept as they are unless they name a parameter of
-            this error).
+            Literal text (braces kept unless they name a parameter of this error).
 
         Returns
         -------
@@ -85,11 +79,7 @@ class TrackingError(ValueError):
 
 
 class StartError(TrackingError):
-    """The data cannot start the filter.
-
-    No initial window gives a good enough batch estimate, or the chosen window does not; the message
-    says which parameters offer a way out (a prior, a looser start quality, a longer window).
-    """
+    """The data cannot start the filter; the message names the parameters that offer a way out."""
 
 
 class MissingNuisanceError(TrackingError):
@@ -102,8 +92,6 @@ class MissingNuisanceError(TrackingError):
 
     Attributes
     ----------
-    missing : dict of str to tuple of str
-        As given.
     names : tuple of str
         Every missing nuisance name, in the order of ``missing``.
     """

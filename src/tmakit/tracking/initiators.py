@@ -50,10 +50,7 @@ MIN_WINDOW = 8
 
 @dataclass(frozen=True)
 class Confirmation:
-    """The innovation test of a batch start.
-
-    The normalised innovation squared (NIS) summed over the first ``updates`` updates after it,
-    against chi-square with ``dof`` degrees of freedom.
+    """The innovation test of a start: the NIS of the next ``updates`` updates against chi-square.
 
     Parameters
     ----------
@@ -73,12 +70,12 @@ class Confirmation:
     p_value: float
 
     def as_dict(self) -> dict[str, float | int]:
-        """Return the JSON form: ``updates``, ``nis``, ``dof``, ``p_value``.
+        """Return the JSON form.
 
         Returns
         -------
         dict
-            The test's figures by key (NIS and p-value dimensionless).
+            ``updates``, ``nis``, ``dof``, ``p_value``.
         """
         return {"updates": self.updates, "nis": self.nis, "dof": self.dof,
                 "p_value": self.p_value}
@@ -86,7 +83,7 @@ class Confirmation:
 
 @dataclass(frozen=True)
 class Rejection:
-    """A batch start that its innovation test rejected.
+    """A start that its innovation test rejected.
 
     Parameters
     ----------
@@ -103,22 +100,22 @@ class Rejection:
     confirmation: Confirmation
 
     def as_dict(self) -> dict[str, Any]:
-        """Return the JSON form: ``window``, ``time`` and the test's keys.
+        """Return the JSON form.
 
         Returns
         -------
         dict
-            The window (distinct times), its last time (s) and the test's figures.
+            ``window``, ``time`` (s) and the test's keys.
         """
         return {"window": self.window, "time": self.time, **self.confirmation.as_dict()}
 
     def describe(self) -> str:
-        """Describe the rejection in one sentence: the window and its test.
+        """Describe the rejection in one sentence.
 
         Returns
         -------
         str
-            The sentence (time in s).
+            The window and its test.
         """
         c = self.confirmation
         return (f"window of {self.window} times (t <= {float(self.time):g} s): NIS "
@@ -134,12 +131,10 @@ class PriorStart:
     ----------
     time : float
         Prior time (s).
-    mean : ndarray, shape (n,)
-        Prior mean (m, m/s).
-    std : ndarray, shape (n,)
-        Its standard deviations as given (m, m/s).
-    covariance : ndarray, shape (n, n)
-        ``diag(std**2)`` (m^2, m^2/s^2).
+    mean, std : ndarray
+        Prior mean and standard deviations as given ``(n,)`` (m, m/s).
+    covariance : ndarray
+        ``diag(std**2)`` ``(n, n)``.
     nuisance : dict of str to float
         The known nuisance values given with it (Hz, dBW, ...).
     state_names : tuple of str
@@ -156,12 +151,12 @@ class PriorStart:
     state_names: tuple[str, ...]
 
     def as_dict(self) -> dict[str, Any]:
-        """Return the JSON form: ``method`` (``"prior"``), ``time``, ``mean``, ``std`` by name.
+        """Return the JSON form.
 
         Returns
         -------
         dict
-            The start; time in s, mean and std in SI state units (m, m/s).
+            ``method`` (``"prior"``), ``time`` (s), ``mean`` and ``std`` by name (m, m/s).
         """
         return {"method": self.method, "time": self.time,
                 "mean": dict(zip(self.state_names, self.mean.tolist(), strict=True)),
@@ -172,27 +167,20 @@ class PriorStart:
 class BatchStart:
     """A start from a batch estimate over the first ``window`` measurement times.
 
-    The filter begins at the window's last time with the estimate's state and covariance
-    (as the filter holds them) and its nuisance values, and updates with the later rows.
-
     Parameters
     ----------
     time : float
-        The window's last time (s).
-    mean : ndarray, shape (n,)
-        The filter's state at ``time`` (m, m/s).
-    covariance : ndarray, shape (n, n)
-        Its covariance (SI).
+        The window's last time (s), where the filter begins.
+    mean, covariance : ndarray
+        The filter's state ``(n,)`` (m, m/s) and covariance ``(n, n)`` at ``time``.
     nuisance : dict of str to float
         The nuisance values the filter holds, from the estimate (Hz, dBW, ...).
     state_names : tuple of str
         The state components.
     estimate : EstimateResult
         The batch estimate (constant velocity referenced at ``time``).
-    window : int
-        Distinct measurement times in the window.
-    rows : int
-        Rows in the window.
+    window, rows : int
+        Distinct measurement times and rows in the window.
     relative_position_std : float
         The position's largest 1-sigma semi-axis over the range to the nearest sensor.
     max_relative_std : float or None
@@ -224,14 +212,12 @@ class BatchStart:
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
 
-        Keys ``method`` (``"batch"``), ``window``, ``rows``, ``time``, ``status``, ``chi2``,
-        ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``, ``nuisance``
-        (value and std by name), ``confirmation`` and ``rejected``.
-
         Returns
         -------
         dict
-            The start; times in s, nuisance values in their SI units (Hz, dBW, ...).
+            ``method`` (``"batch"``), ``window``, ``rows``, ``time`` (s), ``status``, ``chi2``,
+            ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``,
+            ``nuisance`` (value and std by name), ``confirmation`` and ``rejected``.
         """
         est = self.estimate
         out: dict[str, Any] = {
@@ -258,17 +244,12 @@ class BatchStart:
 class BearingStart:
     """A start at the first bearing from a prior in the user's terms (range, speed, height).
 
-    The filter begins at the first bearing's time from :class:`~tmakit.filters.BearingPrior`
-    centred on that bearing (which it has then used) and updates with every other row.
-
     Parameters
     ----------
     time : float
         The first bearing's time (s).
-    mean : ndarray, shape (n,)
-        The filter's state there: the prior's mean (m, m/s).
-    covariance : ndarray, shape (n, n)
-        Its covariance (SI).
+    mean, covariance : ndarray
+        The prior's mean ``(n,)`` (m, m/s) and covariance ``(n, n)`` there.
     nuisance : dict of str to float
         Known nuisance values given with it (Hz, dBW, ...).
     state_names : tuple of str
@@ -296,13 +277,13 @@ class BearingStart:
     rejected: tuple[Rejection, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
-        """Return the JSON form: ``method`` (``"first-bearing"``), ``time``, ``prior``, ...
+        """Return the JSON form.
 
         Returns
         -------
         dict
-            ``time`` (s), ``bearing_deg``, ``sensor_row``, ``prior`` (m, m/s, with the
-            intervals the user gave), ``mean`` and ``std`` by name (m, m/s).
+            ``method`` (``"first-bearing"``), ``time`` (s), ``bearing_deg``, ``row``, ``prior``,
+            ``mean`` and ``std`` by name (m, m/s), ``confirmation`` and ``rejected``.
         """
         std = [math.sqrt(max(float(v), 0.0)) for v in self.covariance.diagonal()]
         return {"method": self.method, "time": self.time,
@@ -325,17 +306,14 @@ class WindowEstimate:
 
     Parameters
     ----------
-    window : int
-        Distinct measurement times in the window.
+    window, rows : int
+        Distinct measurement times and rows in the window.
     time : float
         Its last time (s), the estimate's reference time.
-    rows : int
-        Rows in the window.
     estimate : EstimateResult or None
         The estimate; ``None`` when the estimator refused the window.
     relative_position_std : float
-        Largest 1-sigma position semi-axis over the range to the nearest sensor (``inf``
-        when the estimate is not a start).
+        Largest 1-sigma position semi-axis over the range (``inf``: not a start).
     problem : str
         Why the estimate is not a start ("" when it is converged and observable).
     """
@@ -366,7 +344,7 @@ class WindowChoice:
 
 def _relative_std(result: EstimateResult, rows: MeasurementSet, time: float, dim: int
                   ) -> float | None:
-    """Return the position's largest 1-sigma semi-axis over the range to the nearest sensor."""
+    """Give the position's largest 1-sigma semi-axis over the range to the nearest sensor."""
     theta = result.estimate
     motion = result.motion
     state = motion.states(theta, np.array([time]))[0]
@@ -461,10 +439,9 @@ def search_window(meas: MeasurementSet, dim: int,
     options : mapping, optional
         Per-kind measurement-model options.
     init_window : int, optional
-        Use exactly this many distinct measurement times (the estimate must then converge
-        and be observable); by default the shortest that is good enough.
+        Use exactly this many distinct measurement times; by default the shortest good one.
     max_relative_std : float
-        The start quality: position std over range must be below it (used in the search).
+        The start quality: position std over range must be below it (the search).
     min_window : int
         The first window tried by the search (distinct measurement times).
     fit_p_value : float
@@ -528,10 +505,11 @@ class Initiation:
 
     Parameters
     ----------
-    start : PriorStart or BatchStart
+    start : StartRecord
         How it started.
     track : Track
-        The filter's track from the start on (after a batch start, its first row is the start).
+        The filter's track from the start on (after a batch or bearing start, its first row is
+        the start).
     """
 
     start: StartRecord
@@ -571,16 +549,7 @@ class PriorInitiator(Initiator):
     time : float, optional
         Prior time (s); default the first measurement time.
     nuisance : mapping of str to float, optional
-        Known nuisance values (carrier Hz, power constant dBW, ...): required for the kinds
-        that have nuisance parameters.
-
-    Raises
-    ------
-    TrackingError
-        From :meth:`initiate`: components missing, unknown or not finite (parameters
-        ``prior``, ``prior_std``), a standard deviation <= 0.
-    MissingNuisanceError
-        From :meth:`initiate`: nuisance values the measurement kinds need are not given.
+        Known nuisance values (Hz, dBW, ...): required for the kinds that have them.
     """
 
     def __init__(self, mean: Mapping[str, float] | ArrayLike,
@@ -616,19 +585,15 @@ class PriorInitiator(Initiator):
 
 
 class BearingInitiator(Initiator):
-    """Start at the first bearing from a prior in the user's terms.
+    """Start at the first bearing from a prior in the user's terms, and update with every other row.
 
-    The filter starts at the first bearing's time from ``prior`` centred on that bearing
-    (:meth:`TrackingFilter.from_first_bearing <tmakit.filters.TrackingFilter.from_first_bearing>`)
-    and updates with every other row; the track's first row is that start (NIS NaN).
     With ``confirm`` the start is tested as a batch start is (NIS of the next ``MIN_WINDOW``
     updates); a rejected bearing (clutter) is dropped and the next one starts.
 
     Parameters
     ----------
     prior : BearingPrior, optional
-        Range, speed (and height) intervals; default :class:`~tmakit.filters.BearingPrior`'s
-        defaults (said so in the start record).
+        Range, speed (and height) intervals; default :class:`~tmakit.filters.BearingPrior`'s.
     nuisance : mapping of str to float, optional
         Known nuisance values, for the kinds that have nuisance parameters.
     confirm : bool
@@ -649,18 +614,6 @@ class BearingInitiator(Initiator):
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Start at the first bearing and update with every other row.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-            The measurements (with at least one bearing; SI).
-        setup : FilterSetup
-            The filter and its settings.
-
-        Returns
-        -------
-        Initiation
-            The start record and the track (s, m, m/s).
 
         Raises
         ------
@@ -695,7 +648,7 @@ class BearingInitiator(Initiator):
 
 def _check_nuisance(meas: MeasurementSet, options: Mapping[str, Mapping[str, object]],
                     nuisance: Mapping[str, float]) -> None:
-    """With a prior, the nuisance parameters of the kinds present must be given."""
+    """Refuse a prior start without the nuisance values of the kinds present."""
     missing: dict[str, list[str]] = {}
     for kind in meas.kinds:
         model = model_for(kind, options.get(kind))
@@ -715,16 +668,13 @@ class BatchInitiator(Initiator):
     Parameters
     ----------
     init_window : int, optional
-        Use the first ``init_window`` distinct measurement times (the estimate must converge and be
-        observable; no innovation test). Default: search the shortest window that meets
-        ``max_relative_std``.
+        Use the first ``init_window`` distinct measurement times (no innovation test). Default:
+        search the shortest window that meets ``max_relative_std``.
     max_relative_std : float
-        Start quality: the position's largest 1-sigma semi-axis must be below this fraction of the
-        range to the nearest sensor (> 0).
+        Start quality: the position's largest 1-sigma semi-axis over the range (> 0).
     confirm : bool
-        Test each start by its window's fit (chi-square p-value) and by the innovations of the
-        updates that follow it; replace a rejected one by a start from a window at least twice as
-        long.
+        Test each start by its window's fit and by the innovations that follow it; replace a
+        rejected one by a start from a window at least twice as long.
     min_window : int
         The first window the search tries (distinct measurement times).
     confirm_p_value : float
@@ -793,7 +743,7 @@ class BatchInitiator(Initiator):
 
 
 def _confirmation(after: Track, window: int) -> Confirmation:
-    """Run the innovation test of a start."""
+    """Test the NIS of the first ``max(window, MIN_WINDOW)`` updates after a start."""
     m = min(len(after), max(window, MIN_WINDOW))
     nis = float(np.sum(after.nis[:m]))
     dof = int(np.sum(after.dof[:m]))
@@ -804,7 +754,7 @@ def _confirmation(after: Track, window: int) -> Confirmation:
 
 def _prepend(tr: Track, time: float, state: Array, cov: Array, names: tuple[str, ...]
              ) -> Track:
-    """Return the track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
+    """Give the track with a first row for the start (NIS NaN, 0 degrees of freedom)."""
     extra = replace(tr.extra)
     if extra.model_probabilities is not None and extra.models is not None:
         extra.model_probabilities = [[m["prior"] for m in extra.models],

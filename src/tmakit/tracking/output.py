@@ -1,8 +1,4 @@
-"""A track as data for output: the JSON form and the table of a track file.
-
-The formats (CSV, Parquet) and the writing are :mod:`tmakit.io`'s (``write_track``); this
-module says what a track's JSON and table contain.
-"""
+"""A track as data for output: the JSON form and the table of a track file (written by ``io``)."""
 
 from __future__ import annotations
 
@@ -18,7 +14,7 @@ __all__ = ["TrackTable", "track_dict", "track_table"]
 
 
 def _clean(v: object) -> object:
-    """JSON-ready: non-finite floats as ``None``, through lists and dicts."""
+    """Give ``v`` with non-finite floats as ``None``, through lists and dicts."""
     if isinstance(v, float):
         return v if np.isfinite(v) else None
     if isinstance(v, list):
@@ -39,10 +35,9 @@ def track_dict(tr: Track) -> dict[str, object]:
     Returns
     -------
     dict
-        :meth:`Track.as_dict` with ``start``, ``q`` and ``q_density`` from ``tr.extra``, the
-        Gaussian sum's ``components`` per update, an IMM filter's ``model_probabilities``
-        per row (with its ``models`` and Markov ``transition``), and with a smoothed track
-        ``smoothed`` (beside ``estimate``), ``smoothed_std``, ``smoothed_covariance`` and
+        :meth:`Track.as_dict` with ``start``, ``q``, ``q_density``, the Gaussian sum's
+        ``components``, an IMM filter's ``model_probabilities``, ``models`` and ``transition``,
+        and a smoothed track's ``smoothed``, ``smoothed_std``, ``smoothed_covariance`` and
         ``smoother``; NaN and infinities as ``None``.
     """
     data = tr.as_dict()
@@ -71,9 +66,7 @@ class TrackTable:
     Parameters
     ----------
     columns : dict of str to ndarray
-        :meth:`Track.table_columns`: ``time``, each state component, its ``std_``, the upper
-        triangle of the covariance (``cov_x_y``, ...), ``nis``, ``dof``, ``log_likelihood``
-        (SI), one row per update.
+        :meth:`Track.table_columns`, one row per update (SI).
     metadata : dict of str to str
         ``filter``, ``start`` (JSON) and ``q`` (JSON), for formats that carry metadata.
     """

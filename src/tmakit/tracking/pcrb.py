@@ -21,11 +21,9 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
                ) -> tuple[Any | None, str]:
     """Compute the posterior CRB of a tracker that starts where ``tr`` started.
 
-    The same prior covariance, q, options and nuisance values as the track, over the same updates.
-    With ``truth`` the information is evaluated along the true trajectory (the bound of this run's
-    geometry; with q = 0 the batch CRLB plus the start's information); without it, averaged over
-    ``trajectories`` drawn from the start prior, an average dominated by the draws that pass closest
-    to the sensors when the prior is wide.
+    The same prior covariance, q, options and nuisance values as the track, over the same updates;
+    the information along ``truth`` if given, else averaged over ``trajectories`` drawn from the
+    start prior (docs/tracking.md).
 
     Parameters
     ----------

@@ -28,17 +28,13 @@ from .initiators import (
 
 __all__ = ["start_record", "track"]
 
-#: Field of :class:`~tmakit.filters.base.TrackExtras` holding the typed start record.
-START_RECORD = "start_record"
-
-
 def _initiator(initiator: Initiator | None,
                prior: Mapping[str, float] | ArrayLike | None,
                prior_std: Mapping[str, float] | ArrayLike | None, prior_time: float | None,
                nuisance: Mapping[str, float] | None, init_window: int | None,
                max_relative_std: float, confirm: bool, bearing_prior: BearingPrior | None,
                tracker: str) -> Initiator:
-    """Return the initiator given, or the one the start keywords of :func:`track` describe."""
+    """Give the initiator given, or the one the start keywords of :func:`track` describe."""
     if initiator is not None or bearing_prior is not None:
         if any(v is not None for v in (prior, prior_std, prior_time, init_window)) \
                 or (nuisance and initiator is not None) \
@@ -92,8 +88,7 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     particles : int, optional
         Particle count, for particle filters only.
     prior, prior_std : mapping or array_like, optional
-        Short form of ``initiator=PriorInitiator(prior, prior_std, prior_time, nuisance)`` (by state
-        name or as vectors; m, m/s).
+        Short form of ``initiator=PriorInitiator(prior, prior_std, prior_time, nuisance)`` (m, m/s).
     prior_time : float, optional
         The prior's time (s; default the first measurement time).
     init_window, max_relative_std, confirm
@@ -122,9 +117,8 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     Returns
     -------
     Track
-        One row per update (SI); ``extra`` says how it started (``start``, ``start_record``) and
-        with which ``q``, ``q_density``, ``dim`` and ``options``. Its first row is the start (NIS
-        NaN) after a batch or first-bearing start.
+        One row per update (SI); ``extra`` says how it started and with which settings. Its
+        first row is the start (NIS NaN) after a batch or first-bearing start.
 
     Raises
     ------
