@@ -8,8 +8,9 @@ Gland (2001); Liu & West (2001)).
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any, cast
 
@@ -32,23 +33,16 @@ LOG_NEGLIGIBLE = -575.0
 class ParticleStep:
     """The weighted cloud after one update, and what the resampling after it did."""
 
-    time: float  # Its time (s)
-    particles: Array  # ``(n, N)`` (m, m/s)
-    weights: Array  # ``(N,)``, normalised
-    #: The regularisation's shrinkage ``a`` (1: not resampled or not regularised)
-    shrink: float = 1.0
-    centre: Array | None = None  # The cloud's mean the shrinkage pulls towards
-    #: The regularisation kernel's covariance ``h^2 C`` added after resampling
-    jitter: Array | None = None
+    time: float  # (s)
+    particles: Array  # (n, N) (m, m/s)
+    weights: Array  # (N,), normalised
+    shrink: float = 1.0  # the regularisation's shrinkage a (1: none)
+    centre: Array | None = None  # the cloud's mean the shrinkage pulls towards
+    jitter: Array | None = None  # the kernel's covariance h^2 C added after resampling
 
 
 def optimal_bandwidth(n_particles: int, n_state: int) -> float:
-    """Give the optimal Gaussian-kernel bandwidth ``h_opt = (4 / (N (n + 2)))^(1 / (n + 4))``.
-
-    References
-    ----------
-    Musso, Oudjane & Le Gland (2001).
-    """
+    """Give the optimal Gaussian-kernel bandwidth (Musso, Oudjane & Le Gland 2001)."""
     return float((4.0 / (n_particles * (n_state + 2))) ** (1.0 / (n_state + 4)))
 
 
@@ -71,18 +65,17 @@ class ParticleFilter(TrackingFilter):
     Parameters
     ----------
     mean, covariance, time
-        The Gaussian prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s); the filter
-        starts by sampling it.
+        The Gaussian prior the first cloud is drawn from, as for
+        :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
     particles : int, optional
         Number of particles N (>= 2).
     bearing_start : tuple of (BearingPrior, FirstBearing), optional
-        Draw the first cloud from this bearing prior (:meth:`from_first_bearing`) instead of the
-        Gaussian ``mean, covariance`` (then the prior's moments).
+        Draw the first cloud from this bearing prior instead (:meth:`from_first_bearing`).
     history : bool, optional
-        Keep the weighted cloud after each update (:attr:`history`, the track's ``extra.history``)
-        for the particle smoother (:func:`tmakit.filters.smooth`); N x n floats per update.
+        Keep the weighted cloud after each update, for the particle smoother
+        (:func:`tmakit.filters.smooth`); N x n floats per update.
     rng : numpy.random.Generator, int or None, optional
-        Random source or seed; the same seed gives the same track.
+        Random source or seed.
     resample_threshold : float, optional
         Resample when the effective sample size is below this fraction of N, in (0, 1].
     regularise : bool, optional
@@ -102,9 +95,7 @@ class ParticleFilter(TrackingFilter):
     Raises
     ------
     ValueError
-        If ``particles`` is not a whole number >= 2, ``resample_threshold`` is outside (0, 1],
-        ``bandwidth`` is not positive and finite, the regularised kernel bandwidth ``h`` is >= 1, or
-        the prior is not valid.
+        A setting out of its range, a kernel bandwidth ``h`` >= 1, or a prior that is not valid.
 
     References
     ----------
@@ -272,9 +263,7 @@ class ParticleFilter(TrackingFilter):
             noise = self._density_noise = np.empty((2, self.dim, self.n_particles),
                                                    dtype=np.float32)
         self.rng.standard_normal(out=noise, dtype=np.float32)
-        from .particle_compiled import move_density  # numba, imported when first used
-
-        move_density(self._x, noise, float(dt), l11, l21, l22)
+        _compiled_move()(self._x, noise, float(dt), l11, l21, l22)
 
     # -- update -------------------------------------------------------------------------------
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
@@ -412,6 +401,27 @@ class ParticleFilter(TrackingFilter):
         self.resamples += 1
         # The estimate at this time stays the pre-resampling weighted moments.
         self._moments = (mean, cov)
+
+
+def _move_density(x: Array, noise: Array, dt: float, l11: Array, l21: Array,
+                  l22: Array) -> None:  # pragma: no cover - compiled
+    """Move the particles ``x`` (n, N) one step of white-noise acceleration, in place."""
+    dim = l11.shape[0]
+    for a in range(dim):
+        c11, c21, c22 = l11[a], l21[a], l22[a]
+        for i in range(x.shape[1]):
+            w0 = float(noise[0, a, i])
+            x[a, i] += dt * x[dim + a, i] + c11 * w0
+            x[dim + a, i] += c21 * w0 + c22 * float(noise[1, a, i])
+
+
+@functools.cache
+def _compiled_move() -> Callable[..., None]:
+    """Give :func:`_move_density` compiled (numba is imported at the first use)."""
+    import numba
+
+    return cast(Callable[..., None],
+                numba.njit(cache=True, nogil=True, error_model="numpy")(_move_density))
 
 
 def _kernel_factor(cov: Array) -> Array:
