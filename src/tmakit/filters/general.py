@@ -420,7 +420,8 @@ class StepPlan:
         sensor, sigmas = prepared.sensor[perm], prepared.sigmas[perm]
         correlated = any(m.correlated_noise for m in prepared.models.values())
         scalar = all(m.has_row_gradient for m in prepared.models.values())
-        recs = self._records(prepared, names, codes, values, sens, dt, time) if scalar else None
+        recs = _row_records(_row_info(prepared.models, prepared.nuisance, names, codes),
+                            time.tolist(), dt.tolist(), values, sens) if scalar else None
         patterns: dict[bytes, tuple[list, object, dict]] = {}
         maps: dict[bytes, tuple[Array, Array | None]] = {}
         bounds = prepared.bounds.tolist()
@@ -454,17 +455,21 @@ class StepPlan:
                                recs[a:b] if recs is not None and b - a <= SCALAR_ROWS
                                else None))
 
-    @staticmethod
-    def _records(prepared: PreparedMeasurements, names: list[str], codes: IntArray,
-                 values: Array, sens: Array, dt: Array, time: Array) -> list[tuple]:
-        """Give every row as a plain-float record for :func:`linearise` (kinds in order)."""
-        info = [(prepared.models[k].row_gradient, tuple(prepared.nuisance[k].tolist()),
-                 prepared.models[k].is_angle) for k in names]
-        per_row = [info[c] for c in codes.tolist()]
-        return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
-                zip(per_row, time.tolist(), dt.tolist(), values.tolist(),
-                    sens.tolist(), strict=True)]
 
+
+def _row_info(models: Mapping[str, MeasurementModel], nuisance: Mapping[str, Array],
+              names: list[str], codes: IntArray) -> list[tuple]:
+    """Give each row's ``row_gradient``, nuisance values and angle flag (its kind by code)."""
+    info = [(models[k].row_gradient, tuple(nuisance[k].tolist()), models[k].is_angle)
+            for k in names]
+    return [info[c] for c in codes.tolist()]
+
+
+def _row_records(info: list[tuple], time: list[float], dt: list[float], values: Array,
+                 sens: Array) -> list[tuple]:
+    """Give the rows as the plain-float records of :func:`linearise`."""
+    return [(fn, nu, t, d, v, ang, s) for (fn, nu, ang), t, d, v, s in
+            zip(info, time, dt, values.tolist(), sens.tolist(), strict=True)]
 
 
 def plan_for(prepared: PreparedMeasurements) -> StepPlan:
@@ -502,9 +507,7 @@ class RowSteps:
         values, sigmas, time, sens = rows.value_si, rows.sigma_si, rows.time, rows.sensor_state
         if perm is not None:
             values, sigmas, time, sens = values[perm], sigmas[perm], time[perm], sens[perm]
-        recs = None if info is None else [
-            (fn, nu, ti, d, v, ang, s) for (fn, nu, ang), ti, d, v, s in
-            zip(info, time.tolist(), dts, values.tolist(), sens.tolist(), strict=True)]
+        recs = None if info is None else _row_records(info, time.tolist(), dts, values, sens)
         return (t, values, sens.reshape(-1), parts, tmap, t3, np.diag(sigmas * sigmas), angle,
                 time, recs)
 
@@ -520,8 +523,7 @@ class RowSteps:
         t3 = _state_map(dt, self.dim)
         info = None
         if codes.shape[0] <= SCALAR_ROWS and all(m.has_row_gradient for m in models.values()):
-            info = [(models[names[c]].row_gradient, tuple(nus[names[c]].tolist()),
-                     models[names[c]].is_angle) for c in codes.tolist()]
+            info = _row_info(models, nus, names, codes)
         moved = bool(np.any(dt != 0.0))
         return (None if np.all(perm[:-1] < perm[1:]) else perm, parts,
                 t3.reshape(-1, 2 * self.dim), t3 if moved else None, angle, info, dt.tolist())

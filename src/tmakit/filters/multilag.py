@@ -15,9 +15,7 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 
-#: Default lags (samples) of the multi-lag vectors: eight sample times 0, 8, ..., 56 samples
-#: back, equally spaced (N = I = J = ... = 8 in the paper's notation).  The paper gives no
-#: lags; see docs/tracking.md for the choice.
+#: Default lags (samples) of the multi-lag vectors (the paper gives none: docs/tracking.md).
 DEFAULT_LAGS: tuple[int, ...] = (8, 16, 24, 32, 40, 48, 56)
 
 #: Times closer than this (s) are the same sample.
@@ -81,11 +79,7 @@ class _SensorData:
 def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
                     reuse_inflation: bool = False,
                     start: int = 0) -> list[tuple[float, MeasurementSet]]:
-    """Form the multi-lag measurement vectors of ``meas``.
-
-    One update per sample time ``t_k`` with, per sensor, the bearings at ``k`` and ``k - N_j``
-    and the range differences ``dr_{k - N_{j-1}, k - N_j}`` (sums of the lag-1 ones between,
-    ``sigma = sqrt(N) sigma_1``); one with a missing lag-1 link is left out.
+    """Form the multi-lag measurement vectors of ``meas`` (module text; lag-1 links summed).
 
     Parameters
     ----------
@@ -94,8 +88,7 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
     lags : sequence of int, optional
         ``N1 < N2 < ...`` (samples, >= 1).
     reuse_inflation : bool, optional
-        Multiply each row's variance by how many updates use its data (bearings: vectors
-        with the sample; range differences: mean over the spanned intervals); not in the paper.
+        Multiply each row's variance by how many updates use its data (not in the paper).
     start : int, optional
         First sample index (>= 0) that gets an update.
 
@@ -111,8 +104,7 @@ def multilag_groups(meas: MeasurementSet, lags: Sequence[int] = DEFAULT_LAGS, *,
 
     References
     ----------
-    Chen & Sun, §2.2 (the vectors), eq. 1 (their noise), §2.3-2.4 (rows predicted back from
-    ``time`` and ``time_ref``).
+    Chen & Sun, §2.2 (the vectors), eq. 1 (their noise).
     """
     lags = _check_lags(lags)
     if len(meas) == 0:

@@ -119,11 +119,10 @@ def smooth(track: Track, *, lag: int | None = None,
     Parameters
     ----------
     track : Track
-        A track of a Gaussian filter (EKF, UKF, cubature, the Gaussian sum's moments), from
-        :func:`tmakit.track` or a filter's ``run``.
+        A track of a Gaussian filter (the Gaussian sum's moments too) or of a particle filter
+        that kept its clouds.
     lag : int, optional
-        Fixed lag N >= 0 (updates): each state given the data up to N updates after it. Default: the
-        whole track (fixed-interval RTS).
+        Fixed lag N >= 0 (updates); default the whole track (fixed-interval RTS).
     dynamics : NearlyConstantVelocity, optional
         The filter's dynamics; default from the track's ``extra`` (``q``, ``q_density``).
     trajectories : int, optional
@@ -134,8 +133,8 @@ def smooth(track: Track, *, lag: int | None = None,
     Returns
     -------
     Track
-        The smoothed states and covariances at the track's times (NIS, degrees of freedom and
-        log-likelihood as filtered); ``extra.options["smoother"]`` says which.
+        The smoothed states and covariances (the rest as filtered); ``extra.options["smoother"]``
+        says which.
 
     Raises
     ------
