@@ -31,8 +31,7 @@ from .initiators import (
     WindowEstimate,
     search_window,
 )
-from .output import TrackTable, track_dict, track_table
-from .pcrb import track_pcrb
+from .output import TrackTable, track_dict, track_pcrb, track_table
 from .tracker import start_record, track
 
 __all__ = [
