@@ -42,7 +42,8 @@ def _range_scale(rows: MeasurementGroup | Step, x: Array, dim: int) -> float:
     return float(np.min(np.linalg.norm(sens[:, :dim] - x[:dim], axis=1)))
 
 
-def _linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, bool]:
+def linearise_group(group: MeasurementGroup, x: Array) -> tuple[Array, Array, bool]:
+    """Give the wrapped residual and the Jacobian at ``x``, and whether both are finite."""
     y = group.residual(group.predict(x))
     h = group.jacobian(x)
     return y, h, finite(y, h)
@@ -143,14 +144,11 @@ class ExtendedKalmanFilter(TrackingFilter):
         -------
         mean, cov : numpy.ndarray
             The updated Gaussian (unchanged when the update cannot be made).
-        innovation : numpy.ndarray
-            The wrapped innovation ``(m,)`` (empty when the update cannot be made).
-        innovation_cov : numpy.ndarray
-            Its covariance ``(m, m)``.
+        innovation, innovation_cov : numpy.ndarray
+            The wrapped innovation ``(m,)`` (empty when not made) and its covariance ``(m, m)``;
+            the iterated EKF's last linearisation's (a Laplace approximation).
         log_likelihood : float
-            ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).  The iterated
-            EKF gives the last linearisation's innovation ``z - h(x_i) - H_i (x^- - x_i)``
-            (a Laplace approximation).
+            ``log N(innovation; 0, innovation_cov)`` (nats; 0 when not made).
         """
         self._innovation = (np.zeros(0), np.zeros((0, 0)))
         new, new_cov, _, _, ll = self._gaussian_step(group, mean, cov)
@@ -165,7 +163,7 @@ class ExtendedKalmanFilter(TrackingFilter):
         """Update with a group or a plan's step."""
         if isinstance(rows, tuple):
             return self._kalman(linearise, rows, rows[6], mean, cov)
-        return self._kalman(_linearise_group, rows, rows.covariance, mean, cov)
+        return self._kalman(linearise_group, rows, rows.covariance, mean, cov)
 
     def _update_rows(self, rows: MeasurementSet) -> UpdateInfo | None:
         if type(self)._update is not ExtendedKalmanFilter._update:

@@ -1,6 +1,4 @@
-"""The Gaussian-sum filter: a bank of EKF, UKF or cubature components with weights.
-
-The posterior is ``sum_i w_i N(x; m_i, P_i)``.
+"""The Gaussian-sum filter: a bank of weighted EKF, UKF or cubature components.
 
 References
 ----------
@@ -109,8 +107,7 @@ class GaussianSumFilter(TrackingFilter):
     component : str, optional
         ``"ekf"``, ``"ukf"`` or ``"ckf"`` (cubature): the update of each component.
     iterations : int, optional
-        Linearisations per update of EKF components (the iterated EKF, Bell & Cathey 1993;
-        1 the plain EKF).  Default :data:`ITERATIONS` for EKF components, else 1.
+        Linearisations per update of EKF components (default :data:`ITERATIONS`; others 1).
     split_threshold : float, optional
         Split a component when its largest position std exceeds this fraction of its range
         from the sensor (0: never split).
@@ -194,12 +191,8 @@ class GaussianSumFilter(TrackingFilter):
 
         Parameters
         ----------
-        weights : array_like
-            ``(M,)``, > 0 (normalised here).
-        means : array_like
-            ``(M, n)`` (m, m/s).
-        covariances : array_like
-            ``(M, n, n)``, each positive definite.
+        weights, means, covariances : array_like
+            ``(M,)`` > 0 (normalised here), ``(M, n)`` (m, m/s), ``(M, n, n)`` positive definite.
         time : float
             Its time (s).
         **kwargs

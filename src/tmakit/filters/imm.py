@@ -44,9 +44,8 @@ class InteractingMultipleModel(TrackingFilter):
         Acceleration std (m/s^2, all axes) of the models after the first; the first model is the
         filter's own ``q``/``dynamics``. Default ``(MANOEUVRE_Q,)``.
     transition : array_like, optional
-        ``(M, M)`` Markov matrix, ``p_ij`` the probability per predict of going from model ``i`` to
-        model ``j``; rows sum to 1. Default ``1 - SWITCH`` on the diagonal and ``SWITCH / (M - 1)``
-        elsewhere.
+        ``(M, M)`` Markov matrix, ``p_ij`` from model ``i`` to ``j`` per predict (rows sum to 1);
+        default ``1 - SWITCH`` on the diagonal, ``SWITCH / (M - 1)`` elsewhere.
     turn_rates : sequence of float, optional
         Turn rates (rad/s, counter-clockwise positive; a right turn is negative) of further
         coordinated-turn models, after the ``model_q`` models (default none).
@@ -60,8 +59,7 @@ class InteractingMultipleModel(TrackingFilter):
     Raises
     ------
     ValueError
-        An unknown component, a negative ``model_q``, a matrix that is not stochastic, or
-        probabilities that are not.
+        A setting out of its range, or a matrix or probabilities that are not stochastic.
 
     References
     ----------

@@ -20,7 +20,7 @@ from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, UpdateInfo
-from .ekf import ExtendedKalmanFilter, gaussian_update
+from .ekf import ExtendedKalmanFilter, gaussian_update, linearise_group
 
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
 MU_FLOOR = 1e-3
@@ -173,11 +173,10 @@ class ModifiedGainEKF(MirrorReflectMixin, ExtendedKalmanFilter):
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
         x = self._mean
-        residual = group.residual(group.predict(x))
-        h_ekf = group.jacobian(x)
-        h = h_ekf.copy()
-        if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(h))):
+        residual, h_ekf, ok = linearise_group(group, x)
+        if not ok:
             return self._skip()  # the estimate on top of a sensor (as the EKF does)
+        h = h_ekf.copy()
         r = group.covariance
         where = group.index.get("bearing")
         idx = None if where is None else np.arange(residual.shape[0])[where]
