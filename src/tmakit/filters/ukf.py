@@ -56,24 +56,20 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
     ----------
     mean, covariance, time
         The prior, as for :class:`~tmakit.filters.TrackingFilter` (m, m/s; s).
-    alpha : float, optional
-        Sigma-point spread (> 0).
-    beta : float, optional
-        Prior-distribution parameter (2 for a Gaussian).
-    kappa : float, optional
-        Secondary scaling parameter.
+    alpha, beta, kappa : float, optional
+        Sigma-point spread (> 0), prior-distribution parameter (2 for a Gaussian), secondary
+        scaling parameter.
     q, dynamics, options, nuisance
         As for :class:`~tmakit.filters.TrackingFilter`.
 
     Raises
     ------
     ValueError
-        If the sigma-point parameters are not valid (:func:`unscented_weights`) or the prior is not.
+        If the sigma-point parameters or the prior are not valid.
 
     References
     ----------
-    Wan & van der Merwe (2000); Julier (2002); Chen & Sun, §2.1
-    (the dynamics).
+    Wan & van der Merwe (2000); Julier (2002); Chen & Sun, §2.1 (the dynamics).
     """
 
     name = "ukf"
@@ -144,10 +140,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
 
 
 class CubatureKalmanFilter(UnscentedKalmanFilter):
-    """The cubature Kalman filter: the third-degree spherical-radial rule.
-
-    ``2n`` points at ``x ± sqrt(n) L_j`` with equal weights ``1 / (2n)`` (Arasaratnam & Haykin 2009,
-    eqs. 33-34): the UKF's arithmetic with ``alpha = 1, beta = 0, kappa = 0``.
+    """The cubature Kalman filter: the UKF's arithmetic with ``alpha = 1, beta = 0, kappa = 0``.
 
     Parameters
     ----------
@@ -158,8 +151,7 @@ class CubatureKalmanFilter(UnscentedKalmanFilter):
 
     References
     ----------
-    Arasaratnam & Haykin (2009); Leong et al. (2014) use it as the component filter of their
-    Gaussian sum.
+    Arasaratnam & Haykin (2009), eqs. 33-34 (the third-degree spherical-radial rule).
     """
 
     name = "ckf"
