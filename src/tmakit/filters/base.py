@@ -285,7 +285,20 @@ class TrackingFilter(ABC):
             if not self._plain_interface():
                 return self.run_groups((float(prepared.times[k]), prepared.rows(k))
                                        for k in range(len(prepared)))
-            return self._run_prepared(prepared)
+            rec = Recorder(2 * self.dim)
+            k, total = 0, len(prepared)
+            while k < total:
+                stop = self._run_block(prepared, k, rec)
+                if stop is not None:
+                    k = stop
+                    if k >= total:
+                        break
+                self._advance(float(prepared.times[k]))
+                info = self._update(prepared.group(k, self.time))
+                self.log_likelihood += info.log_likelihood
+                rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
+                k += 1
+            return self._track(rec)
 
     def _plain_interface(self) -> bool:
         cls = type(self)
@@ -296,22 +309,6 @@ class TrackingFilter(ABC):
                    ) -> int | None:
         """Run and record updates ``start`` on in one go where the filter can; give the stop."""
         return None
-
-    def _run_prepared(self, prepared: PreparedMeasurements) -> Track:
-        rec = Recorder(2 * self.dim)
-        k, total = 0, len(prepared)
-        while k < total:
-            stop = self._run_block(prepared, k, rec)
-            if stop is not None:
-                k = stop
-                if k >= total:
-                    break
-            self._advance(float(prepared.times[k]))
-            info = self._update(prepared.group(k, self.time))
-            self.log_likelihood += info.log_likelihood
-            rec.add(self.time, self.state, self.covariance, info, self.log_likelihood)
-            k += 1
-        return self._track(rec)
 
     def run_groups(self, groups: Iterable[tuple[float, MeasurementSet]]) -> Track:
         """Predict to each ``time`` and update with its rows (at any times), in the order given.

@@ -251,9 +251,6 @@ class GaussianSumFilter(TrackingFilter):
         """The sum's covariance ``(n, n)`` (m^2, m^2/s, m^2/s^2)."""
         return self._compute_moments()[1].copy()
 
-    def _settings(self) -> Array:
-        return np.array([self.split_threshold, self.prune, self.merge, self.iterations])
-
     def _predict(self, dt: float) -> None:
         qa, qd = self.dynamics.axes()
         _sums().predict_sum(self._m, self._p, self._count, float(dt), self.dim, qa, qd)
@@ -302,7 +299,8 @@ class GaussianSumFilter(TrackingFilter):
         count, t, skipped_now = _sums().gsf_bearing_2d(
             self._w, self._m, self._p, self._count, self.time, times, zs,
             prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
-            qa, qd, sp, self._settings(), means, covs, nis, lls, counts)
+            qa, qd, sp, np.array([self.split_threshold, self.prune, self.merge, self.iterations]),
+            means, covs, nis, lls, counts)
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None

@@ -110,13 +110,6 @@ def split_sum(w: Array, m: Array, p: Array, count: int, sensor: Array, dim: int,
 
 
 @_inline
-def _copy_component(w: Array, m: Array, p: Array, src: int, dst: int) -> None:  # pragma: no cover
-    w[dst] = w[src]
-    m[dst, :] = m[src, :]
-    p[dst, :, :] = p[src, :, :]
-
-
-@_inline
 def _prune(w: Array, m: Array, p: Array, count: int, prune: float) -> int:  # pragma: no cover
     """Drop the components lighter than ``prune`` of the heaviest; give the new count."""
     top = 0.0
@@ -126,7 +119,9 @@ def _prune(w: Array, m: Array, p: Array, count: int, prune: float) -> int:  # pr
     for i in range(count):
         if w[i] >= prune * top and w[i] > 0.0:
             if keep != i:
-                _copy_component(w, m, p, i, keep)
+                w[keep] = w[i]
+                m[keep, :] = m[i, :]
+                p[keep, :, :] = p[i, :, :]
             keep += 1
     return keep
 

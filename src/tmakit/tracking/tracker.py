@@ -135,15 +135,10 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     setup = FilterSetup.create(tracker, filter_dim(meas, dim), q, particles, rng,
                                options_with_metadata(meas.kinds, options, meas.metadata),
                                q_density, settings)
-    _trackable(meas)
-    return _run(_initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
-                           max_relative_std, confirm, bearing_prior, tracker), meas, setup)
-
-
-def _trackable(meas: MeasurementSet) -> None:
-    """Refuse an empty set."""
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
+    return _run(_initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
+                           max_relative_std, confirm, bearing_prior, tracker), meas, setup)
 
 
 def _run(initiator: Initiator, meas: MeasurementSet, setup: FilterSetup) -> Track:
