@@ -137,13 +137,8 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
                                q_density, settings)
     if len(meas) == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
-    return _run(_initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
-                           max_relative_std, confirm, bearing_prior, tracker), meas, setup)
-
-
-def _run(initiator: Initiator, meas: MeasurementSet, setup: FilterSetup) -> Track:
-    """Start and run the filter; record how in the track's ``extra``."""
-    started = initiator.initiate(meas, setup)
+    started = _initiator(initiator, prior, prior_std, prior_time, nuisance, init_window,
+                         max_relative_std, confirm, bearing_prior, tracker).initiate(meas, setup)
     result = started.track
     result.extra = replace(result.extra, start=started.start.as_dict(),
                            start_record=started.start, q=list(setup.q),
