@@ -83,8 +83,8 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
         The measurements.
     tracker : str
         A name of :data:`tmakit.filters.FILTERS` (``ekf``, ``ukf``, ``ckf``, ``gsf``, ...).
-    q : float or array_like
-        Acceleration std (m/s^2), one or per axis (:func:`~.filter_setup.process_noise`).
+    q, q_density : float or array_like
+        Acceleration std (m/s^2) and white-noise acceleration density (m^2/s^3), one or per axis.
     particles : int, optional
         Particle count, for particle filters only.
     prior, prior_std : mapping or array_like, optional
@@ -92,8 +92,7 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     prior_time : float, optional
         The prior's time (s; default the first measurement time).
     init_window, max_relative_std, confirm
-        Short form of ``initiator=BatchInitiator(init_window, max_relative_std, confirm)`` when no
-        prior is given (the default start).
+        Short form of ``initiator=BatchInitiator(init_window, max_relative_std, confirm)``.
     rng : numpy.random.Generator or int, optional
         Generator or seed, for the filters that draw random numbers.
     dim : int, optional
@@ -105,12 +104,9 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     initiator : Initiator, optional
         The start policy (then none of the start keywords above).
     bearing_prior : BearingPrior, optional
-        Short form of ``initiator=BearingInitiator(bearing_prior, nuisance)``: start at the first
-        bearing (``gsf`` does by default, with the default intervals).
+        Short form of ``initiator=BearingInitiator(bearing_prior, nuisance)`` (``gsf``'s default).
     settings : mapping, optional
         Further filter settings (``{"component": "ckf"}`` for ``gsf``, ...).
-    q_density : float or array_like
-        White-noise acceleration density (m^2/s^3; :func:`~.filter_setup.noise_density`).
     filter : str, optional
         Deprecated (it shadows a builtin): ``tracker``.
 
