@@ -17,8 +17,8 @@ from ..core.arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from . import compiled
 from .belief import Belief
+from .compiled import PLANAR_KINDS, compiled_basis
 from .criteria import WeightedTrace, evaluate
-from .planar_information import PLANAR_KINDS, compiled_basis
 
 
 def pack_actions(actions: Actions) -> tuple[Array, bool]:
