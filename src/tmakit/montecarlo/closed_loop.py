@@ -22,7 +22,7 @@ from ..core.arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
 from ..planning.closed_loop import LoopRecord, LoopSetup, Policy, run_closed_loop
 from ..planning.measurement_plan import SensorPlan
-from .execution import dask_client, progress_bar, run_dask, run_local
+from .execution import dask_client, progress_bar, run_dask, run_local, whole_number
 
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
@@ -38,24 +38,12 @@ MIN_RUNS_INTERVAL = MIN_RUNS
 
 @dataclass(frozen=True, eq=False)
 class LoopCase:
-    """One case of a closed-loop study.
+    """One case of a closed-loop study."""
 
-    Parameters
-    ----------
-    name : str
-        The case's name (a column of the table).
-    policy : Policy
-        What chooses the steps.
-    plan : SensorPlan
-        What the sensor measures.
-    setup : LoopSetup
-        Truth, sensor start, tracker, decisions.
-    """
-
-    name: str
-    policy: Policy
-    plan: SensorPlan
-    setup: LoopSetup
+    name: str  # The case's name (a column of the table)
+    policy: Policy  # What chooses the steps
+    plan: SensorPlan  # What the sensor measures
+    setup: LoopSetup  # Truth, sensor start, tracker, decisions
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,7 +101,8 @@ class ClosedLoopStudy:
     setups : dict of str to LoopSetup
         Per case, its loop setup (the prior and the process noise of the bound).
 
-    Every method that takes a ``case`` raises ValueError for a case the study does not have.
+    Every method takes a ``case`` of :attr:`cases` (ValueError for another) and gives its
+    figures per decision, (D,) in metres, unless it says otherwise.
     """
 
     records: dict[str, list[LoopRecord]]
@@ -129,17 +118,7 @@ class ClosedLoopStudy:
         return list(self.records)
 
     def runs(self, case: str) -> int:
-        """Return the number of runs of ``case``.
-
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-
-        Returns
-        -------
-        int
-        """
+        """Return the number of runs of ``case``."""
         return len(self._of(case))
 
     def _of(self, case: str) -> list[LoopRecord]:
@@ -148,88 +127,23 @@ class ClosedLoopStudy:
         return self.records[case]
 
     def times(self, case: str) -> Array:
-        """Return the decision times of ``case``.
-
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-
-        Returns
-        -------
-        ndarray, shape (D,)
-            s.
-        """
+        """Return the decision times of ``case`` (D,), s."""
         return self._of(case)[0].times
 
     def stack(self, case: str, name: str) -> Array:
-        """Return one per-step field of every run of ``case`` stacked, (runs, D, ...).
-
-        Parameters
-        ----------
-        case : str
-            The case.
-        name : str
-            A :class:`~tmakit.planning.closed_loop.LoopRecord` field (``error_m``,
-            ``bound_m``, ``range_m``, ``sensor``, ...).
-
-        Returns
-        -------
-        ndarray
-        """
+        """Return the :class:`LoopRecord` field ``name`` of every run stacked, (runs, D, ...)."""
         return np.stack([getattr(r, name) for r in self._of(case)])
 
     def rmse(self, case: str) -> Array:
-        """Return the position RMSE over runs at each step.
-
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-
-        Returns
-        -------
-        ndarray, shape (D,)
-            m.
-        """
+        """Return the position RMSE over runs at each step."""
         return np.sqrt(np.mean(self.stack(case, "error_m") ** 2, axis=0))
 
     def criterion(self, case: str) -> Array:
-        """Return the RMS over runs of the planning criterion along the flown path, each step.
-
-        The root of the mean of the runs' squared criteria (``Gamma`` over the tracker's
-        cloud: what the planner believed; not a bound, see :meth:`pcrb`).
-
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-
-        Returns
-        -------
-        ndarray, shape (D,)
-            m.
-        """
+        """Return the RMS over runs of the planning criterion (what the planner believed)."""
         return np.sqrt(np.mean(self.stack(case, "criterion_m") ** 2, axis=0))
 
     def pcrb_covariance(self, case: str) -> Array:
-        """Return the posterior CRB of ``case`` at each step, SI.
-
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-
-        Returns
-        -------
-        ndarray, shape (D, n, n)
-            The bound on the mean-square error matrix of the state.
-
-        Raises
-        ------
-        ValueError
-            For a case the study does not have, or without its setup.
-        """
+        """Return the posterior CRB of the state at each step (D, n, n), SI (needs the setup)."""
         if case not in self.setups:
             raise ValueError(f"the study holds no setup of case {case!r}: no bound")
         s = self.setups[case]
@@ -238,40 +152,16 @@ class ClosedLoopStudy:
                               s.platform.time)
 
     def pcrb(self, case: str) -> Array:
-        """Return the posterior CRB of the position at each step (D,), m.
-
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-
-        Returns
-        -------
-        ndarray, shape (D,)
-            ``sqrt(trace)`` of the position block of :meth:`pcrb_covariance`.
-        """
+        """Return the posterior CRB of the position at each step (``sqrt`` of its trace)."""
         cov = self.pcrb_covariance(case)
         d = cov.shape[-1] // 2
         return np.sqrt(np.clip(np.einsum("kii->k", cov[:, :d, :d]), 0.0, None))
 
     def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
-        """Return the final RMSE over the posterior CRB with its Monte Carlo interval.
+        """Return ``final_pcrb_m``, ``rmse_over_pcrb`` and its interval (``_low``, ``_high``).
 
-        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (a chi-square and a
-        bootstrap over the runs; None under ``MIN_RUNS`` runs).
-
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-        level : float, optional
-            The interval's coverage.
-
-        Returns
-        -------
-        dict
-            ``final_pcrb_m`` (m), ``rmse_over_pcrb`` and its interval ``rmse_over_pcrb_low``,
-            ``rmse_over_pcrb_high`` (None under ``MIN_RUNS`` runs).
+        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (None under ``MIN_RUNS``
+        runs).
         """
         if (case, level) not in self._efficiency:
             cov = self.pcrb_covariance(case)[-1]
@@ -286,18 +176,9 @@ class ClosedLoopStudy:
     def summary(self, case: str) -> dict[str, float | int | None]:
         """Return the case's key figures.
 
-        Parameters
-        ----------
-        case : str
-            A case of the study (:attr:`cases`).
-
-        Returns
-        -------
-        dict
-            ``final_rmse_m`` (last step, m), the :meth:`efficiency` figures (``final_pcrb_m``,
-            ``rmse_over_pcrb`` and its 95 % interval, where the study has the case's setup),
-            ``final_criterion_m`` (the planning criterion, m), ``min_range_m`` (true range over
-            every run and step, m), ``mean_decision_ms`` (ms), ``runs``.
+        ``final_rmse_m``, the :meth:`efficiency` figures (with the case's setup),
+        ``final_criterion_m``, ``min_range_m`` (true range over every run and step),
+        ``mean_decision_ms`` (ms) and ``runs``.
         """
         bound = self.efficiency(case) if case in self.setups else {}
         return {"final_rmse_m": float(self.rmse(case)[-1]), **bound,
@@ -307,27 +188,16 @@ class ClosedLoopStudy:
                 "runs": self.runs(case)}
 
     def table(self) -> pd.DataFrame:
-        """Return the per-step table of every case and run.
+        """Return the per-step table: one row per case, run and decision (:class:`LoopRecord`).
 
-        Returns
-        -------
-        pandas.DataFrame
-            One row per case, run and decision: ``case``, ``run``, ``step``, ``time`` (s),
-            ``sensor_x``, ``sensor_y``, ``action``, ``criterion_m``, ``predicted_criterion_m``,
-            ``error_m``, ``range_m`` (m), ``decision_ms`` (ms), ``violation_m`` and one
-            ``violation_<constraint>_m`` per constraint (m; 0 where a case lacks it).
+        Columns ``case``, ``run`` and :meth:`LoopRecord.columns` (violations 0 where a case
+        lacks the constraint).
         """
         frames = [LoopChunk(case, 0, recs).table() for case, recs in self.records.items()]
         out = pd.concat(frames, ignore_index=True)
         viol = [c for c in out.columns if c.startswith("violation_")]
         out[viol] = out[viol].fillna(0.0)
         return out
-
-
-def _whole(value: object, name: str, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | None = 0,
@@ -342,7 +212,7 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
     cases : sequence of LoopCase
         The cases (distinct names).
     runs : int, optional
-        Runs per case (>= 1).
+        Runs per case.
     seed : int or None, optional
         The study's seed (>= 0).
     chunk : int, optional
@@ -350,9 +220,9 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
     dask : str or distributed.Client, optional
         Run the tasks on a Dask cluster (its workers must import tmakit).
     progress : bool, optional
-        Show a progress bar over all runs of all cases.
+        Show a progress bar.
     on_chunk : callable, optional
-        Called with each :class:`LoopChunk` as soon as it is finished (to save it).
+        Called with each finished :class:`LoopChunk`.
 
     Returns
     -------
@@ -369,11 +239,10 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
         raise ValueError(f"case names must differ, got {names}")
-    runs = _whole(runs, "runs")
-    size = LOOP_RUNS_PER_CHUNK if chunk is None else _whole(chunk, "chunk")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
-                             or seed < 0):
-        raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
+    runs = whole_number(runs, "runs")
+    size = LOOP_RUNS_PER_CHUNK if chunk is None else whole_number(chunk, "chunk")
+    if seed is not None:
+        whole_number(seed, "seed", 0)
     seeds = np.random.SeedSequence(seed).spawn(runs)
     # chunk by chunk, every case for each (finished chunks then cover every case evenly)
     tasks = [LoopTask(c, lo, tuple(seeds[lo:lo + size]))

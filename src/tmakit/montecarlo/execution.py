@@ -15,6 +15,8 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from .memory import keep_freed_memory
 from .runs import run_chunk
 
@@ -31,6 +33,7 @@ __all__ = [
     "run_dask",
     "run_local",
     "run_pool",
+    "whole_number",
 ]
 
 #: Runs per chunk when running in this process.
@@ -40,6 +43,13 @@ LOCAL_CHUNK = 50
 COMPILED_CHUNK = 250
 #: Runs per chunk for estimators solved run by run (the progress bar moves per chunk).
 LOOP_CHUNK = 10
+
+
+def whole_number(value: object, name: str, minimum: int = 1) -> int:
+    """Return ``value`` as an int if it is a whole number >= ``minimum``; else ValueError."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+    return int(value)
 
 
 class _NoBar:

@@ -24,6 +24,7 @@ from .execution import (
     run_dask,
     run_local,
     run_pool,
+    whole_number,
 )
 from .result import MonteCarloResult
 from .runs import ChunkOutput, ChunkTask
@@ -47,15 +48,9 @@ def _compiled(scenario: Scenario, runs: int) -> bool:
     return runs * sum(len(plan.times) for plan in scenario.plans) >= COMPILED_WORK
 
 
-def _whole(value: object, name: str, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def _workers(workers: object, dask: object) -> int:
     """Check ``workers`` (a whole number >= 1; above 1 not with ``dask``)."""
-    count = _whole(workers, "workers")
+    count = whole_number(workers, "workers")
     if count > 1 and dask is not None:
         raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
                          f"(workers={count})")
@@ -228,8 +223,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
-    scenario, runs, workers = _scenario(scenario), _whole(runs, "runs"), _workers(workers, dask)
-    chunk = None if chunk is None else _whole(chunk, "chunk")
+    scenario, runs = _scenario(scenario), whole_number(runs, "runs")
+    workers = _workers(workers, dask)
+    chunk = None if chunk is None else whole_number(chunk, "chunk")
     seed_used = study_seed(renamed_keyword("monte_carlo", "seed", seed, "rng", rng, 0))
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)

@@ -32,28 +32,23 @@ class MissionPlan:
 
     Attributes
     ----------
-    headings : ndarray, shape (L,)
-        Commanded heading of each leg, rad (clockwise from North).
-    speeds : ndarray, shape (L,)
-        Commanded speed of each leg, m/s.
-    leg_starts : ndarray, shape (L,)
-        Start time of each leg, s.
+    headings, speeds, leg_starts : ndarray, shape (L,)
+        Commanded heading (rad, clockwise from North) and speed (m/s) and start time (s) of
+        each leg.
     cost : float
         The criterion of the predicted final information.
     bound : float
-        Predicted final position RMS bound, m.
-    information : ndarray, shape (n, n)
-        Predicted Bayesian information at the mission end, SI (shape (K, n, n), one per
-        target hypothesis, when planned with hypotheses; ``bound`` is then their RMS).
-    actions : Actions, shape (K,)
-        The sub-step actions that fly the path (``kinematics.fly(platform, actions, step)``).
+        Predicted final position RMS bound, m (the RMS over the hypotheses, if any).
+    information : ndarray, shape (n, n) or (K, n, n)
+        Predicted Bayesian information at the mission end, SI (one per target hypothesis).
+    actions : Actions
+        The sub-step actions that fly the path.
     evaluations : int
-        Candidate paths (each from some leg to the end) scored by the search.
+        Candidate paths scored by the search.
     violations : dict of str to float
-        Per constraint, the largest predicted violation along the path (m, 0 where kept).
+        Per constraint, the largest predicted violation along the path, m.
     feasible : bool
-        False when no path the search tried kept every hard constraint (the least violating
-        was chosen).
+        False when no path tried kept every hard constraint (the least violating was chosen).
     """
 
     headings: Array
@@ -95,17 +90,12 @@ def path_cost(criterion: Criterion, information: Array, weights: Array | None) -
     return cost if weights is None else cost @ weights
 
 
-def repeat_state(platform: PlatformState, c: int) -> PlatformState:
-    """Return ``c`` copies of one platform state."""
-    return PlatformState(np.repeat(platform.position[None, :], c, 0),
-                         np.full(c, float(platform.heading)), np.full(c, float(platform.speed)),
-                         np.full(c, float(platform.climb_rate)), platform.time)
-
-
 def repeat_batch(state: PlatformState, g: int) -> PlatformState:
-    """Return each of a batch of states repeated ``g`` times."""
-    return PlatformState(np.repeat(state.position, g, 0), np.repeat(state.heading, g),
-                         np.repeat(state.speed, g), np.repeat(state.climb_rate, g), state.time)
+    """Return each of a batch of states (or one state) repeated ``g`` times."""
+    return PlatformState(np.repeat(state.position.reshape(-1, 3), g, 0),
+                         np.repeat(state.heading, g), np.repeat(state.speed, g),
+                         np.repeat(state.climb_rate, g), state.time)
+
 
 _TOL = 1e-9
 
@@ -117,9 +107,9 @@ class MissionPlanner:
     Parameters
     ----------
     kinematics : PlatformKinematics
-        The platform's limits (turn rate, speed range, acceleration).
+        The platform's limits.
     plan : SensorPlan
-        What the sensor measures in each sub-step of ``step`` seconds.
+        What the sensor measures in each sub-step.
     step : float
         Sub-step, s: legs are flown and measured in sub-steps of this length.
     leg_duration : float
@@ -127,8 +117,7 @@ class MissionPlanner:
     end_time : float
         The mission end, s.
     criterion : Criterion, optional
-        Cost of the final ``J`` (default :class:`WeightedTrace`: the final mean-square position
-        bound, m^2).
+        Cost of the final ``J`` (default :class:`WeightedTrace`, m^2).
     headings : int, optional
         Size of the heading grid of the first sweeps.
     speeds : sequence of float, optional
@@ -138,15 +127,12 @@ class MissionPlanner:
     refine : int, optional
         Rounds of finer offsets after the coarse grid (each halves the spacing).
     gamma : {"mean", "cloud"}, optional
-        How ``Gamma`` is formed (:mod:`tmakit.planning.candidates`).
+        How ``Gamma`` is formed.
     constraints : sequence of Constraint, optional
         Tactical constraints along the path.
     hypotheses : bool, optional
-        Take each member of the belief's cloud as a hypothesis of the target (for example a few
-        ranges along the measured bearing) and score a path by the weighted mean over them of the
-        criterion of ``J`` computed with ``Gamma`` at that member: the expected bound, not the bound
-        of the expected information. ``J`` now is the belief's for every hypothesis; :meth:`advance`
-        carries it with ``gamma``.
+        Take each member of the belief's cloud as a hypothesis of the target and score a path
+        by the weighted mean over them of the criterion of its own ``J`` (the expected bound).
 
     Raises
     ------
@@ -194,20 +180,7 @@ class MissionPlanner:
         check_gamma(self.gamma)
 
     def legs(self, time: float) -> tuple[Array, Array]:
-        """Return the leg start times and the sub-steps per leg from ``time`` to the end.
-
-        Parameters
-        ----------
-        time : float
-            The decision time, s.
-
-        Returns
-        -------
-        starts : ndarray, shape (L,)
-            s.
-        counts : ndarray of int, shape (L,)
-            Sub-steps of each leg (the last may be shorter).
-        """
+        """Return the leg start times (s) and sub-steps per leg (the last may be shorter)."""
         total = int(np.floor((self.end_time - time) / self.step + 1e-6))
         per_leg = round(self.leg_duration / self.step)
         counts = np.full(total // per_leg, per_leg)
@@ -272,25 +245,18 @@ class MissionPlanner:
 
     def evaluate(self, platform: PlatformState, belief: Belief, headings: ArrayLike,
                  speeds: ArrayLike | None = None) -> Array:
-        """Return the predicted final information of candidate paths (C, n, n).
-
-        With :attr:`hypotheses`, one per path and hypothesis, (C, K, n, n).
+        """Return the predicted final information of candidate paths (C, n, n) or (C, K, n, n).
 
         Parameters
         ----------
         platform : PlatformState
-            The platform now (batch shape ``()``), at ``belief.time``.
+            The platform now, at ``belief.time``.
         belief : Belief
             ``J`` and the target cloud now.
         headings : array_like, shape (C, L)
-            Commanded heading per leg (rad) of each candidate.
+            Commanded heading per leg, rad.
         speeds : array_like, shape (C, L), optional
-            Commanded speed per leg (m/s); default the platform's speed.
-
-        Returns
-        -------
-        ndarray, shape (C, n, n)
-            SI.
+            Commanded speed per leg, m/s (default the platform's speed).
 
         Raises
         ------
@@ -305,7 +271,7 @@ class MissionPlanner:
         v = (np.broadcast_to(platform.speed, h.shape) if speeds is None
              else np.broadcast_to(np.asarray(speeds, dtype=float), h.shape))
         c = h.shape[0]
-        return self._rollout(belief, repeat_state(platform, c), self._start_info(belief, c), h,
+        return self._rollout(belief, repeat_batch(platform, c), self._start_info(belief, c), h,
                              np.array(v), counts, 0).information
 
     def _grid(self, round_: int, current: Array, speed: Array) -> tuple[Array, Array]:
@@ -355,15 +321,13 @@ class MissionPlanner:
         Parameters
         ----------
         platform : PlatformState
-            The platform now (batch shape ``()``), at ``belief.time``.
+            The platform now, at ``belief.time``.
         belief : Belief
             ``J`` along the path so far and the target cloud, now.
         initial : array_like, shape (M, L) or (L,), optional
-            Start paths (leg headings, rad) besides the straight one: the operator's pattern, the
-            previous plan.
+            Start paths (leg headings, rad) besides the straight one.
         information : array_like, shape (K, n, n), optional
-            With :attr:`hypotheses`: ``J`` now under each hypothesis (the path flown so far
-            evaluated at it); default the belief's ``J`` for every one.
+            With :attr:`hypotheses`: ``J`` now under each hypothesis (default the belief's).
 
         Returns
         -------
@@ -372,8 +336,8 @@ class MissionPlanner:
         Raises
         ------
         ValueError
-            If the platform is not one state at the belief's time, no leg is left, ``initial`` does
-            not have one heading per leg, or ``information`` is not one ``J`` per hypothesis.
+            If the platform is not one state at the belief's time, no leg is left, or
+            ``initial`` or ``information`` has the wrong shape.
         """
         if platform.shape != () or abs(platform.time - belief.time) > 1e-6:
             raise ValueError("optimise() takes one platform state at the belief's time")
@@ -391,7 +355,7 @@ class MissionPlanner:
         evaluations = 0
         m = heads.shape[0]
         info0 = self._start_info(belief, 1, information)[0]
-        base = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+        base = self._rollout(belief, repeat_batch(platform, m), np.broadcast_to(
             info0, (m, *info0.shape)), heads, speeds, counts, 0)
         for round_ in range(self.refine + 1):
             for _ in range(self.sweeps if round_ == 0 else 1):
@@ -410,7 +374,7 @@ class MissionPlanner:
                 legs: tuple[Array, Array], evaluations: int, info0: Array) -> MissionPlan:
         m = heads.shape[0]
         starts, counts = legs
-        final = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+        final = self._rollout(belief, repeat_batch(platform, m), np.broadcast_to(
             info0, (m, *info0.shape)), heads, speeds, counts, 0)
         cost, bad = final.ranked_cost(self.criterion)
         k = int(np.lexsort((cost, bad))[0])
@@ -429,24 +393,7 @@ class MissionPlanner:
     def recommend(self, platform: PlatformState, belief: Belief,
                   previous: MissionPlan | None = None, pattern: ArrayLike | None = None,
                   information: ArrayLike | None = None) -> MissionPlan:
-        """Re-plan the remaining legs from the current belief (receding over legs).
-
-        Parameters
-        ----------
-        platform, belief
-            As for :meth:`optimise`.
-        previous : MissionPlan, optional
-            The last plan; its legs still ahead start the search.
-        pattern : array_like, optional
-            An operator's pattern for the legs left (rad), also a start.
-        information : array_like, shape (K, n, n), optional
-            As for :meth:`optimise`.
-
-        Returns
-        -------
-        MissionPlan
-            Fly its first leg (``actions[:counts[0]]``), then call again.
-        """
+        """Re-plan the legs left (:meth:`optimise`, also from ``previous`` and ``pattern``)."""
         _, counts = self.legs(belief.time)
         initial = []
         if previous is not None:
@@ -459,48 +406,17 @@ class MissionPlanner:
                              information)
 
     def first_leg(self, platform: PlatformState, plan: MissionPlan) -> Actions:
-        """Return the sub-step actions of the plan's first leg (fly them, then re-plan).
-
-        Parameters
-        ----------
-        platform : PlatformState
-            The platform at the plan's decision time.
-        plan : MissionPlan
-            The plan.
-
-        Returns
-        -------
-        Actions
-            One per sub-step of :attr:`step` seconds.
-        """
+        """Return the sub-step actions of the plan's first leg (fly them, then re-plan)."""
         _, counts = self.legs(platform.time)
         return plan.actions[np.arange(int(counts[0]))]
 
     def advance(self, platform: PlatformState, belief: Belief, plan: MissionPlan,
                 states: ArrayLike, weights: ArrayLike | None = None
                 ) -> tuple[PlatformState, Belief]:
-        """Fly the plan's first leg; return the platform and the belief at its end.
-
-        ``J`` is carried along the flown leg (the bound conditioned on the path); the cloud
-        is the tracker's after the leg (or the truth, to evaluate at the truth).
-
-        Parameters
-        ----------
-        platform, belief
-            As for :meth:`optimise`.
-        plan : MissionPlan
-            The plan made from them.
-        states, weights
-            The target cloud at the end of the leg.
-
-        Returns
-        -------
-        platform : PlatformState
-        belief : Belief
-        """
+        """Fly the plan's first leg; return the platform and the belief (the cloud given) there."""
         _, counts = self.legs(belief.time)
         info = belief.posterior.information[None]
-        out = self._rollout(belief, repeat_state(platform, 1), info, plan.headings[None, :1],
+        out = self._rollout(belief, repeat_batch(platform, 1), info, plan.headings[None, :1],
                             plan.speeds[None, :1], counts[:1], 0)
         end = out.end[0]
         post = type(belief.posterior)(out.information[0], belief.posterior.dynamics, end.time)
