@@ -49,25 +49,9 @@ def check_gamma(gamma: str) -> GammaForm:
 
 def expected_information(plan: SensorPlan, states: Array, weights: Array,
                          sensor_states: Array, gamma: GammaForm) -> Array:
-    """Return ``Gamma`` for each candidate sensor state at one measurement time.
+    """Return ``Gamma`` (*B, n, n) for candidate sensor states (*B, 6) at one measurement time.
 
-    Parameters
-    ----------
-    plan : SensorPlan
-        What is measured.
-    states : ndarray, shape (N, n)
-        The predicted target cloud at the measurement time.
-    weights : ndarray, shape (N,)
-        Its normalised weights.
-    sensor_states : ndarray, shape (*B, 6)
-        Candidate sensor states at that time.
-    gamma : {"mean", "cloud"}
-        How ``Gamma`` is formed.
-
-    Returns
-    -------
-    ndarray, shape (*B, n, n)
-        SI.
+    ``states`` (N, n) and ``weights`` (N,) are the predicted target cloud at that time.
 
     References
     ----------
@@ -91,8 +75,7 @@ def step_information(belief: Belief, information: Array, plan: SensorPlan,
     Parameters
     ----------
     belief : Belief
-        Supplies the dynamics (``belief.posterior``), the decision time and — unless
-        ``cloud`` is given — the target cloud at that time.
+        Supplies the dynamics, the decision time and (without ``cloud``) the target cloud.
     information : ndarray, shape (*B, n, n) or (n, n)
         ``J`` at the start of the step (one per candidate, or one for all).
     plan : SensorPlan

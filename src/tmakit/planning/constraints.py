@@ -27,27 +27,14 @@ DEFAULT_PENALTY = 10.0
 
 @dataclass(frozen=True)
 class Violation:
-    """How far each candidate goes past one constraint.
+    """How far each candidate goes past one constraint."""
 
-    Attributes
-    ----------
-    name : str
-        The constraint's label.
-    amount : ndarray, shape (C,)
-        Largest violation over the checked times (m; 0 where the constraint holds).
-    hard : bool
-        Whether a violation makes the candidate infeasible.
-    scale : float
-        The constraint's length (m) used by the penalty.
-    weight : float
-        Penalty weight (dimensionless; unused when hard).
-    """
-
-    name: str
+    name: str  # The constraint's label
+    #: Largest violation over the checked times (m; 0 where the constraint holds); shape (C,)
     amount: Array
-    hard: bool
-    scale: float
-    weight: float
+    hard: bool  # Whether a violation makes the candidate infeasible
+    scale: float  # The constraint's length (m) used by the penalty
+    weight: float  # Penalty weight (dimensionless; unused when hard)
 
     @property
     def violated(self) -> NDArray[np.bool_]:
@@ -55,13 +42,7 @@ class Violation:
         return self.amount > 1e-3
 
     def penalty_factor(self) -> Array:
-        """Return the cost factor ``1 + weight * amount / scale`` (1 for hard).
-
-        Returns
-        -------
-        ndarray, shape (C,)
-            Dimensionless, >= 1.
-        """
+        """Return the cost factor (C,) ``1 + weight * amount / scale`` (1 for hard)."""
         if self.hard:
             return np.ones_like(self.amount)
         return 1.0 + self.weight * self.amount / self.scale
@@ -107,7 +88,7 @@ class _RangeLimit:
         _check_limit(f"the {self.name}", self.distance, self.weight)
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike) -> Violation:
-        """Return the violation (m) per candidate: how far the range is past the limit.
+        """Return how far (m) each candidate's range goes past the limit.
 
         Parameters
         ----------
@@ -115,11 +96,6 @@ class _RangeLimit:
             Candidate sensor positions at the checked times, ENU m.
         target_positions : array_like, shape (k, 3) or (3,)
             The estimated target position at those times, ENU m.
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
         """
         r = _horizontal_range(sensor_positions, target_positions)
         amount = np.clip(self._sign * (self.distance - r), 0.0, None).max(axis=-1)
@@ -151,14 +127,7 @@ class MinimumRange(_RangeLimit):
 class MaximumRange(_RangeLimit):
     """Stay within ``distance`` (m, horizontal) of the estimated target (detection range).
 
-    Parameters
-    ----------
-    distance : float
-        Maximum range, m (> 0).
-    hard : bool, optional
-        Infeasible when broken (default) or penalised.
-    weight : float, optional
-        Penalty weight (dimensionless), when not hard.
+    Parameters as for :class:`MinimumRange`.
     """
 
     name: str = field(default="maximum range", init=False)
@@ -199,19 +168,9 @@ class _Region:
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike | None = None
               ) -> Violation:
-        """Return how far (m) each candidate is on the wrong side of the boundary (0 if none).
+        """Return how far (m) each candidate goes to the wrong side of the boundary.
 
-        Parameters
-        ----------
-        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
-            Candidate sensor positions at the checked times, ENU m.
-        target_positions : array_like, shape (k, 3) or (3,), optional
-            The estimated target position at those times, ENU m (not used: the region is fixed).
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
+        ``sensor_positions`` as for :meth:`MinimumRange.check`; ``target_positions`` unused.
         """
         import shapely
 

@@ -40,29 +40,26 @@ _ONE = np.ones(1)
 
 @dataclass(frozen=True, eq=False)
 class Recommendation:
-    """The planner's answer at one decision.
+    """The planner's answer at one decision, per candidate action (C,).
 
     Attributes
     ----------
     index : int
-        The chosen candidate (index into the planner's actions).
-    actions : Actions, shape (C,)
+        The chosen candidate.
+    actions : Actions
         The candidates.
-    steps : Step, shape (C,)
+    steps : Step
         Every candidate flown for one decision interval.
     information : ndarray, shape (C, n, n)
-        Predicted Bayesian information ``J_{k+1}`` of each candidate after one step, SI.
-    cost : ndarray, shape (C,)
-        The criterion (with penalties) of each candidate; with a horizon, the best over the
-        sequences that start with it.
-    bound : ndarray, shape (C,)
-        Predicted position RMS bound after one step, m: ``sqrt(trace)`` of the position
-        block of ``J_{k+1}^{-1}``.
-    feasible : ndarray of bool, shape (C,)
-        Whether the candidate (or, with a horizon, some sequence starting with it) keeps
-        every hard constraint.
-    violations : dict of str to ndarray (C,)
-        Largest violation (m) of each constraint over the candidate's first step.
+        Predicted Bayesian information ``J_{k+1}`` after one step, SI.
+    cost : ndarray
+        The criterion with penalties (with a horizon, the best sequence's that starts with it).
+    bound : ndarray
+        Predicted position RMS bound after one step, m.
+    feasible : ndarray of bool
+        Whether the candidate (or a sequence starting with it) keeps every hard constraint.
+    violations : dict of str to ndarray
+        Largest violation of each constraint over the candidate's first step, m.
     all_infeasible : bool
         True when no candidate kept the hard constraints (the least violating was chosen).
     """
@@ -79,29 +76,19 @@ class Recommendation:
 
     @property
     def step(self) -> Step:
-        """The chosen candidate's step (batch shape ``()``)."""
+        """The chosen candidate's step."""
         return self.steps[self.index]
 
     @property
     def action(self) -> Actions:
-        """The chosen action (batch shape ``()``)."""
+        """The chosen action."""
         return self.actions[self.index]
 
 
 def position_bound(information: Array, covariance: Array | None = None) -> Array:
-    """Return ``sqrt(trace)`` of the position block of ``J^{-1}``.
+    """Return the position RMS bound (...,), m: ``sqrt(trace)`` of the position block of ``J^{-1}``.
 
-    Parameters
-    ----------
-    information : ndarray, shape (..., n, n)
-        ``J``, SI.
-    covariance : ndarray, shape (..., n, n), optional
-        ``bound_covariance(information)`` if already computed.
-
-    Returns
-    -------
-    ndarray, shape (...,)
-        The position RMS bound, m.
+    ``covariance`` is ``J^{-1}`` (``bound_covariance(information)``) if already computed.
     """
     dim = information.shape[-1] // 2
     cov = bound_covariance(information) if covariance is None else covariance
@@ -125,17 +112,15 @@ class Planner:
     criterion : Criterion, optional
         Cost of ``J`` (default :class:`WeightedTrace`, position only: eq. 12).
     constraints : sequence, optional
-        Tactical constraints (:mod:`tmakit.planning.constraints`).
+        Tactical constraints.
     gamma : {"mean", "cloud"}, optional
-        How ``Gamma`` is formed in the first step (:mod:`tmakit.planning.candidates`).
+        How ``Gamma`` is formed in the first step.
     horizon : int, optional
         Decision steps looked ahead (1 = Hurtado & Nehorai (2008)).
     beam : int, optional
-        Nodes kept per depth of the horizon's tree search (None: exhaustive);
-        :mod:`tmakit.planning.horizon`.
+        Nodes kept per depth of the horizon's tree search (None: exhaustive).
     continuation : Continuation, optional
-        Score sequences at the mission end after a default path beyond the horizon
-        (None: at the end of the horizon).
+        Score sequences at the mission end after a default path beyond the horizon.
 
     Raises
     ------
@@ -191,28 +176,10 @@ class Planner:
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from each of a batch of states for one step, ``depth`` steps ahead.
+        """Fly every action from a batch of states (*B) with ``J`` (*B, n, n), for one step.
 
-        Parameters
-        ----------
-        platform : PlatformState
-            States of batch shape ``B`` at ``belief.time + depth * interval``.
-        information : ndarray, shape (*B, n, n)
-            ``J`` at that time, per state.
-        belief : Belief
-            The decision's belief (its cloud is predicted ``depth`` steps ahead).
-        depth : int
-            Steps after the decision time (0 for the first).
-        gamma : {"mean", "cloud"}
-            How ``Gamma`` is formed.
-
-        Returns
-        -------
-        steps : Step, shape (*B, A)
-        information : ndarray, shape (*B, A, n, n)
-            ``J`` after the step.
-        violations : list of Violation
-            One per constraint, amounts of shape ``(*B * A,)`` flattened.
+        Returns the steps (*B, A), ``J`` after them (*B, A, n, n) and one :class:`Violation`
+        per constraint (amounts flattened).  ``depth`` is unused (the states' time says it).
         """
         steps = decision.fly(self.kinematics, platform, self.actions, self.interval)
         if steps is None:   # limits that raise: the NumPy step
@@ -237,18 +204,7 @@ class Planner:
         return steps, info, step_violations(self.constraints, steps, belief, self.interval)
 
     def recommend(self, platform: PlatformState, belief: Belief) -> Recommendation:
-        """Choose the next action.
-
-        Parameters
-        ----------
-        platform : PlatformState
-            The platform now (batch shape ``()``), at ``belief.time``.
-        belief : Belief
-            ``J_k`` along the path so far and the target cloud, at the same time.
-
-        Returns
-        -------
-        Recommendation
+        """Choose the next action from ``platform`` (one state) at ``belief.time``.
 
         Raises
         ------
@@ -284,24 +240,7 @@ class Planner:
 
     def advance(self, belief: Belief, recommendation: Recommendation, states: Array,
                 weights: Array | None = None) -> Belief:
-        """Return the next decision's belief after flying the chosen step.
-
-        ``J_{k+1}`` is the chosen candidate's predicted information (the bound along the
-        flown path, conditioned on it); the cloud is the tracker's after its update.
-
-        Parameters
-        ----------
-        belief : Belief
-            The belief the recommendation was made from.
-        recommendation : Recommendation
-            Its answer.
-        states, weights
-            The tracker's cloud at the end of the step.
-
-        Returns
-        -------
-        Belief
-        """
+        """Return the next belief: the chosen candidate's ``J_{k+1}``, the tracker's cloud."""
         post = belief.posterior
         nxt = type(post)(recommendation.information[recommendation.index], post.dynamics,
                          belief.time + self.interval)
