@@ -15,11 +15,17 @@ import numpy as np
 
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..planning import MissionPlanner
-from ..planning.closed_loop import LoopRecord, LoopSetup
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
 from ..planning.setup import PlanningSetup, load_planning
 from ..scenario.planning_table import MAX_DECISIONS, PLANNERS
-from .closed_loop import MIN_RUNS_INTERVAL, ClosedLoopStudy, LoopCase, closed_loop_study
+from .closed_loop import (
+    MIN_RUNS_INTERVAL,
+    ClosedLoopStudy,
+    LoopCase,
+    LoopRecord,
+    LoopSetup,
+    closed_loop_study,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd

@@ -201,13 +201,12 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     dask : str or distributed.Client, optional
         Send the chunks to a Dask cluster (its workers must import tmakit).
     chunk : int, optional
-        Runs per task (default :func:`~.execution.default_chunk`). The table is the same, run for
-        run, for any ``chunk``, ``workers`` and ``dask``.
+        Runs per task; the table is the same for any ``chunk``, ``workers`` and ``dask``.
     on_chunk : callable, optional
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
     workers : int, optional
-        Worker processes here (default 1: this one), BLAS on one thread, at most one per chunk and
-        per CPU (:func:`~.execution.run_pool`; ``executor`` says how many); not with dask.
+        Worker processes here (default 1: this one), at most one per chunk and per CPU; not
+        with dask.
     seed : int or None, optional
         Deprecated: ``rng``.
 

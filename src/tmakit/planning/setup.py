@@ -73,8 +73,8 @@ class PlanningSetup:
                 particles: int | None = None, q: float | None = None,
                 runs: int | None = None, kind: str | None = None) -> PlanningSetup:
         """Return a copy with run settings changed (None: as it is)."""
-        given = {"steps": steps, "tracker": tracker, "particles": particles, "q": q,
-                 "runs": runs, "kind": kind}
+        given: dict[str, Any] = {"steps": steps, "tracker": tracker, "particles": particles,
+                                 "q": q, "runs": runs, "kind": kind}
         return dataclasses.replace(self, **{k: v for k, v in given.items() if v is not None})
 
 
