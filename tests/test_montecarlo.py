@@ -252,7 +252,7 @@ def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
     from sample_logs import replay_sample
 
     from tmakit.batch.ml import Best, MaximumLikelihood
-    from tmakit.montecarlo.ml_runs import solve_runs, summarise_runs
+    from tmakit.montecarlo.runs import solve_runs, summarise_runs
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])

@@ -16,7 +16,6 @@ from ..bounds.fim import crlb
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario.model import Scenario
-from .estimators import check_estimator
 from .execution import (
     dask_client,
     default_chunk,
@@ -27,7 +26,7 @@ from .execution import (
     whole_number,
 )
 from .result import MonteCarloResult
-from .runs import ChunkOutput, ChunkTask
+from .runs import ChunkOutput, ChunkTask, check_estimator
 
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
@@ -183,7 +182,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         A :class:`~tmakit.scenario.Scenario`, or a built-in name / TOML path.
     estimator : str
         ``"ml"`` or a key of ``tmakit.batch.methods.METHODS``
-        (:func:`~.estimators.available_estimators`).
+        (:func:`~.runs.available_estimators`).
     runs : int
         Number of runs (>= 1).
     rng : int, numpy.random.Generator or None
