@@ -39,7 +39,7 @@ from ..planning.candidates import (
 from ..planning.measurement_plan import SensorPlan
 from ..planning.policies import Policy, for_run
 from ..sensors.platform import PlatformState
-from .execution import dask_client, progress_bar, run_dask, run_local, whole_number
+from .execution import dask_client, execute, whole_number
 
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
@@ -512,17 +512,13 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
     tasks = [LoopTask(c, lo, tuple(seeds[lo:lo + size]))
              for lo in range(0, runs, size) for c in cases]
     client, opened = (None, False) if dask is None else dask_client(dask)
-    bar: Any = progress_bar(runs * len(cases), progress, "closed loop")
-    start = time.perf_counter()
     try:
-        outputs = (run_local(tasks, bar, run_loop_chunk, on_chunk) if client is None
-                   else run_dask(tasks, client, bar, run_loop_chunk, on_chunk))
+        outputs, wall, _ = execute(tasks, client, "closed loop", runs * len(cases), progress,
+                                   on_chunk, fn=run_loop_chunk)
     finally:
-        bar.close()
         if opened and client is not None:
             client.close()
     records: dict[str, list[LoopRecord]] = {n: [] for n in names}
     for out in sorted(outputs, key=lambda o: (names.index(o.case), o.first_run)):
         records[out.case].extend(out.records)
-    return ClosedLoopStudy(records, seed, time.perf_counter() - start,
-                           {c.name: c.setup for c in cases})
+    return ClosedLoopStudy(records, seed, wall, {c.name: c.setup for c in cases})

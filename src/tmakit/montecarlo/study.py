@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,15 +14,7 @@ from ..bounds.fim import crlb
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..scenario.model import Scenario
-from .execution import (
-    dask_client,
-    default_chunk,
-    progress_bar,
-    run_dask,
-    run_local,
-    run_pool,
-    whole_number,
-)
+from .execution import dask_client, default_chunk, execute, whole_number
 from .result import MonteCarloResult
 from .runs import ChunkOutput, ChunkTask, check_estimator
 
@@ -89,37 +79,6 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
                          "per run and cannot start a manoeuvring one (for hoerst2010: tma "
                          "reproduce hoerst2010)")
     return scenario
-
-
-def _cpus() -> int:
-    """Return the CPUs this process may run on."""
-    affinity = getattr(os, "sched_getaffinity", None)
-    return len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
-
-
-def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
-             progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None,
-             workers: int = 1) -> tuple[list[ChunkOutput], float, str]:
-    """Run the chunks here, in worker processes or on Dask."""
-    processes = min(workers, len(tasks), _cpus())
-    bar = progress_bar(runs, progress, bar_label)
-    start = time.perf_counter()
-    try:
-        if client is not None:
-            outputs = run_dask(tasks, client, bar, on_done=on_chunk)
-        elif processes > 1:
-            outputs = run_pool(tasks, processes, bar, on_done=on_chunk)
-        else:
-            outputs = run_local(tasks, bar, on_done=on_chunk)
-    finally:
-        bar.close()
-    wall = time.perf_counter() - start
-    outputs.sort(key=lambda o: o.first_run)
-    executor = (f"dask {getattr(client.scheduler, 'address', '')}" if client is not None
-                else f"{processes} processes" if processes > 1 else "local")
-    if client is None and processes < workers:
-        executor += f", {workers:,} asked: {len(tasks):,} chunks, {_cpus()} CPUs"
-    return outputs, wall, executor
 
 
 def finished_runs_table(outputs: Sequence[ChunkOutput], names: Sequence[str]
@@ -238,8 +197,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size]), compiled)
                  for lo in range(0, runs, size)]
-        outputs, wall, executor = _execute(tasks, client, f"{scenario.name} {estimator}",
-                                           runs, progress, on_chunk, workers=workers)
+        outputs, wall, executor = execute(tasks, client, f"{scenario.name} {estimator}",
+                                          runs, progress, on_chunk, workers=workers)
     finally:
         if own_client and client is not None:
             close: Callable[[], object] = client.close  # (distributed is not typed)

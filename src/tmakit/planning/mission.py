@@ -81,13 +81,8 @@ class Rollout:
     def ranked_cost(self, criterion: Criterion) -> tuple[Array, Array]:
         """Return the cost with penalties and the summed hard violation per path."""
         factor, _ = penalties(self.violations, self.information.shape[0])
-        return path_cost(criterion, self.information, self.weights) * factor, self.hard
-
-
-def path_cost(criterion: Criterion, information: Array, weights: Array | None) -> Array:
-    """Return the criterion of each path's information (C,)."""
-    cost = criterion(information)
-    return cost if weights is None else cost @ weights
+        cost = criterion(self.information)
+        return (cost if self.weights is None else cost @ self.weights) * factor, self.hard
 
 
 def repeat_batch(state: PlatformState, g: int) -> PlatformState:
