@@ -325,16 +325,7 @@ def _cholesky_solve(s: Array, ag: Array) -> Array:
     """Return ``H = L^{-1} (A G)^T`` with ``L L^T = S`` (positive definite, r x r)."""
     r, n = s.shape[0], ag.shape[0]
     low = np.zeros((r, r))
-    for j in range(r):
-        acc = s[j, j]
-        for p in range(j):
-            acc -= low[j, p] * low[j, p]
-        low[j, j] = np.sqrt(acc)
-        for i in range(j + 1, r):
-            acc = s[i, j]
-            for p in range(j):
-                acc -= low[i, p] * low[j, p]
-            low[i, j] = acc / low[j, j]
+    _cholesky(s, np.ones(r), low)   # S = I + G^T A G: positive definite
     half = np.empty((r, n))   # forward substitution L H = (A G)^T
     for col in range(n):
         for i in range(r):
