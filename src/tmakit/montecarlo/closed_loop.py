@@ -88,9 +88,7 @@ class LoopSetup:
                              f"{x.shape[0]} values")
         if self.platform.shape != ():
             raise ValueError("platform must be one PlatformState (batch shape ())")
-        if isinstance(self.steps, bool) or not isinstance(self.steps, int | np.integer) \
-                or self.steps < 1:
-            raise ValueError(f"steps must be a whole number >= 1, got {self.steps!r}")
+        whole_number(self.steps, "steps")
         if not (math.isfinite(self.interval) and self.interval > 0):
             raise ValueError(f"interval must be > 0 s, got {self.interval}")
         if not (math.isfinite(self.q) and self.q >= 0):
@@ -102,9 +100,7 @@ class LoopSetup:
         if self.tracker not in TRACKERS:
             raise ValueError(f"tracker must be one of {', '.join(TRACKERS)}, got "
                              f"{self.tracker!r}")
-        if isinstance(self.particles, bool) or not isinstance(self.particles, int | np.integer) \
-                or self.particles < 2:
-            raise ValueError(f"particles must be a whole number >= 2, got {self.particles!r}")
+        whole_number(self.particles, "particles", 2)
         if self.criterion_gamma not in ("cloud", "mean"):
             raise ValueError(f"criterion_gamma must be 'cloud' or 'mean', got "
                              f"{self.criterion_gamma!r}")
