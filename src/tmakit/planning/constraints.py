@@ -1,13 +1,8 @@
-"""Tactical constraints on a planned sensor path, each reported per candidate and step.
+"""Tactical constraints on a planned sensor path, checked per candidate at the times of a step.
 
-Every constraint looks at the candidate sensor positions at the times a step is checked
-(``(C, k, 3)`` ENU, m) and, for the range constraints, at the *estimated* target position at those
-times (``(k, 3)``, the tracker's predicted mean).
-
-A constraint is either **hard** (a violating candidate is infeasible; if every candidate violates,
-the planner takes the one that violates least and says so) or a **penalty** (Hurtado & Nehorai
-(2008), section 5, example 2: "we penalize those radar actions which do not satisfy the range
-condition").
+A constraint is **hard** (a violating candidate is infeasible; if every candidate violates, the
+planner takes the one that violates least and says so) or a **penalty** (Hurtado & Nehorai
+(2008), section 5, example 2).  Range constraints are held to the *estimated* target.
 """
 
 from __future__ import annotations
