@@ -298,12 +298,24 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
 
 @dataclass(frozen=True, eq=False)
 class LoopCase:
-    """One case of a closed-loop study."""
+    """One case of a closed-loop study.
 
-    name: str  # The case's name (a column of the table)
-    policy: Policy  # What chooses the steps
-    plan: SensorPlan  # What the sensor measures
-    setup: LoopSetup  # Truth, sensor start, tracker, decisions
+    Parameters
+    ----------
+    name : str
+        The case's name (a column of the table).
+    policy : Policy
+        What chooses the steps.
+    plan : SensorPlan
+        What the sensor measures.
+    setup : LoopSetup
+        Truth, sensor start, tracker, decisions.
+    """
+
+    name: str
+    policy: Policy
+    plan: SensorPlan
+    setup: LoopSetup
 
 
 @dataclass(frozen=True, eq=False)
@@ -378,7 +390,17 @@ class ClosedLoopStudy:
         return list(self.records)
 
     def runs(self, case: str) -> int:
-        """Return the number of runs of ``case``."""
+        """Return the number of runs of ``case``.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        int
+        """
         return len(self._of(case))
 
     def _of(self, case: str) -> list[LoopRecord]:
@@ -387,23 +409,88 @@ class ClosedLoopStudy:
         return self.records[case]
 
     def times(self, case: str) -> Array:
-        """Return the decision times of ``case`` (D,), s."""
+        """Return the decision times of ``case``.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            s.
+        """
         return self._of(case)[0].times
 
     def stack(self, case: str, name: str) -> Array:
-        """Return the :class:`LoopRecord` field ``name`` of every run stacked, (runs, D, ...)."""
+        """Return one per-step field of every run of ``case`` stacked, (runs, D, ...).
+
+        Parameters
+        ----------
+        case : str
+            The case.
+        name : str
+            A :class:`~tmakit.planning.closed_loop.LoopRecord` field (``error_m``,
+            ``bound_m``, ``range_m``, ``sensor``, ...).
+
+        Returns
+        -------
+        ndarray
+        """
         return np.stack([getattr(r, name) for r in self._of(case)])
 
     def rmse(self, case: str) -> Array:
-        """Return the position RMSE over runs at each step."""
+        """Return the position RMSE over runs at each step.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            m.
+        """
         return np.sqrt(np.mean(self.stack(case, "error_m") ** 2, axis=0))
 
     def criterion(self, case: str) -> Array:
-        """Return the RMS over runs of the planning criterion (what the planner believed)."""
+        """Return the RMS over runs of the planning criterion along the flown path, each step.
+
+        The root of the mean of the runs' squared criteria (``Gamma`` over the tracker's
+        cloud: what the planner believed; not a bound, see :meth:`pcrb`).
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            m.
+        """
         return np.sqrt(np.mean(self.stack(case, "criterion_m") ** 2, axis=0))
 
     def pcrb_covariance(self, case: str) -> Array:
-        """Return the posterior CRB of the state at each step (D, n, n), SI (needs the setup)."""
+        """Return the posterior CRB of ``case`` at each step, SI.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D, n, n)
+            The bound on the mean-square error matrix of the state.
+
+        Raises
+        ------
+        ValueError
+            For a case the study does not have, or without its setup.
+        """
         if case not in self.setups:
             raise ValueError(f"the study holds no setup of case {case!r}: no bound")
         s = self.setups[case]
@@ -412,16 +499,40 @@ class ClosedLoopStudy:
                               s.platform.time)
 
     def pcrb(self, case: str) -> Array:
-        """Return the posterior CRB of the position at each step (``sqrt`` of its trace)."""
+        """Return the posterior CRB of the position at each step (D,), m.
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        ndarray, shape (D,)
+            ``sqrt(trace)`` of the position block of :meth:`pcrb_covariance`.
+        """
         cov = self.pcrb_covariance(case)
         d = cov.shape[-1] // 2
         return np.sqrt(np.clip(np.einsum("kii->k", cov[:, :d, :d]), 0.0, None))
 
     def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
-        """Return ``final_pcrb_m``, ``rmse_over_pcrb`` and its interval (``_low``, ``_high``).
+        """Return the final RMSE over the posterior CRB with its Monte Carlo interval.
 
-        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (None under ``MIN_RUNS``
-        runs).
+        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (a chi-square and a
+        bootstrap over the runs; None under ``MIN_RUNS`` runs).
+
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+        level : float, optional
+            The interval's coverage.
+
+        Returns
+        -------
+        dict
+            ``final_pcrb_m`` (m), ``rmse_over_pcrb`` and its interval ``rmse_over_pcrb_low``,
+            ``rmse_over_pcrb_high`` (None under ``MIN_RUNS`` runs).
         """
         if (case, level) not in self._efficiency:
             cov = self.pcrb_covariance(case)[-1]
@@ -436,9 +547,18 @@ class ClosedLoopStudy:
     def summary(self, case: str) -> dict[str, float | int | None]:
         """Return the case's key figures.
 
-        ``final_rmse_m``, the :meth:`efficiency` figures (with the case's setup),
-        ``final_criterion_m``, ``min_range_m`` (true range over every run and step),
-        ``mean_decision_ms`` (ms) and ``runs``.
+        Parameters
+        ----------
+        case : str
+            A case of the study (:attr:`cases`).
+
+        Returns
+        -------
+        dict
+            ``final_rmse_m`` (last step, m), the :meth:`efficiency` figures (``final_pcrb_m``,
+            ``rmse_over_pcrb`` and its 95 % interval, where the study has the case's setup),
+            ``final_criterion_m`` (the planning criterion, m), ``min_range_m`` (true range over
+            every run and step, m), ``mean_decision_ms`` (ms), ``runs``.
         """
         bound = self.efficiency(case) if case in self.setups else {}
         return {"final_rmse_m": float(self.rmse(case)[-1]), **bound,
@@ -448,10 +568,15 @@ class ClosedLoopStudy:
                 "runs": self.runs(case)}
 
     def table(self) -> pd.DataFrame:
-        """Return the per-step table: one row per case, run and decision (:class:`LoopRecord`).
+        """Return the per-step table of every case and run.
 
-        Columns ``case``, ``run`` and :meth:`LoopRecord.columns` (violations 0 where a case
-        lacks the constraint).
+        Returns
+        -------
+        pandas.DataFrame
+            One row per case, run and decision: ``case``, ``run``, ``step``, ``time`` (s),
+            ``sensor_x``, ``sensor_y``, ``action``, ``criterion_m``, ``predicted_criterion_m``,
+            ``error_m``, ``range_m`` (m), ``decision_ms`` (ms), ``violation_m`` and one
+            ``violation_<constraint>_m`` per constraint (m; 0 where a case lacks it).
         """
         frames = [LoopChunk(case, 0, recs).table() for case, recs in self.records.items()]
         out = pd.concat(frames, ignore_index=True)

@@ -126,7 +126,17 @@ class PlanRun:
     fixed_note: str | None = None
 
     def records(self, case: str = CASE) -> list[LoopRecord]:
-        """Return the runs' records of ``case``, in run order."""
+        """Return the runs' records of ``case``, in run order.
+
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
+
+        Returns
+        -------
+        list of LoopRecord
+        """
         return self.study.records[case]
 
     @property
@@ -135,19 +145,46 @@ class PlanRun:
         return self.study.times(CASE)
 
     def rmse(self, case: str = CASE) -> np.ndarray:
-        """Return the position RMSE over the runs at each decision."""
+        """Return the position RMSE over the runs at each decision (D,), m.
+
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
+
+        Returns
+        -------
+        ndarray
+        """
         return self.study.rmse(case)
 
     def pcrb(self, case: str = CASE) -> np.ndarray:
-        """Return the posterior CRB at each decision (the bound the RMSE is held to)."""
+        """Return the posterior CRB at each decision (D,), m (the bound the RMSE is held to).
+
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
+
+        Returns
+        -------
+        ndarray
+        """
         return self.study.pcrb(case)
 
     def table(self) -> pd.DataFrame:
         """Return the per-step table: one row per case, run and decision.
 
-        :meth:`ClosedLoopStudy.table` and the flown sensor heading ``sensor_heading_deg`` (deg
-        clockwise from North), the true and estimated target ``truth_x``, ..., ``estimate_vy``
-        (m, m/s).
+        Returns
+        -------
+        pandas.DataFrame
+            The closed-loop study's columns (``case``, ``run``, ``step``, ``time`` (s),
+            ``sensor_x``, ``sensor_y`` (m), ``action``, ``criterion_m``,
+            ``predicted_criterion_m``, ``error_m``, ``range_m`` (m), ``decision_ms`` (ms),
+            ``violation_m`` and one ``violation_<constraint>_m`` each) and the flown sensor
+            heading ``sensor_heading_deg`` (deg clockwise from North), the true and
+            estimated target position ``truth_x``, ``truth_y``, ``estimate_x``,
+            ``estimate_y`` (m) and velocity ``truth_vx``, ..., ``estimate_vy`` (m/s).
         """
         table = self.study.table()
         records = [r for case in self.study.cases for r in self.study.records[case]]
@@ -164,8 +201,21 @@ class PlanRun:
     def summary(self, case: str = CASE) -> dict[str, float | int | None]:
         """Return the key figures of one case over every run.
 
-        :meth:`ClosedLoopStudy.summary` and ``violations`` (steps with a constraint violation,
-        over every run), ``max_violation_m`` (m), ``steps``.
+        Parameters
+        ----------
+        case : str, optional
+            :data:`CASE` or :data:`FIXED`.
+
+        Returns
+        -------
+        dict
+            ``final_rmse_m`` (position RMSE over runs at the last step, m), ``final_pcrb_m``
+            (the posterior CRB there, m), ``rmse_over_pcrb`` with its 95 % bootstrap interval
+            (``rmse_over_pcrb_low``, ``_high``; None under :data:`MIN_RUNS_INTERVAL` runs),
+            ``final_criterion_m`` (the planning criterion along the flown paths, RMS over
+            runs, m), ``min_range_m`` (true range, over every run and step, m),
+            ``violations`` (steps with a constraint violation, over every run),
+            ``max_violation_m`` (m), ``mean_decision_ms`` (ms), ``runs``, ``steps``.
         """
         out: dict[str, float | int | None] = dict(self.study.summary(case))
         worst = np.concatenate([np.max(list(r.violations.values()), axis=0)
@@ -179,10 +229,21 @@ class PlanRun:
     def comparison(self, level: float = 0.95) -> dict[str, Any] | None:
         """Compare the planned path's final RMSE with the fixed pattern's, run for run.
 
-        Returns ``planned_over_fixed`` (the final RMSE ratio), its ``level`` interval ``low``,
-        ``high`` (a paired bootstrap over the runs; None under ``MIN_RUNS_INTERVAL`` runs) and
-        ``verdict`` (``"better"``, ``"worse"``, ``"not distinguishable"`` or too few runs); None
-        without a fixed case.
+        The runs share their draws, so the ratio's interval is a paired bootstrap over the
+        runs (:data:`RESAMPLES`, seeded by the study's seed).
+
+        Parameters
+        ----------
+        level : float, optional
+            The interval's coverage.
+
+        Returns
+        -------
+        dict or None
+            ``planned_over_fixed`` (final RMSE ratio), ``low``, ``high`` (its interval; None
+            with fewer than ``MIN_RUNS_INTERVAL`` runs) and ``verdict``: ``"better"``
+            (interval below 1), ``"worse"`` (above 1), ``"not distinguishable"`` or too few
+            runs; None without a fixed case.
         """
         if FIXED not in self.study.records:
             return None
@@ -204,10 +265,14 @@ class PlanRun:
         return found
 
     def warnings(self) -> list[str]:
-        """Return what a user must know before flying the planned path, a sentence each.
+        """Say what a user must know before flying the planned path.
 
-        The planned path did worse than the fixed pattern or is not shown better; there is no
-        fixed pattern; a case's RMSE is below its bound beyond the Monte Carlo uncertainty.
+        Returns
+        -------
+        list of str
+            A sentence when the planned path did worse than the fixed pattern (or could not
+            be shown better), when there is no fixed pattern to compare with, and when a
+            case's RMSE is below its bound beyond the Monte Carlo uncertainty.
         """
         said = []
         found = self.comparison()

@@ -34,11 +34,26 @@ Options = Mapping[str, Mapping[str, object]]
 
 
 def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, float]:
-    """Return the ``level`` interval of the true RMSE/CRLB from ``ratio`` measured in ``n`` runs.
+    """Confidence interval of the true RMS error over the CRLB from the measured ratio.
 
-    ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})`` (NaN for ``n < 1``
-    or a non-finite ratio), for independent, unbiased, Gaussian errors (``n RMSE²/σ²`` is
-    ``χ²_n``).
+    Parameters
+    ----------
+    ratio : float
+        Measured RMSE/CRLB over ``n`` runs.
+    n : int
+        Runs.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    tuple of float
+        ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``; NaN for ``n < 1``
+        or a non-finite ratio.
+
+    Notes
+    -----
+    Assumes independent, unbiased, Gaussian errors (then ``n RMSE²/σ²`` is ``χ²_n``).
     """
     if n < 1 or not np.isfinite(ratio):
         return float("nan"), float("nan")
@@ -132,21 +147,54 @@ class MonteCarloResult:
         return {str(k): int(v) for k, v in self.table["status"].value_counts().items()}
 
     def estimates(self, converged_only: bool = True) -> NDArray[np.float64]:
-        """Return the estimates (runs, p), SI, by default of the converged runs only."""
+        """Return the estimates, by default of the converged runs only.
+
+        Parameters
+        ----------
+        converged_only : bool
+            Keep the converged runs only.
+
+        Returns
+        -------
+        ndarray, shape (runs, p)
+            One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
+        """
         est = self.table[[f"est_{n}" for n in self.parameters]].to_numpy(dtype=float)
         return cast(NDArray[np.float64], est[self.converged] if converged_only else est)
 
     def errors(self, converged_only: bool = True) -> NDArray[np.float64]:
-        """Return estimate minus truth (runs, p), SI, by default of the converged runs only."""
+        """Return estimate minus truth, by default of the converged runs only.
+
+        Parameters
+        ----------
+        converged_only : bool
+            Keep the converged runs only.
+
+        Returns
+        -------
+        ndarray, shape (runs, p)
+            One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
+        """
         return self.estimates(converged_only) - self.truth
 
     # -- summaries -------------------------------------------------------------------------
     def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
-        """Tabulate the summary, one dict per parameter.
+        """Tabulate the summary, one row per parameter.
 
-        Keys ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb`` (SI),
-        ``ratio`` (RMSE/CRLB) and its ``level`` interval ``ratio_low``, ``ratio_high``
-        (:func:`ratio_interval`).
+        Columns ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb``,
+        ``ratio`` (RMSE/CRLB) and its interval ``ratio_low``, ``ratio_high`` at ``level`` (see
+        :func:`ratio_interval`).
+
+        Parameters
+        ----------
+        level : float
+            Confidence level of the ratio's interval (0 .. 1).
+
+        Returns
+        -------
+        list of dict
+            One dict per parameter; ``truth``, ``bias``, ``rmse``, ``crlb`` in the
+            parameter's SI unit, ``ratio`` and its interval dimensionless.
         """
         err = self.errors()
         n = err.shape[0]
@@ -163,7 +211,16 @@ class MonteCarloResult:
         return rows
 
     def summary(self) -> str:
-        """Return a readable report: :meth:`summary_table`, convergence, status counts, speed."""
+        """Return a readable report.
+
+        Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence, status
+        counts and speed.
+
+        Returns
+        -------
+        str
+            The report, several lines (wall time in s, speed in runs/s).
+        """
         counts = ", ".join(f"{k} {v}" for k, v in self.status_counts.items())
         lines = [f"Monte Carlo: {self.estimator} on {self.scenario}, {self.runs} runs "
                  f"(seed {self.seed}), nuisance {'known' if self.known_nuisance else 'unknown'}",
@@ -186,7 +243,21 @@ class MonteCarloResult:
         return "\n".join(lines)
 
     def as_dict(self, runs: bool = False) -> dict[str, Any]:
-        """Return the JSON form (SI, non-finite numbers None); ``runs``: the per-run ``table``."""
+        """Return the JSON form.
+
+        Context, per-parameter summary, convergence and speed; with ``runs=True`` also the per-run
+        table as a list of records.
+
+        Parameters
+        ----------
+        runs : bool
+            Add the per-run table under ``table``.
+
+        Returns
+        -------
+        dict
+            JSON-ready; SI values, ``wall_time_s`` in s, non-finite numbers as None.
+        """
         summary = [{k: (_num(v) if isinstance(v, float) else v) for k, v in row.items()}
                    for row in self.summary_table()]
         out: dict[str, Any] = {
@@ -214,7 +285,20 @@ class MonteCarloResult:
         return out
 
     def to_json(self, indent: int | None = 2, runs: bool = False) -> str:
-        """Return :meth:`as_dict` as JSON text (``indent`` as for :func:`json.dumps`)."""
+        """Return :meth:`as_dict` as JSON text.
+
+        Parameters
+        ----------
+        indent : int or None
+            As for :func:`json.dumps`.
+        runs : bool
+            Add the per-run table.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.as_dict(runs=runs), indent=indent)
 
 

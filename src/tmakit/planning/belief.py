@@ -21,10 +21,24 @@ from ..filters.base import TrackingFilter
 
 
 def cubature_points(mean: ArrayLike, covariance: ArrayLike) -> tuple[Array, Array]:
-    """Return the ``2 n`` points (2 n, n) and equal weights of a Gaussian's cubature rule.
+    """Return the ``2 n`` equally weighted cubature points of a Gaussian.
 
-    ``mean +- sqrt(n) L e_j`` with ``L L^T = covariance`` (SI): they match its mean and
-    covariance and have no negative weight (an average of information over them stays PSD).
+    ``mean +- sqrt(n) L e_j`` with ``L L^T = covariance``: they match its mean and covariance
+    exactly and, unlike the unscented set with ``kappa = 3 - n``, have no negative weight (so an
+    average of information matrices over them stays positive semi-definite).
+
+    Parameters
+    ----------
+    mean : array_like, shape (n,)
+        Mean (SI).
+    covariance : array_like, shape (n, n)
+        Covariance (SI), positive semi-definite.
+
+    Returns
+    -------
+    points : ndarray, shape (2 n, n)
+    weights : ndarray, shape (2 n,)
+        All ``1 / (2 n)``.
     """
     m = np.asarray(mean, dtype=float)
     n = m.shape[0]
@@ -76,7 +90,7 @@ class Belief:
     @classmethod
     def from_filter(cls, tracker: TrackingFilter, posterior: PosteriorInformation,
                     cloud: str = "auto") -> Belief:
-        """Take the cloud from a tracker at ``posterior.time``.
+        """Take the cloud from a tracker.
 
         Parameters
         ----------
@@ -87,6 +101,10 @@ class Belief:
         cloud : {"auto", "particles", "sigma", "mean"}, optional
             ``"auto"``: the particles of a particle filter, else the cubature points of
             the tracker's Gaussian; ``"mean"``: the estimate alone.
+
+        Returns
+        -------
+        Belief
 
         Raises
         ------
@@ -117,5 +135,17 @@ class Belief:
 
     def replace(self, posterior: PosteriorInformation, states: ArrayLike,
                 weights: ArrayLike | None = None) -> Belief:
-        """Return a belief with new contents (for the next decision)."""
+        """Return a belief with new contents (for the next decision).
+
+        Parameters
+        ----------
+        posterior : PosteriorInformation
+            ``J`` at the new time.
+        states, weights
+            The new target cloud, as for the constructor.
+
+        Returns
+        -------
+        Belief
+        """
         return Belief(posterior, states, weights)

@@ -49,9 +49,25 @@ def check_gamma(gamma: str) -> GammaForm:
 
 def expected_information(plan: SensorPlan, states: Array, weights: Array,
                          sensor_states: Array, gamma: GammaForm) -> Array:
-    """Return ``Gamma`` (*B, n, n) for candidate sensor states (*B, 6) at one measurement time.
+    """Return ``Gamma`` for each candidate sensor state at one measurement time.
 
-    ``states`` (N, n) and ``weights`` (N,) are the predicted target cloud at that time.
+    Parameters
+    ----------
+    plan : SensorPlan
+        What is measured.
+    states : ndarray, shape (N, n)
+        The predicted target cloud at the measurement time.
+    weights : ndarray, shape (N,)
+        Its normalised weights.
+    sensor_states : ndarray, shape (*B, 6)
+        Candidate sensor states at that time.
+    gamma : {"mean", "cloud"}
+        How ``Gamma`` is formed.
+
+    Returns
+    -------
+    ndarray, shape (*B, n, n)
+        SI.
 
     References
     ----------

@@ -22,14 +22,27 @@ DEFAULT_PENALTY = 10.0
 
 @dataclass(frozen=True)
 class Violation:
-    """How far each candidate goes past one constraint."""
+    """How far each candidate goes past one constraint.
 
-    name: str  # The constraint's label
-    #: Largest violation over the checked times (m; 0 where the constraint holds); shape (C,)
+    Attributes
+    ----------
+    name : str
+        The constraint's label.
+    amount : ndarray, shape (C,)
+        Largest violation over the checked times (m; 0 where the constraint holds).
+    hard : bool
+        Whether a violation makes the candidate infeasible.
+    scale : float
+        The constraint's length (m) used by the penalty.
+    weight : float
+        Penalty weight (dimensionless; unused when hard).
+    """
+
+    name: str
     amount: Array
-    hard: bool  # Whether a violation makes the candidate infeasible
-    scale: float  # The constraint's length (m) used by the penalty
-    weight: float  # Penalty weight (dimensionless; unused when hard)
+    hard: bool
+    scale: float
+    weight: float
 
     @property
     def violated(self) -> NDArray[np.bool_]:
@@ -37,7 +50,13 @@ class Violation:
         return self.amount > 1e-3
 
     def penalty_factor(self) -> Array:
-        """Return the cost factor (C,) ``1 + weight * amount / scale`` (1 for hard)."""
+        """Return the cost factor ``1 + weight * amount / scale`` (1 for hard).
+
+        Returns
+        -------
+        ndarray, shape (C,)
+            Dimensionless, >= 1.
+        """
         if self.hard:
             return np.ones_like(self.amount)
         return 1.0 + self.weight * self.amount / self.scale

@@ -81,12 +81,23 @@ class WeightedTrace:
     name: str = field(default="weighted trace", init=False)
 
     def matrix(self, n: int) -> Array:
-        """Return ``Pi`` (n, n) for an ``n``-component state [position, velocity].
+        """Return ``Pi`` for an ``n``-component state.
+
+        Parameters
+        ----------
+        n : int
+            State components (``2 dim``: position, then velocity).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            The weighting (position block ones by default).
 
         Raises
         ------
         ValueError
-            If the weighting is not a finite, symmetric positive semi-definite (n, n) matrix.
+            If the given weighting is not a finite, symmetric positive semi-definite
+            ``(n, n)`` matrix.
         """
         if self.weights is None:
             pi = np.zeros((n, n))
@@ -107,7 +118,22 @@ class WeightedTrace:
         return self.of_covariance(bound_covariance(np.asarray(information, dtype=float)))
 
     def of_covariance(self, covariance: Array) -> Array:
-        """Return ``Tr{Pi C}`` (...,) of ``C = J^{-1}`` (..., n, n)."""
+        """Return ``Tr{Pi C}`` of ``C = J^{-1}``.
+
+        Parameters
+        ----------
+        covariance : ndarray, shape (..., n, n)
+            ``J^{-1}``, SI.
+
+        Returns
+        -------
+        ndarray, shape (...,)
+            The weighted trace (m^2 for the default position weighting).
+
+        References
+        ----------
+        Hurtado & Nehorai (2008), eq. 12.
+        """
         pi = self.matrix(covariance.shape[-1])
         return np.einsum("ij,...ji->...", pi, covariance)
 
@@ -136,7 +162,18 @@ class LogDet:
         return self.of_covariance(bound_covariance(np.asarray(information, dtype=float)))
 
     def of_covariance(self, covariance: Array) -> Array:
-        """Return ``log det`` (...,) of the block of ``C = J^{-1}`` (inf where not PD)."""
+        """Return ``log det`` of the chosen block of ``C = J^{-1}``.
+
+        Parameters
+        ----------
+        covariance : ndarray, shape (..., n, n)
+            ``J^{-1}``, SI.
+
+        Returns
+        -------
+        ndarray, shape (...,)
+            ``log det`` of the block (``inf`` where it is not positive definite).
+        """
         idx = block_indices(self.block, covariance.shape[-1])
         sign, logdet = np.linalg.slogdet(covariance[..., idx[:, None], idx[None, :]])
         return np.where(sign > 0, logdet, np.inf)
@@ -181,7 +218,22 @@ CRITERIA: dict[str, Callable[[], Criterion]] = {
 
 
 def criterion_from_name(name: str) -> Criterion:
-    """Return the criterion named by a key of :data:`CRITERIA` (ValueError for another)."""
+    """Return the criterion named ``"trace"`` (position) or ``"logdet"`` (position).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`CRITERIA`.
+
+    Returns
+    -------
+    Criterion
+
+    Raises
+    ------
+    ValueError
+        For an unknown name.
+    """
     key = name.strip().lower()
     if key not in CRITERIA:
         raise ValueError(f"unknown planning criterion {name!r}; expected one of "

@@ -107,7 +107,20 @@ class Continuation:
 
     def thinned_plan(self, plan: SensorPlan, interval: float, remaining: float
                      ) -> SensorPlan | None:
-        """Return the plan of the continuation's measurements over ``remaining`` s (or None)."""
+        """Return the plan of the continuation's measurements over ``remaining`` s.
+
+        Parameters
+        ----------
+        plan : SensorPlan
+            What is measured per decision step of ``interval`` s.
+        interval, remaining : float
+            The decision interval and the time left to :attr:`end_time`, s.
+
+        Returns
+        -------
+        SensorPlan or None
+            Times in ``(0, remaining]``; None when nothing is measured.
+        """
         steps = int(np.floor(remaining / interval + 1e-9))
         if self.mode == "coast" or steps < 1:
             return None
@@ -124,10 +137,24 @@ class Continuation:
 
     def information(self, planner: Planner, ends: PlatformState, turn_rate: Array,
                     information: Array, belief: Belief) -> Array:
-        """Return ``J`` (*B, n, n) at :attr:`end_time` of nodes (*B) continued by the path.
+        """Return ``J`` at :attr:`end_time` of every node continued by the default path.
 
-        ``turn_rate`` is the nodes' last turn rate (rad/s, for ``"hold"``), ``information``
-        their ``J``.
+        Parameters
+        ----------
+        planner : Planner
+            Supplies the kinematics, the plan and the interval.
+        ends : PlatformState
+            The nodes' platform states (batch shape ``B``), all at one time.
+        turn_rate : ndarray, shape B
+            The nodes' last turn rate, rad/s (used by ``"hold"``).
+        information : ndarray, shape (*B, n, n)
+            ``J`` at the nodes.
+        belief : Belief
+            The decision's belief (its cloud is predicted to the nodes' time).
+
+        Returns
+        -------
+        ndarray, shape (*B, n, n)
         """
         remaining = self.end_time - ends.time
         if remaining <= 1e-9:
@@ -146,14 +173,25 @@ class Continuation:
 
 @dataclass(frozen=True, eq=False)
 class SearchResult:
-    """What :func:`search` found."""
+    """What :func:`search` found.
 
-    #: Best leaf cost over the sequences that start with each first action (``inf`` where the
-    #: beam dropped them all); shape (A,)
+    Attributes
+    ----------
+    cost : ndarray, shape (A,)
+        Best leaf cost over the sequences that start with each first action (``inf`` where
+        the beam dropped every one of them).
+    bad : ndarray, shape (A,)
+        Total hard violation (m) of that leaf (``inf`` where dropped).
+    sequence : ndarray of int, shape (H,)
+        The best sequence's action indices.
+    nodes : int
+        Nodes whose information was computed (the work done).
+    """
+
     cost: Array
-    bad: Array  # Total hard violation (m) of that leaf (``inf`` where dropped); shape (A,)
-    sequence: Array  # The best sequence's action indices; shape (H,)
-    nodes: int  # Nodes whose information was computed (the work done)
+    bad: Array
+    sequence: Array
+    nodes: int
 
 
 def _score(planner: Planner, continuation: Continuation | None, ends: PlatformState,

@@ -97,7 +97,17 @@ class SensorPlan:
             object.__setattr__(self, name, value)
 
     def measurement_times(self, interval: float) -> Array:
-        """Return the measurement times (s after its start) of a step of ``interval`` s.
+        """Return the measurement times of a step of ``interval`` s.
+
+        Parameters
+        ----------
+        interval : float
+            The step, s.
+
+        Returns
+        -------
+        ndarray
+            s after the step's start (the plan's ``times``, or the step's end).
 
         Raises
         ------
@@ -123,7 +133,19 @@ class SensorPlan:
         return self._group[0]
 
     def information(self, states: Array, sensor_states: Array) -> Array:
-        """Return ``Xi`` (*B, N, n, n) of target states (N, n) from sensor states (*B, 6), SI.
+        """Fisher information ``Xi`` of one measurement time, for states and sensor poses.
+
+        Parameters
+        ----------
+        states : ndarray, shape (N, n)
+            Target states at the measurement time.
+        sensor_states : ndarray, shape (*B, 6)
+            Sensor states ``[x, y, z, vx, vy, vz]`` at the same time.
+
+        Returns
+        -------
+        ndarray, shape (*B, N, n, n)
+            SI.
 
         References
         ----------

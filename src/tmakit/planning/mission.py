@@ -175,7 +175,20 @@ class MissionPlanner:
         check_gamma(self.gamma)
 
     def legs(self, time: float) -> tuple[Array, Array]:
-        """Return the leg start times (s) and sub-steps per leg (the last may be shorter)."""
+        """Return the leg start times and the sub-steps per leg from ``time`` to the end.
+
+        Parameters
+        ----------
+        time : float
+            The decision time, s.
+
+        Returns
+        -------
+        starts : ndarray, shape (L,)
+            s.
+        counts : ndarray of int, shape (L,)
+            Sub-steps of each leg (the last may be shorter).
+        """
         total = int(np.floor((self.end_time - time) / self.step + 1e-6))
         per_leg = round(self.leg_duration / self.step)
         counts = np.full(total // per_leg, per_leg)
@@ -240,18 +253,25 @@ class MissionPlanner:
 
     def evaluate(self, platform: PlatformState, belief: Belief, headings: ArrayLike,
                  speeds: ArrayLike | None = None) -> Array:
-        """Return the predicted final information of candidate paths (C, n, n) or (C, K, n, n).
+        """Return the predicted final information of candidate paths (C, n, n).
+
+        With :attr:`hypotheses`, one per path and hypothesis, (C, K, n, n).
 
         Parameters
         ----------
         platform : PlatformState
-            The platform now, at ``belief.time``.
+            The platform now (batch shape ``()``), at ``belief.time``.
         belief : Belief
             ``J`` and the target cloud now.
         headings : array_like, shape (C, L)
-            Commanded heading per leg, rad.
+            Commanded heading per leg (rad) of each candidate.
         speeds : array_like, shape (C, L), optional
-            Commanded speed per leg, m/s (default the platform's speed).
+            Commanded speed per leg (m/s); default the platform's speed.
+
+        Returns
+        -------
+        ndarray, shape (C, n, n)
+            SI.
 
         Raises
         ------
@@ -388,7 +408,24 @@ class MissionPlanner:
     def recommend(self, platform: PlatformState, belief: Belief,
                   previous: MissionPlan | None = None, pattern: ArrayLike | None = None,
                   information: ArrayLike | None = None) -> MissionPlan:
-        """Re-plan the legs left (:meth:`optimise`, also from ``previous`` and ``pattern``)."""
+        """Re-plan the remaining legs from the current belief (receding over legs).
+
+        Parameters
+        ----------
+        platform, belief
+            As for :meth:`optimise`.
+        previous : MissionPlan, optional
+            The last plan; its legs still ahead start the search.
+        pattern : array_like, optional
+            An operator's pattern for the legs left (rad), also a start.
+        information : array_like, shape (K, n, n), optional
+            As for :meth:`optimise`.
+
+        Returns
+        -------
+        MissionPlan
+            Fly its first leg (``actions[:counts[0]]``), then call again.
+        """
         _, counts = self.legs(belief.time)
         initial = []
         if previous is not None:
@@ -401,14 +438,45 @@ class MissionPlanner:
                              information)
 
     def first_leg(self, platform: PlatformState, plan: MissionPlan) -> Actions:
-        """Return the sub-step actions of the plan's first leg (fly them, then re-plan)."""
+        """Return the sub-step actions of the plan's first leg (fly them, then re-plan).
+
+        Parameters
+        ----------
+        platform : PlatformState
+            The platform at the plan's decision time.
+        plan : MissionPlan
+            The plan.
+
+        Returns
+        -------
+        Actions
+            One per sub-step of :attr:`step` seconds.
+        """
         _, counts = self.legs(platform.time)
         return plan.actions[np.arange(int(counts[0]))]
 
     def advance(self, platform: PlatformState, belief: Belief, plan: MissionPlan,
                 states: ArrayLike, weights: ArrayLike | None = None
                 ) -> tuple[PlatformState, Belief]:
-        """Fly the plan's first leg; return the platform and the belief (the cloud given) there."""
+        """Fly the plan's first leg; return the platform and the belief at its end.
+
+        ``J`` is carried along the flown leg (the bound conditioned on the path); the cloud
+        is the tracker's after the leg (or the truth, to evaluate at the truth).
+
+        Parameters
+        ----------
+        platform, belief
+            As for :meth:`optimise`.
+        plan : MissionPlan
+            The plan made from them.
+        states, weights
+            The target cloud at the end of the leg.
+
+        Returns
+        -------
+        platform : PlatformState
+        belief : Belief
+        """
         _, counts = self.legs(belief.time)
         info = belief.posterior.information[None]
         out = self._rollout(belief, repeat_batch(platform, 1), info, plan.headings[None, :1],

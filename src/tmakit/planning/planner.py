@@ -86,9 +86,19 @@ class Recommendation:
 
 
 def position_bound(information: Array, covariance: Array | None = None) -> Array:
-    """Return the position RMS bound (...,), m: ``sqrt(trace)`` of the position block of ``J^{-1}``.
+    """Return ``sqrt(trace)`` of the position block of ``J^{-1}``.
 
-    ``covariance`` is ``J^{-1}`` (``bound_covariance(information)``) if already computed.
+    Parameters
+    ----------
+    information : ndarray, shape (..., n, n)
+        ``J``, SI.
+    covariance : ndarray, shape (..., n, n), optional
+        ``bound_covariance(information)`` if already computed.
+
+    Returns
+    -------
+    ndarray, shape (...,)
+        The position RMS bound, m.
     """
     dim = information.shape[-1] // 2
     cov = bound_covariance(information) if covariance is None else covariance
@@ -176,10 +186,28 @@ class Planner:
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from a batch of states (*B) with ``J`` (*B, n, n), for one step.
+        """Fly every action from each of a batch of states for one step, ``depth`` steps ahead.
 
-        Returns the steps (*B, A), ``J`` after them (*B, A, n, n) and one :class:`Violation`
-        per constraint (amounts flattened).  ``depth`` is unused (the states' time says it).
+        Parameters
+        ----------
+        platform : PlatformState
+            States of batch shape ``B`` at ``belief.time + depth * interval``.
+        information : ndarray, shape (*B, n, n)
+            ``J`` at that time, per state.
+        belief : Belief
+            The decision's belief (its cloud is predicted ``depth`` steps ahead).
+        depth : int
+            Steps after the decision time (0 for the first).
+        gamma : {"mean", "cloud"}
+            How ``Gamma`` is formed.
+
+        Returns
+        -------
+        steps : Step, shape (*B, A)
+        information : ndarray, shape (*B, A, n, n)
+            ``J`` after the step.
+        violations : list of Violation
+            One per constraint, amounts of shape ``(*B * A,)`` flattened.
         """
         steps = decision.fly(self.kinematics, platform, self.actions, self.interval)
         if steps is None:   # limits that raise: the NumPy step
@@ -204,7 +232,18 @@ class Planner:
         return steps, info, step_violations(self.constraints, steps, belief, self.interval)
 
     def recommend(self, platform: PlatformState, belief: Belief) -> Recommendation:
-        """Choose the next action from ``platform`` (one state) at ``belief.time``.
+        """Choose the next action.
+
+        Parameters
+        ----------
+        platform : PlatformState
+            The platform now (batch shape ``()``), at ``belief.time``.
+        belief : Belief
+            ``J_k`` along the path so far and the target cloud, at the same time.
+
+        Returns
+        -------
+        Recommendation
 
         Raises
         ------
@@ -240,7 +279,24 @@ class Planner:
 
     def advance(self, belief: Belief, recommendation: Recommendation, states: Array,
                 weights: Array | None = None) -> Belief:
-        """Return the next belief: the chosen candidate's ``J_{k+1}``, the tracker's cloud."""
+        """Return the next decision's belief after flying the chosen step.
+
+        ``J_{k+1}`` is the chosen candidate's predicted information (the bound along the
+        flown path, conditioned on it); the cloud is the tracker's after its update.
+
+        Parameters
+        ----------
+        belief : Belief
+            The belief the recommendation was made from.
+        recommendation : Recommendation
+            Its answer.
+        states, weights
+            The tracker's cloud at the end of the step.
+
+        Returns
+        -------
+        Belief
+        """
         post = belief.posterior
         nxt = type(post)(recommendation.information[recommendation.index], post.dynamics,
                          belief.time + self.interval)

@@ -39,25 +39,59 @@ __all__ = ["PlanningSetup", "build_planning", "load_planning", "planning_from_di
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class PlanningSetup:
-    """Everything a closed-loop run of a planned scenario needs, in SI."""
+    """Everything a closed-loop run of a planned scenario needs, in SI.
 
-    scenario: Scenario  # Its target truth (its other sensors are not used by the loop)
-    sensor: str  # Id of the steered sensor
-    #: The horizon planner, and what the mission planner takes its settings from
+    Attributes
+    ----------
+    scenario : Scenario
+        The scenario (its target truth; its other sensors are not used by the loop).
+    sensor : str
+        Id of the steered sensor.
+    planner : Planner
+        Kinematics, actions, interval, sensor plan, criterion, constraints, gamma, horizon:
+        the horizon planner, and what the mission planner takes its settings from.
+    start : PlatformState
+        The steered sensor at the start (position m, heading rad clockwise from North,
+        speed m/s, climb rate m/s, time s).
+    target : ndarray, shape (2 dim,)
+        True target state at the start time ``[x, y, (z,) vx, vy, (vz)]`` (m, m/s).
+    steps : int
+        Decisions: ``duration / interval``.
+    tracker : {"pf", "ekf", "ukf"}
+        The tracker.
+    particles : int
+        Particles of the particle filter.
+    q : float
+        Process-noise acceleration std of the target (truth and tracker), m/s^2.
+    prior_std : tuple of float
+        Prior standard deviations of position (m) and velocity (m/s) per axis.
+    runs : int
+        Monte Carlo runs.
+    source : str
+        The file, for messages.
+    kind : {"mission", "horizon"}
+        The planner that steers (``"auto"`` resolved).
+    leg_duration : float or None
+        The mission planner's leg, s (None: a tenth of the duration, whole intervals).
+    hypotheses : int
+        The mission planner's range hypotheses (1: none).
+    """
+
+    scenario: Scenario
+    sensor: str
     planner: Planner
-    start: PlatformState  # The steered sensor at the start
-    target: Array  # True target state ``[x, y, (z,) vx, vy, (vz)]`` at the start (m, m/s)
-    steps: int  # Decisions: ``duration / interval``
-    tracker: str  # "pf", "ekf" or "ukf"
-    particles: int  # Particles of the particle filter
-    q: float  # Process-noise acceleration std of the target (truth and tracker), m/s^2
-    prior_std: tuple[float, float]  # Prior std of position (m) and velocity (m/s) per axis
-    runs: int  # Monte Carlo runs
-    source: str = ""  # The file, for messages
-    kind: str = "horizon"  # The planner that steers: "mission" or "horizon"
-    #: The mission planner's leg, s (None: a tenth of the duration, whole intervals)
+    start: PlatformState
+    target: Array
+    steps: int
+    tracker: str
+    particles: int
+    q: float
+    prior_std: tuple[float, float]
+    runs: int
+    source: str = ""
+    kind: str = "horizon"
     leg_duration: float | None = None
-    hypotheses: int = 3  # The mission planner's range hypotheses (1: none)
+    hypotheses: int = 3
 
     @property
     def interval(self) -> float:
@@ -72,7 +106,20 @@ class PlanningSetup:
     def replace(self, *, steps: int | None = None, tracker: str | None = None,
                 particles: int | None = None, q: float | None = None,
                 runs: int | None = None, kind: str | None = None) -> PlanningSetup:
-        """Return a copy with run settings changed (None: as it is)."""
+        """Return a copy with run settings changed (None: as it is).
+
+        Parameters
+        ----------
+        steps, tracker, particles, q, runs : optional
+            Decisions per run, the tracker's name, its particles, process noise (m/s^2) and
+            Monte Carlo runs.
+        kind : str, optional
+            The planner that steers: ``"mission"`` or ``"horizon"``.
+
+        Returns
+        -------
+        PlanningSetup
+        """
         given: dict[str, Any] = {"steps": steps, "tracker": tracker, "particles": particles,
                                  "q": q, "runs": runs, "kind": kind}
         return dataclasses.replace(self, **{k: v for k, v in given.items() if v is not None})
@@ -300,6 +347,16 @@ def planning_from_dict(data: dict[str, Any], source: str = "<dict>") -> Planning
 
 def load_planning(name_or_path: str | os.PathLike[str]) -> PlanningSetup:
     """Load the planning setup of a scenario (built-in name or TOML file) with ``[planning]``.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A built-in name (``plan-bearings-only``) or a path.
+
+    Returns
+    -------
+    PlanningSetup
+        See :func:`planning_from_dict`.
 
     Raises
     ------
