@@ -560,9 +560,9 @@ def test_numbers_are_read_back_exactly(tmp_path):
 
 
 def test_a_bad_cell_past_the_first_chunk_keeps_its_row_number(tmp_path, monkeypatch):
-    from tmakit.io import check_cells
+    from tmakit.io import checker
 
-    monkeypatch.setattr(check_cells, "CHUNK_ROWS", 2)
+    monkeypatch.setattr(checker, "CHUNK_ROWS", 2)
     rows = [f"{i},a,bearing,10,1,0,0,5,0," for i in range(7)]
     rows[4] = "4,a,bearing,10,-1.50,0,0,5,0,"
     message = refused(write_csv(tmp_path, rows))

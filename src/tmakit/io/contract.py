@@ -1,24 +1,22 @@
-"""The measurement-file contract as data: column names and order, what each column is for.
+"""The measurement-file contract as data: column names, order and purpose; a set's columns.
 
 The contract itself (columns, units, rules) is written in ``docs/file-format.md``.
 """
 
 from __future__ import annotations
 
-from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 
-__all__ = [
-    "COLUMN_ORDER",
-    "COLUMN_PURPOSE",
-    "FORMAT_LINE",
-    "GEO_COLUMNS",
-    "NUMERIC_COLUMNS",
-    "PARQUET_METADATA_PREFIX",
-    "between_sensor_kinds",
-    "reference_kinds",
-    "reference_kinds_text",
-]
+__all__ = ["COLUMN_ORDER", "COLUMN_PURPOSE", "FORMAT_LINE", "GEO_COLUMNS", "NUMERIC_COLUMNS",
+           "PARQUET_METADATA_PREFIX", "between_sensor_kinds", "file_columns", "reference_kinds",
+           "reference_kinds_text"]
+
 
 #: First line of every CSV file tmakit writes.
 FORMAT_LINE = "# tmakit measurements v1"
@@ -74,3 +72,19 @@ COLUMN_PURPOSE: dict[str, str] = {
     "ref_sensor": "the reference sensor of a tdoa or fdoa row (a sensor id)",
     "carrier": "an fdoa row's carrier (Hz)",
 }
+
+
+def file_columns(ms: MeasurementSet) -> dict[str, NDArray[Any]]:
+    """Return the columns to write, in :data:`~tmakit.io.contract.COLUMN_ORDER` (file units)."""
+    cols: dict[str, NDArray[Any]] = {
+        "time": ms.time, "sensor": ms.sensor, "kind": ms.kind, "value": ms.value,
+        "sigma": ms.sigma}
+    for i, c in enumerate(SENSOR_STATE_COLUMNS):
+        cols[c] = ms.sensor_state[:, i]
+    cols["time_ref"] = ms.time_ref
+    if any(np.any(ms.kind_mask(k)) for k in reference_kinds()):
+        for i, c in enumerate(REF_STATE_COLUMNS):
+            cols[c] = ms.ref_sensor_state[:, i]
+    if ms.tonal is not None:  # each frequency row's tonal (its own f0)
+        cols["tonal"] = ms.tonal
+    return cols

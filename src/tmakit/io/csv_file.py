@@ -27,13 +27,11 @@ from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
 from ..rules import GEO_RANGES, geo_within
 from .checker import check_table
-from .columns import file_columns
-from .contract import COLUMN_ORDER, FORMAT_LINE, GEO_COLUMNS, NUMERIC_COLUMNS
+from .contract import COLUMN_ORDER, FORMAT_LINE, GEO_COLUMNS, NUMERIC_COLUMNS, file_columns
 from .errors import MeasurementFileError
 from .formats import Format, register_format
-from .positions import resolve_origin
+from .positions import QUERY_ROWS, SensorRecord, resolve_origin
 from .problems import Problems, RawTable
-from .sensor_record import QUERY_ROWS, SensorRecord
 from .tables import write_table
 
 __all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load_csv",

@@ -9,8 +9,7 @@ from pathlib import Path
 
 from ..data import MeasurementSet
 from .checker import table_reader
-from .columns import file_columns
-from .contract import PARQUET_METADATA_PREFIX
+from .contract import PARQUET_METADATA_PREFIX, file_columns
 from .errors import MeasurementFileError
 from .formats import Format, register_format
 from .problems import RawTable
