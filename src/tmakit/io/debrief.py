@@ -17,16 +17,34 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 from .clock_text import seconds_of_time_text
-from .debrief_fixes import at_line, host_fixes, listed, sensor_states
-from .debrief_lines import LineProblem, ParsedReplay, SensorLine, SolutionLine, parse_replay_text
-from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
+from .debrief_lines import (
+    LineProblem,
+    ParsedReplay,
+    SensorLine,
+    SolutionLine,
+    TrackLine,
+    parse_replay_text,
+)
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
-from .log_rules import checked_rows
-from .logs import Fixes, LocalFrame, iso_utc, local_frame, relative_seconds, time_origin_ns
+from .logs import (
+    KNOT,
+    YARD,
+    Fixes,
+    LocalFrame,
+    checked_rows,
+    course_speed_velocity,
+    interpolate_states,
+    iso_utc,
+    local_frame,
+    relative_seconds,
+    time_origin_ns,
+    velocity_from_positions,
+)
 
 __all__ = ["DEFAULT_BEARING_SIGMA_DEG", "DEFAULT_FREQUENCY_SIGMA_HZ", "DEFAULT_RANGE_SIGMA_M",
            "REPLAY", "read_replay", "replay_solutions", "replay_tracks"]
+
 
 #: Bearing noise standard deviation (deg) when none is given: replay files carry no sigma.
 DEFAULT_BEARING_SIGMA_DEG = 1.0
@@ -40,6 +58,12 @@ SOUND_SPEED_SEA_M_S = 1500.0
 
 ReplayPaths = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
 _KINDS = ("bearing", "range", "frequency")
+#: How to give a sensor file its own ship's positions (the end of the refusals that need it).
+_PAIR_HINT = ("give the own ship's track file in the same command, e.g. tma import rep OWN.rep "
+              "SENSOR.dsf -o obs.parquet (the files are read as one replay, in any order)")
+_SAME_DEG = 0.011 / 3600.0  # the files' 0.01" of arc (0.3 m)
+#: The values of ``ranges=``: None (placeholders left out), ``use`` or ``ignore``.
+_RANGES_CHOICES = ("use", "ignore")
 
 
 def _paths(path: ReplayPaths) -> tuple[list[Path], Path]:
@@ -96,7 +120,7 @@ def replay_solutions(path: ReplayPaths) -> list[SolutionLine]:
 
 
 def _problem(p: LineProblem) -> str:
-    return f"{at_line(p)}: {p.message}"
+    return f"{_at_line(p)}: {p.message}"
 
 
 def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[str]) -> None:
@@ -107,11 +131,11 @@ def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[st
     other = [f"{_problem(p)} (track {p.owner!r})" for p in parsed.problems]
     if other:
         notes.append(f"warning: {len(other)} line(s) of tracks not used break the format and "
-                     f"are skipped: {listed(other)}")
+                     f"are skipped: {_listed(other)}")
     if parsed.carries:
-        carried = [f"{at_line(c)} {c.message}" for c in parsed.carries]
+        carried = [f"{_at_line(c)} {c.message}" for c in parsed.carries]
         notes.append(f"note: {len(carried)} position(s) written with 60 minutes or seconds read "
-                     f"as a carry, as Debrief reads them: {listed(carried)}")
+                     f"as a carry, as Debrief reads them: {_listed(carried)}")
 
 
 def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
@@ -123,7 +147,7 @@ def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
         tracks = list(dict.fromkeys(t.name for t in parsed.tracks))
         raise MeasurementFileError(path, [
             "no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing measured" + (
-                f"; the tracks read ({listed(tracks)}) are positions: give an own ship's "
+                f"; the tracks read ({_listed(tracks)}) are positions: give an own ship's "
                 f"track with its sensor file in one command (tma show SENSOR.dsf OWN.rep)"
                 if tracks else "")])
     ownship = None if ownship is None else ownship.strip()
@@ -209,18 +233,18 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
                 window: Sequence[str | None] | None = None, **_: object) -> MeasurementSet:
     """Read Debrief replay files (REP or DSF) as a measurement set (mapping: module text)."""
     paths, where = _paths(path)
-    if ranges not in (None, *RANGES_CHOICES):
+    if ranges not in (None, *_RANGES_CHOICES):
         raise MeasurementFileError(where, [f"ranges {ranges!r}: expected use or ignore"])
     sig, asked = _default_sigmas(where, bearing_sigma, range_sigma, frequency_sigma)
     wanted = _kinds(where, kinds)
     notes: list[str] = []
     cuts = _cuts(where, paths, ownship, contact, window, origin, dim, notes)
-    no_range = (placeholder_ranges(cuts.rows, ranges, notes) if "range" in wanted
+    no_range = (_placeholder_ranges(cuts.rows, ranges, notes) if "range" in wanted
                 else np.ones(len(cuts.rows), bool))
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines, twins, tonals = cut_rows(
+    times, kinds_, values, sigmas, st, lines, twins, tonals = _cut_rows(
         cuts.rows, cuts.states, t, si, asked, wanted, no_range)
     if not times:
         raise MeasurementFileError(where, [
@@ -233,7 +257,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
         tonal_names = list(dict.fromkeys(t for t in tonals if t))
         _note(metadata, f"note: frequencies are sonar tonals carried by sound at "
               f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to change); "
-              f"{len(tonal_names)} tonal(s) ({listed(tonal_names)}), each with its own "
+              f"{len(tonal_names)} tonal(s) ({_listed(tonal_names)}), each with its own "
               "unknown base frequency f0")
     raw = MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
@@ -295,7 +319,7 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
-            f"the cuts read name {len(contacts)} contacts ({listed(contacts)}), two of them "
+            f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
             "two contacts' cuts; choose one with --contact NAME (the first word of the "
             "labels)"]) from None
@@ -340,12 +364,12 @@ def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | No
     rows = _in_window(where, sorted(rows, key=lambda s: s.time_ns), window, origin_ns,
                       (int(every.min()), int(every.max())))
     rows = _one_run_per_sensor(rows, parsed, host, [p.name for p in paths], notes)
-    fixes = host_fixes(where, parsed.tracks, host, rows, notes)
+    fixes = _host_fixes(where, parsed.tracks, host, rows, notes)
     try:
         frame = local_frame([fixes], origin, dim, "msl")
     except ValueError as e:
         raise MeasurementFileError(where, [str(e)]) from None
-    rows, states = sensor_states(where, rows, fixes, frame, origin_ns, notes)
+    rows, states = _sensor_states(where, rows, fixes, frame, origin_ns, notes)
     return _Cuts(host, rows, states, fixes, frame, origin_ns)
 
 
@@ -379,3 +403,162 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
 #: Debrief replay files: ``.rep`` and ``.dsf`` (the same line format).
 REPLAY = register_format(Format("rep", "Debrief replay", (".rep", ".dsf"), read_replay, None,
                                 several=True))
+
+
+def _at_line(item: TrackLine | SensorLine | LineProblem) -> str:
+    """Name a line: ``line N``, or ``FILE line N`` when several files are read."""
+    return f"{item.file} line {item.line}" if item.file else f"line {item.line}"
+
+
+def _listed(items: Sequence[str], most: int = 5, sep: str = "; ") -> str:
+    """Join the first ``most`` items, then say how many more there are."""
+    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most
+                                     else "")
+
+
+def _values(item: TrackLine | SensorLine) -> str:
+    text = f"{item.lat:.6f}, {item.lon:.6f}"
+    if isinstance(item, TrackLine):
+        text += f", course {item.course:g}, speed {item.speed_kn:g} kn"
+    return text
+
+
+def _same(a: TrackLine | SensorLine, b: TrackLine | SensorLine) -> bool:
+    assert a.lat is not None and b.lat is not None and a.lon is not None and b.lon is not None
+    close = abs(a.lat - b.lat) <= _SAME_DEG and abs(a.lon - b.lon) <= _SAME_DEG
+    if isinstance(a, TrackLine) and isinstance(b, TrackLine):
+        close = close and abs(a.course - b.course) <= 0.01 and abs(a.speed_kn - b.speed_kn) <= 0.01
+    return close
+
+
+def _unique(path: Path, lines: Sequence[TrackLine | SensorLine], host: str,
+            notes: list[str]) -> list[TrackLine | SensorLine]:
+    """Keep one of each fix written twice; refuse two different fixes at one time."""
+    ordered = sorted(lines, key=lambda x: x.time_ns)
+    kept: list[TrackLine | SensorLine] = []
+    repeats: list[str] = []
+    problems: list[str] = []
+    for item in ordered:
+        if kept and kept[-1].time_ns == item.time_ns:
+            if _same(kept[-1], item):
+                repeats.append(f"{_at_line(item)} repeats {_at_line(kept[-1])}")
+            else:
+                problems.append(
+                    f"{_at_line(item)}: own ship {host!r} has two different fixes at "
+                    f"{iso_utc(item.time_ns)}: {_at_line(kept[-1])} ({_values(kept[-1])}) and "
+                    f"{_at_line(item)} ({_values(item)})")
+            continue
+        kept.append(item)
+    if problems:
+        raise MeasurementFileError(path, problems)
+    if repeats:
+        notes.append(f"note: own ship {host!r}: {len(repeats)} fix(es) written twice (same time "
+                     f"and values) read once: {_listed(repeats)}")
+    return kept
+
+
+def _host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[SensorLine],
+               notes: list[str]) -> Fixes:
+    """Return the host's fixes: its track lines, else the positions its sensor lines state."""
+    mine = [t for t in tracks if t.name == host]
+    if not mine:
+        stated = [s for s in rows if s.lat is not None]
+        null = [s for s in rows if s.lat is None]
+        if null and not stated:
+            named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
+            lines = _listed([_at_line(s) for s in null], sep=", ")
+            raise MeasurementFileError(path, [
+                f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
+                f"(tracks read: {named}): {_PAIR_HINT}"])
+        fixes = _unique(path, stated, host, notes)
+        return Fixes(np.array([s.time_ns for s in fixes], np.int64),
+                     np.array([s.lat for s in fixes], float),
+                     np.array([s.lon for s in fixes], float), np.zeros(len(fixes)), None,
+                     np.array([s.line for s in fixes], np.int64))
+    kept = [t for t in _unique(path, mine, host, notes) if isinstance(t, TrackLine)]
+    return Fixes(np.array([t.time_ns for t in kept], np.int64),
+                 np.array([t.lat for t in kept]), np.array([t.lon for t in kept]),
+                 np.zeros(len(kept)),
+                 course_speed_velocity(np.array([t.course for t in kept]),
+                                       np.array([t.speed_kn for t in kept]) * KNOT),
+                 np.array([t.line for t in kept], np.int64))
+
+
+def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: LocalFrame,
+                  origin_ns: int, notes: list[str]
+                  ) -> tuple[list[SensorLine], NDArray[np.float64]]:
+    """Return the cuts kept and each one's sensor state (m, m/s)."""
+    t_fix = relative_seconds(fixes.time_ns, origin_ns)
+    positions = frame.enu(fixes.lat, fixes.lon, fixes.alt)
+    velocity = (fixes.velocity if fixes.velocity is not None
+                else velocity_from_positions(t_fix, positions))
+    t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
+    states, outside = interpolate_states(t_fix, np.column_stack([positions, velocity]), t)
+    given = np.array([s.lat is not None for s in rows], bool)
+    if given.any():
+        lat = np.array([s.lat for s in rows if s.lat is not None], float)
+        lon = np.array([s.lon for s in rows if s.lon is not None], float)
+        states[given, :3] = frame.enu(lat, lon, np.zeros(lat.shape))
+    bad = np.flatnonzero(outside & ~given)
+    if bad.size:
+        span = f"{iso_utc(int(fixes.time_ns[0]))} to {iso_utc(int(fixes.time_ns[-1]))}"
+        named = _listed([_at_line(rows[k]) for k in bad.tolist()], sep=", ")
+        message = (f"{bad.size} cut(s) with a NULL position fall outside the own ship's track "
+                   f"{rows[bad[0]].host!r} ({span}) and are left out: {named}")
+        if bad.size == len(rows):
+            raise MeasurementFileError(path, [f"{message}; no cut is left: {_PAIR_HINT}"])
+        notes.append(f"warning: {message}")
+        keep = np.ones(len(rows), bool)
+        keep[bad] = False
+        return [s for s, k in zip(rows, keep, strict=True) if k], states[keep]
+    return rows, states
+
+
+def _placeholder_ranges(rows: list[SensorLine], ranges: str | None,
+                       notes: list[str]) -> NDArray[np.bool_]:
+    """Mark the cuts whose range is left out (a placeholder, or ``ranges="ignore"``)."""
+    value = np.array([np.nan if s.range_yd is None else s.range_yd for s in rows], float)
+    stated = np.isfinite(value)
+    if ranges == "use" or not stated.any():
+        return np.zeros(len(rows), bool)
+    if ranges == "ignore":
+        notes.append(f"note: {int(stated.sum())} range(s) left out (--ranges ignore)")
+        return stated
+    drop = stated & (value == 0)
+    if drop.any():
+        notes.append(f"note: {int(drop.sum())} range(s) of 0 yd left out: a placeholder, not a "
+                     "measurement (--ranges use to fit them anyway)")
+    rest = value[stated & ~drop]
+    if rest.size >= 2 and np.all(rest == rest[0]):
+        notes.append(f"note: the {rest.size} ranges left out: every cut states {rest[0]:g} yd, "
+                     "a plotting default rather than a measurement (--ranges use to fit them "
+                     "anyway)")
+        drop = stated
+    return drop
+
+
+def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
+             sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
+             no_range: NDArray[np.bool_]
+             ) -> tuple[list, list, list, list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal) of each value used."""
+    out: tuple[list, ...] = ([], [], [], [], [], [], [], [])
+    for k, s in enumerate(rows):
+        stated = {"bearing": None if s.bearing_accuracy is None
+                  else float(np.deg2rad(s.bearing_accuracy)),
+                  "frequency": s.frequency_accuracy}
+        for kind, value in (("bearing", s.bearing), ("range", s.range_yd),
+                            ("frequency", s.frequency)):
+            if value is None or kind not in kinds or (kind == "range" and no_range[k]):
+                continue
+            si = (float(np.deg2rad(value)) if kind == "bearing"
+                  else value * YARD if kind == "range" else value)
+            line_sigma = stated.get(kind)
+            sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
+            twin = (float(np.deg2rad(s.ambiguous)) if kind == "bearing"
+                    and s.ambiguous is not None else np.nan)
+            tonal = s.sensor if kind == "frequency" else ""  # a sensor's tonal line
+            for col, item in zip(out, (t[k], kind, si, sigma, states[k], _at_line(s), twin,
+                                       tonal), strict=True):
+                col.append(item)
+    return out  # type: ignore[return-value]

@@ -7,7 +7,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .epoch_times import EPOCH_UNITS, LATEST_NS
+from .logs import EPOCH_UNITS, LATEST_NS
 
 __all__ = ["MappingGuess", "guess_mapping"]
 

@@ -11,8 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import MeasurementFileError, refuse_unreadable
-from .log_rules import fix_problems
-from .logs import KNOT, Fixes, iso_utc
+from .logs import KNOT, Fixes, fix_problems, iso_utc
 
 __all__ = ["read_gpx_fixes", "read_nmea_fixes", "read_track_fixes"]
 

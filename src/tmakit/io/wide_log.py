@@ -12,13 +12,14 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 from ..measurements import KINDS
-from .epoch_times import clock_time_problem
 from .errors import MeasurementFileError, refuse_unreadable
 from .formats import Format, register_format
-from .log_rules import checked_rows, fix_problems
 from .logs import (
     Fixes,
     LocalFrame,
+    checked_rows,
+    clock_time_problem,
+    fix_problems,
     interpolate_heading,
     interpolate_states,
     iso_utc,
