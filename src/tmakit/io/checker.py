@@ -1,7 +1,7 @@
 """From a raw table to a checked :class:`~tmakit.data.MeasurementSet`.
 
-The columns a file has against what its rows need, every cell's rule (a pandera schema validated
-lazily), and the rules across rows; all problems are reported together.
+The columns a file has against what its rows need (numbers coerced by pandera), every cell's rule,
+and the rules across rows; all problems are reported together.
 """
 
 from __future__ import annotations
@@ -45,14 +45,13 @@ from .contract import (
 )
 from .errors import MeasurementFileError
 from .positions import fdoa_carriers, ref_sensor_state, sensor_state
-from .problems import Problems, RawTable, blank_mask, is_blank, number_text, show, text_column
+from .problems import Problems, RawTable, blank_mask, is_blank, number_text, text_column
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
-    import pandera.pandas as pa
 
-__all__ = ["CHUNK_ROWS", "Layout", "check_cells", "check_columns", "check_order", "check_table",
-           "read_numbers", "table_reader"]
+__all__ = ["Layout", "check_cells", "check_columns", "check_order", "check_table", "read_numbers",
+           "table_reader"]
 
 
 def check_table(path: str | os.PathLike[str], raw: RawTable,
@@ -197,19 +196,15 @@ def _check_velocity(has: Callable[[str], bool], kinds: list[str], problems: Prob
     return bool(has_vx and has_vy)
 
 
-#: Rows validated at a time by the pandera schema: its working memory (a few hundred bytes
-#: per row) is bounded by this, not by the file.
-CHUNK_ROWS = 100_000
-
 Numbers = dict[str, NDArray[np.float64]]
 RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
 
+
 def value_ranges() -> list[tuple[str, Callable[[ArrayLike], NDArray[np.bool_]], str]]:
     """Return the value ranges checked per kind, from each kind's hook (``value_range``)."""
-    from ..measurements import KINDS
-
     return [(k, cls.check_values, cls.value_range.describe(cls.file_unit))
             for k, cls in KINDS.items() if cls.value_range is not None]
+
 
 def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     """Numeric columns as float64 (NaN for empty cells), via pandera's coercion."""
@@ -250,126 +245,94 @@ def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     return {c: table[c].to_numpy(dtype=np.float64, copy=True) for c in present}
 
 
-class _Checks:
-    """pandera checks that remember, per (column, check name), what a failing cell expected."""
+class _Cells:
+    """A file's columns, each cell checked rule by rule (the first rule it breaks is recorded)."""
 
-    def __init__(self) -> None:
-        self.expected: dict[tuple[str, str], Callable[[int], str]] = {}
+    def __init__(self, values: dict[str, NDArray[Any]], problems: Problems) -> None:
+        self.values, self.problems = values, problems
+        self.rows = np.arange(len(problems.raw.frame))
 
-    def check(self, column: str, name: str, ok: RowCheck, what: str | Callable[[int], str],
-              ignore_na: bool = True) -> pa.Check:
-        import pandas as pd
-        import pandera.pandas as pa
+    def check(self, column: str, ok: RowCheck, what: str | Callable[[int], str],
+              ignore_na: bool = True) -> None:
+        """Record ``what`` was expected at each cell of ``column`` where ``ok`` fails."""
+        v = self.values[column]
+        with np.errstate(invalid="ignore"):
+            bad = ~np.asarray(ok(v, self.rows), dtype=bool)
+        if ignore_na and v.dtype == np.float64:  # empty cells pass
+            bad &= ~np.isnan(v)
+        for row in np.flatnonzero(bad).tolist():
+            self.problems.cell(row, column, what(row) if callable(what) else what)
 
-        self.expected[(column, name)] = what if callable(what) else (lambda _row: what)
-
-        def fn(s: pd.Series) -> pd.Series:
-            rows = s.index.to_numpy(dtype=np.intp)
-            return pd.Series(np.asarray(ok(s.to_numpy(), rows), dtype=bool), index=s.index)
-
-        return pa.Check(fn, name=name, ignore_na=ignore_na)
-
-    def finite(self, column: str) -> pa.Check:
-        return self.check(column, "finite", lambda v, r: np.isfinite(v), FINITE)
+    def number(self, column: str) -> None:
+        """Record each empty or non-finite cell of a column that needs a number."""
+        self.check(column, lambda v, r: ~np.isnan(v), "a number", ignore_na=False)
+        self.check(column, lambda v, r: np.isfinite(v), FINITE)
 
 
 def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
                 is_rd: NDArray[np.bool_], problems: Problems,
                 ref_name: NDArray[np.object_] | None = None) -> NDArray[np.bool_]:
     """Check every cell against the per-cell rules; record one problem per failing cell."""
-    import pandas as pd
-    import pandera.pandas as pa
-
-    checks = _Checks()
-    columns = _basic_columns(frame, num, kind, checks)
-    if "time_ref" in num and "kind" in frame.columns:
-        columns["time_ref"] = _time_ref_column(num, kind, is_rd, checks)
+    text = {c: text_column(frame[c]) for c in ("sensor", "kind", "ref_sensor")
+            if c in frame.columns}
+    cells = _Cells({**num, **text}, problems)
+    _basic_checks(cells, num, kind)
     ref_given = np.zeros(len(frame), dtype=bool)
     for c in REF_STATE_COLUMNS:
         if c in num:
             ref_given |= ~np.isnan(num[c])
     ref_given &= is_rd
+    if "kind" not in frame.columns:
+        return ref_given
+    if "time_ref" in num:
+        _time_ref_checks(cells, num, kind, is_rd)
     named = np.zeros(len(frame), dtype=bool) if ref_name is None else ref_name != ""
     for c in REF_STATE_COLUMNS:
-        if c in num and "kind" in frame.columns:
-            columns[c] = _ref_state_column(c, kind, is_rd, ref_given, named, checks)
-    if ref_name is not None and "kind" in frame.columns:
-        columns["ref_sensor"] = _ref_name_column(frame, kind, checks)
-    if "carrier" in num and "kind" in frame.columns:
-        columns["carrier"] = pa.Column("float64", nullable=True, checks=[
-            checks.check("carrier", "positive", lambda v, r: (v > 0) & np.isfinite(v),
-                         "a carrier frequency > 0 (Hz)"),
-            checks.check("carrier", "unused", lambda v, r: np.isnan(v) | (kind[r] == "fdoa"),
-                         lambda row: "an empty cell: only fdoa rows have a carrier (this row "
-                                     f"is {kind[row] or 'of no kind'})", ignore_na=False)])
-    schema = pa.DataFrameSchema(columns)
-    text = {c: text_column(frame[c]) for c in columns if c not in num}
-    for lo in range(0, max(len(frame), 1), CHUNK_ROWS):  # bounded memory; rows keep their index
-        hi = min(len(frame), lo + CHUNK_ROWS)
-        table = pd.DataFrame({c: (num[c][lo:hi] if c in num else text[c][lo:hi])
-                              for c in columns}, index=pd.RangeIndex(lo, hi))
-        try:
-            schema.validate(table, lazy=True)
-        except pa.errors.SchemaErrors as err:
-            _record_failures(err.failure_cases, checks, problems)
+        if c in num:
+            _ref_state_checks(cells, c, kind, is_rd, ref_given, named)
+    if ref_name is not None:
+        _ref_name_checks(cells, kind)
+    if "carrier" in num:
+        cells.check("carrier", lambda v, r: (v > 0) & np.isfinite(v),
+                    "a carrier frequency > 0 (Hz)")
+        cells.check("carrier", lambda v, r: np.isnan(v) | (kind[r] == "fdoa"),
+                    lambda row: "an empty cell: only fdoa rows have a carrier (this row is "
+                                f"{kind[row] or 'of no kind'})", ignore_na=False)
     return ref_given
 
 
-def _basic_columns(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
-                   checks: _Checks) -> dict[str, pa.Column]:
+def _basic_checks(cells: _Cells, num: Numbers, kind: NDArray[np.object_]) -> None:
     """Sensor id, kind, finite numbers, value ranges per kind, sigma > 0, lat/lon ranges."""
-    import pandera.pandas as pa
-
-    columns: dict[str, pa.Column] = {}
-    if "sensor" in frame.columns:
-        columns["sensor"] = pa.Column(None, checks=checks.check(
-            "sensor", "sensor_id",
-            lambda v, r: np.array([s.strip() != "" for s in v], dtype=bool),
-            "a sensor id (text)"))
-    if "kind" in frame.columns:
-        columns["kind"] = pa.Column(None, checks=checks.check(
-            "kind", "known_kind", lambda v, r: np.isin(v.astype(str), list(KINDS)),
-            f"one of the kinds {', '.join(KINDS)}"))
+    if "sensor" in cells.values:
+        cells.check("sensor", lambda v, r: np.array([s.strip() != "" for s in v], dtype=bool),
+                    "a sensor id (text)")
+    if "kind" in cells.values:
+        cells.check("kind", lambda v, r: np.isin(v.astype(str), list(KINDS)),
+                    f"one of the kinds {', '.join(KINDS)}")
     for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
         if c in num:
-            columns[c] = pa.Column("float64", nullable=False, checks=[checks.finite(c)])
-    if "time" in columns:
-        columns["time"].checks.append(checks.check(
-            "time", "time_limit", lambda v, r: time_within_limit(v), TIME))
-    for j, c in enumerate(SENSOR_STATE_COLUMNS):
-        if c in columns:
-            columns[c].checks.append(checks.check(
-                c, "reach", partial(_reach, column=j),
-                POSITION if j < 3 else VELOCITY))
-    if "sensor_alt" in columns:
-        columns["sensor_alt"].checks.append(checks.check(
-            "sensor_alt", "reach", lambda v, r: state_within_reach(v, 2), POSITION))
-    if "value" in columns:
-        columns["value"].checks += [
-            checks.check("value", f"{k}_value", _for_kind(kind, k, ok), what)
-            for k, ok, what in value_ranges()]
-    if "sigma" in columns:
-        columns["sigma"].checks.append(checks.check(
-            "sigma", "positive", lambda v, r: v > 0,
-            SIGMA_POSITIVE))
-        if "value" in num:
-            value = num["value"]
-            moot = ~np.isfinite(value)  # no value, or one out of its range: sigma is moot
-            for k, ok, _ in value_ranges():
-                moot |= (kind == k) & ~ok(value)
-            columns["sigma"].checks.append(checks.check(
-                "sigma", "resolved",
-                lambda v, r: ~(v > 0) | moot[r] | sigma_resolved(value[r], v),
-                SIGMA_RESOLVED))
-    if "sensor_lat" in columns:
-        columns["sensor_lat"].checks.append(checks.check(
-            "sensor_lat", "latitude", lambda v, r: geo_within(v, "sensor_lat"),
-            LATITUDE))
-    if "sensor_lon" in columns:
-        columns["sensor_lon"].checks.append(checks.check(
-            "sensor_lon", "longitude", lambda v, r: geo_within(v, "sensor_lon"),
-            LONGITUDE))
-    return columns
+            cells.number(c)
+    if "time" in num:
+        cells.check("time", lambda v, r: time_within_limit(v), TIME)
+    for j, c in [*enumerate(SENSOR_STATE_COLUMNS), (2, "sensor_alt")]:
+        if c in num:
+            cells.check(c, partial(_reach, column=j), POSITION if j < 3 else VELOCITY)
+    if "value" in num:
+        for k, ok, what in value_ranges():
+            cells.check("value", _for_kind(kind, k, ok), what)
+    if "sigma" in num:
+        cells.check("sigma", lambda v, r: v > 0, SIGMA_POSITIVE)
+    if "sigma" in num and "value" in num:
+        value = num["value"]
+        moot = ~np.isfinite(value)  # no value, or one out of its range: sigma is moot
+        for k, ok, _ in value_ranges():
+            moot |= (kind == k) & ~ok(value)
+        cells.check("sigma", lambda v, r: ~(v > 0) | moot[r] | sigma_resolved(value[r], v),
+                    SIGMA_RESOLVED)
+    if "sensor_lat" in num:
+        cells.check("sensor_lat", lambda v, r: geo_within(v, "sensor_lat"), LATITUDE)
+    if "sensor_lon" in num:
+        cells.check("sensor_lon", lambda v, r: geo_within(v, "sensor_lon"), LONGITUDE)
 
 
 def _reach(values: NDArray[np.float64], rows: object, column: int) -> NDArray[np.bool_]:
@@ -383,90 +346,54 @@ def _for_kind(kind: NDArray[np.object_], k: str,
     return lambda v, r: ok(v) | (kind[r] != k)
 
 
-def _time_ref_column(num: Numbers, kind: NDArray[np.object_], is_rd: NDArray[np.bool_],
-                     checks: _Checks) -> pa.Column:
+def _time_ref_checks(cells: _Cells, num: Numbers, kind: NDArray[np.object_],
+                     is_rd: NDArray[np.bool_]) -> None:
     """time_ref: present exactly on range-difference rows, finite, before time."""
-    import pandera.pandas as pa
-
     t = num.get("time", np.full(is_rd.shape[0], np.nan))
     between = np.isin(kind, between_sensor_kinds())
-    return pa.Column("float64", nullable=True, checks=[
-        checks.check("time_ref", "required", lambda v, r: ~np.isnan(v) | ~is_rd[r],
-                     f"a time_ref (s) before time: {reference_kinds_text()} rows need one",
-                     ignore_na=False),
-        checks.check("time_ref", "unused", lambda v, r: np.isnan(v) | is_rd[r],
-                     lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
-                                 f"time_ref (this row is {kind[row] or 'of no kind'})",
-                     ignore_na=False),
-        checks.finite("time_ref"),
-        checks.check("time_ref", "before_time",
-                     lambda v, r: ~(v >= t[r]) | ~is_rd[r] | between[r],
-                     lambda row: f"a time_ref before time ({number_text(t[row])} s)"),
-        checks.check("time_ref", "at_time",
-                     lambda v, r: (v == t[r]) | ~between[r],
-                     lambda row: f"the row's own time ({number_text(t[row])} s): a "
-                                 f"{kind[row]} is between two sensors at one time"),
-    ])
+    cells.check("time_ref", lambda v, r: ~np.isnan(v) | ~is_rd[r],
+                f"a time_ref (s) before time: {reference_kinds_text()} rows need one",
+                ignore_na=False)
+    cells.check("time_ref", lambda v, r: np.isnan(v) | is_rd[r],
+                lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
+                            f"time_ref (this row is {kind[row] or 'of no kind'})",
+                ignore_na=False)
+    cells.check("time_ref", lambda v, r: np.isfinite(v), FINITE)
+    cells.check("time_ref", lambda v, r: ~(v >= t[r]) | ~is_rd[r] | between[r],
+                lambda row: f"a time_ref before time ({number_text(t[row])} s)")
+    cells.check("time_ref", lambda v, r: (v == t[r]) | ~between[r],
+                lambda row: f"the row's own time ({number_text(t[row])} s): a {kind[row]} is "
+                            "between two sensors at one time")
 
 
-def _ref_state_column(c: str, kind: NDArray[np.object_], is_rd: NDArray[np.bool_],
-                      ref_given: NDArray[np.bool_], named: NDArray[np.bool_], checks: _Checks
-                      ) -> pa.Column:
+def _ref_state_checks(cells: _Cells, c: str, kind: NDArray[np.object_],
+                      is_rd: NDArray[np.bool_], ref_given: NDArray[np.bool_],
+                      named: NDArray[np.bool_]) -> None:
     """Check a ref_sensor_* column: only on range-difference rows, all or none of a row, finite."""
-    import pandera.pandas as pa
-
     between = np.isin(kind, between_sensor_kinds())
-    return pa.Column("float64", nullable=True, checks=[
-        checks.check(c, "required", lambda v, r: ~np.isnan(v) | ~between[r] | named[r],
-                     lambda row: f"a number: a {kind[row]} row gives its reference sensor's "
-                                 "state (or names it in ref_sensor)", ignore_na=False),
-        checks.check(c, "unused", lambda v, r: np.isnan(v) | is_rd[r],
-                     lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
-                                 f"sensor state at time_ref (this row is "
-                                 f"{kind[row] or 'of no kind'})", ignore_na=False),
-        checks.check(c, "complete", lambda v, r: ~np.isnan(v) | ~ref_given[r] | ~is_rd[r],
-                     "a number (the other ref_sensor_* cells of this row are given; "
-                     "give all or none)", ignore_na=False),
-        checks.finite(c),
-    ])
+    cells.check(c, lambda v, r: ~np.isnan(v) | ~between[r] | named[r],
+                lambda row: f"a number: a {kind[row]} row gives its reference sensor's state "
+                            "(or names it in ref_sensor)", ignore_na=False)
+    cells.check(c, lambda v, r: np.isnan(v) | is_rd[r],
+                lambda row: f"an empty cell: only {reference_kinds_text()} rows have a sensor "
+                            f"state at time_ref (this row is {kind[row] or 'of no kind'})",
+                ignore_na=False)
+    cells.check(c, lambda v, r: ~np.isnan(v) | ~ref_given[r] | ~is_rd[r],
+                "a number (the other ref_sensor_* cells of this row are given; give all or "
+                "none)", ignore_na=False)
+    cells.check(c, lambda v, r: np.isfinite(v), FINITE)
 
 
-def _ref_name_column(frame: pd.DataFrame, kind: NDArray[np.object_], checks: _Checks
-                     ) -> pa.Column:
+def _ref_name_checks(cells: _Cells, kind: NDArray[np.object_]) -> None:
     """Check a ref_sensor name: only on tdoa/fdoa rows, another sensor than the row's."""
-    import pandera.pandas as pa
-
     between = np.isin(kind, between_sensor_kinds())
-    own = (text_column(frame["sensor"]) if "sensor" in frame.columns
-           else np.full(len(frame), "", dtype=object))
-    return pa.Column(None, checks=[
-        checks.check("ref_sensor", "unused",
-                     lambda v, r: np.array([x.strip() == "" for x in v]) | between[r],
-                     lambda row: "an empty cell: only tdoa and fdoa rows name a reference "
-                                 f"sensor (this row is {kind[row] or 'of no kind'})"),
-        checks.check("ref_sensor", "other",
-                     lambda v, r: np.array([x.strip() != str(o).strip()
-                                            for x, o in zip(v, own[r], strict=True)]),
-                     lambda row: f"another sensor than the row's own ({own[row]!r})")])
-
-
-def _record_failures(fc: pd.DataFrame, checks: _Checks, problems: Problems) -> None:
-    """Turn pandera's failure cases as one problem per cell (file-wide ones without a row)."""
-    for column, name, index, case in zip(fc["column"], fc["check"], fc["index"],
-                                         fc["failure_case"], strict=True):
-        column = str(column)
-        if index is None or is_blank(index):
-            message = f"column '{column}': {name}: {case}"
-            if message not in problems.file:  # once, not once per chunk of rows
-                problems.file.append(message)
-            continue
-        row = int(index)
-        if name == "not_nullable":
-            problems.cell(row, column, "a number")
-        elif (column, name) in checks.expected:
-            problems.cell(row, column, checks.expected[(column, name)](row))
-        else:  # pragma: no cover - a pandera check we did not define
-            problems.cell(row, column, str(name), show(case))
+    own = cells.values.get("sensor", np.full(kind.shape[0], "", dtype=object))
+    cells.check("ref_sensor", lambda v, r: np.array([x.strip() == "" for x in v]) | between[r],
+                lambda row: "an empty cell: only tdoa and fdoa rows name a reference sensor "
+                            f"(this row is {kind[row] or 'of no kind'})")
+    cells.check("ref_sensor", lambda v, r: np.array([x.strip() != str(o).strip()
+                                                     for x, o in zip(v, own[r], strict=True)]),
+                lambda row: f"another sensor than the row's own ({own[row]!r})")
 
 
 def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_],
