@@ -82,7 +82,7 @@ def _write_results(res: Any, output: Path | None, json_file: Path | None,
                    force: bool) -> None:
     """Write the table and the JSON; a file that appeared meanwhile: the results go beside it."""
     from ..io import atomic_write
-    from ..io.study_files import write_study_table
+    from ..io.tables import write_study_table
 
     def write_json(path: Path, force: bool) -> None:
         with atomic_write(path, force=force) as tmp:

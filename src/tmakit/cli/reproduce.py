@@ -116,7 +116,7 @@ def _extra_options(name: str, module: Any, **given: Any) -> dict[str, Any]:
 
 def _checkpoint(output: Path, force: bool) -> Any:
     """Return the per-step table writer, which saves each chunk as it is finished."""
-    from ..io.loop_files import LoopCheckpoint
+    from ..io.tables import LoopCheckpoint
 
     try:
         return LoopCheckpoint(output, force)

@@ -21,7 +21,7 @@ from ..data import MeasurementSet
 from ..results import EstimateResult
 from ..results.answers import KNOT, Answer, estimate_answer
 from ..results.context import clock_time, origin_of
-from .atomic import atomic_write
+from .tables import atomic_write
 
 __all__ = ["SOLUTION_SUFFIXES", "YARD", "geojson_document", "rep_lines", "solution_answers",
            "write_solution"]
