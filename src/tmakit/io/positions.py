@@ -20,8 +20,9 @@ from .problems import Problems, number_text
 if TYPE_CHECKING:  # pragma: no cover
     from .checker import Layout
 
-__all__ = ["ORIGIN_KEYS", "QUERY_ROWS", "SensorRecord", "fdoa_carriers", "ref_of_sensor",
-           "ref_sensor_state", "resolve_origin", "sensor_state"]
+__all__ = ["ORIGIN_KEYS", "QUERY_ROWS", "SensorRecord", "fdoa_carriers",
+           "geodetic_to_enu_in_place", "ref_of_sensor", "ref_sensor_state", "resolve_origin",
+           "sensor_state"]
 
 
 #: How a caller of the library gives the ENU origin (the command line replaces it with its flag).
@@ -31,6 +32,8 @@ ORIGIN_HINT = "origin=(lat, lon, alt) to read_measurements"
 Numbers = dict[str, NDArray[np.float64]]
 #: Metadata keys of the ENU origin (degrees, degrees, metres).
 ORIGIN_KEYS = ("origin_lat", "origin_lon", "origin_alt")
+#: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
+_ENU_ROWS = 1 << 16
 
 
 def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
@@ -95,22 +98,42 @@ def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
 def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
                         state: NDArray[np.float64], problems: Problems) -> str:
     """Fill ENU positions from lat/lon/alt; return the surface rule's text if it flattened."""
+    state[:, 0], state[:, 1] = num["sensor_lat"], num["sensor_lon"]
+    state[:, 2] = num.get("sensor_alt", origin[2])
+    state[problems.bad_rows(*GEO_COLUMNS), :3] = np.nan  # pymap3d refuses |lat| > 90
+    try:
+        return geodetic_to_enu_in_place(state, origin,
+                                        problems.raw.metadata.get("dim", "").strip() == "3")
+    except ValueError as err:
+        state[:, :3] = np.nan
+        problems.file.append(f"origin {origin}: {err}")
+        return ""
+
+
+def geodetic_to_enu_in_place(state: NDArray[np.float64], origin: tuple[float, float, float],
+                             dim3: bool) -> str:
+    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU, block by block.
+
+    Sensors on a surface (:func:`.logs.surface_dim`, NaN rows aside) are flattened to the origin's
+    altitude, and the rule's text returned ("" in 3-D).
+    """
     from ..core.geodesy import geodetic_to_enu
     from .logs import surface_dim
 
-    lat, lon = num["sensor_lat"].copy(), num["sensor_lon"].copy()
-    alt = num.get("sensor_alt", np.full(lat.shape[0], origin[2])).copy()
-    bad = problems.bad_rows(*GEO_COLUMNS)
-    lat[bad] = lon[bad] = alt[bad] = np.nan  # pymap3d refuses |lat| > 90
-    asked = problems.raw.metadata.get("dim", "").strip()
-    dim, rule = surface_dim(alt[np.isfinite(alt)], origin[2], 3 if asked == "3" else None)
-    try:
+    n, alt0 = state.shape[0], origin[2]
+    worst, spread = alt0, -1.0  # the altitude farthest from the origin's
+    for lo in range(0, n, _ENU_ROWS):
+        off = np.nan_to_num(np.abs(state[lo:lo + _ENU_ROWS, 2] - alt0), nan=-1.0)
+        i = int(np.argmax(off))
+        if off[i] > spread:
+            worst, spread = float(state[lo + i, 2]), float(off[i])
+    dim, rule = surface_dim(np.array([worst]), alt0, 3 if dim3 else None)
+    for lo in range(0, n, _ENU_ROWS):
+        block = state[lo:lo + _ENU_ROWS]
+        alt = block[:, 2] if dim == 3 else np.where(np.isfinite(block[:, 2]), alt0, np.nan)
         with np.errstate(invalid="ignore"):
-            e, nn, u = geodetic_to_enu(lat, lon, np.where(np.isfinite(alt), origin[2], alt)
-                                       if dim == 2 else alt, origin)
-        state[:, 0], state[:, 1], state[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
-    except ValueError as err:
-        problems.file.append(f"origin {origin}: {err}")
+            e, nn, u = geodetic_to_enu(block[:, 0], block[:, 1], alt, origin)
+        block[:, 0], block[:, 1], block[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
     return rule if dim == 2 else ""
 
 
