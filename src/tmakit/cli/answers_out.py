@@ -38,7 +38,7 @@ def parse_time(text: str | None, meas: Any, option: str) -> float | None:
     """Return a time option in seconds: seconds, an ISO-8601 clock time, or ``HH:MM[:SS]``."""
     if text is None:
         return None
-    from ..io.clock_text import seconds_of_time_text
+    from ..io.logs import seconds_of_time_text
     from ..results.context import TIME_ORIGIN_KEY
 
     origin_ns = span = None

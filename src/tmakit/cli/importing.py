@@ -145,7 +145,7 @@ def print_guess(fmt: str, files: list[Path]) -> None:
     if fmt != "wide" or len(files) != 1:
         raise fail("--guess proposes the mapping of one wide log: tma import wide FILE --guess")
     from ..io.errors import MeasurementFileError, refuse_unreadable
-    from ..io.log_guess import guess_mapping
+    from ..io.log_mapping import guess_mapping
 
     path = files[0]
     if not path.exists():

@@ -2,11 +2,16 @@
 
 Clock times, the ENU origin and altitude reference, the surface rule and velocities from
 positions follow ``docs/your-own-data.md``; a log's values obey the rules of a measurement file,
-each problem named by its place in the log.
+each problem named by its place in the log.  A time typed by a user (``--from``, ``--to``,
+``--at``, a reader's window) is seconds since the set's ``time_origin``, an ISO-8601 instant (UTC
+unless a zone is named), or ``HH:MM[:SS[.S]]`` UTC on the day of the data (only where the data
+lie within one UTC day).
 """
 
 from __future__ import annotations
 
+import datetime as dt
+import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -22,8 +27,8 @@ __all__ = ["EPOCH_UNITS", "KNOT", "LATEST_NS", "PLAUSIBLE_YEARS", "SURFACE_TOLER
            "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame", "checked_rows",
            "clock_time_problem", "clock_times", "course_speed_velocity", "fix_problems",
            "interpolate_heading", "interpolate_states", "iso_utc", "local_frame",
-           "parse_clock_times", "relative_seconds", "surface_dim", "time_origin_ns",
-           "velocity_from_positions"]
+           "parse_clock_times", "relative_seconds", "seconds_of_time_text", "surface_dim",
+           "time_origin_ns", "velocity_from_positions"]
 
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
@@ -381,3 +386,56 @@ def _readdressed(problem: str, where: Sequence[str], order: NDArray[np.intp]) ->
     if column == "value":  # the place names the cell
         return f"{where[order[row]]}: {problem[m.end():]}"
     return f"{where[order[row]]}, {_SET_COLUMNS.get(column, column)}: {problem[m.end():]}"
+
+
+_CLOCK = re.compile(r"(\d{1,2}):(\d{2})(?::(\d{2}(?:\.\d+)?))?")
+
+
+def _clock_seconds(text: str, match: re.Match[str], option: str) -> float:
+    hours, minutes = int(match[1]), int(match[2])
+    seconds = float(match[3]) if match[3] else 0.0
+    if hours > 23 or minutes > 59 or seconds >= 60:
+        raise ValueError(f"{option} {text!r}: expected a clock time HH:MM or HH:MM:SS (UTC), "
+                         "hours 0-23, minutes and seconds 0-59")
+    return hours * 3600.0 + minutes * 60.0 + seconds
+
+
+def seconds_of_time_text(text: str, option: str, origin_ns: int | None,
+                         span_ns: tuple[int, int] | None) -> float:
+    """Read a time option as seconds since the set's time origin."""
+    try:
+        seconds = float(text)
+    except ValueError:
+        pass
+    else:
+        if not math.isfinite(seconds):
+            raise ValueError(f"{option} {text!r}: expected a finite time (s)")
+        return seconds
+    clock = _CLOCK.fullmatch(text.strip())
+    when = None
+    if clock is None:
+        try:
+            when = dt.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+        except ValueError:
+            raise ValueError(f"{option} {text!r}: expected seconds, an ISO-8601 clock time (e.g. "
+                             "2024-05-01T12:30:00Z) or a clock time of the data's day (e.g. "
+                             "12:30 or 12:30:15, UTC)") from None
+    if origin_ns is None:
+        raise ValueError(f"{option} {text!r}: a clock time needs the file's time origin "
+                         "(time_origin), which this file does not give; give seconds")
+    if clock is not None:
+        of_day = _clock_seconds(text, clock, option)
+        if span_ns is None:
+            raise ValueError(f"{option} {text!r}: a clock time without a date needs the data's "
+                             "day; give the date, e.g. 2024-05-01T12:30:00Z")
+        first_day, last_day = (int(t) // (86400 * _NS) for t in span_ns)
+        if first_day != last_day:
+            raise ValueError(
+                f"{option} {text!r}: the data span more than one UTC day ({iso_utc(span_ns[0])} "
+                f"to {iso_utc(span_ns[1])}), so a clock time without a date is ambiguous; give "
+                f"the date, e.g. {iso_utc(first_day * 86400 * _NS)[:10]}T{text.strip()}Z")
+        return (first_day * 86400 * _NS - origin_ns) / _NS + of_day
+    assert when is not None
+    when = when if when.tzinfo else when.replace(tzinfo=dt.UTC)
+    whole = dt.datetime.fromtimestamp(origin_ns // _NS, dt.UTC)
+    return (when - whole).total_seconds() - (origin_ns % _NS) / _NS
