@@ -39,13 +39,18 @@ from ..rules import (
 from .contract import (
     GEO_COLUMNS,
     NUMERIC_COLUMNS,
+    Problems,
+    RawTable,
     between_sensor_kinds,
+    blank_mask,
+    is_blank,
+    number_text,
     reference_kinds,
     reference_kinds_text,
+    text_column,
 )
 from .errors import MeasurementFileError
 from .positions import fdoa_carriers, ref_sensor_state, sensor_state
-from .problems import Problems, RawTable, blank_mask, is_blank, number_text, text_column
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd

@@ -22,16 +22,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import rules
 from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
 from ..rules import GEO_RANGES, geo_within
 from .checker import check_columns, check_table
-from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS, file_columns
+from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS, Problems, RawTable, file_columns
 from .errors import MeasurementFileError
 from .formats import Format, register_format
 from .positions import QUERY_ROWS, SensorRecord, geodetic_to_enu_in_place, resolve_origin
-from .problems import Problems, RawTable
 from .tables import write_table
 
 __all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load_csv",
@@ -43,21 +43,17 @@ READ_COLUMNS = frozenset(("sensor", "kind", "ref_sensor", "tonal", *NUMERIC_COLU
 #: Bytes of the file searched for the ``# key: value`` preamble before the whole file.
 _PREAMBLE_SCAN = 1 << 20
 
-#: Bytes of CSV text parsed at a time.  pyarrow's streaming reader reads up to about 32
-#: blocks ahead on its input thread (not an option of the reader): with 4 MiB blocks that
-#: queue held 72 MB of a 60 MB file at once (all of it); 1 MiB blocks bound it at about
-#: 37 MB (``tests/test_stream_readahead.py``).
+#: Bytes of CSV text parsed at a time (pyarrow reads about 32 blocks ahead: this bounds that
+#: queue's memory; ``tests/test_stream_readahead.py``).
 BLOCK_BYTES = 1 << 20
-#: Blocks between two returns of freed memory to the system
-#: (:func:`_give_back`): every 4 MiB of text (each return walks the heap: after
-#: every 1 MiB block the read took 15 % longer).
+#: Blocks between two returns of freed memory to the system (:func:`_give_back` walks the heap).
 _GIVE_BACK_EVERY = 4
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); without range differences
 #: ``time_ref`` and the reference state are all-NaN views that take no memory.
 SET_BYTES_PER_ROW = 93
 #: Column of the sensor state each numeric column is stored in (latitude, longitude and
-#: altitude are held in the position's place until :func:`_to_enu` converts them).
+#: altitude are held in the position's place until converted to ENU).
 _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "sensor_vy": 4,
                  "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
 #: Columns of range differences (empty on other rows).
@@ -372,8 +368,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
     read, parse, convert = _parse_options(
         names, lambda c: text_type if c in ("sensor", "kind") else pa.float64(), stream=True)
     cols: _Columns | None = None
-    # The C library's allocator: the text and parsed blocks are then given back with the
-    # rules' arrays (:func:`_give_back`), where pyarrow's own pool kept about 10 MB.
+    # the C library's allocator: the blocks are given back with the rules' arrays (_give_back)
     pool = pa.system_memory_pool()
     with pa.OSFile(str(path), memory_pool=pool) as f:
         f.seek(start)
@@ -422,8 +417,6 @@ def _put(cols: _Columns, name: str, col: Any) -> None:
 def _build(cols: _Columns, metadata: dict[str, str],
            ref: NDArray[np.float64] | None = None) -> MeasurementSet:
     """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds)."""
-    from .. import rules
-
     n = cols.n
     out = object.__new__(MeasurementSet)
     out.time, out.sensor_state = cols.num["time"], cols.state
@@ -478,9 +471,7 @@ def stream_csv(path: Path, scan: int = 1 << 20,
         meas = _build(cols, metadata, _reference_states(cols, "sensor_vx" in stripped))
     except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
         return None
-    # The rules' and the duplicate check's arrays came from the C library's heap (its mmap
-    # threshold grows as large blocks are freed) and stay resident when freed below live
-    # arrays: 47 MiB of a 1e6-row file with range differences, until given back here.
+    # the rules' arrays came from the C library's heap and stay resident until given back
     _give_back()
     return meas
 

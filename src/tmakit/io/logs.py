@@ -20,6 +20,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import rules
+from ..measurements import KINDS
+
 if TYPE_CHECKING:  # pragma: no cover
     from ..data import MeasurementSet
 
@@ -312,9 +315,6 @@ _ROW = re.compile(r"^row (\d+), column '(\w+)': ")
 
 def fix_problems(fixes: Fixes, where: Callable[[int, str], str]) -> list[str]:
     """Check a track's fixes by the rules of a measurement file (:mod:`tmakit.rules`)."""
-    from .. import rules
-    from ..measurements import KINDS
-
     checks: list[tuple[NDArray[np.float64], str, str, Callable]] = [
         (fixes.lat, "latitude", rules.LATITUDE, lambda v: rules.geo_within(v, "sensor_lat")),
         (fixes.lon, "longitude", rules.LONGITUDE, lambda v: rules.geo_within(v, "sensor_lon")),
@@ -344,7 +344,6 @@ def fix_problems(fixes: Fixes, where: Callable[[int, str], str]) -> list[str]:
 def checked_rows(path: object, meas: MeasurementSet, where: Sequence[str]
                  ) -> tuple[MeasurementSet, NDArray[np.intp], int]:
     """Check a log's rows by the rules of a measurement file, and merge repeated rows."""
-    from .. import rules
     from .errors import MeasurementFileError
 
     rank_of_code = np.zeros(len(meas.sensor_names), dtype=np.intp)

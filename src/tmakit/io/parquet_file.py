@@ -9,10 +9,9 @@ from pathlib import Path
 
 from ..data import MeasurementSet
 from .checker import table_reader
-from .contract import PARQUET_METADATA_PREFIX, file_columns
+from .contract import PARQUET_METADATA_PREFIX, RawTable, file_columns
 from .errors import MeasurementFileError
 from .formats import Format, register_format
-from .problems import RawTable
 from .tables import write_table
 
 __all__ = ["PARQUET", "load_parquet", "read_parquet", "write_parquet"]

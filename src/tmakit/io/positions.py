@@ -14,8 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
-from .contract import GEO_COLUMNS
-from .problems import Problems, number_text
+from .contract import GEO_COLUMNS, Problems, number_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from .checker import Layout
