@@ -55,8 +55,7 @@ from .positions import fdoa_carriers, ref_sensor_state, sensor_state
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["Layout", "check_cells", "check_columns", "check_order", "check_table", "read_numbers",
-           "table_reader"]
+__all__ = ["Layout", "check_cells", "check_columns", "check_order", "check_table", "read_numbers"]
 
 
 def check_table(path: str | os.PathLike[str], raw: RawTable,
@@ -121,20 +120,6 @@ def _stripped(text: NDArray[np.object_]) -> NDArray[np.object_]:
 
     codes, uniques = pd.factorize(text)
     return np.array([str(u).strip() for u in uniques] + [""], dtype=object)[codes]
-
-
-def table_reader(load: Callable[[Path], RawTable], label: str
-                 ) -> Callable[..., MeasurementSet]:
-    """Make a format's reader: load the raw table with ``load``, then :func:`check_table` it."""
-
-    def read(path: Path, *, origin: tuple[float, float, float] | None = None,
-             **options: Any) -> MeasurementSet:
-        if options:
-            raise TypeError(f"{label} files take no options {', '.join(sorted(options))}")
-        return check_table(path, load(path), origin)
-
-    read.__doc__ = f"Read and check a {label} measurement file (see :func:`check_table`)."
-    return read
 
 
 @dataclass(frozen=True)
