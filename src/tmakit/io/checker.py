@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Collection
-from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -50,12 +49,12 @@ from .contract import (
     text_column,
 )
 from .errors import MeasurementFileError
-from .positions import fdoa_carriers, ref_sensor_state, sensor_state
+from .positions import Layout, fdoa_carriers, ref_sensor_state, sensor_state
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["Layout", "check_cells", "check_columns", "check_order", "check_table", "read_numbers"]
+__all__ = ["check_cells", "check_columns", "check_order", "check_table", "read_numbers"]
 
 
 def check_table(path: str | os.PathLike[str], raw: RawTable,
@@ -120,15 +119,6 @@ def _stripped(text: NDArray[np.object_]) -> NDArray[np.object_]:
 
     codes, uniques = pd.factorize(text)
     return np.array([str(u).strip() for u in uniques] + [""], dtype=object)[codes]
-
-
-@dataclass(frozen=True)
-class Layout:
-    """How a file gives the sensor state."""
-
-    geodetic: bool  # Positions as ``sensor_lat``/``sensor_lon`` (degrees) instead of ENU metres
-    has_velocity: bool  # The file has both ``sensor_vx`` and ``sensor_vy``
-    has_ref: bool  # The file has ``ref_sensor_*`` columns
 
 
 def check_columns(columns: Collection[str], kinds: list[str], problems: Problems) -> Layout:

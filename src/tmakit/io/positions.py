@@ -8,7 +8,8 @@ as :class:`tmakit.sensors.RecordedTrack` does.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,10 +17,7 @@ from numpy.typing import NDArray
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
 from .contract import GEO_COLUMNS, Problems, number_text
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .checker import Layout
-
-__all__ = ["ORIGIN_KEYS", "QUERY_ROWS", "SensorRecord", "fdoa_carriers",
+__all__ = ["ORIGIN_KEYS", "QUERY_ROWS", "Layout", "SensorRecord", "fdoa_carriers",
            "geodetic_to_enu_in_place", "ref_of_sensor", "ref_sensor_state", "resolve_origin",
            "sensor_state"]
 
@@ -33,6 +31,15 @@ Numbers = dict[str, NDArray[np.float64]]
 ORIGIN_KEYS = ("origin_lat", "origin_lon", "origin_alt")
 #: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
 _ENU_ROWS = 1 << 16
+
+
+@dataclass(frozen=True)
+class Layout:
+    """How a file gives the sensor state."""
+
+    geodetic: bool  # Positions as ``sensor_lat``/``sensor_lon`` (degrees) instead of ENU metres
+    has_velocity: bool  # The file has both ``sensor_vx`` and ``sensor_vy``
+    has_ref: bool  # The file has ``ref_sensor_*`` columns
 
 
 def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
