@@ -6,9 +6,9 @@
 """
 
 from .groups import MeasurementGroup, group_times, time_blocks, tonals_scaled
-from .linearisation import Linearisation
 from .model import ObservationModel
 from .noise import NoiseModel
+from .planar import Linearisation
 from .radar import radar_group, radar_rows
 from .rows import RowLayout, RowModel, nuisance_layout, resolve_models
 

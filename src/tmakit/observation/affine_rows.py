@@ -116,22 +116,6 @@ class AffineRows:
             self._offset = _minus_sensor(base, sensor, 6, base if own else None)
         return self._offset
 
-    def position_source(self) -> tuple[Array, Array, bool]:
-        """Give what the relative east and north positions are made from, without a pass."""
-        made = self._offset if self._offset is not None else self._head
-        if made is not None and made.shape[0] >= 2:
-            return made, made.T, False
-        assert self._sensor is not None  # (the offset is made at once otherwise)
-        base = self._base
-        if not base.flags.c_contiguous:  # a broadcast: the compiled pass reads a plain array
-            base = np.ascontiguousarray(base[:2])
-        return base, self._sensor, True
-
-    def keep_head(self, head: Array) -> None:
-        """Keep ``head`` as the first components of :attr:`offset` (made by a compiled pass)."""
-        if self._offset is None and (self._head is None or self._head.shape[0] < head.shape[0]):
-            self._head = head
-
     def _offset_head(self, n_c: int) -> Array:
         """Give the first ``n_c`` components of :attr:`offset` (not making the whole of it)."""
         if self._offset is not None:
