@@ -118,7 +118,7 @@ def crlb(
 def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: float
                        ) -> tuple[Any, str]:
     """Give the bound with sensor position errors and a sentence on its loss."""
-    from ..bounds.sensor_errors import crlb_with_sensor_errors
+    from ..bounds.fim import crlb_with_sensor_errors
     from ..scenario import Scenario
 
     if isinstance(meas, Scenario):
