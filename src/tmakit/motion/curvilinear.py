@@ -31,6 +31,13 @@ def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
     return tuple(np.moveaxis(values, -1, 0)), None if par is None else par[..., :4, :]
 
 
+def _param_names(manoeuvres: int) -> tuple[str, ...]:
+    """Name ``x, y, speed, course, at_0, an_0, ..., at_M, an_M, t_1, ..., t_M``."""
+    accel = [f"{a}_{m}" for m in range(manoeuvres + 1) for a in ("at", "an")]
+    times = [f"t_{m}" for m in range(1, manoeuvres + 1)]
+    return ("x", "y", "speed", "course", *accel, *times)
+
+
 def propagate_curvilinear(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                           a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike
                           ) -> tuple[NDArray[np.float64], ...]:
@@ -97,11 +104,7 @@ class PiecewiseCurvilinear(MotionModel):
             raise ValueError("the number of manoeuvres must be >= 0")
         self.manoeuvres = int(manoeuvres)
         self.ref_time = float(ref_time)
-        accel = []
-        for m in range(self.manoeuvres + 1):
-            accel += [f"at_{m}", f"an_{m}"]
-        times = [f"t_{m}" for m in range(1, self.manoeuvres + 1)]
-        self.param_names = ("x", "y", "speed", "course", *accel, *times)
+        self.param_names = _param_names(self.manoeuvres)
         self.name = f"curvilinear:{self.manoeuvres}"
 
     # -- parameter layout ----------------------------------------------------------------
@@ -288,11 +291,7 @@ class ForwardPiecewise(MotionModel):
         self.manoeuvres = int(manoeuvres)
         self.ref_time = float(ref_time)
         self.end_time = float(end_time)
-        accel: list[str] = []
-        for m in range(self.manoeuvres + 1):
-            accel += [f"at_{m}", f"an_{m}"]
-        times = [f"t_{m}" for m in range(1, self.manoeuvres + 1)]
-        self.param_names = ("x", "y", "speed", "course", *accel, *times)
+        self.param_names = _param_names(self.manoeuvres)
         self.name = f"curvilinear:{self.manoeuvres}"
         self._times = np.zeros(0)  # the unique times of the last states() call
         self._cache: tuple | None = None
