@@ -13,12 +13,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from types import ModuleType
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.arrays import Array
+from ..core.arrays import Array, IntArray
 from .base import MotionModel
 
 
@@ -26,8 +26,8 @@ def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike, derivatives: bool = False
                ) -> tuple[tuple[Array, ...], Array | None]:
     """Propagate one segment; give ``(values, D)``."""
-    values, par = _compiled().propagate_with_partials(x, y, speed, course, a_t, a_n, dt,
-                                                      derivatives)
+    from .curvilinear_compiled import propagate_with_partials
+    values, par = propagate_with_partials(x, y, speed, course, a_t, a_n, dt, derivatives)
     return tuple(np.moveaxis(values, -1, 0)), None if par is None else par[..., :4, :]
 
 
@@ -147,8 +147,9 @@ class PiecewiseCurvilinear(MotionModel):
             ordered = (np.all(np.diff(cot, axis=1) > 0, axis=1) if M > 1
                        else np.all(np.isfinite(cot), axis=1))
             seg_ref = np.sum(cot < self.ref_time, axis=1)
-        seg, vals, par, d_anchor = _compiled().piecewise(theta, t, M, self.ref_time, np.inf,
-                                                         derivatives, anywhere=True)
+        from .curvilinear_compiled import piecewise
+        seg, vals, par, d_anchor = piecewise(theta, t, M, self.ref_time, np.inf, derivatives,
+                                             anywhere=True)
         bad = np.where(ordered, 0.0, np.nan)[:, None, None]
         x, y, vx, vy = vals[..., 0], vals[..., 1], vals[..., 4], vals[..., 5]
         zeros = np.zeros_like(x)
@@ -294,7 +295,7 @@ class ForwardPiecewise(MotionModel):
         self.param_names = _param_names(self.manoeuvres)
         self.name = f"curvilinear:{self.manoeuvres}"
         self._times = np.zeros(0)  # the unique times of the last states() call
-        self._cache: tuple | None = None
+        self._cache: tuple[Any, ...] | None = None
         self._rows: tuple[Array, NDArray[np.int64] | None] = (np.zeros(0), None)
         self._columns: NDArray[np.int64] | None = None  # chain()'s columns (None: all)
 
@@ -310,10 +311,10 @@ class ForwardPiecewise(MotionModel):
             self._columns = before
 
     def _segments(self, theta: Array, t: Array, partials: bool
-                  ) -> tuple[NDArray[np.int64], Array, Array | None, Array | None]:
+                  ) -> tuple[IntArray, Array, Array | None, Array | None]:
         """Propagate every sample from the start of its segment (:func:`.piecewise`)."""
-        return _compiled().piecewise(theta, t, self.manoeuvres, self.ref_time, self.end_time,
-                                     partials)
+        from .curvilinear_compiled import piecewise
+        return piecewise(theta, t, self.manoeuvres, self.ref_time, self.end_time, partials)
 
     def _flat(self, theta: ArrayLike) -> tuple[Array, tuple[int, ...]]:
         theta = self.check_theta(theta)
@@ -346,11 +347,12 @@ class ForwardPiecewise(MotionModel):
         self._times = tu
         seg_u, val, par_u, d_anchor = self._segments(flat, tu, partials=True)
         self._cache = ((flat.tobytes(), flat.shape), tu, seg_u, par_u, d_anchor)
-        out = _compiled().scatter_states(val, inv, sensor)
+        from .curvilinear_compiled import scatter_states
+        out = scatter_states(val, inv, sensor)
         return out.reshape(*lead, t.shape[0], 6)
 
     def _theta_partials(self, flat: Array, t: Array
-                        ) -> tuple[Array, Array, Array, NDArray[np.int64] | None]:
+                        ) -> tuple[IntArray, Array, Array, NDArray[np.int64] | None]:
         """Give the per-segment partials at the unique times ``tu`` of ``t``, cached."""
         key = (flat.tobytes(), flat.shape)
         cache = self._cache
@@ -386,7 +388,8 @@ class ForwardPiecewise(MotionModel):
                     cols: NDArray[np.int64] | None = None) -> Array:
         """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``(B, n, 6)``."""
         seg_u, par_u, d_anchor, idx = self._theta_partials(flat, t)
-        return _compiled().chain(ds, par_u, seg_u, idx, d_anchor, self.manoeuvres, cols)
+        from .curvilinear_compiled import chain
+        return chain(ds, par_u, seg_u, idx, d_anchor, self.manoeuvres, cols)
 
     def chain(self, d_state: Array, theta: ArrayLike, t: ArrayLike) -> Array:
         """Apply the chain rule, contracting the state axis before the parameter axis."""
@@ -413,8 +416,9 @@ class ForwardPiecewise(MotionModel):
         m = self.manoeuvres
 
         def make(runs: NDArray[np.int64] | None) -> tuple[Array, Array]:
-            return _compiled().segment_normal(d_state, residual, weights, par_u, seg_u, idx,
-                                              d_anchor, m, runs)
+            from .curvilinear_compiled import segment_normal
+            return segment_normal(d_state, residual, weights, par_u, seg_u, idx, d_anchor, m,
+                                  runs)
         return make
 
     def segment_states(self, theta: ArrayLike, t: ArrayLike) -> Array:
@@ -427,9 +431,3 @@ class ForwardPiecewise(MotionModel):
     def __repr__(self) -> str:
         """Name the class, the number of manoeuvres and the reference time."""
         return f"ForwardPiecewise(manoeuvres={self.manoeuvres}, ref_time={self.ref_time})"
-
-
-def _compiled() -> ModuleType:
-    """Give the compiled kernels (``numba`` is imported at the first call: 0.1 s a process)."""
-    from . import curvilinear_compiled
-    return curvilinear_compiled

@@ -615,7 +615,7 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray,
     return jtj, jtr
 
 
-def scatter_states(vals: Array, inv: Array, sensor: Array | None = None) -> Array:
+def scatter_states(vals: Array, inv: IntArray, sensor: Array | None = None) -> Array:
     """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times."""
     out = np.empty((vals.shape[0], inv.shape[0], 6))
     # (minus zeros: the same bits, -0.0 and NaN included)
