@@ -44,7 +44,7 @@ class AffineRows:
         self.p = int(p)
         self.m = int(offset.shape[1])
         self._matrix: Array | None = None
-        self._head_maps: dict[int, Array] = {}  # (see leading_many)
+        self._head_maps: dict[int, Array] = {}  # (see leading_map)
         #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
         for i, c, coef in self.terms:
@@ -91,10 +91,6 @@ class AffineRows:
             np.subtract(self._base[:n_c][:, rows], self._sensor[rows, :n_c].T,
                         out=head[:, self.p])
         return head
-
-    def leading_many(self, theta: Array, components: int) -> Array:
-        """Give the first ``components`` relative state components of many parameter vectors."""
-        return self.leading_states(theta, self.leading_map(components))
 
     @staticmethod
     def leading_states(theta: Array, head: Array) -> Array:
