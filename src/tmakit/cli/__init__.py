@@ -13,16 +13,14 @@ from typing import Annotated
 import typer
 
 from .crlb import crlb
-from .estimate import estimate
+from .estimate import estimate, report
 from .gdop import gdop
 from .guard import WRITE_ERRORS, guarded, install_sigterm, set_debug, write_failed
-from .importing import examples, import_
 from .montecarlo import montecarlo
 from .plain_help import PlainCommand
 from .plan import plan
-from .report import report
 from .reproduce import reproduce
-from .scenarios import demo, scenarios, show, simulate
+from .scenarios import demo, examples, import_, scenarios, show, simulate
 from .track import track
 
 

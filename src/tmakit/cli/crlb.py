@@ -8,7 +8,6 @@ from typing import Annotated, Any
 
 import typer
 
-from .answers_out import SPEED_UNITS, UnitsOption, check_units
 from .common import (
     BearingSigmaOption,
     ContactOption,
@@ -35,9 +34,10 @@ from .common import (
     motion_or_fail,
     out,
     parse_assignments,
+    read_or_fail,
     reader_options,
 )
-from .reading import read_or_fail
+from .estimate import SPEED_UNITS, UnitsOption, check_units
 
 
 # `tma crlb`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -215,7 +215,7 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
     import json
 
     from ..results.trust import bound_trust
-    from .answers_out import print_warnings
+    from .estimate import print_warnings
 
     trust = bound_trust(bound, warnings or [])
     if as_json:

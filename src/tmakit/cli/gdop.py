@@ -7,8 +7,7 @@ from typing import Annotated
 
 import typer
 
-from .common import JsonOption, fail, load_scenario_or_fail, out
-from .outputs import check_outputs, write_picture
+from .common import JsonOption, check_outputs, fail, load_scenario_or_fail, out, write_picture
 
 
 # `tma gdop`: the docstring is its --help text, so no numpydoc sections (help= has them).

@@ -140,7 +140,7 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:
-        from .outputs import note_arguments
+        from .common import note_arguments
 
         _refuse_non_finite(kwargs)
         note_arguments(kwargs)  # the files they name are inputs: never written over

@@ -8,8 +8,17 @@ from typing import Annotated, Any
 
 import typer
 
-from .common import ForceOption, NoProgressOption, err, fail, load_scenario_or_fail, out, print_wide
-from .outputs import check_outputs, claim_outputs
+from .common import (
+    ForceOption,
+    NoProgressOption,
+    check_outputs,
+    claim_outputs,
+    err,
+    fail,
+    load_scenario_or_fail,
+    out,
+    print_wide,
+)
 
 #: Default limit of ``--runs`` (raise with ``--max-runs``).
 MAX_RUNS = 1_000_000

@@ -13,8 +13,16 @@ from typing import Annotated, Any
 import typer
 from rich.markup import escape
 
-from .common import ForceOption, NoProgressOption, err, fail, out
-from .outputs import check_outputs
+from .common import (
+    ForceOption,
+    NoProgressOption,
+    check_outputs,
+    check_particles,
+    err,
+    fail,
+    out,
+    write_picture,
+)
 
 
 # `tma plan`: the docstring is its --help text, so no numpydoc sections (help= has them).
@@ -50,8 +58,6 @@ def plan(
         raise fail("--runs must be 1 or more")
     if particles is not None and particles < 2:
         raise fail("--particles must be 2 or more")
-    from .outputs import check_particles
-
     check_particles(particles)
     from ..scenario.planning_table import PLANNERS, PLANNING_TRACKERS
 
@@ -136,7 +142,6 @@ def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bo
         console.print(f"wrote {output}", highlight=False)
     if plot is not None:
         from ..plot.tracks import plot_plan
-        from .outputs import write_picture
 
         write_picture(plot, force, lambda tmp: plot_plan(result, tmp))
         console.print(f"wrote {plot}", highlight=False)

@@ -7,8 +7,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .common import JsonOption, fail, out
-from .outputs import check_outputs, check_particles, write_picture
+from .common import JsonOption, check_outputs, check_particles, fail, out, write_picture
 
 
 # `tma reproduce`: the docstring is its --help text, so no numpydoc sections (help= has them).
