@@ -12,15 +12,12 @@ from typing import Annotated
 
 import typer
 
-from .crlb import crlb
+from .crlb import crlb, gdop
 from .estimate import estimate, report
-from .gdop import gdop
 from .guard import WRITE_ERRORS, guarded, install_sigterm, set_debug, write_failed
-from .montecarlo import montecarlo
 from .plain_help import PlainCommand
-from .plan import plan
-from .reproduce import reproduce
 from .scenarios import demo, examples, import_, scenarios, show, simulate
+from .studies import montecarlo, plan, reproduce
 from .track import track
 
 
@@ -58,7 +55,8 @@ def _root(version: Annotated[bool, typer.Option(
 
 
 # Registered in this order: ``tma --help`` lists the commands in it.  Each is guarded: no
-# traceback reaches the user (tmakit.cli.guard).
+# traceback reaches the user (tmakit.cli.guard).  A command's docstring is its --help text
+# (no numpydoc sections: each option's help= has them).
 for _command in (scenarios, simulate, show, crlb, estimate, report, reproduce, montecarlo,
                  track, plan, gdop, demo):
     app.command(cls=PlainCommand)(guarded(_command))
@@ -67,13 +65,7 @@ app.command(cls=PlainCommand)(guarded(examples))
 
 
 def listing_app() -> typer.Typer:
-    """Give an app with ``tma``'s options and commands, the commands without parameters.
-
-    ``tma --help`` lists every command by its name and the first line of its help, and shows
-    none of their options; typer still builds every command's parameters from its signature
-    first (a quarter of the help's time).  This app registers, per command, a function of no
-    parameters with the command's name and docstring: its help is the full app's, character
-    for character (``tests/test_cli_startup.py``).
+    """Give ``tma``'s app with each command stubbed (no parameters): the same listing, faster.
 
     Returns
     -------
@@ -87,7 +79,7 @@ def listing_app() -> typer.Typer:
         assert command is not None  # (every command registered above has its function)
 
         def stub() -> None:
-            """Stand in for a command in the listing (never run)."""
+            """Stand in for a command in the listing (never run)."""  # (replaced below)
 
         stub.__name__, stub.__doc__ = command.__name__, command.__doc__
         listing.command(name=info.name, cls=PlainCommand)(stub)

@@ -32,6 +32,15 @@ def fail(message: str) -> typer.Exit:
     return typer.Exit(2)
 
 
+@contextlib.contextmanager
+def failing(prefix: str = "") -> Iterator[None]:
+    """Turn a ``ValueError`` of the block into ``error: prefix message`` (exit status 2)."""
+    try:
+        yield
+    except ValueError as e:
+        raise fail(f"{prefix}{e}") from None
+
+
 def refuse_existing(path: Path, force: bool) -> None:
     """Refuse to overwrite an existing output file unless ``--force`` was given."""
     if path.exists() and not force:
@@ -133,13 +142,11 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
                 source = "the file's ref_time"
         else:
             raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
-    try:
+    with failing():
         chosen = ref_time is not None
         if ref_time is None:  # inside the data: the fit does not depend on the time origin
             ref_time = 0.0 if meas is None else default_ref_time(meas.time)
         model = motion_from_name(name, ref_time)
-    except ValueError as e:
-        raise fail(str(e)) from None
     if chosen and meas is not None and not isinstance(model, Stationary):
         check_ref_time(ref_time, meas.time, source)  # (a fixed emitter has no velocity)
     if meas is not None and model.n_params > len(meas):  # work limit: not identifiable
@@ -315,10 +322,8 @@ def log_options(paths: list[Path], options: dict[str, Any],
     if "mapping" in options and "format" not in options and path.suffix.lower() in (
             ".csv", ".parquet", ".pq"):
         options["format"] = "wide"  # a column mapping: the file is a wide log
-    try:
+    with failing("--format: "):
         fmt = find_format(path, options.get("format"), reading=True)
-    except ValueError as e:
-        raise fail(f"--format: {e}") from None
     if fmt is not None and fmt.name == "rep":
         return options | ({"kinds": kinds} if kinds is not None else {})
     options.pop("window", None)  # applied to the set once read (select_window)

@@ -41,6 +41,7 @@ from .common import (
     check_ref_time,
     err,
     fail,
+    failing,
     file_ref_time,
     model_options,
     motion_or_fail,
@@ -79,7 +80,6 @@ PlotOption = Annotated[Path | None, typer.Option(
     help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, SVG)")]
 
 
-# `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def estimate(
     files: FilesArgument,
     motion: MotionOption = None,
@@ -231,7 +231,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
         raise fail(f"--dim: the height is fitted by ml only, not by --method {method}")
 
     def fit(m: Any) -> Any:
-        try:
+        with failing():
             if method == "ml":
                 from ..batch import estimate as run
 
@@ -240,8 +240,6 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
             from ..batch.methods import estimate_with
 
             return estimate_with(method, m, model, init=start, options=options)
-        except ValueError as e:
-            raise fail(str(e)) from None
 
     return fit
 
@@ -263,10 +261,8 @@ def sensor_error_fitter(meas: Any, motion: str | None, ref_time: float | None, m
                    "static2d, static3d)")
 
     def fit(m: Any) -> Any:
-        try:
+        with failing("--sensor-position-sigma: "):
             return estimate_with_sensor_errors(m, model, sigma, options=options)[0]
-        except ValueError as e:
-            raise fail(f"--sensor-position-sigma: {e}") from None
 
     return fit
 
@@ -293,11 +289,9 @@ def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
     """``--scale-sigma``: rescale each kind's sigma from the residuals and fit again."""
     from ..results import normalised_residuals, scale_sigma
 
-    try:
+    with failing("--scale-sigma: "):
         scaled, factors = scale_sigma(meas, normalised_residuals(result, meas, options),
                                       result.dof)
-    except ValueError as e:
-        raise fail(f"--scale-sigma: {e}") from None
     return scaled, fit(scaled), factors
 
 
@@ -308,13 +302,11 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
     """Compute the ML estimate of a manoeuvring target (``--motion curvilinear[:M]``)."""
     from ..batch.curvilinear import estimate_for
 
-    try:
+    with failing():
         return estimate_for(meas, name, init=start, options=options, ref_time=ref_time,
                             exact=exact, criterion=criterion or "bic",
                             alpha=0.01 if alpha is None else alpha,
                             accelerations=accelerations)
-    except ValueError as e:
-        raise fail(str(e)) from None
 
 
 def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
@@ -417,10 +409,8 @@ def parse_time(text: str | None, meas: Any, option: str) -> float | None:
             if len(meas):
                 span = tuple(origin_ns + round(float(f(meas.time)) * 1e9)
                              for f in (np.min, np.max))
-    try:
+    with failing():
         return seconds_of_time_text(text, option, origin_ns, span)  # type: ignore[arg-type]
-    except ValueError as e:
-        raise fail(str(e)) from None
 
 
 def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
@@ -700,13 +690,11 @@ def fit_with_ambiguity(meas: Any, fit: Any,
     from ..batch.ambiguity import SETTLE_S, resolve_ambiguity
     from ..results.own_legs import TURN_RATE_DEG_S
 
-    try:
+    with failing():
         amb = resolve_ambiguity(meas, fit=fit, keep_turn_cuts=keep_turn_cuts,
                                 settle_s=SETTLE_S if settle is None else settle,
                                 turn_rate_deg_s=TURN_RATE_DEG_S if turn_rate is None
                                 else turn_rate, legs=legs)
-    except ValueError as e:
-        raise fail(str(e)) from None
     say = err if as_json else out
     for line in amb.lines(meas):
         say.print(line, highlight=False, soft_wrap=True)
@@ -739,10 +727,8 @@ def sides_for_filter(meas: Any, dim: int) -> Any:
         return meas
     from ..batch.ambiguity import resolve_ambiguity
 
-    try:
+    with failing():
         amb = resolve_ambiguity(meas, f"cv{dim}d")
-    except ValueError as e:
-        raise fail(str(e)) from None
     for line in amb.lines(meas):
         err.print(line, highlight=False, soft_wrap=True)
     if not amb.resolved:
@@ -848,7 +834,6 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
         say.print(f"wrote {path}", highlight=False, soft_wrap=True)
 
 
-# `tma report`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def report(**arguments: Any) -> None:
     """Write the interactive solution page of a measurement file (and print the estimate).
 

@@ -111,7 +111,6 @@ def describe_sensors(meas: Any) -> Table:
     return table
 
 
-# `tma scenarios`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def scenarios() -> None:
     """List the built-in scenarios, one line each."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
@@ -126,7 +125,6 @@ def scenarios() -> None:
     out.print(table)
 
 
-# `tma simulate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def simulate(
     scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
     output: Annotated[Path, typer.Option("-o", "--output",
@@ -160,7 +158,6 @@ def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
         raise fail(f"scenario {scn.name}: {e}") from None
 
 
-# `tma show`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def show(
     files: FilesArgument,
     plot: Annotated[Path | None, typer.Option(help="write a picture (PNG, PDF, SVG)")] = None,
@@ -209,7 +206,6 @@ def show(
 DEMO_MARK = ".tma-demo"
 
 
-# `tma demo`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def demo(
     out_dir: Annotated[Path, typer.Option(
         help="the demo's own folder, replaced on every run")] = Path("tma-demo"),
@@ -287,7 +283,6 @@ def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | No
         raise fail(str(e)) from None
 
 
-# `tma import`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def import_(
     format: Annotated[str, typer.Argument(
         metavar="FORMAT", help="rep or dsf (Debrief: one or more files, read as one replay), "
@@ -422,7 +417,6 @@ def _replay_sigmas(meta: dict[str, str], kinds: set[str]) -> str:
     return "sigma: " + ", ".join(given) + where
 
 
-# `tma examples`: the docstring is its --help text.
 def examples(
     folder: Annotated[Path, typer.Argument(help="folder to write the sample logs into")],
     force: ForceOption = False,

@@ -65,7 +65,6 @@ from .estimate import (
 )
 
 
-# `tma track`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
