@@ -8,8 +8,11 @@ written.  Nothing numerical is imported at module level (``tma --help`` stays li
 from __future__ import annotations
 
 import contextlib
+import functools
+import inspect
 import math
 import os
+import typing
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Annotated, Any
@@ -237,6 +240,35 @@ FilesArgument = Annotated[list[Path], typer.Argument(
                             "sensor file and the own ship's track file)")]
 
 
+#: The options of the readers of real logs, in the order every command lists them.
+READER_OPTIONS = {"format": FormatOption, "ownship": OwnshipOption, "contact": ContactOption,
+                  "mapping": MappingOption, "bearing_sigma": BearingSigmaOption,
+                  "range_sigma": RangeSigmaOption, "frequency_sigma": FrequencySigmaOption,
+                  "kinds": KindsOption, "ranges": RangesOption}
+
+
+def reads_logs(after: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Give a command :data:`READER_OPTIONS` after its option ``after``, passed as ``logs``."""
+
+    def add(command: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.wraps(command)
+        def run(*args: Any, **given: Any) -> Any:
+            logs = {name: given.pop(name, None) for name in READER_OPTIONS}
+            return command(*args, logs=logs, **given)
+
+        hints = typing.get_type_hints(command, include_extras=True)  # (typer reads these)
+        params = [p.replace(annotation=hints[p.name])
+                  for p in inspect.signature(command).parameters.values() if p.name != "logs"]
+        at = [p.name for p in params].index(after) + 1
+        params[at:at] = [inspect.Parameter(name, inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                           default=None, annotation=option)
+                         for name, option in READER_OPTIONS.items()]
+        run.__signature__ = inspect.Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+        return run
+
+    return add
+
+
 def reader_options(format: str | None, ownship: str | None, contact: str | None,
                    mapping: Path | None, bearing_sigma: float | None,
                    range_sigma: float | None = None,
@@ -459,10 +491,7 @@ def _alive(pid: int) -> bool:
 
 @contextlib.contextmanager
 def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
-    """Hold the outputs of a long command for it alone while it runs (a lock file beside each).
-
-    The lock is ``.NAME.tma-lock`` (the process id; a dead process's lock is taken over).
-    """
+    """Hold a long command's outputs for it alone (``.NAME.tma-lock``; a dead run's is taken)."""
     held: list[Path] = []
     try:
         for path in (p for p in paths if p is not None):

@@ -12,20 +12,11 @@ from typing import Annotated, Any
 import typer
 
 from .common import (
-    BearingSigmaOption,
-    ContactOption,
     DriftOption,
-    FormatOption,
     FreeExponentOption,
-    FrequencySigmaOption,
     JsonOption,
-    KindsOption,
-    MappingOption,
     MotionOption,
-    OwnshipOption,
     PropagationSpeedOption,
-    RangeSigmaOption,
-    RangesOption,
     RefTimeOption,
     SensorPositionSigmaOption,
     check_outputs,
@@ -41,11 +32,13 @@ from .common import (
     parse_assignments,
     read_or_fail,
     reader_options,
+    reads_logs,
     write_picture,
 )
 from .estimate import SPEED_UNITS, UnitsOption, check_units
 
 
+@reads_logs(after="as_json")
 def crlb(
     sources: Annotated[list[str], typer.Argument(
         metavar="SOURCE...", help="measurement file (several Debrief files: one replay), or a "
@@ -62,17 +55,9 @@ def crlb(
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
     as_json: JsonOption = False,
-    format: FormatOption = None,
-    ownship: OwnshipOption = None,
-    contact: ContactOption = None,
-    mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None,
-    range_sigma: RangeSigmaOption = None,
-    frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None,
-    ranges: RangesOption = None,
     units: UnitsOption = "si",
     sensor_position_sigma: SensorPositionSigmaOption = None,
+    *, logs: dict[str, Any],
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 
@@ -88,12 +73,11 @@ def crlb(
     if at is not None and not math.isfinite(at):
         raise fail(f"--at {at}: expected a finite time (s)")
     source = sources[0]
-    if len(sources) > 1 or is_measurement_file(source) or format is not None:
+    if len(sources) > 1 or is_measurement_file(source) or logs["format"] is not None:
         bound, warnings, meas, opts = bound_of_file(
             [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
             model_options(drift, free_exponent, propagation_speed),
-            reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
-                           frequency_sigma, kinds=kinds, ranges=ranges))
+            reader_options(**logs))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
                                           ("--truth", truth),
@@ -215,7 +199,7 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
     """Print the bound, and what :func:`derived_at` gave, as text or JSON."""
     import json
 
-    from ..results.trust import bound_trust
+    from ..results.status import bound_trust
     from .estimate import print_warnings
 
     trust = bound_trust(bound, warnings or [])

@@ -9,7 +9,6 @@ exports are laid out here (``tma track`` shares them); what they say is computed
 from __future__ import annotations
 
 import inspect
-import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -17,23 +16,14 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from .common import (
-    BearingSigmaOption,
-    ContactOption,
     DriftOption,
     FilesArgument,
     ForceOption,
-    FormatOption,
     FreeExponentOption,
-    FrequencySigmaOption,
     JsonOption,
-    KindsOption,
-    MappingOption,
     MotionOption,
     OriginOption,
-    OwnshipOption,
     PropagationSpeedOption,
-    RangeSigmaOption,
-    RangesOption,
     RefTimeOption,
     SensorPositionSigmaOption,
     check_output,
@@ -51,6 +41,7 @@ from .common import (
     print_wide,
     read_or_fail,
     reader_options,
+    reads_logs,
     write_picture,
 )
 
@@ -80,6 +71,45 @@ PlotOption = Annotated[Path | None, typer.Option(
     help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, SVG)")]
 
 
+UnitsOption = Annotated[str, typer.Option(
+    "--units", help="si (speed m/s, range m) or nautical (speed kn, range nmi)")]
+AtOption = Annotated[str | None, typer.Option(
+    "--at", help="time of the answers: seconds, or a UTC clock time (ISO-8601) when the "
+                 "file records its time origin (default: the last measurement)")]
+SensorOption = Annotated[str | None, typer.Option(
+    "--sensor", help="sensor that range and bearing are given from (default: the sensor of "
+                     "the last measurement)")]
+LegOption = Annotated[int | None, typer.Option(
+    "--leg", help="solve the own ship's leg N (1 = the first; the legs are printed with every "
+                  "estimate)")]
+SnapOption = Annotated[bool, typer.Option(
+    "--snap", help="move --from to the start and --to to the end of the own-ship leg each "
+                   "falls in")]
+KeepTurnCutsOption = Annotated[bool, typer.Option(
+    "--keep-turn-cuts", help="towed-array cuts taken in an own-ship turn or while the array "
+                             "settles: fit them (default: left out, each named)")]
+TurnRateOption = Annotated[float | None, typer.Option(
+    "--turn-rate", help="own-ship turns: a heading rate above this (deg/s, default 0.1)")]
+SettleOption = Annotated[float | None, typer.Option(
+    "--settle", help="the towed array's settling time after a turn (s, default 180)")]
+HtmlOption = Annotated[Path | None, typer.Option(
+    "--html", metavar="FILE",
+    help="write the interactive solution page (one self-contained .html file): map, bearing "
+         "fan, ellipses and stacked dots; drag the solution in the page")]
+ExportOption = Annotated[list[Path] | None, typer.Option(
+    "--export", metavar="FILE",
+    help="write the solution as Debrief ;TMA_POS: lines (.rep), GeoJSON (.geojson) or KML "
+         "(.kml); may be given several times")]
+ExportEveryOption = Annotated[float, typer.Option(
+    "--export-every", metavar="SECONDS", help="seconds between the exported solution points")]
+ExportRbOption = Annotated[bool, typer.Option(
+    "--export-rb", help=".rep export: add ;TMA_RB: lines (range and bearing from the "
+                        "sensor)")]
+ExportNameOption = Annotated[str | None, typer.Option(
+    "--export-name", metavar="NAME", help="the exported solution's name (default TMAKIT)")]
+
+
+@reads_logs(after="origin")
 def estimate(
     files: FilesArgument,
     motion: MotionOption = None,
@@ -91,12 +121,7 @@ def estimate(
              "ratio-doppler, lecture-gn, chan-ho (TDOA), ho-xu (TDOA + FDOA)")] = "ml",
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
     propagation_speed: PropagationSpeedOption = None,
-    origin: OriginOption = None, format: FormatOption = None,
-    ownship: OwnshipOption = None, contact: ContactOption = None,
-    mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None, range_sigma: RangeSigmaOption = None,
-    frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None, ranges: RangesOption = None,
+    origin: OriginOption = None,
     exact: ExactOption = False,
     criterion: CriterionOption = None, alpha: AlphaOption = None,
     accelerations: AccelerationsOption = None,
@@ -114,6 +139,7 @@ def estimate(
     export_name: ExportNameOption = None,
     force: ForceOption = False,
     as_json: JsonOption = False, sensor_position_sigma: SensorPositionSigmaOption = None,
+    *, logs: dict[str, Any],
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
 
@@ -134,8 +160,7 @@ def estimate(
     model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
                                   export_name, taken=[plot], options=model, files=files)
-    options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
-                             frequency_sigma, kinds=kinds, ranges=ranges)
+    options = reader_options(**logs)
     meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
@@ -315,7 +340,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                    plot: tuple[Path | None, Path | str, Any] | None = None,
                    more: SolutionOutputs | None = None) -> None:
     """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer."""
-    from ..results.trust import trust_of
+    from ..results.status import trust_of
     from .guard import EXIT_NO_ANSWER
 
     answer = answer if answer is not None else result.answer(meas)
@@ -367,15 +392,6 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
                   units=units)
     say.print(f"wrote {path}", highlight=False)
 
-
-UnitsOption = Annotated[str, typer.Option(
-    "--units", help="si (speed m/s, range m) or nautical (speed kn, range nmi)")]
-AtOption = Annotated[str | None, typer.Option(
-    "--at", help="time of the answers: seconds, or a UTC clock time (ISO-8601) when the "
-                 "file records its time origin (default: the last measurement)")]
-SensorOption = Annotated[str | None, typer.Option(
-    "--sensor", help="sensor that range and bearing are given from (default: the sensor of "
-                     "the last measurement)")]
 
 SPEED_UNITS = {"si": ("m/s", 1.0), "nautical": ("kn", 1852.0 / 3600.0)}
 RANGE_UNITS = {"si": ("m", 1.0), "nautical": ("nmi", 1852.0)}
@@ -569,21 +585,6 @@ def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> 
         raise fail(str(e).replace("time ", "--at ", 1) if "time" in where else str(e)) from None
 
 
-LegOption = Annotated[int | None, typer.Option(
-    "--leg", help="solve the own ship's leg N (1 = the first; the legs are printed with every "
-                  "estimate)")]
-SnapOption = Annotated[bool, typer.Option(
-    "--snap", help="move --from to the start and --to to the end of the own-ship leg each "
-                   "falls in")]
-KeepTurnCutsOption = Annotated[bool, typer.Option(
-    "--keep-turn-cuts", help="towed-array cuts taken in an own-ship turn or while the array "
-                             "settles: fit them (default: left out, each named)")]
-TurnRateOption = Annotated[float | None, typer.Option(
-    "--turn-rate", help="own-ship turns: a heading rate above this (deg/s, default 0.1)")]
-SettleOption = Annotated[float | None, typer.Option(
-    "--settle", help="the towed array's settling time after a turn (s, default 180)")]
-
-
 def legs_of(meas: Any, turn_rate: float | None) -> Any:
     """Return the own ship's legs (None when the set has several sensors or one that is still)."""
     import numpy as np
@@ -702,25 +703,7 @@ def fit_with_ambiguity(meas: Any, fit: Any,
 
 
 def sides_for_filter(meas: Any, dim: int) -> Any:
-    """``tma track``: each ambiguous cut on the side the batch fit chooses, decisions printed.
-
-    Parameters
-    ----------
-    meas : tmakit.data.MeasurementSet
-        The measurements.
-    dim : int
-        The filter's dimension (the batch fit is cv2d or cv3d).
-
-    Returns
-    -------
-    tmakit.data.MeasurementSet
-        ``meas`` without twins as it is; else the cuts on their legs' sides, turn cuts out.
-
-    Raises
-    ------
-    typer.Exit
-        Status 2 when nothing is left to track.
-    """
+    """``tma track``: each ambiguous cut on the side the batch fit chooses, decisions printed."""
     import numpy as np
 
     if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
@@ -736,23 +719,6 @@ def sides_for_filter(meas: Any, dim: int) -> Any:
                   "side of each unresolved leg, and the mirror track fits about as well (tma "
                   "estimate reports both)", highlight=False, soft_wrap=True)
     return amb.measurements
-
-
-HtmlOption = Annotated[Path | None, typer.Option(
-    "--html", metavar="FILE",
-    help="write the interactive solution page (one self-contained .html file): map, bearing "
-         "fan, ellipses and stacked dots; drag the solution in the page")]
-ExportOption = Annotated[list[Path] | None, typer.Option(
-    "--export", metavar="FILE",
-    help="write the solution as Debrief ;TMA_POS: lines (.rep), GeoJSON (.geojson) or KML "
-         "(.kml); may be given several times")]
-ExportEveryOption = Annotated[float, typer.Option(
-    "--export-every", metavar="SECONDS", help="seconds between the exported solution points")]
-ExportRbOption = Annotated[bool, typer.Option(
-    "--export-rb", help=".rep export: add ;TMA_RB: lines (range and bearing from the "
-                        "sensor)")]
-ExportNameOption = Annotated[str | None, typer.Option(
-    "--export-name", metavar="NAME", help="the exported solution's name (default TMAKIT)")]
 
 
 @dataclass
@@ -851,8 +817,7 @@ def _report_signature() -> inspect.Signature:
         "html", inspect.Parameter.POSITIONAL_OR_KEYWORD,
         annotation=Annotated[Path, typer.Option(
             "-o", "--output", "--html", metavar="FILE", help="the page to write (.html)")])
-    hints = typing.get_type_hints(estimate, include_extras=True)  # (the annotations resolved)
-    params = [page if p.name == "html" else p.replace(annotation=hints[p.name])
+    params = [page if p.name == "html" else p  # (resolved by reads_logs)
               for p in inspect.signature(estimate).parameters.values()]
     # a parameter without default after those with one: move the page after the files
     params.remove(page)

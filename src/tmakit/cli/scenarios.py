@@ -18,7 +18,6 @@ from .common import (
     ContactOption,
     FilesArgument,
     ForceOption,
-    FormatOption,
     FrequencySigmaOption,
     KindsOption,
     MappingOption,
@@ -34,6 +33,7 @@ from .common import (
     print_wide,
     read_or_fail,
     reader_options,
+    reads_logs,
     refuse_existing,
     write_or_fail,
     write_picture,
@@ -158,27 +158,17 @@ def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
         raise fail(f"scenario {scn.name}: {e}") from None
 
 
+@reads_logs(after="origin")
 def show(
     files: FilesArgument,
     plot: Annotated[Path | None, typer.Option(help="write a picture (PNG, PDF, SVG)")] = None,
     origin: OriginOption = None,
-    format: FormatOption = None,
-    ownship: OwnshipOption = None,
-    contact: ContactOption = None,
-    mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None,
-    range_sigma: RangeSigmaOption = None,
-    frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None,
-    ranges: RangesOption = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
+    *, logs: dict[str, Any],
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
     plot = check_output(plot, "--plot", force, "picture", files)
-    meas = read_or_fail(files, parse_origin(origin),
-                        **reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                         range_sigma, frequency_sigma, kinds=kinds,
-                                         ranges=ranges))
+    meas = read_or_fail(files, parse_origin(origin), **reader_options(**logs))
     meta = meas.metadata
     title = f"{' + '.join(map(str, files))}: {len(meas)} measurements"
     if "scenario" in meta:
@@ -253,10 +243,6 @@ EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea"
                  "bearings.csv", "bearings.toml", "truth.json", "Freq_BlueSensor.rep",
                  "Freq_BlueTrack.rep", "Freq_RedTrack.rep", "Ambig_cuts_TA.rep",
                  "Ambig_tracks2.rep", "debrief-samples.txt", "EPL-1.0.txt")
-
-
-def _check_output(output: Path, force: bool, inputs: list[Path]) -> None:
-    check_output(output, "-o", force, "measurements", inputs)
 
 
 def _check_track_suffix(fmt: str, track: Path) -> None:
@@ -334,7 +320,8 @@ def import_(
         raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
     if dim not in (None, 2, 3):
         raise fail(f"--dim {dim}: expected 2 or 3")
-    _check_output(output, force, [*files, *([mapping] if mapping is not None else [])])
+    check_output(output, "-o", force, "measurements",
+                 [*files, *([mapping] if mapping is not None else [])])
     for f in files:
         if not f.exists():
             raise fail(f"{f}: no such file")

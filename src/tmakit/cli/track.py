@@ -21,21 +21,12 @@ from typing import Annotated, Any, BinaryIO
 import typer
 
 from .common import (
-    BearingSigmaOption,
-    ContactOption,
     DriftOption,
     FilesArgument,
     ForceOption,
-    FormatOption,
     FreeExponentOption,
-    FrequencySigmaOption,
-    KindsOption,
-    MappingOption,
     OriginOption,
-    OwnshipOption,
     PropagationSpeedOption,
-    RangeSigmaOption,
-    RangesOption,
     check_outputs,
     check_particles,
     err,
@@ -47,6 +38,7 @@ from .common import (
     print_wide,
     read_or_fail,
     reader_options,
+    reads_logs,
     write_picture,
 )
 from .estimate import (
@@ -64,7 +56,58 @@ from .estimate import (
     write_solution_outputs,
 )
 
+ParticlesOption = Annotated[int | None, typer.Option(
+    help="number of particles (particle filter only)")]
+SeedOption = Annotated[int | None, typer.Option(
+    help="random seed (particle filter only; same seed, same track)")]
+QDensityOption = Annotated[str, typer.Option(
+    "--q-density", help="process noise as continuous white-noise acceleration: spectral "
+                        "density (m^2/s^3), one value or per axis; Q = q~ [[T^3/3, T^2/2], "
+                        "[T^2/2, T]] per axis, added to --q's")]
+RangePriorOption = Annotated[str | None, typer.Option(
+    "--range-prior", help="start at the first bearing: the emitter's range then lies in "
+                          "MIN:MAX (m); default 500:50000 for --filter gsf")]
+SpeedPriorOption = Annotated[float | None, typer.Option(
+    "--speed-prior", help="start at the first bearing: the largest plausible speed (m/s, "
+                          "course unknown); default 20")]
+HeightPriorOption = Annotated[str | None, typer.Option(
+    "--height-prior", help="start at the first bearing, 3-D: the emitter's height interval "
+                           "MIN:MAX (m); default 0:12000")]
+ComponentOption = Annotated[str, typer.Option(
+    help="the component filter of gsf (the Gaussian sum) or imm: ekf, ukf or ckf "
+         "(cubature)")]
+ModelQOption = Annotated[str | None, typer.Option(
+    "--model-q", help="--filter imm: acceleration std (m/s^2) of the manoeuvre models, "
+                      "one value per model (comma-separated) beside the --q model; default "
+                      "1.0")]
+TurnRateOption = Annotated[str | None, typer.Option(
+    "--turn-rate", help="--filter imm: turn rates (deg/s, comma-separated; counter-clockwise "
+                        "positive, a right turn negative) of coordinated-turn models added "
+                        "after the --model-q ones")]
+PriorTimeOption = Annotated[float | None, typer.Option(
+    help="time of the prior (s); default: the first measurement time")]
+NuisanceOption = Annotated[str | None, typer.Option(
+    help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
+TransitionOption = Annotated[str | None, typer.Option(
+    "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
+                         "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
+SmoothOption = Annotated[bool, typer.Option(
+    "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
+                     "filters and the Gaussian sum; backward simulation for pf)")]
+LagOption = Annotated[int | None, typer.Option(
+    help="a fixed-lag smoother (implies --smooth): each state given the data up to N "
+         "updates after it")]
+FollowOption = Annotated[bool, typer.Option(
+    "--follow", help="keep tracking as the file grows (REP, NMEA, CSV; FILE - reads standard "
+                     "input, with --format): one line per update, the outputs rewritten; "
+                     "Ctrl-C or SIGTERM stops it")]
+IntervalOption = Annotated[float, typer.Option(
+    metavar="SECONDS", help="--follow: seconds between looks at the file")]
+MaxUpdatesOption = Annotated[int | None, typer.Option(
+    metavar="N", help="--follow: stop after N updates")]
 
+
+@reads_logs(after="origin")
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
@@ -95,10 +138,6 @@ def track(
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
     propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None,
-    format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
-    mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
-    range_sigma: RangeSigmaOption = None, frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None, ranges: RangesOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -111,7 +150,7 @@ def track(
     sensor: SensorOption = None, units: UnitsOption = "si",
     html: HtmlOption = None, follow: FollowOption = False,
     interval: IntervalOption = 1.0, max_updates: MaxUpdatesOption = None,
-    force: ForceOption = False,
+    force: ForceOption = False, *, logs: dict[str, Any],
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
 
@@ -120,11 +159,10 @@ def track(
     With --html, the solution page of the batch estimate (constant velocity) of the data.
     """
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
-                                       ellipses, rows, (*files, mapping))
+                                       ellipses, rows, (*files, logs["mapping"]))
     check_units(units)
     page = check_page(html, force, [*files], plot)
-    reading = (parse_origin(origin), dim, reader_options(format, ownship, contact, mapping,
-               bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges))
+    reading = (parse_origin(origin), dim, reader_options(**logs))
     options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
                       smooth=(smooth, lag), keywords=start_keywords(
@@ -135,7 +173,7 @@ def track(
                           filter_name, options))
     name, say = Path(" + ".join(map(str, files))), err if as_json else out
     if follow:
-        return watch(list(files), format, Watch(tracked, name, output, plot, page, ellipses,
+        return watch(list(files), logs["format"], Watch(tracked, name, output, plot, page, ellipses,
                                                 force, as_json, sensor, units, options),
                      interval, max_updates, say)
     meas, tr, truth = tracked(list(files))
@@ -463,59 +501,6 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
             sigma = "the final covariance is singular (a collapsed cloud or track)"
         out.print(f"truth known (file metadata): final position error "
                   f"{np.linalg.norm(e):.1f} m, {sigma}", highlight=False)
-
-
-ParticlesOption = Annotated[int | None, typer.Option(
-    help="number of particles (particle filter only)")]
-SeedOption = Annotated[int | None, typer.Option(
-    help="random seed (particle filter only; same seed, same track)")]
-QDensityOption = Annotated[str, typer.Option(
-    "--q-density", help="process noise as continuous white-noise acceleration: spectral "
-                        "density (m^2/s^3), one value or per axis; Q = q~ [[T^3/3, T^2/2], "
-                        "[T^2/2, T]] per axis, added to --q's")]
-RangePriorOption = Annotated[str | None, typer.Option(
-    "--range-prior", help="start at the first bearing: the emitter's range then lies in "
-                          "MIN:MAX (m); default 500:50000 for --filter gsf")]
-SpeedPriorOption = Annotated[float | None, typer.Option(
-    "--speed-prior", help="start at the first bearing: the largest plausible speed (m/s, "
-                          "course unknown); default 20")]
-HeightPriorOption = Annotated[str | None, typer.Option(
-    "--height-prior", help="start at the first bearing, 3-D: the emitter's height interval "
-                           "MIN:MAX (m); default 0:12000")]
-ComponentOption = Annotated[str, typer.Option(
-    help="the component filter of gsf (the Gaussian sum) or imm: ekf, ukf or ckf "
-         "(cubature)")]
-ModelQOption = Annotated[str | None, typer.Option(
-    "--model-q", help="--filter imm: acceleration std (m/s^2) of the manoeuvre models, "
-                      "one value per model (comma-separated) beside the --q model; default "
-                      "1.0")]
-TurnRateOption = Annotated[str | None, typer.Option(
-    "--turn-rate", help="--filter imm: turn rates (deg/s, comma-separated; counter-clockwise "
-                        "positive, a right turn negative) of coordinated-turn models added "
-                        "after the --model-q ones")]
-PriorTimeOption = Annotated[float | None, typer.Option(
-    help="time of the prior (s); default: the first measurement time")]
-NuisanceOption = Annotated[str | None, typer.Option(
-    help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
-TransitionOption = Annotated[str | None, typer.Option(
-    "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
-                         "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
-SmoothOption = Annotated[bool, typer.Option(
-    "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
-                     "filters and the Gaussian sum; backward simulation for pf)")]
-LagOption = Annotated[int | None, typer.Option(
-    help="a fixed-lag smoother (implies --smooth): each state given the data up to N "
-         "updates after it")]
-
-
-FollowOption = Annotated[bool, typer.Option(
-    "--follow", help="keep tracking as the file grows (REP, NMEA, CSV; FILE - reads standard "
-                     "input, with --format): one line per update, the outputs rewritten; "
-                     "Ctrl-C or SIGTERM stops it")]
-IntervalOption = Annotated[float, typer.Option(
-    metavar="SECONDS", help="--follow: seconds between looks at the file")]
-MaxUpdatesOption = Annotated[int | None, typer.Option(
-    metavar="N", help="--follow: stop after N updates")]
 
 
 def parse_q(text: str, dim: int, flag: str = "--q") -> list[float]:

@@ -21,9 +21,6 @@ from .context import altitude_reference, clock_time, origin_of, sensor_position
 KNOT = 1852.0 / 3600.0
 """One knot in m/s (one nautical mile, 1852 m, per hour)."""
 
-NAUTICAL_MILE = 1852.0
-"""One nautical mile in metres."""
-
 ELLIPSE_LEVEL = 0.95
 """Default probability inside the reported position ellipse."""
 

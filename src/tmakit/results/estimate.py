@@ -32,8 +32,16 @@ from .checks import SanityWarning, chi2_probability, fit_warnings, wider_undeter
 from .context import geodetic_fix, origin_of
 from .nuisance import KnownNuisance, as_known_nuisance
 from .solutions import Solution, range_spread
-from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
-from .trust import Trust, trust_of
+from .status import (
+    CONVERGED,
+    DIVERGED,
+    NOT_CONVERGED,
+    UNOBSERVABLE,
+    Status,
+    Trust,
+    fit_status,
+    trust_of,
+)
 
 
 @dataclass
@@ -253,7 +261,7 @@ class EstimateResult:
         return fit_warnings(self, meas)
 
     def trust(self, meas: MeasurementSet) -> Trust:
-        """Return how far to trust the estimate (:func:`tmakit.results.trust.trust_of`).
+        """Return how far to trust the estimate (:func:`tmakit.results.trust_of`).
 
         Parameters
         ----------
