@@ -199,7 +199,7 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
     """Print the bound, and what :func:`derived_at` gave, as text or JSON."""
     import json
 
-    from ..results.status import bound_trust
+    from ..results.trust import bound_trust
     from .estimate import print_warnings
 
     trust = bound_trust(bound, warnings or [])

@@ -340,7 +340,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
                    plot: tuple[Path | None, Path | str, Any] | None = None,
                    more: SolutionOutputs | None = None) -> None:
     """Print an estimate (text or JSON) with its trust, draw it; exit status 4 without answer."""
-    from ..results.status import trust_of
+    from ..results.trust import trust_of
     from .guard import EXIT_NO_ANSWER
 
     answer = answer if answer is not None else result.answer(meas)

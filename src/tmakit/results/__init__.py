@@ -22,16 +22,11 @@ from .status import (
     DIVERGED,
     NOT_CONVERGED,
     STATUSES,
-    TRUST_NONE,
-    TRUST_OK,
-    TRUST_WARNING,
     UNOBSERVABLE,
     Status,
-    Trust,
-    bound_trust,
     fit_status,
-    trust_of,
 )
+from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, bound_trust, trust_of
 
 __all__ = [
     "CONVERGED",

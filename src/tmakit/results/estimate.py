@@ -32,16 +32,8 @@ from .checks import SanityWarning, chi2_probability, fit_warnings, wider_undeter
 from .context import geodetic_fix, origin_of
 from .nuisance import KnownNuisance, as_known_nuisance
 from .solutions import Solution, range_spread
-from .status import (
-    CONVERGED,
-    DIVERGED,
-    NOT_CONVERGED,
-    UNOBSERVABLE,
-    Status,
-    Trust,
-    fit_status,
-    trust_of,
-)
+from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
+from .trust import Trust, trust_of
 
 
 @dataclass
