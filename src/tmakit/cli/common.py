@@ -36,11 +36,16 @@ def fail(message: str) -> typer.Exit:
 
 
 @contextlib.contextmanager
-def failing(prefix: str = "") -> Iterator[None]:
-    """Turn a ``ValueError`` of the block into ``error: prefix message`` (exit status 2)."""
+def failing(prefix: str = "", written: Path | None = None,
+            errors: tuple[type[Exception], ...] = (ValueError,)) -> Iterator[None]:
+    """Turn ``errors`` into ``error: prefix message``, ``FileExistsError`` into the --force hint."""
     try:
         yield
-    except ValueError as e:
+    except FileExistsError:
+        if written is None:
+            raise
+        raise fail(f"{written} already exists; use --force to overwrite it") from None
+    except errors as e:
         raise fail(f"{prefix}{e}") from None
 
 
@@ -103,12 +108,8 @@ def write_or_fail(meas: Any, path: Path, force: bool) -> None:
     """Write a measurement file, errors as ``error: ...``."""
     from ..io.measurement_files import write_measurements
 
-    try:
+    with failing(written=path):
         write_measurements(meas, path, force=force)
-    except FileExistsError:
-        raise fail(f"{path} already exists; use --force to overwrite it") from None
-    except ValueError as e:
-        raise fail(str(e)) from None
 
 
 def file_ref_time(meas: Any) -> float | None:
@@ -523,11 +524,9 @@ def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
     """Draw a picture into a temporary file and move it into place (never a partial file)."""
     from ..io import atomic_write
 
-    try:
-        with atomic_write(path, force=force, keep_suffix=True) as tmp:
-            draw(tmp)
-    except FileExistsError:
-        raise fail(f"{path} already exists; use --force to overwrite it") from None
+    with failing(written=path, errors=()), atomic_write(path, force=force,
+                                                         keep_suffix=True) as tmp:
+        draw(tmp)
 
 
 def memory_limit() -> int:

@@ -789,14 +789,10 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
     from ..io.solution_files import write_solution
 
     for path in outputs.exports:
-        try:
+        with failing("--export ", written=path):
             write_solution(path, meas, result, every=outputs.every,
                            range_bearing=outputs.range_bearing, name=outputs.name,
                            force=outputs.force)
-        except FileExistsError:
-            raise fail(f"{path} already exists; use --force to overwrite it") from None
-        except ValueError as e:
-            raise fail(f"--export {e}") from None
         say.print(f"wrote {path}", highlight=False, soft_wrap=True)
 
 

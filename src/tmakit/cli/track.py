@@ -31,6 +31,7 @@ from .common import (
     check_particles,
     err,
     fail,
+    failing,
     model_options,
     out,
     parse_assignments,
@@ -359,10 +360,8 @@ def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path
     from ..io.track_files import write_track
 
     if output is not None:
-        try:
+        with failing(written=output, errors=()):
             write_track(tr, output, force=force)
-        except FileExistsError:
-            raise fail(f"{output} already exists; use --force to overwrite it") from None
         say.print(f"wrote {output}", highlight=False)
     if plot is not None:
         from ..plot.tracks import plot_track
