@@ -254,17 +254,10 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     """
     state = np.asarray(state, dtype=float)
     cov = np.where(np.isnan(cov), np.inf, np.asarray(cov, dtype=float))
-    enu, enu_sd = [], []
-    for i in range(3):
-        v, s = _finite(state[i], _std(np.eye(6)[i], cov, null)) if i < dim else (None, None)
-        enu.append(v)
-        enu_sd.append(s)
-    vel, vel_sd = [], []
-    for i in range(3):
-        v, s = (_finite(state[3 + i], _std(np.eye(6)[3 + i], cov, null))
-                if i < dim and not stationary else (None, None))
-        vel.append(v)
-        vel_sd.append(s)
+    parts = [_finite(state[i], _std(np.eye(6)[i], cov, null))
+             if i % 3 < dim and (i < 3 or not stationary) else (None, None) for i in range(6)]
+    enu, enu_sd = zip(*parts[:3], strict=True)
+    vel, vel_sd = zip(*parts[3:], strict=True)
     speed, speed_sd, course, course_sd = (None, None, None, None) if stationary else (
         _size_and_direction(state[3:6], 3, cov, null))
     origin = origin_of(meas)
