@@ -4,9 +4,10 @@
   at the first animation frame after the page's model has drawn the ML solution's dots), for a
   page of ``--cuts`` bearings (10,000 by default), over ``--repeat`` fresh loads;
 * drag: a real mouse drag of the solution's position handle (selenium's pointer actions, 20
-  moves); for each move the page records, with ``performance.now()``, the time from the drag
-  event to the next animation frame after the dots, the track and the chi-square were
-  updated (``painted_ms``), and the computation alone (``compute_ms``); while the mouse drags a
+  moves); for each move the page records, with ``performance.now()``, the time from the mouse
+  event (its ``timeStamp``) to the end of the repaint of every plot the update changed
+  (Bokeh's ``repainted``: the dots, the track and handles; the chi-square is text)
+  (``painted_ms``), and the computation alone (``compute_ms``); while the mouse drags a
   panel draws at most about :data:`~tmakit.plot.page.DRAG_DOTS` dots, every dot again once the
   drag stops (that last update is timed apart).
 

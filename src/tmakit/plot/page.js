@@ -164,9 +164,21 @@ function tmaSolutionPage(a) {
   // light_source of every few dots drawn instead while the mouse drags); a.ranges[kind]: its
   // y range.  `light`: a drag's update (the light dots; all of them once the drag stops).
   let lightShown = false;
+  // Each update is timed to the end of the repaint of every plot it changed (Bokeh's
+  // `repainted`): `waiting` holds the plots not yet repainted, `open` the updates they close.
+  const plots = Bokeh.index.select(a.figures);
+  const waiting = new Set(), open = [];
+  for (const v of plots) {
+    v.repainted.connect(() => {
+      waiting.delete(v);
+      if (waiting.size > 0) return;
+      const now = performance.now();
+      for (const r of open.splice(0)) { r.painted_ms = now - r.t0; delete r.t0; timings.push(r); }
+    });
+  }
   function update(since, light) {
-    const t0 = since === undefined ? performance.now() : since;
     const tStart = performance.now();
+    const t0 = since === undefined ? tStart : since;
     chi2 = residuals(cur);
     const tModel = performance.now();
     const big = {};
@@ -202,19 +214,22 @@ function tmaSolutionPage(a) {
     const tTrack = performance.now();
     stats.innerHTML = words();  // numbers and fixed words only
     const t1 = performance.now();
-    requestAnimationFrame(() => {
-      timings.push({model_ms: tModel - tStart, dots_ms: tDots - tModel,
-                    track_ms: tTrack - tDots, stats_ms: t1 - tTrack, compute_ms: t1 - tStart,
-                    painted_ms: performance.now() - t0, drag: Boolean(light)});
-    });
+    for (const v of plots) waiting.add(v);
+    open.push({t0: t0, input_ms: tStart - t0, model_ms: tModel - tStart, dots_ms: tDots - tModel,
+               track_ms: tTrack - tDots, stats_ms: t1 - tTrack, compute_ms: t1 - tStart,
+               drag: Boolean(light)});
   }
 
   // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution
   // follows at once, its dots and chi-square at the next frame (one update per frame).
-  let pending = null, idle = null;
+  let pending = null, idle = null, pointerAt = -Infinity;
   const DRAG_STOP_MS = 200;
+  document.addEventListener("pointermove", (e) => { pointerAt = e.timeStamp; },
+                            {capture: true, passive: true});
   function onHandles() {
     if (busy || !cfg.draggable) return;
+    const now = performance.now();  // timed from the mouse event that moved the handle
+    const moved = now - pointerAt < 1000 ? Math.min(pointerAt, now) : now;
     const d = a.handles.data;
     if (d.x.length !== last[0].length) { busy = true; placeHandles(); busy = false; return; }
     busy = true;
@@ -233,7 +248,7 @@ function tmaSolutionPage(a) {
       last = [xy[0].slice(), xy[1].slice()];
       a.stick.data = {x: xy[0], y: xy[1]};
       if (pending === null) {
-        pending = performance.now();
+        pending = moved;
         requestAnimationFrame(() => { const t = pending; pending = null; update(t, true); });
       }
       clearTimeout(idle);  // every dot again once the drag has stopped
@@ -253,7 +268,7 @@ function tmaSolutionPage(a) {
     ready: true,
     onHandles: onHandles,
     // whether a drag's update is still to come (at the next frame)
-    pending: () => pending !== null || idle !== null,
+    pending: () => pending !== null || idle !== null || open.length > 0,
     reset: () => { if (cfg.draggable) setState(ml); },
     // for scripted use and tests: move the solution at the reference time by (dE, dN) m and
     // its velocity by (dvE, dvN) m/s

@@ -389,7 +389,7 @@ def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
         script = resources.files("tmakit.plot").joinpath("page.js").read_text("utf-8")
         args = {"config": config, "rows": ColumnDataSource(page.rows()),
                 "handles": parts["handles"], "stick": parts["stick"], "track": parts["track"],
-                "dots": sources, "ranges": ranges}
+                "dots": sources, "ranges": ranges, "figures": [fig, *dots]}
         ready = CustomJS(args=args, code="const entered = performance.now();\n" + script
                          + "\nwindow.tmaPage = tmaSolutionPage({"
                          + ", ".join(f"{k}: {k}" for k in args) + "});"
