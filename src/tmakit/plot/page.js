@@ -163,6 +163,10 @@ function tmaSolutionPage(a) {
   // a.dots: one source per kind and series ({kind, source, renderer}, and on a large panel a
   // light_source of every few dots drawn instead while the mouse drags); a.ranges[kind]: its
   // y range.  `light`: a drag's update (the light dots; all of them once the drag stops).
+  function roundUp(v) {
+    const p = Math.pow(10, Math.floor(Math.log10(v)));
+    return v <= p ? p : v <= 2 * p ? 2 * p : v <= 5 * p ? 5 * p : 10 * p;
+  }
   let lightShown = false;
   // Each update is timed to the end of the repaint of every plot it changed (Bokeh's
   // `repainted`): `waiting` holds the plots not yet repainted, `open` the updates they close.
@@ -201,7 +205,10 @@ function tmaSolutionPage(a) {
     lightShown = Boolean(light);
     for (const kind in big) {  // a new scale only when the dots leave it or shrink well inside
       const yr = a.ranges[kind];
-      if (big[kind] > yr.end || big[kind] < 0.5 * yr.end) { yr.start = -big[kind]; yr.end = big[kind]; }
+      if (big[kind] > yr.end || big[kind] < 0.4 * yr.end) {
+        const end = Math.max(4, roundUp(big[kind]));  // 1, 2 or 5 times a power of ten
+        yr.setv({start: -end, end: end});
+      }
     }
     const tDots = performance.now();
     const tt = a.track.data.t, tx = a.track.data.x, ty = a.track.data.y;
@@ -220,9 +227,10 @@ function tmaSolutionPage(a) {
                drag: Boolean(light)});
   }
 
-  // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution
-  // follows at once, its dots and chi-square at the next frame (one update per frame).
-  let pending = null, idle = null, pointerAt = -Infinity;
+  // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution,
+  // its dots and chi-square follow at once (Chromium delivers a drag's moves once a frame),
+  // drawn at the next frame.
+  let idle = null, pointerAt = -Infinity;
   const DRAG_STOP_MS = 200;
   document.addEventListener("pointermove", (e) => { pointerAt = e.timeStamp; },
                             {capture: true, passive: true});
@@ -247,10 +255,7 @@ function tmaSolutionPage(a) {
       for (let j = 0; j < xy[0].length; j++) { d.x[j] = xy[0][j]; d.y[j] = xy[1][j]; }
       last = [xy[0].slice(), xy[1].slice()];
       a.stick.data = {x: xy[0], y: xy[1]};
-      if (pending === null) {
-        pending = moved;
-        requestAnimationFrame(() => { const t = pending; pending = null; update(t, true); });
-      }
+      update(moved, true);
       clearTimeout(idle);  // every dot again once the drag has stopped
       idle = setTimeout(() => { idle = null; update(); }, DRAG_STOP_MS);
     } finally {
@@ -267,8 +272,8 @@ function tmaSolutionPage(a) {
   const api = {
     ready: true,
     onHandles: onHandles,
-    // whether a drag's update is still to come (at the next frame)
-    pending: () => pending !== null || idle !== null || open.length > 0,
+    // whether an update is still to come or to be drawn
+    pending: () => idle !== null || open.length > 0,
     reset: () => { if (cfg.draggable) setState(ml); },
     // for scripted use and tests: move the solution at the reference time by (dE, dN) m and
     // its velocity by (dvE, dvN) m/s
@@ -293,6 +298,7 @@ function tmaSolutionPage(a) {
   };
   // The handles and the dots are drawn from Python at the ML solution (the same numbers);
   // only the words are made here.
+  document.getElementById("tma-reset").addEventListener("click", api.reset);
   last = [a.handles.data.x.slice(), a.handles.data.y.slice()];
   if (cfg.draggable) { chi2 = residuals(cur); stats.innerHTML = words(); }
   api.readyAt = performance.now();

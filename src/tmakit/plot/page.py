@@ -252,6 +252,9 @@ def _header(page: _Page, title: str) -> str:
            " on the map: the stacked dots and χ² follow; <i>back to ML</i> restores the fit."
            if not page.refusal else f"Not draggable: {_escaped(page.refusal)}.")
     lines.append(f"<div style='color:#444'>{how}</div>")
+    # a plain button: Bokeh's widgets would add 380 kB of script to parse at every opening
+    lines.append("<button id='tma-reset' type='button' style='margin-top:4px'"
+                 + (" disabled" if page.refusal else "") + ">back to ML solution</button>")
     return "\n".join(lines)
 
 
@@ -294,15 +297,20 @@ def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
     if page.has_track:
         fig.line(tx, ty, color="#d62728", line_width=2, alpha=0.45, line_dash="dashed",
                  legend_label="ML solution")
+        # What a drag moves is drawn on Bokeh's overlay layer, left out of the map's extent
+        # and of its legend (a one-point twin stands there): a drag repaints that layer alone
+        fixed = list(fig.renderers)
+        solid = {"color": "#d62728", "line_width": 2.5}
+        fig.line(tx[:1], ty[:1], legend_label="solution shown", **solid)
         track = ColumnDataSource({"t": t, "x": tx.copy(), "y": ty.copy()})
-        fig.line("x", "y", source=track, color="#d62728", line_width=2.5,
-                 legend_label="solution shown")
+        fig.line("x", "y", source=track, level="overlay", **solid)
         parts["track"] = track
         stick = ColumnDataSource({"x": [], "y": []})
-        fig.line("x", "y", source=stick, color="black", line_width=1.5)
+        fig.line("x", "y", source=stick, color="black", line_width=1.5, level="overlay")
         handles = ColumnDataSource({"x": [], "y": [], "m": []}, name="handles")
         r = fig.scatter("x", "y", source=handles, size=14, fill_color="white",
-                        line_color="black", line_width=2, marker="m")
+                        line_color="black", line_width=2, marker="m", level="overlay")
+        fig.x_range.renderers = fig.y_range.renderers = fixed
         if not page.refusal:
             tool = PointDrawTool(renderers=[r], add=False, drag=True,
                                  description="drag the solution")
@@ -327,20 +335,19 @@ def _dots_figures(page: _Page, width: int) -> tuple[list[Any], list[dict[str, An
     sources: list[dict[str, Any]] = []
     ranges: dict[str, Any] = {}
     height = max(180, min(300, 600 // max(len(m.kinds), 1)))
-    shared = None
+    lo, hi = page.when(np.array([m.time.min(), m.time.max()]))
+    pad = max(0.05 * float(hi - lo), 1000.0 if page.clock else 1.0)
+    shared = Range1d(lo - pad, hi + pad)  # fixed: a drag's dots do not recompute it
     for kind in m.kinds:
         rows = np.flatnonzero(m.kind_mask(kind))
         z = page.z[rows]
         big = max(4.0, 1.1 * float(np.nanmax(np.abs(z)))) if np.any(np.isfinite(z)) else 4.0
         yr = Range1d(-big, big)
-        fig = figure(width=width, height=height, y_range=yr,
+        fig = figure(width=width, height=height, x_range=shared, y_range=yr,
                      x_axis_type="datetime" if page.clock else "linear",
                      x_axis_label="time (UTC)" if page.clock else "time (s)",
                      y_axis_label=f"{kind} residual (σ)", title=f"{kind}: stacked dots",
                      tools="xpan,xwheel_zoom,box_zoom,reset,save")
-        if shared is not None:
-            fig.x_range = shared
-        shared = fig.x_range
         fig.add_layout(BoxAnnotation(bottom=-1, top=1, fill_color="green", fill_alpha=0.1))
         for y in (-3, 3):
             fig.add_layout(Span(location=y, dimension="width", line_color="red",
@@ -359,8 +366,9 @@ def _dots_figures(page: _Page, width: int) -> tuple[list[Any], list[dict[str, An
                                         "row": rows[pick].astype(np.int32)})
                 entry[key + "source"] = src
                 entry[key + "renderer"] = fig.scatter(
-                    "x", "z", source=src, size=4, color=_COLOURS[k % len(_COLOURS)],
-                    visible=not key, **(named if not key else {}))
+                    "x", "z", source=src, size=5, line_color=None,
+                    fill_color=_COLOURS[k % len(_COLOURS)],
+                    visible=not key, **({"level": "overlay"} if key else named))
             sources.append(entry)
         figs.append(fig)
         ranges[kind] = yr
@@ -374,14 +382,12 @@ def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
     from bokeh.document import Document
     from bokeh.embed import file_html
     from bokeh.layouts import column, row
-    from bokeh.models import Button, ColumnDataSource, CustomJS
+    from bokeh.models import ColumnDataSource, CustomJS
     from bokeh.resources import INLINE
 
     page = _Page(meas, result, options, level, labels)
     fig, parts = _map_figure(page)
     dots, sources, ranges = _dots_figures(page, 560)
-    button = Button(label="back to ML solution", button_type="primary", width=200,
-                    disabled=bool(page.refusal))
     if "handles" in parts:
         config = page.config(parts["tau"])
         parts["handles"].data = page.handles(config)
@@ -396,13 +402,12 @@ def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
                          + "\nwindow.tmaPage.enteredAt = entered;")
         parts["handles"].js_on_change("change", CustomJS(
             code="if (window.tmaPage) window.tmaPage.onHandles();"))
-        button.js_on_event("button_click", CustomJS(code="window.tmaPage.reset();"))
     else:
         ready = CustomJS(code="window.tmaPage = {ready: true, timings: [], "
                               "readyAt: performance.now()}; requestAnimationFrame(() => "
                               "{ window.tmaPage.paintedAt = performance.now(); });")
     doc = Document()
-    doc.add_root(row(fig, column(*dots, button)))
+    doc.add_root(row(fig, column(*dots)))
     doc.js_on_event("document_ready", ready)
     # The heading and the live numbers are plain HTML above the plots (escaped here: file
     # names and sensor names are text); Bokeh's layout is not redone when the numbers change.
