@@ -92,7 +92,8 @@ def main() -> None:
                 opened.append(painted(driver))
                 cpu_open.append(main_thread_ms(driver))  # a new page starts from zero
                 t = drag_handle(driver)
-                cpu_drag.append((main_thread_ms(driver) - cpu_open[-1]) / len(t))
+                if t:  # (a drag that recorded no update has no CPU per update)
+                    cpu_drag.append((main_thread_ms(driver) - cpu_open[-1]) / len(t))
                 drags += [x["painted_ms"] for x in t if x["drag"]]
                 computes += [x["compute_ms"] for x in t if x["drag"]]
                 stops += [x["painted_ms"] for x in t if not x["drag"]]
