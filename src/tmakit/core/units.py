@@ -31,24 +31,9 @@ def rad2deg(x: ArrayLike) -> NDArray[np.float64]:
     return np.rad2deg(np.asarray(x, dtype=float))
 
 
-def db_to_linear(db: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power ratio in decibels to a linear ratio."""
-    return 10.0 ** (np.asarray(db, dtype=float) / 10.0)
-
-
 def linear_to_db(ratio: ArrayLike) -> NDArray[np.float64]:
     """Convert a (positive) linear power ratio to decibels."""
     return 10.0 * np.log10(np.asarray(ratio, dtype=float))
-
-
-def dbm_to_dbw(dbm: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power in dBm to dBW."""
-    return np.asarray(dbm, dtype=float) - DBM_MINUS_DBW
-
-
-def dbw_to_dbm(dbw: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power in dBW to dBm."""
-    return np.asarray(dbw, dtype=float) + DBM_MINUS_DBW
 
 
 def snr_to_sigma_db(snr_db: float) -> float:
