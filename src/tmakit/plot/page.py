@@ -20,8 +20,8 @@ from ..results import EstimateResult, normalised_residuals
 from ..results.answers import estimate_answer
 from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 from ..results.own_legs import sensor_legs
-from .frame import MapFrame
-from .solution import ellipse_points, series_names
+from .frame import MapFrame, bearing_lines, ellipse_points, sensor_path, track_xy
+from .solution import series_names
 
 __all__ = ["DRAG_KINDS", "MAX_FAN_LINES", "solution_page_html", "write_solution_page"]
 
@@ -107,10 +107,7 @@ class _Page:
         """Each sensor's track on the map, and its leg starts."""
         out = []
         for k, s in enumerate(self.meas.sensors):
-            rows = self.meas.sensor == s
-            t, idx = np.unique(self.meas.time[rows], return_index=True)
-            st = self.meas.sensor_state[rows][idx]
-            x, y = self.frame.xy(st[:, 0], st[:, 1])
+            t, st, x, y = sensor_path(self.meas, self.frame, s)
             legs = sensor_legs(self.meas, s) if np.ptp(st[:, 3:5]) > 0 else []
             starts = [int(np.searchsorted(t, leg.start)) for leg in legs]
             out.append({"name": str(s), "x": x, "y": y, "colour": _COLOURS[k % len(_COLOURS)],
@@ -120,34 +117,16 @@ class _Page:
 
     def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int,
                                          list[np.ndarray], list[np.ndarray]]:
-        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`) and the cuts."""
-        rows = np.flatnonzero(self.meas.kind == "bearing")
-        if rows.size == 0:
-            return [], [], 0, [], []
-        pick = rows[np.unique(np.linspace(0, rows.size - 1, min(rows.size, MAX_FAN_LINES))
-                              .round().astype(int))]
-        twins = getattr(self.meas, "ambiguous_si", None)
-        u = np.linspace(0.0, 1.0, 12)
-        xs: list[np.ndarray] = []
-        ys: list[np.ndarray] = []
-        tx: list[np.ndarray] = []
-        ty: list[np.ndarray] = []
-        for r in pick:
-            e0, n0 = self.meas.sensor_state[r, :2]
-            for b, (lx, ly) in ((self.meas.value_si[r], (xs, ys)),
-                                (np.nan if twins is None else twins[r], (tx, ty))):
-                if np.isfinite(b):
-                    x, y = self.frame.xy(e0 + reach * u * np.sin(b), n0 + reach * u * np.cos(b))
-                    lx.append(x)
-                    ly.append(y)
-        return xs, ys, int(rows.size), tx, ty
+        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`), the cuts, twins."""
+        xs, ys, cuts = bearing_lines(self.meas, self.frame, reach, MAX_FAN_LINES)
+        tx, ty, _ = bearing_lines(self.meas, self.frame, reach, MAX_FAN_LINES, twins=True)
+        return xs, ys, cuts, tx, ty
 
     def track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Give the estimated track: times (s) and map coordinates over the data's span."""
-        t = np.linspace(self.meas.time.min(), self.meas.time.max(), 200)
-        t = np.union1d(t, [self.ref_time])
-        st = self.result.motion.states(self.result.estimate, t)
-        x, y = self.frame.xy(st[:, 0], st[:, 1])
+        t = np.union1d(np.linspace(self.meas.time.min(), self.meas.time.max(), 200),
+                       [self.ref_time])
+        _, x, y = track_xy(self.result, self.meas, self.frame, t)
         return t, x, y
 
     def ellipses(self) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:

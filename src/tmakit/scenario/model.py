@@ -33,32 +33,25 @@ class MeasurementPlan:
 
     Parameters
     ----------
-    kind : str
-        A key of :data:`tmakit.measurements.KINDS`.
-    sensor : str
-        A key of :attr:`Scenario.sensors`.
+    kind, sensor : str
+        A key of :data:`tmakit.measurements.KINDS`; a key of :attr:`Scenario.sensors`.
     times : array_like
         Sample times, s, non-empty and increasing.
     sigma : float, optional
         Noise std, SI; for range differences that of one pulse interval.
     snr_db : float, optional
         Power only, instead of ``sigma``: SNR_p (dB) of ``P (1 + e)``, ``var(e) = 1/SNR_p``.
-    pri : float, optional
-        Range differences only: the pulse repetition interval, s.
-    lags : tuple of int, optional
-        Range differences only: intervals each difference reaches back (>= 1).
-    ref_sensor : str, optional
-        ``tdoa``/``fdoa`` only, required: the reference sensor (not ``sensor``).
-    noise : str, optional
-        ``tdoa``/``fdoa`` only: ``"shared"`` (default) or ``"independent"``.
-    known_carrier : bool, optional
-        ``fdoa`` only: the estimators are told the carrier.
+    pri, lags : float and tuple of int, optional
+        Range differences only: the pulse repetition interval (s), the intervals back (>= 1).
+    ref_sensor, noise, known_carrier : str, str and bool, optional
+        ``tdoa``/``fdoa`` only: the reference sensor (required), ``"shared"`` (default) or
+        ``"independent"`` noise, and (``fdoa``) whether the estimators are told the carrier.
 
     Raises
     ------
     ValueError
-        If the kind is unknown, the times are empty or not increasing, the noise is missing or
-        not positive, or a range-difference or between-sensor plan lacks what it needs.
+        If the kind is unknown, the times are empty or not increasing, or the noise or a
+        difference's reference, interval or lags are missing or wrong.
 
     References
     ----------
@@ -77,7 +70,6 @@ class MeasurementPlan:
     known_carrier: bool = False
 
     def __post_init__(self) -> None:
-        """Check the plan and normalise ``times`` (float array) and ``lags`` (ints)."""
         if self.kind not in KINDS:
             raise ValueError(f"unknown measurement kind {self.kind!r}; expected one of "
                              f"{', '.join(KINDS)}")
@@ -116,9 +108,8 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
 
     Parameters
     ----------
-    plan : MeasurementPlan
-    rows : MeasurementSet
-        The plan's rows.
+    plan, rows : MeasurementPlan and MeasurementSet
+        The plan and its rows.
     clean : ndarray, shape (n,)
         Noise-free values, SI.
     gen : numpy.random.Generator
@@ -175,9 +166,8 @@ def refuse_impossible(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArra
 
     Parameters
     ----------
-    plan : MeasurementPlan
-    rows : MeasurementSet
-        The plan's rows.
+    plan, rows : MeasurementPlan and MeasurementSet
+        The plan and its rows.
     clean, value_si : ndarray, shape (n,)
         Noise-free and noisy values, SI.
     rng : object
@@ -214,21 +204,16 @@ class Scenario:
 
     Parameters
     ----------
-    name : str
-    motion : MotionModel
-    truth : dict of str to float
-        True motion parameters by name, SI.
-    sensors : dict of str to SensorTrack
-    plans : list of MeasurementPlan
+    name, description, source : str
+        Its name, one-line title and where it came from (a file path, for messages).
+    motion, truth : MotionModel and dict of str to float
+        The target's motion model and its true parameters by name, SI.
+    sensors, plans : dict of str to SensorTrack and list of MeasurementPlan
     nuisance : dict of str to float, optional
-        True nuisance values: ``carrier`` (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db``,
+        True ``carrier`` (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db``,
         ``path_loss_exponent``.
-    description : str, optional
-        One-line title.
     origin : tuple of float, optional
         ``(lat, lon, alt)`` (deg, deg, m) of the ENU origin.
-    source : str, optional
-        Where it came from (a file path), for messages.
 
     Attributes
     ----------
@@ -253,7 +238,6 @@ class Scenario:
     source: str = ""
 
     def __post_init__(self) -> None:
-        """Set :attr:`theta` and check the plans against the sensors and the nuisance truth."""
         self.theta = self.motion.theta(self.truth)
         for plan in self.plans:
             for name in (plan.sensor, plan.ref_sensor):
@@ -313,21 +297,18 @@ class Scenario:
                 max(float(p.times[-1]) for p in self.plans))
 
     def target_states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the true target states at times ``t``.
+        """Give the true target states ``(n, 6)`` (ENU, m and m/s) at times ``t`` (s).
 
         Parameters
         ----------
         t : array_like
-            Times, s.
 
         Returns
         -------
         numpy.ndarray
-            ENU states ``(n, 6)``, m and m/s.
         """
         return self.motion.states(self.theta, np.atleast_1d(np.asarray(t, dtype=float)))
 
-    # -- simulation ------------------------------------------------------------------------
     def _layout(self, plan: MeasurementPlan,
                 states: dict[tuple[str, bytes], NDArray[np.float64]]) -> MeasurementSet:
         """Lay out the rows of one plan with noise-free placeholders for value and sigma."""
@@ -368,19 +349,17 @@ class Scenario:
                                       ref_state, check=False)  # values: simulate_many
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
-        """Observe the scenario.
+        """Observe the scenario: rows by sensor in time order, with metadata (an int seed too).
 
         Parameters
         ----------
         rng : numpy.random.Generator, int or None, optional
-            Random source or seed.
         noise : bool, optional
             Add the plans' noise (False: exact predictions).
 
         Returns
         -------
         MeasurementSet
-            Rows grouped by sensor, in time order, with metadata (the seed if ``rng`` is an int).
 
         Raises
         ------
@@ -397,16 +376,10 @@ class Scenario:
         ----------
         rngs : sequence of numpy.random.Generator, int or None
         noise : bool, optional
-            Add the plans' noise.
 
         Returns
         -------
         list of MeasurementSet
-
-        Raises
-        ------
-        ValueError
-            As :meth:`simulate`.
         """
         template, values = self.simulate_values(rngs, noise)
         out = []
@@ -426,7 +399,6 @@ class Scenario:
         ----------
         rngs : sequence of numpy.random.Generator, int or None
         noise : bool, optional
-            Add the plans' noise.
 
         Returns
         -------
@@ -434,11 +406,6 @@ class Scenario:
             The rows with their noise-free values.
         values : ndarray, shape (len(rngs), n)
             Each run's values, SI, as :meth:`simulate` draws them.
-
-        Raises
-        ------
-        ValueError
-            As :meth:`simulate`.
         """
         plans = []  # (plan, rows, noise-free values SI, model), in plan order
         states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
@@ -535,18 +502,11 @@ def simulate(scenario: Scenario, rng: RngLike = None, noise: bool = True) -> Mea
     ----------
     scenario : Scenario
     rng : numpy.random.Generator, int or None, optional
-        Random source or seed.
     noise : bool, optional
-        Add the measurement noise.
 
     Returns
     -------
     MeasurementSet
-
-    Raises
-    ------
-    ValueError
-        As :meth:`Scenario.simulate`.
     """
     return scenario.simulate(rng, noise)
 
