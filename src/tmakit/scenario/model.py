@@ -70,6 +70,7 @@ class MeasurementPlan:
     known_carrier: bool = False
 
     def __post_init__(self) -> None:
+        """Check the plan and normalise ``times`` (floats) and ``lags`` (ints)."""
         if self.kind not in KINDS:
             raise ValueError(f"unknown measurement kind {self.kind!r}; expected one of "
                              f"{', '.join(KINDS)}")
@@ -238,6 +239,7 @@ class Scenario:
     source: str = ""
 
     def __post_init__(self) -> None:
+        """Set :attr:`theta` and check the plans against the sensors and the nuisance truth."""
         self.theta = self.motion.theta(self.truth)
         for plan in self.plans:
             for name in (plan.sensor, plan.ref_sensor):
