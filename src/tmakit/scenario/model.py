@@ -382,6 +382,11 @@ class Scenario:
         Returns
         -------
         list of MeasurementSet
+
+        Raises
+        ------
+        ValueError
+            As :meth:`simulate`.
         """
         template, values = self.simulate_values(rngs, noise)
         out = []
@@ -408,6 +413,11 @@ class Scenario:
             The rows with their noise-free values.
         values : ndarray, shape (len(rngs), n)
             Each run's values, SI, as :meth:`simulate` draws them.
+
+        Raises
+        ------
+        ValueError
+            As :meth:`simulate`.
         """
         plans = []  # (plan, rows, noise-free values SI, model), in plan order
         states: dict[tuple[str, bytes], NDArray[np.float64]] = {}
@@ -509,6 +519,11 @@ def simulate(scenario: Scenario, rng: RngLike = None, noise: bool = True) -> Mea
     Returns
     -------
     MeasurementSet
+
+    Raises
+    ------
+    ValueError
+        As :meth:`Scenario.simulate`.
     """
     return scenario.simulate(rng, noise)
 
