@@ -24,7 +24,7 @@ from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..sensors import SensorTrack
 
-__all__ = ["MeasurementPlan", "Scenario", "noisy_values", "refuse_impossible", "simulate"]
+__all__ = ["MeasurementPlan", "Scenario", "simulate"]
 
 
 @dataclass
@@ -101,31 +101,10 @@ class MeasurementPlan:
             self.lags = tuple(int(lag) for lag in self.lags)
 
 
-def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
-                 gen: np.random.Generator,
-                 shared: dict[tuple[str, str, float], float] | None = None
-                 ) -> NDArray[np.float64]:
-    """Draw the plan's measurement noise on its noise-free values.
-
-    Parameters
-    ----------
-    plan, rows : MeasurementPlan and MeasurementSet
-        The plan and its rows.
-    clean : ndarray, shape (n,)
-        Noise-free values, SI.
-    gen : numpy.random.Generator
-    shared : dict, optional
-        One run's draws of the reference sensors' errors by (kind, reference, time), filled here.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        Noisy values, SI.
-
-    Raises
-    ------
-    ValueError
-        If a power plan's SNR_p is so low that a power becomes negative.
+def _noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
+                  gen: np.random.Generator, shared: dict[tuple[str, str, float], float]
+                  ) -> NDArray[np.float64]:
+    """Draw the plan's noise on its noise-free values (SI); ``shared``: one run's reference errors.
 
     References
     ----------
@@ -143,11 +122,10 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
     if KINDS[plan.kind].between_sensors and plan.noise == "shared":
         # sigma / sqrt(2) (own error - reference's): covariance sigma_i sigma_j (I + 11')/2
         own = gen.standard_normal(clean.shape)
-        draws = {} if shared is None else shared
         keys = [(plan.kind, str(plan.ref_sensor), t) for t in rows.time.tolist()]
-        new = [k for k in dict.fromkeys(keys) if k not in draws]
-        draws.update(zip(new, gen.standard_normal(len(new)).tolist(), strict=True))
-        ref = np.array([draws[k] for k in keys])
+        new = [k for k in dict.fromkeys(keys) if k not in shared]
+        shared.update(zip(new, gen.standard_normal(len(new)).tolist(), strict=True))
+        ref = np.array([shared[k] for k in keys])
         return cast(NDArray[np.float64], clean + rows.sigma_si * (own - ref) / np.sqrt(2.0))
     if KINDS[plan.kind].uses_reference and not KINDS[plan.kind].between_sensors:
         # One independent noise term per pulse interval, summed over each difference.
@@ -161,24 +139,9 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
     return clean + gen.standard_normal(clean.shape) * rows.sigma_si
 
 
-def refuse_impossible(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
-                      value_si: NDArray[np.float64], rng: object) -> None:
-    """Refuse a noisy draw no sensor can report (a negative range, ...); noise is never redrawn.
-
-    Parameters
-    ----------
-    plan, rows : MeasurementPlan and MeasurementSet
-        The plan and its rows.
-    clean, value_si : ndarray, shape (n,)
-        Noise-free and noisy values, SI.
-    rng : object
-        The random source or seed (a seed is named in the message).
-
-    Raises
-    ------
-    ValueError
-        If a noisy value is outside the kind's range, naming sensor, time and seed.
-    """
+def _refuse_impossible(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
+                       value_si: NDArray[np.float64], rng: object) -> None:
+    """Refuse a noisy draw no sensor can report (a negative range, ...); noise is never redrawn."""
     cls = KINDS[plan.kind]
     if cls.value_range is None:
         return
@@ -432,13 +395,13 @@ class Scenario:
         for i in range(len(rngs) + 1):
             gen = as_generator(rngs[i]) if noise and i < len(rngs) else None
             shared: dict[tuple[str, str, float], float] = {}  # the reference sensors' errors
-            parts = [clean if gen is None else noisy_values(plan, rows, clean, gen, shared)
+            parts = [clean if gen is None else _noisy_values(plan, rows, clean, gen, shared)
                      for plan, rows, clean, _ in plans]
             for k, (plan, rows, clean, period) in enumerate(plans):
                 if period is not None:  # files carry bearings in [0, 360) deg
                     parts[k] = np.mod(parts[k], period)
                 if gen is not None:
-                    refuse_impossible(plan, rows, clean, parts[k], rngs[i])
+                    _refuse_impossible(plan, rows, clean, parts[k], rngs[i])
             values[i] = np.concatenate(parts)[order]
         template.value_si, values = values[-1], values[:-1]
         # NaN truth, infinite sigma, ...: the first set that breaks a rule names its rows, as
