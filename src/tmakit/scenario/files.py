@@ -13,10 +13,9 @@ import math
 import os
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal, cast
+from typing import Annotated, Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..core.input_files import read_toml
@@ -213,24 +212,23 @@ class _Builder:
     def turn_rate(self, deg_s: float) -> float:
         return math.radians(-deg_s if self.ccw else deg_s)
 
-    def enu(self, where: str, point: list[float] | None, geo: list[float] | None
-            ) -> np.ndarray:
-        if (point is None) == (geo is None):
-            raise ValueError(f"{where}: give exactly one of the ENU and the geodetic form")
-        if point is not None:
-            return np.asarray(point, dtype=float)
-        assert geo is not None  # (exactly one given)
-        return cast(NDArray[Any], self.enu_many(where, [geo])[0])
-
-    def enu_many(self, where: str, geo: list[list[float]]) -> np.ndarray:
+    def enu(self, where: str, given: list[Any] | None, geo: list[Any] | None,
+            what: str = "the ENU and the geodetic form") -> np.ndarray:
+        """Give ENU positions (m) from the ENU or the geodetic form (one point or a list)."""
+        if (given is None) == (geo is None):
+            raise ValueError(f"{where}: give exactly one of {what}")
+        if given is not None:
+            return np.asarray(given, dtype=float)
         if self.spec.origin is None:
             raise ValueError(f"{where}: geodetic positions need the scenario's origin "
                              "= [lat, lon, alt]")
         from ..core.geodesy import geodetic_to_enu
 
-        g = np.array([[*p, 0.0][:3] for p in geo], dtype=float)
+        one = bool(geo) and not isinstance(geo[0], list)
+        g = np.array([[*p, 0.0][:3] for p in ([geo] if one else geo)], dtype=float).reshape(-1, 3)
         e, n, u = geodetic_to_enu(g[:, 0], g[:, 1], g[:, 2], tuple(self.spec.origin))
-        return np.column_stack([e, n, u])
+        enu = np.column_stack([e, n, u])
+        return enu[0] if one else enu
 
     def sensor(self, s: Any) -> SensorTrack:
         where = f"sensor {s.id!r}"
@@ -242,15 +240,10 @@ class _Builder:
             start = self.enu(where, s.start, s.start_geodetic)
             return LegsTrack(start, self.heading(s.heading_deg), s.speed, legs, s.start_time)
         if isinstance(s, WaypointsSpec):
-            if (s.points is None) == (s.points_geodetic is None):
-                raise ValueError(f"{where}: give exactly one of points and points_geodetic")
-            pts = (np.asarray(s.points, float) if s.points is not None
-                   else self.enu_many(where, s.points_geodetic or []))
+            pts = self.enu(where, s.points, s.points_geodetic, "points and points_geodetic")
             return WaypointTrack(pts, s.speed, s.times, s.start_time)
-        if (s.positions is None) == (s.positions_geodetic is None):
-            raise ValueError(f"{where}: give exactly one of positions and positions_geodetic")
-        pos = (np.asarray(s.positions, float) if s.positions is not None
-               else self.enu_many(where, s.positions_geodetic or []))
+        pos = self.enu(where, s.positions, s.positions_geodetic,
+                       "positions and positions_geodetic")
         return RecordedTrack(s.times, pos, s.velocities)
 
     def motion_and_truth(self) -> tuple[MotionModel, dict[str, float]]:
