@@ -256,18 +256,15 @@ def _native_rows(i: int, d: Detection, model: object, t: float, z: np.ndarray,
 class BatchInitiator(GaussianInitiator):
     """Start a Stone Soup track from tmakit's batch estimate, with no initial guess.
 
-    Detections accumulate over calls; once they span ``min_window`` distinct times the
-    constant-velocity estimate over all of them is tried, and starts a track by the start rule of
-    :func:`tmakit.tracking.window.search_window`, its fit's chi-square p-value at least
-    ``confirm_p_value`` (else it is retried when the times have grown by ``growth``, and
-    :attr:`problem` says why).  The track's first state is a ``GaussianState`` at the latest
-    detection time.  One target: every detection is taken to be of it (use it after association).
+    Once the detections (accumulated over calls, all of one target) span ``min_window`` distinct
+    times, the constant-velocity estimate over them starts a track by the start rule of
+    :func:`tmakit.tracking.window.search_window` (else it is retried when the times have grown
+    by ``growth``, and :attr:`problem` says why): a ``GaussianState`` at the latest time.
 
     Parameters
     ----------
     *args, **kwargs
-        Stone Soup properties, by position or name: ``dim``, ``max_relative_std``, ``min_window``,
-        ``growth``, ``confirm_p_value``, ``options`` and ``epoch`` (documented with each below).
+        Stone Soup properties (documented with each below), by position or name.
     """
 
     dim: int = Property(default=2, doc="Spatial dimension of the target, 2 or 3.")
@@ -340,17 +337,15 @@ def _stonesoup_state(mean: np.ndarray, cov: np.ndarray, dim: int, when: dt.datet
 class BearingInitiator(GaussianInitiator):
     """Start a Stone Soup track at its first bearing: tmakit's Gaussian sum from a prior.
 
-    Each call runs tmakit's Gaussian sum over the detections so far from the first bearing
-    (:class:`tmakit.tracking.BearingInitiator`: its innovations reject a clutter bearing) and
-    starts a track once the position's largest 1-sigma semi-axis is below ``max_relative_std``
-    of the range: one ``GaussianState`` per detection time from the first bearing on.
-    :attr:`track` keeps tmakit's track, :attr:`problem` says why no track yet.  One target.
+    Each call runs the Gaussian sum of :class:`tmakit.tracking.BearingInitiator` over the
+    detections so far (of one target) and starts a track, one ``GaussianState`` per detection
+    time, once the position's largest 1-sigma semi-axis is below ``max_relative_std`` of the
+    range; :attr:`track` keeps tmakit's track, :attr:`problem` says why there is none yet.
 
     Parameters
     ----------
     *args, **kwargs
-        Stone Soup properties, by position or name: ``prior``, ``dim``, ``q_density``,
-        ``max_relative_std``, ``confirm_p_value``, ``options`` and ``epoch``.
+        Stone Soup properties (documented with each below), by position or name.
 
     Raises
     ------
