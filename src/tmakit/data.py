@@ -22,9 +22,9 @@ from .measurements.codes import KIND_CODES, KIND_NAMES
 
 __all__ = ["KIND_CODES", "KIND_NAMES", "MeasurementSet"]
 
-SENSOR_STATE_COLUMNS = ("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor_vy",
-                        "sensor_vz")
+SENSOR_STATE_COLUMNS = rules.STATE_COLUMNS
 REF_STATE_COLUMNS = tuple(f"ref_{c}" for c in SENSOR_STATE_COLUMNS)
+
 
 def _frozen(values: NDArray[np.float64]) -> NDArray[np.float64]:
     values.flags.writeable = False

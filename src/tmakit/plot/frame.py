@@ -63,6 +63,10 @@ class MapFrame:
         per_lon, per_lat = self._metres_per_degree()
         return per_lat / per_lon
 
+    def side_m(self, x: np.ndarray, y: np.ndarray) -> float:
+        """Give the longer side (m) of the box about map coordinates ``x``, ``y``."""
+        return max(float(np.ptp(x)), float(np.ptp(y)) * self.aspect()) * self.metres_per_x()
+
     def decorate(self, ax: Any) -> None:
         """Label the axes, keep distances true, draw a grid and a scale bar (lower right)."""
         ax.set_xlabel(self.labels[0])

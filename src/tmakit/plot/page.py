@@ -67,11 +67,7 @@ def _reach(frame: MapFrame, xs: list[np.ndarray], ys: list[np.ndarray]) -> float
     x = np.concatenate([np.ravel(v) for v in xs])
     y = np.concatenate([np.ravel(v) for v in ys])
     x, y = x[np.isfinite(x)], y[np.isfinite(y)]
-    if x.size == 0:
-        return 10_000.0
-    span = max(float(np.ptp(x)) * frame.metres_per_x(),
-               float(np.ptp(y)) * frame.metres_per_x() * frame.aspect())
-    return max(1.3 * span, 5_000.0)
+    return max(1.3 * frame.side_m(x, y), 5_000.0) if x.size else 10_000.0
 
 
 class _Page:
@@ -114,13 +110,6 @@ class _Page:
                         "leg_x": x[starts], "leg_y": y[starts],
                         "leg_n": [str(i + 1) for i in range(len(starts))]})
         return out
-
-    def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int,
-                                         list[np.ndarray], list[np.ndarray]]:
-        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`), the cuts, twins."""
-        xs, ys, cuts = bearing_lines(self.meas, self.frame, reach, MAX_FAN_LINES)
-        tx, ty, _ = bearing_lines(self.meas, self.frame, reach, MAX_FAN_LINES, twins=True)
-        return xs, ys, cuts, tx, ty
 
     def track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Give the estimated track: times (s) and map coordinates over the data's span."""
@@ -205,9 +194,7 @@ class _Page:
         """Seconds ahead of the velocity handle: its stick a sixth of the map's width."""
         s = _state6(self.result) if self.has_track else [0.0] * 6
         speed = float(np.hypot(s[3], s[4]))
-        width = (max(float(np.ptp(x)) * self.frame.metres_per_x(),
-                     float(np.ptp(y)) * self.frame.metres_per_x() * self.frame.aspect())
-                 if x.size else 10_000.0)
+        width = self.frame.side_m(x, y) if x.size else 10_000.0
         span = float(np.ptp(self.meas.time)) or 600.0
         if speed <= 0:
             return span / 4
@@ -250,7 +237,9 @@ def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
     t, tx, ty = (page.track() if page.has_track else (np.zeros(0), np.zeros(0), np.zeros(0)))
     ex, ey, _ = (page.ellipses() if page.has_track and page.result.status == "converged"
                  else ([], [], []))
-    fan_x, fan_y, cuts, twin_x, twin_y = page.fan(_reach(f, [*xs, tx, *ex], [*ys, ty, *ey]))
+    reach = _reach(f, [*xs, tx, *ex], [*ys, ty, *ey])
+    fan_x, fan_y, cuts = bearing_lines(page.meas, f, reach, MAX_FAN_LINES)
+    twin_x, twin_y, _ = bearing_lines(page.meas, f, reach, MAX_FAN_LINES, twins=True)
     if twin_x:
         fig.multi_line(twin_x, twin_y, color="#7f7f7f", alpha=0.35, line_width=0.7,
                        line_dash="dashed", legend_label="ambiguous cuts: the other side")

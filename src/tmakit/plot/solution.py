@@ -1,9 +1,4 @@
-"""The solution picture of a batch estimate: the analyst's geometry and residuals.
-
-Left, the geometry: the sensor tracks, the bearing lines, the estimated track with its position
-ellipses at labelled times (the truth too when the file knows it), on a map in latitude/longitude
-when the ENU origin is known (else East/North in km), with a scale bar.
-"""
+"""The solution picture of a batch estimate (``tma estimate --plot``): geometry and residuals."""
 
 from __future__ import annotations
 
@@ -199,9 +194,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     ax.set_aspect(frame.aspect(), adjustable="box")
     # bearing lines long enough to cross the solution, not to set the scale; without a
     # solution they fan out as far (at least 10 km) and the words say why there is none
-    x0, x1 = ax.get_xlim()
-    y0, y1 = ax.get_ylim()
-    reach = 1.3 * max(abs(x1 - x0), abs(y1 - y0) / frame.aspect()) * frame.metres_per_x()
+    reach = 1.3 * frame.side_m(np.array(ax.get_xlim()), np.array(ax.get_ylim()))
     if finite:
         ax.set_autoscale_on(False)
         _ellipse_legend(ax, frame, level, largest)
@@ -292,10 +285,8 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
 
     Parameters
     ----------
-    meas : MeasurementSet
-        The measurements fitted.
-    result : EstimateResult
-        The estimate.
+    meas, result : MeasurementSet and EstimateResult
+        The measurements fitted and the estimate.
     path : str or Path
         The picture (PNG, PDF, SVG).
     residuals : ndarray, shape (n,)
@@ -303,7 +294,6 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     answer : tmakit.results.answers.Answer, optional
         The answers shown under the title (course, speed, position ellipse).
     title : str, optional
-        The figure's title.
     labels : int
         Times labelled along the estimated track (each with its ellipse).
     level : float
@@ -314,7 +304,6 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     Returns
     -------
     Path
-        ``path``.
     """
     plt = pyplot()
     kinds = meas.kinds

@@ -1,7 +1,6 @@
 """Pictures: sensor tracks, measurement time series, tracks and planned paths.
 
-Degrees, km and dBm on the axes (the edges of tmakit); the figures are written with
-matplotlib's non-interactive Agg backend.
+Degrees, km and dBm on the axes (the edges of tmakit); PNG, PDF or SVG by the path's suffix.
 """
 
 from __future__ import annotations
@@ -35,23 +34,18 @@ if TYPE_CHECKING:  # annotations only: plot is imported without the filters and 
 
 def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None = None
                       ) -> Path:
-    """Write a picture of the sensor tracks beside one time-series panel per measurement kind.
-
-    The true target track is drawn too when known.
+    """Write a picture of the sensor tracks (and the truth) beside a panel per measurement kind.
 
     Parameters
     ----------
     meas : MeasurementSet
         The measurements (values drawn in file units: degrees, dBm, Hz, ...).
     path : str or Path
-        The picture (PNG, PDF, SVG by suffix).
     title : str, optional
-        The figure's title.
 
     Returns
     -------
     Path
-        The path written.
     """
     plt = pyplot()
     kinds = meas.kinds
@@ -119,12 +113,9 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
 
     Parameters
     ----------
-    tr : Track
-        The track (SI).
-    meas : MeasurementSet
-        Its measurements (for the sensor paths and the true path from the metadata).
+    tr, meas : Track and MeasurementSet
+        The track (SI) and its measurements (the sensor paths, the truth in the metadata).
     path : str or Path
-        The picture (PNG, PDF, SVG by suffix).
     truth : ndarray, shape (K, n), optional
         True states at the track's times (m, m/s); with it, the error panels are drawn.
     pcrb : PosteriorBound, optional
@@ -136,12 +127,10 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
     probabilities : tuple of float
         The ellipses' probabilities (90 % and 95 %).
     title : str, optional
-        The figure's title.
 
     Returns
     -------
     Path
-        The path written.
     """
     plt = pyplot()
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -293,18 +282,15 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
     Parameters
     ----------
     run : tmakit.montecarlo.planned.PlanRun
-        The runs.
     path : str or Path
-        The picture (PNG, PDF, SVG by suffix).
     paths : int, optional
         How many runs' paths are drawn on the map.
     title : str, optional
-        The figure's title (default: the scenario's name and the number of runs).
+        Default: the scenario's name and the number of runs.
 
     Returns
     -------
     Path
-        The path written.
     """
     plt = pyplot()
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
