@@ -19,7 +19,7 @@ from ..results import EstimateResult
 from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 from ..scenario.truth import truth_states
 
-__all__ = ["MapFrame", "bearing_lines", "clock_label", "ellipse_points", "evenly",
+__all__ = ["MapFrame", "answer_ellipse", "bearing_lines", "clock_label", "ellipse_points", "evenly",
            "format_time_axis", "map_legend", "plain_ticks", "plot_times", "pyplot", "save",
            "sensor_path", "track_xy", "truth_track"]
 
@@ -173,6 +173,16 @@ def ellipse_points(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
     a = np.linspace(0.0, 2.0 * np.pi, n)
     circle = np.stack([np.cos(a), np.sin(a)], axis=1)
     return radius * circle * np.sqrt(np.clip(evals, 0.0, None)) @ evecs.T
+
+
+def answer_ellipse(frame: MapFrame, a: Any, centre: np.ndarray, level: float
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Give an answer's position ellipse about ``centre`` (m) in map coordinates, or None."""
+    cov = a.covariance[:2, :2]
+    if a.ellipse is None or not np.all(np.isfinite(cov)):
+        return None
+    pts = ellipse_points(cov, level) + centre
+    return frame.xy(pts[:, 0], pts[:, 1])
 
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:

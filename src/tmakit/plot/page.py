@@ -20,7 +20,7 @@ from ..results import EstimateResult, normalised_residuals
 from ..results.answers import estimate_answer
 from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 from ..results.own_legs import sensor_legs
-from .frame import MapFrame, bearing_lines, ellipse_points, sensor_path, track_xy
+from .frame import MapFrame, answer_ellipse, bearing_lines, sensor_path, track_xy
 from .solution import series_names
 
 __all__ = ["DRAG_KINDS", "MAX_FAN_LINES", "solution_page_html", "write_solution_page"]
@@ -126,12 +126,11 @@ class _Page:
             times = times[:1]
         for tk in times:
             a = estimate_answer(self.result, self.meas, time=float(tk), level=self.level)
-            cov = a.covariance[:2, :2]
-            if a.ellipse is None or not np.all(np.isfinite(cov)):
-                continue
             s = self.result.motion.states(self.result.estimate, np.array([tk]))[0]
-            pts = ellipse_points(cov, self.level) + s[:2]
-            x, y = self.frame.xy(pts[:, 0], pts[:, 1])
+            xy = answer_ellipse(self.frame, a, s[:2], self.level)
+            if xy is None:
+                continue
+            x, y = xy
             xs.append(x)
             ys.append(y)
             words.append(self.label(float(tk)))

@@ -13,9 +13,9 @@ from ..results.answers import KNOT, estimate_answer
 from ..results.context import sensor_position
 from .frame import (
     MapFrame,
+    answer_ellipse,
     bearing_lines,
     clock_label,
-    ellipse_points,
     format_time_axis,
     map_legend,
     plain_ticks,
@@ -85,11 +85,9 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
         ax.annotate(text, (px[0], py[0]), textcoords="offset points",
                     xytext=(6, 6), fontsize=8, color="tab:red",
                     bbox={"fc": "white", "alpha": 0.7, "lw": 0, "pad": 1})
-        cov2 = a.covariance[:2, :2]
-        if a.ellipse is not None and np.all(np.isfinite(cov2)):
-            pts = ellipse_points(cov2, level) + s[:2]
-            ex, ey = frame.xy(pts[:, 0], pts[:, 1])
-            ax.plot(ex, ey, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
+        xy = answer_ellipse(frame, a, s[:2], level)
+        if xy is not None:
+            ax.plot(*xy, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
         if a.stationary:
             break
@@ -138,9 +136,9 @@ def _draw_other_solutions(ax: Any, result: EstimateResult, meas: MeasurementSet,
                       f"{sol.result.chi2:.3g} (p {sol.p_value:.2g})")
         a = sol.answer(meas, time=float(meas.time.max()), level=level)
         ax.plot(*frame.xy(states[-1:, 0], states[-1:, 1]), "o", color=colour, ms=4, zorder=5)
-        if a.ellipse is not None and np.all(np.isfinite(a.covariance[:2, :2])):
-            pts = ellipse_points(a.covariance[:2, :2], level) + states[-1, :2]
-            ax.plot(*frame.xy(pts[:, 0], pts[:, 1]), color=colour, lw=0.9, zorder=4)
+        xy = answer_ellipse(frame, a, states[-1, :2], level)
+        if xy is not None:
+            ax.plot(*xy, color=colour, lw=0.9, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
     return largest
 
