@@ -15,13 +15,13 @@ import numpy as np
 
 from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
-from ..results import EstimateResult
 from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
+from ..results.solutions import EstimateResult
 from ..scenario.truth import truth_states
 
-__all__ = ["MapFrame", "answer_ellipse", "bearing_lines", "clock_label", "ellipse_points", "evenly",
-           "format_time_axis", "map_legend", "plain_ticks", "plot_times", "pyplot", "save",
-           "sensor_path", "track_xy", "truth_track"]
+__all__ = ["MapFrame", "answer_ellipse", "bearing_lines", "clock_label", "ellipse_points",
+           "evenly", "format_time_axis", "map_legend", "plain_ticks", "plot_times", "pyplot",
+           "save", "sensor_path", "track_xy", "truth_track"]
 
 
 class MapFrame:

@@ -86,7 +86,7 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
                     xytext=(6, 6), fontsize=8, color="tab:red",
                     bbox={"fc": "white", "alpha": 0.7, "lw": 0, "pad": 1})
         xy = answer_ellipse(frame, a, s[:2], level)
-        if xy is not None:
+        if xy is not None and a.ellipse is not None:
             ax.plot(*xy, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
         if a.stationary:
@@ -137,7 +137,7 @@ def _draw_other_solutions(ax: Any, result: EstimateResult, meas: MeasurementSet,
         a = sol.answer(meas, time=float(meas.time.max()), level=level)
         ax.plot(*frame.xy(states[-1:, 0], states[-1:, 1]), "o", color=colour, ms=4, zorder=5)
         xy = answer_ellipse(frame, a, states[-1, :2], level)
-        if xy is not None:
+        if xy is not None and a.ellipse is not None:
             ax.plot(*xy, color=colour, lw=0.9, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
     return largest

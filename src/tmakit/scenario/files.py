@@ -219,6 +219,7 @@ class _Builder:
             raise ValueError(f"{where}: give exactly one of {what}")
         if given is not None:
             return np.asarray(given, dtype=float)
+        assert geo is not None  # (exactly one given)
         if self.spec.origin is None:
             raise ValueError(f"{where}: geodetic positions need the scenario's origin "
                              "= [lat, lon, alt]")
