@@ -1,9 +1,9 @@
 """Agreement of the no-guess fit of many rows with and without its subset machinery.
 
-Above ``tmakit.batch.presolve.PRESOLVE_ROWS`` rows the no-guess fit (``tmakit.estimate(meas,
+Above ``tmakit.batch.ml.PRESOLVE_ROWS`` rows the no-guess fit (``tmakit.estimate(meas,
 motion)``) scores its grid and converges its start on an evenly spread subset of rows, takes
 the first full-size Gauss-Newton step with the subset's ``J'J`` scaled to every row
-(``presolve.subset_step``) and ends with a step checked by its residuals alone (the solver's
+(``ml.subset_step``) and ends with a step checked by its residuals alone (the solver's
 ``polish``).  None of that should move the result: this study fits each set twice in the same
 process, by default and with ``PRESOLVE_ROWS`` raised above every size (grid and solve on
 every row, plain Levenberg-Marquardt), and prints per case
@@ -16,7 +16,7 @@ every row, plain Levenberg-Marquardt), and prints per case
   deviations (the plain fit's), i.e. relative to the entry's own scale,
 
 * ``dth nopol``, ``dcov nopol``: the same for the default fit without its final polishing
-  step (``presolve.POLISH_DECREMENT = 0``) against the plain fit,
+  step (``ml.POLISH_DECREMENT = 0``) against the plain fit,
 * CPU ms of the default and the plain fit,
 
 and flags (``!!``) a case beyond 0.01 std, 0.01 in chi2, 1 % in covariance or a different
@@ -47,7 +47,7 @@ import tomllib
 import numpy as np
 
 import tmakit as tk
-from tmakit.batch import presolve
+from tmakit.batch import ml
 from tmakit.scenario.files import scenario_from_dict
 
 TOL_THETA, TOL_CHI2, TOL_COV = 0.01, 0.01, 0.01
@@ -177,17 +177,17 @@ CASES = {
 
 def fit(meas, motion, subset, polish=True):
     """One no-guess fit, with (default) or without the subset machinery, or without polish."""
-    keep = presolve.PRESOLVE_ROWS, presolve.POLISH_DECREMENT
+    keep = ml.PRESOLVE_ROWS, ml.POLISH_DECREMENT
     if not subset:
-        presolve.PRESOLVE_ROWS = 1 << 62
+        ml.PRESOLVE_ROWS = 1 << 62
     if not polish:
-        presolve.POLISH_DECREMENT = 0.0
+        ml.POLISH_DECREMENT = 0.0
     try:
         t0 = time.process_time()
         res = tk.estimate(meas, motion)
         return res, time.process_time() - t0
     finally:
-        presolve.PRESOLVE_ROWS, presolve.POLISH_DECREMENT = keep
+        ml.PRESOLVE_ROWS, ml.POLISH_DECREMENT = keep
 
 
 def quantities(res):

@@ -20,9 +20,8 @@ from bearing_sets import scenario_rows
 
 import tmakit as tk
 from tmakit.batch import VarProProblem, solver
-from tmakit.batch.gauss_newton import GaussNewtonModel
 from tmakit.batch.ml import solve_without_guess
-from tmakit.batch.solver import information_of, levenberg_marquardt
+from tmakit.batch.solver import GaussNewtonModel, information_of, levenberg_marquardt
 from tmakit.batch.varpro import Evaluation, _wrap_own
 from tmakit.core.frames import wrap_angle
 from tmakit.results.estimate import assemble_result

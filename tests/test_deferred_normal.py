@@ -1,7 +1,7 @@
 """A manoeuvre fit's ``J'J`` and ``J'r`` are summed when read, for the runs read.
 
 The segment sums of :meth:`ForwardPiecewise.normal_equations_later` are held by a
-:class:`~tmakit.batch.varpro_normal.DeferredNormal`: a rejected trial point never has them
+:class:`~tmakit.batch.varpro.DeferredNormal`: a rejected trial point never has them
 made, and of a batch only the accepted runs do.  Every run's sums are the same bits however
 they are asked for, so the solver takes the same steps to the same points.
 """
@@ -13,8 +13,7 @@ from kernel_paths import hoerst_thetas
 
 import tmakit as tk
 from tmakit.batch import varpro
-from tmakit.batch.varpro import VarProProblem
-from tmakit.batch.varpro_normal import DeferredNormal
+from tmakit.batch.varpro import DeferredNormal, VarProProblem
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
 from tmakit.observation import ObservationModel
 
@@ -114,7 +113,7 @@ def test_evaluations_of_both_forms_are_merged_as_normal_equations(monkeypatch):
     merged as normal equations, the run's own kept, either way round."""
     from bearing_sets import bearings
 
-    from tmakit.batch.gauss_newton import normal_equations
+    from tmakit.batch.solver import normal_equations
     from tmakit.core import blas
 
     motion, theta = tk.ConstantVelocity(2), np.array([8000.0, 12000.0, -4.0, 2.5])

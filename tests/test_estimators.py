@@ -22,10 +22,7 @@ from tmakit.batch import (
     estimate_with,
     estimator,
 )
-from tmakit.batch.gu_direct import gu_direct
-from tmakit.batch.lecture import lecture_gauss_newton
 from tmakit.batch.ml import estimate as estimate_ml
-from tmakit.batch.ratios import ratio_method
 from tmakit.bounds import crlb
 from tmakit.reproduce.doppler_lecture import with_receivers
 from tmakit.results import (
@@ -65,14 +62,14 @@ def test_every_object_equals_its_short_form(gu, meas):
     same(MaximumLikelihood(options=opts).fit(meas, gu.motion),
          tk.estimate(meas, gu.motion, options=opts))
     same(GuDirect(init=PAPER_START, kinds="frequency").fit(meas, gu.motion),
-         gu_direct(meas, gu.motion, PAPER_START, kinds="frequency"))
+         GuDirect(kinds="frequency").iterate(meas, gu.motion, PAPER_START))
     same(RatioMethod(init=PAPER_START, covariance="paper", max_iter=5).fit(meas, gu.motion),
-         ratio_method(meas, gu.motion, PAPER_START, covariance="paper", max_iter=5))
+         RatioMethod(covariance="paper", max_iter=5).iterate(meas, gu.motion, PAPER_START))
     scn = with_receivers(3)
     m3 = scn.simulate(rng=1)
     start = scn.theta + np.array([300.0, -200.0, 100.0, 5.0, -5.0, 1.0])
     same(LectureGaussNewton(init=start).fit(m3, scn.motion),
-         lecture_gauss_newton(m3, scn.motion, start))
+         LectureGaussNewton().iterate(m3, scn.motion, start))
 
 
 def test_the_registry_builds_objects_that_carry_their_names(gu, meas):
@@ -97,11 +94,11 @@ def test_papers_methods_without_init_start_from_the_grid_and_say_so(gu, meas):
     blind = RatioMethod(kinds="frequency").fit(meas, gu.motion)
     assert blind.extra["start"] == "grid"
     assert blind.message.startswith("started from tmakit's likelihood-grid point")
-    started = ratio_method(meas, gu.motion, blind.extra["start_point"], kinds="frequency")
+    started = RatioMethod(kinds="frequency").iterate(meas, gu.motion, blind.extra["start_point"])
     np.testing.assert_array_equal(blind.estimate, started.estimate)
     assert "start" not in started.extra
     with pytest.raises(ValueError, match="starting point"):
-        gu_direct(meas, gu.motion, None)
+        GuDirect().iterate(meas, gu.motion, None)
 
 
 def test_settings_are_checked_when_the_object_is_made():
@@ -195,7 +192,7 @@ def test_known_nuisance_runs_through_the_manoeuvre_estimator_as_one_type(monkeyp
 def test_ml_by_motion_reads_a_name_once_and_sends_fixed_models_straight_to_ml(gu, meas,
                                                                             monkeypatch):
     import tmakit.batch.dispatch as dispatch
-    import tmakit.batch.manoeuvre.method as method
+    import tmakit.batch.manoeuvre.estimator as method
 
     calls = []
     parse = dispatch.motion_from_name

@@ -402,7 +402,7 @@ def test_accounting_fit_reports_an_honest_covariance_and_the_ignoring_one_does_n
     sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
     from sensor_errors_ho2007 import reported
 
-    from tmakit.batch.sensor_errors import estimate_with_sensor_errors
+    from tmakit.batch.ml import estimate_with_sensor_errors
     from tmakit.reproduce import chan_ho1994
 
     scenario = chan_ho1994.scenario_at(10.0)

@@ -11,7 +11,7 @@ import pytest
 from bearing_sets import bearings
 
 import tmakit as tk
-from tmakit.batch import init, presolve
+from tmakit.batch import init, ml
 from tmakit.batch.init import _median, grid_candidates_for
 from tmakit.batch.solver import VarProProblem
 from tmakit.measurements.bearing import Bearing
@@ -175,10 +175,10 @@ def test_grid_of_some_rows_and_values_is_the_grid_of_those_rows_taken(name):
 def test_chord_path_on_the_presolve_subset_chooses_the_general_paths_starts(monkeypatch):
     scn, meas = _scaled("bearings-only-2d", 30_000, 3)  # the grid runs on a taken subset
     problem = VarProProblem(ObservationModel(meas, scn.motion))
-    subset = presolve.presolve_subset(problem)
+    subset = ml.presolve_subset(problem)
     assert subset is not None and init.chord_units(subset[0]) is not None
     ys = problem.obs.values[None]
-    fast = presolve.grid_starts(problem, ys, init.GridSettings(), subset)[0]
+    fast = ml.grid_starts(problem, ys, init.GridSettings(), subset)[0]
     monkeypatch.setattr(init, "chord_units", lambda *_: None)
-    general = presolve.grid_starts(problem, ys, init.GridSettings(), subset)[0]
+    general = ml.grid_starts(problem, ys, init.GridSettings(), subset)[0]
     np.testing.assert_array_equal(fast.first(12), general.first(12))

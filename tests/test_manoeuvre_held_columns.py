@@ -13,8 +13,8 @@ import pytest
 from kernel_paths import hoerst_thetas
 
 import tmakit as tk
-from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
-from tmakit.batch.manoeuvre.search import lm_fit
+from tmakit.batch.manoeuvre import ManoeuvreSettings
+from tmakit.batch.manoeuvre.search import ManoeuvreSearch, lm_fit
 from tmakit.batch.solver import levenberg_marquardt
 from tmakit.motion.curvilinear_batch import ForwardPiecewise
 

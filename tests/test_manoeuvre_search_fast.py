@@ -14,9 +14,8 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings, selection
-from tmakit.batch.manoeuvre.grid import split_segment
-from tmakit.batch.manoeuvre.search import lm_fit
+from tmakit.batch.manoeuvre import ManoeuvreSettings, selection
+from tmakit.batch.manoeuvre.search import ManoeuvreSearch, lm_fit, split_segment
 from tmakit.batch.manoeuvre.selection import hold_starts, may_hold
 from tmakit.motion import PiecewiseCurvilinear
 from tmakit.motion.curvilinear_batch import ForwardPiecewise

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch.gu_direct import PlanarGeometry, gu_direct
-from tmakit.batch.lecture import lecture_gauss_newton
+from tmakit.batch.gu_direct import GuDirect, PlanarGeometry
+from tmakit.batch.lecture import LectureGaussNewton
 from tmakit.batch.methods import METHODS, estimate_with
 from tmakit.batch.ratios import (
+    RatioMethod,
     doppler_ratio_covariance,
     power_ratio_covariance,
-    ratio_method,
 )
 from tmakit.bounds import crlb
 from tmakit.core.units import SPEED_OF_LIGHT
@@ -127,7 +127,7 @@ def test_ratio_method_from_the_papers_start_is_efficient(gu, gu_bound):
     bound = np.array([gu_bound.std_of(n) for n in names])
     errors, stds = [], []
     for seed in range(30):
-        res = ratio_method(gu.simulate(rng=seed), gu.motion, PAPER_START)
+        res = RatioMethod().iterate(gu.simulate(rng=seed), gu.motion, PAPER_START)
         assert res.status == "converged", (seed, res.message)
         assert res.method == "ratio"
         errors.append(res.estimate - gu.theta)
@@ -146,20 +146,20 @@ def test_ratio_method_from_the_papers_start_is_efficient(gu, gu_bound):
 def test_ratio_method_with_the_printed_covariance_fails(gu):
     """With the paper's printed power off-diagonal (+ sign) the iteration from the paper's
     start does not converge; the paper's own results must have used the correct sign."""
-    statuses = [ratio_method(gu.simulate(rng=seed), gu.motion, PAPER_START,
-                             covariance="paper").status for seed in range(5)]
+    statuses = [RatioMethod(covariance="paper").iterate(gu.simulate(rng=seed), gu.motion,
+                                                       PAPER_START).status for seed in range(5)]
     assert statuses.count("converged") <= 1, statuses
 
 
 def test_power_only_and_doppler_only_ratio_methods(gu):
     meas = gu.simulate(rng=11)
-    dop = ratio_method(meas, gu.motion, PAPER_DOPPLER_START, kinds="frequency")
+    dop = RatioMethod(kinds="frequency").iterate(meas, gu.motion, PAPER_DOPPLER_START)
     assert dop.method == "ratio-doppler" and dop.status == "converged"
     assert np.all(np.isfinite(dop.estimate)) and np.all(np.isfinite(dop.std))
     assert np.all(np.abs(dop.estimate - gu.theta) < 4 * dop.std)
     assert set(dop.nuisance) == {"carrier"}
 
-    pw = ratio_method(meas, gu.motion, PAPER_START, kinds="power")
+    pw = RatioMethod(kinds="power").iterate(meas, gu.motion, PAPER_START)
     assert pw.method == "ratio-power" and pw.status == "converged"
     assert np.all(np.isfinite(pw.estimate)) and np.all(np.isfinite(pw.std))
     # Measured, as the paper says of power only at SNR_p = 40 dB ("fails to compute meaningful
@@ -168,23 +168,23 @@ def test_power_only_and_doppler_only_ratio_methods(gu):
     # from near the truth (from the paper's start it stops at a spurious fixed point).
     assert abs(pw.estimate[0] - gu.theta[0]) > 500.0
     near = gu.theta + np.array([200.0, 200.0, 2.0, 2.0])
-    exact = ratio_method(gu.simulate(noise=False), gu.motion, near, kinds="power")
+    exact = RatioMethod(kinds="power").iterate(gu.simulate(noise=False), gu.motion, near)
     assert exact.estimate == pytest.approx(gu.theta, abs=1e-6)
 
 
 def test_ratio_method_checks_its_input(gu):
     meas = gu.simulate(rng=1)
     with pytest.raises(ValueError, match="covariance"):
-        ratio_method(meas, gu.motion, PAPER_START, covariance="other")
+        RatioMethod(covariance="other").iterate(meas, gu.motion, PAPER_START)
     with pytest.raises(ValueError, match="2-D constant velocity"):
-        ratio_method(meas, tk.ConstantVelocity(3), (0, 0, 0, 0, 0, 0))
+        RatioMethod().iterate(meas, tk.ConstantVelocity(3), (0, 0, 0, 0, 0, 0))
     with pytest.raises(ValueError, match="starting point"):
-        ratio_method(meas, gu.motion, None)
+        RatioMethod().iterate(meas, gu.motion, None)
 
 
 # -- the direct method (Gu et al. (2007), §3) ------------------------------------------------------
 def test_gu_direct_shows_the_conditioning_problem(gu, gu_bound):
-    res = gu_direct(gu.simulate(rng=3), gu.motion, PAPER_START)
+    res = GuDirect().iterate(gu.simulate(rng=3), gu.motion, PAPER_START)
     conds = res.extra["condition_numbers"]
     doppler = res.extra["condition_numbers_doppler"]
     assert len(conds) == res.iterations
@@ -202,27 +202,27 @@ def test_gu_direct_shows_the_conditioning_problem(gu, gu_bound):
 
 def test_gu_direct_variants(gu):
     meas = gu.simulate(rng=4)
-    dop = gu_direct(meas, gu.motion, gu.theta, kinds="frequency")
+    dop = GuDirect(kinds="frequency").iterate(meas, gu.motion, gu.theta)
     assert dop.extra["kinds"] == ["frequency"] and np.all(np.isfinite(dop.estimate))
     assert set(dop.nuisance) == {"carrier"}
-    pw = gu_direct(meas, gu.motion, gu.theta, kinds="power")
+    pw = GuDirect(kinds="power").iterate(meas, gu.motion, gu.theta)
     assert pw.extra["kinds"] == ["power"] and np.all(np.isfinite(pw.estimate))
-    both = gu_direct(meas, gu.motion, PAPER_START)
-    printed = gu_direct(meas, gu.motion, PAPER_START, normal_equations=True)
+    both = GuDirect().iterate(meas, gu.motion, PAPER_START)
+    printed = GuDirect(normal_equations=True).iterate(meas, gu.motion, PAPER_START)
     # D_i^-1 N_i solved as printed: the same answer, but the update stalls at ~1e-4 m (the
     # conditioning), so it may not meet the tolerance.
     assert printed.estimate == pytest.approx(both.estimate, abs=0.01)
-    far = gu_direct(meas, gu.motion, PAPER_START, kinds="frequency")
+    far = GuDirect(kinds="frequency").iterate(meas, gu.motion, PAPER_START)
     assert far.status == "diverged"      # Doppler alone, from the paper's start
     with pytest.raises(ValueError, match="no power"):
-        gu_direct(meas.select(kind="frequency"), gu.motion, PAPER_START, kinds="power")
+        GuDirect(kinds="power").iterate(meas.select(kind="frequency"), gu.motion, PAPER_START)
 
 
 # -- the lecture's Gauss–Newton (the Doppler-tracking lecture notes) -------------------------------
 def test_lecture_gauss_newton_with_one_receiver_is_unobservable():
     scn = tk.load_scenario("doppler-lecture")
     start = scn.theta + np.array([500.0, -500.0, 300.0, 10.0, -10.0, 5.0])
-    res = lecture_gauss_newton(scn.simulate(rng=1), scn.motion, start)
+    res = LectureGaussNewton().iterate(scn.simulate(rng=1), scn.motion, start)
     assert res.status == "unobservable"
     assert res.bound is not None and res.bound.rank == 4
     assert "rank 4 of 7" in res.message
@@ -233,7 +233,7 @@ def test_lecture_gauss_newton_with_three_receivers_reaches_the_bound():
     scn = three_receivers()
     bound = crlb(scn)
     start = scn.theta + np.array([500.0, -500.0, 300.0, 10.0, -10.0, 5.0])
-    exact = lecture_gauss_newton(scn.simulate(noise=False), scn.motion, start)
+    exact = LectureGaussNewton().iterate(scn.simulate(noise=False), scn.motion, start)
     assert exact.status == "converged"
     # noise-free data: within the solver's tolerance (an update below 1e-4 std) of the truth
     assert np.all(np.abs(exact.estimate - scn.theta) <= 1e-4 * bound.std[:6])
@@ -245,7 +245,7 @@ def test_lecture_gauss_newton_with_three_receivers_reaches_the_bound():
     # geometry), hence the looser tolerance here.
     for seed in (0, 2):
         meas = scn.simulate(rng=seed)
-        res = lecture_gauss_newton(meas, scn.motion, start)
+        res = LectureGaussNewton().iterate(meas, scn.motion, start)
         ml = tk.batch.estimate(meas, scn.motion, init=start)
         assert res.status == "converged"
         # the same optimum, to within the solvers' stopping tolerances (~0.005 std)
@@ -259,9 +259,9 @@ def test_lecture_gauss_newton_checks_the_motion_model():
     scn = tk.load_scenario("doppler-lecture")
     meas = scn.simulate(rng=1)
     with pytest.raises(ValueError, match="ref_time=120"):
-        lecture_gauss_newton(meas, tk.ConstantVelocity(3, ref_time=0.0), scn.theta)
+        LectureGaussNewton().iterate(meas, tk.ConstantVelocity(3, ref_time=0.0), scn.theta)
     with pytest.raises(ValueError, match="ConstantVelocity"):
-        lecture_gauss_newton(meas, tk.ConstantVelocity(2, ref_time=120.0), scn.theta[:4])
+        LectureGaussNewton().iterate(meas, tk.ConstantVelocity(2, ref_time=120.0), scn.theta[:4])
 
 
 # -- the registry ----------------------------------------------------------------------------------

@@ -16,8 +16,8 @@ import pytest
 from bearing_sets import scenario_rows
 
 import tmakit as tk
-from tmakit.batch import presolve, solver
-from tmakit.batch.gauss_newton import GaussNewtonModel, information_steady
+from tmakit.batch import ml, solver
+from tmakit.batch.solver import GaussNewtonModel, information_steady
 from tmakit.batch.varpro import VarProProblem
 from tmakit.observation import ObservationModel
 from tmakit.observation.planar import planar_linearisation, planar_values
@@ -33,7 +33,7 @@ def _counting(monkeypatch: pytest.MonkeyPatch) -> collections.Counter:
     evaluate = VarProProblem._evaluate_any
 
     def counted(self, theta, u, nu_star, with_jacobian):
-        if u.shape[-1] > presolve.PRESOLVE_ROWS:
+        if u.shape[-1] > ml.PRESOLVE_ROWS:
             counts["jacobian" if with_jacobian else "residuals"] += 1
         return evaluate(self, theta, u, nu_star, with_jacobian)
 
@@ -47,7 +47,7 @@ def test_polished_fit_is_the_fit_without_polish(large, monkeypatch) -> None:
     polished = tk.estimate(meas, scn.motion)
     assert counts["residuals"] == 1  # it ended with a step checked by its residuals
     used = counts["jacobian"]
-    monkeypatch.setattr(presolve, "POLISH_DECREMENT", 0.0)
+    monkeypatch.setattr(ml, "POLISH_DECREMENT", 0.0)
     counts.clear()
     full = tk.estimate(meas, scn.motion)
     assert counts["residuals"] == 0 and counts["jacobian"] == used + 1
@@ -79,7 +79,7 @@ def test_a_step_the_model_does_not_predict_does_not_stop_the_run(large, monkeypa
     monkeypatch.setattr(solver, "_polished", spy)
     monkeypatch.setattr(solver, "POLISH_AGREEMENT", 0.0)
     dropped = tk.estimate(meas, scn.motion)
-    monkeypatch.setattr(presolve, "POLISH_DECREMENT", 0.0)
+    monkeypatch.setattr(ml, "POLISH_DECREMENT", 0.0)
     full = tk.estimate(meas, scn.motion)
     assert tried and not any(tried)
     assert dropped.status == full.status == "converged"
@@ -135,7 +135,7 @@ def test_weak_geometry_covariance_is_the_end_points(seed, monkeypatch) -> None:
     scn = _weak_turn(5.0, 30_000)
     meas = scn.simulate(np.random.default_rng(seed))
     default = tk.estimate(meas, scn.motion)
-    monkeypatch.setattr(presolve, "POLISH_DECREMENT", 0.0)
+    monkeypatch.setattr(ml, "POLISH_DECREMENT", 0.0)
     plain = tk.estimate(meas, scn.motion)
     assert default.status == plain.status == "converged"
     sd = np.sqrt(np.outer(np.diag(plain.covariance), np.diag(plain.covariance)))

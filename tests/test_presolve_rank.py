@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch import presolve
+from tmakit.batch import ml
 from tmakit.results.observability import full_rank
 from tmakit.scenario.files import scenario_from_dict
 
@@ -42,9 +42,9 @@ def _weak_turn(n: int, sigma: float = 3.0) -> tk.Scenario:
 def test_subset_blind_to_the_range_leaves_the_start(monkeypatch) -> None:
     scn = _weak_turn(20_001, 5.0)
     meas = scn.simulate(np.random.default_rng(8))
-    assert len(meas.time) > presolve.PRESOLVE_ROWS
+    assert len(meas.time) > ml.PRESOLVE_ROWS
     fit = tk.estimate(meas, scn.motion)
-    monkeypatch.setattr(presolve, "PRESOLVE_ROWS", 10**9)  # grid and solve on every row
+    monkeypatch.setattr(ml, "PRESOLVE_ROWS", 10**9)  # grid and solve on every row
     plain = tk.estimate(meas, scn.motion)
     assert plain.status == "converged"
     assert fit.status == plain.status
@@ -65,7 +65,7 @@ def test_a_subset_step_that_raises_the_cost_is_not_taken(monkeypatch) -> None:
     scn = _weak_turn(20_001)
     meas = scn.simulate(np.random.default_rng(0))
     taken = []
-    step = presolve.subset_step
+    step = ml.subset_step
 
     def spy(problem, ys, theta, information):
         out = step(problem, ys, theta, information)
@@ -76,10 +76,10 @@ def test_a_subset_step_that_raises_the_cost_is_not_taken(monkeypatch) -> None:
             taken.append(after > out[1])
         return out
 
-    monkeypatch.setattr(presolve, "subset_step", spy)
+    monkeypatch.setattr(ml, "subset_step", spy)
     fit = tk.estimate(meas, scn.motion)
     assert taken == [True]  # (this set's step raises the cost)
-    monkeypatch.setattr(presolve, "subset_step", lambda *args: None)
+    monkeypatch.setattr(ml, "subset_step", lambda *args: None)
     without = tk.estimate(meas, scn.motion)
     # the same path from the same point: equal to rounding (bit for bit on the NumPy path;
     # the compiled kernel's reassociated sums depend on the arrays' alignment)

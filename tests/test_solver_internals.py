@@ -221,7 +221,7 @@ def test_blocked_matmul_is_the_matrix_product_split_or_not(split):
 def test_normal_equations_by_dots_are_the_products_and_ignore_the_thread_count():
     from threadpoolctl import threadpool_limits
 
-    from tmakit.batch.gauss_newton import gram, normal_equations
+    from tmakit.batch.solver import gram, normal_equations
     from tmakit.core.blas import DOT_ROWS, by_dots, normal_rows
 
     rng = np.random.default_rng(2)
@@ -333,7 +333,8 @@ def _former_search_lm(problem, y, theta0, free, max_iter, rtol=1e-3, atol=0.02, 
 def manoeuvre_problem():
     """One manoeuvre on the first 700 s of the Hörst & Oispuu (2010) data, and starts with the
     change-over time spread around the truth's (internal parameters of the search)."""
-    from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
+    from tmakit.batch.manoeuvre import ManoeuvreSettings
+    from tmakit.batch.manoeuvre.search import ManoeuvreSearch
 
     scn = tk.load_scenario("hoerst2010")
     meas = scn.simulate(rng=5)

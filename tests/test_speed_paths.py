@@ -1,6 +1,6 @@
 """Shortcuts of issue 14 that must not change what the user gets.
 
-* A no-guess estimate on many rows first converges on a subset (``batch.presolve``): its
+* A no-guess estimate on many rows first converges on a subset (``batch.ml.presolve``): its
   optimum is the whole set's, as reached by the solver started at the truth.
 * A filter run on a set already filtered reuses its prepared form (``prepared_for``): tracks
   are identical, and other settings get their own.
@@ -13,7 +13,7 @@ import dataclasses
 import numpy as np
 
 import tmakit as tk
-from tmakit.batch import presolve
+from tmakit.batch import ml
 from tmakit.batch.varpro import VarProProblem
 from tmakit.core.frames import wrap_angle
 from tmakit.filters import ExtendedKalmanFilter
@@ -30,7 +30,7 @@ def _many_rows(n: int) -> tuple[tk.Scenario, tk.MeasurementSet]:
 
 
 def test_presolved_estimate_is_the_optimum_from_the_truth() -> None:
-    scn, meas = _many_rows(presolve.PRESOLVE_ROWS + 5_000)
+    scn, meas = _many_rows(ml.PRESOLVE_ROWS + 5_000)
     blind = tk.estimate(meas, scn.motion)
     assert blind.status == "converged"
     from_truth = tk.estimate(meas, scn.motion, init=scn.truth)
@@ -42,10 +42,10 @@ def test_presolved_estimate_is_the_optimum_from_the_truth() -> None:
 def test_presolve_leaves_small_problems_alone() -> None:
     scn = tk.load_scenario("bearings-only-2d")
     meas = scn.simulate(np.random.default_rng(0))
-    assert len(meas) <= presolve.PRESOLVE_ROWS
+    assert len(meas) <= ml.PRESOLVE_ROWS
     problem = VarProProblem(ObservationModel(meas, scn.motion))
     theta = np.atleast_2d(scn.theta)
-    out, near = presolve.presolve(problem, np.atleast_2d(meas.value_si), theta, 50)
+    out, near = ml.presolve(problem, np.atleast_2d(meas.value_si), theta, 50)
     assert out is theta and not near
 
 

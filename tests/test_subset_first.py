@@ -7,7 +7,7 @@ import pytest
 from test_correlated_chunks import shared_reference_set
 
 import tmakit as tk
-from tmakit.batch import subset_first
+from tmakit.batch import ml as subset_first
 
 
 def test_a_large_correlated_fit_carries_one_start_and_finds_the_same_estimate(monkeypatch):
@@ -24,7 +24,9 @@ def test_a_large_correlated_fit_carries_one_start_and_finds_the_same_estimate(mo
 
     monkeypatch.setattr(subset_first, "levenberg_marquardt", spy)
     sub = tk.estimate(meas, "cv3d")
-    assert carried == [(len(meas), 1)]  # one start over every row, once
+    # (the spy sees the subset's solves too) one start over every row, once
+    assert [c for c in carried if c[0] == len(meas)] == [(len(meas), 1)]
+    assert {c[0] for c in carried} == {60, len(meas)}  # every other solve on the subset
     assert whole.status == sub.status == "converged"
     assert whole.starts > 12  # the whole set was not settled on its first start
     # the same optimum to the solver's tolerance (a decrement of 1e-5 in half chi2 is

@@ -2,9 +2,9 @@
 
 Following Debrief's workflow: cuts taken in an own-ship turn or within :data:`SETTLE_S` after
 it are left out unless kept; each leg's cuts take one side, every assignment of sides is
-fitted (coordinate search above :data:`MAX_EXHAUSTIVE_LEGS` legs) and the least chi-square
-chosen.  A leg is resolved after the first turn when its likelihood ratio ``exp(Δχ²/2)`` is at
-least :data:`RESOLVED_RATIO`; an unresolved leg's other side is reported beside the choice.
+fitted and the least chi-square chosen.  A leg is resolved after the first turn when its
+likelihood ratio ``exp(Δχ²/2)`` is at least :data:`RESOLVED_RATIO`; an unresolved leg's other
+side is reported beside the choice.
 """
 
 from __future__ import annotations
@@ -41,17 +41,16 @@ RESOLVED_RATIO = 100.0
 """The likelihood ratio (the chosen side against the other) at which a leg is resolved."""
 
 MAX_EXHAUSTIVE_LEGS = 8
-"""Up to this many legs (and parts) every assignment of sides is fitted (2**8 fits); above, a
-coordinate search from the best of the uniform and the alternating assignments."""
+"""Up to this many legs (and parts) every assignment of sides is fitted; above, a coordinate
+search from the best of the uniform and the alternating assignments."""
 
 ENDFIRE_DEG = 15.0
-"""Where the contact passes within this angle (deg) of the array's axis it may cross to the
-other side: a leg's cuts are split into parts at each such pass (a local minimum of the angle
-from the axis), each part taking its own side."""
+"""A leg's cuts are split into parts, each with its own side, where the contact passes within
+this angle (deg) of the array's axis (a local minimum of the angle from the axis)."""
 
 ENDFIRE_RISE_DEG = 5.0
 """A pass near the axis ends when the angle from the axis has risen this much (deg) above its
-least value (navigation and bearing noise make smaller wiggles)."""
+least value."""
 
 IMPROBABLE_P = 0.001
 """A best fit whose chi-square has a smaller p-value resolves no leg."""
@@ -62,59 +61,27 @@ _PARTS = 1000  # group id = leg * _PARTS + part
 
 @dataclass(frozen=True)
 class TurnCut:
-    """A cut taken while the own ship turned, or while its array settled after a turn.
+    """A cut taken while the own ship turned, or while its array settled after a turn."""
 
-    Parameters
-    ----------
-    time : float
-        s.
-    reason : str
-        Why it is a turn cut, in words.
-    kept : bool
-        Fitted anyway (``keep_turn_cuts``).
-    """
-
-    time: float
-    reason: str
-    kept: bool
+    time: float  # s
+    reason: str  # why it is a turn cut, in words
+    kept: bool  # fitted anyway (keep_turn_cuts)
 
 
 @dataclass(frozen=True)
 class LegSide:
-    """The side chosen for one own-ship leg's ambiguous cuts.
+    """The side chosen for one own-ship leg's ambiguous cuts."""
 
-    Parameters
-    ----------
-    leg : int
-        The leg's index (0-based).
-    start, stop : float
-        Its first and last cut, s.
-    course_deg : float
-        The own ship's course on the leg, deg.
-    cuts : int
-        Its ambiguous cuts fitted.
-    side : str
-        ``port`` or ``starboard``: the best fit's.
-    delta_chi2 : float
-        Chi-square with the leg on the other side minus the best's.
-    resolved : bool
-        After a turn, ratio at least :data:`RESOLVED_RATIO`.
-    reason : str
-        Why, in words.
-    part : int
-        0, or the number of earlier crossings of the array's axis on this leg.
-    """
-
-    leg: int
-    start: float
-    stop: float
-    course_deg: float
-    cuts: int
-    side: str
-    delta_chi2: float
-    resolved: bool
-    reason: str
-    part: int = 0
+    leg: int  # the leg's index (0-based)
+    start: float  # its first cut, s
+    stop: float  # and its last
+    course_deg: float  # the own ship's course on the leg
+    cuts: int  # its ambiguous cuts fitted
+    side: str  # port or starboard: the best fit's
+    delta_chi2: float  # chi-square with the leg on the other side minus the best's
+    resolved: bool  # after a turn, likelihood ratio at least RESOLVED_RATIO
+    reason: str  # why, in words
+    part: int = 0  # 0, or the number of earlier crossings of the array's axis on this leg
 
     @property
     def likelihood_ratio(self) -> float:
@@ -142,9 +109,7 @@ class AmbiguityResult:
         The fit of the chosen sides (unresolved alternatives among its solutions).
     measurements : MeasurementSet
         The cuts fitted, each on its leg's side.
-    legs : LegsAndTurns
-    sides : list of LegSide
-    turn_cuts : list of TurnCut
+    legs, sides, turn_cuts : LegsAndTurns, list of LegSide, list of TurnCut
     alternatives : list of (tuple of str, EstimateResult)
         Per unresolved leg, the best fit with it on the other side.
     settle_s : float

@@ -1,7 +1,7 @@
 """tmakit's maximum likelihood for any motion: ``tk.estimate(meas, motion)``.
 
 A manoeuvring target goes to :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, any other
-motion to :class:`~tmakit.batch.ml.MaximumLikelihood`; this module sits above both.
+motion to :class:`~tmakit.batch.ml.MaximumLikelihood`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from ..data import MeasurementSet
 from ..motion import MotionModel, PiecewiseCurvilinear, default_ref_time, motion_from_name
 from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
-from .estimator import BatchEstimator, Init, Options
+from .estimator import BatchEstimator, Init, Options, refuse_manoeuvre_options
 from .init import GridSettings
 from .manoeuvre import ManoeuvreEstimator, ManoeuvreSettings
 from .ml import estimate as estimate_ml
@@ -43,17 +43,10 @@ class MLByMotion(BatchEstimator):
 
     Parameters
     ----------
-    init : Mapping[str, float] or array_like, optional
-        A start, SI.
-    options : Mapping, optional
-        The nuisance model per kind.
-    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-    grid : GridSettings, optional
-        For motions without manoeuvres.
-    max_iter : int, optional
-        Default 100.
+    init, options, known_nuisance, grid, max_iter : optional
+        As for :func:`estimate`.
     exact, criterion, alpha, accelerations, ref_time, settings : optional
-        For manoeuvring targets (:class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`).
+        As for :func:`estimate`.
     """
 
     name: ClassVar[str] = "ml"
@@ -93,11 +86,7 @@ class MLByMotion(BatchEstimator):
             return replace(chosen, init=self.init, options=self.options,
                            known_nuisance=self.known_nuisance,
                            max_iter=self.max_iter).fit(meas, motion)
-        given = chosen.manoeuvre_options()
-        if given:
-            raise TypeError(f"estimate() got options for manoeuvring targets "
-                            f"({', '.join(given)}) with motion "
-                            f"{getattr(motion, 'name', motion)!r}")
+        refuse_manoeuvre_options(chosen.manoeuvre_options(), motion)
         return estimate_ml(meas, motion, init=self.init, options=self.options,
                            known_nuisance=self.known_nuisance, grid=self.grid,
                            max_iter=self.max_iter)

@@ -1,8 +1,7 @@
 """What every batch estimator is: settings in its constructor, :meth:`~BatchEstimator.fit`.
 
 :class:`PaperMethod` is the common part of the papers' local iterations (Gu et al. (2007) §3-4,
-the Doppler-tracking lecture notes): their own nuisance model, and tmakit's grid start when
-given none (said in ``extra["start"]``).
+the Doppler-tracking lecture notes): their own nuisance model, and tmakit's grid start.
 """
 
 from __future__ import annotations
@@ -13,17 +12,17 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..results.estimate import EstimateResult
 from .init import grid_start
 
+#: A starting point: motion parameters by name, a vector in ``param_names`` order, or None.
 Init = Mapping[str, float] | ArrayLike | None
-"""A starting point: motion parameters by name, a vector in ``param_names`` order, or None."""
+#: The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``.
 Options = Mapping[str, Mapping[str, object]] | None
-"""The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``."""
 
 GRID_START_NOTE = "started from tmakit's likelihood-grid point (the papers' methods are local)"
 
@@ -55,6 +54,26 @@ class BatchEstimator(ABC):
         -------
         EstimateResult
         """
+
+
+def theta_from_init(motion: MotionModel, init: Mapping[str, float] | ArrayLike, prefix: str = "",
+                    named_only: bool = False) -> NDArray[np.float64]:
+    """Give a start ``(p,)`` from names (``named_only``: others ignored) or a vector, checked."""
+    if isinstance(init, Mapping):
+        return motion.theta({k: v for k, v in init.items() if k in motion.param_names}
+                            if named_only else init)
+    theta = np.asarray(init, dtype=float).reshape(-1)
+    if theta.shape != (motion.n_params,):
+        raise ValueError(f"{prefix}init must give {motion.n_params} values "
+                         f"({', '.join(motion.param_names)})")
+    return theta
+
+
+def refuse_manoeuvre_options(given: Mapping[str, object], motion: object) -> None:
+    """Refuse settings of the manoeuvre search for a motion without manoeuvres."""
+    if given:
+        raise TypeError(f"estimate() got options for manoeuvring targets "
+                        f"({', '.join(given)}) with motion {getattr(motion, 'name', motion)!r}")
 
 
 def check_paper_options(method: str, options: Options) -> None:
@@ -96,8 +115,7 @@ class PaperMethod(BatchEstimator):
     init: Init = None
     options: Options = None
 
-    start_kinds: ClassVar[tuple[str, ...]] = ()
-    """The kinds the method can use: the rows its grid start is scored on."""
+    start_kinds: ClassVar[tuple[str, ...]] = ()  # the kinds its grid start is scored on
 
     def __post_init__(self) -> None:
         """Refuse a nuisance model the papers do not have."""
@@ -127,7 +145,7 @@ class PaperMethod(BatchEstimator):
         """
 
     def start_rows(self, meas: MeasurementSet) -> MeasurementSet:
-        """Return the rows of the kinds the method uses (all when none), to score the grid start on.
+        """Return the rows of the kinds the method uses (all when none), to score the start on.
 
         Parameters
         ----------

@@ -30,8 +30,7 @@ from .estimator import BatchEstimator, Init, Options
 __all__ = ["ChanHo", "HoXu", "Snapshot", "closed_form_theta", "snapshot_rows",
            "two_stage_wls"]
 
-#: Most rows one closed-form solve takes (its weights are a dense square of this size).
-MAX_SNAPSHOT_ROWS = 400
+MAX_SNAPSHOT_ROWS = 400  # most rows one solve takes (its weights: a dense square of this size)
 
 
 def _solve_weighted(g: Array, h: Array, cov: Array) -> tuple[Array, Array]:
@@ -49,8 +48,6 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
                   ) -> tuple[Array, Array | None]:
     """Locate a source from range (and range-rate) differences against one reference.
 
-    References
-    ----------
     Chan & Ho (1994) (TDOA, two stages); Ho & Xu (2004) (TDOA and FDOA of a moving source).
     """
     moving = rrd is not None
@@ -154,21 +151,11 @@ def _stage_two(phi: Array, cov1: Array, ref: Array, ref_vel: Array | None, known
 
 @dataclass(frozen=True)
 class Snapshot:
-    """The rows one closed-form solve takes: TDOAs against one reference, FDOAs beside them.
-
-    Attributes
-    ----------
-    tdoa : ndarray of int
-        The TDOA rows.
-    fdoa : ndarray of int or None
-        The matching FDOA rows, one per TDOA row (None: TDOA only).
-    time : float
-        The snapshot's time, s.
-    """
+    """The rows one closed-form solve takes: TDOAs against one reference, FDOAs beside them."""
 
     tdoa: NDArray[np.intp]
-    fdoa: NDArray[np.intp] | None
-    time: float
+    fdoa: NDArray[np.intp] | None  # one per TDOA row (None: TDOA only)
+    time: float  # s
 
 
 def snapshot_rows(meas: MeasurementSet, moving: bool, with_fdoa: bool) -> Snapshot | None:
@@ -238,28 +225,29 @@ def _known_carrier(meas: MeasurementSet, options: Options) -> float | None:
 
 
 def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier: float | None,
-                   motion: MotionModel) -> tuple[Array, Array | None]:
-    """Solve a snapshot with what is known of the source's height.
+                   motion: MotionModel) -> Array:
+    """Solve a snapshot for the motion parameters, with what is known of the source's height.
 
     A 2-D motion model: the ENU plane (height 0).  A 3-D one with ``altitude`` rows: the
     stated height on the WGS-84 ellipsoid, as the plane through the ellipsoid below the
     previous solution (four passes: the plane's error shrinks with the square of the
     solution's).  Else the height is free.
     """
-    if motion.dim == 2:
-        return closed_form_state(meas, values, snap, carrier, 0.0)
+    flat = motion.dim == 2
     rows = np.flatnonzero(meas.kind_mask("altitude"))
-    stated = Altitude.options_from_metadata(meas.metadata).get("origin")
-    if rows.size == 0 or stated is None:
-        return closed_form_state(meas, values, snap, carrier, None)
-    origin = np.asarray(stated, dtype=float)
-    height = float(np.average(values[rows], weights=meas.sigma_si[rows] ** -2.0))
-    up = height - float(origin[2])
-    for _ in range(4):
-        pos, vel = closed_form_state(meas, values, snap, carrier, up)
-        lat, lon, _ = enu_to_geodetic(pos[0], pos[1], pos[2], origin)
-        up = float(geodetic_to_enu(lat, lon, height, origin)[2])
-    return pos, vel
+    stated = None if flat else Altitude.options_from_metadata(meas.metadata).get("origin")
+    if flat or rows.size == 0 or stated is None:
+        pos, vel = closed_form_state(meas, values, snap, carrier, 0.0 if flat else None)
+    else:
+        origin = np.asarray(stated, dtype=float)
+        height = float(np.average(values[rows], weights=meas.sigma_si[rows] ** -2.0))
+        up = height - float(origin[2])
+        for _ in range(4):
+            pos, vel = closed_form_state(meas, values, snap, carrier, up)
+            lat, lon, _ = enu_to_geodetic(pos[0], pos[1], pos[2], origin)
+            up = float(geodetic_to_enu(lat, lon, height, origin)[2])
+    return motion.from_state(np.concatenate([pos, np.zeros(3) if vel is None else vel]),
+                             snap.time)
 
 
 def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
@@ -275,9 +263,7 @@ def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
     if snap is None:
         return None
     try:
-        pos, vel = solve_snapshot(meas, values, snap, carrier, motion)
-        state = np.concatenate([pos, np.zeros(3) if vel is None else vel])
-        theta = motion.from_state(state, snap.time)
+        theta = solve_snapshot(meas, values, snap, carrier, motion)
     except (ValueError, NotImplementedError, np.linalg.LinAlgError):
         return None
     return theta if np.all(np.isfinite(theta)) else None
@@ -308,9 +294,7 @@ class _ClosedForm(BatchEstimator):
             raise ValueError(f"{self.name}: no TDOA rows"
                              + (" with FDOA rows of the same sensors, times and reference"
                                 if self.moving else ""))
-        pos, vel = solve_snapshot(meas, meas.value_si, snap, carrier, motion)
-        theta = motion.from_state(np.concatenate([pos, np.zeros(3) if vel is None else vel]),
-                                  snap.time)
+        theta = solve_snapshot(meas, meas.value_si, snap, carrier, motion)
         rows = snap.tdoa if snap.fdoa is None else np.concatenate([snap.tdoa, snap.fdoa])
         if motion.dim == 3:  # the stated altitude took part (solve_snapshot)
             rows = np.concatenate([rows, np.flatnonzero(meas.kind_mask("altitude"))])
@@ -329,17 +313,7 @@ class _ClosedForm(BatchEstimator):
 
 @dataclass(frozen=True, eq=False)
 class ChanHo(_ClosedForm):
-    """Chan & Ho (1994): a stationary source from TDOAs, two-stage weighted least squares.
-
-    Parameters
-    ----------
-    options : mapping, optional
-        Per-kind model options (unused by the solve).
-
-    References
-    ----------
-    Chan & Ho (1994).
-    """
+    """Chan & Ho (1994): a stationary source from TDOAs, two-stage weighted least squares."""
 
     name: ClassVar[str] = "chan-ho"
 
@@ -354,17 +328,7 @@ class ChanHo(_ClosedForm):
 
 @dataclass(frozen=True, eq=False)
 class HoXu(_ClosedForm):
-    """Ho & Xu (2004): a moving source's position and velocity from TDOAs and FDOAs.
-
-    Parameters
-    ----------
-    options : mapping, optional
-        Per-kind options; the FDOA carrier must be known (``{"fdoa": {"carrier": f0}}``).
-
-    References
-    ----------
-    Ho & Xu (2004).
-    """
+    """Ho & Xu (2004): a moving source from TDOAs and FDOAs (``options``: the FDOA carrier)."""
 
     name: ClassVar[str] = "ho-xu"
     moving: ClassVar[bool] = True

@@ -1,9 +1,10 @@
 """Automatic global initialisation: no initial guess needed.
 
 A coarse grid of trajectories (:func:`grid_candidates`) is scored by the nuisance-eliminated
-likelihood in two vectorised stages (:class:`GridScorer`, or
-:class:`~tmakit.batch.chord.ChordScorer` for bearings under affine motion); the best distinct
-points (:class:`Starts`) start the batched Levenberg–Marquardt solve.
+likelihood in two vectorised stages (:class:`GridScorer`, or :class:`ChordScorer` for bearings
+under affine motion, whose ``cos h`` and ``sin h`` come from the relative positions: no
+trigonometry per candidate and row); the best distinct points (:class:`Starts`) start the
+batched Levenberg–Marquardt solve.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
-from .chord import ChordScorer, chord_units
+from ..observation.planar import PlanarUnits, planar_units
 from .solver import VarProProblem
 
 __all__ = ["SHORTLIST", "ChordScorer", "GridScorer", "GridSettings", "Starts", "best_starts",
@@ -197,9 +198,9 @@ def grid_candidates_for(meas: MeasurementSet, motion: MotionModel,
     return motion.from_state(states.reshape(6, -1).T, t_mid)
 
 
-def _subsample(problem: VarProProblem, max_rows: int
-               ) -> tuple[VarProProblem, NDArray[np.int64]]:
-    """Return the problem on an evenly spread subset of rows per kind, and the rows kept."""
+def subsample(problem: VarProProblem, max_rows: int
+              ) -> tuple[VarProProblem, NDArray[np.int64]]:
+    """Return the problem on about ``max_rows`` evenly spread rows per kind, and the rows kept."""
     idx = _spread_rows(problem, max_rows)
     if idx is None:  # correlated rows: the subset's noise is its own block
         return problem, np.arange(len(problem.obs.meas))
@@ -207,7 +208,7 @@ def _subsample(problem: VarProProblem, max_rows: int
 
 
 def _spread_rows(problem: VarProProblem, max_rows: int) -> NDArray[np.int64] | None:
-    """Return the rows (set order) of :func:`_subsample`, or None when it keeps them all."""
+    """Return the rows (set order) of :func:`subsample`, or None when it keeps them all."""
     n = len(problem.obs.meas)
     if n <= max_rows:
         return None
@@ -221,12 +222,6 @@ def _spread_rows(problem: VarProProblem, max_rows: int) -> NDArray[np.int64] | N
     return keep[0] if len(keep) == 1 else np.sort(np.concatenate(keep))
 
 
-def subsample(problem: VarProProblem, max_rows: int
-              ) -> tuple[VarProProblem, NDArray[np.int64]]:
-    """Return the problem on about ``max_rows`` evenly spread rows per kind, and the rows kept."""
-    return _subsample(problem, max_rows)
-
-
 @lru_cache(maxsize=64)
 def _evenly_spread(size: int, take: int) -> NDArray[np.int64]:
     """Return about ``take`` evenly spread indices into ``size`` rows, first and last included."""
@@ -236,23 +231,15 @@ def _evenly_spread(size: int, take: int) -> NDArray[np.int64]:
 
 
 GEOMETRY_FREE = 1e-4
-"""A nuisance column whose geometry-dependent part varies over the candidates (of a block of
-:class:`GridScorer`) by less than this fraction of its size is taken as the same for every
-candidate (the carrier's, whose Doppler factor ``1 - rdot/c`` differs from 1 by about 1e-6):
-the projection is then shared."""
+"""A nuisance column varying over a block's candidates by less than this fraction of its size
+is the same for all (the carrier's, ``1 - rdot/c`` within 1e-6 of 1): one projection."""
 
 
 class GridScorer:
-    """Reduced cost of a fixed set of candidate trajectories for many data sets at once.
+    """Reduced cost of candidates ``(C, p)`` for many data sets, block by block.
 
     The projected cost is ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2``; angle rows use the chord
-    form ``w^2 (1 - cos(y - h))``.  Candidates are scored block by block (:data:`CANDIDATE_ROWS`).
-
-    Parameters
-    ----------
-    problem : VarProProblem
-    candidates : ndarray, shape (C, p)
-        SI.
+    form ``w^2 (1 - cos(y - h))``.
     """
 
     def __init__(self, problem: VarProProblem, candidates: NDArray[np.float64]) -> None:
@@ -293,7 +280,6 @@ class GridScorer:
 
     def _reference(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Return a nuisance value near the data's, about which residuals do not cancel."""
-        # (the median of one data set is that data set)
         return self.problem.reference_nuisance(y[0] if y.shape[0] == 1
                                                else np.median(y, axis=0))[0]
 
@@ -362,11 +348,8 @@ class GridScorer:
 
 
 CANDIDATE_ROWS = 8000
-"""Candidates times rows predicted and scored at a time.  Small blocks keep every temporary
-array small (below ~0.5 MB): memory the allocator reuses instead of fresh pages from the
-system, whose first touch (a page fault each) cost more than the arithmetic: with twice this
-the allocator returned ~1.5 MB to the system after every gu2007 solve and faulted it back in
-the next (~300 page faults, ~1 ms)."""
+"""Candidates times rows scored at a time: temporaries below ~0.5 MB, which the allocator
+reuses instead of faulting fresh pages in (docs/estimation.md)."""
 
 
 def _block_size(n_rows: int) -> int:
@@ -451,22 +434,46 @@ def best_starts_many(problem: VarProProblem, ys: NDArray[np.float64],
     return starts_of(cand, cost)
 
 
+def chord_units(problem: VarProProblem, rows: NDArray[np.int64] | None = None
+                ) -> PlanarUnits | None:
+    """Give the predicted angles' sines and cosines of a problem's rows, or None."""
+    obs = problem.obs
+    if not problem.all_angle or problem.noise.correlated or not obs.in_set_order:
+        return None
+    return planar_units(obs, rows)
+
+
+class ChordScorer:
+    """Chord cost ``sum w^2 (1 - cos(y - h))`` of candidates (``step`` a block) from ``units``."""
+
+    def __init__(self, units: PlanarUnits, weight2: NDArray[np.float64],
+                 candidates: NDArray[np.float64], step: int) -> None:
+        self.units = units
+        self.weight2 = weight2
+        self.candidates = candidates
+        self.blocks = [slice(lo, lo + step) for lo in range(0, candidates.shape[0], step)]
+
+    def score(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Return the chord costs of every candidate for each data set."""
+        y = np.atleast_2d(np.asarray(y, dtype=float))
+        w2 = self.weight2
+        sin_w, cos_w = (np.sin(y) * w2).T, (np.cos(y) * w2).T  # (m, B)
+        total = w2.sum()
+        cost = np.empty((y.shape[0], self.candidates.shape[0]))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            for block in self.blocks:
+                sin_h, cos_h = self.units(self.candidates[block])
+                dot = matmul(sin_h, sin_w)
+                dot += matmul(cos_h, cos_w)
+                cost[:, block] = (total - dot).T
+        return np.where(np.isfinite(cost), cost, np.inf)
+
+
 class _Stage:
-    """The rows one stage of the grid scores on, and the data sets on them.
+    """The rows (set order, None: all) one stage of the grid scores on, and the data sets ``ys``.
 
-    All-angle problems of one planar kind under an affine motion model (bearings, constant
-    velocity or at rest) are scored by :class:`~tmakit.batch.chord.ChordScorer` on the rows
-    of the problem itself; the others by :class:`GridScorer` on the problem restricted to the rows
-    (:func:`_subsample`).
-
-    Parameters
-    ----------
-    problem : VarProProblem
-        The whole problem.
-    rows : ndarray of int or None
-        The stage's rows (set order), None for all.
-    ys : ndarray, shape (B, n)
-        The data sets (SI, set order).
+    Bearings alone under affine motion are scored by :class:`ChordScorer` on the rows of the
+    problem itself, the others by :class:`GridScorer` on the problem restricted to the rows.
     """
 
     def __init__(self, problem: VarProProblem, rows: NDArray[np.int64] | None,
@@ -552,23 +559,14 @@ def grid_start(meas: MeasurementSet, motion: MotionModel,
     return starts[0]
 
 
-#: A shortlist: candidate indices, their costs, whether each is still available.
 Shortlist = tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]
 
 
 class Starts:
-    """The mutually distinct candidates of one data set, best first (5 % of each spread apart).
+    """The distinct candidates ``(C, p)`` of one data set, best first (5 % of each spread apart).
 
-    Parameters
-    ----------
-    candidates : ndarray, shape (C, p)
-        SI.
-    cost : ndarray, shape (C,)
-        Non-finite: never chosen.
-    scaled : ndarray, shape (p, C), optional
-        The candidates over the spread, transposed.
-    shortlist : ndarray of int, optional
-        The :data:`SHORTLIST` cheapest candidates, else made on first use.
+    ``scaled`` is the candidates over the spread, transposed; ``shortlist`` the
+    :data:`SHORTLIST` cheapest (else made on first use).  A non-finite cost is never chosen.
     """
 
     def __init__(self, candidates: NDArray[np.float64], cost: NDArray[np.float64],
@@ -578,10 +576,8 @@ class Starts:
         self.scaled = _scaled(candidates) if scaled is None else scaled
         self.left = np.where(np.isfinite(cost), cost, np.inf)
         self.chosen: list[int] = []
-        # The shortlist walked first (see _from_shortlist): indices, their scaled candidates
-        # (p, K), whether each is near one chosen; None until made, False once left behind.
-        #: The shortlist's candidates, costs and availability; None before it is made, False
-        #: once the full set has taken over.
+        # The shortlist walked first: indices, their scaled candidates (p, K), whether each is
+        # near one chosen; None until made, False once the full set has taken over.
         self._short: Shortlist | bool | None
         self._short = None if shortlist is None else self._shortlist(shortlist)
         self._at = 0  # the shortlist's next position

@@ -25,8 +25,7 @@ from ..results.estimate import EstimateResult, assemble_result
 from ..results.observability import RANK_TOL
 from ..results.status import UNOBSERVABLE
 from .estimator import Init, PaperMethod
-from .gu_geometry import DIVERGENCE_FACTOR
-from .solver import VarProProblem
+from .gu_direct import DIVERGENCE_FACTOR, initial_theta
 
 
 def _check(meas: MeasurementSet, motion: MotionModel) -> float:
@@ -70,15 +69,8 @@ def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
     if init is None:
         raise ValueError("lecture-gn: a local method, it needs a starting point (init=...); "
                          "LectureGaussNewton() without init starts from tmakit's grid point")
-    if isinstance(init, Mapping):
-        theta = motion.theta({k: v for k, v in init.items() if k in motion.param_names})
-        carrier = init.get("carrier")
-    else:
-        theta = np.asarray(init, dtype=float).reshape(-1)
-        carrier = None
-        if theta.shape != (motion.n_params,):
-            raise ValueError(f"lecture-gn: init must give {motion.n_params} values "
-                             f"({', '.join(motion.param_names)})")
+    theta = initial_theta(motion, init, "lecture-gn")
+    carrier = init.get("carrier") if isinstance(init, Mapping) else None
     if carrier is None:
         h0, a = obs.affine(theta)
         w = noise.whiten(a[:, 0])
@@ -122,14 +114,13 @@ class LectureGaussNewton(PaperMethod):
         _check(meas, motion)
         obs = ObservationModel(meas, motion, {"frequency": {"drift": False}})
         noise = NoiseModel(meas)
-        problem = VarProProblem(obs, noise)
         x = _start(obs, noise, init)
         x, iterations, converged, diverged, ranks, norms = self._gauss_newton(obs, noise, x)
         p = motion.n_params
         th, nu = x[:p], x[p:]
         cost = (0.5 * float(np.sum(noise.whiten(obs.values - obs.predict(th, nu)) ** 2))
                 if np.all(np.isfinite(x)) else np.inf)
-        res = assemble_result(problem.obs, problem.noise, th, nu, cost, iterations, converged,
+        res = assemble_result(obs, noise, th, nu, cost, iterations, converged,
                               self.name, 1, None)
         res.extra.update({"ranks": ranks, "update_norms_sigma": norms})
         if diverged:
@@ -177,13 +168,3 @@ class LectureGaussNewton(PaperMethod):
                 break
         return x, iterations, converged, diverged, ranks, norms
 
-
-def lecture_gauss_newton(meas: MeasurementSet, motion: MotionModel, init: Init,
-                         max_iter: int = 50, tol: float = 1e-4) -> EstimateResult:
-    """Run the notes' Gauss–Newton from ``init``: the short form of :class:`LectureGaussNewton`.
-
-    References
-    ----------
-    The Doppler-tracking lecture notes, "Iterating to the Solution".
-    """
-    return LectureGaussNewton(max_iter=max_iter, tol=tol).iterate(meas, motion, init)

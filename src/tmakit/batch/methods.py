@@ -1,10 +1,7 @@
 """Every batch estimator by name (:data:`METHODS`), and the short forms that build and fit.
 
-``ml`` (tmakit's maximum likelihood), ``gu-direct`` (Gu et al. (2007) §3), ``ratio-power``,
-``ratio-doppler``, ``ratio`` (§4), ``lecture-gn`` (the Doppler-tracking lecture notes),
-``chan-ho`` and ``ho-xu`` (Chan & Ho (1994), Ho & Xu (2004)).  The papers' local iterations
-start, when given no start, from tmakit's likelihood grid (:func:`tmakit.batch.init.grid_start`),
-which the result says in ``extra["start"]``.
+The papers' local iterations start, when given no start, from tmakit's likelihood grid
+(:func:`tmakit.batch.init.grid_start`), which the result says in ``extra["start"]``.
 """
 
 from __future__ import annotations
@@ -36,7 +33,6 @@ class Method:
     fixed : Mapping[str, object], optional
         Settings the name fixes (``ratio-power``: ``kinds=("power",)``).
     summary : str, optional
-        One line.
     """
 
     cls: type[BatchEstimator]
@@ -71,8 +67,7 @@ METHODS: dict[str, Method] = {
     "chan-ho": Method(ChanHo, summary="Chan & Ho (1994), closed-form TDOA (stationary source)"),
     "ho-xu": Method(HoXu, summary="Ho & Xu (2004), closed-form TDOA + FDOA (moving source)"),
 }
-"""Batch estimators by name; each builds a :class:`~tmakit.batch.estimator.BatchEstimator`
-whose ``fit`` returns an :class:`~tmakit.results.EstimateResult`."""
+"""Batch estimators by name, each building a :class:`~tmakit.batch.estimator.BatchEstimator`."""
 
 
 def estimator(method: str, **settings: object) -> BatchEstimator:
@@ -98,7 +93,8 @@ def estimator(method: str, **settings: object) -> BatchEstimator:
     References
     ----------
     Gu et al. (2007), §3 (``gu-direct``), eqs. 19-25 (``ratio-power``), 26-32
-    (``ratio-doppler``), 33-34 (``ratio``); the Doppler-tracking lecture notes (``lecture-gn``).
+    (``ratio-doppler``), 33-34 (``ratio``); the Doppler-tracking lecture notes (``lecture-gn``);
+    Chan & Ho (1994) (``chan-ho``), Ho & Xu (2004) (``ho-xu``).
     """
     if method not in METHODS:
         raise ValueError(f"unknown estimation method {method!r}; expected one of "
@@ -118,10 +114,8 @@ def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
     meas : MeasurementSet
     motion : MotionModel
         For ``ml`` also a motion name.
-    init : Mapping[str, float] or array_like, optional
-        The start, SI; None: ``ml``'s grid search, or the best grid point.
-    options : Mapping, optional
-        The nuisance model per kind (papers' methods: their own only).
+    init, options : optional
+        The start (SI) and the nuisance model per kind, as for :func:`tmakit.batch.estimate`.
     **settings
         Other settings of the method's class.
 

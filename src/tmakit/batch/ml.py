@@ -3,31 +3,45 @@
 The weighted least-squares fit, nuisance eliminated exactly (:mod:`tmakit.batch.solver`),
 started from the likelihood grid (:mod:`tmakit.batch.init`) unless ``init`` is given; the
 covariance is the inverse Fisher information at the estimate.
+
+- Above :data:`PRESOLVE_ROWS` independent rows the grid and starts run on
+  :data:`PRESOLVE_SUBSET` rows, and the full solve then takes two Gauss–Newton steps and a
+  polished third (:func:`solve_all_rows`).
+- For correlated range differences of many rows every start is solved on :data:`SUBSET_ROWS`
+  evenly spread rows and only the best carried to all (:func:`solve_on_subset_first`).
+- When every sensor is at one height, none moves vertically and no elevation is measured, a
+  3-D track and its mirror image through the sensors' plane fit alike: the one above is
+  reported (:func:`prefer_above`).
+- With sensor position errors (Ho, Lu & Kovavisaruch (2007)'s setting) the errors are
+  integrated out into the noise ``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.sensor_errors`):
+  the fit starts from the ordinary ML and refits twice with that noise linearised at the
+  estimate (:func:`estimate_with_sensor_errors`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core import chi2 as chi2_dist
+from ..core.frames import wrap_angle_own
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..observation.planar import gradient_of_rows, planar_gradient_rows
+from ..observation.sensor_errors import effective_noise
 from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
+from ..results.observability import full_rank
 from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
-from .estimator import BatchEstimator, Init, Options
+from .estimator import BatchEstimator, Init, Options, refuse_manoeuvre_options, theta_from_init
 from .hyperbolic import closed_form_starts
-from .init import GridSettings, first_of_many
-from .mirror import mirror_plane, prefer_above
-from .presolve import grid_starts, presolve_subset, solve_all_rows
-from .solver import SolveResult, VarProProblem, information_of, levenberg_marquardt
-from .subset_first import solve_on_subset_first, subset_first
+from .init import GridSettings, Starts, best_starts_many, first_of_many, subsample
+from .solver import Fallback, SolveResult, VarProProblem, information_of, levenberg_marquardt
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,13 +142,7 @@ class MaximumLikelihood(BatchEstimator):
 
     def _start(self, motion: MotionModel) -> NDArray[np.float64]:
         """``init`` as a ``(1, p)`` parameter vector (SI); refuse a wrong length."""
-        init = self.init
-        theta0 = (motion.theta(init) if isinstance(init, Mapping)
-                  else np.asarray(init, dtype=float)).reshape(1, -1)
-        if theta0.shape[1] != motion.n_params:
-            raise ValueError(f"init must give {motion.n_params} values "
-                             f"({', '.join(motion.param_names)})")
-        return theta0
+        return theta_from_init(motion, self.init)[None]  # type: ignore[arg-type]
 
     def _solve(self, problem: VarProProblem, ys: NDArray[np.float64],
                theta0: NDArray[np.float64] | None) -> list[Best | Exception]:
@@ -195,8 +203,7 @@ def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
 
 
 FIT_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
-"""Errors a fit may raise on one unlucky data set; :meth:`MaximumLikelihood.fit_many` returns
-them per set."""
+"""Errors a fit may raise on one data set; :meth:`MaximumLikelihood.fit_many` returns them."""
 
 
 def same_rows(sets: Sequence[MeasurementSet]) -> bool:
@@ -219,10 +226,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
              grid: GridSettings | None = None, max_iter: int = 100,
              **manoeuvre_options: object) -> EstimateResult:
     """Fit by maximum likelihood: ``MaximumLikelihood(...).fit(meas, motion)``, short form."""
-    if manoeuvre_options:
-        raise TypeError(f"estimate() got options for manoeuvring targets "
-                        f"({', '.join(manoeuvre_options)}) with motion "
-                        f"{getattr(motion, 'name', motion)!r}")
+    refuse_manoeuvre_options(manoeuvre_options, motion)
     return MaximumLikelihood(init, options, known_nuisance, grid, max_iter).fit(meas, motion)
 
 
@@ -234,37 +238,18 @@ DENSE_GRID = GridSettings(n_ranges=20, n_bearings=24,
 
 @dataclass
 class Best:
-    """The best fit found for one data set, and how many starting points were solved.
-
-    Parameters
-    ----------
-    theta : ndarray, shape (p,)
-        SI.
-    nuisance : ndarray, shape (k,)
-        SI.
-    cost : float
-        Half the weighted sum of squares.
-    iterations : int
-    converged : bool
-    starts : int
-    note : str, optional
-        A sentence for the message.
-    information : ndarray, shape (p, p), optional
-        The Fisher information at ``theta`` from the solve.
-    others : list of tuple, optional
-        Other converged ends ``(theta, nuisance, cost)``.
-    """
+    """The best fit found for one data set (SI), and how many starting points were solved."""
 
     theta: NDArray[np.float64]
     nuisance: NDArray[np.float64]
-    cost: float
+    cost: float  # half the weighted sum of squares
     iterations: int
     converged: bool
     starts: int
-    note: str = ""
-    information: NDArray[np.float64] | None = None
+    note: str = ""  # a sentence for the message
+    information: NDArray[np.float64] | None = None  # the Fisher information from the solve
     others: list[tuple[NDArray[np.float64], NDArray[np.float64], float]] = field(
-        default_factory=list)
+        default_factory=list)  # other converged ends (theta, nuisance, cost)
 
     def end(self) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
         """Give this fit as one of the ends :attr:`others` lists."""
@@ -362,3 +347,230 @@ def plausible_chi2(chi2: float, dof: int) -> bool:
     """Tell whether a weighted sum of squares is consistent with its degrees of freedom."""
     dof = max(dof, 1)
     return bool(np.isfinite(chi2) and chi2 <= dof + 5.0 * np.sqrt(2.0 * dof) + 5.0)
+
+
+SUBSET_FIRST_ROWS = 20_000
+"""Rows above which a problem with correlated noise is solved on a subset first."""
+SUBSET_ROWS = 5_000
+"""Evenly spread rows of that subset (every start is solved there)."""
+
+
+def subset_first(problem: VarProProblem) -> bool:
+    """Tell whether ``problem`` chooses its start on a subset (correlated noise, many rows)."""
+    rows = len(problem.obs.meas)
+    return bool(problem.noise.correlated) and rows > max(SUBSET_FIRST_ROWS, 2 * SUBSET_ROWS)
+
+
+def solve_on_subset_first(problem: VarProProblem, ys: NDArray[np.float64],
+                          solve_all: Callable[[VarProProblem, NDArray[np.float64]],
+                                              Sequence[Any]],
+                          max_iter: int) -> list[Any]:
+    """Fit each data set on a subset with every start, then its best fit on every row."""
+    small, rows = subsample(problem, SUBSET_ROWS)
+    found = list(solve_all(small, ys[:, rows]))
+    runs = [r for r, fit in enumerate(found) if fit is not None]
+    if not runs or small is problem:
+        return found
+    theta = np.stack([found[r].theta for r in runs])
+    # The subset's optimum is within a few standard deviations of the whole set's: one or
+    # two lightly damped steps.
+    sol = levenberg_marquardt(problem, ys[runs], theta, max_iter=max_iter, damping0=1e-8)
+    for i, r in enumerate(runs):
+        fit = found[r]
+        fit.theta, fit.nuisance = sol.theta[i], sol.nuisance[i]
+        fit.cost, fit.iterations = float(sol.cost[i]), int(sol.iterations[i])
+        fit.converged = bool(sol.converged[i])
+        fit.information = information_of(problem, sol.evaluation, i, sol.information)
+    return found
+
+
+def mirror_plane(problem: VarProProblem) -> float | None:
+    """Return the height of a plane through every sensor that mirrors the track unseen."""
+    meas, motion = problem.obs.meas, problem.obs.motion
+    if (motion.dim != 3 or "z" not in motion.param_names
+            or not np.all(meas.kind_flag("mirror_symmetric"))):
+        return None
+    z = np.concatenate([meas.sensor_state[:, 2], meas.ref_sensor_state[:, 2]])
+    z = z[np.isfinite(z)]
+    vz = meas.sensor_state[:, 5]
+    if z.size == 0 or np.ptp(z) > 1e-9 * max(1.0, np.abs(z).max()) or np.any(vz != 0):
+        return None
+    return float(z[0])
+
+
+def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float
+                 ) -> tuple[NDArray[np.float64], str]:
+    """Choose, of a track and its mirror image through the sensors' plane, the one above."""
+    names = motion.param_names
+    theta = np.array(theta, dtype=float)
+    iz = names.index("z")
+    note = (f"z is ambiguous: the mirror image through the sensors' plane z = {plane:g} m fits "
+            "exactly as well (no elevation is measured); the solution above it is reported")
+    if theta[iz] < plane:
+        theta[iz] = 2.0 * plane - theta[iz]
+        if "vz" in names:
+            theta[names.index("vz")] *= -1.0
+    return theta, note
+
+
+REFITS = 2  # refits with the effective noise relinearised
+
+
+def estimate_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
+                                position_sigma: float, velocity_sigma: float = 0.0,
+                                options: Options = None
+                                ) -> tuple[EstimateResult, EstimateResult]:
+    """Fit by maximum likelihood with the sensors' positions known to ``position_sigma``.
+
+    References
+    ----------
+    Ho, Lu & Kovavisaruch (2007) (source localisation with receiver position errors).
+    """
+    opts = {k: dict(v) for k, v in dict(options or {}).items()}
+    ignoring = MaximumLikelihood(options=opts).fit(meas, motion)
+    obs = ObservationModel(meas, motion, opts)
+    theta = np.asarray(ignoring.estimate, dtype=float)
+    nu = np.array([ignoring.nuisance[n][0] for n in obs.nuisance_names])
+    converged, iterations, cost = ignoring.status == "converged", 0, np.nan
+    for _ in range(REFITS):
+        noise = effective_noise(obs, theta, nu, position_sigma, velocity_sigma)
+        sol = levenberg_marquardt(VarProProblem(obs, noise), obs.values, theta[None, :])
+        theta, nu = sol.theta[0], sol.nuisance[0]
+        converged, cost = bool(sol.converged[0]), float(sol.cost[0])
+        iterations += int(sol.iterations[0])
+    noise = effective_noise(obs, theta, nu, position_sigma, velocity_sigma)
+    note = (f"sensor positions known to {position_sigma:g} m per axis"
+            + (f", velocities to {velocity_sigma:g} m/s" if velocity_sigma else ""))
+    accounting = assemble_result(obs, noise, theta, nu, cost, iterations, converged,
+                                 "ml-sensor-errors", ignoring.starts, None, note)
+    loss = ", ".join(f"{n} {a / b:.3g}x" for n, a, b in zip(
+        motion.param_names, accounting.std, ignoring.std, strict=True))
+    accounting.message += f"; std against perfectly known positions: {loss}"
+    return accounting, ignoring
+
+
+PRESOLVE_ROWS = 20_000
+"""Rows above which the no-guess fit (:func:`~tmakit.batch.ml.solve_without_guess`) first
+converges its starts on a subset."""
+PRESOLVE_SUBSET = 2_000
+"""Evenly spread rows of that subset (its optimum a few of the whole set's standard deviations
+from the whole set's: the full solve then needs two steps; docs/estimation.md)."""
+
+PRESOLVE_DTOL = 0.5
+"""Decrement (half chi2 of the subset) at which the presolve stops: within one of the subset's
+standard deviations of its optimum; :func:`subset_step` takes the whole way from there."""
+
+
+def presolve_subset(problem: VarProProblem
+                    ) -> tuple[VarProProblem, NDArray[np.int64]] | None:
+    """Give the subset :func:`presolve` fits on and its rows, or None for few rows."""
+    if len(problem.obs.meas) <= PRESOLVE_ROWS:
+        return None
+    small, rows = subsample(problem, PRESOLVE_SUBSET)
+    return None if small is problem else (small, rows)
+
+
+def grid_starts(problem: VarProProblem, ys: NDArray[np.float64], settings: GridSettings,
+                subset: tuple[VarProProblem, NDArray[np.int64]] | None) -> list[Starts]:
+    """Rank the grid's starting points, on the presolve's subset when there is one."""
+    if subset is None:
+        return best_starts_many(problem, ys, settings)
+    return best_starts_many(subset[0], ys[:, subset[1]], settings)
+
+
+def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
+             max_iter: int, subset: tuple[VarProProblem, NDArray[np.int64]] | None = None
+             ) -> tuple[NDArray[np.float64], bool]:
+    """Move starting points to their optimum on a subset of rows, for problems of many rows."""
+    theta, near, _ = _presolve(problem, ys, theta, max_iter, subset)
+    return theta, near
+
+
+def _presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
+              max_iter: int, subset: tuple[VarProProblem, NDArray[np.int64]] | None
+              ) -> tuple[NDArray[np.float64], bool, NDArray[np.float64] | None]:
+    """:func:`presolve`, and the subset's ``J'J`` at its optima scaled to every row."""
+    subset = subset or presolve_subset(problem)
+    if subset is None:
+        return theta, False, None
+    small, rows = subset
+    pre = levenberg_marquardt(small, ys[:, rows], theta, max_iter=max_iter, dtol=PRESOLVE_DTOL)
+    ok = pre.converged & np.isfinite(pre.cost)
+    if pre.information is not None:
+        # A subset that cannot see every parameter has no optimum near the whole set's
+        # (bearings from a barely turning observer fit at 10^7 m): such a start stays.
+        sound = ok & np.isfinite(pre.information).all(axis=(1, 2))
+        ok[sound] = full_rank(pre.information[sound])
+    information = None
+    if pre.information is not None and not problem.eliminates:
+        # each evenly spread row of the subset stands for n / m rows of the whole set
+        whole, part = problem.noise.inv_sigma, small.noise.inv_sigma
+        information = np.where(ok[:, None, None], pre.information, np.nan) * (
+            np.einsum("n,n->", whole, whole) / np.einsum("n,n->", part, part))
+    return np.where(ok[:, None], pre.theta, theta), bool(ok.all()), information
+
+
+def gradient_at(problem: VarProProblem, theta: NDArray[np.float64], u: NDArray[np.float64]
+                ) -> tuple[float, NDArray[np.float64]] | None:
+    """Give half chi2 and ``J'r`` at one point without forming the Jacobian, or None."""
+    theta = np.asarray(theta, dtype=float)
+    weights = problem._weights
+    if (problem.k or weights is None or not problem.all_angle or u.shape[0] != 1
+            or theta.shape[0] != 1):
+        return None
+    with np.errstate(invalid="ignore", divide="ignore"):
+        found = planar_gradient_rows(problem.obs, theta, weights)
+        if found is None:
+            return None
+        h0, rows = found
+        e = wrap_angle_own(np.subtract(u[0], h0, out=h0), in_place=True)  # (h0 is ours)
+        r = problem.noise.whiten(e, overwrite=True)
+        return 0.5 * float(np.einsum("n,n->", r, r)), gradient_of_rows(problem.obs, rows, r)
+
+
+def subset_step(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
+                information: NDArray[np.float64] | None
+                ) -> tuple[NDArray[np.float64], float] | None:
+    """Take the first Gauss–Newton step on every row with the subset's ``J'J``, or None."""
+    if (theta.shape[0] != 1 or information is None
+            or not np.all(np.isfinite(information))):
+        return None
+    y = problem.group(ys)
+    found = gradient_at(problem, theta, problem.data_part(y, problem.reference_nuisance(y)))
+    if found is None or not np.isfinite(found[0]):
+        return None
+    try:
+        step = np.linalg.solve(information[0], found[1])
+    except np.linalg.LinAlgError:
+        return None
+    return (theta + step[None], found[0]) if np.all(np.isfinite(step)) else None
+
+
+def _fallback(theta: NDArray[np.float64], stepped: tuple[NDArray[np.float64], float] | None,
+              information: NDArray[np.float64] | None) -> Fallback | None:
+    """Give the presolve's point and cost (and information) to fall back on, if stepped."""
+    if stepped is None:
+        return None
+    cost = np.array([stepped[1]], dtype=np.float64)
+    return (theta, cost) if information is None else (theta, cost, information)
+
+
+POLISH_DECREMENT = 0.5
+"""Decrement (half chi2) from which the full solve after a presolve ends with a step checked
+by its residuals alone (``polish`` of :func:`~tmakit.batch.solver.levenberg_marquardt`)."""
+
+
+def solve_all_rows(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
+                   max_iter: int, groups: NDArray[np.int64], ceiling: NDArray[np.float64],
+                   subset: tuple[VarProProblem, NDArray[np.int64]] | None) -> SolveResult:
+    """Solve every row from starts first converged on the subset (:func:`presolve`)."""
+    theta, near, information = _presolve(problem, ys, theta, max_iter, subset)
+    stepped = subset_step(problem, ys, theta, information) if near else None
+    sol = levenberg_marquardt(problem, ys, theta if stepped is None else stepped[0],
+                              max_iter=max_iter, groups=groups, ceiling=ceiling,
+                              damping0=1e-8 if near else 1e-3,
+                              polish=POLISH_DECREMENT if near else 0.0,
+                              fallback=_fallback(theta, stepped, information))
+    if stepped is not None:
+        sol.iterations += 1  # the step taken with the subset's J'J
+    return sol

@@ -28,7 +28,7 @@ from ..observation import ObservationModel
 from ..results.estimate import EstimateResult, diverged_result, result_from_covariance
 from ..results.status import DIVERGED, NOT_CONVERGED, Status
 from .estimator import Init, PaperMethod, kinds_tuple
-from .gu_geometry import (
+from .gu_direct import (
     DIVERGENCE_FACTOR,
     NUISANCE_NAMES,
     PAPER_KINDS,
@@ -42,26 +42,18 @@ from .gu_geometry import (
 )
 
 __all__ = ["RatioMethod", "doppler_ratio_covariance", "nuisance_given_theta",
-           "power_ratio_covariance", "ratio_method"]
+           "power_ratio_covariance"]
 
 COVARIANCES = ("derived", "paper")
 
 
 @dataclass(frozen=True)
 class RatioPairs:
-    """Consecutive pairs of samples of one kind, and which neighbouring pairs are linked.
+    """Consecutive pairs of samples of one kind, and which neighbouring pairs are linked."""
 
-    Parameters
-    ----------
-    prev, cur : ndarray of int, shape (m,)
-        Rows of each pair's earlier and later sample.
-    linked : ndarray of bool, shape (m,)
-        Pairs ``j`` and ``j + 1`` share a sample (correlated).
-    """
-
-    prev: NDArray[np.int64]
-    cur: NDArray[np.int64]
-    linked: NDArray[np.bool_]
+    prev: NDArray[np.int64]  # (m,) rows of each pair's earlier sample
+    cur: NDArray[np.int64]  # (m,) and its later one
+    linked: NDArray[np.bool_]  # (m,) pairs j and j + 1 share a sample (correlated)
 
 
 def ratio_pairs(meas: MeasurementSet, kind: str) -> RatioPairs:
@@ -77,9 +69,7 @@ def ratio_pairs(meas: MeasurementSet, kind: str) -> RatioPairs:
                              "distinct times (pairs are formed from consecutive samples)")
         prev.append(rows[:-1])
         cur.append(rows[1:])
-        link = np.ones(rows.size - 1, dtype=bool)
-        link[-1] = False
-        linked.append(link)
+        linked.append(chain(rows.size - 1))
     if not prev:
         empty = np.zeros(0, dtype=np.int64)
         return RatioPairs(empty, empty, np.zeros(0, dtype=bool))
@@ -97,12 +87,7 @@ def tridiagonal(diag: Array, off: Array) -> Array:
 
 def power_bands(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array, s_cur: Array,
                 linked: NDArray[np.bool_], covariance: str) -> tuple[Array, Array]:
-    """Return the diagonal and off-diagonal of the power-ratio covariance.
-
-    References
-    ----------
-    Gu et al. (2007), §4, eq. 21 and the text after eq. 25.
-    """
+    """Return the bands of the power-ratio covariance (Gu et al. (2007), eq. 21, after eq. 25)."""
     diag = mu ** 2 * r2_cur ** 2 * s_prev + r2_prev ** 2 * s_cur
     off = np.zeros(mu.size)
     if mu.size > 1:
@@ -115,12 +100,7 @@ def power_bands(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array, s_cur: 
 def doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArray[np.bool_],
                   carrier: float, v_prev: Array | None, v_cur: Array | None,
                   covariance: str) -> tuple[Array, Array]:
-    """Return the diagonal and off-diagonal of the Doppler-ratio covariance.
-
-    References
-    ----------
-    Gu et al. (2007), §4, eq. 27 and the text after eq. 32.
-    """
+    """Return the bands of the Doppler-ratio covariance (Gu et al. (2007), eq. 27, after 32)."""
     c = SPEED_OF_LIGHT
     scale = (c / carrier) ** 2
     off = np.zeros(nu.size)
@@ -141,12 +121,7 @@ def doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArra
 def power_ratio_covariance(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array,
                            s_cur: Array, linked: NDArray[np.bool_] | None = None,
                            covariance: str = "derived") -> Array:
-    """Return the dense covariance of the power-ratio noise terms of consecutive pairs.
-
-    References
-    ----------
-    Gu et al. (2007), §4, eq. 21 and the text after eq. 25.
-    """
+    """Return the dense covariance of the power-ratio noise terms (Gu et al. (2007), eq. 21)."""
     linked = chain(mu.size) if linked is None else linked
     return tridiagonal(*power_bands(mu, r2_prev, r2_cur, s_prev, s_cur, linked, covariance))
 
@@ -155,12 +130,7 @@ def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
                              linked: NDArray[np.bool_] | None = None,
                              carrier: float = 1.0, v_prev: Array | None = None,
                              v_cur: Array | None = None, covariance: str = "derived") -> Array:
-    """Return the dense covariance of the noise terms of ``c h_k`` (eq. 27 times c).
-
-    References
-    ----------
-    Gu et al. (2007), §4, eq. 27 and the text after eq. 32.
-    """
+    """Return the dense covariance of the noise terms of ``c h_k`` (Gu et al. (2007), eq. 27)."""
     linked = chain(nu.size) if linked is None else linked
     return tridiagonal(*doppler_bands(nu, sigma_prev, sigma_cur, linked, carrier, v_prev,
                                         v_cur, covariance))
@@ -175,25 +145,12 @@ def chain(n: int) -> NDArray[np.bool_]:
 
 
 class Banded:
-    """Whitening by a symmetric positive-definite tri-diagonal matrix (banded Cholesky).
-
-    Parameters
-    ----------
-    diag : ndarray, shape (m,)
-    off : ndarray, shape (m,)
-        ``off[j]`` at (j, j+1); the last entry unused.
-
-    Raises
-    ------
-    numpy.linalg.LinAlgError
-        When ``Sigma`` is not positive definite.
-    """
+    """Whitening by a positive-definite tri-diagonal ``Sigma`` (``off[j]`` at (j, j+1))."""
 
     def __init__(self, diag: Array, off: Array) -> None:
         ab = np.zeros((2, diag.size))
         ab[0] = diag
         ab[1, :-1] = off[:-1]
-        self.diag, self.off = diag, off
         self.factor = cholesky_banded(ab, lower=True)   # raises LinAlgError if not PD
 
     def whiten(self, x: Array) -> Array:
@@ -204,16 +161,9 @@ class Banded:
         """Return ``Sigma^-1 x``."""
         return cho_solve_banded((self.factor, True), x)
 
-    def dense(self) -> Array:
-        """Return ``Sigma`` as a dense matrix."""
-        return tridiagonal(self.diag, self.off)
-
 
 class _RatioSystem:
-    """Everything of Gu et al. (2007), eqs. 19-34, that does not depend on theta.
-
-    Also builds the linear system at a given theta.
-    """
+    """Gu et al. (2007), eqs. 19-34, apart from theta; the linear system at a theta."""
 
     def __init__(self, sub: MeasurementSet, motion: ConstantVelocity, kinds: tuple[str, ...],
                  covariance: str) -> None:
@@ -274,9 +224,9 @@ class _RatioSystem:
                 np.concatenate(blocks_o))
 
 
+#: The method's name by the kinds used (both: ``"ratio"``).
 RATIO_NAMES: dict[tuple[str, ...], str] = {("power",): "ratio-power",
                                            ("frequency",): "ratio-doppler"}
-"""The method's name by the kinds used (both: ``"ratio"``)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -287,10 +237,8 @@ class RatioMethod(PaperMethod):
 
     Parameters
     ----------
-    init : Mapping[str, float] or array_like, optional
-        The start ``[x_0, y_0, v_x, v_y]`` (m, m/s); default tmakit's grid point.
-    options : Mapping, optional
-        Only the paper's model (no drift, exponent 2).
+    init, options : optional
+        As for :class:`~tmakit.batch.estimator.PaperMethod`: ``[x_0, y_0, v_x, v_y]`` (m, m/s).
     kinds : str or sequence of str, optional
         ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34, default).
     max_iter : int, optional
@@ -339,12 +287,7 @@ class RatioMethod(PaperMethod):
 
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
-        """Run the iteration of Gu et al. (2007) §4 from ``init``.
-
-        References
-        ----------
-        Gu et al. (2007), §4, eqs. 19-34.
-        """
+        """Run the iteration of Gu et al. (2007) §4 (eqs. 19-34) from ``init``."""
         cv = check_planar_cv(motion, "ratio method")
         kinds_used, sub = select_kinds(meas, self.kinds, "ratio method")
         theta = initial_theta(motion, init, "ratio method")
@@ -417,19 +360,6 @@ def _ratio_result(system: _RatioSystem, motion: MotionModel, theta: Array, statu
         message = "the iteration limit was reached before the update became small"
     return result_from_covariance(motion, theta, cov, nuis, status, iterations, chi2,
                                   system.n - p, method, message, extra)
-
-
-def ratio_method(meas: MeasurementSet, motion: MotionModel, init: Init,
-                 kinds: str | Sequence[str] = ("power", "frequency"), max_iter: int = 50,
-                 covariance: str = "derived", tol: float = 1e-9) -> EstimateResult:
-    """Run Gu et al. (2007) §4 from ``init``: the short form of :class:`RatioMethod`.
-
-    References
-    ----------
-    Gu et al. (2007), §4, eqs. 19-34.
-    """
-    return RatioMethod(kinds=kinds, max_iter=max_iter, covariance=covariance,
-                       tol=tol).iterate(meas, motion, init)
 
 
 def nuisance_given_theta(meas: MeasurementSet, motion: MotionModel, theta: Array,

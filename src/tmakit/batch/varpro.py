@@ -3,12 +3,16 @@
 Every nuisance enters linearly, so it is eliminated exactly (variable projection, Golub &
 Pereyra (1973); Kaufman (1975)'s projected Jacobian), avoiding the conditioning problem of Gu et
 al. (2007), §3.  Vectorised over a leading batch axis (starting points or Monte Carlo runs).
+:class:`Evaluation` holds what a Gauss–Newton step needs: the Jacobian, or ``J'J`` and ``J'r``
+(summed from the motion model without ``J`` where it can: :class:`DeferredNormal`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,9 +24,117 @@ from ..core.frames import wrap_angle_own as _wrap_own
 from ..observation import Linearisation, ObservationModel
 from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
-from .evaluation import Evaluation
-from .evaluation import normal_of as _normal_of
-from .varpro_normal import motion_normal
+
+
+class DeferredNormal:
+    """``(J'J, J'r)`` of a batch, summed when first read (``make(runs)``; the same bits).
+
+    :meth:`take` and :meth:`runs` sum only some runs; ``rows`` are the runs of the batch of
+    ``size`` runs this object stands for (default all).
+    """
+
+    def __init__(self, make: Callable[[NDArray[np.int64] | None], tuple[Array, Array]],
+                 size: int, rows: NDArray[np.int64] | None = None) -> None:
+        self._make, self._size, self._rows = make, size, rows
+        self._value: tuple[Array, Array] | None = None
+
+    def _whole(self) -> tuple[Array, Array]:
+        if self._value is None:
+            self._value = self._make(self._rows)
+        return self._value
+
+    def __getitem__(self, i: int) -> Array:
+        """Give ``J'J`` (0) or ``J'r`` (1) of every run."""
+        return self._whole()[i]
+
+    def __iter__(self) -> Iterator[Array]:
+        """Give ``J'J`` then ``J'r``."""
+        return iter(self._whole())
+
+    def __len__(self) -> int:
+        """Two: ``J'J`` and ``J'r``."""
+        return 2
+
+    def runs(self, which: NDArray[np.bool_] | NDArray[np.int64] | slice) -> tuple[Array, Array]:
+        """Give the sums of the runs ``which`` (indices into this object's runs)."""
+        if self._value is not None:
+            return self._value[0][which], self._value[1][which]
+        own = np.arange(self._size) if self._rows is None else self._rows
+        return self._make(own[which])
+
+    def take(self, which: NDArray[np.bool_] | NDArray[np.int64] | slice
+             ) -> DeferredNormal | tuple[Array, Array]:
+        """Stand for the runs ``which`` only (their sums still deferred, or copied if made)."""
+        if self._value is not None:
+            return self._value[0][which], self._value[1][which]
+        own = np.arange(self._size) if self._rows is None else self._rows
+        return DeferredNormal(self._make, self._size, own[which])
+
+
+def motion_normal(obs: Any, lin: Linearisation, residual: Array, weights: Array | None
+                  ) -> DeferredNormal | None:
+    """Give ``J'J`` and ``J'r`` of the whitened Jacobian from the motion model, or None."""
+    normal = getattr(obs.motion, "normal_equations_later", None)
+    if (normal is None or weights is None or lin.planar_jacobian is not None or lin.d_h0 is None
+            or lin.d_a or lin.d_h0_ref is not None or lin.theta.ndim != 2):
+        return None
+    make = normal(lin.d_h0, residual, weights, lin.theta, obs._time)
+    return None if make is None else DeferredNormal(make, residual.shape[0])
+
+
+@dataclass
+class Evaluation:
+    """Reduced residuals and what a step needs, for a batch of parameter vectors (SI)."""
+
+    theta: Array      # (B, p)
+    nuisance: Array   # (B, k) eliminated (or fixed) nuisance values
+    residual: Array   # (B, n) whitened, nuisance projected out
+    cost: Array       # (B,)  half the squared whitened residual (inf: no prediction)
+    jacobian: Array | None = None  # (B, n, p) whitened, projected
+    # (B, p, p) J'J and (B, p) J'r: by chunks, or summed when first read (DeferredNormal)
+    normal: tuple[Array, Array] | DeferredNormal | None = None
+
+    def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
+        """Copy the evaluations of ``rows``."""
+        normal = self.normal
+        if isinstance(normal, DeferredNormal):
+            normal = normal.take(rows)  # (still deferred unless already summed)
+        elif normal is not None:
+            normal = (normal[0][rows], normal[1][rows])
+        return Evaluation(self.theta[rows], self.nuisance[rows], self.residual[rows],
+                          self.cost[rows], None if self.jacobian is None
+                          else self.jacobian[rows], normal)
+
+    def put(self, rows: NDArray[np.bool_] | NDArray[np.int64], other: Evaluation,
+            which: NDArray[np.bool_] | NDArray[np.int64] | slice = slice(None)) -> None:
+        """Overwrite ``rows`` with ``other``'s evaluations ``which``, in place."""
+        if isinstance(self.normal, DeferredNormal):  # written into: summed first, as it was
+            self.normal = (self.normal[0], self.normal[1])
+        if (self.jacobian is None) != (other.jacobian is None):
+            # One holds its Jacobian, the other only J'J and J'r (summed by chunks of rows, or
+            # by the compiled batch kernel): both as normal equations.
+            self.normal, self.jacobian = normal_of(self), None
+            other = Evaluation(other.theta, other.nuisance, other.residual, other.cost, None,
+                               normal_of(other))
+        self.theta[rows] = other.theta[which]
+        self.nuisance[rows] = other.nuisance[which]
+        self.residual[rows] = other.residual[which]
+        self.cost[rows] = other.cost[which]
+        if self.jacobian is not None and other.jacobian is not None:
+            self.jacobian[rows] = other.jacobian[which]
+        if self.normal is not None and other.normal is not None:
+            got = (other.normal.runs(which) if isinstance(other.normal, DeferredNormal)
+                   else (other.normal[0][which], other.normal[1][which]))
+            self.normal[0][rows], self.normal[1][rows] = got
+
+
+def normal_of(ev: Evaluation) -> tuple[Array, Array] | DeferredNormal | None:
+    """Give ``J'J`` ``(B, p, p)`` and ``J'r`` ``(B, p)`` of ``ev`` (its own when it has them)."""
+    if ev.normal is not None or ev.jacobian is None:
+        return ev.normal
+    jt = ev.jacobian.swapaxes(1, 2)
+    return jt @ ev.jacobian, (jt @ ev.residual[:, :, None])[..., 0]
+
 
 _compiled_batches = [False]  # inside compiled_batches(True)
 
@@ -150,18 +262,17 @@ class VarProProblem:
         return out
 
     def data_part(self, y: Array, nu_star: Array) -> Array:
-        """Form ``y - A_const nu*`` ``(B, n)``, the part of the residual independent of ``theta``.
+        """Form ``y - A_const nu*``, the part of the residual independent of ``theta``.
 
         Parameters
         ----------
-        y : ndarray
-            ``(B, n)`` grouped data, SI.
-        nu_star : ndarray
-            ``(B, k)`` reference nuisance.
+        y, nu_star : ndarray
+            ``(B, n)`` grouped data and ``(B, k)`` reference nuisance, SI.
 
         Returns
         -------
         ndarray
+            ``(B, n)``.
         """
         if self.k == 0:
             y_float = isinstance(y, np.ndarray) and y.dtype == np.float64 and y.flags.writeable
@@ -174,12 +285,8 @@ class VarProProblem:
 
         Parameters
         ----------
-        theta : ndarray
-            ``(B, p)``, SI.
-        y : ndarray
-            ``(B, n)`` grouped data, SI.
-        nu_star : ndarray
-            ``(B, k)`` reference nuisance.
+        theta, y, nu_star : ndarray
+            ``(B, p)`` parameters, ``(B, n)`` grouped data, ``(B, k)`` reference nuisance, SI.
         with_jacobian : bool
 
         Returns
@@ -195,14 +302,12 @@ class VarProProblem:
 
     def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
                       with_jacobian: bool = True, quiet: bool = False) -> Evaluation:
-        """Evaluate as :meth:`evaluate`, from the data part ``u`` of :meth:`data_part`.
+        """Evaluate as :meth:`evaluate`, from the data part ``u`` ``(B, n)`` of :meth:`data_part`.
 
         Parameters
         ----------
-        theta, nu_star, with_jacobian
+        theta, u, nu_star, with_jacobian
             As for :meth:`evaluate`.
-        u : ndarray
-            ``(B, n)``, SI.
         quiet : bool
             The caller already ignores floating-point errors.
 
@@ -257,7 +362,7 @@ class VarProProblem:
             part = self.take(self.obs.order[lo:hi])._evaluate(theta, u[:, lo:hi], nu_star,
                                                               with_jacobian)
             r[:, lo:hi] = part.residual
-            if (normal := _normal_of(part)) is not None:  # (its J'J and J'r, however held)
+            if (normal := normal_of(part)) is not None:  # (its J'J and J'r, however held)
                 gram += normal[0]
                 grad += normal[1]
         cost = 0.5 * np.einsum("bn,bn->b", r, r)
@@ -267,8 +372,7 @@ class VarProProblem:
 
     def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
                   ) -> Evaluation:
-        # Worked with the design and the Jacobian transposed, (B, k, n) and (B, p, n): every
-        # operation then runs along the rows.
+        # design and Jacobian transposed, (B, k, n) and (B, p, n): operations run along rows
         lin = self.obs.linearisation(theta, with_jacobian, weights=self._weights)
         at = lin.a_var.swapaxes(-1, -2) if self.k else None
         # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
@@ -335,10 +439,8 @@ class VarProProblem:
 
         Parameters
         ----------
-        theta : ndarray
-            ``(B, p)``, SI.
-        y : ndarray
-            ``(n,)`` or ``(B, n)`` grouped data, SI.
+        theta, y : ndarray
+            ``(B, p)``, SI; ``(n,)`` or ``(B, n)`` grouped data, SI.
 
         Returns
         -------

@@ -275,7 +275,7 @@ def sensor_error_fitter(meas: Any, motion: str | None, ref_time: float | None, m
     """Return the fit that accounts for sensor position errors (``--sensor-position-sigma``)."""
     import math
 
-    from ..batch.sensor_errors import estimate_with_sensor_errors
+    from ..batch.ml import estimate_with_sensor_errors
 
     if not (math.isfinite(sigma) and sigma >= 0):
         raise fail(f"--sensor-position-sigma {sigma}: expected a distance >= 0 (m)")

@@ -98,7 +98,7 @@ class PlanarUnits:
     """Sines and cosines of one planar angle kind's predictions, many parameter vectors at once.
 
     For a grid of candidates scored by the chord of the angles
-    (:class:`~tmakit.batch.chord.ChordScorer`): the relative east and north positions by one
+    (:class:`~tmakit.batch.init.ChordScorer`): the relative east and north positions by one
     product with the affine row map, then the model's ``planar_unit`` (for the bearing
     ``(dx, dy) / r``): no angle is formed.  Made by :func:`planar_units`.
 

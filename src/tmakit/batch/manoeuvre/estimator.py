@@ -1,14 +1,15 @@
-"""The entry points of the manoeuvre estimator.
+"""The entry points of the manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`).
 
-:func:`estimate_manoeuvres` and the hook :func:`estimate_for` of ``tk.estimate`` (see
-:mod:`tmakit.batch.manoeuvre` for the method).
+:func:`estimate_manoeuvres`, the hook :func:`estimate_for` of ``tk.estimate``, and the
+estimator as an object (:class:`ManoeuvreEstimator`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -20,10 +21,16 @@ from ...results.estimate import EstimateResult
 from ...results.nuisance import KnownNuisanceLike, as_known_nuisance
 from ...results.solutions import Solution, separated_solutions
 from ...results.status import DIVERGED
+from ..estimator import (
+    BatchEstimator,
+    Init,
+    Options,
+    refuse_manoeuvre_options,
+    theta_from_init,
+)
 from .report import ManoeuvreEstimate, report
-from .search import ManoeuvreSearch
+from .search import ManoeuvreSearch, ManoeuvreSettings, OrderFit
 from .selection import OrderSelection, select_order, sparsify, unknown_price
-from .settings import ManoeuvreSettings, OrderFit
 
 
 def _fit_from_start(search: ManoeuvreSearch, ref: float,
@@ -32,11 +39,7 @@ def _fit_from_start(search: ManoeuvreSearch, ref: float,
     s = search.s
     m = s.max_manoeuvres
     user = PiecewiseCurvilinear(m, ref)
-    theta0 = (user.theta(init) if isinstance(init, Mapping)
-              else np.asarray(init, dtype=float).reshape(-1))
-    if theta0.shape != (user.n_params,):
-        raise ValueError(f"init must give {user.n_params} values "
-                         f"({', '.join(user.param_names)})")
+    theta0 = theta_from_init(user, init)
     if m and (np.any(np.diff(theta0[6 + 2 * m:]) <= 0)
               or theta0[6 + 2 * m] <= search.t0 or theta0[-1] >= search.t_end):
         raise ValueError("init: the change-over times must increase and lie inside the "
@@ -127,23 +130,12 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
     meas : MeasurementSet
     max_manoeuvres : int
         The most manoeuvres tried (orders ``0 .. max_manoeuvres``).
-    exact : bool
-        Fit exactly ``max_manoeuvres``.
-    criterion : {"bic", "lrt"}
-        How the order is chosen.
-    alpha : float
-        Level of the likelihood-ratio tests.
-    accelerations : {"select", "all"}, optional
-        Hold unneeded accelerations at zero (default ``settings``', ``"select"``).
+    exact, criterion, alpha, accelerations, options, known_nuisance, settings : optional
+        As for :func:`tmakit.batch.estimate` (``accelerations``: default ``settings``').
     ref_time : float, optional
         Reference time of the reported state, s; default the first measurement time.
     init : mapping or array_like, optional
         Parameters at ``ref_time``, SI: that order alone is fitted from it.
-    options : mapping, optional
-        The nuisance model per kind.
-    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-    settings : ManoeuvreSettings, optional
-        The search's grid and limits.
 
     Returns
     -------
@@ -187,10 +179,10 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
     motion : PiecewiseCurvilinear or str
         ``M`` manoeuvres (or ``"curvilinear:M"``) searches ``0..M``; other names go to
         :func:`tmakit.batch.ml.estimate`.
-    init, options, known_nuisance, max_iter : optional
-        As for :func:`tmakit.batch.ml.estimate`.
-    exact, criterion, alpha, accelerations, ref_time, settings : optional
-        As for :func:`estimate_manoeuvres`; refused (but ``ref_time``) without manoeuvres.
+    init, options, known_nuisance, max_iter, exact, criterion, alpha : optional
+        As for :func:`tmakit.batch.estimate`.
+    accelerations, ref_time, settings : optional
+        As for :func:`tmakit.batch.estimate`.
 
     Returns
     -------
@@ -215,9 +207,7 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
         model = motion_from_name(motion, default_ref_time(meas.time) if ref is None
                                  else float(ref))
         if not isinstance(model, PiecewiseCurvilinear):
-            if given:
-                raise TypeError(f"estimate() got options for manoeuvring targets "
-                                f"({', '.join(given)}) with motion {motion!r}")
+            refuse_manoeuvre_options(given, motion)
             from ..ml import estimate
 
             return estimate(meas, model, init=init, options=options,
@@ -230,3 +220,60 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
         meas, m, exact=bool(exact), criterion="bic" if criterion is None else criterion,
         alpha=0.01 if alpha is None else alpha, accelerations=accelerations, ref_time=ref,
         init=init, options=options, known_nuisance=known_nuisance, settings=search)
+
+
+@dataclass(frozen=True, eq=False)
+class ManoeuvreEstimator(BatchEstimator):
+    """Maximum likelihood for a manoeuvring target, ``0..M`` manoeuvres, no initial guess.
+
+    Parameters
+    ----------
+    init, options, known_nuisance, max_iter, exact, criterion, alpha : optional
+        As for :func:`tmakit.batch.estimate`.
+    accelerations, ref_time, settings : optional
+        As for :func:`tmakit.batch.estimate`.
+
+    References
+    ----------
+    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
+    """
+
+    init: Init = None
+    options: Options = None
+    known_nuisance: KnownNuisanceLike = None
+    max_iter: int = 100
+    exact: bool | None = None
+    criterion: str | None = None
+    alpha: float | None = None
+    accelerations: str | None = None
+    ref_time: float | None = None
+    settings: ManoeuvreSettings | None = None
+
+    name: ClassVar[str] = "ml"
+    takes_known_nuisance: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        """``known_nuisance`` as a :class:`KnownNuisance` or None."""
+        object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
+
+    def manoeuvre_options(self) -> dict[str, object]:
+        """Collect the manoeuvre settings given (not None), by keyword.
+
+        Returns
+        -------
+        dict
+        """
+        given = {"exact": self.exact, "criterion": self.criterion, "alpha": self.alpha,
+                 "accelerations": self.accelerations, "ref_time": self.ref_time,
+                 "settings": self.settings}
+        return {k: v for k, v in given.items() if v is not None}
+
+    def fit(self, meas: MeasurementSet, motion: PiecewiseCurvilinear | str  # type: ignore[override]
+            ) -> EstimateResult:
+        """Estimate the manoeuvring target's motion."""
+        return estimate_for(meas, motion, init=self.init, options=self.options,
+                            known_nuisance=self.known_nuisance,
+                            max_iter=self.max_iter, exact=self.exact,
+                            criterion=self.criterion, alpha=self.alpha,
+                            accelerations=self.accelerations, ref_time=self.ref_time,
+                            settings=self.settings)

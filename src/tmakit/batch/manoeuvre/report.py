@@ -19,9 +19,8 @@ from ...motion.fixed import FixedParameters
 from ...observation import ObservationModel
 from ...results.estimate import EstimateResult, assemble_result
 from ...results.status import CONVERGED, DIVERGED, NOT_CONVERGED
-from .search import ManoeuvreSearch
+from .search import ManoeuvreSearch, OrderFit
 from .selection import OrderSelection, fit_criterion
-from .settings import OrderFit
 
 
 @dataclass

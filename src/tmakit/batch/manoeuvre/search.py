@@ -1,26 +1,221 @@
 """The change-over-time search of the manoeuvre estimator (:mod:`tmakit.batch.manoeuvre`).
 
-Every fit is a run of :func:`tmakit.batch.solver.levenberg_marquardt` (:func:`lm_fit`).
+Its settings (:class:`ManoeuvreSettings`) and each order's fit (:class:`OrderFit`); the profile
+grid of the change-over times (tuples of grid times, their local minima, the warm start that
+splits a segment in two); every fit a run of :func:`tmakit.batch.solver.levenberg_marquardt`
+with the search's damping and stopping rules (:func:`lm_fit`).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
+from contextlib import nullcontext
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ...core import blas
 from ...core.arrays import Array
 from ...data import MeasurementSet
 from ...motion import ConstantVelocity
 from ...motion.curvilinear_batch import ForwardPiecewise
 from ...observation import ObservationModel
 from ...results.nuisance import KnownNuisance
-from ..solver import VarProProblem, levenberg_marquardt
-from .fitting import lm_fit
-from .grid import grid_tuples, local_minima, split_segment
-from .settings import ManoeuvreSettings, OrderFit
+from ..solver import SolveResult, VarProProblem, levenberg_marquardt
+
+CRITERIA = ("bic", "lrt")
+"""Criteria for the number of manoeuvres and the accelerations held."""
+ACCELERATIONS = ("select", "all")
+"""How the accelerations are fitted (see :class:`ManoeuvreSettings`)."""
+
+
+@dataclass(frozen=True)
+class ManoeuvreSettings:
+    """How the manoeuvre estimator searches (times in seconds).
+
+    Parameters
+    ----------
+    max_manoeuvres : int
+        The largest order tried.
+    exact : bool
+        Fit only ``max_manoeuvres``.
+    criterion : {"bic", "lrt"}
+        How the order and the held accelerations are chosen.
+    alpha : float
+        Level of the likelihood-ratio tests, in (0, 1).
+    grid_step : float
+        Spacing of the profile grid, s.
+    min_segment : float
+        Shortest segment, and the grid's distance from the data's ends, s.
+    refine : int
+        Profile minima refined per order.
+    profile_iter : int
+        Iterations of each held fit.
+    max_tuples : int
+        Beyond this many grid tuples only those extending the order below's best minima are fitted.
+    prune : float
+        Held fits stop once they cannot come within this (half chi2) of the best.
+    polish_step, polish_rounds : float, int
+        The finer profile after refinement (s; 0 rounds: none).
+    max_iter : int
+        Iterations of a refinement with every parameter free.
+    accelerations : {"select", "all"}
+        Hold unneeded accelerations at zero (default), or fit all.
+
+    Raises
+    ------
+    ValueError
+        For a setting out of its range, named.
+    """
+
+    max_manoeuvres: int = 2
+    exact: bool = False
+    criterion: str = "bic"
+    alpha: float = 0.01
+    grid_step: float = 40.0
+    min_segment: float = 20.0
+    refine: int = 3
+    profile_iter: int = 12
+    max_tuples: int = 400
+    prune: float = 25.0
+    polish_step: float = 4.0
+    polish_rounds: int = 2
+    max_iter: int = 100
+    accelerations: str = "select"
+
+    def __post_init__(self) -> None:
+        """Refuse settings out of range."""
+        if self.max_manoeuvres < 0 or int(self.max_manoeuvres) != self.max_manoeuvres:
+            raise ValueError(f"max_manoeuvres must be a whole number >= 0, got "
+                             f"{self.max_manoeuvres!r}")
+        if self.criterion not in CRITERIA:
+            raise ValueError(f"criterion must be one of {', '.join(CRITERIA)}, got "
+                             f"{self.criterion!r}")
+        if not 0.0 < self.alpha < 1.0:
+            raise ValueError(f"alpha must lie in (0, 1), got {self.alpha!r}")
+        if not self.grid_step > 0 or not self.min_segment > 0:
+            raise ValueError("grid_step and min_segment must be positive (seconds)")
+        if self.refine < 1 or self.profile_iter < 1 or self.max_iter < 1:
+            raise ValueError("refine, profile_iter and max_iter must be at least 1")
+        if self.polish_rounds < 0 or not self.polish_step > 0:
+            raise ValueError("polish_rounds must be >= 0 and polish_step positive (seconds)")
+        if self.max_tuples < 1:
+            raise ValueError("max_tuples must be at least 1")
+        if self.accelerations not in ACCELERATIONS:
+            raise ValueError(f"accelerations must be one of {', '.join(ACCELERATIONS)}, got "
+                             f"{self.accelerations!r}")
+
+
+@dataclass
+class OrderFit:
+    """The best fit with ``manoeuvres`` manoeuvres.
+
+    Parameters
+    ----------
+    manoeuvres : int
+    theta : ndarray
+        Internal parameters (at the first measurement time), SI.
+    nuisance : ndarray
+    chi2 : float
+    unknowns : int
+        Motion and nuisance parameters fitted.
+    converged : bool
+    iterations : int
+    starts : int
+        Starts of the final refinement.
+    note : str
+        How the fit was settled, when it matters.
+    profile_times, profile_chi2 : ndarray
+        The profile grid's change-over times ``(G, M)``, s, and chi2 ``(G,)``.
+    free : ndarray of bool, optional
+        The internal parameters fitted; None: all.
+    alternatives : list of OrderFit
+        Other local minima of this order.
+    """
+
+    manoeuvres: int
+    theta: Array
+    nuisance: Array
+    chi2: float
+    unknowns: int
+    converged: bool
+    iterations: int
+    starts: int
+    note: str = ""
+    profile_times: Array = field(default_factory=lambda: np.zeros((0, 0)))
+    profile_chi2: Array = field(default_factory=lambda: np.zeros(0))
+    free: NDArray[np.bool_] | None = None  # internal parameters fitted; None: all
+    alternatives: list[OrderFit] = field(default_factory=list)
+
+    def free_mask(self) -> NDArray[np.bool_]:
+        """Which internal parameters are fitted (the others are accelerations held at 0).
+
+        Returns
+        -------
+        ndarray of bool
+        """
+        return np.ones(self.theta.shape[0], dtype=bool) if self.free is None else self.free
+
+
+def grid_tuples(grid: Array, m: int, min_gap: float) -> NDArray[np.int64]:
+    """Index tuples ``i_1 < ... < i_m`` into ``grid`` whose times are ``min_gap`` apart."""
+    if m == 0:
+        return np.zeros((1, 0), dtype=np.int64)
+    out = [c for c in itertools.combinations(range(grid.size), m)
+           if m == 1 or np.all(np.diff(grid[list(c)]) >= min_gap - 1e-9)]
+    return np.array(out, dtype=np.int64).reshape(-1, m)
+
+
+def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
+    """Insert a change-over time into fits, splitting a segment in two."""
+    b = theta.shape[0]
+    acc = theta[:, 4:6 + 2 * m_prev].reshape(b, m_prev + 1, 2)
+    acc = np.concatenate([acc[:, :j + 1], acc[:, j:j + 1], acc[:, j + 1:]], axis=1)
+    times = np.insert(theta[:, 6 + 2 * m_prev:], j, t_new, axis=1)
+    return np.concatenate([theta[:, :4], acc.reshape(b, -1), times], axis=1)
+
+
+def local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
+    """Find the rows of ``tuples`` that are local minima of the cost, best first."""
+    where = {tuple(t): i for i, t in enumerate(tuples)}
+    keep = []
+    for i, t in enumerate(tuples):
+        if not np.isfinite(cost[i]):
+            continue
+        ok = True
+        for k in range(tuples.shape[1]):
+            for d in (-1, 1):
+                nb = list(t)
+                nb[k] += d
+                other = where.get(tuple(nb))
+                if other is not None and cost[other] < cost[i]:
+                    ok = False
+        if ok:
+            keep.append(i)
+    keep_arr = np.array(keep, dtype=np.int64)
+    return keep_arr[np.argsort(cost[keep_arr])] if keep_arr.size else keep_arr
+
+
+def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
+           rtol: float = 1e-3, atol: float = 0.02, prune: float | None = None,
+           best: float = np.inf, max_reject: int = 40, stall: float = 0.0) -> SolveResult:
+    """Fit by Levenberg–Marquardt with the search's damping and stopping rules."""
+    motion = problem.obs.motion
+    # the held parameters' derivatives are not formed (ForwardPiecewise.derivatives_for),
+    # unless the rows are summed in chunks (J'J formed over every column)
+    held = (isinstance(motion, ForwardPiecewise) and len(problem.obs.meas) <= blas.CHUNKED_ROWS
+            and not np.all(free))
+    with (motion.derivatives_for(free) if held and isinstance(motion, ForwardPiecewise)
+          else nullcontext()):
+        return levenberg_marquardt(
+            problem, problem.obs.values, theta0, max_iter, ftol=rtol, xtol=0.0, gtol=0.0,
+            dtol=atol, ceiling=None if prune is None else np.asarray(best), free=free,
+            damping="factors", max_reject=max_reject, stall=stall,
+            dominance=(2.0, 0.0 if prune is None else prune))
+
 
 _CHUNK = 256  # held fits per batch on the profile grid
 PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
@@ -30,20 +225,8 @@ PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 class ManoeuvreSearch:
     """The fits of every order for one data set (shared grid, warm starts between orders).
 
-    Internal parameters are those of ``ForwardPiecewise`` referenced at the first measurement time.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-    options : mapping, optional
-        Nuisance model per kind.
-    known_nuisance : KnownNuisance or None
-        None: the nuisance is estimated.
-    settings : ManoeuvreSettings
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 8 (the weighted least-squares fit of each order).
+    Internal parameters are those of ``ForwardPiecewise`` referenced at the first measurement
+    time; each order is the weighted least-squares fit of Hörst & Oispuu (2010), eq. 8.
     """
 
     def __init__(self, meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
@@ -66,16 +249,7 @@ class ManoeuvreSearch:
         self.profiles: dict[int, tuple[NDArray[np.int64], Array, Array]] = {}
 
     def problem(self, m: int) -> VarProProblem:
-        """Give the least-squares problem with ``m`` manoeuvres (cached).
-
-        Parameters
-        ----------
-        m : int
-
-        Returns
-        -------
-        VarProProblem
-        """
+        """Give the least-squares problem with ``m`` manoeuvres (cached)."""
         if m not in self._problems:
             model = ForwardPiecewise(m, self.t0, end_time=self.t_end)
             obs = ObservationModel(self.meas, model, self.options)
@@ -84,12 +258,7 @@ class ManoeuvreSearch:
         return self._problems[m]
 
     def max_order(self) -> int:
-        """Count the most manoeuvres the grid can hold (at most ``max_manoeuvres``).
-
-        Returns
-        -------
-        int
-        """
+        """Count the most manoeuvres the grid can hold (at most ``max_manoeuvres``)."""
         m = 0
         while m < self.s.max_manoeuvres and grid_tuples(self.grid, m + 1,
                                                         self.min_gap).shape[0] > 0:
@@ -97,39 +266,13 @@ class ManoeuvreSearch:
         return m
 
     def unknowns(self, m: int, free: NDArray[np.bool_] | None = None) -> int:
-        """Count the unknowns of the order ``m`` model (fitted motion and free nuisance).
-
-        Parameters
-        ----------
-        m : int
-        free : ndarray of bool, optional
-            The motion parameters fitted (default all).
-
-        Returns
-        -------
-        int
-        """
+        """Count the unknowns of the order ``m`` model (fitted motion and free nuisance)."""
         pr = self.problem(m)
         p = pr.p if free is None else int(np.count_nonzero(free))
         return p + (0 if pr.fixed is not None else pr.k)
 
     def fit_zero(self, init: Array | None = None) -> OrderFit:
-        """Fit order 0 (one curvilinear segment).
-
-        Parameters
-        ----------
-        init : ndarray, optional
-            ``(6,)`` start, SI; default the no-guess constant-velocity fit.
-
-        Returns
-        -------
-        OrderFit
-
-        Raises
-        ------
-        ValueError
-            When the start gives no finite fit.
-        """
+        """Fit order 0 (one curvilinear segment)."""
         pr = self.problem(0)
         if init is None:
             from ..ml import estimate as estimate_cv
@@ -176,18 +319,7 @@ class ManoeuvreSearch:
         return tuples, start, best_cost
 
     def profile(self, m: int) -> tuple[NDArray[np.int64], Array, Array]:
-        """Fit with the change-over times held on the grid tuples of order ``m``, warm-started.
-
-        Parameters
-        ----------
-        m : int
-            ``m >= 1``.
-
-        Returns
-        -------
-        tuples, theta, cost : ndarray
-            ``(T, m)`` grid index tuples, ``(T, p)`` held fits (NaN: no start), ``(T,)`` half chi2.
-        """
+        """Fit with the change-over times held on the grid tuples of order ``m``, warm-started."""
         tuples, start, best_cost = self._profile_starts(m)
         ok = np.flatnonzero(np.isfinite(best_cost))
         pr = self.problem(m)
@@ -206,25 +338,7 @@ class ManoeuvreSearch:
         return tuples, theta, cost
 
     def fit(self, m: int, below: OrderFit | None = None) -> OrderFit:
-        """Fit order ``m``: profile, then refine its best minima and ``below`` split in two.
-
-        Parameters
-        ----------
-        m : int
-            >= 1.
-        below : OrderFit, optional
-            The order ``m - 1`` fit.
-
-        Returns
-        -------
-        OrderFit
-            With its profile (``profile_times`` in s, ``profile_chi2``).
-
-        Raises
-        ------
-        ValueError
-            When no grid point gives a finite fit.
-        """
+        """Fit order ``m``: profile, then refine its best minima and ``below`` split in two."""
         tuples, theta, cost = self.profile(m)
         minima = local_minima(tuples, cost)[: self.s.refine]
         if minima.size == 0:
@@ -262,19 +376,7 @@ class ManoeuvreSearch:
         return np.array(starts), np.array(held, dtype=np.int64)
 
     def polish(self, fit: OrderFit, reach: float | None = None) -> OrderFit:
-        """Profile each change-over time finely (``polish_step``) around the refined fit.
-
-        Parameters
-        ----------
-        fit : OrderFit
-        reach : float, optional
-            Half-width of the held grid, s (default ``grid_step``).
-
-        Returns
-        -------
-        OrderFit
-            ``fit`` itself when nothing beats it.
-        """
+        """Profile each change-over time finely (``polish_step``) around the refined fit."""
         m = fit.manoeuvres
         if m == 0 or not np.isfinite(fit.chi2):
             return fit
@@ -309,20 +411,7 @@ class ManoeuvreSearch:
 
     def fit_from(self, m: int, theta0: Array, free: NDArray[np.bool_] | None = None
                  ) -> OrderFit:
-        """Fit from the starts ``theta0``; the lowest cost wins, settled on a corner if at one.
-
-        Parameters
-        ----------
-        m : int
-        theta0 : ndarray
-            ``(B, p)`` or ``(p,)`` internal parameters, SI.
-        free : ndarray of bool, optional
-            ``(p,)`` the parameters fitted (default all).
-
-        Returns
-        -------
-        OrderFit
-        """
+        """Fit from the starts ``theta0``; the lowest cost wins, settled on a corner if at one."""
         pr = self.problem(m)
         mask = np.ones(pr.p, dtype=bool) if free is None else free
         sol = lm_fit(pr, np.atleast_2d(theta0), mask, self.s.max_iter, rtol=1e-10, atol=1e-7,
@@ -358,19 +447,7 @@ class ManoeuvreSearch:
         return np.array(probes)
 
     def settle(self, fit: OrderFit, rounds: int = 8, tol: float = 1e-4) -> None:
-        """Settle in place a refinement stopped on a corner of the likelihood (a sample time).
-
-        Converged when no held fit with a change-over time moved by :data:`PROBES` lowers
-        chi2 by more than ``tol``; otherwise refined again from the best, at most ``rounds`` times.
-
-        Parameters
-        ----------
-        fit : OrderFit
-            Updated in place.
-        rounds : int
-        tol : float
-            Decrease of chi2 that counts.
-        """
+        """Settle in place a refinement stopped on a corner of the likelihood (a sample time)."""
         m = fit.manoeuvres
         pr = self.problem(m)
         held_free = fit.free_mask().copy()

@@ -1,8 +1,7 @@
 """Model selection of the manoeuvre estimator.
 
 The number of manoeuvres (BIC or sequential likelihood-ratio tests, :func:`select_order`) and
-the accelerations the data need (backward elimination, :func:`sparsify`).  See
-:mod:`tmakit.batch.manoeuvre` for the criteria and why.
+the accelerations the data need (backward elimination, :func:`sparsify`).
 """
 
 from __future__ import annotations
@@ -15,8 +14,7 @@ from numpy.typing import NDArray
 
 from ...core import chi2 as chi2_dist
 from ...core.arrays import Array
-from .search import ManoeuvreSearch, lm_fit
-from .settings import CRITERIA, ManoeuvreSettings, OrderFit
+from .search import CRITERIA, ManoeuvreSearch, ManoeuvreSettings, OrderFit, lm_fit
 
 
 @dataclass
@@ -225,24 +223,9 @@ def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
     """Hold at zero the accelerations the data do not need (``accelerations="select"``).
 
     Backward elimination: the hold that raises chi2 least is kept while the rise is below the
-    price of one unknown (``ln N`` for BIC, the chi-square(1) quantile for the test; two together
-    below twice it, :data:`LOOK_AHEAD`); the change-over times are then profiled again.
-    ``docs/estimation.md`` says why.
-
-    Parameters
-    ----------
-    search : ManoeuvreSearch
-        The search that made ``fit``.
-    fit : OrderFit
-
-    Returns
-    -------
-    OrderFit
-        With the unneeded accelerations held (``free``), or ``fit`` itself.
-
-    References
-    ----------
-    Schwarz (1978) (BIC).
+    price of one unknown (``ln N`` for BIC, Schwarz (1978); the chi-square(1) quantile for the
+    test; two together below twice it, :data:`LOOK_AHEAD`); the change-over times are then
+    profiled again (docs/estimation.md).
     """
     m = fit.manoeuvres
     if not np.isfinite(fit.chi2):
@@ -274,8 +257,7 @@ def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
     return out
 
 
-LOOK_AHEAD = 2
-"""Holds tried together by :func:`sparsify` when one alone does not pay for itself."""
+LOOK_AHEAD = 2  # holds tried together by sparsify when one alone does not pay for itself
 
 
 def _hold_chain(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool_],
