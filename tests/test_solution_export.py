@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.cli.outputs import SOLUTION_SUFFIXES as CLI_SUFFIXES
+from tmakit.cli.common import SOLUTION_SUFFIXES as CLI_SUFFIXES
 from tmakit.io.debrief import replay_solutions
 from tmakit.io.solution_files import SOLUTION_SUFFIXES, YARD, solution_answers, write_solution
 from tmakit.results.answers import KNOT
