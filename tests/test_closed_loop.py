@@ -11,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tmakit.cli import app
-from tmakit.io.loop_files import LoopCheckpoint
+from tmakit.io.tables import LoopCheckpoint
 from tmakit.montecarlo.closed_loop import (
     LoopCase,
     LoopSetup,

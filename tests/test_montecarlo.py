@@ -193,7 +193,7 @@ def test_summary_text_and_json(gu2007_40):
 
 # -- saving ------------------------------------------------------------------------------------
 def test_save_writes_csv_and_parquet_and_refuses_to_overwrite(gu2007_40, tmp_path):
-    from tmakit.io.study_files import write_study_table
+    from tmakit.io.tables import write_study_table
 
     def save(path, force=False):
         return write_study_table(gu2007_40, path, force=force)

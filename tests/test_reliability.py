@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.io.atomic import atomic_write, clean_stale_temporaries
+from tmakit.io.tables import atomic_write, clean_stale_temporaries
 
 runner = CliRunner()
 

@@ -14,7 +14,7 @@ import tmakit as tk
 from tmakit.cli import app
 from tmakit.measurements import KINDS, range_difference_covariance
 from tmakit.observation.noise import NoiseModel
-from tmakit.observation.noise_blocks import MAX_GROUP_ROWS, correlated_blocks, overlapping_groups
+from tmakit.observation.rows import MAX_GROUP_ROWS, correlated_blocks, overlapping_groups
 from tmakit.planning import Planner, SensorPlan
 from tmakit.sensors import PlatformState, platform_configuration
 
