@@ -431,7 +431,7 @@ class ClosedLoopStudy:
         case : str
             The case.
         name : str
-            A :class:`~tmakit.planning.closed_loop.LoopRecord` field (``error_m``,
+            A :class:`~tmakit.montecarlo.closed_loop.LoopRecord` field (``error_m``,
             ``bound_m``, ``range_m``, ``sensor``, ...).
 
         Returns
