@@ -23,7 +23,7 @@ import argparse
 import json
 import time
 
-from tmakit.io.loop_files import LoopCheckpoint
+from tmakit.io.tables import LoopCheckpoint
 from tmakit.reproduce import hurtado2008 as h
 
 

@@ -54,8 +54,7 @@ from scipy.stats import beta
 from tmakit.batch.curvilinear import ManoeuvreSettings, estimate_manoeuvres, select_order
 from tmakit.bounds import crlb
 from tmakit.montecarlo import ratio_interval
-from tmakit.motion import PiecewiseCurvilinear
-from tmakit.motion.fixed import FixedParameters
+from tmakit.motion import FixedParameters, PiecewiseCurvilinear
 from tmakit.scenario.files import load_scenario
 
 

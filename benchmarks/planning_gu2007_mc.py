@@ -49,10 +49,10 @@ from tmakit.bounds import PosteriorInformation
 from tmakit.core.units import snr_to_sigma_db
 from tmakit.data import MeasurementSet
 from tmakit.filters import FILTERS
+from tmakit.montecarlo.closed_loop import simulate_group
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.observation import MeasurementGroup
 from tmakit.planning import Belief, Planner, SensorPlan
-from tmakit.planning.closed_loop import simulate_group
 from tmakit.planning.horizon import Continuation
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState

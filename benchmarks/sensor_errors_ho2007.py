@@ -9,7 +9,7 @@ sensors of tmakit.reproduce.chan_ho1994 (TDOA, 2-D, noise 10 m, sigma_p 3 m to 3
 Each run draws the sensors' reported positions off their true ones by N(0, sigma_p^2) per
 axis (one draw per sensor, shared by its rows and by the rows that take it as reference).
 Prints, per sigma_p, the position and velocity MSE over the trace of the CRLB with the errors
-(bounds.sensor_errors) for the accounting ML (batch.ml) and the ignoring ML (the
+(bounds.fim) for the accounting ML (batch.ml) and the ignoring ML (the
 ordinary fit of the reported positions), each with its mean NEES per parameter (its error
 against the covariance it reports: 1 when that covariance is honest), and the bound's loss
 against known positions.  With TDOA alone and equal isotropic errors the effective noise is a
@@ -25,7 +25,7 @@ import argparse
 import numpy as np
 
 from tmakit.batch.ml import estimate_with_sensor_errors
-from tmakit.bounds.sensor_errors import crlb_with_sensor_errors
+from tmakit.bounds.fim import crlb_with_sensor_errors
 from tmakit.data import MeasurementSet
 from tmakit.reproduce import chan_ho1994, ho_xu2004
 

@@ -104,8 +104,8 @@ def drag_handle(driver: Any, moves: int = 20, step: tuple[float, float] = (4.0, 
                 ) -> list[dict[str, float]]:
     """Drag the solution's position handle by the mouse; give the page's timings of the drag.
 
-    Each timing is one update of the dots: ``painted_ms`` from the drag event to the next
-    animation frame after the update, ``compute_ms`` the update's own work.
+    Each timing is one update of the dots: ``painted_ms`` from the mouse event to the end of
+    the repaint of every plot the update changed, ``compute_ms`` the update's own work.
     """
     from selenium.webdriver.common.actions.action_builder import ActionBuilder
 

@@ -72,7 +72,7 @@ def test_crlb_at_json_adds_the_course_in_degrees_and_keeps_radians():
 
 
 def test_reproduction_figures_are_printed_as_words_not_python_values():
-    from tmakit.cli.reproduce import plain
+    from tmakit.cli.studies import plain
 
     text = plain({"rmse": [1.0, 2.5e-7], "ok": True, "n": 3})
     assert text == "rmse = 1, 2.5e-07; ok = true; n = 3"
@@ -127,7 +127,7 @@ def test_curvilinear_estimate_gives_the_course_in_degrees_true(tmp_path):
 
 def test_reproduce_parameter_tables_say_their_units():
     """Printed reproduction tables with a parameter column gain a unit column (JSON unchanged)."""
-    from tmakit.cli.reproduce import with_unit_column
+    from tmakit.cli.studies import with_unit_column
 
     text = runner.invoke(app, ["reproduce", "doppler-lecture"])
     assert text.exit_code == 0, text.output

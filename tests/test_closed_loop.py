@@ -11,15 +11,16 @@ import pytest
 from typer.testing import CliRunner
 
 from tmakit.cli import app
-from tmakit.io.loop_files import LoopCheckpoint
-from tmakit.montecarlo.closed_loop import LoopCase, closed_loop_study
-from tmakit.planning import MinimumRange, OperatingArea, Planner, SensorPlan
-from tmakit.planning.closed_loop import (
-    FixedPolicy,
+from tmakit.io.tables import LoopCheckpoint
+from tmakit.montecarlo.closed_loop import (
+    LoopCase,
     LoopSetup,
+    closed_loop_study,
     run_closed_loop,
     simulate_group,
 )
+from tmakit.planning import MinimumRange, OperatingArea, Planner, SensorPlan
+from tmakit.planning.policies import FixedPolicy
 from tmakit.sensors.platform import HURTADO_NEHORAI_2008 as HN
 from tmakit.sensors.platform import Actions, PlatformState
 

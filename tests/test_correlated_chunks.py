@@ -15,7 +15,7 @@ from tmakit.measurements.range_difference import range_difference_covariance
 from tmakit.motion import motion_from_name
 from tmakit.observation import ObservationModel
 from tmakit.observation.noise import NoiseModel
-from tmakit.observation.noise_blocks import overlapping_groups
+from tmakit.observation.rows import overlapping_groups
 
 
 @functools.cache

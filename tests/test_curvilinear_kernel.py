@@ -7,7 +7,7 @@ import pytest
 from kernel_paths import hoerst_thetas
 
 from tmakit.motion import PiecewiseCurvilinear
-from tmakit.motion.curvilinear_batch import ForwardPiecewise
+from tmakit.motion.curvilinear import ForwardPiecewise
 
 
 def _thetas(m: int, rng: np.random.Generator) -> np.ndarray:

@@ -11,8 +11,8 @@ from typer.testing import CliRunner
 import tmakit as tk
 from tmakit.cli import app
 from tmakit.io import MeasurementFileError
-from tmakit.io.clock_text import seconds_of_time_text
 from tmakit.io.errors import reader_notes
+from tmakit.io.logs import seconds_of_time_text
 
 OWN = ("260504 093000 OWN @A 47 57 00.00 N 005 15 00.00 W 90.0 10.0 0.0\n"
        "260504 093100 OWN @A 47 57 00.00 N 005 14 12.00 W 90.0 10.0 0.0\n"

@@ -14,7 +14,7 @@ from kernel_paths import hoerst_thetas
 import tmakit as tk
 from tmakit.batch import varpro
 from tmakit.batch.varpro import DeferredNormal, VarProProblem
-from tmakit.motion.curvilinear_batch import ForwardPiecewise
+from tmakit.motion.curvilinear import ForwardPiecewise
 from tmakit.observation import ObservationModel
 
 

@@ -550,7 +550,7 @@ def test_example_in_the_docs_is_a_valid_file(tmp_path):
     assert np.isfinite(ms.ref_sensor_state[ms.kind == "range_difference"]).all()
 
 
-# -- reading large files: numbers parsed directly, cells checked in chunks of rows -----------
+# -- reading large files: numbers parsed directly, each cell named by its row and line ---------
 
 def test_numbers_are_read_back_exactly(tmp_path):
     x = np.random.default_rng(3).normal(size=2000) * 10.0 ** np.arange(-100, 100).repeat(10)
@@ -559,10 +559,7 @@ def test_numbers_are_read_back_exactly(tmp_path):
     assert ms.value.tolist() == [float(v) % 360 for v in x]
 
 
-def test_a_bad_cell_past_the_first_chunk_keeps_its_row_number(tmp_path, monkeypatch):
-    from tmakit.io import check_cells
-
-    monkeypatch.setattr(check_cells, "CHUNK_ROWS", 2)
+def test_a_bad_cell_keeps_its_row_number(tmp_path):
     rows = [f"{i},a,bearing,10,1,0,0,5,0," for i in range(7)]
     rows[4] = "4,a,bearing,10,-1.50,0,0,5,0,"
     message = refused(write_csv(tmp_path, rows))

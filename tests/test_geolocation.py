@@ -370,7 +370,7 @@ def test_bound_with_sensor_errors_is_the_schur_complement_of_the_joint_informati
     """Ho & Xu's layout (TDOA + FDOA): the bound equals the inverse of the Schur complement
     of the joint Fisher information over the source and every sensor position error, with the
     errors' prior information Q_b^-1 (Ho, Lu & Kovavisaruch 2007), written out here."""
-    from tmakit.bounds.sensor_errors import crlb_with_sensor_errors
+    from tmakit.bounds.fim import crlb_with_sensor_errors
     from tmakit.observation import ObservationModel
     from tmakit.observation.sensor_errors import sensor_error_design
     from tmakit.reproduce import ho_xu2004

@@ -7,7 +7,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.cli.importing import EXAMPLE_FILES
+from tmakit.cli.scenarios import EXAMPLE_FILES
 
 runner = CliRunner()
 

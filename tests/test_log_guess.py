@@ -11,8 +11,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.io.log_guess import guess_mapping
-from tmakit.io.log_mapping import load_mapping
+from tmakit.io.log_mapping import guess_mapping, load_mapping
 
 SAMPLES = Path(tk.__file__).parent / "examples"
 EPOCH = pd.Timestamp("1970-01-01", tz="UTC")

@@ -21,10 +21,14 @@ from tmakit.batch.curvilinear import (
 )
 from tmakit.bounds import crlb
 from tmakit.cli import app
-from tmakit.motion import PiecewiseCurvilinear, numerical_jacobian, propagate_curvilinear
-from tmakit.motion.curvilinear_batch import ForwardPiecewise
+from tmakit.motion import (
+    FixedParameters,
+    PiecewiseCurvilinear,
+    numerical_jacobian,
+    propagate_curvilinear,
+)
+from tmakit.motion.curvilinear import ForwardPiecewise
 from tmakit.motion.curvilinear_compiled import propagate_with_partials
-from tmakit.motion.fixed import FixedParameters
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ import tmakit as tk
 from tmakit.batch.manoeuvre import ManoeuvreSettings
 from tmakit.batch.manoeuvre.search import ManoeuvreSearch, lm_fit
 from tmakit.batch.solver import levenberg_marquardt
-from tmakit.motion.curvilinear_batch import ForwardPiecewise
+from tmakit.motion.curvilinear import ForwardPiecewise
 
 
 def _theta(m: int, rng: np.random.Generator) -> np.ndarray:

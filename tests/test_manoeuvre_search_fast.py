@@ -18,7 +18,7 @@ from tmakit.batch.manoeuvre import ManoeuvreSettings, selection
 from tmakit.batch.manoeuvre.search import ManoeuvreSearch, lm_fit, split_segment
 from tmakit.batch.manoeuvre.selection import hold_starts, may_hold
 from tmakit.motion import PiecewiseCurvilinear
-from tmakit.motion.curvilinear_batch import ForwardPiecewise
+from tmakit.motion.curvilinear import ForwardPiecewise
 
 
 @pytest.mark.parametrize("layout", ["by kind", "interleaved", "unsorted"])

@@ -193,7 +193,7 @@ def test_summary_text_and_json(gu2007_40):
 
 # -- saving ------------------------------------------------------------------------------------
 def test_save_writes_csv_and_parquet_and_refuses_to_overwrite(gu2007_40, tmp_path):
-    from tmakit.io.study_files import write_study_table
+    from tmakit.io.tables import write_study_table
 
     def save(path, force=False):
         return write_study_table(gu2007_40, path, force=force)
@@ -252,7 +252,7 @@ def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
     from sample_logs import replay_sample
 
     from tmakit.batch.ml import Best, MaximumLikelihood
-    from tmakit.montecarlo.ml_runs import solve_runs, summarise_runs
+    from tmakit.montecarlo.runs import solve_runs, summarise_runs
 
     rep = tmp_path / "c.rep"
     rep.write_text(replay_sample(0)[0])

@@ -17,12 +17,17 @@ from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.bounds.pcrb_runs import ratio_interval
 from tmakit.cli import app
 from tmakit.data import MeasurementSet
-from tmakit.montecarlo.closed_loop import closed_loop_study
+from tmakit.montecarlo.closed_loop import LoopSetup, closed_loop_study, run_closed_loop
 from tmakit.montecarlo.planned import policy
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.planning import Belief, SensorPlan
-from tmakit.planning.closed_loop import FixedPolicy, LoopSetup, run_closed_loop
-from tmakit.planning.policies import MissionPolicy, TrackPolicy, passive, range_hypotheses
+from tmakit.planning.policies import (
+    FixedPolicy,
+    MissionPolicy,
+    TrackPolicy,
+    passive,
+    range_hypotheses,
+)
 from tmakit.planning.setup import planning_from_dict
 from tmakit.reproduce import hurtado2008
 from tmakit.sensors.platform import HURTADO_NEHORAI_2008 as HN

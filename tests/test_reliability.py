@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.io.atomic import atomic_write, clean_stale_temporaries
+from tmakit.io.tables import atomic_write, clean_stale_temporaries
 
 runner = CliRunner()
 
@@ -194,14 +194,14 @@ def test_stale_temporaries_of_killed_writers_are_removed_by_the_next_write(tmp_p
 def test_montecarlo_interrupted_keeps_the_finished_runs(tmp_path, monkeypatch):
     import tmakit.montecarlo.study as study
 
-    real = study._execute
+    real = study.execute
 
     def interrupted_after_first_chunk(tasks, client, label, runs, progress, on_chunk=None,
-                                      workers=1):
+                                      workers=1, **kwargs):
         real(tasks[:1], client, label, len(tasks[0].seeds), progress, on_chunk)
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(study, "_execute", interrupted_after_first_chunk)
+    monkeypatch.setattr(study, "execute", interrupted_after_first_chunk)
     out = tmp_path / "runs.csv"
     result = run("montecarlo", "gu2007", "--runs", "40", "--chunk", "8", "--no-progress",
                  "-o", out)

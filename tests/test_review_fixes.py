@@ -14,7 +14,7 @@ import tmakit as tk
 from tmakit.cli import app
 from tmakit.measurements import KINDS, range_difference_covariance
 from tmakit.observation.noise import NoiseModel
-from tmakit.observation.noise_blocks import MAX_GROUP_ROWS, correlated_blocks, overlapping_groups
+from tmakit.observation.rows import MAX_GROUP_ROWS, correlated_blocks, overlapping_groups
 from tmakit.planning import Planner, SensorPlan
 from tmakit.sensors import PlatformState, platform_configuration
 
@@ -178,9 +178,9 @@ def test_the_final_check_of_a_track_says_when_its_covariance_is_singular(capsys)
 # -- tma montecarlo --workers: no more processes than chunks and CPUs -------------------------
 
 def test_a_huge_worker_count_starts_no_more_processes_than_chunks_and_cpus(monkeypatch):
-    from tmakit.montecarlo import monte_carlo, study
+    from tmakit.montecarlo import execution, monte_carlo
 
-    monkeypatch.setattr(study, "_cpus", lambda: 2)
+    monkeypatch.setattr(execution, "_cpus", lambda: 2)
     res = monte_carlo("gu2007", runs=4, rng=1, chunk=1, workers=10**20, progress=False)
     assert res.executor == "2 processes, 100,000,000,000,000,000,000 asked: 4 chunks, 2 CPUs"
     one = monte_carlo("gu2007", runs=4, rng=1, chunk=1, progress=False)

@@ -14,7 +14,7 @@ from kernel_paths import hoerst_thetas
 
 from tmakit.measurements.azimuth_rate import AzimuthRate
 from tmakit.measurements.bearing import Bearing
-from tmakit.motion.curvilinear_batch import ForwardPiecewise
+from tmakit.motion.curvilinear import ForwardPiecewise
 
 
 def _rows(rng: np.random.Generator, b: int, n: int) -> np.ndarray:

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.cli.outputs import SOLUTION_SUFFIXES as CLI_SUFFIXES
+from tmakit.cli.common import SOLUTION_SUFFIXES as CLI_SUFFIXES
 from tmakit.io.debrief import replay_solutions
 from tmakit.io.solution_files import SOLUTION_SUFFIXES, YARD, solution_answers, write_solution
 from tmakit.results.answers import KNOT
@@ -79,7 +79,7 @@ def test_rep_round_trip_through_our_debrief_reader(contact, tmp_path):
 
 def test_debrief_documented_lines_read():
     """Debrief's own importer test lines (ImportTMA_Pos, ImportTMA_RngBrg) read as it reads them."""
-    from tmakit.io.debrief_lines import parse_replay_text
+    from tmakit.io.debrief import parse_replay_text
 
     text = (";TMA_POS: 030211 120312 CARPET S@ 22 11 10.63 N 21 41 52.37 W TRACK_060 045.0  "
             "4000 2000 050 12.4 100 Trial label\n"

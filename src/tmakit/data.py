@@ -22,9 +22,9 @@ from .measurements.codes import KIND_CODES, KIND_NAMES
 
 __all__ = ["KIND_CODES", "KIND_NAMES", "MeasurementSet"]
 
-SENSOR_STATE_COLUMNS = ("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor_vy",
-                        "sensor_vz")
+SENSOR_STATE_COLUMNS = rules.STATE_COLUMNS
 REF_STATE_COLUMNS = tuple(f"ref_{c}" for c in SENSOR_STATE_COLUMNS)
+
 
 def _frozen(values: NDArray[np.float64]) -> NDArray[np.float64]:
     values.flags.writeable = False
@@ -42,9 +42,8 @@ class MeasurementSet:
     ----------
     time : array_like, shape (n,)
         s.
-    sensor : array_like of str, shape (n,)
-    kind : array_like of str, shape (n,)
-        Keys of :data:`tmakit.measurements.KINDS`.
+    sensor, kind : array_like of str, shape (n,)
+        Sensor ids; keys of :data:`tmakit.measurements.KINDS`.
     value_file, sigma_file : array_like, shape (n,)
         Value and noise std in the kind's file unit (deg, deg/s, m, m/s, Hz, dBm; dB).
     sensor_state : array_like, shape (n, 6)
@@ -213,10 +212,7 @@ class MeasurementSet:
 
     @property
     def value_si(self) -> NDArray[np.float64]:
-        """Values in SI (radians, rad/s, m, m/s, Hz, dBW); read-only, the stored form.
-
-        Assigning a new array replaces them (the file-unit twin follows on first use).
-        """
+        """Values in SI (radians, rad/s, m, m/s, Hz, dBW); read-only, the stored form."""
         return self._value_si
 
     @value_si.setter
@@ -232,8 +228,7 @@ class MeasurementSet:
     def kind(self) -> NDArray[np.str_]:
         """Each row's kind as text (built from :attr:`kind_code` on first use, then kept)."""
         if self._kind is None:
-            # As narrow as the longest kind present (string comparisons cost by width);
-            # the names of absent kinds, cut short, are never indexed.
+            # as narrow as the longest kind present (string comparisons cost by width)
             width = max((len(k) for k in self.kinds), default=1)
             self._kind = categorical.kind_table(width)[self.kind_code]
         return self._kind
@@ -309,12 +304,11 @@ class MeasurementSet:
         return list(self._sensors)
 
     def kind_flag(self, hook: str) -> NDArray[np.bool_]:
-        """Mark the rows whose kind sets the boolean hook ``hook``.
+        """Mark the rows whose kind sets the boolean hook ``hook`` (of a ``MeasurementModel``).
 
         Parameters
         ----------
         hook : str
-            A boolean attribute of :class:`~tmakit.measurements.MeasurementModel`.
 
         Returns
         -------
@@ -329,12 +323,11 @@ class MeasurementSet:
             self.sensor_state[:, 2] != 0) or np.any(self.sensor_state[:, 5] != 0) else 2
 
     def take(self, index: ArrayLike) -> MeasurementSet:
-        """Return the rows at ``index``, metadata kept, nothing checked again.
+        """Return the rows at ``index`` (indices or a mask), metadata kept, nothing checked again.
 
         Parameters
         ----------
         index : array_like
-            1-D integer row indices or a boolean mask of length ``n``.
 
         Returns
         -------
@@ -376,13 +369,11 @@ class MeasurementSet:
         Returns
         -------
         MeasurementSet
-            The same rows with :attr:`tonal`.
 
         Raises
         ------
         ValueError
-            A length other than the set's, a label on a row that is no frequency, or a
-            frequency row without one.
+            A wrong length, or a label missing on a frequency row or given on another row.
         """
         out = self.take(np.arange(len(self)))
         text = None if labels is None else np.array(labels, dtype=str).reshape(-1)
@@ -401,8 +392,7 @@ class MeasurementSet:
 
         Returns
         -------
-        ndarray of int
-            ``(n,)``, the sensor code when the set has no tonals.
+        ndarray of int, shape (n,)
         """
         if self.tonal is None:
             return self.sensor_code.astype(np.int64)
@@ -424,7 +414,7 @@ class MeasurementSet:
         Raises
         ------
         ValueError
-            A value on a row that is no bearing, a wrong length, or an infinite value.
+            A wrong length, a value on a row that is no bearing, or an infinite value.
         """
         out = self.take(np.arange(len(self)))
         if ambiguous_si is None:
@@ -467,7 +457,6 @@ class MeasurementSet:
         Parameters
         ----------
         parts : list of MeasurementSet
-            Not empty.
         metadata : mapping of str to str, optional
             Default that of ``parts[0]``.
 
@@ -530,22 +519,15 @@ class MeasurementSet:
         -------
         bool
         """
-        if len(self) != len(other):
+        if len(self) != len(other) or self.metadata != other.metadata:
             return False
-        same = (np.array_equal(self.kind_code, other.kind_code)
-                and np.array_equal(self.sensor, other.sensor)
-                and self.metadata == other.metadata)
-        for name in ("time", "value", "sigma", "sensor_state", "time_ref",
-                     "ref_sensor_state"):
-            same = same and np.array_equal(getattr(self, name), getattr(other, name),
-                                           equal_nan=True)
-        mine, theirs = self.ambiguous_si, other.ambiguous_si
-        same = same and ((mine is None and theirs is None) or (
-            mine is not None and theirs is not None
-            and np.array_equal(mine, theirs, equal_nan=True)))
-        a, b = self.tonal, other.tonal
-        return bool(same) and ((a is None and b is None) or (
-            a is not None and b is not None and np.array_equal(a, b)))
+        for name in ("kind_code", "sensor", "tonal", "time", "value", "sigma", "sensor_state",
+                     "time_ref", "ref_sensor_state", "ambiguous_si"):
+            mine, theirs = getattr(self, name), getattr(other, name)
+            if (mine is None) != (theirs is None) or (mine is not None and not np.array_equal(
+                    mine, theirs, equal_nan=mine.dtype.kind == "f")):
+                return False
+        return True
 
     def summary_rows(self) -> list[dict[str, object]]:
         """Summarise the set: one row per (sensor, kind).
@@ -553,8 +535,8 @@ class MeasurementSet:
         Returns
         -------
         list of dict
-            ``sensor``, ``kind``, ``unit``, ``count``, ``t_first``, ``t_last`` (s), ``value_min``,
-            ``value_max``, ``sigma_median`` (file unit).
+            ``sensor``, ``kind``, ``unit``, ``count``, ``t_first``, ``t_last`` (s),
+            ``value_min``, ``value_max``, ``sigma_median`` (file unit).
         """
         rows = []
         for s in self.sensors:

@@ -23,7 +23,7 @@ __all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "PO
            "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "check_set",
            "column_problems", "duplicate_rows", "far_times", "geo_within", "metadata_problems",
            "raise_problems", "sigma_resolved", "state_within_reach", "time_problem",
-           "time_reach", "time_within_limit"]
+           "time_within_limit"]
 
 #: What a time must be (s).
 TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time origin (317 years; "
@@ -62,24 +62,16 @@ def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
                  "unit or another clock)")
 
 
-def time_reach(times: NDArray[np.float64]) -> tuple[float, float, float] | None:
-    """Give the data's first and last time and how far from them a time may be asked for."""
-    t = np.asarray(times, dtype=float)
-    t = t[np.isfinite(t)]
-    if not t.size:
-        return None
-    low, high = float(t.min()), float(t.max())
-    return low, high, OUTLIER_SPANS * max(high - low, 1.0)
-
-
 def time_problem(time: float, times: NDArray[np.float64] | None, what: str) -> str | None:
     """Say why a time asked for (an answer's, a reference time) cannot be used, or None."""
     if not math.isfinite(time):
         return f"{what} {time}: expected a finite time (s)"
-    found = None if times is None else time_reach(times)
-    if found is None:
+    t = np.zeros(0) if times is None else np.asarray(times, dtype=float)
+    t = t[np.isfinite(t)]
+    if not t.size:
         return None
-    low, high, reach = found
+    low, high = float(t.min()), float(t.max())
+    reach = OUTLIER_SPANS * max(high - low, 1.0)
     if low - reach <= time <= high + reach:
         return None
     far = time - high if time > high else low - time

@@ -23,7 +23,7 @@ from ..measurements import Altitude, model_for, options_with_metadata
 from ..motion import ConstantVelocity, MotionModel, Stationary
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
-from ..observation.noise_blocks import correlated_blocks
+from ..observation.rows import correlated_blocks
 from ..results.estimate import EstimateResult, assemble_result
 from .estimator import BatchEstimator, Init, Options
 

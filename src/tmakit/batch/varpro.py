@@ -22,8 +22,8 @@ from ..core.arrays import Array
 from ..core.frames import wrap_angle
 from ..core.frames import wrap_angle_own as _wrap_own
 from ..observation import Linearisation, ObservationModel
-from ..observation.kind_blocks import angle_runs
 from ..observation.noise import NoiseModel
+from ..observation.rows import angle_runs
 
 
 class DeferredNormal:

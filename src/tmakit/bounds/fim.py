@@ -3,7 +3,9 @@
 ``F = J^T R^-1 J`` over the motion parameters and, unless known
 (:class:`~tmakit.results.nuisance.KnownNuisance`), the nuisance parameters (Gu et al. (2007),
 eqs. 17-18; Hörst & Oispuu (2010), eq. 9).  A singular information is never inverted blindly:
-unobservable directions are named and their std are infinite.
+unobservable directions are named and their std are infinite.  With sensor position errors
+(:func:`crlb_with_sensor_errors`, Ho, Lu & Kovavisaruch (2007)) the rows' noise is
+``R + H_b Q_b H_b'`` (:func:`tmakit.observation.sensor_errors.effective_noise`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
+from ..observation.sensor_errors import effective_noise
 from ..results.bound import Bound, bound_from_information
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 
@@ -206,3 +209,28 @@ def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLik
             f"truth puts the target on sensor {str(meas.sensor[k])!r} at t = {meas.time[k]:g} s "
             f"(distance {np.sqrt(dist2[j]):.3g} m < {ON_SENSOR_M:g} m): the bound is undefined "
             "there (no bearing, no range derivative); choose a truth away from every sensor")
+
+
+def crlb_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
+                            truth: Mapping[str, float] | ArrayLike, position_sigma: float,
+                            velocity_sigma: float = 0.0,
+                            nuisance: Mapping[str, float] | None = None,
+                            options: Mapping[str, Mapping[str, object]] | None = None
+                            ) -> tuple[Bound, Bound]:
+    """Give the CRLB with sensor position errors, and the one with positions known.
+
+    References
+    ----------
+    Ho, Lu & Kovavisaruch (2007) (the CRLB with receiver position errors).
+    """
+    known = crlb(meas, motion, truth, nuisance, None, options)
+    theta = truth_vector(motion, truth)
+    obs = ObservationModel(meas, motion, options)
+    nu = np.asarray(known.values[motion.n_params:], dtype=float)
+    noise = effective_noise(obs, theta, nu, position_sigma, velocity_sigma)  # grouped order
+    w = noise.whiten(np.concatenate(obs.jacobian_grouped(theta, nu), axis=-1), axis=-2)
+    info = w.T @ w
+    names = motion.param_names + obs.nuisance_names
+    with_errors = bound_from_information(info, names, np.asarray(known.values, dtype=float),
+                                         meas, motion, None, known.nuisance_values)
+    return with_errors, known

@@ -2,28 +2,91 @@
 
 Every command refuses to overwrite an output unless ``--force`` is given and reports bad input as
 ``error: ...`` naming the file, row and field; the exit statuses are the ``EXIT_*`` constants of
-:mod:`tmakit.cli.guard`.
+:mod:`tmakit.cli.guard`.  Its help (``-h`` as well as ``--help``) names each option's value by
+what it is (``--seed N``, ``FILE``), not by its Python type.
 """
 
 from __future__ import annotations
 
 import sys
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
+from typer.core import TyperCommand
 
-from .crlb import crlb
-from .estimate import estimate
-from .gdop import gdop
+from .crlb import crlb, gdop
+from .estimate import estimate, report
 from .guard import WRITE_ERRORS, guarded, install_sigterm, set_debug, write_failed
-from .importing import examples, import_
-from .montecarlo import montecarlo
-from .plain_help import PlainCommand
-from .plan import plan
-from .report import report
-from .reproduce import reproduce
-from .scenarios import demo, scenarios, show, simulate
+from .scenarios import demo, examples, import_, scenarios, show, simulate
+from .studies import montecarlo, plan, reproduce
 from .track import track
+
+# What the value of an option is, by the option's parameter name. An option not listed here is
+# named by its parameter name in capitals (``--motion MOTION``), the way argparse does it.
+VALUE_NAMES = {
+    "origin": "LAT,LON,ALT", "output": "FILE", "plot": "FILE", "mapping": "FILE",
+    "json_file": "FILE", "file": "FILE", "files": "FILE", "folder": "DIR", "out_dir": "DIR",
+    "seed": "N", "runs": "N", "chunk": "N", "particles": "N", "steps": "N", "rows": "N",
+    "ellipses": "N", "init_window": "N", "dim": "2|3", "ref_time": "T", "at": "T",
+    "prior_time": "T", "start": "T", "stop": "T", "duration": "S", "bearing_sigma": "DEG",
+    "start_std": "M", "alpha": "P", "q": "Q", "init": "NAME=VALUE,...",
+    "truth": "NAME=VALUE,...", "prior": "NAME=VALUE,...", "prior_std": "NAME=VALUE,...",
+    "map_text": "COLUMN=ROLE,...", "measure": "COLUMN=KIND:UNIT:SIGMA", "dask": "ADDRESS",
+    "filter_name": "FILTER", "units": "si|nautical", "criterion": "bic|lrt",
+    "accelerations": "select|all", "max_runs": "N", "ownship": "NAME", "contact": "NAME",
+    "sensor": "NAME",
+}
+
+
+def value_name(param: Any) -> str:
+    """Name the value a parameter takes, for help: ``FILE``, ``N``, ``LAT,LON,ALT``."""
+    if param.metavar:
+        return param.metavar
+    name = param.name or ""
+    return VALUE_NAMES.get(name, name.upper())
+
+
+def option_label(option: Any) -> str:
+    """Label an option for help: ``-o, --output FILE`` or ``--drift / --no-drift``."""
+    names = ", ".join(sorted(option.opts, key=len))
+    if option.secondary_opts:
+        names += " / " + ", ".join(option.secondary_opts)
+    if option.is_flag or option.count:
+        return names
+    many = "..." if option.multiple else ""
+    return f"{names} {value_name(option)}{many}"
+
+
+def argument_label(argument: Any, usage: bool) -> str:
+    """Label an argument as the help shows it: ``FILE``, ``FILE...``; ``[DIR]`` when optional."""
+    label = value_name(argument) + ("..." if argument.nargs != 1 else "")
+    return f"[{label}]" if usage and not argument.required else label
+
+
+class PlainCommand(TyperCommand):
+    """A typer command whose help names values (``--seed N``) instead of types (``<int>``)."""
+
+    def collect_usage_pieces(self, ctx: Any) -> list[str]:
+        """Usage line pieces: ``[OPTIONS]`` then the arguments by name."""
+        pieces = [self.options_metavar] if self.options_metavar else []
+        return pieces + [argument_label(p, usage=True) for p in self.get_params(ctx)
+                         if p.param_type_name == "argument"]
+
+    def format_options(self, ctx: Any, formatter: Any) -> None:
+        """Write the ``Arguments`` and ``Options`` sections with values named, not typed."""
+        sections: dict[str, list[tuple[str, str]]] = {"Arguments": [], "Options": []}
+        for param in self.get_params(ctx):
+            record: Any = param.get_help_record(ctx)
+            if record is None:
+                continue
+            if param.param_type_name == "argument":
+                sections["Arguments"].append((argument_label(param, usage=False), record[1]))
+            elif param.param_type_name == "option":
+                sections["Options"].append((option_label(param), record[1]))
+        for title, rows in sections.items():
+            if rows:
+                with formatter.section(title):
+                    formatter.write_dl(rows)
 
 
 # Plain (click) help, -h as well as --help: no rich markup (a help text's "a:b:" is not an
@@ -60,7 +123,8 @@ def _root(version: Annotated[bool, typer.Option(
 
 
 # Registered in this order: ``tma --help`` lists the commands in it.  Each is guarded: no
-# traceback reaches the user (tmakit.cli.guard).
+# traceback reaches the user (tmakit.cli.guard).  A command's docstring is its --help text
+# (no numpydoc sections: each option's help= has them).
 for _command in (scenarios, simulate, show, crlb, estimate, report, reproduce, montecarlo,
                  track, plan, gdop, demo):
     app.command(cls=PlainCommand)(guarded(_command))
@@ -69,13 +133,7 @@ app.command(cls=PlainCommand)(guarded(examples))
 
 
 def listing_app() -> typer.Typer:
-    """Give an app with ``tma``'s options and commands, the commands without parameters.
-
-    ``tma --help`` lists every command by its name and the first line of its help, and shows
-    none of their options; typer still builds every command's parameters from its signature
-    first (a quarter of the help's time).  This app registers, per command, a function of no
-    parameters with the command's name and docstring: its help is the full app's, character
-    for character (``tests/test_cli_startup.py``).
+    """Give ``tma``'s app with each command stubbed (no parameters): the same listing, faster.
 
     Returns
     -------
@@ -89,7 +147,7 @@ def listing_app() -> typer.Typer:
         assert command is not None  # (every command registered above has its function)
 
         def stub() -> None:
-            """Stand in for a command in the listing (never run)."""
+            """Stand in for a command in the listing (never run)."""  # (replaced below)
 
         stub.__name__, stub.__doc__ = command.__name__, command.__doc__
         listing.command(name=info.name, cls=PlainCommand)(stub)

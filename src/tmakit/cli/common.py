@@ -1,14 +1,19 @@
-"""What every ``tma`` command shares.
+"""What every ``tma`` command shares: consoles, errors, options, reading files, checking outputs.
 
-The consoles, the error exit, the refusal to overwrite, parsing of ``--origin`` and ``name=value``
-options, reading and writing measurement files, and the typer option aliases of the commands that
-fit or bound a motion model.  Nothing numerical is imported here at module level (``tma --help``
-stays light).
+Messages name the option or file at fault (``error: ...``, exit status 2); an output is refused
+before any work when it exists without ``--force``, is a folder, is an input or cannot be
+written.  Nothing numerical is imported at module level (``tma --help`` stays light).
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import inspect
 import math
+import os
+import typing
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -28,6 +33,20 @@ def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on standard error and return the exit (status 2) to raise."""
     err.print(f"[bold red]error:[/] {message}", highlight=False, markup=True, soft_wrap=True)
     return typer.Exit(2)
+
+
+@contextlib.contextmanager
+def failing(prefix: str = "", written: Path | None = None,
+            errors: tuple[type[Exception], ...] = (ValueError,)) -> Iterator[None]:
+    """Turn ``errors`` into ``error: prefix message``, ``FileExistsError`` into the --force hint."""
+    try:
+        yield
+    except FileExistsError:
+        if written is None:
+            raise
+        raise fail(f"{written} already exists; use --force to overwrite it") from None
+    except errors as e:
+        raise fail(f"{prefix}{e}") from None
 
 
 def refuse_existing(path: Path, force: bool) -> None:
@@ -89,12 +108,8 @@ def write_or_fail(meas: Any, path: Path, force: bool) -> None:
     """Write a measurement file, errors as ``error: ...``."""
     from ..io.measurement_files import write_measurements
 
-    try:
+    with failing(written=path):
         write_measurements(meas, path, force=force)
-    except FileExistsError:
-        raise fail(f"{path} already exists; use --force to overwrite it") from None
-    except ValueError as e:
-        raise fail(str(e)) from None
 
 
 def file_ref_time(meas: Any) -> float | None:
@@ -131,13 +146,11 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
                 source = "the file's ref_time"
         else:
             raise fail("--motion is needed (cv2d, cv3d, static2d, static3d)")
-    try:
+    with failing():
         chosen = ref_time is not None
         if ref_time is None:  # inside the data: the fit does not depend on the time origin
             ref_time = 0.0 if meas is None else default_ref_time(meas.time)
         model = motion_from_name(name, ref_time)
-    except ValueError as e:
-        raise fail(str(e)) from None
     if chosen and meas is not None and not isinstance(model, Stationary):
         check_ref_time(ref_time, meas.time, source)  # (a fixed emitter has no velocity)
     if meas is not None and model.n_params > len(meas):  # work limit: not identifiable
@@ -228,6 +241,35 @@ FilesArgument = Annotated[list[Path], typer.Argument(
                             "sensor file and the own ship's track file)")]
 
 
+#: The options of the readers of real logs, in the order every command lists them.
+READER_OPTIONS = {"format": FormatOption, "ownship": OwnshipOption, "contact": ContactOption,
+                  "mapping": MappingOption, "bearing_sigma": BearingSigmaOption,
+                  "range_sigma": RangeSigmaOption, "frequency_sigma": FrequencySigmaOption,
+                  "kinds": KindsOption, "ranges": RangesOption}
+
+
+def reads_logs(after: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Give a command :data:`READER_OPTIONS` after its option ``after``, passed as ``logs``."""
+
+    def add(command: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.wraps(command)
+        def run(*args: Any, **given: Any) -> Any:
+            logs = {name: given.pop(name, None) for name in READER_OPTIONS}
+            return command(*args, logs=logs, **given)
+
+        hints = typing.get_type_hints(command, include_extras=True)  # (typer reads these)
+        params = [p.replace(annotation=hints[p.name])
+                  for p in inspect.signature(command).parameters.values() if p.name != "logs"]
+        at = [p.name for p in params].index(after) + 1
+        params[at:at] = [inspect.Parameter(name, inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                           default=None, annotation=option)
+                         for name, option in READER_OPTIONS.items()]
+        run.__signature__ = inspect.Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+        return run
+
+    return add
+
+
 def reader_options(format: str | None, ownship: str | None, contact: str | None,
                    mapping: Path | None, bearing_sigma: float | None,
                    range_sigma: float | None = None,
@@ -239,3 +281,270 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
     return {"format": format, "ownship": ownship, "contact": contact, "mapping": mapping,
             "bearing_sigma": bearing_sigma, "range_sigma": range_sigma,
             "frequency_sigma": frequency_sigma, "kinds": kinds, "ranges": ranges}
+
+
+def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | None = None,
+                 notes: bool = True, **options: Any) -> Any:
+    """Read a measurement file (or several read as one), errors as ``error: ...``."""
+    from ..io.errors import reader_notes
+    from ..io.measurement_files import MeasurementFileError, read_measurements
+
+    paths = [path] if isinstance(path, Path) else list(path)
+    for p in paths:
+        if not p.exists():
+            raise fail(f"{p}: no such file")
+        if p.is_dir():
+            raise fail(f"{p}: is a folder, not a measurement file")
+    options = {k: v for k, v in options.items() if v is not None}
+    kinds = parse_kinds(options.pop("kinds", None))
+    options = log_options(paths, options, kinds)
+    if "bearing_sigma" in options:  # --bearing-sigma is in degrees
+        options["bearing_sigma_deg"] = options.pop("bearing_sigma")
+    try:
+        meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin,
+                                 **options)
+    except OSError as e:
+        raise fail(f"{e.filename or paths[0]}: cannot be read ({e.strerror or e})") from None
+    except (MeasurementFileError, ValueError) as e:
+        from ..io.positions import ORIGIN_HINT
+
+        raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
+    for note in reader_notes(meas.metadata, pop=True):
+        if notes:
+            err.print(note, highlight=False, markup=False, soft_wrap=True)
+    if origin is not None and "origin_lat" not in meas.metadata:
+        err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
+                  "gives ENU positions, so it is not used", highlight=False)
+    return only_kinds(meas, kinds, paths)
+
+
+def parse_kinds(text: str | None) -> list[str] | None:
+    """Read ``--kinds bearing,frequency``: the measurement kinds to keep (None: all)."""
+    if text is None:
+        return None
+    from ..measurements import KINDS
+
+    kinds = [k.strip() for k in text.split(",") if k.strip()]
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown or not kinds:
+        raise fail(f"--kinds {text!r}: expected measurement kinds separated by commas, from "
+                   f"{', '.join(KINDS)}" + (f" (not {', '.join(unknown)})" if unknown else ""))
+    return kinds
+
+
+def only_kinds(meas: Any, kinds: list[str] | None, paths: list[Path]) -> Any:
+    """Keep the rows of the kinds asked for (``--kinds``); refuse when none is left."""
+    if kinds is None:
+        return meas
+    import numpy as np
+
+    keep = np.isin(meas.kinds, kinds)
+    if not keep.any():
+        have = ", ".join(sorted(set(meas.kinds)))
+        raise fail(f"--kinds {','.join(kinds)}: {' + '.join(map(str, paths))} has no "
+                   f"measurement of these kinds (it has {have})")
+    return meas if keep.all() else meas.take(keep)
+
+
+def log_options(paths: list[Path], options: dict[str, Any],
+                 kinds: list[str] | None) -> dict[str, Any]:
+    """Keep the reader options of real logs for real logs; refuse them for tmakit's files."""
+    from ..io import find_format
+
+    path = paths[0]
+    if "mapping" in options and "format" not in options and path.suffix.lower() in (
+            ".csv", ".parquet", ".pq"):
+        options["format"] = "wide"  # a column mapping: the file is a wide log
+    with failing("--format: "):
+        fmt = find_format(path, options.get("format"), reading=True)
+    if fmt is not None and fmt.name == "rep":
+        return options | ({"kinds": kinds} if kinds is not None else {})
+    options.pop("window", None)  # applied to the set once read (select_window)
+    if "ranges" in options:
+        raise fail("--ranges applies to Debrief files (.rep, .dsf), whose range field may be a "
+                   f"placeholder, not to {path}")
+    if fmt is None or fmt.name not in ("csv", "parquet"):
+        return options
+    options.pop("dim", None)  # tmakit's own files: the filter's --dim only
+    given = [f"--{k.replace('_', '-')}" for k in options if k != "format"]
+    if given:
+        verb = "apply" if len(given) > 1 else "applies"
+        raise fail(f"{', '.join(given)} {verb} to real logs (Debrief, wide CSV/Parquet with "
+                   f"--mapping, GPX, NMEA), not to tmakit's {fmt.label} file {path}")
+    return options
+
+
+#: Suffixes of pictures (matplotlib's formats that tmakit promises).
+PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
+#: Suffixes of tables and measurement files (CSV, Parquet).
+TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
+#: Suffixes of the solution page (``--html``).
+PAGE_SUFFIXES = (".html", ".htm")
+#: Suffixes of an exported solution (``--export``: Debrief lines, GeoJSON, KML).
+SOLUTION_SUFFIXES = (".rep", ".geojson", ".kml")
+
+_FORMATS = {"picture": PICTURE_SUFFIXES, "table": TABLE_SUFFIXES, "json": None,
+            "measurements": None, "page": PAGE_SUFFIXES, "solution": SOLUTION_SUFFIXES}
+
+
+def check_output(path: Path | None, option: str, force: bool, kind: str = "table",
+                 inputs: Iterable[Path] = ()) -> Path | None:
+    """Resolve and check one output path before any computation."""
+    if path is None:
+        return None
+    given, path = path, Path(path)
+    suffixes = _FORMATS[kind]
+    if kind == "picture" and path.suffix == "" and not path.is_dir():
+        path = path.with_name(path.name + ".png")  # what matplotlib would write
+    if path.is_dir():
+        raise fail(f"{option} {path}: is a folder, not a file")
+    if kind == "measurements":
+        from ..io import find_format  # the registry: a new writable format is known here too
+        from ..io.formats import registered_formats
+
+        if find_format(path, reading=False) is None:
+            known = sorted({x for f in registered_formats(False) for x in f.suffixes})
+            raise fail(f"{option} {path}: unknown format {path.suffix or '(no suffix)'!r}; "
+                       f"expected {', '.join(known)}")
+    elif suffixes is not None and path.suffix.lower() not in suffixes:
+        said = {"table": ".csv or .parquet", "picture": ".png, .pdf or .svg",
+                "page": ".html", "solution": ".rep, .geojson or .kml"}[kind]
+        raise fail(f"{option} {path}: unknown format {path.suffix or '(no suffix)'!r}; "
+                   f"written as {said}")
+    parent = path.parent
+    if not parent.exists():
+        raise fail(f"{option} {path}: the folder {parent} does not exist")
+    if not parent.is_dir():
+        raise fail(f"{option} {path}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise fail(f"{option} {path}: the folder {parent} cannot be written")
+    if path.exists():
+        for source in [*inputs, *_command_inputs(given)]:
+            if Path(source).is_file() and _same_file(Path(source), path):
+                raise fail(f"{option} {path}: is the input file {source} of this command; it "
+                           "is never written over, --force or not: write to another file")
+        refuse_existing(path, force)
+    return path
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+#: The arguments of the running command, by name (set by :func:`tmakit.cli.guard.guarded`).
+_ARGUMENTS: dict[str, Any] = {}
+
+
+def note_arguments(arguments: dict[str, Any]) -> None:
+    """Remember the running command's arguments: the files they name are its inputs."""
+    _ARGUMENTS.clear()
+    _ARGUMENTS.update(arguments)
+
+
+def _command_inputs(given: object) -> list[Path]:
+    """Every file named by the running command's arguments other than the output ``given``."""
+    named: list[Path] = []
+    for values in _ARGUMENTS.values():
+        for value in values if isinstance(values, list | tuple) else [values]:
+            if value is given or not isinstance(value, str | Path) or not str(value):
+                continue
+            try:
+                if Path(value).is_file():
+                    named.append(Path(value))
+            except (OSError, ValueError):
+                continue
+    return named
+
+
+def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool,
+                  inputs: Iterable[Path] = ()) -> list[Path | None]:
+    """Check several outputs (:func:`check_output`) and refuse two options naming one file."""
+    resolved: list[Path | None] = []
+    seen: dict[Path, str] = {}
+    inputs = list(inputs)
+    for option, path, kind in outputs:
+        p = check_output(path, option, force, kind, inputs)
+        if p is not None:
+            key = p.resolve()
+            if key in seen:
+                raise fail(f"{option} {p}: the same file as {seen[key]}")
+            seen[key] = option
+        resolved.append(p)
+    return resolved
+
+
+def _lock_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.tma-lock")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process: alive
+        return True
+    return True
+
+
+@contextlib.contextmanager
+def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
+    """Hold a long command's outputs for it alone (``.NAME.tma-lock``; a dead run's is taken)."""
+    held: list[Path] = []
+    try:
+        for path in (p for p in paths if p is not None):
+            lock = _lock_path(path)
+            for _ in range(2):
+                try:
+                    fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+                except FileExistsError:
+                    try:
+                        pid = int(lock.read_text().strip() or "0")
+                    except (OSError, ValueError):
+                        pid = 0
+                    if pid and _alive(pid):
+                        raise fail(f"{path}: another tma run (process {pid}) is writing it; "
+                                   f"write to another file, or wait (its lock: {lock})") from None
+                    lock.unlink(missing_ok=True)  # the run that held it has ended
+                    continue
+                with os.fdopen(fd, "w") as f:
+                    f.write(f"{os.getpid()}\n")
+                held.append(lock)
+                break
+        yield
+    finally:
+        for lock in held:
+            lock.unlink(missing_ok=True)
+
+
+def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
+    """Draw a picture into a temporary file and move it into place (never a partial file)."""
+    from ..io import atomic_write
+
+    with failing(written=path, errors=()), atomic_write(path, force=force,
+                                                         keep_suffix=True) as tmp:
+        draw(tmp)
+
+
+def memory_limit() -> int:
+    """Give the memory a command may plan to use (bytes): ``TMA_MAX_MEMORY_GB``, default 2."""
+    try:
+        gb = float(os.environ.get("TMA_MAX_MEMORY_GB", "2"))
+    except ValueError:
+        gb = 2.0
+    return int(max(gb, 0.001) * 2**30)
+
+
+def check_particles(particles: int | None, option: str = "--particles",
+                    bytes_per_particle: int = 8 * 8 * 8) -> None:
+    """Refuse a particle count whose working arrays would not fit the memory limit."""
+    if particles is None:
+        return
+    need = particles * bytes_per_particle
+    if need > memory_limit():
+        raise fail(f"{option} {particles:,}: about {need / 2**30:.1f} GiB of working memory, "
+                   f"more than the limit of {memory_limit() / 2**30:.1f} GiB; raise it with "
+                   "TMA_MAX_MEMORY_GB=N")

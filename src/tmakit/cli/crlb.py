@@ -1,4 +1,7 @@
-"""``tma crlb``: the Cramér-Rao lower bound of a measurement file or a scenario."""
+"""``tma crlb`` and ``tma gdop``: the Cramér-Rao lower bound of a file or a scenario, and its map.
+
+``tma gdop``: CEP50 and CEP90 of a stationary emitter over a grid, for a sensor layout.
+"""
 
 from __future__ import annotations
 
@@ -8,26 +11,18 @@ from typing import Annotated, Any
 
 import typer
 
-from .answers_out import SPEED_UNITS, UnitsOption, check_units
 from .common import (
-    BearingSigmaOption,
-    ContactOption,
     DriftOption,
-    FormatOption,
     FreeExponentOption,
-    FrequencySigmaOption,
     JsonOption,
-    KindsOption,
-    MappingOption,
     MotionOption,
-    OwnshipOption,
     PropagationSpeedOption,
-    RangeSigmaOption,
-    RangesOption,
     RefTimeOption,
     SensorPositionSigmaOption,
+    check_outputs,
     err,
     fail,
+    failing,
     file_ref_time,
     is_measurement_file,
     load_scenario_or_fail,
@@ -35,12 +30,15 @@ from .common import (
     motion_or_fail,
     out,
     parse_assignments,
+    read_or_fail,
     reader_options,
+    reads_logs,
+    write_picture,
 )
-from .reading import read_or_fail
+from .estimate import SPEED_UNITS, UnitsOption, check_units
 
 
-# `tma crlb`: the docstring is its --help text, so no numpydoc sections (help= has them).
+@reads_logs(after="as_json")
 def crlb(
     sources: Annotated[list[str], typer.Argument(
         metavar="SOURCE...", help="measurement file (several Debrief files: one replay), or a "
@@ -57,17 +55,9 @@ def crlb(
     at: Annotated[float | None, typer.Option(
         help="also give position, speed, course and a 90 % ellipse at this time (s)")] = None,
     as_json: JsonOption = False,
-    format: FormatOption = None,
-    ownship: OwnshipOption = None,
-    contact: ContactOption = None,
-    mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None,
-    range_sigma: RangeSigmaOption = None,
-    frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None,
-    ranges: RangesOption = None,
     units: UnitsOption = "si",
     sensor_position_sigma: SensorPositionSigmaOption = None,
+    *, logs: dict[str, Any],
 ) -> None:
     """Cramér-Rao lower bound: the best standard deviation any unbiased estimator can reach.
 
@@ -83,12 +73,11 @@ def crlb(
     if at is not None and not math.isfinite(at):
         raise fail(f"--at {at}: expected a finite time (s)")
     source = sources[0]
-    if len(sources) > 1 or is_measurement_file(source) or format is not None:
+    if len(sources) > 1 or is_measurement_file(source) or logs["format"] is not None:
         bound, warnings, meas, opts = bound_of_file(
             [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
             model_options(drift, free_exponent, propagation_speed),
-            reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
-                           frequency_sigma, kinds=kinds, ranges=ranges))
+            reader_options(**logs))
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
                                           ("--truth", truth),
@@ -118,18 +107,16 @@ def crlb(
 def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: float
                        ) -> tuple[Any, str]:
     """Give the bound with sensor position errors and a sentence on its loss."""
-    from ..bounds.sensor_errors import crlb_with_sensor_errors
+    from ..bounds.fim import crlb_with_sensor_errors
     from ..scenario import Scenario
 
     if isinstance(meas, Scenario):
         meas = meas.simulate(rng=0, noise=False)
     p = bound.motion.n_params
-    try:
+    with failing("--sensor-position-sigma: "):
         errors, known = crlb_with_sensor_errors(meas, bound.motion, bound.values[:p], sigma,
                                                 nuisance=bound.nuisance_values,
                                                 options=options)
-    except ValueError as e:
-        raise fail(f"--sensor-position-sigma: {e}") from None
     parts = [f"{name} {a / b:.3g}x" for name, a, b in zip(
         errors.parameters[:p], errors.std[:p], known.std[:p], strict=True)]
     return errors, (f"sensor positions known to {sigma:g} m per axis: std against perfectly "
@@ -189,10 +176,8 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
         opts.setdefault("frequency", {})["drift"] = True
     if free_exponent:
         opts.setdefault("power", {})["exponent"] = None
-    try:
+    with failing(f"scenario {source}: "):  # e.g. the truth crosses a sensor at a measurement time
         return compute(scn, known_nuisance=known_nuisance, options=opts), scn, opts
-    except ValueError as e:  # e.g. the truth crosses a sensor at a measurement time
-        raise fail(f"scenario {source}: {e}") from None
 
 
 def derived_at(bound: Any, at: float) -> dict[str, Any]:
@@ -215,7 +200,7 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
     import json
 
     from ..results.trust import bound_trust
-    from .answers_out import print_warnings
+    from .estimate import print_warnings
 
     trust = bound_trust(bound, warnings or [])
     if as_json:
@@ -245,3 +230,73 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
         e = derived["ellipse_90"]
         out.print(f"  90 % ellipse: semi-axes {e['major']:.4g} m x {e['minor']:.4g} m, "
                   f"major axis bearing {e['bearing_deg']:.1f} deg", highlight=False)
+
+
+def gdop(
+    layout: Annotated[str, typer.Argument(
+        help="scenario name or TOML file: its sensors and tdoa/fdoa measurements")],
+    plot: Annotated[Path | None, typer.Option(
+        help="draw CEP50 and CEP90 over the grid (PNG, PDF, SVG)")] = None,
+    points: Annotated[int, typer.Option(help="grid points per side")] = 100,
+    half_width: Annotated[float | None, typer.Option(
+        help="half the grid's side (m); default twice the sensors' spread")] = None,
+    height: Annotated[float, typer.Option(help="the emitter's known ENU height (m)")] = 0.0,
+    as_json: JsonOption = False,
+    force: Annotated[bool, typer.Option(help="overwrite an existing --plot file")] = False,
+) -> None:
+    """Geolocation accuracy map: CEP50/CEP90 of a stationary emitter over a grid.
+
+    The circle about the true position holding the best unbiased estimate (the CRLB) with
+    probability 50 % and 90 %, from the layout's TDOA and FDOA rows (noise shared through
+    each reference sensor), the emitter's height known.
+    """
+    import numpy as np
+
+    from ..plot.gdop import cep_map, plot_cep_map
+
+    if points < 2 or points > 2000:
+        raise fail(f"--points {points}: expected 2 to 2000 per side")
+    scenario = load_scenario_or_fail(layout)
+    (plot,) = check_outputs([("--plot", plot, "picture")], force)
+    with failing(f"{layout}: "):
+        result = cep_map(scenario, points, half_width, height)
+    finite50 = result.cep50[np.isfinite(result.cep50)]
+    finite90 = result.cep90[np.isfinite(result.cep90)]
+    summary = {
+        "layout": scenario.name, "points": points,
+        "east_m": [float(result.east[0]), float(result.east[-1])],
+        "north_m": [float(result.north[0]), float(result.north[-1])],
+        "cep50_m": _stats(finite50), "cep90_m": _stats(finite90),
+        "unobservable_points": int(result.cep50.size - finite50.size),
+        "ignored_kinds": result.ignored,
+    }
+    if plot is not None:
+        write_picture(plot, force, lambda tmp: plot_cep_map(result, tmp, scenario.name))
+    if as_json:
+        import json
+
+        out.print_json(json.dumps(summary))
+        return
+    out.print(f"{scenario.name}: {points} x {points} emitter positions, east "
+              f"{result.east[0]:.0f}..{result.east[-1]:.0f} m, north {result.north[0]:.0f}.."
+              f"{result.north[-1]:.0f} m, height {height:g} m (known)", highlight=False)
+    for name, stats in (("CEP50", summary["cep50_m"]), ("CEP90", summary["cep90_m"])):
+        out.print(f"{name}: min {stats['min']:.4g} m, median {stats['median']:.4g} m, "
+                  f"max {stats['max']:.4g} m", highlight=False)
+    if summary["unobservable_points"]:
+        out.print(f"{summary['unobservable_points']} points unobservable (no finite bound)",
+                  highlight=False)
+    if result.ignored:
+        out.print(f"not in the map: the {', '.join(result.ignored)} measurements (the map "
+                  "takes tdoa and fdoa)", highlight=False)
+    if plot is not None:
+        out.print(f"wrote {plot}", highlight=False)
+
+
+def _stats(values: object) -> dict[str, float]:
+    import numpy as np
+
+    v = np.asarray(values, dtype=float)
+    if v.size == 0:
+        return {"min": float("inf"), "median": float("inf"), "max": float("inf")}
+    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max())}

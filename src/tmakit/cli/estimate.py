@@ -1,80 +1,48 @@
-"""``tma estimate``: the emitter's trajectory from a measurement file.
+"""``tma estimate`` and ``tma report``: the trajectory from a measurement file, and its answers.
 
 By maximum likelihood (``ml``, also for manoeuvring targets) or by one of the papers' methods.
+The answers table, the own-ship legs, the towed array's ambiguity, the solution page and the
+exports are laid out here (``tma track`` shares them); what they say is computed in
+:mod:`tmakit.results`.
 """
 
 from __future__ import annotations
 
+import inspect
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from .answers_out import (
-    AtOption,
-    SensorOption,
-    UnitsOption,
-    answer_or_fail,
-    check_units,
-    parse_time,
-    print_answers,
-    print_solutions,
-    print_warnings,
-    select_window,
-)
 from .common import (
-    BearingSigmaOption,
-    ContactOption,
     DriftOption,
     FilesArgument,
     ForceOption,
-    FormatOption,
     FreeExponentOption,
-    FrequencySigmaOption,
     JsonOption,
-    KindsOption,
-    MappingOption,
     MotionOption,
     OriginOption,
-    OwnshipOption,
     PropagationSpeedOption,
-    RangeSigmaOption,
-    RangesOption,
     RefTimeOption,
     SensorPositionSigmaOption,
+    check_output,
+    check_outputs,
     check_ref_time,
     err,
     fail,
+    failing,
     file_ref_time,
     model_options,
     motion_or_fail,
     out,
     parse_assignments,
     parse_origin,
+    print_wide,
+    read_or_fail,
     reader_options,
-)
-from .legs_out import (
-    KeepTurnCutsOption,
-    LegOption,
-    SettleOption,
-    SnapOption,
-    TurnRateOption,
-    fit_with_ambiguity,
-    leg_window,
-    legs_of,
-    print_legs,
-)
-from .outputs import check_output
-from .reading import read_or_fail
-from .solution_out import (
-    ExportEveryOption,
-    ExportNameOption,
-    ExportOption,
-    ExportRbOption,
-    HtmlOption,
-    SolutionOutputs,
-    check_solution_outputs,
-    write_solution_outputs,
+    reads_logs,
+    write_picture,
 )
 
 ExactOption = Annotated[bool, typer.Option(
@@ -103,7 +71,45 @@ PlotOption = Annotated[Path | None, typer.Option(
     help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, SVG)")]
 
 
-# `tma estimate`: the docstring is its --help text, so no numpydoc sections (help= has them).
+UnitsOption = Annotated[str, typer.Option(
+    "--units", help="si (speed m/s, range m) or nautical (speed kn, range nmi)")]
+AtOption = Annotated[str | None, typer.Option(
+    "--at", help="time of the answers: seconds, or a UTC clock time (ISO-8601) when the "
+                 "file records its time origin (default: the last measurement)")]
+SensorOption = Annotated[str | None, typer.Option(
+    "--sensor", help="sensor that range and bearing are given from (default: the sensor of "
+                     "the last measurement)")]
+LegOption = Annotated[int | None, typer.Option(
+    "--leg", help="solve the own ship's leg N (1 = the first; the legs are printed with every "
+                  "estimate)")]
+SnapOption = Annotated[bool, typer.Option(
+    "--snap", help="move --from to the start and --to to the end of the own-ship leg each "
+                   "falls in")]
+KeepTurnCutsOption = Annotated[bool, typer.Option(
+    "--keep-turn-cuts", help="towed-array cuts taken in an own-ship turn or while the array "
+                             "settles: fit them (default: left out, each named)")]
+TurnRateOption = Annotated[float | None, typer.Option(
+    "--turn-rate", help="own-ship turns: a heading rate above this (deg/s, default 0.1)")]
+SettleOption = Annotated[float | None, typer.Option(
+    "--settle", help="the towed array's settling time after a turn (s, default 180)")]
+HtmlOption = Annotated[Path | None, typer.Option(
+    "--html", metavar="FILE",
+    help="write the interactive solution page (one self-contained .html file): map, bearing "
+         "fan, ellipses and stacked dots; drag the solution in the page")]
+ExportOption = Annotated[list[Path] | None, typer.Option(
+    "--export", metavar="FILE",
+    help="write the solution as Debrief ;TMA_POS: lines (.rep), GeoJSON (.geojson) or KML "
+         "(.kml); may be given several times")]
+ExportEveryOption = Annotated[float, typer.Option(
+    "--export-every", metavar="SECONDS", help="seconds between the exported solution points")]
+ExportRbOption = Annotated[bool, typer.Option(
+    "--export-rb", help=".rep export: add ;TMA_RB: lines (range and bearing from the "
+                        "sensor)")]
+ExportNameOption = Annotated[str | None, typer.Option(
+    "--export-name", metavar="NAME", help="the exported solution's name (default TMAKIT)")]
+
+
+@reads_logs(after="origin")
 def estimate(
     files: FilesArgument,
     motion: MotionOption = None,
@@ -115,12 +121,7 @@ def estimate(
              "ratio-doppler, lecture-gn, chan-ho (TDOA), ho-xu (TDOA + FDOA)")] = "ml",
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
     propagation_speed: PropagationSpeedOption = None,
-    origin: OriginOption = None, format: FormatOption = None,
-    ownship: OwnshipOption = None, contact: ContactOption = None,
-    mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None, range_sigma: RangeSigmaOption = None,
-    frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None, ranges: RangesOption = None,
+    origin: OriginOption = None,
     exact: ExactOption = False,
     criterion: CriterionOption = None, alpha: AlphaOption = None,
     accelerations: AccelerationsOption = None,
@@ -138,6 +139,7 @@ def estimate(
     export_name: ExportNameOption = None,
     force: ForceOption = False,
     as_json: JsonOption = False, sensor_position_sigma: SensorPositionSigmaOption = None,
+    *, logs: dict[str, Any],
 ) -> None:
     """Estimate the emitter's trajectory from a measurement file (no initial guess needed).
 
@@ -158,8 +160,7 @@ def estimate(
     model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
                                   export_name, taken=[plot], options=model, files=files)
-    options = reader_options(format, ownship, contact, mapping, bearing_sigma, range_sigma,
-                             frequency_sigma, kinds=kinds, ranges=ranges)
+    options = reader_options(**logs)
     meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
@@ -255,7 +256,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
         raise fail(f"--dim: the height is fitted by ml only, not by --method {method}")
 
     def fit(m: Any) -> Any:
-        try:
+        with failing():
             if method == "ml":
                 from ..batch import estimate as run
 
@@ -264,8 +265,6 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
             from ..batch.methods import estimate_with
 
             return estimate_with(method, m, model, init=start, options=options)
-        except ValueError as e:
-            raise fail(str(e)) from None
 
     return fit
 
@@ -287,10 +286,8 @@ def sensor_error_fitter(meas: Any, motion: str | None, ref_time: float | None, m
                    "static2d, static3d)")
 
     def fit(m: Any) -> Any:
-        try:
+        with failing("--sensor-position-sigma: "):
             return estimate_with_sensor_errors(m, model, sigma, options=options)[0]
-        except ValueError as e:
-            raise fail(f"--sensor-position-sigma: {e}") from None
 
     return fit
 
@@ -317,11 +314,9 @@ def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
     """``--scale-sigma``: rescale each kind's sigma from the residuals and fit again."""
     from ..results import normalised_residuals, scale_sigma
 
-    try:
+    with failing("--scale-sigma: "):
         scaled, factors = scale_sigma(meas, normalised_residuals(result, meas, options),
                                       result.dof)
-    except ValueError as e:
-        raise fail(f"--scale-sigma: {e}") from None
     return scaled, fit(scaled), factors
 
 
@@ -332,13 +327,11 @@ def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
     """Compute the ML estimate of a manoeuvring target (``--motion curvilinear[:M]``)."""
     from ..batch.curvilinear import estimate_for
 
-    try:
+    with failing():
         return estimate_for(meas, name, init=start, options=options, ref_time=ref_time,
                             exact=exact, criterion=criterion or "bic",
                             alpha=0.01 if alpha is None else alpha,
                             accelerations=accelerations)
-    except ValueError as e:
-        raise fail(str(e)) from None
 
 
 def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
@@ -398,3 +391,434 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
                   answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}",
                   units=units)
     say.print(f"wrote {path}", highlight=False)
+
+
+SPEED_UNITS = {"si": ("m/s", 1.0), "nautical": ("kn", 1852.0 / 3600.0)}
+RANGE_UNITS = {"si": ("m", 1.0), "nautical": ("nmi", 1852.0)}
+
+if TYPE_CHECKING:
+    from rich.table import Table
+
+
+def check_units(units: str) -> None:
+    """Refuse an unknown ``--units``."""
+    if units not in SPEED_UNITS:
+        raise fail(f"--units {units!r}: expected si or nautical")
+
+
+def parse_time(text: str | None, meas: Any, option: str) -> float | None:
+    """Return a time option in seconds: seconds, an ISO-8601 clock time, or ``HH:MM[:SS]``."""
+    if text is None:
+        return None
+    from ..io.logs import seconds_of_time_text
+    from ..results.context import TIME_ORIGIN_KEY
+
+    origin_ns = span = None
+    if (origin := meas.metadata.get(TIME_ORIGIN_KEY)) is not None:
+        import numpy as np
+
+        from ..io.logs import parse_clock_times
+
+        stamps, bad = parse_clock_times([origin])
+        if not bad[0]:
+            origin_ns = int(stamps[0])
+            if len(meas):
+                span = tuple(origin_ns + round(float(f(meas.time)) * 1e9)
+                             for f in (np.min, np.max))
+    with failing():
+        return seconds_of_time_text(text, option, origin_ns, span)  # type: ignore[arg-type]
+
+
+def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
+    """Return the rows with ``--from <= time <= --to`` (one leg), refusing an empty window."""
+    t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
+    if t_from is None and t_to is None:
+        return meas
+    keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
+            & (meas.time <= (t_to if t_to is not None else float("inf"))))
+    if int(keep.sum()) == 0:
+        raise fail(f"--from/--to: no measurement between {t_from} and {t_to} s (the file "
+                   f"covers {meas.time.min():g} .. {meas.time.max():g} s)")
+    return meas.take(keep)
+
+
+def _num(v: float | None, fmt: str, scale: float = 1.0) -> str:
+    """Format a number, or ``unobservable`` for None."""
+    return "unobservable" if v is None else format(v / scale, fmt)
+
+
+def answers_table(a: Any, units: str, title: str) -> Table:
+    """Lay out an :class:`~tmakit.results.answers.Answer` as a table with units in its header."""
+    from rich.table import Table  # (loaded where a table is made: not for --help)
+
+    sp_unit, sp = SPEED_UNITS[units]
+    rg_unit, rg = RANGE_UNITS[units]
+    table = Table(title=title, title_justify="left")
+    for col, justify in (("quantity", "left"), ("value", "right"), ("std (1σ)", "right"),
+                         ("unit", "left")):
+        table.add_column(col, justify=justify)  # type: ignore[arg-type]
+
+    def row(name: str, v: float | None, s: float | None, fmt: str, unit: str,
+            scale: float = 1.0, std_unit: str = "") -> None:
+        table.add_row(name, _num(v, fmt, scale),
+                      "" if v is None else _num(s, ".3g", scale) + std_unit, unit)
+
+    if a.geodetic is not None:
+        lat, lon, alt = a.geodetic
+        row("latitude", lat, a.enu_std[1], ".6f", "deg", std_unit=" m")
+        row("longitude", lon, a.enu_std[0], ".6f", "deg", std_unit=" m")
+        if a.dim == 3:
+            row(f"altitude ({a.altitude_reference})", alt, a.enu_std[2], ".1f", "m")
+    for i, name in enumerate(("east", "north", "up")[: a.dim]):
+        row(name, a.enu[i], a.enu_std[i], ".1f", "m")
+    if not a.stationary:
+        row("course (true)", a.course_deg, a.course_std_deg, ".1f", "deg")
+        row("speed", a.speed, a.speed_std, ".3g", sp_unit, sp)
+    if a.sensor is not None:
+        row(f"range from {a.sensor}", a.range_m, a.range_std, ".4g", rg_unit, rg)
+        row(f"bearing from {a.sensor} (true)", a.bearing_deg, a.bearing_std_deg, ".2f", "deg")
+    e = a.ellipse
+    if e is None:
+        table.add_row("position ellipse", "unobservable", "", "")
+    else:
+        table.add_row(f"{e.level:.0%} ellipse semi-axes", f"{e.semi_major:.4g} x "
+                      f"{e.semi_minor:.4g}", "", "m")
+        table.add_row(f"{e.level:.0%} ellipse major axis (true)", f"{e.orientation_deg:.1f}",
+                      "", "deg")
+    return table
+
+
+def answer_title(a: Any, what: str) -> str:
+    """Return the answers table's title: what, at which time (seconds and UTC when known)."""
+    when = f"t = {a.time:g} s" + (f" ({a.clock})" if a.clock else "")
+    if not a.stationary:
+        return f"{what} at {when}"
+    return f"{what} (stationary)" + (f"; range and bearing at {when}" if a.sensor else "")
+
+
+def frame_note(meas: Any) -> str | None:
+    """Say where lat/lon and clock times come from: the ENU origin and the time origin."""
+    from ..results.answers import altitude_reference
+
+    meta = {} if meas is None else meas.metadata
+    parts = []
+    if "origin_lat" in meta and "origin_lon" in meta:
+        source = meta.get("origin_source")
+        parts.append(f"ENU origin lat {float(meta['origin_lat']):.6f} deg, lon "
+                     f"{float(meta['origin_lon']):.6f} deg, alt "
+                     f"{float(meta.get('origin_alt', 0.0)):.1f} m"
+                     + (f" ({source})" if source else "")
+                     + f", altitudes above {altitude_reference(meas)}")
+    if "time_origin" in meta:
+        parts.append(f"t = 0 s is {meta['time_origin']} (UTC)")
+    return "frame: " + "; ".join(parts) if parts else None
+
+
+def print_answers(a: Any, units: str, meas: Any = None, title: str | None = None) -> None:
+    """Print the answers table, how its std were computed and the frame of lat/lon and clock."""
+    what = title or ("emitter position" if a.stationary else "emitter")
+    print_wide(answers_table(a, units, answer_title(a, what)))
+    note = ("std: linearised (delta method) from the covariance; position ellipse: "
+            f"{a.ellipse.level if a.ellipse else 0.95:.0%} probability (chi-square, 2 dof)")
+    if a.dim == 2:
+        note += "; range is horizontal (2-D motion)"
+    out.print(note, highlight=False)
+    frame = frame_note(meas)
+    if frame is not None:
+        out.print(frame, highlight=False)
+
+
+def print_solutions(result: Any, meas: Any, units: str) -> None:
+    """Print the separated solutions, ranked, each with its chi2, test and answers."""
+    if len(result.solutions) < 2:
+        return
+    from rich.table import Table
+
+    sp_unit, sp = SPEED_UNITS[units]
+    rg_unit, rg = RANGE_UNITS[units]
+    first = result.solutions[0].answer(meas)
+    table = Table(title=f"{len(result.solutions)} separated solutions at t = {first.time:g} s"
+                  + (f" ({first.clock})" if first.clock else "")
+                  + ": each fits the data about as well as the first", title_justify="left")
+    for col in ("#", "motion", "chi2", "LR", "p", "east m", "north m", "course deg",
+                f"speed {sp_unit}", f"range {rg_unit}", "bearing deg", "95% ellipse m"):
+        table.add_column(col, justify="left" if col in ("#", "motion") else "right")
+    for sol in result.solutions:
+        a = sol.answer(meas)
+
+        def pm(v: float | None, s: float | None, fmt: str, scale: float = 1.0,
+               std_fmt: str = ".2g") -> str:
+            return ("unobservable" if v is None
+                    else f"{v / scale:{fmt}} ± {_num(s, std_fmt, scale)}")
+
+        e = a.ellipse
+        table.add_row(str(sol.rank), sol.result.motion.name, f"{sol.result.chi2:.4g}",
+                      f"{sol.lr_statistic:.3g}", f"{sol.p_value:.2g}",
+                      pm(a.enu[0], a.enu_std[0], ".0f", std_fmt=".0f"),
+                      pm(a.enu[1], a.enu_std[1], ".0f", std_fmt=".0f"),
+                      pm(a.course_deg, a.course_std_deg, ".1f") if not a.stationary else "-",
+                      pm(a.speed, a.speed_std, ".3g", sp) if not a.stationary else "-",
+                      pm(a.range_m, a.range_std, ".4g", rg),
+                      _num(a.bearing_deg, ".1f"),
+                      "unobservable" if e is None
+                      else f"{e.semi_major:.4g} x {e.semi_minor:.4g}")
+    print_wide(table)
+    out.print("solutions: LR = chi2 - chi2 of the first (0 when lower); p = P(chi2 with the "
+              "first fit's unknowns as degrees of freedom >= LR); the truth may lie in any "
+              "of their ellipses", highlight=False)
+
+
+def print_warnings(warnings: list[Any]) -> None:
+    """Print each sanity warning on standard error as ``warning: ...``."""
+    for w in warnings:
+        err.print(f"[bold yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
+
+
+def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> Any:
+    """Return an estimate's or a track's answers (``--sensor``), errors as ``error: ...``."""
+    if sensor is not None and sensor not in meas.sensors:
+        raise fail(f"--sensor {sensor!r}: no such sensor in the file (sensors: "
+                   f"{', '.join(meas.sensors)})")
+    try:
+        return source.answer(meas, sensor=sensor, **where)
+    except ValueError as e:  # a time the data cannot answer for (tmakit.rules.time_problem)
+        raise fail(str(e).replace("time ", "--at ", 1) if "time" in where else str(e)) from None
+
+
+def legs_of(meas: Any, turn_rate: float | None) -> Any:
+    """Return the own ship's legs (None when the set has several sensors or one that is still)."""
+    import numpy as np
+
+    from ..results.own_legs import TURN_RATE_DEG_S, own_ship_legs
+
+    rate = TURN_RATE_DEG_S if turn_rate is None else turn_rate
+    if not rate > 0:
+        raise fail(f"--turn-rate {turn_rate!r}: expected a heading rate > 0 (deg/s)")
+    if len(meas.sensors) != 1 or not np.any(np.hypot(meas.sensor_state[:, 3],
+                                                     meas.sensor_state[:, 4]) > 0.05):
+        return None
+    return own_ship_legs(meas, turn_rate_deg_s=rate)
+
+
+def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, snap: bool,
+               turn_rate: float | None) -> tuple[str | None, str | None, Any]:
+    """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``."""
+    legs = legs_of(meas, turn_rate)
+    if legs is None:
+        raise fail("--leg/--snap: own-ship legs need one moving sensor (the own ship); the "
+                   f"set has {len(meas.sensors)} sensor(s): {', '.join(meas.sensors)}")
+    if leg is not None:
+        if start is not None or stop is not None:
+            raise fail("--leg N sets the window: give it without --from/--to (or --from/--to "
+                       "with --snap)")
+        if not 1 <= leg <= len(legs.legs):
+            raise fail(f"--leg {leg}: the own ship has {len(legs.legs)} leg(s) "
+                       f"({legs.thresholds()})")
+        chosen = legs.legs[leg - 1]
+        return repr(chosen.start), repr(chosen.stop), legs
+    ends_start = [g.start for g in legs.legs]
+    ends_stop = [g.stop for g in legs.legs]
+
+    def snapped(text: str | None, option: str, ends: list[float], other: list[float]
+                ) -> str | None:
+        t = parse_time(text, meas, option)
+        if t is None:
+            return None
+        inside = [k for k, g in enumerate(legs.legs) if g.start <= t <= g.stop]
+        if inside:
+            return repr(ends[inside[0]])
+        return repr(min(ends + other, key=lambda e: abs(e - t)))
+
+    return (snapped(start, "--from", ends_start, ends_stop),
+            snapped(stop, "--to", ends_stop, ends_start), legs)
+
+
+def _span(meas: Any, part: dict[str, Any]) -> str:
+    """Give a leg's or turn's ``start to stop``: UTC clock times (HH:MM:SS), else seconds."""
+    from ..results.context import clock_time
+
+    clocks = [(t, clock_time(meas, t)) for t in (part["start"], part["stop"])]
+    return " to ".join(f"{t:g} s" if c is None else c[11:19] for t, c in clocks)
+
+
+def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
+    """Return the own-ship legs and turns in words, with the thresholds."""
+    unit, scale = SPEED_UNITS[units]
+    lines = [f"own-ship legs of {legs['sensor']} ({legs['thresholds']}):"]
+    for k, leg in enumerate(legs["legs"]):
+        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, heading "
+                     f"{leg['course_deg']:.1f} deg at {leg['speed'] / scale:.3g} {unit}")
+        if k < len(legs["turns"]):
+            u = legs["turns"][k]
+            lines.append(f"  turn: {_span(meas, u)}, {u['change_deg']:+.0f} deg")
+    return lines
+
+
+def print_legs(meas: Any, result: Any, units: str) -> None:
+    """Print the own-ship legs and the contact's legs a fit carries (``extra``)."""
+    legs, target = result.extra.get("legs"), result.extra.get("contact_legs")
+    lines = (legs_lines(meas, legs, units) if legs else []) + (
+        contact_legs_lines(meas, target, units) if target else [])
+    for line in lines:
+        out.print(line, highlight=False, soft_wrap=True)
+
+
+def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:
+    """Return the contact's legs of a manoeuvre fit in words."""
+    unit, scale = SPEED_UNITS[units]
+    lines = ["contact legs (the manoeuvre fit's segments):"]
+    for k, leg in enumerate(legs):
+        course = (f"course {leg['course_deg']:.1f} deg" if leg["turn_deg"] is None
+                  or abs(leg["turn_deg"]) < 1.0 else
+                  f"turning {leg['course_start_deg']:.1f} to {leg['course_deg']:.1f} deg")
+        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, {course}, speed "
+                     f"{leg['speed'] / scale:.3g} {unit}")
+    return lines
+
+
+def fit_with_ambiguity(meas: Any, fit: Any,
+                       turns: tuple[bool, float | None, float | None], as_json: bool,
+                       legs: Any = None) -> tuple[Any, Any]:
+    """Fit, resolving a towed array's ambiguity when the bearings carry twins."""
+    import numpy as np
+
+    keep_turn_cuts, settle, turn_rate = turns
+    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+        if keep_turn_cuts or settle is not None:
+            err.print("note: --keep-turn-cuts/--settle apply to towed-array cuts with a second, "
+                      "ambiguous bearing; these data have none", highlight=False)
+        return fit(meas), meas
+    from ..batch.ambiguity import SETTLE_S, resolve_ambiguity
+    from ..results.own_legs import TURN_RATE_DEG_S
+
+    with failing():
+        amb = resolve_ambiguity(meas, fit=fit, keep_turn_cuts=keep_turn_cuts,
+                                settle_s=SETTLE_S if settle is None else settle,
+                                turn_rate_deg_s=TURN_RATE_DEG_S if turn_rate is None
+                                else turn_rate, legs=legs)
+    say = err if as_json else out
+    for line in amb.lines(meas):
+        say.print(line, highlight=False, soft_wrap=True)
+    return amb.result, amb.measurements
+
+
+def sides_for_filter(meas: Any, dim: int) -> Any:
+    """``tma track``: each ambiguous cut on the side the batch fit chooses, decisions printed."""
+    import numpy as np
+
+    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+        return meas
+    from ..batch.ambiguity import resolve_ambiguity
+
+    with failing():
+        amb = resolve_ambiguity(meas, f"cv{dim}d")
+    for line in amb.lines(meas):
+        err.print(line, highlight=False, soft_wrap=True)
+    if not amb.resolved:
+        err.print("note: a filter follows one bearing per cut: the track takes the best fit's "
+                  "side of each unresolved leg, and the mirror track fits about as well (tma "
+                  "estimate reports both)", highlight=False, soft_wrap=True)
+    return amb.measurements
+
+
+@dataclass
+class SolutionOutputs:
+    """The page and exports asked for, checked (see :func:`check_solution_outputs`)."""
+
+    html: Path | None = None
+    exports: list[Path] = field(default_factory=list)
+    every: float = 60.0
+    range_bearing: bool = False
+    name: str | None = None
+    force: bool = False
+    title: str = ""
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def __bool__(self) -> bool:
+        """Whether anything is to be written."""
+        return self.html is not None or bool(self.exports)
+
+
+def check_solution_outputs(html: Path | None, exports: list[Path] | None, force: bool,
+                           inputs: list[Path], every: float = 60.0,
+                           range_bearing: bool = False, name: str | None = None,
+                           taken: list[Path | None] | None = None,
+                           options: dict[str, Any] | None = None,
+                           files: list[Path] | None = None) -> SolutionOutputs:
+    """Check ``--html`` and ``--export`` before any work."""
+    if not every > 0:
+        raise fail(f"--export-every {every:g}: expected seconds > 0")
+    if range_bearing and not any(Path(p).suffix.lower() == ".rep" for p in exports or []):
+        raise fail("--export-rb adds ;TMA_RB: lines to a .rep export: give --export FILE.rep")
+    checked = check_outputs([("--html", html, "page"),
+                             *(("--export", p, "solution") for p in exports or [])],
+                            force, inputs)
+    plots = {Path(p).resolve() for p in taken or [] if p is not None}
+    for option, p in zip(["--html", *["--export"] * len(exports or [])], checked, strict=True):
+        if p is not None and p.resolve() in plots:
+            raise fail(f"{option} {p}: the same file as --plot")
+    return SolutionOutputs(html=checked[0], exports=[p for p in checked[1:] if p is not None],
+                           every=every, range_bearing=range_bearing, name=name, force=force,
+                           title=" + ".join(map(str, files or inputs)),
+                           options=dict(options or {}))
+
+
+def check_page(html: Path | None, force: bool, inputs: list[Path], plot: Path | None
+               ) -> Path | None:
+    """Check ``--html`` alone (``tma track``): :func:`check_solution_outputs` without exports."""
+    return check_solution_outputs(html, None, force, inputs, taken=[plot]).html
+
+
+def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, answers: bool,
+                           say: Any) -> None:
+    """Write the page and the exports; say what was written (or why an export was not)."""
+    if outputs.html is not None:
+        from ..plot.page import write_solution_page
+
+        title = f"{outputs.title}: {result.method} estimate, {result.motion.name}"
+        write_picture(outputs.html, outputs.force, lambda tmp: write_solution_page(
+            meas, result, tmp, options=outputs.options, title=title))
+        say.print(f"wrote {outputs.html} (open it in a browser: no network needed)",
+                  highlight=False, soft_wrap=True)
+    if not outputs.exports:
+        return
+    if not answers:
+        say.print(f"not written: {', '.join(map(str, outputs.exports))}: the estimate is no "
+                  "answer", highlight=False)
+        return
+    from ..io.solution_files import write_solution
+
+    for path in outputs.exports:
+        with failing("--export ", written=path):
+            write_solution(path, meas, result, every=outputs.every,
+                           range_bearing=outputs.range_bearing, name=outputs.name,
+                           force=outputs.force)
+        say.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+def report(**arguments: Any) -> None:
+    """Write the interactive solution page of a measurement file (and print the estimate).
+
+    The page (one self-contained .html file, no network needed to open it) shows the
+    geography with the sensors' tracks and legs, the bearing fan, the solution with its
+    ellipses, and the stacked dots of each kind; drag the solution in the page to see the
+    dots and chi-square follow. Every option of tma estimate applies (--export too).
+    """
+    estimate(**arguments)
+
+
+def _report_signature() -> inspect.Signature:
+    """``tma estimate``'s parameters, ``--html`` replaced by a required ``-o/--output``."""
+    page = inspect.Parameter(
+        "html", inspect.Parameter.POSITIONAL_OR_KEYWORD,
+        annotation=Annotated[Path, typer.Option(
+            "-o", "--output", "--html", metavar="FILE", help="the page to write (.html)")])
+    params = [page if p.name == "html" else p  # (resolved by reads_logs)
+              for p in inspect.signature(estimate).parameters.values()]
+    # a parameter without default after those with one: move the page after the files
+    params.remove(page)
+    params.insert(1, page)
+    return inspect.Signature(params, return_annotation=None)
+
+
+report.__signature__ = _report_signature()  # type: ignore[attr-defined]

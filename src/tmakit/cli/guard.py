@@ -24,6 +24,8 @@ from typing import Any
 import click
 import typer
 
+from .common import err, fail, note_arguments
+
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_NO_ANSWER", "EXIT_STATUS",
            "EXIT_TERMINATED", "WRITE_ERRORS", "guarded", "install_sigterm", "set_debug",
            "write_failed"]
@@ -110,16 +112,12 @@ def _report(exc: BaseException, command: str, caught: list[warnings.WarningMessa
             hint = f"please report; traceback in {log}"
         except OSError:
             hint = "please report; rerun with tma --debug for the traceback"
-    from .common import err
-
     err.print(f"[bold red]error:[/] internal error in `tma {command}`{what}: {message} "
               f"({hint})", highlight=False, markup=True, soft_wrap=True)
     return EXIT_INTERNAL
 
 
 def _interrupted(code: int, why: str) -> int:
-    from .common import err
-
     err.print(f"[bold red]{why}[/]", highlight=False, markup=True)
     return code
 
@@ -130,8 +128,6 @@ def _refuse_non_finite(options: dict[str, Any]) -> None:
 
     for name, value in options.items():
         if isinstance(value, float) and not math.isfinite(value):
-            from .common import fail
-
             raise fail(f"--{name.replace('_', '-')} {value}: expected a finite number")
 
 
@@ -140,8 +136,6 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:
-        from .outputs import note_arguments
-
         _refuse_non_finite(kwargs)
         note_arguments(kwargs)  # the files they name are inputs: never written over
         caught: list[warnings.WarningMessage] = []
@@ -170,8 +164,6 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
                 raise typer.Exit(_report(exc, command.__name__, caught)) from None
             raise typer.Exit(write_failed(exc, command.__name__)) from None
         except MemoryError:
-            from .common import err
-
             err.print(f"[bold red]error:[/] `tma {command.__name__}` ran out of memory; ask "
                       "for less work (fewer runs, rows or particles)", highlight=False,
                       markup=True, soft_wrap=True)

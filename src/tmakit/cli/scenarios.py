@@ -1,6 +1,9 @@
-"""``tma scenarios``, ``tma simulate``, ``tma show`` and ``tma demo``.
+"""File commands: ``tma scenarios``, ``simulate``, ``show``, ``demo``, ``import``, ``examples``.
 
-The built-in scenarios, their simulated measurement files, and a file's summary and picture.
+The built-in scenarios and their simulated measurement files; a file's summary and picture; real
+logs (Debrief, a wide CSV/Parquet log with its column mapping, GPX/NMEA own track with a
+measurement log) into tmakit's measurement file, its metadata keeping the clock time of t = 0
+and the ENU origin; and the sample logs.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from .common import (
     BearingSigmaOption,
     ContactOption,
     FilesArgument,
-    FormatOption,
+    ForceOption,
     FrequencySigmaOption,
     KindsOption,
     MappingOption,
@@ -22,16 +25,19 @@ from .common import (
     OwnshipOption,
     RangeSigmaOption,
     RangesOption,
+    check_output,
     fail,
     load_scenario_or_fail,
     out,
     parse_origin,
     print_wide,
+    read_or_fail,
     reader_options,
+    reads_logs,
+    refuse_existing,
     write_or_fail,
+    write_picture,
 )
-from .outputs import check_output, write_picture
-from .reading import read_or_fail
 
 if TYPE_CHECKING:
     from rich.table import Table
@@ -105,7 +111,6 @@ def describe_sensors(meas: Any) -> Table:
     return table
 
 
-# `tma scenarios`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def scenarios() -> None:
     """List the built-in scenarios, one line each."""
     from rich.table import Table  # (loaded where a table is made: not for --help)
@@ -120,7 +125,6 @@ def scenarios() -> None:
     out.print(table)
 
 
-# `tma simulate`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def simulate(
     scenario: Annotated[str, typer.Argument(help="built-in scenario name or TOML file")],
     output: Annotated[Path, typer.Option("-o", "--output",
@@ -154,28 +158,17 @@ def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
         raise fail(f"scenario {scn.name}: {e}") from None
 
 
-# `tma show`: the docstring is its --help text, so no numpydoc sections (help= has them).
+@reads_logs(after="origin")
 def show(
     files: FilesArgument,
     plot: Annotated[Path | None, typer.Option(help="write a picture (PNG, PDF, SVG)")] = None,
     origin: OriginOption = None,
-    format: FormatOption = None,
-    ownship: OwnshipOption = None,
-    contact: ContactOption = None,
-    mapping: MappingOption = None,
-    bearing_sigma: BearingSigmaOption = None,
-    range_sigma: RangeSigmaOption = None,
-    frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None,
-    ranges: RangesOption = None,
     force: Annotated[bool, typer.Option(help="overwrite an existing picture")] = False,
+    *, logs: dict[str, Any],
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
     plot = check_output(plot, "--plot", force, "picture", files)
-    meas = read_or_fail(files, parse_origin(origin),
-                        **reader_options(format, ownship, contact, mapping, bearing_sigma,
-                                         range_sigma, frequency_sigma, kinds=kinds,
-                                         ranges=ranges))
+    meas = read_or_fail(files, parse_origin(origin), **reader_options(**logs))
     meta = meas.metadata
     title = f"{' + '.join(map(str, files))}: {len(meas)} measurements"
     if "scenario" in meta:
@@ -187,11 +180,9 @@ def show(
     if "truth" in meta:
         out.print(f"truth ({meta.get('motion', '?')}): {truth_text(meta)}", highlight=False)
     if "time_origin" in meta:  # a real log: its clock time and frame
-        from .importing import print_import
-
         print_import(meas, None)
     from ..results import measurement_warnings
-    from .answers_out import print_warnings
+    from .estimate import print_warnings
 
     print_warnings(measurement_warnings(meas))
     if plot is not None:
@@ -205,7 +196,6 @@ def show(
 DEMO_MARK = ".tma-demo"
 
 
-# `tma demo`: the docstring is its --help text, so no numpydoc sections (help= has them).
 def demo(
     out_dir: Annotated[Path, typer.Option(
         help="the demo's own folder, replaced on every run")] = Path("tma-demo"),
@@ -242,3 +232,203 @@ def prepare_demo_folder(folder: Path, force: bool) -> None:
         shutil.rmtree(folder)
     folder.mkdir(parents=True, exist_ok=True)
     (folder / DEMO_MARK).write_text("written by tma demo; replaced when it runs again\n")
+
+
+#: The formats of ``tma import`` and how many files each takes (0: one or more, one replay).
+IMPORT_FORMATS = {"rep": 0, "dsf": 0, "wide": 1, "gpx": 2, "nmea": 2}
+#: The sample logs shipped in ``tmakit/examples`` (written by ``tma examples``): tmakit's
+#: simulated logs, and a public Debrief sample (a sensor file, the own ship's and the subject's
+#: tracks, with their source and licence in ``debrief-samples.txt``).
+EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea",
+                 "bearings.csv", "bearings.toml", "truth.json", "Freq_BlueSensor.rep",
+                 "Freq_BlueTrack.rep", "Freq_RedTrack.rep", "Ambig_cuts_TA.rep",
+                 "Ambig_tracks2.rep", "debrief-samples.txt", "EPL-1.0.txt")
+
+
+def _check_track_suffix(fmt: str, track: Path) -> None:
+    """Refuse a track whose suffix says the other format (tracks are read by suffix)."""
+    is_gpx = track.suffix.lower() == ".gpx"
+    if is_gpx != (fmt == "gpx"):
+        other = "gpx" if is_gpx else "nmea"
+        raise fail(f"import {fmt}: the track {track} would be read as "
+                   f"{'GPX' if is_gpx else 'NMEA 0183'} (a track is read by its suffix: .gpx "
+                   f"is GPX, any other NMEA 0183); use tma import {other}, or rename the file")
+
+
+def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None) -> Any:
+    if map_text is None and not measure:
+        return mapping
+    if mapping is not None:
+        raise fail("give the column mapping as --mapping FILE.toml or as --map/--measure, "
+                   "not both")
+    from ..io.log_mapping import MappingError, mapping_from_text
+
+    try:
+        return mapping_from_text(map_text or "", list(measure or []))
+    except MappingError as e:
+        raise fail(str(e)) from None
+
+
+def import_(
+    format: Annotated[str, typer.Argument(
+        metavar="FORMAT", help="rep or dsf (Debrief: one or more files, read as one replay), "
+                               "wide (CSV/Parquet log + mapping), gpx or nmea (own track, "
+                               "then the measurement log)")],
+    files: Annotated[list[Path], typer.Argument(metavar="FILE...",
+                                                help="the file(s) to read")],
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="tmakit measurement file to write (.parquet or .csv)")] = None,
+    ownship: OwnshipOption = None,
+    contact: ContactOption = None,
+    bearing_sigma: BearingSigmaOption = None,
+    range_sigma: RangeSigmaOption = None,
+    frequency_sigma: FrequencySigmaOption = None,
+    kinds: KindsOption = None,
+    ranges: RangesOption = None,
+    mapping: MappingOption = None,
+    map_text: Annotated[str | None, typer.Option(
+        "--map", help="the mapping inline: time=COL,lat=COL,lon=COL,alt=COL,vn=COL,ve=COL,"
+                      "vd=COL,sensor=NAME,altitude=msl")] = None,
+    measure: Annotated[list[str] | None, typer.Option(
+        help="with --map, one per measurement column: COLUMN=KIND:UNIT:SIGMA")] = None,
+    origin: OriginOption = None,
+    dim: Annotated[int | None, typer.Option(
+        help="2 or 3: override the surface rule (default: 2-D when the sensors' altitudes "
+             "stay within 25 m of the origin's)")] = None,
+    force: ForceOption = False,
+    guess: Annotated[bool, typer.Option(
+        "--guess", help="wide logs: print a column mapping (TOML) proposed from the file's "
+                        "header, to check and pass as --mapping; nothing is imported")] = False,
+) -> None:
+    """Read a real log (Debrief, wide CSV/Parquet, GPX or NMEA) into a tmakit file.
+
+    The clock time of t = 0 and the ENU origin (default: the first fix) go into the file's
+    metadata and are printed; see docs/your-own-data.md.
+    """
+    fmt = format.lower()
+    if fmt not in IMPORT_FORMATS:
+        raise fail(f"unknown format {format!r}: expected one of {', '.join(IMPORT_FORMATS)}")
+    if guess:
+        print_guess(fmt, files)
+        return
+    if output is None:
+        raise fail("give the measurement file to write: -o obs.parquet (or --guess to "
+                   "propose a mapping)")
+    if IMPORT_FORMATS[fmt] and len(files) != IMPORT_FORMATS[fmt]:
+        what = ("the own track and the measurement log" if IMPORT_FORMATS[fmt] == 2
+                else "one file")
+        raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
+    if dim not in (None, 2, 3):
+        raise fail(f"--dim {dim}: expected 2 or 3")
+    check_output(output, "-o", force, "measurements",
+                 [*files, *([mapping] if mapping is not None else [])])
+    for f in files:
+        if not f.exists():
+            raise fail(f"{f}: no such file")
+    options: dict[str, Any] = reader_options(
+        "rep" if fmt == "dsf" else fmt, ownship, contact, _mapping(mapping, map_text, measure),
+        bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges) | {"dim": dim}
+    if fmt in ("gpx", "nmea"):
+        _check_track_suffix(fmt, files[0])
+        options["measurements"] = files[1]
+    meas = read_or_fail(files if fmt in ("rep", "dsf") else files[0], parse_origin(origin),
+                        **options)
+    write_or_fail(meas, output, force)
+    print_import(meas, output)
+
+
+def print_guess(fmt: str, files: list[Path]) -> None:
+    """Print the mapping proposed for a wide log's header (``--guess``)."""
+    if fmt != "wide" or len(files) != 1:
+        raise fail("--guess proposes the mapping of one wide log: tma import wide FILE --guess")
+    from ..io.errors import MeasurementFileError, refuse_unreadable
+    from ..io.log_mapping import guess_mapping
+
+    path = files[0]
+    if not path.exists():
+        raise fail(f"{path}: no such file")
+    try:
+        refuse_unreadable(path, binary=path.suffix.lower() in (".parquet", ".pq"))
+        proposal = guess_mapping(path)
+    except (MeasurementFileError, ValueError, OSError) as e:
+        raise fail(str(e)) from None
+    typer.echo(proposal.toml(path.name), nl=False)
+
+
+def print_import(meas: Any, output: Path | None) -> None:
+    """Print what was imported: rows, clock time, frame, and the choices made."""
+    meta = meas.metadata
+    counts = ", ".join(f"{r['count']} {r['kind']} ({r['unit']}) from {r['sensor']}"
+                       for r in meas.summary_rows())
+    if output is not None:
+        out.print(f"wrote {output}: {len(meas)} measurements: {counts}", highlight=False,
+                  soft_wrap=True)
+    if "source" in meta:
+        out.print(f"  source: {meta['source']}", highlight=False, soft_wrap=True)
+    if "duplicates_merged" in meta:
+        out.print(f"  note: {meta['duplicates_merged']} rows repeated an earlier row (same "
+                  "sensor, kind, time, value and sigma) and were merged into it",
+                  highlight=False, soft_wrap=True)
+    if "time_origin" in meta:
+        out.print(f"  t = 0 s is {meta['time_origin']} (UTC); the data span "
+                  f"{meas.time.min():g} .. {meas.time.max():g} s", highlight=False)
+    if "origin_lat" in meta:
+        out.print(f"  ENU origin: lat {float(meta['origin_lat']):.7f} deg, lon "
+                  f"{float(meta['origin_lon']):.7f} deg, alt {float(meta['origin_alt']):.1f} m "
+                  f"({meta.get('altitude_reference', 'ellipsoid')})"
+                  + (f", {meta['origin_source']}" if "origin_source" in meta else ""),
+                  highlight=False)
+    for key, label in (("dim_rule", "frame"), ("velocity_source", "sensor velocity")):
+        if key in meta:
+            out.print(f"  {label}: {meta[key]}", highlight=False, soft_wrap=True)
+    if "bearing_sigma_deg" in meta:
+        out.print("  " + _replay_sigmas(meta, set(meas.kinds)), highlight=False, soft_wrap=True)
+    if output is not None and meas.ambiguous_si is not None:
+        import numpy as np
+
+        out.print(f"  note: the {int((~np.isnan(meas.ambiguous_si)).sum())} ambiguous twin "
+                  "bearings (a towed array's mirror) are not written: a measurement file has "
+                  "no column for them, and the first bearing of each cut is kept; resolve the "
+                  "side from the log itself (tma estimate LOG...)", highlight=False,
+                  soft_wrap=True)
+
+
+def _replay_sigmas(meta: dict[str, str], kinds: set[str]) -> str:
+    """Say which sigmas a Debrief file's rows got: the lines' accuracies or the defaults."""
+    given = [f"{kind} {float(meta[key]):g} {unit}" for kind, key, unit in (
+        ("bearing", "bearing_sigma_deg", "deg"), ("range", "range_sigma_m", "m"),
+        ("frequency", "frequency_sigma_hz", "Hz")) if kind in kinds and key in meta]
+    stated = int(meta.get("sigma_from_file", "0"))
+    where = (f"; {stated} ;SENSOR3: lines state their own accuracy" if stated
+             else " (not in the file)")
+    return "sigma: " + ", ".join(given) + where
+
+
+def examples(
+    folder: Annotated[Path, typer.Argument(help="folder to write the sample logs into")],
+    force: ForceOption = False,
+) -> None:
+    """Write the sample logs shipped with tmakit (made by its own simulation) into FOLDER.
+
+    contact.rep (Debrief), drone.csv + drone.toml (wide log), own.gpx, own.nmea,
+    bearings.csv + bearings.toml (own track + bearings), truth.json (what the simulation
+    put in them), and Debrief's public TA_DUMMY sample: Freq_BlueSensor.rep (sensor file),
+    Freq_BlueTrack.rep (own ship), Freq_RedTrack.rep (the subject's truth), and its AssetData
+    towed-array pair: Ambig_cuts_TA.rep (ambiguous cuts), Ambig_tracks2.rep (own ship and
+    subject), with their source in debrief-samples.txt and their licence in EPL-1.0.txt; see
+    docs/your-own-data.md and docs/analyst.md.
+    """
+    from importlib import resources
+
+    targets = [folder / name for name in EXAMPLE_FILES]
+    for t in targets:
+        refuse_existing(t, force)
+    folder.mkdir(parents=True, exist_ok=True)
+    from ..io import atomic_write
+
+    for name, target in zip(EXAMPLE_FILES, targets, strict=True):
+        data = (resources.files("tmakit") / "examples" / name).read_bytes()
+        with atomic_write(target, force=force) as tmp:
+            Path(tmp).write_bytes(data)
+    out.print(f"wrote {len(targets)} sample logs to {folder}: {', '.join(EXAMPLE_FILES)}",
+              highlight=False)

@@ -1,81 +1,114 @@
 """``tma track``: a recursive filter's state and covariance after every update.
 
-Its table, JSON, file and picture.
+Its options (parsed and checked before the file is read, library errors put in the words of the
+flags that would fix them), its table, JSON, file and picture, and ``--follow`` (a live watch of
+growing files).
 """
 
 from __future__ import annotations
 
+import math
+import queue
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, BinaryIO
 
 import typer
 
-from .answers_out import (
-    SPEED_UNITS,
-    SensorOption,
-    UnitsOption,
-    answer_or_fail,
-    check_units,
-    print_answers,
-    print_warnings,
-)
 from .common import (
-    BearingSigmaOption,
-    ContactOption,
     DriftOption,
     FilesArgument,
     ForceOption,
-    FormatOption,
     FreeExponentOption,
-    FrequencySigmaOption,
-    KindsOption,
-    MappingOption,
     OriginOption,
-    OwnshipOption,
     PropagationSpeedOption,
-    RangeSigmaOption,
-    RangesOption,
+    check_outputs,
+    check_particles,
     err,
     fail,
+    failing,
     model_options,
     out,
+    parse_assignments,
     parse_origin,
     print_wide,
+    read_or_fail,
     reader_options,
+    reads_logs,
+    write_picture,
 )
-from .legs_out import sides_for_filter
-from .reading import read_or_fail
-from .solution_out import HtmlOption, check_page
-from .track_options import (
-    ComponentOption,
-    FollowOption,
-    HeightPriorOption,
-    IntervalOption,
-    LagOption,
-    MaxUpdatesOption,
-    ModelQOption,
-    NuisanceOption,
-    ParticlesOption,
-    PriorTimeOption,
-    QDensityOption,
-    RangePriorOption,
-    SeedOption,
-    SmoothOption,
-    SpeedPriorOption,
-    TransitionOption,
-    TurnRateOption,
-    check_track_options,
-    component_settings,
-    parse_bearing_prior,
-    parse_prior,
-    parse_q,
-    smoothed_track,
-    tracking_failure,
+from .estimate import (
+    SPEED_UNITS,
+    HtmlOption,
+    SensorOption,
+    SolutionOutputs,
+    UnitsOption,
+    answer_or_fail,
+    check_page,
+    check_units,
+    print_answers,
+    print_warnings,
+    sides_for_filter,
+    write_solution_outputs,
 )
 
+ParticlesOption = Annotated[int | None, typer.Option(
+    help="number of particles (particle filter only)")]
+SeedOption = Annotated[int | None, typer.Option(
+    help="random seed (particle filter only; same seed, same track)")]
+QDensityOption = Annotated[str, typer.Option(
+    "--q-density", help="process noise as continuous white-noise acceleration: spectral "
+                        "density (m^2/s^3), one value or per axis; Q = q~ [[T^3/3, T^2/2], "
+                        "[T^2/2, T]] per axis, added to --q's")]
+RangePriorOption = Annotated[str | None, typer.Option(
+    "--range-prior", help="start at the first bearing: the emitter's range then lies in "
+                          "MIN:MAX (m); default 500:50000 for --filter gsf")]
+SpeedPriorOption = Annotated[float | None, typer.Option(
+    "--speed-prior", help="start at the first bearing: the largest plausible speed (m/s, "
+                          "course unknown); default 20")]
+HeightPriorOption = Annotated[str | None, typer.Option(
+    "--height-prior", help="start at the first bearing, 3-D: the emitter's height interval "
+                           "MIN:MAX (m); default 0:12000")]
+ComponentOption = Annotated[str, typer.Option(
+    help="the component filter of gsf (the Gaussian sum) or imm: ekf, ukf or ckf "
+         "(cubature)")]
+ModelQOption = Annotated[str | None, typer.Option(
+    "--model-q", help="--filter imm: acceleration std (m/s^2) of the manoeuvre models, "
+                      "one value per model (comma-separated) beside the --q model; default "
+                      "1.0")]
+TurnRateOption = Annotated[str | None, typer.Option(
+    "--turn-rate", help="--filter imm: turn rates (deg/s, comma-separated; counter-clockwise "
+                        "positive, a right turn negative) of coordinated-turn models added "
+                        "after the --model-q ones")]
+PriorTimeOption = Annotated[float | None, typer.Option(
+    help="time of the prior (s); default: the first measurement time")]
+NuisanceOption = Annotated[str | None, typer.Option(
+    help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
+TransitionOption = Annotated[str | None, typer.Option(
+    "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
+                         "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
+SmoothOption = Annotated[bool, typer.Option(
+    "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
+                     "filters and the Gaussian sum; backward simulation for pf)")]
+LagOption = Annotated[int | None, typer.Option(
+    help="a fixed-lag smoother (implies --smooth): each state given the data up to N "
+         "updates after it")]
+FollowOption = Annotated[bool, typer.Option(
+    "--follow", help="keep tracking as the file grows (REP, NMEA, CSV; FILE - reads standard "
+                     "input, with --format): one line per update, the outputs rewritten; "
+                     "Ctrl-C or SIGTERM stops it")]
+IntervalOption = Annotated[float, typer.Option(
+    metavar="SECONDS", help="--follow: seconds between looks at the file")]
+MaxUpdatesOption = Annotated[int | None, typer.Option(
+    metavar="N", help="--follow: stop after N updates")]
 
-# `tma track`: the docstring is its --help text, so no numpydoc sections (help= has them).
+
+@reads_logs(after="origin")
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
@@ -106,10 +139,6 @@ def track(
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
     propagation_speed: PropagationSpeedOption = None,
     origin: OriginOption = None,
-    format: FormatOption = None, ownship: OwnshipOption = None, contact: ContactOption = None,
-    mapping: MappingOption = None, bearing_sigma: BearingSigmaOption = None,
-    range_sigma: RangeSigmaOption = None, frequency_sigma: FrequencySigmaOption = None,
-    kinds: KindsOption = None, ranges: RangesOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the track as JSON")] = False,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="write the track table (.csv or .parquet)")] = None,
@@ -122,7 +151,7 @@ def track(
     sensor: SensorOption = None, units: UnitsOption = "si",
     html: HtmlOption = None, follow: FollowOption = False,
     interval: IntervalOption = 1.0, max_updates: MaxUpdatesOption = None,
-    force: ForceOption = False,
+    force: ForceOption = False, *, logs: dict[str, Any],
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
 
@@ -131,11 +160,10 @@ def track(
     With --html, the solution page of the batch estimate (constant velocity) of the data.
     """
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
-                                       ellipses, rows, (*files, mapping))
+                                       ellipses, rows, (*files, logs["mapping"]))
     check_units(units)
     page = check_page(html, force, [*files], plot)
-    reading = (parse_origin(origin), dim, reader_options(format, ownship, contact, mapping,
-               bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges))
+    reading = (parse_origin(origin), dim, reader_options(**logs))
     options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
                       smooth=(smooth, lag), keywords=start_keywords(
@@ -146,9 +174,7 @@ def track(
                           filter_name, options))
     name, say = Path(" + ".join(map(str, files))), err if as_json else out
     if follow:
-        from .follow import follow as watch
-
-        return watch(list(files), format, Watch(tracked, name, output, plot, page, ellipses,
+        return watch(list(files), logs["format"], Watch(tracked, name, output, plot, page, ellipses,
                                                 force, as_json, sensor, units, options),
                      interval, max_updates, say)
     meas, tr, truth = tracked(list(files))
@@ -198,7 +224,6 @@ def write_track_page(meas: Any, tr: Any, path: Path, force: bool, options: dict[
     """``--html``: the solution page of the batch estimate (constant velocity) of the data."""
     from ..batch import estimate as run
     from ..motion import ConstantVelocity
-    from .solution_out import SolutionOutputs, write_solution_outputs
 
     dim = len(tr.state_names) // 2
     try:
@@ -335,14 +360,11 @@ def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path
     from ..io.track_files import write_track
 
     if output is not None:
-        try:
+        with failing(written=output, errors=()):
             write_track(tr, output, force=force)
-        except FileExistsError:
-            raise fail(f"{output} already exists; use --force to overwrite it") from None
         say.print(f"wrote {output}", highlight=False)
     if plot is not None:
         from ..plot.tracks import plot_track
-        from .outputs import write_picture
 
         bound, note = (tracking.track_pcrb(meas, tr, truth) if truth is not None
                        else (None, ""))
@@ -478,3 +500,313 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
             sigma = "the final covariance is singular (a collapsed cloud or track)"
         out.print(f"truth known (file metadata): final position error "
                   f"{np.linalg.norm(e):.1f} m, {sigma}", highlight=False)
+
+
+def parse_q(text: str, dim: int, flag: str = "--q") -> list[float]:
+    """Parse ``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2)."""
+    try:
+        return [float(p.strip()) for p in text.split(",")]
+    except ValueError:
+        unit = "m/s^2" if flag == "--q" else "m^2/s^3"
+        raise fail(f"{flag} {text!r}: expected one number or {dim} numbers separated by "
+                   f"commas ({unit} per axis, e.g. 0.01 or "
+                   f"{','.join(['0.01'] * dim)})") from None
+
+
+def _interval(text: str, flag: str) -> tuple[float, float]:
+    parts = text.split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        lo, hi = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise fail(f"{flag} {text!r}: expected MIN:MAX in metres, e.g. 1000:30000") from None
+    return lo, hi
+
+
+def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
+                        height_prior: str | None, other_start: bool) -> Any:
+    """``--range-prior``, ``--speed-prior`` and ``--height-prior`` as a bearing prior."""
+    if range_prior is None and speed_prior is None and height_prior is None:
+        return None
+    if other_start:
+        raise fail("--range-prior, --speed-prior and --height-prior start the track at the "
+                   "first bearing; they cannot be used with --prior or --init-window")
+    from ..filters import BearingPrior
+    from ..filters.bearing_prior import DEFAULT_HEIGHT, DEFAULT_RANGE, DEFAULT_SPEED
+
+    given = tuple(n for n, v in (("range", range_prior), ("speed", speed_prior),
+                                 ("height", height_prior)) if v is not None)
+    lo, hi = DEFAULT_RANGE if range_prior is None else _interval(range_prior, "--range-prior")
+    height = DEFAULT_HEIGHT if height_prior is None else _interval(height_prior,
+                                                                   "--height-prior")
+    if not (0 < lo < hi):
+        raise fail(f"--range-prior {range_prior!r}: expected 0 < MIN < MAX (m)")
+    if height[0] > height[1]:
+        raise fail(f"--height-prior {height_prior!r}: expected MIN <= MAX (m)")
+    speed = DEFAULT_SPEED if speed_prior is None else float(speed_prior)
+    if not (speed > 0 and speed < 1e4):
+        raise fail(f"--speed-prior {speed_prior}: expected a speed > 0 m/s (and below "
+                   "10 km/s)")
+    return BearingPrior(lo, hi, speed, height, given)
+
+
+def component_settings(filter_name: str, component: str, smooth: bool = False,
+                       model_q: str | None = None, transition: str | None = None,
+                       turn_rate: str | None = None) -> dict[str, object]:
+    """Give the filter's settings from ``--component``, ``--smooth`` and the IMM's options."""
+    from ..filters.gaussian_sum import COMPONENTS
+
+    if component not in COMPONENTS:
+        raise fail(f"--component {component!r}: expected one of {', '.join(COMPONENTS)}")
+    if filter_name != "imm" and (model_q, transition, turn_rate) != (None, None, None):
+        raise fail("--model-q, --transition and --turn-rate apply only to --filter imm")
+    if filter_name not in ("gsf", "imm"):
+        if component != "ekf":
+            raise fail("--component applies only to --filter gsf and imm (their component "
+                       "filter)")
+        return {"history": True} if smooth and filter_name == "pf" else {}
+    out: dict[str, object] = {"component": component}
+    if model_q is not None:
+        try:
+            out["model_q"] = [float(v) for v in model_q.split(",")]
+        except ValueError:
+            raise fail(f"--model-q {model_q!r}: expected accelerations (m/s^2) separated by "
+                       "commas") from None
+    if turn_rate is not None:
+        try:
+            out["turn_rates"] = [math.radians(float(v)) for v in turn_rate.split(",")]
+        except ValueError:
+            raise fail(f"--turn-rate {turn_rate!r}: expected turn rates (deg/s) separated by "
+                       "commas") from None
+    if transition is not None:
+        try:
+            out["transition"] = [[float(v) for v in row.split(",")]
+                                 for row in transition.split(";")]
+        except ValueError:
+            raise fail(f"--transition {transition!r}: expected rows of probabilities, "
+                       "e.g. 0.95,0.05;0.05,0.95") from None
+    return out
+
+
+def smoothed_track(tr: Any, lag: int | None) -> Any:
+    """Attach the smoothed track (``--smooth``, ``--lag``) to ``tr.extra.smoothed``."""
+    from ..filters import smooth
+
+    if lag is not None and lag < 0:
+        raise fail(f"--lag {lag}: expected a number of updates >= 0")
+    if lag is not None and tr.filter_name == "pf":
+        raise fail("--lag: the particle filter's smoother is fixed-interval (--smooth); the "
+                   "fixed-lag smoother is for the Gaussian filters (ekf, ukf, ckf, gsf)")
+    if tr.filter_name == "imm":
+        raise fail("--smooth/--lag: there is no smoother for --filter imm (its combined "
+                   "estimate is not one Gaussian model's); smooth ekf, ukf, ckf, gsf or pf")
+    tr.extra.smoothed = smooth(tr, lag=lag)
+    tr.extra.history = None
+    return tr
+
+
+#: The flags of `tma track` for the library parameters its errors name.
+#: Fewest particles ``tma track`` takes: one more than a 3-D state's six values, the fewest
+#: whose cloud can have a non-singular covariance.
+MIN_PARTICLES = 7
+
+TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
+               "max_relative_std": "--start-std", "tracker": "--filter",
+               "q_density": "--q-density", "bearing_prior": "--range-prior"}
+
+
+def tracking_failure(e: Any) -> typer.Exit:
+    """Translate a :class:`tmakit.tracking.TrackingError` into `tma track`'s words (its flags)."""
+    from ..tracking import MissingNuisanceError
+
+    names = dict(TRACK_FLAGS)
+    if isinstance(e, MissingNuisanceError):
+        names["nuisance"] = ("nuisance={...}; --nuisance "
+                             + ",".join(f"{n}=..." for n in e.names))
+    return fail(e.render(names))
+
+
+def check_track_options(output: Path | None, plot: Path | None, force: bool,
+                        filter_name: str, particles: int | None, seed: int | None,
+                        ellipses: int, rows: int, inputs: Sequence[object] = ()
+                        ) -> tuple[Path | None, Path | None]:
+    """Refuse bad ``tma track`` options before reading the file."""
+    from .. import tracking
+    from ..filters import FILTERS
+
+    check_particles(particles)
+    if particles is not None and particles < MIN_PARTICLES:
+        raise fail(f"--particles {particles}: a cloud of fewer than {MIN_PARTICLES} particles "
+                   "cannot span the target's state (4 or 6 values), so its covariance is "
+                   "singular; use hundreds or more")
+    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force,
+                                 [p for p in inputs if isinstance(p, Path)])
+    if filter_name not in FILTERS:
+        raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
+    random_filters = tracking.random_filters()
+    for option, value in (("--particles", particles), ("--seed", seed)):
+        if value is not None and filter_name not in random_filters:
+            raise fail(f"{option} applies only to the particle filter"
+                       f"{'s' if len(random_filters) > 1 else ''} "
+                       f"({', '.join(random_filters) or 'none registered'}), not to "
+                       f"{filter_name}")
+    if ellipses < 0 or rows < 1:
+        raise fail("--ellipses must be 0 or more and --rows 1 or more")
+    return output, plot
+
+
+def parse_prior(prior: str | None, prior_std: str | None, nuisance: str | None,
+                init_window: int | None) -> tuple[dict[str, float] | None, ...]:
+    """``--prior``, ``--prior-std`` and ``--nuisance`` by name, checked to go together."""
+    prior_mean = parse_assignments(prior, "--prior") or None
+    prior_sd = parse_assignments(prior_std, "--prior-std") or None
+    known = parse_assignments(nuisance, "--nuisance") or None
+    if (prior_mean is None) != (prior_sd is None):
+        raise fail("--prior and --prior-std go together (the state and its standard "
+                   "deviations, by name)")
+    if known is not None and prior_mean is None:
+        raise fail("--nuisance goes with --prior; a batch start estimates the nuisance "
+                   "values itself")
+    if prior_mean is not None and init_window is not None:
+        raise fail("--init-window chooses the batch start; it cannot be used with --prior")
+    return prior_mean, prior_sd, known
+
+
+#: ``--format`` of standard input, and the suffix its snapshot gets.
+STDIN_SUFFIXES = {"rep": ".rep", "csv": ".csv", "nmea": ".nmea", "wide": ".csv"}
+_BINARY = (".parquet", ".pq")
+
+
+class _Source:
+    """One growing source: a file read from an offset, or standard input by a reader thread."""
+
+    def __init__(self, path: Path, snapshot: Path) -> None:
+        self.path, self.snapshot = path, snapshot
+        self.offset = 0
+        self.tail = b""
+        self.ended = False
+        self.lines: queue.Queue[bytes | None] | None = None
+        if str(path) == "-":
+            self.lines = queue.Queue()
+            threading.Thread(target=self._read_stdin, args=(sys.stdin.buffer,),
+                             daemon=True).start()
+        snapshot.write_bytes(b"")
+
+    def _read_stdin(self, stream: BinaryIO) -> None:
+        assert self.lines is not None
+        for line in iter(stream.readline, b""):
+            self.lines.put(line)
+        self.lines.put(None)  # end of input
+
+    def new_bytes(self) -> bytes:
+        """Give the bytes that arrived since the last look (whole lines and a partial tail)."""
+        if self.lines is not None:
+            got = []
+            while True:
+                try:
+                    item = self.lines.get_nowait()
+                except queue.Empty:
+                    break
+                if item is None:
+                    self.ended = True
+                    break
+                got.append(item)
+            return b"".join(got)
+        try:
+            size = self.path.stat().st_size
+        except FileNotFoundError:
+            return b""
+        if size < self.offset:  # rewritten or rotated: start again
+            self.offset, self.tail = 0, b""
+            self.snapshot.write_bytes(b"")
+        if size == self.offset:
+            return b""
+        with open(self.path, "rb") as f:
+            f.seek(self.offset)
+            data = f.read(size - self.offset)
+        self.offset += len(data)
+        return data
+
+    def poll(self) -> bool:
+        """Copy the complete lines that arrived into the snapshot; whether there were any."""
+        data = self.tail + self.new_bytes()
+        cut = data.rfind(b"\n") + 1
+        if self.ended and cut < len(data):  # the last line of an input that ended
+            data, cut = data + b"\n", len(data) + 1
+        whole, self.tail = data[:cut], data[cut:]
+        if not whole:
+            return False
+        with open(self.snapshot, "ab") as f:
+            f.write(whole)
+        return True
+
+
+class GrowingFiles:
+    """Snapshots of growing text files (their complete lines), in a folder."""
+
+    def __init__(self, paths: list[Path], fmt: str | None, folder: Path) -> None:
+        names: set[str] = set()
+        self.sources = []
+        for k, path in enumerate(paths):
+            if str(path) == "-":
+                if fmt not in STDIN_SUFFIXES:
+                    raise fail("--follow -: standard input needs --format, one of "
+                               + ", ".join(STDIN_SUFFIXES))
+                name = f"stdin{STDIN_SUFFIXES[fmt]}"
+            else:
+                if path.is_dir():
+                    raise fail(f"{path}: is a folder, not a measurement file")
+                if path.suffix.lower() in _BINARY or fmt == "parquet":
+                    raise fail(f"--follow {path}: follows text files (REP/DSF, NMEA, CSV), "
+                               "not Parquet")
+                name = path.name
+            if name in names:
+                name = f"{k}-{name}"
+            names.add(name)
+            self.sources.append(_Source(path, folder / name))
+
+    @property
+    def snapshots(self) -> list[Path]:
+        """The snapshot files, in the order of the files given."""
+        return [s.snapshot for s in self.sources]
+
+    @property
+    def ended(self) -> bool:
+        """Whether standard input (when read) has ended: nothing more will come."""
+        return any(s.ended for s in self.sources if s.lines is not None)
+
+    def poll(self) -> bool:
+        """Take in what arrived; whether any snapshot gained complete lines."""
+        grew = [s.poll() for s in self.sources]
+        return any(grew)
+
+
+def watch(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bool],
+           interval: float, max_updates: int | None, say: Any) -> None:
+    """Run ``update`` on the snapshots each time the files grow, until told to stop."""
+    from .guard import Terminated
+
+    if not interval > 0:
+        raise fail(f"--interval {interval:g}: expected seconds > 0")
+    if max_updates is not None and max_updates < 1:
+        raise fail(f"--max-updates {max_updates}: expected 1 or more")
+    for p in paths:
+        if str(p) != "-" and not p.exists():
+            raise fail(f"{p}: no such file (--follow waits for a file to grow, not to appear)")
+    updates = 0
+    with tempfile.TemporaryDirectory(prefix="tma-follow-") as folder:
+        growing = GrowingFiles(paths, fmt, Path(folder))
+        try:
+            while max_updates is None or updates < max_updates:
+                if growing.poll():
+                    updates += bool(update(growing.snapshots))
+                elif growing.ended:
+                    say.print(f"standard input ended: {updates} update(s)", highlight=False)
+                    break
+                else:
+                    time.sleep(interval)
+        except (KeyboardInterrupt, Terminated):
+            say.print(f"stopped after {updates} complete update(s); the files written are "
+                      "kept", highlight=False)
+            raise

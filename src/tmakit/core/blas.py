@@ -18,12 +18,9 @@ SINGLE_THREAD_WORK = 200_000
 """Largest ``m * n * k`` of one product (below OpenBLAS's multithreading threshold)."""
 
 CHUNKED_ROWS = 1_000_000
-"""Rows above which the solvers and the Fisher information of a fit with independent rows
-work :data:`CHUNK_ROWS` rows at a time, summing ``J'J`` and ``J'r`` over the chunks: no
-``(n, p)`` Jacobian is held, and the temporaries are those of one chunk (about 270 bytes per
-row at once otherwise)."""
+"""Rows above which a fit with independent rows sums ``J'J`` and ``J'r`` over chunks of
+:data:`CHUNK_ROWS` rows (no ``(n, p)`` Jacobian held)."""
 CHUNK_ROWS = 1 << 17
-"""Rows of one chunk (see :data:`CHUNKED_ROWS`)."""
 
 
 _SPLIT = os.environ.get("TMAKIT_SPLIT_PRODUCTS", "") == "1"
@@ -51,15 +48,11 @@ def matmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64
     return out.reshape(*a.shape[:-1], n)
 
 
+#: Rows from which, and most parameters for which, :func:`normal_rows` forms the normal
+#: equations by dot products; the columns of one of its blocks (in a core's cache).
 DOT_ROWS = 32_768
-"""Rows from which :func:`normal_rows` forms the normal equations of a thin Jacobian by dot
-products, not one matrix product."""
-DOT_BLOCK = 16_384
-"""Columns of one block of :func:`normal_rows` (a ``6 x 16384`` block stays in a core's
-cache while its rows meet each other)."""
 DOT_MOST_ROWS = 6
-"""Most Jacobian rows (parameters) for which :func:`normal_rows` is used: at 10^5 rows, 6 took
-0.81 ms by dots against 0.97 ms by the products, 8 took 1.23 ms against 0.90 ms."""
+DOT_BLOCK = 16_384
 
 
 def normal_rows(rows: NDArray[np.float64], r: NDArray[np.float64] | None = None

@@ -12,12 +12,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-POSITION = slice(0, 3)
-VELOCITY = slice(3, 6)
-STATE_SIZE = 6
-"""Every state in tmakit is a 3-D position and velocity; 2-D problems keep z = vz = 0."""
-
-
 TWO_PI = 2.0 * np.pi
 """A turn (rad), as the float ``2 * np.pi`` (twice ``np.pi`` exactly)."""
 
@@ -62,30 +56,6 @@ def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np
     return out
 
 
-def wrap_to_2pi(angle: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles to the interval [0, 2 pi)."""
-    return np.mod(np.asarray(angle, dtype=float), 2.0 * np.pi)
-
-
-def bearing(d_east: ArrayLike, d_north: ArrayLike) -> NDArray[np.float64]:
-    """Give the bearing of the horizontal vector ``(d_east, d_north)``.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 6 (the azimuth measured from North).
-    """
-    return np.arctan2(d_east, d_north)
-
-
 def math_angle_to_bearing(angle: ArrayLike) -> NDArray[np.float64]:
     """Convert an angle counter-clockwise from East (x-axis) to a bearing clockwise from North."""
     return wrap_angle(np.pi / 2.0 - np.asarray(angle, dtype=float))
-
-
-bearing_to_math_angle = math_angle_to_bearing
-
-
-def unit_vector_from_bearing(bearing_rad: ArrayLike) -> NDArray[np.float64]:
-    """Give the horizontal unit vector(s) pointing along a bearing."""
-    b = np.asarray(bearing_rad, dtype=float)
-    return np.stack([np.sin(b), np.cos(b)], axis=-1)

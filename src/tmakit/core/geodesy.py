@@ -44,12 +44,7 @@ def geodetic_to_enu(lat: ArrayLike, lon: ArrayLike, alt: ArrayLike, origin: Arra
         If ``origin`` is not three numbers, or its latitude is outside [-90, 90], its
         longitude outside [-180, 360] or its altitude not finite.
     """
-    import pymap3d
-
-    lat0, lon0, alt0 = _check_origin(origin)
-    e, n, u = pymap3d.geodetic2enu(np.asarray(lat, float), np.asarray(lon, float),
-                                   np.asarray(alt, float), lat0, lon0, alt0)
-    return np.asarray(e, float), np.asarray(n, float), np.asarray(u, float)
+    return _convert("geodetic2enu", lat, lon, alt, origin)
 
 
 def enu_to_geodetic(east: ArrayLike, north: ArrayLike, up: ArrayLike, origin: ArrayLike
@@ -75,9 +70,13 @@ def enu_to_geodetic(east: ArrayLike, north: ArrayLike, up: ArrayLike, origin: Ar
     ValueError
         If ``origin`` is not three numbers or is out of range (see :func:`geodetic_to_enu`).
     """
+    return _convert("enu2geodetic", east, north, up, origin)
+
+
+def _convert(how: str, a: ArrayLike, b: ArrayLike, c: ArrayLike, origin: ArrayLike
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     import pymap3d
 
-    lat0, lon0, alt0 = _check_origin(origin)
-    lat, lon, alt = pymap3d.enu2geodetic(np.asarray(east, float), np.asarray(north, float),
-                                         np.asarray(up, float), lat0, lon0, alt0)
-    return np.asarray(lat, float), np.asarray(lon, float), np.asarray(alt, float)
+    out = getattr(pymap3d, how)(np.asarray(a, float), np.asarray(b, float),
+                                np.asarray(c, float), *_check_origin(origin))
+    return np.asarray(out[0], float), np.asarray(out[1], float), np.asarray(out[2], float)

@@ -67,12 +67,6 @@ def solve_spd(s: Array, b: Array) -> tuple[Array, float]:
     return x, float(2.0 * np.sum(np.log(np.diag(chol))))
 
 
-def joseph_update(p: Array, gain: Array, h: Array, r: Array) -> Array:
-    """Give the Joseph-form covariance update ``(I - K H) P (I - K H)^T + K R K^T``."""
-    i_kh = np.eye(p.shape[0]) - gain @ h
-    return symmetrise(i_kh @ p @ i_kh.T + gain @ r @ gain.T)
-
-
 def repair_psd(p: Array) -> Array:
     """Give ``p`` symmetrised and, if need be, made positive definite."""
     p = symmetrise(p)

@@ -21,34 +21,9 @@ DBM_MINUS_DBW = 30.0
 """A power in dBm is its value in dBW plus 30."""
 
 
-def deg2rad(x: ArrayLike) -> NDArray[np.float64]:
-    """Convert degrees to radians."""
-    return np.deg2rad(np.asarray(x, dtype=float))
-
-
-def rad2deg(x: ArrayLike) -> NDArray[np.float64]:
-    """Convert radians to degrees."""
-    return np.rad2deg(np.asarray(x, dtype=float))
-
-
-def db_to_linear(db: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power ratio in decibels to a linear ratio."""
-    return 10.0 ** (np.asarray(db, dtype=float) / 10.0)
-
-
 def linear_to_db(ratio: ArrayLike) -> NDArray[np.float64]:
     """Convert a (positive) linear power ratio to decibels."""
     return 10.0 * np.log10(np.asarray(ratio, dtype=float))
-
-
-def dbm_to_dbw(dbm: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power in dBm to dBW."""
-    return np.asarray(dbm, dtype=float) - DBM_MINUS_DBW
-
-
-def dbw_to_dbm(dbw: ArrayLike) -> NDArray[np.float64]:
-    """Convert a power in dBW to dBm."""
-    return np.asarray(dbw, dtype=float) + DBM_MINUS_DBW
 
 
 def snr_to_sigma_db(snr_db: float) -> float:
@@ -62,11 +37,6 @@ def snr_to_sigma_db(snr_db: float) -> float:
     return float(10.0 / np.log(10.0) / np.sqrt(snr))
 
 
-def wavelength(frequency_hz: float) -> float:
-    """Give the wavelength of a carrier."""
-    return SPEED_OF_LIGHT / frequency_hz
-
-
 def free_space_constant(frequency_hz: float) -> float:
     """Give C_0 = (lambda / 4 pi)^2, the free-space power constant of Gu et al. (2007), §5.
 
@@ -74,4 +44,4 @@ def free_space_constant(frequency_hz: float) -> float:
     ----------
     Gu et al. (2007), §5 (the simulation's power constant).
     """
-    return float((wavelength(frequency_hz) / (4.0 * np.pi)) ** 2)
+    return float((SPEED_OF_LIGHT / frequency_hz / (4.0 * np.pi)) ** 2)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from .atomic import atomic_write, exists_error
 from .errors import MeasurementFileError
 from .formats import (
     Format,
@@ -12,7 +11,7 @@ from .formats import (
     unregister_format,
 )
 from .measurement_files import read_measurements, write_measurements
-from .tables import TABLE_SUFFIXES, table_format, write_table
+from .tables import TABLE_SUFFIXES, atomic_write, exists_error, table_format, write_table
 
 __all__ = [
     "TABLE_SUFFIXES",

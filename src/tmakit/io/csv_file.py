@@ -22,18 +22,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import rules
 from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
 from ..rules import GEO_RANGES, geo_within
-from .checker import check_table
-from .columns import file_columns
-from .contract import COLUMN_ORDER, FORMAT_LINE, GEO_COLUMNS, NUMERIC_COLUMNS
+from .checker import check_columns, check_table
+from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS, Problems, RawTable, file_columns
 from .errors import MeasurementFileError
 from .formats import Format, register_format
-from .positions import resolve_origin
-from .problems import Problems, RawTable
-from .sensor_record import QUERY_ROWS, SensorRecord
+from .positions import QUERY_ROWS, SensorRecord, geodetic_to_enu_in_place, resolve_origin
 from .tables import write_table
 
 __all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load_csv",
@@ -45,31 +43,19 @@ READ_COLUMNS = frozenset(("sensor", "kind", "ref_sensor", "tonal", *NUMERIC_COLU
 #: Bytes of the file searched for the ``# key: value`` preamble before the whole file.
 _PREAMBLE_SCAN = 1 << 20
 
-#: Bytes of CSV text parsed at a time.  pyarrow's streaming reader reads up to about 32
-#: blocks ahead on its input thread (not an option of the reader): with 4 MiB blocks that
-#: queue held 72 MB of a 60 MB file at once (all of it); 1 MiB blocks bound it at about
-#: 37 MB (``tests/test_stream_readahead.py``).
+#: Bytes of CSV text parsed at a time (pyarrow reads about 32 blocks ahead: this bounds that
+#: queue's memory; ``tests/test_stream_readahead.py``).
 BLOCK_BYTES = 1 << 20
-#: Blocks between two returns of freed memory to the system
-#: (:func:`_give_back`): every 4 MiB of text (each return walks the heap: after
-#: every 1 MiB block the read took 15 % longer).
+#: Blocks between two returns of freed memory to the system (:func:`_give_back` walks the heap).
 _GIVE_BACK_EVERY = 4
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); without range differences
 #: ``time_ref`` and the reference state are all-NaN views that take no memory.
 SET_BYTES_PER_ROW = 93
-#: Columns a streamed file must have, and those of its positions (ENU or geodetic).
-_REQUIRED = ("time", "sensor", "kind", "value", "sigma")
-_ENU_REQUIRED = ("sensor_x", "sensor_y")
-_ENU_COLUMNS = ("sensor_x", "sensor_y", "sensor_z")
-_GEO_REQUIRED = ("sensor_lat", "sensor_lon")
-_REF_REQUIRED = ("time_ref", "ref_sensor_x", "ref_sensor_y")
 #: Column of the sensor state each numeric column is stored in (latitude, longitude and
-#: altitude are held in the position's place until :func:`_to_enu` converts them).
+#: altitude are held in the position's place until converted to ENU).
 _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "sensor_vy": 4,
                  "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
-#: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
-_ENU_ROWS = 1 << 16
 #: Columns of range differences (empty on other rows).
 _REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
 #: Whether each kind code uses a reference sample (range differences).
@@ -249,16 +235,11 @@ def _stream_header(path: Path, start: int) -> list[str] | None:
     if not names or any("\n" in n or "\r" in n for n in names):
         return None
     stripped = [n.strip() for n in names]
-    if "" in stripped or len(set(stripped)) != len(stripped):
-        return None
-    has = set(stripped).__contains__
-    if has("ref_sensor") or has("carrier"):  # looked up and scaled by the checker
-        return None
-    geodetic = any(has(c) for c in GEO_COLUMNS)
-    position = (_GEO_REQUIRED, _ENU_COLUMNS) if geodetic else (_ENU_REQUIRED, GEO_COLUMNS)
-    refs = any(has(c) for c in REF_STATE_COLUMNS)
-    if not all(has(c) for c in (*_REQUIRED, *position[0], *(_REF_REQUIRED if refs else ()))
-               ) or any(has(c) for c in position[1]) or has("sensor_vx") != has("sensor_vy"):
+    problems = Problems(RawTable(None, {}, None))
+    check_columns(stripped, [], problems)  # (the kinds' own needs are checked once read)
+    if (problems.file or "" in stripped or len(set(stripped)) != len(stripped)
+            or "ref_sensor" in stripped or "carrier" in stripped  # named, scaled: the checker
+            or (any(c in stripped for c in REF_STATE_COLUMNS) and "time_ref" not in stripped)):
         return None
     return names
 
@@ -387,8 +368,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
     read, parse, convert = _parse_options(
         names, lambda c: text_type if c in ("sensor", "kind") else pa.float64(), stream=True)
     cols: _Columns | None = None
-    # The C library's allocator: the text and parsed blocks are then given back with the
-    # rules' arrays (:func:`_give_back`), where pyarrow's own pool kept about 10 MB.
+    # the C library's allocator: the blocks are given back with the rules' arrays (_give_back)
     pool = pa.system_memory_pool()
     with pa.OSFile(str(path), memory_pool=pool) as f:
         f.seek(start)
@@ -437,8 +417,6 @@ def _put(cols: _Columns, name: str, col: Any) -> None:
 def _build(cols: _Columns, metadata: dict[str, str],
            ref: NDArray[np.float64] | None = None) -> MeasurementSet:
     """Make the checked set of the streamed columns (as :meth:`MeasurementSet.take` builds)."""
-    from .. import rules
-
     n = cols.n
     out = object.__new__(MeasurementSet)
     out.time, out.sensor_state = cols.num["time"], cols.state
@@ -486,15 +464,14 @@ def stream_csv(path: Path, scan: int = 1 << 20,
         if enu_origin is not None:
             if "sensor_alt" not in stripped:  # as the full reader: the origin's altitude
                 cols.state[:, 2] = enu_origin[2]
-            rule = _to_enu(cols.state, enu_origin, metadata.get("dim", "").strip() == "3")
+            rule = geodetic_to_enu_in_place(cols.state, enu_origin,
+                                            metadata.get("dim", "").strip() == "3")
             if rule:
                 metadata["dim_rule"] = rule
         meas = _build(cols, metadata, _reference_states(cols, "sensor_vx" in stripped))
     except (_Fallback, ValueError):  # pyarrow's ArrowInvalid is a ValueError
         return None
-    # The rules' and the duplicate check's arrays came from the C library's heap (its mmap
-    # threshold grows as large blocks are freed) and stay resident when freed below live
-    # arrays: 47 MiB of a 1e6-row file with range differences, until given back here.
+    # the rules' arrays came from the C library's heap and stay resident until given back
     _give_back()
     return meas
 
@@ -541,29 +518,6 @@ def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
     problems = Problems(RawTable(None, metadata, None))
     found, origin_metadata = resolve_origin(origin, metadata, problems)
     return (None, {}) if problems.file else (found, origin_metadata)
-
-
-def _to_enu(state: NDArray[np.float64], origin: tuple[float, float, float],
-            dim3: bool) -> str:
-    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU in place."""
-    from ..core.geodesy import geodetic_to_enu
-    from .logs import surface_dim
-
-    n, alt0 = state.shape[0], origin[2]
-    worst, spread = alt0, -1.0  # the altitude farthest from the origin's
-    for lo in range(0, n, _ENU_ROWS):
-        off = np.abs(state[lo:lo + _ENU_ROWS, 2] - alt0)
-        i = int(np.argmax(off))
-        if off[i] > spread:
-            worst, spread = float(state[lo + i, 2]), float(off[i])
-    dim, rule = surface_dim(np.array([worst]), alt0, 3 if dim3 else None)
-    for lo in range(0, n, _ENU_ROWS):
-        block = state[lo:lo + _ENU_ROWS]
-        alt = np.full(block.shape[0], alt0) if dim == 2 else block[:, 2]
-        with np.errstate(invalid="ignore"):
-            e, nn, u = geodetic_to_enu(block[:, 0], block[:, 1], alt, origin)
-        block[:, 0], block[:, 1], block[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
-    return rule if dim == 2 else ""
 
 
 def _parse_options(names: list[str], types: Callable[[str], Any], *,

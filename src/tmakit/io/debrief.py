@@ -1,14 +1,18 @@
 """Debrief replay files (``.rep``, ``.dsf``) as measurement sets.
 
-Own ship, contact, placeholder ranges, sigmas and frame are read as ``docs/your-own-data.md``
+The lines are parsed as Debrief's documentation of the replay format writes them: track fixes,
+``;SENSOR:``, ``;SENSOR2:``, ``;SENSOR3:``, ``;TMA_POS:`` and ``;TMA_RB:`` lines (other ``;`` lines
+are skipped; a position's ``60`` minutes or seconds is read as a carry, as Debrief does).  Own
+ship, contact, placeholder ranges, sigmas and frame are read as ``docs/your-own-data.md``
 tabulates; what was read otherwise than written is said in the set's ``reader_notes``.
 """
 
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -16,17 +20,322 @@ from numpy.typing import NDArray
 
 from .. import rules
 from ..data import MeasurementSet
-from .clock_text import seconds_of_time_text
-from .debrief_fixes import at_line, host_fixes, listed, sensor_states
-from .debrief_lines import LineProblem, ParsedReplay, SensorLine, SolutionLine, parse_replay_text
-from .debrief_rows import RANGES_CHOICES, cut_rows, placeholder_ranges
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
 from .formats import Format, register_format
-from .log_rules import checked_rows
-from .logs import Fixes, LocalFrame, iso_utc, local_frame, relative_seconds, time_origin_ns
+from .logs import (
+    KNOT,
+    YARD,
+    Fixes,
+    LocalFrame,
+    checked_rows,
+    course_speed_velocity,
+    interpolate_states,
+    iso_utc,
+    local_frame,
+    relative_seconds,
+    seconds_of_time_text,
+    time_origin_ns,
+    velocity_from_positions,
+)
 
 __all__ = ["DEFAULT_BEARING_SIGMA_DEG", "DEFAULT_FREQUENCY_SIGMA_HZ", "DEFAULT_RANGE_SIGMA_M",
-           "REPLAY", "read_replay", "replay_solutions", "replay_tracks"]
+           "REPLAY", "LineProblem", "ParsedReplay", "SensorLine", "SolutionLine", "TrackLine",
+           "parse_replay_text", "read_replay", "replay_solutions", "replay_tracks"]
+
+
+_TOKEN = re.compile(r'"[^"]*"|\S+')
+_NS = 1_000_000_000
+_VERSIONS = {";SENSOR:": 1, ";SENSOR2:": 2, ";SENSOR3:": 3}
+_SOLUTIONS = (";TMA_POS:", ";TMA_RB:")
+
+
+@dataclass(frozen=True)
+class TrackLine:
+    """A track fix of a replay file."""
+
+    line: int  # Line number in the file (1-based)
+    name: str  # The track's name
+    time_ns: int  # Time, ns since the Unix epoch (UTC)
+    #: lat, lon: Position, degrees
+    lat: float
+    lon: float
+    #: course, speed_kn, depth: Course (degrees true), speed (knots) and depth (m)
+    course: float
+    speed_kn: float
+    depth: float
+    file: str = ""  # The file's name (for messages when several files are read as one replay)
+
+
+@dataclass(frozen=True)
+class SensorLine:
+    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact (None: ``NULL`` in the file)."""
+
+    line: int  # Line number in the file (1-based)
+    host: str  # The track that holds the sensor
+    time_ns: int  # Time, ns since the Unix epoch (UTC)
+    #: lat, lon: The sensor's position, degrees (None: the host track's position at ``time_ns``)
+    lat: float | None
+    lon: float | None
+    #: bearing, ambiguous: Bearing and its ambiguous twin, degrees true
+    bearing: float | None
+    ambiguous: float | None
+    frequency: float | None  # Frequency, Hz
+    range_yd: float | None  # Range, yards
+    #: sensor, label: The sensor's name and the contact's label
+    sensor: str
+    label: str
+    #: bearing_accuracy, frequency_accuracy: The standard deviations a ``;SENSOR3:`` line states
+    #: (deg, Hz); None elsewhere
+    bearing_accuracy: float | None = None
+    frequency_accuracy: float | None = None
+    file: str = ""  # The file's name (for messages when several files are read as one replay)
+
+
+@dataclass(frozen=True)
+class SolutionLine:
+    """A ``;TMA_POS:`` or ``;TMA_RB:`` solution point (None where the line does not say)."""
+
+    line: int  # Line number in the file (1-based)
+    vessel: str  # The track the solution belongs to (Debrief's "ownship name")
+    time_ns: int  # Time, ns since the Unix epoch (UTC)
+    #: lat, lon: The solution's position, degrees (``;TMA_POS:``)
+    lat: float | None
+    lon: float | None
+    #: bearing, range_yd: Its bearing (degrees true) and range (yards) from the vessel
+    #: (``;TMA_RB:``)
+    bearing: float | None
+    range_yd: float | None
+    solution: str  # The solution's name
+    #: orientation, maxima_yd, minima_yd: The ellipse: its major axis (degrees true) and semi-axes
+    #: (yards); None for ``NULL``
+    orientation: float | None
+    maxima_yd: float | None
+    minima_yd: float | None
+    #: course, speed_kn, depth: Course (degrees true), speed (knots), depth (m)
+    course: float
+    speed_kn: float
+    depth: float
+    label: str  # The rest of the line
+    file: str = ""  # The file's name
+
+
+@dataclass(frozen=True)
+class LineProblem:
+    """A line that breaks the replay format."""
+
+    line: int  # Line number in the file (1-based)
+    #: The track the line belongs to (a track line's name, a sensor line's host), None when the line
+    #: does not get that far
+    owner: str | None
+    message: str  # What is wrong (``expected ..., found ...``)
+    file: str = ""  # The file's name
+
+
+class LineError(ValueError):
+    """One line that breaks the replay format (``line N: ...``)."""
+
+
+def _name(token: str) -> str:
+    return (token[1:-1] if len(token) >= 2 and token[0] == token[-1] == '"' else token).strip()
+
+
+def _clock(date: str, clock: str) -> int:
+    """``YYMMDD`` (or ``YYYYMMDD``) and ``HHMMSS[.SSS]`` as UTC nanoseconds."""
+    import datetime as dt
+
+    if not re.fullmatch(r"\d{6}|\d{8}", date):
+        raise LineError(f"expected a date YYMMDD, found {date!r}")
+    if not re.fullmatch(r"\d{6}(\.\d+)?", clock):
+        raise LineError(f"expected a time HHMMSS or HHMMSS.SSS, found {clock!r}")
+    if len(date) == 6:
+        yy = int(date[:2])
+        year, rest = (2000 + yy if yy < 50 else 1900 + yy), date[2:]
+    else:
+        year, rest = int(date[:4]), date[4:]
+    try:
+        day = dt.datetime(year, int(rest[:2]), int(rest[2:4]), int(clock[:2]), int(clock[2:4]),
+                          int(clock[4:6]), tzinfo=dt.UTC)
+    except ValueError as e:
+        raise LineError(f"date {date} time {clock}: {e}") from None
+    frac = clock[7:] if "." in clock else ""
+    ns = int((frac + "000000000")[:9]) if frac else 0
+    return int(day.timestamp()) * _NS + ns
+
+
+def _number(token: str, what: str, null: bool = False) -> float | None:
+    if null and token.upper() in ("NULL", "NAN"):
+        return None
+    try:
+        value = float(token)
+    except ValueError:
+        raise LineError(f"expected {what}, found {token!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise LineError(f"expected {what}, found {token!r}")
+    return value
+
+
+def _angle(tokens: list[str], at: int, hemispheres: str, limit: float,
+           carries: list[str]) -> float:
+    """Degrees from ``D M S H`` at ``tokens[at:at+4]``; a minute or second of 60 is a carry."""
+    if len(tokens) < at + 4:
+        raise LineError(f"expected a position D M S {'/'.join(hemispheres)}, found the end of "
+                        "the line")
+    d, m, s = (_number(t, "degrees, minutes and seconds") for t in tokens[at:at + 3])
+    hem = tokens[at + 3].upper()
+    if hem not in hemispheres:
+        raise LineError(f"expected the hemisphere {' or '.join(hemispheres)}, found "
+                        f"{tokens[at + 3]!r}")
+    assert d is not None and m is not None and s is not None
+    if not (0 <= m <= 60 and 0 <= s <= 60 and d >= 0):
+        raise LineError(f"expected minutes and seconds in [0, 60), found {tokens[at + 1]} "
+                        f"{tokens[at + 2]}")
+    if m == 60 or s == 60:
+        carries.append(" ".join(tokens[at:at + 4]))
+    value = d + m / 60.0 + s / 3600.0
+    if value > limit:
+        raise LineError(f"expected at most {limit:g} degrees, found {value:g}")
+    return -value if hem in "SW" else value
+
+
+def _position(tokens: list[str], at: int, carries: list[str]) -> tuple[float, float]:
+    return (_angle(tokens, at, "NS", 90.0, carries),
+            _angle(tokens, at + 4, "EW", 180.0, carries))
+
+
+def _track(tokens: list[str], line: int, carries: list[str]) -> TrackLine:
+    if len(tokens) < 15:
+        raise LineError(f"a track line has at least 15 fields (date, time, name, symbology, "
+                        f"latitude D M S H, longitude D M S H, course, speed, depth), found "
+                        f"{len(tokens)}")
+    lat, lon = _position(tokens, 4, carries)
+    course, speed = (_number(t, w) for t, w in zip(
+        tokens[12:14], ("a course (degrees)", "a speed (knots)"), strict=True))
+    depth = _number(tokens[14], "a depth (m) or NaN", null=True)  # not used: may be unknown
+    assert course is not None and speed is not None
+    return TrackLine(line, _name(tokens[2]), _clock(tokens[0], tokens[1]), lat, lon, course,
+                     speed, float("nan") if depth is None else depth)
+
+
+def _sensor(tokens: list[str], line: int, version: int, carries: list[str]) -> SensorLine:
+    if len(tokens) < 5:
+        raise LineError("a sensor line starts with date, time, host track, symbology and a "
+                        "position (or NULL)")
+    time_ns = _clock(tokens[0], tokens[1])
+    lat = lon = None
+    at = 5
+    if tokens[4].upper() != "NULL":
+        lat, lon = _position(tokens, 4, carries)
+        at = 12
+    names: tuple[tuple[str, str], ...] = (("bearing", "a bearing (degrees) or NULL"),
+                                          ("range", "a range (yards) or NULL"))
+    if version == 2:
+        names = (names[0], ("ambiguous", "an ambiguous bearing (degrees) or NULL"),
+                 ("frequency", "a frequency (Hz) or NULL"), names[1])
+    elif version == 3:
+        names = (names[0], ("bearing_accuracy", "a bearing accuracy (degrees) or NULL"),
+                 ("frequency", "a frequency (Hz) or NULL"),
+                 ("frequency_accuracy", "a frequency accuracy (Hz) or NULL"), names[1])
+    if len(tokens) < at + len(names) + 1:
+        raise LineError(f"expected {', '.join(n for n, _ in names)} and the sensor name after "
+                        "the position, found the end of the line")
+    values = {n: _number(tokens[at + i], what, null=True) for i, (n, what) in enumerate(names)}
+    for n in ("bearing_accuracy", "frequency_accuracy"):
+        value = values.get(n)
+        if value is not None and not value > 0:
+            raise LineError(f"expected {n.replace('_', ' ')} > 0 (a standard deviation) or "
+                            f"NULL, found {tokens[at + [m for m, _ in names].index(n)]!r}")
+    rest = tokens[at + len(names):]
+    return SensorLine(line, _name(tokens[2]), time_ns, lat, lon, values["bearing"],
+                      values.get("ambiguous"), values.get("frequency"), values["range"],
+                      _name(rest[0]), " ".join(_name(t) for t in rest[1:]),
+                      values.get("bearing_accuracy"), values.get("frequency_accuracy"))
+
+
+def _solution(tokens: list[str], line: int, head: str, carries: list[str]) -> SolutionLine:
+    if len(tokens) < 4:
+        raise LineError("a solution line starts with date, time, vessel and symbology")
+    time_ns = _clock(tokens[0], tokens[1])
+    lat = lon = bearing = range_yd = None
+    if head == ";TMA_POS:":
+        lat, lon = _position(tokens, 4, carries)
+        at = 12
+    else:
+        if len(tokens) < 6:
+            raise LineError("expected a bearing (degrees) and a range (yards), found the end "
+                            "of the line")
+        bearing = _number(tokens[4], "a bearing (degrees)")
+        range_yd = _number(tokens[5], "a range (yards)")
+        at = 6
+    if len(tokens) < at + 2:
+        raise LineError("expected the solution's name and its ellipse (or NULL)")
+    solution = _name(tokens[at])
+    ellipse: list[float | None] = [None, None, None]
+    at += 1
+    if not tokens[at].upper().startswith("N"):
+        if len(tokens) < at + 3:
+            raise LineError("expected the ellipse's orientation, maxima and minima")
+        ellipse = [_number(t, w) for t, w in zip(
+            tokens[at:at + 3], ("an orientation (degrees)", "a maxima (yards)",
+                                "a minima (yards)"), strict=True)]
+        at += 3
+    else:
+        at += 1
+    if len(tokens) < at + 3:
+        raise LineError("expected course, speed and depth after the ellipse")
+    course, speed, depth = (_number(t, w) for t, w in zip(
+        tokens[at:at + 3], ("a course (degrees)", "a speed (knots)", "a depth (m)"),
+        strict=True))
+    assert course is not None and speed is not None and depth is not None
+    return SolutionLine(line, _name(tokens[2]), time_ns, lat, lon, bearing, range_yd, solution,
+                        ellipse[0], ellipse[1], ellipse[2], course, speed, depth,
+                        " ".join(_name(t) for t in tokens[at + 3:]))
+
+
+@dataclass
+class ParsedReplay:
+    """The lines of one or more replay files, parsed."""
+
+    tracks: list[TrackLine]  # The track fixes, in file order
+    #: The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order
+    sensors: list[SensorLine]
+    problems: list[LineProblem]  # Every line that breaks the format
+    #: Each position written with a minute or second of 60 (a carry), as written
+    carries: list[LineProblem]
+    #: The ``;TMA_POS:`` and ``;TMA_RB:`` solution points, in file order
+    solutions: list[SolutionLine] = field(default_factory=list)
+
+
+def _owner(tokens: list[str], head: str) -> str | None:
+    """Return the track a line belongs to, if the line has that field (for problems)."""
+    at = 3 if head in _VERSIONS or head in _SOLUTIONS else 2
+    return _name(tokens[at]) if len(tokens) > at else None
+
+
+def parse_replay_text(text: str, file: str = "") -> ParsedReplay:
+    """Parse the text of a replay file."""
+    out = ParsedReplay([], [], [], [])
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line:
+            continue
+        tokens = _TOKEN.findall(line)  # fields are separated by spaces or tabs
+        head = tokens[0].upper()
+        carries: list[str] = []
+        try:
+            if head in _VERSIONS:
+                s = _sensor(tokens[1:], number, _VERSIONS[head], carries)
+                out.sensors.append(replace(s, file=file))
+            elif head in _SOLUTIONS:
+                out.solutions.append(replace(_solution(tokens[1:], number, head, carries),
+                                             file=file))
+            elif not line.startswith(";"):
+                out.tracks.append(replace(_track(tokens, number, carries), file=file))
+        except LineError as e:
+            out.problems.append(LineProblem(number, _owner(tokens, head), str(e), file))
+            continue
+        out.carries += [LineProblem(number, _owner(tokens, head), c, file) for c in carries]
+    return out
+
 
 #: Bearing noise standard deviation (deg) when none is given: replay files carry no sigma.
 DEFAULT_BEARING_SIGMA_DEG = 1.0
@@ -40,6 +349,12 @@ SOUND_SPEED_SEA_M_S = 1500.0
 
 ReplayPaths = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
 _KINDS = ("bearing", "range", "frequency")
+#: How to give a sensor file its own ship's positions (the end of the refusals that need it).
+_PAIR_HINT = ("give the own ship's track file in the same command, e.g. tma import rep OWN.rep "
+              "SENSOR.dsf -o obs.parquet (the files are read as one replay, in any order)")
+_SAME_DEG = 0.011 / 3600.0  # the files' 0.01" of arc (0.3 m)
+#: The values of ``ranges=``: None (placeholders left out), ``use`` or ``ignore``.
+_RANGES_CHOICES = ("use", "ignore")
 
 
 def _paths(path: ReplayPaths) -> tuple[list[Path], Path]:
@@ -96,7 +411,7 @@ def replay_solutions(path: ReplayPaths) -> list[SolutionLine]:
 
 
 def _problem(p: LineProblem) -> str:
-    return f"{at_line(p)}: {p.message}"
+    return f"{_at_line(p)}: {p.message}"
 
 
 def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[str]) -> None:
@@ -107,11 +422,11 @@ def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[st
     other = [f"{_problem(p)} (track {p.owner!r})" for p in parsed.problems]
     if other:
         notes.append(f"warning: {len(other)} line(s) of tracks not used break the format and "
-                     f"are skipped: {listed(other)}")
+                     f"are skipped: {_listed(other)}")
     if parsed.carries:
-        carried = [f"{at_line(c)} {c.message}" for c in parsed.carries]
+        carried = [f"{_at_line(c)} {c.message}" for c in parsed.carries]
         notes.append(f"note: {len(carried)} position(s) written with 60 minutes or seconds read "
-                     f"as a carry, as Debrief reads them: {listed(carried)}")
+                     f"as a carry, as Debrief reads them: {_listed(carried)}")
 
 
 def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
@@ -123,7 +438,7 @@ def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
         tracks = list(dict.fromkeys(t.name for t in parsed.tracks))
         raise MeasurementFileError(path, [
             "no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing measured" + (
-                f"; the tracks read ({listed(tracks)}) are positions: give an own ship's "
+                f"; the tracks read ({_listed(tracks)}) are positions: give an own ship's "
                 f"track with its sensor file in one command (tma show SENSOR.dsf OWN.rep)"
                 if tracks else "")])
     ownship = None if ownship is None else ownship.strip()
@@ -209,18 +524,18 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
                 window: Sequence[str | None] | None = None, **_: object) -> MeasurementSet:
     """Read Debrief replay files (REP or DSF) as a measurement set (mapping: module text)."""
     paths, where = _paths(path)
-    if ranges not in (None, *RANGES_CHOICES):
+    if ranges not in (None, *_RANGES_CHOICES):
         raise MeasurementFileError(where, [f"ranges {ranges!r}: expected use or ignore"])
     sig, asked = _default_sigmas(where, bearing_sigma, range_sigma, frequency_sigma)
     wanted = _kinds(where, kinds)
     notes: list[str] = []
     cuts = _cuts(where, paths, ownship, contact, window, origin, dim, notes)
-    no_range = (placeholder_ranges(cuts.rows, ranges, notes) if "range" in wanted
+    no_range = (_placeholder_ranges(cuts.rows, ranges, notes) if "range" in wanted
                 else np.ones(len(cuts.rows), bool))
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines, twins, tonals = cut_rows(
+    times, kinds_, values, sigmas, st, lines, twins, tonals = _cut_rows(
         cuts.rows, cuts.states, t, si, asked, wanted, no_range)
     if not times:
         raise MeasurementFileError(where, [
@@ -233,7 +548,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
         tonal_names = list(dict.fromkeys(t for t in tonals if t))
         _note(metadata, f"note: frequencies are sonar tonals carried by sound at "
               f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to change); "
-              f"{len(tonal_names)} tonal(s) ({listed(tonal_names)}), each with its own "
+              f"{len(tonal_names)} tonal(s) ({_listed(tonal_names)}), each with its own "
               "unknown base frequency f0")
     raw = MeasurementSet.from_si(
         np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
@@ -295,7 +610,7 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
-            f"the cuts read name {len(contacts)} contacts ({listed(contacts)}), two of them "
+            f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
             "two contacts' cuts; choose one with --contact NAME (the first word of the "
             "labels)"]) from None
@@ -340,12 +655,12 @@ def _cuts(where: Path, paths: list[Path], ownship: str | None, contact: str | No
     rows = _in_window(where, sorted(rows, key=lambda s: s.time_ns), window, origin_ns,
                       (int(every.min()), int(every.max())))
     rows = _one_run_per_sensor(rows, parsed, host, [p.name for p in paths], notes)
-    fixes = host_fixes(where, parsed.tracks, host, rows, notes)
+    fixes = _host_fixes(where, parsed.tracks, host, rows, notes)
     try:
         frame = local_frame([fixes], origin, dim, "msl")
     except ValueError as e:
         raise MeasurementFileError(where, [str(e)]) from None
-    rows, states = sensor_states(where, rows, fixes, frame, origin_ns, notes)
+    rows, states = _sensor_states(where, rows, fixes, frame, origin_ns, notes)
     return _Cuts(host, rows, states, fixes, frame, origin_ns)
 
 
@@ -379,3 +694,162 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
 #: Debrief replay files: ``.rep`` and ``.dsf`` (the same line format).
 REPLAY = register_format(Format("rep", "Debrief replay", (".rep", ".dsf"), read_replay, None,
                                 several=True))
+
+
+def _at_line(item: TrackLine | SensorLine | LineProblem) -> str:
+    """Name a line: ``line N``, or ``FILE line N`` when several files are read."""
+    return f"{item.file} line {item.line}" if item.file else f"line {item.line}"
+
+
+def _listed(items: Sequence[str], most: int = 5, sep: str = "; ") -> str:
+    """Join the first ``most`` items, then say how many more there are."""
+    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most
+                                     else "")
+
+
+def _values(item: TrackLine | SensorLine) -> str:
+    text = f"{item.lat:.6f}, {item.lon:.6f}"
+    if isinstance(item, TrackLine):
+        text += f", course {item.course:g}, speed {item.speed_kn:g} kn"
+    return text
+
+
+def _same(a: TrackLine | SensorLine, b: TrackLine | SensorLine) -> bool:
+    assert a.lat is not None and b.lat is not None and a.lon is not None and b.lon is not None
+    close = abs(a.lat - b.lat) <= _SAME_DEG and abs(a.lon - b.lon) <= _SAME_DEG
+    if isinstance(a, TrackLine) and isinstance(b, TrackLine):
+        close = close and abs(a.course - b.course) <= 0.01 and abs(a.speed_kn - b.speed_kn) <= 0.01
+    return close
+
+
+def _unique(path: Path, lines: Sequence[TrackLine | SensorLine], host: str,
+            notes: list[str]) -> list[TrackLine | SensorLine]:
+    """Keep one of each fix written twice; refuse two different fixes at one time."""
+    ordered = sorted(lines, key=lambda x: x.time_ns)
+    kept: list[TrackLine | SensorLine] = []
+    repeats: list[str] = []
+    problems: list[str] = []
+    for item in ordered:
+        if kept and kept[-1].time_ns == item.time_ns:
+            if _same(kept[-1], item):
+                repeats.append(f"{_at_line(item)} repeats {_at_line(kept[-1])}")
+            else:
+                problems.append(
+                    f"{_at_line(item)}: own ship {host!r} has two different fixes at "
+                    f"{iso_utc(item.time_ns)}: {_at_line(kept[-1])} ({_values(kept[-1])}) and "
+                    f"{_at_line(item)} ({_values(item)})")
+            continue
+        kept.append(item)
+    if problems:
+        raise MeasurementFileError(path, problems)
+    if repeats:
+        notes.append(f"note: own ship {host!r}: {len(repeats)} fix(es) written twice (same time "
+                     f"and values) read once: {_listed(repeats)}")
+    return kept
+
+
+def _host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[SensorLine],
+               notes: list[str]) -> Fixes:
+    """Return the host's fixes: its track lines, else the positions its sensor lines state."""
+    mine = [t for t in tracks if t.name == host]
+    if not mine:
+        stated = [s for s in rows if s.lat is not None]
+        null = [s for s in rows if s.lat is None]
+        if null and not stated:
+            named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
+            lines = _listed([_at_line(s) for s in null], sep=", ")
+            raise MeasurementFileError(path, [
+                f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
+                f"(tracks read: {named}): {_PAIR_HINT}"])
+        fixes = _unique(path, stated, host, notes)
+        return Fixes(np.array([s.time_ns for s in fixes], np.int64),
+                     np.array([s.lat for s in fixes], float),
+                     np.array([s.lon for s in fixes], float), np.zeros(len(fixes)), None,
+                     np.array([s.line for s in fixes], np.int64))
+    kept = [t for t in _unique(path, mine, host, notes) if isinstance(t, TrackLine)]
+    return Fixes(np.array([t.time_ns for t in kept], np.int64),
+                 np.array([t.lat for t in kept]), np.array([t.lon for t in kept]),
+                 np.zeros(len(kept)),
+                 course_speed_velocity(np.array([t.course for t in kept]),
+                                       np.array([t.speed_kn for t in kept]) * KNOT),
+                 np.array([t.line for t in kept], np.int64))
+
+
+def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: LocalFrame,
+                  origin_ns: int, notes: list[str]
+                  ) -> tuple[list[SensorLine], NDArray[np.float64]]:
+    """Return the cuts kept and each one's sensor state (m, m/s)."""
+    t_fix = relative_seconds(fixes.time_ns, origin_ns)
+    positions = frame.enu(fixes.lat, fixes.lon, fixes.alt)
+    velocity = (fixes.velocity if fixes.velocity is not None
+                else velocity_from_positions(t_fix, positions))
+    t = relative_seconds(np.array([s.time_ns for s in rows], np.int64), origin_ns)
+    states, outside = interpolate_states(t_fix, np.column_stack([positions, velocity]), t)
+    given = np.array([s.lat is not None for s in rows], bool)
+    if given.any():
+        lat = np.array([s.lat for s in rows if s.lat is not None], float)
+        lon = np.array([s.lon for s in rows if s.lon is not None], float)
+        states[given, :3] = frame.enu(lat, lon, np.zeros(lat.shape))
+    bad = np.flatnonzero(outside & ~given)
+    if bad.size:
+        span = f"{iso_utc(int(fixes.time_ns[0]))} to {iso_utc(int(fixes.time_ns[-1]))}"
+        named = _listed([_at_line(rows[k]) for k in bad.tolist()], sep=", ")
+        message = (f"{bad.size} cut(s) with a NULL position fall outside the own ship's track "
+                   f"{rows[bad[0]].host!r} ({span}) and are left out: {named}")
+        if bad.size == len(rows):
+            raise MeasurementFileError(path, [f"{message}; no cut is left: {_PAIR_HINT}"])
+        notes.append(f"warning: {message}")
+        keep = np.ones(len(rows), bool)
+        keep[bad] = False
+        return [s for s, k in zip(rows, keep, strict=True) if k], states[keep]
+    return rows, states
+
+
+def _placeholder_ranges(rows: list[SensorLine], ranges: str | None,
+                       notes: list[str]) -> NDArray[np.bool_]:
+    """Mark the cuts whose range is left out (a placeholder, or ``ranges="ignore"``)."""
+    value = np.array([np.nan if s.range_yd is None else s.range_yd for s in rows], float)
+    stated = np.isfinite(value)
+    if ranges == "use" or not stated.any():
+        return np.zeros(len(rows), bool)
+    if ranges == "ignore":
+        notes.append(f"note: {int(stated.sum())} range(s) left out (--ranges ignore)")
+        return stated
+    drop = stated & (value == 0)
+    if drop.any():
+        notes.append(f"note: {int(drop.sum())} range(s) of 0 yd left out: a placeholder, not a "
+                     "measurement (--ranges use to fit them anyway)")
+    rest = value[stated & ~drop]
+    if rest.size >= 2 and np.all(rest == rest[0]):
+        notes.append(f"note: the {rest.size} ranges left out: every cut states {rest[0]:g} yd, "
+                     "a plotting default rather than a measurement (--ranges use to fit them "
+                     "anyway)")
+        drop = stated
+    return drop
+
+
+def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
+             sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
+             no_range: NDArray[np.bool_]
+             ) -> tuple[list, list, list, list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal) of each value used."""
+    out: tuple[list, ...] = ([], [], [], [], [], [], [], [])
+    for k, s in enumerate(rows):
+        stated = {"bearing": None if s.bearing_accuracy is None
+                  else float(np.deg2rad(s.bearing_accuracy)),
+                  "frequency": s.frequency_accuracy}
+        for kind, value in (("bearing", s.bearing), ("range", s.range_yd),
+                            ("frequency", s.frequency)):
+            if value is None or kind not in kinds or (kind == "range" and no_range[k]):
+                continue
+            si = (float(np.deg2rad(value)) if kind == "bearing"
+                  else value * YARD if kind == "range" else value)
+            line_sigma = stated.get(kind)
+            sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
+            twin = (float(np.deg2rad(s.ambiguous)) if kind == "bearing"
+                    and s.ambiguous is not None else np.nan)
+            tonal = s.sensor if kind == "frequency" else ""  # a sensor's tonal line
+            for col, item in zip(out, (t[k], kind, si, sigma, states[k], _at_line(s), twin,
+                                       tonal), strict=True):
+                col.append(item)
+    return out  # type: ignore[return-value]

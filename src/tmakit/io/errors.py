@@ -17,15 +17,13 @@ MAX_LISTED_PROBLEMS = 25
 class MeasurementFileError(ValueError):
     """A measurement file that breaks the contract of ``docs/file-format.md``.
 
-    ``path`` is the file, ``problems`` one line per problem
-    (``row R (line L), column 'C': expected ..., found ...``).
-
     Parameters
     ----------
     path : str or os.PathLike
         The file.
     problems : iterable of str
-        One line per problem, in the order to show them.
+        One line per problem, in the order to show them
+        (``row R (line L), column 'C': expected ..., found ...``).
     """
 
     def __init__(self, path: str | os.PathLike[str], problems: Iterable[str]) -> None:

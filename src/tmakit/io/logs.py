@@ -1,58 +1,38 @@
-"""What the readers of real logs share: clock times, the local frame, the surface rule, velocities.
+"""What the readers of real logs share: clock times, the local frame, the surface rule, the rules.
 
-The readers of Debrief, GPX, NMEA and wide logs (:mod:`.debrief`, :mod:`.nav_tracks`,
-:mod:`.wide_log`) turn a platform's fixes (UTC clock time, latitude, longitude, altitude) into
-tmakit's sensor states (ENU m, m/s) and seconds, all in the same way:
-
-- **Clock time.** Times are read as UTC nanoseconds (integers), within plausible years
-  (:mod:`.epoch_times`).  The set's time origin is the
-  first time of the file, floored to the whole second; ``t`` (s) is the difference, computed
-  in integers before it becomes a float, so absolute epoch times never enter the numerics.
-  The origin is recorded as ``time_origin`` (ISO-8601 UTC) in the set's metadata.
-- **Local frame.** The ENU origin is the first fix (or the one given), recorded as
-  ``origin_lat``, ``origin_lon``, ``origin_alt`` with ``altitude_reference`` (``ellipsoid``
-  or ``msl``).  tmakit has no geoid model: heights above mean sea level are used as they are,
-  which shifts the local frame by the geoid height, a constant to within a metre over tens
-  of kilometres; the reference says what the origin's (and the output's) altitudes mean.
-- **The surface rule** (:func:`surface_dim`).  Sensors whose altitudes all lie within
-  :data:`SURFACE_TOLERANCE_M` of the origin's altitude are on a surface (a ship, a level
-  flight with GPS noise): the set is 2-D, sensor ``z`` and ``vz`` are 0, the Earth's
-  curvature (which puts a point 10 km away 7.8 m below the origin's tangent plane) is not
-  mistaken for height.  ``dim=3`` keeps the heights; ``dim=2`` flattens any heights.
-- **Velocity from positions** (:func:`velocity_from_positions`) when a log gives none: the
-  slope of a least-squares straight line through the fixes within a centred window
-  (:data:`VELOCITY_WINDOW_S`) of each fix.
+Clock times, the ENU origin and altitude reference, the surface rule and velocities from
+positions follow ``docs/your-own-data.md``; a log's values obey the rules of a measurement file,
+each problem named by its place in the log.  A time typed by a user (``--from``, ``--to``,
+``--at``, a reader's window) is seconds since the set's ``time_origin``, an ISO-8601 instant (UTC
+unless a zone is named), or ``HH:MM[:SS[.S]]`` UTC on the day of the data (only where the data
+lie within one UTC day).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import datetime as dt
+import math
+import re
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .epoch_times import parse_clock_times
+from .. import rules
+from ..measurements import KINDS
 
-__all__ = [
-    "KNOT",
-    "SURFACE_TOLERANCE_M",
-    "VELOCITY_WINDOW_S",
-    "YARD",
-    "Fixes",
-    "LocalFrame",
-    "clock_times",
-    "course_speed_velocity",
-    "interpolate_heading",
-    "interpolate_states",
-    "iso_utc",
-    "local_frame",
-    "parse_clock_times",
-    "relative_seconds",
-    "surface_dim",
-    "time_origin_ns",
-    "velocity_from_positions",
-]
+if TYPE_CHECKING:  # pragma: no cover
+    from ..data import MeasurementSet
+
+__all__ = ["EPOCH_UNITS", "KNOT", "LATEST_NS", "PLAUSIBLE_YEARS", "SURFACE_TOLERANCE_M",
+           "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame", "checked_rows",
+           "clock_time_problem", "clock_times", "course_speed_velocity", "fix_problems",
+           "interpolate_heading", "interpolate_states", "iso_utc", "local_frame",
+           "parse_clock_times", "relative_seconds", "seconds_of_time_text", "surface_dim",
+           "time_origin_ns", "velocity_from_positions"]
+
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
 #: (2-D) unless 3-D is asked for: GPS altitude noise is a few metres (1 sigma) and a ship's
@@ -259,3 +239,202 @@ KNOT = 1852.0 / 3600.0
 YARD = 0.9144
 
 
+#: Nanoseconds per unit of an epoch time column (a mapping's ``time_unit``).
+EPOCH_UNITS = {"s": 1_000_000_000, "ms": 1_000_000, "us": 1_000, "ns": 1}
+_UNIT_NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
+#: Clock times are refused outside these years (UTC): an epoch number in another unit than
+#: the one stated lands far outside them (milliseconds read as seconds: year 58000).
+PLAUSIBLE_YEARS = (1970, 2200)
+#: The end of the plausible years, ns since 1970 (UTC).
+LATEST_NS = int((np.datetime64(f"{PLAUSIBLE_YEARS[1]}-01-01", "ns")
+                  - np.datetime64("1970-01-01", "ns")).astype(np.int64))
+
+
+def parse_clock_times(values: Sequence[object], unit: str = "s"
+                      ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Read clock times: ISO-8601 text (UTC unless it names a zone) or epoch numbers."""
+    import pandas as pd
+
+    per = EPOCH_UNITS[unit]
+    series = pd.Series(list(values), dtype=object)
+    numbers = pd.to_numeric(series, errors="coerce")
+    out = np.zeros(len(series), dtype=np.int64)
+    bad = np.zeros(len(series), dtype=bool)
+    as_float = numbers.to_numpy(float, na_value=np.nan)
+    is_number = np.isfinite(as_float)
+    if is_number.any():
+        with np.errstate(invalid="ignore", over="ignore"):
+            inside = is_number & (as_float >= 0) & (as_float * per < LATEST_NS)
+        if pd.api.types.is_integer_dtype(numbers.dtype):  # exact, whatever the unit
+            out[inside] = numbers.to_numpy(np.int64)[inside] * per
+        else:
+            v = as_float[inside]
+            whole = np.floor(v)
+            out[inside] = (whole.astype(np.int64) * per
+                           + np.round((v - whole) * per).astype(np.int64))
+        bad |= is_number & ~inside
+    text = ~is_number
+    if text.any():
+        stamps = pd.to_datetime(series[text].astype(str).str.strip(), utc=True, errors="coerce",
+                                format="ISO8601")
+        ns = stamps.dt.tz_convert("UTC").dt.tz_localize(None).astype("datetime64[ns]")
+        values_ns = ns.to_numpy().astype(np.int64)
+        ok = stamps.notna().to_numpy() & (values_ns >= 0) & (values_ns < LATEST_NS)
+        out[np.flatnonzero(text)[ok]] = values_ns[ok]
+        bad[np.flatnonzero(text)[~ok]] = True
+    return out, bad
+
+
+def clock_time_problem(cell: object, unit: str = "s") -> str:
+    """Say what a clock time cell should have been, and what it seems to be."""
+    low, high = PLAUSIBLE_YEARS
+    expected = (f"expected an ISO-8601 time or epoch {_UNIT_NAMES[unit]} (since 1970-01-01 "
+                f"UTC) between {low} and {high}")
+    try:
+        v = float(str(cell))
+    except ValueError:
+        return f"{expected}, found {cell!r}"
+    if not np.isfinite(v):
+        return f"{expected}, found {cell!r}"
+    fits = [u for u, per in EPOCH_UNITS.items()
+            if LATEST_NS / 1e3 <= v * per < LATEST_NS]  # a date after 1970 + 0.23 years
+    hint = (f" (as epoch {_UNIT_NAMES[fits[0]]} it is a date: give time_unit = "
+            f"\"{fits[0]}\" in the mapping)" if fits and fits[0] != unit else "")
+    return f"{expected}, found {cell!r}{hint}"
+
+
+#: Problems listed per rule (as the wide-log reader lists its cells).
+_LISTED = 25
+#: What each column of a set is, in the words of a log's problem.
+_SET_COLUMNS = {"time": "time", "value": "value", "sigma": "sigma", "time_ref": "time_ref",
+                "sensor_x": "sensor east position", "sensor_y": "sensor north position",
+                "sensor_z": "sensor height", "sensor_vx": "sensor east velocity",
+                "sensor_vy": "sensor north velocity", "sensor_vz": "sensor up velocity"}
+_ROW = re.compile(r"^row (\d+), column '(\w+)': ")
+
+
+def fix_problems(fixes: Fixes, where: Callable[[int, str], str]) -> list[str]:
+    """Check a track's fixes by the rules of a measurement file (:mod:`tmakit.rules`)."""
+    checks: list[tuple[NDArray[np.float64], str, str, Callable]] = [
+        (fixes.lat, "latitude", rules.LATITUDE, lambda v: rules.geo_within(v, "sensor_lat")),
+        (fixes.lon, "longitude", rules.LONGITUDE, lambda v: rules.geo_within(v, "sensor_lon")),
+        (fixes.alt, "altitude", rules.POSITION, lambda v: rules.state_within_reach(v, 2))]
+    if fixes.velocity is not None:
+        checks += [(fixes.velocity[:, j], "velocity", rules.VELOCITY,
+                    lambda v: rules.state_within_reach(v, 3)) for j in range(3)]
+    found: list[str] = []
+    for values, name, expected, ok in checks:
+        values = np.asarray(values, float)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(~(np.isfinite(values) & ok(values)))
+        found += [f"{where(int(k), name)}: expected {expected}, found {float(values[k])!r}"
+                  for k in bad[:_LISTED]]
+    if fixes.heading is not None:
+        h = np.asarray(fixes.heading, float)
+        bad = np.flatnonzero(~np.isnan(h) & ~KINDS["bearing"].check_values(h))
+        found += [f"{where(int(k), 'heading')}: expected {KINDS['bearing'].describe_values()}"
+                  f", found {float(h[k])!r}" for k in bad[:_LISTED]]
+    t = np.asarray(fixes.time_ns, np.int64)
+    bad = np.flatnonzero((t < 0) | (t >= LATEST_NS))
+    found += [f"{where(int(k), 'time')}: expected a date between {PLAUSIBLE_YEARS[0]} and "
+              f"{PLAUSIBLE_YEARS[1]}" for k in bad[:_LISTED]]
+    return found
+
+
+def checked_rows(path: object, meas: MeasurementSet, where: Sequence[str]
+                 ) -> tuple[MeasurementSet, NDArray[np.intp], int]:
+    """Check a log's rows by the rules of a measurement file, and merge repeated rows."""
+    from .errors import MeasurementFileError
+
+    rank_of_code = np.zeros(len(meas.sensor_names), dtype=np.intp)
+    for rank, name in enumerate(meas.sensors):
+        rank_of_code[meas.sensor_names.index(name)] = rank
+    order = np.lexsort((meas.time, rank_of_code[meas.sensor_code]))
+    ordered = meas.take(order)
+    found = [_readdressed(p, where, order) for p in rules.column_problems(
+        ordered.time, ordered.sensor_code, ordered.kind_code, ordered.value, ordered.sigma,
+        ordered.sensor_state, ordered.time_ref, order=False)]
+    far, expected = rules.far_times(ordered.time)
+    found += [f"{where[order[k]]}: time: expected {expected}, found {ordered.time[k]:.10g} s"
+              for k in np.flatnonzero(far)[:_LISTED]]
+    drop = []
+    for row, first in rules.duplicate_rows(ordered.time, ordered.stream_code(),
+                                          ordered.kind_code, ordered.time_ref):
+        if (ordered.value[row] == ordered.value[first]
+                and ordered.sigma[row] == ordered.sigma[first]):
+            drop.append(row)
+        elif len(found) < 3 * _LISTED:
+            found.append(f"{where[order[row]]}: a second {ordered.kind[row]} of sensor "
+                         f"'{ordered.sensor[row]}' at the time of {where[order[first]]} "
+                         f"({float(ordered.value[row])!r} against "
+                         f"{float(ordered.value[first])!r}): two values at one time cannot "
+                         "both be measurements (a time rounded to the second? give its "
+                         "fractions)")
+    if found:
+        raise MeasurementFileError(path, found)  # type: ignore[arg-type]
+    keep = np.setdiff1d(np.arange(len(ordered)), np.array(drop, dtype=np.intp))
+    return ordered.take(keep), order[keep], len(drop)
+
+
+def _readdressed(problem: str, where: Sequence[str], order: NDArray[np.intp]) -> str:
+    """Name a rules problem (``row N, column 'c': ...``) by the row's place in its log."""
+    m = _ROW.match(problem)
+    if m is None:
+        return problem
+    row, column = int(m.group(1)) - 1, m.group(2)
+    if column == "value":  # the place names the cell
+        return f"{where[order[row]]}: {problem[m.end():]}"
+    return f"{where[order[row]]}, {_SET_COLUMNS.get(column, column)}: {problem[m.end():]}"
+
+
+_CLOCK = re.compile(r"(\d{1,2}):(\d{2})(?::(\d{2}(?:\.\d+)?))?")
+
+
+def _clock_seconds(text: str, match: re.Match[str], option: str) -> float:
+    hours, minutes = int(match[1]), int(match[2])
+    seconds = float(match[3]) if match[3] else 0.0
+    if hours > 23 or minutes > 59 or seconds >= 60:
+        raise ValueError(f"{option} {text!r}: expected a clock time HH:MM or HH:MM:SS (UTC), "
+                         "hours 0-23, minutes and seconds 0-59")
+    return hours * 3600.0 + minutes * 60.0 + seconds
+
+
+def seconds_of_time_text(text: str, option: str, origin_ns: int | None,
+                         span_ns: tuple[int, int] | None) -> float:
+    """Read a time option as seconds since the set's time origin."""
+    try:
+        seconds = float(text)
+    except ValueError:
+        pass
+    else:
+        if not math.isfinite(seconds):
+            raise ValueError(f"{option} {text!r}: expected a finite time (s)")
+        return seconds
+    clock = _CLOCK.fullmatch(text.strip())
+    when = None
+    if clock is None:
+        try:
+            when = dt.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+        except ValueError:
+            raise ValueError(f"{option} {text!r}: expected seconds, an ISO-8601 clock time (e.g. "
+                             "2024-05-01T12:30:00Z) or a clock time of the data's day (e.g. "
+                             "12:30 or 12:30:15, UTC)") from None
+    if origin_ns is None:
+        raise ValueError(f"{option} {text!r}: a clock time needs the file's time origin "
+                         "(time_origin), which this file does not give; give seconds")
+    if clock is not None:
+        of_day = _clock_seconds(text, clock, option)
+        if span_ns is None:
+            raise ValueError(f"{option} {text!r}: a clock time without a date needs the data's "
+                             "day; give the date, e.g. 2024-05-01T12:30:00Z")
+        first_day, last_day = (int(t) // (86400 * _NS) for t in span_ns)
+        if first_day != last_day:
+            raise ValueError(
+                f"{option} {text!r}: the data span more than one UTC day ({iso_utc(span_ns[0])} "
+                f"to {iso_utc(span_ns[1])}), so a clock time without a date is ambiguous; give "
+                f"the date, e.g. {iso_utc(first_day * 86400 * _NS)[:10]}T{text.strip()}Z")
+        return (first_day * 86400 * _NS - origin_ns) / _NS + of_day
+    assert when is not None
+    when = when if when.tzinfo else when.replace(tzinfo=dt.UTC)
+    whole = dt.datetime.fromtimestamp(origin_ns // _NS, dt.UTC)
+    return (when - whole).total_seconds() - (origin_ns % _NS) / _NS

@@ -6,14 +6,13 @@ The columns of the contract, and metadata under ``tmakit:`` keys of the Arrow sc
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from ..data import MeasurementSet
-from .checker import table_reader
-from .columns import file_columns
-from .contract import PARQUET_METADATA_PREFIX
+from .checker import check_table
+from .contract import PARQUET_METADATA_PREFIX, RawTable, file_columns
 from .errors import MeasurementFileError
 from .formats import Format, register_format
-from .problems import RawTable
 from .tables import write_table
 
 __all__ = ["PARQUET", "load_parquet", "read_parquet", "write_parquet"]
@@ -57,8 +56,14 @@ def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
                 parquet_schema=pa.schema(fields))
 
 
-#: Read and check a Parquet measurement file (the :data:`PARQUET` format's reader).
-read_parquet = table_reader(load_parquet, "Parquet")
+def read_parquet(path: Path, *, origin: tuple[float, float, float] | None = None,
+                 **options: Any) -> MeasurementSet:
+    """Read and check a Parquet measurement file (the :data:`PARQUET` format's reader)."""
+    if options:
+        raise TypeError(f"Parquet files take no options {', '.join(sorted(options))}")
+    return check_table(path, load_parquet(path), origin)
+
+
 #: The Parquet format: ``.parquet`` and ``.pq``.
 PARQUET = register_format(Format("parquet", "Parquet", (".parquet", ".pq"), read_parquet,
                                  write_parquet))

@@ -1,32 +1,45 @@
 """Sensor states from a measurement file.
 
-ENU columns, or latitude/longitude with an ENU origin; and the sensor state at ``time_ref``
-of range differences.
+ENU columns, or latitude/longitude with an ENU origin; and the sensor state at ``time_ref`` of range
+differences: the sensor's own row at that time (the first one), else interpolated between its rows
+as :class:`tmakit.sensors.RecordedTrack` does.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS
-from .cells import number_text
-from .check_columns import Layout
-from .contract import GEO_COLUMNS
-from .problems import Problems
+from .contract import GEO_COLUMNS, Problems, number_text
+
+__all__ = ["ORIGIN_KEYS", "QUERY_ROWS", "Layout", "SensorRecord", "fdoa_carriers",
+           "geodetic_to_enu_in_place", "ref_of_sensor", "ref_sensor_state", "resolve_origin",
+           "sensor_state"]
+
 
 #: How a caller of the library gives the ENU origin (the command line replaces it with its flag).
 ORIGIN_HINT = "origin=(lat, lon, alt) to read_measurements"
 
-__all__ = ["ORIGIN_KEYS", "fdoa_carriers", "ref_of_sensor", "ref_sensor_state", "resolve_origin",
-           "sensor_state"]
 
 Numbers = dict[str, NDArray[np.float64]]
 #: Metadata keys of the ENU origin (degrees, degrees, metres).
 ORIGIN_KEYS = ("origin_lat", "origin_lon", "origin_alt")
+#: Rows converted from latitude/longitude to ENU at a time (bounds the conversion's arrays).
+_ENU_ROWS = 1 << 16
+
+
+@dataclass(frozen=True)
+class Layout:
+    """How a file gives the sensor state."""
+
+    geodetic: bool  # Positions as ``sensor_lat``/``sensor_lon`` (degrees) instead of ENU metres
+    has_velocity: bool  # The file has both ``sensor_vx`` and ``sensor_vy``
+    has_ref: bool  # The file has ``ref_sensor_*`` columns
 
 
 def resolve_origin(origin: Any, metadata: Mapping[str, str], problems: Problems
@@ -91,22 +104,42 @@ def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
 def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
                         state: NDArray[np.float64], problems: Problems) -> str:
     """Fill ENU positions from lat/lon/alt; return the surface rule's text if it flattened."""
+    state[:, 0], state[:, 1] = num["sensor_lat"], num["sensor_lon"]
+    state[:, 2] = num.get("sensor_alt", origin[2])
+    state[problems.bad_rows(*GEO_COLUMNS), :3] = np.nan  # pymap3d refuses |lat| > 90
+    try:
+        return geodetic_to_enu_in_place(state, origin,
+                                        problems.raw.metadata.get("dim", "").strip() == "3")
+    except ValueError as err:
+        state[:, :3] = np.nan
+        problems.file.append(f"origin {origin}: {err}")
+        return ""
+
+
+def geodetic_to_enu_in_place(state: NDArray[np.float64], origin: tuple[float, float, float],
+                             dim3: bool) -> str:
+    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU, block by block.
+
+    Sensors on a surface (:func:`.logs.surface_dim`, NaN rows aside) are flattened to the origin's
+    altitude, and the rule's text returned ("" in 3-D).
+    """
     from ..core.geodesy import geodetic_to_enu
     from .logs import surface_dim
 
-    lat, lon = num["sensor_lat"].copy(), num["sensor_lon"].copy()
-    alt = num.get("sensor_alt", np.full(lat.shape[0], origin[2])).copy()
-    bad = problems.bad_rows(*GEO_COLUMNS)
-    lat[bad] = lon[bad] = alt[bad] = np.nan  # pymap3d refuses |lat| > 90
-    asked = problems.raw.metadata.get("dim", "").strip()
-    dim, rule = surface_dim(alt[np.isfinite(alt)], origin[2], 3 if asked == "3" else None)
-    try:
+    n, alt0 = state.shape[0], origin[2]
+    worst, spread = alt0, -1.0  # the altitude farthest from the origin's
+    for lo in range(0, n, _ENU_ROWS):
+        off = np.nan_to_num(np.abs(state[lo:lo + _ENU_ROWS, 2] - alt0), nan=-1.0)
+        i = int(np.argmax(off))
+        if off[i] > spread:
+            worst, spread = float(state[lo + i, 2]), float(off[i])
+    dim, rule = surface_dim(np.array([worst]), alt0, 3 if dim3 else None)
+    for lo in range(0, n, _ENU_ROWS):
+        block = state[lo:lo + _ENU_ROWS]
+        alt = block[:, 2] if dim == 3 else np.where(np.isfinite(block[:, 2]), alt0, np.nan)
         with np.errstate(invalid="ignore"):
-            e, nn, u = geodetic_to_enu(lat, lon, np.where(np.isfinite(alt), origin[2], alt)
-                                       if dim == 2 else alt, origin)
-        state[:, 0], state[:, 1], state[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
-    except ValueError as err:
-        problems.file.append(f"origin {origin}: {err}")
+            e, nn, u = geodetic_to_enu(block[:, 0], block[:, 1], alt, origin)
+        block[:, 0], block[:, 1], block[:, 2] = e, nn, (0.0 * u if dim == 2 else u)
     return rule if dim == 2 else ""
 
 
@@ -186,8 +219,6 @@ def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp] | 
                   state: NDArray[np.float64], ref: NDArray[np.float64], has_velocity: bool,
                   problems: Problems, column: str = "time_ref") -> None:
     """Fill ``ref[rows]`` from the sensor's usable rows ``mine`` (exact time, else interpolated)."""
-    from .sensor_record import SensorRecord
-
     record = SensorRecord(t, state, mine, has_velocity)
     missing = record.fill(rows, time_ref, ref)
     if not np.any(missing):
@@ -206,3 +237,86 @@ def ref_of_sensor(sensor: str, rows: NDArray[np.intp], mine: NDArray[np.intp] | 
                           f"a time at which sensor '{sensor}' has a known position ({known}; "
                           "or give the ref_sensor_* columns)",
                           f"{at} (no sensor position known at time_ref {at} s)")
+
+
+#: Times looked up at a time (bounds the temporaries of a look-up: about 100 bytes each).
+QUERY_ROWS = 1 << 16
+
+
+def _non_decreasing(t: NDArray[np.float64]) -> bool:
+    """Tell whether ``t`` never decreases (NaN: no), checked a block at a time."""
+    for lo in range(0, max(t.shape[0] - 1, 0), QUERY_ROWS):
+        seg = t[lo:lo + QUERY_ROWS + 1]
+        if not np.all(seg[1:] >= seg[:-1]):
+            return False
+    return True
+
+
+class SensorRecord:
+    """A sensor's usable rows in time order, to look its state up at given times.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Every row's time (s).
+    state : numpy.ndarray, shape (n, 6)
+        Every row's sensor state (ENU m, m/s).
+    mine : numpy.ndarray of int or None
+        The sensor's usable rows in file order; None for every row.
+    has_velocity : bool
+        The file gives sensor velocities (else interpolated velocities are 0).
+    """
+
+    def __init__(self, t: NDArray[np.float64], state: NDArray[np.float64],
+                 mine: NDArray[np.intp] | None, has_velocity: bool) -> None:
+        times = t if mine is None else t[mine]
+        self.state, self.has_velocity = state, has_velocity
+        # row of the file of each entry of self.times (None: the entry's own index)
+        self.index: NDArray[np.intp] | None = mine
+        if not _non_decreasing(times):  # one entry per time (the first row), in time order
+            times, first = np.unique(times, return_index=True)
+            self.index = first if mine is None else mine[first]
+        #: The sensor's times (s), non-decreasing (a time may repeat).
+        self.times: NDArray[np.float64] = times
+        self._spline: Any = None
+
+    def _rows(self, k: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Give the file rows of entries ``k`` of :attr:`times`."""
+        return k if self.index is None else self.index[k]
+
+    def fill(self, rows: NDArray[np.intp], time_ref: NDArray[np.float64],
+             ref: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Fill ``ref[rows]`` with the state at ``time_ref[rows]``; flag rows without one."""
+        missing = np.ones(rows.shape[0], dtype=bool)
+        m = self.times.shape[0]
+        if m == 0:
+            return missing
+        for lo in range(0, rows.shape[0], QUERY_ROWS):
+            r = rows[lo:lo + QUERY_ROWS]
+            tr = time_ref[r]
+            at = np.searchsorted(self.times, tr)  # the first entry at or after time_ref
+            found = self.times[np.minimum(at, m - 1)] == tr
+            ref[r[found]] = self.state[self._rows(at[found])]
+            inside = ~found & (tr >= self.times[0]) & (tr <= self.times[-1])
+            if np.any(inside):
+                ref[r[inside]] = self._between(at[inside], tr[inside])
+            missing[lo:lo + QUERY_ROWS] = ~found & ~inside
+        return missing
+
+    def _between(self, at: NDArray[np.intp], tr: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Interpolate at times ``tr`` strictly between entries ``at - 1`` and ``at``."""
+        from ..sensors import RecordedTrack
+
+        if self.has_velocity:  # cubic Hermite: each piece from its two rows only
+            before = np.searchsorted(self.times, self.times[at - 1])  # first of that time
+            k = np.unique(np.concatenate((before, at)))
+            rows = self._rows(k)
+            return RecordedTrack(self.times[k], self.state[rows, :3],
+                                 self.state[rows, 3:]).states(tr)
+        if self._spline is None:  # a spline through every distinct time
+            t = self.times
+            k = np.flatnonzero(np.concatenate(([True], t[1:] != t[:-1])))
+            self._spline = RecordedTrack(t[k], self.state[self._rows(k), :3])
+        out = self._spline.states(tr)
+        out[:, 3:] = 0.0  # like the sensor velocities, absent from the file
+        return out

@@ -21,15 +21,14 @@ from ..data import MeasurementSet
 from ..results import EstimateResult
 from ..results.answers import KNOT, Answer, estimate_answer
 from ..results.context import clock_time, origin_of
-from .atomic import atomic_write
+from .logs import YARD
+from .tables import atomic_write
 
 __all__ = ["SOLUTION_SUFFIXES", "YARD", "geojson_document", "rep_lines", "solution_answers",
            "write_solution"]
 
 #: The suffixes a solution is written to, by format.
 SOLUTION_SUFFIXES = (".rep", ".geojson", ".kml")
-#: One yard (m): Debrief's ellipse axes and ranges.
-YARD = 0.9144
 #: At most this many points are written.
 MAX_POINTS = 10_000
 

@@ -11,12 +11,9 @@ from pathlib import Path
 
 from ..filters import Track
 from ..tracking import track_table
-from .tables import TABLE_SUFFIXES, write_table
+from .tables import write_table
 
-__all__ = ["TRACK_SUFFIXES", "write_track"]
-
-#: File suffixes :func:`write_track` writes (CSV, Parquet).
-TRACK_SUFFIXES = tuple(TABLE_SUFFIXES)
+__all__ = ["write_track"]
 
 
 def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) -> Path:
@@ -42,12 +39,6 @@ def write_track(tr: Track, path: str | os.PathLike[str], force: bool = False) ->
         Another suffix.
     FileExistsError
         ``path`` exists and not ``force``.
-
-    Notes
-    -----
-    One row per update (:meth:`Track.table_columns`).  The file is written to a temporary
-    file in the same folder and moved into place, so a failure leaves nothing half-written.
-    Parquet files carry the filter, start and q as schema metadata (``tmakit:filter``, ...).
     """
     table = track_table(tr)  # write_table refuses another suffix, naming "a track"
     return write_table(path, table.columns, force=force, what="a track",

@@ -9,12 +9,10 @@ imported only when used.
 from __future__ import annotations
 
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
-from .estimators import available_estimators
 from .execution import COMPILED_CHUNK, LOCAL_CHUNK, LOOP_CHUNK
 from .memory import keep_freed_memory
-from .result import MonteCarloResult, ratio_interval
-from .runs import FAILED, RUN_ERRORS
-from .study import finished_runs_table, monte_carlo
+from .runs import FAILED, RUN_ERRORS, available_estimators
+from .study import MonteCarloResult, finished_runs_table, monte_carlo, ratio_interval
 
 __all__ = [
            "COMPILED_CHUNK",

@@ -11,9 +11,12 @@ import math
 import multiprocessing
 import os
 import sys
+import time
 import warnings
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from .memory import keep_freed_memory
 from .runs import run_chunk
@@ -27,10 +30,12 @@ __all__ = [
     "LOOP_CHUNK",
     "dask_client",
     "default_chunk",
+    "execute",
     "progress_bar",
     "run_dask",
     "run_local",
     "run_pool",
+    "whole_number",
 ]
 
 #: Runs per chunk when running in this process.
@@ -40,6 +45,13 @@ LOCAL_CHUNK = 50
 COMPILED_CHUNK = 250
 #: Runs per chunk for estimators solved run by run (the progress bar moves per chunk).
 LOOP_CHUNK = 10
+
+
+def whole_number(value: object, name: str, minimum: int = 1) -> int:
+    """Return ``value`` as an int if it is a whole number >= ``minimum``; else ValueError."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+    return int(value)
 
 
 class _NoBar:
@@ -66,14 +78,18 @@ def progress_bar(total: int, enabled: bool, desc: str) -> Any:
 def run_local(tasks: Sequence[Any], bar: Any, fn: Callable[[Any], Any] = run_chunk,
               on_done: Callable[[Any], None] | None = None) -> list[Any]:
     """Run the chunks one after the other in this process."""
-    outputs = []
+    outputs: list[Any] = []
     for task in tasks:
-        res = fn(task)
-        outputs.append(res)
-        if on_done is not None:
-            on_done(res)
-        bar.update(len(res))
+        _finished(fn(task), outputs, bar, on_done)
     return outputs
+
+
+def _finished(res: Any, outputs: list[Any], bar: Any, on_done: Callable[[Any], None] | None
+              ) -> None:
+    outputs.append(res)
+    if on_done is not None:
+        on_done(res)
+    bar.update(len(res))
 
 
 def _single_threaded_worker() -> None:
@@ -97,7 +113,7 @@ def run_pool(tasks: Sequence[Any], workers: int, bar: Any, fn: Callable[[Any], A
     """Run the chunks in ``workers`` processes of this machine."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    outputs = []
+    outputs: list[Any] = []
     with ProcessPoolExecutor(max_workers=min(workers, max(1, len(tasks))),
                              mp_context=_pool_context(),
                              initializer=_single_threaded_worker) as pool:
@@ -106,11 +122,7 @@ def run_pool(tasks: Sequence[Any], workers: int, bar: Any, fn: Callable[[Any], A
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
-                    res = fut.result()
-                    outputs.append(res)
-                    if on_done is not None:
-                        on_done(res)
-                    bar.update(len(res))
+                    _finished(fut.result(), outputs, bar, on_done)
         except BaseException:
             for fut in pending:
                 fut.cancel()  # an error or an interrupt: start nothing more
@@ -148,19 +160,46 @@ def run_dask(tasks: Sequence[Any], client: Client, bar: Any,
 
     _keep_freed_memory_on(client)
     futures = client.map(fn, list(tasks), pure=False)
-    outputs = []
+    outputs: list[Any] = []
     try:
         for fut in as_completed(futures):
-            res = fut.result()
-            outputs.append(res)
-            if on_done is not None:
-                on_done(res)
-            bar.update(len(res))
+            _finished(fut.result(), outputs, bar, on_done)
             fut.release()
     except BaseException:
         client.cancel(futures)  # an error or an interrupt: leave nothing running
         raise
     return outputs
+
+
+def _cpus() -> int:
+    """Return the CPUs this process may run on."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
+
+
+def execute(tasks: Sequence[Any], client: Client | None, bar_label: str, runs: int,
+            progress: bool, on_chunk: Callable[[Any], None] | None = None, workers: int = 1,
+            fn: Callable[[Any], Any] = run_chunk) -> tuple[list[Any], float, str]:
+    """Run the chunks here, in worker processes or on Dask; return them, the wall time, where."""
+    processes = min(workers, len(tasks), _cpus())
+    bar = progress_bar(runs, progress, bar_label)
+    start = time.perf_counter()
+    try:
+        if client is not None:
+            outputs = run_dask(tasks, client, bar, fn, on_chunk)
+        elif processes > 1:
+            outputs = run_pool(tasks, processes, bar, fn, on_chunk)
+        else:
+            outputs = run_local(tasks, bar, fn, on_chunk)
+    finally:
+        bar.close()
+    wall = time.perf_counter() - start
+    outputs.sort(key=lambda o: o.first_run)
+    executor = (f"dask {getattr(client.scheduler, 'address', '')}" if client is not None
+                else f"{processes} processes" if processes > 1 else "local")
+    if client is None and processes < workers:
+        executor += f", {workers:,} asked: {len(tasks):,} chunks, {_cpus()} CPUs"
+    return outputs, wall, executor
 
 
 def default_chunk(runs: int, estimator: str, client: Client | None,

@@ -21,35 +21,22 @@ from ..scenario.files import load_scenario
 from ..scenario.model import MeasurementPlan, Scenario
 from ..sensors import Leg, LegsTrack
 
+#: The measurement kinds a random geometry mixes.
 STUDY_KINDS: tuple[str, ...] = ("bearing", "frequency", "power")
-"""The measurement kinds a random geometry mixes."""
 
-MAX_DISTANCE = 20_000.0
-"""Largest distance (m) of the target from the sensor's start at time 0."""
-MIN_DISTANCE = 500.0
-"""Smallest distance (m) of the target from the sensor's start at time 0."""
-MAX_TARGET_SPEED = 40.0
-"""Largest target speed (m/s)."""
-SENSOR_SPEED = (30.0, 80.0)
-"""Range of the sensor's speed (m/s)."""
-TURN_RATE_DEG_S = (1.0, 4.0)
-"""Range of the magnitude of the sensor's turn rates (°/s)."""
-LEG_DURATION = (20.0, 60.0)
-"""Range of the duration of one leg (s)."""
-LEG_COUNTS = (3, 4, 5)
-"""Possible numbers of legs."""
-OBSERVATION_TIME = (120.0, 300.0)
-"""Range of the total observation time (s)."""
-SAMPLE_INTERVALS = (1.0, 2.0)
-"""Possible sample intervals (s)."""
-BEARING_SIGMA_DEG = (0.5, 2.0)
-"""Range of the bearing noise standard deviation (°)."""
-CARRIER_HZ = (0.5e9, 10e9)
-"""Range of the carrier frequency (Hz)."""
-FREQUENCY_SIGMA_HZ = (0.5, 3.0)
-"""Range of the frequency noise standard deviation (Hz)."""
-SNR_DB = (25.0, 45.0)
-"""Range of the power measurements' SNR_p (dB)."""
+MAX_DISTANCE = 20_000.0  # Largest distance (m) of the target from the sensor's start at time 0.
+MIN_DISTANCE = 500.0  # Smallest distance (m) of the target from the sensor's start at time 0.
+MAX_TARGET_SPEED = 40.0  # Largest target speed (m/s).
+SENSOR_SPEED = (30.0, 80.0)  # Range of the sensor's speed (m/s).
+TURN_RATE_DEG_S = (1.0, 4.0)  # Range of the magnitude of the sensor's turn rates (°/s).
+LEG_DURATION = (20.0, 60.0)  # Range of the duration of one leg (s).
+LEG_COUNTS = (3, 4, 5)  # Possible numbers of legs.
+OBSERVATION_TIME = (120.0, 300.0)  # Range of the total observation time (s).
+SAMPLE_INTERVALS = (1.0, 2.0)  # Possible sample intervals (s).
+BEARING_SIGMA_DEG = (0.5, 2.0)  # Range of the bearing noise standard deviation (°).
+CARRIER_HZ = (0.5e9, 10e9)  # Range of the carrier frequency (Hz).
+FREQUENCY_SIGMA_HZ = (0.5, 3.0)  # Range of the frequency noise standard deviation (Hz).
+SNR_DB = (25.0, 45.0)  # Range of the power measurements' SNR_p (dB).
 
 
 def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:

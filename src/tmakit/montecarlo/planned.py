@@ -9,17 +9,24 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..bounds.pcrb_runs import RESAMPLES
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..planning import MissionPlanner
-from ..planning.closed_loop import LoopRecord, LoopSetup
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
 from ..planning.setup import PlanningSetup, load_planning
 from ..scenario.planning_table import MAX_DECISIONS, PLANNERS
-from .closed_loop import MIN_RUNS_INTERVAL, ClosedLoopStudy, LoopCase, closed_loop_study
+from .closed_loop import (
+    MIN_RUNS_INTERVAL,
+    ClosedLoopStudy,
+    LoopCase,
+    LoopRecord,
+    LoopSetup,
+    closed_loop_study,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -35,20 +42,6 @@ FIXED = "fixed"
 DEFAULT_LEGS = 10
 
 
-class _MissionSearch(TypedDict):
-    """The mission planner's search settings (keywords of :class:`.MissionPlanner`)."""
-
-    headings: int
-    sweeps: int
-    refine: int
-
-
-#: The mission planner's heading grid, sweeps and refinements (those of the benchmark that
-#: measured it, ``benchmarks/planning_passive_mc.py``).
-MISSION_SEARCH: _MissionSearch = {"headings": 12, "sweeps": 2, "refine": 1}
-#: Paired bootstrap resamples of the runs for the planned-over-fixed interval.
-RESAMPLES = 2000
-
 
 def leg_duration(setup: PlanningSetup) -> float:
     """Return the mission planner's leg, s: the table's, or a tenth of the duration."""
@@ -60,10 +53,11 @@ def leg_duration(setup: PlanningSetup) -> float:
 def mission_planner(setup: PlanningSetup) -> MissionPlanner:
     """Return the mission planner of a planning table, for its whole duration."""
     p = setup.planner
+    # the search of the benchmark that measured it (benchmarks/planning_passive_mc.py)
     return MissionPlanner(p.kinematics, p.plan, p.interval, leg_duration(setup),
-                          setup.start.time + setup.duration, p.criterion, gamma=p.gamma,
-                          constraints=p.constraints, hypotheses=setup.hypotheses > 1,
-                          **MISSION_SEARCH)
+                          setup.start.time + setup.duration, p.criterion, headings=12,
+                          sweeps=2, refine=1, gamma=p.gamma, constraints=p.constraints,
+                          hypotheses=setup.hypotheses > 1)
 
 
 def fixed_policy(setup: PlanningSetup) -> TrackPolicy | str:
@@ -122,6 +116,9 @@ class PlanRun:
         The runs: case :data:`CASE` and, when the pattern covers the run, :data:`FIXED`.
     fixed_note : str or None
         Why there is no fixed case (None when there is one).
+
+    Every method takes a ``case``, :data:`CASE` (default) or :data:`FIXED`, and gives its
+    figures per decision, (D,) in metres, unless it says otherwise.
     """
 
     setup: PlanningSetup

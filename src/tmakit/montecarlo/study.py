@@ -1,39 +1,306 @@
-"""The entry point of a Monte Carlo study: :func:`monte_carlo`."""
+"""A Monte Carlo study: :func:`monte_carlo` and its :class:`MonteCarloResult`.
+
+The result compares the root-mean-square error over the converged runs with the CRLB of the same
+nuisance convention.
+"""
 
 from __future__ import annotations
 
-import os
-import time
+import json
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..bounds.fim import crlb
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
+from ..results.bound import Bound
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
+from ..results.status import CONVERGED
 from ..scenario.model import Scenario
-from .estimators import check_estimator
-from .execution import (
-    dask_client,
-    default_chunk,
-    progress_bar,
-    run_dask,
-    run_local,
-    run_pool,
-)
-from .result import MonteCarloResult
-from .runs import ChunkOutput, ChunkTask
+from .execution import LOCAL_CHUNK, dask_client, default_chunk, execute, whole_number
+from .runs import ChunkOutput, ChunkTask, check_estimator
 
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
 
-__all__ = ["finished_runs_table", "monte_carlo"]
+__all__ = ["MonteCarloResult", "finished_runs_table", "monte_carlo", "ratio_interval"]
 
 Options = Mapping[str, Mapping[str, object]]
+
+
+def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, float]:
+    """Confidence interval of the true RMS error over the CRLB from the measured ratio.
+
+    Parameters
+    ----------
+    ratio : float
+        Measured RMSE/CRLB over ``n`` runs.
+    n : int
+        Runs.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    tuple of float
+        ``ratio·sqrt(n/χ²_{n,(1+level)/2}) .. ratio·sqrt(n/χ²_{n,(1-level)/2})``; NaN for ``n < 1``
+        or a non-finite ratio.
+
+    Notes
+    -----
+    Assumes independent, unbiased, Gaussian errors (then ``n RMSE²/σ²`` is ``χ²_n``).
+    """
+    if n < 1 or not np.isfinite(ratio):
+        return float("nan"), float("nan")
+    from ..core import chi2
+
+    hi_q = chi2.ppf(0.5 + level / 2.0, n)
+    lo_q = chi2.ppf(0.5 - level / 2.0, n)
+    return float(ratio * np.sqrt(n / hi_q)), float(ratio * np.sqrt(n / lo_q))
+
+
+def _num(x: float) -> float | None:
+    return float(x) if x is not None and np.isfinite(x) else None
+
+
+@dataclass
+class MonteCarloResult:
+    """The runs of :func:`~tmakit.montecarlo.monte_carlo` and their comparison with the CRLB.
+
+    Parameters
+    ----------
+    scenario, estimator : str
+        Names of the scenario and the estimator.
+    parameters : tuple of str
+        The motion parameters, in the order of ``truth`` and ``crlb``.
+    truth : ndarray, shape (p,)
+        True parameter values (SI).
+    crlb : ndarray, shape (p,)
+        The bound's standard deviation per parameter (SI).
+    table : pandas.DataFrame
+        One row per run: ``run``, ``status`` (``converged``, ``did not converge``,
+        ``unobservable``, ``diverged`` or ``failed``), ``iterations``, ``chi2``, ``starts``
+        (starting points solved from) and ``est_<param>`` per motion parameter.
+    wall_time : float
+        Seconds the runs took.
+    seed : int
+        The entropy that reproduces the runs.
+    known_nuisance : KnownNuisance or None
+        The nuisance values the estimator (and the bound) knew; None: estimated.
+    executor : str
+        ``local``, ``<n> processes`` or ``dask <address>``.
+    chunk : int
+        Runs per task.
+    failures : dict of int to str
+        The error message of each failed run.
+    bound : Bound, optional
+        The CRLB itself.
+
+    References
+    ----------
+    Gu et al. (2007), §5: Monte Carlo RMS errors set beside the CRLB of eqs. 17–18.
+    """
+
+    scenario: str
+    estimator: str
+    parameters: tuple[str, ...]
+    truth: NDArray[np.float64]
+    crlb: NDArray[np.float64]
+    table: pd.DataFrame
+    wall_time: float
+    seed: int
+    known_nuisance: KnownNuisance | None
+    executor: str = "local"
+    chunk: int = LOCAL_CHUNK
+    failures: dict[int, str] = field(default_factory=dict)
+    bound: Bound | None = None
+
+    # -- counts ----------------------------------------------------------------------------
+    @property
+    def runs(self) -> int:
+        """Number of runs."""
+        return len(self.table)
+
+    @property
+    def runs_per_second(self) -> float:
+        """Runs per second of wall time."""
+        return self.runs / self.wall_time if self.wall_time > 0 else float("inf")
+
+    @property
+    def converged(self) -> NDArray[np.bool_]:
+        """Mask of the converged runs."""
+        return cast(NDArray[np.bool_], (self.table["status"] == CONVERGED).to_numpy())
+
+    @property
+    def convergence_rate(self) -> float:
+        """Fraction of the runs whose status is ``converged``."""
+        return float(np.mean(self.converged)) if self.runs else float("nan")
+
+    @property
+    def status_counts(self) -> dict[str, int]:
+        """Number of runs per status, commonest first."""
+        return {str(k): int(v) for k, v in self.table["status"].value_counts().items()}
+
+    def estimates(self, converged_only: bool = True) -> NDArray[np.float64]:
+        """Return the estimates, by default of the converged runs only.
+
+        Parameters
+        ----------
+        converged_only : bool
+            Keep the converged runs only.
+
+        Returns
+        -------
+        ndarray, shape (runs, p)
+            One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
+        """
+        est = self.table[[f"est_{n}" for n in self.parameters]].to_numpy(dtype=float)
+        return cast(NDArray[np.float64], est[self.converged] if converged_only else est)
+
+    def errors(self, converged_only: bool = True) -> NDArray[np.float64]:
+        """Return estimate minus truth, by default of the converged runs only.
+
+        Parameters
+        ----------
+        converged_only : bool
+            Keep the converged runs only.
+
+        Returns
+        -------
+        ndarray, shape (runs, p)
+            One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
+        """
+        return self.estimates(converged_only) - self.truth
+
+    # -- summaries -------------------------------------------------------------------------
+    def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
+        """Tabulate the summary, one row per parameter.
+
+        Columns ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb``,
+        ``ratio`` (RMSE/CRLB) and its interval ``ratio_low``, ``ratio_high`` at ``level`` (see
+        :func:`ratio_interval`).
+
+        Parameters
+        ----------
+        level : float
+            Confidence level of the ratio's interval (0 .. 1).
+
+        Returns
+        -------
+        list of dict
+            One dict per parameter; ``truth``, ``bias``, ``rmse``, ``crlb`` in the
+            parameter's SI unit, ``ratio`` and its interval dimensionless.
+        """
+        err = self.errors()
+        n = err.shape[0]
+        rows = []
+        for k, name in enumerate(self.parameters):
+            bias = float(np.mean(err[:, k])) if n else float("nan")
+            rmse = float(np.sqrt(np.mean(err[:, k] ** 2))) if n else float("nan")
+            bound = float(self.crlb[k])
+            ratio = rmse / bound if bound > 0 and np.isfinite(bound) else float("nan")
+            low, high = ratio_interval(ratio, n, level)
+            rows.append({"parameter": name, "truth": float(self.truth[k]), "n": n,
+                         "bias": bias, "rmse": rmse, "crlb": bound, "ratio": ratio,
+                         "ratio_low": low, "ratio_high": high})
+        return rows
+
+    def summary(self) -> str:
+        """Return a readable report.
+
+        Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence, status
+        counts and speed.
+
+        Returns
+        -------
+        str
+            The report, several lines (wall time in s, speed in runs/s).
+        """
+        counts = ", ".join(f"{k} {v}" for k, v in self.status_counts.items())
+        lines = [f"Monte Carlo: {self.estimator} on {self.scenario}, {self.runs} runs "
+                 f"(seed {self.seed}), nuisance {'known' if self.known_nuisance else 'unknown'}",
+                 f"converged {self.convergence_rate:.1%} ({counts}); {self.wall_time:.2f} s, "
+                 f"{self.runs_per_second:.1f} runs/s ({self.executor}, chunks of {self.chunk})"]
+        rows = self.summary_table()
+        width = max(9, *(len(r["parameter"]) for r in rows))
+        lines.append(f"  {'parameter':<{width}}  {'truth':>12}  {'bias':>11}  {'RMSE':>11}  "
+                     f"{'CRLB':>11}  {'RMSE/CRLB':>9}  {'95 % interval':>15}")
+        for r in rows:
+            lines.append(f"  {r['parameter']:<{width}}  {r['truth']:12.6g}  {r['bias']:11.4g}  "
+                         f"{r['rmse']:11.4g}  {r['crlb']:11.4g}  {r['ratio']:9.3f}  "
+                         f"{r['ratio_low']:7.3f}..{r['ratio_high']:<6.3f}")
+        lines.append(f"  (RMSE over the {rows[0]['n'] if rows else 0} converged runs; the "
+                     "interval assumes unbiased Gaussian errors)")
+        if self.failures:
+            first = min(self.failures)
+            lines.append(f"  {len(self.failures)} runs failed; run {first}: "
+                         f"{self.failures[first]}")
+        return "\n".join(lines)
+
+    def as_dict(self, runs: bool = False) -> dict[str, Any]:
+        """Return the JSON form.
+
+        Context, per-parameter summary, convergence and speed; with ``runs=True`` also the per-run
+        table as a list of records.
+
+        Parameters
+        ----------
+        runs : bool
+            Add the per-run table under ``table``.
+
+        Returns
+        -------
+        dict
+            JSON-ready; SI values, ``wall_time_s`` in s, non-finite numbers as None.
+        """
+        summary = [{k: (_num(v) if isinstance(v, float) else v) for k, v in row.items()}
+                   for row in self.summary_table()]
+        out: dict[str, Any] = {
+            "scenario": self.scenario,
+            "estimator": self.estimator,
+            "runs": self.runs,
+            "seed": self.seed,
+            "nuisance": "known" if self.known_nuisance else "unknown",
+            "parameters": list(self.parameters),
+            "truth": [float(v) for v in self.truth],
+            "crlb": [_num(v) for v in self.crlb],
+            "summary": summary,
+            "convergence_rate": _num(self.convergence_rate),
+            "status_counts": self.status_counts,
+            "wall_time_s": float(self.wall_time),
+            "runs_per_second": _num(self.runs_per_second),
+            "executor": self.executor,
+            "chunk": self.chunk,
+            "failures": {str(k): v for k, v in sorted(self.failures.items())},
+        }
+        if runs:
+            out["table"] = [{k: (_num(v) if isinstance(v, float) else v)
+                             for k, v in rec.items()}
+                            for rec in json.loads(self.table.to_json(orient="records"))]
+        return out
+
+    def to_json(self, indent: int | None = 2, runs: bool = False) -> str:
+        """Return :meth:`as_dict` as JSON text.
+
+        Parameters
+        ----------
+        indent : int or None
+            As for :func:`json.dumps`.
+        runs : bool
+            Add the per-run table.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
+        return json.dumps(self.as_dict(runs=runs), indent=indent)
+
 
 
 COMPILED_WORK = 200_000
@@ -47,15 +314,9 @@ def _compiled(scenario: Scenario, runs: int) -> bool:
     return runs * sum(len(plan.times) for plan in scenario.plans) >= COMPILED_WORK
 
 
-def _whole(value: object, name: str, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise ValueError(f"{name} must be a whole number >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def _workers(workers: object, dask: object) -> int:
     """Check ``workers`` (a whole number >= 1; above 1 not with ``dask``)."""
-    count = _whole(workers, "workers")
+    count = whole_number(workers, "workers")
     if count > 1 and dask is not None:
         raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
                          f"(workers={count})")
@@ -95,37 +356,6 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
                          "per run and cannot start a manoeuvring one (for hoerst2010: tma "
                          "reproduce hoerst2010)")
     return scenario
-
-
-def _cpus() -> int:
-    """Return the CPUs this process may run on."""
-    affinity = getattr(os, "sched_getaffinity", None)
-    return len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
-
-
-def _execute(tasks: Sequence[ChunkTask], client: Client | None, bar_label: str, runs: int,
-             progress: bool, on_chunk: Callable[[ChunkOutput], None] | None = None,
-             workers: int = 1) -> tuple[list[ChunkOutput], float, str]:
-    """Run the chunks here, in worker processes or on Dask."""
-    processes = min(workers, len(tasks), _cpus())
-    bar = progress_bar(runs, progress, bar_label)
-    start = time.perf_counter()
-    try:
-        if client is not None:
-            outputs = run_dask(tasks, client, bar, on_done=on_chunk)
-        elif processes > 1:
-            outputs = run_pool(tasks, processes, bar, on_done=on_chunk)
-        else:
-            outputs = run_local(tasks, bar, on_done=on_chunk)
-    finally:
-        bar.close()
-    wall = time.perf_counter() - start
-    outputs.sort(key=lambda o: o.first_run)
-    executor = (f"dask {getattr(client.scheduler, 'address', '')}" if client is not None
-                else f"{processes} processes" if processes > 1 else "local")
-    if client is None and processes < workers:
-        executor += f", {workers:,} asked: {len(tasks):,} chunks, {_cpus()} CPUs"
-    return outputs, wall, executor
 
 
 def finished_runs_table(outputs: Sequence[ChunkOutput], names: Sequence[str]
@@ -188,7 +418,7 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         A :class:`~tmakit.scenario.Scenario`, or a built-in name / TOML path.
     estimator : str
         ``"ml"`` or a key of ``tmakit.batch.methods.METHODS``
-        (:func:`~.estimators.available_estimators`).
+        (:func:`~.runs.available_estimators`).
     runs : int
         Number of runs (>= 1).
     rng : int, numpy.random.Generator or None
@@ -206,13 +436,12 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     dask : str or distributed.Client, optional
         Send the chunks to a Dask cluster (its workers must import tmakit).
     chunk : int, optional
-        Runs per task (default :func:`~.execution.default_chunk`). The table is the same, run for
-        run, for any ``chunk``, ``workers`` and ``dask``.
+        Runs per task; the table is the same for any ``chunk``, ``workers`` and ``dask``.
     on_chunk : callable, optional
         Called with each finished chunk's output (:func:`finished_runs_table` saves them).
     workers : int, optional
-        Worker processes here (default 1: this one), BLAS on one thread, at most one per chunk and
-        per CPU (:func:`~.execution.run_pool`; ``executor`` says how many); not with dask.
+        Worker processes here (default 1: this one), at most one per chunk and per CPU; not
+        with dask.
     seed : int or None, optional
         Deprecated: ``rng``.
 
@@ -228,8 +457,9 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     ImportError
         ``dask`` without Dask's distributed scheduler installed.
     """
-    scenario, runs, workers = _scenario(scenario), _whole(runs, "runs"), _workers(workers, dask)
-    chunk = None if chunk is None else _whole(chunk, "chunk")
+    scenario, runs = _scenario(scenario), whole_number(runs, "runs")
+    workers = _workers(workers, dask)
+    chunk = None if chunk is None else whole_number(chunk, "chunk")
     seed_used = study_seed(renamed_keyword("monte_carlo", "seed", seed, "rng", rng, 0))
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
@@ -244,8 +474,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size]), compiled)
                  for lo in range(0, runs, size)]
-        outputs, wall, executor = _execute(tasks, client, f"{scenario.name} {estimator}",
-                                           runs, progress, on_chunk, workers=workers)
+        outputs, wall, executor = execute(tasks, client, f"{scenario.name} {estimator}",
+                                          runs, progress, on_chunk, workers=workers)
     finally:
         if own_client and client is not None:
             close: Callable[[], object] = client.close  # (distributed is not typed)

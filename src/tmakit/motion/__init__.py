@@ -4,10 +4,9 @@ Models by name (``cv2d``, ``curvilinear:M``, ...) come from :func:`motion_from_n
 (:mod:`tmakit.motion.names`, the one parser of motion names).
 """
 
-from .base import MotionModel, numerical_jacobian
+from .base import FixedParameters, MotionModel, numerical_jacobian
 from .constant_velocity import ConstantVelocity, Stationary
 from .curvilinear import PiecewiseCurvilinear, propagate_curvilinear
-from .fixed import FixedParameters
 from .names import DEFAULT_MANOEUVRES, MOTION_NAMES, default_ref_time, motion_from_name
 
 __all__ = [

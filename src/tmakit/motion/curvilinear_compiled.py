@@ -1,10 +1,12 @@
 """Curvilinear propagation, its chain rule and its normal equations, compiled.
 
 The closed form of one curvilinear segment and its derivatives, the one implementation
-(:func:`propagate_with_partials`: :class:`~tmakit.motion.PiecewiseCurvilinear`, sensor turns,
-the bounds), and the hot loops of :class:`tmakit.motion.curvilinear_batch.ForwardPiecewise`:
-the forward chaining of change-over states, and ``J'J = sum_s D_s' (sum_i v_i v_i') D_s`` by
-segments (7 inputs per segment).  float64, no ``fastmath``, sums in a fixed order.
+(:func:`propagate_with_partials`: sensor turns, the bounds), the chaining of change-over
+states (:func:`piecewise`: forwards and backwards from the reference time for
+:class:`~tmakit.motion.PiecewiseCurvilinear`, forwards for
+:class:`tmakit.motion.curvilinear.ForwardPiecewise`), and the latter's hot loops: its chain
+rule and ``J'J = sum_s D_s' (sum_i v_i v_i') D_s`` by segments (7 inputs per segment).
+float64, no ``fastmath``, sums in a fixed order.
 
 References
 ----------
@@ -171,60 +173,84 @@ def _write(out: tuple, vals: Array, par: Array, b: int, i: int, partials: bool,
 
 
 @_jit
-def _derive_anchor(p47: Array, prev: Array, m: int, k0: int, d: Array) -> None:  # pragma: no cover
-    """Write into ``d`` (4, p) the derivatives of segment ``m``'s start state."""
+def _derive_anchor(p47: Array, prev: Array, seg_acc: int, t_to: int, t_from: int, d: Array
+                   ) -> None:  # pragma: no cover - compiled
+    """Write into ``d`` (4, p) the derivatives of an anchor moved from ``prev``'s."""
     for i in range(4):
         for c in range(d.shape[1]):
             acc = 0.0
             for j in range(4):
                 acc += p47[i, j] * prev[j, c]
             d[i, c] = acc
-        d[i, 2 + 2 * m] += p47[i, 4]
-        d[i, 3 + 2 * m] += p47[i, 5]
-        d[i, k0 + m - 1] += p47[i, 6]
-        if m >= 2:
-            d[i, k0 + m - 2] -= p47[i, 6]
+        d[i, 4 + 2 * seg_acc] += p47[i, 4]
+        d[i, 5 + 2 * seg_acc] += p47[i, 5]
+        d[i, t_to] += p47[i, 6]
+        if t_from >= 0:
+            d[i, t_from] -= p47[i, 6]
 
 
 @_jit
-def _anchors(theta: Array, M: int, ref_time: float, end_time: float, partials: bool,
-             anchors: Array, v_start: NDArray[np.complex128], starts: Array,
+def _link(theta: Array, frm: int, to: int, seg_acc: int, t_to: int, t_from: int,
+          partials: bool, anchors: Array, v_start: NDArray[np.complex128], starts: Array,
+          d_anchor: Array, v6: Array, p47: Array) -> None:  # pragma: no cover - compiled
+    """Set anchor ``to``: anchor ``frm`` moved to ``theta[t_to]`` by segment ``seg_acc``."""
+    dt = theta[t_to] - starts[frm]
+    a_t = theta[4 + 2 * seg_acc]
+    out = _segment(anchors[frm, 0], anchors[frm, 1], anchors[frm, 2], anchors[frm, 3],
+                   v_start[frm], a_t, theta[5 + 2 * seg_acc], dt, True)
+    _write(out, v6, p47, 0, 0, partials, True, dt, a_t)
+    starts[to] = theta[t_to]
+    anchors[to, :] = v6[0, 0, :4]
+    v_start[to] = anchors[to, 2] * cmath.exp(1j * anchors[to, 3])
+    if partials:
+        _derive_anchor(p47[0, 0], d_anchor[frm], seg_acc, t_to, t_from, d_anchor[to])
+
+
+@_jit
+def _anchors(theta: Array, M: int, ref_time: float, end_time: float, anywhere: bool,
+             partials: bool, anchors: Array, v_start: NDArray[np.complex128], starts: Array,
              d_anchor: Array) -> None:  # pragma: no cover - compiled
-    """Chain one parameter vector's segment start states forwards (NaN outside the domain)."""
+    """Chain one parameter vector's anchors (NaN outside the domain).
+
+    The state at ``ref_time`` in its segment, forwards to later segments' starts and
+    (``anywhere``) backwards to earlier segments' ends.
+    """
     k0 = 6 + 2 * M
     v6 = np.empty((1, 1, 6))
     p47 = np.empty((1, 1, 4, 7))
-    starts[0] = ref_time
     valid = True
+    ref = 0
     for m in range(1, M + 1):
-        starts[m] = theta[k0 + m - 1]
-        valid = valid and starts[m] > starts[m - 1]
-    if M and not starts[M] < end_time:
-        valid = False
-    anchors[0, :] = theta[:4]
+        if m > 1:
+            valid = valid and theta[k0 + m - 1] > theta[k0 + m - 2]
+        if anywhere:
+            valid = valid and math.isfinite(theta[k0 + m - 1])
+            if theta[k0 + m - 1] < ref_time:
+                ref += 1
+    if not anywhere and M:
+        valid = valid and ref_time < theta[k0] and theta[k0 + M - 1] < end_time
+    starts[ref] = ref_time
+    anchors[ref, :] = theta[:4]
     if partials:
-        d_anchor[0, :, :] = 0.0
+        d_anchor[ref, :, :] = 0.0
         for j in range(4):
-            d_anchor[0, j, j] = 1.0
-    v_start[0] = anchors[0, 2] * cmath.exp(1j * anchors[0, 3])
-    for m in range(1, M + 1):
-        dt = starts[m] - starts[m - 1]
-        a_t = theta[2 + 2 * m]
-        out = _segment(anchors[m - 1, 0], anchors[m - 1, 1], anchors[m - 1, 2],
-                       anchors[m - 1, 3], v_start[m - 1], a_t, theta[3 + 2 * m], dt, True)
-        _write(out, v6, p47, 0, 0, partials, True, dt, a_t)
-        anchors[m, :] = v6[0, 0, :4]
-        v_start[m] = anchors[m, 2] * cmath.exp(1j * anchors[m, 3])
-        if partials:
-            _derive_anchor(p47[0, 0], d_anchor[m - 1], m, k0, d_anchor[m])
+            d_anchor[ref, j, j] = 1.0
+    v_start[ref] = anchors[ref, 2] * cmath.exp(1j * anchors[ref, 3])
+    for m in range(ref + 1, M + 1):  # forwards: t_m starts segment m
+        _link(theta, m - 1, m, m - 1, k0 + m - 1, k0 + m - 2 if m - 1 > ref else -1,
+              partials, anchors, v_start, starts, d_anchor, v6, p47)
+    for m in range(ref - 1, -1, -1):  # backwards: t_{m+1} ends segment m
+        _link(theta, m + 1, m, m + 1, k0 + m, k0 + m + 1 if m + 1 < ref else -1,
+              partials, anchors, v_start, starts, d_anchor, v6, p47)
     if not valid:
         anchors[:, :] = np.nan
 
 
 @_jit
 def _piecewise_kernel(theta: Array, t: Array, manoeuvres: int, ref_time: float,
-                      end_time: float, partials: bool, seg: IntArray, vals: Array,
-                      par: Array, d_anchor: Array) -> None:  # pragma: no cover - compiled
+                      end_time: float, anywhere: bool, partials: bool, seg: IntArray,
+                      vals: Array, par: Array, d_anchor: Array
+                      ) -> None:  # pragma: no cover - compiled
     """Write every sample's segment, values and partials (:func:`piecewise`)."""
     M = manoeuvres
     k0 = 6 + 2 * M
@@ -232,8 +258,8 @@ def _piecewise_kernel(theta: Array, t: Array, manoeuvres: int, ref_time: float,
     v_start = np.empty(M + 1, dtype=np.complex128)
     starts = np.empty(M + 1)
     for b in range(theta.shape[0]):
-        _anchors(theta[b], M, ref_time, end_time, partials, anchors, v_start, starts,
-                 d_anchor[b] if partials else d_anchor[0])
+        _anchors(theta[b], M, ref_time, end_time, anywhere, partials, anchors, v_start,
+                 starts, d_anchor[b] if partials else d_anchor[0])
         for i in range(t.shape[0]):
             sg = 0
             for m in range(M):
@@ -356,26 +382,9 @@ def _chain_columns_kernel(ds: Array, par: Array, seg: IntArray, idx: IntArray,
 
 
 @_jit
-def _scatter_states_kernel(vals: Array, inv: Array, out: Array
-                           ) -> None:  # pragma: no cover - compiled
-    """Write ``(x, y, 0, vx, vy, 0)`` of every row into ``out`` (the zeros NaN where ``x`` is)."""
-    for b in range(out.shape[0]):
-        for i in range(out.shape[1]):
-            u = inv[i]
-            x = vals[b, u, 0]
-            zero = x - x  # NaN where the state is
-            out[b, i, 0] = x
-            out[b, i, 1] = vals[b, u, 1]
-            out[b, i, 2] = zero
-            out[b, i, 3] = vals[b, u, 4]
-            out[b, i, 4] = vals[b, u, 5]
-            out[b, i, 5] = zero
-
-
-@_jit
-def _scatter_relative_kernel(vals: Array, inv: Array, sensor: Array, out: Array
-                             ) -> None:  # pragma: no cover - compiled
-    """Write :func:`_scatter_states_kernel`'s states minus ``sensor`` (the same bits)."""
+def _scatter_kernel(vals: Array, inv: Array, sensor: Array, out: Array
+                    ) -> None:  # pragma: no cover - compiled
+    """Write ``(x, y, 0, vx, vy, 0)`` of every row minus ``sensor`` (zeros NaN where ``x`` is)."""
     for b in range(out.shape[0]):
         for i in range(out.shape[1]):
             u = inv[i]
@@ -546,8 +555,15 @@ def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course
 
 
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
-              partials: bool) -> tuple[IntArray, Array, Array | None, Array | None]:
-    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``."""
+              partials: bool, anywhere: bool = False
+              ) -> tuple[IntArray, Array, Array | None, Array | None]:
+    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``.
+
+    ``anywhere``: ``ref_time`` may lie in any segment (else before ``t_1``, and ``t_M`` before
+    ``end_time``).  Gives each sample's segment, its ``(x, y, speed, course, vx, vy)``, its
+    partials ``(4, 7)`` (x, y, vx, vy by its anchor's state, ``a_t``, ``a_n``, ``dt``) and the
+    anchors' derivatives ``(M + 1, 4, p)``.
+    """
     theta = np.ascontiguousarray(theta, dtype=float)
     t = np.ascontiguousarray(t, dtype=float)
     b, p = theta.shape
@@ -555,8 +571,8 @@ def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time
     vals = np.empty((b, t.size, 6))
     par = np.empty((b, t.size, 4, 7)) if partials else np.empty((1, 1, 4, 7))
     d_anchor = np.empty((b, manoeuvres + 1, 4, p)) if partials else np.empty((1, 1, 4, p))
-    _piecewise_kernel(theta, t, manoeuvres, ref_time, end_time, partials, seg, vals, par,
-                      d_anchor)
+    _piecewise_kernel(theta, t, manoeuvres, ref_time, end_time, anywhere, partials, seg, vals,
+                      par, d_anchor)
     return seg, vals, (par if partials else None), (d_anchor if partials else None)
 
 
@@ -599,12 +615,11 @@ def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray,
     return jtj, jtr
 
 
-def scatter_states(vals: Array, inv: Array, sensor: Array | None = None) -> Array:
+def scatter_states(vals: Array, inv: IntArray, sensor: Array | None = None) -> Array:
     """Give ENU states ``(B, n, 6)`` of the rows from the values at the unique times."""
     out = np.empty((vals.shape[0], inv.shape[0], 6))
-    inv = np.ascontiguousarray(inv, dtype=np.int64)
-    if sensor is None:
-        _scatter_states_kernel(vals, inv, out)
-    else:
-        _scatter_relative_kernel(vals, inv, np.ascontiguousarray(sensor, dtype=float), out)
+    # (minus zeros: the same bits, -0.0 and NaN included)
+    sensor = np.zeros((inv.shape[0], 6)) if sensor is None else sensor
+    _scatter_kernel(vals, np.ascontiguousarray(inv, dtype=np.int64),
+                    np.ascontiguousarray(sensor, dtype=float), out)
     return out

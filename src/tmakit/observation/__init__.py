@@ -5,11 +5,17 @@
 :func:`radar_group`.
 """
 
-from .groups import MeasurementGroup, group_times, time_blocks, tonals_scaled
-from .linearisation import Linearisation
+from .groups import (
+    MeasurementGroup,
+    group_times,
+    radar_group,
+    radar_rows,
+    time_blocks,
+    tonals_scaled,
+)
 from .model import ObservationModel
 from .noise import NoiseModel
-from .radar import radar_group, radar_rows
+from .planar import Linearisation
 from .rows import RowLayout, RowModel, nuisance_layout, resolve_models
 
 __all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout",

@@ -44,7 +44,7 @@ class AffineRows:
         self.p = int(p)
         self.m = int(offset.shape[1])
         self._matrix: Array | None = None
-        self._head_maps: dict[int, Array] = {}  # (see leading_many)
+        self._head_maps: dict[int, Array] = {}  # (see leading_map)
         #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
         for i, c, coef in self.terms:
@@ -92,10 +92,6 @@ class AffineRows:
                         out=head[:, self.p])
         return head
 
-    def leading_many(self, theta: Array, components: int) -> Array:
-        """Give the first ``components`` relative state components of many parameter vectors."""
-        return self.leading_states(theta, self.leading_map(components))
-
     @staticmethod
     def leading_states(theta: Array, head: Array) -> Array:
         """Give leading relative state components of many parameter vectors from their map."""
@@ -115,22 +111,6 @@ class AffineRows:
             own = base.flags.owndata and base.flags.writeable and base.flags.c_contiguous
             self._offset = _minus_sensor(base, sensor, 6, base if own else None)
         return self._offset
-
-    def position_source(self) -> tuple[Array, Array, bool]:
-        """Give what the relative east and north positions are made from, without a pass."""
-        made = self._offset if self._offset is not None else self._head
-        if made is not None and made.shape[0] >= 2:
-            return made, made.T, False
-        assert self._sensor is not None  # (the offset is made at once otherwise)
-        base = self._base
-        if not base.flags.c_contiguous:  # a broadcast: the compiled pass reads a plain array
-            base = np.ascontiguousarray(base[:2])
-        return base, self._sensor, True
-
-    def keep_head(self, head: Array) -> None:
-        """Keep ``head`` as the first components of :attr:`offset` (made by a compiled pass)."""
-        if self._offset is None and (self._head is None or self._head.shape[0] < head.shape[0]):
-            self._head = head
 
     def _offset_head(self, n_c: int) -> Array:
         """Give the first ``n_c`` components of :attr:`offset` (not making the whole of it)."""

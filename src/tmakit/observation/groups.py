@@ -3,7 +3,9 @@
 Rows at times ``t_i`` are predicted from the state moved at constant velocity,
 ``x(t_i) = Phi(t_i - t) x(t)`` (and back to a reference sample: Chen & Sun, §2.3-2.4), by
 :class:`~tmakit.observation.rows.RowModel`, vectorised over states and sensor states.  Nuisance
-values must be given.
+values must be given.  :func:`radar_group` is the radar's group with its full (range,
+range-rate) covariance: what ``RadarModel.group`` would be, were
+:class:`~tmakit.sensors.RadarModel` not below the observation layer.
 """
 
 from __future__ import annotations
@@ -15,13 +17,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..measurements import MeasurementModel
+from ..measurements import KINDS, MeasurementModel
 from ..motion.dynamics import state_names
+from ..sensors.radar import RadarModel
 from .noise import NoiseModel, checked_covariance
 from .rows import RowLayout, RowModel, resolve_models
 
-__all__ = ["TIME_TOLERANCE", "MeasurementGroup", "chain_state", "group_times",
-           "resolve_models", "target_states", "time_blocks"]
+__all__ = ["TIME_TOLERANCE", "MeasurementGroup", "chain_state", "group_times", "radar_group",
+           "radar_rows", "resolve_models", "target_states", "time_blocks"]
 
 #: Rows whose times differ by less than this (s) are taken at one time.
 TIME_TOLERANCE = 1e-9
@@ -471,3 +474,76 @@ def group_times(meas: MeasurementSet) -> list[NDArray[np.int64]]:
     """
     order, bounds = time_blocks(meas.time)
     return np.split(order, bounds[1:-1])
+
+
+def radar_rows(radar: RadarModel, t: float, values: ArrayLike, sensor_state: ArrayLike,
+               dim: int = 2, sensor: str = "radar", elevation: float = 0.0) -> MeasurementSet:
+    """Return one pulse's measurements as rows of a MeasurementSet (marginal sigmas only).
+
+    Parameters
+    ----------
+    radar : RadarModel
+    t : float
+        Pulse time, s.
+    values : array_like
+        :meth:`RadarModel.kinds` values, SI (rad, m, m/s).
+    sensor_state : array_like
+        (6,), m and m/s.
+    dim : {2, 3}
+        3 adds elevation.
+    sensor : str
+    elevation : float
+        The target's elevation, rad (3-D only).
+
+    Returns
+    -------
+    MeasurementSet
+    """
+    kinds = radar.kinds(dim)
+    m = len(kinds)
+    z = np.asarray(values, dtype=float).reshape(m)
+    sigma = radar.measurement_sigmas(kinds, elevation)
+    scale = np.array([KINDS[k].file_scale for k in kinds])
+    state = np.broadcast_to(np.asarray(sensor_state, dtype=float).reshape(6), (m, 6))
+    return MeasurementSet(np.full(m, float(t)), np.full(m, sensor), list(kinds), z / scale,
+                          sigma / scale, state, check=False)  # noisy: a range may be < 0
+
+
+def radar_group(radar: RadarModel, t: float, dim: int = 2, *, elevation: float = 0.0,
+                values: ArrayLike | None = None, sensor_state: ArrayLike | None = None,
+                sensor: str = "radar") -> MeasurementGroup:
+    """Return the radar's measurement group at time ``t`` with its full noise covariance.
+
+    Without ``values`` the group is planned (NaN values, for a planner's candidates).
+
+    Parameters
+    ----------
+    radar : RadarModel
+    t : float
+        s.
+    dim : {2, 3}
+    elevation : float
+        The target's elevation for the covariance, rad.
+    values : array_like, optional
+        Measured values (m,), SI.
+    sensor_state : array_like, optional
+        (6,), m and m/s; needed with ``values``.
+    sensor : str
+
+    Returns
+    -------
+    MeasurementGroup
+
+    Raises
+    ------
+    ValueError
+        With ``values`` but no ``sensor_state``, or where the covariance does not exist.
+    """
+    kinds = radar.kinds(dim)
+    cov = radar.measurement_covariance(kinds, elevation)
+    if values is None:
+        return MeasurementGroup.planned(kinds, None, t, dim, covariance=cov)
+    if sensor_state is None:
+        raise ValueError("radar_group: values need the sensor_state they were measured from")
+    rows = radar_rows(radar, t, values, sensor_state, dim, sensor, elevation)
+    return MeasurementGroup(rows, t, dim, covariance=cov)

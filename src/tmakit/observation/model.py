@@ -21,10 +21,8 @@ from ..data import MeasurementSet
 from ..measurements import MeasurementModel, model_for, options_with_metadata
 from ..motion import MotionModel
 from .affine_rows import AffineRows
-from .kind_blocks import group_by_kind
-from .linearisation import Linearisation
-from .planar import planar_linearisation, planar_values
-from .rows import RowModel
+from .planar import Linearisation, planar_linearisation, planar_values
+from .rows import RowModel, group_by_kind
 
 
 class ObservationModel:

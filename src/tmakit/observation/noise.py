@@ -18,8 +18,7 @@ from numpy.typing import NDArray
 from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..measurements import KINDS, MeasurementModel, model_for, options_with_metadata
-from .noise_blocks import correlated_blocks
-from .rows import RowModel
+from .rows import RowModel, correlated_blocks
 
 
 class NoiseModel:

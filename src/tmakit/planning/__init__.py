@@ -12,8 +12,7 @@ from .criteria import CustomCriterion, LogDet, WeightedTrace, criterion_from_nam
 from .horizon import Continuation, SearchResult
 from .measurement_plan import SensorPlan
 from .mission import MissionPlan, MissionPlanner
-from .planner import Planner, Recommendation, position_bound
-from .recommend import recommend
+from .planner import Planner, Recommendation, position_bound, recommend
 
 __all__ = [
     "Belief",

@@ -4,6 +4,19 @@ Each candidate's Bayesian information is carried over one decision interval by t
 Hurtado & Nehorai (2008), eq. 10, ``J <- (Q + F J^{-1} F^T)^{-1}``, ``J <- J + Gamma``, with
 ``Gamma`` the information ``Xi`` at the predicted cloud's mean (``"mean"``, the paper's choice,
 eq. 13) or averaged over the cloud (``"cloud"``, section 4.2); vectorised over candidates and cloud.
+
+``Gamma`` of planar bearing, range and range-rate plans is compiled (:mod:`.compiled`).  For the
+other plans whose kinds are all geometric (functions of the relative position ``d`` and velocity
+``u`` only, no options or nuisance) :func:`cloud_information` writes the Jacobians out component
+by component on ``(C, N)`` arrays (``rho^2 = dx^2 + dy^2``, ``r = |d|``):
+
+* bearing ``atan2(dx, dy)``: ``d/dd = (dy, -dx, 0) / rho^2``;
+* elevation ``atan2(dz, rho)``: ``d/dd = (-dx dz, -dy dz, rho^2) / (rho r^2)``;
+* range ``r``: ``d/dd = d / r``;
+* range rate ``d.u / r``: ``d/dd = (u - rdot d / r) / r``, ``d/du = d / r``;
+
+whitened by ``R^{-1/2}``, their products summed over the rows, each entry of ``Gamma`` one
+weighted sum over the cloud.  Any other plan takes :meth:`MeasurementGroup.information`.
 """
 
 from __future__ import annotations
@@ -16,12 +29,13 @@ from ..bounds.pcrb_recursion import PosteriorInformation, predict_information
 from ..core.arrays import Array
 from ..core.linalg import symmetrise
 from .belief import Belief
-from .cloud_information import cloud_information, supports
+from .compiled import planar_information, supports_planar
 from .measurement_plan import SensorPlan
-from .planar_information import planar_information, supports_planar
 
 GammaForm = Literal["mean", "cloud"]
 GAMMA_FORMS: tuple[str, ...] = ("mean", "cloud")
+#: Kinds :func:`cloud_information` writes out (functions of the relative state only).
+GEOMETRIC_KINDS = frozenset({"bearing", "elevation", "range", "range_rate"})
 
 
 def check_gamma(gamma: str) -> GammaForm:
@@ -63,7 +77,7 @@ def expected_information(plan: SensorPlan, states: Array, weights: Array,
         states, weights = (weights @ states)[None, :], _ONE
     if supports_planar(plan, sensor_states):
         return planar_information(plan, states, weights, sensor_states)
-    if supports(plan):
+    if set(plan.kinds) <= GEOMETRIC_KINDS and not plan.options and not plan.nuisance:
         return cloud_information(plan, states, weights, sensor_states)
     xi = plan.information(states, sensor_states)  # (*B, N, n, n)
     return np.einsum("...kij,k->...ij", xi, weights)
@@ -77,8 +91,7 @@ def step_information(belief: Belief, information: Array, plan: SensorPlan,
     Parameters
     ----------
     belief : Belief
-        Supplies the dynamics (``belief.posterior``), the decision time and — unless
-        ``cloud`` is given — the target cloud at that time.
+        Supplies the dynamics, the decision time and (without ``cloud``) the target cloud.
     information : ndarray, shape (*B, n, n) or (n, n)
         ``J`` at the start of the step (one per candidate, or one for all).
     plan : SensorPlan
@@ -134,3 +147,98 @@ def _predict(posterior: PosteriorInformation, info: Array, dt: float) -> Array:
         return info
     f_inv, g = posterior.step_factors(dt)
     return predict_information(info, f_inv, g)
+
+
+
+def _rows(kind: str, d: list[Array], u: list[Array], rho2: Array, inv_r: Array
+          ) -> list[tuple[int, Array]]:
+    """Non-zero components ``(relative-state index 0..5, values (C, N))`` of one row."""
+    dx, dy, dz = d
+    if kind == "bearing":
+        inv = 1.0 / rho2
+        return [(0, dy * inv), (1, -dx * inv)]
+    if kind == "range":
+        return [(0, dx * inv_r), (1, dy * inv_r), (2, dz * inv_r)]
+    if kind == "elevation":
+        rho = np.sqrt(rho2)
+        a = inv_r * inv_r / rho
+        return [(0, -dx * dz * a), (1, -dy * dz * a), (2, rho2 * a)]
+    # range rate
+    ex, ey, ez = dx * inv_r, dy * inv_r, dz * inv_r
+    rdot = ex * u[0] + ey * u[1] + ez * u[2]
+    return [(0, (u[0] - rdot * ex) * inv_r), (1, (u[1] - rdot * ey) * inv_r),
+            (2, (u[2] - rdot * ez) * inv_r), (3, ex), (4, ey), (5, ez)]
+
+
+#: Cloud members per block: keeps the temporaries small enough to be reused by the
+#: allocator (whole-cloud temporaries of a few MB are returned to the system after every call
+#: and fault back in on the next, which costs more than the arithmetic).
+BLOCK_ELEMENTS = 1 << 15
+
+
+def cloud_information(plan: SensorPlan, states: Array, weights: Array,
+                      sensor_states: Array) -> Array:
+    """Return ``sum_i w_i Xi(x_i, s_c)`` (C, n, n) for candidate sensor states ``s_c``.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 11 and 13.
+    """
+    batch = sensor_states.shape[:-1]
+    s = sensor_states.reshape(-1, 6)
+    n = 2 * plan.dim
+    block = max(1, BLOCK_ELEMENTS // s.shape[0])
+    out = np.zeros((s.shape[0], n, n))
+    for lo in range(0, states.shape[0], block):   # blocks of the cloud, not members
+        out += _block_information(plan, states[lo:lo + block], weights[lo:lo + block], s)
+    return out.reshape(*batch, n, n)
+
+
+def _block_information(plan: SensorPlan, states: Array, weights: Array, s: Array) -> Array:
+    dim = plan.dim
+    n = 2 * dim
+    c = s.shape[0]
+    cols = np.ascontiguousarray(states.T)
+    d = [(cols[i][None, :] if i < dim else 0.0) - s[:, i, None] for i in range(3)]
+    u = [(cols[dim + i][None, :] if i < dim else 0.0) - s[:, 3 + i, None]
+         for i in range(3)]
+    d = [np.broadcast_to(a, (c, states.shape[0])) for a in d]
+    rho2 = d[0] * d[0] + d[1] * d[1]
+    inv_r = 1.0 / np.sqrt(rho2 + d[2] * d[2])
+    rows = [_rows(k, d, u, rho2, inv_r) for k in plan.kinds]
+    # state columns: relative position i -> i, velocity 3 + i -> dim + i (i < dim)
+    col = {i: i for i in range(dim)} | {3 + i: dim + i for i in range(dim)}
+    if plan.covariance is None:
+        whiten = np.diag(1.0 / plan.sigmas)
+    else:
+        whiten = np.linalg.inv(np.linalg.cholesky(plan.covariance))
+    # whitened rows: w_k = sum_j whiten[k, j] h_j, component by component
+    whitened: list[dict[int, Array]] = []
+    for k in range(len(rows)):
+        acc: dict[int, Array] = {}
+        for j, row in enumerate(rows):
+            if whiten[k, j] == 0.0:
+                continue
+            for idx, val in row:
+                if idx in col:
+                    term = val * whiten[k, j]
+                    if col[idx] in acc:
+                        acc[col[idx]] += term
+                    else:
+                        acc[col[idx]] = term
+        whitened.append(acc)
+    # sum over rows of the products, then one weighted sum over the cloud per entry
+    products: dict[tuple[int, int], Array] = {}
+    for acc in whitened:
+        present = sorted(acc)
+        for i, a in enumerate(present):
+            for b in present[i:]:
+                prod = acc[a] * acc[b]
+                if (a, b) in products:
+                    products[(a, b)] += prod
+                else:
+                    products[(a, b)] = prod
+    out = np.zeros((c, n, n))
+    for (a, b), prod in products.items():   # at most n (n + 1) / 2 entries
+        out[:, a, b] = out[:, b, a] = prod @ weights
+    return out

@@ -1,13 +1,8 @@
-"""Tactical constraints on a planned sensor path, each reported per candidate and step.
+"""Tactical constraints on a planned sensor path, checked per candidate at the times of a step.
 
-Every constraint looks at the candidate sensor positions at the times a step is checked
-(``(C, k, 3)`` ENU, m) and, for the range constraints, at the *estimated* target position at those
-times (``(k, 3)``, the tracker's predicted mean).
-
-A constraint is either **hard** (a violating candidate is infeasible; if every candidate violates,
-the planner takes the one that violates least and says so) or a **penalty** (Hurtado & Nehorai
-(2008), section 5, example 2: "we penalize those radar actions which do not satisfy the range
-condition").
+A constraint is **hard** (a violating candidate is infeasible; if every candidate violates, the
+planner takes the one that violates least and says so) or a **penalty** (Hurtado & Nehorai
+(2008), section 5, example 2).  Range constraints are held to the *estimated* target.
 """
 
 from __future__ import annotations
@@ -107,7 +102,7 @@ class _RangeLimit:
         _check_limit(f"the {self.name}", self.distance, self.weight)
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike) -> Violation:
-        """Return the violation (m) per candidate: how far the range is past the limit.
+        """Return how far (m) each candidate's range goes past the limit.
 
         Parameters
         ----------
@@ -115,11 +110,6 @@ class _RangeLimit:
             Candidate sensor positions at the checked times, ENU m.
         target_positions : array_like, shape (k, 3) or (3,)
             The estimated target position at those times, ENU m.
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
         """
         r = _horizontal_range(sensor_positions, target_positions)
         amount = np.clip(self._sign * (self.distance - r), 0.0, None).max(axis=-1)
@@ -151,14 +141,7 @@ class MinimumRange(_RangeLimit):
 class MaximumRange(_RangeLimit):
     """Stay within ``distance`` (m, horizontal) of the estimated target (detection range).
 
-    Parameters
-    ----------
-    distance : float
-        Maximum range, m (> 0).
-    hard : bool, optional
-        Infeasible when broken (default) or penalised.
-    weight : float, optional
-        Penalty weight (dimensionless), when not hard.
+    Parameters as for :class:`MinimumRange`.
     """
 
     name: str = field(default="maximum range", init=False)
@@ -199,19 +182,9 @@ class _Region:
 
     def check(self, sensor_positions: ArrayLike, target_positions: ArrayLike | None = None
               ) -> Violation:
-        """Return how far (m) each candidate is on the wrong side of the boundary (0 if none).
+        """Return how far (m) each candidate goes to the wrong side of the boundary.
 
-        Parameters
-        ----------
-        sensor_positions : array_like, shape (C, k, 3) or (C, 3)
-            Candidate sensor positions at the checked times, ENU m.
-        target_positions : array_like, shape (k, 3) or (3,), optional
-            The estimated target position at those times, ENU m (not used: the region is fixed).
-
-        Returns
-        -------
-        Violation
-            Its amounts (C,), m: the largest over the checked times.
+        ``sensor_positions`` as for :meth:`MinimumRange.check`; ``target_positions`` unused.
         """
         import shapely
 

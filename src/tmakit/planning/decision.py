@@ -17,8 +17,8 @@ from ..core.arrays import Array
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from . import compiled
 from .belief import Belief
+from .compiled import PLANAR_KINDS, compiled_basis
 from .criteria import WeightedTrace, evaluate
-from .planar_information import PLANAR_KINDS, compiled_basis
 
 
 def pack_actions(actions: Actions) -> tuple[Array, bool]:
@@ -97,16 +97,14 @@ def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Action
 
 @dataclass(frozen=True, eq=False)
 class Decision:
-    """Every candidate of one decision, as the compiled kernel computed it."""
+    """Every candidate (A,) of one decision, as the compiled kernel computed it."""
 
-    steps: Step  # The candidates flown for one step; shape (A,)
-    #: information, covariance: ``J_{k+1}`` and ``J_{k+1}^{-1}``, SI; shape (A, 4, 4)
-    information: Array
-    covariance: Array
-    cost: Array  # The criterion (no penalties); shape (A,)
-    bound: Array  # Position RMS bound, m; shape (A,)
-    #: The candidate of least cost (ties: the first; NaN last), or None when the cost was computed
-    #: outside the kernel
+    steps: Step
+    information: Array  # ``J_{k+1}``, SI; shape (A, 4, 4)
+    covariance: Array  # ``J_{k+1}^{-1}``
+    cost: Array  # The criterion (no penalties)
+    bound: Array  # Position RMS bound, m
+    #: The candidate of least cost (ties: the first; NaN last); None for a cost made outside
     best: int | None
 
 

@@ -27,33 +27,32 @@ class Planner(Protocol):
     """What the search needs of a planner (:class:`tmakit.planning.Planner` is one)."""
 
     @property
-    def kinematics(self) -> PlatformKinematics:
-        """The platform's limits."""
+    def kinematics(self) -> PlatformKinematics:  # noqa: D102
+        ...
 
     @property
-    def actions(self) -> Actions:
-        """The candidate actions."""
+    def actions(self) -> Actions:  # noqa: D102
+        ...
 
     @property
-    def interval(self) -> float:
-        """Seconds per decision."""
+    def interval(self) -> float:  # noqa: D102
+        ...
 
     @property
-    def plan(self) -> SensorPlan:
-        """What the sensor measures in a step."""
+    def plan(self) -> SensorPlan:  # noqa: D102
+        ...
 
     @property
-    def criterion(self) -> Criterion:
-        """The cost of the predicted information."""
+    def criterion(self) -> Criterion:  # noqa: D102
+        ...
 
     @property
-    def horizon(self) -> int:
-        """Steps looked ahead."""
+    def horizon(self) -> int:  # noqa: D102
+        ...
 
-    def expand(self, platform: PlatformState, information: Array, belief: Belief,
+    def expand(self, platform: PlatformState, information: Array, belief: Belief,  # noqa: D102
                depth: int, gamma: Literal["mean", "cloud"]
                ) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from each of a batch of states for one step."""
         ...
 
 

@@ -32,28 +32,23 @@ class MissionPlan:
 
     Attributes
     ----------
-    headings : ndarray, shape (L,)
-        Commanded heading of each leg, rad (clockwise from North).
-    speeds : ndarray, shape (L,)
-        Commanded speed of each leg, m/s.
-    leg_starts : ndarray, shape (L,)
-        Start time of each leg, s.
+    headings, speeds, leg_starts : ndarray, shape (L,)
+        Commanded heading (rad, clockwise from North) and speed (m/s) and start time (s) of
+        each leg.
     cost : float
         The criterion of the predicted final information.
     bound : float
-        Predicted final position RMS bound, m.
-    information : ndarray, shape (n, n)
-        Predicted Bayesian information at the mission end, SI (shape (K, n, n), one per
-        target hypothesis, when planned with hypotheses; ``bound`` is then their RMS).
-    actions : Actions, shape (K,)
-        The sub-step actions that fly the path (``kinematics.fly(platform, actions, step)``).
+        Predicted final position RMS bound, m (the RMS over the hypotheses, if any).
+    information : ndarray, shape (n, n) or (K, n, n)
+        Predicted Bayesian information at the mission end, SI (one per target hypothesis).
+    actions : Actions
+        The sub-step actions that fly the path.
     evaluations : int
-        Candidate paths (each from some leg to the end) scored by the search.
+        Candidate paths scored by the search.
     violations : dict of str to float
-        Per constraint, the largest predicted violation along the path (m, 0 where kept).
+        Per constraint, the largest predicted violation along the path, m.
     feasible : bool
-        False when no path the search tried kept every hard constraint (the least violating
-        was chosen).
+        False when no path tried kept every hard constraint (the least violating was chosen).
     """
 
     headings: Array
@@ -86,26 +81,16 @@ class Rollout:
     def ranked_cost(self, criterion: Criterion) -> tuple[Array, Array]:
         """Return the cost with penalties and the summed hard violation per path."""
         factor, _ = penalties(self.violations, self.information.shape[0])
-        return path_cost(criterion, self.information, self.weights) * factor, self.hard
-
-
-def path_cost(criterion: Criterion, information: Array, weights: Array | None) -> Array:
-    """Return the criterion of each path's information (C,)."""
-    cost = criterion(information)
-    return cost if weights is None else cost @ weights
-
-
-def repeat_state(platform: PlatformState, c: int) -> PlatformState:
-    """Return ``c`` copies of one platform state."""
-    return PlatformState(np.repeat(platform.position[None, :], c, 0),
-                         np.full(c, float(platform.heading)), np.full(c, float(platform.speed)),
-                         np.full(c, float(platform.climb_rate)), platform.time)
+        cost = criterion(self.information)
+        return (cost if self.weights is None else cost @ self.weights) * factor, self.hard
 
 
 def repeat_batch(state: PlatformState, g: int) -> PlatformState:
-    """Return each of a batch of states repeated ``g`` times."""
-    return PlatformState(np.repeat(state.position, g, 0), np.repeat(state.heading, g),
-                         np.repeat(state.speed, g), np.repeat(state.climb_rate, g), state.time)
+    """Return each of a batch of states (or one state) repeated ``g`` times."""
+    return PlatformState(np.repeat(state.position.reshape(-1, 3), g, 0),
+                         np.repeat(state.heading, g), np.repeat(state.speed, g),
+                         np.repeat(state.climb_rate, g), state.time)
+
 
 _TOL = 1e-9
 
@@ -117,9 +102,9 @@ class MissionPlanner:
     Parameters
     ----------
     kinematics : PlatformKinematics
-        The platform's limits (turn rate, speed range, acceleration).
+        The platform's limits.
     plan : SensorPlan
-        What the sensor measures in each sub-step of ``step`` seconds.
+        What the sensor measures in each sub-step.
     step : float
         Sub-step, s: legs are flown and measured in sub-steps of this length.
     leg_duration : float
@@ -127,8 +112,7 @@ class MissionPlanner:
     end_time : float
         The mission end, s.
     criterion : Criterion, optional
-        Cost of the final ``J`` (default :class:`WeightedTrace`: the final mean-square position
-        bound, m^2).
+        Cost of the final ``J`` (default :class:`WeightedTrace`, m^2).
     headings : int, optional
         Size of the heading grid of the first sweeps.
     speeds : sequence of float, optional
@@ -138,15 +122,12 @@ class MissionPlanner:
     refine : int, optional
         Rounds of finer offsets after the coarse grid (each halves the spacing).
     gamma : {"mean", "cloud"}, optional
-        How ``Gamma`` is formed (:mod:`tmakit.planning.candidates`).
+        How ``Gamma`` is formed.
     constraints : sequence of Constraint, optional
         Tactical constraints along the path.
     hypotheses : bool, optional
-        Take each member of the belief's cloud as a hypothesis of the target (for example a few
-        ranges along the measured bearing) and score a path by the weighted mean over them of the
-        criterion of ``J`` computed with ``Gamma`` at that member: the expected bound, not the bound
-        of the expected information. ``J`` now is the belief's for every hypothesis; :meth:`advance`
-        carries it with ``gamma``.
+        Take each member of the belief's cloud as a hypothesis of the target and score a path
+        by the weighted mean over them of the criterion of its own ``J`` (the expected bound).
 
     Raises
     ------
@@ -305,7 +286,7 @@ class MissionPlanner:
         v = (np.broadcast_to(platform.speed, h.shape) if speeds is None
              else np.broadcast_to(np.asarray(speeds, dtype=float), h.shape))
         c = h.shape[0]
-        return self._rollout(belief, repeat_state(platform, c), self._start_info(belief, c), h,
+        return self._rollout(belief, repeat_batch(platform, c), self._start_info(belief, c), h,
                              np.array(v), counts, 0).information
 
     def _grid(self, round_: int, current: Array, speed: Array) -> tuple[Array, Array]:
@@ -355,15 +336,13 @@ class MissionPlanner:
         Parameters
         ----------
         platform : PlatformState
-            The platform now (batch shape ``()``), at ``belief.time``.
+            The platform now, at ``belief.time``.
         belief : Belief
             ``J`` along the path so far and the target cloud, now.
         initial : array_like, shape (M, L) or (L,), optional
-            Start paths (leg headings, rad) besides the straight one: the operator's pattern, the
-            previous plan.
+            Start paths (leg headings, rad) besides the straight one.
         information : array_like, shape (K, n, n), optional
-            With :attr:`hypotheses`: ``J`` now under each hypothesis (the path flown so far
-            evaluated at it); default the belief's ``J`` for every one.
+            With :attr:`hypotheses`: ``J`` now under each hypothesis (default the belief's).
 
         Returns
         -------
@@ -372,8 +351,8 @@ class MissionPlanner:
         Raises
         ------
         ValueError
-            If the platform is not one state at the belief's time, no leg is left, ``initial`` does
-            not have one heading per leg, or ``information`` is not one ``J`` per hypothesis.
+            If the platform is not one state at the belief's time, no leg is left, or
+            ``initial`` or ``information`` has the wrong shape.
         """
         if platform.shape != () or abs(platform.time - belief.time) > 1e-6:
             raise ValueError("optimise() takes one platform state at the belief's time")
@@ -391,7 +370,7 @@ class MissionPlanner:
         evaluations = 0
         m = heads.shape[0]
         info0 = self._start_info(belief, 1, information)[0]
-        base = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+        base = self._rollout(belief, repeat_batch(platform, m), np.broadcast_to(
             info0, (m, *info0.shape)), heads, speeds, counts, 0)
         for round_ in range(self.refine + 1):
             for _ in range(self.sweeps if round_ == 0 else 1):
@@ -410,7 +389,7 @@ class MissionPlanner:
                 legs: tuple[Array, Array], evaluations: int, info0: Array) -> MissionPlan:
         m = heads.shape[0]
         starts, counts = legs
-        final = self._rollout(belief, repeat_state(platform, m), np.broadcast_to(
+        final = self._rollout(belief, repeat_batch(platform, m), np.broadcast_to(
             info0, (m, *info0.shape)), heads, speeds, counts, 0)
         cost, bad = final.ranked_cost(self.criterion)
         k = int(np.lexsort((cost, bad))[0])
@@ -500,7 +479,7 @@ class MissionPlanner:
         """
         _, counts = self.legs(belief.time)
         info = belief.posterior.information[None]
-        out = self._rollout(belief, repeat_state(platform, 1), info, plan.headings[None, :1],
+        out = self._rollout(belief, repeat_batch(platform, 1), info, plan.headings[None, :1],
                             plan.speeds[None, :1], counts[:1], 0)
         end = out.end[0]
         post = type(belief.posterior)(out.information[0], belief.posterior.dynamics, end.time)

@@ -4,6 +4,7 @@ The :class:`Planner` flies every candidate action for one decision interval, car
 Bayesian information along each (eqs. 10-13), scores it by the criterion (eq. 12), checks the
 constraints and returns a :class:`Recommendation`.  With ``horizon > 1`` candidates are action
 sequences searched by :func:`tmakit.planning.horizon.search` (receding horizon).
+:func:`recommend` is one decision from a user's own loop: their tracker and platform in.
 """
 
 from __future__ import annotations
@@ -13,12 +14,16 @@ from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from ..bounds.pcrb_recursion import PosteriorInformation
 from ..core.arrays import Array
+from ..core.linalg import symmetrise
+from ..filters.base import TrackingFilter
+from ..motion.dynamics import NearlyConstantVelocity
 from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from . import compiled, decision
-from .belief import Belief
+from .belief import Belief, cubature_points
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace, bound_covariance, evaluate
@@ -35,29 +40,26 @@ _ONE = np.ones(1)
 
 @dataclass(frozen=True, eq=False)
 class Recommendation:
-    """The planner's answer at one decision.
+    """The planner's answer at one decision, per candidate action (C,).
 
     Attributes
     ----------
     index : int
-        The chosen candidate (index into the planner's actions).
-    actions : Actions, shape (C,)
+        The chosen candidate.
+    actions : Actions
         The candidates.
-    steps : Step, shape (C,)
+    steps : Step
         Every candidate flown for one decision interval.
     information : ndarray, shape (C, n, n)
-        Predicted Bayesian information ``J_{k+1}`` of each candidate after one step, SI.
-    cost : ndarray, shape (C,)
-        The criterion (with penalties) of each candidate; with a horizon, the best over the
-        sequences that start with it.
-    bound : ndarray, shape (C,)
-        Predicted position RMS bound after one step, m: ``sqrt(trace)`` of the position
-        block of ``J_{k+1}^{-1}``.
-    feasible : ndarray of bool, shape (C,)
-        Whether the candidate (or, with a horizon, some sequence starting with it) keeps
-        every hard constraint.
-    violations : dict of str to ndarray (C,)
-        Largest violation (m) of each constraint over the candidate's first step.
+        Predicted Bayesian information ``J_{k+1}`` after one step, SI.
+    cost : ndarray
+        The criterion with penalties (with a horizon, the best sequence's that starts with it).
+    bound : ndarray
+        Predicted position RMS bound after one step, m.
+    feasible : ndarray of bool
+        Whether the candidate (or a sequence starting with it) keeps every hard constraint.
+    violations : dict of str to ndarray
+        Largest violation of each constraint over the candidate's first step, m.
     all_infeasible : bool
         True when no candidate kept the hard constraints (the least violating was chosen).
     """
@@ -74,12 +76,12 @@ class Recommendation:
 
     @property
     def step(self) -> Step:
-        """The chosen candidate's step (batch shape ``()``)."""
+        """The chosen candidate's step."""
         return self.steps[self.index]
 
     @property
     def action(self) -> Actions:
-        """The chosen action (batch shape ``()``)."""
+        """The chosen action."""
         return self.actions[self.index]
 
 
@@ -120,17 +122,15 @@ class Planner:
     criterion : Criterion, optional
         Cost of ``J`` (default :class:`WeightedTrace`, position only: eq. 12).
     constraints : sequence, optional
-        Tactical constraints (:mod:`tmakit.planning.constraints`).
+        Tactical constraints.
     gamma : {"mean", "cloud"}, optional
-        How ``Gamma`` is formed in the first step (:mod:`tmakit.planning.candidates`).
+        How ``Gamma`` is formed in the first step.
     horizon : int, optional
         Decision steps looked ahead (1 = Hurtado & Nehorai (2008)).
     beam : int, optional
-        Nodes kept per depth of the horizon's tree search (None: exhaustive);
-        :mod:`tmakit.planning.horizon`.
+        Nodes kept per depth of the horizon's tree search (None: exhaustive).
     continuation : Continuation, optional
-        Score sequences at the mission end after a default path beyond the horizon
-        (None: at the end of the horizon).
+        Score sequences at the mission end after a default path beyond the horizon.
 
     Raises
     ------
@@ -326,3 +326,105 @@ def _choose(actions: Actions, steps: Step, info: Array, cost: Array, bad: Array,
     index = int(np.lexsort((cost, np.where(feasible, 0.0, bad)))[0])
     return Recommendation(index, actions, steps, info, cost, bound, feasible,
                           {v.name: v.amount for v in violations}, all_bad)
+
+Estimate = TrackingFilter | tuple[ArrayLike, ArrayLike] | Sequence[ArrayLike]
+
+
+def _gaussian(track: Estimate) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        mean, cov = track  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise ValueError("recommend() takes a TrackingFilter or a (mean, covariance) "
+                         "pair") from None
+    m = np.asarray(mean, dtype=float).reshape(-1)
+    p = np.asarray(cov, dtype=float)
+    n = m.shape[0]
+    if n not in (4, 6) or p.shape != (n, n) or not (np.all(np.isfinite(m))
+                                                     and np.all(np.isfinite(p))):
+        raise ValueError(f"the estimate must be a finite mean [x, y, (z,) vx, vy, (vz)] (4 or "
+                         f"6 values) and its (n, n) covariance; got {m.shape} and {p.shape}")
+    p = symmetrise(p)
+    if np.any(np.linalg.eigvalsh(p) <= 0.0):
+        raise ValueError("the estimate's covariance must be positive definite (SI: m^2, "
+                         "m^2/s^2)")
+    return m, p
+
+
+def _check_types(platform: object, planner: object, posterior: object) -> None:
+    """Refuse arguments of the wrong type with their name (not an AttributeError later)."""
+    for name, value, cls in (("platform", platform, PlatformState),
+                             ("planner", planner, Planner)):
+        if not isinstance(value, cls):
+            raise TypeError(f"recommend(): {name} must be a {cls.__name__}, not "
+                            f"{type(value).__name__}")
+    if posterior is not None and not isinstance(posterior, PosteriorInformation):
+        raise TypeError(f"recommend(): posterior must be a PosteriorInformation or None, not "
+                        f"{type(posterior).__name__}")
+
+
+def recommend(track: Estimate, platform: PlatformState, planner: Planner,
+              posterior: PosteriorInformation | None = None, *, q: float = 0.0,
+              cloud: str = "auto") -> Recommendation:
+    """Return the planner's next action for a user's tracker and platform (one decision).
+
+    Parameters
+    ----------
+    track : TrackingFilter or (mean, covariance)
+        The tracker after its last update, at the platform's time; or its estimate
+        ``[x, y, (z,) vx, vy, (vz)]`` (m, m/s) and covariance (SI).
+    platform : PlatformState
+        The platform now (one state; its ``time`` is the decision time, s).
+    planner : Planner
+        Kinematics, actions, interval, sensor plan, criterion, constraints.
+    posterior : PosteriorInformation, optional
+        ``J_k`` at the platform's time (default: the inverse of the tracker's covariance, with the
+        tracker's dynamics, or ``NearlyConstantVelocity(dim, q)`` for a pair).
+    q : float, optional
+        Process-noise acceleration std (m/s^2) of the target, for a (mean, covariance) pair without
+        ``posterior``.
+    cloud : {"auto", "particles", "sigma", "mean"}, optional
+        The target cloud ``Gamma`` is averaged over with ``planner.gamma = "cloud"``
+        (:meth:`Belief.from_filter`); a pair gives its cubature points (``"auto"``, ``"sigma"``) or
+        its mean.
+
+    Returns
+    -------
+    Recommendation
+        ``index`` and ``action`` (what to fly), ``bound`` (m, predicted position RMS bound of every
+        candidate after one step), ``feasible``, ``violations`` (m), ``cost``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        On a bad estimate or cloud, a tracker or posterior not at the platform's time; a platform,
+        planner or posterior not of its type.
+
+    References
+    ----------
+    Hurtado & Nehorai (2008), eqs. 10-13 (the predicted posterior CRB), eq. 12 (the
+    criterion ``Tr{Pi J^{-1}}``).
+    """
+    _check_types(platform, planner, posterior)
+    if isinstance(track, TrackingFilter):
+        if abs(track.time - platform.time) > 1e-6:
+            raise ValueError(f"the tracker is at t = {track.time:g} s and the platform at "
+                             f"t = {platform.time:g} s; predict the tracker to the decision "
+                             "time first")
+        if posterior is None:
+            posterior = PosteriorInformation(np.linalg.inv(symmetrise(track.covariance)),
+                                             track.dynamics, platform.time)
+        return planner.recommend(platform, Belief.from_filter(track, posterior, cloud))
+    mean, cov = _gaussian(track)
+    if posterior is None:
+        posterior = PosteriorInformation(np.linalg.inv(cov),
+                                         NearlyConstantVelocity(mean.shape[0] // 2, q),
+                                         platform.time)
+    if cloud not in ("auto", "particles", "sigma", "mean"):
+        raise ValueError(f"cloud must be 'auto', 'sigma' or 'mean'; got {cloud!r}")
+    if cloud == "mean":
+        belief = Belief(posterior, mean)
+    elif cloud == "particles":
+        raise ValueError("a (mean, covariance) estimate has no particles")
+    else:
+        belief = Belief(posterior, *cubature_points(mean, cov))
+    return planner.recommend(platform, belief)

@@ -39,23 +39,23 @@ def passive(plan: SensorPlan) -> bool:
 
 
 class Choice(Protocol):
-    """What a policy returns (:class:`~tmakit.planning.Recommendation` is one)."""
+    """What a policy returns (:class:`~tmakit.planning.Recommendation` and :class:`FixedChoice`)."""
 
     @property
-    def index(self) -> int:
-        """The chosen action's index."""
+    def index(self) -> int:  # noqa: D102
+        ...
 
     @property
-    def step(self) -> Step:
-        """The chosen step, flown for one decision interval."""
+    def step(self) -> Step:  # noqa: D102
+        ...
 
     @property
-    def bound(self) -> Array:
-        """The predicted position RMS bound (m)."""
+    def bound(self) -> Array:  # noqa: D102
+        ...
 
     @property
-    def violations(self) -> Mapping[str, Array]:
-        """Per constraint, the amount (m) of the chosen step's violation."""
+    def violations(self) -> Mapping[str, Array]:  # noqa: D102
+        ...
 
 
 class Policy(Protocol):
@@ -161,10 +161,9 @@ class MissionPolicy:
     planner : MissionPlanner
         Its ``step`` must be the loop's decision interval.
     quantiles : tuple of float, optional
-        The range quantiles of the hypotheses (default the 1/6, 1/2 and 5/6 quantiles).
+        The range quantiles of the hypotheses.
     pattern : SensorTrack, optional
-        An operator's path (the scenario's fixed pattern): its heading at the middle of every leg
-        left is one more start of the search, so the plan is never scored worse than it.
+        An operator's path: its heading at the middle of every leg left is one more start.
 
     References
     ----------

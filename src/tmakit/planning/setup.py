@@ -120,12 +120,9 @@ class PlanningSetup:
         -------
         PlanningSetup
         """
-        return dataclasses.replace(
-            self, steps=self.steps if steps is None else steps,
-            tracker=self.tracker if tracker is None else tracker,
-            particles=self.particles if particles is None else particles,
-            q=self.q if q is None else q, runs=self.runs if runs is None else runs,
-            kind=self.kind if kind is None else kind)
+        given: dict[str, Any] = {"steps": steps, "tracker": tracker, "particles": particles,
+                                 "q": q, "runs": runs, "kind": kind}
+        return dataclasses.replace(self, **{k: v for k, v in given.items() if v is not None})
 
 
 def _weight(c: RangeConstraintSpec | KeepOutSpec | AreaSpec) -> float:

@@ -1,11 +1,14 @@
-"""What every tmakit picture shares: the map's coordinates and the time axis.
+"""What every tmakit picture shares: the map's coordinates, the time axis and the elements.
 
 A map is in latitude/longitude (degrees, true scale: the aspect is 1 / cos(latitude)) when the
-measurement set knows its ENU origin, else in East/North (km); it carries a scale bar.
+measurement set knows its ENU origin, else in East/North (km); it carries a scale bar.  The
+sensor paths, bearing lines, estimated tracks and ellipses are computed here once for the
+matplotlib pictures and the Bokeh page.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -13,8 +16,12 @@ import numpy as np
 from ..core.geodesy import enu_to_geodetic
 from ..data import MeasurementSet
 from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
+from ..results.solutions import EstimateResult
+from ..scenario.truth import truth_states
 
-__all__ = ["MapFrame", "format_time_axis", "map_legend", "plain_ticks", "plot_times"]
+__all__ = ["MapFrame", "answer_ellipse", "bearing_lines", "clock_label", "ellipse_points",
+           "evenly", "format_time_axis", "map_legend", "plain_ticks", "plot_times", "pyplot",
+           "save", "sensor_path", "track_xy", "truth_track"]
 
 
 class MapFrame:
@@ -55,6 +62,10 @@ class MapFrame:
             return 1.0
         per_lon, per_lat = self._metres_per_degree()
         return per_lat / per_lon
+
+    def side_m(self, x: np.ndarray, y: np.ndarray) -> float:
+        """Give the longer side (m) of the box about map coordinates ``x``, ``y``."""
+        return max(float(np.ptp(x)), float(np.ptp(y)) * self.aspect()) * self.metres_per_x()
 
     def decorate(self, ax: Any) -> None:
         """Label the axes, keep distances true, draw a grid and a scale bar (lower right)."""
@@ -120,3 +131,119 @@ def plain_ticks(ax: Any) -> None:
         formatter.set_scientific(False)
         axis.set_major_formatter(formatter)
         axis.set_major_locator(MaxNLocator(nbins=6, steps=[1, 2, 2.5, 5, 10]))
+
+
+def pyplot() -> Any:
+    """Give ``matplotlib.pyplot`` on the non-interactive Agg backend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig: Any, path: str | Path, title: str | None, **options: Any) -> Path:
+    """Title (if any), write and close a figure; return the path written."""
+    if title:
+        fig.suptitle(title)
+    path = Path(path)
+    fig.savefig(path, **({"dpi": 110} | options))
+    pyplot().close(fig)
+    return path
+
+
+def clock_label(meas: MeasurementSet, t: float) -> str:
+    """Give ``HH:MM:SS`` (UTC) when the set records its time origin, else ``t s``."""
+    clock = clock_time(meas, t)
+    return clock[11:19] if clock else f"{t:.0f} s"
+
+
+def evenly(count: int, most: int) -> np.ndarray:
+    """Give at most ``most`` indices evenly spread over ``range(count)``, ends included."""
+    if count <= 0 or most <= 0:
+        return np.zeros(0, dtype=int)
+    return np.unique(np.linspace(0, count - 1, min(count, most)).round().astype(int))
+
+
+def ellipse_points(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
+    """Give the points ``(n, 2)`` about 0 of the ``level`` ellipse of a 2x2 covariance."""
+    evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
+    radius = np.sqrt(-2.0 * np.log1p(-level))  # the chi-squared quantile of 2 dof
+    a = np.linspace(0.0, 2.0 * np.pi, n)
+    circle = np.stack([np.cos(a), np.sin(a)], axis=1)
+    return radius * circle * np.sqrt(np.clip(evals, 0.0, None)) @ evecs.T
+
+
+def answer_ellipse(frame: MapFrame, a: Any, centre: np.ndarray, level: float
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Give an answer's position ellipse about ``centre`` (m) in map coordinates, or None."""
+    cov = a.covariance[:2, :2]
+    if a.ellipse is None or not np.all(np.isfinite(cov)):
+        return None
+    pts = ellipse_points(cov, level) + centre
+    return frame.xy(pts[:, 0], pts[:, 1])
+
+
+def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
+    """Return the true target path over the set's time span, from its metadata.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The measurements (simulated sets carry the truth in their metadata).
+    n : int
+        Number of times, evenly spread from the first to the last measurement time.
+
+    Returns
+    -------
+    ndarray, shape (n, 6), or None
+        True states ``[x, y, z, vx, vy, vz]`` (m, m/s); None for an empty set or one without
+        the truth.
+    """
+    if len(meas) == 0:
+        return None
+    return truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), n), 3)
+
+
+def sensor_path(meas: MeasurementSet, frame: MapFrame, sensor: str
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Give a sensor's distinct times, its states then and its path in map coordinates."""
+    rows = meas.sensor_mask(sensor)
+    t, first = np.unique(meas.time[rows], return_index=True)
+    states = meas.sensor_state[rows][first]
+    x, y = frame.xy(states[:, 0], states[:, 1])
+    return t, states, x, y
+
+
+def track_xy(result: EstimateResult, meas: MeasurementSet, frame: MapFrame,
+             times: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Give an estimate's states and map path at ``times`` (200 over the data's span)."""
+    t = np.linspace(meas.time.min(), meas.time.max(), 200) if times is None else times
+    states = result.motion.states(result.estimate, t)
+    x, y = frame.xy(states[:, 0], states[:, 1])
+    return states, x, y
+
+
+def bearing_lines(meas: MeasurementSet, frame: MapFrame, reach: float, most: int,
+                  points: int = 12, twins: bool = False
+                  ) -> tuple[list[np.ndarray], list[np.ndarray], int]:
+    """Give bearing lines ``reach`` m long from the sensors (``most`` rows, evenly spread).
+
+    The x and y of each line in map coordinates, and the number of bearing rows; with
+    ``twins``, the lines of the rows' ambiguous twin bearings instead.
+    """
+    rows = meas.kind_mask("bearing")
+    count = int(np.count_nonzero(rows))
+    pick = np.flatnonzero(rows)[evenly(count, most)]
+    b = meas.value_si[pick] if not twins else (
+        np.full(pick.size, np.nan) if meas.ambiguous_si is None else meas.ambiguous_si[pick])
+    u = np.linspace(0.0, 1.0, points)
+    xs: list[np.ndarray] = []
+    ys: list[np.ndarray] = []
+    for (e0, n0), angle in zip(meas.sensor_state[pick, :2], b, strict=True):
+        if np.isfinite(angle):
+            x, y = frame.xy(e0 + reach * u * np.sin(angle), n0 + reach * u * np.cos(angle))
+            xs.append(x)
+            ys.append(y)
+    return xs, ys, count

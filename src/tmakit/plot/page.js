@@ -163,10 +163,26 @@ function tmaSolutionPage(a) {
   // a.dots: one source per kind and series ({kind, source, renderer}, and on a large panel a
   // light_source of every few dots drawn instead while the mouse drags); a.ranges[kind]: its
   // y range.  `light`: a drag's update (the light dots; all of them once the drag stops).
+  function roundUp(v) {
+    const p = Math.pow(10, Math.floor(Math.log10(v)));
+    return v <= p ? p : v <= 2 * p ? 2 * p : v <= 5 * p ? 5 * p : 10 * p;
+  }
   let lightShown = false;
+  // Each update is timed to the end of the repaint of every plot it changed (Bokeh's
+  // `repainted`): `waiting` holds the plots not yet repainted, `open` the updates they close.
+  const plots = Bokeh.index.select(a.figures);
+  const waiting = new Set(), open = [];
+  for (const v of plots) {
+    v.repainted.connect(() => {
+      waiting.delete(v);
+      if (waiting.size > 0) return;
+      const now = performance.now();
+      for (const r of open.splice(0)) { r.painted_ms = now - r.t0; delete r.t0; timings.push(r); }
+    });
+  }
   function update(since, light) {
-    const t0 = since === undefined ? performance.now() : since;
     const tStart = performance.now();
+    const t0 = since === undefined ? tStart : since;
     chi2 = residuals(cur);
     const tModel = performance.now();
     const big = {};
@@ -189,7 +205,10 @@ function tmaSolutionPage(a) {
     lightShown = Boolean(light);
     for (const kind in big) {  // a new scale only when the dots leave it or shrink well inside
       const yr = a.ranges[kind];
-      if (big[kind] > yr.end || big[kind] < 0.5 * yr.end) { yr.start = -big[kind]; yr.end = big[kind]; }
+      if (big[kind] > yr.end || big[kind] < 0.4 * yr.end) {
+        const end = Math.max(4, roundUp(big[kind]));  // 1, 2 or 5 times a power of ten
+        yr.setv({start: -end, end: end});
+      }
     }
     const tDots = performance.now();
     const tt = a.track.data.t, tx = a.track.data.x, ty = a.track.data.y;
@@ -202,19 +221,23 @@ function tmaSolutionPage(a) {
     const tTrack = performance.now();
     stats.innerHTML = words();  // numbers and fixed words only
     const t1 = performance.now();
-    requestAnimationFrame(() => {
-      timings.push({model_ms: tModel - tStart, dots_ms: tDots - tModel,
-                    track_ms: tTrack - tDots, stats_ms: t1 - tTrack, compute_ms: t1 - tStart,
-                    painted_ms: performance.now() - t0, drag: Boolean(light)});
-    });
+    for (const v of plots) waiting.add(v);
+    open.push({t0: t0, input_ms: tStart - t0, model_ms: tModel - tStart, dots_ms: tDots - tModel,
+               track_ms: tTrack - tDots, stats_ms: t1 - tTrack, compute_ms: t1 - tStart,
+               drag: Boolean(light)});
   }
 
-  // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution
-  // follows at once, its dots and chi-square at the next frame (one update per frame).
-  let pending = null, idle = null;
+  // A drag of the handles (Bokeh's PointDrawTool edits their data in place): the solution,
+  // its dots and chi-square follow at once (Chromium delivers a drag's moves once a frame),
+  // drawn at the next frame.
+  let idle = null, pointerAt = -Infinity;
   const DRAG_STOP_MS = 200;
+  document.addEventListener("pointermove", (e) => { pointerAt = e.timeStamp; },
+                            {capture: true, passive: true});
   function onHandles() {
     if (busy || !cfg.draggable) return;
+    const now = performance.now();  // timed from the mouse event that moved the handle
+    const moved = now - pointerAt < 1000 ? Math.min(pointerAt, now) : now;
     const d = a.handles.data;
     if (d.x.length !== last[0].length) { busy = true; placeHandles(); busy = false; return; }
     busy = true;
@@ -232,10 +255,7 @@ function tmaSolutionPage(a) {
       for (let j = 0; j < xy[0].length; j++) { d.x[j] = xy[0][j]; d.y[j] = xy[1][j]; }
       last = [xy[0].slice(), xy[1].slice()];
       a.stick.data = {x: xy[0], y: xy[1]};
-      if (pending === null) {
-        pending = performance.now();
-        requestAnimationFrame(() => { const t = pending; pending = null; update(t, true); });
-      }
+      update(moved, true);
       clearTimeout(idle);  // every dot again once the drag has stopped
       idle = setTimeout(() => { idle = null; update(); }, DRAG_STOP_MS);
     } finally {
@@ -252,8 +272,8 @@ function tmaSolutionPage(a) {
   const api = {
     ready: true,
     onHandles: onHandles,
-    // whether a drag's update is still to come (at the next frame)
-    pending: () => pending !== null || idle !== null,
+    // whether an update is still to come or to be drawn
+    pending: () => idle !== null || open.length > 0,
     reset: () => { if (cfg.draggable) setState(ml); },
     // for scripted use and tests: move the solution at the reference time by (dE, dN) m and
     // its velocity by (dvE, dvN) m/s
@@ -278,6 +298,7 @@ function tmaSolutionPage(a) {
   };
   // The handles and the dots are drawn from Python at the ML solution (the same numbers);
   // only the words are made here.
+  document.getElementById("tma-reset").addEventListener("click", api.reset);
   last = [a.handles.data.x.slice(), a.handles.data.y.slice()];
   if (cfg.draggable) { chi2 = residuals(cur); stats.innerHTML = words(); }
   api.readyAt = performance.now();

@@ -20,8 +20,8 @@ from ..results import EstimateResult, normalised_residuals
 from ..results.answers import estimate_answer
 from ..results.context import TIME_ORIGIN_KEY, clock_time, origin_of
 from ..results.own_legs import sensor_legs
-from .frame import MapFrame
-from .solution import ellipse_points, series_names
+from .frame import MapFrame, answer_ellipse, bearing_lines, sensor_path, track_xy
+from .solution import series_names
 
 __all__ = ["DRAG_KINDS", "MAX_FAN_LINES", "solution_page_html", "write_solution_page"]
 
@@ -67,11 +67,7 @@ def _reach(frame: MapFrame, xs: list[np.ndarray], ys: list[np.ndarray]) -> float
     x = np.concatenate([np.ravel(v) for v in xs])
     y = np.concatenate([np.ravel(v) for v in ys])
     x, y = x[np.isfinite(x)], y[np.isfinite(y)]
-    if x.size == 0:
-        return 10_000.0
-    span = max(float(np.ptp(x)) * frame.metres_per_x(),
-               float(np.ptp(y)) * frame.metres_per_x() * frame.aspect())
-    return max(1.3 * span, 5_000.0)
+    return max(1.3 * frame.side_m(x, y), 5_000.0) if x.size else 10_000.0
 
 
 class _Page:
@@ -107,10 +103,7 @@ class _Page:
         """Each sensor's track on the map, and its leg starts."""
         out = []
         for k, s in enumerate(self.meas.sensors):
-            rows = self.meas.sensor == s
-            t, idx = np.unique(self.meas.time[rows], return_index=True)
-            st = self.meas.sensor_state[rows][idx]
-            x, y = self.frame.xy(st[:, 0], st[:, 1])
+            t, st, x, y = sensor_path(self.meas, self.frame, s)
             legs = sensor_legs(self.meas, s) if np.ptp(st[:, 3:5]) > 0 else []
             starts = [int(np.searchsorted(t, leg.start)) for leg in legs]
             out.append({"name": str(s), "x": x, "y": y, "colour": _COLOURS[k % len(_COLOURS)],
@@ -118,36 +111,11 @@ class _Page:
                         "leg_n": [str(i + 1) for i in range(len(starts))]})
         return out
 
-    def fan(self, reach: float) -> tuple[list[np.ndarray], list[np.ndarray], int,
-                                         list[np.ndarray], list[np.ndarray]]:
-        """Give the bearing lines (map coordinates; :data:`MAX_FAN_LINES`) and the cuts."""
-        rows = np.flatnonzero(self.meas.kind == "bearing")
-        if rows.size == 0:
-            return [], [], 0, [], []
-        pick = rows[np.unique(np.linspace(0, rows.size - 1, min(rows.size, MAX_FAN_LINES))
-                              .round().astype(int))]
-        twins = getattr(self.meas, "ambiguous_si", None)
-        u = np.linspace(0.0, 1.0, 12)
-        xs: list[np.ndarray] = []
-        ys: list[np.ndarray] = []
-        tx: list[np.ndarray] = []
-        ty: list[np.ndarray] = []
-        for r in pick:
-            e0, n0 = self.meas.sensor_state[r, :2]
-            for b, (lx, ly) in ((self.meas.value_si[r], (xs, ys)),
-                                (np.nan if twins is None else twins[r], (tx, ty))):
-                if np.isfinite(b):
-                    x, y = self.frame.xy(e0 + reach * u * np.sin(b), n0 + reach * u * np.cos(b))
-                    lx.append(x)
-                    ly.append(y)
-        return xs, ys, int(rows.size), tx, ty
-
     def track(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Give the estimated track: times (s) and map coordinates over the data's span."""
-        t = np.linspace(self.meas.time.min(), self.meas.time.max(), 200)
-        t = np.union1d(t, [self.ref_time])
-        st = self.result.motion.states(self.result.estimate, t)
-        x, y = self.frame.xy(st[:, 0], st[:, 1])
+        t = np.union1d(np.linspace(self.meas.time.min(), self.meas.time.max(), 200),
+                       [self.ref_time])
+        _, x, y = track_xy(self.result, self.meas, self.frame, t)
         return t, x, y
 
     def ellipses(self) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
@@ -158,12 +126,11 @@ class _Page:
             times = times[:1]
         for tk in times:
             a = estimate_answer(self.result, self.meas, time=float(tk), level=self.level)
-            cov = a.covariance[:2, :2]
-            if a.ellipse is None or not np.all(np.isfinite(cov)):
-                continue
             s = self.result.motion.states(self.result.estimate, np.array([tk]))[0]
-            pts = ellipse_points(cov, self.level) + s[:2]
-            x, y = self.frame.xy(pts[:, 0], pts[:, 1])
+            xy = answer_ellipse(self.frame, a, s[:2], self.level)
+            if xy is None:
+                continue
+            x, y = xy
             xs.append(x)
             ys.append(y)
             words.append(self.label(float(tk)))
@@ -226,9 +193,7 @@ class _Page:
         """Seconds ahead of the velocity handle: its stick a sixth of the map's width."""
         s = _state6(self.result) if self.has_track else [0.0] * 6
         speed = float(np.hypot(s[3], s[4]))
-        width = (max(float(np.ptp(x)) * self.frame.metres_per_x(),
-                     float(np.ptp(y)) * self.frame.metres_per_x() * self.frame.aspect())
-                 if x.size else 10_000.0)
+        width = self.frame.side_m(x, y) if x.size else 10_000.0
         span = float(np.ptp(self.meas.time)) or 600.0
         if speed <= 0:
             return span / 4
@@ -252,6 +217,9 @@ def _header(page: _Page, title: str) -> str:
            " on the map: the stacked dots and χ² follow; <i>back to ML</i> restores the fit."
            if not page.refusal else f"Not draggable: {_escaped(page.refusal)}.")
     lines.append(f"<div style='color:#444'>{how}</div>")
+    # a plain button: Bokeh's widgets would add 380 kB of script to parse at every opening
+    lines.append("<button id='tma-reset' type='button' style='margin-top:4px'"
+                 + (" disabled" if page.refusal else "") + ">back to ML solution</button>")
     return "\n".join(lines)
 
 
@@ -271,7 +239,9 @@ def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
     t, tx, ty = (page.track() if page.has_track else (np.zeros(0), np.zeros(0), np.zeros(0)))
     ex, ey, _ = (page.ellipses() if page.has_track and page.result.status == "converged"
                  else ([], [], []))
-    fan_x, fan_y, cuts, twin_x, twin_y = page.fan(_reach(f, [*xs, tx, *ex], [*ys, ty, *ey]))
+    reach = _reach(f, [*xs, tx, *ex], [*ys, ty, *ey])
+    fan_x, fan_y, cuts = bearing_lines(page.meas, f, reach, MAX_FAN_LINES)
+    twin_x, twin_y, _ = bearing_lines(page.meas, f, reach, MAX_FAN_LINES, twins=True)
     if twin_x:
         fig.multi_line(twin_x, twin_y, color="#7f7f7f", alpha=0.35, line_width=0.7,
                        line_dash="dashed", legend_label="ambiguous cuts: the other side")
@@ -294,15 +264,20 @@ def _map_figure(page: _Page) -> tuple[Any, dict[str, Any]]:
     if page.has_track:
         fig.line(tx, ty, color="#d62728", line_width=2, alpha=0.45, line_dash="dashed",
                  legend_label="ML solution")
+        # What a drag moves is drawn on Bokeh's overlay layer, left out of the map's extent
+        # and of its legend (a one-point twin stands there): a drag repaints that layer alone
+        fixed = list(fig.renderers)
+        solid = {"color": "#d62728", "line_width": 2.5}
+        fig.line(tx[:1], ty[:1], legend_label="solution shown", **solid)
         track = ColumnDataSource({"t": t, "x": tx.copy(), "y": ty.copy()})
-        fig.line("x", "y", source=track, color="#d62728", line_width=2.5,
-                 legend_label="solution shown")
+        fig.line("x", "y", source=track, level="overlay", **solid)
         parts["track"] = track
         stick = ColumnDataSource({"x": [], "y": []})
-        fig.line("x", "y", source=stick, color="black", line_width=1.5)
+        fig.line("x", "y", source=stick, color="black", line_width=1.5, level="overlay")
         handles = ColumnDataSource({"x": [], "y": [], "m": []}, name="handles")
         r = fig.scatter("x", "y", source=handles, size=14, fill_color="white",
-                        line_color="black", line_width=2, marker="m")
+                        line_color="black", line_width=2, marker="m", level="overlay")
+        fig.x_range.renderers = fig.y_range.renderers = fixed
         if not page.refusal:
             tool = PointDrawTool(renderers=[r], add=False, drag=True,
                                  description="drag the solution")
@@ -327,20 +302,19 @@ def _dots_figures(page: _Page, width: int) -> tuple[list[Any], list[dict[str, An
     sources: list[dict[str, Any]] = []
     ranges: dict[str, Any] = {}
     height = max(180, min(300, 600 // max(len(m.kinds), 1)))
-    shared = None
+    lo, hi = page.when(np.array([m.time.min(), m.time.max()]))
+    pad = max(0.05 * float(hi - lo), 1000.0 if page.clock else 1.0)
+    shared = Range1d(lo - pad, hi + pad)  # fixed: a drag's dots do not recompute it
     for kind in m.kinds:
         rows = np.flatnonzero(m.kind_mask(kind))
         z = page.z[rows]
         big = max(4.0, 1.1 * float(np.nanmax(np.abs(z)))) if np.any(np.isfinite(z)) else 4.0
         yr = Range1d(-big, big)
-        fig = figure(width=width, height=height, y_range=yr,
+        fig = figure(width=width, height=height, x_range=shared, y_range=yr,
                      x_axis_type="datetime" if page.clock else "linear",
                      x_axis_label="time (UTC)" if page.clock else "time (s)",
                      y_axis_label=f"{kind} residual (σ)", title=f"{kind}: stacked dots",
                      tools="xpan,xwheel_zoom,box_zoom,reset,save")
-        if shared is not None:
-            fig.x_range = shared
-        shared = fig.x_range
         fig.add_layout(BoxAnnotation(bottom=-1, top=1, fill_color="green", fill_alpha=0.1))
         for y in (-3, 3):
             fig.add_layout(Span(location=y, dimension="width", line_color="red",
@@ -359,8 +333,9 @@ def _dots_figures(page: _Page, width: int) -> tuple[list[Any], list[dict[str, An
                                         "row": rows[pick].astype(np.int32)})
                 entry[key + "source"] = src
                 entry[key + "renderer"] = fig.scatter(
-                    "x", "z", source=src, size=4, color=_COLOURS[k % len(_COLOURS)],
-                    visible=not key, **(named if not key else {}))
+                    "x", "z", source=src, size=5, line_color=None,
+                    fill_color=_COLOURS[k % len(_COLOURS)],
+                    visible=not key, **({"level": "overlay"} if key else named))
             sources.append(entry)
         figs.append(fig)
         ranges[kind] = yr
@@ -374,14 +349,12 @@ def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
     from bokeh.document import Document
     from bokeh.embed import file_html
     from bokeh.layouts import column, row
-    from bokeh.models import Button, ColumnDataSource, CustomJS
+    from bokeh.models import ColumnDataSource, CustomJS
     from bokeh.resources import INLINE
 
     page = _Page(meas, result, options, level, labels)
     fig, parts = _map_figure(page)
     dots, sources, ranges = _dots_figures(page, 560)
-    button = Button(label="back to ML solution", button_type="primary", width=200,
-                    disabled=bool(page.refusal))
     if "handles" in parts:
         config = page.config(parts["tau"])
         parts["handles"].data = page.handles(config)
@@ -389,20 +362,19 @@ def solution_page_html(meas: MeasurementSet, result: EstimateResult, *,
         script = resources.files("tmakit.plot").joinpath("page.js").read_text("utf-8")
         args = {"config": config, "rows": ColumnDataSource(page.rows()),
                 "handles": parts["handles"], "stick": parts["stick"], "track": parts["track"],
-                "dots": sources, "ranges": ranges}
+                "dots": sources, "ranges": ranges, "figures": [fig, *dots]}
         ready = CustomJS(args=args, code="const entered = performance.now();\n" + script
                          + "\nwindow.tmaPage = tmaSolutionPage({"
                          + ", ".join(f"{k}: {k}" for k in args) + "});"
                          + "\nwindow.tmaPage.enteredAt = entered;")
         parts["handles"].js_on_change("change", CustomJS(
             code="if (window.tmaPage) window.tmaPage.onHandles();"))
-        button.js_on_event("button_click", CustomJS(code="window.tmaPage.reset();"))
     else:
         ready = CustomJS(code="window.tmaPage = {ready: true, timings: [], "
                               "readyAt: performance.now()}; requestAnimationFrame(() => "
                               "{ window.tmaPage.paintedAt = performance.now(); });")
     doc = Document()
-    doc.add_root(row(fig, column(*dots, button)))
+    doc.add_root(row(fig, column(*dots)))
     doc.js_on_event("document_ready", ready)
     # The heading and the live numbers are plain HTML above the plots (escaped here: file
     # names and sensor names are text); Bokeh's layout is not redone when the numbers change.

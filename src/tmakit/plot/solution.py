@@ -1,9 +1,4 @@
-"""The solution picture of a batch estimate: the analyst's geometry and residuals.
-
-Left, the geometry: the sensor tracks, the bearing lines, the estimated track with its position
-ellipses at labelled times (the truth too when the file knows it), on a map in latitude/longitude
-when the ENU origin is known (else East/North in km), with a scale bar.
-"""
+"""The solution picture of a batch estimate (``tma estimate --plot``): geometry and residuals."""
 
 from __future__ import annotations
 
@@ -15,9 +10,22 @@ import numpy as np
 from ..data import MeasurementSet
 from ..results import EstimateResult
 from ..results.answers import KNOT, estimate_answer
-from ..results.context import clock_time, sensor_position
-from ..scenario.truth import truth_states
-from .frame import MapFrame, format_time_axis, map_legend, plain_ticks, plot_times
+from ..results.context import sensor_position
+from .frame import (
+    MapFrame,
+    answer_ellipse,
+    bearing_lines,
+    clock_label,
+    format_time_axis,
+    map_legend,
+    plain_ticks,
+    plot_times,
+    pyplot,
+    save,
+    sensor_path,
+    track_xy,
+    truth_track,
+)
 
 #: One nautical mile (m).
 NAUTICAL_MILE = 1852.0
@@ -25,37 +33,13 @@ NAUTICAL_MILE = 1852.0
 MAX_BEARING_LINES = 40
 
 
-def ellipse_points(cov2: np.ndarray, level: float, n: int = 90) -> np.ndarray:
-    """Give the points of the confidence ellipse of a 2x2 position covariance."""
-    from ..core import chi2
-
-    evals, evecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
-    k = np.sqrt(chi2.ppf(level, 2))
-    a = np.linspace(0.0, 2.0 * np.pi, n)
-    circle = np.stack([np.cos(a), np.sin(a)], axis=1)
-    return k * circle * np.sqrt(np.clip(evals, 0.0, None)) @ evecs.T
-
-
-def _label(meas: MeasurementSet, t: float) -> str:
-    """Return a time label: UTC clock time (HH:MM:SS) when known, else seconds."""
-    clock = clock_time(meas, t)
-    return clock[11:19] if clock else f"{t:.0f} s"
-
-
 def _draw_bearings(ax: Any, meas: MeasurementSet, frame: MapFrame, reach: float) -> None:
     """Draw the bearing lines from the sensors (evenly spread rows, ``reach`` metres long)."""
-    rows = np.flatnonzero(meas.kind == "bearing")
-    if rows.size == 0:
-        return
-    rows = rows[np.unique(np.linspace(0, rows.size - 1,
-                                      min(rows.size, MAX_BEARING_LINES)).round().astype(int))]
-    b = meas.value_si[rows]
-    start = meas.sensor_state[rows, :2]
-    end = start + reach * np.stack([np.sin(b), np.cos(b)], axis=1)
-    for (e0, n0), (e1, n1) in zip(start, end, strict=True):
-        xs, ys = frame.xy(np.linspace(e0, e1, 20), np.linspace(n0, n1, 20))
-        ax.plot(xs, ys, color="tab:orange", lw=0.6, alpha=0.45, zorder=1)
-    ax.plot([], [], color="tab:orange", lw=0.8, label=f"bearings ({rows.size} drawn)")
+    xs, ys, _ = bearing_lines(meas, frame, reach, MAX_BEARING_LINES, points=20)
+    for x, y in zip(xs, ys, strict=True):
+        ax.plot(x, y, color="tab:orange", lw=0.6, alpha=0.45, zorder=1)
+    if xs:
+        ax.plot([], [], color="tab:orange", lw=0.8, label=f"bearings ({len(xs)} drawn)")
 
 
 def _undetermined_words(result: EstimateResult, meas: MeasurementSet) -> str | None:
@@ -88,9 +72,7 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
                    n_labels: int, level: float) -> float:
     """Draw the estimated track, its ellipses and labelled times; give the largest semi-axis."""
     largest = 0.0
-    t = np.linspace(meas.time.min(), meas.time.max(), 200)
-    states = result.motion.states(result.estimate, t)
-    xs, ys = frame.xy(states[:, 0], states[:, 1])
+    _, xs, ys = track_xy(result, meas, frame)
     several = f", solution 1 of {len(result.solutions)}" if len(result.solutions) > 1 else ""
     ax.plot(xs, ys, color="tab:red", lw=2.0, label=f"estimate ({result.status}{several})",
             zorder=4)
@@ -99,15 +81,13 @@ def _draw_solution(ax: Any, result: EstimateResult, meas: MeasurementSet, frame:
         s = result.motion.states(result.estimate, np.array([tk]))[0]
         px, py = frame.xy(np.array([s[0]]), np.array([s[1]]))
         ax.plot(px, py, "o", color="tab:red", ms=4, zorder=5)
-        text = "emitter (stationary)" if a.stationary else _label(meas, float(tk))
+        text = "emitter (stationary)" if a.stationary else clock_label(meas, float(tk))
         ax.annotate(text, (px[0], py[0]), textcoords="offset points",
                     xytext=(6, 6), fontsize=8, color="tab:red",
                     bbox={"fc": "white", "alpha": 0.7, "lw": 0, "pad": 1})
-        cov2 = a.covariance[:2, :2]
-        if a.ellipse is not None and np.all(np.isfinite(cov2)):
-            pts = ellipse_points(cov2, level) + s[:2]
-            ex, ey = frame.xy(pts[:, 0], pts[:, 1])
-            ax.plot(ex, ey, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
+        xy = answer_ellipse(frame, a, s[:2], level)
+        if xy is not None and a.ellipse is not None:
+            ax.plot(*xy, color="tab:red", lw=0.9, alpha=0.8, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
         if a.stationary:
             break
@@ -131,15 +111,15 @@ def _words_box(ax: Any, words: str) -> None:
 
 
 def _no_track_words(result: EstimateResult) -> str:
-    """Why no track is drawn, wrapped for the map panel."""
-    import textwrap
-
+    """Why no track is drawn."""
     why = [f"no track: the estimate is {result.status}"
            + ("" if result.status == "converged" else
               f" ({result.message.split(';')[0]})" if result.message else "")]
     if result.bound is not None:
         why += [d.sentence for d in result.bound.observability.directions]
-    return "\n".join(textwrap.fill(w, 70) for w in why)
+    return "\n".join(why)
+
+
 #: Colours of the separated solutions after the first (which is drawn in red).
 SOLUTION_COLOURS = ("tab:purple", "tab:green", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
 
@@ -148,19 +128,17 @@ def _draw_other_solutions(ax: Any, result: EstimateResult, meas: MeasurementSet,
                           frame: MapFrame, level: float) -> float:
     """Draw each separated solution after the first: its track and its ellipse at the end."""
     largest = 0.0
-    t = np.linspace(meas.time.min(), meas.time.max(), 200)
     for k, sol in enumerate(result.solutions[1:]):
         colour = SOLUTION_COLOURS[k % len(SOLUTION_COLOURS)]
-        states = sol.result.motion.states(sol.result.estimate, t)
-        xs, ys = frame.xy(states[:, 0], states[:, 1])
+        states, xs, ys = track_xy(sol.result, meas, frame)
         ax.plot(xs, ys, "--", color=colour, lw=1.6, zorder=4,
                 label=f"solution {sol.rank}: {sol.result.motion.name}, χ² "
                       f"{sol.result.chi2:.3g} (p {sol.p_value:.2g})")
-        a = sol.answer(meas, time=float(t[-1]), level=level)
+        a = sol.answer(meas, time=float(meas.time.max()), level=level)
         ax.plot(*frame.xy(states[-1:, 0], states[-1:, 1]), "o", color=colour, ms=4, zorder=5)
-        if a.ellipse is not None and np.all(np.isfinite(a.covariance[:2, :2])):
-            pts = ellipse_points(a.covariance[:2, :2], level) + states[-1, :2]
-            ax.plot(*frame.xy(pts[:, 0], pts[:, 1]), color=colour, lw=0.9, zorder=4)
+        xy = answer_ellipse(frame, a, states[-1, :2], level)
+        if xy is not None and a.ellipse is not None:
+            ax.plot(*xy, color=colour, lw=0.9, zorder=4)
             largest = max(largest, a.ellipse.semi_major)
     return largest
 
@@ -192,19 +170,17 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     """Draw the geometry panel (the own ship's turns and legs when ``legs`` are given)."""
     frame = MapFrame(meas)
     for s in meas.sensors:
-        t = np.unique(meas.time[meas.sensor == s])
-        pos = np.array([sensor_position(meas, s, float(tt)) for tt in t])
-        xs, ys = frame.xy(pos[:, 0], pos[:, 1])
+        t, _, xs, ys = sensor_path(meas, frame, s)
         ax.plot(xs, ys, color="tab:blue", lw=1.5, zorder=3)
         ax.plot(xs[:1], ys[:1], "^", color="tab:blue", ms=6, zorder=3)
-        ax.annotate(f"{s} {_label(meas, float(t[0]))}", (xs[0], ys[0]),
+        ax.annotate(f"{s} {clock_label(meas, float(t[0]))}", (xs[0], ys[0]),
                     textcoords="offset points", xytext=(-6, -12), fontsize=8,
                     color="tab:blue")
     ax.plot([], [], color="tab:blue", lw=1.5, label="sensor track (▲ start)")
     if legs is not None and len(meas.sensors) == 1:
         _draw_legs(ax, meas, frame, legs)
     finite = _position_determined(result, meas)
-    truth = truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), 100), 3)
+    truth = truth_track(meas, 100)
     if truth is not None:
         xs, ys = frame.xy(truth[:, 0], truth[:, 1])
         ax.plot(xs, ys, "--", color="0.35", lw=1.2, label="truth (file metadata)", zorder=2)
@@ -216,9 +192,7 @@ def _draw_map(ax: Any, result: EstimateResult, meas: MeasurementSet, n_labels: i
     ax.set_aspect(frame.aspect(), adjustable="box")
     # bearing lines long enough to cross the solution, not to set the scale; without a
     # solution they fan out as far (at least 10 km) and the words say why there is none
-    x0, x1 = ax.get_xlim()
-    y0, y1 = ax.get_ylim()
-    reach = 1.3 * max(abs(x1 - x0), abs(y1 - y0) / frame.aspect()) * frame.metres_per_x()
+    reach = 1.3 * frame.side_m(np.array(ax.get_xlim()), np.array(ax.get_ylim()))
     if finite:
         ax.set_autoscale_on(False)
         _ellipse_legend(ax, frame, level, largest)
@@ -309,10 +283,8 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
 
     Parameters
     ----------
-    meas : MeasurementSet
-        The measurements fitted.
-    result : EstimateResult
-        The estimate.
+    meas, result : MeasurementSet and EstimateResult
+        The measurements fitted and the estimate.
     path : str or Path
         The picture (PNG, PDF, SVG).
     residuals : ndarray, shape (n,)
@@ -320,7 +292,6 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     answer : tmakit.results.answers.Answer, optional
         The answers shown under the title (course, speed, position ellipse).
     title : str, optional
-        The figure's title.
     labels : int
         Times labelled along the estimated track (each with its ellipse).
     level : float
@@ -331,13 +302,8 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     Returns
     -------
     Path
-        ``path``.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     kinds = meas.kinds
     fig = plt.figure(figsize=(13, 7.5), layout="constrained")
     grid = fig.add_gridspec(max(len(kinds), 1), 2, width_ratios=(1.35, 1))
@@ -355,10 +321,7 @@ def plot_solution(meas: MeasurementSet, result: EstimateResult, path: str | Path
     if answer is not None:
         lines.append(_answer_line(answer, result, units))
     fig.suptitle("\n".join(lines), fontsize=11)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save(fig, path, None)
 
 
 def _answer_line(a: Any, result: EstimateResult, units: str = "si") -> str:

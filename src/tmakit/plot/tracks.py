@@ -1,7 +1,6 @@
 """Pictures: sensor tracks, measurement time series, tracks and planned paths.
 
-Degrees, km and dBm on the axes (the edges of tmakit); the figures are written with
-matplotlib's non-interactive Agg backend.
+Degrees, km and dBm on the axes (the edges of tmakit); PNG, PDF or SVG by the path's suffix.
 """
 
 from __future__ import annotations
@@ -13,9 +12,19 @@ import numpy as np
 
 from ..data import MeasurementSet
 from ..measurements import KINDS
-from ..results.context import clock_time
-from ..scenario.truth import truth_states
-from .frame import MapFrame, format_time_axis, map_legend, plot_times
+from .frame import (
+    MapFrame,
+    clock_label,
+    ellipse_points,
+    evenly,
+    format_time_axis,
+    map_legend,
+    plot_times,
+    pyplot,
+    save,
+    sensor_path,
+    truth_track,
+)
 
 if TYPE_CHECKING:  # annotations only: plot is imported without the filters and bounds
     from ..bounds import PosteriorBound
@@ -23,52 +32,22 @@ if TYPE_CHECKING:  # annotations only: plot is imported without the filters and 
     from ..montecarlo.planned import PlanRun
 
 
-def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
-    """Return the true target path over the set's time span, from its metadata.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (simulated sets carry the truth in their metadata).
-    n : int
-        Number of times, evenly spread from the first to the last measurement time.
-
-    Returns
-    -------
-    ndarray, shape (n, 6), or None
-        True states ``[x, y, z, vx, vy, vz]`` (m, m/s) (:func:`tmakit.scenario.truth.truth_states`);
-        ``None`` for an empty set or one without the truth.
-    """
-    if len(meas) == 0:
-        return None
-    return truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), n), 3)
-
-
 def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None = None
                       ) -> Path:
-    """Write a picture of the sensor tracks beside one time-series panel per measurement kind.
-
-    The true target track is drawn too when known.
+    """Write a picture of the sensor tracks (and the truth) beside a panel per measurement kind.
 
     Parameters
     ----------
     meas : MeasurementSet
         The measurements (values drawn in file units: degrees, dBm, Hz, ...).
     path : str or Path
-        The picture (PNG, PDF, SVG by suffix).
     title : str, optional
-        The figure's title.
 
     Returns
     -------
     Path
-        The path written.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     kinds = meas.kinds
     fig = plt.figure(figsize=(12, max(4.5, 2.2 * len(kinds))), layout="constrained")
     grid = fig.add_gridspec(len(kinds), 2, width_ratios=[1.1, 1.4])
@@ -77,12 +56,7 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
     sensor_colour = {s: colours[i % len(colours)] for i, s in enumerate(meas.sensors)}
 
     frame = MapFrame(meas)
-    for s in meas.sensors:
-        sel = meas.sensor == s
-        order = np.argsort(meas.time[sel], kind="stable")
-        xs, ys = frame.xy(*meas.sensor_state[sel][order, :2].T)
-        ax_map.plot(xs, ys, "-", color=sensor_colour[s], label=f"sensor {s}")
-        ax_map.plot(xs[0], ys[0], "s", color=sensor_colour[s], ms=7)
+    _draw_sensors(ax_map, meas, frame, [sensor_colour[s] for s in meas.sensors], 1.5, 7)
     target = truth_track(meas)
     if target is not None:
         xs, ys = frame.xy(target[:, 0], target[:, 1])
@@ -118,35 +92,16 @@ def plot_measurements(meas: MeasurementSet, path: str | Path, title: str | None 
         if i == len(kinds) - 1:
             ax.set_xlabel(time_label)
             format_time_axis(ax, when)
-    return _save(fig, path, title)
+    return save(fig, path, title)
 
 
-def _clock_label(meas: MeasurementSet, t: float) -> str:
-    """Return ``HH:MM:SS`` (UTC) when the set records its time origin, else ``t s``."""
-    clock = clock_time(meas, t)
-    return clock[11:19] if clock else f"{t:.0f} s"
-
-
-def _save(fig: Any, path: str | Path, title: str | None) -> Path:
-    """Title (if any), write and close a figure; return the path written."""
-    import matplotlib.pyplot as plt
-
-    if title:
-        fig.suptitle(title)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def _ellipse_xy(mean: np.ndarray, cov: np.ndarray, probability: float, n: int = 90
-                ) -> np.ndarray:
-    """Return points (n, 2) of the ``probability`` confidence ellipse of a 2-D Gaussian."""
-    evals, evecs = np.linalg.eigh(0.5 * (cov + cov.T))
-    radius = np.sqrt(-2.0 * np.log1p(-probability))
-    angle = np.linspace(0.0, 2.0 * np.pi, n)
-    circle = np.stack([np.cos(angle), np.sin(angle)], axis=1)
-    return mean + radius * (circle * np.sqrt(np.clip(evals, 0.0, None))) @ evecs.T
+def _draw_sensors(ax: Any, meas: MeasurementSet, frame: MapFrame, colours: list[str],
+                  lw: float, ms: float) -> None:
+    """Draw each sensor's path, a square at its start."""
+    for s, c in zip(meas.sensors, colours, strict=True):
+        _, _, xs, ys = sensor_path(meas, frame, s)
+        ax.plot(xs, ys, "-", color=c, lw=lw, label=f"sensor {s}")
+        ax.plot(xs[0], ys[0], "s", color=c, ms=ms)
 
 
 def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
@@ -158,12 +113,9 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
 
     Parameters
     ----------
-    tr : Track
-        The track (SI).
-    meas : MeasurementSet
-        Its measurements (for the sensor paths and the true path from the metadata).
+    tr, meas : Track and MeasurementSet
+        The track (SI) and its measurements (the sensor paths, the truth in the metadata).
     path : str or Path
-        The picture (PNG, PDF, SVG by suffix).
     truth : ndarray, shape (K, n), optional
         True states at the track's times (m, m/s); with it, the error panels are drawn.
     pcrb : PosteriorBound, optional
@@ -175,18 +127,12 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
     probabilities : tuple of float
         The ellipses' probabilities (90 % and 95 %).
     title : str, optional
-        The figure's title.
 
     Returns
     -------
     Path
-        The path written.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     modes = tr.extra.model_probabilities
     rows = 1 if modes is None else 2
@@ -213,20 +159,15 @@ def plot_track(tr: Track, meas: MeasurementSet, path: str | Path, *,
         _norm_errors(ax_norm, tr, truth, pcrb, pcrb_note, colours, axis)
         ax_norm.set_xlabel(plot_times(meas, tr.times)[1])
         format_time_axis(ax_norm, axis(tr.times))
-    return _save(fig, path, title)
+    return save(fig, path, title)
 
 
 def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray | None,
                ellipses: int, probabilities: tuple[float, ...], colours: list[str]) -> None:
     """Draw the map: sensor paths, the true path, the track and its position ellipses."""
     frame = MapFrame(meas)
-    for i, s in enumerate(meas.sensors):
-        sel = meas.sensor == s
-        order = np.argsort(meas.time[sel], kind="stable")
-        xs, ys = frame.xy(*meas.sensor_state[sel][order, :2].T)
-        c = colours[(i + 2) % len(colours)]
-        ax_map.plot(xs, ys, "-", color=c, lw=1.2, label=f"sensor {s}")
-        ax_map.plot(xs[0], ys[0], "s", color=c, ms=6)
+    _draw_sensors(ax_map, meas, frame,
+                  [colours[(i + 2) % len(colours)] for i in range(len(meas.sensors))], 1.2, 6)
     if truth is not None:
         path_true = truth_track(meas)
         path_true = truth if path_true is None else path_true
@@ -239,17 +180,16 @@ def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray |
     if sm is not None:
         ax_map.plot(*frame.xy(sm.states[:, 0], sm.states[:, 1]), "-", color=colours[3],
                     lw=1.5, label=f"smoothed ({sm.extra.options.get('smoother', 'rts')})")
-    k_sel = np.unique(np.linspace(0, len(tr) - 1, max(1, ellipses)).round().astype(int)) \
-        if ellipses > 0 and len(tr) else np.array([], dtype=int)
+    k_sel = evenly(len(tr), ellipses)
     styles = ("-", "--", ":", "-.")
     for j, p in enumerate(probabilities):
         for n_k, k in enumerate(k_sel):
-            pts = _ellipse_xy(tr.states[k, :2], tr.covariances[k, :2, :2], p)
+            pts = tr.states[k, :2] + ellipse_points(tr.covariances[k, :2, :2], p)
             ax_map.plot(*frame.xy(pts[:, 0], pts[:, 1]), styles[j % len(styles)],
                         color=colours[1], lw=0.9, label=f"{p:.0%} ellipse" if n_k == 0 else None)
     frame.decorate(ax_map)
     map_legend(ax_map)
-    times = ", ".join(_clock_label(meas, float(tr.times[k])) for k in k_sel[:: max(
+    times = ", ".join(clock_label(meas, float(tr.times[k])) for k in k_sel[:: max(
         1, len(k_sel) // 4)])
     ax_map.set_title(f"track and position ellipses at {len(k_sel)} times ({times}, ...)"
                      if len(k_sel) else "track", fontsize=10)
@@ -342,24 +282,17 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
     Parameters
     ----------
     run : tmakit.montecarlo.planned.PlanRun
-        The runs.
     path : str or Path
-        The picture (PNG, PDF, SVG by suffix).
     paths : int, optional
         How many runs' paths are drawn on the map.
     title : str, optional
-        The figure's title (default: the scenario's name and the number of runs).
+        Default: the scenario's name and the number of runs.
 
     Returns
     -------
     Path
-        The path written.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     fig = plt.figure(figsize=(14, 7), layout="constrained")
     grid = fig.add_gridspec(2, 2, width_ratios=[1.1, 1.3])
@@ -392,4 +325,4 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
     ax_err.set(xlabel="time (s)", ylabel="position error (m)")
     ax_err.legend(loc="best", fontsize="small")
     default = f"{run.setup.scenario.name}: planned path, {len(run.records())} run(s)"
-    return _save(fig, path, title or default)
+    return save(fig, path, title or default)

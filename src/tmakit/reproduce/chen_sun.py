@@ -21,6 +21,7 @@ from ..bounds import crlb
 from ..data import MeasurementSet
 from ..filters.mgekf import ModifiedGainEKF, ReflectingEKF
 from ..filters.multilag import DEFAULT_LAGS, multilag_groups
+from ..montecarlo.execution import progress_bar
 from ..scenario.files import load_scenario
 from .common import Reproduction, Section
 
@@ -231,24 +232,12 @@ def _figure(rep: Reproduction, name: str) -> dict[str, object]:
 def _monte_carlo(rep: ChenSunReproduction, runs: int, seed: int, progress: bool,
                  lags: tuple[int, ...]) -> None:
     results: dict[int, dict[str, dict[str, NDArray[np.float64]]]] = {}
-    bar = None
-    if progress:
-        from rich.progress import Progress, TaskID
-
-        bar = Progress(transient=True)
-        bar.start()
+    bar = progress_bar(runs * len(PATHS), progress, "chen-sun")
     try:
         for p in PATHS:
-            tick = None
-            if bar is not None:
-                task = bar.add_task(f"chen-sun path {p}", total=runs)
-
-                def tick(task: TaskID = task) -> None:
-                    bar.advance(task)
-            results[p] = monte_carlo_path(p, runs, seed, lags, progress=tick)
+            results[p] = monte_carlo_path(p, runs, seed, lags, progress=bar.update)
     finally:
-        if bar is not None:
-            bar.stop()
+        bar.close()
     lo, hi = nees_band(runs)
     worst_ok = True
     final: dict[str, dict[str, list[float]]] = {}

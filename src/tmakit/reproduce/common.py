@@ -55,8 +55,3 @@ def only_kinds(scn: Scenario, kinds: tuple[str, ...]) -> Scenario:
     new = copy.deepcopy(scn)
     new.plans = [p for p in new.plans if p.kind in kinds]
     return new
-
-
-def rel_diff(ours: float, paper: float) -> float:
-    """Give the relative difference ``|ours - paper| / |paper|``."""
-    return abs(ours - paper) / abs(paper)

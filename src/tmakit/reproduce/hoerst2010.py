@@ -19,10 +19,11 @@ from ..scenario.model import Scenario
 from .common import Reproduction, Section
 
 
-def _manoeuvres(scn: Scenario) -> int:
-    """Give the number of manoeuvres of a scenario's piecewise curvilinear target."""
+def _change_overs(scn: Scenario) -> list[float]:
+    """Give the change-over times (s) of a scenario's piecewise curvilinear target."""
     assert isinstance(scn.motion, PiecewiseCurvilinear)
-    return scn.motion.manoeuvres
+    return [scn.truth[f"t_{m}"] for m in range(1, scn.motion.manoeuvres + 1)]
+
 
 STEP = 10.0                 # s between reference times / ellipses (§4)
 LEVEL = 0.9                 # 90 % confidence ellipses (§4)
@@ -40,19 +41,10 @@ CASES: dict[str, tuple[str, tuple[str, ...], bool]] = {
 
 @dataclass
 class Hoerst2010Reproduction(Reproduction):
-    """The report plus what :func:`plot` needs.
+    """The report plus what :func:`plot` needs."""
 
-    Parameters
-    ----------
-    name, sections, figures
-        As for :class:`~tmakit.reproduce.common.Reproduction`.
-    scenario : Scenario or None, optional
-        The ``hoerst2010`` scenario.
-    sequences : dict of str to CrbSequence, optional
-        One bound sequence per case of :data:`CASES`.
-    """
-
-    scenario: Scenario | None = field(default=None, repr=False)
+    scenario: Scenario | None = field(default=None, repr=False)  # The hoerst2010 scenario
+    #: One bound sequence per case of :data:`CASES`
     sequences: dict[str, CrbSequence] = field(default_factory=dict, repr=False)
 
 
@@ -98,7 +90,7 @@ def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
     scn = load_scenario("hoerst2010")
     seqs = sequences(step, scn)
     rep = Hoerst2010Reproduction("hoerst2010", scenario=scn, sequences=seqs)
-    cot = [scn.truth[f"t_{m}"] for m in range(1, _manoeuvres(scn) + 1)]
+    cot = _change_overs(scn)
 
     _table_section(rep, seqs)
     _claims_section(rep, seqs, cot, step)
@@ -220,7 +212,7 @@ def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
     t = np.linspace(t0, t1, 901)
     target = scn.target_states(t)[:, :2] / 1e3
     observer = scn.sensors["observer"].states(t)[:, :2] / 1e3
-    cot = np.array([scn.truth[f"t_{m}"] for m in range(1, _manoeuvres(scn) + 1)])
+    cot = np.array(_change_overs(scn))
     turns = scn.target_states(cot)[:, :2] / 1e3 if cot.size else np.zeros((0, 2))
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 6.2), sharex=True, sharey=True,

@@ -17,9 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from ..montecarlo.closed_loop import ClosedLoopStudy, LoopCase, LoopChunk, closed_loop_study
+from ..montecarlo.closed_loop import (
+    TRACKERS,
+    ClosedLoopStudy,
+    LoopCase,
+    LoopChunk,
+    LoopSetup,
+    closed_loop_study,
+)
 from ..planning import MinimumRange, Planner, SensorPlan
-from ..planning.closed_loop import TRACKERS, FixedPolicy, LoopSetup
+from ..planning.policies import FixedPolicy
 
 __all__ = ["CASES", "OPTIONS", "RADARS", "SETUP", "TRACKERS", "Hurtado2008Reproduction",
            "Hurtado2008Setup", "cases", "claims", "plot", "radar_plan", "run"]

@@ -1,9 +1,8 @@
-"""Answers in the user's terms: where the emitter is, where it goes, how far and in which direction.
+"""Answers in the user's terms: where the emitter is, where it goes, how far and which way.
 
-Position (ENU, m; latitude/longitude when the origin is known), course (deg true) and speed,
-range and bearing from a sensor, and the position ellipse, computed once for the command line,
-the JSON and the pictures.  Standard deviations are linearised (the delta method); an
-unobservable quantity is ``None``, never a number.
+Position (ENU, m; lat/lon when the origin is known), course (deg true), speed, range and bearing
+from a sensor, and the position ellipse, for the command line, the JSON and the pictures.  Std
+are linearised (the delta method); an unobservable quantity is ``None``, never a number.
 """
 
 from __future__ import annotations
@@ -21,9 +20,6 @@ from .context import altitude_reference, clock_time, origin_of, sensor_position
 
 KNOT = 1852.0 / 3600.0
 """One knot in m/s (one nautical mile, 1852 m, per hour)."""
-
-NAUTICAL_MILE = 1852.0
-"""One nautical mile in metres."""
 
 ELLIPSE_LEVEL = 0.95
 """Default probability inside the reported position ellipse."""
@@ -72,7 +68,7 @@ class Ellipse:
     orientation_deg : float
         Major axis, degrees true (0 to 180).
     level : float
-        Probability inside (chi-square, 2 degrees of freedom).
+        Probability inside (chi-square, 2 dof).
     """
 
     semi_major: float
@@ -104,16 +100,14 @@ class Answer:
     clock : str or None
         The same time in UTC, when the origin is known.
     dim : int
-        2 or 3.
     stationary : bool
-        Course and speed are then None.
     enu, enu_std : tuple of (float or None)
         East, North, Up and std, m.
     geodetic : tuple of (float or None) or None
         Latitude, longitude (deg), altitude (m); None without an origin.
     velocity, velocity_std : tuple of (float or None)
-        East, North, Up and std, m/s.
-    course_deg, course_std_deg : float or None
+        East, North, Up, m/s.
+    course_deg, course_std_deg, bearing_deg, bearing_std_deg : float or None
         Degrees true.
     speed, speed_std : float or None
         m/s.
@@ -121,16 +115,12 @@ class Answer:
         The sensor range and bearing are from.
     range_m, range_std : float or None
         Slant range, m.
-    bearing_deg, bearing_std_deg : float or None
-        Degrees true.
     ellipse : Ellipse or None
     covariance : ndarray, shape (6, 6)
-        ENU state covariance, m and m/s; infinite where unobservable.
+        ENU state covariance; infinite where unobservable.
     altitude_reference : str
-        ``WGS-84 ellipsoid`` or ``mean sea level``.
     undetermined : tuple of str
-        Quantities left out because their 1-sigma is too large (:data:`UNDETERMINED_ANGLE_DEG`,
-        :data:`UNDETERMINED_RATIO`), in words.
+        Quantities left out because their 1-sigma is too large, in words.
     """
 
     time: float
@@ -213,44 +203,23 @@ def _finite(v: float, s: float | None) -> tuple[float | None, float | None]:
     return float(v), s
 
 
-def _motion_part(state: NDArray[np.float64], cov: NDArray[np.float64], stationary: bool,
-                 null: NDArray[np.float64] | None = None
-                 ) -> tuple[float | None, float | None, float | None, float | None]:
-    """Course (deg true) and speed (m/s) with their linearised std; None when not defined."""
-    v = state[3:6]
-    h2 = float(v[0] ** 2 + v[1] ** 2)
-    if stationary or h2 == 0.0:
+def _size_and_direction(vector: NDArray[np.float64], at: int, cov: NDArray[np.float64],
+                        null: NDArray[np.float64] | None = None
+                        ) -> tuple[float | None, float | None, float | None, float | None]:
+    """Length and direction (deg true) of a 3-vector of the state at ``at``, with their std."""
+    h2 = float(vector[0] ** 2 + vector[1] ** 2)
+    if h2 == 0.0:
         return None, None, None, None
-    speed = float(np.linalg.norm(v))
+    length = float(np.linalg.norm(vector))
     g = np.zeros(6)
-    g[3:6] = v / speed
-    speed_value, speed_sd = _finite(speed, _std(g, cov, null))
+    g[at:at + 3] = vector / length
+    size, size_sd = _finite(length, _std(g, cov, null))
     g = np.zeros(6)
-    g[3], g[4] = v[1] / h2, -v[0] / h2
-    c_sd = _std(g, cov, null)
-    course, course_sd = _finite(float(np.degrees(np.arctan2(v[0], v[1])) % 360.0),
-                                None if c_sd is None else float(np.degrees(c_sd)))
-    return course, course_sd, speed_value, speed_sd
-
-
-def _from_sensor(state: NDArray[np.float64], cov: NDArray[np.float64],
-                 where: NDArray[np.float64], null: NDArray[np.float64] | None = None
-                 ) -> tuple[float | None, float | None, float | None, float | None]:
-    """Range (m) and bearing (deg true) from a sensor position, with linearised std."""
-    d = state[:3] - where
-    r = float(np.linalg.norm(d))
-    h2 = float(d[0] ** 2 + d[1] ** 2)
-    if r == 0.0 or h2 == 0.0:
-        return None, None, None, None
-    g = np.zeros(6)
-    g[:3] = d / r
-    rng, rng_sd = _finite(r, _std(g, cov, null))
-    g = np.zeros(6)
-    g[0], g[1] = d[1] / h2, -d[0] / h2
-    b_sd = _std(g, cov, null)
-    brg, brg_sd = _finite(float(np.degrees(np.arctan2(d[0], d[1])) % 360.0),
-                          None if b_sd is None else float(np.degrees(b_sd)))
-    return rng, rng_sd, brg, brg_sd
+    g[at], g[at + 1] = vector[1] / h2, -vector[0] / h2
+    a_sd = _std(g, cov, null)
+    angle, angle_sd = _finite(float(np.degrees(np.arctan2(vector[0], vector[1])) % 360.0),
+                              None if a_sd is None else float(np.degrees(a_sd)))
+    return size, size_sd, angle, angle_sd
 
 
 def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: float,
@@ -273,10 +242,9 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     sensor : str, optional
         Default the last measurement's.
     dim : int
-        2 or 3 (2: no height reported).
     stationary : bool
     level : float
-        Probability inside the ellipse (default 0.95).
+        Probability inside the ellipse.
     null : ndarray, shape (6, r), optional
         The state's unobservable directions; what moves with them is None.
 
@@ -286,18 +254,12 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
     """
     state = np.asarray(state, dtype=float)
     cov = np.where(np.isnan(cov), np.inf, np.asarray(cov, dtype=float))
-    enu, enu_sd = [], []
-    for i in range(3):
-        v, s = _finite(state[i], _std(np.eye(6)[i], cov, null)) if i < dim else (None, None)
-        enu.append(v)
-        enu_sd.append(s)
-    vel, vel_sd = [], []
-    for i in range(3):
-        v, s = (_finite(state[3 + i], _std(np.eye(6)[3 + i], cov, null))
-                if i < dim and not stationary else (None, None))
-        vel.append(v)
-        vel_sd.append(s)
-    course, course_sd, speed, speed_sd = _motion_part(state, cov, stationary, null)
+    parts = [_finite(state[i], _std(np.eye(6)[i], cov, null))
+             if i % 3 < dim and (i < 3 or not stationary) else (None, None) for i in range(6)]
+    enu, enu_sd = zip(*parts[:3], strict=True)
+    vel, vel_sd = zip(*parts[3:], strict=True)
+    speed, speed_sd, course, course_sd = (None, None, None, None) if stationary else (
+        _size_and_direction(state[3:6], 3, cov, null))
     origin = origin_of(meas)
     geo: tuple[float | None, float | None, float | None] | None = None
     if origin is not None:
@@ -314,7 +276,7 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
         where = sensor_position(meas, sensor, t)
         if dim == 2:
             where = np.array([where[0], where[1], state[2]])
-        rng, rng_sd, brg, brg_sd = _from_sensor(state, cov, where, null)
+        rng, rng_sd, brg, brg_sd = _size_and_direction(state[:3] - where, 0, cov, null)
     weak: list[str] = []
     course, course_sd = _determined_angle("course", course, course_sd, weak)
     speed, speed_sd = _determined_size("speed", speed, speed_sd, "m/s", weak)
@@ -347,9 +309,8 @@ def bearing_interval(answer: Answer, meas: MeasurementSet | None,
                      level: float = ELLIPSE_LEVEL) -> tuple[float, float] | None:
     """Give the bearing interval (centre, half-width; deg) at ``level``, or None if unknown.
 
-    The hull of the answer's linearised interval and of each bearing its sensor measured at
-    its time ± z sigma (a towed array's twin: the side nearer the answer's): a measured
-    bearing holds the truth whatever motion model the fit assumed.
+    The hull of the answer's linearised interval and of each bearing its sensor measured then,
+    ± z sigma (a towed array's twin: the side nearer the answer's).
     """
     z = float(np.sqrt(chi2_dist.ppf(level, 1)))
     spans = []  # (centre, half-width), rad
@@ -399,13 +360,11 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     ----------
     result : EstimateResult
     meas : MeasurementSet, optional
-        The measurements fitted.
     time : float, optional
         s; default the last measurement time.
     sensor : str, optional
-        Default the last measurement's.
     level : float
-        Probability inside the ellipse (default 0.95).
+        Probability inside the ellipse.
 
     Returns
     -------
@@ -414,7 +373,7 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     Raises
     ------
     ValueError
-        If ``time`` is not finite or far from the measurements (:func:`~tmakit.rules.time_problem`).
+        If ``time`` is not finite or far from the measurements.
     """
     from ..rules import time_problem
 
@@ -503,13 +462,11 @@ def track_answer(track: object, meas: MeasurementSet | None = None, index: int =
     ----------
     track : tmakit.filters.Track
     meas : MeasurementSet, optional
-        The measurements tracked.
     index : int
         The update (default the last).
     sensor : str, optional
-        Default the last measurement's.
     level : float
-        Probability inside the ellipse (default 0.95).
+        Probability inside the ellipse.
 
     Returns
     -------

@@ -115,7 +115,7 @@ class Bound:
         return float(full @ self.covariance @ full)
 
     def state_covariance(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Return the ENU target state at time ``t`` (s) and its covariance (delta method).
+        """Return the ENU target state at ``t`` (s) and its covariance (delta method).
 
         Parameters
         ----------
@@ -123,10 +123,8 @@ class Bound:
 
         Returns
         -------
-        state : ndarray, shape (6,)
-            m and m/s.
-        cov : ndarray, shape (6, 6)
-            Infinite where unobservable.
+        state, cov : ndarray, shapes (6,) and (6, 6)
+            m and m/s; the covariance infinite where unobservable.
         """
         theta = self.values[: self.motion.n_params]
         state = self.motion.states(theta, np.array([float(t)]))[0]
@@ -249,7 +247,6 @@ class Bound:
         Parameters
         ----------
         indent : int or None
-            None: one line.
 
         Returns
         -------

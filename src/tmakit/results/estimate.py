@@ -1,9 +1,8 @@
-"""A batch estimate as a result.
+"""A batch estimate as a result: :class:`EstimateResult` and the functions that build it.
 
-:class:`EstimateResult` holds the named parameters, covariance, nuisance, chi2 and a status
-that is never hidden.  :func:`assemble_result` builds it from a weighted least-squares fit
-(the Gauss–Newton of the Doppler-tracking lecture notes), :func:`result_from_covariance` from a
-method's own covariance (Gu et al. (2007) §3-4), :func:`diverged_result` for a divergence.
+From a weighted least-squares fit (:func:`assemble_result`, the Gauss–Newton of the
+Doppler-tracking lecture notes), from a method's own covariance (:func:`result_from_covariance`,
+Gu et al. (2007) §3-4) or for a divergence (:func:`diverged_result`).
 """
 
 from __future__ import annotations
@@ -45,38 +44,32 @@ class EstimateResult:
     ----------
     parameters : tuple of str
         The motion parameters' names.
-    estimate : ndarray, shape (p,)
-        Their values, SI (m, m/s, rad, s).
-    std : ndarray, shape (p,)
-        Their std (inf where unobservable, 0 where held).
+    estimate, std : ndarray, shape (p,)
+        Their values and std, SI (m, m/s, rad, s); std inf where unobservable, 0 where held.
     covariance : ndarray, shape (p, p)
     nuisance : dict
         ``{name: (value, std)}`` (std 0 when known).
     status : Status
-        ``converged``, ``did not converge``, ``unobservable`` or ``diverged``.
     iterations : int
     chi2 : float
         The weighted sum of squares at the estimate.
     dof : int
-        Its degrees of freedom.
     method : str
         A key of :data:`tmakit.batch.METHODS`.
     motion : MotionModel
     bound : Bound, optional
         The information at the estimate (None for the papers' own covariances).
     starts : int, optional
-        Starting points solved (default 1).
+        Starting points solved.
     message : str, optional
-        What the user should know.
     extra : dict, optional
         Method-specific diagnostics.
     solutions : list of Solution, optional
-        Separated fits about as good (:mod:`tmakit.results.solutions`), this one first.
+        Separated fits about as good, this one first.
     covers : list of EstimateResult, optional
-        Close fits this one stands for; its covariance is widened to contain them.
+        Close fits whose ellipses this one's covariance is widened to contain.
     wider : EstimateResult, optional
-        The widest model's fit when it leaves the last position undetermined and this one does
-        not (:meth:`region_contains` then includes its bearing interval).
+        The widest model's fit when it leaves the position undetermined and this one does not.
     """
 
     parameters: tuple[str, ...]
@@ -104,7 +97,7 @@ class EstimateResult:
         return self.status == CONVERGED
 
     def ranked_solutions(self) -> list[Solution]:
-        """Return the solutions reported, this fit first (itself alone when it is the only one).
+        """Return the solutions reported, this fit first.
 
         Returns
         -------
@@ -114,28 +107,23 @@ class EstimateResult:
 
     def region_contains(self, position: ArrayLike, meas: MeasurementSet | None = None,
                         time: float | None = None, level: float = ELLIPSE_LEVEL) -> bool:
-        """Tell whether a horizontal position lies inside the reported region at ``time``.
+        """Tell whether a horizontal position lies in the reported region at ``time``.
 
-        The region is the union of every solution's position ellipse, or with :attr:`wider` also its
-        bearing interval from the last measurement's sensor.
+        The union of the solutions' ellipses, and the bearing interval where the range is
+        undetermined (solutions' ranges disjoint, or :attr:`wider` leaves it so).
 
         Parameters
         ----------
         position : array_like
             East, North, m.
         meas : MeasurementSet, optional
-            The measurements fitted (default time: their last).
         time : float, optional
-            s.
+            s; default the last measurement time.
         level : float
-            Probability inside each ellipse (default 0.95).
 
         Returns
         -------
         bool
-            True inside a solution's region, or inside a bearing interval where the answer says
-            the range is undetermined: the solutions' ranges disagree
-            (:func:`~tmakit.results.solutions.range_spread`) or :attr:`wider` leaves it so.
         """
         sols = self.ranked_solutions()
         if any(s.region_contains(position, meas, time, level) for s in sols):
@@ -157,23 +145,20 @@ class EstimateResult:
     def as_dict(self, meas: MeasurementSet | None = None, *, answer: Answer | None = None,
                 warnings: Sequence[SanityWarning] | None = None,
                 sigma_scale: Mapping[str, float] | None = None) -> dict[str, object]:
-        """Return the JSON form: the keys of ``tma estimate --json``.
+        """Return the JSON form: the keys of ``tma estimate --json`` (SI; non-finite as None).
 
         Parameters
         ----------
         meas : MeasurementSet, optional
             The measurements fitted: with them ``answer``, ``warnings`` and ``geodetic`` are filled.
         answer : Answer, optional
-            Default :meth:`answer` of ``meas``.
         warnings : sequence of SanityWarning, optional
-            Default :meth:`warnings` of ``meas``.
         sigma_scale : mapping of str to float, optional
-            Each kind's sigma factor when rescaled (``--scale-sigma``).
+            Each kind's sigma factor (``--scale-sigma``).
 
         Returns
         -------
         dict of str to object
-            JSON-ready values, SI; non-finite numbers as ``None``.
         """
         if meas is not None:
             answer = self.answer(meas) if answer is None else answer
@@ -197,7 +182,7 @@ class EstimateResult:
                 "solutions": [sol.as_dict(meas) for sol in self.ranked_solutions()]}
 
     def _geodetic(self, meas: MeasurementSet) -> dict[str, object] | None:
-        """Give the position at the reference time in lat/lon/alt (:func:`.geodetic_fix`)."""
+        """Give the position at the reference time in lat/lon/alt."""
         if self.status in (UNOBSERVABLE, DIVERGED) or origin_of(meas) is None \
                 or not self.estimate.size:
             return None  # no number for an unobservable position (an altitude of 2.5e9 m)
@@ -205,7 +190,7 @@ class EstimateResult:
         return geodetic_fix(meas, t, self.motion.states(self.estimate, np.array([t]))[0])
 
     def _fields(self) -> dict[str, object]:
-        """Give the result's own fields in JSON form (subclasses add theirs)."""
+        """Give the result's own fields in JSON form."""
         num = _num
         answer = self.status in (CONVERGED, UNOBSERVABLE)  # (unobservable: what is determined)
         data: dict[str, object] = {
@@ -241,13 +226,12 @@ class EstimateResult:
         Parameters
         ----------
         meas : MeasurementSet, optional
-            The measurements fitted (origins, the sensor's track).
         time : float, optional
             s; default the last measurement time.
         sensor : str, optional
             For range and bearing; default the last measurement's.
         level : float
-            Probability inside the position ellipse (default 0.95).
+            Probability inside the position ellipse.
 
         Returns
         -------
@@ -261,22 +245,19 @@ class EstimateResult:
         Parameters
         ----------
         meas : MeasurementSet
-            The measurements fitted.
 
         Returns
         -------
         list of SanityWarning
-            Empty when nothing looks wrong.
         """
         return fit_warnings(self, meas)
 
     def trust(self, meas: MeasurementSet) -> Trust:
-        """Return how far to trust the estimate (:func:`tmakit.results.trust.trust_of`).
+        """Return how far to trust the estimate (:func:`tmakit.results.trust_of`).
 
         Parameters
         ----------
         meas : MeasurementSet
-            The measurements fitted.
 
         Returns
         -------
@@ -294,7 +275,6 @@ class EstimateResult:
         meas, answer, warnings, sigma_scale : optional
             As for :meth:`as_dict`.
         indent : int or None
-            Spaces of indentation (None: one line).
 
         Returns
         -------
@@ -309,7 +289,7 @@ class EstimateResult:
         Parameters
         ----------
         units : str, optional
-            ``si`` (default; angles in degrees) or ``nautical`` (speeds in knots).
+            ``si`` or ``nautical`` (speeds in knots).
 
         Returns
         -------
@@ -357,7 +337,7 @@ def _num(x: float) -> float | None:
 
 
 def _reference_time(motion: MotionModel) -> float | None:
-    """Give the time (s) a motion model's parameters are at; None for a fixed emitter."""
+    """Give the time (s) of a motion's parameters; None for a fixed emitter."""
     ref = getattr(motion, "ref_time", None)
     return float(ref) if ref is not None and np.isfinite(ref) else None
 
@@ -365,19 +345,14 @@ def _reference_time(motion: MotionModel) -> float | None:
 def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iterations: int,
                     dof: int, method: str, message: str, starts: int = 1,
                     extra: dict[str, object] | None = None) -> EstimateResult:
-    """Return the result of a solve that diverged: every value and std NaN, chi2 infinite.
+    """Return the result of a diverged solve: values and std NaN, chi2 infinite.
 
     Parameters
     ----------
     motion : MotionModel
     nuisance_names : sequence of str
-        Reported as ``(nan, nan)``.
-    iterations : int
-    dof : int
-        Degrees of freedom the fit would have had.
-    method : str
-    message : str
-        Why it diverged.
+    iterations, dof : int
+    method, message : str
     starts : int, optional
     extra : dict, optional
 
@@ -405,15 +380,13 @@ def result_from_covariance(motion: MotionModel, theta: NDArray[np.float64],
     ----------
     motion : MotionModel
     theta : ndarray, shape (p,)
-        The estimate, SI.
     covariance : ndarray, shape (q, q), q >= p
-        The method's covariance, the motion parameters first.
+        The motion parameters first.
     nuisance : dict
         ``{name: (value, std)}``.
     status : Status
     iterations : int
     chi2 : float
-        The weighted sum of squares of the method's residuals.
     dof : int
     method : str
     message : str, optional
@@ -436,30 +409,24 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
                     known_nuisance: KnownNuisance | None, note: str = "", *,
                     jacobian: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
                     information: NDArray[np.float64] | None = None) -> EstimateResult:
-    """Return the result of a weighted least-squares fit of an observation model.
-
-    The covariance comes from the Fisher information at the fit, chi2 is ``2 cost``.
+    """Return the result of a weighted least-squares fit: covariance from the information.
 
     Parameters
     ----------
     obs : ObservationModel
     noise : NoiseModel
         In the grouped row order of ``obs``.
-    theta : ndarray, shape (p,)
-        Motion parameters at the fit, SI.
-    nu : ndarray, shape (k,)
-        Nuisance at the fit (or the known values).
+    theta, nu : ndarray
+        Motion parameters and nuisance at the fit, SI.
     cost : float
         Half the weighted sum of squares.
     iterations : int
     converged : bool
-        Whether the solver's convergence tests were met.
     method : str
     starts : int
     known_nuisance : KnownNuisance or None
-        None when the nuisance was estimated.
     note : str, optional
-        A sentence appended to the message.
+        Appended to the message.
     jacobian : (ndarray, ndarray), optional
         ``obs.jacobian_grouped(theta, nu)`` if the caller has it.
     information : ndarray, optional

@@ -58,7 +58,7 @@ KnownNuisanceLike = KnownNuisance | Mapping[str, float] | bool | None
 
 
 def as_known_nuisance(value: KnownNuisanceLike) -> KnownNuisance | None:
-    """Convert ``known_nuisance`` to the one type: a :class:`KnownNuisance` or ``None``.
+    """Convert ``known_nuisance`` to a :class:`KnownNuisance` or ``None``.
 
     Parameters
     ----------

@@ -82,12 +82,8 @@ class Solution:
 
         Parameters
         ----------
-        meas : MeasurementSet, optional
-        time : float, optional
-            s; default the last measurement time.
-        sensor : str, optional
-        level : float
-            Probability inside the ellipse.
+        meas, time, sensor, level : optional
+            As for :meth:`EstimateResult.answer`.
 
         Returns
         -------
@@ -97,24 +93,20 @@ class Solution:
 
     def region_contains(self, position: ArrayLike, meas: MeasurementSet | None = None,
                         time: float | None = None, level: float = ELLIPSE_LEVEL) -> bool:
-        """Tell whether a horizontal position lies inside this solution's position ellipse.
+        """Tell whether a horizontal position (East, North, m) lies in this solution's ellipse.
+
+        Where the answer leaves the range undetermined: whether its bearing lies in
+        :func:`~tmakit.results.answers.bearing_interval`.
 
         Parameters
         ----------
         position : array_like
-            East, North, m.
-        meas : MeasurementSet, optional
-            Default time: their last.
-        time : float, optional
-            s.
-        level : float
-            Default 0.95.
+        meas, time, level : optional
+            As for :meth:`answer`.
 
         Returns
         -------
         bool
-            False outside; a position whose range the answer leaves undetermined: whether
-            its bearing lies in :func:`~tmakit.results.answers.bearing_interval`.
         """
         a = self.answer(meas, time, level=level)
         if not a.position_determined:
@@ -207,11 +199,10 @@ def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
     others : sequence of EstimateResult
         Other fits the search ended in.
     meas : MeasurementSet
-        The answer time is their last.
     alpha : float
-        Level of the test (default 0.05).
+        Level of the test.
     price : float
-        Chi2 per unknown (default 0: fits of one model).
+        Chi2 per unknown (0: fits of one model).
 
     Returns
     -------

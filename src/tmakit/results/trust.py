@@ -23,7 +23,7 @@ class Trust:
     Parameters
     ----------
     level : str
-        :data:`TRUST_OK`, :data:`TRUST_WARNING` or :data:`TRUST_NONE`.
+        ``ok``, ``warning`` or ``none``.
     reasons : list of SanityWarning
         The status (for ``none``) and every warning.
     """
@@ -37,23 +37,21 @@ class Trust:
         return self.level != TRUST_NONE
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form.
+        """Return ``{"trust": level, "trust_reasons": [{"code", "message"}, ...]}``.
 
         Returns
         -------
         dict
-            ``{"trust": level, "trust_reasons": [{"code": ..., "message": ...}, ...]}``.
         """
         return {"trust": self.level, "trust_reasons": [r.as_dict() for r in self.reasons]}
 
 
 def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
-    """Return the trust of an estimate from its status and warnings (the one rule).
+    """Return the trust of an estimate (or of a bound: converged) from its status and warnings.
 
     Parameters
     ----------
     result : EstimateResult or Bound
-        A bound counts as converged.
     warnings : sequence of SanityWarning
 
     Returns
@@ -75,7 +73,7 @@ def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
 
 
 def bound_trust(bound: object, warnings: Sequence[SanityWarning] = ()) -> Trust:
-    """Return the trust of a Cramér-Rao bound (``tma crlb``): a warning per unobservable direction.
+    """Return the trust of a Cramér-Rao bound: a warning per unobservable direction.
 
     Parameters
     ----------

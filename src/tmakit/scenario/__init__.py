@@ -1,7 +1,7 @@
 """Scenarios: what happens, how it is observed, and the files that describe it.
 
 :mod:`.model` (:class:`Scenario`, :func:`simulate`), :mod:`.truth`, :mod:`.files` (TOML and
-the built-in scenarios), :mod:`.planning_table`, :mod:`.times`, :mod:`.catalog`.  Names are
+the built-in scenarios), :mod:`.planning_table`, :mod:`.catalog`.  Names are
 imported on first use (``__init__.pyi``), so ``tma scenarios`` loads no numerical code.
 """
 

@@ -1,7 +1,10 @@
 """Scenario files: TOML, validated with pydantic, turned into a :class:`~tmakit.scenario.Scenario`.
 
-Units: m, s, degrees (``*_deg``), deg/s (``*_deg_s``), Hz; ``sigma`` in its kind's file unit
-(``docs/scenarios.md``).  ``angle_convention = "east_ccw"`` angles are converted here once.
+Units: m, s, degrees (``*_deg``), deg/s (``*_deg_s``), Hz; ``sigma`` in its kind's file unit;
+``docs/scenarios.md`` lists every field.  ``angle_convention = "east_ccw"`` angles are converted
+here once.  A ``times`` table asks for ``(stop - start) / step + 1`` rows; more than
+:func:`max_samples` (``TMA_MAX_SAMPLES``, default 2,000,000) is refused before anything is
+simulated.
 """
 
 from __future__ import annotations
@@ -10,10 +13,9 @@ import math
 import os
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal, cast
+from typing import Annotated, Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..core.input_files import read_toml
@@ -25,7 +27,6 @@ from .catalog import builtin_scenario_names
 from .catalog import builtin_scenarios as builtin_scenarios  # re-exported
 from .model import MeasurementPlan, Scenario
 from .planning_table import PlanningSpec
-from .times import TimeRange
 
 
 class ScenarioFileError(ValueError):
@@ -36,17 +37,40 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)  # NaN/inf: refused
 
 
+class TimeRange(_Strict):
+    """Sample times ``start, start + step, ...`` up to ``stop`` (s; included to 1e-9 of a step)."""
+
+    start: float
+    stop: float
+    step: float = Field(gt=0)
+
+    def values(self) -> np.ndarray:
+        """Give the sample times (s)."""
+        n = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
+        if n < 1:
+            raise ValueError("stop is before start")
+        if n > max_samples():
+            raise ValueError(f"{n:,} sample times (start {self.start:g}, stop {self.stop:g}, "
+                             f"step {self.step:g} s): more than the limit of "
+                             f"{max_samples():,}; raise it with TMA_MAX_SAMPLES=N")
+        return self.start + self.step * np.arange(n)
+
+
+def max_samples() -> int:
+    """Give the most sample times one ``times`` range may ask for (``TMA_MAX_SAMPLES``)."""
+    try:
+        return max(1, int(os.environ.get("TMA_MAX_SAMPLES", "2000000")))
+    except ValueError:
+        return 2_000_000
+
+
 Times = TimeRange | list[float]
 Point = Annotated[list[float], Field(min_length=2, max_length=3)]
 GeoPoint = Annotated[list[float], Field(min_length=2, max_length=3)]
 
 
 class LegSpec(_Strict):
-    """One leg of a ``legs`` sensor, in file units (a :class:`~tmakit.sensors.Leg`).
-
-    ``duration`` (s, > 0; ``inf`` for a last leg that never ends), ``turn_rate_deg_s`` (deg/s,
-    file's angle convention), ``speed`` (m/s, > 0; None keeps the previous one).
-    """
+    """One leg of a ``legs`` sensor (a :class:`~tmakit.sensors.Leg`)."""
 
     duration: float = Field(gt=0, allow_inf_nan=True,
                             description="seconds; inf for a last leg that never ends")
@@ -55,11 +79,7 @@ class LegSpec(_Strict):
 
 
 class FixedSpec(_Strict):
-    """A sensor that does not move (``type = "fixed"``).
-
-    ``id``; exactly one of ``position`` (ENU ``[x, y(, z)]``, m) and ``position_geodetic``
-    (``[lat, lon(, alt)]``, deg, deg, m).
-    """
+    """A sensor that does not move (``type = "fixed"``)."""
 
     type: Literal["fixed"]
     id: str
@@ -68,11 +88,7 @@ class FixedSpec(_Strict):
 
 
 class LegsSpec(_Strict):
-    """A sensor flying straight legs and constant-rate turns (``type = "legs"``).
-
-    ``id``; exactly one of ``start`` (ENU, m) and ``start_geodetic`` (deg, deg, m);
-    ``start_time`` (s), ``heading_deg`` (deg, file's convention), ``speed`` (m/s, > 0), ``legs``.
-    """
+    """A sensor flying straight legs and constant-rate turns (``type = "legs"``)."""
 
     type: Literal["legs"]
     id: str
@@ -85,11 +101,7 @@ class LegsSpec(_Strict):
 
 
 class WaypointsSpec(_Strict):
-    """A sensor flying straight between waypoints (``type = "waypoints"``).
-
-    ``id``; exactly one of ``points`` (ENU, m) and ``points_geodetic`` (deg, deg, m); ``speed``
-    (m/s) from ``start_time`` (s), or ``times`` (s, one per waypoint).
-    """
+    """A sensor flying straight between waypoints (``type = "waypoints"``)."""
 
     type: Literal["waypoints"]
     id: str
@@ -101,11 +113,7 @@ class WaypointsSpec(_Strict):
 
 
 class RecordedSpec(_Strict):
-    """A sensor track recorded at given times (``type = "recorded"``).
-
-    ``id``, ``times`` (s, increasing, at least two); exactly one of ``positions`` (ENU, m) and
-    ``positions_geodetic`` (deg, deg, m); optional ENU ``velocities`` (m/s).
-    """
+    """A sensor track recorded at given times (``type = "recorded"``)."""
 
     type: Literal["recorded"]
     id: str
@@ -120,10 +128,7 @@ SensorSpec = Annotated[FixedSpec | LegsSpec | WaypointsSpec | RecordedSpec,
 
 
 class TargetSpec(_Strict):
-    """The target: ``motion`` (a model name), ``ref_time`` (s) and ``truth``.
-
-    ``truth`` is SI by name except ``course_deg`` (deg, converted to ``course``).
-    """
+    """The target: a motion model, its reference time and truth (``course_deg`` in deg)."""
 
     motion: str
     ref_time: float = 0.0
@@ -137,12 +142,7 @@ class TargetSpec(_Strict):
 
 
 class EmitterSpec(_Strict):
-    """The emitter's nuisance truth.
-
-    ``carrier_hz`` (Hz), ``carrier_drift_hz_per_s`` (Hz/s), at most one of ``power_constant``
-    (C in W m^n, or ``"free_space"``: (lambda / 4 pi)^2 of Gu et al. (2007), §5, which needs the
-    carrier) and ``power_constant_db`` (dB), ``path_loss_exponent`` (> 0; 2 in free space).
-    """
+    """The emitter's nuisance truth (``power_constant = "free_space"``: Gu et al. (2007), §5)."""
 
     carrier_hz: float | None = Field(default=None, gt=0)
     carrier_drift_hz_per_s: float = 0.0
@@ -152,15 +152,7 @@ class EmitterSpec(_Strict):
 
 
 class MeasurementSpec(_Strict):
-    """One measurement plan in file units (a :class:`~tmakit.scenario.MeasurementPlan`).
-
-    ``kind``, ``sensor``, ``times`` (s); ``sigma`` in the kind's file unit (deg, deg/s, dB, Hz,
-    m, m/s, s) or, for power, ``snr_db`` (dB); range differences: ``pri`` (s) and ``lags``;
-    differences between sensors (``tdoa``, ``fdoa``): ``ref_sensor`` and ``sensor`` (one
-    pair), ``sensors`` (several against the reference) or ``sensor = "all"`` (every other
-    sensor against it), ``noise`` (``shared`` or ``independent``) and, for ``fdoa``,
-    ``known_carrier``.
-    """
+    """One measurement entry in file units (a MeasurementPlan per sensor it names)."""
 
     kind: str
     sensor: str | None = None
@@ -183,12 +175,7 @@ class MeasurementSpec(_Strict):
 
 
 class ScenarioSpec(_Strict):
-    """A whole scenario file, validated (see ``docs/scenarios.md`` for every field).
-
-    ``angle_convention``: headings, courses and turn rates ``"north_cw"`` (default) or
-    ``"east_ccw"``; ``origin``: ``[lat, lon, alt]`` (deg, deg, m), needed by geodetic positions;
-    ``planning``: a steered sensor (:mod:`tmakit.scenario.planning_table`, ``docs/planning.md``).
-    """
+    """A whole scenario file, validated."""
 
     name: str
     title: str = ""
@@ -225,24 +212,24 @@ class _Builder:
     def turn_rate(self, deg_s: float) -> float:
         return math.radians(-deg_s if self.ccw else deg_s)
 
-    def enu(self, where: str, point: list[float] | None, geo: list[float] | None
-            ) -> np.ndarray:
-        if (point is None) == (geo is None):
-            raise ValueError(f"{where}: give exactly one of the ENU and the geodetic form")
-        if point is not None:
-            return np.asarray(point, dtype=float)
+    def enu(self, where: str, given: list[Any] | None, geo: list[Any] | None,
+            what: str = "the ENU and the geodetic form") -> np.ndarray:
+        """Give ENU positions (m) from the ENU or the geodetic form (one point or a list)."""
+        if (given is None) == (geo is None):
+            raise ValueError(f"{where}: give exactly one of {what}")
+        if given is not None:
+            return np.asarray(given, dtype=float)
         assert geo is not None  # (exactly one given)
-        return cast(NDArray[Any], self.enu_many(where, [geo])[0])
-
-    def enu_many(self, where: str, geo: list[list[float]]) -> np.ndarray:
         if self.spec.origin is None:
             raise ValueError(f"{where}: geodetic positions need the scenario's origin "
                              "= [lat, lon, alt]")
         from ..core.geodesy import geodetic_to_enu
 
-        g = np.array([[*p, 0.0][:3] for p in geo], dtype=float)
+        one = bool(geo) and not isinstance(geo[0], list)
+        g = np.array([[*p, 0.0][:3] for p in ([geo] if one else geo)], dtype=float).reshape(-1, 3)
         e, n, u = geodetic_to_enu(g[:, 0], g[:, 1], g[:, 2], tuple(self.spec.origin))
-        return np.column_stack([e, n, u])
+        enu = np.column_stack([e, n, u])
+        return enu[0] if one else enu
 
     def sensor(self, s: Any) -> SensorTrack:
         where = f"sensor {s.id!r}"
@@ -254,15 +241,10 @@ class _Builder:
             start = self.enu(where, s.start, s.start_geodetic)
             return LegsTrack(start, self.heading(s.heading_deg), s.speed, legs, s.start_time)
         if isinstance(s, WaypointsSpec):
-            if (s.points is None) == (s.points_geodetic is None):
-                raise ValueError(f"{where}: give exactly one of points and points_geodetic")
-            pts = (np.asarray(s.points, float) if s.points is not None
-                   else self.enu_many(where, s.points_geodetic or []))
+            pts = self.enu(where, s.points, s.points_geodetic, "points and points_geodetic")
             return WaypointTrack(pts, s.speed, s.times, s.start_time)
-        if (s.positions is None) == (s.positions_geodetic is None):
-            raise ValueError(f"{where}: give exactly one of positions and positions_geodetic")
-        pos = (np.asarray(s.positions, float) if s.positions is not None
-               else self.enu_many(where, s.positions_geodetic or []))
+        pos = self.enu(where, s.positions, s.positions_geodetic,
+                       "positions and positions_geodetic")
         return RecordedTrack(s.times, pos, s.velocities)
 
     def motion_and_truth(self) -> tuple[MotionModel, dict[str, float]]:

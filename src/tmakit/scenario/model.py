@@ -24,7 +24,7 @@ from ..motion import MotionModel
 from ..observation import ObservationModel
 from ..sensors import SensorTrack
 
-__all__ = ["MeasurementPlan", "Scenario", "noisy_values", "refuse_impossible", "simulate"]
+__all__ = ["MeasurementPlan", "Scenario", "simulate"]
 
 
 @dataclass
@@ -33,32 +33,25 @@ class MeasurementPlan:
 
     Parameters
     ----------
-    kind : str
-        A key of :data:`tmakit.measurements.KINDS`.
-    sensor : str
-        A key of :attr:`Scenario.sensors`.
+    kind, sensor : str
+        A key of :data:`tmakit.measurements.KINDS`; a key of :attr:`Scenario.sensors`.
     times : array_like
         Sample times, s, non-empty and increasing.
     sigma : float, optional
         Noise std, SI; for range differences that of one pulse interval.
     snr_db : float, optional
         Power only, instead of ``sigma``: SNR_p (dB) of ``P (1 + e)``, ``var(e) = 1/SNR_p``.
-    pri : float, optional
-        Range differences only: the pulse repetition interval, s.
-    lags : tuple of int, optional
-        Range differences only: intervals each difference reaches back (>= 1).
-    ref_sensor : str, optional
-        ``tdoa``/``fdoa`` only, required: the reference sensor (not ``sensor``).
-    noise : str, optional
-        ``tdoa``/``fdoa`` only: ``"shared"`` (default) or ``"independent"``.
-    known_carrier : bool, optional
-        ``fdoa`` only: the estimators are told the carrier.
+    pri, lags : float and tuple of int, optional
+        Range differences only: the pulse repetition interval (s), the intervals back (>= 1).
+    ref_sensor, noise, known_carrier : str, str and bool, optional
+        ``tdoa``/``fdoa`` only: the reference sensor (required), ``"shared"`` (default) or
+        ``"independent"`` noise, and (``fdoa``) whether the estimators are told the carrier.
 
     Raises
     ------
     ValueError
-        If the kind is unknown, the times are empty or not increasing, the noise is missing or
-        not positive, or a range-difference or between-sensor plan lacks what it needs.
+        If the kind is unknown, the times are empty or not increasing, or the noise or a
+        difference's reference, interval or lags are missing or wrong.
 
     References
     ----------
@@ -77,7 +70,7 @@ class MeasurementPlan:
     known_carrier: bool = False
 
     def __post_init__(self) -> None:
-        """Check the plan and normalise ``times`` (float array) and ``lags`` (ints)."""
+        """Check the plan and normalise ``times`` (floats) and ``lags`` (ints)."""
         if self.kind not in KINDS:
             raise ValueError(f"unknown measurement kind {self.kind!r}; expected one of "
                              f"{', '.join(KINDS)}")
@@ -108,32 +101,10 @@ class MeasurementPlan:
             self.lags = tuple(int(lag) for lag in self.lags)
 
 
-def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
-                 gen: np.random.Generator,
-                 shared: dict[tuple[str, str, float], float] | None = None
-                 ) -> NDArray[np.float64]:
-    """Draw the plan's measurement noise on its noise-free values.
-
-    Parameters
-    ----------
-    plan : MeasurementPlan
-    rows : MeasurementSet
-        The plan's rows.
-    clean : ndarray, shape (n,)
-        Noise-free values, SI.
-    gen : numpy.random.Generator
-    shared : dict, optional
-        One run's draws of the reference sensors' errors by (kind, reference, time), filled here.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        Noisy values, SI.
-
-    Raises
-    ------
-    ValueError
-        If a power plan's SNR_p is so low that a power becomes negative.
+def _noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
+                  gen: np.random.Generator, shared: dict[tuple[str, str, float], float]
+                  ) -> NDArray[np.float64]:
+    """Draw the plan's noise on its noise-free values (SI); ``shared``: one run's reference errors.
 
     References
     ----------
@@ -151,11 +122,10 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
     if KINDS[plan.kind].between_sensors and plan.noise == "shared":
         # sigma / sqrt(2) (own error - reference's): covariance sigma_i sigma_j (I + 11')/2
         own = gen.standard_normal(clean.shape)
-        draws = {} if shared is None else shared
         keys = [(plan.kind, str(plan.ref_sensor), t) for t in rows.time.tolist()]
-        new = [k for k in dict.fromkeys(keys) if k not in draws]
-        draws.update(zip(new, gen.standard_normal(len(new)).tolist(), strict=True))
-        ref = np.array([draws[k] for k in keys])
+        new = [k for k in dict.fromkeys(keys) if k not in shared]
+        shared.update(zip(new, gen.standard_normal(len(new)).tolist(), strict=True))
+        ref = np.array([shared[k] for k in keys])
         return cast(NDArray[np.float64], clean + rows.sigma_si * (own - ref) / np.sqrt(2.0))
     if KINDS[plan.kind].uses_reference and not KINDS[plan.kind].between_sensors:
         # One independent noise term per pulse interval, summed over each difference.
@@ -169,25 +139,9 @@ def noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.
     return clean + gen.standard_normal(clean.shape) * rows.sigma_si
 
 
-def refuse_impossible(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
-                      value_si: NDArray[np.float64], rng: object) -> None:
-    """Refuse a noisy draw no sensor can report (a negative range, ...); noise is never redrawn.
-
-    Parameters
-    ----------
-    plan : MeasurementPlan
-    rows : MeasurementSet
-        The plan's rows.
-    clean, value_si : ndarray, shape (n,)
-        Noise-free and noisy values, SI.
-    rng : object
-        The random source or seed (a seed is named in the message).
-
-    Raises
-    ------
-    ValueError
-        If a noisy value is outside the kind's range, naming sensor, time and seed.
-    """
+def _refuse_impossible(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
+                       value_si: NDArray[np.float64], rng: object) -> None:
+    """Refuse a noisy draw no sensor can report (a negative range, ...); noise is never redrawn."""
     cls = KINDS[plan.kind]
     if cls.value_range is None:
         return
@@ -214,21 +168,16 @@ class Scenario:
 
     Parameters
     ----------
-    name : str
-    motion : MotionModel
-    truth : dict of str to float
-        True motion parameters by name, SI.
-    sensors : dict of str to SensorTrack
-    plans : list of MeasurementPlan
+    name, description, source : str
+        Its name, one-line title and where it came from (a file path, for messages).
+    motion, truth : MotionModel and dict of str to float
+        The target's motion model and its true parameters by name, SI.
+    sensors, plans : dict of str to SensorTrack and list of MeasurementPlan
     nuisance : dict of str to float, optional
-        True nuisance values: ``carrier`` (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db``,
+        True ``carrier`` (Hz), ``carrier_drift`` (Hz/s), ``power_constant_db``,
         ``path_loss_exponent``.
-    description : str, optional
-        One-line title.
     origin : tuple of float, optional
         ``(lat, lon, alt)`` (deg, deg, m) of the ENU origin.
-    source : str, optional
-        Where it came from (a file path), for messages.
 
     Attributes
     ----------
@@ -313,21 +262,18 @@ class Scenario:
                 max(float(p.times[-1]) for p in self.plans))
 
     def target_states(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the true target states at times ``t``.
+        """Give the true target states ``(n, 6)`` (ENU, m and m/s) at times ``t`` (s).
 
         Parameters
         ----------
         t : array_like
-            Times, s.
 
         Returns
         -------
         numpy.ndarray
-            ENU states ``(n, 6)``, m and m/s.
         """
         return self.motion.states(self.theta, np.atleast_1d(np.asarray(t, dtype=float)))
 
-    # -- simulation ------------------------------------------------------------------------
     def _layout(self, plan: MeasurementPlan,
                 states: dict[tuple[str, bytes], NDArray[np.float64]]) -> MeasurementSet:
         """Lay out the rows of one plan with noise-free placeholders for value and sigma."""
@@ -368,19 +314,17 @@ class Scenario:
                                       ref_state, check=False)  # values: simulate_many
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
-        """Observe the scenario.
+        """Observe the scenario: rows by sensor in time order, with metadata (an int seed too).
 
         Parameters
         ----------
         rng : numpy.random.Generator, int or None, optional
-            Random source or seed.
         noise : bool, optional
             Add the plans' noise (False: exact predictions).
 
         Returns
         -------
         MeasurementSet
-            Rows grouped by sensor, in time order, with metadata (the seed if ``rng`` is an int).
 
         Raises
         ------
@@ -397,7 +341,6 @@ class Scenario:
         ----------
         rngs : sequence of numpy.random.Generator, int or None
         noise : bool, optional
-            Add the plans' noise.
 
         Returns
         -------
@@ -426,7 +369,6 @@ class Scenario:
         ----------
         rngs : sequence of numpy.random.Generator, int or None
         noise : bool, optional
-            Add the plans' noise.
 
         Returns
         -------
@@ -453,13 +395,13 @@ class Scenario:
         for i in range(len(rngs) + 1):
             gen = as_generator(rngs[i]) if noise and i < len(rngs) else None
             shared: dict[tuple[str, str, float], float] = {}  # the reference sensors' errors
-            parts = [clean if gen is None else noisy_values(plan, rows, clean, gen, shared)
+            parts = [clean if gen is None else _noisy_values(plan, rows, clean, gen, shared)
                      for plan, rows, clean, _ in plans]
             for k, (plan, rows, clean, period) in enumerate(plans):
                 if period is not None:  # files carry bearings in [0, 360) deg
                     parts[k] = np.mod(parts[k], period)
                 if gen is not None:
-                    refuse_impossible(plan, rows, clean, parts[k], rngs[i])
+                    _refuse_impossible(plan, rows, clean, parts[k], rngs[i])
             values[i] = np.concatenate(parts)[order]
         template.value_si, values = values[-1], values[:-1]
         # NaN truth, infinite sigma, ...: the first set that breaks a rule names its rows, as
@@ -535,9 +477,7 @@ def simulate(scenario: Scenario, rng: RngLike = None, noise: bool = True) -> Mea
     ----------
     scenario : Scenario
     rng : numpy.random.Generator, int or None, optional
-        Random source or seed.
     noise : bool, optional
-        Add the measurement noise.
 
     Returns
     -------

@@ -1,8 +1,8 @@
 """The ``[planning]`` table of a scenario file: a steerable sensor, its limits and its planner.
 
 The table's pydantic schema (Hurtado & Nehorai (2008) planning; ``docs/planning.md`` lists every
-field), validated inside :class:`~tmakit.scenario.files.ScenarioSpec`;
-:mod:`tmakit.planning.setup` builds the planner from it.  Units as in the rest of the file.
+field with its unit), validated inside :class:`~tmakit.scenario.files.ScenarioSpec`;
+:mod:`tmakit.planning.setup` builds the planner from it.
 """
 
 from __future__ import annotations
@@ -26,11 +26,7 @@ class _Strict(BaseModel):
 
 
 class LimitsSpec(_Strict):
-    """``[planning.limits]``: the platform's limits (each optional; default: none).
-
-    ``min_speed``, ``max_speed`` (m/s), ``max_turn_rate_deg_s`` (deg/s), ``max_acceleration``
-    (m/s^2), ``max_climb_rate`` (m/s), ``min_altitude``, ``max_altitude`` (m, ENU up).
-    """
+    """``[planning.limits]``: the platform's limits (each optional; default: none)."""
 
     min_speed: float | None = Field(default=None, ge=0)
     max_speed: float | None = Field(default=None, gt=0)
@@ -42,11 +38,7 @@ class LimitsSpec(_Strict):
 
 
 class ActionsSpec(_Strict):
-    """``[planning.actions]``: the candidate actions of every decision (all combinations).
-
-    ``heading_changes_deg`` (deg per step, file's angle convention), ``speed_factors`` (on the
-    current speed, default ``[1.0]``), ``climb_rates`` (m/s, optional: 3-D platforms).
-    """
+    """``[planning.actions]``: the candidate actions of every decision (all combinations)."""
 
     heading_changes_deg: list[float] = Field(min_length=1)
     speed_factors: list[Annotated[float, Field(gt=0)]] = Field(default=[1.0], min_length=1)
@@ -54,20 +46,14 @@ class ActionsSpec(_Strict):
 
 
 class PlannedMeasurementSpec(_Strict):
-    """``[[planning.measurements]]``: one row measured at the end of every step.
-
-    ``kind`` (a measurement kind), ``sigma`` (> 0, in the kind's file unit: deg, m, m/s, Hz...).
-    """
+    """``[[planning.measurements]]``: one row measured at the end of every step."""
 
     kind: str
     sigma: float = Field(gt=0, description="in the kind's file unit")
 
 
 class PriorSpec(_Strict):
-    """``[planning.prior]``: the tracker's and the bound's Gaussian prior about the truth.
-
-    ``position_std`` (m, per axis), ``velocity_std`` (m/s, per axis).
-    """
+    """``[planning.prior]``: the tracker's and the bound's Gaussian prior about the truth."""
 
     position_std: float = Field(gt=0)
     velocity_std: float = Field(gt=0)
@@ -78,11 +64,7 @@ Polygon = Annotated[list[Vertex], Field(min_length=3)]
 
 
 class RangeConstraintSpec(_Strict):
-    """A ``min_range`` or ``max_range`` constraint to the estimated target.
-
-    ``distance`` (m, horizontal), ``hard`` (default true), ``weight`` (penalty, when not
-    hard; default :data:`tmakit.planning.constraints.DEFAULT_PENALTY`).
-    """
+    """A ``min_range`` or ``max_range`` constraint to the estimated target."""
 
     type: Literal["min_range", "max_range"]
     distance: float = Field(gt=0)
@@ -115,24 +97,14 @@ ConstraintSpec = Annotated[RangeConstraintSpec | KeepOutSpec | AreaSpec,
 
 
 class MissionSpec(_Strict):
-    """``[planning.mission]``: the mission planner's legs and range hypotheses.
-
-    ``leg_duration`` (s, a whole number of intervals; default a tenth of the duration),
-    ``hypotheses`` (range hypotheses, default 3; 1 plans at the tracker's cloud as it is).
-    """
+    """``[planning.mission]``: the mission planner's legs and range hypotheses."""
 
     leg_duration: float | None = Field(default=None, gt=0)
     hypotheses: int = Field(default=3, ge=1, le=9)
 
 
 class PlanningSpec(_Strict):
-    """The ``[planning]`` table, validated (``docs/planning.md`` for every field).
-
-    ``sensor`` (the steered ``[[sensors]]`` id), ``planner``, ``mission``, ``platform`` (a
-    named configuration), ``limits``, ``actions``, ``interval`` (s), ``measurements``,
-    ``criterion``, ``weights``, ``gamma``, ``horizon``, ``constraints``, ``tracker``,
-    ``particles``, ``q`` (m/s^2), ``prior``, ``duration`` (s), ``runs``, ``start_time`` (s).
-    """
+    """The ``[planning]`` table, validated (``docs/planning.md`` lists every field)."""
 
     sensor: str
     planner: Literal["auto", "mission", "horizon"] = "auto"

@@ -38,8 +38,6 @@ def _arr(a: ArrayLike) -> Array:
     return np.asarray(a, dtype=float)
 
 
-
-
 def _turn_factors(z: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ...]:
     """``E1(z) = (e^z - 1) / z`` and ``E2(z) = (e^z (z - 1) + 1) / z^2``, stable at 0."""
     shape = np.shape(z)
@@ -190,21 +188,12 @@ class PlatformState:
     @classmethod
     def trusted(cls, position: Array, heading: Array, speed: Array, climb_rate: Array,
                 time: float) -> PlatformState:
-        """Make a state from fields already checked, without checking them again (fast path).
-
-        For code that derives a state from checked states (a kinematic step): no broadcasting,
-        no finiteness or sign checks; the heading is wrapped to ``(-pi, pi]`` as by the
-        constructor and every field is copied as a float array.
+        """Make a state from fields derived from checked ones: copied, heading wrapped, no check.
 
         Parameters
         ----------
-        position : ndarray, shape (*shape, 3)
-            ENU position (m).
-        heading, speed, climb_rate : ndarray, shape shape
-            Heading (rad clockwise from North), speed (m/s, >= 0), climb rate (m/s), all of
-            the batch shape ``shape`` of ``position[..., 0]``.
-        time : float
-            Time (s).
+        position, heading, speed, climb_rate, time
+            As for the constructor, of one batch shape (``position`` ``(*shape, 3)``).
 
         Returns
         -------
@@ -223,18 +212,10 @@ class PlatformState:
              time: float) -> PlatformState:
         """Make a state holding the given arrays as they are: no copy, no check, no wrap.
 
-        For compiled kinematics that write every field into one buffer (already wrapped and
-        derived from checked states).
-
         Parameters
         ----------
-        position : ndarray, shape (*shape, 3)
-            ENU position (m).
-        heading, speed, climb_rate : ndarray, shape shape
-            Heading (rad clockwise from North, in ``(-pi, pi]``), speed (m/s, >= 0), climb
-            rate (m/s).
-        time : float
-            Time (s).
+        position, heading, speed, climb_rate, time
+            As for :meth:`trusted`, the heading already in ``(-pi, pi]``.
 
         Returns
         -------
@@ -586,19 +567,16 @@ class PlatformKinematics:
 
     def sensor_states(self, state: PlatformState, actions: Actions, interval: float,
                       times: ArrayLike) -> Array:
-        """Return the sensor states along every candidate step at ``times``.
+        """Return ``self.step(state, actions, interval).sensor_states(times)`` (m, m/s).
 
         Parameters
         ----------
-        state, actions, interval
-            As for :meth:`step` (``interval`` in s).
-        times : array_like, shape (n,)
-            Times (s) inside the step.
+        state, actions, interval, times
+            As for :meth:`step` and :meth:`Step.sensor_states`.
 
         Returns
         -------
         ndarray, shape (*shape, n, 6)
-            ``self.step(state, actions, interval).sensor_states(times)`` (m, m/s).
         """
         return self.step(state, actions, interval).sensor_states(times)
 
@@ -755,14 +733,11 @@ HURTADO_NEHORAI_2008 = PlatformConfiguration(
            "[50, 200] m/s, heading -10..+10 degrees in 5-degree steps, one step per 0.5 s "
            "pulse repetition interval",
 )
-"""The 15 actions of Hurtado & Nehorai (2008), section 5, example 1.
+"""The 15 actions of Hurtado & Nehorai (2008), section 5, example 1: index ``5 * f + h``.
 
-Index ``5 * f + h``: speed factor ``(0.9, 1.0, 1.1)[f]``, heading change
-``(-10, -5, 0, +5, +10)[h]`` degrees.  The paper gives the limits per step; here the speed
-range is [50, 200] m/s (a factor that would leave it is clipped to it and reported), the
-turn-rate limit 10 degrees per 0.5 s step (20 deg/s, reached by the +-10 degree actions), no
-acceleration limit (the paper states none); a heading change is flown as a constant turn
-rate and constant acceleration (the paper does not say how)."""
+Speed factor ``(0.9, 1.0, 1.1)[f]`` (clipped to [50, 200] m/s), heading change
+``(-10, -5, 0, +5, +10)[h]`` degrees (20 deg/s at most), no acceleration limit (the paper
+states none); a heading change is flown as a constant turn rate and acceleration."""
 
 PLATFORM_CONFIGURATIONS: dict[str, PlatformConfiguration] = {
     HURTADO_NEHORAI_2008.name: HURTADO_NEHORAI_2008,

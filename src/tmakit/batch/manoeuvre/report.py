@@ -13,9 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...core.arrays import Array
-from ...motion import PiecewiseCurvilinear
-from ...motion.curvilinear_batch import ForwardPiecewise
-from ...motion.fixed import FixedParameters
+from ...motion import FixedParameters, PiecewiseCurvilinear
+from ...motion.curvilinear import ForwardPiecewise
 from ...observation import ObservationModel
 from ...results.estimate import EstimateResult, assemble_result
 from ...results.status import CONVERGED, DIVERGED, NOT_CONVERGED

@@ -21,7 +21,7 @@ from ...core import blas
 from ...core.arrays import Array
 from ...data import MeasurementSet
 from ...motion import ConstantVelocity
-from ...motion.curvilinear_batch import ForwardPiecewise
+from ...motion.curvilinear import ForwardPiecewise
 from ...observation import ObservationModel
 from ...results.nuisance import KnownNuisance
 from ..solver import SolveResult, VarProProblem, levenberg_marquardt
