@@ -328,16 +328,20 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
         print_track(tr, truth, rows, meas, units)
         print_answers(answer, units, meas)
         out.print(f"trust: {trust.level}", highlight=False)
-    print_warnings(warnings)
+    print_warnings([r for r in trust.reasons if r.code == "held-nuisance"] + warnings)
 
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
-    """Return how far to trust a track: ``warning`` when its innovations are inconsistent."""
+    """Return how far to trust a track: ``warning`` on inconsistent NIS or a held nuisance."""
     import numpy as np
 
+    from .. import tracking
     from ..results import TRUST_OK, TRUST_WARNING, SanityWarning, Trust
 
     reasons = list(warnings)
+    start = tracking.start_record(tr)
+    if isinstance(start, tracking.BatchStart) and start.held_nuisance_note():
+        reasons.insert(0, SanityWarning("held-nuisance", start.held_nuisance_note()))
     used = tr.dof > 0
     if np.any(used):
         verdict = nis_verdict(float(np.sum(tr.nis[used])), int(np.sum(tr.dof[used])))

@@ -30,11 +30,13 @@ from ..data import MeasurementSet
 from ..filters import BearingPrior, FirstBearing, Track, first_bearing, group_times
 from ..measurements import model_for
 from ..motion import ConstantVelocity
+from ..observation import ObservationModel
 from ..results.estimate import EstimateResult
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
 
-__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "MIN_WINDOW", "BatchInitiator",
+__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "HELD_NUISANCE_CHI2", "MIN_WINDOW",
+           "BatchInitiator",
            "BatchStart", "BearingInitiator", "BearingStart", "Confirmation", "Initiation",
            "Initiator", "PriorInitiator", "PriorStart", "Rejection", "StartRecord",
            "WindowChoice", "WindowEstimate", "search_window"]
@@ -46,6 +48,10 @@ DEFAULT_MAX_RELATIVE_STD = 0.25
 CONFIRM_P_VALUE = 1e-3
 #: The smallest initial window tried (distinct measurement times).
 MIN_WINDOW = 8
+#: A batch start's nuisance value, held fixed by the filter, biases the track beyond its
+#: covariances when a one-sigma error in it adds more than this to the chi-square of the rows
+#: that follow.
+HELD_NUISANCE_CHI2 = 1.0
 
 
 @dataclass(frozen=True)
@@ -191,6 +197,9 @@ class BatchStart:
         The innovation test of this start.
     rejected : tuple of Rejection
         Earlier starts that their innovation tests rejected.
+    held_nuisance : dict of str to float
+        Per nuisance value the filter holds fixed at the estimate: the chi-square that a
+        one-sigma error in it adds over the rows after the start.
     """
 
     method: ClassVar[str] = "batch"
@@ -208,6 +217,27 @@ class BatchStart:
     windows_tried: int
     confirmation: Confirmation | None = None
     rejected: tuple[Rejection, ...] = field(default_factory=tuple)
+    held_nuisance: dict[str, float] = field(default_factory=dict)
+
+    def held_nuisance_note(self) -> str:
+        """Say which held nuisance values bias the track beyond its covariances.
+
+        Returns
+        -------
+        str
+            One sentence; "" when a one-sigma error in each adds at most
+            :data:`HELD_NUISANCE_CHI2` to the chi-square of the rows after the start.
+        """
+        bad = {n: c for n, c in self.held_nuisance.items() if c > HELD_NUISANCE_CHI2}
+        if not bad:
+            return ""
+        held = ", ".join(f"{n} = {v:.6g} ± {sd:.2g} (chi2 {bad[n]:.3g})"
+                         for n, (v, sd) in self.estimate.nuisance.items() if n in bad)
+        return (f"the filter holds the start's nuisance estimate fixed ({held}: the chi-square "
+                "that a one-sigma error in it adds over the rows after the start); its error "
+                "biases the track and is not in the track's covariances, so the ellipses may "
+                "miss the truth: a batch estimate (tma estimate) eliminates it, or give it as "
+                "known with a prior")
 
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
@@ -217,7 +247,8 @@ class BatchStart:
         dict
             ``method`` (``"batch"``), ``window``, ``rows``, ``time`` (s), ``status``, ``chi2``,
             ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``,
-            ``nuisance`` (value and std by name), ``confirmation`` and ``rejected``.
+            ``nuisance`` (value and std by name), ``held_nuisance`` (chi-square by name),
+            ``held_nuisance_note``, ``confirmation`` and ``rejected``.
         """
         est = self.estimate
         out: dict[str, Any] = {
@@ -233,6 +264,8 @@ class BatchStart:
             "windows_tried": self.windows_tried,
             "nuisance": {name: {"value": v, "std": sd}
                          for name, (v, sd) in est.nuisance.items()},
+            "held_nuisance": dict(self.held_nuisance),
+            "held_nuisance_note": self.held_nuisance_note(),
         }
         if self.confirmation is not None:
             out["confirmation"] = self.confirmation.as_dict()
@@ -728,7 +761,8 @@ class BatchInitiator(Initiator):
             assert w.estimate is not None
             filt = setup.from_estimate(w.estimate, w.time)
             mean, cov, nuisance = filt.state, filt.covariance, dict(filt.nuisance)
-            after = filt.run(meas.take(meas.time > w.time + 1e-9))
+            rest = meas.take(meas.time > w.time + 1e-9)
+            after = filt.run(rest)
             check = _confirmation(after, w.window)
             # (the whole data as window leaves no updates to test: p = 1, accepted)
             if not self.confirm or check.p_value >= self.confirm_p_value:
@@ -738,8 +772,22 @@ class BatchInitiator(Initiator):
         start = BatchStart(w.time, mean, cov, nuisance, setup.state_names, w.estimate,
                            w.window, w.rows, float(w.relative_position_std),
                            None if self.init_window is not None else self.max_relative_std,
-                           found.windows_tried, check, tuple(rejected))
+                           found.windows_tried, check, tuple(rejected),
+                           _held_nuisance(w.estimate, rest, setup.options))
         return Initiation(start, _prepend(after, w.time, mean, cov, setup.state_names))
+
+
+def _held_nuisance(result: EstimateResult, rows: MeasurementSet,
+                   options: Mapping[str, Mapping[str, object]]) -> dict[str, float]:
+    """Give per estimated nuisance the chi-square a one-sigma error in it adds over ``rows``."""
+    if not result.nuisance or len(rows) == 0:
+        return {}
+    obs = ObservationModel(rows, result.motion, options or None)
+    values = {n: v for n, (v, _) in result.nuisance.items()}
+    _, j_nu = obs.jacobian(result.estimate, obs.nuisance_vector(values))
+    return {n: float(np.sum((j_nu[:, j] * result.nuisance[n][1] / rows.sigma_si) ** 2))
+            for j, n in enumerate(obs.nuisance_names)
+            if n in result.nuisance and np.isfinite(result.nuisance[n][1])}
 
 
 def _confirmation(after: Track, window: int) -> Confirmation:
