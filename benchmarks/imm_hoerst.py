@@ -1,9 +1,10 @@
-"""IMM against the constant-velocity EKF and the batch curvilinear ML on ``hoerst2010``.
+"""IMM and MM-PF against the constant-velocity EKF and the batch curvilinear ML on ``hoerst2010``.
 
 Bearings only (the scenario's azimuth rows), each filter started by ``tma track``'s batch
 window.  Prints, over seeded runs, the ratio of the IMM's RMS position error over the whole
 track to the CV EKF's (issue 28: <= 0.5) and, at the final time, the ratio of the IMM's RMS
-error to the batch piecewise-curvilinear ML estimate's (issue 28: <= 1.5).
+error to the batch piecewise-curvilinear ML estimate's (issue 28: <= 1.5); the same for the
+multiple-model particle filter (``mmpf``, the same models) beside them.
 
     python benchmarks/imm_hoerst.py --runs 100 --seed 1
 """
@@ -29,6 +30,7 @@ def main() -> None:
                         help="the IMM's manoeuvre models (m/s^2; default the filter's)")
     parser.add_argument("--turn-rate", type=float, nargs="*", default=(),
                         help="the IMM's coordinated-turn models (deg/s)")
+    parser.add_argument("--particles", type=int, default=5000, help="the MM-PF's particles")
     parser.add_argument("--no-batch", action="store_true", help="skip the batch ML fits")
     args = parser.parse_args()
     settings: dict[str, object] = {"turn_rates": np.radians(args.turn_rate).tolist()}
@@ -36,14 +38,16 @@ def main() -> None:
         settings["model_q"] = args.model_q
     scn = tk.load_scenario("hoerst2010")
     seeds = np.random.SeedSequence(args.seed).spawn(args.runs)
-    sq: dict[str, list[np.ndarray]] = {"ekf": [], "imm": []}
-    final: dict[str, list[float]] = {"ekf": [], "imm": [], "batch": []}
-    diverged = {"ekf": 0, "imm": 0}
+    names = ("ekf", "imm", "mmpf")
+    sq: dict[str, list[np.ndarray]] = {k: [] for k in names}
+    final: dict[str, list[float]] = {"batch": [], **{k: [] for k in names}}
+    diverged = dict.fromkeys(names, 0)
     for ss in seeds:
         sim = scn.simulate(np.random.default_rng(ss))
         meas = sim.take(np.flatnonzero(sim.kind == "bearing"))
-        for name in ("ekf", "imm"):
-            tr = tk.track(meas, name, settings=settings if name == "imm" else None)
+        for name in names:
+            pf = {"particles": args.particles, "rng": ss} if name == "mmpf" else {}
+            tr = tk.track(meas, name, settings=None if name == "ekf" else settings, **pf)
             truth = truth_states(meas, tr.times, 2)
             e = np.linalg.norm(tr.states[:, :2] - truth[:, :2], axis=1)
             sq[name].append(e**2)
@@ -61,14 +65,18 @@ def main() -> None:
     fin = {k: float(np.sqrt(np.mean(v))) for k, v in final.items() if v}
     print(f"hoerst2010, bearings only, {args.runs} runs, seed {args.seed}, IMM {settings}")
     print(f"RMS position error over the track: CV EKF {rms['ekf']:.0f} m, IMM "
-          f"{rms['imm']:.0f} m; ratio IMM/EKF {rms['imm'] / rms['ekf']:.3f} (target <= 0.5)")
-    line = f"final-time RMS: CV EKF {fin['ekf']:.0f} m, IMM {fin['imm']:.0f} m"
+          f"{rms['imm']:.0f} m, MM-PF ({args.particles} particles) {rms['mmpf']:.0f} m; ratio "
+          f"to the EKF: IMM {rms['imm'] / rms['ekf']:.3f}, MM-PF {rms['mmpf'] / rms['ekf']:.3f}"
+          " (target <= 0.5)")
+    line = (f"final-time RMS: CV EKF {fin['ekf']:.0f} m, IMM {fin['imm']:.0f} m, MM-PF "
+            f"{fin['mmpf']:.0f} m")
     if "batch" in fin:
-        line += (f", batch curvilinear ML {fin['batch']:.0f} m; ratio IMM/batch "
-                 f"{fin['imm'] / fin['batch']:.3f} (target <= 1.5)")
+        line += (f", batch curvilinear ML {fin['batch']:.0f} m; ratio to the batch: IMM "
+                 f"{fin['imm'] / fin['batch']:.3f}, MM-PF {fin['mmpf'] / fin['batch']:.3f} "
+                 "(target <= 1.5)")
     print(line)
     print(f"runs whose NIS says diverged (tma track's check): CV EKF {diverged['ekf']}, "
-          f"IMM {diverged['imm']}")
+          f"IMM {diverged['imm']}, MM-PF {diverged['mmpf']}")
 
 
 if __name__ == "__main__":
