@@ -155,3 +155,14 @@ def test_tma_track_mmpf_json_and_refusals(obs):
         result = runner.invoke(app, ["track", str(obs), "--filter", "mmpf", *args])
         assert result.exit_code == 2 and words in result.output, result.output
         assert "Traceback" not in result.output
+
+
+def test_tma_track_mmpf_starts_at_the_first_bearing(obs):
+    result = runner.invoke(app, ["track", str(obs), "--filter", "mmpf", "--particles", "2000",
+                                 "--seed", "1", "--model-q", "0.02", "--range-prior",
+                                 "2000:30000", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert data["start"]["method"] == "first-bearing" and data["time"][0] == 1.0
+    assert len(data["model_probabilities"]) == len(data["time"])
+    assert data["model_probabilities"][0] == [m["prior"] for m in data["models"]]
