@@ -45,6 +45,7 @@ def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
     lin = Linearisation(obs, theta, h0.reshape(*batch, rel_map.m),
                         np.zeros((*batch, rel_map.m, 0)))
     lin.planar_jacobian = jac.T.reshape(*batch, rel_map.m, rel_map.p)
+    lin.relative = rel.T.reshape(*batch, rel_map.m, 2)
     lin.planar_again = lambda: _jacobian_again(obs, theta, weights)
     lin.whitened = weights is not None
     return lin
@@ -202,6 +203,9 @@ class Linearisation:
         self.d_h0: Array | None = None
         self.d_h0_ref: Array | None = None
         self.d_a: list[tuple[str, Array | None, Array | None]] = []
+        #: The relative states ``(..., n, c)`` it was made from (east and north first; the
+        #: planar path makes these two alone), or None.
+        self.relative: Array | None = None
         #: The Jacobian ``(..., n, p)`` made by the planar path (:mod:`.planar`), or None,
         #: handed over on the first call of :meth:`jacobian` (the caller may scale it), then
         #: made again by ``planar_again``.
