@@ -183,10 +183,10 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
     with np.errstate(divide="ignore", invalid="ignore"):  # on a sensor: refused just below
         lin = obs.linearisation(theta)
     check_off_sensors(obs, theta, lin)
-    values = _nuisance_values(meas, nuisance)
-    if known is not None:
-        values = known.over(values)
-    nu = obs.nuisance_vector(values)
+    nu = np.zeros(0)
+    if obs.n_nuisance:  # (no values to gather otherwise)
+        values = _nuisance_values(meas, nuisance)
+        nu = obs.nuisance_vector(values if known is None else known.over(values))
     info = _grouped_information(obs, lin, nu, known)
     names = motion.param_names + (() if known else obs.nuisance_names)
     vals = theta if known else np.concatenate([theta, nu])
