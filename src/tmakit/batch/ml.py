@@ -13,7 +13,7 @@ covariance is the inverse Fisher information at the estimate.
   3-D track and its mirror image through the sensors' plane fit alike: the one above is
   reported (:func:`prefer_above`).
 - With sensor position errors (Ho, Lu & Kovavisaruch (2007)'s setting) the errors are
-  integrated out into the noise ``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.sensor_errors`):
+  integrated out into the noise ``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.noise`):
   the fit starts from the ordinary ML and refits twice with that noise linearised at the
   estimate (:func:`estimate_with_sensor_errors`).
 """
@@ -32,8 +32,8 @@ from ..core.frames import wrap_angle_own
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..observation.noise import effective_noise
 from ..observation.planar import gradient_of_rows, planar_gradient_rows
-from ..observation.sensor_errors import effective_noise
 from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.observability import full_rank
