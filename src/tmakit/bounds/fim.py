@@ -5,7 +5,7 @@
 eqs. 17-18; Hörst & Oispuu (2010), eq. 9).  A singular information is never inverted blindly:
 unobservable directions are named and their std are infinite.  With sensor position errors
 (:func:`crlb_with_sensor_errors`, Ho, Lu & Kovavisaruch (2007)) the rows' noise is
-``R + H_b Q_b H_b'`` (:func:`tmakit.observation.sensor_errors.effective_noise`).
+``R + H_b Q_b H_b'`` (:func:`tmakit.observation.noise.effective_noise`).
 """
 
 from __future__ import annotations
@@ -20,8 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import Linearisation, ObservationModel
-from ..observation.noise import NoiseModel
-from ..observation.sensor_errors import effective_noise
+from ..observation.noise import NoiseModel, effective_noise
 from ..results.bound import Bound, bound_from_information
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 
