@@ -191,12 +191,12 @@ def test_known_nuisance_runs_through_the_manoeuvre_estimator_as_one_type(monkeyp
 
 def test_ml_by_motion_reads_a_name_once_and_sends_fixed_models_straight_to_ml(gu, meas,
                                                                             monkeypatch):
-    import tmakit.batch.dispatch as dispatch
     import tmakit.batch.manoeuvre.estimator as method
+    import tmakit.batch.methods as methods
 
     calls = []
-    parse = dispatch.motion_from_name
-    monkeypatch.setattr(dispatch, "motion_from_name",
+    parse = methods.motion_from_name
+    monkeypatch.setattr(methods, "motion_from_name",
                         lambda name, ref=0.0: calls.append(name) or parse(name, ref))
 
     def refuse(*a, **k):
@@ -210,9 +210,9 @@ def test_ml_by_motion_reads_a_name_once_and_sends_fixed_models_straight_to_ml(gu
          MaximumLikelihood(options=opts).fit(meas, tk.ConstantVelocity(2, 10.0)))
     assert calls == ["cv2d", "cv2d"]
     # a manoeuvring name is read into its model, referenced at the first measurement time
-    model = dispatch.model_of("curvilinear:1", meas, None)
+    model = methods.model_of("curvilinear:1", meas, None)
     assert model.manoeuvres == 1 and model.ref_time == float(meas.time.min())
-    assert dispatch.model_of("curvilinear", meas, 4.0).ref_time == 4.0
+    assert methods.model_of("curvilinear", meas, 4.0).ref_time == 4.0
 
 
 # -- many data sets at once: the batched fit is the one-by-one fit ------------------------------
@@ -290,7 +290,7 @@ def _imports(path: Path) -> set[str]:
 def test_ml_imports_no_manoeuvre_code():
     imported = _imports(SRC / "batch" / "ml.py")
     assert not {n for n in imported
-                if any(w in n for w in ("curvilinear", "manoeuvre", "dispatch"))}, imported
+                if any(w in n for w in ("curvilinear", "manoeuvre", "methods"))}, imported
 
 
 def test_no_estimator_is_inspected_to_find_out_what_it_accepts():

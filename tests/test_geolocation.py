@@ -372,7 +372,7 @@ def test_bound_with_sensor_errors_is_the_schur_complement_of_the_joint_informati
     errors' prior information Q_b^-1 (Ho, Lu & Kovavisaruch 2007), written out here."""
     from tmakit.bounds.fim import crlb_with_sensor_errors
     from tmakit.observation import ObservationModel
-    from tmakit.observation.sensor_errors import sensor_error_design
+    from tmakit.observation.noise import sensor_error_design
     from tmakit.reproduce import ho_xu2004
 
     scenario = ho_xu2004.scenario_at(0.1)

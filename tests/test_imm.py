@@ -1,4 +1,4 @@
-"""The interacting multiple model filter (``imm``): the manoeuvring target, its outputs, its
+"""The multiple-model filters (``imm``, ``mmpf``): the manoeuvring target, their outputs, their
 refusals."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 import tmakit as tk
 from tmakit.cli import app
 from tmakit.cli.track import nis_verdict
-from tmakit.filters import InteractingMultipleModel
+from tmakit.filters import InteractingMultipleModel, MultipleModelParticleFilter
 from tmakit.tracking import truth_states
 
 runner = CliRunner()
@@ -91,7 +91,7 @@ def test_tma_track_imm_refusals(obs, args, words):
 
 def test_model_q_only_with_imm(obs):
     result = runner.invoke(app, ["track", str(obs), "--model-q", "0.5"])
-    assert result.exit_code == 2 and "only to --filter imm" in result.output
+    assert result.exit_code == 2 and "only to --filter imm and mmpf" in result.output
 
 
 def test_coordinated_turn_moves_along_the_circle():
@@ -115,3 +115,54 @@ def test_tma_track_imm_turn_models(obs):
     data = json.loads(result.stdout)
     assert [round(np.degrees(m["turn_rate"]), 6) for m in data["models"]] == [0, 0, -0.5, 0.5]
     assert len(data["model_probabilities"][0]) == 4
+
+
+@pytest.mark.parametrize("seed", [5, 11])
+def test_mmpf_turn_model_gains_weight_in_the_turn(seed):
+    meas = hoerst_bearings(seed)
+    tr = tk.track(meas, "mmpf", particles=3000, rng=seed,
+                  settings={"model_q": [], "turn_rates": [np.radians(-0.57)]})
+    mu = np.asarray(tr.extra.model_probabilities)
+    assert mu.shape == (len(tr), 2)
+    np.testing.assert_allclose(mu.sum(axis=1), 1.0)
+    turning = (tr.times > 450) & (tr.times < 650)
+    assert mu[turning, 1].mean() > mu[tr.times < 350, 1].mean() + 0.05, mu
+    assert tr.extra.models[1]["turn_rate"] == pytest.approx(np.radians(-0.57))
+
+
+def test_mmpf_particles_keep_their_models_through_resampling():
+    f = MultipleModelParticleFilter(np.zeros(4), np.eye(4), particles=500, rng=2,
+                                    transition=[[1.0, 0.0], [0.0, 1.0]], probabilities=[0.3, 0.7])
+    assert f.probabilities.sum() == pytest.approx(1.0)
+    f._w = np.where(f.labels == 1, 0.0, 1.0 / np.sum(f.labels == 0))
+    f._resample()
+    assert np.all(f.labels == 0)  # only model-0 particles had weight; no switching allowed
+    with pytest.raises(ValueError, match="transition must be a 2x2"):
+        MultipleModelParticleFilter(np.zeros(4), np.eye(4), transition=[[0.9, 0.2], [0.1, 0.9]])
+
+
+def test_tma_track_mmpf_json_and_refusals(obs):
+    result = runner.invoke(app, ["track", str(obs), "--filter", "mmpf", "--particles", "2000",
+                                 "--seed", "3", "--model-q", "0.5", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert len(data["model_probabilities"]) == len(data["time"])
+    np.testing.assert_allclose(np.sum(data["model_probabilities"], axis=1), 1.0)
+    assert [m["q"][0] for m in data["models"]] == [0.0, 0.5]
+    for args, words in ((["--transition", "0.9,0.2;0.1,0.9"], "transition must be"),
+                        (["--component", "ukf"], "--component applies only"),
+                        (["--smooth"], "no smoother for --filter mmpf")):
+        result = runner.invoke(app, ["track", str(obs), "--filter", "mmpf", *args])
+        assert result.exit_code == 2 and words in result.output, result.output
+        assert "Traceback" not in result.output
+
+
+def test_tma_track_mmpf_starts_at_the_first_bearing(obs):
+    result = runner.invoke(app, ["track", str(obs), "--filter", "mmpf", "--particles", "2000",
+                                 "--seed", "1", "--model-q", "0.02", "--range-prior",
+                                 "2000:30000", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert data["start"]["method"] == "first-bearing" and data["time"][0] == 1.0
+    assert len(data["model_probabilities"]) == len(data["time"])
+    assert data["model_probabilities"][0] == [m["prior"] for m in data["models"]]

@@ -11,7 +11,6 @@ from tmakit.filters import FILTERS, ExtendedKalmanFilter, MeasurementGroup
 from tmakit.filters.mgekf import (
     ModifiedGainEKF,
     ReflectingEKF,
-    mirror_plane,
     modified_gain_rows,
 )
 from tmakit.filters.multilag import multilag_groups
@@ -142,7 +141,7 @@ def test_mirror_reflection_only_while_the_data_cannot_tell_the_sides_apart():
     mirrored = truth * np.array([1, 1, -1, 1, 1, -1])
     group = MeasurementGroup(rows, t, 3)
     np.testing.assert_allclose(group.predict(mirrored), group.predict(truth), atol=1e-9)
-    assert mirror_plane(rows) == 0.0
+    assert rows.mirror_plane() == 0.0
     cov = np.diag([1e6, 1e6, 1e6, 1e2, 1e2, 1e2])
     cov[2, 5] = cov[5, 2] = 50.0
     for reflect in (True, False):
@@ -153,7 +152,7 @@ def test_mirror_reflection_only_while_the_data_cannot_tell_the_sides_apart():
     # An elevation breaks the symmetry: no reflection from then on.
     elev = tk.MeasurementSet([t], ["r-station"], ["elevation"], [-5.0], [1.0],
                              rows.sensor_state[:1])
-    assert mirror_plane(elev) is None
+    assert elev.mirror_plane() is None
     f = ReflectingEKF(mirrored, cov, t, q=(20.0, 20.0, 10.0))
     f.update(elev)
     f.update(rows)

@@ -13,8 +13,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.bounds import deterministic_pcrb, pcrb_over_runs
-from tmakit.bounds.pcrb_recursion import PosteriorInformation
-from tmakit.bounds.pcrb_runs import ratio_interval
+from tmakit.bounds.pcrb_recursion import PosteriorInformation, ratio_interval
 from tmakit.cli import app
 from tmakit.data import MeasurementSet
 from tmakit.montecarlo.closed_loop import LoopSetup, closed_loop_study, run_closed_loop

@@ -322,6 +322,31 @@ class MeasurementSet:
         return 3 if any(KINDS[k].gives_height for k in self.kinds) or np.any(
             self.sensor_state[:, 2] != 0) or np.any(self.sensor_state[:, 5] != 0) else 2
 
+    def mirror_plane(self, tol: float = 1e-6) -> float | None:
+        """Find the horizontal plane every row's prediction is mirror-symmetric about.
+
+        Parameters
+        ----------
+        tol : float
+            Spread of the sensors' heights allowed, relative to ``max(1 m, |z|)``, and of
+            their vertical speeds (m/s).
+
+        Returns
+        -------
+        float or None
+            The plane's height (m); None if a kind is not mirror-symmetric or the sensors
+            (reference sensors included) are not level and still in height.
+        """
+        if len(self) == 0 or not np.all(self.kind_flag("mirror_symmetric")):
+            return None
+        st = np.concatenate([self.sensor_state,
+                             self.ref_sensor_state[self.kind_flag("uses_reference")]])
+        z, vz = st[:, 2], st[:, 5]
+        if not (np.all(np.isfinite(st[:, [2, 5]])) and np.all(np.abs(vz) <= tol)
+                and np.ptp(z) <= tol * max(1.0, float(np.abs(z).max()))):
+            return None
+        return 0.5 * (float(z.min()) + float(z.max()))
+
     def take(self, index: ArrayLike) -> MeasurementSet:
         """Return the rows at ``index`` (indices or a mask), metadata kept, nothing checked again.
 

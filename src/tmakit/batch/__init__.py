@@ -8,13 +8,12 @@ forms.
 
 from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisance
-from .dispatch import MLByMotion, estimate
 from .estimator import BatchEstimator, PaperMethod
 from .gu_direct import GuDirect
 from .init import GridSettings, best_starts, grid_candidates, grid_start
 from .lecture import LectureGaussNewton
 from .manoeuvre import ManoeuvreEstimator
-from .methods import METHODS, Method, estimate_with, estimator
+from .methods import METHODS, Method, MLByMotion, estimate, estimate_with, estimator
 from .ml import MaximumLikelihood
 from .ratios import RatioMethod
 from .solver import VarProProblem, levenberg_marquardt

@@ -265,7 +265,7 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
         raise ValueError(f"ambiguous bearings from several sensors ({', '.join(hosts)}): "
                          "resolve one own ship's at a time")
     if fit is None:
-        from .dispatch import estimate
+        from .methods import estimate
 
         def fit(m: MeasurementSet) -> EstimateResult:
             return estimate(m, motion)

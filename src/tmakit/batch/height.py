@@ -19,8 +19,8 @@ from ..measurements import KINDS
 from ..motion import MotionModel, motion_from_name
 from ..results.estimate import EstimateResult
 from ..results.status import CONVERGED
-from .dispatch import estimate
 from .estimator import Options
+from .methods import estimate
 
 HEIGHT_LEVEL = 0.001
 """The 3-D fit is kept when the likelihood-ratio test's p-value is below this."""

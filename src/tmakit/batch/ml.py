@@ -13,7 +13,7 @@ covariance is the inverse Fisher information at the estimate.
   3-D track and its mirror image through the sensors' plane fit alike: the one above is
   reported (:func:`prefer_above`).
 - With sensor position errors (Ho, Lu & Kovavisaruch (2007)'s setting) the errors are
-  integrated out into the noise ``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.sensor_errors`):
+  integrated out into the noise ``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.noise`):
   the fit starts from the ordinary ML and refits twice with that noise linearised at the
   estimate (:func:`estimate_with_sensor_errors`).
 """
@@ -32,8 +32,8 @@ from ..core.frames import wrap_angle_own
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..observation import ObservationModel
+from ..observation.noise import effective_noise
 from ..observation.planar import gradient_of_rows, planar_gradient_rows
-from ..observation.sensor_errors import effective_noise
 from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.observability import full_rank
@@ -330,14 +330,15 @@ def _better(problem: VarProProblem, best: Best | None, sol: SolveResult,
 
 def _prefer_above(problem: VarProProblem, best: list[Best | None]) -> None:
     """Report each fit above the sensors' mirror plane, if there is one (in place)."""
-    plane = mirror_plane(problem)
+    motion = problem.obs.motion
+    plane = problem.obs.meas.mirror_plane(1e-9) if "z" in motion.param_names else None
     if plane is None:
         return
     for fit in best:
         if fit is not None:
-            fit.others = [(prefer_above(problem.obs.motion, t, plane)[0], nu, c)
+            fit.others = [(prefer_above(motion, t, plane)[0], nu, c)
                           for t, nu, c in fit.others]  # a mirror image is no other solution
-            theta, fit.note = prefer_above(problem.obs.motion, fit.theta, plane)
+            theta, fit.note = prefer_above(motion, fit.theta, plane)
             if not np.array_equal(theta, fit.theta):  # mirrored: the information is not
                 fit.information = None                # the one at the new point
             fit.theta = theta
@@ -382,20 +383,6 @@ def solve_on_subset_first(problem: VarProProblem, ys: NDArray[np.float64],
         fit.converged = bool(sol.converged[i])
         fit.information = information_of(problem, sol.evaluation, i, sol.information)
     return found
-
-
-def mirror_plane(problem: VarProProblem) -> float | None:
-    """Return the height of a plane through every sensor that mirrors the track unseen."""
-    meas, motion = problem.obs.meas, problem.obs.motion
-    if (motion.dim != 3 or "z" not in motion.param_names
-            or not np.all(meas.kind_flag("mirror_symmetric"))):
-        return None
-    z = np.concatenate([meas.sensor_state[:, 2], meas.ref_sensor_state[:, 2]])
-    z = z[np.isfinite(z)]
-    vz = meas.sensor_state[:, 5]
-    if z.size == 0 or np.ptp(z) > 1e-9 * max(1.0, np.abs(z).max()) or np.any(vz != 0):
-        return None
-    return float(z[0])
 
 
 def prefer_above(motion: MotionModel, theta: NDArray[np.float64], plane: float

@@ -9,8 +9,12 @@ from ..results.observability import Direction, Observability, analyse
 from .fim import crlb, fisher_information
 from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
 from .pcrb import PosteriorBound, deterministic_pcrb, posterior_crb
-from .pcrb_recursion import PosteriorInformation, information_inverse, predict_information
-from .pcrb_runs import pcrb_over_runs
+from .pcrb_recursion import (
+    PosteriorInformation,
+    information_inverse,
+    pcrb_over_runs,
+    predict_information,
+)
 
 __all__ = ["Bound", "CrbPoint", "CrbSequence", "Direction", "NoiseModel", "Observability",
            "PosteriorBound", "PosteriorInformation", "analyse", "crlb",

@@ -5,7 +5,7 @@
 eqs. 17-18; Hörst & Oispuu (2010), eq. 9).  A singular information is never inverted blindly:
 unobservable directions are named and their std are infinite.  With sensor position errors
 (:func:`crlb_with_sensor_errors`, Ho, Lu & Kovavisaruch (2007)) the rows' noise is
-``R + H_b Q_b H_b'`` (:func:`tmakit.observation.sensor_errors.effective_noise`).
+``R + H_b Q_b H_b'`` (:func:`tmakit.observation.noise.effective_noise`).
 """
 
 from __future__ import annotations
@@ -19,9 +19,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from ..observation import ObservationModel
-from ..observation.noise import NoiseModel
-from ..observation.sensor_errors import effective_noise
+from ..observation import Linearisation, ObservationModel
+from ..observation.noise import NoiseModel, effective_noise
 from ..results.bound import Bound, bound_from_information
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 
@@ -64,14 +63,19 @@ def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayL
     ----------
     Gu et al. (2007), eqs. 17-18; Hörst & Oispuu (2010), eq. 9.
     """
-    if noise is None:  # rows in the model's grouped order: F does not depend on the order
-        j_theta, j_nu = obs.jacobian_grouped(theta, nuisance)
-        known = as_known_nuisance(known_nuisance) is not None
-        w = (j_theta if known or j_nu.shape[-1] == 0
-             else np.concatenate([j_theta, j_nu], axis=-1))
-        w = NoiseModel.from_rows(obs.row_model).whiten(w, axis=-2, overwrite=True)
-    else:
-        w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
+    if noise is None:
+        return _grouped_information(obs, obs.linearisation(theta), nuisance, known_nuisance)
+    w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
+    return w.T @ w
+
+
+def _grouped_information(obs: ObservationModel, lin: Linearisation, nuisance: ArrayLike,
+                         known_nuisance: KnownNuisanceLike) -> NDArray[np.float64]:
+    """``J^T R^-1 J`` from a linearisation, rows in grouped order (F does not depend on it)."""
+    w = lin.jacobian(np.asarray(nuisance, dtype=float))
+    if as_known_nuisance(known_nuisance) is None and obs.n_nuisance:
+        w = np.concatenate([w, obs.const_design + lin.a_var], axis=-1)
+    w = NoiseModel.from_rows(obs.row_model).whiten(w, axis=-2, overwrite=True)
     return w.T @ w
 
 
@@ -175,12 +179,14 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
     known = as_known_nuisance(known_nuisance)
     theta = truth_vector(motion, truth)
     obs = ObservationModel(meas, motion, options)
-    check_off_sensors(meas, motion, theta, obs)
-    values = _nuisance_values(meas, nuisance)
-    if known is not None:
-        values = known.over(values)
-    nu = obs.nuisance_vector(values)
-    info = fisher_information(obs, theta, nu, known)
+    with np.errstate(divide="ignore", invalid="ignore"):  # on a sensor: refused just below
+        lin = obs.linearisation(theta)
+    check_off_sensors(obs, theta, lin)
+    nu = np.zeros(0)
+    if obs.n_nuisance:  # (no values to gather otherwise)
+        values = _nuisance_values(meas, nuisance)
+        nu = obs.nuisance_vector(values if known is None else known.over(values))
+    info = _grouped_information(obs, lin, nu, known)
     names = motion.param_names + (() if known else obs.nuisance_names)
     vals = theta if known else np.concatenate([theta, nu])
     used = {n: float(v) for n, v in zip(obs.nuisance_names, nu, strict=True)}
@@ -191,20 +197,20 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
 ON_SENSOR_M = 1e-3
 
 
-def check_off_sensors(meas: MeasurementSet, motion: MotionModel, theta: ArrayLike,
-                      obs: ObservationModel | None = None) -> None:
+def check_off_sensors(obs: ObservationModel, theta: NDArray[np.float64],
+                      lin: Linearisation) -> None:
     """Refuse a truth that puts the target on a sensor at one of the measurement times."""
-    if len(meas) == 0:
+    rel = lin.relative
+    assert rel is not None  # (made with derivatives)
+    planar = rel[..., 0] * rel[..., 0]  # the linearisation's own relative positions
+    planar += rel[..., 1] * rel[..., 1]
+    if not planar.size or planar.min() >= ON_SENSOR_M**2:  # away from each in the plane alone
         return
-    if obs is not None:  # squared distances (no square root per row), grouped order
-        dist2 = obs.squared_ranges(theta)
-        j = int(np.argmin(dist2))
-        k = int(obs.order[j])
-    else:
-        diff = motion.states(theta, meas.time)[..., :3] - meas.sensor_state[:, :3]
-        dist2 = np.einsum("...i,...i->...", diff, diff)
-        k = j = int(np.argmin(dist2))
+    dist2 = obs.squared_ranges(theta)  # with the height, in grouped order
+    j = int(np.argmin(dist2))
+    k = int(obs.order[j])
     if not dist2[j] >= ON_SENSOR_M**2:  # also NaN
+        meas = obs.meas
         raise ValueError(
             f"truth puts the target on sensor {str(meas.sensor[k])!r} at t = {meas.time[k]:g} s "
             f"(distance {np.sqrt(dist2[j]):.3g} m < {ON_SENSOR_M:g} m): the bound is undefined "

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import FixedParameters, MotionModel, PiecewiseCurvilinear
+from ..results.answers import finite
 from ..results.bound import Bound
 from .fim import bound_source, crlb, truth_vector
 
@@ -186,18 +187,14 @@ class CrbSequence:
         dict of str to object
             ``kinds``, ``known_manoeuvres``, ``level`` and ``points``.
         """
-
-        def clean(v: float) -> float | None:
-            return float(v) if np.isfinite(v) else None
-
         return {
             "kinds": list(self.kinds), "known_manoeuvres": self.known_manoeuvres,
             "level": self.level,
             "points": [{"ref_time": p.ref_time, "manoeuvres": p.manoeuvres,
                         "parameters": list(p.parameters), "n_measurements": p.n_measurements,
                         "position": [float(v) for v in p.position],
-                        "std": [clean(v) for v in p.std], "rms": clean(p.rms),
-                        "ellipse": {k: (clean(v) if isinstance(v, float) else v)
+                        "std": [finite(v) for v in p.std], "rms": finite(p.rms),
+                        "ellipse": {k: (finite(v) if isinstance(v, float) else v)
                                     for k, v in p.ellipse.items()}}
                        for p in self.points],
         }

@@ -78,11 +78,11 @@ ComponentOption = Annotated[str, typer.Option(
     help="the component filter of gsf (the Gaussian sum) or imm: ekf, ukf or ckf "
          "(cubature)")]
 ModelQOption = Annotated[str | None, typer.Option(
-    "--model-q", help="--filter imm: acceleration std (m/s^2) of the manoeuvre models, "
+    "--model-q", help="--filter imm, mmpf: acceleration std (m/s^2) of the manoeuvre models, "
                       "one value per model (comma-separated) beside the --q model; default "
                       "1.0")]
 TurnRateOption = Annotated[str | None, typer.Option(
-    "--turn-rate", help="--filter imm: turn rates (deg/s, comma-separated; counter-clockwise "
+    "--turn-rate", help="--filter imm, mmpf: turn rates (deg/s, comma-separated; counter-clockwise "
                         "positive, a right turn negative) of coordinated-turn models added "
                         "after the --model-q ones")]
 PriorTimeOption = Annotated[float | None, typer.Option(
@@ -90,7 +90,7 @@ PriorTimeOption = Annotated[float | None, typer.Option(
 NuisanceOption = Annotated[str | None, typer.Option(
     help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
 TransitionOption = Annotated[str | None, typer.Option(
-    "--transition", help="--filter imm: the Markov matrix per step, rows (from) separated "
+    "--transition", help="--filter imm, mmpf: the Markov matrix per step, rows (from) separated "
                          "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
 SmoothOption = Annotated[bool, typer.Option(
     "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
@@ -112,8 +112,8 @@ MaxUpdatesOption = Annotated[int | None, typer.Option(
 def track(
     files: FilesArgument,
     filter_name: Annotated[str, typer.Option(
-        "--filter", help="ekf, ukf, ckf, mgekf, mpekf, pf, gsf or imm (tmakit.filters.FILTERS)")
-    ] = "ekf",
+        "--filter", help="ekf, ukf, ckf, mgekf, mpekf, pf, gsf, imm or mmpf "
+                         "(tmakit.filters.FILTERS)")] = "ekf",
     q: Annotated[str, typer.Option(
         "--q", help="process noise: acceleration std (m/s^2), one value or per axis "
                     "qx,qy[,qz]; 0 = constant velocity")] = "0",
@@ -563,14 +563,15 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
 
     if component not in COMPONENTS:
         raise fail(f"--component {component!r}: expected one of {', '.join(COMPONENTS)}")
-    if filter_name != "imm" and (model_q, transition, turn_rate) != (None, None, None):
-        raise fail("--model-q, --transition and --turn-rate apply only to --filter imm")
+    if filter_name not in ("imm", "mmpf") and (model_q, transition, turn_rate) != (None,) * 3:
+        raise fail("--model-q, --transition and --turn-rate apply only to --filter imm and mmpf")
     if filter_name not in ("gsf", "imm"):
         if component != "ekf":
             raise fail("--component applies only to --filter gsf and imm (their component "
                        "filter)")
-        return {"history": True} if smooth and filter_name == "pf" else {}
-    out: dict[str, object] = {"component": component}
+        if filter_name != "mmpf":
+            return {"history": True} if smooth and filter_name == "pf" else {}
+    out: dict[str, object] = {} if filter_name == "mmpf" else {"component": component}
     if model_q is not None:
         try:
             out["model_q"] = [float(v) for v in model_q.split(",")]
@@ -602,9 +603,9 @@ def smoothed_track(tr: Any, lag: int | None) -> Any:
     if lag is not None and tr.filter_name == "pf":
         raise fail("--lag: the particle filter's smoother is fixed-interval (--smooth); the "
                    "fixed-lag smoother is for the Gaussian filters (ekf, ukf, ckf, gsf)")
-    if tr.filter_name == "imm":
-        raise fail("--smooth/--lag: there is no smoother for --filter imm (its combined "
-                   "estimate is not one Gaussian model's); smooth ekf, ukf, ckf, gsf or pf")
+    if tr.filter_name in ("imm", "mmpf"):
+        raise fail(f"--smooth/--lag: there is no smoother for --filter {tr.filter_name} (its "
+                   "estimate mixes several models); smooth ekf, ukf, ckf, gsf or pf")
     tr.extra.smoothed = smooth(tr, lag=lag)
     tr.extra.history = None
     return tr

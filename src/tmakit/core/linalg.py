@@ -6,7 +6,8 @@ are covariances in SI units (m^2, m^2/s, m^2/s^2); the functions do not care whi
 
 from __future__ import annotations
 
-from typing import cast
+import functools
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -83,12 +84,17 @@ def repair_psd(p: Array) -> Array:
 
 def eigh(a: Array) -> tuple[Array, Array]:
     """Give ``numpy.linalg.eigh(a)`` by its LAPACK routine called directly (10 µs less)."""
-    from scipy.linalg.lapack import dsyevd  # (scipy.linalg: imported on first use)
-
-    w, v, info = dsyevd(a, compute_v=1, lower=1)
+    w, v, info = _dsyevd()(a, compute_v=1, lower=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"eigenvalues did not converge (LAPACK info {info})")
     return w, v
+
+
+@functools.cache
+def _dsyevd() -> Any:
+    from scipy.linalg.lapack import dsyevd  # (scipy.linalg: imported on first use)
+
+    return dsyevd
 
 
 def normalise(info: Array) -> tuple[Array, Array]:

@@ -11,7 +11,7 @@ from .base import TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing, first_bearing
 from .ekf import ExtendedKalmanFilter
 from .gaussian_sum import GaussianSumFilter
-from .imm import InteractingMultipleModel
+from .imm import InteractingMultipleModel, MultipleModelParticleFilter
 from .mgekf import ModifiedGainEKF
 from .modified_polar import ModifiedPolarEKF
 from .multilag import multilag_groups
@@ -29,6 +29,7 @@ FILTERS: dict[str, type[TrackingFilter]] = {
     GaussianSumFilter.name: GaussianSumFilter,
     InteractingMultipleModel.name: InteractingMultipleModel,
     ModifiedPolarEKF.name: ModifiedPolarEKF,
+    MultipleModelParticleFilter.name: MultipleModelParticleFilter,
 }
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "MeasurementGroup",
     "ModifiedGainEKF",
     "ModifiedPolarEKF",
+    "MultipleModelParticleFilter",
     "NearlyConstantVelocity",
     "ParticleFilter",
     "Track",

@@ -1,24 +1,28 @@
-"""The interacting multiple model (IMM) filter: a bank of motion models with Markov switching.
+"""Multiple-model filters: a bank of motion models with Markov switching (IMM, and a particle one).
 
 References
 ----------
 Blom & Bar-Shalom (1988), IEEE Trans. Autom. Control 33(8); Bar-Shalom, Li & Kirubarajan
-(2001), *Estimation with Applications to Tracking and Navigation*, §11.6.6.
+(2001), *Estimation with Applications to Tracking and Navigation*, §11.6.6; McGinnity & Irwin
+(2000), "Multiple model bootstrap filter for maneuvering target tracking", IEEE Trans. AES 36(3).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
+from ..core.linalg import symmetrise
 from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .ekf import ExtendedKalmanFilter
 from .gaussian_sum import check_component, component_filter, mixture_moments, update_components
+from .particle import ParticleFilter
 from .track import Recorder, Track
 
 #: Acceleration std of the default manoeuvre model (m/s^2): twice the 0.5 m/s^2 of an
@@ -77,46 +81,14 @@ class InteractingMultipleModel(TrackingFilter):
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
         check_component(component)
-        extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
-        if not all(math.isfinite(v) and v >= 0 for v in extra):
-            raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
-        rates = [float(v) for v in np.atleast_1d(np.asarray(turn_rates, dtype=float))]
-        if not all(math.isfinite(v) and v != 0 for v in rates):
-            raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
-        if not (math.isfinite(turn_q) and turn_q >= 0):
-            raise ValueError(f"turn_q must be an acceleration >= 0 (m/s^2); got {turn_q}")
-        count = 1 + len(extra) + len(rates)
-        if transition is None:
-            off = SWITCH / max(count - 1, 1)
-            matrix = np.full((count, count), off)
-            np.fill_diagonal(matrix, 1.0 - SWITCH if count > 1 else 1.0)
-        else:
-            matrix = np.asarray(transition, dtype=float)
-        if matrix.shape != (count, count) or not np.all(np.isfinite(matrix)) \
-                or np.any(matrix < 0) or not np.allclose(matrix.sum(axis=1), 1.0, atol=1e-9):
-            raise ValueError(f"transition must be a {count}x{count} matrix of probabilities "
-                             f">= 0 whose rows sum to 1 ({count} models); got "
-                             f"{matrix.tolist()}")
-        mu = (np.full(count, 1.0 / count) if probabilities is None
-              else np.asarray(probabilities, dtype=float).reshape(-1))
-        if mu.shape != (count,) or not np.all(np.isfinite(mu)) or np.any(mu < 0) \
-                or not mu.sum() > 0:
-            raise ValueError(f"probabilities must be {count} values >= 0, not all 0; got "
-                             f"{mu.tolist()}")
+        extra, rates, matrix, self._mu0 = markov_chain(model_q, transition, turn_rates, turn_q,
+                                                       probabilities)
         self.component = component
         self.model_q = tuple(extra)
         self.transition = matrix
-        self._mu0 = mu / mu.sum()
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
-        if type(self.dynamics) is not NearlyConstantVelocity:
-            raise ValueError("the IMM filter's models are NearlyConstantVelocity dynamics")
-        base_q, density = self.dynamics.axes()
-        self.models: list[NearlyConstantVelocity] = [self.dynamics] + [
-            NearlyConstantVelocity(self.dim, tuple(float(max(v, b)) for b in base_q),
-                                   tuple(density)) for v in extra] + [
-            CoordinatedTurn(self.dim, tuple(float(max(turn_q, b)) for b in base_q),
-                            tuple(density), turn_rate=w) for w in rates]
+        self.models = model_bank(self.dynamics, extra, rates, turn_q)
         self._unit: ExtendedKalmanFilter = component_filter(self, component, mean, covariance)
         self.probability_history: list[list[float]] = []
 
@@ -177,15 +149,150 @@ class InteractingMultipleModel(TrackingFilter):
         return UpdateInfo(nis, dof, top + math.log(total))
 
     def _track(self, rec: Recorder) -> Track:
-        track = super()._track(rec)
-        track.extra.model_probabilities = [list(p) for p in self.probability_history]
-        track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
-                               "q_density": [float(v) for v in m.axes()[1]],
-                               "turn_rate": float(getattr(m, "turn_rate", 0.0)),
-                               "prior": float(p)} for m, p in zip(self.models, self._mu0,
-                                                                  strict=True)]
-        track.extra.transition = self.transition.tolist()
-        return track
+        return model_records(self, super()._track(rec))
 
 
-__all__ = ["MANOEUVRE_Q", "SWITCH", "TURN_Q", "InteractingMultipleModel"]
+class MultipleModelParticleFilter(ParticleFilter):
+    """Multiple-model particle filter: each particle carries a model of the IMM's Markov chain.
+
+    At each predict every particle draws its next model from its row of the Markov matrix and
+    moves by that model; the models' probabilities are the weight shares of their particles.
+
+    Parameters
+    ----------
+    mean, covariance, time
+        The Gaussian prior of the first cloud, as for :class:`ParticleFilter` (m, m/s; s).
+    model_q, transition, turn_rates, turn_q, probabilities
+        The models and their Markov chain, as for :class:`InteractingMultipleModel`.
+    **kwargs
+        As for :class:`ParticleFilter` (``particles``, ``rng``, ``q``, ``dynamics``, ...).
+
+    Raises
+    ------
+    ValueError
+        A setting out of its range, as for the two filters above.
+
+    References
+    ----------
+    McGinnity & Irwin (2000); Ristic, Arulampalam & Gordon (2004), §11.3 (the MM-PF).
+    """
+
+    name = "mmpf"
+
+    def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
+                 model_q: Sequence[float] = (MANOEUVRE_Q,), transition: ArrayLike | None = None,
+                 turn_rates: Sequence[float] = (), turn_q: float = TURN_Q,
+                 probabilities: ArrayLike | None = None, **kwargs: Any) -> None:
+        extra, rates, self.transition, self._mu0 = markov_chain(model_q, transition, turn_rates,
+                                                                turn_q, probabilities)
+        self.model_q = tuple(extra)
+        super().__init__(mean, covariance, time, **kwargs)
+        self.models = model_bank(self.dynamics, extra, rates, turn_q)
+        self.probability_history: list[list[float]] = []
+
+    def _init_state(self, mean: Array, covariance: Array) -> None:
+        super()._init_state(mean, covariance)
+        self._label: NDArray[np.int64] = self.rng.choice(self._mu0.shape[0],
+                                                         size=self.n_particles, p=self._mu0)
+        self._mu = self._mu0.copy()
+
+    @property
+    def labels(self) -> NDArray[np.int64]:
+        """Each particle's model index ``(N,)`` (a copy)."""
+        return self._label.copy()
+
+    @property
+    def probabilities(self) -> Array:
+        """The models' probabilities now ``(M,)``: their particles' weight shares."""
+        return np.bincount(self._label, weights=self._w,
+                           minlength=len(self.models)).astype(float)
+
+    def _predict(self, dt: float) -> None:
+        cumulative = np.cumsum(self.transition, axis=1)
+        u = self.rng.random(self.n_particles)
+        self._label = np.minimum(np.sum(u[:, None] > cumulative[self._label], axis=1),
+                                 len(self.models) - 1)
+        for j, model in enumerate(self.models):
+            k = np.flatnonzero(self._label == j)
+            evals, evecs = np.linalg.eigh(symmetrise(model.noise(dt)))
+            root = evecs * np.sqrt(np.clip(evals, 0.0, None))
+            self._x[:, k] = (model.transition(dt) @ self._x[:, k]
+                             + root @ self.rng.standard_normal((root.shape[0], k.shape[0])))
+        self._moments = None
+
+    def _carry(self, idx: NDArray[np.int64]) -> None:
+        self._mu = self.probabilities
+        self._label = self._label[idx]
+
+    def _update(self, group: MeasurementGroup) -> UpdateInfo:
+        before = self.resamples
+        info = super()._update(group)
+        if self.resamples == before:
+            self._mu = self.probabilities
+        self.probability_history.append(self._mu.tolist())
+        return info
+
+    def _track(self, rec: Recorder) -> Track:
+        return model_records(self, super()._track(rec))
+
+
+def markov_chain(model_q: Sequence[float], transition: ArrayLike | None,
+                 turn_rates: Sequence[float], turn_q: float, probabilities: ArrayLike | None
+                 ) -> tuple[list[float], list[float], Array, Array]:
+    """Check the model options; give the extra q's, turn rates, Markov matrix and prior."""
+    extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
+    if not all(math.isfinite(v) and v >= 0 for v in extra):
+        raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
+    rates = [float(v) for v in np.atleast_1d(np.asarray(turn_rates, dtype=float))]
+    if not all(math.isfinite(v) and v != 0 for v in rates):
+        raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
+    if not (math.isfinite(turn_q) and turn_q >= 0):
+        raise ValueError(f"turn_q must be an acceleration >= 0 (m/s^2); got {turn_q}")
+    count = 1 + len(extra) + len(rates)
+    if transition is None:
+        off = SWITCH / max(count - 1, 1)
+        matrix = np.full((count, count), off)
+        np.fill_diagonal(matrix, 1.0 - SWITCH if count > 1 else 1.0)
+    else:
+        matrix = np.asarray(transition, dtype=float)
+    if matrix.shape != (count, count) or not np.all(np.isfinite(matrix)) \
+            or np.any(matrix < 0) or not np.allclose(matrix.sum(axis=1), 1.0, atol=1e-9):
+        raise ValueError(f"transition must be a {count}x{count} matrix of probabilities "
+                         f">= 0 whose rows sum to 1 ({count} models); got "
+                         f"{matrix.tolist()}")
+    mu = (np.full(count, 1.0 / count) if probabilities is None
+          else np.asarray(probabilities, dtype=float).reshape(-1))
+    if mu.shape != (count,) or not np.all(np.isfinite(mu)) or np.any(mu < 0) \
+            or not mu.sum() > 0:
+        raise ValueError(f"probabilities must be {count} values >= 0, not all 0; got "
+                         f"{mu.tolist()}")
+    return extra, rates, matrix, mu / mu.sum()
+
+
+def model_bank(dynamics: NearlyConstantVelocity, extra: Sequence[float],
+               rates: Sequence[float], turn_q: float) -> list[NearlyConstantVelocity]:
+    """Give the models: ``dynamics``, then its ``extra`` q's, then the turns at ``rates``."""
+    if type(dynamics) is not NearlyConstantVelocity:
+        raise ValueError("the IMM filter's models are NearlyConstantVelocity dynamics")
+    base_q, density = dynamics.axes()
+    return [dynamics] + [
+        NearlyConstantVelocity(dynamics.dim, tuple(float(max(v, b)) for b in base_q),
+                               tuple(density)) for v in extra] + [
+        CoordinatedTurn(dynamics.dim, tuple(float(max(turn_q, b)) for b in base_q),
+                        tuple(density), turn_rate=w) for w in rates]
+
+
+def model_records(f: InteractingMultipleModel | MultipleModelParticleFilter, track: Track
+                  ) -> Track:
+    """Put the filter's model probabilities, models and Markov matrix in ``track.extra``."""
+    track.extra.model_probabilities = [list(p) for p in f.probability_history]
+    track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
+                           "q_density": [float(v) for v in m.axes()[1]],
+                           "turn_rate": float(getattr(m, "turn_rate", 0.0)),
+                           "prior": float(p)} for m, p in zip(f.models, f._mu0, strict=True)]
+    track.extra.transition = f.transition.tolist()
+    return track
+
+
+__all__ = ["MANOEUVRE_Q", "SWITCH", "TURN_Q", "InteractingMultipleModel",
+           "MultipleModelParticleFilter"]

@@ -69,22 +69,6 @@ def modified_gain_rows(measured: ArrayLike, rel: ArrayLike, dt: ArrayLike, dim: 
     return ModifiedRows(g, u, denom, ok)
 
 
-def mirror_plane(rows: MeasurementSet, tol: float = 1e-6) -> float | None:
-    """Find the horizontal plane the predictions of ``rows`` are mirror-symmetric about."""
-    if len(rows) == 0 or not np.all(rows.kind_flag("mirror_symmetric")):
-        return None
-    states = [rows.sensor_state]
-    rd = rows.kind_flag("uses_reference")
-    if np.any(rd):
-        states.append(rows.ref_sensor_state[rd])
-    st = np.concatenate(states)
-    z = st[:, 2]
-    if not (np.all(np.isfinite(st[:, [2, 5]])) and np.ptp(z) <= tol
-            and np.all(np.abs(st[:, 5]) <= tol)):
-        return None
-    return float(np.mean(z))
-
-
 class MirrorReflectMixin:
     """Keep a 3-D Gaussian estimate above the sensors' plane while the data cannot tell."""
 
@@ -104,7 +88,7 @@ class MirrorReflectMixin:
         info: UpdateInfo = super().update(rows)  # type: ignore[misc]
         if not (self.reflect and self._symmetric) or isinstance(rows, MeasurementGroup):
             return info
-        plane = mirror_plane(rows)
+        plane = rows.mirror_plane()
         if plane is None or (self._plane is not None and abs(plane - self._plane) > 1e-6):
             self._symmetric = False
         elif self._plane is None:

@@ -379,9 +379,13 @@ class ParticleFilter(TrackingFilter):
         return track
 
     # -- resampling and regularisation -------------------------------------------------------
+    def _carry(self, idx: NDArray[np.int64]) -> None:
+        """Carry what a subclass keeps per particle through a resampling to ``idx``."""
+
     def _resample(self) -> None:
         mean, cov = self._compute_moments()
         idx = systematic_resample(self._w, float(self.rng.random()))
+        self._carry(idx)
         x = np.take(self._x, idx, axis=1)
         if self.regularise:
             h = self.h

@@ -68,8 +68,8 @@ class Bearing(MeasurementModel):
         np.negative(d_rel[..., 1], out=d_rel[..., 1])
 
     def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
-                        weight: Array | None = None, negate: bool = True) -> Array:
-        """Give bearings and write their derivatives by relative east and north.
+                        weight: Array | None = None, negate: bool = True) -> None:
+        """Write the bearings' derivatives by relative east and north.
 
         Parameters
         ----------
@@ -81,11 +81,6 @@ class Bearing(MeasurementModel):
             ``(m,)`` factors of the derivatives (e.g. ``1 / sigma``).
         negate : bool, optional
             False leaves ``out_y`` holding the derivative's negative.
-
-        Returns
-        -------
-        ndarray
-            ``atan2(dx, dy)``, rad, ``(m,)``.
         """
         rho2 = dx * dx
         rho2 += dy * dy
@@ -98,7 +93,6 @@ class Bearing(MeasurementModel):
             np.multiply(dx, scale, out=out_y)
         if negate:
             np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
-        return np.arctan2(dx, dy)
 
     def planar_value(self, dx: Array, dy: Array) -> Array:
         """Give bearings from the relative east and north positions.

@@ -20,8 +20,13 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from ..bounds.pcrb_recursion import PosteriorInformation, noise_factor
-from ..bounds.pcrb_runs import MIN_RUNS, pcrb_over_runs, ratio_interval
+from ..bounds.pcrb_recursion import (
+    MIN_RUNS,
+    PosteriorInformation,
+    noise_factor,
+    pcrb_over_runs,
+    ratio_interval,
+)
 from ..core.arrays import Array
 from ..core.frames import wrap_angle
 from ..data import MeasurementSet
@@ -54,7 +59,7 @@ _STREAMS = 4  # truth, prior, measurements, tracker
 _ONE = np.ones(1)
 #: Runs per chunk in this process (a chunk's records are kept until the study ends).
 LOOP_RUNS_PER_CHUNK = 5
-#: Fewest runs for an interval (:data:`tmakit.bounds.pcrb_runs.MIN_RUNS`).
+#: Fewest runs for an interval (:data:`tmakit.bounds.pcrb_recursion.MIN_RUNS`).
 MIN_RUNS_INTERVAL = MIN_RUNS
 
 
@@ -518,7 +523,7 @@ class ClosedLoopStudy:
     def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
         """Return the final RMSE over the posterior CRB with its Monte Carlo interval.
 
-        The interval is :func:`tmakit.bounds.pcrb_runs.ratio_interval` (a chi-square and a
+        The interval is :func:`tmakit.bounds.pcrb_recursion.ratio_interval` (a chi-square and a
         bootstrap over the runs; None under ``MIN_RUNS`` runs).
 
         Parameters

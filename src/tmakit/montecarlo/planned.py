@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..bounds.pcrb_runs import RESAMPLES
+from ..bounds.pcrb_recursion import RESAMPLES
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..planning import MissionPlanner
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive

@@ -14,8 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..batch.dispatch import is_manoeuvring
-from ..batch.methods import METHODS, estimate_with
+from ..batch.methods import METHODS, estimate_with, is_manoeuvring
 from ..batch.ml import FIT_ERRORS, Best, MaximumLikelihood, solve_without_guess
 from ..batch.solver import VarProProblem, levenberg_marquardt
 from ..batch.varpro import compiled_batches

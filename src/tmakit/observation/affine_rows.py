@@ -47,12 +47,13 @@ class AffineRows:
         self._head_maps: dict[int, Array] = {}  # (see leading_map)
         #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
-        for i, c, coef in self.terms:
-            self._by_component[c].append((i, coef))
         #: Per parameter, its terms ``(component, coefficient)`` of east and north (components
         #: 0 and 1) in term order: the chain rule of the planar linearisation.
-        self.planar_terms: list[list[tuple[int, Array | None]]] = [
-            [(c, coef) for j, c, coef in self.terms if j == i and c < 2] for i in range(self.p)]
+        self.planar_terms: list[list[tuple[int, Array | None]]] = [[] for _ in range(self.p)]
+        for i, c, coef in self.terms:
+            self._by_component[c].append((i, coef))
+            if c < 2:
+                self.planar_terms[i].append((c, coef))
         #: Whether parameters 0 and 1 are the east and north positions alone (``(c, c, 1)``):
         #: their Jacobian rows are then the derivatives by east and north themselves.
         self.planar_positions = self.p >= 2 and all(

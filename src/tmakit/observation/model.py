@@ -291,7 +291,7 @@ class ObservationModel:
                 rel, self._time)
             if d0 is not None and d0.flags.writeable and d0.shape == rel.shape:
                 lin = Linearisation(self, theta, h0 if h0.flags.owndata else h0.copy(), a_var)
-                lin.d_h0 = d0
+                lin.d_h0, lin.relative = d0, rel
                 return lin
         batch = rel.shape[:-2]
         if inner:
@@ -301,6 +301,7 @@ class ObservationModel:
             h0 = np.empty((*batch, n))
             a_var = np.zeros((*batch, k, n)).swapaxes(-1, -2)
         lin = Linearisation(self, theta, h0, a_var)
+        lin.relative = rel
         if derivatives:  # component-major, like rel: the formulas run along the rows
             lin.d_h0 = np.zeros((*batch, 6, n)).swapaxes(-1, -2)
             if rel_ref is not None:

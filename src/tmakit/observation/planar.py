@@ -34,17 +34,18 @@ def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
     found = _planar_kind(obs, theta, "planar_gradient")
     if found is None:
         return None
-    rel_map, gradient, theta = found
+    rel_map, model, theta = found
     rel = rel_map.single(theta, components=2)  # (2, m): dx, dy, component-major
     jac = np.empty((rel_map.p, rel_map.m))
-    h0 = gradient(rel[0], rel[1], jac[0], jac[1], weights)  # parked in rows 0, 1
+    model.planar_gradient(rel[0], rel[1], jac[0], jac[1], weights)  # parked in rows 0, 1
     in_place = rel_map.planar_positions  # (else rows 0, 1 are overwritten before read)
     g = (jac[0], jac[1]) if in_place else (jac[0].copy(), jac[1].copy())
     _chain_terms(rel_map.planar_terms, g, jac, in_place)
     batch = theta.shape[:-1]
-    lin = Linearisation(obs, theta, h0.reshape(*batch, rel_map.m),
-                        np.zeros((*batch, rel_map.m, 0)))
+    lin = Linearisation(obs, theta, None, np.zeros((*batch, rel_map.m, 0)))
+    lin.planar_values = lambda: model.planar_value(rel[0], rel[1]).reshape(*batch, rel_map.m)
     lin.planar_jacobian = jac.T.reshape(*batch, rel_map.m, rel_map.p)
+    lin.relative = rel.T.reshape(*batch, rel_map.m, 2)
     lin.planar_again = lambda: _jacobian_again(obs, theta, weights)
     lin.whitened = weights is not None
     return lin
@@ -55,10 +56,10 @@ def planar_values(obs: Any, theta: Array) -> Linearisation | None:
     found = _planar_kind(obs, theta, "planar_value")
     if found is None:
         return None
-    rel_map, value, theta = found
+    rel_map, model, theta = found
     rel = rel_map.single(theta, components=2)
     batch = theta.shape[:-1]
-    return Linearisation(obs, theta, value(rel[0], rel[1]).reshape(*batch, rel_map.m),
+    return Linearisation(obs, theta, model.planar_value(rel[0], rel[1]).reshape(*batch, rel_map.m),
                          np.zeros((*batch, rel_map.m, 0)))
 
 
@@ -68,11 +69,11 @@ def planar_gradient_rows(obs: Any, theta: Array, weights: Array
     found = _planar_kind(obs, theta, "planar_gradient")
     if found is None:
         return None
-    rel_map, gradient, theta = found
+    rel_map, model, theta = found
     rel = rel_map.single(theta, components=2)
     rows = np.empty((2, rel_map.m))
-    h0 = gradient(rel[0], rel[1], rows[0], rows[1], weights, negate=False)
-    return h0, rows
+    model.planar_gradient(rel[0], rel[1], rows[0], rows[1], weights, negate=False)
+    return model.planar_value(rel[0], rel[1]), rows
 
 
 def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
@@ -138,15 +139,15 @@ def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits
 
 
 def _planar_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
-    """Give the affine row map, the one kind's planar ``method`` and the checked ``theta``."""
+    """Give the affine row map, the one kind's model (with ``method``) and the checked theta."""
     rel_map = obs._rel_map
     if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
             or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
         return None
-    planar = getattr(next(iter(obs.models.values())), method, None)
-    if planar is None or theta.shape[-1] != rel_map.p:
+    model = next(iter(obs.models.values()))
+    if not hasattr(model, method) or theta.shape[-1] != rel_map.p:
         return None
-    return rel_map, planar, obs.motion.check_theta(theta)
+    return rel_map, model, obs.motion.check_theta(theta)
 
 
 def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
@@ -194,14 +195,20 @@ class Linearisation:
         ``(..., n)`` and ``(..., n, k)``, SI.
     """
 
-    def __init__(self, obs: Any, theta: Array, h0: Array, a_var: Array) -> None:
+    def __init__(self, obs: Any, theta: Array, h0: Array | None, a_var: Array) -> None:
         self.obs = obs
         self.theta = theta
-        self.h0 = h0
+        self._h0 = h0
+        #: Makes :attr:`h0` on first use when made without it (the planar path: a bound
+        #: needs the derivatives alone).
+        self.planar_values: Callable[[], Array] | None = None
         self.a_var = a_var
         self.d_h0: Array | None = None
         self.d_h0_ref: Array | None = None
         self.d_a: list[tuple[str, Array | None, Array | None]] = []
+        #: The relative states ``(..., n, c)`` it was made from (east and north first; the
+        #: planar path makes these two alone), or None.
+        self.relative: Array | None = None
         #: The Jacobian ``(..., n, p)`` made by the planar path (:mod:`.planar`), or None,
         #: handed over on the first call of :meth:`jacobian` (the caller may scale it), then
         #: made again by ``planar_again``.
@@ -210,6 +217,14 @@ class Linearisation:
         self._planar_given = False
         #: Whether the planar Jacobian is already whitened (made with the noise's weights).
         self.whitened = False
+
+    @property
+    def h0(self) -> Array:
+        """The predictions at zero nuisance ``(..., n)``, SI."""
+        if self._h0 is None:
+            assert self.planar_values is not None  # (made without h0 by the planar path)
+            self._h0 = self.planar_values()
+        return self._h0
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
         """Return ``d predictions / d theta`` ``(..., n, p)`` at nuisance values.

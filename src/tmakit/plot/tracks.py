@@ -197,7 +197,7 @@ def _track_map(ax_map: Any, tr: Track, meas: MeasurementSet, truth: np.ndarray |
 
 def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list[str]
                          ) -> None:
-    """Draw an IMM filter's model probabilities against time."""
+    """Draw a multiple-model filter's model probabilities against time."""
     mu = np.asarray(tr.extra.model_probabilities, dtype=float)
     t, label = plot_times(meas, tr.times)
     for j, model in enumerate(tr.extra.models or [{}] * mu.shape[1]):
@@ -209,7 +209,7 @@ def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list
     ax.set_ylim(-0.02, 1.02)
     ax.set_ylabel("probability")
     ax.set_xlabel(label)
-    ax.set_title("IMM model probabilities", fontsize=10)
+    ax.set_title(f"{(tr.filter_name or 'imm').upper()} model probabilities", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
     format_time_axis(ax, t)

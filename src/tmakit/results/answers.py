@@ -57,6 +57,11 @@ def _std(grad: NDArray[np.float64], cov: NDArray[np.float64],
     return float(np.sqrt(max(var, 0.0))) if np.isfinite(var) else None
 
 
+def finite(x: float) -> float | None:
+    """Give ``x`` as JSON has it: a float, or None where it is not finite."""
+    return float(x) if np.isfinite(x) else None
+
+
 @dataclass(frozen=True)
 class Ellipse:
     """The horizontal position's confidence ellipse.
@@ -173,7 +178,7 @@ class Answer:
         if self.geodetic is not None:
             pos.update(lat_deg=self.geodetic[0], lon_deg=self.geodetic[1],
                        alt_m=self.geodetic[2], altitude_reference=self.altitude_reference)
-        cov = [[float(c) if np.isfinite(c) else None for c in row] for row in self.covariance]
+        cov = [[finite(c) for c in row] for row in self.covariance]
         kn = None if self.speed_std is None else self.speed_std / KNOT
         return {
             "time_s": self.time, "clock": self.clock, "stationary": self.stationary,

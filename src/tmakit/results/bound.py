@@ -13,10 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core import chi2
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from .answers import parameter_display
+from .answers import parameter_display, position_ellipse
 from .nuisance import KnownNuisance, as_known_nuisance
 from .observability import Observability, analyse
 
@@ -154,17 +153,11 @@ class Bound:
             ``east``, ``north``, ``major``, ``minor`` (m), ``bearing_deg`` and ``level``.
         """
         state, cov = self.state_covariance(t)
-        c2 = cov[:2, :2]
-        k = float(np.sqrt(chi2.ppf(level, 2)))
-        if not np.all(np.isfinite(c2)):
-            return {"east": float(state[0]), "north": float(state[1]), "major": np.inf,
-                    "minor": np.inf, "bearing_deg": float("nan"), "level": level}
-        evals, evecs = np.linalg.eigh(c2)
-        major = evecs[:, 1]
+        e = position_ellipse(cov[:2, :2], level)
         return {"east": float(state[0]), "north": float(state[1]),
-                "major": k * float(np.sqrt(max(evals[1], 0.0))),
-                "minor": k * float(np.sqrt(max(evals[0], 0.0))),
-                "bearing_deg": float(np.degrees(np.arctan2(major[0], major[1])) % 180.0),
+                "major": np.inf if e is None else e.semi_major,
+                "minor": np.inf if e is None else e.semi_minor,
+                "bearing_deg": float("nan") if e is None else e.orientation_deg,
                 "level": level}
 
     def derived(self, t: float, sensor_position: ArrayLike | None = None

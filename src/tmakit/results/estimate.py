@@ -24,6 +24,7 @@ from .answers import (
     KNOT,
     Answer,
     estimate_answer,
+    finite,
     in_bearing_interval,
     parameter_display,
 )
@@ -31,7 +32,7 @@ from .bound import Bound, bound_from_information
 from .checks import SanityWarning, chi2_probability, fit_warnings, wider_undetermined
 from .context import geodetic_fix, origin_of
 from .nuisance import KnownNuisance, as_known_nuisance
-from .solutions import Solution, range_spread
+from .solutions import Solution, fit_fields, range_spread
 from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
 from .trust import Trust, trust_of
 
@@ -170,7 +171,7 @@ class EstimateResult:
         return {**self._fields(), **trust.as_dict(),
                 "geodetic": None if meas is None else self._geodetic(meas),
                 "answer": None if shown is None else shown.as_dict(),
-                "covariance": [[_num(c) if trust.answer else None for c in row]
+                "covariance": [[finite(c) if trust.answer else None for c in row]
                                for row in np.asarray(self.covariance)],
                 "chi2_p_value": self.chi2_p_value,
                 "warnings": None if warnings is None else [w.as_dict() for w in warnings],
@@ -191,32 +192,24 @@ class EstimateResult:
 
     def _fields(self) -> dict[str, object]:
         """Give the result's own fields in JSON form."""
-        num = _num
         answer = self.status in (CONVERGED, UNOBSERVABLE)  # (unobservable: what is determined)
         data: dict[str, object] = {
-            "parameters": list(self.parameters),
             # no number for what the data do not determine ("unobservable" says why) nor for
             # a solve that stopped short ("last_iterate" keeps where it stopped)
-            "estimate": [num(v) if answer and np.isfinite(s) else None
-                         for v, s in zip(self.estimate, self.std, strict=True)],
-            "std": [num(s) for s in self.std],
-            "nuisance": {k: {"value": num(v), "std": num(s)}
+            **fit_fields(self, [finite(v) if answer and np.isfinite(s) else None
+                                for v, s in zip(self.estimate, self.std, strict=True)]),
+            "nuisance": {k: {"value": finite(v), "std": finite(s)}
                          for k, (v, s) in self.nuisance.items()},
-            "status": self.status,
             "iterations": self.iterations,
-            "chi2": num(self.chi2),
-            "dof": self.dof,
             "method": self.method,
-            "motion": self.motion.name,
             "ref_time": _reference_time(self.motion),
             "starts": self.starts,
             "message": self.message,
             "unobservable": ([d.as_dict() for d in self.bound.observability.directions]
                              if self.bound is not None else []),
-            "solutions": [s.as_dict() for s in self.ranked_solutions()],
         }
         if not answer:
-            data["last_iterate"] = [num(v) for v in self.estimate]
+            data["last_iterate"] = [finite(v) for v in self.estimate]
         return data
 
     def answer(self, meas: MeasurementSet | None = None, time: float | None = None,
@@ -330,10 +323,6 @@ class EstimateResult:
             for d in self.bound.observability.directions:
                 lines.append(f"  unobservable: {d.sentence}")
         return "\n".join(lines)
-
-
-def _num(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 def _reference_time(motion: MotionModel) -> float | None:

@@ -249,6 +249,10 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
     """Cut an own ship's navigation into straight legs and turns, from its heading rate."""
     t_all = np.asarray(time, dtype=float)
     t, first = np.unique(t_all, return_index=True)
+    # one fix per window_s / 60 (1 s by default) is all a heading rate over window_s needs
+    _, kept = np.unique(np.floor((t - t[:1]) * (60.0 / window_s)), return_index=True)
+    kept = np.append(kept[kept < t.size - 1], t.size - 1)  # and the last fix
+    t, first = t[kept], first[kept]
     v = np.asarray(state, dtype=float)[first, 3:5]
     speed = np.hypot(v[:, 0], v[:, 1])
     heading = np.unwrap(np.arctan2(v[:, 0], v[:, 1]))
@@ -263,17 +267,11 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
 def _straight_runs(turning: NDArray[np.bool_], jump: NDArray[np.bool_]
                    ) -> list[tuple[int, int]]:
     """Return (first, last) indices of the runs of fixes that are not turning."""
-    runs, start = [], None
-    for k, turn in enumerate([*turning.tolist(), True]):
-        if not turn and start is None:
-            start = k
-        elif turn and start is not None:
-            runs.append((start, k - 1))
-            start = None
-        if start is not None and k < jump.size and jump[k]:
-            runs.append((start, k))
-            start = None
-    return runs
+    still = ~turning
+    cut = turning[:-1] | turning[1:] | jump  # no run goes on from fix k to fix k + 1
+    starts = np.flatnonzero(still & np.concatenate([[True], cut]))
+    ends = np.flatnonzero(still & np.concatenate([cut, [True]]))
+    return list(zip(starts.tolist(), ends.tolist(), strict=True))
 
 
 def _merge_small_turns(t: NDArray[np.float64], h: NDArray[np.float64],
@@ -334,7 +332,7 @@ def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
             raise ValueError(f"the set has several sensors ({', '.join(meas.sensors)}): name "
                              "the own ship whose legs are wanted")
         sensor = meas.sensors[0]
-    rows = meas.sensor_mask(sensor)
+    rows = slice(None) if list(meas.sensors) == [sensor] else meas.sensor_mask(sensor)
     return detect_legs(meas.time[rows], meas.sensor_state[rows],
                        turn_rate_deg_s=turn_rate_deg_s, window_s=window_s,
                        min_turn_deg=min_turn_deg)

@@ -27,6 +27,7 @@ from .answers import (
     Answer,
     covering_scale,
     estimate_answer,
+    finite,
     fit_state,
     in_bearing_interval,
 )
@@ -134,17 +135,19 @@ class Solution:
         dict
         """
         r = self.result
-
-        def num(x: float) -> float | None:
-            return float(x) if np.isfinite(x) else None
-
-        return {"rank": self.rank, "chi2": num(r.chi2), "dof": r.dof,
-                "lr_statistic": num(self.lr_statistic), "p_value": num(self.p_value),
-                "status": r.status, "motion": r.motion.name,
-                "parameters": list(r.parameters), "estimate": [num(v) for v in r.estimate],
-                "std": [num(s) for s in r.std],
-                "covariance": [[num(c) for c in row] for row in np.asarray(r.covariance)],
+        return {"rank": self.rank, "lr_statistic": finite(self.lr_statistic),
+                "p_value": finite(self.p_value),
+                **fit_fields(r, [finite(v) for v in r.estimate]),
+                "covariance": [[finite(c) for c in row] for row in np.asarray(r.covariance)],
                 "answer": self.answer(meas).as_dict() if meas is not None else None}
+
+
+def fit_fields(result: EstimateResult, estimate: list[float | None]) -> dict[str, object]:
+    """Give what the JSON of every fit says: parameters, ``estimate``, std, status, chi2, motion."""
+    return {"parameters": list(result.parameters), "estimate": estimate,
+            "std": [finite(s) for s in result.std],
+            "status": result.status, "chi2": finite(result.chi2), "dof": result.dof,
+            "motion": result.motion.name}
 
 
 def _state(result: EstimateResult, meas: MeasurementSet, time: float

@@ -16,6 +16,7 @@ from ...core.arrays import Array
 from ...motion import FixedParameters, PiecewiseCurvilinear
 from ...motion.curvilinear import ForwardPiecewise
 from ...observation import ObservationModel
+from ...results.answers import finite
 from ...results.estimate import EstimateResult, assemble_result
 from ...results.status import CONVERGED, DIVERGED, NOT_CONVERGED
 from .search import ManoeuvreSearch, OrderFit
@@ -69,18 +70,14 @@ class ManoeuvreEstimate(EstimateResult):
     def _fields(self) -> dict[str, object]:
         """Add the manoeuvres, held accelerations, order selection and final state."""
         data = super()._fields()
-
-        def num(x: float) -> float | None:
-            return float(x) if np.isfinite(x) else None
-
         data["manoeuvres"] = self.manoeuvres
         data["held_at_zero"] = list(self.held)
         data["model_order"] = self.selection.as_dict() if self.selection else None
-        data["change_over_times"] = [{"value": num(v), "std": num(s)}
+        data["change_over_times"] = [{"value": finite(v), "std": finite(s)}
                                      for v, s in self.change_over_times()]
-        data["final_state"] = {"time": num(self.final_time),
-                               **{k: {"value": num(v) if np.isfinite(s) else None,
-                                      "std": num(s)}
+        data["final_state"] = {"time": finite(self.final_time),
+                               **{k: {"value": finite(v) if np.isfinite(s) else None,
+                                      "std": finite(s)}
                                   for k, (v, s) in self.final.items()}}
         return data
 
