@@ -248,11 +248,15 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
                 min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
     """Cut an own ship's navigation into straight legs and turns, from its heading rate."""
     t_all = np.asarray(time, dtype=float)
-    t, first = np.unique(t_all, return_index=True)
+    in_order = bool(np.all(t_all[1:] >= t_all[:-1]))  # no sort of a log already in time order
+    order = np.arange(t_all.size) if in_order else np.argsort(t_all, kind="stable")
+    t = t_all[order]
     # one fix per window_s / 60 (1 s by default) is all a heading rate over window_s needs
-    _, kept = np.unique(np.floor((t - t[:1]) * (60.0 / window_s)), return_index=True)
-    kept = np.append(kept[kept < t.size - 1], t.size - 1)  # and the last fix
-    t, first = t[kept], first[kept]
+    bins = np.floor((t - t[:1]) * (60.0 / window_s))
+    kept = np.flatnonzero(np.concatenate([[True], np.diff(bins) > 0]))
+    last = int(np.searchsorted(t, t[-1], "left"))  # and the last fix
+    kept = np.append(kept[kept < last], last)
+    t, first = t[kept], order[kept]
     v = np.asarray(state, dtype=float)[first, 3:5]
     speed = np.hypot(v[:, 0], v[:, 1])
     heading = np.unwrap(np.arctan2(v[:, 0], v[:, 1]))
