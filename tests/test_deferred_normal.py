@@ -79,7 +79,7 @@ def test_putting_accepted_runs_sums_those_runs_only():
 
 
 def test_fits_take_the_same_steps_and_skip_the_rejected_trials(monkeypatch):
-    from tmakit.batch.manoeuvre.search import lm_fit
+    from tmakit.batch.manoeuvre import lm_fit
 
     problem, theta, _, _ = _problem(2, 6, 4)
     free = np.ones(problem.p, dtype=bool)

@@ -166,7 +166,7 @@ def test_known_nuisance_in_bounds_and_estimates(gu, meas):
 def test_known_nuisance_runs_through_the_manoeuvre_estimator_as_one_type(monkeypatch):
     """A KnownNuisance reaches the manoeuvre search as itself (no dict or bool in between),
     and every spelling gives the same fit."""
-    import tmakit.batch.manoeuvre.estimator as manoeuvre
+    import tmakit.batch.manoeuvre as manoeuvre
 
     ho = tk.load_scenario("hoerst2010")
     m = ho.simulate(rng=2)
@@ -191,7 +191,7 @@ def test_known_nuisance_runs_through_the_manoeuvre_estimator_as_one_type(monkeyp
 
 def test_ml_by_motion_reads_a_name_once_and_sends_fixed_models_straight_to_ml(gu, meas,
                                                                             monkeypatch):
-    import tmakit.batch.manoeuvre.estimator as method
+    import tmakit.batch.manoeuvre as method
     import tmakit.batch.methods as methods
 
     calls = []

@@ -2,7 +2,7 @@
 
 Inside :meth:`ForwardPiecewise.derivatives_for` the chain rule gives the free parameters'
 columns only, bit for bit those of the whole Jacobian; the search's held fits
-(:func:`tmakit.batch.manoeuvre.search.lm_fit`) take the same steps to the same points as the
+(:func:`tmakit.batch.manoeuvre.lm_fit`) take the same steps to the same points as the
 solver given the whole Jacobian.
 """
 
@@ -13,8 +13,7 @@ import pytest
 from kernel_paths import hoerst_thetas
 
 import tmakit as tk
-from tmakit.batch.manoeuvre import ManoeuvreSettings
-from tmakit.batch.manoeuvre.search import ManoeuvreSearch, lm_fit
+from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings, lm_fit
 from tmakit.batch.solver import levenberg_marquardt
 from tmakit.motion.curvilinear import ForwardPiecewise
 

@@ -14,9 +14,15 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch.manoeuvre import ManoeuvreSettings, selection
-from tmakit.batch.manoeuvre.search import ManoeuvreSearch, lm_fit, split_segment
-from tmakit.batch.manoeuvre.selection import hold_starts, may_hold
+import tmakit.batch.manoeuvre as search_mod
+from tmakit.batch.manoeuvre import (
+    ManoeuvreSearch,
+    ManoeuvreSettings,
+    hold_starts,
+    lm_fit,
+    may_hold,
+    split_segment,
+)
 from tmakit.motion import PiecewiseCurvilinear
 from tmakit.motion.curvilinear import ForwardPiecewise
 
@@ -75,7 +81,7 @@ def test_backward_elimination_holds_what_a_plain_search_holds(small):
     fit = small.fit(1, small.fit_zero())
     pr = small.problem(1)
     free = fit.free_mask()
-    best = selection._best_hold(small, fit, free, np.log(pr.noise.rank))
+    best = search_mod._best_hold(small, fit, free, np.log(pr.noise.rank))
     plain = {}
     for i in range(4, 8):
         if free[i] and may_hold(free, i, 1):
@@ -94,8 +100,6 @@ def test_backward_elimination_holds_what_a_plain_search_holds(small):
 
 def _unpruned(monkeypatch):
     """Make the search's pruned fits (``prune=0``: stop what cannot beat a cost) run in full."""
-    from tmakit.batch.manoeuvre import search as search_mod
-
     def plain(problem, theta0, free, max_iter, **kw):
         if kw.get("prune") == 0.0:
             kw["prune"], kw["best"] = None, np.inf

@@ -523,7 +523,7 @@ def hoerst_file(tmp_path_factory):
 def _stand_ins(monkeypatch):
     """Replace the work of both estimators by stand-ins that report what they were asked to
     fit: the manoeuvre search, and the no-guess fit of a fixed model."""
-    import tmakit.batch.manoeuvre.estimator as manoeuvre
+    import tmakit.batch.manoeuvre as manoeuvre
     import tmakit.batch.ml as ml
 
     def manoeuvres(meas, max_manoeuvres=2, **kw):

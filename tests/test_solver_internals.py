@@ -333,8 +333,7 @@ def _former_search_lm(problem, y, theta0, free, max_iter, rtol=1e-3, atol=0.02, 
 def manoeuvre_problem():
     """One manoeuvre on the first 700 s of the Hörst & Oispuu (2010) data, and starts with the
     change-over time spread around the truth's (internal parameters of the search)."""
-    from tmakit.batch.manoeuvre import ManoeuvreSettings
-    from tmakit.batch.manoeuvre.search import ManoeuvreSearch
+    from tmakit.batch.manoeuvre import ManoeuvreSearch, ManoeuvreSettings
 
     scn = tk.load_scenario("hoerst2010")
     meas = scn.simulate(rng=5)
@@ -359,7 +358,7 @@ def manoeuvre_problem():
 def test_the_shared_solver_reproduces_the_former_search_solver(manoeuvre_problem, settings,
                                                                monkeypatch):
     from tmakit.batch import varpro
-    from tmakit.batch.manoeuvre.search import lm_fit
+    from tmakit.batch.manoeuvre import lm_fit
 
     problem, starts = manoeuvre_problem
     kw = dict(settings)

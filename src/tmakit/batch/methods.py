@@ -1,11 +1,8 @@
 """Every batch estimator by name (:data:`METHODS`), and the short forms that build and fit.
 
-``tk.estimate(meas, motion)`` is tmakit's maximum likelihood for any motion
-(:class:`MLByMotion`): a manoeuvring target goes to
+``tk.estimate`` (:class:`MLByMotion`) sends a manoeuvring target to
 :class:`~tmakit.batch.manoeuvre.ManoeuvreEstimator`, any other motion to
-:class:`~tmakit.batch.ml.MaximumLikelihood`.  The papers' local iterations start, when given
-no start, from tmakit's likelihood grid (:func:`tmakit.batch.init.grid_start`), which the
-result says in ``extra["start"]``.
+:class:`~tmakit.batch.ml.MaximumLikelihood`.
 """
 
 from __future__ import annotations
@@ -74,7 +71,6 @@ class MLByMotion(BatchEstimator):
         self.grid = grid
         self.max_iter = max_iter
         self.ref_time = ref_time
-        #: The manoeuvre settings given (None: not given, the estimator's default).
         self.manoeuvre = ManoeuvreEstimator(
             exact=exact, criterion=criterion, alpha=alpha, accelerations=accelerations,
             ref_time=ref_time, settings=settings)
@@ -89,7 +85,7 @@ class MLByMotion(BatchEstimator):
     def fit(self, meas: MeasurementSet, motion: MotionModel | str) -> EstimateResult:
         """Return the maximum-likelihood estimate for ``motion``."""
         chosen = self.manoeuvre
-        if isinstance(motion, str):  # the name is read here, once; its ref_time is used up
+        if isinstance(motion, str):  # read here, once: its ref_time is used up
             motion = model_of(motion, meas, self.ref_time)
             chosen = replace(chosen, ref_time=None)
         if isinstance(motion, PiecewiseCurvilinear):
@@ -151,7 +147,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
 
     References
     ----------
-    Hörst & Oispuu (2010), eqs. 1-4 (motion) and 8 (likelihood), for the manoeuvring target.
+    Hörst & Oispuu (2010), eqs. 1-4 and 8 (the manoeuvring target).
     """
     return MLByMotion(init, options, known_nuisance, grid, max_iter, exact=exact,
                       criterion=criterion, alpha=alpha, accelerations=accelerations,
@@ -177,7 +173,7 @@ class Method:
 
     @property
     def takes_known_nuisance(self) -> bool:
-        """Whether the method can hold the nuisance parameters at known values."""
+        """Whether the method can hold the nuisance at known values."""
         return self.cls.takes_known_nuisance
 
     def __call__(self, **settings: object) -> BatchEstimator:
@@ -250,10 +246,8 @@ def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
     meas : MeasurementSet
     motion : MotionModel
         For ``ml`` also a motion name.
-    init, options : optional
-        The start (SI) and the nuisance model per kind, as for :func:`tmakit.batch.estimate`.
-    **settings
-        Other settings of the method's class.
+    init, options, **settings : optional
+        As for :func:`tmakit.batch.estimate` and the method's class.
 
     Returns
     -------
