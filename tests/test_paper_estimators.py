@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch.gu_direct import GuDirect, PlanarGeometry
-from tmakit.batch.lecture import LectureGaussNewton
 from tmakit.batch.methods import METHODS, estimate_with
-from tmakit.batch.ratios import (
+from tmakit.batch.papers import (
+    GuDirect,
+    LectureGaussNewton,
+    PlanarGeometry,
     RatioMethod,
     doppler_ratio_covariance,
     power_ratio_covariance,

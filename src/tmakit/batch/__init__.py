@@ -8,14 +8,12 @@ forms.
 
 from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisance
-from .estimator import BatchEstimator, PaperMethod
-from .gu_direct import GuDirect
+from .estimator import BatchEstimator
 from .init import GridSettings, best_starts, grid_candidates, grid_start
-from .lecture import LectureGaussNewton
 from .manoeuvre import ManoeuvreEstimator
 from .methods import METHODS, Method, MLByMotion, estimate, estimate_with, estimator
 from .ml import MaximumLikelihood
-from .ratios import RatioMethod
+from .papers import GuDirect, LectureGaussNewton, PaperMethod, RatioMethod
 from .solver import VarProProblem, levenberg_marquardt
 
 __all__ = ["METHODS", "BatchEstimator", "EstimateResult", "GridSettings", "GuDirect",

@@ -58,32 +58,18 @@ class ManoeuvreSettings:
 
     Parameters
     ----------
-    max_manoeuvres : int
-        The largest order tried.
-    exact : bool
-        Fit only ``max_manoeuvres``.
-    criterion : {"bic", "lrt"}
-        How the order and the held accelerations are chosen.
-    alpha : float
-        Level of the likelihood-ratio tests, in (0, 1).
-    grid_step : float
-        Spacing of the profile grid, s.
-    min_segment : float
-        Shortest segment, and the grid's distance from the data's ends, s.
-    refine : int
-        Profile minima refined per order.
-    profile_iter : int
-        Iterations of each held fit.
+    max_manoeuvres, exact, criterion, alpha, accelerations
+        As for :func:`estimate_manoeuvres`.
+    grid_step, min_segment : float
+        Spacing of the profile grid; shortest segment and the grid's distance from the ends, s.
+    refine, profile_iter, max_iter : int
+        Profile minima refined per order; iterations of a held fit and of a free refinement.
     max_tuples : int
-        Beyond this many grid tuples only those extending the order below's best minima are fitted.
+        Beyond this many grid tuples only those extending the order below's best are fitted.
     prune : float
         Held fits stop once they cannot come within this (half chi2) of the best.
     polish_step, polish_rounds : float, int
         The finer profile after refinement (s; 0 rounds: none).
-    max_iter : int
-        Iterations of a refinement with every parameter free.
-    accelerations : {"select", "all"}
-        Hold unneeded accelerations at zero (default), or fit all.
 
     Raises
     ------
@@ -135,17 +121,12 @@ class OrderFit:
 
     Parameters
     ----------
-    manoeuvres : int
-    theta : ndarray
-        Internal parameters (at the first measurement time), SI.
-    nuisance : ndarray
+    manoeuvres, unknowns, iterations, starts : int
+        Unknowns: motion and nuisance parameters fitted; starts: of the final refinement.
+    theta, nuisance : ndarray
+        Internal parameters (at the first measurement time) and nuisance, SI.
     chi2 : float
-    unknowns : int
-        Motion and nuisance parameters fitted.
     converged : bool
-    iterations : int
-    starts : int
-        Starts of the final refinement.
     note : str
         How the fit was settled, when it matters.
     profile_times, profile_chi2 : ndarray
@@ -167,7 +148,7 @@ class OrderFit:
     note: str = ""
     profile_times: Array = field(default_factory=lambda: np.zeros((0, 0)))
     profile_chi2: Array = field(default_factory=lambda: np.zeros(0))
-    free: NDArray[np.bool_] | None = None  # internal parameters fitted; None: all
+    free: NDArray[np.bool_] | None = None
     alternatives: list[OrderFit] = field(default_factory=list)
 
     def free_mask(self) -> NDArray[np.bool_]:
@@ -243,11 +224,7 @@ PROBES = (-3.0, -2.0, -1.0, -0.5, -0.05, 0.05, 0.5, 1.0, 2.0, 3.0)
 
 
 class ManoeuvreSearch:
-    """The fits of every order for one data set (shared grid, warm starts between orders).
-
-    Internal parameters are those of ``ForwardPiecewise`` referenced at the first measurement
-    time; each order is the weighted least-squares fit of Hörst & Oispuu (2010), eq. 8.
-    """
+    """Every order's fit of one data set (eq. 8), in ``ForwardPiecewise`` parameters at t0."""
 
     def __init__(self, meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
                  known_nuisance: KnownNuisance | None,
@@ -510,9 +487,8 @@ class OrderSelection:
 
     Parameters
     ----------
-    criterion : {"bic", "lrt"}
-    alpha : float
-        Level of the likelihood-ratio tests.
+    criterion, alpha
+        As for :func:`select_order`.
     n_measurements : int
         ``N``, the noise covariance's rank.
     orders : list of dict
@@ -520,10 +496,6 @@ class OrderSelection:
         (None for the first), ``converged``.
     chosen : int
         The number of manoeuvres chosen.
-
-    References
-    ----------
-    Schwarz (1978) (BIC).
     """
 
     criterion: str
@@ -533,12 +505,11 @@ class OrderSelection:
     chosen: int
 
     def as_dict(self) -> dict[str, object]:
-        """Give the selection as JSON-ready data.
+        """Give the selection as JSON-ready data (non-finite numbers as None).
 
         Returns
         -------
         dict of str to object
-            The fields, non-finite numbers as None.
         """
         def clean(v: object) -> object:
             return None if isinstance(v, float) and not math.isfinite(v) else v
@@ -548,12 +519,11 @@ class OrderSelection:
                 "orders": [{k: clean(v) for k, v in o.items()} for o in self.orders]}
 
     def summary(self) -> str:
-        """Tabulate the orders tried, the chosen one marked.
+        """Tabulate the orders tried, one line each, the chosen one marked.
 
         Returns
         -------
         str
-            The table, one line per order.
         """
         lines = [f"number of manoeuvres: {self.chosen} (criterion "
                  + ("BIC" if self.criterion == "bic" else
@@ -583,7 +553,7 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
         ``N``, independent measurements.
     criterion : {"bic", "lrt"}
         ``"bic"`` minimises ``chi2 + k ln N``; ``"lrt"`` adds a manoeuvre while the
-        likelihood-ratio test rejects at ``alpha``.
+        likelihood-ratio test rejects at level ``alpha``.
     alpha : float
 
     Returns
@@ -646,10 +616,8 @@ def may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:
     ----------
     free : ndarray of bool
         The internal parameters fitted now.
-    i : int
-        Internal index ``4 + 2 * segment + {0: a_t, 1: a_n}``.
-    m : int
-        The number of manoeuvres.
+    i, m : int
+        Internal index ``4 + 2 * segment + {0: a_t, 1: a_n}``; the number of manoeuvres.
 
     Returns
     -------
@@ -707,13 +675,7 @@ def _best_hold(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.bool
 
 
 def sparsify(search: ManoeuvreSearch, fit: OrderFit) -> OrderFit:
-    """Hold at zero the accelerations the data do not need (``accelerations="select"``).
-
-    Backward elimination: the hold that raises chi2 least is kept while the rise is below the
-    price of one unknown (``ln N`` for BIC, Schwarz (1978); the chi-square(1) quantile for the
-    test; two together below twice it, :data:`LOOK_AHEAD`); the change-over times are then
-    profiled again (docs/estimation.md).
-    """
+    """Hold at zero, by backward elimination, the accelerations the data do not pay for."""
     m = fit.manoeuvres
     if not np.isfinite(fit.chi2):
         return fit
@@ -785,19 +747,15 @@ class ManoeuvreEstimate(EstimateResult):
     Parameters
     ----------
     selection : OrderSelection, optional
-        The model-order selection (None when one order was fitted).
+        None when one order was fitted.
     fits : list of OrderFit
         Every order's fit.
     held : list of str
         The accelerations held at zero (value and std 0).
     final_time : float
-        The last measurement time (s).
+        The last measurement time, s.
     final : dict
-        The state at ``final_time``: ``{name: (value, std)}`` (SI).
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 9 (the covariance).
+        The state at ``final_time``: ``{name: (value, std)}``, SI.
     """
 
     selection: OrderSelection | None = None
@@ -812,12 +770,11 @@ class ManoeuvreEstimate(EstimateResult):
         return int(getattr(self.motion, "manoeuvres", 0))
 
     def change_over_times(self) -> list[tuple[float, float]]:
-        """List the change-over times.
+        """List ``(value, std)`` of every change-over time, s.
 
         Returns
         -------
         list of tuple of float
-            ``(value, std)`` of every change-over time (s).
         """
         return [(float(self.estimate[i]), float(self.std[i]))
                 for i, n in enumerate(self.parameters) if n.startswith("t_")]
@@ -865,12 +822,7 @@ def reference(model: ForwardPiecewise, theta: Array, ref_time: float) -> Array:
 
 def report(search: ManoeuvreSearch, fit: OrderFit, ref_time: float,
            selection: OrderSelection | None, fits: list[OrderFit]) -> ManoeuvreEstimate:
-    """Report the chosen fit in the user's parameterisation, with its covariance.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 9.
-    """
+    """Report a fit in the user's parameterisation, with its covariance (eq. 9)."""
     m = fit.manoeuvres
     motion = PiecewiseCurvilinear(m, ref_time)
     pr = search.problem(m)
@@ -1029,10 +981,6 @@ def estimate_manoeuvres(meas: MeasurementSet, max_manoeuvres: int = 2, *,
     ValueError
         For an empty set, bad settings, a bad ``init``, or ``exact`` with more manoeuvres than
         the span holds.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
     """
     base = settings or ManoeuvreSettings()
     s = replace(base, max_manoeuvres=max_manoeuvres, exact=exact, criterion=criterion,
@@ -1077,10 +1025,6 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
         For manoeuvre settings with a motion without manoeuvres.
     ValueError
         For an unknown motion name, and as :func:`estimate_manoeuvres`.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
     """
     given = {k: v for k, v in (("exact", exact), ("criterion", criterion), ("alpha", alpha),
                                ("accelerations", accelerations), ("settings", settings))
@@ -1115,10 +1059,6 @@ class ManoeuvreEstimator(BatchEstimator):
         As for :func:`tmakit.batch.estimate`.
     accelerations, ref_time, settings : optional
         As for :func:`tmakit.batch.estimate`.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), §2, eqs. 1-5, 8-9.
     """
 
     init: Init = None
@@ -1136,7 +1076,7 @@ class ManoeuvreEstimator(BatchEstimator):
     takes_known_nuisance: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        """``known_nuisance`` as a :class:`KnownNuisance` or None."""
+        """Convert ``known_nuisance``."""
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def manoeuvre_options(self) -> dict[str, object]:

@@ -16,13 +16,11 @@ from ..motion import MotionModel, PiecewiseCurvilinear, default_ref_time, motion
 from ..results.estimate import EstimateResult
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 from .estimator import BatchEstimator, Init, Options, refuse_manoeuvre_options
-from .gu_direct import GuDirect
 from .hyperbolic import ChanHo, HoXu
 from .init import GridSettings
-from .lecture import LectureGaussNewton
 from .manoeuvre import ManoeuvreEstimator, ManoeuvreSettings
 from .ml import estimate as estimate_ml
-from .ratios import RatioMethod
+from .papers import GuDirect, LectureGaussNewton, RatioMethod
 
 __all__ = ["METHODS", "MLByMotion", "Method", "estimate", "estimate_with", "estimator",
            "model_of"]
