@@ -16,7 +16,7 @@ update the minimum-norm solution and the result ``unobservable``.
 from __future__ import annotations
 
 from abc import abstractmethod
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -97,7 +97,7 @@ class PaperMethod(BatchEstimator):
     @property
     def kinds_wanted(self) -> tuple[str, ...] | None:
         """The kinds asked for (None: every kind the method can use)."""
-        return None
+        return kinds_tuple(getattr(self, "kinds", None))
 
     @abstractmethod
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
@@ -106,11 +106,8 @@ class PaperMethod(BatchEstimator):
 
         Parameters
         ----------
-        meas : MeasurementSet
-        motion : MotionModel
-            2-D or 3-D constant velocity.
-        init : Mapping[str, float] or array_like
-            The start (None raises ``ValueError``).
+        meas, motion, init
+            The data, a constant-velocity model and the start (None raises ``ValueError``).
 
         Returns
         -------
@@ -147,8 +144,6 @@ class PaperMethod(BatchEstimator):
         return result
 
 
-__all__ = ["GuDirect", "PlanarGeometry"]
-
 #: The measurement kinds of Gu et al. (2007), in the column order of theta_pf.
 PAPER_KINDS = ("power", "frequency")
 #: The nuisance parameter each kind's column stands for, by tmakit's name.
@@ -170,6 +165,27 @@ def iteration_stop(theta: NDArray[np.float64], step: NDArray[np.float64],
     if np.linalg.norm(step) <= tol * (1.0 + np.linalg.norm(theta)):
         return CONVERGED, ""
     return None
+
+
+def fixed_point(step: Callable[[Array], Array | str], theta: Array,
+                range2: Callable[[Array], Array], max_iter: int, tol: float, norms: list[float]
+                ) -> tuple[Array, Status, str, int]:
+    """Iterate ``theta = step(theta)`` (a str: why it diverged) to :func:`iteration_stop`."""
+    far = DIVERGENCE_FACTOR * max(float(np.sqrt(np.max(range2(theta)))), 1e3)
+    for it in range(1, max_iter + 1):
+        new = step(theta)
+        if isinstance(new, str):
+            return theta, DIVERGED, new, it
+        norms.append(float(np.linalg.norm(new - theta)))
+        stop = iteration_stop(new, new - theta, range2(new), far, tol)
+        theta = new
+        if stop is not None:
+            return theta, stop[0], stop[1], it
+    return theta, NOT_CONVERGED, "", max_iter
+
+
+LEFT_THE_MODEL = "the iterate left the region where the model is defined"
+NON_FINITE = "the iterate became non-finite"
 
 
 DEFAULT_CARRIER = 1.9e9  # Hz, for C_0 when the data hold no frequency (Gu et al. (2007) §5)
@@ -401,16 +417,12 @@ class _DirectSystem:
 
 @dataclass(frozen=True, eq=False)
 class GuDirect(PaperMethod):
-    """Gu et al. (2007) §3: iterative LS on ``theta_pf = [theta, C/C_0, c/f_s]``.
-
-    Diverged when the iterate is non-finite, a range non-positive, or the ranges grow 1e4-fold.
-    The covariance is ``D^-1`` at the last iterate; ``extra`` holds the condition numbers and
-    update norms.
+    """Gu et al. (2007) §3: iterative LS on ``theta_pf = [theta, C/C_0, c/f_s]``, cov ``D^-1``.
 
     Parameters
     ----------
     init, options : optional
-        As for :class:`~tmakit.batch.estimator.PaperMethod`: ``[x_0, y_0, v_x, v_y]`` (m, m/s).
+        As for :class:`PaperMethod`: ``[x_0, y_0, v_x, v_y]`` (m, m/s).
     max_iter : int, optional
         Default 50.
     kinds : str or sequence of str, optional
@@ -436,11 +448,6 @@ class GuDirect(PaperMethod):
     name: ClassVar[str] = "gu-direct"
     start_kinds: ClassVar[tuple[str, ...]] = PAPER_KINDS
 
-    @property
-    def kinds_wanted(self) -> tuple[str, ...] | None:
-        """The kinds asked for (None: both, as the data hold them)."""
-        return kinds_tuple(self.kinds)
-
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
         """Run the iteration of Gu et al. (2007) §3 (eqs. 7, 8, 12, 16) from ``init``."""
@@ -454,19 +461,14 @@ class GuDirect(PaperMethod):
                                            "condition_numbers_doppler": [],
                                            "condition_numbers_equilibrated": [],
                                            "update_norms": []}
-        status: Status = NOT_CONVERGED
-        message = ""
         x = np.full(system.cols, np.nan)
-        iterations = 0
         fs = system.fs
-        far = DIVERGENCE_FACTOR * max(float(np.sqrt(np.max(system.geo.range2(theta)))), 1e3)
-        for it in range(1, self.max_iter + 1):
-            iterations = it
-            aw, bw = system.build(theta, fs)
+
+        def step(th: Array) -> Array | str:
+            nonlocal x, fs
+            aw, bw = system.build(th, fs)
             if not (np.all(np.isfinite(aw)) and np.all(np.isfinite(bw))):
-                status, message = DIVERGED, ("the iterate left the region where the model is "
-                                             "defined")
-                break
+                return LEFT_THE_MODEL
             system.record(history, aw)
             a_eq, scale = _equilibrate(aw)
             history["condition_numbers_equilibrated"].append(_condition(a_eq))
@@ -474,23 +476,17 @@ class GuDirect(PaperMethod):
                 try:
                     x = np.linalg.solve(aw.T @ aw, aw.T @ bw)     # D_i^-1 N_i as printed
                 except np.linalg.LinAlgError:
-                    status, message = DIVERGED, "D_i is singular to working precision"
-                    break
+                    return "D_i is singular to working precision"
             else:
                 x = np.linalg.lstsq(a_eq, bw, rcond=None)[0] / scale
-            new = np.asarray(x[:4], dtype=np.float64)
             if not np.all(np.isfinite(x)):
-                status, message = DIVERGED, "the iterate became non-finite"
-                break
-            step = new - theta
-            theta = new
-            history["update_norms"].append(float(np.linalg.norm(step)))
+                return NON_FINITE
             if system.j_f is not None and x[system.j_f] > 0:
                 fs = SPEED_OF_LIGHT / x[system.j_f]
-            stop = iteration_stop(theta, step, system.geo.range2(theta), far, self.tol)
-            if stop is not None:
-                status, message = stop
-                break
+            return np.asarray(x[:4], dtype=np.float64)
+
+        theta, status, message, iterations = fixed_point(
+            step, theta, system.geo.range2, self.max_iter, self.tol, history["update_norms"])
         return _direct_result(system, motion, theta, x, fs, status, message, iterations,
                               history)
 
@@ -553,9 +549,6 @@ def _conditioning_text(history: dict[str, list[float]]) -> str:
                  "scaled to unit norm")
     return text
 
-
-__all__ = ["RatioMethod", "doppler_ratio_covariance", "nuisance_given_theta",
-           "power_ratio_covariance"]
 
 COVARIANCES = ("derived", "paper")
 
@@ -746,12 +739,10 @@ RATIO_NAMES: dict[tuple[str, ...], str] = {("power",): "ratio-power",
 class RatioMethod(PaperMethod):
     """Gu et al. (2007) §4: iterative LS on ratios of neighbouring measurements.
 
-    Diverged when theta becomes non-finite, a range non-positive, or the ranges grow 1e4-fold.
-
     Parameters
     ----------
     init, options : optional
-        As for :class:`~tmakit.batch.estimator.PaperMethod`: ``[x_0, y_0, v_x, v_y]`` (m, m/s).
+        As for :class:`PaperMethod`: ``[x_0, y_0, v_x, v_y]`` (m, m/s).
     kinds : str or sequence of str, optional
         ``"power"`` (eqs. 19-25), ``"frequency"`` (eqs. 26-32) or both (eqs. 33-34, default).
     max_iter : int, optional
@@ -793,11 +784,6 @@ class RatioMethod(PaperMethod):
             return "ratio"
         return RATIO_NAMES.get(tuple(k for k in PAPER_KINDS if k in wanted), "ratio")
 
-    @property
-    def kinds_wanted(self) -> tuple[str, ...] | None:
-        """The kinds asked for (None: both, as the data hold them)."""
-        return kinds_tuple(self.kinds)
-
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
                 ) -> EstimateResult:
         """Run the iteration of Gu et al. (2007) §4 (eqs. 19-34) from ``init``."""
@@ -808,38 +794,25 @@ class RatioMethod(PaperMethod):
         if system.n < motion.n_params:
             raise ValueError(f"ratio method: {system.n} ratios cannot determine "
                              f"{motion.n_params} parameters")
-        status: Status = NOT_CONVERGED
-        message = ""
-        far = DIVERGENCE_FACTOR * max(float(np.sqrt(np.max(system.geo.range2(theta)))), 1e3)
-        steps: list[float] = []
-        iterations = 0
-        for it in range(1, self.max_iter + 1):
-            iterations = it
-            lmat, psi, diag, off = system.build(theta)
+
+        def step(th: Array) -> Array | str:
+            lmat, psi, diag, off = system.build(th)
             if not (np.all(np.isfinite(lmat)) and np.all(np.isfinite(psi))
                     and np.all(np.isfinite(diag)) and np.all(np.isfinite(off))):
-                status, message = DIVERGED, ("the iterate left the region where the model is "
-                                             "defined")
-                break
+                return LEFT_THE_MODEL
             try:
                 band = Banded(diag, off)
             except np.linalg.LinAlgError:
-                status, message = DIVERGED, "the covariance Sigma is not positive definite"
-                break
+                return "the covariance Sigma is not positive definite"
             lw, pw = band.whiten(lmat), band.whiten(psi)
             scale = np.linalg.norm(lw, axis=0)
             scale = np.where(scale > 0, scale, 1.0)
             new = np.linalg.lstsq(lw / scale, pw, rcond=None)[0] / scale           # D^-1 N
-            if not np.all(np.isfinite(new)):
-                status, message = DIVERGED, "the iterate became non-finite"
-                break
-            step = new - theta
-            theta = new
-            steps.append(float(np.linalg.norm(step)))
-            stop = iteration_stop(theta, step, system.geo.range2(theta), far, self.tol)
-            if stop is not None:
-                status, message = stop
-                break
+            return new if np.all(np.isfinite(new)) else NON_FINITE
+
+        steps: list[float] = []
+        theta, status, message, iterations = fixed_point(
+            step, theta, system.geo.range2, self.max_iter, self.tol, steps)
         extra: dict[str, object] = {"covariance": self.covariance, "kinds": list(kinds_used),
                                     "n_ratios": int(system.n), "update_norms": steps}
         return _ratio_result(system, motion, theta, status, message, iterations, extra)
@@ -945,8 +918,6 @@ def _start(obs: ObservationModel, noise: NoiseModel, init: Init) -> Array:
 @dataclass(frozen=True, eq=False)
 class LectureGaussNewton(PaperMethod):
     """The Doppler-tracking lecture notes: Gauss–Newton on ``[X_N Y_N Z_N V_x V_y V_z f_o]``.
-
-    ``motion`` must be ``ConstantVelocity(3, ref_time=t_N)``, ``t_N`` the last sample time.
 
     Parameters
     ----------
