@@ -45,7 +45,7 @@ def test_presolve_leaves_small_problems_alone() -> None:
     assert len(meas) <= ml.PRESOLVE_ROWS
     problem = VarProProblem(ObservationModel(meas, scn.motion))
     theta = np.atleast_2d(scn.theta)
-    out, near = ml.presolve(problem, np.atleast_2d(meas.value_si), theta, 50)
+    out, near, _ = ml.presolve(problem, np.atleast_2d(meas.value_si), theta, 50, None)
     assert out is theta and not near
 
 

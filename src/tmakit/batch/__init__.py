@@ -1,9 +1,7 @@
-"""Batch estimators, each an object with its settings in the constructor.
+"""Batch estimators, each an object with its settings in the constructor and ``fit``.
 
-Maximum likelihood with nuisance eliminated (no initial guess needed) and the papers' methods
-(Gu et al. (2007) §3-4; the Doppler-tracking lecture notes), each with ``fit(meas, motion)``
-returning an :class:`EstimateResult`; :func:`estimate` and :func:`estimate_with` are the short
-forms.
+tmakit's maximum likelihood and the papers' methods (Gu et al. (2007) §3-4; the
+Doppler-tracking lecture notes); :func:`estimate` and :func:`estimate_with` build and fit.
 """
 
 from ..results.estimate import EstimateResult

@@ -1,10 +1,7 @@
 """A towed array's port/starboard ambiguity, resolved leg by leg inside the batch fit.
 
-Following Debrief's workflow: cuts taken in an own-ship turn or within :data:`SETTLE_S` after
-it are left out unless kept; each leg's cuts take one side, every assignment of sides is
-fitted and the least chi-square chosen.  A leg is resolved after the first turn when its
-likelihood ratio ``exp(Δχ²/2)`` is at least :data:`RESOLVED_RATIO`; an unresolved leg's other
-side is reported beside the choice.
+Debrief's workflow: turn cuts left out, each leg's cuts on one side, every assignment of sides
+fitted and the least chi-square chosen; docs/analyst.md describes the rules.
 """
 
 from __future__ import annotations
@@ -41,16 +38,13 @@ RESOLVED_RATIO = 100.0
 """The likelihood ratio (the chosen side against the other) at which a leg is resolved."""
 
 MAX_EXHAUSTIVE_LEGS = 8
-"""Up to this many legs (and parts) every assignment of sides is fitted; above, a coordinate
-search from the best of the uniform and the alternating assignments."""
+"""Up to this many legs (and parts) every assignment of sides is fitted; above, a search."""
 
 ENDFIRE_DEG = 15.0
-"""A leg's cuts are split into parts, each with its own side, where the contact passes within
-this angle (deg) of the array's axis (a local minimum of the angle from the axis)."""
+"""A leg's cuts are split into parts where the contact passes within this (deg) of the axis."""
 
 ENDFIRE_RISE_DEG = 5.0
-"""A pass near the axis ends when the angle from the axis has risen this much (deg) above its
-least value."""
+"""A pass near the axis ends when the angle from it has risen this much (deg) above its least."""
 
 IMPROBABLE_P = 0.001
 """A best fit whose chi-square has a smaller p-value resolves no leg."""
@@ -113,7 +107,7 @@ class AmbiguityResult:
     alternatives : list of (tuple of str, EstimateResult)
         Per unresolved leg, the best fit with it on the other side.
     settle_s : float
-        s.
+        The array's settling time, s.
     """
 
     result: EstimateResult
@@ -234,13 +228,12 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
     meas : MeasurementSet
         With ambiguous bearings (:meth:`~tmakit.data.MeasurementSet.with_ambiguous`), one own ship.
     motion : MotionModel or str
-        Default ``cv2d``.
     fit : callable, optional
         ``fit(meas) -> EstimateResult`` instead of ``tk.estimate(meas, motion)``.
     keep_turn_cuts : bool
         Fit the cuts taken in a turn or while the array settles.
     settle_s : float
-        s, default :data:`SETTLE_S`.
+        The array's settling time after a turn, s.
     turn_rate_deg_s, window_s, min_turn_deg : float
         The own ship's turns (:func:`tmakit.results.own_legs.detect_legs`).
     legs : LegsAndTurns, optional

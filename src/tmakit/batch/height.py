@@ -1,9 +1,7 @@
 """The emitter's height, chosen by the data: a 2-D fit against its 3-D counterpart.
 
-:func:`choose_height` fits the 3-D counterpart of a 2-D motion model and keeps it when the
-sensors fly (above :data:`AIRBORNE_ALTITUDE`, with :data:`GEOID_REACH`) or when the
-likelihood-ratio test (Wilks 1938) rejects the 2-D model at :data:`HEIGHT_LEVEL`.  The side of
-the sensors' plane is assumed (below flying sensors) and said.  docs/estimation.md explains why.
+The 3-D fit is kept when the sensors fly or the likelihood-ratio test (Wilks 1938) rejects the
+2-D model; docs/estimation.md explains why.
 """
 
 from __future__ import annotations
@@ -29,12 +27,10 @@ AIRBORNE_ALTITUDE = 25.0
 """Sensors whose plane lies more than this (m) above mean sea level fly."""
 
 GEOID_REACH = 85.0
-"""The geoid's greatest height above the WGS-84 ellipsoid (m): an ellipsoidal altitude is
-at least this much more than the height above mean sea level it may stand for."""
+"""The geoid's greatest height above the WGS-84 ellipsoid (m)."""
 
 SOUND_LIMIT = 1.0e4
-"""Frequencies carried slower than this (m/s) travel as sound: the emitter is in the sensors'
-medium (a ship's tonal in the sea), whose depth is small beside the ranges."""
+"""Frequencies carried slower than this (m/s) travel as sound, in the sensors' medium."""
 
 RAISED = {"static2d": "static3d", "cv2d": "cv3d"}
 """The 3-D counterpart of each 2-D motion model."""
@@ -48,16 +44,10 @@ class HeightChoice:
 
     Parameters
     ----------
-    result : EstimateResult
-        The fit chosen (the 3-D one carries the note in its message).
-    flat : EstimateResult
-        The 2-D fit.
-    raised : EstimateResult or None
-        The best 3-D fit (None when the test does not apply).
-    delta_chi2 : float or None
-        ``chi2_2D - chi2_3D``.
-    p_value : float or None
-        The likelihood-ratio test's p-value.
+    result, flat, raised : EstimateResult
+        The fit chosen, the 2-D fit, the best 3-D fit (None when the test does not apply).
+    delta_chi2, p_value : float or None
+        ``chi2_2D - chi2_3D`` and the likelihood-ratio test's p-value.
     dim : int
         2 or 3: the dimension of ``result``.
     note : str
@@ -102,9 +92,8 @@ def choose_height(meas: MeasurementSet, flat: EstimateResult, options: Options =
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements fitted.
     flat : EstimateResult
-        Their 2-D maximum-likelihood fit (``static2d`` or ``cv2d``).
+        The 2-D maximum-likelihood fit of ``meas`` (``static2d`` or ``cv2d``).
     options : Mapping, optional
         The measurement-model options of the fit.
     level : float, optional
@@ -115,7 +104,6 @@ def choose_height(meas: MeasurementSet, flat: EstimateResult, options: Options =
     Returns
     -------
     HeightChoice
-        The fit chosen, both fits, the test's numbers and a note.
     """
     if not height_matters(meas, flat):
         return HeightChoice(flat, flat, None, None, None, 2, "")

@@ -1,10 +1,7 @@
 """Closed-form geolocation from differences between sensors: Chan & Ho (1994), Ho & Xu (2004).
 
-Two-stage weighted least squares: squaring ``r_i = r_i1 + r_1`` makes each TDOA (and its time
-derivative, each FDOA) linear in ``[u, r_1]`` (``[u, r_1, u_dot, r_1_dot]``); stage 2 imposes
-``r_1 = |u - s_1|``.  A known source height (the 2-D plane, or a height on the WGS-84 ellipsoid:
-:func:`solve_snapshot`) removes the vertical coordinate.  The rows are one
-snapshot against one reference sensor position (:func:`snapshot_rows`, the largest).
+Two-stage weighted least squares on one snapshot against one reference sensor: squared TDOAs
+(and FDOAs) linear in ``[u, r_1]`` (``[u, r_1, u_dot, r_1_dot]``), then ``r_1 = |u - s_1|``.
 """
 
 from __future__ import annotations
@@ -46,10 +43,7 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
                   sensor_vel: Array | None = None, ref_vel: Array | None = None,
                   rrd: Array | None = None, height: float | None = None
                   ) -> tuple[Array, Array | None]:
-    """Locate a source from range (and range-rate) differences against one reference.
-
-    Chan & Ho (1994) (TDOA, two stages); Ho & Xu (2004) (TDOA and FDOA of a moving source).
-    """
+    """Locate a source from range (and range-rate) differences against one reference."""
     moving = rrd is not None
     free = [0, 1] if height is not None else [0, 1, 2]
     n = len(free)
@@ -226,13 +220,7 @@ def _known_carrier(meas: MeasurementSet, options: Options) -> float | None:
 
 def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier: float | None,
                    motion: MotionModel) -> Array:
-    """Solve a snapshot for the motion parameters, with what is known of the source's height.
-
-    A 2-D motion model: the ENU plane (height 0).  A 3-D one with ``altitude`` rows: the
-    stated height on the WGS-84 ellipsoid, as the plane through the ellipsoid below the
-    previous solution (four passes: the plane's error shrinks with the square of the
-    solution's).  Else the height is free.
-    """
+    """Solve a snapshot for the motion parameters, at the height known (plane or ellipsoid)."""
     flat = motion.dim == 2
     rows = np.flatnonzero(meas.kind_mask("altitude"))
     stated = None if flat else Altitude.options_from_metadata(meas.metadata).get("origin")

@@ -1,10 +1,8 @@
-"""Automatic global initialisation: no initial guess needed.
+"""Automatic global initialisation: a grid of trajectories scored by the reduced likelihood.
 
-A coarse grid of trajectories (:func:`grid_candidates`) is scored by the nuisance-eliminated
-likelihood in two vectorised stages (:class:`GridScorer`, or :class:`ChordScorer` for bearings
-under affine motion, whose ``cos h`` and ``sin h`` come from the relative positions: no
-trigonometry per candidate and row); the best distinct points (:class:`Starts`) start the
-batched Levenberg–Marquardt solve.
+The grid (:func:`grid_candidates`) is scored in two stages (:class:`GridScorer`, or
+:class:`ChordScorer` for bearings under affine motion); the best distinct points
+(:class:`Starts`) start the batched Levenberg–Marquardt solve.
 """
 
 from __future__ import annotations
@@ -37,22 +35,16 @@ class GridSettings:
     ----------
     min_range, max_range : float
         Extent of the geometrically spaced ranges, m.
-    n_ranges : int
-        Ranges per ray.
-    n_bearings : int
-        Bearings of the fan when no bearing is measured.
+    n_ranges, n_bearings, n_courses : int
+        Ranges per ray; bearings of the fan when none is measured; courses per positive speed.
     speeds : tuple of float
         m/s; 0 is the target at rest.
-    n_courses : int
-        Courses per positive speed.
     elevations_deg : tuple of float
         Above the sensors' plane, for 3-D models, deg.
     max_rows, coarse_rows : int
         Rows the ``refine`` best points and every point are scored on.
-    starts : int
-        Distinct points that start the solve.
-    refine : int
-        Points of the coarse stage scored again.
+    starts, refine : int
+        Distinct points that start the solve; points of the coarse stage scored again.
     """
 
     min_range: float = 100.0
@@ -231,16 +223,11 @@ def _evenly_spread(size: int, take: int) -> NDArray[np.int64]:
 
 
 GEOMETRY_FREE = 1e-4
-"""A nuisance column varying over a block's candidates by less than this fraction of its size
-is the same for all (the carrier's, ``1 - rdot/c`` within 1e-6 of 1): one projection."""
+"""A nuisance column varying over a block by less than this fraction is the same for all."""
 
 
 class GridScorer:
-    """Reduced cost of candidates ``(C, p)`` for many data sets, block by block.
-
-    The projected cost is ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2``; angle rows use the chord
-    form ``w^2 (1 - cos(y - h))``.
-    """
+    """Reduced cost ``(|u|^2 - 2 u.g + |g|^2 - |Q'u - Q'g|^2) / 2`` of candidates, by blocks."""
 
     def __init__(self, problem: VarProProblem, candidates: NDArray[np.float64]) -> None:
         self.problem = problem
@@ -348,8 +335,7 @@ class GridScorer:
 
 
 CANDIDATE_ROWS = 8000
-"""Candidates times rows scored at a time: temporaries below ~0.5 MB, which the allocator
-reuses instead of faulting fresh pages in (docs/estimation.md)."""
+"""Candidates times rows scored at a time (temporaries the allocator reuses)."""
 
 
 def _block_size(n_rows: int) -> int:
@@ -394,16 +380,14 @@ def best_starts(problem: VarProProblem, y: NDArray[np.float64],
     Parameters
     ----------
     problem : VarProProblem
-        The observation and noise model.
     y : ndarray, shape (n,)
-        The data in grouped row order (SI).
+        The data in grouped row order, SI.
     settings : GridSettings, optional
-        The grid (default :class:`GridSettings()`).
 
     Returns
     -------
     ndarray, shape (s, p)
-        Up to ``settings.starts`` motion parameter vectors (SI).
+        Up to ``settings.starts`` motion parameter vectors, SI.
     """
     g = settings or GridSettings()
     return best_starts_many(problem, np.asarray(y, dtype=float)[None, :], g)[0].first(g.starts)
@@ -470,11 +454,7 @@ class ChordScorer:
 
 
 class _Stage:
-    """The rows (set order, None: all) one stage of the grid scores on, and the data sets ``ys``.
-
-    Bearings alone under affine motion are scored by :class:`ChordScorer` on the rows of the
-    problem itself, the others by :class:`GridScorer` on the problem restricted to the rows.
-    """
+    """The rows (set order, None: all) one stage of the grid scores on, and the data ``ys``."""
 
     def __init__(self, problem: VarProProblem, rows: NDArray[np.int64] | None,
                  ys: NDArray[np.float64]) -> None:
@@ -544,7 +524,6 @@ def grid_start(meas: MeasurementSet, motion: MotionModel,
     Returns
     -------
     ndarray, shape (p,)
-        SI.
 
     Raises
     ------
@@ -563,11 +542,7 @@ Shortlist = tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]
 
 
 class Starts:
-    """The distinct candidates ``(C, p)`` of one data set, best first (5 % of each spread apart).
-
-    ``scaled`` is the candidates over the spread, transposed; ``shortlist`` the
-    :data:`SHORTLIST` cheapest (else made on first use).  A non-finite cost is never chosen.
-    """
+    """The distinct candidates ``(C, p)`` of one data set, best first (5 % of each spread apart)."""
 
     def __init__(self, candidates: NDArray[np.float64], cost: NDArray[np.float64],
                  scaled: NDArray[np.float64] | None = None,

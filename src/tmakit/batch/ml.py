@@ -1,21 +1,11 @@
 """Maximum-likelihood batch estimation: ``tk.estimate(meas, motion)`` with no initial guess.
 
-The weighted least-squares fit, nuisance eliminated exactly (:mod:`tmakit.batch.solver`),
-started from the likelihood grid (:mod:`tmakit.batch.init`) unless ``init`` is given; the
-covariance is the inverse Fisher information at the estimate.
-
-- Above :data:`PRESOLVE_ROWS` independent rows the grid and starts run on
-  :data:`PRESOLVE_SUBSET` rows, and the full solve then takes two Gauss–Newton steps and a
-  polished third (:func:`solve_all_rows`).
-- For correlated range differences of many rows every start is solved on :data:`SUBSET_ROWS`
-  evenly spread rows and only the best carried to all (:func:`solve_on_subset_first`).
-- When every sensor is at one height, none moves vertically and no elevation is measured, a
-  3-D track and its mirror image through the sensors' plane fit alike: the one above is
-  reported (:func:`prefer_above`).
-- With sensor position errors (Ho, Lu & Kovavisaruch (2007)'s setting) the errors are
-  integrated out into the noise ``R + H_b Q_b H_b'`` (:mod:`tmakit.observation.noise`):
-  the fit starts from the ordinary ML and refits twice with that noise linearised at the
-  estimate (:func:`estimate_with_sensor_errors`).
+The weighted least-squares fit, nuisance eliminated (:mod:`tmakit.batch.solver`), started from
+the likelihood grid (:mod:`tmakit.batch.init`); many rows are first solved on a subset
+(:func:`solve_all_rows`, :func:`solve_on_subset_first`); a 3-D track and its mirror image
+through the sensors' plane are told apart by :func:`prefer_above`; sensor position errors (Ho,
+Lu & Kovavisaruch (2007)) are integrated out by :func:`estimate_with_sensor_errors`.
+docs/estimation.md explains each.
 """
 
 from __future__ import annotations
@@ -46,10 +36,7 @@ from .solver import Fallback, SolveResult, VarProProblem, information_of, levenb
 
 @dataclass(frozen=True, eq=False)
 class MaximumLikelihood(BatchEstimator):
-    """Maximum likelihood of tmakit for one fixed motion model, no initial guess needed.
-
-    A manoeuvring target has :class:`tmakit.batch.manoeuvre.ManoeuvreEstimator`;
-    :func:`tmakit.batch.estimate` chooses.
+    """Maximum likelihood of tmakit for one motion model without manoeuvres, no guess needed.
 
     Parameters
     ----------
@@ -74,7 +61,7 @@ class MaximumLikelihood(BatchEstimator):
     takes_known_nuisance: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        """Convert ``known_nuisance`` to a :class:`KnownNuisance` or None."""
+        """Convert ``known_nuisance``."""
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
     def fit(self, meas: MeasurementSet, motion: MotionModel) -> EstimateResult:
@@ -97,7 +84,7 @@ class MaximumLikelihood(BatchEstimator):
         Returns
         -------
         list of EstimateResult or Exception
-            Per set: its result, or the error (of :data:`FIT_ERRORS`) :meth:`fit` raises for it.
+            Per set: its result, or the error :meth:`fit` raises for it.
 
         Raises
         ------
@@ -203,7 +190,7 @@ def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
 
 
 FIT_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
-"""Errors a fit may raise on one data set; :meth:`MaximumLikelihood.fit_many` returns them."""
+"""Errors a fit may raise on one data set."""
 
 
 def same_rows(sets: Sequence[MeasurementSet]) -> bool:
@@ -407,12 +394,7 @@ def estimate_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
                                 position_sigma: float, velocity_sigma: float = 0.0,
                                 options: Options = None
                                 ) -> tuple[EstimateResult, EstimateResult]:
-    """Fit by maximum likelihood with the sensors' positions known to ``position_sigma``.
-
-    References
-    ----------
-    Ho, Lu & Kovavisaruch (2007) (source localisation with receiver position errors).
-    """
+    """Fit by maximum likelihood with the sensors' positions known to ``position_sigma`` (m)."""
     opts = {k: dict(v) for k, v in dict(options or {}).items()}
     ignoring = MaximumLikelihood(options=opts).fit(meas, motion)
     obs = ObservationModel(meas, motion, opts)
@@ -437,15 +419,11 @@ def estimate_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
 
 
 PRESOLVE_ROWS = 20_000
-"""Rows above which the no-guess fit (:func:`~tmakit.batch.ml.solve_without_guess`) first
-converges its starts on a subset."""
+"""Rows above which the no-guess fit first converges its starts on a subset."""
 PRESOLVE_SUBSET = 2_000
-"""Evenly spread rows of that subset (its optimum a few of the whole set's standard deviations
-from the whole set's: the full solve then needs two steps; docs/estimation.md)."""
-
+"""Evenly spread rows of that subset."""
 PRESOLVE_DTOL = 0.5
-"""Decrement (half chi2 of the subset) at which the presolve stops: within one of the subset's
-standard deviations of its optimum; :func:`subset_step` takes the whole way from there."""
+"""Decrement (half chi2 of the subset) at which the presolve stops."""
 
 
 def presolve_subset(problem: VarProProblem
@@ -466,17 +444,9 @@ def grid_starts(problem: VarProProblem, ys: NDArray[np.float64], settings: GridS
 
 
 def presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
-             max_iter: int, subset: tuple[VarProProblem, NDArray[np.int64]] | None = None
-             ) -> tuple[NDArray[np.float64], bool]:
-    """Move starting points to their optimum on a subset of rows, for problems of many rows."""
-    theta, near, _ = _presolve(problem, ys, theta, max_iter, subset)
-    return theta, near
-
-
-def _presolve(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
-              max_iter: int, subset: tuple[VarProProblem, NDArray[np.int64]] | None
-              ) -> tuple[NDArray[np.float64], bool, NDArray[np.float64] | None]:
-    """:func:`presolve`, and the subset's ``J'J`` at its optima scaled to every row."""
+             max_iter: int, subset: tuple[VarProProblem, NDArray[np.int64]] | None
+             ) -> tuple[NDArray[np.float64], bool, NDArray[np.float64] | None]:
+    """Move starts to their optimum on a subset of rows; the subset's ``J'J`` scaled to all."""
     subset = subset or presolve_subset(problem)
     if subset is None:
         return theta, False, None
@@ -543,15 +513,14 @@ def _fallback(theta: NDArray[np.float64], stepped: tuple[NDArray[np.float64], fl
 
 
 POLISH_DECREMENT = 0.5
-"""Decrement (half chi2) from which the full solve after a presolve ends with a step checked
-by its residuals alone (``polish`` of :func:`~tmakit.batch.solver.levenberg_marquardt`)."""
+"""Decrement (half chi2) below which the full solve after a presolve ends with a polish."""
 
 
 def solve_all_rows(problem: VarProProblem, ys: NDArray[np.float64], theta: NDArray[np.float64],
                    max_iter: int, groups: NDArray[np.int64], ceiling: NDArray[np.float64],
                    subset: tuple[VarProProblem, NDArray[np.int64]] | None) -> SolveResult:
     """Solve every row from starts first converged on the subset (:func:`presolve`)."""
-    theta, near, information = _presolve(problem, ys, theta, max_iter, subset)
+    theta, near, information = presolve(problem, ys, theta, max_iter, subset)
     stepped = subset_step(problem, ys, theta, information) if near else None
     sol = levenberg_marquardt(problem, ys, theta if stepped is None else stepped[0],
                               max_iter=max_iter, groups=groups, ceiling=ceiling,

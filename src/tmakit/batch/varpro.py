@@ -1,10 +1,7 @@
 """Batched weighted least squares with the linear nuisance parameters projected out.
 
-Every nuisance enters linearly, so it is eliminated exactly (variable projection, Golub &
-Pereyra (1973); Kaufman (1975)'s projected Jacobian), avoiding the conditioning problem of Gu et
-al. (2007), §3.  Vectorised over a leading batch axis (starting points or Monte Carlo runs).
-:class:`Evaluation` holds what a Gauss–Newton step needs: the Jacobian, or ``J'J`` and ``J'r``
-(summed from the motion model without ``J`` where it can: :class:`DeferredNormal`).
+Variable projection (Golub & Pereyra (1973); Kaufman (1975)'s projected Jacobian), vectorised
+over a leading batch axis; :class:`Evaluation` holds what a Gauss–Newton step needs.
 """
 
 from __future__ import annotations
@@ -27,11 +24,7 @@ from ..observation.rows import angle_runs
 
 
 class DeferredNormal:
-    """``(J'J, J'r)`` of a batch, summed when first read (``make(runs)``; the same bits).
-
-    :meth:`take` and :meth:`runs` sum only some runs; ``rows`` are the runs of the batch of
-    ``size`` runs this object stands for (default all).
-    """
+    """``(J'J, J'r)`` of the runs ``rows`` (None: all ``size``), summed by ``make`` when read."""
 
     def __init__(self, make: Callable[[NDArray[np.int64] | None], tuple[Array, Array]],
                  size: int, rows: NDArray[np.int64] | None = None) -> None:
@@ -293,10 +286,6 @@ class VarProProblem:
         -------
         Evaluation
             Cost is half chi2 (inf where a point has no prediction).
-
-        References
-        ----------
-        Golub & Pereyra (1973) (variable projection); Kaufman (1975) (the projected Jacobian).
         """
         return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
 
